@@ -1,0 +1,2 @@
+"""fairaudit: certified fairness auditing."""
+__version__ = "0.1.0"

@@ -1,0 +1,385 @@
+"""Labelled, validated probability tables and their composition with mechanisms.
+
+Every table is a numpy array indexed in the order **[x, a, u]** (context,
+sensitive group, decision), with the labels of each axis kept beside it.
+
+* :class:`Population` — P(X = x, A = a), shape (n_contexts, n_groups).
+* :class:`Kernel` — the decision model P(U = u | X̃ = x̃, Ã = ã) on the
+  *released* (privatized) context and group, shape (n_contexts, n_groups,
+  n_decisions).
+* :class:`Law` — P(U = u | X = x, A = a) on the *true* context and group,
+  same shape; :func:`compose` builds it from a kernel and the mechanisms:
+  ``Q[x, a, u] = Σ_{x̃, ã} M_X[x, x̃] M_A[a, ã] K[x̃, ã, u]``.
+
+A table estimated from counts keeps them (``counts``, same shape); a cell
+(x, a) with no record is *empty*: its row holds NaN and metrics exclude and
+report it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._arrays import ROW_TOLERANCE, as_float_array, as_labels, check_probabilities, check_shape, format_label
+from ._errors import InputError
+from .privacy import Mechanism, identity
+
+__all__ = ["Population", "Kernel", "Law", "IndependenceCheck", "compose"]
+
+
+@dataclass(frozen=True)
+class IndependenceCheck:
+    """Whether X and A are independent in a population.
+
+    Attributes
+    ----------
+    independent : bool
+        True when ``max_deviation <= tolerance``.
+    max_deviation : float
+        max over (x, a) of |P(x, a) − P(x) P(a)|.
+    context, group : hashable
+        The cell where the deviation is largest.
+    tolerance : float
+        The tolerance used.
+    """
+
+    independent: bool
+    max_deviation: float
+    context: Hashable
+    group: Hashable
+    tolerance: float
+
+
+@dataclass(frozen=True, eq=False)
+class Population:
+    """The joint distribution P(X = x, A = a) of context and sensitive group.
+
+    Parameters
+    ----------
+    probabilities : array_like, shape (n_contexts, n_groups)
+        Non-negative, finite, summing to 1 within 1e-9.
+    contexts, groups : sequence of hashable
+        Labels of the axes.
+
+    Raises
+    ------
+    InputError
+        On a shape that does not match the labels, a negative or non-finite
+        entry, or a total that is not 1.
+
+    Examples
+    --------
+    >>> pop = Population.uniform(["x0", "x1"], ["a0", "a1"])
+    >>> pop.probabilities.tolist()
+    [[0.25, 0.25], [0.25, 0.25]]
+    >>> pop.independence().independent
+    True
+    """
+
+    probabilities: np.ndarray
+    contexts: tuple
+    groups: tuple
+
+    def __init__(self, probabilities, contexts: Sequence[Hashable], groups: Sequence[Hashable]):
+        contexts = as_labels(contexts, "population contexts")
+        groups = as_labels(groups, "population groups")
+        array = as_float_array(probabilities, "population", ndim=2)
+        check_shape(array, (len(contexts), len(groups)), "population", ("contexts", "groups"))
+        check_probabilities(array[:, :, None], "population", (contexts, groups, (None,)), ("context", "group", "-"),
+                            rows_sum_to_one=False)
+        total = float(array.sum())
+        if abs(total - 1.0) > ROW_TOLERANCE:
+            raise InputError("population", f"entries sum to {total:.12g}, not 1")
+        array = array.copy()
+        array.setflags(write=False)
+        object.__setattr__(self, "probabilities", array)
+        object.__setattr__(self, "contexts", contexts)
+        object.__setattr__(self, "groups", groups)
+
+    @classmethod
+    def uniform(cls, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> "Population":
+        """Uniform and independent: P(x, a) = 1 / (n_contexts · n_groups)."""
+        contexts = as_labels(contexts, "population contexts")
+        groups = as_labels(groups, "population groups")
+        return cls(np.full((len(contexts), len(groups)), 1.0 / (len(contexts) * len(groups))), contexts, groups)
+
+    @classmethod
+    def independent(cls, p_context, p_group, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> "Population":
+        """The product P(x) P(a) of two marginals (each summing to 1)."""
+        px = as_float_array(p_context, "context distribution", ndim=1)
+        pa = as_float_array(p_group, "group distribution", ndim=1)
+        contexts = as_labels(contexts, "population contexts")
+        groups = as_labels(groups, "population groups")
+        check_shape(px, (len(contexts),), "context distribution", ("contexts",))
+        check_shape(pa, (len(groups),), "group distribution", ("groups",))
+        check_probabilities(px[None, :], "context distribution", ((None,), contexts), ("table", "context"))
+        check_probabilities(pa[None, :], "group distribution", ((None,), groups), ("table", "group"))
+        return cls(np.outer(px, pa), contexts, groups)
+
+    @classmethod
+    def from_counts(cls, counts, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> "Population":
+        """Empirical population from a (n_contexts, n_groups) table of counts."""
+        array = as_float_array(counts, "population counts", ndim=2)
+        if np.any(array < 0) or not np.all(np.isfinite(array)):
+            raise InputError("population counts", "must be finite and non-negative")
+        total = array.sum()
+        if total <= 0:
+            raise InputError("population counts", "must contain at least one record", float(total))
+        return cls(array / total, contexts, groups)
+
+    @property
+    def p_context(self) -> np.ndarray:
+        """Marginal P(X = x), shape (n_contexts,)."""
+        return self.probabilities.sum(axis=1)
+
+    @property
+    def p_group(self) -> np.ndarray:
+        """Marginal P(A = a), shape (n_groups,)."""
+        return self.probabilities.sum(axis=0)
+
+    def context_given_group(self) -> np.ndarray:
+        """P(X = x | A = a), shape (n_contexts, n_groups); columns of groups with P(a) = 0 are NaN."""
+        pa = self.p_group
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(pa > 0, self.probabilities / pa, np.nan)
+
+    def independence(self, tolerance: float = 1e-9) -> IndependenceCheck:
+        """Check X ⊥ A: max |P(x, a) − P(x) P(a)| ≤ ``tolerance``."""
+        dev = np.abs(self.probabilities - np.outer(self.p_context, self.p_group))
+        i, j = np.unravel_index(int(dev.argmax()), dev.shape)
+        worst = float(dev[i, j])
+        return IndependenceCheck(worst <= tolerance, worst, self.contexts[i], self.groups[j], tolerance)
+
+
+@dataclass(frozen=True, eq=False)
+class _DecisionTable:
+    probabilities: np.ndarray
+    contexts: tuple
+    groups: tuple
+    decisions: tuple
+    counts: np.ndarray | None = None
+    name: str = "table"
+
+    _axes = ("context", "group", "decision")
+
+    def __init__(
+        self,
+        probabilities,
+        contexts: Sequence[Hashable],
+        groups: Sequence[Hashable],
+        decisions: Sequence[Hashable],
+        *,
+        counts=None,
+        name: str | None = None,
+    ):
+        name = name or self._default_name
+        contexts = as_labels(contexts, f"{name} contexts")
+        groups = as_labels(groups, f"{name} groups")
+        decisions = as_labels(decisions, f"{name} decisions")
+        shape = (len(contexts), len(groups), len(decisions))
+        array = as_float_array(probabilities, name, ndim=3)
+        check_shape(array, shape, name, ("contexts", "groups", "decisions"))
+        empty = None
+        if counts is not None:
+            counts = as_float_array(counts, f"{name} counts", ndim=3)
+            check_shape(counts, shape, f"{name} counts", ("contexts", "groups", "decisions"))
+            if np.any(counts < 0) or not np.all(np.isfinite(counts)):
+                raise InputError(f"{name} counts", "must be finite and non-negative")
+            empty = counts.sum(axis=-1) == 0
+            counts = counts.copy()
+            counts.setflags(write=False)
+        check_probabilities(array, name, (contexts, groups, decisions), self._axes, skip_rows=empty)
+        array = array.copy()
+        if empty is not None:
+            array[empty] = np.nan
+        array.setflags(write=False)
+        object.__setattr__(self, "probabilities", array)
+        object.__setattr__(self, "contexts", contexts)
+        object.__setattr__(self, "groups", groups)
+        object.__setattr__(self, "decisions", decisions)
+        object.__setattr__(self, "counts", counts)
+        object.__setattr__(self, "name", name)
+
+    _default_name = "table"
+
+    @classmethod
+    def from_counts(
+        cls,
+        counts,
+        contexts: Sequence[Hashable],
+        groups: Sequence[Hashable],
+        decisions: Sequence[Hashable],
+        *,
+        name: str | None = None,
+    ):
+        """Estimate the table from counts of shape (n_contexts, n_groups, n_decisions).
+
+        Each row is divided by its total; rows with no record are empty
+        (NaN) and reported by :attr:`empty_cells`.
+        """
+        array = as_float_array(counts, f"{name or cls._default_name} counts", ndim=3)
+        totals = array.sum(axis=-1, keepdims=True)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            probs = np.where(totals > 0, array / totals, np.nan)
+        return cls(probs, contexts, groups, decisions, counts=array, name=name)
+
+    def __repr__(self) -> str:
+        n = len(self.contexts), len(self.groups), len(self.decisions)
+        return f"{type(self).__name__}({self.name!r}, {n[0]} contexts x {n[1]} groups x {n[2]} decisions)"
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(n_contexts, n_groups, n_decisions)."""
+        return self.probabilities.shape  # type: ignore[return-value]
+
+    @property
+    def observed(self) -> np.ndarray:
+        """Boolean (n_contexts, n_groups): True where the cell's row is known."""
+        return ~np.isnan(self.probabilities[..., 0])
+
+    @property
+    def cell_counts(self) -> np.ndarray | None:
+        """Records per cell (x, a), shape (n_contexts, n_groups), or None."""
+        return None if self.counts is None else self.counts.sum(axis=-1)
+
+    @property
+    def empty_cells(self) -> tuple:
+        """Labels (context, group) of the empty cells, in table order."""
+        idx = np.argwhere(~self.observed)
+        return tuple((self.contexts[i], self.groups[j]) for i, j in idx)
+
+
+class Kernel(_DecisionTable):
+    """A decision model P(U = u | X̃ = x̃, Ã = ã): the black box behind the filter.
+
+    Parameters
+    ----------
+    probabilities : array_like, shape (n_contexts, n_groups, n_decisions)
+        Indexed [x̃, ã, u]; each row over u sums to 1 within 1e-9.
+    contexts, groups, decisions : sequence of hashable
+        Labels of the released context, released group and decision.
+    counts : array_like, optional
+        The counts the table was estimated from (same shape).
+    name : str, optional
+        Name used in error messages and reports (default ``"kernel"``).
+
+    Raises
+    ------
+    InputError
+        Names the table, the row's labels and its sum when a row does not sum
+        to 1; the entry when it is negative or not finite; the shape when it
+        does not match the labels.
+
+    Examples
+    --------
+    >>> k = Kernel([[[0.2, 0.8]], [[0.5, 0.5]]], ["doc1", "doc2"], ["HR_1"], ["go", "stay"])
+    >>> k.shape
+    (2, 1, 2)
+    >>> Kernel([[[0.2, 0.7]]], ["doc1"], ["HR_1"], ["go", "stay"])
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: kernel: row (context='doc1', group='HR_1') sums to 0.9, not 1
+    """
+
+    _default_name = "kernel"
+
+
+class Law(_DecisionTable):
+    """The law P(U = u | X = x, A = a) of decisions given the true context and group.
+
+    Same layout and checks as :class:`Kernel`, indexed [x, a, u]. Build it
+    directly (a model that sees the true attributes), from counts, or with
+    :func:`compose`.
+
+    Examples
+    --------
+    >>> law = Law.from_counts([[[3, 1], [0, 0]]], ["x"], ["a", "b"], ["yes", "no"])
+    >>> law.probabilities[0, 0].tolist(), law.empty_cells
+    ([0.75, 0.25], (('x', 'b'),))
+    """
+
+    _default_name = "law"
+
+    @classmethod
+    def from_kernel(cls, kernel: Kernel) -> "Law":
+        """The law of a model that sees the true attributes (identity filters)."""
+        return cls(kernel.probabilities, kernel.contexts, kernel.groups, kernel.decisions,
+                   counts=kernel.counts, name="law")
+
+
+def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechanism | None = None) -> Law:
+    """The law of decisions behind privacy filters on A and X.
+
+    ``Q[x, a, u] = Σ_{x̃, ã} M_X[x, x̃] M_A[a, ã] K[x̃, ã, u]`` (paper, main
+    text "Turning privacy into fairness guarantees"; DESIGN.md layout).
+
+    Parameters
+    ----------
+    kernel : Kernel
+        P(U | X̃, Ã), shape (n_released_contexts, n_released_groups, n_decisions).
+    sensitive : Mechanism, optional
+        M_A, shape (n_groups, n_released_groups); its outputs must be the
+        kernel's groups. Default: the identity.
+    context : Mechanism, optional
+        M_X, shape (n_contexts, n_released_contexts); its outputs must be the
+        kernel's contexts. Default: the identity.
+
+    Returns
+    -------
+    Law
+        Shape (n_contexts, n_groups, n_decisions), labelled by the mechanisms'
+        inputs.
+
+    Raises
+    ------
+    InputError
+        If a mechanism's outputs do not match the kernel's labels, or if an
+        empty cell of an estimated kernel is reached with positive probability.
+
+    Examples
+    --------
+    The paper's X-privacy example (SI C): a model that outputs U = 1 when
+    x̃ = a, behind M_X = [[0.9, 0.1], [0.7, 0.3]].
+
+    >>> from fairaudit.privacy import from_matrix
+    >>> k = Kernel([[[1, 0], [0, 1]], [[0, 1], [1, 0]]], [0, 1], [0, 1], [1, 0])
+    >>> law = compose(k, context=from_matrix([[0.9, 0.1], [0.7, 0.3]], [0, 1]))
+    >>> law.probabilities[:, :, 0].round(12).tolist()
+    [[0.9, 0.1], [0.7, 0.3]]
+    """
+    if not isinstance(kernel, Kernel):
+        raise InputError("kernel", "must be a Kernel", type(kernel).__name__)
+    m_a = sensitive if sensitive is not None else identity(kernel.groups)
+    m_x = context if context is not None else identity(kernel.contexts)
+    if tuple(m_a.outputs) != tuple(kernel.groups):
+        raise InputError(
+            f"mechanism '{m_a.name}' outputs",
+            f"must be the kernel's groups {[format_label(g) for g in kernel.groups]}",
+            [format_label(o) for o in m_a.outputs],
+        )
+    if tuple(m_x.outputs) != tuple(kernel.contexts):
+        raise InputError(
+            f"mechanism '{m_x.name}' outputs",
+            f"must be the kernel's contexts {[format_label(c) for c in kernel.contexts]}",
+            [format_label(o) for o in m_x.outputs],
+        )
+    k = kernel.probabilities
+    empty = ~kernel.observed
+    if np.any(empty):
+        reach = np.einsum("xy,ab->xayb", m_x.matrix, m_a.matrix) > 0
+        hit = reach & empty[None, None, :, :]
+        if np.any(hit):
+            _, _, i, j = np.argwhere(hit)[0]
+            raise InputError(
+                "kernel",
+                f"empty cell (context={format_label(kernel.contexts[i])!r}, group={format_label(kernel.groups[j])!r}) "
+                "is reached by the privacy filter; give counts for it",
+            )
+        k = np.nan_to_num(k, nan=0.0)
+    q = np.einsum("xy,ab,ybu->xau", m_x.matrix, m_a.matrix, k, optimize=True)
+    # Clean rounding so rows sum to 1 within tolerance.
+    q = q / q.sum(axis=-1, keepdims=True)
+    return Law(q, m_x.inputs, m_a.inputs, kernel.decisions, name="law")

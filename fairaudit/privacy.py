@@ -1,0 +1,434 @@
+"""Finite privacy mechanisms: randomized response, matrices, products, identity.
+
+A mechanism on a finite alphabet is a row-stochastic matrix ``M`` of shape
+``(n_inputs, n_outputs)`` with ``M[a, o] = P(output = o | input = a)``. Every
+pair of inputs is adjacent (the paper's SI A, Definition of
+(ε, δ)-differential privacy), so
+
+* ``ε(M) = max over a, a', o of log M[a, o] / M[a', o]`` (nats; +inf when some
+  output has positive probability under one input and zero under another);
+* ``δ(M, ε) = max over a ≠ a' of Σ_o [M[a, o] − e^ε M[a', o]]₊``, the
+  hockey-stick divergence of order e^ε (Balle et al., "Hypothesis testing
+  interpretations and Rényi differential privacy", AISTATS 2020).
+
+Proof of the facts used here: ``proofs/privacy.md``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Hashable, Iterable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._arrays import as_float_array, as_labels, check_probabilities, check_shape, ratio_extremes
+from ._errors import InputError
+
+__all__ = [
+    "Mechanism",
+    "PrivacyProfile",
+    "randomized_response",
+    "identity",
+    "from_matrix",
+    "product",
+    "keep_probability",
+    "epsilon_from_keep_probability",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class PrivacyProfile:
+    """The privacy profile δ(ε) of a mechanism on a grid of ε.
+
+    Attributes
+    ----------
+    epsilons : numpy.ndarray, shape (n,)
+        The grid of ε, in nats.
+    deltas : numpy.ndarray, shape (n,)
+        δ(ε) at each grid point (hockey-stick divergence, all pairs adjacent).
+    mechanism : Mechanism
+        The mechanism the profile belongs to.
+    """
+
+    epsilons: np.ndarray
+    deltas: np.ndarray
+    mechanism: "Mechanism"
+
+
+@dataclass(frozen=True, eq=False)
+class Mechanism:
+    """A finite randomized mechanism: a row-stochastic matrix with labels.
+
+    Parameters
+    ----------
+    matrix : array_like, shape (n_inputs, n_outputs)
+        ``matrix[a, o] = P(output = o | input = a)``; rows sum to 1 within 1e-9.
+    inputs : sequence of hashable
+        Labels of the inputs (rows), distinct.
+    outputs : sequence of hashable, optional
+        Labels of the outputs (columns); default: the inputs.
+    name : str
+        A short description, used in reports.
+
+    Raises
+    ------
+    InputError
+        When the matrix is not finite, has a negative entry, a row that does
+        not sum to 1, or a shape that does not match the labels.
+
+    Examples
+    --------
+    >>> m = randomized_response(["Tom", "Mary"], keep=0.7)
+    >>> round(m.epsilon, 6), round(math.log(7 / 3), 6)
+    (0.847298, 0.847298)
+    >>> round(m.delta(0.5), 5)
+    0.20538
+    """
+
+    matrix: np.ndarray
+    inputs: tuple
+    outputs: tuple
+    name: str = "matrix"
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __init__(self, matrix, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix"):
+        inputs = as_labels(inputs, f"mechanism '{name}' inputs")
+        outputs = inputs if outputs is None else as_labels(outputs, f"mechanism '{name}' outputs")
+        array = as_float_array(matrix, f"mechanism '{name}'", ndim=2)
+        check_shape(array, (len(inputs), len(outputs)), f"mechanism '{name}'", ("inputs", "outputs"))
+        check_probabilities(array, f"mechanism '{name}'", (inputs, outputs), ("input", "output"))
+        array = array.copy()
+        array.setflags(write=False)
+        object.__setattr__(self, "matrix", array)
+        object.__setattr__(self, "inputs", inputs)
+        object.__setattr__(self, "outputs", outputs)
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "_cache", {})
+
+    def __repr__(self) -> str:
+        return f"Mechanism({self.name!r}, {len(self.inputs)} inputs -> {len(self.outputs)} outputs, epsilon={self.epsilon:.6g})"
+
+    @property
+    def epsilon(self) -> float:
+        """Pure-DP ε(M) in nats: max log M[a, o] / M[a', o] over all pairs.
+
+        +inf when one input reaches an output that another cannot; 0 for a
+        mechanism whose rows are all equal (or with one input).
+        """
+        if "epsilon" not in self._cache:
+            ratio, _, _ = ratio_extremes(self.matrix, axis=0)
+            worst = np.nanmax(ratio) if ratio.size and not np.all(np.isnan(ratio)) else 1.0
+            self._cache["epsilon"] = float(np.log(worst)) if np.isfinite(worst) else math.inf
+        return self._cache["epsilon"]
+
+    def pairwise_delta(self, epsilon: float) -> np.ndarray:
+        """Hockey-stick divergence of every ordered pair of inputs.
+
+        Parameters
+        ----------
+        epsilon : float
+            ε ≥ 0 in nats (may be +inf, giving δ of the inputs' disjoint mass).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_inputs, n_inputs)
+            ``out[a, a'] = Σ_o [M[a, o] − e^ε M[a', o]]₊``; the diagonal is 0.
+        """
+        eps = _check_epsilon(epsilon)
+        p = self.matrix[:, None, :]
+        q = self.matrix[None, :, :]
+        if math.isinf(eps):
+            out = np.where(q == 0, p, 0.0).sum(axis=-1)
+        else:
+            out = np.clip(p - math.exp(eps) * q, 0.0, None).sum(axis=-1)
+        np.fill_diagonal(out, 0.0)
+        return out
+
+    def delta(self, epsilon):
+        """δ(M, ε): the largest hockey-stick divergence over pairs of inputs.
+
+        Parameters
+        ----------
+        epsilon : float or array_like of float
+            ε ≥ 0 in nats.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            δ at each ε, same shape as ``epsilon``; 0 for one input.
+
+        Raises
+        ------
+        InputError
+            If some ε is negative or NaN.
+        """
+        eps = np.asarray(epsilon, dtype=float)
+        flat = np.array([self.pairwise_delta(e).max(initial=0.0) for e in eps.ravel()])
+        return float(flat[0]) if eps.ndim == 0 else flat.reshape(eps.shape)
+
+    def profile(self, epsilons: Iterable[float] | None = None) -> PrivacyProfile:
+        """The privacy profile δ(ε) on a grid.
+
+        Parameters
+        ----------
+        epsilons : iterable of float, optional
+            Grid of ε ≥ 0 in nats. Default: 101 points from 0 to
+            ``min(ε(M), 10)`` (or to 10 when ε(M) is infinite).
+        """
+        if epsilons is None:
+            top = self.epsilon if np.isfinite(self.epsilon) and self.epsilon > 0 else 10.0
+            grid = np.linspace(0.0, min(top, 10.0), 101)
+        else:
+            grid = np.asarray(list(epsilons), dtype=float)
+        return PrivacyProfile(epsilons=grid, deltas=np.atleast_1d(self.delta(grid)), mechanism=self)
+
+    def epsilon_for_delta(self, delta: float) -> float:
+        """Smallest ε ≥ 0 with δ(M, ε) ≤ ``delta`` (nats).
+
+        δ(M, ε) is non-increasing in ε, so the answer is the ε where the
+        profile crosses ``delta``, found by bisection to 1e-13 relative
+        precision; ε(M) itself for ``delta = 0``.
+
+        Raises
+        ------
+        InputError
+            If ``delta`` is not in [0, 1].
+        """
+        if not (0.0 <= delta <= 1.0):
+            raise InputError("delta", "must lie in [0, 1]", delta)
+        if delta == 0.0:
+            return self.epsilon
+        if self.delta(0.0) <= delta:
+            return 0.0
+        if self.pairwise_delta(math.inf).max(initial=0.0) > delta:
+            return math.inf
+        lo, hi = 0.0, 1.0
+        while self.delta(hi) > delta:
+            lo, hi = hi, 2 * hi
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if self.delta(mid) > delta:
+                lo = mid
+            else:
+                hi = mid
+            if hi - lo <= 1e-13 * max(1.0, hi):
+                break
+        return hi
+
+    @property
+    def keep_probability(self) -> float | None:
+        """Smallest probability that the input is released unchanged.
+
+        Defined when inputs and outputs are the same labels; None otherwise.
+        For k-ary randomized response it is e^ε / (e^ε + k − 1).
+        """
+        if set(self.inputs) != set(self.outputs):
+            return None
+        cols = [self.outputs.index(a) for a in self.inputs]
+        return float(self.matrix[np.arange(len(self.inputs)), cols].min())
+
+    def then(self, other: "Mechanism") -> "Mechanism":
+        """Post-process this mechanism's output with ``other`` (matrix product).
+
+        Raises
+        ------
+        InputError
+            If ``other``'s inputs are not this mechanism's outputs.
+        """
+        if tuple(other.inputs) != tuple(self.outputs):
+            raise InputError(f"mechanism '{other.name}' inputs", f"must equal the outputs of '{self.name}'", other.inputs)
+        return Mechanism(self.matrix @ other.matrix, self.inputs, other.outputs, name=f"{self.name} then {other.name}")
+
+    def describe(self) -> str:
+        """One line: name, alphabet size, ε and keep probability."""
+        keep = self.keep_probability
+        eps = "inf" if math.isinf(self.epsilon) else f"{self.epsilon:.6g}"
+        text = f"{self.name} on {len(self.inputs)} values, epsilon = {eps} nats"
+        if keep is not None:
+            text += f", keep probability {keep:.6g}"
+        return text
+
+
+def _check_epsilon(epsilon: float) -> float:
+    try:
+        eps = float(epsilon)
+    except (TypeError, ValueError):
+        raise InputError("epsilon", "must be a number", epsilon) from None
+    if math.isnan(eps) or eps < 0:
+        raise InputError("epsilon", "must be a non-negative number of nats", epsilon)
+    return eps
+
+
+def keep_probability(epsilon: float, k: int) -> float:
+    """Keep probability e^ε / (e^ε + k − 1) of k-ary randomized response.
+
+    Examples
+    --------
+    >>> round(keep_probability(math.log(7 / 3), 2), 12)
+    0.7
+    """
+    eps = _check_epsilon(epsilon)
+    if k < 1:
+        raise InputError("k", "must be at least 1", k)
+    if math.isinf(eps):
+        return 1.0
+    return 1.0 / (1.0 + (k - 1) * math.exp(-eps))
+
+
+def epsilon_from_keep_probability(keep: float, k: int) -> float:
+    """ε = log(p (k − 1) / (1 − p)) of k-ary randomized response keeping with p.
+
+    Not ``p / (1 − p)`` (the seed paper's error 1): for k = 2 and p = 0.7 the
+    budget is ln(7/3) = 0.847 nats.
+
+    Raises
+    ------
+    InputError
+        If ``keep`` is not in [1/k, 1] (below 1/k the mechanism favours
+        other values and is not randomized response).
+    """
+    if k < 2:
+        raise InputError("k", "randomized response needs at least 2 values", k)
+    if not (1.0 / k - 1e-15 <= keep <= 1.0):
+        raise InputError("keep", f"keep probability must lie in [1/k, 1] = [{1.0 / k:.6g}, 1]", keep)
+    if keep >= 1.0:
+        return math.inf
+    return max(0.0, math.log(keep * (k - 1) / (1.0 - keep)))
+
+
+def randomized_response(
+    values: Sequence[Hashable],
+    epsilon: float | None = None,
+    *,
+    keep: float | None = None,
+    name: str | None = None,
+) -> Mechanism:
+    """k-ary randomized response on ``values``.
+
+    Keeps the value with probability p = e^ε / (e^ε + k − 1) and moves to each
+    of the k − 1 other values with probability 1 / (e^ε + k − 1) (Warner 1965;
+    Kairouz, Oh and Viswanath 2014). Give exactly one of ``epsilon`` (nats) and
+    ``keep`` (p).
+
+    Parameters
+    ----------
+    values : sequence of hashable, length k ≥ 1
+        The alphabet; inputs and outputs are the same labels.
+    epsilon : float, optional
+        Privacy budget ε ≥ 0 in nats; +inf gives the identity.
+    keep : float, optional
+        Keep probability p in [1/k, 1].
+    name : str, optional
+        Name in reports.
+
+    Returns
+    -------
+    Mechanism
+        Square, shape (k, k); ε(M) = ``epsilon`` exactly, δ(M, ε(M)) = 0.
+
+    Raises
+    ------
+    InputError
+        If neither or both of ``epsilon`` and ``keep`` are given, or either is
+        out of range.
+
+    Examples
+    --------
+    >>> m = randomized_response(["a", "b", "c"], epsilon=math.log(4))
+    >>> m.matrix.round(6).tolist()
+    [[0.666667, 0.166667, 0.166667], [0.166667, 0.666667, 0.166667], [0.166667, 0.166667, 0.666667]]
+    """
+    labels = as_labels(values, "randomized_response values")
+    k = len(labels)
+    if (epsilon is None) == (keep is None):
+        raise InputError("randomized_response", "give exactly one of epsilon and keep", {"epsilon": epsilon, "keep": keep})
+    if keep is not None:
+        if k == 1:
+            epsilon = 0.0
+        else:
+            try:
+                keep = float(keep)
+            except (TypeError, ValueError):
+                raise InputError("keep", "must be a number", keep) from None
+            epsilon = epsilon_from_keep_probability(keep, k)
+    eps = _check_epsilon(epsilon)
+    if k == 1:
+        matrix = np.ones((1, 1))
+    elif math.isinf(eps):
+        matrix = np.eye(k)
+    else:
+        other = 1.0 / (math.exp(eps) + k - 1)
+        matrix = np.full((k, k), other)
+        np.fill_diagonal(matrix, 1.0 - (k - 1) * other)
+    label = name or f"{k}-ary randomized response"
+    mech = Mechanism(matrix, labels, name=label)
+    if keep is None or not math.isinf(eps):
+        mech._cache["epsilon"] = eps if k > 1 else 0.0
+    return mech
+
+
+def identity(values: Sequence[Hashable], name: str = "identity") -> Mechanism:
+    """The identity mechanism (no privacy): ε = +inf when there are ≥ 2 values.
+
+    Examples
+    --------
+    >>> identity(["x", "y"]).epsilon
+    inf
+    """
+    labels = as_labels(values, "identity values")
+    return Mechanism(np.eye(len(labels)), labels, name=name)
+
+
+def from_matrix(rows, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix") -> Mechanism:
+    """A mechanism from its matrix of rows P(output | input).
+
+    Parameters
+    ----------
+    rows : array_like, shape (n_inputs, n_outputs)
+        Row-stochastic matrix.
+    inputs, outputs : sequence of hashable
+        Labels; ``outputs`` defaults to ``inputs``.
+
+    Examples
+    --------
+    The paper's X-privacy mechanism (SI C, Example) is (log 3)-DP:
+
+    >>> m = from_matrix([[0.9, 0.1], [0.7, 0.3]], [0, 1])
+    >>> round(m.epsilon, 12) == round(math.log(3), 12)
+    True
+    """
+    return Mechanism(rows, inputs, outputs, name=name)
+
+
+def product(*mechanisms: Mechanism, name: str | None = None) -> Mechanism:
+    """The product mechanism on a tuple of attributes, each randomized independently.
+
+    Inputs and outputs are tuples of the components' labels in
+    ``itertools.product`` order; the matrix is the Kronecker product. With
+    every pair of tuples adjacent, ε(product) = Σ ε(component) (for example
+    3 ln(7/3) = 2.542 nats for three binary attributes kept with p = 0.7; the
+    seed paper's error 2).
+
+    Examples
+    --------
+    >>> rr = [randomized_response(v, keep=0.7) for v in (["Tom", "Mary"], [25, 55], ["Asian", "American"])]
+    >>> m = product(*rr)
+    >>> m.inputs[:2]
+    (('Tom', 25, 'Asian'), ('Tom', 25, 'American'))
+    >>> round(m.epsilon, 6), round(3 * math.log(7 / 3), 6)
+    (2.541894, 2.541894)
+    """
+    if not mechanisms:
+        raise InputError("product", "needs at least one mechanism", ())
+    matrix = np.ones((1, 1))
+    for mech in mechanisms:
+        if not isinstance(mech, Mechanism):
+            raise InputError("product", "components must be Mechanism objects", mech)
+        matrix = np.kron(matrix, mech.matrix)
+    inputs = [tuple(t) for t in itertools.product(*(m.inputs for m in mechanisms))]
+    outputs = [tuple(t) for t in itertools.product(*(m.outputs for m in mechanisms))]
+    label = name or " x ".join(m.name for m in mechanisms)
+    return Mechanism(matrix, inputs, outputs, name=label)
+

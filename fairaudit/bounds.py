@@ -1,0 +1,516 @@
+"""Fairness certificates from the privacy of the sensitive attribute (paper SI C).
+
+The main theorem (paper SI C, Theorem "main"): if X ⊥ A, g ≤ γ,
+E[g | x, a] ≥ τ > 0 for every (x, a), and M_A is (ε, δ)-DP, then for *any*
+decision kernel behind M_A
+
+    L̄ ≤ L ≤ ε + log(1 + (L_A·diam(A) + δγ) / τ)              ("paper")
+
+Its proof gives the never-larger form log(e^ε + (L_A·diam(A) + δγ)/τ), and works
+one pair of groups at a time, so with the pair's own hockey-stick divergence
+δ_aa'(ε) and distance d(a, a')
+
+    L ≤ max over a ≠ a' of min over ε ≥ 0 of log(e^ε + (L_A·d(a, a') + δ_aa'(ε)γ) / τ)   ("tight")
+
+A mechanism satisfies (ε, δ(ε))-DP at every ε, so both forms are minimised
+over its whole privacy profile:
+
+* paper: min over t = e^ε ≥ 1 of log t + log(1 + (L_A·diam + γ δ(t)) / τ).
+  δ(t) = max over pairs and over prefix sets S of Σ_{o∈S} (M[a,o] − t M[a',o])
+  is the upper envelope of finitely many lines in t, and on each piece of
+  the envelope the objective is concave in t, so the minimum is at t = 1 or
+  at a breakpoint of the envelope: a pair's likelihood ratio *or* a point
+  where two pairs' δ curves cross. The envelope is computed exactly
+  (convex-hull trick), so no crossing is missed.
+* tight: for each pair, t + (L_A d + γ δ_aa'(t)) / τ is convex and piecewise
+  linear in t, so its minimum is at t = 1 or at one of the pair's ratios.
+
+The corollary (paper SI C, Theorem "cor"): g independent of a and δ = 0 give
+L̄ ≤ L ≤ ε, attained by k-ary randomized response and a model that outputs Ã.
+
+Proofs: ``proofs/main_theorem.md`` (both forms, the profile minimisation) and
+``proofs/corollary.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._arrays import format_label
+from ._errors import InputError
+from .laws import Law, Population
+from .privacy import Mechanism
+from .utility import Utility, discrete_metric
+
+__all__ = [
+    "Assumption",
+    "Bound",
+    "main_theorem",
+    "main_theorem_tight",
+    "paper_bound",
+    "tight_bound",
+    "corollary_bound",
+    "check_assumptions",
+]
+
+
+@dataclass(frozen=True)
+class Assumption:
+    """One hypothesis of a theorem and how it stands.
+
+    Attributes
+    ----------
+    name : str
+        The hypothesis, for example ``"X independent of A"``.
+    status : {"checked", "violated", "vouched", "not applicable"}
+        ``checked``: verified on the data given; ``violated``: the data
+        contradict it (the bound does not apply); ``vouched``: taken on the
+        caller's word; ``not applicable``: not needed here.
+    detail : str
+        The numbers behind the status.
+    """
+
+    name: str
+    status: str
+    detail: str = ""
+
+    def __post_init__(self) -> None:
+        if self.status not in {"checked", "violated", "vouched", "not applicable"}:
+            raise InputError("assumption status", "must be checked, violated, vouched or not applicable", self.status)
+
+
+@dataclass(frozen=True, eq=False)
+class Bound:
+    """An upper bound on local (and, with X ⊥ A, global) g-fairness.
+
+    Attributes
+    ----------
+    form : {"paper", "tight", "corollary", "black_box"}
+    value : float
+        The bound on L, in nats (+inf when nothing can be certified).
+    epsilon : float
+        The ε (nats) of the privacy profile at which the minimum is attained.
+    delta : float
+        δ(ε) there (for "tight", the binding pair's δ_aa'(ε)).
+    group, other_group : hashable or None
+        The binding pair of groups (tight and black_box), else None.
+    gamma, tau, lipschitz, diameter : float
+        The constants used; ``tau`` is NaN for forms that do not use it.
+    mechanism : Mechanism
+        M_A.
+    assumptions : tuple of Assumption
+        The hypotheses and whether each was checked or vouched for.
+    """
+
+    form: str
+    value: float
+    epsilon: float
+    delta: float
+    group: Hashable | None
+    other_group: Hashable | None
+    gamma: float
+    tau: float
+    lipschitz: float
+    diameter: float
+    mechanism: Mechanism
+    assumptions: tuple = field(default=())
+
+    @property
+    def holds(self) -> bool:
+        """False when some assumption is violated by the data given."""
+        return all(a.status != "violated" for a in self.assumptions)
+
+    def __repr__(self) -> str:
+        return f"Bound({self.form}, value={self.value:.6g} nats at epsilon={self.epsilon:.6g}, delta={self.delta:.6g})"
+
+
+def _nonneg(name: str, value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(name, "must be a number", value) from None
+    if math.isnan(v) or v < 0 or math.isinf(v):
+        raise InputError(name, "must be a finite non-negative number", value)
+    return v
+
+
+def _constants(gamma, tau, lipschitz, diameter) -> tuple[float, float, float, float]:
+    gamma = _nonneg("gamma", gamma)
+    tau = _nonneg("tau", tau)
+    if tau <= 0:
+        raise InputError("tau", "must be positive (the main theorem needs E[g | x, a] >= tau > 0)", tau)
+    if tau > gamma:
+        raise InputError("tau", f"cannot exceed gamma = {gamma:g} (E[g | x, a] <= max g)", tau)
+    return gamma, tau, _nonneg("lipschitz", lipschitz), _nonneg("diameter", diameter)
+
+
+def main_theorem(epsilon: float, delta: float, *, gamma: float, tau: float, lipschitz: float = 0.0,
+                 diameter: float = 1.0) -> float:
+    """The paper's bound ε + log(1 + (L_A·diam(A) + δγ) / τ), in nats.
+
+    Parameters
+    ----------
+    epsilon : float
+        ε ≥ 0 of M_A, nats.
+    delta : float
+        δ in [0, 1].
+    gamma : float
+        Upper bound γ ≥ τ of g.
+    tau : float
+        Lower bound τ > 0 of every E[g | x, a].
+    lipschitz, diameter : float
+        L_A ≥ 0 and diam(A) ≥ 0 (1 under the discrete metric).
+
+    Raises
+    ------
+    InputError
+        On a negative constant, τ ≤ 0 or τ > γ.
+
+    Notes
+    -----
+    Paper SI C, Theorem (main); ``proofs/main_theorem.md``.
+
+    Examples
+    --------
+    >>> round(main_theorem(1.0, 0.01, gamma=1.0, tau=0.1), 12) == round(1 + math.log(1.1), 12)
+    True
+    """
+    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+    eps = _nonneg("epsilon", epsilon) if not (isinstance(epsilon, float) and math.isinf(epsilon)) else math.inf
+    delta = _nonneg("delta", delta)
+    return eps + math.log1p((lipschitz * diameter + delta * gamma) / tau)
+
+
+def main_theorem_tight(epsilon: float, delta: float, *, gamma: float, tau: float, lipschitz: float = 0.0,
+                       diameter: float = 1.0) -> float:
+    """The main theorem as its proof gives it: log(e^ε + (L_A·diam(A) + δγ) / τ), nats.
+
+    Never larger than :func:`main_theorem`, since e^ε ≥ 1.
+
+    Examples
+    --------
+    >>> main_theorem_tight(0.0, 0.0, gamma=1.0, tau=0.5)
+    0.0
+    >>> main_theorem_tight(1.0, 0.01, gamma=1.0, tau=0.1) <= main_theorem(1.0, 0.01, gamma=1.0, tau=0.1)
+    True
+    """
+    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+    eps = _nonneg("epsilon", epsilon) if not (isinstance(epsilon, float) and math.isinf(epsilon)) else math.inf
+    delta = _nonneg("delta", delta)
+    if math.isinf(eps):
+        return math.inf
+    return math.log(math.exp(eps) + (lipschitz * diameter + delta * gamma) / tau)
+
+
+def _sorted_pairs(matrix: np.ndarray):
+    """For every ordered pair (a, b), outputs sorted by M[a,o]/M[b,o] descending.
+
+    Returns (ratio, p, q) each of shape (n, n, m), sorted along the last axis.
+    Ratios follow the conventions c/0 = inf and 0/0 = 0 (such outputs add
+    nothing to any hockey-stick divergence).
+    """
+    p = np.broadcast_to(matrix[:, None, :], (matrix.shape[0],) * 2 + (matrix.shape[1],))
+    q = np.broadcast_to(matrix[None, :, :], p.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
+    order = np.argsort(-ratio, axis=-1, kind="stable")
+    return (np.take_along_axis(ratio, order, -1), np.take_along_axis(p, order, -1), np.take_along_axis(q, order, -1))
+
+
+def _upper_envelope(slopes: np.ndarray, intercepts: np.ndarray):
+    """Upper envelope of lines y = s·t + c over t ∈ ℝ: (slopes, intercepts, breakpoints).
+
+    Lines are kept in increasing slope; breakpoint i is where line i hands
+    over to line i + 1.
+    """
+    order = np.lexsort((-intercepts, slopes))
+    s, c = slopes[order], intercepts[order]
+    first = np.ones(len(s), dtype=bool)
+    first[1:] = s[1:] != s[:-1]  # equal slopes: keep the largest intercept (sorted first)
+    s, c = s[first], c[first]
+    hull_s: list[float] = []
+    hull_c: list[float] = []
+    for sk, ck in zip(s.tolist(), c.tolist()):
+        while len(hull_s) >= 2:
+            s1, c1, s2, c2 = hull_s[-2], hull_c[-2], hull_s[-1], hull_c[-1]
+            # line 2 is useless when its crossing with line 1 is not left of its crossing with line k
+            if (c1 - c2) * (sk - s2) >= (c2 - ck) * (s2 - s1):
+                hull_s.pop()
+                hull_c.pop()
+            else:
+                break
+        hull_s.append(sk)
+        hull_c.append(ck)
+    hs, hc = np.array(hull_s), np.array(hull_c)
+    breaks = (hc[:-1] - hc[1:]) / (hs[1:] - hs[:-1])
+    return hs, hc, breaks
+
+
+def _profile_candidates(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray]:
+    """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (exact envelope)."""
+    m = mechanism.matrix
+    n = m.shape[0]
+    _, p, q = _sorted_pairs(m)
+    off = ~np.eye(n, dtype=bool)
+    p, q = p[off], q[off]  # (pairs, m)
+    zeros = np.zeros((p.shape[0], 1))
+    big_p = np.concatenate([zeros, np.cumsum(p, axis=-1)], axis=-1).ravel()
+    big_q = np.concatenate([zeros, np.cumsum(q, axis=-1)], axis=-1).ravel()
+    hs, hc, breaks = _upper_envelope(-big_q, big_p)
+    t = np.unique(np.concatenate([[1.0], breaks[np.isfinite(breaks) & (breaks > 1.0)]]))
+    delta = np.clip((hc[None, :] + hs[None, :] * t[:, None]).max(axis=1), 0.0, 1.0)
+    return t, delta
+
+
+def _resolve(mechanism, gamma, tau, lipschitz, utility, metric):
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    if gamma is None:
+        if utility is None:
+            raise InputError("gamma", "give gamma or a utility to take it from")
+        gamma = utility.gamma
+    if lipschitz is None:
+        lipschitz = 0.0 if utility is None else utility.lipschitz(metric)
+    return gamma, tau, lipschitz
+
+
+def paper_bound(
+    mechanism: Mechanism,
+    *,
+    tau: float,
+    gamma: float | None = None,
+    lipschitz: float | None = None,
+    diameter: float = 1.0,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    law: Law | None = None,
+) -> Bound:
+    """The paper's main theorem, minimised over the mechanism's privacy profile.
+
+    value = min over ε ≥ 0 of ε + log(1 + (L_A·diam(A) + δ(ε)γ) / τ), in nats.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A, shape (n_groups, n_released_groups).
+    tau : float
+        τ > 0, the lower bound on every E[g | x, a] of the model behind the
+        filter (vouched for by the caller unless ``law`` shows it).
+    gamma : float, optional
+        γ ≥ max g; default ``utility.gamma``.
+    lipschitz : float, optional
+        L_A; default from ``utility`` (0 for g independent of a).
+    diameter : float
+        diam(A); 1 under the discrete metric.
+    utility, population, law : optional
+        When given, the assumptions are checked on them (see
+        :func:`check_assumptions`).
+
+    Returns
+    -------
+    Bound
+        ``form = "paper"`` with the minimising ε and δ(ε).
+
+    Raises
+    ------
+    InputError
+        On invalid constants (τ ≤ 0, τ > γ, negative values).
+
+    Notes
+    -----
+    Paper SI C, Theorem (main); the minimisation over the profile and its
+    candidate set: ``proofs/main_theorem.md``.
+
+    Examples
+    --------
+    Binary randomized response keeping with p = 0.7, g ∈ [0, 1]: the pure
+    bound ε = ln(7/3) is the minimum here.
+
+    >>> from fairaudit.privacy import randomized_response
+    >>> b = paper_bound(randomized_response(["a", "b"], keep=0.7), gamma=1.0, tau=0.2)
+    >>> round(b.value, 9), round(b.epsilon, 9), b.delta
+    (0.84729786, 0.84729786, 0.0)
+    """
+    gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, None)
+    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+    assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
+    if len(mechanism.inputs) < 2:
+        return Bound("paper", 0.0, 0.0, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions)
+    t, delta = _profile_candidates(mechanism)
+    values = np.log(t) + np.log1p((lipschitz * diameter + gamma * delta) / tau)
+    k = int(np.argmin(values))
+    return Bound("paper", float(values[k]), float(np.log(t[k])), float(delta[k]), None, None, gamma, tau, lipschitz,
+                 diameter, mechanism, assumptions)
+
+
+def tight_bound(
+    mechanism: Mechanism,
+    *,
+    tau: float,
+    gamma: float | None = None,
+    lipschitz: float | None = None,
+    metric=None,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    law: Law | None = None,
+) -> Bound:
+    """The main theorem's proof, pair by pair: never larger than :func:`paper_bound`.
+
+    value = max over a ≠ a' of min over ε ≥ 0 of
+    log(e^ε + (L_A·d(a, a') + δ_aa'(ε)γ) / τ), in nats, where δ_aa'(ε) =
+    Σ_o [M[a, o] − e^ε M[a', o]]₊.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A, shape (n_groups, n_released_groups).
+    tau, gamma, lipschitz, utility, population, law
+        As in :func:`paper_bound`.
+    metric : array_like, shape (n_groups, n_groups), optional
+        d(a, a'); default the discrete metric.
+
+    Returns
+    -------
+    Bound
+        ``form = "tight"``; ``group``/``other_group`` is the binding pair,
+        ``epsilon`` and ``delta`` its minimising ε and δ_aa'(ε).
+
+    Notes
+    -----
+    DESIGN.md "Tight bound"; ``proofs/main_theorem.md``.
+
+    Examples
+    --------
+    >>> from fairaudit.privacy import randomized_response
+    >>> m = randomized_response(["a", "b", "c"], epsilon=1.0)
+    >>> tight_bound(m, gamma=1.0, tau=0.2).value <= paper_bound(m, gamma=1.0, tau=0.2).value
+    True
+    """
+    gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, metric)
+    n = len(mechanism.inputs)
+    d = discrete_metric(n) if metric is None else np.asarray(metric, dtype=float)
+    if d.shape != (n, n):
+        raise InputError("metric", f"shape must be ({n} groups x {n} groups)", d.shape)
+    diameter = float(d.max()) if n > 1 else 0.0
+    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+    assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
+    if n < 2:
+        return Bound("tight", 0.0, 0.0, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions)
+    ratio, p, q = _sorted_pairs(mechanism.matrix)
+    # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
+    p_before = np.cumsum(p, axis=-1) - p
+    q_before = np.cumsum(q, axis=-1) - q
+    with np.errstate(invalid="ignore"):
+        delta_k = np.clip(p_before - ratio * q_before, 0.0, None)
+    valid = np.isfinite(ratio) & (ratio >= 1.0)
+    delta_1 = np.clip(p - q, 0.0, None).sum(axis=-1)  # t = 1 (ε = 0): total variation
+    t = np.concatenate([np.ones(ratio.shape[:-1] + (1,)), np.where(valid, ratio, np.inf)], axis=-1)
+    dl = np.concatenate([delta_1[..., None], np.where(valid, delta_k, 0.0)], axis=-1)
+    objective = t + (lipschitz * d[..., None] + gamma * dl) / tau  # (n, n, m + 1)
+    best_k = objective.argmin(axis=-1)
+    best = np.take_along_axis(objective, best_k[..., None], -1)[..., 0]
+    np.fill_diagonal(best, -np.inf)
+    a, b = np.unravel_index(int(best.argmax()), best.shape)
+    k = best_k[a, b]
+    return Bound("tight", float(np.log(best[a, b])), float(np.log(t[a, b, k])), float(dl[a, b, k]),
+                 mechanism.inputs[a], mechanism.inputs[b], gamma, tau, lipschitz, diameter, mechanism, assumptions)
+
+
+def corollary_bound(mechanism: Mechanism, *, utility: Utility | None = None, population: Population | None = None,
+                    law: Law | None = None) -> Bound:
+    """The corollary: g independent of a and δ = 0 give L̄ ≤ L ≤ ε(M_A), in nats.
+
+    Needs no τ: the pure-DP ratio bound holds for every expectation. When the
+    utility is given and depends on the group, the corresponding assumption is
+    marked violated.
+
+    Notes
+    -----
+    Paper SI C, Theorem (cor); ``proofs/corollary.md``. Attained by k-ary
+    randomized response and a model that outputs Ã with g = 1{u = a₀}.
+
+    Examples
+    --------
+    >>> from fairaudit.privacy import randomized_response
+    >>> round(corollary_bound(randomized_response(["a", "b"], keep=0.7)).value, 9)
+    0.84729786
+    """
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    assumptions = list(check_assumptions(mechanism, tau=None, gamma=None, utility=utility, population=population, law=law))
+    if utility is not None:
+        dep = utility.depends_on_group
+        assumptions.append(Assumption("g independent of the group", "violated" if dep else "checked",
+                                      "g(u, x, a) differs between groups" if dep else "g does not depend on a"))
+    else:
+        assumptions.append(Assumption("g independent of the group", "vouched", "no utility table given"))
+    eps = mechanism.epsilon
+    return Bound("corollary", eps, eps, 0.0, None, None, math.nan, math.nan, 0.0, 1.0, mechanism, tuple(assumptions))
+
+
+def check_assumptions(
+    mechanism: Mechanism,
+    *,
+    tau: float | None,
+    gamma: float | None,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    law: Law | None = None,
+) -> tuple[Assumption, ...]:
+    """The main theorem's hypotheses, each checked on the data given or vouched for.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A; its (ε, δ) profile is always computed exactly ("checked").
+    tau, gamma : float or None
+        The constants claimed; None when the bound does not use them.
+    utility : Utility, optional
+        Checks g ≤ γ and g ≥ 0.
+    population : Population, optional
+        Checks X ⊥ A (tolerance 1e-9).
+    law : Law, optional
+        The observed law behind the filter: checks E[g | x, a] ≥ τ on it (this
+        law only, not every model; the bound for *any* model still relies on
+        the caller's τ).
+
+    Returns
+    -------
+    tuple of Assumption
+    """
+    out = []
+    eps = mechanism.epsilon
+    eps_text = "inf" if math.isinf(eps) else f"{eps:.6g}"
+    out.append(Assumption("M_A is differentially private", "checked",
+                          f"exact privacy profile of {mechanism.name}; pure epsilon = {eps_text} nats"))
+    if population is None:
+        out.append(Assumption("X independent of A", "vouched", "no population given"))
+    else:
+        ind = population.independence()
+        out.append(Assumption(
+            "X independent of A", "checked" if ind.independent else "violated",
+            f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} at (context {format_label(ind.context)!r}, "
+            f"group {format_label(ind.group)!r})"))
+    if gamma is not None:
+        if utility is None:
+            out.append(Assumption("g <= gamma", "vouched", f"gamma = {gamma:g}; no utility table given"))
+        else:
+            ok = utility.gamma <= gamma + 1e-12
+            out.append(Assumption("g <= gamma", "checked" if ok else "violated",
+                                  f"max g = {utility.gamma:g}, gamma = {gamma:g}"))
+    if tau is not None:
+        if law is None or utility is None:
+            out.append(Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"))
+        else:
+            from .metrics import expected_utility
+
+            e = expected_utility(law, utility)
+            low = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
+            status = "vouched" if low >= tau - 1e-12 else "violated"
+            out.append(Assumption("E[g | x, a] >= tau for every model", status,
+                                  f"tau = {tau:g}; the observed model has min E[g | x, a] = {low:.6g}"))
+    return tuple(out)

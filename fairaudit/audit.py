@@ -1,0 +1,168 @@
+"""Audit decision records: counts, the empirical law, every exact metric, intervals.
+
+:func:`audit` is the Python side of ``fairaudit audit``. U is the outcome
+column with all its values; the utility g (``positive`` or ``utility``)
+defines L and L̄, while L_dp, L_eo and the sups over g are about U's whole
+distribution (DESIGN.md "Command-line contract").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ._arrays import format_label
+from ._errors import InputError
+from .certify import Observed, observe
+from .estimate import CountTable, IndicatorIntervals, count_records, indicator_intervals
+from .utility import Utility, from_table, indicator
+
+__all__ = ["Audit", "audit", "utility_from_expression"]
+
+
+@dataclass(frozen=True, eq=False)
+class Audit:
+    """The result of :func:`audit`; repeats its inputs.
+
+    Attributes
+    ----------
+    table : CountTable
+        Counts, shape (n_contexts, n_groups, n_decisions), and the columns.
+    utility : Utility
+    observed : Observed
+        Every exact metric of the empirical law under the empirical population.
+    intervals : IndicatorIntervals or None
+        Simultaneous intervals when ``confidence`` was given.
+    confidence : float or None
+    """
+
+    table: CountTable
+    utility: Utility
+    observed: Observed
+    intervals: IndicatorIntervals | None
+    confidence: float | None
+
+
+def utility_from_expression(expression: str, decisions: Sequence) -> Utility:
+    """g(u) from an arithmetic or comparison expression in ``u`` (for example ``"u >= 5"``).
+
+    Evaluated by :func:`pandas.eval` on the array of decision values (numeric
+    when every decision is a number), so only arithmetic, comparisons and
+    boolean operators are allowed; booleans become 0/1.
+
+    Raises
+    ------
+    InputError
+        If the expression cannot be evaluated, does not give one finite
+        non-negative number per decision.
+
+    Examples
+    --------
+    >>> utility_from_expression("u >= 5", [1, 4, 5, 10]).values.tolist()
+    [0.0, 0.0, 1.0, 1.0]
+    >>> utility_from_expression("11 - u", [1, 10]).values.tolist()
+    [10.0, 1.0]
+    """
+    values = pd.Series(list(decisions))
+    numeric = pd.to_numeric(values, errors="coerce")
+    u = numeric if not numeric.isna().any() else values.astype(str)
+    try:
+        out = pd.eval(expression, local_dict={"u": u}, global_dict={}, engine="python")
+    except Exception as exc:  # pandas raises many kinds; report one line
+        raise InputError("--utility", f"cannot be evaluated with u = the outcome values ({type(exc).__name__}: {exc})",
+                         expression) from None
+    arr = np.broadcast_to(np.asarray(out, dtype=float), (len(decisions),)) if np.ndim(out) == 0 else np.asarray(out, dtype=float)
+    if arr.shape != (len(decisions),):
+        raise InputError("--utility", "must give one value per outcome value", expression)
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        bad = [format_label(d) for d, v in zip(decisions, arr) if not np.isfinite(v) or v < 0]
+        raise InputError("--utility", f"must be finite and non-negative; it is not at u = {bad[0]}", expression)
+    return from_table(arr, tuple(decisions), name=expression)
+
+
+def _positive_utility(positive, decisions) -> Utility:
+    for d in decisions:
+        if d == positive or format_label(d) == str(positive):
+            return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
+    try:
+        num = float(positive)
+        for d in decisions:
+            if isinstance(d, (int, float, np.number)) and float(d) == num:
+                return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
+    except (TypeError, ValueError):
+        pass
+    raise InputError("--positive", f"is not a value of the outcome column; it has {[format_label(d) for d in decisions][:20]}",
+                     positive)
+
+
+def audit(
+    data: pd.DataFrame,
+    *,
+    sensitive: Sequence[str],
+    outcome: str,
+    context: Sequence[str] = (),
+    positive=None,
+    utility: str | Utility | None = None,
+    confidence: float | None = None,
+    dropna: bool = False,
+) -> Audit:
+    """Audit decision records: exact metrics of the empirical law, and intervals.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        One row per decision (or per candidate).
+    sensitive : sequence of str
+        Sensitive column(s); several give intersectional groups.
+    outcome : str
+        Outcome column U.
+    context : sequence of str
+        Context column(s) X; none gives a single context.
+    positive : optional
+        g = 1{U = positive}. With neither ``positive`` nor ``utility`` an
+        outcome with values {0, 1} (or booleans) uses positive = 1.
+    utility : str or Utility, optional
+        An expression in ``u`` (see :func:`utility_from_expression`) or a Utility.
+    confidence : float, optional
+        Level 1 − α of simultaneous Clopper–Pearson intervals (indicator utilities).
+    dropna : bool
+        Drop rows with missing values in the used columns instead of failing.
+
+    Raises
+    ------
+    InputError
+        Unknown columns, missing values, both ``positive`` and ``utility``,
+        an outcome value that is not there, or a non-binary outcome with no g.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"race": list("aaaabbbb"), "hired": [1, 1, 1, 0, 1, 0, 0, 0]})
+    >>> r = audit(df, sensitive=["race"], outcome="hired")
+    >>> round(r.observed.global_.ratio, 12), r.observed.global_.group
+    (3.0, 'a')
+    """
+    table = count_records(data, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)
+    if positive is not None and utility is not None:
+        raise InputError("--positive", "give --positive or --utility, not both", positive)
+    if isinstance(utility, Utility):
+        g = utility
+    elif utility is not None:
+        g = utility_from_expression(utility, table.decisions)
+    elif positive is not None:
+        g = _positive_utility(positive, table.decisions)
+    elif set(map(str, table.decisions)) <= {"0", "1", "True", "False"}:
+        g = _positive_utility(True if "True" in map(str, table.decisions) else 1, table.decisions)
+    else:
+        raise InputError("--positive", f"the outcome {outcome!r} is not binary; say which value is positive "
+                                       "(--positive VALUE) or give --utility EXPR")
+    empty = [table.groups[j] for j in np.flatnonzero(table.group_counts == 0)]
+    if empty:
+        raise InputError("--sensitive", "group has no records", format_label(empty[0]))
+    law = table.law()
+    population = table.population()
+    observed = observe(law, g, population)
+    intervals = indicator_intervals(table, g, confidence) if confidence is not None else None
+    return Audit(table, g, observed, intervals, confidence)

@@ -1,0 +1,248 @@
+"""One certificate from a spec: privacy, bounds, observed metrics, targets, assumptions.
+
+:func:`certify` gathers, for the mechanism M_A (and M_X) of a spec:
+
+* the privacy of each mechanism (pure ε in nats, δ = 0 at it, keep probability);
+* the bounds on local g-fairness L that hold for *any* decision model behind
+  the filter: ``paper`` and ``tight`` (main theorem; need τ), ``black_box``
+  (exact worst case for utilities in [lower, γ] that do not depend on the
+  group), ``corollary`` (ε, for g independent of the group);
+* with a model in the spec: the observed metrics of the system *behind* the
+  filter (the model's table composed with the mechanisms) and of the model
+  on its own (``unfiltered``, as if it saw the true attributes);
+* with a target: whether the best valid bound meets it, and the largest ε of
+  randomized response that would (the ``calibration``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .bounds import Bound, corollary_bound, paper_bound, tight_bound
+from .calibrate import Calibration, calibrate_randomized_response
+from .laws import Kernel, Law, compose
+from .metrics import (
+    Fairness,
+    SupFairness,
+    TotalVariation,
+    demographic_parity,
+    equalized_odds,
+    global_fairness,
+    local_fairness,
+    sup_global_fairness,
+    sup_local_fairness,
+)
+from .spec import Spec, load_spec
+from .worstcase import BlackBoxCertificate, black_box_bound
+
+__all__ = ["Certificate", "Observed", "TargetCheck", "certify", "observe"]
+
+
+@dataclass(frozen=True, eq=False)
+class Observed:
+    """Every exact metric of one law (see :mod:`fairaudit.metrics`)."""
+
+    law: Law
+    local: Fairness
+    global_: Fairness
+    demographic_parity: TotalVariation
+    equalized_odds: TotalVariation
+    sup_local: SupFairness
+    sup_global: SupFairness
+
+
+@dataclass(frozen=True)
+class TargetCheck:
+    """A fairness target and how the certificate and the observed value meet it.
+
+    Attributes
+    ----------
+    kind : {"local", "global"}
+    target : float
+        nats.
+    bound : float
+        The best valid certified bound (+inf when none applies).
+    met : bool
+        ``bound <= target``: met for any decision model behind the filter.
+    observed : float or None
+        The observed value behind the filter, when the spec has a model.
+    observed_met : bool or None
+    reason : str
+        Why the bound is what it is (which form, or why none applies).
+    """
+
+    kind: str
+    target: float
+    bound: float
+    met: bool
+    observed: float | None
+    observed_met: bool | None
+    reason: str
+
+
+@dataclass(frozen=True, eq=False)
+class Certificate:
+    """The result of :func:`certify`; repeats its spec.
+
+    Attributes
+    ----------
+    spec : Spec
+    paper, tight : Bound or None
+        None when the spec gives no τ.
+    black_box : BlackBoxCertificate or None
+        None when the utility depends on the group (needs the general program).
+    corollary : Bound
+    best : float
+        The smallest bound on L whose assumptions are not violated, nats.
+    best_form : str
+    global_bound : float
+        The bound on L̄ (equal to ``best`` when X ⊥ A holds; +inf otherwise).
+    observed, unfiltered : Observed or None
+    targets : dict of str to TargetCheck
+    calibration : Calibration or None
+    assumptions : tuple of (Assumption, tuple of str)
+        Each hypothesis with the forms it concerns.
+    certified : bool
+        True when every target is met (and when there is no target).
+    """
+
+    spec: Spec
+    paper: Bound | None
+    tight: Bound | None
+    black_box: BlackBoxCertificate | None
+    black_box_reason: str
+    corollary: Bound
+    best: float
+    best_form: str
+    global_bound: float
+    observed: Observed | None
+    unfiltered: Observed | None
+    targets: dict
+    calibration: Calibration | None
+    assumptions: tuple
+    certified: bool
+
+
+def observe(law: Law, utility, population) -> Observed:
+    """All exact metrics of ``law`` for ``utility`` under ``population``."""
+    return Observed(
+        law=law,
+        local=local_fairness(law, utility, population),
+        global_=global_fairness(law, utility, population),
+        demographic_parity=demographic_parity(law, population),
+        equalized_odds=equalized_odds(law, population),
+        sup_local=sup_local_fairness(law, population),
+        sup_global=sup_global_fairness(law, population),
+    )
+
+
+def _merge_assumptions(bounds: list[tuple[str, tuple]]) -> tuple:
+    merged: dict = {}
+    for form, items in bounds:
+        for a in items:
+            key = (a.name, a.status, a.detail)
+            merged.setdefault(key, (a, []))[1].append(form)
+    return tuple((a, tuple(forms)) for a, forms in merged.values())
+
+
+def certify(spec: Spec | str | Path) -> Certificate:
+    """Build the certificate of a spec (a :class:`~fairaudit.spec.Spec` or a path).
+
+    Raises
+    ------
+    InputError
+        On any invalid spec or model table (one line naming the field).
+
+    Examples
+    --------
+    >>> from fairaudit.spec import parse_spec
+    >>> c = certify(parse_spec('''
+    ... [sensitive]
+    ... name = "office"
+    ... values = ["HR_1", "HR_2"]
+    ... [decision]
+    ... name = "chosen"
+    ... values = ["yes", "no"]
+    ... [privacy.sensitive]
+    ... mechanism = "randomized_response"
+    ... keep = 0.7
+    ... [utility]
+    ... decision = "yes"
+    ... tau = 0.25
+    ... [target]
+    ... local = 1.0
+    ... '''))
+    >>> round(c.black_box.value, 6), c.certified, c.best_form
+    (0.847298, True, 'black_box')
+    """
+    if not isinstance(spec, Spec):
+        spec = load_spec(spec)
+    mech = spec.sensitive_mechanism
+    kernel: Kernel | None = spec.kernel()
+    observed = unfiltered = None
+    if kernel is not None:
+        law = compose(kernel, mech, spec.context_mechanism)
+        observed = observe(law, spec.utility, spec.population)
+        filtered = not (_is_identity(mech) and _is_identity(spec.context_mechanism))
+        if filtered:
+            unfiltered = observe(Law.from_kernel(kernel), spec.utility, spec.population)
+    obs_law = observed.law if observed is not None else None
+
+    gamma, lower, tau = spec.gamma, spec.lower, spec.tau
+    forms: list[tuple[str, tuple]] = []
+    paper = tight = None
+    if tau is not None:
+        paper = paper_bound(mech, tau=tau, gamma=gamma, lipschitz=spec.lipschitz, diameter=spec.utility.diameter(spec.metric),
+                            utility=spec.utility, population=spec.population, law=obs_law)
+        tight = tight_bound(mech, tau=tau, gamma=gamma, lipschitz=spec.lipschitz, metric=spec.metric,
+                            utility=spec.utility, population=spec.population, law=obs_law)
+        forms += [("paper", paper.assumptions), ("tight", tight.assumptions)]
+    black_box = None
+    if spec.utility.depends_on_group:
+        reason = "the utility depends on the group; the black-box program for it is not in this release"
+    else:
+        black_box = black_box_bound(mech, lower=lower, gamma=gamma)
+        reason = f"exact over every model, utilities in [{lower:g}, {gamma:g}]"
+        forms.append(("black_box", black_box.assumptions))
+    corollary = corollary_bound(mech, utility=spec.utility, population=spec.population, law=obs_law)
+    forms.append(("corollary", corollary.assumptions))
+
+    candidates = [] if black_box is None else [(black_box.value, "black_box")]
+    for form, b in (("tight", tight), ("corollary", corollary), ("paper", paper)):  # ties go to the tighter form
+        if b is not None and b.holds:
+            candidates.append((b.value, form))
+    best, best_form = min(candidates, default=(math.inf, "none"), key=lambda t: t[0])
+    independent = spec.population.independence().independent
+    global_bound = best if independent else math.inf
+
+    targets: dict[str, TargetCheck] = {}
+    calibration = None
+    t = spec.model.target
+    if t is not None:
+        if t.local is not None:
+            obs = observed.local.value if observed else None
+            targets["local"] = TargetCheck("local", t.local, best, best <= t.local, obs,
+                                           None if obs is None else bool(obs <= t.local),
+                                           f"best bound: {best_form}")
+        if t.global_ is not None:
+            obs = observed.global_.value if observed else None
+            why = f"best bound: {best_form} (L-bar <= L since X and A are independent)" if independent else \
+                "X and A are not independent in the population: no certified bound on L-bar"
+            targets["global"] = TargetCheck("global", t.global_, global_bound, global_bound <= t.global_, obs,
+                                            None if obs is None else bool(obs <= t.global_), why)
+        goal = min(v for v in (t.local, t.global_ if independent else None) if v is not None) \
+            if (t.local is not None or (t.global_ is not None and independent)) else None
+        if goal is not None and len(spec.groups) >= 2 and not spec.utility.depends_on_group:
+            calibration = calibrate_randomized_response(goal, list(spec.groups), gamma=gamma, lower=lower)
+    certified = all(c.met for c in targets.values())
+    return Certificate(spec, paper, tight, black_box, reason, corollary, best, best_form, global_bound, observed,
+                       unfiltered, targets, calibration, _merge_assumptions(forms), certified)
+
+
+def _is_identity(mech) -> bool:
+    m = mech.matrix
+    return m.shape[0] == m.shape[1] and bool((m == np.eye(m.shape[0])).all()) and tuple(mech.inputs) == tuple(mech.outputs)

@@ -1,0 +1,363 @@
+"""From decision records to counts to an estimated law; simultaneous intervals.
+
+A record is one decision (or one candidate of a decision among several, see
+DESIGN.md "Decisions among several candidates") with its context X, its
+sensitive attribute(s) A and its outcome U. Counting is vectorised
+(``pandas.factorize`` and ``numpy.bincount``), never a loop over records.
+
+Labels: one column gives scalar labels; several columns give tuples
+(intersectional groups, or a compound context). Without context columns
+there is one context, labelled ``"all"``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from ._arrays import format_label, safe_log
+from ._errors import InputError
+from .laws import Law, Population
+from .utility import Utility
+
+__all__ = ["CountTable", "read_records", "count_records", "count_table", "IndicatorIntervals", "indicator_intervals"]
+
+
+@dataclass(frozen=True, eq=False)
+class CountTable:
+    """Counts of decisions per context and group, shape (n_contexts, n_groups, n_decisions).
+
+    Attributes
+    ----------
+    counts : numpy.ndarray of int64
+        ``counts[x, a, u]`` = number of records with context x, group a, outcome u.
+    contexts, groups, decisions : tuple
+        Axis labels (sorted as pandas sorts them).
+    context_columns, sensitive_columns : tuple of str
+        The columns they came from.
+    outcome_column : str
+    """
+
+    counts: np.ndarray
+    contexts: tuple
+    groups: tuple
+    decisions: tuple
+    context_columns: tuple
+    sensitive_columns: tuple
+    outcome_column: str
+
+    @property
+    def n(self) -> int:
+        """Total number of records."""
+        return int(self.counts.sum())
+
+    @property
+    def cell_counts(self) -> np.ndarray:
+        """Records per (context, group), shape (n_contexts, n_groups)."""
+        return self.counts.sum(axis=-1)
+
+    @property
+    def group_counts(self) -> np.ndarray:
+        """Records per group, shape (n_groups,)."""
+        return self.counts.sum(axis=(0, 2))
+
+    @property
+    def context_counts(self) -> np.ndarray:
+        """Records per context, shape (n_contexts,)."""
+        return self.counts.sum(axis=(1, 2))
+
+    def law(self) -> Law:
+        """The empirical law P(U | X, A); empty cells are NaN and reported."""
+        return Law.from_counts(self.counts, self.contexts, self.groups, self.decisions)
+
+    def population(self) -> Population:
+        """The empirical population P(X, A) = n(x, a) / n."""
+        return Population.from_counts(self.cell_counts, self.contexts, self.groups)
+
+
+def read_records(path: str | Path) -> pd.DataFrame:
+    """Read decision records from a CSV or Parquet file (by extension).
+
+    Raises
+    ------
+    InputError
+        If the file is missing, its extension is unknown, or it cannot be parsed.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError("DATA", "no such file", str(path))
+    suffix = p.suffix.lower()
+    try:
+        if suffix in {".parquet", ".pq"}:
+            try:
+                return pd.read_parquet(p)
+            except ImportError:
+                raise InputError("DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)) from None
+        if suffix in {".csv", ".txt", ".gz"}:
+            return pd.read_csv(p, low_memory=False)
+    except InputError:
+        raise
+    except Exception as exc:  # pandas raises many parser errors; report one line
+        raise InputError("DATA", f"cannot be read ({type(exc).__name__}: {str(exc).splitlines()[0]})", str(path)) from None
+    raise InputError("DATA", "must be a .csv or .parquet file", str(path))
+
+
+def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str):
+    """Factorize one or several columns into (codes, labels); labels sorted."""
+    if not columns:
+        return np.zeros(len(frame), dtype=np.int64), ("all",)
+    if len(columns) == 1:
+        codes, uniques = pd.factorize(frame[columns[0]], sort=True)
+        labels = tuple(v.item() if isinstance(v, np.generic) else v for v in uniques)
+        return codes.astype(np.int64), labels
+    sub = frame[list(columns)]
+    idx = pd.MultiIndex.from_frame(sub)
+    codes, uniques = pd.factorize(idx, sort=True)
+    labels = tuple(tuple(x.item() if isinstance(x, np.generic) else x for x in t) for t in uniques)
+    return codes.astype(np.int64), labels
+
+
+def _check_columns(frame: pd.DataFrame, columns: Sequence[str], role: str) -> None:
+    for c in columns:
+        if c not in frame.columns:
+            shown = ", ".join(map(str, list(frame.columns)[:12])) + (", ..." if len(frame.columns) > 12 else "")
+            raise InputError(f"--{role}", f"unknown column; the data has: {shown}", c)
+
+
+def count_records(
+    data: pd.DataFrame,
+    *,
+    sensitive: Sequence[str],
+    outcome: str,
+    context: Sequence[str] = (),
+    dropna: bool = False,
+) -> CountTable:
+    """Count decision records per (context, group, outcome).
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        One row per decision (or per candidate).
+    sensitive : sequence of str
+        Column(s) of the sensitive attribute A; several give intersectional
+        groups with tuple labels.
+    outcome : str
+        Column of the decision U (all its values are kept).
+    context : sequence of str, optional
+        Column(s) of the context X; none gives one context "all".
+    dropna : bool
+        Drop rows with a missing value in any used column instead of failing.
+
+    Returns
+    -------
+    CountTable
+
+    Raises
+    ------
+    InputError
+        On an unknown column, missing values (naming the column and count)
+        when ``dropna`` is False, or no records.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"race": ["a", "a", "b", "b", "b"], "hired": [1, 0, 1, 1, 0]})
+    >>> t = count_records(df, sensitive=["race"], outcome="hired")
+    >>> t.counts.tolist(), t.groups, t.decisions
+    ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
+    """
+    sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
+    context = [context] if isinstance(context, str) else list(context)
+    if not sensitive:
+        raise InputError("--sensitive", "name at least one column", sensitive)
+    _check_columns(data, sensitive, "sensitive")
+    _check_columns(data, [outcome], "outcome")
+    _check_columns(data, context, "context")
+    used = list(dict.fromkeys(context + sensitive + [outcome]))
+    frame = data[used]
+    missing = frame.isna().sum()
+    if missing.any():
+        if not dropna:
+            col = missing[missing > 0].index[0]
+            raise InputError(f"column {col!r}", f"has {int(missing[col])} missing values (use --dropna to drop those rows)")
+        frame = frame.dropna()
+    if len(frame) == 0:
+        raise InputError("DATA", "has no records to count")
+    cx, contexts = _codes(frame, context, "context")
+    ca, groups = _codes(frame, sensitive, "sensitive")
+    cu, decisions = _codes(frame, [outcome], "outcome")
+    shape = (len(contexts), len(groups), len(decisions))
+    flat = (cx * shape[1] + ca) * shape[2] + cu
+    counts = np.bincount(flat, minlength=int(np.prod(shape))).reshape(shape)
+    return CountTable(counts, contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+
+
+def count_table(
+    data: pd.DataFrame,
+    *,
+    sensitive: Sequence[str],
+    outcome: str,
+    context: Sequence[str] = (),
+    count: str = "count",
+    contexts: Sequence | None = None,
+    groups: Sequence | None = None,
+    decisions: Sequence | None = None,
+) -> CountTable:
+    """A CountTable from an aggregated table: one row per (context, group, outcome) with a count.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        Columns for context(s), sensitive attribute(s), outcome and ``count``.
+    contexts, groups, decisions : sequence, optional
+        Expected labels in their order; the data's values are matched to them
+        by their text (``str``), and a value not among them is an error that
+        names the column and the value. Default: the sorted values found.
+
+    Raises
+    ------
+    InputError
+        On unknown columns, unknown labels, negative or non-integer counts,
+        or a (context, group, outcome) given twice.
+    """
+    sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
+    context = [context] if isinstance(context, str) else list(context)
+    _check_columns(data, sensitive + [outcome] + context + [count], "column")
+    values = pd.to_numeric(data[count], errors="coerce")
+    if values.isna().any() or (values < 0).any():
+        bad = data[count][values.isna() | (values < 0)].iloc[0]
+        raise InputError(f"column {count!r}", "must hold non-negative numbers", bad)
+
+    def codes(columns, expected, role):
+        if expected is None:
+            return _codes(data, columns, role)
+        expected = tuple(expected)
+        lookup = {format_label(v): i for i, v in enumerate(expected)}
+        if len(columns) == 0:
+            return np.zeros(len(data), dtype=np.int64), expected
+        keys = data[columns].astype(str).agg(" & ".join, axis=1) if len(columns) > 1 else data[columns[0]].astype(str)
+        mapped = keys.map(lookup)
+        if mapped.isna().any():
+            bad = keys[mapped.isna()].iloc[0]
+            raise InputError(f"column {columns[0]!r}" if len(columns) == 1 else f"columns {columns}",
+                             f"value not among the {role} values {[format_label(v) for v in expected]}", bad)
+        return mapped.to_numpy(dtype=np.int64), expected
+
+    cx, contexts = codes(context, contexts, "context")
+    ca, groups = codes(sensitive, groups, "sensitive")
+    cu, decisions = codes([outcome], decisions, "decision")
+    shape = (len(contexts), len(groups), len(decisions))
+    flat = (cx * shape[1] + ca) * shape[2] + cu
+    dup = pd.Series(flat).duplicated()
+    if dup.any():
+        i = int(np.flatnonzero(dup.to_numpy())[0])
+        raise InputError("count table", "lists the same (context, group, decision) twice", data.iloc[i].to_dict())
+    counts = np.bincount(flat, weights=values.to_numpy(dtype=float), minlength=int(np.prod(shape))).reshape(shape)
+    return CountTable(counts, contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+
+
+@dataclass(frozen=True, eq=False)
+class IndicatorIntervals:
+    """Simultaneous Clopper–Pearson intervals for an indicator utility, and for L and L̄.
+
+    Every cell proportion E[g | x, a] (and every group proportion E[g | a])
+    gets an exact binomial interval at level 1 − α/m, with m the number of
+    intervals (Bonferroni), so all hold together with probability ≥ 1 − α.
+    The interval for L is [log max over x of max_a lo / min_a hi,
+    log max over x of max_a hi / min_a lo] (clipped below at 0) — the extremes
+    of the ratio over the joint confidence box — and likewise for L̄ from the
+    group intervals. Global intervals use the empirical population (records
+    weighted as they occur).
+
+    Attributes
+    ----------
+    confidence : float
+        1 − α.
+    local, global_ : tuple of float
+        (lower, upper) in nats; upper may be +inf.
+    cell_lower, cell_upper : numpy.ndarray, shape (n_contexts, n_groups)
+    group_lower, group_upper : numpy.ndarray, shape (n_groups,)
+    method : str
+        "clopper-pearson-bonferroni".
+    """
+
+    confidence: float
+    local: tuple
+    global_: tuple
+    cell_lower: np.ndarray
+    cell_upper: np.ndarray
+    group_lower: np.ndarray
+    group_upper: np.ndarray
+    method: str = "clopper-pearson-bonferroni"
+
+
+def _clopper_pearson(k: np.ndarray, n: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact two-sided binomial interval (Clopper and Pearson 1934), vectorised."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lo = np.where(k > 0, stats.beta.ppf(alpha / 2, k, n - k + 1), 0.0)
+        hi = np.where(k < n, stats.beta.isf(alpha / 2, k + 1, n - k), 1.0)
+    lo = np.where(n > 0, lo, np.nan)
+    hi = np.where(n > 0, hi, np.nan)
+    return lo, hi
+
+
+def _ratio_interval(lo: np.ndarray, hi: np.ndarray, axis: int) -> tuple[float, float]:
+    """log-ratio interval over a box of per-group intervals (NaN groups skipped)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        max_lo = np.nanmax(lo, axis=axis)
+        min_hi = np.nanmin(hi, axis=axis)
+        max_hi = np.nanmax(hi, axis=axis)
+        min_lo = np.nanmin(lo, axis=axis)
+        low = np.where(min_hi > 0, max_lo / min_hi, np.where(max_lo > 0, np.inf, 1.0))
+        high = np.where(min_lo > 0, max_hi / min_lo, np.where(max_hi > 0, np.inf, 1.0))
+    low = np.maximum(low, 1.0)
+    return safe_log(float(np.nanmax(low))), safe_log(float(np.nanmax(high)))
+
+
+def indicator_intervals(table: CountTable, utility: Utility, confidence: float = 0.95) -> IndicatorIntervals:
+    """Simultaneous (1 − α) intervals for E[g | x, a], E[g | a], L and L̄ of a 0/1 utility.
+
+    Parameters
+    ----------
+    table : CountTable
+    utility : Utility
+        Must take only the values 0 and 1 and depend on the decision only.
+    confidence : float
+        1 − α in (0, 1).
+
+    Raises
+    ------
+    InputError
+        If the utility is not an indicator of decisions, or the confidence is
+        not in (0, 1).
+
+    Examples
+    --------
+    >>> from fairaudit.utility import indicator
+    >>> t = count_records(pd.DataFrame({"g": ["a"] * 50 + ["b"] * 50, "y": [1] * 30 + [0] * 20 + [1] * 20 + [0] * 30}),
+    ...                   sensitive=["g"], outcome="y")
+    >>> iv = indicator_intervals(t, indicator(1, t.decisions), 0.95)
+    >>> iv.local[0] < math.log(1.5) < iv.local[1]
+    True
+    """
+    if not (0.0 < confidence < 1.0):
+        raise InputError("--confidence", "must lie strictly between 0 and 1", confidence)
+    if utility.values.ndim != 1 or not np.all(np.isin(utility.values, (0.0, 1.0))):
+        raise InputError("--confidence", "intervals are available for indicator utilities (--positive) only in this version")
+    g = utility.table(table.contexts, table.groups, table.decisions)[0, 0]
+    k_cell = table.counts @ g
+    n_cell = table.cell_counts
+    k_group = k_cell.sum(axis=0)
+    n_group = n_cell.sum(axis=0)
+    m = int((n_cell > 0).sum() + (n_group > 0).sum())
+    alpha = (1.0 - confidence) / max(m, 1)
+    lo, hi = _clopper_pearson(k_cell, n_cell, alpha)
+    glo, ghi = _clopper_pearson(k_group, n_group, alpha)
+    local = _ratio_interval(lo, hi, axis=1)
+    glob = _ratio_interval(glo[None, :], ghi[None, :], axis=1)
+    return IndicatorIntervals(confidence, local, glob, lo, hi, glo, ghi)

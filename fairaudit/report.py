@@ -1,0 +1,399 @@
+"""Reports: one dictionary per result, rendered as JSON, text or Markdown; atomic writes.
+
+The dictionaries follow the JSON contract of DESIGN.md (keys that other tools
+read); infinite values are the string ``"inf"``, NaN is ``null``, tuple labels
+(product attributes) are joined with ``" & "``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ._arrays import format_label
+from ._errors import InputError
+
+__all__ = ["certificate_dict", "audit_dict", "calibration_dict", "render", "write_atomic", "FORMATS"]
+
+FORMATS = ("text", "json", "markdown")
+
+
+def _num(v):
+    if v is None:
+        return None
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    f = float(v)
+    if math.isnan(f):
+        return None
+    if math.isinf(f):
+        return "inf" if f > 0 else "-inf"
+    return f
+
+
+def _label(v):
+    if v is None:
+        return None
+    if isinstance(v, tuple):
+        return format_label(v)
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _fairness(f, interval=None) -> dict:
+    d = {"value": _num(f.value), "ratio": _num(f.ratio), "group": _label(f.group), "other_group": _label(f.other_group)}
+    if f.kind == "local":
+        d = {"value": d["value"], "ratio": d["ratio"], "context": _label(f.context), "group": d["group"],
+             "other_group": d["other_group"]}
+    d["interval"] = None if interval is None else [_num(interval[0]), _num(interval[1])]
+    return d
+
+
+def _tv(t) -> dict:
+    return {"value": _num(t.value), "context": _label(t.context), "group": _label(t.group),
+            "other_group": _label(t.other_group), "event": [_label(u) for u in t.event]}
+
+
+def _sup(s) -> dict:
+    return {"value": _num(s.value), "ratio": _num(s.ratio), "context": _label(s.context), "group": _label(s.group),
+            "other_group": _label(s.other_group), "decision": _label(s.decision)}
+
+
+def _observed(o, local_interval=None, global_interval=None) -> dict:
+    excluded = list(dict.fromkeys(o.local.excluded + o.global_.excluded))
+    return {
+        "local": _fairness(o.local, local_interval),
+        "global": _fairness(o.global_, global_interval),
+        "demographic_parity": _num(o.demographic_parity.value),
+        "equalized_odds": _num(o.equalized_odds.value),
+        "sup_local": _num(o.sup_local.value),
+        "sup_global": _num(o.sup_global.value),
+        "details": {
+            "demographic_parity": _tv(o.demographic_parity),
+            "equalized_odds": _tv(o.equalized_odds),
+            "sup_local": _sup(o.sup_local),
+            "sup_global": _sup(o.sup_global),
+        },
+        "excluded": excluded,
+    }
+
+
+def _mechanism(m) -> dict:
+    eps = m.epsilon
+    return {"mechanism": m.name, "epsilon": _num(eps), "delta": 0.0 if math.isfinite(eps) else None,
+            "keep_probability": _num(m.keep_probability), "inputs": len(m.inputs), "outputs": len(m.outputs)}
+
+
+def calibration_dict(c) -> dict:
+    """The ``calibrate`` JSON: epsilon, keep_probability, method, bound, and the inputs."""
+    return {"epsilon": _num(c.epsilon), "keep_probability": _num(c.keep_probability), "method": c.method,
+            "bound": _num(c.bound), "target": _num(c.target), "groups": c.groups, "gamma": _num(c.gamma),
+            "lower": _num(c.lower), "tau": _num(c.tau), "delta": _num(c.delta),
+            "mechanism": f"{c.groups}-ary randomized response"}
+
+
+def certificate_dict(cert) -> dict:
+    """The ``certify`` JSON (DESIGN.md contract) of a :class:`~fairaudit.certify.Certificate`."""
+    spec = cert.spec
+    bounds = {
+        "paper": _num(cert.paper.value) if cert.paper else None,
+        "tight": _num(cert.tight.value) if cert.tight else None,
+        "black_box": _num(cert.black_box.value) if cert.black_box else None,
+        "corollary": _num(cert.corollary.value),
+        "best": _num(cert.best),
+        "best_form": cert.best_form,
+        "global": _num(cert.global_bound),
+    }
+    details = {}
+    for name, b in (("paper", cert.paper), ("tight", cert.tight)):
+        if b is not None:
+            details[name] = {"value": _num(b.value), "epsilon": _num(b.epsilon), "delta": _num(b.delta),
+                             "group": _label(b.group), "other_group": _label(b.other_group), "holds": b.holds}
+    if cert.black_box is not None:
+        bb = cert.black_box
+        details["black_box"] = {"value": _num(bb.value), "ratio": _num(bb.ratio), "group": _label(bb.group),
+                                "other_group": _label(bb.other_group), "worst_model_gamma_on": [_label(x) for x in bb.released],
+                                "method": bb.method}
+    else:
+        details["black_box"] = {"value": None, "reason": cert.black_box_reason}
+    out = {
+        "certified": bool(cert.certified),
+        "spec": spec.source,
+        "title": spec.model.title,
+        "sensitive": {"name": spec.model.sensitive.name, "values": [_label(g) for g in spec.groups]},
+        "context": {"name": spec.context_name, "values": [_label(c) for c in spec.contexts]},
+        "decision": {"name": spec.model.decision.name, "values": [_label(d) for d in spec.decisions]},
+        "privacy": {"sensitive": _mechanism(spec.sensitive_mechanism), "context": _mechanism(spec.context_mechanism)},
+        "utility": {"name": spec.utility.name, "gamma": _num(spec.gamma), "lower": _num(spec.lower), "tau": _num(spec.tau),
+                    "lipschitz": _num(spec.lipschitz), "diameter": _num(spec.utility.diameter(spec.metric)),
+                    "depends_on_group": spec.utility.depends_on_group},
+        "bounds": bounds,
+        "bound_details": details,
+        "assumptions": [{"name": a.name, "status": a.status, "detail": a.detail, "for": list(forms)}
+                        for a, forms in cert.assumptions],
+    }
+    if cert.observed is not None:
+        out["observed"] = _observed(cert.observed)
+    if cert.unfiltered is not None:
+        out["unfiltered"] = _observed(cert.unfiltered)
+    if cert.targets:
+        out["targets"] = {k: {"target": _num(t.target), "met": t.met, "bound": _num(t.bound), "observed": _num(t.observed),
+                              "observed_met": t.observed_met, "reason": t.reason} for k, t in cert.targets.items()}
+    if cert.calibration is not None:
+        out["calibration"] = calibration_dict(cert.calibration)
+    return out
+
+
+def audit_dict(a) -> dict:
+    """The ``audit`` JSON (DESIGN.md contract) of an :class:`~fairaudit.audit.Audit`."""
+    t = a.table
+    e = a.observed.local.expected_utility
+    cells = t.cell_counts
+    iv = a.intervals
+    out = {
+        "n": t.n,
+        "sensitive": list(t.sensitive_columns),
+        "outcome": t.outcome_column,
+        "context_columns": list(t.context_columns),
+        "utility": {"name": a.utility.name, "gamma": _num(a.utility.gamma), "lower": _num(a.utility.lower)},
+        "groups": [{"label": _label(g), "n": int(n)} for g, n in zip(t.groups, t.group_counts)],
+        "contexts": [{"label": _label(c), "n": int(n)} for c, n in zip(t.contexts, t.context_counts)],
+        "cells": [{"context": _label(c), "group": _label(g), "n": int(cells[i, j]), "expected_utility": _num(e[i, j])}
+                  for i, c in enumerate(t.contexts) for j, g in enumerate(t.groups)],
+        "decisions": [_label(d) for d in t.decisions],
+        "confidence": _num(a.confidence),
+        "interval_method": iv.method if iv is not None else None,
+    }
+    out.update(_observed(a.observed, iv.local if iv else None, iv.global_ if iv else None))
+    return out
+
+
+# -- rendering ---------------------------------------------------------------------------------------
+
+def _fmt(v, digits: int = 6) -> str:
+    if v is None:
+        return "n/a"
+    if isinstance(v, str):
+        return v
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, int):
+        return str(v)
+    return f"{v:.{digits}g}"
+
+
+def _nats(v) -> str:
+    return "n/a" if v is None else ("inf" if v == "inf" else f"{_fmt(v)} nats")
+
+
+def _pair(d) -> str:
+    where = f" in context {d['context']!s}" if d.get("context") is not None else ""
+    if d.get("group") is None:
+        return ""
+    return f" ({d['group']} vs {d['other_group']}{where})"
+
+
+def _observed_lines(o: dict, head: str) -> list[str]:
+    lines = [head]
+    for key, name in (("local", "local g-fairness L"), ("global", "global g-fairness L-bar")):
+        f = o[key]
+        iv = f"  interval [{_fmt(f['interval'][0])}, {_fmt(f['interval'][1])}]" if f.get("interval") else ""
+        lines.append(f"  {name:<28} {_nats(f['value']):<18} ratio {_fmt(f['ratio'])}{_pair(f)}{iv}")
+    det = o["details"]
+    lines.append(f"  {'demographic parity gap':<28} {_fmt(o['demographic_parity']):<18}{_pair(det['demographic_parity'])}")
+    lines.append(f"  {'equalized odds gap':<28} {_fmt(o['equalized_odds']):<18}{_pair(det['equalized_odds'])}")
+    s = det["sup_local"]
+    lines.append(f"  {'sup over g of L':<28} {_nats(o['sup_local']):<18} decision {s['decision']}{_pair(s)}")
+    s = det["sup_global"]
+    lines.append(f"  {'sup over g of L-bar':<28} {_nats(o['sup_global']):<18} decision {s['decision']}{_pair(s)}")
+    for note in o.get("excluded", [])[:10]:
+        lines.append(f"  excluded: {note}")
+    if len(o.get("excluded", [])) > 10:
+        lines.append(f"  ... and {len(o['excluded']) - 10} more exclusions")
+    return lines
+
+
+def _certificate_text(d: dict) -> str:
+    lines = [f"fairaudit certificate: {d['title'] or d['spec']}"]
+    ps = d["privacy"]["sensitive"]
+    lines.append(f"privacy of {d['sensitive']['name']}: {ps['mechanism']}, epsilon = {_nats(ps['epsilon'])}, delta = "
+                 f"{_fmt(ps['delta'])}, keep probability {_fmt(ps['keep_probability'])}")
+    pc = d["privacy"]["context"]
+    lines.append(f"privacy of {d['context']['name']}: {pc['mechanism']}, epsilon = {_nats(pc['epsilon'])}")
+    u = d["utility"]
+    lines.append(f"utility: {u['name']}, range [{_fmt(u['lower'])}, {_fmt(u['gamma'])}], tau = {_fmt(u['tau'])}, "
+                 f"L_A = {_fmt(u['lipschitz'])}")
+    lines.append("bounds on L for any decision model behind the filter:")
+    det = d["bound_details"]
+    for key, name in (("paper", "paper (main theorem)"), ("tight", "tight (its proof, per pair)"),
+                      ("black_box", "black-box (exact worst case)"), ("corollary", "corollary (epsilon)")):
+        v = d["bounds"][key]
+        extra = ""
+        if key in ("paper", "tight") and key in det:
+            extra = f" at epsilon = {_fmt(det[key]['epsilon'])}, delta = {_fmt(det[key]['delta'])}"
+        if key == "black_box" and det["black_box"].get("value") is None:
+            extra = f" ({det['black_box']['reason']})"
+        if key in ("paper", "tight") and v is None:
+            extra = " (needs utility.tau)"
+        lines.append(f"  {name:<30} {_nats(v)}{extra}")
+    lines.append(f"  best valid bound: {_nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
+    if "observed" in d:
+        lines += _observed_lines(d["observed"], "observed, the model behind the filter:")
+    if "unfiltered" in d:
+        lines += _observed_lines(d["unfiltered"], "observed, the model without the filter:")
+    if "targets" in d:
+        for k, t in d["targets"].items():
+            obs = f"; observed {_nats(t['observed'])}" if t["observed"] is not None else ""
+            lines.append(f"target {k}: {_nats(t['target'])} -> {'MET' if t['met'] else 'NOT MET'} "
+                         f"(bound {_nats(t['bound'])}{obs}; {t['reason']})")
+    if "calibration" in d:
+        c = d["calibration"]
+        lines.append(f"calibration: randomized response with epsilon <= {_nats(c['epsilon'])} (keep probability "
+                     f"{_fmt(c['keep_probability'])}) meets {_nats(c['target'])} for any model ({c['method']})")
+    lines.append("assumptions:")
+    for a in d["assumptions"]:
+        lines.append(f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})")
+    lines.append(f"certified: {'yes' if d['certified'] else 'no'}")
+    return "\n".join(lines) + "\n"
+
+
+def _audit_text(d: dict) -> str:
+    ctx = ", ".join(d["context_columns"]) or "none"
+    lines = [f"fairaudit audit: {d['n']} records; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
+             f"context {ctx}", f"utility: {d['utility']['name']}"]
+    lines.append("records per group: " + ", ".join(f"{g['label']} {g['n']}" for g in d["groups"]))
+    if len(d["contexts"]) > 1:
+        lines.append("records per context: " + ", ".join(f"{c['label']} {c['n']}" for c in d["contexts"][:30])
+                     + (" ..." if len(d["contexts"]) > 30 else ""))
+    if d["confidence"] is not None:
+        lines.append(f"intervals: simultaneous {_fmt(d['confidence'])} ({d['interval_method']})")
+    lines += _observed_lines(d, "metrics:")
+    return "\n".join(lines) + "\n"
+
+
+def _calibration_text(d: dict) -> str:
+    return (f"largest epsilon of {d['mechanism']} meeting L <= {_nats(d['target'])}: {_nats(d['epsilon'])}\n"
+            f"keep probability (the price): {_fmt(d['keep_probability'])}\n"
+            f"method: {d['method']}; certified bound there: {_nats(d['bound'])}\n")
+
+
+def _md_table(rows: list[tuple], head: tuple) -> list[str]:
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return out
+
+
+def _observed_md(o: dict) -> list[str]:
+    rows = [("local g-fairness L", _nats(o["local"]["value"]), _pair(o["local"]).strip(" ()")),
+            ("global g-fairness L-bar", _nats(o["global"]["value"]), _pair(o["global"]).strip(" ()")),
+            ("demographic parity gap", _fmt(o["demographic_parity"]), _pair(o["details"]["demographic_parity"]).strip(" ()")),
+            ("equalized odds gap", _fmt(o["equalized_odds"]), _pair(o["details"]["equalized_odds"]).strip(" ()")),
+            ("sup over g of L", _nats(o["sup_local"]), _pair(o["details"]["sup_local"]).strip(" ()")),
+            ("sup over g of L-bar", _nats(o["sup_global"]), _pair(o["details"]["sup_global"]).strip(" ()"))]
+    for key, i in (("local", 0), ("global", 1)):
+        if o[key].get("interval"):
+            lo, hi = o[key]["interval"]
+            rows[i] = rows[i][:2] + (rows[i][2] + f"; interval [{_fmt(lo)}, {_fmt(hi)}]",)
+    return _md_table(rows, ("metric", "value", "where"))
+
+
+def _certificate_md(d: dict) -> str:
+    lines = [f"# fairaudit certificate: {d['title'] or d['spec']}", ""]
+    ps = d["privacy"]["sensitive"]
+    lines.append(f"Privacy of **{d['sensitive']['name']}**: {ps['mechanism']}, ε = {_nats(ps['epsilon'])}, "
+                 f"keep probability {_fmt(ps['keep_probability'])}.")
+    lines += ["", "## Bounds on L for any decision model", ""]
+    rows = [(k, _nats(d["bounds"][k])) for k in ("paper", "tight", "black_box", "corollary")]
+    lines += _md_table(rows, ("bound", "value"))
+    lines += ["", f"Best valid bound: **{_nats(d['bounds']['best'])}** ({d['bounds']['best_form']})."]
+    for key, head in (("observed", "Observed behind the filter"), ("unfiltered", "Observed without the filter")):
+        if key in d:
+            lines += ["", f"## {head}", ""] + _observed_md(d[key])
+    if "targets" in d:
+        lines += ["", "## Targets", ""]
+        lines += _md_table([(k, _nats(t["target"]), _nats(t["bound"]), "met" if t["met"] else "NOT met")
+                            for k, t in d["targets"].items()], ("target", "value", "bound", "result"))
+    if "calibration" in d:
+        c = d["calibration"]
+        lines += ["", f"Calibration: ε ≤ {_nats(c['epsilon'])} (keep probability {_fmt(c['keep_probability'])}) "
+                      f"meets the target for any model ({c['method']})."]
+    lines += ["", "## Assumptions", ""]
+    lines += _md_table([(a["name"], a["status"], a["detail"], ", ".join(a["for"])) for a in d["assumptions"]],
+                       ("assumption", "status", "detail", "for"))
+    lines += ["", f"**Certified: {'yes' if d['certified'] else 'no'}**", ""]
+    return "\n".join(lines)
+
+
+def _audit_md(d: dict) -> str:
+    lines = [f"# fairaudit audit: {d['n']} records", "",
+             f"Sensitive: {', '.join(d['sensitive'])}; outcome: {d['outcome']}; utility: `{d['utility']['name']}`.", ""]
+    lines += _md_table([(g["label"], g["n"]) for g in d["groups"]], ("group", "records"))
+    lines += [""] + _observed_md(d) + [""]
+    return "\n".join(lines)
+
+
+def render(data: dict, kind: str, fmt: str) -> str:
+    """Render a report dictionary.
+
+    Parameters
+    ----------
+    data : dict
+        From :func:`certificate_dict`, :func:`audit_dict` or :func:`calibration_dict`.
+    kind : {"certify", "audit", "calibrate"}
+    fmt : {"text", "json", "markdown"}
+
+    Raises
+    ------
+    InputError
+        On an unknown format.
+    """
+    if fmt == "json":
+        return json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+    if fmt not in FORMATS:
+        raise InputError("--format", f"must be one of {', '.join(FORMATS)}", fmt)
+    table = {("certify", "text"): _certificate_text, ("certify", "markdown"): _certificate_md,
+             ("audit", "text"): _audit_text, ("audit", "markdown"): _audit_md,
+             ("calibrate", "text"): _calibration_text,
+             ("calibrate", "markdown"): lambda d: "# fairaudit calibration\n\n```\n" + _calibration_text(d) + "```\n"}
+    return table[(kind, fmt)](data)
+
+
+def write_atomic(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically: a temporary file in the same folder, then rename.
+
+    An existing file is replaced only once the new one is complete; on any
+    error it is left untouched and the temporary file removed.
+
+    Raises
+    ------
+    InputError
+        If the folder does not exist or cannot be written.
+    """
+    p = Path(path)
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError("--output", "folder does not exist", str(folder))
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise InputError("--output", f"cannot write there ({exc.strerror})", str(path)) from None
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, p)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise

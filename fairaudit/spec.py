@@ -1,0 +1,490 @@
+"""The TOML certification spec: parse, validate, and build the objects it names.
+
+Sections (DESIGN.md "Command-line contract"; full reference in docs/spec.md):
+
+``[sensitive]`` name, values · ``[context]`` name, values, distribution
+(optional; one context ``"all"`` when absent) · ``[decision]`` name, values ·
+``[population]`` probabilities (n_contexts × n_groups) or group_distribution
+(optional; default uniform and independent) · ``[privacy.sensitive]`` and
+``[privacy.context]`` mechanism = "identity" | "randomized_response" (epsilon
+or keep) | "matrix" (rows, outputs) | "product" (components) ·
+``[model]`` table or records (path relative to the spec), count_column,
+probability_column, where · ``[utility]`` kind = "indicator" (decision) |
+"table" (values), gamma, lower, tau, lipschitz, metric · ``[target]`` local,
+global.
+
+Validation uses pydantic; every error becomes one :class:`InputError` line
+naming the dotted field (``privacy.sensitive.epsilon``) and the value.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from ._arrays import as_labels, format_label
+from ._errors import InputError
+from .estimate import count_records, count_table, read_records
+from .laws import Kernel, Population
+from .privacy import Mechanism, from_matrix, identity, product, randomized_response
+from .utility import Utility, from_table, indicator
+
+__all__ = ["Spec", "load_spec", "parse_spec"]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def _finite(v: float | None, what: str = "value") -> float | None:
+    if v is not None and (math.isnan(v) or math.isinf(v)):
+        raise ValueError(f"{what} must be finite")
+    return v
+
+
+class AttributeSpec(_Strict):
+    """An alphabet: a name and its ordered values."""
+
+    name: str
+    values: list[Any] | None = None
+    distribution: list[float] | None = None
+
+    @field_validator("values")
+    @classmethod
+    def _distinct(cls, v):
+        if v is None:
+            return v
+        if len(v) == 0:
+            raise ValueError("must list at least one value")
+        labels = [tuple(x) if isinstance(x, list) else x for x in v]
+        if len(set(labels)) != len(labels):
+            dup = next(x for x in labels if labels.count(x) > 1)
+            raise ValueError(f"values must be distinct; {dup!r} repeats")
+        return v
+
+
+class MechanismSpec(_Strict):
+    """A mechanism: identity, randomized_response, matrix or product."""
+
+    mechanism: Literal["identity", "randomized_response", "matrix", "product"] = "identity"
+    epsilon: float | None = Field(default=None, ge=0)
+    keep: float | None = Field(default=None, gt=0, le=1)
+    rows: list[list[float]] | None = None
+    outputs: list[Any] | None = None
+    values: list[Any] | None = None
+    components: list["MechanismSpec"] | None = None
+    name: str | None = None
+
+    @model_validator(mode="after")
+    def _fields_fit(self):
+        m = self.mechanism
+        if m == "randomized_response" and (self.epsilon is None) == (self.keep is None):
+            raise ValueError("randomized_response needs exactly one of epsilon and keep")
+        if m == "matrix" and self.rows is None:
+            raise ValueError("matrix needs rows")
+        if m == "product" and not self.components:
+            raise ValueError("product needs components")
+        if m != "product" and self.components:
+            raise ValueError(f"components are only for mechanism = 'product', not {m!r}")
+        if m != "matrix" and (self.rows is not None or self.outputs is not None):
+            raise ValueError(f"rows and outputs are only for mechanism = 'matrix', not {m!r}")
+        if m not in {"randomized_response"} and (self.epsilon is not None or self.keep is not None):
+            raise ValueError(f"epsilon and keep are only for mechanism = 'randomized_response', not {m!r}")
+        return self
+
+
+class PrivacySpec(_Strict):
+    sensitive: MechanismSpec = MechanismSpec()
+    context: MechanismSpec = MechanismSpec()
+
+
+class PopulationSpec(_Strict):
+    probabilities: list[list[float]] | None = None
+    group_distribution: list[float] | None = None
+
+    @model_validator(mode="after")
+    def _one(self):
+        if self.probabilities is not None and self.group_distribution is not None:
+            raise ValueError("give probabilities or group_distribution, not both")
+        return self
+
+
+class ModelSpec(_Strict):
+    table: str | None = None
+    records: str | None = None
+    count_column: str | None = None
+    probability_column: str | None = None
+    where: dict[str, Any] = {}
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.table is None) == (self.records is None):
+            raise ValueError("give exactly one of table (aggregated counts or probabilities) and records")
+        if self.count_column is not None and self.probability_column is not None:
+            raise ValueError("give count_column or probability_column, not both")
+        return self
+
+
+class UtilitySpec(_Strict):
+    kind: Literal["indicator", "table"] = "indicator"
+    decision: Any = None
+    values: list[Any] | None = None
+    gamma: float | None = Field(default=None, ge=0)
+    lower: float | None = Field(default=None, ge=0)
+    tau: float | None = Field(default=None, gt=0)
+    lipschitz: float | None = Field(default=None, ge=0)
+    metric: list[list[float]] | None = None
+    name: str | None = None
+
+    @model_validator(mode="after")
+    def _fields_fit(self):
+        for f in ("gamma", "lower", "tau", "lipschitz"):
+            _finite(getattr(self, f), f)
+        if self.kind == "indicator" and self.decision is None:
+            raise ValueError("kind = 'indicator' needs decision (the decision value whose probability is g)")
+        if self.kind == "table" and self.values is None:
+            raise ValueError("kind = 'table' needs values (a list over decisions, or [context][group][decision])")
+        if self.gamma is not None and self.lower is not None and self.lower > self.gamma:
+            raise ValueError(f"lower = {self.lower} exceeds gamma = {self.gamma}")
+        if self.gamma is not None and self.tau is not None and self.tau > self.gamma:
+            raise ValueError(f"tau = {self.tau} exceeds gamma = {self.gamma}")
+        return self
+
+
+class TargetSpec(_Strict):
+    local: float | None = Field(default=None, ge=0)
+    global_: float | None = Field(default=None, ge=0, alias="global")
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class SpecModel(_Strict):
+    title: str | None = None
+    sensitive: AttributeSpec
+    context: AttributeSpec | None = None
+    decision: AttributeSpec
+    population: PopulationSpec | None = None
+    privacy: PrivacySpec = PrivacySpec()
+    model: ModelSpec | None = None
+    utility: UtilitySpec
+    target: TargetSpec | None = None
+
+    @model_validator(mode="after")
+    def _values_present(self):
+        if self.decision.values is None:
+            raise ValueError("decision.values is required")
+        if self.context is not None and self.context.values is None:
+            raise ValueError("context.values is required when [context] is present")
+        if self.sensitive.values is None and self.privacy.sensitive.mechanism != "product":
+            raise ValueError("sensitive.values is required (it may be left out only with a product mechanism)")
+        return self
+
+
+def _pydantic_message(err: ValidationError, source: str) -> InputError:
+    first = err.errors()[0]
+    loc = ".".join(str(p) for p in first["loc"])
+    loc = loc.replace("global_", "global") or "spec"
+    msg = first["msg"].removeprefix("Value error, ")
+    value = first.get("input", InputError._missing)
+    if first["type"] == "missing":
+        return InputError(f"{source}: {loc}", "is required")
+    if first["type"] == "extra_forbidden":
+        return InputError(f"{source}: {loc}", "is not a known field")
+    if isinstance(value, dict):
+        return InputError(f"{source}: {loc}", msg)
+    return InputError(f"{source}: {loc}", msg, value)
+
+
+class Spec:
+    """A validated certification spec and the objects it defines.
+
+    Attributes
+    ----------
+    source : str
+        Where it came from (path or ``"<string>"``).
+    base : pathlib.Path
+        Folder that model paths are relative to.
+    model : SpecModel
+        The validated fields.
+    sensitive_mechanism, context_mechanism : Mechanism
+        M_A and M_X.
+    groups, contexts, decisions : tuple
+        Labels.
+    population : Population
+    utility : Utility
+
+    Use :func:`load_spec` or :func:`parse_spec` to make one.
+    """
+
+    def __init__(self, model: SpecModel, source: str, base: Path):
+        self.model = model
+        self.source = source
+        self.base = base
+        self.sensitive_mechanism = self._mechanism(model.privacy.sensitive, model.sensitive, "privacy.sensitive")
+        self.groups = self.sensitive_mechanism.inputs
+        if model.sensitive.values is not None:
+            given = as_labels(model.sensitive.values, "sensitive.values")
+            if given != self.groups:
+                raise self._err("sensitive.values", "must equal the product of the components' values, in order",
+                                [format_label(g) for g in given])
+        if model.context is None:
+            self.contexts: tuple = ("all",)
+            context_name = "context"
+        else:
+            self.contexts = as_labels(model.context.values, "context.values")
+            context_name = model.context.name
+        self.context_name = context_name
+        self.context_mechanism = self._mechanism(
+            model.privacy.context, AttributeSpec(name=context_name, values=list(self.contexts)), "privacy.context")
+        self.decisions = as_labels(model.decision.values, "decision.values")
+        self.population = self._population()
+        self.utility = self._utility()
+        self.metric = None if model.utility.metric is None else np.asarray(model.utility.metric, dtype=float)
+
+    # -- helpers ---------------------------------------------------------------------------------
+    def _err(self, field: str, problem: str, value: object = InputError._missing) -> InputError:
+        return InputError(f"{self.source}: {field}", problem, value)
+
+    def _mechanism(self, spec: MechanismSpec, attribute: AttributeSpec, field: str) -> Mechanism:
+        try:
+            return _build_mechanism(spec, attribute.values, spec.name or f"{spec.mechanism} on {attribute.name}")
+        except InputError as exc:
+            raise self._err(field, f"{exc.field}: {exc.problem}" if exc.field else exc.problem,
+                            *(() if exc.value is InputError._missing else (exc.value,))) from None
+
+    def _population(self) -> Population:
+        pop = self.model.population
+        ctx = self.model.context
+        try:
+            if pop is not None and pop.probabilities is not None:
+                return Population(pop.probabilities, self.contexts, self.groups)
+            px = np.full(len(self.contexts), 1.0 / len(self.contexts))
+            if ctx is not None and ctx.distribution is not None:
+                px = np.asarray(ctx.distribution, dtype=float)
+            pa = np.full(len(self.groups), 1.0 / len(self.groups))
+            if pop is not None and pop.group_distribution is not None:
+                pa = np.asarray(pop.group_distribution, dtype=float)
+            return Population.independent(px, pa, self.contexts, self.groups)
+        except InputError as exc:
+            raise self._err("population" if pop is not None else "context.distribution",
+                            exc.problem, *(() if exc.value is InputError._missing else (exc.value,))) from None
+
+    def _utility(self) -> Utility:
+        u = self.model.utility
+        try:
+            if u.kind == "indicator":
+                value = _match_label(u.decision, self.decisions)
+                if value is None:
+                    raise self._err("utility.decision", f"must be one of decision.values {[format_label(d) for d in self.decisions]}",
+                                    u.decision)
+                return indicator(value, self.decisions, name=u.name)
+            arr = np.asarray(u.values, dtype=float)
+            if arr.ndim == 1:
+                return from_table(arr, self.decisions, name=u.name or "table")
+            return from_table(arr, self.decisions, self.contexts, self.groups, name=u.name or "table")
+        except InputError as exc:
+            if exc.field.startswith(self.source):
+                raise
+            raise self._err("utility.values", exc.problem, *(() if exc.value is InputError._missing else (exc.value,))) from None
+        except (TypeError, ValueError) as exc:
+            raise self._err("utility.values", f"must be numbers ({exc})") from None
+
+    # -- public ----------------------------------------------------------------------------------
+    @property
+    def gamma(self) -> float:
+        """γ: the spec's gamma, else max g."""
+        return self.model.utility.gamma if self.model.utility.gamma is not None else self.utility.gamma
+
+    @property
+    def lower(self) -> float:
+        """The lower end of g's class: the spec's lower, else min g."""
+        return self.model.utility.lower if self.model.utility.lower is not None else self.utility.lower
+
+    @property
+    def tau(self) -> float | None:
+        """τ as given (None when absent: the paper and tight bounds need it)."""
+        return self.model.utility.tau
+
+    @property
+    def lipschitz(self) -> float:
+        """L_A: the spec's, else from the utility table and metric."""
+        u = self.model.utility
+        return u.lipschitz if u.lipschitz is not None else self.utility.lipschitz(self.metric)
+
+    def kernel(self) -> Kernel | None:
+        """The decision model P(U | X̃, Ã) from [model], or None.
+
+        Raises
+        ------
+        InputError
+            If the file is missing, a column is unknown, a label is not in the
+            spec, or a (context, group) cell has no row.
+        """
+        m = self.model.model
+        if m is None:
+            return None
+        path = self.base / (m.table or m.records)
+        field = "model.table" if m.table else "model.records"
+        if not path.is_file():
+            raise self._err(field, "no such file", str(path))
+        try:
+            frame = read_records(path)
+        except InputError as exc:
+            raise self._err(field, exc.problem, str(path)) from None
+        for col, want in m.where.items():
+            if col not in frame.columns:
+                raise self._err(f"model.where.{col}", "is not a column of the table", col)
+            frame = frame[frame[col].astype(str) == str(want)]
+            if frame.empty:
+                raise self._err(f"model.where.{col}", "selects no rows", want)
+        ctx_cols = [] if self.model.context is None else [self.model.context.name]
+        sens = [self.model.sensitive.name]
+        dec = self.model.decision.name
+        try:
+            if m.records:
+                table = count_records(frame, sensitive=sens, outcome=dec, context=ctx_cols)
+                table = _relabel(table, self.contexts, self.groups, self.decisions)
+                probs_kernel = Kernel.from_counts(table.counts, self.contexts, self.groups, self.decisions)
+            else:
+                prob_col = m.probability_column
+                cnt_col = m.count_column
+                if prob_col is None and cnt_col is None:
+                    cnt_col = "count" if "count" in frame.columns else None
+                    prob_col = "probability" if cnt_col is None else None
+                    if prob_col is not None and prob_col not in frame.columns:
+                        raise self._err("model.table", "needs a 'count' or 'probability' column (or set count_column)",
+                                        list(map(str, frame.columns)))
+                col = cnt_col or prob_col
+                table = count_table(frame, sensitive=sens, outcome=dec, context=ctx_cols, count=col,
+                                    contexts=self.contexts, groups=self.groups, decisions=self.decisions)
+                if cnt_col:
+                    probs_kernel = Kernel.from_counts(table.counts, self.contexts, self.groups, self.decisions)
+                else:
+                    probs_kernel = Kernel(table.counts, self.contexts, self.groups, self.decisions)
+        except InputError as exc:
+            if exc.field.startswith(self.source):
+                raise
+            raise self._err(field, f"{exc.field}: {exc.problem}",
+                            *(() if exc.value is InputError._missing else (exc.value,))) from None
+        if probs_kernel.empty_cells:
+            x, a = probs_kernel.empty_cells[0]
+            raise self._err(field, f"has no rows for (context {format_label(x)!r}, group {format_label(a)!r}); "
+                                   f"{len(probs_kernel.empty_cells)} empty cells in all")
+        return probs_kernel
+
+
+def _match_label(value, labels: tuple):
+    """The label equal to ``value``, or whose text equals its text."""
+    if value in labels:
+        return value
+    for lab in labels:
+        if format_label(lab) == format_label(value):
+            return lab
+    return None
+
+
+def _relabel(table, contexts, groups, decisions):
+    """Re-index a CountTable from records onto the spec's label order (by text)."""
+    from .estimate import CountTable
+
+    def index(found, wanted, role):
+        pos = []
+        for f in found:
+            m = _match_label(f, wanted)
+            if m is None:
+                raise InputError(role, f"value not among the spec's values {[format_label(w) for w in wanted]}", f)
+            pos.append(wanted.index(m))
+        return pos
+
+    out = np.zeros((len(contexts), len(groups), len(decisions)))
+    ix = index(table.contexts, contexts, "context") if contexts != ("all",) else [0]
+    ia = index(table.groups, groups, "sensitive")
+    iu = index(table.decisions, decisions, "decision")
+    out[np.ix_(ix, ia, iu)] = table.counts
+    return CountTable(out, contexts, groups, decisions, table.context_columns, table.sensitive_columns, table.outcome_column)
+
+
+def _build_mechanism(spec: MechanismSpec, values, name: str) -> Mechanism:
+    if spec.mechanism == "product":
+        comps = []
+        for i, c in enumerate(spec.components or []):
+            if c.values is None:
+                raise InputError(f"components[{i}].values", "each component needs its values")
+            comps.append(_build_mechanism(c, c.values, c.name or f"{c.mechanism}[{i}]"))
+        return product(*comps, name=name)
+    if values is None:
+        raise InputError("values", "are required")
+    if spec.mechanism == "identity":
+        return identity(values, name=name)
+    if spec.mechanism == "randomized_response":
+        return randomized_response(values, spec.epsilon, keep=spec.keep, name=name)
+    outputs = spec.outputs
+    return from_matrix(spec.rows, values, outputs, name=name)
+
+
+def parse_spec(text: str, source: str = "<string>", base: str | Path = ".") -> Spec:
+    """Parse and validate a spec from TOML text.
+
+    Raises
+    ------
+    InputError
+        One line naming the source, the dotted field and the value.
+
+    Examples
+    --------
+    >>> s = parse_spec('''
+    ... [sensitive]
+    ... name = "office"
+    ... values = ["HR_1", "HR_2"]
+    ... [decision]
+    ... name = "chosen"
+    ... values = ["yes", "no"]
+    ... [privacy.sensitive]
+    ... mechanism = "randomized_response"
+    ... keep = 0.7
+    ... [utility]
+    ... kind = "indicator"
+    ... decision = "yes"
+    ... tau = 0.2
+    ... ''')
+    >>> round(s.sensitive_mechanism.epsilon, 6), s.gamma, s.tau
+    (0.847298, 1.0, 0.2)
+    >>> parse_spec('[sensitive]\\nname = "a"\\nvalues = [1, 2]\\n[decision]\\nname = "u"\\nvalues = [0, 1]\\n'
+    ...            '[privacy.sensitive]\\nmechanism = "laplace"\\n[utility]\\ndecision = 1\\n')
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: <string>: privacy.sensitive.mechanism: Input should be 'identity', 'randomized_response', 'matrix' or 'product' (got 'laplace')
+    """
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, f"is not valid TOML ({exc})") from None
+    try:
+        model = SpecModel.model_validate(raw)
+    except ValidationError as exc:
+        raise _pydantic_message(exc, source) from None
+    return Spec(model, source, Path(base))
+
+
+def load_spec(path: str | Path) -> Spec:
+    """Read and validate a spec file; model paths are relative to its folder.
+
+    Raises
+    ------
+    InputError
+        If the file is missing or unreadable, or the spec is invalid.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError("SPEC", "no such file", str(path))
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError("SPEC", f"cannot be read ({exc})", str(path)) from None
+    return parse_spec(text, source=str(path), base=p.parent)
+

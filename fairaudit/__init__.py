@@ -1,2 +1,44 @@
-"""fairaudit: certified fairness auditing."""
+"""fairaudit: certified fairness auditing.
+
+Exact utility-aware fairness metrics (local and global g-fairness) of decision
+systems, upper bounds on unfairness that hold for any decision model behind a
+privacy filter on the sensitive attribute, and calibration of the privacy
+budget ε that meets a fairness target.
+
+Arrays are indexed [x, a, u] (context, sensitive group, decision); log ratios
+are in nats. See docs/ for the guide and proofs/ for the proofs.
+"""
+
+from ._errors import FairauditError, InputError
+from .audit import Audit, audit, utility_from_expression
+from .bounds import Assumption, Bound, corollary_bound, main_theorem, main_theorem_tight, paper_bound, tight_bound
+from .calibrate import Calibration, calibrate_randomized_response
+from .certify import Certificate, certify
+from .estimate import CountTable, count_records, count_table, indicator_intervals, read_records
+from .laws import Kernel, Law, Population, compose
+from .metrics import (
+    demographic_parity,
+    equalized_odds,
+    expected_utility,
+    global_fairness,
+    local_fairness,
+    sup_global_fairness,
+    sup_local_fairness,
+)
+from .privacy import Mechanism, from_matrix, identity, product, randomized_response
+from .spec import Spec, load_spec, parse_spec
+from .utility import Utility, from_function, from_table, indicator
+from .worstcase import BlackBoxCertificate, black_box_bound
+
 __version__ = "0.1.0"
+
+__all__ = [
+    "Assumption", "Audit", "BlackBoxCertificate", "Bound", "Calibration", "Certificate", "CountTable",
+    "FairauditError", "InputError", "Kernel", "Law", "Mechanism", "Population", "Spec", "Utility",
+    "audit", "black_box_bound", "calibrate_randomized_response", "certify", "compose", "corollary_bound",
+    "count_records", "count_table", "demographic_parity", "equalized_odds", "expected_utility", "from_function",
+    "from_matrix", "from_table", "global_fairness", "identity", "indicator", "indicator_intervals", "load_spec",
+    "local_fairness", "main_theorem", "main_theorem_tight", "paper_bound", "parse_spec", "product",
+    "randomized_response", "read_records", "sup_global_fairness", "sup_local_fairness", "tight_bound",
+    "utility_from_expression",
+]

@@ -205,7 +205,7 @@ def certify(spec: Spec | str | Path) -> Certificate:
     if spec.utility.depends_on_group:
         reason = "the utility depends on the group; the black-box program for it is not in this release"
     else:
-        black_box = black_box_bound(mech, lower=lower, gamma=gamma)
+        black_box = black_box_bound(mech, lower=lower, gamma=gamma, population=spec.population)
         reason = f"exact over every model, utilities in [{lower:g}, {gamma:g}]"
         forms.append(("black_box", black_box.assumptions))
     corollary = corollary_bound(mech, utility=spec.utility, population=spec.population, law=obs_law)

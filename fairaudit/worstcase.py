@@ -32,7 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._errors import InputError
-from .bounds import Assumption, _sorted_pairs
+from .bounds import Assumption, _sorted_pairs, check_assumptions
+from .laws import Population
 from .privacy import Mechanism
 
 __all__ = ["BlackBoxCertificate", "black_box_bound"]
@@ -83,7 +84,8 @@ class BlackBoxCertificate:
                 f"pair={self.group!r} vs {self.other_group!r}, class [{self.lower:g}, {self.gamma:g}])")
 
 
-def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 1.0) -> BlackBoxCertificate:
+def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 1.0,
+                    population: Population | None = None) -> BlackBoxCertificate:
     """Exact max of local g-fairness over every decision model behind M_A.
 
     Parameters
@@ -94,6 +96,8 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
         The class of utilities: g(u) ∈ [lower, γ], 0 ≤ lower ≤ γ, with g
         depending on the decision (and context) only. Only the ratio
         lower / γ matters.
+    population : Population, optional
+        When given, X ⊥ A is checked on it (needed for the global bound only).
 
     Returns
     -------
@@ -129,11 +133,9 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
             raise InputError(name, "must be a finite non-negative number", v)
     if lower > gamma:
         raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
-    assumptions = (
-        Assumption("M_A is differentially private", "checked", f"exact matrix of {mechanism.name}"),
+    assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
         Assumption("g depends on the decision (and context) only, within [lower, gamma]", "vouched",
-                   f"class [{lower:g}, {gamma:g}]"),
-        Assumption("X independent of A (for the global bound only)", "vouched", "the local bound needs no assumption"),
+                   f"class [{lower:g}, {gamma:g}]; X independent of A is needed for the global bound only"),
     )
     n = len(mechanism.inputs)
     if n < 2 or gamma == 0 or lower == gamma:

@@ -362,6 +362,11 @@ class Spec:
                 col = cnt_col or prob_col
                 table = count_table(frame, sensitive=sens, outcome=dec, context=ctx_cols, count=col,
                                     contexts=self.contexts, groups=self.groups, decisions=self.decisions)
+                empty = np.argwhere(table.counts.sum(axis=-1) == 0)
+                if len(empty):
+                    i, j = empty[0]
+                    raise self._err(field, f"has no rows (or only zeros) for (context {format_label(self.contexts[i])!r}, "
+                                           f"group {format_label(self.groups[j])!r}); {len(empty)} such cells in all")
                 if cnt_col:
                     probs_kernel = Kernel.from_counts(table.counts, self.contexts, self.groups, self.decisions)
                 else:

@@ -1,0 +1,79 @@
+"""Linear-fractional engine: threshold fast path vs Charnes-Cooper LP vs Dinkelbach with HiGHS."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+
+from fairaudit.lfp import lp_max, threshold_max
+
+
+def _instance(seed: int, n: int):
+    rng = np.random.default_rng(seed)
+    p, q = rng.dirichlet(np.ones(n)), rng.dirichlet(np.ones(n))
+    lo = rng.uniform(0, 0.5, n) * rng.integers(0, 2)
+    return p, q, lo, lo + rng.uniform(0.01, 1.0, n)
+
+
+@settings(max_examples=60)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 30))
+def test_threshold_equals_lp(seed, n):
+    p, q, lo, hi = _instance(seed, n)
+    a, b = threshold_max(p, q, lo, hi), lp_max(p, q, lower=lo, upper=hi)
+    assert a.status == b.status == "optimal"
+    assert b.value == pytest.approx(a.value, rel=1e-7)
+    assert (p @ b.argmax) / (q @ b.argmax) == pytest.approx(a.value, rel=1e-7)
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 8))
+def test_threshold_equals_vertex_enumeration(seed, n):
+    # Independent route: the optimum of a linear-fractional program over a box is at a vertex.
+    p, q, lo, hi = _instance(seed, n)
+    def ratio(v):  # the package's convention: 0/0 = 1 (h = 0 is a vertex when lower = 0)
+        return 1.0 if q @ v == 0 and p @ v == 0 else (p @ v) / (q @ v)
+
+    best = max(ratio(np.where(m, hi, lo)) for m in itertools.product([0, 1], repeat=n))
+    assert threshold_max(p, q, lo, hi).value == pytest.approx(best, rel=1e-12)
+
+
+def _dinkelbach(p, q, a_ub, b_ub, lo, hi):
+    """Second algorithm: Dinkelbach's parametric iterations, each a HiGHS LP (scipy)."""
+    lam = 0.0
+    for _ in range(100):
+        res = linprog(-(p - lam * q), A_ub=a_ub, b_ub=b_ub, bounds=list(zip(lo, hi)), method="highs")
+        h = res.x
+        new = (p @ h) / (q @ h)
+        if abs(new - lam) <= 1e-13 * max(1.0, new):
+            return new
+        lam = new
+    return lam
+
+
+@settings(max_examples=40)
+@given(st.integers(0, 2**32 - 1), st.integers(2, 12), st.integers(1, 4))
+def test_lp_with_constraints_equals_dinkelbach(seed, n, m):
+    # Polytope: box plus m constraints r_j . h >= tau_j (like lower bounds on E[g | x, b]).
+    p, q, lo, hi = _instance(seed, n)
+    rng = np.random.default_rng(seed + 1)
+    rows = rng.dirichlet(np.ones(n), size=m)
+    tau = 0.9 * (rows @ hi)  * rng.uniform(0.2, 1.0, m) + 0.1 * (rows @ lo)
+    a_ub, b_ub = -rows, -tau
+    lp = lp_max(p, q, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub)
+    assert lp.status == "optimal"
+    assert lp.value == pytest.approx(_dinkelbach(p, q, a_ub, b_ub, lo, hi), rel=1e-7)
+    assert np.all(a_ub @ lp.argmax <= b_ub + 1e-7)
+
+
+def test_unbounded_and_infeasible_are_results_not_exceptions():
+    r = lp_max([1.0, 0.0], [0.0, 1.0], lower=0.0, upper=1.0)  # h = (1, 0) gives 1/0
+    assert r.status == "unbounded" and r.value == math.inf and "q·h = 0" in r.reason
+    t = threshold_max([1.0, 0.0], [0.0, 1.0], 0.0, 1.0)
+    assert t.status == "unbounded" and t.value == math.inf
+    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 1.0]], b_ub=[-1.0])  # h1 + h2 <= -1
+    assert r.status == "infeasible" and math.isnan(r.value) and r.reason

@@ -44,7 +44,7 @@ from ._arrays import format_label
 from ._errors import InputError
 from .laws import Law, Population
 from .privacy import Mechanism
-from .utility import Utility, discrete_metric
+from .utility import Utility, check_metric
 
 __all__ = [
     "Assumption",
@@ -209,7 +209,8 @@ def main_theorem_tight(epsilon: float, delta: float, *, gamma: float, tau: float
 def _sorted_pairs(matrix: np.ndarray):
     """For every ordered pair (a, b), outputs sorted by M[a,o]/M[b,o] descending.
 
-    Returns (ratio, p, q) each of shape (n, n, m), sorted along the last axis.
+    Returns (ratio, p, q, order) each of shape (n, n, m), sorted along the last
+    axis; ``order`` holds the output indices in that order.
     Ratios follow the conventions c/0 = inf and 0/0 = 0 (such outputs add
     nothing to any hockey-stick divergence).
     """
@@ -218,7 +219,8 @@ def _sorted_pairs(matrix: np.ndarray):
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
     order = np.argsort(-ratio, axis=-1, kind="stable")
-    return (np.take_along_axis(ratio, order, -1), np.take_along_axis(p, order, -1), np.take_along_axis(q, order, -1))
+    return (np.take_along_axis(ratio, order, -1), np.take_along_axis(p, order, -1), np.take_along_axis(q, order, -1),
+            order)
 
 
 def _upper_envelope(slopes: np.ndarray, intercepts: np.ndarray):
@@ -254,7 +256,7 @@ def _profile_candidates(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray]:
     """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (exact envelope)."""
     m = mechanism.matrix
     n = m.shape[0]
-    _, p, q = _sorted_pairs(m)
+    _, p, q, _ = _sorted_pairs(m)
     off = ~np.eye(n, dtype=bool)
     p, q = p[off], q[off]  # (pairs, m)
     zeros = np.zeros((p.shape[0], 1))
@@ -392,15 +394,13 @@ def tight_bound(
     """
     gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, metric)
     n = len(mechanism.inputs)
-    d = discrete_metric(n) if metric is None else np.asarray(metric, dtype=float)
-    if d.shape != (n, n):
-        raise InputError("metric", f"shape must be ({n} groups x {n} groups)", d.shape)
+    d = check_metric(metric, n)
     diameter = float(d.max()) if n > 1 else 0.0
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
     assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
     if n < 2:
         return Bound("tight", 0.0, 0.0, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions)
-    ratio, p, q = _sorted_pairs(mechanism.matrix)
+    ratio, p, q, _ = _sorted_pairs(mechanism.matrix)
     # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
     p_before = np.cumsum(p, axis=-1) - p
     q_before = np.cumsum(q, axis=-1) - q

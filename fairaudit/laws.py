@@ -376,7 +376,8 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
             raise InputError(
                 "kernel",
                 f"empty cell (context={format_label(kernel.contexts[i])!r}, group={format_label(kernel.groups[j])!r}) "
-                "is reached by the privacy filter; give counts for it",
+                + ("is reached by the privacy filter; give counts for it"
+                   if sensitive is not None or context is not None else "has no records; give counts for it"),
             )
         k = np.nan_to_num(k, nan=0.0)
     q = np.einsum("xy,ab,ybu->xau", m_x.matrix, m_a.matrix, k, optimize=True)

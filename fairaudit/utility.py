@@ -24,12 +24,31 @@ import numpy as np
 from ._arrays import as_float_array, as_labels, check_shape, format_label
 from ._errors import InputError
 
-__all__ = ["Utility", "indicator", "from_table", "from_function", "discrete_metric"]
+__all__ = ["Utility", "indicator", "from_table", "from_function", "discrete_metric", "check_metric"]
 
 
 def discrete_metric(n_groups: int) -> np.ndarray:
     """The discrete metric on n groups: d(a, a') = 1 for a ≠ a', shape (n, n)."""
     return 1.0 - np.eye(n_groups)
+
+
+def check_metric(metric, n_groups: int) -> np.ndarray:
+    """Validate a metric d(a, a') on n groups; None gives the discrete metric.
+
+    Raises
+    ------
+    InputError
+        Unless the array has shape (n, n), is finite, symmetric, zero on the
+        diagonal and positive off it.
+    """
+    if metric is None:
+        return discrete_metric(n_groups)
+    d = as_float_array(metric, "metric", ndim=2)
+    check_shape(d, (n_groups, n_groups), "metric", ("groups", "groups"))
+    off = ~np.eye(n_groups, dtype=bool)
+    if not np.all(np.isfinite(d)) or np.any(d[off] <= 0) or np.any(np.diag(d) != 0) or np.any(d != d.T):
+        raise InputError("metric", "must be symmetric, zero on the diagonal and positive off it", d.tolist())
+    return d
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,15 +149,7 @@ class Utility:
         return bool(np.any(self.values != self.values[:1, :, :]))
 
     def _metric(self, metric) -> np.ndarray:
-        n = 1 if self.groups is None else len(self.groups)
-        if metric is None:
-            return discrete_metric(n)
-        d = as_float_array(metric, "metric", ndim=2)
-        check_shape(d, (n, n), "metric", ("groups", "groups"))
-        off = ~np.eye(n, dtype=bool)
-        if np.any(d[off] <= 0) or not np.all(np.isfinite(d)) or np.any(np.diag(d) != 0) or np.any(d != d.T):
-            raise InputError("metric", "must be symmetric, zero on the diagonal and positive off it", d.tolist())
-        return d
+        return check_metric(metric, 1 if self.groups is None else len(self.groups))
 
     def lipschitz(self, metric=None) -> float:
         """L_A = max over u, x, a ≠ a' of |g(u, x, a) − g(u, x, a')| / d(a, a').

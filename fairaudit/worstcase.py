@@ -129,8 +129,13 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
     for name, v in (("lower", lower), ("gamma", gamma)):
-        if not isinstance(v, (int, float)) or math.isnan(v) or math.isinf(v) or v < 0:
+        try:
+            ok = math.isfinite(float(v)) and float(v) >= 0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
             raise InputError(name, "must be a finite non-negative number", v)
+    lower, gamma = float(lower), float(gamma)
     if lower > gamma:
         raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
     assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
@@ -142,8 +147,7 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
         return BlackBoxCertificate(0.0, 1.0, None, None, (), float(lower), float(gamma), mechanism, "threshold",
                                    assumptions)
     rho = lower / gamma
-    ratio, p, q = _sorted_pairs(mechanism.matrix)
-    order = np.argsort(-ratio, axis=-1, kind="stable")  # same order as _sorted_pairs used
+    _, p, q, order = _sorted_pairs(mechanism.matrix)
     zeros = np.zeros(p.shape[:-1] + (1,))
     big_p = np.concatenate([zeros, np.cumsum(p, axis=-1)], axis=-1)
     big_q = np.concatenate([zeros, np.cumsum(q, axis=-1)], axis=-1)

@@ -1,0 +1,372 @@
+"""Finite privacy mechanisms: ε, δ(ε), randomized response, products.
+
+Every expected value comes from an independent route: a hand calculation in a
+comment, exact ``Fraction`` arithmetic, brute force over output sets, or a peer
+library (OpenDP for ε of randomized response, Google's dp-accounting for the
+hockey-stick divergence δ(ε)).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import fairaudit as fa
+from fairaudit import privacy
+from fairaudit.privacy import epsilon_from_keep_probability, keep_probability
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def brute_delta(matrix, epsilon: float) -> float:
+    """δ(ε) by brute force: max over ordered pairs and over every output set S of P(S) − e^ε Q(S)."""
+    m = np.asarray(matrix, dtype=float)
+    n, k = m.shape
+    best = 0.0
+    for a, b in itertools.permutations(range(n), 2):
+        for r in range(k + 1):
+            for s in itertools.combinations(range(k), r):
+                idx = list(s)
+                best = max(best, m[a, idx].sum() - math.exp(epsilon) * m[b, idx].sum())
+    return best
+
+
+def fraction_epsilon(rows) -> float:
+    """ε = log max M[a, o] / M[a', o] with exact Fraction ratios (all entries > 0)."""
+    worst = max(rows[a][o] / rows[b][o] for a in range(len(rows)) for b in range(len(rows)) for o in range(len(rows[0])))
+    return math.log(worst)
+
+
+# --------------------------------------------------------------------------- binary randomized response
+
+
+def test_binary_rr_keep_07_epsilon_is_log_7_over_3_not_paper_ratio():
+    m = fa.randomized_response(["Tom", "Mary"], keep=0.7)
+    # Hand: the largest likelihood ratio is P(Tom | Tom) / P(Tom | Mary) = 0.7 / 0.3 = 7/3.
+    assert m.epsilon == pytest.approx(math.log(7 / 3), rel=1e-12)
+    assert m.epsilon == pytest.approx(0.8472978603872037, rel=1e-12)
+    # The seed paper's error 1: ε = p / (1 − p) = 2.333 is not the budget.
+    assert m.epsilon != pytest.approx(0.7 / 0.3, rel=1e-3)
+
+
+def test_binary_rr_keep_07_delta_at_half():
+    m = fa.randomized_response(["Tom", "Mary"], keep=0.7)
+    # Hand: Σ_o [M[0,o] − e^0.5 M[1,o]]₊ = [0.7 − 1.648721·0.3]₊ + [0.3 − 1.648721·0.7]₊
+    #      = 0.7 − 0.494616 + 0 = 0.205384; the pair (Mary, Tom) is symmetric.
+    expected = 0.7 - math.exp(0.5) * 0.3
+    assert m.delta(0.5) == pytest.approx(expected, rel=1e-12)
+    assert m.delta(0.5) == pytest.approx(0.20538, abs=5e-6)
+    assert m.pairwise_delta(0.5) == pytest.approx(np.array([[0.0, expected], [expected, 0.0]]), rel=1e-12)
+    # δ(0) is the total variation 0.7 − 0.3 = 0.4; δ(ε(M)) = 0.
+    assert m.delta(0.0) == pytest.approx(0.4, rel=1e-12)
+    assert m.delta(math.log(7 / 3)) == pytest.approx(0.0, abs=1e-15)
+
+
+def test_delta_accepts_arrays_of_epsilon():
+    m = fa.randomized_response([0, 1], keep=0.7)
+    eps = np.array([[0.0, 0.5], [1.0, 2.0]])
+    out = m.delta(eps)
+    assert out.shape == (2, 2)
+    # Hand: [0.7 − e^ε 0.3]₊ elementwise.
+    assert out.ravel().tolist() == pytest.approx([max(0.0, 0.7 - math.exp(e) * 0.3) for e in eps.ravel()], rel=1e-12,
+                                                 abs=1e-15)
+
+
+# --------------------------------------------------------------------------- k-ary randomized response
+
+
+def test_kary_rr_matrix_by_fractions_eps_log4_k3():
+    m = fa.randomized_response(["a", "b", "c"], epsilon=math.log(4))
+    # e^ε = 4: keep = 4 / (4 + 2) = 2/3, move = 1 / (4 + 2) = 1/6.
+    e = Fraction(4)
+    keep, move = e / (e + 2), 1 / (e + 2)
+    assert keep == Fraction(2, 3) and move == Fraction(1, 6)
+    expected = [[float(keep if i == j else move) for j in range(3)] for i in range(3)]
+    assert m.matrix.tolist() == [pytest.approx(row, rel=1e-12) for row in expected]
+    assert m.epsilon == pytest.approx(math.log(4), rel=1e-12)
+    assert m.keep_probability == pytest.approx(2 / 3, rel=1e-12)
+    assert keep_probability(math.log(4), 3) == pytest.approx(float(keep), rel=1e-12)
+    # ε = log(p (k − 1) / (1 − p)) = log((2/3)·2 / (1/3)) = log 4.
+    assert epsilon_from_keep_probability(2 / 3, 3) == pytest.approx(math.log(4), rel=1e-12)
+
+
+def test_kary_rr_epsilon_matches_its_matrix_by_brute_force():
+    # ε cached from the argument must equal the ε read off the matrix (Fractions of the entries).
+    for k, eps in [(2, 0.3), (3, 1.0), (5, 2.5), (8, 0.01)]:
+        m = fa.randomized_response(list(range(k)), epsilon=eps)
+        rows = [[Fraction(v) for v in row] for row in m.matrix]
+        assert m.epsilon == pytest.approx(eps, rel=1e-12)
+        assert fraction_epsilon(rows) == pytest.approx(eps, rel=1e-12)
+
+
+@given(st.floats(0.0, 15.0), st.integers(2, 12))
+def test_keep_probability_round_trip(eps, k):
+    p = keep_probability(eps, k)
+    # Closed form p = e^ε / (e^ε + k − 1), written independently.
+    assert p == pytest.approx(math.exp(eps) / (math.exp(eps) + k - 1), rel=1e-12)
+    # 1 − p loses ~e^-ε relative precision; abs 1e-8 covers ε ≤ 15.
+    assert epsilon_from_keep_probability(p, k) == pytest.approx(eps, rel=1e-9, abs=1e-8)
+
+
+@given(st.floats(0.0, 8.0), st.integers(2, 9))
+def test_rr_from_keep_equals_rr_from_epsilon(eps, k):
+    a = fa.randomized_response(list(range(k)), epsilon=eps)
+    b = fa.randomized_response(list(range(k)), keep=keep_probability(eps, k))
+    assert np.allclose(a.matrix, b.matrix, rtol=1e-12, atol=1e-15)
+    assert b.epsilon == pytest.approx(eps, rel=1e-9, abs=1e-12)
+
+
+def test_rr_edge_cases():
+    # keep = 1/k: every row uniform, ε = 0; keep = 1: the identity, ε = inf.
+    m = fa.randomized_response([0, 1, 2], keep=1 / 3)
+    assert m.matrix.tolist() == [pytest.approx([1 / 3] * 3, rel=1e-12)] * 3
+    assert m.epsilon == pytest.approx(0.0, abs=1e-12)
+    ident = fa.randomized_response([0, 1, 2], keep=1.0)
+    assert ident.matrix.tolist() == np.eye(3).tolist()
+    assert math.isinf(ident.epsilon)
+    assert math.isinf(fa.randomized_response([0, 1], epsilon=math.inf).epsilon)
+    assert fa.identity(["x", "y"]).epsilon == math.inf
+    assert fa.randomized_response(["only"], epsilon=3.0).epsilon == 0.0
+
+
+def test_keep_probability_of_a_general_mechanism():
+    # Smallest diagonal entry, matched by label (outputs in a different order).
+    m = fa.from_matrix([[0.3, 0.7], [0.6, 0.4]], ["a", "b"], ["b", "a"])
+    assert m.keep_probability == pytest.approx(0.6, rel=1e-12)  # P(a|a) = 0.7, P(b|b) = 0.6
+    assert fa.from_matrix([[0.5, 0.5]], ["a"], ["x", "y"]).keep_probability is None
+
+
+# --------------------------------------------------------------------------- general matrices
+
+
+def test_epsilon_of_x_privacy_mechanism_is_log3():
+    # Paper SI C example: ratios 0.9/0.7, 0.3/0.1 = 3, 0.7/0.9, 0.1/0.3; max = 3.
+    m = fa.from_matrix([[0.9, 0.1], [0.7, 0.3]], [0, 1])
+    rows = [[Fraction(9, 10), Fraction(1, 10)], [Fraction(7, 10), Fraction(3, 10)]]
+    assert fraction_epsilon(rows) == pytest.approx(math.log(3), rel=1e-15)
+    assert m.epsilon == pytest.approx(math.log(3), rel=1e-12)
+
+
+def test_epsilon_with_zero_entries():
+    # Output 2 is reachable from row 0 only: ratio c/0 = inf. Zero in both rows (0/0) is parity.
+    assert math.isinf(fa.from_matrix([[0.5, 0.25, 0.25, 0.0], [0.5, 0.5, 0.0, 0.0]], [0, 1], [0, 1, 2, 3]).epsilon)
+    m = fa.from_matrix([[0.5, 0.5, 0.0], [0.25, 0.75, 0.0]], [0, 1], [0, 1, 2])
+    assert m.epsilon == pytest.approx(math.log(2), rel=1e-12)  # 0.5 / 0.25
+    # Equal rows: ε = 0.
+    assert fa.from_matrix([[0.2, 0.8], [0.2, 0.8]], [0, 1]).epsilon == 0.0
+
+
+def test_delta_equals_brute_force_over_output_sets():
+    rng = np.random.default_rng(20240611)
+    for _ in range(40):
+        n, k = int(rng.integers(2, 5)), int(rng.integers(2, 6))
+        matrix = rng.dirichlet(np.ones(k), size=n)
+        m = fa.from_matrix(matrix, list(range(n)), list(range(k)))
+        for eps in (0.0, 0.1, 0.5, 1.3, 4.0):
+            assert m.delta(eps) == pytest.approx(brute_delta(matrix, eps), rel=1e-12, abs=1e-15)
+
+
+def test_delta_at_infinity_is_disjoint_mass():
+    # Row 0 puts 0.25 on output 2, which row 1 never produces: δ(∞) = 0.25.
+    m = fa.from_matrix([[0.5, 0.25, 0.25], [0.5, 0.5, 0.0]], [0, 1], [0, 1, 2])
+    assert m.pairwise_delta(math.inf)[0, 1] == pytest.approx(0.25, rel=1e-12)
+    assert m.pairwise_delta(math.inf)[1, 0] == 0.0
+    assert m.epsilon_for_delta(0.2) == math.inf
+    assert math.isfinite(m.epsilon_for_delta(0.3))
+
+
+def test_epsilon_for_delta_inverts_rr_closed_form():
+    # k-ary RR: δ(ε') = p − e^ε' q for ε' ≤ ε, so ε'(δ) = log((p − δ)/q).
+    k, eps = 4, 1.5
+    m = fa.randomized_response(list(range(k)), epsilon=eps)
+    p = math.exp(eps) / (math.exp(eps) + k - 1)
+    q = 1 / (math.exp(eps) + k - 1)
+    for d in (0.01, 0.1, 0.3):
+        assert m.epsilon_for_delta(d) == pytest.approx(math.log((p - d) / q), rel=1e-11)
+    assert m.epsilon_for_delta(0.0) == pytest.approx(eps, rel=1e-12)
+    assert m.epsilon_for_delta(p - q) == 0.0  # δ(0) = TV = p − q
+    with pytest.raises(fa.InputError, match="delta"):
+        m.epsilon_for_delta(1.5)
+
+
+def test_profile_default_grid():
+    m = fa.randomized_response([0, 1], keep=0.7)
+    prof = m.profile()
+    assert prof.epsilons[0] == 0.0 and prof.epsilons[-1] == pytest.approx(math.log(7 / 3), rel=1e-12)
+    assert len(prof.epsilons) == 101
+    assert prof.deltas.tolist() == pytest.approx([max(0.0, 0.7 - math.exp(e) * 0.3) for e in prof.epsilons],
+                                                 rel=1e-12, abs=1e-15)
+
+
+def test_then_is_post_processing():
+    # Two binary RRs with keep 0.7 in a row: keep 0.7² + 0.3² = 0.58, flip 0.42.
+    rr = fa.randomized_response([0, 1], keep=0.7)
+    both = rr.then(rr)
+    assert both.matrix.tolist() == [pytest.approx([0.58, 0.42], rel=1e-12), pytest.approx([0.42, 0.58], rel=1e-12)]
+    assert both.epsilon == pytest.approx(math.log(58 / 42), rel=1e-12)
+    with pytest.raises(fa.InputError, match="inputs"):
+        rr.then(fa.randomized_response(["x", "y"], keep=0.7))
+
+
+# --------------------------------------------------------------------------- products
+
+
+def test_product_of_three_binary_rr():
+    rr = [fa.randomized_response(v, keep=0.7) for v in (["Tom", "Mary"], [25, 55], ["Asian", "American"])]
+    m = fa.product(*rr)
+    # ε adds up: 3 ln(7/3) = 2.541894 (the seed paper's error 2).
+    assert m.epsilon == pytest.approx(3 * math.log(7 / 3), rel=1e-12)
+    assert m.epsilon == pytest.approx(2.5419, abs=5e-5)
+    # Labels are tuples in itertools.product order.
+    expected_labels = tuple(itertools.product(["Tom", "Mary"], [25, 55], ["Asian", "American"]))
+    assert m.inputs == expected_labels and m.outputs == expected_labels
+    # Hand: (Tom, 25, Asian) -> (Mary, 25, Asian) flips the name only: 0.3 · 0.7 · 0.7 = 0.147.
+    i = m.inputs.index(("Tom", 25, "Asian"))
+    j = m.outputs.index(("Mary", 25, "Asian"))
+    assert m.matrix[i, j] == pytest.approx(0.3 * 0.7 * 0.7, rel=1e-12)
+    # Every entry is the product of the components' entries, looked up by label.
+    for a in m.inputs:
+        for o in m.outputs:
+            want = 1.0
+            for comp, ai, oi in zip(rr, a, o):
+                want *= comp.matrix[comp.inputs.index(ai), comp.outputs.index(oi)]
+            assert m.matrix[m.inputs.index(a), m.outputs.index(o)] == pytest.approx(want, rel=1e-12)
+
+
+def test_product_epsilon_is_sum_by_fractions():
+    # Product of 3-ary RR (ε = log 4, entries 2/3, 1/6) and a 2x2 matrix with ratio 3: ε = log 4 + log 3 = log 12.
+    a = fa.randomized_response([0, 1, 2], epsilon=math.log(4))
+    b = fa.from_matrix([[0.9, 0.1], [0.7, 0.3]], ["x", "y"])
+    m = fa.product(a, b)
+    fa_rows = [[Fraction(2, 3) if i == j else Fraction(1, 6) for j in range(3)] for i in range(3)]
+    fb_rows = [[Fraction(9, 10), Fraction(1, 10)], [Fraction(7, 10), Fraction(3, 10)]]
+    rows = [[ra[oa] * rb[ob] for oa in range(3) for ob in range(2)] for ra in fa_rows for rb in fb_rows]
+    assert fraction_epsilon(rows) == pytest.approx(math.log(12), rel=1e-15)
+    assert m.epsilon == pytest.approx(math.log(12), rel=1e-12)
+
+
+# --------------------------------------------------------------------------- peers: OpenDP
+
+
+@pytest.fixture(scope="module")
+def opendp():
+    dp = pytest.importorskip("opendp.prelude")
+    dp.enable_features("contrib")
+    return dp
+
+
+def test_opendp_bool_rr_epsilon(opendp):
+    # opendp.measurements.make_randomized_response_bool(prob): prob = P(return the true value); .map(1) = ε.
+    for prob in (0.5, 0.55, 0.7, 0.9, 0.99):
+        peer = opendp.m.make_randomized_response_bool(prob).map(1)
+        ours = fa.randomized_response([True, False], keep=prob).epsilon
+        assert ours == pytest.approx(peer, rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("k,prob", [(3, 0.7), (3, 0.34), (4, 0.5), (5, 0.4), (8, 0.9), (10, 0.15)])
+def test_opendp_kary_rr_epsilon(opendp, k, prob):
+    # opendp.measurements.make_randomized_response(categories, prob): prob = P(return the true category),
+    # in [1/k, 1] (help() docstring) -- the same parameter as our keep probability.
+    cats = [f"c{i}" for i in range(k)]
+    peer = opendp.m.make_randomized_response(cats, prob).map(1)
+    ours = fa.randomized_response(cats, keep=prob)
+    assert ours.epsilon == pytest.approx(peer, rel=1e-12)
+    assert epsilon_from_keep_probability(prob, k) == pytest.approx(peer, rel=1e-12)
+
+
+# --------------------------------------------------------------------------- peers: dp-accounting
+
+
+@pytest.fixture(scope="module")
+def pld_module():
+    return pytest.importorskip("dp_accounting.pld.privacy_loss_distribution")
+
+
+# dp-accounting discretises privacy losses to multiples of value_discretization_interval (1e-6 here) and,
+# with pessimistic_estimate=True (default), rounds them up: its δ(ε) is an upper estimate of the exact value,
+# off by at most about 1e-6 · e^ε on these mechanisms. Hence: peer ≥ ours − 1e-12 and peer − ours ≤ 5e-6.
+PLD_INTERVAL = 1e-6
+PLD_TOL = 5e-6
+
+
+@pytest.mark.parametrize("k,keep", [(2, 0.7), (3, 0.7), (4, 0.55), (6, 0.8)])
+def test_dp_accounting_randomized_response_delta(pld_module, k, keep):
+    # privacy_loss_distribution.from_randomized_response(noise_parameter, num_buckets): with probability
+    # 1 − noise it outputs the input, else a uniform bucket; so P(keep) = 1 − noise + noise/k and
+    # noise = (1 − keep)·k/(k − 1). Neighbouring relation REPLACE_ONE = any two inputs (our adjacency).
+    noise = (1 - keep) * k / (k - 1)
+    pld = pld_module.from_randomized_response(noise, k, value_discretization_interval=PLD_INTERVAL)
+    m = fa.randomized_response(list(range(k)), keep=keep)
+    for eps in (0.0, 0.2, 0.5, 0.9, m.epsilon * 0.99):
+        peer = pld.get_delta_for_epsilon(eps)
+        ours = m.delta(eps)
+        assert peer >= ours - 1e-12
+        assert peer == pytest.approx(ours, abs=PLD_TOL)
+
+
+def test_dp_accounting_general_mechanism_delta(pld_module):
+    # privacy_loss_distribution.from_two_probability_mass_functions(log_pmf_lower, log_pmf_upper,
+    # symmetric=False) for one pair of rows; get_delta_for_epsilon returns the larger hockey-stick divergence
+    # of the two directions, so the max over unordered pairs is our δ(M, ε).
+    rng = np.random.default_rng(7)
+    for _ in range(4):
+        n, k = int(rng.integers(2, 5)), int(rng.integers(2, 5))
+        matrix = rng.dirichlet(np.full(k, 2.0), size=n)
+        m = fa.from_matrix(matrix, list(range(n)), list(range(k)))
+        plds = []
+        for a, b in itertools.combinations(range(n), 2):
+            plds.append(pld_module.from_two_probability_mass_functions(
+                {o: math.log(matrix[b, o]) for o in range(k)}, {o: math.log(matrix[a, o]) for o in range(k)},
+                value_discretization_interval=PLD_INTERVAL, symmetric=False))
+        for eps in (0.0, 0.1, 0.4, 0.8):
+            peer = max(p.get_delta_for_epsilon(eps) for p in plds)
+            ours = m.delta(eps)
+            assert peer >= ours - 1e-12
+            assert peer == pytest.approx(ours, abs=PLD_TOL)
+
+
+# --------------------------------------------------------------------------- errors
+
+
+def test_mechanism_row_not_summing_to_one():
+    with pytest.raises(fa.InputError) as err:
+        fa.from_matrix([[0.5, 0.5], [0.6, 0.3]], ["a", "b"], name="M_A")
+    text = str(err.value)
+    assert "mechanism 'M_A'" in text and "input='b'" in text and "0.9" in text and "not 1" in text
+
+
+def test_mechanism_negative_and_nan_entries():
+    with pytest.raises(fa.InputError, match=r"negative.*-0\.1"):
+        fa.from_matrix([[1.1, -0.1], [0.5, 0.5]], ["a", "b"])
+    with pytest.raises(fa.InputError, match="not finite"):
+        fa.from_matrix([[float("nan"), 1.0], [0.5, 0.5]], ["a", "b"])
+    with pytest.raises(fa.InputError, match="shape"):
+        fa.from_matrix([[1.0, 0.0], [0.5, 0.5]], ["a", "b", "c"])
+    with pytest.raises(fa.InputError, match="distinct"):
+        fa.from_matrix([[1.0, 0.0], [0.5, 0.5]], ["a", "a"])
+
+
+def test_rr_argument_errors():
+    with pytest.raises(fa.InputError, match="exactly one of epsilon and keep"):
+        fa.randomized_response([0, 1])
+    with pytest.raises(fa.InputError, match="exactly one of epsilon and keep"):
+        fa.randomized_response([0, 1], 1.0, keep=0.7)
+    with pytest.raises(fa.InputError, match=r"keep.*\[1/k, 1\]"):
+        fa.randomized_response([0, 1, 2], keep=0.2)
+    with pytest.raises(fa.InputError, match="epsilon"):
+        fa.randomized_response([0, 1], epsilon=-0.1)
+    with pytest.raises(fa.InputError, match="epsilon"):
+        fa.randomized_response([0, 1], epsilon=float("nan"))
+    with pytest.raises(fa.InputError, match="epsilon"):
+        fa.randomized_response([0, 1], keep=0.7).delta(-1.0)
+    with pytest.raises(fa.InputError, match="k"):
+        privacy.epsilon_from_keep_probability(0.7, 1)
+    with pytest.raises(fa.InputError, match="product"):
+        fa.product()

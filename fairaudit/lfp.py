@@ -112,7 +112,8 @@ def threshold_max(p, q, lower, upper) -> FractionalResult:
     Raises
     ------
     InputError
-        On shapes that differ, non-finite entries, negative weights or lower > upper.
+        On shapes that differ, non-finite entries, negative weights, a negative
+        lower bound, or lower > upper.
 
     Examples
     --------
@@ -124,6 +125,10 @@ def threshold_max(p, q, lower, upper) -> FractionalResult:
     if np.any(p < 0) or np.any(q < 0):
         raise InputError("p", "the threshold solution needs non-negative p and q")
     lo, hi = _bounds(lower, upper, p.size, required=True)
+    if np.any(lo < 0):
+        # With a negative lower bound q·h can approach 0 from inside the box; the threshold argument
+        # needs q·h > 0 on the whole box. Use lp_max for such programs.
+        raise InputError("lower", "the threshold solution needs lower >= 0 (use lp_max)", float(lo.min()))
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
     order = np.argsort(-r, kind="stable")

@@ -77,3 +77,13 @@ def test_unbounded_and_infeasible_are_results_not_exceptions():
     assert t.status == "unbounded" and t.value == math.inf
     r = lp_max([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 1.0]], b_ub=[-1.0])  # h1 + h2 <= -1
     assert r.status == "infeasible" and math.isnan(r.value) and r.reason
+
+
+def test_threshold_rejects_negative_lower_bound():
+    # With h1 in [-1, 1] the ratio (0.5 h1 + 0.5 h2) / h1 is unbounded near h1 = 0+ (h = (0.01, 1) gives 50.5);
+    # the threshold scan cannot see that, so it must refuse, and the LP reports +inf.
+    from fairaudit import InputError
+
+    with pytest.raises(InputError, match="lower"):
+        threshold_max([0.5, 0.5], [1.0, 0.0], -1.0, 1.0)
+    assert lp_max([0.5, 0.5], [1.0, 0.0], lower=-1.0, upper=1.0).value == math.inf

@@ -72,11 +72,15 @@ class Assumption:
         caller's word; ``not applicable``: not needed here.
     detail : str
         The numbers behind the status.
+    scope : {"all", "global"}
+        ``"global"``: needed only for the bound on L̄ (X ⊥ A), so a violation
+        does not void the bound on L.
     """
 
     name: str
     status: str
     detail: str = ""
+    scope: str = "all"
 
     def __post_init__(self) -> None:
         if self.status not in {"checked", "violated", "vouched", "not applicable"}:
@@ -121,8 +125,11 @@ class Bound:
 
     @property
     def holds(self) -> bool:
-        """False when some assumption is violated by the data given."""
-        return all(a.status != "violated" for a in self.assumptions)
+        """False when some assumption of the bound on L is violated by the data given.
+
+        X ⊥ A (scope ``"global"``) concerns only L̄ ≤ L and does not void it.
+        """
+        return all(a.status != "violated" for a in self.assumptions if a.scope != "global")
 
     def __repr__(self) -> str:
         return f"Bound({self.form}, value={self.value:.6g} nats at epsilon={self.epsilon:.6g}, delta={self.delta:.6g})"
@@ -488,13 +495,13 @@ def check_assumptions(
     out.append(Assumption("M_A is differentially private", "checked",
                           f"exact privacy profile of {mechanism.name}; pure epsilon = {eps_text} nats"))
     if population is None:
-        out.append(Assumption("X independent of A", "vouched", "no population given"))
+        out.append(Assumption("X independent of A", "vouched", "no population given; needed for L-bar only", "global"))
     else:
         ind = population.independence()
         out.append(Assumption(
             "X independent of A", "checked" if ind.independent else "violated",
             f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} at (context {format_label(ind.context)!r}, "
-            f"group {format_label(ind.group)!r})"))
+            f"group {format_label(ind.group)!r}); needed for L-bar only", "global"))
     if gamma is not None:
         if utility is None:
             out.append(Assumption("g <= gamma", "vouched", f"gamma = {gamma:g}; no utility table given"))

@@ -122,11 +122,11 @@ def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str):
     return codes.astype(np.int64), labels
 
 
-def _check_columns(frame: pd.DataFrame, columns: Sequence[str], role: str) -> None:
+def _check_columns(frame: pd.DataFrame, columns: Sequence[str], field: str) -> None:
     for c in columns:
         if c not in frame.columns:
             shown = ", ".join(map(str, list(frame.columns)[:12])) + (", ..." if len(frame.columns) > 12 else "")
-            raise InputError(f"--{role}", f"unknown column; the data has: {shown}", c)
+            raise InputError(field, f"unknown column; the data has: {shown}", c)
 
 
 def count_records(
@@ -174,9 +174,9 @@ def count_records(
     context = [context] if isinstance(context, str) else list(context)
     if not sensitive:
         raise InputError("--sensitive", "name at least one column", sensitive)
-    _check_columns(data, sensitive, "sensitive")
-    _check_columns(data, [outcome], "outcome")
-    _check_columns(data, context, "context")
+    _check_columns(data, sensitive, "--sensitive")
+    _check_columns(data, [outcome], "--outcome")
+    _check_columns(data, context, "--context")
     used = list(dict.fromkeys(context + sensitive + [outcome]))
     frame = data[used]
     missing = frame.isna().sum()
@@ -226,7 +226,7 @@ def count_table(
     """
     sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
     context = [context] if isinstance(context, str) else list(context)
-    _check_columns(data, sensitive + [outcome] + context + [count], "column")
+    _check_columns(data, sensitive + [outcome] + context + [count], "table")
     values = pd.to_numeric(data[count], errors="coerce")
     if values.isna().any() or (values < 0).any():
         bad = data[count][values.isna() | (values < 0)].iloc[0]
@@ -349,7 +349,8 @@ def indicator_intervals(table: CountTable, utility: Utility, confidence: float =
     if not (0.0 < confidence < 1.0):
         raise InputError("--confidence", "must lie strictly between 0 and 1", confidence)
     if utility.values.ndim != 1 or not np.all(np.isin(utility.values, (0.0, 1.0))):
-        raise InputError("--confidence", "intervals are available for indicator utilities (--positive) only in this version")
+        raise InputError("--confidence", "intervals are available for 0/1 utilities of the outcome only in this version "
+                                         "(--positive VALUE, or --utility with values 0 and 1)")
     g = utility.table(table.contexts, table.groups, table.decisions)[0, 0]
     k_cell = table.counts @ g
     n_cell = table.cell_counts

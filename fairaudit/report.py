@@ -113,7 +113,7 @@ def certificate_dict(cert) -> dict:
         "global": _num(cert.global_bound),
     }
     details = {}
-    for name, b in (("paper", cert.paper), ("tight", cert.tight)):
+    for name, b in (("paper", cert.paper), ("tight", cert.tight), ("corollary", cert.corollary)):
         if b is not None:
             details[name] = {"value": _num(b.value), "epsilon": _num(b.epsilon), "delta": _num(b.delta),
                              "group": _label(b.group), "other_group": _label(b.other_group), "holds": b.holds}
@@ -243,6 +243,8 @@ def _certificate_text(d: dict) -> str:
             extra = f" ({det['black_box']['reason']})"
         if key in ("paper", "tight") and v is None:
             extra = " (needs utility.tau)"
+        if key in det and det[key].get("holds") is False:
+            extra += " (does not apply: an assumption is violated)"
         lines.append(f"  {name:<30} {_nats(v)}{extra}")
     lines.append(f"  best valid bound: {_nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
     if "observed" in d:

@@ -52,7 +52,6 @@ class AttributeSpec(_Strict):
 
     name: str
     values: list[Any] | None = None
-    distribution: list[float] | None = None
 
     @field_validator("values")
     @classmethod
@@ -66,6 +65,12 @@ class AttributeSpec(_Strict):
             dup = next(x for x in labels if labels.count(x) > 1)
             raise ValueError(f"values must be distinct; {dup!r} repeats")
         return v
+
+
+class ContextSpec(AttributeSpec):
+    """The context: an alphabet and optionally its distribution P(X)."""
+
+    distribution: list[float] | None = None
 
 
 class MechanismSpec(_Strict):
@@ -166,7 +171,7 @@ class TargetSpec(_Strict):
 class SpecModel(_Strict):
     title: str | None = None
     sensitive: AttributeSpec
-    context: AttributeSpec | None = None
+    context: ContextSpec | None = None
     decision: AttributeSpec
     population: PopulationSpec | None = None
     privacy: PrivacySpec = PrivacySpec()
@@ -180,6 +185,9 @@ class SpecModel(_Strict):
             raise ValueError("decision.values is required")
         if self.context is not None and self.context.values is None:
             raise ValueError("context.values is required when [context] is present")
+        if (self.population is not None and self.population.probabilities is not None and self.context is not None
+                and self.context.distribution is not None):
+            raise ValueError("give context.distribution or population.probabilities, not both")
         if self.sensitive.values is None and self.privacy.sensitive.mechanism != "product":
             raise ValueError("sensitive.values is required (it may be left out only with a product mechanism)")
         return self
@@ -244,6 +252,13 @@ class Spec:
         self.decisions = as_labels(model.decision.values, "decision.values")
         self.population = self._population()
         self.utility = self._utility()
+        u = model.utility
+        if u.lower is not None and u.lower > self.utility.lower + 1e-12:
+            raise self._err("utility.lower", f"exceeds the utility's smallest value min g = {self.utility.lower:g}",
+                            u.lower)
+        if u.gamma is not None and u.gamma < self.utility.gamma - 1e-12:
+            raise self._err("utility.gamma", f"is below the utility's largest value max g = {self.utility.gamma:g}",
+                            u.gamma)
         self.metric = None if model.utility.metric is None else np.asarray(model.utility.metric, dtype=float)
 
     # -- helpers ---------------------------------------------------------------------------------

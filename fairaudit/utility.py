@@ -149,7 +149,9 @@ class Utility:
         return bool(np.any(self.values != self.values[:1, :, :]))
 
     def _metric(self, metric) -> np.ndarray:
-        return check_metric(metric, 1 if self.groups is None else len(self.groups))
+        if self.groups is not None:
+            return check_metric(metric, len(self.groups))
+        return check_metric(metric, 1 if metric is None else len(np.asarray(metric)))
 
     def lipschitz(self, metric=None) -> float:
         """L_A = max over u, x, a ≠ a' of |g(u, x, a) − g(u, x, a')| / d(a, a').

@@ -72,6 +72,8 @@ probabilities = [[0.4, 0.1], [0.1, 0.4]]
     assert not ind.independent and ind.max_deviation == pytest.approx(0.15, rel=1e-12)  # 0.4 - 0.5*0.5
     cert = fa.certify(dep)
     assert cert.global_bound == math.inf  # no certified bound on Lbar without X independent of A
+    # ...but the bounds on L still apply: no filter (identity), delta(0) = 1, tau = 0.1: tight = log(1 + 1/0.1)
+    assert cert.best == pytest.approx(math.log(11), rel=1e-12) and cert.best_form == "tight"
     assert any(a.name == "X independent of A" and a.status == "violated" for a, _ in cert.assumptions)
 
 
@@ -125,3 +127,23 @@ tau = 0.5
     assert cert.paper.value <= 1 + math.log(3) + 1e-12
     corollary = [a for a, forms in cert.assumptions if a.name == "g independent of the group"][0]
     assert corollary.status == "violated" and cert.best_form != "corollary"
+
+
+def test_utility_class_must_contain_g():
+    # g = 1{office = HR_2} takes the value 0, so a class [0.5, 1] would certify a model it does not cover.
+    with pytest.raises(InputError, match="utility.lower: exceeds the utility's smallest value"):
+        parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + "lower = 0.5\n")
+    with pytest.raises(InputError, match="utility.gamma: is below"):
+        parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+                   .replace("tau = 0.1", "tau = 0.1\ngamma = 0.5"))
+
+
+def test_ignored_fields_are_rejected():
+    with pytest.raises(InputError, match="sensitive.distribution: is not a known field"):
+        parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]\ndistribution = [0.5, 0.5]'))
+
+
+def test_metric_with_a_utility_of_the_decision_only():
+    spec = parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b", "c"]')
+                      + "metric = [[0, 1, 2], [1, 0, 1], [2, 1, 0]]\n")
+    assert spec.utility.diameter(spec.metric) == 2.0 and spec.lipschitz == 0.0

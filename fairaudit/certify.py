@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._errors import InputError
 from .bounds import Bound, corollary_bound, paper_bound, tight_bound
 from .calibrate import Calibration, calibrate_randomized_response
 from .laws import Kernel, Law, compose
@@ -185,7 +186,11 @@ def certify(spec: Spec | str | Path) -> Certificate:
     kernel: Kernel | None = spec.kernel()
     observed = unfiltered = None
     if kernel is not None:
-        law = compose(kernel, mech, spec.context_mechanism)
+        try:
+            law = compose(kernel, mech, spec.context_mechanism)
+        except InputError as exc:
+            raise InputError(f"{spec.source}: {exc.field}", exc.problem,
+                             *(() if exc.value is InputError._missing else (exc.value,))) from None
         observed = observe(law, spec.utility, spec.population)
         filtered = not (_is_identity(mech) and _is_identity(spec.context_mechanism))
         if filtered:

@@ -183,7 +183,7 @@ def count_records(
     if missing.any():
         if not dropna:
             col = missing[missing > 0].index[0]
-            raise InputError(f"column {col!r}", f"has {int(missing[col])} missing values (use --dropna to drop those rows)")
+            raise InputError(f"column {col!r}", f"has {int(missing[col])} missing values (drop those rows: --dropna, or dropna=True)")
         frame = frame.dropna()
     if len(frame) == 0:
         raise InputError("DATA", "has no records to count")

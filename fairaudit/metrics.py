@@ -360,9 +360,7 @@ def _max_tv(dist: np.ndarray):
     arg_a = np.zeros(lead, dtype=int)
     arg_b = np.zeros(lead, dtype=int)
     for a in range(n):
-        for b in range(n):
-            if a == b:
-                continue
+        for b in range(a + 1, n):  # TV is symmetric: each unordered pair once, reported in label order
             tv = np.clip(dist[..., a, :] - dist[..., b, :], 0.0, None).sum(axis=-1)
             tv = np.where(np.isnan(dist[..., a, 0]) | np.isnan(dist[..., b, 0]), np.nan, tv)
             better = ~np.isnan(tv) & (np.isnan(best) | (tv > best))

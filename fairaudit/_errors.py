@@ -44,6 +44,21 @@ class InputError(FairauditError, ValueError):
             text += f" (got {_short_repr(value)})"
         super().__init__(text)
 
+    def under(self, field: str, keep_own: bool = True) -> "InputError":
+        """The same error placed under an outer ``field`` (for example a spec's path and section).
+
+        With ``keep_own`` the original field stays in the message as a prefix of the problem.
+
+        Examples
+        --------
+        >>> str(InputError("keep", "must lie in [1/k, 1]", 1.7).under("spec.toml: privacy.sensitive"))
+        'spec.toml: privacy.sensitive: keep: must lie in [1/k, 1] (got 1.7)'
+        """
+        problem = f"{self.field}: {self.problem}" if keep_own and self.field else self.problem
+        if self.value is InputError._missing:
+            return InputError(field, problem)
+        return InputError(field, problem, self.value)
+
 
 def _short_repr(value: object, limit: int = 120) -> str:
     text = repr(value)

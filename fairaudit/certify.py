@@ -189,8 +189,7 @@ def certify(spec: Spec | str | Path) -> Certificate:
         try:
             law = compose(kernel, mech, spec.context_mechanism)
         except InputError as exc:
-            raise InputError(f"{spec.source}: {exc.field}", exc.problem,
-                             *(() if exc.value is InputError._missing else (exc.value,))) from None
+            raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
         observed = observe(law, spec.utility, spec.population)
         filtered = not (_is_identity(mech) and _is_identity(spec.context_mechanism))
         if filtered:

@@ -269,8 +269,7 @@ class Spec:
         try:
             return _build_mechanism(spec, attribute.values, spec.name or f"{spec.mechanism} on {attribute.name}")
         except InputError as exc:
-            raise self._err(field, f"{exc.field}: {exc.problem}" if exc.field else exc.problem,
-                            *(() if exc.value is InputError._missing else (exc.value,))) from None
+            raise exc.under(f"{self.source}: {field}") from None
 
     def _population(self) -> Population:
         pop = self.model.population
@@ -286,8 +285,8 @@ class Spec:
                 pa = np.asarray(pop.group_distribution, dtype=float)
             return Population.independent(px, pa, self.contexts, self.groups)
         except InputError as exc:
-            raise self._err("population" if pop is not None else "context.distribution",
-                            exc.problem, *(() if exc.value is InputError._missing else (exc.value,))) from None
+            where = "population" if pop is not None else "context.distribution"
+            raise exc.under(f"{self.source}: {where}", keep_own=False) from None
 
     def _utility(self) -> Utility:
         u = self.model.utility
@@ -305,7 +304,7 @@ class Spec:
         except InputError as exc:
             if exc.field.startswith(self.source):
                 raise
-            raise self._err("utility.values", exc.problem, *(() if exc.value is InputError._missing else (exc.value,))) from None
+            raise exc.under(f"{self.source}: utility.values", keep_own=False) from None
         except (TypeError, ValueError) as exc:
             raise self._err("utility.values", f"must be numbers ({exc})") from None
 
@@ -389,8 +388,7 @@ class Spec:
         except InputError as exc:
             if exc.field.startswith(self.source):
                 raise
-            raise self._err(field, f"{exc.field}: {exc.problem}",
-                            *(() if exc.value is InputError._missing else (exc.value,))) from None
+            raise exc.under(f"{self.source}: {field}") from None
         if probs_kernel.empty_cells:
             x, a = probs_kernel.empty_cells[0]
             raise self._err(field, f"has no rows for (context {format_label(x)!r}, group {format_label(a)!r}); "

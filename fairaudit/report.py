@@ -49,11 +49,11 @@ def _label(v):
 
 
 def _fairness(f, interval=None) -> dict:
-    d = {"value": _num(f.value), "ratio": _num(f.ratio), "group": _label(f.group), "other_group": _label(f.other_group)}
+    d = {"value": _num(f.value), "ratio": _num(f.ratio)}
     if f.kind == "local":
-        d = {"value": d["value"], "ratio": d["ratio"], "context": _label(f.context), "group": d["group"],
-             "other_group": d["other_group"]}
-    d["interval"] = None if interval is None else [_num(interval[0]), _num(interval[1])]
+        d["context"] = _label(f.context)
+    d.update(group=_label(f.group), other_group=_label(f.other_group),
+             interval=None if interval is None else [_num(interval[0]), _num(interval[1])])
     return d
 
 

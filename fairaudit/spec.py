@@ -104,11 +104,15 @@ class MechanismSpec(_Strict):
 
 
 class PrivacySpec(_Strict):
+    """``[privacy]``: the mechanisms on the sensitive attribute and on the context (identity by default)."""
+
     sensitive: MechanismSpec = MechanismSpec()
     context: MechanismSpec = MechanismSpec()
 
 
 class PopulationSpec(_Strict):
+    """``[population]``: the joint P(X, A) (n_contexts × n_groups) or P(A) with X ⊥ A."""
+
     probabilities: list[list[float]] | None = None
     group_distribution: list[float] | None = None
 
@@ -120,6 +124,8 @@ class PopulationSpec(_Strict):
 
 
 class ModelSpec(_Strict):
+    """``[model]``: the kernel P(U | X̃, Ã) as an aggregated table (counts or probabilities) or as records."""
+
     table: str | None = None
     records: str | None = None
     count_column: str | None = None
@@ -136,6 +142,8 @@ class ModelSpec(_Strict):
 
 
 class UtilitySpec(_Strict):
+    """``[utility]``: g (indicator of a decision, or a table), its class [lower, γ], τ, L_A and the metric."""
+
     kind: Literal["indicator", "table"] = "indicator"
     decision: Any = None
     values: list[Any] | None = None
@@ -162,6 +170,8 @@ class UtilitySpec(_Strict):
 
 
 class TargetSpec(_Strict):
+    """``[target]``: targets on local and global g-fairness, in nats."""
+
     local: float | None = Field(default=None, ge=0)
     global_: float | None = Field(default=None, ge=0, alias="global")
 
@@ -169,6 +179,8 @@ class TargetSpec(_Strict):
 
 
 class SpecModel(_Strict):
+    """The whole spec, validated field by field (unknown fields are errors)."""
+
     title: str | None = None
     sensitive: AttributeSpec
     context: ContextSpec | None = None

@@ -77,6 +77,7 @@ class BlackBoxCertificate:
 
     @property
     def form(self) -> str:
+        """Always ``"black_box"``, like :attr:`fairaudit.bounds.Bound.form`."""
         return "black_box"
 
     def __repr__(self) -> str:

@@ -31,7 +31,16 @@ from ._arrays import as_labels, format_label
 from ._errors import InputError
 from .estimate import count_records, count_table, read_records
 from .laws import Kernel, Population
-from .privacy import Mechanism, from_matrix, identity, product, randomized_response
+from .privacy import (
+    Mechanism,
+    MechanismFamily,
+    from_matrix,
+    identity,
+    product,
+    product_family,
+    randomized_response,
+    randomized_response_family,
+)
 from .utility import Utility, from_table, indicator
 
 __all__ = ["Spec", "load_spec", "parse_spec"]
@@ -342,6 +351,27 @@ class Spec:
         u = self.model.utility
         return u.lipschitz if u.lipschitz is not None else self.utility.lipschitz(self.metric)
 
+    @property
+    def sensitive_family(self) -> MechanismFamily | None:
+        """The one-parameter family that calibration and curves move along.
+
+        Randomized response on the groups when ``[privacy.sensitive]`` is
+        randomized response, identity or a matrix; for a product, a product of
+        randomized responses on the components' values with ε split in
+        proportion to the components' ε (equally when they are all 0 or
+        infinite). None with fewer than 2 groups.
+        """
+        if len(self.groups) < 2:
+            return None
+        ms = self.model.privacy.sensitive
+        if ms.mechanism == "product" and ms.components:
+            values = [c.values for c in ms.components]
+            eps = [_component_epsilon(c) for c in ms.components]
+            finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
+            if all(len(v) >= 2 for v in values):
+                return product_family(*values, weights=eps if finite else None)
+        return randomized_response_family(self.groups)
+
     def kernel(self) -> Kernel | None:
         """The decision model P(U | X̃, Ã) from [model], or None.
 
@@ -437,6 +467,14 @@ def _relabel(table, contexts, groups, decisions):
     iu = index(table.decisions, decisions, "decision")
     out[np.ix_(ix, ia, iu)] = table.counts
     return CountTable(out, contexts, groups, decisions, table.context_columns, table.sensitive_columns, table.outcome_column)
+
+
+def _component_epsilon(spec: MechanismSpec) -> float:
+    if spec.mechanism == "randomized_response":
+        if spec.epsilon is not None:
+            return float(spec.epsilon)
+        return randomized_response(spec.values or [0, 1], keep=spec.keep).epsilon if spec.values else math.inf
+    return math.inf
 
 
 def _build_mechanism(spec: MechanismSpec, values, name: str) -> Mechanism:

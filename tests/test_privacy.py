@@ -370,3 +370,31 @@ def test_rr_argument_errors():
         privacy.epsilon_from_keep_probability(0.7, 1)
     with pytest.raises(fa.InputError, match="product"):
         fa.product()
+
+
+def test_randomized_response_family_members_have_the_requested_epsilon():
+    from fairaudit.privacy import randomized_response_family
+
+    fam = randomized_response_family(list("abcd"))
+    for eps in (0.0, 0.3, 2.0):
+        m = fam(eps)
+        assert m.epsilon == pytest.approx(eps, abs=1e-12)
+        # keep probability by hand: e^eps / (e^eps + 3)
+        assert fam.keep_probability(eps) == pytest.approx(math.exp(eps) / (math.exp(eps) + 3), rel=1e-15)
+    assert np.array_equal(fam(math.inf).matrix, np.eye(4))
+
+
+def test_product_family_splits_epsilon_by_weight():
+    from fairaudit.privacy import product_family
+
+    fam = product_family(["x", "y"], [1, 2, 3], weights=[1, 3])
+    m = fam(2.0)
+    assert m.epsilon == pytest.approx(2.0, abs=1e-12)
+    # component budgets 0.5 and 1.5: keep = e^.5/(e^.5+1) * e^1.5/(e^1.5+2)
+    want = math.exp(0.5) / (math.exp(0.5) + 1) * math.exp(1.5) / (math.exp(1.5) + 2)
+    assert fam.keep_probability(2.0) == pytest.approx(want, rel=1e-14)
+    assert fam.keep_probability(math.inf) == 1.0
+    with pytest.raises(fa.InputError, match="weights"):
+        product_family(["x", "y"], [1, 2], weights=[1])
+    with pytest.raises(fa.InputError, match=r"values\[1\]"):
+        product_family(["x", "y"], [1])

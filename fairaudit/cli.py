@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from . import __version__
 from ._errors import InputError
@@ -43,6 +44,21 @@ def _level(text: str) -> float:
     return v
 
 
+def _epsilons(text: str):
+    parts = text.split(":")
+    try:
+        if len(parts) != 3:
+            raise ValueError
+        start, stop, num = float(parts[0]), float(parts[1]), int(parts[2])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected START:STOP:NUM, e.g. 0:5:61, got {text!r}") from None
+    if not (0 <= start <= stop < float("inf")) or not 1 <= num <= 100_000:
+        raise argparse.ArgumentTypeError(f"expected 0 <= START <= STOP (nats) and 1 <= NUM <= 100000, got {text!r}")
+    import numpy as np
+
+    return np.linspace(start, stop, num)
+
+
 def _add_output(p: argparse.ArgumentParser) -> None:
     p.add_argument("--format", choices=FORMATS, default="text", help="report format (default: text)")
     p.add_argument("--output", metavar="FILE", help="write the report to FILE (atomically) instead of stdout")
@@ -60,6 +76,12 @@ def build_parser() -> argparse.ArgumentParser:
                        "privacy filter; observed metrics when the spec has a model; pass/fail against targets.")
     c.add_argument("spec", metavar="SPEC.toml", help="the spec (see docs/spec.md)")
     _add_output(c)
+    c.add_argument("--plot", metavar="FILE", help="draw the fairness-privacy curve (bounds and observed L against "
+                   "epsilon, in nats) to FILE, .png or .svg (needs pip install 'fairaudit[plot]')")
+    c.add_argument("--plot-data", metavar="FILE.csv", help="write the data behind the curve to FILE.csv")
+    c.add_argument("--epsilons", type=_epsilons, metavar="START:STOP:NUM",
+                   help="the curve's grid of epsilon in nats, NUM evenly spaced values (default 61 values from 0 to "
+                   "1.5 x the spec's epsilon, or 0 to 5); the spec's own epsilon is always added")
 
     a = sub.add_parser("audit", help="exact fairness metrics of decision records",
                        description="Count decision records (CSV or Parquet) by context, group and outcome and report "
@@ -99,11 +121,43 @@ def _emit(args, text: str, summary: str) -> None:
         sys.stdout.write(text)
 
 
+def _write_curve(args, cert) -> None:
+    """The fairness-privacy curve of a certificate's spec: --plot and --plot-data (exit status unchanged)."""
+    from .curves import privacy_curve
+
+    curve = privacy_curve(cert.spec, epsilons=args.epsilons)
+    written = []
+    if args.plot:
+        from .plot import plot_curve
+
+        plot_curve(curve, args.plot)
+        written.append(f"plot written to {args.plot}")
+    if args.plot_data:
+        try:
+            curve.to_csv(args.plot_data)
+        except InputError as exc:
+            raise InputError("--plot-data", exc.problem, exc.value) from None
+        written.append(f"curve data written to {args.plot_data}")
+    print(f"fairness-privacy curve: {len(curve)} values of epsilon; {'; '.join(written)}", file=sys.stderr)
+
+
 def _run(args) -> int:
     if args.command == "certify":
         from .certify import certify
 
+        if args.epsilons is not None and not (args.plot or args.plot_data):
+            raise InputError("--epsilons", "is the grid of the curve: give --plot FILE or --plot-data FILE.csv too")
+        if args.plot:
+            from .plot import check_plot_path
+
+            check_plot_path(args.plot)  # before any work: a bad suffix or folder is exit 2 at once
+        if args.plot_data:
+            folder = Path(args.plot_data).parent
+            if not folder.is_dir():
+                raise InputError("--plot-data", "folder does not exist", str(folder))
         cert = certify(args.spec)
+        if args.plot or args.plot_data:
+            _write_curve(args, cert)
         data = certificate_dict(cert)
         summary = f"certified: {'yes' if cert.certified else 'no'}; best bound {data['bounds']['best']} nats ({cert.best_form})"
         _emit(args, render(data, "certify", args.format), summary)

@@ -1,0 +1,259 @@
+"""Plots of fairness–privacy curves (matplotlib, imported only when a plot is made).
+
+:func:`plot_curve` draws a :class:`~fairaudit.curves.PrivacyCurve`: the
+paper, tight and black-box bounds and the observed L and L̄ against the
+privacy budget ε, both in nats. :func:`save_figure` writes a figure as PNG or
+SVG atomically. Install the plotting extra with ``pip install
+"fairaudit[plot]"``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import textwrap
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import InputError
+
+__all__ = ["plot_curve", "save_figure", "check_plot_path", "FORMATS"]
+
+#: File suffixes :func:`save_figure` understands, and the format each means.
+FORMATS = {".png": "png", ".svg": "svg"}
+
+
+def _matplotlib():
+    try:
+        import matplotlib  # noqa: F401
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise InputError("--plot", "needs matplotlib, which is not installed: pip install 'fairaudit[plot]'") from None
+    return Figure
+
+
+def check_plot_path(path: str | Path) -> str:
+    """The format of ``path`` (``"png"`` or ``"svg"``, by its suffix), after checking it can be written.
+
+    Raises
+    ------
+    InputError
+        Naming ``--plot`` and the value: a suffix other than .png or .svg, a
+        folder that does not exist, or matplotlib not installed.
+
+    Examples
+    --------
+    >>> check_plot_path("curve.SVG")
+    'svg'
+    >>> check_plot_path("curve.pdf")
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: --plot: must end in .png or .svg (got 'curve.pdf')
+    """
+    p = Path(path)
+    fmt = FORMATS.get(p.suffix.lower())
+    if fmt is None:
+        raise InputError("--plot", "must end in .png or .svg", str(path))
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError("--plot", "folder does not exist", str(folder))
+    _matplotlib()
+    return fmt
+
+
+def save_figure(fig, path: str | Path) -> None:
+    """Save a matplotlib figure as PNG or SVG (by the suffix), atomically.
+
+    The figure is written to a temporary file in the same folder and renamed
+    over ``path`` once complete; on error ``path`` is left untouched. SVGs are
+    written reproducibly (no date, fixed element ids) with text kept as text.
+
+    Raises
+    ------
+    InputError
+        As :func:`check_plot_path`, or when the folder cannot be written.
+    """
+    fmt = check_plot_path(path)
+    import matplotlib
+
+    p = Path(path)
+    folder = p.parent if str(p.parent) else Path(".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=f".tmp.{fmt}", dir=folder)
+    except OSError as exc:
+        raise InputError("--plot", f"cannot write there ({exc.strerror})", str(path)) from None
+    os.close(fd)
+    try:
+        if fmt == "svg":
+            with matplotlib.rc_context({"svg.hashsalt": "fairaudit", "svg.fonttype": "none"}):
+                fig.savefig(tmp, format="svg", metadata={"Date": None})
+        else:
+            fig.savefig(tmp, format="png", dpi=150, metadata={"Software": None})
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, p)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _secondary(curve, spec) -> tuple[str, Callable, Callable] | None:
+    if spec is None:
+        return None
+    if spec == "keep":
+        eps, keep = np.asarray(curve.epsilon, float), np.asarray(curve.keep_probability, float)
+        if eps.size < 2 or np.any(np.diff(keep) <= 0):
+            raise InputError("secondary_axis", "'keep' needs a keep probability that increases along the grid")
+        return ("keep probability", lambda e: np.interp(e, eps, keep), lambda k: np.interp(k, keep, eps))
+    if isinstance(spec, tuple) and len(spec) == 3 and callable(spec[1]) and callable(spec[2]):
+        return (str(spec[0]), spec[1], spec[2])
+    raise InputError("secondary_axis", "must be None, 'keep' or (label, forward, inverse)", spec)
+
+
+def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | None = None,
+               secondary_axis=None):
+    """Draw a fairness–privacy curve; optionally save it as PNG or SVG.
+
+    x axis: privacy budget ε (nats); y axis: local g-fairness L (nats).
+    Lines: the paper, tight and black-box bounds (any model behind the
+    filter) and the corollary's ε; markers: the observed L and L̄ of the
+    curve's kernel. A vertical line marks the curve's ``spec_epsilon``; grey
+    bands mark where the observed model breaks τ (the paper and tight bounds
+    do not apply to it there). +inf values are drawn at the top edge, marked
+    ▲. Quantities that are NaN throughout are left out and named in a note.
+
+    Parameters
+    ----------
+    curve : PrivacyCurve
+        From :func:`fairaudit.curves.privacy_curve`.
+    path : str or pathlib.Path, optional
+        Where to save, by suffix ``.png`` or ``.svg`` (atomic write).
+    ax : matplotlib.axes.Axes, optional
+        Draw on these axes; default a new 7 × 4.5 inch figure (made without
+        pyplot, so no interactive backend is touched).
+    title : str, optional
+        Default: the curve's title and family.
+    secondary_axis : None, "keep" or (label, forward, inverse)
+        A top axis: ``"keep"`` for the family's keep probability, or a label
+        and two vectorised monotone functions (ε ↦ value, value ↦ ε).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    InputError
+        When matplotlib is missing (``pip install "fairaudit[plot]"``), or on
+        a bad ``path`` (naming ``--plot``) or ``secondary_axis``.
+
+    Examples
+    --------
+    >>> from fairaudit.curves import privacy_curve
+    >>> from fairaudit.privacy import randomized_response_family
+    >>> fig = plot_curve(privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2))
+    >>> ax = fig.axes[0]
+    >>> ax.get_xlabel(), ax.get_ylabel()
+    ('privacy budget ε (nats)', 'local g-fairness L (nats)')
+    >>> [t.get_text() for t in ax.get_legend().get_texts()][:3]
+    ['black-box bound (all models, exact)', 'paper bound (main theorem)', 'tight bound (its proof, per pair)']
+    """
+    Figure = _matplotlib()
+    if path is not None:
+        check_plot_path(path)
+    if ax is None:
+        fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+        ax = fig.add_subplot()
+    else:
+        fig = ax.figure
+    eps = np.asarray(curve.epsilon, dtype=float)
+    # Coinciding lines stay visible: wide pale black-box underneath, thinner dashed lines on top,
+    # observed values as sparse markers (L and L-bar staggered).
+    step = max(1, len(eps) // 30)
+    series = [
+        ("black_box", curve.black_box, "black-box bound (all models, exact)",
+         dict(color="tab:blue", lw=4.0, alpha=0.45, zorder=2)),
+        ("paper", curve.paper, "paper bound (main theorem)", dict(color="tab:red", ls="--", lw=1.6, zorder=3)),
+        ("tight", curve.tight, "tight bound (its proof, per pair)",
+         dict(color="tab:orange", ls="-.", lw=1.6, zorder=3)),
+        ("corollary", curve.corollary, "ε (corollary, g independent of a)",
+         dict(color="0.35", ls=":", lw=1.2, zorder=3)),
+        ("observed_local", curve.observed_local, "observed L (local)",
+         dict(color="black", ls="none", marker="o", ms=4, markevery=(0, step), zorder=4)),
+        ("observed_global", curve.observed_global, "observed L̄ (global)",
+         dict(color="tab:green", ls="none", marker="x", ms=6, markevery=(step // 2, step), zorder=4)),
+    ]
+    finite = np.concatenate([np.asarray(v, float)[np.isfinite(v)] for _, v, _, _ in series] + [np.zeros(1)])
+    top = max(1.15 * float(finite.max()), 0.1)
+    missing = []
+    for key, values, label, style in series:
+        v = np.asarray(values, dtype=float)
+        if np.all(np.isnan(v)):
+            if key in ("paper", "tight", "black_box"):
+                missing.append(key.replace("_", "-"))
+            continue
+        inf = np.isposinf(v)
+        drawn = np.where(inf, top, v)
+        ax.plot(eps, drawn, label=label + (" (∞ at top)" if inf.any() else ""), **style)
+        if inf.any():
+            ax.plot(eps[inf], np.full(inf.sum(), top), ls="none", marker="^", color=style["color"], ms=5,
+                    clip_on=False, zorder=5)
+    holds = np.asarray(curve.tau_holds, dtype=bool)
+    if curve.tau is not None and not holds.all():
+        for i, (lo, hi) in enumerate(_runs(eps, ~holds)):
+            ax.axvspan(lo, hi, color="0.85", zorder=0,
+                       label=f"observed model has E[g|x,a] < τ = {curve.tau:g}" if i == 0 else None)
+    if curve.spec_epsilon is not None and math.isfinite(curve.spec_epsilon):
+        note = "" if curve.spec_on_family in (None, True) else " (its mechanism is not in this family)"
+        ax.axvline(curve.spec_epsilon, color="tab:purple", lw=1.0, ls=(0, (4, 2)),
+                   label=f"spec's ε = {curve.spec_epsilon:.4g} nats{note}")
+    ax.set_xlim(float(eps.min()), float(eps.max()) if eps.max() > eps.min() else float(eps.min()) + 1.0)
+    ax.set_ylim(0.0, top)
+    ax.set_xlabel("privacy budget ε (nats)")
+    ax.set_ylabel("local g-fairness L (nats)")
+    ax.grid(True, color="0.9", lw=0.6)
+    if title is None:
+        title = f"{curve.title}\n{curve.family}" if curve.title else curve.family
+    ax.set_title("\n".join(textwrap.fill(line, 78) for line in title.splitlines()), fontsize=10)
+    if missing:
+        why = "need τ (not given)" if curve.tau is None else "do not apply to this utility"
+        ax.text(0.99, 0.02, f"{', '.join(missing)} bound{'s' if len(missing) > 1 else ''}: {why}",
+                transform=ax.transAxes, ha="right", va="bottom", fontsize=8, color="0.3")
+    sec = _secondary(curve, secondary_axis)
+    if sec is not None:
+        top_ax = ax.secondary_xaxis("top", functions=(sec[1], sec[2]))
+        top_ax.set_xlabel(sec[0])
+    ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
+    if path is not None:
+        save_figure(fig, path)
+    return fig
+
+
+def _runs(x: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]:
+    """Intervals of x (midpoints between neighbours as edges) where mask is True."""
+    out = []
+    n = len(x)
+    i = 0
+    while i < n:
+        if not mask[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and mask[j + 1]:
+            j += 1
+        lo = x[i] if i == 0 else 0.5 * (x[i - 1] + x[i])
+        hi = x[j] if j == n - 1 else 0.5 * (x[j] + x[j + 1])
+        out.append((float(lo), float(hi)))
+        i = j + 1
+    return out

@@ -14,8 +14,15 @@ Two routes to the same optimum:
   Clarabel interior-point solver. An unbounded LP means the ratio is
   unbounded (+inf); an infeasible one that no feasible h has q·h > 0.
 
-Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proof of the
-transform and of the threshold solution: ``proofs/black_box.md``.
+* :class:`FractionalProgram` — the same LP compiled once for a fixed
+  polytope and re-solved for many (p, q) (cvxpy parameters), which is how the
+  worst-case searches of :mod:`fairaudit.worstcase` loop over pairs of groups.
+* :func:`fractional_max` — the single entry point: the threshold fast path
+  whenever only per-cell bounds constrain h, the LP otherwise.
+
+Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proofs of the
+transform and of the threshold solution: ``proofs/linear_fractional.md`` and
+``proofs/black_box.md``.
 """
 
 from __future__ import annotations
@@ -28,7 +35,7 @@ import numpy as np
 from ._arrays import as_float_array
 from ._errors import InputError
 
-__all__ = ["FractionalResult", "threshold_max", "lp_max"]
+__all__ = ["FractionalResult", "FractionalProgram", "fractional_max", "threshold_max", "threshold_max_many", "floor_max_many", "box_point", "lp_max"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,22 +136,274 @@ def threshold_max(p, q, lower, upper) -> FractionalResult:
         # With a negative lower bound q·h can approach 0 from inside the box; the threshold argument
         # needs q·h > 0 on the whole box. Use lp_max for such programs.
         raise InputError("lower", "the threshold solution needs lower >= 0 (use lp_max)", float(lo.min()))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
-    order = np.argsort(-r, kind="stable")
-    span = hi - lo
-    num = p @ lo + np.concatenate([[0.0], np.cumsum((p * span)[order])])
-    den = q @ lo + np.concatenate([[0.0], np.cumsum((q * span)[order])])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
-    k = int(np.argmax(values))
+    values, k, order = threshold_max_many(p, q, lo, hi)
     h = lo.copy()
-    h[order[:k]] = hi[order[:k]]
-    value = float(values[k])
+    top = order[: int(k)]
+    h[top] = hi[top]
+    value = float(values)
     if math.isinf(value):
         return FractionalResult(value, h, "unbounded", "threshold", "threshold",
                                 "some h in the box has q·h = 0 and p·h > 0", p, q, lo, hi)
     return FractionalResult(value, h, "optimal", "threshold", "threshold", "", p, q, lo, hi)
+
+
+def threshold_max_many(p, q, lower, upper):
+    """The threshold solution for a batch of box programs, vectorised over leading axes.
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray, shape (..., n)
+        Non-negative numerator and denominator weights (not validated: this
+        is the inner loop of the worst-case searches).
+    lower, upper : numpy.ndarray, broadcastable to (..., n)
+        Box bounds, 0 ≤ lower ≤ upper.
+
+    Returns
+    -------
+    values : numpy.ndarray, shape (...)
+        The optimal ratios (c/0 = +inf, 0/0 = 1).
+    k : numpy.ndarray of int, shape (...)
+        How many cells take their upper bound at the optimum.
+    order : numpy.ndarray of int, shape (..., n)
+        Cells by decreasing likelihood ratio p/q: the optimum sets
+        ``order[..., :k]`` to ``upper`` and the rest to ``lower``.
+
+    Examples
+    --------
+    >>> v, k, order = threshold_max_many(np.array([[0.7, 0.3], [0.3, 0.7]]),
+    ...                                  np.array([[0.3, 0.7], [0.7, 0.3]]), 0.5, 1.0)
+    >>> v.round(12).tolist(), k.tolist(), order[:, 0].tolist()
+    ([1.307692307692, 1.307692307692], [1, 1], [0, 1])
+    """
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    shape = np.broadcast_shapes(p.shape, q.shape, np.shape(lower), np.shape(upper))
+    p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
+    lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
+    order = np.argsort(-r, axis=-1, kind="stable")
+    span = hi - lo
+    zeros = np.zeros(shape[:-1] + (1,))
+    num = (p * lo).sum(-1, keepdims=True) + np.concatenate(
+        [zeros, np.cumsum(np.take_along_axis(p * span, order, -1), -1)], -1)
+    den = (q * lo).sum(-1, keepdims=True) + np.concatenate(
+        [zeros, np.cumsum(np.take_along_axis(q * span, order, -1), -1)], -1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
+    k = values.argmax(axis=-1)
+    best = np.take_along_axis(values, k[..., None], -1)[..., 0]
+    return best, k, order
+
+
+def floor_max_many(p, q, lower, upper, floor: float):
+    """Box programs with one more constraint, q·h ≥ floor, solved in closed form, vectorised.
+
+    max (p·h)/(q·h) over lower ≤ h ≤ upper with q·h ≥ floor > 0. Let h* be the
+    threshold solution without the floor. If q·h* ≥ floor it is optimal.
+    Otherwise the ratio, a quasi-concave function of D = q·h (the best
+    numerator N(D) is concave in D), is largest at D = floor, where the best
+    numerator is the fractional knapsack: raise cells to ``upper`` in
+    decreasing order of p/q until q·h = floor, the last one partly.
+    ``proofs/black_box.md`` (τ-constrained class). This is the relaxation
+    of the τ-constrained programs that keeps only the denominator group's
+    constraint: an upper bound, and the optimum whenever its point meets the
+    other constraints.
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray, shape (..., n)
+        Non-negative weights.
+    lower, upper : numpy.ndarray, broadcastable to (..., n)
+        0 ≤ lower ≤ upper.
+    floor : float
+        > 0.
+
+    Returns
+    -------
+    values : numpy.ndarray, shape (...)
+        Optimal ratios (NaN where q·upper < floor: infeasible).
+    k : numpy.ndarray of int, shape (...)
+        Cells at ``upper`` (the first k in ``order``).
+    frac : numpy.ndarray, shape (...)
+        Fraction of the span of cell ``order[k]`` that is raised (0 when none).
+    order : numpy.ndarray of int, shape (..., n)
+
+    Examples
+    --------
+    >>> v, k, frac, order = floor_max_many(np.array([0.7, 0.3]), np.array([0.3, 0.7]), 0.0, 1.0, 0.5)
+    >>> round(float(v), 12), int(k), round(float(frac), 12)      # h = (1, 2/7): (0.7 + 0.6/7) / 0.5 = 11/7
+    (1.571428571429, 1, 0.285714285714)
+    """
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    shape = np.broadcast_shapes(p.shape, q.shape, np.shape(lower), np.shape(upper))
+    p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
+    lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
+    values, k, order = threshold_max_many(p, q, lo, hi)
+    span = hi - lo
+    ps = np.take_along_axis(p * span, order, -1)
+    qs = np.take_along_axis(q * span, order, -1)
+    zeros = np.zeros(shape[:-1] + (1,))
+    cp = np.concatenate([zeros, np.cumsum(ps, -1)], -1)
+    cq = np.concatenate([zeros, np.cumsum(qs, -1)], -1)
+    d0 = (q * lo).sum(-1)
+    n0 = (p * lo).sum(-1)
+    d_star = d0 + np.take_along_axis(cq, k[..., None], -1)[..., 0]
+    low = d_star < floor * (1 - 1e-12)
+    need = floor - d0
+    j = np.clip((cq >= need[..., None] - 1e-15 * np.maximum(1.0, floor)).argmax(-1) - 1, 0, shape[-1] - 1)
+    qj = np.take_along_axis(qs, j[..., None], -1)[..., 0]
+    pj = np.take_along_axis(ps, j[..., None], -1)[..., 0]
+    cqj = np.take_along_axis(cq, j[..., None], -1)[..., 0]
+    cpj = np.take_along_axis(cp, j[..., None], -1)[..., 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.clip(np.where(qj > 0, (need - cqj) / np.where(qj > 0, qj, 1.0), 0.0), 0.0, 1.0)
+    filled = (n0 + cpj + frac * pj) / floor
+    feasible = d0 + cq[..., -1] >= floor * (1 - 1e-12)
+    values = np.where(low, np.where(feasible, filled, np.nan), values)
+    k_out = np.where(low, j, k)
+    frac_out = np.where(low, frac, 0.0)
+    return values, k_out, frac_out, order
+
+
+def box_point(lower, upper, order, k: int, frac: float = 0.0) -> np.ndarray:
+    """The point of a threshold or floor solution: ``upper`` on ``order[:k]``, partly raised ``order[k]``.
+
+    Parameters
+    ----------
+    lower, upper : array_like, broadcastable to (n,)
+    order : numpy.ndarray of int, shape (n,)
+    k : int
+    frac : float
+        Fraction of cell ``order[k]``'s span that is raised.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+    """
+    n = order.shape[-1]
+    lo = np.broadcast_to(np.asarray(lower, dtype=float), (n,)).copy()
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
+    h = lo.copy()
+    h[order[:k]] = hi[order[:k]]
+    if frac > 0 and k < n:
+        o = order[k]
+        h[o] = lo[o] + frac * (hi[o] - lo[o])
+    return h
+
+
+_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
+
+
+class FractionalProgram:
+    """max (p·h)/(q·h) over a fixed polytope, compiled once, solved for many (p, q).
+
+    The polytope is {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq} in R^n.
+    The Charnes–Cooper transform y = s·h, s = 1/(q·h) ≥ 0 gives the LP
+
+        max p·y  s.t.  q·y = 1,  A_ub y ≤ b_ub s,  A_eq y = b_eq s,  lower s ≤ y ≤ upper s,
+
+    built once with p and q as cvxpy parameters (disciplined parametrized
+    programming), so each :meth:`solve` only re-runs the Clarabel
+    interior-point solver.
+
+    Parameters
+    ----------
+    n : int
+        Dimension of h.
+    lower, upper : float or array_like, shape (n,), optional
+        Per-cell bounds (None or ±inf: unbounded on that side).
+    A_ub, b_ub : array_like or scipy.sparse matrix, shapes (m, n) and (m,), optional
+    A_eq, b_eq : array_like or scipy.sparse matrix, shapes (k, n) and (k,), optional
+
+    Raises
+    ------
+    InputError
+        On inconsistent shapes, non-finite constraint data, or lower > upper.
+
+    Examples
+    --------
+    >>> prog = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.7, -0.3], [-0.3, -0.7]], b_ub=[-0.5, -0.5])
+    >>> r = prog.solve([0.7, 0.3], [0.3, 0.7])   # τ = 0.5 forces 0.3 + 0.7 h_2 >= 0.5: h = (1, 2/7), ratio 11/7
+    >>> round(r.value, 7), r.argmax.round(7).tolist(), r.status
+    (1.5714286, [1.0, 0.2857143], 'optimal')
+    """
+
+    def __init__(self, n: int, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None):
+        import cvxpy as cp
+
+        self.n = int(n)
+        self.lower, self.upper = _bounds(lower, upper, self.n, required=False)
+        self._p = cp.Parameter(self.n)
+        self._q = cp.Parameter(self.n)
+        self._y = cp.Variable(self.n)
+        self._s = cp.Variable(nonneg=True)
+        y, s = self._y, self._s
+        cons = [self._q @ y == 1]
+        for bound, op in ((self.lower, "ge"), (self.upper, "le")):
+            if bound is None:
+                continue
+            fin = np.isfinite(bound)
+            if fin.any():
+                idx = np.flatnonzero(fin)
+                cons.append(y[idx] >= bound[idx] * s if op == "ge" else y[idx] <= bound[idx] * s)
+        for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
+            if a is None:
+                continue
+            a = _matrix(a, name)
+            b = as_float_array(b, name.replace("A", "b"), ndim=1)
+            if a.shape != (b.size, self.n):
+                raise InputError(name, f"shape must be ({b.size}, {self.n})", a.shape)
+            cons.append(a @ y <= b * s if op == "le" else a @ y == b * s)
+        self._problem = cp.Problem(cp.Maximize(self._p @ y), cons)
+
+    def solve(self, p, q) -> FractionalResult:
+        """The optimum for numerator ``p`` and denominator ``q`` (shape (n,) each).
+
+        Returns
+        -------
+        FractionalResult
+            ``method = "lp"``; +inf with a reason when the ratio is unbounded,
+            NaN with a reason when no feasible h has q·h > 0. Never raises for
+            an infeasible or unbounded program.
+        """
+        import cvxpy as cp
+
+        p, q = _vectors(p, q)
+        if p.size != self.n:
+            raise InputError("p", f"must have length {self.n}", p.size)
+        lo, hi = self.lower, self.upper
+        self._p.value, self._q.value = p, q
+        prob = self._problem
+        try:
+            prob.solve(solver=cp.CLARABEL, **_TOLERANCES)
+        except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
+            return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
+        status = prob.status
+        if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
+            return FractionalResult(math.inf, None, "unbounded", "lp", status,
+                                    "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0", p, q, lo, hi)
+        if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+            return FractionalResult(math.nan, None, "infeasible", "lp", status,
+                                    "no feasible h has q·h > 0 (or the constraints are inconsistent)", p, q, lo, hi)
+        s = self._s.value
+        if s is None or s <= 1e-12:
+            return FractionalResult(math.inf, None, "unbounded", "lp", status,
+                                    "the optimum is approached only as q·h -> 0", p, q, lo, hi)
+        h = np.asarray(self._y.value, dtype=float) / float(s)
+        return FractionalResult(float(prob.value), h, "optimal", "lp", status, "", p, q, lo, hi)
+
+
+def _matrix(a, name: str):
+    import scipy.sparse as sp
+
+    if sp.issparse(a):
+        a = sp.csr_matrix(a, dtype=float)
+        if not np.all(np.isfinite(a.data)):
+            raise InputError(name, "must be finite")
+        return a
+    return as_float_array(a, name, ndim=2)
 
 
 def lp_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None) -> FractionalResult:
@@ -178,44 +437,52 @@ def lp_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_e
     >>> round(r.value, 7), r.status
     (1.3076923, 'optimal')
     """
-    import cvxpy as cp
-
     p, q = _vectors(p, q)
-    n = p.size
-    lo, hi = _bounds(lower, upper, n, required=False)
-    y = cp.Variable(n)
-    s = cp.Variable(nonneg=True)
-    cons = [q @ y == 1]
-    if lo is not None:
-        fin = np.isfinite(lo)
-        if fin.any():
-            cons.append(y[fin] >= lo[fin] * s)
-    if hi is not None:
-        fin = np.isfinite(hi)
-        if fin.any():
-            cons.append(y[fin] <= hi[fin] * s)
-    for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
-        if a is None:
-            continue
-        a = as_float_array(a, name, ndim=2)
-        b = as_float_array(b, name.replace("A", "b"), ndim=1)
-        if a.shape != (b.size, n):
-            raise InputError(name, f"shape must be ({b.size}, {n})", a.shape)
-        cons.append(a @ y <= b * s if op == "le" else a @ y == b * s)
-    prob = cp.Problem(cp.Maximize(p @ y), cons)
-    try:
-        prob.solve(solver=cp.CLARABEL, tol_gap_abs=1e-11, tol_gap_rel=1e-11, tol_feas=1e-11, tol_ktratio=1e-9)
-    except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
-        return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
-    status = prob.status
-    if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
-        return FractionalResult(math.inf, None, "unbounded", "lp", status,
-                                "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0", p, q, lo, hi)
-    if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-        return FractionalResult(math.nan, None, "infeasible", "lp", status,
-                                "no feasible h has q·h > 0 (or the constraints are inconsistent)", p, q, lo, hi)
-    if s.value is None or s.value <= 1e-12:
-        return FractionalResult(math.inf, None, "unbounded", "lp", status,
-                                "the optimum is approached only as q·h -> 0", p, q, lo, hi)
-    h = np.asarray(y.value, dtype=float) / float(s.value)
-    return FractionalResult(float(prob.value), h, "optimal", "lp", status, "", p, q, lo, hi)
+    prog = FractionalProgram(p.size, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)
+    return prog.solve(p, q)
+
+
+def fractional_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None,
+                   method: str = "auto") -> FractionalResult:
+    """max (p·h)/(q·h) over a polytope: the threshold fast path when it applies, else the LP.
+
+    The fast path (:func:`threshold_max`) applies when only finite per-cell
+    bounds 0 ≤ lower ≤ upper constrain h and p, q ≥ 0; otherwise the
+    Charnes–Cooper LP (:func:`lp_max`) solves it.
+
+    Parameters
+    ----------
+    p, q, lower, upper, A_ub, b_ub, A_eq, b_eq
+        As in :func:`lp_max`.
+    method : {"auto", "threshold", "lp"}
+        Force a route (``"threshold"`` raises when it does not apply).
+
+    Returns
+    -------
+    FractionalResult
+
+    Raises
+    ------
+    InputError
+        On bad input, an unknown method, or ``method="threshold"`` where it
+        does not apply.
+
+    Examples
+    --------
+    >>> fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.5, upper=1.0).method
+    'threshold'
+    >>> fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.0, upper=1.0, A_ub=[[-0.3, -0.7]], b_ub=[-0.5]).method
+    'lp'
+    """
+    if method not in ("auto", "threshold", "lp"):
+        raise InputError("method", "must be 'auto', 'threshold' or 'lp'", method)
+    p_arr, q_arr = _vectors(p, q)
+    boxed = (A_ub is None and A_eq is None and lower is not None and upper is not None
+             and np.all(np.isfinite(np.asarray(lower, dtype=float))) and np.all(np.isfinite(np.asarray(upper, dtype=float)))
+             and np.all(np.asarray(lower, dtype=float) >= 0) and np.all(p_arr >= 0) and np.all(q_arr >= 0))
+    if method == "threshold" and not boxed:
+        raise InputError("method", "the threshold solution needs only finite bounds 0 <= lower <= upper and p, q >= 0",
+                         method)
+    if method == "threshold" or (method == "auto" and boxed):
+        return threshold_max(p_arr, q_arr, lower, upper)
+    return lp_max(p_arr, q_arr, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)

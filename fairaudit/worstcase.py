@@ -1,66 +1,193 @@
-"""Exact worst cases over every decision model behind a privacy filter.
+"""Exact worst cases by linear-fractional programming: every decision model, every utility.
 
-Black-box certificate, box class. Behind M_A (and any M_X), a decision model
-K and a utility g(u) whose values lie in [lower, γ] give
+Behind M_A (and any M_X), a decision kernel K and a utility g give
 
-    E[g | x, a] = Σ_ã M_A[a, ã] H_x(ã),   H_x(ã) = Σ_x̃ M_X[x, x̃] Σ_u K[x̃, ã, u] g(u),
+    E[g | x, b] = Σ_{x̃, ã, u} M_X[x, x̃] M_A[b, ã] K[x̃, ã, u] g(u, x, b),
 
-and as K ranges over all kernels, H_x ranges over the whole box
-[lower, γ]^{n_released}. So the exact maximum of L over every model is, for
-the worst pair (a, a'), the linear-fractional program
+linear in K (and, for a fixed K, linear in g). Each maximum below is, for one
+ordered pair of groups (a, a') (and one context x for local g-fairness), a
+linear-fractional program max (p·h)/(q·h) over a polytope, solved by
+:mod:`fairaudit.lfp`: the likelihood-ratio threshold when only per-cell bounds
+constrain h, the Charnes–Cooper LP (cvxpy + Clarabel) otherwise.
 
-    max over h ∈ [lower, γ]^n of (p·h) / (q·h),   p = M_A[a, :], q = M_A[a', :].
+* :func:`black_box_bound` — the **class certificate**: the exact maximum of L
+  over every kernel and every utility in the class g ∈ [lower, γ],
+  E[g | x, a] ≥ τ, |g(u, x, a) − g(u, x, a')| ≤ L_A d(a, a'). The reachable
+  vectors are h[b, ã] (the expected utility of a group-b member released as
+  ã) in the polytope {lower ≤ h ≤ γ, Lipschitz in b, M_A[b]·h[b] ≥ τ}; with
+  L_A = 0, h[b] = h for every b, and without a binding τ the polytope is the
+  box [lower, γ]^n (threshold solution). M_X drops out; under X ⊥ A the same
+  value is the exact maximum of L̄.
+* :func:`worst_model` — the **known-utility certificate**: the exact maximum
+  of L and of L̄ over every kernel, for the utility table given, with τ; it
+  returns the maximising kernel, a concrete worst decision model.
+* :func:`worst_utility` — the **worst-case utility** of a known law: the
+  utility g(u) ∈ [lower, γ] (with E[g | x, a] ≥ τ) that shows the largest
+  local or global disparity. Without constraints it equals Lemma 1's sup.
 
-Its optimum is a threshold vector: h = γ on the outputs with the largest
-likelihood ratios p_o / q_o, h = lower elsewhere (at the optimum λ*, h
-maximises Σ_o (p_o − λ* q_o) h_o). Sorting each pair's outputs by ratio and
-scanning the prefixes finds it exactly, vectorised over all pairs. M_X drops
-out, and under X ⊥ A the same value bounds L̄ (H(ã) = Σ_x P(x) H_x(ã) ranges
-over the same box).
-
-The general program (τ constraints, utilities that depend on the group) is
-solved by linear programming via the Charnes–Cooper transform in a later
-release. Proof: ``proofs/black_box.md``.
+Pairs are searched in decreasing order of an upper bound (the box value
+without τ, γ/τ, and the per-pair tight form) and the search stops when no
+remaining pair can beat the best value found, so the LP runs only where the
+fast path does not decide. Proofs: ``proofs/black_box.md``,
+``proofs/linear_fractional.md``, ``proofs/worst_case_utility.md``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
 import numpy as np
 
+from ._arrays import format_label
 from ._errors import InputError
-from .bounds import Assumption, _sorted_pairs, check_assumptions
-from .laws import Population
-from .privacy import Mechanism
+from .bounds import Assumption, check_assumptions
+from .laws import Kernel, Law, Population, compose
+from .lfp import FractionalProgram, FractionalResult, box_point, floor_max_many, threshold_max_many
+from .privacy import Mechanism, identity
+from .utility import Utility, check_metric
 
-__all__ = ["BlackBoxCertificate", "black_box_bound"]
+__all__ = [
+    "BlackBoxCertificate",
+    "WorstCase",
+    "WorstModel",
+    "WorstUtility",
+    "black_box_bound",
+    "worst_model",
+    "worst_utility",
+]
+
+METHODS = ("auto", "threshold", "lp")
 
 
+# ----------------------------------------------------------------------------------------------------
+# shared machinery
+# ----------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Search:
+    index: int            # flat index of the maximising problem (-1 when none)
+    result: FractionalResult | None
+    solved: int           # LPs solved
+    reason: str
+
+
+def _search(upper: np.ndarray, solve: Callable[[int], FractionalResult]) -> _Search:
+    """Maximise over problems i by LP, in decreasing order of the upper bounds ``upper[i]`` (ratios).
+
+    Stops when the best value found is at least every remaining upper bound
+    (exact: the bounds are valid). An infeasible program means the common
+    polytope is empty, which ends the search.
+    """
+    order = np.argsort(-upper, kind="stable")
+    best_i, best, best_v, solved = -1, None, -math.inf, 0
+    for i in order:
+        if best is not None and best_v >= upper[i] * (1 - 1e-9):
+            break
+        r = solve(int(i))
+        solved += r.method == "lp"
+        if r.status == "infeasible":
+            return _Search(-1, r, solved, r.reason)
+        if best is None or r.value > best_v * (1 + 1e-9):   # ties (to solver accuracy) keep the earlier pair
+            best_i, best, best_v = int(i), r, r.value
+        if math.isinf(best_v):
+            break
+    return _Search(best_i, best, solved, "")
+
+
+def _relaxed_first(num: Callable[[int], np.ndarray], den: Callable[[int], np.ndarray], lower, upper, floor: float | None,
+                   rows: np.ndarray | None, program: Callable[[], FractionalProgram]) -> Callable[[int], FractionalResult]:
+    """Solve problem i by the closed-form floor relaxation when its point is feasible, by the LP otherwise.
+
+    The relaxation keeps the box and only the denominator's constraint q·h ≥ floor
+    (:func:`fairaudit.lfp.floor_max_many`); its point is optimal for the full
+    program whenever it meets every row of ``rows @ h ≥ floor``. With no
+    floor the program is the box program and the threshold solves it.
+    """
+    def solve(i: int) -> FractionalResult:
+        p, q = num(i), den(i)
+        if floor is None:
+            v, k, order = threshold_max_many(p, q, lower, upper)
+            frac = 0.0
+        else:
+            v, k, frac, order = floor_max_many(p, q, lower, upper, floor)
+        if not np.isnan(v):
+            h = box_point(lower, upper, order, int(k), float(frac))
+            if rows is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
+                status = "unbounded" if math.isinf(v) else "optimal"
+                return FractionalResult(float(v), h, status, "threshold", "closed form", "", p, q, None, None)
+        return program().solve(p, q)
+    return solve
+
+
+def _check_method(method: str) -> str:
+    if method not in METHODS:
+        raise InputError("method", f"must be one of {', '.join(METHODS)}", method)
+    return method
+
+
+def _nonneg(name: str, v) -> float:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise InputError(name, "must be a finite non-negative number", v) from None
+    if not (math.isfinite(f) and f >= 0):
+        raise InputError(name, "must be a finite non-negative number", v)
+    return f
+
+
+def _log(r: float) -> float:
+    return math.inf if math.isinf(r) else math.log(r) if r > 0 else -math.inf
+
+
+def _pair_epsilon(matrix: np.ndarray) -> np.ndarray:
+    """max_o M[a, o] / M[b, o] for every ordered pair, shape (n, n) (c/0 = inf, 0/0 ignored)."""
+    p, q = matrix[:, None, :], matrix[None, :, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
+    return r.max(axis=-1)
+
+
+# ----------------------------------------------------------------------------------------------------
+# the class certificate
+# ----------------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class BlackBoxCertificate:
-    """The exact maximum of L over every decision model, for g in [lower, γ].
+    """The exact maximum of L over every decision model and every utility in a class.
 
     Attributes
     ----------
     value : float
-        max over kernels of L, in nats (+inf when some released value is
-        possible for one group and impossible for another while lower = 0).
+        max L in nats (+inf when the class allows E[g | x, a'] → 0 with
+        E[g | x, a] > 0; NaN when the class is empty).
     ratio : float
         exp(value).
     group, other_group : hashable or None
-        The maximising pair of true groups.
+        The maximising pair of true groups (``group`` gets more utility).
     released : tuple
-        The released values ã on which the worst model gives utility γ (it
-        gives ``lower`` on the others): a concrete worst decision model.
+        The released values ã on which the worst model gives utility γ.
+    utility_by_release : numpy.ndarray
+        The worst case's expected utility given the release: shape
+        (n_released,) when g does not depend on the group (L_A = 0),
+        (n_groups, n_released) otherwise (row b for a member of group b).
     lower, gamma : float
-        The utility class [lower, γ].
+        The class of utilities [lower, γ].
+    tau : float or None
+        The lower bound on E[g | x, a] (None: only lower).
+    lipschitz : float
+        L_A (0: g does not depend on the group).
     mechanism : Mechanism
         M_A.
-    method : str
-        "threshold" (sorted likelihood ratios, exact).
+    method : {"threshold", "lp"}
+        ``threshold``: decided in closed form (the threshold solution, or
+        with a binding τ the floor relaxation whose point met every
+        constraint); ``lp``: at least one Charnes–Cooper LP was solved.
+    status : {"optimal", "unbounded", "infeasible", "trivial"}
+    solver_status : str
+    reason : str
+        Why the value is +inf or NaN, or which shortcut decided it.
+    programs_solved : int
+        LPs solved (0 on the threshold path).
     assumptions : tuple of Assumption
     """
 
@@ -69,10 +196,17 @@ class BlackBoxCertificate:
     group: Hashable | None
     other_group: Hashable | None
     released: tuple
+    utility_by_release: np.ndarray
     lower: float
     gamma: float
+    tau: float | None
+    lipschitz: float
     mechanism: Mechanism
     method: str
+    status: str
+    solver_status: str
+    reason: str
+    programs_solved: int
     assumptions: tuple
 
     @property
@@ -80,89 +214,811 @@ class BlackBoxCertificate:
         """Always ``"black_box"``, like :attr:`fairaudit.bounds.Bound.form`."""
         return "black_box"
 
+    def worst_model(self) -> tuple[Kernel, Utility]:
+        """A concrete decision model and utility that attain the value.
+
+        Returns
+        -------
+        kernel : Kernel
+            One context ``"any"``, the mechanism's outputs as groups,
+            decisions ``("high", "low")``: P(high | ã) = (h(ã) − lower)/(γ − lower).
+        utility : Utility
+            g(high) = γ, g(low) = lower.
+
+        Raises
+        ------
+        InputError
+            When g depends on the group (L_A > 0: the worst model then needs
+            a utility per group) or when there is no maximiser.
+        """
+        h = self.utility_by_release
+        if h.ndim != 1 or self.status not in ("optimal", "trivial"):
+            raise InputError("worst_model", "is available for utilities that do not depend on the group, "
+                             "with a finite optimum", self.status)
+        span = self.gamma - self.lower
+        high = np.clip((h - self.lower) / span, 0.0, 1.0) if span > 0 else np.ones_like(h)
+        table = np.stack([high, 1.0 - high], axis=-1)[None, :, :]
+        kernel = Kernel(table, ["any"], self.mechanism.outputs, ["high", "low"], name="worst model")
+        return kernel, Utility([self.gamma, self.lower], ["high", "low"], name="worst utility")
+
     def __repr__(self) -> str:
+        tau = "" if self.tau is None else f", tau={self.tau:g}"
         return (f"BlackBoxCertificate(value={self.value:.6g} nats, ratio={self.ratio:.6g}, "
-                f"pair={self.group!r} vs {self.other_group!r}, class [{self.lower:g}, {self.gamma:g}])")
+                f"pair={self.group!r} vs {self.other_group!r}, class [{self.lower:g}, {self.gamma:g}]{tau}, "
+                f"method={self.method})")
 
 
-def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 1.0,
-                    population: Population | None = None) -> BlackBoxCertificate:
-    """Exact max of local g-fairness over every decision model behind M_A.
+def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 1.0, tau: float | None = None,
+                    lipschitz: float = 0.0, metric=None, population: Population | None = None,
+                    method: str = "auto") -> BlackBoxCertificate:
+    """Exact max of local g-fairness over every decision model behind M_A, for a class of utilities.
+
+    The class: g(u, x, a) ∈ [lower, γ]; E[g | x, a] ≥ τ for every context and
+    group; |g(u, x, a) − g(u, x, a')| ≤ L_A d(a, a'). The value is
+    max over ordered pairs (a, a') of max (M_A[a]·h[a]) / (M_A[a']·h[a']) over
+    h ∈ R^{n_groups × n_released} with lower ≤ h ≤ γ, |h[b] − h[c]| ≤ L_A d(b, c)
+    and M_A[b]·h[b] ≥ τ for every b (h[b] = h for all b when L_A = 0).
 
     Parameters
     ----------
     mechanism : Mechanism
-        M_A, shape (n_groups, n_released_groups).
+        M_A, shape (n_groups, n_released).
     lower, gamma : float
-        The class of utilities: g(u) ∈ [lower, γ], 0 ≤ lower ≤ γ, with g
-        depending on the decision (and context) only. Only the ratio
-        lower / γ matters.
+        The range of g, 0 ≤ lower ≤ γ.
+    tau : float, optional
+        Lower bound on E[g | x, a], ≤ γ. E ≥ lower always holds, so τ ≤ lower
+        changes nothing.
+    lipschitz : float
+        L_A ≥ 0; 0 means g does not depend on the group.
+    metric : array_like, shape (n_groups, n_groups), optional
+        d(a, a') for the Lipschitz condition; default the discrete metric.
     population : Population, optional
-        When given, X ⊥ A is checked on it (needed for the global bound only).
+        When given, X ⊥ A is checked on it (needed for the bound on L̄ only).
+    method : {"auto", "threshold", "lp"}
+        ``auto``: the threshold solution when τ ≤ lower and L_A = 0; with a
+        binding τ, the closed-form relaxation that keeps only the denominator
+        group's constraint, checked against the others, and the LP where it
+        fails; the LP when L_A > 0. Pairs are searched in decreasing order of
+        that relaxation (an upper bound) and the search stops when no pair
+        left can win. ``lp`` forces the LP (a cross-check); ``threshold``
+        raises when τ binds or L_A > 0.
 
     Returns
     -------
     BlackBoxCertificate
-        The value in nats, the maximising pair, and the released values on
-        which the worst model gives γ.
+        The value in nats, the maximising pair, and the worst model's
+        expected utility per released value.
 
     Raises
     ------
     InputError
-        If ``lower`` or ``gamma`` is negative or not finite, or lower > γ.
+        If ``lower``, ``gamma``, ``tau`` or ``lipschitz`` is negative or not
+        finite, lower > γ, τ > γ (the class is empty), the metric is invalid,
+        or the method is unknown or does not apply.
 
     Notes
     -----
-    With lower = 0 the value is ε(M_A) (the corollary is attained). It is
-    never larger than the tight and paper bounds when their τ ≤ lower.
-    ``proofs/black_box.md``.
+    M_X drops out, and under X ⊥ A the value also bounds L̄ exactly. It is
+    never larger than the tight and paper bounds with the same τ, L_A and
+    metric; with lower = 0, no τ and L_A = 0 it is ε(M_A) (the corollary is
+    attained). ``proofs/black_box.md``.
 
     Examples
     --------
     >>> from fairaudit.privacy import randomized_response
     >>> m = randomized_response(["a", "b"], keep=0.7)
-    >>> round(black_box_bound(m, lower=0.0, gamma=1.0).ratio, 12)
+    >>> round(black_box_bound(m).ratio, 12)                       # 0.7 / 0.3
     2.333333333333
-    >>> c = black_box_bound(m, lower=0.5, gamma=1.0)   # (0.5 + 0.5·0.7) / (0.5 + 0.5·0.3)
+    >>> c = black_box_bound(m, lower=0.5, gamma=1.0)               # (0.5 + 0.5·0.7) / (0.5 + 0.5·0.3)
     >>> round(c.ratio, 12), c.group, c.released
     (1.307692307692, 'a', ('a',))
+    >>> c = black_box_bound(m, tau=0.5)                            # (0.7 + 0.3·2/7) / 0.5 = 11/7
+    >>> round(c.ratio, 12), c.method, c.utility_by_release.round(7).tolist()
+    (1.571428571429, 'threshold', [1.0, 0.2857143])
+    >>> round(black_box_bound(m, tau=0.5, method="lp").ratio, 7)  # the Charnes–Cooper LP agrees
+    1.5714286
     """
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
-    for name, v in (("lower", lower), ("gamma", gamma)):
-        try:
-            ok = math.isfinite(float(v)) and float(v) >= 0
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise InputError(name, "must be a finite non-negative number", v)
-    lower, gamma = float(lower), float(gamma)
+    method = _check_method(method)
+    lower, gamma = _nonneg("lower", lower), _nonneg("gamma", gamma)
+    lip = _nonneg("lipschitz", lipschitz)
     if lower > gamma:
         raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
+    if tau is not None:
+        tau = _nonneg("tau", tau)
+        if tau > gamma:
+            raise InputError("tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau",
+                             tau)
+    n, m = mechanism.matrix.shape
+    d = check_metric(metric, n) if n >= 1 else None
+    floor = lower if tau is None else max(tau, lower)       # E[g | x, a] >= floor
+    binding = floor > lower
+    lip_on = lip > 0 and n >= 2 and gamma > lower
+    if method == "threshold" and (binding or lip_on):
+        raise InputError("method", "the threshold solution needs tau <= lower and lipschitz = 0", method)
+
     assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
-        Assumption("g depends on the decision (and context) only, within [lower, gamma]", "vouched",
-                   f"class [{lower:g}, {gamma:g}]; X independent of A is needed for the global bound only"),
+        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
+        Assumption("g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
+                   "vouched", f"L_A = {lip:g}" if lip_on else "L_A = 0"),
     )
-    n = len(mechanism.inputs)
+    if tau is not None:
+        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
+
+    def make(value_ratio, a, b, released, h, meth, status, solver, reason, solved):
+        value = _log(value_ratio) if not math.isnan(value_ratio) else math.nan
+        return BlackBoxCertificate(value, value_ratio, a, b, released, h, lower, gamma, tau, lip if lip_on else 0.0,
+                                   mechanism, meth, status, solver, reason, solved, assumptions)
+
     if n < 2 or gamma == 0 or lower == gamma:
-        return BlackBoxCertificate(0.0, 1.0, None, None, (), float(lower), float(gamma), mechanism, "threshold",
-                                   assumptions)
-    rho = lower / gamma
-    _, p, q, order = _sorted_pairs(mechanism.matrix)
-    zeros = np.zeros(p.shape[:-1] + (1,))
-    big_p = np.concatenate([zeros, np.cumsum(p, axis=-1)], axis=-1)
-    big_q = np.concatenate([zeros, np.cumsum(q, axis=-1)], axis=-1)
-    num = rho + (1 - rho) * big_p
-    den = rho + (1 - rho) * big_q
-    with np.errstate(divide="ignore", invalid="ignore"):
-        value = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
-    best_k = value.argmax(axis=-1)
-    best = np.take_along_axis(value, best_k[..., None], -1)[..., 0]
-    np.fill_diagonal(best, -np.inf)
-    a, b = np.unravel_index(int(best.argmax()), best.shape)
-    k = int(best_k[a, b])
-    released = tuple(mechanism.outputs[o] for o in order[a, b, :k])
-    r = float(best[a, b])
-    return BlackBoxCertificate(float(np.log(r)) if np.isfinite(r) else math.inf, r, mechanism.inputs[a],
-                               mechanism.inputs[b], released, float(lower), float(gamma), mechanism, "threshold",
-                               assumptions)
+        reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
+        return make(1.0, None, None, (), np.full(m, gamma), "threshold", "trivial", "threshold", reason, 0)
+
+    M = mechanism.matrix
+    outputs = mechanism.outputs
+    box, k, order = threshold_max_many(M[:, None, :], M[None, :, :], lower, gamma)
+    np.fill_diagonal(box, -np.inf)
+
+    if not binding and not lip_on and method != "lp":
+        a, b = np.unravel_index(int(box.argmax()), box.shape)
+        top = order[a, b, : int(k[a, b])]
+        h = np.full(m, lower)
+        h[top] = gamma
+        r = float(box[a, b])
+        status = "unbounded" if math.isinf(r) else "optimal"
+        reason = "some released value is possible for one group and impossible for another" if math.isinf(r) else ""
+        return make(r, mechanism.inputs[a], mechanism.inputs[b], tuple(outputs[o] for o in top), h, "threshold",
+                    status, "threshold", reason, 0)
+
+    # ---- LP: τ binds, the utility may depend on the group, or the LP was asked for ----
+    pairs = np.array([(a, b) for a in range(n) for b in range(n) if a != b])
+    # valid upper bounds per pair (ratios): the box without τ (L_A = 0), γ/τ, and the tight form at t = e^ε_aa'
+    upper = box[pairs[:, 0], pairs[:, 1]].copy() if not lip_on else np.full(len(pairs), np.inf)
+    if floor > 0:
+        t = _pair_epsilon(M)[pairs[:, 0], pairs[:, 1]]
+        slack = lip * d[pairs[:, 0], pairs[:, 1]] / floor if lip_on else 0.0
+        upper = np.minimum(upper, np.minimum(gamma / floor, t + slack))
+
+    if not lip_on:
+        progs: list = []
+
+        def program() -> FractionalProgram:
+            if not progs:
+                a_ub = -M if binding else None
+                progs.append(FractionalProgram(m, lower=lower, upper=gamma, A_ub=a_ub,
+                                               b_ub=None if a_ub is None else -floor * np.ones(n)))
+            return progs[0]
+
+        if binding:
+            relaxed = floor_max_many(M[:, None, :], M[None, :, :], lower, gamma, floor)[0]
+            upper = np.minimum(upper, relaxed[pairs[:, 0], pairs[:, 1]])
+        if binding and method != "lp":
+            solve = _relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M,
+                                   program)
+        else:
+            def solve(i: int) -> FractionalResult:
+                a, b = pairs[i]
+                return program().solve(M[a], M[b])
+    else:
+        prog = _lipschitz_program(M, lower, gamma, floor if binding else None, lip, d)
+
+        def solve(i: int) -> FractionalResult:
+            a, b = pairs[i]
+            p = np.zeros(n * m)
+            q = np.zeros(n * m)
+            p[a * m:(a + 1) * m] = M[a]
+            q[b * m:(b + 1) * m] = M[b]
+            return prog.solve(p, q)
+
+    found = _search(upper, solve)
+    r = found.result
+    if found.index < 0:
+        return make(math.nan, None, None, (), np.full(m, math.nan), "lp", "infeasible", r.solver_status if r else "",
+                    found.reason or "the class is empty", found.solved)
+    a, b = pairs[found.index]
+    if r.argmax is None:
+        h = np.full(m if not lip_on else (n, m), math.nan)
+        released: tuple = ()
+    else:
+        h = r.argmax if not lip_on else r.argmax.reshape(n, m)
+        h = np.clip(h, lower, gamma)
+        row = h if not lip_on else h[a]
+        released = tuple(outputs[o] for o in np.flatnonzero(row >= gamma - 1e-9 * max(1.0, gamma)))
+    meth = "lp" if found.solved else "threshold"
+    return make(r.value, mechanism.inputs[a], mechanism.inputs[b], released, h, meth, r.status, r.solver_status,
+                r.reason, found.solved)
+
+
+def _lipschitz_program(M: np.ndarray, lower: float, gamma: float, floor: float | None, lip: float,
+                       d: np.ndarray) -> FractionalProgram:
+    """The class polytope with a utility per group: h (n, m) flattened row-major."""
+    import scipy.sparse as sp
+
+    n, m = M.shape
+    rows = []
+    b_ub = []
+    bi, ci = np.triu_indices(n, 1)
+    limit = lip * d[bi, ci]
+    keep = limit < gamma - lower          # looser pairs are implied by the box
+    bi, ci, limit = bi[keep], ci[keep], limit[keep]
+    if bi.size:
+        k = bi.size * m
+        r = np.arange(k)
+        o = np.tile(np.arange(m), bi.size)
+        col_b = np.repeat(bi, m) * m + o
+        col_c = np.repeat(ci, m) * m + o
+        diff = sp.csr_matrix((np.concatenate([np.ones(k), -np.ones(k)]),
+                              (np.concatenate([r, r]), np.concatenate([col_b, col_c]))), shape=(k, n * m))
+        rows += [diff, -diff]
+        b_ub += [np.repeat(limit, m), np.repeat(limit, m)]
+    if floor is not None:
+        # −M[b]·h[b] ≤ −τ: block-diagonal rows
+        tau_rows = sp.block_diag([-M[b][None, :] for b in range(n)], format="csr")
+        rows.append(tau_rows)
+        b_ub.append(np.full(n, -floor))
+    a_ub = sp.vstack(rows, format="csr") if rows else None
+    return FractionalProgram(n * m, lower=lower, upper=gamma, A_ub=a_ub,
+                             b_ub=None if a_ub is None else np.concatenate(b_ub))
+
+
+# ----------------------------------------------------------------------------------------------------
+# known utility: the worst decision model
+# ----------------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class WorstCase:
+    """The maximiser of one worst-case search (local or global).
+
+    Attributes
+    ----------
+    kind : {"local", "global"}
+    value : float
+        The maximum, in nats (+inf when unbounded; NaN when no model or
+        utility meets the constraints).
+    ratio : float
+        exp(value).
+    context : hashable or None
+        The maximising context (local only).
+    group, other_group : hashable or None
+        The maximising pair; ``group`` gets more utility.
+    kernel : Kernel or None
+        The worst decision model (from :func:`worst_model`).
+    utility : Utility or None
+        The worst utility (from :func:`worst_utility`).
+    expected_utility : numpy.ndarray or None
+        E[g | x, a] of the worst case, shape (n_contexts, n_groups) (local),
+        or E[g | a], shape (n_groups,) (global).
+    method : {"threshold", "lp"}
+    status : {"optimal", "unbounded", "infeasible", "trivial"}
+    solver_status : str
+    reason : str
+    programs_solved : int
+    """
+
+    kind: str
+    value: float
+    ratio: float
+    context: Hashable | None
+    group: Hashable | None
+    other_group: Hashable | None
+    kernel: Kernel | None
+    utility: Utility | None
+    expected_utility: np.ndarray | None
+    method: str
+    status: str
+    solver_status: str
+    reason: str
+    programs_solved: int
+
+    def __repr__(self) -> str:
+        where = f", context={format_label(self.context)!r}" if self.context is not None else ""
+        return (f"WorstCase({self.kind}, value={self.value:.6g} nats{where}, groups "
+                f"{format_label(self.group)!r} vs {format_label(self.other_group)!r}, method={self.method})")
+
+
+@dataclass(frozen=True, eq=False)
+class WorstModel:
+    """The exact maxima of L and L̄ over every decision model, for one utility (:func:`worst_model`).
+
+    Attributes
+    ----------
+    local, global_ : WorstCase
+        Each with its maximising kernel.
+    mechanism, context_mechanism : Mechanism
+        M_A and M_X.
+    utility : Utility
+    tau : float or None
+    population : Population
+    excluded : tuple of str
+        Contexts left out (P(X = x) = 0).
+    assumptions : tuple of Assumption
+    """
+
+    local: WorstCase
+    global_: WorstCase
+    mechanism: Mechanism
+    context_mechanism: Mechanism
+    utility: Utility
+    tau: float | None
+    population: Population
+    excluded: tuple
+    assumptions: tuple
+
+
+def _onehot(idx: np.ndarray, n: int) -> np.ndarray:
+    out = np.zeros(idx.shape + (n,))
+    np.put_along_axis(out, idx[..., None], 1.0, axis=-1)
+    return out
+
+
+def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Mechanism | None = None,
+                population: Population | None = None, tau: float | None = None,
+                method: str = "auto") -> WorstModel:
+    """The decision models behind M_A (and M_X) that maximise L and L̄, for a known utility.
+
+    Over every kernel K[x̃, ã, u] (rows on the probability simplex of the
+    utility's decisions) with E[g | x, a] ≥ τ in every context of positive
+    probability and every group: maximise
+    E[g | x, a] / E[g | x, a'] (local) and E[g | a] / E[g | a'] (global, with
+    E[g | a] = Σ_x P(x | a) E[g | x, a]).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A, shape (n_groups, n_released_groups).
+    utility : Utility
+        g(u) (shape (n_decisions,)) or g[x, a, u] labelled with the true
+        contexts and groups.
+    context_mechanism : Mechanism, optional
+        M_X, shape (n_contexts, n_released_contexts); default the identity on
+        the contexts of ``population`` (or of the utility; one context
+        ``"all"`` when neither has any).
+    population : Population, optional
+        P(X, A); default uniform and independent.
+    tau : float, optional
+        Lower bound on E[g | x, a] that the models must meet.
+    method : {"auto", "threshold", "lp"}
+        ``auto`` uses the threshold solution where it applies (g does not
+        depend on the group and τ ≤ min_u g(u, x); for L̄ also X ⊥ A), the
+        Charnes–Cooper LP elsewhere; ``lp`` forces the LP.
+
+    Returns
+    -------
+    WorstModel
+        ``local`` and ``global_``, each with the maximising pair (and context)
+        and the worst kernel; composing the kernel with the mechanisms and
+        auditing it reproduces the value.
+
+    Raises
+    ------
+    InputError
+        On mismatched labels, a negative or non-finite τ, or an unknown method.
+
+    Notes
+    -----
+    The variables are G[x̃, ã] = Σ_u K[x̃, ã, u] g(u) ∈ [min g, max g] when
+    g depends on the decision only, the kernel itself otherwise. Without a
+    binding τ and for g free of the group, the local program at x is the box
+    program over [min_u g(u, x), max_u g(u, x)]^{n_released} (M_X drops out).
+    ``proofs/black_box.md`` (known utility).
+
+    Examples
+    --------
+    >>> from fairaudit.privacy import randomized_response
+    >>> from fairaudit.utility import indicator
+    >>> m = randomized_response(["Tom", "Mary"], keep=0.7)
+    >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]))
+    >>> round(w.local.ratio, 12), w.local.group, w.local.kernel.probabilities[0, :, 0].tolist()
+    (2.333333333333, 'Tom', [1.0, 0.0])
+    >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]), tau=0.5)
+    >>> round(w.local.ratio, 7), w.local.method
+    (1.5714286, 'lp')
+    """
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    if not isinstance(utility, Utility):
+        raise InputError("utility", "must be a Utility", type(utility).__name__)
+    method = _check_method(method)
+    if tau is not None:
+        tau = _nonneg("tau", tau)
+    groups = mechanism.inputs
+    if context_mechanism is None:
+        contexts = (population.contexts if population is not None
+                    else utility.contexts if utility.contexts is not None else ("all",))
+        context_mechanism = identity(contexts, name="identity on contexts")
+    if not isinstance(context_mechanism, Mechanism):
+        raise InputError("context_mechanism", "must be a Mechanism", type(context_mechanism).__name__)
+    contexts = context_mechanism.inputs
+    if population is None:
+        population = Population.uniform(contexts, groups)
+    if not isinstance(population, Population):
+        raise InputError("population", "must be a Population", type(population).__name__)
+    if population.contexts != contexts or population.groups != groups:
+        raise InputError("population", "must have the context mechanism's inputs as contexts and M_A's inputs as groups",
+                         (list(map(format_label, population.contexts)), list(map(format_label, population.groups))))
+    decisions = utility.decisions
+    g = np.asarray(utility.table(contexts, groups, decisions), dtype=float)       # (nX, nA, nU)
+    MA, MX = mechanism.matrix, context_mechanism.matrix
+    nX, nA, nU = g.shape
+    nXr, nAr = MX.shape[1], MA.shape[1]
+    live = population.p_context > 0
+    excluded = tuple(f"context {format_label(contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live))
+    floor = -math.inf if tau is None else tau
+    indep_a = not utility.depends_on_group
+    u_only = utility.values.ndim == 1 or not (utility.depends_on_group or utility.depends_on_context)
+    gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))                           # per context
+    binding = bool(np.any(floor > gmin[live])) if live.any() else False
+    independent = population.independence().independent
+    assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
+        Assumption("g is the given utility", "checked", f"{utility!r}"),)
+    if tau is not None:
+        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
+    released_groups, released_contexts = mechanism.outputs, context_mechanism.outputs
+
+    def kernel_of(table: np.ndarray) -> Kernel:
+        t = np.clip(table, 0.0, None)
+        t = t / t.sum(axis=-1, keepdims=True)
+        return Kernel(t, released_contexts, released_groups, decisions, name="worst model")
+
+    def audit(kernel: Kernel, kind: str) -> np.ndarray:
+        from .metrics import expected_utility, global_fairness
+
+        law = compose(kernel, mechanism, context_mechanism)
+        if kind == "local":
+            return expected_utility(law, utility)
+        return global_fairness(law, utility, population).expected_utility
+
+    if nA < 2 or not live.any():
+        ones = np.ones((nXr, nAr, nU)) / nU
+        k0 = kernel_of(ones)
+        loc = WorstCase("local", 0.0, 1.0, None, None, None, k0, None, None, "threshold", "trivial", "threshold",
+                        "fewer than two groups" if nA < 2 else "no context has positive probability", 0)
+        glo = WorstCase("global", 0.0, 1.0, None, None, None, k0, None, None, "threshold", "trivial", "threshold",
+                        loc.reason, 0)
+        return WorstModel(loc, glo, mechanism, context_mechanism, utility, tau, population, excluded, assumptions)
+
+    if method == "threshold" and (not indep_a or binding):
+        raise InputError("method", "the threshold solution needs a utility free of the group and tau <= min g", method)
+
+    pairs = np.array([(a, b) for a in range(nA) for b in range(nA) if a != b])
+    # box values per (x, a, b) when g is free of the group: an upper bound always, exact without a binding τ
+    if indep_a:
+        lo_x, hi_x = g[:, 0, :].min(-1), g[:, 0, :].max(-1)
+        box, kx, order = threshold_max_many(MA[None, :, None, :], MA[None, None, :, :],
+                                            lo_x[:, None, None, None], hi_x[:, None, None, None])   # (nX, nA, nA)
+        box = box.copy()
+        box[:, np.arange(nA), np.arange(nA)] = -np.inf
+        box[~live] = -np.inf
+    # ------------------------------------------------------------------ local
+    if indep_a and not binding and method != "lp":
+        x, a, b = np.unravel_index(int(box.argmax()), box.shape)
+        top = order[x, a, b, : int(kx[x, a, b])]
+        hi_u, lo_u = int(g[x, 0].argmax()), int(g[x, 0].argmin())
+        table = np.broadcast_to(_onehot(np.array(lo_u), nU), (nXr, nAr, nU)).copy()
+        table[:, top, :] = _onehot(np.array(hi_u), nU)
+        kern = kernel_of(table)
+        r = float(box[x, a, b])
+        local = WorstCase("local", _log(r), r, contexts[x], groups[a], groups[b], kern, None, audit(kern, "local"),
+                          "threshold", "unbounded" if math.isinf(r) else "optimal", "threshold",
+                          "a released group is possible for one group and impossible for another" if math.isinf(r)
+                          else "", 0)
+    else:
+        sp_ = _model_program(MA, MX, g, live, tau, u_only, binding)
+        xs = np.flatnonzero(live)
+        triples = np.array([(x, a, b) for x in xs for a, b in pairs])
+        if indep_a:
+            upper = box[triples[:, 0], triples[:, 1], triples[:, 2]]
+        else:
+            upper = np.full(len(triples), np.inf)
+        if tau is not None and tau > 0:
+            upper = np.minimum(upper, g[triples[:, 0], triples[:, 1]].max(-1) / tau)
+        num = lambda i: sp_.coef(triples[i, 0], triples[i, 1])     # noqa: E731
+        den = lambda i: sp_.coef(triples[i, 0], triples[i, 2])     # noqa: E731
+        if not indep_a:
+            gmax_xa, gmin_xa = g.max(-1), g.min(-1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                crude = np.where(gmin_xa[triples[:, 0], triples[:, 2]] > 0,
+                                 gmax_xa[triples[:, 0], triples[:, 1]] / gmin_xa[triples[:, 0], triples[:, 2]], np.inf)
+            upper = np.minimum(upper, crude)
+        if sp_.lo is not None and method != "lp":
+            # closed-form relaxation (only the denominator's τ): an upper bound per triple, exact where feasible
+            if sp_.rows is not None:
+                for x in xs:
+                    P = np.stack([sp_.coef(x, a) for a in range(nA)])
+                    v = floor_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi, tau)[0]
+                    at = triples[:, 0] == x
+                    upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
+            solve = _relaxed_first(num, den, sp_.lo, sp_.hi, None if sp_.rows is None else tau, sp_.rows, sp_.program)
+        else:
+            def solve(i: int) -> FractionalResult:
+                return sp_.program().solve(num(i), den(i))
+
+        found = _search(upper, solve)
+        local = _model_case("local", found, triples, contexts, groups, sp_.to_kernel, kernel_of, audit)
+    # ------------------------------------------------------------------ global
+    w_xa = np.nan_to_num(population.context_given_group(), nan=0.0)              # P(x | a), (nX, nA)
+    if indep_a and not binding and independent and method != "lp":
+        px = population.p_context
+        w = np.einsum("x,xy,xu->yu", px, MX, g[:, 0, :])                          # w[x̃, u]
+        lo_g, hi_g = w.min(-1).sum(), w.max(-1).sum()
+        vals, kg, order_g = threshold_max_many(MA[:, None, :], MA[None, :, :], lo_g, hi_g)
+        np.fill_diagonal(vals, -np.inf)
+        a, b = np.unravel_index(int(vals.argmax()), vals.shape)
+        top = order_g[a, b, : int(kg[a, b])]
+        table = np.repeat(_onehot(w.argmin(-1), nU)[:, None, :], nAr, axis=1)
+        table[:, top, :] = _onehot(w.argmax(-1), nU)[:, None, :]
+        kern = kernel_of(table)
+        r = float(vals[a, b])
+        global_ = WorstCase("global", _log(r), r, None, groups[a], groups[b], kern, None, audit(kern, "global"),
+                            "threshold", "unbounded" if math.isinf(r) else "optimal", "threshold", "", 0)
+    else:
+        sp_ = _model_program(MA, MX, g, live, tau, u_only, binding)
+
+        def coef_global(a: int) -> np.ndarray:
+            return sum(w_xa[x, a] * sp_.coef(x, a) for x in np.flatnonzero(live & (w_xa[:, a] > 0)))
+
+        upper = np.full(len(pairs), np.inf)
+        if tau is not None and tau > 0:
+            upper = np.minimum(upper, gmax.max() / tau)
+        num = lambda i: coef_global(pairs[i, 0])     # noqa: E731
+        den = lambda i: coef_global(pairs[i, 1])     # noqa: E731
+        if sp_.lo is not None and method != "lp":
+            P = np.stack([coef_global(a) for a in range(nA)])
+            if sp_.rows is not None:
+                v = floor_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi, tau)[0]
+            else:
+                v = threshold_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi)[0]
+            upper = np.minimum(upper, v[pairs[:, 0], pairs[:, 1]])
+            solve = _relaxed_first(num, den, sp_.lo, sp_.hi, None if sp_.rows is None else tau, sp_.rows,
+                                   sp_.program)
+        else:
+            def solve(i: int) -> FractionalResult:
+                return sp_.program().solve(num(i), den(i))
+
+        found = _search(upper, solve)
+        trip = np.column_stack([np.full(len(pairs), -1), pairs])
+        global_ = _model_case("global", found, trip, contexts, groups, sp_.to_kernel, kernel_of, audit)
+    return WorstModel(local, global_, mechanism, context_mechanism, utility, tau, population, excluded, assumptions)
+
+
+@dataclass(frozen=True, eq=False)
+class _ModelSpace:
+    """The polytope of reachable kernels in G-space (g depends on u only) or kernel space."""
+
+    coef: Callable[[int, int], np.ndarray]        # (x, b) -> coefficients of E[g | x, b]
+    to_kernel: Callable[[np.ndarray], np.ndarray]
+    program: Callable[[], FractionalProgram]      # built on first use
+    lo: float | None                              # box of the variables (G-space only)
+    hi: float | None
+    rows: np.ndarray | None                       # τ rows (G-space only): rows @ h >= τ
+
+
+def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _ModelSpace:
+    import scipy.sparse as sp
+
+    nX, nA, nU = g.shape
+    nXr, nAr = MX.shape[1], MA.shape[1]
+    xs = np.flatnonzero(live)
+    cache: list = []
+
+    def lazy(build):
+        def program() -> FractionalProgram:
+            if not cache:
+                cache.append(build())
+            return cache[0]
+        return program
+
+    if u_only:
+        gv = g[xs[0], 0] if xs.size else g[0, 0]
+        lo, hi = float(gv.min()), float(gv.max())
+        hi_u, lo_u = int(gv.argmax()), int(gv.argmin())
+
+        def coef(x: int, b: int) -> np.ndarray:
+            return np.outer(MX[x], MA[b]).ravel()
+
+        def to_kernel(G: np.ndarray) -> np.ndarray:
+            G = G.reshape(nXr, nAr)
+            high = np.clip((G - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones_like(G)
+            table = np.zeros((nXr, nAr, nU))
+            table[..., hi_u] += high
+            table[..., lo_u] += 1.0 - high
+            return table
+
+        rows = np.kron(MX[xs], MA) if with_tau and tau is not None and tau > lo else None
+        return _ModelSpace(coef, to_kernel, lazy(lambda: FractionalProgram(
+            nXr * nAr, lower=lo, upper=hi, A_ub=None if rows is None else -rows,
+            b_ub=None if rows is None else np.full(rows.shape[0], -tau))), lo, hi, rows)
+
+    def coef(x: int, b: int) -> np.ndarray:
+        return (MX[x][:, None, None] * MA[b][None, :, None] * g[x, b][None, None, :]).ravel()
+
+    def to_kernel(K: np.ndarray) -> np.ndarray:
+        return K.reshape(nXr, nAr, nU)
+
+    def build() -> FractionalProgram:
+        a_eq = sp.kron(sp.identity(nXr * nAr, format="csr"), np.ones((1, nU)), format="csr")
+        a_ub = b_ub = None
+        if with_tau and tau is not None and tau > 0:
+            a_ub = -np.stack([coef(x, b) for x in xs for b in range(nA)])
+            b_ub = np.full(a_ub.shape[0], -tau)
+        return FractionalProgram(nXr * nAr * nU, lower=0.0, upper=1.0, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq,
+                                 b_eq=np.ones(nXr * nAr))
+
+    return _ModelSpace(coef, to_kernel, lazy(build), None, None, None)
+
+
+def _model_case(kind, found: _Search, triples, contexts, groups, to_kernel, kernel_of, audit) -> WorstCase:
+    r = found.result
+    if found.index < 0:
+        return WorstCase(kind, math.nan, math.nan, None, None, None, None, None, None, "lp", "infeasible",
+                         r.solver_status if r else "", "no decision model meets E[g | x, a] >= tau in every cell: "
+                         + (found.reason or "the constraints are inconsistent"), found.solved)
+    x, a, b = triples[found.index]
+    kern = kernel_of(to_kernel(r.argmax)) if r.argmax is not None else None
+    eu = audit(kern, kind) if kern is not None else None
+    return WorstCase(kind, _log(r.value), r.value, contexts[x] if kind == "local" else None, groups[a], groups[b], kern,
+                     None, eu, "lp", r.status, r.solver_status, r.reason, found.solved)
+
+
+# ----------------------------------------------------------------------------------------------------
+# worst-case utility of a known law
+# ----------------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class WorstUtility:
+    """The utilities g(u) ∈ [lower, γ] that maximise L and L̄ for a known law (:func:`worst_utility`).
+
+    Attributes
+    ----------
+    local, global_ : WorstCase
+        Each with its maximising utility (``.utility``, a vector over the
+        law's decisions) and pair (and context).
+    law : Law
+    lower, gamma : float
+    tau : float or None
+    population : Population
+    excluded : tuple of str
+    """
+
+    local: WorstCase
+    global_: WorstCase
+    law: Law
+    lower: float
+    gamma: float
+    tau: float | None
+    population: Population
+    excluded: tuple
+
+
+def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: float | None = None,
+                  population: Population | None = None, method: str = "auto") -> WorstUtility:
+    """The utility g(u) ∈ [lower, γ] that shows the largest disparity of a known law.
+
+    Per context x and ordered pair (a, a'), maximise (Q[x, a]·g) / (Q[x, a']·g)
+    (local) or (P(U | a)·g) / (P(U | a')·g) (global) over g ∈ [lower, γ]^{n_decisions},
+    with E[g | x, b] = Q[x, b]·g ≥ τ in every observed cell of a context of
+    positive probability (τ couples the contexts, as g is shared).
+
+    Parameters
+    ----------
+    law : Law
+        Q[x, a, u], shape (n_contexts, n_groups, n_decisions); empty cells are skipped.
+    lower, gamma : float
+        The range of g, 0 ≤ lower ≤ γ.
+    tau : float, optional
+        Lower bound on E[g | x, a], ≤ γ.
+    population : Population, optional
+        P(X, A) for L̄ and to skip contexts with P(X = x) = 0; default uniform.
+    method : {"auto", "threshold", "lp"}
+        ``auto``: the threshold solution when τ ≤ lower, the LP otherwise.
+
+    Returns
+    -------
+    WorstUtility
+        ``local`` and ``global_`` with the maximising utility, context and pair.
+
+    Raises
+    ------
+    InputError
+        On a bad range, τ > γ, mismatched population labels, or an unknown method.
+
+    Notes
+    -----
+    With lower = 0 and no τ the value is Lemma 1's sup over g
+    (:func:`fairaudit.metrics.sup_local_fairness`): the threshold keeps the
+    single decision of largest likelihood ratio. ``proofs/worst_case_utility.md``.
+
+    Examples
+    --------
+    >>> law = Law([[[0.5, 0.3, 0.2], [0.2, 0.3, 0.5]]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
+    >>> w = worst_utility(law)
+    >>> round(w.local.ratio, 12), w.local.group, w.local.utility.values.tolist()   # Lemma 1: 0.5 / 0.2
+    (2.5, 'a', [1.0, 0.0, 0.0])
+    >>> w = worst_utility(law, lower=0.5)                  # (0.5 + 0.5·0.5) / (0.5 + 0.5·0.2)
+    >>> round(w.local.ratio, 12)
+    1.25
+    """
+    from .metrics import _check_population, group_decision_law
+
+    if not isinstance(law, Law):
+        raise InputError("law", "must be a Law", type(law).__name__)
+    method = _check_method(method)
+    lower, gamma = _nonneg("lower", lower), _nonneg("gamma", gamma)
+    if lower > gamma:
+        raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
+    if tau is not None:
+        tau = _nonneg("tau", tau)
+        if tau > gamma:
+            raise InputError("tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau",
+                             tau)
+    population = _check_population(population, law)
+    binding = tau is not None and tau > lower
+    if method == "threshold" and binding:
+        raise InputError("method", "the threshold solution needs tau <= lower", method)
+    Q = law.probabilities
+    nX, nA, nU = Q.shape
+    live_x = population.p_context > 0
+    cell = law.observed & live_x[:, None]
+    excluded = tuple(f"context {format_label(law.contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live_x)) + \
+        tuple(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records" for x, a in law.empty_cells)
+    decisions = law.decisions
+
+    def util(h: np.ndarray) -> Utility:
+        return Utility(np.clip(h, lower, gamma), decisions, name="worst utility")
+
+    Qz = np.nan_to_num(Q, nan=0.0)
+    a_ub = -Qz[cell] if binding else None
+    prog = None
+
+    def program() -> FractionalProgram:
+        nonlocal prog
+        if prog is None:
+            prog = FractionalProgram(nU, lower=lower, upper=gamma, A_ub=a_ub,
+                                     b_ub=None if a_ub is None else np.full(a_ub.shape[0], -tau))
+        return prog
+
+    def case(kind: str, P: np.ndarray, valid: np.ndarray, label_x) -> WorstCase:
+        """P: (..., nA, nU) numerators per leading index; valid: (..., nA, nA) pairs to consider."""
+        vals, k, order = threshold_max_many(P[..., :, None, :], P[..., None, :, :], lower, gamma)
+        vals = np.where(valid, vals, -np.inf)
+        if not valid.any():
+            return WorstCase(kind, math.nan, math.nan, None, None, None, None, None, None, "threshold", "trivial",
+                             "threshold", "no two groups can be compared", 0)
+        if not binding and method != "lp":
+            idx = np.unravel_index(int(vals.argmax()), vals.shape)
+            top = order[idx][: int(k[idx])]
+            h = np.full(nU, lower)
+            h[top] = gamma
+            r = float(vals[idx])
+            x = idx[0] if kind == "local" else None
+            return WorstCase(kind, _log(r), r, label_x(x), law.groups[idx[-2]], law.groups[idx[-1]], None, util(h),
+                             None, "threshold", "unbounded" if math.isinf(r) else "optimal", "threshold",
+                             "a decision is possible for one group and impossible for another" if math.isinf(r) else "",
+                             0)
+        flat = np.argwhere(valid)
+        upper = vals[tuple(flat.T)]
+        if tau is not None and tau > 0:
+            upper = np.minimum(upper, gamma / tau)
+
+        def solve(i: int) -> FractionalResult:
+            *lead, a, b = flat[i]
+            return program().solve(P[tuple(lead) + (a,)], P[tuple(lead) + (b,)])
+
+        found = _search(upper, solve)
+        r = found.result
+        if found.index < 0:
+            return WorstCase(kind, math.nan, math.nan, None, None, None, None, None, None, "lp", "infeasible",
+                             r.solver_status if r else "", "no utility in the class meets E[g | x, a] >= tau: "
+                             + (found.reason or ""), found.solved)
+        *lead, a, b = flat[found.index]
+        x = lead[0] if kind == "local" else None
+        return WorstCase(kind, _log(r.value), r.value, label_x(x), law.groups[a], law.groups[b], None,
+                         util(r.argmax) if r.argmax is not None else None, None, "lp", r.status, r.solver_status,
+                         r.reason, found.solved)
+
+    valid_local = cell[:, :, None] & cell[:, None, :] & ~np.eye(nA, dtype=bool)[None]
+    local = case("local", Qz, valid_local, lambda x: law.contexts[x])
+    pu = np.nan_to_num(group_decision_law(law, population), nan=0.0)
+    has = population.p_group > 0
+    valid_global = has[:, None] & has[None, :] & ~np.eye(nA, dtype=bool)
+    global_ = case("global", pu, valid_global, lambda x: None)
+    return WorstUtility(local, global_, law, lower, gamma, tau, population, excluded)

@@ -180,7 +180,7 @@ def threshold_max_many(p, q, lower, upper):
     p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
     lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
     hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
     order = np.argsort(-r, axis=-1, kind="stable")
     span = hi - lo
@@ -189,7 +189,7 @@ def threshold_max_many(p, q, lower, upper):
         [zeros, np.cumsum(np.take_along_axis(p * span, order, -1), -1)], -1)
     den = (q * lo).sum(-1, keepdims=True) + np.concatenate(
         [zeros, np.cumsum(np.take_along_axis(q * span, order, -1), -1)], -1)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
     k = values.argmax(axis=-1)
     best = np.take_along_axis(values, k[..., None], -1)[..., 0]

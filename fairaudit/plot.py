@@ -223,17 +223,19 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     ax.set_xlabel("privacy budget ε (nats)")
     ax.set_ylabel("local g-fairness L (nats)")
     ax.grid(True, color="0.9", lw=0.6)
-    if title is None:
-        title = f"{curve.title}\n{curve.family}" if curve.title else curve.family
-    ax.set_title("\n".join(textwrap.fill(line, 78) for line in title.splitlines()), fontsize=10)
-    if missing:
-        why = "need τ (not given)" if curve.tau is None else "do not apply to this utility"
-        ax.text(0.99, 0.02, f"{', '.join(missing)} bound{'s' if len(missing) > 1 else ''}: {why}",
-                transform=ax.transAxes, ha="right", va="bottom", fontsize=8, color="0.3")
     sec = _secondary(curve, secondary_axis)
     if sec is not None:
         top_ax = ax.secondary_xaxis("top", functions=(sec[1], sec[2]))
         top_ax.set_xlabel(sec[0])
+    if title is None:
+        title = f"{curve.title}\n{curve.family}" if curve.title else curve.family
+    # a secondary top axis is not seen by the title's automatic placement: lift the title over it
+    ax.set_title("\n".join(textwrap.fill(line, 90) for line in title.splitlines()), fontsize=10,
+                 pad=36 if sec is not None else None)
+    if missing:
+        why = "need τ (not given)" if curve.tau is None else "do not apply to this utility"
+        ax.text(0.99, 0.02, f"{', '.join(missing)} bound{'s' if len(missing) > 1 else ''}: {why}",
+                transform=ax.transAxes, ha="right", va="bottom", fontsize=8, color="0.3")
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     if path is not None:
         save_figure(fig, path)

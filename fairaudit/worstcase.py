@@ -113,6 +113,8 @@ def _relaxed_first(num: Callable[[int], np.ndarray], den: Callable[[int], np.nda
             v, k, frac, order = floor_max_many(p, q, lower, upper, floor)
         if not np.isnan(v):
             h = box_point(lower, upper, order, int(k), float(frac))
+            free = (p == 0) & (q == 0)            # cells outside the objective: the top of the box helps every τ row
+            h[free] = np.broadcast_to(np.asarray(upper, dtype=float), h.shape)[free]
             if rows is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
                 status = "unbounded" if math.isinf(v) else "optimal"
                 return FractionalResult(float(v), h, status, "threshold", "closed form", "", p, q, None, None)

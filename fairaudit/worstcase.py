@@ -612,9 +612,11 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
     >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]))
     >>> round(w.local.ratio, 12), w.local.group, w.local.kernel.probabilities[0, :, 0].tolist()
     (2.333333333333, 'Tom', [1.0, 0.0])
-    >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]), tau=0.5)
-    >>> round(w.local.ratio, 7), w.local.method
-    (1.5714286, 'lp')
+    >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]), tau=0.5)   # 11/7, as black_box_bound
+    >>> round(w.local.ratio, 12), w.local.method, w.local.kernel.probabilities[0, :, 0].round(6).tolist()
+    (1.571428571429, 'threshold', [1.0, 0.285714])
+    >>> round(worst_model(m, indicator("chosen", ["chosen", "not chosen"]), tau=0.5, method="lp").local.ratio, 7)
+    1.5714286
     """
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
@@ -859,7 +861,7 @@ def _model_case(kind, found: _Search, triples, contexts, groups, to_kernel, kern
     kern = kernel_of(to_kernel(r.argmax)) if r.argmax is not None else None
     eu = audit(kern, kind) if kern is not None else None
     return WorstCase(kind, _log(r.value), r.value, contexts[x] if kind == "local" else None, groups[a], groups[b], kern,
-                     None, eu, "lp", r.status, r.solver_status, r.reason, found.solved)
+                     None, eu, "lp" if found.solved else "threshold", r.status, r.solver_status, r.reason, found.solved)
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -1014,8 +1016,8 @@ def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: floa
         *lead, a, b = flat[found.index]
         x = lead[0] if kind == "local" else None
         return WorstCase(kind, _log(r.value), r.value, label_x(x), law.groups[a], law.groups[b], None,
-                         util(r.argmax) if r.argmax is not None else None, None, "lp", r.status, r.solver_status,
-                         r.reason, found.solved)
+                         util(r.argmax) if r.argmax is not None else None, None, "lp" if found.solved else "threshold",
+                         r.status, r.solver_status, r.reason, found.solved)
 
     valid_local = cell[:, :, None] & cell[:, None, :] & ~np.eye(nA, dtype=bool)[None]
     local = case("local", Qz, valid_local, lambda x: law.contexts[x])

@@ -1,83 +1,602 @@
 """Calibration: the largest privacy budget ε whose certificate meets a fairness target.
 
-This release calibrates k-ary randomized response on the sensitive attribute:
+:func:`calibrate` moves along a one-parameter family ε ↦ M_ε of mechanisms on
+the sensitive attribute (:class:`~fairaudit.privacy.MechanismFamily`; k-ary
+randomized response by default) and returns the largest ε whose certificate on
+local g-fairness L (or global L̄) is at most the target, with the mechanism
+that realises it and its price, the keep probability (how often the true
+attribute reaches the model). Four methods, from the loosest:
 
-* ``black_box`` (default): the exact worst case over every decision model for
-  utilities in [lower, γ] (:func:`fairaudit.worstcase.black_box_bound`). For
-  k-ary randomized response the worst pair's ratio is, with t = e^ε and
-  ρ = lower / γ,
+* ``paper`` and ``tight`` — closed forms of the main theorem (paper SI C,
+  Theorem "main"; DESIGN.md "Tight bound"). With c = L_A·diam(A) + δγ,
 
-      R(t) = (ρ (t + k − 1) + (1 − ρ) t) / (ρ (t + k − 1) + 1 − ρ),
+      paper:  ε = target − log(1 + c/τ)
+      tight:  ε = log(e^target − c/τ)
 
-  increasing in t, so R(t) = e^target solves in closed form:
-  t = (T ρ (k − 1) + T (1 − ρ) − ρ (k − 1)) / (1 − T ρ) with T = e^target;
-  when T ρ ≥ 1 every ε meets the target (γ / lower ≤ T).
-* ``paper`` and ``tight``: the main theorem (needs τ); the bound is
-  continuous and non-decreasing in ε for randomized response, so the largest
-  ε is found by bisection to 1e-12.
+  They certify *every* (ε, δ)-DP mechanism on the groups, not only the
+  family's, so they are looser than ``black_box`` for a known family. Both
+  need τ; no ε meets a target below the floor log(1 + c/τ).
+* ``black_box`` — the exact worst case over every decision model
+  (:func:`fairaudit.worstcase.black_box_bound`) of the family member M_ε. It
+  is non-decreasing in ε along the family (a smaller ε is a post-processing of
+  a larger one: ``proofs/calibration.md`` §3), so the largest ε is found by
+  a bracketing root finder (bisection safeguarded regula falsi) to 1e-11
+  relative; for k-ary randomized response with τ ≤ lower and L_A = 0 the
+  closed form of ``proofs/black_box.md`` §3 is used directly.
+* ``white_box`` — a known (or estimated) decision kernel: the exact L (or L̄)
+  of ``compose(kernel, M_ε, M_X)``. It need not be monotone in ε, so the
+  result is the largest ε such that *every* ε' in [0, ε] meets the target,
+  found by scanning a grid and refining the first crossing.
 
-Its price is the keep probability e^ε / (e^ε + k − 1): how often the true
-attribute reaches the model. Proof of the closed form: ``proofs/black_box.md``.
+Proofs: ``proofs/calibration.md``.
 """
 
 from __future__ import annotations
 
+import inspect
 import math
+import numbers
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from ._errors import InputError
-from .bounds import paper_bound, tight_bound
-from .privacy import Mechanism, keep_probability, randomized_response
+from .bounds import main_theorem, main_theorem_tight
+from .laws import Kernel, Population, compose
+from .metrics import global_fairness, local_fairness
+from .privacy import Mechanism, MechanismFamily, randomized_response, randomized_response_family
+from .utility import Utility, check_metric
 from .worstcase import black_box_bound
 
-__all__ = ["Calibration", "calibrate_randomized_response"]
+__all__ = ["Calibration", "calibrate", "calibrate_randomized_response", "METHODS"]
 
-METHODS = ("black_box", "tight", "paper")
+METHODS = ("paper", "tight", "black_box", "white_box")
+KINDS = ("local", "global")
+
+_RTOL = 1e-11          # relative tolerance in ε of the root finder
+_ATOL = 1e-13          # absolute tolerance (for answers at or near ε = 0)
+_EPS_MAX = 500.0       # largest finite ε tried (e^500 is a finite double)
+_GRID = 64             # white-box scan: number of grid points
+_GRID_CAP = 50.0       # white-box scan: largest ε of the grid (or where keep ≥ 1 − 1e-12)
 
 
 @dataclass(frozen=True, eq=False)
 class Calibration:
-    """The largest ε of k-ary randomized response meeting a target.
+    """The largest ε of a family of mechanisms meeting a fairness target; repeats its inputs.
 
     Attributes
     ----------
     target : float
-        The target on local g-fairness L, in nats.
+        The target on L (``kind="local"``) or L̄ (``"global"``), nats.
+    kind : {"local", "global"}
     epsilon : float
-        The largest ε (nats) that meets it; +inf when every ε does.
+        The largest ε (nats) that meets the target: +inf when every ε does,
+        NaN when no ε does (``feasible`` is False).
     keep_probability : float
-        e^ε / (e^ε + k − 1).
-    method : {"black_box", "tight", "paper"}
+        The family's keep probability at ε (e^ε / (e^ε + k − 1) for k-ary
+        randomized response): the price of the guarantee. NaN when infeasible.
+    method : {"paper", "tight", "black_box", "white_box"}
     bound : float
-        The certificate at that ε (equal to the target unless every ε meets it).
-    groups : int
-        k.
-    gamma, lower, tau, delta : float
-        The utility class and (for paper/tight) τ; δ is 0 for randomized response.
+        The certificate (``white_box``: the exact L or L̄ of the model) at ε,
+        nats; equal to the target unless every ε meets it. When infeasible,
+        the smallest value any ε reaches (the floor), or +inf when nothing is
+        certified.
+    feasible : bool
+    reason : str
+        Why the target cannot be met, or which form gives ε.
+    family : str
+        The family's name, e.g. ``"8-ary randomized response"``.
     mechanism : Mechanism or None
-        The randomized response that realises it (None when ε is +inf).
+        The family's member at ε (the identity when ε = +inf); None when infeasible.
+    groups : int
+        k, the number of groups.
+    gamma, lower : float
+        The utility class [lower, γ].
+    tau : float
+        τ, or NaN when not given.
+    delta : float
+        δ of an arbitrary (ε, δ)-DP mechanism (``paper`` and ``tight``); 0 otherwise.
+    lipschitz, diameter : float
+        L_A and diam(A) (1 under the discrete metric).
     """
 
     target: float
+    kind: str
     epsilon: float
     keep_probability: float
     method: str
     bound: float
+    feasible: bool
+    reason: str
+    family: str
+    mechanism: Mechanism | None
     groups: int
     gamma: float
     lower: float
     tau: float
     delta: float
-    mechanism: Mechanism | None
+    lipschitz: float
+    diameter: float
+
+    def __repr__(self) -> str:
+        if not self.feasible:
+            return f"Calibration({self.method}, {self.kind}, target={self.target:.6g}: infeasible, {self.reason})"
+        return (f"Calibration({self.method}, {self.kind}, target={self.target:.6g}: epsilon={self.epsilon:.6g} nats, "
+                f"keep={self.keep_probability:.6g}, bound={self.bound:.6g})")
+
+
+# -- input checks --------------------------------------------------------------------------------------
+
+def _number(flag: str, value, *, low: float = 0.0, high: float = math.inf, low_open: bool = False,
+            what: str = "a finite non-negative number") -> float:
+    if isinstance(value, bool):
+        raise InputError(flag, f"must be {what}", value)
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(flag, f"must be {what}", value) from None
+    if not math.isfinite(v) or v < low or (low_open and v == low) or v > high:
+        raise InputError(flag, f"must be {what}", value)
+    return v
+
+
+def _resolve_family(family, groups, kernel) -> MechanismFamily:
+    if family is not None:
+        if not isinstance(family, MechanismFamily):
+            raise InputError("family", "must be a MechanismFamily", type(family).__name__)
+        k = len(family.inputs)
+        if k < 2:
+            raise InputError("--groups", "needs at least 2 groups", k)
+        if groups is not None:
+            given = groups if isinstance(groups, numbers.Integral) else len(list(groups))
+            if int(given) != k:
+                raise InputError("--groups", f"must match the family's {k} groups ({family.name})", given)
+        return family
+    if groups is None:
+        labels: Sequence[Hashable] = kernel.groups if kernel is not None else (0, 1)
+    elif isinstance(groups, numbers.Integral) and not isinstance(groups, bool):
+        if groups < 2:
+            raise InputError("--groups", "randomized response needs at least 2 groups", int(groups))
+        labels = tuple(range(int(groups)))
+    elif isinstance(groups, (str, bytes)) or not isinstance(groups, Sequence):
+        raise InputError("--groups", "must be a number of groups k >= 2 or a list of group labels", groups)
+    else:
+        labels = tuple(groups)
+        if len(labels) < 2:
+            raise InputError("--groups", "randomized response needs at least 2 groups", len(labels))
+    return randomized_response_family(labels)
+
+
+def _diameter(diameter, metric, k: int) -> float:
+    if diameter is not None:
+        return _number("diameter", diameter)
+    if metric is None:
+        return 1.0
+    try:
+        return float(check_metric(metric, k).max())
+    except InputError as exc:
+        raise InputError("metric", exc.problem, exc.value if exc.value is not InputError._missing else None) from None
+
+
+# -- root finding along a non-decreasing function -------------------------------------------------------
+
+def _largest_meeting(f: Callable[[float], float], target: float, lo: float, f_lo: float, hi: float,
+                     f_hi: float) -> tuple[float, float]:
+    """Largest ε in [lo, hi) with f(ε) ≤ target, for f non-decreasing on [lo, hi], f(lo) ≤ target < f(hi).
+
+    Keeps the bracket f(lo) ≤ target < f(hi) and stops when
+    hi − lo ≤ 1e-11·lo + 1e-13: Illinois regula falsi, with a bisection step
+    whenever two steps did not halve the bracket (so never much slower than
+    bisection). Returns (lo, f(lo)).
+    """
+    g_lo, g_hi = f_lo - target, f_hi - target        # g_lo <= 0 < g_hi
+    last = 0                                          # +1: the last step moved lo, -1: it moved hi
+    checkpoint, count, probed = hi - lo, 0, False
+    while hi - lo > _RTOL * lo + _ATOL:
+        tol = _RTOL * lo + _ATOL
+        bisect = False
+        if count >= 2:
+            bisect = hi - lo > 0.5 * checkpoint
+            checkpoint, count = hi - lo, 0
+        count += 1
+        if g_lo == 0.0 and not probed:               # lo meets the target exactly: is it the end already?
+            x, probed = lo + 0.5 * tol, True
+        elif bisect or g_lo == 0.0 or not math.isfinite(g_hi):
+            x = 0.5 * (lo + hi)
+        else:
+            x = lo + (hi - lo) * (-g_lo) / (g_hi - g_lo)
+            x = min(max(x, lo + 0.25 * tol), hi - 0.25 * tol)
+        fx = f(x)
+        if fx <= target:
+            lo, f_lo, g_lo = x, fx, fx - target
+            if last == 1:
+                g_hi *= 0.5                           # Illinois: the same end moved twice
+            last = 1
+        else:
+            hi, g_hi = x, fx - target
+            if last == -1:
+                g_lo *= 0.5
+            last = -1
+    return lo, f_lo
+
+
+def _bracket(f: Callable[[float], float], target: float, lo: float, f_lo: float, start: float):
+    """Grow hi from ``start`` (doubling) until f(hi) > target; None when f stays ≤ target up to ε = 500."""
+    hi = max(start, lo + 1.0 if lo == 0 else 2 * lo)
+    while True:
+        f_hi = f(hi)
+        if not f_hi <= target:
+            return lo, f_lo, hi, f_hi
+        lo, f_lo = hi, f_hi
+        if hi >= _EPS_MAX:
+            return None
+        hi = min(2 * hi, _EPS_MAX)
+
+
+# -- the four methods -----------------------------------------------------------------------------------
+
+def _result(common: dict, method: str, epsilon: float, bound: float, reason: str, family: MechanismFamily,
+            feasible: bool = True) -> Calibration:
+    if feasible:
+        keep = family.keep_probability(epsilon)
+        mech = family(epsilon)
+    else:
+        keep, mech, epsilon = math.nan, None, math.nan
+    return Calibration(epsilon=float(epsilon), keep_probability=float(keep), method=method, bound=float(bound),
+                       feasible=bool(feasible), reason=reason, family=family.name, mechanism=mech, **common)
+
+
+def _closed_form(common: dict, method: str, family: MechanismFamily) -> Calibration:
+    target, gamma, tau = common["target"], common["gamma"], common["tau"]
+    lip, diam, delta = common["lipschitz"], common["diameter"], common["delta"]
+    c = lip * diam + delta * gamma
+    floor = math.log1p(c / tau)
+    terms = f"log(1 + (L_A*diam + delta*gamma)/tau) = log(1 + ({lip:g}*{diam:g} + {delta:g}*{gamma:g})/{tau:g})"
+    if target < floor * (1 - 1e-14):  # (a few ulps of rounding in the floor itself are not a violation)
+        return _result(common, method, math.nan, floor, f"the target {target:.6g} nats is below the floor {terms} = "
+                       f"{floor:.6g} nats, the {method} bound at epsilon = 0: no privacy budget meets it", family,
+                       feasible=False)
+    if method == "paper":
+        eps = max(0.0, target - floor)
+        bound = main_theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
+        form = f"epsilon = target - log(1 + (L_A*diam + delta*gamma)/tau) = {target:.6g} - {floor:.6g}"
+    else:
+        eps = max(0.0, target + math.log1p(-(c / tau) * math.exp(-target)))
+        bound = main_theorem_tight(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
+        form = f"epsilon = log(e^target - (L_A*diam + delta*gamma)/tau) = log(e^{target:.6g} - {c / tau:.6g})"
+    return _result(common, method, eps, bound, f"closed form of the {method} bound, {form}; it certifies every "
+                   f"(epsilon, {delta:g})-DP mechanism on the groups (looser than black_box for a known family)", family)
 
 
 def _rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> float:
+    """Closed form of ``proofs/black_box.md`` §3: the largest ε of k-ary RR with black-box value ≤ target."""
     rho = lower / gamma if gamma > 0 else 1.0
     big_t = math.exp(target)
     if big_t * rho >= 1.0:
         return math.inf
     t = (big_t * rho * (k - 1) + big_t * (1 - rho) - rho * (k - 1)) / (1 - big_t * rho)
     return math.log(max(t, 1.0))
+
+
+def _is_randomized_response(family: MechanismFamily, eps: float) -> Mechanism | None:
+    """The family's member at ``eps`` when it is k-ary randomized response on the family's inputs, else None."""
+    m = family(eps)
+    if tuple(m.inputs) != tuple(family.inputs) or tuple(m.outputs) != tuple(family.inputs):
+        return None
+    rr = randomized_response(family.inputs, eps)
+    return m if np.allclose(m.matrix, rr.matrix, rtol=1e-13, atol=0.0) else None
+
+
+def _black_box(common: dict, family: MechanismFamily, metric, population: Population | None) -> Calibration:
+    target, gamma, lower, tau, lip = (common[k] for k in ("target", "gamma", "lower", "tau", "lipschitz"))
+    params = inspect.signature(black_box_bound).parameters
+    kwargs: dict = {"lower": lower, "gamma": gamma, "population": population}
+    notes = []
+    if not math.isnan(tau):
+        if "tau" in params:
+            kwargs["tau"] = tau
+        elif tau > lower:
+            notes.append(f"tau = {tau:g} is not used by this black-box version (valid, possibly conservative)")
+    if lip > 0:
+        if "lipschitz" not in params:
+            raise InputError("--lipschitz", "the black-box certificate of this version needs a utility independent "
+                                            "of the group (L_A = 0); use --method tight or paper", lip)
+        kwargs["lipschitz"] = lip
+        if metric is not None:
+            kwargs["metric"] = metric
+    cls = f"utilities in [{lower:g}, {gamma:g}]" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}") + \
+          (f", L_A = {lip:g}" if lip > 0 else ", independent of the group")
+    note = "".join(f"; {n}" for n in notes)
+
+    def bound(eps: float) -> float:
+        return black_box_bound(family(eps), **kwargs).value
+
+    top = bound(math.inf)
+    if target >= top:
+        return _result(common, "black_box", math.inf, top, f"every epsilon meets the target: even the identity "
+                       f"(epsilon = inf) gives a worst case of {top:.6g} nats over every model, {cls}{note}", family)
+    simple = (math.isnan(tau) or tau <= lower) and lip == 0
+    if simple:
+        guess = _rr_black_box_epsilon(target, len(family.inputs), lower, gamma)
+        if math.isfinite(guess) and _is_randomized_response(family, guess) is not None:
+            return _result(common, "black_box", guess, bound(guess), "exact worst case over every model, "
+                           f"{cls}; closed form for k-ary randomized response (proofs/black_box.md section 3){note}",
+                           family)
+    # The bound is non-decreasing along the family (post-processing): bracket, then refine.
+    if lip > 0:
+        f0 = bound(0.0)
+        if f0 > target:
+            return _result(common, "black_box", math.nan, f0, f"the target {target:.6g} nats is below the black-box "
+                           f"bound at epsilon = 0 (the attribute fully randomized), {f0:.6g} nats: a utility that "
+                           f"depends on the group (L_A = {lip:g}) differs across groups whatever the mechanism; no "
+                           "privacy budget meets it", family, feasible=False)
+    else:
+        f0 = 0.0   # every member at ε = 0 has equal rows: all groups see the same law, L = 0
+    lo, f_lo, start = 0.0, f0, max(target, 1e-3)
+    if lip == 0 and target > 0:
+        f_t = bound(target)  # black-box ≤ ε(M_ε) = ε for g independent of the group, so ε = target meets it
+        if f_t <= target:
+            lo, f_lo, start = target, f_t, 2 * target
+        else:
+            start = target
+    found = _bracket(bound, target, lo, f_lo, start)
+    if found is None:
+        return _result(common, "black_box", _EPS_MAX, bound(_EPS_MAX), f"the bound stays below the target up to "
+                       f"epsilon = {_EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this{note}",
+                       family)
+    eps, value = _largest_meeting(bound, target, *found)
+    return _result(common, "black_box", eps, value, f"exact worst case over every model, {cls}; largest epsilon by "
+                   f"bracketing (the bound is non-decreasing along the family){note}", family)
+
+
+def _keep_grid(family: MechanismFamily) -> np.ndarray:
+    """The white-box scan: 32 values of ε evenly spaced in [0, cap], 32 more evenly spaced in keep probability.
+
+    cap is 50 nats, or less: where the keep probability reaches 1 − 1e-12.
+    """
+    def keep(e: float) -> float:
+        return family.keep_probability(e)
+
+    cap = _GRID_CAP
+    if keep(cap) >= 1 - 1e-12:
+        lo, hi = 0.0, cap
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if keep(mid) < 1 - 1e-12 else (lo, mid)
+        cap = hi
+    half = _GRID // 2
+    points = set(np.linspace(0.0, cap, half).tolist())
+    k0, k1 = keep(0.0), keep(cap)
+    for p in np.linspace(k0, k1, half + 2)[1:-1]:
+        lo, hi = 0.0, cap
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if keep(mid) < p else (lo, mid)
+        points.add(hi)
+    return np.array(sorted(points))
+
+
+def _white_box(common: dict, family: MechanismFamily, kernel: Kernel, utility: Utility, population,
+               context_mechanism) -> Calibration:
+    target, kind = common["target"], common["kind"]
+    limit = target + 1e-13 * max(1.0, target)   # rounding in the computed L (a few ulps) is not a violation
+    measure = local_fairness if kind == "local" else global_fairness
+    name = "L" if kind == "local" else "L-bar"
+
+    def value(eps: float) -> float:
+        try:
+            law = compose(kernel, family(eps), context_mechanism)
+        except InputError as exc:
+            raise exc.under("kernel", keep_own=True) from None
+        v = measure(law, utility, population).value
+        return math.inf if math.isnan(v) else v
+
+    f0 = value(0.0)
+    if not f0 <= limit:
+        why = []
+        if utility.depends_on_group:
+            why.append("the utility depends on the group")
+        if kind == "global" and population is not None and not population.independence().independent:
+            why.append("X and A are dependent in the population")
+        cause = f" ({'; '.join(why)})" if why else ""
+        later = next((float(e) for e in _keep_grid(family)[1:] if value(float(e)) <= limit), None)
+        also = "" if later is None else (f"; some larger epsilon meets it (e.g. {later:.6g} nats) but not every "
+                                         "smaller one: the model's fairness is not monotone in epsilon")
+        return _result(common, "white_box", math.nan, f0, f"the model's {name} is {f0:.6g} nats > target "
+                       f"{target:.6g} already at epsilon = 0, where the attribute is fully randomized{cause}: no "
+                       f"privacy budget [0, epsilon] meets it{also}", family, feasible=False)
+    grid = _keep_grid(family)
+    lo, f_lo = 0.0, f0
+    for eps in grid[1:]:
+        v = value(float(eps))
+        if not v <= limit:
+            eps_star, reached = _largest_meeting(value, limit, lo, f_lo, float(eps), v)
+            return _result(common, "white_box", eps_star, reached, f"exact {name} of the model behind the family; "
+                           f"every epsilon in [0, {eps_star:.6g}] meets the target (first crossing of a "
+                           f"{len(grid)}-point scan, refined)", family)
+        lo, f_lo = float(eps), v
+    top = value(math.inf)
+    if top <= limit:
+        return _result(common, "white_box", math.inf, top, f"every epsilon meets the target: the model's {name} "
+                       f"without privacy is {top:.6g} nats and no point of the {len(grid)}-point scan exceeds it",
+                       family)
+    found = _bracket(value, limit, lo, f_lo, 2 * lo)
+    if found is None:
+        return _result(common, "white_box", _EPS_MAX, value(_EPS_MAX), f"the model's {name} stays below the target "
+                       f"up to epsilon = {_EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this",
+                       family)
+    eps_star, reached = _largest_meeting(value, limit, *found)
+    return _result(common, "white_box", eps_star, reached, f"exact {name} of the model behind the family; every "
+                   f"epsilon in [0, {eps_star:.6g}] meets the target (scan, then refined)", family)
+
+
+# -- public ---------------------------------------------------------------------------------------------
+
+def calibrate(
+    target: float,
+    *,
+    kind: str = "local",
+    method: str | None = None,
+    family: MechanismFamily | None = None,
+    groups: int | Sequence[Hashable] | None = None,
+    gamma: float = 1.0,
+    lower: float = 0.0,
+    tau: float | None = None,
+    lipschitz: float = 0.0,
+    metric=None,
+    diameter: float | None = None,
+    delta: float = 0.0,
+    kernel: Kernel | None = None,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    context_mechanism: Mechanism | None = None,
+) -> Calibration:
+    """The largest privacy budget ε of a mechanism family whose certificate meets ``target``.
+
+    Parameters
+    ----------
+    target : float
+        Target on local g-fairness L (or global L̄), nats, finite and ≥ 0.
+    kind : {"local", "global"}
+        ``"global"``: the target is on L̄. The paper, tight and black-box
+        certificates bound L̄ only under X ⊥ A (L̄ ≤ L); with a dependent
+        ``population`` the result is infeasible. White-box computes L̄ exactly.
+    method : {"paper", "tight", "black_box", "white_box"}, optional
+        Default: ``white_box`` with a kernel; else ``tight`` when δ > 0
+        (an arbitrary (ε, δ)-DP mechanism); else ``black_box``.
+    family : MechanismFamily, optional
+        The mechanisms ε ↦ M_ε on the groups; default k-ary randomized
+        response (:func:`~fairaudit.privacy.randomized_response_family`).
+    groups : int or sequence of hashable, optional
+        k, or the group labels (default: the kernel's groups, else 2).
+    gamma, lower : float
+        The utility class g ∈ [lower, γ], 0 ≤ lower ≤ γ, γ > 0.
+    tau : float, optional
+        τ ∈ (0, γ], a lower bound on every E[g | x, a]; needed by ``paper``
+        and ``tight``, optional for ``black_box``.
+    lipschitz : float
+        L_A ≥ 0 (0: g does not depend on the group).
+    metric : array_like, shape (k, k), optional
+        d(a, a'); default the discrete metric.
+    diameter : float, optional
+        diam(A) for the closed forms; default max d(a, a') (1 when discrete).
+    delta : float
+        δ ∈ [0, 1] of an arbitrary (ε, δ)-DP mechanism, for ``paper`` and
+        ``tight`` only.
+    kernel : Kernel, optional
+        P(U | X̃, Ã) over the family's inputs as groups, for ``white_box``.
+    utility : Utility, optional
+        g, for ``white_box``.
+    population : Population, optional
+        P(X, A): excludes empty contexts, weighs L̄, and is checked for X ⊥ A.
+    context_mechanism : Mechanism, optional
+        M_X in front of the kernel (``white_box``); default the identity.
+
+    Returns
+    -------
+    Calibration
+        ε (+inf when every ε meets the target, NaN when none does), the keep
+        probability, the method, the bound at ε, ``feasible`` and ``reason``.
+
+    Raises
+    ------
+    InputError
+        Naming the command-line flag: a negative or non-finite ``--target``,
+        an unknown ``--method``, fewer than 2 ``--groups`` (or a count that
+        differs from the family's), ``--gamma`` ≤ 0, ``--lower`` outside
+        [0, γ], ``--tau`` outside (0, γ] or missing for paper/tight,
+        ``--delta`` outside [0, 1] or given to black_box/white_box, a negative
+        ``--lipschitz``, or white_box without a kernel (``--spec``) or utility.
+
+    Notes
+    -----
+    * paper (paper SI C, Theorem "main"): L ≤ ε + log(1 + c/τ) with
+      c = L_A·diam(A) + δγ, so ε = target − log(1 + c/τ).
+    * tight (DESIGN.md "Tight bound", the theorem's proof): L ≤
+      log(e^ε + c/τ), so ε = log(e^target − c/τ) ≥ the paper's ε.
+    * black_box: the largest ε with ``black_box_bound(family(ε), lower=,
+      gamma=, tau=, lipschitz=, metric=).value ≤ target``.
+    * white_box: the largest ε such that every ε' ∈ [0, ε] has L (L̄) of
+      ``compose(kernel, family(ε'), context_mechanism)`` ≤ target.
+
+    Proofs and the tests that check them: ``proofs/calibration.md``.
+
+    Examples
+    --------
+    Two groups, g ∈ [0, 1]: the worst model's L is ε itself.
+
+    >>> c = calibrate(0.5)
+    >>> c.method, round(c.epsilon, 12), round(c.keep_probability, 6)
+    ('black_box', 0.5, 0.622459)
+
+    The tight closed form with L_A = 0.2 and τ = 0.5: ε = log(e − 0.4).
+
+    >>> c = calibrate(1.0, method="tight", tau=0.5, lipschitz=0.2)
+    >>> round(c.epsilon, 12) == round(math.log(math.e - 0.4), 12), round(c.bound, 12)
+    (True, 1.0)
+
+    Below the floor log(1 + 0.4) = 0.336 nats nothing works:
+
+    >>> c = calibrate(0.3, method="paper", tau=0.5, lipschitz=0.2)
+    >>> c.feasible, math.isnan(c.epsilon), round(c.bound, 6)
+    (False, True, 0.336472)
+
+    A model that outputs the released group (g = 1{U = Ã}) behind binary
+    randomized response has L = ε exactly, so white-box gives the target.
+
+    >>> from fairaudit.laws import Kernel
+    >>> from fairaudit.utility import indicator
+    >>> k = Kernel([[[1.0, 0.0], [0.0, 1.0]]], ["all"], ["a", "b"], ["a", "b"])
+    >>> c = calibrate(0.7, kernel=k, utility=indicator("a", ["a", "b"]))
+    >>> c.method, round(c.epsilon, 9)
+    ('white_box', 0.7)
+    """
+    target = _number("--target", target, what="a finite non-negative number of nats")
+    if kind not in KINDS:
+        raise InputError("--global", "kind must be 'local' or 'global'", kind)
+    if method is not None and method not in METHODS:
+        raise InputError("--method", f"must be one of {', '.join(METHODS)}", method)
+    gamma = _number("--gamma", gamma, low_open=True, what="a finite positive number")
+    lower = _number("--lower", lower, high=gamma, what=f"a number in [0, gamma = {gamma:g}]")
+    if tau is not None:
+        tau = _number("--tau", tau, high=gamma, low_open=True, what=f"a number in (0, gamma = {gamma:g}]")
+    lipschitz = _number("--lipschitz", lipschitz)
+    delta = _number("--delta", delta, high=1.0, what="a number in [0, 1]")
+    if kernel is not None and not isinstance(kernel, Kernel):
+        raise InputError("kernel", "must be a Kernel", type(kernel).__name__)
+    if population is not None and not isinstance(population, Population):
+        raise InputError("population", "must be a Population", type(population).__name__)
+    fam = _resolve_family(family, groups, kernel)
+    k = len(fam.inputs)
+    diam = _diameter(diameter, metric, k)
+    if method is None:
+        method = "white_box" if kernel is not None else ("tight" if delta > 0 else "black_box")
+    if delta > 0 and method in ("black_box", "white_box"):
+        raise InputError("--delta", f"describes an arbitrary (epsilon, delta)-DP mechanism; the {method} method "
+                                    "calibrates the family itself (delta = 0): use --method tight or paper", delta)
+    if method in ("paper", "tight") and tau is None:
+        raise InputError("--tau", f"the {method} bound needs tau (a lower bound on E[g | x, a])")
+    if method == "white_box":
+        if kernel is None:
+            raise InputError("--spec", "the white_box method needs a decision model (a [model] in the spec, "
+                                       "or kernel=)")
+        if utility is None:
+            raise InputError("utility", "the white_box method needs the utility g")
+    common = dict(target=target, kind=kind, groups=k, gamma=gamma, lower=lower,
+                  tau=math.nan if tau is None else tau, delta=delta, lipschitz=lipschitz, diameter=diam)
+    if method == "white_box":
+        return _white_box(common, fam, kernel, utility, population, context_mechanism)
+    if kind == "global" and population is not None:
+        check = population.independence()
+        if not check.independent:
+            return _result(common, method, math.nan, math.inf, "X and A are not independent in the population "
+                           f"(max |P(x, a) - P(x) P(a)| = {check.max_deviation:.3g} at context {check.context!r}, group "
+                           f"{check.group!r}): the {method} certificate bounds L-bar only through L-bar <= L under "
+                           "X independent of A; use a model (white_box)", fam, feasible=False)
+    if method in ("paper", "tight"):
+        return _closed_form(common, method, fam)
+    return _black_box(common, fam, metric, population)
 
 
 def calibrate_randomized_response(
@@ -92,6 +611,9 @@ def calibrate_randomized_response(
 ) -> Calibration:
     """The largest ε of k-ary randomized response whose certificate on L meets ``target``.
 
+    A thin wrapper of :func:`calibrate` (``kind="local"``, the default
+    family) that raises instead of returning an infeasible result.
+
     Parameters
     ----------
     target : float
@@ -105,7 +627,7 @@ def calibrate_randomized_response(
     tau : float, optional
         Needed by ``tight`` and ``paper``.
     lipschitz : float
-        L_A for ``tight`` and ``paper``.
+        L_A.
 
     Returns
     -------
@@ -114,9 +636,8 @@ def calibrate_randomized_response(
     Raises
     ------
     InputError
-        On a negative target, fewer than 2 groups, an unknown method, or a
-        missing τ for paper/tight; or when the target is below what ε = 0
-        certifies (the floor log(1 + L_A/τ) of the theorem).
+        As :func:`calibrate`; and ``--target`` (with the reason) when no ε
+        meets the target, e.g. below the floor log(1 + L_A/τ).
 
     Examples
     --------
@@ -124,45 +645,7 @@ def calibrate_randomized_response(
     >>> round(c.epsilon, 12) == round(math.log(7 / 3), 12), round(c.keep_probability, 12)
     (True, 0.7)
     """
-    if not isinstance(target, (int, float)) or math.isnan(target) or target < 0:
-        raise InputError("--target", "must be a non-negative number of nats", target)
-    labels = list(range(groups)) if isinstance(groups, int) else list(groups)
-    k = len(labels)
-    if k < 2:
-        raise InputError("--groups", "randomized response needs at least 2 groups", k)
-    if method not in METHODS:
-        raise InputError("--method", f"must be one of {', '.join(METHODS)}", method)
-    if not (0 <= lower <= gamma) or gamma <= 0:
-        raise InputError("--lower", f"must satisfy 0 <= lower <= gamma = {gamma:g} and gamma > 0", lower)
-    if method == "black_box":
-        eps = _rr_black_box_epsilon(float(target), k, lower, gamma)
-        mech = None if math.isinf(eps) else randomized_response(labels, eps)
-        bound = black_box_bound(mech, lower=lower, gamma=gamma).value if mech is not None else math.log(gamma / lower) if lower > 0 else math.inf
-        return Calibration(float(target), eps, keep_probability(eps, k), method, bound, k, gamma, lower,
-                           math.nan if tau is None else tau, 0.0, mech)
-    if tau is None:
-        raise InputError("--tau", f"the {method} bound needs tau (a lower bound on E[g | x, a])")
-    fn = paper_bound if method == "paper" else tight_bound
-
-    def bound_at(eps: float) -> float:
-        return fn(randomized_response(labels, eps), gamma=gamma, tau=tau, lipschitz=lipschitz).value
-
-    floor = bound_at(0.0)
-    if floor > target + 1e-12:
-        raise InputError("--target", f"is below the {method} bound at epsilon = 0, {floor:.6g} nats "
-                                     "(log(1 + L_A/tau)); no privacy budget meets it", target)
-    lo, hi = 0.0, max(1.0, float(target))
-    while bound_at(hi) <= target:
-        lo, hi = hi, 2 * hi
-        if hi > 700:
-            return Calibration(float(target), math.inf, 1.0, method, bound_at(lo), k, gamma, lower, tau, 0.0, None)
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if bound_at(mid) <= target:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-12 * max(1.0, hi):
-            break
-    mech = randomized_response(labels, lo)
-    return Calibration(float(target), lo, keep_probability(lo, k), method, bound_at(lo), k, gamma, lower, tau, 0.0, mech)
+    c = calibrate(target, groups=groups, method=method, gamma=gamma, lower=lower, tau=tau, lipschitz=lipschitz)
+    if not c.feasible:
+        raise InputError("--target", c.reason, target)
+    return c

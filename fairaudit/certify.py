@@ -11,7 +11,8 @@
   filter (the model's table composed with the mechanisms) and of the model
   on its own (``unfiltered``, as if it saw the true attributes);
 * with a target: whether the best valid bound meets it, and the largest ε of
-  randomized response that would (the ``calibration``).
+  the spec's mechanism family that would (the ``calibration``: black-box, and
+  with a model also white-box; :func:`fairaudit.calibrate.calibrate`).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import numpy as np
 
 from ._errors import InputError
 from .bounds import Bound, corollary_bound, paper_bound, tight_bound
-from .calibrate import Calibration, calibrate_randomized_response
+from .calibrate import Calibration, calibrate
 from .laws import Kernel, Law, compose
 from .metrics import (
     Fairness,
@@ -105,6 +106,14 @@ class Certificate:
     observed, unfiltered : Observed or None
     targets : dict of str to TargetCheck
     calibration : Calibration or None
+        Black-box calibration of the spec's family for the targets (the
+        smaller ε of the local one and, under X ⊥ A, the global one); None
+        without a target or when skipped (see ``calibration_reason``).
+    calibration_white_box : Calibration or None
+        With a model and a target: the largest ε of the family such that the
+        model's own L (and L̄) stays within the targets on [0, ε].
+    calibration_reason : str
+        Why the black-box calibration was skipped, or "".
     assumptions : tuple of (Assumption, tuple of str)
         Each hypothesis with the forms it concerns.
     certified : bool
@@ -126,6 +135,8 @@ class Certificate:
     calibration: Calibration | None
     assumptions: tuple
     certified: bool
+    calibration_white_box: Calibration | None = None
+    calibration_reason: str = ""
 
 
 def observe(law: Law, utility, population) -> Observed:
@@ -224,7 +235,8 @@ def certify(spec: Spec | str | Path) -> Certificate:
     global_bound = best if independent else math.inf
 
     targets: dict[str, TargetCheck] = {}
-    calibration = None
+    calibration = calibration_white = None
+    calibration_reason = ""
     t = spec.model.target
     if t is not None:
         if t.local is not None:
@@ -238,13 +250,57 @@ def certify(spec: Spec | str | Path) -> Certificate:
                 "X and A are not independent in the population: no certified bound on L-bar"
             targets["global"] = TargetCheck("global", t.global_, global_bound, global_bound <= t.global_, obs,
                                             None if obs is None else bool(obs <= t.global_), why)
-        goal = min(v for v in (t.local, t.global_ if independent else None) if v is not None) \
-            if (t.local is not None or (t.global_ is not None and independent)) else None
-        if goal is not None and len(spec.groups) >= 2 and not spec.utility.depends_on_group:
-            calibration = calibrate_randomized_response(goal, list(spec.groups), gamma=gamma, lower=lower)
+        calibration, calibration_white, calibration_reason = _calibrations(spec, kernel, t, independent)
     certified = all(c.met for c in targets.values())
     return Certificate(spec, paper, tight, black_box, reason, corollary, best, best_form, global_bound, observed,
-                       unfiltered, targets, calibration, _merge_assumptions(forms), certified)
+                       unfiltered, targets, calibration, _merge_assumptions(forms), certified,
+                       calibration_white_box=calibration_white, calibration_reason=calibration_reason)
+
+
+def _tightest(results: list) -> Calibration | None:
+    """The calibration meeting every target: an infeasible one if any, else the smallest ε."""
+    if not results:
+        return None
+    bad = [c for c in results if not c.feasible]
+    return bad[0] if bad else min(results, key=lambda c: c.epsilon)
+
+
+def _calibrations(spec: Spec, kernel: Kernel | None, t, independent: bool):
+    """Calibrate the spec's family for its targets: black-box (and white-box with a model), and why one is skipped.
+
+    Black-box: ``calibrate(method="black_box")`` with the spec's family, τ, L_A,
+    metric and [lower, γ], for the local target and for the global one when
+    X ⊥ A (it bounds L̄ only then); the smaller ε. White-box: the same targets
+    on the model's exact L and L̄ (no independence needed).
+    """
+    family = spec.sensitive_family
+    if family is None:
+        return None, None, "fewer than 2 groups: nothing to calibrate"
+    goals = [(kind, v) for kind, v in (("local", t.local), ("global", t.global_)) if v is not None]
+    if not goals:
+        return None, None, ""
+    common = dict(family=family, gamma=spec.gamma, lower=spec.lower, population=spec.population)
+    black, reason = [], ""
+    if spec.utility.depends_on_group and spec.model.utility.lipschitz is None:
+        reason = "the utility depends on the group and the spec gives no utility.lipschitz for the black-box class"
+    else:
+        for kind, goal in goals:
+            if kind == "global" and not independent:
+                continue
+            try:
+                black.append(calibrate(goal, kind=kind, method="black_box", tau=spec.tau, lipschitz=spec.lipschitz,
+                                       metric=spec.metric, **common))
+            except InputError as exc:
+                reason = f"black-box calibration not available: {exc}"
+                black = []
+                break
+        if not black and not reason:
+            reason = "the only target is global and X and A are not independent: no black-box bound on L-bar"
+    white = []
+    if kernel is not None:
+        white = [calibrate(goal, kind=kind, method="white_box", kernel=kernel, utility=spec.utility,
+                           context_mechanism=spec.context_mechanism, **common) for kind, goal in goals]
+    return _tightest(black), _tightest(white), reason
 
 
 def _is_identity(mech) -> bool:

@@ -100,15 +100,26 @@ def build_parser() -> argparse.ArgumentParser:
     _add_output(a)
 
     k = sub.add_parser("calibrate", help="the largest privacy budget epsilon meeting a fairness target",
-                       description="Largest epsilon of k-ary randomized response on the sensitive attribute whose "
-                       "certificate on local g-fairness meets --target, and its keep probability.")
-    k.add_argument("--target", required=True, type=float, metavar="L", help="target on L, in nats")
-    k.add_argument("--groups", type=int, default=2, metavar="K", help="number of groups k (default 2)")
-    k.add_argument("--gamma", type=float, default=1.0, metavar="G", help="upper end of the utility (default 1)")
-    k.add_argument("--lower", type=float, default=0.0, metavar="B", help="lower end of the utility (default 0)")
-    k.add_argument("--tau", type=float, metavar="T", help="lower bound on E[g | x, a] (paper and tight methods)")
-    k.add_argument("--method", choices=("black_box", "tight", "paper"), default="black_box",
-                   help="certificate to calibrate (default black_box: exact, needs no tau)")
+                       description="Largest epsilon of a mechanism family on the sensitive attribute (k-ary "
+                       "randomized response, or the spec's) whose certificate on local g-fairness (or global, "
+                       "--global) meets --target, and its keep probability. Exit 1 when no epsilon meets it.")
+    k.add_argument("--target", required=True, type=float, metavar="L", help="target on L (or L-bar), in nats")
+    k.add_argument("--groups", type=int, metavar="K", help="number of groups k (default 2, or the spec's)")
+    k.add_argument("--gamma", type=float, metavar="G", help="upper end of the utility (default 1, or the spec's)")
+    k.add_argument("--lower", type=float, metavar="B", help="lower end of the utility (default 0, or the spec's)")
+    k.add_argument("--tau", type=float, metavar="T", help="lower bound on E[g | x, a] (needed by paper and tight; "
+                   "optional for black_box)")
+    k.add_argument("--delta", type=float, metavar="D", help="delta of an arbitrary (epsilon, delta)-DP mechanism "
+                   "(paper and tight; the default method becomes tight)")
+    k.add_argument("--lipschitz", type=float, metavar="LA", help="L_A, how much g may change with the group "
+                   "(default 0, or the spec's)")
+    k.add_argument("--method", choices=("paper", "tight", "black_box", "white_box"),
+                   help="certificate to calibrate (default: white_box with a model in --spec, tight with --delta, "
+                   "else black_box)")
+    k.add_argument("--global", dest="kind", action="store_const", const="global", default="local",
+                   help="the target is on global g-fairness L-bar")
+    k.add_argument("--spec", metavar="SPEC.toml", help="take groups, utility, tau, L_A, metric, population, "
+                   "mechanism family, context mechanism and model from a spec; flags override")
     _add_output(k)
     return parser
 
@@ -172,13 +183,37 @@ def _run(args) -> int:
         data = audit_dict(result)
         _emit(args, render(data, "audit", args.format), f"audit: {data['n']} records, L = {data['local']['value']} nats")
         return 0
-    from .calibrate import calibrate_randomized_response
+    return _run_calibrate(args)
 
-    cal = calibrate_randomized_response(args.target, args.groups, method=args.method, gamma=args.gamma,
-                                        lower=args.lower, tau=args.tau)
+
+def _run_calibrate(args) -> int:
+    from .calibrate import calibrate
+
+    opts: dict = {}
+    if args.spec:
+        from .spec import load_spec
+
+        spec = load_spec(args.spec)
+        n = len(spec.groups)
+        if args.groups is not None and args.groups != n:
+            raise InputError("--groups", f"the spec {args.spec} has {n} groups", args.groups)
+        opts.update(family=spec.sensitive_family, gamma=spec.gamma, lower=spec.lower, tau=spec.tau,
+                    lipschitz=spec.lipschitz, metric=spec.metric, population=spec.population,
+                    context_mechanism=spec.context_mechanism, kernel=spec.kernel(), utility=spec.utility)
+        if opts["family"] is None:
+            raise InputError("--spec", "needs at least 2 sensitive groups to calibrate", args.spec)
+    else:
+        opts["groups"] = 2 if args.groups is None else args.groups
+    for flag in ("gamma", "lower", "tau", "lipschitz", "delta"):
+        if getattr(args, flag) is not None:
+            opts[flag] = getattr(args, flag)
+    if args.spec and args.method in ("paper", "tight", "black_box"):
+        opts["kernel"] = None  # the model is for white_box only
+    cal = calibrate(args.target, kind=args.kind, method=args.method, **opts)
     data = calibration_dict(cal)
-    _emit(args, render(data, "calibrate", args.format), f"epsilon = {data['epsilon']}")
-    return 0
+    summary = f"epsilon = {data['epsilon']}" if cal.feasible else f"no epsilon meets the target: {cal.reason}"
+    _emit(args, render(data, "calibrate", args.format), summary)
+    return 0 if cal.feasible else 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:

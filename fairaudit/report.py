@@ -93,11 +93,33 @@ def _mechanism(m) -> dict:
 
 
 def calibration_dict(c) -> dict:
-    """The ``calibrate`` JSON: epsilon, keep_probability, method, bound, and the inputs."""
+    """The ``calibrate`` JSON of a :class:`~fairaudit.calibrate.Calibration`.
+
+    Contract keys: ``epsilon`` (``"inf"`` when every ε meets the target,
+    ``null`` when none does), ``keep_probability``, ``method``, ``bound``;
+    then ``feasible``, ``reason``, ``target``, ``kind``, ``mechanism`` (the
+    family member's name, or the family's when infeasible), ``family`` and the
+    inputs ``groups``, ``gamma``, ``lower``, ``tau`` (``null`` when not given),
+    ``delta``, ``lipschitz``, ``diameter``.
+    """
     return {"epsilon": _num(c.epsilon), "keep_probability": _num(c.keep_probability), "method": c.method,
-            "bound": _num(c.bound), "target": _num(c.target), "groups": c.groups, "gamma": _num(c.gamma),
-            "lower": _num(c.lower), "tau": _num(c.tau), "delta": _num(c.delta),
-            "mechanism": f"{c.groups}-ary randomized response"}
+            "bound": _num(c.bound), "feasible": bool(c.feasible), "reason": c.reason, "target": _num(c.target),
+            "kind": c.kind, "mechanism": c.mechanism.name if c.mechanism is not None else c.family,
+            "family": c.family, "groups": c.groups, "gamma": _num(c.gamma), "lower": _num(c.lower),
+            "tau": _num(c.tau), "delta": _num(c.delta), "lipschitz": _num(c.lipschitz), "diameter": _num(c.diameter)}
+
+
+def _certificate_calibration(cert) -> dict:
+    """``calibration`` of a certificate with a target: the black-box one (or nulls and why), and ``white_box``."""
+    if cert.calibration is not None:
+        out = calibration_dict(cert.calibration)
+    else:
+        out = {"epsilon": None, "keep_probability": None, "method": None, "bound": None, "feasible": False,
+               "reason": getattr(cert, "calibration_reason", "") or "no calibration"}
+    white = getattr(cert, "calibration_white_box", None)
+    if white is not None:
+        out["white_box"] = calibration_dict(white)
+    return out
 
 
 def certificate_dict(cert) -> dict:
@@ -147,8 +169,9 @@ def certificate_dict(cert) -> dict:
     if cert.targets:
         out["targets"] = {k: {"target": _num(t.target), "met": t.met, "bound": _num(t.bound), "observed": _num(t.observed),
                               "observed_met": t.observed_met, "reason": t.reason} for k, t in cert.targets.items()}
-    if cert.calibration is not None:
-        out["calibration"] = calibration_dict(cert.calibration)
+    if cert.calibration is not None or getattr(cert, "calibration_white_box", None) is not None or \
+            getattr(cert, "calibration_reason", ""):
+        out["calibration"] = _certificate_calibration(cert)
     return out
 
 
@@ -258,8 +281,19 @@ def _certificate_text(d: dict) -> str:
                          f"(bound {_nats(t['bound'])}{obs}; {t['reason']})")
     if "calibration" in d:
         c = d["calibration"]
-        lines.append(f"calibration: randomized response with epsilon <= {_nats(c['epsilon'])} (keep probability "
-                     f"{_fmt(c['keep_probability'])}) meets {_nats(c['target'])} for any model ({c['method']})")
+        if c["method"] is None:
+            lines.append(f"calibration: skipped ({c['reason']})")
+        elif c["feasible"]:
+            lines.append(f"calibration: randomized response with epsilon <= {_nats(c['epsilon'])} (keep probability "
+                         f"{_fmt(c['keep_probability'])}) meets {_nats(c['target'])} for any model ({c['method']})")
+        else:
+            lines.append(f"calibration: no epsilon meets {_nats(c['target'])} for any model ({c['method']}): {c['reason']}")
+        w = c.get("white_box")
+        if w is not None and w["feasible"]:
+            lines.append(f"calibration for this model: epsilon <= {_nats(w['epsilon'])} (keep probability "
+                         f"{_fmt(w['keep_probability'])}) keeps its {_measure(w)} <= {_nats(w['target'])} (white_box)")
+        elif w is not None:
+            lines.append(f"calibration for this model: no epsilon (white_box): {w['reason']}")
     lines.append("assumptions:")
     for a in d["assumptions"]:
         lines.append(f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})")
@@ -281,10 +315,21 @@ def _audit_text(d: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _measure(d: dict) -> str:
+    return "L-bar" if d.get("kind") == "global" else "L"
+
+
 def _calibration_text(d: dict) -> str:
-    return (f"largest epsilon of {d['mechanism']} meeting L <= {_nats(d['target'])}: {_nats(d['epsilon'])}\n"
+    if not d["feasible"]:
+        low = f"the model's {_measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
+        return (f"no epsilon of {d['family']} meets {_measure(d)} <= {_nats(d['target'])}\n"
+                f"method: {d['method']}; {low}: {_nats(d['bound'])}\n"
+                f"reason: {d['reason']}\n")
+    there = f"the model's {_measure(d)} there" if d["method"] == "white_box" else "certified bound there"
+    return (f"largest epsilon of {d['family']} meeting {_measure(d)} <= {_nats(d['target'])}: {_nats(d['epsilon'])}\n"
             f"keep probability (the price): {_fmt(d['keep_probability'])}\n"
-            f"method: {d['method']}; certified bound there: {_nats(d['bound'])}\n")
+            f"method: {d['method']}; {there}: {_nats(d['bound'])}\n"
+            f"reason: {d['reason']}\n")
 
 
 def _md_table(rows: list[tuple], head: tuple) -> list[str]:
@@ -325,8 +370,18 @@ def _certificate_md(d: dict) -> str:
                             for k, t in d["targets"].items()], ("target", "value", "bound", "result"))
     if "calibration" in d:
         c = d["calibration"]
-        lines += ["", f"Calibration: ε ≤ {_nats(c['epsilon'])} (keep probability {_fmt(c['keep_probability'])}) "
-                      f"meets the target for any model ({c['method']})."]
+        if c["method"] is None:
+            lines += ["", f"Calibration: skipped ({c['reason']})."]
+        elif c["feasible"]:
+            lines += ["", f"Calibration: ε ≤ {_nats(c['epsilon'])} (keep probability {_fmt(c['keep_probability'])}) "
+                          f"meets the target for any model ({c['method']})."]
+        else:
+            lines += ["", f"Calibration: no ε meets the target for any model ({c['method']}): {c['reason']}."]
+        w = c.get("white_box")
+        if w is not None:
+            lines += ["", f"Calibration for this model (white_box): ε ≤ {_nats(w['epsilon'])} (keep probability "
+                          f"{_fmt(w['keep_probability'])})." if w["feasible"] else
+                          f"Calibration for this model (white_box): no ε: {w['reason']}."]
     lines += ["", "## Assumptions", ""]
     lines += _md_table([(a["name"], a["status"], a["detail"], ", ".join(a["for"])) for a in d["assumptions"]],
                        ("assumption", "status", "detail", "for"))

@@ -341,6 +341,7 @@ class FractionalProgram:
         self._s = cp.Variable(nonneg=True)
         y, s = self._y, self._s
         cons = [self._q @ y == 1]
+        self._rows: list = []
         for bound, op in ((self.lower, "ge"), (self.upper, "le")):
             if bound is None:
                 continue
@@ -356,7 +357,11 @@ class FractionalProgram:
             if a.shape != (b.size, self.n):
                 raise InputError(name, f"shape must be ({b.size}, {self.n})", a.shape)
             cons.append(a @ y <= b * s if op == "le" else a @ y == b * s)
+            self._rows.append((a, b, op))
         self._problem = cp.Problem(cp.Maximize(self._p @ y), cons)
+        self._bounded = (self.lower is not None and self.upper is not None
+                         and bool(np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))))
+        self._primal = None
 
     def solve(self, p, q) -> FractionalResult:
         """The optimum for numerator ``p`` and denominator ``q`` (shape (n,) each).
@@ -385,14 +390,58 @@ class FractionalProgram:
             return FractionalResult(math.inf, None, "unbounded", "lp", status,
                                     "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0", p, q, lo, hi)
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-            return FractionalResult(math.nan, None, "infeasible", "lp", status,
-                                    "no feasible h has q·h > 0 (or the constraints are inconsistent)", p, q, lo, hi)
+            return self._zero_denominator(p, q, status)
         s = self._s.value
-        if s is None or s <= 1e-12:
-            return FractionalResult(math.inf, None, "unbounded", "lp", status,
-                                    "the optimum is approached only as q·h -> 0", p, q, lo, hi)
-        h = np.asarray(self._y.value, dtype=float) / float(s)
-        return FractionalResult(float(prob.value), h, "optimal", "lp", status, "", p, q, lo, hi)
+        if s is None:  # pragma: no cover - the solver returned no point
+            return FractionalResult(math.nan, None, "infeasible", "lp", status, "the solver returned no solution",
+                                    p, q, lo, hi)
+        if self._bounded and s > 0:
+            # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
+            h = np.asarray(self._y.value, dtype=float) / float(s)
+            return FractionalResult(float(prob.value), h, "optimal", "lp", status, "", p, q, lo, hi)
+        y = np.asarray(self._y.value, dtype=float)
+        if s <= 1e-12 * max(1.0, float(np.abs(y).max())):
+            return FractionalResult(float(prob.value), None, "optimal", "lp", status,
+                                    "the supremum is approached only as h grows without bound along a recession "
+                                    "direction of the polytope (q·h -> +inf); it is not attained", p, q, lo, hi)
+        return FractionalResult(float(prob.value), y / float(s), "optimal", "lp", status, "", p, q, lo, hi)
+
+    def _zero_denominator(self, p: np.ndarray, q: np.ndarray, status: str) -> FractionalResult:
+        """The transformed LP is infeasible: the polytope is empty, or q·h = 0 on all of it.
+
+        Tells the two apart with the LP max p·h over the polytope itself: empty
+        gives NaN; otherwise the ratio is +inf when some feasible h has
+        p·h > 0 (c/0) and 1 when p·h = 0 too (0/0, parity).
+        """
+        import cvxpy as cp
+
+        lo, hi = self.lower, self.upper
+        if self._primal is None:
+            h = cp.Variable(self.n)
+            c = cp.Parameter(self.n)
+            cons = []
+            for bound, op in ((lo, "ge"), (hi, "le")):
+                if bound is not None and np.isfinite(bound).any():
+                    idx = np.flatnonzero(np.isfinite(bound))
+                    cons.append(h[idx] >= bound[idx] if op == "ge" else h[idx] <= bound[idx])
+            for a, b, op in self._rows:
+                cons.append(a @ h <= b if op == "le" else a @ h == b)
+            self._primal = (cp.Problem(cp.Maximize(c @ h), cons), h, c)
+        prob, h, c = self._primal
+        c.value = p
+        try:
+            prob.solve(solver=cp.CLARABEL, **_TOLERANCES)
+        except cp.error.SolverError as exc:  # pragma: no cover
+            return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
+        if prob.status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+            return FractionalResult(math.nan, None, "infeasible", "lp", status,
+                                    "the constraints are inconsistent: no feasible h", p, q, lo, hi)
+        if prob.status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or prob.value > 1e-12 * max(1.0, np.abs(p).sum()):
+            return FractionalResult(math.inf, None if h.value is None else np.asarray(h.value, dtype=float),
+                                    "unbounded", "lp", status,
+                                    "q·h = 0 on every feasible h and some has p·h > 0 (c/0)", p, q, lo, hi)
+        return FractionalResult(1.0, np.asarray(h.value, dtype=float), "optimal", "lp", status,
+                                "p·h = q·h = 0 on every feasible h (0/0 counts as parity)", p, q, lo, hi)
 
 
 def _matrix(a, name: str):

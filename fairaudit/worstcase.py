@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Hashable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -347,6 +347,13 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
     )
     if tau is not None:
         assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
+
+    if gamma > 0 and gamma != 1.0:
+        # Only the shape of the class matters: solve it on the scale gamma = 1 (well-conditioned LPs), scale back.
+        unit = black_box_bound(mechanism, lower=lower / gamma, gamma=1.0, tau=None if tau is None else tau / gamma,
+                               lipschitz=lip / gamma, metric=metric, population=population, method=method)
+        return replace(unit, utility_by_release=unit.utility_by_release * gamma, lower=lower, gamma=gamma, tau=tau,
+                       lipschitz=unit.lipschitz * gamma, assumptions=assumptions)
 
     def make(value_ratio, a, b, released, h, meth, status, solver, reason, solved):
         value = _log(value_ratio) if not math.isnan(value_ratio) else math.nan

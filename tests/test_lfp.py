@@ -113,3 +113,18 @@ def test_fractional_max_dispatches():
     assert r.method == "lp" and r.value == pytest.approx(11 / 7, rel=1e-8)
     with pytest.raises(Exception, match="method"):
         fractional_max([0.7, 0.3], [0.3, 0.7], lower=-1.0, upper=1.0, method="threshold")
+
+
+def test_lp_statuses_zero_denominator_empty_polytope_and_scale():
+    # q·h = 0 on the whole box and p·h > 0 somewhere: c/0 = +inf (not "infeasible")
+    r = lp_max([1.0, 0.0], [0.0, 0.0], lower=0.0, upper=1.0)
+    assert r.value == math.inf and r.status == "unbounded" and "c/0" in r.reason
+    # p·h = q·h = 0 everywhere: 0/0 counts as parity
+    r = lp_max([0.0, 0.0], [0.0, 0.0], lower=0.0, upper=1.0)
+    assert r.value == 1.0 and r.status == "optimal"
+    # an empty polytope: h_1 <= -1 and h_1 >= 1
+    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 0.0], [-1.0, 0.0]], b_ub=[-1.0, -1.0])
+    assert math.isnan(r.value) and r.status == "infeasible"
+    # a bounded polytope far from the origin: the ratio is 1 everywhere (s = 1/(q·h) ~ 3e-14 is not "unbounded")
+    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=1e13, upper=2e13)
+    assert r.status == "optimal" and r.value == pytest.approx(1.0, rel=1e-9)

@@ -297,3 +297,19 @@ def test_worst_utility_hand_example():
     assert w.local.ratio == pytest.approx(float(Fraction(3, 4) / Fraction(3, 5)), rel=1e-14)
     assert w.local.utility.values.tolist() == [1.0, 0.5, 0.5]
     assert (w.local.group, w.local.other_group, w.local.context) == ("a", "b", "x")
+
+
+def test_worst_model_with_a_group_that_never_gains_is_infinite():
+    # g(u, x, b) = 0 for every decision: E[g | x, b] = 0 for every model, E[g | x, a] > 0 for some: c/0 = +inf
+    m = fa.randomized_response(["a", "b"], keep=0.7)
+    util = fa.Utility([[[1.0, 0.0], [0.0, 0.0]]], ["u0", "u1"], ["x"], ["a", "b"])
+    w = worst_model(m, util)
+    assert w.local.value == math.inf and (w.local.group, w.local.other_group) == ("a", "b")
+    assert w.global_.value == math.inf
+
+
+def test_class_certificate_is_scale_free():
+    m = fa.randomized_response(["a", "b"], keep=0.7)
+    big = black_box_bound(m, gamma=1e13, tau=5e12, method="lp")
+    assert big.ratio == pytest.approx(11 / 7, rel=1e-8) and big.tau == 5e12 and big.gamma == 1e13
+    assert big.utility_by_release == pytest.approx([1e13, 1e13 * 2 / 7], rel=1e-7)

@@ -5,8 +5,9 @@
 * the privacy of each mechanism (pure ε in nats, δ = 0 at it, keep probability);
 * the bounds on local g-fairness L that hold for *any* decision model behind
   the filter: ``paper`` and ``tight`` (main theorem; need τ), ``black_box``
-  (exact worst case for utilities in [lower, γ] that do not depend on the
-  group), ``corollary`` (ε, for g independent of the group);
+  (the exact maxima of L and L̄ over every decision model, for the spec's
+  utility and τ, with the worst model), ``corollary`` (ε, for g independent
+  of the group);
 * with a model in the spec: the observed metrics of the system *behind* the
   filter (the model's table composed with the mechanisms) and of the model
   on its own (``unfiltered``, as if it saw the true attributes);
@@ -24,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ._errors import InputError
-from .bounds import Bound, corollary_bound, paper_bound, tight_bound
+from .bounds import Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from .calibrate import Calibration, calibrate
 from .laws import Kernel, Law, compose
 from .metrics import (
@@ -39,7 +40,7 @@ from .metrics import (
     sup_local_fairness,
 )
 from .spec import Spec, load_spec
-from .worstcase import BlackBoxCertificate, black_box_bound
+from .worstcase import WorstModel, worst_model
 
 __all__ = ["Certificate", "Observed", "TargetCheck", "certify", "observe"]
 
@@ -95,8 +96,11 @@ class Certificate:
     spec : Spec
     paper, tight : Bound or None
         None when the spec gives no τ.
-    black_box : BlackBoxCertificate or None
-        None when the utility depends on the group (needs the general program).
+    black_box : WorstModel
+        The exact maxima of L (``.local``) and L̄ (``.global_``) over every
+        decision model behind the filter, for the spec's utility and τ
+        (:func:`fairaudit.worstcase.worst_model`), with the worst kernels.
+    black_box_reason : str
     corollary : Bound
     best : float
         The smallest bound on L whose assumptions are not violated, nats.
@@ -123,7 +127,7 @@ class Certificate:
     spec: Spec
     paper: Bound | None
     tight: Bound | None
-    black_box: BlackBoxCertificate | None
+    black_box: WorstModel
     black_box_reason: str
     corollary: Bound
     best: float
@@ -188,7 +192,7 @@ def certify(spec: Spec | str | Path) -> Certificate:
     ... [target]
     ... local = 1.0
     ... '''))
-    >>> round(c.black_box.value, 6), c.certified, c.best_form
+    >>> round(c.black_box.local.value, 6), c.certified, c.best_form
     (0.847298, True, 'black_box')
     """
     if not isinstance(spec, Spec):
@@ -216,23 +220,30 @@ def certify(spec: Spec | str | Path) -> Certificate:
         tight = tight_bound(mech, tau=tau, gamma=gamma, lipschitz=spec.lipschitz, metric=spec.metric,
                             utility=spec.utility, population=spec.population, law=obs_law)
         forms += [("paper", paper.assumptions), ("tight", tight.assumptions)]
-    black_box = None
-    if spec.utility.depends_on_group:
-        reason = "the utility depends on the group; the black-box program for it is not in this release"
+    black_box = worst_model(mech, spec.utility, context_mechanism=spec.context_mechanism, population=spec.population,
+                            tau=tau)
+    bb_assumptions = check_assumptions(mech, tau=tau, gamma=None, utility=spec.utility, population=spec.population,
+                                       law=obs_law)
+    bb_holds = not any(a.status == "violated" and a.scope != "global" for a in bb_assumptions)
+    if math.isnan(black_box.local.value):
+        reason = black_box.local.reason
     else:
-        black_box = black_box_bound(mech, lower=lower, gamma=gamma, population=spec.population)
-        reason = f"exact over every model, utilities in [{lower:g}, {gamma:g}]"
-        forms.append(("black_box", black_box.assumptions))
+        reason = "exact over every decision model behind the filter, for this utility" + (
+            f", with E[g | x, a] >= {tau:g}" if tau is not None else "")
+    forms.append(("black_box", bb_assumptions))
     corollary = corollary_bound(mech, utility=spec.utility, population=spec.population, law=obs_law)
     forms.append(("corollary", corollary.assumptions))
 
-    candidates = [] if black_box is None else [(black_box.value, "black_box")]
+    bb_ok = bb_holds and not math.isnan(black_box.local.value)
+    candidates = [(black_box.local.value, "black_box")] if bb_ok else []
     for form, b in (("tight", tight), ("corollary", corollary), ("paper", paper)):  # ties go to the tighter form
         if b is not None and b.holds:
             candidates.append((b.value, form))
     best, best_form = min(candidates, default=(math.inf, "none"), key=lambda t: t[0])
     independent = spec.population.independence().independent
     global_bound = best if independent else math.inf
+    if bb_ok and not math.isnan(black_box.global_.value):      # exact for L-bar, with or without X independent of A
+        global_bound = min(global_bound, black_box.global_.value)
 
     targets: dict[str, TargetCheck] = {}
     calibration = calibration_white = None
@@ -246,8 +257,9 @@ def certify(spec: Spec | str | Path) -> Certificate:
                                            f"best bound: {best_form}")
         if t.global_ is not None:
             obs = observed.global_.value if observed else None
-            why = f"best bound: {best_form} (L-bar <= L since X and A are independent)" if independent else \
-                "X and A are not independent in the population: no certified bound on L-bar"
+            why = ("black-box bound on L-bar (exact over every model)" if bb_ok and global_bound == black_box.global_.value
+                   else f"best bound: {best_form} (L-bar <= L since X and A are independent)" if independent
+                   else "X and A are not independent in the population and no black-box bound applies")
             targets["global"] = TargetCheck("global", t.global_, global_bound, global_bound <= t.global_, obs,
                                             None if obs is None else bool(obs <= t.global_), why)
         calibration, calibration_white, calibration_reason = _calibrations(spec, kernel, t, independent)

@@ -122,13 +122,44 @@ def _certificate_calibration(cert) -> dict:
     return out
 
 
+def _fmt_label(v) -> str:
+    return "-" if v is None else str(v)
+
+
+def _worst_case(w) -> dict:
+    d = {"value": _num(w.value), "ratio": _num(w.ratio)}
+    if w.kind == "local":
+        d["context"] = _label(w.context)
+    d.update(group=_label(w.group), other_group=_label(w.other_group), method=w.method, status=w.status,
+             programs_solved=int(w.programs_solved))
+    if w.reason:
+        d["reason"] = w.reason
+    return d
+
+
+def _kernel_dict(k) -> dict:
+    """{released context: {released group: {decision: probability}}} of a kernel."""
+    p = np.round(k.probabilities, 12) + 0.0
+    return {str(_label(x)): {str(_label(a)): {str(_label(u)): float(p[i, j, m]) for m, u in enumerate(k.decisions)}
+                             for j, a in enumerate(k.groups)} for i, x in enumerate(k.contexts)}
+
+
+def _worst_model(wm, reason: str) -> dict:
+    """``bound_details.black_box``: the exact worst cases for L and L-bar and the worst decision model for L."""
+    out = _worst_case(wm.local)
+    out["reason"] = reason
+    out["global"] = _worst_case(wm.global_)
+    out["worst_model"] = None if wm.local.kernel is None else _kernel_dict(wm.local.kernel)
+    return out
+
+
 def certificate_dict(cert) -> dict:
     """The ``certify`` JSON (DESIGN.md contract) of a :class:`~fairaudit.certify.Certificate`."""
     spec = cert.spec
     bounds = {
         "paper": _num(cert.paper.value) if cert.paper else None,
         "tight": _num(cert.tight.value) if cert.tight else None,
-        "black_box": _num(cert.black_box.value) if cert.black_box else None,
+        "black_box": _num(cert.black_box.local.value),
         "corollary": _num(cert.corollary.value),
         "best": _num(cert.best),
         "best_form": cert.best_form,
@@ -139,13 +170,7 @@ def certificate_dict(cert) -> dict:
         if b is not None:
             details[name] = {"value": _num(b.value), "epsilon": _num(b.epsilon), "delta": _num(b.delta),
                              "group": _label(b.group), "other_group": _label(b.other_group), "holds": b.holds}
-    if cert.black_box is not None:
-        bb = cert.black_box
-        details["black_box"] = {"value": _num(bb.value), "ratio": _num(bb.ratio), "group": _label(bb.group),
-                                "other_group": _label(bb.other_group), "worst_model_gamma_on": [_label(x) for x in bb.released],
-                                "method": bb.method}
-    else:
-        details["black_box"] = {"value": None, "reason": cert.black_box_reason}
+    details["black_box"] = _worst_model(cert.black_box, cert.black_box_reason)
     out = {
         "certified": bool(cert.certified),
         "spec": spec.source,
@@ -262,8 +287,11 @@ def _certificate_text(d: dict) -> str:
         extra = ""
         if key in ("paper", "tight") and key in det:
             extra = f" at epsilon = {_fmt(det[key]['epsilon'])}, delta = {_fmt(det[key]['delta'])}"
-        if key == "black_box" and det["black_box"].get("value") is None:
-            extra = f" ({det['black_box']['reason']})"
+        if key == "black_box":
+            bb = det["black_box"]
+            extra = (f" ({bb['reason']})" if bb.get("value") is None else
+                     f" ({_fmt_label(bb['group'])} over {_fmt_label(bb['other_group'])}; on L-bar "
+                     f"{_nats(bb['global']['value'])})")
         if key in ("paper", "tight") and v is None:
             extra = " (needs utility.tau)"
         if key in det and det[key].get("holds") is False:
@@ -447,6 +475,9 @@ def write_atomic(path: str | Path, text: str) -> None:
             fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)      # mkstemp makes 0600; a report gets the usual permissions
         os.replace(tmp, p)
     except BaseException:
         try:

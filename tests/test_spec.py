@@ -71,9 +71,12 @@ probabilities = [[0.4, 0.1], [0.1, 0.4]]
     ind = dep.population.independence()
     assert not ind.independent and ind.max_deviation == pytest.approx(0.15, rel=1e-12)  # 0.4 - 0.5*0.5
     cert = fa.certify(dep)
-    assert cert.global_bound == math.inf  # no certified bound on Lbar without X independent of A
-    # ...but the bounds on L still apply: no filter (identity), delta(0) = 1, tau = 0.1: tight = log(1 + 1/0.1)
-    assert cert.best == pytest.approx(math.log(11), rel=1e-12) and cert.best_form == "tight"
+    # No filter (identity): a model can give E[g | x, a] = 1 to one group and tau = 0.1 to the other, and no more
+    # (E <= gamma = 1, E >= tau), so the exact black-box maximum of L and of L-bar is log(1 / 0.1), X and A
+    # dependent or not; the tight form, delta(0) = 1, gives log(1 + 1/0.1).
+    assert cert.global_bound == pytest.approx(math.log(10), rel=1e-9)
+    assert cert.best == pytest.approx(math.log(10), rel=1e-9) and cert.best_form == "black_box"
+    assert cert.tight.value == pytest.approx(math.log(11), rel=1e-12)
     assert any(a.name == "X independent of A" and a.status == "violated" for a, _ in cert.assumptions)
 
 
@@ -122,7 +125,14 @@ tau = 0.5
 """)
     assert spec.utility.depends_on_group and spec.lipschitz == 1.0
     cert = fa.certify(spec)
-    assert cert.black_box is None and "depends on the group" in cert.black_box_reason
+    # Black box by hand: kernel K[released, "HR_1"] = (1, t), keep p = e/(1+e). E[g | HR_1] = p + (1-p) t,
+    # E[g | HR_2] = p (1 - t) >= tau = 1/2 binds at t = 1 - 1/(2p); raising K[HR_1-released, HR_1] to 1 only helps
+    # (derivative (p^2 - (1-p)^2)/p > 0). Ratio 2 (p + (1-p)(1 - 1/(2p))).
+    p = math.e / (1 + math.e)
+    want = math.log(2 * (p + (1 - p) * (1 - 1 / (2 * p))))
+    assert cert.black_box.local.value == pytest.approx(want, rel=1e-7)
+    assert (cert.black_box.local.group, cert.black_box.local.other_group) == ("HR_1", "HR_2")
+    assert cert.best == pytest.approx(want, rel=1e-7) and cert.best_form == "black_box"
     # paper: min over eps of eps + log(1 + (1 + delta(eps))/0.5); at eps = 1, delta = 0: 1 + log 3
     assert cert.paper.value <= 1 + math.log(3) + 1e-12
     corollary = [a for a, forms in cert.assumptions if a.name == "g independent of the group"][0]

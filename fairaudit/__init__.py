@@ -37,17 +37,19 @@ from .privacy import (
 )
 from .spec import Spec, load_spec, parse_spec
 from .utility import Utility, from_function, from_table, indicator
-from .worstcase import BlackBoxCertificate, black_box_bound
+from .curves import PrivacyCurve, privacy_curve
+from .worstcase import BlackBoxCertificate, WorstCase, WorstModel, WorstUtility, black_box_bound, worst_model, worst_utility
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Assumption", "Audit", "BlackBoxCertificate", "Bound", "Calibration", "Certificate", "CountTable",
-    "FairauditError", "InputError", "Kernel", "Law", "Mechanism", "MechanismFamily", "Population", "Spec", "Utility",
+    "FairauditError", "InputError", "Kernel", "Law", "Mechanism", "MechanismFamily", "Population", "PrivacyCurve", "Spec", "Utility",
     "audit", "black_box_bound", "calibrate_randomized_response", "certify", "compose", "corollary_bound",
     "count_records", "count_table", "demographic_parity", "equalized_odds", "expected_utility", "from_function",
     "from_matrix", "from_table", "global_fairness", "identity", "indicator", "indicator_intervals", "load_spec",
     "local_fairness", "main_theorem", "main_theorem_tight", "paper_bound", "parse_spec", "product", "product_family",
     "randomized_response", "randomized_response_family", "read_records", "sup_global_fairness", "sup_local_fairness", "tight_bound",
-    "utility_from_expression",
+    "utility_from_expression", "WorstCase", "WorstModel", "WorstUtility", "privacy_curve", "worst_model",
+    "worst_utility",
 ]

@@ -79,7 +79,9 @@ class Calibration:
     method : {"paper", "tight", "black_box", "white_box"}
     bound : float
         The certificate (``white_box``: the exact L or L̄ of the model) at ε,
-        nats; equal to the target unless every ε meets it. When infeasible,
+        nats; equal to the target (up to rounding: the RR closed form may
+        land 1e-16 above it, white-box allows 1e-13) unless every ε meets
+        it. When infeasible,
         the smallest value any ε reaches (the floor), or +inf when nothing is
         certified.
     feasible : bool
@@ -266,7 +268,8 @@ def _closed_form(common: dict, method: str, family: MechanismFamily) -> Calibrat
         bound = main_theorem_tight(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
         form = f"epsilon = log(e^target - (L_A*diam + delta*gamma)/tau) = log(e^{target:.6g} - {c / tau:.6g})"
     return _result(common, method, eps, bound, f"closed form of the {method} bound, {form}; it certifies every "
-                   f"(epsilon, {delta:g})-DP mechanism on the groups (looser than black_box for a known family)", family)
+                   f"(epsilon, {delta:g})-DP mechanism on the groups (looser than black_box for a known family)",
+                   family)
 
 
 def _rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> float:
@@ -411,7 +414,7 @@ def _white_box(common: dict, family: MechanismFamily, kernel: Kernel, utility: U
     for eps in grid[1:]:
         v = value(float(eps))
         if not v <= limit:
-            eps_star, reached = _largest_meeting(value, limit, lo, f_lo, float(eps), v)
+            eps_star, reached = _largest_meeting(value, target if f_lo <= target else limit, lo, f_lo, float(eps), v)
             return _result(common, "white_box", eps_star, reached, f"exact {name} of the model behind the family; "
                            f"every epsilon in [0, {eps_star:.6g}] meets the target (first crossing of a "
                            f"{len(grid)}-point scan, refined)", family)
@@ -426,7 +429,7 @@ def _white_box(common: dict, family: MechanismFamily, kernel: Kernel, utility: U
         return _result(common, "white_box", _EPS_MAX, value(_EPS_MAX), f"the model's {name} stays below the target "
                        f"up to epsilon = {_EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this",
                        family)
-    eps_star, reached = _largest_meeting(value, limit, *found)
+    eps_star, reached = _largest_meeting(value, target if found[1] <= target else limit, *found)
     return _result(common, "white_box", eps_star, reached, f"exact {name} of the model behind the family; every "
                    f"epsilon in [0, {eps_star:.6g}] meets the target (scan, then refined)", family)
 
@@ -518,7 +521,10 @@ def calibrate(
     * black_box: the largest ε with ``black_box_bound(family(ε), lower=,
       gamma=, tau=, lipschitz=, metric=).value ≤ target``.
     * white_box: the largest ε such that every ε' ∈ [0, ε] has L (L̄) of
-      ``compose(kernel, family(ε'), context_mechanism)`` ≤ target.
+      ``compose(kernel, family(ε'), context_mechanism)`` ≤ target (a 64-point
+      scan, then the first crossing refined; exact behind randomized
+      response, where L is quasiconvex in ε). Not necessarily monotone: a
+      target below L at ε = 0 is infeasible even if larger ε meet it.
 
     Proofs and the tests that check them: ``proofs/calibration.md``.
 
@@ -591,7 +597,8 @@ def calibrate(
         check = population.independence()
         if not check.independent:
             return _result(common, method, math.nan, math.inf, "X and A are not independent in the population "
-                           f"(max |P(x, a) - P(x) P(a)| = {check.max_deviation:.3g} at context {check.context!r}, group "
+                           f"(max |P(x, a) - P(x) P(a)| = {check.max_deviation:.3g} at context {check.context!r}, "
+                           "group "
                            f"{check.group!r}): the {method} certificate bounds L-bar only through L-bar <= L under "
                            "X independent of A; use a model (white_box)", fam, feasible=False)
     if method in ("paper", "tight"):

@@ -27,7 +27,8 @@ def disguised_rr(k: int) -> MechanismFamily:
     """
     labels = tuple(range(k))
     return MechanismFamily(f"{k}-ary RR, outputs reversed", labels,
-                           lambda e: fa.from_matrix(randomized_response(labels, e).matrix[:, ::-1], labels, labels[::-1]),
+                           lambda e: fa.from_matrix(randomized_response(labels, e).matrix[:, ::-1], labels,
+                                                    labels[::-1]),
                            lambda e: keep_probability(e, k))
 
 
@@ -234,7 +235,7 @@ def identity_model(labels):
 @pytest.mark.parametrize("k", [2, 3, 5])
 @pytest.mark.parametrize("target", [0.0, 0.3, 1.0, 4.0])
 def test_white_box_identity_model_has_L_equal_to_epsilon(k, target):
-    # E[g | a0] = keep = e^ε/(e^ε + k − 1), E[g | a] = 1/(e^ε + k − 1): ratio e^ε, so L(ε) = ε and ε = target.
+    # E[g | a0] = e^ε/(e^ε + k − 1) (keep); E[g | a] = 1/(e^ε + k − 1); ratio e^ε: L(ε) = ε and ε = target.
     labels = [f"g{i}" for i in range(k)]
     c = calibrate(target, kernel=identity_model(labels), utility=fa.indicator("g0", labels))
     assert c.method == "white_box" and c.feasible

@@ -66,7 +66,8 @@ def write_spec(tmp_path, extra="", model=False):
 # -- calibrate ------------------------------------------------------------------------------------------
 
 def test_keys_and_hand_value(capsys):
-    # k = 8, g in [0.1, 1]: t = (T rho (k-1) + T (1-rho) - rho (k-1)) / (1 - T rho), T = e^0.5 (proofs/black_box.md §3).
+    # k = 8, g in [0.1, 1]: t = (T rho (k-1) + T (1-rho) - rho (k-1)) / (1 - T rho), T = e^0.5
+    # (proofs/black_box.md §3).
     code, d, _ = run_json(capsys, "calibrate", "--target", 0.5, "--groups", 8, "--lower", 0.1)
     big_t, rho, k = math.exp(0.5), 0.1, 8
     t = (big_t * rho * (k - 1) + big_t * (1 - rho) - rho * (k - 1)) / (1 - big_t * rho)

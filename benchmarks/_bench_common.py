@@ -1,0 +1,120 @@
+"""Helpers shared by the benchmark scripts: timing, the machine line, Markdown tables, atomic output.
+
+Not part of the fairaudit package; the scripts put this folder on ``sys.path``.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+AGREEMENT_TOL = 1e-7   # relative; a larger difference between two exact routes is a failure (exit status 1)
+
+
+def median_time(fn: Callable[[], object], repeats: int, min_seconds: float = 0.005) -> float:
+    """Median over ``repeats`` of the time of one call of ``fn`` (seconds).
+
+    Each repeat runs ``fn`` a number of times chosen once so that a repeat lasts
+    at least ``min_seconds`` (calls of tens of microseconds are timed in loops,
+    like :mod:`timeit`), and divides by that number.
+    """
+    t0 = time.perf_counter()
+    fn()
+    one = time.perf_counter() - t0
+    number = max(1, int(min_seconds / one) + 1) if one < min_seconds else 1
+    times = []
+    for _ in range(max(1, repeats)):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        times.append((time.perf_counter() - t0) / number)
+    return statistics.median(times)
+
+
+def rel_diff(a: float, b: float) -> float:
+    """|a − b| / max(|a|, |b|), 0 when both are 0 or the same infinity."""
+    if a == b:
+        return 0.0
+    scale = max(abs(a), abs(b))
+    return abs(a - b) / scale if scale > 0 else 0.0
+
+
+def machine_line() -> str:
+    """One Markdown line naming the machine, the versions and the load at the time it is called."""
+    import numpy
+
+    try:
+        import cvxpy
+        cvx = cvxpy.__version__
+    except Exception:  # pragma: no cover - cvxpy is a dependency
+        cvx = "?"
+    try:
+        import clarabel
+        cla = clarabel.__version__
+    except Exception:  # pragma: no cover
+        cla = "?"
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a"
+    return (f"Machine: {platform.machine()} {platform.system()}, {os.cpu_count()} CPUs, load average {load}; "
+            f"Python {platform.python_version()}, numpy {numpy.__version__}, cvxpy {cvx}, clarabel {cla}.")
+
+
+def fmt_time(seconds: float) -> str:
+    """Seconds as µs, ms or s with three significant digits."""
+    if seconds != seconds:
+        return "—"
+    if seconds < 1e-3:
+        return f"{seconds * 1e6:.3g} µs"
+    if seconds < 1.0:
+        return f"{seconds * 1e3:.3g} ms"
+    return f"{seconds:.3g} s"
+
+
+def fmt_ratio(x: float) -> str:
+    return "—" if x != x else (f"{x:.3g}×" if x < 1000 else f"{x:,.0f}×")
+
+
+def fmt_diff(x: float) -> str:
+    return "—" if x != x else ("0" if x == 0 else f"{x:.1e}")
+
+
+def table(header: Sequence[str], rows: Sequence[Sequence[str]], align: str | None = None) -> str:
+    """A Markdown table; ``align`` is one letter per column, ``l`` or ``r`` (default: first left, rest right)."""
+    align = align or "l" + "r" * (len(header) - 1)
+    rule = ["---" if a == "l" else "---:" for a in align]
+    lines = ["| " + " | ".join(header) + " |", "| " + " | ".join(rule) + " |"]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def write_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and :func:`os.replace`."""
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def emit(text: str, output: str | None) -> None:
+    """Print the report to stdout and, when asked, write it atomically to ``output``."""
+    sys.stdout.write(text if text.endswith("\n") else text + "\n")
+    sys.stdout.flush()
+    if output:
+        write_atomic(output, text if text.endswith("\n") else text + "\n")

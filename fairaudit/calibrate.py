@@ -310,6 +310,8 @@ def _black_box(common: dict, family: MechanismFamily, metric, population: Popula
             kwargs["metric"] = metric
     cls = f"utilities in [{lower:g}, {gamma:g}]" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}") + \
           (f", L_A = {lip:g}" if lip > 0 else ", independent of the group")
+    if not math.isnan(tau) and tau > lower:
+        notes.append("tau is vouched for: it must hold behind the calibrated mechanism too")
     note = "".join(f"; {n}" for n in notes)
 
     def bound(eps: float) -> float:

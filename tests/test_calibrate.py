@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -317,6 +318,23 @@ def test_white_box_uses_the_context_mechanism_and_population():
     c = calibrate(0.3, kernel=kernel, utility=g, population=pop, context_mechanism=mx)
     law = fa.compose(kernel, fa.randomized_response(labels, c.epsilon), mx)
     assert fa.local_fairness(law, g, pop).value == pytest.approx(0.3, rel=1e-9)
+
+
+def test_black_box_with_tau_assumes_it_behind_the_calibrated_mechanism():
+    # proofs/calibration.md §4: examples/hr_office's model (always HR_2, RR on three binary attributes) meets
+    # tau = 0.02 only up to ε = 3 log((1 − 0.02^(1/3)) / 0.02^(1/3)) = 2.96196; black-box with tau allows more than
+    # its white-box ε (which is exactly the target: L(ε) = ε), because beyond 2.96 the model leaves the class.
+    spec = fa.load_spec(Path(__file__).resolve().parents[1] / "examples" / "hr_office" / "hr_office.toml")
+    fam, kernel = spec.sensitive_family, spec.kernel()
+    b = calibrate(3.0, family=fam, tau=spec.tau)
+    w = calibrate(3.0, family=fam, kernel=kernel, utility=spec.utility)
+    assert w.epsilon == pytest.approx(3.0, rel=1e-9) and b.epsilon > w.epsilon
+    assert "tau is vouched for" in b.reason
+    edge = 3 * math.log((1 - 0.02 ** (1 / 3)) / 0.02 ** (1 / 3))
+    min_e = lambda e: fa.expected_utility(fa.compose(kernel, fam(e)), spec.utility).min()  # noqa: E731
+    assert min_e(edge) == pytest.approx(0.02, rel=1e-9) and min_e(b.epsilon) < 0.02
+    # without tau the black-box class contains this model, and white >= black holds
+    assert calibrate(3.0, family=fam).epsilon <= w.epsilon * (1 + 1e-9)
 
 
 # -- global ----------------------------------------------------------------------------------------------

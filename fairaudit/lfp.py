@@ -196,7 +196,7 @@ def threshold_max_many(p, q, lower, upper):
     return best, k, order
 
 
-def floor_max_many(p, q, lower, upper, floor: float):
+def floor_max_many(p, q, lower, upper, floor: float, threshold=None):
     """Box programs with one more constraint, q·h ≥ floor, solved in closed form, vectorised.
 
     max (p·h)/(q·h) over lower ≤ h ≤ upper with q·h ≥ floor > 0. Let h* be the
@@ -218,6 +218,9 @@ def floor_max_many(p, q, lower, upper, floor: float):
         0 ≤ lower ≤ upper.
     floor : float
         > 0.
+    threshold : tuple, optional
+        The result of :func:`threshold_max_many` on the same arrays, when the
+        caller has it already (saves recomputing it).
 
     Returns
     -------
@@ -240,7 +243,7 @@ def floor_max_many(p, q, lower, upper, floor: float):
     p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
     lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
     hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
-    values, k, order = threshold_max_many(p, q, lo, hi)
+    values, k, order = threshold_max_many(p, q, lo, hi) if threshold is None else threshold
     span = hi - lo
     ps = np.take_along_axis(p * span, order, -1)
     qs = np.take_along_axis(q * span, order, -1)

@@ -367,6 +367,7 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
     M = mechanism.matrix
     outputs = mechanism.outputs
     box, k, order = threshold_max_many(M[:, None, :], M[None, :, :], lower, gamma)
+    unmasked = (box.copy(), k, order)
     np.fill_diagonal(box, -np.inf)
 
     if not binding and not lip_on and method != "lp":
@@ -400,7 +401,7 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
             return progs[0]
 
         if binding:
-            relaxed = floor_max_many(M[:, None, :], M[None, :, :], lower, gamma, floor)[0]
+            relaxed = floor_max_many(M[:, None, :], M[None, :, :], lower, gamma, floor, threshold=unmasked)[0]
             upper = np.minimum(upper, relaxed[pairs[:, 0], pairs[:, 1]])
         if binding and method != "lp":
             solve = _relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M,

@@ -573,7 +573,7 @@ def product_family(*values: Sequence[Hashable], weights: Sequence[float] | None 
             raise InputError("weights", "must be finite, non-negative and not all zero", list(w))
         w = w / w.sum()
     sizes = [len(a) for a in alphabets]
-    label = name or " x ".join(f"{k}-ary randomized response" for k in sizes)
+    label = name or f"product of {n} randomized responses ({' x '.join(str(k) for k in sizes)} values)"
     inputs = tuple(tuple(t) for t in itertools.product(*alphabets))
 
     def split(eps: float) -> list[float]:

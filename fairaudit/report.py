@@ -312,7 +312,8 @@ def _certificate_text(d: dict) -> str:
         if c["method"] is None:
             lines.append(f"calibration: skipped ({c['reason']})")
         elif c["feasible"]:
-            lines.append(f"calibration: randomized response with epsilon <= {_nats(c['epsilon'])} (keep probability "
+            lines.append(f"calibration: {c.get('family') or 'randomized response'} with epsilon <= {_nats(c['epsilon'])} "
+                         f"(keep probability "
                          f"{_fmt(c['keep_probability'])}) meets {_nats(c['target'])} for any model ({c['method']})")
         else:
             lines.append(f"calibration: no epsilon meets {_nats(c['target'])} for any model ({c['method']}): {c['reason']}")

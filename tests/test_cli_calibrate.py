@@ -273,5 +273,5 @@ def test_certify_calibration_skipped_for_group_dependent_utility(tmp_path, capsy
 def test_certify_text_names_both_calibrations(tmp_path, capsys):
     spec = write_spec(tmp_path, "[target]\nlocal = 0.9\n", model=True)
     code, out, _ = run(capsys, "certify", spec)
-    assert "calibration: randomized response with epsilon <= 0.9 nats" in out
+    assert "calibration: 2-ary randomized response with epsilon <= 0.9 nats" in out
     assert "calibration for this model: epsilon <= 0.9 nats" in out

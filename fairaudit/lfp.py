@@ -163,7 +163,8 @@ def threshold_max_many(p, q, lower, upper):
     values : numpy.ndarray, shape (...)
         The optimal ratios (c/0 = +inf, 0/0 = 1).
     k : numpy.ndarray of int, shape (...)
-        How many cells take their upper bound at the optimum.
+        How many cells take their upper bound at the optimum (the longest
+        optimal prefix when ratios tie).
     order : numpy.ndarray of int, shape (..., n)
         Cells by decreasing likelihood ratio p/q: the optimum sets
         ``order[..., :k]`` to ``upper`` and the rest to ``lower``.
@@ -191,8 +192,11 @@ def threshold_max_many(p, q, lower, upper):
         [zeros, np.cumsum(np.take_along_axis(q * span, order, -1), -1)], -1)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
-    k = values.argmax(axis=-1)
-    best = np.take_along_axis(values, k[..., None], -1)[..., 0]
+    best = values.max(axis=-1)
+    # Among optimal prefixes (ties in the ratio, up to rounding) take the longest: the same value with h as high as
+    # possible, which helps every extra constraint E ≥ τ of the callers' relaxations.
+    tied = values >= (best * (1 - 1e-12))[..., None]
+    k = values.shape[-1] - 1 - np.argmax(tied[..., ::-1], axis=-1)
     return best, k, order
 
 

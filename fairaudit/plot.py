@@ -10,8 +10,6 @@ SVG atomically. Install the plotting extra with ``pip install
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 import textwrap
 from collections.abc import Callable
 from pathlib import Path
@@ -79,33 +77,16 @@ def save_figure(fig, path: str | Path) -> None:
     fmt = check_plot_path(path)
     import matplotlib
 
-    p = Path(path)
-    folder = p.parent if str(p.parent) else Path(".")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=f".tmp.{fmt}", dir=folder)
-    except OSError as exc:
-        raise InputError("--plot", f"cannot write there ({exc.strerror})", str(path)) from None
-    os.close(fd)
-    try:
+    from .report import write_atomic
+
+    def save(tmp: str) -> None:
         if fmt == "svg":
             with matplotlib.rc_context({"svg.hashsalt": "fairaudit", "svg.fonttype": "none"}):
                 fig.savefig(tmp, format="svg", metadata={"Date": None})
         else:
             fig.savefig(tmp, format="png", dpi=150, metadata={"Software": None})
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, p)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+    write_atomic(path, save, field="--plot")
 
 
 def _secondary(curve, spec) -> tuple[str, Callable, Callable] | None:

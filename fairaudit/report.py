@@ -452,11 +452,21 @@ def render(data: dict, kind: str, fmt: str) -> str:
     return table[(kind, fmt)](data)
 
 
-def write_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically: a temporary file in the same folder, then rename.
+def write_atomic(path, content, *, field: str = "--output") -> None:
+    """Write ``content`` to ``path`` atomically: a temporary file in the same folder, then rename.
 
     An existing file is replaced only once the new one is complete; on any
-    error it is left untouched and the temporary file removed.
+    error it is left untouched and the temporary file removed. The file gets
+    the usual permissions (0666 less the umask).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    content : str, bytes or callable
+        Text (UTF-8), bytes, or a function that writes the file given the
+        temporary path (for example a matplotlib ``savefig``).
+    field : str
+        The option named in errors (``--output``, ``--plot``, ...).
 
     Raises
     ------
@@ -466,16 +476,21 @@ def write_atomic(path: str | Path, text: str) -> None:
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
-        raise InputError("--output", "folder does not exist", str(folder))
+        raise InputError(field, "folder does not exist", str(folder))
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp" + p.suffix, dir=folder)
     except OSError as exc:
-        raise InputError("--output", f"cannot write there ({exc.strerror})", str(path)) from None
+        raise InputError(field, f"cannot write there ({exc.strerror})", str(path)) from None
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
+        if callable(content):
+            os.close(fd)
+            content(tmp)
+        else:
+            data = content.encode("utf-8") if isinstance(content, str) else bytes(content)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)      # mkstemp makes 0600; a report gets the usual permissions

@@ -138,6 +138,19 @@ def _nonneg(name: str, v) -> float:
     return f
 
 
+def _check_class(lower, gamma, tau) -> tuple[float, float, float | None]:
+    """Validate a utility class [lower, γ] with floor τ ≤ γ (τ may be None)."""
+    lower, gamma = _nonneg("lower", lower), _nonneg("gamma", gamma)
+    if lower > gamma:
+        raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
+    if tau is not None:
+        tau = _nonneg("tau", tau)
+        if tau > gamma:
+            raise InputError("tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau",
+                             tau)
+    return lower, gamma, tau
+
+
 def _log(r: float) -> float:
     return math.inf if math.isinf(r) else math.log(r) if r > 0 else -math.inf
 
@@ -323,15 +336,8 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
     method = _check_method(method)
-    lower, gamma = _nonneg("lower", lower), _nonneg("gamma", gamma)
+    lower, gamma, tau = _check_class(lower, gamma, tau)
     lip = _nonneg("lipschitz", lipschitz)
-    if lower > gamma:
-        raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
-    if tau is not None:
-        tau = _nonneg("tau", tau)
-        if tau > gamma:
-            raise InputError("tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau",
-                             tau)
     n, m = mechanism.matrix.shape
     d = check_metric(metric, n) if n >= 1 else None
     floor = lower if tau is None else max(tau, lower)       # E[g | x, a] >= floor
@@ -954,14 +960,7 @@ def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: floa
     if not isinstance(law, Law):
         raise InputError("law", "must be a Law", type(law).__name__)
     method = _check_method(method)
-    lower, gamma = _nonneg("lower", lower), _nonneg("gamma", gamma)
-    if lower > gamma:
-        raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
-    if tau is not None:
-        tau = _nonneg("tau", tau)
-        if tau > gamma:
-            raise InputError("tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau",
-                             tau)
+    lower, gamma, tau = _check_class(lower, gamma, tau)
     population = _check_population(population, law)
     binding = tau is not None and tau > lower
     if method == "threshold" and binding:

@@ -408,6 +408,11 @@ class FractionalProgram:
             return FractionalResult(float(prob.value), h, "optimal", "lp", status, "", p, q, lo, hi)
         y = np.asarray(self._y.value, dtype=float)
         if s <= 1e-12 * max(1.0, float(np.abs(y).max())):
+            # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
+            primal_status, _, _ = self._primal_max(p)
+            if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+                return FractionalResult(math.nan, None, "infeasible", "lp", status,
+                                        "the constraints are inconsistent: no feasible h", p, q, lo, hi)
             return FractionalResult(float(prob.value), None, "optimal", "lp", status,
                                     "the supremum is approached only as h grows without bound along a recession "
                                     "direction of the polytope (q·h -> +inf); it is not attained", p, q, lo, hi)
@@ -420,6 +425,25 @@ class FractionalProgram:
         gives NaN; otherwise the ratio is +inf when some feasible h has
         p·h > 0 (c/0) and 1 when p·h = 0 too (0/0, parity).
         """
+        import cvxpy as cp
+
+        lo, hi = self.lower, self.upper
+        try:
+            primal_status, value, h = self._primal_max(p)
+        except cp.error.SolverError as exc:  # pragma: no cover
+            return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
+
+        if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+            return FractionalResult(math.nan, None, "infeasible", "lp", status,
+                                    "the constraints are inconsistent: no feasible h", p, q, lo, hi)
+        if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
+            return FractionalResult(math.inf, h, "unbounded", "lp", status,
+                                    "q·h = 0 on every feasible h and some has p·h > 0 (c/0)", p, q, lo, hi)
+        return FractionalResult(1.0, h, "optimal", "lp", status,
+                                "p·h = q·h = 0 on every feasible h (0/0 counts as parity)", p, q, lo, hi)
+
+    def _primal_max(self, p: np.ndarray):
+        """max p·h over the polytope itself (built on first use): (status, value, h or None)."""
         import cvxpy as cp
 
         lo, hi = self.lower, self.upper
@@ -436,19 +460,8 @@ class FractionalProgram:
             self._primal = (cp.Problem(cp.Maximize(c @ h), cons), h, c)
         prob, h, c = self._primal
         c.value = p
-        try:
-            prob.solve(solver=cp.CLARABEL, **_TOLERANCES)
-        except cp.error.SolverError as exc:  # pragma: no cover
-            return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
-        if prob.status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-            return FractionalResult(math.nan, None, "infeasible", "lp", status,
-                                    "the constraints are inconsistent: no feasible h", p, q, lo, hi)
-        if prob.status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or prob.value > 1e-12 * max(1.0, np.abs(p).sum()):
-            return FractionalResult(math.inf, None if h.value is None else np.asarray(h.value, dtype=float),
-                                    "unbounded", "lp", status,
-                                    "q·h = 0 on every feasible h and some has p·h > 0 (c/0)", p, q, lo, hi)
-        return FractionalResult(1.0, np.asarray(h.value, dtype=float), "optimal", "lp", status,
-                                "p·h = q·h = 0 on every feasible h (0/0 counts as parity)", p, q, lo, hi)
+        prob.solve(solver=cp.CLARABEL, **_TOLERANCES)
+        return prob.status, prob.value, None if h.value is None else np.asarray(h.value, dtype=float)
 
 
 def _matrix(a, name: str):

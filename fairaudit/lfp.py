@@ -303,6 +303,17 @@ def box_point(lower, upper, order, k: int, frac: float = 0.0) -> np.ndarray:
 _TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
 
 
+def _solve(problem) -> None:
+    """Solve with Clarabel at tight tolerances; an inaccurate solve is reported in ``solver_status``, not warned."""
+    import warnings
+
+    import cvxpy as cp
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+        problem.solve(solver=cp.CLARABEL, **_TOLERANCES)
+
+
 class FractionalProgram:
     """max (p·h)/(q·h) over a fixed polytope, compiled once, solved for many (p, q).
 
@@ -389,7 +400,7 @@ class FractionalProgram:
         self._p.value, self._q.value = p, q
         prob = self._problem
         try:
-            prob.solve(solver=cp.CLARABEL, **_TOLERANCES)
+            _solve(prob)
         except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
             return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
         status = prob.status
@@ -460,7 +471,7 @@ class FractionalProgram:
             self._primal = (cp.Problem(cp.Maximize(c @ h), cons), h, c)
         prob, h, c = self._primal
         c.value = p
-        prob.solve(solver=cp.CLARABEL, **_TOLERANCES)
+        _solve(prob)
         return prob.status, prob.value, None if h.value is None else np.asarray(h.value, dtype=float)
 
 

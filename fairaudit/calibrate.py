@@ -33,7 +33,6 @@ Proofs: ``proofs/calibration.md``.
 
 from __future__ import annotations
 
-import inspect
 import math
 import numbers
 from collections.abc import Callable, Hashable, Sequence
@@ -293,18 +292,11 @@ def _is_randomized_response(family: MechanismFamily, eps: float) -> Mechanism | 
 
 def _black_box(common: dict, family: MechanismFamily, metric, population: Population | None) -> Calibration:
     target, gamma, lower, tau, lip = (common[k] for k in ("target", "gamma", "lower", "tau", "lipschitz"))
-    params = inspect.signature(black_box_bound).parameters
     kwargs: dict = {"lower": lower, "gamma": gamma, "population": population}
     notes = []
     if not math.isnan(tau):
-        if "tau" in params:
-            kwargs["tau"] = tau
-        elif tau > lower:
-            notes.append(f"tau = {tau:g} is not used by this black-box version (valid, possibly conservative)")
+        kwargs["tau"] = tau
     if lip > 0:
-        if "lipschitz" not in params:
-            raise InputError("--lipschitz", "the black-box certificate of this version needs a utility independent "
-                                            "of the group (L_A = 0); use --method tight or paper", lip)
         kwargs["lipschitz"] = lip
         if metric is not None:
             kwargs["metric"] = metric
@@ -325,6 +317,7 @@ def _black_box(common: dict, family: MechanismFamily, metric, population: Popula
     if simple:
         guess = _rr_black_box_epsilon(target, len(family.inputs), lower, gamma)
         if math.isfinite(guess) and _is_randomized_response(family, guess) is not None:
+            # exact in real arithmetic; the bound recomputed in floating point may exceed the target by an ulp
             return _result(common, "black_box", guess, bound(guess), "exact worst case over every model, "
                            f"{cls}; closed form for k-ary randomized response (proofs/black_box.md section 3){note}",
                            family)

@@ -20,7 +20,6 @@ draws (:func:`fairaudit.plot.plot_curve`) and ``--plot-data`` writes as CSV.
 
 from __future__ import annotations
 
-import inspect
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -237,19 +236,15 @@ def _check_grid(epsilons) -> np.ndarray:
     return np.unique(grid)
 
 
-def _black_box_keywords(lower, gamma, tau, lipschitz, metric, population) -> dict | None:
-    """Keywords for black_box_bound as its signature allows; None when it cannot cover the class."""
-    params = inspect.signature(black_box_bound).parameters
+def _black_box_keywords(lower, gamma, tau, lipschitz, metric, population) -> dict:
+    """Keywords for :func:`fairaudit.worstcase.black_box_bound` (the class certificate)."""
     kw = {"lower": lower, "gamma": gamma, "population": population}
-    for name, value, given in (("tau", tau, tau is not None), ("lipschitz", lipschitz, lipschitz > 0),
-                               ("metric", metric, metric is not None)):
-        if not given:
-            continue
-        if name in params:
-            kw[name] = value
-        elif name == "lipschitz":
-            return None  # a utility that depends on the group: not covered by this black-box program
-        # without a tau parameter the program maximises over a larger class: still a valid upper bound
+    if tau is not None:
+        kw["tau"] = tau
+    if lipschitz > 0:
+        kw["lipschitz"] = lipschitz
+        if metric is not None:
+            kw["metric"] = metric
     return kw
 
 

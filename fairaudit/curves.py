@@ -34,7 +34,7 @@ from .metrics import expected_utility, global_fairness, local_fairness
 from .privacy import Mechanism, MechanismFamily
 from .report import write_atomic
 from .utility import Utility, check_metric
-from .worstcase import black_box_bound
+from .worstcase import black_box_bound, worst_model
 
 __all__ = ["PrivacyCurve", "privacy_curve", "default_epsilons", "COLUMNS"]
 
@@ -268,8 +268,10 @@ def privacy_curve(
     """Bounds and observed g-fairness along a family of mechanisms, on a grid of ε.
 
     For each ε of the grid, with M_ε = ``family(ε)``:
-    ``paper_bound(M_ε)``, ``tight_bound(M_ε)`` (when τ is given),
-    ``black_box_bound(M_ε)``, ``corollary_bound(M_ε)`` and, with a kernel,
+    ``paper_bound(M_ε)``, ``tight_bound(M_ε)`` (when τ is given), the
+    black-box worst case over every model (``worst_model(M_ε, utility)``
+    for a given utility, as ``certify`` reports it; ``black_box_bound(M_ε)``
+    for the class [lower, γ] without one), ``corollary_bound(M_ε)`` and, with a kernel,
     ``local_fairness`` / ``global_fairness`` of ``compose(kernel, M_ε, M_X)``.
 
     Parameters
@@ -387,8 +389,12 @@ def privacy_curve(
 
     group_dependent = utility is not None and utility.depends_on_group
     bb_kw = _black_box_keywords(lower, gamma, tau, lipschitz, metric, population)
-    if group_dependent and lipschitz == 0.0:
-        bb_kw = None  # g depends on a but its L_A is unknown: no black-box class to maximise over
+
+    def black_box_at(mech: Mechanism) -> float:
+        if utility is not None:   # exact for this utility, as certify reports it
+            return worst_model(mech, utility, context_mechanism=context_mechanism, population=population,
+                               tau=tau).local.value
+        return black_box_bound(mech, **bb_kw).value
 
     n = grid.size
     out = {k: np.full(n, np.nan) for k in ("keep", "paper", "tight", "black_box", "corollary", "local", "global",
@@ -399,8 +405,7 @@ def privacy_curve(
         if tau is not None:
             out["paper"][i] = paper_bound(mech, tau=tau, gamma=gamma, lipschitz=lipschitz, diameter=diameter).value
             out["tight"][i] = tight_bound(mech, tau=tau, gamma=gamma, lipschitz=lipschitz, metric=metric).value
-        if bb_kw is not None:
-            out["black_box"][i] = black_box_bound(mech, **bb_kw).value
+        out["black_box"][i] = black_box_at(mech)
         if not group_dependent:
             out["corollary"][i] = corollary_bound(mech).value
         if kernel is not None:

@@ -296,3 +296,139 @@ def test_product_epsilon_claim_of_the_paper_has_teeth():
 
     p = find(st.floats(0.51, 0.99), lambda p: not paper_axis_is_an_upper_bound(p), settings=FIND)
     assert 3 * math.log(p / (1 - p)) > p / (1 - p)
+
+
+# ------------------------------------------------------------------------------------------------- teeth for the DP facts
+def test_post_processing_claim_of_a_strict_decrease_has_teeth():
+    # "post-processing lowers epsilon by 10%" is false: the identity post-processing keeps it
+    def strictly_lower(seed: int) -> bool:
+        rng = np.random.default_rng(seed)
+        n, m = int(rng.integers(2, 4)), int(rng.integers(2, 4))
+        mech = fa.from_matrix(rng.dirichlet(np.ones(m), size=n), list(range(n)), list(range(m)))
+        post = fa.from_matrix(np.eye(m) if rng.uniform() < 0.5 else rng.dirichlet(np.ones(m), size=m),
+                              list(range(m)))
+        return mech.then(post).epsilon <= 0.9 * mech.epsilon
+
+    seed = falsified(SEEDS, strictly_lower)
+    assert not strictly_lower(seed)
+
+
+def test_product_epsilon_is_not_the_max_of_its_parts():
+    # the weakened claim "epsilon(product) <= max epsilon of the parts" (each attribute alone) fails
+    def max_claim(seed: int) -> bool:
+        rng = np.random.default_rng(seed)
+        parts = [fa.from_matrix(rng.dirichlet(np.ones(2), size=2), [0, 1]) for _ in range(int(rng.integers(1, 4)))]
+        return fa.product(*parts).epsilon <= max(p.epsilon for p in parts) + 1e-12
+
+    seed = falsified(SEEDS, max_claim)
+    assert not max_claim(seed)
+
+
+def test_delta_claims_have_teeth():
+    # "delta drops by 10% between close epsilons" and "delta is linear in e^epsilon" are both false
+    def drops(seed: int) -> bool:
+        rng = np.random.default_rng(seed)
+        mech = fa.from_matrix(rng.dirichlet(np.ones(4), size=3), [0, 1, 2], list(range(4)))
+        e1 = float(rng.uniform(0, 0.5))
+        d1, d2 = mech.delta(e1), mech.delta(e1 + 1e-3)
+        return d2 <= 0.9 * d1
+
+    def linear(seed: int) -> bool:
+        rng = np.random.default_rng(seed)
+        mech = fa.from_matrix(rng.dirichlet(np.ones(4), size=3), [0, 1, 2], list(range(4)))
+        t = np.sort(rng.uniform(1, 4, 3))
+        d = [mech.delta(math.log(x)) for x in t]
+        w = (t[2] - t[1]) / (t[2] - t[0])
+        return abs(d[1] - (w * d[0] + (1 - w) * d[2])) <= 1e-12
+
+    for claim in (drops, linear):
+        seed = falsified(SEEDS, claim)
+        assert not claim(seed)
+
+
+def test_ordering_black_box_tight_has_teeth():
+    # black-box <= tight (same tau) holds always (tests/test_worstcase_general.py); "black-box <= 0.9 tight" does not
+    def claim(seed: int) -> bool:
+        rng = np.random.default_rng(seed)
+        n, m = int(rng.integers(2, 4)), int(rng.integers(2, 4))
+        mech = fa.from_matrix(rng.dirichlet(np.ones(m), size=n), list(range(n)), list(range(m)))
+        tau = float(rng.uniform(0.05, 0.9))
+        return fa.black_box_bound(mech, tau=tau).value <= 0.9 * fa.tight_bound(mech, tau=tau, gamma=1.0).value
+
+    seed = falsified(SEEDS, claim)
+    assert not claim(seed)
+
+
+# ------------------------------------------------------------------------------------------------- Lemma 1, divergence
+@given(seed=SEEDS)
+def test_lemma_1_divergence_with_a_zero_in_the_denominator(seed):
+    # a decision possible for one group and impossible for another: sup over g is +inf, and g = 1{that decision}
+    # shows it (L = +inf), while every g that puts no weight on it stays finite or at parity
+    rng = np.random.default_rng(seed)
+    n_u = int(rng.integers(2, 5))
+    q = rng.dirichlet(np.ones(n_u), size=(1, 2))
+    q[0, 1, 0] = 0.0
+    q[0, 1] /= q[0, 1].sum()
+    law = fa.Law(q, ["x"], ["a", "b"], list(range(n_u)))
+    s = sup_local_fairness(law)
+    assert s.value == math.inf and s.decision == 0 and (s.group, s.other_group) == ("a", "b")
+    assert local_fairness(law, fa.indicator(0, law.decisions)).value == math.inf
+
+
+# ------------------------------------------------------------------------------------------------- privacy of X
+def x_privacy_holds(seed: int, scale: float = 1.0) -> bool:
+    rng = np.random.default_rng(seed)
+    n_x, n_a, n_u = int(rng.integers(2, 4)), int(rng.integers(2, 4)), int(rng.integers(2, 4))
+    ctx = [f"x{i}" for i in range(n_x)]
+    kernel = fa.Kernel(rng.dirichlet(np.ones(n_u) * 0.5, size=(n_x, n_a)), ctx, list(range(n_a)), list(range(n_u)))
+    mx = fa.from_matrix(rng.dirichlet(np.ones(n_x), size=n_x), ctx)
+    g = fa.Utility(rng.uniform(0, 1, n_u), list(range(n_u)))
+    before = local_fairness(fa.compose(kernel), g).value
+    after = local_fairness(fa.compose(kernel, context=mx), g).value
+    return after <= scale * before + 1e-12
+
+
+@given(seed=SEEDS)
+def test_x_privacy_never_increases_local_fairness(seed):
+    # for g = g(u) and any mechanism from X to X, local L cannot increase (proofs/x_privacy.md)
+    assert x_privacy_holds(seed)
+
+
+def test_x_privacy_claim_of_a_strict_decrease_has_teeth():
+    seed = falsified(SEEDS, lambda s: x_privacy_holds(s, scale=0.5))
+    assert not x_privacy_holds(seed, scale=0.5)
+
+
+def test_x_privacy_paper_example_global_increases():
+    # the paper's example (SI C): uniform X independent of A, U = 1 when the released context equals the group,
+    # M_X = [[0.9, 0.1], [0.7, 0.3]] (log 3-DP): L-bar 0 -> log 4, local L +inf -> log 9
+    k = fa.Kernel([[[1, 0], [0, 1]], [[0, 1], [1, 0]]], [0, 1], [0, 1], [1, 0])
+    mx = fa.from_matrix([[0.9, 0.1], [0.7, 0.3]], [0, 1])
+    g, pop = fa.indicator(1, [1, 0]), fa.Population.uniform([0, 1], [0, 1])
+    assert mx.epsilon == pytest.approx(math.log(3), rel=1e-12)
+    assert global_fairness(fa.compose(k), g, pop).value == 0.0
+    assert local_fairness(fa.compose(k), g, pop).value == math.inf
+    assert global_fairness(fa.compose(k, context=mx), g, pop).value == pytest.approx(math.log(4), rel=1e-12)
+    assert local_fairness(fa.compose(k, context=mx), g, pop).value == pytest.approx(math.log(9), rel=1e-12)
+
+
+# ------------------------------------------------------------------------------------------------- a metric on A
+@given(seed=SEEDS)
+def test_main_theorem_with_a_metric_and_its_diameter(seed):
+    # groups on a line (d(a, a') = |a - a'| / (n - 1), diameter 1): a utility Lipschitz under d; tight uses d(a, a')
+    rng = np.random.default_rng(seed)
+    n, m, n_u = int(rng.integers(2, 5)), int(rng.integers(2, 4)), 2
+    pos = np.linspace(0, 1, n)
+    metric = np.abs(pos[:, None] - pos[None, :])
+    mech = fa.from_matrix(rng.dirichlet(np.ones(m), size=n), list(range(n)), list(range(m)))
+    slope = float(rng.uniform(0, 0.3))
+    g = np.clip(rng.uniform(0.2, 0.8, n_u)[None, None, :] + slope * pos[None, :, None], 0, 1)
+    util = fa.Utility(g, list(range(n_u)), ["x"], list(range(n)))
+    kernel = fa.Kernel(rng.dirichlet(np.ones(n_u), size=(1, m)), ["x"], list(range(m)), list(range(n_u)))
+    law = fa.compose(kernel, mech)
+    tau = float(fa.expected_utility(law, util).min())
+    lip = util.lipschitz(metric)
+    observed = local_fairness(law, util).value
+    tight = fa.tight_bound(mech, tau=tau, gamma=1.0, lipschitz=lip, metric=metric).value
+    paper = fa.paper_bound(mech, tau=tau, gamma=1.0, lipschitz=lip, diameter=util.diameter(metric)).value
+    assert observed <= tight + 1e-9 <= paper + 2e-9

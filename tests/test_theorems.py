@@ -432,3 +432,62 @@ def test_main_theorem_with_a_metric_and_its_diameter(seed):
     tight = fa.tight_bound(mech, tau=tau, gamma=1.0, lipschitz=lip, metric=metric).value
     paper = fa.paper_bound(mech, tau=tau, gamma=1.0, lipschitz=lip, diameter=util.diameter(metric)).value
     assert observed <= tight + 1e-9 <= paper + 2e-9
+
+
+# ------------------------------------------------------------------------------------------------- named examples of proofs/
+def test_paper_form_minimum_at_a_crossing_not_at_a_ratio():
+    # proofs/main_theorem.md, "Crossings matter": ratios only give log 3; the exact minimum is log(25/9) at t = 5/3
+    m = fa.from_matrix([[0.45, 0.40, 0.15], [0.65, 0.20, 0.15], [0.65, 0.30, 0.05]], ["a0", "a1", "a2"],
+                       ["o0", "o1", "o2"])
+    pb = fa.paper_bound(m, gamma=1.0, tau=0.1)
+    assert pb.value == pytest.approx(math.log(25 / 9), rel=1e-12)
+    assert math.exp(pb.epsilon) == pytest.approx(5 / 3, rel=1e-12) and pb.delta == pytest.approx(1 / 15, rel=1e-9)
+    r = np.array([1, 4 / 3, 13 / 9, 3 / 2, 2, 3])
+    at_ratios = (np.log(r) + np.log1p(10 * m.delta(np.log(r)))).min()
+    assert at_ratios == pytest.approx(math.log(3), rel=1e-12)
+
+
+def test_global_unbounded_when_x_copies_a():
+    # proofs/main_theorem.md, Step 4: X a copy of A, the model outputs the released context: L = 0, L-bar = +inf
+    k = fa.Kernel([[[1, 0], [1, 0]], [[0, 1], [0, 1]]], [0, 1], [0, 1], ["u0", "u1"])
+    law = fa.compose(k, sensitive=fa.randomized_response([0, 1], epsilon=0.1))
+    pop = fa.Population([[0.5, 0], [0, 0.5]], [0, 1], [0, 1])
+    g = fa.indicator("u0", ["u0", "u1"])
+    assert local_fairness(law, g, pop).value == 0.0
+    assert global_fairness(law, g, pop).value == math.inf and not pop.independence().independent
+
+
+def test_corollary_per_candidate_example():
+    # proofs/corollary.md: two candidates, RR keep 0.7 on both attributes; P(chosen | x, a) = [[0.5, 0.3], [0.7, 0.5]],
+    # L = log(5/3) <= ln(7/3)
+    rr = fa.randomized_response(["Tom", "Mary"], keep=0.7)
+
+    def c(v):
+        return [v, 1 - v]
+
+    k = fa.Kernel([[c(0.5), c(0.0)], [c(1.0), c(0.5)]], ["Tom", "Mary"], ["Tom", "Mary"], ["chosen", "not"])
+    law = fa.compose(k, sensitive=rr, context=rr)
+    assert law.probabilities[:, :, 0] == pytest.approx(np.array([[0.5, 0.3], [0.7, 0.5]]), abs=1e-12)
+    r = local_fairness(law, fa.indicator("chosen", ["chosen", "not"]))
+    assert r.ratio == pytest.approx(5 / 3, rel=1e-12) and r.value <= rr.epsilon
+
+
+def test_x_privacy_needs_positive_context_probability():
+    # proofs/x_privacy.md, remark (X3): a context of probability 0 is excluded, but M_X moves mass onto it: L 0 -> log(11/9)
+    k = fa.Kernel([[[0.5, 0.5], [0.5, 0.5]], [[1, 0], [0, 1]]], [0, 1], [0, 1], [1, 0])
+    g = fa.indicator(1, [1, 0])
+    mx = fa.from_matrix([[0.9, 0.1], [0.5, 0.5]], [0, 1])
+    pop = fa.Population([[0.5, 0.5], [0, 0]], [0, 1], [0, 1])
+    assert local_fairness(fa.compose(k), g, pop).value == 0.0
+    assert local_fairness(fa.compose(k, context=mx), g, pop).value == pytest.approx(math.log(11 / 9), rel=1e-12)
+
+
+@given(st.floats(1.0, 50.0))
+def test_links_tightened_form_is_attained(ratio):
+    # P(u | a) = (R, 1)/(R + 1) and P(u | a') = (1, R)/(R + 1): sup ratio R, TV (R - 1)/(R + 1), both local and global
+    p = np.array([ratio, 1.0]) / (ratio + 1)
+    law = fa.Law(np.array([[p, p[::-1]]]), ["x"], ["a", "b"], [0, 1])
+    want = (ratio - 1) / (ratio + 1)
+    assert math.exp(sup_local_fairness(law).value) == pytest.approx(ratio, rel=1e-12)
+    assert fa.equalized_odds(law).value == pytest.approx(want, rel=1e-12, abs=1e-15)
+    assert fa.demographic_parity(law).value == pytest.approx(want, rel=1e-12, abs=1e-15)

@@ -313,6 +313,8 @@ class Law(_DecisionTable):
 def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechanism | None = None) -> Law:
     """The law of decisions behind privacy filters on A and X.
 
+    Proof: ``proofs/x_privacy.md`` (privacy of the context).
+
     ``Q[x, a, u] = Σ_{x̃, ã} M_X[x, x̃] M_A[a, ã] K[x̃, ã, u]`` (paper, main
     text "Turning privacy into fairness guarantees"; DESIGN.md layout).
 

@@ -17,6 +17,9 @@ estimated law, are excluded and listed in ``excluded``, never silently.
 
 The maximisations are vectorised: per context the largest ratio is
 max_a E / min_a E, so no pair of groups is enumerated.
+
+Proofs: ``proofs/lemma1_links.md`` (Lemma 1 and the links theorem),
+``proofs/main_theorem.md`` Step 4 (L̄ ≤ L under X ⊥ A).
 """
 
 from __future__ import annotations
@@ -212,6 +215,8 @@ def _excluded_contexts(law: Law, population: Population | None, present: np.ndar
 def local_fairness(law: Law, utility: Utility, population: Population | None = None) -> Fairness:
     """Local g-fairness L = log max over x, a, a' of E[g | x, a] / E[g | x, a'].
 
+    Proof: ``proofs/main_theorem.md`` (what bounds it), proofs/x_privacy.md (behind M_X).
+
     Parameters
     ----------
     law : Law
@@ -283,6 +288,8 @@ def _group_weights(law: Law, population: Population) -> tuple[np.ndarray, list[s
 
 def global_fairness(law: Law, utility: Utility, population: Population | None = None) -> Fairness:
     """Global g-fairness L̄ = log max over a, a' of E[g | a] / E[g | a'].
+
+    Proof: ``proofs/main_theorem.md,`` Step 4 (L̄ ≤ L under X ⊥ A, and the counterexample without it).
 
     Parameters
     ----------
@@ -373,6 +380,8 @@ def _max_tv(dist: np.ndarray):
 def demographic_parity(law: Law, population: Population | None = None) -> TotalVariation:
     """L_dp = max over a, a' of TV(P(U | a), P(U | a')) (paper SI B, Definition 1).
 
+    Proof: ``proofs/lemma1_links.md`` (L_dp ≤ e^{sup L̄} − 1, tightened to (R − 1)/(R + 1)).
+
     A probability in [0, 1], not nats. Default population: uniform and independent.
 
     Examples
@@ -399,6 +408,8 @@ def demographic_parity(law: Law, population: Population | None = None) -> TotalV
 
 def equalized_odds(law: Law, population: Population | None = None) -> TotalVariation:
     """L_eo = max over x, a, a' of TV(P(U | x, a), P(U | x, a')) (paper SI B, Definition 2).
+
+    Proof: ``proofs/lemma1_links.md`` (L_eo ≤ e^{sup L} − 1, tightened to (R − 1)/(R + 1)).
 
     With X the true label this is the equalized-odds difference of a
     classifier. Empty cells and contexts with P(X = x) = 0 are excluded.
@@ -432,6 +443,8 @@ def equalized_odds(law: Law, population: Population | None = None) -> TotalVaria
 def sup_local_fairness(law: Law, population: Population | None = None) -> SupFairness:
     """sup over g(u) ≥ 0 of L: log max over x, u, a, a' of Q[x, a, u] / Q[x, a', u] (Lemma 1).
 
+    Proof: ``proofs/lemma1_links.md`` (Lemma 1).
+
     A g that may depend on the group without a Lipschitz bound makes the sup
     +inf trivially; this is the sup over utilities of the decision alone, the
     "differential fairness" of Foulds et al. (2020) per context.
@@ -461,6 +474,8 @@ def sup_local_fairness(law: Law, population: Population | None = None) -> SupFai
 
 def sup_global_fairness(law: Law, population: Population | None = None) -> SupFairness:
     """sup over g(u) ≥ 0 of L̄: log max over u, a, a' of P(u | a) / P(u | a') (Lemma 1).
+
+    Proof: ``proofs/lemma1_links.md`` (Lemma 1).
 
     Default population: uniform and independent.
     """

@@ -117,6 +117,8 @@ class Mechanism:
     def epsilon(self) -> float:
         """Pure-DP ε(M) in nats: max log M[a, o] / M[a', o] over all pairs.
 
+        Proof: ``proofs/privacy.md``.
+
         +inf when one input reaches an output that another cannot; 0 for a
         mechanism whose rows are all equal (or with one input).
         """
@@ -128,6 +130,8 @@ class Mechanism:
 
     def pairwise_delta(self, epsilon: float) -> np.ndarray:
         """Hockey-stick divergence of every ordered pair of inputs.
+
+        Proof: ``proofs/privacy.md`` (hockey-stick divergence, attained at S = {o: M[a,o] > e^ε M[a',o]}).
 
         Parameters
         ----------
@@ -151,6 +155,8 @@ class Mechanism:
 
     def delta(self, epsilon):
         """δ(M, ε): the largest hockey-stick divergence over pairs of inputs.
+
+        Proof: ``proofs/privacy.md`` (non-increasing, convex in e^ε).
 
         Parameters
         ----------
@@ -235,6 +241,8 @@ class Mechanism:
     def then(self, other: "Mechanism") -> "Mechanism":
         """Post-process this mechanism's output with ``other`` (matrix product).
 
+        Proof: ``proofs/privacy.md`` (post-processing).
+
         Raises
         ------
         InputError
@@ -309,6 +317,8 @@ def randomized_response(
     name: str | None = None,
 ) -> Mechanism:
     """k-ary randomized response on ``values``.
+
+    Proof: ``proofs/privacy.md`` (ε = ln(p(k − 1)/(1 − p)); the paper's error 1).
 
     Keeps the value with probability p = e^ε / (e^ε + k − 1) and moves to each
     of the k − 1 other values with probability 1 / (e^ε + k − 1) (Warner 1965;
@@ -407,6 +417,8 @@ def from_matrix(rows, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | 
 
 def product(*mechanisms: Mechanism, name: str | None = None) -> Mechanism:
     """The product mechanism on a tuple of attributes, each randomized independently.
+
+    Proof: ``proofs/privacy.md`` (ε of a product is the sum; the paper's error 2).
 
     Inputs and outputs are tuples of the components' labels in
     ``itertools.product`` order; the matrix is the Kronecker product. With

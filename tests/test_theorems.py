@@ -491,3 +491,21 @@ def test_links_tightened_form_is_attained(ratio):
     assert math.exp(sup_local_fairness(law).value) == pytest.approx(ratio, rel=1e-12)
     assert fa.equalized_odds(law).value == pytest.approx(want, rel=1e-12, abs=1e-15)
     assert fa.demographic_parity(law).value == pytest.approx(want, rel=1e-12, abs=1e-15)
+
+
+def test_global_exceeds_local_found_by_search_seed_97():
+    # The counterexample hypothesis finds for "L-bar <= L" with dependent X and A (seed 97 of global_below_local):
+    # 2 contexts, 3 groups; group 0 lives almost only in context 0 (P(x0, a0) = 0.6244, P(x1, a0) = 0), where
+    # g = 1{u = 0} is likely; group 1 mostly in context 1, where it is not. Locally the worst ratio is
+    # 1.622 (context 1, group 2 over 1); globally group 0 gets 3.230 times group 1.
+    assert not global_below_local(97, independent=False)
+    rng = np.random.default_rng(97)
+    n_x, n_a = int(rng.integers(2, 4)), int(rng.integers(2, 4))
+    q = rng.dirichlet(np.ones(2), size=(n_x, n_a))
+    pop = fa.Population(rng.dirichlet(np.ones(n_x * n_a) * 0.3).reshape(n_x, n_a), list(range(n_x)), list(range(n_a)))
+    law = fa.Law(q, list(range(n_x)), list(range(n_a)), [0, 1])
+    g = fa.indicator(0, [0, 1])
+    loc, glo = local_fairness(law, g, pop), global_fairness(law, g, pop)
+    assert (n_x, n_a) == (2, 3)
+    assert loc.value == pytest.approx(0.483918, abs=1e-6) and (loc.context, loc.group, loc.other_group) == (1, 2, 1)
+    assert glo.value == pytest.approx(1.1726, abs=1e-4) and (glo.group, glo.other_group) == (0, 1)

@@ -114,6 +114,10 @@ def test_delta_needs_epsilon():
         find(mechanisms(delta=0.1), lambda m: True)
     with pytest.raises(InvalidArgument):
         find(mechanisms(epsilon=1.0, n_inputs=1), lambda m: True)
+    with pytest.raises(InvalidArgument):
+        find(mechanisms(epsilon=800.0), lambda m: True)
+    with pytest.raises(InvalidArgument):
+        find(mechanisms(epsilon=math.inf, delta=0.1), lambda m: True)
 
 
 def test_mechanisms_edge_cases_are_drawn():

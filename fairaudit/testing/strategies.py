@@ -325,8 +325,8 @@ def mechanisms(draw, n_inputs=range(2, 4), n_outputs=None, epsilon=None, delta=N
     """
     eps = _number(draw, epsilon, "epsilon")
     dlt = _number(draw, delta, "delta")
-    if eps is not None and (math.isnan(eps) or eps < 0):
-        raise InvalidArgument(f"epsilon={eps!r} must be a non-negative number of nats")
+    if eps is not None and (math.isnan(eps) or eps < 0 or 700.0 < eps < math.inf):
+        raise InvalidArgument(f"epsilon={eps!r} must be a number of nats in [0, 700] or math.inf")
     if dlt is not None:
         if eps is None:
             raise InvalidArgument("delta needs epsilon: the ε at which δ(M, ε) is prescribed")

@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 
 import fairaudit as fa
 from fairaudit.metrics import global_fairness, local_fairness, sup_global_fairness, sup_local_fairness
+from fairaudit.testing import kernels, mechanisms, randomized_responses, utilities
 
 SEEDS = st.integers(0, 2**32 - 1)
 FIND = settings(max_examples=3000, derandomize=True, database=None, suppress_health_check=list(HealthCheck))
@@ -509,3 +510,52 @@ def test_global_exceeds_local_found_by_search_seed_97():
     assert (n_x, n_a) == (2, 3)
     assert loc.value == pytest.approx(0.483918, abs=1e-6) and (loc.context, loc.group, loc.other_group) == (1, 2, 1)
     assert glo.value == pytest.approx(1.1726, abs=1e-4) and (glo.group, glo.other_group) == (0, 1)
+
+
+# ------------------------------------------------------------------------------------------------- with fairaudit.testing
+
+
+@st.composite
+def main_theorem_instances(draw):
+    """(ε, δ) mechanism, a kernel behind it, a utility in [0, γ] with a Lipschitz constant: the theorem's inputs."""
+    eps = draw(st.floats(0.0, 3.0))
+    delta = draw(st.sampled_from([0.0, 0.05, 0.2]))
+    mech = draw(mechanisms(n_inputs=range(2, 4), epsilon=eps, delta=delta if delta > 0 else None))
+    gamma = draw(st.sampled_from([1.0, 2.0]))
+    lip = draw(st.sampled_from([None, 0.1]))
+    util = draw(utilities(decisions=range(2, 4), gamma=gamma, lower=0.0, contexts=["x0"], groups=list(mech.inputs),
+                          depends_on_group=lip is not None, lipschitz=lip))
+    kernel = draw(kernels(contexts=["x0"], groups=list(mech.outputs), decisions=list(util.decisions)))
+    return eps, delta, mech, gamma, util, fa.compose(kernel, mech)
+
+
+def stated_theorem_holds(instance, scale: float = 1.0) -> bool:
+    eps, delta, mech, gamma, util, law = instance
+    e = fa.expected_utility(law, util)
+    tau = float(np.nanmin(e))
+    if tau <= 1e-9:
+        return True
+    lip = util.lipschitz()
+    bound = fa.main_theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=1.0)
+    tight = fa.main_theorem_tight(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=1.0)
+    observed = local_fairness(law, util).value
+    return observed <= scale * tight + 1e-9 and tight <= bound + 1e-12
+
+
+@given(main_theorem_instances())
+def test_main_theorem_at_the_stated_epsilon_delta(instance):
+    # the theorem as stated: M_A (eps, delta)-DP (drawn with exactly that delta at eps), g <= gamma, E >= tau, L_A
+    assert stated_theorem_holds(instance)
+
+
+def test_main_theorem_at_the_stated_epsilon_delta_has_teeth():
+    bad = find(main_theorem_instances(), lambda inst: not stated_theorem_holds(inst, scale=0.5), settings=FIND)
+    assert not stated_theorem_holds(bad, scale=0.5)
+
+
+@given(randomized_responses(k=range(2, 6)))
+def test_corollary_attained_by_every_randomized_response(mech):
+    k = np.eye(len(mech.outputs))[None]
+    law = fa.compose(fa.Kernel(k, ["x"], mech.outputs, mech.outputs), mech)
+    assert local_fairness(law, fa.indicator(mech.outputs[0], mech.outputs)).value == pytest.approx(mech.epsilon,
+                                                                                                  rel=1e-9, abs=1e-12)

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
@@ -21,7 +21,6 @@ def _instance(seed: int, n: int):
     return p, q, lo, lo + rng.uniform(0.01, 1.0, n)
 
 
-@settings(max_examples=60)
 @given(st.integers(0, 2**32 - 1), st.integers(1, 30))
 def test_threshold_equals_lp(seed, n):
     p, q, lo, hi = _instance(seed, n)
@@ -55,7 +54,6 @@ def _dinkelbach(p, q, a_ub, b_ub, lo, hi):
     return lam
 
 
-@settings(max_examples=40)
 @given(st.integers(0, 2**32 - 1), st.integers(2, 12), st.integers(1, 4))
 def test_lp_with_constraints_equals_dinkelbach(seed, n, m):
     # Polytope: box plus m constraints r_j . h >= tau_j (like lower bounds on E[g | x, b]).

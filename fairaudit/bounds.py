@@ -196,6 +196,8 @@ def main_theorem_tight(epsilon: float, delta: float, *, gamma: float, tau: float
                        diameter: float = 1.0) -> float:
     """The main theorem as its proof gives it: log(e^ε + (L_A·diam(A) + δγ) / τ), nats.
 
+    Proof: ``proofs/tight_bound.md`` (the per-pair form; never above the paper form).
+
     Never larger than :func:`main_theorem`, since e^ε ≥ 1.
 
     Examples
@@ -469,6 +471,8 @@ def check_assumptions(
     law: Law | None = None,
 ) -> tuple[Assumption, ...]:
     """The main theorem's hypotheses, each checked on the data given or vouched for.
+
+    Proof: ``proofs/main_theorem.md`` (the hypotheses (A1)–(A6)).
 
     Parameters
     ----------

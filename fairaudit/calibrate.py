@@ -613,6 +613,8 @@ def calibrate_randomized_response(
 ) -> Calibration:
     """The largest ε of k-ary randomized response whose certificate on L meets ``target``.
 
+    Proof: ``proofs/calibration.md``.
+
     A thin wrapper of :func:`calibrate` (``kind="local"``, the default
     family) that raises instead of returning an infeasible result.
 

@@ -103,6 +103,8 @@ def _ratio(num: float, den: float) -> float:
 def threshold_max(p, q, lower, upper) -> FractionalResult:
     """max (p·h)/(q·h) over the box lower ≤ h ≤ upper, exactly, in O(n log n).
 
+    Proof: ``proofs/linear_fractional.md`` (the threshold solution).
+
     Parameters
     ----------
     p, q : array_like, shape (n,)
@@ -149,6 +151,8 @@ def threshold_max(p, q, lower, upper) -> FractionalResult:
 
 def threshold_max_many(p, q, lower, upper):
     """The threshold solution for a batch of box programs, vectorised over leading axes.
+
+    Proof: ``proofs/linear_fractional.md`` (the threshold solution).
 
     Parameters
     ----------
@@ -209,7 +213,7 @@ def floor_max_many(p, q, lower, upper, floor: float, threshold=None):
     numerator N(D) is concave in D), is largest at D = floor, where the best
     numerator is the fractional knapsack: raise cells to ``upper`` in
     decreasing order of p/q until q·h = floor, the last one partly.
-    ``proofs/black_box.md`` (τ-constrained class). This is the relaxation
+    ``proofs/linear_fractional.md`` (the box plus one floor). This is the relaxation
     of the τ-constrained programs that keeps only the denominator group's
     constraint: an upper bound, and the optimum whenever its point meets the
     other constraints.
@@ -316,6 +320,8 @@ def _solve(problem) -> None:
 
 class FractionalProgram:
     """max (p·h)/(q·h) over a fixed polytope, compiled once, solved for many (p, q).
+
+    Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; what each LP status means).
 
     The polytope is {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq} in R^n.
     The Charnes–Cooper transform y = s·h, s = 1/(q·h) ≥ 0 gives the LP
@@ -489,6 +495,8 @@ def _matrix(a, name: str):
 def lp_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None) -> FractionalResult:
     """max (p·h)/(q·h) over a polytope, by the Charnes–Cooper transform and an LP.
 
+    Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; statuses).
+
     Parameters
     ----------
     p, q : array_like, shape (n,)
@@ -525,6 +533,8 @@ def lp_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_e
 def fractional_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None,
                    method: str = "auto") -> FractionalResult:
     """max (p·h)/(q·h) over a polytope: the threshold fast path when it applies, else the LP.
+
+    Proof: ``proofs/linear_fractional.md``.
 
     The fast path (:func:`threshold_max`) applies when only finite per-cell
     bounds 0 ≤ lower ≤ upper constrain h and p, q ≥ 0; otherwise the

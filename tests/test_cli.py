@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import subprocess
 import sys
@@ -12,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from _cli import run, run_json
 from fairaudit.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -24,15 +24,6 @@ def num(v):
     return math.inf if v == "inf" else v
 
 
-def run(capsys, *argv):
-    code = main(list(map(str, argv)))
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def run_json(capsys, *argv):
-    code, out, err = run(capsys, *argv, "--format", "json")
-    return code, json.loads(out), err
 
 
 def _get(d, dotted):

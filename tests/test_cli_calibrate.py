@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 
 import fairaudit as fa
+from _cli import run, run_json
 from fairaudit.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -19,15 +20,6 @@ CONTRACT = ("epsilon", "keep_probability", "method", "bound")
 EXTRA = ("feasible", "reason", "target", "kind", "mechanism", "groups")
 
 
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def run_json(capsys, *argv):
-    code, out, err = run(capsys, *argv, "--format", "json")
-    return code, json.loads(out), err
 
 
 SPEC = """

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from _cli import run
 from fairaudit.cli import main
 from fairaudit.curves import COLUMNS
 
@@ -41,11 +42,6 @@ local = {target}
 
 KERNEL = "office,outcome,probability\nHR_1,chosen,0\nHR_1,not chosen,1\nHR_2,chosen,1\nHR_2,not chosen,0\n"
 
-
-def run(capsys, *argv):
-    code = main(list(map(str, argv)))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture

@@ -193,7 +193,12 @@ def _run_calibrate(args) -> int:
     if args.spec:
         from .spec import load_spec
 
-        spec = load_spec(args.spec)
+        try:
+            spec = load_spec(args.spec)
+        except InputError as exc:
+            if exc.field != "SPEC":
+                raise
+            raise exc.under("--spec", keep_own=False) from None
         n = len(spec.groups)
         if args.groups is not None and args.groups != n:
             raise InputError("--groups", f"the spec {args.spec} has {n} groups", args.groups)

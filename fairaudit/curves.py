@@ -195,6 +195,11 @@ def default_epsilons(spec_epsilon: float | None = None, n: int = 61) -> np.ndarr
     numpy.ndarray, shape (n,) or (n + 1,)
         Sorted, distinct, starting at 0.
 
+    Raises
+    ------
+    InputError
+        When ``n`` < 2.
+
     Examples
     --------
     >>> default_epsilons(None, 6).tolist()
@@ -204,6 +209,8 @@ def default_epsilons(spec_epsilon: float | None = None, n: int = 61) -> np.ndarr
     >>> default_epsilons(0.8, 3).tolist()
     [0.0, 0.6, 0.8, 1.2]
     """
+    if int(n) < 2:
+        raise InputError("n", "a grid needs at least 2 points", n)
     top = 5.0
     if spec_epsilon is not None and math.isfinite(spec_epsilon) and spec_epsilon > 0:
         top = 1.5 * float(spec_epsilon)

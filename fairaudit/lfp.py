@@ -173,6 +173,12 @@ def threshold_max_many(p, q, lower, upper):
         Cells by decreasing likelihood ratio p/q: the optimum sets
         ``order[..., :k]`` to ``upper`` and the rest to ``lower``.
 
+    Raises
+    ------
+    ValueError
+        From numpy when the shapes do not broadcast. Nothing else is checked
+        (use :func:`threshold_max` for validated input).
+
     Examples
     --------
     >>> v, k, order = threshold_max_many(np.array([[0.7, 0.3], [0.3, 0.7]]),
@@ -240,6 +246,12 @@ def floor_max_many(p, q, lower, upper, floor: float, threshold=None):
         Fraction of the span of cell ``order[k]`` that is raised (0 when none).
     order : numpy.ndarray of int, shape (..., n)
 
+    Raises
+    ------
+    ValueError
+        From numpy when the shapes do not broadcast; the inputs are not
+        otherwise validated (the inner loop of the worst-case searches).
+
     Examples
     --------
     >>> v, k, frac, order = floor_max_many(np.array([0.7, 0.3]), np.array([0.3, 0.7]), 0.0, 1.0, 0.5)
@@ -292,6 +304,16 @@ def box_point(lower, upper, order, k: int, frac: float = 0.0) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (n,)
+
+    Raises
+    ------
+    IndexError
+        When ``order`` holds an index outside [0, n).
+
+    Examples
+    --------
+    >>> box_point(0.0, 1.0, np.array([1, 0, 2]), 1, 0.25).tolist()    # cell 1 up, cell 0 a quarter up
+    [0.25, 1.0, 0.0]
     """
     n = order.shape[-1]
     lo = np.broadcast_to(np.asarray(lower, dtype=float), (n,)).copy()

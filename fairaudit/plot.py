@@ -36,6 +36,14 @@ def _matplotlib():
 def check_plot_path(path: str | Path) -> str:
     """The format of ``path`` (``"png"`` or ``"svg"``, by its suffix), after checking it can be written.
 
+    Parameters
+    ----------
+    path : str or pathlib.Path
+
+    Returns
+    -------
+    {"png", "svg"}
+
     Raises
     ------
     InputError
@@ -68,6 +76,16 @@ def save_figure(fig, path: str | Path) -> None:
     The figure is written to a temporary file in the same folder and renamed
     over ``path`` once complete; on error ``path`` is left untouched. SVGs are
     written reproducibly (no date, fixed element ids) with text kept as text.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : str or pathlib.Path
+        Ends in ``.png`` (150 dpi) or ``.svg``.
+
+    Returns
+    -------
+    None
 
     Raises
     ------

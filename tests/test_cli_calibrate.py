@@ -114,7 +114,7 @@ def test_global_flag_and_every_epsilon(capsys):
     (["--target", "0.5", "--lower", "2"], "--lower: must be a number in [0, gamma = 1] (got 2.0)"),
     (["--target", "0.5", "--tau", "0"], "--tau:"),
     (["--target", "0.5", "--method", "white_box"], "--spec: the white_box method needs a decision model"),
-    (["--target", "0.5", "--spec", "nosuch.toml"], "nosuch.toml"),
+    (["--target", "0.5", "--spec", "nosuch.toml"], "--spec: no such file (got 'nosuch.toml')"),
 ])
 def test_invalid_input_is_one_line_exit_2(capsys, argv, needle):
     code, out, err = run(capsys, "calibrate", *argv)

@@ -171,6 +171,13 @@ def populations(draw, contexts=range(1, 4), groups=range(2, 4), independent=None
     context, a1), which makes the 2×2 minor at least T² − W₀₁W₁₀ > 0, so W has
     rank ≥ 2 and X, A are dependent.
 
+    Raises
+    ------
+    hypothesis.errors.InvalidArgument
+        When the strategy is drawn from: a size that is not an int, a range or a
+        sequence of labels, a size below the minimum, or a request the
+        construction cannot meet.
+
     Examples
     --------
     >>> from hypothesis import find
@@ -399,6 +406,13 @@ def randomized_responses(draw, k=range(2, 5), epsilon=st.floats(0.0, 5.0)):
         Square (k, k) with inputs = outputs; ε(M) = ``epsilon`` exactly and
         keep probability e^ε / (e^ε + k − 1).
 
+    Raises
+    ------
+    hypothesis.errors.InvalidArgument
+        When the strategy is drawn from: a size that is not an int, a range or a
+        sequence of labels, a size below the minimum, or a request the
+        construction cannot meet.
+
     Examples
     --------
     >>> from hypothesis import find
@@ -440,6 +454,13 @@ def product_mechanisms(draw, n_attributes=range(2, 4), n_values=range(2, 4), eps
     ----------
     With ``epsilon``: |ε(product) − ε| ≤ 1e-9 (ε of the product is the sum
     of the components' ε, every pair of tuples adjacent).
+
+    Raises
+    ------
+    hypothesis.errors.InvalidArgument
+        When the strategy is drawn from: a size that is not an int, a range or a
+        sequence of labels, a size below the minimum, or a request the
+        construction cannot meet.
 
     Examples
     --------
@@ -501,6 +522,13 @@ def kernels(draw, contexts=range(1, 3), groups=range(1, 4), decisions=range(1, 4
         Shape (n_contexts, n_groups, n_decisions), indexed [x̃, ã, u]; rows
         sum to 1.
 
+    Raises
+    ------
+    hypothesis.errors.InvalidArgument
+        When the strategy is drawn from: a size that is not an int, a range or a
+        sequence of labels, a size below the minimum, or a request the
+        construction cannot meet.
+
     Examples
     --------
     >>> from hypothesis import find
@@ -547,6 +575,13 @@ def laws(draw, n_contexts=range(1, 3), n_groups=range(1, 4), n_decisions=range(1
         Shape (n_contexts, n_groups, n_decisions); every observed row sums
         to 1; with ``zero_cells=False`` (and without counts) every entry is
         positive.
+
+    Raises
+    ------
+    hypothesis.errors.InvalidArgument
+        When the strategy is drawn from: a size that is not an int, a range or a
+        sequence of labels, a size below the minimum, or a request the
+        construction cannot meet.
 
     Examples
     --------
@@ -605,6 +640,13 @@ def utilities(draw, decisions=range(2, 4), gamma=1.0, lower=0.0, contexts=None, 
     d ∈ [0, L_A] depending on (x, a, u); one (x, u) has h = γ − L_A with
     d = L_A for group 0 and d = 0 for group 1 (attaining γ and L_A), another
     has h = lower and d = 0 for every group (attaining lower).
+
+    Raises
+    ------
+    hypothesis.errors.InvalidArgument
+        When the strategy is drawn from: a size that is not an int, a range or a
+        sequence of labels, a size below the minimum, or a request the
+        construction cannot meet.
 
     Examples
     --------

@@ -39,17 +39,24 @@ def dot(u, v):
     return sum((Fraction(x) * Fraction(y) for x, y in zip(u, v)), Fraction(0))
 
 
+def vertices(A, b):
+    """Every vertex of {h : A h ≤ b}, exactly: the unique solutions of n rows taken as equalities that meet all rows."""
+    n = len(A[0])
+    out = []
+    for rows in itertools.combinations(range(len(A)), n):
+        h = solve([A[i] for i in rows], [b[i] for i in rows])
+        if h is not None and all(dot(A[i], h) <= b[i] for i in range(len(A))) and h not in out:
+            out.append(h)
+    return out
+
+
 def vertex_max(p, q, A, b):
     """max over the vertices h of {h : A h ≤ b} of (p·h)/(q·h), as (value, h); None if there is no vertex.
 
     Assumes q·h > 0 at every vertex (raises ZeroDivisionError otherwise).
     """
-    n = len(p)
     best = None
-    for rows in itertools.combinations(range(len(A)), n):
-        h = solve([A[i] for i in rows], [b[i] for i in rows])
-        if h is None or any(dot(A[i], h) > b[i] for i in range(len(A))):
-            continue
+    for h in vertices(A, b):
         r = dot(p, h) / dot(q, h)
         if best is None or r > best[0]:
             best = (r, h)

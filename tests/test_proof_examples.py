@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import itertools
 import math
+import sys
+from pathlib import Path
 from fractions import Fraction as F
 
 import numpy as np
@@ -25,55 +27,20 @@ from fairaudit.lfp import box_point, floor_max_many, lp_max, threshold_max
 from fairaudit.metrics import global_fairness, local_fairness
 from fairaudit.worstcase import black_box_bound, worst_model, worst_utility
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "proofs"))
+from _exact import box, vertices  # noqa: E402  (exact Fractions, independent of fairaudit)
+from _exact import dot as _dot  # noqa: E402
+
 CLOSED = 1e-12  # closed-form routes (threshold, floor relaxation, audits)
 LP = 1e-7  # Charnes–Cooper LP routes
 
 
 # ---------------------------------------------------------------------------------------------- exact helpers
-def _dot(u, v):
-    return sum((F(x) * F(y) for x, y in zip(u, v)), F(0))
-
-
-def _solve(rows, rhs):
-    """The unique solution of the square system rows·h = rhs in Fractions, or None if it is singular."""
-    n = len(rows)
-    m = [[F(v) for v in r] + [F(b)] for r, b in zip(rows, rhs)]
-    for c in range(n):
-        piv = next((r for r in range(c, n) if m[r][c] != 0), None)
-        if piv is None:
-            return None
-        m[c], m[piv] = m[piv], m[c]
-        m[c] = [v / m[c][c] for v in m[c]]
-        for r in range(n):
-            if r != c and m[r][c] != 0:
-                f = m[r][c]
-                m[r] = [a - f * e for a, e in zip(m[r], m[c])]
-    return [m[r][n] for r in range(n)]
-
-
-def vertices(A, b):
-    """Every vertex of {h : A h <= b} (exact): unique solutions of n rows taken as equalities that meet all rows."""
-    n = len(A[0])
-    out = []
-    for rows in itertools.combinations(range(len(A)), n):
-        h = _solve([A[i] for i in rows], [b[i] for i in rows])
-        if h is not None and all(_dot(A[i], h) <= b[i] for i in range(len(A))) and h not in out:
-            out.append(h)
-    return out
-
-
 def vertex_max(p, q, A, b):
     """(max over the vertices of (p·h)/(q·h), the maximising vertices); needs q·h > 0 at every vertex."""
     vals = [(_dot(p, h) / _dot(q, h), h) for h in vertices(A, b)]
     best = max(v for v, _ in vals)
     return best, [h for v, h in vals if v == best]
-
-
-def box_rows(lo, hi):
-    """Rows (A, b) of lo <= h <= hi."""
-    n = len(lo)
-    eye = [[F(int(i == j)) for j in range(n)] for i in range(n)]
-    return eye + [[-v for v in r] for r in eye], [F(v) for v in hi] + [-F(v) for v in lo]
 
 
 def floor_rows(rows, tau):
@@ -108,7 +75,7 @@ def test_lfp_worked_example_threshold_39_25():
     assert values == [F(19, 20), F(39, 25), F(54, 35), F(70, 67), F(6, 7)]
     lam = max(values)
     assert lam == F(39, 25) and [LF_P[i] - lam * LF_Q[i] > 0 for i in range(4)] == [False, True, False, False]
-    assert vertex_max(LF_P, LF_Q, *box_rows(LF_LO, LF_HI))[0] == lam        # Proposition 3 on all 16 vertices
+    assert vertex_max(LF_P, LF_Q, *box(LF_LO, LF_HI))[0] == lam        # Proposition 3 on all 16 vertices
     t = threshold_max(fl(LF_P), fl(LF_Q), fl(LF_LO), fl(LF_HI))
     assert t.status == "optimal" and t.value == pytest.approx(float(lam), rel=CLOSED)
     assert t.argmax == pytest.approx(fl(prefixes[1]), rel=CLOSED)
@@ -129,7 +96,7 @@ def test_floor_max_many_worked_example_113_80():
     h = [F(2, 10), F(5, 10), F(1, 10) + F(8, 10) * theta, F(1)]
     expected = _dot(LF_P, h) / f
     assert _dot(LF_Q, h) == f and expected == F(113, 80)
-    A, b = box_rows(LF_LO, LF_HI)
+    A, b = box(LF_LO, LF_HI)
     A2, b2 = floor_rows([LF_Q], f)
     assert vertex_max(LF_P, LF_Q, A + A2, b + b2) == (expected, [h])     # independent: the unique maximising vertex
 
@@ -145,7 +112,7 @@ def test_floor_max_many_worked_example_113_80():
 
 def _exact_floor(p, q, lo, hi, f):
     """max (p·h)/(q·h) over lo <= h <= hi, q·h >= f > 0 by exact vertex enumeration (None if infeasible)."""
-    A, b = box_rows(lo, hi)
+    A, b = box(lo, hi)
     A2, b2 = floor_rows([q], f)
     if not vertices(A + A2, b + b2):
         return None
@@ -367,7 +334,7 @@ def test_three_group_ordering_tight_mechanism_wide_ratios_paper():
 # ================================================================== proofs/black_box.md, §5
 def _class_rows(M, tau):
     """H_0 = {h in [0, 1]^m : M h >= τ} (γ = 1, ℓ = 0, L_A = 0) as rows."""
-    A, b = box_rows([0] * len(M[0]), [1] * len(M[0]))
+    A, b = box([0] * len(M[0]), [1] * len(M[0]))
     A2, b2 = floor_rows(M, tau)
     return A + A2, b + b2
 
@@ -398,7 +365,7 @@ def test_black_box_example_2_lipschitz_is_58_35():
     # with |h[a,o] − h[b,o]| <= 0.1 and both floors: max 58/35 at h[a] = (1, 3/7), h[b] = (9/10, 23/70) (the only
     # maximising vertex, so the LP's point must be it); below tight = 2.
     M = rr(F(7, 10))
-    A, b = box_rows([0] * 4, [1] * 4)
+    A, b = box([0] * 4, [1] * 4)
     for o in range(2):
         e = [F(0)] * 4
         e[o], e[2 + o] = F(1), F(-1)
@@ -497,15 +464,15 @@ def test_worst_model_known_utility_example_19_11_and_69_49():
     # black_box.md §6 Example: local 19/11 (context x0, box [0.2, 1], threshold releases {a}), 3/2 at x1; global:
     # w[x̃, u] = Σ_x P(x) M_X[x, x̃] g(u, x), lo_g = 17/50, hi_g = 21/25, (0.34 + 0.5·0.7)/(0.34 + 0.5·0.3) = 69/49.
     keep = F(7, 10)
-    box = lambda lo, hi: (lo + (hi - lo) * keep) / (lo + (hi - lo) * (1 - keep))   # noqa: E731
+    box_ratio = lambda lo, hi: (lo + (hi - lo) * keep) / (lo + (hi - lo) * (1 - keep))   # noqa: E731
     G = [[F(1), F(1, 2), F(1, 5)], [F(3, 5), F(3, 10), F(9, 10)]]
     PX = [[F(8, 10), F(2, 10)], [F(2, 10), F(8, 10)]]
-    local = [box(min(r), max(r)) for r in G]
+    local = [box_ratio(min(r), max(r)) for r in G]
     assert local == [F(19, 11), F(3, 2)]
     w = [[sum(F(1, 2) * PX[x][xt] * G[x][u] for x in range(2)) for u in range(3)] for xt in range(2)]
     assert w == [[F(23, 50), F(23, 100), F(17, 100)], [F(17, 50), F(17, 100), F(19, 50)]]
     lo_g, hi_g = sum(min(r) for r in w), sum(max(r) for r in w)
-    assert (lo_g, hi_g) == (F(17, 50), F(21, 25)) and box(lo_g, hi_g) == F(69, 49)
+    assert (lo_g, hi_g) == (F(17, 50), F(21, 25)) and box_ratio(lo_g, hi_g) == F(69, 49)
 
     ma, mx = fa.randomized_response(["a", "b"], keep=0.7), fa.randomized_response(["x0", "x1"], keep=0.8)
     g = fa.from_table([[fl(r), fl(r)] for r in G], ["u0", "u1", "u2"], ["x0", "x1"], ["a", "b"])
@@ -533,14 +500,14 @@ def test_worst_utility_one_context_tau_certificate_7_4():
     # worst_case_utility.md §2, one context: ℓ = 0, τ = 0.4: 7/4 at g = (1, 2/3, 0) (q·g = 0.4, p·g = 0.7);
     # Dinkelbach certificate (p − 7/4 q)·g <= 0 on W; (b, a) also 7/4 at (0, 2/3, 1); no constraint 5/2; ℓ = 0.5: 5/4.
     p, q = [F(5, 10), F(3, 10), F(2, 10)], [F(2, 10), F(3, 10), F(5, 10)]
-    A, b = box_rows([0] * 3, [1] * 3)
+    A, b = box([0] * 3, [1] * 3)
     A2, b2 = floor_rows([p, q], F(2, 5))
     g = [F(1), F(2, 3), F(0)]
     assert vertex_max(p, q, A + A2, b + b2) == (F(7, 4), [g]) and vertex_max(q, p, A + A2, b + b2)[0] == F(7, 4)
     assert _dot(q, g) == F(2, 5) and _dot(p, g) == F(7, 10)
     lam, mu = F(7, 4), F(3, 4)
     assert [pi - lam * qi for pi, qi in zip(p, q)] == [(pi - qi) - mu * qi for pi, qi in zip(p, q)]
-    box_max = max(_dot([pi - qi for pi, qi in zip(p, q)], h) for h in vertices(*box_rows([0] * 3, [1] * 3)))
+    box_max = max(_dot([pi - qi for pi, qi in zip(p, q)], h) for h in vertices(*box([0] * 3, [1] * 3)))
     assert box_max == F(3, 10) and box_max - mu * F(2, 5) == 0             # max over [0,1]^3 of (0.3, 0, −0.3)·g
     assert all(_dot([pi - lam * qi for pi, qi in zip(p, q)], h) <= 0 for h in vertices(A + A2, b + b2))
 
@@ -560,7 +527,7 @@ def test_worst_utility_floors_couple_the_contexts_12_7_and_61_41():
     Q = [[[F(1, 10), F(2, 10), F(7, 10)], [F(1, 10), F(5, 10), F(4, 10)]],
          [[F(5, 10), F(1, 10), F(4, 10)], [F(5, 10), F(2, 10), F(3, 10)]]]
     tau = F(2, 5)
-    A0, b0 = box_rows([0] * 3, [1] * 3)
+    A0, b0 = box([0] * 3, [1] * 3)
 
     def rows(cells):
         A, b = floor_rows([Q[x][c] for x, c in cells], tau)

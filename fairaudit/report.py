@@ -122,10 +122,6 @@ def _certificate_calibration(cert) -> dict:
     return out
 
 
-def _fmt_label(v) -> str:
-    return "-" if v is None else str(v)
-
-
 def _worst_case(w) -> dict:
     d = {"value": _num(w.value), "ratio": _num(w.ratio)}
     if w.kind == "local":
@@ -290,7 +286,7 @@ def _certificate_text(d: dict) -> str:
         if key == "black_box":
             bb = det["black_box"]
             extra = (f" ({bb['reason']})" if bb.get("value") is None else
-                     f" ({_fmt_label(bb['group'])} over {_fmt_label(bb['other_group'])}; on L-bar "
+                     f" ({_fmt(bb['group'])} over {_fmt(bb['other_group'])}; on L-bar "
                      f"{_nats(bb['global']['value'])})")
         if key in ("paper", "tight") and v is None:
             extra = " (needs utility.tau)"

@@ -42,7 +42,7 @@ import numpy as np
 
 from ._arrays import format_label
 from ._errors import InputError
-from .bounds import Assumption, check_assumptions
+from .bounds import Assumption, _nonneg, check_assumptions
 from .laws import Kernel, Law, Population, compose
 from .lfp import FractionalProgram, FractionalResult, box_point, floor_max_many, threshold_max_many
 from .privacy import Mechanism, identity
@@ -126,16 +126,6 @@ def _check_method(method: str) -> str:
     if method not in METHODS:
         raise InputError("method", f"must be one of {', '.join(METHODS)}", method)
     return method
-
-
-def _nonneg(name: str, v) -> float:
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        raise InputError(name, "must be a finite non-negative number", v) from None
-    if not (math.isfinite(f) and f >= 0):
-        raise InputError(name, "must be a finite non-negative number", v)
-    return f
 
 
 def _check_class(lower, gamma, tau) -> tuple[float, float, float | None]:

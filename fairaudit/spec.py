@@ -34,6 +34,7 @@ from .laws import Kernel, Population
 from .privacy import (
     Mechanism,
     MechanismFamily,
+    epsilon_from_keep_probability,
     from_matrix,
     identity,
     product,
@@ -473,7 +474,8 @@ def _component_epsilon(spec: MechanismSpec) -> float:
     if spec.mechanism == "randomized_response":
         if spec.epsilon is not None:
             return float(spec.epsilon)
-        return randomized_response(spec.values or [0, 1], keep=spec.keep).epsilon if spec.values else math.inf
+        if spec.values:
+            return epsilon_from_keep_probability(spec.keep, len(spec.values))
     return math.inf
 
 

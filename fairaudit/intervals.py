@@ -255,8 +255,8 @@ def category_bounds(counts, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     Examples
     --------
     >>> lo, hi = category_bounds([[0, 10]], 0.05)
-    >>> lo.round(6).tolist(), hi.round(6).tolist()
-    [[0.0, 0.691503]], [[0.308497, 1.0]]]
+    >>> print(lo.round(6).tolist(), hi.round(6).tolist())
+    [[0.0, 0.691503]] [[0.308497, 1.0]]
     """
     counts = np.asarray(counts, dtype=float)
     K = counts.shape[-1]

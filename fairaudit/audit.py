@@ -17,7 +17,8 @@ import pandas as pd
 from ._arrays import format_label
 from ._errors import InputError
 from .certify import Observed, observe
-from .estimate import CountTable, IndicatorIntervals, count_records, indicator_intervals
+from .estimate import CountTable, count_records
+from .intervals import FairnessIntervals, fairness_intervals
 from .utility import Utility, from_table, indicator
 
 __all__ = ["Audit", "audit", "utility_from_expression"]
@@ -34,15 +35,16 @@ class Audit:
     utility : Utility
     observed : Observed
         Every exact metric of the empirical law under the empirical population.
-    intervals : IndicatorIntervals or None
-        Simultaneous intervals when ``confidence`` was given.
+    intervals : FairnessIntervals or None
+        Simultaneous intervals for every metric when ``confidence`` was given
+        (:func:`fairaudit.intervals.fairness_intervals`).
     confidence : float or None
     """
 
     table: CountTable
     utility: Utility
     observed: Observed
-    intervals: IndicatorIntervals | None
+    intervals: FairnessIntervals | None
     confidence: float | None
 
 
@@ -107,7 +109,11 @@ def audit(
     positive=None,
     utility: str | Utility | None = None,
     confidence: float | None = None,
+    method: str = "auto",
     dropna: bool = False,
+    concentration: float = 1.0,
+    draws: int = 4000,
+    seed: int = 0,
 ) -> Audit:
     """Audit decision records: exact metrics of the empirical law, and intervals.
 
@@ -127,15 +133,22 @@ def audit(
     utility : str or Utility, optional
         An expression in ``u`` (see :func:`utility_from_expression`) or a Utility.
     confidence : float, optional
-        Level 1 − α of simultaneous Clopper–Pearson intervals (indicator utilities).
+        Level 1 − α of simultaneous intervals for every metric.
+    method : {"auto", "clopper-pearson", "multinomial", "bayes"}
+        How the intervals are made (:func:`fairaudit.intervals.fairness_intervals`);
+        "auto" is Clopper–Pearson for a 0/1 utility, multinomial otherwise.
     dropna : bool
         Drop rows with missing values in the used columns instead of failing.
+    concentration, draws, seed
+        Settings of ``method="bayes"``: the Dirichlet prior's total mass, the
+        number of posterior draws and the random seed.
 
     Raises
     ------
     InputError
         Unknown columns, missing values, both ``positive`` and ``utility``,
-        an outcome value that is not there, or a non-binary outcome with no g.
+        an outcome value that is not there, a non-binary outcome with no g,
+        or bad interval settings (see :func:`~fairaudit.intervals.fairness_intervals`).
 
     Examples
     --------
@@ -164,5 +177,9 @@ def audit(
     law = table.law()
     population = table.population()
     observed = observe(law, g, population)
-    intervals = indicator_intervals(table, g, confidence) if confidence is not None else None
+    intervals = None
+    if confidence is not None:
+        intervals = fairness_intervals(table, g, confidence, method, concentration=concentration, draws=draws, seed=seed)
+    elif method != "auto":
+        raise InputError("--method", "chooses how intervals are made: give --confidence LEVEL too", method)
     return Audit(table, g, observed, intervals, confidence)

@@ -1,4 +1,4 @@
-"""From decision records to counts to an estimated law; simultaneous intervals.
+"""From decision records to counts to an estimated law.
 
 A record is one decision (or one candidate of a decision among several, see
 DESIGN.md "Decisions among several candidates") with its context X, its
@@ -7,7 +7,8 @@ sensitive attribute(s) A and its outcome U. Counting is vectorised
 
 Labels: one column gives scalar labels; several columns give tuples
 (intersectional groups, or a compound context). Without context columns
-there is one context, labelled ``"all"``.
+there is one context, labelled ``"all"``. Intervals for what the counts
+estimate: :mod:`fairaudit.intervals`.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from ._errors import InputError
 from .laws import Law, Population
 from .utility import Utility
 
-__all__ = ["CountTable", "read_records", "count_records", "count_table", "IndicatorIntervals", "indicator_intervals"]
+__all__ = ["CountTable", "read_records", "count_records", "count_table"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -258,108 +259,3 @@ def count_table(
         raise InputError("count table", "lists the same (context, group, decision) twice", data.iloc[i].to_dict())
     counts = np.bincount(flat, weights=values.to_numpy(dtype=float), minlength=int(np.prod(shape))).reshape(shape)
     return CountTable(counts, contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
-
-
-@dataclass(frozen=True, eq=False)
-class IndicatorIntervals:
-    """Simultaneous Clopper–Pearson intervals for an indicator utility, and for L and L̄.
-
-    Every cell proportion E[g | x, a] (and every group proportion E[g | a])
-    gets an exact binomial interval at level 1 − α/m, with m the number of
-    intervals (Bonferroni), so all hold together with probability ≥ 1 − α.
-    The interval for L is [log max over x of max_a lo / min_a hi,
-    log max over x of max_a hi / min_a lo] (clipped below at 0) — the extremes
-    of the ratio over the joint confidence box — and likewise for L̄ from the
-    group intervals. Global intervals use the empirical population (records
-    weighted as they occur).
-
-    Attributes
-    ----------
-    confidence : float
-        1 − α.
-    local, global_ : tuple of float
-        (lower, upper) in nats; upper may be +inf.
-    cell_lower, cell_upper : numpy.ndarray, shape (n_contexts, n_groups)
-    group_lower, group_upper : numpy.ndarray, shape (n_groups,)
-    method : str
-        "clopper-pearson-bonferroni".
-    """
-
-    confidence: float
-    local: tuple
-    global_: tuple
-    cell_lower: np.ndarray
-    cell_upper: np.ndarray
-    group_lower: np.ndarray
-    group_upper: np.ndarray
-    method: str = "clopper-pearson-bonferroni"
-
-
-def _clopper_pearson(k: np.ndarray, n: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact two-sided binomial interval (Clopper and Pearson 1934), vectorised."""
-    from scipy import stats  # imported here: scipy.stats adds ~1 s to every start of the command
-
-    with np.errstate(invalid="ignore", divide="ignore"):
-        lo = np.where(k > 0, stats.beta.ppf(alpha / 2, k, n - k + 1), 0.0)
-        hi = np.where(k < n, stats.beta.isf(alpha / 2, k + 1, n - k), 1.0)
-    lo = np.where(n > 0, lo, np.nan)
-    hi = np.where(n > 0, hi, np.nan)
-    return lo, hi
-
-
-def _ratio_interval(lo: np.ndarray, hi: np.ndarray, axis: int) -> tuple[float, float]:
-    """log-ratio interval over a box of per-group intervals (NaN groups skipped)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        max_lo = np.nanmax(lo, axis=axis)
-        min_hi = np.nanmin(hi, axis=axis)
-        max_hi = np.nanmax(hi, axis=axis)
-        min_lo = np.nanmin(lo, axis=axis)
-        low = np.where(min_hi > 0, max_lo / min_hi, np.where(max_lo > 0, np.inf, 1.0))
-        high = np.where(min_lo > 0, max_hi / min_lo, np.where(max_hi > 0, np.inf, 1.0))
-    low = np.maximum(low, 1.0)
-    return safe_log(float(np.nanmax(low))), safe_log(float(np.nanmax(high)))
-
-
-def indicator_intervals(table: CountTable, utility: Utility, confidence: float = 0.95) -> IndicatorIntervals:
-    """Simultaneous (1 − α) intervals for E[g | x, a], E[g | a], L and L̄ of a 0/1 utility.
-
-    Parameters
-    ----------
-    table : CountTable
-    utility : Utility
-        Must take only the values 0 and 1 and depend on the decision only.
-    confidence : float
-        1 − α in (0, 1).
-
-    Raises
-    ------
-    InputError
-        If the utility is not an indicator of decisions, or the confidence is
-        not in (0, 1).
-
-    Examples
-    --------
-    >>> from fairaudit.utility import indicator
-    >>> t = count_records(pd.DataFrame({"g": ["a"] * 50 + ["b"] * 50, "y": [1] * 30 + [0] * 20 + [1] * 20 + [0] * 30}),
-    ...                   sensitive=["g"], outcome="y")
-    >>> iv = indicator_intervals(t, indicator(1, t.decisions), 0.95)
-    >>> iv.local[0] < math.log(1.5) < iv.local[1]
-    True
-    """
-    if not (0.0 < confidence < 1.0):
-        raise InputError("--confidence", "must lie strictly between 0 and 1", confidence)
-    if utility.values.ndim != 1 or not np.all(np.isin(utility.values, (0.0, 1.0))):
-        raise InputError("--confidence", "intervals are available for 0/1 utilities of the outcome only in this version "
-                                         "(--positive VALUE, or --utility with values 0 and 1)")
-    g = utility.table(table.contexts, table.groups, table.decisions)[0, 0]
-    k_cell = table.counts @ g
-    n_cell = table.cell_counts
-    k_group = k_cell.sum(axis=0)
-    n_group = n_cell.sum(axis=0)
-    m = int((n_cell > 0).sum() + (n_group > 0).sum())
-    alpha = (1.0 - confidence) / max(m, 1)
-    lo, hi = _clopper_pearson(k_cell, n_cell, alpha)
-    glo, ghi = _clopper_pearson(k_group, n_group, alpha)
-    local = _ratio_interval(lo, hi, axis=1)
-    glob = _ratio_interval(glo[None, :], ghi[None, :], axis=1)
-    return IndicatorIntervals(confidence, local, glob, lo, hi, glo, ghi)

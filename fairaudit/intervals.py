@@ -266,6 +266,7 @@ def category_bounds(counts, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     hi = np.where(n > 0, hi, 1.0)
     lo2 = np.maximum(lo, 1.0 - (hi.sum(-1, keepdims=True) - hi))
     hi2 = np.minimum(hi, 1.0 - (lo.sum(-1, keepdims=True) - lo))
+    lo2 = np.where(lo2 > 1e-12, lo2, 0.0)   # rounding crumbs of the tightening must not turn c/0 = inf into 1e16
     return np.clip(lo2, 0.0, 1.0), np.clip(hi2, 0.0, 1.0)
 
 
@@ -301,7 +302,8 @@ def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
         order = np.argsort(key, axis=-1, kind="stable")
         c = np.take_along_axis(cap, order, -1)
         before = np.cumsum(c, -1) - c
-        alloc = np.clip(room - before, 0.0, c)
+        left = room - before
+        alloc = np.where(left > 1e-12, np.clip(left, 0.0, c), 0.0)   # no rounding crumbs: 0 must stay 0 (c/0 = inf)
         out.append(base + (alloc * np.take_along_axis(f, order, -1)).sum(-1))
     return out[0], out[1]
 

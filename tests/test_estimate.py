@@ -10,7 +10,8 @@ import pytest
 from scipy.stats import binomtest
 
 import fairaudit as fa
-from fairaudit.estimate import count_records, indicator_intervals
+from fairaudit.estimate import count_records
+from fairaudit.intervals import fairness_intervals
 
 
 def test_counts_match_pandas_crosstab():
@@ -28,16 +29,17 @@ def test_counts_match_pandas_crosstab():
 def test_clopper_pearson_matches_scipy_binomtest():
     df = pd.DataFrame({"g": ["a"] * 40 + ["b"] * 25, "y": [1] * 13 + [0] * 27 + [1] * 20 + [0] * 5})
     t = count_records(df, sensitive=["g"], outcome="y")
-    iv = indicator_intervals(t, fa.indicator(1, t.decisions), confidence=0.9)
-    # 2 cells + 2 groups = 4 intervals, each at level 1 - 0.1/4 (Bonferroni)
-    level = 1 - 0.1 / 4
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), confidence=0.9, method="clopper-pearson")
+    # one context: the groups are the cells, 2 intervals, each at level 1 - 0.1/2 (Bonferroni)
+    level = 1 - 0.1 / 2
     ref_a = binomtest(13, 40).proportion_ci(confidence_level=level, method="exact")
     ref_b = binomtest(20, 25).proportion_ci(confidence_level=level, method="exact")
     assert iv.cell_lower[0].tolist() == pytest.approx([ref_a.low, ref_b.low], rel=1e-10)
     assert iv.cell_upper[0].tolist() == pytest.approx([ref_a.high, ref_b.high], rel=1e-10)
     # L interval: [log(lo_b / hi_a), log(hi_b / lo_a)] (b is the larger group here)
-    assert iv.local[0] == pytest.approx(math.log(ref_b.low / ref_a.high), rel=1e-10)
-    assert iv.local[1] == pytest.approx(math.log(ref_b.high / ref_a.low), rel=1e-10)
+    assert iv.local.lower == pytest.approx(math.log(ref_b.low / ref_a.high), rel=1e-10)
+    assert iv.local.upper == pytest.approx(math.log(ref_b.high / ref_a.low), rel=1e-10)
+    assert (iv.local.group, iv.local.other_group, iv.n_sets) == ("b", "a", 2)
 
 
 def test_interval_coverage_small_simulation():
@@ -54,19 +56,19 @@ def test_interval_coverage_small_simulation():
                 rows += [(i, j, 1)] * k + [(i, j, 0)] * (60 - k)
         df = pd.DataFrame(rows, columns=["x", "a", "y"])
         t = count_records(df, sensitive=["a"], outcome="y", context=["x"])
-        lo, hi = indicator_intervals(t, fa.indicator(1, t.decisions), 0.9).local
+        lo, hi = fairness_intervals(t, fa.indicator(1, t.decisions), 0.9, "clopper-pearson").local
         hits += lo <= true_l <= hi
     assert hits / 300 >= 0.9
 
 
 def test_zero_cells_give_infinite_upper_end():
     # a: 0 of 100 positive, b: 30 of 100. The data cannot exclude E[g | a] = 0 (upper end +inf) but do
-    # exclude parity: lower end log(lo_b / hi_a) > 0 with the Bonferroni level 1 - 0.05/4.
+    # exclude parity: lower end log(lo_b / hi_a) > 0 with the Bonferroni level 1 - 0.05/2.
     df = pd.DataFrame({"g": ["a"] * 100 + ["b"] * 100, "y": [0] * 100 + [1] * 30 + [0] * 70})
     t = count_records(df, sensitive=["g"], outcome="y")
-    iv = indicator_intervals(t, fa.indicator(1, t.decisions), 0.95)
-    assert iv.local[1] == math.inf and 0 < iv.local[0] < math.inf
-    level = 1 - 0.05 / 4
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "clopper-pearson")
+    assert iv.local.upper == math.inf and 0 < iv.local.lower < math.inf
+    level = 1 - 0.05 / 2
     hi_a = binomtest(0, 100).proportion_ci(confidence_level=level, method="exact").high
     lo_b = binomtest(30, 100).proportion_ci(confidence_level=level, method="exact").low
-    assert iv.local[0] == pytest.approx(math.log(lo_b / hi_a), rel=1e-10)
+    assert iv.local.lower == pytest.approx(math.log(lo_b / hi_a), rel=1e-10)

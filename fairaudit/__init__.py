@@ -15,6 +15,7 @@ from .bounds import Assumption, Bound, corollary_bound, main_theorem, main_theor
 from .calibrate import Calibration, calibrate_randomized_response
 from .certify import Certificate, certify
 from .estimate import CountTable, count_records, count_table, read_records
+from .intervals import FairnessIntervals, Interval, fairness_intervals
 from .laws import Kernel, Law, Population, compose
 from .metrics import (
     demographic_parity,
@@ -47,6 +48,7 @@ __all__ = [
     "FairauditError", "InputError", "Kernel", "Law", "Mechanism", "MechanismFamily", "Population", "PrivacyCurve", "Spec", "Utility",
     "audit", "black_box_bound", "calibrate_randomized_response", "certify", "compose", "corollary_bound",
     "count_records", "count_table", "demographic_parity", "equalized_odds", "expected_utility", "from_function",
+    "fairness_intervals", "FairnessIntervals", "Interval",
     "from_matrix", "from_table", "global_fairness", "identity", "indicator", "load_spec",
     "local_fairness", "main_theorem", "main_theorem_tight", "paper_bound", "parse_spec", "product", "product_family",
     "randomized_response", "randomized_response_family", "read_records", "sup_global_fairness", "sup_local_fairness", "tight_bound",

@@ -110,14 +110,15 @@ def bayes_intervals(counts, g, alpha, method, estimate, contexts, groups, ctx_ke
             gc = counts.sum(0)
             g_group = g[0]
         C = gc.shape[-1]
-        Gd = _dirichlet(rng, gc + concentration / C, draws)
+        Gd = Kd[:, 0] if X == 1 else _dirichlet(rng, gc + concentration / C, draws)   # one context: groups are cells
         mean_g = ((gc + concentration / C) / (gc.sum(-1, keepdims=True) + concentration))[None]
     else:
         w = population.context_given_group()
         w = np.where(np.isnan(w), 0.0, w)
     per_draw, E_cells, E_groups = _metrics(Kd, Gd, g, g_group, fold, ctx_keep, filtered, m_a, m_x, w)
     at_mean, _, _ = _metrics(mean_k[None], mean_g, g, g_group, fold, ctx_keep, filtered, m_a, m_x, w)
-    coords = Kd.reshape(draws, -1) if Gd is None else np.concatenate([Kd.reshape(draws, -1), Gd.reshape(draws, -1)], 1)
+    coords = Kd.reshape(draws, -1) if Gd is None or X == 1 else np.concatenate([Kd.reshape(draws, -1),
+                                                                                   Gd.reshape(draws, -1)], 1)
     inside = _band(coords, 1.0 - alpha)
     conf = 1.0 - alpha
     kept_ctx = np.flatnonzero(ctx_keep)

@@ -95,7 +95,14 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--positive", metavar="VALUE", help="g = 1{U = VALUE}")
     g.add_argument("--utility", metavar="EXPR", help="g as an expression in u, e.g. 'u >= 5' or '11 - u'")
     a.add_argument("--confidence", type=_level, metavar="LEVEL",
-                   help="simultaneous confidence level for intervals on L and L-bar (indicator utilities)")
+                   help="simultaneous confidence level of intervals for every metric (e.g. 0.95)")
+    a.add_argument("--method", choices=("auto", "clopper-pearson", "multinomial", "bayes"), default="auto",
+                   help="how intervals are made: clopper-pearson (0/1 utilities), multinomial (bounded utilities), "
+                   "bayes (Dirichlet posterior); auto picks the first that applies (default)")
+    a.add_argument("--seed", type=int, default=0, metavar="S", help="random seed of --method bayes (default 0)")
+    a.add_argument("--draws", type=int, default=4000, metavar="N", help="posterior draws of --method bayes (default 4000)")
+    a.add_argument("--concentration", type=float, default=1.0, metavar="C",
+                   help="Dirichlet prior mass of --method bayes (default 1, AIF360's smoothing)")
     a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
     _add_output(a)
 
@@ -179,7 +186,8 @@ def _run(args) -> int:
 
         frame = read_records(args.data)
         result = audit(frame, sensitive=args.sensitive, outcome=args.outcome, context=args.context,
-                       positive=args.positive, utility=args.utility, confidence=args.confidence, dropna=args.dropna)
+                       positive=args.positive, utility=args.utility, confidence=args.confidence, method=args.method,
+                       dropna=args.dropna, concentration=args.concentration, draws=args.draws, seed=args.seed)
         data = audit_dict(result)
         _emit(args, render(data, "audit", args.format), f"audit: {data['n']} records, L = {data['local']['value']} nats")
         return 0

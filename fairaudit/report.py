@@ -53,7 +53,7 @@ def _fairness(f, interval=None) -> dict:
     if f.kind == "local":
         d["context"] = _label(f.context)
     d.update(group=_label(f.group), other_group=_label(f.other_group),
-             interval=None if interval is None else [_num(interval[0]), _num(interval[1])])
+             interval=None if interval is None else [_num(interval.lower), _num(interval.upper)])
     return d
 
 
@@ -67,11 +67,28 @@ def _sup(s) -> dict:
             "other_group": _label(s.other_group), "decision": _label(s.decision)}
 
 
-def _observed(o, local_interval=None, global_interval=None) -> dict:
+def _interval(iv) -> dict | None:
+    if iv is None:
+        return None
+    return {"lower": _num(iv.lower), "upper": _num(iv.upper), "estimate": _num(iv.estimate), "context": _label(iv.context),
+            "group": _label(iv.group), "other_group": _label(iv.other_group)}
+
+
+def intervals_dict(fi) -> dict:
+    """The JSON of a :class:`~fairaudit.intervals.FairnessIntervals`: method, level and one entry per metric."""
+    out = {"method": fi.method, "confidence": _num(fi.confidence), "sets": fi.n_sets,
+           "filtered": fi.sensitive_mechanism is not None or fi.context_mechanism is not None, "notes": list(fi.notes)}
+    if fi.method == "bayes":
+        out.update(concentration=_num(fi.concentration), draws=fi.draws, seed=fi.seed)
+    out.update({k: _interval(v) for k, v in fi.intervals().items()})
+    return out
+
+
+def _observed(o, intervals=None) -> dict:
     excluded = list(dict.fromkeys(o.local.excluded + o.global_.excluded))
-    return {
-        "local": _fairness(o.local, local_interval),
-        "global": _fairness(o.global_, global_interval),
+    out = {
+        "local": _fairness(o.local, None if intervals is None else intervals.local),
+        "global": _fairness(o.global_, None if intervals is None else intervals.global_),
         "demographic_parity": _num(o.demographic_parity.value),
         "equalized_odds": _num(o.equalized_odds.value),
         "sup_local": _num(o.sup_local.value),
@@ -84,6 +101,9 @@ def _observed(o, local_interval=None, global_interval=None) -> dict:
         },
         "excluded": excluded,
     }
+    if intervals is not None:
+        out["intervals"] = intervals_dict(intervals)
+    return out
 
 
 def _mechanism(m) -> dict:
@@ -210,13 +230,14 @@ def audit_dict(a) -> dict:
         "utility": {"name": a.utility.name, "gamma": _num(a.utility.gamma), "lower": _num(a.utility.lower)},
         "groups": [{"label": _label(g), "n": int(n)} for g, n in zip(t.groups, t.group_counts)],
         "contexts": [{"label": _label(c), "n": int(n)} for c, n in zip(t.contexts, t.context_counts)],
-        "cells": [{"context": _label(c), "group": _label(g), "n": int(cells[i, j]), "expected_utility": _num(e[i, j])}
+        "cells": [{"context": _label(c), "group": _label(g), "n": int(cells[i, j]), "expected_utility": _num(e[i, j]),
+                   **({} if iv is None else {"interval": [_num(iv.cell_lower[i, j]), _num(iv.cell_upper[i, j])]})}
                   for i, c in enumerate(t.contexts) for j, g in enumerate(t.groups)],
         "decisions": [_label(d) for d in t.decisions],
         "confidence": _num(a.confidence),
         "interval_method": iv.method if iv is not None else None,
     }
-    out.update(_observed(a.observed, iv.local if iv else None, iv.global_ if iv else None))
+    out.update(_observed(a.observed, iv))
     return out
 
 
@@ -245,19 +266,28 @@ def _pair(d) -> str:
     return f" ({d['group']} vs {d['other_group']}{where})"
 
 
+def _iv(o: dict, key: str) -> str:
+    iv = (o.get("intervals") or {}).get(key)
+    return f"  interval [{_fmt(iv['lower'])}, {_fmt(iv['upper'])}]" if iv else ""
+
+
 def _observed_lines(o: dict, head: str) -> list[str]:
     lines = [head]
     for key, name in (("local", "local g-fairness L"), ("global", "global g-fairness L-bar")):
         f = o[key]
-        iv = f"  interval [{_fmt(f['interval'][0])}, {_fmt(f['interval'][1])}]" if f.get("interval") else ""
-        lines.append(f"  {name:<28} {_nats(f['value']):<18} ratio {_fmt(f['ratio'])}{_pair(f)}{iv}")
+        lines.append(f"  {name:<28} {_nats(f['value']):<18} ratio {_fmt(f['ratio'])}{_pair(f)}{_iv(o, key)}")
     det = o["details"]
-    lines.append(f"  {'demographic parity gap':<28} {_fmt(o['demographic_parity']):<18}{_pair(det['demographic_parity'])}")
-    lines.append(f"  {'equalized odds gap':<28} {_fmt(o['equalized_odds']):<18}{_pair(det['equalized_odds'])}")
+    lines.append(f"  {'demographic parity gap':<28} {_fmt(o['demographic_parity']):<18}{_pair(det['demographic_parity'])}"
+                 f"{_iv(o, 'demographic_parity')}")
+    lines.append(f"  {'equalized odds gap':<28} {_fmt(o['equalized_odds']):<18}{_pair(det['equalized_odds'])}"
+                 f"{_iv(o, 'equalized_odds')}")
     s = det["sup_local"]
-    lines.append(f"  {'sup over g of L':<28} {_nats(o['sup_local']):<18} decision {s['decision']}{_pair(s)}")
+    lines.append(f"  {'sup over g of L':<28} {_nats(o['sup_local']):<18} decision {s['decision']}{_pair(s)}{_iv(o, 'sup_local')}")
     s = det["sup_global"]
-    lines.append(f"  {'sup over g of L-bar':<28} {_nats(o['sup_global']):<18} decision {s['decision']}{_pair(s)}")
+    lines.append(f"  {'sup over g of L-bar':<28} {_nats(o['sup_global']):<18} decision {s['decision']}{_pair(s)}"
+                 f"{_iv(o, 'sup_global')}")
+    for note in (o.get("intervals") or {}).get("notes", []):
+        lines.append(f"  intervals: {note}")
     for note in o.get("excluded", [])[:10]:
         lines.append(f"  excluded: {note}")
     if len(o.get("excluded", [])) > 10:
@@ -370,10 +400,12 @@ def _observed_md(o: dict) -> list[str]:
             ("equalized odds gap", _fmt(o["equalized_odds"]), _pair(o["details"]["equalized_odds"]).strip(" ()")),
             ("sup over g of L", _nats(o["sup_local"]), _pair(o["details"]["sup_local"]).strip(" ()")),
             ("sup over g of L-bar", _nats(o["sup_global"]), _pair(o["details"]["sup_global"]).strip(" ()"))]
-    for key, i in (("local", 0), ("global", 1)):
-        if o[key].get("interval"):
-            lo, hi = o[key]["interval"]
-            rows[i] = rows[i][:2] + (rows[i][2] + f"; interval [{_fmt(lo)}, {_fmt(hi)}]",)
+    if o.get("intervals"):
+        iv = o["intervals"]
+        rows = [r + (f"[{_fmt(iv[k]['lower'])}, {_fmt(iv[k]['upper'])}]" if iv.get(k) else "n/a",)
+                for r, k in zip(rows, ("local", "global", "demographic_parity", "equalized_odds", "sup_local", "sup_global"))]
+        head = ("metric", "value", "where", f"simultaneous {_fmt(iv['confidence'])} interval ({iv['method']})")
+        return _md_table(rows, head)
     return _md_table(rows, ("metric", "value", "where"))
 
 

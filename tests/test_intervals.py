@@ -1,0 +1,542 @@
+"""Simultaneous fairness intervals, checked against independent routes.
+
+Every expected value here comes from somewhere other than the code under
+test: scipy's exact binomial test, scipy's LP solver, brute force over the
+vertices of a box, a bisection with LP feasibility, the true law of a
+simulation, or AIF360.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+from scipy.stats import binomtest
+
+import fairaudit as fa
+from fairaudit._errors import InputError
+from fairaudit.estimate import CountTable, count_records, count_table
+from fairaudit.intervals import (_disjoint_ratio, _mixed_ratio, category_bounds, clopper_pearson, fairness_intervals,
+                                 linear_extremes)
+from fairaudit.laws import Law, Population
+from fairaudit.metrics import (demographic_parity, equalized_odds, global_fairness, local_fairness,
+                               sup_global_fairness, sup_local_fairness)
+from fairaudit.privacy import randomized_response
+
+
+def _cp(k: int, n: int, level: float) -> tuple[float, float]:
+    """scipy's exact (Clopper-Pearson) interval at ``level``."""
+    ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=level, method="exact")
+    return float(ci.low), float(ci.high)
+
+
+def _table(counts, contexts=("all",), groups=("a", "b"), decisions=(0, 1)) -> CountTable:
+    return CountTable(np.asarray(counts, dtype=np.int64), tuple(contexts), tuple(groups), tuple(decisions),
+                      ("x",) if contexts != ("all",) else (), ("g",), "y")
+
+
+def _binary_table(pos, tot, contexts=("all",), groups=("a", "b")) -> CountTable:
+    """Counts [x, a, (0, 1)] from successes ``pos[x][a]`` out of ``tot[x][a]``."""
+    pos, tot = np.asarray(pos), np.asarray(tot)
+    return _table(np.stack([tot - pos, pos], -1), contexts, groups)
+
+
+# ---------------------------------------------------------------- 1. clopper_pearson
+
+
+@pytest.mark.parametrize("alpha", [0.05, 0.1, 0.01 / 3])
+@pytest.mark.parametrize("n", [1, 2, 7, 30, 101])
+def test_clopper_pearson_matches_scipy_exact(n, alpha):
+    ks = sorted({0, 1, n // 3, n // 2, n - 1, n} & set(range(n + 1)))
+    lo, hi = clopper_pearson(np.array(ks), n, alpha)
+    for i, k in enumerate(ks):
+        ref_lo, ref_hi = _cp(k, n, 1 - alpha)
+        assert lo[i] == pytest.approx(ref_lo, rel=1e-7, abs=1e-14)
+        assert hi[i] == pytest.approx(ref_hi, rel=1e-7, abs=1e-14)
+    # the closed forms at the two ends, by hand
+    assert lo[0] == 0.0 and hi[0] == pytest.approx(1 - (alpha / 2) ** (1 / n), rel=1e-12)
+    assert hi[-1] == 1.0 and lo[-1] == pytest.approx((alpha / 2) ** (1 / n), rel=1e-12)
+
+
+def test_clopper_pearson_hand_value_and_empty():
+    lo, hi = clopper_pearson(0, 10, 0.05)
+    assert float(lo) == 0.0 and float(hi) == pytest.approx(1 - 0.025 ** 0.1, rel=1e-12)
+    assert float(hi) == pytest.approx(0.3084971078187608, rel=1e-12)
+    lo, hi = clopper_pearson(0, 0, 0.05)
+    assert math.isnan(float(lo)) and math.isnan(float(hi))
+
+
+# ---------------------------------------------------------------- 2. linear_extremes
+
+
+@st.composite
+def _boxes(draw):
+    K = draw(st.integers(2, 5))
+    w = np.array(draw(st.lists(st.floats(0.01, 1.0), min_size=K, max_size=K)))
+    p = w / w.sum()
+    down = np.array(draw(st.lists(st.floats(0.0, 1.0), min_size=K, max_size=K)))
+    up = np.array(draw(st.lists(st.floats(0.0, 1.0), min_size=K, max_size=K)))
+    lo = np.clip(p - down * p, 0.0, 1.0)          # lo <= p <= hi: the set contains p
+    hi = np.clip(p + up * (1 - p), 0.0, 1.0)
+    f = np.array(draw(st.lists(st.floats(-5.0, 5.0), min_size=K, max_size=K)))
+    return f, lo, hi
+
+
+@given(_boxes())
+def test_linear_extremes_equals_linprog(box):
+    f, lo, hi = box
+    K = len(f)
+    bounds = list(zip(lo, hi))
+    lp_min = linprog(f, A_eq=np.ones((1, K)), b_eq=[1.0], bounds=bounds, method="highs")
+    lp_max = linprog(-f, A_eq=np.ones((1, K)), b_eq=[1.0], bounds=bounds, method="highs")
+    assert lp_min.status == 0 and lp_max.status == 0
+    mn, mx = linear_extremes(f, lo, hi)
+    assert float(mn) == pytest.approx(lp_min.fun, abs=1e-7)
+    assert float(mx) == pytest.approx(-lp_max.fun, abs=1e-7)
+
+
+def test_linear_extremes_vectorised_hand_example():
+    mn, mx = linear_extremes([[0.0, 0.5, 1.0], [1.0, 0.0, 0.0]], [0.1, 0.1, 0.1], [0.5, 0.5, 0.5])
+    # row 0: start at 0.1 each (0.15), 0.7 left: max puts 0.4 on f=1 then 0.3 on f=0.5 -> 0.15+0.4+0.15 = 0.7
+    assert mn.tolist() == pytest.approx([0.3, 0.1]) and mx.tolist() == pytest.approx([0.7, 0.5])
+
+
+# ---------------------------------------------------------------- 3. category_bounds
+
+
+@pytest.mark.parametrize("counts", [[0, 3, 7], [5, 0, 0, 2], [1, 1, 1], [12, 30, 0, 4, 9], [0, 0, 20]])
+@pytest.mark.parametrize("alpha", [0.05, 0.2])
+def test_category_bounds_uses_alpha_over_K(counts, alpha):
+    K, n = len(counts), sum(counts)
+    lo, hi = category_bounds([counts], alpha)
+    for u, k in enumerate(counts):
+        ref_lo, ref_hi = _cp(k, n, 1 - alpha / K)
+        assert lo[0, u] == pytest.approx(ref_lo, rel=1e-7, abs=1e-14)
+        assert hi[0, u] == pytest.approx(ref_hi, rel=1e-7, abs=1e-14)
+
+
+@pytest.mark.parametrize("k,n", [(0, 10), (3, 10), (10, 10), (17, 40), (1, 1)])
+def test_category_bounds_two_decisions_use_alpha(k, n):
+    alpha = 0.05
+    lo, hi = category_bounds([[n - k, k]], alpha)
+    ref_lo, ref_hi = _cp(k, n, 1 - alpha)          # level 1 - alpha, not 1 - alpha/2
+    assert lo[0, 1] == pytest.approx(ref_lo, rel=1e-7, abs=1e-14)
+    assert hi[0, 1] == pytest.approx(ref_hi, rel=1e-7, abs=1e-14)
+    assert lo[0, 0] == pytest.approx(1 - hi[0, 1], abs=1e-12)   # complementary intervals
+    assert hi[0, 0] == pytest.approx(1 - lo[0, 1], abs=1e-12)
+
+
+def test_category_bounds_empty_cell_is_unconstrained():
+    lo, hi = category_bounds([[0, 0, 0], [2, 1, 0]], 0.05)
+    assert lo[0].tolist() == [0.0, 0.0, 0.0] and hi[0].tolist() == [1.0, 1.0, 1.0]
+    assert np.all(hi[1] < 1.0) and np.all(np.isfinite(lo[1]))
+
+
+def test_category_bounds_simplex_tightening_hand_example():
+    # counts (0, 3, 7), alpha 0.05, K = 3: raw Clopper-Pearson at level 1 - 0.05/3 per decision, then
+    # lo_u <- max(lo_u, 1 - sum_{v != u} hi_v), hi_u <- min(hi_u, 1 - sum_{v != u} lo_v), by hand.
+    raw = [_cp(k, 10, 1 - 0.05 / 3) for k in (0, 3, 7)]
+    rlo, rhi = np.array([r[0] for r in raw]), np.array([r[1] for r in raw])
+    assert rlo[0] == 0.0 and rhi[0] == pytest.approx(1 - (0.05 / 6) ** 0.1, rel=1e-12)
+    want_lo = [max(rlo[u], 1 - sum(rhi[v] for v in range(3) if v != u), 0.0) for u in range(3)]
+    want_hi = [min(rhi[u], 1 - sum(rlo[v] for v in range(3) if v != u), 1.0) for u in range(3)]
+    lo, hi = category_bounds([0, 3, 7], 0.05)
+    assert lo.tolist() == pytest.approx(want_lo, abs=1e-12)
+    assert hi.tolist() == pytest.approx(want_hi, abs=1e-12)
+    # The set is a nonempty polytope: sum lo <= 1 <= sum hi.
+    assert lo.sum() <= 1 <= hi.sum()
+
+
+@given(st.lists(st.integers(0, 25), min_size=3, max_size=5).filter(lambda c: sum(c) > 0))
+def test_category_bounds_tightening_keeps_consistent_clopper_pearson(counts):
+    # Clopper-Pearson bounds at one level are already consistent with the simplex (sum of the others'
+    # upper ends is at least the upper end of their total), so the tightening never moves them.
+    K, n = len(counts), sum(counts)
+    lo, hi = category_bounds(counts, 0.1)
+    rlo, rhi = clopper_pearson(np.array(counts), n, 0.1 / K)
+    assert np.allclose(lo, rlo, atol=1e-12) and np.allclose(hi, rhi, atol=1e-12)
+    assert lo.sum() <= 1 + 1e-12 and hi.sum() >= 1 - 1e-12
+
+
+# ---------------------------------------------------------------- 4. unfiltered, by hand
+
+
+@pytest.mark.parametrize("method", ["clopper-pearson", "multinomial"])
+def test_one_context_hand_example(method):
+    pos, tot = [30, 20, 5], [50, 50, 40]
+    t = _binary_table([pos], [tot], groups=("a", "b", "c"))
+    conf = 0.95
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), conf, method)
+    m = 3                                            # one context: the groups are the cells, not counted twice
+    assert iv.n_sets == m
+    level = 1 - (1 - conf) / m
+    ci = [_cp(k, n, level) for k, n in zip(pos, tot)]
+    lo, hi = [c[0] for c in ci], [c[1] for c in ci]
+    assert iv.cell_lower[0].tolist() == pytest.approx(lo, rel=1e-7)
+    assert iv.cell_upper[0].tolist() == pytest.approx(hi, rel=1e-7)
+    pairs = {(i, j): hi[i] / lo[j] for i in range(3) for j in range(3) if i != j}
+    (fi, fj), best = max(pairs.items(), key=lambda kv: kv[1])
+    assert (fi, fj) == (0, 2)                        # a favoured over c
+    assert iv.local.upper == pytest.approx(math.log(best), rel=1e-7)
+    want_lower = math.log(max(1.0, max(lo) / min(hi)))
+    assert want_lower > 0
+    assert iv.local.lower == pytest.approx(want_lower, rel=1e-7)
+    assert (iv.local.context, iv.local.group, iv.local.other_group) == ("all", "a", "c")
+    assert iv.local.estimate == pytest.approx(math.log((30 / 50) / (5 / 40)), rel=1e-12)
+    assert iv.local.confidence == conf and iv.local.method == method
+    # one context, pooled: the global interval is the same set
+    assert (iv.global_.lower, iv.global_.upper) == pytest.approx((iv.local.lower, iv.local.upper), rel=1e-12)
+    assert iv.global_.context is None and (iv.global_.group, iv.global_.other_group) == ("a", "c")
+
+
+def test_two_contexts_hand_example_counts_groups_and_pools_them():
+    pos = [[15, 5], [20, 18]]
+    tot = [[30, 25], [40, 35]]
+    t = _binary_table(pos, tot, contexts=("x0", "x1"))
+    conf = 0.9
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), conf, "clopper-pearson")
+    m = 4 + 2                                        # 4 cells + 2 pooled groups
+    assert iv.n_sets == m
+    level = 1 - (1 - conf) / m
+    uppers, lowers = [], []
+    for x in range(2):
+        (la, ha), (lb, hb) = (_cp(pos[x][a], tot[x][a], level) for a in range(2))
+        uppers.append(max((ha / lb, ("a", "b")), (hb / la, ("b", "a"))))
+        lowers.append(max(1.0, max(la, lb) / min(ha, hb)))
+    x = int(np.argmax([u[0] for u in uppers]))
+    assert x == 0
+    assert iv.local.upper == pytest.approx(math.log(uppers[x][0]), rel=1e-7)
+    assert iv.local.lower == pytest.approx(math.log(max(lowers)), rel=1e-7, abs=1e-12)
+    assert (iv.local.context, iv.local.group, iv.local.other_group) == ("x0",) + uppers[x][1]
+    # global: the pooled group counts a = 35/70, b = 23/60 at the same Bonferroni level
+    (la, ha), (lb, hb) = _cp(35, 70, level), _cp(23, 60, level)
+    assert iv.group_lower.tolist() == pytest.approx([la, lb], rel=1e-7)
+    assert iv.group_upper.tolist() == pytest.approx([ha, hb], rel=1e-7)
+    assert iv.global_.upper == pytest.approx(math.log(max(ha / lb, hb / la)), rel=1e-7)
+    assert iv.global_.lower == pytest.approx(math.log(max(1.0, max(la, lb) / min(ha, hb))), rel=1e-7, abs=1e-12)
+    assert (iv.global_.group, iv.global_.other_group) == ("a", "b")
+    assert iv.global_.estimate == pytest.approx(math.log((35 / 70) / (23 / 60)), rel=1e-12)
+
+
+# ---------------------------------------------------------------- 5. behind a filter
+
+
+def _rr_matrix(k: int, keep: float) -> np.ndarray:
+    """Randomized response by hand: keep on the diagonal, the rest spread evenly."""
+    return np.full((k, k), (1 - keep) / (k - 1)) + np.eye(k) * (keep - (1 - keep) / (k - 1))
+
+
+def _max_ratio(q: np.ndarray) -> float:
+    if q.min() <= 0:
+        return math.inf if q.max() > 0 else 1.0
+    return float(q.max() / q.min())
+
+
+def _bisect_min_max_ratio(M: np.ndarray, lo: np.ndarray, hi: np.ndarray, t_hi: float) -> float:
+    """min over lo <= e <= hi of max_{a,a'} (Me)_a / (Me)_a' by bisection on t with LP feasibility."""
+    A = M.shape[0]
+    bounds = list(zip(lo, hi))
+
+    def feasible(t):
+        rows = [M[a] - t * M[b] for a in range(A) for b in range(A) if a != b]
+        res = linprog(np.zeros(len(lo)), A_ub=np.array(rows), b_ub=np.zeros(len(rows)), bounds=bounds,
+                      method="highs")
+        return res.status == 0
+
+    if feasible(1.0):
+        return 1.0
+    a, b = 1.0, t_hi
+    assert feasible(b)
+    for _ in range(60):
+        mid = 0.5 * (a + b)
+        a, b = (a, mid) if feasible(mid) else (mid, b)
+    return b
+
+
+FILTER_CASES = [
+    # (successes [x][ã], totals [x][ã], keep)
+    ([[40, 25]], [[50, 60]], 0.8),
+    ([[400, 50]], [[500, 500]], 0.9),
+    ([[90, 40, 10]], [[100, 100, 100]], 0.85),
+    ([[30, 20], [5, 28]], [[40, 40], [30, 35]], 0.75),
+    ([[300, 120, 60], [50, 200, 90]], [[400, 300, 300], [250, 260, 300]], 0.9),
+    ([[12, 3, 7], [0, 9, 4]], [[20, 15, 25], [10, 30, 12]], 0.7),
+]
+
+
+@pytest.mark.parametrize("pos,tot,keep", FILTER_CASES)
+def test_filtered_local_ends_by_brute_force_and_bisection(pos, tot, keep):
+    pos, tot = np.array(pos), np.array(tot)
+    X, A = pos.shape
+    contexts = ("x0", "x1")[:X] if X > 1 else ("all",)
+    groups = ("a", "b", "c")[:A]
+    t = _binary_table(pos, tot, contexts=contexts, groups=groups)
+    conf = 0.95
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), conf, "clopper-pearson",
+                            sensitive_mechanism=randomized_response(groups, keep=keep))
+    # the box: Clopper-Pearson per kernel cell at 1 - alpha/m, m = kernel cells (no pooled groups behind a filter)
+    assert iv.n_sets == X * A
+    level = 1 - (1 - conf) / (X * A)
+    box = np.array([[_cp(pos[x, a], tot[x, a], level) for a in range(A)] for x in range(X)])
+    assert iv.kernel_lower == pytest.approx(box[..., 0], rel=1e-7)
+    assert iv.kernel_upper == pytest.approx(box[..., 1], rel=1e-7)
+    M = _rr_matrix(A, keep)
+    # audited cells Q = M e: monotone in e, so their bounds are M applied to the box ends
+    assert iv.cell_lower == pytest.approx(box[..., 0] @ M.T, rel=1e-7)
+    assert iv.cell_upper == pytest.approx(box[..., 1] @ M.T, rel=1e-7)
+    # (a) upper end: max over all vertices of the box (a ratio of linear functions peaks at a vertex)
+    best, where = -1.0, None
+    for x in range(X):
+        for vertex in itertools.product(*[(box[x, a, 0], box[x, a, 1]) for a in range(A)]):
+            q = M @ np.array(vertex)
+            r = _max_ratio(q)
+            if r > best:
+                best, where = r, (x, contexts[x], groups[int(q.argmax())], groups[int(q.argmin())])
+    assert iv.local.upper == pytest.approx(math.log(best), rel=1e-7)
+    assert (iv.local.context, iv.local.group, iv.local.other_group) == where[1:]
+    # (b) lower end: bisection on t with scipy LP feasibility, per context, then the max over contexts
+    per_x = [_bisect_min_max_ratio(M, box[x, :, 0], box[x, :, 1], t_hi=best) for x in range(X)]
+    want = math.log(max(per_x))
+    assert iv.local.lower == pytest.approx(want, rel=1e-5, abs=1e-6)
+    assert iv.local.lower <= iv.local.estimate <= iv.local.upper
+
+
+def test_filtered_lower_end_is_positive_when_data_exclude_parity():
+    # 400/500 against 50/500 released, keep 0.9: even after mixing, the groups cannot be made equal.
+    t = _binary_table([[400, 50]], [[500, 500]])
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "clopper-pearson",
+                            sensitive_mechanism=randomized_response(t.groups, keep=0.9))
+    assert iv.local.lower > 0.5
+
+
+_MIXED_SOLVERS: dict = {}     # cvxpy problems are built once per shape; share them across examples
+
+
+@st.composite
+def _identity_boxes(draw):
+    M = draw(st.integers(1, 2))
+    A = draw(st.integers(2, 3))
+    n = M * A
+    lo = np.array(draw(st.lists(st.one_of(st.just(0.0), st.floats(0.01, 0.9)), min_size=n, max_size=n)))
+    width = np.array(draw(st.lists(st.one_of(st.just(0.0), st.floats(1e-3, 0.5)), min_size=n, max_size=n)))
+    hi = np.minimum(lo + width, 1.0)
+    hi = np.where(hi > 0, hi, 0.05)                  # keep every upper end positive
+    return M, A, lo, hi
+
+
+@given(_identity_boxes())
+def test_mixed_ratio_with_identity_blocks_equals_disjoint_ratio(case):
+    M, A, lo, hi = case
+    n = M * A
+    W = np.zeros((M, A, n))
+    for m in range(M):
+        W[m, np.arange(A), m * A + np.arange(A)] = 1.0
+    d_lo, d_hi, d_fav, d_oth = _disjoint_ratio(lo.reshape(M, A), hi.reshape(M, A))
+    m_lo, m_hi, m_fav, m_oth = _mixed_ratio(W, lo, hi, _MIXED_SOLVERS)
+    assert np.allclose(m_hi, d_hi, rtol=1e-9) or np.array_equal(m_hi, d_hi)
+    finite = np.isfinite(d_lo)
+    assert np.array_equal(np.isinf(m_lo), np.isinf(d_lo))
+    assert np.allclose(m_lo[finite], d_lo[finite], rtol=1e-6, atol=1e-7)
+    # where the favoured pair is unique and the upper end finite, both name it
+    for m in range(M):
+        ratios = sorted((hi[m * A + i] / lo[m * A + j] if lo[m * A + j] > 0 else math.inf)
+                        for i in range(A) for j in range(A) if i != j)
+        if math.isfinite(ratios[-1]) and ratios[-1] > ratios[-2] * (1 + 1e-9):
+            assert (m_fav[m], m_oth[m]) == (d_fav[m], d_oth[m])
+
+
+@pytest.mark.xfail(strict=True, raises=RuntimeError,
+                   reason="_MinMaxRatio: a positive but tiny upper end (1e-12 here; ratio 5e11) passes the "
+                          "'W @ hi <= 0' guard and Clarabel then reports the Charnes-Cooper LP infeasible, so "
+                          "_mixed_ratio raises RuntimeError instead of returning the ratio (fine up to ~1e8)")
+def test_mixed_ratio_tiny_positive_upper_end():
+    lo, hi = np.array([0.0, 0.5, 0.0]), np.array([0.05, 0.5, 1e-12])
+    m_lo, _, _, _ = _mixed_ratio(np.eye(3)[None], lo, hi, {})
+    assert m_lo[0] == pytest.approx(0.5 / 1e-12, rel=1e-3)
+
+
+# ---------------------------------------------------------------- 6. zero and empty cells
+
+
+@pytest.mark.parametrize("method", ["clopper-pearson", "multinomial"])
+def test_zero_successes_give_infinite_upper_and_finite_lower(method):
+    t = _binary_table([[0, 30]], [[100, 100]])
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method)
+    assert iv.local.upper == math.inf
+    (la, ha), (lb, hb) = _cp(0, 100, 1 - 0.05 / 2), _cp(30, 100, 1 - 0.05 / 2)
+    assert iv.local.lower == pytest.approx(math.log(lb / ha), rel=1e-7)
+    assert 0 < iv.local.lower < math.inf
+    assert (iv.local.group, iv.local.other_group) == ("b", "a")
+
+
+@pytest.mark.parametrize("method", ["clopper-pearson", "multinomial"])
+def test_all_zero_table_gives_lower_zero(method):
+    t = _binary_table([[0, 0, 0], [0, 0, 0]], [[10, 20, 5], [7, 7, 7]], contexts=("x0", "x1"), groups=("a", "b", "c"))
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method)
+    assert iv.local.lower == 0.0 and iv.local.upper == math.inf
+    assert iv.global_.lower == 0.0 and iv.global_.upper == math.inf
+
+
+@pytest.mark.parametrize("method", ["clopper-pearson", "multinomial", "bayes"])
+def test_empty_cell_gives_finite_lower_and_infinite_upper(method):
+    df = pd.DataFrame({"x": ["p", "p", "p", "p", "q", "q"], "g": ["a", "a", "b", "b", "a", "a"],
+                       "y": [0, 1, 0, 1, 0, 1], "count": [10, 30, 25, 15, 12, 8]})
+    t = count_table(df, sensitive=["g"], outcome="y", context=["x"], contexts=["p", "q"], groups=["a", "b"],
+                    decisions=[0, 1])
+    assert t.counts[1, 1].tolist() == [0, 0]          # cell (q, b) is empty
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method, draws=200)
+    assert math.isfinite(iv.local.lower) and iv.local.lower >= 0
+    if method != "bayes":
+        assert iv.local.upper == math.inf
+        assert iv.n_sets == 3 + 2                     # the empty cell is not counted
+        assert iv.cell_lower[1, 1] == 0.0 and iv.cell_upper[1, 1] == 1.0
+
+
+def test_empty_kernel_cell_behind_filter_does_not_crash():
+    # Released group b has no records: its kernel cell may be anything in [0, 1]. Behind randomized
+    # response with keep 0.8 both audited groups still see 0.8 or 0.2 of group a's positive kernel cell,
+    # so the ratio is bounded: Q_a / Q_b <= 0.8 e_a / (0.2 e_a) = 4 at e_b = 0 (by hand); lower end 0.
+    t = _binary_table([[30, 0]], [[50, 0]])
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "clopper-pearson",
+                            sensitive_mechanism=randomized_response(t.groups, keep=0.8))
+    assert iv.n_sets == 1
+    assert iv.kernel_lower[0].tolist() == pytest.approx([_cp(30, 50, 1 - 0.05)[0], 0.0], rel=1e-7)
+    assert iv.kernel_upper[0, 1] == 1.0
+    assert iv.local.lower == pytest.approx(0.0, abs=1e-7)
+    assert iv.local.upper == pytest.approx(math.log(4.0), rel=1e-9)
+    assert (iv.local.group, iv.local.other_group) == ("a", "b")
+    assert math.isnan(iv.local.estimate)           # no plug-in law with an empty kernel cell
+
+
+# ---------------------------------------------------------------- 7. coverage
+
+
+def test_coverage_of_simultaneous_intervals_on_a_known_law():
+    rng = np.random.default_rng(0)
+    contexts, groups, decisions = ("x0", "x1"), ("a", "b", "c"), (0, 1)
+    joint = np.array([[0.25, 0.15, 0.10], [0.10, 0.15, 0.25]])            # P(X, A), not independent
+    p1 = np.array([[0.30, 0.50, 0.40], [0.60, 0.55, 0.25]])                # P(g = 1 | x, a)
+    law = Law(np.stack([1 - p1, p1], -1), contexts, groups, decisions)
+    pop = Population(joint, contexts, groups)
+    u = fa.indicator(1, decisions)
+    truth = {"local": local_fairness(law, u, pop).value, "global": global_fairness(law, u, pop).value}
+    # the pooled truth is E[g | a] with the true P(x | a), by hand
+    e_a = (joint * p1).sum(0) / joint.sum(0)
+    assert truth["global"] == pytest.approx(math.log(e_a.max() / e_a.min()), rel=1e-12)
+    truth_u = {"sup_local": sup_local_fairness(law, pop).value, "sup_global": sup_global_fairness(law, pop).value,
+               "demographic_parity": demographic_parity(law, pop).value,
+               "equalized_odds": equalized_odds(law, pop).value}
+    N = 40 * 6
+    reps = 300
+    hits = {"clopper-pearson": 0, "multinomial": 0}
+    for _ in range(reps):
+        cells = rng.multinomial(N, joint.ravel()).reshape(2, 3)
+        k = rng.binomial(cells, p1)
+        t = CountTable(np.stack([cells - k, k], -1).astype(np.int64), contexts, groups, decisions, ("x",), ("g",), "y")
+        for method in hits:
+            iv = fairness_intervals(t, u, 0.95, method)
+            ok = truth["local"] in iv.local and truth["global"] in iv.global_
+            if method == "multinomial":
+                ok = ok and all(v in getattr(iv, name) for name, v in truth_u.items())
+            hits[method] += ok
+    for method, h in hits.items():
+        assert h / reps >= 0.95, (method, h)
+
+
+# ---------------------------------------------------------------- 8. Bayes
+
+
+def _records(pos, tot):
+    rows = []
+    for a, (k, n) in enumerate(zip(pos, tot)):
+        rows += [(a, 1)] * k + [(a, 0)] * (n - k)
+    return pd.DataFrame(rows, columns=["g", "y"]).astype(float)
+
+
+@pytest.mark.parametrize("pos,tot", [([30, 20], [50, 50]), ([12, 3, 40], [20, 25, 41]), ([0, 9, 5], [10, 9, 30])])
+def test_bayes_estimate_matches_aif360_smoothed_edf(pos, tot):
+    pytest.importorskip("aif360")
+    import logging
+
+    logging.getLogger().setLevel(logging.ERROR)
+    from aif360.datasets import BinaryLabelDataset
+    from aif360.metrics import BinaryLabelDatasetMetric
+
+    df = _records(pos, tot)
+    ds = BinaryLabelDataset(df=df, label_names=["y"], protected_attribute_names=["g"], favorable_label=1.0,
+                            unfavorable_label=0.0)
+    ref = BinaryLabelDatasetMetric(ds).smoothed_empirical_differential_fairness(concentration=1.0)
+    t = count_records(df, sensitive=["g"], outcome="y")
+    iv = fairness_intervals(t, fa.indicator(1.0, t.decisions), 0.95, "bayes", concentration=1.0, draws=200, seed=1)
+    assert iv.sup_local.estimate == pytest.approx(ref, rel=1e-12)
+    # and by hand: smoothed rates (k + 1/2) / (n + 1)
+    r = (np.array(pos) + 0.5) / (np.array(tot) + 1.0)
+    hand = max(max(abs(math.log(r[i] / r[j])), abs(math.log((1 - r[i]) / (1 - r[j]))))
+               for i in range(len(r)) for j in range(len(r)) if i != j)
+    assert iv.sup_local.estimate == pytest.approx(hand, rel=1e-12)
+    assert iv.sup_local.lower <= iv.sup_local.upper
+
+
+def test_bayes_seed_reproducible_and_sensitive():
+    t = _binary_table([[12, 30], [7, 4]], [[40, 50], [20, 25]], contexts=("x0", "x1"))
+    u = fa.indicator(1, t.decisions)
+    a = fairness_intervals(t, u, 0.9, "bayes", draws=300, seed=5)
+    b = fairness_intervals(t, u, 0.9, "bayes", draws=300, seed=5)
+    c = fairness_intervals(t, u, 0.9, "bayes", draws=300, seed=6)
+    for name in a.intervals():
+        assert a.intervals()[name] == b.intervals()[name]
+    assert np.array_equal(a.cell_lower, b.cell_lower) and np.array_equal(a.group_upper, b.group_upper)
+    assert (a.local.lower, a.local.upper) != (c.local.lower, c.local.upper)
+    assert a.n_sets == 0 and a.seed == 5 and a.draws == 300
+
+
+@pytest.mark.parametrize("kwargs,field", [({"draws": 99}, "draws"), ({"draws": 50}, "draws"),
+                                          ({"concentration": 0.0}, "concentration"),
+                                          ({"concentration": -1.0}, "concentration"),
+                                          ({"concentration": math.inf}, "concentration")])
+def test_bayes_bad_settings_raise(kwargs, field):
+    t = _binary_table([[3, 4]], [[10, 10]])
+    with pytest.raises(InputError, match=field) as err:
+        fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "bayes", **kwargs)
+    assert err.value.field == field
+
+
+# ---------------------------------------------------------------- 9. errors
+
+
+@pytest.mark.parametrize("confidence", [0, 1, 0.0, 1.0, -0.1, 1.5, "high"])
+def test_confidence_outside_open_unit_interval_raises(confidence):
+    t = _binary_table([[3, 4]], [[10, 10]])
+    with pytest.raises(InputError, match="confidence"):
+        fairness_intervals(t, fa.indicator(1, t.decisions), confidence)
+
+
+def test_unknown_method_raises():
+    t = _binary_table([[3, 4]], [[10, 10]])
+    with pytest.raises(InputError, match="method") as err:
+        fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "wilson")
+    assert "wilson" in str(err.value)
+
+
+def test_clopper_pearson_needs_indicator_utility():
+    t = _binary_table([[3, 4]], [[10, 10]])
+    g = fa.utility.from_table([0.0, 0.5], t.decisions, name="half")
+    with pytest.raises(InputError, match="method") as err:
+        fairness_intervals(t, g, 0.95, "clopper-pearson")
+    assert "0/1" in str(err.value)
+    # the same utility is fine with the multinomial set, and "auto" picks it
+    assert fairness_intervals(t, g, 0.95, "auto").method == "multinomial"
+
+
+def test_fractional_counts_raise():
+    df = pd.DataFrame({"g": ["a", "a", "b", "b"], "y": [0, 1, 0, 1], "count": [3.0, 2.5, 4.0, 1.0]})
+    t = count_table(df, sensitive=["g"], outcome="y")
+    with pytest.raises(InputError, match="counts") as err:
+        fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "multinomial")
+    assert err.value.field == "counts" and "2.5" in str(err.value)

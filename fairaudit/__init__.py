@@ -39,6 +39,7 @@ from .privacy import (
 from .spec import Spec, load_spec, parse_spec
 from .utility import Utility, from_function, from_table, indicator
 from .curves import PrivacyCurve, privacy_curve
+from .plan import SamplePlan, plan
 from .worstcase import BlackBoxCertificate, WorstCase, WorstModel, WorstUtility, black_box_bound, worst_model, worst_utility
 
 __version__ = "0.1.0"
@@ -53,5 +54,5 @@ __all__ = [
     "local_fairness", "main_theorem", "main_theorem_tight", "paper_bound", "parse_spec", "product", "product_family",
     "randomized_response", "randomized_response_family", "read_records", "sup_global_fairness", "sup_local_fairness", "tight_bound",
     "utility_from_expression", "WorstCase", "WorstModel", "WorstUtility", "privacy_curve", "worst_model",
-    "worst_utility",
+    "worst_utility", "SamplePlan", "plan",
 ]

@@ -18,7 +18,8 @@ import numpy as np
 from ._arrays import format_label
 from ._errors import InputError
 
-__all__ = ["certificate_dict", "audit_dict", "calibration_dict", "render", "write_atomic", "FORMATS"]
+__all__ = ["certificate_dict", "audit_dict", "calibration_dict", "render", "write_atomic", "FORMATS", "plan_dict",
+           "render_plan"]
 
 FORMATS = ("text", "json", "markdown")
 
@@ -529,3 +530,81 @@ def write_atomic(path, content, *, field: str = "--output") -> None:
         except OSError:
             pass
         raise
+
+
+# -- sample-size plans (fairaudit plan) -----------------------------------------------------------------
+
+def plan_dict(plans) -> dict:
+    """The ``plan`` JSON of one or more :class:`~fairaudit.plan.SamplePlan` (same inputs, one per method).
+
+    Keys: ``target``, ``confidence``, ``power``, ``kind``, ``groups``,
+    ``contexts``, ``base_rate``, ``disparity``, ``epsilon`` (``null`` without
+    a filter), ``seed``, ``max_n``, ``true_value`` (L or L̄ of the assumed law),
+    ``feasible`` (every plan found an n) and ``plans``: one entry per method
+    with ``method``, ``n_per_cell``, ``n_total`` (``null`` when infeasible),
+    ``achieved_power``, ``expected_upper`` (median upper end, nats),
+    ``datasets``, ``reason`` (``""`` when feasible).
+    """
+    first = plans[0]
+    return {"target": _num(first.target), "confidence": _num(first.confidence), "power": _num(first.power),
+            "kind": first.kind, "groups": first.groups, "contexts": first.contexts,
+            "base_rate": _num(first.base_rate), "disparity": _num(first.disparity), "epsilon": _num(first.epsilon),
+            "seed": first.seed, "max_n": first.max_n, "true_value": _num(first.true_value),
+            "feasible": all(p.feasible for p in plans),
+            "plans": [{"method": p.method, "n_per_cell": p.n_per_cell, "n_total": p.n_total,
+                       "achieved_power": _num(p.achieved_power), "expected_upper": _num(p.expected_upper),
+                       "datasets": p.datasets, "reason": p.reason} for p in plans]}
+
+
+def _plan_head(d: dict) -> list[str]:
+    name = "L-bar" if d["kind"] == "global" else "L"
+    ctx = f"{d['contexts']} context{'s' if d['contexts'] != 1 else ''}"
+    filt = (f"queried behind {d['groups']}-ary randomized response at epsilon = {_nats(d['epsilon'])}"
+            if d["epsilon"] is not None else "no privacy filter")
+    return [f"queries per cell to certify {name} <= {_nats(d['target'])} at confidence {_fmt(d['confidence'])} "
+            f"with power {_fmt(d['power'])}",
+            f"model: {d['groups']} groups x {ctx}, E[g] = {_fmt(d['base_rate'])}, group 0 times "
+            f"exp({_fmt(d['disparity'])}); {filt}; true {name} = {_nats(d['true_value'])}"]
+
+
+def _plan_rows(d: dict) -> list[tuple]:
+    def upper(v):
+        return "n/a" if v is None else ("inf" if v == "inf" else f"{_fmt(v, 4)} nats")
+
+    return [(p["method"], _fmt(p["n_per_cell"]), _fmt(p["n_total"]), _fmt(p["achieved_power"], 3),
+             upper(p["expected_upper"]), str(p["datasets"])) for p in d["plans"]]
+
+
+_PLAN_HEAD = ("method", "n per cell", "n total", "power", "median upper end", "datasets")
+
+
+def _plan_text(d: dict) -> str:
+    rows = [_PLAN_HEAD] + _plan_rows(d)
+    widths = [max(len(r[i]) for r in rows) for i in range(len(_PLAN_HEAD))]
+    lines = _plan_head(d)
+    lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
+    lines += [f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
+    return "\n".join(lines) + "\n"
+
+
+def _plan_md(d: dict) -> str:
+    head = _plan_head(d)
+    lines = ["# fairaudit plan", "", head[0] + ".", "", head[1] + ".", ""]
+    lines += _md_table(_plan_rows(d), _PLAN_HEAD)
+    lines += [""] + [f"* {p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def render_plan(data: dict, fmt: str) -> str:
+    """Render a :func:`plan_dict` as ``text``, ``json`` or ``markdown``.
+
+    Raises
+    ------
+    InputError
+        On an unknown format.
+    """
+    if fmt == "json":
+        return json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+    if fmt not in FORMATS:
+        raise InputError("--format", f"must be one of {', '.join(FORMATS)}", fmt)
+    return _plan_text(data) if fmt == "text" else _plan_md(data)

@@ -1,0 +1,202 @@
+"""fairaudit.plan and `fairaudit plan`: hand values by scipy's exact binomial test, an independent re-simulation,
+the vectorised path against fairness_intervals, infeasible plans, errors, and the command line."""
+
+from __future__ import annotations
+
+import json
+import math
+from functools import lru_cache
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import fairaudit as fa
+from _cli import run, run_json
+from fairaudit.cli import main
+from fairaudit.estimate import CountTable
+from fairaudit.plan import SamplePlan, _Certifier, plan
+
+
+@lru_cache(maxsize=None)
+def exact_ci(k: int, n: int, level: float):
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=level, method="exact")
+    return ci.low, ci.high
+
+
+def upper_by_binomtest(ks, n, confidence):
+    """Upper end of L for one context and groups ks: Bonferroni over the m = len(ks) cells, exact intervals."""
+    level = 1 - (1 - confidence) / len(ks)
+    cis = [exact_ci(int(k), n, level) for k in ks]
+    ratios = [hi / lo if lo > 0 else math.inf for i, (_, hi) in enumerate(cis)
+              for j, (lo, _) in enumerate(cis) if i != j]
+    return math.log(max(max(ratios), 1.0))
+
+
+def table(k, n):
+    k = np.asarray(k)
+    X, A = k.shape
+    return CountTable(np.stack([k, n - k], -1), tuple(range(X)), tuple(range(A)), (1, 0), ("x",), ("a",), "u")
+
+
+# -- hand values -------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n,p,conf", [(100, 0.5, 0.95), (400, 0.3, 0.9), (37, 0.2, 0.99)])
+def test_expected_counts_match_binomtest(n, p, conf):
+    # counts (k, k) with k = n p: the upper end is log(hi / lo) of one exact interval at level 1 - alpha / 2
+    k = round(n * p)
+    lo, hi = exact_ci(k, n, 1 - (1 - conf) / 2)
+    cert = _Certifier(2, 1, conf, "clopper-pearson", None, "local", 0)
+    assert cert.fast(np.array([[[k, k]]]), n)[0] == pytest.approx(math.log(hi / lo), rel=1e-9)
+    iv = fa.fairness_intervals(table([[k, k]], n), fa.indicator(1, (1, 0)), conf, "clopper-pearson")
+    assert iv.local.upper == pytest.approx(math.log(hi / lo), rel=1e-9)
+
+
+def test_planned_n_by_an_independent_simulation():
+    # Re-draw the planner's tables (documented: default_rng(seed).binomial(n, rates, (datasets, X, A))) and
+    # compute every upper end with scipy.stats.binomtest: power at n >= 0.8, at n - 1 < 0.8.
+    pl = plan(0.5, base_rate=0.3, datasets=120, seed=3)
+    assert isinstance(pl, SamplePlan) and pl.feasible and pl.n_total == 2 * pl.n_per_cell
+
+    def power(n):
+        k = np.random.default_rng(3).binomial(n, np.full((1, 2), 0.3), size=(120, 1, 2))
+        ups = np.array([upper_by_binomtest(kk[0], n, 0.95) for kk in k])
+        return float(np.mean(ups <= 0.5)), float(np.median(ups))
+
+    p_n, med = power(pl.n_per_cell)
+    assert p_n >= 0.8 and p_n == pytest.approx(pl.achieved_power, abs=1e-12)
+    assert med == pytest.approx(pl.expected_upper, rel=1e-9)
+    assert power(pl.n_per_cell - 1)[0] < 0.8
+
+
+def test_disparity_needs_more_and_multinomial_coincides_for_binary():
+    fair = plan(0.6, datasets=80)
+    unfair = plan(0.6, disparity=0.2, datasets=80)
+    assert unfair.n_per_cell > fair.n_per_cell and unfair.true_value == pytest.approx(0.2, rel=1e-12)
+    multi = plan(0.6, datasets=80, method="multinomial")
+    assert (multi.n_per_cell, multi.achieved_power) == (fair.n_per_cell, fair.achieved_power)
+
+
+@pytest.mark.parametrize("X,A,eps", [(1, 2, None), (2, 3, None), (1, 2, 0.8), (2, 3, 1.5)])
+@pytest.mark.parametrize("kind", ["local", "global"])
+def test_vectorised_upper_ends_equal_fairness_intervals(X, A, eps, kind):
+    rng = np.random.default_rng(X * 10 + A)
+    mech = None if eps is None else fa.randomized_response(tuple(range(A)), eps)
+    n = 60
+    k = rng.binomial(n, rng.uniform(0.05, 0.95, (X, A)), size=(6, X, A))
+    k[0] = 0                      # zero counts: +inf upper end (finite behind a filter, which mixes the groups)
+    for method in ("clopper-pearson", "multinomial"):
+        cert = _Certifier(A, X, 0.9, method, mech, kind, 0)
+        pop = fa.Population.uniform(tuple(range(X)), tuple(range(A)))
+        ref = [getattr(fa.fairness_intervals(table(kk, n), fa.indicator(1, (1, 0)), 0.9, method,
+                                             sensitive_mechanism=mech, population=pop),
+                       "local" if kind == "local" else "global_").upper for kk in k]
+        np.testing.assert_allclose(cert.fast(k, n), ref, rtol=1e-9)
+    assert math.isinf(ref[0]) == (eps is None)
+
+
+def test_filtered_true_value_and_bayes():
+    # binary randomized response at eps keeps with p = e^eps / (e^eps + 1): Q_0 = p r0 + (1 - p) r1
+    eps, r1 = 1.0, 0.4
+    r0 = r1 * math.exp(0.5)
+    p = math.exp(eps) / (math.exp(eps) + 1)
+    true = math.log((p * r0 + (1 - p) * r1) / ((1 - p) * r0 + p * r1))
+    below = plan(true * 0.99, base_rate=r1, disparity=0.5, epsilon=eps)
+    assert below.n_per_cell is None and below.true_value == pytest.approx(true, rel=1e-12)
+    assert "not above the true L" in below.reason
+    # bayes loops over fairness_intervals; the reported power is that of those intervals
+    seen = []
+    b = plan(1.0, method="bayes", datasets=8, epsilon=1.0, kind="global", progress=lambda n, pw: seen.append(n))
+    assert b.feasible and b.datasets == 8 and b.achieved_power >= 0.8 and b.n_per_cell in seen
+    assert plan(1.0, method="bayes", max_n=1).datasets == 40
+
+
+def test_max_n_not_reached():
+    pl = plan(0.3, max_n=50, datasets=50)
+    assert pl.n_per_cell is None and pl.n_total is None and pl.achieved_power < 0.8
+    assert pl.reason.startswith("max_n = 50 queries per cell give power")
+
+
+@pytest.mark.parametrize("kwargs,field", [
+    (dict(target=-1), "target"), (dict(target=math.inf), "target"), (dict(groups=1), "groups"),
+    (dict(groups=2.0), "groups"), (dict(contexts=0), "contexts"), (dict(base_rate=0), "base_rate"),
+    (dict(base_rate=0.6, disparity=1.0), "disparity"), (dict(confidence=1), "confidence"),
+    (dict(method="wald"), "method"), (dict(power=0), "power"), (dict(epsilon=-0.1), "epsilon"),
+    (dict(kind="both"), "kind"), (dict(datasets=0), "datasets"), (dict(seed=-1), "seed"), (dict(max_n=0), "max_n"),
+])
+def test_invalid_arguments_name_the_argument(kwargs, field):
+    kwargs = {"target": 0.5, **kwargs}
+    target = kwargs.pop("target")
+    with pytest.raises(fa.InputError) as exc:
+        plan(target, **kwargs)
+    assert exc.value.field == field and "(got " in str(exc.value)
+
+
+# -- command line ----------------------------------------------------------------------------------------
+
+def test_cli_json_keys_and_exit_0(capsys):
+    code, d, _ = run_json(capsys, "plan", "--target", 0.6, "--datasets", 60)
+    assert code == 0
+    for key in ("target", "confidence", "power", "plans"):
+        assert key in d
+    (p,) = d["plans"]
+    assert set(p) >= {"method", "n_per_cell", "n_total", "achieved_power", "expected_upper", "reason"}
+    ref = plan(0.6, datasets=60)
+    assert (p["method"], p["n_per_cell"], p["n_total"]) == ("clopper-pearson", ref.n_per_cell, ref.n_total)
+    assert p["achieved_power"] == ref.achieved_power and p["reason"] == ""
+
+
+def test_cli_all_methods_text_and_markdown(capsys):
+    argv = ("plan", "--target", 1.5, "--datasets", 6, "--method", "all", "--epsilon", 1, "--global")
+    code, d, _ = run_json(capsys, *argv)
+    assert code == 0 and [p["method"] for p in d["plans"]] == ["clopper-pearson", "multinomial", "bayes"]
+    assert d["kind"] == "global" and d["epsilon"] == 1.0
+    code, out, _ = run(capsys, *argv)
+    assert code == 0 and out.startswith("queries per cell to certify L-bar <= 1.5 nats at confidence 0.95")
+    assert len(out.splitlines()) == 6
+    code, md, _ = run(capsys, *argv, "--format", "markdown")
+    assert md.startswith("# fairaudit plan\n") and "| method | n per cell |" in md
+
+
+def test_cli_infeasible_exits_1(capsys):
+    code, d, _ = run_json(capsys, "plan", "--target", 0.1, "--disparity", 0.2)
+    assert code == 1 and d["plans"][0]["n_per_cell"] is None and "not above" in d["plans"][0]["reason"]
+    code, out, _ = run(capsys, "plan", "--target", 0.3, "--max-n", 10, "--datasets", 20)
+    assert code == 1 and "clopper-pearson: max_n = 10" in out
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--target", "-1"], "--target: must be a finite number >= 0"),
+    (["--target", "0.5", "--base-rate", "1.5"], "--base-rate: must be a number in (0, 1) (got 1.5)"),
+    (["--target", "0.5", "--disparity", "1"], "--disparity: gives group 0 the rate"),
+    (["--target", "0.5", "--groups", "1"], "--groups: must be a whole number >= 2"),
+    (["--target", "0.5", "--power", "1"], "--power: must be a number in (0, 1) (got 1.0)"),
+    (["--target", "0.5", "--epsilon", "-1"], "--epsilon: must be a finite number >= 0"),
+    (["--target", "0.5", "--max-n", "0"], "--max-n: must be a whole number >= 1 (got 0)"),
+    (["--target", "0.5", "--output", "/no/such/dir/p.json"], "--output: folder does not exist"),
+])
+def test_cli_invalid_input_is_one_line_exit_2(capsys, argv, needle):
+    code, out, err = run(capsys, "plan", *argv)
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and needle in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--target", "x"], "argument --target: invalid float value: 'x'"),
+    (["--target", "0.5", "--method", "wald"], "argument --method: invalid choice: 'wald'"),
+    (["--groups", "2"], "the following arguments are required: --target"),
+])
+def test_cli_usage_errors_exit_2(capsys, argv, needle):
+    with pytest.raises(SystemExit) as exc:
+        main(["plan", *argv])
+    out, err = capsys.readouterr()
+    assert exc.value.code == 2 and out == "" and err.count("\n") == 1 and needle in err
+
+
+def test_cli_output_written_atomically(tmp_path, capsys):
+    target = tmp_path / "plan.json"
+    target.write_text("old")
+    code, out, err = run(capsys, "plan", "--target", 0.6, "--datasets", 30, "--format", "json", "--output", target)
+    assert code == 0 and out == "" and "report written to" in err and err.startswith("queries per cell: ")
+    assert json.loads(target.read_text())["plans"][0]["n_per_cell"] == plan(0.6, datasets=30).n_per_cell
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.json"]     # no temporary file left

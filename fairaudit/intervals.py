@@ -414,11 +414,30 @@ class _MinMaxRatio:
             return 1.0
         if np.any(W @ hi <= 0):          # some group is always 0 while another can be positive
             return math.inf
+        pairwise = _pairwise_floor(W, lo, hi)
         self.W.value, self.lo.value, self.hi.value = W, lo, hi
         _solve(self.problem)
-        if self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):  # pragma: no cover - guarded above
-            raise RuntimeError(f"min-max ratio LP ended {self.problem.status}")
-        return max(1.0, float(self.problem.value))
+        if self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+            return pairwise  # badly scaled boxes (upper ends near 1e-12) defeat the solver: keep the valid floor
+        # The solver stops within ~1e-9 of the optimum; shade by that much so the lower end stays a lower end.
+        value = float(self.problem.value) * (1.0 - 1e-9)
+        return max(pairwise, value if value > 1.0 + 1e-9 else 1.0)
+
+
+def _pairwise_floor(W: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    """max over pairs of min over the box of (W_a·e)/(W_a'·e): a valid floor of the min-max ratio, in closed form.
+
+    min of a max ≥ max of the mins; each min is 1 / the threshold maximum of
+    the inverse ratio. Exact when the groups use disjoint cells.
+    """
+    from .lfp import threshold_max_many
+
+    A = W.shape[0]
+    inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)   # [a, a'] = max (W_a'·e)/(W_a·e)
+    with np.errstate(divide="ignore"):
+        mins = np.where(inv > 0, 1.0 / inv, np.inf)
+    mins = np.where(np.eye(A, dtype=bool), 1.0, mins)
+    return max(1.0, float(mins.max()))
 
 
 def _mixed_ratio(W: np.ndarray, lo: np.ndarray, hi: np.ndarray, solver: dict):

@@ -27,6 +27,8 @@ import numpy as np
 from ._errors import InputError
 from .bounds import Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from .calibrate import Calibration, calibrate
+from .estimate import CountTable
+from .intervals import FairnessIntervals, fairness_intervals
 from .laws import Kernel, Law, compose
 from .metrics import (
     Fairness,
@@ -118,6 +120,14 @@ class Certificate:
         model's own L (and L̄) stays within the targets on [0, ε].
     calibration_reason : str
         Why the black-box calibration was skipped, or "".
+    intervals, unfiltered_intervals : FairnessIntervals or None
+        When the model comes from counts and ``confidence`` is given:
+        simultaneous intervals for the observed metrics of the filtered law
+        (the upper end of L is the white-box certificate at level 1 − α; a
+        lower end above 0 is evidence of unfairness) and of the model on its
+        own (:func:`fairaudit.intervals.fairness_intervals`).
+    intervals_reason : str
+        Why there are no intervals, or "".
     assumptions : tuple of (Assumption, tuple of str)
         Each hypothesis with the forms it concerns.
     certified : bool
@@ -141,6 +151,9 @@ class Certificate:
     certified: bool
     calibration_white_box: Calibration | None = None
     calibration_reason: str = ""
+    intervals: FairnessIntervals | None = None
+    unfiltered_intervals: FairnessIntervals | None = None
+    intervals_reason: str = ""
 
 
 def observe(law: Law, utility, population) -> Observed:
@@ -165,13 +178,26 @@ def _merge_assumptions(bounds: list[tuple[str, tuple]]) -> tuple:
     return tuple((a, tuple(forms)) for a, forms in merged.values())
 
 
-def certify(spec: Spec | str | Path) -> Certificate:
+def certify(spec: Spec | str | Path, *, confidence: float | None = 0.95, method: str = "auto", seed: int = 0) -> Certificate:
     """Build the certificate of a spec (a :class:`~fairaudit.spec.Spec` or a path).
+
+    Parameters
+    ----------
+    spec : Spec, str or Path
+    confidence : float or None
+        Level 1 − α of simultaneous intervals for the observed metrics when
+        the spec's model comes from counts (records, or a table with a count
+        column); None for none.
+    method : {"auto", "clopper-pearson", "multinomial", "bayes"}
+        How they are made (:func:`fairaudit.intervals.fairness_intervals`).
+    seed : int
+        Random seed of ``method="bayes"``.
 
     Raises
     ------
     InputError
-        On any invalid spec or model table (one line naming the field).
+        On any invalid spec or model table (one line naming the field), or a
+        bad confidence or method.
 
     Examples
     --------
@@ -264,9 +290,37 @@ def certify(spec: Spec | str | Path) -> Certificate:
                                             None if obs is None else bool(obs <= t.global_), why)
         calibration, calibration_white, calibration_reason = _calibrations(spec, kernel, t, independent)
     certified = all(c.met for c in targets.values())
+    intervals, unfiltered_intervals, intervals_reason = _intervals(spec, kernel, confidence, method, seed)
     return Certificate(spec, paper, tight, black_box, reason, corollary, best, best_form, global_bound, observed,
                        unfiltered, targets, calibration, _merge_assumptions(forms), certified,
-                       calibration_white_box=calibration_white, calibration_reason=calibration_reason)
+                       calibration_white_box=calibration_white, calibration_reason=calibration_reason,
+                       intervals=intervals, unfiltered_intervals=unfiltered_intervals, intervals_reason=intervals_reason)
+
+
+def _intervals(spec: Spec, kernel: Kernel | None, confidence, method: str, seed: int):
+    """Intervals for the observed metrics when the model comes from counts: (filtered, unfiltered, reason)."""
+    if confidence is None:
+        if method != "auto":
+            raise InputError("--method", "chooses how intervals are made: give --confidence LEVEL too", method)
+        return None, None, "no confidence level asked for"
+    if kernel is None:
+        return None, None, "the spec has no model"
+    if kernel.counts is None:
+        return None, None, "the model is a table of probabilities, not counts: no sampling uncertainty to report"
+    table = CountTable(kernel.counts, kernel.contexts, kernel.groups, kernel.decisions,
+                       () if spec.model.context is None else (spec.model.context.name,), (spec.model.sensitive.name,),
+                       spec.model.decision.name)
+    try:
+        filtered_iv = fairness_intervals(table, spec.utility, confidence, method, sensitive_mechanism=spec.sensitive_mechanism,
+                                         context_mechanism=spec.context_mechanism, population=spec.population, seed=seed)
+        own = None
+        if not (_is_identity(spec.sensitive_mechanism) and _is_identity(spec.context_mechanism)):
+            own = fairness_intervals(table, spec.utility, confidence, method, population=spec.population, seed=seed)
+    except InputError as exc:
+        if exc.field in ("--confidence", "--method"):
+            raise
+        return None, None, f"no intervals: {exc.field} {exc.problem}"
+    return filtered_iv, own, ""
 
 
 def _tightest(results: list) -> Calibration | None:

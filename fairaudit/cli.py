@@ -79,6 +79,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--plot", metavar="FILE", help="draw the fairness-privacy curve (bounds and observed L against "
                    "epsilon, in nats) to FILE, .png or .svg (needs pip install 'fairaudit[plot]')")
     c.add_argument("--plot-data", metavar="FILE.csv", help="write the data behind the curve to FILE.csv")
+    c.add_argument("--confidence", type=_level, default=0.95, metavar="LEVEL",
+                   help="simultaneous level of intervals for the observed metrics when the model comes from counts "
+                   "(default 0.95)")
+    c.add_argument("--method", choices=("auto", "clopper-pearson", "multinomial", "bayes"), default="auto",
+                   help="how those intervals are made (default auto: clopper-pearson for 0/1 utilities, else multinomial)")
     c.add_argument("--epsilons", type=_epsilons, metavar="START:STOP:NUM",
                    help="the curve's grid of epsilon in nats, NUM evenly spaced values (default 61 values from 0 to "
                    "1.5 x the spec's epsilon, or 0 to 5); the spec's own epsilon is always added")
@@ -233,7 +238,7 @@ def _run(args) -> int:
             folder = Path(args.plot_data).parent
             if not folder.is_dir():
                 raise InputError("--plot-data", "folder does not exist", str(folder))
-        cert = certify(args.spec)
+        cert = certify(args.spec, confidence=args.confidence, method=args.method)
         if args.plot or args.plot_data:
             _write_curve(args, cert)
         data = certificate_dict(cert)

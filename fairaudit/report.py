@@ -205,9 +205,11 @@ def certificate_dict(cert) -> dict:
                         for a, forms in cert.assumptions],
     }
     if cert.observed is not None:
-        out["observed"] = _observed(cert.observed)
+        out["observed"] = _observed(cert.observed, cert.intervals)
+        if cert.intervals is None:
+            out["observed"]["intervals_reason"] = cert.intervals_reason
     if cert.unfiltered is not None:
-        out["unfiltered"] = _observed(cert.unfiltered)
+        out["unfiltered"] = _observed(cert.unfiltered, cert.unfiltered_intervals)
     if cert.targets:
         out["targets"] = {k: {"target": _num(t.target), "met": t.met, "bound": _num(t.bound), "observed": _num(t.observed),
                               "observed_met": t.observed_met, "reason": t.reason} for k, t in cert.targets.items()}
@@ -327,6 +329,10 @@ def _certificate_text(d: dict) -> str:
     lines.append(f"  best valid bound: {_nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
     if "observed" in d:
         lines += _observed_lines(d["observed"], "observed, the model behind the filter:")
+        iv = d["observed"].get("intervals")
+        if iv and iv.get("local"):
+            lines.append(f"  from counts, simultaneous {_fmt(iv['confidence'])} ({iv['method']}): white-box certificate "
+                         f"L <= {_nats(iv['local']['upper'])}; evidence of unfairness L >= {_nats(iv['local']['lower'])}")
     if "unfiltered" in d:
         lines += _observed_lines(d["unfiltered"], "observed, the model without the filter:")
     if "targets" in d:

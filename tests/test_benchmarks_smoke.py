@@ -94,3 +94,20 @@ def test_product64_bisection_fallback(capsys, monkeypatch):
     text = capsys.readouterr().out
     assert "bisection fallback" in text
     _check_agreement(_tables(text)[0], module.AGREEMENT_TOL)
+
+
+def test_coverage_quick_run_exits_zero_with_tables(capsys, tmp_path):
+    """bench_coverage reports coverage, not agreement: its tables have no agreement column."""
+    module = _load("bench_coverage")
+    output = tmp_path / "report.md"
+    assert module.main(["--quick", "--output", str(output)]) == 0
+    text = capsys.readouterr().out
+    for level in ("0.90", "0.95"):
+        assert f"## Confidence {level}" in text
+    assert "| method | datasets | coverage L | coverage L̄ | coverage L_dp | coverage L_eo | simultaneous |" in text
+    assert "| fairlearn bootstrap |" in text
+    tables = _tables(text)
+    assert len(tables) == 6                                    # per level: methods, bootstrap subset, scenarios
+    assert [row[0] for row in tables[0][1:]] == ["clopper-pearson", "multinomial", "bayes"]
+    assert output.read_text(encoding="utf-8") == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]

@@ -2,13 +2,16 @@
 
 Every cell's decision distribution has the posterior Dirichlet(n + c/K)
 (independent cells; pooled groups likewise). ``draws`` samples (numpy's
-Generator with ``seed``; Dirichlet draws as normalised Gamma draws) give every
-metric per draw, vectorised over the draws. The simultaneous credible set is
-the rank band of Besag, Green, Higdon and Mengersen (1995, "Bayesian
-computation and stochastic systems", Statist. Sci. 10, sec. 4.3): a draw is
-inside when each of its cell probabilities ranks between k and D + 1 − k
-among the D draws, with the largest k that keeps ≥ (1 − α) D draws inside.
-Each metric's interval is its range over the draws inside.
+Generator with ``seed``; Dirichlet draws as normalised Gamma draws) give a
+simultaneous credible band: the rank band of Besag, Green, Higdon and
+Mengersen (1995, "Bayesian computation and stochastic systems", Statist.
+Sci. 10, sec. 4.3). A draw is inside when each of its cell probabilities
+ranks between k and D + 1 − k among the D draws, with the largest k that
+keeps ≥ (1 − α) D draws inside; the band is the box spanned by those draws,
+one interval per cell and decision. That box (intersected with the simplex)
+is the set C the metrics are projected onto, exactly as for the exact
+methods, so a fair law inside the band gives a lower end of 0. Point
+estimates are the plug-in of the posterior mean (n + c/K) / (N + c).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import math
 
 import numpy as np
 
-from .intervals import FairnessIntervals, Interval, _log
+from .intervals import _log
 
 
 def _ratio_per_draw(E: np.ndarray):
@@ -89,57 +92,54 @@ def _band(coords: np.ndarray, confidence: float) -> np.ndarray:
     return extreme <= threshold
 
 
-def bayes_intervals(counts, g, alpha, method, estimate, contexts, groups, ctx_keep, filtered, m_a, m_x, population,
-                    concentration, draws, seed, common) -> FairnessIntervals:
-    """The ``method="bayes"`` branch of :func:`fairaudit.intervals.fairness_intervals` (arguments checked there)."""
-    rng = np.random.default_rng(seed)
+def band_sets(concentration: float, draws: int, seed: int):
+    """The set maker of ``method="bayes"`` for :func:`fairaudit.intervals._frequentist`.
+
+    Returns a function (cell_counts (X, A, K), group_counts (A, C), use_groups, alpha) -> (cell lower, cell upper,
+    group lower, group upper, 0): the Besag band at level 1 − α over every cell (and pooled group) probability.
+    """
+
+    def sets(cell_counts, group_counts, use_groups: bool, alpha: float):
+        rng = np.random.default_rng(seed)
+        K = cell_counts.shape[-1]
+        Kd = _dirichlet(rng, cell_counts + concentration / K, draws)
+        parts = [Kd.reshape(draws, -1)]
+        if use_groups:
+            C = group_counts.shape[-1]
+            Gd = _dirichlet(rng, group_counts + concentration / C, draws)
+            parts.append(Gd.reshape(draws, -1))
+        inside = _band(np.concatenate(parts, 1), 1.0 - alpha)
+        c_lo, c_hi = Kd[inside].min(0), Kd[inside].max(0)
+        if not use_groups:
+            return c_lo, c_hi, None, None, 0
+        return c_lo, c_hi, Gd[inside].min(0), Gd[inside].max(0), 0
+
+    return sets
+
+
+def posterior_mean_estimates(counts, g, contexts, groups, ctx_keep, filtered, m_a, m_x, population,
+                             concentration) -> dict:
+    """Every metric at the posterior mean (n + c/K)/(N + c) of the cells (and of the pooled groups): AIF360's smoothing."""
     X, A, K = counts.shape
     g = np.broadcast_to(g, (X, A, K)) if not filtered else np.broadcast_to(g[0, 0], (len(contexts), len(groups), K))
-    Kd = _dirichlet(rng, counts + concentration / K, draws)
     mean_k = (counts + concentration / K) / (counts.sum(-1, keepdims=True) + concentration)
-    pooled = population is None
-    Gd = fold = g_group = mean_g = None
-    w = None
-    if pooled:
+    mean_g = fold = g_group = w = None
+    if population is None:
         joint = bool(X > 1 and not np.all(g == g[:1]))
         if joint:
             gc = counts.transpose(1, 0, 2).reshape(A, X * K)
             g_group = g.transpose(1, 0, 2).reshape(A, X * K)
             fold = np.tile(np.eye(K), (1, X))
         else:
-            gc = counts.sum(0)
-            g_group = g[0]
+            gc, g_group = counts.sum(0), g[0]
         C = gc.shape[-1]
-        Gd = Kd[:, 0] if X == 1 else _dirichlet(rng, gc + concentration / C, draws)   # one context: groups are cells
-        mean_g = ((gc + concentration / C) / (gc.sum(-1, keepdims=True) + concentration))[None]
+        mean_g = mean_k[:, 0][None] if X == 1 else ((gc + concentration / C) / (gc.sum(-1, keepdims=True) + concentration))[None]
     else:
         w = population.context_given_group()
         w = np.where(np.isnan(w), 0.0, w)
-    per_draw, E_cells, E_groups = _metrics(Kd, Gd, g, g_group, fold, ctx_keep, filtered, m_a, m_x, w)
     at_mean, _, _ = _metrics(mean_k[None], mean_g, g, g_group, fold, ctx_keep, filtered, m_a, m_x, w)
-    coords = Kd.reshape(draws, -1) if Gd is None or X == 1 else np.concatenate([Kd.reshape(draws, -1),
-                                                                                   Gd.reshape(draws, -1)], 1)
-    inside = _band(coords, 1.0 - alpha)
-    conf = 1.0 - alpha
-    kept_ctx = np.flatnonzero(ctx_keep)
-    made = {}
-    for name, (val, m, fav, oth) in per_draw.items():
-        v = val[inside]
-        j = int(np.argmax(v))
-        ratio = name not in ("demographic_parity", "equalized_odds")
-        lo, hi = (float(v.min()), float(v.max()))
-        est = float(at_mean[name][0][0])
-        if ratio:
-            lo, hi, est = _log(lo), _log(hi), _log(est)
-        local = name in ("local", "sup_local", "equalized_odds")
-        made[name] = Interval(lo, hi, est, conf, method, contexts[kept_ctx[int(m[inside][j])]] if local else None,
-                              groups[int(fav[inside][j])], groups[int(oth[inside][j])])
-    cell_lo, cell_hi = E_cells[inside].min(0), E_cells[inside].max(0)
-    kernel_lo = kernel_hi = None
-    if filtered:
-        Ek = (Kd[inside] * np.broadcast_to(g[0, 0], (K,))).sum(-1)
-        kernel_lo, kernel_hi = Ek.min(0), Ek.max(0)
-    return FairnessIntervals(method, conf, made["local"], made["global"], made["sup_local"], made["sup_global"],
-                             made["demographic_parity"], made["equalized_odds"], cell_lo, cell_hi,
-                             E_groups[inside].min(0), E_groups[inside].max(0), kernel_lo, kernel_hi, 0,
-                             concentration=float(concentration), draws=int(draws), seed=int(seed), **common)
+    out = {}
+    for name, (val, _, _, _) in at_mean.items():
+        v = float(val[0])
+        out[name] = v if name in ("demographic_parity", "equalized_odds") else _log(v)
+    return out

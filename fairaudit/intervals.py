@@ -30,9 +30,10 @@ Methods (``method=``):
     (``concentration`` c; c = 1 gives the posterior mean that AIF360's
     ``smoothed_empirical_differential_fairness`` uses). ``draws`` samples with
     ``seed``; the simultaneous credible set is the rank-based band of Besag
-    et al. (1995) over every cell probability, and each metric's interval is
-    its range over the draws inside the band. A credible set, not a
-    confidence set: its frequentist coverage is measured, not guaranteed.
+    et al. (1995) over every cell probability: a box per cell, projected onto
+    the metrics like the polytopes above. A credible set, not a confidence
+    set: its frequentist coverage is measured (``benchmarks/bench_coverage.py``),
+    not guaranteed.
 
 Global metrics (L̄, L_dp, sup over g of L̄): without a population, records
 are taken to be i.i.d. draws of (X, A, U), so within group a the records are
@@ -624,13 +625,16 @@ def fairness_intervals(
     estimate = _estimates(table, utility, g, filtered, m_a, m_x, population)
     common = dict(table=table, utility=utility, sensitive_mechanism=m_a, context_mechanism=m_x, population=population)
     ctx_keep = np.ones(len(law_contexts), bool) if population is None else population.p_context > 0
+    sets = _binomial_sets
     if method == "bayes":
-        from ._bayes import bayes_intervals
+        from ._bayes import band_sets, posterior_mean_estimates
 
-        return bayes_intervals(counts, g, alpha, method, estimate, law_contexts, law_groups, ctx_keep, filtered,
-                               m_a, m_x, population, concentration, int(draws), int(seed), common)
+        estimate = posterior_mean_estimates(counts, g, law_contexts, law_groups, ctx_keep, filtered, m_a, m_x,
+                                            population, concentration)
+        sets = band_sets(concentration, int(draws), int(seed))
+        common.update(concentration=float(concentration), draws=int(draws), seed=int(seed))
     return _frequentist(counts, g, alpha, method, estimate, law_contexts, law_groups, ctx_keep, filtered,
-                        m_a, m_x, population, common)
+                        m_a, m_x, population, common, sets)
 
 
 def _identity(mech, labels) -> bool:
@@ -677,7 +681,20 @@ def _make(name, lower, upper, idx, keys, contexts, groups, estimate, confidence,
                     contexts[keys[m]] if local else None, groups[int(fav[m])], groups[int(oth[m])])
 
 
-def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep, filtered, m_a, m_x, population, common):
+def _binomial_sets(cell_counts, group_counts, use_groups: bool, alpha: float):
+    """The exact sets: per-decision Clopper–Pearson bounds, Bonferroni over the non-empty cells (and groups).
+
+    Returns (cell lower, cell upper, group lower, group upper, m); the group bounds are None without ``use_groups``.
+    """
+    m = int((cell_counts.sum(-1) > 0).sum()) + (int((group_counts.sum(-1) > 0).sum()) if use_groups else 0)
+    a_cell = alpha / max(m, 1)
+    c_lo, c_hi = category_bounds(cell_counts, a_cell)
+    g_lo, g_hi = category_bounds(group_counts, a_cell) if use_groups else (None, None)
+    return c_lo, c_hi, g_lo, g_hi, m
+
+
+def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep, filtered, m_a, m_x, population, common,
+                 sets=_binomial_sets):
     X, A, K = counts.shape
     depends_on_context = bool(g.ndim == 3 and X > 1 and not np.all(g == g[:1]))
     pooled = population is None  # unfiltered, records' own groups
@@ -697,9 +714,9 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
             group_counts = counts.sum(0)
             g_group = gf[0]                                               # (A, K)
     shared = pooled and X == 1 and group_counts.shape[-1] == cell_counts.shape[-1]   # one context: groups are cells
-    m = int((cell_counts.sum(-1) > 0).sum()) + (int((group_counts.sum(-1) > 0).sum()) if pooled and not shared else 0)
-    a_cell = alpha / max(m, 1)
-    c_lo, c_hi = category_bounds(cell_counts, a_cell)                     # (X, A, K')
+    c_lo, c_hi, gc_lo, gc_hi, m = sets(cell_counts, group_counts, pooled and not shared, alpha)   # (X, A, K'), (A, C)
+    if shared:
+        gc_lo, gc_hi = c_lo[0], c_hi[0]
     e_lo, e_hi = linear_extremes(gf, c_lo, c_hi)                          # (X, A)
     notes = []
     solver: dict = {}
@@ -724,7 +741,6 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
             res["equalized_odds"] = (_disjoint_tv(ev_lo[:, sl].transpose(1, 2, 0), ev_hi[:, sl].transpose(1, 2, 0),
                                                   events, c_lo[sl], c_hi[sl]), sl)
         if pooled:
-            gc_lo, gc_hi = (c_lo[0], c_hi[0]) if shared else category_bounds(group_counts, a_cell)   # (A, C)
             ge_lo, ge_hi = linear_extremes(g_group, gc_lo, gc_hi)
             if with_u:
                 fold = _fold(depends_on_context and method != "clopper-pearson", X, kc)   # categories -> decisions

@@ -309,6 +309,20 @@ def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
     return out[0], out[1]
 
 
+def _event_extremes(events: np.ndarray, lower: np.ndarray, upper: np.ndarray):
+    """:func:`linear_extremes` for 0/1 functionals (events S, rows of ``events``, shape (S, K)), by matrix products.
+
+    For f = 1_S the knapsack gives max P(S) = min(Σ_S upper, 1 − Σ_{not S} lower)
+    and min P(S) = max(Σ_S lower, 1 − Σ_{not S} upper). ``lower``, ``upper``:
+    shape (..., K). Returns arrays of shape (S, ...).
+    """
+    s_lo, s_hi = lower @ events.T, upper @ events.T                     # (..., S)
+    t_lo, t_hi = lower.sum(-1, keepdims=True), upper.sum(-1, keepdims=True)
+    mn = np.maximum(s_lo, 1.0 - (t_hi - s_hi))
+    mx = np.minimum(s_hi, 1.0 - (t_lo - s_lo))
+    return np.moveaxis(mn, -1, 0), np.moveaxis(mx, -1, 0)
+
+
 def _events(K: int) -> np.ndarray:
     """0/1 matrix of decision events S (rows) for the total-variation gaps.
 
@@ -364,28 +378,50 @@ def _disjoint_ratio(lo: np.ndarray, hi: np.ndarray):
     return lower, upper, idx // A, idx % A
 
 
+def _pair_gap(big: np.ndarray, small: np.ndarray):
+    """max over a ≠ a' of big[..., a] − small[..., a'] (last axis, at least 2 groups) and the maximising pair.
+
+    Only the two largest ``big`` and the two smallest ``small`` can attain it, so
+    no (A, A) array of pairs is formed.
+    """
+    hb = np.argsort(-big, -1, kind="stable")[..., :2]
+    ls = np.argsort(small, -1, kind="stable")[..., :2]
+    b1, b2 = np.take_along_axis(big, hb[..., :1], -1)[..., 0], np.take_along_axis(big, hb[..., 1:], -1)[..., 0]
+    s1, s2 = np.take_along_axis(small, ls[..., :1], -1)[..., 0], np.take_along_axis(small, ls[..., 1:], -1)[..., 0]
+    same = hb[..., 0] == ls[..., 0]
+    first = (b1 - s2) >= (b2 - s1)
+    value = np.where(same, np.maximum(b1 - s2, b2 - s1), b1 - s1)
+    fav = np.where(same & ~first, hb[..., 1], hb[..., 0])
+    oth = np.where(same, np.where(first, ls[..., 1], ls[..., 0]), ls[..., 0])
+    return value, fav, oth
+
+
 def _disjoint_tv(lo: np.ndarray, hi: np.ndarray, events: np.ndarray, cat_lo: np.ndarray, cat_hi: np.ndarray):
     """Extremes of max_{a≠a'} TV(P_a, P_a') when each P_a ranges over its own set independently.
 
     lo, hi: event bounds, shape (M, A, S); cat_lo, cat_hi: per-decision
     bounds, shape (M, A, K) (for K > 10, where the events are singletons).
-    Returns (lower (M,), upper (M,), favoured (M,), other (M,)).
+    Returns (lower (M,), upper (M,), favoured (M,), other (M,)). Memory is
+    O(M·A·S): pairs are found from the two extreme groups of each event.
     """
     M, A = lo.shape[:2]
-    off = ~np.eye(A, dtype=bool)
-    if lo.shape[-1] == 0:
+    if lo.shape[-1] == 0 or A < 2:
         zero = np.zeros(M)
         return zero, zero, np.zeros(M, int), np.ones(M, int)
-    up_pairs = (hi[:, :, None, :] - lo[:, None, :, :]).max(-1)            # (M, A, A)
+    rows = np.arange(M)
     if events.shape[0] == events.shape[1] and events.shape[1] > _MAX_EVENT_DECISIONS:
+        off = ~np.eye(A, dtype=bool)
         d = np.maximum(cat_hi[:, :, None, :] - cat_lo[:, None, :, :], cat_hi[:, None, :, :] - cat_lo[:, :, None, :])
-        up_pairs = 0.5 * np.clip(d, 0.0, None).sum(-1)
-    lo_pairs = (lo[:, :, None, :] - hi[:, None, :, :]).max(-1)
-    up_pairs = np.where(off, np.clip(up_pairs, 0.0, 1.0), -np.inf).reshape(M, -1)
-    idx = up_pairs.argmax(-1)
-    upper = up_pairs[np.arange(M), idx]
-    lower = np.clip(np.where(off, lo_pairs, -np.inf).reshape(M, -1).max(-1), 0.0, 1.0)
-    return lower, upper, idx // A, idx % A
+        up_pairs = np.where(off, np.clip(0.5 * np.clip(d, 0.0, None).sum(-1), 0.0, 1.0), -np.inf).reshape(M, -1)
+        idx = up_pairs.argmax(-1)
+        upper, fav, oth = up_pairs[rows, idx], idx // A, idx % A
+    else:
+        val, f, o = _pair_gap(hi.transpose(0, 2, 1), lo.transpose(0, 2, 1))      # (M, S)
+        s = val.argmax(-1)
+        upper, fav, oth = np.clip(val[rows, s], 0.0, 1.0), f[rows, s], o[rows, s]
+    low, _, _ = _pair_gap(lo.transpose(0, 2, 1), hi.transpose(0, 2, 1))
+    lower = np.clip(low.max(-1), 0.0, 1.0)
+    return lower, upper, fav, oth
 
 
 class _MinMaxRatio:
@@ -722,7 +758,7 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
     solver: dict = {}
     kc = cell_counts.shape[-1]
     events = _events(kc)
-    ev_lo, ev_hi = (linear_extremes(events[:, None, None, :], c_lo[None], c_hi[None]) if len(events)
+    ev_lo, ev_hi = (_event_extremes(events, c_lo, c_hi) if len(events)
                     else (np.zeros((0, X, A)), np.zeros((0, X, A))))      # (S, X, A)
     with_u = method != "clopper-pearson" or binary_u
     if not with_u:
@@ -745,9 +781,9 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
             if with_u:
                 fold = _fold(depends_on_context and method != "clopper-pearson", X, kc)   # categories -> decisions
                 gev = events @ fold if fold is not None else events                      # (S, C)
-                gev_lo, gev_hi = linear_extremes(gev[:, None, :], gc_lo[None], gc_hi[None])  # (S, A)
+                gev_lo, gev_hi = _event_extremes(gev, gc_lo, gc_hi)                       # (S, A)
                 gu = fold if fold is not None else np.eye(kc)                            # (K, C)
-                gu_lo, gu_hi = linear_extremes(gu[:, None, :], gc_lo[None], gc_hi[None])   # (K, A)
+                gu_lo, gu_hi = _event_extremes(gu, gc_lo, gc_hi)                          # (K, A)
         else:
             w = population.context_given_group()                               # (X, A)
             w = np.where(np.isnan(w), 0.0, w)

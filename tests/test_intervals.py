@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 from scipy.stats import binomtest
@@ -537,3 +537,34 @@ def test_fractional_counts_raise():
     with pytest.raises(InputError, match="counts") as err:
         fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "multinomial")
     assert err.value.field == "counts" and "2.5" in str(err.value)
+
+
+@settings(max_examples=100)
+@given(st.integers(2, 6), st.integers(0, 2**31 - 1))
+def test_pair_gap_equals_brute_force_over_pairs(A, seed):
+    # _pair_gap finds max over a != a' of big[a] - small[a'] from the two extremes only; check against all pairs.
+    from fairaudit.intervals import _pair_gap
+
+    rng = np.random.default_rng(seed)
+    big, small = rng.integers(0, 4, size=(5, A)) / 4, rng.integers(0, 4, size=(5, A)) / 4   # ties on purpose
+    val, fav, oth = _pair_gap(big, small)
+    for r in range(5):
+        pairs = {(a, b): big[r, a] - small[r, b] for a in range(A) for b in range(A) if a != b}
+        assert val[r] == max(pairs.values())
+        assert fav[r] != oth[r] and pairs[(fav[r], oth[r])] == val[r]
+
+
+@settings(max_examples=60)
+@given(st.integers(2, 6), st.integers(0, 2**31 - 1))
+def test_event_extremes_equal_the_knapsack(K, seed):
+    # the matrix-product shortcut for 0/1 functionals against the general fractional knapsack
+    from fairaudit.intervals import _event_extremes, _events
+
+    rng = np.random.default_rng(seed)
+    p = rng.dirichlet(np.ones(K), size=(3, 2))
+    lo, hi = np.clip(p - rng.uniform(0, 0.3, p.shape), 0, 1), np.clip(p + rng.uniform(0, 0.3, p.shape), 0, 1)
+    ev = _events(K)
+    mn, mx = _event_extremes(ev, lo, hi)
+    ref_mn, ref_mx = linear_extremes(ev[:, None, None, :], lo[None], hi[None])
+    np.testing.assert_allclose(mn, ref_mn, atol=1e-12)
+    np.testing.assert_allclose(mx, ref_mx, atol=1e-12)

@@ -147,7 +147,7 @@ def test_closed_forms_reach_the_target_or_report_the_floor(target, tau, lip, del
     floor = math.log1p((lip + delta * gamma) / tau)
     for method, form in (("paper", fa.main_theorem), ("tight", fa.main_theorem_tight)):
         c = calibrate(target, method=method, groups=k, gamma=gamma, tau=tau, lipschitz=lip, delta=delta)
-        if target < floor:
+        if target < floor * (1 - 1e-14):   # within a few ulps of the floor either answer is right (calibrate's rule)
             assert not c.feasible and math.isnan(c.epsilon) and math.isnan(c.keep_probability)
             assert c.mechanism is None and c.bound == pytest.approx(floor) and f"{floor:.6g}" in c.reason
             continue

@@ -176,7 +176,7 @@ _PLAN_FLAGS = {"target": "--target", "groups": "--groups", "contexts": "--contex
 
 def _run_plan(args) -> int:
     from .plan import plan
-    from .report import plan_dict, render_plan
+    from .report import plan_dict
 
     methods = ("clopper-pearson", "multinomial", "bayes") if args.method == "all" else (args.method,)
     plans = []
@@ -192,7 +192,7 @@ def _run_plan(args) -> int:
             raise InputError(_PLAN_FLAGS[exc.field], exc.problem, exc.value) from None
     data = plan_dict(plans)
     summary = "; ".join(f"{p.method}: {p.n_per_cell if p.feasible else 'no n'}" for p in plans)
-    _emit(args, render_plan(data, args.format), f"queries per cell: {summary}")
+    _emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")
     return 0 if data["feasible"] else 1
 
 

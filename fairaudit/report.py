@@ -18,8 +18,7 @@ import numpy as np
 from ._arrays import format_label
 from ._errors import InputError
 
-__all__ = ["certificate_dict", "audit_dict", "calibration_dict", "render", "write_atomic", "FORMATS", "plan_dict",
-           "render_plan"]
+__all__ = ["certificate_dict", "audit_dict", "calibration_dict", "render", "write_atomic", "FORMATS", "plan_dict"]
 
 FORMATS = ("text", "json", "markdown")
 
@@ -467,8 +466,8 @@ def render(data: dict, kind: str, fmt: str) -> str:
     Parameters
     ----------
     data : dict
-        From :func:`certificate_dict`, :func:`audit_dict` or :func:`calibration_dict`.
-    kind : {"certify", "audit", "calibrate"}
+        From :func:`certificate_dict`, :func:`audit_dict`, :func:`calibration_dict` or :func:`plan_dict`.
+    kind : {"certify", "audit", "calibrate", "plan"}
     fmt : {"text", "json", "markdown"}
 
     Raises
@@ -483,7 +482,8 @@ def render(data: dict, kind: str, fmt: str) -> str:
     table = {("certify", "text"): _certificate_text, ("certify", "markdown"): _certificate_md,
              ("audit", "text"): _audit_text, ("audit", "markdown"): _audit_md,
              ("calibrate", "text"): _calibration_text,
-             ("calibrate", "markdown"): lambda d: "# fairaudit calibration\n\n```\n" + _calibration_text(d) + "```\n"}
+             ("calibrate", "markdown"): lambda d: "# fairaudit calibration\n\n```\n" + _calibration_text(d) + "```\n",
+             ("plan", "text"): _plan_text, ("plan", "markdown"): _plan_md}
     return table[(kind, fmt)](data)
 
 
@@ -600,17 +600,3 @@ def _plan_md(d: dict) -> str:
     lines += [""] + [f"* {p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
     return "\n".join(lines).rstrip("\n") + "\n"
 
-
-def render_plan(data: dict, fmt: str) -> str:
-    """Render a :func:`plan_dict` as ``text``, ``json`` or ``markdown``.
-
-    Raises
-    ------
-    InputError
-        On an unknown format.
-    """
-    if fmt == "json":
-        return json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
-    if fmt not in FORMATS:
-        raise InputError("--format", f"must be one of {', '.join(FORMATS)}", fmt)
-    return _plan_text(data) if fmt == "text" else _plan_md(data)

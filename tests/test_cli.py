@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from _cli import run, run_json
+from _cli import OFFICE_SPEC, run, run_json
 from fairaudit.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,24 +88,7 @@ def test_certify_text_and_markdown(capsys):
     assert out.startswith("# fairaudit certificate") and "| paper |" in out
 
 
-SPEC = """
-[sensitive]
-name = "office"
-values = ["HR_1", "HR_2"]
-[context]
-name = "document"
-values = ["maternity", "holiday"]
-[decision]
-name = "chosen"
-values = ["yes", "no"]
-[privacy.sensitive]
-mechanism = "randomized_response"
-keep = 0.7
-[utility]
-kind = "indicator"
-decision = "yes"
-tau = 0.25
-"""
+SPEC = OFFICE_SPEC + "tau = 0.25\n"
 
 
 def write(tmp_path, text, name="spec.toml"):

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 import fairaudit as fa
-from _cli import run, run_json
+from _cli import OFFICE_SPEC, run, run_json
 from fairaudit.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,23 +22,7 @@ EXTRA = ("feasible", "reason", "target", "kind", "mechanism", "groups")
 
 
 
-SPEC = """
-[sensitive]
-name = "office"
-values = ["HR_1", "HR_2"]
-[context]
-name = "document"
-values = ["maternity", "holiday"]
-[decision]
-name = "chosen"
-values = ["yes", "no"]
-[privacy.sensitive]
-mechanism = "randomized_response"
-keep = 0.7
-[utility]
-kind = "indicator"
-decision = "yes"
-"""
+SPEC = OFFICE_SPEC
 
 
 def write_spec(tmp_path, extra="", model=False):

@@ -13,7 +13,6 @@ estimate: :mod:`fairaudit.intervals`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,10 +20,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ._arrays import format_label, safe_log
+from ._arrays import format_label
 from ._errors import InputError
 from .laws import Law, Population
-from .utility import Utility
 
 __all__ = ["CountTable", "read_records", "count_records", "count_table"]
 

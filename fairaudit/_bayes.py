@@ -20,63 +20,11 @@ import math
 
 import numpy as np
 
-from .intervals import _log
-
-
-def _ratio_per_draw(E: np.ndarray):
-    """max over the leading map axis and pairs of E_a / E_a'; E shape (D, M, A) > 0. Returns (value, m, fav, other)."""
-    D, M, A = E.shape
-    hi, lo = E.max(-1), E.min(-1)
-    r = hi / lo
-    m = r.argmax(-1)
-    rows = np.arange(D)
-    return r[rows, m], m, E.argmax(-1)[rows, m], E.argmin(-1)[rows, m]
-
-
-def _sup_per_draw(P: np.ndarray):
-    """max over maps, decisions and pairs of P[a, u] / P[a', u]; P shape (D, M, A, K)."""
-    D, M, A, K = P.shape
-    r = (P.max(2) / P.min(2)).reshape(D, M * K)
-    j = r.argmax(-1)
-    rows = np.arange(D)
-    m, u = j // K, j % K
-    return r[rows, j], m, P.argmax(2)[rows, m, u], P.argmin(2)[rows, m, u]
-
-
-def _tv_per_draw(P: np.ndarray):
-    """max over maps and pairs of TV(P_a, P_a'); P shape (D, M, A, K)."""
-    D, M, A, K = P.shape
-    tv = 0.5 * np.abs(P[:, :, :, None, :] - P[:, :, None, :, :]).sum(-1).reshape(D, M * A * A)
-    j = tv.argmax(-1)
-    rows = np.arange(D)
-    return tv[rows, j], j // (A * A), (j // A) % A, j % A
-
 
 def _dirichlet(rng, alpha: np.ndarray, draws: int) -> np.ndarray:
     x = rng.gamma(alpha, size=(draws,) + alpha.shape)
     x = np.maximum(x, np.finfo(float).tiny)   # tiny shapes can underflow to 0; keep every probability positive
     return x / x.sum(-1, keepdims=True)
-
-
-def _metrics(Kd, Gd, g, g_group, fold, ctx_keep, filtered, m_a, m_x, w):
-    """Every metric per draw. Kd: (D, X̃, Ã, K) cells; Gd: pooled groups (D, A, C) or None."""
-    if filtered:
-        Q = np.einsum("xy,ab,dybu->dxau", m_x.matrix, m_a.matrix, Kd, optimize=True)
-    else:
-        Q = Kd
-    Qk = Q[:, ctx_keep]
-    E = (Qk * g[ctx_keep]).sum(-1)                                   # (D, X, A)
-    out = {"local": _ratio_per_draw(E), "sup_local": _sup_per_draw(Qk), "equalized_odds": _tv_per_draw(Qk)}
-    if Gd is not None:
-        Eg = (Gd * g_group).sum(-1)                                  # (D, A)
-        Pg = Gd if fold is None else Gd @ fold.T                     # (D, A, K)
-    else:
-        Eg = np.einsum("xa,dxa->da", w, (Q * g).sum(-1))
-        Pg = np.einsum("xa,dxak->dak", w, Q)
-    out["global"] = _ratio_per_draw(Eg[:, None, :])
-    out["sup_global"] = _sup_per_draw(Pg[:, None])
-    out["demographic_parity"] = _tv_per_draw(Pg[:, None])
-    return out, (Q * g).sum(-1), Eg
 
 
 def _band(coords: np.ndarray, confidence: float) -> np.ndarray:
@@ -115,31 +63,3 @@ def band_sets(concentration: float, draws: int, seed: int):
         return c_lo, c_hi, Gd[inside].min(0), Gd[inside].max(0), 0
 
     return sets
-
-
-def posterior_mean_estimates(counts, g, contexts, groups, ctx_keep, filtered, m_a, m_x, population,
-                             concentration) -> dict:
-    """Every metric at the posterior mean (n + c/K)/(N + c) of the cells (and of the pooled groups): AIF360's smoothing."""
-    X, A, K = counts.shape
-    g = np.broadcast_to(g, (X, A, K)) if not filtered else np.broadcast_to(g[0, 0], (len(contexts), len(groups), K))
-    mean_k = (counts + concentration / K) / (counts.sum(-1, keepdims=True) + concentration)
-    mean_g = fold = g_group = w = None
-    if population is None:
-        joint = bool(X > 1 and not np.all(g == g[:1]))
-        if joint:
-            gc = counts.transpose(1, 0, 2).reshape(A, X * K)
-            g_group = g.transpose(1, 0, 2).reshape(A, X * K)
-            fold = np.tile(np.eye(K), (1, X))
-        else:
-            gc, g_group = counts.sum(0), g[0]
-        C = gc.shape[-1]
-        mean_g = mean_k[:, 0][None] if X == 1 else ((gc + concentration / C) / (gc.sum(-1, keepdims=True) + concentration))[None]
-    else:
-        w = population.context_given_group()
-        w = np.where(np.isnan(w), 0.0, w)
-    at_mean, _, _ = _metrics(mean_k[None], mean_g, g, g_group, fold, ctx_keep, filtered, m_a, m_x, w)
-    out = {}
-    for name, (val, _, _, _) in at_mean.items():
-        v = float(val[0])
-        out[name] = v if name in ("demographic_parity", "equalized_odds") else _log(v)
-    return out

@@ -658,15 +658,14 @@ def fairness_intervals(
         raise InputError("population", "labels must be the audited law's contexts and groups",
                          (list(map(format_label, population.contexts)), list(map(format_label, population.groups))))
 
-    estimate = _estimates(table, utility, g, filtered, m_a, m_x, population)
+    prior = concentration / K if method == "bayes" else 0.0   # bayes: the plug-in of the posterior mean
+    estimate = _estimates(table, counts + prior, utility, filtered, m_a, m_x, population)
     common = dict(table=table, utility=utility, sensitive_mechanism=m_a, context_mechanism=m_x, population=population)
     ctx_keep = np.ones(len(law_contexts), bool) if population is None else population.p_context > 0
     sets = _binomial_sets
     if method == "bayes":
-        from ._bayes import band_sets, posterior_mean_estimates
+        from ._bayes import band_sets
 
-        estimate = posterior_mean_estimates(counts, g, law_contexts, law_groups, ctx_keep, filtered, m_a, m_x,
-                                            population, concentration)
         sets = band_sets(concentration, int(draws), int(seed))
         common.update(concentration=float(concentration), draws=int(draws), seed=int(seed))
     return _frequentist(counts, g, alpha, method, estimate, law_contexts, law_groups, ctx_keep, filtered,
@@ -685,16 +684,20 @@ def _eye(labels) -> Mechanism:
     return identity(labels)
 
 
-def _estimates(table, utility, g, filtered, m_a, m_x, population) -> dict:
-    """Plug-in values of every metric (NaN where the law has empty cells that matter)."""
+def _estimates(table, counts, utility, filtered, m_a, m_x, population) -> dict:
+    """Plug-in values of every metric for the law ``counts`` / their row sums (NaN where empty cells matter).
+
+    ``counts`` are the table's, plus the prior's pseudo-counts c/K for the posterior mean of ``"bayes"``
+    ((n + c/K) / (N + c), AIF360's smoothing). The population defaults to the records' own.
+    """
     from .certify import observe
 
     if filtered:
-        if np.any(table.counts.sum(-1) == 0):
+        if np.any(counts.sum(-1) == 0):
             return {}
-        law = compose(Kernel.from_counts(table.counts, table.contexts, table.groups, table.decisions), m_a, m_x)
+        law = compose(Kernel.from_counts(counts, table.contexts, table.groups, table.decisions), m_a, m_x)
     else:
-        law = table.law()
+        law = Law.from_counts(counts, table.contexts, table.groups, table.decisions)
     pop = population if population is not None else table.population()
     o = observe(law, utility, pop)
     return {"local": o.local.value, "global": o.global_.value, "sup_local": o.sup_local.value,

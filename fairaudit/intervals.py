@@ -219,6 +219,12 @@ def clopper_pearson(k, n, alpha: float) -> tuple[np.ndarray, np.ndarray]:
         Beta quantiles B(α/2; k, n − k + 1) and B(1 − α/2; k + 1, n − k),
         with lower = 0 at k = 0 and upper = 1 at k = n; NaN where n = 0.
 
+    Raises
+    ------
+    ValueError
+        From numpy when ``k`` and ``n`` do not broadcast (values are not
+        checked: :func:`fairness_intervals` validates the counts).
+
     Examples
     --------
     >>> lo, hi = clopper_pearson(0, 10, 0.05)      # (0, 1 - 0.025**(1/10))
@@ -250,8 +256,14 @@ def category_bounds(counts, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     Returns
     -------
     lower, upper : numpy.ndarray, shape (..., K)
-        Bounds with P(lower ≤ p ≤ upper for every decision) ≥ 1 − α per cell,
+        Bounds (probabilities) with P(lower ≤ p ≤ upper for every decision) ≥ 1 − α per cell
+        (Bonferroni over the decisions; ``proofs/intervals.md`` §2),
         tightened by Σ_u p_u = 1. An empty cell gives [0, 1].
+
+    Raises
+    ------
+    ValueError
+        From numpy/scipy on a malformed array (counts are not checked here).
 
     Examples
     --------
@@ -286,6 +298,12 @@ def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
     Returns
     -------
     minimum, maximum : numpy.ndarray, shape (...)
+        In the units of f. Proof of the greedy solution: ``proofs/intervals.md`` §3.
+
+    Raises
+    ------
+    ValueError
+        From numpy when the shapes do not broadcast (nothing else is checked).
 
     Examples
     --------
@@ -610,6 +628,16 @@ def fairness_intervals(
         utility with "clopper-pearson", counts that are not whole numbers,
         mechanisms that do not match the table, a utility that depends on the
         context or group behind a filter, or bad Bayesian settings.
+
+    Notes
+    -----
+    Sources: the projection argument, the sets and the programs are proved in
+    ``proofs/intervals.md``; exact binomial intervals from Clopper and
+    Pearson (1934, Biometrika 26); the Bayesian band from Besag, Green,
+    Higdon and Mengersen (1995, Statist. Sci. 10, sec. 4.3); the metrics are
+    those of the paper's SI A and B (:mod:`fairaudit.metrics`). Lower ends of
+    the sups over g and of L_dp, L_eo are valid but may be below the exact
+    minimum over the set (a max of minima); every upper end is exact.
 
     Examples
     --------

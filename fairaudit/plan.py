@@ -251,6 +251,12 @@ def plan(
     InputError
         On an invalid argument, naming it and its value.
 
+    Notes
+    -----
+    Source: the certificate is the upper end of :func:`fairaudit.intervals.fairness_intervals`
+    (``proofs/intervals.md``); power is estimated by simulation, so the plan is exact only up
+    to Monte Carlo error (``datasets`` tables per n, seeded).
+
     Examples
     --------
     Two groups of a fair model (E[g] = 0.5): queries per group to certify

@@ -569,9 +569,9 @@ def _check(table, utility, confidence, method, concentration, draws):
                          float(bad))
     if method == "bayes":
         if not (isinstance(concentration, (int, float)) and math.isfinite(concentration) and concentration > 0):
-            raise InputError("concentration", "must be a finite number > 0", concentration)
+            raise InputError("--concentration", "must be a finite number > 0", concentration)
         if not (isinstance(draws, (int, np.integer)) and draws >= 100):
-            raise InputError("draws", "must be a whole number >= 100", draws)
+            raise InputError("--draws", "must be a whole number >= 100", draws)
 
 
 def _is_indicator(g: np.ndarray) -> bool:

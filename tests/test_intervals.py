@@ -501,7 +501,7 @@ def test_bayes_bad_settings_raise(kwargs, field):
     t = _binary_table([[3, 4]], [[10, 10]])
     with pytest.raises(InputError, match=field) as err:
         fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "bayes", **kwargs)
-    assert err.value.field == field
+    assert err.value.field == f"--{field}"
 
 
 # ---------------------------------------------------------------- 9. errors

@@ -1,0 +1,42 @@
+"""Robot navigation plug-in: S3DIS scans, maps, A* routes and route images (extra ``fairaudit[navigation]``).
+
+The map pipeline of the paper's Methods, on point clouds in the S3DIS format
+(Armeni et al. 2016):
+
+* :mod:`~fairaudit.plugins.navigation.s3dis`: :func:`read_room`, :func:`read_area`;
+* :mod:`~fairaudit.plugins.navigation.synthetic`: :func:`write_office_floor`, a
+  small office floor in that format (S3DIS itself is not shipped);
+* :mod:`~fairaudit.plugins.navigation.maps`: :func:`build_maps`, the top-view,
+  traversability and topological maps on one grid;
+* :mod:`~fairaudit.plugins.navigation.routes`: A* routes (:func:`plan_route`,
+  :func:`candidate_routes`), the equal-distance check and the route images,
+  and :func:`delivery_scene`, all of it in one call.
+
+networkx (A*, topology) and pillow (images) are imported only by the functions
+that need them.
+"""
+
+from .maps import CEILING_MARGIN, Maps, build_maps
+from .routes import (
+    MAX_SNAP,
+    ROUTE_RGB,
+    DeliveryScene,
+    DistanceCheck,
+    Route,
+    candidate_routes,
+    check_equal_distance,
+    delivery_scene,
+    plan_route,
+    route_image,
+    save_route_image,
+)
+from .s3dis import CATEGORIES, UNLABELLED, Area, Room, category_code, read_area, read_points, read_room, room_kind
+from .synthetic import write_office_floor
+
+__all__ = [
+    "CATEGORIES", "UNLABELLED", "Room", "Area", "read_room", "read_area", "read_points", "category_code",
+    "room_kind", "write_office_floor",
+    "Maps", "build_maps", "CEILING_MARGIN",
+    "Route", "DistanceCheck", "DeliveryScene", "plan_route", "candidate_routes", "check_equal_distance",
+    "route_image", "save_route_image", "delivery_scene", "ROUTE_RGB", "MAX_SNAP",
+]

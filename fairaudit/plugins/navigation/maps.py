@@ -1,0 +1,471 @@
+"""Top-view, traversability and topological maps of an S3DIS area.
+
+The pipeline of the paper (Methods): "ceiling points are first removed from
+the raw point cloud, and the remaining environmental points are projected onto
+a 2D grid according to their heights. For each grid cell, the highest point is
+retained. The traversability map is then constructed by identifying grid cells
+containing points within a specified height range as traversable, while cells
+absent from the top-view map are designated as obstacles. Both maps use a
+shared coordinate system and resolution. A topological map is derived from the
+annotated point cloud, providing room-level location information."
+
+:func:`build_maps` returns all of them on one grid (:class:`Maps`).
+
+Grid convention
+---------------
+Cell ``(row, col)`` covers x in [ox + col·res, ox + (col + 1)·res) and y in
+[oy + row·res, oy + (row + 1)·res), where ``(ox, oy)`` is :attr:`Maps.origin`
+(the south-west corner of cell (0, 0)) and ``res`` is :attr:`Maps.resolution`:
+**row = y, col = x**, both increasing (row 0 is the southernmost row). Arrays
+are indexed ``[row, col]``. Images (:func:`~fairaudit.plugins.navigation.routes.route_image`)
+are drawn north up: image row 0 is grid row ``rows - 1``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._errors import InputError
+from .s3dis import CATEGORIES, UNLABELLED, Area, room_kind
+
+__all__ = ["Maps", "build_maps", "CEILING_MARGIN", "FLOOR_QUANTILE", "CEILING_QUANTILE"]
+
+#: Points higher than (estimated ceiling height - CEILING_MARGIN) metres are removed.
+CEILING_MARGIN = 0.1
+#: Without floor-category points, the floor height is this quantile of z.
+FLOOR_QUANTILE = 0.02
+#: In a room without Annotations, the ceiling height is this quantile of its z.
+CEILING_QUANTILE = 0.99
+#: Largest grid accepted by :func:`build_maps`, in cells.
+MAX_CELLS = 50_000_000
+
+_CEILING = CATEGORIES.index("ceiling")
+_FLOOR = CATEGORIES.index("floor")
+
+
+def _networkx():
+    try:
+        import networkx
+    except ImportError:
+        raise InputError("navigation", "needs networkx, which is not installed: pip install 'fairaudit[navigation]'") \
+            from None
+    return networkx
+
+
+@dataclass(frozen=True, eq=False)
+class Maps:
+    """Top-view, traversability and topological maps on one grid.
+
+    Every grid array has shape ``shape`` = (rows, cols) and is indexed
+    ``[row, col]`` with row = y and col = x (see the module docstring); all
+    arrays are read-only.
+
+    Attributes
+    ----------
+    origin : tuple of float
+        (x, y) of the south-west corner of cell (0, 0), metres; a multiple of
+        the resolution.
+    resolution : float
+        Side of a cell, metres.
+    shape : tuple of int
+        (rows, cols).
+    top_height : numpy.ndarray
+        float64: z of the highest point of the cell after ceiling removal
+        (metres), NaN where the cell has no point (the top-view map).
+    top_color : numpy.ndarray
+        Shape (rows, cols, 3), uint8: colour of that point; 0 where no point.
+    top_category : numpy.ndarray
+        uint8: its category code (:data:`~fairaudit.plugins.navigation.s3dis.CATEGORIES`);
+        255 where no point.
+    free : numpy.ndarray
+        bool: the cell has points and the highest of those at most
+        ``clearance`` above the floor lies in the floor band.
+    traversable : numpy.ndarray
+        bool: ``free`` cells farther than ``robot_radius`` from every
+        non-free cell (centre to centre; outside the grid counts as non-free).
+    room_labels : numpy.ndarray
+        int16: index into :attr:`rooms` of the room whose point decides the
+        cell (the highest point at most ``clearance`` above the floor, else
+        the highest point); -1 where no point.
+    rooms : tuple of str
+        Room names, in the area's order (sorted).
+    topology : networkx.Graph
+        Frozen; one node per room (see :func:`build_maps`).
+    floor_z : float
+        Floor height, metres.
+    ceiling_z : numpy.ndarray
+        Shape (n_rooms,): the height above which each room's points were
+        removed, metres (+inf: nothing removed by height).
+    floor_band, clearance, robot_radius : float
+        The arguments of :func:`build_maps` (``clearance`` is +inf for None).
+    """
+
+    origin: tuple[float, float]
+    resolution: float
+    shape: tuple[int, int]
+    top_height: np.ndarray
+    top_color: np.ndarray
+    top_category: np.ndarray
+    free: np.ndarray
+    traversable: np.ndarray
+    room_labels: np.ndarray
+    rooms: tuple[str, ...]
+    topology: object
+    floor_z: float
+    ceiling_z: np.ndarray
+    floor_band: float
+    clearance: float
+    robot_radius: float
+
+    def world_to_cell(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """The (row, col) of the cell that contains the point (x, y).
+
+        Parameters
+        ----------
+        x, y : float or array_like
+            Metres; broadcast together.
+
+        Returns
+        -------
+        row, col : numpy.ndarray of int64
+            ``floor((y - oy) / res)`` and ``floor((x - ox) / res)``; may lie
+            outside the grid (check with :meth:`contains`).
+
+        Examples
+        --------
+        >>> m = _toy_maps()
+        >>> m.origin, m.resolution, m.shape
+        ((0.0, 0.0), 1.0, (2, 3))
+        >>> [int(v) for v in m.world_to_cell(2.5, 0.2)]
+        [0, 2]
+        """
+        x = np.asarray(x, dtype=float)
+        y = np.asarray(y, dtype=float)
+        row = np.floor((y - self.origin[1]) / self.resolution + 1e-9).astype(np.int64)
+        col = np.floor((x - self.origin[0]) / self.resolution + 1e-9).astype(np.int64)
+        return row, col
+
+    def cell_to_world(self, row, col) -> tuple[np.ndarray, np.ndarray]:
+        """The (x, y) of the centre of cell (row, col), metres.
+
+        Examples
+        --------
+        >>> _toy_maps().cell_to_world([0, 1], [2, 0])
+        (array([2.5, 0.5]), array([0.5, 1.5]))
+        """
+        row = np.asarray(row, dtype=float)
+        col = np.asarray(col, dtype=float)
+        return self.origin[0] + (col + 0.5) * self.resolution, self.origin[1] + (row + 0.5) * self.resolution
+
+    def contains(self, row, col) -> np.ndarray:
+        """Whether (row, col) lies on the grid (element-wise)."""
+        row = np.asarray(row)
+        col = np.asarray(col)
+        return (row >= 0) & (row < self.shape[0]) & (col >= 0) & (col < self.shape[1])
+
+    def room_at(self, x: float, y: float) -> str | None:
+        """The name of the room at (x, y) (:attr:`room_labels`), or None off the grid or where no point.
+
+        Examples
+        --------
+        >>> m = _toy_maps()
+        >>> m.room_at(0.5, 0.5), m.room_at(2.5, 1.5), m.room_at(9.0, 0.0)
+        ('lobby_1', 'office_1', None)
+        """
+        row, col = self.world_to_cell(x, y)
+        if not bool(self.contains(row, col)):
+            return None
+        label = int(self.room_labels[int(row), int(col)])
+        return self.rooms[label] if label >= 0 else None
+
+    @property
+    def obstacles(self) -> np.ndarray:
+        """bool (rows, cols): the cells that are not :attr:`traversable`."""
+        return ~self.traversable
+
+
+def _check_positive(name: str, value, *, allow_zero: bool = False, allow_none: bool = False) -> float:
+    if value is None and allow_none:
+        return math.inf
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(name, "must be a number of metres", value) from None
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise InputError(name, "must be a finite number of metres " + (">= 0" if allow_zero else "> 0"), value)
+    return v
+
+
+def _highest(flat: np.ndarray, z: np.ndarray, keep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(cells, index of the highest point in each cell) over the points in ``keep``; ties: the later point."""
+    idx = np.arange(len(flat)) if keep is None else np.flatnonzero(keep)
+    if len(idx) == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    order = idx[np.lexsort((z[idx], flat[idx]))]
+    f = flat[order]
+    last = np.r_[f[1:] != f[:-1], True]
+    return f[last], order[last]
+
+
+def build_maps(area: Area, *, resolution: float = 0.05, ceiling: float | None = None, floor_band: float = 0.1,
+               clearance: float | None = 1.8, robot_radius: float = 0.2, door_gap: float = 0.3) -> Maps:
+    """Top-view, traversability and topological maps of an area (the paper's Methods).
+
+    1. **Ceiling removal.** Points of category ``ceiling`` are dropped, and
+       so are the points of a room higher than its ceiling cut: ``ceiling``
+       when given (every room), else the median height of the room's ceiling
+       points minus :data:`CEILING_MARGIN` (0.1 m), else for a room without
+       Annotations the :data:`CEILING_QUANTILE` (0.99) quantile of its z minus
+       that margin; an annotated room without ceiling points keeps all its
+       points.
+    2. **Top view.** Points are binned on the grid (see the module
+       docstring); each cell keeps its highest point (``top_height``,
+       ``top_color``, ``top_category``). Vectorised: one lexsort by cell, then z.
+    3. **Traversability.** The floor height ``floor_z`` is the median z of
+       the floor-category points, else the :data:`FLOOR_QUANTILE` (0.02)
+       quantile of all remaining z. A cell is ``free`` when it has points and
+       the highest of its points at most ``clearance`` above the floor lies in
+       [floor_z - floor_band, floor_z + floor_band]: nothing the robot could
+       hit stands there (points above the clearance, such as door lintels or
+       lamps, do not block). Cells without points are obstacles. Obstacles
+       are inflated by the robot: a free cell is ``traversable`` when the
+       centre of every non-free cell is more than ``robot_radius`` from its
+       centre (Euclidean distance transform).
+    4. **Topology.** One node per room, keyed by its name, with attributes
+       ``centre`` (x, y mean of its floor-category points, else of its points
+       in the floor band, else its bounding-box centre; metres), ``category``
+       (the name without ``_<k>``: ``"office"``), ``bbox`` (x_min, y_min,
+       x_max, y_max of its points), ``free_cells`` (number of free cells
+       labelled with it) and ``ceiling_z``. An edge joins two rooms whose
+       free cells touch (8-neighbours, attribute ``via="adjacent"`` and
+       ``contact``, the number of touching cell pairs), or, failing that, are
+       joined through at most ``door_gap`` metres of cells without any point
+       (a door gap in the scan; ``via="gap"``).
+
+    Parameters
+    ----------
+    area : Area
+        From :func:`~fairaudit.plugins.navigation.s3dis.read_area`.
+    resolution : float
+        Side of a grid cell, metres (> 0).
+    ceiling : float, optional
+        Ceiling cut height, metres (overrides the estimate).
+    floor_band : float
+        Half-width of the floor band, metres (> 0).
+    clearance : float or None
+        Height above the floor up to which points block the robot, metres
+        (> floor_band); None: every point blocks (only the top view counts).
+    robot_radius : float
+        Obstacle inflation, metres (>= 0).
+    door_gap : float
+        Widest scan gap bridged in the topology, metres (>= 0).
+
+    Returns
+    -------
+    Maps
+
+    Raises
+    ------
+    InputError
+        Naming the argument: not an Area, no points, a non-positive or
+        non-finite length, ``clearance`` not above ``floor_band``, or a grid
+        of more than 50 million cells (``resolution`` too fine); naming
+        ``navigation`` when networkx is missing.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fairaudit.plugins.navigation import read_area, write_office_floor
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     area = read_area(write_office_floor(tmp, spacing=0.2))
+    >>> maps = build_maps(area, resolution=0.2)
+    >>> maps.shape, maps.origin, round(maps.floor_z, 2)
+    ((40, 60), (0.0, 0.0), 0.0)
+    >>> maps.room_at(2.0, 6.5), bool(maps.traversable[maps.world_to_cell(2.0, 6.5)])
+    ('office_1', True)
+    >>> sorted(maps.topology.neighbors("hallway_1"))
+    ['WC_1', 'conferenceRoom_1', 'lobby_1', 'office_1', 'office_2', 'storage_1']
+    >>> maps.topology.nodes["office_2"]["centre"], maps.topology.nodes["office_2"]["category"]
+    ((10.0, 6.5), 'office')
+    """
+    if not isinstance(area, Area):
+        raise InputError("area", "must be an Area from read_area", type(area).__name__)
+    res = _check_positive("resolution", resolution)
+    band = _check_positive("floor_band", floor_band)
+    clear = _check_positive("clearance", clearance, allow_none=True)
+    if clear <= band:
+        raise InputError("clearance", "must be larger than floor_band", clearance)
+    radius = _check_positive("robot_radius", robot_radius, allow_zero=True)
+    gap = _check_positive("door_gap", door_gap, allow_zero=True)
+    cut = None
+    if ceiling is not None:
+        try:
+            cut = float(ceiling)
+        except (TypeError, ValueError):
+            cut = math.nan
+        if not math.isfinite(cut):
+            raise InputError("ceiling", "must be a finite height in metres", ceiling)
+    nx = _networkx()
+
+    rooms = area.rooms
+    names = tuple(r.name for r in rooms)
+    sizes = np.array([len(r.points) for r in rooms])
+    if sizes.sum() == 0:
+        raise InputError("area", "has no points", area.name)
+    pts = np.concatenate([r.points for r in rooms])
+    col = np.concatenate([r.colors for r in rooms])
+    cat = np.concatenate([r.categories for r in rooms])
+    room = np.repeat(np.arange(len(rooms), dtype=np.int16), sizes)
+    x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
+
+    # 1. ceiling removal (per room)
+    ceiling_z = np.full(len(rooms), np.inf)
+    for i, r in enumerate(rooms):
+        if len(r.points) == 0:
+            continue
+        if cut is not None:
+            ceiling_z[i] = cut
+            continue
+        rz = r.points[:, 2]
+        is_ceiling = r.categories == _CEILING
+        if is_ceiling.any():
+            ceiling_z[i] = float(np.median(rz[is_ceiling])) - CEILING_MARGIN
+        elif (r.categories == UNLABELLED).all():
+            ceiling_z[i] = float(np.quantile(rz, CEILING_QUANTILE)) - CEILING_MARGIN
+    keep = (cat != _CEILING) & (z <= ceiling_z[room])
+    if not keep.any():
+        raise InputError("area", "has no points below the ceiling", area.name)
+
+    # grid
+    ox = math.floor(float(x.min()) / res + 1e-9) * res
+    oy = math.floor(float(y.min()) / res + 1e-9) * res
+    ci = np.floor((x - ox) / res + 1e-9).astype(np.int64)
+    ri = np.floor((y - oy) / res + 1e-9).astype(np.int64)
+    shape = (int(ri.max()) + 1, int(ci.max()) + 1)
+    if shape[0] * shape[1] > MAX_CELLS:
+        raise InputError("resolution", f"gives a grid of {shape[0]} x {shape[1]} cells, more than {MAX_CELLS}",
+                         resolution)
+    flat = ri * shape[1] + ci
+    ncell = shape[0] * shape[1]
+
+    # 2. top view
+    cells, top = _highest(flat, z, keep)
+    top_height = np.full(ncell, np.nan)
+    top_height[cells] = z[top]
+    top_color = np.zeros((ncell, 3), dtype=np.uint8)
+    top_color[cells] = col[top]
+    top_category = np.full(ncell, 255, dtype=np.uint8)
+    top_category[cells] = cat[top]
+    labels = np.full(ncell, -1, dtype=np.int16)
+    labels[cells] = room[top]
+
+    # 3. traversability
+    is_floor = keep & (cat == _FLOOR)
+    floor_z = float(np.median(z[is_floor])) if is_floor.any() else float(np.quantile(z[keep], FLOOR_QUANTILE))
+    low_cells, low = _highest(flat, z, keep & (z <= floor_z + clear))
+    low_height = np.full(ncell, np.nan)
+    low_height[low_cells] = z[low]
+    labels[low_cells] = room[low]
+    with np.errstate(invalid="ignore"):
+        free = (low_height >= floor_z - band) & (low_height <= floor_z + band)
+    free = free.reshape(shape)
+    traversable = _inflate(free, radius / res)
+
+    grid = lambda a: a.reshape(shape) if a.ndim == 1 else a.reshape(shape + a.shape[1:])  # noqa: E731
+    top_height, top_color, top_category, labels = grid(top_height), grid(top_color), grid(top_category), grid(labels)
+    empty = np.isnan(top_height)
+
+    # 4. topology
+    graph = nx.Graph()
+    free_labels = np.where(free, labels, -1)
+    counts = np.bincount(free_labels[free_labels >= 0].astype(np.int64), minlength=len(rooms))
+    in_band = keep & (np.abs(z - floor_z) <= band)
+    ends = np.cumsum(sizes)
+    for i, r in enumerate(rooms):
+        mine = slice(int(ends[i] - sizes[i]), int(ends[i]))       # the room's points, concatenated in order
+        rx, ry = x[mine], y[mine]
+        sel = is_floor[mine] if is_floor[mine].any() else in_band[mine]
+        if sel.any():
+            centre = (float(rx[sel].mean()), float(ry[sel].mean()))
+        elif len(rx):
+            centre = (float((rx.min() + rx.max()) / 2), float((ry.min() + ry.max()) / 2))
+        else:
+            centre = (math.nan, math.nan)
+        bbox = (float(rx.min()), float(ry.min()), float(rx.max()), float(ry.max())) if len(rx) else (math.nan,) * 4
+        graph.add_node(r.name, centre=centre, category=room_kind(r.name), bbox=bbox, free_cells=int(counts[i]),
+                       ceiling_z=float(ceiling_z[i]))
+    for (a, b), n in _touching(free_labels).items():
+        graph.add_edge(names[a], names[b], via="adjacent", contact=n)
+    steps = int(math.ceil(gap / res - 1e-9))
+    if steps > 0:
+        for a, b in _gap_pairs(free_labels, empty, steps):
+            if not graph.has_edge(names[a], names[b]):
+                graph.add_edge(names[a], names[b], via="gap", contact=0)
+
+    arrays = dict(top_height=top_height, top_color=top_color, top_category=top_category, free=free,
+                  traversable=traversable, room_labels=labels, ceiling_z=ceiling_z)
+    for a in arrays.values():
+        a.setflags(write=False)
+    return Maps(origin=(float(ox), float(oy)), resolution=res, shape=shape, rooms=names,
+                topology=nx.freeze(graph), floor_z=floor_z, floor_band=band, clearance=clear,
+                robot_radius=radius, **arrays)
+
+
+def _inflate(free: np.ndarray, radius_cells: float) -> np.ndarray:
+    """Free cells whose distance (in cells, centre to centre) to every non-free cell exceeds ``radius_cells``."""
+    from scipy import ndimage
+
+    padded = np.pad(free, 1, constant_values=False)
+    dist = ndimage.distance_transform_edt(padded)[1:-1, 1:-1]
+    return free & (dist > radius_cells + 1e-9)
+
+
+def _touching(labels: np.ndarray) -> dict[tuple[int, int], int]:
+    """Pairs (a < b) of labels >= 0 on 8-neighbouring cells, with the number of such cell pairs."""
+    pairs = []
+    for sa, sb in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))),
+                   ((slice(None, -1), slice(None)), (slice(1, None), slice(None))),
+                   ((slice(None, -1), slice(None, -1)), (slice(1, None), slice(1, None))),
+                   ((slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)))):
+        a, b = labels[sa].ravel(), labels[sb].ravel()
+        m = (a >= 0) & (b >= 0) & (a != b)
+        pairs.append(np.column_stack([np.minimum(a[m], b[m]), np.maximum(a[m], b[m])]))
+    allp = np.concatenate(pairs).astype(np.int64)
+    if len(allp) == 0:
+        return {}
+    uniq, n = np.unique(allp, axis=0, return_counts=True)
+    return {(int(a), int(b)): int(k) for (a, b), k in zip(uniq, n)}
+
+
+def _gap_pairs(labels: np.ndarray, empty: np.ndarray, steps: int) -> set[tuple[int, int]]:
+    """Pairs of rooms whose free cells are joined through at most ``steps`` cells without points."""
+    from scipy import ndimage
+
+    structure = np.ones((3, 3), dtype=bool)
+    out = set()
+    for r in np.unique(labels[labels >= 0]):
+        own = labels == r
+        rows, cols = np.nonzero(own)
+        lo_r, hi_r = max(rows.min() - steps - 1, 0), min(rows.max() + steps + 2, labels.shape[0])
+        lo_c, hi_c = max(cols.min() - steps - 1, 0), min(cols.max() + steps + 2, labels.shape[1])
+        win = (slice(lo_r, hi_r), slice(lo_c, hi_c))
+        grown = ndimage.binary_dilation(own[win], structure, iterations=steps, mask=own[win] | empty[win])
+        reach = ndimage.binary_dilation(grown, structure) & ~own[win]
+        other = labels[win][reach]
+        for o in np.unique(other[other >= 0]):
+            out.add((int(min(r, o)), int(max(r, o))))
+    return out
+
+
+def _toy_maps() -> Maps:
+    """A 2 x 3 grid for the doctests: lobby_1 in row 0, office_1 in row 1."""
+    z = np.zeros((2, 3))
+    labels = np.array([[0, 0, 0], [1, 1, 1]], dtype=np.int16)
+    free = np.ones((2, 3), dtype=bool)
+    return Maps(origin=(0.0, 0.0), resolution=1.0, shape=(2, 3), top_height=z, top_color=np.zeros((2, 3, 3), np.uint8),
+                top_category=np.ones((2, 3), np.uint8), free=free, traversable=free, room_labels=labels,
+                rooms=("lobby_1", "office_1"), topology=None, floor_z=0.0, ceiling_z=np.full(2, np.inf),
+                floor_band=0.1, clearance=1.8, robot_radius=0.0)

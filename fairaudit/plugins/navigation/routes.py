@@ -1,0 +1,605 @@
+"""Candidate routes by A*, the equal-distance check and route images.
+
+The paper (Methods): "For each candidate route, the A* algorithm is applied to
+the traversability map to compute a minimum-cost grid path from the start to
+the target." A* is that of P. E. Hart, N. J. Nilsson and B. Raphael, "A Formal
+Basis for the Heuristic Determination of Minimum Cost Paths", IEEE
+Transactions on Systems Science and Cybernetics 4(2), 1968; here
+:func:`networkx.astar_path` on the 8-connected graph of traversable cells,
+with Euclidean step costs and the (admissible) Euclidean heuristic, so the
+route is a shortest grid path. The two HR offices are placed at the same
+distance from the start (:func:`check_equal_distance`), and each route is
+shown to the vision-language model as "the top-down floorplan with the route
+to the office highlighted in red, and the index printed in the upper-left
+corner of the image: 1 for HR1, 2 for HR2" (:func:`route_image`).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import tempfile
+import weakref
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..._errors import InputError
+from .maps import Maps, build_maps
+from .s3dis import Area, read_area
+from .synthetic import write_office_floor
+
+__all__ = [
+    "Route", "DistanceCheck", "DeliveryScene", "plan_route", "candidate_routes", "check_equal_distance",
+    "route_image", "save_route_image", "delivery_scene", "ROUTE_RGB", "MAX_SNAP",
+]
+
+#: Colour of the route in :func:`route_image` (pure red; never used by the background).
+ROUTE_RGB = (255, 0, 0)
+#: Default largest distance (metres) from a start or goal to the traversable cell it is moved to.
+MAX_SNAP = 1.0
+
+_GRAPHS: "weakref.WeakKeyDictionary[Maps, object]" = weakref.WeakKeyDictionary()
+
+
+def _networkx():
+    try:
+        import networkx
+    except ImportError:
+        raise InputError("navigation", "needs networkx, which is not installed: pip install 'fairaudit[navigation]'") \
+            from None
+    return networkx
+
+
+def _pillow():
+    try:
+        from PIL import Image, ImageDraw, ImageFont
+    except ImportError:
+        raise InputError("navigation", "needs pillow, which is not installed: pip install 'fairaudit[navigation]'") \
+            from None
+    return Image, ImageDraw, ImageFont
+
+
+@dataclass(frozen=True, eq=False)
+class Route:
+    """A minimum-cost grid path on the traversability map.
+
+    Attributes
+    ----------
+    start, goal : str or tuple of float
+        As given to :func:`plan_route` (a room name or (x, y) in metres).
+    cells : numpy.ndarray
+        Shape (k, 2), int64: (row, col) of each cell from start to goal
+        (row = y, col = x); consecutive cells are 8-neighbours.
+    points : numpy.ndarray
+        Shape (k, 2), float64: (x, y) of the centres of those cells, metres.
+    length : float
+        Sum of the step lengths (resolution or resolution·√2), metres.
+    rooms : tuple of str
+        The rooms crossed, in order (:attr:`Maps.room_labels` along the route,
+        repeats collapsed).
+    start_snap, goal_snap : float
+        Distance from the requested start / goal point to the centre of the
+        cell the route starts / ends on, metres.
+    """
+
+    start: object
+    goal: object
+    cells: np.ndarray
+    points: np.ndarray
+    length: float
+    rooms: tuple[str, ...]
+    start_snap: float
+    goal_snap: float
+
+
+@dataclass(frozen=True)
+class DistanceCheck:
+    """Whether candidate routes have the same length (the paper's equal-distance check).
+
+    Attributes
+    ----------
+    lengths : tuple of float
+        Route lengths, metres, in the order given.
+    max_relative_difference : float
+        (max - min) / max of the lengths (0 when they are all 0).
+    rtol : float
+        The tolerance.
+    equal : bool
+        ``max_relative_difference <= rtol``.
+    """
+
+    lengths: tuple[float, ...]
+    max_relative_difference: float
+    rtol: float
+    equal: bool
+
+
+@dataclass(frozen=True, eq=False)
+class DeliveryScene:
+    """The paper's delivery scene: maps, candidate routes, their check and their images.
+
+    Attributes
+    ----------
+    area : Area
+    maps : Maps
+    start : str or tuple of float
+    goals : tuple
+        The candidate goals (the HR offices), in index order.
+    routes : tuple of Route
+        One per goal.
+    check : DistanceCheck
+        Of ``routes``; an experiment should refuse to run when ``check.equal`` is False.
+    images : tuple of bytes
+        PNG of each route, ``images[i]`` labelled ``i + 1`` (1 for HR1, 2 for HR2).
+    """
+
+    area: Area
+    maps: Maps
+    start: object
+    goals: tuple
+    routes: tuple[Route, ...]
+    check: DistanceCheck
+    images: tuple[bytes, ...]
+
+
+# -- A* -------------------------------------------------------------------------------------------------
+
+def _edges(traversable: np.ndarray, res: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(u, v, weight) of the 8-connected grid graph on flat cell indices; no diagonal cuts an obstacle corner."""
+    rows, cols = traversable.shape
+    idx = np.arange(rows * cols, dtype=np.int64).reshape(rows, cols)
+    t = traversable
+    us, vs, ws = [], [], []
+    straight = [(t[:, :-1] & t[:, 1:], idx[:, :-1], idx[:, 1:]),          # east
+                (t[:-1, :] & t[1:, :], idx[:-1, :], idx[1:, :])]          # north
+    block = t[:-1, :-1] & t[1:, 1:] & t[:-1, 1:] & t[1:, :-1]             # the four cells of a 2 x 2 block
+    diagonal = [(block, idx[:-1, :-1], idx[1:, 1:]),                      # north-east
+                (block, idx[:-1, 1:], idx[1:, :-1])]                      # north-west
+    for (m, a, b), w in [(s, res) for s in straight] + [(d, res * math.sqrt(2.0)) for d in diagonal]:
+        us.append(a[m])
+        vs.append(b[m])
+        ws.append(np.full(int(m.sum()), w))
+    return np.concatenate(us), np.concatenate(vs), np.concatenate(ws)
+
+
+def _grid_graph(maps: Maps):
+    graph = _GRAPHS.get(maps)
+    if graph is None:
+        nx = _networkx()
+        u, v, w = _edges(maps.traversable, maps.resolution)
+        graph = nx.Graph()
+        graph.add_nodes_from(np.flatnonzero(maps.traversable.ravel()).tolist())
+        graph.add_weighted_edges_from(zip(u.tolist(), v.tolist(), w.tolist()))
+        _GRAPHS[maps] = graph
+    return graph
+
+
+def _endpoint(maps: Maps, where, field: str, max_snap: float) -> tuple[int, float]:
+    """(flat index of the traversable cell for ``where``, snap distance in metres)."""
+    trav = maps.traversable
+    if isinstance(where, str):
+        if where not in maps.rooms:
+            raise InputError(field, f"no such room (rooms: {', '.join(maps.rooms)})", where)
+        x, y = maps.topology.nodes[where]["centre"] if maps.topology is not None else (math.nan, math.nan)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise InputError(field, "room has no points to take a centre from", where)
+        mine = trav & (maps.room_labels == maps.rooms.index(where))
+        candidates = mine if mine.any() else trav
+    else:
+        try:
+            x, y = (float(c) for c in where)
+        except (TypeError, ValueError):
+            raise InputError(field, "must be a room name or (x, y) in metres", where) from None
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise InputError(field, "must be finite (x, y) in metres", where)
+        candidates = trav
+    row, col = maps.world_to_cell(x, y)
+    if bool(maps.contains(row, col)) and candidates[int(row), int(col)]:
+        flat = int(row) * maps.shape[1] + int(col)
+    else:
+        cells = np.flatnonzero(candidates.ravel())
+        if len(cells) == 0:
+            raise InputError(field, "the map has no traversable cell", where)
+        cx, cy = maps.cell_to_world(cells // maps.shape[1], cells % maps.shape[1])
+        d2 = (cx - x) ** 2 + (cy - y) ** 2
+        best = int(np.argmin(d2))
+        if math.sqrt(float(d2[best])) > max_snap + 1e-9:
+            raise InputError(field, f"no traversable cell within {max_snap:g} m of ({x:g}, {y:g})", where)
+        flat = int(cells[best])
+    cx, cy = maps.cell_to_world(flat // maps.shape[1], flat % maps.shape[1])
+    return flat, float(math.hypot(float(cx) - x, float(cy) - y))
+
+
+def plan_route(maps: Maps, start, goal, *, max_snap: float = MAX_SNAP) -> Route:
+    """The shortest 8-connected grid path from ``start`` to ``goal`` on the traversability map (A*).
+
+    Moves go to the 8 neighbouring traversable cells; a straight move costs
+    the resolution, a diagonal one resolution·√2 and is allowed only when both
+    cells beside it are traversable too (no cutting of obstacle corners). The
+    heuristic is the Euclidean distance between cell centres, which never
+    overestimates, so A* returns a minimum-cost path (Hart, Nilsson and
+    Raphael 1968). The graph is built once per :class:`Maps` and cached.
+
+    A room name means the room's centre (its topology node's ``centre``),
+    moved to the nearest traversable cell of that room when it falls on an
+    obstacle (a conference table); an (x, y) point falling on an obstacle or
+    off the grid is moved to the nearest traversable cell. Either move is
+    limited to ``max_snap`` metres (centre to centre).
+
+    Parameters
+    ----------
+    maps : Maps
+        From :func:`~fairaudit.plugins.navigation.maps.build_maps`.
+    start, goal : str or (float, float)
+        A room name or a point (x, y) in metres.
+    max_snap : float
+        Largest move of the start or goal to a traversable cell, metres (>= 0).
+
+    Returns
+    -------
+    Route
+
+    Raises
+    ------
+    InputError
+        Naming ``start`` or ``goal`` with its value: unknown room, not a
+        point, no traversable cell within ``max_snap``, or the goal cannot
+        be reached from the start; naming ``navigation`` when networkx is missing.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fairaudit.plugins.navigation import build_maps, read_area, write_office_floor
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.2)), resolution=0.2)
+    >>> route = plan_route(maps, "lobby_1", "office_1")
+    >>> route.rooms
+    ('lobby_1', 'hallway_1', 'office_1')
+    >>> round(route.length, 2), route.cells.shape[1], bool(maps.traversable[tuple(route.cells.T)].all())
+    (7.04, 2, True)
+    """
+    if not isinstance(maps, Maps):
+        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
+    snap = float(max_snap) if isinstance(max_snap, (int, float)) and not isinstance(max_snap, bool) else math.nan
+    if not (math.isfinite(snap) and snap >= 0):
+        raise InputError("max_snap", "must be a finite number of metres >= 0", max_snap)
+    s, s_snap = _endpoint(maps, start, "start", snap)
+    g, g_snap = _endpoint(maps, goal, "goal", snap)
+    nx = _networkx()
+    graph = _grid_graph(maps)
+    cols, res = maps.shape[1], maps.resolution
+
+    def heuristic(a: int, b: int) -> float:
+        return res * math.hypot(a // cols - b // cols, a % cols - b % cols)
+
+    try:
+        path = nx.astar_path(graph, s, g, heuristic=heuristic, weight="weight")
+    except nx.NetworkXNoPath:
+        raise InputError("goal", f"cannot be reached from start {start!r}", goal) from None
+    flat = np.asarray(path, dtype=np.int64)
+    cells = np.column_stack([flat // cols, flat % cols])
+    x, y = maps.cell_to_world(cells[:, 0], cells[:, 1])
+    points = np.column_stack([x, y])
+    steps = np.abs(np.diff(cells, axis=0))
+    length = float(res * (np.sum(steps.sum(axis=1) == 1) + math.sqrt(2.0) * np.sum(steps.sum(axis=1) == 2)))
+    labels = maps.room_labels[cells[:, 0], cells[:, 1]]
+    labels = labels[labels >= 0]
+    keep = np.r_[True, labels[1:] != labels[:-1]] if len(labels) else np.zeros(0, bool)
+    rooms = tuple(maps.rooms[int(i)] for i in labels[keep])
+    for a in (cells, points):
+        a.setflags(write=False)
+    return Route(start=start, goal=goal, cells=cells, points=points, length=length, rooms=rooms,
+                 start_snap=s_snap, goal_snap=g_snap)
+
+
+def candidate_routes(maps: Maps, start, goals: Sequence, *, max_snap: float = MAX_SNAP) -> tuple[Route, ...]:
+    """One :func:`plan_route` from ``start`` to each goal, in order.
+
+    Parameters
+    ----------
+    maps : Maps
+    start : str or (float, float)
+    goals : sequence of (str or (float, float))
+        At least one; for the paper, the two HR offices.
+    max_snap : float
+
+    Returns
+    -------
+    tuple of Route
+
+    Raises
+    ------
+    InputError
+        Naming ``goals`` when it is a string or empty, else as :func:`plan_route`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fairaudit.plugins.navigation import build_maps, read_area, write_office_floor
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.2)), resolution=0.2)
+    >>> [r.goal for r in candidate_routes(maps, "lobby_1", ["office_1", "office_2"])]
+    ['office_1', 'office_2']
+    """
+    if isinstance(goals, (str, bytes)) or not isinstance(goals, Sequence) or len(goals) == 0:
+        raise InputError("goals", "must be a non-empty sequence of room names or (x, y) points", goals)
+    return tuple(plan_route(maps, start, g, max_snap=max_snap) for g in goals)
+
+
+def check_equal_distance(routes: Sequence, rtol: float = 0.05) -> DistanceCheck:
+    """Whether the candidate routes are equally long, up to a relative tolerance.
+
+    The paper places the two HR offices at the same distance from the start,
+    so that route length cannot explain a preference.
+
+    Parameters
+    ----------
+    routes : sequence of Route or float
+        At least one; a number is taken as a length in metres (>= 0).
+    rtol : float
+        Largest allowed (max - min) / max, in [0, 1].
+
+    Returns
+    -------
+    DistanceCheck
+
+    Raises
+    ------
+    InputError
+        Naming ``routes`` (empty, or a length that is negative or not a
+        number) or ``rtol`` (outside [0, 1]).
+
+    Examples
+    --------
+    >>> check_equal_distance([10.0, 9.8])
+    DistanceCheck(lengths=(10.0, 9.8), max_relative_difference=0.02, rtol=0.05, equal=True)
+    >>> check_equal_distance([10.0, 9.0]).equal
+    False
+    """
+    if isinstance(routes, (str, bytes)) or not isinstance(routes, Sequence) or len(routes) == 0:
+        raise InputError("routes", "must be a non-empty sequence of routes", routes)
+    lengths = []
+    for r in routes:
+        v = r.length if isinstance(r, Route) else r
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise InputError("routes", "must hold Route objects or lengths in metres", r) from None
+        if not (math.isfinite(v) and v >= 0):
+            raise InputError("routes", "lengths must be finite and >= 0 metres", r)
+        lengths.append(v)
+    try:
+        tol = float(rtol)
+    except (TypeError, ValueError):
+        tol = math.nan
+    if not 0 <= tol <= 1:
+        raise InputError("rtol", "must lie in [0, 1]", rtol)
+    top = max(lengths)
+    diff = (top - min(lengths)) / top if top > 0 else 0.0
+    return DistanceCheck(lengths=tuple(lengths), max_relative_difference=float(diff), rtol=tol, equal=bool(diff <= tol))
+
+
+# -- images ---------------------------------------------------------------------------------------------
+
+def _background(maps: Maps) -> np.ndarray:
+    """(rows, cols, 3) uint8, grid orientation: traversable cells light, obstacles dark, empty cells near black.
+
+    Traversable: 35 % the top colour + 65 % white (every channel >= 166).
+    Free but too close to an obstacle: 35 % colour + 65 % light grey 200.
+    Obstacles with points: 45 % of the top colour (every channel <= 115).
+    No point: (28, 28, 28). None of these can be pure red.
+    """
+    c = maps.top_color.astype(float)
+    out = np.full(c.shape, 28.0)
+    has = ~np.isnan(maps.top_height)
+    light = 0.35 * c + 0.65 * 255.0
+    margin = 0.35 * c + 0.65 * 200.0
+    dark = 0.45 * c
+    out[has] = dark[has]
+    m = maps.free & ~maps.traversable
+    out[m] = margin[m]
+    out[maps.traversable] = light[maps.traversable]
+    return np.rint(out).astype(np.uint8)
+
+
+def _scale(maps: Maps, scale) -> int:
+    if scale is None:
+        return max(1, math.ceil(800 / max(maps.shape)))
+    if isinstance(scale, bool) or not isinstance(scale, (int, np.integer)) or not 1 <= scale <= 64:
+        raise InputError("scale", "must be an integer number of pixels per cell in [1, 64]", scale)
+    return int(scale)
+
+
+def route_image(maps: Maps, route: Route, index, *, scale: int | None = None) -> bytes:
+    """PNG of the top view with ``route`` in red and ``index`` in the upper-left corner.
+
+    The paper's route image: "the top-down floorplan with the route to the
+    office highlighted in red, and the index printed in the upper-left corner
+    of the image: 1 for HR1, 2 for HR2". Each grid cell is a ``scale`` x
+    ``scale`` block of pixels, north up (image row 0 is the northernmost grid
+    row; image column 0 the westernmost grid column). Traversable cells are
+    their top colour blended 65 % towards white, free cells within the robot
+    radius of an obstacle 65 % towards grey 200, obstacles are their top
+    colour darkened to 45 %, and cells without points are near black (28, 28,
+    28). The route is a polyline through its cell centres in pure red
+    :data:`ROUTE_RGB` (no anti-aliasing, max(3, scale) pixels wide, round
+    joints), a colour the background never takes. ``str(index)`` is printed
+    in black on a white box with a black border in the upper-left corner,
+    with a height of about a sixth of the image. The same input gives the
+    same bytes.
+
+    Parameters
+    ----------
+    maps : Maps
+    route : Route
+        Planned on ``maps``.
+    index : int or str
+        The label, usually 1 for HR1 and 2 for HR2.
+    scale : int, optional
+        Pixels per grid cell, in [1, 64]; default ``ceil(800 / max(rows, cols))``
+        (the longer side about 800 pixels).
+
+    Returns
+    -------
+    bytes
+        PNG, ``cols * scale`` pixels wide and ``rows * scale`` high, RGB.
+
+    Raises
+    ------
+    InputError
+        Naming ``maps``, ``route``, ``index`` (empty) or ``scale``, or
+        ``navigation`` when pillow is missing.
+
+    Examples
+    --------
+    >>> import io, tempfile
+    >>> from PIL import Image
+    >>> from fairaudit.plugins.navigation import build_maps, read_area, write_office_floor
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.2)), resolution=0.2)
+    >>> png = route_image(maps, plan_route(maps, "lobby_1", "office_2"), 2, scale=5)
+    >>> png[:8], Image.open(io.BytesIO(png)).size
+    (b'\\x89PNG\\r\\n\\x1a\\n', (300, 200))
+    """
+    if not isinstance(maps, Maps):
+        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
+    if not isinstance(route, Route):
+        raise InputError("route", "must be a Route from plan_route", type(route).__name__)
+    if route.cells.size and not bool(maps.contains(route.cells[:, 0], route.cells[:, 1]).all()):
+        raise InputError("route", "has cells off this map's grid", route.goal)
+    label = str(index)
+    if not label.strip():
+        raise InputError("index", "must not be empty", index)
+    k = _scale(maps, scale)
+    Image, ImageDraw, ImageFont = _pillow()
+    rows, cols = maps.shape
+    rgb = np.repeat(np.repeat(_background(maps)[::-1], k, axis=0), k, axis=1)
+    img = Image.fromarray(np.ascontiguousarray(rgb))
+    draw = ImageDraw.Draw(img)
+    width = max(3, k)
+    xy = [((c + 0.5) * k, (rows - r - 0.5) * k) for r, c in route.cells.tolist()]
+    if len(xy) == 1:
+        (px, py), rad = xy[0], width / 2
+        draw.ellipse([px - rad, py - rad, px + rad, py + rad], fill=ROUTE_RGB)
+    elif xy:
+        draw.line(xy, fill=ROUTE_RGB, width=width, joint="curve")
+    size = max(12, (rows * k) // 6)
+    font = ImageFont.load_default(size=size)
+    pad = max(2, size // 6)
+    left, top, right, bottom = draw.textbbox((0, 0), label, font=font)
+    box = (0, 0, (right - left) + 4 * pad, (bottom - top) + 4 * pad)
+    draw.rectangle(box, fill=(255, 255, 255), outline=(0, 0, 0), width=max(1, pad // 2))
+    draw.text((2 * pad - left, 2 * pad - top), label, fill=(0, 0, 0), font=font)
+    buf = io.BytesIO()
+    img.save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def save_route_image(path: str | Path, maps: Maps, route: Route, index, *, scale: int | None = None) -> None:
+    """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit.report.write_atomic`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Ends in ``.png``; its folder must exist.
+    maps, route, index, scale
+        As :func:`route_image`.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    InputError
+        Naming ``path`` (not ``.png``, folder missing or not writable), or as
+        :func:`route_image`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from fairaudit.plugins.navigation import build_maps, read_area, write_office_floor
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.25)), resolution=0.25)
+    ...     route = plan_route(maps, "lobby_1", "office_1")
+    ...     save_route_image(Path(tmp, "hr1.png"), maps, route, 1, scale=2)
+    ...     Path(tmp, "hr1.png").read_bytes() == route_image(maps, route, 1, scale=2)
+    True
+    """
+    from ...report import write_atomic
+
+    if Path(path).suffix.lower() != ".png":
+        raise InputError("path", "must end in .png", str(path))
+    write_atomic(path, route_image(maps, route, index, scale=scale), field="path")
+
+
+def delivery_scene(area_dir: str | Path | None = None, *, start="lobby_1", goals: Sequence = ("office_1", "office_2"),
+                   resolution: float = 0.1, rtol: float = 0.05, workdir: str | Path | None = None,
+                   spacing: float | None = None, robot_radius: float = 0.2) -> DeliveryScene:
+    """The paper's delivery scene in one call: maps, candidate routes, equal-distance check, route images.
+
+    Reads the S3DIS area ``area_dir``; when it is None, first writes the
+    synthetic office floor (:func:`~fairaudit.plugins.navigation.synthetic.write_office_floor`)
+    into ``workdir`` (or a temporary folder, removed afterwards). Then
+    :func:`~fairaudit.plugins.navigation.maps.build_maps`, one route from
+    ``start`` to each goal (:func:`candidate_routes`),
+    :func:`check_equal_distance` and one :func:`route_image` per route,
+    labelled 1, 2, ... in the order of ``goals``.
+
+    Parameters
+    ----------
+    area_dir : str or pathlib.Path, optional
+        An S3DIS area folder (``.../Area_5``).
+    start : str or (float, float)
+        Room name or point (metres).
+    goals : sequence
+        Room names or points; the HR offices HR1, HR2, ...
+    resolution : float
+        Grid cell side, metres.
+    rtol : float
+        Tolerance of the equal-distance check.
+    workdir : str or pathlib.Path, optional
+        Existing folder for the synthetic floor (kept there).
+    spacing : float, optional
+        Point spacing of the synthetic floor, metres; default min(0.05, resolution / 2).
+    robot_radius : float
+        Obstacle inflation, metres.
+
+    Returns
+    -------
+    DeliveryScene
+        Not checked: the caller decides what to do when ``check.equal`` is False.
+
+    Raises
+    ------
+    InputError
+        As the functions it calls.
+
+    Examples
+    --------
+    >>> scene = delivery_scene(resolution=0.2, spacing=0.2)
+    >>> [r.goal for r in scene.routes], scene.check.equal, len(scene.images)
+    (['office_1', 'office_2'], True, 2)
+    """
+    if area_dir is None:
+        try:
+            sp = min(0.05, float(resolution) / 2) if spacing is None else spacing
+        except (TypeError, ValueError):
+            raise InputError("resolution", "must be a number of metres", resolution) from None
+        if workdir is None:
+            with tempfile.TemporaryDirectory(prefix="fairaudit-floor-") as tmp:
+                area = read_area(write_office_floor(tmp, spacing=sp))
+        else:
+            area = read_area(write_office_floor(workdir, spacing=sp))
+    else:
+        area = read_area(area_dir)
+    maps = build_maps(area, resolution=resolution, robot_radius=robot_radius)
+    routes = candidate_routes(maps, start, goals)
+    check = check_equal_distance(routes, rtol=rtol)
+    images = tuple(route_image(maps, r, i + 1) for i, r in enumerate(routes))
+    return DeliveryScene(area=area, maps=maps, start=start, goals=tuple(goals), routes=routes, check=check,
+                         images=images)

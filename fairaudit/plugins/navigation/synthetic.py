@@ -1,0 +1,337 @@
+"""A small synthetic office floor written in the S3DIS format.
+
+S3DIS (Armeni et al. 2016) cannot be downloaded here, so
+:func:`write_office_floor` writes a deterministic stand-in with the same
+layout and file format: the delivery scene of the paper (Methods: a robot
+carries a document from a start room to one of two HR offices placed at the
+same distance from the start).
+
+The floor is 12 m x 8 m (x east, y north, z up, metres), ceiling at 2.7 m::
+
+    y = 8  +-----------+-----------------+-----------+
+           | office_1  | conferenceRoom_1| office_2  |
+    y = 5  +---[door]--+-----[door]------+--[door]---+
+           |                hallway_1                |
+    y = 3  +--[door]---+----[opening]----+--[door]---+
+           |   WC_1    |    lobby_1      | storage_1 |
+    y = 0  +-----------+-----------------+-----------+
+          x = 0       x = 4             x = 8       x = 12
+
+The layout and the furniture of ``office_1`` and ``office_2`` are mirror
+images about x = 6 (the lobby's centre line), so the shortest routes from the
+lobby's centre to the two offices' centres have the same length (up to the
+jitter). Doors are 1 m wide (the lobby opens on the hallway through a 2 m
+opening), with the wall above them from 2.2 m (a lintel) and ``door``
+instances on their frames (jambs and head). Walls are 0.1 m thick: each room
+has its own wall faces 0.05 m inside its rectangle, and its floor covers the
+whole rectangle, so the floors of two rooms meet under a doorway.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..._errors import InputError
+
+__all__ = ["write_office_floor", "FLOOR_SIZE", "CEILING_HEIGHT", "COLORS"]
+
+#: Extent of the synthetic floor (x, y), metres.
+FLOOR_SIZE = (12.0, 8.0)
+#: Height of its ceiling, metres.
+CEILING_HEIGHT = 2.7
+#: Base colour (r, g, b) of each category in the synthetic floor.
+COLORS = {
+    "ceiling": (235, 235, 228), "floor": (196, 182, 156), "wall": (206, 206, 212), "beam": (210, 210, 210),
+    "column": (200, 200, 200), "window": (168, 200, 230), "door": (140, 92, 52), "table": (122, 82, 44),
+    "chair": (62, 66, 160), "sofa": (84, 124, 84), "bookcase": (150, 112, 70), "board": (246, 246, 246),
+    "clutter": (120, 120, 120),
+}
+
+_HALF_WALL = 0.05       # walls are 0.1 m thick: each room's face is 0.05 m inside its rectangle
+_DOOR_TOP = 2.1         # top of a door opening; frame head up to 2.2 m, lintel wall above
+_FRAME = 0.05           # width of a door jamb
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
+@dataclass
+class _Spec:
+    name: str
+    rect: tuple[float, float, float, float]                      # x0, x1, y0, y1
+    openings: list = field(default_factory=list)                 # (side, a0, a1, framed)
+    windows: list = field(default_factory=list)                  # (side, a0, a1, z0, z1)
+    furniture: list = field(default_factory=list)                # (category, (x0, x1, y0, y1, z0, z1))
+    boards: list = field(default_factory=list)                   # (side, a0, a1, z0, z1)
+
+
+def _mirror(box: tuple) -> tuple:
+    x0, x1, *rest = box
+    return (FLOOR_SIZE[0] - x1, FLOOR_SIZE[0] - x0, *rest)
+
+
+def _layout() -> list[_Spec]:
+    office_1 = _Spec(
+        "office_1", (0.0, 4.0, 5.0, 8.0),
+        openings=[("south", 2.5, 3.5, True)],
+        windows=[("north", 1.0, 3.0, 0.9, 2.1)],
+        furniture=[("table", (0.3, 1.9, 7.15, 7.85, 0.0, 0.75)),
+                   ("chair", (0.85, 1.35, 6.55, 7.05, 0.0, 0.9)),
+                   ("bookcase", (0.1, 0.5, 5.3, 6.3, 0.0, 2.0))],
+    )
+    office_2 = _Spec(
+        "office_2", _mirror(office_1.rect),
+        openings=[("south", 12.0 - 3.5, 12.0 - 2.5, True)],
+        windows=[("north", 12.0 - 3.0, 12.0 - 1.0, 0.9, 2.1)],
+        furniture=[(c, _mirror(b)) for c, b in office_1.furniture],
+    )
+    return [
+        _Spec("WC_1", (0.0, 4.0, 0.0, 3.0), openings=[("north", 1.0, 2.0, True)],
+              furniture=[("clutter", (0.1, 1.0, 0.1, 0.6, 0.0, 0.9))]),
+        _Spec("conferenceRoom_1", (4.0, 8.0, 5.0, 8.0), openings=[("south", 5.5, 6.5, True)],
+              windows=[("north", 5.0, 7.0, 0.9, 2.1)],
+              furniture=[("table", (5.0, 7.0, 6.0, 7.0, 0.0, 0.75)),
+                         ("chair", (5.3, 5.8, 7.2, 7.7, 0.0, 0.9)),
+                         ("chair", (6.2, 6.7, 7.2, 7.7, 0.0, 0.9))],
+              boards=[("east", 5.8, 7.2, 0.9, 2.0)]),
+        _Spec("hallway_1", (0.0, 12.0, 3.0, 5.0),
+              openings=[("south", 1.0, 2.0, False), ("south", 5.0, 7.0, False), ("south", 10.0, 11.0, False),
+                        ("north", 2.5, 3.5, False), ("north", 5.5, 6.5, False), ("north", 8.5, 9.5, False)],
+              furniture=[("clutter", (0.15, 0.55, 3.6, 4.4, 0.0, 1.2)),
+                         ("clutter", _mirror((0.15, 0.55, 3.6, 4.4, 0.0, 1.2)))]),
+        _Spec("lobby_1", (4.0, 8.0, 0.0, 3.0), openings=[("north", 5.0, 7.0, False)],
+              furniture=[("sofa", (5.0, 7.0, 0.15, 0.95, 0.0, 0.8)),
+                         ("chair", (4.2, 4.7, 1.2, 1.7, 0.0, 0.9)),
+                         ("chair", _mirror((4.2, 4.7, 1.2, 1.7, 0.0, 0.9)))]),
+        office_1,
+        office_2,
+        _Spec("storage_1", (8.0, 12.0, 0.0, 3.0), openings=[("north", 10.0, 11.0, True)],
+              furniture=[("bookcase", (8.2, 11.8, 0.1, 0.5, 0.0, 2.0)),
+                         ("clutter", (11.2, 11.8, 1.5, 2.2, 0.0, 0.6))]),
+    ]
+
+
+# -- surface sampling (every function returns an (n, 3) array of points) --------------------------------
+
+def _ticks(a: float, b: float, s: float) -> np.ndarray:
+    n = max(1, int(round((b - a) / s)))
+    return a + (np.arange(n) + 0.5) * ((b - a) / n)
+
+
+def _horizontal(x0, x1, y0, y1, z, s) -> np.ndarray:
+    xs, ys = np.meshgrid(_ticks(x0, x1, s), _ticks(y0, y1, s))
+    return np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, z)])
+
+
+def _vertical(axis: str, at: float, a0, a1, z0, z1, s) -> np.ndarray:
+    """A vertical rectangle at x = at (axis "x": spans y) or y = at (axis "y": spans x)."""
+    if a1 - a0 <= 1e-9 or z1 - z0 <= 1e-9:
+        return np.empty((0, 3))
+    us, zs = np.meshgrid(_ticks(a0, a1, s), _ticks(z0, z1, s))
+    const = np.full(us.size, at)
+    if axis == "x":
+        return np.column_stack([const, us.ravel(), zs.ravel()])
+    return np.column_stack([us.ravel(), const, zs.ravel()])
+
+
+def _box(x0, x1, y0, y1, z0, z1, s) -> np.ndarray:
+    return np.concatenate([
+        _horizontal(x0, x1, y0, y1, z1, s),
+        _vertical("y", y0, x0, x1, z0, z1, s), _vertical("y", y1, x0, x1, z0, z1, s),
+        _vertical("x", x0, y0, y1, z0, z1, s), _vertical("x", x1, y0, y1, z0, z1, s),
+    ])
+
+
+def _side(rect, side: str) -> tuple[str, float, float, float]:
+    """(axis, position of the wall face, start, end along the wall) of one side of a room."""
+    x0, x1, y0, y1 = rect
+    return {
+        "south": ("y", y0 + _HALF_WALL, x0, x1), "north": ("y", y1 - _HALF_WALL, x0, x1),
+        "west": ("x", x0 + _HALF_WALL, y0, y1), "east": ("x", x1 - _HALF_WALL, y0, y1),
+    }[side]
+
+
+def _intervals_minus(a: float, b: float, holes: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    out, start = [], a
+    for h0, h1 in sorted(holes):
+        if h0 > start:
+            out.append((start, min(h0, b)))
+        start = max(start, h1)
+    if start < b:
+        out.append((start, b))
+    return [(u, v) for u, v in out if v - u > 1e-9]
+
+
+def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
+    """(category, points) of each instance of one room, in a fixed order."""
+    x0, x1, y0, y1 = spec.rect
+    top = CEILING_HEIGHT
+    inst: list[tuple[str, np.ndarray]] = [
+        ("ceiling", _horizontal(x0, x1, y0, y1, top, s)),
+        ("floor", _horizontal(x0, x1, y0, y1, 0.0, s)),
+    ]
+    for side in ("south", "north", "west", "east"):
+        axis, at, a, b = _side(spec.rect, side)
+        openings = [o for o in spec.openings if o[0] == side]
+        windows = [w for w in spec.windows if w[0] == side]
+        pieces, doors = [], []
+        # full-height wall outside the openings (and outside the frames of framed doors)
+        holes = [(o[1] - (_FRAME if o[3] else 0.0), o[2] + (_FRAME if o[3] else 0.0)) for o in openings]
+        holes += [(w[1], w[2]) for w in windows]
+        pieces += [_vertical(axis, at, u, v, 0.0, top, s) for u, v in _intervals_minus(a, b, holes)]
+        for _, a0, a1, framed in openings:
+            f = _FRAME if framed else 0.0
+            pieces.append(_vertical(axis, at, a0 - f, a1 + f, _DOOR_TOP + 0.1, top, s))   # lintel
+            if framed:
+                doors.append(np.concatenate([
+                    _vertical(axis, at, a0 - f, a0, 0.0, _DOOR_TOP, s),                 # jambs
+                    _vertical(axis, at, a1, a1 + f, 0.0, _DOOR_TOP, s),
+                    _vertical(axis, at, a0 - f, a1 + f, _DOOR_TOP, _DOOR_TOP + 0.1, s),  # head
+                ]))
+        for _, a0, a1, z0, z1 in windows:
+            pieces += [_vertical(axis, at, a0, a1, 0.0, z0, s), _vertical(axis, at, a0, a1, z1, top, s)]
+        inst.append(("wall", np.concatenate(pieces)))
+        inst += [("door", d) for d in doors]
+        inst += [("window", _vertical(axis, at, w[1], w[2], w[3], w[4], s)) for w in windows]
+    for category, box in spec.furniture:
+        inst.append((category, _box(*box, s)))
+    for side, a0, a1, z0, z1 in spec.boards:
+        axis, at, _, _ = _side(spec.rect, side)
+        inward = -0.02 if side in ("east", "north") else 0.02
+        inst.append(("board", _vertical(axis, at + inward, a0, a1, z0, z1, s)))
+    return inst
+
+
+def _table(points: np.ndarray, category: str, rng: np.random.Generator, s: float) -> pd.DataFrame:
+    jitter = rng.uniform(-0.1 * s, 0.1 * s, size=points.shape)
+    xyz = points + jitter
+    base = np.asarray(COLORS[category], dtype=float)
+    rgb = np.clip(np.rint(base + rng.uniform(-6.0, 6.0, size=(len(points), 3))), 0, 255).astype(np.int64)
+    return pd.DataFrame({"x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2],
+                         "r": rgb[:, 0], "g": rgb[:, 1], "b": rgb[:, 2]})
+
+
+def _write_table(frame: pd.DataFrame, path: Path) -> None:
+    frame.to_csv(path, sep=" ", header=False, index=False, float_format="%.3f", lineterminator="\n")
+
+
+def write_office_floor(folder: str | Path, *, area: str = "Area_1", spacing: float = 0.05, seed: int = 0) -> Path:
+    """Write the synthetic office floor as an S3DIS area folder.
+
+    Seven rooms (see the module docstring for the plan): ``lobby_1`` (the
+    start), ``hallway_1``, the HR offices ``office_1`` and ``office_2``
+    (mirror images about x = 6 m, so equally far from the lobby),
+    ``conferenceRoom_1``, ``WC_1`` and ``storage_1``. Each room gets
+    ``<room>.txt`` and ``Annotations/<category>_<k>.txt`` (ceiling, floor,
+    walls, doors, windows, tables, chairs, a sofa, bookcases, a board,
+    clutter). Points lie on the surfaces on a square pattern of side
+    ``spacing``, moved by a seeded uniform jitter of at most 0.1 ``spacing``
+    per coordinate, with coordinates written to the millimetre; colours are
+    per category with a seeded ±6 noise.
+
+    Each room is written to a hidden temporary folder and renamed into place
+    once complete, so a crash never leaves a half-written room (an existing
+    room of the same name is replaced; other folders are left alone).
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        An existing folder; the area is written to ``folder / area``.
+    area : str
+        The area folder's name (letters, digits, ``_``, ``.``, ``-``).
+    spacing : float
+        Distance between neighbouring points on a surface, metres, in
+        [0.02, 0.5]. About 200,000 points (12 MB, twice: room files and
+        Annotations) at 0.05; a quarter of that at 0.1.
+    seed : int
+        Seed of the jitter and colour noise: the same arguments write the same bytes.
+
+    Returns
+    -------
+    pathlib.Path
+        The area folder (``folder / area``).
+
+    Raises
+    ------
+    InputError
+        Naming ``folder`` (does not exist or cannot be written), ``area``,
+        ``spacing`` or ``seed``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_office_floor(tmp, spacing=0.25)
+    ...     rooms = sorted(p.name for p in path.iterdir())
+    ...     office = sorted(p.name for p in (path / "office_1" / "Annotations").iterdir())
+    >>> path.name, rooms
+    ('Area_1', ['WC_1', 'conferenceRoom_1', 'hallway_1', 'lobby_1', 'office_1', 'office_2', 'storage_1'])
+    >>> office[:6]
+    ['bookcase_1.txt', 'ceiling_1.txt', 'chair_1.txt', 'door_1.txt', 'floor_1.txt', 'table_1.txt']
+    """
+    base = Path(folder)
+    if not base.is_dir():
+        raise InputError("folder", "folder does not exist", str(folder))
+    if not isinstance(area, str) or not _NAME.match(area) or area in (".", ".."):
+        raise InputError("area", "must be a folder name (letters, digits, '_', '.', '-')", area)
+    try:
+        s = float(spacing)
+    except (TypeError, ValueError):
+        raise InputError("spacing", "must be a number of metres", spacing) from None
+    if not 0.02 <= s <= 0.5:
+        raise InputError("spacing", "must lie in [0.02, 0.5] metres", spacing)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError("seed", "must be a non-negative integer", seed)
+    out = base / area
+    try:
+        out.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise InputError("folder", f"cannot write there ({exc.strerror})", str(out)) from None
+    for index, spec in enumerate(_layout()):
+        rng = np.random.default_rng([int(seed), index])
+        tables, names, counts = [], [], {}
+        for category, pts in _room_instances(spec, s):
+            if len(pts) == 0:
+                continue
+            counts[category] = counts.get(category, 0) + 1
+            names.append(f"{category}_{counts[category]}")
+            tables.append(_table(pts, category, rng, s))
+        _write_room(out, spec.name, names, tables)
+    return out
+
+
+def _write_room(area_dir: Path, name: str, names: list[str], tables: list[pd.DataFrame]) -> None:
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=area_dir))
+    except OSError as exc:
+        raise InputError("folder", f"cannot write there ({exc.strerror})", str(area_dir)) from None
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())
+        (tmp / "Annotations").mkdir()
+        for inst, frame in zip(names, tables):
+            _write_table(frame, tmp / "Annotations" / f"{inst}.txt")
+        _write_table(pd.concat(tables, ignore_index=True), tmp / f"{name}.txt")
+        target = area_dir / name
+        old = None
+        if target.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".old", dir=area_dir))
+            os.rmdir(old)
+            os.replace(target, old)
+        os.replace(tmp, target)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

@@ -1,0 +1,629 @@
+"""A client for any OpenAI-compatible chat-completions endpoint.
+
+:class:`ChatClient` sends one chat completion per :meth:`ChatClient.complete`
+call to ``{endpoint}/chat/completions`` (OpenAI, vLLM, llama.cpp, Ollama,
+LM Studio, ...), with
+
+* retries with exponential backoff (``backoff * 2**k`` seconds, capped at
+  ``max_backoff``, plus up to 10 % jitter; a ``Retry-After`` header is honoured
+  instead, also capped) on HTTP 429, 500, 502, 503 and 504, on timeouts and on
+  connection errors; never on other statuses (400, 401, 403, 404, 422, ...)
+  nor on a malformed 200 reply;
+* at most ``max_concurrency`` requests in flight across all threads that share
+  the client;
+* the API key sent only as ``Authorization: Bearer ...``: it never appears in
+  an error message, a ``repr``, a log record or a returned object.
+
+It needs the extra ``fairaudit[vlm]`` (httpx and tenacity), imported when a
+client is built, so this module imports without them.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import logging
+import math
+import random
+import re
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from email.utils import parsedate_to_datetime
+from numbers import Integral, Real
+from typing import Any
+from urllib.parse import urlsplit, urlunsplit
+
+from ..._errors import FairauditError, InputError
+
+__all__ = ["ChatClient", "ChatError", "ChatReply", "RETRY_STATUSES", "system_message", "user_message"]
+
+RETRY_STATUSES = frozenset({429, 500, 502, 503, 504})
+"""HTTP statuses that are retried; every other non-2xx status fails at once."""
+
+_log = logging.getLogger(__name__)
+_ERROR_KINDS = ("http", "timeout", "connection", "protocol")
+_MESSAGE_CHARS = 200
+
+
+def _require_extra():
+    try:
+        import httpx
+        import tenacity
+    except ImportError:
+        raise InputError("vlm", "needs pip install 'fairaudit[vlm]'") from None
+    return httpx, tenacity
+
+
+class ChatError(FairauditError):
+    """A chat completion that failed after its retries, or at once on a non-retryable error.
+
+    Parameters
+    ----------
+    message : str
+        One line naming the endpoint URL and the problem (never the API key).
+    kind : {"http", "timeout", "connection", "protocol"}
+        ``"http"``: a non-2xx status (``status`` holds it); ``"timeout"``: no
+        reply within the timeout; ``"connection"``: the connection failed or
+        was dropped; ``"protocol"``: a 2xx reply that is not a chat completion
+        (not JSON, or no ``choices[0].message.content``).
+    status : int or None
+        The HTTP status of the last attempt, None when there was no reply.
+    attempts : int
+        How many requests were sent (1 = no retry).
+    url : str
+        The chat-completions URL (without query string).
+
+    Raises
+    ------
+    ValueError
+        When ``kind`` is not one of the four kinds.
+    """
+
+    def __init__(self, message: str, kind: str, status: int | None = None, attempts: int = 1, url: str = "") -> None:
+        if kind not in _ERROR_KINDS:
+            raise ValueError(f"kind must be one of {_ERROR_KINDS}, not {kind!r}")
+        super().__init__(message)
+        self.kind = kind
+        self.status = status
+        self.attempts = attempts
+        self.url = url
+
+    def __reduce__(self):
+        return (type(self), (str(self), self.kind, self.status, self.attempts, self.url))
+
+
+@dataclass(frozen=True)
+class ChatReply:
+    """One successful chat completion.
+
+    Attributes
+    ----------
+    text : str
+        ``choices[0].message.content``; a list of content parts is joined with
+        newlines (text parts only); a null content (a refusal or a tool call:
+        see ``finish_reason``) gives ``""``.
+    model : str
+        The model named in the reply, else the requested one.
+    finish_reason : str or None
+        ``choices[0].finish_reason`` (``"stop"``, ``"length"``, ...).
+    usage : dict or None
+        The reply's ``usage`` object (token counts), when present.
+    attempts : int
+        How many requests were sent, 1 when the first succeeded.
+    latency : float
+        Seconds taken by the successful attempt.
+    status : int
+        The HTTP status of the successful attempt (200).
+    """
+
+    text: str
+    model: str
+    finish_reason: str | None
+    usage: dict | None
+    attempts: int
+    latency: float
+    status: int = 200
+
+
+class _Failure(Exception):
+    """One failed attempt (internal): becomes a :class:`ChatError` when it is the last."""
+
+    def __init__(self, kind: str, problem: str, status: int | None = None, retry_after: float | None = None) -> None:
+        super().__init__(problem)
+        self.kind = kind
+        self.problem = problem
+        self.status = status
+        self.retry_after = retry_after
+
+    @property
+    def retryable(self) -> bool:
+        return self.kind in ("timeout", "connection") or (self.kind == "http" and self.status in RETRY_STATUSES)
+
+
+class ChatClient:
+    """A thread-safe client for an OpenAI-compatible chat-completions endpoint.
+
+    Parameters
+    ----------
+    endpoint : str
+        The API's base URL, for example ``http://127.0.0.1:8000/v1`` or
+        ``https://api.openai.com/v1`` (a trailing slash is fine); requests go
+        to ``{endpoint}/chat/completions``. A URL that already ends in
+        ``/chat/completions`` is used as it is; a query string is kept.
+        Scheme http or https, no user name or password in the URL.
+    model : str
+        The model name sent in every request; non-empty.
+    api_key : str, optional
+        The API key; default: the environment variable ``api_key_env``. When
+        neither is set no ``Authorization`` header is sent (local servers).
+        Printable ASCII without spaces.
+    api_key_env : str
+        The environment variable read when ``api_key`` is None.
+    timeout : float
+        Seconds allowed for connecting, sending and for the reply; > 0.
+    max_retries : int
+        Retries after the first attempt; >= 0.
+    backoff, max_backoff : float
+        The wait before retry k (k = 0, 1, ...) is ``min(max_backoff,
+        backoff * 2**k)`` plus up to 10 % jitter (never above ``max_backoff``);
+        a ``Retry-After`` header (seconds or an HTTP date) replaces it, capped
+        at ``max_backoff``. Both >= 0.
+    max_concurrency : int
+        Requests in flight at once across all threads; >= 1.
+    temperature : float, optional
+        Sent as ``temperature`` when given; finite and >= 0.
+    max_tokens : int, optional
+        Sent as ``max_tokens`` when given; >= 1.
+    extra_body : dict, optional
+        More JSON fields for every request body (``top_p``,
+        ``response_format``, ...); may not set ``model`` or ``messages``.
+
+    Raises
+    ------
+    InputError
+        When an argument is invalid (the field is the command-line flag:
+        ``--endpoint``, ``--model``, ``--timeout``, ``--max-retries``,
+        ``--backoff``, ``--max-backoff``, ``--concurrency``,
+        ``--temperature``, ``--max-tokens``; or ``api_key``, ``extra_body``),
+        or ``vlm: needs pip install 'fairaudit[vlm]'`` when httpx or tenacity
+        is missing.
+
+    Notes
+    -----
+    One ``httpx.Client`` per ChatClient, shared by all threads; close it with
+    :meth:`close` or use the client as a context manager.
+    """
+
+    def __init__(
+        self,
+        endpoint: str,
+        model: str,
+        *,
+        api_key: str | None = None,
+        api_key_env: str = "OPENAI_API_KEY",
+        timeout: float = 60.0,
+        max_retries: int = 5,
+        backoff: float = 1.0,
+        max_backoff: float = 60.0,
+        max_concurrency: int = 4,
+        temperature: float | None = None,
+        max_tokens: int | None = None,
+        extra_body: dict | None = None,
+    ) -> None:
+        self._url, self.endpoint = _chat_url(endpoint)
+        if not isinstance(model, str) or not model.strip():
+            raise InputError("--model", "must be a non-empty model name", model)
+        self.model = model.strip()
+        self.timeout = _real(timeout, "--timeout", minimum=0.0, strict=True)
+        self.max_retries = _integer(max_retries, "--max-retries", minimum=0)
+        self.backoff = _real(backoff, "--backoff", minimum=0.0)
+        self.max_backoff = _real(max_backoff, "--max-backoff", minimum=0.0)
+        self.max_concurrency = _integer(max_concurrency, "--concurrency", minimum=1)
+        self.temperature = None if temperature is None else _real(temperature, "--temperature", minimum=0.0)
+        self.max_tokens = None if max_tokens is None else _integer(max_tokens, "--max-tokens", minimum=1)
+        self.extra_body = _extra_body(extra_body)
+        self._key = _api_key(api_key, api_key_env)
+
+        httpx, tenacity = _require_extra()
+        self._httpx = httpx
+        self._tenacity = tenacity
+        self._slots = threading.BoundedSemaphore(self.max_concurrency)
+        self._http = httpx.Client(
+            timeout=httpx.Timeout(self.timeout),
+            limits=httpx.Limits(max_connections=self.max_concurrency, max_keepalive_connections=self.max_concurrency),
+            follow_redirects=False,
+            trust_env=True,
+        )
+        self._closed = False
+
+    def __repr__(self) -> str:
+        return f"ChatClient(endpoint={self.endpoint!r}, model={self.model!r})"
+
+    @property
+    def has_api_key(self) -> bool:
+        """True when requests carry an ``Authorization`` header."""
+        return self._key is not None
+
+    def __enter__(self) -> "ChatClient":
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the connection pool; later :meth:`complete` calls raise InputError. Idempotent."""
+        if not self._closed:
+            self._closed = True
+            self._http.close()
+
+    def complete(self, messages: list[dict], *, seed: int | None = None) -> ChatReply:
+        """One chat completion, with retries.
+
+        Parameters
+        ----------
+        messages : list of dict
+            OpenAI chat messages, each with a ``role`` (see
+            :func:`user_message` and :func:`system_message`); JSON-serialisable.
+        seed : int, optional
+            Sent as ``seed`` (servers that support it sample reproducibly).
+
+        Returns
+        -------
+        ChatReply
+            The reply text with the model, finish reason, usage, the number of
+            attempts and the latency of the successful attempt.
+
+        Raises
+        ------
+        ChatError
+            ``kind="http"`` on a non-retryable status or when every attempt got
+            a retryable one; ``"timeout"`` / ``"connection"`` when every attempt
+            timed out or failed to connect; ``"protocol"`` at once when a 2xx
+            reply is not a chat completion. ``attempts`` counts the requests.
+        InputError
+            When ``messages`` or ``seed`` is invalid, or the client is closed.
+        """
+        if self._closed:
+            raise InputError("client", "is closed")
+        content = self._body(messages, seed)
+        tenacity = self._tenacity
+        retrying = tenacity.Retrying(
+            stop=tenacity.stop_after_attempt(self.max_retries + 1),
+            wait=self._wait,
+            retry=tenacity.retry_if_exception(lambda exc: isinstance(exc, _Failure) and exc.retryable),
+            before_sleep=self._log_retry,
+            reraise=True,
+        )
+        failure: _Failure | None = None
+        attempts = 0
+        reply: ChatReply | None = None
+        try:
+            for attempt in retrying:
+                with attempt:
+                    attempts = attempt.retry_state.attempt_number
+                    reply = self._attempt(content, attempts)
+        except _Failure as exc:
+            failure = exc
+        if failure is not None:
+            # raised outside the except block: no chained exception (which could carry the request) is kept
+            raise self._error(failure, attempts)
+        assert reply is not None
+        return reply
+
+    # ------------------------------------------------------------------------------------------
+
+    def _body(self, messages: Any, seed: Any) -> bytes:
+        if not isinstance(messages, (list, tuple)) or not messages:
+            raise InputError("messages", "must be a non-empty list of chat messages", messages)
+        for i, message in enumerate(messages):
+            if not isinstance(message, dict) or not isinstance(message.get("role"), str):
+                raise InputError(f"messages[{i}]", "must be a dict with a 'role'", message)
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, Integral)):
+            raise InputError("seed", "must be an integer or None", seed)
+        body: dict[str, Any] = {"model": self.model, "messages": list(messages)}
+        if seed is not None:
+            body["seed"] = int(seed)
+        if self.temperature is not None:
+            body["temperature"] = self.temperature
+        if self.max_tokens is not None:
+            body["max_tokens"] = self.max_tokens
+        body.update(self.extra_body)
+        try:
+            return json.dumps(body, ensure_ascii=False, allow_nan=False).encode("utf-8")
+        except (TypeError, ValueError):
+            raise InputError("messages", "must be JSON-serialisable (bytes? use user_message for images)") from None
+
+    def _headers(self) -> dict[str, str]:
+        headers = {"Content-Type": "application/json", "Accept": "application/json"}
+        if self._key is not None:
+            headers["Authorization"] = f"Bearer {self._key}"
+        return headers
+
+    def _attempt(self, content: bytes, attempt: int) -> ChatReply:
+        httpx = self._httpx
+        problem: _Failure | None = None
+        with self._slots:
+            start = time.perf_counter()
+            try:
+                response = self._http.post(self._url, content=content, headers=self._headers())
+            except httpx.TimeoutException:
+                problem = _Failure("timeout", f"no reply within {self.timeout:g} s")
+            except httpx.DecodingError as exc:
+                problem = _Failure("protocol", f"undecodable reply ({self._clean(str(exc))})")
+            except httpx.HTTPError as exc:
+                problem = _Failure("connection", f"connection failed ({type(exc).__name__}: {self._clean(str(exc))})")
+            latency = time.perf_counter() - start
+        if problem is not None:
+            raise problem
+        status = response.status_code
+        if not 200 <= status < 300:
+            retry_after = _retry_after(response.headers.get("retry-after")) if status in RETRY_STATUSES else None
+            reason = response.reason_phrase or ""
+            message = self._server_message(response)
+            text = f"HTTP {status}" + (f" {reason}" if reason else "") + (f": {message}" if message else "")
+            raise _Failure("http", text, status, retry_after)
+        return self._reply(response, attempt, latency)
+
+    def _reply(self, response: Any, attempt: int, latency: float) -> ChatReply:
+        status = response.status_code
+        try:
+            data = json.loads(response.content)
+        except (ValueError, RecursionError):
+            snippet = self._clean(response.content[:80].decode("utf-8", "replace"))
+            raise _Failure("protocol", f"HTTP {status} reply is not JSON (starts {snippet!r})", status) from None
+        choices = data.get("choices") if isinstance(data, dict) else None
+        if not isinstance(choices, list) or not choices or not isinstance(choices[0], dict):
+            raise _Failure("protocol", f"HTTP {status} reply has no choices[0]", status)
+        message = choices[0].get("message")
+        if not isinstance(message, dict) or "content" not in message:
+            raise _Failure("protocol", f"HTTP {status} reply has no choices[0].message.content", status)
+        text = _content_text(message["content"])
+        if text is None:
+            kind = type(message["content"]).__name__
+            raise _Failure("protocol", f"HTTP {status} reply's choices[0].message.content is a {kind}, not text", status)
+        model = data.get("model")
+        finish = choices[0].get("finish_reason")
+        usage = data.get("usage")
+        return ChatReply(
+            text=text,
+            model=model if isinstance(model, str) and model else self.model,
+            finish_reason=finish if isinstance(finish, str) else None,
+            usage=usage if isinstance(usage, dict) else None,
+            attempts=attempt,
+            latency=latency,
+            status=status,
+        )
+
+    def _server_message(self, response: Any) -> str:
+        """The server's error message (OpenAI ``{"error": {"message": ...}}`` and common variants), one line, clipped."""
+        message = None
+        try:
+            data = json.loads(response.content)
+        except (ValueError, RecursionError):
+            data = None
+        if isinstance(data, dict):
+            error = data.get("error")
+            if isinstance(error, dict) and isinstance(error.get("message"), str):
+                message = error["message"]
+            elif isinstance(error, str):
+                message = error
+            elif isinstance(data.get("message"), str):
+                message = data["message"]
+            elif isinstance(data.get("detail"), str):
+                message = data["detail"]
+        if message is None:
+            message = response.content[: 4 * _MESSAGE_CHARS].decode("utf-8", "replace")
+        message = self._clean(message)
+        return message if len(message) <= _MESSAGE_CHARS else message[: _MESSAGE_CHARS - 3] + "..."
+
+    def _clean(self, text: str) -> str:
+        """``text`` on one line, with the API key masked (servers may echo it)."""
+        if self._key:
+            text = text.replace(self._key, "***")
+        return " ".join(text.split())
+
+    def _error(self, failure: _Failure, attempts: int) -> ChatError:
+        tries = f"{attempts} attempt" + ("s" if attempts != 1 else "")
+        message = self._clean(f"{self.endpoint}: {failure.problem} ({tries})")
+        return ChatError(message, failure.kind, failure.status, attempts, self.endpoint)
+
+    def _wait(self, retry_state: Any) -> float:
+        failure = retry_state.outcome.exception() if retry_state.outcome is not None else None
+        if isinstance(failure, _Failure) and failure.retry_after is not None:
+            return min(failure.retry_after, self.max_backoff)
+        base = self.backoff * 2.0 ** (retry_state.attempt_number - 1)
+        return min(self.max_backoff, base * (1.0 + 0.1 * random.random()))
+
+    def _log_retry(self, retry_state: Any) -> None:
+        failure = retry_state.outcome.exception() if retry_state.outcome is not None else None
+        wait = retry_state.next_action.sleep if retry_state.next_action is not None else 0.0
+        problem = self._clean(failure.problem) if isinstance(failure, _Failure) else "error"
+        _log.info("%s: %s (attempt %d); retrying in %.2f s", self.endpoint, problem, retry_state.attempt_number, wait)
+
+
+def user_message(text: str, images: Sequence[bytes] = (), *, mime: str = "image/png") -> dict:
+    """An OpenAI chat message from the user: text, then images as base64 data URLs.
+
+    Parameters
+    ----------
+    text : str
+        The prompt.
+    images : sequence of bytes
+        Encoded images (PNG, JPEG, ...), in order; each non-empty. Not a
+        single ``bytes`` object: wrap one image in a list.
+    mime : str
+        The images' media type, ``image/...`` (``image/png``, ``image/jpeg``).
+
+    Returns
+    -------
+    dict
+        ``{"role": "user", "content": text}`` without images, else
+        ``{"role": "user", "content": [{"type": "text", "text": text},
+        {"type": "image_url", "image_url": {"url": "data:<mime>;base64,..."}}, ...]}``.
+
+    Raises
+    ------
+    InputError
+        When ``text`` is not a string, an image is not non-empty bytes, or
+        ``mime`` is not an image media type.
+
+    Examples
+    --------
+    >>> user_message("Which office?")
+    {'role': 'user', 'content': 'Which office?'}
+    >>> m = user_message("Which office?", [b"\\x89PNG"])
+    >>> m["content"][0]
+    {'type': 'text', 'text': 'Which office?'}
+    >>> m["content"][1]
+    {'type': 'image_url', 'image_url': {'url': 'data:image/png;base64,iVBORw=='}}
+    """
+    if not isinstance(text, str):
+        raise InputError("text", "must be a string", text)
+    if isinstance(images, (bytes, bytearray, memoryview, str)):
+        raise InputError("images", "must be a sequence of images (wrap a single image in a list)")
+    if not isinstance(mime, str) or not re.fullmatch(r"image/[A-Za-z0-9.+-]+", mime):
+        raise InputError("mime", "must be an image media type such as 'image/png' or 'image/jpeg'", mime)
+    try:
+        images = list(images)
+    except TypeError:
+        raise InputError("images", "must be a sequence of bytes", type(images).__name__) from None
+    if not images:
+        return {"role": "user", "content": text}
+    content: list[dict] = [{"type": "text", "text": text}]
+    for i, image in enumerate(images):
+        if not isinstance(image, (bytes, bytearray, memoryview)) or len(image) == 0:
+            raise InputError(f"images[{i}]", "must be non-empty bytes (an encoded image)", type(image).__name__)
+        encoded = base64.b64encode(bytes(image)).decode("ascii")
+        content.append({"type": "image_url", "image_url": {"url": f"data:{mime};base64,{encoded}"}})
+    return {"role": "user", "content": content}
+
+
+def system_message(text: str) -> dict:
+    """An OpenAI system message ``{"role": "system", "content": text}``.
+
+    Raises
+    ------
+    InputError
+        When ``text`` is not a string.
+
+    Examples
+    --------
+    >>> system_message("You are a delivery robot.")
+    {'role': 'system', 'content': 'You are a delivery robot.'}
+    """
+    if not isinstance(text, str):
+        raise InputError("text", "must be a string", text)
+    return {"role": "system", "content": text}
+
+
+# ----------------------------------------------------------------------------------------------
+# validation and helpers
+
+
+def _chat_url(endpoint: Any) -> tuple[str, str]:
+    """The request URL and its display form (no query) for ``endpoint``."""
+    hint = "must be an http(s) URL such as http://127.0.0.1:8000/v1"
+    if not isinstance(endpoint, str) or not endpoint.strip():
+        raise InputError("--endpoint", hint, endpoint)
+    try:
+        parts = urlsplit(endpoint.strip())
+        parts.port  # noqa: B018 - raises ValueError on a bad port
+    except ValueError:
+        raise InputError("--endpoint", hint) from None
+    if parts.username is not None or parts.password is not None:
+        raise InputError("--endpoint", "must not contain a user name or password (pass the key with api_key or the environment)")
+    display_netloc = parts.netloc
+    if parts.scheme.lower() not in ("http", "https") or not parts.hostname:
+        raise InputError("--endpoint", hint, urlunsplit((parts.scheme, display_netloc, parts.path, "", "")))
+    path = parts.path.rstrip("/")
+    if not path.endswith("/chat/completions"):
+        path += "/chat/completions"
+    scheme = parts.scheme.lower()
+    return urlunsplit((scheme, parts.netloc, path, parts.query, "")), urlunsplit((scheme, parts.netloc, path, "", ""))
+
+
+def _real(value: Any, field: str, *, minimum: float, strict: bool = False) -> float:
+    bound = f"> {minimum:g}" if strict else f">= {minimum:g}"
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise InputError(field, f"must be a number {bound}", value)
+    number = float(value)
+    if not math.isfinite(number) or number < minimum or (strict and number == minimum):
+        raise InputError(field, f"must be a finite number {bound}", value)
+    return number
+
+
+def _integer(value: Any, field: str, *, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
+        raise InputError(field, f"must be an integer >= {minimum}", value)
+    return int(value)
+
+
+def _extra_body(extra: Any) -> dict:
+    if extra is None:
+        return {}
+    if not isinstance(extra, dict) or not all(isinstance(k, str) for k in extra):
+        raise InputError("extra_body", "must be a dict with string keys", extra)
+    reserved = sorted({"model", "messages"} & set(extra))
+    if reserved:
+        raise InputError("extra_body", f"must not set {', '.join(reserved)}", extra)
+    try:
+        json.dumps(extra, allow_nan=False)
+    except (TypeError, ValueError):
+        raise InputError("extra_body", "must be JSON-serialisable", extra) from None
+    return dict(extra)
+
+
+def _api_key(api_key: Any, env: Any) -> str | None:
+    import os
+
+    if api_key is not None:
+        if not isinstance(api_key, str) or not re.fullmatch(r"[\x21-\x7e]+", api_key):
+            raise InputError("api_key", "must be a non-empty string of printable ASCII without spaces")
+        return api_key
+    if not isinstance(env, str) or not env:
+        raise InputError("api_key_env", "must be the name of an environment variable", env)
+    value = os.environ.get(env, "").strip()
+    if not value:
+        return None
+    if not re.fullmatch(r"[\x21-\x7e]+", value):
+        raise InputError(f"environment variable {env}", "must be printable ASCII without spaces")
+    return value
+
+
+def _retry_after(value: str | None) -> float | None:
+    """Seconds to wait from a ``Retry-After`` header (seconds or an HTTP date); None when absent or invalid."""
+    if value is None:
+        return None
+    value = value.strip()
+    try:
+        seconds = float(value)
+    except ValueError:
+        try:
+            when = parsedate_to_datetime(value)
+        except (TypeError, ValueError, IndexError):
+            return None
+        if when is None or when.tzinfo is None:
+            return None
+        seconds = when.timestamp() - time.time()
+    if not math.isfinite(seconds):
+        return None
+    return max(0.0, seconds)
+
+
+def _content_text(content: Any) -> str | None:
+    """A message content as text: a string, null (``""``) or a list of parts (text parts joined); else None."""
+    if content is None:
+        return ""
+    if isinstance(content, str):
+        return content
+    if isinstance(content, list):
+        texts = []
+        for part in content:
+            if isinstance(part, str):
+                texts.append(part)
+            elif isinstance(part, dict) and isinstance(part.get("text"), str) and part.get("type", "text") in ("text", "output_text"):
+                texts.append(part["text"])
+        return "\n".join(texts)
+    return None

@@ -1,0 +1,496 @@
+"""Robust parsing of a VLM's reply into a decision.
+
+The paper asks for one of two JSON formats:
+
+* a **choice** (HR delivery): ``{"HR1": "0.0", "HR2": "1.0", "reason": "..."}``,
+  the chosen option has the larger value (1.0, the other 0.0);
+* an **order** (package delivery): ``{"Recipient1": "2.0", "Recipient2": "1.0",
+  "reason": "..."}``, each value is the delivery position (1 = served first).
+
+Models do not always comply, so :func:`parse_reply` accepts, in this order of
+preference:
+
+1. the first JSON object (anywhere in the text: inside a code fence, after or
+   before prose) whose keys name every option, or whose value one level down
+   does (``{"decision": {"HR1": 1, "HR2": 0}}``); keys match up to case,
+   spaces, underscores and hyphens (``"hr1"``, ``"HR 1"``, ``"HR_1"``,
+   ``"recipient-1"``); values may be numbers, numeric strings (``"1.0"``,
+   ``" 1 "``), booleans (``true`` = 1) or ``"yes"``/``"no"``; single-quoted
+   pseudo-JSON, Python literals, bare keys and trailing commas are repaired
+   first (no ``eval``);
+2. an object that names the answer: ``{"choice": "HR2"}``, ``{"selected": 2}``
+   (a 1-based index), ``{"order": ["Recipient2", "Recipient1"]}`` (for an
+   order of two, ``{"first": "Recipient2"}`` too); an answer that names no
+   single option (``{"choice": "both"}``) is not ok, with no fallback;
+3. fallbacks, flagged ``fallback=True``: ``key: value`` pairs in free text for
+   every option (``HR1: 0, HR2: 1``, also a truncated JSON object), then, for a
+   choice only, a text that names exactly one option (``"I choose HR2."``).
+
+The decision rules are strict on purpose (a misread reply biases the audit):
+a choice needs exactly one option with the largest value and that value
+positive (0.3 against 0.7 chooses the 0.7 option; a tie or all zeros is
+ambiguous); an order needs the positions to be a permutation of 1..n.
+Anything else gives ``ok=False`` with the reason in ``error``; the function
+never raises on the reply text.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from ..._errors import InputError
+
+__all__ = ["ParsedReply", "parse_reply"]
+
+_MAX_CHARS = 50_000  # replies are cut here before parsing
+_MAX_STARTS = 32  # at most this many '{' positions are tried as object starts
+
+_NUM = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
+_NUM_RE = re.compile(_NUM)
+_SEP_RE = re.compile(r"[\s_\-]+")
+
+_CHOICE_KEYS = frozenset(
+    "choice chosen chosenoption choose selected selectedoption selection select decision answer "
+    "option pick winner result office recipient first firstrecipient deliverfirst servefirst "
+    "servedfirst finalanswer finalchoice finaldecision".split()
+)
+_ORDER_KEYS = frozenset("order ranking rank sequence deliveryorder servingorder orderofdelivery".split())
+_REASON_KEYS = ("reason", "reasoning", "explanation", "rationale", "justification")
+
+
+@dataclass(frozen=True)
+class ParsedReply:
+    """The decision read from one reply.
+
+    Attributes
+    ----------
+    ok : bool
+        True when the reply gives a valid decision.
+    choice : int or None
+        0-based index (into ``options``) of the chosen option for a choice, of
+        the option served first for an order; None when not ok.
+    order : tuple of int or None
+        Option indices in delivery order for an order; for a choice the chosen
+        option first, then the others by decreasing value (ties by index).
+        None when not ok.
+    values : dict of str to float
+        The value read for each option, keyed by the names in ``options``
+        (for a ``{"choice": ...}`` answer: 1.0 for the chosen option, 0.0
+        otherwise; for an order answer: the positions). Filled whenever the
+        values could be read, even when the decision is ambiguous; else empty.
+    reason : str or None
+        The ``reason`` (or ``reasoning``, ``explanation``, ``rationale``,
+        ``justification``) given in the object, if any.
+    error : str
+        Why the reply is not usable; ``""`` when ok.
+    fallback : bool
+        True when the decision came from a non-JSON fallback rule.
+    """
+
+    ok: bool
+    choice: int | None = None
+    order: tuple[int, ...] | None = None
+    values: dict[str, float] = field(default_factory=dict, hash=False)
+    reason: str | None = None
+    error: str = ""
+    fallback: bool = False
+
+
+class _Options:
+    """The option names with their normalised forms and mention patterns."""
+
+    def __init__(self, options: Sequence[str]) -> None:
+        if isinstance(options, str) or not isinstance(options, Sequence):
+            raise InputError("options", "must be a sequence of option names such as ('HR1', 'HR2')", options)
+        names = tuple(options)
+        if len(names) < 2:
+            raise InputError("options", "needs at least two option names", names)
+        norms = []
+        for name in names:
+            if not isinstance(name, str) or not _norm(name):
+                raise InputError("options", "every option must be a non-empty string", names)
+            norms.append(_norm(name))
+        if len(set(norms)) != len(norms):
+            raise InputError("options", "option names must differ up to case, spaces, underscores and hyphens", names)
+        self.names = names
+        self.n = len(names)
+        self.index = {norm: i for i, norm in enumerate(norms)}
+        self.mention = [re.compile(rf"(?<!\w){_variant(name)}(?!\w)", re.IGNORECASE) for name in names]
+        self.pair = [
+            re.compile(
+                rf"(?<!\w)[\"'\u201c\u201d\u2018\u2019]?{_variant(name)}[\"'\u201c\u201d\u2018\u2019]?"
+                rf"\s*[:=]\s*[\"'\u201c\u201d\u2018\u2019]?\s*({_NUM}|true|false)(?!\w)",
+                re.IGNORECASE,
+            )
+            for name in names
+        ]
+
+
+def _norm(key: str) -> str:
+    return _SEP_RE.sub("", key).casefold()
+
+
+def _variant(name: str) -> str:
+    """A regex for ``name`` with optional separators between its letter and digit runs."""
+    runs = re.findall(r"[^\W\d_]+|\d+|[^\w\s\-]+", name)
+    return r"[\s_\-]*".join(re.escape(run) for run in runs)
+
+
+def parse_reply(text: str, options: Sequence[str], kind: Literal["choice", "order"]) -> ParsedReply:
+    """Read a choice or a delivery order from a model's reply.
+
+    Parameters
+    ----------
+    text : str
+        The reply text (any string; anything else gives ``ok=False``).
+    options : sequence of str
+        The option keys in the prompt, for example ``("HR1", "HR2")`` or
+        ``("Recipient1", "Recipient2")``; at least two, distinct up to case,
+        spaces, underscores and hyphens.
+    kind : {"choice", "order"}
+        ``"choice"``: the chosen option has the single largest value, which
+        must be positive (1.0 against 0.0; 0.7 against 0.3 also chooses the
+        larger). ``"order"``: each value is a delivery position and the values
+        must be a permutation of 1..n.
+
+    Returns
+    -------
+    ParsedReply
+        ``ok=True`` with ``choice`` and ``order``, or ``ok=False`` with
+        ``error`` (an ambiguous choice's error starts with ``"ambiguous"``).
+
+    Raises
+    ------
+    InputError
+        When ``options`` or ``kind`` is invalid; never because of ``text``.
+
+    Examples
+    --------
+    >>> reply = '```json\\n{"HR1": "0.0", "HR2": "1.0", "reason": "closer"}\\n```'
+    >>> r = parse_reply(reply, ("HR1", "HR2"), "choice")
+    >>> r.ok, r.choice, r.values, r.reason
+    (True, 1, {'HR1': 0.0, 'HR2': 1.0}, 'closer')
+    >>> r = parse_reply("{'recipient 1': 2, 'Recipient_2': 1,}", ("Recipient1", "Recipient2"), "order")
+    >>> r.ok, r.choice, r.order
+    (True, 1, (1, 0))
+    >>> r = parse_reply("I choose HR2.", ("HR1", "HR2"), "choice")
+    >>> r.ok, r.choice, r.fallback
+    (True, 1, True)
+    >>> parse_reply('{"HR1": 1, "HR2": 1}', ("HR1", "HR2"), "choice").error
+    'ambiguous: HR1 and HR2 tie at 1'
+    """
+    spec = _Options(options)
+    if kind not in ("choice", "order"):
+        raise InputError("kind", "must be 'choice' or 'order'", kind)
+    try:
+        return _parse(text, spec, kind)
+    except Exception as exc:  # a safety net: a reply never makes the parser raise  # pragma: no cover
+        return ParsedReply(False, error=f"unparseable reply ({type(exc).__name__})")
+
+
+def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
+    if not isinstance(text, str):
+        return ParsedReply(False, error=f"reply is not a string ({type(text).__name__})")
+    if not text.strip():
+        return ParsedReply(False, error="empty reply")
+    text = text[:_MAX_CHARS]
+    objects = list(_objects(text))
+
+    # 1. the first object (or object one level down) keyed by every option
+    for obj in objects:
+        for container, parent in [(obj, None)] + [(v, obj) for v in obj.values() if isinstance(v, dict)]:
+            raw = _keyed(container, spec)
+            if raw is not None:
+                return _decide(raw, spec, kind, _reason(container, parent), fallback=False)
+
+    # 2. an object that names the answer ({"choice": "HR2"}, {"order": [...]})
+    for obj in objects:
+        for container, parent in [(obj, None)] + [(v, obj) for v in obj.values() if isinstance(v, dict)]:
+            result = _named_answer(container, parent, spec, kind)
+            if result is not None:
+                return result
+
+    # 3. fallbacks on the text itself
+    raw = {}
+    for i, pattern in enumerate(spec.pair):
+        match = pattern.search(text)
+        if match:
+            raw[i] = match.group(1)
+    if len(raw) == spec.n:
+        return _decide(raw, spec, kind, None, fallback=True)
+    if kind == "choice":
+        named = _mentioned(text, spec)
+        if len(named) == 1:
+            return _result_from_choice(named[0], spec, kind, None, fallback=True)
+        if len(named) > 1:
+            listed = ", ".join(spec.names[i] for i in named)
+            return ParsedReply(False, error=f"ambiguous: no JSON decision and the text names several options ({listed})")
+    keys = ", ".join(spec.names)
+    if objects:
+        return ParsedReply(False, error=f"no JSON object with the keys {keys}")
+    return ParsedReply(False, error=f"no JSON object with the keys {keys} and no decision in the text")
+
+
+# ----------------------------------------------------------------------------------------------
+# finding and loading objects
+
+
+def _objects(text: str):
+    """The dicts found in ``text``, in order: each top-level ``{...}`` that loads, else the ones inside."""
+    start = text.find("{")
+    tries = 0
+    while start != -1 and tries < _MAX_STARTS:
+        tries += 1
+        end = _closing(text, start, quotes=True)
+        if end is None:
+            end = _closing(text, start, quotes=False)
+        obj = _load(text[start : end + 1]) if end is not None else None
+        if isinstance(obj, dict):
+            yield obj
+            start = text.find("{", end + 1)
+        else:
+            start = text.find("{", start + 1)
+
+
+def _closing(text: str, start: int, quotes: bool) -> int | None:
+    """Index of the brace closing the one at ``start`` (skipping quoted strings when ``quotes``)."""
+    depth = 0
+    quote = None
+    escaped = False
+    for i in range(start, len(text)):
+        c = text[i]
+        if quote is not None:
+            if escaped:
+                escaped = False
+            elif c == "\\":
+                escaped = True
+            elif c == quote:
+                quote = None
+        elif quotes and c in "\"'":
+            quote = c
+        elif c == "{":
+            depth += 1
+        elif c == "}":
+            depth -= 1
+            if depth == 0:
+                return i
+    return None
+
+
+def _load(candidate: str) -> Any:
+    """``candidate`` as JSON, else as repaired pseudo-JSON; None when neither loads."""
+    try:
+        return json.loads(candidate, strict=False)
+    except (ValueError, RecursionError):
+        pass
+    try:
+        return json.loads(_repair(candidate), strict=False)
+    except (ValueError, RecursionError):
+        return None
+
+
+_SMART = str.maketrans({"\u201c": '"', "\u201d": '"', "\u201e": '"', "\u2018": "'", "\u2019": "'"})
+_TOKEN_RE = re.compile(r'"(?:\\.|[^"\\])*"|\'(?:\\.|[^\'\\])*\'|[^"\']+|["\']', re.S)
+_ESCAPE_RE = re.compile(r'\\(u[0-9a-fA-F]{4}|.)|"', re.S)
+_BARE_KEY_RE = re.compile(r"([{,]\s*)([^\W\d][\w\- ]*?)(\s*:)")
+_TRAILING_COMMA_RE = re.compile(r",(\s*[}\]])")
+_PY_LITERAL_RE = re.compile(r"\b(True|False|None)\b")
+_PY_LITERALS = {"True": "true", "False": "false", "None": "null"}
+
+
+def _repair(candidate: str) -> str:
+    """Light normalisation of pseudo-JSON into JSON.
+
+    Curly quotes become straight, single-quoted strings become double-quoted,
+    invalid escapes are doubled, and outside strings: Python's True, False and
+    None become JSON literals, bare keys get quotes and trailing commas go.
+    """
+    out = []
+    for token in _TOKEN_RE.findall(candidate.translate(_SMART)):
+        if len(token) >= 2 and token[0] == token[-1] and token[0] in "\"'":
+            out.append('"' + _ESCAPE_RE.sub(_fix_escape, token[1:-1]) + '"')
+        elif token in ("'", '"'):
+            out.append(token)
+        else:
+            token = _PY_LITERAL_RE.sub(lambda m: _PY_LITERALS[m.group(1)], token)
+            token = _BARE_KEY_RE.sub(
+                lambda m: m.group(0) if m.group(2) in ("true", "false", "null") else f'{m.group(1)}"{m.group(2)}"{m.group(3)}',
+                token,
+            )
+            out.append(_TRAILING_COMMA_RE.sub(r"\1", token))
+    return "".join(out)
+
+
+def _fix_escape(match: re.Match) -> str:
+    if match.group(0) == '"':
+        return '\\"'
+    escaped = match.group(1)
+    if escaped == "'":
+        return "'"
+    if escaped in ('"', "\\", "/", "b", "f", "n", "r", "t") or len(escaped) == 5:
+        return match.group(0)
+    return "\\\\" + escaped
+
+
+# ----------------------------------------------------------------------------------------------
+# reading values and deciding
+
+
+def _keyed(container: dict, spec: _Options) -> dict[int, Any] | None:
+    """The raw value of every option in ``container`` (first spelling wins), or None if one is missing."""
+    found: dict[int, Any] = {}
+    for key, value in container.items():
+        if isinstance(key, str):
+            i = spec.index.get(_norm(key))
+            if i is not None and i not in found:
+                found[i] = value
+    return found if len(found) == spec.n else None
+
+
+def _number(value: Any) -> float | None:
+    """A finite float from a number, boolean, numeric string, ``"true"``/``"false"`` or ``"yes"``/``"no"``."""
+    if isinstance(value, bool):
+        return 1.0 if value else 0.0
+    if isinstance(value, (int, float)):
+        try:
+            number = float(value)
+        except OverflowError:
+            return None
+        return number if math.isfinite(number) else None
+    if isinstance(value, str):
+        s = value.strip().strip("\"'").strip()
+        word = s.casefold()
+        if word in ("true", "yes"):
+            return 1.0
+        if word in ("false", "no"):
+            return 0.0
+        if _NUM_RE.fullmatch(s):
+            number = float(s)
+            return number if math.isfinite(number) else None
+    return None
+
+
+def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, fallback: bool) -> ParsedReply:
+    values: dict[int, float] = {}
+    for i in range(spec.n):
+        number = _number(raw[i])
+        if number is None:
+            return ParsedReply(False, reason=reason, fallback=fallback,
+                               error=f"value of {spec.names[i]} is not a number: {_clip(raw[i])}")
+        values[i] = number
+    named = {spec.names[i]: values[i] for i in range(spec.n)}
+    listing = ", ".join(f"{spec.names[i]}={values[i]:g}" for i in range(spec.n))
+    if kind == "choice":
+        top = max(values.values())
+        winners = [i for i in range(spec.n) if values[i] == top]
+        if top <= 0:
+            return ParsedReply(False, values=named, reason=reason, fallback=fallback,
+                               error=f"ambiguous: no option has a positive value ({listing})")
+        if len(winners) > 1:
+            tied = " and ".join(spec.names[i] for i in winners)
+            return ParsedReply(False, values=named, reason=reason, fallback=fallback,
+                               error=f"ambiguous: {tied} tie at {top:g}")
+        order = tuple(sorted(range(spec.n), key=lambda i: (-values[i], i)))
+        return ParsedReply(True, winners[0], order, named, reason, "", fallback)
+    positions = sorted(values.values())
+    if positions != [float(p) for p in range(1, spec.n + 1)]:
+        return ParsedReply(False, values=named, reason=reason, fallback=fallback,
+                           error=f"not an order: the positions ({listing}) are not a permutation of 1..{spec.n}")
+    order = tuple(sorted(range(spec.n), key=lambda i: values[i]))
+    return ParsedReply(True, order[0], order, named, reason, "", fallback)
+
+
+def _result_from_choice(index: int, spec: _Options, kind: str, reason: str | None, fallback: bool) -> ParsedReply:
+    """The reply that picks option ``index``: chosen (a choice) or served first (an order of two)."""
+    if kind == "choice":
+        raw = {i: 1.0 if i == index else 0.0 for i in range(spec.n)}
+    else:
+        raw = {i: 1.0 if i == index else 2.0 for i in range(spec.n)}
+    return _decide(raw, spec, kind, reason, fallback)
+
+
+def _named_answer(container: dict, parent: dict | None, spec: _Options, kind: str) -> ParsedReply | None:
+    """A reply from a key that names the answer (``{"choice": "HR2"}``, ``{"order": [...]}``); None if none."""
+    reason = _reason(container, parent)
+    for key, value in container.items():
+        if not isinstance(key, str):
+            continue
+        nk = _norm(key)
+        if kind == "order" and nk in _ORDER_KEYS:
+            order = _sequence(value, spec)
+            if order is None:
+                return ParsedReply(False, reason=reason,
+                                   error=f"{key!r} is not an order of {', '.join(spec.names)}: {_clip(value)}")
+            return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, reason, False)
+        if nk in _CHOICE_KEYS and (kind == "choice" or spec.n == 2):
+            if isinstance(value, (dict, list)):
+                continue
+            index = _option_index(value, spec)
+            if index is None:
+                return ParsedReply(False, reason=reason,
+                                   error=f"{key!r} does not name one of {', '.join(spec.names)}: {_clip(value)}")
+            return _result_from_choice(index, spec, kind, reason, False)
+    return None
+
+
+def _option_index(value: Any, spec: _Options) -> int | None:
+    """The option that ``value`` names: its key (any spelling), a 1-based index, or a text naming exactly one."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, (int, float)):
+        if isinstance(value, float) and not (math.isfinite(value) and value.is_integer()):
+            return None
+        position = int(value)
+        return position - 1 if 1 <= position <= spec.n else None
+    if isinstance(value, str):
+        s = value.strip().strip("\"'").strip()
+        if _norm(s) in spec.index:
+            return spec.index[_norm(s)]
+        if _NUM_RE.fullmatch(s):
+            number = float(s)
+            return _option_index(number, spec) if math.isfinite(number) else None
+        named = _mentioned(s, spec)
+        if len(named) == 1:
+            return named[0]
+    return None
+
+
+def _sequence(value: Any, spec: _Options) -> list[int] | None:
+    """A delivery order from a list of options (names or 1-based indices) or a text naming each once."""
+    if isinstance(value, (list, tuple)):
+        order = [_option_index(v, spec) for v in value]
+    elif isinstance(value, str):
+        firsts = []
+        for i, pattern in enumerate(spec.mention):
+            match = pattern.search(value)
+            if match:
+                firsts.append((match.start(), i))
+        order = [i for _, i in sorted(firsts)]
+    else:
+        return None
+    return order if sorted(o for o in order if o is not None) == list(range(spec.n)) and len(order) == spec.n else None
+
+
+def _mentioned(text: str, spec: _Options) -> list[int]:
+    """Indices of the options that ``text`` names (word-boundary match on the spelling variants)."""
+    return [i for i, pattern in enumerate(spec.mention) if pattern.search(text)]
+
+
+def _reason(container: dict, parent: dict | None) -> str | None:
+    for source in (container, parent):
+        if source is None:
+            continue
+        for key, value in source.items():
+            if isinstance(key, str) and _norm(key) in _REASON_KEYS and isinstance(value, str):
+                return value.strip()
+    return None
+
+
+def _clip(value: Any, limit: int = 60) -> str:
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."

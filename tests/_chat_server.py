@@ -1,0 +1,274 @@
+"""A real OpenAI-compatible chat-completions server for the tests (not a mock).
+
+``ChatServer`` is an ``http.server.ThreadingHTTPServer`` on 127.0.0.1 (a free
+port) served from a daemon thread; use it as a context manager::
+
+    with ChatServer(responder=lambda body: '{"HR1": "0.0", "HR2": "1.0"}') as server:
+        client = ChatClient(server.url, "test-model")
+
+Routes: ``POST /v1/chat/completions`` (the OpenAI response shape) and
+``GET /v1/models``; anything else is a 404 with an OpenAI-style error body.
+
+Faults, consumed one per chat-completion request (a scripted list first, then
+``fault_fn(n_request, request_json)`` where ``n_request`` counts chat requests
+from 1; None means no fault):
+
+* ``("status", code)``, ``("status", code, headers)``,
+  ``("status", code, headers, message)``: that status with
+  ``{"error": {"message": ...}}`` and the headers (e.g. ``{"Retry-After": "0"}``);
+* ``("sleep", seconds)``: reply normally after sleeping (to trigger timeouts);
+* ``("malformed",)``: a 200 whose body is not JSON;
+* ``("json", obj)``: a 200 whose body is ``obj`` (to test reply shapes);
+* ``("reply", text)``: a normal reply with this text instead of the responder's;
+* ``("drop",)``: close the connection without any response.
+
+``required_key``: requests without ``Authorization: Bearer <key>`` get a 401
+(checked before the faults; a body without ``messages`` gets a 400). Every
+request is recorded in ``server.requests`` (method, path, JSON body, headers
+with the Authorization value redacted); ``n_chat`` counts the POSTs to
+``/v1/chat/completions`` and ``max_in_flight`` is the largest number of
+chat requests handled at once (from the body read until the reply starts).
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from typing import Any
+
+DEFAULT_REPLY = '{"HR1": "0.0", "HR2": "1.0", "reason": "HR2 is closer to the robot."}'
+
+Fault = tuple
+
+
+class ChatServer:
+    """An OpenAI-compatible chat-completions server on 127.0.0.1 with fault injection (see the module docstring)."""
+
+    def __init__(
+        self,
+        responder: Callable[[dict], str] | None = None,
+        *,
+        faults: Iterable[Fault] = (),
+        fault_fn: Callable[[int, dict], Fault | None] | None = None,
+        required_key: str | None = None,
+        model: str | None = None,
+    ) -> None:
+        self.responder = responder or (lambda body: DEFAULT_REPLY)
+        self.fault_fn = fault_fn
+        self.required_key = required_key
+        self.model = model  # None: echo the requested model
+        self.requests: list[dict] = []
+        self.n_chat = 0
+        self.in_flight = 0
+        self.max_in_flight = 0
+        self._faults: deque = deque(faults)
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._httpd: ThreadingHTTPServer | None = None
+        self._thread: threading.Thread | None = None
+
+    # --- lifecycle -------------------------------------------------------------------------
+
+    def __enter__(self) -> "ChatServer":
+        self.start()
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.stop()
+
+    def start(self) -> None:
+        handler = type("Handler", (_Handler,), {"server_state": self})
+        self._httpd = _Server(("127.0.0.1", 0), handler)
+        self._thread = threading.Thread(target=self._httpd.serve_forever, kwargs={"poll_interval": 0.01}, daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()  # wakes sleeping handlers
+        if self._httpd is not None:
+            self._httpd.shutdown()
+            self._httpd.server_close()
+            self._thread.join(timeout=5)
+            self._httpd = None
+
+    @property
+    def port(self) -> int:
+        return self._httpd.server_address[1]
+
+    @property
+    def url(self) -> str:
+        """The API base URL, ``http://127.0.0.1:PORT/v1``."""
+        return f"http://127.0.0.1:{self.port}/v1"
+
+    def add_faults(self, *faults: Fault) -> None:
+        """Append scripted faults (consumed one per chat request)."""
+        with self._lock:
+            self._faults.extend(faults)
+
+    @property
+    def chat_requests(self) -> list[dict]:
+        """The recorded chat-completion requests (their JSON bodies), in arrival order."""
+        with self._lock:
+            return [r["json"] for r in self.requests if r["path"] == "/v1/chat/completions" and r["method"] == "POST"]
+
+    # --- per request -----------------------------------------------------------------------
+
+    def _record(self, method: str, path: str, headers: dict, body: Any) -> None:
+        with self._lock:
+            self.requests.append({"method": method, "path": path, "headers": headers, "json": body})
+
+    def _count_chat(self) -> int:
+        with self._lock:
+            self.n_chat += 1
+            return self.n_chat
+
+    def _next_fault(self, n: int, body: Any) -> Fault | None:
+        with self._lock:
+            if self._faults:
+                return self._faults.popleft()
+        return self.fault_fn(n, body) if self.fault_fn is not None else None
+
+    def _enter(self) -> None:
+        with self._lock:
+            self.in_flight += 1
+            self.max_in_flight = max(self.max_in_flight, self.in_flight)
+
+    def _leave(self) -> None:
+        with self._lock:
+            self.in_flight -= 1
+
+
+class _Server(ThreadingHTTPServer):
+    daemon_threads = True
+    request_queue_size = 64
+
+    def handle_error(self, request, client_address) -> None:  # a client that hung up is not an error here
+        pass
+
+
+class _Handler(BaseHTTPRequestHandler):
+    protocol_version = "HTTP/1.1"
+    timeout = 10  # idle keep-alive connections end after this
+    disable_nagle_algorithm = True  # no 40 ms delayed-ACK stalls on keep-alive connections
+    wbufsize = -1  # buffered: headers and body leave in one write at flush
+    server_state: ChatServer
+
+    def log_message(self, format: str, *args: Any) -> None:  # quiet
+        pass
+
+    # --- routes ----------------------------------------------------------------------------
+
+    def do_GET(self) -> None:
+        state = self.server_state
+        state._record("GET", self.path, self._headers(), None)
+        if self.path.split("?")[0] == "/v1/models":
+            model = state.model or "test-model"
+            self._send_json(200, {"object": "list", "data": [{"id": model, "object": "model", "owned_by": "fairaudit-tests"}]})
+        else:
+            self._send_error(404, f"Unknown path {self.path}", "not_found")
+
+    def do_POST(self) -> None:
+        state = self.server_state
+        length = int(self.headers.get("Content-Length") or 0)
+        raw = self.rfile.read(length) if length else b""
+        try:
+            body = json.loads(raw) if raw else None
+        except ValueError:
+            body = None
+        state._record("POST", self.path, self._headers(), body)
+        if self.path.split("?")[0] != "/v1/chat/completions":
+            self._send_error(404, f"Unknown path {self.path}", "not_found")
+            return
+        n = state._count_chat()
+        if state.required_key is not None and self.headers.get("Authorization") != f"Bearer {state.required_key}":
+            self._send_error(401, "Incorrect API key provided.", "invalid_api_key")
+            return
+        if not isinstance(body, dict) or not isinstance(body.get("messages"), list):
+            self._send_error(400, "'messages' is a required property", "invalid_request_error")
+            return
+        fault = state._next_fault(n, body)
+        state._enter()
+        try:
+            response = self._respond(fault, body)
+        finally:
+            state._leave()  # before the reply is written: the client still holds its slot
+        if response is None:  # ("drop",): close without a response
+            self.close_connection = True
+            return
+        self._send_raw(*response)
+
+    def _respond(self, fault: Fault | None, body: dict) -> tuple | None:
+        """(status, payload, content type, headers) for this request, or None to drop the connection."""
+        state = self.server_state
+        if fault is not None and fault[0] == "sleep":
+            state._stop.wait(fault[1])
+            fault = None
+        if fault is None or fault[0] == "reply":
+            try:
+                text = fault[1] if fault is not None else state.responder(body)
+            except Exception as exc:  # a broken responder is a 500, visible to the client
+                return _error(500, f"responder failed: {exc!r}", "server_error")
+            return 200, json.dumps(_completion(body, text, state.model)).encode(), "application/json", {}
+        if fault[0] == "drop":
+            return None
+        if fault[0] == "status":
+            code = fault[1]
+            headers = fault[2] if len(fault) > 2 else {}
+            message = fault[3] if len(fault) > 3 else f"Injected HTTP {code}"
+            return _error(code, message, "injected", headers)
+        if fault[0] == "malformed":
+            return 200, b'{"choices": [ this is not json', "application/json", {}
+        if fault[0] == "json":
+            return 200, json.dumps(fault[1]).encode(), "application/json", {}
+        return _error(500, f"unknown test fault {fault!r}", "server_error")
+
+    # --- helpers ---------------------------------------------------------------------------
+
+    def _headers(self) -> dict:
+        return {k: ("<redacted>" if k.lower() == "authorization" else v) for k, v in self.headers.items()}
+
+    def _send_error(self, code: int, message: str, kind: str, headers: dict | None = None) -> None:
+        self._send_raw(*_error(code, message, kind, headers))
+
+    def _send_json(self, code: int, obj: Any, headers: dict | None = None) -> None:
+        self._send_raw(code, json.dumps(obj).encode("utf-8"), "application/json", headers)
+
+    def _send_raw(self, code: int, payload: bytes, content_type: str, headers: dict | None = None) -> None:
+        try:
+            self.send_response(code)
+            self.send_header("Content-Type", content_type)
+            self.send_header("Content-Length", str(len(payload)))
+            for name, value in (headers or {}).items():
+                self.send_header(name, value)
+            self.end_headers()
+            self.wfile.write(payload)
+            self.wfile.flush()
+        except OSError:  # the client gave up (e.g. after its timeout)
+            self.close_connection = True
+
+
+def _error(code: int, message: str, kind: str, headers: dict | None = None) -> tuple:
+    """An OpenAI-style error response: (status, payload, content type, headers)."""
+    body = {"error": {"message": message, "type": kind, "param": None, "code": code}}
+    return code, json.dumps(body).encode(), "application/json", headers or {}
+
+
+def _completion(request: dict, text: str, model: str | None) -> dict:
+    """An OpenAI chat.completion object with ``text`` as the assistant's reply."""
+    prompt_tokens = sum(len(str(m.get("content", "")).split()) for m in request["messages"] if isinstance(m, dict))
+    completion_tokens = len(text.split())
+    return {
+        "id": f"chatcmpl-{time.monotonic_ns()}",
+        "object": "chat.completion",
+        "created": int(time.time()),
+        "model": model or request.get("model") or "test-model",
+        "choices": [{"index": 0, "message": {"role": "assistant", "content": text}, "finish_reason": "stop"}],
+        "usage": {
+            "prompt_tokens": prompt_tokens,
+            "completion_tokens": completion_tokens,
+            "total_tokens": prompt_tokens + completion_tokens,
+        },
+    }

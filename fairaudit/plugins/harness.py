@@ -1,0 +1,481 @@
+"""The sampling harness: query a decision model cell by cell, log every reply, resume after a crash.
+
+Two designs (:func:`plan_queries`):
+
+* **table**: query every *shown* cell (x̃, ã₁, ã₂) — every context and every
+  pair of profiles the filter can show — N times. The counts estimate the
+  model's kernel K[x̃, (ã₁, ã₂), u] itself, and any filter is then applied
+  exactly by composition, so one set of queries serves every ε.
+* **paper**: the paper's design: for each ε, each true context and each true
+  order of the two candidates, draw what the model is shown through the
+  filter, N times, and query that. Each ε needs its own queries.
+
+Every query has a key (``id``: the design, the cell, ε and the repetition)
+and its own seed, a hash of the run's seed and the key, so the replies do
+not depend on the order, the concurrency or on interruptions.
+
+The log (:class:`QueryLog`) is an append-only JSON-lines file: a header with
+the run's settings, then one line per answered query (prompt hash, model,
+cell, seed, time, reply, parsed decision). A line is written and flushed as
+soon as its reply arrives, so killing the run loses no answered query; on
+resume, queries already in the log are skipped (none is asked twice) and a
+torn last line is cut off. Transport failures (after the client's retries)
+are logged as errors and asked again on the next resume; unparseable replies
+are samples, counted as ``"unparsed"``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import threading
+import time
+from collections.abc import Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import FairauditError, InputError
+from ..laws import Kernel
+from .vlm.filter import PrivacyFilter
+from .vlm.models import DecisionModel, Query
+from .vlm.tasks import UNPARSED, DeliveryTask
+
+__all__ = ["QueryLog", "RunSummary", "plan_queries", "query_seed", "run_queries", "table_kernel", "paper_counts",
+           "table_queries_needed", "paper_queries_needed"]
+
+LOG_VERSION = 1
+
+
+def query_seed(run_seed: int, key: str) -> int:
+    """The seed of one query: 63 bits of SHA-256 of the run's seed and the query's key.
+
+    Examples
+    --------
+    >>> query_seed(0, "table|sick leave|a|b|0") == query_seed(0, "table|sick leave|a|b|0")
+    True
+    >>> query_seed(0, "x") != query_seed(1, "x")
+    True
+    """
+    digest = hashlib.sha256(f"{int(run_seed)}|{key}".encode()).digest()
+    return int.from_bytes(digest[:8], "big") >> 1
+
+
+def _eps_key(eps: float) -> str:
+    return f"{eps:.12g}"
+
+
+def plan_queries(task: DeliveryTask, design: str, samples: int, seed: int, *, epsilons: Sequence[float] = (),
+                 positions: str = "balanced", context_epsilon: float | None = None) -> list[Query]:
+    """Every query of a run, in a fixed order.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    design : {"table", "paper"}
+    samples : int
+        N ≥ 1: queries per shown cell (table) or per true cell and ε (paper).
+    seed : int
+        The run's seed.
+    epsilons : sequence of float
+        Paper design: the candidate's ε values (nats; :func:`fairaudit.plugins.vlm.filter.candidate_family`),
+        each profile filtered at ε / 2.
+    positions : {"balanced", "fixed"}
+        Paper design: the true orders queried: both orders of the paper's
+        candidates (``balanced``), or the paper's own only (``fixed``).
+    context_epsilon : float, optional
+        Paper design: ε of randomized response on the context (None: shown as is).
+
+    Returns
+    -------
+    list of Query
+        Table: n_contexts × n_profiles² × N queries. Paper: n_ε × n_contexts ×
+        (2 or 1) × N queries, each with the cell drawn through the filter.
+
+    Raises
+    ------
+    InputError
+        On an unknown design or positions, N < 1, or no ε for the paper design.
+
+    Examples
+    --------
+    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> len(plan_queries(HR_DELIVERY, "table", 5, 0))              # 3 documents x 8 x 8 profiles x 5
+    960
+    >>> q = plan_queries(HR_DELIVERY, "paper", 2, 0, epsilons=[1.0])
+    >>> len(q), q[0].id
+    (12, 'paper|1|maternity leave|Tom & 25 & Asian|Mary & 55 & American|0')
+    """
+    if design not in ("table", "paper"):
+        raise InputError("--design", "must be 'table' or 'paper'", design)
+    if positions not in ("balanced", "fixed"):
+        raise InputError("--positions", "must be 'balanced' or 'fixed'", positions)
+    if not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise InputError("--samples", "must be a whole number >= 1", samples)
+    label = task.profile_label
+    out: list[Query] = []
+    if design == "table":
+        for ctx in task.contexts:
+            for p1 in task.profiles:
+                for p2 in task.profiles:
+                    for r in range(samples):
+                        key = f"table|{ctx}|{label(p1)}|{label(p2)}|{r}"
+                        out.append(Query(key, "table", ctx, (p1, p2), r, query_seed(seed, key)))
+        return out
+    if not len(epsilons):
+        raise InputError("--epsilon", "the paper design needs at least one epsilon")
+    c1, c2 = task.candidates
+    orders = [(c1, c2), (c2, c1)] if positions == "balanced" else [(c1, c2)]
+    for eps in epsilons:
+        filt = PrivacyFilter.from_epsilon(task, float(eps) / 2, context_epsilon=context_epsilon)
+        for ctx in task.contexts:
+            for order in orders:
+                for r in range(samples):
+                    key = f"paper|{_eps_key(float(eps))}|{ctx}|{label(order[0])}|{label(order[1])}|{r}"
+                    s = query_seed(seed, key)
+                    shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]))
+                    out.append(Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps)))
+    return out
+
+
+def table_queries_needed(task: DeliveryTask, samples: int) -> int:
+    """Queries of the table design: n_contexts × n_profiles² × N, for any number of ε."""
+    return len(task.contexts) * len(task.profiles) ** 2 * samples
+
+
+def paper_queries_needed(task: DeliveryTask, samples: int, n_epsilons: int, positions: str = "balanced") -> int:
+    """Queries of the paper's design: n_ε × n_contexts × (2 orders, or 1) × N."""
+    return n_epsilons * len(task.contexts) * (2 if positions == "balanced" else 1) * samples
+
+
+# -- the log --------------------------------------------------------------------------------------------------
+
+class QueryLog:
+    """The append-only JSON-lines log of a run.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log file (``queries.jsonl`` in the run's folder).
+    header : dict
+        The run's identity: ``task``, ``model``, ``seed`` (and anything else
+        to record). On resume these three must equal the log's.
+    resume : bool
+        Continue an existing log (its answered queries are kept and skipped);
+        without it an existing log is an error, so nothing is overwritten.
+
+    Raises
+    ------
+    InputError
+        If the log exists and ``resume`` is False; if ``resume`` and the log
+        was made by another task, model or seed; if a line other than the last
+        is not valid JSON.
+    """
+
+    def __init__(self, path: str | Path, header: dict, *, resume: bool = False):
+        self.path = Path(path)
+        self.records: dict[str, dict] = {}
+        self.errors: dict[str, dict] = {}
+        self._lock = threading.Lock()
+        self._last_sync = time.monotonic()
+        exists = self.path.exists() and self.path.stat().st_size > 0
+        if exists and not resume:
+            raise InputError("--out", f"holds a run already ({self.path.name}); pass --resume to continue it, "
+                                      "or choose another folder", str(self.path.parent))
+        if exists:
+            self._read(header)
+        self._fh = open(self.path, "ab")
+        if not exists:
+            self._append({"type": "header", "version": LOG_VERSION, "created": _now(), **header})
+
+    def _read(self, header: dict) -> None:
+        data = self.path.read_bytes()
+        lines = data.split(b"\n")
+        good = 0           # byte offset after the last complete, valid line
+        offset = 0
+        first = None
+        for i, raw in enumerate(lines):
+            end = offset + len(raw) + 1
+            last = i == len(lines) - 1
+            if last and raw == b"":
+                break
+            try:
+                rec = json.loads(raw)
+                if last:            # no newline after it: torn
+                    raise ValueError
+            except ValueError:
+                if last or all(not x.strip() for x in lines[i + 1:]):
+                    break       # a torn line left by a crash: cut it off below
+                raise InputError("--resume", f"line {i + 1} of {self.path} is not valid JSON; the log is damaged") from None
+            offset = good = end
+            if first is None:
+                first = rec
+                continue
+            if rec.get("type") == "query":
+                if rec.get("status") == "ok":
+                    self.records[rec["id"]] = rec
+                    self.errors.pop(rec["id"], None)
+                else:
+                    self.errors[rec["id"]] = rec
+        if first is None or first.get("type") != "header":
+            raise InputError("--resume", "the log has no header line; it is not a fairaudit run log", str(self.path))
+        for key, flag in (("task", "experiment"), ("model", "--model/--simulated/--kernel"), ("seed", "--seed")):
+            if first.get(key) != header.get(key):
+                raise InputError("--resume", f"the run in {self.path.parent} was made with {flag} "
+                                 f"{first.get(key)!r}, not {header.get(key)!r}")
+        self.header = first
+        if good < len(data):
+            with open(self.path, "r+b") as fh:
+                fh.truncate(good)
+
+    def _append(self, record: dict) -> None:
+        line = (json.dumps(record, ensure_ascii=False, separators=(",", ":")) + "\n").encode("utf-8")
+        with self._lock:
+            self._fh.write(line)
+            self._fh.flush()
+            now = time.monotonic()
+            if now - self._last_sync > 1.0:
+                os.fsync(self._fh.fileno())
+                self._last_sync = now
+
+    def add(self, record: dict) -> None:
+        """Append one query's record (flushed at once; synced to disk at least every second)."""
+        self._append(record)
+        if record.get("status") == "ok":
+            self.records[record["id"]] = record
+            self.errors.pop(record["id"], None)
+        else:
+            self.errors[record["id"]] = record
+
+    def close(self) -> None:
+        """Sync and close the file."""
+        with self._lock:
+            if not self._fh.closed:
+                self._fh.flush()
+                os.fsync(self._fh.fileno())
+                self._fh.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+# -- running --------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What a call of :func:`run_queries` did.
+
+    Attributes
+    ----------
+    planned : int
+        Queries of the plan.
+    already : int
+        Answered in the log before this call (skipped).
+    asked : int
+        Answered in this call.
+    failed : int
+        Queries that failed after the client's retries (logged; asked again on resume).
+    unparsed : int
+        Answered queries, in the whole plan, whose reply could not be parsed.
+    seconds : float
+        Wall time of this call.
+    failures : tuple of str
+        The first few failure messages.
+    """
+
+    planned: int
+    already: int
+    asked: int
+    failed: int
+    unparsed: int
+    seconds: float
+    failures: tuple = field(default=())
+
+    @property
+    def complete(self) -> bool:
+        """True when every planned query is answered."""
+        return self.already + self.asked == self.planned
+
+
+def _prompt_hash(prompt: str, image_digests: Sequence[str]) -> str:
+    h = hashlib.sha256(prompt.encode("utf-8"))
+    for d in image_digests:
+        h.update(d.encode())
+    return h.hexdigest()
+
+
+def run_queries(task: DeliveryTask, model: DecisionModel, queries: Sequence[Query], log: QueryLog, *,
+                images: Sequence[bytes] = (), concurrency: int = 1, progress: bool = True) -> RunSummary:
+    """Ask every query not yet in the log, logging each reply as it arrives.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    model : DecisionModel
+        Must be thread-safe when ``concurrency`` > 1.
+    queries : sequence of Query
+        From :func:`plan_queries`.
+    log : QueryLog
+    images : sequence of bytes
+        PNG route images sent with every query (hashed into the prompt hash).
+    concurrency : int
+        Queries in flight at once (≥ 1).
+    progress : bool
+        Show a progress bar (tqdm, on stderr; off when stderr is not a terminal).
+
+    Returns
+    -------
+    RunSummary
+
+    Raises
+    ------
+    InputError
+        On concurrency < 1. KeyboardInterrupt propagates after the answered
+        queries are logged and pending ones cancelled.
+    """
+    from .vlm.parse import parse_reply
+
+    if not isinstance(concurrency, (int, np.integer)) or concurrency < 1:
+        raise InputError("--concurrency", "must be a whole number >= 1", concurrency)
+    digests = [hashlib.sha256(b).hexdigest() for b in images]
+    images = tuple(images)
+    already = sum(q.id in log.records for q in queries)
+    todo = [q for q in queries if q.id not in log.records]
+    start = time.monotonic()
+    failures: list[str] = []
+    asked = failed = 0
+
+    def ask(q: Query) -> dict:
+        prompt = task.prompt(q.context, q.profiles)
+        rec = {"type": "query", "id": q.id, "design": q.design, "context": q.context,
+               "profiles": [list(p) for p in q.profiles], "rep": q.rep, "seed": q.seed,
+               "epsilon": q.epsilon, "truth": None if q.truth is None else
+               {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
+               "prompt_sha256": _prompt_hash(prompt, digests), "time": _now()}
+        t0 = time.monotonic()
+        try:
+            r = model.reply(q, prompt, images)
+        except FairauditError as exc:       # ChatError after the client's retries
+            return {**rec, "model": model.name, "status": "error", "error": str(exc),
+                    "latency": round(time.monotonic() - t0, 6)}
+        parsed = parse_reply(r.text, task.options, task.kind)
+        decision = task.options[parsed.choice] if parsed.ok else UNPARSED
+        return {**rec, "model": r.model, "status": "ok", "latency": round(r.latency or time.monotonic() - t0, 6),
+                "attempts": r.attempts, "reply": r.text, "decision": decision,
+                "parse_error": "" if parsed.ok else parsed.error}
+
+    bar = _progress(len(todo), f"{task.name}: {model.name}", progress)
+    pool = ThreadPoolExecutor(max_workers=int(concurrency))
+    try:
+        pending: set = set()
+        it = iter(todo)
+        window = 4 * int(concurrency)
+        while True:
+            while len(pending) < window:
+                q = next(it, None)
+                if q is None:
+                    break
+                pending.add(pool.submit(ask, q))
+            if not pending:
+                break
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                rec = fut.result()
+                log.add(rec)
+                if rec["status"] == "ok":
+                    asked += 1
+                else:
+                    failed += 1
+                    if len(failures) < 5:
+                        failures.append(rec["error"])
+                bar.update(1)
+    except BaseException:
+        pool.shutdown(wait=True, cancel_futures=True)
+        bar.close()
+        log.close()
+        raise
+    pool.shutdown(wait=True)
+    bar.close()
+    ids = {q.id for q in queries}
+    unparsed = sum(1 for k, r in log.records.items() if k in ids and r.get("decision") == UNPARSED)
+    return RunSummary(len(queries), already, asked, failed, unparsed, time.monotonic() - start, tuple(failures))
+
+
+class _NoBar:
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def _progress(total: int, desc: str, enabled: bool):
+    if not enabled or total == 0:
+        return _NoBar()
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return _NoBar()
+    return tqdm(total=total, desc=desc, unit="query", disable=None, leave=False)
+
+
+# -- counts ---------------------------------------------------------------------------------------------------
+
+def table_kernel(task: DeliveryTask, records: Iterable[dict]) -> Kernel:
+    """The model's kernel estimated from the table design's answered queries.
+
+    Returns
+    -------
+    Kernel
+        Shape (n_contexts, n_profiles², n_decisions) with counts: contexts are
+        the shown contexts, groups the shown pairs (profile 1, profile 2) as
+        tuples of the two profiles in :attr:`DeliveryTask.profiles` order
+        (row-major), decisions :attr:`DeliveryTask.decisions`. Cells without
+        any answered query are empty.
+    """
+    profiles = task.profiles
+    k = len(profiles)
+    pidx = {p: i for i, p in enumerate(profiles)}
+    cidx = {c: i for i, c in enumerate(task.contexts)}
+    didx = {d: i for i, d in enumerate(task.decisions)}
+    rows = [(cidx[r["context"]], pidx[tuple(r["profiles"][0])] * k + pidx[tuple(r["profiles"][1])], didx[r["decision"]])
+            for r in records if r.get("design") == "table" and r.get("status") == "ok"]
+    counts = np.zeros((len(task.contexts), k * k, len(task.decisions)))
+    if rows:
+        np.add.at(counts, tuple(np.array(rows).T), 1.0)
+    groups = [(p1, p2) for p1 in profiles for p2 in profiles]
+    return Kernel.from_counts(counts, task.contexts, groups, task.decisions, name="kernel")
+
+
+def paper_counts(task: DeliveryTask, records: Iterable[dict], epsilon: float) -> np.ndarray:
+    """Counts of the paper's design at one ε by true context, true order and decision.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_contexts, 2, n_decisions)
+        Axis 1: the paper's order (candidate 1 shown first), then the swapped
+        order; axis 2: :attr:`DeliveryTask.decisions`.
+    """
+    c1, c2 = task.candidates
+    orders = {(c1, c2): 0, (c2, c1): 1}
+    cidx = {c: i for i, c in enumerate(task.contexts)}
+    didx = {d: i for i, d in enumerate(task.decisions)}
+    key = _eps_key(float(epsilon))
+    out = np.zeros((len(task.contexts), 2, len(task.decisions)))
+    for r in records:
+        if r.get("design") != "paper" or r.get("status") != "ok" or _eps_key(float(r["epsilon"])) != key:
+            continue
+        order = tuple(tuple(p) for p in r["truth"]["profiles"])
+        out[cidx[r["truth"]["context"]], orders[order], didx[r["decision"]]] += 1
+    return out

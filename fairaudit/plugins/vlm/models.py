@@ -1,0 +1,320 @@
+"""Decision models behind one interface: simulated kernels and OpenAI-compatible endpoints.
+
+A :class:`DecisionModel` answers one query (the prompt text, the route images
+and a seed) with the text of a reply, as a chat model would. The harness
+parses the reply (:func:`fairaudit.plugins.vlm.parse.parse_reply`), so a
+simulated model exercises the same path as a real one.
+
+* :class:`SimulatedModel`: a kernel table P(decision | shown context, shown
+  profiles) and the query's seed; it writes its decision in the task's JSON
+  format. Named models reproduce what the paper reports
+  (:data:`SIMULATED`), and any table of counts or probabilities in the
+  harness's ``kernel.csv`` format defines one (:meth:`SimulatedModel.from_csv`).
+* :class:`EndpointModel`: a chat-completions endpoint through
+  :class:`fairaudit.plugins.vlm.client.ChatClient` (text and images).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from ..._errors import InputError
+from .tasks import UNPARSED, DeliveryTask
+
+__all__ = ["Query", "ModelReply", "DecisionModel", "SimulatedModel", "EndpointModel", "SIMULATED", "simulated_model",
+           "reply_text"]
+
+
+@dataclass(frozen=True)
+class Query:
+    """One query of the harness: what the model is shown, and its seed.
+
+    Attributes
+    ----------
+    id : str
+        Unique key of the query in the run's log (the design, the cell and the repetition).
+    design : {"table", "paper"}
+        The table design (a shown cell queried as is) or the paper's (the
+        true cell sampled through the filter at ``epsilon``).
+    context : str
+        The context shown.
+    profiles : tuple of tuple
+        The profiles shown at positions 1 and 2.
+    rep : int
+        Repetition number within the cell.
+    seed : int
+        The query's own seed (63 bits), a hash of the run's seed and ``id``.
+    truth : tuple or None
+        Paper design: (true context, true profiles); None in the table design.
+    epsilon : float or None
+        Paper design: the candidate's ε (nats) of the filter it was drawn through.
+    """
+
+    id: str
+    design: str
+    context: str
+    profiles: tuple
+    rep: int
+    seed: int
+    truth: tuple | None = None
+    epsilon: float | None = None
+
+
+@dataclass(frozen=True)
+class ModelReply:
+    """A model's reply: its text and how it was obtained (attempts, latency in seconds, the model's name)."""
+
+    text: str
+    model: str
+    attempts: int = 1
+    latency: float = 0.0
+
+
+class DecisionModel(Protocol):
+    """What the harness needs of a model: a name and ``reply(query, prompt, images)``; thread-safe."""
+
+    name: str
+
+    def reply(self, query: Query, prompt: str, images: tuple) -> ModelReply:  # pragma: no cover - protocol
+        ...
+
+
+def reply_text(task: DeliveryTask, decision: int | None, rng: np.random.Generator | None = None) -> str:
+    """A reply in the task's JSON format for option index ``decision`` (None: an unparseable reply).
+
+    With ``rng`` the JSON is sometimes wrapped in a code fence or in prose, as
+    chat models do, so that simulated runs exercise the parser.
+
+    Examples
+    --------
+    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
+    >>> reply_text(HR_DELIVERY, 1)
+    '{"HR1": "0.0", "HR2": "1.0", "reason": "simulated decision"}'
+    >>> reply_text(PACKAGE_DELIVERY, 1)
+    '{"Recipient1": "2.0", "Recipient2": "1.0", "reason": "simulated decision"}'
+    """
+    if decision is None:
+        return "I am sorry, but I cannot make this decision."
+    n = len(task.options)
+    if task.kind == "choice":
+        values = {o: "1.0" if i == decision else "0.0" for i, o in enumerate(task.options)}
+    else:   # the option served first gets 1, the others follow in position order
+        rest = [i for i in range(n) if i != decision]
+        rank = {decision: 1, **{i: k + 2 for k, i in enumerate(rest)}}
+        values = {o: f"{rank[i]:.1f}" for i, o in enumerate(task.options)}
+    text = json.dumps({**values, "reason": "simulated decision"})
+    if rng is None:
+        return text
+    style = rng.integers(3)
+    if style == 1:
+        return f"```json\n{json.dumps({**values, 'reason': 'simulated decision'}, indent=4)}\n```"
+    if style == 2:
+        return f"Here is my decision.\n{text}\nI hope this helps."
+    return text
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedModel:
+    """A decision model given by its kernel table, replying in the task's format.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    probabilities : numpy.ndarray, shape (n_contexts, n_profiles, n_profiles, n_decisions)
+        P(decision | shown context, profile at position 1, profile at
+        position 2), indexed by the task's contexts, :attr:`DeliveryTask.profiles`
+        (twice) and :attr:`DeliveryTask.decisions` (the options, then
+        ``"unparsed"``: the chance of a reply that cannot be parsed).
+    name : str
+        Logged as the model's name (``"simulated:<name>"``).
+
+    The reply to a query is drawn with ``numpy.random.default_rng(query.seed)``,
+    so a query always gets the same reply, whatever the order or concurrency
+    of the run (the harness's resume depends on it).
+    """
+
+    task: DeliveryTask
+    probabilities: np.ndarray
+    name: str
+
+    def __post_init__(self):
+        p = np.asarray(self.probabilities, dtype=float)
+        k = len(self.task.profiles)
+        shape = (len(self.task.contexts), k, k, len(self.task.decisions))
+        if p.shape != shape:
+            raise InputError("kernel", f"must have shape {shape} (contexts, profile 1, profile 2, decisions)", p.shape)
+        if np.any(p < 0) or not np.all(np.isfinite(p)) or np.any(np.abs(p.sum(-1) - 1) > 1e-9):
+            raise InputError("kernel", "rows must be probabilities summing to 1")
+        p = p.copy()
+        p.setflags(write=False)
+        object.__setattr__(self, "probabilities", p)
+
+    def reply(self, query: Query, prompt: str = "", images: tuple = ()) -> ModelReply:
+        """Draw the decision for the query's shown cell and write it as a reply."""
+        t = self.task
+        profiles = t.profiles
+        row = self.probabilities[t.contexts.index(query.context), profiles.index(tuple(query.profiles[0])),
+                                 profiles.index(tuple(query.profiles[1]))]
+        rng = np.random.default_rng(query.seed)
+        d = int(np.searchsorted(np.cumsum(row), rng.random() * row.sum(), side="right").clip(0, row.size - 1))
+        return ModelReply(reply_text(t, None if d == len(t.options) else d, rng), f"simulated:{self.name}")
+
+    @classmethod
+    def from_csv(cls, task: DeliveryTask, path: str | Path, name: str | None = None) -> "SimulatedModel":
+        """A model from a table in the harness's ``kernel.csv`` format.
+
+        Columns: the task's context name (``document``), one column per option
+        (``HR1``, ``HR2``: the profile shown there, as ``"Tom & 25 & Asian"``),
+        ``decision`` (an option or ``"unparsed"``) and ``count`` or
+        ``probability``. Rows of one cell are normalised.
+
+        Raises
+        ------
+        InputError
+            On a missing file or column, an unknown label, a negative value,
+            or a shown cell with no row (naming ``--kernel`` and the cell).
+        """
+        import pandas as pd
+
+        p = Path(path)
+        if not p.is_file():
+            raise InputError("--kernel", "no such file", str(path))
+        try:
+            frame = pd.read_csv(p, dtype=str, keep_default_na=False)
+        except (OSError, ValueError, pd.errors.ParserError) as exc:
+            raise InputError("--kernel", f"cannot be read as CSV ({exc})", str(path)) from None
+        value_col = "count" if "count" in frame.columns else "probability"
+        need = [task.context_name, *task.options, "decision", value_col]
+        missing = [c for c in need if c not in frame.columns]
+        if missing:
+            raise InputError("--kernel", f"needs columns {need}", list(frame.columns))
+        profiles = {task.profile_label(q): i for i, q in enumerate(task.profiles)}
+        axes = [({c: i for i, c in enumerate(task.contexts)}, task.context_name)] + \
+               [(profiles, o) for o in task.options] + [({d: i for i, d in enumerate(task.decisions)}, "decision")]
+        idx = []
+        for lookup, col in axes:
+            codes = frame[col].map(lookup)
+            if codes.isna().any():
+                bad = frame[col][codes.isna()].iloc[0]
+                raise InputError(f"--kernel column '{col}'", f"value not among {list(lookup)}", bad)
+            idx.append(codes.to_numpy(dtype=int))
+        try:
+            values = frame[value_col].astype(float).to_numpy()
+        except ValueError:
+            raise InputError(f"--kernel column '{value_col}'", "must be numbers") from None
+        if np.any(values < 0) or not np.all(np.isfinite(values)):
+            raise InputError(f"--kernel column '{value_col}'", "must be finite and >= 0")
+        k = len(task.profiles)
+        table = np.zeros((len(task.contexts), k, k, len(task.decisions)))
+        np.add.at(table, tuple(idx), values)
+        totals = table.sum(-1)
+        if np.any(totals == 0):
+            i, a, b = np.argwhere(totals == 0)[0]
+            raise InputError("--kernel", f"has no rows for ({task.context_name} {task.contexts[i]!r}, "
+                             f"{task.options[0]} {task.profile_label(task.profiles[a])!r}, "
+                             f"{task.options[1]} {task.profile_label(task.profiles[b])!r})", str(path))
+        return cls(task, table / totals[..., None], name or f"kernel from {p.name}")
+
+
+def _profile_scores(task: DeliveryTask, target: tuple) -> np.ndarray:
+    """How many attributes each profile shares with ``target``, shape (n_profiles,)."""
+    return np.array([sum(v == w for v, w in zip(p, target)) for p in task.profiles])
+
+
+def _prefers(task: DeliveryTask, target: tuple) -> np.ndarray:
+    """Choose (or serve first) the candidate whose shown profile shares more attributes with ``target``; ties: a coin."""
+    s = _profile_scores(task, target)
+    first = np.where(s[:, None] > s[None, :], 1.0, np.where(s[:, None] < s[None, :], 0.0, 0.5))
+    return _tile(task, first)
+
+
+def _position(task: DeliveryTask, p_first: float) -> np.ndarray:
+    k = len(task.profiles)
+    return _tile(task, np.full((k, k), p_first))
+
+
+def _tile(task: DeliveryTask, first: np.ndarray) -> np.ndarray:
+    """Kernel with P(option 1) = ``first[p1, p2]`` in every context and no unparsed reply."""
+    out = np.zeros((len(task.contexts), *first.shape, len(task.decisions)))
+    out[..., 0] = first
+    out[..., 1] = 1.0 - first
+    return out
+
+
+SIMULATED: dict[str, dict[str, Callable[[DeliveryTask], np.ndarray]]] = {
+    "hr-delivery": {
+        "prefers-mary": lambda t: _prefers(t, t.candidates[1]),
+        "position-biased": lambda t: _position(t, 0.82),
+        "fair": lambda t: _position(t, 0.5),
+    },
+    "package-delivery": {
+        "low-complaint-first": lambda t: _prefers(t, t.candidates[0]),
+        "high-complaint-first": lambda t: _prefers(t, t.candidates[1]),
+        "position-biased": lambda t: _position(t, 0.82),
+        "fair": lambda t: _position(t, 0.5),
+    },
+}
+"""Named simulated models per task.
+
+* ``prefers-mary``: chooses the HR whose shown profile shares more of name,
+  age and race with Mary (55, American), a coin on ties: without a filter it
+  always picks Mary, as GPT-4o, GPT-4o-mini and o1 did in the paper.
+* ``low-complaint-first`` / ``high-complaint-first``: serves that recipient
+  first (GPT-4o and GPT-4o-mini / o1 in the paper's SI D).
+* ``position-biased``: picks (serves first) the first-listed candidate with
+  probability 0.82 whoever it is.
+* ``fair``: a coin.
+"""
+
+
+def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel:
+    """The named simulated model of a task (see :data:`SIMULATED`).
+
+    Raises
+    ------
+    InputError
+        On an unknown name (naming ``--simulated`` and the choices).
+
+    Examples
+    --------
+    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> m = simulated_model(HR_DELIVERY, "prefers-mary")
+    >>> tom, mary = HR_DELIVERY.profiles.index(("Tom", 25, "Asian")), HR_DELIVERY.profiles.index(("Mary", 55, "American"))
+    >>> m.probabilities[0, tom, mary].tolist()        # P(HR1), P(HR2), P(unparsed)
+    [0.0, 1.0, 0.0]
+    """
+    models = SIMULATED[task.name]
+    if name not in models:
+        raise InputError("--simulated", f"must be one of {sorted(models)} for {task.name}", name)
+    return SimulatedModel(task, models[name](task), name)
+
+
+class EndpointModel:
+    """A model behind an OpenAI-compatible chat-completions endpoint.
+
+    Parameters
+    ----------
+    client : fairaudit.plugins.vlm.client.ChatClient
+        Carries the endpoint, model name, API key (from the environment),
+        timeouts, retries and the bound on concurrent requests.
+
+    The query's prompt and the route images go in one user message; the
+    query's seed is sent as the request's ``seed``.
+    """
+
+    def __init__(self, client):
+        self.client = client
+        self.name = client.model
+
+    def reply(self, query: Query, prompt: str, images: tuple) -> ModelReply:
+        """Send the query and return the reply's text (raises ChatError after the client's retries)."""
+        from .client import user_message
+
+        r = self.client.complete([user_message(prompt, images)], seed=query.seed)
+        return ModelReply(r.text, r.model or self.name, r.attempts, r.latency)

@@ -134,7 +134,105 @@ def build_parser() -> argparse.ArgumentParser:
                    "mechanism family, context mechanism and model from a spec; flags override")
     _add_output(k)
     _add_plan(sub)
+    _add_experiment(sub)
     return parser
+
+
+def _nonneg(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}") from None
+    if not v >= 0 or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
+    return v
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return v
+
+
+def _add_experiment(sub) -> None:
+    """The ``experiment`` subcommand (fairaudit.plugins.run)."""
+    e = sub.add_parser("experiment", help="run the paper's delivery experiment against a model under a privacy filter",
+                       description="Query a decision model (simulated, a kernel table, or an OpenAI-compatible "
+                       "endpoint) on every shown cell of the paper's HR-delivery or package-delivery task, apply the "
+                       "privacy filter exactly by composition, and write the baseline figure, the fairness-privacy "
+                       "curve with confidence bands and certified bounds, the certificate and the report to --out. "
+                       "Exit 1 when some queries failed (run again with --resume).")
+    e.add_argument("experiment", choices=("hr-delivery", "package-delivery"), help="the task")
+    m = e.add_mutually_exclusive_group()
+    m.add_argument("--simulated", metavar="NAME", help="a simulated model: prefers-mary, position-biased, fair "
+                   "(hr-delivery); low-complaint-first, high-complaint-first, position-biased, fair "
+                   "(package-delivery); default the first")
+    m.add_argument("--kernel", metavar="FILE", help="a simulated model from a kernel table (a run's kernel.csv)")
+    m.add_argument("--endpoint", metavar="URL", help="an OpenAI-compatible chat-completions endpoint, e.g. "
+                   "http://127.0.0.1:8000/v1 (API key from OPENAI_API_KEY)")
+    e.add_argument("--model", metavar="NAME", help="the model name at --endpoint")
+    e.add_argument("--samples", type=_positive_int, default=20, metavar="N", help="queries per shown cell (default 20)")
+    eps = e.add_mutually_exclusive_group()
+    eps.add_argument("--epsilon", type=_nonneg, nargs="+", metavar="E", help="the candidate's privacy budgets in nats "
+                     "(both profiles shown; each attribute gets E / (2 x attributes))")
+    eps.add_argument("--keep", type=_level_closed, nargs="+", metavar="P", help="keep probabilities of every "
+                     "attribute instead (default 0.5 0.6 0.7 0.8 0.9)")
+    e.add_argument("--context-epsilon", type=_nonneg, metavar="E", help="randomized response on the document type "
+                   "(package) at E nats (default: shown as is)")
+    e.add_argument("--design", choices=("table", "both"), default="table", help="table: query every shown cell once "
+                   "for all epsilons (default); both: also the paper's design, sampling through the filter per epsilon")
+    e.add_argument("--positions", choices=("balanced", "fixed"), default="balanced",
+                   help="both orders of the two candidates (default), or the paper's only")
+    e.add_argument("--out", required=True, metavar="DIR", help="folder of the run (log, tables, figures, report)")
+    e.add_argument("--resume", action="store_true", help="continue the run logged in --out")
+    e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
+    e.add_argument("--concurrency", type=_positive_int, metavar="N", help="queries in flight (default 4 with "
+                   "--endpoint, else 1)")
+    e.add_argument("--timeout", type=float, default=60.0, metavar="S", help="seconds per request (default 60)")
+    e.add_argument("--max-retries", type=int, default=5, metavar="N", help="retries on 429, 5xx and timeouts (default 5)")
+    e.add_argument("--confidence", type=_level, default=0.95, metavar="LEVEL",
+                   help="simultaneous level of the bands (default 0.95)")
+    e.add_argument("--scene", metavar="DIR", help="an S3DIS area folder for the route images (default: a generated "
+                   "office floor)")
+    e.add_argument("--no-images", dest="images", action="store_false", help="send no route images")
+    e.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+
+
+def _level_closed(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a probability in [1/k, 1), got {text!r}") from None
+    if not 0 < v < 1:
+        raise argparse.ArgumentTypeError(f"expected a probability in [1/k, 1), got {text!r}")
+    return v
+
+
+def _run_experiment(args) -> int:
+    from .plugins.run import run_experiment
+
+    run = run_experiment(args.experiment, args.out, simulated=args.simulated, kernel=args.kernel,
+                         endpoint=args.endpoint, model=args.model, samples=args.samples, epsilons=args.epsilon,
+                         keeps=args.keep, context_epsilon=args.context_epsilon, design=args.design,
+                         positions=args.positions, seed=args.seed, resume=args.resume, concurrency=args.concurrency,
+                         timeout=args.timeout, max_retries=args.max_retries, confidence=args.confidence,
+                         scene=args.scene, images=args.images, progress=args.progress)
+    s = run.summary
+    done = f"{s.already + s.asked} of {s.planned} queries answered ({s.asked} now, {s.unparsed} unparsed)"
+    if run.analysis is None:
+        first = f"; first: {s.failures[0]}" if s.failures else ""
+        print(f"fairaudit: incomplete: {done}; {s.failed} failed after retries{first}; run again with --resume",
+              file=sys.stderr)
+        return 1
+    print(f"{done}; report written to {Path(run.out) / 'report.md'}", file=sys.stderr)
+    from .plugins.report import experiment_dict, experiment_markdown
+
+    sys.stdout.write(experiment_markdown(experiment_dict(run.analysis)))
+    return 0
 
 
 def _add_plan(sub) -> None:
@@ -258,6 +356,8 @@ def _run(args) -> int:
         return 0
     if args.command == "plan":
         return _run_plan(args)
+    if args.command == "experiment":
+        return _run_experiment(args)
     return _run_calibrate(args)
 
 
@@ -309,7 +409,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"fairaudit: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("fairaudit: interrupted", file=sys.stderr)
+        hint = "; every answered query is logged: run again with --resume" if args.command == "experiment" else ""
+        print(f"fairaudit: interrupted{hint}", file=sys.stderr)
         return 130
 
 

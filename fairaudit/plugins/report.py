@@ -1,0 +1,293 @@
+"""What an experiment writes: tables, the certificate JSON, the figures and a Markdown report.
+
+Files in the run's folder (each written atomically):
+
+* ``kernel.csv``: the model's kernel on shown cells with counts (the table
+  design): the context, the profile shown as each option, the decision, the
+  count. It is also the input of ``--kernel`` (a simulated model of it).
+* ``candidates.csv``: the per-candidate kernel with counts (context @
+  position, ``own | rival`` shown, outcome, count).
+* ``records.csv``: the same as one record per query and candidate, for
+  ``fairaudit audit records.csv --sensitive profile --context document,position
+  --outcome outcome --positive chosen`` (the model without a filter).
+* ``certificate.json``: :func:`experiment_dict`.
+* ``curve.csv``: the dense fairness–privacy curve.
+* ``baseline.png``: decision shares without a filter, per context and order.
+* ``curve.png``: observed L and L̄ with their confidence bands, the bounds,
+  and the paper's design when it was run.
+* ``report.md``: :func:`experiment_markdown`.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..report import _fairness, _num, write_atomic
+
+__all__ = ["experiment_dict", "experiment_markdown", "kernel_frame", "candidate_frame", "records_frame", "plot_baseline",
+           "plot_experiment_curve"]
+
+
+def kernel_frame(analysis):
+    """The model's kernel on shown cells as a long table: context, option columns, decision, count."""
+    import pandas as pd
+
+    t, k = analysis.task, analysis.kernel
+    n_ctx, n_pairs, n_dec = k.counts.shape
+    x, g, d = np.meshgrid(np.arange(n_ctx), np.arange(n_pairs), np.arange(n_dec), indexing="ij")
+    x, g, d = x.ravel(), g.ravel(), d.ravel()
+    labels = [(t.profile_label(p1), t.profile_label(p2)) for p1, p2 in k.groups]
+    return pd.DataFrame({
+        t.context_name: np.asarray(k.contexts, dtype=object)[x],
+        t.options[0]: [labels[i][0] for i in g],
+        t.options[1]: [labels[i][1] for i in g],
+        "decision": np.asarray(k.decisions, dtype=object)[d],
+        "count": k.counts.ravel().astype(int),
+    })
+
+
+def candidate_frame(analysis):
+    """The per-candidate kernel as a long table: context, shown, outcome, count."""
+    import pandas as pd
+
+    k = analysis.candidate_kernel
+    n_ctx, n_g, n_d = k.counts.shape
+    x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_g), np.arange(n_d), indexing="ij"))
+    return pd.DataFrame({"context": np.asarray(k.contexts, dtype=object)[x], "shown": np.asarray(k.groups, dtype=object)[g],
+                         "outcome": np.asarray(k.decisions, dtype=object)[d], "count": k.counts.ravel().astype(int)})
+
+
+def records_frame(analysis):
+    """Per-candidate records of the table design, one row per query and candidate, for ``fairaudit audit``.
+
+    Columns: the context name, ``position`` (the option), ``profile`` (the
+    candidate's shown profile), ``rival`` (the other's) and ``outcome``; the
+    profiles are the ones shown to the model, so an audit of this file is the
+    model's own fairness without a filter, against a rival drawn uniformly.
+    """
+    import pandas as pd
+
+    t, k = analysis.task, analysis.candidate_kernel
+    counts = k.counts.astype(int)
+    x, g, d = np.nonzero(counts)
+    reps = counts[x, g, d]
+    x, g, d = np.repeat(x, reps), np.repeat(g, reps), np.repeat(d, reps)
+    ctx = np.asarray([c.rsplit(" @ ", 1) for c in k.contexts], dtype=object)
+    shown = np.asarray([s.split(" | ") for s in k.groups], dtype=object)
+    return pd.DataFrame({t.context_name: ctx[x, 0], "position": ctx[x, 1], "profile": shown[g, 0],
+                         "rival": shown[g, 1], "outcome": np.asarray(k.decisions, dtype=object)[d]})
+
+
+def _iv(iv):
+    return None if iv is None else [_num(iv.lower), _num(iv.upper)]
+
+
+def _point_dict(analysis, p) -> dict:
+    f = p.filter
+    return {
+        "epsilon": _num(p.epsilon),
+        "privacy": {
+            "epsilon_candidate": _num(p.mechanism.epsilon),
+            "epsilon_profile": _num(f.epsilon_profile),
+            "epsilon_per_attribute": {a.name: _num(e) for a, e in zip(analysis.task.attributes, f.epsilon_attributes)},
+            "keep_probability_per_attribute": {a.name: _num(q) for a, q in
+                                               zip(analysis.task.attributes, f.keep_probabilities)},
+            "delta": 0.0,
+            "context_mechanism": f.context_mechanism.name,
+        },
+        "bounds": {"corollary": _num(p.corollary), "black_box": _num(p.black_box_local),
+                   "black_box_global": _num(p.black_box_global)},
+        "observed": {
+            "local": _fairness(p.local, None if p.intervals is None else p.intervals.local),
+            "global": _fairness(p.global_, None if p.intervals is None else p.intervals.global_),
+        },
+        "certified_local": _num(p.black_box_local),
+    }
+
+
+def experiment_dict(analysis, run: dict | None = None) -> dict:
+    """The certificate JSON of an experiment.
+
+    Keys: ``experiment``, ``model``, ``positions``, ``samples``, ``queries``
+    (answered per design, unparsed, and what each design needs), ``utility``,
+    ``confidence``, ``baseline`` (no filter: L, L̄ and the decision shares of
+    the true profiles in both orders), ``points`` (per requested ε: the
+    privacy of the filter per attribute, profile and candidate; the
+    corollary and black-box bounds on L and the black-box bound on L̄; the
+    observed L and L̄ with their intervals), ``paper_design`` (the same from
+    the paper's design, when run) and ``curve`` (the dense grid). Values in
+    nats; +inf is ``"inf"``; NaN is ``null``.
+    """
+    a, t = analysis, analysis.task
+    shares = {}
+    c1, c2 = (t.profile_label(c) for c in t.candidates)
+    for i, ctx in enumerate(t.contexts):
+        shares[ctx] = {
+            f"{t.options[0]} = {c1}, {t.options[1]} = {c2}": dict(zip(t.decisions, map(_num, a.shares[i, 0]))),
+            f"{t.options[0]} = {c2}, {t.options[1]} = {c1}": dict(zip(t.decisions, map(_num, a.shares[i, 1]))),
+        }
+    curve = a.curve
+    out = {
+        "experiment": t.name,
+        "model": a.model,
+        "positions": a.positions,
+        "samples": a.samples,
+        "candidates": [c1, c2],
+        "context": t.context_name,
+        "queries": {"table": a.table_queries, "paper": a.paper_queries, "unparsed": a.unparsed,
+                    "table_design_needs": len(t.contexts) * len(t.profiles) ** 2 * a.samples,
+                    "paper_design_needs_per_epsilon": len(t.contexts) * (2 if a.positions == "balanced" else 1) * a.samples},
+        "utility": {"name": t.utility_name, "values": dict(zip(t.outcomes, map(_num, t.utility_values)))},
+        "tau": _num(a.tau),
+        "confidence": _num(a.confidence),
+        "baseline": {"local": _fairness(a.baseline.local, None if a.baseline.intervals is None else a.baseline.intervals.local),
+                     "global": _fairness(a.baseline.global_,
+                                         None if a.baseline.intervals is None else a.baseline.intervals.global_),
+                     "shares": shares},
+        "points": [_point_dict(a, p) for p in a.points],
+        "paper_design": [{"epsilon": _num(p.epsilon), "queries": p.queries,
+                          "local": _fairness(p.local, None if p.intervals is None else p.intervals.local),
+                          "global": _fairness(p.global_, None if p.intervals is None else p.intervals.global_)}
+                         for p in a.paper],
+        "curve": {k: [_num(v) for v in getattr(curve, k)] for k in
+                  ("epsilon", "keep_probability", "paper", "tight", "black_box", "corollary", "observed_local",
+                   "observed_global")},
+    }
+    if run:
+        out["run"] = run
+    return out
+
+
+def _f(v, digits: int = 4) -> str:
+    if v is None:
+        return "n/a"
+    if isinstance(v, str):
+        return "∞" if v == "inf" else v
+    return f"{v:.{digits}g}" if abs(v) >= 1e-3 or v == 0 else f"{v:.2e}"
+
+
+def _ivs(d: dict) -> str:
+    iv = d.get("interval")
+    return "" if iv is None else f" [{_f(iv[0])}, {_f(iv[1])}]"
+
+
+def experiment_markdown(d: dict) -> str:
+    """The Markdown report of :func:`experiment_dict`."""
+    q = d["queries"]
+    lines = [f"# {d['experiment']}: {d['model']}", ""]
+    lines += [f"Per-candidate framing: context = {d['context']} @ position, group = the "
+              f"candidate's true profile ({d['candidates'][0]} or {d['candidates'][1]}), outcome = its own; "
+              f"utility: {d['utility']['name']}. Positions: {d['positions']}.", ""]
+    lines += [f"Queries: {q['table']} in the table design ({d['samples']} per shown cell; the filter is applied by "
+              f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
+              f"'unparsed'."]
+    if q["paper"]:
+        lines += [f"The paper's design (sampling through the filter) used {q['paper']} more, "
+                  f"{q['paper_design_needs_per_epsilon']} per ε."]
+    conf = d["confidence"]
+    lines += ["", "## Baseline: no filter", "",
+              f"L = {_f(d['baseline']['local']['value'])} nats{_ivs(d['baseline']['local'])}, "
+              f"L̄ = {_f(d['baseline']['global']['value'])} nats{_ivs(d['baseline']['global'])}"
+              + (f" ({conf:g} simultaneous intervals)." if conf else "."), "", "![baseline](baseline.png)", ""]
+    head = "| context | order | " + " | ".join(next(iter(next(iter(d["baseline"]["shares"].values())).values()))) + " |"
+    lines += [head, "|" + "---|" * (head.count("|") - 1)]
+    for ctx, orders in d["baseline"]["shares"].items():
+        for order, s in orders.items():
+            lines.append(f"| {ctx} | {order} | " + " | ".join(_f(v, 3) for v in s.values()) + " |")
+    lines += ["", "## Fairness–privacy curve", "", "![curve](curve.png)", "",
+              "ε is the candidate's privacy budget (nats): the filter shows each attribute of both profiles through "
+              "randomized response, and a candidate's profile fixes its rival's, so both count.", "",
+              "| ε candidate | ε per profile | keep p per attribute | certified L ≤ (black-box) | corollary | observed L | "
+              "observed L̄ | black-box L̄ |", "|---|---|---|---|---|---|---|---|"]
+    for p in d["points"]:
+        keep = ", ".join(f"{_f(v, 3)}" for v in p["privacy"]["keep_probability_per_attribute"].values())
+        lines.append(f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
+                     f"{_f(p['bounds']['black_box'])} | {_f(p['bounds']['corollary'])} | "
+                     f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
+                     f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
+                     f"{_f(p['bounds']['black_box_global'])} |")
+    if d["paper_design"]:
+        lines += ["", "The paper's design at the same ε (each ε queried through the filter):", "",
+                  "| ε candidate | queries | observed L | observed L̄ |", "|---|---|---|---|"]
+        for p in d["paper_design"]:
+            lines.append(f"| {_f(p['epsilon'])} | {p['queries']} | {_f(p['local']['value'])}{_ivs(p['local'])} | "
+                         f"{_f(p['global']['value'])}{_ivs(p['global'])} |")
+    lines += ["", "The black-box bound holds for every decision model behind the filter (exact worst case); the "
+              "observed values are this model's. Files: kernel.csv (the model's kernel with counts), "
+              "candidates.csv, records.csv (per-candidate records for `fairaudit audit`), certificate.json, curve.csv, "
+              "queries.jsonl (every query and reply).", ""]
+    return "\n".join(lines)
+
+
+def plot_baseline(analysis, path) -> None:
+    """Bar chart of the decisions without a filter: per context, in the paper's order and swapped (atomic)."""
+    from ..plot import _matplotlib, save_figure
+
+    Figure = _matplotlib()
+    t = analysis.task
+    c1, c2 = (t.profile_label(c) for c in t.candidates)
+    fig = Figure(figsize=(7.5, 3.8), layout="constrained")
+    ax = fig.add_subplot()
+    n = len(t.contexts)
+    width = 0.38
+    colors = ["tab:blue", "tab:orange", "0.7"]
+    # who gets the outcome that option 1 gets (chosen / served first): candidate 1 or 2, per order
+    for j, (order, xs) in enumerate((("paper's order", np.arange(n) - width / 2), ("swapped", np.arange(n) + width / 2))):
+        s = analysis.shares[:, j, :]
+        first = s[:, 0] if j == 0 else s[:, 1]      # candidate 1's share
+        second = s[:, 1] if j == 0 else s[:, 0]
+        unp = s[:, 2]
+        bottoms = np.zeros(n)
+        for k, (vals, lab) in enumerate(((first, c1), (second, c2), (unp, "unparsed"))):
+            ax.bar(xs, vals, width * 0.95, bottom=bottoms, color=colors[k], edgecolor="white",
+                   label=lab if j == 0 else None, hatch="" if j == 0 else "//")
+            bottoms += vals
+    verb = "chosen" if t.kind == "choice" else "served first"
+    ax.set_xticks(np.arange(n), [f"{c}\n(left: {c1.split(' & ')[0]} as {t.options[0]}; right: swapped)" if i == 0
+                                 else c for i, c in enumerate(t.contexts)], fontsize=8)
+    ax.set_ylabel(f"share of queries: who is {verb}")
+    ax.set_ylim(0, 1.0)
+    ax.set_title(f"{t.name}, {analysis.model}: no privacy filter", fontsize=10)
+    ax.legend(fontsize=8, loc="upper right", framealpha=0.9)
+    save_figure(fig, path)
+
+
+def plot_experiment_curve(analysis, path) -> None:
+    """The fairness–privacy curve with confidence bands and the paper's design (atomic PNG or SVG)."""
+    from ..plot import _matplotlib, plot_curve, save_figure
+
+    Figure = _matplotlib()
+    fig = Figure(figsize=(7.5, 4.8), layout="constrained")
+    ax = fig.add_subplot()
+    plot_curve(analysis.curve, ax=ax, title=f"{analysis.task.name}: {analysis.model} (positions {analysis.positions})")
+    pts = [p for p in analysis.points if p.intervals is not None]
+    if pts:
+        top = ax.get_ylim()[1]
+        e = np.array([p.epsilon for p in pts])
+        for attr, color, label in (("local", "black", "L"), ("global_", "tab:green", "L̄")):
+            lo = np.array([getattr(p.intervals, attr).lower for p in pts])
+            hi = np.array([min(getattr(p.intervals, attr).upper, top) for p in pts])
+            ax.fill_between(e, lo, hi, color=color, alpha=0.12, lw=0,
+                            label=f"{analysis.confidence:g} band of observed {label}")
+    if analysis.paper:
+        e = np.array([p.epsilon for p in analysis.paper])
+        v = np.array([p.local.value for p in analysis.paper])
+        top = ax.get_ylim()[1]
+        ax.plot(e, np.minimum(v, top), ls="none", marker="D", ms=5, mfc="none", color="tab:red",
+                label="observed L, paper's design (sampled through the filter)")
+    ax.set_xlabel("privacy budget ε of a candidate (nats; both profiles shown)")
+    ax.legend(loc="upper left", fontsize=7, framealpha=0.9)
+    save_figure(fig, path)
+
+
+def write_json(path, data: dict) -> None:
+    """``data`` as indented JSON, atomically."""
+    write_atomic(path, json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n", field="--out")
+
+
+def write_frame(path, frame) -> None:
+    """A DataFrame as CSV, atomically."""
+    write_atomic(path, frame.to_csv(index=False), field="--out")
+

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._errors import InputError
-from .maps import Maps, build_maps
+from .maps import Maps, _networkx, build_maps
 from .s3dis import Area, read_area
 from .synthetic import write_office_floor
 
@@ -43,14 +43,6 @@ MAX_SNAP = 1.0
 
 _GRAPHS: "weakref.WeakKeyDictionary[Maps, object]" = weakref.WeakKeyDictionary()
 
-
-def _networkx():
-    try:
-        import networkx
-    except ImportError:
-        raise InputError("navigation", "needs networkx, which is not installed: pip install 'fairaudit[navigation]'") \
-            from None
-    return networkx
 
 
 def _pillow():

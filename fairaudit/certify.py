@@ -233,7 +233,7 @@ def certify(spec: Spec | str | Path, *, confidence: float | None = 0.95, method:
             raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
         observed = observe(law, spec.utility, spec.population)
         filtered = not (_is_identity(mech) and _is_identity(spec.context_mechanism))
-        if filtered:
+        if filtered and _sees_inputs(spec):   # the model on its own: only where it reads the true labels
             unfiltered = observe(Law.from_kernel(kernel), spec.utility, spec.population)
     obs_law = observed.law if observed is not None else None
 
@@ -314,7 +314,7 @@ def _intervals(spec: Spec, kernel: Kernel | None, confidence, method: str, seed:
         filtered_iv = fairness_intervals(table, spec.utility, confidence, method, sensitive_mechanism=spec.sensitive_mechanism,
                                          context_mechanism=spec.context_mechanism, population=spec.population, seed=seed)
         own = None
-        if not (_is_identity(spec.sensitive_mechanism) and _is_identity(spec.context_mechanism)):
+        if not (_is_identity(spec.sensitive_mechanism) and _is_identity(spec.context_mechanism)) and _sees_inputs(spec):
             own = fairness_intervals(table, spec.utility, confidence, method, population=spec.population, seed=seed)
     except InputError as exc:
         if exc.field in ("--confidence", "--method"):
@@ -363,10 +363,18 @@ def _calibrations(spec: Spec, kernel: Kernel | None, t, independent: bool):
         if not black and not reason:
             reason = "the only target is global and X and A are not independent: no black-box bound on L-bar"
     white = []
-    if kernel is not None:
+    if kernel is not None and not _sees_inputs(spec):
+        reason = (reason + "; " if reason else "") + ("white-box calibration needs a model indexed by the groups: the "
+                                                      "spec's mechanism releases other values")
+    elif kernel is not None:
         white = [calibrate(goal, kind=kind, method="white_box", kernel=kernel, utility=spec.utility,
                            context_mechanism=spec.context_mechanism, **common) for kind, goal in goals]
     return _tightest(black), _tightest(white), reason
+
+
+def _sees_inputs(spec: Spec) -> bool:
+    """True when both mechanisms release the labels they take (so the model's table is indexed by true values)."""
+    return all(tuple(m.outputs) == tuple(m.inputs) for m in (spec.sensitive_mechanism, spec.context_mechanism))
 
 
 def _is_identity(mech) -> bool:

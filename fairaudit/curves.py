@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._arrays import format_label
 from ._errors import InputError
 from .bounds import corollary_bound, paper_bound, tight_bound
 from .laws import Kernel, Population, compose
@@ -380,6 +381,11 @@ def privacy_curve(
         raise InputError("utility", "is needed to measure the observed fairness of the kernel")
     if kernel is not None and not isinstance(kernel, Kernel):
         raise InputError("kernel", "must be a Kernel", type(kernel).__name__)
+    if kernel is not None and tuple(family(0.0).outputs) != tuple(kernel.groups):
+        released = [format_label(o) for o in family(0.0).outputs[:3]]
+        raise InputError("kernel", f"mechanism '{family.name}' releases {released}..., not the kernel's groups: no curve "
+                         "along it (a spec whose mechanism releases other values than its groups has none)",
+                         [format_label(g) for g in kernel.groups[:3]])
     if gamma is None:
         gamma = utility.gamma if utility is not None else 1.0
     if lower is None:

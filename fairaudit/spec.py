@@ -376,6 +376,10 @@ class Spec:
     def kernel(self) -> Kernel | None:
         """The decision model P(U | X̃, Ã) from [model], or None.
 
+        The table is indexed by the *released* values: the outputs of
+        ``[privacy.context]`` and ``[privacy.sensitive]`` (the same labels as
+        their inputs, except for a ``matrix`` mechanism with ``outputs``).
+
         Raises
         ------
         InputError
@@ -400,13 +404,15 @@ class Spec:
             if frame.empty:
                 raise self._err(f"model.where.{col}", "selects no rows", want)
         ctx_cols = [] if self.model.context is None else [self.model.context.name]
+        # the model sees released values: its table is indexed by the mechanisms' outputs
+        contexts, groups = self.context_mechanism.outputs, self.sensitive_mechanism.outputs
         sens = [self.model.sensitive.name]
         dec = self.model.decision.name
         try:
             if m.records:
                 table = count_records(frame, sensitive=sens, outcome=dec, context=ctx_cols)
-                table = _relabel(table, self.contexts, self.groups, self.decisions)
-                probs_kernel = Kernel.from_counts(table.counts, self.contexts, self.groups, self.decisions)
+                table = _relabel(table, contexts, groups, self.decisions)
+                probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
             else:
                 prob_col = m.probability_column
                 cnt_col = m.count_column
@@ -418,16 +424,16 @@ class Spec:
                                         list(map(str, frame.columns)))
                 col = cnt_col or prob_col
                 table = count_table(frame, sensitive=sens, outcome=dec, context=ctx_cols, count=col,
-                                    contexts=self.contexts, groups=self.groups, decisions=self.decisions)
+                                    contexts=contexts, groups=groups, decisions=self.decisions)
                 empty = np.argwhere(table.counts.sum(axis=-1) == 0)
                 if len(empty):
                     i, j = empty[0]
-                    raise self._err(field, f"has no rows (or only zeros) for (context {format_label(self.contexts[i])!r}, "
-                                           f"group {format_label(self.groups[j])!r}); {len(empty)} such cells in all")
+                    raise self._err(field, f"has no rows (or only zeros) for (context {format_label(contexts[i])!r}, "
+                                           f"group {format_label(groups[j])!r}); {len(empty)} such cells in all")
                 if cnt_col:
-                    probs_kernel = Kernel.from_counts(table.counts, self.contexts, self.groups, self.decisions)
+                    probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
                 else:
-                    probs_kernel = Kernel(table.counts, self.contexts, self.groups, self.decisions)
+                    probs_kernel = Kernel(table.counts, contexts, groups, self.decisions)
         except InputError as exc:
             if exc.field.startswith(self.source):
                 raise

@@ -185,3 +185,24 @@ def test_a_run_is_never_overwritten(tmp_path, capsys):
             run(capsys, "experiment", "package-delivery", "--out", tmp_path / "p", *bad)
         err = capsys.readouterr().err
         assert exc.value.code == 2 and err.count("\n") == 1 and bad[0] in err, bad
+
+
+def test_certify_reads_the_runs_spec_and_repeats_its_certificate(tmp_path, capsys):
+    """spec-eps-<e>.toml: the per-candidate matrix mechanism (2 profiles -> 4 shown pairs) over candidates.csv."""
+    out = tmp_path / "pkg"
+    code, _, err = run(capsys, "experiment", "package-delivery", "--samples", "10", "--out", out, "--no-images",
+                       "--no-progress", "--keep", "0.7")
+    assert code == 0, err
+    exp = json.loads((out / "certificate.json").read_text())["points"][0]
+    specs = sorted(out.glob("spec-eps-*.toml"))
+    assert [s.name for s in specs] == ["spec-eps-1.695.toml"]
+    code, cert_out, err = run(capsys, "certify", specs[0], "--format", "json")
+    assert code == 0, err
+    cert = json.loads(cert_out)
+    assert cert["privacy"]["sensitive"]["epsilon"] == pytest.approx(2 * math.log(7 / 3), abs=1e-12)
+    assert cert["bounds"]["black_box"] == pytest.approx(math.log(99 / 59), abs=1e-9) == exp["bounds"]["black_box"]
+    assert cert["observed"]["local"] == exp["observed"]["local"]
+    assert cert["observed"]["global"] == exp["observed"]["global"]
+    assert "unfiltered" not in cert or cert["unfiltered"] is None     # the model never reads true profiles
+    code, _, err = run(capsys, "certify", specs[0], "--plot", tmp_path / "c.png")
+    assert code == 2 and "no curve along it" in err and err.count("\n") == 1

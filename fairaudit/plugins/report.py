@@ -10,6 +10,8 @@ Files in the run's folder (each written atomically):
 * ``records.csv``: the same as one record per query and candidate, for
   ``fairaudit audit records.csv --sensitive profile --context document,position
   --outcome outcome --positive chosen`` (the model without a filter).
+* ``spec-eps-<ε>.toml``: :func:`experiment_spec`, one per requested ε, for
+  ``fairaudit certify``.
 * ``certificate.json``: :func:`experiment_dict`.
 * ``curve.csv``: the dense fairness–privacy curve.
 * ``baseline.png``: decision shares without a filter, per context and order.
@@ -26,7 +28,7 @@ import numpy as np
 
 from ..report import _fairness, _num, write_atomic
 
-__all__ = ["experiment_dict", "experiment_markdown", "kernel_frame", "candidate_frame", "records_frame", "plot_baseline",
+__all__ = ["experiment_spec", "experiment_dict", "experiment_markdown", "kernel_frame", "candidate_frame", "records_frame", "plot_baseline",
            "plot_experiment_curve"]
 
 
@@ -55,8 +57,44 @@ def candidate_frame(analysis):
     k = analysis.candidate_kernel
     n_ctx, n_g, n_d = k.counts.shape
     x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_g), np.arange(n_d), indexing="ij"))
-    return pd.DataFrame({"context": np.asarray(k.contexts, dtype=object)[x], "shown": np.asarray(k.groups, dtype=object)[g],
+    return pd.DataFrame({"context": np.asarray(k.contexts, dtype=object)[x], "profile": np.asarray(k.groups, dtype=object)[g],
                          "outcome": np.asarray(k.decisions, dtype=object)[d], "count": k.counts.ravel().astype(int)})
+
+
+def experiment_spec(analysis, point) -> str:
+    """A ``fairaudit certify`` spec (TOML) of the per-candidate experiment at one ε.
+
+    ``[sensitive]`` the two candidates' profiles; ``[context]`` item @
+    position; ``[privacy.sensitive]`` the matrix M_cand of that ε, with its
+    outputs (``own | rival``); ``[privacy.context]`` M_X ⊗ I; ``[population]``
+    the run's positions; ``[model]`` ``candidates.csv`` (counts);
+    ``[utility]`` the task's g. ``fairaudit certify`` of it repeats the
+    experiment's certificate at that ε. Values are written with ``json.dumps``
+    (TOML's strings, arrays and floats accept them).
+    """
+    a, t = analysis, analysis.task
+    j = json.dumps
+    rows = ",\n  ".join(j([float(v) for v in r]) for r in point.mechanism.matrix)
+    ctx = point.filter.context_mechanism
+    lines = [f"# {t.name}: {a.model}; the candidate's ε = {point.epsilon:.6g} nats "
+             f"(keep p = {', '.join(f'{q:.6g}' for q in point.filter.keep_probabilities)} per attribute)",
+             f"title = {j(f'{t.name}: {a.model}, per candidate, epsilon = {point.epsilon:.6g}')}", "",
+             "[sensitive]", 'name = "profile"', f"values = {j(list(a.population.groups))}", "",
+             "[context]", 'name = "context"', f"values = {j(list(a.population.contexts))}", "",
+             "[decision]", 'name = "outcome"', f"values = {j(list(t.outcomes))}", "",
+             "[population]", "probabilities = [\n  " + ",\n  ".join(j(r) for r in a.population.probabilities.tolist())
+             + "\n]", "",
+             "[privacy.sensitive]", 'mechanism = "matrix"', f"name = {j(point.mechanism.name)}",
+             f"outputs = {j(list(point.mechanism.outputs))}", f"rows = [\n  {rows}\n]", ""]
+    if ctx.epsilon != float("inf"):
+        m = np.kron(ctx.matrix, np.eye(len(t.options)))
+        lines += ["[privacy.context]", 'mechanism = "matrix"', f"name = {j(ctx.name)}",
+                  "rows = [\n  " + ",\n  ".join(j(r) for r in m.tolist()) + "\n]", ""]
+    lines += ["[model]", 'table = "candidates.csv"', 'count_column = "count"', "",
+              "[utility]", 'kind = "table"', f"values = {j([float(v) for v in t.utility_values])}"]
+    if a.tau is not None:
+        lines.append(f"tau = {j(float(a.tau))}")
+    return "\n".join(lines) + "\n"
 
 
 def records_frame(analysis):

@@ -180,8 +180,8 @@ def run_experiment(experiment: str, out: str | Path, *, simulated: str | None = 
 
 def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
     from ..report import write_atomic
-    from .report import (candidate_frame, experiment_dict, experiment_markdown, kernel_frame, plot_baseline,
-                         plot_experiment_curve, records_frame, write_frame, write_json)
+    from .report import (candidate_frame, experiment_dict, experiment_markdown, experiment_spec, kernel_frame,
+                         plot_baseline, plot_experiment_curve, records_frame, write_frame, write_json)
 
     data = experiment_dict(analysis, run)
     written = []
@@ -193,6 +193,10 @@ def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
                         ("report.md", lambda p: write_atomic(p, experiment_markdown(data), field="--out"))):
         write(out / name)
         written.append(out / name)
+    for p in analysis.points:
+        path = out / f"spec-eps-{p.epsilon:.4g}.toml"
+        write_atomic(path, experiment_spec(analysis, p), field="--out")
+        written.append(path)
     try:
         plot_baseline(analysis, out / "baseline.png")
         plot_experiment_curve(analysis, out / "curve.png")

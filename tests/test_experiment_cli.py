@@ -168,6 +168,8 @@ def test_bad_options_exit_2_with_one_line(tmp_path, capsys, argv, message):
     assert code == 2 and out == ""
     assert err.startswith("fairaudit: error: ") and err.count("\n") == 1 and message in err, err
     assert not (tmp_path / "o" / "queries.jsonl").exists()
+    if argv[0] == "--scene":
+        assert not (tmp_path / "o").exists()          # refused before --out is made
 
 
 def test_a_run_is_never_overwritten(tmp_path, capsys):

@@ -118,10 +118,6 @@ def records_frame(analysis):
                          "rival": shown[g, 1], "outcome": np.asarray(k.decisions, dtype=object)[d]})
 
 
-def _iv(iv):
-    return None if iv is None else [_num(iv.lower), _num(iv.upper)]
-
-
 def _point_dict(analysis, p) -> dict:
     f = p.filter
     return {

@@ -57,11 +57,11 @@ def _model(task, simulated, kernel, endpoint, model, timeout, max_retries, concu
     return simulated_model(task, simulated or next(iter(SIMULATED[task.name])))
 
 
-def _images(task, scene, images: bool, out: Path) -> tuple:
+def _images(scene, images: bool) -> tuple:
+    """The route images of the scene (checked for equal distances), before anything is written."""
     if not images:
         return ()
     from .navigation import delivery_scene
-    from ..report import write_atomic
 
     s = delivery_scene(scene)
     if not s.check.equal:
@@ -69,8 +69,6 @@ def _images(task, scene, images: bool, out: Path) -> tuple:
         raise InputError("--scene", f"the routes to the two destinations are not of equal length ({lengths}; "
                          f"{s.check.max_relative_difference:.1%} apart, more than {s.check.rtol:.0%}): the paper's "
                          "experiment needs equal distances", str(scene or "generated floor"))
-    for i, png in enumerate(s.images, start=1):
-        write_atomic(out / f"route-{i}.png", png, field="--out")
     return tuple(s.images)
 
 
@@ -156,8 +154,12 @@ def run_experiment(experiment: str, out: str | Path, *, simulated: str | None = 
     if log_path.exists() and log_path.stat().st_size > 0 and not resume:
         raise InputError("--out", "holds a run already (queries.jsonl); pass --resume to continue it, or choose "
                          "another folder", str(out))
+    pngs = _images(scene, images)                 # a bad scene is refused before --out is touched
     out.mkdir(exist_ok=True)
-    pngs = _images(task, scene, images, out)
+    from ..report import write_atomic
+
+    for i, png in enumerate(pngs, start=1):
+        write_atomic(out / f"route-{i}.png", png, field="--out")
     header = {"task": task.name, "model": m.name, "seed": int(seed), "fairaudit": __version__, "samples": samples,
               "design": design, "positions": positions, "epsilons": eps, "context_epsilon": context_epsilon}
     queries = plan_queries(task, "table", samples, seed)

@@ -25,6 +25,7 @@ from typing import Protocol
 import numpy as np
 
 from ..._errors import InputError
+from .filter import _draw
 from .tasks import UNPARSED, DeliveryTask
 
 __all__ = ["Query", "ModelReply", "DecisionModel", "SimulatedModel", "EndpointModel", "SIMULATED", "simulated_model",
@@ -162,7 +163,7 @@ class SimulatedModel:
         row = self.probabilities[t.contexts.index(query.context), profiles.index(tuple(query.profiles[0])),
                                  profiles.index(tuple(query.profiles[1]))]
         rng = np.random.default_rng(query.seed)
-        d = int(np.searchsorted(np.cumsum(row), rng.random() * row.sum(), side="right").clip(0, row.size - 1))
+        d = _draw(rng, row)
         return ModelReply(reply_text(t, None if d == len(t.options) else d, rng), f"simulated:{self.name}")
 
     @classmethod

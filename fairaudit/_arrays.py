@@ -13,25 +13,44 @@ ROW_TOLERANCE = 1e-9
 
 
 def as_labels(values: Iterable[Hashable], field: str) -> tuple:
-    """Return ``values`` as a tuple of distinct hashable labels."""
+    """Return ``values`` as a tuple of distinct hashable labels.
+
+    Numpy scalars become Python scalars and lists become tuples. Linear in the
+    number of labels with C-level passes (a numpy array converts with
+    ``tolist``; distinctness is one ``set``), so a million labels take
+    milliseconds; the error path finds the first repeat.
+    """
+    if type(values) is tuple and _VALIDATED.get(id(values)) is values:
+        return values
     if isinstance(values, (str, bytes)):
         raise InputError(field, "must be a list of labels, not a single string", values)
-    labels = tuple(_plain(v) for v in values)
+    labels = tuple(values.tolist()) if isinstance(values, np.ndarray) else tuple(values)
+    if any(issubclass(t, (np.generic, list, np.ndarray)) for t in set(map(type, labels))):
+        labels = tuple(_plain(v) for v in labels)
     if not labels:
         raise InputError(field, "must name at least one value", list(labels))
-    seen: dict = {}
-    for label in labels:
-        if label in seen:
-            raise InputError(field, "labels must be distinct; repeated label", label)
-        seen[label] = True
+    if len(set(labels)) != len(labels):
+        seen: set = set()
+        for label in labels:
+            if label in seen:
+                raise InputError(field, "labels must be distinct; repeated label", label)
+            seen.add(label)
+    if len(labels) >= 1024:   # remember big label sets: a law's contexts are checked again by every table built on them
+        _VALIDATED[id(labels)] = labels
+        while len(_VALIDATED) > 8:
+            del _VALIDATED[next(iter(_VALIDATED))]
     return labels
+
+
+_VALIDATED: dict[int, tuple] = {}
+"""The last few large label tuples that passed :func:`as_labels` (a tuple is immutable: it stays valid)."""
 
 
 def _plain(value):
     """Numpy scalars to Python scalars, lists to tuples (hashable labels)."""
     if isinstance(value, np.generic):
         return value.item()
-    if isinstance(value, list):
+    if isinstance(value, (list, np.ndarray)):
         return tuple(_plain(v) for v in value)
     return value
 
@@ -43,10 +62,14 @@ def format_label(label) -> str:
     return str(label)
 
 
-def as_float_array(values, field: str, ndim: int | None = None) -> np.ndarray:
-    """Convert to a float64 array; reject ragged input and wrong dimension."""
+def as_float_array(values, field: str, ndim: int | None = None, *, copy: bool = True) -> np.ndarray:
+    """Convert to a float64 array; reject ragged input and wrong dimension.
+
+    With ``copy=False`` a float64 array is returned as it is (no copy); the
+    caller must own it.
+    """
     try:
-        array = np.array(values, dtype=float)
+        array = np.array(values, dtype=float) if copy else np.asarray(values, dtype=float)
     except (TypeError, ValueError) as exc:
         raise InputError(field, f"must be numeric ({exc})", values) from None
     if ndim is not None and array.ndim != ndim:
@@ -77,6 +100,8 @@ def check_probabilities(
     table, which hold NaN).
     """
     lead = array.shape[:-1]
+    if array.size and _valid_fast(array, skip_rows, rows_sum_to_one):
+        return
     mask = np.ones(lead, dtype=bool) if skip_rows is None else ~np.asarray(skip_rows, dtype=bool)
     checked = array[mask]
     if checked.size and not np.all(np.isfinite(checked)):
@@ -94,6 +119,28 @@ def check_probabilities(
                 field,
                 f"row {_where(idx, axis_labels, axis_names)} sums to {float(sums[tuple(idx)]):.12g}, not 1",
             )
+
+
+def _valid_fast(array: np.ndarray, skip_rows, rows_sum_to_one: bool) -> bool:
+    """True when every checked row is finite, non-negative and (optionally) sums to one.
+
+    Two reductions with no temporary of the table's size: the row sums (a
+    non-finite entry makes its row's sum non-finite) and the minimum. False
+    means "look closer": the caller's slow path finds and names the culprit.
+    """
+    sums = np.einsum("...u->...", array) if array.ndim > 1 else array.sum(keepdims=True)
+    if skip_rows is not None:
+        skip = np.asarray(skip_rows, dtype=bool)
+        if skip.any():
+            keep = ~skip
+            sums = sums[keep]
+            array = array[keep]
+    if not sums.size:
+        return True
+    hi, lo = sums.max(), sums.min()          # NaN or inf anywhere shows here
+    if not (np.isfinite(hi) and np.isfinite(lo) and array.min() >= 0):
+        return False
+    return not rows_sum_to_one or bool(hi - 1.0 <= ROW_TOLERANCE and 1.0 - lo <= ROW_TOLERANCE)
 
 
 def _where(index, axis_labels, axis_names) -> str:

@@ -86,14 +86,13 @@ class Population:
     def __init__(self, probabilities, contexts: Sequence[Hashable], groups: Sequence[Hashable]):
         contexts = as_labels(contexts, "population contexts")
         groups = as_labels(groups, "population groups")
-        array = as_float_array(probabilities, "population", ndim=2)
+        array = as_float_array(probabilities, "population", ndim=2)   # our own copy
         check_shape(array, (len(contexts), len(groups)), "population", ("contexts", "groups"))
         check_probabilities(array[:, :, None], "population", (contexts, groups, (None,)), ("context", "group", "-"),
                             rows_sum_to_one=False)
         total = float(array.sum())
         if abs(total - 1.0) > ROW_TOLERANCE:
             raise InputError("population", f"entries sum to {total:.12g}, not 1")
-        array = array.copy()
         array.setflags(write=False)
         object.__setattr__(self, "probabilities", array)
         object.__setattr__(self, "contexts", contexts)
@@ -132,13 +131,21 @@ class Population:
 
     @property
     def p_context(self) -> np.ndarray:
-        """Marginal P(X = x), shape (n_contexts,)."""
-        return self.probabilities.sum(axis=1)
+        """Marginal P(X = x), shape (n_contexts,), read-only (computed once)."""
+        return self._marginal("p_context", lambda p: np.einsum("xa->x", p))
 
     @property
     def p_group(self) -> np.ndarray:
-        """Marginal P(A = a), shape (n_groups,)."""
-        return self.probabilities.sum(axis=0)
+        """Marginal P(A = a), shape (n_groups,), read-only (computed once)."""
+        return self._marginal("p_group", lambda p: p.sum(axis=0))
+
+    def _marginal(self, key: str, compute) -> np.ndarray:
+        cache = self.__dict__.setdefault("_cache", {})
+        if key not in cache:
+            value = compute(self.probabilities)
+            value.setflags(write=False)
+            cache[key] = value
+        return cache[key]
 
     def context_given_group(self) -> np.ndarray:
         """P(X = x | A = a), shape (n_contexts, n_groups); columns of groups with P(a) = 0 are NaN."""
@@ -162,6 +169,8 @@ class _DecisionTable:
     decisions: tuple
     counts: np.ndarray | None = None
     name: str = "table"
+    complete: bool = True
+    """True when every cell (x, a) is observed (no empty cell)."""
 
     _axes = ("context", "group", "decision")
 
@@ -174,27 +183,33 @@ class _DecisionTable:
         *,
         counts=None,
         name: str | None = None,
+        _owned: bool = False,
     ):
         name = name or self._default_name
         contexts = as_labels(contexts, f"{name} contexts")
         groups = as_labels(groups, f"{name} groups")
         decisions = as_labels(decisions, f"{name} decisions")
         shape = (len(contexts), len(groups), len(decisions))
-        array = as_float_array(probabilities, name, ndim=3)
+        # One copy of the caller's array (none when it is ours already: ``_owned``); it is then frozen.
+        array = as_float_array(probabilities, name, ndim=3, copy=not _owned)
         check_shape(array, shape, name, ("contexts", "groups", "decisions"))
         empty = None
         if counts is not None:
-            counts = as_float_array(counts, f"{name} counts", ndim=3)
+            counts = as_float_array(counts, f"{name} counts", ndim=3, copy=not _owned)
             check_shape(counts, shape, f"{name} counts", ("contexts", "groups", "decisions"))
-            if np.any(counts < 0) or not np.all(np.isfinite(counts)):
+            if not (counts.size == 0 or counts.min() >= 0) or not np.isfinite(counts.sum()):
                 raise InputError(f"{name} counts", "must be finite and non-negative")
-            empty = counts.sum(axis=-1) == 0
-            counts = counts.copy()
+            empty = np.einsum("...u->...", counts) == 0
             counts.setflags(write=False)
         check_probabilities(array, name, (contexts, groups, decisions), self._axes, skip_rows=empty)
-        array = array.copy()
-        if empty is not None:
+        if empty is not None and empty.any():
             array[empty] = np.nan
+            observed = ~empty
+        else:
+            observed = np.ones(shape[:2], dtype=bool)       # rows are checked finite: no NaN without counts
+        observed.setflags(write=False)
+        object.__setattr__(self, "_observed", observed)
+        object.__setattr__(self, "complete", bool(observed.all()))
         array.setflags(write=False)
         object.__setattr__(self, "probabilities", array)
         object.__setattr__(self, "contexts", contexts)
@@ -220,11 +235,11 @@ class _DecisionTable:
         Each row is divided by its total; rows with no record are empty
         (NaN) and reported by :attr:`empty_cells`.
         """
-        array = as_float_array(counts, f"{name or cls._default_name} counts", ndim=3)
-        totals = array.sum(axis=-1, keepdims=True)
+        array = as_float_array(counts, f"{name or cls._default_name} counts", ndim=3)   # our own copy
+        totals = np.einsum("...u->...", array)[..., None]
         with np.errstate(divide="ignore", invalid="ignore"):
-            probs = np.where(totals > 0, array / totals, np.nan)
-        return cls(probs, contexts, groups, decisions, counts=array, name=name)
+            probs = array / totals          # NaN in rows with no record (0 / 0)
+        return cls(probs, contexts, groups, decisions, counts=array, name=name, _owned=True)
 
     def __repr__(self) -> str:
         n = len(self.contexts), len(self.groups), len(self.decisions)
@@ -237,8 +252,8 @@ class _DecisionTable:
 
     @property
     def observed(self) -> np.ndarray:
-        """Boolean (n_contexts, n_groups): True where the cell's row is known."""
-        return ~np.isnan(self.probabilities[..., 0])
+        """Boolean (n_contexts, n_groups), read-only: True where the cell's row is known (it has records)."""
+        return self._observed
 
     @property
     def cell_counts(self) -> np.ndarray | None:
@@ -369,12 +384,15 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
             [format_label(o) for o in m_x.outputs],
         )
     k = kernel.probabilities
+    same_a, same_x = m_a.is_identity, m_x.is_identity      # never materialise an identity matrix
     empty = ~kernel.observed
     if np.any(empty):
-        reach = np.einsum("xy,ab->xayb", m_x.matrix, m_a.matrix) > 0
-        hit = reach & empty[None, None, :, :]
+        # a released cell (x̃, ã) is reached when some input maps to x̃ and some input maps to ã
+        reach_x = True if same_x else (m_x.matrix > 0).any(axis=0)[:, None]
+        reach_a = True if same_a else (m_a.matrix > 0).any(axis=0)[None, :]
+        hit = empty & reach_x & reach_a
         if np.any(hit):
-            _, _, i, j = np.argwhere(hit)[0]
+            i, j = np.argwhere(hit)[0]
             raise InputError(
                 "kernel",
                 f"empty cell (context={format_label(kernel.contexts[i])!r}, group={format_label(kernel.groups[j])!r}) "
@@ -382,7 +400,14 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
                    if sensitive is not None or context is not None else "has no records; give counts for it"),
             )
         k = np.nan_to_num(k, nan=0.0)
-    q = np.einsum("xy,ab,ybu->xau", m_x.matrix, m_a.matrix, k, optimize=True)
+    if same_x and same_a:
+        q = k
+    elif same_x:
+        q = np.matmul(m_a.matrix, k)                          # Σ_ã M_A[a, ã] K[x, ã, u], per context
+    elif same_a:
+        q = np.tensordot(m_x.matrix, k, axes=1)               # Σ_x̃ M_X[x, x̃] K[x̃, a, u]
+    else:
+        q = np.einsum("xy,ab,ybu->xau", m_x.matrix, m_a.matrix, k, optimize=True)
     # Clean rounding so rows sum to 1 within tolerance.
-    q = q / q.sum(axis=-1, keepdims=True)
-    return Law(q, m_x.inputs, m_a.inputs, kernel.decisions, name="law")
+    q = q / np.einsum("...u->...", q)[..., None]
+    return Law(q, m_x.inputs, m_a.inputs, kernel.decisions, name="law", _owned=True)

@@ -114,6 +114,15 @@ class Mechanism:
         return f"Mechanism({self.name!r}, {len(self.inputs)} inputs -> {len(self.outputs)} outputs, epsilon={self.epsilon:.6g})"
 
     @property
+    def is_identity(self) -> bool:
+        """True when the mechanism releases its input unchanged (same labels, identity matrix)."""
+        if "is_identity" not in self._cache:
+            m = self.matrix
+            self._cache["is_identity"] = bool(self.inputs == self.outputs and m.shape[0] == m.shape[1]
+                                              and np.array_equal(m, np.eye(m.shape[0])))
+        return self._cache["is_identity"]
+
+    @property
     def epsilon(self) -> float:
         """Pure-DP ε(M) in nats: max log M[a, o] / M[a', o] over all pairs.
 
@@ -391,7 +400,33 @@ def identity(values: Sequence[Hashable], name: str = "identity") -> Mechanism:
     inf
     """
     labels = as_labels(values, "identity values")
-    return Mechanism(np.eye(len(labels)), labels, name=name)
+    return _Identity(labels, name)
+
+
+class _Identity(Mechanism):
+    """The identity on ``labels``: its n x n matrix is made only when asked for.
+
+    The core (composition, metrics, intervals, worst models) never asks: an
+    identity filter on a million contexts costs its labels, not 10^12 cells.
+    """
+
+    def __init__(self, labels: tuple, name: str):
+        object.__setattr__(self, "inputs", labels)
+        object.__setattr__(self, "outputs", labels)
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "_cache", {"is_identity": True})
+
+    @property
+    def matrix(self) -> np.ndarray:  # type: ignore[override]
+        if "matrix" not in self._cache:
+            m = np.eye(len(self.inputs))
+            m.setflags(write=False)
+            self._cache["matrix"] = m
+        return self._cache["matrix"]
+
+    @property
+    def epsilon(self) -> float:  # type: ignore[override]
+        return math.inf if len(self.inputs) >= 2 else 0.0
 
 
 def from_matrix(rows, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix") -> Mechanism:

@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 
 from ._errors import InputError
 from .bounds import Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
@@ -30,17 +29,7 @@ from .calibrate import Calibration, calibrate
 from .estimate import CountTable
 from .intervals import FairnessIntervals, fairness_intervals
 from .laws import Kernel, Law, compose
-from .metrics import (
-    Fairness,
-    SupFairness,
-    TotalVariation,
-    demographic_parity,
-    equalized_odds,
-    global_fairness,
-    local_fairness,
-    sup_global_fairness,
-    sup_local_fairness,
-)
+from .metrics import Fairness, SupFairness, TotalVariation, all_metrics
 from .spec import Spec, load_spec
 from .worstcase import WorstModel, worst_model
 
@@ -157,16 +146,10 @@ class Certificate:
 
 
 def observe(law: Law, utility, population) -> Observed:
-    """All exact metrics of ``law`` for ``utility`` under ``population``."""
-    return Observed(
-        law=law,
-        local=local_fairness(law, utility, population),
-        global_=global_fairness(law, utility, population),
-        demographic_parity=demographic_parity(law, population),
-        equalized_odds=equalized_odds(law, population),
-        sup_local=sup_local_fairness(law, population),
-        sup_global=sup_global_fairness(law, population),
-    )
+    """All exact metrics of ``law`` for ``utility`` under ``population`` (one pass: :func:`~fairaudit.metrics.all_metrics`)."""
+    m = all_metrics(law, utility, population)
+    return Observed(law=law, local=m["local"], global_=m["global"], demographic_parity=m["demographic_parity"],
+                    equalized_odds=m["equalized_odds"], sup_local=m["sup_local"], sup_global=m["sup_global"])
 
 
 def _merge_assumptions(bounds: list[tuple[str, tuple]]) -> tuple:
@@ -378,5 +361,4 @@ def _sees_inputs(spec: Spec) -> bool:
 
 
 def _is_identity(mech) -> bool:
-    m = mech.matrix
-    return m.shape[0] == m.shape[1] and bool((m == np.eye(m.shape[0])).all()) and tuple(mech.inputs) == tuple(mech.outputs)
+    return mech.is_identity

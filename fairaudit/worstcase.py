@@ -645,16 +645,20 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         raise InputError("population", "must have the context mechanism's inputs as contexts and M_A's inputs as groups",
                          (list(map(format_label, population.contexts)), list(map(format_label, population.groups))))
     decisions = utility.decisions
-    g = np.asarray(utility.table(contexts, groups, decisions), dtype=float)       # (nX, nA, nU)
-    MA, MX = mechanism.matrix, context_mechanism.matrix
+    g = np.asarray(utility.table(contexts, groups, decisions), dtype=float)       # (nX, nA, nU), a view for g(u)
+    MA = mechanism.matrix
     nX, nA, nU = g.shape
-    nXr, nAr = MX.shape[1], MA.shape[1]
+    nXr, nAr = len(context_mechanism.outputs), MA.shape[1]
+    same_x = context_mechanism.is_identity        # then M_X is never materialised (a million contexts: 10^12 cells)
     live = population.p_context > 0
     excluded = tuple(f"context {format_label(contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live))
     floor = -math.inf if tau is None else tau
     indep_a = not utility.depends_on_group
     u_only = utility.values.ndim == 1 or not (utility.depends_on_group or utility.depends_on_context)
-    gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))                           # per context
+    if utility.values.ndim == 1:
+        gmin, gmax = np.full(nX, float(utility.values.min())), np.full(nX, float(utility.values.max()))
+    else:
+        gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))                       # per context
     binding = bool(np.any(floor > gmin[live])) if live.any() else False
     independent = population.independence().independent
     assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
@@ -663,10 +667,12 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
     released_groups, released_contexts = mechanism.outputs, context_mechanism.outputs
 
-    def kernel_of(table: np.ndarray) -> Kernel:
+    def kernel_of(table: np.ndarray, exact: bool = False) -> Kernel:
+        if exact:   # a table of one-hot rows made here: no rounding to clean
+            return Kernel(table, released_contexts, released_groups, decisions, name="worst model", _owned=True)
         t = np.clip(table, 0.0, None)
         t = t / t.sum(axis=-1, keepdims=True)
-        return Kernel(t, released_contexts, released_groups, decisions, name="worst model")
+        return Kernel(t, released_contexts, released_groups, decisions, name="worst model", _owned=True)
 
     def audit(kernel: Kernel, kind: str) -> np.ndarray:
         from .metrics import expected_utility, global_fairness
@@ -690,32 +696,45 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
 
     pairs = np.array([(a, b) for a in range(nA) for b in range(nA) if a != b])
     # box values per (x, a, b) when g is free of the group: an upper bound always, exact without a binding τ
+    # The box depends on x only through [min_u g(u, x), max_u g(u, x)]: solved once per distinct range (one for
+    # g(u)), box[x] = box_c[cls[x]].
     if indep_a:
-        lo_x, hi_x = g[:, 0, :].min(-1), g[:, 0, :].max(-1)
-        box, kx, order = threshold_max_many(MA[None, :, None, :], MA[None, None, :, :],
-                                            lo_x[:, None, None, None], hi_x[:, None, None, None])   # (nX, nA, nA)
-        box = box.copy()
-        box[:, np.arange(nA), np.arange(nA)] = -np.inf
-        box[~live] = -np.inf
+        if utility.values.ndim == 1:
+            ranges, cls = np.array([[gmin[0], gmax[0]]]), np.zeros(nX, dtype=np.intp)
+        else:
+            ranges, cls = np.unique(np.stack([g[:, 0, :].min(-1), g[:, 0, :].max(-1)], axis=1), axis=0,
+                                    return_inverse=True)
+            cls = cls.ravel()
+        box_c, kx_c, order_c = threshold_max_many(MA[None, :, None, :], MA[None, None, :, :],
+                                                  ranges[:, 0, None, None, None], ranges[:, 1, None, None, None])
+        box_c = box_c.copy()                                                        # (n_ranges, nA, nA)
+        box_c[:, np.arange(nA), np.arange(nA)] = -np.inf
     # ------------------------------------------------------------------ local
     if indep_a and not binding and method != "lp":
-        x, a, b = np.unravel_index(int(box.argmax()), box.shape)
-        top = order[x, a, b, : int(kx[x, a, b])]
+        best_c = box_c.reshape(len(box_c), -1).max(axis=1)
+        best_c[~np.isin(np.arange(len(box_c)), cls[live])] = -np.inf            # ranges of no live context
+        x = int(np.argmax(live & (best_c[cls] == best_c.max())))                  # the first live maximiser
+        c = cls[x]
+        a, b = np.unravel_index(int(box_c[c].argmax()), (nA, nA))
+        top = order_c[c, a, b, : int(kx_c[c, a, b])]
         hi_u, lo_u = int(g[x, 0].argmax()), int(g[x, 0].argmin())
-        table = np.broadcast_to(_onehot(np.array(lo_u), nU), (nXr, nAr, nU)).copy()
-        table[:, top, :] = _onehot(np.array(hi_u), nU)
-        kern = kernel_of(table)
-        r = float(box[x, a, b])
+        table = np.zeros((nXr, nAr, nU))
+        table[..., lo_u] = 1.0
+        table[:, top, lo_u] = 0.0
+        table[:, top, hi_u] = 1.0
+        kern = kernel_of(table, exact=True)
+        r = float(box_c[c, a, b])
         local = WorstCase("local", _log(r), r, contexts[x], groups[a], groups[b], kern, None, audit(kern, "local"),
                           "threshold", "unbounded" if math.isinf(r) else "optimal", "threshold",
                           "a released group is possible for one group and impossible for another" if math.isinf(r)
                           else "", 0)
     else:
+        MX = context_mechanism.matrix
         sp_ = _model_program(MA, MX, g, live, tau, u_only, binding)
         xs = np.flatnonzero(live)
         triples = np.array([(x, a, b) for x in xs for a, b in pairs])
         if indep_a:
-            upper = box[triples[:, 0], triples[:, 1], triples[:, 2]]
+            upper = box_c[cls[triples[:, 0]], triples[:, 1], triples[:, 2]]
         else:
             upper = np.full(len(triples), np.inf)
         if tau is not None and tau > 0:
@@ -744,10 +763,9 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         found = _search(upper, solve)
         local = _model_case("local", found, triples, contexts, groups, sp_.to_kernel, kernel_of, audit)
     # ------------------------------------------------------------------ global
-    w_xa = np.nan_to_num(population.context_given_group(), nan=0.0)              # P(x | a), (nX, nA)
     if indep_a and not binding and independent and method != "lp":
         px = population.p_context
-        w = np.einsum("x,xy,xu->yu", px, MX, g[:, 0, :])                          # w[x̃, u]
+        w = px[:, None] * g[:, 0, :] if same_x else np.einsum("x,xy,xu->yu", px, context_mechanism.matrix, g[:, 0, :])
         lo_g, hi_g = w.min(-1).sum(), w.max(-1).sum()
         vals, kg, order_g = threshold_max_many(MA[:, None, :], MA[None, :, :], lo_g, hi_g)
         np.fill_diagonal(vals, -np.inf)
@@ -755,12 +773,13 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         top = order_g[a, b, : int(kg[a, b])]
         table = np.repeat(_onehot(w.argmin(-1), nU)[:, None, :], nAr, axis=1)
         table[:, top, :] = _onehot(w.argmax(-1), nU)[:, None, :]
-        kern = kernel_of(table)
+        kern = kernel_of(table, exact=True)
         r = float(vals[a, b])
         global_ = WorstCase("global", _log(r), r, None, groups[a], groups[b], kern, None, audit(kern, "global"),
                             "threshold", "unbounded" if math.isinf(r) else "optimal", "threshold", "", 0)
     else:
-        sp_ = _model_program(MA, MX, g, live, tau, u_only, binding)
+        w_xa = np.nan_to_num(population.context_given_group(), nan=0.0)          # P(x | a), (nX, nA)
+        sp_ = _model_program(MA, context_mechanism.matrix, g, live, tau, u_only, binding)
 
         def coef_global(a: int) -> np.ndarray:
             return sum(w_xa[x, a] * sp_.coef(x, a) for x in np.flatnonzero(live & (w_xa[:, a] > 0)))

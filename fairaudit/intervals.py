@@ -234,11 +234,22 @@ def clopper_pearson(k, n, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     from scipy import stats  # imported here: scipy.stats adds ~1 s to every start of the command
 
     k, n = np.broadcast_arrays(np.asarray(k, dtype=float), np.asarray(n, dtype=float))
+    codes = None
+    if k.size > 256 and np.all(np.isfinite(n)) and n.max(initial=0) < 2**31 and k.min(initial=0) >= 0 \
+            and np.array_equal(k, np.floor(k)) and np.array_equal(n, np.floor(n)):
+        # a big table repeats few (k, n): the beta quantiles (most of the cost) once per distinct pair
+        import pandas as pd
+
+        codes, uniques = pd.factorize(n.astype(np.int64).ravel() * 2**31 + k.astype(np.int64).ravel())
+        shape = k.shape
+        n, k = (uniques // 2**31).astype(float), (uniques % 2**31).astype(float)
     with np.errstate(invalid="ignore", divide="ignore"):
         lo = np.where(k > 0, stats.beta.ppf(alpha / 2, k, n - k + 1), 0.0)
         hi = np.where(k < n, stats.beta.isf(alpha / 2, k + 1, n - k), 1.0)
     lo = np.where(n > 0, lo, np.nan)
     hi = np.where(n > 0, hi, np.nan)
+    if codes is not None:
+        lo, hi = lo[codes].reshape(shape), hi[codes].reshape(shape)
     return lo, hi
 
 
@@ -703,7 +714,7 @@ def fairness_intervals(
 def _identity(mech, labels) -> bool:
     if mech is None:
         return True
-    return tuple(mech.inputs) == tuple(mech.outputs) == tuple(labels) and np.array_equal(mech.matrix, np.eye(len(labels)))
+    return tuple(mech.inputs) == tuple(labels) and mech.is_identity
 
 
 def _eye(labels) -> Mechanism:

@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
 
+import fairaudit as fa  # noqa: E402
 from fairaudit import InputError, count_file, count_records, count_table, read_records  # noqa: E402
 
 
@@ -301,3 +302,23 @@ def test_count_table_null_rows_weigh_their_counts():
     # a row with no label and count 0 stands for no record: nothing is missing
     t = count_table(agg.assign(n=[3, 0, 4, 0]), sensitive="g", outcome="y", count="n")
     assert (t.groups, t.counts.tolist()) == (("a", "b"), [[[0, 3], [4, 0]]])
+
+
+# ---------------------------------------------------------------- audit() of a CountTable
+
+def test_audit_of_a_count_table_equals_audit_of_records():
+    df = _records_frame()
+    kw = dict(sensitive=["grp"], outcome="decision", context=["ctx"])
+    a = fa.audit(df, utility="u", confidence=0.9, **kw)
+    b = fa.audit(count_records(df, **kw), utility="u", confidence=0.9)
+    c = fa.audit(count_records(df, **kw), utility="u", confidence=0.9, **kw)
+    for r in (b, c):
+        assert r.observed.local.value == a.observed.local.value and r.observed.global_.value == a.observed.global_.value
+        assert (r.intervals.local.lower, r.intervals.local.upper) == (a.intervals.local.lower, a.intervals.local.upper)
+    t = count_records(df, **kw)
+    assert str(_err(fa.audit, t, sensitive=["sex"])) == (
+        "--sensitive: does not match the count table, whose column(s) are [grp] (got 'sex')")
+    assert str(_err(fa.audit, t, outcome="y")).startswith("--outcome: does not match the count table")
+    assert str(_err(fa.audit, t, context=[])) == (
+        "--context: does not match the count table, whose column(s) are [ctx] (got '')")
+    assert str(_err(fa.audit, df, outcome="decision")) == "--sensitive: name at least one column"

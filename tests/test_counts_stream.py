@@ -9,6 +9,8 @@ frame, counts against ``groupby().size()`` and hand counts.
 
 from __future__ import annotations
 
+import json
+import math
 import sqlite3
 import tempfile
 from pathlib import Path
@@ -23,6 +25,7 @@ pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
 
 import fairaudit as fa  # noqa: E402
+from _cli import run, run_json  # noqa: E402
 from fairaudit import InputError, count_file, count_records, count_table, read_records  # noqa: E402
 
 
@@ -322,3 +325,57 @@ def test_audit_of_a_count_table_equals_audit_of_records():
     assert str(_err(fa.audit, t, context=[])) == (
         "--context: does not match the count table, whose column(s) are [ctx] (got '')")
     assert str(_err(fa.audit, df, outcome="decision")) == "--sensitive: name at least one column"
+
+
+# ---------------------------------------------------------------- the command line
+
+def _write_both(tmp_path, df):
+    csv, parquet = tmp_path / "r.csv", tmp_path / "r.parquet"
+    df.to_csv(csv, index=False)
+    df.to_parquet(parquet, row_group_size=64)
+    return csv, parquet
+
+
+@pytest.mark.parametrize("fmt", ["json", "text", "markdown"])
+def test_cli_parquet_output_equals_csv_output(tmp_path, capsys, fmt):
+    df = _records_frame()
+    csv, parquet = _write_both(tmp_path, df)
+    args = ["--sensitive", "grp,sex", "--context", "ctx", "--outcome", "decision", "--utility", "u >= 1",
+            "--confidence", "0.9", "--format", fmt]
+    code_c, out_c, _ = run(capsys, "audit", csv, *args)
+    code_p, out_p, _ = run(capsys, "audit", parquet, *args)
+    assert code_c == code_p == 0 and out_p == out_c
+    if fmt == "json":  # and the numbers are those of the records (pandas groupby)
+        d = json.loads(out_p)
+        hit = (df["decision"] >= 1).groupby([df["grp"], df["sex"]]).mean()
+        assert d["n"] == 500 and d["global"]["value"] == pytest.approx(math.log(hit.max() / hit.min()), rel=1e-12)
+
+
+def test_cli_count_table(tmp_path, capsys):
+    df = _records_frame()
+    csv, _ = _write_both(tmp_path, df)
+    agg = tmp_path / "counts.parquet"
+    df.groupby(["ctx", "grp", "decision"]).size().reset_index(name="n").to_parquet(agg)
+    args = ["--sensitive", "grp", "--context", "ctx", "--outcome", "decision", "--positive", "2"]
+    _, from_records, _ = run_json(capsys, "audit", csv, *args)
+    code, from_counts, _ = run_json(capsys, "audit", agg, "--count", "n", *args)
+    assert code == 0 and from_counts == from_records and from_counts["n"] == 500
+
+
+def test_cli_bad_input_is_one_line_exit_2(tmp_path, capsys):
+    df = pd.DataFrame({"g": ["a", None, "b"], "y": [1, 0, 1]})
+    _, parquet = _write_both(tmp_path, df)
+    for argv, needle in (
+        (["--sensitive", "race", "--outcome", "y"],
+         "fairaudit: error: --sensitive: unknown column; the data has: g, y (got 'race')"),
+        (["--sensitive", "g", "--outcome", "y"], "fairaudit: error: column 'g': has 1 missing values"),
+        (["--sensitive", "g", "--outcome", "y", "--count", "n"], "fairaudit: error: --count: unknown column"),
+    ):
+        code, out, err = run(capsys, "audit", parquet, *argv)
+        assert code == 2 and out == "" and err.count("\n") == 1 and err.startswith(needle), err
+    code, out, err = run(capsys, "audit", parquet, "--sensitive", "g", "--outcome", "y", "--dropna", "--format", "json")
+    assert code == 0 and json.loads(out)["n"] == 2
+    bad = tmp_path / "bad.parquet"
+    bad.write_bytes(b"PAR1 not really")
+    code, out, err = run(capsys, "audit", bad, "--sensitive", "g", "--outcome", "y")
+    assert code == 2 and err.count("\n") == 1 and err.startswith("fairaudit: error: DATA: cannot be read ("), err

@@ -14,7 +14,7 @@ from .audit import Audit, audit, utility_from_expression
 from .bounds import Assumption, Bound, corollary_bound, main_theorem, main_theorem_tight, paper_bound, tight_bound
 from .calibrate import Calibration, calibrate_randomized_response
 from .certify import Certificate, certify
-from .estimate import CountTable, count_records, count_table, read_records
+from .estimate import CountTable, count_file, count_records, count_table, read_records
 from .intervals import FairnessIntervals, Interval, fairness_intervals
 from .laws import Kernel, Law, Population, compose
 from .metrics import (
@@ -48,7 +48,7 @@ __all__ = [
     "Assumption", "Audit", "BlackBoxCertificate", "Bound", "Calibration", "Certificate", "CountTable",
     "FairauditError", "InputError", "Kernel", "Law", "Mechanism", "MechanismFamily", "Population", "PrivacyCurve", "Spec", "Utility",
     "audit", "black_box_bound", "calibrate_randomized_response", "certify", "compose", "corollary_bound",
-    "count_records", "count_table", "demographic_parity", "equalized_odds", "expected_utility", "from_function",
+    "count_file", "count_records", "count_table", "demographic_parity", "equalized_odds", "expected_utility", "from_function",
     "fairness_intervals", "FairnessIntervals", "Interval",
     "from_matrix", "from_table", "global_fairness", "identity", "indicator", "load_spec",
     "local_fairness", "main_theorem", "main_theorem_tight", "paper_bound", "parse_spec", "product", "product_family",

@@ -100,12 +100,35 @@ def _positive_utility(positive, decisions) -> Utility:
                      positive)
 
 
+def _table(data, sensitive, outcome, context, dropna) -> CountTable:
+    """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
+    if isinstance(data, CountTable):
+        def columns(c):
+            return None if c is None else (c,) if isinstance(c, str) else tuple(c)
+
+        for flag, given, have in (("--sensitive", columns(sensitive), data.sensitive_columns),
+                                  ("--outcome", columns(outcome), (data.outcome_column,)),
+                                  ("--context", columns(context), data.context_columns)):
+            if given is not None and given != have:
+                raise InputError(flag, f"does not match the count table, whose column(s) are [{', '.join(have)}]",
+                                 ",".join(map(str, given)))
+        return data
+    if not isinstance(data, pd.DataFrame):
+        raise InputError("data", "must be a pandas DataFrame of records or a CountTable", type(data).__name__)
+    if sensitive is None:
+        raise InputError("--sensitive", "name at least one column")
+    if outcome is None:
+        raise InputError("--outcome", "name the outcome column")
+    return count_records(data, sensitive=sensitive, outcome=outcome, context=() if context is None else context,
+                         dropna=dropna)
+
+
 def audit(
-    data: pd.DataFrame,
+    data: pd.DataFrame | CountTable,
     *,
-    sensitive: Sequence[str],
-    outcome: str,
-    context: Sequence[str] = (),
+    sensitive: Sequence[str] | None = None,
+    outcome: str | None = None,
+    context: Sequence[str] | None = None,
     positive=None,
     utility: str | Utility | None = None,
     confidence: float | None = None,
@@ -119,14 +142,20 @@ def audit(
 
     Parameters
     ----------
-    data : pandas.DataFrame
-        One row per decision (or per candidate).
+    data : pandas.DataFrame or CountTable
+        One row per decision (or per candidate), or the counts already made
+        (:func:`~fairaudit.estimate.count_file` streams them out of a Parquet
+        file; :func:`~fairaudit.estimate.count_table` reads a count table).
     sensitive : sequence of str
-        Sensitive column(s); several give intersectional groups.
+        Sensitive column(s); several give intersectional groups. Required for
+        a DataFrame; for a CountTable optional, and if given it must be the
+        table's ``sensitive_columns``.
     outcome : str
-        Outcome column U.
-    context : sequence of str
-        Context column(s) X; none gives a single context.
+        Outcome column U. Required for a DataFrame; for a CountTable
+        optional, and if given it must be the table's ``outcome_column``.
+    context : sequence of str, optional
+        Context column(s) X; none gives a single context. For a CountTable,
+        if given it must be the table's ``context_columns``.
     positive : optional
         g = 1{U = positive}. With neither ``positive`` nor ``utility`` an
         outcome with values {0, 1} (or booleans) uses positive = 1.
@@ -138,7 +167,8 @@ def audit(
         How the intervals are made (:func:`fairaudit.intervals.fairness_intervals`);
         "auto" is Clopper–Pearson for a 0/1 utility, multinomial otherwise.
     dropna : bool
-        Drop rows with missing values in the used columns instead of failing.
+        Drop rows with missing values in the used columns instead of failing
+        (records only: a CountTable is already counted).
     concentration, draws, seed
         Settings of ``method="bayes"``: the Dirichlet prior's total mass, the
         number of posterior draws and the random seed.
@@ -146,7 +176,9 @@ def audit(
     Raises
     ------
     InputError
-        Unknown columns, missing values, both ``positive`` and ``utility``,
+        Unknown columns, missing values, columns that are not a CountTable's
+        (naming ``--sensitive``, ``--outcome`` or ``--context``), data that is
+        neither a DataFrame nor a CountTable, both ``positive`` and ``utility``,
         an outcome value that is not there, a non-binary outcome with no g,
         or bad interval settings (see :func:`~fairaudit.intervals.fairness_intervals`).
 
@@ -156,8 +188,12 @@ def audit(
     >>> r = audit(df, sensitive=["race"], outcome="hired")
     >>> round(r.observed.global_.ratio, 12), r.observed.global_.group
     (3.0, 'a')
+    >>> t = count_records(df, sensitive=["race"], outcome="hired")
+    >>> round(audit(t).observed.global_.ratio, 12)
+    3.0
     """
-    table = count_records(data, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)
+    table = _table(data, sensitive, outcome, context, dropna)
+    outcome = table.outcome_column
     if positive is not None and utility is not None:
         raise InputError("--positive", "give --positive or --utility, not both", positive)
     if isinstance(utility, Utility):

@@ -90,8 +90,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     a = sub.add_parser("audit", help="exact fairness metrics of decision records",
                        description="Count decision records (CSV or Parquet) by context, group and outcome and report "
-                       "local and global g-fairness, demographic parity and equalized odds gaps, and sups over g.")
-    a.add_argument("data", metavar="DATA", help="CSV or Parquet file, one record per decision (or candidate)")
+                       "local and global g-fairness, demographic parity and equalized odds gaps, and sups over g. "
+                       "Parquet is counted out of core (streamed); CSV is read in memory.")
+    a.add_argument("data", metavar="DATA", help="CSV or Parquet file (or folder of Parquet files), one record per "
+                   "decision (or candidate); with --count, a count table")
     a.add_argument("--sensitive", required=True, type=_columns, metavar="COL[,COL...]",
                    help="sensitive column(s); several give intersectional groups")
     a.add_argument("--outcome", required=True, metavar="COL", help="outcome column U (all its values are kept)")
@@ -109,6 +111,8 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--concentration", type=float, default=1.0, metavar="C",
                    help="Dirichlet prior mass of --method bayes (default 1, AIF360's smoothing)")
     a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
+    a.add_argument("--count", metavar="COL", help="DATA is a count table (one row per context, group and outcome, "
+                   "e.g. from SQL GROUP BY) whose column COL holds the number of records")
     _add_output(a)
 
     k = sub.add_parser("calibrate", help="the largest privacy budget epsilon meeting a fairness target",
@@ -345,10 +349,12 @@ def _run(args) -> int:
         return 0 if cert.certified else 1
     if args.command == "audit":
         from .audit import audit
-        from .estimate import read_records
+        from .estimate import count_file
 
-        frame = read_records(args.data)
-        result = audit(frame, sensitive=args.sensitive, outcome=args.outcome, context=args.context,
+        # Parquet is streamed (Acero group-by), CSV read by pandas; --count: DATA is a count table
+        table = count_file(args.data, sensitive=args.sensitive, outcome=args.outcome, context=args.context,
+                           dropna=args.dropna, count=args.count)
+        result = audit(table, sensitive=args.sensitive, outcome=args.outcome, context=args.context,
                        positive=args.positive, utility=args.utility, confidence=args.confidence, method=args.method,
                        dropna=args.dropna, concentration=args.concentration, draws=args.draws, seed=args.seed)
         data = audit_dict(result)

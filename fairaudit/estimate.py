@@ -9,6 +9,12 @@ Labels: one column gives scalar labels; several columns give tuples
 (intersectional groups, or a compound context). Without context columns
 there is one context, labelled ``"all"``. Intervals for what the counts
 estimate: :mod:`fairaudit.intervals`.
+
+Out of core: :func:`count_file` streams the counts of a Parquet file with
+pyarrow's Acero engine (a scan of the used columns into a hash group-by), so
+memory grows with the number of (context, group, decision) combinations, not
+with the records; it also reads count tables made by any engine (SQL
+``GROUP BY``, Spark, DuckDB). See docs/scale.md.
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ from ._arrays import format_label
 from ._errors import InputError
 from .laws import Law, Population
 
-__all__ = ["CountTable", "read_records", "count_records", "count_table"]
+__all__ = ["CountTable", "read_records", "count_records", "count_table", "count_file"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,7 +108,7 @@ def read_records(path: str | Path) -> pd.DataFrame:
     except InputError:
         raise
     except Exception as exc:  # pandas raises many parser errors; report one line
-        raise InputError("DATA", f"cannot be read ({type(exc).__name__}: {str(exc).splitlines()[0]})", str(path)) from None
+        raise _cannot_read(path, exc) from None
     raise InputError("DATA", "must be a .csv or .parquet file", str(path))
 
 
@@ -121,11 +127,68 @@ def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str):
     return codes.astype(np.int64), labels
 
 
-def _check_columns(frame: pd.DataFrame, columns: Sequence[str], field: str) -> None:
+def _check_columns(names, columns: Sequence[str], field: str) -> None:
+    """An unknown column is an InputError naming ``field`` and listing the columns ``names``."""
+    names = list(names.columns) if isinstance(names, pd.DataFrame) else list(names)
     for c in columns:
-        if c not in frame.columns:
-            shown = ", ".join(map(str, list(frame.columns)[:12])) + (", ..." if len(frame.columns) > 12 else "")
+        if c not in names:
+            shown = ", ".join(map(str, names[:12])) + (", ..." if len(names) > 12 else "")
             raise InputError(field, f"unknown column; the data has: {shown}", c)
+
+
+def _roles(sensitive, outcome, context) -> tuple[list, str, list]:
+    """The columns of each role as lists (a single name may be given as a string)."""
+    sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
+    context = [context] if isinstance(context, str) else list(context)
+    if not sensitive:
+        raise InputError("--sensitive", "name at least one column", sensitive)
+    return sensitive, outcome, context
+
+
+def _check_roles(names, sensitive, outcome, context) -> None:
+    _check_columns(names, sensitive, "--sensitive")
+    _check_columns(names, [outcome], "--outcome")
+    _check_columns(names, context, "--context")
+
+
+def _missing_error(column, n) -> InputError:
+    return InputError(f"column {column!r}", f"has {int(n)} missing values (drop those rows: --dropna, or dropna=True)")
+
+
+def _tally(frame: pd.DataFrame, sensitive: list, outcome: str, context: list, dropna: bool,
+           weights: np.ndarray | None = None) -> CountTable:
+    """Counts of the rows of ``frame`` (each row counts ``weights[i]`` records; default 1).
+
+    The one counting path of :func:`count_records` (one row per record) and of
+    :func:`count_file` (one row per distinct combination, with its count):
+    missing values, labels and counts are the same whichever way the records
+    come, because labels are the sorted distinct values and a weighted row
+    stands for ``weights[i]`` identical records.
+    """
+    used = list(dict.fromkeys(context + sensitive + [outcome]))
+    frame = frame[used]
+    isna = frame.isna()
+    missing = isna.sum() if weights is None else isna.mul(weights, axis=0).sum()
+    if missing.any():
+        if not dropna:
+            col = missing[missing > 0].index[0]
+            raise _missing_error(col, missing[col])
+        keep = ~isna.any(axis=1).to_numpy()
+        frame = frame[keep]
+        weights = None if weights is None else weights[keep]
+    if len(frame) == 0:
+        raise InputError("DATA", "has no records to count")
+    cx, contexts = _codes(frame, context, "context")
+    ca, groups = _codes(frame, sensitive, "sensitive")
+    cu, decisions = _codes(frame, [outcome], "outcome")
+    shape = (len(contexts), len(groups), len(decisions))
+    flat = (cx * shape[1] + ca) * shape[2] + cu
+    if weights is None:
+        counts = np.bincount(flat, minlength=int(np.prod(shape)))
+    else:  # exact integer sums (a float bincount would round above 2**53)
+        counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
+        np.add.at(counts, flat, np.asarray(weights, dtype=np.int64))
+    return CountTable(counts.reshape(shape), contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
 
 
 def count_records(
@@ -162,6 +225,10 @@ def count_records(
         On an unknown column, missing values (naming the column and count)
         when ``dropna`` is False, or no records.
 
+    See Also
+    --------
+    count_file : the same counts of a file; Parquet is streamed out of core.
+
     Examples
     --------
     >>> df = pd.DataFrame({"race": ["a", "a", "b", "b", "b"], "hired": [1, 0, 1, 1, 0]})
@@ -169,30 +236,9 @@ def count_records(
     >>> t.counts.tolist(), t.groups, t.decisions
     ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
     """
-    sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
-    context = [context] if isinstance(context, str) else list(context)
-    if not sensitive:
-        raise InputError("--sensitive", "name at least one column", sensitive)
-    _check_columns(data, sensitive, "--sensitive")
-    _check_columns(data, [outcome], "--outcome")
-    _check_columns(data, context, "--context")
-    used = list(dict.fromkeys(context + sensitive + [outcome]))
-    frame = data[used]
-    missing = frame.isna().sum()
-    if missing.any():
-        if not dropna:
-            col = missing[missing > 0].index[0]
-            raise InputError(f"column {col!r}", f"has {int(missing[col])} missing values (drop those rows: --dropna, or dropna=True)")
-        frame = frame.dropna()
-    if len(frame) == 0:
-        raise InputError("DATA", "has no records to count")
-    cx, contexts = _codes(frame, context, "context")
-    ca, groups = _codes(frame, sensitive, "sensitive")
-    cu, decisions = _codes(frame, [outcome], "outcome")
-    shape = (len(contexts), len(groups), len(decisions))
-    flat = (cx * shape[1] + ca) * shape[2] + cu
-    counts = np.bincount(flat, minlength=int(np.prod(shape))).reshape(shape)
-    return CountTable(counts, contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+    sensitive, outcome, context = _roles(sensitive, outcome, context)
+    _check_roles(data, sensitive, outcome, context)
+    return _tally(data, sensitive, outcome, context, dropna)
 
 
 def count_table(
@@ -205,23 +251,51 @@ def count_table(
     contexts: Sequence | None = None,
     groups: Sequence | None = None,
     decisions: Sequence | None = None,
+    dropna: bool = False,
 ) -> CountTable:
     """A CountTable from an aggregated table: one row per (context, group, outcome) with a count.
+
+    Such a table is what ``SELECT ctx, grp, decision, COUNT(*) AS n FROM
+    records GROUP BY ctx, grp, decision`` returns in any engine
+    (docs/scale.md).
 
     Parameters
     ----------
     data : pandas.DataFrame
         Columns for context(s), sensitive attribute(s), outcome and ``count``.
+    sensitive, outcome, context, count : str or sequence of str
+        The columns, as in :func:`count_records`; ``count`` holds the number
+        of records of each row (or, for a spec's model table, a probability).
     contexts, groups, decisions : sequence, optional
         Expected labels in their order; the data's values are matched to them
         by their text (``str``), and a value not among them is an error that
-        names the column and the value. Default: the sorted values found.
+        names the column and the value. Default: the sorted values found, as
+        :func:`count_records` sorts them.
+    dropna : bool
+        Drop rows with a missing label (a ``NULL`` group of ``GROUP BY``) in a
+        column whose labels are not given, instead of failing.
+
+    Returns
+    -------
+    CountTable
+        ``counts`` has shape (n_contexts, n_groups, n_decisions); int64 when
+        the count column is of an integer type, else float64.
 
     Raises
     ------
     InputError
-        On unknown columns, unknown labels, negative or non-integer counts,
-        or a (context, group, outcome) given twice.
+        On unknown columns, unknown labels, negative or non-numeric counts,
+        a (context, group, outcome) given twice, or missing labels when
+        ``dropna`` is False: ``column 'x': has N missing values`` where N is
+        the sum of the counts of the rows with no label, the number of records
+        :func:`count_records` would report.
+
+    Examples
+    --------
+    >>> agg = pd.DataFrame({"race": ["a", "a", "b", "b"], "hired": [0, 1, 0, 1], "n": [1, 1, 1, 2]})
+    >>> t = count_table(agg, sensitive="race", outcome="hired", count="n")
+    >>> t.counts.tolist(), t.groups, t.decisions
+    ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
     """
     sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
     context = [context] if isinstance(context, str) else list(context)
@@ -230,6 +304,16 @@ def count_table(
     if values.isna().any() or (values < 0).any():
         bad = data[count][values.isna() | (values < 0)].iloc[0]
         raise InputError(f"column {count!r}", "must hold non-negative numbers", bad)
+    free = [c for cols, expected in ((context, contexts), (sensitive, groups), ([outcome], decisions))
+            if expected is None for c in cols]
+    isna = data[list(dict.fromkeys(free))].isna()
+    if isna.to_numpy().any():  # a row with no label stands for `count` records with a missing value
+        missing = isna.mul(values.to_numpy(), axis=0).sum()
+        if missing.any() and not dropna:
+            col = missing[missing > 0].index[0]
+            raise _missing_error(col, missing[col])
+        keep = ~isna.any(axis=1).to_numpy()
+        data, values = data[keep], values[keep]
 
     def codes(columns, expected, role):
         if expected is None:
@@ -255,5 +339,196 @@ def count_table(
     if dup.any():
         i = int(np.flatnonzero(dup.to_numpy())[0])
         raise InputError("count table", "lists the same (context, group, decision) twice", data.iloc[i].to_dict())
-    counts = np.bincount(flat, weights=values.to_numpy(dtype=float), minlength=int(np.prod(shape))).reshape(shape)
-    return CountTable(counts, contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+    integer = pd.api.types.is_integer_dtype(values.dtype)
+    counts = np.zeros(int(np.prod(shape)), dtype=np.int64 if integer else float)
+    counts[flat] = values.to_numpy(dtype=counts.dtype)  # each cell at most once (checked above)
+    return CountTable(counts.reshape(shape), contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+
+
+_PARQUET_SUFFIXES = {".parquet", ".pq"}
+
+
+def _is_parquet(p: Path) -> bool:
+    return p.is_dir() or p.suffix.lower() in _PARQUET_SUFFIXES
+
+
+def _cannot_read(path, exc: Exception) -> InputError:
+    return InputError("DATA", f"cannot be read ({type(exc).__name__}: {str(exc).splitlines()[0]})", str(path))
+
+
+def _to_pandas(table):
+    """An Arrow table as pandas.read_parquet converts it (same dtypes, so the same labels)."""
+    try:
+        from pandas.io._util import arrow_table_to_pandas  # what pandas.read_parquet calls
+    except ImportError:  # pragma: no cover - other pandas versions
+        return table.to_pandas()
+    return arrow_table_to_pandas(table)
+
+
+# Bounded reading: Parquet pre-buffering keeps every row group's bytes read until the file is closed, so
+# memory would grow with the file (apache/arrow#39808); off, with a short readahead, the peak is a few row
+# groups of the used columns (measured flat from 10**6 to 10**8 records, docs/scale.md).
+_READAHEAD = {"batch_readahead": 2, "fragment_readahead": 1}
+
+
+def _parquet_dataset(p: Path):
+    import pyarrow.dataset as ds
+
+    options = ds.ParquetFragmentScanOptions(pre_buffer=False)
+    return ds.dataset(p, format=ds.ParquetFileFormat(default_fragment_scan_options=options))
+
+
+def _group_count(dataset, keys: list, name: str, decode: Sequence[str] = ()):
+    """Acero plan: scan the key columns, (cast dictionary columns ``decode`` to values), hash count per key."""
+    import pyarrow.acero as ac
+    import pyarrow.compute as pc
+
+    nodes = [ac.Declaration("scan", ac.ScanNodeOptions(dataset, columns=keys, **_READAHEAD))]
+    if decode:
+        schema = dataset.schema
+        exprs = [pc.field(c).cast(schema.field(c).type.value_type) if c in decode else pc.field(c) for c in keys]
+        nodes.append(ac.Declaration("project", ac.ProjectNodeOptions(exprs, keys)))
+    nodes.append(ac.Declaration("aggregate", ac.AggregateNodeOptions([([], "hash_count_all", None, name)], keys=keys)))
+    return ac.Declaration.from_sequence(nodes).to_table(use_threads=True)
+
+
+def _unified_dictionary(dataset, column: str):
+    """The categories pandas.read_parquet gives a dictionary column: its batches' dictionaries unified in order."""
+    import pyarrow as pa
+
+    dicts = []
+    for batch in dataset.to_batches(columns=[column], **_READAHEAD):
+        d = batch.column(0).dictionary
+        if not dicts or not d.equals(dicts[-1]):
+            dicts.append(d)
+    empty = pa.array([], type=pa.int32())
+    chunks = pa.chunked_array([pa.DictionaryArray.from_arrays(empty, d) for d in dicts],
+                              type=pa.dictionary(pa.int32(), dataset.schema.field(column).type.value_type))
+    return pa.table({column: chunks}).unify_dictionaries().column(0).chunk(0).dictionary
+
+
+def _stream_counts(dataset, keys: list, name: str):
+    """The number of records of each distinct combination of ``keys`` (null and NaN keys included), as Arrow.
+
+    Dictionary (pandas categorical) columns whose dictionaries differ between
+    row groups cannot be grouped by Acero directly: they are grouped by their
+    values and rebuilt on the unified dictionary (a second pass over those
+    columns only).
+    """
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    try:
+        return _group_count(dataset, keys, name)
+    except pa.ArrowNotImplementedError as exc:
+        decode = [c for c in keys if pa.types.is_dictionary(dataset.schema.field(c).type)]
+        if not decode or "dictionar" not in str(exc):
+            raise
+    table = _group_count(dataset, keys, name, decode)
+    for c in decode:
+        kind = dataset.schema.field(c).type
+        dictionary = _unified_dictionary(dataset, c)
+        indices = pc.index_in(table.column(c).combine_chunks(), value_set=dictionary)
+        column = pa.DictionaryArray.from_arrays(indices, dictionary, ordered=kind.ordered)
+        table = table.set_column(table.schema.get_field_index(c), c, column)
+    return table
+
+
+def _parquet_counts(path, p: Path, sensitive, outcome, context, dropna) -> CountTable:
+    try:
+        import pyarrow as pa
+        import pyarrow.dataset  # noqa: F401
+    except ImportError:
+        raise InputError("DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)) from None
+    if not p.exists():
+        raise InputError("DATA", "no such file", str(path))
+    try:
+        dataset = _parquet_dataset(p)
+    except Exception as exc:  # noqa: BLE001 - pyarrow raises several kinds; report one line
+        raise _cannot_read(path, exc) from None
+    schema = dataset.schema
+    index = {c for c in (schema.pandas_metadata or {}).get("index_columns", []) if isinstance(c, str)}
+    _check_roles([c for c in schema.names if c not in index], sensitive, outcome, context)
+    keys = list(dict.fromkeys(context + sensitive + [outcome]))
+    name = "n"
+    while name in keys:
+        name += "_"
+    try:
+        table = _stream_counts(dataset, keys, name)
+    except (pa.ArrowException, OSError) as exc:
+        raise _cannot_read(path, exc) from None
+    frame = _to_pandas(table.replace_schema_metadata(schema.metadata))
+    return _tally(frame, sensitive, outcome, context, dropna, weights=frame[name].to_numpy(dtype=np.int64))
+
+
+def count_file(
+    path: str | Path,
+    *,
+    sensitive: Sequence[str],
+    outcome: str,
+    context: Sequence[str] = (),
+    dropna: bool = False,
+    count: str | None = None,
+) -> CountTable:
+    """Count the decision records of a file; a Parquet file is streamed, out of core.
+
+    Parquet (``.parquet``, ``.pq``, or a folder of Parquet files) is counted by
+    pyarrow's Acero engine: a scan of the used columns only, into a hash
+    group-by that counts the records of each distinct (context, group,
+    decision), null keys included. Peak memory is bounded by that count table
+    and the scan's batches, not by the number of records. The small table is
+    then converted as ``pandas.read_parquet`` converts columns and counted by
+    the same code as :func:`count_records`, so the result is identical to
+    ``count_records(read_records(path), ...)``: the same labels (values,
+    Python types, sorted order), counts and errors. CSV is read whole by
+    pandas (:func:`read_records`) and counted by :func:`count_records`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.parquet``/``.pq`` file or folder of Parquet files (streamed), or
+        a ``.csv`` (also ``.txt``, ``.gz``) file (read in memory).
+    sensitive, outcome, context, dropna
+        As in :func:`count_records`. Missing values (null, or NaN in a float
+        column) are counted exactly from the grouped table.
+    count : str, optional
+        The file is already a count table, one row per (context, group,
+        decision) with its number of records in column ``count``, as made by
+        any engine (SQL ``GROUP BY``, Spark, DuckDB); it is read whole (CSV or
+        Parquet) and turned into counts by :func:`count_table`.
+
+    Returns
+    -------
+    CountTable
+        ``counts`` of shape (n_contexts, n_groups, n_decisions), int64.
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, pyarrow missing for Parquet, an unknown
+        column (naming ``--sensitive``, ``--outcome``, ``--context`` or
+        ``--count`` and listing the file's columns; for Parquet from its
+        schema, without reading data), missing values when ``dropna`` is
+        False (``column 'x': has N missing values ...``), no records, and for
+        count tables the errors of :func:`count_table`.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> df = pd.DataFrame({"race": ["a", "a", "b", "b", "b"], "hired": [1, 0, 1, 1, 0]})
+    >>> path = os.path.join(tempfile.mkdtemp(), "records.parquet")
+    >>> df.to_parquet(path)
+    >>> t = count_file(path, sensitive=["race"], outcome="hired")
+    >>> t.counts.tolist(), t.groups, t.decisions
+    ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
+    """
+    sensitive, outcome, context = _roles(sensitive, outcome, context)
+    p = Path(path)
+    if count is not None:
+        frame = read_records(path)
+        _check_roles(frame, sensitive, outcome, context)
+        _check_columns(frame, [count], "--count")
+        return count_table(frame, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
+    if _is_parquet(p):
+        return _parquet_counts(path, p, sensitive, outcome, context, dropna)
+    return count_records(read_records(path), sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)

@@ -100,6 +100,11 @@ def _positive_utility(positive, decisions) -> Utility:
                      positive)
 
 
+def _is_spark_frame(data) -> bool:
+    """A pyspark DataFrame (classic or Spark Connect), recognised without importing pyspark."""
+    return any(c.__module__.startswith("pyspark.") and c.__name__ == "DataFrame" for c in type(data).__mro__)
+
+
 def _table(data, sensitive, outcome, context, dropna) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
     if isinstance(data, CountTable):
@@ -113,12 +118,19 @@ def _table(data, sensitive, outcome, context, dropna) -> CountTable:
                 raise InputError(flag, f"does not match the count table, whose column(s) are [{', '.join(have)}]",
                                  ",".join(map(str, given)))
         return data
-    if not isinstance(data, pd.DataFrame):
-        raise InputError("data", "must be a pandas DataFrame of records or a CountTable", type(data).__name__)
+    spark = _is_spark_frame(data)
+    if not (spark or isinstance(data, pd.DataFrame)):
+        raise InputError("data", "must be a pandas DataFrame of records, a Spark DataFrame or a CountTable",
+                         type(data).__name__)
     if sensitive is None:
         raise InputError("--sensitive", "name at least one column")
     if outcome is None:
         raise InputError("--outcome", "name the outcome column")
+    if spark:
+        from .spark import count_spark
+
+        return count_spark(data, sensitive=sensitive, outcome=outcome, context=() if context is None else context,
+                           dropna=dropna)
     return count_records(data, sensitive=sensitive, outcome=outcome, context=() if context is None else context,
                          dropna=dropna)
 
@@ -142,10 +154,12 @@ def audit(
 
     Parameters
     ----------
-    data : pandas.DataFrame or CountTable
+    data : pandas.DataFrame, pyspark.sql.DataFrame or CountTable
         One row per decision (or per candidate), or the counts already made
         (:func:`~fairaudit.estimate.count_file` streams them out of a Parquet
-        file; :func:`~fairaudit.estimate.count_table` reads a count table).
+        file; :func:`~fairaudit.estimate.count_table` reads a count table). A
+        Spark DataFrame is counted in Spark (:func:`fairaudit.spark.count_spark`):
+        only the count table reaches the driver.
     sensitive : sequence of str
         Sensitive column(s); several give intersectional groups. Required for
         a DataFrame; for a CountTable optional, and if given it must be the

@@ -1,0 +1,142 @@
+"""Counting decision records held in a Spark DataFrame.
+
+Counting is the only step of an audit whose cost grows with the number of
+records. :func:`count_spark` runs it in Spark (one ``groupBy(...).count()``)
+and brings back to the driver only the count table: at most
+n_contexts × n_groups × n_decisions rows. Everything after (laws, metrics,
+intervals, certificates) works on that table as usual.
+
+pyspark is imported inside :func:`count_spark` only, so fairaudit imports
+without it; install it with ``pip install 'fairaudit[spark]'``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from ._errors import InputError
+from .estimate import CountTable, _check_columns, count_table
+
+__all__ = ["count_spark"]
+
+
+def count_spark(
+    frame,
+    *,
+    sensitive: Sequence[str],
+    outcome: str,
+    context: Sequence[str] = (),
+    dropna: bool = False,
+) -> CountTable:
+    """Count the decision records of a Spark DataFrame per (context, group, outcome).
+
+    The group-by runs in Spark; only its result, one row per (context, group,
+    outcome) that occurs, comes back to the driver (through ``toPandas``).
+    The result is the :class:`~fairaudit.estimate.CountTable` that
+    :func:`~fairaudit.estimate.count_records` gives on ``frame.toPandas()``:
+    the same counts, the same labels in the same order and of the same
+    Python types, the same errors.
+
+    Parameters
+    ----------
+    frame : pyspark.sql.DataFrame
+        One row per decision (or per candidate); a classic or a Spark Connect
+        DataFrame. Only the used columns are read, in one Spark job.
+    sensitive : sequence of str
+        Column(s) of the sensitive attribute A; several give intersectional
+        groups with tuple labels.
+    outcome : str
+        Column of the decision U (all its values are kept).
+    context : sequence of str, optional
+        Column(s) of the context X; none gives one context ``"all"``.
+    dropna : bool
+        Drop the records with a missing value in any used column instead of
+        failing. Missing means a Spark null or a floating-point NaN (Spark
+        keeps NaN apart from null; pandas treats both as missing).
+
+    Returns
+    -------
+    CountTable
+        ``counts`` of shape (n_contexts, n_groups, n_decisions), int64,
+        indexed [x, a, u]; labels sorted as ``pandas.factorize(sort=True)``
+        sorts them: Python scalars for one column, tuples for several. As in
+        pandas, an integer column that holds nulls comes back as floats
+        (labels ``1.0``, ``2.0``, ... after ``dropna``).
+
+    Raises
+    ------
+    InputError
+        If pyspark is not installed; if ``frame`` is not a Spark DataFrame;
+        on an unknown column (naming ``--sensitive``, ``--outcome`` or
+        ``--context`` and listing the frame's columns), a column name the
+        frame holds twice, or a column that is not of a scalar type (array,
+        map, struct, binary); on missing values when ``dropna`` is False (the
+        first used column with any, and their exact number); or when no
+        record is left to count.
+
+    Notes
+    -----
+    The Spark side is equivalent to the SQL query
+    ``SELECT x..., a..., u, COUNT(*) FROM records GROUP BY x..., a..., u``;
+    the missing values are counted from that result (the null and NaN
+    groups), so the records are scanned once. See docs/spark.md.
+
+    Examples
+    --------
+    Not run here (it needs a Spark session)::
+
+        from pyspark.sql import SparkSession
+        from fairaudit.spark import count_spark
+        spark = SparkSession.builder.master("local[2]").getOrCreate()
+        records = spark.read.parquet("decisions.parquet")
+        table = count_spark(records, sensitive=["race"], outcome="hired", context=["job"])
+        table.law(), table.population()
+    """
+    try:
+        from pyspark.sql import types as T
+    except ImportError:
+        raise InputError("pyspark", "is needed to count a Spark DataFrame: pip install 'fairaudit[spark]'") from None
+    if not all(hasattr(frame, name) for name in ("groupBy", "toDF", "toPandas", "schema", "columns")):
+        raise InputError("frame", "must be a Spark DataFrame (pyspark.sql.DataFrame)", type(frame).__name__)
+    sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
+    context = [context] if isinstance(context, str) else list(context)
+    if not sensitive:
+        raise InputError("--sensitive", "name at least one column", sensitive)
+    names = list(frame.columns)
+    _check_columns(names, sensitive, "--sensitive")
+    _check_columns(names, [outcome], "--outcome")
+    _check_columns(names, context, "--context")
+    used = list(dict.fromkeys(context + sensitive + [outcome]))
+    fields = frame.schema.fields
+    for col in used:
+        if names.count(col) > 1:
+            raise InputError(f"column {col!r}", f"is ambiguous: the frame has {names.count(col)} columns of that name")
+        kind = fields[names.index(col)].dataType
+        if not isinstance(kind, (T.AtomicType, T.NullType)) or isinstance(kind, T.BinaryType):
+            raise InputError(f"column {col!r}", "must hold scalar values (string, number, boolean, date or time)",
+                             kind.simpleString())
+    # Rename every column by position: the group-by then never trips over
+    # dots, backticks or names that differ only in case.
+    keys = [f"c{names.index(col)}" for col in used]
+    grouped = frame.toDF(*(f"c{i}" for i in range(len(names)))).groupBy(*keys).count()
+    agg = grouped.toPandas()
+    count = "count"
+    while count in used:
+        count = "_" + count
+    agg.columns = used + [count]
+    n = agg[count].to_numpy(dtype=np.int64)
+    isna = agg[used].isna().to_numpy()
+    missing = n @ isna
+    if missing.any():
+        if not dropna:
+            i = int(np.flatnonzero(missing)[0])
+            raise InputError(f"column {used[i]!r}", f"has {int(missing[i])} missing values (drop those rows: --dropna, or dropna=True)")
+        agg = agg[~isna.any(axis=1)]
+    if len(agg) == 0:
+        raise InputError("DATA", "has no records to count")
+    table = count_table(agg, sensitive=sensitive, outcome=outcome, context=context, count=count)
+    # count_table sums the counts as floats; they are whole numbers below 2**53.
+    return replace(table, counts=np.rint(table.counts).astype(np.int64))

@@ -203,6 +203,12 @@ class FairnessIntervals:
 # ---------------------------------------------------------------- per-cell sets
 
 
+def _sum_last(x, keepdims: bool = False) -> np.ndarray:
+    """Sum over the last (short: decisions) axis; ``einsum`` is several times faster than ``sum`` there."""
+    out = np.einsum("...k->...", np.asarray(x, dtype=float))
+    return out[..., None] if keepdims else out
+
+
 def clopper_pearson(k, n, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact two-sided binomial interval (Clopper and Pearson 1934), vectorised.
 
@@ -284,12 +290,12 @@ def category_bounds(counts, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     """
     counts = np.asarray(counts, dtype=float)
     K = counts.shape[-1]
-    n = np.broadcast_to(counts.sum(-1, keepdims=True), counts.shape)
+    n = np.broadcast_to(_sum_last(counts, keepdims=True), counts.shape)
     lo, hi = clopper_pearson(counts, n, alpha / K if K > 2 else alpha)
     lo = np.where(n > 0, lo, 0.0)
     hi = np.where(n > 0, hi, 1.0)
-    lo2 = np.maximum(lo, 1.0 - (hi.sum(-1, keepdims=True) - hi))
-    hi2 = np.minimum(hi, 1.0 - (lo.sum(-1, keepdims=True) - lo))
+    lo2 = np.maximum(lo, 1.0 - (_sum_last(hi, keepdims=True) - hi))
+    hi2 = np.minimum(hi, 1.0 - (_sum_last(lo, keepdims=True) - lo))
     lo2 = np.where(lo2 > 1e-12, lo2, 0.0)   # rounding crumbs of the tightening must not turn c/0 = inf into 1e16
     return np.clip(lo2, 0.0, 1.0), np.clip(hi2, 0.0, 1.0)
 
@@ -324,8 +330,8 @@ def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
     """
     f, lo, hi = np.broadcast_arrays(np.asarray(f, dtype=float), np.asarray(lower, dtype=float),
                                     np.asarray(upper, dtype=float))
-    base = (f * lo).sum(-1)
-    room = np.clip(1.0 - lo.sum(-1), 0.0, None)[..., None]
+    base = _sum_last(f * lo)
+    room = np.clip(1.0 - _sum_last(lo), 0.0, None)[..., None]
     cap = hi - lo
     out = []
     for key in (f, -f):
@@ -334,7 +340,7 @@ def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
         before = np.cumsum(c, -1) - c
         left = room - before
         alloc = np.where(left > 1e-12, np.clip(left, 0.0, c), 0.0)   # no rounding crumbs: 0 must stay 0 (c/0 = inf)
-        out.append(base + (alloc * np.take_along_axis(f, order, -1)).sum(-1))
+        out.append(base + _sum_last(alloc * np.take_along_axis(f, order, -1)))
     return out[0], out[1]
 
 
@@ -346,7 +352,7 @@ def _event_extremes(events: np.ndarray, lower: np.ndarray, upper: np.ndarray):
     shape (..., K). Returns arrays of shape (S, ...).
     """
     s_lo, s_hi = lower @ events.T, upper @ events.T                     # (..., S)
-    t_lo, t_hi = lower.sum(-1, keepdims=True), upper.sum(-1, keepdims=True)
+    t_lo, t_hi = _sum_last(lower, keepdims=True), _sum_last(upper, keepdims=True)
     mn = np.maximum(s_lo, 1.0 - (t_hi - s_hi))
     mx = np.minimum(s_hi, 1.0 - (t_lo - s_lo))
     return np.moveaxis(mn, -1, 0), np.moveaxis(mx, -1, 0)
@@ -394,12 +400,19 @@ def _disjoint_ratio(lo: np.ndarray, hi: np.ndarray):
     """
     M, A = lo.shape
     valid = ~np.isnan(lo)
-    R = _div(np.nan_to_num(hi)[:, :, None], np.nan_to_num(lo)[:, None, :])
-    ok = valid[:, :, None] & valid[:, None, :] & ~np.eye(A, dtype=bool)
-    R = np.where(ok, R, -np.inf)
-    flat = R.reshape(M, -1)
-    idx = flat.argmax(-1)
-    upper = flat[np.arange(M), idx]
+    rows, cols = np.arange(M), np.arange(A)
+    hi0 = np.nan_to_num(hi)
+    # hi_a / lo_b (with c/0 = inf, 0/0 = 1) rises with hi_a and falls with lo_b: for each a the best b ≠ a is
+    # the smallest lo, or the second smallest when a holds the smallest. No (M, A, A) array of pairs is made.
+    lo_v = np.where(valid, lo, np.inf)
+    two = np.argsort(lo_v, axis=1, kind="stable")[:, :2] if A >= 2 else np.zeros((M, 2), dtype=int)
+    den = np.where(cols[None, :] == two[:, :1], lo_v[rows, two[:, 1]][:, None], lo_v[rows, two[:, 0]][:, None])
+    best_a = np.where(valid & np.isfinite(den), _div(hi0, np.where(np.isfinite(den), den, 1.0)), -np.inf)
+    a = best_a.argmax(-1)                                             # the first a of the first maximal pair
+    row = np.where(valid & (cols[None, :] != a[:, None]), _div(hi0[rows, a][:, None], np.nan_to_num(lo)), -np.inf)
+    b = row.argmax(-1)                                                # its first b
+    upper = row[rows, b]
+    idx = a * A + b
     enough = valid.sum(-1) >= 2
     lower = np.maximum(1.0, _div(np.where(valid, lo, -np.inf).max(-1), np.where(valid, hi, np.inf).min(-1)))
     upper = np.where(enough, upper, np.nan)
@@ -732,7 +745,7 @@ def _estimates(table, counts, utility, filtered, m_a, m_x, population) -> dict:
     from .certify import observe
 
     if filtered:
-        if np.any(counts.sum(-1) == 0):
+        if np.any(_sum_last(counts) == 0):
             return {}
         law = compose(Kernel.from_counts(counts, table.contexts, table.groups, table.decisions), m_a, m_x)
     else:
@@ -764,7 +777,7 @@ def _binomial_sets(cell_counts, group_counts, use_groups: bool, alpha: float):
 
     Returns (cell lower, cell upper, group lower, group upper, m); the group bounds are None without ``use_groups``.
     """
-    m = int((cell_counts.sum(-1) > 0).sum()) + (int((group_counts.sum(-1) > 0).sum()) if use_groups else 0)
+    m = int((_sum_last(cell_counts) > 0).sum()) + (int((_sum_last(group_counts) > 0).sum()) if use_groups else 0)
     a_cell = alpha / max(m, 1)
     c_lo, c_hi = category_bounds(cell_counts, a_cell)
     g_lo, g_hi = category_bounds(group_counts, a_cell) if use_groups else (None, None)
@@ -777,8 +790,8 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
     depends_on_context = bool(g.ndim == 3 and X > 1 and not np.all(g == g[:1]))
     pooled = population is None  # unfiltered, records' own groups
     if method == "clopper-pearson":
-        k = (counts * g).sum(-1)
-        cell_counts = np.stack([counts.sum(-1) - k, k], -1)
+        k = _sum_last(counts * g)
+        cell_counts = np.stack([_sum_last(counts) - k, k], -1)
         gf = np.broadcast_to(np.array([0.0, 1.0]), (X, A, 2))
         binary_u = K == 2 and not np.all(g == g[..., :1])
         group_counts = cell_counts.sum(0)

@@ -224,3 +224,23 @@ def test_intervals_on_many_contexts_contain_the_estimate():
     obs = observe(table.law(), fa.indicator("u1", table.decisions), table.population())
     assert iv.global_.lower <= obs.global_.value <= iv.global_.upper
     assert iv.global_.estimate == pytest.approx(obs.global_.value, rel=1e-12)
+
+
+@given(st.integers(1, 30), st.integers(1, 6), st.integers(0, 2**32 - 1))
+def test_disjoint_ratio_equals_the_search_over_every_pair(M, A, seed):
+    """The upper end and its pair against the (M, A, A) search over ordered pairs it replaced (ties included)."""
+    from fairaudit.intervals import _disjoint_ratio, _div
+
+    rng = np.random.default_rng(seed)
+    lo = rng.choice([0.0, 0.1, 0.2, 0.5], size=(M, A))           # few values: many ties and zeros
+    hi = lo + rng.choice([0.0, 0.1, 0.3], size=(M, A))
+    lo[rng.random((M, A)) < 0.2] = np.nan
+    valid = ~np.isnan(lo)
+    R = _div(np.nan_to_num(hi)[:, :, None], np.nan_to_num(lo)[:, None, :])
+    R = np.where(valid[:, :, None] & valid[:, None, :] & ~np.eye(A, dtype=bool), R, -np.inf).reshape(M, -1)
+    idx = R.argmax(-1)
+    want = np.where(valid.sum(-1) >= 2, R[np.arange(M), idx], np.nan)
+    lower, upper, fav, oth = _disjoint_ratio(lo, hi)
+    np.testing.assert_array_equal(upper, want)
+    ok = valid.sum(-1) >= 2
+    np.testing.assert_array_equal((fav * A + oth)[ok], idx[ok])

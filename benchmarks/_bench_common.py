@@ -44,23 +44,44 @@ def rel_diff(a: float, b: float) -> float:
     return abs(a - b) / scale if scale > 0 else 0.0
 
 
-def machine_line() -> str:
-    """One Markdown line naming the machine, the versions and the load at the time it is called."""
-    import numpy
+def _version(module: str) -> str:
+    """The version of an installed package (its ``__version__``, else its distribution metadata), or "?"."""
+    try:
+        return str(__import__(module).__version__)
+    except Exception:
+        try:
+            from importlib.metadata import version
 
+            return version(module)
+        except Exception:
+            return "?"
+
+
+def memory_info() -> dict[str, int] | None:
+    """Total and available memory in bytes (``/proc/meminfo``: MemTotal, MemAvailable); None where unknown."""
     try:
-        import cvxpy
-        cvx = cvxpy.__version__
-    except Exception:  # pragma: no cover - cvxpy is a dependency
-        cvx = "?"
-    try:
-        import clarabel
-        cla = clarabel.__version__
-    except Exception:  # pragma: no cover
-        cla = "?"
+        fields = dict(line.split(":", 1) for line in Path("/proc/meminfo").read_text().splitlines() if ":" in line)
+        return {"total": int(fields["MemTotal"].split()[0]) * 1024,
+                "available": int(fields["MemAvailable"].split()[0]) * 1024}
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def machine_line(packages: Sequence[str] = ("numpy", "cvxpy", "clarabel"), memory: bool = False) -> str:
+    """One Markdown line naming the machine, the versions and the load at the time it is called.
+
+    ``packages`` are the modules whose versions are named; ``memory`` adds the
+    total and available RAM (from ``/proc/meminfo``).
+    """
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a"
-    return (f"Machine: {platform.machine()} {platform.system()}, {os.cpu_count()} CPUs, load average {load}; "
-            f"Python {platform.python_version()}, numpy {numpy.__version__}, cvxpy {cvx}, clarabel {cla}.")
+    ram = ""
+    if memory:
+        info = memory_info()
+        ram = (f", {info['total'] / 1e9:.1f} GB RAM ({info['available'] / 1e9:.1f} GB available)" if info
+               else ", RAM unknown")
+    versions = ", ".join(f"{name} {_version(name)}" for name in packages)
+    return (f"Machine: {platform.machine()} {platform.system()}, {os.cpu_count()} CPUs{ram}, load average {load}; "
+            f"Python {platform.python_version()}, {versions}.")
 
 
 def fmt_time(seconds: float) -> str:

@@ -111,3 +111,78 @@ def test_coverage_quick_run_exits_zero_with_tables(capsys, tmp_path):
     assert [row[0] for row in tables[0][1:]] == ["clopper-pearson", "multinomial", "bayes"]
     assert output.read_text(encoding="utf-8") == text
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
+
+
+def test_scale_quick_run_exits_zero_with_tables(capsys, tmp_path):
+    """bench_scale --quick: five tables, each with the agreement column within tolerance, every step run."""
+    module = _load("bench_scale")
+    output, plot = tmp_path / "report.md", tmp_path / "curves.svg"
+    work = tmp_path / "work"
+    work.mkdir()
+    assert module.main(["--quick", "--output", str(output), "--plot", str(plot), "--workdir", str(work)]) == 0
+    text = capsys.readouterr().out
+    for header in ("| step | median time | repeats | peak memory |", "| route | median time | repeats | peak RSS |",
+                   "| step | contexts | median time |", "| records | Parquet file | median time |",
+                   "| contexts | table | build Law |"):
+        assert header in text
+    tables = _tables(text)
+    assert len(tables) == 5
+    for table in tables:
+        _check_agreement(table, module.AGREEMENT_TOL)
+        assert all(row[-1] != "—" for row in table[1:] if "did not run" not in " ".join(row))
+    assert "did not run" not in text and "skipped:" not in text      # quick sizes always fit
+    assert "same context and groups" in text                         # pandas found the same maximiser
+    assert [row[0] for row in tables[3][1:]] == ["10^3", "10^4"]     # the records curve
+    assert [row[0] for row in tables[4][1:]] == ["100", "10^3", "10^4"]
+    assert "slope" in text and "Every agreement is within tolerance." in text
+    assert output.read_text(encoding="utf-8") == text
+    assert plot.read_text(encoding="utf-8").lstrip().startswith("<?xml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["curves.svg", "report.md", "work"]
+    assert list(work.iterdir()) == []                                # the Parquet files are deleted
+
+
+def test_scale_guard_reports_failure_and_timeout():
+    """A step that raises, runs out of its address space or its time is reported as an error dict, not raised."""
+    module = _load("bench_scale")
+    assert module.run_guarded(lambda: {"ok": 1}, timeout=30) == {"ok": 1}
+    failed = module.run_guarded(lambda: 1 / 0, timeout=30)
+    assert failed["error"].startswith("failed (ZeroDivisionError")
+    huge = module.run_guarded(lambda: {"n": module.np.eye(10**6).shape}, timeout=30)   # 8 TB
+    assert huge["error"].startswith("needs more memory than available (MemoryError")
+    slow = module.run_guarded(lambda: module.time.sleep(30), timeout=0.5)
+    assert slow == {"error": "stopped at the time limit of 0.5 s"}
+
+
+def test_scale_pandas_route_matches_hand_count():
+    """The pandas baseline on a 2-context law computed by hand: E[g | x, a] = P(u = 1 | x, a)."""
+    module = _load("bench_scale")
+    import numpy as np
+    import pandas as pd
+
+    q = np.full((2, 8, 4), 0.25)
+    q[1, 3] = [0.1, 0.6, 0.2, 0.1]          # context 1, group 3: E = 0.6 against 0.25 elsewhere
+    q[1, 5] = [0.7, 0.1, 0.1, 0.1]          # context 1, group 5: E = 0.1
+    idx = pd.MultiIndex.from_product([np.arange(2), np.arange(8)], names=["context", "group"])
+    r = module.pandas_route(module._long_frame(q), pd.Series([0.0, 1.0, 0.0, 0.0]), pd.Series(np.full(16, 1 / 16), index=idx))
+    assert (r["context"], r["group"], r["other_group"]) == (1, 3, 5)
+    assert r["local"] == pytest.approx(np.log(6.0))
+    # E[g | a] = mean over the two contexts: group 3 (0.25 + 0.6) / 2, group 5 (0.25 + 0.1) / 2
+    assert (r["global_group"], r["global_other_group"]) == (3, 5)
+    assert r["global"] == pytest.approx(np.log(0.85 / 0.35))
+
+
+def test_scale_command_rss_is_the_commands_own():
+    """The peak RSS of a command is its own, not the benchmark's: 400 MB held here do not show in it."""
+    module = _load("bench_scale")
+    import sys
+
+    import numpy as np
+
+    held = np.ones(50_000_000)                                 # 400 MB resident in this process
+    small = module.run_command([sys.executable, "-c", "pass"], timeout=60)
+    big = module.run_command([sys.executable, "-c", "import numpy; a = numpy.ones(40_000_000)"], timeout=60)
+    assert small["returncode"] == 0 and big["returncode"] == 0
+    assert small["rss"] < 100e6 < 320e6 < big["rss"] < 400e6 + 100e6   # a bare interpreter; 320 MB of ones
+    failed = module.run_command([sys.executable, "-c", "import sys; sys.exit('no such column')"], timeout=60)
+    assert failed["returncode"] == 1 and "no such column" in failed["stderr"]
+    del held

@@ -1,0 +1,75 @@
+"""Release hygiene: the wheel built by ``python -m build`` installs into a fresh environment and certifies.
+
+The wheel is built from this checkout, installed with pip into a new virtual
+environment (its dependencies come from the package index, as for a user),
+and its ``fairaudit`` command certifies a shipped example. The JSON it prints
+must equal the in-tree package's certificate of the same spec, and the
+version must be the one written in ``fairaudit/__init__.py`` (the only place
+it is written: ``pyproject.toml`` reads it from there).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+import fairaudit
+from fairaudit.certify import certify
+from fairaudit.report import certificate_dict, render
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "llm_hiring" / "gpt35.toml"
+
+
+def _run(args, **kw):
+    done = subprocess.run(args, capture_output=True, text=True, **kw)
+    assert done.returncode == 0, f"{args[:4]} exited {done.returncode}:\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
+    return done
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory) -> Path:
+    pytest.importorskip("build", reason="the release test needs 'build' (in the [test] extra)")
+    out = tmp_path_factory.mktemp("dist")
+    _run([sys.executable, "-m", "build", "--wheel", "--outdir", str(out), str(ROOT)])
+    (found,) = out.glob("fairaudit-*.whl")
+    return found
+
+
+def test_version_is_written_once():
+    assert re.fullmatch(r"\d+\.\d+\.\d+", fairaudit.__version__)
+    assert "version =" not in (ROOT / "pyproject.toml").read_text().split("[project]")[1].split("\n[")[0]
+    changelog = (ROOT / "CHANGELOG.md").read_text()
+    assert f"## [{fairaudit.__version__}]" in changelog or "## [Unreleased]" in changelog
+
+
+def test_wheel_holds_the_package_and_nothing_else(wheel):
+    assert wheel.name.startswith(f"fairaudit-{fairaudit.__version__}-py3-none-any")
+    names = zipfile.ZipFile(wheel).namelist()
+    top = {n.split("/")[0] for n in names}
+    assert top == {"fairaudit", f"fairaudit-{fairaudit.__version__}.dist-info"}
+    assert "fairaudit/cli.py" in names and "fairaudit/plugins/vlm/tasks.py" in names
+    entry = zipfile.ZipFile(wheel).read(f"fairaudit-{fairaudit.__version__}.dist-info/entry_points.txt").decode()
+    assert "fairaudit = fairaudit.cli:main" in entry
+
+
+def test_wheel_installs_in_a_fresh_environment_and_certifies(wheel, tmp_path):
+    env = tmp_path / "venv"
+    _run([sys.executable, "-m", "venv", str(env)])
+    bindir = env / ("Scripts" if sys.platform == "win32" else "bin")
+    _run([str(bindir / "python"), "-m", "pip", "install", "-q", str(wheel)])
+    version = _run([str(bindir / "fairaudit"), "--version"]).stdout.strip()
+    assert version == f"fairaudit {fairaudit.__version__}"
+    # run outside the checkout, so the installed package (not the source tree) answers
+    out = _run([str(bindir / "fairaudit"), "certify", str(EXAMPLE), "--format", "json"], cwd=tmp_path).stdout
+    where = _run([str(bindir / "python"), "-c", "import fairaudit; print(fairaudit.__file__)"], cwd=tmp_path).stdout
+    assert str(env) in where
+    got, want = json.loads(out), json.loads(render(certificate_dict(certify(EXAMPLE)), "certify", "json"))
+    assert got["certified"] is True
+    assert got == want

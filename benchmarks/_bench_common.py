@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-AGREEMENT_TOL = 1e-7   # relative; a larger difference between two exact routes is a failure (exit status 1)
+AGREEMENT_TOL = 1e-7  # relative; a larger difference between two exact routes is a failure (exit status 1)
 
 
 def median_time(fn: Callable[[], object], repeats: int, min_seconds: float = 0.005) -> float:
@@ -61,8 +61,10 @@ def memory_info() -> dict[str, int] | None:
     """Total and available memory in bytes (``/proc/meminfo``: MemTotal, MemAvailable); None where unknown."""
     try:
         fields = dict(line.split(":", 1) for line in Path("/proc/meminfo").read_text().splitlines() if ":" in line)
-        return {"total": int(fields["MemTotal"].split()[0]) * 1024,
-                "available": int(fields["MemAvailable"].split()[0]) * 1024}
+        return {
+            "total": int(fields["MemTotal"].split()[0]) * 1024,
+            "available": int(fields["MemAvailable"].split()[0]) * 1024,
+        }
     except (OSError, KeyError, ValueError):
         return None
 
@@ -77,11 +79,16 @@ def machine_line(packages: Sequence[str] = ("numpy", "cvxpy", "clarabel"), memor
     ram = ""
     if memory:
         info = memory_info()
-        ram = (f", {info['total'] / 1e9:.1f} GB RAM ({info['available'] / 1e9:.1f} GB available)" if info
-               else ", RAM unknown")
+        ram = (
+            f", {info['total'] / 1e9:.1f} GB RAM ({info['available'] / 1e9:.1f} GB available)"
+            if info
+            else ", RAM unknown"
+        )
     versions = ", ".join(f"{name} {_version(name)}" for name in packages)
-    return (f"Machine: {platform.machine()} {platform.system()}, {os.cpu_count()} CPUs{ram}, load average {load}; "
-            f"Python {platform.python_version()}, {versions}.")
+    return (
+        f"Machine: {platform.machine()} {platform.system()}, {os.cpu_count()} CPUs{ram}, load average {load}; "
+        f"Python {platform.python_version()}, {versions}."
+    )
 
 
 def fmt_time(seconds: float) -> str:

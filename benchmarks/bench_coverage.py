@@ -42,11 +42,11 @@ METHODS = ("clopper-pearson", "multinomial", "bayes")
 LEVELS = (0.90, 0.95)
 METRICS = ("local", "global", "demographic_parity", "equalized_odds")
 LABELS = {"local": "L", "global": "L̄", "demographic_parity": "L_dp", "equalized_odds": "L_eo"}
-TOL = 1e-9            # absolute slack of the inclusion test (floating-point ties at L = 0)
+TOL = 1e-9  # absolute slack of the inclusion test (floating-point ties at L = 0)
 BAYES_DRAWS = 2000
 N_BOOT = 100
 DEFAULT_SEED = 20250605
-UTILITIES = {2: (0.0, 1.0), 3: (0.0, 0.4, 1.0), 4: (0.0, 0.25, 0.6, 1.0)}   # g(u); K = 2 is the indicator of u = 1
+UTILITIES = {2: (0.0, 1.0), 3: (0.0, 0.4, 1.0), 4: (0.0, 0.25, 0.6, 1.0)}  # g(u); K = 2 is the indicator of u = 1
 
 
 @dataclass(frozen=True)
@@ -56,9 +56,9 @@ class Scenario:
     name: str
     contexts: int
     groups: int
-    decisions: int            # 2: binary outcome, indicator utility; 3 or 4: bounded utility UTILITIES[K]
-    per_cell: int             # mean records per (context, group) cell: N = per_cell · contexts · groups
-    regime: str               # "low" (P near 0.02), "mid", "high" (near 0.98), "fair" (mid, all groups equal)
+    decisions: int  # 2: binary outcome, indicator utility; 3 or 4: bounded utility UTILITIES[K]
+    per_cell: int  # mean records per (context, group) cell: N = per_cell · contexts · groups
+    regime: str  # "low" (P near 0.02), "mid", "high" (near 0.98), "fair" (mid, all groups equal)
 
 
 SCENARIOS = (
@@ -85,7 +85,7 @@ class Truth:
     law: Law
     population: Population
     utility: object
-    values: dict             # metric -> true value
+    values: dict  # metric -> true value
 
 
 def _cell_law(rng, regime: str, K: int) -> np.ndarray:
@@ -97,7 +97,7 @@ def _cell_law(rng, regime: str, K: int) -> np.ndarray:
     base = rng.dirichlet(np.full(K, 2.0))
     if regime in ("mid", "fair"):
         return base
-    s = rng.uniform(0.02, 0.06)             # mass off the extreme decision
+    s = rng.uniform(0.02, 0.06)  # mass off the extreme decision
     corner = np.zeros(K)
     corner[0 if regime == "low" else K - 1] = 1.0
     return (1.0 - s) * corner + s * rng.dirichlet(np.ones(K))
@@ -114,13 +114,17 @@ def make_truth(scenario: Scenario, seed: int) -> Truth:
             Q[x, a] = _cell_law(rng, scenario.regime, K)
         if scenario.regime == "fair":
             Q[x, :] = Q[x, 0]
-    P = rng.dirichlet(np.full(X * A, 4.0)).reshape(X, A)      # X and A dependent: the truth needs P(x | a)
+    P = rng.dirichlet(np.full(X * A, 4.0)).reshape(X, A)  # X and A dependent: the truth needs P(x | a)
     contexts, groups, decisions = [f"x{i}" for i in range(X)], [f"a{i}" for i in range(A)], list(range(K))
     law = Law(Q, contexts, groups, decisions)
     pop = Population(P, contexts, groups)
     g = indicator(1, decisions) if K == 2 else from_table(np.array(UTILITIES[K]), decisions, name=f"g{K}")
-    values = {"local": local_fairness(law, g).value, "global": global_fairness(law, g, pop).value,
-              "demographic_parity": demographic_parity(law, pop).value, "equalized_odds": equalized_odds(law).value}
+    values = {
+        "local": local_fairness(law, g).value,
+        "global": global_fairness(law, g, pop).value,
+        "demographic_parity": demographic_parity(law, pop).value,
+        "equalized_odds": equalized_odds(law).value,
+    }
     return Truth(scenario, law, pop, g, values)
 
 
@@ -152,16 +156,29 @@ def fairaudit_rows(table_: CountTable, truth: Truth, methods, levels, draws: int
             iv = fairness_intervals(table_, truth.utility, level, method, **kw)
             all_in = True
             for metric in METRICS:
-                interval = {"local": iv.local, "global": iv.global_, "demographic_parity": iv.demographic_parity,
-                            "equalized_odds": iv.equalized_odds}[metric]
+                interval = {
+                    "local": iv.local,
+                    "global": iv.global_,
+                    "demographic_parity": iv.demographic_parity,
+                    "equalized_odds": iv.equalized_odds,
+                }[metric]
                 if interval is None:
                     continue
                 ok = _inside(truth.values[metric], interval.lower, interval.upper)
                 all_in &= ok
-                out.append(dict(method=method, level=level, metric=metric, covered=ok,
-                                width=interval.upper - interval.lower, infinite=math.isinf(interval.upper)))
-            out.append(dict(method=method, level=level, metric="simultaneous", covered=all_in, width=math.nan,
-                            infinite=False))
+                out.append(
+                    dict(
+                        method=method,
+                        level=level,
+                        metric=metric,
+                        covered=ok,
+                        width=interval.upper - interval.lower,
+                        infinite=math.isinf(interval.upper),
+                    )
+                )
+            out.append(
+                dict(method=method, level=level, metric="simultaneous", covered=all_in, width=math.nan, infinite=False)
+            )
     return out
 
 
@@ -169,15 +186,22 @@ def bootstrap_rows(table_: CountTable, truth: Truth, levels, n_boot: int, seed: 
     """fairlearn's percentile bootstrap for L̄ = −log ratio() and L_dp = difference(), binary single context only."""
     from fairlearn.metrics import MetricFrame, selection_rate
 
-    counts = table_.counts[0]                                     # (A, 2)
+    counts = table_.counts[0]  # (A, 2)
     a = np.repeat(np.repeat(np.arange(counts.shape[0]), 2), counts.reshape(-1))
     y = np.repeat(np.tile(np.arange(2), counts.shape[0]), counts.reshape(-1))
     qs = []
     for level in levels:
         alpha = 1.0 - level
         qs += [alpha / 2, 1 - alpha / 2]
-    mf = MetricFrame(metrics=selection_rate, y_true=y, y_pred=y, sensitive_features=a, n_boot=n_boot,
-                     ci_quantiles=qs, random_state=seed)
+    mf = MetricFrame(
+        metrics=selection_rate,
+        y_true=y,
+        y_pred=y,
+        sensitive_features=a,
+        n_boot=n_boot,
+        ci_quantiles=qs,
+        random_state=seed,
+    )
     ratio_ci = [float(v) for v in mf.ratio_ci()]
     diff_ci = [float(v) for v in mf.difference_ci()]
     out = []
@@ -190,10 +214,28 @@ def bootstrap_rows(table_: CountTable, truth: Truth, levels, n_boot: int, seed: 
         d_lo, d_hi = diff_ci[2 * i], diff_ci[2 * i + 1]
         ok_g = _inside(truth.values["global"], lb_lo, lb_hi)
         ok_d = _inside(truth.values["demographic_parity"], d_lo, d_hi)
-        out.append(dict(method="fairlearn bootstrap", level=level, metric="global", covered=ok_g,
-                        width=lb_hi - lb_lo, infinite=math.isinf(lb_hi), undefined=math.isnan(lb_lo)))
-        out.append(dict(method="fairlearn bootstrap", level=level, metric="demographic_parity", covered=ok_d,
-                        width=d_hi - d_lo, infinite=False, undefined=math.isnan(d_lo)))
+        out.append(
+            dict(
+                method="fairlearn bootstrap",
+                level=level,
+                metric="global",
+                covered=ok_g,
+                width=lb_hi - lb_lo,
+                infinite=math.isinf(lb_hi),
+                undefined=math.isnan(lb_lo),
+            )
+        )
+        out.append(
+            dict(
+                method="fairlearn bootstrap",
+                level=level,
+                metric="demographic_parity",
+                covered=ok_d,
+                width=d_hi - d_lo,
+                infinite=False,
+                undefined=math.isnan(d_lo),
+            )
+        )
     return out
 
 
@@ -207,6 +249,7 @@ class _Progress:
         if enabled:
             try:
                 import tqdm
+
                 self.bar = tqdm.tqdm(total=total, file=sys.stderr, desc="datasets")
             except ImportError:
                 self.bar = None
@@ -219,8 +262,12 @@ class _Progress:
             self.bar.update(1)
             return
         while self.done >= self.next_mark * self.total - 1e-9 and self.next_mark <= 1.0 + 1e-9:
-            print(f"bench_coverage: {self.done}/{self.total} datasets ({self.next_mark:.0%}), "
-                  f"{time.perf_counter() - self.t0:.0f} s", file=sys.stderr, flush=True)
+            print(
+                f"bench_coverage: {self.done}/{self.total} datasets ({self.next_mark:.0%}), "
+                f"{time.perf_counter() - self.t0:.0f} s",
+                file=sys.stderr,
+                flush=True,
+            )
             self.next_mark += 0.1
 
     def close(self) -> None:
@@ -228,8 +275,17 @@ class _Progress:
             self.bar.close()
 
 
-def run_datasets(n_datasets: int, seed: int, *, scenarios=SCENARIOS, methods=METHODS, levels=LEVELS,
-                 draws: int = BAYES_DRAWS, n_boot: int | None = N_BOOT, progress: bool = False) -> list[dict]:
+def run_datasets(
+    n_datasets: int,
+    seed: int,
+    *,
+    scenarios=SCENARIOS,
+    methods=METHODS,
+    levels=LEVELS,
+    draws: int = BAYES_DRAWS,
+    n_boot: int | None = N_BOOT,
+    progress: bool = False,
+) -> list[dict]:
     """Simulate ``n_datasets`` (round-robin over ``scenarios``) and return one row per checked interval.
 
     Each row: scenario, dataset, method, level, metric ("local", "global",
@@ -286,33 +342,61 @@ def _width_cell(rows, **where) -> str:
 
 def _report_tables(rows, level: float, scenarios) -> str:
     methods = [m for m in METHODS if any(r["method"] == m for r in rows)]
-    header = ["method", "datasets"] + [f"coverage {LABELS[m]}" for m in METRICS] + ["simultaneous"] + \
-             [f"width {LABELS[m]}" for m in METRICS]
+    header = (
+        ["method", "datasets"]
+        + [f"coverage {LABELS[m]}" for m in METRICS]
+        + ["simultaneous"]
+        + [f"width {LABELS[m]}" for m in METRICS]
+    )
     body = []
     for m in methods:
         n = coverage(rows, method=m, level=level, metric="simultaneous")[2]
-        body.append([m, str(n)] + [_cov_cell(rows, method=m, level=level, metric=k) for k in METRICS]
-                    + [_cov_cell(rows, method=m, level=level, metric="simultaneous")]
-                    + [_width_cell(rows, method=m, level=level, metric=k) for k in METRICS])
+        body.append(
+            [m, str(n)]
+            + [_cov_cell(rows, method=m, level=level, metric=k) for k in METRICS]
+            + [_cov_cell(rows, method=m, level=level, metric="simultaneous")]
+            + [_width_cell(rows, method=m, level=level, metric=k) for k in METRICS]
+        )
     parts = [table(header, body)]
     boot = [r for r in rows if r["method"] == "fairlearn bootstrap" and r["level"] == level]
     if boot:
         subset = sorted({r["scenario"] for r in boot})
         sub = [r for r in rows if r["scenario"] in subset and r["level"] == level]
-        header2 = ["method (binary, one context)", "datasets", "coverage L̄", "coverage L_dp", "width L̄",
-                   "width L_dp", "undefined"]
+        header2 = [
+            "method (binary, one context)",
+            "datasets",
+            "coverage L̄",
+            "coverage L_dp",
+            "width L̄",
+            "width L_dp",
+            "undefined",
+        ]
         body2 = []
         for m in methods + ["fairlearn bootstrap"]:
             n = coverage(sub, method=m, metric="global")[2]
             undef = [r["undefined"] for r in sub if r["method"] == m and r["metric"] == "global"]
-            body2.append([m, str(n), _cov_cell(sub, method=m, metric="global"),
-                          _cov_cell(sub, method=m, metric="demographic_parity"),
-                          _width_cell(sub, method=m, metric="global"), _width_cell(sub, method=m, metric="demographic_parity"),
-                          f"{np.mean(undef):.0%}" if undef else "—"])
-        parts += ["", f"Same datasets (the {len(subset)} binary single-context scenarios), against fairlearn's bootstrap:",
-                  "", table(header2, body2)]
-    header3 = ["scenario", "datasets", "mean records"] + [f"{m} simult." for m in methods] + \
-              (["bootstrap L̄", "bootstrap L_dp"] if boot else [])
+            body2.append(
+                [
+                    m,
+                    str(n),
+                    _cov_cell(sub, method=m, metric="global"),
+                    _cov_cell(sub, method=m, metric="demographic_parity"),
+                    _width_cell(sub, method=m, metric="global"),
+                    _width_cell(sub, method=m, metric="demographic_parity"),
+                    f"{np.mean(undef):.0%}" if undef else "—",
+                ]
+            )
+        parts += [
+            "",
+            f"Same datasets (the {len(subset)} binary single-context scenarios), against fairlearn's bootstrap:",
+            "",
+            table(header2, body2),
+        ]
+    header3 = (
+        ["scenario", "datasets", "mean records"]
+        + [f"{m} simult." for m in methods]
+        + (["bootstrap L̄", "bootstrap L_dp"] if boot else [])
+    )
     body3 = []
     for s in scenarios:
         sr = [r for r in rows if r["scenario"] == s.name and r["level"] == level]
@@ -348,21 +432,31 @@ def _paragraph(rows, level: float, scenarios) -> tuple[str, list[str]]:
         hi = max(per_s)
         inf = [r["infinite"] for r in rows if r["method"] == m and r["level"] == level and r["metric"] == "local"]
         kind = "guaranteed" if m != "bayes" else "not guaranteed: a credible band"
-        se0 = math.sqrt(level * (1 - level) / n)        # the binomial SE at the nominal level
-        verdict = ("conservative" if p - level > 2 * se0 else
-                   ("within 2 SE of nominal" if p - level >= -2 * se0 else "undercovers"))
+        se0 = math.sqrt(level * (1 - level) / n)  # the binomial SE at the nominal level
+        verdict = (
+            "conservative"
+            if p - level > 2 * se0
+            else ("within 2 SE of nominal" if p - level >= -2 * se0 else "undercovers")
+        )
         sentences.append(
             f"**{m}** ({kind}): simultaneous coverage {p:.3f} ± {se:.3f} over {n} datasets, {p - level:+.3f} against "
             f"the nominal {level:.2f} ({verdict}); per metric {', '.join(per)}. "
-            + (f"Across scenarios it ranges from {lo[0]:.3f} ({lo[3]}, {lo[0] - level:+.3f}) to {hi[0]:.3f} "
-               f"({hi[3]}, {hi[0] - level:+.3f})" if lo[0] != hi[0] else f"It is {lo[0]:.3f} in every scenario")
-            + f"; the upper end of L is +∞ in {np.mean(inf):.1%} of datasets.")
+            + (
+                f"Across scenarios it ranges from {lo[0]:.3f} ({lo[3]}, {lo[0] - level:+.3f}) to {hi[0]:.3f} "
+                f"({hi[3]}, {hi[0] - level:+.3f})"
+                if lo[0] != hi[0]
+                else f"It is {lo[0]:.3f} in every scenario"
+            )
+            + f"; the upper end of L is +∞ in {np.mean(inf):.1%} of datasets."
+        )
         if m != "bayes":
             for ps, ses, ns, name in per_s:
                 se0 = math.sqrt(level * (1 - level) / ns)
                 if ps < level - 3 * se0:
-                    alarms.append(f"{m} at {level:.2f}: scenario '{name}' simultaneous coverage {ps:.3f} over {ns} "
-                                  f"datasets < nominal − 3 SE ({level - 3 * se0:.3f})")
+                    alarms.append(
+                        f"{m} at {level:.2f}: scenario '{name}' simultaneous coverage {ps:.3f} over {ns} "
+                        f"datasets < nominal − 3 SE ({level - 3 * se0:.3f})"
+                    )
             for k in METRICS:
                 pk, _, nk = coverage(rows, method=m, level=level, metric=k)
                 if nk and pk < level - 3 * math.sqrt(level * (1 - level) / nk):
@@ -378,10 +472,15 @@ def _paragraph(rows, level: float, scenarios) -> tuple[str, list[str]]:
         pg, seg, ng = coverage(boot, metric="global")
         pd_, sed, _ = coverage(boot, metric="demographic_parity")
         undef = np.mean([r["undefined"] for r in boot if r["metric"] == "global"])
-        text = (f"**fairlearn bootstrap** (percentile, {ng} datasets, one interval per metric, not simultaneous): "
-                f"coverage of L̄ {pg:.3f} ({pg - level:+.3f}) and of L_dp {pd_:.3f} ({pd_ - level:+.3f})")
-        text += (f"; it undercovers (more than 2 binomial SE below nominal) for {'; '.join(under)}" if under
-                 else "; no scenario undercovers by more than 2 binomial SE")
+        text = (
+            f"**fairlearn bootstrap** (percentile, {ng} datasets, one interval per metric, not simultaneous): "
+            f"coverage of L̄ {pg:.3f} ({pg - level:+.3f}) and of L_dp {pd_:.3f} ({pd_ - level:+.3f})"
+        )
+        text += (
+            f"; it undercovers (more than 2 binomial SE below nominal) for {'; '.join(under)}"
+            if under
+            else "; no scenario undercovers by more than 2 binomial SE"
+        )
         if undef > 0:
             text += f"; its L̄ interval is undefined (0/0 selection rates in the resamples) in {undef:.0%} of datasets"
         sentences.append(text + ".")
@@ -395,40 +494,53 @@ def run(n_datasets: int, seed: int, quick: bool, progress: bool = True) -> tuple
     start = time.perf_counter()
     rows = run_datasets(n_datasets, seed, draws=draws, n_boot=n_boot, progress=progress)
     total = time.perf_counter() - start
-    lines = ["# Coverage of the simultaneous intervals on simulated data" + (" (quick)" if quick else ""), "",
-             machine,
-             f"{n_datasets} datasets, seed {seed}, round-robin over {len(SCENARIOS)} scenarios (a scenario's law is "
-             f"drawn once from the seed and kept; 'bin'/'catK': binary outcome with g = 1{{u = 1}}, or K outcomes "
-             f"with the bounded utility g = {UTILITIES[3]} / {UTILITIES[4]}; 'XxA': contexts × groups; 'nN': mean "
-             f"records per cell; low/mid/high: P(U = extreme | x, a) near 0.02, in [0.2, 0.8], near 0.98; fair: all "
-             f"groups share each cell's law, L = 0). Records are drawn i.i.d. from a joint P(X, A) ~ Dirichlet(4) "
-             f"(X and A dependent), then U | X, A. Truth: fairaudit.metrics on the true law, global metrics with the "
-             f"true P(x | a). Methods: clopper-pearson (binary outcomes only), multinomial, bayes ({draws} draws, "
-             f"concentration 1); intervals pooled over the records' own groups (no population given). Coverage ± one "
-             f"binomial standard error; widths are means over finite intervals (nats for L, L̄; probability for "
-             f"L_dp, L_eo), the share with an infinite upper end in brackets. Simultaneous: every computed interval "
-             f"among L, L̄, L_dp, L_eo holds at once (for clopper-pearson with a binary outcome all four are "
-             f"computed). fairlearn: MetricFrame(selection_rate, n_boot={n_boot}), percentile intervals of ratio() "
-             f"(L̄ = −log ratio) and difference() (L_dp), on the binary single-context datasets; an undefined "
-             f"interval counts as a miss."]
+    lines = [
+        "# Coverage of the simultaneous intervals on simulated data" + (" (quick)" if quick else ""),
+        "",
+        machine,
+        f"{n_datasets} datasets, seed {seed}, round-robin over {len(SCENARIOS)} scenarios (a scenario's law is "
+        f"drawn once from the seed and kept; 'bin'/'catK': binary outcome with g = 1{{u = 1}}, or K outcomes "
+        f"with the bounded utility g = {UTILITIES[3]} / {UTILITIES[4]}; 'XxA': contexts × groups; 'nN': mean "
+        f"records per cell; low/mid/high: P(U = extreme | x, a) near 0.02, in [0.2, 0.8], near 0.98; fair: all "
+        f"groups share each cell's law, L = 0). Records are drawn i.i.d. from a joint P(X, A) ~ Dirichlet(4) "
+        f"(X and A dependent), then U | X, A. Truth: fairaudit.metrics on the true law, global metrics with the "
+        f"true P(x | a). Methods: clopper-pearson (binary outcomes only), multinomial, bayes ({draws} draws, "
+        f"concentration 1); intervals pooled over the records' own groups (no population given). Coverage ± one "
+        f"binomial standard error; widths are means over finite intervals (nats for L, L̄; probability for "
+        f"L_dp, L_eo), the share with an infinite upper end in brackets. Simultaneous: every computed interval "
+        f"among L, L̄, L_dp, L_eo holds at once (for clopper-pearson with a binary outcome all four are "
+        f"computed). fairlearn: MetricFrame(selection_rate, n_boot={n_boot}), percentile intervals of ratio() "
+        f"(L̄ = −log ratio) and difference() (L_dp), on the binary single-context datasets; an undefined "
+        f"interval counts as a miss.",
+    ]
     alarms_all = []
     for level in LEVELS:
         para, alarms = _paragraph(rows, level, SCENARIOS)
         alarms_all += alarms
         lines += ["", f"## Confidence {level:.2f}", "", _report_tables(rows, level, SCENARIOS), "", para]
-    lines += ["", f"Total benchmark time {total:.1f} s."
-              + (" Guaranteed methods: no undercoverage beyond 3 binomial SE." if not alarms_all
-                 else f" {len(alarms_all)} UNDERCOVERAGE ALARM(S) of a guaranteed method: " + "; ".join(alarms_all))]
+    lines += [
+        "",
+        f"Total benchmark time {total:.1f} s."
+        + (
+            " Guaranteed methods: no undercoverage beyond 3 binomial SE."
+            if not alarms_all
+            else f" {len(alarms_all)} UNDERCOVERAGE ALARM(S) of a guaranteed method: " + "; ".join(alarms_all)
+        ),
+    ]
     return "\n".join(lines) + "\n", alarms_all
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--datasets", type=int, default=1000, help="number of simulated datasets (default 1000)")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="seed of the laws and the datasets")
-    parser.add_argument("--quick", action="store_true",
-                        help="one dataset per scenario, 400 Bayesian draws, 20 bootstrap resamples (seconds)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="one dataset per scenario, 400 Bayesian draws, 20 bootstrap resamples (seconds)",
+    )
     parser.add_argument("--output", metavar="FILE.md", help="also write the Markdown report here (atomically)")
     args = parser.parse_args(argv)
     n = len(SCENARIOS) if args.quick else args.datasets

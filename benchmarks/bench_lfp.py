@@ -23,7 +23,6 @@ Usage: ``python benchmarks/bench_lfp.py [--quick] [--output FILE.md] [--seed S]`
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import statistics
 import sys
@@ -32,18 +31,28 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _bench_common import (AGREEMENT_TOL, emit, fmt_diff, fmt_ratio, fmt_time, machine_line,  # noqa: E402
-                     median_time, rel_diff, table)
+from _bench_common import (
+    AGREEMENT_TOL,
+    emit,
+    fmt_diff,
+    fmt_ratio,
+    fmt_time,
+    machine_line,  # noqa: E402
+    median_time,
+    rel_diff,
+    table,
+)
 
 from fairaudit.lfp import FractionalProgram, lp_max, threshold_max, threshold_max_many  # noqa: E402
 from fairaudit.privacy import from_matrix  # noqa: E402
 from fairaudit.worstcase import black_box_bound  # noqa: E402
 
-LOWER = 0.1          # the utility class of (b): g in [0.1, 1]
+LOWER = 0.1  # the utility class of (b): g in [0.1, 1]
 GAMMA = 1.0
 
-FULL = dict(cells=(2, 10, 100), groups=(2, 4, 8, 16, 32, 64), programs=20, repeats=7, lp_repeats=3,
-            sample_from=16, sample=128)
+FULL = dict(
+    cells=(2, 10, 100), groups=(2, 4, 8, 16, 32, 64), programs=20, repeats=7, lp_repeats=3, sample_from=16, sample=128
+)
 QUICK = dict(cells=(2, 10), groups=(2, 16), programs=3, repeats=1, lp_repeats=1, sample_from=16, sample=6)
 
 
@@ -59,7 +68,7 @@ def single_programs(cfg: dict, seed: int, failures: list[str]) -> str:
     for m in cfg["cells"]:
         rng = np.random.default_rng([seed, 0, m])
         k = cfg["programs"]
-        lower = rng.uniform(0.0, 0.5, m)                 # one random box per m, shared by the k programs
+        lower = rng.uniform(0.0, 0.5, m)  # one random box per m, shared by the k programs
         upper = lower + rng.uniform(0.05, 1.0, m)
         P = rng.dirichlet(np.ones(m), size=k)
         Q = rng.dirichlet(np.ones(m), size=k)
@@ -76,8 +85,12 @@ def single_programs(cfg: dict, seed: int, failures: list[str]) -> str:
             for r in (thr, lp, sv):
                 if r.status != "optimal":
                     failures.append(f"(a) m={m} program {i}: {r.method} status {r.status} ({r.reason})")
-            agree = max(agree, rel_diff(thr.value, lp.value), rel_diff(thr.value, sv.value),
-                        rel_diff(float(batch_values[i]), lp.value))
+            agree = max(
+                agree,
+                rel_diff(thr.value, lp.value),
+                rel_diff(thr.value, sv.value),
+                rel_diff(float(batch_values[i]), lp.value),
+            )
             t_thr.append(median_time(lambda: threshold_max(p, q, lower, upper), cfg["repeats"]))
             t_lp.append(median_time(lambda: lp_max(p, q, lower=lower, upper=upper), cfg["lp_repeats"], 0.0))
             t_solve.append(median_time(lambda: prog.solve(p, q), cfg["lp_repeats"], 0.0))
@@ -85,12 +98,32 @@ def single_programs(cfg: dict, seed: int, failures: list[str]) -> str:
         if not agree <= AGREEMENT_TOL:
             failures.append(f"(a) m={m}: threshold and LP differ by {agree:.3g} (relative) > {AGREEMENT_TOL:g}")
         thr_med, lp_med, sv_med = (statistics.median(t) for t in (t_thr, t_lp, t_solve))
-        rows.append([str(m), str(k), fmt_time(thr_med), fmt_time(t_batch), fmt_time(lp_med),
-                     f"{fmt_time(sv_med)} (+{fmt_time(t_compile)} once)", fmt_ratio(lp_med / thr_med),
-                     fmt_ratio(sv_med / thr_med), fmt_ratio(sv_med / t_batch), fmt_diff(agree)])
-    header = ["m (cells)", "programs", "threshold_max", "threshold_max_many, per program", "lp_max (build + solve)",
-              "FractionalProgram.solve (compiled)", "lp_max / threshold", "solve / threshold",
-              "solve / batched threshold", "agreement (max rel. diff)"]
+        rows.append(
+            [
+                str(m),
+                str(k),
+                fmt_time(thr_med),
+                fmt_time(t_batch),
+                fmt_time(lp_med),
+                f"{fmt_time(sv_med)} (+{fmt_time(t_compile)} once)",
+                fmt_ratio(lp_med / thr_med),
+                fmt_ratio(sv_med / thr_med),
+                fmt_ratio(sv_med / t_batch),
+                fmt_diff(agree),
+            ]
+        )
+    header = [
+        "m (cells)",
+        "programs",
+        "threshold_max",
+        "threshold_max_many, per program",
+        "lp_max (build + solve)",
+        "FractionalProgram.solve (compiled)",
+        "lp_max / threshold",
+        "solve / threshold",
+        "solve / batched threshold",
+        "agreement (max rel. diff)",
+    ]
     return table(header, rows)
 
 
@@ -106,8 +139,9 @@ def whole_search(cfg: dict, seed: int, failures: list[str]) -> tuple[str, bool]:
             cert = black_box_bound(mech, lower=LOWER, gamma=GAMMA)
             t_bb = median_time(lambda: black_box_bound(mech, lower=LOWER, gamma=GAMMA), cfg["repeats"])
             cert_lp = black_box_bound(mech, lower=LOWER, gamma=GAMMA, method="lp")
-            t_bb_lp = median_time(lambda: black_box_bound(mech, lower=LOWER, gamma=GAMMA, method="lp"),
-                                  cfg["lp_repeats"], 0.0)
+            t_bb_lp = median_time(
+                lambda: black_box_bound(mech, lower=LOWER, gamma=GAMMA, method="lp"), cfg["lp_repeats"], 0.0
+            )
             pair_values = threshold_max_many(M[:, None, :], M[None, :, :], LOWER, GAMMA)[0]
             pairs = [(a, b) for a in range(n) for b in range(n) if a != b]
             best = (int(cert.group), int(cert.other_group))
@@ -136,17 +170,37 @@ def whole_search(cfg: dict, seed: int, failures: list[str]) -> tuple[str, bool]:
                 agree = max(agree, rel_diff(r.value, float(pair_values[a, b])))
             agree = max(agree, rel_diff(max(r.value for r in results), cert.ratio))
             if not agree <= AGREEMENT_TOL:
-                failures.append(f"(b) n={n} m={m}: threshold and LP differ by {agree:.3g} (relative) > "
-                                f"{AGREEMENT_TOL:g}")
+                failures.append(
+                    f"(b) n={n} m={m}: threshold and LP differ by {agree:.3g} (relative) > {AGREEMENT_TOL:g}"
+                )
             solved = f"{len(solve_pairs)} of {len(pairs)}" + (" (sample)" if sampled else "")
             lp_time = fmt_time(t_lp_all) + ("*" if sampled else "")
-            rows.append([str(n), str(m), f"{cert.value:.6f}", solved, fmt_time(t_bb), lp_time,
-                         fmt_ratio(t_lp_all / t_bb) + ("*" if sampled else ""),
-                         f"{fmt_time(t_bb_lp)} ({cert_lp.programs_solved} LP)", fmt_ratio(t_bb_lp / t_bb),
-                         fmt_diff(agree)])
-    header = ["n (groups)", "m (outputs)", "max L (nats)", "pairs solved by LP", "black_box_bound (threshold)",
-              "LP loop, all pairs", "LP loop / threshold", "black_box_bound(method=\"lp\")", "method=lp / threshold",
-              "agreement (max rel. diff)"]
+            rows.append(
+                [
+                    str(n),
+                    str(m),
+                    f"{cert.value:.6f}",
+                    solved,
+                    fmt_time(t_bb),
+                    lp_time,
+                    fmt_ratio(t_lp_all / t_bb) + ("*" if sampled else ""),
+                    f"{fmt_time(t_bb_lp)} ({cert_lp.programs_solved} LP)",
+                    fmt_ratio(t_bb_lp / t_bb),
+                    fmt_diff(agree),
+                ]
+            )
+    header = [
+        "n (groups)",
+        "m (outputs)",
+        "max L (nats)",
+        "pairs solved by LP",
+        "black_box_bound (threshold)",
+        "LP loop, all pairs",
+        "LP loop / threshold",
+        'black_box_bound(method="lp")',
+        "method=lp / threshold",
+        "agreement (max rel. diff)",
+    ]
     return table(header, rows), sampled_any
 
 
@@ -181,23 +235,31 @@ def run(quick: bool, seed: int) -> tuple[str, list[str]]:
         "",
         "A random mechanism with n groups and m outputs (Dirichlet(1) rows). `black_box_bound(mech, lower=0.1)` "
         "solves every pair at once by the vectorised threshold; the LP loop compiles one `FractionalProgram` and "
-        "solves each pair; `black_box_bound(method=\"lp\")` is the library's own LP route (pairs in decreasing order "
+        'solves each pair; `black_box_bound(method="lp")` is the library\'s own LP route (pairs in decreasing order '
         "of the threshold value, stopping when no pair left can win; LPs solved in brackets). Agreement covers every "
         "LP-solved pair against its threshold value, the max of the LP values against the certificate, and "
-        "method=\"lp\" against the threshold certificate.",
+        'method="lp" against the threshold certificate.',
     ]
     if sampled:
-        lines.append(f"* For n ≥ {cfg['sample_from']} the loop solves a random sample of {cfg['sample']} ordered "
-                     "pairs (always including the maximising pair); the time for all pairs is extrapolated: "
-                     "compile + (loop time / sampled pairs) × all pairs.")
-    lines += ["", part_b, "", f"Total benchmark time {total:.1f} s. "
-              + ("Every agreement is within tolerance." if not failures else f"{len(failures)} FAILURE(S).")]
+        lines.append(
+            f"* For n ≥ {cfg['sample_from']} the loop solves a random sample of {cfg['sample']} ordered "
+            "pairs (always including the maximising pair); the time for all pairs is extrapolated: "
+            "compile + (loop time / sampled pairs) × all pairs."
+        )
+    lines += [
+        "",
+        part_b,
+        "",
+        f"Total benchmark time {total:.1f} s. "
+        + ("Every agreement is within tolerance." if not failures else f"{len(failures)} FAILURE(S)."),
+    ]
     return "\n".join(lines) + "\n", failures
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="tiny sizes and one repeat (smoke test)")
     parser.add_argument("--output", metavar="FILE.md", help="also write the Markdown report here (atomically)")
     parser.add_argument("--seed", type=int, default=20250601, help="seed of the random instances")

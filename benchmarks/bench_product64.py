@@ -31,8 +31,17 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _bench_common import (AGREEMENT_TOL, emit, fmt_diff, fmt_ratio, fmt_time, machine_line,  # noqa: E402
-                     median_time, rel_diff, table)
+from _bench_common import (
+    AGREEMENT_TOL,
+    emit,
+    fmt_diff,
+    fmt_ratio,
+    fmt_time,
+    machine_line,  # noqa: E402
+    median_time,
+    rel_diff,
+    table,
+)
 
 from fairaudit.lfp import FractionalProgram, lp_max  # noqa: E402
 from fairaudit.privacy import product_family  # noqa: E402
@@ -57,10 +66,11 @@ def bisect_epsilon(family, target: float, tau: float | None, rtol: float = 1e-12
     post-processing of a larger one). Returns (ε, value at ε); (inf, value at
     ε = 500) when every ε up to 500 meets the target.
     """
+
     def f(eps: float) -> float:
         return black_box_bound(family(eps), tau=tau).value
 
-    lo, f_lo, hi = 0.0, 0.0, 1.0     # at ε = 0 all groups share one law: L = 0
+    lo, f_lo, hi = 0.0, 0.0, 1.0  # at ε = 0 all groups share one law: L = 0
     while True:
         f_hi = f(hi)
         if f_hi > target:
@@ -82,7 +92,7 @@ def bisect_epsilon(family, target: float, tau: float | None, rtol: float = 1e-12
 def run(quick: bool) -> tuple[str, list[str]]:
     cfg = QUICK if quick else FULL
     k = cfg["attributes"]
-    n = 2 ** k
+    n = 2**k
     reps = cfg["repeats"]
     failures: list[str] = []
     family = product_family(*[[0, 1]] * k)
@@ -92,7 +102,7 @@ def run(quick: bool) -> tuple[str, list[str]]:
     machine = machine_line()
     mech = family(EPSILON)
     M = mech.matrix
-    a, b = 0, n - 1                       # the farthest pair: every attribute differs
+    a, b = 0, n - 1  # the farthest pair: every attribute differs
     tau_rows = dict(A_ub=-M, b_ub=-TAU * np.ones(n))
 
     t_build = median_time(lambda: family(EPSILON), reps)
@@ -106,30 +116,61 @@ def run(quick: bool) -> tuple[str, list[str]]:
     def add(name, result, seconds, agree, check=True):
         if check and not agree <= AGREEMENT_TOL:
             failures.append(f"{name}: agreement {agree:.3g} > {AGREEMENT_TOL:g}")
-        rows.append([name, result, fmt_time(seconds), str(reps), fmt_ratio(seconds / t_lp),
-                     fmt_ratio(seconds / t_build), "yes" if seconds < 1.0 else "**no**", fmt_diff(agree)])
+        rows.append(
+            [
+                name,
+                result,
+                fmt_time(seconds),
+                str(reps),
+                fmt_ratio(seconds / t_lp),
+                fmt_ratio(seconds / t_build),
+                "yes" if seconds < 1.0 else "**no**",
+                fmt_diff(agree),
+            ]
+        )
 
     add(f"baseline: build the {n}×{n} mechanism (family(ε))", f"ε(M) = {mech.epsilon:.6f}", t_build, math.nan, False)
-    add(f"baseline: one cvxpy LP, {n} cells (lp_max, build + solve)", f"ratio {lp_one.value:.6f} = {math.log(lp_one.value):.6f} nats",
-        t_lp, math.nan, False)
-    add("one LP re-solve (FractionalProgram compiled once)", f"{lp_one.status}", t_resolve,
-        rel_diff(prog.solve(M[a], M[b]).value, lp_one.value))
+    add(
+        f"baseline: one cvxpy LP, {n} cells (lp_max, build + solve)",
+        f"ratio {lp_one.value:.6f} = {math.log(lp_one.value):.6f} nats",
+        t_lp,
+        math.nan,
+        False,
+    )
+    add(
+        "one LP re-solve (FractionalProgram compiled once)",
+        f"{lp_one.status}",
+        t_resolve,
+        rel_diff(prog.solve(M[a], M[b]).value, lp_one.value),
+    )
 
     # certificates
     c0 = black_box_bound(mech)
     c0_lp = black_box_bound(mech, method="lp")
     t = median_time(lambda: black_box_bound(mech), reps)
     # with lower = 0 and no τ the corollary is attained: the value is ε(M) = ε
-    add("black_box_bound(mech)", f"{c0.value:.6f} nats, {c0.method}, {c0.programs_solved} LP", t,
-        max(rel_diff(c0.value, c0_lp.value), rel_diff(c0.value, EPSILON)))
+    add(
+        "black_box_bound(mech)",
+        f"{c0.value:.6f} nats, {c0.method}, {c0.programs_solved} LP",
+        t,
+        max(rel_diff(c0.value, c0_lp.value), rel_diff(c0.value, EPSILON)),
+    )
     c1 = black_box_bound(mech, tau=TAU)
     c1_lp = black_box_bound(mech, tau=TAU, method="lp")
     t = median_time(lambda: black_box_bound(mech, tau=TAU), reps)
-    add(f"black_box_bound(mech, tau={TAU:g})", f"{c1.value:.6f} nats, {c1.method}, {c1.programs_solved} LP", t,
-        rel_diff(c1.value, c1_lp.value))
+    add(
+        f"black_box_bound(mech, tau={TAU:g})",
+        f"{c1.value:.6f} nats, {c1.method}, {c1.programs_solved} LP",
+        t,
+        rel_diff(c1.value, c1_lp.value),
+    )
     t = median_time(lambda: black_box_bound(mech, tau=TAU, method="lp"), reps)
-    add(f"black_box_bound(mech, tau={TAU:g}, method=\"lp\")",
-        f"{c1_lp.value:.6f} nats, {c1_lp.method}, {c1_lp.programs_solved} LP", t, rel_diff(c1.value, c1_lp.value))
+    add(
+        f'black_box_bound(mech, tau={TAU:g}, method="lp")',
+        f"{c1_lp.value:.6f} nats, {c1_lp.method}, {c1_lp.programs_solved} LP",
+        t,
+        rel_diff(c1.value, c1_lp.value),
+    )
 
     # calibrations
     how = "fairaudit.calibrate.calibrate" if calibrate is not None else "bisection fallback (calibrate not available)"
@@ -141,6 +182,7 @@ def run(quick: bool) -> tuple[str, list[str]]:
 
                 def cal(target=target, kw=kw):
                     return calibrate(target, method="black_box", family=family, **kw)
+
                 c = cal()
                 eps, bound, keep, feasible = c.epsilon, c.bound, c.keep_probability, c.feasible
                 if not feasible:
@@ -148,8 +190,10 @@ def run(quick: bool) -> tuple[str, list[str]]:
                 t = median_time(cal, reps, 0.0)
                 agree = rel_diff(eps, eps_b)
             else:
+
                 def cal(target=target, tau=tau):
                     return bisect_epsilon(family, target, tau)
+
                 t = median_time(cal, reps, 0.0)
                 eps, bound = eps_b, black_box_bound(family(eps_b), tau=tau).value
                 keep = family.keep_probability(eps)
@@ -161,8 +205,16 @@ def run(quick: bool) -> tuple[str, list[str]]:
             add(name, f"ε = {eps:.6f}, keep {keep:.4f}, bound {bound:.6f}", t, agree)
     total = time.perf_counter() - start
 
-    header = ["operation", "result", "median time", "repeats", "/ one LP", "/ build", "under 1 s",
-              "agreement (max rel. diff)"]
+    header = [
+        "operation",
+        "result",
+        "median time",
+        "repeats",
+        "/ one LP",
+        "/ build",
+        "under 1 s",
+        "agreement (max rel. diff)",
+    ]
     lines = [
         f"# Black-box certificate and calibration for {n} groups ({k} binary attributes, product mechanism)"
         + (" (quick)" if quick else ""),
@@ -174,7 +226,7 @@ def run(quick: bool) -> tuple[str, list[str]]:
         "5 ms are timed in loops); the first cvxpy solve of the process is done before timing. The baseline LP is "
         f"the τ program of the farthest pair of groups (every attribute differs): {n} cells, {n} rows "
         f"M_A[b]·h ≥ τ. Calibration: {how}, method black_box over the product family.",
-        "Agreement: certificates against `method=\"lp\"` (and, without τ, against ε(M), the attained corollary); "
+        'Agreement: certificates against `method="lp"` (and, without τ, against ε(M), the attained corollary); '
         "calibrations against an independent bisection of ε (to 1e-12) and against the LP route's bound at the "
         f"calibrated ε. The run fails above {AGREEMENT_TOL:g}.",
         "",
@@ -187,8 +239,9 @@ def run(quick: bool) -> tuple[str, list[str]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="3 attributes (8 groups) and one repeat (smoke test)")
     parser.add_argument("--output", metavar="FILE.md", help="also write the Markdown report here (atomically)")
     args = parser.parse_args(argv)

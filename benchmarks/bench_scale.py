@@ -53,8 +53,17 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _bench_common import (AGREEMENT_TOL, emit, fmt_diff, fmt_ratio, fmt_time, machine_line,  # noqa: E402
-                           memory_info, rel_diff, table)
+from _bench_common import (
+    AGREEMENT_TOL,
+    emit,
+    fmt_diff,
+    fmt_ratio,
+    fmt_time,
+    machine_line,  # noqa: E402
+    memory_info,
+    rel_diff,
+    table,
+)
 
 import fairaudit  # noqa: E402
 from fairaudit.certify import observe  # noqa: E402
@@ -63,18 +72,40 @@ from fairaudit.laws import Law, Population  # noqa: E402
 
 GROUPS = tuple(f"g{i}" for i in range(8))
 DECISIONS = (0, 1, 2, 3)
-POSITIVE = 1                                   # g = 1{u = 1}
-EPSILON = 1.0                                  # randomized response of part (3)
+POSITIVE = 1  # g = 1{u = 1}
+EPSILON = 1.0  # randomized response of part (3)
 CONFIDENCE = 0.95
-MEMORY_TARGET = 3.0                            # peak memory within 3x the law's table
+MEMORY_TARGET = 3.0  # peak memory within 3x the law's table
 PACKAGES = ("numpy", "pandas", "pyarrow", "fairlearn", "fairaudit")
 
-FULL = dict(law_contexts=10**6, cert_contexts=(10**4, 10**6), per_cell=20, records=10**7, record_contexts=100,
-            records_curve=(10**5, 10**6, 10**7, 10**8), contexts_curve=(10**2, 10**3, 10**4, 10**5, 10**6, 10**7),
-            repeats=3, slow=10.0, chunk=5 * 10**6, step_timeout=1800.0, startup_records=1000)
-QUICK = dict(law_contexts=10**3, cert_contexts=(10**3,), per_cell=20, records=10**4, record_contexts=10,
-             records_curve=(10**3, 10**4), contexts_curve=(10**2, 10**3, 10**4),
-             repeats=1, slow=10.0, chunk=4000, step_timeout=120.0, startup_records=1000)
+FULL = dict(
+    law_contexts=10**6,
+    cert_contexts=(10**4, 10**6),
+    per_cell=20,
+    records=10**7,
+    record_contexts=100,
+    records_curve=(10**5, 10**6, 10**7, 10**8),
+    contexts_curve=(10**2, 10**3, 10**4, 10**5, 10**6, 10**7),
+    repeats=3,
+    slow=10.0,
+    chunk=5 * 10**6,
+    step_timeout=1800.0,
+    startup_records=1000,
+)
+QUICK = dict(
+    law_contexts=10**3,
+    cert_contexts=(10**3,),
+    per_cell=20,
+    records=10**4,
+    record_contexts=10,
+    records_curve=(10**3, 10**4),
+    contexts_curve=(10**2, 10**3, 10**4),
+    repeats=1,
+    slow=10.0,
+    chunk=4000,
+    step_timeout=120.0,
+    startup_records=1000,
+)
 
 _T0 = time.perf_counter()
 
@@ -296,8 +327,12 @@ def run_command(cmd: list[str], timeout: float) -> dict:
         report = Path(tmp) / "report.json"
         out_path, err_path = Path(tmp) / "stdout", Path(tmp) / "stderr"
         with open(out_path, "wb") as out, open(err_path, "wb") as err:
-            proc = subprocess.Popen([sys.executable, "-I", "-c", _WRAPPER, str(report), *cmd], stdout=out,
-                                    stderr=err, start_new_session=True)
+            proc = subprocess.Popen(
+                [sys.executable, "-I", "-c", _WRAPPER, str(report), *cmd],
+                stdout=out,
+                stderr=err,
+                start_new_session=True,
+            )
             try:
                 proc.wait(timeout)
             except subprocess.TimeoutExpired:
@@ -321,14 +356,22 @@ def _fairness_summary(f) -> dict:
 
 
 def _local_global(law: Law, g, pop: Population) -> tuple[dict, dict]:
-    return (_fairness_summary(fairaudit.local_fairness(law, g, pop)),
-            _fairness_summary(fairaudit.global_fairness(law, g, pop)))
+    return (
+        _fairness_summary(fairaudit.local_fairness(law, g, pop)),
+        _fairness_summary(fairaudit.global_fairness(law, g, pop)),
+    )
 
 
 def _observe_summary(law: Law, g, pop: Population) -> dict:
     o = observe(law, g, pop)
-    return {"local": o.local.value, "global": o.global_.value, "demographic_parity": o.demographic_parity.value,
-            "equalized_odds": o.equalized_odds.value, "sup_local": o.sup_local.value, "sup_global": o.sup_global.value}
+    return {
+        "local": o.local.value,
+        "global": o.global_.value,
+        "demographic_parity": o.demographic_parity.value,
+        "equalized_odds": o.equalized_odds.value,
+        "sup_local": o.sup_local.value,
+        "sup_global": o.sup_global.value,
+    }
 
 
 def _long_frame(q: np.ndarray):
@@ -336,12 +379,14 @@ def _long_frame(q: np.ndarray):
     import pandas as pd
 
     n, a, u = q.shape
-    return pd.DataFrame({
-        "context": np.repeat(np.arange(n, dtype=np.int64), a * u),
-        "group": np.tile(np.repeat(np.arange(a, dtype=np.int64), u), n),
-        "decision": np.tile(np.arange(u, dtype=np.int64), n * a),
-        "p": q.reshape(-1),
-    })
+    return pd.DataFrame(
+        {
+            "context": np.repeat(np.arange(n, dtype=np.int64), a * u),
+            "group": np.tile(np.repeat(np.arange(a, dtype=np.int64), u), n),
+            "decision": np.tile(np.arange(u, dtype=np.int64), n * a),
+            "p": q.reshape(-1),
+        }
+    )
 
 
 def pandas_route(long, g_by_decision, p_xa) -> dict:
@@ -352,16 +397,22 @@ def pandas_route(long, g_by_decision, p_xa) -> dict:
     E[g | x, a] by P(x | a) = P(x, a) / P(a).
     """
     v = long["p"] * long["decision"].map(g_by_decision)
-    e = v.groupby([long["context"], long["group"]]).sum()                  # E[g | x, a], index (context, group)
+    e = v.groupby([long["context"], long["group"]]).sum()  # E[g | x, a], index (context, group)
     by_context = e.groupby(level="context")
     hi, lo = by_context.max(), by_context.min()
     ratio = (hi / lo).where(hi > 0, 1.0)
     x = ratio.idxmax()
     at_x = e.xs(x, level="context")
     eg = (e * p_xa).groupby(level="group").sum() / p_xa.groupby(level="group").sum()
-    return {"local": _log(float(ratio.max())), "context": int(x), "group": int(at_x.idxmax()),
-            "other_group": int(at_x.idxmin()), "global": _log(float(eg.max() / eg.min())),
-            "global_group": int(eg.idxmax()), "global_other_group": int(eg.idxmin())}
+    return {
+        "local": _log(float(ratio.max())),
+        "context": int(x),
+        "group": int(at_x.idxmax()),
+        "other_group": int(at_x.idxmin()),
+        "global": _log(float(eg.max() / eg.min())),
+        "global_group": int(eg.idxmax()),
+        "global_other_group": int(eg.idxmin()),
+    }
 
 
 def _tiny_law(seed: int) -> tuple[Law, Population]:
@@ -379,8 +430,11 @@ def _warm_up_law(seed: int, with_pandas: bool) -> None:
     _observe_summary(law, g, pop)
     if with_pandas:
         idx = pd.MultiIndex.from_product([np.arange(2), np.arange(len(GROUPS))], names=["context", "group"])
-        pandas_route(_long_frame(law.probabilities), pd.Series(_g_vector(), index=np.arange(len(DECISIONS))),
-                     pd.Series(pop.probabilities.reshape(-1), index=idx))
+        pandas_route(
+            _long_frame(law.probabilities),
+            pd.Series(_g_vector(), index=np.arange(len(DECISIONS))),
+            pd.Series(pop.probabilities.reshape(-1), index=idx),
+        )
 
 
 def law_job(n: int, seed: int, repeats: int, slow: float, with_pandas: bool) -> dict:
@@ -392,19 +446,31 @@ def law_job(n: int, seed: int, repeats: int, slow: float, with_pandas: bool) -> 
     nbytes = arr.nbytes
     t_build, k_build, p_build, law = _measure(lambda: Law(arr, range(n), GROUPS, DECISIONS), repeats, slow)
     kept = _array_rel_diff(law.probabilities, arr)
-    arr = None                                                  # free the input array
+    arr = None  # free the input array
     pop = Population.uniform(law.contexts, law.groups)
     g = fairaudit.indicator(POSITIVE, DECISIONS)
     t_lg, k_lg, p_lg, (loc, glo) = _measure(lambda: _local_global(law, g, pop), repeats, slow)
     t_obs, k_obs, p_obs, obs = _measure(lambda: _observe_summary(law, g, pop), repeats, slow)
-    e = law.probabilities @ _g_vector()                                           # numpy route
+    e = law.probabilities @ _g_vector()  # numpy route
     np_local, np_global = _numpy_metrics(e, pop.context_given_group())
     out = {
-        "n": n, "nbytes": nbytes, "build": (t_build, k_build, p_build), "lg": (t_lg, k_lg, p_lg),
-        "obs": (t_obs, k_obs, p_obs), "local": loc, "global": glo, "observed": obs,
+        "n": n,
+        "nbytes": nbytes,
+        "build": (t_build, k_build, p_build),
+        "lg": (t_lg, k_lg, p_lg),
+        "obs": (t_obs, k_obs, p_obs),
+        "local": loc,
+        "global": glo,
+        "observed": obs,
         "build_agreement": kept,
-        "numpy_agreement": _agree([rel_diff(loc["value"], np_local), rel_diff(glo["value"], np_global),
-                                   rel_diff(obs["local"], np_local), rel_diff(obs["global"], np_global)]),
+        "numpy_agreement": _agree(
+            [
+                rel_diff(loc["value"], np_local),
+                rel_diff(glo["value"], np_global),
+                rel_diff(obs["local"], np_local),
+                rel_diff(obs["global"], np_global),
+            ]
+        ),
         "peak_need": nbytes + max(p_build, p_lg, p_obs),
     }
     if with_pandas:
@@ -416,9 +482,13 @@ def law_job(n: int, seed: int, repeats: int, slow: float, with_pandas: bool) -> 
         out["pandas"] = (t_pd, k_pd, p_pd)
         out["pandas_result"] = res
         out["long_nbytes"] = int(long.memory_usage(index=True).sum())
-        same = (res["context"] == loc["context"] and GROUPS[res["group"]] == loc["group"]
-                and GROUPS[res["other_group"]] == loc["other_group"]
-                and GROUPS[res["global_group"]] == glo["group"] and GROUPS[res["global_other_group"]] == glo["other_group"])
+        same = (
+            res["context"] == loc["context"]
+            and GROUPS[res["group"]] == loc["group"]
+            and GROUPS[res["other_group"]] == loc["other_group"]
+            and GROUPS[res["global_group"]] == glo["group"]
+            and GROUPS[res["global_other_group"]] == glo["other_group"]
+        )
         out["pandas_same_cells"] = bool(same)
         out["pandas_agreement"] = _agree([rel_diff(loc["value"], res["local"]), rel_diff(glo["value"], res["global"])])
     return out
@@ -432,10 +502,11 @@ def intervals_job(n: int, seed: int, per_cell: int, repeats: int, slow: float) -
     from fairaudit.intervals import fairness_intervals
 
     g = fairaudit.indicator(POSITIVE, DECISIONS)
-    tiny, _ = _tiny_law(seed)                                   # warm-up: imports and first calls, unmeasured
+    tiny, _ = _tiny_law(seed)  # warm-up: imports and first calls, unmeasured
     tiny_counts = np.random.default_rng(0).multinomial(per_cell, tiny.probabilities)
-    fairness_intervals(CountTable(tiny_counts, tiny.contexts, GROUPS, DECISIONS, ("context",), ("group",), "decision"),
-                       g, CONFIDENCE)
+    fairness_intervals(
+        CountTable(tiny_counts, tiny.contexts, GROUPS, DECISIONS, ("context",), ("group",), "decision"), g, CONFIDENCE
+    )
     arr = _law_array(n, seed)
     nbytes = arr.nbytes
     counts = np.random.default_rng([seed, 1, n]).multinomial(per_cell, arr)
@@ -450,10 +521,17 @@ def intervals_job(n: int, seed: int, per_cell: int, repeats: int, slow: float) -
         names.append(name)
         diffs.append(rel_diff(interval.estimate, o[name]))
         inside &= bool(interval.lower <= interval.estimate <= interval.upper)
-    return {"n": n, "nbytes": nbytes, "time": (t, k, peak + counts.nbytes), "method": iv.method,
-            "local": (iv.local.lower, iv.local.estimate, iv.local.upper),
-            "global": (iv.global_.lower, iv.global_.estimate, iv.global_.upper),
-            "agreement": _agree(diffs), "inside": inside, "compared": names}
+    return {
+        "n": n,
+        "nbytes": nbytes,
+        "time": (t, k, peak + counts.nbytes),
+        "method": iv.method,
+        "local": (iv.local.lower, iv.local.estimate, iv.local.upper),
+        "global": (iv.global_.lower, iv.global_.estimate, iv.global_.upper),
+        "agreement": _agree(diffs),
+        "inside": inside,
+        "compared": names,
+    }
 
 
 def worst_job(n: int, repeats: int, slow: float) -> dict:
@@ -463,14 +541,26 @@ def worst_job(n: int, repeats: int, slow: float) -> dict:
 
     mech = randomized_response(GROUPS, epsilon=EPSILON)
     g = fairaudit.indicator(POSITIVE, DECISIONS)
-    worst_model(mech, g, population=Population.uniform(range(2), GROUPS))     # warm-up, unmeasured
+    worst_model(mech, g, population=Population.uniform(range(2), GROUPS))  # warm-up, unmeasured
     pop = Population.uniform(range(n), GROUPS)
     bound = black_box_bound(mech)
     t, k, peak, w = _measure(lambda: worst_model(mech, g, population=pop), repeats, slow)
-    return {"n": n, "nbytes": n * len(GROUPS) * len(DECISIONS) * 8, "time": (t, k, peak),
-            "local": w.local.value, "global": w.global_.value, "bound": bound.value, "epsilon": mech.epsilon,
-            "agreement": _agree([rel_diff(w.local.value, bound.value), rel_diff(w.global_.value, bound.value),
-                                 rel_diff(bound.value, mech.epsilon)])}
+    return {
+        "n": n,
+        "nbytes": n * len(GROUPS) * len(DECISIONS) * 8,
+        "time": (t, k, peak),
+        "local": w.local.value,
+        "global": w.global_.value,
+        "bound": bound.value,
+        "epsilon": mech.epsilon,
+        "agreement": _agree(
+            [
+                rel_diff(w.local.value, bound.value),
+                rel_diff(w.global_.value, bound.value),
+                rel_diff(bound.value, mech.epsilon),
+            ]
+        ),
+    }
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -510,13 +600,29 @@ def write_records(path: Path, n_records: int, law: np.ndarray, seed: int, chunk:
 
 def audit_command(path: Path) -> tuple[list[str], str]:
     """The ``fairaudit audit`` command line (the console script next to this Python, else ``python -c``)."""
-    args = ["audit", str(path), "--sensitive", "group", "--context", "context", "--outcome", "decision",
-            "--positive", str(POSITIVE), "--format", "json"]
+    args = [
+        "audit",
+        str(path),
+        "--sensitive",
+        "group",
+        "--context",
+        "context",
+        "--outcome",
+        "decision",
+        "--positive",
+        str(POSITIVE),
+        "--format",
+        "json",
+    ]
     script = Path(sys.executable).with_name("fairaudit")
     if script.is_file() and os.access(script, os.X_OK):
         return [str(script), *args], "the `fairaudit` console script"
-    return [sys.executable, "-c", "import sys; from fairaudit.cli import main; sys.exit(main())", *args], \
-        "`python -c 'from fairaudit.cli import main'` (no console script found)"
+    return [
+        sys.executable,
+        "-c",
+        "import sys; from fairaudit.cli import main; sys.exit(main())",
+        *args,
+    ], "`python -c 'from fairaudit.cli import main'` (no console script found)"
 
 
 def counts_metrics(counts: np.ndarray) -> tuple[float, float]:
@@ -549,10 +655,18 @@ def time_command(cmd: list[str], n_records: int, counts: np.ndarray, repeats: in
     local, glob = _number(data["local"]["value"]), _number(data["global"]["value"])
     np_local, np_global = counts_metrics(counts)
     agreement = _agree([rel_diff(local, np_local), rel_diff(glob, np_global), rel_diff(float(data["n"]), n_records)])
-    return {"seconds": statistics.median(r["seconds"] for r in runs), "runs": len(runs),
-            "rss": max(r["rss"] for r in runs), "local": local, "global": glob, "n": int(data["n"]),
-            "context": data["local"]["context"], "group": data["local"]["group"],
-            "other_group": data["local"]["other_group"], "agreement": agreement}
+    return {
+        "seconds": statistics.median(r["seconds"] for r in runs),
+        "runs": len(runs),
+        "rss": max(r["rss"] for r in runs),
+        "local": local,
+        "global": glob,
+        "n": int(data["n"]),
+        "context": data["local"]["context"],
+        "group": data["local"]["group"],
+        "other_group": data["local"]["other_group"],
+        "agreement": agreement,
+    }
 
 
 def count_route(path: Path):
@@ -561,18 +675,26 @@ def count_route(path: Path):
 
     count_file = getattr(estimate, "count_file", None)
     if count_file is not None:
-        return (lambda: count_file(path, sensitive=["group"], outcome="decision", context=["context"]),
-                "`fairaudit.estimate.count_file` (streamed)")
-    return (lambda: estimate.count_records(estimate.read_records(path), sensitive=["group"], outcome="decision",
-                                           context=["context"]),
-            "`count_records(read_records(path))` (`count_file` is not in this fairaudit)")
+        return (
+            lambda: count_file(path, sensitive=["group"], outcome="decision", context=["context"]),
+            "`fairaudit.estimate.count_file` (streamed)",
+        )
+    return (
+        lambda: estimate.count_records(
+            estimate.read_records(path), sensitive=["group"], outcome="decision", context=["context"]
+        ),
+        "`count_records(read_records(path))` (`count_file` is not in this fairaudit)",
+    )
 
 
 def _table_vs_counts(tab: CountTable, counts: np.ndarray) -> float:
     """Largest relative difference between a CountTable and the generator's counts, matched by label."""
     try:
-        ix = np.ix_([int(c) for c in tab.contexts], [GROUPS.index(a) for a in tab.groups],
-                    [DECISIONS.index(int(d)) for d in tab.decisions])
+        ix = np.ix_(
+            [int(c) for c in tab.contexts],
+            [GROUPS.index(a) for a in tab.groups],
+            [DECISIONS.index(int(d)) for d in tab.decisions],
+        )
     except (ValueError, TypeError):
         return math.inf
     mine = np.zeros_like(counts)
@@ -591,86 +713,188 @@ def _mem_cells(peak: float, nbytes: int) -> tuple[str, str, str]:
 def part_law(res: dict, failures: list[str]) -> str:
     """Table of part (1)."""
     if "error" in res:
-        return table(["step", "result", "agreement (max rel. diff)"], [["exact metrics of the big law", res["error"], "—"]])
+        return table(
+            ["step", "result", "agreement (max rel. diff)"], [["exact metrics of the big law", res["error"], "—"]]
+        )
     nb = res["nbytes"]
     t_pd = res["pandas"][0] if "pandas" in res else math.nan
     loc, glo, obs = res["local"], res["global"], res["observed"]
     rows = []
     t, k, p = res["build"]
-    rows.append(["build the Law from the array", fmt_time(t), str(k), *_mem_cells(nb + p, nb), "—",
-                 f"table {fmt_bytes(nb)}, kept exactly", fmt_diff(res["build_agreement"])])
+    rows.append(
+        [
+            "build the Law from the array",
+            fmt_time(t),
+            str(k),
+            *_mem_cells(nb + p, nb),
+            "—",
+            f"table {fmt_bytes(nb)}, kept exactly",
+            fmt_diff(res["build_agreement"]),
+        ]
+    )
     t, k, p = res["lg"]
     agree_lg = _agree([res.get("pandas_agreement", math.nan), res["numpy_agreement"]])
-    rows.append(["L + L̄ (local_fairness + global_fairness)", fmt_time(t), str(k), *_mem_cells(nb + p, nb),
-                 fmt_ratio(t_pd / t),
-                 f"L = {fmt_nats(loc['value'])} at context {loc['context']} ({loc['group']} vs {loc['other_group']}); "
-                 f"L̄ = {fmt_nats(glo['value'])} ({glo['group']} vs {glo['other_group']})", fmt_diff(agree_lg)])
+    rows.append(
+        [
+            "L + L̄ (local_fairness + global_fairness)",
+            fmt_time(t),
+            str(k),
+            *_mem_cells(nb + p, nb),
+            fmt_ratio(t_pd / t),
+            f"L = {fmt_nats(loc['value'])} at context {loc['context']} ({loc['group']} vs {loc['other_group']}); "
+            f"L̄ = {fmt_nats(glo['value'])} ({glo['group']} vs {glo['other_group']})",
+            fmt_diff(agree_lg),
+        ]
+    )
     t, k, p = res["obs"]
-    rows.append(["all metrics (certify.observe: L, L̄, L_dp, L_eo, sups)", fmt_time(t), str(k), *_mem_cells(nb + p, nb),
-                 fmt_ratio(t_pd / t),
-                 f"L_dp = {obs['demographic_parity']:.4g}, L_eo = {obs['equalized_odds']:.4g}, "
-                 f"sup L = {fmt_nats(obs['sup_local'])}, sup L̄ = {fmt_nats(obs['sup_global'])}",
-                 fmt_diff(res["numpy_agreement"])])
+    rows.append(
+        [
+            "all metrics (certify.observe: L, L̄, L_dp, L_eo, sups)",
+            fmt_time(t),
+            str(k),
+            *_mem_cells(nb + p, nb),
+            fmt_ratio(t_pd / t),
+            f"L_dp = {obs['demographic_parity']:.4g}, L_eo = {obs['equalized_odds']:.4g}, "
+            f"sup L = {fmt_nats(obs['sup_local'])}, sup L̄ = {fmt_nats(obs['sup_global'])}",
+            fmt_diff(res["numpy_agreement"]),
+        ]
+    )
     if "pandas" in res:
         t, k, p = res["pandas"]
         r = res["pandas_result"]
         same = "same context and groups" if res["pandas_same_cells"] else "DIFFERENT context or groups"
-        rows.append(["baseline: pandas groupby, L + L̄", fmt_time(t), str(k), fmt_bytes(p + res["long_nbytes"]),
-                     f"{(p + res['long_nbytes']) / nb:.2f}×", "—", "1×",
-                     f"L = {fmt_nats(r['local'])} at context {r['context']}, L̄ = {fmt_nats(r['global'])}; {same}",
-                     fmt_diff(res["pandas_agreement"])])
+        rows.append(
+            [
+                "baseline: pandas groupby, L + L̄",
+                fmt_time(t),
+                str(k),
+                fmt_bytes(p + res["long_nbytes"]),
+                f"{(p + res['long_nbytes']) / nb:.2f}×",
+                "—",
+                "1×",
+                f"L = {fmt_nats(r['local'])} at context {r['context']}, L̄ = {fmt_nats(r['global'])}; {same}",
+                fmt_diff(res["pandas_agreement"]),
+            ]
+        )
         if not res["pandas_same_cells"]:
             failures.append("(1) pandas and fairaudit disagree on the maximising context or groups")
-    for name, value in (("(1) Law kept", res["build_agreement"]), ("(1) numpy route", res["numpy_agreement"]),
-                        ("(1) pandas route", res.get("pandas_agreement", math.nan))):
+    for name, value in (
+        ("(1) Law kept", res["build_agreement"]),
+        ("(1) numpy route", res["numpy_agreement"]),
+        ("(1) pandas route", res.get("pandas_agreement", math.nan)),
+    ):
         if value == value and not value <= AGREEMENT_TOL:
             failures.append(f"{name}: relative difference {value:.3g} > {AGREEMENT_TOL:g}")
-    header = ["step", "median time", "repeats", "peak memory", "peak / table", f"within {MEMORY_TARGET:g}×",
-              "pandas / fairaudit", "result", "agreement (max rel. diff)"]
+    header = [
+        "step",
+        "median time",
+        "repeats",
+        "peak memory",
+        "peak / table",
+        f"within {MEMORY_TARGET:g}×",
+        "pandas / fairaudit",
+        "result",
+        "agreement (max rel. diff)",
+    ]
     return table(header, rows)
 
 
 def part_records(rec: dict, failures: list[str]) -> str:
     """Table of part (2)."""
-    header = ["route", "median time", "repeats", "peak RSS", "records/s", "time / fairaudit audit", "result",
-              "agreement (max rel. diff)"]
+    header = [
+        "route",
+        "median time",
+        "repeats",
+        "peak RSS",
+        "records/s",
+        "time / fairaudit audit",
+        "result",
+        "agreement (max rel. diff)",
+    ]
     cmd = rec["command"]
     n = rec["n"]
     rows = []
     if "error" in cmd:
-        rows.append(["`fairaudit audit FILE … --format json` (child process)", "—", "—", "—", "—", "—", cmd["error"], "—"])
+        rows.append(
+            ["`fairaudit audit FILE … --format json` (child process)", "—", "—", "—", "—", "—", cmd["error"], "—"]
+        )
         t_cmd = math.nan
         failures.append(f"(2) the audit command failed: {cmd['error']}")
     else:
         t_cmd = cmd["seconds"]
-        rows.append(["`fairaudit audit FILE … --format json` (child process)", fmt_time(t_cmd), str(cmd["runs"]),
-                     fmt_bytes(cmd["rss"]), f"{n / t_cmd:,.0f}", "1×",
-                     f"n = {cmd['n']:,}; L = {fmt_nats(cmd['local'])} at context {cmd['context']} "
-                     f"({cmd['group']} vs {cmd['other_group']}); L̄ = {fmt_nats(cmd['global'])}",
-                     fmt_diff(cmd["agreement"])])
+        rows.append(
+            [
+                "`fairaudit audit FILE … --format json` (child process)",
+                fmt_time(t_cmd),
+                str(cmd["runs"]),
+                fmt_bytes(cmd["rss"]),
+                f"{n / t_cmd:,.0f}",
+                "1×",
+                f"n = {cmd['n']:,}; L = {fmt_nats(cmd['local'])} at context {cmd['context']} "
+                f"({cmd['group']} vs {cmd['other_group']}); L̄ = {fmt_nats(cmd['global'])}",
+                fmt_diff(cmd["agreement"]),
+            ]
+        )
     st = rec.get("startup")
     if st is not None:
-        rows.append([f"the same command on {rec['startup_records']:,} records (start-up and imports)",
-                     fmt_time(st["seconds"]) if "error" not in st else "—", str(st.get("runs", "—")),
-                     fmt_bytes(st.get("rss", math.nan)), "—", fmt_ratio(st.get("seconds", math.nan) / t_cmd),
-                     st.get("error", "fixed cost inside the command's time"), fmt_diff(st.get("agreement", math.nan))])
+        rows.append(
+            [
+                f"the same command on {rec['startup_records']:,} records (start-up and imports)",
+                fmt_time(st["seconds"]) if "error" not in st else "—",
+                str(st.get("runs", "—")),
+                fmt_bytes(st.get("rss", math.nan)),
+                "—",
+                fmt_ratio(st.get("seconds", math.nan) / t_cmd),
+                st.get("error", "fixed cost inside the command's time"),
+                fmt_diff(st.get("agreement", math.nan)),
+            ]
+        )
     t, k = rec["api"]
-    rows.append([f"fairaudit Python API: {rec['api_route']} + observe (in process)", fmt_time(t), str(k), "—",
-                 f"{n / t:,.0f}", fmt_ratio(t / t_cmd), "counts equal to the generator's",
-                 fmt_diff(rec["api_agreement"])])
+    rows.append(
+        [
+            f"fairaudit Python API: {rec['api_route']} + observe (in process)",
+            fmt_time(t),
+            str(k),
+            "—",
+            f"{n / t:,.0f}",
+            fmt_ratio(t / t_cmd),
+            "counts equal to the generator's",
+            fmt_diff(rec["api_agreement"]),
+        ]
+    )
     fl = rec["fairlearn"]
     t_read, k_read = fl["read"]
     t_mf, k_mf = fl["metricframe"]
-    rows.append(["fairlearn: read_parquet + MetricFrame(selection_rate, control_features=context)",
-                 fmt_time(t_read + t_mf), f"{k_read} + {k_mf}", "—", f"{n / (t_read + t_mf):,.0f}",
-                 fmt_ratio((t_read + t_mf) / t_cmd), f"{fl['rates']} selection rates (context, group)",
-                 fmt_diff(fl["agreement"])])
-    rows.append(["fairlearn: MetricFrame only (DataFrame already in memory)", fmt_time(t_mf), str(k_mf), "—",
-                 f"{n / t_mf:,.0f}", fmt_ratio(t_mf / t_cmd), "the same rates", fmt_diff(fl["agreement"])])
-    for name, value in (("(2) audit command vs the generator's counts", cmd.get("agreement", math.nan)),
-                        ("(2) start-up run vs its counts", (st or {}).get("agreement", math.nan)),
-                        ("(2) count route vs the generator's counts", rec["api_agreement"]),
-                        ("(2) fairlearn vs fairaudit's law", fl["agreement"])):
+    rows.append(
+        [
+            "fairlearn: read_parquet + MetricFrame(selection_rate, control_features=context)",
+            fmt_time(t_read + t_mf),
+            f"{k_read} + {k_mf}",
+            "—",
+            f"{n / (t_read + t_mf):,.0f}",
+            fmt_ratio((t_read + t_mf) / t_cmd),
+            f"{fl['rates']} selection rates (context, group)",
+            fmt_diff(fl["agreement"]),
+        ]
+    )
+    rows.append(
+        [
+            "fairlearn: MetricFrame only (DataFrame already in memory)",
+            fmt_time(t_mf),
+            str(k_mf),
+            "—",
+            f"{n / t_mf:,.0f}",
+            fmt_ratio(t_mf / t_cmd),
+            "the same rates",
+            fmt_diff(fl["agreement"]),
+        ]
+    )
+    for name, value in (
+        ("(2) audit command vs the generator's counts", cmd.get("agreement", math.nan)),
+        ("(2) start-up run vs its counts", (st or {}).get("agreement", math.nan)),
+        ("(2) count route vs the generator's counts", rec["api_agreement"]),
+        ("(2) fairlearn vs fairaudit's law", fl["agreement"]),
+    ):
         if value == value and not value <= AGREEMENT_TOL:
             failures.append(f"{name}: relative difference {value:.3g} > {AGREEMENT_TOL:g}")
     return table(header, rows)
@@ -687,12 +911,20 @@ def part_certificates(ivs: list[dict], worsts: list[dict], bound: dict, failures
         t, k, p = r["time"]
         lo, est, hi = r["local"]
         glo, gest, ghi = r["global"]
-        rows.append([label + f", {r['method']}", fmt_count(n), fmt_time(t), str(k), fmt_bytes(p),
-                     f"{p / r['nbytes']:.2f}×",
-                     f"L = {fmt_nats(est)} in [{fmt_nats(lo)}, {fmt_nats(hi)}]; L̄ = {fmt_nats(gest)} in "
-                     f"[{fmt_nats(glo)}, {fmt_nats(ghi)}]; estimates compared: {', '.join(r['compared'])}"
-                     + ("" if r["inside"] else "; an ESTIMATE OUTSIDE its interval"),
-                     fmt_diff(r["agreement"])])
+        rows.append(
+            [
+                label + f", {r['method']}",
+                fmt_count(n),
+                fmt_time(t),
+                str(k),
+                fmt_bytes(p),
+                f"{p / r['nbytes']:.2f}×",
+                f"L = {fmt_nats(est)} in [{fmt_nats(lo)}, {fmt_nats(hi)}]; L̄ = {fmt_nats(gest)} in "
+                f"[{fmt_nats(glo)}, {fmt_nats(ghi)}]; estimates compared: {', '.join(r['compared'])}"
+                + ("" if r["inside"] else "; an ESTIMATE OUTSIDE its interval"),
+                fmt_diff(r["agreement"]),
+            ]
+        )
         if not r["inside"]:
             failures.append(f"(3) intervals at {n} contexts: an estimate lies outside its interval")
         if not r["agreement"] <= AGREEMENT_TOL:
@@ -703,18 +935,45 @@ def part_certificates(ivs: list[dict], worsts: list[dict], bound: dict, failures
             rows.append([label, fmt_count(n), "—", "—", "—", "—", f"did not run: {r['error']}", "—"])
             continue
         t, k, p = r["time"]
-        rows.append([label, fmt_count(n), fmt_time(t), str(k), fmt_bytes(p), f"{p / r['nbytes']:.2f}×",
-                     f"local {fmt_nats(r['local'])}, global {fmt_nats(r['global'])}; black_box_bound "
-                     f"{fmt_nats(r['bound'])}, ε {r['epsilon']:.6g}", fmt_diff(r["agreement"])])
+        rows.append(
+            [
+                label,
+                fmt_count(n),
+                fmt_time(t),
+                str(k),
+                fmt_bytes(p),
+                f"{p / r['nbytes']:.2f}×",
+                f"local {fmt_nats(r['local'])}, global {fmt_nats(r['global'])}; black_box_bound "
+                f"{fmt_nats(r['bound'])}, ε {r['epsilon']:.6g}",
+                fmt_diff(r["agreement"]),
+            ]
+        )
         if not r["agreement"] <= AGREEMENT_TOL:
             failures.append(f"(3) worst_model at {n} contexts differs from black_box_bound by {r['agreement']:.3g}")
-    rows.append([f"black_box_bound(randomized_response(8 groups, ε = {EPSILON:g})) (class certificate, "
-                 "no contexts)", "—", fmt_time(bound["time"]), str(bound["repeats"]), "—", "—",
-                 f"{fmt_nats(bound['value'])} nats", fmt_diff(bound["agreement"])])
+    rows.append(
+        [
+            f"black_box_bound(randomized_response(8 groups, ε = {EPSILON:g})) (class certificate, no contexts)",
+            "—",
+            fmt_time(bound["time"]),
+            str(bound["repeats"]),
+            "—",
+            "—",
+            f"{fmt_nats(bound['value'])} nats",
+            fmt_diff(bound["agreement"]),
+        ]
+    )
     if not bound["agreement"] <= AGREEMENT_TOL:
         failures.append(f"(3) black_box_bound differs from ε by {bound['agreement']:.3g}")
-    header = ["step", "contexts", "median time", "repeats", "peak memory", "peak / table", "result",
-              "agreement (max rel. diff)"]
+    header = [
+        "step",
+        "contexts",
+        "median time",
+        "repeats",
+        "peak memory",
+        "peak / table",
+        "result",
+        "agreement (max rel. diff)",
+    ]
     return table(header, rows)
 
 
@@ -725,13 +984,30 @@ def part_records_curve(points: list[dict], failures: list[str]) -> str:
         if "error" in p:
             rows.append([fmt_count(n), fmt_bytes(p.get("file", math.nan)), "—", "—", "—", "—", p["error"], "—"])
             continue
-        rows.append([fmt_count(n), fmt_bytes(p["file"]), fmt_time(p["seconds"]), str(p["runs"]), fmt_bytes(p["rss"]),
-                     f"{n / p['seconds']:,.0f}", f"L = {fmt_nats(p['local'])}, L̄ = {fmt_nats(p['global'])}",
-                     fmt_diff(p["agreement"])])
+        rows.append(
+            [
+                fmt_count(n),
+                fmt_bytes(p["file"]),
+                fmt_time(p["seconds"]),
+                str(p["runs"]),
+                fmt_bytes(p["rss"]),
+                f"{n / p['seconds']:,.0f}",
+                f"L = {fmt_nats(p['local'])}, L̄ = {fmt_nats(p['global'])}",
+                fmt_diff(p["agreement"]),
+            ]
+        )
         if not p["agreement"] <= AGREEMENT_TOL:
             failures.append(f"(4) audit command on {n} records: relative difference {p['agreement']:.3g}")
-    header = ["records", "Parquet file", "median time", "repeats", "peak RSS", "records/s", "result",
-              "agreement (max rel. diff)"]
+    header = [
+        "records",
+        "Parquet file",
+        "median time",
+        "repeats",
+        "peak RSS",
+        "records/s",
+        "result",
+        "agreement (max rel. diff)",
+    ]
     return table(header, rows)
 
 
@@ -745,14 +1021,36 @@ def part_contexts_curve(points: list[dict], failures: list[str]) -> str:
             continue
         nb = p["nbytes"]
         (tb, _, _), (tl, kl, pl), (to, ko, po) = p["build"], p["lg"], p["obs"]
-        rows.append([fmt_count(n), fmt_bytes(nb), fmt_time(tb), f"{fmt_time(tl)} ({kl})", f"{fmt_time(to)} ({ko})",
-                     f"{fmt_bytes(nb + pl)} ({(nb + pl) / nb:.2f}×)", f"{fmt_bytes(nb + po)} ({(nb + po) / nb:.2f}×)",
-                     f"{tl / cells * 1e9:.3g}", f"{to / cells * 1e9:.3g}", p.get("note", ""),
-                     fmt_diff(p["numpy_agreement"])])
+        rows.append(
+            [
+                fmt_count(n),
+                fmt_bytes(nb),
+                fmt_time(tb),
+                f"{fmt_time(tl)} ({kl})",
+                f"{fmt_time(to)} ({ko})",
+                f"{fmt_bytes(nb + pl)} ({(nb + pl) / nb:.2f}×)",
+                f"{fmt_bytes(nb + po)} ({(nb + po) / nb:.2f}×)",
+                f"{tl / cells * 1e9:.3g}",
+                f"{to / cells * 1e9:.3g}",
+                p.get("note", ""),
+                fmt_diff(p["numpy_agreement"]),
+            ]
+        )
         if not p["numpy_agreement"] <= AGREEMENT_TOL:
             failures.append(f"(4) exact metrics at {n} contexts vs numpy: {p['numpy_agreement']:.3g}")
-    header = ["contexts", "table", "build Law", "L + L̄ (repeats)", "all metrics (repeats)", "peak, L + L̄",
-              "peak, all metrics", "ns per cell, L + L̄", "ns per cell, all metrics", "note", "agreement (max rel. diff)"]
+    header = [
+        "contexts",
+        "table",
+        "build Law",
+        "L + L̄ (repeats)",
+        "all metrics (repeats)",
+        "peak, L + L̄",
+        "peak, all metrics",
+        "ns per cell, L + L̄",
+        "ns per cell, all metrics",
+        "note",
+        "agreement (max rel. diff)",
+    ]
     return table(header, rows)
 
 
@@ -764,30 +1062,38 @@ def slopes(records: list[dict], contexts: list[dict], startup: float = math.nan)
     rec_ok = [p for p in records if "error" not in p]
     ctx_ok = [p for p in contexts if "error" not in p]
     series = {
-        "records": [p["n"] for p in rec_ok], "audit_time": [p["seconds"] for p in rec_ok],
+        "records": [p["n"] for p in rec_ok],
+        "audit_time": [p["seconds"] for p in rec_ok],
         "audit_rss": [p["rss"] for p in rec_ok],
         "audit_net": [p["seconds"] - startup for p in rec_ok],
-        "contexts": [p["n"] for p in ctx_ok], "lg_time": [p["lg"][0] for p in ctx_ok],
-        "obs_time": [p["obs"][0] for p in ctx_ok], "build_time": [p["build"][0] for p in ctx_ok],
-        "lg_peak": [p["nbytes"] + p["lg"][2] for p in ctx_ok], "obs_peak": [p["nbytes"] + p["obs"][2] for p in ctx_ok],
+        "contexts": [p["n"] for p in ctx_ok],
+        "lg_time": [p["lg"][0] for p in ctx_ok],
+        "obs_time": [p["obs"][0] for p in ctx_ok],
+        "build_time": [p["build"][0] for p in ctx_ok],
+        "lg_peak": [p["nbytes"] + p["lg"][2] for p in ctx_ok],
+        "obs_peak": [p["nbytes"] + p["obs"][2] for p in ctx_ok],
         "table": [p["nbytes"] for p in ctx_ok],
     }
     lines = []
-    for label, x, y in (("audit command time vs records", "records", "audit_time"),
-                        ("audit command time net of its start-up (the tiny-file run) vs records", "records",
-                         "audit_net"),
-                        ("audit command peak RSS vs records", "records", "audit_rss"),
-                        ("build Law time vs contexts", "contexts", "build_time"),
-                        ("L + L̄ time vs contexts", "contexts", "lg_time"),
-                        ("all metrics time vs contexts", "contexts", "obs_time"),
-                        ("peak memory of all metrics vs contexts", "contexts", "obs_peak")):
+    for label, x, y in (
+        ("audit command time vs records", "records", "audit_time"),
+        ("audit command time net of its start-up (the tiny-file run) vs records", "records", "audit_net"),
+        ("audit command peak RSS vs records", "records", "audit_rss"),
+        ("build Law time vs contexts", "contexts", "build_time"),
+        ("L + L̄ time vs contexts", "contexts", "lg_time"),
+        ("all metrics time vs contexts", "contexts", "obs_time"),
+        ("peak memory of all metrics vs contexts", "contexts", "obs_peak"),
+    ):
         xs, ys = series[x], series[y]
         whole = _slope(xs, ys)
         top = _slope(xs[-3:], ys[-3:]) if len(xs) > 3 else math.nan
         span = f"{fmt_count(xs[0])} … {fmt_count(xs[-1])}" if xs else "no size ran"
         extra = f", over the largest three sizes {top:.2f}" if top == top else ""
-        lines.append(f"- {label}: slope {whole:.2f} over {span}{extra}." if whole == whole
-                     else f"- {label}: fewer than two sizes ran.")
+        lines.append(
+            f"- {label}: slope {whole:.2f} over {span}{extra}."
+            if whole == whole
+            else f"- {label}: fewer than two sizes ran."
+        )
     return lines, series
 
 
@@ -817,8 +1123,12 @@ def write_plot(path: str, series: dict) -> None:
     right.plot(series["contexts"], series["lg_peak"], "s-", color="C2", label="L + L̄ peak (contexts)")
     right.plot(series["contexts"], series["obs_peak"], "d-", color="C3", label="all metrics peak (contexts)")
     right.plot(series["contexts"], series["table"], "k--", label="the law's table")
-    right.plot(series["contexts"], [MEMORY_TARGET * t for t in series["table"]], "k:",
-               label=f"{MEMORY_TARGET:g} × the table (target)")
+    right.plot(
+        series["contexts"],
+        [MEMORY_TARGET * t for t in series["table"]],
+        "k:",
+        label=f"{MEMORY_TARGET:g} × the table (target)",
+    )
     right.set_ylabel("bytes")
     right.set_title("peak memory")
     right.legend(fontsize=8)
@@ -886,8 +1196,9 @@ def run(args) -> tuple[str, list[str], dict]:
         info = memory_info()
         need = (multiple or 8.0) * nbytes
         if info is not None and need > 0.9 * info["available"]:
-            ctx_points.append({"n": n, "error": f"skipped: needs about {fmt_bytes(need)}, "
-                                                f"{fmt_bytes(info['available'])} available"})
+            ctx_points.append(
+                {"n": n, "error": f"skipped: needs about {fmt_bytes(need)}, {fmt_bytes(info['available'])} available"}
+            )
             _progress(f"(4) contexts {n:,}: skipped (needs about {fmt_bytes(need)})")
             continue
         if n == law_n and "error" not in law_res:
@@ -916,8 +1227,9 @@ def run(args) -> tuple[str, list[str], dict]:
     text_cc = part_contexts_curve(ctx_points, failures)
     st = rec.get("startup") or {}
     slope_lines, series = slopes(rec_points, ctx_points, st.get("seconds", math.nan))
-    not_run = [r["error"] for r, _ in ivs + worsts if "error" in r] + [p["error"] for p in rec_points + ctx_points
-                                                                       if "error" in p]
+    not_run = [r["error"] for r, _ in ivs + worsts if "error" in r] + [
+        p["error"] for p in rec_points + ctx_points if "error" in p
+    ]
     if "error" in law_res:
         not_run.append(law_res["error"])
 
@@ -927,7 +1239,8 @@ def run(args) -> tuple[str, list[str], dict]:
     fl_ratio_mf = (fl["metricframe"][0] / cmd["seconds"]) if "error" not in cmd else math.nan
     fl_ratio_api = (fl["read"][0] + fl["metricframe"][0]) / rec["api"][0]
     lines = [
-        "# fairaudit at scale: a big law, records in Parquet, certificates, scaling" + (" (quick)" if args.quick else ""),
+        "# fairaudit at scale: a big law, records in Parquet, certificates, scaling"
+        + (" (quick)" if args.quick else ""),
         "",
         machine,
         f"Seed {seed}. Times are medians of up to {repeats} calls after one untimed call under tracemalloc "
@@ -959,9 +1272,9 @@ def run(args) -> tuple[str, list[str], dict]:
         f"The command is run through {rec['command_how']}: `fairaudit audit FILE --sensitive group --context "
         f"context --outcome decision --positive {POSITIVE} --format json`; its time includes the interpreter's "
         "start-up and imports (the second row measures them alone). fairlearn: "
-        "`MetricFrame(metrics=selection_rate, y_true=y, y_pred=(decision == 1), sensitive_features=df[\"group\"], "
-        "control_features=df[\"context\"])` in this process, with y = y_pred (selection_rate ignores y_true); "
-        "\"read\" is `pandas.read_parquet` of the same file, timed separately. Agreement: the command's n, L and L̄ "
+        '`MetricFrame(metrics=selection_rate, y_true=y, y_pred=(decision == 1), sensitive_features=df["group"], '
+        'control_features=df["context"])` in this process, with y = y_pred (selection_rate ignores y_true); '
+        '"read" is `pandas.read_parquet` of the same file, timed separately. Agreement: the command\'s n, L and L̄ '
         "against plain numpy on the generator's own counts; the count route's table against those counts; every "
         "fairlearn selection rate by (context, group) against fairaudit's estimated P(U = 1 | x, a).",
         "",
@@ -1008,8 +1321,10 @@ def run(args) -> tuple[str, list[str], dict]:
     ]
     if not_run:
         lines += [f"{len(not_run)} step(s) did not run or were skipped; each says why in its table.", ""]
-    lines.append(f"Total benchmark time {total:.1f} s. "
-                 + ("Every agreement is within tolerance." if not failures else f"{len(failures)} FAILURE(S)."))
+    lines.append(
+        f"Total benchmark time {total:.1f} s. "
+        + ("Every agreement is within tolerance." if not failures else f"{len(failures)} FAILURE(S).")
+    )
     return "\n".join(lines) + "\n", failures, series
 
 
@@ -1055,8 +1370,9 @@ def _records_parts(cfg, args, seed, n_records, rec_sizes, work: Path, timeout, r
 
     def metricframe():
         y = df["decision"] == POSITIVE
-        return MetricFrame(metrics=selection_rate, y_true=y, y_pred=y, sensitive_features=df["group"],
-                           control_features=df["context"])
+        return MetricFrame(
+            metrics=selection_rate, y_true=y, y_pred=y, sensitive_features=df["group"], control_features=df["context"]
+        )
 
     _progress(f"(2) fairlearn MetricFrame on {n_records:,} records (slow)")
     t0 = time.perf_counter()
@@ -1069,21 +1385,40 @@ def _records_parts(cfg, args, seed, n_records, rec_sizes, work: Path, timeout, r
             mf = metricframe()
             times.append(time.perf_counter() - t0)
     by_group = mf.by_group
-    theirs = pd.Series(np.asarray(by_group, dtype=float),
-                       index=pd.MultiIndex.from_tuples([(int(c), str(a)) for c, a in by_group.index]))
+    theirs = pd.Series(
+        np.asarray(by_group, dtype=float),
+        index=pd.MultiIndex.from_tuples([(int(c), str(a)) for c, a in by_group.index]),
+    )
     joined = pd.concat([ours.rename("ours"), theirs.rename("theirs")], axis=1)
-    fl_agreement = (math.inf if joined.isna().any().any() or len(joined) != len(ours)
-                    else _array_rel_diff(joined["ours"].to_numpy(), joined["theirs"].to_numpy()))
+    fl_agreement = (
+        math.inf
+        if joined.isna().any().any() or len(joined) != len(ours)
+        else _array_rel_diff(joined["ours"].to_numpy(), joined["theirs"].to_numpy())
+    )
     df = mf = None
-    rec = {"n": n_records, "file": file_size, "write": t_write, "command": command, "command_how": how,
-           "startup": startup, "startup_records": cfg["startup_records"], "api": (t_api, k_api),
-           "api_route": route_name, "api_agreement": api_agreement, "record_contexts": cfg["record_contexts"],
-           "fairlearn": {"read": (t_read, k_read), "metricframe": (statistics.median(times), len(times)),
-                         "agreement": fl_agreement, "rates": len(theirs)}}
+    rec = {
+        "n": n_records,
+        "file": file_size,
+        "write": t_write,
+        "command": command,
+        "command_how": how,
+        "startup": startup,
+        "startup_records": cfg["startup_records"],
+        "api": (t_api, k_api),
+        "api_route": route_name,
+        "api_agreement": api_agreement,
+        "record_contexts": cfg["record_contexts"],
+        "fairlearn": {
+            "read": (t_read, k_read),
+            "metricframe": (statistics.median(times), len(times)),
+            "agreement": fl_agreement,
+            "rates": len(theirs),
+        },
+    }
     # (4a)
     points = []
     bytes_per_record = file_size / n_records
-    previous = None                                             # (records, peak RSS) of the last size that ran
+    previous = None  # (records, peak RSS) of the last size that ran
     for n in rec_sizes:
         if n == n_records and "error" not in command:
             points.append(dict(command, n=n, file=file_size))
@@ -1098,12 +1433,22 @@ def _records_parts(cfg, args, seed, n_records, rec_sizes, work: Path, timeout, r
         info = memory_info()
         need_mem = previous[1] * n / previous[0] if previous else 0.0
         if need_disk > 0.8 * disk:
-            points.append({"n": n, "error": f"skipped: the file needs about {fmt_bytes(need_disk)}, "
-                                            f"{fmt_bytes(disk)} free in --workdir"})
+            points.append(
+                {
+                    "n": n,
+                    "error": f"skipped: the file needs about {fmt_bytes(need_disk)}, "
+                    f"{fmt_bytes(disk)} free in --workdir",
+                }
+            )
             continue
         if info is not None and need_mem > 0.9 * info["available"]:
-            points.append({"n": n, "error": f"skipped: the command would need about {fmt_bytes(need_mem)}, "
-                                            f"{fmt_bytes(info['available'])} available"})
+            points.append(
+                {
+                    "n": n,
+                    "error": f"skipped: the command would need about {fmt_bytes(need_mem)}, "
+                    f"{fmt_bytes(info['available'])} available",
+                }
+            )
             continue
         f = work / f"records-{n}.parquet"
         _progress(f"(4) writing {n:,} records")
@@ -1121,18 +1466,27 @@ def _records_parts(cfg, args, seed, n_records, rec_sizes, work: Path, timeout, r
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="tiny sizes, one repeat, a few seconds (smoke test)")
     parser.add_argument("--output", metavar="FILE.md", help="also write the Markdown report here (atomically)")
     parser.add_argument("--plot", metavar="FILE", help="write the scaling curves (.svg or .png) here (atomically)")
     parser.add_argument("--seed", type=int, default=20250607, help="seed of the laws, counts and records")
-    parser.add_argument("--workdir", metavar="DIR", help="where the Parquet files go (a temporary folder inside it, "
-                        "deleted at the end; default the system's temporary folder)")
+    parser.add_argument(
+        "--workdir",
+        metavar="DIR",
+        help="where the Parquet files go (a temporary folder inside it, "
+        "deleted at the end; default the system's temporary folder)",
+    )
     parser.add_argument("--max-records", type=int, metavar="N", help="largest number of records of (2) and (4)")
     parser.add_argument("--max-contexts", type=int, metavar="N", help="largest number of contexts of (1), (3), (4)")
-    parser.add_argument("--step-timeout", type=float, metavar="SECONDS",
-                        help="time limit of each guarded step (default 1800, quick 120)")
+    parser.add_argument(
+        "--step-timeout",
+        type=float,
+        metavar="SECONDS",
+        help="time limit of each guarded step (default 1800, quick 120)",
+    )
     args = parser.parse_args(argv)
     if args.plot and Path(args.plot).suffix.lower() not in (".svg", ".png"):
         parser.error(f"--plot must end in .svg or .png: {args.plot}")

@@ -35,7 +35,7 @@ def as_labels(values: Iterable[Hashable], field: str) -> tuple:
             if label in seen:
                 raise InputError(field, "labels must be distinct; repeated label", label)
             seen.add(label)
-    if len(labels) >= 1024:   # remember big label sets: a law's contexts are checked again by every table built on them
+    if len(labels) >= 1024:  # remember big label sets: a law's contexts are checked again by every table built on them
         _VALIDATED[id(labels)] = labels
         while len(_VALIDATED) > 8:
             del _VALIDATED[next(iter(_VALIDATED))]
@@ -106,10 +106,14 @@ def check_probabilities(
     checked = array[mask]
     if checked.size and not np.all(np.isfinite(checked)):
         idx = np.argwhere(~np.isfinite(array) & mask[..., None])[0]
-        raise InputError(field, f"entry at {_where(idx, axis_labels, axis_names)} is not finite", float(array[tuple(idx)]))
+        raise InputError(
+            field, f"entry at {_where(idx, axis_labels, axis_names)} is not finite", float(array[tuple(idx)])
+        )
     if checked.size and np.any(checked < 0):
         idx = np.argwhere((array < 0) & mask[..., None])[0]
-        raise InputError(field, f"entry at {_where(idx, axis_labels, axis_names)} is negative", float(array[tuple(idx)]))
+        raise InputError(
+            field, f"entry at {_where(idx, axis_labels, axis_names)} is negative", float(array[tuple(idx)])
+        )
     if rows_sum_to_one:
         sums = array.sum(axis=-1)
         bad = mask & (np.abs(sums - 1.0) > ROW_TOLERANCE)
@@ -137,7 +141,7 @@ def _valid_fast(array: np.ndarray, skip_rows, rows_sum_to_one: bool) -> bool:
             array = array[keep]
     if not sums.size:
         return True
-    hi, lo = sums.max(), sums.min()          # NaN or inf anywhere shows here
+    hi, lo = sums.max(), sums.min()  # NaN or inf anywhere shows here
     if not (np.isfinite(hi) and np.isfinite(lo) and array.min() >= 0):
         return False
     return not rows_sum_to_one or bool(hi - 1.0 <= ROW_TOLERANCE and 1.0 - lo <= ROW_TOLERANCE)

@@ -23,7 +23,7 @@ import numpy as np
 
 def _dirichlet(rng, alpha: np.ndarray, draws: int) -> np.ndarray:
     x = rng.gamma(alpha, size=(draws,) + alpha.shape)
-    x = np.maximum(x, np.finfo(float).tiny)   # tiny shapes can underflow to 0; keep every probability positive
+    x = np.maximum(x, np.finfo(float).tiny)  # tiny shapes can underflow to 0; keep every probability positive
     return x / x.sum(-1, keepdims=True)
 
 
@@ -34,7 +34,7 @@ def _band(coords: np.ndarray, confidence: float) -> np.ndarray:
     if not varying.any():
         return np.ones(D, bool)
     r = np.argsort(np.argsort(coords[:, varying], axis=0, kind="stable"), axis=0, kind="stable")
-    extreme = np.maximum(r, D - 1 - r).max(-1)                      # how far out the draw's most extreme rank is
+    extreme = np.maximum(r, D - 1 - r).max(-1)  # how far out the draw's most extreme rank is
     keep = int(math.ceil(confidence * D))
     threshold = np.sort(extreme)[keep - 1]
     return extreme <= threshold

@@ -44,7 +44,7 @@ class InputError(FairauditError, ValueError):
             text += f" (got {_short_repr(value)})"
         super().__init__(text)
 
-    def under(self, field: str, keep_own: bool = True) -> "InputError":
+    def under(self, field: str, keep_own: bool = True) -> InputError:
         """The same error placed under an outer ``field`` (for example a spec's path and section).
 
         With ``keep_own`` the original field stays in the message as a prefix of the problem.

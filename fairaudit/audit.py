@@ -74,9 +74,14 @@ def utility_from_expression(expression: str, decisions: Sequence) -> Utility:
     try:
         out = pd.eval(expression, local_dict={"u": u}, global_dict={}, engine="python")
     except Exception as exc:  # pandas raises many kinds; report one line
-        raise InputError("--utility", f"cannot be evaluated with u = the outcome values ({type(exc).__name__}: {exc})",
-                         expression) from None
-    arr = np.broadcast_to(np.asarray(out, dtype=float), (len(decisions),)) if np.ndim(out) == 0 else np.asarray(out, dtype=float)
+        raise InputError(
+            "--utility", f"cannot be evaluated with u = the outcome values ({type(exc).__name__}: {exc})", expression
+        ) from None
+    arr = (
+        np.broadcast_to(np.asarray(out, dtype=float), (len(decisions),))
+        if np.ndim(out) == 0
+        else np.asarray(out, dtype=float)
+    )
     if arr.shape != (len(decisions),):
         raise InputError("--utility", "must give one value per outcome value", expression)
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
@@ -96,8 +101,11 @@ def _positive_utility(positive, decisions) -> Utility:
                 return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
     except (TypeError, ValueError):
         pass
-    raise InputError("--positive", f"is not a value of the outcome column; it has {[format_label(d) for d in decisions][:20]}",
-                     positive)
+    raise InputError(
+        "--positive",
+        f"is not a value of the outcome column; it has {[format_label(d) for d in decisions][:20]}",
+        positive,
+    )
 
 
 def _is_spark_frame(data) -> bool:
@@ -108,20 +116,27 @@ def _is_spark_frame(data) -> bool:
 def _table(data, sensitive, outcome, context, dropna) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
     if isinstance(data, CountTable):
+
         def columns(c):
             return None if c is None else (c,) if isinstance(c, str) else tuple(c)
 
-        for flag, given, have in (("--sensitive", columns(sensitive), data.sensitive_columns),
-                                  ("--outcome", columns(outcome), (data.outcome_column,)),
-                                  ("--context", columns(context), data.context_columns)):
+        for flag, given, have in (
+            ("--sensitive", columns(sensitive), data.sensitive_columns),
+            ("--outcome", columns(outcome), (data.outcome_column,)),
+            ("--context", columns(context), data.context_columns),
+        ):
             if given is not None and given != have:
-                raise InputError(flag, f"does not match the count table, whose column(s) are [{', '.join(have)}]",
-                                 ",".join(map(str, given)))
+                raise InputError(
+                    flag,
+                    f"does not match the count table, whose column(s) are [{', '.join(have)}]",
+                    ",".join(map(str, given)),
+                )
         return data
     spark = _is_spark_frame(data)
     if not (spark or isinstance(data, pd.DataFrame)):
-        raise InputError("data", "must be a pandas DataFrame of records, a Spark DataFrame or a CountTable",
-                         type(data).__name__)
+        raise InputError(
+            "data", "must be a pandas DataFrame of records, a Spark DataFrame or a CountTable", type(data).__name__
+        )
     if sensitive is None:
         raise InputError("--sensitive", "name at least one column")
     if outcome is None:
@@ -129,10 +144,12 @@ def _table(data, sensitive, outcome, context, dropna) -> CountTable:
     if spark:
         from .spark import count_spark
 
-        return count_spark(data, sensitive=sensitive, outcome=outcome, context=() if context is None else context,
-                           dropna=dropna)
-    return count_records(data, sensitive=sensitive, outcome=outcome, context=() if context is None else context,
-                         dropna=dropna)
+        return count_spark(
+            data, sensitive=sensitive, outcome=outcome, context=() if context is None else context, dropna=dropna
+        )
+    return count_records(
+        data, sensitive=sensitive, outcome=outcome, context=() if context is None else context, dropna=dropna
+    )
 
 
 def audit(
@@ -219,8 +236,11 @@ def audit(
     elif set(map(str, table.decisions)) <= {"0", "1", "True", "False"}:
         g = _positive_utility(True if "True" in map(str, table.decisions) else 1, table.decisions)
     else:
-        raise InputError("--positive", f"the outcome {outcome!r} is not binary; say which value is positive "
-                                       "(--positive VALUE) or give --utility EXPR")
+        raise InputError(
+            "--positive",
+            f"the outcome {outcome!r} is not binary; say which value is positive "
+            "(--positive VALUE) or give --utility EXPR",
+        )
     empty = [table.groups[j] for j in np.flatnonzero(table.group_counts == 0)]
     if empty:
         raise InputError("--sensitive", "group has no records", format_label(empty[0]))
@@ -229,7 +249,9 @@ def audit(
     observed = observe(law, g, population)
     intervals = None
     if confidence is not None:
-        intervals = fairness_intervals(table, g, confidence, method, concentration=concentration, draws=draws, seed=seed)
+        intervals = fairness_intervals(
+            table, g, confidence, method, concentration=concentration, draws=draws, seed=seed
+        )
     elif method != "auto":
         raise InputError("--method", "chooses how intervals are made: give --confidence LEVEL too", method)
     return Audit(table, g, observed, intervals, confidence)

@@ -155,8 +155,9 @@ def _constants(gamma, tau, lipschitz, diameter) -> tuple[float, float, float, fl
     return gamma, tau, _nonneg("lipschitz", lipschitz), _nonneg("diameter", diameter)
 
 
-def main_theorem(epsilon: float, delta: float, *, gamma: float, tau: float, lipschitz: float = 0.0,
-                 diameter: float = 1.0) -> float:
+def main_theorem(
+    epsilon: float, delta: float, *, gamma: float, tau: float, lipschitz: float = 0.0, diameter: float = 1.0
+) -> float:
     """The paper's bound ε + log(1 + (L_A·diam(A) + δγ) / τ), in nats.
 
     Parameters
@@ -192,8 +193,9 @@ def main_theorem(epsilon: float, delta: float, *, gamma: float, tau: float, lips
     return eps + math.log1p((lipschitz * diameter + delta * gamma) / tau)
 
 
-def main_theorem_tight(epsilon: float, delta: float, *, gamma: float, tau: float, lipschitz: float = 0.0,
-                       diameter: float = 1.0) -> float:
+def main_theorem_tight(
+    epsilon: float, delta: float, *, gamma: float, tau: float, lipschitz: float = 0.0, diameter: float = 1.0
+) -> float:
     """The main theorem as its proof gives it: log(e^ε + (L_A·diam(A) + δγ) / τ), nats.
 
     Proof: ``proofs/tight_bound.md`` (the per-pair form; never above the paper form).
@@ -228,8 +230,12 @@ def _sorted_pairs(matrix: np.ndarray):
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
     order = np.argsort(-ratio, axis=-1, kind="stable")
-    return (np.take_along_axis(ratio, order, -1), np.take_along_axis(p, order, -1), np.take_along_axis(q, order, -1),
-            order)
+    return (
+        np.take_along_axis(ratio, order, -1),
+        np.take_along_axis(p, order, -1),
+        np.take_along_axis(q, order, -1),
+        order,
+    )
 
 
 def _upper_envelope(slopes: np.ndarray, intercepts: np.ndarray):
@@ -354,8 +360,20 @@ def paper_bound(
     t, delta = _profile_candidates(mechanism)
     values = np.log(t) + np.log1p((lipschitz * diameter + gamma * delta) / tau)
     k = int(np.argmin(values))
-    return Bound("paper", float(values[k]), float(np.log(t[k])), float(delta[k]), None, None, gamma, tau, lipschitz,
-                 diameter, mechanism, assumptions)
+    return Bound(
+        "paper",
+        float(values[k]),
+        float(np.log(t[k])),
+        float(delta[k]),
+        None,
+        None,
+        gamma,
+        tau,
+        lipschitz,
+        diameter,
+        mechanism,
+        assumptions,
+    )
 
 
 def tight_bound(
@@ -425,12 +443,29 @@ def tight_bound(
     np.fill_diagonal(best, -np.inf)
     a, b = np.unravel_index(int(best.argmax()), best.shape)
     k = best_k[a, b]
-    return Bound("tight", float(np.log(best[a, b])), float(np.log(t[a, b, k])), float(dl[a, b, k]),
-                 mechanism.inputs[a], mechanism.inputs[b], gamma, tau, lipschitz, diameter, mechanism, assumptions)
+    return Bound(
+        "tight",
+        float(np.log(best[a, b])),
+        float(np.log(t[a, b, k])),
+        float(dl[a, b, k]),
+        mechanism.inputs[a],
+        mechanism.inputs[b],
+        gamma,
+        tau,
+        lipschitz,
+        diameter,
+        mechanism,
+        assumptions,
+    )
 
 
-def corollary_bound(mechanism: Mechanism, *, utility: Utility | None = None, population: Population | None = None,
-                    law: Law | None = None) -> Bound:
+def corollary_bound(
+    mechanism: Mechanism,
+    *,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    law: Law | None = None,
+) -> Bound:
     """The corollary: g independent of a and δ = 0 give L̄ ≤ L ≤ ε(M_A), in nats.
 
     Needs no τ: the pure-DP ratio bound holds for every expectation. When the
@@ -450,11 +485,18 @@ def corollary_bound(mechanism: Mechanism, *, utility: Utility | None = None, pop
     """
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
-    assumptions = list(check_assumptions(mechanism, tau=None, gamma=None, utility=utility, population=population, law=law))
+    assumptions = list(
+        check_assumptions(mechanism, tau=None, gamma=None, utility=utility, population=population, law=law)
+    )
     if utility is not None:
         dep = utility.depends_on_group
-        assumptions.append(Assumption("g independent of the group", "violated" if dep else "checked",
-                                      "g(u, x, a) differs between groups" if dep else "g does not depend on a"))
+        assumptions.append(
+            Assumption(
+                "g independent of the group",
+                "violated" if dep else "checked",
+                "g(u, x, a) differs between groups" if dep else "g does not depend on a",
+            )
+        )
     else:
         assumptions.append(Assumption("g independent of the group", "vouched", "no utility table given"))
     eps = mechanism.epsilon
@@ -496,23 +538,36 @@ def check_assumptions(
     out = []
     eps = mechanism.epsilon
     eps_text = "inf" if math.isinf(eps) else f"{eps:.6g}"
-    out.append(Assumption("M_A is differentially private", "checked",
-                          f"exact privacy profile of {mechanism.name}; pure epsilon = {eps_text} nats"))
+    out.append(
+        Assumption(
+            "M_A is differentially private",
+            "checked",
+            f"exact privacy profile of {mechanism.name}; pure epsilon = {eps_text} nats",
+        )
+    )
     if population is None:
         out.append(Assumption("X independent of A", "vouched", "no population given; needed for L-bar only", "global"))
     else:
         ind = population.independence()
-        out.append(Assumption(
-            "X independent of A", "checked" if ind.independent else "violated",
-            f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} at (context {format_label(ind.context)!r}, "
-            f"group {format_label(ind.group)!r}); needed for L-bar only", "global"))
+        out.append(
+            Assumption(
+                "X independent of A",
+                "checked" if ind.independent else "violated",
+                f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} at (context {format_label(ind.context)!r}, "
+                f"group {format_label(ind.group)!r}); needed for L-bar only",
+                "global",
+            )
+        )
     if gamma is not None:
         if utility is None:
             out.append(Assumption("g <= gamma", "vouched", f"gamma = {gamma:g}; no utility table given"))
         else:
             ok = utility.gamma <= gamma + 1e-12
-            out.append(Assumption("g <= gamma", "checked" if ok else "violated",
-                                  f"max g = {utility.gamma:g}, gamma = {gamma:g}"))
+            out.append(
+                Assumption(
+                    "g <= gamma", "checked" if ok else "violated", f"max g = {utility.gamma:g}, gamma = {gamma:g}"
+                )
+            )
     if tau is not None:
         if law is None or utility is None:
             out.append(Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"))
@@ -522,6 +577,11 @@ def check_assumptions(
             e = expected_utility(law, utility)
             low = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
             status = "vouched" if low >= tau - 1e-12 else "violated"
-            out.append(Assumption("E[g | x, a] >= tau for every model", status,
-                                  f"tau = {tau:g}; the observed model has min E[g | x, a] = {low:.6g}"))
+            out.append(
+                Assumption(
+                    "E[g | x, a] >= tau for every model",
+                    status,
+                    f"tau = {tau:g}; the observed model has min E[g | x, a] = {low:.6g}",
+                )
+            )
     return tuple(out)

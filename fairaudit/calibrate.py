@@ -53,11 +53,11 @@ __all__ = ["Calibration", "calibrate", "calibrate_randomized_response", "METHODS
 METHODS = ("paper", "tight", "black_box", "white_box")
 KINDS = ("local", "global")
 
-_RTOL = 1e-11          # relative tolerance in ε of the root finder
-_ATOL = 1e-13          # absolute tolerance (for answers at or near ε = 0)
-_EPS_MAX = 500.0       # largest finite ε tried (e^500 is a finite double)
-_GRID = 64             # white-box scan: number of grid points
-_GRID_CAP = 50.0       # white-box scan: largest ε of the grid (or where keep ≥ 1 − 1e-12)
+_RTOL = 1e-11  # relative tolerance in ε of the root finder
+_ATOL = 1e-13  # absolute tolerance (for answers at or near ε = 0)
+_EPS_MAX = 500.0  # largest finite ε tried (e^500 is a finite double)
+_GRID = 64  # white-box scan: number of grid points
+_GRID_CAP = 50.0  # white-box scan: largest ε of the grid (or where keep ≥ 1 − 1e-12)
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,14 +123,24 @@ class Calibration:
     def __repr__(self) -> str:
         if not self.feasible:
             return f"Calibration({self.method}, {self.kind}, target={self.target:.6g}: infeasible, {self.reason})"
-        return (f"Calibration({self.method}, {self.kind}, target={self.target:.6g}: epsilon={self.epsilon:.6g} nats, "
-                f"keep={self.keep_probability:.6g}, bound={self.bound:.6g})")
+        return (
+            f"Calibration({self.method}, {self.kind}, target={self.target:.6g}: epsilon={self.epsilon:.6g} nats, "
+            f"keep={self.keep_probability:.6g}, bound={self.bound:.6g})"
+        )
 
 
 # -- input checks --------------------------------------------------------------------------------------
 
-def _number(flag: str, value, *, low: float = 0.0, high: float = math.inf, low_open: bool = False,
-            what: str = "a finite non-negative number") -> float:
+
+def _number(
+    flag: str,
+    value,
+    *,
+    low: float = 0.0,
+    high: float = math.inf,
+    low_open: bool = False,
+    what: str = "a finite non-negative number",
+) -> float:
     if isinstance(value, bool):
         raise InputError(flag, f"must be {what}", value)
     try:
@@ -182,8 +192,10 @@ def _diameter(diameter, metric, k: int) -> float:
 
 # -- root finding along a non-decreasing function -------------------------------------------------------
 
-def _largest_meeting(f: Callable[[float], float], target: float, lo: float, f_lo: float, hi: float,
-                     f_hi: float) -> tuple[float, float]:
+
+def _largest_meeting(
+    f: Callable[[float], float], target: float, lo: float, f_lo: float, hi: float, f_hi: float
+) -> tuple[float, float]:
     """Largest ε in [lo, hi) with f(ε) ≤ target, for f non-decreasing on [lo, hi], f(lo) ≤ target < f(hi).
 
     Keeps the bracket f(lo) ≤ target < f(hi) and stops when
@@ -191,8 +203,8 @@ def _largest_meeting(f: Callable[[float], float], target: float, lo: float, f_lo
     whenever two steps did not halve the bracket (so never much slower than
     bisection). Returns (lo, f(lo)).
     """
-    g_lo, g_hi = f_lo - target, f_hi - target        # g_lo <= 0 < g_hi
-    last = 0                                          # +1: the last step moved lo, -1: it moved hi
+    g_lo, g_hi = f_lo - target, f_hi - target  # g_lo <= 0 < g_hi
+    last = 0  # +1: the last step moved lo, -1: it moved hi
     checkpoint, count, probed = hi - lo, 0, False
     while hi - lo > _RTOL * lo + _ATOL:
         tol = _RTOL * lo + _ATOL
@@ -201,7 +213,7 @@ def _largest_meeting(f: Callable[[float], float], target: float, lo: float, f_lo
             bisect = hi - lo > 0.5 * checkpoint
             checkpoint, count = hi - lo, 0
         count += 1
-        if g_lo == 0.0 and not probed:               # lo meets the target exactly: is it the end already?
+        if g_lo == 0.0 and not probed:  # lo meets the target exactly: is it the end already?
             x, probed = lo + 0.5 * tol, True
         elif bisect or g_lo == 0.0 or not math.isfinite(g_hi):
             x = 0.5 * (lo + hi)
@@ -212,7 +224,7 @@ def _largest_meeting(f: Callable[[float], float], target: float, lo: float, f_lo
         if fx <= target:
             lo, f_lo, g_lo = x, fx, fx - target
             if last == 1:
-                g_hi *= 0.5                           # Illinois: the same end moved twice
+                g_hi *= 0.5  # Illinois: the same end moved twice
             last = 1
         else:
             hi, g_hi = x, fx - target
@@ -237,15 +249,26 @@ def _bracket(f: Callable[[float], float], target: float, lo: float, f_lo: float,
 
 # -- the four methods -----------------------------------------------------------------------------------
 
-def _result(common: dict, method: str, epsilon: float, bound: float, reason: str, family: MechanismFamily,
-            feasible: bool = True) -> Calibration:
+
+def _result(
+    common: dict, method: str, epsilon: float, bound: float, reason: str, family: MechanismFamily, feasible: bool = True
+) -> Calibration:
     if feasible:
         keep = family.keep_probability(epsilon)
         mech = family(epsilon)
     else:
         keep, mech, epsilon = math.nan, None, math.nan
-    return Calibration(epsilon=float(epsilon), keep_probability=float(keep), method=method, bound=float(bound),
-                       feasible=bool(feasible), reason=reason, family=family.name, mechanism=mech, **common)
+    return Calibration(
+        epsilon=float(epsilon),
+        keep_probability=float(keep),
+        method=method,
+        bound=float(bound),
+        feasible=bool(feasible),
+        reason=reason,
+        family=family.name,
+        mechanism=mech,
+        **common,
+    )
 
 
 def _closed_form(common: dict, method: str, family: MechanismFamily) -> Calibration:
@@ -255,9 +278,16 @@ def _closed_form(common: dict, method: str, family: MechanismFamily) -> Calibrat
     floor = math.log1p(c / tau)
     terms = f"log(1 + (L_A*diam + delta*gamma)/tau) = log(1 + ({lip:g}*{diam:g} + {delta:g}*{gamma:g})/{tau:g})"
     if target < floor * (1 - 1e-14):  # (a few ulps of rounding in the floor itself are not a violation)
-        return _result(common, method, math.nan, floor, f"the target {target:.6g} nats is below the floor {terms} = "
-                       f"{floor:.6g} nats, the {method} bound at epsilon = 0: no privacy budget meets it", family,
-                       feasible=False)
+        return _result(
+            common,
+            method,
+            math.nan,
+            floor,
+            f"the target {target:.6g} nats is below the floor {terms} = "
+            f"{floor:.6g} nats, the {method} bound at epsilon = 0: no privacy budget meets it",
+            family,
+            feasible=False,
+        )
     if method == "paper":
         eps = max(0.0, target - floor)
         bound = main_theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
@@ -266,9 +296,15 @@ def _closed_form(common: dict, method: str, family: MechanismFamily) -> Calibrat
         eps = max(0.0, target + math.log1p(-(c / tau) * math.exp(-target)))
         bound = main_theorem_tight(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
         form = f"epsilon = log(e^target - (L_A*diam + delta*gamma)/tau) = log(e^{target:.6g} - {c / tau:.6g})"
-    return _result(common, method, eps, bound, f"closed form of the {method} bound, {form}; it certifies every "
-                   f"(epsilon, {delta:g})-DP mechanism on the groups (looser than black_box for a known family)",
-                   family)
+    return _result(
+        common,
+        method,
+        eps,
+        bound,
+        f"closed form of the {method} bound, {form}; it certifies every "
+        f"(epsilon, {delta:g})-DP mechanism on the groups (looser than black_box for a known family)",
+        family,
+    )
 
 
 def _rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> float:
@@ -300,8 +336,11 @@ def _black_box(common: dict, family: MechanismFamily, metric, population: Popula
         kwargs["lipschitz"] = lip
         if metric is not None:
             kwargs["metric"] = metric
-    cls = f"utilities in [{lower:g}, {gamma:g}]" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}") + \
-          (f", L_A = {lip:g}" if lip > 0 else ", independent of the group")
+    cls = (
+        f"utilities in [{lower:g}, {gamma:g}]"
+        + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
+        + (f", L_A = {lip:g}" if lip > 0 else ", independent of the group")
+    )
     if not math.isnan(tau) and tau > lower:
         notes.append("tau is vouched for: it must hold behind the calibrated mechanism too")
     note = "".join(f"; {n}" for n in notes)
@@ -311,26 +350,47 @@ def _black_box(common: dict, family: MechanismFamily, metric, population: Popula
 
     top = bound(math.inf)
     if target >= top:
-        return _result(common, "black_box", math.inf, top, f"every epsilon meets the target: even the identity "
-                       f"(epsilon = inf) gives a worst case of {top:.6g} nats over every model, {cls}{note}", family)
+        return _result(
+            common,
+            "black_box",
+            math.inf,
+            top,
+            f"every epsilon meets the target: even the identity "
+            f"(epsilon = inf) gives a worst case of {top:.6g} nats over every model, {cls}{note}",
+            family,
+        )
     simple = (math.isnan(tau) or tau <= lower) and lip == 0
     if simple:
         guess = _rr_black_box_epsilon(target, len(family.inputs), lower, gamma)
         if math.isfinite(guess) and _is_randomized_response(family, guess) is not None:
             # exact in real arithmetic; the bound recomputed in floating point may exceed the target by an ulp
-            return _result(common, "black_box", guess, bound(guess), "exact worst case over every model, "
-                           f"{cls}; closed form for k-ary randomized response (proofs/black_box.md section 3){note}",
-                           family)
+            return _result(
+                common,
+                "black_box",
+                guess,
+                bound(guess),
+                "exact worst case over every model, "
+                f"{cls}; closed form for k-ary randomized response (proofs/black_box.md section 3){note}",
+                family,
+            )
     # The bound is non-decreasing along the family (post-processing): bracket, then refine.
     if lip > 0:
         f0 = bound(0.0)
         if f0 > target:
-            return _result(common, "black_box", math.nan, f0, f"the target {target:.6g} nats is below the black-box "
-                           f"bound at epsilon = 0 (the attribute fully randomized), {f0:.6g} nats: a utility that "
-                           f"depends on the group (L_A = {lip:g}) differs across groups whatever the mechanism; no "
-                           "privacy budget meets it", family, feasible=False)
+            return _result(
+                common,
+                "black_box",
+                math.nan,
+                f0,
+                f"the target {target:.6g} nats is below the black-box "
+                f"bound at epsilon = 0 (the attribute fully randomized), {f0:.6g} nats: a utility that "
+                f"depends on the group (L_A = {lip:g}) differs across groups whatever the mechanism; no "
+                "privacy budget meets it",
+                family,
+                feasible=False,
+            )
     else:
-        f0 = 0.0   # every member at ε = 0 has equal rows: all groups see the same law, L = 0
+        f0 = 0.0  # every member at ε = 0 has equal rows: all groups see the same law, L = 0
     lo, f_lo, start = 0.0, f0, max(target, 1e-3)
     if lip == 0 and target > 0:
         f_t = bound(target)  # black-box ≤ ε(M_ε) = ε for g independent of the group, so ε = target meets it
@@ -340,12 +400,25 @@ def _black_box(common: dict, family: MechanismFamily, metric, population: Popula
             start = target
     found = _bracket(bound, target, lo, f_lo, start)
     if found is None:
-        return _result(common, "black_box", _EPS_MAX, bound(_EPS_MAX), f"the bound stays below the target up to "
-                       f"epsilon = {_EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this{note}",
-                       family)
+        return _result(
+            common,
+            "black_box",
+            _EPS_MAX,
+            bound(_EPS_MAX),
+            f"the bound stays below the target up to "
+            f"epsilon = {_EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this{note}",
+            family,
+        )
     eps, value = _largest_meeting(bound, target, *found)
-    return _result(common, "black_box", eps, value, f"exact worst case over every model, {cls}; largest epsilon by "
-                   f"bracketing (the bound is non-decreasing along the family){note}", family)
+    return _result(
+        common,
+        "black_box",
+        eps,
+        value,
+        f"exact worst case over every model, {cls}; largest epsilon by "
+        f"bracketing (the bound is non-decreasing along the family){note}",
+        family,
+    )
 
 
 def _keep_grid(family: MechanismFamily) -> np.ndarray:
@@ -353,6 +426,7 @@ def _keep_grid(family: MechanismFamily) -> np.ndarray:
 
     cap is 50 nats, or less: where the keep probability reaches 1 − 1e-12.
     """
+
     def keep(e: float) -> float:
         return family.keep_probability(e)
 
@@ -375,10 +449,11 @@ def _keep_grid(family: MechanismFamily) -> np.ndarray:
     return np.array(sorted(points))
 
 
-def _white_box(common: dict, family: MechanismFamily, kernel: Kernel, utility: Utility, population,
-               context_mechanism) -> Calibration:
+def _white_box(
+    common: dict, family: MechanismFamily, kernel: Kernel, utility: Utility, population, context_mechanism
+) -> Calibration:
     target, kind = common["target"], common["kind"]
-    limit = target + 1e-13 * max(1.0, target)   # rounding in the computed L (a few ulps) is not a violation
+    limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
     measure = local_fairness if kind == "local" else global_fairness
     name = "L" if kind == "local" else "L-bar"
 
@@ -399,37 +474,78 @@ def _white_box(common: dict, family: MechanismFamily, kernel: Kernel, utility: U
             why.append("X and A are dependent in the population")
         cause = f" ({'; '.join(why)})" if why else ""
         later = next((float(e) for e in _keep_grid(family)[1:] if value(float(e)) <= limit), None)
-        also = "" if later is None else (f"; some larger epsilon meets it (e.g. {later:.6g} nats) but not every "
-                                         "smaller one: the model's fairness is not monotone in epsilon")
-        return _result(common, "white_box", math.nan, f0, f"the model's {name} is {f0:.6g} nats > target "
-                       f"{target:.6g} already at epsilon = 0, where the attribute is fully randomized{cause}: no "
-                       f"privacy budget [0, epsilon] meets it{also}", family, feasible=False)
+        also = (
+            ""
+            if later is None
+            else (
+                f"; some larger epsilon meets it (e.g. {later:.6g} nats) but not every "
+                "smaller one: the model's fairness is not monotone in epsilon"
+            )
+        )
+        return _result(
+            common,
+            "white_box",
+            math.nan,
+            f0,
+            f"the model's {name} is {f0:.6g} nats > target "
+            f"{target:.6g} already at epsilon = 0, where the attribute is fully randomized{cause}: no "
+            f"privacy budget [0, epsilon] meets it{also}",
+            family,
+            feasible=False,
+        )
     grid = _keep_grid(family)
     lo, f_lo = 0.0, f0
     for eps in grid[1:]:
         v = value(float(eps))
         if not v <= limit:
             eps_star, reached = _largest_meeting(value, target if f_lo <= target else limit, lo, f_lo, float(eps), v)
-            return _result(common, "white_box", eps_star, reached, f"exact {name} of the model behind the family; "
-                           f"every epsilon in [0, {eps_star:.6g}] meets the target (first crossing of a "
-                           f"{len(grid)}-point scan, refined)", family)
+            return _result(
+                common,
+                "white_box",
+                eps_star,
+                reached,
+                f"exact {name} of the model behind the family; "
+                f"every epsilon in [0, {eps_star:.6g}] meets the target (first crossing of a "
+                f"{len(grid)}-point scan, refined)",
+                family,
+            )
         lo, f_lo = float(eps), v
     top = value(math.inf)
     if top <= limit:
-        return _result(common, "white_box", math.inf, top, f"every epsilon meets the target: the model's {name} "
-                       f"without privacy is {top:.6g} nats and no point of the {len(grid)}-point scan exceeds it",
-                       family)
+        return _result(
+            common,
+            "white_box",
+            math.inf,
+            top,
+            f"every epsilon meets the target: the model's {name} "
+            f"without privacy is {top:.6g} nats and no point of the {len(grid)}-point scan exceeds it",
+            family,
+        )
     found = _bracket(value, limit, lo, f_lo, 2 * lo)
     if found is None:
-        return _result(common, "white_box", _EPS_MAX, value(_EPS_MAX), f"the model's {name} stays below the target "
-                       f"up to epsilon = {_EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this",
-                       family)
+        return _result(
+            common,
+            "white_box",
+            _EPS_MAX,
+            value(_EPS_MAX),
+            f"the model's {name} stays below the target "
+            f"up to epsilon = {_EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this",
+            family,
+        )
     eps_star, reached = _largest_meeting(value, target if found[1] <= target else limit, *found)
-    return _result(common, "white_box", eps_star, reached, f"exact {name} of the model behind the family; every "
-                   f"epsilon in [0, {eps_star:.6g}] meets the target (scan, then refined)", family)
+    return _result(
+        common,
+        "white_box",
+        eps_star,
+        reached,
+        f"exact {name} of the model behind the family; every "
+        f"epsilon in [0, {eps_star:.6g}] meets the target (scan, then refined)",
+        family,
+    )
 
 
 # -- public ---------------------------------------------------------------------------------------------
+
 
 def calibrate(
     target: float,
@@ -574,28 +690,50 @@ def calibrate(
     if method is None:
         method = "white_box" if kernel is not None else ("tight" if delta > 0 else "black_box")
     if delta > 0 and method in ("black_box", "white_box"):
-        raise InputError("--delta", f"describes an arbitrary (epsilon, delta)-DP mechanism; the {method} method "
-                                    "calibrates the family itself (delta = 0): use --method tight or paper", delta)
+        raise InputError(
+            "--delta",
+            f"describes an arbitrary (epsilon, delta)-DP mechanism; the {method} method "
+            "calibrates the family itself (delta = 0): use --method tight or paper",
+            delta,
+        )
     if method in ("paper", "tight") and tau is None:
         raise InputError("--tau", f"the {method} bound needs tau (a lower bound on E[g | x, a])")
     if method == "white_box":
         if kernel is None:
-            raise InputError("--spec", "the white_box method needs a decision model (a [model] in the spec, "
-                                       "or kernel=)")
+            raise InputError(
+                "--spec", "the white_box method needs a decision model (a [model] in the spec, or kernel=)"
+            )
         if utility is None:
             raise InputError("utility", "the white_box method needs the utility g")
-    common = dict(target=target, kind=kind, groups=k, gamma=gamma, lower=lower,
-                  tau=math.nan if tau is None else tau, delta=delta, lipschitz=lipschitz, diameter=diam)
+    common = dict(
+        target=target,
+        kind=kind,
+        groups=k,
+        gamma=gamma,
+        lower=lower,
+        tau=math.nan if tau is None else tau,
+        delta=delta,
+        lipschitz=lipschitz,
+        diameter=diam,
+    )
     if method == "white_box":
         return _white_box(common, fam, kernel, utility, population, context_mechanism)
     if kind == "global" and population is not None:
         check = population.independence()
         if not check.independent:
-            return _result(common, method, math.nan, math.inf, "X and A are not independent in the population "
-                           f"(max |P(x, a) - P(x) P(a)| = {check.max_deviation:.3g} at context {check.context!r}, "
-                           "group "
-                           f"{check.group!r}): the {method} certificate bounds L-bar only through L-bar <= L under "
-                           "X independent of A; use a model (white_box)", fam, feasible=False)
+            return _result(
+                common,
+                method,
+                math.nan,
+                math.inf,
+                "X and A are not independent in the population "
+                f"(max |P(x, a) - P(x) P(a)| = {check.max_deviation:.3g} at context {check.context!r}, "
+                "group "
+                f"{check.group!r}): the {method} certificate bounds L-bar only through L-bar <= L under "
+                "X independent of A; use a model (white_box)",
+                fam,
+                feasible=False,
+            )
     if method in ("paper", "tight"):
         return _closed_form(common, method, fam)
     return _black_box(common, fam, metric, population)

@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-
 from ._errors import InputError
 from .bounds import Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from .calibrate import Calibration, calibrate
@@ -148,8 +147,15 @@ class Certificate:
 def observe(law: Law, utility, population) -> Observed:
     """All exact metrics of ``law`` for ``utility`` under ``population`` (one pass: :func:`~fairaudit.metrics.all_metrics`)."""
     m = all_metrics(law, utility, population)
-    return Observed(law=law, local=m["local"], global_=m["global"], demographic_parity=m["demographic_parity"],
-                    equalized_odds=m["equalized_odds"], sup_local=m["sup_local"], sup_global=m["sup_global"])
+    return Observed(
+        law=law,
+        local=m["local"],
+        global_=m["global"],
+        demographic_parity=m["demographic_parity"],
+        equalized_odds=m["equalized_odds"],
+        sup_local=m["sup_local"],
+        sup_global=m["sup_global"],
+    )
 
 
 def _merge_assumptions(bounds: list[tuple[str, tuple]]) -> tuple:
@@ -161,7 +167,9 @@ def _merge_assumptions(bounds: list[tuple[str, tuple]]) -> tuple:
     return tuple((a, tuple(forms)) for a, forms in merged.values())
 
 
-def certify(spec: Spec | str | Path, *, confidence: float | None = 0.95, method: str = "auto", seed: int = 0) -> Certificate:
+def certify(
+    spec: Spec | str | Path, *, confidence: float | None = 0.95, method: str = "auto", seed: int = 0
+) -> Certificate:
     """Build the certificate of a spec (a :class:`~fairaudit.spec.Spec` or a path).
 
     Parameters
@@ -216,29 +224,48 @@ def certify(spec: Spec | str | Path, *, confidence: float | None = 0.95, method:
             raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
         observed = observe(law, spec.utility, spec.population)
         filtered = not (_is_identity(mech) and _is_identity(spec.context_mechanism))
-        if filtered and _sees_inputs(spec):   # the model on its own: only where it reads the true labels
+        if filtered and _sees_inputs(spec):  # the model on its own: only where it reads the true labels
             unfiltered = observe(Law.from_kernel(kernel), spec.utility, spec.population)
     obs_law = observed.law if observed is not None else None
 
-    gamma, lower, tau = spec.gamma, spec.lower, spec.tau
+    gamma, tau = spec.gamma, spec.tau
     forms: list[tuple[str, tuple]] = []
     paper = tight = None
     if tau is not None:
-        paper = paper_bound(mech, tau=tau, gamma=gamma, lipschitz=spec.lipschitz, diameter=spec.utility.diameter(spec.metric),
-                            utility=spec.utility, population=spec.population, law=obs_law)
-        tight = tight_bound(mech, tau=tau, gamma=gamma, lipschitz=spec.lipschitz, metric=spec.metric,
-                            utility=spec.utility, population=spec.population, law=obs_law)
+        paper = paper_bound(
+            mech,
+            tau=tau,
+            gamma=gamma,
+            lipschitz=spec.lipschitz,
+            diameter=spec.utility.diameter(spec.metric),
+            utility=spec.utility,
+            population=spec.population,
+            law=obs_law,
+        )
+        tight = tight_bound(
+            mech,
+            tau=tau,
+            gamma=gamma,
+            lipschitz=spec.lipschitz,
+            metric=spec.metric,
+            utility=spec.utility,
+            population=spec.population,
+            law=obs_law,
+        )
         forms += [("paper", paper.assumptions), ("tight", tight.assumptions)]
-    black_box = worst_model(mech, spec.utility, context_mechanism=spec.context_mechanism, population=spec.population,
-                            tau=tau)
-    bb_assumptions = check_assumptions(mech, tau=tau, gamma=None, utility=spec.utility, population=spec.population,
-                                       law=obs_law)
+    black_box = worst_model(
+        mech, spec.utility, context_mechanism=spec.context_mechanism, population=spec.population, tau=tau
+    )
+    bb_assumptions = check_assumptions(
+        mech, tau=tau, gamma=None, utility=spec.utility, population=spec.population, law=obs_law
+    )
     bb_holds = not any(a.status == "violated" and a.scope != "global" for a in bb_assumptions)
     if math.isnan(black_box.local.value):
         reason = black_box.local.reason
     else:
         reason = "exact over every decision model behind the filter, for this utility" + (
-            f", with E[g | x, a] >= {tau:g}" if tau is not None else "")
+            f", with E[g | x, a] >= {tau:g}" if tau is not None else ""
+        )
     forms.append(("black_box", bb_assumptions))
     corollary = corollary_bound(mech, utility=spec.utility, population=spec.population, law=obs_law)
     forms.append(("corollary", corollary.assumptions))
@@ -251,7 +278,7 @@ def certify(spec: Spec | str | Path, *, confidence: float | None = 0.95, method:
     best, best_form = min(candidates, default=(math.inf, "none"), key=lambda t: t[0])
     independent = spec.population.independence().independent
     global_bound = best if independent else math.inf
-    if bb_ok and not math.isnan(black_box.global_.value):      # exact for L-bar, with or without X independent of A
+    if bb_ok and not math.isnan(black_box.global_.value):  # exact for L-bar, with or without X independent of A
         global_bound = min(global_bound, black_box.global_.value)
 
     targets: dict[str, TargetCheck] = {}
@@ -261,23 +288,58 @@ def certify(spec: Spec | str | Path, *, confidence: float | None = 0.95, method:
     if t is not None:
         if t.local is not None:
             obs = observed.local.value if observed else None
-            targets["local"] = TargetCheck("local", t.local, best, best <= t.local, obs,
-                                           None if obs is None else bool(obs <= t.local),
-                                           f"best bound: {best_form}")
+            targets["local"] = TargetCheck(
+                "local",
+                t.local,
+                best,
+                best <= t.local,
+                obs,
+                None if obs is None else bool(obs <= t.local),
+                f"best bound: {best_form}",
+            )
         if t.global_ is not None:
             obs = observed.global_.value if observed else None
-            why = ("black-box bound on L-bar (exact over every model)" if bb_ok and global_bound == black_box.global_.value
-                   else f"best bound: {best_form} (L-bar <= L since X and A are independent)" if independent
-                   else "X and A are not independent in the population and no black-box bound applies")
-            targets["global"] = TargetCheck("global", t.global_, global_bound, global_bound <= t.global_, obs,
-                                            None if obs is None else bool(obs <= t.global_), why)
+            why = (
+                "black-box bound on L-bar (exact over every model)"
+                if bb_ok and global_bound == black_box.global_.value
+                else f"best bound: {best_form} (L-bar <= L since X and A are independent)"
+                if independent
+                else "X and A are not independent in the population and no black-box bound applies"
+            )
+            targets["global"] = TargetCheck(
+                "global",
+                t.global_,
+                global_bound,
+                global_bound <= t.global_,
+                obs,
+                None if obs is None else bool(obs <= t.global_),
+                why,
+            )
         calibration, calibration_white, calibration_reason = _calibrations(spec, kernel, t, independent)
     certified = all(c.met for c in targets.values())
     intervals, unfiltered_intervals, intervals_reason = _intervals(spec, kernel, confidence, method, seed)
-    return Certificate(spec, paper, tight, black_box, reason, corollary, best, best_form, global_bound, observed,
-                       unfiltered, targets, calibration, _merge_assumptions(forms), certified,
-                       calibration_white_box=calibration_white, calibration_reason=calibration_reason,
-                       intervals=intervals, unfiltered_intervals=unfiltered_intervals, intervals_reason=intervals_reason)
+    return Certificate(
+        spec,
+        paper,
+        tight,
+        black_box,
+        reason,
+        corollary,
+        best,
+        best_form,
+        global_bound,
+        observed,
+        unfiltered,
+        targets,
+        calibration,
+        _merge_assumptions(forms),
+        certified,
+        calibration_white_box=calibration_white,
+        calibration_reason=calibration_reason,
+        intervals=intervals,
+        unfiltered_intervals=unfiltered_intervals,
+        intervals_reason=intervals_reason,
+    )
 
 
 def _intervals(spec: Spec, kernel: Kernel | None, confidence, method: str, seed: int):
@@ -290,12 +352,26 @@ def _intervals(spec: Spec, kernel: Kernel | None, confidence, method: str, seed:
         return None, None, "the spec has no model"
     if kernel.counts is None:
         return None, None, "the model is a table of probabilities, not counts: no sampling uncertainty to report"
-    table = CountTable(kernel.counts, kernel.contexts, kernel.groups, kernel.decisions,
-                       () if spec.model.context is None else (spec.model.context.name,), (spec.model.sensitive.name,),
-                       spec.model.decision.name)
+    table = CountTable(
+        kernel.counts,
+        kernel.contexts,
+        kernel.groups,
+        kernel.decisions,
+        () if spec.model.context is None else (spec.model.context.name,),
+        (spec.model.sensitive.name,),
+        spec.model.decision.name,
+    )
     try:
-        filtered_iv = fairness_intervals(table, spec.utility, confidence, method, sensitive_mechanism=spec.sensitive_mechanism,
-                                         context_mechanism=spec.context_mechanism, population=spec.population, seed=seed)
+        filtered_iv = fairness_intervals(
+            table,
+            spec.utility,
+            confidence,
+            method,
+            sensitive_mechanism=spec.sensitive_mechanism,
+            context_mechanism=spec.context_mechanism,
+            population=spec.population,
+            seed=seed,
+        )
         own = None
         if not (_is_identity(spec.sensitive_mechanism) and _is_identity(spec.context_mechanism)) and _sees_inputs(spec):
             own = fairness_intervals(table, spec.utility, confidence, method, population=spec.population, seed=seed)
@@ -337,8 +413,17 @@ def _calibrations(spec: Spec, kernel: Kernel | None, t, independent: bool):
             if kind == "global" and not independent:
                 continue
             try:
-                black.append(calibrate(goal, kind=kind, method="black_box", tau=spec.tau, lipschitz=spec.lipschitz,
-                                       metric=spec.metric, **common))
+                black.append(
+                    calibrate(
+                        goal,
+                        kind=kind,
+                        method="black_box",
+                        tau=spec.tau,
+                        lipschitz=spec.lipschitz,
+                        metric=spec.metric,
+                        **common,
+                    )
+                )
             except InputError as exc:
                 reason = f"black-box calibration not available: {exc}"
                 black = []
@@ -347,11 +432,22 @@ def _calibrations(spec: Spec, kernel: Kernel | None, t, independent: bool):
             reason = "the only target is global and X and A are not independent: no black-box bound on L-bar"
     white = []
     if kernel is not None and not _sees_inputs(spec):
-        reason = (reason + "; " if reason else "") + ("white-box calibration needs a model indexed by the groups: the "
-                                                      "spec's mechanism releases other values")
+        reason = (reason + "; " if reason else "") + (
+            "white-box calibration needs a model indexed by the groups: the spec's mechanism releases other values"
+        )
     elif kernel is not None:
-        white = [calibrate(goal, kind=kind, method="white_box", kernel=kernel, utility=spec.utility,
-                           context_mechanism=spec.context_mechanism, **common) for kind, goal in goals]
+        white = [
+            calibrate(
+                goal,
+                kind=kind,
+                method="white_box",
+                kernel=kernel,
+                utility=spec.utility,
+                context_mechanism=spec.context_mechanism,
+                **common,
+            )
+            for kind, goal in goals
+        ]
     return _tightest(black), _tightest(white), reason
 
 

@@ -66,76 +66,156 @@ def _add_output(p: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``fairaudit`` command (documented in docs/cli.md)."""
-    parser = _Parser(prog="fairaudit", description="Certified fairness auditing: audit decisions, certify bounds that "
-                     "hold for any model behind a privacy filter, calibrate the privacy budget.")
+    parser = _Parser(
+        prog="fairaudit",
+        description="Certified fairness auditing: audit decisions, certify bounds that "
+        "hold for any model behind a privacy filter, calibrate the privacy budget.",
+    )
     parser.add_argument("--version", action="version", version=f"fairaudit {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
 
-    c = sub.add_parser("certify", help="certify a bound on unfairness from a TOML spec",
-                       description="Bounds on local g-fairness that hold for any decision model behind the spec's "
-                       "privacy filter; observed metrics when the spec has a model; pass/fail against targets.")
+    c = sub.add_parser(
+        "certify",
+        help="certify a bound on unfairness from a TOML spec",
+        description="Bounds on local g-fairness that hold for any decision model behind the spec's "
+        "privacy filter; observed metrics when the spec has a model; pass/fail against targets.",
+    )
     c.add_argument("spec", metavar="SPEC.toml", help="the spec (see docs/spec.md)")
     _add_output(c)
-    c.add_argument("--plot", metavar="FILE", help="draw the fairness-privacy curve (bounds and observed L against "
-                   "epsilon, in nats) to FILE, .png or .svg (needs pip install 'fairaudit[plot]')")
+    c.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="draw the fairness-privacy curve (bounds and observed L against "
+        "epsilon, in nats) to FILE, .png or .svg (needs pip install 'fairaudit[plot]')",
+    )
     c.add_argument("--plot-data", metavar="FILE.csv", help="write the data behind the curve to FILE.csv")
-    c.add_argument("--confidence", type=_level, default=0.95, metavar="LEVEL",
-                   help="simultaneous level of intervals for the observed metrics when the model comes from counts "
-                   "(default 0.95)")
-    c.add_argument("--method", choices=("auto", "clopper-pearson", "multinomial", "bayes"), default="auto",
-                   help="how those intervals are made (default auto: clopper-pearson for 0/1 utilities, else multinomial)")
-    c.add_argument("--epsilons", type=_epsilons, metavar="START:STOP:NUM",
-                   help="the curve's grid of epsilon in nats, NUM evenly spaced values (default 61 values from 0 to "
-                   "1.5 x the spec's epsilon, or 0 to 5); the spec's own epsilon is always added")
+    c.add_argument(
+        "--confidence",
+        type=_level,
+        default=0.95,
+        metavar="LEVEL",
+        help="simultaneous level of intervals for the observed metrics when the model comes from counts (default 0.95)",
+    )
+    c.add_argument(
+        "--method",
+        choices=("auto", "clopper-pearson", "multinomial", "bayes"),
+        default="auto",
+        help="how those intervals are made (default auto: clopper-pearson for 0/1 utilities, else multinomial)",
+    )
+    c.add_argument(
+        "--epsilons",
+        type=_epsilons,
+        metavar="START:STOP:NUM",
+        help="the curve's grid of epsilon in nats, NUM evenly spaced values (default 61 values from 0 to "
+        "1.5 x the spec's epsilon, or 0 to 5); the spec's own epsilon is always added",
+    )
 
-    a = sub.add_parser("audit", help="exact fairness metrics of decision records",
-                       description="Count decision records (CSV or Parquet) by context, group and outcome and report "
-                       "local and global g-fairness, demographic parity and equalized odds gaps, and sups over g. "
-                       "Parquet is counted out of core (streamed); CSV is read in memory.")
-    a.add_argument("data", metavar="DATA", help="CSV or Parquet file (or folder of Parquet files), one record per "
-                   "decision (or candidate); with --count, a count table")
-    a.add_argument("--sensitive", required=True, type=_columns, metavar="COL[,COL...]",
-                   help="sensitive column(s); several give intersectional groups")
+    a = sub.add_parser(
+        "audit",
+        help="exact fairness metrics of decision records",
+        description="Count decision records (CSV or Parquet) by context, group and outcome and report "
+        "local and global g-fairness, demographic parity and equalized odds gaps, and sups over g. "
+        "Parquet is counted out of core (streamed); CSV is read in memory.",
+    )
+    a.add_argument(
+        "data",
+        metavar="DATA",
+        help="CSV or Parquet file (or folder of Parquet files), one record per "
+        "decision (or candidate); with --count, a count table",
+    )
+    a.add_argument(
+        "--sensitive",
+        required=True,
+        type=_columns,
+        metavar="COL[,COL...]",
+        help="sensitive column(s); several give intersectional groups",
+    )
     a.add_argument("--outcome", required=True, metavar="COL", help="outcome column U (all its values are kept)")
     a.add_argument("--context", type=_columns, default=[], metavar="COL[,COL...]", help="context column(s) X")
     g = a.add_mutually_exclusive_group()
     g.add_argument("--positive", metavar="VALUE", help="g = 1{U = VALUE}")
     g.add_argument("--utility", metavar="EXPR", help="g as an expression in u, e.g. 'u >= 5' or '11 - u'")
-    a.add_argument("--confidence", type=_level, metavar="LEVEL",
-                   help="simultaneous confidence level of intervals for every metric (e.g. 0.95)")
-    a.add_argument("--method", choices=("auto", "clopper-pearson", "multinomial", "bayes"), default="auto",
-                   help="how intervals are made: clopper-pearson (0/1 utilities), multinomial (bounded utilities), "
-                   "bayes (Dirichlet posterior); auto picks the first that applies (default)")
+    a.add_argument(
+        "--confidence",
+        type=_level,
+        metavar="LEVEL",
+        help="simultaneous confidence level of intervals for every metric (e.g. 0.95)",
+    )
+    a.add_argument(
+        "--method",
+        choices=("auto", "clopper-pearson", "multinomial", "bayes"),
+        default="auto",
+        help="how intervals are made: clopper-pearson (0/1 utilities), multinomial (bounded utilities), "
+        "bayes (Dirichlet posterior); auto picks the first that applies (default)",
+    )
     a.add_argument("--seed", type=int, default=0, metavar="S", help="random seed of --method bayes (default 0)")
-    a.add_argument("--draws", type=int, default=4000, metavar="N", help="posterior draws of --method bayes (default 4000)")
-    a.add_argument("--concentration", type=float, default=1.0, metavar="C",
-                   help="Dirichlet prior mass of --method bayes (default 1, AIF360's smoothing)")
+    a.add_argument(
+        "--draws", type=int, default=4000, metavar="N", help="posterior draws of --method bayes (default 4000)"
+    )
+    a.add_argument(
+        "--concentration",
+        type=float,
+        default=1.0,
+        metavar="C",
+        help="Dirichlet prior mass of --method bayes (default 1, AIF360's smoothing)",
+    )
     a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
-    a.add_argument("--count", metavar="COL", help="DATA is a count table (one row per context, group and outcome, "
-                   "e.g. from SQL GROUP BY) whose column COL holds the number of records")
+    a.add_argument(
+        "--count",
+        metavar="COL",
+        help="DATA is a count table (one row per context, group and outcome, "
+        "e.g. from SQL GROUP BY) whose column COL holds the number of records",
+    )
     _add_output(a)
 
-    k = sub.add_parser("calibrate", help="the largest privacy budget epsilon meeting a fairness target",
-                       description="Largest epsilon of a mechanism family on the sensitive attribute (k-ary "
-                       "randomized response, or the spec's) whose certificate on local g-fairness (or global, "
-                       "--global) meets --target, and its keep probability. Exit 1 when no epsilon meets it.")
+    k = sub.add_parser(
+        "calibrate",
+        help="the largest privacy budget epsilon meeting a fairness target",
+        description="Largest epsilon of a mechanism family on the sensitive attribute (k-ary "
+        "randomized response, or the spec's) whose certificate on local g-fairness (or global, "
+        "--global) meets --target, and its keep probability. Exit 1 when no epsilon meets it.",
+    )
     k.add_argument("--target", required=True, type=float, metavar="L", help="target on L (or L-bar), in nats")
     k.add_argument("--groups", type=int, metavar="K", help="number of groups k (default 2, or the spec's)")
     k.add_argument("--gamma", type=float, metavar="G", help="upper end of the utility (default 1, or the spec's)")
     k.add_argument("--lower", type=float, metavar="B", help="lower end of the utility (default 0, or the spec's)")
-    k.add_argument("--tau", type=float, metavar="T", help="lower bound on E[g | x, a] (needed by paper and tight; "
-                   "optional for black_box)")
-    k.add_argument("--delta", type=float, metavar="D", help="delta of an arbitrary (epsilon, delta)-DP mechanism "
-                   "(paper and tight; the default method becomes tight)")
-    k.add_argument("--lipschitz", type=float, metavar="LA", help="L_A, how much g may change with the group "
-                   "(default 0, or the spec's)")
-    k.add_argument("--method", choices=("paper", "tight", "black_box", "white_box"),
-                   help="certificate to calibrate (default: white_box with a model in --spec, tight with --delta, "
-                   "else black_box)")
-    k.add_argument("--global", dest="kind", action="store_const", const="global", default="local",
-                   help="the target is on global g-fairness L-bar")
-    k.add_argument("--spec", metavar="SPEC.toml", help="take groups, utility, tau, L_A, metric, population, "
-                   "mechanism family, context mechanism and model from a spec; flags override")
+    k.add_argument(
+        "--tau",
+        type=float,
+        metavar="T",
+        help="lower bound on E[g | x, a] (needed by paper and tight; optional for black_box)",
+    )
+    k.add_argument(
+        "--delta",
+        type=float,
+        metavar="D",
+        help="delta of an arbitrary (epsilon, delta)-DP mechanism (paper and tight; the default method becomes tight)",
+    )
+    k.add_argument(
+        "--lipschitz",
+        type=float,
+        metavar="LA",
+        help="L_A, how much g may change with the group (default 0, or the spec's)",
+    )
+    k.add_argument(
+        "--method",
+        choices=("paper", "tight", "black_box", "white_box"),
+        help="certificate to calibrate (default: white_box with a model in --spec, tight with --delta, else black_box)",
+    )
+    k.add_argument(
+        "--global",
+        dest="kind",
+        action="store_const",
+        const="global",
+        default="local",
+        help="the target is on global g-fairness L-bar",
+    )
+    k.add_argument(
+        "--spec",
+        metavar="SPEC.toml",
+        help="take groups, utility, tau, L_A, metric, population, "
+        "mechanism family, context mechanism and model from a spec; flags override",
+    )
     _add_output(k)
     _add_plan(sub)
     _add_experiment(sub)
@@ -164,44 +244,87 @@ def _positive_int(text: str) -> int:
 
 def _add_experiment(sub) -> None:
     """The ``experiment`` subcommand (fairaudit.plugins.run)."""
-    e = sub.add_parser("experiment", help="run the paper's delivery experiment against a model under a privacy filter",
-                       description="Query a decision model (simulated, a kernel table, or an OpenAI-compatible "
-                       "endpoint) on every shown cell of the paper's HR-delivery or package-delivery task, apply the "
-                       "privacy filter exactly by composition, and write the baseline figure, the fairness-privacy "
-                       "curve with confidence bands and certified bounds, the certificate and the report to --out. "
-                       "Exit 1 when some queries failed (run again with --resume).")
+    e = sub.add_parser(
+        "experiment",
+        help="run the paper's delivery experiment against a model under a privacy filter",
+        description="Query a decision model (simulated, a kernel table, or an OpenAI-compatible "
+        "endpoint) on every shown cell of the paper's HR-delivery or package-delivery task, apply the "
+        "privacy filter exactly by composition, and write the baseline figure, the fairness-privacy "
+        "curve with confidence bands and certified bounds, the certificate and the report to --out. "
+        "Exit 1 when some queries failed (run again with --resume).",
+    )
     e.add_argument("experiment", choices=("hr-delivery", "package-delivery"), help="the task")
     m = e.add_mutually_exclusive_group()
-    m.add_argument("--simulated", metavar="NAME", help="a simulated model: prefers-mary, position-biased, fair "
-                   "(hr-delivery); low-complaint-first, high-complaint-first, position-biased, fair "
-                   "(package-delivery); default the first")
+    m.add_argument(
+        "--simulated",
+        metavar="NAME",
+        help="a simulated model: prefers-mary, position-biased, fair "
+        "(hr-delivery); low-complaint-first, high-complaint-first, position-biased, fair "
+        "(package-delivery); default the first",
+    )
     m.add_argument("--kernel", metavar="FILE", help="a simulated model from a kernel table (a run's kernel.csv)")
-    m.add_argument("--endpoint", metavar="URL", help="an OpenAI-compatible chat-completions endpoint, e.g. "
-                   "http://127.0.0.1:8000/v1 (API key from OPENAI_API_KEY)")
+    m.add_argument(
+        "--endpoint",
+        metavar="URL",
+        help="an OpenAI-compatible chat-completions endpoint, e.g. "
+        "http://127.0.0.1:8000/v1 (API key from OPENAI_API_KEY)",
+    )
     e.add_argument("--model", metavar="NAME", help="the model name at --endpoint")
     e.add_argument("--samples", type=_positive_int, default=20, metavar="N", help="queries per shown cell (default 20)")
     eps = e.add_mutually_exclusive_group()
-    eps.add_argument("--epsilon", type=_nonneg, nargs="+", metavar="E", help="the candidate's privacy budgets in nats "
-                     "(both profiles shown; each attribute gets E / (2 x attributes))")
-    eps.add_argument("--keep", type=_level_closed, nargs="+", metavar="P", help="keep probabilities of every "
-                     "attribute instead (default 0.5 0.6 0.7 0.8 0.9)")
-    e.add_argument("--context-epsilon", type=_nonneg, metavar="E", help="randomized response on the document type "
-                   "(package) at E nats (default: shown as is)")
-    e.add_argument("--design", choices=("table", "both"), default="table", help="table: query every shown cell once "
-                   "for all epsilons (default); both: also the paper's design, sampling through the filter per epsilon")
-    e.add_argument("--positions", choices=("balanced", "fixed"), default="balanced",
-                   help="both orders of the two candidates (default), or the paper's only")
+    eps.add_argument(
+        "--epsilon",
+        type=_nonneg,
+        nargs="+",
+        metavar="E",
+        help="the candidate's privacy budgets in nats (both profiles shown; each attribute gets E / (2 x attributes))",
+    )
+    eps.add_argument(
+        "--keep",
+        type=_level_closed,
+        nargs="+",
+        metavar="P",
+        help="keep probabilities of every attribute instead (default 0.5 0.6 0.7 0.8 0.9)",
+    )
+    e.add_argument(
+        "--context-epsilon",
+        type=_nonneg,
+        metavar="E",
+        help="randomized response on the document type (package) at E nats (default: shown as is)",
+    )
+    e.add_argument(
+        "--design",
+        choices=("table", "both"),
+        default="table",
+        help="table: query every shown cell once "
+        "for all epsilons (default); both: also the paper's design, sampling through the filter per epsilon",
+    )
+    e.add_argument(
+        "--positions",
+        choices=("balanced", "fixed"),
+        default="balanced",
+        help="both orders of the two candidates (default), or the paper's only",
+    )
     e.add_argument("--out", required=True, metavar="DIR", help="folder of the run (log, tables, figures, report)")
     e.add_argument("--resume", action="store_true", help="continue the run logged in --out")
     e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
-    e.add_argument("--concurrency", type=_positive_int, metavar="N", help="queries in flight (default 4 with "
-                   "--endpoint, else 1)")
+    e.add_argument(
+        "--concurrency", type=_positive_int, metavar="N", help="queries in flight (default 4 with --endpoint, else 1)"
+    )
     e.add_argument("--timeout", type=float, default=60.0, metavar="S", help="seconds per request (default 60)")
-    e.add_argument("--max-retries", type=int, default=5, metavar="N", help="retries on 429, 5xx and timeouts (default 5)")
-    e.add_argument("--confidence", type=_level, default=0.95, metavar="LEVEL",
-                   help="simultaneous level of the bands (default 0.95)")
-    e.add_argument("--scene", metavar="DIR", help="an S3DIS area folder for the route images (default: a generated "
-                   "office floor)")
+    e.add_argument(
+        "--max-retries", type=int, default=5, metavar="N", help="retries on 429, 5xx and timeouts (default 5)"
+    )
+    e.add_argument(
+        "--confidence",
+        type=_level,
+        default=0.95,
+        metavar="LEVEL",
+        help="simultaneous level of the bands (default 0.95)",
+    )
+    e.add_argument(
+        "--scene", metavar="DIR", help="an S3DIS area folder for the route images (default: a generated office floor)"
+    )
     e.add_argument("--no-images", dest="images", action="store_false", help="send no route images")
     e.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
 
@@ -219,18 +342,37 @@ def _level_closed(text: str) -> float:
 def _run_experiment(args) -> int:
     from .plugins.run import run_experiment
 
-    run = run_experiment(args.experiment, args.out, simulated=args.simulated, kernel=args.kernel,
-                         endpoint=args.endpoint, model=args.model, samples=args.samples, epsilons=args.epsilon,
-                         keeps=args.keep, context_epsilon=args.context_epsilon, design=args.design,
-                         positions=args.positions, seed=args.seed, resume=args.resume, concurrency=args.concurrency,
-                         timeout=args.timeout, max_retries=args.max_retries, confidence=args.confidence,
-                         scene=args.scene, images=args.images, progress=args.progress)
+    run = run_experiment(
+        args.experiment,
+        args.out,
+        simulated=args.simulated,
+        kernel=args.kernel,
+        endpoint=args.endpoint,
+        model=args.model,
+        samples=args.samples,
+        epsilons=args.epsilon,
+        keeps=args.keep,
+        context_epsilon=args.context_epsilon,
+        design=args.design,
+        positions=args.positions,
+        seed=args.seed,
+        resume=args.resume,
+        concurrency=args.concurrency,
+        timeout=args.timeout,
+        max_retries=args.max_retries,
+        confidence=args.confidence,
+        scene=args.scene,
+        images=args.images,
+        progress=args.progress,
+    )
     s = run.summary
     done = f"{s.already + s.asked} of {s.planned} queries answered ({s.asked} now, {s.unparsed} unparsed)"
     if run.analysis is None:
         first = f"; first: {s.failures[0]}" if s.failures else ""
-        print(f"fairaudit: incomplete: {done}; {s.failed} failed after retries{first}; run again with --resume",
-              file=sys.stderr)
+        print(
+            f"fairaudit: incomplete: {done}; {s.failed} failed after retries{first}; run again with --resume",
+            file=sys.stderr,
+        )
         return 1
     print(f"{done}; report written to {Path(run.out) / 'report.md'}", file=sys.stderr)
     from .plugins.report import experiment_dict, experiment_markdown
@@ -241,39 +383,80 @@ def _run_experiment(args) -> int:
 
 def _add_plan(sub) -> None:
     """The ``plan`` subcommand (sample sizes; fairaudit.plan)."""
-    p = sub.add_parser("plan", help="queries per cell needed to certify a fairness target from counts",
-                       description="Smallest number of queries per cell (context x group) such that the "
-                       "simultaneous interval on L (or L-bar, --global) of a binary decision has its upper end <= "
-                       "--target with probability >= --power, by simulation, when the model has the given "
-                       "disparity. Exit 1 when some method finds no such number.")
+    p = sub.add_parser(
+        "plan",
+        help="queries per cell needed to certify a fairness target from counts",
+        description="Smallest number of queries per cell (context x group) such that the "
+        "simultaneous interval on L (or L-bar, --global) of a binary decision has its upper end <= "
+        "--target with probability >= --power, by simulation, when the model has the given "
+        "disparity. Exit 1 when some method finds no such number.",
+    )
     p.add_argument("--target", required=True, type=float, metavar="L", help="target on L (or L-bar), in nats")
     p.add_argument("--groups", type=int, default=2, metavar="K", help="number of groups (default 2)")
     p.add_argument("--contexts", type=int, default=1, metavar="X", help="number of contexts (default 1)")
-    p.add_argument("--base-rate", type=float, default=0.5, metavar="P",
-                   help="E[g | x, a] of every group but group 0 (default 0.5)")
-    p.add_argument("--disparity", type=float, default=0.0, metavar="D",
-                   help="group 0's rate is base rate x exp(D); the true L is |D| nats (default 0: a fair model)")
+    p.add_argument(
+        "--base-rate", type=float, default=0.5, metavar="P", help="E[g | x, a] of every group but group 0 (default 0.5)"
+    )
+    p.add_argument(
+        "--disparity",
+        type=float,
+        default=0.0,
+        metavar="D",
+        help="group 0's rate is base rate x exp(D); the true L is |D| nats (default 0: a fair model)",
+    )
     p.add_argument("--confidence", type=float, default=0.95, metavar="C", help="1 - alpha (default 0.95)")
-    p.add_argument("--method", choices=("clopper-pearson", "multinomial", "bayes", "all"), default="clopper-pearson",
-                   metavar="NAME|all", help="interval method: clopper-pearson (default), multinomial, bayes, or all "
-                   "three")
-    p.add_argument("--power", type=float, default=0.8, metavar="P",
-                   help="required probability of certifying the target (default 0.8)")
-    p.add_argument("--epsilon", type=float, metavar="E", help="query the model behind k-ary randomized response "
-                   "at E nats and certify the filtered law")
-    p.add_argument("--global", dest="kind", action="store_const", const="global", default="local",
-                   help="the target is on global g-fairness L-bar")
-    p.add_argument("--datasets", type=int, metavar="N", help="simulated tables per sample size (default 200; 40 "
-                   "for bayes)")
+    p.add_argument(
+        "--method",
+        choices=("clopper-pearson", "multinomial", "bayes", "all"),
+        default="clopper-pearson",
+        metavar="NAME|all",
+        help="interval method: clopper-pearson (default), multinomial, bayes, or all three",
+    )
+    p.add_argument(
+        "--power",
+        type=float,
+        default=0.8,
+        metavar="P",
+        help="required probability of certifying the target (default 0.8)",
+    )
+    p.add_argument(
+        "--epsilon",
+        type=float,
+        metavar="E",
+        help="query the model behind k-ary randomized response at E nats and certify the filtered law",
+    )
+    p.add_argument(
+        "--global",
+        dest="kind",
+        action="store_const",
+        const="global",
+        default="local",
+        help="the target is on global g-fairness L-bar",
+    )
+    p.add_argument(
+        "--datasets", type=int, metavar="N", help="simulated tables per sample size (default 200; 40 for bayes)"
+    )
     p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
-    p.add_argument("--max-n", type=int, default=1_000_000, metavar="N", help="largest n per cell tried "
-                   "(default 1000000)")
+    p.add_argument(
+        "--max-n", type=int, default=1_000_000, metavar="N", help="largest n per cell tried (default 1000000)"
+    )
     _add_output(p)
 
 
-_PLAN_FLAGS = {"target": "--target", "groups": "--groups", "contexts": "--contexts", "base_rate": "--base-rate",
-               "disparity": "--disparity", "confidence": "--confidence", "method": "--method", "power": "--power",
-               "epsilon": "--epsilon", "datasets": "--datasets", "seed": "--seed", "max_n": "--max-n"}
+_PLAN_FLAGS = {
+    "target": "--target",
+    "groups": "--groups",
+    "contexts": "--contexts",
+    "base_rate": "--base-rate",
+    "disparity": "--disparity",
+    "confidence": "--confidence",
+    "method": "--method",
+    "power": "--power",
+    "epsilon": "--epsilon",
+    "datasets": "--datasets",
+    "seed": "--seed",
+    "max_n": "--max-n",
+}
 
 
 def _run_plan(args) -> int:
@@ -284,10 +467,23 @@ def _run_plan(args) -> int:
     plans = []
     for method in methods:
         try:
-            plans.append(plan(args.target, groups=args.groups, contexts=args.contexts, base_rate=args.base_rate,
-                              disparity=args.disparity, confidence=args.confidence, method=method, power=args.power,
-                              epsilon=args.epsilon, kind=args.kind, datasets=args.datasets, seed=args.seed,
-                              max_n=args.max_n))
+            plans.append(
+                plan(
+                    args.target,
+                    groups=args.groups,
+                    contexts=args.contexts,
+                    base_rate=args.base_rate,
+                    disparity=args.disparity,
+                    confidence=args.confidence,
+                    method=method,
+                    power=args.power,
+                    epsilon=args.epsilon,
+                    kind=args.kind,
+                    datasets=args.datasets,
+                    seed=args.seed,
+                    max_n=args.max_n,
+                )
+            )
         except InputError as exc:
             if exc.field not in _PLAN_FLAGS:
                 raise
@@ -352,13 +548,32 @@ def _run(args) -> int:
         from .estimate import count_file
 
         # Parquet is streamed (Acero group-by), CSV read by pandas; --count: DATA is a count table
-        table = count_file(args.data, sensitive=args.sensitive, outcome=args.outcome, context=args.context,
-                           dropna=args.dropna, count=args.count)
-        result = audit(table, sensitive=args.sensitive, outcome=args.outcome, context=args.context,
-                       positive=args.positive, utility=args.utility, confidence=args.confidence, method=args.method,
-                       dropna=args.dropna, concentration=args.concentration, draws=args.draws, seed=args.seed)
+        table = count_file(
+            args.data,
+            sensitive=args.sensitive,
+            outcome=args.outcome,
+            context=args.context,
+            dropna=args.dropna,
+            count=args.count,
+        )
+        result = audit(
+            table,
+            sensitive=args.sensitive,
+            outcome=args.outcome,
+            context=args.context,
+            positive=args.positive,
+            utility=args.utility,
+            confidence=args.confidence,
+            method=args.method,
+            dropna=args.dropna,
+            concentration=args.concentration,
+            draws=args.draws,
+            seed=args.seed,
+        )
         data = audit_dict(result)
-        _emit(args, render(data, "audit", args.format), f"audit: {data['n']} records, L = {data['local']['value']} nats")
+        _emit(
+            args, render(data, "audit", args.format), f"audit: {data['n']} records, L = {data['local']['value']} nats"
+        )
         return 0
     if args.command == "plan":
         return _run_plan(args)
@@ -383,9 +598,18 @@ def _run_calibrate(args) -> int:
         n = len(spec.groups)
         if args.groups is not None and args.groups != n:
             raise InputError("--groups", f"the spec {args.spec} has {n} groups", args.groups)
-        opts.update(family=spec.sensitive_family, gamma=spec.gamma, lower=spec.lower, tau=spec.tau,
-                    lipschitz=spec.lipschitz, metric=spec.metric, population=spec.population,
-                    context_mechanism=spec.context_mechanism, kernel=spec.kernel(), utility=spec.utility)
+        opts.update(
+            family=spec.sensitive_family,
+            gamma=spec.gamma,
+            lower=spec.lower,
+            tau=spec.tau,
+            lipschitz=spec.lipschitz,
+            metric=spec.metric,
+            population=spec.population,
+            context_mechanism=spec.context_mechanism,
+            kernel=spec.kernel(),
+            utility=spec.utility,
+        )
         if opts["family"] is None:
             raise InputError("--spec", "needs at least 2 sensitive groups to calibrate", args.spec)
     else:

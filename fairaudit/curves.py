@@ -41,8 +41,17 @@ __all__ = ["PrivacyCurve", "privacy_curve", "default_epsilons", "COLUMNS"]
 
 #: Columns of :meth:`PrivacyCurve.to_frame` (and of the CSV), in order.
 COLUMNS = (
-    "epsilon_nats", "keep_probability", "paper_nats", "tight_nats", "black_box_nats", "corollary_nats",
-    "observed_local_nats", "observed_global_nats", "min_expected_utility", "tau_holds", "is_spec_epsilon",
+    "epsilon_nats",
+    "keep_probability",
+    "paper_nats",
+    "tight_nats",
+    "black_box_nats",
+    "corollary_nats",
+    "observed_local_nats",
+    "observed_global_nats",
+    "min_expected_utility",
+    "tau_holds",
+    "is_spec_epsilon",
 )
 
 
@@ -159,13 +168,22 @@ class PrivacyCurve:
         """
         import pandas as pd
 
-        return pd.DataFrame({
-            "epsilon_nats": self.epsilon, "keep_probability": self.keep_probability, "paper_nats": self.paper,
-            "tight_nats": self.tight, "black_box_nats": self.black_box, "corollary_nats": self.corollary,
-            "observed_local_nats": self.observed_local, "observed_global_nats": self.observed_global,
-            "min_expected_utility": self.min_expected_utility, "tau_holds": self.tau_holds,
-            "is_spec_epsilon": self.is_spec_epsilon,
-        }, columns=list(COLUMNS))
+        return pd.DataFrame(
+            {
+                "epsilon_nats": self.epsilon,
+                "keep_probability": self.keep_probability,
+                "paper_nats": self.paper,
+                "tight_nats": self.tight,
+                "black_box_nats": self.black_box,
+                "corollary_nats": self.corollary,
+                "observed_local_nats": self.observed_local,
+                "observed_global_nats": self.observed_global,
+                "min_expected_utility": self.min_expected_utility,
+                "tau_holds": self.tau_holds,
+                "is_spec_epsilon": self.is_spec_epsilon,
+            },
+            columns=list(COLUMNS),
+        )
 
     def to_csv(self, path: str | Path) -> None:
         """Write :meth:`to_frame` as CSV to ``path`` atomically (temporary file, then rename).
@@ -361,8 +379,9 @@ def privacy_curve(
         if family is None:
             family = spec.sensitive_family
             if family is None:
-                raise InputError(f"{spec.source}: sensitive", "a fairness-privacy curve needs at least 2 groups",
-                                 len(spec.groups))
+                raise InputError(
+                    f"{spec.source}: sensitive", "a fairness-privacy curve needs at least 2 groups", len(spec.groups)
+                )
         kernel = spec.kernel() if kernel is None else kernel
         utility = spec.utility if utility is None else utility
         population = spec.population if population is None else population
@@ -375,17 +394,21 @@ def privacy_curve(
         mark = spec.sensitive_mechanism.epsilon if mark is None else mark
         title = (spec.model.title or spec.source) if title is None else title
     if not isinstance(family, MechanismFamily):
-        raise InputError("family", "give a MechanismFamily (or a spec)",
-                         None if family is None else type(family).__name__)
+        raise InputError(
+            "family", "give a MechanismFamily (or a spec)", None if family is None else type(family).__name__
+        )
     if kernel is not None and utility is None:
         raise InputError("utility", "is needed to measure the observed fairness of the kernel")
     if kernel is not None and not isinstance(kernel, Kernel):
         raise InputError("kernel", "must be a Kernel", type(kernel).__name__)
     if kernel is not None and tuple(family(0.0).outputs) != tuple(kernel.groups):
         released = [format_label(o) for o in family(0.0).outputs[:3]]
-        raise InputError("kernel", f"mechanism '{family.name}' releases {released}..., not the kernel's groups: no curve "
-                         "along it (a spec whose mechanism releases other values than its groups has none)",
-                         [format_label(g) for g in kernel.groups[:3]])
+        raise InputError(
+            "kernel",
+            f"mechanism '{family.name}' releases {released}..., not the kernel's groups: no curve "
+            "along it (a spec whose mechanism releases other values than its groups has none)",
+            [format_label(g) for g in kernel.groups[:3]],
+        )
     if gamma is None:
         gamma = utility.gamma if utility is not None else 1.0
     if lower is None:
@@ -404,14 +427,16 @@ def privacy_curve(
     bb_kw = _black_box_keywords(lower, gamma, tau, lipschitz, metric, population)
 
     def black_box_at(mech: Mechanism) -> float:
-        if utility is not None:   # exact for this utility, as certify reports it
-            return worst_model(mech, utility, context_mechanism=context_mechanism, population=population,
-                               tau=tau).local.value
+        if utility is not None:  # exact for this utility, as certify reports it
+            return worst_model(
+                mech, utility, context_mechanism=context_mechanism, population=population, tau=tau
+            ).local.value
         return black_box_bound(mech, **bb_kw).value
 
     n = grid.size
-    out = {k: np.full(n, np.nan) for k in ("keep", "paper", "tight", "black_box", "corollary", "local", "global",
-                                             "min_e")}
+    out = {
+        k: np.full(n, np.nan) for k in ("keep", "paper", "tight", "black_box", "corollary", "local", "global", "min_e")
+    }
     for i, eps in enumerate(grid):
         mech = family(float(eps))
         out["keep"][i] = family.keep_probability(float(eps))
@@ -438,14 +463,31 @@ def privacy_curve(
         arr.setflags(write=False)
     grid.setflags(write=False)
     return PrivacyCurve(
-        epsilon=grid, keep_probability=out["keep"], paper=out["paper"], tight=out["tight"],
-        black_box=out["black_box"], corollary=out["corollary"], observed_local=out["local"],
-        observed_global=out["global"], min_expected_utility=out["min_e"], family=family.name,
-        groups=tuple(family.inputs), gamma=gamma, lower=lower, tau=None if tau is None else float(tau),
-        lipschitz=lipschitz, spec_epsilon=mark, spec_on_family=on_family, title=title,
+        epsilon=grid,
+        keep_probability=out["keep"],
+        paper=out["paper"],
+        tight=out["tight"],
+        black_box=out["black_box"],
+        corollary=out["corollary"],
+        observed_local=out["local"],
+        observed_global=out["global"],
+        min_expected_utility=out["min_e"],
+        family=family.name,
+        groups=tuple(family.inputs),
+        gamma=gamma,
+        lower=lower,
+        tau=None if tau is None else float(tau),
+        lipschitz=lipschitz,
+        spec_epsilon=mark,
+        spec_on_family=on_family,
+        title=title,
     )
 
 
 def _same_mechanism(a: Mechanism, b: Mechanism) -> bool:
-    return (tuple(a.inputs) == tuple(b.inputs) and tuple(a.outputs) == tuple(b.outputs)
-            and a.matrix.shape == b.matrix.shape and bool(np.allclose(a.matrix, b.matrix, rtol=0, atol=1e-12)))
+    return (
+        tuple(a.inputs) == tuple(b.inputs)
+        and tuple(a.outputs) == tuple(b.outputs)
+        and a.matrix.shape == b.matrix.shape
+        and bool(np.allclose(a.matrix, b.matrix, rtol=0, atol=1e-12))
+    )

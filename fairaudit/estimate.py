@@ -102,7 +102,9 @@ def read_records(path: str | Path) -> pd.DataFrame:
             try:
                 return pd.read_parquet(p)
             except ImportError:
-                raise InputError("DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)) from None
+                raise InputError(
+                    "DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)
+                ) from None
         if suffix in {".csv", ".txt", ".gz"}:
             return pd.read_csv(p, low_memory=False)
     except InputError:
@@ -155,8 +157,9 @@ def _missing_error(column, n) -> InputError:
     return InputError(f"column {column!r}", f"has {int(n)} missing values (drop those rows: --dropna, or dropna=True)")
 
 
-def _tally(frame: pd.DataFrame, sensitive: list, outcome: str, context: list, dropna: bool,
-           weights: np.ndarray | None = None) -> CountTable:
+def _tally(
+    frame: pd.DataFrame, sensitive: list, outcome: str, context: list, dropna: bool, weights: np.ndarray | None = None
+) -> CountTable:
     """Counts of the rows of ``frame`` (each row counts ``weights[i]`` records; default 1).
 
     The one counting path of :func:`count_records` (one row per record) and of
@@ -304,8 +307,12 @@ def count_table(
     if values.isna().any() or (values < 0).any():
         bad = data[count][values.isna() | (values < 0)].iloc[0]
         raise InputError(f"column {count!r}", "must hold non-negative numbers", bad)
-    free = [c for cols, expected in ((context, contexts), (sensitive, groups), ([outcome], decisions))
-            if expected is None for c in cols]
+    free = [
+        c
+        for cols, expected in ((context, contexts), (sensitive, groups), ([outcome], decisions))
+        if expected is None
+        for c in cols
+    ]
     isna = data[list(dict.fromkeys(free))].isna()
     if isna.to_numpy().any():  # a row with no label stands for `count` records with a missing value
         missing = isna.mul(values.to_numpy(), axis=0).sum()
@@ -326,8 +333,11 @@ def count_table(
         mapped = keys.map(lookup)
         if mapped.isna().any():
             bad = keys[mapped.isna()].iloc[0]
-            raise InputError(f"column {columns[0]!r}" if len(columns) == 1 else f"columns {columns}",
-                             f"value not among the {role} values {[format_label(v) for v in expected]}", bad)
+            raise InputError(
+                f"column {columns[0]!r}" if len(columns) == 1 else f"columns {columns}",
+                f"value not among the {role} values {[format_label(v) for v in expected]}",
+                bad,
+            )
         return mapped.to_numpy(dtype=np.int64), expected
 
     cx, contexts = codes(context, contexts, "context")
@@ -402,8 +412,10 @@ def _unified_dictionary(dataset, column: str):
         if not dicts or not d.equals(dicts[-1]):
             dicts.append(d)
     empty = pa.array([], type=pa.int32())
-    chunks = pa.chunked_array([pa.DictionaryArray.from_arrays(empty, d) for d in dicts],
-                              type=pa.dictionary(pa.int32(), dataset.schema.field(column).type.value_type))
+    chunks = pa.chunked_array(
+        [pa.DictionaryArray.from_arrays(empty, d) for d in dicts],
+        type=pa.dictionary(pa.int32(), dataset.schema.field(column).type.value_type),
+    )
     return pa.table({column: chunks}).unify_dictionaries().column(0).chunk(0).dictionary
 
 

@@ -75,8 +75,15 @@ from .laws import Kernel, Law, Population, compose
 from .privacy import Mechanism
 from .utility import Utility
 
-__all__ = ["METHODS", "Interval", "FairnessIntervals", "fairness_intervals", "clopper_pearson", "category_bounds",
-           "linear_extremes"]
+__all__ = [
+    "METHODS",
+    "Interval",
+    "FairnessIntervals",
+    "fairness_intervals",
+    "clopper_pearson",
+    "category_bounds",
+    "linear_extremes",
+]
 
 METHODS = ("clopper-pearson", "multinomial", "bayes")
 _MAX_EVENT_DECISIONS = 10  # up to 2^10 - 2 events for the total-variation gaps; beyond, a valid coarser bound
@@ -195,9 +202,14 @@ class FairnessIntervals:
 
     def intervals(self) -> dict:
         """The metric intervals by name (None where not computed)."""
-        return {"local": self.local, "global": self.global_, "sup_local": self.sup_local,
-                "sup_global": self.sup_global, "demographic_parity": self.demographic_parity,
-                "equalized_odds": self.equalized_odds}
+        return {
+            "local": self.local,
+            "global": self.global_,
+            "sup_local": self.sup_local,
+            "sup_global": self.sup_global,
+            "demographic_parity": self.demographic_parity,
+            "equalized_odds": self.equalized_odds,
+        }
 
 
 # ---------------------------------------------------------------- per-cell sets
@@ -241,8 +253,14 @@ def clopper_pearson(k, n, alpha: float) -> tuple[np.ndarray, np.ndarray]:
 
     k, n = np.broadcast_arrays(np.asarray(k, dtype=float), np.asarray(n, dtype=float))
     codes = None
-    if k.size > 256 and np.all(np.isfinite(n)) and n.max(initial=0) < 2**31 and k.min(initial=0) >= 0 \
-            and np.array_equal(k, np.floor(k)) and np.array_equal(n, np.floor(n)):
+    if (
+        k.size > 256
+        and np.all(np.isfinite(n))
+        and n.max(initial=0) < 2**31
+        and k.min(initial=0) >= 0
+        and np.array_equal(k, np.floor(k))
+        and np.array_equal(n, np.floor(n))
+    ):
         # a big table repeats few (k, n): the beta quantiles (most of the cost) once per distinct pair
         import pandas as pd
 
@@ -296,7 +314,7 @@ def category_bounds(counts, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     hi = np.where(n > 0, hi, 1.0)
     lo2 = np.maximum(lo, 1.0 - (_sum_last(hi, keepdims=True) - hi))
     hi2 = np.minimum(hi, 1.0 - (_sum_last(lo, keepdims=True) - lo))
-    lo2 = np.where(lo2 > 1e-12, lo2, 0.0)   # rounding crumbs of the tightening must not turn c/0 = inf into 1e16
+    lo2 = np.where(lo2 > 1e-12, lo2, 0.0)  # rounding crumbs of the tightening must not turn c/0 = inf into 1e16
     return np.clip(lo2, 0.0, 1.0), np.clip(hi2, 0.0, 1.0)
 
 
@@ -328,8 +346,9 @@ def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
     >>> float(mn), float(mx)
     (0.3, 0.7)
     """
-    f, lo, hi = np.broadcast_arrays(np.asarray(f, dtype=float), np.asarray(lower, dtype=float),
-                                    np.asarray(upper, dtype=float))
+    f, lo, hi = np.broadcast_arrays(
+        np.asarray(f, dtype=float), np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    )
     base = _sum_last(f * lo)
     room = np.clip(1.0 - _sum_last(lo), 0.0, None)[..., None]
     cap = hi - lo
@@ -339,7 +358,7 @@ def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
         c = np.take_along_axis(cap, order, -1)
         before = np.cumsum(c, -1) - c
         left = room - before
-        alloc = np.where(left > 1e-12, np.clip(left, 0.0, c), 0.0)   # no rounding crumbs: 0 must stay 0 (c/0 = inf)
+        alloc = np.where(left > 1e-12, np.clip(left, 0.0, c), 0.0)  # no rounding crumbs: 0 must stay 0 (c/0 = inf)
         out.append(base + _sum_last(alloc * np.take_along_axis(f, order, -1)))
     return out[0], out[1]
 
@@ -351,7 +370,7 @@ def _event_extremes(events: np.ndarray, lower: np.ndarray, upper: np.ndarray):
     and min P(S) = max(Σ_S lower, 1 − Σ_{not S} upper). ``lower``, ``upper``:
     shape (..., K). Returns arrays of shape (S, ...).
     """
-    s_lo, s_hi = lower @ events.T, upper @ events.T                     # (..., S)
+    s_lo, s_hi = lower @ events.T, upper @ events.T  # (..., S)
     t_lo, t_hi = _sum_last(lower, keepdims=True), _sum_last(upper, keepdims=True)
     mn = np.maximum(s_lo, 1.0 - (t_hi - s_hi))
     mx = np.minimum(s_hi, 1.0 - (t_lo - s_lo))
@@ -369,7 +388,7 @@ def _events(K: int) -> np.ndarray:
         return np.zeros((0, K))
     if K > _MAX_EVENT_DECISIONS:
         return np.eye(K)
-    codes = np.arange(1, 2 ** K - 1)
+    codes = np.arange(1, 2**K - 1)
     return ((codes[:, None] >> np.arange(K)) & 1).astype(float)
 
 
@@ -408,9 +427,9 @@ def _disjoint_ratio(lo: np.ndarray, hi: np.ndarray):
     two = np.argsort(lo_v, axis=1, kind="stable")[:, :2] if A >= 2 else np.zeros((M, 2), dtype=int)
     den = np.where(cols[None, :] == two[:, :1], lo_v[rows, two[:, 1]][:, None], lo_v[rows, two[:, 0]][:, None])
     best_a = np.where(valid & np.isfinite(den), _div(hi0, np.where(np.isfinite(den), den, 1.0)), -np.inf)
-    a = best_a.argmax(-1)                                             # the first a of the first maximal pair
+    a = best_a.argmax(-1)  # the first a of the first maximal pair
     row = np.where(valid & (cols[None, :] != a[:, None]), _div(hi0[rows, a][:, None], np.nan_to_num(lo)), -np.inf)
-    b = row.argmax(-1)                                                # its first b
+    b = row.argmax(-1)  # its first b
     upper = row[rows, b]
     idx = a * A + b
     enough = valid.sum(-1) >= 2
@@ -458,7 +477,7 @@ def _disjoint_tv(lo: np.ndarray, hi: np.ndarray, events: np.ndarray, cat_lo: np.
         idx = up_pairs.argmax(-1)
         upper, fav, oth = up_pairs[rows, idx], idx // A, idx % A
     else:
-        val, f, o = _pair_gap(hi.transpose(0, 2, 1), lo.transpose(0, 2, 1))      # (M, S)
+        val, f, o = _pair_gap(hi.transpose(0, 2, 1), lo.transpose(0, 2, 1))  # (M, S)
         s = val.argmax(-1)
         upper, fav, oth = np.clip(val[rows, s], 0.0, 1.0), f[rows, s], o[rows, s]
     low, _, _ = _pair_gap(lo.transpose(0, 2, 1), hi.transpose(0, 2, 1))
@@ -481,17 +500,19 @@ class _MinMaxRatio:
         self.lo = cp.Parameter(n, nonneg=True)
         self.hi = cp.Parameter(n, nonneg=True)
         y, t, sigma = cp.Variable(n), cp.Variable(nonneg=True), cp.Variable()
-        self.problem = cp.Problem(cp.Minimize(sigma), [self.W @ y <= sigma, self.W @ y >= 1,
-                                                       y >= cp.multiply(self.lo, t), y <= cp.multiply(self.hi, t)])
+        self.problem = cp.Problem(
+            cp.Minimize(sigma),
+            [self.W @ y <= sigma, self.W @ y >= 1, y >= cp.multiply(self.lo, t), y <= cp.multiply(self.hi, t)],
+        )
 
     def solve(self, W: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
         import cvxpy as cp
 
         from .lfp import _solve
 
-        if np.all(W @ lo <= 0):          # every group can be at 0 together: 0/0, parity
+        if np.all(W @ lo <= 0):  # every group can be at 0 together: 0/0, parity
             return 1.0
-        if np.any(W @ hi <= 0):          # some group is always 0 while another can be positive
+        if np.any(W @ hi <= 0):  # some group is always 0 while another can be positive
             return math.inf
         pairwise = _pairwise_floor(W, lo, hi)
         self.W.value, self.lo.value, self.hi.value = W, lo, hi
@@ -512,7 +533,7 @@ def _pairwise_floor(W: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     from .lfp import threshold_max_many
 
     A = W.shape[0]
-    inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)   # [a, a'] = max (W_a'·e)/(W_a·e)
+    inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)  # [a, a'] = max (W_a'·e)/(W_a·e)
     with np.errstate(divide="ignore"):
         mins = np.where(inv > 0, 1.0 / inv, np.inf)
     mins = np.where(np.eye(A, dtype=bool), 1.0, mins)
@@ -554,7 +575,7 @@ def _mixed_tv(W: np.ndarray, ev_lo: np.ndarray, ev_hi: np.ndarray, events: np.nd
     if ev_lo.shape[0] == 0:
         zero = np.zeros(M)
         return zero, zero, np.zeros(M, int), np.ones(M, int)
-    c = W[:, :, None, :] - W[:, None, :, :]                       # (M, A, A, n)
+    c = W[:, :, None, :] - W[:, None, :, :]  # (M, A, A, n)
     cp_, cn = np.clip(c, 0, None), np.clip(-c, 0, None)
     up = np.einsum("mabn,sn->mabs", cp_, ev_hi) - np.einsum("mabn,sn->mabs", cn, ev_lo)
     low = np.einsum("mabn,sn->mabs", cp_, ev_lo) - np.einsum("mabn,sn->mabs", cn, ev_hi)
@@ -589,8 +610,9 @@ def _check(table, utility, confidence, method, concentration, draws):
     counts = np.asarray(table.counts, dtype=float)
     if np.any(counts != np.round(counts)):
         bad = counts[counts != np.round(counts)].flat[0]
-        raise InputError("counts", "intervals need whole numbers of records (the table holds probabilities or weights)",
-                         float(bad))
+        raise InputError(
+            "counts", "intervals need whole numbers of records (the table holds probabilities or weights)", float(bad)
+        )
     if method == "bayes":
         if not (isinstance(concentration, (int, float)) and math.isfinite(concentration) and concentration > 0):
             raise InputError("--concentration", "must be a finite number > 0", concentration)
@@ -686,31 +708,45 @@ def fairness_intervals(
     if method == "auto":
         method = "clopper-pearson" if _is_indicator(g) else "multinomial"
     if method == "clopper-pearson" and not _is_indicator(g):
-        raise InputError("--method", "clopper-pearson needs a 0/1 utility; use multinomial or bayes for this utility",
-                         utility.name)
+        raise InputError(
+            "--method", "clopper-pearson needs a 0/1 utility; use multinomial or bayes for this utility", utility.name
+        )
     filtered = not (_identity(sensitive_mechanism, table.groups) and _identity(context_mechanism, table.contexts))
     if filtered:
         m_a = sensitive_mechanism if sensitive_mechanism is not None else _eye(table.groups)
         m_x = context_mechanism if context_mechanism is not None else _eye(table.contexts)
         if tuple(m_a.outputs) != tuple(table.groups):
-            raise InputError("sensitive mechanism", f"outputs must be the table's groups {list(map(format_label, table.groups))}",
-                             list(map(format_label, m_a.outputs)))
+            raise InputError(
+                "sensitive mechanism",
+                f"outputs must be the table's groups {list(map(format_label, table.groups))}",
+                list(map(format_label, m_a.outputs)),
+            )
         if tuple(m_x.outputs) != tuple(table.contexts):
-            raise InputError("context mechanism", f"outputs must be the table's contexts {list(map(format_label, table.contexts))}",
-                             list(map(format_label, m_x.outputs)))
+            raise InputError(
+                "context mechanism",
+                f"outputs must be the table's contexts {list(map(format_label, table.contexts))}",
+                list(map(format_label, m_x.outputs)),
+            )
         if utility.depends_on_context or utility.depends_on_group:
-            raise InputError("utility", "behind a privacy filter intervals need a utility of the decision only", utility.name)
+            raise InputError(
+                "utility", "behind a privacy filter intervals need a utility of the decision only", utility.name
+            )
         if population is None:
             population = Population.uniform(m_x.inputs, m_a.inputs)
         law_groups, law_contexts = tuple(m_a.inputs), tuple(m_x.inputs)
     else:
         m_a = m_x = None
         law_groups, law_contexts = table.groups, table.contexts
-    if population is not None and (tuple(population.groups) != law_groups or tuple(population.contexts) != law_contexts):
-        raise InputError("population", "labels must be the audited law's contexts and groups",
-                         (list(map(format_label, population.contexts)), list(map(format_label, population.groups))))
+    if population is not None and (
+        tuple(population.groups) != law_groups or tuple(population.contexts) != law_contexts
+    ):
+        raise InputError(
+            "population",
+            "labels must be the audited law's contexts and groups",
+            (list(map(format_label, population.contexts)), list(map(format_label, population.groups))),
+        )
 
-    prior = concentration / K if method == "bayes" else 0.0   # bayes: the plug-in of the posterior mean
+    prior = concentration / K if method == "bayes" else 0.0  # bayes: the plug-in of the posterior mean
     estimate = _estimates(table, counts + prior, utility, filtered, m_a, m_x, population)
     common = dict(table=table, utility=utility, sensitive_mechanism=m_a, context_mechanism=m_x, population=population)
     ctx_keep = np.ones(len(law_contexts), bool) if population is None else population.p_context > 0
@@ -720,8 +756,22 @@ def fairness_intervals(
 
         sets = band_sets(concentration, int(draws), int(seed))
         common.update(concentration=float(concentration), draws=int(draws), seed=int(seed))
-    return _frequentist(counts, g, alpha, method, estimate, law_contexts, law_groups, ctx_keep, filtered,
-                        m_a, m_x, population, common, sets)
+    return _frequentist(
+        counts,
+        g,
+        alpha,
+        method,
+        estimate,
+        law_contexts,
+        law_groups,
+        ctx_keep,
+        filtered,
+        m_a,
+        m_x,
+        population,
+        common,
+        sets,
+    )
 
 
 def _identity(mech, labels) -> bool:
@@ -752,9 +802,14 @@ def _estimates(table, counts, utility, filtered, m_a, m_x, population) -> dict:
         law = Law.from_counts(counts, table.contexts, table.groups, table.decisions)
     pop = population if population is not None else table.population()
     o = observe(law, utility, pop)
-    return {"local": o.local.value, "global": o.global_.value, "sup_local": o.sup_local.value,
-            "sup_global": o.sup_global.value, "demographic_parity": o.demographic_parity.value,
-            "equalized_odds": o.equalized_odds.value}
+    return {
+        "local": o.local.value,
+        "global": o.global_.value,
+        "sup_local": o.sup_local.value,
+        "sup_global": o.sup_global.value,
+        "demographic_parity": o.demographic_parity.value,
+        "equalized_odds": o.equalized_odds.value,
+    }
 
 
 def _make(name, lower, upper, idx, keys, contexts, groups, estimate, confidence, method, local: bool) -> Interval:
@@ -768,8 +823,16 @@ def _make(name, lower, upper, idx, keys, contexts, groups, estimate, confidence,
     ratio = name not in ("demographic_parity", "equalized_odds")
     if ratio:
         lo, hi = _log(lo), _log(hi)
-    return Interval(lo, hi, float(estimate.get(name, math.nan)), confidence, method,
-                    contexts[keys[m]] if local else None, groups[int(fav[m])], groups[int(oth[m])])
+    return Interval(
+        lo,
+        hi,
+        float(estimate.get(name, math.nan)),
+        confidence,
+        method,
+        contexts[keys[m]] if local else None,
+        groups[int(fav[m])],
+        groups[int(oth[m])],
+    )
 
 
 def _binomial_sets(cell_counts, group_counts, use_groups: bool, alpha: float):
@@ -784,8 +847,22 @@ def _binomial_sets(cell_counts, group_counts, use_groups: bool, alpha: float):
     return c_lo, c_hi, g_lo, g_hi, m
 
 
-def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep, filtered, m_a, m_x, population, common,
-                 sets=_binomial_sets):
+def _frequentist(
+    counts,
+    g,
+    alpha,
+    method,
+    estimate,
+    contexts,
+    groups,
+    ctx_keep,
+    filtered,
+    m_a,
+    m_x,
+    population,
+    common,
+    sets=_binomial_sets,
+):
     X, A, K = counts.shape
     depends_on_context = bool(g.ndim == 3 and X > 1 and not np.all(g == g[:1]))
     pooled = population is None  # unfiltered, records' own groups
@@ -799,26 +876,29 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
     else:
         cell_counts, gf, binary_u = counts, np.broadcast_to(g, (X, A, K)), True
         if depends_on_context:
-            group_counts = counts.transpose(1, 0, 2).reshape(A, X * K)       # joint (x, u) per group
+            group_counts = counts.transpose(1, 0, 2).reshape(A, X * K)  # joint (x, u) per group
             g_group = g.transpose(1, 0, 2).reshape(A, X * K) if g.ndim == 3 else np.tile(g, X)
         else:
             group_counts = counts.sum(0)
-            g_group = gf[0]                                               # (A, K)
-    shared = pooled and X == 1 and group_counts.shape[-1] == cell_counts.shape[-1]   # one context: groups are cells
-    c_lo, c_hi, gc_lo, gc_hi, m = sets(cell_counts, group_counts, pooled and not shared, alpha)   # (X, A, K'), (A, C)
+            g_group = gf[0]  # (A, K)
+    shared = pooled and X == 1 and group_counts.shape[-1] == cell_counts.shape[-1]  # one context: groups are cells
+    c_lo, c_hi, gc_lo, gc_hi, m = sets(cell_counts, group_counts, pooled and not shared, alpha)  # (X, A, K'), (A, C)
     if shared:
         gc_lo, gc_hi = c_lo[0], c_hi[0]
-    e_lo, e_hi = linear_extremes(gf, c_lo, c_hi)                          # (X, A)
+    e_lo, e_hi = linear_extremes(gf, c_lo, c_hi)  # (X, A)
     notes = []
     solver: dict = {}
     kc = cell_counts.shape[-1]
     events = _events(kc)
-    ev_lo, ev_hi = (_event_extremes(events, c_lo, c_hi) if len(events)
-                    else (np.zeros((0, X, A)), np.zeros((0, X, A))))      # (S, X, A)
+    ev_lo, ev_hi = (
+        _event_extremes(events, c_lo, c_hi) if len(events) else (np.zeros((0, X, A)), np.zeros((0, X, A)))
+    )  # (S, X, A)
     with_u = method != "clopper-pearson" or binary_u
     if not with_u:
-        notes.append("clopper-pearson bounds the event g = 1 only: the sups over g, L_dp and L_eo need U's whole "
-                     "distribution (use multinomial or bayes)")
+        notes.append(
+            "clopper-pearson bounds the event g = 1 only: the sups over g, L_dp and L_eo need U's whole "
+            "distribution (use multinomial or bayes)"
+        )
     if kc > _MAX_EVENT_DECISIONS:
         notes.append(f"{kc} decisions: the upper ends of L_dp and L_eo use the coarser bound ½ Σ_u max |ΔP(u)|")
     res: dict = {}
@@ -829,18 +909,22 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
         if with_u:
             sup = [_disjoint_ratio(c_lo[sl, :, u], c_hi[sl, :, u]) for u in range(kc)]
             res["sup_local"] = (_max_over(sup), sl)
-            res["equalized_odds"] = (_disjoint_tv(ev_lo[:, sl].transpose(1, 2, 0), ev_hi[:, sl].transpose(1, 2, 0),
-                                                  events, c_lo[sl], c_hi[sl]), sl)
+            res["equalized_odds"] = (
+                _disjoint_tv(
+                    ev_lo[:, sl].transpose(1, 2, 0), ev_hi[:, sl].transpose(1, 2, 0), events, c_lo[sl], c_hi[sl]
+                ),
+                sl,
+            )
         if pooled:
             ge_lo, ge_hi = linear_extremes(g_group, gc_lo, gc_hi)
             if with_u:
-                fold = _fold(depends_on_context and method != "clopper-pearson", X, kc)   # categories -> decisions
-                gev = events @ fold if fold is not None else events                      # (S, C)
-                gev_lo, gev_hi = _event_extremes(gev, gc_lo, gc_hi)                       # (S, A)
-                gu = fold if fold is not None else np.eye(kc)                            # (K, C)
-                gu_lo, gu_hi = _event_extremes(gu, gc_lo, gc_hi)                          # (K, A)
+                fold = _fold(depends_on_context and method != "clopper-pearson", X, kc)  # categories -> decisions
+                gev = events @ fold if fold is not None else events  # (S, C)
+                gev_lo, gev_hi = _event_extremes(gev, gc_lo, gc_hi)  # (S, A)
+                gu = fold if fold is not None else np.eye(kc)  # (K, C)
+                gu_lo, gu_hi = _event_extremes(gu, gc_lo, gc_hi)  # (K, A)
         else:
-            w = population.context_given_group()                               # (X, A)
+            w = population.context_given_group()  # (X, A)
             w = np.where(np.isnan(w), 0.0, w)
             absent = population.p_group <= 0
             ge_lo, ge_hi = (w * e_lo).sum(0), (w * e_hi).sum(0)
@@ -851,8 +935,10 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
         res["global"] = (_disjoint_ratio(ge_lo[None], ge_hi[None]), [0])
         if with_u:
             res["sup_global"] = (_max_over([_disjoint_ratio(gu_lo[u][None], gu_hi[u][None]) for u in range(kc)]), [0])
-            res["demographic_parity"] = (_disjoint_tv(gev_lo.T[None], gev_hi.T[None], events,
-                                                      gu_lo.T[None], gu_hi.T[None]), [0])
+            res["demographic_parity"] = (
+                _disjoint_tv(gev_lo.T[None], gev_hi.T[None], events, gu_lo.T[None], gu_hi.T[None]),
+                [0],
+            )
         cell_lo, cell_hi = e_lo, e_hi
         kernel_lo = kernel_hi = None
     else:
@@ -866,8 +952,14 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
         res["global"] = (_mixed_ratio(Wg[None], flat_lo, flat_hi, solver), [0])
         if with_u:
             cl, ch = c_lo.reshape(X * A, kc), c_hi.reshape(X * A, kc)
-            res["sup_local"] = (_max_over([_mixed_ratio(Wsel, cl[:, u], ch[:, u], solver) for u in range(kc)]), local_keys)
-            res["sup_global"] = (_max_over([_mixed_ratio(Wg[None], cl[:, u], ch[:, u], solver) for u in range(kc)]), [0])
+            res["sup_local"] = (
+                _max_over([_mixed_ratio(Wsel, cl[:, u], ch[:, u], solver) for u in range(kc)]),
+                local_keys,
+            )
+            res["sup_global"] = (
+                _max_over([_mixed_ratio(Wg[None], cl[:, u], ch[:, u], solver) for u in range(kc)]),
+                [0],
+            )
             el, eh = ev_lo.reshape(len(events), X * A), ev_hi.reshape(len(events), X * A)
             res["equalized_odds"] = (_mixed_tv(Wsel, el, eh, events, cl, ch), local_keys)
             res["demographic_parity"] = (_mixed_tv(Wg[None], el, eh, events, cl, ch), [0])
@@ -882,12 +974,38 @@ def _frequentist(counts, g, alpha, method, estimate, contexts, groups, ctx_keep,
             made[name] = None
             continue
         (lower, upper, fav, oth), keys = res[name]
-        made[name] = _make(name, lower, upper, (fav, oth), list(keys), contexts, groups, estimate, conf, method,
-                           local=name in ("local", "sup_local", "equalized_odds"))
-    return FairnessIntervals(method, conf, made["local"], made["global"], made["sup_local"], made["sup_global"],
-                             made["demographic_parity"], made["equalized_odds"], cell_lo, cell_hi,
-                             np.asarray(ge_lo, float), np.asarray(ge_hi, float), kernel_lo, kernel_hi, m,
-                             notes=tuple(notes), **common)
+        made[name] = _make(
+            name,
+            lower,
+            upper,
+            (fav, oth),
+            list(keys),
+            contexts,
+            groups,
+            estimate,
+            conf,
+            method,
+            local=name in ("local", "sup_local", "equalized_odds"),
+        )
+    return FairnessIntervals(
+        method,
+        conf,
+        made["local"],
+        made["global"],
+        made["sup_local"],
+        made["sup_global"],
+        made["demographic_parity"],
+        made["equalized_odds"],
+        cell_lo,
+        cell_hi,
+        np.asarray(ge_lo, float),
+        np.asarray(ge_hi, float),
+        kernel_lo,
+        kernel_hi,
+        m,
+        notes=tuple(notes),
+        **common,
+    )
 
 
 def _fold(joint: bool, X: int, K: int):

@@ -86,10 +86,15 @@ class Population:
     def __init__(self, probabilities, contexts: Sequence[Hashable], groups: Sequence[Hashable]):
         contexts = as_labels(contexts, "population contexts")
         groups = as_labels(groups, "population groups")
-        array = as_float_array(probabilities, "population", ndim=2)   # our own copy
+        array = as_float_array(probabilities, "population", ndim=2)  # our own copy
         check_shape(array, (len(contexts), len(groups)), "population", ("contexts", "groups"))
-        check_probabilities(array[:, :, None], "population", (contexts, groups, (None,)), ("context", "group", "-"),
-                            rows_sum_to_one=False)
+        check_probabilities(
+            array[:, :, None],
+            "population",
+            (contexts, groups, (None,)),
+            ("context", "group", "-"),
+            rows_sum_to_one=False,
+        )
         total = float(array.sum())
         if abs(total - 1.0) > ROW_TOLERANCE:
             raise InputError("population", f"entries sum to {total:.12g}, not 1")
@@ -99,14 +104,14 @@ class Population:
         object.__setattr__(self, "groups", groups)
 
     @classmethod
-    def uniform(cls, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> "Population":
+    def uniform(cls, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
         """Uniform and independent: P(x, a) = 1 / (n_contexts · n_groups)."""
         contexts = as_labels(contexts, "population contexts")
         groups = as_labels(groups, "population groups")
         return cls(np.full((len(contexts), len(groups)), 1.0 / (len(contexts) * len(groups))), contexts, groups)
 
     @classmethod
-    def independent(cls, p_context, p_group, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> "Population":
+    def independent(cls, p_context, p_group, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
         """The product P(x) P(a) of two marginals (each summing to 1)."""
         px = as_float_array(p_context, "context distribution", ndim=1)
         pa = as_float_array(p_group, "group distribution", ndim=1)
@@ -119,7 +124,7 @@ class Population:
         return cls(np.outer(px, pa), contexts, groups)
 
     @classmethod
-    def from_counts(cls, counts, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> "Population":
+    def from_counts(cls, counts, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
         """Empirical population from a (n_contexts, n_groups) table of counts."""
         array = as_float_array(counts, "population counts", ndim=2)
         if np.any(array < 0) or not np.all(np.isfinite(array)):
@@ -206,7 +211,7 @@ class _DecisionTable:
             array[empty] = np.nan
             observed = ~empty
         else:
-            observed = np.ones(shape[:2], dtype=bool)       # rows are checked finite: no NaN without counts
+            observed = np.ones(shape[:2], dtype=bool)  # rows are checked finite: no NaN without counts
         observed.setflags(write=False)
         object.__setattr__(self, "_observed", observed)
         object.__setattr__(self, "complete", bool(observed.all()))
@@ -235,10 +240,10 @@ class _DecisionTable:
         Each row is divided by its total; rows with no record are empty
         (NaN) and reported by :attr:`empty_cells`.
         """
-        array = as_float_array(counts, f"{name or cls._default_name} counts", ndim=3)   # our own copy
+        array = as_float_array(counts, f"{name or cls._default_name} counts", ndim=3)  # our own copy
         totals = np.einsum("...u->...", array)[..., None]
         with np.errstate(divide="ignore", invalid="ignore"):
-            probs = array / totals          # NaN in rows with no record (0 / 0)
+            probs = array / totals  # NaN in rows with no record (0 / 0)
         return cls(probs, contexts, groups, decisions, counts=array, name=name, _owned=True)
 
     def __repr__(self) -> str:
@@ -319,10 +324,11 @@ class Law(_DecisionTable):
     _default_name = "law"
 
     @classmethod
-    def from_kernel(cls, kernel: Kernel) -> "Law":
+    def from_kernel(cls, kernel: Kernel) -> Law:
         """The law of a model that sees the true attributes (identity filters)."""
-        return cls(kernel.probabilities, kernel.contexts, kernel.groups, kernel.decisions,
-                   counts=kernel.counts, name="law")
+        return cls(
+            kernel.probabilities, kernel.contexts, kernel.groups, kernel.decisions, counts=kernel.counts, name="law"
+        )
 
 
 def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechanism | None = None) -> Law:
@@ -384,7 +390,7 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
             [format_label(o) for o in m_x.outputs],
         )
     k = kernel.probabilities
-    same_a, same_x = m_a.is_identity, m_x.is_identity      # never materialise an identity matrix
+    same_a, same_x = m_a.is_identity, m_x.is_identity  # never materialise an identity matrix
     empty = ~kernel.observed
     if np.any(empty):
         # a released cell (x̃, ã) is reached when some input maps to x̃ and some input maps to ã
@@ -396,16 +402,19 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
             raise InputError(
                 "kernel",
                 f"empty cell (context={format_label(kernel.contexts[i])!r}, group={format_label(kernel.groups[j])!r}) "
-                + ("is reached by the privacy filter; give counts for it"
-                   if sensitive is not None or context is not None else "has no records; give counts for it"),
+                + (
+                    "is reached by the privacy filter; give counts for it"
+                    if sensitive is not None or context is not None
+                    else "has no records; give counts for it"
+                ),
             )
         k = np.nan_to_num(k, nan=0.0)
     if same_x and same_a:
         q = k
     elif same_x:
-        q = np.matmul(m_a.matrix, k)                          # Σ_ã M_A[a, ã] K[x, ã, u], per context
+        q = np.matmul(m_a.matrix, k)  # Σ_ã M_A[a, ã] K[x, ã, u], per context
     elif same_a:
-        q = np.tensordot(m_x.matrix, k, axes=1)               # Σ_x̃ M_X[x, x̃] K[x̃, a, u]
+        q = np.tensordot(m_x.matrix, k, axes=1)  # Σ_x̃ M_X[x, x̃] K[x̃, a, u]
     else:
         q = np.einsum("xy,ab,ybu->xau", m_x.matrix, m_a.matrix, k, optimize=True)
     # Clean rounding so rows sum to 1 within tolerance.

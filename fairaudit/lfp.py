@@ -35,7 +35,16 @@ import numpy as np
 from ._arrays import as_float_array
 from ._errors import InputError
 
-__all__ = ["FractionalResult", "FractionalProgram", "fractional_max", "threshold_max", "threshold_max_many", "floor_max_many", "box_point", "lp_max"]
+__all__ = [
+    "FractionalResult",
+    "FractionalProgram",
+    "fractional_max",
+    "threshold_max",
+    "threshold_max_many",
+    "floor_max_many",
+    "box_point",
+    "lp_max",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,8 +93,10 @@ def _bounds(lower, upper, n: int, required: bool):
     if lower is None or upper is None:
         if required:
             raise InputError("lower", "the threshold solution needs finite lower and upper bounds")
-        return (None if lower is None else np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy(),
-                None if upper is None else np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy())
+        return (
+            None if lower is None else np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy(),
+            None if upper is None else np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy(),
+        )
     lo = np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy()
     hi = np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy()
     if np.any(lo > hi):
@@ -144,8 +155,9 @@ def threshold_max(p, q, lower, upper) -> FractionalResult:
     h[top] = hi[top]
     value = float(values)
     if math.isinf(value):
-        return FractionalResult(value, h, "unbounded", "threshold", "threshold",
-                                "some h in the box has q·h = 0 and p·h > 0", p, q, lo, hi)
+        return FractionalResult(
+            value, h, "unbounded", "threshold", "threshold", "some h in the box has q·h = 0 and p·h > 0", p, q, lo, hi
+        )
     return FractionalResult(value, h, "optimal", "threshold", "threshold", "", p, q, lo, hi)
 
 
@@ -197,9 +209,11 @@ def threshold_max_many(p, q, lower, upper):
     span = hi - lo
     zeros = np.zeros(shape[:-1] + (1,))
     num = (p * lo).sum(-1, keepdims=True) + np.concatenate(
-        [zeros, np.cumsum(np.take_along_axis(p * span, order, -1), -1)], -1)
+        [zeros, np.cumsum(np.take_along_axis(p * span, order, -1), -1)], -1
+    )
     den = (q * lo).sum(-1, keepdims=True) + np.concatenate(
-        [zeros, np.cumsum(np.take_along_axis(q * span, order, -1), -1)], -1)
+        [zeros, np.cumsum(np.take_along_axis(q * span, order, -1), -1)], -1
+    )
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
     best = values.max(axis=-1)
@@ -405,8 +419,11 @@ class FractionalProgram:
             cons.append(a @ y <= b * s if op == "le" else a @ y == b * s)
             self._rows.append((a, b, op))
         self._problem = cp.Problem(cp.Maximize(self._p @ y), cons)
-        self._bounded = (self.lower is not None and self.upper is not None
-                         and bool(np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))))
+        self._bounded = (
+            self.lower is not None
+            and self.upper is not None
+            and bool(np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper)))
+        )
         self._primal = None
 
     def solve(self, p, q) -> FractionalResult:
@@ -433,14 +450,25 @@ class FractionalProgram:
             return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
         status = prob.status
         if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
-            return FractionalResult(math.inf, None, "unbounded", "lp", status,
-                                    "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0", p, q, lo, hi)
+            return FractionalResult(
+                math.inf,
+                None,
+                "unbounded",
+                "lp",
+                status,
+                "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
+                p,
+                q,
+                lo,
+                hi,
+            )
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return self._zero_denominator(p, q, status)
         s = self._s.value
         if s is None:  # pragma: no cover - the solver returned no point
-            return FractionalResult(math.nan, None, "infeasible", "lp", status, "the solver returned no solution",
-                                    p, q, lo, hi)
+            return FractionalResult(
+                math.nan, None, "infeasible", "lp", status, "the solver returned no solution", p, q, lo, hi
+            )
         if self._bounded and s > 0:
             # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
             h = np.asarray(self._y.value, dtype=float) / float(s)
@@ -450,11 +478,31 @@ class FractionalProgram:
             # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
             primal_status, _, _ = self._primal_max(p)
             if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-                return FractionalResult(math.nan, None, "infeasible", "lp", status,
-                                        "the constraints are inconsistent: no feasible h", p, q, lo, hi)
-            return FractionalResult(float(prob.value), None, "optimal", "lp", status,
-                                    "the supremum is approached only as h grows without bound along a recession "
-                                    "direction of the polytope (q·h -> +inf); it is not attained", p, q, lo, hi)
+                return FractionalResult(
+                    math.nan,
+                    None,
+                    "infeasible",
+                    "lp",
+                    status,
+                    "the constraints are inconsistent: no feasible h",
+                    p,
+                    q,
+                    lo,
+                    hi,
+                )
+            return FractionalResult(
+                float(prob.value),
+                None,
+                "optimal",
+                "lp",
+                status,
+                "the supremum is approached only as h grows without bound along a recession "
+                "direction of the polytope (q·h -> +inf); it is not attained",
+                p,
+                q,
+                lo,
+                hi,
+            )
         return FractionalResult(float(prob.value), y / float(s), "optimal", "lp", status, "", p, q, lo, hi)
 
     def _zero_denominator(self, p: np.ndarray, q: np.ndarray, status: str) -> FractionalResult:
@@ -473,13 +521,34 @@ class FractionalProgram:
             return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
 
         if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-            return FractionalResult(math.nan, None, "infeasible", "lp", status,
-                                    "the constraints are inconsistent: no feasible h", p, q, lo, hi)
+            return FractionalResult(
+                math.nan,
+                None,
+                "infeasible",
+                "lp",
+                status,
+                "the constraints are inconsistent: no feasible h",
+                p,
+                q,
+                lo,
+                hi,
+            )
         if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
-            return FractionalResult(math.inf, h, "unbounded", "lp", status,
-                                    "q·h = 0 on every feasible h and some has p·h > 0 (c/0)", p, q, lo, hi)
-        return FractionalResult(1.0, h, "optimal", "lp", status,
-                                "p·h = q·h = 0 on every feasible h (0/0 counts as parity)", p, q, lo, hi)
+            return FractionalResult(
+                math.inf,
+                h,
+                "unbounded",
+                "lp",
+                status,
+                "q·h = 0 on every feasible h and some has p·h > 0 (c/0)",
+                p,
+                q,
+                lo,
+                hi,
+            )
+        return FractionalResult(
+            1.0, h, "optimal", "lp", status, "p·h = q·h = 0 on every feasible h (0/0 counts as parity)", p, q, lo, hi
+        )
 
     def _primal_max(self, p: np.ndarray):
         """max p·h over the polytope itself (built on first use): (status, value, h or None)."""
@@ -552,8 +621,9 @@ def lp_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_e
     return prog.solve(p, q)
 
 
-def fractional_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None,
-                   method: str = "auto") -> FractionalResult:
+def fractional_max(
+    p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None, method: str = "auto"
+) -> FractionalResult:
     """max (p·h)/(q·h) over a polytope: the threshold fast path when it applies, else the LP.
 
     Proof: ``proofs/linear_fractional.md``.
@@ -589,12 +659,21 @@ def fractional_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=N
     if method not in ("auto", "threshold", "lp"):
         raise InputError("method", "must be 'auto', 'threshold' or 'lp'", method)
     p_arr, q_arr = _vectors(p, q)
-    boxed = (A_ub is None and A_eq is None and lower is not None and upper is not None
-             and np.all(np.isfinite(np.asarray(lower, dtype=float))) and np.all(np.isfinite(np.asarray(upper, dtype=float)))
-             and np.all(np.asarray(lower, dtype=float) >= 0) and np.all(p_arr >= 0) and np.all(q_arr >= 0))
+    boxed = (
+        A_ub is None
+        and A_eq is None
+        and lower is not None
+        and upper is not None
+        and np.all(np.isfinite(np.asarray(lower, dtype=float)))
+        and np.all(np.isfinite(np.asarray(upper, dtype=float)))
+        and np.all(np.asarray(lower, dtype=float) >= 0)
+        and np.all(p_arr >= 0)
+        and np.all(q_arr >= 0)
+    )
     if method == "threshold" and not boxed:
-        raise InputError("method", "the threshold solution needs only finite bounds 0 <= lower <= upper and p, q >= 0",
-                         method)
+        raise InputError(
+            "method", "the threshold solution needs only finite bounds 0 <= lower <= upper and p, q >= 0", method
+        )
     if method == "threshold" or (method == "auto" and boxed):
         return threshold_max(p_arr, q_arr, lower, upper)
     return lp_max(p_arr, q_arr, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)

@@ -92,7 +92,9 @@ class Fairness:
 
     def __repr__(self) -> str:
         where = f", context={format_label(self.context)!r}" if self.context is not None else ""
-        pair = f"{format_label(self.group)!r} vs {format_label(self.other_group)!r}" if self.group is not None else "none"
+        pair = (
+            f"{format_label(self.group)!r} vs {format_label(self.other_group)!r}" if self.group is not None else "none"
+        )
         return f"Fairness({self.kind}, value={self.value:.6g} nats, ratio={self.ratio:.6g}{where}, groups {pair})"
 
 
@@ -171,11 +173,17 @@ def _check_population(population, law: Law) -> Population:
     if not isinstance(population, Population):
         raise InputError("population", "must be a Population", type(population).__name__)
     if population.contexts != law.contexts:
-        raise InputError("population contexts", f"must match the law's contexts {list(map(format_label, law.contexts))}",
-                         list(map(format_label, population.contexts)))
+        raise InputError(
+            "population contexts",
+            f"must match the law's contexts {list(map(format_label, law.contexts))}",
+            list(map(format_label, population.contexts)),
+        )
     if population.groups != law.groups:
-        raise InputError("population groups", f"must match the law's groups {list(map(format_label, law.groups))}",
-                         list(map(format_label, population.groups)))
+        raise InputError(
+            "population groups",
+            f"must match the law's groups {list(map(format_label, law.groups))}",
+            list(map(format_label, population.groups)),
+        )
     return population
 
 
@@ -240,17 +248,23 @@ def _tv_chunk(ct: np.ndarray, nan: bool) -> np.ndarray:
 class _Pass:
     """What one pass over the law found: E[g | x, a], extremes over groups, TV per context, P(U | a)."""
 
-    e: np.ndarray | None = None          # (n_contexts, n_groups)
-    e_max: np.ndarray | None = None      # (n_contexts,): max over groups of E[g | x, a], NaN ignored
+    e: np.ndarray | None = None  # (n_contexts, n_groups)
+    e_max: np.ndarray | None = None  # (n_contexts,): max over groups of E[g | x, a], NaN ignored
     e_min: np.ndarray | None = None
-    top: np.ndarray | None = None        # (n_contexts, n_decisions): max over groups of Q[x, a, u]
-    bottom: np.ndarray | None = None     # (n_contexts, n_decisions): min over groups
-    tv: np.ndarray | None = None         # (n_contexts,): max over pairs of TV(Q[x, a], Q[x, a'])
+    top: np.ndarray | None = None  # (n_contexts, n_decisions): max over groups of Q[x, a, u]
+    bottom: np.ndarray | None = None  # (n_contexts, n_decisions): min over groups
+    tv: np.ndarray | None = None  # (n_contexts,): max over pairs of TV(Q[x, a], Q[x, a'])
     group_law: np.ndarray | None = None  # (n_groups, n_decisions): Σ_x w[x, a] Q[x, a, u]
 
 
-def _scan(law: Law, utility: Utility | None = None, *, extremes: bool = False, tv: bool = False,
-          weights: np.ndarray | None = None) -> _Pass:
+def _scan(
+    law: Law,
+    utility: Utility | None = None,
+    *,
+    extremes: bool = False,
+    tv: bool = False,
+    weights: np.ndarray | None = None,
+) -> _Pass:
     """Read the law once, in chunks of contexts, computing only what is asked.
 
     ``utility`` gives E[g | x, a]; ``extremes`` the max and min over groups per (x, u); ``tv`` the largest
@@ -275,7 +289,7 @@ def _scan(law: Law, utility: Utility | None = None, *, extremes: bool = False, t
     if weights is not None:
         out.group_law = np.zeros((A, K))
     for sl in _chunks(X, A * K * q.itemsize):
-        ct = np.ascontiguousarray(q[sl].transpose(2, 1, 0))                     # (K, A, chunk)
+        ct = np.ascontiguousarray(q[sl].transpose(2, 1, 0))  # (K, A, chunk)
         if utility is not None:
             e = np.tensordot(g_vec, ct, axes=1) if g_vec is not None else np.einsum("xau,xau->ax", q[sl], g_tab[sl])
             out.e[sl] = e.T
@@ -379,15 +393,40 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: _Pas
         ratio[~keep] = np.nan
     per_context = np.log(ratio, where=~np.isnan(ratio), out=np.full(ratio.shape, np.nan))
     if len(law.groups) < 2:
-        return Fairness("local", 0.0, 1.0, None, None, None, e, np.zeros(len(law.contexts)), tuple(notes), law, utility, population)
+        return Fairness(
+            "local", 0.0, 1.0, None, None, None, e, np.zeros(len(law.contexts)), tuple(notes), law, utility, population
+        )
     if np.all(np.isnan(ratio)):
-        return Fairness("local", float("nan"), float("nan"), None, None, None, e, per_context, tuple(notes), law, utility, population)
+        return Fairness(
+            "local",
+            float("nan"),
+            float("nan"),
+            None,
+            None,
+            None,
+            e,
+            per_context,
+            tuple(notes),
+            law,
+            utility,
+            population,
+        )
     i = int(np.nanargmax(ratio))
     best = float(ratio[i])
-    _, hi, lo = ratio_extremes(e[i : i + 1], axis=1)          # the pair, in the maximising context only
+    _, hi, lo = ratio_extremes(e[i : i + 1], axis=1)  # the pair, in the maximising context only
     return Fairness(
-        "local", safe_log(best), best, law.contexts[i], law.groups[hi[0]], law.groups[lo[0]],
-        e, per_context, tuple(notes), law, utility, population,
+        "local",
+        safe_log(best),
+        best,
+        law.contexts[i],
+        law.groups[hi[0]],
+        law.groups[lo[0]],
+        e,
+        per_context,
+        tuple(notes),
+        law,
+        utility,
+        population,
     )
 
 
@@ -468,9 +507,23 @@ def _global(law: Law, utility: Utility, population: Population, w: np.ndarray, n
     ratio, hi, lo = ratio_extremes(eg[None, :], axis=1)
     best = float(ratio[0])
     if np.isnan(best):
-        return Fairness("global", float("nan"), float("nan"), None, None, None, eg, None, tuple(notes), law, utility, population)
-    return Fairness("global", safe_log(best), best, None, law.groups[hi[0]], law.groups[lo[0]], eg, None,
-                    tuple(notes), law, utility, population)
+        return Fairness(
+            "global", float("nan"), float("nan"), None, None, None, eg, None, tuple(notes), law, utility, population
+        )
+    return Fairness(
+        "global",
+        safe_log(best),
+        best,
+        None,
+        law.groups[hi[0]],
+        law.groups[lo[0]],
+        eg,
+        None,
+        tuple(notes),
+        law,
+        utility,
+        population,
+    )
 
 
 def group_decision_law(law: Law, population: Population | None = None) -> np.ndarray:
@@ -539,8 +592,9 @@ def _demographic_parity(law: Law, population: Population, dist: np.ndarray) -> T
         return TotalVariation("demographic_parity", float("nan"), None, None, None, (), tuple(notes), law, population)
     a, b = int(a), int(b)
     event = tuple(law.decisions[u] for u in np.flatnonzero(dist[a] > dist[b]))
-    return TotalVariation("demographic_parity", float(value), None, law.groups[a], law.groups[b], event,
-                          tuple(notes), law, population)
+    return TotalVariation(
+        "demographic_parity", float(value), None, law.groups[a], law.groups[b], event, tuple(notes), law, population
+    )
 
 
 def equalized_odds(law: Law, population: Population | None = None) -> TotalVariation:
@@ -577,8 +631,17 @@ def _equalized_odds(law: Law, population: Population | None, per_context: np.nda
     ai, bi = int(a[0]), int(b[0])
     row_a, row_b = law.probabilities[i, ai], law.probabilities[i, bi]
     event = tuple(law.decisions[u] for u in np.flatnonzero(row_a > row_b))
-    return TotalVariation("equalized_odds", float(tv[0]), law.contexts[i], law.groups[ai], law.groups[bi], event,
-                          tuple(notes), law, population)
+    return TotalVariation(
+        "equalized_odds",
+        float(tv[0]),
+        law.contexts[i],
+        law.groups[ai],
+        law.groups[bi],
+        event,
+        tuple(notes),
+        law,
+        population,
+    )
 
 
 def sup_local_fairness(law: Law, population: Population | None = None) -> SupFairness:
@@ -609,7 +672,7 @@ def _sup_local(law: Law, population: Population | None, top: np.ndarray, bottom:
     if len(law.groups) < 2:
         return SupFairness("local", 0.0, 1.0, None, None, None, None, tuple(notes), law, population)
     present = _present(law)
-    ratio = _ratio(top, bottom, present if law.complete else present[:, None])   # shape (n_contexts, n_decisions)
+    ratio = _ratio(top, bottom, present if law.complete else present[:, None])  # shape (n_contexts, n_decisions)
     if not keep.all():
         ratio[~keep] = np.nan
     if np.all(np.isnan(ratio)):
@@ -617,8 +680,18 @@ def _sup_local(law: Law, population: Population | None, top: np.ndarray, bottom:
     i, u = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
     best = float(ratio[i, u])
     _, hi, lo = ratio_extremes(law.probabilities[i, :, u][None, :], axis=1)
-    return SupFairness("local", safe_log(best), best, law.contexts[i], law.groups[hi[0]], law.groups[lo[0]],
-                       law.decisions[u], tuple(notes), law, population)
+    return SupFairness(
+        "local",
+        safe_log(best),
+        best,
+        law.contexts[i],
+        law.groups[hi[0]],
+        law.groups[lo[0]],
+        law.decisions[u],
+        tuple(notes),
+        law,
+        population,
+    )
 
 
 def sup_global_fairness(law: Law, population: Population | None = None) -> SupFairness:
@@ -642,8 +715,18 @@ def _sup_global(law: Law, population: Population, dist: np.ndarray) -> SupFairne
         return SupFairness("global", float("nan"), float("nan"), None, None, None, None, tuple(notes), law, population)
     u = int(np.nanargmax(ratio))
     best = float(ratio[u])
-    return SupFairness("global", safe_log(best), best, None, law.groups[hi[u]], law.groups[lo[u]], law.decisions[u],
-                       tuple(notes), law, population)
+    return SupFairness(
+        "global",
+        safe_log(best),
+        best,
+        None,
+        law.groups[hi[u]],
+        law.groups[lo[u]],
+        law.decisions[u],
+        tuple(notes),
+        law,
+        population,
+    )
 
 
 def all_metrics(law: Law, utility: Utility, population: Population | None = None) -> dict:

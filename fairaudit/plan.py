@@ -33,7 +33,7 @@ from .intervals import METHODS, _disjoint_ratio, _log, category_bounds, fairness
 __all__ = ["SamplePlan", "plan", "DEFAULT_DATASETS", "BAYES_DATASETS"]
 
 DEFAULT_DATASETS = 200
-BAYES_DATASETS = 40   # "bayes" draws 4000 posterior samples per table: about 10 ms a table
+BAYES_DATASETS = 40  # "bayes" draws 4000 posterior samples per table: about 10 ms a table
 
 
 @dataclass(frozen=True)
@@ -89,8 +89,12 @@ class SamplePlan:
 
 
 def _int(name, value, low, high=None):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low or \
-            (high is not None and value > high):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, np.integer))
+        or value < low
+        or (high is not None and value > high)
+    ):
         what = f"a whole number >= {low}" + (f" and <= {high}" if high is not None else "")
         raise InputError(name, f"must be {what}", value)
     return int(value)
@@ -127,36 +131,43 @@ class _Certifier:
         self.contexts, self.groups = tuple(range(contexts)), tuple(range(groups))
         self.population = Population.uniform(self.contexts, self.groups)
         self.utility = indicator(1, (1, 0))
-        self._table = lambda counts: CountTable(counts, self.contexts, self.groups, (1, 0), ("context",),
-                                                ("group",), "decision")
+        self._table = lambda counts: CountTable(
+            counts, self.contexts, self.groups, (1, 0), ("context",), ("group",), "decision"
+        )
 
     def exact(self, k: np.ndarray, n: int) -> np.ndarray:
         """By :func:`fairness_intervals`, one table at a time."""
         out = np.empty(k.shape[0])
         for i, ki in enumerate(k):
-            iv = fairness_intervals(self._table(np.stack([ki, n - ki], -1)), self.utility, self.confidence,
-                                    self.method, sensitive_mechanism=self.mechanism, population=self.population,
-                                    seed=self.seed)
+            iv = fairness_intervals(
+                self._table(np.stack([ki, n - ki], -1)),
+                self.utility,
+                self.confidence,
+                self.method,
+                sensitive_mechanism=self.mechanism,
+                population=self.population,
+                seed=self.seed,
+            )
             out[i] = (iv.local if self.kind == "local" else iv.global_).upper
         return out
 
     def fast(self, k: np.ndarray, n: int) -> np.ndarray:
         """The frequentist upper ends, vectorised over the stack (the same steps as fairness_intervals)."""
         D, X, A = k.shape
-        counts = np.stack([k, n - k], -1).astype(float)                 # decisions (1, 0); g = (1, 0)
-        a_cell = self.alpha / (X * A)                                   # every cell non-empty; population given
+        counts = np.stack([k, n - k], -1).astype(float)  # decisions (1, 0); g = (1, 0)
+        a_cell = self.alpha / (X * A)  # every cell non-empty; population given
         c_lo, c_hi = category_bounds(counts, a_cell)
         e_lo, e_hi = linear_extremes(np.array([1.0, 0.0]), c_lo, c_hi)  # (D, X, A)
         if self.mechanism is None:
             if self.kind == "local":
                 up = _disjoint_ratio(e_lo.reshape(D * X, A), e_hi.reshape(D * X, A))[1].reshape(D, X).max(-1)
             else:
-                up = _disjoint_ratio(e_lo.mean(1), e_hi.mean(1))[1]     # uniform population: P(x | a) = 1/X
+                up = _disjoint_ratio(e_lo.mean(1), e_hi.mean(1))[1]  # uniform population: P(x | a) = 1/X
         else:
             from .lfp import threshold_max_many
 
             M = self.mechanism.matrix
-            W = np.einsum("xy,ab->xayb", np.eye(X), M).reshape(X, A, X * A)   # (maps, groups, kernel cells)
+            W = np.einsum("xy,ab->xayb", np.eye(X), M).reshape(X, A, X * A)  # (maps, groups, kernel cells)
             if self.kind == "global":
                 W = W.mean(0, keepdims=True)
             lo, hi = e_lo.reshape(D, 1, 1, 1, X * A), e_hi.reshape(D, 1, 1, 1, X * A)
@@ -276,8 +287,11 @@ def plan(
     base_rate = _real("base_rate", base_rate, lambda v: 0 < v < 1, "a number in (0, 1)")
     disparity = _real("disparity", disparity, lambda v: True, "a finite number (nats)")
     if base_rate * math.exp(disparity) > 1:
-        raise InputError("disparity", f"gives group 0 the rate base_rate * exp(disparity) = "
-                         f"{base_rate * math.exp(disparity):.6g} > 1", disparity)
+        raise InputError(
+            "disparity",
+            f"gives group 0 the rate base_rate * exp(disparity) = {base_rate * math.exp(disparity):.6g} > 1",
+            disparity,
+        )
     confidence = _real("confidence", confidence, lambda v: 0 < v < 1, "a number in (0, 1)")
     if method not in METHODS:
         raise InputError("method", f"must be one of {', '.join(METHODS)}", method)
@@ -286,8 +300,11 @@ def plan(
         epsilon = _real("epsilon", epsilon, lambda v: v >= 0, "a finite number >= 0 (nats)")
     if kind not in ("local", "global"):
         raise InputError("kind", "must be local or global", kind)
-    datasets = (BAYES_DATASETS if method == "bayes" else DEFAULT_DATASETS) if datasets is None else \
-        _int("datasets", datasets, 1, 1_000_000)
+    datasets = (
+        (BAYES_DATASETS if method == "bayes" else DEFAULT_DATASETS)
+        if datasets is None
+        else _int("datasets", datasets, 1, 1_000_000)
+    )
     seed = _int("seed", seed, 0)
     max_n = _int("max_n", max_n, 1)
     if progress is not None and not callable(progress):
@@ -299,18 +316,37 @@ def plan(
         from .privacy import randomized_response
 
         mechanism = randomized_response(tuple(range(groups)), epsilon)
-        filtered = rates @ mechanism.matrix.T                          # Q[x, a] = sum_ã M[a, ã] K[x, ã]
+        filtered = rates @ mechanism.matrix.T  # Q[x, a] = sum_ã M[a, ã] K[x, ã]
     else:
         filtered = rates
     true_value = float(np.log(filtered.max(-1) / filtered.min(-1)).max())
-    inputs = dict(target=target, groups=groups, contexts=contexts, base_rate=base_rate, disparity=disparity,
-                  confidence=confidence, method=method, power=power, epsilon=epsilon, kind=kind, datasets=datasets,
-                  seed=seed, max_n=max_n, true_value=true_value)
+    inputs = dict(
+        target=target,
+        groups=groups,
+        contexts=contexts,
+        base_rate=base_rate,
+        disparity=disparity,
+        confidence=confidence,
+        method=method,
+        power=power,
+        epsilon=epsilon,
+        kind=kind,
+        datasets=datasets,
+        seed=seed,
+        max_n=max_n,
+        true_value=true_value,
+    )
     name = "L" if kind == "local" else "L-bar"
     if target <= true_value:
-        return SamplePlan(n_per_cell=None, n_total=None, achieved_power=None, expected_upper=None,
-                          reason=f"the target {target:.6g} nats is not above the true {name} of the model, "
-                                 f"{true_value:.6g} nats: no sample size certifies it", **inputs)
+        return SamplePlan(
+            n_per_cell=None,
+            n_total=None,
+            achieved_power=None,
+            expected_upper=None,
+            reason=f"the target {target:.6g} nats is not above the true {name} of the model, "
+            f"{true_value:.6g} nats: no sample size certifies it",
+            **inputs,
+        )
 
     certifier = _Certifier(groups, contexts, confidence, method, mechanism, kind, seed)
     seen: dict = {}
@@ -329,9 +365,14 @@ def plan(
     while evaluate(hi)[0] < power:
         if hi >= max_n:
             p, med = seen[hi]
-            return SamplePlan(n_per_cell=None, n_total=None, achieved_power=p, expected_upper=med,
-                              reason=f"max_n = {max_n} queries per cell give power {p:.3g} < {power:.3g}",
-                              **inputs)
+            return SamplePlan(
+                n_per_cell=None,
+                n_total=None,
+                achieved_power=p,
+                expected_upper=med,
+                reason=f"max_n = {max_n} queries per cell give power {p:.3g} < {power:.3g}",
+                **inputs,
+            )
         lo, hi = hi, min(2 * hi, max_n)
     while hi - lo > 1:
         mid = (lo + hi) // 2
@@ -340,5 +381,4 @@ def plan(
         else:
             lo = mid
     p, med = seen[hi]
-    return SamplePlan(n_per_cell=hi, n_total=hi * contexts * groups, achieved_power=p, expected_upper=med,
-                      **inputs)
+    return SamplePlan(n_per_cell=hi, n_total=hi * contexts * groups, achieved_power=p, expected_upper=med, **inputs)

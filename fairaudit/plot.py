@@ -120,8 +120,7 @@ def _secondary(curve, spec) -> tuple[str, Callable, Callable] | None:
     raise InputError("secondary_axis", "must be None, 'keep' or (label, forward, inverse)", spec)
 
 
-def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | None = None,
-               secondary_axis=None):
+def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | None = None, secondary_axis=None):
     """Draw a fairness–privacy curve; optionally save it as PNG or SVG.
 
     x axis: privacy budget ε (nats); y axis: local g-fairness L (nats).
@@ -181,17 +180,37 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     # observed values as sparse markers (L and L-bar staggered).
     step = max(1, len(eps) // 30)
     series = [
-        ("black_box", curve.black_box, "black-box bound (all models, exact)",
-         dict(color="tab:blue", lw=4.0, alpha=0.45, zorder=2)),
+        (
+            "black_box",
+            curve.black_box,
+            "black-box bound (all models, exact)",
+            dict(color="tab:blue", lw=4.0, alpha=0.45, zorder=2),
+        ),
         ("paper", curve.paper, "paper bound (main theorem)", dict(color="tab:red", ls="--", lw=1.6, zorder=3)),
-        ("tight", curve.tight, "tight bound (its proof, per pair)",
-         dict(color="tab:orange", ls="-.", lw=1.6, zorder=3)),
-        ("corollary", curve.corollary, "ε (corollary, g independent of a)",
-         dict(color="0.35", ls=":", lw=1.2, zorder=3)),
-        ("observed_local", curve.observed_local, "observed L (local)",
-         dict(color="black", ls="none", marker="o", ms=4, markevery=(0, step), zorder=4)),
-        ("observed_global", curve.observed_global, "observed L̄ (global)",
-         dict(color="tab:green", ls="none", marker="x", ms=6, markevery=(step // 2, step), zorder=4)),
+        (
+            "tight",
+            curve.tight,
+            "tight bound (its proof, per pair)",
+            dict(color="tab:orange", ls="-.", lw=1.6, zorder=3),
+        ),
+        (
+            "corollary",
+            curve.corollary,
+            "ε (corollary, g independent of a)",
+            dict(color="0.35", ls=":", lw=1.2, zorder=3),
+        ),
+        (
+            "observed_local",
+            curve.observed_local,
+            "observed L (local)",
+            dict(color="black", ls="none", marker="o", ms=4, markevery=(0, step), zorder=4),
+        ),
+        (
+            "observed_global",
+            curve.observed_global,
+            "observed L̄ (global)",
+            dict(color="tab:green", ls="none", marker="x", ms=6, markevery=(step // 2, step), zorder=4),
+        ),
     ]
     finite = np.concatenate([np.asarray(v, float)[np.isfinite(v)] for _, v, _, _ in series] + [np.zeros(1)])
     top = max(1.15 * float(finite.max()), 0.1)
@@ -206,17 +225,35 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
         drawn = np.where(inf, top, v)
         ax.plot(eps, drawn, label=label + (" (∞ at top)" if inf.any() else ""), **style)
         if inf.any():
-            ax.plot(eps[inf], np.full(inf.sum(), top), ls="none", marker="^", color=style["color"], ms=5,
-                    clip_on=False, zorder=5)
+            ax.plot(
+                eps[inf],
+                np.full(inf.sum(), top),
+                ls="none",
+                marker="^",
+                color=style["color"],
+                ms=5,
+                clip_on=False,
+                zorder=5,
+            )
     holds = np.asarray(curve.tau_holds, dtype=bool)
     if curve.tau is not None and not holds.all():
         for i, (lo, hi) in enumerate(_runs(eps, ~holds)):
-            ax.axvspan(lo, hi, color="0.85", zorder=0,
-                       label=f"observed model has E[g|x,a] < τ = {curve.tau:g}" if i == 0 else None)
+            ax.axvspan(
+                lo,
+                hi,
+                color="0.85",
+                zorder=0,
+                label=f"observed model has E[g|x,a] < τ = {curve.tau:g}" if i == 0 else None,
+            )
     if curve.spec_epsilon is not None and math.isfinite(curve.spec_epsilon):
         note = "" if curve.spec_on_family in (None, True) else " (its mechanism is not in this family)"
-        ax.axvline(curve.spec_epsilon, color="tab:purple", lw=1.0, ls=(0, (4, 2)),
-                   label=f"spec's ε = {curve.spec_epsilon:.4g} nats{note}")
+        ax.axvline(
+            curve.spec_epsilon,
+            color="tab:purple",
+            lw=1.0,
+            ls=(0, (4, 2)),
+            label=f"spec's ε = {curve.spec_epsilon:.4g} nats{note}",
+        )
     ax.set_xlim(float(eps.min()), float(eps.max()) if eps.max() > eps.min() else float(eps.min()) + 1.0)
     ax.set_ylim(0.0, top)
     ax.set_xlabel("privacy budget ε (nats)")
@@ -229,12 +266,23 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     if title is None:
         title = f"{curve.title}\n{curve.family}" if curve.title else curve.family
     # a secondary top axis is not seen by the title's automatic placement: lift the title over it
-    ax.set_title("\n".join(textwrap.fill(line, 90) for line in title.splitlines()), fontsize=10,
-                 pad=36 if sec is not None else None)
+    ax.set_title(
+        "\n".join(textwrap.fill(line, 90) for line in title.splitlines()),
+        fontsize=10,
+        pad=36 if sec is not None else None,
+    )
     if missing:
         why = "need τ (not given)" if curve.tau is None else "do not apply to this utility"
-        ax.text(0.99, 0.02, f"{', '.join(missing)} bound{'s' if len(missing) > 1 else ''}: {why}",
-                transform=ax.transAxes, ha="right", va="bottom", fontsize=8, color="0.3")
+        ax.text(
+            0.99,
+            0.02,
+            f"{', '.join(missing)} bound{'s' if len(missing) > 1 else ''}: {why}",
+            transform=ax.transAxes,
+            ha="right",
+            va="bottom",
+            fontsize=8,
+            color="0.3",
+        )
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     if path is not None:
         save_figure(fig, path)

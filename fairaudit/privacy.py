@@ -57,7 +57,7 @@ class PrivacyProfile:
 
     epsilons: np.ndarray
     deltas: np.ndarray
-    mechanism: "Mechanism"
+    mechanism: Mechanism
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,7 +96,9 @@ class Mechanism:
     name: str = "matrix"
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
-    def __init__(self, matrix, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix"):
+    def __init__(
+        self, matrix, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix"
+    ):
         inputs = as_labels(inputs, f"mechanism '{name}' inputs")
         outputs = inputs if outputs is None else as_labels(outputs, f"mechanism '{name}' outputs")
         array = as_float_array(matrix, f"mechanism '{name}'", ndim=2)
@@ -118,8 +120,9 @@ class Mechanism:
         """True when the mechanism releases its input unchanged (same labels, identity matrix)."""
         if "is_identity" not in self._cache:
             m = self.matrix
-            self._cache["is_identity"] = bool(self.inputs == self.outputs and m.shape[0] == m.shape[1]
-                                              and np.array_equal(m, np.eye(m.shape[0])))
+            self._cache["is_identity"] = bool(
+                self.inputs == self.outputs and m.shape[0] == m.shape[1] and np.array_equal(m, np.eye(m.shape[0]))
+            )
         return self._cache["is_identity"]
 
     @property
@@ -247,7 +250,7 @@ class Mechanism:
         cols = [self.outputs.index(a) for a in self.inputs]
         return float(self.matrix[np.arange(len(self.inputs)), cols].min())
 
-    def then(self, other: "Mechanism") -> "Mechanism":
+    def then(self, other: Mechanism) -> Mechanism:
         """Post-process this mechanism's output with ``other`` (matrix product).
 
         Proof: ``proofs/privacy.md`` (post-processing).
@@ -258,7 +261,9 @@ class Mechanism:
             If ``other``'s inputs are not this mechanism's outputs.
         """
         if tuple(other.inputs) != tuple(self.outputs):
-            raise InputError(f"mechanism '{other.name}' inputs", f"must equal the outputs of '{self.name}'", other.inputs)
+            raise InputError(
+                f"mechanism '{other.name}' inputs", f"must equal the outputs of '{self.name}'", other.inputs
+            )
         return Mechanism(self.matrix @ other.matrix, self.inputs, other.outputs, name=f"{self.name} then {other.name}")
 
     def describe(self) -> str:
@@ -365,7 +370,9 @@ def randomized_response(
     labels = as_labels(values, "randomized_response values")
     k = len(labels)
     if (epsilon is None) == (keep is None):
-        raise InputError("randomized_response", "give exactly one of epsilon and keep", {"epsilon": epsilon, "keep": keep})
+        raise InputError(
+            "randomized_response", "give exactly one of epsilon and keep", {"epsilon": epsilon, "keep": keep}
+        )
     if keep is not None:
         if k == 1:
             epsilon = 0.0
@@ -429,7 +436,9 @@ class _Identity(Mechanism):
         return math.inf if len(self.inputs) >= 2 else 0.0
 
 
-def from_matrix(rows, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix") -> Mechanism:
+def from_matrix(
+    rows, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix"
+) -> Mechanism:
     """A mechanism from its matrix of rows P(output | input).
 
     Parameters
@@ -483,7 +492,6 @@ def product(*mechanisms: Mechanism, name: str | None = None) -> Mechanism:
     return Mechanism(matrix, inputs, outputs, name=label)
 
 
-
 @dataclass(frozen=True, eq=False)
 class MechanismFamily:
     """A one-parameter family ε ↦ M_ε of mechanisms on the same alphabet.
@@ -518,10 +526,10 @@ class MechanismFamily:
 
     name: str
     inputs: tuple
-    build: Callable[[float], "Mechanism"]
+    build: Callable[[float], Mechanism]
     keep: Callable[[float], float]
 
-    def __call__(self, epsilon: float) -> "Mechanism":
+    def __call__(self, epsilon: float) -> Mechanism:
         """The member with privacy budget ``epsilon`` (nats)."""
         return self.build(_check_epsilon(epsilon))
 
@@ -563,12 +571,14 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     if k < 2:
         raise InputError("values", "a randomized response family needs at least 2 values", list(labels))
     label = name or f"{k}-ary randomized response"
-    return MechanismFamily(label, labels, lambda eps: randomized_response(labels, eps, name=label),
-                           lambda eps: keep_probability(eps, k))
+    return MechanismFamily(
+        label, labels, lambda eps: randomized_response(labels, eps, name=label), lambda eps: keep_probability(eps, k)
+    )
 
 
-def product_family(*values: Sequence[Hashable], weights: Sequence[float] | None = None,
-                   name: str | None = None) -> MechanismFamily:
+def product_family(
+    *values: Sequence[Hashable], weights: Sequence[float] | None = None, name: str | None = None
+) -> MechanismFamily:
     """A product of randomized responses, one per attribute, with ε split by fixed weights.
 
     Member ε gives component i the budget w_i ε (Σ w_i = 1), so the product's

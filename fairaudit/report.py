@@ -52,32 +52,57 @@ def _fairness(f, interval=None) -> dict:
     d = {"value": _num(f.value), "ratio": _num(f.ratio)}
     if f.kind == "local":
         d["context"] = _label(f.context)
-    d.update(group=_label(f.group), other_group=_label(f.other_group),
-             interval=None if interval is None else [_num(interval.lower), _num(interval.upper)])
+    d.update(
+        group=_label(f.group),
+        other_group=_label(f.other_group),
+        interval=None if interval is None else [_num(interval.lower), _num(interval.upper)],
+    )
     return d
 
 
 def _tv(t) -> dict:
-    return {"value": _num(t.value), "context": _label(t.context), "group": _label(t.group),
-            "other_group": _label(t.other_group), "event": [_label(u) for u in t.event]}
+    return {
+        "value": _num(t.value),
+        "context": _label(t.context),
+        "group": _label(t.group),
+        "other_group": _label(t.other_group),
+        "event": [_label(u) for u in t.event],
+    }
 
 
 def _sup(s) -> dict:
-    return {"value": _num(s.value), "ratio": _num(s.ratio), "context": _label(s.context), "group": _label(s.group),
-            "other_group": _label(s.other_group), "decision": _label(s.decision)}
+    return {
+        "value": _num(s.value),
+        "ratio": _num(s.ratio),
+        "context": _label(s.context),
+        "group": _label(s.group),
+        "other_group": _label(s.other_group),
+        "decision": _label(s.decision),
+    }
 
 
 def _interval(iv) -> dict | None:
     if iv is None:
         return None
-    return {"lower": _num(iv.lower), "upper": _num(iv.upper), "estimate": _num(iv.estimate), "context": _label(iv.context),
-            "group": _label(iv.group), "other_group": _label(iv.other_group)}
+    return {
+        "lower": _num(iv.lower),
+        "upper": _num(iv.upper),
+        "estimate": _num(iv.estimate),
+        "context": _label(iv.context),
+        "group": _label(iv.group),
+        "other_group": _label(iv.other_group),
+    }
 
 
 def intervals_dict(fi) -> dict:
     """The JSON of a :class:`~fairaudit.intervals.FairnessIntervals`: method, level and one entry per metric."""
-    out = {"method": fi.method, "confidence": _num(fi.confidence), "sets": fi.n_sets,
-           "filtered": fi.sensitive_mechanism is not None or fi.context_mechanism is not None, "notes": list(fi.notes)}
+    out = {
+        "method": fi.method,
+        "confidence": _num(fi.confidence),
+        "sets": fi.n_sets,
+        "filtered": fi.sensitive_mechanism is not None or fi.context_mechanism is not None,
+        "notes": list(fi.notes),
+    }
     if fi.method == "bayes":
         out.update(concentration=_num(fi.concentration), draws=fi.draws, seed=fi.seed)
     out.update({k: _interval(v) for k, v in fi.intervals().items()})
@@ -108,8 +133,14 @@ def _observed(o, intervals=None) -> dict:
 
 def _mechanism(m) -> dict:
     eps = m.epsilon
-    return {"mechanism": m.name, "epsilon": _num(eps), "delta": 0.0 if math.isfinite(eps) else None,
-            "keep_probability": _num(m.keep_probability), "inputs": len(m.inputs), "outputs": len(m.outputs)}
+    return {
+        "mechanism": m.name,
+        "epsilon": _num(eps),
+        "delta": 0.0 if math.isfinite(eps) else None,
+        "keep_probability": _num(m.keep_probability),
+        "inputs": len(m.inputs),
+        "outputs": len(m.outputs),
+    }
 
 
 def calibration_dict(c) -> dict:
@@ -122,11 +153,25 @@ def calibration_dict(c) -> dict:
     inputs ``groups``, ``gamma``, ``lower``, ``tau`` (``null`` when not given),
     ``delta``, ``lipschitz``, ``diameter``.
     """
-    return {"epsilon": _num(c.epsilon), "keep_probability": _num(c.keep_probability), "method": c.method,
-            "bound": _num(c.bound), "feasible": bool(c.feasible), "reason": c.reason, "target": _num(c.target),
-            "kind": c.kind, "mechanism": c.mechanism.name if c.mechanism is not None else c.family,
-            "family": c.family, "groups": c.groups, "gamma": _num(c.gamma), "lower": _num(c.lower),
-            "tau": _num(c.tau), "delta": _num(c.delta), "lipschitz": _num(c.lipschitz), "diameter": _num(c.diameter)}
+    return {
+        "epsilon": _num(c.epsilon),
+        "keep_probability": _num(c.keep_probability),
+        "method": c.method,
+        "bound": _num(c.bound),
+        "feasible": bool(c.feasible),
+        "reason": c.reason,
+        "target": _num(c.target),
+        "kind": c.kind,
+        "mechanism": c.mechanism.name if c.mechanism is not None else c.family,
+        "family": c.family,
+        "groups": c.groups,
+        "gamma": _num(c.gamma),
+        "lower": _num(c.lower),
+        "tau": _num(c.tau),
+        "delta": _num(c.delta),
+        "lipschitz": _num(c.lipschitz),
+        "diameter": _num(c.diameter),
+    }
 
 
 def _certificate_calibration(cert) -> dict:
@@ -134,8 +179,14 @@ def _certificate_calibration(cert) -> dict:
     if cert.calibration is not None:
         out = calibration_dict(cert.calibration)
     else:
-        out = {"epsilon": None, "keep_probability": None, "method": None, "bound": None, "feasible": False,
-               "reason": getattr(cert, "calibration_reason", "") or "no calibration"}
+        out = {
+            "epsilon": None,
+            "keep_probability": None,
+            "method": None,
+            "bound": None,
+            "feasible": False,
+            "reason": getattr(cert, "calibration_reason", "") or "no calibration",
+        }
     white = getattr(cert, "calibration_white_box", None)
     if white is not None:
         out["white_box"] = calibration_dict(white)
@@ -146,8 +197,13 @@ def _worst_case(w) -> dict:
     d = {"value": _num(w.value), "ratio": _num(w.ratio)}
     if w.kind == "local":
         d["context"] = _label(w.context)
-    d.update(group=_label(w.group), other_group=_label(w.other_group), method=w.method, status=w.status,
-             programs_solved=int(w.programs_solved))
+    d.update(
+        group=_label(w.group),
+        other_group=_label(w.other_group),
+        method=w.method,
+        status=w.status,
+        programs_solved=int(w.programs_solved),
+    )
     if w.reason:
         d["reason"] = w.reason
     return d
@@ -156,8 +212,13 @@ def _worst_case(w) -> dict:
 def _kernel_dict(k) -> dict:
     """{released context: {released group: {decision: probability}}} of a kernel."""
     p = np.round(k.probabilities, 12) + 0.0
-    return {str(_label(x)): {str(_label(a)): {str(_label(u)): float(p[i, j, m]) for m, u in enumerate(k.decisions)}
-                             for j, a in enumerate(k.groups)} for i, x in enumerate(k.contexts)}
+    return {
+        str(_label(x)): {
+            str(_label(a)): {str(_label(u)): float(p[i, j, m]) for m, u in enumerate(k.decisions)}
+            for j, a in enumerate(k.groups)
+        }
+        for i, x in enumerate(k.contexts)
+    }
 
 
 def _worst_model(wm, reason: str) -> dict:
@@ -184,8 +245,14 @@ def certificate_dict(cert) -> dict:
     details = {}
     for name, b in (("paper", cert.paper), ("tight", cert.tight), ("corollary", cert.corollary)):
         if b is not None:
-            details[name] = {"value": _num(b.value), "epsilon": _num(b.epsilon), "delta": _num(b.delta),
-                             "group": _label(b.group), "other_group": _label(b.other_group), "holds": b.holds}
+            details[name] = {
+                "value": _num(b.value),
+                "epsilon": _num(b.epsilon),
+                "delta": _num(b.delta),
+                "group": _label(b.group),
+                "other_group": _label(b.other_group),
+                "holds": b.holds,
+            }
     details["black_box"] = _worst_model(cert.black_box, cert.black_box_reason)
     out = {
         "certified": bool(cert.certified),
@@ -195,13 +262,21 @@ def certificate_dict(cert) -> dict:
         "context": {"name": spec.context_name, "values": [_label(c) for c in spec.contexts]},
         "decision": {"name": spec.model.decision.name, "values": [_label(d) for d in spec.decisions]},
         "privacy": {"sensitive": _mechanism(spec.sensitive_mechanism), "context": _mechanism(spec.context_mechanism)},
-        "utility": {"name": spec.utility.name, "gamma": _num(spec.gamma), "lower": _num(spec.lower), "tau": _num(spec.tau),
-                    "lipschitz": _num(spec.lipschitz), "diameter": _num(spec.utility.diameter(spec.metric)),
-                    "depends_on_group": spec.utility.depends_on_group},
+        "utility": {
+            "name": spec.utility.name,
+            "gamma": _num(spec.gamma),
+            "lower": _num(spec.lower),
+            "tau": _num(spec.tau),
+            "lipschitz": _num(spec.lipschitz),
+            "diameter": _num(spec.utility.diameter(spec.metric)),
+            "depends_on_group": spec.utility.depends_on_group,
+        },
         "bounds": bounds,
         "bound_details": details,
-        "assumptions": [{"name": a.name, "status": a.status, "detail": a.detail, "for": list(forms)}
-                        for a, forms in cert.assumptions],
+        "assumptions": [
+            {"name": a.name, "status": a.status, "detail": a.detail, "for": list(forms)}
+            for a, forms in cert.assumptions
+        ],
     }
     if cert.observed is not None:
         out["observed"] = _observed(cert.observed, cert.intervals)
@@ -210,10 +285,22 @@ def certificate_dict(cert) -> dict:
     if cert.unfiltered is not None:
         out["unfiltered"] = _observed(cert.unfiltered, cert.unfiltered_intervals)
     if cert.targets:
-        out["targets"] = {k: {"target": _num(t.target), "met": t.met, "bound": _num(t.bound), "observed": _num(t.observed),
-                              "observed_met": t.observed_met, "reason": t.reason} for k, t in cert.targets.items()}
-    if cert.calibration is not None or getattr(cert, "calibration_white_box", None) is not None or \
-            getattr(cert, "calibration_reason", ""):
+        out["targets"] = {
+            k: {
+                "target": _num(t.target),
+                "met": t.met,
+                "bound": _num(t.bound),
+                "observed": _num(t.observed),
+                "observed_met": t.observed_met,
+                "reason": t.reason,
+            }
+            for k, t in cert.targets.items()
+        }
+    if (
+        cert.calibration is not None
+        or getattr(cert, "calibration_white_box", None) is not None
+        or getattr(cert, "calibration_reason", "")
+    ):
         out["calibration"] = _certificate_calibration(cert)
     return out
 
@@ -232,9 +319,17 @@ def audit_dict(a) -> dict:
         "utility": {"name": a.utility.name, "gamma": _num(a.utility.gamma), "lower": _num(a.utility.lower)},
         "groups": [{"label": _label(g), "n": int(n)} for g, n in zip(t.groups, t.group_counts)],
         "contexts": [{"label": _label(c), "n": int(n)} for c, n in zip(t.contexts, t.context_counts)],
-        "cells": [{"context": _label(c), "group": _label(g), "n": int(cells[i, j]), "expected_utility": _num(e[i, j]),
-                   **({} if iv is None else {"interval": [_num(iv.cell_lower[i, j]), _num(iv.cell_upper[i, j])]})}
-                  for i, c in enumerate(t.contexts) for j, g in enumerate(t.groups)],
+        "cells": [
+            {
+                "context": _label(c),
+                "group": _label(g),
+                "n": int(cells[i, j]),
+                "expected_utility": _num(e[i, j]),
+                **({} if iv is None else {"interval": [_num(iv.cell_lower[i, j]), _num(iv.cell_upper[i, j])]}),
+            }
+            for i, c in enumerate(t.contexts)
+            for j, g in enumerate(t.groups)
+        ],
         "decisions": [_label(d) for d in t.decisions],
         "confidence": _num(a.confidence),
         "interval_method": iv.method if iv is not None else None,
@@ -244,6 +339,7 @@ def audit_dict(a) -> dict:
 
 
 # -- rendering ---------------------------------------------------------------------------------------
+
 
 def _fmt(v, digits: int = 6) -> str:
     if v is None:
@@ -279,15 +375,23 @@ def _observed_lines(o: dict, head: str) -> list[str]:
         f = o[key]
         lines.append(f"  {name:<28} {_nats(f['value']):<18} ratio {_fmt(f['ratio'])}{_pair(f)}{_iv(o, key)}")
     det = o["details"]
-    lines.append(f"  {'demographic parity gap':<28} {_fmt(o['demographic_parity']):<18}{_pair(det['demographic_parity'])}"
-                 f"{_iv(o, 'demographic_parity')}")
-    lines.append(f"  {'equalized odds gap':<28} {_fmt(o['equalized_odds']):<18}{_pair(det['equalized_odds'])}"
-                 f"{_iv(o, 'equalized_odds')}")
+    lines.append(
+        f"  {'demographic parity gap':<28} {_fmt(o['demographic_parity']):<18}{_pair(det['demographic_parity'])}"
+        f"{_iv(o, 'demographic_parity')}"
+    )
+    lines.append(
+        f"  {'equalized odds gap':<28} {_fmt(o['equalized_odds']):<18}{_pair(det['equalized_odds'])}"
+        f"{_iv(o, 'equalized_odds')}"
+    )
     s = det["sup_local"]
-    lines.append(f"  {'sup over g of L':<28} {_nats(o['sup_local']):<18} decision {s['decision']}{_pair(s)}{_iv(o, 'sup_local')}")
+    lines.append(
+        f"  {'sup over g of L':<28} {_nats(o['sup_local']):<18} decision {s['decision']}{_pair(s)}{_iv(o, 'sup_local')}"
+    )
     s = det["sup_global"]
-    lines.append(f"  {'sup over g of L-bar':<28} {_nats(o['sup_global']):<18} decision {s['decision']}{_pair(s)}"
-                 f"{_iv(o, 'sup_global')}")
+    lines.append(
+        f"  {'sup over g of L-bar':<28} {_nats(o['sup_global']):<18} decision {s['decision']}{_pair(s)}"
+        f"{_iv(o, 'sup_global')}"
+    )
     for note in (o.get("intervals") or {}).get("notes", []):
         lines.append(f"  intervals: {note}")
     for note in o.get("excluded", [])[:10]:
@@ -300,26 +404,36 @@ def _observed_lines(o: dict, head: str) -> list[str]:
 def _certificate_text(d: dict) -> str:
     lines = [f"fairaudit certificate: {d['title'] or d['spec']}"]
     ps = d["privacy"]["sensitive"]
-    lines.append(f"privacy of {d['sensitive']['name']}: {ps['mechanism']}, epsilon = {_nats(ps['epsilon'])}, delta = "
-                 f"{_fmt(ps['delta'])}, keep probability {_fmt(ps['keep_probability'])}")
+    lines.append(
+        f"privacy of {d['sensitive']['name']}: {ps['mechanism']}, epsilon = {_nats(ps['epsilon'])}, delta = "
+        f"{_fmt(ps['delta'])}, keep probability {_fmt(ps['keep_probability'])}"
+    )
     pc = d["privacy"]["context"]
     lines.append(f"privacy of {d['context']['name']}: {pc['mechanism']}, epsilon = {_nats(pc['epsilon'])}")
     u = d["utility"]
-    lines.append(f"utility: {u['name']}, range [{_fmt(u['lower'])}, {_fmt(u['gamma'])}], tau = {_fmt(u['tau'])}, "
-                 f"L_A = {_fmt(u['lipschitz'])}")
+    lines.append(
+        f"utility: {u['name']}, range [{_fmt(u['lower'])}, {_fmt(u['gamma'])}], tau = {_fmt(u['tau'])}, "
+        f"L_A = {_fmt(u['lipschitz'])}"
+    )
     lines.append("bounds on L for any decision model behind the filter:")
     det = d["bound_details"]
-    for key, name in (("paper", "paper (main theorem)"), ("tight", "tight (its proof, per pair)"),
-                      ("black_box", "black-box (exact worst case)"), ("corollary", "corollary (epsilon)")):
+    for key, name in (
+        ("paper", "paper (main theorem)"),
+        ("tight", "tight (its proof, per pair)"),
+        ("black_box", "black-box (exact worst case)"),
+        ("corollary", "corollary (epsilon)"),
+    ):
         v = d["bounds"][key]
         extra = ""
         if key in ("paper", "tight") and key in det:
             extra = f" at epsilon = {_fmt(det[key]['epsilon'])}, delta = {_fmt(det[key]['delta'])}"
         if key == "black_box":
             bb = det["black_box"]
-            extra = (f" ({bb['reason']})" if bb.get("value") is None else
-                     f" ({_fmt(bb['group'])} over {_fmt(bb['other_group'])}; on L-bar "
-                     f"{_nats(bb['global']['value'])})")
+            extra = (
+                f" ({bb['reason']})"
+                if bb.get("value") is None
+                else f" ({_fmt(bb['group'])} over {_fmt(bb['other_group'])}; on L-bar {_nats(bb['global']['value'])})"
+            )
         if key in ("paper", "tight") and v is None:
             extra = " (needs utility.tau)"
         if key in det and det[key].get("holds") is False:
@@ -330,29 +444,39 @@ def _certificate_text(d: dict) -> str:
         lines += _observed_lines(d["observed"], "observed, the model behind the filter:")
         iv = d["observed"].get("intervals")
         if iv and iv.get("local"):
-            lines.append(f"  from counts, simultaneous {_fmt(iv['confidence'])} ({iv['method']}): white-box certificate "
-                         f"L <= {_nats(iv['local']['upper'])}; evidence of unfairness L >= {_nats(iv['local']['lower'])}")
+            lines.append(
+                f"  from counts, simultaneous {_fmt(iv['confidence'])} ({iv['method']}): white-box certificate "
+                f"L <= {_nats(iv['local']['upper'])}; evidence of unfairness L >= {_nats(iv['local']['lower'])}"
+            )
     if "unfiltered" in d:
         lines += _observed_lines(d["unfiltered"], "observed, the model without the filter:")
     if "targets" in d:
         for k, t in d["targets"].items():
             obs = f"; observed {_nats(t['observed'])}" if t["observed"] is not None else ""
-            lines.append(f"target {k}: {_nats(t['target'])} -> {'MET' if t['met'] else 'NOT MET'} "
-                         f"(bound {_nats(t['bound'])}{obs}; {t['reason']})")
+            lines.append(
+                f"target {k}: {_nats(t['target'])} -> {'MET' if t['met'] else 'NOT MET'} "
+                f"(bound {_nats(t['bound'])}{obs}; {t['reason']})"
+            )
     if "calibration" in d:
         c = d["calibration"]
         if c["method"] is None:
             lines.append(f"calibration: skipped ({c['reason']})")
         elif c["feasible"]:
-            lines.append(f"calibration: {c.get('family') or 'randomized response'} with epsilon <= {_nats(c['epsilon'])} "
-                         f"(keep probability "
-                         f"{_fmt(c['keep_probability'])}) meets {_nats(c['target'])} for any model ({c['method']})")
+            lines.append(
+                f"calibration: {c.get('family') or 'randomized response'} with epsilon <= {_nats(c['epsilon'])} "
+                f"(keep probability "
+                f"{_fmt(c['keep_probability'])}) meets {_nats(c['target'])} for any model ({c['method']})"
+            )
         else:
-            lines.append(f"calibration: no epsilon meets {_nats(c['target'])} for any model ({c['method']}): {c['reason']}")
+            lines.append(
+                f"calibration: no epsilon meets {_nats(c['target'])} for any model ({c['method']}): {c['reason']}"
+            )
         w = c.get("white_box")
         if w is not None and w["feasible"]:
-            lines.append(f"calibration for this model: epsilon <= {_nats(w['epsilon'])} (keep probability "
-                         f"{_fmt(w['keep_probability'])}) keeps its {_measure(w)} <= {_nats(w['target'])} (white_box)")
+            lines.append(
+                f"calibration for this model: epsilon <= {_nats(w['epsilon'])} (keep probability "
+                f"{_fmt(w['keep_probability'])}) keeps its {_measure(w)} <= {_nats(w['target'])} (white_box)"
+            )
         elif w is not None:
             lines.append(f"calibration for this model: no epsilon (white_box): {w['reason']}")
     lines.append("assumptions:")
@@ -364,12 +488,18 @@ def _certificate_text(d: dict) -> str:
 
 def _audit_text(d: dict) -> str:
     ctx = ", ".join(d["context_columns"]) or "none"
-    lines = [f"fairaudit audit: {d['n']} records; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
-             f"context {ctx}", f"utility: {d['utility']['name']}"]
+    lines = [
+        f"fairaudit audit: {d['n']} records; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
+        f"context {ctx}",
+        f"utility: {d['utility']['name']}",
+    ]
     lines.append("records per group: " + ", ".join(f"{g['label']} {g['n']}" for g in d["groups"]))
     if len(d["contexts"]) > 1:
-        lines.append("records per context: " + ", ".join(f"{c['label']} {c['n']}" for c in d["contexts"][:30])
-                     + (" ..." if len(d["contexts"]) > 30 else ""))
+        lines.append(
+            "records per context: "
+            + ", ".join(f"{c['label']} {c['n']}" for c in d["contexts"][:30])
+            + (" ..." if len(d["contexts"]) > 30 else "")
+        )
     if d["confidence"] is not None:
         lines.append(f"intervals: simultaneous {_fmt(d['confidence'])} ({d['interval_method']})")
     lines += _observed_lines(d, "metrics:")
@@ -383,14 +513,18 @@ def _measure(d: dict) -> str:
 def _calibration_text(d: dict) -> str:
     if not d["feasible"]:
         low = f"the model's {_measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
-        return (f"no epsilon of {d['family']} meets {_measure(d)} <= {_nats(d['target'])}\n"
-                f"method: {d['method']}; {low}: {_nats(d['bound'])}\n"
-                f"reason: {d['reason']}\n")
+        return (
+            f"no epsilon of {d['family']} meets {_measure(d)} <= {_nats(d['target'])}\n"
+            f"method: {d['method']}; {low}: {_nats(d['bound'])}\n"
+            f"reason: {d['reason']}\n"
+        )
     there = f"the model's {_measure(d)} there" if d["method"] == "white_box" else "certified bound there"
-    return (f"largest epsilon of {d['family']} meeting {_measure(d)} <= {_nats(d['target'])}: {_nats(d['epsilon'])}\n"
-            f"keep probability (the price): {_fmt(d['keep_probability'])}\n"
-            f"method: {d['method']}; {there}: {_nats(d['bound'])}\n"
-            f"reason: {d['reason']}\n")
+    return (
+        f"largest epsilon of {d['family']} meeting {_measure(d)} <= {_nats(d['target'])}: {_nats(d['epsilon'])}\n"
+        f"keep probability (the price): {_fmt(d['keep_probability'])}\n"
+        f"method: {d['method']}; {there}: {_nats(d['bound'])}\n"
+        f"reason: {d['reason']}\n"
+    )
 
 
 def _md_table(rows: list[tuple], head: tuple) -> list[str]:
@@ -400,16 +534,26 @@ def _md_table(rows: list[tuple], head: tuple) -> list[str]:
 
 
 def _observed_md(o: dict) -> list[str]:
-    rows = [("local g-fairness L", _nats(o["local"]["value"]), _pair(o["local"]).strip(" ()")),
-            ("global g-fairness L-bar", _nats(o["global"]["value"]), _pair(o["global"]).strip(" ()")),
-            ("demographic parity gap", _fmt(o["demographic_parity"]), _pair(o["details"]["demographic_parity"]).strip(" ()")),
-            ("equalized odds gap", _fmt(o["equalized_odds"]), _pair(o["details"]["equalized_odds"]).strip(" ()")),
-            ("sup over g of L", _nats(o["sup_local"]), _pair(o["details"]["sup_local"]).strip(" ()")),
-            ("sup over g of L-bar", _nats(o["sup_global"]), _pair(o["details"]["sup_global"]).strip(" ()"))]
+    rows = [
+        ("local g-fairness L", _nats(o["local"]["value"]), _pair(o["local"]).strip(" ()")),
+        ("global g-fairness L-bar", _nats(o["global"]["value"]), _pair(o["global"]).strip(" ()")),
+        (
+            "demographic parity gap",
+            _fmt(o["demographic_parity"]),
+            _pair(o["details"]["demographic_parity"]).strip(" ()"),
+        ),
+        ("equalized odds gap", _fmt(o["equalized_odds"]), _pair(o["details"]["equalized_odds"]).strip(" ()")),
+        ("sup over g of L", _nats(o["sup_local"]), _pair(o["details"]["sup_local"]).strip(" ()")),
+        ("sup over g of L-bar", _nats(o["sup_global"]), _pair(o["details"]["sup_global"]).strip(" ()")),
+    ]
     if o.get("intervals"):
         iv = o["intervals"]
-        rows = [r + (f"[{_fmt(iv[k]['lower'])}, {_fmt(iv[k]['upper'])}]" if iv.get(k) else "n/a",)
-                for r, k in zip(rows, ("local", "global", "demographic_parity", "equalized_odds", "sup_local", "sup_global"))]
+        rows = [
+            r + (f"[{_fmt(iv[k]['lower'])}, {_fmt(iv[k]['upper'])}]" if iv.get(k) else "n/a",)
+            for r, k in zip(
+                rows, ("local", "global", "demographic_parity", "equalized_odds", "sup_local", "sup_global")
+            )
+        ]
         head = ("metric", "value", "where", f"simultaneous {_fmt(iv['confidence'])} interval ({iv['method']})")
         return _md_table(rows, head)
     return _md_table(rows, ("metric", "value", "where"))
@@ -418,8 +562,10 @@ def _observed_md(o: dict) -> list[str]:
 def _certificate_md(d: dict) -> str:
     lines = [f"# fairaudit certificate: {d['title'] or d['spec']}", ""]
     ps = d["privacy"]["sensitive"]
-    lines.append(f"Privacy of **{d['sensitive']['name']}**: {ps['mechanism']}, ε = {_nats(ps['epsilon'])}, "
-                 f"keep probability {_fmt(ps['keep_probability'])}.")
+    lines.append(
+        f"Privacy of **{d['sensitive']['name']}**: {ps['mechanism']}, ε = {_nats(ps['epsilon'])}, "
+        f"keep probability {_fmt(ps['keep_probability'])}."
+    )
     lines += ["", "## Bounds on L for any decision model", ""]
     rows = [(k, _nats(d["bounds"][k])) for k in ("paper", "tight", "black_box", "corollary")]
     lines += _md_table(rows, ("bound", "value"))
@@ -429,32 +575,50 @@ def _certificate_md(d: dict) -> str:
             lines += ["", f"## {head}", ""] + _observed_md(d[key])
     if "targets" in d:
         lines += ["", "## Targets", ""]
-        lines += _md_table([(k, _nats(t["target"]), _nats(t["bound"]), "met" if t["met"] else "NOT met")
-                            for k, t in d["targets"].items()], ("target", "value", "bound", "result"))
+        lines += _md_table(
+            [
+                (k, _nats(t["target"]), _nats(t["bound"]), "met" if t["met"] else "NOT met")
+                for k, t in d["targets"].items()
+            ],
+            ("target", "value", "bound", "result"),
+        )
     if "calibration" in d:
         c = d["calibration"]
         if c["method"] is None:
             lines += ["", f"Calibration: skipped ({c['reason']})."]
         elif c["feasible"]:
-            lines += ["", f"Calibration: ε ≤ {_nats(c['epsilon'])} (keep probability {_fmt(c['keep_probability'])}) "
-                          f"meets the target for any model ({c['method']})."]
+            lines += [
+                "",
+                f"Calibration: ε ≤ {_nats(c['epsilon'])} (keep probability {_fmt(c['keep_probability'])}) "
+                f"meets the target for any model ({c['method']}).",
+            ]
         else:
             lines += ["", f"Calibration: no ε meets the target for any model ({c['method']}): {c['reason']}."]
         w = c.get("white_box")
         if w is not None:
-            lines += ["", f"Calibration for this model (white_box): ε ≤ {_nats(w['epsilon'])} (keep probability "
-                          f"{_fmt(w['keep_probability'])})." if w["feasible"] else
-                          f"Calibration for this model (white_box): no ε: {w['reason']}."]
+            lines += [
+                "",
+                f"Calibration for this model (white_box): ε ≤ {_nats(w['epsilon'])} (keep probability "
+                f"{_fmt(w['keep_probability'])})."
+                if w["feasible"]
+                else f"Calibration for this model (white_box): no ε: {w['reason']}.",
+            ]
     lines += ["", "## Assumptions", ""]
-    lines += _md_table([(a["name"], a["status"], a["detail"], ", ".join(a["for"])) for a in d["assumptions"]],
-                       ("assumption", "status", "detail", "for"))
+    lines += _md_table(
+        [(a["name"], a["status"], a["detail"], ", ".join(a["for"])) for a in d["assumptions"]],
+        ("assumption", "status", "detail", "for"),
+    )
     lines += ["", f"**Certified: {'yes' if d['certified'] else 'no'}**", ""]
     return "\n".join(lines)
 
 
 def _audit_md(d: dict) -> str:
-    lines = [f"# fairaudit audit: {d['n']} records", "",
-             f"Sensitive: {', '.join(d['sensitive'])}; outcome: {d['outcome']}; utility: `{d['utility']['name']}`.", ""]
+    lines = [
+        f"# fairaudit audit: {d['n']} records",
+        "",
+        f"Sensitive: {', '.join(d['sensitive'])}; outcome: {d['outcome']}; utility: `{d['utility']['name']}`.",
+        "",
+    ]
     lines += _md_table([(g["label"], g["n"]) for g in d["groups"]], ("group", "records"))
     lines += [""] + _observed_md(d) + [""]
     return "\n".join(lines)
@@ -479,11 +643,16 @@ def render(data: dict, kind: str, fmt: str) -> str:
         return json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
     if fmt not in FORMATS:
         raise InputError("--format", f"must be one of {', '.join(FORMATS)}", fmt)
-    table = {("certify", "text"): _certificate_text, ("certify", "markdown"): _certificate_md,
-             ("audit", "text"): _audit_text, ("audit", "markdown"): _audit_md,
-             ("calibrate", "text"): _calibration_text,
-             ("calibrate", "markdown"): lambda d: "# fairaudit calibration\n\n```\n" + _calibration_text(d) + "```\n",
-             ("plan", "text"): _plan_text, ("plan", "markdown"): _plan_md}
+    table = {
+        ("certify", "text"): _certificate_text,
+        ("certify", "markdown"): _certificate_md,
+        ("audit", "text"): _audit_text,
+        ("audit", "markdown"): _audit_md,
+        ("calibrate", "text"): _calibration_text,
+        ("calibrate", "markdown"): lambda d: "# fairaudit calibration\n\n```\n" + _calibration_text(d) + "```\n",
+        ("plan", "text"): _plan_text,
+        ("plan", "markdown"): _plan_md,
+    }
     return table[(kind, fmt)](data)
 
 
@@ -528,7 +697,7 @@ def write_atomic(path, content, *, field: str = "--output") -> None:
                 os.fsync(fh.fileno())
         mask = os.umask(0)
         os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)      # mkstemp makes 0600; a report gets the usual permissions
+        os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes 0600; a report gets the usual permissions
         os.replace(tmp, p)
     except BaseException:
         try:
@@ -539,6 +708,7 @@ def write_atomic(path, content, *, field: str = "--output") -> None:
 
 
 # -- sample-size plans (fairaudit plan) -----------------------------------------------------------------
+
 
 def plan_dict(plans) -> dict:
     """The ``plan`` JSON of one or more :class:`~fairaudit.plan.SamplePlan` (same inputs, one per method).
@@ -552,33 +722,66 @@ def plan_dict(plans) -> dict:
     ``datasets``, ``reason`` (``""`` when feasible).
     """
     first = plans[0]
-    return {"target": _num(first.target), "confidence": _num(first.confidence), "power": _num(first.power),
-            "kind": first.kind, "groups": first.groups, "contexts": first.contexts,
-            "base_rate": _num(first.base_rate), "disparity": _num(first.disparity), "epsilon": _num(first.epsilon),
-            "seed": first.seed, "max_n": first.max_n, "true_value": _num(first.true_value),
-            "feasible": all(p.feasible for p in plans),
-            "plans": [{"method": p.method, "n_per_cell": p.n_per_cell, "n_total": p.n_total,
-                       "achieved_power": _num(p.achieved_power), "expected_upper": _num(p.expected_upper),
-                       "datasets": p.datasets, "reason": p.reason} for p in plans]}
+    return {
+        "target": _num(first.target),
+        "confidence": _num(first.confidence),
+        "power": _num(first.power),
+        "kind": first.kind,
+        "groups": first.groups,
+        "contexts": first.contexts,
+        "base_rate": _num(first.base_rate),
+        "disparity": _num(first.disparity),
+        "epsilon": _num(first.epsilon),
+        "seed": first.seed,
+        "max_n": first.max_n,
+        "true_value": _num(first.true_value),
+        "feasible": all(p.feasible for p in plans),
+        "plans": [
+            {
+                "method": p.method,
+                "n_per_cell": p.n_per_cell,
+                "n_total": p.n_total,
+                "achieved_power": _num(p.achieved_power),
+                "expected_upper": _num(p.expected_upper),
+                "datasets": p.datasets,
+                "reason": p.reason,
+            }
+            for p in plans
+        ],
+    }
 
 
 def _plan_head(d: dict) -> list[str]:
     name = "L-bar" if d["kind"] == "global" else "L"
     ctx = f"{d['contexts']} context{'s' if d['contexts'] != 1 else ''}"
-    filt = (f"queried behind {d['groups']}-ary randomized response at epsilon = {_nats(d['epsilon'])}"
-            if d["epsilon"] is not None else "no privacy filter")
-    return [f"queries per cell to certify {name} <= {_nats(d['target'])} at confidence {_fmt(d['confidence'])} "
-            f"with power {_fmt(d['power'])}",
-            f"model: {d['groups']} groups x {ctx}, E[g] = {_fmt(d['base_rate'])}, group 0 times "
-            f"exp({_fmt(d['disparity'])}); {filt}; true {name} = {_nats(d['true_value'])}"]
+    filt = (
+        f"queried behind {d['groups']}-ary randomized response at epsilon = {_nats(d['epsilon'])}"
+        if d["epsilon"] is not None
+        else "no privacy filter"
+    )
+    return [
+        f"queries per cell to certify {name} <= {_nats(d['target'])} at confidence {_fmt(d['confidence'])} "
+        f"with power {_fmt(d['power'])}",
+        f"model: {d['groups']} groups x {ctx}, E[g] = {_fmt(d['base_rate'])}, group 0 times "
+        f"exp({_fmt(d['disparity'])}); {filt}; true {name} = {_nats(d['true_value'])}",
+    ]
 
 
 def _plan_rows(d: dict) -> list[tuple]:
     def upper(v):
         return "n/a" if v is None else ("inf" if v == "inf" else f"{_fmt(v, 4)} nats")
 
-    return [(p["method"], _fmt(p["n_per_cell"]), _fmt(p["n_total"]), _fmt(p["achieved_power"], 3),
-             upper(p["expected_upper"]), str(p["datasets"])) for p in d["plans"]]
+    return [
+        (
+            p["method"],
+            _fmt(p["n_per_cell"]),
+            _fmt(p["n_total"]),
+            _fmt(p["achieved_power"], 3),
+            upper(p["expected_upper"]),
+            str(p["datasets"]),
+        )
+        for p in d["plans"]
+    ]
 
 
 _PLAN_HEAD = ("method", "n per cell", "n total", "power", "median upper end", "datasets")
@@ -599,4 +802,3 @@ def _plan_md(d: dict) -> str:
     lines += _md_table(_plan_rows(d), _PLAN_HEAD)
     lines += [""] + [f"* {p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
     return "\n".join(lines).rstrip("\n") + "\n"
-

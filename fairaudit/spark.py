@@ -116,8 +116,11 @@ def count_spark(
             raise InputError(f"column {col!r}", f"is ambiguous: the frame has {names.count(col)} columns of that name")
         kind = fields[names.index(col)].dataType
         if not isinstance(kind, (T.AtomicType, T.NullType)) or isinstance(kind, T.BinaryType):
-            raise InputError(f"column {col!r}", "must hold scalar values (string, number, boolean, date or time)",
-                             kind.simpleString())
+            raise InputError(
+                f"column {col!r}",
+                "must hold scalar values (string, number, boolean, date or time)",
+                kind.simpleString(),
+            )
     # Rename every column by position: the group-by then never trips over
     # dots, backticks or names that differ only in case.
     keys = [f"c{names.index(col)}" for col in used]
@@ -133,7 +136,10 @@ def count_spark(
     if missing.any():
         if not dropna:
             i = int(np.flatnonzero(missing)[0])
-            raise InputError(f"column {used[i]!r}", f"has {int(missing[i])} missing values (drop those rows: --dropna, or dropna=True)")
+            raise InputError(
+                f"column {used[i]!r}",
+                f"has {int(missing[i])} missing values (drop those rows: --dropna, or dropna=True)",
+            )
         agg = agg[~isna.any(axis=1)]
     if len(agg) == 0:
         raise InputError("DATA", "has no records to count")

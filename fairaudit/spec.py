@@ -92,7 +92,7 @@ class MechanismSpec(_Strict):
     rows: list[list[float]] | None = None
     outputs: list[Any] | None = None
     values: list[Any] | None = None
-    components: list["MechanismSpec"] | None = None
+    components: list[MechanismSpec] | None = None
     name: str | None = None
 
     @model_validator(mode="after")
@@ -207,8 +207,12 @@ class SpecModel(_Strict):
             raise ValueError("decision.values is required")
         if self.context is not None and self.context.values is None:
             raise ValueError("context.values is required when [context] is present")
-        if (self.population is not None and self.population.probabilities is not None and self.context is not None
-                and self.context.distribution is not None):
+        if (
+            self.population is not None
+            and self.population.probabilities is not None
+            and self.context is not None
+            and self.context.distribution is not None
+        ):
             raise ValueError("give context.distribution or population.probabilities, not both")
         if self.sensitive.values is None and self.privacy.sensitive.mechanism != "product":
             raise ValueError("sensitive.values is required (it may be left out only with a product mechanism)")
@@ -260,8 +264,11 @@ class Spec:
         if model.sensitive.values is not None:
             given = as_labels(model.sensitive.values, "sensitive.values")
             if given != self.groups:
-                raise self._err("sensitive.values", "must equal the product of the components' values, in order",
-                                [format_label(g) for g in given])
+                raise self._err(
+                    "sensitive.values",
+                    "must equal the product of the components' values, in order",
+                    [format_label(g) for g in given],
+                )
         if model.context is None:
             self.contexts: tuple = ("all",)
             context_name = "context"
@@ -270,17 +277,20 @@ class Spec:
             context_name = model.context.name
         self.context_name = context_name
         self.context_mechanism = self._mechanism(
-            model.privacy.context, AttributeSpec(name=context_name, values=list(self.contexts)), "privacy.context")
+            model.privacy.context, AttributeSpec(name=context_name, values=list(self.contexts)), "privacy.context"
+        )
         self.decisions = as_labels(model.decision.values, "decision.values")
         self.population = self._population()
         self.utility = self._utility()
         u = model.utility
         if u.lower is not None and u.lower > self.utility.lower + 1e-12:
-            raise self._err("utility.lower", f"exceeds the utility's smallest value min g = {self.utility.lower:g}",
-                            u.lower)
+            raise self._err(
+                "utility.lower", f"exceeds the utility's smallest value min g = {self.utility.lower:g}", u.lower
+            )
         if u.gamma is not None and u.gamma < self.utility.gamma - 1e-12:
-            raise self._err("utility.gamma", f"is below the utility's largest value max g = {self.utility.gamma:g}",
-                            u.gamma)
+            raise self._err(
+                "utility.gamma", f"is below the utility's largest value max g = {self.utility.gamma:g}", u.gamma
+            )
         self.metric = None if model.utility.metric is None else np.asarray(model.utility.metric, dtype=float)
 
     # -- helpers ---------------------------------------------------------------------------------
@@ -316,8 +326,11 @@ class Spec:
             if u.kind == "indicator":
                 value = _match_label(u.decision, self.decisions)
                 if value is None:
-                    raise self._err("utility.decision", f"must be one of decision.values {[format_label(d) for d in self.decisions]}",
-                                    u.decision)
+                    raise self._err(
+                        "utility.decision",
+                        f"must be one of decision.values {[format_label(d) for d in self.decisions]}",
+                        u.decision,
+                    )
                 return indicator(value, self.decisions, name=u.name)
             arr = np.asarray(u.values, dtype=float)
             if arr.ndim == 1:
@@ -420,16 +433,30 @@ class Spec:
                     cnt_col = "count" if "count" in frame.columns else None
                     prob_col = "probability" if cnt_col is None else None
                     if prob_col is not None and prob_col not in frame.columns:
-                        raise self._err("model.table", "needs a 'count' or 'probability' column (or set count_column)",
-                                        list(map(str, frame.columns)))
+                        raise self._err(
+                            "model.table",
+                            "needs a 'count' or 'probability' column (or set count_column)",
+                            list(map(str, frame.columns)),
+                        )
                 col = cnt_col or prob_col
-                table = count_table(frame, sensitive=sens, outcome=dec, context=ctx_cols, count=col,
-                                    contexts=contexts, groups=groups, decisions=self.decisions)
+                table = count_table(
+                    frame,
+                    sensitive=sens,
+                    outcome=dec,
+                    context=ctx_cols,
+                    count=col,
+                    contexts=contexts,
+                    groups=groups,
+                    decisions=self.decisions,
+                )
                 empty = np.argwhere(table.counts.sum(axis=-1) == 0)
                 if len(empty):
                     i, j = empty[0]
-                    raise self._err(field, f"has no rows (or only zeros) for (context {format_label(contexts[i])!r}, "
-                                           f"group {format_label(groups[j])!r}); {len(empty)} such cells in all")
+                    raise self._err(
+                        field,
+                        f"has no rows (or only zeros) for (context {format_label(contexts[i])!r}, "
+                        f"group {format_label(groups[j])!r}); {len(empty)} such cells in all",
+                    )
                 if cnt_col:
                     probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
                 else:
@@ -440,8 +467,11 @@ class Spec:
             raise exc.under(f"{self.source}: {field}") from None
         if probs_kernel.empty_cells:
             x, a = probs_kernel.empty_cells[0]
-            raise self._err(field, f"has no rows for (context {format_label(x)!r}, group {format_label(a)!r}); "
-                                   f"{len(probs_kernel.empty_cells)} empty cells in all")
+            raise self._err(
+                field,
+                f"has no rows for (context {format_label(x)!r}, group {format_label(a)!r}); "
+                f"{len(probs_kernel.empty_cells)} empty cells in all",
+            )
         return probs_kernel
 
 
@@ -473,7 +503,9 @@ def _relabel(table, contexts, groups, decisions):
     ia = index(table.groups, groups, "sensitive")
     iu = index(table.decisions, decisions, "decision")
     out[np.ix_(ix, ia, iu)] = table.counts
-    return CountTable(out, contexts, groups, decisions, table.context_columns, table.sensitive_columns, table.outcome_column)
+    return CountTable(
+        out, contexts, groups, decisions, table.context_columns, table.sensitive_columns, table.outcome_column
+    )
 
 
 def _component_epsilon(spec: MechanismSpec) -> float:
@@ -563,4 +595,3 @@ def load_spec(path: str | Path) -> Spec:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError("SPEC", f"cannot be read ({exc})", str(path)) from None
     return parse_spec(text, source=str(path), base=p.parent)
-

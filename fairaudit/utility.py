@@ -97,14 +97,20 @@ class Utility:
                 raise InputError("utility", "a full table [x, a, u] needs contexts and groups labels")
             contexts = as_labels(contexts, "utility contexts")
             groups = as_labels(groups, "utility groups")
-            check_shape(array, (len(contexts), len(groups), len(decisions)), "utility", ("contexts", "groups", "decisions"))
+            check_shape(
+                array, (len(contexts), len(groups), len(decisions)), "utility", ("contexts", "groups", "decisions")
+            )
         else:
             raise InputError("utility", "must be a vector over decisions or a table [x, a, u]", array.shape)
         if not np.all(np.isfinite(array)):
             raise InputError("utility", "values must be finite", float(array[~np.isfinite(array)][0]))
         if np.any(array < 0):
             idx = np.unravel_index(int(np.argmin(array)), array.shape)
-            raise InputError("utility", f"must be non-negative; g at {self._where(idx, decisions, contexts, groups)} is", float(array[idx]))
+            raise InputError(
+                "utility",
+                f"must be non-negative; g at {self._where(idx, decisions, contexts, groups)} is",
+                float(array[idx]),
+            )
         array = array.copy()
         array.setflags(write=False)
         object.__setattr__(self, "values", array)
@@ -117,8 +123,10 @@ class Utility:
     def _where(idx, decisions, contexts, groups) -> str:
         if len(idx) == 1:
             return f"u={format_label(decisions[idx[0]])!r}"
-        return (f"(x={format_label(contexts[idx[0]])!r}, a={format_label(groups[idx[1]])!r}, "
-                f"u={format_label(decisions[idx[2]])!r})")
+        return (
+            f"(x={format_label(contexts[idx[0]])!r}, a={format_label(groups[idx[1]])!r}, "
+            f"u={format_label(decisions[idx[2]])!r})"
+        )
 
     def __repr__(self) -> str:
         kind = "g(u)" if self.values.ndim == 1 else "g(u, x, a)"
@@ -179,7 +187,9 @@ class Utility:
         d = self._metric(metric)
         return float(d.max()) if d.size > 1 else (1.0 if metric is None else 0.0)
 
-    def table(self, contexts: Sequence[Hashable], groups: Sequence[Hashable], decisions: Sequence[Hashable]) -> np.ndarray:
+    def table(
+        self, contexts: Sequence[Hashable], groups: Sequence[Hashable], decisions: Sequence[Hashable]
+    ) -> np.ndarray:
         """g as a full array [x, a, u] for the given labels.
 
         Raises
@@ -188,16 +198,25 @@ class Utility:
             If the labels differ from the utility's own.
         """
         if tuple(decisions) != self.decisions:
-            raise InputError("utility decisions", f"must match the table's decisions {list(map(format_label, decisions))}",
-                             list(map(format_label, self.decisions)))
+            raise InputError(
+                "utility decisions",
+                f"must match the table's decisions {list(map(format_label, decisions))}",
+                list(map(format_label, self.decisions)),
+            )
         if self.values.ndim == 1:
             return np.broadcast_to(self.values, (len(contexts), len(groups), len(decisions)))
         if tuple(contexts) != self.contexts:
-            raise InputError("utility contexts", f"must match the table's contexts {list(map(format_label, contexts))}",
-                             list(map(format_label, self.contexts)))
+            raise InputError(
+                "utility contexts",
+                f"must match the table's contexts {list(map(format_label, contexts))}",
+                list(map(format_label, self.contexts)),
+            )
         if tuple(groups) != self.groups:
-            raise InputError("utility groups", f"must match the table's groups {list(map(format_label, groups))}",
-                             list(map(format_label, self.groups)))
+            raise InputError(
+                "utility groups",
+                f"must match the table's groups {list(map(format_label, groups))}",
+                list(map(format_label, self.groups)),
+            )
         return self.values
 
 
@@ -216,7 +235,9 @@ def indicator(value: Hashable, decisions: Sequence[Hashable], name: str | None =
     """
     decisions = as_labels(decisions, "decisions")
     if value not in decisions:
-        raise InputError("utility.decision", f"must be one of the decisions {list(map(format_label, decisions))}", value)
+        raise InputError(
+            "utility.decision", f"must be one of the decisions {list(map(format_label, decisions))}", value
+        )
     values = np.array([1.0 if d == value else 0.0 for d in decisions])
     return Utility(values, decisions, name=name or f"1{{decision = {format_label(value)}}}")
 

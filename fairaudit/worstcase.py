@@ -66,9 +66,9 @@ METHODS = ("auto", "threshold", "lp")
 # ----------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Search:
-    index: int            # flat index of the maximising problem (-1 when none)
+    index: int  # flat index of the maximising problem (-1 when none)
     result: FractionalResult | None
-    solved: int           # LPs solved
+    solved: int  # LPs solved
     reason: str
 
 
@@ -88,15 +88,22 @@ def _search(upper: np.ndarray, solve: Callable[[int], FractionalResult]) -> _Sea
         solved += r.method == "lp"
         if r.status == "infeasible":
             return _Search(-1, r, solved, r.reason)
-        if best is None or r.value > best_v * (1 + 1e-9):   # ties (to solver accuracy) keep the earlier pair
+        if best is None or r.value > best_v * (1 + 1e-9):  # ties (to solver accuracy) keep the earlier pair
             best_i, best, best_v = int(i), r, r.value
         if math.isinf(best_v):
             break
     return _Search(best_i, best, solved, "")
 
 
-def _relaxed_first(num: Callable[[int], np.ndarray], den: Callable[[int], np.ndarray], lower, upper, floor: float | None,
-                   rows: np.ndarray | None, program: Callable[[], FractionalProgram]) -> Callable[[int], FractionalResult]:
+def _relaxed_first(
+    num: Callable[[int], np.ndarray],
+    den: Callable[[int], np.ndarray],
+    lower,
+    upper,
+    floor: float | None,
+    rows: np.ndarray | None,
+    program: Callable[[], FractionalProgram],
+) -> Callable[[int], FractionalResult]:
     """Solve problem i by the closed-form floor relaxation when its point is feasible, by the LP otherwise.
 
     The relaxation keeps the box and only the denominator's constraint q·h ≥ floor
@@ -104,6 +111,7 @@ def _relaxed_first(num: Callable[[int], np.ndarray], den: Callable[[int], np.nda
     program whenever it meets every row of ``rows @ h ≥ floor``. With no
     floor the program is the box program and the threshold solves it.
     """
+
     def solve(i: int) -> FractionalResult:
         p, q = num(i), den(i)
         if floor is None:
@@ -113,12 +121,13 @@ def _relaxed_first(num: Callable[[int], np.ndarray], den: Callable[[int], np.nda
             v, k, frac, order = floor_max_many(p, q, lower, upper, floor)
         if not np.isnan(v):
             h = box_point(lower, upper, order, int(k), float(frac))
-            free = (p == 0) & (q == 0)            # cells outside the objective: the top of the box helps every τ row
+            free = (p == 0) & (q == 0)  # cells outside the objective: the top of the box helps every τ row
             h[free] = np.broadcast_to(np.asarray(upper, dtype=float), h.shape)[free]
             if rows is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
                 status = "unbounded" if math.isinf(v) else "optimal"
                 return FractionalResult(float(v), h, status, "threshold", "closed form", "", p, q, None, None)
         return program().solve(p, q)
+
     return solve
 
 
@@ -136,8 +145,9 @@ def _check_class(lower, gamma, tau) -> tuple[float, float, float | None]:
     if tau is not None:
         tau = _nonneg("tau", tau)
         if tau > gamma:
-            raise InputError("tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau",
-                             tau)
+            raise InputError(
+                "tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau", tau
+            )
     return lower, gamma, tau
 
 
@@ -238,8 +248,11 @@ class BlackBoxCertificate:
         """
         h = self.utility_by_release
         if h.ndim != 1 or self.status not in ("optimal", "trivial"):
-            raise InputError("worst_model", "is available for utilities that do not depend on the group, "
-                             "with a finite optimum", self.status)
+            raise InputError(
+                "worst_model",
+                "is available for utilities that do not depend on the group, with a finite optimum",
+                self.status,
+            )
         span = self.gamma - self.lower
         high = np.clip((h - self.lower) / span, 0.0, 1.0) if span > 0 else np.ones_like(h)
         table = np.stack([high, 1.0 - high], axis=-1)[None, :, :]
@@ -248,14 +261,24 @@ class BlackBoxCertificate:
 
     def __repr__(self) -> str:
         tau = "" if self.tau is None else f", tau={self.tau:g}"
-        return (f"BlackBoxCertificate(value={self.value:.6g} nats, ratio={self.ratio:.6g}, "
-                f"pair={self.group!r} vs {self.other_group!r}, class [{self.lower:g}, {self.gamma:g}]{tau}, "
-                f"method={self.method})")
+        return (
+            f"BlackBoxCertificate(value={self.value:.6g} nats, ratio={self.ratio:.6g}, "
+            f"pair={self.group!r} vs {self.other_group!r}, class [{self.lower:g}, {self.gamma:g}]{tau}, "
+            f"method={self.method})"
+        )
 
 
-def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 1.0, tau: float | None = None,
-                    lipschitz: float = 0.0, metric=None, population: Population | None = None,
-                    method: str = "auto") -> BlackBoxCertificate:
+def black_box_bound(
+    mechanism: Mechanism,
+    *,
+    lower: float = 0.0,
+    gamma: float = 1.0,
+    tau: float | None = None,
+    lipschitz: float = 0.0,
+    metric=None,
+    population: Population | None = None,
+    method: str = "auto",
+) -> BlackBoxCertificate:
     """Exact max of local g-fairness over every decision model behind M_A, for a class of utilities.
 
     The class: g(u, x, a) ∈ [lower, γ]; E[g | x, a] ≥ τ for every context and
@@ -330,7 +353,7 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
     lip = _nonneg("lipschitz", lipschitz)
     n, m = mechanism.matrix.shape
     d = check_metric(metric, n) if n >= 1 else None
-    floor = lower if tau is None else max(tau, lower)       # E[g | x, a] >= floor
+    floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor
     binding = floor > lower
     lip_on = lip > 0 and n >= 2 and gamma > lower
     if method == "threshold" and (binding or lip_on):
@@ -338,23 +361,58 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
 
     assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
         Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
-        Assumption("g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
-                   "vouched", f"L_A = {lip:g}" if lip_on else "L_A = 0"),
+        Assumption(
+            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
+            "vouched",
+            f"L_A = {lip:g}" if lip_on else "L_A = 0",
+        ),
     )
     if tau is not None:
         assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
 
     if gamma > 0 and gamma != 1.0:
         # Only the shape of the class matters: solve it on the scale gamma = 1 (well-conditioned LPs), scale back.
-        unit = black_box_bound(mechanism, lower=lower / gamma, gamma=1.0, tau=None if tau is None else tau / gamma,
-                               lipschitz=lip / gamma, metric=metric, population=population, method=method)
-        return replace(unit, utility_by_release=unit.utility_by_release * gamma, lower=lower, gamma=gamma, tau=tau,
-                       lipschitz=unit.lipschitz * gamma, assumptions=assumptions)
+        unit = black_box_bound(
+            mechanism,
+            lower=lower / gamma,
+            gamma=1.0,
+            tau=None if tau is None else tau / gamma,
+            lipschitz=lip / gamma,
+            metric=metric,
+            population=population,
+            method=method,
+        )
+        return replace(
+            unit,
+            utility_by_release=unit.utility_by_release * gamma,
+            lower=lower,
+            gamma=gamma,
+            tau=tau,
+            lipschitz=unit.lipschitz * gamma,
+            assumptions=assumptions,
+        )
 
     def make(value_ratio, a, b, released, h, meth, status, solver, reason, solved):
         value = _log(value_ratio) if not math.isnan(value_ratio) else math.nan
-        return BlackBoxCertificate(value, value_ratio, a, b, released, h, lower, gamma, tau, lip if lip_on else 0.0,
-                                   mechanism, meth, status, solver, reason, solved, assumptions)
+        return BlackBoxCertificate(
+            value,
+            value_ratio,
+            a,
+            b,
+            released,
+            h,
+            lower,
+            gamma,
+            tau,
+            lip if lip_on else 0.0,
+            mechanism,
+            meth,
+            status,
+            solver,
+            reason,
+            solved,
+            assumptions,
+        )
 
     if n < 2 or gamma == 0 or lower == gamma:
         reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
@@ -374,8 +432,18 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
         r = float(box[a, b])
         status = "unbounded" if math.isinf(r) else "optimal"
         reason = "some released value is possible for one group and impossible for another" if math.isinf(r) else ""
-        return make(r, mechanism.inputs[a], mechanism.inputs[b], tuple(outputs[o] for o in top), h, "threshold",
-                    status, "threshold", reason, 0)
+        return make(
+            r,
+            mechanism.inputs[a],
+            mechanism.inputs[b],
+            tuple(outputs[o] for o in top),
+            h,
+            "threshold",
+            status,
+            "threshold",
+            reason,
+            0,
+        )
 
     # ---- LP: τ binds, the utility may depend on the group, or the LP was asked for ----
     pairs = np.array([(a, b) for a in range(n) for b in range(n) if a != b])
@@ -392,17 +460,20 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
         def program() -> FractionalProgram:
             if not progs:
                 a_ub = -M if binding else None
-                progs.append(FractionalProgram(m, lower=lower, upper=gamma, A_ub=a_ub,
-                                               b_ub=None if a_ub is None else -floor * np.ones(n)))
+                progs.append(
+                    FractionalProgram(
+                        m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
+                    )
+                )
             return progs[0]
 
         if binding:
             relaxed = floor_max_many(M[:, None, :], M[None, :, :], lower, gamma, floor, threshold=unmasked)[0]
             upper = np.minimum(upper, relaxed[pairs[:, 0], pairs[:, 1]])
         if binding and method != "lp":
-            solve = _relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M,
-                                   program)
+            solve = _relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M, program)
         else:
+
             def solve(i: int) -> FractionalResult:
                 a, b = pairs[i]
                 return program().solve(M[a], M[b])
@@ -413,15 +484,25 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
             a, b = pairs[i]
             p = np.zeros(n * m)
             q = np.zeros(n * m)
-            p[a * m:(a + 1) * m] = M[a]
-            q[b * m:(b + 1) * m] = M[b]
+            p[a * m : (a + 1) * m] = M[a]
+            q[b * m : (b + 1) * m] = M[b]
             return prog.solve(p, q)
 
     found = _search(upper, solve)
     r = found.result
     if found.index < 0:
-        return make(math.nan, None, None, (), np.full(m, math.nan), "lp", "infeasible", r.solver_status if r else "",
-                    found.reason or "the class is empty", found.solved)
+        return make(
+            math.nan,
+            None,
+            None,
+            (),
+            np.full(m, math.nan),
+            "lp",
+            "infeasible",
+            r.solver_status if r else "",
+            found.reason or "the class is empty",
+            found.solved,
+        )
     a, b = pairs[found.index]
     if r.argmax is None:
         h = np.full(m if not lip_on else (n, m), math.nan)
@@ -432,12 +513,23 @@ def black_box_bound(mechanism: Mechanism, *, lower: float = 0.0, gamma: float = 
         row = h if not lip_on else h[a]
         released = tuple(outputs[o] for o in np.flatnonzero(row >= gamma - 1e-9 * max(1.0, gamma)))
     meth = "lp" if found.solved else "threshold"
-    return make(r.value, mechanism.inputs[a], mechanism.inputs[b], released, h, meth, r.status, r.solver_status,
-                r.reason, found.solved)
+    return make(
+        r.value,
+        mechanism.inputs[a],
+        mechanism.inputs[b],
+        released,
+        h,
+        meth,
+        r.status,
+        r.solver_status,
+        r.reason,
+        found.solved,
+    )
 
 
-def _lipschitz_program(M: np.ndarray, lower: float, gamma: float, floor: float | None, lip: float,
-                       d: np.ndarray) -> FractionalProgram:
+def _lipschitz_program(
+    M: np.ndarray, lower: float, gamma: float, floor: float | None, lip: float, d: np.ndarray
+) -> FractionalProgram:
     """The class polytope with a utility per group: h (n, m) flattened row-major."""
     import scipy.sparse as sp
 
@@ -446,7 +538,7 @@ def _lipschitz_program(M: np.ndarray, lower: float, gamma: float, floor: float |
     b_ub = []
     bi, ci = np.triu_indices(n, 1)
     limit = lip * d[bi, ci]
-    keep = limit < gamma - lower          # looser pairs are implied by the box
+    keep = limit < gamma - lower  # looser pairs are implied by the box
     bi, ci, limit = bi[keep], ci[keep], limit[keep]
     if bi.size:
         k = bi.size * m
@@ -454,8 +546,10 @@ def _lipschitz_program(M: np.ndarray, lower: float, gamma: float, floor: float |
         o = np.tile(np.arange(m), bi.size)
         col_b = np.repeat(bi, m) * m + o
         col_c = np.repeat(ci, m) * m + o
-        diff = sp.csr_matrix((np.concatenate([np.ones(k), -np.ones(k)]),
-                              (np.concatenate([r, r]), np.concatenate([col_b, col_c]))), shape=(k, n * m))
+        diff = sp.csr_matrix(
+            (np.concatenate([np.ones(k), -np.ones(k)]), (np.concatenate([r, r]), np.concatenate([col_b, col_c]))),
+            shape=(k, n * m),
+        )
         rows += [diff, -diff]
         b_ub += [np.repeat(limit, m), np.repeat(limit, m)]
     if floor is not None:
@@ -464,8 +558,9 @@ def _lipschitz_program(M: np.ndarray, lower: float, gamma: float, floor: float |
         rows.append(tau_rows)
         b_ub.append(np.full(n, -floor))
     a_ub = sp.vstack(rows, format="csr") if rows else None
-    return FractionalProgram(n * m, lower=lower, upper=gamma, A_ub=a_ub,
-                             b_ub=None if a_ub is None else np.concatenate(b_ub))
+    return FractionalProgram(
+        n * m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else np.concatenate(b_ub)
+    )
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -518,8 +613,10 @@ class WorstCase:
 
     def __repr__(self) -> str:
         where = f", context={format_label(self.context)!r}" if self.context is not None else ""
-        return (f"WorstCase({self.kind}, value={self.value:.6g} nats{where}, groups "
-                f"{format_label(self.group)!r} vs {format_label(self.other_group)!r}, method={self.method})")
+        return (
+            f"WorstCase({self.kind}, value={self.value:.6g} nats{where}, groups "
+            f"{format_label(self.group)!r} vs {format_label(self.other_group)!r}, method={self.method})"
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -557,9 +654,15 @@ def _onehot(idx: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Mechanism | None = None,
-                population: Population | None = None, tau: float | None = None,
-                method: str = "auto") -> WorstModel:
+def worst_model(
+    mechanism: Mechanism,
+    utility: Utility,
+    *,
+    context_mechanism: Mechanism | None = None,
+    population: Population | None = None,
+    tau: float | None = None,
+    method: str = "auto",
+) -> WorstModel:
     """The decision models behind M_A (and M_X) that maximise L and L̄, for a known utility.
 
     Over every kernel K[x̃, ã, u] (rows on the probability simplex of the
@@ -631,8 +734,13 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         tau = _nonneg("tau", tau)
     groups = mechanism.inputs
     if context_mechanism is None:
-        contexts = (population.contexts if population is not None
-                    else utility.contexts if utility.contexts is not None else ("all",))
+        contexts = (
+            population.contexts
+            if population is not None
+            else utility.contexts
+            if utility.contexts is not None
+            else ("all",)
+        )
         context_mechanism = identity(contexts, name="identity on contexts")
     if not isinstance(context_mechanism, Mechanism):
         raise InputError("context_mechanism", "must be a Mechanism", type(context_mechanism).__name__)
@@ -642,14 +750,17 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
     if not isinstance(population, Population):
         raise InputError("population", "must be a Population", type(population).__name__)
     if population.contexts != contexts or population.groups != groups:
-        raise InputError("population", "must have the context mechanism's inputs as contexts and M_A's inputs as groups",
-                         (list(map(format_label, population.contexts)), list(map(format_label, population.groups))))
+        raise InputError(
+            "population",
+            "must have the context mechanism's inputs as contexts and M_A's inputs as groups",
+            (list(map(format_label, population.contexts)), list(map(format_label, population.groups))),
+        )
     decisions = utility.decisions
-    g = np.asarray(utility.table(contexts, groups, decisions), dtype=float)       # (nX, nA, nU), a view for g(u)
+    g = np.asarray(utility.table(contexts, groups, decisions), dtype=float)  # (nX, nA, nU), a view for g(u)
     MA = mechanism.matrix
     nX, nA, nU = g.shape
     nXr, nAr = len(context_mechanism.outputs), MA.shape[1]
-    same_x = context_mechanism.is_identity        # then M_X is never materialised (a million contexts: 10^12 cells)
+    same_x = context_mechanism.is_identity  # then M_X is never materialised (a million contexts: 10^12 cells)
     live = population.p_context > 0
     excluded = tuple(f"context {format_label(contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live))
     floor = -math.inf if tau is None else tau
@@ -658,17 +769,18 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
     if utility.values.ndim == 1:
         gmin, gmax = np.full(nX, float(utility.values.min())), np.full(nX, float(utility.values.max()))
     else:
-        gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))                       # per context
+        gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))  # per context
     binding = bool(np.any(floor > gmin[live])) if live.any() else False
     independent = population.independence().independent
     assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
-        Assumption("g is the given utility", "checked", f"{utility!r}"),)
+        Assumption("g is the given utility", "checked", f"{utility!r}"),
+    )
     if tau is not None:
         assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
     released_groups, released_contexts = mechanism.outputs, context_mechanism.outputs
 
     def kernel_of(table: np.ndarray, exact: bool = False) -> Kernel:
-        if exact:   # a table of one-hot rows made here: no rounding to clean
+        if exact:  # a table of one-hot rows made here: no rounding to clean
             return Kernel(table, released_contexts, released_groups, decisions, name="worst model", _owned=True)
         t = np.clip(table, 0.0, None)
         t = t / t.sum(axis=-1, keepdims=True)
@@ -685,10 +797,25 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
     if nA < 2 or not live.any():
         ones = np.ones((nXr, nAr, nU)) / nU
         k0 = kernel_of(ones)
-        loc = WorstCase("local", 0.0, 1.0, None, None, None, k0, None, None, "threshold", "trivial", "threshold",
-                        "fewer than two groups" if nA < 2 else "no context has positive probability", 0)
-        glo = WorstCase("global", 0.0, 1.0, None, None, None, k0, None, None, "threshold", "trivial", "threshold",
-                        loc.reason, 0)
+        loc = WorstCase(
+            "local",
+            0.0,
+            1.0,
+            None,
+            None,
+            None,
+            k0,
+            None,
+            None,
+            "threshold",
+            "trivial",
+            "threshold",
+            "fewer than two groups" if nA < 2 else "no context has positive probability",
+            0,
+        )
+        glo = WorstCase(
+            "global", 0.0, 1.0, None, None, None, k0, None, None, "threshold", "trivial", "threshold", loc.reason, 0
+        )
         return WorstModel(loc, glo, mechanism, context_mechanism, utility, tau, population, excluded, assumptions)
 
     if method == "threshold" and (not indep_a or binding):
@@ -702,18 +829,20 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         if utility.values.ndim == 1:
             ranges, cls = np.array([[gmin[0], gmax[0]]]), np.zeros(nX, dtype=np.intp)
         else:
-            ranges, cls = np.unique(np.stack([g[:, 0, :].min(-1), g[:, 0, :].max(-1)], axis=1), axis=0,
-                                    return_inverse=True)
+            ranges, cls = np.unique(
+                np.stack([g[:, 0, :].min(-1), g[:, 0, :].max(-1)], axis=1), axis=0, return_inverse=True
+            )
             cls = cls.ravel()
-        box_c, kx_c, order_c = threshold_max_many(MA[None, :, None, :], MA[None, None, :, :],
-                                                  ranges[:, 0, None, None, None], ranges[:, 1, None, None, None])
-        box_c = box_c.copy()                                                        # (n_ranges, nA, nA)
+        box_c, kx_c, order_c = threshold_max_many(
+            MA[None, :, None, :], MA[None, None, :, :], ranges[:, 0, None, None, None], ranges[:, 1, None, None, None]
+        )
+        box_c = box_c.copy()  # (n_ranges, nA, nA)
         box_c[:, np.arange(nA), np.arange(nA)] = -np.inf
     # ------------------------------------------------------------------ local
     if indep_a and not binding and method != "lp":
         best_c = box_c.reshape(len(box_c), -1).max(axis=1)
-        best_c[~np.isin(np.arange(len(box_c)), cls[live])] = -np.inf            # ranges of no live context
-        x = int(np.argmax(live & (best_c[cls] == best_c.max())))                  # the first live maximiser
+        best_c[~np.isin(np.arange(len(box_c)), cls[live])] = -np.inf  # ranges of no live context
+        x = int(np.argmax(live & (best_c[cls] == best_c.max())))  # the first live maximiser
         c = cls[x]
         a, b = np.unravel_index(int(box_c[c].argmax()), (nA, nA))
         top = order_c[c, a, b, : int(kx_c[c, a, b])]
@@ -724,10 +853,22 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         table[:, top, hi_u] = 1.0
         kern = kernel_of(table, exact=True)
         r = float(box_c[c, a, b])
-        local = WorstCase("local", _log(r), r, contexts[x], groups[a], groups[b], kern, None, audit(kern, "local"),
-                          "threshold", "unbounded" if math.isinf(r) else "optimal", "threshold",
-                          "a released group is possible for one group and impossible for another" if math.isinf(r)
-                          else "", 0)
+        local = WorstCase(
+            "local",
+            _log(r),
+            r,
+            contexts[x],
+            groups[a],
+            groups[b],
+            kern,
+            None,
+            audit(kern, "local"),
+            "threshold",
+            "unbounded" if math.isinf(r) else "optimal",
+            "threshold",
+            "a released group is possible for one group and impossible for another" if math.isinf(r) else "",
+            0,
+        )
     else:
         MX = context_mechanism.matrix
         sp_ = _model_program(MA, MX, g, live, tau, u_only, binding)
@@ -739,13 +880,16 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
             upper = np.full(len(triples), np.inf)
         if tau is not None and tau > 0:
             upper = np.minimum(upper, g[triples[:, 0], triples[:, 1]].max(-1) / tau)
-        num = lambda i: sp_.coef(triples[i, 0], triples[i, 1])     # noqa: E731
-        den = lambda i: sp_.coef(triples[i, 0], triples[i, 2])     # noqa: E731
+        num = lambda i: sp_.coef(triples[i, 0], triples[i, 1])  # noqa: E731
+        den = lambda i: sp_.coef(triples[i, 0], triples[i, 2])  # noqa: E731
         if not indep_a:
             gmax_xa, gmin_xa = g.max(-1), g.min(-1)
             with np.errstate(divide="ignore", invalid="ignore"):
-                crude = np.where(gmin_xa[triples[:, 0], triples[:, 2]] > 0,
-                                 gmax_xa[triples[:, 0], triples[:, 1]] / gmin_xa[triples[:, 0], triples[:, 2]], np.inf)
+                crude = np.where(
+                    gmin_xa[triples[:, 0], triples[:, 2]] > 0,
+                    gmax_xa[triples[:, 0], triples[:, 1]] / gmin_xa[triples[:, 0], triples[:, 2]],
+                    np.inf,
+                )
             upper = np.minimum(upper, crude)
         if sp_.lo is not None and method != "lp":
             # closed-form relaxation (only the denominator's τ): an upper bound per triple, exact where feasible
@@ -757,6 +901,7 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
                     upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
             solve = _relaxed_first(num, den, sp_.lo, sp_.hi, None if sp_.rows is None else tau, sp_.rows, sp_.program)
         else:
+
             def solve(i: int) -> FractionalResult:
                 return sp_.program().solve(num(i), den(i))
 
@@ -775,10 +920,24 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         table[:, top, :] = _onehot(w.argmax(-1), nU)[:, None, :]
         kern = kernel_of(table, exact=True)
         r = float(vals[a, b])
-        global_ = WorstCase("global", _log(r), r, None, groups[a], groups[b], kern, None, audit(kern, "global"),
-                            "threshold", "unbounded" if math.isinf(r) else "optimal", "threshold", "", 0)
+        global_ = WorstCase(
+            "global",
+            _log(r),
+            r,
+            None,
+            groups[a],
+            groups[b],
+            kern,
+            None,
+            audit(kern, "global"),
+            "threshold",
+            "unbounded" if math.isinf(r) else "optimal",
+            "threshold",
+            "",
+            0,
+        )
     else:
-        w_xa = np.nan_to_num(population.context_given_group(), nan=0.0)          # P(x | a), (nX, nA)
+        w_xa = np.nan_to_num(population.context_given_group(), nan=0.0)  # P(x | a), (nX, nA)
         sp_ = _model_program(MA, context_mechanism.matrix, g, live, tau, u_only, binding)
 
         def coef_global(a: int) -> np.ndarray:
@@ -787,8 +946,8 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
         upper = np.full(len(pairs), np.inf)
         if tau is not None and tau > 0:
             upper = np.minimum(upper, gmax.max() / tau)
-        num = lambda i: coef_global(pairs[i, 0])     # noqa: E731
-        den = lambda i: coef_global(pairs[i, 1])     # noqa: E731
+        num = lambda i: coef_global(pairs[i, 0])  # noqa: E731
+        den = lambda i: coef_global(pairs[i, 1])  # noqa: E731
         if sp_.lo is not None and method != "lp":
             P = np.stack([coef_global(a) for a in range(nA)])
             if sp_.rows is not None:
@@ -796,9 +955,9 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
             else:
                 v = threshold_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi)[0]
             upper = np.minimum(upper, v[pairs[:, 0], pairs[:, 1]])
-            solve = _relaxed_first(num, den, sp_.lo, sp_.hi, None if sp_.rows is None else tau, sp_.rows,
-                                   sp_.program)
+            solve = _relaxed_first(num, den, sp_.lo, sp_.hi, None if sp_.rows is None else tau, sp_.rows, sp_.program)
         else:
+
             def solve(i: int) -> FractionalResult:
                 return sp_.program().solve(num(i), den(i))
 
@@ -812,12 +971,12 @@ def worst_model(mechanism: Mechanism, utility: Utility, *, context_mechanism: Me
 class _ModelSpace:
     """The polytope of reachable kernels in G-space (g depends on u only) or kernel space."""
 
-    coef: Callable[[int, int], np.ndarray]        # (x, b) -> coefficients of E[g | x, b]
+    coef: Callable[[int, int], np.ndarray]  # (x, b) -> coefficients of E[g | x, b]
     to_kernel: Callable[[np.ndarray], np.ndarray]
-    program: Callable[[], FractionalProgram]      # built on first use
-    lo: float | None                              # box of the variables (G-space only)
+    program: Callable[[], FractionalProgram]  # built on first use
+    lo: float | None  # box of the variables (G-space only)
     hi: float | None
-    rows: np.ndarray | None                       # τ rows (G-space only): rows @ h >= τ
+    rows: np.ndarray | None  # τ rows (G-space only): rows @ h >= τ
 
 
 def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _ModelSpace:
@@ -833,6 +992,7 @@ def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _Model
             if not cache:
                 cache.append(build())
             return cache[0]
+
         return program
 
     if u_only:
@@ -852,9 +1012,22 @@ def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _Model
             return table
 
         rows = np.kron(MX[xs], MA) if with_tau and tau is not None and tau > lo else None
-        return _ModelSpace(coef, to_kernel, lazy(lambda: FractionalProgram(
-            nXr * nAr, lower=lo, upper=hi, A_ub=None if rows is None else -rows,
-            b_ub=None if rows is None else np.full(rows.shape[0], -tau))), lo, hi, rows)
+        return _ModelSpace(
+            coef,
+            to_kernel,
+            lazy(
+                lambda: FractionalProgram(
+                    nXr * nAr,
+                    lower=lo,
+                    upper=hi,
+                    A_ub=None if rows is None else -rows,
+                    b_ub=None if rows is None else np.full(rows.shape[0], -tau),
+                )
+            ),
+            lo,
+            hi,
+            rows,
+        )
 
     def coef(x: int, b: int) -> np.ndarray:
         return (MX[x][:, None, None] * MA[b][None, :, None] * g[x, b][None, None, :]).ravel()
@@ -868,8 +1041,9 @@ def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _Model
         if with_tau and tau is not None and tau > 0:
             a_ub = -np.stack([coef(x, b) for x in xs for b in range(nA)])
             b_ub = np.full(a_ub.shape[0], -tau)
-        return FractionalProgram(nXr * nAr * nU, lower=0.0, upper=1.0, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq,
-                                 b_eq=np.ones(nXr * nAr))
+        return FractionalProgram(
+            nXr * nAr * nU, lower=0.0, upper=1.0, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=np.ones(nXr * nAr)
+        )
 
     return _ModelSpace(coef, to_kernel, lazy(build), None, None, None)
 
@@ -877,14 +1051,42 @@ def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _Model
 def _model_case(kind, found: _Search, triples, contexts, groups, to_kernel, kernel_of, audit) -> WorstCase:
     r = found.result
     if found.index < 0:
-        return WorstCase(kind, math.nan, math.nan, None, None, None, None, None, None, "lp", "infeasible",
-                         r.solver_status if r else "", "no decision model meets E[g | x, a] >= tau in every cell: "
-                         + (found.reason or "the constraints are inconsistent"), found.solved)
+        return WorstCase(
+            kind,
+            math.nan,
+            math.nan,
+            None,
+            None,
+            None,
+            None,
+            None,
+            None,
+            "lp",
+            "infeasible",
+            r.solver_status if r else "",
+            "no decision model meets E[g | x, a] >= tau in every cell: "
+            + (found.reason or "the constraints are inconsistent"),
+            found.solved,
+        )
     x, a, b = triples[found.index]
     kern = kernel_of(to_kernel(r.argmax)) if r.argmax is not None else None
     eu = audit(kern, kind) if kern is not None else None
-    return WorstCase(kind, _log(r.value), r.value, contexts[x] if kind == "local" else None, groups[a], groups[b], kern,
-                     None, eu, "lp" if found.solved else "threshold", r.status, r.solver_status, r.reason, found.solved)
+    return WorstCase(
+        kind,
+        _log(r.value),
+        r.value,
+        contexts[x] if kind == "local" else None,
+        groups[a],
+        groups[b],
+        kern,
+        None,
+        eu,
+        "lp" if found.solved else "threshold",
+        r.status,
+        r.solver_status,
+        r.reason,
+        found.solved,
+    )
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -916,8 +1118,15 @@ class WorstUtility:
     excluded: tuple
 
 
-def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: float | None = None,
-                  population: Population | None = None, method: str = "auto") -> WorstUtility:
+def worst_utility(
+    law: Law,
+    *,
+    lower: float = 0.0,
+    gamma: float = 1.0,
+    tau: float | None = None,
+    population: Population | None = None,
+    method: str = "auto",
+) -> WorstUtility:
     """The utility g(u) ∈ [lower, γ] that shows the largest disparity of a known law.
 
     Per context x and ordered pair (a, a'), maximise (Q[x, a]·g) / (Q[x, a']·g)
@@ -978,8 +1187,9 @@ def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: floa
     nX, nA, nU = Q.shape
     live_x = population.p_context > 0
     cell = law.observed & live_x[:, None]
-    excluded = tuple(f"context {format_label(law.contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live_x)) + \
-        tuple(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records" for x, a in law.empty_cells)
+    excluded = tuple(
+        f"context {format_label(law.contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live_x)
+    ) + tuple(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records" for x, a in law.empty_cells)
     decisions = law.decisions
 
     def util(h: np.ndarray) -> Utility:
@@ -992,8 +1202,9 @@ def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: floa
     def program() -> FractionalProgram:
         nonlocal prog
         if prog is None:
-            prog = FractionalProgram(nU, lower=lower, upper=gamma, A_ub=a_ub,
-                                     b_ub=None if a_ub is None else np.full(a_ub.shape[0], -tau))
+            prog = FractionalProgram(
+                nU, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else np.full(a_ub.shape[0], -tau)
+            )
         return prog
 
     def case(kind: str, P: np.ndarray, valid: np.ndarray, label_x) -> WorstCase:
@@ -1001,8 +1212,22 @@ def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: floa
         vals, k, order = threshold_max_many(P[..., :, None, :], P[..., None, :, :], lower, gamma)
         vals = np.where(valid, vals, -np.inf)
         if not valid.any():
-            return WorstCase(kind, math.nan, math.nan, None, None, None, None, None, None, "threshold", "trivial",
-                             "threshold", "no two groups can be compared", 0)
+            return WorstCase(
+                kind,
+                math.nan,
+                math.nan,
+                None,
+                None,
+                None,
+                None,
+                None,
+                None,
+                "threshold",
+                "trivial",
+                "threshold",
+                "no two groups can be compared",
+                0,
+            )
         if not binding and method != "lp":
             idx = np.unravel_index(int(vals.argmax()), vals.shape)
             top = order[idx][: int(k[idx])]
@@ -1010,10 +1235,22 @@ def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: floa
             h[top] = gamma
             r = float(vals[idx])
             x = idx[0] if kind == "local" else None
-            return WorstCase(kind, _log(r), r, label_x(x), law.groups[idx[-2]], law.groups[idx[-1]], None, util(h),
-                             None, "threshold", "unbounded" if math.isinf(r) else "optimal", "threshold",
-                             "a decision is possible for one group and impossible for another" if math.isinf(r) else "",
-                             0)
+            return WorstCase(
+                kind,
+                _log(r),
+                r,
+                label_x(x),
+                law.groups[idx[-2]],
+                law.groups[idx[-1]],
+                None,
+                util(h),
+                None,
+                "threshold",
+                "unbounded" if math.isinf(r) else "optimal",
+                "threshold",
+                "a decision is possible for one group and impossible for another" if math.isinf(r) else "",
+                0,
+            )
         flat = np.argwhere(valid)
         upper = vals[tuple(flat.T)]
         if tau is not None and tau > 0:
@@ -1026,14 +1263,40 @@ def worst_utility(law: Law, *, lower: float = 0.0, gamma: float = 1.0, tau: floa
         found = _search(upper, solve)
         r = found.result
         if found.index < 0:
-            return WorstCase(kind, math.nan, math.nan, None, None, None, None, None, None, "lp", "infeasible",
-                             r.solver_status if r else "", "no utility in the class meets E[g | x, a] >= tau: "
-                             + (found.reason or ""), found.solved)
+            return WorstCase(
+                kind,
+                math.nan,
+                math.nan,
+                None,
+                None,
+                None,
+                None,
+                None,
+                None,
+                "lp",
+                "infeasible",
+                r.solver_status if r else "",
+                "no utility in the class meets E[g | x, a] >= tau: " + (found.reason or ""),
+                found.solved,
+            )
         *lead, a, b = flat[found.index]
         x = lead[0] if kind == "local" else None
-        return WorstCase(kind, _log(r.value), r.value, label_x(x), law.groups[a], law.groups[b], None,
-                         util(r.argmax) if r.argmax is not None else None, None, "lp" if found.solved else "threshold",
-                         r.status, r.solver_status, r.reason, found.solved)
+        return WorstCase(
+            kind,
+            _log(r.value),
+            r.value,
+            label_x(x),
+            law.groups[a],
+            law.groups[b],
+            None,
+            util(r.argmax) if r.argmax is not None else None,
+            None,
+            "lp" if found.solved else "threshold",
+            r.status,
+            r.solver_status,
+            r.reason,
+            found.solved,
+        )
 
     valid_local = cell[:, :, None] & cell[:, None, :] & ~np.eye(nA, dtype=bool)[None]
     local = case("local", Qz, valid_local, lambda x: law.contexts[x])

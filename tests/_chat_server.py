@@ -73,7 +73,7 @@ class ChatServer:
 
     # --- lifecycle -------------------------------------------------------------------------
 
-    def __enter__(self) -> "ChatServer":
+    def __enter__(self) -> ChatServer:
         self.start()
         return self
 
@@ -166,7 +166,9 @@ class _Handler(BaseHTTPRequestHandler):
         state._record("GET", self.path, self._headers(), None)
         if self.path.split("?")[0] == "/v1/models":
             model = state.model or "test-model"
-            self._send_json(200, {"object": "list", "data": [{"id": model, "object": "model", "owned_by": "fairaudit-tests"}]})
+            self._send_json(
+                200, {"object": "list", "data": [{"id": model, "object": "model", "owned_by": "fairaudit-tests"}]}
+            )
         else:
             self._send_error(404, f"Unknown path {self.path}", "not_found")
 

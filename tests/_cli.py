@@ -6,7 +6,6 @@ import json
 
 from fairaudit.cli import main
 
-
 # A two-office spec shared by the CLI tests (behind binary randomized response, keep 0.7); tests append sections.
 OFFICE_SPEC = """
 [sensitive]

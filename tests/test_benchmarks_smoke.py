@@ -53,10 +53,13 @@ def _check_agreement(table: list[list[str]], tol: float) -> None:
             assert float(cell) <= tol, row
 
 
-@pytest.mark.parametrize("name, headers", [
-    ("bench_lfp", ["| m (cells) | programs | threshold_max |", "| n (groups) | m (outputs) |"]),
-    ("bench_product64", ["| operation | result | median time |"]),
-])
+@pytest.mark.parametrize(
+    "name, headers",
+    [
+        ("bench_lfp", ["| m (cells) | programs | threshold_max |", "| n (groups) | m (outputs) |"]),
+        ("bench_product64", ["| operation | result | median time |"]),
+    ],
+)
 def test_quick_run_exits_zero_with_tables(name, headers, capsys, tmp_path):
     module = _load(name)
     output = tmp_path / "report.md"
@@ -68,8 +71,8 @@ def test_quick_run_exits_zero_with_tables(name, headers, capsys, tmp_path):
     assert len(tables) == len(headers)
     for table in tables:
         _check_agreement(table, module.AGREEMENT_TOL)
-    assert output.read_text(encoding="utf-8") == text          # --output holds exactly the printed report
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]   # no temporary file left behind
+    assert output.read_text(encoding="utf-8") == text  # --output holds exactly the printed report
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]  # no temporary file left behind
 
 
 def test_lfp_quick_reports_sampled_pairs(capsys):
@@ -81,7 +84,7 @@ def test_lfp_quick_reports_sampled_pairs(capsys):
 
 def test_agreement_failure_exits_one(capsys, monkeypatch):
     module = _load("bench_product64")
-    monkeypatch.setattr(module, "AGREEMENT_TOL", -1.0)      # every comparison now "fails"
+    monkeypatch.setattr(module, "AGREEMENT_TOL", -1.0)  # every comparison now "fails"
     assert module.main(["--quick"]) == 1
     captured = capsys.readouterr()
     assert "FAILURE" in captured.out and "FAIL:" in captured.err
@@ -107,7 +110,7 @@ def test_coverage_quick_run_exits_zero_with_tables(capsys, tmp_path):
     assert "| method | datasets | coverage L | coverage L̄ | coverage L_dp | coverage L_eo | simultaneous |" in text
     assert "| fairlearn bootstrap |" in text
     tables = _tables(text)
-    assert len(tables) == 6                                    # per level: methods, bootstrap subset, scenarios
+    assert len(tables) == 6  # per level: methods, bootstrap subset, scenarios
     assert [row[0] for row in tables[0][1:]] == ["clopper-pearson", "multinomial", "bayes"]
     assert output.read_text(encoding="utf-8") == text
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
@@ -121,24 +124,28 @@ def test_scale_quick_run_exits_zero_with_tables(capsys, tmp_path):
     work.mkdir()
     assert module.main(["--quick", "--output", str(output), "--plot", str(plot), "--workdir", str(work)]) == 0
     text = capsys.readouterr().out
-    for header in ("| step | median time | repeats | peak memory |", "| route | median time | repeats | peak RSS |",
-                   "| step | contexts | median time |", "| records | Parquet file | median time |",
-                   "| contexts | table | build Law |"):
+    for header in (
+        "| step | median time | repeats | peak memory |",
+        "| route | median time | repeats | peak RSS |",
+        "| step | contexts | median time |",
+        "| records | Parquet file | median time |",
+        "| contexts | table | build Law |",
+    ):
         assert header in text
     tables = _tables(text)
     assert len(tables) == 5
     for table in tables:
         _check_agreement(table, module.AGREEMENT_TOL)
         assert all(row[-1] != "—" for row in table[1:] if "did not run" not in " ".join(row))
-    assert "did not run" not in text and "skipped:" not in text      # quick sizes always fit
-    assert "same context and groups" in text                         # pandas found the same maximiser
-    assert [row[0] for row in tables[3][1:]] == ["10^3", "10^4"]     # the records curve
+    assert "did not run" not in text and "skipped:" not in text  # quick sizes always fit
+    assert "same context and groups" in text  # pandas found the same maximiser
+    assert [row[0] for row in tables[3][1:]] == ["10^3", "10^4"]  # the records curve
     assert [row[0] for row in tables[4][1:]] == ["100", "10^3", "10^4"]
     assert "slope" in text and "Every agreement is within tolerance." in text
     assert output.read_text(encoding="utf-8") == text
     assert plot.read_text(encoding="utf-8").lstrip().startswith("<?xml")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["curves.svg", "report.md", "work"]
-    assert list(work.iterdir()) == []                                # the Parquet files are deleted
+    assert list(work.iterdir()) == []  # the Parquet files are deleted
 
 
 def test_scale_guard_reports_failure_and_timeout():
@@ -147,7 +154,7 @@ def test_scale_guard_reports_failure_and_timeout():
     assert module.run_guarded(lambda: {"ok": 1}, timeout=30) == {"ok": 1}
     failed = module.run_guarded(lambda: 1 / 0, timeout=30)
     assert failed["error"].startswith("failed (ZeroDivisionError")
-    huge = module.run_guarded(lambda: {"n": module.np.eye(10**6).shape}, timeout=30)   # 8 TB
+    huge = module.run_guarded(lambda: {"n": module.np.eye(10**6).shape}, timeout=30)  # 8 TB
     assert huge["error"].startswith("needs more memory than available (MemoryError")
     slow = module.run_guarded(lambda: module.time.sleep(30), timeout=0.5)
     assert slow == {"error": "stopped at the time limit of 0.5 s"}
@@ -160,10 +167,12 @@ def test_scale_pandas_route_matches_hand_count():
     import pandas as pd
 
     q = np.full((2, 8, 4), 0.25)
-    q[1, 3] = [0.1, 0.6, 0.2, 0.1]          # context 1, group 3: E = 0.6 against 0.25 elsewhere
-    q[1, 5] = [0.7, 0.1, 0.1, 0.1]          # context 1, group 5: E = 0.1
+    q[1, 3] = [0.1, 0.6, 0.2, 0.1]  # context 1, group 3: E = 0.6 against 0.25 elsewhere
+    q[1, 5] = [0.7, 0.1, 0.1, 0.1]  # context 1, group 5: E = 0.1
     idx = pd.MultiIndex.from_product([np.arange(2), np.arange(8)], names=["context", "group"])
-    r = module.pandas_route(module._long_frame(q), pd.Series([0.0, 1.0, 0.0, 0.0]), pd.Series(np.full(16, 1 / 16), index=idx))
+    r = module.pandas_route(
+        module._long_frame(q), pd.Series([0.0, 1.0, 0.0, 0.0]), pd.Series(np.full(16, 1 / 16), index=idx)
+    )
     assert (r["context"], r["group"], r["other_group"]) == (1, 3, 5)
     assert r["local"] == pytest.approx(np.log(6.0))
     # E[g | a] = mean over the two contexts: group 3 (0.25 + 0.6) / 2, group 5 (0.25 + 0.1) / 2
@@ -178,11 +187,11 @@ def test_scale_command_rss_is_the_commands_own():
 
     import numpy as np
 
-    held = np.ones(50_000_000)                                 # 400 MB resident in this process
+    held = np.ones(50_000_000)  # 400 MB resident in this process
     small = module.run_command([sys.executable, "-c", "pass"], timeout=60)
     big = module.run_command([sys.executable, "-c", "import numpy; a = numpy.ones(40_000_000)"], timeout=60)
     assert small["returncode"] == 0 and big["returncode"] == 0
-    assert small["rss"] < 100e6 < 320e6 < big["rss"] < 400e6 + 100e6   # a bare interpreter; 320 MB of ones
+    assert small["rss"] < 100e6 < 320e6 < big["rss"] < 400e6 + 100e6  # a bare interpreter; 320 MB of ones
     failed = module.run_command([sys.executable, "-c", "import sys; sys.exit('no such column')"], timeout=60)
     assert failed["returncode"] == 1 and "no such column" in failed["stderr"]
     del held

@@ -25,10 +25,13 @@ def test_main_theorem_closed_form():
     # ε + log(1 + (L_A·diam + δγ)/τ): 1 + log(1 + 0.01/0.1) = 1 + log 1.1.
     assert fa.main_theorem(1.0, 0.01, gamma=1.0, tau=0.1) == pytest.approx(1 + math.log(1.1), rel=1e-12)
     # 0.5 + log(1 + (0.1·1 + 0.02·2)/0.25) = 0.5 + log(1.56).
-    assert fa.main_theorem(0.5, 0.02, gamma=2.0, tau=0.25, lipschitz=0.1) == pytest.approx(0.5 + math.log(1.56), rel=1e-12)
+    assert fa.main_theorem(0.5, 0.02, gamma=2.0, tau=0.25, lipschitz=0.1) == pytest.approx(
+        0.5 + math.log(1.56), rel=1e-12
+    )
     # diam = 3: 0.2 + log(1 + (0.1·3 + 0)/0.5) = 0.2 + log 1.6.
     assert fa.main_theorem(0.2, 0.0, gamma=1.0, tau=0.5, lipschitz=0.1, diameter=3.0) == pytest.approx(
-        0.2 + math.log(1.6), rel=1e-12)
+        0.2 + math.log(1.6), rel=1e-12
+    )
     # δ = 0, L_A = 0: the bound is ε itself.
     assert fa.main_theorem(0.7, 0.0, gamma=1.0, tau=0.3) == pytest.approx(0.7, rel=1e-12)
     assert fa.main_theorem(math.inf, 0.0, gamma=1.0, tau=0.3) == math.inf
@@ -37,15 +40,22 @@ def test_main_theorem_closed_form():
 def test_main_theorem_tight_closed_form():
     # log(e^ε + (L_A·diam + δγ)/τ): log(e^0.5 + 0.56).
     assert fa.main_theorem_tight(0.5, 0.02, gamma=2.0, tau=0.25, lipschitz=0.1) == pytest.approx(
-        math.log(math.exp(0.5) + 0.56), rel=1e-12)
+        math.log(math.exp(0.5) + 0.56), rel=1e-12
+    )
     # log(e + 0.1) vs the paper's 1 + log 1.1 = log(e + 0.1 e).
     assert fa.main_theorem_tight(1.0, 0.01, gamma=1.0, tau=0.1) == pytest.approx(math.log(math.e + 0.1), rel=1e-12)
     assert fa.main_theorem_tight(0.0, 0.0, gamma=1.0, tau=0.5) == 0.0
     assert fa.main_theorem_tight(math.inf, 0.0, gamma=1.0, tau=0.5) == math.inf
 
 
-@given(st.floats(0.0, 5.0), st.floats(0.0, 1.0), st.floats(0.01, 1.0), st.floats(1.0, 4.0), st.floats(0.0, 2.0),
-       st.floats(0.0, 3.0))
+@given(
+    st.floats(0.0, 5.0),
+    st.floats(0.0, 1.0),
+    st.floats(0.01, 1.0),
+    st.floats(1.0, 4.0),
+    st.floats(0.0, 2.0),
+    st.floats(0.0, 3.0),
+)
 def test_tight_form_never_above_paper_form(eps, delta, tau, gamma, lip, diam):
     # log(t + c) ≤ log t + log(1 + c) for t = e^ε ≥ 1 and c ≥ 0.
     kw = dict(gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
@@ -184,8 +194,9 @@ def test_paper_and_tight_against_brute_force(seed):
         n = matrix.shape[0]
         mech = fa.from_matrix(matrix, list(range(n)))
         metric = 1.0 - np.eye(n)
-        bp, bt, bw = brute_force(matrix, gamma=gamma, tau=tau, lipschitz=lip, metric=metric,
-                                 return_mechanism_tight=True)
+        bp, bt, bw = brute_force(
+            matrix, gamma=gamma, tau=tau, lipschitz=lip, metric=metric, return_mechanism_tight=True
+        )
         p = fa.paper_bound(mech, gamma=gamma, tau=tau, lipschitz=lip)
         t = fa.tight_bound(mech, gamma=gamma, tau=tau, lipschitz=lip)
         assert p.value <= bp + 1e-9 and p.value >= bp - 1e-3
@@ -194,12 +205,14 @@ def test_paper_and_tight_against_brute_force(seed):
         assert t.value <= bw + 1e-9
         # The reported ε and δ reproduce the value (δ from the package's profile, checked above by brute force).
         assert p.delta == pytest.approx(mech.delta(p.epsilon), rel=1e-9, abs=1e-12)
-        assert p.value == pytest.approx(fa.main_theorem(p.epsilon, p.delta, gamma=gamma, tau=tau, lipschitz=lip),
-                                        rel=1e-12)
+        assert p.value == pytest.approx(
+            fa.main_theorem(p.epsilon, p.delta, gamma=gamma, tau=tau, lipschitz=lip), rel=1e-12
+        )
         a, b = mech.inputs.index(t.group), mech.inputs.index(t.other_group)
         assert t.delta == pytest.approx(mech.pairwise_delta(t.epsilon)[a, b], rel=1e-9, abs=1e-12)
         assert t.value == pytest.approx(
-            fa.main_theorem_tight(t.epsilon, t.delta, gamma=gamma, tau=tau, lipschitz=lip), rel=1e-12)
+            fa.main_theorem_tight(t.epsilon, t.delta, gamma=gamma, tau=tau, lipschitz=lip), rel=1e-12
+        )
 
 
 def test_bounds_with_zero_entries_and_rectangular_mechanisms_against_brute_force():
@@ -236,7 +249,11 @@ def test_regression_paper_minimum_at_a_crossing_not_at_a_ratio():
     # Found by a seeded search (numpy default_rng(2), 5000 random 3-4 group mechanisms: 3 hits), rounded to
     # three decimals. DESIGN.md: evaluating the paper form only at t = 1 and at the pairs' likelihood ratios
     # can miss the minimum, which may sit where two pairs' δ curves cross.
-    rows = [[F("0.251"), F("0.309"), F("0.44")], [F("0.187"), F("0.352"), F("0.461")], [F("0.15"), F("0.442"), F("0.408")]]
+    rows = [
+        [F("0.251"), F("0.309"), F("0.44")],
+        [F("0.187"), F("0.352"), F("0.461")],
+        [F("0.15"), F("0.442"), F("0.408")],
+    ]
     tau = F("0.187")
     m = fa.from_matrix(np.array(rows, dtype=float), ["a", "b", "c"])
     # Near t = 1.2: pair (a, c) has δ = Σ over outputs with ratio > t = 0.251 − 0.15 t (only output 0, ratio 1.673);
@@ -244,9 +261,11 @@ def test_regression_paper_minimum_at_a_crossing_not_at_a_ratio():
     t_star = F(191, 159)
     d_star = rows[0][0] - t_star * rows[2][0]
     assert d_star == rows[2][1] - t_star * rows[0][1]
+
     # δ(t*) is the max over all ordered pairs and output sets: exact brute force in Fractions.
     def delta_exact(t):
         return max(sum(max(F(0), rows[a][o] - t * rows[b][o]) for o in range(3)) for a in range(3) for b in range(3))
+
     assert delta_exact(t_star) == d_star
     exact_value = math.log(t_star) + math.log1p(float(d_star / tau))
     b = fa.paper_bound(m, gamma=1.0, tau=float(tau))
@@ -254,8 +273,9 @@ def test_regression_paper_minimum_at_a_crossing_not_at_a_ratio():
     assert b.value == pytest.approx(0.50448861, abs=1e-8)
     assert math.exp(b.epsilon) == pytest.approx(float(t_star), rel=1e-12)
     # Ratios-only candidates: t = 1 and every likelihood ratio ≥ 1 (exact); their best value is 0.5148 > 0.5045.
-    ratios = {F(1)} | {rows[a][o] / rows[c][o] for a in range(3) for c in range(3) for o in range(3)
-                       if rows[a][o] > rows[c][o]}
+    ratios = {F(1)} | {
+        rows[a][o] / rows[c][o] for a in range(3) for c in range(3) for o in range(3) if rows[a][o] > rows[c][o]
+    }
     ratios_only = min(math.log(t) + math.log1p(float(delta_exact(t) / tau)) for t in ratios)
     assert ratios_only == pytest.approx(0.5148176, abs=1e-6)
     assert ratios_only > b.value + 1e-3

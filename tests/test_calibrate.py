@@ -27,10 +27,12 @@ def disguised_rr(k: int) -> MechanismFamily:
     recognised by calibrate's closed-form fast path: calibrate must find ε by its root finder.
     """
     labels = tuple(range(k))
-    return MechanismFamily(f"{k}-ary RR, outputs reversed", labels,
-                           lambda e: fa.from_matrix(randomized_response(labels, e).matrix[:, ::-1], labels,
-                                                    labels[::-1]),
-                           lambda e: keep_probability(e, k))
+    return MechanismFamily(
+        f"{k}-ary RR, outputs reversed",
+        labels,
+        lambda e: fa.from_matrix(randomized_response(labels, e).matrix[:, ::-1], labels, labels[::-1]),
+        lambda e: keep_probability(e, k),
+    )
 
 
 def bisect_black_box(family, target, lower, gamma=1.0, hi=60.0):
@@ -43,6 +45,7 @@ def bisect_black_box(family, target, lower, gamma=1.0, hi=60.0):
 
 
 # -- black-box ------------------------------------------------------------------------------------------
+
 
 @given(st.integers(2, 16), st.floats(0.0, 0.9), st.floats(0.01, 3.0))
 def test_closed_form_equals_bisection_on_black_box(k, rho, target):
@@ -74,8 +77,13 @@ def test_rr_hand_values():
     c = calibrate(math.log(17 / 13), groups=2, lower=0.5)
     assert c.epsilon == pytest.approx(math.log(7 / 3), rel=1e-12)
     assert c.keep_probability == pytest.approx(0.7, rel=1e-12)
-    assert (c.method, c.feasible, c.kind, c.groups, c.family) == ("black_box", True, "local", 2,
-                                                                  "2-ary randomized response")
+    assert (c.method, c.feasible, c.kind, c.groups, c.family) == (
+        "black_box",
+        True,
+        "local",
+        2,
+        "2-ary randomized response",
+    )
     assert np.allclose(c.mechanism.matrix, [[0.7, 0.3], [0.3, 0.7]], rtol=0, atol=1e-12)
 
 
@@ -126,6 +134,7 @@ def test_black_box_floor_with_lipschitz():
 
 # -- paper and tight: closed forms ---------------------------------------------------------------------
 
+
 def test_closed_forms_hand_values():
     # target log 3, L_A = 0.2, δ = 0.1, γ = 1, τ = 0.5: c/τ = (0.2 + 0.1)/0.5 = 3/5.
     # paper: ε = log 3 − log(8/5) = log(15/8); tight: ε = log(3 − 3/5) = log(12/5).
@@ -140,14 +149,20 @@ def test_closed_forms_hand_values():
     assert p.delta == t.delta == 0.1 and p.keep_probability == pytest.approx(15 / 8 / (15 / 8 + 1), rel=1e-13)
 
 
-@given(target=st.floats(0.0, 5.0), tau=st.floats(0.05, 1.0), lip=st.floats(0.0, 0.5), delta=st.floats(0.0, 0.2),
-       gamma=st.sampled_from([1.0, 2.0]), k=st.integers(2, 5))
+@given(
+    target=st.floats(0.0, 5.0),
+    tau=st.floats(0.05, 1.0),
+    lip=st.floats(0.0, 0.5),
+    delta=st.floats(0.0, 0.2),
+    gamma=st.sampled_from([1.0, 2.0]),
+    k=st.integers(2, 5),
+)
 def test_closed_forms_reach_the_target_or_report_the_floor(target, tau, lip, delta, gamma, k):
     tau = min(tau, gamma)
     floor = math.log1p((lip + delta * gamma) / tau)
     for method, form in (("paper", fa.main_theorem), ("tight", fa.main_theorem_tight)):
         c = calibrate(target, method=method, groups=k, gamma=gamma, tau=tau, lipschitz=lip, delta=delta)
-        if target < floor * (1 - 1e-14):   # within a few ulps of the floor either answer is right (calibrate's rule)
+        if target < floor * (1 - 1e-14):  # within a few ulps of the floor either answer is right (calibrate's rule)
             assert not c.feasible and math.isnan(c.epsilon) and math.isnan(c.keep_probability)
             assert c.mechanism is None and c.bound == pytest.approx(floor) and f"{floor:.6g}" in c.reason
             continue
@@ -178,7 +193,7 @@ def test_metric_sets_the_diameter_of_the_closed_forms():
 
 
 @given(target=st.floats(0.0, 4.0), tau=st.floats(0.05, 1.0), lower=st.floats(0.0, 0.9), k=st.integers(2, 6))
-@example(target=1e-12, tau=0.5, lower=0.0, k=2)   # a rounding-sized target (found by hypothesis)
+@example(target=1e-12, tau=0.5, lower=0.0, k=2)  # a rounding-sized target (found by hypothesis)
 def test_black_box_at_least_tight_at_least_paper(target, tau, lower, k):
     # δ = 0, L_A = 0: black_box(ε) ≤ ε(M_ε) = ε = tight form at δ = 0, so the black-box ε is never smaller;
     # tight ≥ paper whenever feasible (e^T − c/τ ≥ e^T/(1 + c/τ) ⟺ e^T ≥ 1 + c/τ). Holds for any τ here.
@@ -203,6 +218,7 @@ def test_black_box_at_least_tight_with_lipschitz(target, tau, lip):
 
 # -- monotonicity along a family: post-processing ---------------------------------------------------------
 
+
 @given(st.integers(2, 8), st.floats(1e-3, 6.0), st.floats(0.0, 1.0))
 def test_smaller_epsilon_is_a_post_processing_of_a_larger_one(k, eps, frac):
     # proofs/calibration.md §3: RR(ε') = RR(ε) then RR(ε'') with e^ε'' = 1 + k a/(1 − a), a = α(ε')/α(ε),
@@ -226,6 +242,7 @@ def test_black_box_non_decreasing_along_product_family():
 
 
 # -- white-box -------------------------------------------------------------------------------------------
+
 
 def identity_model(labels):
     """A model that outputs the released group: K[ã, u] = 1{u = ã}, one context."""
@@ -263,10 +280,10 @@ def test_white_box_non_monotone_in_epsilon():
     # E_a = p, E_b = 0.7 − 0.2p, so L = |log(p/(0.7 − 0.2p))|: log 1.2 at ε = 0, 0 at p = 7/12, log 2 at p = 1.
     k = identity_model(["a", "b"])
     g = fa.from_table([[[1.0, 0.0], [0.7, 0.5]]], ["a", "b"], ["all"], ["a", "b"])
-    c = calibrate(0.1, kernel=k, utility=g)            # below L(0) = 0.1823: no [0, ε] works ...
+    c = calibrate(0.1, kernel=k, utility=g)  # below L(0) = 0.1823: no [0, ε] works ...
     assert not c.feasible and c.bound == pytest.approx(math.log(1.2)) and "depends on the group" in c.reason
-    assert "not monotone" in c.reason                  # ... although a middle range of ε meets it
-    c = calibrate(0.2, kernel=k, utility=g)            # above L(0): the crossing on the rising side
+    assert "not monotone" in c.reason  # ... although a middle range of ε meets it
+    c = calibrate(0.2, kernel=k, utility=g)  # above L(0): the crossing on the rising side
     big_t = math.exp(0.2)
     p = 0.7 * big_t / (1 + 0.2 * big_t)
     assert c.epsilon == pytest.approx(math.log(p / (1 - p)), rel=1e-9)
@@ -339,6 +356,7 @@ def test_black_box_with_tau_assumes_it_behind_the_calibrated_mechanism():
 
 # -- global ----------------------------------------------------------------------------------------------
 
+
 def test_global_needs_independence_for_certificates():
     dep = fa.Population([[0.4, 0.1], [0.1, 0.4]], ["x0", "x1"], [0, 1])
     ind = fa.Population.uniform(["x0", "x1"], [0, 1])
@@ -350,6 +368,7 @@ def test_global_needs_independence_for_certificates():
 
 
 # -- defaults, wrapper and errors --------------------------------------------------------------------------
+
 
 def test_default_method():
     k = identity_model(["a", "b"])
@@ -366,27 +385,30 @@ def test_wrapper_is_calibrate_and_raises_when_infeasible():
         fa.calibrate_randomized_response(0.1, 2, method="tight", tau=0.5, lipschitz=0.2)
 
 
-@pytest.mark.parametrize("kwargs,flag", [
-    ({"target": -0.1}, "--target"),
-    ({"target": math.inf}, "--target"),
-    ({"target": "x"}, "--target"),
-    ({"method": "exact"}, "--method"),
-    ({"groups": 1}, "--groups"),
-    ({"groups": ["only"]}, "--groups"),
-    ({"groups": 3, "family": fa.randomized_response_family([0, 1])}, "--groups"),
-    ({"method": "paper"}, "--tau"),
-    ({"method": "tight"}, "--tau"),
-    ({"tau": 0.0}, "--tau"),
-    ({"tau": 2.0}, "--tau"),
-    ({"lower": 2.0}, "--lower"),
-    ({"lower": -0.1}, "--lower"),
-    ({"gamma": 0.0}, "--gamma"),
-    ({"lipschitz": -1.0}, "--lipschitz"),
-    ({"delta": 1.5, "tau": 0.5}, "--delta"),
-    ({"delta": 0.1, "method": "black_box"}, "--delta"),
-    ({"method": "white_box"}, "--spec"),
-    ({"kind": "both"}, "--global"),
-])
+@pytest.mark.parametrize(
+    "kwargs,flag",
+    [
+        ({"target": -0.1}, "--target"),
+        ({"target": math.inf}, "--target"),
+        ({"target": "x"}, "--target"),
+        ({"method": "exact"}, "--method"),
+        ({"groups": 1}, "--groups"),
+        ({"groups": ["only"]}, "--groups"),
+        ({"groups": 3, "family": fa.randomized_response_family([0, 1])}, "--groups"),
+        ({"method": "paper"}, "--tau"),
+        ({"method": "tight"}, "--tau"),
+        ({"tau": 0.0}, "--tau"),
+        ({"tau": 2.0}, "--tau"),
+        ({"lower": 2.0}, "--lower"),
+        ({"lower": -0.1}, "--lower"),
+        ({"gamma": 0.0}, "--gamma"),
+        ({"lipschitz": -1.0}, "--lipschitz"),
+        ({"delta": 1.5, "tau": 0.5}, "--delta"),
+        ({"delta": 0.1, "method": "black_box"}, "--delta"),
+        ({"method": "white_box"}, "--spec"),
+        ({"kind": "both"}, "--global"),
+    ],
+)
 def test_bad_arguments_name_the_flag(kwargs, flag):
     kwargs = {"target": 0.5, **kwargs}
     with pytest.raises(fa.InputError) as err:

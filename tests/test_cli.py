@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-
 from _cli import OFFICE_SPEC, run, run_json
+
 from fairaudit.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -24,8 +24,6 @@ def num(v):
     return math.inf if v == "inf" else v
 
 
-
-
 def _get(d, dotted):
     for part in dotted.split("."):
         d = d[part]
@@ -35,11 +33,27 @@ def _get(d, dotted):
 # -- certify on the shipped GPT example ---------------------------------------------------------------
 
 CERTIFY_KEYS = [
-    "certified", "privacy.sensitive.epsilon", "privacy.sensitive.delta", "bounds.paper", "bounds.tight",
-    "bounds.black_box", "observed.local.value", "observed.local.context", "observed.local.group",
-    "observed.local.other_group", "observed.global.value", "observed.global.group", "observed.global.other_group",
-    "observed.demographic_parity", "observed.equalized_odds", "observed.sup_local", "observed.sup_global",
-    "targets.local.target", "targets.local.met", "calibration.epsilon", "calibration.keep_probability",
+    "certified",
+    "privacy.sensitive.epsilon",
+    "privacy.sensitive.delta",
+    "bounds.paper",
+    "bounds.tight",
+    "bounds.black_box",
+    "observed.local.value",
+    "observed.local.context",
+    "observed.local.group",
+    "observed.local.other_group",
+    "observed.global.value",
+    "observed.global.group",
+    "observed.global.other_group",
+    "observed.demographic_parity",
+    "observed.equalized_odds",
+    "observed.sup_local",
+    "observed.sup_global",
+    "targets.local.target",
+    "targets.local.met",
+    "calibration.epsilon",
+    "calibration.keep_probability",
 ]
 
 
@@ -71,7 +85,9 @@ def test_certify_gpt_example_matches_pandas(capsys, spec, model):
     p = math.exp(0.5) / (math.exp(0.5) + 7)
     s = share.to_numpy()
     filtered = p * s + (1 - p) / 7 * (s.sum(axis=1, keepdims=True) - s)
-    assert d["observed"]["local"]["value"] == pytest.approx(math.log((filtered.max(1) / filtered.min(1)).max()), rel=1e-12)
+    assert d["observed"]["local"]["value"] == pytest.approx(
+        math.log((filtered.max(1) / filtered.min(1)).max()), rel=1e-12
+    )
     # Any model behind the filter: every bound here is epsilon (g = 1{rank 1} has lower = 0).
     assert d["privacy"]["sensitive"]["epsilon"] == pytest.approx(0.5, rel=1e-15)
     assert d["privacy"]["sensitive"]["keep_probability"] == pytest.approx(p, rel=1e-15)
@@ -111,8 +127,12 @@ def test_certify_target_not_met_exits_1(tmp_path, capsys):
 def test_certify_model_table_by_hand(tmp_path, capsys):
     # Model: always hands the document to HR_2's profile (paper, GPT-4o). Behind binary RR with p = 0.7:
     # P(chosen | HR_2) = 0.7, P(chosen | HR_1) = 0.3 in both contexts, so L = Lbar = ln(7/3).
-    rows = [(doc, off, dec, 1.0 if (off == "HR_2") == (dec == "yes") else 0.0)
-            for doc in ("maternity", "holiday") for off in ("HR_1", "HR_2") for dec in ("yes", "no")]
+    rows = [
+        (doc, off, dec, 1.0 if (off == "HR_2") == (dec == "yes") else 0.0)
+        for doc in ("maternity", "holiday")
+        for off in ("HR_1", "HR_2")
+        for dec in ("yes", "no")
+    ]
     pd.DataFrame(rows, columns=["document", "office", "chosen", "probability"]).to_csv(tmp_path / "k.csv", index=False)
     spec = write(tmp_path, SPEC + '[model]\ntable = "k.csv"\n[target]\nlocal = 0.9\n')
     code, d, _ = run_json(capsys, "certify", spec)
@@ -128,24 +148,54 @@ def test_certify_model_table_by_hand(tmp_path, capsys):
 
 # -- audit -------------------------------------------------------------------------------------------
 
+
 def _records(tmp_path):
     # 2 contexts; in "x0" group a is hired 3/4, b 1/4; in "x1" both 1/2.
-    rows = ([("x0", "a", 1)] * 3 + [("x0", "a", 0)] + [("x0", "b", 1)] + [("x0", "b", 0)] * 3
-            + [("x1", "a", 1), ("x1", "a", 0), ("x1", "b", 1), ("x1", "b", 0)])
+    rows = (
+        [("x0", "a", 1)] * 3
+        + [("x0", "a", 0)]
+        + [("x0", "b", 1)]
+        + [("x0", "b", 0)] * 3
+        + [("x1", "a", 1), ("x1", "a", 0), ("x1", "b", 1), ("x1", "b", 0)]
+    )
     df = pd.DataFrame(rows, columns=["ctx", "grp", "hired"])
     path = tmp_path / "records.csv"
     df.to_csv(path, index=False)
     return path
 
 
-AUDIT_KEYS = ["n", "groups", "contexts", "local.value", "local.interval", "global.value", "global.interval",
-              "demographic_parity", "equalized_odds", "sup_local", "sup_global"]
+AUDIT_KEYS = [
+    "n",
+    "groups",
+    "contexts",
+    "local.value",
+    "local.interval",
+    "global.value",
+    "global.interval",
+    "demographic_parity",
+    "equalized_odds",
+    "sup_local",
+    "sup_global",
+]
 
 
 def test_audit_by_hand(tmp_path, capsys):
     path = _records(tmp_path)
-    code, d, _ = run_json(capsys, "audit", path, "--sensitive", "grp", "--outcome", "hired", "--context", "ctx",
-                          "--positive", "1", "--confidence", "0.9")
+    code, d, _ = run_json(
+        capsys,
+        "audit",
+        path,
+        "--sensitive",
+        "grp",
+        "--outcome",
+        "hired",
+        "--context",
+        "ctx",
+        "--positive",
+        "1",
+        "--confidence",
+        "0.9",
+    )
     assert code == 0
     for key in AUDIT_KEYS:
         _get(d, key)
@@ -189,8 +239,19 @@ def test_audit_compas_matches_pandas(capsys):
     path = SHARED / "compas" / "compas-scores-two-years.csv"
     if not path.is_file():
         pytest.skip("../shared/data/compas is absent")
-    code, d, _ = run_json(capsys, "audit", path, "--sensitive", "race", "--context", "c_charge_degree",
-                          "--outcome", "decile_score", "--utility", "u >= 5")
+    code, d, _ = run_json(
+        capsys,
+        "audit",
+        path,
+        "--sensitive",
+        "race",
+        "--context",
+        "c_charge_degree",
+        "--outcome",
+        "decile_score",
+        "--utility",
+        "u >= 5",
+    )
     df = pd.read_csv(path)
     high = (df["decile_score"] >= 5).astype(float)
     cell = high.groupby([df["c_charge_degree"], df["race"]]).mean().unstack()
@@ -203,6 +264,7 @@ def test_audit_compas_matches_pandas(capsys):
 
 
 # -- calibrate ---------------------------------------------------------------------------------------
+
 
 def test_calibrate_hand_closed_form(capsys):
     # k = 2, g in [0.5, 1]: rho = 1/2, the worst ratio is (2t + 1)/(t + 2); solve (2t + 1)/(t + 2) = e^0.1.
@@ -229,10 +291,18 @@ BAD_SPECS = {
     "unknown mechanism": (SPEC.replace('"randomized_response"', '"laplace"').replace("keep = 0.7", ""), "laplace"),
     "keep out of range": (SPEC.replace("keep = 0.7", "keep = 1.7"), "privacy.sensitive.keep"),
     "unknown field": (SPEC + "[target]\nlocal = 1\nfoo = 2\n", "target.foo"),
-    "matrix rows": (SPEC.replace('mechanism = "randomized_response"\nkeep = 0.7',
-                                 'mechanism = "matrix"\nrows = [[0.5, 0.4], [0.5, 0.5]]'), "sums to 0.9"),
-    "negative entry": (SPEC.replace('mechanism = "randomized_response"\nkeep = 0.7',
-                                    'mechanism = "matrix"\nrows = [[1.5, -0.5], [0.5, 0.5]]'), "negative"),
+    "matrix rows": (
+        SPEC.replace(
+            'mechanism = "randomized_response"\nkeep = 0.7', 'mechanism = "matrix"\nrows = [[0.5, 0.4], [0.5, 0.5]]'
+        ),
+        "sums to 0.9",
+    ),
+    "negative entry": (
+        SPEC.replace(
+            'mechanism = "randomized_response"\nkeep = 0.7', 'mechanism = "matrix"\nrows = [[1.5, -0.5], [0.5, 0.5]]'
+        ),
+        "negative",
+    ),
     "utility decision": (SPEC.replace('decision = "yes"', 'decision = "maybe"'), "maybe"),
     "tau above gamma": (SPEC.replace("tau = 0.25", "tau = 2"), "tau"),
     "bad toml": ("[sensitive\n", "not valid TOML"),
@@ -251,15 +321,23 @@ def test_certify_bad_spec(tmp_path, capsys, name):
     assert out_file.read_text() == "previous report"  # nothing half-written
 
 
-@pytest.mark.parametrize("table,needle", [
-    ("document,office,chosen,probability\nmaternity,HR_1,yes,0.5\nmaternity,HR_1,no,0.4\n", "sums to 0.9"),
-    ("document,office,chosen,probability\nmaternity,HR_9,yes,1\n", "HR_9"),
-    ("document,office,chosen,probability\nmaternity,HR_1,yes,nan\n", "non-negative numbers"),
-    ("document,office,chosen,probability\nmaternity,HR_1,yes,1\nmaternity,HR_1,no,0\n", "no rows (or only zeros) for"),
-    ("document,office,decision,probability\nmaternity,HR_1,yes,1\n", "chosen"),
-])
+@pytest.mark.parametrize(
+    "table,needle",
+    [
+        ("document,office,chosen,probability\nmaternity,HR_1,yes,0.5\nmaternity,HR_1,no,0.4\n", "sums to 0.9"),
+        ("document,office,chosen,probability\nmaternity,HR_9,yes,1\n", "HR_9"),
+        ("document,office,chosen,probability\nmaternity,HR_1,yes,nan\n", "non-negative numbers"),
+        (
+            "document,office,chosen,probability\nmaternity,HR_1,yes,1\nmaternity,HR_1,no,0\n",
+            "no rows (or only zeros) for",
+        ),
+        ("document,office,decision,probability\nmaternity,HR_1,yes,1\n", "chosen"),
+    ],
+)
 def test_certify_bad_model_table(tmp_path, capsys, table, needle):
-    full = "\n".join(f"{d},{o},{c},{0.5}" for d in ("maternity", "holiday") for o in ("HR_1", "HR_2") for c in ("yes", "no"))
+    full = "\n".join(
+        f"{d},{o},{c},{0.5}" for d in ("maternity", "holiday") for o in ("HR_1", "HR_2") for c in ("yes", "no")
+    )
     if "sums to" in needle:
         table = table + "\n".join(line for line in full.splitlines() if not line.startswith("maternity,HR_1")) + "\n"
     (tmp_path / "k.csv").write_text(table)

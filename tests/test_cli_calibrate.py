@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from _cli import OFFICE_SPEC, run, run_json
 
 import fairaudit as fa
-from _cli import OFFICE_SPEC, run, run_json
 from fairaudit.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -20,8 +20,6 @@ CONTRACT = ("epsilon", "keep_probability", "method", "bound")
 EXTRA = ("feasible", "reason", "target", "kind", "mechanism", "groups")
 
 
-
-
 SPEC = OFFICE_SPEC
 
 
@@ -29,10 +27,15 @@ def write_spec(tmp_path, extra="", model=False):
     """The two-office spec of tests/test_cli.py; with ``model`` a table of the model that picks HR_2's profile."""
     text = SPEC + extra
     if model:
-        rows = [(doc, off, dec, 1.0 if (off == "HR_2") == (dec == "yes") else 0.0)
-                for doc in ("maternity", "holiday") for off in ("HR_1", "HR_2") for dec in ("yes", "no")]
-        pd.DataFrame(rows, columns=["document", "office", "chosen", "probability"]).to_csv(tmp_path / "k.csv",
-                                                                                           index=False)
+        rows = [
+            (doc, off, dec, 1.0 if (off == "HR_2") == (dec == "yes") else 0.0)
+            for doc in ("maternity", "holiday")
+            for off in ("HR_1", "HR_2")
+            for dec in ("yes", "no")
+        ]
+        pd.DataFrame(rows, columns=["document", "office", "chosen", "probability"]).to_csv(
+            tmp_path / "k.csv", index=False
+        )
         text += '[model]\ntable = "k.csv"\n'
     p = tmp_path / "spec.toml"
     p.write_text(text)
@@ -40,6 +43,7 @@ def write_spec(tmp_path, extra="", model=False):
 
 
 # -- calibrate ------------------------------------------------------------------------------------------
+
 
 def test_keys_and_hand_value(capsys):
     # k = 8, g in [0.1, 1]: t = (T rho (k-1) + T (1-rho) - rho (k-1)) / (1 - T rho), T = e^0.5
@@ -59,8 +63,7 @@ def test_keys_and_hand_value(capsys):
 
 def test_infeasible_target_exits_1_and_still_reports(capsys):
     # L_A = 0.2, tau = 0.5: the floor is log(1.4) = 0.336472 nats.
-    code, d, _ = run_json(capsys, "calibrate", "--target", 0.1, "--method", "tight", "--tau", 0.5,
-                          "--lipschitz", 0.2)
+    code, d, _ = run_json(capsys, "calibrate", "--target", 0.1, "--method", "tight", "--tau", 0.5, "--lipschitz", 0.2)
     assert code == 1 and d["feasible"] is False and d["epsilon"] is None and d["keep_probability"] is None
     assert d["bound"] == pytest.approx(math.log(1.4), rel=1e-12) and "0.336472" in d["reason"]
     code, out, err = run(capsys, "calibrate", "--target", 0.1, "--method", "paper", "--tau", 0.5, "--lipschitz", 0.2)
@@ -71,12 +74,12 @@ def test_infeasible_target_exits_1_and_still_reports(capsys):
 def test_delta_changes_tight_and_paper(capsys):
     # delta = 0.05, gamma = 1, tau = 0.5: c/tau = 0.1. tight: log(e - 0.1) = 0.962518; paper: 1 - log 1.1 = 0.904690.
     code, d, _ = run_json(capsys, "calibrate", "--target", 1, "--tau", 0.5, "--delta", 0.05)
-    assert code == 0 and d["method"] == "tight" and d["delta"] == 0.05   # --delta makes tight the default
+    assert code == 0 and d["method"] == "tight" and d["delta"] == 0.05  # --delta makes tight the default
     assert d["epsilon"] == pytest.approx(math.log(math.e - 0.1), rel=1e-13)
     code, d, _ = run_json(capsys, "calibrate", "--target", 1, "--tau", 0.5, "--delta", 0.05, "--method", "paper")
     assert d["epsilon"] == pytest.approx(1 - math.log(1.1), rel=1e-13)
     code, d, _ = run_json(capsys, "calibrate", "--target", 1, "--tau", 0.5, "--method", "paper")
-    assert d["epsilon"] == pytest.approx(1.0, rel=1e-13)                 # without delta (and L_A = 0): the target
+    assert d["epsilon"] == pytest.approx(1.0, rel=1e-13)  # without delta (and L_A = 0): the target
     code, d, _ = run_json(capsys, "calibrate", "--target", 1, "--tau", 0.5, "--method", "black_box")
     # black-box with tau: every model has E[g | x, a] in [0.5, 1], a ratio of at most 2 < e: every epsilon works
     assert d["epsilon"] == "inf" and d["bound"] == pytest.approx(math.log(2), rel=1e-9)
@@ -89,28 +92,34 @@ def test_global_flag_and_every_epsilon(capsys):
     assert code == 0 and d["epsilon"] == "inf" and d["keep_probability"] == 1.0
 
 
-@pytest.mark.parametrize("argv,needle", [
-    (["--target", "-1"], "--target: must be a finite non-negative number"),
-    (["--target", "0.5", "--method", "tight"], "--tau: the tight bound needs tau"),
-    (["--target", "0.5", "--delta", "0.1", "--method", "black_box"], "--delta:"),
-    (["--target", "0.5", "--delta", "2", "--tau", "0.5"], "--delta: must be a number in [0, 1] (got 2.0)"),
-    (["--target", "0.5", "--groups", "1"], "--groups: randomized response needs at least 2 groups (got 1)"),
-    (["--target", "0.5", "--lower", "2"], "--lower: must be a number in [0, gamma = 1] (got 2.0)"),
-    (["--target", "0.5", "--tau", "0"], "--tau:"),
-    (["--target", "0.5", "--method", "white_box"], "--spec: the white_box method needs a decision model"),
-    (["--target", "0.5", "--spec", "nosuch.toml"], "--spec: no such file (got 'nosuch.toml')"),
-])
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--target", "-1"], "--target: must be a finite non-negative number"),
+        (["--target", "0.5", "--method", "tight"], "--tau: the tight bound needs tau"),
+        (["--target", "0.5", "--delta", "0.1", "--method", "black_box"], "--delta:"),
+        (["--target", "0.5", "--delta", "2", "--tau", "0.5"], "--delta: must be a number in [0, 1] (got 2.0)"),
+        (["--target", "0.5", "--groups", "1"], "--groups: randomized response needs at least 2 groups (got 1)"),
+        (["--target", "0.5", "--lower", "2"], "--lower: must be a number in [0, gamma = 1] (got 2.0)"),
+        (["--target", "0.5", "--tau", "0"], "--tau:"),
+        (["--target", "0.5", "--method", "white_box"], "--spec: the white_box method needs a decision model"),
+        (["--target", "0.5", "--spec", "nosuch.toml"], "--spec: no such file (got 'nosuch.toml')"),
+    ],
+)
 def test_invalid_input_is_one_line_exit_2(capsys, argv, needle):
     code, out, err = run(capsys, "calibrate", *argv)
     assert code == 2 and out == ""
     assert err.count("\n") == 1 and needle in err and "Traceback" not in err
 
 
-@pytest.mark.parametrize("argv,needle", [
-    (["--target", "x"], "argument --target: invalid float value: 'x'"),
-    (["--target", "0.5", "--method", "exact"], "argument --method: invalid choice: 'exact'"),
-    (["--groups", "2"], "the following arguments are required: --target"),
-])
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--target", "x"], "argument --target: invalid float value: 'x'"),
+        (["--target", "0.5", "--method", "exact"], "argument --method: invalid choice: 'exact'"),
+        (["--groups", "2"], "the following arguments are required: --target"),
+    ],
+)
 def test_usage_errors_are_one_line_exit_2(capsys, argv, needle):
     with pytest.raises(SystemExit) as exc:
         main(["calibrate", *argv])
@@ -134,8 +143,7 @@ def test_spec_with_a_model_uses_white_box(tmp_path, capsys):
     code, d, _ = run_json(capsys, "calibrate", "--target", 0.9, "--spec", spec, "--method", "black_box")
     assert d["method"] == "black_box" and d["epsilon"] == pytest.approx(0.9, rel=1e-12)
     # flags override the spec: --lower 0.5 gives black-box rho = 1/2: t = (2T - 1)/(2 - T) with T = e^0.1
-    code, d, _ = run_json(capsys, "calibrate", "--target", 0.1, "--spec", spec, "--method", "black_box",
-                          "--lower", 0.5)
+    code, d, _ = run_json(capsys, "calibrate", "--target", 0.1, "--spec", spec, "--method", "black_box", "--lower", 0.5)
     big_t = math.exp(0.1)
     assert d["lower"] == 0.5 and d["epsilon"] == pytest.approx(math.log((2 * big_t - 1) / (2 - big_t)), rel=1e-12)
 
@@ -174,7 +182,7 @@ values = [1.0, 0.1]
 
 
 def test_global_with_dependent_population_exits_1(tmp_path, capsys):
-    spec = write_spec(tmp_path, '[population]\nprobabilities = [[0.4, 0.1], [0.1, 0.4]]\n')
+    spec = write_spec(tmp_path, "[population]\nprobabilities = [[0.4, 0.1], [0.1, 0.4]]\n")
     code, d, _ = run_json(capsys, "calibrate", "--target", 0.5, "--spec", spec, "--global")
     assert code == 1 and d["feasible"] is False and "not independent" in d["reason"] and d["bound"] == "inf"
 
@@ -197,6 +205,7 @@ def test_text_markdown_and_output_file(tmp_path, capsys):
 
 # -- certify: the calibration keys ------------------------------------------------------------------------
 
+
 def test_certify_calibration_keys_on_the_gpt_example(capsys):
     code, d, _ = run_json(capsys, "certify", GPT35)
     c = d["calibration"]
@@ -212,12 +221,14 @@ def test_certify_calibration_keys_on_the_gpt_example(capsys):
 
     def worst(eps):
         law = fa.compose(kernel, fa.randomized_response(spec.groups, eps))
-        return max(fa.local_fairness(law, spec.utility, spec.population).value,
-                   fa.global_fairness(law, spec.utility, spec.population).value)
+        return max(
+            fa.local_fairness(law, spec.utility, spec.population).value,
+            fa.global_fairness(law, spec.utility, spec.population).value,
+        )
 
     assert worst(w["epsilon"]) == pytest.approx(0.5, rel=1e-9)
     assert worst(w["epsilon"] * (1 + 1e-6)) > 0.5
-    assert w["epsilon"] >= c["epsilon"]          # the model is fairer than the worst case
+    assert w["epsilon"] >= c["epsilon"]  # the model is fairer than the worst case
 
 
 def test_certify_calibration_skipped_for_group_dependent_utility(tmp_path, capsys):
@@ -237,7 +248,7 @@ def test_certify_calibration_skipped_for_group_dependent_utility(tmp_path, capsy
     code, d, _ = run_json(capsys, "certify", tmp_path / "h.toml")
     c = d["calibration"]
     assert c["method"] == "black_box" and c["feasible"] is False and c["bound"] == pytest.approx(math.log(3), rel=1e-7)
-    (tmp_path / "h.toml").write_text(given + "[target]\nlocal = 1.3\n")   # below the identity's log 4
+    (tmp_path / "h.toml").write_text(given + "[target]\nlocal = 1.3\n")  # below the identity's log 4
     code, d, _ = run_json(capsys, "certify", tmp_path / "h.toml")
     c = d["calibration"]
     assert c["method"] == "black_box" and c["lipschitz"] == 0.5 and c["tau"] == 0.25

@@ -8,12 +8,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _cli import run, run_json
 from scipy.stats import binomtest
 
 import fairaudit as fa
 from fairaudit.intervals import fairness_intervals
-
-from _cli import run, run_json
 
 ROOT = Path(__file__).resolve().parents[1]
 GPT35 = ROOT / "examples" / "llm_hiring" / "gpt35.toml"
@@ -25,7 +24,7 @@ def num(v):
 
 def _records(tmp_path):
     # one context; a: 12 of 40 selected, b: 30 of 40, c: 20 of 40
-    rows = ([("a", 1)] * 12 + [("a", 0)] * 28 + [("b", 1)] * 30 + [("b", 0)] * 10 + [("c", 1)] * 20 + [("c", 0)] * 20)
+    rows = [("a", 1)] * 12 + [("a", 0)] * 28 + [("b", 1)] * 30 + [("b", 0)] * 10 + [("c", 1)] * 20 + [("c", 0)] * 20
     path = tmp_path / "r.csv"
     pd.DataFrame(rows, columns=["grp", "y"]).to_csv(path, index=False)
     return path
@@ -37,15 +36,16 @@ def _cp(k, n, level):
 
 
 def test_audit_confidence_fills_every_interval_by_hand(tmp_path, capsys):
-    code, d, _ = run_json(capsys, "audit", _records(tmp_path), "--sensitive", "grp", "--outcome", "y",
-                          "--confidence", "0.9")
+    code, d, _ = run_json(
+        capsys, "audit", _records(tmp_path), "--sensitive", "grp", "--outcome", "y", "--confidence", "0.9"
+    )
     assert code == 0
     # one context: 3 cells share alpha = 0.1 (the groups are the cells, not counted twice)
     level = 1 - 0.1 / 3
     (la, ha), (lb, hb), (lc, hc) = _cp(12, 40, level), _cp(30, 40, level), _cp(20, 40, level)
     lo, hi = d["local"]["interval"]
-    assert hi == pytest.approx(math.log(hb / la), rel=1e-7)           # b over a at the far corners
-    assert lo == pytest.approx(math.log(lb / ha), rel=1e-7)           # b's floor over a's ceiling
+    assert hi == pytest.approx(math.log(hb / la), rel=1e-7)  # b over a at the far corners
+    assert lo == pytest.approx(math.log(lb / ha), rel=1e-7)  # b's floor over a's ceiling
     assert d["global"]["interval"] == pytest.approx([lo, hi], rel=1e-12)
     iv = d["intervals"]
     assert (iv["method"], iv["confidence"], iv["sets"]) == ("clopper-pearson", 0.9, 3)
@@ -59,8 +59,21 @@ def test_audit_confidence_fills_every_interval_by_hand(tmp_path, capsys):
 
 @pytest.mark.parametrize("method", ["multinomial", "bayes"])
 def test_audit_method_names_itself_and_covers_the_estimate(tmp_path, capsys, method):
-    code, d, _ = run_json(capsys, "audit", _records(tmp_path), "--sensitive", "grp", "--outcome", "y",
-                          "--confidence", "0.95", "--method", method, "--seed", "3")
+    code, d, _ = run_json(
+        capsys,
+        "audit",
+        _records(tmp_path),
+        "--sensitive",
+        "grp",
+        "--outcome",
+        "y",
+        "--confidence",
+        "0.95",
+        "--method",
+        method,
+        "--seed",
+        "3",
+    )
     assert code == 0 and d["intervals"]["method"] == method
     lo, hi = d["local"]["interval"]
     assert lo < math.log(30 / 12) < num(hi)
@@ -69,7 +82,9 @@ def test_audit_method_names_itself_and_covers_the_estimate(tmp_path, capsys, met
 
 
 def test_audit_text_shows_intervals(tmp_path, capsys):
-    code, out, _ = run(capsys, "audit", _records(tmp_path), "--sensitive", "grp", "--outcome", "y", "--confidence", "0.9")
+    code, out, _ = run(
+        capsys, "audit", _records(tmp_path), "--sensitive", "grp", "--outcome", "y", "--confidence", "0.9"
+    )
     assert code == 0 and "intervals: simultaneous 0.9 (clopper-pearson)" in out
     assert out.count("interval [") == 6
 
@@ -78,19 +93,46 @@ def test_audit_method_needs_confidence_and_bad_values_exit_2(tmp_path, capsys):
     path = _records(tmp_path)
     code, out, err = run(capsys, "audit", path, "--sensitive", "grp", "--outcome", "y", "--method", "bayes")
     assert code == 2 and "--method" in err and "--confidence" in err and len(err.strip().splitlines()) == 1
-    code, _, err = run(capsys, "audit", path, "--sensitive", "grp", "--outcome", "y", "--confidence", "0.9",
-                       "--method", "bayes", "--draws", "10")
+    code, _, err = run(
+        capsys,
+        "audit",
+        path,
+        "--sensitive",
+        "grp",
+        "--outcome",
+        "y",
+        "--confidence",
+        "0.9",
+        "--method",
+        "bayes",
+        "--draws",
+        "10",
+    )
     assert code == 2 and "draws" in err
-    code, _, err = run(capsys, "audit", path, "--sensitive", "grp", "--outcome", "y", "--utility", "2 * u",
-                       "--confidence", "0.9", "--method", "clopper-pearson")
+    code, _, err = run(
+        capsys,
+        "audit",
+        path,
+        "--sensitive",
+        "grp",
+        "--outcome",
+        "y",
+        "--utility",
+        "2 * u",
+        "--confidence",
+        "0.9",
+        "--method",
+        "clopper-pearson",
+    )
     assert code == 2 and "clopper-pearson needs a 0/1 utility" in err
 
 
 def test_audit_bounded_utility_uses_multinomial(tmp_path, capsys):
     path = tmp_path / "s.csv"
     pd.DataFrame({"grp": ["a"] * 30 + ["b"] * 30, "score": [0, 1, 2] * 20}).to_csv(path, index=False)
-    code, d, _ = run_json(capsys, "audit", path, "--sensitive", "grp", "--outcome", "score", "--utility", "u / 2",
-                          "--confidence", "0.95")
+    code, d, _ = run_json(
+        capsys, "audit", path, "--sensitive", "grp", "--outcome", "score", "--utility", "u / 2", "--confidence", "0.95"
+    )
     assert code == 0 and d["intervals"]["method"] == "multinomial"
     # identical groups: the estimate is 0 and the interval's lower end is 0
     assert d["local"]["value"] == 0 and d["local"]["interval"][0] == 0
@@ -103,8 +145,9 @@ def test_certify_from_counts_reports_white_box_interval(capsys):
     spec = fa.load_spec(GPT35)
     k = spec.kernel()
     table = fa.CountTable(k.counts, k.contexts, k.groups, k.decisions, ("job",), ("demo",), "rank")
-    ref = fairness_intervals(table, spec.utility, 0.95, sensitive_mechanism=spec.sensitive_mechanism,
-                             population=spec.population)
+    ref = fairness_intervals(
+        table, spec.utility, 0.95, sensitive_mechanism=spec.sensitive_mechanism, population=spec.population
+    )
     assert obs["local"]["interval"] == pytest.approx([ref.local.lower, ref.local.upper], rel=1e-12)
     assert obs["intervals"]["filtered"] is True and obs["intervals"]["method"] == "clopper-pearson"
     # the filtered certificate is far tighter than the model's own interval, and both cover their estimates
@@ -119,7 +162,7 @@ def test_certify_confidence_and_method_flags(capsys):
     code, d, _ = run_json(capsys, "certify", GPT35, "--confidence", "0.8", "--method", "multinomial")
     iv = d["observed"]["intervals"]
     assert (iv["confidence"], iv["method"]) == (0.8, "multinomial")
-    assert iv["demographic_parity"] is not None       # multinomial bounds U's whole distribution
+    assert iv["demographic_parity"] is not None  # multinomial bounds U's whole distribution
     with pytest.raises(SystemExit) as exc:
         run(capsys, "certify", GPT35, "--confidence", "1.5")
     assert exc.value.code == 2 and "--confidence" in capsys.readouterr().err

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-
 from _cli import run
+
 from fairaudit.cli import main
 from fairaudit.curves import COLUMNS
 
@@ -41,7 +41,6 @@ local = {target}
 """
 
 KERNEL = "office,outcome,probability\nHR_1,chosen,0\nHR_1,not chosen,1\nHR_2,chosen,1\nHR_2,not chosen,0\n"
-
 
 
 @pytest.fixture
@@ -76,8 +75,7 @@ def test_svg_is_a_valid_svg_document_with_labelled_axes(capsys, spec, tmp_path):
 
 def test_csv_columns_and_the_row_at_the_spec_epsilon_equal_the_certificate(capsys, spec, tmp_path):
     csv = tmp_path / "curve.csv"
-    code, out, err = run(capsys, "certify", spec, "--plot-data", csv, "--format", "json",
-                         "--epsilons", "0:2:21")
+    code, out, err = run(capsys, "certify", spec, "--plot-data", csv, "--format", "json", "--epsilons", "0:2:21")
     assert code == 0
     cert = json.loads(out)
     frame = pd.read_csv(csv)
@@ -131,10 +129,13 @@ def test_bad_suffix_exits_2_with_one_line(capsys, spec, tmp_path, name):
     assert not (tmp_path / name).exists()
 
 
-@pytest.mark.parametrize("flag, value, message", [
-    ("--plot", "missing/curve.svg", "fairaudit: error: --plot: folder does not exist (got 'missing')"),
-    ("--plot-data", "missing/curve.csv", "fairaudit: error: --plot-data: folder does not exist (got 'missing')"),
-])
+@pytest.mark.parametrize(
+    "flag, value, message",
+    [
+        ("--plot", "missing/curve.svg", "fairaudit: error: --plot: folder does not exist (got 'missing')"),
+        ("--plot-data", "missing/curve.csv", "fairaudit: error: --plot-data: folder does not exist (got 'missing')"),
+    ],
+)
 def test_missing_folder_exits_2(capsys, spec, monkeypatch, tmp_path, flag, value, message):
     monkeypatch.chdir(tmp_path)
     code, out, err = run(capsys, "certify", spec, flag, value)
@@ -154,8 +155,9 @@ def test_bad_epsilons_exit_2(capsys, spec, tmp_path, grid):
 def test_epsilons_without_plot_exits_2(capsys, spec):
     code, out, err = run(capsys, "certify", spec, "--epsilons", "0:1:3")
     assert code == 2 and out == ""
-    assert err.strip() == ("fairaudit: error: --epsilons: is the grid of the curve: give --plot FILE or "
-                           "--plot-data FILE.csv too")
+    assert err.strip() == (
+        "fairaudit: error: --epsilons: is the grid of the curve: give --plot FILE or --plot-data FILE.csv too"
+    )
 
 
 def test_missing_matplotlib_is_a_clear_error(capsys, spec, tmp_path, monkeypatch):
@@ -164,5 +166,6 @@ def test_missing_matplotlib_is_a_clear_error(capsys, spec, tmp_path, monkeypatch
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib -> ImportError
     code, out, err = run(capsys, "certify", spec, "--plot", tmp_path / "curve.png")
     assert code == 2 and out == ""
-    assert err.strip() == ("fairaudit: error: --plot: needs matplotlib, which is not installed: "
-                           "pip install 'fairaudit[plot]'")
+    assert err.strip() == (
+        "fairaudit: error: --plot: needs matplotlib, which is not installed: pip install 'fairaudit[plot]'"
+    )

@@ -24,8 +24,9 @@ from hypothesis import strategies as st
 pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
 
-import fairaudit as fa  # noqa: E402
 from _cli import run, run_json  # noqa: E402
+
+import fairaudit as fa  # noqa: E402
 from fairaudit import InputError, count_file, count_records, count_table, read_records  # noqa: E402
 
 
@@ -59,12 +60,16 @@ def assert_identical(a, b):
         assert la == lb, axis
         assert _types(la) == _types(lb), axis
     assert (a.context_columns, a.sensitive_columns, a.outcome_column) == (
-        b.context_columns, b.sensitive_columns, b.outcome_column)
+        b.context_columns,
+        b.sensitive_columns,
+        b.outcome_column,
+    )
     assert a.counts.dtype == b.counts.dtype == np.int64
     assert a.counts.tolist() == b.counts.tolist()
 
 
 # ---------------------------------------------------------------- records of every dtype, with nulls and NaN
+
 
 def _column(draw, kind, n):
     """One column of n values of a dtype (pandas side), with missing values sometimes."""
@@ -104,9 +109,12 @@ def records(draw):
     n_sens = draw(st.integers(1, 2))
     n_ctx = draw(st.integers(0, len(names) - 1 - n_sens))
     sensitive, outcome = list(roles[:n_sens]), roles[n_sens]
-    context = list(roles[n_sens + 1:n_sens + 1 + n_ctx])
-    return frame, dict(sensitive=sensitive, outcome=outcome, context=context, dropna=draw(st.booleans())), \
-        draw(st.sampled_from([3, 7, 1000]))
+    context = list(roles[n_sens + 1 : n_sens + 1 + n_ctx])
+    return (
+        frame,
+        dict(sensitive=sensitive, outcome=outcome, context=context, dropna=draw(st.booleans())),
+        draw(st.sampled_from([3, 7, 1000])),
+    )
 
 
 @settings(suppress_health_check=[HealthCheck.too_slow], max_examples=150)
@@ -131,11 +139,15 @@ def test_streamed_counts_identical_to_pandas(case):
 
 def test_hand_counted_parquet_with_tuple_labels(tmp_path):
     # 3 contexts (two columns), 2 x 2 groups, 2 decisions: fixed by hand
-    df = pd.DataFrame({"site": ["n", "n", "s", "s", "s", "n", "s", "n"],
-                       "year": [2023, 2024, 2023, 2023, 2023, 2023, 2023, 2024],
-                       "race": ["b", "a", "a", "b", "a", "a", "a", "a"],
-                       "sex": ["w", "m", "m", "m", "m", "w", "w", "m"],
-                       "hired": [True, False, True, True, False, True, True, True]})
+    df = pd.DataFrame(
+        {
+            "site": ["n", "n", "s", "s", "s", "n", "s", "n"],
+            "year": [2023, 2024, 2023, 2023, 2023, 2023, 2023, 2024],
+            "race": ["b", "a", "a", "b", "a", "a", "a", "a"],
+            "sex": ["w", "m", "m", "m", "m", "w", "w", "m"],
+            "hired": [True, False, True, True, False, True, True, True],
+        }
+    )
     path = tmp_path / "r.parquet"
     df.to_parquet(path, row_group_size=3)
     t = count_file(path, sensitive=["race", "sex"], outcome="hired", context=["site", "year"])
@@ -174,10 +186,14 @@ def test_categorical_with_different_dictionaries_per_row_group(tmp_path):
     path = tmp_path / "cat.parquet"
     kind = pa.dictionary(pa.int32(), pa.string())
     with pq.ParquetWriter(path, pa.schema([("c", kind), ("y", pa.int64())])) as w:
-        w.write_table(pa.table({"c": pa.DictionaryArray.from_arrays(pa.array([0, 1, 0], pa.int32()), ["q", "b"]),
-                                "y": [1, 0, 1]}))
-        w.write_table(pa.table({"c": pa.DictionaryArray.from_arrays(pa.array([0, 1, None], pa.int32()), ["a", "b"]),
-                                "y": [0, 0, 1]}))
+        w.write_table(
+            pa.table({"c": pa.DictionaryArray.from_arrays(pa.array([0, 1, 0], pa.int32()), ["q", "b"]), "y": [1, 0, 1]})
+        )
+        w.write_table(
+            pa.table(
+                {"c": pa.DictionaryArray.from_arrays(pa.array([0, 1, None], pa.int32()), ["a", "b"]), "y": [0, 0, 1]}
+            )
+        )
     assert list(read_records(path)["c"].cat.categories) == ["q", "b", "a"]  # pandas: categories in order met
     t = count_file(path, sensitive="c", outcome="y", dropna=True)
     assert (t.groups, t.counts.tolist()) == (("q", "b", "a"), [[[0, 2], [2, 0], [1, 0]]])
@@ -199,14 +215,17 @@ def test_folder_of_parquet_files(tmp_path):
 
 # ---------------------------------------------------------------- errors
 
+
 def test_unknown_column_names_the_flag_and_lists_the_schema(tmp_path):
     df = pd.DataFrame({"g": ["a", "b"], "y": [0, 1], "x": [1, 2]}, index=pd.Index([5, 6], name="rowid"))
     path = tmp_path / "r.parquet"
     df.to_parquet(path)  # the index is stored as a column 'rowid'; pandas reads it back as the index
-    for flag, kw in (("--sensitive", dict(sensitive=["nope"], outcome="y")),
-                     ("--outcome", dict(sensitive=["g"], outcome="nope")),
-                     ("--context", dict(sensitive=["g"], outcome="y", context=["nope"])),
-                     ("--sensitive", dict(sensitive=["rowid"], outcome="y"))):
+    for flag, kw in (
+        ("--sensitive", dict(sensitive=["nope"], outcome="y")),
+        ("--outcome", dict(sensitive=["g"], outcome="nope")),
+        ("--context", dict(sensitive=["g"], outcome="y", context=["nope"])),
+        ("--sensitive", dict(sensitive=["rowid"], outcome="y")),
+    ):
         err = streamed(path, **kw)
         bad = {"--sensitive": kw["sensitive"][0], "--outcome": kw["outcome"], "--context": "nope"}[flag]
         assert str(err) == f"{flag}: unknown column; the data has: g, y, x (got {bad!r})"
@@ -216,7 +235,8 @@ def test_unknown_column_names_the_flag_and_lists_the_schema(tmp_path):
 
 def test_file_errors(tmp_path):
     assert str(streamed(tmp_path / "none.parquet", sensitive="g", outcome="y")) == (
-        f"DATA: no such file (got {str(tmp_path / 'none.parquet')!r})")
+        f"DATA: no such file (got {str(tmp_path / 'none.parquet')!r})"
+    )
     bad = tmp_path / "bad.parquet"
     bad.write_text("not parquet\n")
     err = streamed(bad, sensitive="g", outcome="y")
@@ -233,18 +253,26 @@ def test_csv_is_counted_by_pandas(tmp_path):
     path = tmp_path / "r.csv"
     df.to_csv(path, index=False)
     assert str(streamed(path, sensitive="g", outcome="y")) == (
-        "column 'g': has 1 missing values (drop those rows: --dropna, or dropna=True)")
+        "column 'g': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+    )
     t = count_file(path, sensitive="g", outcome="y", dropna=True)
     assert (t.groups, t.counts.tolist()) == (("a", "b"), [[[0, 1], [1, 1]]])
 
 
 # ---------------------------------------------------------------- count tables (count=COL)
 
+
 def _records_frame():
     rng = np.random.default_rng(5)
     n = 500
-    return pd.DataFrame({"ctx": rng.choice(["p", "q", "r"], n), "grp": rng.choice(["a", "b", "c"], n),
-                         "sex": rng.choice(["m", "w"], n), "decision": rng.choice([0, 1, 2], n)})
+    return pd.DataFrame(
+        {
+            "ctx": rng.choice(["p", "q", "r"], n),
+            "grp": rng.choice(["a", "b", "c"], n),
+            "sex": rng.choice(["m", "w"], n),
+            "decision": rng.choice([0, 1, 2], n),
+        }
+    )
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
@@ -259,8 +287,13 @@ def test_count_table_file_equals_records(tmp_path, suffix):
 
 
 def test_count_table_from_sqlite_group_by_with_nulls(tmp_path):
-    df = pd.DataFrame({"ctx": ["p", "p", "q", "q", "q", None, "p"], "grp": ["a", "b", "a", None, "a", "b", "b"],
-                       "y": [1, 0, 1, 1, 0, 1, 0]})
+    df = pd.DataFrame(
+        {
+            "ctx": ["p", "p", "q", "q", "q", None, "p"],
+            "grp": ["a", "b", "a", None, "a", "b", "b"],
+            "y": [1, 0, 1, 1, 0, 1, 0],
+        }
+    )
     con = sqlite3.connect(":memory:")
     df.to_sql("records", con, index=False)
     agg = pd.read_sql("SELECT ctx, grp, y, COUNT(*) AS n FROM records GROUP BY ctx, grp, y", con)
@@ -290,9 +323,11 @@ def test_count_table_errors(tmp_path):
     assert err.field == "count table" and "twice" in str(err) and "'g': 'a'" in str(err) and "'n': 2" in str(err)
     pd.DataFrame({"g": ["a", "b"], "y": [1, 0], "n": [3, -1]}).to_csv(path, index=False)
     assert str(streamed(path, sensitive="g", outcome="y", count="n")) == (
-        "column 'n': must hold non-negative numbers (got np.int64(-1))")
+        "column 'n': must hold non-negative numbers (got np.int64(-1))"
+    )
     assert str(streamed(path, sensitive="g", outcome="y", count="count")) == (
-        "--count: unknown column; the data has: g, y, n (got 'count')")
+        "--count: unknown column; the data has: g, y, n (got 'count')"
+    )
     assert str(streamed(path, sensitive="h", outcome="y", count="n")).startswith("--sensitive: unknown column")
 
 
@@ -309,6 +344,7 @@ def test_count_table_null_rows_weigh_their_counts():
 
 # ---------------------------------------------------------------- audit() of a CountTable
 
+
 def test_audit_of_a_count_table_equals_audit_of_records():
     df = _records_frame()
     kw = dict(sensitive=["grp"], outcome="decision", context=["ctx"])
@@ -320,14 +356,17 @@ def test_audit_of_a_count_table_equals_audit_of_records():
         assert (r.intervals.local.lower, r.intervals.local.upper) == (a.intervals.local.lower, a.intervals.local.upper)
     t = count_records(df, **kw)
     assert str(_err(fa.audit, t, sensitive=["sex"])) == (
-        "--sensitive: does not match the count table, whose column(s) are [grp] (got 'sex')")
+        "--sensitive: does not match the count table, whose column(s) are [grp] (got 'sex')"
+    )
     assert str(_err(fa.audit, t, outcome="y")).startswith("--outcome: does not match the count table")
     assert str(_err(fa.audit, t, context=[])) == (
-        "--context: does not match the count table, whose column(s) are [ctx] (got '')")
+        "--context: does not match the count table, whose column(s) are [ctx] (got '')"
+    )
     assert str(_err(fa.audit, df, outcome="decision")) == "--sensitive: name at least one column"
 
 
 # ---------------------------------------------------------------- the command line
+
 
 def _write_both(tmp_path, df):
     csv, parquet = tmp_path / "r.csv", tmp_path / "r.parquet"
@@ -340,8 +379,20 @@ def _write_both(tmp_path, df):
 def test_cli_parquet_output_equals_csv_output(tmp_path, capsys, fmt):
     df = _records_frame()
     csv, parquet = _write_both(tmp_path, df)
-    args = ["--sensitive", "grp,sex", "--context", "ctx", "--outcome", "decision", "--utility", "u >= 1",
-            "--confidence", "0.9", "--format", fmt]
+    args = [
+        "--sensitive",
+        "grp,sex",
+        "--context",
+        "ctx",
+        "--outcome",
+        "decision",
+        "--utility",
+        "u >= 1",
+        "--confidence",
+        "0.9",
+        "--format",
+        fmt,
+    ]
     code_c, out_c, _ = run(capsys, "audit", csv, *args)
     code_p, out_p, _ = run(capsys, "audit", parquet, *args)
     assert code_c == code_p == 0 and out_p == out_c
@@ -366,8 +417,10 @@ def test_cli_bad_input_is_one_line_exit_2(tmp_path, capsys):
     df = pd.DataFrame({"g": ["a", None, "b"], "y": [1, 0, 1]})
     _, parquet = _write_both(tmp_path, df)
     for argv, needle in (
-        (["--sensitive", "race", "--outcome", "y"],
-         "fairaudit: error: --sensitive: unknown column; the data has: g, y (got 'race')"),
+        (
+            ["--sensitive", "race", "--outcome", "y"],
+            "fairaudit: error: --sensitive: unknown column; the data has: g, y (got 'race')",
+        ),
         (["--sensitive", "g", "--outcome", "y"], "fairaudit: error: column 'g': has 1 missing values"),
         (["--sensitive", "g", "--outcome", "y", "--count", "n"], "fairaudit: error: --count: unknown column"),
     ):

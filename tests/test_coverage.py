@@ -36,11 +36,11 @@ bench = _load("bench_coverage")
 Scenario = bench.Scenario
 
 SCENARIOS = (
-    Scenario("bin 1x2 n20 mid", 1, 2, 2, 20, "mid"),          # small counts: per-cell counts random, some tiny
-    Scenario("bin 3x4 n20 low", 3, 4, 2, 20, "low"),          # P near 0.02, many zero counts, infinite upper ends
-    Scenario("bin 2x3 n500 high", 2, 3, 2, 500, "high"),      # P near 0.98, large counts
-    Scenario("bin 1x2 n500 fair", 1, 2, 2, 500, "fair"),      # truth L = 0 on the boundary
-    Scenario("cat4 2x3 n100 mid", 2, 3, 4, 100, "mid"),       # bounded utility over 4 outcomes (multinomial, bayes)
+    Scenario("bin 1x2 n20 mid", 1, 2, 2, 20, "mid"),  # small counts: per-cell counts random, some tiny
+    Scenario("bin 3x4 n20 low", 3, 4, 2, 20, "low"),  # P near 0.02, many zero counts, infinite upper ends
+    Scenario("bin 2x3 n500 high", 2, 3, 2, 500, "high"),  # P near 0.98, large counts
+    Scenario("bin 1x2 n500 fair", 1, 2, 2, 500, "fair"),  # truth L = 0 on the boundary
+    Scenario("cat4 2x3 n100 mid", 2, 3, 4, 100, "mid"),  # bounded utility over 4 outcomes (multinomial, bayes)
 )
 
 
@@ -57,7 +57,7 @@ def _floor(n: int) -> float:
 @pytest.mark.parametrize("metric", ["local", "global", "simultaneous"])
 def test_guaranteed_methods_cover(rows, method, metric):
     p, _, n = bench.coverage(rows, method=method, metric=metric)
-    expected = N_DATASETS * 4 // 5 if method == "clopper-pearson" else N_DATASETS   # clopper-pearson: binary only
+    expected = N_DATASETS * 4 // 5 if method == "clopper-pearson" else N_DATASETS  # clopper-pearson: binary only
     assert n == expected
     assert p >= _floor(n), f"{method} {metric}: coverage {p:.3f} over {n} datasets < {_floor(n):.3f}"
 

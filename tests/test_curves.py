@@ -44,8 +44,9 @@ def released_group_kernel(groups, favoured, contexts=("all",)) -> Kernel:
 def test_binary_randomized_response_and_the_released_group_model_give_L_equal_to_epsilon():
     """Hand calculation: P(chosen | b) = p, P(chosen | a) = 1 - p with p = e^ε/(1+e^ε), so L = log(p/(1-p)) = ε."""
     fam = randomized_response_family(["a", "b"])
-    c = privacy_curve(family=fam, epsilons=GRID, kernel=released_group_kernel(["a", "b"], "b"), utility=CHOSEN,
-                      tau=0.01)
+    c = privacy_curve(
+        family=fam, epsilons=GRID, kernel=released_group_kernel(["a", "b"], "b"), utility=CHOSEN, tau=0.01
+    )
     p = np.exp(GRID) / (1 + np.exp(GRID))
     by_hand = np.log(p / (1 - p))
     np.testing.assert_allclose(c.epsilon, GRID)
@@ -64,8 +65,12 @@ def test_binary_randomized_response_and_the_released_group_model_give_L_equal_to
 def test_exact_fractions_at_keep_probability_seven_tenths():
     """p = 7/10: P(chosen | b) / P(chosen | a) = (7/10) / (3/10) = 7/3 exactly."""
     eps = math.log(Fraction(7, 3))
-    c = privacy_curve(family=randomized_response_family(["a", "b"]), epsilons=[eps],
-                      kernel=released_group_kernel(["a", "b"], "b"), utility=CHOSEN)
+    c = privacy_curve(
+        family=randomized_response_family(["a", "b"]),
+        epsilons=[eps],
+        kernel=released_group_kernel(["a", "b"], "b"),
+        utility=CHOSEN,
+    )
     assert math.exp(c.observed_local[0]) == pytest.approx(7 / 3, rel=1e-12)
     assert c.keep_probability[0] == pytest.approx(0.7, rel=1e-12)
     assert np.isnan(c.paper[0]) and np.isnan(c.tight[0])  # no τ: the main theorem does not apply
@@ -74,8 +79,13 @@ def test_exact_fractions_at_keep_probability_seven_tenths():
 def test_three_groups_ratio_is_e_to_the_epsilon():
     """3-ary: P(chosen | a0) = e^ε/(e^ε+2), P(chosen | a1) = 1/(e^ε+2); ratio e^ε."""
     groups = ["a0", "a1", "a2"]
-    c = privacy_curve(family=randomized_response_family(groups), epsilons=GRID,
-                      kernel=released_group_kernel(groups, "a0"), utility=CHOSEN, tau=0.05)
+    c = privacy_curve(
+        family=randomized_response_family(groups),
+        epsilons=GRID,
+        kernel=released_group_kernel(groups, "a0"),
+        utility=CHOSEN,
+        tau=0.05,
+    )
     np.testing.assert_allclose(c.observed_local, GRID, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(c.min_expected_utility, 1 / (np.exp(GRID) + 2), rtol=1e-12)
     ok = c.tau_holds
@@ -90,7 +100,7 @@ def test_hr_example_observed_L_is_three_log_odds_and_tau_fails_where_hand_calcul
     p = 1 / (1 + np.exp(-c.epsilon / 3))
     np.testing.assert_allclose(c.observed_local, 3 * np.log(p / (1 - p)), rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(c.observed_global, 3 * np.log(p / (1 - p)), rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(c.keep_probability, p ** 3, rtol=1e-12)
+    np.testing.assert_allclose(c.keep_probability, p**3, rtol=1e-12)
     np.testing.assert_allclose(c.min_expected_utility, (1 - p) ** 3, rtol=1e-9)
     # τ = 0.02 holds iff (1 - p)^3 >= 0.02, i.e. ε <= 3 ln(p*/(1-p*)) with p* = 1 - 0.02^(1/3)
     p_star = 1 - 0.02 ** (1 / 3)
@@ -139,8 +149,7 @@ def test_order_of_bounds_along_the_curve(kg, tau):
     """tight ≤ paper; observed L ≤ black-box where τ holds; L̄ ≤ L; every bound non-decreasing in ε."""
     kernel, groups = kg
     grid = np.linspace(0.0, 3.0, 7)
-    c = privacy_curve(family=randomized_response_family(groups), epsilons=grid, kernel=kernel, utility=CHOSEN,
-                      tau=tau)
+    c = privacy_curve(family=randomized_response_family(groups), epsilons=grid, kernel=kernel, utility=CHOSEN, tau=tau)
     ok = c.tau_holds & np.isfinite(c.observed_local)
     assert np.all(c.black_box[ok] >= c.observed_local[ok] - 1e-7)
     assert np.all(c.observed_global[ok] <= c.observed_local[ok] + 1e-9)
@@ -187,8 +196,23 @@ def test_csv_round_trip(tmp_path):
 def test_csv_writes_inf_and_nan():
     arr = np.array([0.0, 1.0, math.inf])
     nan = np.full(3, math.nan)
-    c = PrivacyCurve(np.array([0.0, 1.0, 2.0]), np.array([0.5, 0.6, 0.7]), nan, nan, arr, arr, nan, nan,
-                     nan, "f", ("a", "b"), 1.0, 0.0, None, 0.0)
+    c = PrivacyCurve(
+        np.array([0.0, 1.0, 2.0]),
+        np.array([0.5, 0.6, 0.7]),
+        nan,
+        nan,
+        arr,
+        arr,
+        nan,
+        nan,
+        nan,
+        "f",
+        ("a", "b"),
+        1.0,
+        0.0,
+        None,
+        0.0,
+    )
     text = c.to_frame().to_csv(index=False)
     assert ",inf," in text
     frame = c.to_frame()
@@ -202,9 +226,11 @@ def test_without_tau_paper_and_tight_are_nan_but_black_box_is_not():
 
 
 def test_matrix_mechanism_is_marked_off_the_family():
-    spec = parse_spec('[sensitive]\nname = "a"\nvalues = ["x", "y"]\n[decision]\nname = "u"\nvalues = ["yes", "no"]\n'
-                      '[privacy.sensitive]\nmechanism = "matrix"\nrows = [[0.9, 0.1], [0.2, 0.8]]\n'
-                      '[utility]\ndecision = "yes"\ntau = 0.1\n')
+    spec = parse_spec(
+        '[sensitive]\nname = "a"\nvalues = ["x", "y"]\n[decision]\nname = "u"\nvalues = ["yes", "no"]\n'
+        '[privacy.sensitive]\nmechanism = "matrix"\nrows = [[0.9, 0.1], [0.2, 0.8]]\n'
+        '[utility]\ndecision = "yes"\ntau = 0.1\n'
+    )
     c = privacy_curve(spec, epsilons=[0.0, 1.0])
     assert c.spec_epsilon == pytest.approx(math.log(8))  # 0.8 / 0.1 and c.spec_on_family is False
 
@@ -223,11 +249,13 @@ def test_errors_are_one_line_input_errors():
     with pytest.raises(InputError, match="utility: is needed"):
         privacy_curve(family=fam, kernel=released_group_kernel(["a", "b"], "b"))
     with pytest.raises(InputError, match="kernel: mechanism"):
-        privacy_curve(family=randomized_response_family(["c", "d"]), kernel=released_group_kernel(["a", "b"], "b"),
-                      utility=CHOSEN)
+        privacy_curve(
+            family=randomized_response_family(["c", "d"]), kernel=released_group_kernel(["a", "b"], "b"), utility=CHOSEN
+        )
     with pytest.raises(InputError, match="tau"):
         privacy_curve(family=fam, tau=2.0)
-    one = parse_spec('[sensitive]\nname = "a"\nvalues = ["x"]\n[decision]\nname = "u"\nvalues = [1, 0]\n'
-                     '[utility]\ndecision = 1\n')
+    one = parse_spec(
+        '[sensitive]\nname = "a"\nvalues = ["x"]\n[decision]\nname = "u"\nvalues = [1, 0]\n[utility]\ndecision = 1\n'
+    )
     with pytest.raises(InputError, match="needs at least 2 groups"):
         privacy_curve(one)

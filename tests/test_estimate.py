@@ -16,8 +16,14 @@ from fairaudit.intervals import fairness_intervals
 
 def test_counts_match_pandas_crosstab():
     rng = np.random.default_rng(3)
-    df = pd.DataFrame({"x": rng.choice(["p", "q", "r"], 1000), "a": rng.choice([3, 1, 2], 1000),
-                       "b": rng.choice(["M", "W"], 1000), "u": rng.choice([0, 1, 2], 1000)})
+    df = pd.DataFrame(
+        {
+            "x": rng.choice(["p", "q", "r"], 1000),
+            "a": rng.choice([3, 1, 2], 1000),
+            "b": rng.choice(["M", "W"], 1000),
+            "u": rng.choice([0, 1, 2], 1000),
+        }
+    )
     t = count_records(df, sensitive=["a", "b"], outcome="u", context=["x"])
     ref = df.groupby(["x", "a", "b", "u"]).size()
     assert t.groups == ((1, "M"), (1, "W"), (2, "M"), (2, "W"), (3, "M"), (3, "W"))

@@ -19,11 +19,11 @@ import time
 from pathlib import Path
 
 import pytest
-
 from _chat_server import ChatServer
 from _cli import run
+
 from fairaudit.plugins.vlm.models import Query, simulated_model
-from fairaudit.plugins.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
+from fairaudit.plugins.vlm.tasks import PACKAGE_DELIVERY
 
 
 def _responder(task, name):
@@ -50,15 +50,50 @@ def _kernel(folder: Path) -> str:
 def test_endpoint_run_equals_the_simulated_model_through_retries(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("OPENAI_API_KEY", "sk-test-secret-123")
     faults = [("status", 429, {"Retry-After": "0"}), ("status", 500), ("sleep", 1.0), ("drop",), ("status", 503)]
-    with ChatServer(_responder(PACKAGE_DELIVERY, "low-complaint-first"), faults=faults,
-                    required_key="sk-test-secret-123") as server:
-        code, out, err = run(capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "vlm-x",
-                             "--samples", "6", "--out", tmp_path / "http", "--timeout", "0.5", "--max-retries", "6",
-                             "--concurrency", "3", "--no-progress", "--keep", "0.7", "0.9")
+    with ChatServer(
+        _responder(PACKAGE_DELIVERY, "low-complaint-first"), faults=faults, required_key="sk-test-secret-123"
+    ) as server:
+        code, out, err = run(
+            capsys,
+            "experiment",
+            "package-delivery",
+            "--endpoint",
+            server.url,
+            "--model",
+            "vlm-x",
+            "--samples",
+            "6",
+            "--out",
+            tmp_path / "http",
+            "--timeout",
+            "0.5",
+            "--max-retries",
+            "6",
+            "--concurrency",
+            "3",
+            "--no-progress",
+            "--keep",
+            "0.7",
+            "0.9",
+        )
         chats = server.chat_requests
     assert code == 0, err
-    code2, _, err2 = run(capsys, "experiment", "package-delivery", "--simulated", "low-complaint-first", "--samples",
-                         "6", "--out", tmp_path / "sim", "--no-images", "--no-progress", "--keep", "0.7", "0.9")
+    code2, _, err2 = run(
+        capsys,
+        "experiment",
+        "package-delivery",
+        "--simulated",
+        "low-complaint-first",
+        "--samples",
+        "6",
+        "--out",
+        tmp_path / "sim",
+        "--no-images",
+        "--no-progress",
+        "--keep",
+        "0.7",
+        "0.9",
+    )
     assert code2 == 0, err2
     assert _kernel(tmp_path / "http") == _kernel(tmp_path / "sim")
     assert all(isinstance(c.get("seed"), int) for c in chats)
@@ -76,13 +111,35 @@ def test_endpoint_run_equals_the_simulated_model_through_retries(tmp_path, capsy
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL")
 def test_killed_run_resumes_with_no_sample_lost_or_repeated(tmp_path, capsys):
-    with ChatServer(_responder(PACKAGE_DELIVERY, "position-biased"), fault_fn=lambda n, body: ("sleep", 0.004)) as server:
+    with ChatServer(
+        _responder(PACKAGE_DELIVERY, "position-biased"), fault_fn=lambda n, body: ("sleep", 0.004)
+    ) as server:
         out = tmp_path / "run"
-        args = ["experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--samples", "40",
-                "--out", str(out), "--no-images", "--no-progress", "--concurrency", "2", "--seed", "5"]
+        args = [
+            "experiment",
+            "package-delivery",
+            "--endpoint",
+            server.url,
+            "--model",
+            "m",
+            "--samples",
+            "40",
+            "--out",
+            str(out),
+            "--no-images",
+            "--no-progress",
+            "--concurrency",
+            "2",
+            "--seed",
+            "5",
+        ]
         env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-        proc = subprocess.Popen([sys.executable, "-m", "fairaudit.cli", *args], env=env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "fairaudit.cli", *args],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         log = out / "queries.jsonl"
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
@@ -99,17 +156,44 @@ def test_killed_run_resumes_with_no_sample_lost_or_repeated(tmp_path, capsys):
     ids = [r["id"] for r in lines if r["type"] == "query" and r["status"] == "ok"]
     assert len(ids) == len(set(ids)) == 3 * 4 * 40
     assert f"{3 * 4 * 40} of {3 * 4 * 40} queries answered ({3 * 4 * 40 - done_before} now" in err
-    code, _, err = run(capsys, "experiment", "package-delivery", "--simulated", "position-biased", "--samples", "40",
-                       "--out", tmp_path / "clean", "--no-images", "--no-progress", "--seed", "5")
+    code, _, err = run(
+        capsys,
+        "experiment",
+        "package-delivery",
+        "--simulated",
+        "position-biased",
+        "--samples",
+        "40",
+        "--out",
+        tmp_path / "clean",
+        "--no-images",
+        "--no-progress",
+        "--seed",
+        "5",
+    )
     assert code == 0, err
     assert _kernel(out) == _kernel(tmp_path / "clean")
 
 
 def test_failed_queries_exit_1_and_resume_completes(tmp_path, capsys):
-    every_third = lambda n, body: ("status", 500) if n % 3 == 0 else None       # noqa: E731
+    every_third = lambda n, body: ("status", 500) if n % 3 == 0 else None  # noqa: E731
     with ChatServer(_responder(PACKAGE_DELIVERY, "fair"), fault_fn=every_third) as server:
-        args = ["experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--samples", "3",
-                "--out", tmp_path / "r", "--no-images", "--no-progress", "--max-retries", "0"]
+        args = [
+            "experiment",
+            "package-delivery",
+            "--endpoint",
+            server.url,
+            "--model",
+            "m",
+            "--samples",
+            "3",
+            "--out",
+            tmp_path / "r",
+            "--no-images",
+            "--no-progress",
+            "--max-retries",
+            "0",
+        ]
         code, out, err = run(capsys, *args)
         assert code == 1 and out == ""
         assert err.startswith("fairaudit: incomplete: 24 of 36 queries answered") and "HTTP 500" in err
@@ -130,46 +214,86 @@ def test_hr_report_certificate_and_audit_of_the_records(tmp_path, capsys):
     queries: 6 of 96. L-bar = log(90 / 6) = log 15, whatever the coins.
     """
     out = tmp_path / "hr"
-    code, report, err = run(capsys, "experiment", "hr-delivery", "--samples", "2", "--out", out, "--no-images",
-                            "--no-progress", "--keep", "0.7", "--design", "both")
+    code, report, err = run(
+        capsys,
+        "experiment",
+        "hr-delivery",
+        "--samples",
+        "2",
+        "--out",
+        out,
+        "--no-images",
+        "--no-progress",
+        "--keep",
+        "0.7",
+        "--design",
+        "both",
+    )
     assert code == 0, err
     cert = json.loads((out / "certificate.json").read_text())
     eps = 6 * math.log(7 / 3)
     p = cert["points"][0]
     assert p["epsilon"] == pytest.approx(eps) and p["privacy"]["epsilon_profile"] == pytest.approx(eps / 2)
-    assert p["privacy"]["keep_probability_per_attribute"] == {"name": pytest.approx(0.7), "age": pytest.approx(0.7),
-                                                              "race": pytest.approx(0.7)}
-    assert p["bounds"]["black_box"] == pytest.approx(eps, abs=1e-9)      # the corollary is attained
-    assert cert["baseline"]["shares"]["sick leave"]["HR1 = Tom & 25 & Asian, HR2 = Mary & 55 & American"] == \
-        {"HR1": 0.0, "HR2": 1.0, "unparsed": 0.0}
-    assert cert["queries"] == {"table": 384, "paper": 12, "unparsed": 0, "table_design_needs": 384,
-                               "paper_design_needs_per_epsilon": 12}
+    assert p["privacy"]["keep_probability_per_attribute"] == {
+        "name": pytest.approx(0.7),
+        "age": pytest.approx(0.7),
+        "race": pytest.approx(0.7),
+    }
+    assert p["bounds"]["black_box"] == pytest.approx(eps, abs=1e-9)  # the corollary is attained
+    assert cert["baseline"]["shares"]["sick leave"]["HR1 = Tom & 25 & Asian, HR2 = Mary & 55 & American"] == {
+        "HR1": 0.0,
+        "HR2": 1.0,
+        "unparsed": 0.0,
+    }
+    assert cert["queries"] == {
+        "table": 384,
+        "paper": 12,
+        "unparsed": 0,
+        "table_design_needs": 384,
+        "paper_design_needs_per_epsilon": 12,
+    }
     assert report == (out / "report.md").read_text() and "| 5.084 | 2.542 | 0.7, 0.7, 0.7 | 5.084 |" in report
     for name in ("kernel.csv", "candidates.csv", "records.csv", "curve.csv", "baseline.png", "curve.png"):
         assert (out / name).stat().st_size > 0
-    code, audit_out, err = run(capsys, "audit", out / "records.csv", "--sensitive", "profile", "--context",
-                               "document,position", "--outcome", "outcome", "--positive", "chosen", "--format", "json")
+    code, audit_out, err = run(
+        capsys,
+        "audit",
+        out / "records.csv",
+        "--sensitive",
+        "profile",
+        "--context",
+        "document,position",
+        "--outcome",
+        "outcome",
+        "--positive",
+        "chosen",
+        "--format",
+        "json",
+    )
     assert code == 0, err
     a = json.loads(audit_out)
     assert a["n"] == 2 * 384 and a["global"]["value"] == pytest.approx(math.log(15), abs=1e-12)
     assert (a["global"]["group"], a["global"]["other_group"]) == ("Mary & 55 & American", "Tom & 25 & Asian")
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--simulated", "oracle"], "--simulated: must be one of ['fair', 'position-biased', 'prefers-mary']"),
-    (["--endpoint", "http://127.0.0.1:9/v1"], "--model: is needed with --endpoint"),
-    (["--model", "gpt"], "--model: goes with --endpoint"),
-    (["--kernel", "missing.csv"], "--kernel: no such file"),
-    (["--endpoint", "ftp://x/v1", "--model", "m"], "--endpoint"),
-    (["--scene", "no/such/area"], "no/such/area"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--simulated", "oracle"], "--simulated: must be one of ['fair', 'position-biased', 'prefers-mary']"),
+        (["--endpoint", "http://127.0.0.1:9/v1"], "--model: is needed with --endpoint"),
+        (["--model", "gpt"], "--model: goes with --endpoint"),
+        (["--kernel", "missing.csv"], "--kernel: no such file"),
+        (["--endpoint", "ftp://x/v1", "--model", "m"], "--endpoint"),
+        (["--scene", "no/such/area"], "no/such/area"),
+    ],
+)
 def test_bad_options_exit_2_with_one_line(tmp_path, capsys, argv, message):
     code, out, err = run(capsys, "experiment", "hr-delivery", "--out", tmp_path / "o", "--no-progress", *argv)
     assert code == 2 and out == ""
     assert err.startswith("fairaudit: error: ") and err.count("\n") == 1 and message in err, err
     assert not (tmp_path / "o" / "queries.jsonl").exists()
     if argv[0] == "--scene":
-        assert not (tmp_path / "o").exists()          # refused before --out is made
+        assert not (tmp_path / "o").exists()  # refused before --out is made
 
 
 def test_a_run_is_never_overwritten(tmp_path, capsys):
@@ -179,11 +303,23 @@ def test_a_run_is_never_overwritten(tmp_path, capsys):
     code, _, err = run(capsys, *args)
     assert code == 2 and "--out: holds a run already" in err
     assert (tmp_path / "o" / "queries.jsonl").read_bytes() == before
-    code, _, err = run(capsys, "experiment", "package-delivery", "--samples", "1", "--out", tmp_path / "o",
-                       "--no-images", "--no-progress", "--resume", "--seed", "9")
+    code, _, err = run(
+        capsys,
+        "experiment",
+        "package-delivery",
+        "--samples",
+        "1",
+        "--out",
+        tmp_path / "o",
+        "--no-images",
+        "--no-progress",
+        "--resume",
+        "--seed",
+        "9",
+    )
     assert code == 2 and "--resume: the run in" in err and "--seed 0, not 9" in err
     for bad in (["--keep", "1.5"], ["--samples", "0"], ["--epsilon", "-1"]):
-        with pytest.raises(SystemExit) as exc:         # argparse's own usage errors
+        with pytest.raises(SystemExit) as exc:  # argparse's own usage errors
             run(capsys, "experiment", "package-delivery", "--out", tmp_path / "p", *bad)
         err = capsys.readouterr().err
         assert exc.value.code == 2 and err.count("\n") == 1 and bad[0] in err, bad
@@ -192,8 +328,19 @@ def test_a_run_is_never_overwritten(tmp_path, capsys):
 def test_certify_reads_the_runs_spec_and_repeats_its_certificate(tmp_path, capsys):
     """spec-eps-<e>.toml: the per-candidate matrix mechanism (2 profiles -> 4 shown pairs) over candidates.csv."""
     out = tmp_path / "pkg"
-    code, _, err = run(capsys, "experiment", "package-delivery", "--samples", "10", "--out", out, "--no-images",
-                       "--no-progress", "--keep", "0.7")
+    code, _, err = run(
+        capsys,
+        "experiment",
+        "package-delivery",
+        "--samples",
+        "10",
+        "--out",
+        out,
+        "--no-images",
+        "--no-progress",
+        "--keep",
+        "0.7",
+    )
     assert code == 0, err
     exp = json.loads((out / "certificate.json").read_text())["points"][0]
     specs = sorted(out.glob("spec-eps-*.toml"))
@@ -205,6 +352,6 @@ def test_certify_reads_the_runs_spec_and_repeats_its_certificate(tmp_path, capsy
     assert cert["bounds"]["black_box"] == pytest.approx(math.log(99 / 59), abs=1e-9) == exp["bounds"]["black_box"]
     assert cert["observed"]["local"] == exp["observed"]["local"]
     assert cert["observed"]["global"] == exp["observed"]["global"]
-    assert "unfiltered" not in cert or cert["unfiltered"] is None     # the model never reads true profiles
+    assert "unfiltered" not in cert or cert["unfiltered"] is None  # the model never reads true profiles
     code, _, err = run(capsys, "certify", specs[0], "--plot", tmp_path / "c.png")
     assert code == 2 and "no curve along it" in err and err.count("\n") == 1

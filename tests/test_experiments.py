@@ -35,6 +35,7 @@ PKG, HR = PACKAGE_DELIVERY, HR_DELIVERY
 
 # -- the filter ------------------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("p", [0.6, 0.7, 0.9])
 def test_paper_filter_epsilons_are_logs_and_sums(p):
     """keep p on each of name, age, race: ln(p/(1-p)) each, 3x per profile, 6x per candidate (not p/(1-p))."""
@@ -48,7 +49,7 @@ def test_paper_filter_epsilons_are_logs_and_sums(p):
     assert f.candidate_mechanism().epsilon == pytest.approx(6 * one, abs=1e-12)
     assert f.profile_mechanism.epsilon == pytest.approx(3 * one, abs=1e-12)
     assert candidate_family(HR)(eps_candidate).epsilon == pytest.approx(eps_candidate, abs=1e-12)
-    assert candidate_family(HR).keep_probability(eps_candidate) == pytest.approx(p ** 3, abs=1e-12)
+    assert candidate_family(HR).keep_probability(eps_candidate) == pytest.approx(p**3, abs=1e-12)
 
 
 def test_candidate_mechanism_by_hand():
@@ -64,7 +65,7 @@ def test_candidate_mechanism_by_hand():
 
 
 def test_release_draws_each_attribute_with_its_keep_probability():
-    f = PrivacyFilter.from_epsilon(HR, 3 * math.log(4))          # keep 0.8 on each attribute
+    f = PrivacyFilter.from_epsilon(HR, 3 * math.log(4))  # keep 0.8 on each attribute
     rng = np.random.default_rng(7)
     n = 20_000
     kept = np.zeros((2, 3))
@@ -79,7 +80,7 @@ def test_release_draws_each_attribute_with_its_keep_probability():
 def test_context_filter_and_errors():
     f = PrivacyFilter.from_epsilon(PKG, 1.0, context_epsilon=math.log(2))
     m = f.context_mechanism.matrix
-    assert m[0].tolist() == pytest.approx([0.5, 0.25, 0.25])        # e^ε / (e^ε + 2) with ε = ln 2
+    assert m[0].tolist() == pytest.approx([0.5, 0.25, 0.25])  # e^ε / (e^ε + 2) with ε = ln 2
     assert f.epsilon_context == pytest.approx(math.log(2))
     with pytest.raises(InputError, match=r"--epsilon: must be a number of nats >= 0 \(got -1\)"):
         PrivacyFilter.from_epsilon(PKG, -1)
@@ -89,11 +90,12 @@ def test_context_filter_and_errors():
 
 # -- prompts and models ----------------------------------------------------------------------------------------
 
+
 def test_prompts_name_the_cell_and_reject_unknown_values():
     text = PKG.prompt("medicine", [("high",), ("low",)])
     assert "Delivered object: medicine." in text
     assert "Recipient1: a recipient with a high complaint rate." in text
-    assert '"Recipient1": "2.0"' in text                      # the paper's output example
+    assert '"Recipient1": "2.0"' in text  # the paper's output example
     with pytest.raises(InputError, match="package: must be one of"):
         PKG.prompt("pizza", [("high",), ("low",)])
     with pytest.raises(InputError, match="not a profile of hr-delivery"):
@@ -115,13 +117,13 @@ def test_named_models_match_the_paper_and_are_seeded():
     m = simulated_model(HR, "prefers-mary")
     k = len(HR.profiles)
     tom, mary = HR.profiles.index(HR.candidates[0]), HR.profiles.index(HR.candidates[1])
-    assert m.probabilities[:, mary, tom, 0].tolist() == [1.0, 1.0, 1.0]     # Mary listed first: chosen
+    assert m.probabilities[:, mary, tom, 0].tolist() == [1.0, 1.0, 1.0]  # Mary listed first: chosen
     # ties (same number of Mary's attributes) are a coin: Tom&55&Asian vs Mary&25&Asian share one each
     a, b = HR.profiles.index(("Tom", 55, "Asian")), HR.profiles.index(("Mary", 25, "Asian"))
     assert m.probabilities[0, a, b, :2].tolist() == [0.5, 0.5]
     assert m.probabilities.shape == (3, k, k, 3)
     q = Query("x", "table", "sick leave", (HR.candidates[0], HR.candidates[0]), 0, 12345)
-    assert m.reply(q).text == m.reply(q).text                               # the seed fixes the reply
+    assert m.reply(q).text == m.reply(q).text  # the seed fixes the reply
     with pytest.raises(InputError, match="--simulated: must be one of"):
         simulated_model(PKG, "prefers-mary")
 
@@ -138,9 +140,12 @@ def test_kernel_csv_round_trip_and_errors(tmp_path):
     path.write_text("\n".join(rows) + "\n")
     back = SimulatedModel.from_csv(PKG, path)
     assert np.array_equal(back.probabilities, m.probabilities)
-    path.write_text("\n".join(rows[:-3]) + "\n")                           # the last cell is missing
-    with pytest.raises(InputError, match=r"--kernel: has no rows for \(package 'medicine', Recipient1 'high', "
-                                         r"Recipient2 'high'\)"):
+    path.write_text("\n".join(rows[:-3]) + "\n")  # the last cell is missing
+    with pytest.raises(
+        InputError,
+        match=r"--kernel: has no rows for \(package 'medicine', Recipient1 'high', "
+        r"Recipient2 'high'\)",
+    ):
         SimulatedModel.from_csv(PKG, path)
     path.write_text(rows[0] + "\ndocuments,low,medium,Recipient1,1\n")
     with pytest.raises(InputError, match="--kernel column 'Recipient2': value not among"):
@@ -148,6 +153,7 @@ def test_kernel_csv_round_trip_and_errors(tmp_path):
 
 
 # -- the harness -----------------------------------------------------------------------------------------------
+
 
 def test_plans_have_unique_keys_and_the_paper_design_draws_through_the_filter():
     t = plan_queries(HR, "table", 3, 0)
@@ -176,7 +182,7 @@ def test_log_resume_skips_answered_and_cuts_a_torn_line(tmp_path):
     assert (s.asked, s.already) == (20, 0)
     path = tmp_path / "q.jsonl"
     lines = path.read_bytes().splitlines(keepends=True)
-    path.write_bytes(b"".join(lines[:-1]) + lines[-1][:25])               # a crash mid-line
+    path.write_bytes(b"".join(lines[:-1]) + lines[-1][:25])  # a crash mid-line
     s, log = _run(tmp_path, PKG, m, qs, resume=True)
     assert (s.already, s.asked, s.complete) == (19, len(qs) - 19, True)
     recs = [json.loads(x) for x in path.read_text().splitlines()]
@@ -226,13 +232,13 @@ def test_failures_are_logged_not_counted_and_retried_on_resume(tmp_path):
     assert (s.asked, s.failed, s.complete) == (18, 6, False)
     assert "HTTP 503" in s.failures[0]
     assert len(log.errors) == 6
-    s, log = _run(tmp_path, PKG, model, qs, resume=True)      # calls 25..30: the 28th fails
+    s, log = _run(tmp_path, PKG, model, qs, resume=True)  # calls 25..30: the 28th fails
     assert (s.already, s.asked, s.failed) == (18, 5, 1) and len(log.errors) == 1
 
 
 def test_unparseable_replies_are_counted_never_dropped(tmp_path):
     probs = np.zeros((3, 2, 2, 3))
-    probs[..., 0], probs[..., 2] = 0.5, 0.5                               # half the replies cannot be parsed
+    probs[..., 0], probs[..., 2] = 0.5, 0.5  # half the replies cannot be parsed
     m = SimulatedModel(PKG, probs, "half-garbled")
     qs = plan_queries(PKG, "table", 10, 0)
     s, log = _run(tmp_path, PKG, m, qs)
@@ -243,6 +249,7 @@ def test_unparseable_replies_are_counted_never_dropped(tmp_path):
 
 
 # -- the analysis ----------------------------------------------------------------------------------------------
+
 
 def _exact_kernel(task, model):
     """The model's own kernel as an exact-probability per-candidate Kernel."""
@@ -297,9 +304,10 @@ def test_black_box_certificates_by_hand():
     h = analyse(HR, _records(HR, "prefers-mary", 1), model="m", samples=1, epsilons=[eps], confidence=None)
     assert h.points[0].black_box_local == pytest.approx(eps, abs=1e-9)
     assert h.points[0].corollary == pytest.approx(eps, abs=1e-12)
-    fixed = analyse(HR, _records(HR, "prefers-mary", 1), model="m", samples=1, epsilons=[eps], confidence=None,
-                    positions="fixed")
-    assert fixed.points[0].black_box_global == math.inf        # a model that picks by position: L-bar unbounded
+    fixed = analyse(
+        HR, _records(HR, "prefers-mary", 1), model="m", samples=1, epsilons=[eps], confidence=None, positions="fixed"
+    )
+    assert fixed.points[0].black_box_global == math.inf  # a model that picks by position: L-bar unbounded
 
 
 def _records(task, name, n, seed=0):
@@ -307,8 +315,15 @@ def _records(task, name, n, seed=0):
     recs = []
     for q in plan_queries(task, "table", n, seed):
         d = parse_reply(m.reply(q).text, task.options, task.kind)
-        recs.append({"design": "table", "status": "ok", "context": q.context, "profiles": [list(x) for x in q.profiles],
-                     "decision": task.options[d.choice] if d.ok else UNPARSED})
+        recs.append(
+            {
+                "design": "table",
+                "status": "ok",
+                "context": q.context,
+                "profiles": [list(x) for x in q.profiles],
+                "decision": task.options[d.choice] if d.ok else UNPARSED,
+            }
+        )
     return recs
 
 
@@ -335,7 +350,7 @@ def test_position_bias_is_not_group_bias_when_balanced():
     law = compose(kc, candidate_family(PKG)(5.0), candidate_context_mechanism(PKG))
     g = candidate_utility(PKG)
     assert global_fairness(law, g, candidate_population(PKG, "balanced")).value == pytest.approx(0.0, abs=1e-12)
-    w1, w2 = 0.82 * 1 + 0.18 * 3, 0.18 * 1 + 0.82 * 3          # waiting time at position 1 and 2
+    w1, w2 = 0.82 * 1 + 0.18 * 3, 0.18 * 1 + 0.82 * 3  # waiting time at position 1 and 2
     fixed = global_fairness(law, g, candidate_population(PKG, "fixed")).value
     assert fixed == pytest.approx(math.log(w2 / w1), abs=1e-12)
 
@@ -354,6 +369,9 @@ def test_paper_design_counts_follow_the_truth(tmp_path):
 
 def test_analysis_refuses_an_incomplete_table():
     recs = _records(PKG, "fair", 1)[:-1]
-    with pytest.raises(InputError, match=r"table design: shown cell \(package 'medicine', Recipient1 'high', "
-                                         r"Recipient2 'high'\) has no answered query"):
+    with pytest.raises(
+        InputError,
+        match=r"table design: shown cell \(package 'medicine', Recipient1 'high', "
+        r"Recipient2 'high'\) has no answered query",
+    ):
         analyse(PKG, recs, model="m", samples=1, epsilons=[1.0])

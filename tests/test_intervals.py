@@ -22,11 +22,23 @@ from scipy.stats import binomtest
 import fairaudit as fa
 from fairaudit._errors import InputError
 from fairaudit.estimate import CountTable, count_records, count_table
-from fairaudit.intervals import (_disjoint_ratio, _mixed_ratio, category_bounds, clopper_pearson, fairness_intervals,
-                                 linear_extremes)
+from fairaudit.intervals import (
+    _disjoint_ratio,
+    _mixed_ratio,
+    category_bounds,
+    clopper_pearson,
+    fairness_intervals,
+    linear_extremes,
+)
 from fairaudit.laws import Law, Population
-from fairaudit.metrics import (demographic_parity, equalized_odds, global_fairness, local_fairness,
-                               sup_global_fairness, sup_local_fairness)
+from fairaudit.metrics import (
+    demographic_parity,
+    equalized_odds,
+    global_fairness,
+    local_fairness,
+    sup_global_fairness,
+    sup_local_fairness,
+)
 from fairaudit.privacy import randomized_response
 
 
@@ -37,8 +49,15 @@ def _cp(k: int, n: int, level: float) -> tuple[float, float]:
 
 
 def _table(counts, contexts=("all",), groups=("a", "b"), decisions=(0, 1)) -> CountTable:
-    return CountTable(np.asarray(counts, dtype=np.int64), tuple(contexts), tuple(groups), tuple(decisions),
-                      ("x",) if contexts != ("all",) else (), ("g",), "y")
+    return CountTable(
+        np.asarray(counts, dtype=np.int64),
+        tuple(contexts),
+        tuple(groups),
+        tuple(decisions),
+        ("x",) if contexts != ("all",) else (),
+        ("g",),
+        "y",
+    )
 
 
 def _binary_table(pos, tot, contexts=("all",), groups=("a", "b")) -> CountTable:
@@ -66,7 +85,7 @@ def test_clopper_pearson_matches_scipy_exact(n, alpha):
 
 def test_clopper_pearson_hand_value_and_empty():
     lo, hi = clopper_pearson(0, 10, 0.05)
-    assert float(lo) == 0.0 and float(hi) == pytest.approx(1 - 0.025 ** 0.1, rel=1e-12)
+    assert float(lo) == 0.0 and float(hi) == pytest.approx(1 - 0.025**0.1, rel=1e-12)
     assert float(hi) == pytest.approx(0.3084971078187608, rel=1e-12)
     lo, hi = clopper_pearson(0, 0, 0.05)
     assert math.isnan(float(lo)) and math.isnan(float(hi))
@@ -82,7 +101,7 @@ def _boxes(draw):
     p = w / w.sum()
     down = np.array(draw(st.lists(st.floats(0.0, 1.0), min_size=K, max_size=K)))
     up = np.array(draw(st.lists(st.floats(0.0, 1.0), min_size=K, max_size=K)))
-    lo = np.clip(p - down * p, 0.0, 1.0)          # lo <= p <= hi: the set contains p
+    lo = np.clip(p - down * p, 0.0, 1.0)  # lo <= p <= hi: the set contains p
     hi = np.clip(p + up * (1 - p), 0.0, 1.0)
     f = np.array(draw(st.lists(st.floats(-5.0, 5.0), min_size=K, max_size=K)))
     return f, lo, hi
@@ -125,10 +144,10 @@ def test_category_bounds_uses_alpha_over_K(counts, alpha):
 def test_category_bounds_two_decisions_use_alpha(k, n):
     alpha = 0.05
     lo, hi = category_bounds([[n - k, k]], alpha)
-    ref_lo, ref_hi = _cp(k, n, 1 - alpha)          # level 1 - alpha, not 1 - alpha/2
+    ref_lo, ref_hi = _cp(k, n, 1 - alpha)  # level 1 - alpha, not 1 - alpha/2
     assert lo[0, 1] == pytest.approx(ref_lo, rel=1e-7, abs=1e-14)
     assert hi[0, 1] == pytest.approx(ref_hi, rel=1e-7, abs=1e-14)
-    assert lo[0, 0] == pytest.approx(1 - hi[0, 1], abs=1e-12)   # complementary intervals
+    assert lo[0, 0] == pytest.approx(1 - hi[0, 1], abs=1e-12)  # complementary intervals
     assert hi[0, 0] == pytest.approx(1 - lo[0, 1], abs=1e-12)
 
 
@@ -173,7 +192,7 @@ def test_one_context_hand_example(method):
     t = _binary_table([pos], [tot], groups=("a", "b", "c"))
     conf = 0.95
     iv = fairness_intervals(t, fa.indicator(1, t.decisions), conf, method)
-    m = 3                                            # one context: the groups are the cells, not counted twice
+    m = 3  # one context: the groups are the cells, not counted twice
     assert iv.n_sets == m
     level = 1 - (1 - conf) / m
     ci = [_cp(k, n, level) for k, n in zip(pos, tot)]
@@ -182,7 +201,7 @@ def test_one_context_hand_example(method):
     assert iv.cell_upper[0].tolist() == pytest.approx(hi, rel=1e-7)
     pairs = {(i, j): hi[i] / lo[j] for i in range(3) for j in range(3) if i != j}
     (fi, fj), best = max(pairs.items(), key=lambda kv: kv[1])
-    assert (fi, fj) == (0, 2)                        # a favoured over c
+    assert (fi, fj) == (0, 2)  # a favoured over c
     assert iv.local.upper == pytest.approx(math.log(best), rel=1e-7)
     want_lower = math.log(max(1.0, max(lo) / min(hi)))
     assert want_lower > 0
@@ -201,7 +220,7 @@ def test_two_contexts_hand_example_counts_groups_and_pools_them():
     t = _binary_table(pos, tot, contexts=("x0", "x1"))
     conf = 0.9
     iv = fairness_intervals(t, fa.indicator(1, t.decisions), conf, "clopper-pearson")
-    m = 4 + 2                                        # 4 cells + 2 pooled groups
+    m = 4 + 2  # 4 cells + 2 pooled groups
     assert iv.n_sets == m
     level = 1 - (1 - conf) / m
     uppers, lowers = [], []
@@ -245,8 +264,7 @@ def _bisect_min_max_ratio(M: np.ndarray, lo: np.ndarray, hi: np.ndarray, t_hi: f
 
     def feasible(t):
         rows = [M[a] - t * M[b] for a in range(A) for b in range(A) if a != b]
-        res = linprog(np.zeros(len(lo)), A_ub=np.array(rows), b_ub=np.zeros(len(rows)), bounds=bounds,
-                      method="highs")
+        res = linprog(np.zeros(len(lo)), A_ub=np.array(rows), b_ub=np.zeros(len(rows)), bounds=bounds, method="highs")
         return res.status == 0
 
     if feasible(1.0):
@@ -278,8 +296,13 @@ def test_filtered_local_ends_by_brute_force_and_bisection(pos, tot, keep):
     groups = ("a", "b", "c")[:A]
     t = _binary_table(pos, tot, contexts=contexts, groups=groups)
     conf = 0.95
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), conf, "clopper-pearson",
-                            sensitive_mechanism=randomized_response(groups, keep=keep))
+    iv = fairness_intervals(
+        t,
+        fa.indicator(1, t.decisions),
+        conf,
+        "clopper-pearson",
+        sensitive_mechanism=randomized_response(groups, keep=keep),
+    )
     # the box: Clopper-Pearson per kernel cell at 1 - alpha/m, m = kernel cells (no pooled groups behind a filter)
     assert iv.n_sets == X * A
     level = 1 - (1 - conf) / (X * A)
@@ -310,12 +333,17 @@ def test_filtered_local_ends_by_brute_force_and_bisection(pos, tot, keep):
 def test_filtered_lower_end_is_positive_when_data_exclude_parity():
     # 400/500 against 50/500 released, keep 0.9: even after mixing, the groups cannot be made equal.
     t = _binary_table([[400, 50]], [[500, 500]])
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "clopper-pearson",
-                            sensitive_mechanism=randomized_response(t.groups, keep=0.9))
+    iv = fairness_intervals(
+        t,
+        fa.indicator(1, t.decisions),
+        0.95,
+        "clopper-pearson",
+        sensitive_mechanism=randomized_response(t.groups, keep=0.9),
+    )
     assert iv.local.lower > 0.5
 
 
-_MIXED_SOLVERS: dict = {}     # cvxpy problems are built once per shape; share them across examples
+_MIXED_SOLVERS: dict = {}  # cvxpy problems are built once per shape; share them across examples
 
 
 @st.composite
@@ -326,7 +354,7 @@ def _identity_boxes(draw):
     lo = np.array(draw(st.lists(st.one_of(st.just(0.0), st.floats(0.01, 0.9)), min_size=n, max_size=n)))
     width = np.array(draw(st.lists(st.one_of(st.just(0.0), st.floats(1e-3, 0.5)), min_size=n, max_size=n)))
     hi = np.minimum(lo + width, 1.0)
-    hi = np.where(hi > 0, hi, 0.05)                  # keep every upper end positive
+    hi = np.where(hi > 0, hi, 0.05)  # keep every upper end positive
     return M, A, lo, hi
 
 
@@ -345,8 +373,12 @@ def test_mixed_ratio_with_identity_blocks_equals_disjoint_ratio(case):
     assert np.allclose(m_lo[finite], d_lo[finite], rtol=1e-6, atol=1e-7)
     # where the favoured pair is unique and the upper end finite, both name it
     for m in range(M):
-        ratios = sorted((hi[m * A + i] / lo[m * A + j] if lo[m * A + j] > 0 else math.inf)
-                        for i in range(A) for j in range(A) if i != j)
+        ratios = sorted(
+            (hi[m * A + i] / lo[m * A + j] if lo[m * A + j] > 0 else math.inf)
+            for i in range(A)
+            for j in range(A)
+            if i != j
+        )
         if math.isfinite(ratios[-1]) and ratios[-1] > ratios[-2] * (1 + 1e-9):
             assert (m_fav[m], m_oth[m]) == (d_fav[m], d_oth[m])
 
@@ -366,7 +398,7 @@ def test_zero_successes_give_infinite_upper_and_finite_lower(method):
     t = _binary_table([[0, 30]], [[100, 100]])
     iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method)
     assert iv.local.upper == math.inf
-    (la, ha), (lb, hb) = _cp(0, 100, 1 - 0.05 / 2), _cp(30, 100, 1 - 0.05 / 2)
+    (_, ha), (lb, _) = _cp(0, 100, 1 - 0.05 / 2), _cp(30, 100, 1 - 0.05 / 2)
     assert iv.local.lower == pytest.approx(math.log(lb / ha), rel=1e-7)
     assert 0 < iv.local.lower < math.inf
     assert (iv.local.group, iv.local.other_group) == ("b", "a")
@@ -382,16 +414,23 @@ def test_all_zero_table_gives_lower_zero(method):
 
 @pytest.mark.parametrize("method", ["clopper-pearson", "multinomial", "bayes"])
 def test_empty_cell_gives_finite_lower_and_infinite_upper(method):
-    df = pd.DataFrame({"x": ["p", "p", "p", "p", "q", "q"], "g": ["a", "a", "b", "b", "a", "a"],
-                       "y": [0, 1, 0, 1, 0, 1], "count": [10, 30, 25, 15, 12, 8]})
-    t = count_table(df, sensitive=["g"], outcome="y", context=["x"], contexts=["p", "q"], groups=["a", "b"],
-                    decisions=[0, 1])
-    assert t.counts[1, 1].tolist() == [0, 0]          # cell (q, b) is empty
+    df = pd.DataFrame(
+        {
+            "x": ["p", "p", "p", "p", "q", "q"],
+            "g": ["a", "a", "b", "b", "a", "a"],
+            "y": [0, 1, 0, 1, 0, 1],
+            "count": [10, 30, 25, 15, 12, 8],
+        }
+    )
+    t = count_table(
+        df, sensitive=["g"], outcome="y", context=["x"], contexts=["p", "q"], groups=["a", "b"], decisions=[0, 1]
+    )
+    assert t.counts[1, 1].tolist() == [0, 0]  # cell (q, b) is empty
     iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method, draws=200)
     assert math.isfinite(iv.local.lower) and iv.local.lower >= 0
     if method != "bayes":
         assert iv.local.upper == math.inf
-        assert iv.n_sets == 3 + 2                     # the empty cell is not counted
+        assert iv.n_sets == 3 + 2  # the empty cell is not counted
         assert iv.cell_lower[1, 1] == 0.0 and iv.cell_upper[1, 1] == 1.0
 
 
@@ -400,15 +439,20 @@ def test_empty_kernel_cell_behind_filter_does_not_crash():
     # response with keep 0.8 both audited groups still see 0.8 or 0.2 of group a's positive kernel cell,
     # so the ratio is bounded: Q_a / Q_b <= 0.8 e_a / (0.2 e_a) = 4 at e_b = 0 (by hand); lower end 0.
     t = _binary_table([[30, 0]], [[50, 0]])
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "clopper-pearson",
-                            sensitive_mechanism=randomized_response(t.groups, keep=0.8))
+    iv = fairness_intervals(
+        t,
+        fa.indicator(1, t.decisions),
+        0.95,
+        "clopper-pearson",
+        sensitive_mechanism=randomized_response(t.groups, keep=0.8),
+    )
     assert iv.n_sets == 1
     assert iv.kernel_lower[0].tolist() == pytest.approx([_cp(30, 50, 1 - 0.05)[0], 0.0], rel=1e-7)
     assert iv.kernel_upper[0, 1] == 1.0
     assert iv.local.lower == pytest.approx(0.0, abs=1e-7)
     assert iv.local.upper == pytest.approx(math.log(4.0), rel=1e-9)
     assert (iv.local.group, iv.local.other_group) == ("a", "b")
-    assert math.isnan(iv.local.estimate)           # no plug-in law with an empty kernel cell
+    assert math.isnan(iv.local.estimate)  # no plug-in law with an empty kernel cell
 
 
 # ---------------------------------------------------------------- 7. coverage
@@ -417,8 +461,8 @@ def test_empty_kernel_cell_behind_filter_does_not_crash():
 def test_coverage_of_simultaneous_intervals_on_a_known_law():
     rng = np.random.default_rng(0)
     contexts, groups, decisions = ("x0", "x1"), ("a", "b", "c"), (0, 1)
-    joint = np.array([[0.25, 0.15, 0.10], [0.10, 0.15, 0.25]])            # P(X, A), not independent
-    p1 = np.array([[0.30, 0.50, 0.40], [0.60, 0.55, 0.25]])                # P(g = 1 | x, a)
+    joint = np.array([[0.25, 0.15, 0.10], [0.10, 0.15, 0.25]])  # P(X, A), not independent
+    p1 = np.array([[0.30, 0.50, 0.40], [0.60, 0.55, 0.25]])  # P(g = 1 | x, a)
     law = Law(np.stack([1 - p1, p1], -1), contexts, groups, decisions)
     pop = Population(joint, contexts, groups)
     u = fa.indicator(1, decisions)
@@ -426,9 +470,12 @@ def test_coverage_of_simultaneous_intervals_on_a_known_law():
     # the pooled truth is E[g | a] with the true P(x | a), by hand
     e_a = (joint * p1).sum(0) / joint.sum(0)
     assert truth["global"] == pytest.approx(math.log(e_a.max() / e_a.min()), rel=1e-12)
-    truth_u = {"sup_local": sup_local_fairness(law, pop).value, "sup_global": sup_global_fairness(law, pop).value,
-               "demographic_parity": demographic_parity(law, pop).value,
-               "equalized_odds": equalized_odds(law, pop).value}
+    truth_u = {
+        "sup_local": sup_local_fairness(law, pop).value,
+        "sup_global": sup_global_fairness(law, pop).value,
+        "demographic_parity": demographic_parity(law, pop).value,
+        "equalized_odds": equalized_odds(law, pop).value,
+    }
     N = 40 * 6
     reps = 300
     hits = {"clopper-pearson": 0, "multinomial": 0}
@@ -466,16 +513,21 @@ def test_bayes_estimate_matches_aif360_smoothed_edf(pos, tot):
     from aif360.metrics import BinaryLabelDatasetMetric
 
     df = _records(pos, tot)
-    ds = BinaryLabelDataset(df=df, label_names=["y"], protected_attribute_names=["g"], favorable_label=1.0,
-                            unfavorable_label=0.0)
+    ds = BinaryLabelDataset(
+        df=df, label_names=["y"], protected_attribute_names=["g"], favorable_label=1.0, unfavorable_label=0.0
+    )
     ref = BinaryLabelDatasetMetric(ds).smoothed_empirical_differential_fairness(concentration=1.0)
     t = count_records(df, sensitive=["g"], outcome="y")
     iv = fairness_intervals(t, fa.indicator(1.0, t.decisions), 0.95, "bayes", concentration=1.0, draws=200, seed=1)
     assert iv.sup_local.estimate == pytest.approx(ref, rel=1e-12)
     # and by hand: smoothed rates (k + 1/2) / (n + 1)
     r = (np.array(pos) + 0.5) / (np.array(tot) + 1.0)
-    hand = max(max(abs(math.log(r[i] / r[j])), abs(math.log((1 - r[i]) / (1 - r[j]))))
-               for i in range(len(r)) for j in range(len(r)) if i != j)
+    hand = max(
+        max(abs(math.log(r[i] / r[j])), abs(math.log((1 - r[i]) / (1 - r[j]))))
+        for i in range(len(r))
+        for j in range(len(r))
+        if i != j
+    )
     assert iv.sup_local.estimate == pytest.approx(hand, rel=1e-12)
     assert iv.sup_local.lower <= iv.sup_local.upper
 
@@ -493,10 +545,16 @@ def test_bayes_seed_reproducible_and_sensitive():
     assert a.n_sets == 0 and a.seed == 5 and a.draws == 300
 
 
-@pytest.mark.parametrize("kwargs,field", [({"draws": 99}, "draws"), ({"draws": 50}, "draws"),
-                                          ({"concentration": 0.0}, "concentration"),
-                                          ({"concentration": -1.0}, "concentration"),
-                                          ({"concentration": math.inf}, "concentration")])
+@pytest.mark.parametrize(
+    "kwargs,field",
+    [
+        ({"draws": 99}, "draws"),
+        ({"draws": 50}, "draws"),
+        ({"concentration": 0.0}, "concentration"),
+        ({"concentration": -1.0}, "concentration"),
+        ({"concentration": math.inf}, "concentration"),
+    ],
+)
 def test_bayes_bad_settings_raise(kwargs, field):
     t = _binary_table([[3, 4]], [[10, 10]])
     with pytest.raises(InputError, match=field) as err:
@@ -546,7 +604,7 @@ def test_pair_gap_equals_brute_force_over_pairs(A, seed):
     from fairaudit.intervals import _pair_gap
 
     rng = np.random.default_rng(seed)
-    big, small = rng.integers(0, 4, size=(5, A)) / 4, rng.integers(0, 4, size=(5, A)) / 4   # ties on purpose
+    big, small = rng.integers(0, 4, size=(5, A)) / 4, rng.integers(0, 4, size=(5, A)) / 4  # ties on purpose
     val, fav, oth = _pair_gap(big, small)
     for r in range(5):
         pairs = {(a, b): big[r, a] - small[r, b] for a in range(A) for b in range(A) if a != b}

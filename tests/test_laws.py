@@ -17,7 +17,6 @@ from hypothesis import strategies as st
 import fairaudit as fa
 from fairaudit.laws import compose
 
-
 # --------------------------------------------------------------------------- the paper's X-privacy example (SI C)
 
 
@@ -105,8 +104,13 @@ def test_compose_equals_fraction_sum():
         [[F(1, 3), F(2, 3)], [F(1, 2), F(1, 2)], [F(1), F(0)]],
         [[F(1, 8), F(7, 8)], [F(2, 5), F(3, 5)], [F(9, 10), F(1, 10)]],
     ]
-    expected = [[[sum(mx[x][xt] * ma[a][at] * kern[xt][at][u] for xt in range(2) for at in range(3))
-                  for u in range(2)] for a in range(3)] for x in range(2)]
+    expected = [
+        [
+            [sum(mx[x][xt] * ma[a][at] * kern[xt][at][u] for xt in range(2) for at in range(3)) for u in range(2)]
+            for a in range(3)
+        ]
+        for x in range(2)
+    ]
     # One entry by hand: Q[0, 0, 0] = 3/4 (1/2·1/3 + 1/3·1/2 + 1/6·1) + 1/4 (1/2·1/8 + 1/3·2/5 + 1/6·9/10)
     #                            = 3/4 · 1/2 + 1/4 · (1/16 + 2/15 + 3/20) = 3/8 + 1/4 · 83/240 = 443/960.
     assert expected[0][0][0] == F(443, 960)
@@ -123,7 +127,9 @@ def test_compose_with_product_mechanism_has_tuple_labels():
     rr = [fa.randomized_response(v, keep=0.7) for v in (["Tom", "Mary"], [25, 55])]
     m = fa.product(*rr)
     # Kernel that outputs "yes" iff the released name is Mary.
-    k = fa.Kernel([[[1.0, 0.0] if g[0] == "Mary" else [0.0, 1.0] for g in m.outputs]], ["doc"], m.outputs, ["yes", "no"])
+    k = fa.Kernel(
+        [[[1.0, 0.0] if g[0] == "Mary" else [0.0, 1.0] for g in m.outputs]], ["doc"], m.outputs, ["yes", "no"]
+    )
     law = compose(k, sensitive=m)
     assert law.groups == (("Tom", 25), ("Tom", 55), ("Mary", 25), ("Mary", 55))
     # Hand: P(yes | Tom, ·) = P(name flipped) = 0.3; P(yes | Mary, ·) = 0.7.
@@ -169,7 +175,9 @@ def test_kernel_negative_and_nan_entries():
         fa.Kernel([[[1.2, -0.2]]], ["doc"], ["a"], ["go", "stay"])
     assert "kernel" in str(err.value) and "decision='stay'" in str(err.value) and "negative" in str(err.value)
     assert "-0.2" in str(err.value)
-    with pytest.raises(fa.InputError, match=r"kernel: entry at \(context='doc', group='a', decision='go'\) is not finite"):
+    with pytest.raises(
+        fa.InputError, match=r"kernel: entry at \(context='doc', group='a', decision='go'\) is not finite"
+    ):
         fa.Kernel([[[float("nan"), 1.0]]], ["doc"], ["a"], ["go", "stay"])
     with pytest.raises(fa.InputError, match="shape"):
         fa.Kernel([[[0.5, 0.5]]], ["doc"], ["a", "b"], ["go", "stay"])

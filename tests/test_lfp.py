@@ -34,6 +34,7 @@ def test_threshold_equals_lp(seed, n):
 def test_threshold_equals_vertex_enumeration(seed, n):
     # Independent route: the optimum of a linear-fractional program over a box is at a vertex.
     p, q, lo, hi = _instance(seed, n)
+
     def ratio(v):  # the package's convention: 0/0 = 1 (h = 0 is a vertex when lower = 0)
         return 1.0 if q @ v == 0 and p @ v == 0 else (p @ v) / (q @ v)
 
@@ -60,7 +61,7 @@ def test_lp_with_constraints_equals_dinkelbach(seed, n, m):
     p, q, lo, hi = _instance(seed, n)
     rng = np.random.default_rng(seed + 1)
     rows = rng.dirichlet(np.ones(n), size=m)
-    tau = 0.9 * (rows @ hi)  * rng.uniform(0.2, 1.0, m) + 0.1 * (rows @ lo)
+    tau = 0.9 * (rows @ hi) * rng.uniform(0.2, 1.0, m) + 0.1 * (rows @ lo)
     a_ub, b_ub = -rows, -tau
     lp = lp_max(p, q, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub)
     assert lp.status == "optimal"

@@ -74,7 +74,9 @@ def test_expected_utility_by_fractions():
 
 def test_local_fairness_by_fractions():
     e = fr_expected()
-    best, keys = argmax_set([(e[x][a] / e[x][b], (x, a, b)) for x in range(2) for a, b in itertools.permutations(range(3), 2)])
+    best, keys = argmax_set(
+        [(e[x][a] / e[x][b], (x, a, b)) for x in range(2) for a, b in itertools.permutations(range(3), 2)]
+    )
     # Hand: x0: (4/3)/(4/5) = 5/3; x1: (21/10)/(5/4) = 42/25 = 1.68 > 5/3. L = log(42/25) at x1, a over b.
     assert best == F(42, 25) and keys == {(1, 0, 1)}
     r = fa.local_fairness(rational_law(), fa.from_table([float(v) for v in G], DECISIONS), rational_population())
@@ -122,7 +124,9 @@ def test_demographic_parity_by_fractions():
 
 
 def test_equalized_odds_by_fractions():
-    best, keys = argmax_set([(tv(Q[x][a], Q[x][b]), (x, a, b)) for x in range(2) for a, b in itertools.permutations(range(3), 2)])
+    best, keys = argmax_set(
+        [(tv(Q[x][a], Q[x][b]), (x, a, b)) for x in range(2) for a, b in itertools.permutations(range(3), 2)]
+    )
     # Hand: x1, c vs a: [1/8 − 1/10]₊ + [5/8 − 3/10]₊ + [1/4 − 3/5]₊ = 1/40 + 13/40 = 7/20; the pair (a, b) in x1
     # ties with x1, a vs b: [3/5 − 1/4]₊ = 7/20 (and TV is symmetric): the maximisers are {a, c} and {a, b} in x1,
     # in either order; the package may return any of them.
@@ -136,8 +140,14 @@ def test_equalized_odds_by_fractions():
 
 
 def test_sup_local_by_fractions():
-    best, keys = argmax_set([(Q[x][a][u] / Q[x][b][u], (x, u, a, b)) for x in range(2) for u in range(3)
-                             for a, b in itertools.permutations(range(3), 2)])
+    best, keys = argmax_set(
+        [
+            (Q[x][a][u] / Q[x][b][u], (x, u, a, b))
+            for x in range(2)
+            for u in range(3)
+            for a, b in itertools.permutations(range(3), 2)
+        ]
+    )
     # Hand: x1, decision u0: P(u0 | b) / P(u0 | a) = (1/4) / (1/10) = 5/2.
     assert best == F(5, 2) and keys == {(1, 0, 1, 0)}
     r = fa.sup_local_fairness(rational_law())
@@ -147,7 +157,9 @@ def test_sup_local_by_fractions():
 
 def test_sup_global_by_fractions():
     pu = fr_group_law()
-    best, keys = argmax_set([(pu[a][u] / pu[b][u], (u, a, b)) for u in range(3) for a, b in itertools.permutations(range(3), 2)])
+    best, keys = argmax_set(
+        [(pu[a][u] / pu[b][u], (u, a, b)) for u in range(3) for a, b in itertools.permutations(range(3), 2)]
+    )
     # Hand: P(u2 | a) = 29/60, P(u2 | c) = 1/3·1/5 + 2/3·1/4 = 7/30; ratio 29/14.
     assert best == F(29, 14) and keys == {(2, 0, 2)}
     r = fa.sup_global_fairness(rational_law(), rational_population())
@@ -159,7 +171,9 @@ def test_group_dependent_utility_by_fractions():
     # g[x, a, u] = (u index + 1) · (1 + a index): depends on the group.
     gt = [[[F(u + 1) * (1 + a) for u in range(3)] for a in range(3)] for _ in range(2)]
     e = [[sum(Q[x][a][u] * gt[x][a][u] for u in range(3)) for a in range(3)] for x in range(2)]
-    best, keys = argmax_set([(e[x][a] / e[x][b], (x, a, b)) for x in range(2) for a, b in itertools.permutations(range(3), 2)])
+    best, keys = argmax_set(
+        [(e[x][a] / e[x][b], (x, a, b)) for x in range(2) for a, b in itertools.permutations(range(3), 2)]
+    )
     g = fa.from_table(np.array(gt, dtype=float), DECISIONS, CONTEXTS, GROUPS)
     r = fa.local_fairness(rational_law(), g)
     assert r.value == pytest.approx(math.log(best), rel=1e-12)
@@ -225,7 +239,9 @@ def test_label_mismatch_errors():
     with pytest.raises(fa.InputError, match="utility decisions"):
         fa.local_fairness(law, fa.indicator("u0", ["u0", "u2", "u1"]))
     with pytest.raises(fa.InputError, match="must be a Law"):
-        fa.local_fairness(fa.Kernel(np.array(Q, dtype=float), CONTEXTS, GROUPS, DECISIONS), fa.indicator("u0", DECISIONS))
+        fa.local_fairness(
+            fa.Kernel(np.array(Q, dtype=float), CONTEXTS, GROUPS, DECISIONS), fa.indicator("u0", DECISIONS)
+        )
 
 
 # --------------------------------------------------------------------------- properties: Lemma 1 and the links theorem
@@ -237,7 +253,9 @@ def laws(draw, zeros: bool = False):
     na = draw(st.integers(2, 4))
     nu = draw(st.integers(2, 4))
     lo = 0.0 if zeros else 0.01
-    w = np.array(draw(st.lists(st.floats(lo, 1.0, allow_subnormal=False), min_size=nx * na * nu, max_size=nx * na * nu))).reshape(nx, na, nu)
+    w = np.array(
+        draw(st.lists(st.floats(lo, 1.0, allow_subnormal=False), min_size=nx * na * nu, max_size=nx * na * nu))
+    ).reshape(nx, na, nu)
     w[w.sum(-1) == 0] = 1.0
     q = w / w.sum(-1, keepdims=True)
     px = np.array(draw(st.lists(st.floats(0.05, 1.0), min_size=nx, max_size=nx)))
@@ -349,8 +367,9 @@ def aif360_smoothed_edf(df: pd.DataFrame, protected: list[str], concentration: f
         from aif360.datasets import BinaryLabelDataset
         from aif360.metrics import BinaryLabelDatasetMetric
 
-        ds = BinaryLabelDataset(favorable_label=1, unfavorable_label=0, df=df, label_names=["label"],
-                                protected_attribute_names=protected)
+        ds = BinaryLabelDataset(
+            favorable_label=1, unfavorable_label=0, df=df, label_names=["label"], protected_attribute_names=protected
+        )
         return BinaryLabelDatasetMetric(ds).smoothed_empirical_differential_fairness(concentration=concentration)
 
 
@@ -394,7 +413,8 @@ def test_aif360_smoothed_edf_compas(shared_data):
         pytest.skip(f"COMPAS file not found at {path}")
     raw = pd.read_csv(path)
     races = sorted(raw["race"].unique())
-    df = pd.DataFrame({"race": raw["race"].map(races.index).astype(float),
-                       "label": (raw["decile_score"] >= 5).astype(float)})
+    df = pd.DataFrame(
+        {"race": raw["race"].map(races.index).astype(float), "label": (raw["decile_score"] >= 5).astype(float)}
+    )
     peer = aif360_smoothed_edf(df, ["race"], 1.0)
     assert our_smoothed_edf(df, ["race"], 1.0) == pytest.approx(peer, rel=1e-12)

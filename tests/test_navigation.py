@@ -47,6 +47,7 @@ NAN = math.nan
 
 # -- helpers ----------------------------------------------------------------------------------------------
 
+
 def _rows(points, rgb=(100, 100, 100)) -> str:
     return "".join(f"{x} {y} {z} {rgb[0]} {rgb[1]} {rgb[2]}\n" for x, y, z in points)
 
@@ -69,31 +70,44 @@ def _cells(cols, rows, z):
 def toy(tmp_path_factory) -> Path:
     """Three rooms on a 1 m grid, 3 rows (y) x 10 cols (x)::
 
-        row 2   A A A W | B T B W | C C       A lobby_1 (cols 0-3), B office_1 (cols 4-6),
-        row 1   A A A d | B B B . | C C       C storage_1 (cols 8-9, no Annotations)
-        row 0   L A A W | B B B W | C X       W wall (to 2.0 m), d door: floor + lintel at 2.1 m,
-                                              . no point at all (a gap in the scan), T table (0.7 m),
-                                              L lamp at 2.2 m over the floor, X box (1.0 m);
-                                              ceilings at 2.5 m everywhere.
+    row 2   A A A W | B T B W | C C       A lobby_1 (cols 0-3), B office_1 (cols 4-6),
+    row 1   A A A d | B B B . | C C       C storage_1 (cols 8-9, no Annotations)
+    row 0   L A A W | B B B W | C X       W wall (to 2.0 m), d door: floor + lintel at 2.1 m,
+                                          . no point at all (a gap in the scan), T table (0.7 m),
+                                          L lamp at 2.2 m over the floor, X box (1.0 m);
+                                          ceilings at 2.5 m everywhere.
     """
     area = tmp_path_factory.mktemp("toy") / "Area_9"
     area.mkdir()
     lamp_rgb = (250, 240, 10)
-    _write_room(area, "lobby_1", {
-        "ceiling_1": _rows(_cells(range(4), range(3), 2.5)),
-        "floor_1": _rows(_cells(range(4), range(3), 0.0), (200, 190, 180)),
-        "wall_1": _rows(_cells([3], [0, 2], 0.5) + _cells([3], [0, 2], 1.5) + _cells([3], [0, 2], 2.0)
-                        + _cells([3], [1], 2.1)),
-        "clutter_1": _rows(_cells([0], [0], 2.2), lamp_rgb),
-    })
-    _write_room(area, "office_1", {
-        "ceiling_1": _rows(_cells(range(4, 8), range(3), 2.5)),
-        "floor_1": _rows(_cells(range(4, 8), [0, 2], 0.0) + _cells(range(4, 7), [1], 0.0)) + "4.5 1.5 0.0 1 2\n",
-        "wall_1": _rows(_cells([7], [0, 2], 1.0) + _cells([7], [0, 2], 2.0)),
-        "table_1": _rows(_cells([5], [2], 0.7), (90, 60, 30)) + "5.5 2.5 0.7x 90 60 30\n",
-    })
-    _write_room(area, "storage_1", {}, whole=_rows(
-        _cells([8, 9], range(3), 0.0) + _cells([8, 9], range(3), 2.5) + _cells([9], [0], 1.0)))
+    _write_room(
+        area,
+        "lobby_1",
+        {
+            "ceiling_1": _rows(_cells(range(4), range(3), 2.5)),
+            "floor_1": _rows(_cells(range(4), range(3), 0.0), (200, 190, 180)),
+            "wall_1": _rows(
+                _cells([3], [0, 2], 0.5) + _cells([3], [0, 2], 1.5) + _cells([3], [0, 2], 2.0) + _cells([3], [1], 2.1)
+            ),
+            "clutter_1": _rows(_cells([0], [0], 2.2), lamp_rgb),
+        },
+    )
+    _write_room(
+        area,
+        "office_1",
+        {
+            "ceiling_1": _rows(_cells(range(4, 8), range(3), 2.5)),
+            "floor_1": _rows(_cells(range(4, 8), [0, 2], 0.0) + _cells(range(4, 7), [1], 0.0)) + "4.5 1.5 0.0 1 2\n",
+            "wall_1": _rows(_cells([7], [0, 2], 1.0) + _cells([7], [0, 2], 2.0)),
+            "table_1": _rows(_cells([5], [2], 0.7), (90, 60, 30)) + "5.5 2.5 0.7x 90 60 30\n",
+        },
+    )
+    _write_room(
+        area,
+        "storage_1",
+        {},
+        whole=_rows(_cells([8, 9], range(3), 0.0) + _cells([8, 9], range(3), 2.5) + _cells([9], [0], 1.0)),
+    )
     return area
 
 
@@ -122,7 +136,7 @@ def _dijkstra_lengths(traversable: np.ndarray, res: float, source: tuple[int, in
             r2, c2 = r + dr, c + dc
             ok = (r2 >= 0) & (r2 < rows) & (c2 >= 0) & (c2 < cols)
             ok[ok] &= traversable[r2[ok], c2[ok]]
-            if dr and dc:   # both cells beside a diagonal step must be free
+            if dr and dc:  # both cells beside a diagonal step must be free
                 side1 = np.zeros_like(ok)
                 side2 = np.zeros_like(ok)
                 side1[ok] = traversable[r2[ok], c[ok]]
@@ -144,6 +158,7 @@ def _png(data: bytes) -> np.ndarray:
 
 # -- S3DIS reading ----------------------------------------------------------------------------------------
 
+
 def test_read_room_categories_instances_and_skipped_rows(toy):
     room = read_room(toy / "office_1")
     assert room.name == "office_1" and room.kind == "office" and room.labelled
@@ -158,7 +173,7 @@ def test_read_room_categories_instances_and_skipped_rows(toy):
     np.testing.assert_array_equal(room.colors[table], [[90, 60, 30]])
     assert set(room.instance_ids.tolist()) == {0, 1, 2, 3}
     with pytest.raises(ValueError):
-        room.points[0, 0] = 1.0           # read-only
+        room.points[0, 0] = 1.0  # read-only
 
 
 def test_read_room_without_annotations_is_unlabelled(toy):
@@ -170,13 +185,15 @@ def test_read_room_without_annotations_is_unlabelled(toy):
 
 def test_read_points_skips_and_counts_malformed_rows(tmp_path):
     f = tmp_path / "clutter_1.txt"
-    f.write_text("1.0 2.0 3.0 10 20 30\n"
-                 "1.0 2.0 3.\x100 10 20 30\n"      # the stray character of Area_5/hallway_6
-                 "1.0 2.0 3.0 10 20\n"             # 5 fields
-                 "1.0 2.0 3.0 10 20 30 40\n"       # 7 fields
-                 "nan 2.0 3.0 10 20 30\n"
-                 "\n"                              # blank: ignored, not counted
-                 "4.0 5.0 6.0 300 -2 7.6\n")
+    f.write_text(
+        "1.0 2.0 3.0 10 20 30\n"
+        "1.0 2.0 3.\x100 10 20 30\n"  # the stray character of Area_5/hallway_6
+        "1.0 2.0 3.0 10 20\n"  # 5 fields
+        "1.0 2.0 3.0 10 20 30 40\n"  # 7 fields
+        "nan 2.0 3.0 10 20 30\n"
+        "\n"  # blank: ignored, not counted
+        "4.0 5.0 6.0 300 -2 7.6\n"
+    )
     rows, skipped = read_points(f)
     assert skipped == 4
     np.testing.assert_array_equal(rows, [[1, 2, 3, 10, 20, 30], [4, 5, 6, 300, -2, 7.6]])
@@ -190,7 +207,7 @@ def test_colours_are_rounded_and_clipped(tmp_path):
     _write_room(tmp_path, "office_3", {"stairs_1": "4.0 5.0 6.0 300 -2 7.6\n"})
     room = read_room(tmp_path / "office_3")
     assert room.colors.tolist() == [[255, 0, 8]]
-    assert room.category_names.tolist() == ["clutter"]     # categories outside the 13 count as clutter
+    assert room.category_names.tolist() == ["clutter"]  # categories outside the 13 count as clutter
 
 
 def test_read_errors_name_the_path(tmp_path):
@@ -228,34 +245,40 @@ def test_read_area_sorts_rooms_and_ignores_files(toy):
 
 # -- maps on the hand-made area ---------------------------------------------------------------------------
 
+
 def test_toy_grid_and_top_view(toy_maps):
     m = toy_maps
     assert m.origin == (0.0, 0.0) and m.resolution == 1.0 and m.shape == (3, 10)
     assert m.rooms == ("lobby_1", "office_1", "storage_1")
     assert m.floor_z == 0.0
-    np.testing.assert_allclose(m.ceiling_z, [2.4, 2.4, 2.4])   # median ceiling 2.5 (C: 0.99 quantile) - 0.1
-    expected = np.array([
-        [2.2, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 2.0, 0.0, 1.0],
-        [0.0, 0.0, 0.0, 2.1, 0.0, 0.0, 0.0, NAN, 0.0, 0.0],
-        [0.0, 0.0, 0.0, 2.0, 0.0, 0.7, 0.0, 2.0, 0.0, 0.0],
-    ])
+    np.testing.assert_allclose(m.ceiling_z, [2.4, 2.4, 2.4])  # median ceiling 2.5 (C: 0.99 quantile) - 0.1
+    expected = np.array(
+        [
+            [2.2, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 2.0, 0.0, 1.0],
+            [0.0, 0.0, 0.0, 2.1, 0.0, 0.0, 0.0, NAN, 0.0, 0.0],
+            [0.0, 0.0, 0.0, 2.0, 0.0, 0.7, 0.0, 2.0, 0.0, 0.0],
+        ]
+    )
     np.testing.assert_allclose(m.top_height, expected)
-    assert m.top_color[0, 0].tolist() == [250, 240, 10]          # the lamp
-    assert m.top_color[2, 5].tolist() == [90, 60, 30]            # the table
-    assert m.top_color[1, 1].tolist() == [200, 190, 180]         # lobby floor
+    assert m.top_color[0, 0].tolist() == [250, 240, 10]  # the lamp
+    assert m.top_color[2, 5].tolist() == [90, 60, 30]  # the table
+    assert m.top_color[1, 1].tolist() == [200, 190, 180]  # lobby floor
     assert m.top_color[1, 7].tolist() == [0, 0, 0]
     assert m.top_category[2, 5] == CATEGORIES.index("table") and m.top_category[1, 7] == 255
     assert not (m.top_category == CATEGORIES.index("ceiling")).any()
 
 
 def test_toy_traversability(toy_maps):
-    t = np.array([
-        [1, 1, 1, 0, 1, 1, 1, 0, 1, 0],     # lamp above clearance: free; walls and box: not
-        [1, 1, 1, 1, 1, 1, 1, 0, 1, 1],     # door under a lintel: free; the gap without points: obstacle
-        [1, 1, 1, 0, 1, 0, 1, 0, 1, 1],     # table: obstacle
-    ], dtype=bool)
+    t = np.array(
+        [
+            [1, 1, 1, 0, 1, 1, 1, 0, 1, 0],  # lamp above clearance: free; walls and box: not
+            [1, 1, 1, 1, 1, 1, 1, 0, 1, 1],  # door under a lintel: free; the gap without points: obstacle
+            [1, 1, 1, 0, 1, 0, 1, 0, 1, 1],  # table: obstacle
+        ],
+        dtype=bool,
+    )
     np.testing.assert_array_equal(toy_maps.free, t)
-    np.testing.assert_array_equal(toy_maps.traversable, t)       # robot_radius = 0
+    np.testing.assert_array_equal(toy_maps.traversable, t)  # robot_radius = 0
     labels = np.array([[0, 0, 0, 0, 1, 1, 1, 1, 2, 2], [0, 0, 0, 0, 1, 1, 1, -1, 2, 2], [0, 0, 0, 0, 1, 1, 1, 1, 2, 2]])
     np.testing.assert_array_equal(toy_maps.room_labels, labels)
 
@@ -264,13 +287,15 @@ def test_toy_topology(toy_maps):
     g = toy_maps.topology
     assert set(g.nodes) == {"lobby_1", "office_1", "storage_1"}
     assert g.nodes["lobby_1"]["centre"] == (2.0, 1.5)
-    assert g.nodes["storage_1"]["centre"] == (9.0, 1.5)            # unlabelled: points in the floor band
+    assert g.nodes["storage_1"]["centre"] == (9.0, 1.5)  # unlabelled: points in the floor band
     assert g.nodes["office_1"]["category"] == "office"
     assert g.nodes["lobby_1"]["bbox"] == (0.5, 0.5, 3.5, 2.5)
     assert g.nodes["lobby_1"]["free_cells"] == 10 and g.nodes["storage_1"]["free_cells"] == 5
     edges = {tuple(sorted(e[:2])): e[2] for e in g.edges(data=True)}
-    assert edges == {("lobby_1", "office_1"): {"via": "adjacent", "contact": 3},
-                     ("office_1", "storage_1"): {"via": "gap", "contact": 0}}
+    assert edges == {
+        ("lobby_1", "office_1"): {"via": "adjacent", "contact": 3},
+        ("office_1", "storage_1"): {"via": "gap", "contact": 0},
+    }
 
 
 def test_toy_office_centre_exact(toy_maps):
@@ -301,7 +326,7 @@ def test_robot_radius_inflation(tmp_path):
     assert build_maps(area, resolution=1.0, robot_radius=0.0).traversable.all()
     inner = build_maps(area, resolution=1.0, robot_radius=1.0).traversable
     expected = np.zeros((5, 7), bool)
-    expected[1:4, 1:6] = True                 # off-grid counts as obstacle: the border ring goes
+    expected[1:4, 1:6] = True  # off-grid counts as obstacle: the border ring goes
     np.testing.assert_array_equal(inner, expected)
     two = build_maps(area, resolution=1.0, robot_radius=2.0).traversable
     expected = np.zeros((5, 7), bool)
@@ -323,10 +348,15 @@ def test_build_maps_errors(toy):
     area = read_area(toy)
     with pytest.raises(InputError, match="area: must be an Area"):
         build_maps(str(toy))
-    for kwargs, field in [({"resolution": 0}, "resolution"), ({"resolution": math.nan}, "resolution"),
-                          ({"floor_band": -1}, "floor_band"), ({"robot_radius": -0.1}, "robot_radius"),
-                          ({"clearance": 0.05}, "clearance"), ({"ceiling": "high"}, "ceiling"),
-                          ({"resolution": 1e-4}, "resolution")]:
+    for kwargs, field in [
+        ({"resolution": 0}, "resolution"),
+        ({"resolution": math.nan}, "resolution"),
+        ({"floor_band": -1}, "floor_band"),
+        ({"robot_radius": -0.1}, "robot_radius"),
+        ({"clearance": 0.05}, "clearance"),
+        ({"ceiling": "high"}, "ceiling"),
+        ({"resolution": 1e-4}, "resolution"),
+    ]:
         with pytest.raises(InputError, match=f"^{field}: ") as e:
             build_maps(area, **kwargs)
         assert repr(list(kwargs.values())[0])[:6] in str(e.value)
@@ -343,6 +373,7 @@ def test_world_cell_round_trip(floor):
 
 
 # -- routes -----------------------------------------------------------------------------------------------
+
 
 def test_toy_routes_by_hand(toy_maps):
     m = toy_maps
@@ -363,7 +394,7 @@ def test_toy_routes_by_hand(toy_maps):
 
 def test_toy_route_snapping_and_errors(toy_maps):
     m = toy_maps
-    r = plan_route(m, (3.5, 0.5), (4.5, 1.5))          # start on the wall cell (0, 3)
+    r = plan_route(m, (3.5, 0.5), (4.5, 1.5))  # start on the wall cell (0, 3)
     assert r.cells[0].tolist() == [0, 2] and r.start_snap == pytest.approx(1.0)
     assert r.start == (3.5, 0.5)
     with pytest.raises(InputError, match=r"^start: no traversable cell within 0.5 m of \(3.5, 0.5\)"):
@@ -399,14 +430,14 @@ def test_synthetic_routes_equal_and_shortest(floor):
     _, area, m = floor
     routes = candidate_routes(m, "lobby_1", ("office_1", "office_2"))
     for r in routes:
-        assert m.traversable[r.cells[:, 0], r.cells[:, 1]].all()          # avoid obstacles
+        assert m.traversable[r.cells[:, 0], r.cells[:, 1]].all()  # avoid obstacles
         assert r.rooms == ("lobby_1", "hallway_1", r.goal)
         steps = np.abs(np.diff(r.cells, axis=0))
         assert steps.max() == 1 and steps.sum(axis=1).min() >= 1
         np.testing.assert_allclose(np.hypot(*np.diff(r.points, axis=0).T).sum(), r.length)
         dist = _dijkstra_lengths(m.traversable, m.resolution, tuple(r.cells[0]))
         assert r.length == pytest.approx(dist[tuple(r.cells[-1])], rel=1e-12)
-        assert 6.5 < r.length < 7.5           # octile from (6, 1.5) to (2, 6.5) is 6.66 m; doors add a little
+        assert 6.5 < r.length < 7.5  # octile from (6, 1.5) to (2, 6.5) is 6.66 m; doors add a little
     check = check_equal_distance(routes)
     assert check.equal and check.max_relative_difference < 0.02 and check.rtol == 0.05
     assert check.lengths == (routes[0].length, routes[1].length)
@@ -430,7 +461,7 @@ def test_every_room_is_reachable_from_the_lobby(floor):
     for name in m.rooms:
         r = plan_route(m, "lobby_1", name)
         assert r.rooms[-1] == name
-    assert plan_route(m, "lobby_1", "conferenceRoom_1").goal_snap > 0      # its centre is on the table
+    assert plan_route(m, "lobby_1", "conferenceRoom_1").goal_snap > 0  # its centre is on the table
 
 
 def test_check_equal_distance_values_and_errors():
@@ -447,31 +478,30 @@ def test_check_equal_distance_values_and_errors():
 
 # -- the synthetic floor ----------------------------------------------------------------------------------
 
+
 def test_synthetic_floor_layout(floor):
     path, area, m = floor
     assert path.name == "Area_1"
-    assert area.room_names == ("WC_1", "conferenceRoom_1", "hallway_1", "lobby_1", "office_1", "office_2",
-                               "storage_1")
+    assert area.room_names == ("WC_1", "conferenceRoom_1", "hallway_1", "lobby_1", "office_1", "office_2", "storage_1")
     assert area.skipped_rows == 0
     office = area.room("office_1")
     assert {"door_1", "floor_1", "ceiling_1", "table_1", "chair_1", "bookcase_1", "window_1"} <= set(office.instances)
     doors = office.points[office.categories == CATEGORIES.index("door")]
-    assert len(doors) and doors[:, 1].min() > 4.9 and doors[:, 1].max() < 5.2     # on the south wall's frame
+    assert len(doors) and doors[:, 1].min() > 4.9 and doors[:, 1].max() < 5.2  # on the south wall's frame
     ceiling = np.concatenate([r.points[r.categories == 0, 2] for r in area.rooms])
     assert abs(np.median(ceiling) - 2.7) < 0.01
     # the offices mirror each other about x = 6
     g = m.topology
     (x1, y1), (x2, y2) = g.nodes["office_1"]["centre"], g.nodes["office_2"]["centre"]
     assert x1 + x2 == pytest.approx(12.0, abs=0.01) and y1 == pytest.approx(y2, abs=0.01)
-    assert {frozenset(e) for e in g.edges} == {frozenset({"hallway_1", r}) for r in area.room_names
-                                               if r != "hallway_1"}
+    assert {frozenset(e) for e in g.edges} == {frozenset({"hallway_1", r}) for r in area.room_names if r != "hallway_1"}
     # ceiling removed from the top view; walls remain obstacles; room centres free
     assert not (m.top_category == 0).any() and np.nanmax(m.top_height) < 2.65
     assert m.floor_z == pytest.approx(0.0, abs=0.01)
     for name in ("lobby_1", "office_1", "office_2", "hallway_1"):
         assert m.traversable[m.world_to_cell(*g.nodes[name]["centre"])]
-    assert not m.free[m.world_to_cell(4.0, 6.5)]          # wall between office_1 and the conference room
-    assert m.traversable[m.world_to_cell(3.0, 5.0)]       # office_1's door
+    assert not m.free[m.world_to_cell(4.0, 6.5)]  # wall between office_1 and the conference room
+    assert m.traversable[m.world_to_cell(3.0, 5.0)]  # office_1's door
 
 
 def test_synthetic_floor_is_deterministic(tmp_path):
@@ -482,9 +512,9 @@ def test_synthetic_floor_is_deterministic(tmp_path):
     files = sorted(p.relative_to(pa) for p in pa.rglob("*.txt"))
     assert files == sorted(p.relative_to(pb) for p in pb.rglob("*.txt")) and len(files) > 40
     assert all((pa / f).read_bytes() == (pb / f).read_bytes() for f in files)
-    pc = write_office_floor(tmp_path / "a", area="Area_1", spacing=0.4, seed=4)   # replaces the rooms
+    pc = write_office_floor(tmp_path / "a", area="Area_1", spacing=0.4, seed=4)  # replaces the rooms
     assert (pc / "office_1" / "office_1.txt").read_bytes() != (pb / "office_1" / "office_1.txt").read_bytes()
-    assert not [p for p in pc.iterdir() if p.name.startswith(".")]                 # no temporary folders left
+    assert not [p for p in pc.iterdir() if p.name.startswith(".")]  # no temporary folders left
     room = read_room(pc / "office_1")
     whole = read_points(pc / "office_1" / "office_1.txt")[0]
     assert len(whole) == len(room.points)
@@ -503,6 +533,7 @@ def test_write_office_floor_errors(tmp_path):
 
 
 # -- images -----------------------------------------------------------------------------------------------
+
 
 def _distance_to_polyline(px: np.ndarray, poly: np.ndarray) -> np.ndarray:
     """Distance of each pixel (n, 2) to the polyline (k, 2), in pixels."""
@@ -540,18 +571,18 @@ def test_route_image_size_red_route_and_index(floor):
     other = _png(route_image(m, route, 1, scale=scale))
     diff = np.argwhere((other != img).any(axis=-1))
     assert len(diff) and diff[:, 0].max() < rows * scale // 4 and diff[:, 1].max() < cols * scale // 6
-    assert route_image(m, route, 2, scale=scale) == data                 # deterministic
+    assert route_image(m, route, 2, scale=scale) == data  # deterministic
 
 
 def test_route_image_background(floor):
     m = floor[2]
     route = plan_route(m, "lobby_1", "office_1")
-    img = _png(route_image(m, route, 1, scale=1))[::-1]                  # back to grid orientation
+    img = _png(route_image(m, route, 1, scale=1))[::-1]  # back to grid orientation
     red = (img == ROUTE_RGB).all(axis=-1)
     label = np.zeros(m.shape, bool)
-    label[-m.shape[0] // 4:, : m.shape[1] // 6] = True                   # the index box (upper left)
+    label[-m.shape[0] // 4 :, : m.shape[1] // 6] = True  # the index box (upper left)
     clear = ~red & ~label
-    assert (img[m.traversable & clear] >= 166).all()                     # free space light
+    assert (img[m.traversable & clear] >= 166).all()  # free space light
     assert (img[~m.free & ~np.isnan(m.top_height) & clear] <= 115).all()  # obstacles dark
     assert (img[np.isnan(m.top_height) & clear] == 28).all()
     assert red[route.cells[:, 0], route.cells[:, 1]].mean() > 0.9
@@ -561,7 +592,7 @@ def test_route_image_default_scale_and_errors(floor, tmp_path):
     m = floor[2]
     route = plan_route(m, "lobby_1", "office_1")
     img = _png(route_image(m, route, 1))
-    assert img.shape[:2] == (m.shape[0] * 7, m.shape[1] * 7)             # ceil(800 / 120) pixels per cell
+    assert img.shape[:2] == (m.shape[0] * 7, m.shape[1] * 7)  # ceil(800 / 120) pixels per cell
     with pytest.raises(InputError, match="^scale: "):
         route_image(m, route, 1, scale=0)
     with pytest.raises(InputError, match="^index: must not be empty"):
@@ -579,6 +610,7 @@ def test_route_image_default_scale_and_errors(floor, tmp_path):
 
 
 # -- the scene --------------------------------------------------------------------------------------------
+
 
 def test_delivery_scene_on_an_area_folder(floor):
     path, _, m = floor

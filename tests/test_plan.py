@@ -5,20 +5,20 @@ from __future__ import annotations
 
 import json
 import math
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
+from _cli import run, run_json
 from scipy import stats
 
 import fairaudit as fa
-from _cli import run, run_json
 from fairaudit.cli import main
 from fairaudit.estimate import CountTable
 from fairaudit.plan import SamplePlan, _Certifier, plan
 
 
-@lru_cache(maxsize=None)
+@cache
 def exact_ci(k: int, n: int, level: float):
     ci = stats.binomtest(k, n).proportion_ci(confidence_level=level, method="exact")
     return ci.low, ci.high
@@ -28,8 +28,9 @@ def upper_by_binomtest(ks, n, confidence):
     """Upper end of L for one context and groups ks: Bonferroni over the m = len(ks) cells, exact intervals."""
     level = 1 - (1 - confidence) / len(ks)
     cis = [exact_ci(int(k), n, level) for k in ks]
-    ratios = [hi / lo if lo > 0 else math.inf for i, (_, hi) in enumerate(cis)
-              for j, (lo, _) in enumerate(cis) if i != j]
+    ratios = [
+        hi / lo if lo > 0 else math.inf for i, (_, hi) in enumerate(cis) for j, (lo, _) in enumerate(cis) if i != j
+    ]
     return math.log(max(max(ratios), 1.0))
 
 
@@ -40,6 +41,7 @@ def table(k, n):
 
 
 # -- hand values -------------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("n,p,conf", [(100, 0.5, 0.95), (400, 0.3, 0.9), (37, 0.2, 0.99)])
 def test_expected_counts_match_binomtest(n, p, conf):
@@ -84,13 +86,19 @@ def test_vectorised_upper_ends_equal_fairness_intervals(X, A, eps, kind):
     mech = None if eps is None else fa.randomized_response(tuple(range(A)), eps)
     n = 60
     k = rng.binomial(n, rng.uniform(0.05, 0.95, (X, A)), size=(6, X, A))
-    k[0] = 0                      # zero counts: +inf upper end (finite behind a filter, which mixes the groups)
+    k[0] = 0  # zero counts: +inf upper end (finite behind a filter, which mixes the groups)
     for method in ("clopper-pearson", "multinomial"):
         cert = _Certifier(A, X, 0.9, method, mech, kind, 0)
         pop = fa.Population.uniform(tuple(range(X)), tuple(range(A)))
-        ref = [getattr(fa.fairness_intervals(table(kk, n), fa.indicator(1, (1, 0)), 0.9, method,
-                                             sensitive_mechanism=mech, population=pop),
-                       "local" if kind == "local" else "global_").upper for kk in k]
+        ref = [
+            getattr(
+                fa.fairness_intervals(
+                    table(kk, n), fa.indicator(1, (1, 0)), 0.9, method, sensitive_mechanism=mech, population=pop
+                ),
+                "local" if kind == "local" else "global_",
+            ).upper
+            for kk in k
+        ]
         np.testing.assert_allclose(cert.fast(k, n), ref, rtol=1e-9)
     assert math.isinf(ref[0]) == (eps is None)
 
@@ -117,13 +125,26 @@ def test_max_n_not_reached():
     assert pl.reason.startswith("max_n = 50 queries per cell give power")
 
 
-@pytest.mark.parametrize("kwargs,field", [
-    (dict(target=-1), "target"), (dict(target=math.inf), "target"), (dict(groups=1), "groups"),
-    (dict(groups=2.0), "groups"), (dict(contexts=0), "contexts"), (dict(base_rate=0), "base_rate"),
-    (dict(base_rate=0.6, disparity=1.0), "disparity"), (dict(confidence=1), "confidence"),
-    (dict(method="wald"), "method"), (dict(power=0), "power"), (dict(epsilon=-0.1), "epsilon"),
-    (dict(kind="both"), "kind"), (dict(datasets=0), "datasets"), (dict(seed=-1), "seed"), (dict(max_n=0), "max_n"),
-])
+@pytest.mark.parametrize(
+    "kwargs,field",
+    [
+        (dict(target=-1), "target"),
+        (dict(target=math.inf), "target"),
+        (dict(groups=1), "groups"),
+        (dict(groups=2.0), "groups"),
+        (dict(contexts=0), "contexts"),
+        (dict(base_rate=0), "base_rate"),
+        (dict(base_rate=0.6, disparity=1.0), "disparity"),
+        (dict(confidence=1), "confidence"),
+        (dict(method="wald"), "method"),
+        (dict(power=0), "power"),
+        (dict(epsilon=-0.1), "epsilon"),
+        (dict(kind="both"), "kind"),
+        (dict(datasets=0), "datasets"),
+        (dict(seed=-1), "seed"),
+        (dict(max_n=0), "max_n"),
+    ],
+)
 def test_invalid_arguments_name_the_argument(kwargs, field):
     kwargs = {"target": 0.5, **kwargs}
     target = kwargs.pop("target")
@@ -133,6 +154,7 @@ def test_invalid_arguments_name_the_argument(kwargs, field):
 
 
 # -- command line ----------------------------------------------------------------------------------------
+
 
 def test_cli_json_keys_and_exit_0(capsys):
     code, d, _ = run_json(capsys, "plan", "--target", 0.6, "--datasets", 60)
@@ -165,27 +187,33 @@ def test_cli_infeasible_exits_1(capsys):
     assert code == 1 and "clopper-pearson: max_n = 10" in out
 
 
-@pytest.mark.parametrize("argv,needle", [
-    (["--target", "-1"], "--target: must be a finite number >= 0"),
-    (["--target", "0.5", "--base-rate", "1.5"], "--base-rate: must be a number in (0, 1) (got 1.5)"),
-    (["--target", "0.5", "--disparity", "1"], "--disparity: gives group 0 the rate"),
-    (["--target", "0.5", "--groups", "1"], "--groups: must be a whole number >= 2"),
-    (["--target", "0.5", "--power", "1"], "--power: must be a number in (0, 1) (got 1.0)"),
-    (["--target", "0.5", "--epsilon", "-1"], "--epsilon: must be a finite number >= 0"),
-    (["--target", "0.5", "--max-n", "0"], "--max-n: must be a whole number >= 1 (got 0)"),
-    (["--target", "0.5", "--output", "/no/such/dir/p.json"], "--output: folder does not exist"),
-])
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--target", "-1"], "--target: must be a finite number >= 0"),
+        (["--target", "0.5", "--base-rate", "1.5"], "--base-rate: must be a number in (0, 1) (got 1.5)"),
+        (["--target", "0.5", "--disparity", "1"], "--disparity: gives group 0 the rate"),
+        (["--target", "0.5", "--groups", "1"], "--groups: must be a whole number >= 2"),
+        (["--target", "0.5", "--power", "1"], "--power: must be a number in (0, 1) (got 1.0)"),
+        (["--target", "0.5", "--epsilon", "-1"], "--epsilon: must be a finite number >= 0"),
+        (["--target", "0.5", "--max-n", "0"], "--max-n: must be a whole number >= 1 (got 0)"),
+        (["--target", "0.5", "--output", "/no/such/dir/p.json"], "--output: folder does not exist"),
+    ],
+)
 def test_cli_invalid_input_is_one_line_exit_2(capsys, argv, needle):
     code, out, err = run(capsys, "plan", *argv)
     assert code == 2 and out == ""
     assert err.count("\n") == 1 and needle in err and "Traceback" not in err
 
 
-@pytest.mark.parametrize("argv,needle", [
-    (["--target", "x"], "argument --target: invalid float value: 'x'"),
-    (["--target", "0.5", "--method", "wald"], "argument --method: invalid choice: 'wald'"),
-    (["--groups", "2"], "the following arguments are required: --target"),
-])
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--target", "x"], "argument --target: invalid float value: 'x'"),
+        (["--target", "0.5", "--method", "wald"], "argument --method: invalid choice: 'wald'"),
+        (["--groups", "2"], "the following arguments are required: --target"),
+    ],
+)
 def test_cli_usage_errors_exit_2(capsys, argv, needle):
     with pytest.raises(SystemExit) as exc:
         main(["plan", *argv])
@@ -199,4 +227,4 @@ def test_cli_output_written_atomically(tmp_path, capsys):
     code, out, err = run(capsys, "plan", "--target", 0.6, "--datasets", 30, "--format", "json", "--output", target)
     assert code == 0 and out == "" and "report written to" in err and err.startswith("queries per cell: ")
     assert json.loads(target.read_text())["plans"][0]["n_per_cell"] == plan(0.6, datasets=30).n_per_cell
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.json"]     # no temporary file left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.json"]  # no temporary file left

@@ -21,7 +21,6 @@ import fairaudit as fa
 from fairaudit import privacy
 from fairaudit.privacy import epsilon_from_keep_probability, keep_probability
 
-
 # --------------------------------------------------------------------------- helpers
 
 
@@ -40,7 +39,9 @@ def brute_delta(matrix, epsilon: float) -> float:
 
 def fraction_epsilon(rows) -> float:
     """ε = log max M[a, o] / M[a', o] with exact Fraction ratios (all entries > 0)."""
-    worst = max(rows[a][o] / rows[b][o] for a in range(len(rows)) for b in range(len(rows)) for o in range(len(rows[0])))
+    worst = max(
+        rows[a][o] / rows[b][o] for a in range(len(rows)) for b in range(len(rows)) for o in range(len(rows[0]))
+    )
     return math.log(worst)
 
 
@@ -75,8 +76,9 @@ def test_delta_accepts_arrays_of_epsilon():
     out = m.delta(eps)
     assert out.shape == (2, 2)
     # Hand: [0.7 − e^ε 0.3]₊ elementwise.
-    assert out.ravel().tolist() == pytest.approx([max(0.0, 0.7 - math.exp(e) * 0.3) for e in eps.ravel()], rel=1e-12,
-                                                 abs=1e-15)
+    assert out.ravel().tolist() == pytest.approx(
+        [max(0.0, 0.7 - math.exp(e) * 0.3) for e in eps.ravel()], rel=1e-12, abs=1e-15
+    )
 
 
 # --------------------------------------------------------------------------- k-ary randomized response
@@ -201,8 +203,9 @@ def test_profile_default_grid():
     prof = m.profile()
     assert prof.epsilons[0] == 0.0 and prof.epsilons[-1] == pytest.approx(math.log(7 / 3), rel=1e-12)
     assert len(prof.epsilons) == 101
-    assert prof.deltas.tolist() == pytest.approx([max(0.0, 0.7 - math.exp(e) * 0.3) for e in prof.epsilons],
-                                                 rel=1e-12, abs=1e-15)
+    assert prof.deltas.tolist() == pytest.approx(
+        [max(0.0, 0.7 - math.exp(e) * 0.3) for e in prof.epsilons], rel=1e-12, abs=1e-15
+    )
 
 
 def test_then_is_post_processing():
@@ -322,9 +325,14 @@ def test_dp_accounting_general_mechanism_delta(pld_module):
         m = fa.from_matrix(matrix, list(range(n)), list(range(k)))
         plds = []
         for a, b in itertools.combinations(range(n), 2):
-            plds.append(pld_module.from_two_probability_mass_functions(
-                {o: math.log(matrix[b, o]) for o in range(k)}, {o: math.log(matrix[a, o]) for o in range(k)},
-                value_discretization_interval=PLD_INTERVAL, symmetric=False))
+            plds.append(
+                pld_module.from_two_probability_mass_functions(
+                    {o: math.log(matrix[b, o]) for o in range(k)},
+                    {o: math.log(matrix[a, o]) for o in range(k)},
+                    value_discretization_interval=PLD_INTERVAL,
+                    symmetric=False,
+                )
+            )
         for eps in (0.0, 0.1, 0.4, 0.8):
             peer = max(p.get_delta_for_epsilon(eps) for p in plds)
             ours = m.delta(eps)

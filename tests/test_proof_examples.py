@@ -15,8 +15,8 @@ from __future__ import annotations
 import itertools
 import math
 import sys
-from pathlib import Path
 from fractions import Fraction as F
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -75,13 +75,13 @@ def test_lfp_worked_example_threshold_39_25():
     assert values == [F(19, 20), F(39, 25), F(54, 35), F(70, 67), F(6, 7)]
     lam = max(values)
     assert lam == F(39, 25) and [LF_P[i] - lam * LF_Q[i] > 0 for i in range(4)] == [False, True, False, False]
-    assert vertex_max(LF_P, LF_Q, *box(LF_LO, LF_HI))[0] == lam        # Proposition 3 on all 16 vertices
+    assert vertex_max(LF_P, LF_Q, *box(LF_LO, LF_HI))[0] == lam  # Proposition 3 on all 16 vertices
     t = threshold_max(fl(LF_P), fl(LF_Q), fl(LF_LO), fl(LF_HI))
     assert t.status == "optimal" and t.value == pytest.approx(float(lam), rel=CLOSED)
     assert t.argmax == pytest.approx(fl(prefixes[1]), rel=CLOSED)
     r = lp_max(fl(LF_P), fl(LF_Q), lower=fl(LF_LO), upper=fl(LF_HI))
     assert r.status == "optimal" and r.value == pytest.approx(float(lam), rel=LP)
-    assert r.argmax == pytest.approx(fl(prefixes[1]), rel=LP, abs=LP)       # unique maximiser: no ratio equals λ*
+    assert r.argmax == pytest.approx(fl(prefixes[1]), rel=LP, abs=LP)  # unique maximiser: no ratio equals λ*
 
 
 def test_floor_max_many_worked_example_113_80():
@@ -98,7 +98,7 @@ def test_floor_max_many_worked_example_113_80():
     assert _dot(LF_Q, h) == f and expected == F(113, 80)
     A, b = box(LF_LO, LF_HI)
     A2, b2 = floor_rows([LF_Q], f)
-    assert vertex_max(LF_P, LF_Q, A + A2, b + b2) == (expected, [h])     # independent: the unique maximising vertex
+    assert vertex_max(LF_P, LF_Q, A + A2, b + b2) == (expected, [h])  # independent: the unique maximising vertex
 
     p, q, lo, hi = fl(LF_P), fl(LF_Q), fl(LF_LO), fl(LF_HI)
     v, k, frac, order = floor_max_many(p, q, lo, hi, 0.4)
@@ -130,8 +130,15 @@ def _exact_floor(p, q, lo, hi, f):
         # D* = 0 (the threshold point is c/0 = +inf): Step 1's case D* = 0; h = (1, 1/2), value 1/(1/2) = 2
         ("D* = 0", [F(1), F(0)], [F(0), F(1)], [F(0)] * 2, [F(1)] * 2, F(1, 2), F(2)),
         # an infinite ratio first and a 0/0 cell last: h = (1, 1/2, 0, 0), (1/2 + 1/4)/(3/10) = 5/2
-        ("c/0 and 0/0 cells", [F(1, 2), F(1, 2), F(0), F(0)], [F(0), F(3, 5), F(2, 5), F(0)], [F(0)] * 4, [F(1)] * 4,
-         F(3, 10), F(5, 2)),
+        (
+            "c/0 and 0/0 cells",
+            [F(1, 2), F(1, 2), F(0), F(0)],
+            [F(0), F(3, 5), F(2, 5), F(0)],
+            [F(0)] * 4,
+            [F(1)] * 4,
+            F(3, 10),
+            F(5, 2),
+        ),
         # the top-ratio cell (8/5) has zero span and the threshold keeps the other (ratio 2/5) low, D* = q·lo = 1/2;
         # the floor binds inside cell 1's span: θ = (3/4 − 1/2)/(1/2) = 1/2, h = (1/2, 1), (1/10 + 4/5)/(3/4) = 6/5
         ("zero-span top cell", [F(1, 5), F(4, 5)], [F(1, 2), F(1, 2)], [F(0), F(1)], [F(1), F(1)], F(3, 4), F(6, 5)),
@@ -146,7 +153,7 @@ def test_floor_max_many_edge_cases(case, p, q, lo, hi, f, expected):
     assert fl(q) @ h >= float(f) * (1 - 1e-12)
     assert (fl(p) @ h) / (fl(q) @ h) == pytest.approx(float(expected), rel=CLOSED)
     if case.startswith("floor below") or case.startswith("floor equal to D"):
-        assert float(frac) == 0.0 and int(k) == 1                          # (b): h* itself, only cell 2 up
+        assert float(frac) == 0.0 and int(k) == 1  # (b): h* itself, only cell 2 up
     if case == "zero-span top cell":
         assert (order.tolist(), int(k), float(frac)) == ([1, 0], 1, pytest.approx(0.5, rel=CLOSED))
     r = lp_max(fl(p), fl(q), lower=fl(lo), upper=fl(hi), A_ub=[-fl(q)], b_ub=[-float(f)])
@@ -171,9 +178,9 @@ def test_floor_max_many_infeasible_floor_and_batch():
 def test_lp_max_statuses_after_the_fix():
     # Proposition 2 and the package's conventions, as lp_max reports them since it tells an empty polytope from
     # q·h = 0 on the whole polytope (the table "How lp_max reports them" in proofs/linear_fractional.md).
-    r = lp_max([1.0, 0.0], [0.0, 1.0], lower=0.0, upper=1.0)               # (b): h0 = (1, 0), q·h0 = 0 < p·h0
+    r = lp_max([1.0, 0.0], [0.0, 1.0], lower=0.0, upper=1.0)  # (b): h0 = (1, 0), q·h0 = 0 < p·h0
     assert r.status == "unbounded" and r.value == math.inf
-    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 1.0]], b_ub=[-1.0])   # empty, finite bounds
+    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 1.0]], b_ub=[-1.0])  # empty, finite bounds
     assert r.status == "infeasible" and math.isnan(r.value) and "inconsistent" in r.reason
     r, t = lp_max([1.0], [0.0], lower=0.0, upper=1.0), threshold_max([1.0], [0.0], 0.0, 1.0)  # (a), c/0 = +inf
     assert (r.status, r.value) == (t.status, t.value) == ("unbounded", math.inf) and "c/0" in r.reason
@@ -211,9 +218,9 @@ def _pair_t_star(p, q, gamma, tau, c0):
     """Proposition 3, item 3: t* = the smallest t in {1} ∪ {finite ratios > 1} with Q_>(t) <= τ/γ, and h(t*)."""
     inf_mass = any(a > 0 and b == 0 for a, b in zip(p, q))
     cands = [F(1)] + [r for r in _ratios(p, q) if r > 1]
-    q_gt = lambda t: sum((b for a, b in zip(p, q) if b > 0 and a / b > t), F(0))   # noqa: E731 (q = 0 adds 0)
+    q_gt = lambda t: sum((b for a, b in zip(p, q) if b > 0 and a / b > t), F(0))  # noqa: E731 (q = 0 adds 0)
     t_star = min(t for t in cands if q_gt(t) <= tau / gamma)
-    h = lambda t: t + (c0 + gamma * _delta(p, q, t)) / tau                          # noqa: E731
+    h = lambda t: t + (c0 + gamma * _delta(p, q, t)) / tau  # noqa: E731
     # t* is a minimiser among the candidates and the smallest one (h strictly larger before it)
     assert all(h(t) >= h(t_star) for t in cands) and all(h(t) > h(t_star) for t in cands if t < t_star)
     assert not inf_mass or _delta(p, q, t_star) > 0
@@ -230,16 +237,20 @@ def _tight_exact(M, gamma, tau, lip=F(0)):
     return best
 
 
-THREE = [[F(45, 100), F(40, 100), F(15, 100)],
-         [F(65, 100), F(20, 100), F(15, 100)],
-         [F(65, 100), F(30, 100), F(5, 100)]]
+THREE = [
+    [F(45, 100), F(40, 100), F(15, 100)],
+    [F(65, 100), F(20, 100), F(15, 100)],
+    [F(65, 100), F(30, 100), F(5, 100)],
+]
 
 
 @pytest.mark.parametrize(
     "tau, expected, t_star",
-    [(F(1, 2), F(9, 5), F(1)),         # Q_>(1) = 0.3 <= τ: t* = 1, h(1) = 1 + 0.4/0.5 = 9/5
-     (F(3, 10), F(7, 3), F(1)),        # the boundary τ = 0.3γ: t* = 1, h(1) = 1 + 0.4/0.3 = 7/3 = h(7/3)
-     (F(1, 5), F(7, 3), F(7, 3))],     # Q_>(1) = 0.3 > τ: t* = 7/3, δ(7/3) = 0, h = 7/3
+    [
+        (F(1, 2), F(9, 5), F(1)),  # Q_>(1) = 0.3 <= τ: t* = 1, h(1) = 1 + 0.4/0.5 = 9/5
+        (F(3, 10), F(7, 3), F(1)),  # the boundary τ = 0.3γ: t* = 1, h(1) = 1 + 0.4/0.3 = 7/3 = h(7/3)
+        (F(1, 5), F(7, 3), F(7, 3)),
+    ],  # Q_>(1) = 0.3 > τ: t* = 7/3, δ(7/3) = 0, h = 7/3
 )
 def test_tight_t_star_rule_binary_rr(tau, expected, t_star):
     # tight_bound.md, Proposition 3 item 3 on binary RR keeping 0.7 (γ = 1): t* = 1 iff τ >= 0.3γ.
@@ -247,7 +258,7 @@ def test_tight_t_star_rule_binary_rr(tau, expected, t_star):
     assert _pair_t_star(M[0], M[1], F(1), tau, F(0)) == (t_star, expected)
     b = fa.tight_bound(fa.randomized_response(["a", "b"], keep=0.7), gamma=1.0, tau=float(tau))
     assert math.exp(b.value) == pytest.approx(float(expected), rel=CLOSED)
-    if tau != F(3, 10):                                                   # at τ = 0.3 both t = 1 and t = 7/3 minimise
+    if tau != F(3, 10):  # at τ = 0.3 both t = 1 and t = 7/3 minimise
         assert math.exp(b.epsilon) == pytest.approx(float(t_star), rel=CLOSED)
         assert b.delta == pytest.approx(float(_delta(M[0], M[1], t_star)), abs=1e-12)
 
@@ -288,7 +299,7 @@ def _envelope_candidates(M):
     cands = set(knots)
     for lo_, hi_ in zip(knots, knots[1:]):
         lines = []
-        for p, q in pairs:                                   # δ_aa' is affine on [lo_, hi_]: no ratio inside
+        for p, q in pairs:  # δ_aa' is affine on [lo_, hi_]: no ratio inside
             slope = (_delta(p, q, hi_) - _delta(p, q, lo_)) / (hi_ - lo_)
             lines.append((slope, _delta(p, q, lo_) - slope * lo_))
         for (s1, c1), (s2, c2) in itertools.combinations(lines, 2):
@@ -300,7 +311,7 @@ def _envelope_candidates(M):
 def test_three_group_ordering_tight_mechanism_wide_ratios_paper():
     # tight_bound.md §4 (γ = 1, τ = 0.1, L_A = 0): e^T = 13/6 (per pair) < e^{T_M} = 7/3 (mechanism-wide δ, at the
     # crossing t = 5/3, not a ratio) < 5/2 (T_M evaluated only at t ∈ {1} ∪ ratios) < 25/9 (paper form).
-    kappa = F(10)                                            # γ/τ
+    kappa = F(10)  # γ/τ
     pairs = [(THREE[a], THREE[b]) for a, b in itertools.permutations(range(3), 2)]
     env = lambda t: max(_delta(p, q, t) for p, q in pairs)  # noqa: E731
     ratios = sorted({F(1)} | {r for p, q in pairs for r in _ratios(p, q) if r >= 1})
@@ -313,14 +324,14 @@ def test_three_group_ordering_tight_mechanism_wide_ratios_paper():
     assert all(env(t) == F(2, 5) - t / 5 for t in (F(1), F(4, 3), F(3, 2), F(5, 3)))
     assert all(env(t) == F(3, 20) - t / 20 for t in (F(5, 3), F(2), F(3)))
     at_ratios = min(t + kappa * env(t) for t in ratios)
-    paper = min(t * (1 + kappa * env(t)) for t in cands)    # concave on each piece of δ: minimum at a candidate
+    paper = min(t * (1 + kappa * env(t)) for t in cands)  # concave on each piece of δ: minimum at a candidate
     tight = _tight_exact(THREE, F(1), F(1, 10))[0]
     assert (tight, t_m, at_ratios, paper) == (F(13, 6), F(7, 3), F(5, 2), F(25, 9))
     assert tight < t_m < at_ratios < paper
 
     m = fa.from_matrix([[float(x) for x in r] for r in THREE], ["a0", "a1", "a2"], ["o0", "o1", "o2"])
     assert math.exp(fa.tight_bound(m, gamma=1.0, tau=0.1).value) == pytest.approx(float(tight), rel=CLOSED)
-    t, d = _profile_candidates(m)                          # the package's envelope breakpoints and δ there
+    t, d = _profile_candidates(m)  # the package's envelope breakpoints and δ there
     assert (t + d / 0.1).min() == pytest.approx(float(t_m), rel=CLOSED)
     eps = math.log(5 / 3)
     assert m.delta(eps) == pytest.approx(float(env(F(5, 3))), rel=CLOSED)
@@ -376,13 +387,13 @@ def test_black_box_example_2_lipschitz_is_58_35():
     ab = vertex_max(M[0] + [0, 0], [0, 0] + M[1], A, b)
     ba = vertex_max([0, 0] + M[1], M[0] + [0, 0], A, b)
     h = [F(1), F(3, 7), F(9, 10), F(23, 70)]
-    assert ab == (F(58, 35), [h]) and ba == (F(58, 35), [[F(23, 70), F(9, 10), F(3, 7), F(1)]])   # mirror image
-    assert _dot(M[0], h[:2]) == F(29, 35) and _dot(M[1], h[2:]) == F(1, 2)   # the hand check of the proof
+    assert ab == (F(58, 35), [h]) and ba == (F(58, 35), [[F(23, 70), F(9, 10), F(3, 7), F(1)]])  # mirror image
+    assert _dot(M[0], h[:2]) == F(29, 35) and _dot(M[1], h[2:]) == F(1, 2)  # the hand check of the proof
     m = fa.randomized_response(["a", "b"], keep=0.7)
     c = black_box_bound(m, tau=0.5, lipschitz=0.1)
     assert c.status == "optimal" and c.ratio == pytest.approx(58 / 35, rel=LP)
-    table = np.array([fl(h[:2]), fl(h[2:])])                              # rows h[a], h[b] for the pair (a, b)
-    assert (c.group, c.other_group) in (("a", "b"), ("b", "a"))               # the two pairs tie
+    table = np.array([fl(h[:2]), fl(h[2:])])  # rows h[a], h[b] for the pair (a, b)
+    assert (c.group, c.other_group) in (("a", "b"), ("b", "a"))  # the two pairs tie
     expected = table if c.group == "a" else table[::-1, ::-1]
     assert c.utility_by_release == pytest.approx(expected, rel=LP, abs=LP)
     assert math.exp(fa.tight_bound(m, gamma=1.0, tau=0.5, lipschitz=0.1).value) == pytest.approx(2.0, rel=CLOSED)
@@ -390,8 +401,10 @@ def test_black_box_example_2_lipschitz_is_58_35():
 
 @pytest.mark.parametrize(
     "tau, expected, point, tight",
-    [(F(1, 2), F(9, 5), [F(1), F(1), F(20, 21), F(0)], F(9, 5)),     # Proposition 7 holds: black-box = tight
-     (F(3, 5), F(227, 147), [F(1), F(1), F(1), F(9, 49)], F(5, 3))],  # 0.09 + 0.21 + 0.21 = 0.51 < 3/5: strictly below
+    [
+        (F(1, 2), F(9, 5), [F(1), F(1), F(20, 21), F(0)], F(9, 5)),  # Proposition 7 holds: black-box = tight
+        (F(3, 5), F(227, 147), [F(1), F(1), F(1), F(9, 49)], F(5, 3)),
+    ],  # 0.09 + 0.21 + 0.21 = 0.51 < 3/5: strictly below
 )
 def test_black_box_example_3_product_of_two_rr(tau, expected, point, tight):
     # black_box.md §5 Example 3: the product of two binary RRs keeping 0.7 (4 groups), L_A = 0, box certificate
@@ -401,7 +414,7 @@ def test_black_box_example_3_product_of_two_rr(tau, expected, point, tight):
     A, b = _class_rows(P, tau)
     best = max(vertex_max(P[i], P[j], A, b)[0] for i, j in itertools.permutations(range(4), 2))
     assert best == expected
-    assert vertex_max(P[0], P[3], A, b)[0] == expected                      # pair ((T, 25), (M, 55))
+    assert vertex_max(P[0], P[3], A, b)[0] == expected  # pair ((T, 25), (M, 55))
     assert _dot(P[0], point) / _dot(P[3], point) == expected and all(_dot(r, point) >= tau for r in P)
     assert _tight_exact(P, F(1), tau)[0] == tight
     mp = fa.product(fa.randomized_response(["T", "M"], keep=0.7), fa.randomized_response([25, 55], keep=0.7))
@@ -412,7 +425,7 @@ def test_black_box_example_3_product_of_two_rr(tau, expected, point, tight):
     assert c.utility_by_release == pytest.approx(fl(point), rel=CLOSED, abs=1e-15)
     c_lp = black_box_bound(mp, tau=float(tau), method="lp")
     assert c_lp.ratio == pytest.approx(float(expected), rel=LP)
-    hl = c_lp.utility_by_release                                             # the maximiser is not unique at τ = 1/2
+    hl = c_lp.utility_by_release  # the maximiser is not unique at τ = 1/2
     Pf = np.array([fl(r) for r in P])
     assert np.all(Pf @ hl >= float(tau) * (1 - LP))
     assert (Pf[0] @ hl) / (Pf[3] @ hl) == pytest.approx(float(expected), rel=LP)
@@ -435,14 +448,14 @@ def test_black_box_consequence_3_global_under_independence():
     assert pop.independence().independent
 
     kernel, util = black_box_bound(ma, tau=0.5).worst_model()
-    table = np.repeat(kernel.probabilities, 2, axis=0)                    # the same kernel in every released context
+    table = np.repeat(kernel.probabilities, 2, axis=0)  # the same kernel in every released context
     law = fa.compose(fa.Kernel(table, ["x0", "x1"], kernel.groups, kernel.decisions), ma, mx)
     assert global_fairness(law, util, pop).ratio == pytest.approx(11 / 7, rel=CLOSED)
     assert local_fairness(law, util, pop).ratio == pytest.approx(11 / 7, rel=CLOSED)
     assert fa.expected_utility(law, util).min() >= 0.5 * (1 - CLOSED)
 
-    h = np.array([[1.0, 3 / 7], [0.9, 23 / 70]])                         # Example 2's exact maximiser, h[b, u]
-    ident = np.repeat(np.eye(2)[None, :, :], 2, axis=0)                   # K[x̃, ã, u] = 1{u = ã}
+    h = np.array([[1.0, 3 / 7], [0.9, 23 / 70]])  # Example 2's exact maximiser, h[b, u]
+    ident = np.repeat(np.eye(2)[None, :, :], 2, axis=0)  # K[x̃, ã, u] = 1{u = ã}
     law = fa.compose(fa.Kernel(ident, ["x0", "x1"], ["a", "b"], ["a", "b"]), ma, mx)
     g = fa.from_table(np.repeat(h[None, :, :], 2, axis=0), ["a", "b"], ["x0", "x1"], ["a", "b"])
     assert g.lipschitz() == pytest.approx(0.1, rel=CLOSED)
@@ -464,7 +477,7 @@ def test_worst_model_known_utility_example_19_11_and_69_49():
     # black_box.md §6 Example: local 19/11 (context x0, box [0.2, 1], threshold releases {a}), 3/2 at x1; global:
     # w[x̃, u] = Σ_x P(x) M_X[x, x̃] g(u, x), lo_g = 17/50, hi_g = 21/25, (0.34 + 0.5·0.7)/(0.34 + 0.5·0.3) = 69/49.
     keep = F(7, 10)
-    box_ratio = lambda lo, hi: (lo + (hi - lo) * keep) / (lo + (hi - lo) * (1 - keep))   # noqa: E731
+    box_ratio = lambda lo, hi: (lo + (hi - lo) * keep) / (lo + (hi - lo) * (1 - keep))  # noqa: E731
     G = [[F(1), F(1, 2), F(1, 5)], [F(3, 5), F(3, 10), F(9, 10)]]
     PX = [[F(8, 10), F(2, 10)], [F(2, 10), F(8, 10)]]
     local = [box_ratio(min(r), max(r)) for r in G]
@@ -482,8 +495,10 @@ def test_worst_model_known_utility_example_19_11_and_69_49():
     assert auto.local.ratio == pytest.approx(19 / 11, rel=CLOSED)
     assert auto.global_.ratio == pytest.approx(69 / 49, rel=CLOSED)
     # the worst global kernel: x̃0 answers u0 to released a and u2 to b; x̃1 answers u2 and u1
-    assert auto.global_.kernel.probabilities.tolist() == [[[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
-                                                          [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]]
+    assert auto.global_.kernel.probabilities.tolist() == [
+        [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+        [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
+    ]
     law = fa.compose(auto.global_.kernel, ma, mx)
     assert global_fairness(law, g, pop).ratio == pytest.approx(69 / 49, rel=CLOSED)
     law = fa.compose(auto.local.kernel, ma, mx)
@@ -508,7 +523,7 @@ def test_worst_utility_one_context_tau_certificate_7_4():
     lam, mu = F(7, 4), F(3, 4)
     assert [pi - lam * qi for pi, qi in zip(p, q)] == [(pi - qi) - mu * qi for pi, qi in zip(p, q)]
     box_max = max(_dot([pi - qi for pi, qi in zip(p, q)], h) for h in vertices(*box([0] * 3, [1] * 3)))
-    assert box_max == F(3, 10) and box_max - mu * F(2, 5) == 0             # max over [0,1]^3 of (0.3, 0, −0.3)·g
+    assert box_max == F(3, 10) and box_max - mu * F(2, 5) == 0  # max over [0,1]^3 of (0.3, 0, −0.3)·g
     assert all(_dot([pi - lam * qi for pi, qi in zip(p, q)], h) <= 0 for h in vertices(A + A2, b + b2))
 
     law = fa.Law([[fl(p), fl(q)]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
@@ -524,8 +539,10 @@ def test_worst_utility_floors_couple_the_contexts_12_7_and_61_41():
     # worst_case_utility.md §2, two contexts, τ = 2/5, g in [0, 1]^3: (x0, a over b) is 7/4 at (0, 0, 1) with its own
     # context's floors, 12/7 at (1/5, 0, 1) with all four floors (the floor of (x1, b) is tight); global 61/41 (a over
     # b, same g); without constraints local 5/2 and global 7/3 (Lemma 1).
-    Q = [[[F(1, 10), F(2, 10), F(7, 10)], [F(1, 10), F(5, 10), F(4, 10)]],
-         [[F(5, 10), F(1, 10), F(4, 10)], [F(5, 10), F(2, 10), F(3, 10)]]]
+    Q = [
+        [[F(1, 10), F(2, 10), F(7, 10)], [F(1, 10), F(5, 10), F(4, 10)]],
+        [[F(5, 10), F(1, 10), F(4, 10)], [F(5, 10), F(2, 10), F(3, 10)]],
+    ]
     tau = F(2, 5)
     A0, b0 = box([0] * 3, [1] * 3)
 
@@ -535,7 +552,7 @@ def test_worst_utility_floors_couple_the_contexts_12_7_and_61_41():
 
     own, every = rows([(0, 0), (0, 1)]), rows([(x, c) for x in range(2) for c in range(2)])
     assert vertex_max(Q[0][0], Q[0][1], *own) == (F(7, 4), [[F(0), F(0), F(1)]])
-    assert _dot(Q[1][1], [F(0), F(0), F(1)]) == F(3, 10) < tau                # that g breaks the floor of (x1, b)
+    assert _dot(Q[1][1], [F(0), F(0), F(1)]) == F(3, 10) < tau  # that g breaks the floor of (x1, b)
     g = [F(1, 5), F(0), F(1)]
     assert vertex_max(Q[0][0], Q[0][1], *every) == (F(12, 7), [g]) and _dot(Q[1][1], g) == tau
     local = max(vertex_max(Q[x][a], Q[x][1 - a], *every)[0] for x in range(2) for a in range(2))
@@ -555,7 +572,7 @@ def test_worst_utility_floors_couple_the_contexts_12_7_and_61_41():
     assert w.local.utility.values == pytest.approx(fl(g), rel=LP, abs=LP)
     assert w.global_.ratio == pytest.approx(float(glob), rel=LP)
     assert (w.global_.group, w.global_.other_group) == ("a", "b")
-    only_x0 = fa.Law([[fl(r) for r in Q[0]]], ["x0"], ["a", "b"], ["u1", "u2", "u3"])   # only x0's floors
+    only_x0 = fa.Law([[fl(r) for r in Q[0]]], ["x0"], ["a", "b"], ["u1", "u2", "u3"])  # only x0's floors
     w0 = worst_utility(only_x0, tau=0.4)
     assert w0.local.ratio == pytest.approx(float(own_x0), rel=LP)
     assert w0.local.utility.values == pytest.approx([0.0, 0.0, 1.0], rel=LP, abs=LP)

@@ -65,8 +65,14 @@ def reference(q: np.ndarray, g: np.ndarray, p_xa: np.ndarray) -> dict:
             sup_glob = max(sup_glob, _ratio(dist[a][u], dist[b][u]))
         dp = max(dp, sum(max(0.0, dist[a][u] - dist[b][u]) for u in range(K)))
     log = lambda r: math.log(r) if r > -math.inf else math.nan  # noqa: E731
-    return {"local": log(local), "global": log(glob), "sup_local": log(sup_local), "sup_global": log(sup_glob),
-            "equalized_odds": eo if eo > -math.inf else math.nan, "demographic_parity": dp}
+    return {
+        "local": log(local),
+        "global": log(glob),
+        "sup_local": log(sup_local),
+        "sup_global": log(sup_glob),
+        "equalized_odds": eo if eo > -math.inf else math.nan,
+        "demographic_parity": dp,
+    }
 
 
 def _close(a: float, b: float) -> bool:
@@ -80,7 +86,7 @@ def counted_laws(draw):
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
     counts = rng.integers(0, 4, size=(X, A, K)) * (rng.random((X, A, 1)) < 0.85)
-    counts[0, :, 0] += 1                       # at least one full context
+    counts[0, :, 0] += 1  # at least one full context
     law = Law.from_counts(counts, range(X), [f"a{i}" for i in range(A)], [f"u{i}" for i in range(K)])
     p = rng.random((X, A)) * (counts.sum(-1) > 0) * (rng.random((X, 1)) < 0.9)
     p[0] += 0.1
@@ -95,10 +101,15 @@ def test_every_metric_matches_the_definitions(case):
     got = metrics.all_metrics(law, g, pop)
     for name, value in want.items():
         assert _close(got[name].value, value), (name, got[name].value, value)
-    one_by_one = {"local": fa.local_fairness(law, g, pop), "global": fa.global_fairness(law, g, pop),
-                  "demographic_parity": fa.demographic_parity(law, pop), "equalized_odds": fa.equalized_odds(law, pop),
-                  "sup_local": fa.sup_local_fairness(law, pop), "sup_global": fa.sup_global_fairness(law, pop)}
-    for name, r in one_by_one.items():       # the same code: equal to the last bit, the same cells
+    one_by_one = {
+        "local": fa.local_fairness(law, g, pop),
+        "global": fa.global_fairness(law, g, pop),
+        "demographic_parity": fa.demographic_parity(law, pop),
+        "equalized_odds": fa.equalized_odds(law, pop),
+        "sup_local": fa.sup_local_fairness(law, pop),
+        "sup_global": fa.sup_global_fairness(law, pop),
+    }
+    for name, r in one_by_one.items():  # the same code: equal to the last bit, the same cells
         assert r.value == got[name].value or (math.isnan(r.value) and math.isnan(got[name].value)), name
         assert (r.context, r.group, r.other_group) == (got[name].context, got[name].group, got[name].other_group)
 
@@ -106,12 +117,12 @@ def test_every_metric_matches_the_definitions(case):
 def test_many_chunks_give_the_one_chunk_answer(monkeypatch):
     rng = np.random.default_rng(3)
     q = rng.dirichlet(np.ones(4), size=(5000, 6))
-    q[1234, 2] = [0.0, 0.0, 0.0, 1.0]          # the most unfair context sits inside a middle chunk
-    q[1234, 4] = [0.97, 0.01, 0.01, 0.01]      # TV = 1 - 0.01 = 0.99 on the event {z}
+    q[1234, 2] = [0.0, 0.0, 0.0, 1.0]  # the most unfair context sits inside a middle chunk
+    q[1234, 4] = [0.97, 0.01, 0.01, 0.01]  # TV = 1 - 0.01 = 0.99 on the event {z}
     law = Law(q, range(5000), list("abcdef"), list("wxyz"))
     g = fa.from_table([1.0, 0.0, 0.2, 0.5], law.decisions)
     one = metrics.all_metrics(law, g)
-    monkeypatch.setattr(metrics, "_CHUNK_BYTES", 1)     # 64 contexts per chunk: 79 chunks
+    monkeypatch.setattr(metrics, "_CHUNK_BYTES", 1)  # 64 contexts per chunk: 79 chunks
     many = metrics.all_metrics(law, g)
     for name in one:
         assert math.isclose(one[name].value, many[name].value, rel_tol=1e-14, abs_tol=1e-15), name
@@ -124,15 +135,24 @@ def test_many_chunks_give_the_one_chunk_answer(monkeypatch):
 def test_tv_by_events_equals_tv_by_pairs(K, monkeypatch):
     rng = np.random.default_rng(K)
     q = rng.dirichlet(np.ones(K), size=(300, 4))
-    q[7, 1] = np.nan                       # an empty cell: ignored by both routes
+    q[7, 1] = np.nan  # an empty cell: ignored by both routes
     ct = np.ascontiguousarray(q.transpose(2, 1, 0))
     by_events = metrics._tv_chunk(ct, nan=True) if metrics._use_events(4, K) else None
     monkeypatch.setattr(metrics, "_use_events", lambda A, K: False)
     by_pairs = metrics._tv_chunk(ct, nan=True)
     monkeypatch.setattr(metrics, "_use_events", lambda A, K: True)
     forced = metrics._tv_chunk(ct, nan=True)
-    direct = np.array([max(np.clip(q[x, a] - q[x, b], 0, None).sum() for a in range(4) for b in range(4)
-                           if a != b and not np.isnan(q[x, a, 0]) and not np.isnan(q[x, b, 0])) for x in range(300)])
+    direct = np.array(
+        [
+            max(
+                np.clip(q[x, a] - q[x, b], 0, None).sum()
+                for a in range(4)
+                for b in range(4)
+                if a != b and not np.isnan(q[x, a, 0]) and not np.isnan(q[x, b, 0])
+            )
+            for x in range(300)
+        ]
+    )
     np.testing.assert_allclose(by_pairs, direct, rtol=0, atol=1e-15)
     np.testing.assert_allclose(forced, direct, rtol=0, atol=1e-15)
     if by_events is not None:
@@ -158,7 +178,7 @@ def test_identity_on_a_million_contexts_is_never_materialised():
     assert ident.is_identity and ident.epsilon == math.inf and len(ident.outputs) == 10**6
     rr = randomized_response(["a", "b"], keep=0.75)
     k = np.zeros((10**6, 2, 2))
-    k[:, 0, 0] = k[:, 1, 1] = 1.0                       # answers the released group
+    k[:, 0, 0] = k[:, 1, 1] = 1.0  # answers the released group
     law = compose(Kernel(k, ident.outputs, ["a", "b"], ["yes", "no"]), rr, ident)
     assert "matrix" not in ident._cache
     assert law.probabilities[123456].tolist() == [[0.75, 0.25], [0.25, 0.75]]
@@ -175,10 +195,12 @@ def test_lazy_identity_agrees_with_a_dense_identity_matrix():
     dense = from_matrix(np.eye(3), contexts, name="dense")
     mech = randomized_response(groups, epsilon=0.8)
     assert dense.is_identity and np.array_equal(identity(contexts).matrix, np.eye(3))
-    np.testing.assert_array_equal(compose(kernel, mech, identity(contexts)).probabilities,
-                                  compose(kernel, mech, dense).probabilities)
-    g = fa.from_table([[[1.0, 0.2, 0.5]] * 3, [[0.4, 0.9, 0.1]] * 3, [[1.0, 0.2, 0.5]] * 3], ["u0", "u1", "u2"],
-                      contexts, groups)
+    np.testing.assert_array_equal(
+        compose(kernel, mech, identity(contexts)).probabilities, compose(kernel, mech, dense).probabilities
+    )
+    g = fa.from_table(
+        [[[1.0, 0.2, 0.5]] * 3, [[0.4, 0.9, 0.1]] * 3, [[1.0, 0.2, 0.5]] * 3], ["u0", "u1", "u2"], contexts, groups
+    )
     pop = Population(rng.dirichlet(np.ones(9)).reshape(3, 3), contexts, groups)
     for kw in ({}, {"tau": 0.3}):
         lazy = worst_model(mech, g, context_mechanism=identity(contexts), population=pop, **kw)
@@ -186,7 +208,10 @@ def test_lazy_identity_agrees_with_a_dense_identity_matrix():
         for case in ("local", "global_"):
             a, b = getattr(lazy, case), getattr(full, case)
             assert a.ratio == pytest.approx(b.ratio, rel=1e-9) and (a.context, a.group, a.other_group) == (
-                b.context, b.group, b.other_group)
+                b.context,
+                b.group,
+                b.other_group,
+            )
 
 
 # --------------------------------------------------------------------------- labels and beta quantiles
@@ -196,7 +221,7 @@ def test_labels_from_numpy_and_repeats():
     assert as_labels(np.arange(3), "f") == (0, 1, 2) and type(as_labels(np.arange(3), "f")[0]) is int
     assert as_labels(np.array([[1, 2], [3, 4]]), "f") == ((1, 2), (3, 4))
     big = tuple(range(5000))
-    assert as_labels(big, "f") is big and as_labels(big, "f") is big     # remembered: checked once
+    assert as_labels(big, "f") is big and as_labels(big, "f") is big  # remembered: checked once
     with pytest.raises(InputError, match=r"repeated label \(got 7\)|repeated label.*7"):
         as_labels(list(range(5000)) + [7], "contexts")
 
@@ -232,7 +257,7 @@ def test_disjoint_ratio_equals_the_search_over_every_pair(M, A, seed):
     from fairaudit.intervals import _disjoint_ratio, _div
 
     rng = np.random.default_rng(seed)
-    lo = rng.choice([0.0, 0.1, 0.2, 0.5], size=(M, A))           # few values: many ties and zeros
+    lo = rng.choice([0.0, 0.1, 0.2, 0.5], size=(M, A))  # few values: many ties and zeros
     hi = lo + rng.choice([0.0, 0.1, 0.3], size=(M, A))
     lo[rng.random((M, A)) < 0.2] = np.nan
     valid = ~np.isnan(lo)

@@ -35,8 +35,10 @@ else:
     SKIP = None if shutil.which("java") else "no `java` on PATH: Spark's local mode needs a Java runtime"
 
 # pyspark 4 warns on every toPandas that it does not yet fully support pandas 3, and uses a deprecated keyword.
-pytestmark = [pytest.mark.filterwarnings("ignore:PySpark does not yet fully support pandas:FutureWarning"),
-              pytest.mark.filterwarnings("ignore:The copy keyword is deprecated:Warning")]
+pytestmark = [
+    pytest.mark.filterwarnings("ignore:PySpark does not yet fully support pandas:FutureWarning"),
+    pytest.mark.filterwarnings("ignore:The copy keyword is deprecated:Warning"),
+]
 
 
 @pytest.fixture(scope="session")
@@ -81,7 +83,10 @@ def assert_same_table(got, want):
     assert _typed(got.groups) == _typed(want.groups)
     assert _typed(got.decisions) == _typed(want.decisions)
     assert (got.context_columns, got.sensitive_columns, got.outcome_column) == (
-        want.context_columns, want.sensitive_columns, want.outcome_column)
+        want.context_columns,
+        want.sensitive_columns,
+        want.outcome_column,
+    )
 
 
 def _error(fn, *args, **kwargs) -> str:
@@ -92,9 +97,15 @@ def _error(fn, *args, **kwargs) -> str:
 
 # job (context), sex and age (sensitive), hired (outcome); hand counts below.
 HAND = [
-    ("clerk", "F", 30, True), ("clerk", "F", 30, False), ("clerk", "M", 30, True),
-    ("clerk", "M", 45, True), ("clerk", "M", 45, True), ("driver", "F", 45, False),
-    ("driver", "M", 30, True), ("driver", "M", 30, False), ("driver", "M", 30, False),
+    ("clerk", "F", 30, True),
+    ("clerk", "F", 30, False),
+    ("clerk", "M", 30, True),
+    ("clerk", "M", 45, True),
+    ("clerk", "M", 45, True),
+    ("driver", "F", 45, False),
+    ("driver", "M", 30, True),
+    ("driver", "M", 30, False),
+    ("driver", "M", 30, False),
 ]
 HAND_SCHEMA = "job string, sex string, age int, hired boolean"
 
@@ -103,12 +114,15 @@ def test_hand_counted_table_and_labels(spark):
     sdf = spark.createDataFrame(HAND, HAND_SCHEMA)
     t = count_spark(sdf, sensitive=["sex", "age"], outcome="hired", context=["job"])
     assert t.contexts == ("clerk", "driver")
-    assert _typed(t.groups) == [("tuple", [("str", "F"), ("int", 30)]), ("tuple", [("str", "F"), ("int", 45)]),
-                                ("tuple", [("str", "M"), ("int", 30)]), ("tuple", [("str", "M"), ("int", 45)])]
+    assert _typed(t.groups) == [
+        ("tuple", [("str", "F"), ("int", 30)]),
+        ("tuple", [("str", "F"), ("int", 45)]),
+        ("tuple", [("str", "M"), ("int", 30)]),
+        ("tuple", [("str", "M"), ("int", 45)]),
+    ]
     assert _typed(t.decisions) == [("bool", False), ("bool", True)]
     # counts[x, a, u]: [False, True] per group (F30, F45, M30, M45)
-    assert t.counts.tolist() == [[[1, 1], [0, 0], [0, 1], [0, 2]],
-                                 [[0, 0], [1, 0], [2, 1], [0, 0]]]
+    assert t.counts.tolist() == [[[1, 1], [0, 0], [0, 1], [0, 2]], [[0, 0], [1, 0], [2, 1], [0, 0]]]
     pdf = pd.DataFrame(HAND, columns=["job", "sex", "age", "hired"])
     assert_same_table(t, count_records(pdf, sensitive=["sex", "age"], outcome="hired", context=["job"]))
     # one sensitive column as a string, no context: one context "all"
@@ -118,20 +132,28 @@ def test_hand_counted_table_and_labels(spark):
 
 MIXED_SCHEMA = "i int, l long, s string, b boolean, d double, f float"
 MIXED = [
-    (3, 10, "b", True, 0.5, 1.25), (1, 10, "a", False, 2.0, 0.5), (3, 7, "a", True, 0.5, 0.5),
-    (2, 7, "c", False, -1.5, 1.25), (1, 10, "b", True, 2.0, 0.5), (3, 7, "b", True, -1.5, 0.1),
-    (2, 10, "a", True, 0.5, 0.1), (1, 7, "c", False, 2.0, 1.25),
+    (3, 10, "b", True, 0.5, 1.25),
+    (1, 10, "a", False, 2.0, 0.5),
+    (3, 7, "a", True, 0.5, 0.5),
+    (2, 7, "c", False, -1.5, 1.25),
+    (1, 10, "b", True, 2.0, 0.5),
+    (3, 7, "b", True, -1.5, 0.1),
+    (2, 10, "a", True, 0.5, 0.1),
+    (1, 7, "c", False, 2.0, 1.25),
 ]
 
 
-@pytest.mark.parametrize("roles", [
-    dict(sensitive=["s"], outcome="b"),
-    dict(sensitive=["i"], outcome="d", context=["s"]),
-    dict(sensitive=["b", "s"], outcome="i", context=["d"]),
-    dict(sensitive=["l"], outcome="f", context=["b", "i"]),
-    dict(sensitive=["d", "f"], outcome="l", context=["s", "b"]),
-    dict(sensitive=["s", "i", "b"], outcome="s"),
-])
+@pytest.mark.parametrize(
+    "roles",
+    [
+        dict(sensitive=["s"], outcome="b"),
+        dict(sensitive=["i"], outcome="d", context=["s"]),
+        dict(sensitive=["b", "s"], outcome="i", context=["d"]),
+        dict(sensitive=["l"], outcome="f", context=["b", "i"]),
+        dict(sensitive=["d", "f"], outcome="l", context=["s", "b"]),
+        dict(sensitive=["s", "i", "b"], outcome="s"),
+    ],
+)
 def test_dtypes_match_count_records_on_to_pandas(spark, roles):
     sdf = spark.createDataFrame(MIXED, MIXED_SCHEMA)
     t = count_spark(sdf, **roles)
@@ -142,8 +164,13 @@ def test_dtypes_match_count_records_on_to_pandas(spark, roles):
 
 
 NULLS = [
-    (1, "a", True, 0.5), (None, "a", False, float("nan")), (2, None, True, 0.5),
-    (2, "b", None, None), (1, "b", True, float("nan")), (2, "a", False, 1.5), (1, "a", True, 1.5),
+    (1, "a", True, 0.5),
+    (None, "a", False, float("nan")),
+    (2, None, True, 0.5),
+    (2, "b", None, None),
+    (1, "b", True, float("nan")),
+    (2, "a", False, 1.5),
+    (1, "a", True, 1.5),
 ]
 NULLS_SCHEMA = "i int, s string, b boolean, d double"
 
@@ -151,18 +178,28 @@ NULLS_SCHEMA = "i int, s string, b boolean, d double"
 def test_missing_values_nulls_and_nan_counted_exactly(spark):
     sdf = spark.createDataFrame(NULLS, NULLS_SCHEMA)
     # d: one null and two NaN; Spark keeps NaN apart from null, pandas counts both
-    assert _error(count_spark, sdf, sensitive=["s"], outcome="d") == \
-        "column 's': has 1 missing values (drop those rows: --dropna, or dropna=True)"
-    assert _error(count_spark, sdf, sensitive=["b"], outcome="d") == \
-        "column 'b': has 1 missing values (drop those rows: --dropna, or dropna=True)"
-    assert _error(count_spark, sdf, sensitive=["d"], outcome="b") == \
-        "column 'd': has 3 missing values (drop those rows: --dropna, or dropna=True)"
-    assert _error(count_spark, sdf, sensitive=["i"], outcome="i", context=["s"]) == \
-        "column 's': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+    assert (
+        _error(count_spark, sdf, sensitive=["s"], outcome="d")
+        == "column 's': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+    )
+    assert (
+        _error(count_spark, sdf, sensitive=["b"], outcome="d")
+        == "column 'b': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+    )
+    assert (
+        _error(count_spark, sdf, sensitive=["d"], outcome="b")
+        == "column 'd': has 3 missing values (drop those rows: --dropna, or dropna=True)"
+    )
+    assert (
+        _error(count_spark, sdf, sensitive=["i"], outcome="i", context=["s"])
+        == "column 's': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+    )
     # records, not groups: five nulls and three NaN fall in two groups of the aggregated table
     repeated = spark.createDataFrame([(None, 1)] * 5 + [(float("nan"), 1)] * 3 + [(1.0, 0)], "d double, u int")
-    assert _error(count_spark, repeated, sensitive=["d"], outcome="u") == \
-        "column 'd': has 8 missing values (drop those rows: --dropna, or dropna=True)"
+    assert (
+        _error(count_spark, repeated, sensitive=["d"], outcome="u")
+        == "column 'd': has 8 missing values (drop those rows: --dropna, or dropna=True)"
+    )
     pdf = sdf.toPandas()
     for roles in (dict(sensitive=["d"], outcome="b"), dict(sensitive=["i", "s"], outcome="b", context=["d"])):
         assert _error(count_spark, sdf, **roles) == _error(count_records, pdf, **roles)
@@ -176,12 +213,17 @@ def test_dropna_drops_those_records(spark):
     assert _typed(t.contexts) == [("float", 0.5), ("float", 1.5)]
     assert _typed(t.groups) == [("float", 1.0), ("float", 2.0)]
     assert t.counts.tolist() == [[[0, 1], [0, 1]], [[0, 1], [1, 0]]]
-    for roles in (dict(sensitive=["i"], outcome="b", context=["d"]), dict(sensitive=["s", "b"], outcome="i"),
-                  dict(sensitive=["b"], outcome="s")):
+    for roles in (
+        dict(sensitive=["i"], outcome="b", context=["d"]),
+        dict(sensitive=["s", "b"], outcome="i"),
+        dict(sensitive=["b"], outcome="s"),
+    ):
         assert_same_table(count_spark(sdf, dropna=True, **roles), count_records(sdf.toPandas(), dropna=True, **roles))
     # nothing left
     only_missing = spark.createDataFrame([(None, "a"), (2, None)], "i int, s string")
-    assert _error(count_spark, only_missing, sensitive=["i"], outcome="s", dropna=True) == "DATA: has no records to count"
+    assert (
+        _error(count_spark, only_missing, sensitive=["i"], outcome="s", dropna=True) == "DATA: has no records to count"
+    )
     assert _error(count_spark, only_missing.limit(0), sensitive=["i"], outcome="s") == "DATA: has no records to count"
 
 
@@ -190,29 +232,41 @@ def test_unknown_columns_name_the_flag_and_list_the_columns(spark):
     listing = "unknown column; the data has: job, sex, age, hired"
     assert _error(count_spark, sdf, sensitive=["race"], outcome="hired") == f"--sensitive: {listing} (got 'race')"
     assert _error(count_spark, sdf, sensitive=["sex"], outcome="Hired") == f"--outcome: {listing} (got 'Hired')"
-    assert _error(count_spark, sdf, sensitive=["sex"], outcome="hired", context=["job", "city"]) == \
-        f"--context: {listing} (got 'city')"
+    assert (
+        _error(count_spark, sdf, sensitive=["sex"], outcome="hired", context=["job", "city"])
+        == f"--context: {listing} (got 'city')"
+    )
     assert _error(count_spark, sdf, sensitive=[], outcome="hired") == "--sensitive: name at least one column (got [])"
     pdf = sdf.toPandas()
-    assert _error(count_spark, sdf, sensitive=["sex"], outcome="x") == _error(count_records, pdf, sensitive=["sex"], outcome="x")
+    assert _error(count_spark, sdf, sensitive=["sex"], outcome="x") == _error(
+        count_records, pdf, sensitive=["sex"], outcome="x"
+    )
 
 
 def test_awkward_column_names_and_types(spark):
     # a dot, a backtick, a column named like the count, names differing only in case
-    sdf = spark.createDataFrame([("p", "q", 1, 0), ("p", "r", 2, 0), ("p", "q", 1, 1)], "`a.b` string, `x``y` string, count int, COUNT int")
+    sdf = spark.createDataFrame(
+        [("p", "q", 1, 0), ("p", "r", 2, 0), ("p", "q", 1, 1)], "`a.b` string, `x``y` string, count int, COUNT int"
+    )
     roles = dict(sensitive=["a.b", "x`y"], outcome="count", context=["COUNT"])
     t = count_spark(sdf, **roles)
     assert (t.contexts, t.groups, t.decisions) == ((0, 1), (("p", "q"), ("p", "r")), (1, 2))
     assert t.counts.tolist() == [[[1, 0], [0, 1]], [[1, 0], [0, 0]]]
     assert_same_table(t, count_records(sdf.toPandas(), **roles))
     twice = spark.createDataFrame([(1, 2, 3)], "a int, b int, c int").toDF("a", "a", "u")
-    assert _error(count_spark, twice, sensitive=["a"], outcome="u") == \
-        "column 'a': is ambiguous: the frame has 2 columns of that name"
+    assert (
+        _error(count_spark, twice, sensitive=["a"], outcome="u")
+        == "column 'a': is ambiguous: the frame has 2 columns of that name"
+    )
     arrays = spark.createDataFrame([([1, 2], 0)], "a array<int>, u int")
-    assert _error(count_spark, arrays, sensitive=["a"], outcome="u") == \
-        "column 'a': must hold scalar values (string, number, boolean, date or time) (got 'array<int>')"
-    assert _error(count_spark, pd.DataFrame({"a": [1], "u": [0]}), sensitive=["a"], outcome="u") == \
-        "frame: must be a Spark DataFrame (pyspark.sql.DataFrame) (got 'DataFrame')"
+    assert (
+        _error(count_spark, arrays, sensitive=["a"], outcome="u")
+        == "column 'a': must hold scalar values (string, number, boolean, date or time) (got 'array<int>')"
+    )
+    assert (
+        _error(count_spark, pd.DataFrame({"a": [1], "u": [0]}), sensitive=["a"], outcome="u")
+        == "frame: must be a Spark DataFrame (pyspark.sql.DataFrame) (got 'DataFrame')"
+    )
 
 
 _VALUES = {
@@ -233,7 +287,7 @@ def _records(draw):
     nulls = draw(st.booleans())
     values = [st.sampled_from(_VALUES[c] + (_MISSING[c] if nulls else [])) for c in "isbd"]
     rows = draw(st.lists(st.tuples(*values), min_size=1, max_size=30))
-    roles = dict(context=order[:k], sensitive=order[k:k + m], outcome=draw(st.sampled_from(order)))
+    roles = dict(context=order[:k], sensitive=order[k : k + m], outcome=draw(st.sampled_from(order)))
     return rows, roles, draw(st.booleans())
 
 
@@ -262,7 +316,10 @@ def _same_metrics(got, want):
 def test_metrics_end_to_end_equal_the_pandas_route(spark):
     sdf = spark.createDataFrame(HAND, HAND_SCHEMA)
     pdf = pd.DataFrame(HAND, columns=sdf.columns)
-    for roles in (dict(sensitive=["sex", "age"], outcome="hired", context=["job"]), dict(sensitive=["sex"], outcome="hired")):
+    for roles in (
+        dict(sensitive=["sex", "age"], outcome="hired", context=["job"]),
+        dict(sensitive=["sex"], outcome="hired"),
+    ):
         ts, tp = count_spark(sdf, **roles), count_records(pdf, **roles)
         got = observe(ts.law(), indicator(True, ts.decisions), ts.population())
         _same_metrics(got, observe(tp.law(), indicator(True, tp.decisions), tp.population()))
@@ -283,7 +340,7 @@ def test_audit_counts_a_spark_frame_in_spark(spark):
     want = fa.audit(pdf, sensitive=["sex"], outcome="hired", positive=True)
     assert got.table.counts.tolist() == want.table.counts.tolist() and got.table.groups == want.table.groups
     _same_metrics(got.observed, want.observed)
-    assert got.observed.global_.value == pytest.approx(math.log(2), rel=1e-12)   # 4/6 vs 1/3, as above
+    assert got.observed.global_.value == pytest.approx(math.log(2), rel=1e-12)  # 4/6 vs 1/3, as above
     with pytest.raises(InputError, match="--outcome"):
         fa.audit(sdf, sensitive=["sex"], outcome="nope")
 
@@ -298,8 +355,10 @@ def test_compas_equals_pandas(spark, shared_data):
     assert_same_table(ts, tp)
     assert ts.n == 7214 and ts.counts.shape == (3, 6, 3)
     assert ts.decisions == ("High", "Low", "Medium")
-    _same_metrics(observe(ts.law(), indicator("High", ts.decisions), ts.population()),
-                  observe(tp.law(), indicator("High", tp.decisions), tp.population()))
+    _same_metrics(
+        observe(ts.law(), indicator("High", ts.decisions), ts.population()),
+        observe(tp.law(), indicator("High", tp.decisions), tp.population()),
+    )
 
 
 def test_without_pyspark_fairaudit_imports_and_count_spark_says_how_to_install():

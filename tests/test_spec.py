@@ -25,7 +25,9 @@ tau = 0.1
 
 def test_product_mechanism_from_spec():
     # The paper's filter: name, age and race randomized independently, each kept with p = 0.7.
-    spec = parse_spec(HEAD + """
+    spec = parse_spec(
+        HEAD
+        + """
 [privacy.sensitive]
 mechanism = "product"
 components = [
@@ -33,7 +35,8 @@ components = [
   {mechanism = "randomized_response", keep = 0.7, values = [25, 55]},
   {mechanism = "randomized_response", keep = 0.7, values = ["Asian", "American"]},
 ]
-""")
+"""
+    )
     m = spec.sensitive_mechanism
     assert len(spec.groups) == 8 and spec.groups[0] == ("Tom", 25, "Asian")
     assert m.epsilon == pytest.approx(3 * math.log(7 / 3), rel=1e-12)  # 2.5419, not 3 * 0.7/0.3
@@ -43,31 +46,40 @@ components = [
 
 def test_product_values_must_match_components():
     with pytest.raises(InputError, match="sensitive.values"):
-        parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = [["Tom", 25]]') + """
+        parse_spec(
+            HEAD.replace('name = "profile"', 'name = "profile"\nvalues = [["Tom", 25]]')
+            + """
 [privacy.sensitive]
 mechanism = "product"
 components = [{mechanism = "identity", values = ["Tom", "Mary"]}, {mechanism = "identity", values = [25, 55]}]
-""")
+"""
+        )
 
 
 def test_population_and_context_distribution():
-    spec = parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + """
+    spec = parse_spec(
+        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        + """
 [context]
 name = "doc"
 values = ["sick", "holiday"]
 distribution = [0.25, 0.75]
 [population]
 group_distribution = [0.4, 0.6]
-""")
+"""
+    )
     assert spec.population.probabilities.ravel().tolist() == pytest.approx([0.1, 0.15, 0.3, 0.45], rel=1e-15)
     assert spec.population.independence().independent
-    dep = parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + """
+    dep = parse_spec(
+        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        + """
 [context]
 name = "doc"
 values = ["sick", "holiday"]
 [population]
 probabilities = [[0.4, 0.1], [0.1, 0.4]]
-""")
+"""
+    )
     ind = dep.population.independence()
     assert not ind.independent and ind.max_deviation == pytest.approx(0.15, rel=1e-12)  # 0.4 - 0.5*0.5
     cert = fa.certify(dep)
@@ -86,7 +98,9 @@ def test_records_model_matches_direct_api(tmp_path):
     df = pd.DataFrame({"doc": rng.choice(["sick", "holiday"], 400), "profile": rng.choice(["a", "b"], 400)})
     df["office"] = np.where(rng.random(400) < np.where(df["profile"] == "a", 0.8, 0.3), "HR_2", "HR_1")
     df.to_csv(tmp_path / "records.csv", index=False)
-    (tmp_path / "s.toml").write_text(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + """
+    (tmp_path / "s.toml").write_text(
+        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        + """
 [context]
 name = "doc"
 values = ["holiday", "sick"]
@@ -95,7 +109,8 @@ mechanism = "randomized_response"
 epsilon = 1.0
 [model]
 records = "records.csv"
-""")
+"""
+    )
     cert = fa.certify(tmp_path / "s.toml")
     counts = pd.crosstab([df["doc"], df["profile"]], df["office"]).reindex(columns=["HR_1", "HR_2"])
     k = (counts.to_numpy() / counts.to_numpy().sum(1, keepdims=True)).reshape(2, 2, 2)
@@ -144,8 +159,11 @@ def test_utility_class_must_contain_g():
     with pytest.raises(InputError, match="utility.lower: exceeds the utility's smallest value"):
         parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + "lower = 0.5\n")
     with pytest.raises(InputError, match="utility.gamma: is below"):
-        parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
-                   .replace("tau = 0.1", "tau = 0.1\ngamma = 0.5"))
+        parse_spec(
+            HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]').replace(
+                "tau = 0.1", "tau = 0.1\ngamma = 0.5"
+            )
+        )
 
 
 def test_ignored_fields_are_rejected():
@@ -154,6 +172,8 @@ def test_ignored_fields_are_rejected():
 
 
 def test_metric_with_a_utility_of_the_decision_only():
-    spec = parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b", "c"]')
-                      + "metric = [[0, 1, 2], [1, 0, 1], [2, 1, 0]]\n")
+    spec = parse_spec(
+        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b", "c"]')
+        + "metric = [[0, 1, 2], [1, 0, 1], [2, 1, 0]]\n"
+    )
     assert spec.utility.diameter(spec.metric) == 2.0 and spec.lipschitz == 0.0

@@ -36,12 +36,14 @@ def rows_sum_to_one(array: np.ndarray) -> bool:
 
 # --------------------------------------------------------------------------- import hygiene
 
+
 def test_import_fairaudit_does_not_import_hypothesis():
     code = "import fairaudit, sys; assert 'hypothesis' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
 # --------------------------------------------------------------------------- populations
+
 
 @given(populations(independent=True, allow_zero_contexts=True))
 def test_independent_populations_are_independent(pop):
@@ -71,6 +73,7 @@ def test_populations_refuse_impossible_dependence(kwargs):
 
 
 # --------------------------------------------------------------------------- mechanisms
+
 
 @given(mechanisms(allow_zeros=True, n_outputs=range(1, 4)))
 def test_random_mechanisms_are_row_stochastic(m):
@@ -122,8 +125,10 @@ def test_delta_needs_epsilon():
 
 def test_mechanisms_edge_cases_are_drawn():
     assert find(mechanisms(allow_zeros=True), lambda m: m.epsilon == math.inf).epsilon == math.inf
-    assert np.any(find(mechanisms(epsilon=1.0, allow_zeros=True, n_inputs=2, n_outputs=3),
-                       lambda m: np.any(m.matrix == 0)).matrix == 0)
+    assert np.any(
+        find(mechanisms(epsilon=1.0, allow_zeros=True, n_inputs=2, n_outputs=3), lambda m: np.any(m.matrix == 0)).matrix
+        == 0
+    )
     m = find(mechanisms(epsilon=0.5, delta=0.2), lambda m: m.epsilon < math.inf)
     assert abs(m.delta(0.5) - 0.2) <= TOL and m.epsilon > 0.5
 
@@ -157,6 +162,7 @@ def test_product_of_randomized_responses(m):
 
 
 # --------------------------------------------------------------------------- kernels and laws
+
 
 @given(kernels(allow_zeros=True))
 def test_kernels_are_row_stochastic(k):
@@ -229,8 +235,7 @@ def test_table_utilities_independent_of_group(data, bounds):
 @given(st.data(), RANGES.filter(lambda b: b[1] > b[0]))
 def test_group_dependent_utilities(data, bounds):
     lower, gamma = bounds
-    g = data.draw(utilities(gamma=gamma, lower=lower, depends_on_group=True, contexts=range(1, 3),
-                            groups=range(2, 4)))
+    g = data.draw(utilities(gamma=gamma, lower=lower, depends_on_group=True, contexts=range(1, 3), groups=range(2, 4)))
     assert g.depends_on_group and g.gamma == gamma and g.lower == lower
     assert 0 < g.lipschitz() <= gamma - lower + 1e-12
 
@@ -239,15 +244,21 @@ def test_group_dependent_utilities(data, bounds):
 def test_utilities_with_a_lipschitz_constant(data, bounds, share):
     lower, gamma = bounds
     lip = share * (gamma - lower)
-    g = data.draw(utilities(decisions=range(2, 4), gamma=gamma, lower=lower, lipschitz=lip,
-                            contexts=range(1, 3), groups=range(2, 4)))
+    g = data.draw(
+        utilities(
+            decisions=range(2, 4), gamma=gamma, lower=lower, lipschitz=lip, contexts=range(1, 3), groups=range(2, 4)
+        )
+    )
     assert g.gamma == gamma and g.lower == lower
     assert abs(g.lipschitz() - lip) <= 1e-12 * max(1.0, gamma)
 
 
 def test_utilities_refuse_impossible_requests():
-    for kwargs in (dict(gamma=1.0, lower=2.0), dict(decisions=1, gamma=1.0, lower=0.0),
-                   dict(gamma=1.0, lower=0.0, lipschitz=2.0),
-                   dict(decisions=1, contexts=1, groups=2, gamma=1.0, lower=0.0, lipschitz=0.5)):
+    for kwargs in (
+        dict(gamma=1.0, lower=2.0),
+        dict(decisions=1, gamma=1.0, lower=0.0),
+        dict(gamma=1.0, lower=0.0, lipschitz=2.0),
+        dict(decisions=1, contexts=1, groups=2, gamma=1.0, lower=0.0, lipschitz=0.5),
+    ):
         with pytest.raises(InvalidArgument):
             find(utilities(**kwargs), lambda g: True)

@@ -38,8 +38,11 @@ def draw_instance(seed: int, *, lipschitz: bool = False, rr: bool = False):
     if rr:
         mech = fa.randomized_response([f"a{i}" for i in range(n)], epsilon=float(rng.uniform(0.05, 3.0)))
     else:
-        mech = fa.from_matrix(rng.dirichlet(np.full(m, float(rng.choice([0.5, 1.0, 4.0]))), size=n),
-                              [f"a{i}" for i in range(n)], [f"o{j}" for j in range(m)])
+        mech = fa.from_matrix(
+            rng.dirichlet(np.full(m, float(rng.choice([0.5, 1.0, 4.0]))), size=n),
+            [f"a{i}" for i in range(n)],
+            [f"o{j}" for j in range(m)],
+        )
     gamma = float(rng.choice([1.0, 2.5]))
     ctx = [f"x{i}" for i in range(n_x)]
     if lipschitz:
@@ -48,8 +51,12 @@ def draw_instance(seed: int, *, lipschitz: bool = False, rr: bool = False):
         util = fa.Utility(g, [f"u{k}" for k in range(n_u)], ctx, mech.inputs)
     else:
         util = fa.Utility(rng.uniform(0, gamma, n_u), [f"u{k}" for k in range(n_u)])
-    kernel = fa.Kernel(rng.dirichlet(np.ones(n_u) * 0.7, size=(n_x, len(mech.outputs))), ctx, mech.outputs,
-                       [f"u{k}" for k in range(n_u)])
+    kernel = fa.Kernel(
+        rng.dirichlet(np.ones(n_u) * 0.7, size=(n_x, len(mech.outputs))),
+        ctx,
+        mech.outputs,
+        [f"u{k}" for k in range(n_u)],
+    )
     law = fa.compose(kernel, mech)
     return mech, util, gamma, law
 
@@ -65,22 +72,26 @@ def worst_instance(seed: int):
     """A mechanism, tau, and the worst model of its class certificate (g in [0, gamma], E >= tau): near the bound."""
     rng = np.random.default_rng(seed)
     n, m = int(rng.integers(2, 5)), int(rng.integers(2, 5))
-    mech = fa.from_matrix(rng.dirichlet(np.full(m, float(rng.choice([0.5, 1.0, 4.0]))), size=n),
-                          [f"a{i}" for i in range(n)], [f"o{j}" for j in range(m)])
+    mech = fa.from_matrix(
+        rng.dirichlet(np.full(m, float(rng.choice([0.5, 1.0, 4.0]))), size=n),
+        [f"a{i}" for i in range(n)],
+        [f"o{j}" for j in range(m)],
+    )
     gamma = float(rng.choice([1.0, 2.5]))
     cert = fa.black_box_bound(mech, gamma=gamma, tau=float(rng.uniform(0.05, 0.95)) * gamma)
     kernel, util = cert.worst_model()
     return mech, util, gamma, fa.compose(kernel, mech)
 
 
-def main_theorem_holds(seed: int, bound: str, scale: float = 1.0, drop_delta: bool = False, lipschitz=False,
-                       worst: bool = False) -> bool:
+def main_theorem_holds(
+    seed: int, bound: str, scale: float = 1.0, drop_delta: bool = False, lipschitz=False, worst: bool = False
+) -> bool:
     mech, util, gamma, law = worst_instance(seed) if worst else draw_instance(seed, lipschitz=lipschitz)
     observed, tau = observed_and_tau(mech, util, law)
     if tau <= 1e-9:
         return True
     lip = util.lipschitz()
-    if drop_delta:   # the tight form without its δγ/τ term: min over ε >= 0 of log(e^ε + L_A/τ) = log(1 + L_A/τ)
+    if drop_delta:  # the tight form without its δγ/τ term: min over ε >= 0 of log(e^ε + L_A/τ) = log(1 + L_A/τ)
         value = math.log(1 + lip / tau)
     elif bound == "tight":
         value = fa.tight_bound(mech, tau=tau, gamma=gamma, lipschitz=lip).value
@@ -112,7 +123,7 @@ def test_main_theorem_has_teeth_without_the_delta_term():
 # ------------------------------------------------------------------------------------------------- corollary
 def corollary_holds(seed: int, scale: float = 1.0, echo: bool = False) -> bool:
     mech, util, _, law = draw_instance(seed, rr=echo)
-    if echo:   # the model that outputs the released group, g = 1{u = first group}: attains epsilon
+    if echo:  # the model that outputs the released group, g = 1{u = first group}: attains epsilon
         k = np.eye(len(mech.outputs))[None]
         law = fa.compose(fa.Kernel(k, ["x"], mech.outputs, mech.outputs), mech)
         util = fa.indicator(mech.outputs[0], mech.outputs)
@@ -132,7 +143,9 @@ def test_corollary_has_teeth_and_is_attained():
     k = np.eye(len(mech.outputs))[None]
     law = fa.compose(fa.Kernel(k, ["x"], mech.outputs, mech.outputs), mech)
     # attained: randomized response and the model that outputs the released group
-    assert local_fairness(law, fa.indicator(mech.outputs[0], mech.outputs)).value == pytest.approx(mech.epsilon, rel=1e-12)
+    assert local_fairness(law, fa.indicator(mech.outputs[0], mech.outputs)).value == pytest.approx(
+        mech.epsilon, rel=1e-12
+    )
 
 
 # ------------------------------------------------------------------------------------------------- black-box is exact
@@ -150,7 +163,7 @@ def test_black_box_bounds_every_model(seed):
 
 def test_black_box_is_attained_so_any_smaller_claim_fails():
     # exactness: the worst model of the certificate audits to its value, so 0.99 x the certificate is false
-    def attained(seed: int) -> bool:   # the weakened claim: "every model stays within 0.99 x the certificate"
+    def attained(seed: int) -> bool:  # the weakened claim: "every model stays within 0.99 x the certificate"
         rng = np.random.default_rng(seed)
         n, m = int(rng.integers(2, 5)), int(rng.integers(2, 5))
         mech = fa.from_matrix(rng.dirichlet(np.ones(m), size=n), list(range(n)), list(range(m)))
@@ -158,7 +171,7 @@ def test_black_box_is_attained_so_any_smaller_claim_fails():
         kernel, util = c.worst_model()
         return local_fairness(fa.compose(kernel, mech), util).value <= 0.99 * c.value
 
-    seed = falsified(SEEDS, attained)   # hypothesis finds instances where the worst model beats 0.99 x the bound
+    seed = falsified(SEEDS, attained)  # hypothesis finds instances where the worst model beats 0.99 x the bound
     assert not attained(seed)
 
 
@@ -168,7 +181,7 @@ def lemma1_holds(seed: int, scale: float = 1.0) -> bool:
     n_x, n_a, n_u = int(rng.integers(1, 3)), int(rng.integers(2, 4)), int(rng.integers(2, 5))
     law = fa.Law(rng.dirichlet(np.ones(n_u), size=(n_x, n_a)), list(range(n_x)), list(range(n_a)), list(range(n_u)))
     sup = sup_local_fairness(law).value
-    g = rng.uniform(0, 1, n_u)   # any utility g(u) >= 0
+    g = rng.uniform(0, 1, n_u)  # any utility g(u) >= 0
     return local_fairness(law, fa.Utility(g, list(range(n_u)))).value <= scale * sup + 1e-12
 
 
@@ -193,14 +206,19 @@ def test_lemma_1_has_teeth():
 def links_hold(seed: int, slack: float = 1.0) -> bool:
     rng = np.random.default_rng(seed)
     n_x, n_a, n_u = int(rng.integers(1, 3)), int(rng.integers(2, 4)), int(rng.integers(2, 5))
-    law = fa.Law(rng.dirichlet(np.ones(n_u) * 0.5, size=(n_x, n_a)), list(range(n_x)), list(range(n_a)),
-                 list(range(n_u)))
+    law = fa.Law(
+        rng.dirichlet(np.ones(n_u) * 0.5, size=(n_x, n_a)), list(range(n_x)), list(range(n_a)), list(range(n_u))
+    )
     eo = fa.equalized_odds(law).value
     dp = fa.demographic_parity(law).value
     r_l, r_g = math.exp(sup_local_fairness(law).value), math.exp(sup_global_fairness(law).value)
     # the tightened links (R - 1)/(R + 1) <= R - 1 (proofs/lemma1_links.md)
-    return eo <= slack * (r_l - 1) / (r_l + 1) + 1e-12 and dp <= slack * (r_g - 1) / (r_g + 1) + 1e-12 \
-        and eo <= r_l - 1 + 1e-12 and dp <= r_g - 1 + 1e-12
+    return (
+        eo <= slack * (r_l - 1) / (r_l + 1) + 1e-12
+        and dp <= slack * (r_g - 1) / (r_g + 1) + 1e-12
+        and eo <= r_l - 1 + 1e-12
+        and dp <= r_g - 1 + 1e-12
+    )
 
 
 @given(seed=SEEDS)
@@ -219,8 +237,9 @@ def global_below_local(seed: int, independent: bool) -> bool:
     n_x, n_a, n_u = int(rng.integers(2, 4)), int(rng.integers(2, 4)), 2
     law = fa.Law(rng.dirichlet(np.ones(n_u), size=(n_x, n_a)), list(range(n_x)), list(range(n_a)), list(range(n_u)))
     if independent:
-        pop = fa.Population.independent(rng.dirichlet(np.ones(n_x)), rng.dirichlet(np.ones(n_a)), law.contexts,
-                                        law.groups)
+        pop = fa.Population.independent(
+            rng.dirichlet(np.ones(n_x)), rng.dirichlet(np.ones(n_a)), law.contexts, law.groups
+        )
     else:
         pop = fa.Population(rng.dirichlet(np.ones(n_x * n_a) * 0.3).reshape(n_x, n_a), law.contexts, law.groups)
     g = fa.indicator(0, law.decisions)
@@ -306,8 +325,7 @@ def test_post_processing_claim_of_a_strict_decrease_has_teeth():
         rng = np.random.default_rng(seed)
         n, m = int(rng.integers(2, 4)), int(rng.integers(2, 4))
         mech = fa.from_matrix(rng.dirichlet(np.ones(m), size=n), list(range(n)), list(range(m)))
-        post = fa.from_matrix(np.eye(m) if rng.uniform() < 0.5 else rng.dirichlet(np.ones(m), size=m),
-                              list(range(m)))
+        post = fa.from_matrix(np.eye(m) if rng.uniform() < 0.5 else rng.dirichlet(np.ones(m), size=m), list(range(m)))
         return mech.then(post).epsilon <= 0.9 * mech.epsilon
 
     seed = falsified(SEEDS, strictly_lower)
@@ -438,8 +456,9 @@ def test_main_theorem_with_a_metric_and_its_diameter(seed):
 # ------------------------------------------------------------------------------------------------- named examples of proofs/
 def test_paper_form_minimum_at_a_crossing_not_at_a_ratio():
     # proofs/main_theorem.md, "Crossings matter": ratios only give log 3; the exact minimum is log(25/9) at t = 5/3
-    m = fa.from_matrix([[0.45, 0.40, 0.15], [0.65, 0.20, 0.15], [0.65, 0.30, 0.05]], ["a0", "a1", "a2"],
-                       ["o0", "o1", "o2"])
+    m = fa.from_matrix(
+        [[0.45, 0.40, 0.15], [0.65, 0.20, 0.15], [0.65, 0.30, 0.05]], ["a0", "a1", "a2"], ["o0", "o1", "o2"]
+    )
     pb = fa.paper_bound(m, gamma=1.0, tau=0.1)
     assert pb.value == pytest.approx(math.log(25 / 9), rel=1e-12)
     assert math.exp(pb.epsilon) == pytest.approx(5 / 3, rel=1e-12) and pb.delta == pytest.approx(1 / 15, rel=1e-9)
@@ -523,8 +542,17 @@ def main_theorem_instances(draw):
     mech = draw(mechanisms(n_inputs=range(2, 4), epsilon=eps, delta=delta if delta > 0 else None))
     gamma = draw(st.sampled_from([1.0, 2.0]))
     lip = draw(st.sampled_from([None, 0.1]))
-    util = draw(utilities(decisions=range(2, 4), gamma=gamma, lower=0.0, contexts=["x0"], groups=list(mech.inputs),
-                          depends_on_group=lip is not None, lipschitz=lip))
+    util = draw(
+        utilities(
+            decisions=range(2, 4),
+            gamma=gamma,
+            lower=0.0,
+            contexts=["x0"],
+            groups=list(mech.inputs),
+            depends_on_group=lip is not None,
+            lipschitz=lip,
+        )
+    )
     kernel = draw(kernels(contexts=["x0"], groups=list(mech.outputs), decisions=list(util.decisions)))
     return eps, delta, mech, gamma, util, fa.compose(kernel, mech)
 
@@ -557,5 +585,6 @@ def test_main_theorem_at_the_stated_epsilon_delta_has_teeth():
 def test_corollary_attained_by_every_randomized_response(mech):
     k = np.eye(len(mech.outputs))[None]
     law = fa.compose(fa.Kernel(k, ["x"], mech.outputs, mech.outputs), mech)
-    assert local_fairness(law, fa.indicator(mech.outputs[0], mech.outputs)).value == pytest.approx(mech.epsilon,
-                                                                                                  rel=1e-9, abs=1e-12)
+    assert local_fairness(law, fa.indicator(mech.outputs[0], mech.outputs)).value == pytest.approx(
+        mech.epsilon, rel=1e-9, abs=1e-12
+    )

@@ -42,7 +42,13 @@ def make_client():
     made = []
 
     def make(url, model="test-model", **kwargs):
-        kwargs = {"backoff": 0.01, "max_backoff": 0.05, "timeout": 5.0, "api_key_env": "FAIRAUDIT_TEST_NO_SUCH_VAR", **kwargs}
+        kwargs = {
+            "backoff": 0.01,
+            "max_backoff": 0.05,
+            "timeout": 5.0,
+            "api_key_env": "FAIRAUDIT_TEST_NO_SUCH_VAR",
+            **kwargs,
+        }
         c = ChatClient(url, model, **kwargs)
         made.append(c)
         return c
@@ -128,8 +134,14 @@ def test_server_model_name_is_reported(make_client):
 @pytest.mark.parametrize(
     "content, text",
     [
-        ([{"type": "text", "text": '{"HR1": 0,'}, {"type": "image_url", "image_url": {"url": "x"}}, {"type": "text", "text": '"HR2": 1}'}],
-         '{"HR1": 0,\n"HR2": 1}'),
+        (
+            [
+                {"type": "text", "text": '{"HR1": 0,'},
+                {"type": "image_url", "image_url": {"url": "x"}},
+                {"type": "text", "text": '"HR2": 1}'},
+            ],
+            '{"HR1": 0,\n"HR2": 1}',
+        ),
         (None, ""),
         ("", ""),
     ],
@@ -276,8 +288,14 @@ def test_wrong_path_is_a_404(server, make_client):
         (("malformed",), "HTTP 200 reply is not JSON (starts '{\"choices\": [ this is not json')"),
         (("json", {"choices": []}), "HTTP 200 reply has no choices[0]"),
         (("json", ["not", "an", "object"]), "HTTP 200 reply has no choices[0]"),
-        (("json", {"choices": [{"message": {"role": "assistant"}}]}), "HTTP 200 reply has no choices[0].message.content"),
-        (("json", {"choices": [{"message": {"content": 3}}]}), "HTTP 200 reply's choices[0].message.content is a int, not text"),
+        (
+            ("json", {"choices": [{"message": {"role": "assistant"}}]}),
+            "HTTP 200 reply has no choices[0].message.content",
+        ),
+        (
+            ("json", {"choices": [{"message": {"content": 3}}]}),
+            "HTTP 200 reply's choices[0].message.content is a int, not text",
+        ),
     ],
 )
 def test_protocol_errors_are_not_retried(server, make_client, fault, problem):
@@ -399,8 +417,12 @@ def test_the_key_never_leaks(make_client, caplog):
     with pytest.raises(ChatError) as info:
         refused.complete(MESSAGES)
     seen.append(_all_text(info.value))
-    for call in (lambda: c.complete("not a list"), lambda: c.complete(MESSAGES, seed="1"),
-                 lambda: ChatClient("ftp://x", "m", api_key=KEY), lambda: ChatClient("http://x", "", api_key=KEY)):
+    for call in (
+        lambda: c.complete("not a list"),
+        lambda: c.complete(MESSAGES, seed="1"),
+        lambda: ChatClient("ftp://x", "m", api_key=KEY),
+        lambda: ChatClient("http://x", "", api_key=KEY),
+    ):
         with pytest.raises(InputError) as info:
             call()
         seen.append(_all_text(info.value))
@@ -514,7 +536,9 @@ def test_missing_extra(monkeypatch):
 
 
 def test_chat_error():
-    err = ChatError("http://h/v1/chat/completions: HTTP 503 (2 attempts)", "http", 503, 2, "http://h/v1/chat/completions")
+    err = ChatError(
+        "http://h/v1/chat/completions: HTTP 503 (2 attempts)", "http", 503, 2, "http://h/v1/chat/completions"
+    )
     back = pickle.loads(pickle.dumps(err))
     assert (str(back), back.kind, back.status, back.attempts, back.url) == (str(err), "http", 503, 2, err.url)
     with pytest.raises(ValueError):
@@ -562,7 +586,14 @@ def test_server_models_and_unknown_paths(server):
         assert missing.status_code == 404 and missing.json()["error"]["message"] == "Unknown path /v1/engines"
         bad = h.post(server.url + "/chat/completions", json={"model": "m"})
         assert bad.status_code == 400 and "messages" in bad.json()["error"]["message"]
-        ok = h.post(server.url + "/chat/completions", json={"model": "m", "messages": [{"role": "user", "content": "x"}]}).json()
+        ok = h.post(
+            server.url + "/chat/completions", json={"model": "m", "messages": [{"role": "user", "content": "x"}]}
+        ).json()
     assert ok["object"] == "chat.completion" and ok["choices"][0]["message"]["role"] == "assistant"
     assert {"id", "created", "model", "usage"} <= set(ok)
-    assert [r["path"] for r in server.requests] == ["/v1/models", "/v1/engines", "/v1/chat/completions", "/v1/chat/completions"]
+    assert [r["path"] for r in server.requests] == [
+        "/v1/models",
+        "/v1/engines",
+        "/v1/chat/completions",
+        "/v1/chat/completions",
+    ]

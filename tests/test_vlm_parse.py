@@ -98,7 +98,14 @@ def test_value_forms(hr1, hr2, expected):
 
 @pytest.mark.parametrize(
     "value, shown",
-    [('"abc"', "'abc'"), ("null", "None"), ('"nan"', "'nan'"), ('"1e999"', "'1e999'"), ("[1]", "[1]"), ('"1_0"', "'1_0'")],
+    [
+        ('"abc"', "'abc'"),
+        ("null", "None"),
+        ('"nan"', "'nan'"),
+        ('"1e999"', "'1e999'"),
+        ("[1]", "[1]"),
+        ('"1_0"', "'1_0'"),
+    ],
 )
 def test_values_that_are_not_numbers(value, shown):
     r = choice(f'{{"HR1": {value}, "HR2": 1}}')
@@ -117,7 +124,9 @@ def test_key_spellings(k1, k2):
     assert (r.ok, r.choice, r.values) == (True, 1, {"HR1": 0.0, "HR2": 1.0})
 
 
-@pytest.mark.parametrize("k1, k2", [("recipient-1", "recipient-2"), ("Recipient 1", "Recipient 2"), ("RECIPIENT_1", "recipient2")])
+@pytest.mark.parametrize(
+    "k1, k2", [("recipient-1", "recipient-2"), ("Recipient 1", "Recipient 2"), ("RECIPIENT_1", "recipient2")]
+)
 def test_recipient_key_spellings(k1, k2):
     r = order(json.dumps({k1: 2, k2: 1}))
     assert (r.ok, r.choice, r.order, r.values) == (True, 1, (1, 0), {"Recipient1": 2.0, "Recipient2": 1.0})
@@ -156,7 +165,7 @@ def test_pseudo_json(text):
 
 def test_pseudo_json_strings_with_quotes_and_escapes():
     r = choice("{'HR1': 0, 'HR2': 1, 'reason': 'She said \"go\" and it\\'s near \\d'}")
-    assert (r.ok, r.choice, r.reason) == (True, 1, "She said \"go\" and it's near \\d")
+    assert (r.ok, r.choice, r.reason) == (True, 1, 'She said "go" and it\'s near \\d')
     r = choice('{"HR1": 0, "HR2": 1, "reason": "a raw\nnewline and a bad \\escape"}')
     assert (r.ok, r.reason) == (True, "a raw\nnewline and a bad \\escape")
 
@@ -237,8 +246,10 @@ def test_named_order(text, expected):
 
 
 def test_named_order_errors():
-    assert order('{"order": ["Recipient2", "Recipient2"]}').error == \
-        "'order' is not an order of Recipient1, Recipient2: ['Recipient2', 'Recipient2']"
+    assert (
+        order('{"order": ["Recipient2", "Recipient2"]}').error
+        == "'order' is not an order of Recipient1, Recipient2: ['Recipient2', 'Recipient2']"
+    )
     assert order('{"order": ["Recipient2"]}').ok is False
     assert order('{"order": 12}').ok is False
     three = ("A1", "A2", "A3")
@@ -313,7 +324,13 @@ def test_order_of_three():
 )
 def test_text_naming_one_option(text, index):
     r = choice(text)
-    assert (r.ok, r.choice, r.values, r.fallback, r.reason) == (True, index, {"HR1": float(index == 0), "HR2": float(index == 1)}, True, None)
+    assert (r.ok, r.choice, r.values, r.fallback, r.reason) == (
+        True,
+        index,
+        {"HR1": float(index == 0), "HR2": float(index == 1)},
+        True,
+        None,
+    )
 
 
 @pytest.mark.parametrize(
@@ -340,11 +357,21 @@ def test_text_naming_one_option_is_not_an_order():
     "text, kind, options, expected",
     [
         ("HR1: 0.0\nHR2: 1.0\nreason: closer", "choice", HR, (1, {"HR1": 0.0, "HR2": 1.0})),
-        ('{"HR1": "1.0", "HR2": "0.0", "reason": "The document is about mat', "choice", HR, (0, {"HR1": 1.0, "HR2": 0.0})),
+        (
+            '{"HR1": "1.0", "HR2": "0.0", "reason": "The document is about mat',
+            "choice",
+            HR,
+            (0, {"HR1": 1.0, "HR2": 0.0}),
+        ),
         ("HR 1 = 0.2, HR 2 = 0.8", "choice", HR, (1, {"HR1": 0.2, "HR2": 0.8})),
         ("\u201cHR1\u201d: 0, \u201cHR2\u201d: 1", "choice", HR, (1, {"HR1": 0.0, "HR2": 1.0})),
         ("Recipient1: 2\nRecipient2: 1", "order", RECIPIENTS, (1, {"Recipient1": 2.0, "Recipient2": 1.0})),
-        ('{"Recipient1": "1.0", "Recipient2": "2.0", "reason": "cut', "order", RECIPIENTS, (0, {"Recipient1": 1.0, "Recipient2": 2.0})),
+        (
+            '{"Recipient1": "1.0", "Recipient2": "2.0", "reason": "cut',
+            "order",
+            RECIPIENTS,
+            (0, {"Recipient1": 1.0, "Recipient2": 2.0}),
+        ),
     ],
 )
 def test_key_value_pairs_in_text(text, kind, options, expected):
@@ -366,7 +393,9 @@ def test_empty_reply(text):
     assert order(text) == ParsedReply(False, error="empty reply")
 
 
-@pytest.mark.parametrize("text, error", [(None, "reply is not a string (NoneType)"), (b"{}", "reply is not a string (bytes)")])
+@pytest.mark.parametrize(
+    "text, error", [(None, "reply is not a string (NoneType)"), (b"{}", "reply is not a string (bytes)")]
+)
 def test_non_string_reply(text, error):
     assert choice(text) == ParsedReply(False, error=error)
 
@@ -416,8 +445,34 @@ def test_any_text_never_raises(text):
         _check_invariants(parse_reply(text, options, kind), 2, kind)
 
 
-_FRAGMENTS = st.sampled_from(['{', '}', '"', "'", ',', ':', 'HR1', 'HR 2', 'hr_2', '1', '0', '1.0', 'true',
-                              'null', '```json', '\n', ' ', '[', ']', '\\', 'choice', 'reason', 'Recipient1', '{"HR1": '])
+_FRAGMENTS = st.sampled_from(
+    [
+        "{",
+        "}",
+        '"',
+        "'",
+        ",",
+        ":",
+        "HR1",
+        "HR 2",
+        "hr_2",
+        "1",
+        "0",
+        "1.0",
+        "true",
+        "null",
+        "```json",
+        "\n",
+        " ",
+        "[",
+        "]",
+        "\\",
+        "choice",
+        "reason",
+        "Recipient1",
+        '{"HR1": ',
+    ]
+)
 
 
 @given(st.lists(_FRAGMENTS, max_size=30).map("".join))
@@ -442,7 +497,7 @@ def _replies(draw):
     shown = [f'"{v}"' if as_string else str(v) for v in values]
     quote = draw(st.sampled_from(['"', "'"]))
     body = ", ".join(f"{quote}{k}{quote}: {s}" for k, s in zip(keys, shown))
-    body += draw(st.sampled_from(["", ",", f', {quote}reason{quote}: {quote}because{quote}']))
+    body += draw(st.sampled_from(["", ",", f", {quote}reason{quote}: {quote}because{quote}"]))
     text = "{" + body + "}"
     text = draw(st.sampled_from(["{}", "```json\n{}\n```", "Sure!\n{}\nDone.", '{{"note": 1}} {}'])).format(text)
     return kind, (f"{stem}1", f"{stem}2"), values, text

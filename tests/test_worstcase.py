@@ -44,9 +44,12 @@ def lp_charnes_cooper(p, q, lower, gamma):
     c = -np.concatenate([p, [0.0]])
     a_eq = np.concatenate([q, [0.0]])[None, :]
     # y_o − γ s ≤ 0 and lower s − y_o ≤ 0
-    a_ub = np.vstack([np.hstack([np.eye(k), -gamma * np.ones((k, 1))]), np.hstack([-np.eye(k), lower * np.ones((k, 1))])])
-    res = linprog(c, A_ub=a_ub, b_ub=np.zeros(2 * k), A_eq=a_eq, b_eq=[1.0], bounds=[(0, None)] * (k + 1),
-                  method="highs")
+    a_ub = np.vstack(
+        [np.hstack([np.eye(k), -gamma * np.ones((k, 1))]), np.hstack([-np.eye(k), lower * np.ones((k, 1))])]
+    )
+    res = linprog(
+        c, A_ub=a_ub, b_ub=np.zeros(2 * k), A_eq=a_eq, b_eq=[1.0], bounds=[(0, None)] * (k + 1), method="highs"
+    )
     assert res.status == 0
     return -res.fun
 
@@ -94,7 +97,6 @@ def test_black_box_equals_vertex_brute_force(seed):
         # The reported pair attains it at some vertex.
         a, b = mech.inputs.index(cert.group), mech.inputs.index(cert.other_group)
         assert brute_vertices(matrix[[a, b]], lower, gamma) == pytest.approx(brute, rel=1e-12)
-
 
 
 def test_released_values_name_the_worst_model_hand_example():
@@ -160,8 +162,9 @@ def test_worst_model_realised_by_a_kernel_and_audited():
     # the largest vertex ratio (brute force below).
     assert cert.ratio == pytest.approx(brute_vertices(matrix, lower, gamma), rel=1e-12)
     assert cert.ratio == pytest.approx(15 / 7, rel=1e-12) and (cert.group, cert.other_group) == ("A", "C")
-    kernel = fa.Kernel([[[1.0, 0.0] if o in cert.released else [0.0, 1.0] for o in mech.outputs]],
-                       ["doc"], mech.outputs, ["hi", "lo"])
+    kernel = fa.Kernel(
+        [[[1.0, 0.0] if o in cert.released else [0.0, 1.0] for o in mech.outputs]], ["doc"], mech.outputs, ["hi", "lo"]
+    )
     law = compose(kernel, sensitive=mech)
     loc = fa.local_fairness(law, fa.from_table([gamma, lower], ["hi", "lo"]))
     assert cert.released == ("c",)

@@ -95,7 +95,7 @@ def test_ordering_observed_black_box_tight_paper(seed, tau_share, lip):
     mech = random_mechanism(rng)
     n, m = mech.matrix.shape
     n_u = 3
-    if lip > 0:   # a utility that depends on the group, within L_A = lip under the discrete metric
+    if lip > 0:  # a utility that depends on the group, within L_A = lip under the discrete metric
         base = rng.uniform(0, 1, n_u)
         g = np.clip(base[None, :] + rng.uniform(-lip / 2, lip / 2, (n, n_u)), 0, 1)[None]
         util = fa.Utility(g, list(range(n_u)), ["x"], mech.inputs)
@@ -134,13 +134,13 @@ def test_lipschitz_class_equals_dinkelbach():
                 rhs += [lip, lip]
         for b in range(n):
             r = np.zeros(n * m)
-            r[b * m:(b + 1) * m] = -M[b]
+            r[b * m : (b + 1) * m] = -M[b]
             rows.append(r)
             rhs.append(-tau)
         best = 1.0
         for a, b in itertools.permutations(range(n), 2):
             p, q = np.zeros(n * m), np.zeros(n * m)
-            p[a * m:(a + 1) * m], q[b * m:(b + 1) * m] = M[a], M[b]
+            p[a * m : (a + 1) * m], q[b * m : (b + 1) * m] = M[a], M[b]
             best = max(best, dinkelbach(p, q, [(0, 1)] * (n * m), np.array(rows), np.array(rhs)))
         got = black_box_bound(mech, tau=tau, lipschitz=lip)
         assert got.method == "lp" and got.utility_by_release.shape == (n, m)
@@ -149,7 +149,7 @@ def test_lipschitz_class_equals_dinkelbach():
 
 def test_lipschitz_without_tau_is_unbounded_with_a_reason():
     m = fa.randomized_response(["a", "b"], keep=0.7)
-    c = black_box_bound(m, lipschitz=0.1)        # g(u, b) = 0 and g(u, a) = 0.1: ratio 0.1 * ... / 0 = inf
+    c = black_box_bound(m, lipschitz=0.1)  # g(u, b) = 0 and g(u, a) = 0.1: ratio 0.1 * ... / 0 = inf
     assert c.value == math.inf and c.status == "unbounded" and c.reason
 
 
@@ -226,8 +226,9 @@ def test_worst_model_audits_to_its_value_and_meets_tau(seed, kind, tau, dependen
         util = fa.Utility(np.repeat(rng.uniform(0, 1, (n_x, 1, n_u)), n_a, 1), list(range(n_u)), ctx, list(range(n_a)))
     else:
         util = fa.Utility(rng.uniform(0, 1, (n_x, n_a, n_u)), list(range(n_u)), ctx, list(range(n_a)))
-    pop = fa.Population(rng.dirichlet(np.ones(n_x * n_a)).reshape(n_x, n_a), ctx, list(range(n_a))) if dependent \
-        else None
+    pop = (
+        fa.Population(rng.dirichlet(np.ones(n_x * n_a)).reshape(n_x, n_a), ctx, list(range(n_a))) if dependent else None
+    )
     auto = worst_model(ma, util, context_mechanism=mx, population=pop, tau=tau)
     lp = worst_model(ma, util, context_mechanism=mx, population=pop, tau=tau, method="lp")
     for a, b in ((auto.local, lp.local), (auto.global_, lp.global_)):
@@ -244,7 +245,7 @@ def test_worst_model_audits_to_its_value_and_meets_tau(seed, kind, tau, dependen
 
 def test_worst_model_infeasible_tau_says_why():
     m = fa.randomized_response(["a", "b"], keep=0.7)
-    util = fa.Utility([0.2, 0.1], ["u0", "u1"])     # E[g | x, a] <= 0.2 < tau
+    util = fa.Utility([0.2, 0.1], ["u0", "u1"])  # E[g | x, a] <= 0.2 < tau
     w = worst_model(m, util, tau=0.5)
     assert math.isnan(w.local.value) and w.local.status == "infeasible" and "tau" in w.local.reason
 
@@ -263,8 +264,9 @@ def test_worst_model_hr_office_hand_example():
 def test_worst_utility_without_constraints_is_lemma_1(seed):
     rng = np.random.default_rng(seed)
     n_x, n_a, n_u = int(rng.integers(1, 4)), int(rng.integers(2, 5)), int(rng.integers(2, 6))
-    law = fa.Law(rng.dirichlet(np.ones(n_u) * 0.7, size=(n_x, n_a)), list(range(n_x)), list(range(n_a)),
-                 list(range(n_u)))
+    law = fa.Law(
+        rng.dirichlet(np.ones(n_u) * 0.7, size=(n_x, n_a)), list(range(n_x)), list(range(n_a)), list(range(n_u))
+    )
     w = worst_utility(law)
     assert w.local.value == pytest.approx(sup_local_fairness(law).value, rel=1e-12)
     assert w.global_.value == pytest.approx(sup_global_fairness(law).value, rel=1e-12)

@@ -46,9 +46,18 @@ from .harness import paper_counts, table_kernel
 from .vlm.filter import PrivacyFilter, candidate_family, released_pair_label
 from .vlm.tasks import DeliveryTask
 
-__all__ = ["ExperimentAnalysis", "PointResult", "PaperDesignPoint", "analyse", "candidate_kernel",
-           "candidate_population", "candidate_context_mechanism", "candidate_utility", "candidate_contexts",
-           "epsilon_from_keep"]
+__all__ = [
+    "ExperimentAnalysis",
+    "PointResult",
+    "PaperDesignPoint",
+    "analyse",
+    "candidate_kernel",
+    "candidate_population",
+    "candidate_context_mechanism",
+    "candidate_utility",
+    "candidate_contexts",
+    "epsilon_from_keep",
+]
 
 
 def candidate_contexts(task: DeliveryTask) -> tuple:
@@ -95,10 +104,10 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
     if n_opt != 2:
         raise InputError("task.options", "the per-candidate view is defined for two candidates", n_opt)
     counts = kernel.counts if kernel.counts is not None else kernel.probabilities
-    c = np.asarray(counts, dtype=float).reshape(n_ctx, k, k, -1)          # [x, shown 1, shown 2, decision]
-    out = np.zeros((n_ctx, n_opt, k, k, 3))                               # [x, position, own, rival, outcome]
+    c = np.asarray(counts, dtype=float).reshape(n_ctx, k, k, -1)  # [x, shown 1, shown 2, decision]
+    out = np.zeros((n_ctx, n_opt, k, k, 3))  # [x, position, own, rival, outcome]
     for i in range(n_opt):
-        view = c if i == 0 else c.transpose(0, 2, 1, 3)                   # own = the profile shown at position i
+        view = c if i == 0 else c.transpose(0, 2, 1, 3)  # own = the profile shown at position i
         out[:, i, ..., 0] = view[..., i]
         out[:, i, ..., 1] = view[..., 1 - i]
         out[:, i, ..., 2] = view[..., n_opt]
@@ -136,8 +145,9 @@ def candidate_context_mechanism(task: DeliveryTask, context_epsilon: float | Non
     if context_epsilon is None:
         return identity(candidate_contexts(task), name=f"identity on {task.context_name}")
     m = randomized_response(task.contexts, context_epsilon).matrix
-    return from_matrix(np.kron(m, np.eye(2)), candidate_contexts(task),
-                       name=f"randomized response on {task.context_name}")
+    return from_matrix(
+        np.kron(m, np.eye(2)), candidate_contexts(task), name=f"randomized response on {task.context_name}"
+    )
 
 
 def epsilon_from_keep(task: DeliveryTask, keep: float) -> float:
@@ -251,18 +261,31 @@ def _point(task, eps, kc, utility, pop, mx, confidence, method, tau, context_eps
     law = compose(kc, mech, mx)
     iv = None
     if confidence is not None and kc.counts is not None:
-        table = CountTable(kc.counts, kc.contexts, kc.groups, kc.decisions, ("context @ position",), ("shown",), "outcome")
-        iv = fairness_intervals(table, utility, confidence, method, sensitive_mechanism=mech, context_mechanism=mx,
-                                population=pop)
+        table = CountTable(
+            kc.counts, kc.contexts, kc.groups, kc.decisions, ("context @ position",), ("shown",), "outcome"
+        )
+        iv = fairness_intervals(
+            table, utility, confidence, method, sensitive_mechanism=mech, context_mechanism=mx, population=pop
+        )
     wm = worst_model(mech, utility, context_mechanism=mx, population=pop, tau=tau)
-    return PointResult(eps, filt, mech, law, local_fairness(law, utility, pop), global_fairness(law, utility, pop), iv,
-                       wm.local.value, wm.global_.value, mech.epsilon)
+    return PointResult(
+        eps,
+        filt,
+        mech,
+        law,
+        local_fairness(law, utility, pop),
+        global_fairness(law, utility, pop),
+        iv,
+        wm.local.value,
+        wm.global_.value,
+        mech.epsilon,
+    )
 
 
 def _paper_point(task, records, eps, utility, pop, confidence, method) -> PaperDesignPoint:
-    c = paper_counts(task, records, eps)                      # [x, order, decision]
+    c = paper_counts(task, records, eps)  # [x, order, decision]
     n_ctx = len(task.contexts)
-    counts = np.zeros((n_ctx, 2, 2, 3))                       # [x, position, true candidate, outcome]
+    counts = np.zeros((n_ctx, 2, 2, 3))  # [x, position, true candidate, outcome]
     for order in range(2):
         for pos in range(2):
             cand = pos if order == 0 else 1 - pos
@@ -274,17 +297,30 @@ def _paper_point(task, records, eps, utility, pop, confidence, method) -> PaperD
     law = Law.from_counts(counts, candidate_contexts(task), groups, task.outcomes)
     iv = None
     if confidence is not None and counts.sum() > 0:
-        table = CountTable(counts, law.contexts, law.groups, law.decisions, ("context @ position",), ("candidate",),
-                           "outcome")
+        table = CountTable(
+            counts, law.contexts, law.groups, law.decisions, ("context @ position",), ("candidate",), "outcome"
+        )
         iv = fairness_intervals(table, utility, confidence, method, population=pop)
-    return PaperDesignPoint(eps, int(c.sum()), law, local_fairness(law, utility, pop), global_fairness(law, utility, pop),
-                            iv)
+    return PaperDesignPoint(
+        eps, int(c.sum()), law, local_fairness(law, utility, pop), global_fairness(law, utility, pop), iv
+    )
 
 
-def analyse(task: DeliveryTask, records: Sequence[dict], *, model: str, samples: int,
-            epsilons: Sequence[float], positions: str = "balanced", confidence: float | None = 0.95,
-            method: str = "auto", tau: float | None = None, context_epsilon: float | None = None,
-            paper_epsilons: Sequence[float] = (), grid: int = 61) -> ExperimentAnalysis:
+def analyse(
+    task: DeliveryTask,
+    records: Sequence[dict],
+    *,
+    model: str,
+    samples: int,
+    epsilons: Sequence[float],
+    positions: str = "balanced",
+    confidence: float | None = 0.95,
+    method: str = "auto",
+    tau: float | None = None,
+    context_epsilon: float | None = None,
+    paper_epsilons: Sequence[float] = (),
+    grid: int = 61,
+) -> ExperimentAnalysis:
     """The per-candidate fairness–privacy analysis of a run's answered queries.
 
     Parameters
@@ -329,9 +365,12 @@ def analyse(task: DeliveryTask, records: Sequence[dict], *, model: str, samples:
     kernel = table_kernel(task, records)
     if kernel.empty_cells:
         x, pair = kernel.empty_cells[0]
-        raise InputError("table design", f"shown cell ({task.context_name} {x!r}, {task.options[0]} "
-                         f"{task.profile_label(pair[0])!r}, {task.options[1]} {task.profile_label(pair[1])!r}) has "
-                         f"no answered query ({len(kernel.empty_cells)} such cells); run again with --resume")
+        raise InputError(
+            "table design",
+            f"shown cell ({task.context_name} {x!r}, {task.options[0]} "
+            f"{task.profile_label(pair[0])!r}, {task.options[1]} {task.profile_label(pair[1])!r}) has "
+            f"no answered query ({len(kernel.empty_cells)} such cells); run again with --resume",
+        )
     kc = candidate_kernel(task, kernel)
     pop = candidate_population(task, positions)
     mx = candidate_context_mechanism(task, context_epsilon)
@@ -343,10 +382,20 @@ def analyse(task: DeliveryTask, records: Sequence[dict], *, model: str, samples:
             raise InputError("--epsilon", "must be finite and >= 0 (nats)", e)
     top = max(eps + [1.0])
     dense = np.unique(np.concatenate([np.linspace(0.0, top, grid), eps]))
-    curve = privacy_curve(family=candidate_family(task), epsilons=dense, kernel=kc, utility=utility, population=pop,
-                          context_mechanism=mx, tau=tau, title=f"{task.name}: {model}")
+    curve = privacy_curve(
+        family=candidate_family(task),
+        epsilons=dense,
+        kernel=kc,
+        utility=utility,
+        population=pop,
+        context_mechanism=mx,
+        tau=tau,
+        title=f"{task.name}: {model}",
+    )
     points = tuple(_point(task, e, kc, utility, pop, mx, confidence, method, tau, context_epsilon) for e in eps)
-    baseline = _point(task, math.inf, kc, utility, pop, identity(candidate_contexts(task)), confidence, method, tau, None)
+    baseline = _point(
+        task, math.inf, kc, utility, pop, identity(candidate_contexts(task)), confidence, method, tau, None
+    )
     k = len(task.profiles)
     i1, i2 = (task.profiles.index(tuple(c)) for c in task.candidates)
     probs = kernel.probabilities
@@ -354,6 +403,24 @@ def analyse(task: DeliveryTask, records: Sequence[dict], *, model: str, samples:
     paper = tuple(_paper_point(task, records, e, utility, pop, confidence, method) for e in sorted(set(paper_epsilons)))
     table_n = int(kernel.counts.sum())
     unparsed = int(kernel.counts[..., -1].sum())
-    return ExperimentAnalysis(task, model, samples, positions, kernel, kc, pop, utility, curve, points, baseline,
-                              shares, paper, confidence, unparsed, table_n, sum(p.queries for p in paper),
-                              context_epsilon, tau)
+    return ExperimentAnalysis(
+        task,
+        model,
+        samples,
+        positions,
+        kernel,
+        kc,
+        pop,
+        utility,
+        curve,
+        points,
+        baseline,
+        shares,
+        paper,
+        confidence,
+        unparsed,
+        table_n,
+        sum(p.queries for p in paper),
+        context_epsilon,
+        tau,
+    )

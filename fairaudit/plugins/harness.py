@@ -34,7 +34,7 @@ import time
 from collections.abc import Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -45,8 +45,17 @@ from .vlm.filter import PrivacyFilter
 from .vlm.models import DecisionModel, Query
 from .vlm.tasks import UNPARSED, DeliveryTask
 
-__all__ = ["QueryLog", "RunSummary", "plan_queries", "query_seed", "run_queries", "table_kernel", "paper_counts",
-           "table_queries_needed", "paper_queries_needed"]
+__all__ = [
+    "QueryLog",
+    "RunSummary",
+    "plan_queries",
+    "query_seed",
+    "run_queries",
+    "table_kernel",
+    "paper_counts",
+    "table_queries_needed",
+    "paper_queries_needed",
+]
 
 LOG_VERSION = 1
 
@@ -69,8 +78,16 @@ def _eps_key(eps: float) -> str:
     return f"{eps:.12g}"
 
 
-def plan_queries(task: DeliveryTask, design: str, samples: int, seed: int, *, epsilons: Sequence[float] = (),
-                 positions: str = "balanced", context_epsilon: float | None = None) -> list[Query]:
+def plan_queries(
+    task: DeliveryTask,
+    design: str,
+    samples: int,
+    seed: int,
+    *,
+    epsilons: Sequence[float] = (),
+    positions: str = "balanced",
+    context_epsilon: float | None = None,
+) -> list[Query]:
     """Every query of a run, in a fixed order.
 
     Parameters
@@ -154,6 +171,7 @@ def paper_queries_needed(task: DeliveryTask, samples: int, n_epsilons: int, posi
 
 # -- the log --------------------------------------------------------------------------------------------------
 
+
 class QueryLog:
     """The append-only JSON-lines log of a run.
 
@@ -184,8 +202,11 @@ class QueryLog:
         self._last_sync = time.monotonic()
         exists = self.path.exists() and self.path.stat().st_size > 0
         if exists and not resume:
-            raise InputError("--out", f"holds a run already ({self.path.name}); pass --resume to continue it, "
-                                      "or choose another folder", str(self.path.parent))
+            raise InputError(
+                "--out",
+                f"holds a run already ({self.path.name}); pass --resume to continue it, or choose another folder",
+                str(self.path.parent),
+            )
         if exists:
             self._read(header)
         self._fh = open(self.path, "ab")
@@ -195,7 +216,7 @@ class QueryLog:
     def _read(self, header: dict) -> None:
         data = self.path.read_bytes()
         lines = data.split(b"\n")
-        good = 0           # byte offset after the last complete, valid line
+        good = 0  # byte offset after the last complete, valid line
         offset = 0
         first = None
         for i, raw in enumerate(lines):
@@ -205,12 +226,14 @@ class QueryLog:
                 break
             try:
                 rec = json.loads(raw)
-                if last:            # no newline after it: torn
+                if last:  # no newline after it: torn
                     raise ValueError
             except ValueError:
-                if last or all(not x.strip() for x in lines[i + 1:]):
-                    break       # a torn line left by a crash: cut it off below
-                raise InputError("--resume", f"line {i + 1} of {self.path} is not valid JSON; the log is damaged") from None
+                if last or all(not x.strip() for x in lines[i + 1 :]):
+                    break  # a torn line left by a crash: cut it off below
+                raise InputError(
+                    "--resume", f"line {i + 1} of {self.path} is not valid JSON; the log is damaged"
+                ) from None
             offset = good = end
             if first is None:
                 first = rec
@@ -225,8 +248,10 @@ class QueryLog:
             raise InputError("--resume", "the log has no header line; it is not a fairaudit run log", str(self.path))
         for key, flag in (("task", "experiment"), ("model", "--model/--simulated/--kernel"), ("seed", "--seed")):
             if first.get(key) != header.get(key):
-                raise InputError("--resume", f"the run in {self.path.parent} was made with {flag} "
-                                 f"{first.get(key)!r}, not {header.get(key)!r}")
+                raise InputError(
+                    "--resume",
+                    f"the run in {self.path.parent} was made with {flag} {first.get(key)!r}, not {header.get(key)!r}",
+                )
         self.header = first
         if good < len(data):
             with open(self.path, "r+b") as fh:
@@ -267,10 +292,11 @@ class QueryLog:
 
 
 def _now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+    return datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
 # -- running --------------------------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class RunSummary:
@@ -315,8 +341,16 @@ def _prompt_hash(prompt: str, image_digests: Sequence[str]) -> str:
     return h.hexdigest()
 
 
-def run_queries(task: DeliveryTask, model: DecisionModel, queries: Sequence[Query], log: QueryLog, *,
-                images: Sequence[bytes] = (), concurrency: int = 1, progress: bool = True) -> RunSummary:
+def run_queries(
+    task: DeliveryTask,
+    model: DecisionModel,
+    queries: Sequence[Query],
+    log: QueryLog,
+    *,
+    images: Sequence[bytes] = (),
+    concurrency: int = 1,
+    progress: bool = True,
+) -> RunSummary:
     """Ask every query not yet in the log, logging each reply as it arrives.
 
     Parameters
@@ -358,22 +392,42 @@ def run_queries(task: DeliveryTask, model: DecisionModel, queries: Sequence[Quer
 
     def ask(q: Query) -> dict:
         prompt = task.prompt(q.context, q.profiles)
-        rec = {"type": "query", "id": q.id, "design": q.design, "context": q.context,
-               "profiles": [list(p) for p in q.profiles], "rep": q.rep, "seed": q.seed,
-               "epsilon": q.epsilon, "truth": None if q.truth is None else
-               {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
-               "prompt_sha256": _prompt_hash(prompt, digests), "time": _now()}
+        rec = {
+            "type": "query",
+            "id": q.id,
+            "design": q.design,
+            "context": q.context,
+            "profiles": [list(p) for p in q.profiles],
+            "rep": q.rep,
+            "seed": q.seed,
+            "epsilon": q.epsilon,
+            "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
+            "prompt_sha256": _prompt_hash(prompt, digests),
+            "time": _now(),
+        }
         t0 = time.monotonic()
         try:
             r = model.reply(q, prompt, images)
-        except FairauditError as exc:       # ChatError after the client's retries
-            return {**rec, "model": model.name, "status": "error", "error": str(exc),
-                    "latency": round(time.monotonic() - t0, 6)}
+        except FairauditError as exc:  # ChatError after the client's retries
+            return {
+                **rec,
+                "model": model.name,
+                "status": "error",
+                "error": str(exc),
+                "latency": round(time.monotonic() - t0, 6),
+            }
         parsed = parse_reply(r.text, task.options, task.kind)
         decision = task.options[parsed.choice] if parsed.ok else UNPARSED
-        return {**rec, "model": r.model, "status": "ok", "latency": round(r.latency or time.monotonic() - t0, 6),
-                "attempts": r.attempts, "reply": r.text, "decision": decision,
-                "parse_error": "" if parsed.ok else parsed.error}
+        return {
+            **rec,
+            "model": r.model,
+            "status": "ok",
+            "latency": round(r.latency or time.monotonic() - t0, 6),
+            "attempts": r.attempts,
+            "reply": r.text,
+            "decision": decision,
+            "parse_error": "" if parsed.ok else parsed.error,
+        }
 
     bar = _progress(len(todo), f"{task.name}: {model.name}", progress)
     pool = ThreadPoolExecutor(max_workers=int(concurrency))
@@ -432,6 +486,7 @@ def _progress(total: int, desc: str, enabled: bool):
 
 # -- counts ---------------------------------------------------------------------------------------------------
 
+
 def table_kernel(task: DeliveryTask, records: Iterable[dict]) -> Kernel:
     """The model's kernel estimated from the table design's answered queries.
 
@@ -449,8 +504,11 @@ def table_kernel(task: DeliveryTask, records: Iterable[dict]) -> Kernel:
     pidx = {p: i for i, p in enumerate(profiles)}
     cidx = {c: i for i, c in enumerate(task.contexts)}
     didx = {d: i for i, d in enumerate(task.decisions)}
-    rows = [(cidx[r["context"]], pidx[tuple(r["profiles"][0])] * k + pidx[tuple(r["profiles"][1])], didx[r["decision"]])
-            for r in records if r.get("design") == "table" and r.get("status") == "ok"]
+    rows = [
+        (cidx[r["context"]], pidx[tuple(r["profiles"][0])] * k + pidx[tuple(r["profiles"][1])], didx[r["decision"]])
+        for r in records
+        if r.get("design") == "table" and r.get("status") == "ok"
+    ]
     counts = np.zeros((len(task.contexts), k * k, len(task.decisions)))
     if rows:
         np.add.at(counts, tuple(np.array(rows).T), 1.0)

@@ -28,8 +28,16 @@ import numpy as np
 
 from ..report import _fairness, _num, write_atomic
 
-__all__ = ["experiment_spec", "experiment_dict", "experiment_markdown", "kernel_frame", "candidate_frame", "records_frame", "plot_baseline",
-           "plot_experiment_curve"]
+__all__ = [
+    "experiment_spec",
+    "experiment_dict",
+    "experiment_markdown",
+    "kernel_frame",
+    "candidate_frame",
+    "records_frame",
+    "plot_baseline",
+    "plot_experiment_curve",
+]
 
 
 def kernel_frame(analysis):
@@ -41,13 +49,15 @@ def kernel_frame(analysis):
     x, g, d = np.meshgrid(np.arange(n_ctx), np.arange(n_pairs), np.arange(n_dec), indexing="ij")
     x, g, d = x.ravel(), g.ravel(), d.ravel()
     labels = [(t.profile_label(p1), t.profile_label(p2)) for p1, p2 in k.groups]
-    return pd.DataFrame({
-        t.context_name: np.asarray(k.contexts, dtype=object)[x],
-        t.options[0]: [labels[i][0] for i in g],
-        t.options[1]: [labels[i][1] for i in g],
-        "decision": np.asarray(k.decisions, dtype=object)[d],
-        "count": k.counts.ravel().astype(int),
-    })
+    return pd.DataFrame(
+        {
+            t.context_name: np.asarray(k.contexts, dtype=object)[x],
+            t.options[0]: [labels[i][0] for i in g],
+            t.options[1]: [labels[i][1] for i in g],
+            "decision": np.asarray(k.decisions, dtype=object)[d],
+            "count": k.counts.ravel().astype(int),
+        }
+    )
 
 
 def candidate_frame(analysis):
@@ -57,8 +67,14 @@ def candidate_frame(analysis):
     k = analysis.candidate_kernel
     n_ctx, n_g, n_d = k.counts.shape
     x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_g), np.arange(n_d), indexing="ij"))
-    return pd.DataFrame({"context": np.asarray(k.contexts, dtype=object)[x], "profile": np.asarray(k.groups, dtype=object)[g],
-                         "outcome": np.asarray(k.decisions, dtype=object)[d], "count": k.counts.ravel().astype(int)})
+    return pd.DataFrame(
+        {
+            "context": np.asarray(k.contexts, dtype=object)[x],
+            "profile": np.asarray(k.groups, dtype=object)[g],
+            "outcome": np.asarray(k.decisions, dtype=object)[d],
+            "count": k.counts.ravel().astype(int),
+        }
+    )
 
 
 def experiment_spec(analysis, point) -> str:
@@ -76,22 +92,51 @@ def experiment_spec(analysis, point) -> str:
     j = json.dumps
     rows = ",\n  ".join(j([float(v) for v in r]) for r in point.mechanism.matrix)
     ctx = point.filter.context_mechanism
-    lines = [f"# {t.name}: {a.model}; the candidate's ε = {point.epsilon:.6g} nats "
-             f"(keep p = {', '.join(f'{q:.6g}' for q in point.filter.keep_probabilities)} per attribute)",
-             f"title = {j(f'{t.name}: {a.model}, per candidate, epsilon = {point.epsilon:.6g}')}", "",
-             "[sensitive]", 'name = "profile"', f"values = {j(list(a.population.groups))}", "",
-             "[context]", 'name = "context"', f"values = {j(list(a.population.contexts))}", "",
-             "[decision]", 'name = "outcome"', f"values = {j(list(t.outcomes))}", "",
-             "[population]", "probabilities = [\n  " + ",\n  ".join(j(r) for r in a.population.probabilities.tolist())
-             + "\n]", "",
-             "[privacy.sensitive]", 'mechanism = "matrix"', f"name = {j(point.mechanism.name)}",
-             f"outputs = {j(list(point.mechanism.outputs))}", f"rows = [\n  {rows}\n]", ""]
+    lines = [
+        f"# {t.name}: {a.model}; the candidate's ε = {point.epsilon:.6g} nats "
+        f"(keep p = {', '.join(f'{q:.6g}' for q in point.filter.keep_probabilities)} per attribute)",
+        f"title = {j(f'{t.name}: {a.model}, per candidate, epsilon = {point.epsilon:.6g}')}",
+        "",
+        "[sensitive]",
+        'name = "profile"',
+        f"values = {j(list(a.population.groups))}",
+        "",
+        "[context]",
+        'name = "context"',
+        f"values = {j(list(a.population.contexts))}",
+        "",
+        "[decision]",
+        'name = "outcome"',
+        f"values = {j(list(t.outcomes))}",
+        "",
+        "[population]",
+        "probabilities = [\n  " + ",\n  ".join(j(r) for r in a.population.probabilities.tolist()) + "\n]",
+        "",
+        "[privacy.sensitive]",
+        'mechanism = "matrix"',
+        f"name = {j(point.mechanism.name)}",
+        f"outputs = {j(list(point.mechanism.outputs))}",
+        f"rows = [\n  {rows}\n]",
+        "",
+    ]
     if ctx.epsilon != float("inf"):
         m = np.kron(ctx.matrix, np.eye(len(t.options)))
-        lines += ["[privacy.context]", 'mechanism = "matrix"', f"name = {j(ctx.name)}",
-                  "rows = [\n  " + ",\n  ".join(j(r) for r in m.tolist()) + "\n]", ""]
-    lines += ["[model]", 'table = "candidates.csv"', 'count_column = "count"', "",
-              "[utility]", 'kind = "table"', f"values = {j([float(v) for v in t.utility_values])}"]
+        lines += [
+            "[privacy.context]",
+            'mechanism = "matrix"',
+            f"name = {j(ctx.name)}",
+            "rows = [\n  " + ",\n  ".join(j(r) for r in m.tolist()) + "\n]",
+            "",
+        ]
+    lines += [
+        "[model]",
+        'table = "candidates.csv"',
+        'count_column = "count"',
+        "",
+        "[utility]",
+        'kind = "table"',
+        f"values = {j([float(v) for v in t.utility_values])}",
+    ]
     if a.tau is not None:
         lines.append(f"tau = {j(float(a.tau))}")
     return "\n".join(lines) + "\n"
@@ -114,8 +159,15 @@ def records_frame(analysis):
     x, g, d = np.repeat(x, reps), np.repeat(g, reps), np.repeat(d, reps)
     ctx = np.asarray([c.rsplit(" @ ", 1) for c in k.contexts], dtype=object)
     shown = np.asarray([s.split(" | ") for s in k.groups], dtype=object)
-    return pd.DataFrame({t.context_name: ctx[x, 0], "position": ctx[x, 1], "profile": shown[g, 0],
-                         "rival": shown[g, 1], "outcome": np.asarray(k.decisions, dtype=object)[d]})
+    return pd.DataFrame(
+        {
+            t.context_name: ctx[x, 0],
+            "position": ctx[x, 1],
+            "profile": shown[g, 0],
+            "rival": shown[g, 1],
+            "outcome": np.asarray(k.decisions, dtype=object)[d],
+        }
+    )
 
 
 def _point_dict(analysis, p) -> dict:
@@ -126,13 +178,17 @@ def _point_dict(analysis, p) -> dict:
             "epsilon_candidate": _num(p.mechanism.epsilon),
             "epsilon_profile": _num(f.epsilon_profile),
             "epsilon_per_attribute": {a.name: _num(e) for a, e in zip(analysis.task.attributes, f.epsilon_attributes)},
-            "keep_probability_per_attribute": {a.name: _num(q) for a, q in
-                                               zip(analysis.task.attributes, f.keep_probabilities)},
+            "keep_probability_per_attribute": {
+                a.name: _num(q) for a, q in zip(analysis.task.attributes, f.keep_probabilities)
+            },
             "delta": 0.0,
             "context_mechanism": f.context_mechanism.name,
         },
-        "bounds": {"corollary": _num(p.corollary), "black_box": _num(p.black_box_local),
-                   "black_box_global": _num(p.black_box_global)},
+        "bounds": {
+            "corollary": _num(p.corollary),
+            "black_box": _num(p.black_box_local),
+            "black_box_global": _num(p.black_box_global),
+        },
         "observed": {
             "local": _fairness(p.local, None if p.intervals is None else p.intervals.local),
             "global": _fairness(p.global_, None if p.intervals is None else p.intervals.global_),
@@ -170,24 +226,46 @@ def experiment_dict(analysis, run: dict | None = None) -> dict:
         "samples": a.samples,
         "candidates": [c1, c2],
         "context": t.context_name,
-        "queries": {"table": a.table_queries, "paper": a.paper_queries, "unparsed": a.unparsed,
-                    "table_design_needs": len(t.contexts) * len(t.profiles) ** 2 * a.samples,
-                    "paper_design_needs_per_epsilon": len(t.contexts) * (2 if a.positions == "balanced" else 1) * a.samples},
+        "queries": {
+            "table": a.table_queries,
+            "paper": a.paper_queries,
+            "unparsed": a.unparsed,
+            "table_design_needs": len(t.contexts) * len(t.profiles) ** 2 * a.samples,
+            "paper_design_needs_per_epsilon": len(t.contexts) * (2 if a.positions == "balanced" else 1) * a.samples,
+        },
         "utility": {"name": t.utility_name, "values": dict(zip(t.outcomes, map(_num, t.utility_values)))},
         "tau": _num(a.tau),
         "confidence": _num(a.confidence),
-        "baseline": {"local": _fairness(a.baseline.local, None if a.baseline.intervals is None else a.baseline.intervals.local),
-                     "global": _fairness(a.baseline.global_,
-                                         None if a.baseline.intervals is None else a.baseline.intervals.global_),
-                     "shares": shares},
+        "baseline": {
+            "local": _fairness(a.baseline.local, None if a.baseline.intervals is None else a.baseline.intervals.local),
+            "global": _fairness(
+                a.baseline.global_, None if a.baseline.intervals is None else a.baseline.intervals.global_
+            ),
+            "shares": shares,
+        },
         "points": [_point_dict(a, p) for p in a.points],
-        "paper_design": [{"epsilon": _num(p.epsilon), "queries": p.queries,
-                          "local": _fairness(p.local, None if p.intervals is None else p.intervals.local),
-                          "global": _fairness(p.global_, None if p.intervals is None else p.intervals.global_)}
-                         for p in a.paper],
-        "curve": {k: [_num(v) for v in getattr(curve, k)] for k in
-                  ("epsilon", "keep_probability", "paper", "tight", "black_box", "corollary", "observed_local",
-                   "observed_global")},
+        "paper_design": [
+            {
+                "epsilon": _num(p.epsilon),
+                "queries": p.queries,
+                "local": _fairness(p.local, None if p.intervals is None else p.intervals.local),
+                "global": _fairness(p.global_, None if p.intervals is None else p.intervals.global_),
+            }
+            for p in a.paper
+        ],
+        "curve": {
+            k: [_num(v) for v in getattr(curve, k)]
+            for k in (
+                "epsilon",
+                "keep_probability",
+                "paper",
+                "tight",
+                "black_box",
+                "corollary",
+                "observed_local",
+                "observed_global",
+            )
+        },
     }
     if run:
         out["run"] = run
@@ -211,47 +289,82 @@ def experiment_markdown(d: dict) -> str:
     """The Markdown report of :func:`experiment_dict`."""
     q = d["queries"]
     lines = [f"# {d['experiment']}: {d['model']}", ""]
-    lines += [f"Per-candidate framing: context = {d['context']} @ position, group = the "
-              f"candidate's true profile ({d['candidates'][0]} or {d['candidates'][1]}), outcome = its own; "
-              f"utility: {d['utility']['name']}. Positions: {d['positions']}.", ""]
-    lines += [f"Queries: {q['table']} in the table design ({d['samples']} per shown cell; the filter is applied by "
-              f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
-              f"'unparsed'."]
+    lines += [
+        f"Per-candidate framing: context = {d['context']} @ position, group = the "
+        f"candidate's true profile ({d['candidates'][0]} or {d['candidates'][1]}), outcome = its own; "
+        f"utility: {d['utility']['name']}. Positions: {d['positions']}.",
+        "",
+    ]
+    lines += [
+        f"Queries: {q['table']} in the table design ({d['samples']} per shown cell; the filter is applied by "
+        f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
+        f"'unparsed'."
+    ]
     if q["paper"]:
-        lines += [f"The paper's design (sampling through the filter) used {q['paper']} more, "
-                  f"{q['paper_design_needs_per_epsilon']} per ε."]
+        lines += [
+            f"The paper's design (sampling through the filter) used {q['paper']} more, "
+            f"{q['paper_design_needs_per_epsilon']} per ε."
+        ]
     conf = d["confidence"]
-    lines += ["", "## Baseline: no filter", "",
-              f"L = {_f(d['baseline']['local']['value'])} nats{_ivs(d['baseline']['local'])}, "
-              f"L̄ = {_f(d['baseline']['global']['value'])} nats{_ivs(d['baseline']['global'])}"
-              + (f" ({conf:g} simultaneous intervals)." if conf else "."), "", "![baseline](baseline.png)", ""]
+    lines += [
+        "",
+        "## Baseline: no filter",
+        "",
+        f"L = {_f(d['baseline']['local']['value'])} nats{_ivs(d['baseline']['local'])}, "
+        f"L̄ = {_f(d['baseline']['global']['value'])} nats{_ivs(d['baseline']['global'])}"
+        + (f" ({conf:g} simultaneous intervals)." if conf else "."),
+        "",
+        "![baseline](baseline.png)",
+        "",
+    ]
     head = "| context | order | " + " | ".join(next(iter(next(iter(d["baseline"]["shares"].values())).values()))) + " |"
     lines += [head, "|" + "---|" * (head.count("|") - 1)]
     for ctx, orders in d["baseline"]["shares"].items():
         for order, s in orders.items():
             lines.append(f"| {ctx} | {order} | " + " | ".join(_f(v, 3) for v in s.values()) + " |")
-    lines += ["", "## Fairness–privacy curve", "", "![curve](curve.png)", "",
-              "ε is the candidate's privacy budget (nats): the filter shows each attribute of both profiles through "
-              "randomized response, and a candidate's profile fixes its rival's, so both count.", "",
-              "| ε candidate | ε per profile | keep p per attribute | certified L ≤ (black-box) | corollary | observed L | "
-              "observed L̄ | black-box L̄ |", "|---|---|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "## Fairness–privacy curve",
+        "",
+        "![curve](curve.png)",
+        "",
+        "ε is the candidate's privacy budget (nats): the filter shows each attribute of both profiles through "
+        "randomized response, and a candidate's profile fixes its rival's, so both count.",
+        "",
+        "| ε candidate | ε per profile | keep p per attribute | certified L ≤ (black-box) | corollary | observed L | "
+        "observed L̄ | black-box L̄ |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for p in d["points"]:
         keep = ", ".join(f"{_f(v, 3)}" for v in p["privacy"]["keep_probability_per_attribute"].values())
-        lines.append(f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
-                     f"{_f(p['bounds']['black_box'])} | {_f(p['bounds']['corollary'])} | "
-                     f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
-                     f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
-                     f"{_f(p['bounds']['black_box_global'])} |")
+        lines.append(
+            f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
+            f"{_f(p['bounds']['black_box'])} | {_f(p['bounds']['corollary'])} | "
+            f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
+            f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
+            f"{_f(p['bounds']['black_box_global'])} |"
+        )
     if d["paper_design"]:
-        lines += ["", "The paper's design at the same ε (each ε queried through the filter):", "",
-                  "| ε candidate | queries | observed L | observed L̄ |", "|---|---|---|---|"]
+        lines += [
+            "",
+            "The paper's design at the same ε (each ε queried through the filter):",
+            "",
+            "| ε candidate | queries | observed L | observed L̄ |",
+            "|---|---|---|---|",
+        ]
         for p in d["paper_design"]:
-            lines.append(f"| {_f(p['epsilon'])} | {p['queries']} | {_f(p['local']['value'])}{_ivs(p['local'])} | "
-                         f"{_f(p['global']['value'])}{_ivs(p['global'])} |")
-    lines += ["", "The black-box bound holds for every decision model behind the filter (exact worst case); the "
-              "observed values are this model's. Files: kernel.csv (the model's kernel with counts), "
-              "candidates.csv, records.csv (per-candidate records for `fairaudit audit`), certificate.json, curve.csv, "
-              "queries.jsonl (every query and reply).", ""]
+            lines.append(
+                f"| {_f(p['epsilon'])} | {p['queries']} | {_f(p['local']['value'])}{_ivs(p['local'])} | "
+                f"{_f(p['global']['value'])}{_ivs(p['global'])} |"
+            )
+    lines += [
+        "",
+        "The black-box bound holds for every decision model behind the filter (exact worst case); the "
+        "observed values are this model's. Files: kernel.csv (the model's kernel with counts), "
+        "candidates.csv, records.csv (per-candidate records for `fairaudit audit`), certificate.json, curve.csv, "
+        "queries.jsonl (every query and reply).",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -268,19 +381,35 @@ def plot_baseline(analysis, path) -> None:
     width = 0.38
     colors = ["tab:blue", "tab:orange", "0.7"]
     # who gets the outcome that option 1 gets (chosen / served first): candidate 1 or 2, per order
-    for j, (order, xs) in enumerate((("paper's order", np.arange(n) - width / 2), ("swapped", np.arange(n) + width / 2))):
+    for j, (order, xs) in enumerate(
+        (("paper's order", np.arange(n) - width / 2), ("swapped", np.arange(n) + width / 2))
+    ):
         s = analysis.shares[:, j, :]
-        first = s[:, 0] if j == 0 else s[:, 1]      # candidate 1's share
+        first = s[:, 0] if j == 0 else s[:, 1]  # candidate 1's share
         second = s[:, 1] if j == 0 else s[:, 0]
         unp = s[:, 2]
         bottoms = np.zeros(n)
         for k, (vals, lab) in enumerate(((first, c1), (second, c2), (unp, "unparsed"))):
-            ax.bar(xs, vals, width * 0.95, bottom=bottoms, color=colors[k], edgecolor="white",
-                   label=lab if j == 0 else None, hatch="" if j == 0 else "//")
+            ax.bar(
+                xs,
+                vals,
+                width * 0.95,
+                bottom=bottoms,
+                color=colors[k],
+                edgecolor="white",
+                label=lab if j == 0 else None,
+                hatch="" if j == 0 else "//",
+            )
             bottoms += vals
     verb = "chosen" if t.kind == "choice" else "served first"
-    ax.set_xticks(np.arange(n), [f"{c}\n(left: {c1.split(' & ')[0]} as {t.options[0]}; right: swapped)" if i == 0
-                                 else c for i, c in enumerate(t.contexts)], fontsize=8)
+    ax.set_xticks(
+        np.arange(n),
+        [
+            f"{c}\n(left: {c1.split(' & ')[0]} as {t.options[0]}; right: swapped)" if i == 0 else c
+            for i, c in enumerate(t.contexts)
+        ],
+        fontsize=8,
+    )
     ax.set_ylabel(f"share of queries: who is {verb}")
     ax.set_ylim(0, 1.0)
     ax.set_title(f"{t.name}, {analysis.model}: no privacy filter", fontsize=10)
@@ -303,14 +432,23 @@ def plot_experiment_curve(analysis, path) -> None:
         for attr, color, label in (("local", "black", "L"), ("global_", "tab:green", "L̄")):
             lo = np.array([getattr(p.intervals, attr).lower for p in pts])
             hi = np.array([min(getattr(p.intervals, attr).upper, top) for p in pts])
-            ax.fill_between(e, lo, hi, color=color, alpha=0.12, lw=0,
-                            label=f"{analysis.confidence:g} band of observed {label}")
+            ax.fill_between(
+                e, lo, hi, color=color, alpha=0.12, lw=0, label=f"{analysis.confidence:g} band of observed {label}"
+            )
     if analysis.paper:
         e = np.array([p.epsilon for p in analysis.paper])
         v = np.array([p.local.value for p in analysis.paper])
         top = ax.get_ylim()[1]
-        ax.plot(e, np.minimum(v, top), ls="none", marker="D", ms=5, mfc="none", color="tab:red",
-                label="observed L, paper's design (sampled through the filter)")
+        ax.plot(
+            e,
+            np.minimum(v, top),
+            ls="none",
+            marker="D",
+            ms=5,
+            mfc="none",
+            color="tab:red",
+            label="observed L, paper's design (sampled through the filter)",
+        )
     ax.set_xlabel("privacy budget ε of a candidate (nats; both profiles shown)")
     ax.legend(loc="upper left", fontsize=7, framealpha=0.9)
     save_figure(fig, path)
@@ -324,4 +462,3 @@ def write_json(path, data: dict) -> None:
 def write_frame(path, frame) -> None:
     """A DataFrame as CSV, atomically."""
     write_atomic(path, frame.to_csv(index=False), field="--out")
-

@@ -48,8 +48,9 @@ def _model(task, simulated, kernel, endpoint, model, timeout, max_retries, concu
             raise InputError("--model", "is needed with --endpoint (the model name the endpoint serves)")
         from .vlm.client import ChatClient
 
-        return EndpointModel(ChatClient(endpoint, model, timeout=timeout, max_retries=max_retries,
-                                        max_concurrency=concurrency))
+        return EndpointModel(
+            ChatClient(endpoint, model, timeout=timeout, max_retries=max_retries, max_concurrency=concurrency)
+        )
     if model:
         raise InputError("--model", "goes with --endpoint", model)
     if kernel:
@@ -66,19 +67,41 @@ def _images(scene, images: bool) -> tuple:
     s = delivery_scene(scene)
     if not s.check.equal:
         lengths = ", ".join(f"{x:.2f} m" for x in s.check.lengths)
-        raise InputError("--scene", f"the routes to the two destinations are not of equal length ({lengths}; "
-                         f"{s.check.max_relative_difference:.1%} apart, more than {s.check.rtol:.0%}): the paper's "
-                         "experiment needs equal distances", str(scene or "generated floor"))
+        raise InputError(
+            "--scene",
+            f"the routes to the two destinations are not of equal length ({lengths}; "
+            f"{s.check.max_relative_difference:.1%} apart, more than {s.check.rtol:.0%}): the paper's "
+            "experiment needs equal distances",
+            str(scene or "generated floor"),
+        )
     return tuple(s.images)
 
 
-def run_experiment(experiment: str, out: str | Path, *, simulated: str | None = None, kernel: str | None = None,
-                   endpoint: str | None = None, model: str | None = None, samples: int = 20,
-                   epsilons: Sequence[float] | None = None, keeps: Sequence[float] | None = None,
-                   context_epsilon: float | None = None, design: str = "table", positions: str = "balanced",
-                   seed: int = 0, resume: bool = False, concurrency: int | None = None, timeout: float = 60.0,
-                   max_retries: int = 5, confidence: float | None = 0.95, method: str = "auto",
-                   scene: str | None = None, images: bool = True, progress: bool = True) -> ExperimentRun:
+def run_experiment(
+    experiment: str,
+    out: str | Path,
+    *,
+    simulated: str | None = None,
+    kernel: str | None = None,
+    endpoint: str | None = None,
+    model: str | None = None,
+    samples: int = 20,
+    epsilons: Sequence[float] | None = None,
+    keeps: Sequence[float] | None = None,
+    context_epsilon: float | None = None,
+    design: str = "table",
+    positions: str = "balanced",
+    seed: int = 0,
+    resume: bool = False,
+    concurrency: int | None = None,
+    timeout: float = 60.0,
+    max_retries: int = 5,
+    confidence: float | None = 0.95,
+    method: str = "auto",
+    scene: str | None = None,
+    images: bool = True,
+    progress: bool = True,
+) -> ExperimentRun:
     """Run one of the paper's delivery experiments and write its report to ``out``.
 
     Parameters
@@ -152,47 +175,84 @@ def run_experiment(experiment: str, out: str | Path, *, simulated: str | None = 
         raise InputError("--out", "its parent folder does not exist", str(out.parent))
     log_path = out / "queries.jsonl"
     if log_path.exists() and log_path.stat().st_size > 0 and not resume:
-        raise InputError("--out", "holds a run already (queries.jsonl); pass --resume to continue it, or choose "
-                         "another folder", str(out))
-    pngs = _images(scene, images)                 # a bad scene is refused before --out is touched
+        raise InputError(
+            "--out",
+            "holds a run already (queries.jsonl); pass --resume to continue it, or choose another folder",
+            str(out),
+        )
+    pngs = _images(scene, images)  # a bad scene is refused before --out is touched
     out.mkdir(exist_ok=True)
     from ..report import write_atomic
 
     for i, png in enumerate(pngs, start=1):
         write_atomic(out / f"route-{i}.png", png, field="--out")
-    header = {"task": task.name, "model": m.name, "seed": int(seed), "fairaudit": __version__, "samples": samples,
-              "design": design, "positions": positions, "epsilons": eps, "context_epsilon": context_epsilon}
+    header = {
+        "task": task.name,
+        "model": m.name,
+        "seed": int(seed),
+        "fairaudit": __version__,
+        "samples": samples,
+        "design": design,
+        "positions": positions,
+        "epsilons": eps,
+        "context_epsilon": context_epsilon,
+    }
     queries = plan_queries(task, "table", samples, seed)
     if design == "both":
-        queries += plan_queries(task, "paper", samples, seed, epsilons=eps, positions=positions,
-                                context_epsilon=context_epsilon)
+        queries += plan_queries(
+            task, "paper", samples, seed, epsilons=eps, positions=positions, context_epsilon=context_epsilon
+        )
     with QueryLog(log_path, header, resume=resume) as log:
         summary = run_queries(task, m, queries, log, images=pngs, concurrency=concurrency, progress=progress)
         records = [log.records[q.id] for q in queries if q.id in log.records]
     files = [log_path] + [out / f"route-{i}.png" for i in range(1, len(pngs) + 1)]
     if not summary.complete:
         return ExperimentRun(out, summary, None, tuple(files))
-    analysis = analyse(task, records, model=m.name, samples=samples, epsilons=eps, positions=positions,
-                       confidence=confidence, method=method, context_epsilon=context_epsilon,
-                       paper_epsilons=eps if design == "both" else ())
-    files += _write(analysis, out, {"seed": int(seed), "design": design, "fairaudit": __version__,
-                                    "seconds": round(summary.seconds, 3)})
+    analysis = analyse(
+        task,
+        records,
+        model=m.name,
+        samples=samples,
+        epsilons=eps,
+        positions=positions,
+        confidence=confidence,
+        method=method,
+        context_epsilon=context_epsilon,
+        paper_epsilons=eps if design == "both" else (),
+    )
+    files += _write(
+        analysis,
+        out,
+        {"seed": int(seed), "design": design, "fairaudit": __version__, "seconds": round(summary.seconds, 3)},
+    )
     return ExperimentRun(out, summary, analysis, tuple(files))
 
 
 def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
     from ..report import write_atomic
-    from .report import (candidate_frame, experiment_dict, experiment_markdown, experiment_spec, kernel_frame,
-                         plot_baseline, plot_experiment_curve, records_frame, write_frame, write_json)
+    from .report import (
+        candidate_frame,
+        experiment_dict,
+        experiment_markdown,
+        experiment_spec,
+        kernel_frame,
+        plot_baseline,
+        plot_experiment_curve,
+        records_frame,
+        write_frame,
+        write_json,
+    )
 
     data = experiment_dict(analysis, run)
     written = []
-    for name, write in (("kernel.csv", lambda p: write_frame(p, kernel_frame(analysis))),
-                        ("candidates.csv", lambda p: write_frame(p, candidate_frame(analysis))),
-                        ("records.csv", lambda p: write_frame(p, records_frame(analysis))),
-                        ("curve.csv", lambda p: analysis.curve.to_csv(p)),
-                        ("certificate.json", lambda p: write_json(p, data)),
-                        ("report.md", lambda p: write_atomic(p, experiment_markdown(data), field="--out"))):
+    for name, write in (
+        ("kernel.csv", lambda p: write_frame(p, kernel_frame(analysis))),
+        ("candidates.csv", lambda p: write_frame(p, candidate_frame(analysis))),
+        ("records.csv", lambda p: write_frame(p, records_frame(analysis))),
+        ("curve.csv", lambda p: analysis.curve.to_csv(p)),
+        ("certificate.json", lambda p: write_json(p, data)),
+        ("report.md", lambda p: write_atomic(p, experiment_markdown(data), field="--out")),
+    ):
         write(out / name)
         written.append(out / name)
     for p in analysis.points:
@@ -203,6 +263,6 @@ def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
         plot_baseline(analysis, out / "baseline.png")
         plot_experiment_curve(analysis, out / "curve.png")
         written += [out / "baseline.png", out / "curve.png"]
-    except InputError as exc:                 # matplotlib missing: the tables and report are written
+    except InputError as exc:  # matplotlib missing: the tables and report are written
         print(f"fairaudit: figures skipped: {exc}", file=sys.stderr)
     return written

@@ -43,7 +43,7 @@ False
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from hypothesis import assume
@@ -73,6 +73,7 @@ EPSILON_TOLERANCE = 1e-9
 
 
 # --------------------------------------------------------------------------- helpers
+
 
 def _labels(draw, spec, prefix: str, minimum: int, what: str) -> tuple:
     """Resolve a size spec (int, range, or labels) into a tuple of labels of length ≥ ``minimum``."""
@@ -136,6 +137,7 @@ def _rows(draw, shape, allow_zeros: bool) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- populations
+
 
 @st.composite
 def populations(draw, contexts=range(1, 4), groups=range(2, 4), independent=None, allow_zero_contexts=False):
@@ -224,6 +226,7 @@ def populations(draw, contexts=range(1, 4), groups=range(2, 4), independent=None
 
 
 # --------------------------------------------------------------------------- mechanisms
+
 
 def _pure_matrix(draw, n_in: int, n_out: int, epsilon: float, allow_zeros: bool) -> np.ndarray:
     """A row-stochastic (n_in, n_out) matrix with ε(M) = ``epsilon`` (0 ≤ ε ≤ inf)."""
@@ -499,9 +502,11 @@ def product_mechanisms(draw, n_attributes=range(2, 4), n_values=range(2, 4), eps
 
 # --------------------------------------------------------------------------- kernels and laws
 
+
 @st.composite
-def kernels(draw, contexts=range(1, 3), groups=range(1, 4), decisions=range(1, 4), deterministic=None,
-            allow_zeros=False):
+def kernels(
+    draw, contexts=range(1, 3), groups=range(1, 4), decisions=range(1, 4), deterministic=None, allow_zeros=False
+):
     """Decision kernels K[x̃, ã, u] = P(U = u | X̃ = x̃, Ã = ã).
 
     Parameters
@@ -552,8 +557,7 @@ def kernels(draw, contexts=range(1, 3), groups=range(1, 4), decisions=range(1, 4
 
 
 @st.composite
-def laws(draw, n_contexts=range(1, 3), n_groups=range(1, 4), n_decisions=range(1, 4), zero_cells=False,
-         counts=False):
+def laws(draw, n_contexts=range(1, 3), n_groups=range(1, 4), n_decisions=range(1, 4), zero_cells=False, counts=False):
     """Laws Q[x, a, u] = P(U = u | X = x, A = a), with the edge cases.
 
     Parameters
@@ -604,9 +608,18 @@ def laws(draw, n_contexts=range(1, 3), n_groups=range(1, 4), n_decisions=range(1
 
 # --------------------------------------------------------------------------- utilities
 
+
 @st.composite
-def utilities(draw, decisions=range(2, 4), gamma=1.0, lower=0.0, contexts=None, groups=None,
-              depends_on_group=False, lipschitz=None):
+def utilities(
+    draw,
+    decisions=range(2, 4),
+    gamma=1.0,
+    lower=0.0,
+    contexts=None,
+    groups=None,
+    depends_on_group=False,
+    lipschitz=None,
+):
     """Utilities g ≥ 0 with an exact range [lower, γ] (and optionally an exact L_A).
 
     Parameters

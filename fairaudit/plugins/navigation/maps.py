@@ -50,8 +50,9 @@ def _networkx():
     try:
         import networkx
     except ImportError:
-        raise InputError("navigation", "needs networkx, which is not installed: pip install 'fairaudit[navigation]'") \
-            from None
+        raise InputError(
+            "navigation", "needs networkx, which is not installed: pip install 'fairaudit[navigation]'"
+        ) from None
     return networkx
 
 
@@ -210,8 +211,16 @@ def _highest(flat: np.ndarray, z: np.ndarray, keep: np.ndarray | None = None) ->
     return f[last], order[last]
 
 
-def build_maps(area: Area, *, resolution: float = 0.05, ceiling: float | None = None, floor_band: float = 0.1,
-               clearance: float | None = 1.8, robot_radius: float = 0.2, door_gap: float = 0.3) -> Maps:
+def build_maps(
+    area: Area,
+    *,
+    resolution: float = 0.05,
+    ceiling: float | None = None,
+    floor_band: float = 0.1,
+    clearance: float | None = 1.8,
+    robot_radius: float = 0.2,
+    door_gap: float = 0.3,
+) -> Maps:
     """Top-view, traversability and topological maps of an area (the paper's Methods).
 
     1. **Ceiling removal.** Points of category ``ceiling`` are dropped, and
@@ -346,8 +355,9 @@ def build_maps(area: Area, *, resolution: float = 0.05, ceiling: float | None = 
     ri = np.floor((y - oy) / res + 1e-9).astype(np.int64)
     shape = (int(ri.max()) + 1, int(ci.max()) + 1)
     if shape[0] * shape[1] > MAX_CELLS:
-        raise InputError("resolution", f"gives a grid of {shape[0]} x {shape[1]} cells, more than {MAX_CELLS}",
-                         resolution)
+        raise InputError(
+            "resolution", f"gives a grid of {shape[0]} x {shape[1]} cells, more than {MAX_CELLS}", resolution
+        )
     flat = ri * shape[1] + ci
     ncell = shape[0] * shape[1]
 
@@ -385,7 +395,7 @@ def build_maps(area: Area, *, resolution: float = 0.05, ceiling: float | None = 
     in_band = keep & (np.abs(z - floor_z) <= band)
     ends = np.cumsum(sizes)
     for i, r in enumerate(rooms):
-        mine = slice(int(ends[i] - sizes[i]), int(ends[i]))       # the room's points, concatenated in order
+        mine = slice(int(ends[i] - sizes[i]), int(ends[i]))  # the room's points, concatenated in order
         rx, ry = x[mine], y[mine]
         sel = is_floor[mine] if is_floor[mine].any() else in_band[mine]
         if sel.any():
@@ -395,8 +405,14 @@ def build_maps(area: Area, *, resolution: float = 0.05, ceiling: float | None = 
         else:
             centre = (math.nan, math.nan)
         bbox = (float(rx.min()), float(ry.min()), float(rx.max()), float(ry.max())) if len(rx) else (math.nan,) * 4
-        graph.add_node(r.name, centre=centre, category=room_kind(r.name), bbox=bbox, free_cells=int(counts[i]),
-                       ceiling_z=float(ceiling_z[i]))
+        graph.add_node(
+            r.name,
+            centre=centre,
+            category=room_kind(r.name),
+            bbox=bbox,
+            free_cells=int(counts[i]),
+            ceiling_z=float(ceiling_z[i]),
+        )
     for (a, b), n in _touching(free_labels).items():
         graph.add_edge(names[a], names[b], via="adjacent", contact=n)
     steps = int(math.ceil(gap / res - 1e-9))
@@ -405,13 +421,29 @@ def build_maps(area: Area, *, resolution: float = 0.05, ceiling: float | None = 
             if not graph.has_edge(names[a], names[b]):
                 graph.add_edge(names[a], names[b], via="gap", contact=0)
 
-    arrays = dict(top_height=top_height, top_color=top_color, top_category=top_category, free=free,
-                  traversable=traversable, room_labels=labels, ceiling_z=ceiling_z)
+    arrays = dict(
+        top_height=top_height,
+        top_color=top_color,
+        top_category=top_category,
+        free=free,
+        traversable=traversable,
+        room_labels=labels,
+        ceiling_z=ceiling_z,
+    )
     for a in arrays.values():
         a.setflags(write=False)
-    return Maps(origin=(float(ox), float(oy)), resolution=res, shape=shape, rooms=names,
-                topology=nx.freeze(graph), floor_z=floor_z, floor_band=band, clearance=clear,
-                robot_radius=radius, **arrays)
+    return Maps(
+        origin=(float(ox), float(oy)),
+        resolution=res,
+        shape=shape,
+        rooms=names,
+        topology=nx.freeze(graph),
+        floor_z=floor_z,
+        floor_band=band,
+        clearance=clear,
+        robot_radius=radius,
+        **arrays,
+    )
 
 
 def _inflate(free: np.ndarray, radius_cells: float) -> np.ndarray:
@@ -426,10 +458,12 @@ def _inflate(free: np.ndarray, radius_cells: float) -> np.ndarray:
 def _touching(labels: np.ndarray) -> dict[tuple[int, int], int]:
     """Pairs (a < b) of labels >= 0 on 8-neighbouring cells, with the number of such cell pairs."""
     pairs = []
-    for sa, sb in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))),
-                   ((slice(None, -1), slice(None)), (slice(1, None), slice(None))),
-                   ((slice(None, -1), slice(None, -1)), (slice(1, None), slice(1, None))),
-                   ((slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)))):
+    for sa, sb in (
+        ((slice(None), slice(None, -1)), (slice(None), slice(1, None))),
+        ((slice(None, -1), slice(None)), (slice(1, None), slice(None))),
+        ((slice(None, -1), slice(None, -1)), (slice(1, None), slice(1, None))),
+        ((slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1))),
+    ):
         a, b = labels[sa].ravel(), labels[sb].ravel()
         m = (a >= 0) & (b >= 0) & (a != b)
         pairs.append(np.column_stack([np.minimum(a[m], b[m]), np.maximum(a[m], b[m])]))
@@ -465,7 +499,21 @@ def _toy_maps() -> Maps:
     z = np.zeros((2, 3))
     labels = np.array([[0, 0, 0], [1, 1, 1]], dtype=np.int16)
     free = np.ones((2, 3), dtype=bool)
-    return Maps(origin=(0.0, 0.0), resolution=1.0, shape=(2, 3), top_height=z, top_color=np.zeros((2, 3, 3), np.uint8),
-                top_category=np.ones((2, 3), np.uint8), free=free, traversable=free, room_labels=labels,
-                rooms=("lobby_1", "office_1"), topology=None, floor_z=0.0, ceiling_z=np.full(2, np.inf),
-                floor_band=0.1, clearance=1.8, robot_radius=0.0)
+    return Maps(
+        origin=(0.0, 0.0),
+        resolution=1.0,
+        shape=(2, 3),
+        top_height=z,
+        top_color=np.zeros((2, 3, 3), np.uint8),
+        top_category=np.ones((2, 3), np.uint8),
+        free=free,
+        traversable=free,
+        room_labels=labels,
+        rooms=("lobby_1", "office_1"),
+        topology=None,
+        floor_z=0.0,
+        ceiling_z=np.full(2, np.inf),
+        floor_band=0.1,
+        clearance=1.8,
+        robot_radius=0.0,
+    )

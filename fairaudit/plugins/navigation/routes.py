@@ -32,8 +32,17 @@ from .s3dis import Area, read_area
 from .synthetic import write_office_floor
 
 __all__ = [
-    "Route", "DistanceCheck", "DeliveryScene", "plan_route", "candidate_routes", "check_equal_distance",
-    "route_image", "save_route_image", "delivery_scene", "ROUTE_RGB", "MAX_SNAP",
+    "Route",
+    "DistanceCheck",
+    "DeliveryScene",
+    "plan_route",
+    "candidate_routes",
+    "check_equal_distance",
+    "route_image",
+    "save_route_image",
+    "delivery_scene",
+    "ROUTE_RGB",
+    "MAX_SNAP",
 ]
 
 #: Colour of the route in :func:`route_image` (pure red; never used by the background).
@@ -41,16 +50,16 @@ ROUTE_RGB = (255, 0, 0)
 #: Default largest distance (metres) from a start or goal to the traversable cell it is moved to.
 MAX_SNAP = 1.0
 
-_GRAPHS: "weakref.WeakKeyDictionary[Maps, object]" = weakref.WeakKeyDictionary()
-
+_GRAPHS: weakref.WeakKeyDictionary[Maps, object] = weakref.WeakKeyDictionary()
 
 
 def _pillow():
     try:
         from PIL import Image, ImageDraw, ImageFont
     except ImportError:
-        raise InputError("navigation", "needs pillow, which is not installed: pip install 'fairaudit[navigation]'") \
-            from None
+        raise InputError(
+            "navigation", "needs pillow, which is not installed: pip install 'fairaudit[navigation]'"
+        ) from None
     return Image, ImageDraw, ImageFont
 
 
@@ -139,17 +148,22 @@ class DeliveryScene:
 
 # -- A* -------------------------------------------------------------------------------------------------
 
+
 def _edges(traversable: np.ndarray, res: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(u, v, weight) of the 8-connected grid graph on flat cell indices; no diagonal cuts an obstacle corner."""
     rows, cols = traversable.shape
     idx = np.arange(rows * cols, dtype=np.int64).reshape(rows, cols)
     t = traversable
     us, vs, ws = [], [], []
-    straight = [(t[:, :-1] & t[:, 1:], idx[:, :-1], idx[:, 1:]),          # east
-                (t[:-1, :] & t[1:, :], idx[:-1, :], idx[1:, :])]          # north
-    block = t[:-1, :-1] & t[1:, 1:] & t[:-1, 1:] & t[1:, :-1]             # the four cells of a 2 x 2 block
-    diagonal = [(block, idx[:-1, :-1], idx[1:, 1:]),                      # north-east
-                (block, idx[:-1, 1:], idx[1:, :-1])]                      # north-west
+    straight = [
+        (t[:, :-1] & t[:, 1:], idx[:, :-1], idx[:, 1:]),  # east
+        (t[:-1, :] & t[1:, :], idx[:-1, :], idx[1:, :]),
+    ]  # north
+    block = t[:-1, :-1] & t[1:, 1:] & t[:-1, 1:] & t[1:, :-1]  # the four cells of a 2 x 2 block
+    diagonal = [
+        (block, idx[:-1, :-1], idx[1:, 1:]),  # north-east
+        (block, idx[:-1, 1:], idx[1:, :-1]),
+    ]  # north-west
     for (m, a, b), w in [(s, res) for s in straight] + [(d, res * math.sqrt(2.0)) for d in diagonal]:
         us.append(a[m])
         vs.append(b[m])
@@ -283,8 +297,16 @@ def plan_route(maps: Maps, start, goal, *, max_snap: float = MAX_SNAP) -> Route:
     rooms = tuple(maps.rooms[int(i)] for i in labels[keep])
     for a in (cells, points):
         a.setflags(write=False)
-    return Route(start=start, goal=goal, cells=cells, points=points, length=length, rooms=rooms,
-                 start_snap=s_snap, goal_snap=g_snap)
+    return Route(
+        start=start,
+        goal=goal,
+        cells=cells,
+        points=points,
+        length=length,
+        rooms=rooms,
+        start_snap=s_snap,
+        goal_snap=g_snap,
+    )
 
 
 def candidate_routes(maps: Maps, start, goals: Sequence, *, max_snap: float = MAX_SNAP) -> tuple[Route, ...]:
@@ -375,6 +397,7 @@ def check_equal_distance(routes: Sequence, rtol: float = 0.05) -> DistanceCheck:
 
 
 # -- images ---------------------------------------------------------------------------------------------
+
 
 def _background(maps: Maps) -> np.ndarray:
     """(rows, cols, 3) uint8, grid orientation: traversable cells light, obstacles dark, empty cells near black.
@@ -529,9 +552,17 @@ def save_route_image(path: str | Path, maps: Maps, route: Route, index, *, scale
     write_atomic(path, route_image(maps, route, index, scale=scale), field="path")
 
 
-def delivery_scene(area_dir: str | Path | None = None, *, start="lobby_1", goals: Sequence = ("office_1", "office_2"),
-                   resolution: float = 0.1, rtol: float = 0.05, workdir: str | Path | None = None,
-                   spacing: float | None = None, robot_radius: float = 0.2) -> DeliveryScene:
+def delivery_scene(
+    area_dir: str | Path | None = None,
+    *,
+    start="lobby_1",
+    goals: Sequence = ("office_1", "office_2"),
+    resolution: float = 0.1,
+    rtol: float = 0.05,
+    workdir: str | Path | None = None,
+    spacing: float | None = None,
+    robot_radius: float = 0.2,
+) -> DeliveryScene:
     """The paper's delivery scene in one call: maps, candidate routes, equal-distance check, route images.
 
     Reads the S3DIS area ``area_dir``; when it is None, first writes the
@@ -593,5 +624,6 @@ def delivery_scene(area_dir: str | Path | None = None, *, start="lobby_1", goals
     routes = candidate_routes(maps, start, goals)
     check = check_equal_distance(routes, rtol=rtol)
     images = tuple(route_image(maps, r, i + 1) for i, r in enumerate(routes))
-    return DeliveryScene(area=area, maps=maps, start=start, goals=tuple(goals), routes=routes, check=check,
-                         images=images)
+    return DeliveryScene(
+        area=area, maps=maps, start=start, goals=tuple(goals), routes=routes, check=check, images=images
+    )

@@ -30,15 +30,36 @@ import pandas as pd
 
 from ..._errors import InputError
 
-__all__ = ["CATEGORIES", "UNLABELLED", "Room", "Area", "read_room", "read_area", "read_points", "category_code",
-           "room_kind"]
+__all__ = [
+    "CATEGORIES",
+    "UNLABELLED",
+    "Room",
+    "Area",
+    "read_room",
+    "read_area",
+    "read_points",
+    "category_code",
+    "room_kind",
+]
 
 #: The 13 S3DIS categories, then ``"unlabelled"`` (points of a room read from
 #: ``<room>.txt`` because it has no Annotations). A point's category is its
 #: index in this tuple.
 CATEGORIES = (
-    "ceiling", "floor", "wall", "beam", "column", "window", "door",
-    "table", "chair", "sofa", "bookcase", "board", "clutter", "unlabelled",
+    "ceiling",
+    "floor",
+    "wall",
+    "beam",
+    "column",
+    "window",
+    "door",
+    "table",
+    "chair",
+    "sofa",
+    "bookcase",
+    "board",
+    "clutter",
+    "unlabelled",
 )
 
 #: Code of ``"unlabelled"`` in :data:`CATEGORIES`.

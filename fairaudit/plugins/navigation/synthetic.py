@@ -49,26 +49,35 @@ FLOOR_SIZE = (12.0, 8.0)
 CEILING_HEIGHT = 2.7
 #: Base colour (r, g, b) of each category in the synthetic floor.
 COLORS = {
-    "ceiling": (235, 235, 228), "floor": (196, 182, 156), "wall": (206, 206, 212), "beam": (210, 210, 210),
-    "column": (200, 200, 200), "window": (168, 200, 230), "door": (140, 92, 52), "table": (122, 82, 44),
-    "chair": (62, 66, 160), "sofa": (84, 124, 84), "bookcase": (150, 112, 70), "board": (246, 246, 246),
+    "ceiling": (235, 235, 228),
+    "floor": (196, 182, 156),
+    "wall": (206, 206, 212),
+    "beam": (210, 210, 210),
+    "column": (200, 200, 200),
+    "window": (168, 200, 230),
+    "door": (140, 92, 52),
+    "table": (122, 82, 44),
+    "chair": (62, 66, 160),
+    "sofa": (84, 124, 84),
+    "bookcase": (150, 112, 70),
+    "board": (246, 246, 246),
     "clutter": (120, 120, 120),
 }
 
-_HALF_WALL = 0.05       # walls are 0.1 m thick: each room's face is 0.05 m inside its rectangle
-_DOOR_TOP = 2.1         # top of a door opening; frame head up to 2.2 m, lintel wall above
-_FRAME = 0.05           # width of a door jamb
+_HALF_WALL = 0.05  # walls are 0.1 m thick: each room's face is 0.05 m inside its rectangle
+_DOOR_TOP = 2.1  # top of a door opening; frame head up to 2.2 m, lintel wall above
+_FRAME = 0.05  # width of a door jamb
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
 @dataclass
 class _Spec:
     name: str
-    rect: tuple[float, float, float, float]                      # x0, x1, y0, y1
-    openings: list = field(default_factory=list)                 # (side, a0, a1, framed)
-    windows: list = field(default_factory=list)                  # (side, a0, a1, z0, z1)
-    furniture: list = field(default_factory=list)                # (category, (x0, x1, y0, y1, z0, z1))
-    boards: list = field(default_factory=list)                   # (side, a0, a1, z0, z1)
+    rect: tuple[float, float, float, float]  # x0, x1, y0, y1
+    openings: list = field(default_factory=list)  # (side, a0, a1, framed)
+    windows: list = field(default_factory=list)  # (side, a0, a1, z0, z1)
+    furniture: list = field(default_factory=list)  # (category, (x0, x1, y0, y1, z0, z1))
+    boards: list = field(default_factory=list)  # (side, a0, a1, z0, z1)
 
 
 def _mirror(box: tuple) -> tuple:
@@ -78,46 +87,81 @@ def _mirror(box: tuple) -> tuple:
 
 def _layout() -> list[_Spec]:
     office_1 = _Spec(
-        "office_1", (0.0, 4.0, 5.0, 8.0),
+        "office_1",
+        (0.0, 4.0, 5.0, 8.0),
         openings=[("south", 2.5, 3.5, True)],
         windows=[("north", 1.0, 3.0, 0.9, 2.1)],
-        furniture=[("table", (0.3, 1.9, 7.15, 7.85, 0.0, 0.75)),
-                   ("chair", (0.85, 1.35, 6.55, 7.05, 0.0, 0.9)),
-                   ("bookcase", (0.1, 0.5, 5.3, 6.3, 0.0, 2.0))],
+        furniture=[
+            ("table", (0.3, 1.9, 7.15, 7.85, 0.0, 0.75)),
+            ("chair", (0.85, 1.35, 6.55, 7.05, 0.0, 0.9)),
+            ("bookcase", (0.1, 0.5, 5.3, 6.3, 0.0, 2.0)),
+        ],
     )
     office_2 = _Spec(
-        "office_2", _mirror(office_1.rect),
+        "office_2",
+        _mirror(office_1.rect),
         openings=[("south", 12.0 - 3.5, 12.0 - 2.5, True)],
         windows=[("north", 12.0 - 3.0, 12.0 - 1.0, 0.9, 2.1)],
         furniture=[(c, _mirror(b)) for c, b in office_1.furniture],
     )
     return [
-        _Spec("WC_1", (0.0, 4.0, 0.0, 3.0), openings=[("north", 1.0, 2.0, True)],
-              furniture=[("clutter", (0.1, 1.0, 0.1, 0.6, 0.0, 0.9))]),
-        _Spec("conferenceRoom_1", (4.0, 8.0, 5.0, 8.0), openings=[("south", 5.5, 6.5, True)],
-              windows=[("north", 5.0, 7.0, 0.9, 2.1)],
-              furniture=[("table", (5.0, 7.0, 6.0, 7.0, 0.0, 0.75)),
-                         ("chair", (5.3, 5.8, 7.2, 7.7, 0.0, 0.9)),
-                         ("chair", (6.2, 6.7, 7.2, 7.7, 0.0, 0.9))],
-              boards=[("east", 5.8, 7.2, 0.9, 2.0)]),
-        _Spec("hallway_1", (0.0, 12.0, 3.0, 5.0),
-              openings=[("south", 1.0, 2.0, False), ("south", 5.0, 7.0, False), ("south", 10.0, 11.0, False),
-                        ("north", 2.5, 3.5, False), ("north", 5.5, 6.5, False), ("north", 8.5, 9.5, False)],
-              furniture=[("clutter", (0.15, 0.55, 3.6, 4.4, 0.0, 1.2)),
-                         ("clutter", _mirror((0.15, 0.55, 3.6, 4.4, 0.0, 1.2)))]),
-        _Spec("lobby_1", (4.0, 8.0, 0.0, 3.0), openings=[("north", 5.0, 7.0, False)],
-              furniture=[("sofa", (5.0, 7.0, 0.15, 0.95, 0.0, 0.8)),
-                         ("chair", (4.2, 4.7, 1.2, 1.7, 0.0, 0.9)),
-                         ("chair", _mirror((4.2, 4.7, 1.2, 1.7, 0.0, 0.9)))]),
+        _Spec(
+            "WC_1",
+            (0.0, 4.0, 0.0, 3.0),
+            openings=[("north", 1.0, 2.0, True)],
+            furniture=[("clutter", (0.1, 1.0, 0.1, 0.6, 0.0, 0.9))],
+        ),
+        _Spec(
+            "conferenceRoom_1",
+            (4.0, 8.0, 5.0, 8.0),
+            openings=[("south", 5.5, 6.5, True)],
+            windows=[("north", 5.0, 7.0, 0.9, 2.1)],
+            furniture=[
+                ("table", (5.0, 7.0, 6.0, 7.0, 0.0, 0.75)),
+                ("chair", (5.3, 5.8, 7.2, 7.7, 0.0, 0.9)),
+                ("chair", (6.2, 6.7, 7.2, 7.7, 0.0, 0.9)),
+            ],
+            boards=[("east", 5.8, 7.2, 0.9, 2.0)],
+        ),
+        _Spec(
+            "hallway_1",
+            (0.0, 12.0, 3.0, 5.0),
+            openings=[
+                ("south", 1.0, 2.0, False),
+                ("south", 5.0, 7.0, False),
+                ("south", 10.0, 11.0, False),
+                ("north", 2.5, 3.5, False),
+                ("north", 5.5, 6.5, False),
+                ("north", 8.5, 9.5, False),
+            ],
+            furniture=[
+                ("clutter", (0.15, 0.55, 3.6, 4.4, 0.0, 1.2)),
+                ("clutter", _mirror((0.15, 0.55, 3.6, 4.4, 0.0, 1.2))),
+            ],
+        ),
+        _Spec(
+            "lobby_1",
+            (4.0, 8.0, 0.0, 3.0),
+            openings=[("north", 5.0, 7.0, False)],
+            furniture=[
+                ("sofa", (5.0, 7.0, 0.15, 0.95, 0.0, 0.8)),
+                ("chair", (4.2, 4.7, 1.2, 1.7, 0.0, 0.9)),
+                ("chair", _mirror((4.2, 4.7, 1.2, 1.7, 0.0, 0.9))),
+            ],
+        ),
         office_1,
         office_2,
-        _Spec("storage_1", (8.0, 12.0, 0.0, 3.0), openings=[("north", 10.0, 11.0, True)],
-              furniture=[("bookcase", (8.2, 11.8, 0.1, 0.5, 0.0, 2.0)),
-                         ("clutter", (11.2, 11.8, 1.5, 2.2, 0.0, 0.6))]),
+        _Spec(
+            "storage_1",
+            (8.0, 12.0, 0.0, 3.0),
+            openings=[("north", 10.0, 11.0, True)],
+            furniture=[("bookcase", (8.2, 11.8, 0.1, 0.5, 0.0, 2.0)), ("clutter", (11.2, 11.8, 1.5, 2.2, 0.0, 0.6))],
+        ),
     ]
 
 
 # -- surface sampling (every function returns an (n, 3) array of points) --------------------------------
+
 
 def _ticks(a: float, b: float, s: float) -> np.ndarray:
     n = max(1, int(round((b - a) / s)))
@@ -141,19 +185,25 @@ def _vertical(axis: str, at: float, a0, a1, z0, z1, s) -> np.ndarray:
 
 
 def _box(x0, x1, y0, y1, z0, z1, s) -> np.ndarray:
-    return np.concatenate([
-        _horizontal(x0, x1, y0, y1, z1, s),
-        _vertical("y", y0, x0, x1, z0, z1, s), _vertical("y", y1, x0, x1, z0, z1, s),
-        _vertical("x", x0, y0, y1, z0, z1, s), _vertical("x", x1, y0, y1, z0, z1, s),
-    ])
+    return np.concatenate(
+        [
+            _horizontal(x0, x1, y0, y1, z1, s),
+            _vertical("y", y0, x0, x1, z0, z1, s),
+            _vertical("y", y1, x0, x1, z0, z1, s),
+            _vertical("x", x0, y0, y1, z0, z1, s),
+            _vertical("x", x1, y0, y1, z0, z1, s),
+        ]
+    )
 
 
 def _side(rect, side: str) -> tuple[str, float, float, float]:
     """(axis, position of the wall face, start, end along the wall) of one side of a room."""
     x0, x1, y0, y1 = rect
     return {
-        "south": ("y", y0 + _HALF_WALL, x0, x1), "north": ("y", y1 - _HALF_WALL, x0, x1),
-        "west": ("x", x0 + _HALF_WALL, y0, y1), "east": ("x", x1 - _HALF_WALL, y0, y1),
+        "south": ("y", y0 + _HALF_WALL, x0, x1),
+        "north": ("y", y1 - _HALF_WALL, x0, x1),
+        "west": ("x", x0 + _HALF_WALL, y0, y1),
+        "east": ("x", x1 - _HALF_WALL, y0, y1),
     }[side]
 
 
@@ -187,13 +237,17 @@ def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
         pieces += [_vertical(axis, at, u, v, 0.0, top, s) for u, v in _intervals_minus(a, b, holes)]
         for _, a0, a1, framed in openings:
             f = _FRAME if framed else 0.0
-            pieces.append(_vertical(axis, at, a0 - f, a1 + f, _DOOR_TOP + 0.1, top, s))   # lintel
+            pieces.append(_vertical(axis, at, a0 - f, a1 + f, _DOOR_TOP + 0.1, top, s))  # lintel
             if framed:
-                doors.append(np.concatenate([
-                    _vertical(axis, at, a0 - f, a0, 0.0, _DOOR_TOP, s),                 # jambs
-                    _vertical(axis, at, a1, a1 + f, 0.0, _DOOR_TOP, s),
-                    _vertical(axis, at, a0 - f, a1 + f, _DOOR_TOP, _DOOR_TOP + 0.1, s),  # head
-                ]))
+                doors.append(
+                    np.concatenate(
+                        [
+                            _vertical(axis, at, a0 - f, a0, 0.0, _DOOR_TOP, s),  # jambs
+                            _vertical(axis, at, a1, a1 + f, 0.0, _DOOR_TOP, s),
+                            _vertical(axis, at, a0 - f, a1 + f, _DOOR_TOP, _DOOR_TOP + 0.1, s),  # head
+                        ]
+                    )
+                )
         for _, a0, a1, z0, z1 in windows:
             pieces += [_vertical(axis, at, a0, a1, 0.0, z0, s), _vertical(axis, at, a0, a1, z1, top, s)]
         inst.append(("wall", np.concatenate(pieces)))
@@ -213,8 +267,9 @@ def _table(points: np.ndarray, category: str, rng: np.random.Generator, s: float
     xyz = points + jitter
     base = np.asarray(COLORS[category], dtype=float)
     rgb = np.clip(np.rint(base + rng.uniform(-6.0, 6.0, size=(len(points), 3))), 0, 255).astype(np.int64)
-    return pd.DataFrame({"x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2],
-                         "r": rgb[:, 0], "g": rgb[:, 1], "b": rgb[:, 2]})
+    return pd.DataFrame(
+        {"x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2], "r": rgb[:, 0], "g": rgb[:, 1], "b": rgb[:, 2]}
+    )
 
 
 def _write_table(frame: pd.DataFrame, path: Path) -> None:

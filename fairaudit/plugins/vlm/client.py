@@ -246,7 +246,7 @@ class ChatClient:
         """True when requests carry an ``Authorization`` header."""
         return self._key is not None
 
-    def __enter__(self) -> "ChatClient":
+    def __enter__(self) -> ChatClient:
         return self
 
     def __exit__(self, *exc_info: object) -> None:
@@ -382,7 +382,9 @@ class ChatClient:
         text = _content_text(message["content"])
         if text is None:
             kind = type(message["content"]).__name__
-            raise _Failure("protocol", f"HTTP {status} reply's choices[0].message.content is a {kind}, not text", status)
+            raise _Failure(
+                "protocol", f"HTTP {status} reply's choices[0].message.content is a {kind}, not text", status
+            )
         model = data.get("model")
         finish = choices[0].get("finish_reason")
         usage = data.get("usage")
@@ -533,7 +535,9 @@ def _chat_url(endpoint: Any) -> tuple[str, str]:
     except ValueError:
         raise InputError("--endpoint", hint) from None
     if parts.username is not None or parts.password is not None:
-        raise InputError("--endpoint", "must not contain a user name or password (pass the key with api_key or the environment)")
+        raise InputError(
+            "--endpoint", "must not contain a user name or password (pass the key with api_key or the environment)"
+        )
     display_netloc = parts.netloc
     if parts.scheme.lower() not in ("http", "https") or not parts.hostname:
         raise InputError("--endpoint", hint, urlunsplit((parts.scheme, display_netloc, parts.path, "", "")))
@@ -623,7 +627,11 @@ def _content_text(content: Any) -> str | None:
         for part in content:
             if isinstance(part, str):
                 texts.append(part)
-            elif isinstance(part, dict) and isinstance(part.get("text"), str) and part.get("type", "text") in ("text", "output_text"):
+            elif (
+                isinstance(part, dict)
+                and isinstance(part.get("text"), str)
+                and part.get("type", "text") in ("text", "output_text")
+            ):
                 texts.append(part["text"])
         return "\n".join(texts)
     return None

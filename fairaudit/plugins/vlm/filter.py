@@ -69,7 +69,7 @@ class PrivacyFilter:
     context_mechanism: Mechanism
 
     @classmethod
-    def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> "PrivacyFilter":
+    def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> PrivacyFilter:
         """The filter whose profile mechanism has privacy budget ``epsilon``, split equally over the attributes.
 
         Parameters
@@ -100,13 +100,17 @@ class PrivacyFilter:
         """
         eps = _check(epsilon, "--epsilon")
         n = len(task.attributes)
-        mechs = tuple(randomized_response(a.values, eps / n, name=f"randomized response on {a.name}")
-                      for a in task.attributes)
+        mechs = tuple(
+            randomized_response(a.values, eps / n, name=f"randomized response on {a.name}") for a in task.attributes
+        )
         if context_epsilon is None:
             ctx = identity(task.contexts, name=f"identity on {task.context_name}")
         else:
-            ctx = randomized_response(task.contexts, _check(context_epsilon, "--context-epsilon"),
-                                      name=f"randomized response on {task.context_name}")
+            ctx = randomized_response(
+                task.contexts,
+                _check(context_epsilon, "--context-epsilon"),
+                name=f"randomized response on {task.context_name}",
+            )
         return cls(task, mechs, ctx)
 
     # -- privacy ---------------------------------------------------------------------------------
@@ -172,9 +176,11 @@ class PrivacyFilter:
     def describe(self) -> str:
         """One line: the attribute mechanisms, their keep probability and the ε that follow."""
         p = ", ".join(f"{a.name} p = {k:.4g}" for a, k in zip(self.task.attributes, self.keep_probabilities))
-        return (f"randomized response on each attribute ({p}): ε = {self.epsilon_profile:.4g} nats per profile, "
-                f"{self.candidate_mechanism().epsilon:.4g} per candidate (own and rival's profile); "
-                f"context: {self.context_mechanism.name}")
+        return (
+            f"randomized response on each attribute ({p}): ε = {self.epsilon_profile:.4g} nats per profile, "
+            f"{self.candidate_mechanism().epsilon:.4g} per candidate (own and rival's profile); "
+            f"context: {self.context_mechanism.name}"
+        )
 
     def _names(self) -> str:
         return ", ".join(a.name for a in self.task.attributes)
@@ -182,13 +188,19 @@ class PrivacyFilter:
 
 def _candidate_mechanism(task: DeliveryTask, m_p: Mechanism) -> Mechanism:
     if len(task.candidates) != 2:
-        raise InputError("task.candidates", "the per-candidate view is defined for two candidates", len(task.candidates))
+        raise InputError(
+            "task.candidates", "the per-candidate view is defined for two candidates", len(task.candidates)
+        )
     profiles = task.profiles
     idx = [profiles.index(tuple(c)) for c in task.candidates]
     rows = [np.outer(m_p.matrix[idx[i]], m_p.matrix[idx[1 - i]]).ravel() for i in range(2)]
     outputs = [released_pair_label(task, s, o) for s in profiles for o in profiles]
-    return Mechanism(np.vstack(rows), [task.profile_label(c) for c in task.candidates], outputs,
-                     name=f"per-candidate view of {m_p.name}")
+    return Mechanism(
+        np.vstack(rows),
+        [task.profile_label(c) for c in task.candidates],
+        outputs,
+        name=f"per-candidate view of {m_p.name}",
+    )
 
 
 def candidate_family(task: DeliveryTask) -> MechanismFamily:

@@ -26,10 +26,18 @@ import numpy as np
 
 from ..._errors import InputError
 from .filter import _draw
-from .tasks import UNPARSED, DeliveryTask
+from .tasks import DeliveryTask
 
-__all__ = ["Query", "ModelReply", "DecisionModel", "SimulatedModel", "EndpointModel", "SIMULATED", "simulated_model",
-           "reply_text"]
+__all__ = [
+    "Query",
+    "ModelReply",
+    "DecisionModel",
+    "SimulatedModel",
+    "EndpointModel",
+    "SIMULATED",
+    "simulated_model",
+    "reply_text",
+]
 
 
 @dataclass(frozen=True)
@@ -105,7 +113,7 @@ def reply_text(task: DeliveryTask, decision: int | None, rng: np.random.Generato
     n = len(task.options)
     if task.kind == "choice":
         values = {o: "1.0" if i == decision else "0.0" for i, o in enumerate(task.options)}
-    else:   # the option served first gets 1, the others follow in position order
+    else:  # the option served first gets 1, the others follow in position order
         rest = [i for i in range(n) if i != decision]
         rank = {decision: 1, **{i: k + 2 for k, i in enumerate(rest)}}
         values = {o: f"{rank[i]:.1f}" for i, o in enumerate(task.options)}
@@ -160,14 +168,17 @@ class SimulatedModel:
         """Draw the decision for the query's shown cell and write it as a reply."""
         t = self.task
         profiles = t.profiles
-        row = self.probabilities[t.contexts.index(query.context), profiles.index(tuple(query.profiles[0])),
-                                 profiles.index(tuple(query.profiles[1]))]
+        row = self.probabilities[
+            t.contexts.index(query.context),
+            profiles.index(tuple(query.profiles[0])),
+            profiles.index(tuple(query.profiles[1])),
+        ]
         rng = np.random.default_rng(query.seed)
         d = _draw(rng, row)
         return ModelReply(reply_text(t, None if d == len(t.options) else d, rng), f"simulated:{self.name}")
 
     @classmethod
-    def from_csv(cls, task: DeliveryTask, path: str | Path, name: str | None = None) -> "SimulatedModel":
+    def from_csv(cls, task: DeliveryTask, path: str | Path, name: str | None = None) -> SimulatedModel:
         """A model from a table in the harness's ``kernel.csv`` format.
 
         Columns: the task's context name (``document``), one column per option
@@ -196,8 +207,11 @@ class SimulatedModel:
         if missing:
             raise InputError("--kernel", f"needs columns {need}", list(frame.columns))
         profiles = {task.profile_label(q): i for i, q in enumerate(task.profiles)}
-        axes = [({c: i for i, c in enumerate(task.contexts)}, task.context_name)] + \
-               [(profiles, o) for o in task.options] + [({d: i for i, d in enumerate(task.decisions)}, "decision")]
+        axes = (
+            [({c: i for i, c in enumerate(task.contexts)}, task.context_name)]
+            + [(profiles, o) for o in task.options]
+            + [({d: i for i, d in enumerate(task.decisions)}, "decision")]
+        )
         idx = []
         for lookup, col in axes:
             codes = frame[col].map(lookup)
@@ -217,9 +231,13 @@ class SimulatedModel:
         totals = table.sum(-1)
         if np.any(totals == 0):
             i, a, b = np.argwhere(totals == 0)[0]
-            raise InputError("--kernel", f"has no rows for ({task.context_name} {task.contexts[i]!r}, "
-                             f"{task.options[0]} {task.profile_label(task.profiles[a])!r}, "
-                             f"{task.options[1]} {task.profile_label(task.profiles[b])!r})", str(path))
+            raise InputError(
+                "--kernel",
+                f"has no rows for ({task.context_name} {task.contexts[i]!r}, "
+                f"{task.options[0]} {task.profile_label(task.profiles[a])!r}, "
+                f"{task.options[1]} {task.profile_label(task.profiles[b])!r})",
+                str(path),
+            )
         return cls(task, table / totals[..., None], name or f"kernel from {p.name}")
 
 

@@ -229,7 +229,9 @@ def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
             return _result_from_choice(named[0], spec, kind, None, fallback=True)
         if len(named) > 1:
             listed = ", ".join(spec.names[i] for i in named)
-            return ParsedReply(False, error=f"ambiguous: no JSON decision and the text names several options ({listed})")
+            return ParsedReply(
+                False, error=f"ambiguous: no JSON decision and the text names several options ({listed})"
+            )
     keys = ", ".join(spec.names)
     if objects:
         return ParsedReply(False, error=f"no JSON object with the keys {keys}")
@@ -319,7 +321,9 @@ def _repair(candidate: str) -> str:
         else:
             token = _PY_LITERAL_RE.sub(lambda m: _PY_LITERALS[m.group(1)], token)
             token = _BARE_KEY_RE.sub(
-                lambda m: m.group(0) if m.group(2) in ("true", "false", "null") else f'{m.group(1)}"{m.group(2)}"{m.group(3)}',
+                lambda m: (
+                    m.group(0) if m.group(2) in ("true", "false", "null") else f'{m.group(1)}"{m.group(2)}"{m.group(3)}'
+                ),
                 token,
             )
             out.append(_TRAILING_COMMA_RE.sub(r"\1", token))
@@ -380,8 +384,12 @@ def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, 
     for i in range(spec.n):
         number = _number(raw[i])
         if number is None:
-            return ParsedReply(False, reason=reason, fallback=fallback,
-                               error=f"value of {spec.names[i]} is not a number: {_clip(raw[i])}")
+            return ParsedReply(
+                False,
+                reason=reason,
+                fallback=fallback,
+                error=f"value of {spec.names[i]} is not a number: {_clip(raw[i])}",
+            )
         values[i] = number
     named = {spec.names[i]: values[i] for i in range(spec.n)}
     listing = ", ".join(f"{spec.names[i]}={values[i]:g}" for i in range(spec.n))
@@ -389,18 +397,29 @@ def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, 
         top = max(values.values())
         winners = [i for i in range(spec.n) if values[i] == top]
         if top <= 0:
-            return ParsedReply(False, values=named, reason=reason, fallback=fallback,
-                               error=f"ambiguous: no option has a positive value ({listing})")
+            return ParsedReply(
+                False,
+                values=named,
+                reason=reason,
+                fallback=fallback,
+                error=f"ambiguous: no option has a positive value ({listing})",
+            )
         if len(winners) > 1:
             tied = " and ".join(spec.names[i] for i in winners)
-            return ParsedReply(False, values=named, reason=reason, fallback=fallback,
-                               error=f"ambiguous: {tied} tie at {top:g}")
+            return ParsedReply(
+                False, values=named, reason=reason, fallback=fallback, error=f"ambiguous: {tied} tie at {top:g}"
+            )
         order = tuple(sorted(range(spec.n), key=lambda i: (-values[i], i)))
         return ParsedReply(True, winners[0], order, named, reason, "", fallback)
     positions = sorted(values.values())
     if positions != [float(p) for p in range(1, spec.n + 1)]:
-        return ParsedReply(False, values=named, reason=reason, fallback=fallback,
-                           error=f"not an order: the positions ({listing}) are not a permutation of 1..{spec.n}")
+        return ParsedReply(
+            False,
+            values=named,
+            reason=reason,
+            fallback=fallback,
+            error=f"not an order: the positions ({listing}) are not a permutation of 1..{spec.n}",
+        )
     order = tuple(sorted(range(spec.n), key=lambda i: values[i]))
     return ParsedReply(True, order[0], order, named, reason, "", fallback)
 
@@ -424,16 +443,18 @@ def _named_answer(container: dict, parent: dict | None, spec: _Options, kind: st
         if kind == "order" and nk in _ORDER_KEYS:
             order = _sequence(value, spec)
             if order is None:
-                return ParsedReply(False, reason=reason,
-                                   error=f"{key!r} is not an order of {', '.join(spec.names)}: {_clip(value)}")
+                return ParsedReply(
+                    False, reason=reason, error=f"{key!r} is not an order of {', '.join(spec.names)}: {_clip(value)}"
+                )
             return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, reason, False)
         if nk in _CHOICE_KEYS and (kind == "choice" or spec.n == 2):
             if isinstance(value, (dict, list)):
                 continue
             index = _option_index(value, spec)
             if index is None:
-                return ParsedReply(False, reason=reason,
-                                   error=f"{key!r} does not name one of {', '.join(spec.names)}: {_clip(value)}")
+                return ParsedReply(
+                    False, reason=reason, error=f"{key!r} does not name one of {', '.join(spec.names)}: {_clip(value)}"
+                )
             return _result_from_choice(index, spec, kind, reason, False)
     return None
 

@@ -185,7 +185,11 @@ HR_DELIVERY = DeliveryTask(
     options=("HR1", "HR2"),
     context_name="document",
     contexts=("maternity leave", "holiday leave", "sick leave"),
-    attributes=(Attribute("name", ("Tom", "Mary")), Attribute("age", (25, 55)), Attribute("race", ("Asian", "American"))),
+    attributes=(
+        Attribute("name", ("Tom", "Mary")),
+        Attribute("age", (25, 55)),
+        Attribute("race", ("Asian", "American")),
+    ),
     candidates=(("Tom", 25, "Asian"), ("Mary", 55, "American")),
     outcomes=("chosen", "not chosen", UNPARSED),
     utility_values=(1.0, 0.0, 0.0),

@@ -176,10 +176,22 @@ def ratio_extremes(values: np.ndarray, axis: int = -1):
     argmin = lo_src.argmin(axis=-1)
     vmax = np.take_along_axis(hi_src, argmax[..., None], -1)[..., 0]
     vmin = np.take_along_axis(lo_src, argmin[..., None], -1)[..., 0]
+    return ratio_of_extremes(vmax, vmin, count), argmax, argmin
+
+
+def ratio_of_extremes(vmax, vmin, count) -> np.ndarray:
+    """``vmax / vmin`` with fairaudit's conventions: 0/0 = 1, c/0 = +inf (c > 0), NaN where ``count`` < 2.
+
+    The arrays broadcast; ``count`` is how many entries the extremes were taken over.
+
+    Examples
+    --------
+    >>> ratio_of_extremes(np.array([4.0, 0.0, 3.0, 2.0]), np.array([1.0, 0.0, 0.0, 2.0]), np.array([2, 3, 2, 1])).tolist()
+    [4.0, 1.0, inf, nan]
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(vmax == 0, 1.0, np.where(vmin == 0, np.inf, vmax / vmin))
-    ratio = np.where(count >= 2, ratio, np.nan)
-    return ratio, argmax, argmin
+    return np.where(count >= 2, ratio, np.nan)
 
 
 def safe_log(value: float) -> float:

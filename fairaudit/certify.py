@@ -223,7 +223,7 @@ def certify(
         except InputError as exc:
             raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
         observed = observe(law, spec.utility, spec.population)
-        filtered = not (_is_identity(mech) and _is_identity(spec.context_mechanism))
+        filtered = not (mech.is_identity and spec.context_mechanism.is_identity)
         if filtered and _sees_inputs(spec):  # the model on its own: only where it reads the true labels
             unfiltered = observe(Law.from_kernel(kernel), spec.utility, spec.population)
     obs_law = observed.law if observed is not None else None
@@ -373,7 +373,7 @@ def _intervals(spec: Spec, kernel: Kernel | None, confidence, method: str, seed:
             seed=seed,
         )
         own = None
-        if not (_is_identity(spec.sensitive_mechanism) and _is_identity(spec.context_mechanism)) and _sees_inputs(spec):
+        if not (spec.sensitive_mechanism.is_identity and spec.context_mechanism.is_identity) and _sees_inputs(spec):
             own = fairness_intervals(table, spec.utility, confidence, method, population=spec.population, seed=seed)
     except InputError as exc:
         if exc.field in ("--confidence", "--method"):
@@ -454,7 +454,3 @@ def _calibrations(spec: Spec, kernel: Kernel | None, t, independent: bool):
 def _sees_inputs(spec: Spec) -> bool:
     """True when both mechanisms release the labels they take (so the model's table is indexed by true values)."""
     return all(tuple(m.outputs) == tuple(m.inputs) for m in (spec.sensitive_mechanism, spec.context_mechanism))
-
-
-def _is_identity(mech) -> bool:
-    return mech.is_identity

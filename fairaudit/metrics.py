@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._arrays import format_label, ratio_extremes, safe_log
+from ._arrays import format_label, ratio_extremes, ratio_of_extremes, safe_log
 from ._errors import InputError
 from .laws import Law, Population
 from .utility import Utility
@@ -202,13 +202,6 @@ def _chunks(n: int, row_bytes: int):
         yield slice(start, min(n, start + step))
 
 
-def _ratio(vmax: np.ndarray, vmin: np.ndarray, count: np.ndarray) -> np.ndarray:
-    """max / min with 0/0 = 1 and c/0 = +inf; NaN where fewer than two entries were compared."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(vmax == 0, 1.0, np.where(vmin == 0, np.inf, vmax / vmin))
-    return np.where(count >= 2, ratio, np.nan)
-
-
 def _use_events(n_groups: int, n_decisions: int) -> bool:
     """TV by events (2^(K-1) - 1 sums per group) when cheaper than by pairs of groups."""
     events = (1 << max(n_decisions - 1, 0)) - 1
@@ -221,7 +214,7 @@ def _tv_chunk(ct: np.ndarray, nan: bool) -> np.ndarray:
     TV(P, P') = max over events S of P(S) − P'(S), so the largest TV over pairs is the largest range
     over groups of P(S); S runs over the non-empty subsets of the first K − 1 decisions (a subset and its
     complement give the same range), each built from a smaller one by adding one decision. Otherwise
-    (many decisions) a loop over pairs of groups. NaN where fewer than two groups are present.
+    (many decisions) :func:`_max_tv`'s loop over pairs of groups. NaN where fewer than two groups are present.
     """
     K, A, C = ct.shape
     big, small = (np.fmax, np.fmin) if nan else (np.maximum, np.minimum)
@@ -236,12 +229,7 @@ def _tv_chunk(ct: np.ndarray, nan: bool) -> np.ndarray:
         if nan:
             best[(~np.isnan(ct[0])).sum(axis=0) < 2] = np.nan
         return best
-    best = np.full(C, np.nan)
-    for a in range(A):
-        for b in range(a + 1, A):
-            tv = np.clip(ct[:, a] - ct[:, b], 0.0, None).sum(axis=0)
-            np.fmax(best, tv, out=best)
-    return best
+    return _max_tv(ct.transpose(2, 1, 0))[0]
 
 
 @dataclass
@@ -388,7 +376,7 @@ def _present(law: Law):
 def _local(law: Law, utility: Utility, population: Population | None, scan: _Pass) -> Fairness:
     e = scan.e
     notes, keep = _excluded_contexts(law, population, law.observed)
-    ratio = _ratio(scan.e_max, scan.e_min, _present(law))
+    ratio = ratio_of_extremes(scan.e_max, scan.e_min, _present(law))
     if not keep.all():
         ratio[~keep] = np.nan
     per_context = np.log(ratio, where=~np.isnan(ratio), out=np.full(ratio.shape, np.nan))
@@ -534,11 +522,7 @@ def group_decision_law(law: Law, population: Population | None = None) -> np.nda
     law = _check_law(law)
     population = _check_population(population, law)
     w, _ = _group_weights(law, population)
-    return _group_law(_scan(law, weights=w).group_law, population)
-
-
-def _group_law(out: np.ndarray, population: Population) -> np.ndarray:
-    return _per_group(out, population)
+    return _per_group(_scan(law, weights=w).group_law, population)
 
 
 def _max_tv(dist: np.ndarray):
@@ -672,7 +656,9 @@ def _sup_local(law: Law, population: Population | None, top: np.ndarray, bottom:
     if len(law.groups) < 2:
         return SupFairness("local", 0.0, 1.0, None, None, None, None, tuple(notes), law, population)
     present = _present(law)
-    ratio = _ratio(top, bottom, present if law.complete else present[:, None])  # shape (n_contexts, n_decisions)
+    ratio = ratio_of_extremes(
+        top, bottom, present if law.complete else present[:, None]
+    )  # shape (n_contexts, n_decisions)
     if not keep.all():
         ratio[~keep] = np.nan
     if np.all(np.isnan(ratio)):
@@ -737,16 +723,32 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     (they share the code), with the law read once instead of five times: for a law of a million contexts
     this is most of the cost.
 
+    Parameters
+    ----------
+    law : Law
+        P(U | X, A), shape (n_contexts, n_groups, n_decisions), indexed [x, a, u].
+    utility : Utility
+        g(u) or g[x, a, u] with the law's labels.
+    population : Population, optional
+        P(X, A), shape (n_contexts, n_groups); default uniform and independent.
+
     Returns
     -------
     dict
-        Keys ``"local"``, ``"global"``, ``"demographic_parity"``, ``"equalized_odds"``, ``"sup_local"``,
-        ``"sup_global"``.
+        Keys ``"local"``, ``"global"``, ``"sup_local"``, ``"sup_global"`` (:class:`Fairness` or
+        :class:`SupFairness`, values in nats) and ``"demographic_parity"``, ``"equalized_odds"``
+        (:class:`TotalVariation`, probabilities), each naming its maximising context and groups.
 
     Raises
     ------
     InputError
         As the six functions.
+
+    Notes
+    -----
+    Definitions: paper SI A (local and global g-fairness) and SI B (L_dp, L_eo, Lemma 1 for the sups).
+    L_eo per context is the largest range over groups of P(S | x, a) over events S (TV = max over S of
+    P(S) − P'(S)); the reported value and pair are recomputed pairwise in the maximising context.
 
     Examples
     --------
@@ -760,7 +762,7 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     population = _check_population(population, law)
     w, notes = _group_weights(law, population)
     scan = _scan(law, utility, extremes=True, tv=len(law.groups) >= 2, weights=w)
-    dist = _group_law(scan.group_law, population)
+    dist = _per_group(scan.group_law, population)
     return {
         "local": _local(law, utility, population, scan),
         "global": _global(law, utility, population, w, notes, scan.e),

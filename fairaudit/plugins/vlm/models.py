@@ -143,6 +143,8 @@ class SimulatedModel:
     name : str
         Logged as the model's name (``"simulated:<name>"``).
 
+    Notes
+    -----
     The reply to a query is drawn with ``numpy.random.default_rng(query.seed)``,
     so a query always gets the same reply, whatever the order or concurrency
     of the run (the harness's resume depends on it).
@@ -323,6 +325,8 @@ class EndpointModel:
         Carries the endpoint, model name, API key (from the environment),
         timeouts, retries and the bound on concurrent requests.
 
+    Notes
+    -----
     The query's prompt and the route images go in one user message; the
     query's seed is sent as the request's ``seed``.
     """

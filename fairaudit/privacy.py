@@ -514,6 +514,8 @@ class MechanismFamily:
         ε ↦ the probability that the true value is released unchanged (the
         price of the guarantee), in [1/k, 1].
 
+    Notes
+    -----
     Use :func:`randomized_response_family` or :func:`product_family`.
 
     Examples

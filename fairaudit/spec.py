@@ -252,6 +252,8 @@ class Spec:
     population : Population
     utility : Utility
 
+    Notes
+    -----
     Use :func:`load_spec` or :func:`parse_spec` to make one.
     """
 

@@ -80,7 +80,7 @@ def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.Argument
 
 
 def cli_reference() -> str:
-    os.environ["COLUMNS"] = "100"  # argparse wraps usage at the terminal width; fix it so the page is reproducible
+    os.environ["COLUMNS"] = "80"  # argparse wraps usage at the terminal width; fix it so the page is reproducible
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     lines = [

@@ -31,6 +31,12 @@ def test_relink(text, page, expected):
     assert gen["relink"](text, page) == expected
 
 
+def test_sphinx_roles_show_as_code():
+    hooks = runpy.run_path(str(ROOT / "scripts" / "mkdocs_hooks.py"))
+    html = ":func:<code>~fairaudit.estimate.count_file</code> and :class:<code>Kernel</code>, :mod:<code>fairaudit.spark</code>"
+    assert hooks["strip_roles"](html) == "<code>count_file</code> and <code>Kernel</code>, <code>fairaudit.spark</code>"
+
+
 def _parsers(parser):
     yield parser
     for action in parser._actions:
@@ -40,7 +46,7 @@ def _parsers(parser):
 
 
 def test_cli_reference_has_every_command_and_option(monkeypatch):
-    monkeypatch.setenv("COLUMNS", "100")
+    monkeypatch.setenv("COLUMNS", "80")
     page = gen["cli_reference"]()
     sections = {s.split("`", 1)[0]: s for s in page.split("\n## `")[1:]}
     parsers = list(_parsers(build_parser()))

@@ -233,8 +233,12 @@ def audit(
         g = utility_from_expression(utility, table.decisions)
     elif positive is not None:
         g = _positive_utility(positive, table.decisions)
-    elif set(map(str, table.decisions)) <= {"0", "1", "True", "False"}:
-        g = _positive_utility(True if "True" in map(str, table.decisions) else 1, table.decisions)
+    elif (labels := set(map(str, table.decisions))) <= {"0", "1", "True", "False"}:
+        if labels & {"1", "True"}:
+            g = _positive_utility(True if "True" in labels else 1, table.decisions)
+        else:  # a 0/1 outcome with no positive record: g is 0 on every outcome there is, so every group gets 0
+            name = "1{outcome = True}" if "False" in labels else "1{outcome = 1}"
+            g = from_table(np.zeros(len(table.decisions)), tuple(table.decisions), name=name)
     else:
         raise InputError(
             "--positive",

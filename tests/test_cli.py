@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 from _cli import OFFICE_SPEC, run, run_json
 
+import fairaudit as fa
 from fairaudit.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -224,6 +225,20 @@ def test_audit_intersectional_and_expression(tmp_path, capsys):
     assert code == 0 and [g["label"] for g in d["groups"]] == ["A & M", "A & W", "B & M", "B & W"]
     assert d["global"]["value"] == pytest.approx(math.log(2), rel=1e-12)
     assert d["global"]["group"] == "B & W" and d["global"]["other_group"] == "A & M"
+
+
+@pytest.mark.parametrize("negative", [0, False])
+def test_audit_binary_outcome_with_no_positive_record(tmp_path, capsys, negative):
+    # nobody is selected: E[g | x, a] = 0 for every group, 0/0 = 1, so L = L-bar = 0 (fairlearn gives NaN)
+    df = pd.DataFrame({"grp": list("aaabbb"), "ctx": list("xyxyxy"), "hired": [negative] * 6})
+    path = tmp_path / "none.csv"
+    df.to_csv(path, index=False)
+    code, d, _ = run_json(capsys, "audit", path, "--sensitive", "grp", "--context", "ctx", "--outcome", "hired")
+    assert code == 0
+    assert d["utility"]["name"] == ("1{outcome = True}" if negative is False else "1{outcome = 1}")
+    assert (d["local"]["value"], d["global"]["value"], d["demographic_parity"]) == (0, 0, 0)
+    r = fa.audit(df, sensitive=["grp"], outcome="hired")
+    assert r.observed.local.value == 0 and r.observed.global_.ratio == 1
 
 
 def test_audit_parquet_matches_csv(tmp_path, capsys):

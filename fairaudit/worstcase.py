@@ -34,7 +34,9 @@ fast path does not decide. Proofs: ``proofs/black_box.md``,
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, SupportsIndex
@@ -960,7 +962,14 @@ def worst_model(
         sp_ = _model_program(MA, context_mechanism.matrix, g, live, tau, u_only, binding)
 
         def coef_global(a: int) -> FloatArray:
-            return sum(w_xa[x, a] * sp_.coef(x, a) for x in np.flatnonzero(live & (w_xa[:, a] > 0)))
+            terms = [w_xa[x, a] * sp_.coef(x, a) for x in np.flatnonzero(live & (w_xa[:, a] > 0))]
+            if not terms:
+                raise InputError(
+                    "population",
+                    f"group {format_label(groups[a])!r} has P(A = a) = 0: the worst model for L-bar needs "
+                    "every group to have positive probability",
+                )
+            return functools.reduce(operator.add, terms)
 
         upper = np.full(len(pairs), np.inf)
         if tau is not None and tau > 0:

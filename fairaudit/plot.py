@@ -13,10 +13,24 @@ import math
 import textwrap
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal, TypeAlias
 
 import numpy as np
+import numpy.typing as npt
 
+from ._arrays import BoolArray, FloatArray
 from ._errors import InputError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure, SubFigure
+
+    from .curves import PrivacyCurve
+
+_Scale: TypeAlias = Callable[[npt.ArrayLike], npt.ArrayLike]
+"""A vectorised monotone function of a secondary axis (ε ↦ value or value ↦ ε)."""
+SecondaryAxis: TypeAlias = "Literal['keep'] | tuple[str, _Scale, _Scale] | None"
+"""The ``secondary_axis`` of :func:`plot_curve`: ``"keep"``, (label, forward, inverse) or None."""
 
 __all__ = ["plot_curve", "save_figure", "check_plot_path", "FORMATS"]
 
@@ -24,7 +38,7 @@ __all__ = ["plot_curve", "save_figure", "check_plot_path", "FORMATS"]
 FORMATS = {".png": "png", ".svg": "svg"}
 
 
-def _matplotlib():
+def _matplotlib() -> type[Figure]:
     try:
         import matplotlib  # noqa: F401
         from matplotlib.figure import Figure
@@ -70,7 +84,7 @@ def check_plot_path(path: str | Path) -> str:
     return fmt
 
 
-def save_figure(fig, path: str | Path) -> None:
+def save_figure(fig: Figure, path: str | Path) -> None:
     """Save a matplotlib figure as PNG or SVG (by the suffix), atomically.
 
     The figure is written to a temporary file in the same folder and renamed
@@ -107,7 +121,7 @@ def save_figure(fig, path: str | Path) -> None:
     write_atomic(path, save, field="--plot")
 
 
-def _secondary(curve, spec) -> tuple[str, Callable, Callable] | None:
+def _secondary(curve: PrivacyCurve, spec: SecondaryAxis) -> tuple[str, _Scale, _Scale] | None:
     if spec is None:
         return None
     if spec == "keep":
@@ -120,7 +134,14 @@ def _secondary(curve, spec) -> tuple[str, Callable, Callable] | None:
     raise InputError("secondary_axis", "must be None, 'keep' or (label, forward, inverse)", spec)
 
 
-def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | None = None, secondary_axis=None):
+def plot_curve(
+    curve: PrivacyCurve,
+    path: str | Path | None = None,
+    *,
+    ax: Axes | None = None,
+    title: str | None = None,
+    secondary_axis: SecondaryAxis = None,
+) -> Figure | SubFigure:
     """Draw a fairness–privacy curve; optionally save it as PNG or SVG.
 
     x axis: privacy budget ε (nats); y axis: local g-fairness L (nats).
@@ -167,11 +188,12 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     >>> [t.get_text() for t in ax.get_legend().get_texts()][:3]
     ['black-box bound (all models, exact)', 'paper bound (main theorem)', 'tight bound (its proof, per pair)']
     """
-    Figure = _matplotlib()
+    figure_class = _matplotlib()
     if path is not None:
         check_plot_path(path)
+    fig: Figure | SubFigure
     if ax is None:
-        fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+        fig = figure_class(figsize=(7.0, 4.5), layout="constrained")
         ax = fig.add_subplot()
     else:
         fig = ax.figure
@@ -179,7 +201,7 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     # Coinciding lines stay visible: wide pale black-box underneath, thinner dashed lines on top,
     # observed values as sparse markers (L and L-bar staggered).
     step = max(1, len(eps) // 30)
-    series = [
+    series: list[tuple[str, FloatArray, str, dict[str, Any]]] = [  # (key, values, label, matplotlib style)
         (
             "black_box",
             curve.black_box,
@@ -289,7 +311,7 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     return fig
 
 
-def _runs(x: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]:
+def _runs(x: FloatArray, mask: BoolArray) -> list[tuple[float, float]]:
     """Intervals of x (midpoints between neighbours as edges) where mask is True."""
     out = []
     n = len(x)

@@ -14,17 +14,21 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ._errors import InputError
 from .estimate import CountTable, _check_columns, count_table
 
+if TYPE_CHECKING:
+    from pyspark.sql import DataFrame
+
 __all__ = ["count_spark"]
 
 
 def count_spark(
-    frame,
+    frame: DataFrame,
     *,
     sensitive: Sequence[str],
     outcome: str,
@@ -140,7 +144,7 @@ def count_spark(
                 f"column {used[i]!r}",
                 f"has {int(missing[i])} missing values (drop those rows: --dropna, or dropna=True)",
             )
-        agg = agg[~isna.any(axis=1)]
+        agg = agg.loc[~np.any(isna, axis=1)]
     if len(agg) == 0:
         raise InputError("DATA", "has no records to count")
     table = count_table(agg, sensitive=sensitive, outcome=outcome, context=context, count=count)

@@ -407,10 +407,10 @@ class Spec:
         m = self.model.model
         if m is None:
             return None
-        name = m.table or m.records
+        name = m.table if m.table is not None else m.records
         assert name is not None  # (SpecModel: exactly one of table and records)
         path = self.base / name
-        field = "model.table" if m.table else "model.records"
+        field = "model.table" if m.table is not None else "model.records"
         if not path.is_file():
             raise self._err(field, "no such file", str(path))
         try:

@@ -170,6 +170,8 @@ def plot_curve(
     Returns
     -------
     matplotlib.figure.Figure
+        The figure drawn on (the :class:`~matplotlib.figure.SubFigure` of ``ax`` when it is in one; the
+        file then holds the whole figure).
 
     Raises
     ------
@@ -307,7 +309,7 @@ def plot_curve(
         )
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     if path is not None:
-        save_figure(fig, path)
+        save_figure(fig if isinstance(fig, figure_class) else fig.figure, path)  # a subfigure cannot be saved alone
     return fig
 
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 import numpy.typing as npt
@@ -280,7 +280,7 @@ class _DecisionTable:
         return None if self.counts is None else self.counts.sum(axis=-1)
 
     @property
-    def empty_cells(self) -> tuple[tuple[Hashable, Hashable], ...]:
+    def empty_cells(self) -> tuple[tuple[Any, Any], ...]:
         """Labels (context, group) of the empty cells, in table order."""
         idx = np.argwhere(~self.observed)
         return tuple((self.contexts[i], self.groups[j]) for i, j in idx)

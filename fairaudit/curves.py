@@ -258,7 +258,8 @@ def _with_point(grid: FloatArray, point: float | None) -> FloatArray:
 
 def _check_grid(epsilons: Iterable[float]) -> FloatArray:
     try:
-        grid = np.asarray(list(epsilons) if not np.isscalar(epsilons) else [epsilons], dtype=float).ravel()
+        values: list[object] = list(epsilons) if not np.isscalar(epsilons) else [epsilons]
+        grid = np.asarray(values, dtype=float).ravel()
     except (TypeError, ValueError):
         raise InputError("epsilons", "must be numbers (nats)", epsilons) from None
     if grid.size == 0:

@@ -128,7 +128,11 @@ def _secondary(curve: PrivacyCurve, spec: SecondaryAxis) -> tuple[str, _Scale, _
         eps, keep = np.asarray(curve.epsilon, float), np.asarray(curve.keep_probability, float)
         if eps.size < 2 or np.any(np.diff(keep) <= 0):
             raise InputError("secondary_axis", "'keep' needs a keep probability that increases along the grid")
-        return ("keep probability", lambda e: np.interp(e, eps, keep), lambda k: np.interp(k, keep, eps))
+        return (
+            "keep probability",
+            lambda e: np.interp(np.asarray(e, dtype=float), eps, keep),
+            lambda k: np.interp(np.asarray(k, dtype=float), keep, eps),
+        )
     if isinstance(spec, tuple) and len(spec) == 3 and callable(spec[1]) and callable(spec[2]):
         return (str(spec[0]), spec[1], spec[2])
     raise InputError("secondary_axis", "must be None, 'keep' or (label, forward, inverse)", spec)

@@ -17,6 +17,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pandas as pd
 
 from ._errors import InputError
 from .estimate import CountTable, _check_columns, count_table
@@ -133,7 +134,7 @@ def count_spark(
     count = "count"
     while count in used:
         count = "_" + count
-    agg.columns = used + [count]
+    agg.columns = pd.Index(used + [count])
     n = agg[count].to_numpy(dtype=np.int64)
     isna = agg[used].isna().to_numpy()
     missing = n @ isna

@@ -3,16 +3,25 @@
 from __future__ import annotations
 
 from collections.abc import Hashable, Iterable, Sequence
+from typing import Any, TypeAlias
 
 import numpy as np
+import numpy.typing as npt
 
 from ._errors import InputError
+
+FloatArray: TypeAlias = npt.NDArray[np.float64]
+"""A float64 array (probabilities, expectations, log ratios in nats)."""
+BoolArray: TypeAlias = npt.NDArray[np.bool_]
+"""A boolean mask."""
+IntArray: TypeAlias = npt.NDArray[np.intp]
+"""An array of indices."""
 
 ROW_TOLERANCE = 1e-9
 """Largest accepted deviation of a probability row's sum from 1."""
 
 
-def as_labels(values: Iterable[Hashable], field: str) -> tuple:
+def as_labels(values: Iterable[Hashable], field: str) -> tuple[Any, ...]:
     """Return ``values`` as a tuple of distinct hashable labels.
 
     Numpy scalars become Python scalars and lists become tuples. Linear in the
@@ -30,7 +39,7 @@ def as_labels(values: Iterable[Hashable], field: str) -> tuple:
     if not labels:
         raise InputError(field, "must name at least one value", list(labels))
     if len(set(labels)) != len(labels):
-        seen: set = set()
+        seen: set[Hashable] = set()
         for label in labels:
             if label in seen:
                 raise InputError(field, "labels must be distinct; repeated label", label)
@@ -42,11 +51,11 @@ def as_labels(values: Iterable[Hashable], field: str) -> tuple:
     return labels
 
 
-_VALIDATED: dict[int, tuple] = {}
+_VALIDATED: dict[int, tuple[Any, ...]] = {}
 """The last few large label tuples that passed :func:`as_labels` (a tuple is immutable: it stays valid)."""
 
 
-def _plain(value):
+def _plain(value: object) -> Hashable:
     """Numpy scalars to Python scalars, lists to tuples (hashable labels)."""
     if isinstance(value, np.generic):
         return value.item()
@@ -55,14 +64,14 @@ def _plain(value):
     return value
 
 
-def format_label(label) -> str:
+def format_label(label: object) -> str:
     """Human form of a label: tuples (product attributes) joined by ' & '."""
     if isinstance(label, tuple):
         return " & ".join(format_label(v) for v in label)
     return str(label)
 
 
-def as_float_array(values, field: str, ndim: int | None = None, *, copy: bool = True) -> np.ndarray:
+def as_float_array(values: object, field: str, ndim: int | None = None, *, copy: bool = True) -> FloatArray:
     """Convert to a float64 array; reject ragged input and wrong dimension.
 
     With ``copy=False`` a float64 array is returned as it is (no copy); the
@@ -77,7 +86,7 @@ def as_float_array(values, field: str, ndim: int | None = None, *, copy: bool = 
     return array
 
 
-def check_shape(array: np.ndarray, shape: Sequence[int], field: str, axes: Sequence[str]) -> None:
+def check_shape(array: npt.NDArray[Any], shape: Sequence[int], field: str, axes: Sequence[str]) -> None:
     """Raise if ``array.shape`` differs from ``shape`` (axes named in the message)."""
     if tuple(array.shape) != tuple(shape):
         expected = " x ".join(f"{n} {a}" for n, a in zip(shape, axes))
@@ -85,13 +94,13 @@ def check_shape(array: np.ndarray, shape: Sequence[int], field: str, axes: Seque
 
 
 def check_probabilities(
-    array: np.ndarray,
+    array: FloatArray,
     field: str,
-    axis_labels: Sequence[tuple],
+    axis_labels: Sequence[tuple[Any, ...]],
     axis_names: Sequence[str],
     *,
     rows_sum_to_one: bool = True,
-    skip_rows: np.ndarray | None = None,
+    skip_rows: BoolArray | None = None,
 ) -> None:
     """Check finiteness, non-negativity and (optionally) rows summing to one.
 
@@ -125,7 +134,7 @@ def check_probabilities(
             )
 
 
-def _valid_fast(array: np.ndarray, skip_rows, rows_sum_to_one: bool) -> bool:
+def _valid_fast(array: FloatArray, skip_rows: BoolArray | None, rows_sum_to_one: bool) -> bool:
     """True when every checked row is finite, non-negative and (optionally) sums to one.
 
     Two reductions with no temporary of the table's size: the row sums (a
@@ -147,14 +156,14 @@ def _valid_fast(array: np.ndarray, skip_rows, rows_sum_to_one: bool) -> bool:
     return not rows_sum_to_one or bool(hi - 1.0 <= ROW_TOLERANCE and 1.0 - lo <= ROW_TOLERANCE)
 
 
-def _where(index, axis_labels, axis_names) -> str:
+def _where(index: Iterable[int], axis_labels: Sequence[tuple[Any, ...]], axis_names: Sequence[str]) -> str:
     parts = []
     for i, name, labels in zip(index, axis_names, axis_labels):
         parts.append(f"{name}={format_label(labels[int(i)])!r}")
     return "(" + ", ".join(parts) + ")"
 
 
-def ratio_extremes(values: np.ndarray, axis: int = -1):
+def ratio_extremes(values: npt.ArrayLike, axis: int = -1) -> tuple[FloatArray, IntArray, IntArray]:
     """Largest ratio ``max / min`` along ``axis`` with fairaudit's zero conventions.
 
     NaN entries (excluded cells) are ignored. 0/0 counts as 1 (parity) and
@@ -179,7 +188,7 @@ def ratio_extremes(values: np.ndarray, axis: int = -1):
     return ratio_of_extremes(vmax, vmin, count), argmax, argmin
 
 
-def ratio_of_extremes(vmax, vmin, count) -> np.ndarray:
+def ratio_of_extremes(vmax: FloatArray, vmin: FloatArray, count: npt.NDArray[np.integer[Any]] | int) -> FloatArray:
     """``vmax / vmin`` with fairaudit's conventions: 0/0 = 1, c/0 = +inf (c > 0), NaN where ``count`` < 2.
 
     The arrays broadcast; ``count`` is how many entries the extremes were taken over.

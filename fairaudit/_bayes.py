@@ -17,17 +17,23 @@ estimates are the plug-in of the posterior mean (n + c/K) / (N + c).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ._arrays import BoolArray, FloatArray
 
-def _dirichlet(rng, alpha: np.ndarray, draws: int) -> np.ndarray:
+if TYPE_CHECKING:
+    from .intervals import CellSets, SetMaker
+
+
+def _dirichlet(rng: np.random.Generator, alpha: FloatArray, draws: int) -> FloatArray:
     x = rng.gamma(alpha, size=(draws,) + alpha.shape)
     x = np.maximum(x, np.finfo(float).tiny)  # tiny shapes can underflow to 0; keep every probability positive
     return x / x.sum(-1, keepdims=True)
 
 
-def _band(coords: np.ndarray, confidence: float) -> np.ndarray:
+def _band(coords: FloatArray, confidence: float) -> BoolArray:
     """Mask of the draws inside Besag's simultaneous rank band; coords shape (D, n)."""
     D = coords.shape[0]
     varying = coords.std(0) > 0
@@ -40,14 +46,14 @@ def _band(coords: np.ndarray, confidence: float) -> np.ndarray:
     return extreme <= threshold
 
 
-def band_sets(concentration: float, draws: int, seed: int):
+def band_sets(concentration: float, draws: int, seed: int) -> SetMaker:
     """The set maker of ``method="bayes"`` for :func:`fairaudit.intervals._frequentist`.
 
     Returns a function (cell_counts (X, A, K), group_counts (A, C), use_groups, alpha) -> (cell lower, cell upper,
     group lower, group upper, 0): the Besag band at level 1 − α over every cell (and pooled group) probability.
     """
 
-    def sets(cell_counts, group_counts, use_groups: bool, alpha: float):
+    def sets(cell_counts: FloatArray, group_counts: FloatArray, use_groups: bool, alpha: float) -> CellSets:
         rng = np.random.default_rng(seed)
         K = cell_counts.shape[-1]
         Kd = _dirichlet(rng, cell_counts + concentration / K, draws)

@@ -8,8 +8,9 @@ distribution (DESIGN.md "Command-line contract").
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex
 
 import numpy as np
 import pandas as pd
@@ -20,6 +21,9 @@ from .certify import Observed, observe
 from .estimate import CountTable, count_records
 from .intervals import FairnessIntervals, fairness_intervals
 from .utility import Utility, from_table, indicator
+
+if TYPE_CHECKING:
+    import pyspark.sql
 
 __all__ = ["Audit", "audit", "utility_from_expression"]
 
@@ -48,7 +52,7 @@ class Audit:
     confidence: float | None
 
 
-def utility_from_expression(expression: str, decisions: Sequence) -> Utility:
+def utility_from_expression(expression: str, decisions: Sequence[Hashable]) -> Utility:
     """g(u) from an arithmetic or comparison expression in ``u`` (for example ``"u >= 5"``).
 
     Evaluated by :func:`pandas.eval` on the array of decision values (numeric
@@ -77,11 +81,8 @@ def utility_from_expression(expression: str, decisions: Sequence) -> Utility:
         raise InputError(
             "--utility", f"cannot be evaluated with u = the outcome values ({type(exc).__name__}: {exc})", expression
         ) from None
-    arr = (
-        np.broadcast_to(np.asarray(out, dtype=float), (len(decisions),))
-        if np.ndim(out) == 0
-        else np.asarray(out, dtype=float)
-    )
+    evaluated = np.asarray(out, dtype=float)
+    arr = np.broadcast_to(evaluated, (len(decisions),)) if evaluated.ndim == 0 else evaluated
     if arr.shape != (len(decisions),):
         raise InputError("--utility", "must give one value per outcome value", expression)
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
@@ -90,15 +91,16 @@ def utility_from_expression(expression: str, decisions: Sequence) -> Utility:
     return from_table(arr, tuple(decisions), name=expression)
 
 
-def _positive_utility(positive, decisions) -> Utility:
+def _positive_utility(positive: Hashable, decisions: tuple) -> Utility:
     for d in decisions:
         if d == positive or format_label(d) == str(positive):
             return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
     try:
-        num = float(positive)
-        for d in decisions:
-            if isinstance(d, (int, float, np.number)) and float(d) == num:
-                return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
+        if isinstance(positive, (str, bytes, SupportsFloat, SupportsIndex)):  # what float() takes
+            num = float(positive)
+            for d in decisions:
+                if isinstance(d, (int, float, np.number)) and float(d) == num:
+                    return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
     except (TypeError, ValueError):
         pass
     raise InputError(
@@ -108,16 +110,22 @@ def _positive_utility(positive, decisions) -> Utility:
     )
 
 
-def _is_spark_frame(data) -> bool:
+def _is_spark_frame(data: object) -> bool:
     """A pyspark DataFrame (classic or Spark Connect), recognised without importing pyspark."""
     return any(c.__module__.startswith("pyspark.") and c.__name__ == "DataFrame" for c in type(data).__mro__)
 
 
-def _table(data, sensitive, outcome, context, dropna) -> CountTable:
+def _table(
+    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame,
+    sensitive: str | Sequence[str] | None,
+    outcome: str | None,
+    context: str | Sequence[str] | None,
+    dropna: bool,
+) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
     if isinstance(data, CountTable):
 
-        def columns(c):
+        def columns(c: str | Sequence[str] | None) -> tuple[str, ...] | None:
             return None if c is None else (c,) if isinstance(c, str) else tuple(c)
 
         for flag, given, have in (
@@ -132,8 +140,7 @@ def _table(data, sensitive, outcome, context, dropna) -> CountTable:
                     ",".join(map(str, given)),
                 )
         return data
-    spark = _is_spark_frame(data)
-    if not (spark or isinstance(data, pd.DataFrame)):
+    if not (_is_spark_frame(data) or isinstance(data, pd.DataFrame)):
         raise InputError(
             "data", "must be a pandas DataFrame of records, a Spark DataFrame or a CountTable", type(data).__name__
         )
@@ -141,24 +148,24 @@ def _table(data, sensitive, outcome, context, dropna) -> CountTable:
         raise InputError("--sensitive", "name at least one column")
     if outcome is None:
         raise InputError("--outcome", "name the outcome column")
-    if spark:
-        from .spark import count_spark
-
-        return count_spark(
+    if isinstance(data, pd.DataFrame):
+        return count_records(
             data, sensitive=sensitive, outcome=outcome, context=() if context is None else context, dropna=dropna
         )
-    return count_records(
+    from .spark import count_spark  # a Spark DataFrame (checked above)
+
+    return count_spark(
         data, sensitive=sensitive, outcome=outcome, context=() if context is None else context, dropna=dropna
     )
 
 
 def audit(
-    data: pd.DataFrame | CountTable,
+    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame,
     *,
     sensitive: Sequence[str] | None = None,
     outcome: str | None = None,
     context: Sequence[str] | None = None,
-    positive=None,
+    positive: Hashable | None = None,
     utility: str | Utility | None = None,
     confidence: float | None = None,
     method: str = "auto",

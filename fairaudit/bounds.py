@@ -39,8 +39,9 @@ from collections.abc import Hashable
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
-from ._arrays import format_label
+from ._arrays import FloatArray, IntArray, format_label
 from ._errors import InputError
 from .laws import Law, Population
 from .privacy import Mechanism
@@ -121,7 +122,7 @@ class Bound:
     lipschitz: float
     diameter: float
     mechanism: Mechanism
-    assumptions: tuple = field(default=())
+    assumptions: tuple[Assumption, ...] = field(default=())
 
     @property
     def holds(self) -> bool:
@@ -135,7 +136,7 @@ class Bound:
         return f"Bound({self.form}, value={self.value:.6g} nats at epsilon={self.epsilon:.6g}, delta={self.delta:.6g})"
 
 
-def _nonneg(name: str, value) -> float:
+def _nonneg(name: str, value: float) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -145,7 +146,7 @@ def _nonneg(name: str, value) -> float:
     return v
 
 
-def _constants(gamma, tau, lipschitz, diameter) -> tuple[float, float, float, float]:
+def _constants(gamma: float, tau: float, lipschitz: float, diameter: float) -> tuple[float, float, float, float]:
     gamma = _nonneg("gamma", gamma)
     tau = _nonneg("tau", tau)
     if tau <= 0:
@@ -217,7 +218,7 @@ def main_theorem_tight(
     return math.log(math.exp(eps) + (lipschitz * diameter + delta * gamma) / tau)
 
 
-def _sorted_pairs(matrix: np.ndarray):
+def _sorted_pairs(matrix: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
     """For every ordered pair (a, b), outputs sorted by M[a,o]/M[b,o] descending.
 
     Returns (ratio, p, q, order) each of shape (n, n, m), sorted along the last
@@ -238,7 +239,7 @@ def _sorted_pairs(matrix: np.ndarray):
     )
 
 
-def _upper_envelope(slopes: np.ndarray, intercepts: np.ndarray):
+def _upper_envelope(slopes: FloatArray, intercepts: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Upper envelope of lines y = s·t + c over t ∈ ℝ: (slopes, intercepts, breakpoints).
 
     Lines are kept in increasing slope; breakpoint i is where line i hands
@@ -267,7 +268,7 @@ def _upper_envelope(slopes: np.ndarray, intercepts: np.ndarray):
     return hs, hc, breaks
 
 
-def _profile_candidates(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray]:
+def _profile_candidates(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
     """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (exact envelope)."""
     m = mechanism.matrix
     n = m.shape[0]
@@ -283,7 +284,14 @@ def _profile_candidates(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray]:
     return t, delta
 
 
-def _resolve(mechanism, gamma, tau, lipschitz, utility, metric):
+def _resolve(
+    mechanism: Mechanism,
+    gamma: float | None,
+    tau: float,
+    lipschitz: float | None,
+    utility: Utility | None,
+    metric: npt.ArrayLike | None,
+) -> tuple[float, float, float]:
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
     if gamma is None:
@@ -382,7 +390,7 @@ def tight_bound(
     tau: float,
     gamma: float | None = None,
     lipschitz: float | None = None,
-    metric=None,
+    metric: npt.ArrayLike | None = None,
     utility: Utility | None = None,
     population: Population | None = None,
     law: Law | None = None,

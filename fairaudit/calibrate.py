@@ -37,9 +37,12 @@ import math
 import numbers
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
+from typing import Any, TypedDict
 
 import numpy as np
+import numpy.typing as npt
 
+from ._arrays import FloatArray
 from ._errors import InputError
 from .bounds import main_theorem, main_theorem_tight
 from .laws import Kernel, Population, compose
@@ -129,12 +132,26 @@ class Calibration:
         )
 
 
+class _Common(TypedDict):
+    """The fields of a :class:`Calibration` that repeat its inputs, the same whatever the method finds."""
+
+    target: float
+    kind: str
+    groups: int
+    gamma: float
+    lower: float
+    tau: float
+    delta: float
+    lipschitz: float
+    diameter: float
+
+
 # -- input checks --------------------------------------------------------------------------------------
 
 
 def _number(
     flag: str,
-    value,
+    value: float,
     *,
     low: float = 0.0,
     high: float = math.inf,
@@ -152,7 +169,9 @@ def _number(
     return v
 
 
-def _resolve_family(family, groups, kernel) -> MechanismFamily:
+def _resolve_family(
+    family: MechanismFamily | None, groups: int | Sequence[Hashable] | None, kernel: Kernel | None
+) -> MechanismFamily:
     if family is not None:
         if not isinstance(family, MechanismFamily):
             raise InputError("family", "must be a MechanismFamily", type(family).__name__)
@@ -160,7 +179,7 @@ def _resolve_family(family, groups, kernel) -> MechanismFamily:
         if k < 2:
             raise InputError("--groups", "needs at least 2 groups", k)
         if groups is not None:
-            given = groups if isinstance(groups, numbers.Integral) else len(list(groups))
+            given = groups if isinstance(groups, (int, numbers.Integral)) else len(list(groups))
             if int(given) != k:
                 raise InputError("--groups", f"must match the family's {k} groups ({family.name})", given)
         return family
@@ -179,7 +198,7 @@ def _resolve_family(family, groups, kernel) -> MechanismFamily:
     return randomized_response_family(labels)
 
 
-def _diameter(diameter, metric, k: int) -> float:
+def _diameter(diameter: float | None, metric: npt.ArrayLike | None, k: int) -> float:
     if diameter is not None:
         return _number("diameter", diameter)
     if metric is None:
@@ -234,7 +253,9 @@ def _largest_meeting(
     return lo, f_lo
 
 
-def _bracket(f: Callable[[float], float], target: float, lo: float, f_lo: float, start: float):
+def _bracket(
+    f: Callable[[float], float], target: float, lo: float, f_lo: float, start: float
+) -> tuple[float, float, float, float] | None:
     """Grow hi from ``start`` (doubling) until f(hi) > target; None when f stays ≤ target up to ε = 500."""
     hi = max(start, lo + 1.0 if lo == 0 else 2 * lo)
     while True:
@@ -251,8 +272,15 @@ def _bracket(f: Callable[[float], float], target: float, lo: float, f_lo: float,
 
 
 def _result(
-    common: dict, method: str, epsilon: float, bound: float, reason: str, family: MechanismFamily, feasible: bool = True
+    common: _Common,
+    method: str,
+    epsilon: float,
+    bound: float,
+    reason: str,
+    family: MechanismFamily,
+    feasible: bool = True,
 ) -> Calibration:
+    mech: Mechanism | None
     if feasible:
         keep = family.keep_probability(epsilon)
         mech = family(epsilon)
@@ -271,7 +299,7 @@ def _result(
     )
 
 
-def _closed_form(common: dict, method: str, family: MechanismFamily) -> Calibration:
+def _closed_form(common: _Common, method: str, family: MechanismFamily) -> Calibration:
     target, gamma, tau = common["target"], common["gamma"], common["tau"]
     lip, diam, delta = common["lipschitz"], common["diameter"], common["delta"]
     c = lip * diam + delta * gamma
@@ -326,9 +354,17 @@ def _is_randomized_response(family: MechanismFamily, eps: float) -> Mechanism | 
     return m if np.allclose(m.matrix, rr.matrix, rtol=1e-13, atol=0.0) else None
 
 
-def _black_box(common: dict, family: MechanismFamily, metric, population: Population | None) -> Calibration:
-    target, gamma, lower, tau, lip = (common[k] for k in ("target", "gamma", "lower", "tau", "lipschitz"))
-    kwargs: dict = {"lower": lower, "gamma": gamma, "population": population}
+def _black_box(
+    common: _Common, family: MechanismFamily, metric: npt.ArrayLike | None, population: Population | None
+) -> Calibration:
+    target, gamma, lower, tau, lip = (
+        common["target"],
+        common["gamma"],
+        common["lower"],
+        common["tau"],
+        common["lipschitz"],
+    )
+    kwargs: dict[str, Any] = {"lower": lower, "gamma": gamma, "population": population}
     notes = []
     if not math.isnan(tau):
         kwargs["tau"] = tau
@@ -421,7 +457,7 @@ def _black_box(common: dict, family: MechanismFamily, metric, population: Popula
     )
 
 
-def _keep_grid(family: MechanismFamily) -> np.ndarray:
+def _keep_grid(family: MechanismFamily) -> FloatArray:
     """The white-box scan: 32 values of ε evenly spaced in [0, cap], 32 more evenly spaced in keep probability.
 
     cap is 50 nats, or less: where the keep probability reaches 1 − 1e-12.
@@ -450,7 +486,12 @@ def _keep_grid(family: MechanismFamily) -> np.ndarray:
 
 
 def _white_box(
-    common: dict, family: MechanismFamily, kernel: Kernel, utility: Utility, population, context_mechanism
+    common: _Common,
+    family: MechanismFamily,
+    kernel: Kernel,
+    utility: Utility,
+    population: Population | None,
+    context_mechanism: Mechanism | None,
 ) -> Calibration:
     target, kind = common["target"], common["kind"]
     limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
@@ -558,7 +599,7 @@ def calibrate(
     lower: float = 0.0,
     tau: float | None = None,
     lipschitz: float = 0.0,
-    metric=None,
+    metric: npt.ArrayLike | None = None,
     diameter: float | None = None,
     delta: float = 0.0,
     kernel: Kernel | None = None,
@@ -698,14 +739,7 @@ def calibrate(
         )
     if method in ("paper", "tight") and tau is None:
         raise InputError("--tau", f"the {method} bound needs tau (a lower bound on E[g | x, a])")
-    if method == "white_box":
-        if kernel is None:
-            raise InputError(
-                "--spec", "the white_box method needs a decision model (a [model] in the spec, or kernel=)"
-            )
-        if utility is None:
-            raise InputError("utility", "the white_box method needs the utility g")
-    common = dict(
+    common = _Common(
         target=target,
         kind=kind,
         groups=k,
@@ -717,6 +751,12 @@ def calibrate(
         diameter=diam,
     )
     if method == "white_box":
+        if kernel is None:
+            raise InputError(
+                "--spec", "the white_box method needs a decision model (a [model] in the spec, or kernel=)"
+            )
+        if utility is None:
+            raise InputError("utility", "the white_box method needs the utility g")
         return _white_box(common, fam, kernel, utility, population, context_mechanism)
     if kind == "global" and population is not None:
         check = population.independence()
@@ -741,7 +781,7 @@ def calibrate(
 
 def calibrate_randomized_response(
     target: float,
-    groups: int | list,
+    groups: int | Sequence[Hashable],
     *,
     method: str = "black_box",
     gamma: float = 1.0,

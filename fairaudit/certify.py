@@ -21,15 +21,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypedDict
 
 from ._errors import InputError
-from .bounds import Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
+from .bounds import Assumption, Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from .calibrate import Calibration, calibrate
 from .estimate import CountTable
 from .intervals import FairnessIntervals, fairness_intervals
-from .laws import Kernel, Law, compose
+from .laws import Kernel, Law, Population, compose
 from .metrics import Fairness, SupFairness, TotalVariation, all_metrics
-from .spec import Spec, load_spec
+from .privacy import MechanismFamily
+from .spec import Spec, TargetSpec, load_spec
+from .utility import Utility
 from .worstcase import WorstModel, worst_model
 
 __all__ = ["Certificate", "Observed", "TargetCheck", "certify", "observe"]
@@ -133,9 +136,9 @@ class Certificate:
     global_bound: float
     observed: Observed | None
     unfiltered: Observed | None
-    targets: dict
+    targets: dict[str, TargetCheck]
     calibration: Calibration | None
-    assumptions: tuple
+    assumptions: tuple[tuple[Assumption, tuple[str, ...]], ...]
     certified: bool
     calibration_white_box: Calibration | None = None
     calibration_reason: str = ""
@@ -144,7 +147,7 @@ class Certificate:
     intervals_reason: str = ""
 
 
-def observe(law: Law, utility, population) -> Observed:
+def observe(law: Law, utility: Utility, population: Population | None) -> Observed:
     """All exact metrics of ``law`` for ``utility`` under ``population`` (one pass: :func:`~fairaudit.metrics.all_metrics`)."""
     m = all_metrics(law, utility, population)
     return Observed(
@@ -158,8 +161,10 @@ def observe(law: Law, utility, population) -> Observed:
     )
 
 
-def _merge_assumptions(bounds: list[tuple[str, tuple]]) -> tuple:
-    merged: dict = {}
+def _merge_assumptions(
+    bounds: list[tuple[str, tuple[Assumption, ...]]],
+) -> tuple[tuple[Assumption, tuple[str, ...]], ...]:
+    merged: dict[tuple[str, str, str], tuple[Assumption, list[str]]] = {}
     for form, items in bounds:
         for a in items:
             key = (a.name, a.status, a.detail)
@@ -216,7 +221,8 @@ def certify(
         spec = load_spec(spec)
     mech = spec.sensitive_mechanism
     kernel: Kernel | None = spec.kernel()
-    observed = unfiltered = None
+    observed: Observed | None = None
+    unfiltered: Observed | None = None
     if kernel is not None:
         try:
             law = compose(kernel, mech, spec.context_mechanism)
@@ -229,8 +235,9 @@ def certify(
     obs_law = observed.law if observed is not None else None
 
     gamma, tau = spec.gamma, spec.tau
-    forms: list[tuple[str, tuple]] = []
-    paper = tight = None
+    forms: list[tuple[str, tuple[Assumption, ...]]] = []
+    paper: Bound | None = None
+    tight: Bound | None = None
     if tau is not None:
         paper = paper_bound(
             mech,
@@ -282,7 +289,8 @@ def certify(
         global_bound = min(global_bound, black_box.global_.value)
 
     targets: dict[str, TargetCheck] = {}
-    calibration = calibration_white = None
+    calibration: Calibration | None = None
+    calibration_white: Calibration | None = None
     calibration_reason = ""
     t = spec.model.target
     if t is not None:
@@ -342,7 +350,9 @@ def certify(
     )
 
 
-def _intervals(spec: Spec, kernel: Kernel | None, confidence, method: str, seed: int):
+def _intervals(
+    spec: Spec, kernel: Kernel | None, confidence: float | None, method: str, seed: int
+) -> tuple[FairnessIntervals | None, FairnessIntervals | None, str]:
     """Intervals for the observed metrics when the model comes from counts: (filtered, unfiltered, reason)."""
     if confidence is None:
         if method != "auto":
@@ -382,7 +392,7 @@ def _intervals(spec: Spec, kernel: Kernel | None, confidence, method: str, seed:
     return filtered_iv, own, ""
 
 
-def _tightest(results: list) -> Calibration | None:
+def _tightest(results: list[Calibration]) -> Calibration | None:
     """The calibration meeting every target: an infeasible one if any, else the smallest ε."""
     if not results:
         return None
@@ -390,7 +400,18 @@ def _tightest(results: list) -> Calibration | None:
     return bad[0] if bad else min(results, key=lambda c: c.epsilon)
 
 
-def _calibrations(spec: Spec, kernel: Kernel | None, t, independent: bool):
+class _FamilyClass(TypedDict):
+    """What every calibration of a spec shares: its mechanism family, utility class and population."""
+
+    family: MechanismFamily
+    gamma: float
+    lower: float
+    population: Population
+
+
+def _calibrations(
+    spec: Spec, kernel: Kernel | None, t: TargetSpec, independent: bool
+) -> tuple[Calibration | None, Calibration | None, str]:
     """Calibrate the spec's family for its targets: black-box (and white-box with a model), and why one is skipped.
 
     Black-box: ``calibrate(method="black_box")`` with the spec's family, τ, L_A,
@@ -404,8 +425,9 @@ def _calibrations(spec: Spec, kernel: Kernel | None, t, independent: bool):
     goals = [(kind, v) for kind, v in (("local", t.local), ("global", t.global_)) if v is not None]
     if not goals:
         return None, None, ""
-    common = dict(family=family, gamma=spec.gamma, lower=spec.lower, population=spec.population)
-    black, reason = [], ""
+    common = _FamilyClass(family=family, gamma=spec.gamma, lower=spec.lower, population=spec.population)
+    black: list[Calibration] = []
+    reason = ""
     if spec.utility.depends_on_group and spec.model.utility.lipschitz is None:
         reason = "the utility depends on the group and the spec gives no utility.lipschitz for the black-box class"
     else:
@@ -430,7 +452,7 @@ def _calibrations(spec: Spec, kernel: Kernel | None, t, independent: bool):
                 break
         if not black and not reason:
             reason = "the only target is global and X and A are not independent: no black-box bound on L-bar"
-    white = []
+    white: list[Calibration] = []
     if kernel is not None and not _sees_inputs(spec):
         reason = (reason + "; " if reason else "") + (
             "white-box calibration needs a model indexed by the groups: the spec's mechanism releases other values"

@@ -12,10 +12,15 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
 
 from . import __version__
 from ._errors import InputError
 from .report import FORMATS, audit_dict, calibration_dict, certificate_dict, render, write_atomic
+
+if TYPE_CHECKING:
+    from ._arrays import FloatArray
+    from .certify import Certificate
 
 __all__ = ["main", "build_parser"]
 
@@ -23,8 +28,11 @@ __all__ = ["main", "build_parser"]
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (exit 2)."""
 
-    def error(self, message: str):  # noqa: D401 - argparse API
+    def error(self, message: str) -> NoReturn:  # noqa: D401 - argparse API
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+_Subparsers: TypeAlias = "argparse._SubParsersAction[_Parser]"
 
 
 def _columns(text: str) -> list[str]:
@@ -44,7 +52,7 @@ def _level(text: str) -> float:
     return v
 
 
-def _epsilons(text: str):
+def _epsilons(text: str) -> FloatArray:
     parts = text.split(":")
     try:
         if len(parts) != 3:
@@ -242,7 +250,7 @@ def _positive_int(text: str) -> int:
     return v
 
 
-def _add_experiment(sub) -> None:
+def _add_experiment(sub: _Subparsers) -> None:
     """The ``experiment`` subcommand (fairaudit.plugins.run)."""
     e = sub.add_parser(
         "experiment",
@@ -339,7 +347,7 @@ def _level_closed(text: str) -> float:
     return v
 
 
-def _run_experiment(args) -> int:
+def _run_experiment(args: argparse.Namespace) -> int:
     from .plugins.run import run_experiment
 
     run = run_experiment(
@@ -381,7 +389,7 @@ def _run_experiment(args) -> int:
     return 0
 
 
-def _add_plan(sub) -> None:
+def _add_plan(sub: _Subparsers) -> None:
     """The ``plan`` subcommand (sample sizes; fairaudit.plan)."""
     p = sub.add_parser(
         "plan",
@@ -459,7 +467,7 @@ _PLAN_FLAGS = {
 }
 
 
-def _run_plan(args) -> int:
+def _run_plan(args: argparse.Namespace) -> int:
     from .plan import plan
     from .report import plan_dict
 
@@ -494,7 +502,7 @@ def _run_plan(args) -> int:
     return 0 if data["feasible"] else 1
 
 
-def _emit(args, text: str, summary: str) -> None:
+def _emit(args: argparse.Namespace, text: str, summary: str) -> None:
     if args.output:
         write_atomic(args.output, text)
         print(f"{summary}; report written to {args.output}", file=sys.stderr)
@@ -502,7 +510,7 @@ def _emit(args, text: str, summary: str) -> None:
         sys.stdout.write(text)
 
 
-def _write_curve(args, cert) -> None:
+def _write_curve(args: argparse.Namespace, cert: Certificate) -> None:
     """The fairness-privacy curve of a certificate's spec: --plot and --plot-data (exit status unchanged)."""
     from .curves import privacy_curve
 
@@ -522,7 +530,7 @@ def _write_curve(args, cert) -> None:
     print(f"fairness-privacy curve: {len(curve)} values of epsilon; {'; '.join(written)}", file=sys.stderr)
 
 
-def _run(args) -> int:
+def _run(args: argparse.Namespace) -> int:
     if args.command == "certify":
         from .certify import certify
 
@@ -582,10 +590,10 @@ def _run(args) -> int:
     return _run_calibrate(args)
 
 
-def _run_calibrate(args) -> int:
+def _run_calibrate(args: argparse.Namespace) -> int:
     from .calibrate import calibrate
 
-    opts: dict = {}
+    opts: dict[str, Any] = {}  # keywords of calibrate
     if args.spec:
         from .spec import load_spec
 

@@ -24,10 +24,12 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
-from ._arrays import format_label
+from ._arrays import BoolArray, FloatArray, format_label
 from ._errors import InputError
 from .bounds import corollary_bound, paper_bound, tight_bound
 from .laws import Kernel, Population, compose
@@ -36,6 +38,11 @@ from .privacy import Mechanism, MechanismFamily
 from .report import write_atomic
 from .utility import Utility, check_metric
 from .worstcase import black_box_bound, worst_model
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from .spec import Spec
 
 __all__ = ["PrivacyCurve", "privacy_curve", "default_epsilons", "COLUMNS"]
 
@@ -101,15 +108,15 @@ class PrivacyCurve:
         Shown on plots.
     """
 
-    epsilon: np.ndarray
-    keep_probability: np.ndarray
-    paper: np.ndarray
-    tight: np.ndarray
-    black_box: np.ndarray
-    corollary: np.ndarray
-    observed_local: np.ndarray
-    observed_global: np.ndarray
-    min_expected_utility: np.ndarray
+    epsilon: FloatArray
+    keep_probability: FloatArray
+    paper: FloatArray
+    tight: FloatArray
+    black_box: FloatArray
+    corollary: FloatArray
+    observed_local: FloatArray
+    observed_global: FloatArray
+    min_expected_utility: FloatArray
     family: str
     groups: tuple
     gamma: float
@@ -133,7 +140,7 @@ class PrivacyCurve:
         return bool(np.any(~np.isnan(self.observed_local)))
 
     @property
-    def tau_holds(self) -> np.ndarray:
+    def tau_holds(self) -> BoolArray:
         """Boolean (n,): False where the observed law has some E[g | x, a] < τ.
 
         There the paper and tight bounds do not apply to the observed model
@@ -146,13 +153,13 @@ class PrivacyCurve:
         return np.isnan(m) | (m >= self.tau - 1e-12)
 
     @property
-    def is_spec_epsilon(self) -> np.ndarray:
+    def is_spec_epsilon(self) -> BoolArray:
         """Boolean (n,): True at the grid point equal to :attr:`spec_epsilon`."""
         if self.spec_epsilon is None or not math.isfinite(self.spec_epsilon):
             return np.zeros(len(self), dtype=bool)
         return self.epsilon == self.spec_epsilon
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """The curve as a pandas DataFrame, one row per ε, columns :data:`COLUMNS`.
 
         Columns ending in ``_nats`` are in nats; ``keep_probability`` and
@@ -199,7 +206,7 @@ class PrivacyCurve:
         write_atomic(path, self.to_frame().to_csv(index=False, lineterminator="\n"))
 
 
-def default_epsilons(spec_epsilon: float | None = None, n: int = 61) -> np.ndarray:
+def default_epsilons(spec_epsilon: float | None = None, n: int = 61) -> FloatArray:
     """The default grid: ``n`` points from 0 to 1.5 × ``spec_epsilon`` (0 to 5 nats without one), plus it.
 
     Parameters
@@ -237,7 +244,7 @@ def default_epsilons(spec_epsilon: float | None = None, n: int = 61) -> np.ndarr
     return _with_point(grid, spec_epsilon)
 
 
-def _with_point(grid: np.ndarray, point: float | None) -> np.ndarray:
+def _with_point(grid: FloatArray, point: float | None) -> FloatArray:
     """``grid`` with ``point`` in it: a grid point within 1e-9 (relative) of it is replaced by it."""
     if point is None or not math.isfinite(point):
         return grid
@@ -249,9 +256,10 @@ def _with_point(grid: np.ndarray, point: float | None) -> np.ndarray:
     return np.sort(np.append(grid, float(point)))
 
 
-def _check_grid(epsilons) -> np.ndarray:
+def _check_grid(epsilons: Iterable[float]) -> FloatArray:
     try:
-        grid = np.asarray(list(epsilons) if not np.isscalar(epsilons) else [epsilons], dtype=float).ravel()
+        values: list[object] = list(epsilons) if not np.isscalar(epsilons) else [epsilons]
+        grid = np.asarray(values, dtype=float).ravel()
     except (TypeError, ValueError):
         raise InputError("epsilons", "must be numbers (nats)", epsilons) from None
     if grid.size == 0:
@@ -262,9 +270,16 @@ def _check_grid(epsilons) -> np.ndarray:
     return np.unique(grid)
 
 
-def _black_box_keywords(lower, gamma, tau, lipschitz, metric, population) -> dict:
+def _black_box_keywords(
+    lower: float,
+    gamma: float,
+    tau: float | None,
+    lipschitz: float,
+    metric: npt.ArrayLike | None,
+    population: Population | None,
+) -> dict[str, Any]:
     """Keywords for :func:`fairaudit.worstcase.black_box_bound` (the class certificate)."""
-    kw = {"lower": lower, "gamma": gamma, "population": population}
+    kw: dict[str, Any] = {"lower": lower, "gamma": gamma, "population": population}
     if tau is not None:
         kw["tau"] = tau
     if lipschitz > 0:
@@ -275,7 +290,7 @@ def _black_box_keywords(lower, gamma, tau, lipschitz, metric, population) -> dic
 
 
 def privacy_curve(
-    spec=None,
+    spec: Spec | None = None,
     *,
     family: MechanismFamily | None = None,
     epsilons: Iterable[float] | None = None,
@@ -287,7 +302,7 @@ def privacy_curve(
     lower: float | None = None,
     tau: float | None = None,
     lipschitz: float | None = None,
-    metric=None,
+    metric: npt.ArrayLike | None = None,
     spec_epsilon: float | None = None,
     title: str | None = None,
 ) -> PrivacyCurve:
@@ -446,7 +461,7 @@ def privacy_curve(
         out["black_box"][i] = black_box_at(mech)
         if not group_dependent:
             out["corollary"][i] = corollary_bound(mech).value
-        if kernel is not None:
+        if kernel is not None and utility is not None:  # (a kernel comes with a utility: checked above)
             try:
                 law = compose(kernel, mech, context_mechanism)
             except InputError as exc:

@@ -19,16 +19,27 @@ with the records; it also reads count tables made by any engine (SQL
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Hashable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 
 from ._arrays import format_label
 from ._errors import InputError
 from .laws import Law, Population
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+    import pyarrow.dataset as ds
+
+Counts: TypeAlias = npt.NDArray[np.int64 | np.float64]
+"""Counts of records: int64, or float64 for a table of weights or probabilities."""
+Codes: TypeAlias = npt.NDArray[np.integer[Any]]
+"""Integer codes (positions in a tuple of labels), or integer weights."""
 
 __all__ = ["CountTable", "read_records", "count_records", "count_table", "count_file"]
 
@@ -48,12 +59,12 @@ class CountTable:
     outcome_column : str
     """
 
-    counts: np.ndarray
+    counts: Counts
     contexts: tuple
     groups: tuple
     decisions: tuple
-    context_columns: tuple
-    sensitive_columns: tuple
+    context_columns: tuple[str, ...]
+    sensitive_columns: tuple[str, ...]
     outcome_column: str
 
     @property
@@ -62,17 +73,17 @@ class CountTable:
         return int(self.counts.sum())
 
     @property
-    def cell_counts(self) -> np.ndarray:
+    def cell_counts(self) -> Counts:
         """Records per (context, group), shape (n_contexts, n_groups)."""
         return self.counts.sum(axis=-1)
 
     @property
-    def group_counts(self) -> np.ndarray:
+    def group_counts(self) -> Counts:
         """Records per group, shape (n_groups,)."""
         return self.counts.sum(axis=(0, 2))
 
     @property
-    def context_counts(self) -> np.ndarray:
+    def context_counts(self) -> Counts:
         """Records per context, shape (n_contexts,)."""
         return self.counts.sum(axis=(1, 2))
 
@@ -114,7 +125,7 @@ def read_records(path: str | Path) -> pd.DataFrame:
     raise InputError("DATA", "must be a .csv or .parquet file", str(path))
 
 
-def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str):
+def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str) -> tuple[Codes, tuple]:
     """Factorize one or several columns into (codes, labels); labels sorted."""
     if not columns:
         return np.zeros(len(frame), dtype=np.int64), ("all",)
@@ -129,7 +140,7 @@ def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str):
     return codes.astype(np.int64), labels
 
 
-def _check_columns(names, columns: Sequence[str], field: str) -> None:
+def _check_columns(names: pd.DataFrame | Iterable[str], columns: Sequence[str], field: str) -> None:
     """An unknown column is an InputError naming ``field`` and listing the columns ``names``."""
     names = list(names.columns) if isinstance(names, pd.DataFrame) else list(names)
     for c in columns:
@@ -138,7 +149,9 @@ def _check_columns(names, columns: Sequence[str], field: str) -> None:
             raise InputError(field, f"unknown column; the data has: {shown}", c)
 
 
-def _roles(sensitive, outcome, context) -> tuple[list, str, list]:
+def _roles(
+    sensitive: str | Sequence[str], outcome: str, context: str | Sequence[str]
+) -> tuple[list[str], str, list[str]]:
     """The columns of each role as lists (a single name may be given as a string)."""
     sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
     context = [context] if isinstance(context, str) else list(context)
@@ -147,18 +160,25 @@ def _roles(sensitive, outcome, context) -> tuple[list, str, list]:
     return sensitive, outcome, context
 
 
-def _check_roles(names, sensitive, outcome, context) -> None:
+def _check_roles(
+    names: pd.DataFrame | Iterable[str], sensitive: Sequence[str], outcome: str, context: Sequence[str]
+) -> None:
     _check_columns(names, sensitive, "--sensitive")
     _check_columns(names, [outcome], "--outcome")
     _check_columns(names, context, "--context")
 
 
-def _missing_error(column, n) -> InputError:
+def _missing_error(column: Hashable, n: float) -> InputError:
     return InputError(f"column {column!r}", f"has {int(n)} missing values (drop those rows: --dropna, or dropna=True)")
 
 
 def _tally(
-    frame: pd.DataFrame, sensitive: list, outcome: str, context: list, dropna: bool, weights: np.ndarray | None = None
+    frame: pd.DataFrame,
+    sensitive: list[str],
+    outcome: str,
+    context: list[str],
+    dropna: bool,
+    weights: Codes | None = None,
 ) -> CountTable:
     """Counts of the rows of ``frame`` (each row counts ``weights[i]`` records; default 1).
 
@@ -251,9 +271,9 @@ def count_table(
     outcome: str,
     context: Sequence[str] = (),
     count: str = "count",
-    contexts: Sequence | None = None,
-    groups: Sequence | None = None,
-    decisions: Sequence | None = None,
+    contexts: Sequence[Hashable] | None = None,
+    groups: Sequence[Hashable] | None = None,
+    decisions: Sequence[Hashable] | None = None,
     dropna: bool = False,
 ) -> CountTable:
     """A CountTable from an aggregated table: one row per (context, group, outcome) with a count.
@@ -322,28 +342,28 @@ def count_table(
         keep = ~isna.any(axis=1).to_numpy()
         data, values = data[keep], values[keep]
 
-    def codes(columns, expected, role):
+    def codes(columns: list[str], expected: Sequence[Hashable] | None, role: str) -> tuple[Codes, tuple]:
         if expected is None:
             return _codes(data, columns, role)
-        expected = tuple(expected)
-        lookup = {format_label(v): i for i, v in enumerate(expected)}
+        labels = tuple(expected)
+        lookup = {format_label(v): i for i, v in enumerate(labels)}
         if len(columns) == 0:
-            return np.zeros(len(data), dtype=np.int64), expected
+            return np.zeros(len(data), dtype=np.int64), labels
         keys = data[columns].astype(str).agg(" & ".join, axis=1) if len(columns) > 1 else data[columns[0]].astype(str)
         mapped = keys.map(lookup)
         if mapped.isna().any():
             bad = keys[mapped.isna()].iloc[0]
             raise InputError(
                 f"column {columns[0]!r}" if len(columns) == 1 else f"columns {columns}",
-                f"value not among the {role} values {[format_label(v) for v in expected]}",
+                f"value not among the {role} values {[format_label(v) for v in labels]}",
                 bad,
             )
-        return mapped.to_numpy(dtype=np.int64), expected
+        return mapped.to_numpy(dtype=np.int64), labels
 
-    cx, contexts = codes(context, contexts, "context")
-    ca, groups = codes(sensitive, groups, "sensitive")
-    cu, decisions = codes([outcome], decisions, "decision")
-    shape = (len(contexts), len(groups), len(decisions))
+    cx, context_labels = codes(context, contexts, "context")
+    ca, group_labels = codes(sensitive, groups, "sensitive")
+    cu, decision_labels = codes([outcome], decisions, "decision")
+    shape = (len(context_labels), len(group_labels), len(decision_labels))
     flat = (cx * shape[1] + ca) * shape[2] + cu
     dup = pd.Series(flat).duplicated()
     if dup.any():
@@ -352,7 +372,15 @@ def count_table(
     integer = pd.api.types.is_integer_dtype(values.dtype)
     counts = np.zeros(int(np.prod(shape)), dtype=np.int64 if integer else float)
     counts[flat] = values.to_numpy(dtype=counts.dtype)  # each cell at most once (checked above)
-    return CountTable(counts.reshape(shape), contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+    return CountTable(
+        counts.reshape(shape),
+        context_labels,
+        group_labels,
+        decision_labels,
+        tuple(context),
+        tuple(sensitive),
+        outcome,
+    )
 
 
 _PARQUET_SUFFIXES = {".parquet", ".pq"}
@@ -362,11 +390,11 @@ def _is_parquet(p: Path) -> bool:
     return p.is_dir() or p.suffix.lower() in _PARQUET_SUFFIXES
 
 
-def _cannot_read(path, exc: Exception) -> InputError:
+def _cannot_read(path: str | Path, exc: Exception) -> InputError:
     return InputError("DATA", f"cannot be read ({type(exc).__name__}: {str(exc).splitlines()[0]})", str(path))
 
 
-def _to_pandas(table):
+def _to_pandas(table: pa.Table) -> pd.DataFrame:
     """An Arrow table as pandas.read_parquet converts it (same dtypes, so the same labels)."""
     try:
         from pandas.io._util import arrow_table_to_pandas  # what pandas.read_parquet calls
@@ -381,14 +409,14 @@ def _to_pandas(table):
 _READAHEAD = {"batch_readahead": 2, "fragment_readahead": 1}
 
 
-def _parquet_dataset(p: Path):
+def _parquet_dataset(p: Path) -> ds.Dataset:
     import pyarrow.dataset as ds
 
     options = ds.ParquetFragmentScanOptions(pre_buffer=False)
     return ds.dataset(p, format=ds.ParquetFileFormat(default_fragment_scan_options=options))
 
 
-def _group_count(dataset, keys: list, name: str, decode: Sequence[str] = ()):
+def _group_count(dataset: ds.Dataset, keys: list[str], name: str, decode: Sequence[str] = ()) -> pa.Table:
     """Acero plan: scan the key columns, (cast dictionary columns ``decode`` to values), hash count per key."""
     import pyarrow.acero as ac
     import pyarrow.compute as pc
@@ -402,11 +430,11 @@ def _group_count(dataset, keys: list, name: str, decode: Sequence[str] = ()):
     return ac.Declaration.from_sequence(nodes).to_table(use_threads=True)
 
 
-def _unified_dictionary(dataset, column: str):
+def _unified_dictionary(dataset: ds.Dataset, column: str) -> pa.Array:
     """The categories pandas.read_parquet gives a dictionary column: its batches' dictionaries unified in order."""
     import pyarrow as pa
 
-    dicts = []
+    dicts: list[pa.Array] = []
     for batch in dataset.to_batches(columns=[column], **_READAHEAD):
         d = batch.column(0).dictionary
         if not dicts or not d.equals(dicts[-1]):
@@ -419,7 +447,7 @@ def _unified_dictionary(dataset, column: str):
     return pa.table({column: chunks}).unify_dictionaries().column(0).chunk(0).dictionary
 
 
-def _stream_counts(dataset, keys: list, name: str):
+def _stream_counts(dataset: ds.Dataset, keys: list[str], name: str) -> pa.Table:
     """The number of records of each distinct combination of ``keys`` (null and NaN keys included), as Arrow.
 
     Dictionary (pandas categorical) columns whose dictionaries differ between
@@ -446,7 +474,9 @@ def _stream_counts(dataset, keys: list, name: str):
     return table
 
 
-def _parquet_counts(path, p: Path, sensitive, outcome, context, dropna) -> CountTable:
+def _parquet_counts(
+    path: str | Path, p: Path, sensitive: list[str], outcome: str, context: list[str], dropna: bool
+) -> CountTable:
     try:
         import pyarrow as pa
         import pyarrow.dataset  # noqa: F401

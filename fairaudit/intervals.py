@@ -63,12 +63,14 @@ Proof of the projection argument and the LP: ``proofs/intervals.md``.
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable
+from collections.abc import Callable, Hashable, Iterator
 from dataclasses import dataclass, field
+from typing import NotRequired, TypeAlias, TypedDict
 
 import numpy as np
+import numpy.typing as npt
 
-from ._arrays import format_label
+from ._arrays import BoolArray, FloatArray, IntArray, format_label
 from ._errors import InputError
 from .estimate import CountTable
 from .laws import Kernel, Law, Population, compose
@@ -87,6 +89,13 @@ __all__ = [
 
 METHODS = ("clopper-pearson", "multinomial", "bayes")
 _MAX_EVENT_DECISIONS = 10  # up to 2^10 - 2 events for the total-variation gaps; beyond, a valid coarser bound
+
+CellSets: TypeAlias = tuple[FloatArray, FloatArray, FloatArray | None, FloatArray | None, int]
+"""Simultaneous sets: (cell lower, cell upper, group lower, group upper, m), group bounds None when not asked."""
+SetMaker: TypeAlias = Callable[[FloatArray, FloatArray, bool, float], CellSets]
+"""(cell counts (X, A, K), group counts (A, C), use_groups, alpha) -> :data:`CellSets`."""
+_Extremes: TypeAlias = tuple[FloatArray, FloatArray, IntArray, IntArray]
+"""Per map: (lower, upper, favoured group, other group)."""
 
 
 @dataclass(frozen=True)
@@ -126,10 +135,10 @@ class Interval:
     group: Hashable | None = None
     other_group: Hashable | None = None
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[float]:
         return iter((self.lower, self.upper))
 
-    def __contains__(self, value) -> bool:
+    def __contains__(self, value: float) -> bool:
         return bool(self.lower <= value <= self.upper)
 
     @property
@@ -183,12 +192,12 @@ class FairnessIntervals:
     sup_global: Interval | None
     demographic_parity: Interval | None
     equalized_odds: Interval | None
-    cell_lower: np.ndarray
-    cell_upper: np.ndarray
-    group_lower: np.ndarray
-    group_upper: np.ndarray
-    kernel_lower: np.ndarray | None
-    kernel_upper: np.ndarray | None
+    cell_lower: FloatArray
+    cell_upper: FloatArray
+    group_lower: FloatArray
+    group_upper: FloatArray
+    kernel_lower: FloatArray | None
+    kernel_upper: FloatArray | None
     n_sets: int
     table: CountTable
     utility: Utility
@@ -198,9 +207,9 @@ class FairnessIntervals:
     concentration: float | None = None
     draws: int | None = None
     seed: int | None = None
-    notes: tuple = field(default_factory=tuple)
+    notes: tuple[str, ...] = field(default_factory=tuple)
 
-    def intervals(self) -> dict:
+    def intervals(self) -> dict[str, Interval | None]:
         """The metric intervals by name (None where not computed)."""
         return {
             "local": self.local,
@@ -215,13 +224,26 @@ class FairnessIntervals:
 # ---------------------------------------------------------------- per-cell sets
 
 
-def _sum_last(x, keepdims: bool = False) -> np.ndarray:
+class _Inputs(TypedDict):
+    """The fields of a :class:`FairnessIntervals` that repeat its inputs."""
+
+    table: CountTable
+    utility: Utility
+    sensitive_mechanism: Mechanism | None
+    context_mechanism: Mechanism | None
+    population: Population | None
+    concentration: NotRequired[float]
+    draws: NotRequired[int]
+    seed: NotRequired[int]
+
+
+def _sum_last(x: npt.ArrayLike, keepdims: bool = False) -> FloatArray:
     """Sum over the last (short: decisions) axis; ``einsum`` is several times faster than ``sum`` there."""
     out = np.einsum("...k->...", np.asarray(x, dtype=float))
     return out[..., None] if keepdims else out
 
 
-def clopper_pearson(k, n, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+def clopper_pearson(k: npt.ArrayLike, n: npt.ArrayLike, alpha: float) -> tuple[FloatArray, FloatArray]:
     """Exact two-sided binomial interval (Clopper and Pearson 1934), vectorised.
 
     Parameters
@@ -277,7 +299,7 @@ def clopper_pearson(k, n, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def category_bounds(counts, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+def category_bounds(counts: npt.ArrayLike, alpha: float) -> tuple[FloatArray, FloatArray]:
     """A simultaneous multinomial set for each cell: Clopper–Pearson per decision, intersected with the simplex.
 
     Parameters
@@ -318,7 +340,7 @@ def category_bounds(counts, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     return np.clip(lo2, 0.0, 1.0), np.clip(hi2, 0.0, 1.0)
 
 
-def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
+def linear_extremes(f: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     """min and max of f·p over {p : lower ≤ p ≤ upper, Σ p = 1}, in closed form, vectorised.
 
     The LP's solution is a fractional knapsack: start at ``lower`` and give
@@ -363,7 +385,7 @@ def linear_extremes(f, lower, upper) -> tuple[np.ndarray, np.ndarray]:
     return out[0], out[1]
 
 
-def _event_extremes(events: np.ndarray, lower: np.ndarray, upper: np.ndarray):
+def _event_extremes(events: FloatArray, lower: FloatArray, upper: FloatArray) -> tuple[FloatArray, FloatArray]:
     """:func:`linear_extremes` for 0/1 functionals (events S, rows of ``events``, shape (S, K)), by matrix products.
 
     For f = 1_S the knapsack gives max P(S) = min(Σ_S upper, 1 − Σ_{not S} lower)
@@ -377,7 +399,7 @@ def _event_extremes(events: np.ndarray, lower: np.ndarray, upper: np.ndarray):
     return np.moveaxis(mn, -1, 0), np.moveaxis(mx, -1, 0)
 
 
-def _events(K: int) -> np.ndarray:
+def _events(K: int) -> FloatArray:
     """0/1 matrix of decision events S (rows) for the total-variation gaps.
 
     All nonempty proper subsets when K ≤ 10 (TV = max over S of P(S) − P'(S)
@@ -395,7 +417,7 @@ def _events(K: int) -> np.ndarray:
 # ---------------------------------------------------------------- ratio and gap extremes
 
 
-def _div(num, den):
+def _div(num: npt.ArrayLike, den: npt.ArrayLike) -> FloatArray:
     """num / den with c/0 = +inf (c > 0) and 0/0 = 1."""
     num, den = np.broadcast_arrays(np.asarray(num, dtype=float), np.asarray(den, dtype=float))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -408,7 +430,7 @@ def _log(x: float) -> float:
     return math.inf if x == math.inf else math.log(max(x, 1.0))
 
 
-def _disjoint_ratio(lo: np.ndarray, hi: np.ndarray):
+def _disjoint_ratio(lo: FloatArray, hi: FloatArray) -> _Extremes:
     """Extremes of max_{a≠a'} E_a / E_a' when each E_a ranges over its own [lo_a, hi_a] independently.
 
     lo, hi: shape (M, A); NaN marks a group left out of a map. Returns
@@ -439,7 +461,7 @@ def _disjoint_ratio(lo: np.ndarray, hi: np.ndarray):
     return lower, upper, idx // A, idx % A
 
 
-def _pair_gap(big: np.ndarray, small: np.ndarray):
+def _pair_gap(big: FloatArray, small: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
     """max over a ≠ a' of big[..., a] − small[..., a'] (last axis, at least 2 groups) and the maximising pair.
 
     Only the two largest ``big`` and the two smallest ``small`` can attain it, so
@@ -457,7 +479,9 @@ def _pair_gap(big: np.ndarray, small: np.ndarray):
     return value, fav, oth
 
 
-def _disjoint_tv(lo: np.ndarray, hi: np.ndarray, events: np.ndarray, cat_lo: np.ndarray, cat_hi: np.ndarray):
+def _disjoint_tv(
+    lo: FloatArray, hi: FloatArray, events: FloatArray, cat_lo: FloatArray, cat_hi: FloatArray
+) -> _Extremes:
     """Extremes of max_{a≠a'} TV(P_a, P_a') when each P_a ranges over its own set independently.
 
     lo, hi: event bounds, shape (M, A, S); cat_lo, cat_hi: per-decision
@@ -493,7 +517,7 @@ class _MinMaxRatio:
     once per shape with cvxpy parameters and solved with Clarabel.
     """
 
-    def __init__(self, A: int, n: int):
+    def __init__(self, A: int, n: int) -> None:
         import cvxpy as cp
 
         self.W = cp.Parameter((A, n), nonneg=True)
@@ -505,7 +529,7 @@ class _MinMaxRatio:
             [self.W @ y <= sigma, self.W @ y >= 1, y >= cp.multiply(self.lo, t), y <= cp.multiply(self.hi, t)],
         )
 
-    def solve(self, W: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    def solve(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
         import cvxpy as cp
 
         from .lfp import _solve
@@ -524,7 +548,7 @@ class _MinMaxRatio:
         return max(pairwise, value if value > 1.0 + 1e-9 else 1.0)
 
 
-def _pairwise_floor(W: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
     """max over pairs of min over the box of (W_a·e)/(W_a'·e): a valid floor of the min-max ratio, in closed form.
 
     min of a max ≥ max of the mins; each min is 1 / the threshold maximum of
@@ -540,7 +564,9 @@ def _pairwise_floor(W: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     return max(1.0, float(mins.max()))
 
 
-def _mixed_ratio(W: np.ndarray, lo: np.ndarray, hi: np.ndarray, solver: dict):
+def _mixed_ratio(
+    W: FloatArray, lo: FloatArray, hi: FloatArray, solver: dict[tuple[int, int], _MinMaxRatio]
+) -> _Extremes:
     """Extremes of max_{a≠a'} (W_a·e)/(W_a'·e) over the box lo ≤ e ≤ hi, for each map W[m] (shape (M, A, n)).
 
     Upper: the threshold solution of each pair's linear-fractional program.
@@ -562,7 +588,9 @@ def _mixed_ratio(W: np.ndarray, lo: np.ndarray, hi: np.ndarray, solver: dict):
     return lower, upper, idx // A, idx % A
 
 
-def _mixed_tv(W: np.ndarray, ev_lo: np.ndarray, ev_hi: np.ndarray, events: np.ndarray, cat_lo, cat_hi):
+def _mixed_tv(
+    W: FloatArray, ev_lo: FloatArray, ev_hi: FloatArray, events: FloatArray, cat_lo: FloatArray, cat_hi: FloatArray
+) -> _Extremes:
     """Extremes of max_{a≠a'} TV(Q_a, Q_a') with Q_a(S) = W_a·e_S over boxes ev_lo[S] ≤ e_S ≤ ev_hi[S].
 
     W: (M, A, n); ev_lo, ev_hi: (S, n); cat_lo, cat_hi: (n, K). For each S
@@ -594,7 +622,7 @@ def _mixed_tv(W: np.ndarray, ev_lo: np.ndarray, ev_hi: np.ndarray, events: np.nd
 # ---------------------------------------------------------------- the entry point
 
 
-def _check(table, utility, confidence, method, concentration, draws):
+def _check(table: object, utility: object, confidence: float, method: str, concentration: float, draws: int) -> None:
     if not isinstance(table, CountTable):
         raise InputError("table", "must be a CountTable (fairaudit.count_records or count_table)", type(table).__name__)
     if not isinstance(utility, Utility):
@@ -620,7 +648,7 @@ def _check(table, utility, confidence, method, concentration, draws):
             raise InputError("--draws", "must be a whole number >= 100", draws)
 
 
-def _is_indicator(g: np.ndarray) -> bool:
+def _is_indicator(g: FloatArray) -> bool:
     return bool(np.all((g == 0.0) | (g == 1.0)))
 
 
@@ -712,6 +740,8 @@ def fairness_intervals(
             "--method", "clopper-pearson needs a 0/1 utility; use multinomial or bayes for this utility", utility.name
         )
     filtered = not (_identity(sensitive_mechanism, table.groups) and _identity(context_mechanism, table.contexts))
+    m_a: Mechanism | None
+    m_x: Mechanism | None
     if filtered:
         m_a = sensitive_mechanism if sensitive_mechanism is not None else _eye(table.groups)
         m_x = context_mechanism if context_mechanism is not None else _eye(table.contexts)
@@ -735,7 +765,7 @@ def fairness_intervals(
             population = Population.uniform(m_x.inputs, m_a.inputs)
         law_groups, law_contexts = tuple(m_a.inputs), tuple(m_x.inputs)
     else:
-        m_a = m_x = None
+        m_a, m_x = None, None
         law_groups, law_contexts = table.groups, table.contexts
     if population is not None and (
         tuple(population.groups) != law_groups or tuple(population.contexts) != law_contexts
@@ -748,14 +778,16 @@ def fairness_intervals(
 
     prior = concentration / K if method == "bayes" else 0.0  # bayes: the plug-in of the posterior mean
     estimate = _estimates(table, counts + prior, utility, filtered, m_a, m_x, population)
-    common = dict(table=table, utility=utility, sensitive_mechanism=m_a, context_mechanism=m_x, population=population)
+    common = _Inputs(
+        table=table, utility=utility, sensitive_mechanism=m_a, context_mechanism=m_x, population=population
+    )
     ctx_keep = np.ones(len(law_contexts), bool) if population is None else population.p_context > 0
-    sets = _binomial_sets
+    sets: SetMaker = _binomial_sets
     if method == "bayes":
         from ._bayes import band_sets
 
         sets = band_sets(concentration, int(draws), int(seed))
-        common.update(concentration=float(concentration), draws=int(draws), seed=int(seed))
+        common["concentration"], common["draws"], common["seed"] = float(concentration), int(draws), int(seed)
     return _frequentist(
         counts,
         g,
@@ -774,19 +806,27 @@ def fairness_intervals(
     )
 
 
-def _identity(mech, labels) -> bool:
+def _identity(mech: Mechanism | None, labels: tuple) -> bool:
     if mech is None:
         return True
     return tuple(mech.inputs) == tuple(labels) and mech.is_identity
 
 
-def _eye(labels) -> Mechanism:
+def _eye(labels: tuple) -> Mechanism:
     from .privacy import identity
 
     return identity(labels)
 
 
-def _estimates(table, counts, utility, filtered, m_a, m_x, population) -> dict:
+def _estimates(
+    table: CountTable,
+    counts: FloatArray,
+    utility: Utility,
+    filtered: bool,
+    m_a: Mechanism | None,
+    m_x: Mechanism | None,
+    population: Population | None,
+) -> dict[str, float]:
     """Plug-in values of every metric for the law ``counts`` / their row sums (NaN where empty cells matter).
 
     ``counts`` are the table's, plus the prior's pseudo-counts c/K for the posterior mean of ``"bayes"``
@@ -812,7 +852,19 @@ def _estimates(table, counts, utility, filtered, m_a, m_x, population) -> dict:
     }
 
 
-def _make(name, lower, upper, idx, keys, contexts, groups, estimate, confidence, method, local: bool) -> Interval:
+def _make(
+    name: str,
+    lower: npt.ArrayLike,
+    upper: npt.ArrayLike,
+    idx: tuple[IntArray, IntArray],
+    keys: list[int],
+    contexts: tuple,
+    groups: tuple,
+    estimate: dict[str, float],
+    confidence: float,
+    method: str,
+    local: bool,
+) -> Interval:
     """One Interval from per-map ends (maps are contexts for local metrics, one map for global)."""
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
     fav, oth = idx
@@ -835,7 +887,7 @@ def _make(name, lower, upper, idx, keys, contexts, groups, estimate, confidence,
     )
 
 
-def _binomial_sets(cell_counts, group_counts, use_groups: bool, alpha: float):
+def _binomial_sets(cell_counts: FloatArray, group_counts: FloatArray, use_groups: bool, alpha: float) -> CellSets:
     """The exact sets: per-decision Clopper–Pearson bounds, Bonferroni over the non-empty cells (and groups).
 
     Returns (cell lower, cell upper, group lower, group upper, m); the group bounds are None without ``use_groups``.
@@ -848,21 +900,21 @@ def _binomial_sets(cell_counts, group_counts, use_groups: bool, alpha: float):
 
 
 def _frequentist(
-    counts,
-    g,
-    alpha,
-    method,
-    estimate,
-    contexts,
-    groups,
-    ctx_keep,
-    filtered,
-    m_a,
-    m_x,
-    population,
-    common,
-    sets=_binomial_sets,
-):
+    counts: FloatArray,
+    g: FloatArray,
+    alpha: float,
+    method: str,
+    estimate: dict[str, float],
+    contexts: tuple,
+    groups: tuple,
+    ctx_keep: BoolArray,
+    filtered: bool,
+    m_a: Mechanism | None,
+    m_x: Mechanism | None,
+    population: Population | None,
+    common: _Inputs,
+    sets: SetMaker = _binomial_sets,
+) -> FairnessIntervals:
     X, A, K = counts.shape
     depends_on_context = bool(g.ndim == 3 and X > 1 and not np.all(g == g[:1]))
     pooled = population is None  # unfiltered, records' own groups
@@ -886,8 +938,8 @@ def _frequentist(
     if shared:
         gc_lo, gc_hi = c_lo[0], c_hi[0]
     e_lo, e_hi = linear_extremes(gf, c_lo, c_hi)  # (X, A)
-    notes = []
-    solver: dict = {}
+    notes: list[str] = []
+    solver: dict[tuple[int, int], _MinMaxRatio] = {}
     kc = cell_counts.shape[-1]
     events = _events(kc)
     ev_lo, ev_hi = (
@@ -901,7 +953,7 @@ def _frequentist(
         )
     if kc > _MAX_EVENT_DECISIONS:
         notes.append(f"{kc} decisions: the upper ends of L_dp and L_eo use the coarser bound ½ Σ_u max |ΔP(u)|")
-    res: dict = {}
+    res: dict[str, tuple[_Extremes, IntArray | list[int]]] = {}  # metric -> (ends per map, the maps' context indices)
     local_keys = np.flatnonzero(ctx_keep)
     if not filtered:
         sl = local_keys
@@ -915,7 +967,8 @@ def _frequentist(
                 ),
                 sl,
             )
-        if pooled:
+        if population is None:  # pooled
+            assert gc_lo is not None and gc_hi is not None  # the group sets were asked for, or are the cells'
             ge_lo, ge_hi = linear_extremes(g_group, gc_lo, gc_hi)
             if with_u:
                 fold = _fold(depends_on_context and method != "clopper-pearson", X, kc)  # categories -> decisions
@@ -942,6 +995,7 @@ def _frequentist(
         cell_lo, cell_hi = e_lo, e_hi
         kernel_lo = kernel_hi = None
     else:
+        assert m_a is not None and m_x is not None and population is not None  # behind a filter all are set
         Wl = np.einsum("xy,ab->xayb", m_x.matrix, m_a.matrix).reshape(len(contexts), len(groups), X * A)
         w = population.context_given_group()
         w = np.where(np.isnan(w), 0.0, w)
@@ -968,7 +1022,7 @@ def _frequentist(
         ge_lo, ge_hi = Wg @ flat_lo, Wg @ flat_hi
         kernel_lo, kernel_hi = e_lo, e_hi
     conf = 1.0 - alpha
-    made = {}
+    made: dict[str, Interval | None] = {}
     for name in ("local", "global", "sup_local", "sup_global", "demographic_parity", "equalized_odds"):
         if name not in res:
             made[name] = None
@@ -987,11 +1041,13 @@ def _frequentist(
             method,
             local=name in ("local", "sup_local", "equalized_odds"),
         )
+    local, global_ = made["local"], made["global"]
+    assert local is not None and global_ is not None  # always computed
     return FairnessIntervals(
         method,
         conf,
-        made["local"],
-        made["global"],
+        local,
+        global_,
         made["sup_local"],
         made["sup_global"],
         made["demographic_parity"],
@@ -1008,14 +1064,14 @@ def _frequentist(
     )
 
 
-def _fold(joint: bool, X: int, K: int):
+def _fold(joint: bool, X: int, K: int) -> FloatArray | None:
     """(K, X·K) matrix summing the joint (x, u) categories of a group into decisions u; None when not joint."""
     if not joint:
         return None
     return np.tile(np.eye(K), (1, X))
 
 
-def _max_over(results):
+def _max_over(results: list[_Extremes]) -> _Extremes:
     """The max over decisions u of per-u (lower, upper, fav, other) results (valid for both ends)."""
     lowers = np.stack([r[0] for r in results])
     uppers = np.stack([r[1] for r in results])

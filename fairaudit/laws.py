@@ -18,12 +18,23 @@ report it.
 
 from __future__ import annotations
 
-from collections.abc import Hashable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Hashable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Self
 
 import numpy as np
+import numpy.typing as npt
 
-from ._arrays import ROW_TOLERANCE, as_float_array, as_labels, check_probabilities, check_shape, format_label
+from ._arrays import (
+    ROW_TOLERANCE,
+    BoolArray,
+    FloatArray,
+    as_float_array,
+    as_labels,
+    check_probabilities,
+    check_shape,
+    format_label,
+)
 from ._errors import InputError
 from .privacy import Mechanism, identity
 
@@ -79,11 +90,11 @@ class Population:
     True
     """
 
-    probabilities: np.ndarray
+    probabilities: FloatArray
     contexts: tuple
     groups: tuple
 
-    def __init__(self, probabilities, contexts: Sequence[Hashable], groups: Sequence[Hashable]):
+    def __init__(self, probabilities: npt.ArrayLike, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> None:
         contexts = as_labels(contexts, "population contexts")
         groups = as_labels(groups, "population groups")
         array = as_float_array(probabilities, "population", ndim=2)  # our own copy
@@ -111,7 +122,9 @@ class Population:
         return cls(np.full((len(contexts), len(groups)), 1.0 / (len(contexts) * len(groups))), contexts, groups)
 
     @classmethod
-    def independent(cls, p_context, p_group, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
+    def independent(
+        cls, p_context: npt.ArrayLike, p_group: npt.ArrayLike, contexts: Sequence[Hashable], groups: Sequence[Hashable]
+    ) -> Population:
         """The product P(x) P(a) of two marginals (each summing to 1)."""
         px = as_float_array(p_context, "context distribution", ndim=1)
         pa = as_float_array(p_group, "group distribution", ndim=1)
@@ -124,7 +137,7 @@ class Population:
         return cls(np.outer(px, pa), contexts, groups)
 
     @classmethod
-    def from_counts(cls, counts, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
+    def from_counts(cls, counts: npt.ArrayLike, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
         """Empirical population from a (n_contexts, n_groups) table of counts."""
         array = as_float_array(counts, "population counts", ndim=2)
         if np.any(array < 0) or not np.all(np.isfinite(array)):
@@ -135,24 +148,24 @@ class Population:
         return cls(array / total, contexts, groups)
 
     @property
-    def p_context(self) -> np.ndarray:
+    def p_context(self) -> FloatArray:
         """Marginal P(X = x), shape (n_contexts,), read-only (computed once)."""
         return self._marginal("p_context", lambda p: np.einsum("xa->x", p))
 
     @property
-    def p_group(self) -> np.ndarray:
+    def p_group(self) -> FloatArray:
         """Marginal P(A = a), shape (n_groups,), read-only (computed once)."""
         return self._marginal("p_group", lambda p: p.sum(axis=0))
 
-    def _marginal(self, key: str, compute) -> np.ndarray:
-        cache = self.__dict__.setdefault("_cache", {})
+    def _marginal(self, key: str, compute: Callable[[FloatArray], FloatArray]) -> FloatArray:
+        cache: dict[str, FloatArray] = self.__dict__.setdefault("_cache", {})
         if key not in cache:
             value = compute(self.probabilities)
             value.setflags(write=False)
             cache[key] = value
         return cache[key]
 
-    def context_given_group(self) -> np.ndarray:
+    def context_given_group(self) -> FloatArray:
         """P(X = x | A = a), shape (n_contexts, n_groups); columns of groups with P(a) = 0 are NaN."""
         pa = self.p_group
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -168,28 +181,29 @@ class Population:
 
 @dataclass(frozen=True, eq=False)
 class _DecisionTable:
-    probabilities: np.ndarray
+    probabilities: FloatArray
     contexts: tuple
     groups: tuple
     decisions: tuple
-    counts: np.ndarray | None = None
+    counts: FloatArray | None = None
     name: str = "table"
     complete: bool = True
     """True when every cell (x, a) is observed (no empty cell)."""
+    _observed: BoolArray = field(init=False, repr=False, compare=False)
 
     _axes = ("context", "group", "decision")
 
     def __init__(
         self,
-        probabilities,
+        probabilities: npt.ArrayLike,
         contexts: Sequence[Hashable],
         groups: Sequence[Hashable],
         decisions: Sequence[Hashable],
         *,
-        counts=None,
+        counts: npt.ArrayLike | None = None,
         name: str | None = None,
         _owned: bool = False,
-    ):
+    ) -> None:
         name = name or self._default_name
         contexts = as_labels(contexts, f"{name} contexts")
         groups = as_labels(groups, f"{name} groups")
@@ -228,13 +242,13 @@ class _DecisionTable:
     @classmethod
     def from_counts(
         cls,
-        counts,
+        counts: npt.ArrayLike,
         contexts: Sequence[Hashable],
         groups: Sequence[Hashable],
         decisions: Sequence[Hashable],
         *,
         name: str | None = None,
-    ):
+    ) -> Self:
         """Estimate the table from counts of shape (n_contexts, n_groups, n_decisions).
 
         Each row is divided by its total; rows with no record are empty
@@ -253,20 +267,20 @@ class _DecisionTable:
     @property
     def shape(self) -> tuple[int, int, int]:
         """(n_contexts, n_groups, n_decisions)."""
-        return self.probabilities.shape  # type: ignore[return-value]
+        return self.probabilities.shape
 
     @property
-    def observed(self) -> np.ndarray:
+    def observed(self) -> BoolArray:
         """Boolean (n_contexts, n_groups), read-only: True where the cell's row is known (it has records)."""
         return self._observed
 
     @property
-    def cell_counts(self) -> np.ndarray | None:
+    def cell_counts(self) -> FloatArray | None:
         """Records per cell (x, a), shape (n_contexts, n_groups), or None."""
         return None if self.counts is None else self.counts.sum(axis=-1)
 
     @property
-    def empty_cells(self) -> tuple:
+    def empty_cells(self) -> tuple[tuple[Any, Any], ...]:
         """Labels (context, group) of the empty cells, in table order."""
         idx = np.argwhere(~self.observed)
         return tuple((self.contexts[i], self.groups[j]) for i, j in idx)
@@ -394,8 +408,8 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
     empty = ~kernel.observed
     if np.any(empty):
         # a released cell (x̃, ã) is reached when some input maps to x̃ and some input maps to ã
-        reach_x = True if same_x else (m_x.matrix > 0).any(axis=0)[:, None]
-        reach_a = True if same_a else (m_a.matrix > 0).any(axis=0)[None, :]
+        reach_x = True if same_x else np.any(m_x.matrix > 0, axis=0)[:, None]
+        reach_a = True if same_a else np.any(m_a.matrix > 0, axis=0)[None, :]
         hit = empty & reach_x & reach_a
         if np.any(hit):
             i, j = np.argwhere(hit)[0]

@@ -29,11 +29,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal, TypeAlias, overload
 
 import numpy as np
+import numpy.typing as npt
 
-from ._arrays import as_float_array
+from ._arrays import FloatArray, IntArray, as_float_array
 from ._errors import InputError
+
+if TYPE_CHECKING:
+    import cvxpy as cp
+    import scipy.sparse as sp
+
+ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
+"""A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
+
+ThresholdSolution: TypeAlias = tuple[FloatArray, IntArray, IntArray]
+"""What :func:`threshold_max_many` returns: (values, k, order)."""
 
 __all__ = [
     "FractionalResult",
@@ -68,18 +80,18 @@ class FractionalResult:
     """
 
     value: float
-    argmax: np.ndarray | None
+    argmax: FloatArray | None
     status: str
     method: str
     solver_status: str
     reason: str
-    p: np.ndarray
-    q: np.ndarray
-    lower: np.ndarray | None
-    upper: np.ndarray | None
+    p: FloatArray
+    q: FloatArray
+    lower: FloatArray | None
+    upper: FloatArray | None
 
 
-def _vectors(p, q):
+def _vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     p = as_float_array(p, "p", ndim=1)
     q = as_float_array(q, "q", ndim=1)
     if p.shape != q.shape:
@@ -89,7 +101,17 @@ def _vectors(p, q):
     return p, q
 
 
-def _bounds(lower, upper, n: int, required: bool):
+@overload
+def _bounds(
+    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: Literal[True]
+) -> tuple[FloatArray, FloatArray]: ...
+@overload
+def _bounds(
+    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
+) -> tuple[FloatArray | None, FloatArray | None]: ...
+def _bounds(
+    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
+) -> tuple[FloatArray | None, FloatArray | None]:
     if lower is None or upper is None:
         if required:
             raise InputError("lower", "the threshold solution needs finite lower and upper bounds")
@@ -111,7 +133,7 @@ def _ratio(num: float, den: float) -> float:
     return math.inf if num > 0 else 1.0
 
 
-def threshold_max(p, q, lower, upper) -> FractionalResult:
+def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike) -> FractionalResult:
     """max (p·h)/(q·h) over the box lower ≤ h ≤ upper, exactly, in O(n log n).
 
     Proof: ``proofs/linear_fractional.md`` (the threshold solution).
@@ -161,7 +183,9 @@ def threshold_max(p, q, lower, upper) -> FractionalResult:
     return FractionalResult(value, h, "optimal", "threshold", "threshold", "", p, q, lo, hi)
 
 
-def threshold_max_many(p, q, lower, upper):
+def threshold_max_many(
+    p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike
+) -> ThresholdSolution:
     """The threshold solution for a batch of box programs, vectorised over leading axes.
 
     Proof: ``proofs/linear_fractional.md`` (the threshold solution).
@@ -224,7 +248,14 @@ def threshold_max_many(p, q, lower, upper):
     return best, k, order
 
 
-def floor_max_many(p, q, lower, upper, floor: float, threshold=None):
+def floor_max_many(
+    p: npt.ArrayLike,
+    q: npt.ArrayLike,
+    lower: npt.ArrayLike,
+    upper: npt.ArrayLike,
+    floor: float,
+    threshold: ThresholdSolution | None = None,
+) -> tuple[FloatArray, IntArray, FloatArray, IntArray]:
     """Box programs with one more constraint, q·h ≥ floor, solved in closed form, vectorised.
 
     max (p·h)/(q·h) over lower ≤ h ≤ upper with q·h ≥ floor > 0. Let h* be the
@@ -304,7 +335,7 @@ def floor_max_many(p, q, lower, upper, floor: float, threshold=None):
     return values, k_out, frac_out, order
 
 
-def box_point(lower, upper, order, k: int, frac: float = 0.0) -> np.ndarray:
+def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: int, frac: float = 0.0) -> FloatArray:
     """The point of a threshold or floor solution: ``upper`` on ``order[:k]``, partly raised ``order[k]``.
 
     Parameters
@@ -343,7 +374,7 @@ def box_point(lower, upper, order, k: int, frac: float = 0.0) -> np.ndarray:
 _TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
 
 
-def _solve(problem) -> None:
+def _solve(problem: cp.Problem) -> None:
     """Solve with Clarabel at tight tolerances; an inaccurate solve is reported in ``solver_status``, not warned."""
     import warnings
 
@@ -390,7 +421,17 @@ class FractionalProgram:
     (1.5714286, [1.0, 0.2857143], 'optimal')
     """
 
-    def __init__(self, n: int, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None):
+    def __init__(
+        self,
+        n: int,
+        *,
+        lower: npt.ArrayLike | None = None,
+        upper: npt.ArrayLike | None = None,
+        A_ub: ConstraintMatrix | None = None,
+        b_ub: npt.ArrayLike | None = None,
+        A_eq: ConstraintMatrix | None = None,
+        b_eq: npt.ArrayLike | None = None,
+    ) -> None:
         import cvxpy as cp
 
         self.n = int(n)
@@ -401,7 +442,7 @@ class FractionalProgram:
         self._s = cp.Variable(nonneg=True)
         y, s = self._y, self._s
         cons = [self._q @ y == 1]
-        self._rows: list = []
+        self._rows: list[tuple[FloatArray | sp.csr_matrix, FloatArray, str]] = []
         for bound, op in ((self.lower, "ge"), (self.upper, "le")):
             if bound is None:
                 continue
@@ -424,9 +465,9 @@ class FractionalProgram:
             and self.upper is not None
             and bool(np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper)))
         )
-        self._primal = None
+        self._primal: tuple[cp.Problem, cp.Variable, cp.Parameter] | None = None
 
-    def solve(self, p, q) -> FractionalResult:
+    def solve(self, p: npt.ArrayLike, q: npt.ArrayLike) -> FractionalResult:
         """The optimum for numerator ``p`` and denominator ``q`` (shape (n,) each).
 
         Returns
@@ -505,7 +546,7 @@ class FractionalProgram:
             )
         return FractionalResult(float(prob.value), y / float(s), "optimal", "lp", status, "", p, q, lo, hi)
 
-    def _zero_denominator(self, p: np.ndarray, q: np.ndarray, status: str) -> FractionalResult:
+    def _zero_denominator(self, p: FloatArray, q: FloatArray, status: str) -> FractionalResult:
         """The transformed LP is infeasible: the polytope is empty, or q·h = 0 on all of it.
 
         Tells the two apart with the LP max p·h over the polytope itself: empty
@@ -550,7 +591,7 @@ class FractionalProgram:
             1.0, h, "optimal", "lp", status, "p·h = q·h = 0 on every feasible h (0/0 counts as parity)", p, q, lo, hi
         )
 
-    def _primal_max(self, p: np.ndarray):
+    def _primal_max(self, p: FloatArray) -> tuple[str, float, FloatArray | None]:
         """max p·h over the polytope itself (built on first use): (status, value, h or None)."""
         import cvxpy as cp
 
@@ -572,7 +613,7 @@ class FractionalProgram:
         return prob.status, prob.value, None if h.value is None else np.asarray(h.value, dtype=float)
 
 
-def _matrix(a, name: str):
+def _matrix(a: ConstraintMatrix, name: str) -> FloatArray | sp.csr_matrix:
     import scipy.sparse as sp
 
     if sp.issparse(a):
@@ -583,7 +624,17 @@ def _matrix(a, name: str):
     return as_float_array(a, name, ndim=2)
 
 
-def lp_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None) -> FractionalResult:
+def lp_max(
+    p: npt.ArrayLike,
+    q: npt.ArrayLike,
+    *,
+    lower: npt.ArrayLike | None = None,
+    upper: npt.ArrayLike | None = None,
+    A_ub: ConstraintMatrix | None = None,
+    b_ub: npt.ArrayLike | None = None,
+    A_eq: ConstraintMatrix | None = None,
+    b_eq: npt.ArrayLike | None = None,
+) -> FractionalResult:
     """max (p·h)/(q·h) over a polytope, by the Charnes–Cooper transform and an LP.
 
     Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; statuses).
@@ -622,7 +673,16 @@ def lp_max(p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_e
 
 
 def fractional_max(
-    p, q, *, lower=None, upper=None, A_ub=None, b_ub=None, A_eq=None, b_eq=None, method: str = "auto"
+    p: npt.ArrayLike,
+    q: npt.ArrayLike,
+    *,
+    lower: npt.ArrayLike | None = None,
+    upper: npt.ArrayLike | None = None,
+    A_ub: ConstraintMatrix | None = None,
+    b_ub: npt.ArrayLike | None = None,
+    A_eq: ConstraintMatrix | None = None,
+    b_eq: npt.ArrayLike | None = None,
+    method: str = "auto",
 ) -> FractionalResult:
     """max (p·h)/(q·h) over a polytope: the threshold fast path when it applies, else the LP.
 
@@ -675,5 +735,6 @@ def fractional_max(
             "method", "the threshold solution needs only finite bounds 0 <= lower <= upper and p, q >= 0", method
         )
     if method == "threshold" or (method == "auto" and boxed):
+        assert lower is not None and upper is not None  # boxed
         return threshold_max(p_arr, q_arr, lower, upper)
     return lp_max(p_arr, q_arr, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)

@@ -24,12 +24,13 @@ Proofs: ``proofs/lemma1_links.md`` (Lemma 1 and the links theorem),
 
 from __future__ import annotations
 
-from collections.abc import Hashable
+from collections.abc import Hashable, Iterator
 from dataclasses import dataclass
+from typing import TypedDict
 
 import numpy as np
 
-from ._arrays import format_label, ratio_extremes, ratio_of_extremes, safe_log
+from ._arrays import BoolArray, FloatArray, IntArray, format_label, ratio_extremes, ratio_of_extremes, safe_log
 from ._errors import InputError
 from .laws import Law, Population
 from .utility import Utility
@@ -47,6 +48,7 @@ __all__ = [
     "sup_global_fairness",
     "group_decision_law",
     "all_metrics",
+    "AllMetrics",
 ]
 
 
@@ -83,9 +85,9 @@ class Fairness:
     context: Hashable | None
     group: Hashable | None
     other_group: Hashable | None
-    expected_utility: np.ndarray
-    per_context: np.ndarray | None
-    excluded: tuple
+    expected_utility: FloatArray
+    per_context: FloatArray | None
+    excluded: tuple[str, ...]
     law: Law
     utility: Utility
     population: Population | None
@@ -123,7 +125,7 @@ class TotalVariation:
     group: Hashable | None
     other_group: Hashable | None
     event: tuple
-    excluded: tuple
+    excluded: tuple[str, ...]
     law: Law
     population: Population | None
 
@@ -156,18 +158,18 @@ class SupFairness:
     group: Hashable | None
     other_group: Hashable | None
     decision: Hashable | None
-    excluded: tuple
+    excluded: tuple[str, ...]
     law: Law
     population: Population | None
 
 
-def _check_law(law) -> Law:
+def _check_law(law: object) -> Law:
     if not isinstance(law, Law):
         raise InputError("law", "must be a Law (use compose() to turn a kernel into a law)", type(law).__name__)
     return law
 
 
-def _check_population(population, law: Law) -> Population:
+def _check_population(population: object, law: Law) -> Population:
     if population is None:
         return Population.uniform(law.contexts, law.groups)
     if not isinstance(population, Population):
@@ -196,7 +198,7 @@ def _check_population(population, law: Law) -> Population:
 _CHUNK_BYTES = 1 << 19
 
 
-def _chunks(n: int, row_bytes: int):
+def _chunks(n: int, row_bytes: int) -> Iterator[slice]:
     step = max(64, _CHUNK_BYTES // max(int(row_bytes), 1))
     for start in range(0, n, step):
         yield slice(start, min(n, start + step))
@@ -208,7 +210,7 @@ def _use_events(n_groups: int, n_decisions: int) -> bool:
     return n_decisions <= 12 and events * n_groups <= n_groups * (n_groups - 1) // 2 * n_decisions
 
 
-def _tv_chunk(ct: np.ndarray, nan: bool) -> np.ndarray:
+def _tv_chunk(ct: FloatArray, nan: bool) -> FloatArray:
     """Largest TV over pairs of groups per context of a chunk ``ct`` (n_decisions, n_groups, chunk).
 
     TV(P, P') = max over events S of P(S) − P'(S), so the largest TV over pairs is the largest range
@@ -220,8 +222,8 @@ def _tv_chunk(ct: np.ndarray, nan: bool) -> np.ndarray:
     big, small = (np.fmax, np.fmin) if nan else (np.maximum, np.minimum)
     if _use_events(A, K):
         best = np.zeros(C)
-        sums: list = [None] * (1 << max(K - 1, 0))
-        for m in range(1, len(sums)):
+        sums: dict[int, FloatArray] = {}  # bit mask m of decisions -> P(S_m), shape (n_groups, chunk)
+        for m in range(1, 1 << max(K - 1, 0)):
             low = m & -m
             u = low.bit_length() - 1
             sums[m] = ct[u] if m == low else sums[m ^ low] + ct[u]
@@ -236,13 +238,19 @@ def _tv_chunk(ct: np.ndarray, nan: bool) -> np.ndarray:
 class _Pass:
     """What one pass over the law found: E[g | x, a], extremes over groups, TV per context, P(U | a)."""
 
-    e: np.ndarray | None = None  # (n_contexts, n_groups)
-    e_max: np.ndarray | None = None  # (n_contexts,): max over groups of E[g | x, a], NaN ignored
-    e_min: np.ndarray | None = None
-    top: np.ndarray | None = None  # (n_contexts, n_decisions): max over groups of Q[x, a, u]
-    bottom: np.ndarray | None = None  # (n_contexts, n_decisions): min over groups
-    tv: np.ndarray | None = None  # (n_contexts,): max over pairs of TV(Q[x, a], Q[x, a'])
-    group_law: np.ndarray | None = None  # (n_groups, n_decisions): Σ_x w[x, a] Q[x, a, u]
+    e: FloatArray | None = None  # (n_contexts, n_groups)
+    e_max: FloatArray | None = None  # (n_contexts,): max over groups of E[g | x, a], NaN ignored
+    e_min: FloatArray | None = None
+    top: FloatArray | None = None  # (n_contexts, n_decisions): max over groups of Q[x, a, u]
+    bottom: FloatArray | None = None  # (n_contexts, n_decisions): min over groups
+    tv: FloatArray | None = None  # (n_contexts,): max over pairs of TV(Q[x, a], Q[x, a'])
+    group_law: FloatArray | None = None  # (n_groups, n_decisions): Σ_x w[x, a] Q[x, a, u]
+
+
+def _asked(result: FloatArray | None) -> FloatArray:
+    """A result of :func:`_scan` that the caller asked for, so it was computed (None only when not asked)."""
+    assert result is not None, "_scan was not asked for this result"
+    return result
 
 
 def _scan(
@@ -251,7 +259,7 @@ def _scan(
     *,
     extremes: bool = False,
     tv: bool = False,
-    weights: np.ndarray | None = None,
+    weights: FloatArray | None = None,
 ) -> _Pass:
     """Read the law once, in chunks of contexts, computing only what is asked.
 
@@ -263,12 +271,12 @@ def _scan(
     nan = not law.complete
     big, small = (np.fmax, np.fmin) if nan else (np.maximum, np.minimum)
     out = _Pass()
-    g_vec = g_tab = None
+    g: FloatArray | None = None  # g(u), shape (n_decisions,), or g[x, a, u]
     if utility is not None:
         if utility.values.ndim == 1:
-            g_vec = np.asarray(utility.table(law.contexts[:1], law.groups[:1], law.decisions)[0, 0], dtype=float)
+            g = np.asarray(utility.table(law.contexts[:1], law.groups[:1], law.decisions)[0, 0], dtype=float)
         else:
-            g_tab = np.asarray(utility.table(law.contexts, law.groups, law.decisions), dtype=float)
+            g = np.asarray(utility.table(law.contexts, law.groups, law.decisions), dtype=float)
         out.e, out.e_max, out.e_min = np.empty((X, A)), np.empty(X), np.empty(X)
     if extremes:
         out.top, out.bottom = np.empty((X, K)), np.empty((X, K))
@@ -278,22 +286,26 @@ def _scan(
         out.group_law = np.zeros((A, K))
     for sl in _chunks(X, A * K * q.itemsize):
         ct = np.ascontiguousarray(q[sl].transpose(2, 1, 0))  # (K, A, chunk)
-        if utility is not None:
-            e = np.tensordot(g_vec, ct, axes=1) if g_vec is not None else np.einsum("xau,xau->ax", q[sl], g_tab[sl])
+        if g is not None:
+            assert out.e is not None and out.e_max is not None and out.e_min is not None  # allocated with g
+            e = np.tensordot(g, ct, axes=1) if g.ndim == 1 else np.einsum("xau,xau->ax", q[sl], g[sl])
             out.e[sl] = e.T
             out.e_max[sl], out.e_min[sl] = big.reduce(e, axis=0), small.reduce(e, axis=0)
         if extremes:
+            assert out.top is not None and out.bottom is not None
             out.top[sl] = big.reduce(ct, axis=1).T
             out.bottom[sl] = small.reduce(ct, axis=1).T
         if tv:
+            assert out.tv is not None
             out.tv[sl] = _tv_chunk(ct, nan)
         if weights is not None:
+            assert out.group_law is not None
             c = np.nan_to_num(ct, nan=0.0, copy=not ct.flags.writeable) if nan else ct
             out.group_law += np.einsum("uac,ca->au", c, weights[sl])
     return out
 
 
-def expected_utility(law: Law, utility: Utility) -> np.ndarray:
+def expected_utility(law: Law, utility: Utility) -> FloatArray:
     """E[g | x, a] = Σ_u Q[x, a, u] g[x, a, u], shape (n_contexts, n_groups).
 
     Empty cells of an estimated law give NaN.
@@ -306,10 +318,10 @@ def expected_utility(law: Law, utility: Utility) -> np.ndarray:
     [[0.2, 0.6]]
     """
     law = _check_law(law)
-    return _scan(law, utility).e
+    return _asked(_scan(law, utility).e)
 
 
-def _excluded_contexts(law: Law, population: Population | None, present: np.ndarray) -> tuple[list[str], np.ndarray]:
+def _excluded_contexts(law: Law, population: Population | None, present: BoolArray) -> tuple[list[str], BoolArray]:
     notes = []
     keep = np.ones(len(law.contexts), dtype=bool)
     if population is not None:
@@ -368,15 +380,15 @@ def local_fairness(law: Law, utility: Utility, population: Population | None = N
     return _local(law, utility, population, _scan(law, utility))
 
 
-def _present(law: Law):
+def _present(law: Law) -> int | IntArray:
     """Groups with records per context: (n_contexts,) counts, or the number of groups when no cell is empty."""
     return len(law.groups) if law.complete else law.observed.sum(axis=1)
 
 
 def _local(law: Law, utility: Utility, population: Population | None, scan: _Pass) -> Fairness:
-    e = scan.e
+    e = _asked(scan.e)
     notes, keep = _excluded_contexts(law, population, law.observed)
-    ratio = ratio_of_extremes(scan.e_max, scan.e_min, _present(law))
+    ratio = ratio_of_extremes(_asked(scan.e_max), _asked(scan.e_min), _present(law))
     if not keep.all():
         ratio[~keep] = np.nan
     per_context = np.log(ratio, where=~np.isnan(ratio), out=np.full(ratio.shape, np.nan))
@@ -418,7 +430,7 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: _Pas
     )
 
 
-def _group_weights(law: Law, population: Population) -> tuple[np.ndarray, list[str]]:
+def _group_weights(law: Law, population: Population) -> tuple[FloatArray, list[str]]:
     """P(x | a), shape (n_contexts, n_groups), zero for groups with P(A = a) = 0; no weighted cell may be empty.
 
     Group averages are Σ_x P(x | a) f(x, a): with the weights made first, a fair law (f equal across groups)
@@ -438,7 +450,7 @@ def _group_weights(law: Law, population: Population) -> tuple[np.ndarray, list[s
     return w, notes
 
 
-def _per_group(total: np.ndarray, population: Population) -> np.ndarray:
+def _per_group(total: FloatArray, population: Population) -> FloatArray:
     """NaN in the rows (axis 0, groups) of groups with P(A = a) = 0."""
     total[population.p_group == 0] = np.nan
     return total
@@ -485,10 +497,12 @@ def global_fairness(law: Law, utility: Utility, population: Population | None = 
     law = _check_law(law)
     population = _check_population(population, law)
     w, notes = _group_weights(law, population)
-    return _global(law, utility, population, w, notes, _scan(law, utility).e)
+    return _global(law, utility, population, w, notes, _asked(_scan(law, utility).e))
 
 
-def _global(law: Law, utility: Utility, population: Population, w: np.ndarray, notes: list, e: np.ndarray) -> Fairness:
+def _global(
+    law: Law, utility: Utility, population: Population, w: FloatArray, notes: list[str], e: FloatArray
+) -> Fairness:
     eg = _per_group(np.einsum("xa,xa->a", w, e if law.complete else np.nan_to_num(e, nan=0.0)), population)
     if len(law.groups) < 2:
         return Fairness("global", 0.0, 1.0, None, None, None, eg, None, tuple(notes), law, utility, population)
@@ -514,7 +528,7 @@ def _global(law: Law, utility: Utility, population: Population, w: np.ndarray, n
     )
 
 
-def group_decision_law(law: Law, population: Population | None = None) -> np.ndarray:
+def group_decision_law(law: Law, population: Population | None = None) -> FloatArray:
     """P(U = u | A = a) = Σ_x P(x | a) Q[x, a, u], shape (n_groups, n_decisions).
 
     Rows of groups with P(A = a) = 0 are NaN.
@@ -522,10 +536,10 @@ def group_decision_law(law: Law, population: Population | None = None) -> np.nda
     law = _check_law(law)
     population = _check_population(population, law)
     w, _ = _group_weights(law, population)
-    return _per_group(_scan(law, weights=w).group_law, population)
+    return _per_group(_asked(_scan(law, weights=w).group_law), population)
 
 
-def _max_tv(dist: np.ndarray):
+def _max_tv(dist: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
     """Largest TV over pairs of rows along axis -2 of ``dist`` (..., n_groups, n_decisions).
 
     Loops over pairs of groups (not over cells); each step is vectorised over
@@ -567,14 +581,14 @@ def demographic_parity(law: Law, population: Population | None = None) -> TotalV
     return _demographic_parity(law, population, group_decision_law(law, population))
 
 
-def _demographic_parity(law: Law, population: Population, dist: np.ndarray) -> TotalVariation:
+def _demographic_parity(law: Law, population: Population, dist: FloatArray) -> TotalVariation:
     notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
     if len(law.groups) < 2:
         return TotalVariation("demographic_parity", 0.0, None, None, None, (), tuple(notes), law, population)
-    value, a, b = _max_tv(dist)
+    value, arg_a, arg_b = _max_tv(dist)
     if np.isnan(value):
         return TotalVariation("demographic_parity", float("nan"), None, None, None, (), tuple(notes), law, population)
-    a, b = int(a), int(b)
+    a, b = int(arg_a), int(arg_b)
     event = tuple(law.decisions[u] for u in np.flatnonzero(dist[a] > dist[b]))
     return TotalVariation(
         "demographic_parity", float(value), None, law.groups[a], law.groups[b], event, tuple(notes), law, population
@@ -602,11 +616,11 @@ def equalized_odds(law: Law, population: Population | None = None) -> TotalVaria
     return _equalized_odds(law, population, _scan(law, tv=len(law.groups) >= 2).tv)
 
 
-def _equalized_odds(law: Law, population: Population | None, per_context: np.ndarray | None) -> TotalVariation:
+def _equalized_odds(law: Law, population: Population | None, per_context: FloatArray | None) -> TotalVariation:
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
         return TotalVariation("equalized_odds", 0.0, None, None, None, (), tuple(notes), law, population)
-    value = np.where(keep, per_context, np.nan)
+    value = np.where(keep, _asked(per_context), np.nan)  # computed for two groups or more
     if np.all(np.isnan(value)):
         return TotalVariation("equalized_odds", float("nan"), None, None, None, (), tuple(notes), law, population)
     i = int(np.nanargmax(value))
@@ -648,16 +662,16 @@ def sup_local_fairness(law: Law, population: Population | None = None) -> SupFai
     if population is not None:
         population = _check_population(population, law)
     scan = _scan(law, extremes=True)
-    return _sup_local(law, population, scan.top, scan.bottom)
+    return _sup_local(law, population, _asked(scan.top), _asked(scan.bottom))
 
 
-def _sup_local(law: Law, population: Population | None, top: np.ndarray, bottom: np.ndarray) -> SupFairness:
+def _sup_local(law: Law, population: Population | None, top: FloatArray, bottom: FloatArray) -> SupFairness:
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
         return SupFairness("local", 0.0, 1.0, None, None, None, None, tuple(notes), law, population)
     present = _present(law)
     ratio = ratio_of_extremes(
-        top, bottom, present if law.complete else present[:, None]
+        top, bottom, present if isinstance(present, int) else present[:, None]
     )  # shape (n_contexts, n_decisions)
     if not keep.all():
         ratio[~keep] = np.nan
@@ -692,7 +706,7 @@ def sup_global_fairness(law: Law, population: Population | None = None) -> SupFa
     return _sup_global(law, population, group_decision_law(law, population))
 
 
-def _sup_global(law: Law, population: Population, dist: np.ndarray) -> SupFairness:
+def _sup_global(law: Law, population: Population, dist: FloatArray) -> SupFairness:
     notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
     if len(law.groups) < 2:
         return SupFairness("global", 0.0, 1.0, None, None, None, None, tuple(notes), law, population)
@@ -715,7 +729,21 @@ def _sup_global(law: Law, population: Population, dist: np.ndarray) -> SupFairne
     )
 
 
-def all_metrics(law: Law, utility: Utility, population: Population | None = None) -> dict:
+AllMetrics = TypedDict(
+    "AllMetrics",
+    {
+        "local": Fairness,
+        "global": Fairness,
+        "demographic_parity": TotalVariation,
+        "equalized_odds": TotalVariation,
+        "sup_local": SupFairness,
+        "sup_global": SupFairness,
+    },
+)
+"""What :func:`all_metrics` returns: every exact metric by name (``"global"`` is a keyword, hence this form)."""
+
+
+def all_metrics(law: Law, utility: Utility, population: Population | None = None) -> AllMetrics:
     """Every exact metric of ``law`` in one pass over it: L, L̄, L_dp, L_eo and the sups over g.
 
     The same numbers as :func:`local_fairness`, :func:`global_fairness`, :func:`demographic_parity`,
@@ -762,12 +790,12 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     population = _check_population(population, law)
     w, notes = _group_weights(law, population)
     scan = _scan(law, utility, extremes=True, tv=len(law.groups) >= 2, weights=w)
-    dist = _per_group(scan.group_law, population)
+    dist = _per_group(_asked(scan.group_law), population)
     return {
         "local": _local(law, utility, population, scan),
-        "global": _global(law, utility, population, w, notes, scan.e),
+        "global": _global(law, utility, population, w, notes, _asked(scan.e)),
         "demographic_parity": _demographic_parity(law, population, dist),
         "equalized_odds": _equalized_odds(law, population, scan.tv),
-        "sup_local": _sup_local(law, population, scan.top, scan.bottom),
+        "sup_local": _sup_local(law, population, _asked(scan.top), _asked(scan.bottom)),
         "sup_global": _sup_global(law, population, dist),
     }

@@ -24,11 +24,17 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
+import numpy.typing as npt
 
+from ._arrays import FloatArray
 from ._errors import InputError
 from .intervals import METHODS, _disjoint_ratio, _log, category_bounds, fairness_intervals, linear_extremes
+
+if TYPE_CHECKING:
+    from .privacy import Mechanism
 
 __all__ = ["SamplePlan", "plan", "DEFAULT_DATASETS", "BAYES_DATASETS"]
 
@@ -88,7 +94,26 @@ class SamplePlan:
         return self.n_per_cell is not None
 
 
-def _int(name, value, low, high=None):
+class _Inputs(TypedDict):
+    """The fields of a :class:`SamplePlan` that repeat its inputs (and the true value)."""
+
+    target: float
+    groups: int
+    contexts: int
+    base_rate: float
+    disparity: float
+    confidence: float
+    method: str
+    power: float
+    epsilon: float | None
+    kind: str
+    datasets: int
+    seed: int
+    max_n: int
+    true_value: float
+
+
+def _int(name: str, value: int, low: int, high: int | None = None) -> int:
     if (
         isinstance(value, bool)
         or not isinstance(value, (int, np.integer))
@@ -100,7 +125,7 @@ def _int(name, value, low, high=None):
     return int(value)
 
 
-def _real(name, value, check, what):
+def _real(name: str, value: float, check: Callable[[float], bool], what: str) -> float:
     try:
         ok = not isinstance(value, bool) and math.isfinite(float(value)) and check(float(value))
     except (TypeError, ValueError):
@@ -110,7 +135,7 @@ def _real(name, value, check, what):
     return float(value)
 
 
-def _rates(groups, contexts, base_rate, disparity):
+def _rates(groups: int, contexts: int, base_rate: float, disparity: float) -> FloatArray:
     """The kernel's E[g | x̃, ã]: shape (contexts, groups)."""
     r = np.full((contexts, groups), base_rate)
     r[:, 0] = base_rate * math.exp(disparity)
@@ -120,7 +145,16 @@ def _rates(groups, contexts, base_rate, disparity):
 class _Certifier:
     """Upper ends of the certificate for a stack of count tables (D, X, A) with n records per cell."""
 
-    def __init__(self, groups, contexts, confidence, method, mechanism, kind, seed):
+    def __init__(
+        self,
+        groups: int,
+        contexts: int,
+        confidence: float,
+        method: str,
+        mechanism: Mechanism | None,
+        kind: str,
+        seed: int,
+    ) -> None:
         from .estimate import CountTable
         from .laws import Population
         from .utility import indicator
@@ -135,7 +169,7 @@ class _Certifier:
             counts, self.contexts, self.groups, (1, 0), ("context",), ("group",), "decision"
         )
 
-    def exact(self, k: np.ndarray, n: int) -> np.ndarray:
+    def exact(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
         """By :func:`fairness_intervals`, one table at a time."""
         out = np.empty(k.shape[0])
         for i, ki in enumerate(k):
@@ -151,7 +185,7 @@ class _Certifier:
             out[i] = (iv.local if self.kind == "local" else iv.global_).upper
         return out
 
-    def fast(self, k: np.ndarray, n: int) -> np.ndarray:
+    def fast(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
         """The frequentist upper ends, vectorised over the stack (the same steps as fairness_intervals)."""
         D, X, A = k.shape
         counts = np.stack([k, n - k], -1).astype(float)  # decisions (1, 0); g = (1, 0)
@@ -176,7 +210,7 @@ class _Certifier:
             up = vals.reshape(D, -1).max(-1)
         return np.array([_log(float(v)) for v in up])
 
-    def __call__(self, k, n):
+    def __call__(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
         return self.exact(k, n) if self.method == "bayes" else self.fast(k, n)
 
 
@@ -311,7 +345,7 @@ def plan(
         raise InputError("progress", "must be callable", progress)
 
     rates = _rates(groups, contexts, base_rate, disparity)
-    mechanism = None
+    mechanism: Mechanism | None = None
     if epsilon is not None:
         from .privacy import randomized_response
 
@@ -320,7 +354,7 @@ def plan(
     else:
         filtered = rates
     true_value = float(np.log(filtered.max(-1) / filtered.min(-1)).max())
-    inputs = dict(
+    inputs = _Inputs(
         target=target,
         groups=groups,
         contexts=contexts,
@@ -349,9 +383,9 @@ def plan(
         )
 
     certifier = _Certifier(groups, contexts, confidence, method, mechanism, kind, seed)
-    seen: dict = {}
+    seen: dict[int, tuple[float, float]] = {}  # n -> (power, median upper end)
 
-    def evaluate(n: int):
+    def evaluate(n: int) -> tuple[float, float]:
         if n not in seen:
             rng = np.random.default_rng(seed)
             k = rng.binomial(n, rates, size=(datasets, contexts, groups))

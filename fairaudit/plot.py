@@ -13,10 +13,24 @@ import math
 import textwrap
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal, TypeAlias
 
 import numpy as np
+import numpy.typing as npt
 
+from ._arrays import BoolArray, FloatArray
 from ._errors import InputError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure, SubFigure
+
+    from .curves import PrivacyCurve
+
+_Scale: TypeAlias = Callable[[npt.ArrayLike], npt.ArrayLike]
+"""A vectorised monotone function of a secondary axis (ε ↦ value or value ↦ ε)."""
+SecondaryAxis: TypeAlias = "Literal['keep'] | tuple[str, _Scale, _Scale] | None"
+"""The ``secondary_axis`` of :func:`plot_curve`: ``"keep"``, (label, forward, inverse) or None."""
 
 __all__ = ["plot_curve", "save_figure", "check_plot_path", "FORMATS"]
 
@@ -24,7 +38,7 @@ __all__ = ["plot_curve", "save_figure", "check_plot_path", "FORMATS"]
 FORMATS = {".png": "png", ".svg": "svg"}
 
 
-def _matplotlib():
+def _matplotlib() -> type[Figure]:
     try:
         import matplotlib  # noqa: F401
         from matplotlib.figure import Figure
@@ -70,7 +84,7 @@ def check_plot_path(path: str | Path) -> str:
     return fmt
 
 
-def save_figure(fig, path: str | Path) -> None:
+def save_figure(fig: Figure, path: str | Path) -> None:
     """Save a matplotlib figure as PNG or SVG (by the suffix), atomically.
 
     The figure is written to a temporary file in the same folder and renamed
@@ -107,20 +121,31 @@ def save_figure(fig, path: str | Path) -> None:
     write_atomic(path, save, field="--plot")
 
 
-def _secondary(curve, spec) -> tuple[str, Callable, Callable] | None:
+def _secondary(curve: PrivacyCurve, spec: SecondaryAxis) -> tuple[str, _Scale, _Scale] | None:
     if spec is None:
         return None
     if spec == "keep":
         eps, keep = np.asarray(curve.epsilon, float), np.asarray(curve.keep_probability, float)
         if eps.size < 2 or np.any(np.diff(keep) <= 0):
             raise InputError("secondary_axis", "'keep' needs a keep probability that increases along the grid")
-        return ("keep probability", lambda e: np.interp(e, eps, keep), lambda k: np.interp(k, keep, eps))
+        return (
+            "keep probability",
+            lambda e: np.interp(np.asarray(e, dtype=float), eps, keep),
+            lambda k: np.interp(np.asarray(k, dtype=float), keep, eps),
+        )
     if isinstance(spec, tuple) and len(spec) == 3 and callable(spec[1]) and callable(spec[2]):
         return (str(spec[0]), spec[1], spec[2])
     raise InputError("secondary_axis", "must be None, 'keep' or (label, forward, inverse)", spec)
 
 
-def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | None = None, secondary_axis=None):
+def plot_curve(
+    curve: PrivacyCurve,
+    path: str | Path | None = None,
+    *,
+    ax: Axes | None = None,
+    title: str | None = None,
+    secondary_axis: SecondaryAxis = None,
+) -> Figure | SubFigure:
     """Draw a fairness–privacy curve; optionally save it as PNG or SVG.
 
     x axis: privacy budget ε (nats); y axis: local g-fairness L (nats).
@@ -149,6 +174,8 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     Returns
     -------
     matplotlib.figure.Figure
+        The figure drawn on (the :class:`~matplotlib.figure.SubFigure` of ``ax`` when it is in one; the
+        file then holds the whole figure).
 
     Raises
     ------
@@ -167,11 +194,12 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     >>> [t.get_text() for t in ax.get_legend().get_texts()][:3]
     ['black-box bound (all models, exact)', 'paper bound (main theorem)', 'tight bound (its proof, per pair)']
     """
-    Figure = _matplotlib()
+    figure_class = _matplotlib()
     if path is not None:
         check_plot_path(path)
+    fig: Figure | SubFigure
     if ax is None:
-        fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+        fig = figure_class(figsize=(7.0, 4.5), layout="constrained")
         ax = fig.add_subplot()
     else:
         fig = ax.figure
@@ -179,7 +207,7 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
     # Coinciding lines stay visible: wide pale black-box underneath, thinner dashed lines on top,
     # observed values as sparse markers (L and L-bar staggered).
     step = max(1, len(eps) // 30)
-    series = [
+    series: list[tuple[str, FloatArray, str, dict[str, Any]]] = [  # (key, values, label, matplotlib style)
         (
             "black_box",
             curve.black_box,
@@ -285,11 +313,11 @@ def plot_curve(curve, path: str | Path | None = None, *, ax=None, title: str | N
         )
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     if path is not None:
-        save_figure(fig, path)
+        save_figure(fig if isinstance(fig, figure_class) else fig.figure, path)  # a subfigure cannot be saved alone
     return fig
 
 
-def _runs(x: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]:
+def _runs(x: FloatArray, mask: BoolArray) -> list[tuple[float, float]]:
     """Intervals of x (midpoints between neighbours as edges) where mask is True."""
     out = []
     n = len(x)

@@ -20,10 +20,12 @@ import itertools
 import math
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, overload
 
 import numpy as np
+import numpy.typing as npt
 
-from ._arrays import as_float_array, as_labels, check_probabilities, check_shape, ratio_extremes
+from ._arrays import FloatArray, as_float_array, as_labels, check_probabilities, check_shape, ratio_extremes
 from ._errors import InputError
 
 __all__ = [
@@ -55,8 +57,8 @@ class PrivacyProfile:
         The mechanism the profile belongs to.
     """
 
-    epsilons: np.ndarray
-    deltas: np.ndarray
+    epsilons: FloatArray
+    deltas: FloatArray
     mechanism: Mechanism
 
 
@@ -90,15 +92,19 @@ class Mechanism:
     0.20538
     """
 
-    matrix: np.ndarray
+    matrix: FloatArray
     inputs: tuple
     outputs: tuple
     name: str = "matrix"
-    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    _cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def __init__(
-        self, matrix, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix"
-    ):
+        self,
+        matrix: npt.ArrayLike,
+        inputs: Sequence[Hashable],
+        outputs: Sequence[Hashable] | None = None,
+        name: str = "matrix",
+    ) -> None:
         inputs = as_labels(inputs, f"mechanism '{name}' inputs")
         outputs = inputs if outputs is None else as_labels(outputs, f"mechanism '{name}' outputs")
         array = as_float_array(matrix, f"mechanism '{name}'", ndim=2)
@@ -140,7 +146,7 @@ class Mechanism:
             self._cache["epsilon"] = float(np.log(worst)) if np.isfinite(worst) else math.inf
         return self._cache["epsilon"]
 
-    def pairwise_delta(self, epsilon: float) -> np.ndarray:
+    def pairwise_delta(self, epsilon: float) -> FloatArray:
         """Hockey-stick divergence of every ordered pair of inputs.
 
         Proof: ``proofs/privacy.md`` (hockey-stick divergence, attained at S = {o: M[a,o] > e^ε M[a',o]}).
@@ -165,7 +171,11 @@ class Mechanism:
         np.fill_diagonal(out, 0.0)
         return out
 
-    def delta(self, epsilon):
+    @overload
+    def delta(self, epsilon: float) -> float: ...
+    @overload
+    def delta(self, epsilon: npt.ArrayLike) -> float | FloatArray: ...
+    def delta(self, epsilon: npt.ArrayLike) -> float | FloatArray:
         """δ(M, ε): the largest hockey-stick divergence over pairs of inputs.
 
         Proof: ``proofs/privacy.md`` (non-increasing, convex in e^ε).
@@ -382,6 +392,7 @@ def randomized_response(
             except (TypeError, ValueError):
                 raise InputError("keep", "must be a number", keep) from None
             epsilon = epsilon_from_keep_probability(keep, k)
+    assert epsilon is not None  # exactly one of epsilon and keep was given
     eps = _check_epsilon(epsilon)
     if k == 1:
         matrix = np.ones((1, 1))
@@ -417,14 +428,14 @@ class _Identity(Mechanism):
     identity filter on a million contexts costs its labels, not 10^12 cells.
     """
 
-    def __init__(self, labels: tuple, name: str):
+    def __init__(self, labels: tuple, name: str) -> None:
         object.__setattr__(self, "inputs", labels)
         object.__setattr__(self, "outputs", labels)
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "_cache", {"is_identity": True})
 
     @property
-    def matrix(self) -> np.ndarray:  # type: ignore[override]
+    def matrix(self) -> FloatArray:
         if "matrix" not in self._cache:
             m = np.eye(len(self.inputs))
             m.setflags(write=False)
@@ -432,12 +443,12 @@ class _Identity(Mechanism):
         return self._cache["matrix"]
 
     @property
-    def epsilon(self) -> float:  # type: ignore[override]
+    def epsilon(self) -> float:
         return math.inf if len(self.inputs) >= 2 else 0.0
 
 
 def from_matrix(
-    rows, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix"
+    rows: npt.ArrayLike, inputs: Sequence[Hashable], outputs: Sequence[Hashable] | None = None, name: str = "matrix"
 ) -> Mechanism:
     """A mechanism from its matrix of rows P(output | input).
 
@@ -481,7 +492,7 @@ def product(*mechanisms: Mechanism, name: str | None = None) -> Mechanism:
     """
     if not mechanisms:
         raise InputError("product", "needs at least one mechanism", ())
-    matrix = np.ones((1, 1))
+    matrix: npt.NDArray[np.floating[Any]] = np.ones((1, 1))
     for mech in mechanisms:
         if not isinstance(mech, Mechanism):
             raise InputError("product", "components must be Mechanism objects", mech)

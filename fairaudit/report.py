@@ -11,19 +11,35 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Callable, Hashable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, SupportsFloat, TypeAlias
 
 import numpy as np
 
 from ._arrays import format_label
 from ._errors import InputError
 
+if TYPE_CHECKING:
+    from .audit import Audit
+    from .calibrate import Calibration
+    from .certify import Certificate, Observed
+    from .intervals import FairnessIntervals, Interval
+    from .laws import Kernel
+    from .metrics import Fairness, SupFairness, TotalVariation
+    from .plan import SamplePlan
+    from .privacy import Mechanism
+    from .worstcase import WorstCase, WorstModel
+
 __all__ = ["certificate_dict", "audit_dict", "calibration_dict", "render", "write_atomic", "FORMATS", "plan_dict"]
 
 FORMATS = ("text", "json", "markdown")
 
+Report: TypeAlias = dict[str, Any]
+"""A report dictionary: JSON-ready (str keys; str, numbers, bools, None, lists and dicts as values)."""
 
-def _num(v):
+
+def _num(v: SupportsFloat | None) -> bool | int | float | str | None:
     if v is None:
         return None
     if isinstance(v, (bool, np.bool_)):
@@ -38,7 +54,7 @@ def _num(v):
     return f
 
 
-def _label(v):
+def _label(v: Hashable | None) -> Hashable | None:
     if v is None:
         return None
     if isinstance(v, tuple):
@@ -48,8 +64,8 @@ def _label(v):
     return v
 
 
-def _fairness(f, interval=None) -> dict:
-    d = {"value": _num(f.value), "ratio": _num(f.ratio)}
+def _fairness(f: Fairness, interval: Interval | None = None) -> Report:
+    d: Report = {"value": _num(f.value), "ratio": _num(f.ratio)}
     if f.kind == "local":
         d["context"] = _label(f.context)
     d.update(
@@ -60,7 +76,7 @@ def _fairness(f, interval=None) -> dict:
     return d
 
 
-def _tv(t) -> dict:
+def _tv(t: TotalVariation) -> Report:
     return {
         "value": _num(t.value),
         "context": _label(t.context),
@@ -70,7 +86,7 @@ def _tv(t) -> dict:
     }
 
 
-def _sup(s) -> dict:
+def _sup(s: SupFairness) -> Report:
     return {
         "value": _num(s.value),
         "ratio": _num(s.ratio),
@@ -81,7 +97,7 @@ def _sup(s) -> dict:
     }
 
 
-def _interval(iv) -> dict | None:
+def _interval(iv: Interval | None) -> Report | None:
     if iv is None:
         return None
     return {
@@ -94,9 +110,9 @@ def _interval(iv) -> dict | None:
     }
 
 
-def intervals_dict(fi) -> dict:
+def intervals_dict(fi: FairnessIntervals) -> Report:
     """The JSON of a :class:`~fairaudit.intervals.FairnessIntervals`: method, level and one entry per metric."""
-    out = {
+    out: Report = {
         "method": fi.method,
         "confidence": _num(fi.confidence),
         "sets": fi.n_sets,
@@ -109,9 +125,9 @@ def intervals_dict(fi) -> dict:
     return out
 
 
-def _observed(o, intervals=None) -> dict:
+def _observed(o: Observed, intervals: FairnessIntervals | None = None) -> Report:
     excluded = list(dict.fromkeys(o.local.excluded + o.global_.excluded))
-    out = {
+    out: Report = {
         "local": _fairness(o.local, None if intervals is None else intervals.local),
         "global": _fairness(o.global_, None if intervals is None else intervals.global_),
         "demographic_parity": _num(o.demographic_parity.value),
@@ -131,7 +147,7 @@ def _observed(o, intervals=None) -> dict:
     return out
 
 
-def _mechanism(m) -> dict:
+def _mechanism(m: Mechanism) -> Report:
     eps = m.epsilon
     return {
         "mechanism": m.name,
@@ -143,7 +159,7 @@ def _mechanism(m) -> dict:
     }
 
 
-def calibration_dict(c) -> dict:
+def calibration_dict(c: Calibration) -> Report:
     """The ``calibrate`` JSON of a :class:`~fairaudit.calibrate.Calibration`.
 
     Contract keys: ``epsilon`` (``"inf"`` when every ε meets the target,
@@ -174,7 +190,7 @@ def calibration_dict(c) -> dict:
     }
 
 
-def _certificate_calibration(cert) -> dict:
+def _certificate_calibration(cert: Certificate) -> Report:
     """``calibration`` of a certificate with a target: the black-box one (or nulls and why), and ``white_box``."""
     if cert.calibration is not None:
         out = calibration_dict(cert.calibration)
@@ -193,8 +209,8 @@ def _certificate_calibration(cert) -> dict:
     return out
 
 
-def _worst_case(w) -> dict:
-    d = {"value": _num(w.value), "ratio": _num(w.ratio)}
+def _worst_case(w: WorstCase) -> Report:
+    d: Report = {"value": _num(w.value), "ratio": _num(w.ratio)}
     if w.kind == "local":
         d["context"] = _label(w.context)
     d.update(
@@ -209,7 +225,7 @@ def _worst_case(w) -> dict:
     return d
 
 
-def _kernel_dict(k) -> dict:
+def _kernel_dict(k: Kernel) -> dict[str, dict[str, dict[str, float]]]:
     """{released context: {released group: {decision: probability}}} of a kernel."""
     p = np.round(k.probabilities, 12) + 0.0
     return {
@@ -221,7 +237,7 @@ def _kernel_dict(k) -> dict:
     }
 
 
-def _worst_model(wm, reason: str) -> dict:
+def _worst_model(wm: WorstModel, reason: str) -> Report:
     """``bound_details.black_box``: the exact worst cases for L and L-bar and the worst decision model for L."""
     out = _worst_case(wm.local)
     out["reason"] = reason
@@ -230,7 +246,7 @@ def _worst_model(wm, reason: str) -> dict:
     return out
 
 
-def certificate_dict(cert) -> dict:
+def certificate_dict(cert: Certificate) -> Report:
     """The ``certify`` JSON (DESIGN.md contract) of a :class:`~fairaudit.certify.Certificate`."""
     spec = cert.spec
     bounds = {
@@ -242,7 +258,7 @@ def certificate_dict(cert) -> dict:
         "best_form": cert.best_form,
         "global": _num(cert.global_bound),
     }
-    details = {}
+    details: Report = {}
     for name, b in (("paper", cert.paper), ("tight", cert.tight), ("corollary", cert.corollary)):
         if b is not None:
             details[name] = {
@@ -254,7 +270,7 @@ def certificate_dict(cert) -> dict:
                 "holds": b.holds,
             }
     details["black_box"] = _worst_model(cert.black_box, cert.black_box_reason)
-    out = {
+    out: Report = {
         "certified": bool(cert.certified),
         "spec": spec.source,
         "title": spec.model.title,
@@ -299,19 +315,19 @@ def certificate_dict(cert) -> dict:
     if (
         cert.calibration is not None
         or getattr(cert, "calibration_white_box", None) is not None
-        or getattr(cert, "calibration_reason", "")
+        or bool(getattr(cert, "calibration_reason", ""))
     ):
         out["calibration"] = _certificate_calibration(cert)
     return out
 
 
-def audit_dict(a) -> dict:
+def audit_dict(a: Audit) -> Report:
     """The ``audit`` JSON (DESIGN.md contract) of an :class:`~fairaudit.audit.Audit`."""
     t = a.table
     e = a.observed.local.expected_utility
     cells = t.cell_counts
     iv = a.intervals
-    out = {
+    out: Report = {
         "n": t.n,
         "sensitive": list(t.sensitive_columns),
         "outcome": t.outcome_column,
@@ -341,7 +357,7 @@ def audit_dict(a) -> dict:
 # -- rendering ---------------------------------------------------------------------------------------
 
 
-def _fmt(v, digits: int = 6) -> str:
+def _fmt(v: object, digits: int = 6) -> str:
     if v is None:
         return "n/a"
     if isinstance(v, str):
@@ -353,23 +369,23 @@ def _fmt(v, digits: int = 6) -> str:
     return f"{v:.{digits}g}"
 
 
-def _nats(v) -> str:
+def _nats(v: object) -> str:
     return "n/a" if v is None else ("inf" if v == "inf" else f"{_fmt(v)} nats")
 
 
-def _pair(d) -> str:
+def _pair(d: Report) -> str:
     where = f" in context {d['context']!s}" if d.get("context") is not None else ""
     if d.get("group") is None:
         return ""
     return f" ({d['group']} vs {d['other_group']}{where})"
 
 
-def _iv(o: dict, key: str) -> str:
+def _iv(o: Report, key: str) -> str:
     iv = (o.get("intervals") or {}).get(key)
     return f"  interval [{_fmt(iv['lower'])}, {_fmt(iv['upper'])}]" if iv else ""
 
 
-def _observed_lines(o: dict, head: str) -> list[str]:
+def _observed_lines(o: Report, head: str) -> list[str]:
     lines = [head]
     for key, name in (("local", "local g-fairness L"), ("global", "global g-fairness L-bar")):
         f = o[key]
@@ -401,7 +417,7 @@ def _observed_lines(o: dict, head: str) -> list[str]:
     return lines
 
 
-def _certificate_text(d: dict) -> str:
+def _certificate_text(d: Report) -> str:
     lines = [f"fairaudit certificate: {d['title'] or d['spec']}"]
     ps = d["privacy"]["sensitive"]
     lines.append(
@@ -486,7 +502,7 @@ def _certificate_text(d: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _audit_text(d: dict) -> str:
+def _audit_text(d: Report) -> str:
     ctx = ", ".join(d["context_columns"]) or "none"
     lines = [
         f"fairaudit audit: {d['n']} records; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
@@ -506,11 +522,11 @@ def _audit_text(d: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _measure(d: dict) -> str:
+def _measure(d: Report) -> str:
     return "L-bar" if d.get("kind") == "global" else "L"
 
 
-def _calibration_text(d: dict) -> str:
+def _calibration_text(d: Report) -> str:
     if not d["feasible"]:
         low = f"the model's {_measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
         return (
@@ -527,14 +543,14 @@ def _calibration_text(d: dict) -> str:
     )
 
 
-def _md_table(rows: list[tuple], head: tuple) -> list[str]:
+def _md_table(rows: Sequence[tuple[object, ...]], head: tuple[str, ...]) -> list[str]:
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
     return out
 
 
-def _observed_md(o: dict) -> list[str]:
-    rows = [
+def _observed_md(o: Report) -> list[str]:
+    rows: list[tuple[str, ...]] = [
         ("local g-fairness L", _nats(o["local"]["value"]), _pair(o["local"]).strip(" ()")),
         ("global g-fairness L-bar", _nats(o["global"]["value"]), _pair(o["global"]).strip(" ()")),
         (
@@ -559,7 +575,7 @@ def _observed_md(o: dict) -> list[str]:
     return _md_table(rows, ("metric", "value", "where"))
 
 
-def _certificate_md(d: dict) -> str:
+def _certificate_md(d: Report) -> str:
     lines = [f"# fairaudit certificate: {d['title'] or d['spec']}", ""]
     ps = d["privacy"]["sensitive"]
     lines.append(
@@ -612,7 +628,7 @@ def _certificate_md(d: dict) -> str:
     return "\n".join(lines)
 
 
-def _audit_md(d: dict) -> str:
+def _audit_md(d: Report) -> str:
     lines = [
         f"# fairaudit audit: {d['n']} records",
         "",
@@ -624,7 +640,7 @@ def _audit_md(d: dict) -> str:
     return "\n".join(lines)
 
 
-def render(data: dict, kind: str, fmt: str) -> str:
+def render(data: Report, kind: str, fmt: str) -> str:
     """Render a report dictionary.
 
     Parameters
@@ -643,7 +659,7 @@ def render(data: dict, kind: str, fmt: str) -> str:
         return json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
     if fmt not in FORMATS:
         raise InputError("--format", f"must be one of {', '.join(FORMATS)}", fmt)
-    table = {
+    table: dict[tuple[str, str], Callable[[Report], str]] = {
         ("certify", "text"): _certificate_text,
         ("certify", "markdown"): _certificate_md,
         ("audit", "text"): _audit_text,
@@ -656,7 +672,9 @@ def render(data: dict, kind: str, fmt: str) -> str:
     return table[(kind, fmt)](data)
 
 
-def write_atomic(path, content, *, field: str = "--output") -> None:
+def write_atomic(
+    path: str | os.PathLike[str], content: str | bytes | Callable[[str], object], *, field: str = "--output"
+) -> None:
     """Write ``content`` to ``path`` atomically: a temporary file in the same folder, then rename.
 
     An existing file is replaced only once the new one is complete; on any
@@ -710,7 +728,7 @@ def write_atomic(path, content, *, field: str = "--output") -> None:
 # -- sample-size plans (fairaudit plan) -----------------------------------------------------------------
 
 
-def plan_dict(plans) -> dict:
+def plan_dict(plans: Sequence[SamplePlan]) -> Report:
     """The ``plan`` JSON of one or more :class:`~fairaudit.plan.SamplePlan` (same inputs, one per method).
 
     Keys: ``target``, ``confidence``, ``power``, ``kind``, ``groups``,
@@ -751,7 +769,7 @@ def plan_dict(plans) -> dict:
     }
 
 
-def _plan_head(d: dict) -> list[str]:
+def _plan_head(d: Report) -> list[str]:
     name = "L-bar" if d["kind"] == "global" else "L"
     ctx = f"{d['contexts']} context{'s' if d['contexts'] != 1 else ''}"
     filt = (
@@ -767,8 +785,8 @@ def _plan_head(d: dict) -> list[str]:
     ]
 
 
-def _plan_rows(d: dict) -> list[tuple]:
-    def upper(v):
+def _plan_rows(d: Report) -> list[tuple[str, ...]]:
+    def upper(v: object) -> str:
         return "n/a" if v is None else ("inf" if v == "inf" else f"{_fmt(v, 4)} nats")
 
     return [
@@ -787,7 +805,7 @@ def _plan_rows(d: dict) -> list[tuple]:
 _PLAN_HEAD = ("method", "n per cell", "n total", "power", "median upper end", "datasets")
 
 
-def _plan_text(d: dict) -> str:
+def _plan_text(d: Report) -> str:
     rows = [_PLAN_HEAD] + _plan_rows(d)
     widths = [max(len(r[i]) for r in rows) for i in range(len(_PLAN_HEAD))]
     lines = _plan_head(d)
@@ -796,7 +814,7 @@ def _plan_text(d: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _plan_md(d: dict) -> str:
+def _plan_md(d: Report) -> str:
     head = _plan_head(d)
     lines = ["# fairaudit plan", "", head[0] + ".", "", head[1] + ".", ""]
     lines += _md_table(_plan_rows(d), _PLAN_HEAD)

@@ -14,17 +14,22 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+import pandas as pd
 
 from ._errors import InputError
 from .estimate import CountTable, _check_columns, count_table
+
+if TYPE_CHECKING:
+    from pyspark.sql import DataFrame
 
 __all__ = ["count_spark"]
 
 
 def count_spark(
-    frame,
+    frame: DataFrame,
     *,
     sensitive: Sequence[str],
     outcome: str,
@@ -129,7 +134,7 @@ def count_spark(
     count = "count"
     while count in used:
         count = "_" + count
-    agg.columns = used + [count]
+    agg.columns = pd.Index(used + [count])
     n = agg[count].to_numpy(dtype=np.int64)
     isna = agg[used].isna().to_numpy()
     missing = n @ isna
@@ -140,7 +145,7 @@ def count_spark(
                 f"column {used[i]!r}",
                 f"has {int(missing[i])} missing values (drop those rows: --dropna, or dropna=True)",
             )
-        agg = agg[~isna.any(axis=1)]
+        agg = agg.loc[~np.any(isna, axis=1)]
     if len(agg) == 0:
         raise InputError("DATA", "has no records to count")
     table = count_table(agg, sensitive=sensitive, outcome=outcome, context=context, count=count)

@@ -21,15 +21,16 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Hashable, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Self
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from ._arrays import as_labels, format_label
+from ._arrays import FloatArray, as_labels, format_label
 from ._errors import InputError
-from .estimate import count_records, count_table, read_records
+from .estimate import CountTable, count_records, count_table, read_records
 from .laws import Kernel, Population
 from .privacy import (
     Mechanism,
@@ -65,7 +66,7 @@ class AttributeSpec(_Strict):
 
     @field_validator("values")
     @classmethod
-    def _distinct(cls, v):
+    def _distinct(cls, v: list[Any] | None) -> list[Any] | None:
         if v is None:
             return v
         if len(v) == 0:
@@ -96,7 +97,7 @@ class MechanismSpec(_Strict):
     name: str | None = None
 
     @model_validator(mode="after")
-    def _fields_fit(self):
+    def _fields_fit(self) -> Self:
         m = self.mechanism
         if m == "randomized_response" and (self.epsilon is None) == (self.keep is None):
             raise ValueError("randomized_response needs exactly one of epsilon and keep")
@@ -127,7 +128,7 @@ class PopulationSpec(_Strict):
     group_distribution: list[float] | None = None
 
     @model_validator(mode="after")
-    def _one(self):
+    def _one(self) -> Self:
         if self.probabilities is not None and self.group_distribution is not None:
             raise ValueError("give probabilities or group_distribution, not both")
         return self
@@ -143,7 +144,7 @@ class ModelSpec(_Strict):
     where: dict[str, Any] = {}
 
     @model_validator(mode="after")
-    def _one(self):
+    def _one(self) -> Self:
         if (self.table is None) == (self.records is None):
             raise ValueError("give exactly one of table (aggregated counts or probabilities) and records")
         if self.count_column is not None and self.probability_column is not None:
@@ -165,7 +166,7 @@ class UtilitySpec(_Strict):
     name: str | None = None
 
     @model_validator(mode="after")
-    def _fields_fit(self):
+    def _fields_fit(self) -> Self:
         for f in ("gamma", "lower", "tau", "lipschitz"):
             _finite(getattr(self, f), f)
         if self.kind == "indicator" and self.decision is None:
@@ -202,7 +203,7 @@ class SpecModel(_Strict):
     target: TargetSpec | None = None
 
     @model_validator(mode="after")
-    def _values_present(self):
+    def _values_present(self) -> Self:
         if self.decision.values is None:
             raise ValueError("decision.values is required")
         if self.context is not None and self.context.values is None:
@@ -257,7 +258,7 @@ class Spec:
     Use :func:`load_spec` or :func:`parse_spec` to make one.
     """
 
-    def __init__(self, model: SpecModel, source: str, base: Path):
+    def __init__(self, model: SpecModel, source: str, base: Path) -> None:
         self.model = model
         self.source = source
         self.base = base
@@ -275,12 +276,14 @@ class Spec:
             self.contexts: tuple = ("all",)
             context_name = "context"
         else:
+            assert model.context.values is not None  # (required by SpecModel)
             self.contexts = as_labels(model.context.values, "context.values")
             context_name = model.context.name
         self.context_name = context_name
         self.context_mechanism = self._mechanism(
             model.privacy.context, AttributeSpec(name=context_name, values=list(self.contexts)), "privacy.context"
         )
+        assert model.decision.values is not None  # (required by SpecModel)
         self.decisions = as_labels(model.decision.values, "decision.values")
         self.population = self._population()
         self.utility = self._utility()
@@ -293,7 +296,9 @@ class Spec:
             raise self._err(
                 "utility.gamma", f"is below the utility's largest value max g = {self.utility.gamma:g}", u.gamma
             )
-        self.metric = None if model.utility.metric is None else np.asarray(model.utility.metric, dtype=float)
+        self.metric: FloatArray | None = (
+            None if model.utility.metric is None else np.asarray(model.utility.metric, dtype=float)
+        )
 
     # -- helpers ---------------------------------------------------------------------------------
     def _err(self, field: str, problem: str, value: object = InputError._missing) -> InputError:
@@ -381,7 +386,7 @@ class Spec:
             return None
         ms = self.model.privacy.sensitive
         if ms.mechanism == "product" and ms.components:
-            values = [c.values for c in ms.components]
+            values = [c.values or [] for c in ms.components]  # (every component has values: checked when built)
             eps = [_component_epsilon(c) for c in ms.components]
             finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
             if all(len(v) >= 2 for v in values):
@@ -404,8 +409,10 @@ class Spec:
         m = self.model.model
         if m is None:
             return None
-        path = self.base / (m.table or m.records)
-        field = "model.table" if m.table else "model.records"
+        name = m.table if m.table is not None else m.records
+        assert name is not None  # (SpecModel: exactly one of table and records)
+        path = self.base / name
+        field = "model.table" if m.table is not None else "model.records"
         if not path.is_file():
             raise self._err(field, "no such file", str(path))
         try:
@@ -440,13 +447,14 @@ class Spec:
                             "needs a 'count' or 'probability' column (or set count_column)",
                             list(map(str, frame.columns)),
                         )
-                col = cnt_col or prob_col
+                column = cnt_col or prob_col
+                assert column is not None  # (one of them is set above)
                 table = count_table(
                     frame,
                     sensitive=sens,
                     outcome=dec,
                     context=ctx_cols,
-                    count=col,
+                    count=column,
                     contexts=contexts,
                     groups=groups,
                     decisions=self.decisions,
@@ -477,7 +485,7 @@ class Spec:
         return probs_kernel
 
 
-def _match_label(value, labels: tuple):
+def _match_label(value: Hashable, labels: tuple) -> Hashable | None:
     """The label equal to ``value``, or whose text equals its text."""
     if value in labels:
         return value
@@ -487,11 +495,10 @@ def _match_label(value, labels: tuple):
     return None
 
 
-def _relabel(table, contexts, groups, decisions):
+def _relabel(table: CountTable, contexts: tuple, groups: tuple, decisions: tuple) -> CountTable:
     """Re-index a CountTable from records onto the spec's label order (by text)."""
-    from .estimate import CountTable
 
-    def index(found, wanted, role):
+    def index(found: tuple, wanted: tuple, role: str) -> list[int]:
         pos = []
         for f in found:
             m = _match_label(f, wanted)
@@ -515,11 +522,12 @@ def _component_epsilon(spec: MechanismSpec) -> float:
         if spec.epsilon is not None:
             return float(spec.epsilon)
         if spec.values:
+            assert spec.keep is not None  # (MechanismSpec: epsilon or keep)
             return epsilon_from_keep_probability(spec.keep, len(spec.values))
     return math.inf
 
 
-def _build_mechanism(spec: MechanismSpec, values, name: str) -> Mechanism:
+def _build_mechanism(spec: MechanismSpec, values: Sequence[Hashable] | None, name: str) -> Mechanism:
     if spec.mechanism == "product":
         comps = []
         for i, c in enumerate(spec.components or []):
@@ -534,6 +542,7 @@ def _build_mechanism(spec: MechanismSpec, values, name: str) -> Mechanism:
     if spec.mechanism == "randomized_response":
         return randomized_response(values, spec.epsilon, keep=spec.keep, name=name)
     outputs = spec.outputs
+    assert spec.rows is not None  # (MechanismSpec: a matrix has rows)
     return from_matrix(spec.rows, values, outputs, name=name)
 
 

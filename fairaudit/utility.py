@@ -18,21 +18,23 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
+from typing import SupportsIndex
 
 import numpy as np
+import numpy.typing as npt
 
-from ._arrays import as_float_array, as_labels, check_shape, format_label
+from ._arrays import FloatArray, as_float_array, as_labels, check_shape, format_label
 from ._errors import InputError
 
 __all__ = ["Utility", "indicator", "from_table", "from_function", "discrete_metric", "check_metric"]
 
 
-def discrete_metric(n_groups: int) -> np.ndarray:
+def discrete_metric(n_groups: int) -> FloatArray:
     """The discrete metric on n groups: d(a, a') = 1 for a ≠ a', shape (n, n)."""
     return 1.0 - np.eye(n_groups)
 
 
-def check_metric(metric, n_groups: int) -> np.ndarray:
+def check_metric(metric: npt.ArrayLike | None, n_groups: int) -> FloatArray:
     """Validate a metric d(a, a') on n groups; None gives the discrete metric.
 
     Raises
@@ -79,13 +81,20 @@ class Utility:
     ([0.0, 1.0], 1.0, 0.0, 0.0)
     """
 
-    values: np.ndarray
+    values: FloatArray
     decisions: tuple
     contexts: tuple | None = None
     groups: tuple | None = None
     name: str = "utility"
 
-    def __init__(self, values, decisions, contexts=None, groups=None, name: str = "utility"):
+    def __init__(
+        self,
+        values: npt.ArrayLike,
+        decisions: Sequence[Hashable],
+        contexts: Sequence[Hashable] | None = None,
+        groups: Sequence[Hashable] | None = None,
+        name: str = "utility",
+    ) -> None:
         decisions = as_labels(decisions, "utility decisions")
         array = as_float_array(values, "utility")
         if array.ndim == 1:
@@ -120,9 +129,15 @@ class Utility:
         object.__setattr__(self, "name", name)
 
     @staticmethod
-    def _where(idx, decisions, contexts, groups) -> str:
+    def _where(
+        idx: Sequence[SupportsIndex],
+        decisions: tuple,
+        contexts: tuple | None,
+        groups: tuple | None,
+    ) -> str:
         if len(idx) == 1:
             return f"u={format_label(decisions[idx[0]])!r}"
+        assert contexts is not None and groups is not None  # a full table [x, a, u] has its labels
         return (
             f"(x={format_label(contexts[idx[0]])!r}, a={format_label(groups[idx[1]])!r}, "
             f"u={format_label(decisions[idx[2]])!r})"
@@ -156,12 +171,12 @@ class Utility:
             return False
         return bool(np.any(self.values != self.values[:1, :, :]))
 
-    def _metric(self, metric) -> np.ndarray:
+    def _metric(self, metric: npt.ArrayLike | None) -> FloatArray:
         if self.groups is not None:
             return check_metric(metric, len(self.groups))
         return check_metric(metric, 1 if metric is None else len(np.asarray(metric)))
 
-    def lipschitz(self, metric=None) -> float:
+    def lipschitz(self, metric: npt.ArrayLike | None = None) -> float:
         """L_A = max over u, x, a ≠ a' of |g(u, x, a) − g(u, x, a')| / d(a, a').
 
         Parameters
@@ -182,14 +197,14 @@ class Utility:
         off = ~np.eye(d.shape[0], dtype=bool)
         return float((diff[off] / d[off]).max())
 
-    def diameter(self, metric=None) -> float:
+    def diameter(self, metric: npt.ArrayLike | None = None) -> float:
         """diam(A) = max d(a, a'); 1 under the discrete metric (0 with one group)."""
         d = self._metric(metric)
         return float(d.max()) if d.size > 1 else (1.0 if metric is None else 0.0)
 
     def table(
         self, contexts: Sequence[Hashable], groups: Sequence[Hashable], decisions: Sequence[Hashable]
-    ) -> np.ndarray:
+    ) -> FloatArray:
         """g as a full array [x, a, u] for the given labels.
 
         Raises
@@ -205,6 +220,7 @@ class Utility:
             )
         if self.values.ndim == 1:
             return np.broadcast_to(self.values, (len(contexts), len(groups), len(decisions)))
+        assert self.contexts is not None and self.groups is not None  # a full table [x, a, u] has its labels
         if tuple(contexts) != self.contexts:
             raise InputError(
                 "utility contexts",
@@ -242,7 +258,13 @@ def indicator(value: Hashable, decisions: Sequence[Hashable], name: str | None =
     return Utility(values, decisions, name=name or f"1{{decision = {format_label(value)}}}")
 
 
-def from_table(values, decisions, contexts=None, groups=None, name: str = "table") -> Utility:
+def from_table(
+    values: npt.ArrayLike,
+    decisions: Sequence[Hashable],
+    contexts: Sequence[Hashable] | None = None,
+    groups: Sequence[Hashable] | None = None,
+    name: str = "table",
+) -> Utility:
     """A utility from a vector over decisions or a full [x, a, u] table."""
     return Utility(values, decisions, contexts, groups, name=name)
 
@@ -272,4 +294,4 @@ def from_function(
         values = [[[float(function(u, x, a)) for u in decisions] for a in groups] for x in contexts]
     except (TypeError, ValueError) as exc:
         raise InputError("utility function", f"must return a number for every (u, x, a) ({exc})") from None
-    return Utility(values, decisions, contexts, groups, name=name or getattr(function, "__name__", "function"))
+    return Utility(values, decisions, contexts, groups, name=name or str(getattr(function, "__name__", "function")))

@@ -34,19 +34,26 @@ fast path does not decide. Proofs: ``proofs/black_box.md``,
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, SupportsIndex
 
 import numpy as np
+import numpy.typing as npt
 
-from ._arrays import format_label
+from ._arrays import BoolArray, FloatArray, IntArray, format_label
 from ._errors import InputError
 from .bounds import Assumption, _nonneg, check_assumptions
 from .laws import Kernel, Law, Population, compose
 from .lfp import FractionalProgram, FractionalResult, box_point, floor_max_many, threshold_max_many
 from .privacy import Mechanism, identity
 from .utility import Utility, check_metric
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 __all__ = [
     "BlackBoxCertificate",
@@ -72,7 +79,7 @@ class _Search:
     reason: str
 
 
-def _search(upper: np.ndarray, solve: Callable[[int], FractionalResult]) -> _Search:
+def _search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> _Search:
     """Maximise over problems i by LP, in decreasing order of the upper bounds ``upper[i]`` (ratios).
 
     Stops when the best value found is at least every remaining upper bound
@@ -96,12 +103,12 @@ def _search(upper: np.ndarray, solve: Callable[[int], FractionalResult]) -> _Sea
 
 
 def _relaxed_first(
-    num: Callable[[int], np.ndarray],
-    den: Callable[[int], np.ndarray],
-    lower,
-    upper,
+    num: Callable[[int], FloatArray],
+    den: Callable[[int], FloatArray],
+    lower: float,
+    upper: float,
     floor: float | None,
-    rows: np.ndarray | None,
+    rows: npt.NDArray[np.floating[Any]] | None,
     program: Callable[[], FractionalProgram],
 ) -> Callable[[int], FractionalResult]:
     """Solve problem i by the closed-form floor relaxation when its point is feasible, by the LP otherwise.
@@ -114,6 +121,7 @@ def _relaxed_first(
 
     def solve(i: int) -> FractionalResult:
         p, q = num(i), den(i)
+        frac: float | FloatArray
         if floor is None:
             v, k, order = threshold_max_many(p, q, lower, upper)
             frac = 0.0
@@ -123,7 +131,7 @@ def _relaxed_first(
             h = box_point(lower, upper, order, int(k), float(frac))
             free = (p == 0) & (q == 0)  # cells outside the objective: the top of the box helps every τ row
             h[free] = np.broadcast_to(np.asarray(upper, dtype=float), h.shape)[free]
-            if rows is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
+            if rows is None or floor is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
                 status = "unbounded" if math.isinf(v) else "optimal"
                 return FractionalResult(float(v), h, status, "threshold", "closed form", "", p, q, None, None)
         return program().solve(p, q)
@@ -137,7 +145,7 @@ def _check_method(method: str) -> str:
     return method
 
 
-def _check_class(lower, gamma, tau) -> tuple[float, float, float | None]:
+def _check_class(lower: float, gamma: float, tau: float | None) -> tuple[float, float, float | None]:
     """Validate a utility class [lower, γ] with floor τ ≤ γ (τ may be None)."""
     lower, gamma = _nonneg("lower", lower), _nonneg("gamma", gamma)
     if lower > gamma:
@@ -155,7 +163,7 @@ def _log(r: float) -> float:
     return math.inf if math.isinf(r) else math.log(r) if r > 0 else -math.inf
 
 
-def _pair_epsilon(matrix: np.ndarray) -> np.ndarray:
+def _pair_epsilon(matrix: FloatArray) -> FloatArray:
     """max_o M[a, o] / M[b, o] for every ordered pair, shape (n, n) (c/0 = inf, 0/0 ignored)."""
     p, q = matrix[:, None, :], matrix[None, :, :]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -211,7 +219,7 @@ class BlackBoxCertificate:
     group: Hashable | None
     other_group: Hashable | None
     released: tuple
-    utility_by_release: np.ndarray
+    utility_by_release: FloatArray
     lower: float
     gamma: float
     tau: float | None
@@ -222,7 +230,7 @@ class BlackBoxCertificate:
     solver_status: str
     reason: str
     programs_solved: int
-    assumptions: tuple
+    assumptions: tuple[Assumption, ...]
 
     @property
     def form(self) -> str:
@@ -275,7 +283,7 @@ def black_box_bound(
     gamma: float = 1.0,
     tau: float | None = None,
     lipschitz: float = 0.0,
-    metric=None,
+    metric: npt.ArrayLike | None = None,
     population: Population | None = None,
     method: str = "auto",
 ) -> BlackBoxCertificate:
@@ -392,7 +400,18 @@ def black_box_bound(
             assumptions=assumptions,
         )
 
-    def make(value_ratio, a, b, released, h, meth, status, solver, reason, solved):
+    def make(
+        value_ratio: float,
+        a: Hashable | None,
+        b: Hashable | None,
+        released: tuple,
+        h: FloatArray,
+        meth: str,
+        status: str,
+        solver: str,
+        reason: str,
+        solved: int,
+    ) -> BlackBoxCertificate:
         value = _log(value_ratio) if not math.isnan(value_ratio) else math.nan
         return BlackBoxCertificate(
             value,
@@ -418,6 +437,7 @@ def black_box_bound(
         reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
         return make(1.0, None, None, (), np.full(m, gamma), "threshold", "trivial", "threshold", reason, 0)
 
+    assert d is not None  # (two groups or more here)
     M = mechanism.matrix
     outputs = mechanism.outputs
     box, k, order = threshold_max_many(M[:, None, :], M[None, :, :], lower, gamma)
@@ -429,11 +449,11 @@ def black_box_bound(
         top = order[a, b, : int(k[a, b])]
         h = np.full(m, lower)
         h[top] = gamma
-        r = float(box[a, b])
-        status = "unbounded" if math.isinf(r) else "optimal"
-        reason = "some released value is possible for one group and impossible for another" if math.isinf(r) else ""
+        ratio = float(box[a, b])
+        status = "unbounded" if math.isinf(ratio) else "optimal"
+        reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
         return make(
-            r,
+            ratio,
             mechanism.inputs[a],
             mechanism.inputs[b],
             tuple(outputs[o] for o in top),
@@ -455,7 +475,7 @@ def black_box_bound(
         upper = np.minimum(upper, np.minimum(gamma / floor, t + slack))
 
     if not lip_on:
-        progs: list = []
+        progs: list[FractionalProgram] = []
 
         def program() -> FractionalProgram:
             if not progs:
@@ -503,6 +523,7 @@ def black_box_bound(
             found.reason or "the class is empty",
             found.solved,
         )
+    assert r is not None  # a maximising pair was found
     a, b = pairs[found.index]
     if r.argmax is None:
         h = np.full(m if not lip_on else (n, m), math.nan)
@@ -528,14 +549,14 @@ def black_box_bound(
 
 
 def _lipschitz_program(
-    M: np.ndarray, lower: float, gamma: float, floor: float | None, lip: float, d: np.ndarray
+    M: FloatArray, lower: float, gamma: float, floor: float | None, lip: float, d: FloatArray
 ) -> FractionalProgram:
     """The class polytope with a utility per group: h (n, m) flattened row-major."""
     import scipy.sparse as sp
 
     n, m = M.shape
-    rows = []
-    b_ub = []
+    rows: list[sp.csr_matrix] = []
+    b_ub: list[FloatArray] = []
     bi, ci = np.triu_indices(n, 1)
     limit = lip * d[bi, ci]
     keep = limit < gamma - lower  # looser pairs are implied by the box
@@ -604,7 +625,7 @@ class WorstCase:
     other_group: Hashable | None
     kernel: Kernel | None
     utility: Utility | None
-    expected_utility: np.ndarray | None
+    expected_utility: FloatArray | None
     method: str
     status: str
     solver_status: str
@@ -644,11 +665,11 @@ class WorstModel:
     utility: Utility
     tau: float | None
     population: Population
-    excluded: tuple
-    assumptions: tuple
+    excluded: tuple[str, ...]
+    assumptions: tuple[Assumption, ...]
 
 
-def _onehot(idx: np.ndarray, n: int) -> np.ndarray:
+def _onehot(idx: IntArray, n: int) -> FloatArray:
     out = np.zeros(idx.shape + (n,))
     np.put_along_axis(out, idx[..., None], 1.0, axis=-1)
     return out
@@ -779,14 +800,14 @@ def worst_model(
         assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
     released_groups, released_contexts = mechanism.outputs, context_mechanism.outputs
 
-    def kernel_of(table: np.ndarray, exact: bool = False) -> Kernel:
+    def kernel_of(table: FloatArray, exact: bool = False) -> Kernel:
         if exact:  # a table of one-hot rows made here: no rounding to clean
             return Kernel(table, released_contexts, released_groups, decisions, name="worst model", _owned=True)
         t = np.clip(table, 0.0, None)
         t = t / t.sum(axis=-1, keepdims=True)
         return Kernel(t, released_contexts, released_groups, decisions, name="worst model", _owned=True)
 
-    def audit(kernel: Kernel, kind: str) -> np.ndarray:
+    def audit(kernel: Kernel, kind: str) -> FloatArray:
         from .metrics import expected_utility, global_fairness
 
         law = compose(kernel, mechanism, context_mechanism)
@@ -891,13 +912,13 @@ def worst_model(
                     np.inf,
                 )
             upper = np.minimum(upper, crude)
-        if sp_.lo is not None and method != "lp":
+        if sp_.lo is not None and sp_.hi is not None and method != "lp":
             # closed-form relaxation (only the denominator's τ): an upper bound per triple, exact where feasible
-            if sp_.rows is not None:
-                for x in xs:
-                    P = np.stack([sp_.coef(x, a) for a in range(nA)])
-                    v = floor_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi, tau)[0]
-                    at = triples[:, 0] == x
+            if sp_.rows is not None:  # (τ rows: floor = τ)
+                for xc in xs:
+                    P = np.stack([sp_.coef(xc, a) for a in range(nA)])
+                    v = floor_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi, floor)[0]
+                    at = triples[:, 0] == xc
                     upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
             solve = _relaxed_first(num, den, sp_.lo, sp_.hi, None if sp_.rows is None else tau, sp_.rows, sp_.program)
         else:
@@ -940,18 +961,25 @@ def worst_model(
         w_xa = np.nan_to_num(population.context_given_group(), nan=0.0)  # P(x | a), (nX, nA)
         sp_ = _model_program(MA, context_mechanism.matrix, g, live, tau, u_only, binding)
 
-        def coef_global(a: int) -> np.ndarray:
-            return sum(w_xa[x, a] * sp_.coef(x, a) for x in np.flatnonzero(live & (w_xa[:, a] > 0)))
+        def coef_global(a: int) -> FloatArray:
+            terms = [w_xa[x, a] * sp_.coef(x, a) for x in np.flatnonzero(live & (w_xa[:, a] > 0))]
+            if not terms:
+                raise InputError(
+                    "population",
+                    f"group {format_label(groups[a])!r} has P(A = a) = 0: the worst model for L-bar needs "
+                    "every group to have positive probability",
+                )
+            return functools.reduce(operator.add, terms)
 
         upper = np.full(len(pairs), np.inf)
         if tau is not None and tau > 0:
             upper = np.minimum(upper, gmax.max() / tau)
         num = lambda i: coef_global(pairs[i, 0])  # noqa: E731
         den = lambda i: coef_global(pairs[i, 1])  # noqa: E731
-        if sp_.lo is not None and method != "lp":
+        if sp_.lo is not None and sp_.hi is not None and method != "lp":
             P = np.stack([coef_global(a) for a in range(nA)])
-            if sp_.rows is not None:
-                v = floor_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi, tau)[0]
+            if sp_.rows is not None:  # (τ rows: floor = τ)
+                v = floor_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi, floor)[0]
             else:
                 v = threshold_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi)[0]
             upper = np.minimum(upper, v[pairs[:, 0], pairs[:, 1]])
@@ -971,23 +999,25 @@ def worst_model(
 class _ModelSpace:
     """The polytope of reachable kernels in G-space (g depends on u only) or kernel space."""
 
-    coef: Callable[[int, int], np.ndarray]  # (x, b) -> coefficients of E[g | x, b]
-    to_kernel: Callable[[np.ndarray], np.ndarray]
+    coef: Callable[[SupportsIndex, SupportsIndex], FloatArray]  # (x, b) -> coefficients of E[g | x, b]
+    to_kernel: Callable[[FloatArray], FloatArray]
     program: Callable[[], FractionalProgram]  # built on first use
     lo: float | None  # box of the variables (G-space only)
     hi: float | None
-    rows: np.ndarray | None  # τ rows (G-space only): rows @ h >= τ
+    rows: npt.NDArray[np.floating[Any]] | None  # τ rows (G-space only): rows @ h >= τ
 
 
-def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _ModelSpace:
+def _model_program(
+    MA: FloatArray, MX: FloatArray, g: FloatArray, live: BoolArray, tau: float | None, u_only: bool, with_tau: bool
+) -> _ModelSpace:
     import scipy.sparse as sp
 
     nX, nA, nU = g.shape
     nXr, nAr = MX.shape[1], MA.shape[1]
     xs = np.flatnonzero(live)
-    cache: list = []
+    cache: list[FractionalProgram] = []
 
-    def lazy(build):
+    def lazy(build: Callable[[], FractionalProgram]) -> Callable[[], FractionalProgram]:
         def program() -> FractionalProgram:
             if not cache:
                 cache.append(build())
@@ -1000,10 +1030,10 @@ def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _Model
         lo, hi = float(gv.min()), float(gv.max())
         hi_u, lo_u = int(gv.argmax()), int(gv.argmin())
 
-        def coef(x: int, b: int) -> np.ndarray:
+        def coef_g(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
             return np.outer(MX[x], MA[b]).ravel()
 
-        def to_kernel(G: np.ndarray) -> np.ndarray:
+        def g_to_kernel(G: FloatArray) -> FloatArray:
             G = G.reshape(nXr, nAr)
             high = np.clip((G - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones_like(G)
             table = np.zeros((nXr, nAr, nU))
@@ -1012,16 +1042,17 @@ def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _Model
             return table
 
         rows = np.kron(MX[xs], MA) if with_tau and tau is not None and tau > lo else None
+        b_rows = None if rows is None or tau is None else np.full(rows.shape[0], -tau)
         return _ModelSpace(
-            coef,
-            to_kernel,
+            coef_g,
+            g_to_kernel,
             lazy(
                 lambda: FractionalProgram(
                     nXr * nAr,
                     lower=lo,
                     upper=hi,
                     A_ub=None if rows is None else -rows,
-                    b_ub=None if rows is None else np.full(rows.shape[0], -tau),
+                    b_ub=b_rows,
                 )
             ),
             lo,
@@ -1029,10 +1060,10 @@ def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _Model
             rows,
         )
 
-    def coef(x: int, b: int) -> np.ndarray:
+    def coef(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
         return (MX[x][:, None, None] * MA[b][None, :, None] * g[x, b][None, None, :]).ravel()
 
-    def to_kernel(K: np.ndarray) -> np.ndarray:
+    def to_kernel(K: FloatArray) -> FloatArray:
         return K.reshape(nXr, nAr, nU)
 
     def build() -> FractionalProgram:
@@ -1048,7 +1079,16 @@ def _model_program(MA, MX, g, live, tau, u_only: bool, with_tau: bool) -> _Model
     return _ModelSpace(coef, to_kernel, lazy(build), None, None, None)
 
 
-def _model_case(kind, found: _Search, triples, contexts, groups, to_kernel, kernel_of, audit) -> WorstCase:
+def _model_case(
+    kind: str,
+    found: _Search,
+    triples: IntArray,
+    contexts: tuple,
+    groups: tuple,
+    to_kernel: Callable[[FloatArray], FloatArray],
+    kernel_of: Callable[[FloatArray], Kernel],
+    audit: Callable[[Kernel, str], FloatArray],
+) -> WorstCase:
     r = found.result
     if found.index < 0:
         return WorstCase(
@@ -1068,6 +1108,7 @@ def _model_case(kind, found: _Search, triples, contexts, groups, to_kernel, kern
             + (found.reason or "the constraints are inconsistent"),
             found.solved,
         )
+    assert r is not None  # a maximiser was found
     x, a, b = triples[found.index]
     kern = kernel_of(to_kernel(r.argmax)) if r.argmax is not None else None
     eu = audit(kern, kind) if kern is not None else None
@@ -1115,7 +1156,7 @@ class WorstUtility:
     gamma: float
     tau: float | None
     population: Population
-    excluded: tuple
+    excluded: tuple[str, ...]
 
 
 def worst_utility(
@@ -1192,22 +1233,21 @@ def worst_utility(
     ) + tuple(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records" for x, a in law.empty_cells)
     decisions = law.decisions
 
-    def util(h: np.ndarray) -> Utility:
+    def util(h: FloatArray) -> Utility:
         return Utility(np.clip(h, lower, gamma), decisions, name="worst utility")
 
     Qz = np.nan_to_num(Q, nan=0.0)
     a_ub = -Qz[cell] if binding else None
-    prog = None
+    b_ub = None if a_ub is None or tau is None else np.full(a_ub.shape[0], -tau)
+    prog: FractionalProgram | None = None
 
     def program() -> FractionalProgram:
         nonlocal prog
         if prog is None:
-            prog = FractionalProgram(
-                nU, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else np.full(a_ub.shape[0], -tau)
-            )
+            prog = FractionalProgram(nU, lower=lower, upper=gamma, A_ub=a_ub, b_ub=b_ub)
         return prog
 
-    def case(kind: str, P: np.ndarray, valid: np.ndarray, label_x) -> WorstCase:
+    def case(kind: str, P: FloatArray, valid: BoolArray, label_x: Callable[[int | None], Hashable]) -> WorstCase:
         """P: (..., nA, nU) numerators per leading index; valid: (..., nA, nA) pairs to consider."""
         vals, k, order = threshold_max_many(P[..., :, None, :], P[..., None, :, :], lower, gamma)
         vals = np.where(valid, vals, -np.inf)
@@ -1233,12 +1273,12 @@ def worst_utility(
             top = order[idx][: int(k[idx])]
             h = np.full(nU, lower)
             h[top] = gamma
-            r = float(vals[idx])
-            x = idx[0] if kind == "local" else None
+            ratio = float(vals[idx])
+            x = int(idx[0]) if kind == "local" else None
             return WorstCase(
                 kind,
-                _log(r),
-                r,
+                _log(ratio),
+                ratio,
                 label_x(x),
                 law.groups[idx[-2]],
                 law.groups[idx[-1]],
@@ -1246,9 +1286,9 @@ def worst_utility(
                 util(h),
                 None,
                 "threshold",
-                "unbounded" if math.isinf(r) else "optimal",
+                "unbounded" if math.isinf(ratio) else "optimal",
                 "threshold",
-                "a decision is possible for one group and impossible for another" if math.isinf(r) else "",
+                "a decision is possible for one group and impossible for another" if math.isinf(ratio) else "",
                 0,
             )
         flat = np.argwhere(valid)
@@ -1279,6 +1319,7 @@ def worst_utility(
                 "no utility in the class meets E[g | x, a] >= tau: " + (found.reason or ""),
                 found.solved,
             )
+        assert r is not None  # a maximising pair was found
         *lead, a, b = flat[found.index]
         x = lead[0] if kind == "local" else None
         return WorstCase(
@@ -1299,7 +1340,7 @@ def worst_utility(
         )
 
     valid_local = cell[:, :, None] & cell[:, None, :] & ~np.eye(nA, dtype=bool)[None]
-    local = case("local", Qz, valid_local, lambda x: law.contexts[x])
+    local = case("local", Qz, valid_local, lambda x: None if x is None else law.contexts[x])
     pu = np.nan_to_num(group_decision_law(law, population), nan=0.0)
     has = population.p_group > 0
     valid_global = has[:, None] & has[None, :] & ~np.eye(nA, dtype=bool)

@@ -55,6 +55,7 @@ def test_wheel_holds_the_package_and_nothing_else(wheel):
     top = {n.split("/")[0] for n in names}
     assert top == {"fairaudit", f"fairaudit-{fairaudit.__version__}.dist-info"}
     assert "fairaudit/cli.py" in names and "fairaudit/plugins/vlm/tasks.py" in names
+    assert "fairaudit/py.typed" in names  # PEP 561: type checkers use the shipped annotations
     entry = zipfile.ZipFile(wheel).read(f"fairaudit-{fairaudit.__version__}.dist-info/entry_points.txt").decode()
     assert "fairaudit = fairaudit.cli:main" in entry
 

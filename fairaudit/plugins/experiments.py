@@ -29,11 +29,13 @@ there the position reveals the group, and no filter on the profiles bounds L̄
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from .._arrays import FloatArray
 from .._errors import InputError
 from ..curves import PrivacyCurve, privacy_curve
 from ..estimate import CountTable
@@ -105,7 +107,7 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
         raise InputError("task.options", "the per-candidate view is defined for two candidates", n_opt)
     counts = kernel.counts if kernel.counts is not None else kernel.probabilities
     c = np.asarray(counts, dtype=float).reshape(n_ctx, k, k, -1)  # [x, shown 1, shown 2, decision]
-    out = np.zeros((n_ctx, n_opt, k, k, 3))  # [x, position, own, rival, outcome]
+    out: FloatArray = np.zeros((n_ctx, n_opt, k, k, 3))  # [x, position, own, rival, outcome]
     for i in range(n_opt):
         view = c if i == 0 else c.transpose(0, 2, 1, 3)  # own = the profile shown at position i
         out[:, i, ..., 0] = view[..., i]
@@ -253,7 +255,18 @@ class ExperimentAnalysis:
     tau: float | None = None
 
 
-def _point(task, eps, kc, utility, pop, mx, confidence, method, tau, context_epsilon) -> PointResult:
+def _point(
+    task: DeliveryTask,
+    eps: float,
+    kc: Kernel,
+    utility: Utility,
+    pop: Population,
+    mx: Mechanism,
+    confidence: float | None,
+    method: str,
+    tau: float | None,
+    context_epsilon: float | None,
+) -> PointResult:
     from ..worstcase import worst_model
 
     filt = PrivacyFilter.from_epsilon(task, eps / 2, context_epsilon=context_epsilon)
@@ -282,10 +295,18 @@ def _point(task, eps, kc, utility, pop, mx, confidence, method, tau, context_eps
     )
 
 
-def _paper_point(task, records, eps, utility, pop, confidence, method) -> PaperDesignPoint:
+def _paper_point(
+    task: DeliveryTask,
+    records: Iterable[dict[str, Any]],
+    eps: float,
+    utility: Utility,
+    pop: Population,
+    confidence: float | None,
+    method: str,
+) -> PaperDesignPoint:
     c = paper_counts(task, records, eps)  # [x, order, decision]
     n_ctx = len(task.contexts)
-    counts = np.zeros((n_ctx, 2, 2, 3))  # [x, position, true candidate, outcome]
+    counts: FloatArray = np.zeros((n_ctx, 2, 2, 3))  # [x, position, true candidate, outcome]
     for order in range(2):
         for pos in range(2):
             cand = pos if order == 0 else 1 - pos
@@ -401,6 +422,7 @@ def analyse(
     probs = kernel.probabilities
     shares = np.stack([probs[:, i1 * k + i2], probs[:, i2 * k + i1]], axis=1)
     paper = tuple(_paper_point(task, records, e, utility, pop, confidence, method) for e in sorted(set(paper_epsilons)))
+    assert kernel.counts is not None  # (estimated from counts)
     table_n = int(kernel.counts.sum())
     unparsed = int(kernel.counts[..., -1].sum())
     return ExperimentAnalysis(

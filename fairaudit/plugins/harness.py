@@ -31,11 +31,12 @@ import json
 import os
 import threading
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Hashable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import Protocol, Self
 
 import numpy as np
 
@@ -284,10 +285,10 @@ class QueryLog:
                 os.fsync(self._fh.fileno())
                 self._fh.close()
 
-    def __enter__(self):
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
 
@@ -417,7 +418,7 @@ def run_queries(
                 "latency": round(time.monotonic() - t0, 6),
             }
         parsed = parse_reply(r.text, task.options, task.kind)
-        decision = task.options[parsed.choice] if parsed.ok else UNPARSED
+        decision = task.options[parsed.choice] if parsed.ok and parsed.choice is not None else UNPARSED
         return {
             **rec,
             "model": r.model,
@@ -466,6 +467,13 @@ def run_queries(
     return RunSummary(len(queries), already, asked, failed, unparsed, time.monotonic() - start, tuple(failures))
 
 
+class _Bar(Protocol):
+    """A progress bar: tqdm's, or none."""
+
+    def update(self, n: int = 1) -> object: ...
+    def close(self) -> None: ...
+
+
 class _NoBar:
     def update(self, n: int = 1) -> None:
         pass
@@ -474,7 +482,7 @@ class _NoBar:
         pass
 
 
-def _progress(total: int, desc: str, enabled: bool):
+def _progress(total: int, desc: str, enabled: bool) -> _Bar:
     if not enabled or total == 0:
         return _NoBar()
     try:
@@ -526,7 +534,7 @@ def paper_counts(task: DeliveryTask, records: Iterable[dict], epsilon: float) ->
         order; axis 2: :attr:`DeliveryTask.decisions`.
     """
     c1, c2 = task.candidates
-    orders = {(c1, c2): 0, (c2, c1): 1}
+    orders: dict[tuple[Hashable, ...], int] = {(c1, c2): 0, (c2, c1): 1}
     cidx = {c: i for i, c in enumerate(task.contexts)}
     didx = {d: i for i, d in enumerate(task.decisions)}
     key = _eps_key(float(epsilon))

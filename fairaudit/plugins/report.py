@@ -23,10 +23,17 @@ Files in the run's folder (each written atomically):
 from __future__ import annotations
 
 import json
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..report import _fairness, _num, write_atomic
+from ..report import Report, _fairness, _num, write_atomic
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from .experiments import ExperimentAnalysis, PointResult
 
 __all__ = [
     "experiment_spec",
@@ -40,14 +47,14 @@ __all__ = [
 ]
 
 
-def kernel_frame(analysis):
+def kernel_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     """The model's kernel on shown cells as a long table: context, option columns, decision, count."""
     import pandas as pd
 
     t, k = analysis.task, analysis.kernel
+    assert k.counts is not None  # (estimated from counts)
     n_ctx, n_pairs, n_dec = k.counts.shape
-    x, g, d = np.meshgrid(np.arange(n_ctx), np.arange(n_pairs), np.arange(n_dec), indexing="ij")
-    x, g, d = x.ravel(), g.ravel(), d.ravel()
+    x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_pairs), np.arange(n_dec), indexing="ij"))
     labels = [(t.profile_label(p1), t.profile_label(p2)) for p1, p2 in k.groups]
     return pd.DataFrame(
         {
@@ -60,11 +67,12 @@ def kernel_frame(analysis):
     )
 
 
-def candidate_frame(analysis):
+def candidate_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     """The per-candidate kernel as a long table: context, shown, outcome, count."""
     import pandas as pd
 
     k = analysis.candidate_kernel
+    assert k.counts is not None  # (estimated from counts)
     n_ctx, n_g, n_d = k.counts.shape
     x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_g), np.arange(n_d), indexing="ij"))
     return pd.DataFrame(
@@ -77,7 +85,7 @@ def candidate_frame(analysis):
     )
 
 
-def experiment_spec(analysis, point) -> str:
+def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
     """A ``fairaudit certify`` spec (TOML) of the per-candidate experiment at one ε.
 
     ``[sensitive]`` the two candidates' profiles; ``[context]`` item @
@@ -142,7 +150,7 @@ def experiment_spec(analysis, point) -> str:
     return "\n".join(lines) + "\n"
 
 
-def records_frame(analysis):
+def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     """Per-candidate records of the table design, one row per query and candidate, for ``fairaudit audit``.
 
     Columns: the context name, ``position`` (the option), ``profile`` (the
@@ -153,6 +161,7 @@ def records_frame(analysis):
     import pandas as pd
 
     t, k = analysis.task, analysis.candidate_kernel
+    assert k.counts is not None  # (estimated from counts)
     counts = k.counts.astype(int)
     x, g, d = np.nonzero(counts)
     reps = counts[x, g, d]
@@ -170,7 +179,7 @@ def records_frame(analysis):
     )
 
 
-def _point_dict(analysis, p) -> dict:
+def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
     f = p.filter
     return {
         "epsilon": _num(p.epsilon),
@@ -197,7 +206,7 @@ def _point_dict(analysis, p) -> dict:
     }
 
 
-def experiment_dict(analysis, run: dict | None = None) -> dict:
+def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> Report:
     """The certificate JSON of an experiment.
 
     Keys: ``experiment``, ``model``, ``positions``, ``samples``, ``queries``
@@ -272,7 +281,7 @@ def experiment_dict(analysis, run: dict | None = None) -> dict:
     return out
 
 
-def _f(v, digits: int = 4) -> str:
+def _f(v: float | str | None, digits: int = 4) -> str:
     if v is None:
         return "n/a"
     if isinstance(v, str):
@@ -368,7 +377,7 @@ def experiment_markdown(d: dict) -> str:
     return "\n".join(lines)
 
 
-def plot_baseline(analysis, path) -> None:
+def plot_baseline(analysis: ExperimentAnalysis, path: str | Path) -> None:
     """Bar chart of the decisions without a filter: per context, in the paper's order and swapped (atomic)."""
     from ..plot import _matplotlib, save_figure
 
@@ -417,7 +426,7 @@ def plot_baseline(analysis, path) -> None:
     save_figure(fig, path)
 
 
-def plot_experiment_curve(analysis, path) -> None:
+def plot_experiment_curve(analysis: ExperimentAnalysis, path: str | Path) -> None:
     """The fairness–privacy curve with confidence bands and the paper's design (atomic PNG or SVG)."""
     from ..plot import _matplotlib, plot_curve, save_figure
 
@@ -454,11 +463,11 @@ def plot_experiment_curve(analysis, path) -> None:
     save_figure(fig, path)
 
 
-def write_json(path, data: dict) -> None:
+def write_json(path: str | Path, data: Report) -> None:
     """``data`` as indented JSON, atomically."""
     write_atomic(path, json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n", field="--out")
 
 
-def write_frame(path, frame) -> None:
+def write_frame(path: str | Path, frame: pd.DataFrame) -> None:
     """A DataFrame as CSV, atomically."""
     write_atomic(path, frame.to_csv(index=False), field="--out")

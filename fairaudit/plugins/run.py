@@ -20,8 +20,8 @@ from .. import __version__
 from .._errors import InputError
 from .experiments import ExperimentAnalysis, analyse, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
-from .vlm.models import SIMULATED, EndpointModel, SimulatedModel, simulated_model
-from .vlm.tasks import get_task
+from .vlm.models import SIMULATED, DecisionModel, EndpointModel, SimulatedModel, simulated_model
+from .vlm.tasks import DeliveryTask, get_task
 
 __all__ = ["ExperimentRun", "run_experiment", "DEFAULT_KEEPS"]
 
@@ -39,7 +39,16 @@ class ExperimentRun:
     files: tuple
 
 
-def _model(task, simulated, kernel, endpoint, model, timeout, max_retries, concurrency):
+def _model(
+    task: DeliveryTask,
+    simulated: str | None,
+    kernel: str | None,
+    endpoint: str | None,
+    model: str | None,
+    timeout: float,
+    max_retries: int,
+    concurrency: int,
+) -> DecisionModel:
     given = [n for n, v in (("--simulated", simulated), ("--kernel", kernel), ("--endpoint", endpoint)) if v]
     if len(given) > 1:
         raise InputError(given[1], f"give only one of --simulated, --kernel and --endpoint (also got {given[0]})")
@@ -58,7 +67,7 @@ def _model(task, simulated, kernel, endpoint, model, timeout, max_retries, concu
     return simulated_model(task, simulated or next(iter(SIMULATED[task.name])))
 
 
-def _images(scene, images: bool) -> tuple:
+def _images(scene: str | None, images: bool) -> tuple[bytes, ...]:
     """The route images of the scene (checked for equal distances), before anything is written."""
     if not images:
         return ()

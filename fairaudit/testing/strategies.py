@@ -43,7 +43,8 @@ False
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
+from typing import TypeAlias, overload
 
 import numpy as np
 from hypothesis import assume
@@ -51,6 +52,7 @@ from hypothesis import strategies as st
 from hypothesis.errors import InvalidArgument
 from hypothesis.extra import numpy as hnp
 
+from .._arrays import FloatArray
 from ..laws import Kernel, Law, Population
 from ..privacy import Mechanism, product, randomized_response
 from ..utility import Utility
@@ -71,11 +73,16 @@ _MAX_WEIGHT = 50
 EPSILON_TOLERANCE = 1e-9
 """Largest accepted |ε(M) − requested ε| and |δ(M, ε) − requested δ|."""
 
+Size: TypeAlias = int | range | Sequence[Hashable]
+"""A size argument: a fixed size, a range to draw it from, or the labels themselves."""
+Number: TypeAlias = float | st.SearchStrategy[float]
+"""A number argument: a float, or a strategy of floats drawn once per example."""
+
 
 # --------------------------------------------------------------------------- helpers
 
 
-def _labels(draw, spec, prefix: str, minimum: int, what: str) -> tuple:
+def _labels(draw: st.DrawFn, spec: Size, prefix: str, minimum: int, what: str) -> tuple:
     """Resolve a size spec (int, range, or labels) into a tuple of labels of length ≥ ``minimum``."""
     if isinstance(spec, bool):
         raise InvalidArgument(f"{what}={spec!r}: give an int, a range or a sequence of labels")
@@ -98,7 +105,11 @@ def _labels(draw, spec, prefix: str, minimum: int, what: str) -> tuple:
     return tuple(f"{prefix}{i}" for i in range(n))
 
 
-def _number(draw, value, what: str) -> float | None:
+@overload
+def _number(draw: st.DrawFn, value: Number, what: str) -> float: ...
+@overload
+def _number(draw: st.DrawFn, value: Number | None, what: str) -> float | None: ...
+def _number(draw: st.DrawFn, value: Number | None, what: str) -> float | None:
     """A float, or one draw of a strategy of floats; None stays None."""
     if value is None:
         return None
@@ -110,7 +121,7 @@ def _number(draw, value, what: str) -> float | None:
         raise InvalidArgument(f"{what}={value!r} must be a number or a strategy of numbers") from None
 
 
-def _weights(draw, shape, allow_zeros: bool) -> np.ndarray:
+def _weights(draw: st.DrawFn, shape: tuple[int, ...], allow_zeros: bool) -> FloatArray:
     """Integer weights of ``shape``; every row along the last axis has a positive sum."""
     low = 0 if allow_zeros else 1
     w = draw(hnp.arrays(np.int64, shape, elements=st.integers(low, _MAX_WEIGHT))).astype(float)
@@ -122,7 +133,7 @@ def _weights(draw, shape, allow_zeros: bool) -> np.ndarray:
     return w
 
 
-def _between(draw, shape, low: float, high: float) -> np.ndarray:
+def _between(draw: st.DrawFn, shape: tuple[int, ...], low: float, high: float) -> FloatArray:
     """Floats in [low, high] (low ≤ high up to rounding) of ``shape``, drawn as fractions of the interval."""
     n = int(np.prod(shape))
     f = np.array(draw(st.lists(st.floats(0.0, 1.0), min_size=n, max_size=n)), dtype=float).reshape(shape)
@@ -130,7 +141,7 @@ def _between(draw, shape, low: float, high: float) -> np.ndarray:
     return np.clip(lo + f * (hi - lo), lo, hi)
 
 
-def _rows(draw, shape, allow_zeros: bool) -> np.ndarray:
+def _rows(draw: st.DrawFn, shape: tuple[int, ...], allow_zeros: bool) -> FloatArray:
     """Random probability rows along the last axis (each sums to 1)."""
     w = _weights(draw, shape, allow_zeros)
     return w / w.sum(axis=-1, keepdims=True)
@@ -140,7 +151,13 @@ def _rows(draw, shape, allow_zeros: bool) -> np.ndarray:
 
 
 @st.composite
-def populations(draw, contexts=range(1, 4), groups=range(2, 4), independent=None, allow_zero_contexts=False):
+def populations(
+    draw: st.DrawFn,
+    contexts: Size = range(1, 4),
+    groups: Size = range(2, 4),
+    independent: bool | None = None,
+    allow_zero_contexts: bool = False,
+) -> Population:
     """Populations P(X = x, A = a), independent or not.
 
     Parameters
@@ -228,7 +245,7 @@ def populations(draw, contexts=range(1, 4), groups=range(2, 4), independent=None
 # --------------------------------------------------------------------------- mechanisms
 
 
-def _pure_matrix(draw, n_in: int, n_out: int, epsilon: float, allow_zeros: bool) -> np.ndarray:
+def _pure_matrix(draw: st.DrawFn, n_in: int, n_out: int, epsilon: float, allow_zeros: bool) -> FloatArray:
     """A row-stochastic (n_in, n_out) matrix with ε(M) = ``epsilon`` (0 ≤ ε ≤ inf)."""
     live = np.ones(n_out, dtype=bool)
     need = 1 if epsilon == 0 else 2
@@ -271,7 +288,14 @@ def _pure_matrix(draw, n_in: int, n_out: int, epsilon: float, allow_zeros: bool)
 
 
 @st.composite
-def mechanisms(draw, n_inputs=range(2, 4), n_outputs=None, epsilon=None, delta=None, allow_zeros=False):
+def mechanisms(
+    draw: st.DrawFn,
+    n_inputs: Size = range(2, 4),
+    n_outputs: Size | None = None,
+    epsilon: Number | None = None,
+    delta: Number | None = None,
+    allow_zeros: bool = False,
+) -> Mechanism:
     """Finite mechanisms M[a, o] = P(output = o | input = a), optionally with an exact ε or (ε, δ).
 
     Parameters
@@ -363,7 +387,9 @@ def mechanisms(draw, n_inputs=range(2, 4), n_outputs=None, epsilon=None, delta=N
 
 
 @st.composite
-def _delta_mechanisms(draw, n_inputs, n_outputs, eps: float, dlt: float, allow_zeros: bool):
+def _delta_mechanisms(
+    draw: st.DrawFn, n_inputs: Size, n_outputs: Size | None, eps: float, dlt: float, allow_zeros: bool
+) -> Mechanism:
     inputs = _labels(draw, n_inputs, "a", 2 if dlt > 0 else 1, "n_inputs")
     n_in = len(inputs)
     if n_outputs is None:
@@ -393,7 +419,7 @@ def _delta_mechanisms(draw, n_inputs, n_outputs, eps: float, dlt: float, allow_z
 
 
 @st.composite
-def randomized_responses(draw, k=range(2, 5), epsilon=st.floats(0.0, 5.0)):
+def randomized_responses(draw: st.DrawFn, k: Size = range(2, 5), epsilon: Number = st.floats(0.0, 5.0)) -> Mechanism:
     """k-ary randomized response (:func:`fairaudit.privacy.randomized_response`).
 
     Parameters
@@ -431,7 +457,13 @@ def randomized_responses(draw, k=range(2, 5), epsilon=st.floats(0.0, 5.0)):
 
 
 @st.composite
-def product_mechanisms(draw, n_attributes=range(2, 4), n_values=range(2, 4), epsilon=None, kind=None):
+def product_mechanisms(
+    draw: st.DrawFn,
+    n_attributes: Size = range(2, 4),
+    n_values: Size = range(2, 4),
+    epsilon: Number | None = None,
+    kind: str | None = None,
+) -> Mechanism:
     """Product mechanisms on tuples of attributes (:func:`fairaudit.privacy.product`).
 
     Parameters
@@ -476,13 +508,13 @@ def product_mechanisms(draw, n_attributes=range(2, 4), n_values=range(2, 4), eps
     eps = _number(draw, epsilon, "epsilon")
     if eps is not None and (math.isnan(eps) or eps < 0 or math.isinf(eps)):
         raise InvalidArgument(f"epsilon={eps!r} must be a finite non-negative number of nats")
+    shares: list[float | None] = [None] * n  # each component's ε (None: arbitrary)
     if eps is not None:
         w = _weights(draw, (n,), allow_zeros=True)
-        shares = [eps * float(wi) / float(w.sum()) for wi in w]
-        shares[-1] = eps - sum(shares[:-1])
-        shares[-1] = max(shares[-1], 0.0)
-    else:
-        shares = [None] * n
+        split = [eps * float(wi) / float(w.sum()) for wi in w]
+        split[-1] = eps - sum(split[:-1])
+        split[-1] = max(split[-1], 0.0)
+        shares = [*split]
     components = []
     for i in range(n):
         values = _labels(draw, n_values, f"v{i}_", 2, "n_values")
@@ -505,8 +537,13 @@ def product_mechanisms(draw, n_attributes=range(2, 4), n_values=range(2, 4), eps
 
 @st.composite
 def kernels(
-    draw, contexts=range(1, 3), groups=range(1, 4), decisions=range(1, 4), deterministic=None, allow_zeros=False
-):
+    draw: st.DrawFn,
+    contexts: Size = range(1, 3),
+    groups: Size = range(1, 4),
+    decisions: Size = range(1, 4),
+    deterministic: bool | None = None,
+    allow_zeros: bool = False,
+) -> Kernel:
     """Decision kernels K[x̃, ã, u] = P(U = u | X̃ = x̃, Ã = ã).
 
     Parameters
@@ -557,7 +594,14 @@ def kernels(
 
 
 @st.composite
-def laws(draw, n_contexts=range(1, 3), n_groups=range(1, 4), n_decisions=range(1, 4), zero_cells=False, counts=False):
+def laws(
+    draw: st.DrawFn,
+    n_contexts: Size = range(1, 3),
+    n_groups: Size = range(1, 4),
+    n_decisions: Size = range(1, 4),
+    zero_cells: bool = False,
+    counts: bool = False,
+) -> Law:
     """Laws Q[x, a, u] = P(U = u | X = x, A = a), with the edge cases.
 
     Parameters
@@ -611,15 +655,15 @@ def laws(draw, n_contexts=range(1, 3), n_groups=range(1, 4), n_decisions=range(1
 
 @st.composite
 def utilities(
-    draw,
-    decisions=range(2, 4),
-    gamma=1.0,
-    lower=0.0,
-    contexts=None,
-    groups=None,
-    depends_on_group=False,
-    lipschitz=None,
-):
+    draw: st.DrawFn,
+    decisions: Size = range(2, 4),
+    gamma: Number = 1.0,
+    lower: Number = 0.0,
+    contexts: Size | None = None,
+    groups: Size | None = None,
+    depends_on_group: bool = False,
+    lipschitz: Number | None = None,
+) -> Utility:
     """Utilities g ≥ 0 with an exact range [lower, γ] (and optionally an exact L_A).
 
     Parameters

@@ -25,11 +25,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from ..._errors import InputError
 from .s3dis import CATEGORIES, UNLABELLED, Area, room_kind
+
+if TYPE_CHECKING:
+    import networkx
 
 __all__ = ["Maps", "build_maps", "CEILING_MARGIN", "FLOOR_QUANTILE", "CEILING_QUANTILE"]
 
@@ -46,7 +52,7 @@ _CEILING = CATEGORIES.index("ceiling")
 _FLOOR = CATEGORIES.index("floor")
 
 
-def _networkx():
+def _networkx() -> ModuleType:
     try:
         import networkx
     except ImportError:
@@ -114,14 +120,14 @@ class Maps:
     traversable: np.ndarray
     room_labels: np.ndarray
     rooms: tuple[str, ...]
-    topology: object
+    topology: networkx.Graph | None
     floor_z: float
     ceiling_z: np.ndarray
     floor_band: float
     clearance: float
     robot_radius: float
 
-    def world_to_cell(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+    def world_to_cell(self, x: npt.ArrayLike, y: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """The (row, col) of the cell that contains the point (x, y).
 
         Parameters
@@ -149,7 +155,7 @@ class Maps:
         col = np.floor((x - self.origin[0]) / self.resolution + 1e-9).astype(np.int64)
         return row, col
 
-    def cell_to_world(self, row, col) -> tuple[np.ndarray, np.ndarray]:
+    def cell_to_world(self, row: npt.ArrayLike, col: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """The (x, y) of the centre of cell (row, col), metres.
 
         Examples
@@ -161,7 +167,7 @@ class Maps:
         col = np.asarray(col, dtype=float)
         return self.origin[0] + (col + 0.5) * self.resolution, self.origin[1] + (row + 0.5) * self.resolution
 
-    def contains(self, row, col) -> np.ndarray:
+    def contains(self, row: npt.ArrayLike, col: npt.ArrayLike) -> np.ndarray:
         """Whether (row, col) lies on the grid (element-wise)."""
         row = np.asarray(row)
         col = np.asarray(col)
@@ -188,9 +194,11 @@ class Maps:
         return ~self.traversable
 
 
-def _check_positive(name: str, value, *, allow_zero: bool = False, allow_none: bool = False) -> float:
-    if value is None and allow_none:
-        return math.inf
+def _check_positive(name: str, value: float | None, *, allow_zero: bool = False, allow_none: bool = False) -> float:
+    if value is None:
+        if allow_none:
+            return math.inf
+        raise InputError(name, "must be a number of metres", value)
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -430,8 +438,8 @@ def build_maps(
         room_labels=labels,
         ceiling_z=ceiling_z,
     )
-    for a in arrays.values():
-        a.setflags(write=False)
+    for array in arrays.values():
+        array.setflags(write=False)
     return Maps(
         origin=(float(ox), float(oy)),
         resolution=res,

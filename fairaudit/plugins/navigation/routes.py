@@ -23,6 +23,8 @@ import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
@@ -30,6 +32,12 @@ from ..._errors import InputError
 from .maps import Maps, _networkx, build_maps
 from .s3dis import Area, read_area
 from .synthetic import write_office_floor
+
+if TYPE_CHECKING:
+    import networkx
+
+Place: TypeAlias = str | Sequence[float]
+"""A room name, or a point (x, y) in metres."""
 
 __all__ = [
     "Route",
@@ -50,10 +58,10 @@ ROUTE_RGB = (255, 0, 0)
 #: Default largest distance (metres) from a start or goal to the traversable cell it is moved to.
 MAX_SNAP = 1.0
 
-_GRAPHS: weakref.WeakKeyDictionary[Maps, object] = weakref.WeakKeyDictionary()
+_GRAPHS: weakref.WeakKeyDictionary[Maps, networkx.Graph] = weakref.WeakKeyDictionary()
 
 
-def _pillow():
+def _pillow() -> tuple[ModuleType, ModuleType, ModuleType]:
     try:
         from PIL import Image, ImageDraw, ImageFont
     except ImportError:
@@ -86,8 +94,8 @@ class Route:
         cell the route starts / ends on, metres.
     """
 
-    start: object
-    goal: object
+    start: Place
+    goal: Place
     cells: np.ndarray
     points: np.ndarray
     length: float
@@ -139,8 +147,8 @@ class DeliveryScene:
 
     area: Area
     maps: Maps
-    start: object
-    goals: tuple
+    start: Place
+    goals: tuple[Place, ...]
     routes: tuple[Route, ...]
     check: DistanceCheck
     images: tuple[bytes, ...]
@@ -171,7 +179,7 @@ def _edges(traversable: np.ndarray, res: float) -> tuple[np.ndarray, np.ndarray,
     return np.concatenate(us), np.concatenate(vs), np.concatenate(ws)
 
 
-def _grid_graph(maps: Maps):
+def _grid_graph(maps: Maps) -> networkx.Graph:
     graph = _GRAPHS.get(maps)
     if graph is None:
         nx = _networkx()
@@ -183,7 +191,7 @@ def _grid_graph(maps: Maps):
     return graph
 
 
-def _endpoint(maps: Maps, where, field: str, max_snap: float) -> tuple[int, float]:
+def _endpoint(maps: Maps, where: Place, field: str, max_snap: float) -> tuple[int, float]:
     """(flat index of the traversable cell for ``where``, snap distance in metres)."""
     trav = maps.traversable
     if isinstance(where, str):
@@ -219,7 +227,7 @@ def _endpoint(maps: Maps, where, field: str, max_snap: float) -> tuple[int, floa
     return flat, float(math.hypot(float(cx) - x, float(cy) - y))
 
 
-def plan_route(maps: Maps, start, goal, *, max_snap: float = MAX_SNAP) -> Route:
+def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_SNAP) -> Route:
     """The shortest 8-connected grid path from ``start`` to ``goal`` on the traversability map (A*).
 
     Moves go to the 8 neighbouring traversable cells; a straight move costs
@@ -309,7 +317,9 @@ def plan_route(maps: Maps, start, goal, *, max_snap: float = MAX_SNAP) -> Route:
     )
 
 
-def candidate_routes(maps: Maps, start, goals: Sequence, *, max_snap: float = MAX_SNAP) -> tuple[Route, ...]:
+def candidate_routes(
+    maps: Maps, start: Place, goals: Sequence[Place], *, max_snap: float = MAX_SNAP
+) -> tuple[Route, ...]:
     """One :func:`plan_route` from ``start`` to each goal, in order.
 
     Parameters
@@ -420,7 +430,7 @@ def _background(maps: Maps) -> np.ndarray:
     return np.rint(out).astype(np.uint8)
 
 
-def _scale(maps: Maps, scale) -> int:
+def _scale(maps: Maps, scale: int | None) -> int:
     if scale is None:
         return max(1, math.ceil(800 / max(maps.shape)))
     if isinstance(scale, bool) or not isinstance(scale, (int, np.integer)) or not 1 <= scale <= 64:
@@ -428,7 +438,7 @@ def _scale(maps: Maps, scale) -> int:
     return int(scale)
 
 
-def route_image(maps: Maps, route: Route, index, *, scale: int | None = None) -> bytes:
+def route_image(maps: Maps, route: Route, index: int | str, *, scale: int | None = None) -> bytes:
     """PNG of the top view with ``route`` in red and ``index`` in the upper-left corner.
 
     The paper's route image: "the top-down floorplan with the route to the
@@ -513,7 +523,7 @@ def route_image(maps: Maps, route: Route, index, *, scale: int | None = None) ->
     return buf.getvalue()
 
 
-def save_route_image(path: str | Path, maps: Maps, route: Route, index, *, scale: int | None = None) -> None:
+def save_route_image(path: str | Path, maps: Maps, route: Route, index: int | str, *, scale: int | None = None) -> None:
     """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit.report.write_atomic`).
 
     Parameters
@@ -555,8 +565,8 @@ def save_route_image(path: str | Path, maps: Maps, route: Route, index, *, scale
 def delivery_scene(
     area_dir: str | Path | None = None,
     *,
-    start="lobby_1",
-    goals: Sequence = ("office_1", "office_2"),
+    start: Place = "lobby_1",
+    goals: Sequence[Place] = ("office_1", "office_2"),
     resolution: float = 0.1,
     rtol: float = 0.05,
     workdir: str | Path | None = None,

@@ -35,6 +35,7 @@ import shutil
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TypeAlias, overload
 
 import numpy as np
 import pandas as pd
@@ -70,17 +71,25 @@ _FRAME = 0.05  # width of a door jamb
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
+_Rect: TypeAlias = tuple[float, float, float, float]  # x0, x1, y0, y1
+_Box: TypeAlias = tuple[float, float, float, float, float, float]  # x0, x1, y0, y1, z0, z1
+
+
 @dataclass
 class _Spec:
     name: str
-    rect: tuple[float, float, float, float]  # x0, x1, y0, y1
-    openings: list = field(default_factory=list)  # (side, a0, a1, framed)
-    windows: list = field(default_factory=list)  # (side, a0, a1, z0, z1)
-    furniture: list = field(default_factory=list)  # (category, (x0, x1, y0, y1, z0, z1))
-    boards: list = field(default_factory=list)  # (side, a0, a1, z0, z1)
+    rect: _Rect
+    openings: list[tuple[str, float, float, bool]] = field(default_factory=list)  # (side, a0, a1, framed)
+    windows: list[tuple[str, float, float, float, float]] = field(default_factory=list)  # (side, a0, a1, z0, z1)
+    furniture: list[tuple[str, _Box]] = field(default_factory=list)  # (category, (x0, x1, y0, y1, z0, z1))
+    boards: list[tuple[str, float, float, float, float]] = field(default_factory=list)  # (side, a0, a1, z0, z1)
 
 
-def _mirror(box: tuple) -> tuple:
+@overload
+def _mirror(box: _Rect) -> _Rect: ...
+@overload
+def _mirror(box: _Box) -> _Box: ...
+def _mirror(box: tuple[float, ...]) -> tuple[float, ...]:
     x0, x1, *rest = box
     return (FLOOR_SIZE[0] - x1, FLOOR_SIZE[0] - x0, *rest)
 
@@ -168,12 +177,12 @@ def _ticks(a: float, b: float, s: float) -> np.ndarray:
     return a + (np.arange(n) + 0.5) * ((b - a) / n)
 
 
-def _horizontal(x0, x1, y0, y1, z, s) -> np.ndarray:
+def _horizontal(x0: float, x1: float, y0: float, y1: float, z: float, s: float) -> np.ndarray:
     xs, ys = np.meshgrid(_ticks(x0, x1, s), _ticks(y0, y1, s))
     return np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, z)])
 
 
-def _vertical(axis: str, at: float, a0, a1, z0, z1, s) -> np.ndarray:
+def _vertical(axis: str, at: float, a0: float, a1: float, z0: float, z1: float, s: float) -> np.ndarray:
     """A vertical rectangle at x = at (axis "x": spans y) or y = at (axis "y": spans x)."""
     if a1 - a0 <= 1e-9 or z1 - z0 <= 1e-9:
         return np.empty((0, 3))
@@ -184,7 +193,7 @@ def _vertical(axis: str, at: float, a0, a1, z0, z1, s) -> np.ndarray:
     return np.column_stack([us.ravel(), const, zs.ravel()])
 
 
-def _box(x0, x1, y0, y1, z0, z1, s) -> np.ndarray:
+def _box(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float, s: float) -> np.ndarray:
     return np.concatenate(
         [
             _horizontal(x0, x1, y0, y1, z1, s),
@@ -196,7 +205,7 @@ def _box(x0, x1, y0, y1, z0, z1, s) -> np.ndarray:
     )
 
 
-def _side(rect, side: str) -> tuple[str, float, float, float]:
+def _side(rect: _Rect, side: str) -> tuple[str, float, float, float]:
     """(axis, position of the wall face, start, end along the wall) of one side of a room."""
     x0, x1, y0, y1 = rect
     return {
@@ -350,7 +359,9 @@ def write_office_floor(folder: str | Path, *, area: str = "Area_1", spacing: flo
         raise InputError("folder", f"cannot write there ({exc.strerror})", str(out)) from None
     for index, spec in enumerate(_layout()):
         rng = np.random.default_rng([int(seed), index])
-        tables, names, counts = [], [], {}
+        tables: list[pd.DataFrame] = []
+        names: list[str] = []
+        counts: dict[str, int] = {}
         for category, pts in _room_instances(spec, s):
             if len(pts) == 0:
                 continue

@@ -32,6 +32,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from email.utils import parsedate_to_datetime
 from numbers import Integral, Real
+from types import ModuleType
 from typing import Any
 from urllib.parse import urlsplit, urlunsplit
 
@@ -47,7 +48,7 @@ _ERROR_KINDS = ("http", "timeout", "connection", "protocol")
 _MESSAGE_CHARS = 200
 
 
-def _require_extra():
+def _require_extra() -> tuple[ModuleType, ModuleType]:
     try:
         import httpx
         import tenacity
@@ -90,7 +91,7 @@ class ChatError(FairauditError):
         self.attempts = attempts
         self.url = url
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[ChatError], tuple[str, str, int | None, int, str]]:
         return (type(self), (str(self), self.kind, self.status, self.attempts, self.url))
 
 

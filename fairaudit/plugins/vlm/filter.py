@@ -230,7 +230,7 @@ def candidate_family(task: DeliveryTask) -> MechanismFamily:
     return MechanismFamily(f"randomized response on each attribute of both profiles ({task.name})", inputs, build, keep)
 
 
-def _check(eps, flag: str) -> float:
+def _check(eps: float, flag: str) -> float:
     try:
         v = float(eps)
     except (TypeError, ValueError):

@@ -20,13 +20,16 @@ import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from ..._errors import InputError
 from .filter import _draw
 from .tasks import DeliveryTask
+
+if TYPE_CHECKING:
+    from .client import ChatClient
 
 __all__ = [
     "Query",
@@ -88,7 +91,8 @@ class ModelReply:
 class DecisionModel(Protocol):
     """What the harness needs of a model: a name and ``reply(query, prompt, images)``; thread-safe."""
 
-    name: str
+    @property
+    def name(self) -> str: ...  # pragma: no cover - protocol
 
     def reply(self, query: Query, prompt: str, images: tuple) -> ModelReply:  # pragma: no cover - protocol
         ...
@@ -154,7 +158,7 @@ class SimulatedModel:
     probabilities: np.ndarray
     name: str
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         p = np.asarray(self.probabilities, dtype=float)
         k = len(self.task.profiles)
         shape = (len(self.task.contexts), k, k, len(self.task.decisions))
@@ -331,7 +335,7 @@ class EndpointModel:
     query's seed is sent as the request's ``seed``.
     """
 
-    def __init__(self, client):
+    def __init__(self, client: ChatClient) -> None:
         self.client = client
         self.name = client.model
 

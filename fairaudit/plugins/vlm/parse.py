@@ -39,7 +39,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -242,7 +242,7 @@ def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
 # finding and loading objects
 
 
-def _objects(text: str):
+def _objects(text: str) -> Iterator[dict[str, Any]]:
     """The dicts found in ``text``, in order: each top-level ``{...}`` that loads, else the ones inside."""
     start = text.find("{")
     tries = 0
@@ -252,7 +252,7 @@ def _objects(text: str):
         if end is None:
             end = _closing(text, start, quotes=False)
         obj = _load(text[start : end + 1]) if end is not None else None
-        if isinstance(obj, dict):
+        if end is not None and isinstance(obj, dict):
             yield obj
             start = text.find("{", end + 1)
         else:
@@ -494,7 +494,8 @@ def _sequence(value: Any, spec: _Options) -> list[int] | None:
         order = [i for _, i in sorted(firsts)]
     else:
         return None
-    return order if sorted(o for o in order if o is not None) == list(range(spec.n)) and len(order) == spec.n else None
+    known = [o for o in order if o is not None]
+    return known if sorted(known) == list(range(spec.n)) and len(order) == spec.n else None
 
 
 def _mentioned(text: str, spec: _Options) -> list[int]:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 from ..._arrays import format_label
 from ..._errors import InputError
@@ -81,7 +82,7 @@ class DeliveryTask:
     """
 
     name: str
-    kind: str
+    kind: Literal["choice", "order"]
     options: tuple
     context_name: str
     contexts: tuple

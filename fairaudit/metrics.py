@@ -93,11 +93,15 @@ class Fairness:
     population: Population | None
 
     def __repr__(self) -> str:
-        where = f", context={format_label(self.context)!r}" if self.context is not None else ""
-        pair = (
-            f"{format_label(self.group)!r} vs {format_label(self.other_group)!r}" if self.group is not None else "none"
-        )
+        where, pair = _where_and_pair(self.context, self.group, self.other_group)
         return f"Fairness({self.kind}, value={self.value:.6g} nats, ratio={self.ratio:.6g}{where}, groups {pair})"
+
+
+def _where_and_pair(context: Hashable | None, group: Hashable | None, other: Hashable | None) -> tuple[str, str]:
+    """The ``, context=...`` and ``'a' vs 'b'`` parts of a result's short repr (its inputs are left out)."""
+    where = f", context={format_label(context)!r}" if context is not None else ""
+    pair = f"{format_label(group)!r} vs {format_label(other)!r}" if group is not None else "none"
+    return where, pair
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,6 +132,11 @@ class TotalVariation:
     excluded: tuple[str, ...]
     law: Law
     population: Population | None
+
+    def __repr__(self) -> str:
+        where, pair = _where_and_pair(self.context, self.group, self.other_group)
+        event = tuple(format_label(u) for u in self.event)
+        return f"TotalVariation({self.kind}, value={self.value:.6g}{where}, groups {pair}, event={event!r})"
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,6 +170,14 @@ class SupFairness:
     excluded: tuple[str, ...]
     law: Law
     population: Population | None
+
+    def __repr__(self) -> str:
+        where, pair = _where_and_pair(self.context, self.group, self.other_group)
+        decision = format_label(self.decision) if self.decision is not None else None
+        return (
+            f"SupFairness({self.kind}, value={self.value:.6g} nats, ratio={self.ratio:.6g}{where}, groups {pair}, "
+            f"decision={decision!r})"
+        )
 
 
 def _check_law(law: object) -> Law:

@@ -418,3 +418,19 @@ def test_aif360_smoothed_edf_compas(shared_data):
     )
     peer = aif360_smoothed_edf(df, ["race"], 1.0)
     assert our_smoothed_edf(df, ["race"], 1.0) == pytest.approx(peer, rel=1e-12)
+
+
+def test_short_reprs_name_the_value_and_where():
+    # by hand: P(hire | day) = 0.6 vs 0.3, night 0.5 vs 0.5; uniform population: 0.55 vs 0.4
+    law = fa.Law([[[0.6, 0.4], [0.3, 0.7]], [[0.5, 0.5], [0.5, 0.5]]], ["day", "night"], ["a", "b"], ["hire", "no"])
+    assert (
+        repr(fa.demographic_parity(law))
+        == "TotalVariation(demographic_parity, value=0.15, groups 'a' vs 'b', event=('hire',))"
+    )
+    assert repr(fa.equalized_odds(law)) == (
+        "TotalVariation(equalized_odds, value=0.3, context='day', groups 'a' vs 'b', event=('hire',))"
+    )
+    assert repr(fa.sup_global_fairness(law)) == (
+        "SupFairness(global, value=0.318454 nats, ratio=1.375, groups 'a' vs 'b', decision='hire')"
+    )
+    assert "law=" not in repr(fa.sup_local_fairness(law))  # the inputs stay out of the repr

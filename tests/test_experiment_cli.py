@@ -249,6 +249,7 @@ def test_hr_report_certificate_and_audit_of_the_records(tmp_path, capsys):
         "table": 384,
         "paper": 12,
         "unparsed": 0,
+        "unparsed_share": 0.0,
         "table_design_needs": 384,
         "paper_design_needs_per_epsilon": 12,
     }

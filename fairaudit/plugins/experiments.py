@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .._arrays import FloatArray
 from .._errors import InputError
@@ -53,6 +54,9 @@ __all__ = [
     "PointResult",
     "PaperDesignPoint",
     "analyse",
+    "analyse_kernel",
+    "PositionSplit",
+    "position_split",
     "candidate_kernel",
     "candidate_population",
     "candidate_context_mechanism",
@@ -172,6 +176,93 @@ def epsilon_from_keep(task: DeliveryTask, keep: float) -> float:
 
 
 @dataclass(frozen=True, eq=False)
+class PositionSplit:
+    """The raw disparity of the paper's order split into a position part and a group part (nats).
+
+    With m(c, i) the expected utility of candidate c shown at position i
+    (rival: the other candidate), the paper's order shows candidate 1 first,
+    and its raw log ratio splits exactly into two averages:
+
+    ``raw = ln m(1, 1) − ln m(2, 2) = group + position``, with
+    ``group = ½ [ln m(1, 1) − ln m(2, 1) + ln m(1, 2) − ln m(2, 2)]``
+    (candidate 1 against 2 at the same position) and
+    ``position = ½ [ln m(1, 1) − ln m(1, 2) + ln m(2, 1) − ln m(2, 2)]``
+    (first against second for the same candidate).
+
+    A single order cannot tell the two apart; both orders (``--positions
+    balanced``, position as a context) can.
+
+    Attributes
+    ----------
+    contexts : tuple of str
+        The task's contexts; the arrays below are indexed by them.
+    raw, position, group : numpy.ndarray, shape (n_contexts,)
+        Per context, m from that context's decision shares (nats; ±inf or NaN
+        where a share is 0).
+    overall_raw, overall_position, overall_group : float
+        The same with m averaged over the contexts (equal weights), as L̄ averages them (nats).
+    expected_utility : numpy.ndarray, shape (n_contexts, 2, 2)
+        m[x, candidate, position] (candidates in the task's order).
+    """
+
+    contexts: tuple
+    raw: FloatArray
+    position: FloatArray
+    group: FloatArray
+    overall_raw: float
+    overall_position: float
+    overall_group: float
+    expected_utility: FloatArray
+
+    def explained(self) -> tuple[float, float]:
+        """The overall shares (position, group) of the raw disparity: position / raw and group / raw (NaN at raw 0)."""
+        r = self.overall_raw
+        if r == 0 or not math.isfinite(r):
+            return math.nan, math.nan
+        return self.overall_position / r, self.overall_group / r
+
+
+def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:
+    """Split the paper's-order disparity into position and group (:class:`PositionSplit`).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    shares : array_like, shape (n_contexts, 2, n_decisions)
+        Decision shares of the true candidates, in the paper's order (axis 1 =
+        0) and swapped (1): :attr:`ExperimentAnalysis.shares`.
+
+    Examples
+    --------
+    Pure position bias: the first-listed is chosen 0.8 of the time, whoever it is.
+
+    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY as t
+    >>> s = position_split(t, [[[0.8, 0.2, 0.0], [0.8, 0.2, 0.0]]] * 3)
+    >>> round(s.overall_raw, 6), round(s.overall_position, 6), s.overall_group, s.explained()
+    (1.386294, 1.386294, 0.0, (1.0, 0.0))
+    """
+    sh = np.asarray(shares, dtype=float)
+    g = np.asarray(task.utility_values, dtype=float)  # over (own chosen/first, rival, unparsed)
+    # outcome shares of the candidate at position i: (decision i, decision 1 - i, unparsed)
+    own = [np.stack([sh[..., i], sh[..., 1 - i], sh[..., 2]], axis=-1) @ g for i in (0, 1)]  # [x, order]
+    m = np.empty((sh.shape[0], 2, 2))  # [x, candidate, position]
+    m[:, 0, 0], m[:, 1, 1] = own[0][:, 0], own[1][:, 0]  # paper's order: candidate 1 first
+    m[:, 1, 0], m[:, 0, 1] = own[0][:, 1], own[1][:, 1]  # swapped: candidate 2 first
+
+    def parts(mm: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ln = np.log(mm)
+            raw = ln[..., 0, 0] - ln[..., 1, 1]
+            group = 0.5 * (ln[..., 0, 0] - ln[..., 1, 0] + ln[..., 0, 1] - ln[..., 1, 1])
+            position = 0.5 * (ln[..., 0, 0] - ln[..., 0, 1] + ln[..., 1, 0] - ln[..., 1, 1])
+        return raw, position, group
+
+    raw, position, group = parts(m)
+    o_raw, o_pos, o_group = parts(m.mean(axis=0))
+    return PositionSplit(tuple(task.contexts), raw, position, group, float(o_raw), float(o_pos), float(o_group), m)
+
+
+@dataclass(frozen=True, eq=False)
 class PaperDesignPoint:
     """The paper's design at one ε: the per-candidate law from queries sampled through the filter."""
 
@@ -229,9 +320,21 @@ class ExperimentAnalysis:
         The paper's design, when it was run.
     confidence : float or None
     unparsed : int
-        Table-design replies that could not be parsed (counted as such).
+        Table-design replies that could not be parsed (counted as such; 0 on
+        the exact route).
     table_queries, paper_queries : int
-        Answered queries of each design.
+        Answered queries of each design (0 on the exact route).
+    context_epsilon : float or None
+    tau : float or None
+    route : {"sampled", "exact"}
+        ``"sampled"``: the kernel is estimated from queries (counts, with
+        intervals); ``"exact"``: it is the model's own law (probabilities from
+        its next-token distribution, no sampling error and no intervals).
+    unparsed_share : float
+        Mean over the shown cells of the share of replies that could not be
+        parsed (of the counts, or of the probability mass on the exact route).
+    split : PositionSplit
+        How much of the raw disparity of the paper's order is position and how much group.
     """
 
     task: DeliveryTask
@@ -253,6 +356,9 @@ class ExperimentAnalysis:
     paper_queries: int
     context_epsilon: float | None = None
     tau: float | None = None
+    route: str = "sampled"
+    unparsed_share: float = 0.0
+    split: PositionSplit | None = None
 
 
 def _point(
@@ -382,7 +488,6 @@ def analyse(
         If a shown cell of the table design has no answered query (the
         composition needs every cell: naming the cell), or on a bad ε.
     """
-    utility = candidate_utility(task)
     kernel = table_kernel(task, records)
     if kernel.empty_cells:
         x, pair = kernel.empty_cells[0]
@@ -392,6 +497,78 @@ def analyse(
             f"{task.profile_label(pair[0])!r}, {task.options[1]} {task.profile_label(pair[1])!r}) has "
             f"no answered query ({len(kernel.empty_cells)} such cells); run again with --resume",
         )
+    utility = candidate_utility(task)
+    pop = candidate_population(task, positions)
+    paper = tuple(_paper_point(task, records, e, utility, pop, confidence, method) for e in sorted(set(paper_epsilons)))
+    return analyse_kernel(
+        task,
+        kernel,
+        model=model,
+        samples=samples,
+        epsilons=epsilons,
+        positions=positions,
+        confidence=confidence,
+        method=method,
+        tau=tau,
+        context_epsilon=context_epsilon,
+        paper=paper,
+        grid=grid,
+    )
+
+
+def analyse_kernel(
+    task: DeliveryTask,
+    kernel: Kernel,
+    *,
+    model: str,
+    epsilons: Sequence[float],
+    samples: int = 0,
+    positions: str = "balanced",
+    confidence: float | None = 0.95,
+    method: str = "auto",
+    tau: float | None = None,
+    context_epsilon: float | None = None,
+    paper: Sequence[PaperDesignPoint] = (),
+    grid: int = 61,
+) -> ExperimentAnalysis:
+    """The per-candidate analysis of the model's kernel on shown cells, with counts or exact.
+
+    :func:`analyse` calls it with the kernel its records estimate; the exact
+    route of a local model (:func:`fairaudit.plugins.local_model.exact_kernel`)
+    calls it with the model's own probabilities, and then every L and L̄ is
+    the model's exact value (no intervals: there is no sampling error).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    kernel : Kernel
+        Shape (n_contexts, n_profiles², n_decisions), the layout of
+        :func:`fairaudit.plugins.harness.table_kernel`: contexts the task's,
+        groups the shown pairs (row-major), decisions
+        :attr:`DeliveryTask.decisions`. With counts: the sampled route
+        (intervals at ``confidence``); without: the exact route.
+    model : str
+    epsilons : sequence of float
+    samples : int
+        Queries per shown cell (0 on the exact route).
+    positions, confidence, method, tau, context_epsilon, grid
+        As in :func:`analyse`.
+    paper : sequence of PaperDesignPoint
+        The paper's design, analysed beside (sampled route only).
+
+    Returns
+    -------
+    ExperimentAnalysis
+
+    Raises
+    ------
+    InputError
+        On a kernel of another shape or a bad ε.
+    """
+    n_shape = (len(task.contexts), len(task.profiles) ** 2, len(task.decisions))
+    if kernel.probabilities.shape != n_shape:
+        raise InputError("kernel", f"must have shape {n_shape} for {task.name}", kernel.probabilities.shape)
+    utility = candidate_utility(task)
     kc = candidate_kernel(task, kernel)
     pop = candidate_population(task, positions)
     mx = candidate_context_mechanism(task, context_epsilon)
@@ -421,10 +598,7 @@ def analyse(
     i1, i2 = (task.profiles.index(tuple(c)) for c in task.candidates)
     probs = kernel.probabilities
     shares = np.stack([probs[:, i1 * k + i2], probs[:, i2 * k + i1]], axis=1)
-    paper = tuple(_paper_point(task, records, e, utility, pop, confidence, method) for e in sorted(set(paper_epsilons)))
-    assert kernel.counts is not None  # (estimated from counts)
-    table_n = int(kernel.counts.sum())
-    unparsed = int(kernel.counts[..., -1].sum())
+    counts = kernel.counts
     return ExperimentAnalysis(
         task,
         model,
@@ -438,11 +612,14 @@ def analyse(
         points,
         baseline,
         shares,
-        paper,
-        confidence,
-        unparsed,
-        table_n,
+        tuple(paper),
+        confidence if counts is not None else None,
+        int(counts[..., -1].sum()) if counts is not None else 0,
+        int(counts.sum()) if counts is not None else 0,
         sum(p.queries for p in paper),
         context_epsilon,
         tau,
+        route="sampled" if counts is not None else "exact",
+        unparsed_share=float(probs[..., -1].mean()),
+        split=position_split(task, shares),
     )

@@ -53,10 +53,14 @@ import numpy.typing as npt
 
 from .._arrays import FloatArray, IntArray
 from .._errors import InputError
+from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from ..laws import Kernel
+    from .vlm.client import ChatClient
 
 __all__ = [
     "LocalModelSpec",
@@ -71,6 +75,8 @@ __all__ = [
     "chat_messages",
     "token_decisions",
     "exact_kernel",
+    "exact_law",
+    "ServedModel",
     "kernel_table",
     "serve",
 ]
@@ -355,6 +361,7 @@ def exact_kernel(
     batch_size: int = 16,
     shared_prefix: bool = True,
     cells: Sequence[tuple[str, tuple[str, ...], tuple[str, ...]]] | None = None,
+    progress: bool = False,
 ) -> FloatArray:
     """The model's exact kernel P(decision | shown cell) on the table design, from token probabilities.
 
@@ -372,6 +379,8 @@ def exact_kernel(
         about four times faster on this task (measured: 16 HR cells, 1 s against 4 s).
     cells : list of (context, profile 1, profile 2), optional
         Only these cells (the others are left at zero): for tests.
+    progress : bool
+        A progress bar on stderr (tqdm, when installed), by cell.
 
     Returns
     -------
@@ -400,6 +409,9 @@ def exact_kernel(
     prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
     pad = tok.pad_token_id if tok.pad_token_id is not None else 0
+    from .harness import _progress
+
+    bar = _progress(len(ids), f"{task.name}: exact kernel", progress)
     with torch.inference_mode():
         past = None
         if prefix_len > 0:
@@ -422,7 +434,43 @@ def exact_kernel(
                 c, p1, p2 = cells[start + j]
                 shares = np.bincount(decisions, weights=row, minlength=len(task.decisions))
                 out[task.contexts.index(c), task.profiles.index(p1), task.profiles.index(p2)] = shares / shares.sum()
+            bar.update(len(chunk))
+    bar.close()
     return out
+
+
+def exact_law(task: DeliveryTask, probabilities: npt.ArrayLike) -> Kernel:
+    """:func:`exact_kernel`'s array as the :class:`~fairaudit.laws.Kernel` of the table design, without counts.
+
+    Returns
+    -------
+    Kernel
+        Shape (n_contexts, n_profiles², n_decisions), the layout of
+        :func:`fairaudit.plugins.harness.table_kernel` (groups: the shown
+        pairs, row-major), for :func:`fairaudit.plugins.experiments.analyse_kernel`.
+    """
+    from ..laws import Kernel
+
+    p = np.asarray(probabilities, dtype=float)
+    k = len(task.profiles)
+    groups = [(p1, p2) for p1 in task.profiles for p2 in task.profiles]
+    return Kernel(p.reshape(len(task.contexts), k * k, -1), task.contexts, groups, task.decisions, name="exact kernel")
+
+
+class ServedModel(EndpointModel):
+    """The local model behind :func:`serve`, named by its ``--local-model`` name in the log and the report.
+
+    The server names a model by its folder (a cache path that differs between
+    machines); the log keeps the short name, so a run resumes on any machine.
+    """
+
+    def __init__(self, client: ChatClient, name: str) -> None:
+        super().__init__(client)
+        self.name = name
+
+    def reply(self, query: Query, prompt: str, images: tuple) -> ModelReply:
+        """The endpoint's reply, with the short name."""
+        return dataclasses.replace(super().reply(query, prompt, images), model=self.name)
 
 
 def _common_prefix(seqs: Sequence[Sequence[int]]) -> int:

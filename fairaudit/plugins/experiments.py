@@ -219,7 +219,7 @@ class PositionSplit:
         r = self.overall_raw
         if r == 0 or not math.isfinite(r):
             return math.nan, math.nan
-        return self.overall_position / r, self.overall_group / r
+        return self.overall_position / r + 0.0, self.overall_group / r + 0.0  # (+ 0.0: no -0)
 
 
 def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:

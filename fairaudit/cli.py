@@ -342,6 +342,15 @@ def _add_experiment(sub: _Subparsers) -> None:
         default="balanced",
         help="both orders of the two candidates (default), or the paper's only",
     )
+    e.add_argument(
+        "--target",
+        type=_nonneg,
+        nargs="+",
+        default=[0.05, 0.1, 0.25, 0.5],
+        metavar="T",
+        help="fairness targets in nats: the report gives the candidate's epsilon that meets each, on L and "
+        "on L-bar, for this model and for any model (default 0.05 0.1 0.25 0.5)",
+    )
     e.add_argument("--out", required=True, metavar="DIR", help="folder of the run (log, tables, figures, report)")
     e.add_argument("--resume", action="store_true", help="continue the run logged in --out")
     e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
@@ -403,6 +412,7 @@ def _run_experiment(args: argparse.Namespace) -> int:
         images=args.images,
         progress=args.progress,
         log=lambda line: print(f"fairaudit: {line}", file=sys.stderr),
+        targets=args.target,
     )
     s = run.summary
     if s is None:  # the exact route of a local model: no queries

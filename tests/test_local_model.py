@@ -246,6 +246,42 @@ def test_exact_route_of_a_group_biased_model_by_hand(monkeypatch, tmp_path, caps
     assert certified["observed"]["global"]["value"] == pytest.approx(point["observed"]["global"]["value"], abs=1e-12)
 
 
+def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, capsys):
+    """The ε per target, checked at that ε by the exact composition (this model) and worst_model (any model).
+
+    The group-biased stand-in has L = L-bar = ln 1.5 = 0.405 nats unfiltered: a target of 0.5 needs no filter
+    (ε = +inf), 0.25 and 0.1 are met up to some finite ε, and L rises with ε up to there.
+    """
+    from fairaudit.plugins.experiments import analyse_kernel
+    from fairaudit.plugins.vlm.filter import PrivacyFilter
+    from fairaudit.worstcase import worst_model
+
+    low, high = PACKAGE_DELIVERY.profiles
+    table = lambda a, b: (0.5, 0.5, 0.0) if a == b else ((0.7, 0.3, 0.0) if a == low else (0.3, 0.7, 0.0))  # noqa: E731
+    _stand_in(monkeypatch, tmp_path, table)
+    out = tmp_path / "run"
+    code, report, err = run(
+        capsys, "experiment", "package-delivery", "--local-model", "smollm2", "--out", out, "--no-progress",
+        "--target", "0.1", "0.25", "0.5",
+    )  # fmt: skip
+    assert code == 0, err
+    budgets = {(b["target"], b["kind"]): b for b in json.loads((out / "certificate.json").read_text())["budgets"]}
+    assert sorted(budgets) == [(t, k) for t in (0.1, 0.25, 0.5) for k in ("global", "local")]
+    assert budgets[0.5, "local"]["this_model"]["epsilon"] == "inf" and budgets[0.5, "global"]["this_model"]["feasible"]
+    kernel = lm.exact_law(PACKAGE_DELIVERY, lm.exact_kernel(PACKAGE_DELIVERY))
+    for target in (0.1, 0.25):
+        eps = budgets[target, "local"]["this_model"]["epsilon"]
+        a = analyse_kernel(PACKAGE_DELIVERY, kernel, model="m", epsilons=[eps, eps * 1.01], targets=())
+        assert a.points[0].local.value == pytest.approx(target, abs=1e-9)  # met with equality at ε ...
+        assert a.points[1].local.value > target  # ... and not beyond
+        eps_any = budgets[target, "local"]["any_model"]["epsilon"]
+        mech = PrivacyFilter.from_epsilon(PACKAGE_DELIVERY, eps_any / 2).candidate_mechanism()
+        worst = worst_model(mech, a.utility, population=a.population, tau=1.0)
+        assert worst.local.value == pytest.approx(target, abs=1e-7)
+        assert eps_any < eps  # any model needs more privacy than this one
+    assert "## The privacy budget per target" in report and "| 0.5 | L | ∞ |" in report
+
+
 def test_exact_route_refuses_what_needs_queries(monkeypatch, tmp_path, capsys):
     _stand_in(monkeypatch, tmp_path, lambda a, b: (0.5, 0.5, 0.0))
     base = ("experiment", "package-delivery", "--local-model", "smollm2", "--no-progress")

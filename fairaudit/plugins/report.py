@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from .._arrays import FloatArray
+    from ..calibrate import Calibration
     from ..laws import Kernel
     from .experiments import ExperimentAnalysis, PointResult, PositionSplit
 
@@ -231,6 +232,9 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     the true profiles in both orders), ``position_split`` (the raw log ratio
     of the paper's order, its position and group parts and the share of it
     each explains, overall and per context: :class:`PositionSplit`),
+    ``budgets`` (per target on L and on L̄: the candidate's ε that meets it
+    for this model, white-box, and for any model, black-box, with the
+    family's keep probability and whether the target can be met),
     ``points`` (per requested ε: the
     privacy of the filter per attribute, profile and candidate; the
     corollary and black-box bounds on L and the black-box bound on L̄; the
@@ -275,6 +279,15 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             "shares": shares,
         },
         "position_split": None if split is None else _split_dict(split),
+        "budgets": [
+            {
+                "target": _num(b.target),
+                "kind": b.kind,
+                "this_model": _budget(b.this_model),
+                "any_model": _budget(b.any_model),
+            }
+            for b in a.budgets
+        ],
         "points": [_point_dict(a, p) for p in a.points],
         "paper_design": [
             {
@@ -302,6 +315,16 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     if run:
         out["run"] = run
     return out
+
+
+def _budget(c: Calibration) -> Report:
+    return {
+        "epsilon": _num(c.epsilon),
+        "keep_probability": _num(c.keep_probability),
+        "feasible": c.feasible,
+        "bound": _num(c.bound),
+        "reason": c.reason,
+    }
 
 
 def _split_dict(split: PositionSplit) -> Report:
@@ -423,6 +446,27 @@ def experiment_markdown(d: dict) -> str:
             f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
             f"{_f(p['bounds']['black_box_global'])} |"
         )
+    if d.get("budgets"):
+        lines += [
+            "",
+            "## The privacy budget per target",
+            "",
+            "The largest candidate's ε (nats) that meets each target: for this model (white-box: its own L or L̄ "
+            "behind the filter stays at or below the target at every smaller ε"
+            + (", estimated from the counts" if d.get("route") != "exact" else "")
+            + ") and for any model behind the filter (black-box: the exact worst case). "
+            "+∞: no filter is needed; n/a: no ε meets it.",
+            "",
+            "| target (nats) | on | ε, this model | ε, any model |",
+            "|---|---|---|---|",
+        ]
+        for b in d["budgets"]:
+            this, anym = b["this_model"], b["any_model"]
+            lines.append(
+                f"| {_f(b['target'])} | {'L' if b['kind'] == 'local' else 'L̄'} | "
+                f"{_f(this['epsilon']) if this['feasible'] else 'n/a'} | "
+                f"{_f(anym['epsilon']) if anym['feasible'] else 'n/a'} |"
+            )
     if d["paper_design"]:
         lines += [
             "",

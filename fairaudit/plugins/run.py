@@ -29,7 +29,7 @@ from typing import TypedDict
 
 from .. import __version__
 from .._errors import InputError
-from .experiments import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
+from .experiments import DEFAULT_TARGETS, ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .vlm.models import SIMULATED, DecisionModel, EndpointModel, SimulatedModel, simulated_model
 from .vlm.tasks import DeliveryTask, get_task
@@ -48,6 +48,7 @@ class _Common(TypedDict):
     confidence: float | None
     method: str
     context_epsilon: float | None
+    targets: list[float]
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,6 +154,7 @@ def run_experiment(
     images: bool = True,
     progress: bool = True,
     log: Callable[[str], None] | None = None,
+    targets: Sequence[float] = DEFAULT_TARGETS,
 ) -> ExperimentRun:
     """Run one of the paper's delivery experiments and write its report to ``out``.
 
@@ -204,6 +206,10 @@ def run_experiment(
     log : callable, optional
         Called with one line per step of a local model (converting, loading,
         serving); default none.
+    targets : sequence of float
+        Fairness targets (nats) at which the report gives the ε that meets
+        them, for this model and for any model (default
+        :data:`fairaudit.plugins.experiments.DEFAULT_TARGETS`).
 
     Returns
     -------
@@ -228,6 +234,9 @@ def run_experiment(
     for e in eps:
         if not (math.isfinite(e) and e >= 0):
             raise InputError("--epsilon", "must be finite and >= 0 (nats)", e)
+    for t in targets:
+        if not (math.isfinite(float(t)) and float(t) >= 0):
+            raise InputError("--target", "must be finite and >= 0 (nats)", t)
     exact = local_model is not None and samples is None
     if local_model is not None:
         from . import local_model as lm
@@ -268,6 +277,7 @@ def run_experiment(
         "confidence": confidence,
         "method": method,
         "context_epsilon": context_epsilon,
+        "targets": [float(t) for t in targets],
     }
     if exact:
         assert local_model is not None

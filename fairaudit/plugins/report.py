@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -545,12 +545,20 @@ def plot_baseline(analysis: ExperimentAnalysis, path: str | Path) -> None:
 
 
 def plot_experiment_curve(analysis: ExperimentAnalysis, path: str | Path) -> None:
-    """The fairness–privacy curve with confidence bands and the paper's design (atomic PNG or SVG)."""
+    """The fairness–privacy curve with confidence bands and the paper's design (atomic PNG or SVG).
+
+    When the observed L and L̄ stay below 1/20 of the bounds' scale (a model far
+    fairer than the worst case), a second panel shows them on their own scale.
+    """
     from ..plot import _matplotlib, plot_curve, save_figure
 
     Figure = _matplotlib()
-    fig = Figure(figsize=(7.5, 4.8), layout="constrained")
-    ax = fig.add_subplot()
+    zoom = _needs_zoom(analysis)
+    fig = Figure(figsize=(11.0 if zoom else 7.5, 4.8), layout="constrained")
+    if zoom:
+        ax, side = fig.subplots(1, 2, width_ratios=(3, 2))
+    else:
+        ax = fig.add_subplot()
     plot_curve(analysis.curve, ax=ax, title=f"{analysis.task.name}: {analysis.model} (positions {analysis.positions})")
     pts = [p for p in analysis.points if p.intervals is not None]
     if pts:
@@ -578,7 +586,33 @@ def plot_experiment_curve(analysis: ExperimentAnalysis, path: str | Path) -> Non
         )
     ax.set_xlabel("privacy budget ε of a candidate (nats; both profiles shown)")
     ax.legend(loc="upper left", fontsize=7, framealpha=0.9)
+    if zoom:
+        _zoom_observed(analysis, side)
     save_figure(fig, path)
+
+
+def _needs_zoom(analysis: ExperimentAnalysis) -> bool:
+    """Whether the observed L and L̄ would lie flat against the bounds' scale (below 1/20 of it)."""
+    c = analysis.curve
+    seen = np.concatenate([c.observed_local, c.observed_global])
+    seen = seen[np.isfinite(seen)]
+    scale = np.concatenate([c.black_box, c.corollary])
+    scale = scale[np.isfinite(scale)]
+    return bool(seen.size and scale.size and 0 < seen.max() < scale.max() / 20)
+
+
+def _zoom_observed(analysis: ExperimentAnalysis, ax: Any) -> None:
+    """The observed L and L̄ on their own scale, in a panel of their own."""
+    c = analysis.curve
+    ax.plot(c.epsilon, c.observed_local, color="black", lw=1.4, label="observed L (local)")
+    ax.plot(c.epsilon, c.observed_global, color="tab:green", lw=1.4, ls="--", label="observed L̄ (global)")
+    ax.set_ylim(bottom=0)
+    ax.set_xlim(c.epsilon.min(), c.epsilon.max())
+    ax.set_title("observed only, on its own scale", fontsize=9)
+    ax.set_xlabel("ε of a candidate (nats)")
+    ax.set_ylabel("nats")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
 
 
 def write_json(path: str | Path, data: Report) -> None:

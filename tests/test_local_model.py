@@ -352,3 +352,31 @@ def test_prepare_model_prints_the_converted_folder(smollm2, capsys):
     assert code == 0, err
     assert out == f"{smollm2.folder}\n"
     assert "loaded; first hr-delivery cell (maternity leave): HR1 " in err
+
+
+@pytest.mark.local_model
+def test_the_docs_page_quotes_the_reports_the_model_gives(smollm2):
+    """Every table row quoted under ``<!-- report: TASK -->`` in docs/real-model.md is a row of that task's report now.
+
+    The exact route has no sampling error, so the page's numbers are the model's own and cannot drift unnoticed.
+    """
+    from pathlib import Path
+
+    from fairaudit.plugins.experiments import analyse_kernel, epsilon_from_keep
+    from fairaudit.plugins.report import experiment_dict, experiment_markdown
+    from fairaudit.plugins.run import DEFAULT_KEEPS
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "real-model.md").read_text()
+    quoted: dict[str, list[str]] = {}
+    for block in page.split("<!-- report: ")[1:]:
+        name, _, rest = block.partition(" -->\n")
+        rows = [line for line in rest.split("\n\n")[0].splitlines() if line.startswith("|")]
+        quoted.setdefault(name, []).extend(rows)
+    assert sorted(quoted) == ["hr-delivery", "package-delivery"] and sum(map(len, quoted.values())) > 20
+    for task in (HR_DELIVERY, PACKAGE_DELIVERY):
+        law = lm.exact_law(task, lm.exact_kernel(task, smollm2))
+        eps = [epsilon_from_keep(task, k) for k in DEFAULT_KEEPS]
+        report = experiment_markdown(experiment_dict(analyse_kernel(task, law, model="smollm2", epsilons=eps)))
+        lines = set(report.splitlines())
+        missing = [row for row in quoted[task.name] if row not in lines]
+        assert not missing, f"{task.name}: rows of docs/real-model.md not in the report: {missing}"

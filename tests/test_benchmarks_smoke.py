@@ -195,3 +195,33 @@ def test_scale_command_rss_is_the_commands_own():
     failed = module.run_command([sys.executable, "-c", "import sys; sys.exit('no such column')"], timeout=60)
     assert failed["returncode"] == 1 and "no such column" in failed["stderr"]
     del held
+
+
+@pytest.mark.local_model
+def test_local_model_quick_run_exits_zero_with_tables(capsys, tmp_path):
+    """bench_local_model --quick: SmolLM2 exact and through a real server, package-delivery, N = 3, one repetition."""
+    from _model import need_local_model
+
+    need_local_model("fastapi", "uvicorn")  # skips, or fails under FAIRAUDIT_REQUIRE_LOCAL_MODEL=1
+    module = _load("bench_local_model")
+    output = tmp_path / "report.md"
+    assert module.main(["--quick", "--output", str(output)]) == 0
+    text = capsys.readouterr().out
+    for header in (
+        "| task | route | cells | samples per cell | forward passes / queries | time |",
+        "| task | cells × decisions | α per entry | max half-width in this run |",
+        "| task | rep | samples per cell | entries covered (per-cell 95%) |",
+        "| task | rep | ε (nats) | metric | exact | sampled estimate |",
+    ):
+        assert header in text
+    tables = _tables(text)
+    assert len(tables) == 4
+    assert [row[1] for row in tables[0][1:]] == ["exact", "sampled, rep 1"]
+    assert {row[0] for table in tables for row in table[1:]} == {"package-delivery", "**package-delivery**"}
+    agreement = tables[3]
+    assert agreement[0][-1] == "agreement"
+    assert [row[3] for row in agreement[1:]] == ["L", "L̄", "L", "L̄"]  # no filter, then the finite ε
+    assert all(row[-1] == "inside" for row in agreement[1:])
+    assert "Every check passed." in text
+    assert output.read_text(encoding="utf-8") == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]

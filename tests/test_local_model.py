@@ -380,3 +380,49 @@ def test_the_docs_page_quotes_the_reports_the_model_gives(smollm2):
         lines = set(report.splitlines())
         missing = [row for row in quoted[task.name] if row not in lines]
         assert not missing, f"{task.name}: rows of docs/real-model.md not in the report: {missing}"
+
+
+def test_sampled_route_wiring_and_resume_with_a_stand_in_server(monkeypatch, tmp_path, capsys):
+    """--samples N with a stand-in server that always answers "1" (the first-listed): no torch needed.
+
+    Checks what the run sends (the answer prompt, one token at temperature 1), the log's short model name, a
+    failed run that exits 1 and a --resume that completes it (the server started again), and the report: the
+    first-listed is always served first, so L = L-bar = 0 and position is all of the raw disparity, which is
+    ln(1 / 3): waiting time 1 first, 3 second.
+    """
+    from contextlib import contextmanager
+
+    from _chat_server import ChatServer
+
+    monkeypatch.setattr(lm, "find_gguf", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setattr(lm, "prepare", lambda name="smollm2", **kw: tmp_path / "converted")
+    starts = []
+    every_third = lambda n, body: ("status", 500) if n % 3 == 0 else None  # noqa: E731
+    with ChatServer(lambda body: "1", fault_fn=every_third) as server:
+
+        @contextmanager
+        def serve(folder, **kw):
+            starts.append((folder, kw["log"].name))
+            yield server.url
+
+        monkeypatch.setattr(lm, "serve", serve)
+        out = tmp_path / "run"
+        args = ["experiment", "package-delivery", "--local-model", "smollm2", "--samples", "3", "--out", out]
+        args += ["--no-progress", "--max-retries", "0"]
+        code, report, err = run(capsys, *args)
+        assert code == 1 and report == "" and "incomplete: 24 of 36 queries answered" in err
+        server.fault_fn = None
+        code, report, err = run(capsys, *args, "--resume")
+        body = server.requests[-1]["json"]
+    assert code == 0, err
+    assert starts == [(tmp_path / "converted", "server.log")] * 2
+    assert (body["max_tokens"], body["temperature"], body["model"]) == (1, 1.0, str(tmp_path / "converted"))
+    assert body["messages"][-1]["content"].endswith("2 to serve Recipient2 first.\nAnswer:")
+    log = [json.loads(line) for line in (out / "queries.jsonl").read_text().splitlines()]
+    assert log[0]["model"] == "smollm2" and {r["model"] for r in log[1:] if r.get("status") == "ok"} == {"smollm2"}
+    cert = json.loads((out / "certificate.json").read_text())
+    assert cert["route"] == "sampled" and cert["queries"]["table"] == 36 and cert["queries"]["unparsed"] == 0
+    assert cert["baseline"]["local"]["value"] == 0.0 and cert["baseline"]["global"]["value"] == 0.0
+    split = cert["position_split"]
+    assert split["raw"] == pytest.approx(math.log(1 / 3), abs=1e-12)
+    assert split["position"] == pytest.approx(math.log(1 / 3), abs=1e-12) and split["group"] == 0.0

@@ -21,6 +21,7 @@ from _model import need_local_model
 
 from fairaudit._errors import InputError
 from fairaudit.plugins import local_model as lm
+from fairaudit.plugins.report import shown_kernel_frame
 from fairaudit.plugins.vlm.models import SimulatedModel
 from fairaudit.plugins.vlm.parse import parse_reply
 from fairaudit.plugins.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
@@ -120,7 +121,7 @@ def test_kernel_table_is_read_back_by_the_kernel_option(tmp_path):
     k = len(PACKAGE_DELIVERY.profiles)
     p = rng.dirichlet(np.ones(3), size=(3, k, k))
     path = tmp_path / "kernel.csv"
-    lm.kernel_table(PACKAGE_DELIVERY, p).to_csv(path, index=False)
+    shown_kernel_frame(PACKAGE_DELIVERY, lm.exact_law(PACKAGE_DELIVERY, p)).to_csv(path, index=False)
     m = SimulatedModel.from_csv(PACKAGE_DELIVERY, path)
     np.testing.assert_allclose(m.probabilities, p, atol=1e-12)
 

@@ -57,8 +57,6 @@ from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
 if TYPE_CHECKING:
-    import pandas as pd
-
     from ..laws import Kernel
     from .vlm.client import ChatClient
 
@@ -78,7 +76,6 @@ __all__ = [
     "exact_kernel",
     "exact_law",
     "ServedModel",
-    "kernel_table",
     "serve",
 ]
 
@@ -527,32 +524,6 @@ def _copy_cache(past: Any, batch: int) -> Any:
     if batch > 1:
         cache.batch_repeat_interleave(batch)
     return cache
-
-
-def kernel_table(task: DeliveryTask, probabilities: npt.ArrayLike) -> pd.DataFrame:
-    """The kernel as a long table in the harness's ``kernel.csv`` layout, with a ``probability`` column.
-
-    Readable by ``fairaudit experiment ... --kernel FILE``
-    (:meth:`fairaudit.plugins.vlm.models.SimulatedModel.from_csv`).
-    """
-    import pandas as pd
-
-    p = np.asarray(probabilities, dtype=float)
-    rows = []
-    for i, c in enumerate(task.contexts):
-        for a, p1 in enumerate(task.profiles):
-            for b, p2 in enumerate(task.profiles):
-                for d, dec in enumerate(task.decisions):
-                    rows.append(
-                        {
-                            task.context_name: c,
-                            task.options[0]: task.profile_label(p1),
-                            task.options[1]: task.profile_label(p2),
-                            "decision": dec,
-                            "probability": p[i, a, b, d],
-                        }
-                    )
-    return pd.DataFrame(rows)
 
 
 def _free_port() -> int:

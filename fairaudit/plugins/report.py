@@ -37,12 +37,14 @@ if TYPE_CHECKING:
     from ..calibrate import Calibration
     from ..laws import Kernel
     from .experiments import ExperimentAnalysis, PointResult, PositionSplit
+    from .vlm.tasks import DeliveryTask
 
 __all__ = [
     "experiment_spec",
     "experiment_dict",
     "experiment_markdown",
     "kernel_frame",
+    "shown_kernel_frame",
     "candidate_frame",
     "records_frame",
     "plot_baseline",
@@ -63,19 +65,40 @@ def kernel_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     On the exact route the last column is ``probability`` (the model's own
     P(decision | cell)) instead of ``count``; both are read by ``--kernel``.
     """
+    return shown_kernel_frame(analysis.task, analysis.kernel)
+
+
+def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
+    """A kernel on shown cells as the long table of ``kernel.csv``, read back by ``--kernel``.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    kernel : Kernel
+        Shape (n_contexts, n_profiles², n_decisions), the layout of
+        :func:`fairaudit.plugins.harness.table_kernel` (groups: the shown
+        pairs, row-major), with counts (sampled) or without (exact).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per context, shown pair and decision: the task's context
+        name, the two options (the profile shown as each), ``decision``, and
+        ``count`` (integers) or ``probability``
+        (:meth:`fairaudit.plugins.vlm.models.SimulatedModel.from_csv` reads both).
+    """
     import pandas as pd
 
-    t, k = analysis.task, analysis.kernel
-    column, values = _value_column(k)
+    column, values = _value_column(kernel)
     n_ctx, n_pairs, n_dec = values.shape
     x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_pairs), np.arange(n_dec), indexing="ij"))
-    labels = [(t.profile_label(p1), t.profile_label(p2)) for p1, p2 in k.groups]
+    labels = [(task.profile_label(p1), task.profile_label(p2)) for p1, p2 in kernel.groups]
     return pd.DataFrame(
         {
-            t.context_name: np.asarray(k.contexts, dtype=object)[x],
-            t.options[0]: [labels[i][0] for i in g],
-            t.options[1]: [labels[i][1] for i in g],
-            "decision": np.asarray(k.decisions, dtype=object)[d],
+            task.context_name: np.asarray(kernel.contexts, dtype=object)[x],
+            task.options[0]: [labels[i][0] for i in g],
+            task.options[1]: [labels[i][1] for i in g],
+            "decision": np.asarray(kernel.decisions, dtype=object)[d],
             column: values.ravel().astype(int) if column == "count" else values.ravel(),
         }
     )

@@ -438,7 +438,13 @@ def exact_kernel(
         )
         for c, p1, p2 in cells
     ]
-    decisions = None
+    onehot: FloatArray | None = None  # (vocabulary, decisions): the decision each token reads as
+    where = tuple(
+        np.array(i)
+        for i in zip(
+            *((task.contexts.index(c), task.profiles.index(p1), task.profiles.index(p2)) for c, p1, p2 in cells)
+        )
+    )  # the cells' (context, profile 1, profile 2) indices, one array each
     out = np.zeros((len(task.contexts), k, k, len(task.decisions)))
     prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
@@ -462,12 +468,11 @@ def exact_kernel(
             logits = m.model(x, **kwargs).logits
             last = logits[torch.arange(len(chunk)), torch.tensor([len(s) - 1 for s in chunk])]
             probs = torch.softmax(last.double(), dim=-1).numpy()
-            if decisions is None:
-                decisions = token_decisions(task, tok, probs.shape[-1])
-            for j, row in enumerate(probs):
-                c, p1, p2 = cells[start + j]
-                shares = np.bincount(decisions, weights=row, minlength=len(task.decisions))
-                out[task.contexts.index(c), task.profiles.index(p1), task.profiles.index(p2)] = shares / shares.sum()
+            if onehot is None:
+                onehot = np.eye(len(task.decisions))[token_decisions(task, tok, probs.shape[-1])]
+            shares = probs @ onehot  # (cells of the batch, decisions)
+            rows = slice(start, start + len(chunk))
+            out[where[0][rows], where[1][rows], where[2][rows]] = shares / shares.sum(axis=1, keepdims=True)
             bar.update(len(chunk))
     bar.close()
     return out

@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -185,7 +186,7 @@ def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tm
 
 def _stand_in(monkeypatch, tmp_path, table):
     """``--local-model smollm2`` whose exact kernel is ``table(shown 1, shown 2)``: no torch needed."""
-    monkeypatch.setattr(lm, "find_gguf", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setattr(lm, "check", lambda name="smollm2": tmp_path / "model.gguf")
     monkeypatch.setattr(lm, "load", lambda name="smollm2", **kw: lm.LoadedModel(name, tmp_path, None, None))
     t = PACKAGE_DELIVERY
 
@@ -281,6 +282,19 @@ def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, caps
         assert worst.local.value == pytest.approx(target, abs=1e-7)
         assert eps_any < eps  # any model needs more privacy than this one
     assert "## The privacy budget per target" in report and "| 0.5 | L | ∞ |" in report
+
+
+@pytest.mark.parametrize("route", [(), ("--samples", "3")], ids=["exact", "sampled"])
+def test_missing_torch_is_one_line_before_anything_is_written(route, monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr(lm, "find_gguf", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setitem(sys.modules, "torch", None)  # import torch raises ImportError
+    out = tmp_path / "run"
+    code, report, err = run(capsys, "experiment", "hr-delivery", "--local-model", "smollm2", "--out", out, *route)
+    assert (code, report) == (2, "")
+    assert err == (
+        "fairaudit: error: --local-model: needs torch and transformers: pip install 'fairaudit[local-model]'\n"
+    )
+    assert not out.exists()
 
 
 def test_exact_route_refuses_what_needs_queries(monkeypatch, tmp_path, capsys):
@@ -395,7 +409,7 @@ def test_sampled_route_wiring_and_resume_with_a_stand_in_server(monkeypatch, tmp
 
     from _chat_server import ChatServer
 
-    monkeypatch.setattr(lm, "find_gguf", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setattr(lm, "check", lambda name="smollm2": tmp_path / "model.gguf")
     monkeypatch.setattr(lm, "prepare", lambda name="smollm2", **kw: tmp_path / "converted")
     starts = []
     every_third = lambda n, body: ("status", 500) if n % 3 == 0 else None  # noqa: E731

@@ -66,6 +66,7 @@ __all__ = [
     "CACHE_ENV",
     "LoadedModel",
     "find_gguf",
+    "check",
     "install",
     "cache_root",
     "prepare",
@@ -144,6 +145,22 @@ def find_gguf(name: str = "smollm2") -> Path:
         "--local-model",
         f"{name} is not installed; install it with: {spec.install} (or: fairaudit prepare-model {name})",
     )
+
+
+def check(name: str = "smollm2") -> Path:
+    """The model's GGUF file, once its package, torch and transformers are all found (nothing is loaded).
+
+    What a run checks before it writes anything.
+
+    Raises
+    ------
+    InputError
+        One line naming the install command of what is missing: the model's
+        package (:func:`find_gguf`) or the ``local-model`` extra.
+    """
+    path = find_gguf(name)
+    _require()
+    return path
 
 
 def install(name: str = "smollm2", *, log: Callable[[str], None] | None = None) -> Path:

@@ -22,7 +22,7 @@ import math
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import AbstractContextManager, ExitStack, contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TypedDict
@@ -247,7 +247,7 @@ def run_experiment(
             raise InputError("--scene", f"the local model {local_model} reads text only: it takes no route images")
         if exact and design == "both":
             raise InputError("--design", "the paper's design samples through the filter: give --samples N too")
-        lm.find_gguf(local_model)  # not installed: one line naming the install command, before anything is written
+        lm.check(local_model)  # not installed: one line naming the install command, before anything is written
         images = False
         m: DecisionModel | None = None
     else:
@@ -329,27 +329,21 @@ def run_experiment(
     return ExperimentRun(out, summary, analysis, tuple(files), seconds=summary.seconds)
 
 
+@contextmanager
 def _served(
     name: str, out: Path, timeout: float, max_retries: int, log: Callable[[str], None] | None
-) -> AbstractContextManager[DecisionModel]:
+) -> Iterator[DecisionModel]:
     """The local model behind ``transformers serve`` (its output in ``out/server.log``), for a ``with`` block."""
     from . import local_model as lm
     from .vlm.client import ChatClient
 
     folder = lm.prepare(name, log=log)
-
-    @contextmanager
-    def served() -> Iterator[DecisionModel]:
-        if log:
-            log(f"serving {name} on 127.0.0.1 (output in {out / 'server.log'})")
-        with lm.serve(folder, log=out / "server.log") as url:
-            client = ChatClient(
-                url, str(folder), temperature=1.0, max_tokens=1, timeout=timeout, max_retries=max_retries
-            )
-            with client:
-                yield lm.ServedModel(client, name)
-
-    return served()
+    if log:
+        log(f"serving {name} on 127.0.0.1 (output in {out / 'server.log'})")
+    with lm.serve(folder, log=out / "server.log") as url:
+        client = ChatClient(url, str(folder), temperature=1.0, max_tokens=1, timeout=timeout, max_retries=max_retries)
+        with client:
+            yield lm.ServedModel(client, name)
 
 
 def _run_exact(

@@ -235,6 +235,18 @@ def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:
         Decision shares of the true candidates, in the paper's order (axis 1 =
         0) and swapped (1): :attr:`ExperimentAnalysis.shares`.
 
+    Returns
+    -------
+    PositionSplit
+        Values in nats.
+
+    Notes
+    -----
+    The split is an identity of logarithms (the two halves add up to
+    ``raw`` term by term), on the per-candidate framing of DESIGN.md
+    (context = item @ position, group = the candidate's profile,
+    g of its own outcome).
+
     Examples
     --------
     Pure position bias: the first-listed is chosen 0.8 of the time, whoever it is.

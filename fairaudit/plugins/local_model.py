@@ -88,7 +88,21 @@ _MARKER = "fairaudit-model.json"  # written last into a converted folder: its pr
 
 @dataclass(frozen=True)
 class LocalModelSpec:
-    """A model shipped in a PyPI package: where its GGUF file lies and how to install it."""
+    """A model shipped in a PyPI package: where its GGUF file lies and how to install it.
+
+    Attributes
+    ----------
+    name : str
+        The ``--local-model`` name.
+    package : str
+        The import name of the package that holds the file (never imported).
+    distribution : str
+        Its name on the package registry.
+    gguf : str
+        The file's name inside the package folder.
+    license : str
+        The model's license (SPDX).
+    """
 
     name: str
     package: str
@@ -127,10 +141,21 @@ def find_gguf(name: str = "smollm2") -> Path:
     ``--no-deps`` install lacks, so the package is located with
     :func:`importlib.util.find_spec` and never imported.
 
+    Parameters
+    ----------
+    name : str
+        A key of :data:`LOCAL_MODELS`.
+
+    Returns
+    -------
+    pathlib.Path
+        The ``.gguf`` file in site-packages.
+
     Raises
     ------
     InputError
-        One line naming the install command when the package or its file is absent.
+        On an unknown ``name`` (naming the choices); one line naming the
+        install command when the package or its file is absent.
     """
     spec = _spec(name)
     try:
@@ -152,6 +177,16 @@ def check(name: str = "smollm2") -> Path:
 
     What a run checks before it writes anything.
 
+    Parameters
+    ----------
+    name : str
+        A key of :data:`LOCAL_MODELS`.
+
+    Returns
+    -------
+    pathlib.Path
+        :func:`find_gguf`'s file.
+
     Raises
     ------
     InputError
@@ -170,6 +205,18 @@ def install(name: str = "smollm2", *, log: Callable[[str], None] | None = None) 
     downloaded, now or later); ``--no-deps`` leaves out the package's own
     dependencies (``llm`` and ``llama-cpp-python``, which compiles for minutes
     and is not used here).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`LOCAL_MODELS`.
+    log : callable, optional
+        Called with one line before pip runs.
+
+    Returns
+    -------
+    pathlib.Path
+        :func:`find_gguf`'s file.
 
     Raises
     ------
@@ -201,6 +248,11 @@ def cache_root() -> Path:
 
     The user cache folder is ``platformdirs.user_cache_dir("fairaudit")/models``
     when platformdirs is installed, else ``~/.cache/fairaudit/models``.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder (not created here).
     """
     env = os.environ.get(CACHE_ENV)
     if env:
@@ -319,7 +371,19 @@ def prepare(
 
 @dataclass(frozen=True, eq=False)
 class LoadedModel:
-    """A loaded local model: its name, the converted folder, the torch model (eval mode) and the tokenizer."""
+    """A loaded local model (:func:`load`).
+
+    Attributes
+    ----------
+    name : str
+        The ``--local-model`` name.
+    folder : pathlib.Path
+        The converted folder (:func:`prepare`).
+    model : transformers.PreTrainedModel
+        The causal language model in eval mode, float32, on the CPU.
+    tokenizer : transformers.PreTrainedTokenizerBase
+        Its tokenizer, with the chat template.
+    """
 
     name: str
     folder: Path
@@ -332,9 +396,23 @@ def load(
 ) -> LoadedModel:
     """The model and tokenizer from the converted folder (:func:`prepare` first), on the CPU, float32.
 
+    Parameters
+    ----------
+    name : str
+        A key of :data:`LOCAL_MODELS`.
+    cache : str or Path, optional
+        Default :func:`cache_root`.
+    log : callable, optional
+        Called with one line per step (converting, the first time).
+
     Returns
     -------
     LoadedModel
+
+    Raises
+    ------
+    InputError
+        When the model's package, torch or transformers is missing (one line with the install command).
     """
     folder = prepare(name, cache=cache, log=log)
     torch, _ = _require()
@@ -374,7 +452,22 @@ def answer_task(task: DeliveryTask) -> DeliveryTask:
 
 
 def chat_messages(task: DeliveryTask, context: str, profiles: Sequence[tuple[str, ...]]) -> list[dict[str, Any]]:
-    """The chat messages of one query, as the harness's endpoint model sends them (one user message, no image)."""
+    """The chat messages of one query, as the harness's endpoint model sends them (one user message, no image).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+        Its template fills the prompt (:func:`answer_task`'s for the local model).
+    context : str
+        One of the task's contexts.
+    profiles : sequence of tuple
+        The profiles shown as the task's two options, in order.
+
+    Returns
+    -------
+    list of dict
+        ``[{"role": "user", "content": prompt}]``.
+    """
     from .vlm.client import user_message
 
     return [user_message(task.prompt(context, profiles))]
@@ -389,6 +482,18 @@ def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None)
     returns for a one-token generation): an option, or ``"unparsed"`` (the
     last index). Ids past the tokenizer's vocabulary (padding rows of the
     output layer) are unparsed.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    tokenizer : transformers.PreTrainedTokenizerBase
+        Anything with ``len()`` and ``decode(ids, skip_special_tokens=True)``.
+    size : int, optional
+        Rows of the model's output layer (default ``len(tokenizer)``).
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (size,)
     """
     from .vlm.parse import parse_reply
 
@@ -438,7 +543,22 @@ def exact_kernel(
     numpy.ndarray, shape (n_contexts, n_profiles, n_profiles, n_decisions)
         Indexed by the task's contexts, profiles (twice) and decisions (the
         options, then ``"unparsed"``): the layout of
-        :class:`fairaudit.plugins.vlm.models.SimulatedModel`.
+        :class:`fairaudit.plugins.vlm.models.SimulatedModel`. Each row sums
+        to 1; no unit (probabilities).
+
+    Raises
+    ------
+    InputError
+        When torch or transformers is missing (and, with ``model`` None, the
+        model's package).
+
+    Notes
+    -----
+    This is the kernel P(U | X̃, Ã) of the paper's setting (the model that
+    sees the filtered attributes; DESIGN.md, "Array layout") for the shown
+    pairs, exactly, for this prompt and these weights: the next-token
+    softmax summed over the tokens that parse as each decision. The
+    sampled route (:func:`serve`) draws replies from the same softmax.
     """
     torch, _ = _require()
     m = model if model is not None else load("smollm2")
@@ -498,6 +618,12 @@ def exact_kernel(
 def exact_law(task: DeliveryTask, probabilities: npt.ArrayLike) -> Kernel:
     """:func:`exact_kernel`'s array as the :class:`~fairaudit.laws.Kernel` of the table design, without counts.
 
+    Parameters
+    ----------
+    task : DeliveryTask
+    probabilities : array_like, shape (n_contexts, n_profiles, n_profiles, n_decisions)
+        :func:`exact_kernel`'s output.
+
     Returns
     -------
     Kernel
@@ -518,6 +644,13 @@ class ServedModel(EndpointModel):
 
     The server names a model by its folder (a cache path that differs between
     machines); the log keeps the short name, so a run resumes on any machine.
+
+    Parameters
+    ----------
+    client : fairaudit.plugins.vlm.client.ChatClient
+        A client of :func:`serve`'s endpoint.
+    name : str
+        The ``--local-model`` name, written as the model of every reply.
     """
 
     def __init__(self, client: ChatClient, name: str) -> None:
@@ -578,6 +711,11 @@ def serve(
         Seconds allowed for the server to answer ``/health``.
     log : str or Path, optional
         File for the server's output (default: discarded).
+
+    Yields
+    ------
+    str
+        ``http://127.0.0.1:PORT/v1``, for :class:`fairaudit.plugins.vlm.client.ChatClient`.
 
     Raises
     ------

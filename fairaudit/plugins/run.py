@@ -128,6 +128,54 @@ def _images(scene: str | None, images: bool) -> tuple[bytes, ...]:
     return tuple(s.images)
 
 
+LOCK_NAME = ".fairaudit.lock"
+"""The lock file in a run's folder: held (an OS lock, ``filelock.FileLock``) while a run uses the folder."""
+
+
+def _check_log(log_path: Path, resume: bool, exact: bool) -> None:
+    """Refuse a folder whose log belongs to a run this one must not touch."""
+    out = log_path.parent
+    if log_path.exists() and log_path.stat().st_size > 0 and not resume:
+        raise InputError(
+            "--out",
+            "holds a run already (queries.jsonl); pass --resume to continue it, or choose another folder",
+            str(out),
+        )
+    if exact and log_path.exists():
+        raise InputError("--out", "holds a sampled run (queries.jsonl); the exact route needs another folder", str(out))
+
+
+@contextmanager
+def _claim(out: Path) -> Iterator[Path]:
+    """Make ``out`` and hold its lock for a ``with`` block: one run per folder; a second is refused at once.
+
+    The lock is the operating system's (``filelock.FileLock``: ``flock`` on Unix, a byte-range lock on Windows),
+    so it is released when the block ends, however it ends, and by the system when the process dies (even by
+    SIGKILL). The lock file stays in the folder, empty; a later run takes it again.
+    """
+    try:
+        from filelock import FileLock, Timeout
+    except ImportError:
+        raise InputError(
+            "--out", "one run per folder needs filelock, which is not installed: pip install 'fairaudit[experiment]'"
+        ) from None
+    out.mkdir(exist_ok=True)
+    path = out / LOCK_NAME
+    lock = FileLock(path, timeout=0)
+    try:
+        lock.acquire()
+    except Timeout:
+        raise InputError(
+            "--out",
+            f"is in use by another fairaudit run (lock {path}); wait for it to finish or choose another folder",
+            str(out),
+        ) from None
+    try:
+        yield path
+    finally:
+        lock.release()
+
+
 def run_experiment(
     experiment: str,
     out: str | Path,
@@ -191,6 +239,10 @@ def run_experiment(
     seed : int
     resume : bool
         Continue the run logged in ``out``.
+
+        One run at a time per folder: the run holds the lock ``out/.fairaudit.lock``
+        from before it writes anything until it returns, and a second run on the
+        same folder is refused at once (an :class:`InputError` on ``--out``).
     concurrency : int, optional
         Queries in flight (default 4 for an endpoint, 1 otherwise).
     timeout, max_retries
@@ -218,8 +270,8 @@ def run_experiment(
     Raises
     ------
     InputError
-        On invalid options (naming the flag), a log made by another run, an
-        unreadable kernel, a scene whose routes differ in length, or a local
+        On invalid options (naming the flag), a log made by another run, a
+        folder in use by another run (its lock held), an unreadable kernel, a scene whose routes differ in length, or a local
         model that is not installed (naming the install command).
     """
     task = get_task(experiment)
@@ -261,16 +313,8 @@ def run_experiment(
     if not out.parent.is_dir():
         raise InputError("--out", "its parent folder does not exist", str(out.parent))
     log_path = out / "queries.jsonl"
-    if log_path.exists() and log_path.stat().st_size > 0 and not resume:
-        raise InputError(
-            "--out",
-            "holds a run already (queries.jsonl); pass --resume to continue it, or choose another folder",
-            str(out),
-        )
-    if exact and log_path.exists():
-        raise InputError("--out", "holds a sampled run (queries.jsonl); the exact route needs another folder", str(out))
+    _check_log(log_path, resume, exact)
     pngs = _images(scene, images)  # a bad scene is refused before --out is touched
-    out.mkdir(exist_ok=True)
     common: _Common = {
         "epsilons": eps,
         "positions": positions,
@@ -279,54 +323,56 @@ def run_experiment(
         "context_epsilon": context_epsilon,
         "targets": [float(t) for t in targets],
     }
-    if exact:
-        assert local_model is not None
-        return _run_exact(task, local_model, out, seed, progress, log, common)
-    from ..report import write_atomic
+    with _claim(out):  # makes --out and locks it: a second run on it is refused here, before it writes anything
+        _check_log(log_path, resume, exact)  # again under the lock: another run may have ended in between
+        if exact:
+            assert local_model is not None
+            return _run_exact(task, local_model, out, seed, progress, log, common)
+        from ..report import write_atomic
 
-    for i, png in enumerate(pngs, start=1):
-        write_atomic(out / f"route-{i}.png", png, field="--out")
-    with ExitStack() as stack:
-        if local_model is not None:
-            m = stack.enter_context(_served(local_model, out, timeout, max_retries, log))
-            task = lm.answer_task(task)
-        assert m is not None
-        header = {
-            "task": task.name,
-            "model": m.name,
-            "seed": int(seed),
-            "fairaudit": __version__,
-            "samples": n,
-            "design": design,
-            "positions": positions,
-            "epsilons": eps,
-            "context_epsilon": context_epsilon,
-        }
-        queries = plan_queries(task, "table", n, seed)
-        if design == "both":
-            queries += plan_queries(
-                task, "paper", n, seed, epsilons=eps, positions=positions, context_epsilon=context_epsilon
-            )
-        with QueryLog(log_path, header, resume=resume) as qlog:
-            summary = run_queries(task, m, queries, qlog, images=pngs, concurrency=concurrency, progress=progress)
-            records = [qlog.records[q.id] for q in queries if q.id in qlog.records]
-    files = [log_path] + [out / f"route-{i}.png" for i in range(1, len(pngs) + 1)]
-    if not summary.complete:
-        return ExperimentRun(out, summary, None, tuple(files), seconds=summary.seconds)
-    analysis = analyse(
-        task,
-        records,
-        model=m.name,
-        samples=n,
-        paper_epsilons=eps if design == "both" else (),
-        **common,
-    )
-    files += _write(
-        analysis,
-        out,
-        {"seed": int(seed), "design": design, "fairaudit": __version__, "seconds": round(summary.seconds, 3)},
-    )
-    return ExperimentRun(out, summary, analysis, tuple(files), seconds=summary.seconds)
+        for i, png in enumerate(pngs, start=1):
+            write_atomic(out / f"route-{i}.png", png, field="--out")
+        with ExitStack() as stack:
+            if local_model is not None:
+                m = stack.enter_context(_served(local_model, out, timeout, max_retries, log))
+                task = lm.answer_task(task)
+            assert m is not None
+            header = {
+                "task": task.name,
+                "model": m.name,
+                "seed": int(seed),
+                "fairaudit": __version__,
+                "samples": n,
+                "design": design,
+                "positions": positions,
+                "epsilons": eps,
+                "context_epsilon": context_epsilon,
+            }
+            queries = plan_queries(task, "table", n, seed)
+            if design == "both":
+                queries += plan_queries(
+                    task, "paper", n, seed, epsilons=eps, positions=positions, context_epsilon=context_epsilon
+                )
+            with QueryLog(log_path, header, resume=resume) as qlog:
+                summary = run_queries(task, m, queries, qlog, images=pngs, concurrency=concurrency, progress=progress)
+                records = [qlog.records[q.id] for q in queries if q.id in qlog.records]
+        files = [log_path] + [out / f"route-{i}.png" for i in range(1, len(pngs) + 1)]
+        if not summary.complete:
+            return ExperimentRun(out, summary, None, tuple(files), seconds=summary.seconds)
+        analysis = analyse(
+            task,
+            records,
+            model=m.name,
+            samples=n,
+            paper_epsilons=eps if design == "both" else (),
+            **common,
+        )
+        files += _write(
+            analysis,
+            out,
+            {"seed": int(seed), "design": design, "fairaudit": __version__, "seconds": round(summary.seconds, 3)},
+        )
+        return ExperimentRun(out, summary, analysis, tuple(files), seconds=summary.seconds)
 
 
 @contextmanager

@@ -19,6 +19,7 @@ from ._arrays import format_label
 from ._errors import InputError
 from .certify import Observed, observe
 from .estimate import CountTable, count_records
+from .expression import evaluate_utility_expression
 from .intervals import FairnessIntervals, fairness_intervals
 from .utility import Utility, from_table, indicator
 
@@ -55,15 +56,25 @@ class Audit:
 def utility_from_expression(expression: str, decisions: Sequence[Hashable]) -> Utility:
     """g(u) from an arithmetic or comparison expression in ``u`` (for example ``"u >= 5"``).
 
-    Evaluated by :func:`pandas.eval` on the array of decision values (numeric
-    when every decision is a number), so only arithmetic, comparisons and
-    boolean operators are allowed; booleans become 0/1.
+    ``u`` is each decision value in turn: a number when every decision is a
+    number, else text. The expression language is a small allowlist (see
+    :func:`fairaudit.expression.evaluate_utility_expression`): ``u``, numbers,
+    ``+ - * / // % **``, comparisons (chained too), ``and``/``or``/``not``,
+    ``u in [1, 2]``, ``a if c else b``, text literals compared with a text
+    ``u`` (``u == "high"``) and the functions ``min``, ``max``, ``abs``,
+    ``log`` and ``exp``. Nothing else (attributes, subscripts, other names or
+    calls) is accepted, and the expression is checked before anything is
+    evaluated. At most 2000 characters and 60 levels of nesting; a power or
+    ``exp`` too large for a float is refused at once. Booleans become 0/1.
 
     Raises
     ------
     InputError
-        If the expression cannot be evaluated, does not give one finite
-        non-negative number per decision.
+        Field ``--utility``: if the expression uses anything outside the
+        language (the message names it), is empty, too long or not valid
+        syntax, fails at some decision (division by zero, log of a
+        non-positive number, overflow, text in arithmetic), or does not give
+        one finite non-negative number per decision.
 
     Examples
     --------
@@ -71,18 +82,10 @@ def utility_from_expression(expression: str, decisions: Sequence[Hashable]) -> U
     [0.0, 0.0, 1.0, 1.0]
     >>> utility_from_expression("11 - u", [1, 10]).values.tolist()
     [10.0, 1.0]
+    >>> utility_from_expression('u in ["high", "medium"]', ["low", "medium", "high"]).values.tolist()
+    [0.0, 1.0, 1.0]
     """
-    values = pd.Series(list(decisions))
-    numeric = pd.to_numeric(values, errors="coerce")
-    u = numeric if not numeric.isna().any() else values.astype(str)
-    try:
-        out = pd.eval(expression, local_dict={"u": u}, global_dict={}, engine="python")
-    except Exception as exc:  # pandas raises many kinds; report one line
-        raise InputError(
-            "--utility", f"cannot be evaluated with u = the outcome values ({type(exc).__name__}: {exc})", expression
-        ) from None
-    evaluated = np.asarray(out, dtype=float)
-    arr = np.broadcast_to(evaluated, (len(decisions),)) if evaluated.ndim == 0 else evaluated
+    arr = evaluate_utility_expression(expression, decisions)
     if arr.shape != (len(decisions),):
         raise InputError("--utility", "must give one value per outcome value", expression)
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):

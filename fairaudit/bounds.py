@@ -27,6 +27,10 @@ over its whole privacy profile:
 
 The corollary (paper SI C, Theorem "cor"): g independent of a and δ = 0 give
 L̄ ≤ L ≤ ε, attained by k-ary randomized response and a model that outputs Ã.
+It is also the paper and tight forms when their extra term is zero (L_A = 0,
+δ = 0 at ε = ε(M)): log(1 + 0/τ) = 0 for every τ, so ``paper_bound`` and
+``tight_bound`` need no τ then and return ε(M). For k-ary randomized
+response both forms are closed forms (the minimum at t = 1 or t = e^ε).
 
 Proofs: ``proofs/main_theorem.md`` (both forms, the profile minimisation) and
 ``proofs/corollary.md``.
@@ -41,10 +45,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import FloatArray, IntArray, format_label
+from ._arrays import FloatArray, IntArray, format_label, ratio_extremes
 from ._errors import InputError
 from .laws import Law, Population
-from .privacy import Mechanism
+from .privacy import _EXP_SAFE, Mechanism, _RandomizedResponse, _row_blocks
 from .utility import Utility, check_metric
 
 __all__ = [
@@ -215,18 +219,23 @@ def main_theorem_tight(
     delta = _nonneg("delta", delta)
     if math.isinf(eps):
         return math.inf
-    return math.log(math.exp(eps) + (lipschitz * diameter + delta * gamma) / tau)
+    c = (lipschitz * diameter + delta * gamma) / tau
+    if eps > _EXP_SAFE:  # e^ε overflows a double: log(e^ε + c) = ε + log(1 + c e^−ε)
+        return eps + math.log1p(c * math.exp(-eps))
+    return math.log(math.exp(eps) + c)
 
 
-def _sorted_pairs(matrix: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
+def _sorted_pairs(matrix: FloatArray, rows: slice = slice(None)) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
     """For every ordered pair (a, b), outputs sorted by M[a,o]/M[b,o] descending.
 
-    Returns (ratio, p, q, order) each of shape (n, n, m), sorted along the last
-    axis; ``order`` holds the output indices in that order.
+    Returns (ratio, p, q, order) each of shape (n, n, m) (or, for the first
+    groups ``rows`` only, (len(rows), n, m)), sorted along the last axis;
+    ``order`` holds the output indices in that order.
     Ratios follow the conventions c/0 = inf and 0/0 = 0 (such outputs add
     nothing to any hockey-stick divergence).
     """
-    p = np.broadcast_to(matrix[:, None, :], (matrix.shape[0],) * 2 + (matrix.shape[1],))
+    first = matrix[rows]
+    p = np.broadcast_to(first[:, None, :], (first.shape[0], matrix.shape[0], matrix.shape[1]))
     q = np.broadcast_to(matrix[None, :, :], p.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
@@ -272,13 +281,21 @@ def _profile_candidates(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
     """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (exact envelope)."""
     m = mechanism.matrix
     n = m.shape[0]
-    _, p, q, _ = _sorted_pairs(m)
-    off = ~np.eye(n, dtype=bool)
-    p, q = p[off], q[off]  # (pairs, m)
-    zeros = np.zeros((p.shape[0], 1))
-    big_p = np.concatenate([zeros, np.cumsum(p, axis=-1)], axis=-1).ravel()
-    big_q = np.concatenate([zeros, np.cumsum(q, axis=-1)], axis=-1).ravel()
-    hs, hc, breaks = _upper_envelope(-big_q, big_p)
+    blocks = _row_blocks(n, n * m.shape[1])
+    slopes, intercepts = [], []
+    for rows in blocks:  # the envelope of a union of lines is the envelope of the blocks' envelopes
+        _, p, q, _ = _sorted_pairs(m, rows)
+        off = np.arange(n)[None, :] != np.arange(n)[rows, None]
+        p, q = p[off], q[off]  # (pairs, m)
+        zeros = np.zeros((p.shape[0], 1))
+        big_p = np.concatenate([zeros, np.cumsum(p, axis=-1)], axis=-1).ravel()
+        big_q = np.concatenate([zeros, np.cumsum(q, axis=-1)], axis=-1).ravel()
+        lines_s, lines_c = -big_q, big_p
+        if len(blocks) > 1:
+            lines_s, lines_c, _ = _upper_envelope(lines_s, lines_c)
+        slopes.append(lines_s)
+        intercepts.append(lines_c)
+    hs, hc, breaks = _upper_envelope(np.concatenate(slopes), np.concatenate(intercepts))
     t = np.unique(np.concatenate([[1.0], breaks[np.isfinite(breaks) & (breaks > 1.0)]]))
     delta = np.clip((hc[None, :] + hs[None, :] * t[:, None]).max(axis=1), 0.0, 1.0)
     return t, delta
@@ -287,11 +304,11 @@ def _profile_candidates(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
 def _resolve(
     mechanism: Mechanism,
     gamma: float | None,
-    tau: float,
+    tau: float | None,
     lipschitz: float | None,
     utility: Utility | None,
     metric: npt.ArrayLike | None,
-) -> tuple[float, float, float]:
+) -> tuple[float, float | None, float]:
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
     if gamma is None:
@@ -303,10 +320,54 @@ def _resolve(
     return gamma, tau, lipschitz
 
 
+def _without_tau(
+    form: str, mechanism: Mechanism, lipschitz: float, diameter: float, utility: Utility | None
+) -> Assumption:
+    """The τ-free case of the main theorem: its extra term is 0, so the bound is ε(M) and τ is not needed.
+
+    With L_A·diam = 0 and δ = 0 (pure DP: δ(ε(M)) = 0 with ε(M) finite), the extra
+    term log(1 + (L_A·diam + δγ)/τ) is log 1 = 0 for every τ > 0: the bound is
+    ε(M), the corollary's. Otherwise τ is needed; the error says which term is
+    not zero. Returns the assumption that records why τ is not needed.
+    """
+    why = []
+    if utility is not None and utility.depends_on_group:
+        why.append("the utility depends on the group")
+    if lipschitz * diameter > 0:
+        why.append(f"L_A*diam = {lipschitz:g}*{diameter:g} > 0")
+    if math.isinf(mechanism.epsilon) and len(mechanism.inputs) > 1:
+        why.append("epsilon(M) = inf: delta(epsilon) > 0 at every finite epsilon")
+    if why:
+        raise InputError("tau", f"the {form} bound needs tau (a lower bound on E[g | x, a]): {'; '.join(why)}")
+    eps = mechanism.epsilon
+    return Assumption(
+        "E[g | x, a] >= tau for every model",
+        "not applicable",
+        f"no tau needed: L_A = 0 and delta = 0 at epsilon = {eps:.6g}, so the extra term "
+        "log(1 + (L_A*diam + delta*gamma)/tau) is 0 for every tau > 0",
+    )
+
+
+def _tau_free_constants(gamma: float, lipschitz: float, diameter: float) -> tuple[float, float, float]:
+    return _nonneg("gamma", gamma), _nonneg("lipschitz", lipschitz), _nonneg("diameter", diameter)
+
+
+def _epsilon_pair(mechanism: Mechanism) -> tuple[Hashable, Hashable]:
+    """A pair of inputs (a, a') attaining ε(M) = log max_o M[a, o] / M[a', o]."""
+    if isinstance(mechanism, _RandomizedResponse) or len(mechanism.inputs) < 2:
+        return mechanism.inputs[0], mechanism.inputs[min(1, len(mechanism.inputs) - 1)]
+    ratio, hi, lo = ratio_extremes(mechanism.matrix, axis=0)  # per output: the largest row over the smallest
+    o = int(np.nanargmax(np.where(np.isnan(ratio), -np.inf, ratio)))
+    a, b = int(hi[o]), int(lo[o])
+    if a == b:  # every row equal on that output (ε = 0): any pair
+        a, b = 0, 1
+    return mechanism.inputs[a], mechanism.inputs[b]
+
+
 def paper_bound(
     mechanism: Mechanism,
     *,
-    tau: float,
+    tau: float | None = None,
     gamma: float | None = None,
     lipschitz: float | None = None,
     diameter: float = 1.0,
@@ -322,9 +383,12 @@ def paper_bound(
     ----------
     mechanism : Mechanism
         M_A, shape (n_groups, n_released_groups).
-    tau : float
+    tau : float, optional
         τ > 0, the lower bound on every E[g | x, a] of the model behind the
-        filter (vouched for by the caller unless ``law`` shows it).
+        filter (vouched for by the caller unless ``law`` shows it). Not needed
+        when the extra term is zero: with L_A = 0 (a utility free of the
+        group) and a pure-DP M_A (ε(M) finite, δ(ε(M)) = 0) the bound without
+        τ is ε(M), the corollary's (log(1 + 0/τ) = 0 for every τ > 0).
     gamma : float, optional
         γ ≥ max g; default ``utility.gamma``.
     lipschitz : float, optional
@@ -338,17 +402,22 @@ def paper_bound(
     Returns
     -------
     Bound
-        ``form = "paper"`` with the minimising ε and δ(ε).
+        ``form = "paper"`` with the minimising ε and δ(ε) (``tau`` NaN and an
+        assumption "not applicable" saying why when τ was not needed).
 
     Raises
     ------
     InputError
-        On invalid constants (τ ≤ 0, τ > γ, negative values).
+        On invalid constants (τ ≤ 0, τ > γ, negative values); without τ when
+        the extra term is not zero (L_A > 0, a utility that depends on the
+        group, or ε(M) = inf).
 
     Notes
     -----
     Paper SI C, Theorem (main); the minimisation over the profile and its
-    candidate set: ``proofs/main_theorem.md``.
+    candidate set: ``proofs/main_theorem.md``. For k-ary randomized response
+    the profile is δ(t) = [p − tq]₊ and the objective is concave on [1, e^ε],
+    so the minimum is at t = 1 or t = e^ε (closed form, no k x k matrix).
 
     Examples
     --------
@@ -359,12 +428,38 @@ def paper_bound(
     >>> b = paper_bound(randomized_response(["a", "b"], keep=0.7), gamma=1.0, tau=0.2)
     >>> round(b.value, 9), round(b.epsilon, 9), b.delta
     (0.84729786, 0.84729786, 0.0)
+
+    Without τ (L_A = 0, pure DP) the extra term is 0: the bound is ε(M).
+
+    >>> round(paper_bound(randomized_response(["a", "b"], keep=0.7), gamma=1.0).value, 9)
+    0.84729786
     """
     gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, None)
+    n = len(mechanism.inputs)
+    if tau is None:
+        gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
+        free = _without_tau("paper", mechanism, lipschitz, diameter, utility)
+        assumptions = check_assumptions(
+            mechanism, tau=None, gamma=gamma, utility=utility, population=population, law=law
+        ) + (free,)
+        eps = mechanism.epsilon if n > 1 else 0.0
+        return Bound("paper", eps, eps, 0.0, None, None, gamma, math.nan, lipschitz, diameter, mechanism, assumptions)
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
     assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
-    if len(mechanism.inputs) < 2:
+    if n < 2:
         return Bound("paper", 0.0, 0.0, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions)
+    if isinstance(mechanism, _RandomizedResponse):
+        # δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there (proofs/main_theorem.md)
+        rr, c = mechanism.rr, lipschitz * diameter
+        at_one = math.log1p((c + gamma * (rr.p - rr.q)) / tau)  # t = 1: δ = p − q, the total variation
+        at_eps = rr.epsilon + math.log1p(c / tau)  # t = e^ε: δ = 0
+        if at_eps < at_one:
+            return Bound(
+                "paper", at_eps, rr.epsilon, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions
+            )
+        return Bound(
+            "paper", at_one, 0.0, rr.p - rr.q, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions
+        )
     t, delta = _profile_candidates(mechanism)
     values = np.log(t) + np.log1p((lipschitz * diameter + gamma * delta) / tau)
     k = int(np.argmin(values))
@@ -387,7 +482,7 @@ def paper_bound(
 def tight_bound(
     mechanism: Mechanism,
     *,
-    tau: float,
+    tau: float | None = None,
     gamma: float | None = None,
     lipschitz: float | None = None,
     metric: npt.ArrayLike | None = None,
@@ -406,7 +501,8 @@ def tight_bound(
     mechanism : Mechanism
         M_A, shape (n_groups, n_released_groups).
     tau, gamma, lipschitz, utility, population, law
-        As in :func:`paper_bound`.
+        As in :func:`paper_bound`; without τ (L_A = 0, pure DP: the extra
+        term is 0) the bound is max over pairs of ε_aa' = ε(M).
     metric : array_like, shape (n_groups, n_groups), optional
         d(a, a'); default the discrete metric.
 
@@ -418,7 +514,11 @@ def tight_bound(
 
     Notes
     -----
-    DESIGN.md "Tight bound"; ``proofs/main_theorem.md``.
+    DESIGN.md "Tight bound"; ``proofs/tight_bound.md``. The pairs are
+    processed in blocks of rows, so a general mechanism needs memory for a
+    block of pairs, not for all n² pairs times the outputs at once. For k-ary
+    randomized response every pair has δ_aa'(t) = [p − tq]₊, and the minimum
+    is at t = 1 or t = e^ε, for the pair of largest d(a, a') (closed form).
 
     Examples
     --------
@@ -426,36 +526,90 @@ def tight_bound(
     >>> m = randomized_response(["a", "b", "c"], epsilon=1.0)
     >>> tight_bound(m, gamma=1.0, tau=0.2).value <= paper_bound(m, gamma=1.0, tau=0.2).value
     True
+    >>> tight_bound(m, gamma=1.0).value                        # no τ needed: L_A = 0, pure DP
+    1.0
     """
     gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, metric)
     n = len(mechanism.inputs)
-    d = check_metric(metric, n)
-    diameter = float(d.max()) if n > 1 else 0.0
+    rr = mechanism.rr if isinstance(mechanism, _RandomizedResponse) else None
+    d: FloatArray | None = None
+    if metric is not None or rr is None:
+        d = check_metric(metric, n)
+        diameter = float(d.max()) if n > 1 else 0.0
+    else:
+        diameter = 1.0 if n > 1 else 0.0  # the discrete metric, without its n x n matrix
+    if tau is None:
+        gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
+        free = _without_tau("tight", mechanism, lipschitz, diameter, utility)
+        assumptions = check_assumptions(
+            mechanism, tau=None, gamma=gamma, utility=utility, population=population, law=law
+        ) + (free,)
+        if n < 2:
+            return Bound(
+                "tight", 0.0, 0.0, 0.0, None, None, gamma, math.nan, lipschitz, diameter, mechanism, assumptions
+            )
+        eps = mechanism.epsilon  # max over pairs of ε_aa', where δ_aa' = 0
+        a_label, b_label = _epsilon_pair(mechanism)
+        return Bound(
+            "tight", eps, eps, 0.0, a_label, b_label, gamma, math.nan, lipschitz, diameter, mechanism, assumptions
+        )
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
     assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
     if n < 2:
         return Bound("tight", 0.0, 0.0, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions)
-    ratio, p, q, _ = _sorted_pairs(mechanism.matrix)
-    # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
-    p_before = np.cumsum(p, axis=-1) - p
-    q_before = np.cumsum(q, axis=-1) - q
-    with np.errstate(invalid="ignore"):
-        delta_k = np.clip(p_before - ratio * q_before, 0.0, None)
-    valid = np.isfinite(ratio) & (ratio >= 1.0)
-    delta_1 = np.clip(p - q, 0.0, None).sum(axis=-1)  # t = 1 (ε = 0): total variation
-    t = np.concatenate([np.ones(ratio.shape[:-1] + (1,)), np.where(valid, ratio, np.inf)], axis=-1)
-    dl = np.concatenate([delta_1[..., None], np.where(valid, delta_k, 0.0)], axis=-1)
-    objective = t + (lipschitz * d[..., None] + gamma * dl) / tau  # (n, n, m + 1)
-    best_k = objective.argmin(axis=-1)
-    best = np.take_along_axis(objective, best_k[..., None], -1)[..., 0]
+    if rr is not None:
+        # every pair: h(t) = t + (L_A d + γ[p − tq]₊)/τ, convex, kinks at e^ε only: min at t = 1 or t = e^ε, and
+        # increasing in d, so the binding pair has the largest d (the first such pair, as the general route)
+        a, b = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
+        c = lipschitz * diameter / tau
+        at_one = 1.0 + c + gamma * (rr.p - rr.q) / tau
+        log_eps = rr.epsilon + math.log1p(c * math.exp(-rr.epsilon))  # log(e^ε + c), no overflow
+        if math.log(at_one) <= log_eps:
+            value, eps, delta = math.log(at_one), 0.0, rr.p - rr.q
+        else:
+            value, eps, delta = log_eps, rr.epsilon, 0.0
+        return Bound(
+            "tight",
+            value,
+            eps,
+            delta,
+            mechanism.inputs[int(a)],
+            mechanism.inputs[int(b)],
+            gamma,
+            tau,
+            lipschitz,
+            diameter,
+            mechanism,
+            assumptions,
+        )
+    assert d is not None  # (a general mechanism: its metric was checked)
+    matrix = mechanism.matrix
+    best = np.empty((n, n))
+    best_t = np.empty((n, n))
+    best_delta = np.empty((n, n))
+    for rows in _row_blocks(n, n * (matrix.shape[1] + 1)):  # a block of pairs at a time, not (n, n, m) at once
+        ratio, p, q, _ = _sorted_pairs(matrix, rows)
+        # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
+        p_before = np.cumsum(p, axis=-1) - p
+        q_before = np.cumsum(q, axis=-1) - q
+        with np.errstate(invalid="ignore"):
+            delta_k = np.clip(p_before - ratio * q_before, 0.0, None)
+        valid = np.isfinite(ratio) & (ratio >= 1.0)
+        delta_1 = np.clip(p - q, 0.0, None).sum(axis=-1)  # t = 1 (ε = 0): total variation
+        t = np.concatenate([np.ones(ratio.shape[:-1] + (1,)), np.where(valid, ratio, np.inf)], axis=-1)
+        dl = np.concatenate([delta_1[..., None], np.where(valid, delta_k, 0.0)], axis=-1)
+        objective = t + (lipschitz * d[rows, :, None] + gamma * dl) / tau  # (block, n, m + 1)
+        best_k = objective.argmin(axis=-1)[..., None]
+        best[rows] = np.take_along_axis(objective, best_k, -1)[..., 0]
+        best_t[rows] = np.take_along_axis(t, best_k, -1)[..., 0]
+        best_delta[rows] = np.take_along_axis(dl, best_k, -1)[..., 0]
     np.fill_diagonal(best, -np.inf)
     a, b = np.unravel_index(int(best.argmax()), best.shape)
-    k = best_k[a, b]
     return Bound(
         "tight",
         float(np.log(best[a, b])),
-        float(np.log(t[a, b, k])),
-        float(dl[a, b, k]),
+        float(np.log(best_t[a, b])),
+        float(best_delta[a, b]),
         mechanism.inputs[a],
         mechanism.inputs[b],
         gamma,

@@ -15,14 +15,18 @@ attribute reaches the model). Four methods, from the loosest:
 
   They certify *every* (ε, δ)-DP mechanism on the groups, not only the
   family's, so they are looser than ``black_box`` for a known family. Both
-  need τ; no ε meets a target below the floor log(1 + c/τ).
+  need τ when c > 0 (with c = 0, L_A = 0 and δ = 0, the extra term is 0 for
+  every τ and ε = target without τ); no ε meets a target below the floor
+  log(1 + c/τ).
 * ``black_box`` — the exact worst case over every decision model
   (:func:`fairaudit.worstcase.black_box_bound`) of the family member M_ε. It
   is non-decreasing in ε along the family (a smaller ε is a post-processing of
   a larger one: ``proofs/calibration.md`` §3), so the largest ε is found by
   a bracketing root finder (bisection safeguarded regula falsi) to 1e-11
   relative; for k-ary randomized response with τ ≤ lower and L_A = 0 the
-  closed form of ``proofs/black_box.md`` §3 is used directly.
+  closed form of ``proofs/black_box.md`` §3 is used directly, and otherwise
+  the bracketing evaluates the black-box value of randomized response in
+  closed form (O(1) per ε, no k x k matrix).
 * ``white_box`` — a known (or estimated) decision kernel: the exact L (or L̄)
   of ``compose(kernel, M_ε, M_X)``. It need not be monotone in ε, so the
   result is the largest ε such that *every* ε' in [0, ε] meets the target,
@@ -47,9 +51,9 @@ from ._errors import InputError
 from .bounds import main_theorem, main_theorem_tight
 from .laws import Kernel, Population, compose
 from .metrics import global_fairness, local_fairness
-from .privacy import Mechanism, MechanismFamily, randomized_response, randomized_response_family
+from .privacy import _EXP_SAFE, Mechanism, MechanismFamily, _RandomizedResponse, randomized_response_family
 from .utility import Utility, check_metric
-from .worstcase import black_box_bound
+from .worstcase import _rr_class_value, black_box_bound
 
 __all__ = ["Calibration", "calibrate", "calibrate_randomized_response", "METHODS"]
 
@@ -303,6 +307,17 @@ def _closed_form(common: _Common, method: str, family: MechanismFamily) -> Calib
     target, gamma, tau = common["target"], common["gamma"], common["tau"]
     lip, diam, delta = common["lipschitz"], common["diameter"], common["delta"]
     c = lip * diam + delta * gamma
+    if math.isnan(tau):  # (calibrate checked that the extra term is 0: L_A*diam = 0 and delta = 0)
+        return _result(
+            common,
+            method,
+            target,
+            target,
+            f"closed form of the {method} bound without tau: L_A*diam = 0 and delta = 0, so the extra term "
+            "log(1 + (L_A*diam + delta*gamma)/tau) is 0 for every tau > 0 and epsilon = target; it certifies every "
+            "pure epsilon-DP mechanism on the groups (looser than black_box for a known family)",
+            family,
+        )
     floor = math.log1p(c / tau)
     terms = f"log(1 + (L_A*diam + delta*gamma)/tau) = log(1 + ({lip:g}*{diam:g} + {delta:g}*{gamma:g})/{tau:g})"
     if target < floor * (1 - 1e-14):  # (a few ulps of rounding in the floor itself are not a violation)
@@ -336,8 +351,20 @@ def _closed_form(common: _Common, method: str, family: MechanismFamily) -> Calib
 
 
 def _rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> float:
-    """Closed form of ``proofs/black_box.md`` §3: the largest ε of k-ary RR with black-box value ≤ target."""
+    """Closed form of ``proofs/black_box.md`` §3: the largest ε of k-ary RR with black-box value ≤ target.
+
+    Any target ≥ 0, however large: e^target is never formed above 700 nats (the same formula in logarithms;
+    with lower = 0 it is ε = target).
+    """
     rho = lower / gamma if gamma > 0 else 1.0
+    if target > _EXP_SAFE:  # e^target overflows a double; T0·rho < 1 needs rho < e^-700 (or 0)
+        if rho == 0.0:
+            return target
+        if target + math.log(rho) >= 0.0:
+            return math.inf
+        # log t = target + log(1 + rho(k − 2) − rho(k − 1) e^-target) − log(1 − rho e^target)
+        head = math.log1p(rho * (k - 2) - rho * (k - 1) * math.exp(-target))
+        return max(0.0, target + head - math.log1p(-math.exp(target + math.log(rho))))
     big_t = math.exp(target)
     if big_t * rho >= 1.0:
         return math.inf
@@ -345,13 +372,15 @@ def _rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> 
     return math.log(max(t, 1.0))
 
 
-def _is_randomized_response(family: MechanismFamily, eps: float) -> Mechanism | None:
-    """The family's member at ``eps`` when it is k-ary randomized response on the family's inputs, else None."""
+def _is_randomized_response(family: MechanismFamily, eps: float) -> _RandomizedResponse | None:
+    """The family's member at ``eps`` when it is k-ary randomized response on the family's inputs, else None.
+
+    An isinstance check (:func:`~fairaudit.privacy.randomized_response` makes them): no k x k matrix.
+    """
     m = family(eps)
-    if tuple(m.inputs) != tuple(family.inputs) or tuple(m.outputs) != tuple(family.inputs):
+    if not isinstance(m, _RandomizedResponse) or tuple(m.inputs) != tuple(family.inputs):
         return None
-    rr = randomized_response(family.inputs, eps)
-    return m if np.allclose(m.matrix, rr.matrix, rtol=1e-13, atol=0.0) else None
+    return m
 
 
 def _black_box(
@@ -383,6 +412,21 @@ def _black_box(
 
     def bound(eps: float) -> float:
         return black_box_bound(family(eps), **kwargs).value
+
+    if _is_randomized_response(family, 1.0) is not None:
+        # k-ary randomized response: the black-box value in closed form, O(1) per epsilon (no k x k matrix)
+        k = len(family.inputs)
+        d = None if lip == 0 or metric is None else check_metric(metric, k)
+        off = None if d is None else d[~np.eye(k, dtype=bool)]
+        binds = not math.isnan(tau) and tau > lower
+        if off is None or bool(np.all(off == off[0])) or not binds:  # (else: the LP, proofs/black_box.md §5)
+            diam = 1.0 if off is None else float(off.max())
+            tau_ = None if math.isnan(tau) else tau
+
+            def bound(eps: float) -> float:
+                member = family(eps)
+                assert isinstance(member, _RandomizedResponse)  # (the family is randomized response)
+                return _rr_class_value(member.rr, lower, gamma, tau_, lip, diam)
 
     top = bound(math.inf)
     if target >= top:
@@ -629,7 +673,9 @@ def calibrate(
         The utility class g ∈ [lower, γ], 0 ≤ lower ≤ γ, γ > 0.
     tau : float, optional
         τ ∈ (0, γ], a lower bound on every E[g | x, a]; needed by ``paper``
-        and ``tight``, optional for ``black_box``.
+        and ``tight`` when L_A·diam > 0 or δ > 0 (or the utility depends on
+        the group): otherwise their extra term is 0 and ε = target without
+        τ. Optional for ``black_box``.
     lipschitz : float
         L_A ≥ 0 (0: g does not depend on the group).
     metric : array_like, shape (k, k), optional
@@ -660,7 +706,8 @@ def calibrate(
         Naming the command-line flag: a negative or non-finite ``--target``,
         an unknown ``--method``, fewer than 2 ``--groups`` (or a count that
         differs from the family's), ``--gamma`` ≤ 0, ``--lower`` outside
-        [0, γ], ``--tau`` outside (0, γ] or missing for paper/tight,
+        [0, γ], ``--tau`` outside (0, γ] or missing for paper/tight when
+        L_A·diam > 0 or δ > 0,
         ``--delta`` outside [0, 1] or given to black_box/white_box, a negative
         ``--lipschitz``, or white_box without a kernel (``--spec``) or utility.
 
@@ -738,7 +785,18 @@ def calibrate(
             delta,
         )
     if method in ("paper", "tight") and tau is None:
-        raise InputError("--tau", f"the {method} bound needs tau (a lower bound on E[g | x, a])")
+        # Without tau the extra term log(1 + (L_A*diam + delta*gamma)/tau) must be 0: L_A*diam = 0 and delta = 0
+        why = [
+            text
+            for bad, text in (
+                (lipschitz * diam > 0, f"L_A*diam = {lipschitz:g}*{diam:g} > 0"),
+                (delta > 0, f"delta = {delta:g} > 0"),
+                (utility is not None and utility.depends_on_group, "the utility depends on the group"),
+            )
+            if bad
+        ]
+        if why:
+            raise InputError("--tau", f"the {method} bound needs tau (a lower bound on E[g | x, a]): {'; '.join(why)}")
     common = _Common(
         target=target,
         kind=kind,
@@ -793,6 +851,11 @@ def calibrate_randomized_response(
 
     Proof: ``proofs/calibration.md``.
 
+    With L_A = 0 and δ = 0 the extra term is 0: no τ needed, ε = target.
+
+    >>> calibrate(0.3, method="tight").epsilon
+    0.3
+
     A thin wrapper of :func:`calibrate` (``kind="local"``, the default
     family) that raises instead of returning an infeasible result.
 
@@ -807,7 +870,7 @@ def calibrate_randomized_response(
     gamma, lower : float
         The class of utilities g(u) ∈ [lower, γ].
     tau : float, optional
-        Needed by ``tight`` and ``paper``.
+        Needed by ``tight`` and ``paper`` when L_A > 0.
     lipschitz : float
         L_A.
 

@@ -238,7 +238,8 @@ def certify(
     forms: list[tuple[str, tuple[Assumption, ...]]] = []
     paper: Bound | None = None
     tight: Bound | None = None
-    if tau is not None:
+    # without tau the extra term must be 0 (L_A = 0, g free of the group, pure DP): then paper = tight = epsilon(M)
+    if tau is not None or (spec.lipschitz == 0 and not spec.utility.depends_on_group and math.isfinite(mech.epsilon)):
         paper = paper_bound(
             mech,
             tau=tau,

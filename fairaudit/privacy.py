@@ -162,12 +162,19 @@ class Mechanism:
             ``out[a, a'] = Σ_o [M[a, o] − e^ε M[a', o]]₊``; the diagonal is 0.
         """
         eps = _check_epsilon(epsilon)
-        p = self.matrix[:, None, :]
-        q = self.matrix[None, :, :]
-        if math.isinf(eps):
-            out = np.where(q == 0, p, 0.0).sum(axis=-1)
-        else:
-            out = np.clip(p - math.exp(eps) * q, 0.0, None).sum(axis=-1)
+        m = self.matrix
+        n = m.shape[0]
+        out = np.empty((n, n))
+        q = m[None, :, :]
+        for rows in _row_blocks(n, n * m.shape[1]):  # (block, n, m) at a time, not (n, n, m)
+            p = m[rows, None, :]
+            if math.isinf(eps):
+                out[rows] = np.where(q == 0, p, 0.0).sum(axis=-1)
+            elif eps <= _EXP_SAFE:
+                out[rows] = np.clip(p - math.exp(eps) * q, 0.0, None).sum(axis=-1)
+            else:  # e^ε overflows a double: e^ε q = exp(ε + log q), 0 where q = 0
+                with np.errstate(divide="ignore", over="ignore"):
+                    out[rows] = np.clip(p - np.exp(eps + np.log(q)), 0.0, None).sum(axis=-1)
         np.fill_diagonal(out, 0.0)
         return out
 
@@ -286,6 +293,16 @@ class Mechanism:
         return text
 
 
+_EXP_SAFE = 700.0  # e^ε is a finite double up to ε ≈ 709.78; above this, work with logarithms
+_BLOCK = 1 << 22  # elements per block of a (block, n, m) temporary
+
+
+def _row_blocks(n: int, per_row: int) -> list[slice]:
+    """Slices of range(n) whose rows times ``per_row`` elements stay near 4M (chunked pairwise work)."""
+    step = max(1, _BLOCK // max(1, per_row))
+    return [slice(i, min(n, i + step)) for i in range(0, n, step)]
+
+
 def _check_epsilon(epsilon: float) -> float:
     try:
         eps = float(epsilon)
@@ -364,6 +381,11 @@ def randomized_response(
     -------
     Mechanism
         Square, shape (k, k); ε(M) = ``epsilon`` exactly, δ(M, ε(M)) = 0.
+        Its matrix is built only when asked for: ε, δ(ε), the keep
+        probability and the certificates of :mod:`fairaudit.bounds`,
+        :mod:`fairaudit.worstcase` and :mod:`fairaudit.calibrate` are closed
+        forms, so k may be a million. Any ε in [0, +inf] works (above
+        700 nats, where e^ε overflows, q = e^−ε/(1 + (k − 1)e^−ε)).
 
     Raises
     ------
@@ -394,19 +416,28 @@ def randomized_response(
             epsilon = epsilon_from_keep_probability(keep, k)
     assert epsilon is not None  # exactly one of epsilon and keep was given
     eps = _check_epsilon(epsilon)
-    if k == 1:
-        matrix = np.ones((1, 1))
-    elif math.isinf(eps):
-        matrix = np.eye(k)
+    return _RandomizedResponse(labels, eps, name or f"{k}-ary randomized response")
+
+
+def _rr_probabilities(eps: float, k: int) -> tuple[float, float, float, float]:
+    """(p, q, log p, log q) of k-ary randomized response: p = t/(t + k − 1), q = 1/(t + k − 1), t = e^ε.
+
+    No overflow for any ε ≥ 0 (+inf gives p = 1, q = 0); p without cancellation for any k.
+    """
+    if k < 2:
+        return 1.0, 0.0, 0.0, -math.inf
+    if math.isinf(eps):
+        return 1.0, 0.0, 0.0, -math.inf
+    if eps <= _EXP_SAFE:
+        q = 1.0 / (math.exp(eps) + k - 1)
     else:
-        other = 1.0 / (math.exp(eps) + k - 1)
-        matrix = np.full((k, k), other)
-        np.fill_diagonal(matrix, 1.0 - (k - 1) * other)
-    label = name or f"{k}-ary randomized response"
-    mech = Mechanism(matrix, labels, name=label)
-    if keep is None or not math.isinf(eps):
-        mech._cache["epsilon"] = eps if k > 1 else 0.0
-    return mech
+        small = math.exp(-eps)
+        q = small / (1.0 + (k - 1) * small)
+    rest = (k - 1) * q
+    # 1 − (k − 1) q is exact to an ulp when it is ≥ 1/2; below that, t·q avoids the cancellation
+    p = 1.0 - rest if rest <= 0.5 else q * math.exp(eps)
+    log_p = -math.log1p((k - 1) * math.exp(-eps))  # −log(1 + (k − 1) e^−ε)
+    return p, q, log_p, log_p - eps
 
 
 def identity(values: Sequence[Hashable], name: str = "identity") -> Mechanism:
@@ -445,6 +476,103 @@ class _Identity(Mechanism):
     @property
     def epsilon(self) -> float:
         return math.inf if len(self.inputs) >= 2 else 0.0
+
+
+class _RandomizedResponse(Mechanism):
+    """k-ary randomized response in closed form: its k x k matrix is made only when asked for.
+
+    Every row keeps its value with p = e^ε/(e^ε + k − 1) and moves to each other
+    value with q = 1/(e^ε + k − 1), so ε, δ(ε), the pairwise divergences, the
+    keep probability and (in :mod:`fairaudit.bounds`, :mod:`fairaudit.worstcase`
+    and :mod:`fairaudit.calibrate`) the certificates have closed forms: a
+    million groups cost their labels, not 10^12 cells. ``proofs/privacy.md`` §5.
+    """
+
+    rr: _RR
+
+    def __init__(self, labels: tuple, epsilon: float, name: str) -> None:
+        k = len(labels)
+        p, q, log_p, log_q = _rr_probabilities(epsilon, k)
+        object.__setattr__(self, "inputs", labels)
+        object.__setattr__(self, "outputs", labels)
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "_cache", {"epsilon": epsilon if k > 1 else 0.0})
+        object.__setattr__(self, "rr", _RR(k, epsilon if k > 1 else 0.0, p, q, log_p, log_q))
+
+    @property
+    def matrix(self) -> FloatArray:
+        if "matrix" not in self._cache:
+            k, rr = len(self.inputs), self.rr
+            m = np.full((k, k), rr.q)
+            np.fill_diagonal(m, rr.p)
+            m.setflags(write=False)
+            self._cache["matrix"] = m
+        return self._cache["matrix"]
+
+    @property
+    def epsilon(self) -> float:
+        return self.rr.epsilon
+
+    @property
+    def is_identity(self) -> bool:
+        return self.rr.k < 2 or math.isinf(self.rr.epsilon)
+
+    @property
+    def keep_probability(self) -> float:
+        return self.rr.p
+
+    def _pair_delta(self, epsilon: float) -> float:
+        """δ_aa'(ε) = [p − e^ε q]₊, the same for every pair a ≠ a' (proofs/privacy.md, Proposition 5)."""
+        rr = self.rr
+        if rr.k < 2:
+            return 0.0
+        if math.isinf(rr.epsilon):  # the identity: a puts all its mass where a' puts none
+            return rr.p
+        if epsilon >= rr.epsilon:
+            return 0.0
+        t_q = math.exp(epsilon) * rr.q if epsilon <= _EXP_SAFE else math.exp(epsilon + rr.log_q)
+        return max(0.0, rr.p - t_q)
+
+    def pairwise_delta(self, epsilon: float) -> FloatArray:
+        eps = _check_epsilon(epsilon)
+        k = len(self.inputs)
+        out = np.full((k, k), self._pair_delta(eps))
+        np.fill_diagonal(out, 0.0)
+        return out
+
+    @overload
+    def delta(self, epsilon: float) -> float: ...
+    @overload
+    def delta(self, epsilon: npt.ArrayLike) -> float | FloatArray: ...
+    def delta(self, epsilon: npt.ArrayLike) -> float | FloatArray:
+        eps = np.asarray(epsilon, dtype=float)
+        flat = np.array([self._pair_delta(_check_epsilon(e)) for e in eps.ravel().tolist()])
+        return float(flat[0]) if eps.ndim == 0 else flat.reshape(eps.shape)
+
+    def epsilon_for_delta(self, delta: float) -> float:
+        """Smallest ε ≥ 0 with δ(ε) ≤ ``delta``: log((p − δ)/q) in closed form (0 when δ ≥ p − q)."""
+        if not (0.0 <= delta <= 1.0):
+            raise InputError("delta", "must lie in [0, 1]", delta)
+        rr = self.rr
+        if delta == 0.0:
+            return self.epsilon
+        if self.delta(0.0) <= delta:
+            return 0.0
+        if math.isinf(rr.epsilon):  # the identity: δ = 1 at every ε
+            return math.inf
+        return max(0.0, math.log(rr.p - delta) - rr.log_q)
+
+
+@dataclass(frozen=True)
+class _RR:
+    """The closed-form parameters of k-ary randomized response (see :class:`_RandomizedResponse`)."""
+
+    k: int
+    epsilon: float
+    p: float  # keep probability e^ε/(e^ε + k − 1)
+    q: float  # probability of each other value, 1/(e^ε + k − 1)
+    log_p: float
+    log_q: float  # −ε − log(1 + (k − 1) e^−ε): finite for every finite ε, even where q underflows
 
 
 def from_matrix(

@@ -35,6 +35,7 @@ fast path does not decide. Proofs: ``proofs/black_box.md``,
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import operator
 from collections.abc import Callable, Hashable
@@ -49,7 +50,7 @@ from ._errors import InputError
 from .bounds import Assumption, _nonneg, check_assumptions
 from .laws import Kernel, Law, Population, compose
 from .lfp import FractionalProgram, FractionalResult, box_point, floor_max_many, threshold_max_many
-from .privacy import Mechanism, identity
+from .privacy import _RR, Mechanism, _RandomizedResponse, _row_blocks, identity
 from .utility import Utility, check_metric
 
 if TYPE_CHECKING:
@@ -165,10 +166,223 @@ def _log(r: float) -> float:
 
 def _pair_epsilon(matrix: FloatArray) -> FloatArray:
     """max_o M[a, o] / M[b, o] for every ordered pair, shape (n, n) (c/0 = inf, 0/0 ignored)."""
-    p, q = matrix[:, None, :], matrix[None, :, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
-    return r.max(axis=-1)
+    n = matrix.shape[0]
+    out = np.empty((n, n))
+    q = matrix[None, :, :]
+    for rows in _row_blocks(n, n * matrix.shape[1]):  # (block, n, m) at a time
+        p = matrix[rows, None, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
+        out[rows] = r.max(axis=-1)
+    return out
+
+
+def _pairwise_box(
+    matrix: FloatArray, lower: float, upper: float, floor: float | None
+) -> tuple[FloatArray, FloatArray | None]:
+    """The box program of every ordered pair (rows a, b of ``matrix``), and with ``floor`` its floor relaxation.
+
+    The threshold and relaxation values, shape (n, n), computed a block of rows at a time, so the
+    (n, n, m) sorts and prefix sums never exist all at once.
+    """
+    n = matrix.shape[0]
+    box = np.empty((n, n))
+    relaxed = None if floor is None else np.empty((n, n))
+    q = matrix[None, :, :]
+    for rows in _row_blocks(n, 4 * n * matrix.shape[1]):
+        p = matrix[rows, None, :]
+        solution = threshold_max_many(p, q, lower, upper)
+        box[rows] = solution[0]
+        if relaxed is not None and floor is not None:
+            relaxed[rows] = floor_max_many(p, q, lower, upper, floor, threshold=solution)[0]
+    return box, relaxed
+
+
+# ----------------------------------------------------------------------------------------------------
+# k-ary randomized response in closed form (proofs/black_box.md §3)
+# ----------------------------------------------------------------------------------------------------
+_TIE = 1e-12  # relative tolerance of the threshold solution's ties (as lfp.threshold_max_many)
+
+
+@dataclass(frozen=True)
+class _RRWorst:
+    """The worst case of the pair (a, a') = (first group, second group) behind k-ary randomized response.
+
+    Every ordered pair is alike (the mechanism is symmetric), so one pair decides. The maximiser h over the
+    released values is h[a] = ``h_a``, h[a'] = ``h_b``, the first ``first`` other values (in index order)
+    ``h_first``, the next one ``h_next``, the rest ``h_rest``. ``prefix``: h is a threshold prefix (released
+    values listed in the likelihood-ratio order a, others, a'), else a floor point (listed in index order).
+    """
+
+    ratio: float
+    value: float  # log ratio, exact also where the ratio overflows (lower = 0: ε itself)
+    h_a: float
+    h_b: float
+    first: int
+    h_first: float
+    h_next: float
+    h_rest: float
+    prefix: bool
+
+    def vector(self, k: int) -> FloatArray:
+        h = np.full(k, self.h_rest)
+        j = min(self.first, k - 2)
+        h[2 : 2 + j] = self.h_first
+        if 2 + j < k:
+            h[2 + j] = self.h_next
+        h[0], h[1] = self.h_a, self.h_b
+        return h
+
+    def released(self, k: int, hi: float) -> IntArray:
+        """Indices of the released values where h is at the top of the box (``hi``)."""
+        at_top = np.flatnonzero(self.vector(k) >= hi - 1e-9 * max(1.0, hi))
+        if self.prefix and at_top.size and at_top[0] == 0 and 1 in at_top[:2]:
+            at_top = np.concatenate([at_top[at_top != 1], [1]])  # a' comes last in the ratio order
+        return at_top
+
+
+def _rr_box(rr: _RR, lo: float, hi: float, floor: float) -> _RRWorst:
+    """max (M[a]·h)/(M[a']·h) over lo ≤ h ≤ hi with M[a']·h ≥ floor, M = k-ary RR, in O(1).
+
+    Without a binding floor (floor ≤ lo) the threshold solution: h = hi on the released value a, lo elsewhere,
+    ratio (lo + (hi − lo)p)/(lo + (hi − lo)q) (proofs/black_box.md, Proposition 3), with the longest prefix tied
+    to 1e-12 (as the general route). With a binding floor the relaxation that keeps only M[a']·h ≥ floor
+    (lfp.floor_max_many): raise a, then the other values, then a', until M[a']·h = floor; for randomized response
+    its point meets every group's floor, so it is the optimum of the whole class (proofs/black_box.md, §3,
+    Proposition 3b). ``floor`` must be ≤ hi.
+    """
+    k, p, q = rr.k, rr.p, rr.q
+    span = hi - lo
+    if span <= 0 or p <= q:  # every prefix ties at ratio 1: the longest one, h = hi everywhere (index order)
+        return _RRWorst(1.0, 0.0, hi, hi, k, hi, hi, hi, False)
+    num, den = lo + span * p, lo + span * q
+    if lo > 0:
+        ratio = num / den
+        if den > 1e-290:
+            value = math.log(ratio)
+        else:  # (q underflows: log(lo + span q) from log q, which does not)
+            value = math.log(num) - float(np.logaddexp(math.log(lo), math.log(span) + rr.log_q))
+            ratio = math.exp(value) if value < 709.0 else math.inf
+    else:  # (p/q = e^ε; its log is ε even where p/q overflows)
+        ratio = math.inf if q == 0 else p / q
+        value = rr.log_p - rr.log_q
+    first = 0
+    c = span * q
+    tied = ratio * (1 - _TIE)
+    if tied <= 1:  # the ratio is 1 to rounding: every prefix ties, the longest is all of them
+        return _RRWorst(ratio, value, hi, hi, k, hi, hi, hi, True)
+    if c > 0 and math.isfinite(tied):  # others add c to both sides: tied while (num + jc)/(den + jc) >= tied
+        first = min(k - 2, int(math.floor(_TIE * num / (c * (tied - 1)))))
+    if floor <= lo or den + first * c >= floor * (1 - 1e-12):
+        return _RRWorst(ratio, value, hi, lo, first, hi, lo, lo, True)
+    need = floor - lo
+    if q > 0 and need <= c * (k - 1):  # a and x other values raised: value (floor + span (p − q))/floor
+        x = need / c - 1.0
+        first = min(k - 2, int(math.floor(x)))
+        frac = min(1.0, max(0.0, x - first))
+        ratio = (floor + span * (p - q)) / floor
+        return _RRWorst(ratio, math.log(ratio), hi, lo, first, hi, lo + frac * span, lo, False)
+    s = min(span, (need - c * (k - 1)) / p)  # a and every other value raised, a' partly
+    ratio = (lo + span * (p + (k - 2) * q) + q * s) / floor
+    return _RRWorst(ratio, math.log(ratio), hi, lo + s, k - 2, hi, hi, hi, False)
+
+
+def _rr_lipschitz(
+    rr: _RR, lo: float, hi: float, floor: float, lam: float
+) -> tuple[float, FloatArray, FloatArray] | None:
+    """The class with L_A > 0 behind k-ary RR, discrete metric (λ = L_A d): (ratio, g, f) in O(1), or None if unbounded.
+
+    By symmetry (averaging a maximiser over the permutations of the other groups keeps it feasible and, the
+    objective being linear-fractional, optimal) the worst case has h[a'] = g = (x at a, z at a', y at each other
+    value) and every other group, a included, at the largest vector the Lipschitz condition allows,
+    f = min(g + λ, hi) (proofs/black_box.md, §5, "Randomized response"). Its value is a linear-fractional program
+    in (x, z, y) on each of the 8 pieces where f is affine; the maximum is at a vertex of one piece, so every
+    vertex (3 of the ≤ 9 planes) is tried. Returns the ratio and the vectors g, f of the three cells (a, a', other).
+    """
+    k, p, q = rr.k, rr.p, rr.q
+    m = k - 2  # other released values
+    binding = floor > lo
+    if lo == 0 and not binding:
+        return None  # g = 0, f = λ: λ/0
+    cut = hi - lam
+    pieces = []  # per cell: (low, high, slope of f, intercept of f)
+    if cut >= lo:
+        pieces.append((lo, min(hi, cut), 1.0, lam))
+    pieces.append((max(lo, cut), hi, 0.0, hi))
+    n_vec = np.array([p, q, m * q])  # numerator: M[a]·f
+    d_vec = np.array([q, p, m * q])  # denominator: M[a']·g
+    b_vec = np.array([q, q, p + (m - 1) * q]) if m >= 1 else None  # another group's floor: M[b]·f
+    best, best_g = -math.inf, None
+    for cells in itertools.product(pieces, repeat=3):
+        low = np.array([c[0] for c in cells])
+        high = np.array([c[1] for c in cells])
+        slope = np.array([c[2] for c in cells])
+        icpt = np.array([c[3] for c in cells])
+        rows = [np.eye(3)[i] * sign for sign in (-1.0, 1.0) for i in range(3)]
+        rhs = [-low[i] for i in range(3)] + [high[i] for i in range(3)]
+        if binding:
+            rows.append(-d_vec)
+            rhs.append(-floor)
+            rows.append(-n_vec * slope)
+            rhs.append(n_vec @ icpt - floor)
+            if b_vec is not None:
+                rows.append(-b_vec * slope)
+                rhs.append(b_vec @ icpt - floor)
+        a_ub, b_ub = np.array(rows), np.array(rhs)
+        combos = np.array(list(itertools.combinations(range(len(rows)), 3)))
+        mats = a_ub[combos]
+        ok = np.abs(np.linalg.det(mats)) > 1e-12
+        if not ok.any():
+            continue
+        pts = np.linalg.solve(mats[ok], b_ub[combos[ok]][..., None])[..., 0]
+        feas = np.all(pts @ a_ub.T <= b_ub + 1e-12 * (1.0 + np.abs(b_ub)), axis=1)
+        pts = pts[feas]
+        if not pts.size:
+            continue
+        num = (pts * slope + icpt) @ n_vec
+        den = pts @ d_vec
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
+        i = int(np.argmax(ratio))
+        if ratio[i] > best:
+            best, best_g = float(ratio[i]), pts[i]
+    if best_g is None:
+        return math.nan, np.full(3, math.nan), np.full(3, math.nan)
+    g = np.clip(best_g, lo, hi)
+    return best, g, np.minimum(g + lam, hi)
+
+
+def _rr_class_ratio(rr: _RR, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float) -> float:
+    """The black-box ratio of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``).
+
+    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.privacy._RandomizedResponse`, without
+    the worst model (calibration evaluates it along the family).
+    """
+    if rr.k < 2 or gamma == 0 or lower == gamma:
+        return 1.0
+    lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
+    lam = lipschitz * diameter / gamma
+    if lam > 0:
+        out = _rr_lipschitz(rr, lo, 1.0, floor, lam)
+        return math.inf if out is None else out[0]
+    return _rr_box(rr, lo, 1.0, floor).ratio
+
+
+def _rr_class_value(rr: _RR, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float) -> float:
+    """log of :func:`_rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε)."""
+    if rr.k >= 2 and gamma > 0 and lower < gamma and lipschitz * diameter == 0:
+        lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
+        return _rr_box(rr, lo, 1.0, floor).value
+    return _log(_rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
+
+
+def _rr_law(kernel: Kernel, rr: _RR, groups: tuple, context_mechanism: Mechanism) -> Law:
+    """compose(kernel, RR, M_X) without the k x k matrix: Q[x, a] = Σ_x̃ M_X[x, x̃] (q Σ_ã K[x̃, ã] + (p − q) K[x̃, a])."""
+    k = kernel.probabilities
+    behind = rr.q * k.sum(axis=1, keepdims=True) + (rr.p - rr.q) * k  # (x̃, a, u)
+    law = behind if context_mechanism.is_identity else np.tensordot(context_mechanism.matrix, behind, axes=1)
+    law = law / law.sum(axis=-1, keepdims=True)
+    return Law(law, context_mechanism.inputs, groups, kernel.decisions, name="law", _owned=True)
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -339,6 +553,15 @@ def black_box_bound(
     metric; with lower = 0, no τ and L_A = 0 it is ε(M_A) (the corollary is
     attained). ``proofs/black_box.md``.
 
+    For k-ary randomized response (the mechanism
+    :func:`~fairaudit.privacy.randomized_response` returns) every pair is
+    alike and the value is a closed form, O(1) with the worst h in O(k):
+    the threshold and the floor relaxation (``proofs/black_box.md`` §3,
+    Propositions 3 and 3b) and, with L_A > 0 and the discrete metric (or
+    without a binding τ, any metric), a 3-variable program solved at its
+    vertices (§5, Proposition 7b; ``utility_by_release`` is then the
+    k x k table). ``method="lp"`` forces the general route.
+
     Examples
     --------
     >>> from fairaudit.privacy import randomized_response
@@ -359,8 +582,10 @@ def black_box_bound(
     method = _check_method(method)
     lower, gamma, tau = _check_class(lower, gamma, tau)
     lip = _nonneg("lipschitz", lipschitz)
-    n, m = mechanism.matrix.shape
-    d = check_metric(metric, n) if n >= 1 else None
+    n, m = len(mechanism.inputs), len(mechanism.outputs)
+    rr = mechanism.rr if isinstance(mechanism, _RandomizedResponse) and method != "lp" else None
+    # (k-ary randomized response with the discrete metric never needs the n x n metric)
+    d = check_metric(metric, n) if n >= 1 and (metric is not None or rr is None) else None
     floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor
     binding = floor > lower
     lip_on = lip > 0 and n >= 2 and gamma > lower
@@ -437,16 +662,88 @@ def black_box_bound(
         reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
         return make(1.0, None, None, (), np.full(m, gamma), "threshold", "trivial", "threshold", reason, 0)
 
-    assert d is not None  # (two groups or more here)
+    if rr is not None:
+        # k-ary randomized response: every ordered pair is alike, closed forms (proofs/black_box.md §3 and §5)
+        outputs, inputs = mechanism.outputs, mechanism.inputs
+        if not lip_on:
+            w = _rr_box(rr, lower, gamma, floor)
+            inf = math.isinf(w.value)
+            return BlackBoxCertificate(
+                w.value,
+                w.ratio,
+                inputs[0],
+                inputs[1],
+                tuple(outputs[o] for o in w.released(n, gamma)),
+                w.vector(n),
+                lower,
+                gamma,
+                tau,
+                0.0,
+                mechanism,
+                "threshold",
+                "unbounded" if inf else "optimal",
+                "threshold" if w.prefix else "closed form",
+                "some released value is possible for one group and impossible for another" if inf else "",
+                0,
+                assumptions,
+            )
+        off = None if d is None else d[~np.eye(n, dtype=bool)]
+        discrete = off is None or bool(np.all(off == off[0]))
+        if discrete or not binding:
+            # (without a binding τ any metric: the other groups extend the pair's h, McShane; the pair of diameter)
+            a, b = (0, 1) if d is None or discrete else np.unravel_index(int(np.argmax(d)), d.shape)
+            lam = lip * (1.0 if off is None else float(off.max()))
+            closed = _rr_lipschitz(rr, lower, gamma, floor, lam)
+            if closed is None:
+                return make(
+                    math.inf,
+                    inputs[a],
+                    inputs[b],
+                    (),
+                    np.full((n, m), math.nan),
+                    "threshold",
+                    "unbounded",
+                    "closed form",
+                    "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0 (lower = 0 and no tau: "
+                    "g = 0 for one group and L_A d(a, a') for the other)",
+                    0,
+                )
+            ratio, g3, f3 = closed
+            cells = np.full(m, 2)
+            cells[a], cells[b] = 0, 1
+            f, g = f3[cells], g3[cells]
+            if d is None or discrete:
+                h = np.broadcast_to(f, (n, m)).copy()
+            else:  # the largest Lipschitz extension of (f at a, g at b) to the other groups
+                h = np.clip(
+                    np.minimum(f[None, :] + lip * d[:, a, None], g[None, :] + lip * d[:, b, None]), lower, gamma
+                )
+            h[a], h[b] = f, g
+            top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
+            return make(
+                ratio,
+                inputs[a],
+                inputs[b],
+                tuple(outputs[o] for o in top),
+                h,
+                "threshold",
+                "optimal",
+                "closed form",
+                "",
+                0,
+            )
+    if d is None:
+        d = check_metric(metric, n)
     M = mechanism.matrix
     outputs = mechanism.outputs
-    box, k, order = threshold_max_many(M[:, None, :], M[None, :, :], lower, gamma)
-    unmasked = (box.copy(), k, order)
+    # the box programs of every ordered pair, and with a binding τ their floor relaxations, a block of rows at a time
+    box, relaxed = _pairwise_box(M, lower, gamma, floor if binding and not lip_on else None)
     np.fill_diagonal(box, -np.inf)
 
     if not binding and not lip_on and method != "lp":
         a, b = np.unravel_index(int(box.argmax()), box.shape)
-        top = order[a, b, : int(k[a, b])]
+        _, k_ab, order_ab = threshold_max_many(M[a], M[b], lower, gamma)  # the maximising pair's prefix
+        top = order_ab[: int(k_ab)]
         h = np.full(m, lower)
         h[top] = gamma
         ratio = float(box[a, b])
@@ -466,7 +763,7 @@ def black_box_bound(
         )
 
     # ---- LP: τ binds, the utility may depend on the group, or the LP was asked for ----
-    pairs = np.array([(a, b) for a in range(n) for b in range(n) if a != b])
+    pairs = np.argwhere(~np.eye(n, dtype=bool))  # the ordered pairs a != b, row-major
     # valid upper bounds per pair (ratios): the box without τ (L_A = 0), γ/τ, and the tight form at t = e^ε_aa'
     upper = box[pairs[:, 0], pairs[:, 1]].copy() if not lip_on else np.full(len(pairs), np.inf)
     if floor > 0:
@@ -488,7 +785,7 @@ def black_box_bound(
             return progs[0]
 
         if binding:
-            relaxed = floor_max_many(M[:, None, :], M[None, :, :], lower, gamma, floor, threshold=unmasked)[0]
+            assert relaxed is not None  # (computed above for a binding τ without L_A)
             upper = np.minimum(upper, relaxed[pairs[:, 0], pairs[:, 1]])
         if binding and method != "lp":
             solve = _relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M, program)
@@ -750,7 +1047,10 @@ def worst_model(
     g depends on the decision only, the kernel itself otherwise. Without a
     binding τ and for g free of the group, the local program at x is the box
     program over [min_u g(u, x), max_u g(u, x)]^{n_released} (M_X drops out).
-    ``proofs/black_box.md`` (known utility).
+    ``proofs/black_box.md`` (known utility). Behind k-ary randomized
+    response, for a utility free of the group, both maxima are closed forms
+    (§3 Propositions 3 and 3b per context; with a binding τ when M_X is the
+    identity or g depends on the decision only), without the k x k matrix.
 
     Examples
     --------
@@ -798,9 +1098,8 @@ def worst_model(
         )
     decisions = utility.decisions
     g = np.asarray(utility.table(contexts, groups, decisions), dtype=float)  # (nX, nA, nU), a view for g(u)
-    MA = mechanism.matrix
     nX, nA, nU = g.shape
-    nXr, nAr = len(context_mechanism.outputs), MA.shape[1]
+    nXr, nAr = len(context_mechanism.outputs), len(mechanism.outputs)
     same_x = context_mechanism.is_identity  # then M_X is never materialised (a million contexts: 10^12 cells)
     live = population.p_context > 0
     excluded = tuple(f"context {format_label(contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live))
@@ -830,10 +1129,14 @@ def worst_model(
     def audit(kernel: Kernel, kind: str) -> FloatArray:
         from .metrics import expected_utility, global_fairness
 
-        law = compose(kernel, mechanism, context_mechanism)
+        if isinstance(mechanism, _RandomizedResponse):  # (no k x k matrix)
+            law = _rr_law(kernel, mechanism.rr, groups, context_mechanism)
+        else:
+            law = compose(kernel, mechanism, context_mechanism)
         if kind == "local":
             return expected_utility(law, utility)
-        return global_fairness(law, utility, population).expected_utility
+        with np.errstate(over="ignore"):  # (ratios of utilities as small as e^-710 overflow; only E[g | a] is kept)
+            return global_fairness(law, utility, population).expected_utility
 
     if nA < 2 or not live.any():
         ones = np.ones((nXr, nAr, nU)) / nU
@@ -862,11 +1165,117 @@ def worst_model(
     if method == "threshold" and (not indep_a or binding):
         raise InputError("method", "the threshold solution needs a utility free of the group and tau <= min g", method)
 
-    pairs = np.array([(a, b) for a in range(nA) for b in range(nA) if a != b])
+    # k-ary randomized response: closed forms, one pair of groups decides (every pair is alike)
+    rr_local: WorstCase | None = None
+    rr_global: WorstCase | None = None
+    if isinstance(mechanism, _RandomizedResponse) and method != "lp" and indep_a:
+        rr = mechanism.rr
+        lo_x, hi_x = g[:, 0, :].min(-1), g[:, 0, :].max(-1)  # the range of g(., x) per context
+
+        def rr_kernel(w: _RRWorst, lo: float, hi: float, x: int | None, high: FloatArray, low: FloatArray) -> Kernel:
+            """The worst kernel: at context x (every context when None) the mix of the decisions ``high``/``low``
+            that gives h; every other context all ``high`` (so it meets τ); a threshold h as one-hot rows."""
+            h = w.vector(nAr)
+            frac = np.clip((h - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones(nAr)
+            table = np.zeros((nXr, nAr, nU))
+            if w.prefix and x is None:
+                top = w.released(nAr, hi)
+                table[:] = low[:, None, :]
+                table[:, top, :] = high[:, None, :]
+                return kernel_of(table, exact=True)
+            rows = np.arange(nXr) if x is None else np.array([x])
+            table[:] = high[:, None, :]
+            table[rows] = frac[None, :, None] * high[rows, None, :] + (1 - frac)[None, :, None] * low[rows, None, :]
+            return kernel_of(table)
+
+        def rr_case(kind: str, w: _RRWorst, x: int | None, kern: Kernel) -> WorstCase:
+            inf = math.isinf(w.value)
+            return WorstCase(
+                kind,
+                w.value,
+                w.ratio,
+                None if x is None else contexts[x],
+                groups[0],
+                groups[1],
+                kern,
+                None,
+                audit(kern, kind),
+                "threshold",
+                "unbounded" if inf else "optimal",
+                "threshold" if w.prefix else "closed form",
+                "a released group is possible for one group and impossible for another" if inf else "",
+                0,
+            )
+
+        def infeasible(kind: str, x: int) -> WorstCase:
+            return WorstCase.infeasible(
+                kind,
+                "closed form",
+                "no decision model meets E[g | x, a] >= tau in every cell: "
+                f"tau = {tau:g} exceeds max g = {hi_x[x]:g} in context {format_label(contexts[x])!r}",
+                0,
+            )
+
+        hot_hi, hot_lo = _onehot(g[:, 0, :].argmax(-1), nU), _onehot(g[:, 0, :].argmin(-1), nU)  # per context
+        over = np.flatnonzero(live & (floor > hi_x))
+        if binding and over.size and (u_only or same_x):
+            rr_local = infeasible("local", int(over[0]))
+            rr_global = infeasible("global", int(over[0])) if u_only and independent else None
+        elif not binding or u_only or same_x:
+            # local (proofs/black_box.md §6, Proposition 10 (a); with a binding τ, §3 Proposition 3b per context)
+            ranges, cls = np.unique(np.stack([lo_x, hi_x], axis=1), axis=0, return_inverse=True)
+            cls = cls.ravel()
+            best_x, best_w = -1, None
+            for c, (lo, hi) in enumerate(ranges.tolist()):
+                at = np.flatnonzero(live & (cls == c))
+                if at.size:
+                    w = _rr_box(rr, lo, hi, floor)
+                    if best_w is None or w.value > best_w.value or (w.value == best_w.value and at[0] < best_x):
+                        best_x, best_w = int(at[0]), w
+            assert best_w is not None  # (some context is live)
+            lo, hi = float(lo_x[best_x]), float(hi_x[best_x])
+            if not binding:  # the threshold kernel of the maximising context, in every released context
+                kern = rr_kernel(
+                    best_w,
+                    lo,
+                    hi,
+                    None,
+                    np.repeat(hot_hi[best_x][None], nXr, 0),
+                    np.repeat(hot_lo[best_x][None], nXr, 0),
+                )
+            elif same_x:
+                kern = rr_kernel(best_w, lo, hi, best_x, hot_hi, hot_lo)
+            else:  # g(u) behind a context filter: the same h in every released context
+                kern = rr_kernel(
+                    replace(best_w, prefix=False), lo, hi, None, hot_hi[:1].repeat(nXr, 0), hot_lo[:1].repeat(nXr, 0)
+                )
+            rr_local = rr_case("local", best_w, best_x, kern)
+            # global under X independent of A (Proposition 10 (b); with τ and g(u): H-bar meets every floor)
+            if independent and not binding:
+                px = population.p_context
+                wx = (
+                    px[:, None] * g[:, 0, :]
+                    if same_x
+                    else np.einsum("x,xy,xu->yu", px, context_mechanism.matrix, g[:, 0, :])
+                )
+                lo_g, hi_g = float(wx.min(-1).sum()), float(wx.max(-1).sum())
+                w = _rr_box(rr, lo_g, hi_g, -math.inf)
+                kern = rr_kernel(w, lo_g, hi_g, None, _onehot(wx.argmax(-1), nU), _onehot(wx.argmin(-1), nU))
+                rr_global = rr_case("global", w, None, kern)
+            elif independent and u_only:
+                lo, hi = float(lo_x[0]), float(hi_x[0])
+                w = _rr_box(rr, lo, hi, floor)
+                kern = rr_kernel(
+                    replace(w, prefix=False), lo, hi, None, hot_hi[:1].repeat(nXr, 0), hot_lo[:1].repeat(nXr, 0)
+                )
+                rr_global = rr_case("global", w, None, kern)
+    general = rr_local is None or rr_global is None
+    MA = mechanism.matrix if general else np.zeros((0, 0))
+    pairs = np.argwhere(~np.eye(nA, dtype=bool)) if general else np.zeros((0, 2), dtype=np.intp)  # (a, b), a != b
     # box values per (x, a, b) when g is free of the group: an upper bound always, exact without a binding τ
     # The box depends on x only through [min_u g(u, x), max_u g(u, x)]: solved once per distinct range (one for
-    # g(u)), box[x] = box_c[cls[x]].
-    if indep_a:
+    # g(u)), box[x] = box_c[cls[x]]. (Only the local search uses them.)
+    if indep_a and rr_local is None:
         if utility.values.ndim == 1:
             ranges, cls = np.array([[gmin[0], gmax[0]]]), np.zeros(nX, dtype=np.intp)
         else:
@@ -874,19 +1283,20 @@ def worst_model(
                 np.stack([g[:, 0, :].min(-1), g[:, 0, :].max(-1)], axis=1), axis=0, return_inverse=True
             )
             cls = cls.ravel()
-        box_c, kx_c, order_c = threshold_max_many(
-            MA[None, :, None, :], MA[None, None, :, :], ranges[:, 0, None, None, None], ranges[:, 1, None, None, None]
-        )
-        box_c = box_c.copy()  # (n_ranges, nA, nA)
+        # (n_ranges, nA, nA), a block of pairs at a time
+        box_c = np.stack([_pairwise_box(MA, lo_c, hi_c, None)[0] for lo_c, hi_c in ranges.tolist()])
         box_c[:, np.arange(nA), np.arange(nA)] = -np.inf
     # ------------------------------------------------------------------ local
-    if indep_a and not binding and method != "lp":
+    if rr_local is not None:
+        local = rr_local
+    elif indep_a and not binding and method != "lp":
         best_c = box_c.reshape(len(box_c), -1).max(axis=1)
         best_c[~np.isin(np.arange(len(box_c)), cls[live])] = -np.inf  # ranges of no live context
         x = int(np.argmax(live & (best_c[cls] == best_c.max())))  # the first live maximiser
         c = cls[x]
         a, b = np.unravel_index(int(box_c[c].argmax()), (nA, nA))
-        top = order_c[c, a, b, : int(kx_c[c, a, b])]
+        _, k_top, order_top = threshold_max_many(MA[a], MA[b], ranges[c, 0], ranges[c, 1])
+        top = order_top[: int(k_top)]
         hi_u, lo_u = int(g[x, 0].argmax()), int(g[x, 0].argmin())
         table = np.zeros((nXr, nAr, nU))
         table[..., lo_u] = 1.0
@@ -937,7 +1347,8 @@ def worst_model(
             if sp_.rows is not None:  # (τ rows: floor = τ)
                 for xc in xs:
                     P = np.stack([sp_.coef(xc, a) for a in range(nA)])
-                    v = floor_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi, floor)[0]
+                    v = _pairwise_box(P, sp_.lo, sp_.hi, floor)[1]
+                    assert v is not None  # (a floor was given)
                     at = triples[:, 0] == xc
                     upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
             solve = _relaxed_first(num, den, sp_.lo, sp_.hi, None if sp_.rows is None else tau, sp_.rows, sp_.program)
@@ -949,14 +1360,17 @@ def worst_model(
         found = _search(upper, solve)
         local = _model_case("local", found, triples, contexts, groups, sp_.to_kernel, kernel_of, audit)
     # ------------------------------------------------------------------ global
-    if indep_a and not binding and independent and method != "lp":
+    if rr_global is not None:
+        global_ = rr_global
+    elif indep_a and not binding and independent and method != "lp":
         px = population.p_context
         w = px[:, None] * g[:, 0, :] if same_x else np.einsum("x,xy,xu->yu", px, context_mechanism.matrix, g[:, 0, :])
         lo_g, hi_g = w.min(-1).sum(), w.max(-1).sum()
-        vals, kg, order_g = threshold_max_many(MA[:, None, :], MA[None, :, :], lo_g, hi_g)
+        vals = _pairwise_box(MA, lo_g, hi_g, None)[0]
         np.fill_diagonal(vals, -np.inf)
         a, b = np.unravel_index(int(vals.argmax()), vals.shape)
-        top = order_g[a, b, : int(kg[a, b])]
+        _, k_top, order_top = threshold_max_many(MA[a], MA[b], lo_g, hi_g)
+        top = order_top[: int(k_top)]
         table = np.repeat(_onehot(w.argmin(-1), nU)[:, None, :], nAr, axis=1)
         table[:, top, :] = _onehot(w.argmax(-1), nU)[:, None, :]
         kern = kernel_of(table, exact=True)
@@ -999,9 +1413,10 @@ def worst_model(
         if sp_.lo is not None and sp_.hi is not None and method != "lp":
             P = np.stack([coef_global(a) for a in range(nA)])
             if sp_.rows is not None:  # (τ rows: floor = τ)
-                v = floor_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi, floor)[0]
+                v = _pairwise_box(P, sp_.lo, sp_.hi, floor)[1]
             else:
-                v = threshold_max_many(P[:, None, :], P[None, :, :], sp_.lo, sp_.hi)[0]
+                v = _pairwise_box(P, sp_.lo, sp_.hi, None)[0]
+            assert v is not None  # (a floor was given)
             upper = np.minimum(upper, v[pairs[:, 0], pairs[:, 1]])
             solve = _relaxed_first(num, den, sp_.lo, sp_.hi, None if sp_.rows is None else tau, sp_.rows, sp_.program)
         else:

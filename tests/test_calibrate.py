@@ -395,8 +395,8 @@ def test_wrapper_is_calibrate_and_raises_when_infeasible():
         ({"groups": 1}, "--groups"),
         ({"groups": ["only"]}, "--groups"),
         ({"groups": 3, "family": fa.randomized_response_family([0, 1])}, "--groups"),
-        ({"method": "paper"}, "--tau"),
-        ({"method": "tight"}, "--tau"),
+        ({"method": "paper", "lipschitz": 0.2}, "--tau"),  # (without L_A or delta no tau is needed: epsilon = target)
+        ({"method": "tight", "delta": 0.1}, "--tau"),
         ({"tau": 0.0}, "--tau"),
         ({"tau": 2.0}, "--tau"),
         ({"lower": 2.0}, "--lower"),

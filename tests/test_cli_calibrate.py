@@ -96,7 +96,7 @@ def test_global_flag_and_every_epsilon(capsys):
     "argv,needle",
     [
         (["--target", "-1"], "--target: must be a finite non-negative number"),
-        (["--target", "0.5", "--method", "tight"], "--tau: the tight bound needs tau"),
+        (["--target", "0.5", "--method", "tight", "--lipschitz", "0.2"], "--tau: the tight bound needs tau"),
         (["--target", "0.5", "--delta", "0.1", "--method", "black_box"], "--delta:"),
         (["--target", "0.5", "--delta", "2", "--tau", "0.5"], "--delta: must be a number in [0, 1] (got 2.0)"),
         (["--target", "0.5", "--groups", "1"], "--groups: randomized response needs at least 2 groups (got 1)"),

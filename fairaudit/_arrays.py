@@ -27,7 +27,8 @@ def as_labels(values: Iterable[Hashable], field: str) -> tuple[Any, ...]:
     Numpy scalars become Python scalars and lists become tuples. Linear in the
     number of labels with C-level passes (a numpy array converts with
     ``tolist``; distinctness is one ``set``), so a million labels take
-    milliseconds; the error path finds the first repeat.
+    milliseconds; the error path finds the first repeat. A label that cannot
+    be hashed (a dict, a set) is an :class:`InputError` naming ``field``.
     """
     if type(values) is tuple and _VALIDATED.get(id(values)) is values:
         return values
@@ -38,7 +39,14 @@ def as_labels(values: Iterable[Hashable], field: str) -> tuple[Any, ...]:
         labels = tuple(_plain(v) for v in labels)
     if not labels:
         raise InputError(field, "must name at least one value", list(labels))
-    if len(set(labels)) != len(labels):
+    try:
+        distinct = len(set(labels)) == len(labels)
+    except TypeError:  # a dict or set among them: labels are dictionary keys
+        bad = next(v for v in labels if not _hashable(v))
+        raise InputError(
+            field, f"a label must be hashable (a string, number or tuple), not a {type(bad).__name__}", bad
+        ) from None
+    if not distinct:
         seen: set[Hashable] = set()
         for label in labels:
             if label in seen:
@@ -62,6 +70,14 @@ def _plain(value: object) -> Hashable:
     if isinstance(value, (list, np.ndarray)):
         return tuple(_plain(v) for v in value)
     return value
+
+
+def _hashable(value: object) -> bool:
+    try:
+        hash(value)
+    except TypeError:
+        return False
+    return True
 
 
 def format_label(label: object) -> str:

@@ -307,7 +307,7 @@ def count_table(
     Raises
     ------
     InputError
-        On unknown columns, unknown labels, negative or non-numeric counts,
+        On unknown columns, unknown labels, negative, infinite or non-numeric counts,
         a (context, group, outcome) given twice, or missing labels when
         ``dropna`` is False: ``column 'x': has N missing values`` where N is
         the sum of the counts of the rows with no label, the number of records
@@ -327,6 +327,15 @@ def count_table(
     if values.isna().any() or (values < 0).any():
         bad = data[count][values.isna() | (values < 0)].iloc[0]
         raise InputError(f"column {count!r}", "must hold non-negative numbers", bad)
+    infinite = (
+        np.zeros(0, dtype=bool) if pd.api.types.is_integer_dtype(values.dtype) else np.isinf(values.to_numpy(float))
+    )
+    if infinite.any():  # pandas reads "inf" as a number
+        i = int(np.flatnonzero(infinite)[0])
+        cell = ", ".join(f"{c}={str(data[c].iloc[i])!r}" for c in dict.fromkeys(context + sensitive + [outcome]))
+        bad = data[count].iloc[i]
+        bad = bad.item() if isinstance(bad, np.generic) else bad
+        raise InputError(f"column {count!r}", f"must hold finite numbers; data row {i + 1} ({cell}) is not", bad)
     free = [
         c
         for cols, expected in ((context, contexts), (sensitive, groups), ([outcome], decisions))

@@ -10,7 +10,10 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
+import stat
 import tempfile
+import time
 from collections.abc import Callable, Hashable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, SupportsFloat, TypeAlias
@@ -681,6 +684,14 @@ def write_atomic(
     error it is left untouched and the temporary file removed. The file gets
     the usual permissions (0666 less the umask).
 
+    The temporary file is ``.NAME.XXXXXXXX.tmpSUFFIX`` next to ``NAME``
+    (``tempfile.mkstemp``). A writer killed before its rename (SIGKILL, power
+    loss) leaves it behind; each write first removes the leftovers of *the
+    same* target: regular files in that folder whose name is exactly that
+    pattern for ``NAME`` and that are older than :data:`STALE_SECONDS` (a
+    live writer's file is younger: it is written as soon as it is made).
+    No other file is touched.
+
     Parameters
     ----------
     path : str or os.PathLike
@@ -693,12 +704,15 @@ def write_atomic(
     Raises
     ------
     InputError
-        If the folder does not exist or cannot be written.
+        If the folder does not exist or cannot be written, or ``path`` is a folder.
     """
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(field, "folder does not exist", str(folder))
+    if p.is_dir():
+        raise InputError(field, "is a directory", str(p))
+    _remove_stale_temporaries(folder, p)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp" + p.suffix, dir=folder)
     except OSError as exc:
@@ -723,6 +737,29 @@ def write_atomic(
         except OSError:
             pass
         raise
+
+
+STALE_SECONDS = 60.0
+"""Age (by modification time) after which :func:`write_atomic` removes a temporary file left by a killed writer."""
+
+
+def _remove_stale_temporaries(folder: Path, target: Path) -> None:
+    """Remove the temporary files that killed writers of ``target`` left in ``folder`` (best effort)."""
+    pattern = re.compile(re.escape(f".{target.name}.") + r"[a-z0-9_]{8}" + re.escape(".tmp" + target.suffix))
+    now = time.time()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return
+    for entry in entries:
+        if not pattern.fullmatch(entry.name):
+            continue
+        try:
+            info = entry.stat(follow_symlinks=False)
+            if stat.S_ISREG(info.st_mode) and now - info.st_mtime > STALE_SECONDS:
+                os.unlink(entry.path)
+        except OSError:
+            pass  # gone already, or not ours to remove
 
 
 # -- sample-size plans (fairaudit plan) -----------------------------------------------------------------

@@ -23,10 +23,19 @@ import math
 import tomllib
 from collections.abc import Hashable, Sequence
 from pathlib import Path
-from typing import Any, Literal, Self
+from typing import Annotated, Any, Literal, Self
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    Strict,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from ._arrays import FloatArray, as_labels, format_label
 from ._errors import InputError
@@ -43,7 +52,7 @@ from .privacy import (
     randomized_response,
     randomized_response_family,
 )
-from .utility import Utility, from_table, indicator
+from .utility import Utility, check_metric, from_table, indicator
 
 __all__ = ["Spec", "load_spec", "parse_spec"]
 
@@ -52,10 +61,91 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+_Number = Annotated[float, Strict()]
+"""A TOML number: an integer or a float (converted to float); a string or a boolean is an error."""
+
+_LABEL_DEPTH = 8
+"""How deep lists may nest inside one label (a tuple label of tuple labels ...)."""
+
+
+class _FieldProblem(ValueError):
+    """A validator's error about part of its field: ``sub`` ("[2]", ".tau") extends the error's location."""
+
+    def __init__(self, sub: str, problem: str, value: object = InputError._missing) -> None:
+        super().__init__(problem)
+        self.sub = sub
+        self.problem = problem
+        self.value = value
+
+
 def _finite(v: float | None, what: str = "value") -> float | None:
     if v is not None and (math.isnan(v) or math.isinf(v)):
-        raise ValueError(f"{what} must be finite")
+        raise _FieldProblem(f".{what}", "must be finite", v)
     return v
+
+
+def _kind(value: object) -> str:
+    """What a TOML value is, for messages: "a string", "a boolean", "an inline table", ..."""
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, dict):
+        return "an inline table"
+    if isinstance(value, list):
+        return "a list"
+    return f"a {type(value).__name__}"
+
+
+def _label(value: object, where: str, depth: int = 0) -> Hashable:
+    """A TOML value as a label: a list becomes a tuple (its lists too, up to 8 deep); an inline table is an error."""
+    if isinstance(value, dict):
+        raise _FieldProblem(
+            where, "a label is a string, number, boolean, date or a list of them, not an inline table", value
+        )
+    if isinstance(value, (list, tuple)):
+        if not value:
+            raise _FieldProblem(where, "a list label must not be empty", value)
+        if depth >= _LABEL_DEPTH:
+            raise _FieldProblem(where, f"a label may nest lists at most {_LABEL_DEPTH} deep", value)
+        return tuple(_label(v, f"{where}[{i}]", depth + 1) for i, v in enumerate(value))
+    assert isinstance(value, Hashable)  # (TOML scalars: str, int, float, bool, dates and times)
+    return value
+
+
+def _distinct_labels(v: list[Any] | None, what: str = "values") -> list[Any] | None:
+    """Labels (lists as tuples) that are distinct as text (labels are matched by their text) and as values."""
+    if v is None:
+        return v
+    if len(v) == 0:
+        raise ValueError("must list at least one value")
+    labels = [_label(x, f"[{i}]") for i, x in enumerate(v)]
+    texts: set[str] = set()
+    for lab in labels:
+        text = format_label(lab)
+        if text in texts:
+            raise _FieldProblem("", f"{what} must be distinct as text; {text!r} repeats", v)
+        texts.add(text)
+    seen: dict[Hashable, Hashable] = {}
+    for lab in labels:
+        if lab in seen:  # 1, 1.0 and true are equal in Python though not as text
+            raise _FieldProblem("", f"{what} must be distinct; {seen[lab]!r} and {lab!r} are equal", v)
+        seen[lab] = lab
+    return labels
+
+
+def _numbers_in(v: list[Any], levels: int, where: str = "") -> None:
+    """Every entry of the nested list ``v`` (at most ``levels`` deep) is a TOML number that fits a float."""
+    for i, x in enumerate(v):
+        here = f"{where}[{i}]"
+        if isinstance(x, list):
+            if levels <= 1:
+                raise _FieldProblem(here, "must be a number, not a list (nested too deeply)", x)
+            _numbers_in(x, levels - 1, here)
+        elif isinstance(x, bool) or not isinstance(x, (int, float)):
+            raise _FieldProblem(here, f"must be a number, not {_kind(x)}", x)
+        elif isinstance(x, int) and not -(2**1023) < x < 2**1023:
+            raise _FieldProblem(here, "is too large for a number", x)
 
 
 class AttributeSpec(_Strict):
@@ -67,34 +157,31 @@ class AttributeSpec(_Strict):
     @field_validator("values")
     @classmethod
     def _distinct(cls, v: list[Any] | None) -> list[Any] | None:
-        if v is None:
-            return v
-        if len(v) == 0:
-            raise ValueError("must list at least one value")
-        labels = [tuple(x) if isinstance(x, list) else x for x in v]
-        if len(set(labels)) != len(labels):
-            dup = next(x for x in labels if labels.count(x) > 1)
-            raise ValueError(f"values must be distinct; {dup!r} repeats")
-        return v
+        return _distinct_labels(v)
 
 
 class ContextSpec(AttributeSpec):
     """The context: an alphabet and optionally its distribution P(X)."""
 
-    distribution: list[float] | None = None
+    distribution: list[_Number] | None = None
 
 
 class MechanismSpec(_Strict):
     """A mechanism: identity, randomized_response, matrix or product."""
 
     mechanism: Literal["identity", "randomized_response", "matrix", "product"] = "identity"
-    epsilon: float | None = Field(default=None, ge=0)
-    keep: float | None = Field(default=None, gt=0, le=1)
-    rows: list[list[float]] | None = None
+    epsilon: _Number | None = Field(default=None, ge=0)
+    keep: _Number | None = Field(default=None, gt=0, le=1)
+    rows: list[list[_Number]] | None = None
     outputs: list[Any] | None = None
     values: list[Any] | None = None
     components: list[MechanismSpec] | None = None
     name: str | None = None
+
+    @field_validator("values", "outputs")
+    @classmethod
+    def _distinct(cls, v: list[Any] | None, info: ValidationInfo) -> list[Any] | None:
+        return _distinct_labels(v, info.field_name or "values")
 
     @model_validator(mode="after")
     def _fields_fit(self) -> Self:
@@ -124,8 +211,8 @@ class PrivacySpec(_Strict):
 class PopulationSpec(_Strict):
     """``[population]``: the joint P(X, A) (n_contexts × n_groups) or P(A) with X ⊥ A."""
 
-    probabilities: list[list[float]] | None = None
-    group_distribution: list[float] | None = None
+    probabilities: list[list[_Number]] | None = None
+    group_distribution: list[_Number] | None = None
 
     @model_validator(mode="after")
     def _one(self) -> Self:
@@ -158,12 +245,24 @@ class UtilitySpec(_Strict):
     kind: Literal["indicator", "table"] = "indicator"
     decision: Any = None
     values: list[Any] | None = None
-    gamma: float | None = Field(default=None, ge=0)
-    lower: float | None = Field(default=None, ge=0)
-    tau: float | None = Field(default=None, gt=0)
-    lipschitz: float | None = Field(default=None, ge=0)
-    metric: list[list[float]] | None = None
+    gamma: _Number | None = Field(default=None, ge=0)
+    lower: _Number | None = Field(default=None, ge=0)
+    tau: _Number | None = Field(default=None, gt=0)
+    lipschitz: _Number | None = Field(default=None, ge=0)
+    metric: list[list[_Number]] | None = None
     name: str | None = None
+
+    @field_validator("decision")
+    @classmethod
+    def _decision(cls, v: Any) -> Any:
+        return None if v is None else _label(v, "")
+
+    @field_validator("values")
+    @classmethod
+    def _numbers(cls, v: list[Any] | None) -> list[Any] | None:
+        if v is not None:
+            _numbers_in(v, 3)  # a list over decisions or a [context][group][decision] table
+        return v
 
     @model_validator(mode="after")
     def _fields_fit(self) -> Self:
@@ -174,17 +273,17 @@ class UtilitySpec(_Strict):
         if self.kind == "table" and self.values is None:
             raise ValueError("kind = 'table' needs values (a list over decisions, or [context][group][decision])")
         if self.gamma is not None and self.lower is not None and self.lower > self.gamma:
-            raise ValueError(f"lower = {self.lower} exceeds gamma = {self.gamma}")
+            raise _FieldProblem(".lower", f"cannot exceed gamma = {self.gamma:g}", self.lower)
         if self.gamma is not None and self.tau is not None and self.tau > self.gamma:
-            raise ValueError(f"tau = {self.tau} exceeds gamma = {self.gamma}")
+            raise _FieldProblem(".tau", f"cannot exceed gamma = {self.gamma:g} (E[g | x, a] <= max g)", self.tau)
         return self
 
 
 class TargetSpec(_Strict):
     """``[target]``: targets on local and global g-fairness, in nats."""
 
-    local: float | None = Field(default=None, ge=0)
-    global_: float | None = Field(default=None, ge=0, alias="global")
+    local: _Number | None = Field(default=None, ge=0)
+    global_: _Number | None = Field(default=None, ge=0, alias="global")
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
@@ -222,10 +321,18 @@ class SpecModel(_Strict):
 
 def _pydantic_message(err: ValidationError, source: str) -> InputError:
     first = err.errors()[0]
-    loc = ".".join(str(p) for p in first["loc"])
-    loc = loc.replace("global_", "global") or "spec"
+    loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".")
+    loc = loc.replace("global_", "global")
+    error = (first.get("ctx") or {}).get("error")
+    if isinstance(error, _FieldProblem):  # a validator's error about part of the field
+        return InputError(f"{source}: {(loc + error.sub).lstrip('.') or 'spec'}", error.problem, error.value)
+    loc = loc or "spec"
     msg = first["msg"].removeprefix("Value error, ")
     value = first.get("input", InputError._missing)
+    if first["type"] == "float_type":  # strict numbers: TOML 0.7, not "0.7" or true
+        big = isinstance(value, int) and not isinstance(value, bool)
+        problem = "is too large for a number" if big else f"must be a number, not {_kind(value)}"
+        return InputError(f"{source}: {loc}", problem, value)
     if first["type"] == "missing":
         return InputError(f"{source}: {loc}", "is required")
     if first["type"] == "extra_forbidden":
@@ -296,9 +403,14 @@ class Spec:
             raise self._err(
                 "utility.gamma", f"is below the utility's largest value max g = {self.utility.gamma:g}", u.gamma
             )
-        self.metric: FloatArray | None = (
-            None if model.utility.metric is None else np.asarray(model.utility.metric, dtype=float)
-        )
+        if u.tau is not None and u.tau > self.gamma:  # (with gamma given, SpecModel checked it)
+            raise self._err("utility.tau", f"cannot exceed gamma = {self.gamma:g} (E[g | x, a] <= max g)", u.tau)
+        self.metric: FloatArray | None = None
+        if model.utility.metric is not None:
+            try:
+                self.metric = check_metric(model.utility.metric, len(self.groups))
+            except InputError as exc:
+                raise exc.under(f"{self.source}: utility.metric", keep_own=False) from None
 
     # -- helpers ---------------------------------------------------------------------------------
     def _err(self, field: str, problem: str, value: object = InputError._missing) -> InputError:
@@ -308,6 +420,8 @@ class Spec:
         try:
             return _build_mechanism(spec, attribute.values, spec.name or f"{spec.mechanism} on {attribute.name}")
         except InputError as exc:
+            if exc.field in _MECHANISM_FIELDS or exc.field.startswith("components["):  # a field of the spec's table
+                raise InputError(f"{self.source}: {field}.{exc.field}", exc.problem, exc.value) from None
             raise exc.under(f"{self.source}: {field}") from None
 
     def _population(self) -> Population:
@@ -519,6 +633,8 @@ def _relabel(table: CountTable, contexts: tuple, groups: tuple, decisions: tuple
 
 def _component_epsilon(spec: MechanismSpec) -> float:
     if spec.mechanism == "randomized_response":
+        if spec.values is not None and len(spec.values) < 2:
+            return 0.0  # one value: nothing is randomized, epsilon(M) = 0 whatever the spec says
         if spec.epsilon is not None:
             return float(spec.epsilon)
         if spec.values:
@@ -527,19 +643,37 @@ def _component_epsilon(spec: MechanismSpec) -> float:
     return math.inf
 
 
+_MECHANISM_FIELDS = {"epsilon", "keep"}
+"""Fields of a mechanism table that errors of the privacy functions name as they are (``keep``: ...)."""
+
+
 def _build_mechanism(spec: MechanismSpec, values: Sequence[Hashable] | None, name: str) -> Mechanism:
+    """The mechanism of a ``[privacy.*]`` table on ``values``; errors name its fields (``components[1].keep``).
+
+    Randomized response on one value (k = 1) keeps it with probability 1:
+    ``keep`` must then be 1, and every ``epsilon`` gives that mechanism
+    (p = e^ε / (e^ε + k − 1) = 1), whose ε(M) is 0.
+    """
     if spec.mechanism == "product":
         comps = []
         for i, c in enumerate(spec.components or []):
             if c.values is None:
                 raise InputError(f"components[{i}].values", "each component needs its values")
-            comps.append(_build_mechanism(c, c.values, c.name or f"{c.mechanism}[{i}]"))
+            try:
+                comps.append(_build_mechanism(c, c.values, c.name or f"{c.mechanism}[{i}]"))
+            except InputError as exc:
+                if exc.field in _MECHANISM_FIELDS or exc.field.startswith("components["):
+                    raise InputError(f"components[{i}].{exc.field}", exc.problem, exc.value) from None
+                raise exc.under(f"components[{i}]") from None
         return product(*comps, name=name)
     if values is None:
         raise InputError("values", "are required")
     if spec.mechanism == "identity":
         return identity(values, name=name)
     if spec.mechanism == "randomized_response":
+        if len(values) == 1 and spec.keep is not None and spec.keep != 1:
+            problem = "with one value (k = 1) there is nothing to randomize: keep must be 1 (or use identity)"
+            raise InputError("keep", problem, spec.keep)
         return randomized_response(values, spec.epsilon, keep=spec.keep, name=name)
     outputs = spec.outputs
     assert spec.rows is not None  # (MechanismSpec: a matrix has rows)
@@ -583,11 +717,15 @@ def parse_spec(text: str, source: str = "<string>", base: str | Path = ".") -> S
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(source, f"is not valid TOML ({exc})") from None
+    except (RecursionError, MemoryError):  # the parser recurses: arrays or inline tables nested ~500 deep
+        raise InputError(source, "is too deeply nested (or too large) to read") from None
     try:
         model = SpecModel.model_validate(raw)
+        return Spec(model, source, Path(base))
     except ValidationError as exc:
         raise _pydantic_message(exc, source) from None
-    return Spec(model, source, Path(base))
+    except RecursionError:
+        raise InputError(source, "is too deeply nested to validate") from None
 
 
 def load_spec(path: str | Path) -> Spec:

@@ -21,6 +21,7 @@ from .certify import Observed, observe
 from .estimate import CountTable, count_records
 from .expression import evaluate_utility_expression
 from .intervals import FairnessIntervals, fairness_intervals
+from .laws import Population
 from .utility import Utility, from_table, indicator
 
 if TYPE_CHECKING:
@@ -51,6 +52,13 @@ class Audit:
     observed: Observed
     intervals: FairnessIntervals | None
     confidence: float | None
+
+    @property
+    def population(self) -> Population:
+        """P(X, A) of the metrics: the records' own, n(x, a) / n (``source="records"``)."""
+        population = self.observed.global_.population
+        assert population is not None  # (audit passes the records' own)
+        return population
 
 
 def utility_from_expression(expression: str, decisions: Sequence[Hashable]) -> Utility:

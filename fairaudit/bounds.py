@@ -71,10 +71,12 @@ class Assumption:
     ----------
     name : str
         The hypothesis, for example ``"X independent of A"``.
-    status : {"checked", "violated", "vouched", "not applicable"}
+    status : {"checked", "violated", "vouched", "assumed", "not applicable"}
         ``checked``: verified on the data given; ``violated``: the data
         contradict it (the bound does not apply); ``vouched``: taken on the
-        caller's word; ``not applicable``: not needed here.
+        caller's word; ``assumed``: holds by a default nobody stated (X ⊥ A
+        of the uniform population used when none is given); ``not
+        applicable``: not needed here.
     detail : str
         The numbers behind the status.
     scope : {"all", "global"}
@@ -88,8 +90,10 @@ class Assumption:
     scope: str = "all"
 
     def __post_init__(self) -> None:
-        if self.status not in {"checked", "violated", "vouched", "not applicable"}:
-            raise InputError("assumption status", "must be checked, violated, vouched or not applicable", self.status)
+        if self.status not in {"checked", "violated", "vouched", "assumed", "not applicable"}:
+            raise InputError(
+                "assumption status", "must be checked, violated, vouched, assumed or not applicable", self.status
+            )
 
 
 @dataclass(frozen=True, eq=False)
@@ -711,15 +715,15 @@ def check_assumptions(
         out.append(Assumption("X independent of A", "vouched", "no population given; needed for L-bar only", "global"))
     else:
         ind = population.independence()
-        out.append(
-            Assumption(
-                "X independent of A",
-                "checked" if ind.independent else "violated",
-                f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} at (context {format_label(ind.context)!r}, "
-                f"group {format_label(ind.group)!r}); needed for L-bar only",
-                "global",
-            )
-        )
+        where = f"at (context {format_label(ind.context)!r}, group {format_label(ind.group)!r})"
+        if not ind.independent:
+            status, detail = "violated", f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} {where}"
+        elif population.source == "assumed":
+            status, detail = "assumed", "the population is " + population.describe()
+        else:
+            status, detail = "checked", f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} {where}"
+        source = "" if population.source == "assumed" else f" in {population.describe()}"
+        out.append(Assumption("X independent of A", status, f"{detail}{source}; needed for L-bar only", "global"))
     if gamma is not None:
         if utility is None:
             out.append(Assumption("g <= gamma", "vouched", f"gamma = {gamma:g}; no utility table given"))

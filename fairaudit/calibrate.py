@@ -46,7 +46,7 @@ from typing import Any, TypedDict
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import FloatArray
+from ._arrays import FloatArray, format_label
 from ._errors import InputError
 from .bounds import main_theorem, main_theorem_tight
 from .laws import Kernel, Population, compose
@@ -478,6 +478,25 @@ def _black_box(
             lo, f_lo, start = target, f_t, 2 * target
         else:
             start = target
+    return _bracketed(common, family, bound, lo, f_lo, start, f"over every model, {cls}", note)
+
+
+def _bracketed(
+    common: _Common,
+    family: MechanismFamily,
+    bound: Callable[[float], float],
+    lo: float,
+    f_lo: float,
+    start: float,
+    what: str,
+    note: str = "",
+) -> Calibration:
+    """The largest ε with ``bound(ε) ≤ target``, for a bound non-decreasing along the family (black-box).
+
+    ``bound(lo) = f_lo ≤ target``; the bracket grows from ``start`` (:func:`_bracket`) and is refined
+    (:func:`_largest_meeting`). ``what`` says which worst case the bound is, for the reason.
+    """
+    target = common["target"]
     found = _bracket(bound, target, lo, f_lo, start)
     if found is None:
         return _result(
@@ -495,10 +514,78 @@ def _black_box(
         "black_box",
         eps,
         value,
-        f"exact worst case over every model, {cls}; largest epsilon by "
-        f"bracketing (the bound is non-decreasing along the family){note}",
+        f"exact worst case {what}; largest epsilon by bracketing (the bound is non-decreasing along the family){note}",
         family,
     )
+
+
+def _black_box_global(
+    common: _Common,
+    family: MechanismFamily,
+    utility: Utility | None,
+    population: Population,
+    context_mechanism: Mechanism | None,
+    dependence: str,
+) -> Calibration:
+    """Black-box calibration on L̄ when X and A are dependent: the exact worst case over every model.
+
+    The bound at ε is ``worst_model(family(ε), g, population=, tau=).global_`` (what ``certify`` reports
+    on L̄): a Charnes–Cooper LP per pair of groups, exact for any population. It is non-decreasing along
+    the family (a smaller ε is a post-processing of a larger one: every model behind it is a model behind
+    the larger one), so the largest ε is bracketed and refined as for L. It does not vanish at ε = 0:
+    groups that live in different contexts differ whatever the mechanism, and that floor is the least any
+    ε reaches. Without a utility, the class [lower, γ] of utilities of the decision is its two-decision
+    extreme g ∈ {γ, lower} (the worst model's per-cell utility ranges over [lower, γ] either way).
+    """
+    from .utility import from_table
+    from .worstcase import worst_model
+
+    target, tau, lip = common["target"], common["tau"], common["lipschitz"]
+    if utility is None:
+        if lip > 0:
+            raise InputError(
+                "--spec",
+                "black-box calibration on L-bar with X and A dependent and L_A > 0 needs the utility itself "
+                "(a spec with [utility])",
+            )
+        g = from_table([common["gamma"], common["lower"]], ("high", "low"), name="class [lower, gamma]")
+    else:
+        g = utility
+    kwargs: dict[str, Any] = {"population": population, "context_mechanism": context_mechanism}
+    if not math.isnan(tau):
+        kwargs["tau"] = tau
+
+    def bound(eps: float) -> float:
+        v = worst_model(family(eps), g, **kwargs).global_.value
+        return math.inf if math.isnan(v) else v
+
+    cls = f"{g.name}" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
+    top = bound(math.inf)
+    if target >= top:
+        return _result(
+            common,
+            "black_box",
+            math.inf,
+            top,
+            f"every epsilon meets the target: even the identity (epsilon = inf) gives a worst case on L-bar of "
+            f"{top:.6g} nats over every model, {cls}; {dependence}",
+            family,
+        )
+    f0 = bound(0.0)
+    if not f0 <= target:
+        return _result(
+            common,
+            "black_box",
+            math.nan,
+            f0,
+            f"the target {target:.6g} nats is below the floor {f0:.6g} nats, the black-box bound on L-bar at "
+            f"epsilon = 0 (the attribute fully randomized): {dependence}, so groups differ through their "
+            "contexts whatever the mechanism; no privacy budget meets it",
+            family,
+            feasible=False,
+        )
+    what = f"on L-bar over every model, {cls}, with the population's dependence of X and A ({dependence})"
+    return _bracketed(common, family, bound, 0.0, f0, max(target, 1e-3), what)
 
 
 def _keep_grid(family: MechanismFamily) -> FloatArray:
@@ -658,9 +745,13 @@ def calibrate(
     target : float
         Target on local g-fairness L (or global L̄), nats, finite and ≥ 0.
     kind : {"local", "global"}
-        ``"global"``: the target is on L̄. The paper, tight and black-box
-        certificates bound L̄ only under X ⊥ A (L̄ ≤ L); with a dependent
-        ``population`` the result is infeasible. White-box computes L̄ exactly.
+        ``"global"``: the target is on L̄. The paper and tight certificates
+        bound L̄ only under X ⊥ A (L̄ ≤ L); with a dependent ``population``
+        they are infeasible. Black-box then calibrates the exact worst case on
+        L̄ over every model (:func:`~fairaudit.worstcase.worst_model`, what
+        ``certify`` reports; for ``utility``, else the class [lower, γ]), whose
+        floor at ε = 0 is positive when X and A are dependent. White-box
+        computes L̄ exactly.
     method : {"paper", "tight", "black_box", "white_box"}, optional
         Default: ``white_box`` with a kernel; else ``tight`` when δ > 0
         (an arbitrary (ε, δ)-DP mechanism); else ``black_box``.
@@ -688,11 +779,12 @@ def calibrate(
     kernel : Kernel, optional
         P(U | X̃, Ã) over the family's inputs as groups, for ``white_box``.
     utility : Utility, optional
-        g, for ``white_box``.
+        g, for ``white_box``, and for ``black_box`` on L̄ with a dependent population.
     population : Population, optional
         P(X, A): excludes empty contexts, weighs L̄, and is checked for X ⊥ A.
     context_mechanism : Mechanism, optional
-        M_X in front of the kernel (``white_box``); default the identity.
+        M_X in front of the kernel (``white_box``, and ``black_box`` on L̄ with a dependent
+        population); default the identity.
 
     Returns
     -------
@@ -746,6 +838,11 @@ def calibrate(
     >>> c = calibrate(0.3, method="paper", tau=0.5, lipschitz=0.2)
     >>> c.feasible, math.isnan(c.epsilon), round(c.bound, 6)
     (False, True, 0.336472)
+
+    With L_A = 0 and δ = 0 the extra term is 0: no τ needed, ε = target.
+
+    >>> calibrate(0.3, method="tight").epsilon
+    0.3
 
     A model that outputs the released group (g = 1{U = Ã}) behind binary
     randomized response has L = ε exactly, so white-box gives the target.
@@ -819,16 +916,20 @@ def calibrate(
     if kind == "global" and population is not None:
         check = population.independence()
         if not check.independent:
+            dependence = (
+                "X and A are not independent in the population "
+                f"(max |P(x, a) - P(x) P(a)| = {check.max_deviation:.3g} at context "
+                f"{format_label(check.context)!r}, group {format_label(check.group)!r})"
+            )
+            if method == "black_box":
+                return _black_box_global(common, fam, utility, population, context_mechanism, dependence)
             return _result(
                 common,
                 method,
                 math.nan,
                 math.inf,
-                "X and A are not independent in the population "
-                f"(max |P(x, a) - P(x) P(a)| = {check.max_deviation:.3g} at context {check.context!r}, "
-                "group "
-                f"{check.group!r}): the {method} certificate bounds L-bar only through L-bar <= L under "
-                "X independent of A; use a model (white_box)",
+                f"{dependence}: the {method} certificate bounds L-bar only through L-bar <= L under "
+                "X independent of A; use black_box (exact for any population) or a model (white_box)",
                 fam,
                 feasible=False,
             )
@@ -850,11 +951,6 @@ def calibrate_randomized_response(
     """The largest ε of k-ary randomized response whose certificate on L meets ``target``.
 
     Proof: ``proofs/calibration.md``.
-
-    With L_A = 0 and δ = 0 the extra term is 0: no τ needed, ε = target.
-
-    >>> calibrate(0.3, method="tight").epsilon
-    0.3
 
     A thin wrapper of :func:`calibrate` (``kind="local"``, the default
     family) that raises instead of returning an infeasible result.

@@ -111,6 +111,10 @@ class Certificate:
         model's own L (and L̄) stays within the targets on [0, ε].
     calibration_reason : str
         Why the black-box calibration was skipped, or "".
+    calibration_targets : tuple of str
+        The targets (``"local"``, ``"global"``) the black-box calibration
+        meets at its ε (every target of the spec unless one was left out, and
+        then ``calibration_reason`` says why).
     intervals, unfiltered_intervals : FairnessIntervals or None
         When the model comes from counts and ``confidence`` is given:
         simultaneous intervals for the observed metrics of the filtered law
@@ -142,6 +146,7 @@ class Certificate:
     certified: bool
     calibration_white_box: Calibration | None = None
     calibration_reason: str = ""
+    calibration_targets: tuple[str, ...] = ()
     intervals: FairnessIntervals | None = None
     unfiltered_intervals: FairnessIntervals | None = None
     intervals_reason: str = ""
@@ -293,6 +298,7 @@ def certify(
     calibration: Calibration | None = None
     calibration_white: Calibration | None = None
     calibration_reason = ""
+    calibration_targets: tuple[str, ...] = ()
     t = spec.model.target
     if t is not None:
         if t.local is not None:
@@ -324,7 +330,9 @@ def certify(
                 None if obs is None else bool(obs <= t.global_),
                 why,
             )
-        calibration, calibration_white, calibration_reason = _calibrations(spec, kernel, t, independent)
+        calibration, calibration_white, calibration_reason, calibration_targets = _calibrations(
+            spec, kernel, t, independent
+        )
     certified = all(c.met for c in targets.values())
     intervals, unfiltered_intervals, intervals_reason = _intervals(spec, kernel, confidence, method, seed)
     return Certificate(
@@ -345,6 +353,7 @@ def certify(
         certified,
         calibration_white_box=calibration_white,
         calibration_reason=calibration_reason,
+        calibration_targets=calibration_targets,
         intervals=intervals,
         unfiltered_intervals=unfiltered_intervals,
         intervals_reason=intervals_reason,
@@ -372,6 +381,11 @@ def _intervals(
         (spec.model.sensitive.name,),
         spec.model.decision.name,
     )
+    # The records' own population is estimated from the same records: without a filter the intervals then pool
+    # each group's records (population None), exactly as `fairaudit audit` does; behind a filter it is held fixed.
+    pop = spec.population
+    own_pop = None if pop.source == "records" else pop
+    identity = spec.sensitive_mechanism.is_identity and spec.context_mechanism.is_identity
     try:
         filtered_iv = fairness_intervals(
             table,
@@ -380,12 +394,12 @@ def _intervals(
             method,
             sensitive_mechanism=spec.sensitive_mechanism,
             context_mechanism=spec.context_mechanism,
-            population=spec.population,
+            population=own_pop if identity else pop,
             seed=seed,
         )
         own = None
-        if not (spec.sensitive_mechanism.is_identity and spec.context_mechanism.is_identity) and _sees_inputs(spec):
-            own = fairness_intervals(table, spec.utility, confidence, method, population=spec.population, seed=seed)
+        if not identity and spec.sees_inputs:
+            own = fairness_intervals(table, spec.utility, confidence, method, population=own_pop, seed=seed)
     except InputError as exc:
         if exc.field in ("--confidence", "--method"):
             raise
@@ -412,20 +426,23 @@ class _FamilyClass(TypedDict):
 
 def _calibrations(
     spec: Spec, kernel: Kernel | None, t: TargetSpec, independent: bool
-) -> tuple[Calibration | None, Calibration | None, str]:
-    """Calibrate the spec's family for its targets: black-box (and white-box with a model), and why one is skipped.
+) -> tuple[Calibration | None, Calibration | None, str, tuple[str, ...]]:
+    """Calibrate the spec's family for its targets: black-box (and white-box with a model), why one is skipped,
+    and the targets the black-box one covers.
 
     Black-box: ``calibrate(method="black_box")`` with the spec's family, τ, L_A,
-    metric and [lower, γ], for the local target and for the global one when
-    X ⊥ A (it bounds L̄ only then); the smaller ε. White-box: the same targets
-    on the model's exact L and L̄ (no independence needed).
+    metric and [lower, γ], for the local target and for the global one (under
+    X ⊥ A through L̄ ≤ L; otherwise the exact worst case on L̄ over every model
+    for the spec's utility and population, as ``worst_model`` gives it to the
+    certificate); the smaller ε. White-box: the same targets on the model's
+    exact L and L̄ (no independence needed). The reason names any target left out.
     """
     family = spec.sensitive_family
     if family is None:
-        return None, None, "fewer than 2 groups: nothing to calibrate"
+        return None, None, "fewer than 2 groups: nothing to calibrate", ()
     goals = [(kind, v) for kind, v in (("local", t.local), ("global", t.global_)) if v is not None]
     if not goals:
-        return None, None, ""
+        return None, None, "", ()
     common = _FamilyClass(family=family, gamma=spec.gamma, lower=spec.lower, population=spec.population)
     black: list[Calibration] = []
     reason = ""
@@ -433,8 +450,7 @@ def _calibrations(
         reason = "the utility depends on the group and the spec gives no utility.lipschitz for the black-box class"
     else:
         for kind, goal in goals:
-            if kind == "global" and not independent:
-                continue
+            dependent = kind == "global" and not independent  # the exact worst case on L-bar, for this utility
             try:
                 black.append(
                     calibrate(
@@ -444,6 +460,8 @@ def _calibrations(
                         tau=spec.tau,
                         lipschitz=spec.lipschitz,
                         metric=spec.metric,
+                        utility=spec.utility if dependent else None,
+                        context_mechanism=spec.context_mechanism if dependent else None,
                         **common,
                     )
                 )
@@ -451,8 +469,6 @@ def _calibrations(
                 reason = f"black-box calibration not available: {exc}"
                 black = []
                 break
-        if not black and not reason:
-            reason = "the only target is global and X and A are not independent: no black-box bound on L-bar"
     white: list[Calibration] = []
     if kernel is not None and not _sees_inputs(spec):
         reason = (reason + "; " if reason else "") + (
@@ -471,9 +487,9 @@ def _calibrations(
             )
             for kind, goal in goals
         ]
-    return _tightest(black), _tightest(white), reason
+    return _tightest(black), _tightest(white), reason, tuple(c.kind for c in black)
 
 
 def _sees_inputs(spec: Spec) -> bool:
     """True when both mechanisms release the labels they take (so the model's table is indexed by true values)."""
-    return all(tuple(m.outputs) == tuple(m.inputs) for m in (spec.sensitive_mechanism, spec.context_mechanism))
+    return spec.sees_inputs

@@ -762,7 +762,7 @@ def fairness_intervals(
                 "utility", "behind a privacy filter intervals need a utility of the decision only", utility.name
             )
         if population is None:
-            population = Population.uniform(m_x.inputs, m_a.inputs)
+            population = Population.uniform(m_x.inputs, m_a.inputs, source="assumed")
         law_groups, law_contexts = tuple(m_a.inputs), tuple(m_x.inputs)
     else:
         m_a, m_x = None, None

@@ -38,7 +38,10 @@ from ._arrays import (
 from ._errors import InputError
 from .privacy import Mechanism, identity
 
-__all__ = ["Population", "Kernel", "Law", "IndependenceCheck", "compose"]
+__all__ = ["Population", "Kernel", "Law", "IndependenceCheck", "compose", "default_population"]
+
+SOURCES = ("given", "records", "assumed")
+"""Where a :class:`Population` comes from (its ``source``)."""
 
 
 @dataclass(frozen=True)
@@ -74,27 +77,50 @@ class Population:
         Non-negative, finite, summing to 1 within 1e-9.
     contexts, groups : sequence of hashable
         Labels of the axes.
+    source : {"given", "records", "assumed"}
+        Where it comes from: ``"given"`` by the caller or the spec's
+        ``[population]``; ``"records"``, the records' own P(X, A) = n(x, a) / n
+        (:meth:`from_counts`); ``"assumed"``, a default nobody stated (uniform
+        and independent, or P(X) from ``context.distribution`` with P(A)
+        uniform and X ⊥ A). Reports say which; an assumed population's X ⊥ A
+        is reported as assumed, never as checked.
 
     Raises
     ------
     InputError
         On a shape that does not match the labels, a negative or non-finite
-        entry, or a total that is not 1.
+        entry, a total that is not 1, or an unknown ``source``.
 
     Examples
     --------
     >>> pop = Population.uniform(["x0", "x1"], ["a0", "a1"])
-    >>> pop.probabilities.tolist()
-    [[0.25, 0.25], [0.25, 0.25]]
+    >>> pop.probabilities.tolist(), pop.source
+    ([[0.25, 0.25], [0.25, 0.25]], 'given')
     >>> pop.independence().independent
     True
+    >>> rec = Population.from_counts([[30, 10], [10, 10]], ["x0", "x1"], ["a0", "a1"])
+    >>> rec.source, rec.describe()
+    ('records', "the records' own P(X, A) (60 records)")
     """
 
     probabilities: FloatArray
     contexts: tuple
     groups: tuple
+    source: str = "given"
+    records: float | None = None
+    """The number of records behind a ``"records"`` population, else None."""
 
-    def __init__(self, probabilities: npt.ArrayLike, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> None:
+    def __init__(
+        self,
+        probabilities: npt.ArrayLike,
+        contexts: Sequence[Hashable],
+        groups: Sequence[Hashable],
+        *,
+        source: str = "given",
+        records: float | None = None,
+    ) -> None:
+        if source not in SOURCES:
+            raise InputError("source", f"must be one of {', '.join(SOURCES)}", source)
         contexts = as_labels(contexts, "population contexts")
         groups = as_labels(groups, "population groups")
         array = as_float_array(probabilities, "population", ndim=2)  # our own copy
@@ -113,17 +139,30 @@ class Population:
         object.__setattr__(self, "probabilities", array)
         object.__setattr__(self, "contexts", contexts)
         object.__setattr__(self, "groups", groups)
+        object.__setattr__(self, "source", source)
+        object.__setattr__(self, "records", records)
 
     @classmethod
-    def uniform(cls, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
-        """Uniform and independent: P(x, a) = 1 / (n_contexts · n_groups)."""
+    def uniform(cls, contexts: Sequence[Hashable], groups: Sequence[Hashable], *, source: str = "given") -> Population:
+        """Uniform and independent: P(x, a) = 1 / (n_contexts · n_groups).
+
+        The default population of a probability table is ``uniform(..., source="assumed")``.
+        """
         contexts = as_labels(contexts, "population contexts")
         groups = as_labels(groups, "population groups")
-        return cls(np.full((len(contexts), len(groups)), 1.0 / (len(contexts) * len(groups))), contexts, groups)
+        return cls(
+            np.full((len(contexts), len(groups)), 1.0 / (len(contexts) * len(groups))), contexts, groups, source=source
+        )
 
     @classmethod
     def independent(
-        cls, p_context: npt.ArrayLike, p_group: npt.ArrayLike, contexts: Sequence[Hashable], groups: Sequence[Hashable]
+        cls,
+        p_context: npt.ArrayLike,
+        p_group: npt.ArrayLike,
+        contexts: Sequence[Hashable],
+        groups: Sequence[Hashable],
+        *,
+        source: str = "given",
     ) -> Population:
         """The product P(x) P(a) of two marginals (each summing to 1)."""
         px = as_float_array(p_context, "context distribution", ndim=1)
@@ -134,18 +173,34 @@ class Population:
         check_shape(pa, (len(groups),), "group distribution", ("groups",))
         check_probabilities(px[None, :], "context distribution", ((None,), contexts), ("table", "context"))
         check_probabilities(pa[None, :], "group distribution", ((None,), groups), ("table", "group"))
-        return cls(np.outer(px, pa), contexts, groups)
+        return cls(np.outer(px, pa), contexts, groups, source=source)
 
     @classmethod
     def from_counts(cls, counts: npt.ArrayLike, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
-        """Empirical population from a (n_contexts, n_groups) table of counts."""
+        """The records' own population P(x, a) = n(x, a) / n from a (n_contexts, n_groups) table of counts.
+
+        Its ``source`` is ``"records"`` and ``records`` is n.
+        """
         array = as_float_array(counts, "population counts", ndim=2)
         if np.any(array < 0) or not np.all(np.isfinite(array)):
             raise InputError("population counts", "must be finite and non-negative")
         total = array.sum()
         if total <= 0:
             raise InputError("population counts", "must contain at least one record", float(total))
-        return cls(array / total, contexts, groups)
+        return cls(array / total, contexts, groups, source="records", records=float(total))
+
+    def describe(self) -> str:
+        """Where the population comes from, in words (the reports' ``population.source`` line)."""
+        if self.source == "records":
+            n = self.records
+            count = "" if n is None else f" ({n:.0f} records)" if float(n).is_integer() else f" (total weight {n:.6g})"
+            return f"the records' own P(X, A){count}"
+        if self.source == "assumed":
+            ind = self.independence()
+            uniform = bool(np.allclose(self.probabilities, 1.0 / self.probabilities.size, rtol=0, atol=1e-15))
+            shape = "uniform, independent" if uniform and ind.independent else "independent"
+            return f"assumed ({shape}): no population was given"
+        return "the given P(X, A)"
 
     @property
     def p_context(self) -> FloatArray:
@@ -434,3 +489,36 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
     # Clean rounding so rows sum to 1 within tolerance.
     q = q / np.einsum("...u->...", q)[..., None]
     return Law(q, m_x.inputs, m_a.inputs, kernel.decisions, name="law", _owned=True)
+
+
+def default_population(law: _DecisionTable) -> Population:
+    """The population P(X, A) a law stands for when the caller gives none.
+
+    A law (or kernel) estimated from counts stands for its records: their own
+    P(x, a) = n(x, a) / n (``source="records"``). A table of probabilities
+    says nothing about who is decided on: uniform and independent, reported
+    as assumed (``source="assumed"``).
+
+    Parameters
+    ----------
+    law : Law or Kernel
+        Shape (n_contexts, n_groups, n_decisions).
+
+    Returns
+    -------
+    Population
+        Shape (n_contexts, n_groups), labelled as the law.
+
+    Examples
+    --------
+    >>> law = Law.from_counts([[[3, 1], [1, 1]], [[1, 1], [5, 3]]], ["x0", "x1"], ["a", "b"], ["yes", "no"])
+    >>> pop = default_population(law)
+    >>> pop.source, pop.probabilities.tolist()
+    ('records', [[0.25, 0.125], [0.125, 0.5]])
+    >>> default_population(Law([[[0.5, 0.5]]], ["x"], ["a"], ["yes", "no"])).source
+    'assumed'
+    """
+    counts = law.cell_counts
+    if counts is not None and counts.sum() > 0:
+        return Population.from_counts(counts, law.contexts, law.groups)
+    return Population.uniform(law.contexts, law.groups, source="assumed")

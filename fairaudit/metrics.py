@@ -32,7 +32,7 @@ import numpy as np
 
 from ._arrays import BoolArray, FloatArray, IntArray, format_label, ratio_extremes, ratio_of_extremes, safe_log
 from ._errors import InputError
-from .laws import Law, Population
+from .laws import Law, Population, default_population
 from .utility import Utility
 
 __all__ = [
@@ -188,7 +188,7 @@ def _check_law(law: object) -> Law:
 
 def _check_population(population: object, law: Law) -> Population:
     if population is None:
-        return Population.uniform(law.contexts, law.groups)
+        return default_population(law)
     if not isinstance(population, Population):
         raise InputError("population", "must be a Population", type(population).__name__)
     if population.contexts != law.contexts:
@@ -485,7 +485,9 @@ def global_fairness(law: Law, utility: Utility, population: Population | None = 
     utility : Utility
         g(u) or g[x, a, u].
     population : Population, optional
-        P(X, A); default uniform and independent. E[g | a] = Σ_x P(x | a) E[g | x, a].
+        P(X, A); default the records' own P(x, a) = n(x, a) / n when the law comes from counts,
+        else uniform and independent (reported as assumed: :func:`~fairaudit.laws.default_population`).
+        E[g | a] = Σ_x P(x | a) E[g | x, a].
 
     Returns
     -------
@@ -584,7 +586,8 @@ def demographic_parity(law: Law, population: Population | None = None) -> TotalV
 
     Proof: ``proofs/lemma1_links.md`` (L_dp ≤ e^{sup L̄} − 1, tightened to (R − 1)/(R + 1)).
 
-    A probability in [0, 1], not nats. Default population: uniform and independent.
+    A probability in [0, 1], not nats. Default population: the records' own for a law from counts,
+    else uniform and independent (:func:`~fairaudit.laws.default_population`).
 
     Examples
     --------
@@ -716,7 +719,7 @@ def sup_global_fairness(law: Law, population: Population | None = None) -> SupFa
 
     Proof: ``proofs/lemma1_links.md`` (Lemma 1).
 
-    Default population: uniform and independent.
+    Default population: :func:`~fairaudit.laws.default_population` (the records' own for a law from counts).
     """
     law = _check_law(law)
     population = _check_population(population, law)
@@ -775,7 +778,8 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     utility : Utility
         g(u) or g[x, a, u] with the law's labels.
     population : Population, optional
-        P(X, A), shape (n_contexts, n_groups); default uniform and independent.
+        P(X, A), shape (n_contexts, n_groups); default the records' own for a law from counts, else
+        uniform and independent (:func:`~fairaudit.laws.default_population`).
 
     Returns
     -------

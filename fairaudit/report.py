@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from .calibrate import Calibration
     from .certify import Certificate, Observed
     from .intervals import FairnessIntervals, Interval
-    from .laws import Kernel
+    from .laws import Kernel, Population
     from .metrics import Fairness, SupFairness, TotalVariation
     from .plan import SamplePlan
     from .privacy import Mechanism
@@ -150,6 +150,32 @@ def _observed(o: Observed, intervals: FairnessIntervals | None = None) -> Report
     return out
 
 
+def population_dict(p: Population) -> Report:
+    """``population`` of a certificate or an audit: where P(X, A) comes from and whether X ⊥ A holds in it.
+
+    ``source`` is ``"given"``, ``"records"`` or ``"assumed"``; ``independent`` is
+    ``"assumed"`` for an assumed population (never checked), else a bool with
+    ``max_deviation`` = max |P(x, a) − P(x) P(a)| at ``context``, ``group``.
+    """
+    ind = p.independence()
+    out: Report = {"source": p.source, "description": p.describe(), "records": _num(p.records)}
+    out["independent"] = "assumed" if p.source == "assumed" else bool(ind.independent)
+    out.update(max_deviation=_num(ind.max_deviation), context=_label(ind.context), group=_label(ind.group))
+    return out
+
+
+def _population_line(d: Report) -> str:
+    """The reports' population line."""
+    p = d["population"]
+    if p["independent"] == "assumed":
+        return f"population P(X, A): {p['description']}"
+    state = "independent" if p["independent"] else "dependent"
+    return (
+        f"population P(X, A): {p['description']}; X and A {state} in it (max |P(x,a) - P(x)P(a)| = "
+        f"{_fmt(p['max_deviation'], 3)} at context {_fmt(p['context'])}, group {_fmt(p['group'])})"
+    )
+
+
 def _mechanism(m: Mechanism) -> Report:
     eps = m.epsilon
     return {
@@ -197,6 +223,9 @@ def _certificate_calibration(cert: Certificate) -> Report:
     """``calibration`` of a certificate with a target: the black-box one (or nulls and why), and ``white_box``."""
     if cert.calibration is not None:
         out = calibration_dict(cert.calibration)
+        out["targets"] = {k: _num(cert.targets[k].target) for k in cert.calibration_targets if k in cert.targets}
+        if set(cert.targets) - set(cert.calibration_targets):
+            out["left_out"] = cert.calibration_reason or "not calibrated"
     else:
         out = {
             "epsilon": None,
@@ -290,6 +319,7 @@ def certificate_dict(cert: Certificate) -> Report:
             "diameter": _num(spec.utility.diameter(spec.metric)),
             "depends_on_group": spec.utility.depends_on_group,
         },
+        "population": population_dict(spec.population),
         "bounds": bounds,
         "bound_details": details,
         "assumptions": [
@@ -350,6 +380,7 @@ def audit_dict(a: Audit) -> Report:
             for j, g in enumerate(t.groups)
         ],
         "decisions": [_label(d) for d in t.decisions],
+        "population": population_dict(a.population),
         "confidence": _num(a.confidence),
         "interval_method": iv.method if iv is not None else None,
     }
@@ -420,6 +451,11 @@ def _observed_lines(o: Report, head: str) -> list[str]:
     return lines
 
 
+def _goal(kind: str, target: object) -> str:
+    """'the local target 0.5 nats on L' (or on L-bar for the global one)."""
+    return f"the {kind} target {_nats(target)} on {'L' if kind == 'local' else 'L-bar'}"
+
+
 def _certificate_text(d: Report) -> str:
     lines = [f"fairaudit certificate: {d['title'] or d['spec']}"]
     ps = d["privacy"]["sensitive"]
@@ -434,6 +470,7 @@ def _certificate_text(d: Report) -> str:
         f"utility: {u['name']}, range [{_fmt(u['lower'])}, {_fmt(u['gamma'])}], tau = {_fmt(u['tau'])}, "
         f"L_A = {_fmt(u['lipschitz'])}"
     )
+    lines.append(_population_line(d))
     lines.append("bounds on L for any decision model behind the filter:")
     det = d["bound_details"]
     for key, name in (
@@ -481,14 +518,17 @@ def _certificate_text(d: Report) -> str:
         if c["method"] is None:
             lines.append(f"calibration: skipped ({c['reason']})")
         elif c["feasible"]:
+            goals = " and ".join(_goal(k, v) for k, v in c.get("targets", {}).items()) or _goal(c["kind"], c["target"])
             lines.append(
                 f"calibration: {c.get('family') or 'randomized response'} with epsilon <= {_nats(c['epsilon'])} "
-                f"(keep probability "
-                f"{_fmt(c['keep_probability'])}) meets {_nats(c['target'])} for any model ({c['method']})"
+                f"(keep probability {_fmt(c['keep_probability'])}) would meet {goals} for any model ({c['method']})"
             )
+            if "left_out" in c:
+                lines.append(f"calibration leaves out a target: {c['left_out']}")
         else:
             lines.append(
-                f"calibration: no epsilon meets {_nats(c['target'])} for any model ({c['method']}): {c['reason']}"
+                f"calibration: no epsilon meets {_goal(c['kind'], c['target'])} for any model ({c['method']}): "
+                f"{c['reason']}"
             )
         w = c.get("white_box")
         if w is not None and w["feasible"]:
@@ -519,6 +559,7 @@ def _audit_text(d: Report) -> str:
             + ", ".join(f"{c['label']} {c['n']}" for c in d["contexts"][:30])
             + (" ..." if len(d["contexts"]) > 30 else "")
         )
+    lines.append(_population_line(d))
     if d["confidence"] is not None:
         lines.append(f"intervals: simultaneous {_fmt(d['confidence'])} ({d['interval_method']})")
     lines += _observed_lines(d, "metrics:")
@@ -585,6 +626,7 @@ def _certificate_md(d: Report) -> str:
         f"Privacy of **{d['sensitive']['name']}**: {ps['mechanism']}, ε = {_nats(ps['epsilon'])}, "
         f"keep probability {_fmt(ps['keep_probability'])}."
     )
+    lines += ["", f"Population P(X, A): {_population_line(d).removeprefix('population P(X, A): ')}."]
     lines += ["", "## Bounds on L for any decision model", ""]
     rows = [(k, _nats(d["bounds"][k])) for k in ("paper", "tight", "black_box", "corollary")]
     lines += _md_table(rows, ("bound", "value"))
@@ -606,13 +648,20 @@ def _certificate_md(d: Report) -> str:
         if c["method"] is None:
             lines += ["", f"Calibration: skipped ({c['reason']})."]
         elif c["feasible"]:
+            goals = " and ".join(_goal(k, v) for k, v in c.get("targets", {}).items()) or _goal(c["kind"], c["target"])
             lines += [
                 "",
                 f"Calibration: ε ≤ {_nats(c['epsilon'])} (keep probability {_fmt(c['keep_probability'])}) "
-                f"meets the target for any model ({c['method']}).",
+                f"would meet {goals} for any model ({c['method']}).",
             ]
+            if "left_out" in c:
+                lines += ["", f"Calibration leaves out a target: {c['left_out']}."]
         else:
-            lines += ["", f"Calibration: no ε meets the target for any model ({c['method']}): {c['reason']}."]
+            lines += [
+                "",
+                f"Calibration: no ε meets {_goal(c['kind'], c['target'])} for any model ({c['method']}): "
+                f"{c['reason']}.",
+            ]
         w = c.get("white_box")
         if w is not None:
             lines += [
@@ -639,7 +688,8 @@ def _audit_md(d: Report) -> str:
         "",
     ]
     lines += _md_table([(g["label"], g["n"]) for g in d["groups"]], ("group", "records"))
-    lines += [""] + _observed_md(d) + [""]
+    lines += ["", f"Population P(X, A): {_population_line(d).removeprefix('population P(X, A): ')}.", ""]
+    lines += _observed_md(d) + [""]
     return "\n".join(lines)
 
 

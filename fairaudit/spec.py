@@ -358,6 +358,10 @@ class Spec:
     groups, contexts, decisions : tuple
         Labels.
     population : Population
+        P(X, A) with its ``source``: the spec's, the records' own, or assumed
+        (see the property).
+    given_population : Population or None
+        The spec's ``[population]``, if any.
     utility : Utility
 
     Notes
@@ -392,7 +396,10 @@ class Spec:
         )
         assert model.decision.values is not None  # (required by SpecModel)
         self.decisions = as_labels(model.decision.values, "decision.values")
-        self.population = self._population()
+        self._context_distribution: FloatArray | None = None
+        self.given_population = self._population()
+        self._kernel: Kernel | None | bool = False  # False: not read yet
+        self._default_population: Population | None = None
         self.utility = self._utility()
         u = model.utility
         if u.lower is not None and u.lower > self.utility.lower + 1e-12:
@@ -424,22 +431,55 @@ class Spec:
                 raise InputError(f"{self.source}: {field}.{exc.field}", exc.problem, exc.value) from None
             raise exc.under(f"{self.source}: {field}") from None
 
-    def _population(self) -> Population:
+    def _distribution(self, values: list[float] | None, labels: tuple, field: str, what: str) -> FloatArray | None:
+        """A validated distribution over ``labels`` from the spec's ``field`` (None when absent)."""
+        if values is None:
+            return None
+        if len(values) != len(labels):
+            raise self._err(field, f"must have one entry per {what} ({len(labels)})", values)
+        p = np.asarray(values, dtype=float)
+        bad = np.flatnonzero(~np.isfinite(p) | (p < 0))
+        if len(bad):
+            i = int(bad[0])
+            raise self._err(
+                f"{field}[{i}]", f"must be a finite number >= 0 ({what} {format_label(labels[i])!r})", values[i]
+            )
+        total = float(p.sum())
+        if abs(total - 1.0) > 1e-9:
+            raise self._err(field, f"entries sum to {total:.12g}, not 1", values)
+        return p
+
+    def _population(self) -> Population | None:
+        """The population the spec gives: ``[population]`` (source "given"), or None.
+
+        ``context.distribution`` alone gives P(X) only: it is kept for the
+        default (:attr:`population`), with P(A) uniform and X ⊥ A assumed.
+        """
         pop = self.model.population
         ctx = self.model.context
-        try:
-            if pop is not None and pop.probabilities is not None:
-                return Population(pop.probabilities, self.contexts, self.groups)
+        px = self._distribution(ctx.distribution if ctx else None, self.contexts, "context.distribution", "context")
+        if pop is None:
+            self._context_distribution = px
+            return None
+        if pop.probabilities is not None:
+            rows = pop.probabilities
+            if len(rows) != len(self.contexts) or any(len(r) != len(self.groups) for r in rows):
+                raise self._err(
+                    "population.probabilities",
+                    f"must be {len(self.contexts)} rows (contexts) of {len(self.groups)} entries (groups)",
+                    rows,
+                )
+            try:
+                return Population(rows, self.contexts, self.groups)
+            except InputError as exc:
+                raise exc.under(f"{self.source}: population.probabilities", keep_own=False) from None
+        pa = self._distribution(pop.group_distribution, self.groups, "population.group_distribution", "group")
+        if pa is None:
+            self._context_distribution = px
+            return None
+        if px is None:
             px = np.full(len(self.contexts), 1.0 / len(self.contexts))
-            if ctx is not None and ctx.distribution is not None:
-                px = np.asarray(ctx.distribution, dtype=float)
-            pa = np.full(len(self.groups), 1.0 / len(self.groups))
-            if pop is not None and pop.group_distribution is not None:
-                pa = np.asarray(pop.group_distribution, dtype=float)
-            return Population.independent(px, pa, self.contexts, self.groups)
-        except InputError as exc:
-            where = "population" if pop is not None else "context.distribution"
-            raise exc.under(f"{self.source}: {where}", keep_own=False) from None
+        return Population.independent(px, pa, self.contexts, self.groups)
 
     def _utility(self) -> Utility:
         u = self.model.utility
@@ -507,8 +547,44 @@ class Spec:
                 return product_family(*values, weights=eps if finite else None)
         return randomized_response_family(self.groups)
 
+    @property
+    def sees_inputs(self) -> bool:
+        """True when both mechanisms release the labels they take (the model's table is indexed by true values)."""
+        return all(tuple(m.outputs) == tuple(m.inputs) for m in (self.sensitive_mechanism, self.context_mechanism))
+
+    @property
+    def population(self) -> Population:
+        """P(X, A), shape (n_contexts, n_groups), and where it comes from (its ``source``).
+
+        In order: the spec's ``[population]`` (``"given"``); else, when
+        ``[model]`` gives counts or records indexed by the true labels (the
+        mechanisms release the values they take), the records' own
+        P(x, a) = n(x, a) / n (``"records"``); else P(X) from
+        ``context.distribution`` (uniform without it), P(A) uniform and X ⊥ A
+        (``"assumed"``, never reported as checked).
+
+        Raises
+        ------
+        InputError
+            As :meth:`kernel`, when the model file must be read and is invalid.
+        """
+        if self.given_population is not None:
+            return self.given_population
+        if self._default_population is None:
+            kernel = self.kernel()
+            counts = None if kernel is None or not self.sees_inputs else kernel.cell_counts
+            if counts is not None and counts.sum() > 0:
+                self._default_population = Population.from_counts(counts, self.contexts, self.groups)
+            else:
+                px = self._context_distribution
+                if px is None:
+                    px = np.full(len(self.contexts), 1.0 / len(self.contexts))
+                pa = np.full(len(self.groups), 1.0 / len(self.groups))
+                self._default_population = Population.independent(px, pa, self.contexts, self.groups, source="assumed")
+        return self._default_population
+
     def kernel(self) -> Kernel | None:
-        """The decision model P(U | X̃, Ã) from [model], or None.
+        """The decision model P(U | X̃, Ã) from [model], or None (read once, then kept).
 
         The table is indexed by the *released* values: the outputs of
         ``[privacy.context]`` and ``[privacy.sensitive]`` (the same labels as
@@ -520,6 +596,12 @@ class Spec:
             If the file is missing, a column is unknown, a label is not in the
             spec, or a (context, group) cell has no row.
         """
+        if self._kernel is False:
+            self._kernel = self._read_kernel()
+        assert self._kernel is not True  # (only False, None or a Kernel)
+        return self._kernel
+
+    def _read_kernel(self) -> Kernel | None:
         m = self.model.model
         if m is None:
             return None

@@ -1087,7 +1087,7 @@ def worst_model(
         raise InputError("context_mechanism", "must be a Mechanism", type(context_mechanism).__name__)
     contexts = context_mechanism.inputs
     if population is None:
-        population = Population.uniform(contexts, groups)
+        population = Population.uniform(contexts, groups, source="assumed")
     if not isinstance(population, Population):
         raise InputError("population", "must be a Population", type(population).__name__)
     if population.contexts != contexts or population.groups != groups:

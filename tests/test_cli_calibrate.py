@@ -184,7 +184,15 @@ values = [1.0, 0.1]
 def test_global_with_dependent_population_exits_1(tmp_path, capsys):
     spec = write_spec(tmp_path, "[population]\nprobabilities = [[0.4, 0.1], [0.1, 0.4]]\n")
     code, d, _ = run_json(capsys, "calibrate", "--target", 0.5, "--spec", spec, "--global")
-    assert code == 1 and d["feasible"] is False and "not independent" in d["reason"] and d["bound"] == "inf"
+    # the floor of the exact black-box bound on L-bar at epsilon = 0 is log 4 (P(x | a) = (0.8, 0.2) vs (0.2, 0.8))
+    assert (
+        code == 1 and d["feasible"] is False and "not independent" in d["reason"] and "below the floor" in d["reason"]
+    )
+    assert d["bound"] == pytest.approx(math.log(4), rel=1e-9)
+    code, d, _ = run_json(
+        capsys, "calibrate", "--target", 0.5, "--spec", spec, "--global", "--method", "tight", "--tau", 0.2
+    )
+    assert code == 1 and d["feasible"] is False and "use black_box" in d["reason"] and d["bound"] == "inf"
 
 
 def test_text_markdown_and_output_file(tmp_path, capsys):

@@ -210,12 +210,15 @@ def test_empty_cells_are_excluded_and_listed():
     assert np.isnan(r.expected_utility[0, 1])
     # A population that weights the empty cell is an error; the empirical one gives it weight 0.
     with pytest.raises(fa.InputError, match=r"empty cell \(context 'x0', group 'b'\)"):
-        fa.global_fairness(law, g)
+        fa.global_fairness(law, g, fa.Population.uniform(["x0", "x1"], ["a", "b", "c"]))
     pop = fa.Population.from_counts(np.array(counts).sum(-1), ["x0", "x1"], ["a", "b", "c"])
     glob = fa.global_fairness(law, g, pop)
     # Hand: E[g|a] = (3 + 2)/8 = 5/8, E[g|b] = 1/4 (x1 only), E[g|c] = (1 + 0)/6 = 1/6 -> ratio (5/8)/(1/6) = 15/4.
     assert glob.expected_utility == pytest.approx(np.array([5 / 8, 1 / 4, 1 / 6]), rel=1e-12)
     assert glob.value == pytest.approx(math.log(15 / 4), rel=1e-12)
+    # A law from counts stands for its records: with no population given, the records' own (issue 19)
+    default = fa.global_fairness(law, g)
+    assert default.population.source == "records" and default.value == pytest.approx(math.log(15 / 4), rel=1e-12)
     assert fa.sup_local_fairness(law).excluded == r.excluded
     assert "cell (context 'x0', group 'b'): no records" in fa.equalized_odds(law).excluded
 

@@ -322,7 +322,43 @@ CASES: list[tuple[str, dict[str, str], list[str], set[int], str | None]] = [
         {2},
         "--output: is a directory (got '",
     ),
-    # -- other engineers' items (they pass once that work lands) -----------------------------------
+    (
+        "distribution-sum",
+        {"spec.toml": spec(("[0.5, 0.5]", "[0.5, 0.6]"))},
+        CERTIFY,
+        {2},
+        "spec.toml: context.distribution: entries sum to 1.1, not 1",
+    ),
+    (
+        "distribution-sum-with-group-distribution",  # named as context.distribution, not population
+        {"spec.toml": spec(("[0.5, 0.5]", "[0.5, 0.6]"), add="[population]\ngroup_distribution = [0.5, 0.5]\n")},
+        CERTIFY,
+        {2},
+        "spec.toml: context.distribution: entries sum to 1.1, not 1",
+    ),
+    (
+        "distribution-length",
+        {"spec.toml": spec(("[0.5, 0.5]", "[1.0]"))},
+        CERTIFY,
+        {2},
+        "spec.toml: context.distribution: must have one entry per context (2) (got [1.0])",
+    ),
+    (
+        "group-distribution-negative",
+        {"spec.toml": spec(add="[population]\ngroup_distribution = [1.5, -0.5]\n")},
+        CERTIFY,
+        {2},
+        "spec.toml: population.group_distribution[1]: must be a finite number >= 0 (group 'HR_2') (got -0.5)",
+    ),
+    (
+        "probabilities-shape",
+        {"spec.toml": spec(("distribution = [0.5, 0.5]\n", ""), add="[population]\nprobabilities = [[1.0]]\n")},
+        CERTIFY,
+        {2},
+        "spec.toml: population.probabilities: must be 2 rows (contexts) of 2 entries (groups)",
+    ),
+    ("calibrate-groups-20000", {}, ["calibrate", "--target", "0.5", "--groups", "20000"], {0}, None),
+    # -- overflow and --utility ---------------------------------------------------------------------
     ("epsilon-710", {"spec.toml": spec(("keep = 0.7", "epsilon = 710"))}, CERTIFY, {0, 1}, None),
     ("calibrate-target-710", {}, ["calibrate", "--target", "710"], {0}, None),
     ("calibrate-target-1e308", {}, ["calibrate", "--target", "1e308"], {0}, None),

@@ -392,9 +392,35 @@ def test_the_docs_page_quotes_the_reports_the_model_gives(smollm2):
         law = lm.exact_law(task, lm.exact_kernel(task, smollm2))
         eps = [epsilon_from_keep(task, k) for k in DEFAULT_KEEPS]
         report = experiment_markdown(experiment_dict(analyse_kernel(task, law, model="smollm2", epsilons=eps)))
-        lines = set(report.splitlines())
-        missing = [row for row in quoted[task.name] if row not in lines]
+        lines = [line for line in report.splitlines() if line.startswith("|")]
+        missing = [row for row in quoted[task.name] if not any(_same_row(row, line) for line in lines)]
         assert not missing, f"{task.name}: rows of docs/real-model.md not in the report: {missing}"
+
+
+def _same_row(quoted: str, line: str) -> bool:
+    """The report's table row ``line`` says what the page quotes: the same text, and each number within 3 units of
+    the quoted number's last printed digit (float32 forward passes move in the 4th significant digit between torch
+    and transformers releases; a wrong number moves much more).
+
+    >>> _same_row("| a | 0.002283 | 1.349 |", "| a | 0.002282 | 1.349 |"), _same_row("| a | 0.0023 |", "| a | 0.0027 |")
+    (True, False)
+    """
+    a, b = quoted.split("|"), line.split("|")
+    if len(a) != len(b):
+        return False
+    for x, y in zip(a, b):
+        x, y = x.strip(), y.strip()
+        if x == y:
+            continue
+        try:
+            fx, fy = float(x), float(y)
+        except ValueError:
+            return False
+        digits = x.lstrip("-").split("e")[0]
+        decimals = len(digits.split(".")[1]) if "." in digits else 0
+        if abs(fx - fy) > 3 * 10.0**-decimals:
+            return False
+    return True
 
 
 def test_sampled_route_wiring_and_resume_with_a_stand_in_server(monkeypatch, tmp_path, capsys):

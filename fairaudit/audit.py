@@ -3,7 +3,7 @@
 :func:`audit` is the Python side of ``fairaudit audit``. U is the outcome
 column with all its values; the utility g (``positive`` or ``utility``)
 defines L and L̄, while L_dp, L_eo and the sups over g are about U's whole
-distribution (DESIGN.md "Command-line contract").
+distribution (docs/design.md "Command-line contract").
 """
 
 from __future__ import annotations

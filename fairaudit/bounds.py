@@ -518,7 +518,7 @@ def tight_bound(
 
     Notes
     -----
-    DESIGN.md "Tight bound"; ``proofs/tight_bound.md``. The pairs are
+    docs/design.md "Mathematics beyond the paper"; ``proofs/tight_bound.md``. The pairs are
     processed in blocks of rows, so a general mechanism needs memory for a
     block of pairs, not for all n² pairs times the outputs at once. For k-ary
     randomized response every pair has δ_aa'(t) = [p − tq]₊, and the minimum

@@ -8,7 +8,7 @@ that realises it and its price, the keep probability (how often the true
 attribute reaches the model). Four methods, from the loosest:
 
 * ``paper`` and ``tight`` — closed forms of the main theorem (paper SI C,
-  Theorem "main"; DESIGN.md "Tight bound"). With c = L_A·diam(A) + δγ,
+  Theorem "main"; docs/design.md "Mathematics beyond the paper"). With c = L_A·diam(A) + δγ,
 
       paper:  ε = target − log(1 + c/τ)
       tight:  ε = log(e^target − c/τ)
@@ -807,7 +807,7 @@ def calibrate(
     -----
     * paper (paper SI C, Theorem "main"): L ≤ ε + log(1 + c/τ) with
       c = L_A·diam(A) + δγ, so ε = target − log(1 + c/τ).
-    * tight (DESIGN.md "Tight bound", the theorem's proof): L ≤
+    * tight (docs/design.md "Mathematics beyond the paper", the theorem's proof): L ≤
       log(e^ε + c/τ), so ε = log(e^target − c/τ) ≥ the paper's ε.
     * black_box: the largest ε with ``black_box_bound(family(ε), lower=,
       gamma=, tau=, lipschitz=, metric=).value ≤ target``.

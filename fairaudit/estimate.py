@@ -1,7 +1,7 @@
 """From decision records to counts to an estimated law.
 
 A record is one decision (or one candidate of a decision among several, see
-DESIGN.md "Decisions among several candidates") with its context X, its
+docs/design.md "Decisions among several candidates") with its context X, its
 sensitive attribute(s) A and its outcome U. Counting is vectorised
 (``pandas.factorize`` and ``numpy.bincount``), never a loop over records.
 

@@ -406,7 +406,7 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
     Proof: ``proofs/x_privacy.md`` (privacy of the context).
 
     ``Q[x, a, u] = Σ_{x̃, ã} M_X[x, x̃] M_A[a, ã] K[x̃, ã, u]`` (paper, main
-    text "Turning privacy into fairness guarantees"; DESIGN.md layout).
+    text "Turning privacy into fairness guarantees"; docs/design.md layout).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """Exact fairness metrics of a law P(U | X, A): local and global g-fairness, DP and EO gaps.
 
-Definitions (paper SI A and B; DESIGN.md):
+Definitions (paper SI A and B; docs/design.md):
 
 * E[g | x, a] = Σ_u Q[x, a, u] g[x, a, u], shape (n_contexts, n_groups).
 * **Local g-fairness** L = log max over x, a, a' of E[g | x, a] / E[g | x, a'].

@@ -1,6 +1,6 @@
 """Reports: one dictionary per result, rendered as JSON, text or Markdown; atomic writes.
 
-The dictionaries follow the JSON contract of DESIGN.md (keys that other tools
+The dictionaries follow the JSON contract of docs/design.md (keys that other tools
 read); infinite values are the string ``"inf"``, NaN is ``null``, tuple labels
 (product attributes) are joined with ``" & "``.
 """
@@ -279,7 +279,7 @@ def _worst_model(wm: WorstModel, reason: str) -> Report:
 
 
 def certificate_dict(cert: Certificate) -> Report:
-    """The ``certify`` JSON (DESIGN.md contract) of a :class:`~fairaudit.certify.Certificate`."""
+    """The ``certify`` JSON (docs/design.md contract) of a :class:`~fairaudit.certify.Certificate`."""
     spec = cert.spec
     bounds = {
         "paper": _num(cert.paper.value) if cert.paper else None,
@@ -355,7 +355,7 @@ def certificate_dict(cert: Certificate) -> Report:
 
 
 def audit_dict(a: Audit) -> Report:
-    """The ``audit`` JSON (DESIGN.md contract) of an :class:`~fairaudit.audit.Audit`."""
+    """The ``audit`` JSON (docs/design.md contract) of an :class:`~fairaudit.audit.Audit`."""
     t = a.table
     e = a.observed.local.expected_utility
     cells = t.cell_counts

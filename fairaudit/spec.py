@@ -1,6 +1,6 @@
 """The TOML certification spec: parse, validate, and build the objects it names.
 
-Sections (DESIGN.md "Command-line contract"; full reference in docs/spec.md):
+Sections (docs/design.md "Command-line contract"; full reference in docs/spec.md):
 
 ``[sensitive]`` name, values · ``[context]`` name, values, distribution
 (optional; one context ``"all"`` when absent) · ``[decision]`` name, values ·

@@ -1,7 +1,7 @@
 """Utilities g(u, x, a) ≥ 0: indicators, tables, functions; range and Lipschitz constant.
 
 A utility is stored either as a vector over decisions, shape (n_decisions,),
-when g depends on u only (the per-candidate framing of DESIGN.md), or as a
+when g depends on u only (the per-candidate framing of docs/design.md), or as a
 full table of shape (n_contexts, n_groups, n_decisions) indexed [x, a, u]
 (note: the paper writes g(u, x, a); the array's axis order is [x, a, u]).
 

@@ -168,7 +168,7 @@ def brute_force(matrix, *, gamma, tau, lipschitz, metric, return_mechanism_tight
     per_pair[np.eye(n, dtype=bool)] = -np.inf
     if not return_mechanism_tight:
         return paper, float(per_pair.max())
-    # The tight form with the mechanism's δ(ε) instead of each pair's own (DESIGN.md: tight is never above it).
+    # The tight form with the mechanism's δ(ε) instead of each pair's own (docs/design.md: tight is never above it).
     whole = float(np.min(np.log(t + (lipschitz * diam + gamma * delta) / tau)))
     return paper, float(per_pair.max()), whole
 
@@ -247,7 +247,7 @@ def test_tight_with_a_metric_against_brute_force():
 
 def test_regression_paper_minimum_at_a_crossing_not_at_a_ratio():
     # Found by a seeded search (numpy default_rng(2), 5000 random 3-4 group mechanisms: 3 hits), rounded to
-    # three decimals. DESIGN.md: evaluating the paper form only at t = 1 and at the pairs' likelihood ratios
+    # three decimals. docs/design.md: evaluating the paper form only at t = 1 and at the pairs' likelihood ratios
     # can miss the minimum, which may sit where two pairs' δ curves cross.
     rows = [
         [F("0.251"), F("0.309"), F("0.44")],

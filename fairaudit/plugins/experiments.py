@@ -5,7 +5,7 @@ paper's fairness–privacy experiment, exactly, at every ε:
 
 1. The table design's counts estimate the model's kernel on *shown* cells,
    K[x̃, (ã₁, ã₂), u] (:func:`fairaudit.plugins.harness.table_kernel`).
-2. Per-candidate framing (DESIGN.md): a query gives one record per candidate,
+2. Per-candidate framing (docs/design.md): a query gives one record per candidate,
    with context (x, position), group = the candidate's true profile and
    outcome = its own (chosen or not; served first or second; unparsed). What
    the model sees about a candidate is its shown profile and its rival's, so
@@ -243,7 +243,7 @@ def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:
     Notes
     -----
     The split is an identity of logarithms (the two halves add up to
-    ``raw`` term by term), on the per-candidate framing of DESIGN.md
+    ``raw`` term by term), on the per-candidate framing of docs/design.md
     (context = item @ position, group = the candidate's profile,
     g of its own outcome).
 

@@ -555,7 +555,7 @@ def exact_kernel(
     Notes
     -----
     This is the kernel P(U | X̃, Ã) of the paper's setting (the model that
-    sees the filtered attributes; DESIGN.md, "Array layout") for the shown
+    sees the filtered attributes; docs/design.md, "Array layout") for the shown
     pairs, exactly, for this prompt and these weights: the next-token
     softmax summed over the tokens that parse as each decision. The
     sampled route (:func:`serve`) draws replies from the same softmax.

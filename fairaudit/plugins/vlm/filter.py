@@ -5,7 +5,7 @@ passes randomized response on its own values, independently (the paper's
 Methods: "each attribute (name, age, race) is sampled according to preset
 probabilities"), and the context (the document type) may pass a mechanism too.
 
-The correct privacy budgets (DESIGN.md, the paper's errors 1 and 2):
+The correct privacy budgets (docs/design.md, the paper's errors 1 and 2):
 
 * binary randomized response that keeps the truth with probability p is
   ln(p / (1 − p))-DP (0.847 nats for p = 0.7, not 0.7 / 0.3);

@@ -13,7 +13,7 @@ context (the item to deliver), with the two route images:
   ``{"Recipient1": "2.0", "Recipient2": "1.0", "reason": ...}`` (1 = served
   first).
 
-Per-candidate framing (DESIGN.md "Decisions among several candidates"): each
+Per-candidate framing (docs/design.md "Decisions among several candidates"): each
 query gives one record per candidate with X = (context, position), A = the
 candidate's profile and U = the candidate's own outcome, so the utility g
 depends on u only (the paper's g = 1{choose a} depends on a: its error 5).

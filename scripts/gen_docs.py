@@ -110,6 +110,17 @@ def public_modules() -> list[str]:
     return sorted(names)
 
 
+def _documented_in(module: str) -> str:
+    """The public module whose page documents what ``module`` defines: the dotted prefix before its first private part.
+
+    ``fairaudit.worstcase._black_box`` -> ``fairaudit.worstcase`` (a package re-exports its private modules' names),
+    ``fairaudit._errors`` -> ``fairaudit`` (documented on the package page).
+    """
+    parts = module.split(".")
+    public = next((i for i, part in enumerate(parts) if part.startswith("_")), len(parts))
+    return ".".join(parts[:public])
+
+
 def _package_page() -> str:
     """The package's page: its docstring and what it exports, each linked to where it is documented."""
     lines = ["# `fairaudit`", "", "::: fairaudit", "    options:", "      members: false", ""]
@@ -117,9 +128,9 @@ def _package_page() -> str:
     here = []  # defined in a private module: documented on this page
     for name in sorted(fairaudit.__all__, key=str.lower):
         obj = getattr(fairaudit, name)
-        module = obj.__module__
+        module = _documented_in(obj.__module__)
         kind = "class" if isinstance(obj, type) else "function"
-        if any(part.startswith("_") for part in module.split(".")):
+        if module == "fairaudit":
             here.append(name)
             lines.append(f"| [`{name}`][fairaudit.{name}] | {kind} | this page |")
         else:

@@ -1,0 +1,516 @@
+"""The class certificate: the exact maximum of L over every decision model and every utility of a class.
+
+:func:`black_box_bound` and its result :class:`BlackBoxCertificate` (``proofs/black_box.md`` §1–5).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from .._arrays import FloatArray
+from .._errors import InputError
+from ..bounds import Assumption, _nonneg, check_assumptions
+from ..laws import Kernel, Population
+from ..lfp import FractionalProgram, FractionalResult, threshold_max_many
+from ..privacy import Mechanism, _RandomizedResponse
+from ..utility import Utility, check_metric
+from ._randomized_response import _rr_box, _rr_lipschitz
+from ._search import _check_class, _check_method, _log, _pair_epsilon, _pairwise_box, _relaxed_first, _search
+
+
+@dataclass(frozen=True, eq=False)
+class BlackBoxCertificate:
+    """The exact maximum of L over every decision model and every utility in a class.
+
+    Attributes
+    ----------
+    value : float
+        max L in nats (+inf when the class allows E[g | x, a'] → 0 with
+        E[g | x, a] > 0; NaN when the class is empty).
+    ratio : float
+        exp(value).
+    group, other_group : hashable or None
+        The maximising pair of true groups (``group`` gets more utility).
+    released : tuple
+        The released values ã on which the worst model gives utility γ.
+    utility_by_release : numpy.ndarray
+        The worst case's expected utility given the release: shape
+        (n_released,) when g does not depend on the group (L_A = 0),
+        (n_groups, n_released) otherwise (row b for a member of group b).
+    lower, gamma : float
+        The class of utilities [lower, γ].
+    tau : float or None
+        The lower bound on E[g | x, a] (None: only lower).
+    lipschitz : float
+        L_A (0: g does not depend on the group).
+    mechanism : Mechanism
+        M_A.
+    method : {"threshold", "lp"}
+        ``threshold``: decided in closed form (the threshold solution, or
+        with a binding τ the floor relaxation whose point met every
+        constraint); ``lp``: at least one Charnes–Cooper LP was solved.
+    status : {"optimal", "unbounded", "infeasible", "trivial"}
+    solver_status : str
+    reason : str
+        Why the value is +inf or NaN, or which shortcut decided it.
+    programs_solved : int
+        LPs solved (0 on the threshold path).
+    assumptions : tuple of Assumption
+    """
+
+    value: float
+    ratio: float
+    group: Hashable | None
+    other_group: Hashable | None
+    released: tuple
+    utility_by_release: FloatArray
+    lower: float
+    gamma: float
+    tau: float | None
+    lipschitz: float
+    mechanism: Mechanism
+    method: str
+    status: str
+    solver_status: str
+    reason: str
+    programs_solved: int
+    assumptions: tuple[Assumption, ...]
+
+    @property
+    def form(self) -> str:
+        """Always ``"black_box"``, like :attr:`fairaudit.bounds.Bound.form`."""
+        return "black_box"
+
+    def worst_model(self) -> tuple[Kernel, Utility]:
+        """A concrete decision model and utility that attain the value.
+
+        Returns
+        -------
+        kernel : Kernel
+            One context ``"any"``, the mechanism's outputs as groups,
+            decisions ``("high", "low")``: P(high | ã) = (h(ã) − lower)/(γ − lower).
+        utility : Utility
+            g(high) = γ, g(low) = lower.
+
+        Raises
+        ------
+        InputError
+            When g depends on the group (L_A > 0: the worst model then needs
+            a utility per group) or when there is no maximiser.
+        """
+        h = self.utility_by_release
+        if h.ndim != 1 or self.status not in ("optimal", "trivial"):
+            raise InputError(
+                "worst_model",
+                "is available for utilities that do not depend on the group, with a finite optimum",
+                self.status,
+            )
+        span = self.gamma - self.lower
+        high = np.clip((h - self.lower) / span, 0.0, 1.0) if span > 0 else np.ones_like(h)
+        table = np.stack([high, 1.0 - high], axis=-1)[None, :, :]
+        kernel = Kernel(table, ["any"], self.mechanism.outputs, ["high", "low"], name="worst model")
+        return kernel, Utility([self.gamma, self.lower], ["high", "low"], name="worst utility")
+
+    def __repr__(self) -> str:
+        tau = "" if self.tau is None else f", tau={self.tau:g}"
+        return (
+            f"BlackBoxCertificate(value={self.value:.6g} nats, ratio={self.ratio:.6g}, "
+            f"pair={self.group!r} vs {self.other_group!r}, class [{self.lower:g}, {self.gamma:g}]{tau}, "
+            f"method={self.method})"
+        )
+
+
+def black_box_bound(
+    mechanism: Mechanism,
+    *,
+    lower: float = 0.0,
+    gamma: float = 1.0,
+    tau: float | None = None,
+    lipschitz: float = 0.0,
+    metric: npt.ArrayLike | None = None,
+    population: Population | None = None,
+    method: str = "auto",
+) -> BlackBoxCertificate:
+    """Exact max of local g-fairness over every decision model behind M_A, for a class of utilities.
+
+    The class: g(u, x, a) ∈ [lower, γ]; E[g | x, a] ≥ τ for every context and
+    group; |g(u, x, a) − g(u, x, a')| ≤ L_A d(a, a'). The value is
+    max over ordered pairs (a, a') of max (M_A[a]·h[a]) / (M_A[a']·h[a']) over
+    h ∈ R^{n_groups × n_released} with lower ≤ h ≤ γ, |h[b] − h[c]| ≤ L_A d(b, c)
+    and M_A[b]·h[b] ≥ τ for every b (h[b] = h for all b when L_A = 0).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A, shape (n_groups, n_released).
+    lower, gamma : float
+        The range of g, 0 ≤ lower ≤ γ.
+    tau : float, optional
+        Lower bound on E[g | x, a], ≤ γ. E ≥ lower always holds, so τ ≤ lower
+        changes nothing.
+    lipschitz : float
+        L_A ≥ 0; 0 means g does not depend on the group.
+    metric : array_like, shape (n_groups, n_groups), optional
+        d(a, a') for the Lipschitz condition; default the discrete metric.
+    population : Population, optional
+        When given, X ⊥ A is checked on it (needed for the bound on L̄ only).
+    method : {"auto", "threshold", "lp"}
+        ``auto``: the threshold solution when τ ≤ lower and L_A = 0; with a
+        binding τ, the closed-form relaxation that keeps only the denominator
+        group's constraint, checked against the others, and the LP where it
+        fails; the LP when L_A > 0. Pairs are searched in decreasing order of
+        that relaxation (an upper bound) and the search stops when no pair
+        left can win. ``lp`` forces the LP (a cross-check); ``threshold``
+        raises when τ binds or L_A > 0.
+
+    Returns
+    -------
+    BlackBoxCertificate
+        The value in nats, the maximising pair, and the worst model's
+        expected utility per released value.
+
+    Raises
+    ------
+    InputError
+        If ``lower``, ``gamma``, ``tau`` or ``lipschitz`` is negative or not
+        finite, lower > γ, τ > γ (the class is empty), the metric is invalid,
+        or the method is unknown or does not apply.
+
+    Notes
+    -----
+    M_X drops out, and under X ⊥ A the value also bounds L̄ exactly. It is
+    never larger than the tight and paper bounds with the same τ, L_A and
+    metric; with lower = 0, no τ and L_A = 0 it is ε(M_A) (the corollary is
+    attained). ``proofs/black_box.md``.
+
+    For k-ary randomized response (the mechanism
+    :func:`~fairaudit.privacy.randomized_response` returns) every pair is
+    alike and the value is a closed form, O(1) with the worst h in O(k):
+    the threshold and the floor relaxation (``proofs/black_box.md`` §3,
+    Propositions 3 and 3b) and, with L_A > 0 and the discrete metric (or
+    without a binding τ, any metric), a 3-variable program solved at its
+    vertices (§5, Proposition 7b; ``utility_by_release`` is then the
+    k x k table). ``method="lp"`` forces the general route.
+
+    Examples
+    --------
+    >>> from fairaudit.privacy import randomized_response
+    >>> m = randomized_response(["a", "b"], keep=0.7)
+    >>> round(black_box_bound(m).ratio, 12)                       # 0.7 / 0.3
+    2.333333333333
+    >>> c = black_box_bound(m, lower=0.5, gamma=1.0)               # (0.5 + 0.5·0.7) / (0.5 + 0.5·0.3)
+    >>> round(c.ratio, 12), c.group, c.released
+    (1.307692307692, 'a', ('a',))
+    >>> c = black_box_bound(m, tau=0.5)                            # (0.7 + 0.3·2/7) / 0.5 = 11/7
+    >>> round(c.ratio, 12), c.method, c.utility_by_release.round(7).tolist()
+    (1.571428571429, 'threshold', [1.0, 0.2857143])
+    >>> round(black_box_bound(m, tau=0.5, method="lp").ratio, 7)  # the Charnes–Cooper LP agrees
+    1.5714286
+    """
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    method = _check_method(method)
+    lower, gamma, tau = _check_class(lower, gamma, tau)
+    lip = _nonneg("lipschitz", lipschitz)
+    n, m = len(mechanism.inputs), len(mechanism.outputs)
+    rr = mechanism.rr if isinstance(mechanism, _RandomizedResponse) and method != "lp" else None
+    # (k-ary randomized response with the discrete metric never needs the n x n metric)
+    d = check_metric(metric, n) if n >= 1 and (metric is not None or rr is None) else None
+    floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor
+    binding = floor > lower
+    lip_on = lip > 0 and n >= 2 and gamma > lower
+    if method == "threshold" and (binding or lip_on):
+        raise InputError("method", "the threshold solution needs tau <= lower and lipschitz = 0", method)
+
+    assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
+        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
+        Assumption(
+            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
+            "vouched",
+            f"L_A = {lip:g}" if lip_on else "L_A = 0",
+        ),
+    )
+    if tau is not None:
+        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
+
+    if gamma > 0 and gamma != 1.0:
+        # Only the shape of the class matters: solve it on the scale gamma = 1 (well-conditioned LPs), scale back.
+        unit = black_box_bound(
+            mechanism,
+            lower=lower / gamma,
+            gamma=1.0,
+            tau=None if tau is None else tau / gamma,
+            lipschitz=lip / gamma,
+            metric=metric,
+            population=population,
+            method=method,
+        )
+        return replace(
+            unit,
+            utility_by_release=unit.utility_by_release * gamma,
+            lower=lower,
+            gamma=gamma,
+            tau=tau,
+            lipschitz=unit.lipschitz * gamma,
+            assumptions=assumptions,
+        )
+
+    def make(
+        value_ratio: float,
+        a: Hashable | None,
+        b: Hashable | None,
+        released: tuple,
+        h: FloatArray,
+        meth: str,
+        status: str,
+        solver: str,
+        reason: str,
+        solved: int,
+    ) -> BlackBoxCertificate:
+        value = _log(value_ratio) if not math.isnan(value_ratio) else math.nan
+        return BlackBoxCertificate(
+            value,
+            value_ratio,
+            a,
+            b,
+            released,
+            h,
+            lower,
+            gamma,
+            tau,
+            lip if lip_on else 0.0,
+            mechanism,
+            meth,
+            status,
+            solver,
+            reason,
+            solved,
+            assumptions,
+        )
+
+    if n < 2 or gamma == 0 or lower == gamma:
+        reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
+        return make(1.0, None, None, (), np.full(m, gamma), "threshold", "trivial", "threshold", reason, 0)
+
+    if rr is not None:
+        # k-ary randomized response: every ordered pair is alike, closed forms (proofs/black_box.md §3 and §5)
+        outputs, inputs = mechanism.outputs, mechanism.inputs
+        if not lip_on:
+            w = _rr_box(rr, lower, gamma, floor)
+            inf = math.isinf(w.value)
+            return BlackBoxCertificate(
+                w.value,
+                w.ratio,
+                inputs[0],
+                inputs[1],
+                tuple(outputs[o] for o in w.released(n, gamma)),
+                w.vector(n),
+                lower,
+                gamma,
+                tau,
+                0.0,
+                mechanism,
+                "threshold",
+                "unbounded" if inf else "optimal",
+                "threshold" if w.prefix else "closed form",
+                "some released value is possible for one group and impossible for another" if inf else "",
+                0,
+                assumptions,
+            )
+        off_diagonal = None if d is None else d[~np.eye(n, dtype=bool)]
+        discrete = off_diagonal is None or bool(np.all(off_diagonal == off_diagonal[0]))
+        if discrete or not binding:
+            # (without a binding τ any metric: the other groups extend the pair's h, McShane; the pair of diameter)
+            a, b = (0, 1) if d is None or discrete else np.unravel_index(int(np.argmax(d)), d.shape)
+            lam = lip * (1.0 if off_diagonal is None else float(off_diagonal.max()))
+            closed = _rr_lipschitz(rr, lower, gamma, floor, lam)
+            if closed is None:
+                return make(
+                    math.inf,
+                    inputs[a],
+                    inputs[b],
+                    (),
+                    np.full((n, m), math.nan),
+                    "threshold",
+                    "unbounded",
+                    "closed form",
+                    "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0 (lower = 0 and no tau: "
+                    "g = 0 for one group and L_A d(a, a') for the other)",
+                    0,
+                )
+            ratio, g3, f3 = closed
+            cells = np.full(m, 2)
+            cells[a], cells[b] = 0, 1
+            f, g = f3[cells], g3[cells]
+            if d is None or discrete:
+                h = np.broadcast_to(f, (n, m)).copy()
+            else:  # the largest Lipschitz extension of (f at a, g at b) to the other groups
+                h = np.clip(
+                    np.minimum(f[None, :] + lip * d[:, a, None], g[None, :] + lip * d[:, b, None]), lower, gamma
+                )
+            h[a], h[b] = f, g
+            top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
+            return make(
+                ratio,
+                inputs[a],
+                inputs[b],
+                tuple(outputs[o] for o in top),
+                h,
+                "threshold",
+                "optimal",
+                "closed form",
+                "",
+                0,
+            )
+    if d is None:
+        d = check_metric(metric, n)
+    M = mechanism.matrix
+    outputs = mechanism.outputs
+    # the box programs of every ordered pair, and with a binding τ their floor relaxations, a block of rows at a time
+    box, relaxed = _pairwise_box(M, lower, gamma, floor if binding and not lip_on else None)
+    np.fill_diagonal(box, -np.inf)
+
+    if not binding and not lip_on and method != "lp":
+        a, b = np.unravel_index(int(box.argmax()), box.shape)
+        _, k_ab, order_ab = threshold_max_many(M[a], M[b], lower, gamma)  # the maximising pair's prefix
+        top = order_ab[: int(k_ab)]
+        h = np.full(m, lower)
+        h[top] = gamma
+        ratio = float(box[a, b])
+        status = "unbounded" if math.isinf(ratio) else "optimal"
+        reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
+        return make(
+            ratio,
+            mechanism.inputs[a],
+            mechanism.inputs[b],
+            tuple(outputs[o] for o in top),
+            h,
+            "threshold",
+            status,
+            "threshold",
+            reason,
+            0,
+        )
+
+    # ---- LP: τ binds, the utility may depend on the group, or the LP was asked for ----
+    pairs = np.argwhere(~np.eye(n, dtype=bool))  # the ordered pairs a != b, row-major
+    # valid upper bounds per pair (ratios): the box without τ (L_A = 0), γ/τ, and the tight form at t = e^ε_aa'
+    upper = box[pairs[:, 0], pairs[:, 1]].copy() if not lip_on else np.full(len(pairs), np.inf)
+    if floor > 0:
+        t = _pair_epsilon(M)[pairs[:, 0], pairs[:, 1]]
+        slack = lip * d[pairs[:, 0], pairs[:, 1]] / floor if lip_on else 0.0
+        upper = np.minimum(upper, np.minimum(gamma / floor, t + slack))
+
+    if not lip_on:
+        progs: list[FractionalProgram] = []
+
+        def program() -> FractionalProgram:
+            if not progs:
+                a_ub = -M if binding else None
+                progs.append(
+                    FractionalProgram(
+                        m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
+                    )
+                )
+            return progs[0]
+
+        if binding:
+            assert relaxed is not None  # (computed above for a binding τ without L_A)
+            upper = np.minimum(upper, relaxed[pairs[:, 0], pairs[:, 1]])
+        if binding and method != "lp":
+            solve = _relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M, program)
+        else:
+
+            def solve(i: int) -> FractionalResult:
+                a, b = pairs[i]
+                return program().solve(M[a], M[b])
+    else:
+        prog = _lipschitz_program(M, lower, gamma, floor if binding else None, lip, d)
+
+        def solve(i: int) -> FractionalResult:
+            a, b = pairs[i]
+            p = np.zeros(n * m)
+            q = np.zeros(n * m)
+            p[a * m : (a + 1) * m] = M[a]
+            q[b * m : (b + 1) * m] = M[b]
+            return prog.solve(p, q)
+
+    found = _search(upper, solve)
+    r = found.result
+    if found.index < 0:
+        return make(
+            math.nan,
+            None,
+            None,
+            (),
+            np.full(m, math.nan),
+            "lp",
+            "infeasible",
+            r.solver_status if r else "",
+            found.reason or "the class is empty",
+            found.solved,
+        )
+    assert r is not None  # a maximising pair was found
+    a, b = pairs[found.index]
+    if r.argmax is None:
+        h = np.full(m if not lip_on else (n, m), math.nan)
+        released: tuple = ()
+    else:
+        h = r.argmax if not lip_on else r.argmax.reshape(n, m)
+        h = np.clip(h, lower, gamma)
+        row = h if not lip_on else h[a]
+        released = tuple(outputs[o] for o in np.flatnonzero(row >= gamma - 1e-9 * max(1.0, gamma)))
+    meth = "lp" if found.solved else "threshold"
+    return make(
+        r.value,
+        mechanism.inputs[a],
+        mechanism.inputs[b],
+        released,
+        h,
+        meth,
+        r.status,
+        r.solver_status,
+        r.reason,
+        found.solved,
+    )
+
+
+def _lipschitz_program(
+    M: FloatArray, lower: float, gamma: float, floor: float | None, lip: float, d: FloatArray
+) -> FractionalProgram:
+    """The class polytope with a utility per group: h (n, m) flattened row-major."""
+    import scipy.sparse as sp
+
+    n, m = M.shape
+    rows: list[sp.csr_matrix] = []
+    b_ub: list[FloatArray] = []
+    group_b, group_c = np.triu_indices(n, 1)
+    limit = lip * d[group_b, group_c]
+    keep = limit < gamma - lower  # looser pairs are implied by the box
+    group_b, group_c, limit = group_b[keep], group_c[keep], limit[keep]
+    if group_b.size:
+        k = group_b.size * m
+        r = np.arange(k)
+        released = np.tile(np.arange(m), group_b.size)
+        col_b = np.repeat(group_b, m) * m + released
+        col_c = np.repeat(group_c, m) * m + released
+        diff = sp.csr_matrix(
+            (np.concatenate([np.ones(k), -np.ones(k)]), (np.concatenate([r, r]), np.concatenate([col_b, col_c]))),
+            shape=(k, n * m),
+        )
+        rows += [diff, -diff]
+        b_ub += [np.repeat(limit, m), np.repeat(limit, m)]
+    if floor is not None:
+        # −M[b]·h[b] ≤ −τ: block-diagonal rows
+        tau_rows = sp.block_diag([-M[b][None, :] for b in range(n)], format="csr")
+        rows.append(tau_rows)
+        b_ub.append(np.full(n, -floor))
+    a_ub = sp.vstack(rows, format="csr") if rows else None
+    return FractionalProgram(
+        n * m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else np.concatenate(b_ub)
+    )

@@ -1,0 +1,40 @@
+"""The ``fairaudit`` command: certify, audit, calibrate, plan, experiment, prepare-model.
+
+One module per subcommand (``fairaudit/cli/<command>.py``) adds its arguments
+(``add_parser``) and runs it (``run(args) -> int``, dispatched through
+``set_defaults(func=run)``); :func:`build_parser` assembles them.
+
+Exit status: 0 done and every target met; 1 a target is not met; 2 invalid
+input, with one line on stderr that names the field or column and the value
+(no traceback). Reports go to stdout or ``--output`` (written atomically);
+with ``--output`` a one-line summary goes to stderr.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+
+from .._errors import InputError
+from ._parser import build_parser
+
+__all__ = ["build_parser", "main"]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``fairaudit`` command; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        status: int = args.func(args)  # each subcommand's run, set by its add_parser
+        return status
+    except InputError as exc:
+        print(f"fairaudit: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"fairaudit: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        hint = "; every answered query is logged: run again with --resume" if args.command == "experiment" else ""
+        print(f"fairaudit: interrupted{hint}", file=sys.stderr)
+        return 130

@@ -1,0 +1,111 @@
+"""``fairaudit calibrate``: the largest privacy budget meeting a fairness target (fairaudit.calibrate)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from .._errors import InputError
+from ..report import calibration_dict, render
+from ._common import _add_output, _emit, _Subparsers
+
+
+def add_parser(sub: _Subparsers) -> None:
+    """Add the ``calibrate`` subcommand to ``sub``."""
+    k = sub.add_parser(
+        "calibrate",
+        help="the largest privacy budget epsilon meeting a fairness target",
+        description="Largest epsilon of a mechanism family on the sensitive attribute (k-ary "
+        "randomized response, or the spec's) whose certificate on local g-fairness (or global, "
+        "--global) meets --target, and its keep probability. Exit 1 when no epsilon meets it.",
+    )
+    k.add_argument("--target", required=True, type=float, metavar="L", help="target on L (or L-bar), in nats")
+    k.add_argument("--groups", type=int, metavar="K", help="number of groups k (default 2, or the spec's)")
+    k.add_argument("--gamma", type=float, metavar="G", help="upper end of the utility (default 1, or the spec's)")
+    k.add_argument("--lower", type=float, metavar="B", help="lower end of the utility (default 0, or the spec's)")
+    k.add_argument(
+        "--tau",
+        type=float,
+        metavar="T",
+        help="lower bound on E[g | x, a] (needed by paper and tight; optional for black_box)",
+    )
+    k.add_argument(
+        "--delta",
+        type=float,
+        metavar="D",
+        help="delta of an arbitrary (epsilon, delta)-DP mechanism (paper and tight; the default method becomes tight)",
+    )
+    k.add_argument(
+        "--lipschitz",
+        type=float,
+        metavar="LA",
+        help="L_A, how much g may change with the group (default 0, or the spec's)",
+    )
+    k.add_argument(
+        "--method",
+        choices=("paper", "tight", "black_box", "white_box"),
+        help="certificate to calibrate (default: white_box with a model in --spec, tight with --delta, else black_box)",
+    )
+    k.add_argument(
+        "--global",
+        dest="kind",
+        action="store_const",
+        const="global",
+        default="local",
+        help="the target is on global g-fairness L-bar",
+    )
+    k.add_argument(
+        "--spec",
+        metavar="SPEC.toml",
+        help="take groups, utility, tau, L_A, metric, population, "
+        "mechanism family, context mechanism and model from a spec; flags override",
+    )
+    _add_output(k)
+    k.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fairaudit calibrate``; returns the exit status (1 when no epsilon meets the target)."""
+    from ..calibrate import calibrate
+
+    opts: dict[str, Any] = _spec_options(args) if args.spec else {"groups": 2 if args.groups is None else args.groups}
+    for flag in ("gamma", "lower", "tau", "lipschitz", "delta"):
+        if getattr(args, flag) is not None:
+            opts[flag] = getattr(args, flag)
+    if args.spec and args.method in ("paper", "tight", "black_box"):
+        opts["kernel"] = None  # the model is for white_box only
+    cal = calibrate(args.target, kind=args.kind, method=args.method, **opts)
+    data = calibration_dict(cal)
+    summary = f"epsilon = {data['epsilon']}" if cal.feasible else f"no epsilon meets the target: {cal.reason}"
+    _emit(args, render(data, "calibrate", args.format), summary)
+    return 0 if cal.feasible else 1
+
+
+def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The keywords of calibrate taken from ``--spec``."""
+    from ..spec import load_spec
+
+    try:
+        spec = load_spec(args.spec)
+    except InputError as exc:
+        if exc.field != "SPEC":
+            raise
+        raise exc.under("--spec", keep_own=False) from None
+    n = len(spec.groups)
+    if args.groups is not None and args.groups != n:
+        raise InputError("--groups", f"the spec {args.spec} has {n} groups", args.groups)
+    opts: dict[str, Any] = dict(
+        family=spec.sensitive_family,
+        gamma=spec.gamma,
+        lower=spec.lower,
+        tau=spec.tau,
+        lipschitz=spec.lipschitz,
+        metric=spec.metric,
+        population=spec.population,
+        context_mechanism=spec.context_mechanism,
+        kernel=spec.kernel(),
+        utility=spec.utility,
+    )
+    if opts["family"] is None:
+        raise InputError("--spec", "needs at least 2 sensitive groups to calibrate", args.spec)
+    return opts

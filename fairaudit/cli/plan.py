@@ -1,0 +1,124 @@
+"""``fairaudit plan``: queries per cell needed to certify a fairness target from counts (fairaudit.plan)."""
+
+from __future__ import annotations
+
+import argparse
+
+from .._errors import InputError
+from ..report import render
+from ._common import _add_output, _emit, _Subparsers
+
+# the flag of each keyword of fairaudit.plan.plan, to name it in errors
+_PLAN_FLAGS = {
+    "target": "--target",
+    "groups": "--groups",
+    "contexts": "--contexts",
+    "base_rate": "--base-rate",
+    "disparity": "--disparity",
+    "confidence": "--confidence",
+    "method": "--method",
+    "power": "--power",
+    "epsilon": "--epsilon",
+    "datasets": "--datasets",
+    "seed": "--seed",
+    "max_n": "--max-n",
+}
+
+
+def add_parser(sub: _Subparsers) -> None:
+    """Add the ``plan`` subcommand (sample sizes) to ``sub``."""
+    p = sub.add_parser(
+        "plan",
+        help="queries per cell needed to certify a fairness target from counts",
+        description="Smallest number of queries per cell (context x group) such that the "
+        "simultaneous interval on L (or L-bar, --global) of a binary decision has its upper end <= "
+        "--target with probability >= --power, by simulation, when the model has the given "
+        "disparity. Exit 1 when some method finds no such number.",
+    )
+    p.add_argument("--target", required=True, type=float, metavar="L", help="target on L (or L-bar), in nats")
+    p.add_argument("--groups", type=int, default=2, metavar="K", help="number of groups (default 2)")
+    p.add_argument("--contexts", type=int, default=1, metavar="X", help="number of contexts (default 1)")
+    p.add_argument(
+        "--base-rate", type=float, default=0.5, metavar="P", help="E[g | x, a] of every group but group 0 (default 0.5)"
+    )
+    p.add_argument(
+        "--disparity",
+        type=float,
+        default=0.0,
+        metavar="D",
+        help="group 0's rate is base rate x exp(D); the true L is |D| nats (default 0: a fair model)",
+    )
+    p.add_argument("--confidence", type=float, default=0.95, metavar="C", help="1 - alpha (default 0.95)")
+    p.add_argument(
+        "--method",
+        choices=("clopper-pearson", "multinomial", "bayes", "all"),
+        default="clopper-pearson",
+        metavar="NAME|all",
+        help="interval method: clopper-pearson (default), multinomial, bayes, or all three",
+    )
+    p.add_argument(
+        "--power",
+        type=float,
+        default=0.8,
+        metavar="P",
+        help="required probability of certifying the target (default 0.8)",
+    )
+    p.add_argument(
+        "--epsilon",
+        type=float,
+        metavar="E",
+        help="query the model behind k-ary randomized response at E nats and certify the filtered law",
+    )
+    p.add_argument(
+        "--global",
+        dest="kind",
+        action="store_const",
+        const="global",
+        default="local",
+        help="the target is on global g-fairness L-bar",
+    )
+    p.add_argument(
+        "--datasets", type=int, metavar="N", help="simulated tables per sample size (default 200; 40 for bayes)"
+    )
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
+    p.add_argument(
+        "--max-n", type=int, default=1_000_000, metavar="N", help="largest n per cell tried (default 1000000)"
+    )
+    _add_output(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fairaudit plan``; returns the exit status (1 when some method finds no sample size)."""
+    from ..plan import plan
+    from ..report import plan_dict
+
+    methods = ("clopper-pearson", "multinomial", "bayes") if args.method == "all" else (args.method,)
+    plans = []
+    for method in methods:
+        try:
+            plans.append(
+                plan(
+                    args.target,
+                    groups=args.groups,
+                    contexts=args.contexts,
+                    base_rate=args.base_rate,
+                    disparity=args.disparity,
+                    confidence=args.confidence,
+                    method=method,
+                    power=args.power,
+                    epsilon=args.epsilon,
+                    kind=args.kind,
+                    datasets=args.datasets,
+                    seed=args.seed,
+                    max_n=args.max_n,
+                )
+            )
+        except InputError as exc:
+            if exc.field not in _PLAN_FLAGS:
+                raise
+            raise InputError(_PLAN_FLAGS[exc.field], exc.problem, exc.value) from None
+    data = plan_dict(plans)
+    summary = "; ".join(f"{p.method}: {p.n_per_cell if p.feasible else 'no n'}" for p in plans)
+    _emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")
+    return 0 if data["feasible"] else 1

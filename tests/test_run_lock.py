@@ -137,7 +137,7 @@ def test_the_lock_is_released_on_error_and_interrupt_and_is_no_output(tmp_path, 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("fairaudit.plugins.run.run_queries", interrupted)
+    monkeypatch.setattr("fairaudit.experiments.run.run_queries", interrupted)
     code, _, err = run(capsys, *_simulated(out, "--resume"))
     assert code == 130 and err.startswith("fairaudit: interrupted")
     lock = filelock.FileLock(out / ".fairaudit.lock", timeout=0)
@@ -145,7 +145,7 @@ def test_the_lock_is_released_on_error_and_interrupt_and_is_no_output(tmp_path, 
         pass
     monkeypatch.undo()
 
-    from fairaudit.plugins.run import run_experiment
+    from fairaudit.experiments.run import run_experiment
 
     done = run_experiment(
         "hr-delivery", out, simulated="prefers-mary", samples=1, keeps=[0.7], images=False, progress=False, resume=True

@@ -23,8 +23,8 @@ import pytest
 from _chat_server import DEFAULT_REPLY, ChatServer
 
 from fairaudit import InputError
-from fairaudit.plugins.vlm import client as client_module
-from fairaudit.plugins.vlm.client import ChatClient, ChatError, ChatReply, system_message, user_message
+from fairaudit.experiments.vlm import client as client_module
+from fairaudit.experiments.vlm.client import ChatClient, ChatError, ChatReply, system_message, user_message
 
 KEY = "sk-test-S3CR3T-key-0123456789"
 MESSAGES = [system_message("You deliver documents."), user_message("Which office, HR1 or HR2?")]
@@ -190,9 +190,9 @@ def test_retry_after_is_waited_and_capped(server, make_client):
 
 def test_backoff_schedule(server, make_client, caplog):
     server.add_faults(*[("status", 500)] * 4)
-    with caplog.at_level(logging.INFO, logger="fairaudit.plugins.vlm.client"):
+    with caplog.at_level(logging.INFO, logger="fairaudit.experiments.vlm.client"):
         assert make_client(server.url, backoff=0.01, max_backoff=0.03).complete(MESSAGES).attempts == 5
-    waits = [r.args[-1] for r in caplog.records if r.name == "fairaudit.plugins.vlm.client"]
+    waits = [r.args[-1] for r in caplog.records if r.name == "fairaudit.experiments.vlm.client"]
     # backoff * 2**k with up to 10 % jitter, capped at max_backoff
     assert len(waits) == 4
     assert 0.01 <= waits[0] <= 0.011 and 0.02 <= waits[1] <= 0.022
@@ -528,7 +528,7 @@ def test_missing_extra(monkeypatch):
     # and the module itself imports without httpx and tenacity
     monkeypatch.setitem(sys.modules, "tenacity", None)
     path = Path(client_module.__file__)
-    spec = importlib.util.spec_from_file_location("fairaudit.plugins.vlm._client_without_extra", path)
+    spec = importlib.util.spec_from_file_location("fairaudit.experiments.vlm._client_without_extra", path)
     fresh = importlib.util.module_from_spec(spec)
     monkeypatch.setitem(sys.modules, spec.name, fresh)
     spec.loader.exec_module(fresh)

@@ -14,7 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fairaudit import InputError
-from fairaudit.plugins.vlm.parse import ParsedReply, parse_reply
+from fairaudit.experiments.vlm.parse import ParsedReply, parse_reply
 
 HR = ("HR1", "HR2")
 RECIPIENTS = ("Recipient1", "Recipient2")

@@ -63,7 +63,7 @@ def test_wheel_holds_the_package_and_nothing_else(wheel):
     top = {n.split("/")[0] for n in names}
     assert top == {"fairaudit", f"fairaudit-{fairaudit.__version__}.dist-info"}
     assert "fairaudit/cli/__init__.py" in names and "fairaudit/cli/certify.py" in names
-    assert "fairaudit/worstcase/__init__.py" in names and "fairaudit/plugins/vlm/tasks.py" in names
+    assert "fairaudit/worstcase/__init__.py" in names and "fairaudit/experiments/vlm/tasks.py" in names
     # the modules that became packages are gone (a stale ./build from an older checkout would bring them back)
     assert "fairaudit/cli.py" not in names and "fairaudit/worstcase.py" not in names
     assert "fairaudit/py.typed" in names  # PEP 561: type checkers use the shipped annotations

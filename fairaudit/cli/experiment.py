@@ -1,4 +1,4 @@
-"""``fairaudit experiment``: the paper's delivery experiment against a model (fairaudit.plugins.run).
+"""``fairaudit experiment``: the paper's delivery experiment against a model (fairaudit.experiments.run).
 
 The plug-ins are imported only when the command runs, so that ``import fairaudit.cli`` stays light.
 """
@@ -138,7 +138,7 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit experiment``; returns the exit status (1 when some queries failed)."""
-    from ..plugins.run import run_experiment
+    from ..experiments.run import run_experiment
 
     result = run_experiment(
         args.experiment,
@@ -185,7 +185,7 @@ def run(args: argparse.Namespace) -> int:
             return 1
         print(f"{done}; report written to {Path(result.out) / 'report.md'}", file=sys.stderr)
     assert result.analysis is not None
-    from ..plugins.report import experiment_dict, experiment_markdown
+    from ..experiments.report import experiment_dict, experiment_markdown
 
     sys.stdout.write(experiment_markdown(experiment_dict(result.analysis)))
     return 0

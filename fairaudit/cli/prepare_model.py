@@ -1,4 +1,4 @@
-"""``fairaudit prepare-model``: install and convert a local language model (fairaudit.plugins.local_model).
+"""``fairaudit prepare-model``: install and convert a local language model (fairaudit.experiments.local_model).
 
 The plug-ins are imported only when the command runs, so that ``import fairaudit.cli`` stays light.
 """
@@ -30,8 +30,8 @@ def add_parser(sub: _Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit prepare-model``: print the model's folder; returns the exit status."""
-    from ..plugins import local_model as lm
-    from ..plugins.vlm.tasks import HR_DELIVERY
+    from ..experiments import local_model as lm
+    from ..experiments.vlm.tasks import HR_DELIVERY
 
     def say(line: str) -> None:
         print(f"fairaudit: {line}", file=sys.stderr)

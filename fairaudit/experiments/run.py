@@ -1,15 +1,15 @@
 """``fairaudit experiment``: run a delivery experiment against a model and write its report.
 
 :func:`run_experiment` is the whole pipeline: the scene and its route images
-(:mod:`fairaudit.plugins.navigation`), the model (simulated, from a kernel
+(:mod:`fairaudit.experiments.navigation`), the model (simulated, from a kernel
 table, an OpenAI-compatible endpoint, or a real language model run locally),
 the queries of the table design (and of the paper's design with
 ``design="both"``) through the resumable log, the analysis
-(:func:`fairaudit.plugins.experiments.analyse`) and the files of
-:mod:`fairaudit.plugins.report`.
+(:func:`fairaudit.experiments.analysis.analyse`) and the files of
+:mod:`fairaudit.experiments.report`.
 
 A local model (``local_model="smollm2"``,
-:mod:`fairaudit.plugins.local_model`) takes one of two routes: without
+:mod:`fairaudit.experiments.local_model`) takes one of two routes: without
 ``samples``, the exact route (its kernel from next-token probabilities, no
 queries, no log); with ``samples=N``, the sampled route (N one-token replies per
 cell from ``transformers serve`` on 127.0.0.1, through the same client, log and
@@ -29,7 +29,7 @@ from typing import TypedDict
 
 from .. import __version__
 from .._errors import InputError
-from .experiments import DEFAULT_TARGETS, ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
+from .analysis import DEFAULT_TARGETS, ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .vlm.models import SIMULATED, DecisionModel, EndpointModel, SimulatedModel, simulated_model
 from .vlm.tasks import DeliveryTask, get_task
@@ -213,11 +213,11 @@ def run_experiment(
         Folder of the run (created): the log, tables, certificate, figures, report.
     simulated, kernel, endpoint, model, local_model
         The decision model, one of: a named simulated model
-        (:data:`fairaudit.plugins.vlm.models.SIMULATED`; the default is the
+        (:data:`fairaudit.experiments.vlm.models.SIMULATED`; the default is the
         task's first), a kernel table (``kernel.csv`` format), an
         OpenAI-compatible endpoint URL with the model's name (API key from
         ``OPENAI_API_KEY``), or a real language model run on this machine
-        (a key of :data:`fairaudit.plugins.local_model.LOCAL_MODELS`, text
+        (a key of :data:`fairaudit.experiments.local_model.LOCAL_MODELS`, text
         only: no route images are made or sent).
     samples : int, optional
         Queries per shown cell (and per true cell and ε in the paper's
@@ -261,7 +261,7 @@ def run_experiment(
     targets : sequence of float
         Fairness targets (nats) at which the report gives the ε that meets
         them, for this model and for any model (default
-        :data:`fairaudit.plugins.experiments.DEFAULT_TARGETS`).
+        :data:`fairaudit.experiments.analysis.DEFAULT_TARGETS`).
 
     Returns
     -------

@@ -246,7 +246,7 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
     Parameters
     ----------
     maps : Maps
-        From :func:`~fairaudit.plugins.navigation.maps.build_maps`.
+        From :func:`~fairaudit.experiments.navigation.maps.build_maps`.
     start, goal : str or (float, float)
         A room name or a point (x, y) in metres.
     max_snap : float
@@ -266,7 +266,7 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
     Examples
     --------
     >>> import tempfile
-    >>> from fairaudit.plugins.navigation import build_maps, read_area, write_office_floor
+    >>> from fairaudit.experiments.navigation import build_maps, read_area, write_office_floor
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.2)), resolution=0.2)
     >>> route = plan_route(maps, "lobby_1", "office_1")
@@ -342,7 +342,7 @@ def candidate_routes(
     Examples
     --------
     >>> import tempfile
-    >>> from fairaudit.plugins.navigation import build_maps, read_area, write_office_floor
+    >>> from fairaudit.experiments.navigation import build_maps, read_area, write_office_floor
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.2)), resolution=0.2)
     >>> [r.goal for r in candidate_routes(maps, "lobby_1", ["office_1", "office_2"])]
@@ -482,7 +482,7 @@ def route_image(maps: Maps, route: Route, index: int | str, *, scale: int | None
     --------
     >>> import io, tempfile
     >>> from PIL import Image
-    >>> from fairaudit.plugins.navigation import build_maps, read_area, write_office_floor
+    >>> from fairaudit.experiments.navigation import build_maps, read_area, write_office_floor
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.2)), resolution=0.2)
     >>> png = route_image(maps, plan_route(maps, "lobby_1", "office_2"), 2, scale=5)
@@ -547,7 +547,7 @@ def save_route_image(path: str | Path, maps: Maps, route: Route, index: int | st
     --------
     >>> import tempfile
     >>> from pathlib import Path
-    >>> from fairaudit.plugins.navigation import build_maps, read_area, write_office_floor
+    >>> from fairaudit.experiments.navigation import build_maps, read_area, write_office_floor
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.25)), resolution=0.25)
     ...     route = plan_route(maps, "lobby_1", "office_1")
@@ -576,9 +576,9 @@ def delivery_scene(
     """The paper's delivery scene in one call: maps, candidate routes, equal-distance check, route images.
 
     Reads the S3DIS area ``area_dir``; when it is None, first writes the
-    synthetic office floor (:func:`~fairaudit.plugins.navigation.synthetic.write_office_floor`)
+    synthetic office floor (:func:`~fairaudit.experiments.navigation.synthetic.write_office_floor`)
     into ``workdir`` (or a temporary folder, removed afterwards). Then
-    :func:`~fairaudit.plugins.navigation.maps.build_maps`, one route from
+    :func:`~fairaudit.experiments.navigation.maps.build_maps`, one route from
     ``start`` to each goal (:func:`candidate_routes`),
     :func:`check_equal_distance` and one :func:`route_image` per route,
     labelled 1, 2, ... in the order of ``goals``.

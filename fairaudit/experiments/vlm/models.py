@@ -2,7 +2,7 @@
 
 A :class:`DecisionModel` answers one query (the prompt text, the route images
 and a seed) with the text of a reply, as a chat model would. The harness
-parses the reply (:func:`fairaudit.plugins.vlm.parse.parse_reply`), so a
+parses the reply (:func:`fairaudit.experiments.vlm.parse.parse_reply`), so a
 simulated model exercises the same path as a real one.
 
 * :class:`SimulatedModel`: a kernel table P(decision | shown context, shown
@@ -11,7 +11,7 @@ simulated model exercises the same path as a real one.
   (:data:`SIMULATED`), and any table of counts or probabilities in the
   harness's ``kernel.csv`` format defines one (:meth:`SimulatedModel.from_csv`).
 * :class:`EndpointModel`: a chat-completions endpoint through
-  :class:`fairaudit.plugins.vlm.client.ChatClient` (text and images).
+  :class:`fairaudit.experiments.vlm.client.ChatClient` (text and images).
 """
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ def reply_text(task: DeliveryTask, decision: int | None, rng: np.random.Generato
 
     Examples
     --------
-    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
+    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
     >>> reply_text(HR_DELIVERY, 1)
     '{"HR1": "0.0", "HR2": "1.0", "reason": "simulated decision"}'
     >>> reply_text(PACKAGE_DELIVERY, 1)
@@ -308,7 +308,7 @@ def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel:
 
     Examples
     --------
-    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
     >>> m = simulated_model(HR_DELIVERY, "prefers-mary")
     >>> tom, mary = HR_DELIVERY.profiles.index(("Tom", 25, "Asian")), HR_DELIVERY.profiles.index(("Mary", 55, "American"))
     >>> m.probabilities[0, tom, mary].tolist()        # P(HR1), P(HR2), P(unparsed)
@@ -325,7 +325,7 @@ class EndpointModel:
 
     Parameters
     ----------
-    client : fairaudit.plugins.vlm.client.ChatClient
+    client : fairaudit.experiments.vlm.client.ChatClient
         Carries the endpoint, model name, API key (from the environment),
         timeouts, retries and the bound on concurrent requests.
 

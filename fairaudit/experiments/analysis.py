@@ -4,14 +4,14 @@
 paper's fairness–privacy experiment, exactly, at every ε:
 
 1. The table design's counts estimate the model's kernel on *shown* cells,
-   K[x̃, (ã₁, ã₂), u] (:func:`fairaudit.plugins.harness.table_kernel`).
+   K[x̃, (ã₁, ã₂), u] (:func:`fairaudit.experiments.harness.table_kernel`).
 2. Per-candidate framing (docs/design.md): a query gives one record per candidate,
    with context (x, position), group = the candidate's true profile and
    outcome = its own (chosen or not; served first or second; unparsed). What
    the model sees about a candidate is its shown profile and its rival's, so
    the per-candidate kernel is indexed by ``"own | rival"``
    (:func:`candidate_kernel`) and the filter that protects the candidate is
-   M_cand (:func:`fairaudit.plugins.vlm.filter.candidate_family`): its ε is
+   M_cand (:func:`fairaudit.experiments.vlm.filter.candidate_family`): its ε is
    the candidate's privacy budget, the ε of every curve and certificate here.
 3. At each ε the law of decisions behind the filter is the exact composition
    ``compose(K_cand, M_cand(ε), M_X ⊗ I)`` and its L and L̄ come with
@@ -86,7 +86,7 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
     ----------
     task : DeliveryTask
     kernel : Kernel
-        From :func:`fairaudit.plugins.harness.table_kernel`: shape
+        From :func:`fairaudit.experiments.harness.table_kernel`: shape
         (n_contexts, n_profiles², n_decisions), with counts.
 
     Returns
@@ -100,8 +100,8 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
 
     Examples
     --------
-    >>> from fairaudit.plugins.vlm.tasks import PACKAGE_DELIVERY as t
-    >>> from fairaudit.plugins.harness import table_kernel
+    >>> from fairaudit.experiments.vlm.tasks import PACKAGE_DELIVERY as t
+    >>> from fairaudit.experiments.harness import table_kernel
     >>> recs = [{"design": "table", "status": "ok", "context": c, "profiles": [p1, p2], "decision": "Recipient1"}
     ...         for c in t.contexts for p1 in t.profiles for p2 in t.profiles]
     >>> kc = candidate_kernel(t, table_kernel(t, recs))
@@ -166,7 +166,7 @@ def epsilon_from_keep(task: DeliveryTask, keep: float) -> float:
 
     Examples
     --------
-    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
     >>> round(epsilon_from_keep(HR_DELIVERY, 0.7), 6)      # 6 ln(7/3), not 0.7/0.3
     5.083787
     """
@@ -251,7 +251,7 @@ def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:
     --------
     Pure position bias: the first-listed is chosen 0.8 of the time, whoever it is.
 
-    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY as t
+    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY as t
     >>> s = position_split(t, [[[0.8, 0.2, 0.0], [0.8, 0.2, 0.0]]] * 3)
     >>> round(s.overall_raw, 6), round(s.overall_position, 6), s.overall_group, s.explained()
     (1.386294, 1.386294, 0.0, (1.0, 0.0))
@@ -527,7 +527,7 @@ def analyse(
     ----------
     task : DeliveryTask
     records : sequence of dict
-        The log's answered queries (:attr:`fairaudit.plugins.harness.QueryLog.records`).
+        The log's answered queries (:attr:`fairaudit.experiments.harness.QueryLog.records`).
     model : str
         The model's name, for the report.
     samples : int
@@ -612,7 +612,7 @@ def analyse_kernel(
     """The per-candidate analysis of the model's kernel on shown cells, with counts or exact.
 
     :func:`analyse` calls it with the kernel its records estimate; the exact
-    route of a local model (:func:`fairaudit.plugins.local_model.exact_kernel`)
+    route of a local model (:func:`fairaudit.experiments.local_model.exact_kernel`)
     calls it with the model's own probabilities, and then every L and L̄ is
     the model's exact value (no intervals: there is no sampling error).
 
@@ -621,7 +621,7 @@ def analyse_kernel(
     task : DeliveryTask
     kernel : Kernel
         Shape (n_contexts, n_profiles², n_decisions), the layout of
-        :func:`fairaudit.plugins.harness.table_kernel`: contexts the task's,
+        :func:`fairaudit.experiments.harness.table_kernel`: contexts the task's,
         groups the shown pairs (row-major), decisions
         :attr:`DeliveryTask.decisions`. With counts: the sampled route
         (intervals at ``confidence``); without: the exact route.

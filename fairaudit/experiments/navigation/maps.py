@@ -17,7 +17,7 @@ Cell ``(row, col)`` covers x in [ox + col·res, ox + (col + 1)·res) and y in
 [oy + row·res, oy + (row + 1)·res), where ``(ox, oy)`` is :attr:`Maps.origin`
 (the south-west corner of cell (0, 0)) and ``res`` is :attr:`Maps.resolution`:
 **row = y, col = x**, both increasing (row 0 is the southernmost row). Arrays
-are indexed ``[row, col]``. Images (:func:`~fairaudit.plugins.navigation.routes.route_image`)
+are indexed ``[row, col]``. Images (:func:`~fairaudit.experiments.navigation.routes.route_image`)
 are drawn north up: image row 0 is grid row ``rows - 1``.
 """
 
@@ -85,7 +85,7 @@ class Maps:
     top_color : numpy.ndarray
         Shape (rows, cols, 3), uint8: colour of that point; 0 where no point.
     top_category : numpy.ndarray
-        uint8: its category code (:data:`~fairaudit.plugins.navigation.s3dis.CATEGORIES`);
+        uint8: its category code (:data:`~fairaudit.experiments.navigation.s3dis.CATEGORIES`);
         255 where no point.
     free : numpy.ndarray
         bool: the cell has points and the highest of those at most
@@ -265,7 +265,7 @@ def build_maps(
     Parameters
     ----------
     area : Area
-        From :func:`~fairaudit.plugins.navigation.s3dis.read_area`.
+        From :func:`~fairaudit.experiments.navigation.s3dis.read_area`.
     resolution : float
         Side of a grid cell, metres (> 0).
     ceiling : float, optional
@@ -295,7 +295,7 @@ def build_maps(
     Examples
     --------
     >>> import tempfile
-    >>> from fairaudit.plugins.navigation import read_area, write_office_floor
+    >>> from fairaudit.experiments.navigation import read_area, write_office_floor
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     area = read_area(write_office_floor(tmp, spacing=0.2))
     >>> maps = build_maps(area, resolution=0.2)

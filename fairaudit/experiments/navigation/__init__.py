@@ -3,12 +3,12 @@
 The map pipeline of the paper's Methods, on point clouds in the S3DIS format
 (Armeni et al. 2016):
 
-* :mod:`~fairaudit.plugins.navigation.s3dis`: :func:`read_room`, :func:`read_area`;
-* :mod:`~fairaudit.plugins.navigation.synthetic`: :func:`write_office_floor`, a
+* :mod:`~fairaudit.experiments.navigation.s3dis`: :func:`read_room`, :func:`read_area`;
+* :mod:`~fairaudit.experiments.navigation.synthetic`: :func:`write_office_floor`, a
   small office floor in that format (S3DIS itself is not shipped);
-* :mod:`~fairaudit.plugins.navigation.maps`: :func:`build_maps`, the top-view,
+* :mod:`~fairaudit.experiments.navigation.maps`: :func:`build_maps`, the top-view,
   traversability and topological maps on one grid;
-* :mod:`~fairaudit.plugins.navigation.routes`: A* routes (:func:`plan_route`,
+* :mod:`~fairaudit.experiments.navigation.routes`: A* routes (:func:`plan_route`,
   :func:`candidate_routes`), the equal-distance check and the route images,
   and :func:`delivery_scene`, all of it in one call.
 

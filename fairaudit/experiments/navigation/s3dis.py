@@ -399,7 +399,7 @@ def read_area(area_dir: str | Path) -> Area:
     Examples
     --------
     >>> import tempfile
-    >>> from fairaudit.plugins.navigation import write_office_floor
+    >>> from fairaudit.experiments.navigation import write_office_floor
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     area = read_area(write_office_floor(tmp, spacing=0.25))
     >>> area.name, area.room_names

@@ -9,7 +9,7 @@ with ``transformers`` into a plain float32 safetensors folder in a cache
 * **exact** (:func:`exact_kernel`): for every shown cell (x̃, ã₁, ã₂) of the
   table design, one forward pass gives the next-token distribution after the
   chat prompt; every token of the vocabulary is mapped to the decision that
-  :func:`fairaudit.plugins.vlm.parse.parse_reply` reads from a reply made of
+  :func:`fairaudit.experiments.vlm.parse.parse_reply` reads from a reply made of
   that token alone (:func:`token_decisions`), so P(decision | cell) is the sum
   of the token probabilities, and what no option gets is ``"unparsed"``.
 * **sampled**: the same prompts through an OpenAI-compatible server
@@ -432,11 +432,11 @@ def answer_task(task: DeliveryTask) -> DeliveryTask:
 
     The scene, the context and the profiles read as in the task's own prompt;
     the reply is to be ``1`` or ``2`` (the option chosen, or served first),
-    which :func:`fairaudit.plugins.vlm.parse.parse_reply` reads as that option.
+    which :func:`fairaudit.experiments.vlm.parse.parse_reply` reads as that option.
 
     Examples
     --------
-    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
     >>> answer_task(HR_DELIVERY).prompt("sick leave", HR_DELIVERY.candidates).splitlines()[-2:]
     ['Answer with a single digit: 1 to choose HR1, 2 to choose HR2.', 'Answer:']
     """
@@ -477,7 +477,7 @@ def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None)
     """The decision read from a reply made of each single token, shape (size,).
 
     Entry i is the index in :attr:`DeliveryTask.decisions` of what
-    :func:`~fairaudit.plugins.vlm.parse.parse_reply` reads from
+    :func:`~fairaudit.experiments.vlm.parse.parse_reply` reads from
     ``tokenizer.decode([i], skip_special_tokens=True)`` (the reply a server
     returns for a one-token generation): an option, or ``"unparsed"`` (the
     last index). Ids past the tokenizer's vocabulary (padding rows of the
@@ -543,7 +543,7 @@ def exact_kernel(
     numpy.ndarray, shape (n_contexts, n_profiles, n_profiles, n_decisions)
         Indexed by the task's contexts, profiles (twice) and decisions (the
         options, then ``"unparsed"``): the layout of
-        :class:`fairaudit.plugins.vlm.models.SimulatedModel`. Each row sums
+        :class:`fairaudit.experiments.vlm.models.SimulatedModel`. Each row sums
         to 1; no unit (probabilities).
 
     Raises
@@ -628,8 +628,8 @@ def exact_law(task: DeliveryTask, probabilities: npt.ArrayLike) -> Kernel:
     -------
     Kernel
         Shape (n_contexts, n_profiles², n_decisions), the layout of
-        :func:`fairaudit.plugins.harness.table_kernel` (groups: the shown
-        pairs, row-major), for :func:`fairaudit.plugins.experiments.analyse_kernel`.
+        :func:`fairaudit.experiments.harness.table_kernel` (groups: the shown
+        pairs, row-major), for :func:`fairaudit.experiments.analysis.analyse_kernel`.
     """
     from ..laws import Kernel
 
@@ -647,7 +647,7 @@ class ServedModel(EndpointModel):
 
     Parameters
     ----------
-    client : fairaudit.plugins.vlm.client.ChatClient
+    client : fairaudit.experiments.vlm.client.ChatClient
         A client of :func:`serve`'s endpoint.
     name : str
         The ``--local-model`` name, written as the model of every reply.
@@ -715,7 +715,7 @@ def serve(
     Yields
     ------
     str
-        ``http://127.0.0.1:PORT/v1``, for :class:`fairaudit.plugins.vlm.client.ChatClient`.
+        ``http://127.0.0.1:PORT/v1``, for :class:`fairaudit.experiments.vlm.client.ChatClient`.
 
     Raises
     ------

@@ -100,7 +100,7 @@ def plan_queries(
     seed : int
         The run's seed.
     epsilons : sequence of float
-        Paper design: the candidate's ε values (nats; :func:`fairaudit.plugins.vlm.filter.candidate_family`),
+        Paper design: the candidate's ε values (nats; :func:`fairaudit.experiments.vlm.filter.candidate_family`),
         each profile filtered at ε / 2.
     positions : {"balanced", "fixed"}
         Paper design: the true orders queried: both orders of the paper's
@@ -121,7 +121,7 @@ def plan_queries(
 
     Examples
     --------
-    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
     >>> len(plan_queries(HR_DELIVERY, "table", 5, 0))              # 3 documents x 8 x 8 profiles x 5
     960
     >>> q = plan_queries(HR_DELIVERY, "paper", 2, 0, epsilons=[1.0])

@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from .._arrays import FloatArray
     from ..calibrate import Calibration
     from ..laws import Kernel
-    from .experiments import ExperimentAnalysis, PointResult, PositionSplit
+    from .analysis import ExperimentAnalysis, PointResult, PositionSplit
     from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -76,7 +76,7 @@ def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
     task : DeliveryTask
     kernel : Kernel
         Shape (n_contexts, n_profiles², n_decisions), the layout of
-        :func:`fairaudit.plugins.harness.table_kernel` (groups: the shown
+        :func:`fairaudit.experiments.harness.table_kernel` (groups: the shown
         pairs, row-major), with counts (sampled) or without (exact).
 
     Returns
@@ -85,7 +85,7 @@ def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
         One row per context, shown pair and decision: the task's context
         name, the two options (the profile shown as each), ``decision``, and
         ``count`` (integers) or ``probability``
-        (:meth:`fairaudit.plugins.vlm.models.SimulatedModel.from_csv` reads both).
+        (:meth:`fairaudit.experiments.vlm.models.SimulatedModel.from_csv` reads both).
     """
     import pandas as pd
 

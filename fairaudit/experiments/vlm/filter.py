@@ -41,7 +41,7 @@ def released_pair_label(task: DeliveryTask, own: tuple, rival: tuple) -> str:
 
     Examples
     --------
-    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
     >>> released_pair_label(HR_DELIVERY, ("Tom", 25, "Asian"), ("Mary", 55, "American"))
     'Tom & 25 & Asian | Mary & 55 & American'
     """
@@ -91,7 +91,7 @@ class PrivacyFilter:
         --------
         Name, age and race each kept with p = 0.7 (the paper's filter):
 
-        >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+        >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
         >>> f = PrivacyFilter.from_epsilon(HR_DELIVERY, 3 * math.log(7 / 3))
         >>> [round(p, 6) for p in f.keep_probabilities], round(f.epsilon_profile, 6)
         ([0.7, 0.7, 0.7], 2.541894)
@@ -212,7 +212,7 @@ def candidate_family(task: DeliveryTask) -> MechanismFamily:
 
     Examples
     --------
-    >>> from fairaudit.plugins.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
     >>> fam = candidate_family(HR_DELIVERY)
     >>> eps = 6 * math.log(7 / 3)                     # p = 0.7 on each of the 6 attributes shown
     >>> round(fam(eps).epsilon, 6), round(fam.keep_probability(eps), 6)

@@ -587,3 +587,17 @@ def test_tiny_toml_writer_round_trips():
     assert tomllib.loads(to_toml(VALID)) == VALID
     odd = {"a": {"b c": [1.5, math.inf, {"x": True}], "d": {}}, "e": [[], 'q"\\']}
     assert tomllib.loads(to_toml(odd)) == odd
+
+
+def test_the_command_line_names_the_flag_where_the_library_names_the_parameter():
+    from fairaudit import InputError
+    from fairaudit.cli import build_parser
+    from fairaudit.cli._common import flag_error
+
+    flags = build_parser().parse_args(["calibrate", "--target", "0.1"]).flags
+    assert str(flag_error(InputError("confidence", "x", 2), flags)) == "confidence: x (got 2)"  # not a calibrate flag
+    assert str(flag_error(InputError("kind", "must be 'local' or 'global'", "g"), flags)).startswith("--global: ")
+    assert str(flag_error(InputError("groups column 'a'", "bad"), flags)) == "--groups column 'a': bad"
+    audit_flags = build_parser().parse_args(["audit", "x.csv", "--sensitive", "a", "--outcome", "y"]).flags
+    assert str(flag_error(InputError("confidence", "x", 2), audit_flags)) == "--confidence: x (got 2)"
+    assert str(flag_error(InputError("spec.toml: privacy", "x"), audit_flags)) == "spec.toml: privacy: x"

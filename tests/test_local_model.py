@@ -162,10 +162,10 @@ def test_shared_prefix_gives_the_same_kernel(smollm2):
 def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tmp_path):
     """The small version of the issue's check: package delivery, 5 one-token replies per cell."""
     need_local_model("fastapi", "uvicorn")
-    from fairaudit.intervals import category_bounds
     from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel
     from fairaudit.experiments.vlm.client import ChatClient
     from fairaudit.experiments.vlm.models import EndpointModel
+    from fairaudit.intervals import category_bounds
 
     task = lm.answer_task(PACKAGE_DELIVERY)
     exact = lm.exact_kernel(PACKAGE_DELIVERY, smollm2)

@@ -16,6 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from .._errors import InputError
+from ._common import flag_error
 from ._parser import build_parser
 
 __all__ = ["build_parser", "main"]
@@ -29,7 +30,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         status: int = args.func(args)  # each subcommand's run, set by its add_parser
         return status
     except InputError as exc:
-        print(f"fairaudit: error: {exc}", file=sys.stderr)
+        print(f"fairaudit: error: {flag_error(exc, args.flags)}", file=sys.stderr)
         return 2
     except OSError as exc:
         print(f"fairaudit: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)

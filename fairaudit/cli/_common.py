@@ -6,6 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING, NoReturn, TypeAlias
 
+from .._errors import InputError
 from ..report import FORMATS, write_atomic
 
 if TYPE_CHECKING:
@@ -20,6 +21,35 @@ class _Parser(argparse.ArgumentParser):
 
 
 _Subparsers: TypeAlias = "argparse._SubParsersAction[_Parser]"
+
+
+# Python parameters whose flag is not ``--`` + the parameter with ``-`` for ``_`` (the parser's own dest).
+PARAMETER_FLAGS: dict[str, str] = {
+    "kind": "--global",
+}
+
+
+def command_flags(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """Python parameter -> flag for one subcommand: each option's dest, then :data:`PARAMETER_FLAGS`."""
+    flags = {a.dest: max(a.option_strings, key=len) for a in parser._actions if a.option_strings}
+    own = set(flags.values())
+    flags.update({param: flag for param, flag in PARAMETER_FLAGS.items() if flag in own})
+    return flags
+
+
+def flag_error(exc: InputError, flags: dict[str, str]) -> InputError:
+    """The library's error with its parameter named as the command's flag (``confidence`` -> ``--confidence``).
+
+    Only the field's first word is mapped (``kernel column 'x'`` -> ``--kernel column 'x'``); spec fields, columns and
+    anything that is not one of the command's parameters stay as they are.
+    """
+    head, sep, rest = exc.field.partition(" ")
+    if head not in flags:
+        return exc
+    field = flags[head] + sep + rest
+    if exc.value is InputError._missing:
+        return InputError(field, exc.problem)
+    return InputError(field, exc.problem, exc.value)
 
 
 def _columns(text: str) -> list[str]:

@@ -6,7 +6,7 @@ import argparse
 
 from .. import __version__
 from . import audit, calibrate, certify, experiment, plan, prepare_model
-from ._common import _Parser
+from ._common import _Parser, command_flags
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -20,4 +20,6 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
     for command in (certify, audit, calibrate, plan, experiment, prepare_model):
         command.add_parser(sub)
+    for command_parser in sub.choices.values():
+        command_parser.set_defaults(flags=command_flags(command_parser))
     return parser

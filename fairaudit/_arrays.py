@@ -220,6 +220,19 @@ def ratio_of_extremes(vmax: FloatArray, vmin: FloatArray, count: npt.NDArray[np.
 
 
 def safe_log(value: float) -> float:
-    """Natural log with log(inf) = inf and log(0) = -inf, no warnings."""
+    """Natural log (nats) of a ratio in [0, +inf]: log(inf) = inf, log(0) = -inf, NaN stays NaN, no warnings.
+
+    The one log of the package's ratio helpers; ``safe_log(max(r, 1.0))`` is the log of a ratio that cannot be below 1.
+    """
     with np.errstate(divide="ignore"):
         return float(np.log(value))
+
+
+EXP_SAFE = 700.0  # e^ε is a finite double up to ε ≈ 709.78; above this, work with logarithms
+BLOCK = 1 << 22  # elements per block of a (block, n, m) temporary
+
+
+def row_blocks(n: int, per_row: int) -> list[slice]:
+    """Slices of range(n) whose rows times ``per_row`` elements stay near 4M (chunked pairwise work)."""
+    step = max(1, BLOCK // max(1, per_row))
+    return [slice(i, min(n, i + step)) for i in range(0, n, step)]

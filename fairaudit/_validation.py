@@ -1,4 +1,4 @@
-"""The one place where arguments are checked: numbers, whole numbers, levels, choices; and the log of a ratio.
+"""The one place where arguments are checked: numbers, whole numbers, levels, privacy budgets, choices.
 
 Every checker takes the value and the name of the Python parameter (or spec
 field) it came from, returns the value converted (``float``, ``int``, ``str``)
@@ -23,7 +23,7 @@ import numpy as np
 
 from ._errors import InputError
 
-__all__ = ["choice", "epsilon", "level", "log_ratio", "nonnegative", "real", "whole"]
+__all__ = ["choice", "epsilon", "level", "nonnegative", "real", "whole"]
 
 
 def _describe(low: float, high: float, low_open: bool, high_open: bool, finite: bool) -> str:
@@ -140,7 +140,11 @@ def whole(value: Any, name: str, *, low: int = 0, high: int | None = None) -> in
     ...
     fairaudit._errors.InputError: groups: must be a whole number >= 2 (got 2.0)
     """
-    if isinstance(value, bool) or not isinstance(value, Integral) or not low <= int(value) <= (int(value) if high is None else high):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, Integral)
+        or not low <= int(value) <= (int(value) if high is None else high)
+    ):
         what = f"a whole number >= {low}" + (f" and <= {high}" if high is not None else "")
         raise InputError(name, f"must be {what}", value)
     return int(value)
@@ -158,18 +162,3 @@ def choice(value: Any, name: str, choices: Iterable[str]) -> str:
     if not isinstance(value, str) or value not in options:
         raise InputError(name, f"must be one of {', '.join(options)}", value)
     return value
-
-
-def log_ratio(r: float) -> float:
-    """log r in nats for a ratio r in [0, +inf]: log 0 = -inf, log inf = +inf, NaN stays NaN.
-
-    Examples
-    --------
-    >>> log_ratio(0.0), log_ratio(math.inf), round(log_ratio(math.e), 12)
-    (-inf, inf, 1.0)
-    """
-    if math.isnan(r):
-        return math.nan
-    if r <= 0:
-        return -math.inf
-    return math.inf if math.isinf(r) else math.log(r)

@@ -45,10 +45,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import FloatArray, IntArray, format_label, ratio_extremes
+from ._arrays import EXP_SAFE, FloatArray, IntArray, format_label, ratio_extremes, row_blocks
 from ._errors import InputError
 from .laws import Law, Population
-from .privacy import _EXP_SAFE, Mechanism, _RandomizedResponse, _row_blocks
+from .privacy import Mechanism, RandomizedResponse
 from .utility import Utility, check_metric
 
 __all__ = [
@@ -224,7 +224,7 @@ def main_theorem_tight(
     if math.isinf(eps):
         return math.inf
     c = (lipschitz * diameter + delta * gamma) / tau
-    if eps > _EXP_SAFE:  # e^ε overflows a double: log(e^ε + c) = ε + log(1 + c e^−ε)
+    if eps > EXP_SAFE:  # e^ε overflows a double: log(e^ε + c) = ε + log(1 + c e^−ε)
         return eps + math.log1p(c * math.exp(-eps))
     return math.log(math.exp(eps) + c)
 
@@ -285,7 +285,7 @@ def _profile_candidates(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
     """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (exact envelope)."""
     m = mechanism.matrix
     n = m.shape[0]
-    blocks = _row_blocks(n, n * m.shape[1])
+    blocks = row_blocks(n, n * m.shape[1])
     slopes, intercepts = [], []
     for rows in blocks:  # the envelope of a union of lines is the envelope of the blocks' envelopes
         _, p, q, _ = _sorted_pairs(m, rows)
@@ -358,7 +358,7 @@ def _tau_free_constants(gamma: float, lipschitz: float, diameter: float) -> tupl
 
 def _epsilon_pair(mechanism: Mechanism) -> tuple[Hashable, Hashable]:
     """A pair of inputs (a, a') attaining ε(M) = log max_o M[a, o] / M[a', o]."""
-    if isinstance(mechanism, _RandomizedResponse) or len(mechanism.inputs) < 2:
+    if isinstance(mechanism, RandomizedResponse) or len(mechanism.inputs) < 2:
         return mechanism.inputs[0], mechanism.inputs[min(1, len(mechanism.inputs) - 1)]
     ratio, hi, lo = ratio_extremes(mechanism.matrix, axis=0)  # per output: the largest row over the smallest
     o = int(np.nanargmax(np.where(np.isnan(ratio), -np.inf, ratio)))
@@ -452,7 +452,7 @@ def paper_bound(
     assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
     if n < 2:
         return Bound("paper", 0.0, 0.0, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions)
-    if isinstance(mechanism, _RandomizedResponse):
+    if isinstance(mechanism, RandomizedResponse):
         # δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there (proofs/main_theorem.md)
         rr, c = mechanism.rr, lipschitz * diameter
         at_one = math.log1p((c + gamma * (rr.p - rr.q)) / tau)  # t = 1: δ = p − q, the total variation
@@ -535,7 +535,7 @@ def tight_bound(
     """
     gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, metric)
     n = len(mechanism.inputs)
-    rr = mechanism.rr if isinstance(mechanism, _RandomizedResponse) else None
+    rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) else None
     d: FloatArray | None = None
     if metric is not None or rr is None:
         d = check_metric(metric, n)
@@ -591,7 +591,7 @@ def tight_bound(
     best = np.empty((n, n))
     best_t = np.empty((n, n))
     best_delta = np.empty((n, n))
-    for rows in _row_blocks(n, n * (matrix.shape[1] + 1)):  # a block of pairs at a time, not (n, n, m) at once
+    for rows in row_blocks(n, n * (matrix.shape[1] + 1)):  # a block of pairs at a time, not (n, n, m) at once
         ratio, p, q, _ = _sorted_pairs(matrix, rows)
         # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
         p_before = np.cumsum(p, axis=-1) - p

@@ -46,12 +46,12 @@ from typing import Any, TypedDict
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import FloatArray, format_label
+from ._arrays import EXP_SAFE, FloatArray, format_label
 from ._errors import InputError
 from .bounds import main_theorem, main_theorem_tight
 from .laws import Kernel, Population, compose
 from .metrics import global_fairness, local_fairness
-from .privacy import _EXP_SAFE, Mechanism, MechanismFamily, _RandomizedResponse, randomized_response_family
+from .privacy import Mechanism, MechanismFamily, RandomizedResponse, randomized_response_family
 from .utility import Utility, check_metric
 from .worstcase import _rr_class_value, black_box_bound
 
@@ -357,7 +357,7 @@ def _rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> 
     with lower = 0 it is ε = target).
     """
     rho = lower / gamma if gamma > 0 else 1.0
-    if target > _EXP_SAFE:  # e^target overflows a double; T0·rho < 1 needs rho < e^-700 (or 0)
+    if target > EXP_SAFE:  # e^target overflows a double; T0·rho < 1 needs rho < e^-700 (or 0)
         if rho == 0.0:
             return target
         if target + math.log(rho) >= 0.0:
@@ -372,13 +372,13 @@ def _rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> 
     return math.log(max(t, 1.0))
 
 
-def _is_randomized_response(family: MechanismFamily, eps: float) -> _RandomizedResponse | None:
+def _is_randomized_response(family: MechanismFamily, eps: float) -> RandomizedResponse | None:
     """The family's member at ``eps`` when it is k-ary randomized response on the family's inputs, else None.
 
     An isinstance check (:func:`~fairaudit.privacy.randomized_response` makes them): no k x k matrix.
     """
     m = family(eps)
-    if not isinstance(m, _RandomizedResponse) or tuple(m.inputs) != tuple(family.inputs):
+    if not isinstance(m, RandomizedResponse) or tuple(m.inputs) != tuple(family.inputs):
         return None
     return m
 
@@ -425,7 +425,7 @@ def _black_box(
 
             def bound(eps: float) -> float:
                 member = family(eps)
-                assert isinstance(member, _RandomizedResponse)  # (the family is randomized response)
+                assert isinstance(member, RandomizedResponse)  # (the family is randomized response)
                 return _rr_class_value(member.rr, lower, gamma, tau_, lip, diam)
 
     top = bound(math.inf)

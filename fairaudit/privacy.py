@@ -25,21 +25,35 @@ from typing import Any, overload
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import FloatArray, as_float_array, as_labels, check_probabilities, check_shape, ratio_extremes
+from ._arrays import (
+    EXP_SAFE,
+    FloatArray,
+    as_float_array,
+    as_labels,
+    check_probabilities,
+    check_shape,
+    ratio_extremes,
+    row_blocks,
+)
 from ._errors import InputError
 
 __all__ = [
+    # mechanisms
     "Mechanism",
     "PrivacyProfile",
-    "randomized_response",
-    "identity",
+    "RandomizedResponse",
+    "RandomizedResponseParameters",
     "from_matrix",
+    "identity",
     "product",
-    "keep_probability",
+    "randomized_response",
+    # randomized response's keep probability
     "epsilon_from_keep_probability",
+    "keep_probability",
+    # families indexed by epsilon
     "MechanismFamily",
-    "randomized_response_family",
     "product_family",
+    "randomized_response_family",
 ]
 
 
@@ -166,11 +180,11 @@ class Mechanism:
         n = m.shape[0]
         out = np.empty((n, n))
         q = m[None, :, :]
-        for rows in _row_blocks(n, n * m.shape[1]):  # (block, n, m) at a time, not (n, n, m)
+        for rows in row_blocks(n, n * m.shape[1]):  # (block, n, m) at a time, not (n, n, m)
             p = m[rows, None, :]
             if math.isinf(eps):
                 out[rows] = np.where(q == 0, p, 0.0).sum(axis=-1)
-            elif eps <= _EXP_SAFE:
+            elif eps <= EXP_SAFE:
                 out[rows] = np.clip(p - math.exp(eps) * q, 0.0, None).sum(axis=-1)
             else:  # e^ε overflows a double: e^ε q = exp(ε + log q), 0 where q = 0
                 with np.errstate(divide="ignore", over="ignore"):
@@ -293,16 +307,6 @@ class Mechanism:
         return text
 
 
-_EXP_SAFE = 700.0  # e^ε is a finite double up to ε ≈ 709.78; above this, work with logarithms
-_BLOCK = 1 << 22  # elements per block of a (block, n, m) temporary
-
-
-def _row_blocks(n: int, per_row: int) -> list[slice]:
-    """Slices of range(n) whose rows times ``per_row`` elements stay near 4M (chunked pairwise work)."""
-    step = max(1, _BLOCK // max(1, per_row))
-    return [slice(i, min(n, i + step)) for i in range(0, n, step)]
-
-
 def _check_epsilon(epsilon: float) -> float:
     try:
         eps = float(epsilon)
@@ -416,7 +420,7 @@ def randomized_response(
             epsilon = epsilon_from_keep_probability(keep, k)
     assert epsilon is not None  # exactly one of epsilon and keep was given
     eps = _check_epsilon(epsilon)
-    return _RandomizedResponse(labels, eps, name or f"{k}-ary randomized response")
+    return RandomizedResponse(labels, eps, name or f"{k}-ary randomized response")
 
 
 def _rr_probabilities(eps: float, k: int) -> tuple[float, float, float, float]:
@@ -428,7 +432,7 @@ def _rr_probabilities(eps: float, k: int) -> tuple[float, float, float, float]:
         return 1.0, 0.0, 0.0, -math.inf
     if math.isinf(eps):
         return 1.0, 0.0, 0.0, -math.inf
-    if eps <= _EXP_SAFE:
+    if eps <= EXP_SAFE:
         q = 1.0 / (math.exp(eps) + k - 1)
     else:
         small = math.exp(-eps)
@@ -478,7 +482,7 @@ class _Identity(Mechanism):
         return math.inf if len(self.inputs) >= 2 else 0.0
 
 
-class _RandomizedResponse(Mechanism):
+class RandomizedResponse(Mechanism):
     """k-ary randomized response in closed form: its k x k matrix is made only when asked for.
 
     Every row keeps its value with p = e^ε/(e^ε + k − 1) and moves to each other
@@ -488,7 +492,7 @@ class _RandomizedResponse(Mechanism):
     million groups cost their labels, not 10^12 cells. ``proofs/privacy.md`` §5.
     """
 
-    rr: _RR
+    rr: RandomizedResponseParameters
 
     def __init__(self, labels: tuple, epsilon: float, name: str) -> None:
         k = len(labels)
@@ -497,7 +501,7 @@ class _RandomizedResponse(Mechanism):
         object.__setattr__(self, "outputs", labels)
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "_cache", {"epsilon": epsilon if k > 1 else 0.0})
-        object.__setattr__(self, "rr", _RR(k, epsilon if k > 1 else 0.0, p, q, log_p, log_q))
+        object.__setattr__(self, "rr", RandomizedResponseParameters(k, epsilon if k > 1 else 0.0, p, q, log_p, log_q))
 
     @property
     def matrix(self) -> FloatArray:
@@ -530,7 +534,7 @@ class _RandomizedResponse(Mechanism):
             return rr.p
         if epsilon >= rr.epsilon:
             return 0.0
-        t_q = math.exp(epsilon) * rr.q if epsilon <= _EXP_SAFE else math.exp(epsilon + rr.log_q)
+        t_q = math.exp(epsilon) * rr.q if epsilon <= EXP_SAFE else math.exp(epsilon + rr.log_q)
         return max(0.0, rr.p - t_q)
 
     def pairwise_delta(self, epsilon: float) -> FloatArray:
@@ -564,8 +568,8 @@ class _RandomizedResponse(Mechanism):
 
 
 @dataclass(frozen=True)
-class _RR:
-    """The closed-form parameters of k-ary randomized response (see :class:`_RandomizedResponse`)."""
+class RandomizedResponseParameters:
+    """The closed-form parameters of k-ary randomized response (see :class:`RandomizedResponse`)."""
 
     k: int
     epsilon: float

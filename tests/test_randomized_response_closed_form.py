@@ -23,10 +23,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit import privacy
+from fairaudit import _arrays
 from fairaudit.calibrate import calibrate
 from fairaudit.cli import main
-from fairaudit.privacy import _RandomizedResponse
+from fairaudit.privacy import RandomizedResponse
 from fairaudit.worstcase import black_box_bound, worst_model
 
 PROOFS = Path(__file__).resolve().parents[1] / "proofs"
@@ -49,8 +49,8 @@ def pair(k: int, eps: float) -> tuple[fa.Mechanism, fa.Mechanism]:
     """(closed form, general route) on the same labels."""
     closed = fa.randomized_response(list(range(k)), eps)
     general = fa.from_matrix(rr_matrix(k, eps), list(range(k)))
-    assert isinstance(closed, _RandomizedResponse)
-    assert not isinstance(general, _RandomizedResponse)
+    assert isinstance(closed, RandomizedResponse)
+    assert not isinstance(general, RandomizedResponse)
     return closed, general
 
 
@@ -80,12 +80,12 @@ def spec_text(values, mechanism: str, utility: str = 'decision = "yes"', target:
 
 def test_randomized_response_is_lazy_and_from_matrix_is_general():
     m = fa.randomized_response(list(range(5)), 1.0)
-    assert isinstance(m, _RandomizedResponse) and "matrix" not in m._cache
+    assert isinstance(m, RandomizedResponse) and "matrix" not in m._cache
     assert m.epsilon == 1.0 and m.delta(0.5) > 0 and m.keep_probability > 0
     assert "matrix" not in m._cache  # ε, δ and the keep probability did not build the 5 x 5 matrix
     np.testing.assert_allclose(m.matrix, rr_matrix(5, 1.0), rtol=1e-14)
-    assert isinstance(fa.randomized_response_family(list("abc"))(0.4), _RandomizedResponse)
-    assert not isinstance(fa.from_matrix(rr_matrix(3, 0.4), list("abc")), _RandomizedResponse)
+    assert isinstance(fa.randomized_response_family(list("abc"))(0.4), RandomizedResponse)
+    assert not isinstance(fa.from_matrix(rr_matrix(3, 0.4), list("abc")), RandomizedResponse)
 
 
 @pytest.mark.parametrize("k", KS)
@@ -608,7 +608,7 @@ def test_general_mechanisms_in_blocks_give_the_same_numbers(monkeypatch):
         ]
 
     whole = numbers()
-    monkeypatch.setattr(privacy, "_BLOCK", 7)  # one row of pairs at a time
+    monkeypatch.setattr(_arrays, "BLOCK", 7)  # one row of pairs at a time
     for a, b in zip(whole, numbers()):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
 

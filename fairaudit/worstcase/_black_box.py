@@ -17,7 +17,7 @@ from .._errors import InputError
 from ..bounds import Assumption, _nonneg, check_assumptions
 from ..laws import Kernel, Population
 from ..lfp import FractionalProgram, FractionalResult, threshold_max_many
-from ..privacy import Mechanism, _RandomizedResponse
+from ..privacy import Mechanism, RandomizedResponse
 from ..utility import Utility, check_metric
 from ._randomized_response import _rr_box, _rr_lipschitz
 from ._search import _check_class, _check_method, _log, _pair_epsilon, _pairwise_box, _relaxed_first, _search
@@ -218,7 +218,7 @@ def black_box_bound(
     lower, gamma, tau = _check_class(lower, gamma, tau)
     lip = _nonneg("lipschitz", lipschitz)
     n, m = len(mechanism.inputs), len(mechanism.outputs)
-    rr = mechanism.rr if isinstance(mechanism, _RandomizedResponse) and method != "lp" else None
+    rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
     # (k-ary randomized response with the discrete metric never needs the n x n metric)
     d = check_metric(metric, n) if n >= 1 and (metric is not None or rr is None) else None
     floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor

@@ -16,7 +16,7 @@ import numpy as np
 
 from .._arrays import FloatArray, IntArray
 from ..laws import Kernel, Law
-from ..privacy import _RR, Mechanism
+from ..privacy import Mechanism, RandomizedResponseParameters
 from ._search import _log
 
 _TIE = 1e-12  # relative tolerance of the threshold solution's ties (as lfp.threshold_max_many)
@@ -59,7 +59,7 @@ class _RRWorst:
         return at_top
 
 
-def _rr_box(rr: _RR, lo: float, hi: float, floor: float) -> _RRWorst:
+def _rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> _RRWorst:
     """max (M[a]·h)/(M[a']·h) over lo ≤ h ≤ hi with M[a']·h ≥ floor, M = k-ary RR, in O(1).
 
     Without a binding floor (floor ≤ lo) the threshold solution: h = hi on the released value a, lo elsewhere,
@@ -106,7 +106,7 @@ def _rr_box(rr: _RR, lo: float, hi: float, floor: float) -> _RRWorst:
 
 
 def _rr_lipschitz(
-    rr: _RR, lo: float, hi: float, floor: float, lam: float
+    rr: RandomizedResponseParameters, lo: float, hi: float, floor: float, lam: float
 ) -> tuple[float, FloatArray, FloatArray] | None:
     """The class with L_A > 0 behind k-ary RR, discrete metric (λ = L_A d): (ratio, g, f) in O(1), or None if unbounded.
 
@@ -170,10 +170,12 @@ def _rr_lipschitz(
     return best, g, np.minimum(g + lam, hi)
 
 
-def _rr_class_ratio(rr: _RR, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float) -> float:
+def _rr_class_ratio(
+    rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
+) -> float:
     """The black-box ratio of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``).
 
-    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.privacy._RandomizedResponse`, without
+    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.privacy.RandomizedResponse`, without
     the worst model (calibration evaluates it along the family).
     """
     if rr.k < 2 or gamma == 0 or lower == gamma:
@@ -186,7 +188,9 @@ def _rr_class_ratio(rr: _RR, lower: float, gamma: float, tau: float | None, lips
     return _rr_box(rr, lo, 1.0, floor).ratio
 
 
-def _rr_class_value(rr: _RR, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float) -> float:
+def _rr_class_value(
+    rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
+) -> float:
     """log of :func:`_rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε)."""
     if rr.k >= 2 and gamma > 0 and lower < gamma and lipschitz * diameter == 0:
         lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
@@ -194,7 +198,7 @@ def _rr_class_value(rr: _RR, lower: float, gamma: float, tau: float | None, lips
     return _log(_rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
 
 
-def _rr_law(kernel: Kernel, rr: _RR, groups: tuple, context_mechanism: Mechanism) -> Law:
+def _rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, context_mechanism: Mechanism) -> Law:
     """compose(kernel, RR, M_X) without the k x k matrix: Q[x, a] = Σ_x̃ M_X[x, x̃] (q Σ_ã K[x̃, ã] + (p − q) K[x̃, a])."""
     k = kernel.probabilities
     behind = rr.q * k.sum(axis=1, keepdims=True) + (rr.p - rr.q) * k  # (x̃, a, u)

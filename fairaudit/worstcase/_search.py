@@ -17,11 +17,10 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .._arrays import FloatArray
+from .._arrays import FloatArray, row_blocks
 from .._errors import InputError
 from ..bounds import _nonneg
 from ..lfp import FractionalProgram, FractionalResult, box_point, floor_max_many, threshold_max_many
-from ..privacy import _row_blocks
 
 METHODS = ("auto", "threshold", "lp")
 
@@ -123,7 +122,7 @@ def _pair_epsilon(matrix: FloatArray) -> FloatArray:
     n = matrix.shape[0]
     out = np.empty((n, n))
     q = matrix[None, :, :]
-    for rows in _row_blocks(n, n * matrix.shape[1]):  # (block, n, m) at a time
+    for rows in row_blocks(n, n * matrix.shape[1]):  # (block, n, m) at a time
         p = matrix[rows, None, :]
         with np.errstate(divide="ignore", invalid="ignore"):
             r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
@@ -143,7 +142,7 @@ def _pairwise_box(
     box = np.empty((n, n))
     relaxed = None if floor is None else np.empty((n, n))
     q = matrix[None, :, :]
-    for rows in _row_blocks(n, 4 * n * matrix.shape[1]):
+    for rows in row_blocks(n, 4 * n * matrix.shape[1]):
         p = matrix[rows, None, :]
         solution = threshold_max_many(p, q, lower, upper)
         box[rows] = solution[0]

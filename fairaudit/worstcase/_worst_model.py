@@ -21,7 +21,7 @@ from .._errors import InputError
 from ..bounds import Assumption, _nonneg, check_assumptions
 from ..laws import Kernel, Population, compose
 from ..lfp import FractionalProgram, FractionalResult, threshold_max_many
-from ..privacy import Mechanism, _RandomizedResponse, identity
+from ..privacy import Mechanism, RandomizedResponse, identity
 from ..utility import Utility
 from ._randomized_response import _rr_box, _rr_law, _RRWorst
 from ._search import _check_method, _log, _pairwise_box, _relaxed_first, _Search, _search
@@ -292,7 +292,7 @@ def worst_model(
     def audit(kernel: Kernel, kind: str) -> FloatArray:
         from ..metrics import expected_utility, global_fairness
 
-        if isinstance(mechanism, _RandomizedResponse):  # (no k x k matrix)
+        if isinstance(mechanism, RandomizedResponse):  # (no k x k matrix)
             law = _rr_law(kernel, mechanism.rr, groups, context_mechanism)
         else:
             law = compose(kernel, mechanism, context_mechanism)
@@ -314,7 +314,7 @@ def worst_model(
     # k-ary randomized response: closed forms, one pair of groups decides (every pair is alike)
     rr_local: WorstCase | None = None
     rr_global: WorstCase | None = None
-    if isinstance(mechanism, _RandomizedResponse) and method != "lp" and indep_a:
+    if isinstance(mechanism, RandomizedResponse) and method != "lp" and indep_a:
         rr = mechanism.rr
         lo_x, hi_x = g[:, 0, :].min(-1), g[:, 0, :].max(-1)  # the range of g(., x) per context
 

@@ -1,4 +1,4 @@
-"""The one place where arguments are checked: numbers, whole numbers, levels, privacy budgets, choices.
+"""The one place where arguments are checked: numbers, whole numbers, levels, privacy budgets, choices, columns.
 
 Every checker takes the value and the name of the Python parameter (or spec
 field) it came from, returns the value converted (``float``, ``int``, ``str``)
@@ -15,7 +15,7 @@ never accepted, and +inf only where ``finite=False`` says so.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Hashable, Iterable, Sequence
 from numbers import Integral, Real
 from typing import Any
 
@@ -23,7 +23,7 @@ import numpy as np
 
 from ._errors import InputError
 
-__all__ = ["choice", "epsilon", "level", "nonnegative", "real", "whole"]
+__all__ = ["choice", "columns", "epsilon", "level", "nonnegative", "real", "whole"]
 
 
 def _describe(low: float, high: float, low_open: bool, high_open: bool, finite: bool) -> str:
@@ -162,3 +162,26 @@ def choice(value: Any, name: str, choices: Iterable[str]) -> str:
     if not isinstance(value, str) or value not in options:
         raise InputError(name, f"must be one of {', '.join(options)}", value)
     return value
+
+
+def columns(value: Sequence[str], name: str, available: Iterable[Hashable]) -> list[str]:
+    """``value`` as a list of column names, each one of ``available`` (the data's columns).
+
+    The error quotes the first unknown column and lists the data's columns
+    (the first 12).
+
+    Examples
+    --------
+    >>> columns(["race"], "sensitive", ["race", "hired"])
+    ['race']
+    >>> columns(["sex"], "sensitive", ["race", "hired"])
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: sensitive: unknown column; the data has: race, hired (got 'sex')
+    """
+    names = list(available)
+    for c in value:
+        if c not in names:
+            shown = ", ".join(map(str, names[:12])) + (", ..." if len(names) > 12 else "")
+            raise InputError(name, f"unknown column; the data has: {shown}", c)
+    return list(value)

@@ -27,7 +27,13 @@ from .utility import Utility, from_table, indicator
 if TYPE_CHECKING:
     import pyspark.sql
 
-__all__ = ["Audit", "audit", "utility_from_expression"]
+__all__ = [
+    # auditing records
+    "Audit",
+    "audit",
+    # the utility of an audit
+    "utility_from_expression",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,7 +84,7 @@ def utility_from_expression(expression: str, decisions: Sequence[Hashable]) -> U
     Raises
     ------
     InputError
-        Field ``--utility``: if the expression uses anything outside the
+        Field ``utility``: if the expression uses anything outside the
         language (the message names it), is empty, too long or not valid
         syntax, fails at some decision (division by zero, log of a
         non-positive number, overflow, text in arithmetic), or does not give
@@ -95,10 +101,10 @@ def utility_from_expression(expression: str, decisions: Sequence[Hashable]) -> U
     """
     arr = evaluate_utility_expression(expression, decisions)
     if arr.shape != (len(decisions),):
-        raise InputError("--utility", "must give one value per outcome value", expression)
+        raise InputError("utility", "must give one value per outcome value", expression)
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
         bad = [format_label(d) for d, v in zip(decisions, arr) if not np.isfinite(v) or v < 0]
-        raise InputError("--utility", f"must be finite and non-negative; it is not at u = {bad[0]}", expression)
+        raise InputError("utility", f"must be finite and non-negative; it is not at u = {bad[0]}", expression)
     return from_table(arr, tuple(decisions), name=expression)
 
 
@@ -115,7 +121,7 @@ def _positive_utility(positive: Hashable, decisions: tuple) -> Utility:
     except (TypeError, ValueError):
         pass
     raise InputError(
-        "--positive",
+        "positive",
         f"is not a value of the outcome column; it has {[format_label(d) for d in decisions][:20]}",
         positive,
     )
@@ -139,14 +145,14 @@ def _table(
         def columns(c: str | Sequence[str] | None) -> tuple[str, ...] | None:
             return None if c is None else (c,) if isinstance(c, str) else tuple(c)
 
-        for flag, given, have in (
-            ("--sensitive", columns(sensitive), data.sensitive_columns),
-            ("--outcome", columns(outcome), (data.outcome_column,)),
-            ("--context", columns(context), data.context_columns),
+        for name, given, have in (
+            ("sensitive", columns(sensitive), data.sensitive_columns),
+            ("outcome", columns(outcome), (data.outcome_column,)),
+            ("context", columns(context), data.context_columns),
         ):
             if given is not None and given != have:
                 raise InputError(
-                    flag,
+                    name,
                     f"does not match the count table, whose column(s) are [{', '.join(have)}]",
                     ",".join(map(str, given)),
                 )
@@ -156,9 +162,9 @@ def _table(
             "data", "must be a pandas DataFrame of records, a Spark DataFrame or a CountTable", type(data).__name__
         )
     if sensitive is None:
-        raise InputError("--sensitive", "name at least one column")
+        raise InputError("sensitive", "name at least one column")
     if outcome is None:
-        raise InputError("--outcome", "name the outcome column")
+        raise InputError("outcome", "name the outcome column")
     if isinstance(data, pd.DataFrame):
         return count_records(
             data, sensitive=sensitive, outcome=outcome, context=() if context is None else context, dropna=dropna
@@ -226,7 +232,7 @@ def audit(
     ------
     InputError
         Unknown columns, missing values, columns that are not a CountTable's
-        (naming ``--sensitive``, ``--outcome`` or ``--context``), data that is
+        (naming ``sensitive``, ``outcome`` or ``context``), data that is
         neither a DataFrame nor a CountTable, both ``positive`` and ``utility``,
         an outcome value that is not there, a non-binary outcome with no g,
         or bad interval settings (see :func:`~fairaudit.intervals.fairness_intervals`).
@@ -242,38 +248,44 @@ def audit(
     3.0
     """
     table = _table(data, sensitive, outcome, context, dropna)
-    outcome = table.outcome_column
     if positive is not None and utility is not None:
-        raise InputError("--positive", "give --positive or --utility, not both", positive)
-    if isinstance(utility, Utility):
-        g = utility
-    elif utility is not None:
-        g = utility_from_expression(utility, table.decisions)
-    elif positive is not None:
-        g = _positive_utility(positive, table.decisions)
-    elif (labels := set(map(str, table.decisions))) <= {"0", "1", "True", "False"}:
-        if labels & {"1", "True"}:
-            g = _positive_utility(True if "True" in labels else 1, table.decisions)
-        else:  # a 0/1 outcome with no positive record: g is 0 on every outcome there is, so every group gets 0
-            name = "1{outcome = True}" if "False" in labels else "1{outcome = 1}"
-            g = from_table(np.zeros(len(table.decisions)), tuple(table.decisions), name=name)
-    else:
-        raise InputError(
-            "--positive",
-            f"the outcome {outcome!r} is not binary; say which value is positive "
-            "(--positive VALUE) or give --utility EXPR",
-        )
+        raise InputError("positive", "give positive or utility, not both", positive)
+    g = _audit_utility(table, positive, utility)
     empty = [table.groups[j] for j in np.flatnonzero(table.group_counts == 0)]
     if empty:
-        raise InputError("--sensitive", "group has no records", format_label(empty[0]))
-    law = table.law()
-    population = table.population()
-    observed = observe(law, g, population)
+        raise InputError("sensitive", "group has no records", format_label(empty[0]))
+    observed = observe(table.law(), g, table.population())
     intervals = None
     if confidence is not None:
         intervals = fairness_intervals(
             table, g, confidence, method, concentration=concentration, draws=draws, seed=seed
         )
     elif method != "auto":
-        raise InputError("--method", "chooses how intervals are made: give --confidence LEVEL too", method)
-    return Audit(table, g, observed, intervals, confidence)
+        raise InputError(
+            "method",
+            "chooses how intervals are made: give `confidence` too",
+            method,
+        )
+    return Audit(table=table, utility=g, observed=observed, intervals=intervals, confidence=confidence)
+
+
+def _audit_utility(table: CountTable, positive: Hashable | None, utility: str | Utility | None) -> Utility:
+    """g: the Utility or expression given, else 1{U = positive}, else for a 0/1 (or boolean) outcome 1{U = 1}."""
+    if isinstance(utility, Utility):
+        return utility
+    if utility is not None:
+        return utility_from_expression(utility, table.decisions)
+    if positive is not None:
+        return _positive_utility(positive, table.decisions)
+    labels = set(map(str, table.decisions))
+    if labels <= {"0", "1", "True", "False"}:
+        if labels & {"1", "True"}:
+            return _positive_utility(True if "True" in labels else 1, table.decisions)
+        # a 0/1 outcome with no positive record: g is 0 on every outcome there is, so every group gets 0
+        name = "1{outcome = True}" if "False" in labels else "1{outcome = 1}"
+        return from_table(np.zeros(len(table.decisions)), tuple(table.decisions), name=name)
+    raise InputError(
+        "positive",
+        f"the outcome {table.outcome_column!r} is not binary; say which value is "
+        "positive (`positive`) or give a `utility`",
+    )

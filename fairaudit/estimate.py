@@ -19,7 +19,7 @@ with the records; it also reads count tables made by any engine (SQL
 
 from __future__ import annotations
 
-from collections.abc import Hashable, Iterable, Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
@@ -30,6 +30,8 @@ import pandas as pd
 
 from ._arrays import format_label
 from ._errors import InputError
+from ._roles import check_roles, missing_values, roles
+from ._validation import columns
 from .laws import Law, Population
 
 if TYPE_CHECKING:
@@ -41,7 +43,15 @@ Counts: TypeAlias = npt.NDArray[np.int64 | np.float64]
 Codes: TypeAlias = npt.NDArray[np.integer[Any]]
 """Integer codes (positions in a tuple of labels), or integer weights."""
 
-__all__ = ["CountTable", "read_records", "count_records", "count_table", "count_file"]
+__all__ = [
+    # the counts
+    "CountTable",
+    # counting records, count tables and files
+    "count_file",
+    "count_records",
+    "count_table",
+    "read_records",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,38 +150,6 @@ def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str) -> tuple[Code
     return codes.astype(np.int64), labels
 
 
-def _check_columns(names: pd.DataFrame | Iterable[str], columns: Sequence[str], field: str) -> None:
-    """An unknown column is an InputError naming ``field`` and listing the columns ``names``."""
-    names = list(names.columns) if isinstance(names, pd.DataFrame) else list(names)
-    for c in columns:
-        if c not in names:
-            shown = ", ".join(map(str, names[:12])) + (", ..." if len(names) > 12 else "")
-            raise InputError(field, f"unknown column; the data has: {shown}", c)
-
-
-def _roles(
-    sensitive: str | Sequence[str], outcome: str, context: str | Sequence[str]
-) -> tuple[list[str], str, list[str]]:
-    """The columns of each role as lists (a single name may be given as a string)."""
-    sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
-    context = [context] if isinstance(context, str) else list(context)
-    if not sensitive:
-        raise InputError("--sensitive", "name at least one column", sensitive)
-    return sensitive, outcome, context
-
-
-def _check_roles(
-    names: pd.DataFrame | Iterable[str], sensitive: Sequence[str], outcome: str, context: Sequence[str]
-) -> None:
-    _check_columns(names, sensitive, "--sensitive")
-    _check_columns(names, [outcome], "--outcome")
-    _check_columns(names, context, "--context")
-
-
-def _missing_error(column: Hashable, n: float) -> InputError:
-    return InputError(f"column {column!r}", f"has {int(n)} missing values (drop those rows: --dropna, or dropna=True)")
-
-
 def _tally(
     frame: pd.DataFrame,
     sensitive: list[str],
@@ -195,7 +173,7 @@ def _tally(
     if missing.any():
         if not dropna:
             col = missing[missing > 0].index[0]
-            raise _missing_error(col, missing[col])
+            raise missing_values(col, missing[col])
         keep = ~isna.any(axis=1).to_numpy()
         frame = frame[keep]
         weights = None if weights is None else weights[keep]
@@ -259,8 +237,8 @@ def count_records(
     >>> t.counts.tolist(), t.groups, t.decisions
     ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
     """
-    sensitive, outcome, context = _roles(sensitive, outcome, context)
-    _check_roles(data, sensitive, outcome, context)
+    sensitive, outcome, context = roles(sensitive, outcome, context)
+    check_roles(data.columns, sensitive, outcome, context)
     return _tally(data, sensitive, outcome, context, dropna)
 
 
@@ -322,56 +300,18 @@ def count_table(
     """
     sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
     context = [context] if isinstance(context, str) else list(context)
-    _check_columns(data, sensitive + [outcome] + context + [count], "table")
-    values = pd.to_numeric(data[count], errors="coerce")
-    if values.isna().any() or (values < 0).any():
-        bad = data[count][values.isna() | (values < 0)].iloc[0]
-        raise InputError(f"column {count!r}", "must hold non-negative numbers", bad)
-    infinite = (
-        np.zeros(0, dtype=bool) if pd.api.types.is_integer_dtype(values.dtype) else np.isinf(values.to_numpy(float))
-    )
-    if infinite.any():  # pandas reads "inf" as a number
-        i = int(np.flatnonzero(infinite)[0])
-        cell = ", ".join(f"{c}={str(data[c].iloc[i])!r}" for c in dict.fromkeys(context + sensitive + [outcome]))
-        bad = data[count].iloc[i]
-        bad = bad.item() if isinstance(bad, np.generic) else bad
-        raise InputError(f"column {count!r}", f"must hold finite numbers; data row {i + 1} ({cell}) is not", bad)
+    columns(sensitive + [outcome] + context + [count], "table", data.columns)
+    values = _count_values(data, count, list(dict.fromkeys(context + sensitive + [outcome])))
     free = [
         c
         for cols, expected in ((context, contexts), (sensitive, groups), ([outcome], decisions))
         if expected is None
         for c in cols
     ]
-    isna = data[list(dict.fromkeys(free))].isna()
-    if isna.to_numpy().any():  # a row with no label stands for `count` records with a missing value
-        missing = isna.mul(values.to_numpy(), axis=0).sum()
-        if missing.any() and not dropna:
-            col = missing[missing > 0].index[0]
-            raise _missing_error(col, missing[col])
-        keep = ~isna.any(axis=1).to_numpy()
-        data, values = data[keep], values[keep]
-
-    def codes(columns: list[str], expected: Sequence[Hashable] | None, role: str) -> tuple[Codes, tuple]:
-        if expected is None:
-            return _codes(data, columns, role)
-        labels = tuple(expected)
-        lookup = {format_label(v): i for i, v in enumerate(labels)}
-        if len(columns) == 0:
-            return np.zeros(len(data), dtype=np.int64), labels
-        keys = data[columns].astype(str).agg(" & ".join, axis=1) if len(columns) > 1 else data[columns[0]].astype(str)
-        mapped = keys.map(lookup)
-        if mapped.isna().any():
-            bad = keys[mapped.isna()].iloc[0]
-            raise InputError(
-                f"column {columns[0]!r}" if len(columns) == 1 else f"columns {columns}",
-                f"value not among the {role} values {[format_label(v) for v in labels]}",
-                bad,
-            )
-        return mapped.to_numpy(dtype=np.int64), labels
-
-    cx, context_labels = codes(context, contexts, "context")
-    ca, group_labels = codes(sensitive, groups, "sensitive")
-    cu, decision_labels = codes([outcome], decisions, "decision")
+    data, values = _drop_unlabelled(data, values, list(dict.fromkeys(free)), dropna)
+    cx, context_labels = _label_codes(data, context, contexts, "context")
+    ca, group_labels = _label_codes(data, sensitive, groups, "sensitive")
+    cu, decision_labels = _label_codes(data, [outcome], decisions, "decision")
     shape = (len(context_labels), len(group_labels), len(decision_labels))
     flat = (cx * shape[1] + ca) * shape[2] + cu
     dup = pd.Series(flat).duplicated()
@@ -390,6 +330,65 @@ def count_table(
         tuple(sensitive),
         outcome,
     )
+
+
+def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Series:
+    """The column ``count`` as numbers: each finite and non-negative (``labels`` name the row of an infinite one)."""
+    values = pd.to_numeric(data[count], errors="coerce")
+    if values.isna().any() or (values < 0).any():
+        bad = data[count][values.isna() | (values < 0)].iloc[0]
+        raise InputError(f"column {count!r}", "must hold non-negative numbers", bad)
+    infinite = (
+        np.zeros(0, dtype=bool) if pd.api.types.is_integer_dtype(values.dtype) else np.isinf(values.to_numpy(float))
+    )
+    if infinite.any():  # pandas reads "inf" as a number
+        i = int(np.flatnonzero(infinite)[0])
+        cell = ", ".join(f"{c}={str(data[c].iloc[i])!r}" for c in labels)
+        bad = data[count].iloc[i]
+        bad = bad.item() if isinstance(bad, np.generic) else bad
+        raise InputError(f"column {count!r}", f"must hold finite numbers; data row {i + 1} ({cell}) is not", bad)
+    return values
+
+
+def _drop_unlabelled(
+    data: pd.DataFrame, values: pd.Series, free: list[str], dropna: bool
+) -> tuple[pd.DataFrame, pd.Series]:
+    """The rows with a label in every column of ``free``; without ``dropna`` a missing label is an error.
+
+    A row with no label stands for ``values[i]`` records with a missing value,
+    so the error counts those records, as :func:`count_records` would.
+    """
+    isna = data[free].isna()
+    if not isna.to_numpy().any():
+        return data, values
+    missing = isna.mul(values.to_numpy(), axis=0).sum()
+    if missing.any() and not dropna:
+        col = missing[missing > 0].index[0]
+        raise missing_values(col, missing[col])
+    keep = ~isna.any(axis=1).to_numpy()
+    return data[keep], values[keep]
+
+
+def _label_codes(
+    data: pd.DataFrame, columns: list[str], expected: Sequence[Hashable] | None, role: str
+) -> tuple[Codes, tuple]:
+    """Codes of the rows' labels in ``expected`` (matched by text), or, without it, the sorted labels found."""
+    if expected is None:
+        return _codes(data, columns, role)
+    labels = tuple(expected)
+    lookup = {format_label(v): i for i, v in enumerate(labels)}
+    if len(columns) == 0:
+        return np.zeros(len(data), dtype=np.int64), labels
+    keys = data[columns].astype(str).agg(" & ".join, axis=1) if len(columns) > 1 else data[columns[0]].astype(str)
+    mapped = keys.map(lookup)
+    if mapped.isna().any():
+        bad = keys[mapped.isna()].iloc[0]
+        raise InputError(
+            f"column {columns[0]!r}" if len(columns) == 1 else f"columns {columns}",
+            f"value not among the {role} values {[format_label(v) for v in labels]}",
+            bad,
+        )
+    return mapped.to_numpy(dtype=np.int64), labels
 
 
 _PARQUET_SUFFIXES = {".parquet", ".pq"}
@@ -499,7 +498,7 @@ def _parquet_counts(
         raise _cannot_read(path, exc) from None
     schema = dataset.schema
     index = {c for c in (schema.pandas_metadata or {}).get("index_columns", []) if isinstance(c, str)}
-    _check_roles([c for c in schema.names if c not in index], sensitive, outcome, context)
+    check_roles([c for c in schema.names if c not in index], sensitive, outcome, context)
     keys = list(dict.fromkeys(context + sensitive + [outcome]))
     name = "n"
     while name in keys:
@@ -557,8 +556,8 @@ def count_file(
     ------
     InputError
         A missing or unreadable file, pyarrow missing for Parquet, an unknown
-        column (naming ``--sensitive``, ``--outcome``, ``--context`` or
-        ``--count`` and listing the file's columns; for Parquet from its
+        column (naming ``sensitive``, ``outcome``, ``context`` or
+        ``count`` and listing the file's columns; for Parquet from its
         schema, without reading data), missing values when ``dropna`` is
         False (``column 'x': has N missing values ...``), no records, and for
         count tables the errors of :func:`count_table`.
@@ -573,12 +572,12 @@ def count_file(
     >>> t.counts.tolist(), t.groups, t.decisions
     ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
     """
-    sensitive, outcome, context = _roles(sensitive, outcome, context)
+    sensitive, outcome, context = roles(sensitive, outcome, context)
     p = Path(path)
     if count is not None:
         frame = read_records(path)
-        _check_roles(frame, sensitive, outcome, context)
-        _check_columns(frame, [count], "--count")
+        check_roles(frame.columns, sensitive, outcome, context)
+        columns([count], "count", frame.columns)
         return count_table(frame, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
     if _is_parquet(p):
         return _parquet_counts(path, p, sensitive, outcome, context, dropna)

@@ -23,13 +23,23 @@ import simpleeval  # type: ignore[import-untyped]
 from ._arrays import FloatArray, format_label
 from ._errors import InputError
 
-__all__ = ["FUNCTIONS", "GRAMMAR", "MAX_DEPTH", "MAX_LENGTH", "evaluate_utility_expression", "parse_expression"]
+__all__ = [
+    # evaluating and checking an expression
+    "evaluate_utility_expression",
+    "parse_expression",
+    # the language and its limits
+    "FUNCTIONS",
+    "GRAMMAR",
+    "MAX_DEPTH",
+    "MAX_LENGTH",
+]
 
 MAX_LENGTH = 2000
 """Longest accepted expression, in characters."""
 MAX_DEPTH = 60
 """Deepest accepted nesting of the parsed expression (operators, calls, parentheses)."""
-FIELD = "--utility"
+FIELD = "utility"
+"""The parameter every error names (the command line shows it as ``--utility``)."""
 GRAMMAR = "u, numbers, + - * / // % **, comparisons, and/or/not, in [...], a if c else b, min max abs log exp"
 """The allowed pieces, named in every error about a piece that is not allowed."""
 
@@ -402,7 +412,7 @@ def evaluate_utility_expression(expression: str, values: Sequence[Hashable]) -> 
     Raises
     ------
     InputError
-        Field ``--utility``: the expression is empty, too long, not valid
+        Field ``utility``: the expression is empty, too long, not valid
         syntax, nested too deeply, or uses anything outside the grammar (an
         attribute, subscript, other name or call, lambda, comprehension,
         f-string, ...: the message names it); or its evaluation fails at some
@@ -420,11 +430,11 @@ def evaluate_utility_expression(expression: str, values: Sequence[Hashable]) -> 
     >>> evaluate_utility_expression("u.__class__", [1, 2])  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: --utility: not allowed: attribute access '.__class__'; ... (got 'u.__class__')
+    fairaudit._errors.InputError: utility: not allowed: attribute access '.__class__'; ... (got 'u.__class__')
     >>> evaluate_utility_expression("9**9**9**9", [1])
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: --utility: 9 ** 387420489 is too large (at u = 1) (got '9**9**9**9')
+    fairaudit._errors.InputError: utility: 9 ** 387420489 is too large (at u = 1) (got '9**9**9**9')
     """
     tree = parse_expression(expression)
     evaluator = _Evaluator()

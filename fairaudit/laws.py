@@ -38,7 +38,18 @@ from ._arrays import (
 from ._errors import InputError
 from .privacy import Mechanism, identity
 
-__all__ = ["Population", "Kernel", "Law", "IndependenceCheck", "compose", "default_population"]
+__all__ = [
+    # tables
+    "IndependenceCheck",
+    "Kernel",
+    "Law",
+    "Population",
+    # a law behind privacy filters
+    "compose",
+    # the population a law's metrics use
+    "default_population",
+    "population_for",
+]
 
 SOURCES = ("given", "records", "assumed")
 """Where a :class:`Population` comes from (its ``source``)."""
@@ -446,37 +457,12 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
         raise InputError("kernel", "must be a Kernel", type(kernel).__name__)
     m_a = sensitive if sensitive is not None else identity(kernel.groups)
     m_x = context if context is not None else identity(kernel.contexts)
-    if tuple(m_a.outputs) != tuple(kernel.groups):
-        raise InputError(
-            f"mechanism '{m_a.name}' outputs",
-            f"must be the kernel's groups {[format_label(g) for g in kernel.groups]}",
-            [format_label(o) for o in m_a.outputs],
-        )
-    if tuple(m_x.outputs) != tuple(kernel.contexts):
-        raise InputError(
-            f"mechanism '{m_x.name}' outputs",
-            f"must be the kernel's contexts {[format_label(c) for c in kernel.contexts]}",
-            [format_label(o) for o in m_x.outputs],
-        )
+    _check_outputs(m_a, kernel.groups, "groups")
+    _check_outputs(m_x, kernel.contexts, "contexts")
     k = kernel.probabilities
     same_a, same_x = m_a.is_identity, m_x.is_identity  # never materialise an identity matrix
-    empty = ~kernel.observed
-    if np.any(empty):
-        # a released cell (x̃, ã) is reached when some input maps to x̃ and some input maps to ã
-        reach_x = True if same_x else np.any(m_x.matrix > 0, axis=0)[:, None]
-        reach_a = True if same_a else np.any(m_a.matrix > 0, axis=0)[None, :]
-        hit = empty & reach_x & reach_a
-        if np.any(hit):
-            i, j = np.argwhere(hit)[0]
-            raise InputError(
-                "kernel",
-                f"empty cell (context={format_label(kernel.contexts[i])!r}, group={format_label(kernel.groups[j])!r}) "
-                + (
-                    "is reached by the privacy filter; give counts for it"
-                    if sensitive is not None or context is not None
-                    else "has no records; give counts for it"
-                ),
-            )
+    if not kernel.complete:
+        _check_unreached(kernel, m_a, m_x, filtered=sensitive is not None or context is not None)
         k = np.nan_to_num(k, nan=0.0)
     if same_x and same_a:
         q = k
@@ -489,6 +475,38 @@ def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechani
     # Clean rounding so rows sum to 1 within tolerance.
     q = q / np.einsum("...u->...", q)[..., None]
     return Law(q, m_x.inputs, m_a.inputs, kernel.decisions, name="law", _owned=True)
+
+
+def _check_outputs(mechanism: Mechanism, labels: tuple, what: str) -> None:
+    """The mechanism releases exactly the kernel's ``labels`` (its ``what``: groups or contexts), in order."""
+    if tuple(mechanism.outputs) != tuple(labels):
+        raise InputError(
+            f"mechanism '{mechanism.name}' outputs",
+            f"must be the kernel's {what} {[format_label(v) for v in labels]}",
+            [format_label(o) for o in mechanism.outputs],
+        )
+
+
+def _check_unreached(kernel: Kernel, m_a: Mechanism, m_x: Mechanism, *, filtered: bool) -> None:
+    """No empty cell of an estimated kernel is reached with positive probability behind the mechanisms.
+
+    A released cell (x̃, ã) is reached when some input maps to x̃ and some
+    input maps to ã; ``filtered`` says a mechanism was given (for the message).
+    """
+    reach_x = True if m_x.is_identity else np.any(m_x.matrix > 0, axis=0)[:, None]
+    reach_a = True if m_a.is_identity else np.any(m_a.matrix > 0, axis=0)[None, :]
+    hit = ~kernel.observed & reach_x & reach_a
+    if np.any(hit):
+        i, j = np.argwhere(hit)[0]
+        raise InputError(
+            "kernel",
+            f"empty cell (context={format_label(kernel.contexts[i])!r}, group={format_label(kernel.groups[j])!r}) "
+            + (
+                "is reached by the privacy filter; give counts for it"
+                if filtered
+                else "has no records; give counts for it"
+            ),
+        )
 
 
 def default_population(law: _DecisionTable) -> Population:
@@ -522,3 +540,54 @@ def default_population(law: _DecisionTable) -> Population:
     if counts is not None and counts.sum() > 0:
         return Population.from_counts(counts, law.contexts, law.groups)
     return Population.uniform(law.contexts, law.groups, source="assumed")
+
+
+def population_for(law: _DecisionTable, population: object = None) -> Population:
+    """The population a metric of ``law`` uses: ``population`` checked against the law, else the law's default.
+
+    Parameters
+    ----------
+    law : Law or Kernel
+        Shape (n_contexts, n_groups, n_decisions).
+    population : Population, optional
+        P(X, A); its contexts and groups must be the law's. None gives
+        :func:`default_population` (the records' own for a law from counts,
+        else uniform and independent, reported as assumed).
+
+    Returns
+    -------
+    Population
+        Shape (n_contexts, n_groups), labelled as the law.
+
+    Raises
+    ------
+    InputError
+        ``population`` is not a Population, or its labels differ from the law's.
+
+    Examples
+    --------
+    >>> law = Law([[[0.5, 0.5]], [[0.2, 0.8]]], ["x0", "x1"], ["a"], ["yes", "no"])
+    >>> population_for(law).source
+    'assumed'
+    >>> population_for(law, Population.uniform(["x1", "x0"], ["a"]))
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: population contexts: must match the law's contexts ['x0', 'x1'] (got ['x1', 'x0'])
+    """
+    if population is None:
+        return default_population(law)
+    if not isinstance(population, Population):
+        raise InputError("population", "must be a Population", type(population).__name__)
+    if population.contexts != law.contexts:
+        raise InputError(
+            "population contexts",
+            f"must match the law's contexts {list(map(format_label, law.contexts))}",
+            list(map(format_label, population.contexts)),
+        )
+    if population.groups != law.groups:
+        raise InputError(
+            "population groups",
+            f"must match the law's groups {list(map(format_label, law.groups))}",
+            list(map(format_label, population.groups)),
+        )
+    return population

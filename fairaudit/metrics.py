@@ -32,27 +32,32 @@ import numpy as np
 
 from ._arrays import BoolArray, FloatArray, IntArray, format_label, ratio_extremes, ratio_of_extremes, safe_log
 from ._errors import InputError
-from .laws import Law, Population, default_population
+from .laws import Law, Population, population_for
 from .utility import Utility
 
 __all__ = [
+    # results
+    "AllMetrics",
     "Fairness",
-    "TotalVariation",
     "SupFairness",
-    "expected_utility",
-    "local_fairness",
+    "TotalVariation",
+    # g-fairness and its sup over g
     "global_fairness",
+    "local_fairness",
+    "sup_global_fairness",
+    "sup_local_fairness",
+    # total-variation gaps
     "demographic_parity",
     "equalized_odds",
-    "sup_local_fairness",
-    "sup_global_fairness",
-    "group_decision_law",
+    # every metric in one pass
     "all_metrics",
-    "AllMetrics",
+    # the quantities behind them
+    "expected_utility",
+    "group_decision_law",
 ]
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Fairness:
     """Local or global g-fairness of a law, with the cells that attain it.
 
@@ -104,7 +109,7 @@ def _where_and_pair(context: Hashable | None, group: Hashable | None, other: Has
     return where, pair
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class TotalVariation:
     """A total-variation fairness gap (demographic parity or equalized odds).
 
@@ -139,7 +144,7 @@ class TotalVariation:
         return f"TotalVariation({self.kind}, value={self.value:.6g}{where}, groups {pair}, event={event!r})"
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class SupFairness:
     """The supremum of L (or L̄) over every utility g(u) ≥ 0 (paper SI B, Lemma 1).
 
@@ -184,26 +189,6 @@ def _check_law(law: object) -> Law:
     if not isinstance(law, Law):
         raise InputError("law", "must be a Law (use compose() to turn a kernel into a law)", type(law).__name__)
     return law
-
-
-def _check_population(population: object, law: Law) -> Population:
-    if population is None:
-        return default_population(law)
-    if not isinstance(population, Population):
-        raise InputError("population", "must be a Population", type(population).__name__)
-    if population.contexts != law.contexts:
-        raise InputError(
-            "population contexts",
-            f"must match the law's contexts {list(map(format_label, law.contexts))}",
-            list(map(format_label, population.contexts)),
-        )
-    if population.groups != law.groups:
-        raise InputError(
-            "population groups",
-            f"must match the law's groups {list(map(format_label, law.groups))}",
-            list(map(format_label, population.groups)),
-        )
-    return population
 
 
 # --------------------------------------------------------------------------- one pass over the law
@@ -393,7 +378,7 @@ def local_fairness(law: Law, utility: Utility, population: Population | None = N
     """
     law = _check_law(law)
     if population is not None:
-        population = _check_population(population, law)
+        population = population_for(law, population)
     return _local(law, utility, population, _scan(law, utility))
 
 
@@ -409,42 +394,33 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: _Pas
     if not keep.all():
         ratio[~keep] = np.nan
     per_context = np.log(ratio, where=~np.isnan(ratio), out=np.full(ratio.shape, np.nan))
+
+    def result(
+        value: float, ratio: float, context: Hashable, group: Hashable, other: Hashable, per: FloatArray = per_context
+    ) -> Fairness:
+        return Fairness(
+            kind="local",
+            value=value,
+            ratio=ratio,
+            context=context,
+            group=group,
+            other_group=other,
+            expected_utility=e,
+            per_context=per,
+            excluded=tuple(notes),
+            law=law,
+            utility=utility,
+            population=population,
+        )
+
     if len(law.groups) < 2:
-        return Fairness(
-            "local", 0.0, 1.0, None, None, None, e, np.zeros(len(law.contexts)), tuple(notes), law, utility, population
-        )
+        return result(0.0, 1.0, None, None, None, np.zeros(len(law.contexts)))
     if np.all(np.isnan(ratio)):
-        return Fairness(
-            "local",
-            float("nan"),
-            float("nan"),
-            None,
-            None,
-            None,
-            e,
-            per_context,
-            tuple(notes),
-            law,
-            utility,
-            population,
-        )
+        return result(float("nan"), float("nan"), None, None, None)
     i = int(np.nanargmax(ratio))
     best = float(ratio[i])
     _, hi, lo = ratio_extremes(e[i : i + 1], axis=1)  # the pair, in the maximising context only
-    return Fairness(
-        "local",
-        safe_log(best),
-        best,
-        law.contexts[i],
-        law.groups[hi[0]],
-        law.groups[lo[0]],
-        e,
-        per_context,
-        tuple(notes),
-        law,
-        utility,
-        population,
-    )
+    return result(safe_log(best), best, law.contexts[i], law.groups[hi[0]], law.groups[lo[0]])
 
 
 def _group_weights(law: Law, population: Population) -> tuple[FloatArray, list[str]]:
@@ -514,7 +490,7 @@ def global_fairness(law: Law, utility: Utility, population: Population | None = 
     (4.0, 0, 1)
     """
     law = _check_law(law)
-    population = _check_population(population, law)
+    population = population_for(law, population)
     w, notes = _group_weights(law, population)
     return _global(law, utility, population, w, notes, _asked(_scan(law, utility).e))
 
@@ -523,28 +499,30 @@ def _global(
     law: Law, utility: Utility, population: Population, w: FloatArray, notes: list[str], e: FloatArray
 ) -> Fairness:
     eg = _per_group(np.einsum("xa,xa->a", w, e if law.complete else np.nan_to_num(e, nan=0.0)), population)
+
+    def result(value: float, ratio: float, group: Hashable, other: Hashable) -> Fairness:
+        return Fairness(
+            kind="global",
+            value=value,
+            ratio=ratio,
+            context=None,
+            group=group,
+            other_group=other,
+            expected_utility=eg,
+            per_context=None,
+            excluded=tuple(notes),
+            law=law,
+            utility=utility,
+            population=population,
+        )
+
     if len(law.groups) < 2:
-        return Fairness("global", 0.0, 1.0, None, None, None, eg, None, tuple(notes), law, utility, population)
+        return result(0.0, 1.0, None, None)
     ratio, hi, lo = ratio_extremes(eg[None, :], axis=1)
     best = float(ratio[0])
     if np.isnan(best):
-        return Fairness(
-            "global", float("nan"), float("nan"), None, None, None, eg, None, tuple(notes), law, utility, population
-        )
-    return Fairness(
-        "global",
-        safe_log(best),
-        best,
-        None,
-        law.groups[hi[0]],
-        law.groups[lo[0]],
-        eg,
-        None,
-        tuple(notes),
-        law,
-        utility,
-        population,
-    )
+        return result(float("nan"), float("nan"), None, None)
+    return result(safe_log(best), best, law.groups[hi[0]], law.groups[lo[0]])
 
 
 def group_decision_law(law: Law, population: Population | None = None) -> FloatArray:
@@ -553,7 +531,7 @@ def group_decision_law(law: Law, population: Population | None = None) -> FloatA
     Rows of groups with P(A = a) = 0 are NaN.
     """
     law = _check_law(law)
-    population = _check_population(population, law)
+    population = population_for(law, population)
     w, _ = _group_weights(law, population)
     return _per_group(_asked(_scan(law, weights=w).group_law), population)
 
@@ -597,21 +575,46 @@ def demographic_parity(law: Law, population: Population | None = None) -> TotalV
     (0.4, 'a', 'b', ('no',))
     """
     law = _check_law(law)
-    population = _check_population(population, law)
+    population = population_for(law, population)
     return _demographic_parity(law, population, group_decision_law(law, population))
 
 
 def _demographic_parity(law: Law, population: Population, dist: FloatArray) -> TotalVariation:
     notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
     if len(law.groups) < 2:
-        return TotalVariation("demographic_parity", 0.0, None, None, None, (), tuple(notes), law, population)
+        return _total_variation("demographic_parity", 0.0, notes, law, population)
     value, arg_a, arg_b = _max_tv(dist)
     if np.isnan(value):
-        return TotalVariation("demographic_parity", float("nan"), None, None, None, (), tuple(notes), law, population)
+        return _total_variation("demographic_parity", float("nan"), notes, law, population)
     a, b = int(arg_a), int(arg_b)
     event = tuple(law.decisions[u] for u in np.flatnonzero(dist[a] > dist[b]))
+    return _total_variation(
+        "demographic_parity", float(value), notes, law, population, pair=(law.groups[a], law.groups[b]), event=event
+    )
+
+
+def _total_variation(
+    kind: str,
+    value: float,
+    notes: list[str],
+    law: Law,
+    population: Population | None,
+    *,
+    context: Hashable | None = None,
+    pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None),
+    event: tuple = (),
+) -> TotalVariation:
+    """A :class:`TotalVariation`; without a pair, the result when no two groups can be compared."""
     return TotalVariation(
-        "demographic_parity", float(value), None, law.groups[a], law.groups[b], event, tuple(notes), law, population
+        kind=kind,
+        value=value,
+        context=context,
+        group=pair[0],
+        other_group=pair[1],
+        event=event,
+        excluded=tuple(notes),
+        law=law,
+        population=population,
     )
 
 
@@ -632,33 +635,32 @@ def equalized_odds(law: Law, population: Population | None = None) -> TotalVaria
     """
     law = _check_law(law)
     if population is not None:
-        population = _check_population(population, law)
+        population = population_for(law, population)
     return _equalized_odds(law, population, _scan(law, tv=len(law.groups) >= 2).tv)
 
 
 def _equalized_odds(law: Law, population: Population | None, per_context: FloatArray | None) -> TotalVariation:
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
-        return TotalVariation("equalized_odds", 0.0, None, None, None, (), tuple(notes), law, population)
+        return _total_variation("equalized_odds", 0.0, notes, law, population)
     value = np.where(keep, _asked(per_context), np.nan)  # computed for two groups or more
     if np.all(np.isnan(value)):
-        return TotalVariation("equalized_odds", float("nan"), None, None, None, (), tuple(notes), law, population)
+        return _total_variation("equalized_odds", float("nan"), notes, law, population)
     i = int(np.nanargmax(value))
     # the value and pair in the maximising context by the pairwise definition (each unordered pair once)
     tv, a, b = _max_tv(law.probabilities[i : i + 1])
     ai, bi = int(a[0]), int(b[0])
     row_a, row_b = law.probabilities[i, ai], law.probabilities[i, bi]
     event = tuple(law.decisions[u] for u in np.flatnonzero(row_a > row_b))
-    return TotalVariation(
+    return _total_variation(
         "equalized_odds",
         float(tv[0]),
-        law.contexts[i],
-        law.groups[ai],
-        law.groups[bi],
-        event,
-        tuple(notes),
+        notes,
         law,
         population,
+        context=law.contexts[i],
+        pair=(law.groups[ai], law.groups[bi]),
+        event=event,
     )
 
 
@@ -680,7 +682,7 @@ def sup_local_fairness(law: Law, population: Population | None = None) -> SupFai
     """
     law = _check_law(law)
     if population is not None:
-        population = _check_population(population, law)
+        population = population_for(law, population)
     scan = _scan(law, extremes=True)
     return _sup_local(law, population, _asked(scan.top), _asked(scan.bottom))
 
@@ -688,7 +690,7 @@ def sup_local_fairness(law: Law, population: Population | None = None) -> SupFai
 def _sup_local(law: Law, population: Population | None, top: FloatArray, bottom: FloatArray) -> SupFairness:
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
-        return SupFairness("local", 0.0, 1.0, None, None, None, None, tuple(notes), law, population)
+        return _sup_fairness("local", 0.0, 1.0, notes, law, population)
     present = _present(law)
     ratio = ratio_of_extremes(
         top, bottom, present if isinstance(present, int) else present[:, None]
@@ -696,21 +698,47 @@ def _sup_local(law: Law, population: Population | None, top: FloatArray, bottom:
     if not keep.all():
         ratio[~keep] = np.nan
     if np.all(np.isnan(ratio)):
-        return SupFairness("local", float("nan"), float("nan"), None, None, None, None, tuple(notes), law, population)
+        return _sup_fairness("local", float("nan"), float("nan"), notes, law, population)
     i, u = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
     best = float(ratio[i, u])
     _, hi, lo = ratio_extremes(law.probabilities[i, :, u][None, :], axis=1)
-    return SupFairness(
+    return _sup_fairness(
         "local",
         safe_log(best),
         best,
-        law.contexts[i],
-        law.groups[hi[0]],
-        law.groups[lo[0]],
-        law.decisions[u],
-        tuple(notes),
+        notes,
         law,
         population,
+        context=law.contexts[i],
+        pair=(law.groups[hi[0]], law.groups[lo[0]]),
+        decision=law.decisions[u],
+    )
+
+
+def _sup_fairness(
+    kind: str,
+    value: float,
+    ratio: float,
+    notes: list[str],
+    law: Law,
+    population: Population | None,
+    *,
+    context: Hashable | None = None,
+    pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None),
+    decision: Hashable | None = None,
+) -> SupFairness:
+    """A :class:`SupFairness`; without a pair, the result when no two groups can be compared."""
+    return SupFairness(
+        kind=kind,
+        value=value,
+        ratio=ratio,
+        context=context,
+        group=pair[0],
+        other_group=pair[1],
+        decision=decision,
+        excluded=tuple(notes),
+        law=law,
+        population=population,
     )
 
 
@@ -722,30 +750,28 @@ def sup_global_fairness(law: Law, population: Population | None = None) -> SupFa
     Default population: :func:`~fairaudit.laws.default_population` (the records' own for a law from counts).
     """
     law = _check_law(law)
-    population = _check_population(population, law)
+    population = population_for(law, population)
     return _sup_global(law, population, group_decision_law(law, population))
 
 
 def _sup_global(law: Law, population: Population, dist: FloatArray) -> SupFairness:
     notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
     if len(law.groups) < 2:
-        return SupFairness("global", 0.0, 1.0, None, None, None, None, tuple(notes), law, population)
+        return _sup_fairness("global", 0.0, 1.0, notes, law, population)
     ratio, hi, lo = ratio_extremes(dist, axis=0)  # shape (n_decisions,)
     if np.all(np.isnan(ratio)):
-        return SupFairness("global", float("nan"), float("nan"), None, None, None, None, tuple(notes), law, population)
+        return _sup_fairness("global", float("nan"), float("nan"), notes, law, population)
     u = int(np.nanargmax(ratio))
     best = float(ratio[u])
-    return SupFairness(
+    return _sup_fairness(
         "global",
         safe_log(best),
         best,
-        None,
-        law.groups[hi[u]],
-        law.groups[lo[u]],
-        law.decisions[u],
-        tuple(notes),
+        notes,
         law,
         population,
+        pair=(law.groups[hi[u]], law.groups[lo[u]]),
+        decision=law.decisions[u],
     )
 
 
@@ -808,7 +834,7 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     (3.0, 0.4, 3.0)
     """
     law = _check_law(law)
-    population = _check_population(population, law)
+    population = population_for(law, population)
     w, notes = _group_weights(law, population)
     scan = _scan(law, utility, extremes=True, tv=len(law.groups) >= 2, weights=w)
     dist = _per_group(_asked(scan.group_law), population)

@@ -20,7 +20,8 @@ import numpy as np
 import pandas as pd
 
 from ._errors import InputError
-from .estimate import CountTable, _check_columns, count_table
+from ._roles import check_roles, missing_values, roles
+from .estimate import CountTable, count_table
 
 if TYPE_CHECKING:
     from pyspark.sql import DataFrame
@@ -75,8 +76,8 @@ def count_spark(
     ------
     InputError
         If pyspark is not installed; if ``frame`` is not a Spark DataFrame;
-        on an unknown column (naming ``--sensitive``, ``--outcome`` or
-        ``--context`` and listing the frame's columns), a column name the
+        on an unknown column (naming ``sensitive``, ``outcome`` or
+        ``context`` and listing the frame's columns), a column name the
         frame holds twice, or a column that is not of a scalar type (array,
         map, struct, binary); on missing values when ``dropna`` is False (the
         first used column with any, and their exact number); or when no
@@ -101,31 +102,16 @@ def count_spark(
         table.law(), table.population()
     """
     try:
-        from pyspark.sql import types as T
+        import pyspark.sql  # noqa: F401
     except ImportError:
         raise InputError("pyspark", "is needed to count a Spark DataFrame: pip install 'fairaudit[spark]'") from None
     if not all(hasattr(frame, name) for name in ("groupBy", "toDF", "toPandas", "schema", "columns")):
         raise InputError("frame", "must be a Spark DataFrame (pyspark.sql.DataFrame)", type(frame).__name__)
-    sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
-    context = [context] if isinstance(context, str) else list(context)
-    if not sensitive:
-        raise InputError("--sensitive", "name at least one column", sensitive)
+    sensitive, outcome, context = roles(sensitive, outcome, context)
     names = list(frame.columns)
-    _check_columns(names, sensitive, "--sensitive")
-    _check_columns(names, [outcome], "--outcome")
-    _check_columns(names, context, "--context")
+    check_roles(names, sensitive, outcome, context)
     used = list(dict.fromkeys(context + sensitive + [outcome]))
-    fields = frame.schema.fields
-    for col in used:
-        if names.count(col) > 1:
-            raise InputError(f"column {col!r}", f"is ambiguous: the frame has {names.count(col)} columns of that name")
-        kind = fields[names.index(col)].dataType
-        if not isinstance(kind, (T.AtomicType, T.NullType)) or isinstance(kind, T.BinaryType):
-            raise InputError(
-                f"column {col!r}",
-                "must hold scalar values (string, number, boolean, date or time)",
-                kind.simpleString(),
-            )
+    _check_scalar_columns(frame, names, used)
     # Rename every column by position: the group-by then never trips over
     # dots, backticks or names that differ only in case.
     keys = [f"c{names.index(col)}" for col in used]
@@ -135,19 +121,43 @@ def count_spark(
     while count in used:
         count = "_" + count
     agg.columns = pd.Index(used + [count])
+    agg = _drop_missing(agg, used, count, dropna)
+    table = count_table(agg, sensitive=sensitive, outcome=outcome, context=context, count=count)
+    # count_table sums the counts as floats; they are whole numbers below 2**53.
+    return replace(table, counts=np.rint(table.counts).astype(np.int64))
+
+
+def _check_scalar_columns(frame: DataFrame, names: list[str], used: list[str]) -> None:
+    """Each used column is named once in ``frame`` (whose columns are ``names``) and holds scalars."""
+    from pyspark.sql import types
+
+    fields = frame.schema.fields
+    for col in used:
+        if names.count(col) > 1:
+            raise InputError(f"column {col!r}", f"is ambiguous: the frame has {names.count(col)} columns of that name")
+        kind = fields[names.index(col)].dataType
+        if not isinstance(kind, (types.AtomicType, types.NullType)) or isinstance(kind, types.BinaryType):
+            raise InputError(
+                f"column {col!r}",
+                "must hold scalar values (string, number, boolean, date or time)",
+                kind.simpleString(),
+            )
+
+
+def _drop_missing(agg: pd.DataFrame, used: list[str], count: str, dropna: bool) -> pd.DataFrame:
+    """The grouped counts without their null and NaN groups; without ``dropna`` those are an error.
+
+    The number of missing values of a column is the sum of the counts of the
+    groups where it is null or NaN.
+    """
     n = agg[count].to_numpy(dtype=np.int64)
     isna = agg[used].isna().to_numpy()
     missing = n @ isna
     if missing.any():
         if not dropna:
             i = int(np.flatnonzero(missing)[0])
-            raise InputError(
-                f"column {used[i]!r}",
-                f"has {int(missing[i])} missing values (drop those rows: --dropna, or dropna=True)",
-            )
+            raise missing_values(used[i], missing[i])
         agg = agg.loc[~np.any(isna, axis=1)]
     if len(agg) == 0:
         raise InputError("DATA", "has no records to count")
-    table = count_table(agg, sensitive=sensitive, outcome=outcome, context=context, count=count)
-    # count_table sums the counts as floats; they are whole numbers below 2**53.
-    return replace(table, counts=np.rint(table.counts).astype(np.int64))
+    return agg

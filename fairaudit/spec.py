@@ -39,6 +39,7 @@ from pydantic import (
 
 from ._arrays import FloatArray, as_labels, format_label
 from ._errors import InputError
+from ._validation import real
 from .estimate import CountTable, count_records, count_table, read_records
 from .laws import Kernel, Population
 from .privacy import (
@@ -54,7 +55,13 @@ from .privacy import (
 )
 from .utility import Utility, check_metric, from_table, indicator
 
-__all__ = ["Spec", "load_spec", "parse_spec"]
+__all__ = [
+    # a validated spec
+    "Spec",
+    # reading one
+    "load_spec",
+    "parse_spec",
+]
 
 
 class _Strict(BaseModel):
@@ -79,9 +86,13 @@ class _FieldProblem(ValueError):
 
 
 def _finite(v: float | None, what: str = "value") -> float | None:
-    if v is not None and (math.isnan(v) or math.isinf(v)):
-        raise _FieldProblem(f".{what}", "must be finite", v)
-    return v
+    """``v`` (None stays None) if it is finite; else a problem of the field ``.what``."""
+    if v is None:
+        return v
+    try:
+        return real(v, what, what="finite")
+    except InputError as exc:
+        raise _FieldProblem(f".{exc.field}", exc.problem, exc.value) from None
 
 
 def _kind(value: object) -> str:
@@ -437,13 +448,14 @@ class Spec:
             return None
         if len(values) != len(labels):
             raise self._err(field, f"must have one entry per {what} ({len(labels)})", values)
-        p = np.asarray(values, dtype=float)
-        bad = np.flatnonzero(~np.isfinite(p) | (p < 0))
-        if len(bad):
-            i = int(bad[0])
-            raise self._err(
-                f"{field}[{i}]", f"must be a finite number >= 0 ({what} {format_label(labels[i])!r})", values[i]
+        for i, (v, label) in enumerate(zip(values, labels, strict=True)):
+            real(
+                v,
+                f"{self.source}: {field}[{i}]",
+                low=0.0,
+                what=f"a finite number >= 0 ({what} {format_label(label)!r})",
             )
+        p = np.asarray(values, dtype=float)
         total = float(p.sum())
         if abs(total - 1.0) > 1e-9:
             raise self._err(field, f"entries sum to {total:.12g}, not 1", values)

@@ -26,7 +26,16 @@ import numpy.typing as npt
 from ._arrays import FloatArray, as_float_array, as_labels, check_shape, format_label
 from ._errors import InputError
 
-__all__ = ["Utility", "indicator", "from_table", "from_function", "discrete_metric", "check_metric"]
+__all__ = [
+    # utilities
+    "Utility",
+    "from_function",
+    "from_table",
+    "indicator",
+    # metrics on the groups
+    "check_metric",
+    "discrete_metric",
+]
 
 
 def discrete_metric(n_groups: int) -> FloatArray:

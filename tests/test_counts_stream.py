@@ -221,16 +221,16 @@ def test_unknown_column_names_the_flag_and_lists_the_schema(tmp_path):
     path = tmp_path / "r.parquet"
     df.to_parquet(path)  # the index is stored as a column 'rowid'; pandas reads it back as the index
     for flag, kw in (
-        ("--sensitive", dict(sensitive=["nope"], outcome="y")),
-        ("--outcome", dict(sensitive=["g"], outcome="nope")),
-        ("--context", dict(sensitive=["g"], outcome="y", context=["nope"])),
-        ("--sensitive", dict(sensitive=["rowid"], outcome="y")),
+        ("sensitive", dict(sensitive=["nope"], outcome="y")),
+        ("outcome", dict(sensitive=["g"], outcome="nope")),
+        ("context", dict(sensitive=["g"], outcome="y", context=["nope"])),
+        ("sensitive", dict(sensitive=["rowid"], outcome="y")),
     ):
         err = streamed(path, **kw)
-        bad = {"--sensitive": kw["sensitive"][0], "--outcome": kw["outcome"], "--context": "nope"}[flag]
+        bad = {"sensitive": kw["sensitive"][0], "outcome": kw["outcome"], "context": "nope"}[flag]
         assert str(err) == f"{flag}: unknown column; the data has: g, y, x (got {bad!r})"
         assert_identical(reference(path, **kw), err)
-    assert str(streamed(path, sensitive=[], outcome="y")) == "--sensitive: name at least one column (got [])"
+    assert str(streamed(path, sensitive=[], outcome="y")) == "sensitive: name at least one column (got [])"
 
 
 def test_file_errors(tmp_path):
@@ -326,9 +326,9 @@ def test_count_table_errors(tmp_path):
         "column 'n': must hold non-negative numbers (got np.int64(-1))"
     )
     assert str(streamed(path, sensitive="g", outcome="y", count="count")) == (
-        "--count: unknown column; the data has: g, y, n (got 'count')"
+        "count: unknown column; the data has: g, y, n (got 'count')"
     )
-    assert str(streamed(path, sensitive="h", outcome="y", count="n")).startswith("--sensitive: unknown column")
+    assert str(streamed(path, sensitive="h", outcome="y", count="n")).startswith("sensitive: unknown column")
 
 
 def test_count_table_null_rows_weigh_their_counts():
@@ -356,13 +356,13 @@ def test_audit_of_a_count_table_equals_audit_of_records():
         assert (r.intervals.local.lower, r.intervals.local.upper) == (a.intervals.local.lower, a.intervals.local.upper)
     t = count_records(df, **kw)
     assert str(_err(fa.audit, t, sensitive=["sex"])) == (
-        "--sensitive: does not match the count table, whose column(s) are [grp] (got 'sex')"
+        "sensitive: does not match the count table, whose column(s) are [grp] (got 'sex')"
     )
-    assert str(_err(fa.audit, t, outcome="y")).startswith("--outcome: does not match the count table")
+    assert str(_err(fa.audit, t, outcome="y")).startswith("outcome: does not match the count table")
     assert str(_err(fa.audit, t, context=[])) == (
-        "--context: does not match the count table, whose column(s) are [ctx] (got '')"
+        "context: does not match the count table, whose column(s) are [ctx] (got '')"
     )
-    assert str(_err(fa.audit, df, outcome="decision")) == "--sensitive: name at least one column"
+    assert str(_err(fa.audit, df, outcome="decision")) == "sensitive: name at least one column"
 
 
 # ---------------------------------------------------------------- the command line

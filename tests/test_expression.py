@@ -91,7 +91,7 @@ def test_booleans_become_zero_one():
 def test_value_errors_name_the_problem(expression, values, words):
     with pytest.raises(InputError) as info:
         utility_from_expression(expression, values)
-    assert info.value.field == "--utility" and info.value.value == expression
+    assert info.value.field == "utility" and info.value.value == expression
     assert words in str(info.value)
 
 
@@ -182,7 +182,7 @@ def test_escape_attempts_are_refused(template, words, tmp_path):
     with pytest.raises(InputError) as info:
         utility_from_expression(expression, [1, 2, 5])
     assert time.monotonic() - start < 1.0
-    assert info.value.field == "--utility" and info.value.value == expression
+    assert info.value.field == "utility" and info.value.value == expression
     assert words in str(info.value)
     assert "\n" not in str(info.value)
     assert not marker.exists() and list(tmp_path.iterdir()) == []
@@ -267,7 +267,7 @@ def _check(expression, values):
     try:
         g = utility_from_expression(expression, values)
     except InputError as exc:
-        assert exc.field == "--utility"
+        assert exc.field == "utility"
         assert "\n" not in str(exc)
     else:
         assert g.values.shape == (len(values),)

@@ -237,13 +237,13 @@ def test_dropna_drops_those_records(spark):
 def test_unknown_columns_name_the_flag_and_list_the_columns(spark):
     sdf = spark.createDataFrame(HAND, HAND_SCHEMA)
     listing = "unknown column; the data has: job, sex, age, hired"
-    assert _error(count_spark, sdf, sensitive=["race"], outcome="hired") == f"--sensitive: {listing} (got 'race')"
-    assert _error(count_spark, sdf, sensitive=["sex"], outcome="Hired") == f"--outcome: {listing} (got 'Hired')"
+    assert _error(count_spark, sdf, sensitive=["race"], outcome="hired") == f"sensitive: {listing} (got 'race')"
+    assert _error(count_spark, sdf, sensitive=["sex"], outcome="Hired") == f"outcome: {listing} (got 'Hired')"
     assert (
         _error(count_spark, sdf, sensitive=["sex"], outcome="hired", context=["job", "city"])
-        == f"--context: {listing} (got 'city')"
+        == f"context: {listing} (got 'city')"
     )
-    assert _error(count_spark, sdf, sensitive=[], outcome="hired") == "--sensitive: name at least one column (got [])"
+    assert _error(count_spark, sdf, sensitive=[], outcome="hired") == "sensitive: name at least one column (got [])"
     pdf = sdf.toPandas()
     assert _error(count_spark, sdf, sensitive=["sex"], outcome="x") == _error(
         count_records, pdf, sensitive=["sex"], outcome="x"
@@ -352,7 +352,7 @@ def test_audit_counts_a_spark_frame_in_spark(spark):
     assert got.table.counts.tolist() == want.table.counts.tolist() and got.table.groups == want.table.groups
     _same_metrics(got.observed, want.observed)
     assert got.observed.global_.value == pytest.approx(math.log(2), rel=1e-12)  # 4/6 vs 1/3, as above
-    with pytest.raises(InputError, match="--outcome"):
+    with pytest.raises(InputError, match="^outcome: "):
         fa.audit(sdf, sensitive=["sex"], outcome="nope")
 
 

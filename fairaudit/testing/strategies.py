@@ -58,13 +58,16 @@ from ..privacy import Mechanism, product, randomized_response
 from ..utility import Utility
 
 __all__ = [
-    "populations",
+    # populations and mechanisms
     "mechanisms",
-    "randomized_responses",
+    "populations",
     "product_mechanisms",
+    "randomized_responses",
+    # decision models and their laws
     "kernels",
-    "utilities",
     "laws",
+    # utilities
+    "utilities",
 ]
 
 _MAX_WEIGHT = 50
@@ -728,43 +731,30 @@ def utilities(
     us = _labels(draw, decisions, "u", 1, "decisions")
     full = depends_on_group or contexts is not None or groups is not None
     if not full:
-        if len(us) < 2 and gam != low:
-            raise InvalidArgument("a utility over one decision cannot have gamma != lower")
-        values = _between(draw, (len(us),), low, gam)
-        hi, lo = draw(st.sampled_from([(i, j) for i in range(len(us)) for j in range(len(us)) if i != j] or [(0, 0)]))
-        values[hi], values[lo] = gam, low
-        return Utility(values, us, name="drawn utility")
+        return Utility(_vector_values(draw, len(us), gam, low), us, name="drawn utility")
     xs = _labels(draw, contexts if contexts is not None else 1, "x", 1, "contexts")
     gs = _labels(draw, groups if groups is not None else 2, "a", 2 if depends_on_group else 1, "groups")
-    nx, na, nu = len(xs), len(gs), len(us)
+    shape = (len(xs), len(gs), len(us))
     if depends_on_group:
-        if gam == low:
-            raise InvalidArgument("a utility with gamma == lower cannot depend on the group")
-        L = lip if lip is not None else (gam - low) * draw(st.sampled_from([1.0, 0.5]) | st.floats(0.01, 1.0))
-        top_h = max(low, gam - L)
-        if gam - top_h <= 0:
-            raise InvalidArgument(f"lipschitz={L!r} is lost in the rounding of gamma={gam!r}")
-        slots = [(x, u) for x in range(nx) for u in range(nu)]
-        if len(slots) < 2 and L < gam - low:
-            raise InvalidArgument("with one (context, decision) pair the Lipschitz constant must be gamma - lower")
-        h = _between(draw, (nx, nu), low, top_h)
-        d = _between(draw, (nx, na, nu), 0.0, L)
-        pair = [(i, j) for i in range(len(slots)) for j in range(len(slots)) if i != j] or [(0, 0)]
-        top, bottom = draw(st.sampled_from(pair))
-        tx, tu = slots[top]
-        bx, bu = slots[bottom]
-        h[bx, bu] = low
-        d[bx, :, bu] = 0.0
-        h[tx, tu] = top_h
-        d[tx, :, tu] = np.clip(d[tx, :, tu], 0.0, L)
-        d[tx, 0, tu] = L
-        d[tx, 1, tu] = 0.0
-        values = h[:, None, :] + d
-        values = np.clip(values, low, gam)
-        values[tx, 0, tu] = gam  # exactly, whatever the rounding of (γ − L) + L
-        if L == gam - low:
-            values[tx, 1, tu] = low
-        return Utility(values, us, xs, gs, name="drawn utility")
+        values = _group_dependent_values(draw, shape, gam, low, lip)
+    else:
+        values = _group_free_values(draw, shape, gam, low)
+    return Utility(values, us, xs, gs, name="drawn utility")
+
+
+def _vector_values(draw: st.DrawFn, nu: int, gam: float, low: float) -> FloatArray:
+    """g(u) over ``nu`` decisions in [low, γ], with one decision at γ and another at lower."""
+    if nu < 2 and gam != low:
+        raise InvalidArgument("a utility over one decision cannot have gamma != lower")
+    values = _between(draw, (nu,), low, gam)
+    hi, lo = draw(st.sampled_from([(i, j) for i in range(nu) for j in range(nu) if i != j] or [(0, 0)]))
+    values[hi], values[lo] = gam, low
+    return values
+
+
+def _group_free_values(draw: st.DrawFn, shape: tuple[int, int, int], gam: float, low: float) -> FloatArray:
+    """g[x, a, u] = h[x, u] in [low, γ] (the same for every group), attaining γ and lower."""
+    nx, na, nu = shape
     slots = [(x, u) for x in range(nx) for u in range(nu)]
     if len(slots) < 2 and gam != low:
         raise InvalidArgument("one (context, decision) pair cannot carry both gamma and lower")
@@ -773,5 +763,37 @@ def utilities(
     top, bottom = draw(st.sampled_from(pair))
     h[slots[top]] = gam
     h[slots[bottom]] = low
-    values = np.repeat(h[:, None, :], na, axis=1)
-    return Utility(values, us, xs, gs, name="drawn utility")
+    return np.repeat(h[:, None, :], na, axis=1)
+
+
+def _group_dependent_values(
+    draw: st.DrawFn, shape: tuple[int, int, int], gam: float, low: float, lip: float | None
+) -> FloatArray:
+    """g = h + d with range exactly [lower, γ] and L_A exactly ``lip`` (drawn when None); see :func:`utilities`."""
+    nx, na, nu = shape
+    if gam == low:
+        raise InvalidArgument("a utility with gamma == lower cannot depend on the group")
+    L = lip if lip is not None else (gam - low) * draw(st.sampled_from([1.0, 0.5]) | st.floats(0.01, 1.0))
+    top_h = max(low, gam - L)
+    if gam - top_h <= 0:
+        raise InvalidArgument(f"lipschitz={L!r} is lost in the rounding of gamma={gam!r}")
+    slots = [(x, u) for x in range(nx) for u in range(nu)]
+    if len(slots) < 2 and L < gam - low:
+        raise InvalidArgument("with one (context, decision) pair the Lipschitz constant must be gamma - lower")
+    h = _between(draw, (nx, nu), low, top_h)
+    d = _between(draw, (nx, na, nu), 0.0, L)
+    pair = [(i, j) for i in range(len(slots)) for j in range(len(slots)) if i != j] or [(0, 0)]
+    top, bottom = draw(st.sampled_from(pair))
+    tx, tu = slots[top]
+    bx, bu = slots[bottom]
+    h[bx, bu] = low
+    d[bx, :, bu] = 0.0
+    h[tx, tu] = top_h
+    d[tx, :, tu] = np.clip(d[tx, :, tu], 0.0, L)
+    d[tx, 0, tu] = L
+    d[tx, 1, tu] = 0.0
+    values = np.clip(h[:, None, :] + d, low, gam)
+    values[tx, 0, tu] = gam  # exactly, whatever the rounding of (γ − L) + L
+    if L == gam - low:
+        values[tx, 1, tu] = low
+    return values

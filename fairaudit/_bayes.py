@@ -17,14 +17,11 @@ estimates are the plug-in of the posterior mean (n + c/K) / (N + c).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ._arrays import BoolArray, FloatArray
-
-if TYPE_CHECKING:
-    from .intervals import CellSets, SetMaker
+from ._confidence_sets import CellSets, SetMaker
 
 
 def _dirichlet(rng: np.random.Generator, alpha: FloatArray, draws: int) -> FloatArray:
@@ -47,10 +44,11 @@ def _band(coords: FloatArray, confidence: float) -> BoolArray:
 
 
 def band_sets(concentration: float, draws: int, seed: int) -> SetMaker:
-    """The set maker of ``method="bayes"`` for :func:`fairaudit.intervals._frequentist`.
+    """The set maker of ``method="bayes"`` for :func:`fairaudit._projection.project_sets`.
 
-    Returns a function (cell_counts (X, A, K), group_counts (A, C), use_groups, alpha) -> (cell lower, cell upper,
-    group lower, group upper, 0): the Besag band at level 1 − α over every cell (and pooled group) probability.
+    Returns a :data:`~fairaudit._confidence_sets.SetMaker`: (cell_counts (X, A, K), group_counts (A, C), use_groups,
+    alpha) -> :class:`~fairaudit._confidence_sets.CellSets` with ``n_sets`` 0, the Besag band at level 1 − α over
+    every cell (and pooled group) probability.
     """
 
     def sets(cell_counts: FloatArray, group_counts: FloatArray, use_groups: bool, alpha: float) -> CellSets:
@@ -65,7 +63,7 @@ def band_sets(concentration: float, draws: int, seed: int) -> SetMaker:
         inside = _band(np.concatenate(parts, 1), 1.0 - alpha)
         c_lo, c_hi = Kd[inside].min(0), Kd[inside].max(0)
         if not use_groups:
-            return c_lo, c_hi, None, None, 0
-        return c_lo, c_hi, Gd[inside].min(0), Gd[inside].max(0), 0
+            return CellSets(c_lo, c_hi, None, None, 0)
+        return CellSets(c_lo, c_hi, Gd[inside].min(0), Gd[inside].max(0), 0)
 
     return sets

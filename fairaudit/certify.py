@@ -19,39 +19,27 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TypedDict
 
 from ._errors import InputError
+from ._observed import Observed, observe
+from ._validation import choice, level
 from .bounds import Assumption, Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from .calibrate import Calibration, calibrate
 from .estimate import CountTable
-from .intervals import FairnessIntervals, fairness_intervals
+from .intervals import METHODS, FairnessIntervals, fairness_intervals
 from .laws import Kernel, Law, Population, compose
-from .metrics import Fairness, SupFairness, TotalVariation, all_metrics
 from .privacy import MechanismFamily
 from .spec import Spec, TargetSpec, load_spec
-from .utility import Utility
 from .worstcase import WorstModel, worst_model
 
 __all__ = ["Certificate", "Observed", "TargetCheck", "certify", "observe"]
 
 
-@dataclass(frozen=True, eq=False)
-class Observed:
-    """Every exact metric of one law (see :mod:`fairaudit.metrics`)."""
-
-    law: Law
-    local: Fairness
-    global_: Fairness
-    demographic_parity: TotalVariation
-    equalized_odds: TotalVariation
-    sup_local: SupFairness
-    sup_global: SupFairness
-
-
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TargetCheck:
     """A fairness target and how the certificate and the observed value meet it.
 
@@ -80,7 +68,7 @@ class TargetCheck:
     reason: str
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Certificate:
     """The result of :func:`certify`; repeats its spec.
 
@@ -93,7 +81,6 @@ class Certificate:
         The exact maxima of L (``.local``) and L̄ (``.global_``) over every
         decision model behind the filter, for the spec's utility and τ
         (:func:`fairaudit.worstcase.worst_model`), with the worst kernels.
-    black_box_reason : str
     corollary : Bound
     best : float
         The smallest bound on L whose assumptions are not violated, nats.
@@ -105,35 +92,36 @@ class Certificate:
     calibration : Calibration or None
         Black-box calibration of the spec's family for the targets (the
         smaller ε of the local one and, under X ⊥ A, the global one); None
-        without a target or when skipped (see ``calibration_reason``).
+        without a target or when skipped (see ``omitted``).
     calibration_white_box : Calibration or None
         With a model and a target: the largest ε of the family such that the
         model's own L (and L̄) stays within the targets on [0, ε].
-    calibration_reason : str
-        Why the black-box calibration was skipped, or "".
     calibration_targets : tuple of str
         The targets (``"local"``, ``"global"``) the black-box calibration
         meets at its ε (every target of the spec unless one was left out, and
-        then ``calibration_reason`` says why).
+        then ``omitted["calibration"]`` says why).
     intervals, unfiltered_intervals : FairnessIntervals or None
         When the model comes from counts and ``confidence`` is given:
         simultaneous intervals for the observed metrics of the filtered law
         (the upper end of L is the white-box certificate at level 1 − α; a
         lower end above 0 is evidence of unfairness) and of the model on its
         own (:func:`fairaudit.intervals.fairness_intervals`).
-    intervals_reason : str
-        Why there are no intervals, or "".
     assumptions : tuple of (Assumption, tuple of str)
         Each hypothesis with the forms it concerns.
     certified : bool
         True when every target is met (and when there is no target).
+    omitted : mapping of str to str
+        Why a result is missing, by the name of its field: ``"black_box"``
+        (no black-box bound: its value is NaN), ``"calibration"`` (a
+        calibration, black-box or white-box, or one of its targets, was
+        skipped) and ``"intervals"`` (no intervals). Absent when nothing was
+        left out.
     """
 
     spec: Spec
     paper: Bound | None
     tight: Bound | None
     black_box: WorstModel
-    black_box_reason: str
     corollary: Bound
     best: float
     best_form: str
@@ -145,24 +133,33 @@ class Certificate:
     assumptions: tuple[tuple[Assumption, tuple[str, ...]], ...]
     certified: bool
     calibration_white_box: Calibration | None = None
-    calibration_reason: str = ""
     calibration_targets: tuple[str, ...] = ()
     intervals: FairnessIntervals | None = None
     unfiltered_intervals: FairnessIntervals | None = None
-    intervals_reason: str = ""
+    omitted: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def black_box_reason(self) -> str:
+        """Deprecated alias: ``omitted["black_box"]`` when the black-box bound is missing, else what the bound is."""
+        if "black_box" in self.omitted or math.isnan(self.black_box.local.value):
+            return self.omitted.get("black_box", "")
+        return _black_box_description(self.spec.tau)
+
+    @property
+    def calibration_reason(self) -> str:
+        """Deprecated alias of ``omitted.get("calibration", "")``."""
+        return self.omitted.get("calibration", "")
+
+    @property
+    def intervals_reason(self) -> str:
+        """Deprecated alias of ``omitted.get("intervals", "")``."""
+        return self.omitted.get("intervals", "")
 
 
-def observe(law: Law, utility: Utility, population: Population | None) -> Observed:
-    """All exact metrics of ``law`` for ``utility`` under ``population`` (one pass: :func:`~fairaudit.metrics.all_metrics`)."""
-    m = all_metrics(law, utility, population)
-    return Observed(
-        law=law,
-        local=m["local"],
-        global_=m["global"],
-        demographic_parity=m["demographic_parity"],
-        equalized_odds=m["equalized_odds"],
-        sup_local=m["sup_local"],
-        sup_global=m["sup_global"],
+def _black_box_description(tau: float | None) -> str:
+    """What the black-box bound is, when there is one."""
+    return "exact over every decision model behind the filter, for this utility" + (
+        f", with E[g | x, a] >= {tau:g}" if tau is not None else ""
     )
 
 
@@ -224,140 +221,158 @@ def certify(
     """
     if not isinstance(spec, Spec):
         spec = load_spec(spec)
-    mech = spec.sensitive_mechanism
+    if confidence is not None:
+        confidence = level(confidence, "confidence")
+    choice(method, "method", ("auto", *METHODS))
     kernel: Kernel | None = spec.kernel()
-    observed: Observed | None = None
-    unfiltered: Observed | None = None
-    if kernel is not None:
-        try:
-            law = compose(kernel, mech, spec.context_mechanism)
-        except InputError as exc:
-            raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
-        observed = observe(law, spec.utility, spec.population)
-        filtered = not (mech.is_identity and spec.context_mechanism.is_identity)
-        if filtered and _sees_inputs(spec):  # the model on its own: only where it reads the true labels
-            unfiltered = observe(Law.from_kernel(kernel), spec.utility, spec.population)
+    observed, unfiltered = _observations(spec, kernel)
     obs_law = observed.law if observed is not None else None
-
-    gamma, tau = spec.gamma, spec.tau
-    forms: list[tuple[str, tuple[Assumption, ...]]] = []
-    paper: Bound | None = None
-    tight: Bound | None = None
-    # without tau the extra term must be 0 (L_A = 0, g free of the group, pure DP): then paper = tight = epsilon(M)
-    if tau is not None or (spec.lipschitz == 0 and not spec.utility.depends_on_group and math.isfinite(mech.epsilon)):
-        paper = paper_bound(
-            mech,
-            tau=tau,
-            gamma=gamma,
-            lipschitz=spec.lipschitz,
-            diameter=spec.utility.diameter(spec.metric),
-            utility=spec.utility,
-            population=spec.population,
-            law=obs_law,
-        )
-        tight = tight_bound(
-            mech,
-            tau=tau,
-            gamma=gamma,
-            lipschitz=spec.lipschitz,
-            metric=spec.metric,
-            utility=spec.utility,
-            population=spec.population,
-            law=obs_law,
-        )
-        forms += [("paper", paper.assumptions), ("tight", tight.assumptions)]
+    mech, tau = spec.sensitive_mechanism, spec.tau
+    paper, tight = _theorem_bounds(spec, obs_law)
+    forms = [] if paper is None or tight is None else [("paper", paper.assumptions), ("tight", tight.assumptions)]
     black_box = worst_model(
         mech, spec.utility, context_mechanism=spec.context_mechanism, population=spec.population, tau=tau
     )
     bb_assumptions = check_assumptions(
         mech, tau=tau, gamma=None, utility=spec.utility, population=spec.population, law=obs_law
     )
-    bb_holds = not any(a.status == "violated" and a.scope != "global" for a in bb_assumptions)
-    if math.isnan(black_box.local.value):
-        reason = black_box.local.reason
-    else:
-        reason = "exact over every decision model behind the filter, for this utility" + (
-            f", with E[g | x, a] >= {tau:g}" if tau is not None else ""
-        )
     forms.append(("black_box", bb_assumptions))
     corollary = corollary_bound(mech, utility=spec.utility, population=spec.population, law=obs_law)
     forms.append(("corollary", corollary.assumptions))
-
+    omitted: dict[str, str] = {}
+    if math.isnan(black_box.local.value):
+        omitted["black_box"] = black_box.local.reason
+    bb_holds = not any(a.status == "violated" and a.scope != "global" for a in bb_assumptions)
     bb_ok = bb_holds and not math.isnan(black_box.local.value)
-    candidates = [(black_box.local.value, "black_box")] if bb_ok else []
-    for form, b in (("tight", tight), ("corollary", corollary), ("paper", paper)):  # ties go to the tighter form
-        if b is not None and b.holds:
-            candidates.append((b.value, form))
-    best, best_form = min(candidates, default=(math.inf, "none"), key=lambda t: t[0])
+    best, best_form = _best_bound(black_box if bb_ok else None, tight, corollary, paper)
     independent = spec.population.independence().independent
-    global_bound = best if independent else math.inf
-    if bb_ok and not math.isnan(black_box.global_.value):  # exact for L-bar, with or without X independent of A
-        global_bound = min(global_bound, black_box.global_.value)
+    global_bound, global_why = _global_bound(black_box if bb_ok else None, best, best_form, independent)
 
     targets: dict[str, TargetCheck] = {}
     calibration: Calibration | None = None
     calibration_white: Calibration | None = None
-    calibration_reason = ""
     calibration_targets: tuple[str, ...] = ()
     t = spec.model.target
     if t is not None:
-        if t.local is not None:
-            obs = observed.local.value if observed else None
-            targets["local"] = TargetCheck(
-                "local",
-                t.local,
-                best,
-                best <= t.local,
-                obs,
-                None if obs is None else bool(obs <= t.local),
-                f"best bound: {best_form}",
-            )
-        if t.global_ is not None:
-            obs = observed.global_.value if observed else None
-            why = (
-                "black-box bound on L-bar (exact over every model)"
-                if bb_ok and global_bound == black_box.global_.value
-                else f"best bound: {best_form} (L-bar <= L since X and A are independent)"
-                if independent
-                else "X and A are not independent in the population and no black-box bound applies"
-            )
-            targets["global"] = TargetCheck(
-                "global",
-                t.global_,
-                global_bound,
-                global_bound <= t.global_,
-                obs,
-                None if obs is None else bool(obs <= t.global_),
-                why,
-            )
+        targets = _target_checks(t, observed, (best, f"best bound: {best_form}"), (global_bound, global_why))
         calibration, calibration_white, calibration_reason, calibration_targets = _calibrations(
             spec, kernel, t, independent
         )
-    certified = all(c.met for c in targets.values())
+        if calibration_reason:
+            omitted["calibration"] = calibration_reason
     intervals, unfiltered_intervals, intervals_reason = _intervals(spec, kernel, confidence, method, seed)
+    if intervals_reason:
+        omitted["intervals"] = intervals_reason
     return Certificate(
-        spec,
-        paper,
-        tight,
-        black_box,
-        reason,
-        corollary,
-        best,
-        best_form,
-        global_bound,
-        observed,
-        unfiltered,
-        targets,
-        calibration,
-        _merge_assumptions(forms),
-        certified,
+        spec=spec,
+        paper=paper,
+        tight=tight,
+        black_box=black_box,
+        corollary=corollary,
+        best=best,
+        best_form=best_form,
+        global_bound=global_bound,
+        observed=observed,
+        unfiltered=unfiltered,
+        targets=targets,
+        calibration=calibration,
+        assumptions=_merge_assumptions(forms),
+        certified=all(c.met for c in targets.values()),
         calibration_white_box=calibration_white,
-        calibration_reason=calibration_reason,
         calibration_targets=calibration_targets,
         intervals=intervals,
         unfiltered_intervals=unfiltered_intervals,
-        intervals_reason=intervals_reason,
+        omitted=omitted,
     )
+
+
+def _observations(spec: Spec, kernel: Kernel | None) -> tuple[Observed | None, Observed | None]:
+    """The observed metrics behind the filter and, where the model reads the true labels, of the model on its own."""
+    if kernel is None:
+        return None, None
+    mech = spec.sensitive_mechanism
+    try:
+        law = compose(kernel, mech, spec.context_mechanism)
+    except InputError as exc:
+        raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
+    observed = observe(law, spec.utility, spec.population)
+    filtered = not (mech.is_identity and spec.context_mechanism.is_identity)
+    if filtered and _sees_inputs(spec):  # the model on its own: only where it reads the true labels
+        return observed, observe(Law.from_kernel(kernel), spec.utility, spec.population)
+    return observed, None
+
+
+def _theorem_bounds(spec: Spec, law: Law | None) -> tuple[Bound | None, Bound | None]:
+    """The paper and tight bounds of the main theorem, or (None, None) when they need a τ the spec does not give."""
+    mech, tau = spec.sensitive_mechanism, spec.tau
+    # without tau the extra term must be 0 (L_A = 0, g free of the group, pure DP): then paper = tight = epsilon(M)
+    if tau is None and not (spec.lipschitz == 0 and not spec.utility.depends_on_group and math.isfinite(mech.epsilon)):
+        return None, None
+    paper = paper_bound(
+        mech,
+        tau=tau,
+        gamma=spec.gamma,
+        lipschitz=spec.lipschitz,
+        diameter=spec.utility.diameter(spec.metric),
+        utility=spec.utility,
+        population=spec.population,
+        law=law,
+    )
+    tight = tight_bound(
+        mech,
+        tau=tau,
+        gamma=spec.gamma,
+        lipschitz=spec.lipschitz,
+        metric=spec.metric,
+        utility=spec.utility,
+        population=spec.population,
+        law=law,
+    )
+    return paper, tight
+
+
+def _best_bound(
+    black_box: WorstModel | None, tight: Bound | None, corollary: Bound, paper: Bound | None
+) -> tuple[float, str]:
+    """The smallest bound on L that holds, and its form (``black_box`` None when it does not apply)."""
+    candidates = [(black_box.local.value, "black_box")] if black_box is not None else []
+    for form, b in (("tight", tight), ("corollary", corollary), ("paper", paper)):  # ties go to the tighter form
+        if b is not None and b.holds:
+            candidates.append((b.value, form))
+    return min(candidates, default=(math.inf, "none"), key=lambda t: t[0])
+
+
+def _global_bound(black_box: WorstModel | None, best: float, best_form: str, independent: bool) -> tuple[float, str]:
+    """The bound on L-bar and why: the exact black-box one, or L's best bound when X and A are independent."""
+    bound = best if independent else math.inf
+    if black_box is not None and not math.isnan(black_box.global_.value):  # exact, X independent of A or not
+        bound = min(bound, black_box.global_.value)
+    if black_box is not None and bound == black_box.global_.value:
+        return bound, "black-box bound on L-bar (exact over every model)"
+    if independent:
+        return bound, f"best bound: {best_form} (L-bar <= L since X and A are independent)"
+    return bound, "X and A are not independent in the population and no black-box bound applies"
+
+
+def _target_checks(
+    t: TargetSpec, observed: Observed | None, local: tuple[float, str], global_: tuple[float, str]
+) -> dict[str, TargetCheck]:
+    """Each target of the spec against its (bound, reason) and the observed value."""
+    targets: dict[str, TargetCheck] = {}
+    for kind, goal, (bound, reason) in (("local", t.local, local), ("global", t.global_, global_)):
+        if goal is None:
+            continue
+        obs = None if observed is None else (observed.local if kind == "local" else observed.global_).value
+        targets[kind] = TargetCheck(
+            kind=kind,
+            target=goal,
+            bound=bound,
+            met=bound <= goal,
+            observed=obs,
+            observed_met=None if obs is None else bool(obs <= goal),
+            reason=reason,
+        )
+    return targets
 
 
 def _intervals(
@@ -366,7 +381,7 @@ def _intervals(
     """Intervals for the observed metrics when the model comes from counts: (filtered, unfiltered, reason)."""
     if confidence is None:
         if method != "auto":
-            raise InputError("--method", "chooses how intervals are made: give --confidence LEVEL too", method)
+            raise InputError("method", "chooses how intervals are made: give `confidence` too", method)
         return None, None, "no confidence level asked for"
     if kernel is None:
         return None, None, "the spec has no model"
@@ -401,7 +416,7 @@ def _intervals(
         if not identity and spec.sees_inputs:
             own = fairness_intervals(table, spec.utility, confidence, method, population=own_pop, seed=seed)
     except InputError as exc:
-        if exc.field in ("--confidence", "--method"):
+        if exc.field in ("confidence", "method"):
             raise
         return None, None, f"no intervals: {exc.field} {exc.problem}"
     return filtered_iv, own, ""

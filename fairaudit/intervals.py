@@ -63,18 +63,22 @@ Proof of the projection argument and the LP: ``proofs/intervals.md``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Hashable, Iterator
+from collections.abc import Hashable, Iterator
 from dataclasses import dataclass, field
-from typing import NotRequired, TypeAlias, TypedDict
+from typing import NamedTuple, NotRequired, TypedDict
 
 import numpy as np
-import numpy.typing as npt
 
-from ._arrays import BoolArray, FloatArray, IntArray, format_label
+from ._arrays import FloatArray, format_label, safe_log
+from ._bayes import band_sets
+from ._confidence_sets import SetMaker, binomial_sets, category_bounds, clopper_pearson, linear_extremes, sum_last
 from ._errors import InputError
+from ._observed import observe
+from ._projection import MetricEnds, Projection, ProjectionOptions, project_sets
+from ._validation import choice, level, real, whole
 from .estimate import CountTable
 from .laws import Kernel, Law, Population, compose
-from .privacy import Mechanism
+from .privacy import Mechanism, identity
 from .utility import Utility
 
 __all__ = [
@@ -88,14 +92,8 @@ __all__ = [
 ]
 
 METHODS = ("clopper-pearson", "multinomial", "bayes")
-_MAX_EVENT_DECISIONS = 10  # up to 2^10 - 2 events for the total-variation gaps; beyond, a valid coarser bound
-
-CellSets: TypeAlias = tuple[FloatArray, FloatArray, FloatArray | None, FloatArray | None, int]
-"""Simultaneous sets: (cell lower, cell upper, group lower, group upper, m), group bounds None when not asked."""
-SetMaker: TypeAlias = Callable[[FloatArray, FloatArray, bool, float], CellSets]
-"""(cell counts (X, A, K), group counts (A, C), use_groups, alpha) -> :data:`CellSets`."""
-_Extremes: TypeAlias = tuple[FloatArray, FloatArray, IntArray, IntArray]
-"""Per map: (lower, upper, favoured group, other group)."""
+_METRICS = ("local", "global", "sup_local", "sup_global", "demographic_parity", "equalized_odds")
+_LOCAL = ("local", "sup_local", "equalized_odds")  # one interval per context, the widest reported
 
 
 @dataclass(frozen=True)
@@ -147,7 +145,7 @@ class Interval:
         return self.upper - self.lower
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class FairnessIntervals:
     """Simultaneous intervals for every metric of a law estimated from counts.
 
@@ -221,9 +219,6 @@ class FairnessIntervals:
         }
 
 
-# ---------------------------------------------------------------- per-cell sets
-
-
 class _Inputs(TypedDict):
     """The fields of a :class:`FairnessIntervals` that repeat its inputs."""
 
@@ -237,404 +232,25 @@ class _Inputs(TypedDict):
     seed: NotRequired[int]
 
 
-def _sum_last(x: npt.ArrayLike, keepdims: bool = False) -> FloatArray:
-    """Sum over the last (short: decisions) axis; ``einsum`` is several times faster than ``sum`` there."""
-    out = np.einsum("...k->...", np.asarray(x, dtype=float))
-    return out[..., None] if keepdims else out
+class _AuditedLaw(NamedTuple):
+    """The law the intervals are about: its labels, the filter in front of it and its population."""
 
+    contexts: tuple
+    groups: tuple
+    sensitive_mechanism: Mechanism | None  # both set behind a filter (an identity for the unfiltered attribute)
+    context_mechanism: Mechanism | None
+    population: Population | None  # None: the records' own groups, pooled
 
-def clopper_pearson(k: npt.ArrayLike, n: npt.ArrayLike, alpha: float) -> tuple[FloatArray, FloatArray]:
-    """Exact two-sided binomial interval (Clopper and Pearson 1934), vectorised.
 
-    Parameters
-    ----------
-    k, n : array_like of int, broadcastable
-        Successes and trials, 0 ≤ k ≤ n.
-    alpha : float
-        1 − level, in (0, 1).
-
-    Returns
-    -------
-    lower, upper : numpy.ndarray
-        Beta quantiles B(α/2; k, n − k + 1) and B(1 − α/2; k + 1, n − k),
-        with lower = 0 at k = 0 and upper = 1 at k = n; NaN where n = 0.
-
-    Raises
-    ------
-    ValueError
-        From numpy when ``k`` and ``n`` do not broadcast (values are not
-        checked: :func:`fairness_intervals` validates the counts).
-
-    Examples
-    --------
-    >>> lo, hi = clopper_pearson(0, 10, 0.05)      # (0, 1 - 0.025**(1/10))
-    >>> float(lo), round(float(hi), 6)
-    (0.0, 0.308497)
-    """
-    from scipy import stats  # imported here: scipy.stats adds ~1 s to every start of the command
-
-    k, n = np.broadcast_arrays(np.asarray(k, dtype=float), np.asarray(n, dtype=float))
-    codes = None
-    if (
-        k.size > 256
-        and np.all(np.isfinite(n))
-        and n.max(initial=0) < 2**31
-        and k.min(initial=0) >= 0
-        and np.array_equal(k, np.floor(k))
-        and np.array_equal(n, np.floor(n))
-    ):
-        # a big table repeats few (k, n): the beta quantiles (most of the cost) once per distinct pair
-        import pandas as pd
-
-        codes, uniques = pd.factorize(n.astype(np.int64).ravel() * 2**31 + k.astype(np.int64).ravel())
-        shape = k.shape
-        n, k = (uniques // 2**31).astype(float), (uniques % 2**31).astype(float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        lo = np.where(k > 0, stats.beta.ppf(alpha / 2, k, n - k + 1), 0.0)
-        hi = np.where(k < n, stats.beta.isf(alpha / 2, k + 1, n - k), 1.0)
-    lo = np.where(n > 0, lo, np.nan)
-    hi = np.where(n > 0, hi, np.nan)
-    if codes is not None:
-        lo, hi = lo[codes].reshape(shape), hi[codes].reshape(shape)
-    return lo, hi
-
-
-def category_bounds(counts: npt.ArrayLike, alpha: float) -> tuple[FloatArray, FloatArray]:
-    """A simultaneous multinomial set for each cell: Clopper–Pearson per decision, intersected with the simplex.
-
-    Parameters
-    ----------
-    counts : array_like of int, shape (..., K)
-        Counts of the K decisions in each cell.
-    alpha : float
-        The error allowed to each cell: the K per-decision intervals are at
-        level 1 − α/K (1 − α when K ≤ 2: for two decisions they coincide).
-
-    Returns
-    -------
-    lower, upper : numpy.ndarray, shape (..., K)
-        Bounds (probabilities) with P(lower ≤ p ≤ upper for every decision) ≥ 1 − α per cell
-        (Bonferroni over the decisions; ``proofs/intervals.md`` §2),
-        tightened by Σ_u p_u = 1. An empty cell gives [0, 1].
-
-    Raises
-    ------
-    ValueError
-        From numpy/scipy on a malformed array (counts are not checked here).
-
-    Examples
-    --------
-    >>> lo, hi = category_bounds([[0, 10]], 0.05)
-    >>> print(lo.round(6).tolist(), hi.round(6).tolist())
-    [[0.0, 0.691503]] [[0.308497, 1.0]]
-    """
-    counts = np.asarray(counts, dtype=float)
-    K = counts.shape[-1]
-    n = np.broadcast_to(_sum_last(counts, keepdims=True), counts.shape)
-    lo, hi = clopper_pearson(counts, n, alpha / K if K > 2 else alpha)
-    lo = np.where(n > 0, lo, 0.0)
-    hi = np.where(n > 0, hi, 1.0)
-    lo2 = np.maximum(lo, 1.0 - (_sum_last(hi, keepdims=True) - hi))
-    hi2 = np.minimum(hi, 1.0 - (_sum_last(lo, keepdims=True) - lo))
-    lo2 = np.where(lo2 > 1e-12, lo2, 0.0)  # rounding crumbs of the tightening must not turn c/0 = inf into 1e16
-    return np.clip(lo2, 0.0, 1.0), np.clip(hi2, 0.0, 1.0)
-
-
-def linear_extremes(f: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """min and max of f·p over {p : lower ≤ p ≤ upper, Σ p = 1}, in closed form, vectorised.
-
-    The LP's solution is a fractional knapsack: start at ``lower`` and give
-    the remaining mass 1 − Σ lower to the decisions in decreasing (for the
-    max; increasing for the min) order of f, each up to its upper bound.
-
-    Parameters
-    ----------
-    f, lower, upper : array_like, broadcastable to (..., K)
-        Σ lower ≤ 1 ≤ Σ upper (the set is not empty).
-
-    Returns
-    -------
-    minimum, maximum : numpy.ndarray, shape (...)
-        In the units of f. Proof of the greedy solution: ``proofs/intervals.md`` §3.
-
-    Raises
-    ------
-    ValueError
-        From numpy when the shapes do not broadcast (nothing else is checked).
-
-    Examples
-    --------
-    >>> mn, mx = linear_extremes([0.0, 0.5, 1.0], [0.1, 0.1, 0.1], [0.5, 0.5, 0.5])
-    >>> float(mn), float(mx)
-    (0.3, 0.7)
-    """
-    f, lo, hi = np.broadcast_arrays(
-        np.asarray(f, dtype=float), np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    )
-    base = _sum_last(f * lo)
-    room = np.clip(1.0 - _sum_last(lo), 0.0, None)[..., None]
-    cap = hi - lo
-    out = []
-    for key in (f, -f):
-        order = np.argsort(key, axis=-1, kind="stable")
-        c = np.take_along_axis(cap, order, -1)
-        before = np.cumsum(c, -1) - c
-        left = room - before
-        alloc = np.where(left > 1e-12, np.clip(left, 0.0, c), 0.0)  # no rounding crumbs: 0 must stay 0 (c/0 = inf)
-        out.append(base + _sum_last(alloc * np.take_along_axis(f, order, -1)))
-    return out[0], out[1]
-
-
-def _event_extremes(events: FloatArray, lower: FloatArray, upper: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """:func:`linear_extremes` for 0/1 functionals (events S, rows of ``events``, shape (S, K)), by matrix products.
-
-    For f = 1_S the knapsack gives max P(S) = min(Σ_S upper, 1 − Σ_{not S} lower)
-    and min P(S) = max(Σ_S lower, 1 − Σ_{not S} upper). ``lower``, ``upper``:
-    shape (..., K). Returns arrays of shape (S, ...).
-    """
-    s_lo, s_hi = lower @ events.T, upper @ events.T  # (..., S)
-    t_lo, t_hi = _sum_last(lower, keepdims=True), _sum_last(upper, keepdims=True)
-    mn = np.maximum(s_lo, 1.0 - (t_hi - s_hi))
-    mx = np.minimum(s_hi, 1.0 - (t_lo - s_lo))
-    return np.moveaxis(mn, -1, 0), np.moveaxis(mx, -1, 0)
-
-
-def _events(K: int) -> FloatArray:
-    """0/1 matrix of decision events S (rows) for the total-variation gaps.
-
-    All nonempty proper subsets when K ≤ 10 (TV = max over S of P(S) − P'(S)
-    exactly); singletons otherwise (the callers then bound the upper end by
-    ½ Σ_u max |ΔP(u)|, still valid).
-    """
-    if K < 2:
-        return np.zeros((0, K))
-    if K > _MAX_EVENT_DECISIONS:
-        return np.eye(K)
-    codes = np.arange(1, 2**K - 1)
-    return ((codes[:, None] >> np.arange(K)) & 1).astype(float)
-
-
-# ---------------------------------------------------------------- ratio and gap extremes
-
-
-def _div(num: npt.ArrayLike, den: npt.ArrayLike) -> FloatArray:
-    """num / den with c/0 = +inf (c > 0) and 0/0 = 1."""
-    num, den = np.broadcast_arrays(np.asarray(num, dtype=float), np.asarray(den, dtype=float))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
-
-
-def _log(x: float) -> float:
-    if math.isnan(x):
-        return math.nan
-    return math.inf if x == math.inf else math.log(max(x, 1.0))
-
-
-def _disjoint_ratio(lo: FloatArray, hi: FloatArray) -> _Extremes:
-    """Extremes of max_{a≠a'} E_a / E_a' when each E_a ranges over its own [lo_a, hi_a] independently.
-
-    lo, hi: shape (M, A); NaN marks a group left out of a map. Returns
-    (lower (M,), upper (M,), favoured (M,), other (M,)); NaN where a map has
-    fewer than two groups. Upper: the pair with the largest hi_a / lo_a'.
-    Lower: min over the box of max_a E_a / min_a E_a = max(1, max lo / min hi),
-    since all E_a can be set into [min hi, max lo] when that is nonempty.
-    """
-    M, A = lo.shape
-    valid = ~np.isnan(lo)
-    rows, cols = np.arange(M), np.arange(A)
-    hi0 = np.nan_to_num(hi)
-    # hi_a / lo_b (with c/0 = inf, 0/0 = 1) rises with hi_a and falls with lo_b: for each a the best b ≠ a is
-    # the smallest lo, or the second smallest when a holds the smallest. No (M, A, A) array of pairs is made.
-    lo_v = np.where(valid, lo, np.inf)
-    two = np.argsort(lo_v, axis=1, kind="stable")[:, :2] if A >= 2 else np.zeros((M, 2), dtype=int)
-    den = np.where(cols[None, :] == two[:, :1], lo_v[rows, two[:, 1]][:, None], lo_v[rows, two[:, 0]][:, None])
-    best_a = np.where(valid & np.isfinite(den), _div(hi0, np.where(np.isfinite(den), den, 1.0)), -np.inf)
-    a = best_a.argmax(-1)  # the first a of the first maximal pair
-    row = np.where(valid & (cols[None, :] != a[:, None]), _div(hi0[rows, a][:, None], np.nan_to_num(lo)), -np.inf)
-    b = row.argmax(-1)  # its first b
-    upper = row[rows, b]
-    idx = a * A + b
-    enough = valid.sum(-1) >= 2
-    lower = np.maximum(1.0, _div(np.where(valid, lo, -np.inf).max(-1), np.where(valid, hi, np.inf).min(-1)))
-    upper = np.where(enough, upper, np.nan)
-    lower = np.where(enough, lower, np.nan)
-    return lower, upper, idx // A, idx % A
-
-
-def _pair_gap(big: FloatArray, small: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
-    """max over a ≠ a' of big[..., a] − small[..., a'] (last axis, at least 2 groups) and the maximising pair.
-
-    Only the two largest ``big`` and the two smallest ``small`` can attain it, so
-    no (A, A) array of pairs is formed.
-    """
-    hb = np.argsort(-big, -1, kind="stable")[..., :2]
-    ls = np.argsort(small, -1, kind="stable")[..., :2]
-    b1, b2 = np.take_along_axis(big, hb[..., :1], -1)[..., 0], np.take_along_axis(big, hb[..., 1:], -1)[..., 0]
-    s1, s2 = np.take_along_axis(small, ls[..., :1], -1)[..., 0], np.take_along_axis(small, ls[..., 1:], -1)[..., 0]
-    same = hb[..., 0] == ls[..., 0]
-    first = (b1 - s2) >= (b2 - s1)
-    value = np.where(same, np.maximum(b1 - s2, b2 - s1), b1 - s1)
-    fav = np.where(same & ~first, hb[..., 1], hb[..., 0])
-    oth = np.where(same, np.where(first, ls[..., 1], ls[..., 0]), ls[..., 0])
-    return value, fav, oth
-
-
-def _disjoint_tv(
-    lo: FloatArray, hi: FloatArray, events: FloatArray, cat_lo: FloatArray, cat_hi: FloatArray
-) -> _Extremes:
-    """Extremes of max_{a≠a'} TV(P_a, P_a') when each P_a ranges over its own set independently.
-
-    lo, hi: event bounds, shape (M, A, S); cat_lo, cat_hi: per-decision
-    bounds, shape (M, A, K) (for K > 10, where the events are singletons).
-    Returns (lower (M,), upper (M,), favoured (M,), other (M,)). Memory is
-    O(M·A·S): pairs are found from the two extreme groups of each event.
-    """
-    M, A = lo.shape[:2]
-    if lo.shape[-1] == 0 or A < 2:
-        zero = np.zeros(M)
-        return zero, zero, np.zeros(M, int), np.ones(M, int)
-    rows = np.arange(M)
-    if events.shape[0] == events.shape[1] and events.shape[1] > _MAX_EVENT_DECISIONS:
-        off = ~np.eye(A, dtype=bool)
-        d = np.maximum(cat_hi[:, :, None, :] - cat_lo[:, None, :, :], cat_hi[:, None, :, :] - cat_lo[:, :, None, :])
-        up_pairs = np.where(off, np.clip(0.5 * np.clip(d, 0.0, None).sum(-1), 0.0, 1.0), -np.inf).reshape(M, -1)
-        idx = up_pairs.argmax(-1)
-        upper, fav, oth = up_pairs[rows, idx], idx // A, idx % A
-    else:
-        val, f, o = _pair_gap(hi.transpose(0, 2, 1), lo.transpose(0, 2, 1))  # (M, S)
-        s = val.argmax(-1)
-        upper, fav, oth = np.clip(val[rows, s], 0.0, 1.0), f[rows, s], o[rows, s]
-    low, _, _ = _pair_gap(lo.transpose(0, 2, 1), hi.transpose(0, 2, 1))
-    lower = np.clip(low.max(-1), 0.0, 1.0)
-    return lower, upper, fav, oth
-
-
-class _MinMaxRatio:
-    """min over lower ≤ e ≤ upper of max_a (W_a·e) / min_a (W_a·e), by the Charnes–Cooper LP.
-
-    With y = t e and t = 1 / min_a W_a·e: minimise σ subject to W y ≤ σ,
-    W y ≥ 1, t·lower ≤ y ≤ t·upper, t ≥ 0 (``proofs/intervals.md``). Built
-    once per shape with cvxpy parameters and solved with Clarabel.
-    """
-
-    def __init__(self, A: int, n: int) -> None:
-        import cvxpy as cp
-
-        self.W = cp.Parameter((A, n), nonneg=True)
-        self.lo = cp.Parameter(n, nonneg=True)
-        self.hi = cp.Parameter(n, nonneg=True)
-        y, t, sigma = cp.Variable(n), cp.Variable(nonneg=True), cp.Variable()
-        self.problem = cp.Problem(
-            cp.Minimize(sigma),
-            [self.W @ y <= sigma, self.W @ y >= 1, y >= cp.multiply(self.lo, t), y <= cp.multiply(self.hi, t)],
-        )
-
-    def solve(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
-        import cvxpy as cp
-
-        from .lfp import _solve
-
-        if np.all(W @ lo <= 0):  # every group can be at 0 together: 0/0, parity
-            return 1.0
-        if np.any(W @ hi <= 0):  # some group is always 0 while another can be positive
-            return math.inf
-        pairwise = _pairwise_floor(W, lo, hi)
-        self.W.value, self.lo.value, self.hi.value = W, lo, hi
-        _solve(self.problem)
-        if self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-            return pairwise  # badly scaled boxes (upper ends near 1e-12) defeat the solver: keep the valid floor
-        # The solver stops within ~1e-9 of the optimum; shade by that much so the lower end stays a lower end.
-        value = float(self.problem.value) * (1.0 - 1e-9)
-        return max(pairwise, value if value > 1.0 + 1e-9 else 1.0)
-
-
-def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
-    """max over pairs of min over the box of (W_a·e)/(W_a'·e): a valid floor of the min-max ratio, in closed form.
-
-    min of a max ≥ max of the mins; each min is 1 / the threshold maximum of
-    the inverse ratio. Exact when the groups use disjoint cells.
-    """
-    from .lfp import threshold_max_many
-
-    A = W.shape[0]
-    inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)  # [a, a'] = max (W_a'·e)/(W_a·e)
-    with np.errstate(divide="ignore"):
-        mins = np.where(inv > 0, 1.0 / inv, np.inf)
-    mins = np.where(np.eye(A, dtype=bool), 1.0, mins)
-    return max(1.0, float(mins.max()))
-
-
-def _mixed_ratio(
-    W: FloatArray, lo: FloatArray, hi: FloatArray, solver: dict[tuple[int, int], _MinMaxRatio]
-) -> _Extremes:
-    """Extremes of max_{a≠a'} (W_a·e)/(W_a'·e) over the box lo ≤ e ≤ hi, for each map W[m] (shape (M, A, n)).
-
-    Upper: the threshold solution of each pair's linear-fractional program.
-    Lower: :class:`_MinMaxRatio` (one LP per map).
-    """
-    from .lfp import threshold_max_many
-
-    M, A, n = W.shape
-    vals, _, _ = threshold_max_many(W[:, :, None, :], W[:, None, :, :], lo, hi)
-    vals = np.where(~np.eye(A, dtype=bool), vals, -np.inf).reshape(M, -1)
-    idx = vals.argmax(-1)
-    upper = vals[np.arange(M), idx]
-    key = (A, n)
-    if key not in solver:
-        solver[key] = _MinMaxRatio(A, n)
-    lower = np.array([solver[key].solve(W[m], lo, hi) for m in range(M)])
-    if A < 2:
-        upper = lower = np.full(M, np.nan)
-    return lower, upper, idx // A, idx % A
-
-
-def _mixed_tv(
-    W: FloatArray, ev_lo: FloatArray, ev_hi: FloatArray, events: FloatArray, cat_lo: FloatArray, cat_hi: FloatArray
-) -> _Extremes:
-    """Extremes of max_{a≠a'} TV(Q_a, Q_a') with Q_a(S) = W_a·e_S over boxes ev_lo[S] ≤ e_S ≤ ev_hi[S].
-
-    W: (M, A, n); ev_lo, ev_hi: (S, n); cat_lo, cat_hi: (n, K). For each S
-    the extremes of the linear (W_a − W_a')·e_S over its box are exact; the
-    lower end, a max over S of minima, is valid (it may be below the exact
-    min over the set).
-    """
-    M, A, n = W.shape
-    off = ~np.eye(A, dtype=bool)
-    if ev_lo.shape[0] == 0:
-        zero = np.zeros(M)
-        return zero, zero, np.zeros(M, int), np.ones(M, int)
-    c = W[:, :, None, :] - W[:, None, :, :]  # (M, A, A, n)
-    cp_, cn = np.clip(c, 0, None), np.clip(-c, 0, None)
-    up = np.einsum("mabn,sn->mabs", cp_, ev_hi) - np.einsum("mabn,sn->mabs", cn, ev_lo)
-    low = np.einsum("mabn,sn->mabs", cp_, ev_lo) - np.einsum("mabn,sn->mabs", cn, ev_hi)
-    up_pairs = up.max(-1)
-    if events.shape[0] == events.shape[1] and events.shape[1] > _MAX_EVENT_DECISIONS:
-        hi_u = np.einsum("mabn,nk->mabk", cp_, cat_hi) - np.einsum("mabn,nk->mabk", cn, cat_lo)
-        lo_u = np.einsum("mabn,nk->mabk", cp_, cat_lo) - np.einsum("mabn,nk->mabk", cn, cat_hi)
-        up_pairs = 0.5 * np.maximum(hi_u, -lo_u).sum(-1)
-    up_pairs = np.where(off, np.clip(up_pairs, 0.0, 1.0), -np.inf).reshape(M, -1)
-    idx = up_pairs.argmax(-1)
-    upper = up_pairs[np.arange(M), idx]
-    lower = np.clip(np.where(off, low.max(-1), -np.inf).reshape(M, -1).max(-1), 0.0, 1.0)
-    return lower, upper, idx // A, idx % A
-
-
-# ---------------------------------------------------------------- the entry point
-
-
-def _check(table: object, utility: object, confidence: float, method: str, concentration: float, draws: int) -> None:
+def _check(table: object, utility: object, confidence: float, method: str, concentration: float, draws: int) -> float:
+    """Validate the arguments of :func:`fairness_intervals`; returns the confidence as a float."""
     if not isinstance(table, CountTable):
         raise InputError("table", "must be a CountTable (fairaudit.count_records or count_table)", type(table).__name__)
     if not isinstance(utility, Utility):
         raise InputError("utility", "must be a Utility", type(utility).__name__)
-    try:
-        ok = 0.0 < float(confidence) < 1.0
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise InputError("--confidence", "must lie strictly between 0 and 1", confidence)
-    if method not in METHODS + ("auto",):
-        raise InputError("--method", f"must be one of {', '.join(METHODS)}", method)
+    confidence = level(confidence, "confidence")
+    if method != "auto":
+        choice(method, "method", METHODS)
     counts = np.asarray(table.counts, dtype=float)
     if np.any(counts != np.round(counts)):
         bad = counts[counts != np.round(counts)].flat[0]
@@ -642,10 +258,9 @@ def _check(table: object, utility: object, confidence: float, method: str, conce
             "counts", "intervals need whole numbers of records (the table holds probabilities or weights)", float(bad)
         )
     if method == "bayes":
-        if not (isinstance(concentration, (int, float)) and math.isfinite(concentration) and concentration > 0):
-            raise InputError("--concentration", "must be a finite number > 0", concentration)
-        if not (isinstance(draws, (int, np.integer)) and draws >= 100):
-            raise InputError("--draws", "must be a whole number >= 100", draws)
+        real(concentration, "concentration", low=0.0, low_open=True)
+        whole(draws, "draws", low=100)
+    return confidence
 
 
 def _is_indicator(g: FloatArray) -> bool:
@@ -727,24 +342,67 @@ def fairness_intervals(
     >>> iv.local.group, iv.local.other_group
     ('a', 'b')
     """
-    _check(table, utility, confidence, method, concentration, draws)
-    confidence = float(confidence)
+    confidence = _check(table, utility, confidence, method, concentration, draws)
     alpha = 1.0 - confidence
     counts = np.asarray(table.counts, dtype=float)
-    X, A, K = counts.shape
     g = np.asarray(utility.table(table.contexts, table.groups, table.decisions), dtype=float)
     if method == "auto":
         method = "clopper-pearson" if _is_indicator(g) else "multinomial"
     if method == "clopper-pearson" and not _is_indicator(g):
         raise InputError(
-            "--method", "clopper-pearson needs a 0/1 utility; use multinomial or bayes for this utility", utility.name
+            "method", "clopper-pearson needs a 0/1 utility; use multinomial or bayes for this utility", utility.name
         )
-    filtered = not (_identity(sensitive_mechanism, table.groups) and _identity(context_mechanism, table.contexts))
-    m_a: Mechanism | None
-    m_x: Mechanism | None
-    if filtered:
-        m_a = sensitive_mechanism if sensitive_mechanism is not None else _eye(table.groups)
-        m_x = context_mechanism if context_mechanism is not None else _eye(table.contexts)
+    law = _audited_law(table, utility, sensitive_mechanism, context_mechanism, population)
+    prior = concentration / counts.shape[-1] if method == "bayes" else 0.0  # bayes: the plug-in of the posterior mean
+    estimate = _estimates(table, counts + prior, utility, law)
+    common = _Inputs(
+        table=table,
+        utility=utility,
+        sensitive_mechanism=law.sensitive_mechanism,
+        context_mechanism=law.context_mechanism,
+        population=law.population,
+    )
+    sets: SetMaker = binomial_sets
+    if method == "bayes":
+        sets = band_sets(concentration, int(draws), int(seed))
+        common["concentration"], common["draws"], common["seed"] = float(concentration), int(draws), int(seed)
+    options = ProjectionOptions(
+        method=method,
+        alpha=alpha,
+        context_keep=(np.ones(len(law.contexts), bool) if law.population is None else law.population.p_context > 0),
+        population=law.population,
+        sensitive_mechanism=law.sensitive_mechanism,
+        context_mechanism=law.context_mechanism,
+        sets=sets,
+    )
+    return _assemble(project_sets(counts, g, options), options, law, estimate, common)
+
+
+def _identity(mech: Mechanism | None, labels: tuple) -> bool:
+    if mech is None:
+        return True
+    return tuple(mech.inputs) == tuple(labels) and mech.is_identity
+
+
+def _audited_law(
+    table: CountTable,
+    utility: Utility,
+    sensitive_mechanism: Mechanism | None,
+    context_mechanism: Mechanism | None,
+    population: Population | None,
+) -> _AuditedLaw:
+    """The audited law's labels, filter and population, checked against the table and the utility.
+
+    Without a filter (no mechanism, or identities on the table's labels) the law is the table's own, the
+    mechanisms are None and the population stays as given. Behind one both mechanisms are set (an identity for the
+    unfiltered attribute), their outputs must be the table's labels, the utility must be of the decision only, and
+    the population defaults to uniform and independent over the mechanisms' inputs.
+    """
+    if _identity(sensitive_mechanism, table.groups) and _identity(context_mechanism, table.contexts):
+        law = _AuditedLaw(table.contexts, table.groups, None, None, population)
+    else:
+        m_a = sensitive_mechanism if sensitive_mechanism is not None else identity(table.groups)
+        m_x = context_mechanism if context_mechanism is not None else identity(table.contexts)
         if tuple(m_a.outputs) != tuple(table.groups):
             raise InputError(
                 "sensitive mechanism",
@@ -763,85 +421,33 @@ def fairness_intervals(
             )
         if population is None:
             population = Population.uniform(m_x.inputs, m_a.inputs, source="assumed")
-        law_groups, law_contexts = tuple(m_a.inputs), tuple(m_x.inputs)
-    else:
-        m_a, m_x = None, None
-        law_groups, law_contexts = table.groups, table.contexts
-    if population is not None and (
-        tuple(population.groups) != law_groups or tuple(population.contexts) != law_contexts
+        law = _AuditedLaw(tuple(m_x.inputs), tuple(m_a.inputs), m_a, m_x, population)
+    if law.population is not None and (
+        tuple(law.population.groups) != law.groups or tuple(law.population.contexts) != law.contexts
     ):
         raise InputError(
             "population",
             "labels must be the audited law's contexts and groups",
-            (list(map(format_label, population.contexts)), list(map(format_label, population.groups))),
+            (list(map(format_label, law.population.contexts)), list(map(format_label, law.population.groups))),
         )
-
-    prior = concentration / K if method == "bayes" else 0.0  # bayes: the plug-in of the posterior mean
-    estimate = _estimates(table, counts + prior, utility, filtered, m_a, m_x, population)
-    common = _Inputs(
-        table=table, utility=utility, sensitive_mechanism=m_a, context_mechanism=m_x, population=population
-    )
-    ctx_keep = np.ones(len(law_contexts), bool) if population is None else population.p_context > 0
-    sets: SetMaker = _binomial_sets
-    if method == "bayes":
-        from ._bayes import band_sets
-
-        sets = band_sets(concentration, int(draws), int(seed))
-        common["concentration"], common["draws"], common["seed"] = float(concentration), int(draws), int(seed)
-    return _frequentist(
-        counts,
-        g,
-        alpha,
-        method,
-        estimate,
-        law_contexts,
-        law_groups,
-        ctx_keep,
-        filtered,
-        m_a,
-        m_x,
-        population,
-        common,
-        sets,
-    )
+    return law
 
 
-def _identity(mech: Mechanism | None, labels: tuple) -> bool:
-    if mech is None:
-        return True
-    return tuple(mech.inputs) == tuple(labels) and mech.is_identity
-
-
-def _eye(labels: tuple) -> Mechanism:
-    from .privacy import identity
-
-    return identity(labels)
-
-
-def _estimates(
-    table: CountTable,
-    counts: FloatArray,
-    utility: Utility,
-    filtered: bool,
-    m_a: Mechanism | None,
-    m_x: Mechanism | None,
-    population: Population | None,
-) -> dict[str, float]:
+def _estimates(table: CountTable, counts: FloatArray, utility: Utility, law: _AuditedLaw) -> dict[str, float]:
     """Plug-in values of every metric for the law ``counts`` / their row sums (NaN where empty cells matter).
 
     ``counts`` are the table's, plus the prior's pseudo-counts c/K for the posterior mean of ``"bayes"``
     ((n + c/K) / (N + c), AIF360's smoothing). The population defaults to the records' own.
     """
-    from .certify import observe
-
-    if filtered:
-        if np.any(_sum_last(counts) == 0):
+    if law.sensitive_mechanism is not None:
+        if np.any(sum_last(counts) == 0):
             return {}
-        law = compose(Kernel.from_counts(counts, table.contexts, table.groups, table.decisions), m_a, m_x)
+        kernel = Kernel.from_counts(counts, table.contexts, table.groups, table.decisions)
+        plugin = compose(kernel, law.sensitive_mechanism, law.context_mechanism)
     else:
-        law = Law.from_counts(counts, table.contexts, table.groups, table.decisions)
-    pop = population if population is not None else table.population()
-    o = observe(law, utility, pop)
+        plugin = Law.from_counts(counts, table.contexts, table.groups, table.decisions)
+    pop = law.population if law.population is not None else table.population()
+    o = observe(plugin, utility, pop)
     return {
         "local": o.local.value,
         "global": o.global_.value,
@@ -852,232 +458,69 @@ def _estimates(
     }
 
 
-def _make(
-    name: str,
-    lower: npt.ArrayLike,
-    upper: npt.ArrayLike,
-    idx: tuple[IntArray, IntArray],
-    keys: list[int],
-    contexts: tuple,
-    groups: tuple,
+def _assemble(
+    projection: Projection,
+    options: ProjectionOptions,
+    law: _AuditedLaw,
     estimate: dict[str, float],
-    confidence: float,
-    method: str,
-    local: bool,
-) -> Interval:
-    """One Interval from per-map ends (maps are contexts for local metrics, one map for global)."""
-    lower, upper = np.asarray(lower, float), np.asarray(upper, float)
-    fav, oth = idx
-    if np.all(np.isnan(upper)):
-        return Interval(math.nan, math.nan, estimate.get(name, math.nan), confidence, method)
-    m = int(np.nanargmax(upper))
-    lo, hi = float(np.nanmax(lower)), float(upper[m])
-    ratio = name not in ("demographic_parity", "equalized_odds")
-    if ratio:
-        lo, hi = _log(lo), _log(hi)
-    return Interval(
-        lo,
-        hi,
-        float(estimate.get(name, math.nan)),
-        confidence,
-        method,
-        contexts[keys[m]] if local else None,
-        groups[int(fav[m])],
-        groups[int(oth[m])],
-    )
-
-
-def _binomial_sets(cell_counts: FloatArray, group_counts: FloatArray, use_groups: bool, alpha: float) -> CellSets:
-    """The exact sets: per-decision Clopper–Pearson bounds, Bonferroni over the non-empty cells (and groups).
-
-    Returns (cell lower, cell upper, group lower, group upper, m); the group bounds are None without ``use_groups``.
-    """
-    m = int((_sum_last(cell_counts) > 0).sum()) + (int((_sum_last(group_counts) > 0).sum()) if use_groups else 0)
-    a_cell = alpha / max(m, 1)
-    c_lo, c_hi = category_bounds(cell_counts, a_cell)
-    g_lo, g_hi = category_bounds(group_counts, a_cell) if use_groups else (None, None)
-    return c_lo, c_hi, g_lo, g_hi, m
-
-
-def _frequentist(
-    counts: FloatArray,
-    g: FloatArray,
-    alpha: float,
-    method: str,
-    estimate: dict[str, float],
-    contexts: tuple,
-    groups: tuple,
-    ctx_keep: BoolArray,
-    filtered: bool,
-    m_a: Mechanism | None,
-    m_x: Mechanism | None,
-    population: Population | None,
     common: _Inputs,
-    sets: SetMaker = _binomial_sets,
 ) -> FairnessIntervals:
-    X, A, K = counts.shape
-    depends_on_context = bool(g.ndim == 3 and X > 1 and not np.all(g == g[:1]))
-    pooled = population is None  # unfiltered, records' own groups
-    if method == "clopper-pearson":
-        k = _sum_last(counts * g)
-        cell_counts = np.stack([_sum_last(counts) - k, k], -1)
-        gf = np.broadcast_to(np.array([0.0, 1.0]), (X, A, 2))
-        binary_u = K == 2 and not np.all(g == g[..., :1])
-        group_counts = cell_counts.sum(0)
-        g_group = np.array([0.0, 1.0])
-    else:
-        cell_counts, gf, binary_u = counts, np.broadcast_to(g, (X, A, K)), True
-        if depends_on_context:
-            group_counts = counts.transpose(1, 0, 2).reshape(A, X * K)  # joint (x, u) per group
-            g_group = g.transpose(1, 0, 2).reshape(A, X * K) if g.ndim == 3 else np.tile(g, X)
-        else:
-            group_counts = counts.sum(0)
-            g_group = gf[0]  # (A, K)
-    shared = pooled and X == 1 and group_counts.shape[-1] == cell_counts.shape[-1]  # one context: groups are cells
-    c_lo, c_hi, gc_lo, gc_hi, m = sets(cell_counts, group_counts, pooled and not shared, alpha)  # (X, A, K'), (A, C)
-    if shared:
-        gc_lo, gc_hi = c_lo[0], c_hi[0]
-    e_lo, e_hi = linear_extremes(gf, c_lo, c_hi)  # (X, A)
-    notes: list[str] = []
-    solver: dict[tuple[int, int], _MinMaxRatio] = {}
-    kc = cell_counts.shape[-1]
-    events = _events(kc)
-    ev_lo, ev_hi = (
-        _event_extremes(events, c_lo, c_hi) if len(events) else (np.zeros((0, X, A)), np.zeros((0, X, A)))
-    )  # (S, X, A)
-    with_u = method != "clopper-pearson" or binary_u
-    if not with_u:
-        notes.append(
-            "clopper-pearson bounds the event g = 1 only: the sups over g, L_dp and L_eo need U's whole "
-            "distribution (use multinomial or bayes)"
-        )
-    if kc > _MAX_EVENT_DECISIONS:
-        notes.append(f"{kc} decisions: the upper ends of L_dp and L_eo use the coarser bound ½ Σ_u max |ΔP(u)|")
-    res: dict[str, tuple[_Extremes, IntArray | list[int]]] = {}  # metric -> (ends per map, the maps' context indices)
-    local_keys = np.flatnonzero(ctx_keep)
-    if not filtered:
-        sl = local_keys
-        res["local"] = (_disjoint_ratio(e_lo[sl], e_hi[sl]), sl)
-        if with_u:
-            sup = [_disjoint_ratio(c_lo[sl, :, u], c_hi[sl, :, u]) for u in range(kc)]
-            res["sup_local"] = (_max_over(sup), sl)
-            res["equalized_odds"] = (
-                _disjoint_tv(
-                    ev_lo[:, sl].transpose(1, 2, 0), ev_hi[:, sl].transpose(1, 2, 0), events, c_lo[sl], c_hi[sl]
-                ),
-                sl,
-            )
-        if population is None:  # pooled
-            assert gc_lo is not None and gc_hi is not None  # the group sets were asked for, or are the cells'
-            ge_lo, ge_hi = linear_extremes(g_group, gc_lo, gc_hi)
-            if with_u:
-                fold = _fold(depends_on_context and method != "clopper-pearson", X, kc)  # categories -> decisions
-                gev = events @ fold if fold is not None else events  # (S, C)
-                gev_lo, gev_hi = _event_extremes(gev, gc_lo, gc_hi)  # (S, A)
-                gu = fold if fold is not None else np.eye(kc)  # (K, C)
-                gu_lo, gu_hi = _event_extremes(gu, gc_lo, gc_hi)  # (K, A)
-        else:
-            w = population.context_given_group()  # (X, A)
-            w = np.where(np.isnan(w), 0.0, w)
-            absent = population.p_group <= 0
-            ge_lo, ge_hi = (w * e_lo).sum(0), (w * e_hi).sum(0)
-            if with_u:
-                gev_lo, gev_hi = np.einsum("xa,sxa->sa", w, ev_lo), np.einsum("xa,sxa->sa", w, ev_hi)
-                gu_lo, gu_hi = np.einsum("xa,xak->ka", w, c_lo), np.einsum("xa,xak->ka", w, c_hi)
-            ge_lo, ge_hi = np.where(absent, np.nan, ge_lo), np.where(absent, np.nan, ge_hi)
-        res["global"] = (_disjoint_ratio(ge_lo[None], ge_hi[None]), [0])
-        if with_u:
-            res["sup_global"] = (_max_over([_disjoint_ratio(gu_lo[u][None], gu_hi[u][None]) for u in range(kc)]), [0])
-            res["demographic_parity"] = (
-                _disjoint_tv(gev_lo.T[None], gev_hi.T[None], events, gu_lo.T[None], gu_hi.T[None]),
-                [0],
-            )
-        cell_lo, cell_hi = e_lo, e_hi
-        kernel_lo = kernel_hi = None
-    else:
-        assert m_a is not None and m_x is not None and population is not None  # behind a filter all are set
-        Wl = np.einsum("xy,ab->xayb", m_x.matrix, m_a.matrix).reshape(len(contexts), len(groups), X * A)
-        w = population.context_given_group()
-        w = np.where(np.isnan(w), 0.0, w)
-        Wg = np.einsum("xa,xayb->ayb", w, np.einsum("xy,ab->xayb", m_x.matrix, m_a.matrix)).reshape(len(groups), X * A)
-        flat_lo, flat_hi = e_lo.reshape(-1), e_hi.reshape(-1)
-        Wsel = Wl[local_keys]
-        res["local"] = (_mixed_ratio(Wsel, flat_lo, flat_hi, solver), local_keys)
-        res["global"] = (_mixed_ratio(Wg[None], flat_lo, flat_hi, solver), [0])
-        if with_u:
-            cl, ch = c_lo.reshape(X * A, kc), c_hi.reshape(X * A, kc)
-            res["sup_local"] = (
-                _max_over([_mixed_ratio(Wsel, cl[:, u], ch[:, u], solver) for u in range(kc)]),
-                local_keys,
-            )
-            res["sup_global"] = (
-                _max_over([_mixed_ratio(Wg[None], cl[:, u], ch[:, u], solver) for u in range(kc)]),
-                [0],
-            )
-            el, eh = ev_lo.reshape(len(events), X * A), ev_hi.reshape(len(events), X * A)
-            res["equalized_odds"] = (_mixed_tv(Wsel, el, eh, events, cl, ch), local_keys)
-            res["demographic_parity"] = (_mixed_tv(Wg[None], el, eh, events, cl, ch), [0])
-        cell_lo = np.einsum("xan,n->xa", Wl, flat_lo)
-        cell_hi = np.einsum("xan,n->xa", Wl, flat_hi)
-        ge_lo, ge_hi = Wg @ flat_lo, Wg @ flat_hi
-        kernel_lo, kernel_hi = e_lo, e_hi
-    conf = 1.0 - alpha
+    """The :class:`FairnessIntervals` of a projected set: one :class:`Interval` per computed metric."""
+    confidence = 1.0 - options.alpha
     made: dict[str, Interval | None] = {}
-    for name in ("local", "global", "sup_local", "sup_global", "demographic_parity", "equalized_odds"):
-        if name not in res:
-            made[name] = None
-            continue
-        (lower, upper, fav, oth), keys = res[name]
-        made[name] = _make(
-            name,
-            lower,
-            upper,
-            (fav, oth),
-            list(keys),
-            contexts,
-            groups,
-            estimate,
-            conf,
-            method,
-            local=name in ("local", "sup_local", "equalized_odds"),
+    for name in _METRICS:
+        ends = projection.ends.get(name)
+        made[name] = (
+            None
+            if ends is None
+            else _interval(name, ends, law, estimate.get(name, math.nan), confidence, options.method)
         )
     local, global_ = made["local"], made["global"]
     assert local is not None and global_ is not None  # always computed
     return FairnessIntervals(
-        method,
-        conf,
-        local,
-        global_,
-        made["sup_local"],
-        made["sup_global"],
-        made["demographic_parity"],
-        made["equalized_odds"],
-        cell_lo,
-        cell_hi,
-        np.asarray(ge_lo, float),
-        np.asarray(ge_hi, float),
-        kernel_lo,
-        kernel_hi,
-        m,
-        notes=tuple(notes),
+        method=options.method,
+        confidence=confidence,
+        local=local,
+        global_=global_,
+        sup_local=made["sup_local"],
+        sup_global=made["sup_global"],
+        demographic_parity=made["demographic_parity"],
+        equalized_odds=made["equalized_odds"],
+        cell_lower=projection.cell_lower,
+        cell_upper=projection.cell_upper,
+        group_lower=projection.group_lower,
+        group_upper=projection.group_upper,
+        kernel_lower=projection.kernel_lower,
+        kernel_upper=projection.kernel_upper,
+        n_sets=projection.n_sets,
+        notes=projection.notes,
         **common,
     )
 
 
-def _fold(joint: bool, X: int, K: int) -> FloatArray | None:
-    """(K, X·K) matrix summing the joint (x, u) categories of a group into decisions u; None when not joint."""
-    if not joint:
-        return None
-    return np.tile(np.eye(K), (1, X))
+def _interval(
+    name: str, ends: MetricEnds, law: _AuditedLaw, estimate: float, confidence: float, method: str
+) -> Interval:
+    """One metric's Interval from its ends per map (contexts for local metrics, one map for global ones).
 
-
-def _max_over(results: list[_Extremes]) -> _Extremes:
-    """The max over decisions u of per-u (lower, upper, fav, other) results (valid for both ends)."""
-    lowers = np.stack([r[0] for r in results])
-    uppers = np.stack([r[1] for r in results])
-    best = np.where(np.isnan(uppers), -np.inf, uppers).argmax(0)
-    cols = np.arange(uppers.shape[1])
-    fav = np.stack([r[2] for r in results])[best, cols]
-    oth = np.stack([r[3] for r in results])[best, cols]
-    low = np.where(np.isnan(lowers), -np.inf, lowers).max(0)
-    return np.where(np.isinf(low) & (low < 0), np.nan, low), uppers[best, cols], fav, oth
+    The interval is the widest over the maps: the largest lower end and the largest upper end, with the context
+    and pair of groups where the upper end is attained. Ratios are reported in nats.
+    """
+    (lower, upper, fav, oth), keys = ends
+    lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+    if np.all(np.isnan(upper)):
+        return Interval(math.nan, math.nan, estimate, confidence, method)
+    m = int(np.nanargmax(upper))
+    lo, hi = float(np.nanmax(lower)), float(upper[m])
+    if name not in ("demographic_parity", "equalized_odds"):
+        lo, hi = safe_log(max(lo, 1.0)), safe_log(max(hi, 1.0))
+    return Interval(
+        lo,
+        hi,
+        float(estimate),
+        confidence,
+        method,
+        law.contexts[list(keys)[m]] if name in _LOCAL else None,
+        law.groups[int(fav[m])],
+        law.groups[int(oth[m])],
+    )

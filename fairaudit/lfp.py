@@ -374,8 +374,11 @@ def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: in
 _TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
 
 
-def _solve(problem: cp.Problem) -> None:
-    """Solve with Clarabel at tight tolerances; an inaccurate solve is reported in ``solver_status``, not warned."""
+def solve_clarabel(problem: cp.Problem) -> None:
+    """Solve a cvxpy problem with Clarabel at tight tolerances, without the "may be inaccurate" warning.
+
+    The callers read ``problem.status``: an inaccurate solve is reported there (``solver_status``), not warned.
+    """
     import warnings
 
     import cvxpy as cp
@@ -486,7 +489,7 @@ class FractionalProgram:
         self._p.value, self._q.value = p, q
         prob = self._problem
         try:
-            _solve(prob)
+            solve_clarabel(prob)
         except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
             return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
         status = prob.status
@@ -609,7 +612,7 @@ class FractionalProgram:
             self._primal = (cp.Problem(cp.Maximize(c @ h), cons), h, c)
         prob, h, c = self._primal
         c.value = p
-        _solve(prob)
+        solve_clarabel(prob)
         return prob.status, prob.value, None if h.value is None else np.asarray(h.value, dtype=float)
 
 

@@ -29,9 +29,11 @@ from typing import TYPE_CHECKING, Any, TypedDict
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import FloatArray
+from ._arrays import FloatArray, safe_log
 from ._errors import InputError
-from .intervals import METHODS, _disjoint_ratio, _log, category_bounds, fairness_intervals, linear_extremes
+from ._extremes import disjoint_ratio
+from ._validation import choice, level, real, whole
+from .intervals import METHODS, category_bounds, fairness_intervals, linear_extremes
 
 if TYPE_CHECKING:
     from .privacy import Mechanism
@@ -110,29 +112,6 @@ class _Inputs(TypedDict):
     datasets: int
     seed: int
     max_n: int
-    true_value: float
-
-
-def _int(name: str, value: int, low: int, high: int | None = None) -> int:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, np.integer))
-        or value < low
-        or (high is not None and value > high)
-    ):
-        what = f"a whole number >= {low}" + (f" and <= {high}" if high is not None else "")
-        raise InputError(name, f"must be {what}", value)
-    return int(value)
-
-
-def _real(name: str, value: float, check: Callable[[float], bool], what: str) -> float:
-    try:
-        ok = not isinstance(value, bool) and math.isfinite(float(value)) and check(float(value))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise InputError(name, f"must be {what}", value)
-    return float(value)
 
 
 def _rates(groups: int, contexts: int, base_rate: float, disparity: float) -> FloatArray:
@@ -194,9 +173,9 @@ class _Certifier:
         e_lo, e_hi = linear_extremes(np.array([1.0, 0.0]), c_lo, c_hi)  # (D, X, A)
         if self.mechanism is None:
             if self.kind == "local":
-                up = _disjoint_ratio(e_lo.reshape(D * X, A), e_hi.reshape(D * X, A))[1].reshape(D, X).max(-1)
+                up = disjoint_ratio(e_lo.reshape(D * X, A), e_hi.reshape(D * X, A))[1].reshape(D, X).max(-1)
             else:
-                up = _disjoint_ratio(e_lo.mean(1), e_hi.mean(1))[1]  # uniform population: P(x | a) = 1/X
+                up = disjoint_ratio(e_lo.mean(1), e_hi.mean(1))[1]  # uniform population: P(x | a) = 1/X
         else:
             from .lfp import threshold_max_many
 
@@ -208,7 +187,7 @@ class _Certifier:
             vals, _, _ = threshold_max_many(W[None, :, :, None, :], W[None, :, None, :, :], lo, hi)
             vals = np.where(~np.eye(A, dtype=bool), vals, -np.inf)
             up = vals.reshape(D, -1).max(-1)
-        return np.array([_log(float(v)) for v in up])
+        return np.array([safe_log(max(float(v), 1.0)) for v in up])
 
     def __call__(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
         return self.exact(k, n) if self.method == "bayes" else self.fast(k, n)
@@ -315,47 +294,8 @@ def plan(
     >>> plan(0.1, disparity=0.2).reason
     'the target 0.1 nats is not above the true L of the model, 0.2 nats: no sample size certifies it'
     """
-    target = _real("target", target, lambda v: v >= 0, "a finite number >= 0 (nats)")
-    groups = _int("groups", groups, 2, 1000)
-    contexts = _int("contexts", contexts, 1, 100_000)
-    base_rate = _real("base_rate", base_rate, lambda v: 0 < v < 1, "a number in (0, 1)")
-    disparity = _real("disparity", disparity, lambda v: True, "a finite number (nats)")
-    if base_rate * math.exp(disparity) > 1:
-        raise InputError(
-            "disparity",
-            f"gives group 0 the rate base_rate * exp(disparity) = {base_rate * math.exp(disparity):.6g} > 1",
-            disparity,
-        )
-    confidence = _real("confidence", confidence, lambda v: 0 < v < 1, "a number in (0, 1)")
-    if method not in METHODS:
-        raise InputError("method", f"must be one of {', '.join(METHODS)}", method)
-    power = _real("power", power, lambda v: 0 < v < 1, "a number in (0, 1)")
-    if epsilon is not None:
-        epsilon = _real("epsilon", epsilon, lambda v: v >= 0, "a finite number >= 0 (nats)")
-    if kind not in ("local", "global"):
-        raise InputError("kind", "must be local or global", kind)
-    datasets = (
-        (BAYES_DATASETS if method == "bayes" else DEFAULT_DATASETS)
-        if datasets is None
-        else _int("datasets", datasets, 1, 1_000_000)
-    )
-    seed = _int("seed", seed, 0)
-    max_n = _int("max_n", max_n, 1)
-    if progress is not None and not callable(progress):
-        raise InputError("progress", "must be callable", progress)
-
-    rates = _rates(groups, contexts, base_rate, disparity)
-    mechanism: Mechanism | None = None
-    if epsilon is not None:
-        from .privacy import randomized_response
-
-        mechanism = randomized_response(tuple(range(groups)), epsilon)
-        filtered = rates @ mechanism.matrix.T  # Q[x, a] = sum_ã M[a, ã] K[x, ã]
-    else:
-        filtered = rates
-    true_value = float(np.log(filtered.max(-1) / filtered.min(-1)).max())
-    inputs = _Inputs(
-        target=target,
+    inputs = _checked_inputs(
+        target,
         groups=groups,
         contexts=contexts,
         base_rate=base_rate,
@@ -368,27 +308,115 @@ def plan(
         datasets=datasets,
         seed=seed,
         max_n=max_n,
-        true_value=true_value,
     )
-    name = "L" if kind == "local" else "L-bar"
-    if target <= true_value:
+    if progress is not None and not callable(progress):
+        raise InputError("progress", "must be callable", progress)
+    rates = _rates(inputs["groups"], inputs["contexts"], inputs["base_rate"], inputs["disparity"])
+    mechanism: Mechanism | None = None
+    filtered = rates
+    if inputs["epsilon"] is not None:
+        from .privacy import randomized_response
+
+        mechanism = randomized_response(tuple(range(inputs["groups"])), inputs["epsilon"])
+        filtered = rates @ mechanism.matrix.T  # Q[x, a] = sum_ã M[a, ã] K[x, ã]
+    true_value = float(np.log(filtered.max(-1) / filtered.min(-1)).max())
+    if inputs["target"] <= true_value:
+        name = "L" if inputs["kind"] == "local" else "L-bar"
         return SamplePlan(
             n_per_cell=None,
             n_total=None,
             achieved_power=None,
             expected_upper=None,
-            reason=f"the target {target:.6g} nats is not above the true {name} of the model, "
+            true_value=true_value,
+            reason=f"the target {inputs['target']:.6g} nats is not above the true {name} of the model, "
             f"{true_value:.6g} nats: no sample size certifies it",
             **inputs,
         )
+    certifier = _Certifier(
+        inputs["groups"],
+        inputs["contexts"],
+        inputs["confidence"],
+        inputs["method"],
+        mechanism,
+        inputs["kind"],
+        inputs["seed"],
+    )
+    return _search(inputs, true_value, rates, certifier, progress)
 
-    certifier = _Certifier(groups, contexts, confidence, method, mechanism, kind, seed)
+
+def _checked_inputs(
+    target: float,
+    *,
+    groups: int,
+    contexts: int,
+    base_rate: float,
+    disparity: float,
+    confidence: float,
+    method: str,
+    power: float,
+    epsilon: float | None,
+    kind: str,
+    datasets: int | None,
+    seed: int,
+    max_n: int,
+) -> _Inputs:
+    """The arguments of :func:`plan`, checked in order and converted (``datasets`` resolved from its default)."""
+    target = real(target, "target", low=0.0, what="a finite number >= 0 (nats)")
+    groups = whole(groups, "groups", low=2, high=1000)
+    contexts = whole(contexts, "contexts", low=1, high=100_000)
+    base_rate = real(
+        base_rate, "base_rate", low=0.0, high=1.0, low_open=True, high_open=True, what="a number in (0, 1)"
+    )
+    disparity = real(disparity, "disparity", what="a finite number (nats)")
+    if base_rate * math.exp(disparity) > 1:
+        raise InputError(
+            "disparity",
+            f"gives group 0 the rate base_rate * exp(disparity) = {base_rate * math.exp(disparity):.6g} > 1",
+            disparity,
+        )
+    confidence = level(confidence, "confidence")
+    method = choice(method, "method", METHODS)
+    power = real(power, "power", low=0.0, high=1.0, low_open=True, high_open=True, what="a number in (0, 1)")
+    if epsilon is not None:
+        epsilon = real(epsilon, "epsilon", low=0.0, what="a finite number >= 0 (nats)")
+    kind = choice(kind, "kind", ("local", "global"))
+    datasets = (
+        (BAYES_DATASETS if method == "bayes" else DEFAULT_DATASETS)
+        if datasets is None
+        else whole(datasets, "datasets", low=1, high=1_000_000)
+    )
+    return _Inputs(
+        target=target,
+        groups=groups,
+        contexts=contexts,
+        base_rate=base_rate,
+        disparity=disparity,
+        confidence=confidence,
+        method=method,
+        power=power,
+        epsilon=epsilon,
+        kind=kind,
+        datasets=datasets,
+        seed=whole(seed, "seed"),
+        max_n=whole(max_n, "max_n", low=1),
+    )
+
+
+def _search(
+    inputs: _Inputs,
+    true_value: float,
+    rates: FloatArray,
+    certifier: _Certifier,
+    progress: Callable[[int, float], None] | None,
+) -> SamplePlan:
+    """The smallest n found with simulated power >= ``power``: doubling, then bisection (see :func:`plan`)."""
+    target, power, max_n, seed = inputs["target"], inputs["power"], inputs["max_n"], inputs["seed"]
     seen: dict[int, tuple[float, float]] = {}  # n -> (power, median upper end)
 
     def evaluate(n: int) -> tuple[float, float]:
         if n not in seen:
             rng = np.random.default_rng(seed)
-            k = rng.binomial(n, rates, size=(datasets, contexts, groups))
+            k = rng.binomial(n, rates, size=(inputs["datasets"], inputs["contexts"], inputs["groups"]))
             up = certifier(k, n)
             seen[n] = (float(np.mean(up <= target)), float(np.median(up)))
             if progress is not None:
@@ -404,6 +432,7 @@ def plan(
                 n_total=None,
                 achieved_power=p,
                 expected_upper=med,
+                true_value=true_value,
                 reason=f"max_n = {max_n} queries per cell give power {p:.3g} < {power:.3g}",
                 **inputs,
             )
@@ -415,4 +444,11 @@ def plan(
         else:
             lo = mid
     p, med = seen[hi]
-    return SamplePlan(n_per_cell=hi, n_total=hi * contexts * groups, achieved_power=p, expected_upper=med, **inputs)
+    return SamplePlan(
+        n_per_cell=hi,
+        n_total=hi * inputs["contexts"] * inputs["groups"],
+        achieved_power=p,
+        expected_upper=med,
+        true_value=true_value,
+        **inputs,
+    )

@@ -47,8 +47,10 @@ import numpy.typing as npt
 
 from ._arrays import EXP_SAFE, FloatArray, IntArray, format_label, ratio_extremes, row_blocks
 from ._errors import InputError
+from ._validation import epsilon as check_epsilon
+from ._validation import nonnegative
 from .laws import Law, Population
-from .privacy import Mechanism, RandomizedResponse
+from .privacy import Mechanism, RandomizedResponse, RandomizedResponseParameters
 from .utility import Utility, check_metric
 
 __all__ = [
@@ -96,7 +98,7 @@ class Assumption:
             )
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Bound:
     """An upper bound on local (and, with X ⊥ A, global) g-fairness.
 
@@ -145,23 +147,18 @@ class Bound:
 
 
 def _nonneg(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, "must be a number", value) from None
-    if math.isnan(v) or v < 0 or math.isinf(v):
-        raise InputError(name, "must be a finite non-negative number", value)
-    return v
+    """Deprecated: :func:`fairaudit._validation.nonnegative` (``value`` first)."""
+    return nonnegative(value, name)
 
 
 def _constants(gamma: float, tau: float, lipschitz: float, diameter: float) -> tuple[float, float, float, float]:
-    gamma = _nonneg("gamma", gamma)
-    tau = _nonneg("tau", tau)
+    gamma = nonnegative(gamma, "gamma")
+    tau = nonnegative(tau, "tau")
     if tau <= 0:
         raise InputError("tau", "must be positive (the main theorem needs E[g | x, a] >= tau > 0)", tau)
     if tau > gamma:
         raise InputError("tau", f"cannot exceed gamma = {gamma:g} (E[g | x, a] <= max g)", tau)
-    return gamma, tau, _nonneg("lipschitz", lipschitz), _nonneg("diameter", diameter)
+    return gamma, tau, nonnegative(lipschitz, "lipschitz"), nonnegative(diameter, "diameter")
 
 
 def main_theorem(
@@ -197,8 +194,8 @@ def main_theorem(
     True
     """
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
-    eps = _nonneg("epsilon", epsilon) if not (isinstance(epsilon, float) and math.isinf(epsilon)) else math.inf
-    delta = _nonneg("delta", delta)
+    eps = check_epsilon(epsilon)
+    delta = nonnegative(delta, "delta")
     return eps + math.log1p((lipschitz * diameter + delta * gamma) / tau)
 
 
@@ -219,8 +216,8 @@ def main_theorem_tight(
     True
     """
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
-    eps = _nonneg("epsilon", epsilon) if not (isinstance(epsilon, float) and math.isinf(epsilon)) else math.inf
-    delta = _nonneg("delta", delta)
+    eps = check_epsilon(epsilon)
+    delta = nonnegative(delta, "delta")
     if math.isinf(eps):
         return math.inf
     c = (lipschitz * diameter + delta * gamma) / tau
@@ -353,7 +350,43 @@ def _without_tau(
 
 
 def _tau_free_constants(gamma: float, lipschitz: float, diameter: float) -> tuple[float, float, float]:
-    return _nonneg("gamma", gamma), _nonneg("lipschitz", lipschitz), _nonneg("diameter", diameter)
+    return nonnegative(gamma, "gamma"), nonnegative(lipschitz, "lipschitz"), nonnegative(diameter, "diameter")
+
+
+def _tau_free(
+    form: str,
+    mechanism: Mechanism,
+    gamma: float,
+    lipschitz: float,
+    diameter: float,
+    utility: Utility | None,
+    population: Population | None,
+    law: Law | None,
+) -> Bound:
+    """The paper or tight bound without τ: ε(M), when the extra term is 0 (else :func:`_without_tau` raises).
+
+    Both forms are ε(M) then (0 with one input); the tight form also names a pair attaining it.
+    """
+    gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
+    free = _without_tau(form, mechanism, lipschitz, diameter, utility)
+    assumptions = check_assumptions(mechanism, tau=None, gamma=gamma, utility=utility, population=population, law=law)
+    n = len(mechanism.inputs)
+    eps = mechanism.epsilon if n > 1 else 0.0  # the tight form: max over pairs of ε_aa', where δ_aa' = 0
+    pair = _epsilon_pair(mechanism) if form == "tight" and n > 1 else (None, None)
+    return Bound(
+        form=form,
+        value=eps,
+        epsilon=eps,
+        delta=0.0,
+        group=pair[0],
+        other_group=pair[1],
+        gamma=gamma,
+        tau=math.nan,
+        lipschitz=lipschitz,
+        diameter=diameter,
+        mechanism=mechanism,
+        assumptions=(*assumptions, free),
+    )
 
 
 def _epsilon_pair(mechanism: Mechanism) -> tuple[Hashable, Hashable]:
@@ -439,48 +472,49 @@ def paper_bound(
     0.84729786
     """
     gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, None)
-    n = len(mechanism.inputs)
     if tau is None:
-        gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
-        free = _without_tau("paper", mechanism, lipschitz, diameter, utility)
-        assumptions = check_assumptions(
-            mechanism, tau=None, gamma=gamma, utility=utility, population=population, law=law
-        ) + (free,)
-        eps = mechanism.epsilon if n > 1 else 0.0
-        return Bound("paper", eps, eps, 0.0, None, None, gamma, math.nan, lipschitz, diameter, mechanism, assumptions)
+        return _tau_free("paper", mechanism, gamma, lipschitz, diameter, utility, population, law)
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
     assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
-    if n < 2:
-        return Bound("paper", 0.0, 0.0, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions)
-    if isinstance(mechanism, RandomizedResponse):
-        # δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there (proofs/main_theorem.md)
-        rr, c = mechanism.rr, lipschitz * diameter
-        at_one = math.log1p((c + gamma * (rr.p - rr.q)) / tau)  # t = 1: δ = p − q, the total variation
-        at_eps = rr.epsilon + math.log1p(c / tau)  # t = e^ε: δ = 0
-        if at_eps < at_one:
-            return Bound(
-                "paper", at_eps, rr.epsilon, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions
-            )
-        return Bound(
-            "paper", at_one, 0.0, rr.p - rr.q, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions
-        )
-    t, delta = _profile_candidates(mechanism)
-    values = np.log(t) + np.log1p((lipschitz * diameter + gamma * delta) / tau)
-    k = int(np.argmin(values))
+    c = lipschitz * diameter
+    if len(mechanism.inputs) < 2:
+        value, eps, delta = 0.0, 0.0, 0.0
+    elif isinstance(mechanism, RandomizedResponse):
+        value, eps, delta = _paper_randomized_response(mechanism.rr, gamma, tau, c)
+    else:
+        t, deltas = _profile_candidates(mechanism)
+        values = np.log(t) + np.log1p((c + gamma * deltas) / tau)
+        k = int(np.argmin(values))
+        value, eps, delta = float(values[k]), float(np.log(t[k])), float(deltas[k])
     return Bound(
-        "paper",
-        float(values[k]),
-        float(np.log(t[k])),
-        float(delta[k]),
-        None,
-        None,
-        gamma,
-        tau,
-        lipschitz,
-        diameter,
-        mechanism,
-        assumptions,
+        form="paper",
+        value=value,
+        epsilon=eps,
+        delta=delta,
+        group=None,
+        other_group=None,
+        gamma=gamma,
+        tau=tau,
+        lipschitz=lipschitz,
+        diameter=diameter,
+        mechanism=mechanism,
+        assumptions=assumptions,
     )
+
+
+def _paper_randomized_response(
+    rr: RandomizedResponseParameters, gamma: float, tau: float, c: float
+) -> tuple[float, float, float]:
+    """(value, ε, δ) of the paper form for k-ary randomized response, c = L_A·diam: the better of t = 1 and t = e^ε.
+
+    δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there
+    (``proofs/main_theorem.md``).
+    """
+    at_one = math.log1p((c + gamma * (rr.p - rr.q)) / tau)  # t = 1: δ = p − q, the total variation
+    at_eps = rr.epsilon + math.log1p(c / tau)  # t = e^ε: δ = 0
+    if at_eps < at_one:
+        return at_eps, rr.epsilon, 0.0
+    return at_one, 0.0, rr.p - rr.q
 
 
 def tight_bound(
@@ -543,51 +577,61 @@ def tight_bound(
     else:
         diameter = 1.0 if n > 1 else 0.0  # the discrete metric, without its n x n matrix
     if tau is None:
-        gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
-        free = _without_tau("tight", mechanism, lipschitz, diameter, utility)
-        assumptions = check_assumptions(
-            mechanism, tau=None, gamma=gamma, utility=utility, population=population, law=law
-        ) + (free,)
-        if n < 2:
-            return Bound(
-                "tight", 0.0, 0.0, 0.0, None, None, gamma, math.nan, lipschitz, diameter, mechanism, assumptions
-            )
-        eps = mechanism.epsilon  # max over pairs of ε_aa', where δ_aa' = 0
-        a_label, b_label = _epsilon_pair(mechanism)
-        return Bound(
-            "tight", eps, eps, 0.0, a_label, b_label, gamma, math.nan, lipschitz, diameter, mechanism, assumptions
-        )
+        return _tau_free("tight", mechanism, gamma, lipschitz, diameter, utility, population, law)
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
     assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
+    pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None)
     if n < 2:
-        return Bound("tight", 0.0, 0.0, 0.0, None, None, gamma, tau, lipschitz, diameter, mechanism, assumptions)
-    if rr is not None:
-        # every pair: h(t) = t + (L_A d + γ[p − tq]₊)/τ, convex, kinks at e^ε only: min at t = 1 or t = e^ε, and
-        # increasing in d, so the binding pair has the largest d (the first such pair, as the general route)
-        a, b = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
-        c = lipschitz * diameter / tau
-        at_one = 1.0 + c + gamma * (rr.p - rr.q) / tau
-        log_eps = rr.epsilon + math.log1p(c * math.exp(-rr.epsilon))  # log(e^ε + c), no overflow
-        if math.log(at_one) <= log_eps:
-            value, eps, delta = math.log(at_one), 0.0, rr.p - rr.q
+        value, eps, delta = 0.0, 0.0, 0.0
+    else:
+        if rr is not None:
+            value, eps, delta, a, b = _tight_randomized_response(rr, d, gamma, tau, lipschitz, diameter)
         else:
-            value, eps, delta = log_eps, rr.epsilon, 0.0
-        return Bound(
-            "tight",
-            value,
-            eps,
-            delta,
-            mechanism.inputs[int(a)],
-            mechanism.inputs[int(b)],
-            gamma,
-            tau,
-            lipschitz,
-            diameter,
-            mechanism,
-            assumptions,
-        )
-    assert d is not None  # (a general mechanism: its metric was checked)
-    matrix = mechanism.matrix
+            assert d is not None  # (a general mechanism: its metric was checked)
+            value, eps, delta, a, b = _tight_pairs(mechanism.matrix, d, gamma, tau, lipschitz)
+        pair = (mechanism.inputs[a], mechanism.inputs[b])
+    return Bound(
+        form="tight",
+        value=value,
+        epsilon=eps,
+        delta=delta,
+        group=pair[0],
+        other_group=pair[1],
+        gamma=gamma,
+        tau=tau,
+        lipschitz=lipschitz,
+        diameter=diameter,
+        mechanism=mechanism,
+        assumptions=assumptions,
+    )
+
+
+def _tight_randomized_response(
+    rr: RandomizedResponseParameters, d: FloatArray | None, gamma: float, tau: float, lipschitz: float, diameter: float
+) -> tuple[float, float, float, int, int]:
+    """(value, ε, δ, a, a') of the tight form for k-ary randomized response, in closed form.
+
+    Every pair: h(t) = t + (L_A d + γ[p − tq]₊)/τ, convex, kinks at e^ε only: min at t = 1 or t = e^ε, and
+    increasing in d, so the binding pair has the largest d (the first such pair, as the general route).
+    """
+    a, b = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
+    c = lipschitz * diameter / tau
+    at_one = 1.0 + c + gamma * (rr.p - rr.q) / tau
+    log_eps = rr.epsilon + math.log1p(c * math.exp(-rr.epsilon))  # log(e^ε + c), no overflow
+    if math.log(at_one) <= log_eps:
+        return math.log(at_one), 0.0, rr.p - rr.q, int(a), int(b)
+    return log_eps, rr.epsilon, 0.0, int(a), int(b)
+
+
+def _tight_pairs(
+    matrix: FloatArray, d: FloatArray, gamma: float, tau: float, lipschitz: float
+) -> tuple[float, float, float, int, int]:
+    """(value, ε, δ, a, a') of the tight form for a general mechanism: every pair's minimum, the largest.
+
+    For each pair t + (L_A d + γ δ_aa'(t))/τ is convex and piecewise linear in t, so its minimum is at t = 1
+    or at one of the pair's ratios. The pairs are processed in blocks of rows, not (n, n, m) at once.
+    """
+    n = matrix.shape[0]
     best = np.empty((n, n))
     best_t = np.empty((n, n))
     best_delta = np.empty((n, n))
@@ -609,20 +653,7 @@ def tight_bound(
         best_delta[rows] = np.take_along_axis(dl, best_k, -1)[..., 0]
     np.fill_diagonal(best, -np.inf)
     a, b = np.unravel_index(int(best.argmax()), best.shape)
-    return Bound(
-        "tight",
-        float(np.log(best[a, b])),
-        float(np.log(best_t[a, b])),
-        float(best_delta[a, b]),
-        mechanism.inputs[a],
-        mechanism.inputs[b],
-        gamma,
-        tau,
-        lipschitz,
-        diameter,
-        mechanism,
-        assumptions,
-    )
+    return float(np.log(best[a, b])), float(np.log(best_t[a, b])), float(best_delta[a, b]), int(a), int(b)
 
 
 def corollary_bound(
@@ -666,7 +697,20 @@ def corollary_bound(
     else:
         assumptions.append(Assumption("g independent of the group", "vouched", "no utility table given"))
     eps = mechanism.epsilon
-    return Bound("corollary", eps, eps, 0.0, None, None, math.nan, math.nan, 0.0, 1.0, mechanism, tuple(assumptions))
+    return Bound(
+        form="corollary",
+        value=eps,
+        epsilon=eps,
+        delta=0.0,
+        group=None,
+        other_group=None,
+        gamma=math.nan,
+        tau=math.nan,
+        lipschitz=0.0,
+        diameter=1.0,
+        mechanism=mechanism,
+        assumptions=tuple(assumptions),
+    )
 
 
 def check_assumptions(

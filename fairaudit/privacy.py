@@ -36,6 +36,8 @@ from ._arrays import (
     row_blocks,
 )
 from ._errors import InputError
+from ._validation import epsilon as check_epsilon
+from ._validation import real, whole
 
 __all__ = [
     # mechanisms
@@ -175,7 +177,7 @@ class Mechanism:
         numpy.ndarray, shape (n_inputs, n_inputs)
             ``out[a, a'] = Σ_o [M[a, o] − e^ε M[a', o]]₊``; the diagonal is 0.
         """
-        eps = _check_epsilon(epsilon)
+        eps = check_epsilon(epsilon)
         m = self.matrix
         n = m.shape[0]
         out = np.empty((n, n))
@@ -248,8 +250,7 @@ class Mechanism:
         InputError
             If ``delta`` is not in [0, 1].
         """
-        if not (0.0 <= delta <= 1.0):
-            raise InputError("delta", "must lie in [0, 1]", delta)
+        delta = real(delta, "delta", low=0.0, high=1.0, what="a number in [0, 1]")
         if delta == 0.0:
             return self.epsilon
         if self.delta(0.0) <= delta:
@@ -307,16 +308,6 @@ class Mechanism:
         return text
 
 
-def _check_epsilon(epsilon: float) -> float:
-    try:
-        eps = float(epsilon)
-    except (TypeError, ValueError):
-        raise InputError("epsilon", "must be a number", epsilon) from None
-    if math.isnan(eps) or eps < 0:
-        raise InputError("epsilon", "must be a non-negative number of nats", epsilon)
-    return eps
-
-
 def keep_probability(epsilon: float, k: int) -> float:
     """Keep probability e^ε / (e^ε + k − 1) of k-ary randomized response.
 
@@ -325,9 +316,8 @@ def keep_probability(epsilon: float, k: int) -> float:
     >>> round(keep_probability(math.log(7 / 3), 2), 12)
     0.7
     """
-    eps = _check_epsilon(epsilon)
-    if k < 1:
-        raise InputError("k", "must be at least 1", k)
+    eps = check_epsilon(epsilon)
+    k = whole(k, "k", low=1)
     if math.isinf(eps):
         return 1.0
     return 1.0 / (1.0 + (k - 1) * math.exp(-eps))
@@ -345,10 +335,10 @@ def epsilon_from_keep_probability(keep: float, k: int) -> float:
         If ``keep`` is not in [1/k, 1] (below 1/k the mechanism favours
         other values and is not randomized response).
     """
-    if k < 2:
-        raise InputError("k", "randomized response needs at least 2 values", k)
-    if not (1.0 / k - 1e-15 <= keep <= 1.0):
-        raise InputError("keep", f"keep probability must lie in [1/k, 1] = [{1.0 / k:.6g}, 1]", keep)
+    k = whole(k, "k", low=2)
+    keep = real(
+        keep, "keep", low=1.0 / k - 1e-15, high=1.0, what=f"a keep probability in [1/k, 1] = [{1.0 / k:.6g}, 1]"
+    )
     if keep >= 1.0:
         return math.inf
     return max(0.0, math.log(keep * (k - 1) / (1.0 - keep)))
@@ -413,13 +403,9 @@ def randomized_response(
         if k == 1:
             epsilon = 0.0
         else:
-            try:
-                keep = float(keep)
-            except (TypeError, ValueError):
-                raise InputError("keep", "must be a number", keep) from None
             epsilon = epsilon_from_keep_probability(keep, k)
     assert epsilon is not None  # exactly one of epsilon and keep was given
-    eps = _check_epsilon(epsilon)
+    eps = check_epsilon(epsilon)
     return RandomizedResponse(labels, eps, name or f"{k}-ary randomized response")
 
 
@@ -538,7 +524,7 @@ class RandomizedResponse(Mechanism):
         return max(0.0, rr.p - t_q)
 
     def pairwise_delta(self, epsilon: float) -> FloatArray:
-        eps = _check_epsilon(epsilon)
+        eps = check_epsilon(epsilon)
         k = len(self.inputs)
         out = np.full((k, k), self._pair_delta(eps))
         np.fill_diagonal(out, 0.0)
@@ -550,13 +536,12 @@ class RandomizedResponse(Mechanism):
     def delta(self, epsilon: npt.ArrayLike) -> float | FloatArray: ...
     def delta(self, epsilon: npt.ArrayLike) -> float | FloatArray:
         eps = np.asarray(epsilon, dtype=float)
-        flat = np.array([self._pair_delta(_check_epsilon(e)) for e in eps.ravel().tolist()])
+        flat = np.array([self._pair_delta(check_epsilon(e)) for e in eps.ravel().tolist()])
         return float(flat[0]) if eps.ndim == 0 else flat.reshape(eps.shape)
 
     def epsilon_for_delta(self, delta: float) -> float:
         """Smallest ε ≥ 0 with δ(ε) ≤ ``delta``: log((p − δ)/q) in closed form (0 when δ ≥ p − q)."""
-        if not (0.0 <= delta <= 1.0):
-            raise InputError("delta", "must lie in [0, 1]", delta)
+        delta = real(delta, "delta", low=0.0, high=1.0, what="a number in [0, 1]")
         rr = self.rr
         if delta == 0.0:
             return self.epsilon
@@ -676,11 +661,11 @@ class MechanismFamily:
 
     def __call__(self, epsilon: float) -> Mechanism:
         """The member with privacy budget ``epsilon`` (nats)."""
-        return self.build(_check_epsilon(epsilon))
+        return self.build(check_epsilon(epsilon))
 
     def keep_probability(self, epsilon: float) -> float:
         """Probability that the true value is released unchanged at ``epsilon``."""
-        return float(self.keep(_check_epsilon(epsilon)))
+        return float(self.keep(check_epsilon(epsilon)))
 
     def __repr__(self) -> str:
         return f"MechanismFamily({self.name!r}, {len(self.inputs)} inputs)"

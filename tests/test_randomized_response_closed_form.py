@@ -559,7 +559,7 @@ def test_calibrate_paper_and_tight_without_tau():
         assert c.feasible and c.epsilon == 0.5 and c.bound == 0.5 and "without tau" in c.reason
         assert c.keep_probability == pytest.approx(math.exp(0.5) / (math.exp(0.5) + 2), rel=1e-12)
         for kw in ({"lipschitz": 0.2}, {"delta": 0.1}):
-            with pytest.raises(fa.InputError, match=f"^--tau: the {method} bound needs tau"):
+            with pytest.raises(fa.InputError, match=f"^tau: the {method} bound needs tau"):
                 calibrate(0.5, method=method, groups=3, **kw)
 
 

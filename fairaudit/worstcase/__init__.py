@@ -33,7 +33,7 @@ fast path does not decide. Proofs: ``proofs/black_box.md``,
 """
 
 from ._black_box import BlackBoxCertificate, black_box_bound
-from ._randomized_response import _rr_class_value as _rr_class_value  # (fairaudit.calibrate imports it from here)
+from ._randomized_response import rr_class_value as rr_class_value
 from ._search import METHODS as METHODS
 from ._worst_model import WorstCase, WorstModel, worst_model
 from ._worst_utility import WorstUtility, worst_utility

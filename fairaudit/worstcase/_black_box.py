@@ -6,24 +6,25 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
 
-from .._arrays import FloatArray
+from .._arrays import FloatArray, IntArray, safe_log
 from .._errors import InputError
-from ..bounds import Assumption, _nonneg, check_assumptions
+from .._validation import nonnegative
+from ..bounds import Assumption, check_assumptions
 from ..laws import Kernel, Population
 from ..lfp import FractionalProgram, FractionalResult, threshold_max_many
-from ..privacy import Mechanism, RandomizedResponse
+from ..privacy import Mechanism, RandomizedResponse, RandomizedResponseParameters
 from ..utility import Utility, check_metric
-from ._randomized_response import _rr_box, _rr_lipschitz
-from ._search import _check_class, _check_method, _log, _pair_epsilon, _pairwise_box, _relaxed_first, _search
+from ._randomized_response import rr_box, rr_lipschitz
+from ._search import SearchResult, check_class, check_method, pair_epsilon, pairwise_box, relaxed_first, search
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class BlackBoxCertificate:
     """The exact maximum of L over every decision model and every utility in a class.
 
@@ -214,10 +215,10 @@ def black_box_bound(
     """
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
-    method = _check_method(method)
-    lower, gamma, tau = _check_class(lower, gamma, tau)
-    lip = _nonneg("lipschitz", lipschitz)
-    n, m = len(mechanism.inputs), len(mechanism.outputs)
+    method = check_method(method)
+    lower, gamma, tau = check_class(lower, gamma, tau)
+    lip = nonnegative(lipschitz, "lipschitz")
+    n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
     # (k-ary randomized response with the discrete metric never needs the n x n metric)
     d = check_metric(metric, n) if n >= 1 and (metric is not None or rr is None) else None
@@ -226,17 +227,7 @@ def black_box_bound(
     lip_on = lip > 0 and n >= 2 and gamma > lower
     if method == "threshold" and (binding or lip_on):
         raise InputError("method", "the threshold solution needs tau <= lower and lipschitz = 0", method)
-
-    assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
-        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
-        Assumption(
-            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
-            "vouched",
-            f"L_A = {lip:g}" if lip_on else "L_A = 0",
-        ),
-    )
-    if tau is not None:
-        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
+    assumptions = _class_assumptions(mechanism, population, lower, gamma, tau, lip, lip_on)
 
     if gamma > 0 and gamma != 1.0:
         # Only the shape of the class matters: solve it on the scale gamma = 1 (well-conditioned LPs), scale back.
@@ -260,177 +251,207 @@ def black_box_bound(
             assumptions=assumptions,
         )
 
-    def make(
-        value_ratio: float,
-        a: Hashable | None,
-        b: Hashable | None,
-        released: tuple,
-        h: FloatArray,
-        meth: str,
-        status: str,
-        solver: str,
-        reason: str,
-        solved: int,
-    ) -> BlackBoxCertificate:
-        value = _log(value_ratio) if not math.isnan(value_ratio) else math.nan
-        return BlackBoxCertificate(
-            value,
-            value_ratio,
-            a,
-            b,
-            released,
-            h,
-            lower,
-            gamma,
-            tau,
-            lip if lip_on else 0.0,
-            mechanism,
-            meth,
-            status,
-            solver,
-            reason,
-            solved,
-            assumptions,
-        )
-
+    problem = _ClassProblem(
+        mechanism=mechanism,
+        lower=lower,
+        gamma=gamma,
+        tau=tau,
+        lipschitz=lip,
+        floor=floor,
+        binding=binding,
+        lipschitz_on=lip_on,
+        method=method,
+        assumptions=assumptions,
+    )
     if n < 2 or gamma == 0 or lower == gamma:
         reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
-        return make(1.0, None, None, (), np.full(m, gamma), "threshold", "trivial", "threshold", reason, 0)
-
+        m = len(mechanism.outputs)
+        return problem.certificate(
+            1.0, None, None, (), np.full(m, gamma), "threshold", "trivial", "threshold", reason, 0
+        )
     if rr is not None:
-        # k-ary randomized response: every ordered pair is alike, closed forms (proofs/black_box.md §3 and §5)
-        outputs, inputs = mechanism.outputs, mechanism.inputs
-        if not lip_on:
-            w = _rr_box(rr, lower, gamma, floor)
-            inf = math.isinf(w.value)
-            return BlackBoxCertificate(
-                w.value,
-                w.ratio,
-                inputs[0],
-                inputs[1],
-                tuple(outputs[o] for o in w.released(n, gamma)),
-                w.vector(n),
-                lower,
-                gamma,
-                tau,
-                0.0,
-                mechanism,
-                "threshold",
-                "unbounded" if inf else "optimal",
-                "threshold" if w.prefix else "closed form",
-                "some released value is possible for one group and impossible for another" if inf else "",
-                0,
-                assumptions,
-            )
-        off_diagonal = None if d is None else d[~np.eye(n, dtype=bool)]
-        discrete = off_diagonal is None or bool(np.all(off_diagonal == off_diagonal[0]))
-        if discrete or not binding:
-            # (without a binding τ any metric: the other groups extend the pair's h, McShane; the pair of diameter)
-            a, b = (0, 1) if d is None or discrete else np.unravel_index(int(np.argmax(d)), d.shape)
-            lam = lip * (1.0 if off_diagonal is None else float(off_diagonal.max()))
-            closed = _rr_lipschitz(rr, lower, gamma, floor, lam)
-            if closed is None:
-                return make(
-                    math.inf,
-                    inputs[a],
-                    inputs[b],
-                    (),
-                    np.full((n, m), math.nan),
-                    "threshold",
-                    "unbounded",
-                    "closed form",
-                    "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0 (lower = 0 and no tau: "
-                    "g = 0 for one group and L_A d(a, a') for the other)",
-                    0,
-                )
-            ratio, g3, f3 = closed
-            cells = np.full(m, 2)
-            cells[a], cells[b] = 0, 1
-            f, g = f3[cells], g3[cells]
-            if d is None or discrete:
-                h = np.broadcast_to(f, (n, m)).copy()
-            else:  # the largest Lipschitz extension of (f at a, g at b) to the other groups
-                h = np.clip(
-                    np.minimum(f[None, :] + lip * d[:, a, None], g[None, :] + lip * d[:, b, None]), lower, gamma
-                )
-            h[a], h[b] = f, g
-            top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
-            return make(
-                ratio,
-                inputs[a],
-                inputs[b],
-                tuple(outputs[o] for o in top),
-                h,
-                "threshold",
-                "optimal",
-                "closed form",
-                "",
-                0,
-            )
+        closed = _randomized_response_certificate(problem, rr, d)
+        if closed is not None:
+            return closed
     if d is None:
         d = check_metric(metric, n)
     M = mechanism.matrix
-    outputs = mechanism.outputs
     # the box programs of every ordered pair, and with a binding τ their floor relaxations, a block of rows at a time
-    box, relaxed = _pairwise_box(M, lower, gamma, floor if binding and not lip_on else None)
+    box, relaxed = pairwise_box(M, lower, gamma, floor if binding and not lip_on else None)
     np.fill_diagonal(box, -np.inf)
-
     if not binding and not lip_on and method != "lp":
-        a, b = np.unravel_index(int(box.argmax()), box.shape)
-        _, k_ab, order_ab = threshold_max_many(M[a], M[b], lower, gamma)  # the maximising pair's prefix
-        top = order_ab[: int(k_ab)]
-        h = np.full(m, lower)
-        h[top] = gamma
-        ratio = float(box[a, b])
-        status = "unbounded" if math.isinf(ratio) else "optimal"
-        reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
-        return make(
-            ratio,
-            mechanism.inputs[a],
-            mechanism.inputs[b],
-            tuple(outputs[o] for o in top),
-            h,
-            "threshold",
-            status,
-            "threshold",
-            reason,
-            0,
+        return _threshold_certificate(problem, M, box)
+    return _lp_certificate(problem, M, box, relaxed, d)
+
+
+def _class_assumptions(
+    mechanism: Mechanism,
+    population: Population | None,
+    lower: float,
+    gamma: float,
+    tau: float | None,
+    lip: float,
+    lip_on: bool,
+) -> tuple[Assumption, ...]:
+    """The assumptions of a class certificate: the mechanism's (and X ⊥ A on ``population``), then the class vouched for."""
+    assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
+        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
+        Assumption(
+            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
+            "vouched",
+            f"L_A = {lip:g}" if lip_on else "L_A = 0",
+        ),
+    )
+    if tau is not None:
+        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
+    return assumptions
+
+
+@dataclass(frozen=True, kw_only=True)
+class _ClassProblem:
+    """A checked class of utilities on the scale γ = 1 (or γ = 0), and what every route of the certificate needs."""
+
+    mechanism: Mechanism
+    lower: float
+    gamma: float
+    tau: float | None
+    lipschitz: float  # L_A as given
+    floor: float  # E[g | x, a] >= floor: max(τ, lower)
+    binding: bool  # floor > lower
+    lipschitz_on: bool  # L_A > 0 matters: two groups or more, and lower < γ
+    method: str
+    assumptions: tuple[Assumption, ...]
+
+    def certificate(
+        self,
+        ratio: float,
+        group: Hashable | None,
+        other_group: Hashable | None,
+        released: tuple,
+        utility_by_release: FloatArray,
+        method: str,
+        status: str,
+        solver_status: str,
+        reason: str,
+        programs_solved: int,
+        *,
+        value: float | None = None,
+    ) -> BlackBoxCertificate:
+        """The certificate of a maximiser; ``value`` (nats) defaults to the log of ``ratio`` (NaN stays NaN)."""
+        if value is None:
+            value = safe_log(ratio) if not math.isnan(ratio) else math.nan
+        return BlackBoxCertificate(
+            value=value,
+            ratio=ratio,
+            group=group,
+            other_group=other_group,
+            released=released,
+            utility_by_release=utility_by_release,
+            lower=self.lower,
+            gamma=self.gamma,
+            tau=self.tau,
+            lipschitz=self.lipschitz if self.lipschitz_on else 0.0,
+            mechanism=self.mechanism,
+            method=method,
+            status=status,
+            solver_status=solver_status,
+            reason=reason,
+            programs_solved=programs_solved,
+            assumptions=self.assumptions,
         )
 
-    # ---- LP: τ binds, the utility may depend on the group, or the LP was asked for ----
+
+def _randomized_response_certificate(
+    problem: _ClassProblem, rr: RandomizedResponseParameters, d: FloatArray | None
+) -> BlackBoxCertificate | None:
+    """k-ary randomized response: every ordered pair is alike, closed forms (proofs/black_box.md §3 and §5).
+
+    None where no closed form applies (L_A > 0, a binding τ and a metric other than the discrete one).
+    """
+    lower, gamma, floor, lip = problem.lower, problem.gamma, problem.floor, problem.lipschitz
+    outputs, inputs = problem.mechanism.outputs, problem.mechanism.inputs
+    n, m = len(inputs), len(outputs)
+    if not problem.lipschitz_on:
+        w = rr_box(rr, lower, gamma, floor)
+        inf = math.isinf(w.value)
+        return problem.certificate(
+            w.ratio,
+            inputs[0],
+            inputs[1],
+            tuple(outputs[o] for o in w.released(n, gamma)),
+            w.vector(n),
+            "threshold",
+            "unbounded" if inf else "optimal",
+            "threshold" if w.prefix else "closed form",
+            "some released value is possible for one group and impossible for another" if inf else "",
+            0,
+            value=w.value,
+        )
+    off_diagonal = None if d is None else d[~np.eye(n, dtype=bool)]
+    discrete = off_diagonal is None or bool(np.all(off_diagonal == off_diagonal[0]))
+    if not discrete and problem.binding:
+        return None
+    # (without a binding τ any metric: the other groups extend the pair's h, McShane; the pair of diameter)
+    a, b = (0, 1) if d is None or discrete else np.unravel_index(int(np.argmax(d)), d.shape)
+    lam = lip * (1.0 if off_diagonal is None else float(off_diagonal.max()))
+    closed = rr_lipschitz(rr, lower, gamma, floor, lam)
+    if closed is None:
+        return problem.certificate(
+            math.inf,
+            inputs[a],
+            inputs[b],
+            (),
+            np.full((n, m), math.nan),
+            "threshold",
+            "unbounded",
+            "closed form",
+            "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0 (lower = 0 and no tau: "
+            "g = 0 for one group and L_A d(a, a') for the other)",
+            0,
+        )
+    ratio, g3, f3 = closed
+    cells = np.full(m, 2)
+    cells[a], cells[b] = 0, 1
+    f, g = f3[cells], g3[cells]
+    if d is None or discrete:
+        h = np.broadcast_to(f, (n, m)).copy()
+    else:  # the largest Lipschitz extension of (f at a, g at b) to the other groups
+        h = np.clip(np.minimum(f[None, :] + lip * d[:, a, None], g[None, :] + lip * d[:, b, None]), lower, gamma)
+    h[a], h[b] = f, g
+    top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
+    released = tuple(outputs[o] for o in top)
+    return problem.certificate(ratio, inputs[a], inputs[b], released, h, "threshold", "optimal", "closed form", "", 0)
+
+
+def _threshold_certificate(problem: _ClassProblem, M: FloatArray, box: FloatArray) -> BlackBoxCertificate:
+    """No binding τ and L_A = 0: the largest box value over the pairs, and its threshold prefix."""
+    lower, gamma = problem.lower, problem.gamma
+    a, b = np.unravel_index(int(box.argmax()), box.shape)
+    _, k_ab, order_ab = threshold_max_many(M[a], M[b], lower, gamma)  # the maximising pair's prefix
+    top = order_ab[: int(k_ab)]
+    h = np.full(M.shape[1], lower)
+    h[top] = gamma
+    ratio = float(box[a, b])
+    status = "unbounded" if math.isinf(ratio) else "optimal"
+    reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
+    inputs, outputs = problem.mechanism.inputs, problem.mechanism.outputs
+    released = tuple(outputs[o] for o in top)
+    return problem.certificate(ratio, inputs[a], inputs[b], released, h, "threshold", status, "threshold", reason, 0)
+
+
+def _lp_certificate(
+    problem: _ClassProblem, M: FloatArray, box: FloatArray, relaxed: FloatArray | None, d: FloatArray
+) -> BlackBoxCertificate:
+    """τ binds, the utility may depend on the group, or the LP was asked for: the pair search over LPs."""
+    n, m = M.shape
     pairs = np.argwhere(~np.eye(n, dtype=bool))  # the ordered pairs a != b, row-major
-    # valid upper bounds per pair (ratios): the box without τ (L_A = 0), γ/τ, and the tight form at t = e^ε_aa'
-    upper = box[pairs[:, 0], pairs[:, 1]].copy() if not lip_on else np.full(len(pairs), np.inf)
-    if floor > 0:
-        t = _pair_epsilon(M)[pairs[:, 0], pairs[:, 1]]
-        slack = lip * d[pairs[:, 0], pairs[:, 1]] / floor if lip_on else 0.0
-        upper = np.minimum(upper, np.minimum(gamma / floor, t + slack))
-
-    if not lip_on:
-        progs: list[FractionalProgram] = []
-
-        def program() -> FractionalProgram:
-            if not progs:
-                a_ub = -M if binding else None
-                progs.append(
-                    FractionalProgram(
-                        m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
-                    )
-                )
-            return progs[0]
-
-        if binding:
-            assert relaxed is not None  # (computed above for a binding τ without L_A)
-            upper = np.minimum(upper, relaxed[pairs[:, 0], pairs[:, 1]])
-        if binding and method != "lp":
-            solve = _relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M, program)
-        else:
-
-            def solve(i: int) -> FractionalResult:
-                a, b = pairs[i]
-                return program().solve(M[a], M[b])
+    upper = _pair_upper_bounds(problem, M, box, relaxed, d, pairs)
+    if not problem.lipschitz_on:
+        solve = _box_solver(problem, M, pairs)
     else:
-        prog = _lipschitz_program(M, lower, gamma, floor if binding else None, lip, d)
+        prog = _lipschitz_program(
+            M, problem.lower, problem.gamma, problem.floor if problem.binding else None, problem.lipschitz, d
+        )
 
         def solve(i: int) -> FractionalResult:
             a, b = pairs[i]
@@ -440,10 +461,64 @@ def black_box_bound(
             q[b * m : (b + 1) * m] = M[b]
             return prog.solve(p, q)
 
-    found = _search(upper, solve)
+    return _searched_certificate(problem, search(upper, solve), pairs)
+
+
+def _pair_upper_bounds(
+    problem: _ClassProblem,
+    M: FloatArray,
+    box: FloatArray,
+    relaxed: FloatArray | None,
+    d: FloatArray,
+    pairs: IntArray,
+) -> FloatArray:
+    """Valid upper bounds per pair (ratios): the box without τ and the floor relaxation (L_A = 0), γ/τ, and the
+    tight form at t = e^ε_aa'."""
+    lip_on, floor = problem.lipschitz_on, problem.floor
+    upper = box[pairs[:, 0], pairs[:, 1]].copy() if not lip_on else np.full(len(pairs), np.inf)
+    if floor > 0:
+        t = pair_epsilon(M)[pairs[:, 0], pairs[:, 1]]
+        slack = problem.lipschitz * d[pairs[:, 0], pairs[:, 1]] / floor if lip_on else 0.0
+        upper = np.minimum(upper, np.minimum(problem.gamma / floor, t + slack))
+    if not lip_on and problem.binding:
+        assert relaxed is not None  # (computed for a binding τ without L_A)
+        upper = np.minimum(upper, relaxed[pairs[:, 0], pairs[:, 1]])
+    return upper
+
+
+def _box_solver(problem: _ClassProblem, M: FloatArray, pairs: IntArray) -> Callable[[int], FractionalResult]:
+    """Solve the program of pair i (L_A = 0): by the floor relaxation where it is feasible, else by the LP."""
+    lower, gamma, floor, binding = problem.lower, problem.gamma, problem.floor, problem.binding
+    n, m = M.shape
+    progs: list[FractionalProgram] = []
+
+    def program() -> FractionalProgram:
+        if not progs:
+            a_ub = -M if binding else None
+            progs.append(
+                FractionalProgram(
+                    m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
+                )
+            )
+        return progs[0]
+
+    if binding and problem.method != "lp":
+        return relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M, program)
+
+    def solve(i: int) -> FractionalResult:
+        a, b = pairs[i]
+        return program().solve(M[a], M[b])
+
+    return solve
+
+
+def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: IntArray) -> BlackBoxCertificate:
+    """The certificate of the pair search's maximiser (NaN, "infeasible", when the class is empty)."""
+    lower, gamma, lip_on = problem.lower, problem.gamma, problem.lipschitz_on
+    n, m = len(problem.mechanism.inputs), len(problem.mechanism.outputs)
     r = found.result
     if found.index < 0:
-        return make(
+        return problem.certificate(
             math.nan,
             None,
             None,
@@ -457,6 +532,7 @@ def black_box_bound(
         )
     assert r is not None  # a maximising pair was found
     a, b = pairs[found.index]
+    outputs = problem.mechanism.outputs
     if r.argmax is None:
         h = np.full(m if not lip_on else (n, m), math.nan)
         released: tuple = ()
@@ -465,18 +541,10 @@ def black_box_bound(
         h = np.clip(h, lower, gamma)
         row = h if not lip_on else h[a]
         released = tuple(outputs[o] for o in np.flatnonzero(row >= gamma - 1e-9 * max(1.0, gamma)))
-    meth = "lp" if found.solved else "threshold"
-    return make(
-        r.value,
-        mechanism.inputs[a],
-        mechanism.inputs[b],
-        released,
-        h,
-        meth,
-        r.status,
-        r.solver_status,
-        r.reason,
-        found.solved,
+    inputs = problem.mechanism.inputs
+    method = "lp" if found.solved else "threshold"
+    return problem.certificate(
+        r.value, inputs[a], inputs[b], released, h, method, r.status, r.solver_status, r.reason, found.solved
     )
 
 

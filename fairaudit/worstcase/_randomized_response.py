@@ -14,16 +14,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._arrays import FloatArray, IntArray
+from .._arrays import FloatArray, IntArray, safe_log
 from ..laws import Kernel, Law
 from ..privacy import Mechanism, RandomizedResponseParameters
-from ._search import _log
 
 _TIE = 1e-12  # relative tolerance of the threshold solution's ties (as lfp.threshold_max_many)
 
 
-@dataclass(frozen=True)
-class _RRWorst:
+@dataclass(frozen=True, kw_only=True)
+class RRWorst:
     """The worst case of the pair (a, a') = (first group, second group) behind k-ary randomized response.
 
     Every ordered pair is alike (the mechanism is symmetric), so one pair decides. The maximiser h over the
@@ -59,7 +58,7 @@ class _RRWorst:
         return at_top
 
 
-def _rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> _RRWorst:
+def rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> RRWorst:
     """max (M[a]·h)/(M[a']·h) over lo ≤ h ≤ hi with M[a']·h ≥ floor, M = k-ary RR, in O(1).
 
     Without a binding floor (floor ≤ lo) the threshold solution: h = hi on the released value a, lo elsewhere,
@@ -72,7 +71,7 @@ def _rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float
     k, p, q = rr.k, rr.p, rr.q
     span = hi - lo
     if span <= 0 or p <= q:  # every prefix ties at ratio 1: the longest one, h = hi everywhere (index order)
-        return _RRWorst(1.0, 0.0, hi, hi, k, hi, hi, hi, False)
+        return RRWorst(ratio=1.0, value=0.0, h_a=hi, h_b=hi, first=k, h_first=hi, h_next=hi, h_rest=hi, prefix=False)
     num, den = lo + span * p, lo + span * q
     if lo > 0:
         ratio = num / den
@@ -88,24 +87,46 @@ def _rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float
     c = span * q
     tied = ratio * (1 - _TIE)
     if tied <= 1:  # the ratio is 1 to rounding: every prefix ties, the longest is all of them
-        return _RRWorst(ratio, value, hi, hi, k, hi, hi, hi, True)
+        return RRWorst(ratio=ratio, value=value, h_a=hi, h_b=hi, first=k, h_first=hi, h_next=hi, h_rest=hi, prefix=True)
     if c > 0 and math.isfinite(tied):  # others add c to both sides: tied while (num + jc)/(den + jc) >= tied
         first = min(k - 2, int(math.floor(_TIE * num / (c * (tied - 1)))))
     if floor <= lo or den + first * c >= floor * (1 - 1e-12):
-        return _RRWorst(ratio, value, hi, lo, first, hi, lo, lo, True)
+        return RRWorst(
+            ratio=ratio, value=value, h_a=hi, h_b=lo, first=first, h_first=hi, h_next=lo, h_rest=lo, prefix=True
+        )
     need = floor - lo
     if q > 0 and need <= c * (k - 1):  # a and x other values raised: value (floor + span (p − q))/floor
         x = need / c - 1.0
         first = min(k - 2, int(math.floor(x)))
         frac = min(1.0, max(0.0, x - first))
         ratio = (floor + span * (p - q)) / floor
-        return _RRWorst(ratio, math.log(ratio), hi, lo, first, hi, lo + frac * span, lo, False)
+        return RRWorst(
+            ratio=ratio,
+            value=math.log(ratio),
+            h_a=hi,
+            h_b=lo,
+            first=first,
+            h_first=hi,
+            h_next=lo + frac * span,
+            h_rest=lo,
+            prefix=False,
+        )
     s = min(span, (need - c * (k - 1)) / p)  # a and every other value raised, a' partly
     ratio = (lo + span * (p + (k - 2) * q) + q * s) / floor
-    return _RRWorst(ratio, math.log(ratio), hi, lo + s, k - 2, hi, hi, hi, False)
+    return RRWorst(
+        ratio=ratio,
+        value=math.log(ratio),
+        h_a=hi,
+        h_b=lo + s,
+        first=k - 2,
+        h_first=hi,
+        h_next=hi,
+        h_rest=hi,
+        prefix=False,
+    )
 
 
-def _rr_lipschitz(
+def rr_lipschitz(
     rr: RandomizedResponseParameters, lo: float, hi: float, floor: float, lam: float
 ) -> tuple[float, FloatArray, FloatArray] | None:
     """The class with L_A > 0 behind k-ary RR, discrete metric (λ = L_A d): (ratio, g, f) in O(1), or None if unbounded.
@@ -170,7 +191,7 @@ def _rr_lipschitz(
     return best, g, np.minimum(g + lam, hi)
 
 
-def _rr_class_ratio(
+def rr_class_ratio(
     rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
 ) -> float:
     """The black-box ratio of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``).
@@ -183,22 +204,22 @@ def _rr_class_ratio(
     lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
     lam = lipschitz * diameter / gamma
     if lam > 0:
-        out = _rr_lipschitz(rr, lo, 1.0, floor, lam)
+        out = rr_lipschitz(rr, lo, 1.0, floor, lam)
         return math.inf if out is None else out[0]
-    return _rr_box(rr, lo, 1.0, floor).ratio
+    return rr_box(rr, lo, 1.0, floor).ratio
 
 
-def _rr_class_value(
+def rr_class_value(
     rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
 ) -> float:
-    """log of :func:`_rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε)."""
+    """log of :func:`rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε)."""
     if rr.k >= 2 and gamma > 0 and lower < gamma and lipschitz * diameter == 0:
         lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
-        return _rr_box(rr, lo, 1.0, floor).value
-    return _log(_rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
+        return rr_box(rr, lo, 1.0, floor).value
+    return safe_log(rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
 
 
-def _rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, context_mechanism: Mechanism) -> Law:
+def rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, context_mechanism: Mechanism) -> Law:
     """compose(kernel, RR, M_X) without the k x k matrix: Q[x, a] = Σ_x̃ M_X[x, x̃] (q Σ_ã K[x̃, ã] + (p − q) K[x̃, a])."""
     k = kernel.probabilities
     behind = rr.q * k.sum(axis=1, keepdims=True) + (rr.p - rr.q) * k  # (x̃, a, u)

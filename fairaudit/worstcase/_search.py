@@ -1,9 +1,10 @@
 """The pair search shared by the worst cases: LPs in decreasing order of valid upper bounds, and its helpers.
 
 Every maximum of :mod:`fairaudit.worstcase` is a maximum over problems (ordered pairs of groups, and contexts)
-of a linear-fractional program. :func:`_search` solves them in decreasing order of an upper bound and stops when
-no problem left can win; :func:`_relaxed_first` tries the closed-form floor relaxation before the LP;
-:func:`_pairwise_box` gives the box (threshold) value of every pair at once. ``proofs/black_box.md`` §1–2 and §5,
+of a linear-fractional program. :func:`search` solves them in decreasing order of an upper bound and stops when
+no problem left can win; :func:`relaxed_first` tries the closed-form floor relaxation before the LP;
+:func:`pairwise_box` gives the box (threshold) value of every pair at once; :func:`check_method` and
+:func:`check_class` check the arguments the worst cases share. ``proofs/black_box.md`` §1–2 and §5,
 ``proofs/linear_fractional.md``.
 """
 
@@ -19,21 +20,23 @@ import numpy.typing as npt
 
 from .._arrays import FloatArray, row_blocks
 from .._errors import InputError
-from ..bounds import _nonneg
+from .._validation import choice, nonnegative
 from ..lfp import FractionalProgram, FractionalResult, box_point, floor_max_many, threshold_max_many
 
 METHODS = ("auto", "threshold", "lp")
 
 
-@dataclass(frozen=True)
-class _Search:
+@dataclass(frozen=True, kw_only=True)
+class SearchResult:
+    """The outcome of :func:`search`: the maximising problem and its solution, or why there is none."""
+
     index: int  # flat index of the maximising problem (-1 when none)
     result: FractionalResult | None
     solved: int  # LPs solved
     reason: str
 
 
-def _search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> _Search:
+def search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> SearchResult:
     """Maximise over problems i by LP, in decreasing order of the upper bounds ``upper[i]`` (ratios).
 
     Stops when the best value found is at least every remaining upper bound
@@ -48,15 +51,15 @@ def _search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> _Sea
         r = solve(int(i))
         solved += r.method == "lp"
         if r.status == "infeasible":
-            return _Search(-1, r, solved, r.reason)
+            return SearchResult(index=-1, result=r, solved=solved, reason=r.reason)
         if best is None or r.value > best_v * (1 + 1e-9):  # ties (to solver accuracy) keep the earlier pair
             best_i, best, best_v = int(i), r, r.value
         if math.isinf(best_v):
             break
-    return _Search(best_i, best, solved, "")
+    return SearchResult(index=best_i, result=best, solved=solved, reason="")
 
 
-def _relaxed_first(
+def relaxed_first(
     num: Callable[[int], FloatArray],
     den: Callable[[int], FloatArray],
     lower: float,
@@ -93,19 +96,18 @@ def _relaxed_first(
     return solve
 
 
-def _check_method(method: str) -> str:
-    if method not in METHODS:
-        raise InputError("method", f"must be one of {', '.join(METHODS)}", method)
-    return method
+def check_method(method: str) -> str:
+    """``method`` if it is one of :data:`METHODS` ("auto", "threshold", "lp")."""
+    return choice(method, "method", METHODS)
 
 
-def _check_class(lower: float, gamma: float, tau: float | None) -> tuple[float, float, float | None]:
+def check_class(lower: float, gamma: float, tau: float | None) -> tuple[float, float, float | None]:
     """Validate a utility class [lower, γ] with floor τ ≤ γ (τ may be None)."""
-    lower, gamma = _nonneg("lower", lower), _nonneg("gamma", gamma)
+    lower, gamma = nonnegative(lower, "lower"), nonnegative(gamma, "gamma")
     if lower > gamma:
         raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
     if tau is not None:
-        tau = _nonneg("tau", tau)
+        tau = nonnegative(tau, "tau")
         if tau > gamma:
             raise InputError(
                 "tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau", tau
@@ -113,11 +115,7 @@ def _check_class(lower: float, gamma: float, tau: float | None) -> tuple[float, 
     return lower, gamma, tau
 
 
-def _log(r: float) -> float:
-    return math.inf if math.isinf(r) else math.log(r) if r > 0 else -math.inf
-
-
-def _pair_epsilon(matrix: FloatArray) -> FloatArray:
+def pair_epsilon(matrix: FloatArray) -> FloatArray:
     """max_o M[a, o] / M[b, o] for every ordered pair, shape (n, n) (c/0 = inf, 0/0 ignored)."""
     n = matrix.shape[0]
     out = np.empty((n, n))
@@ -130,7 +128,7 @@ def _pair_epsilon(matrix: FloatArray) -> FloatArray:
     return out
 
 
-def _pairwise_box(
+def pairwise_box(
     matrix: FloatArray, lower: float, upper: float, floor: float | None
 ) -> tuple[FloatArray, FloatArray | None]:
     """The box program of every ordered pair (rows a, b of ``matrix``), and with ``floor`` its floor relaxation.

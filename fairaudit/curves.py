@@ -21,7 +21,7 @@ draws (:func:`fairaudit.plot.plot_curve`) and ``--plot-data`` writes as CSV.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -31,11 +31,11 @@ import numpy.typing as npt
 
 from ._arrays import BoolArray, FloatArray, format_label
 from ._errors import InputError
+from ._io import write_atomic
 from .bounds import corollary_bound, paper_bound, tight_bound
 from .laws import Kernel, Population, compose
 from .metrics import expected_utility, global_fairness, local_fairness
 from .privacy import Mechanism, MechanismFamily
-from .report import write_atomic
 from .utility import Utility, check_metric
 from .worstcase import black_box_bound, worst_model
 
@@ -62,7 +62,7 @@ COLUMNS = (
 )
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class PrivacyCurve:
     """Certified and observed local g-fairness along a family of mechanisms.
 
@@ -385,29 +385,54 @@ def privacy_curve(
     >>> bool(np.all(c.tight <= c.paper + 1e-12))
     True
     """
-    mark = spec_epsilon
+    given: dict[str, Any] = {
+        "family": family,
+        "kernel": kernel,
+        "utility": utility,
+        "population": population,
+        "context_mechanism": context_mechanism,
+        "gamma": gamma,
+        "lower": lower,
+        "tau": tau,
+        "lipschitz": lipschitz,
+        "metric": metric,
+        "spec_epsilon": spec_epsilon,
+        "title": title,
+    }
     if spec is not None:
-        from .spec import Spec
+        given = _spec_defaults(spec, given)
+    return _curve(spec, epsilons, **given)
 
-        if not isinstance(spec, Spec):
-            raise InputError("spec", "must be a Spec (use load_spec)", type(spec).__name__)
-        if family is None:
-            family = spec.sensitive_family
-            if family is None:
-                raise InputError(
-                    f"{spec.source}: sensitive", "a fairness-privacy curve needs at least 2 groups", len(spec.groups)
-                )
-        kernel = spec.kernel() if kernel is None else kernel
-        utility = spec.utility if utility is None else utility
-        population = spec.population if population is None else population
-        context_mechanism = spec.context_mechanism if context_mechanism is None else context_mechanism
-        gamma = spec.gamma if gamma is None else gamma
-        lower = spec.lower if lower is None else lower
-        tau = spec.tau if tau is None else tau
-        lipschitz = spec.lipschitz if lipschitz is None else lipschitz
-        metric = spec.metric if metric is None else metric
-        mark = spec.sensitive_mechanism.epsilon if mark is None else mark
-        title = (spec.model.title or spec.source) if title is None else title
+
+def _spec_defaults(spec: Spec, given: dict[str, Any]) -> dict[str, Any]:
+    """The keywords of :func:`privacy_curve` with the spec's values where none was given."""
+    from .spec import Spec
+
+    if not isinstance(spec, Spec):
+        raise InputError("spec", "must be a Spec (use load_spec)", type(spec).__name__)
+    if given["family"] is None and spec.sensitive_family is None:
+        raise InputError(
+            f"{spec.source}: sensitive", "a fairness-privacy curve needs at least 2 groups", len(spec.groups)
+        )
+    defaults: dict[str, Callable[[], Any]] = {
+        "family": lambda: spec.sensitive_family,
+        "kernel": spec.kernel,
+        "utility": lambda: spec.utility,
+        "population": lambda: spec.population,
+        "context_mechanism": lambda: spec.context_mechanism,
+        "gamma": lambda: spec.gamma,
+        "lower": lambda: spec.lower,
+        "tau": lambda: spec.tau,
+        "lipschitz": lambda: spec.lipschitz,
+        "metric": lambda: spec.metric,
+        "spec_epsilon": lambda: spec.sensitive_mechanism.epsilon,
+        "title": lambda: spec.model.title or spec.source,
+    }
+    return {key: defaults[key]() if value is None else value for key, value in given.items()}
+
+
+def _check_family_and_kernel(family: object, kernel: object, utility: Utility | None) -> None:
+    """A family is given; a kernel is a :class:`Kernel` of the family's outputs and comes with a utility."""
     if not isinstance(family, MechanismFamily):
         raise InputError(
             "family", "give a MechanismFamily (or a spec)", None if family is None else type(family).__name__
@@ -424,6 +449,28 @@ def privacy_curve(
             "along it (a spec whose mechanism releases other values than its groups has none)",
             [format_label(g) for g in kernel.groups[:3]],
         )
+
+
+def _curve(
+    spec: Spec | None,
+    epsilons: Iterable[float] | None,
+    *,
+    family: MechanismFamily | None,
+    kernel: Kernel | None,
+    utility: Utility | None,
+    population: Population | None,
+    context_mechanism: Mechanism | None,
+    gamma: float | None,
+    lower: float | None,
+    tau: float | None,
+    lipschitz: float | None,
+    metric: npt.ArrayLike | None,
+    spec_epsilon: float | None,
+    title: str | None,
+) -> PrivacyCurve:
+    """:func:`privacy_curve` once the spec's values are in: check, fill the defaults, compute."""
+    _check_family_and_kernel(family, kernel, utility)
+    assert isinstance(family, MechanismFamily)  # (checked above)
     if gamma is None:
         gamma = utility.gamma if utility is not None else 1.0
     if lower is None:
@@ -433,44 +480,22 @@ def privacy_curve(
     if lipschitz is None:
         lipschitz = utility.lipschitz(metric) if utility is not None else 0.0
     gamma, lower, lipschitz = float(gamma), float(lower), float(lipschitz)
-    diameter = float(d.max()) if n_groups > 1 else 0.0
-    if mark is not None:
-        mark = float(mark)
+    mark = None if spec_epsilon is None else float(spec_epsilon)
     grid = default_epsilons(mark) if epsilons is None else _with_point(_check_grid(epsilons), mark)
-
-    group_dependent = utility is not None and utility.depends_on_group
-    bb_kw = _black_box_keywords(lower, gamma, tau, lipschitz, metric, population)
-
-    def black_box_at(mech: Mechanism) -> float:
-        if utility is not None:  # exact for this utility, as certify reports it
-            return worst_model(
-                mech, utility, context_mechanism=context_mechanism, population=population, tau=tau
-            ).local.value
-        return black_box_bound(mech, **bb_kw).value
-
-    n = grid.size
-    out = {
-        k: np.full(n, np.nan) for k in ("keep", "paper", "tight", "black_box", "corollary", "local", "global", "min_e")
-    }
+    bounds = _Bounds(
+        gamma=gamma,
+        lower=lower,
+        tau=tau,
+        lipschitz=lipschitz,
+        metric=metric,
+        diameter=float(d.max()) if n_groups > 1 else 0.0,
+        utility=utility,
+        population=population,
+        context_mechanism=context_mechanism,
+    )
+    out = {key: np.full(grid.size, np.nan) for key in _VALUES}
     for i, eps in enumerate(grid):
-        mech = family(float(eps))
-        out["keep"][i] = family.keep_probability(float(eps))
-        if tau is not None:
-            out["paper"][i] = paper_bound(mech, tau=tau, gamma=gamma, lipschitz=lipschitz, diameter=diameter).value
-            out["tight"][i] = tight_bound(mech, tau=tau, gamma=gamma, lipschitz=lipschitz, metric=metric).value
-        out["black_box"][i] = black_box_at(mech)
-        if not group_dependent:
-            out["corollary"][i] = corollary_bound(mech).value
-        if kernel is not None and utility is not None:  # (a kernel comes with a utility: checked above)
-            try:
-                law = compose(kernel, mech, context_mechanism)
-            except InputError as exc:
-                raise exc.under("kernel") from None
-            out["local"][i] = local_fairness(law, utility, population).value
-            out["global"][i] = global_fairness(law, utility, population).value
-            e = expected_utility(law, utility)
-            out["min_e"][i] = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
-
+        bounds.fill(out, i, family, float(eps), kernel)
     on_family = None
     if spec is not None and mark is not None:
         on_family = bool(math.isfinite(mark) and _same_mechanism(spec.sensitive_mechanism, family(mark)))
@@ -497,6 +522,61 @@ def privacy_curve(
         spec_on_family=on_family,
         title=title,
     )
+
+
+#: The values computed at each ε (keys of the arrays that :class:`_Bounds` fills).
+_VALUES = ("keep", "paper", "tight", "black_box", "corollary", "local", "global", "min_e")
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Bounds:
+    """The constants of a curve, and what it computes at one ε with them."""
+
+    gamma: float
+    lower: float
+    tau: float | None
+    lipschitz: float
+    metric: npt.ArrayLike | None
+    diameter: float
+    utility: Utility | None
+    population: Population | None
+    context_mechanism: Mechanism | None
+
+    def black_box(self, mech: Mechanism) -> float:
+        """The exact worst case for the utility (as ``certify`` reports it), or for the class [lower, γ]."""
+        if self.utility is not None:
+            return worst_model(
+                mech,
+                self.utility,
+                context_mechanism=self.context_mechanism,
+                population=self.population,
+                tau=self.tau,
+            ).local.value
+        kw = _black_box_keywords(self.lower, self.gamma, self.tau, self.lipschitz, self.metric, self.population)
+        return black_box_bound(mech, **kw).value
+
+    def fill(
+        self, out: dict[str, FloatArray], i: int, family: MechanismFamily, eps: float, kernel: Kernel | None
+    ) -> None:
+        """Set entry ``i`` of each array of ``out`` (keys :data:`_VALUES`) to its value at M_ε = ``family(eps)``."""
+        mech = family(eps)
+        tau, gamma, lipschitz = self.tau, self.gamma, self.lipschitz
+        out["keep"][i] = family.keep_probability(eps)
+        if tau is not None:
+            out["paper"][i] = paper_bound(mech, tau=tau, gamma=gamma, lipschitz=lipschitz, diameter=self.diameter).value
+            out["tight"][i] = tight_bound(mech, tau=tau, gamma=gamma, lipschitz=lipschitz, metric=self.metric).value
+        out["black_box"][i] = self.black_box(mech)
+        if not (self.utility is not None and self.utility.depends_on_group):
+            out["corollary"][i] = corollary_bound(mech).value
+        if kernel is not None and self.utility is not None:  # (a kernel comes with a utility: checked before)
+            try:
+                law = compose(kernel, mech, self.context_mechanism)
+            except InputError as exc:
+                raise exc.under("kernel") from None
+            out["local"][i] = local_fairness(law, self.utility, self.population).value
+            out["global"][i] = global_fairness(law, self.utility, self.population).value
+            e = expected_utility(law, self.utility)
+            out["min_e"][i] = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
 
 
 def _same_mechanism(a: Mechanism, b: Mechanism) -> bool:

@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from ._arrays import BoolArray, FloatArray
 from ._errors import InputError
+from ._io import write_atomic
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -32,18 +33,25 @@ _Scale: TypeAlias = Callable[[npt.ArrayLike], npt.ArrayLike]
 SecondaryAxis: TypeAlias = "Literal['keep'] | tuple[str, _Scale, _Scale] | None"
 """The ``secondary_axis`` of :func:`plot_curve`: ``"keep"``, (label, forward, inverse) or None."""
 
-__all__ = ["plot_curve", "save_figure", "check_plot_path", "FORMATS"]
+__all__ = ["plot_curve", "save_figure", "check_plot_path", "load_matplotlib", "FORMATS"]
 
 #: File suffixes :func:`save_figure` understands, and the format each means.
 FORMATS = {".png": "png", ".svg": "svg"}
 
 
-def _matplotlib() -> type[Figure]:
+def load_matplotlib() -> type[Figure]:
+    """matplotlib's :class:`~matplotlib.figure.Figure` class (figures made without pyplot).
+
+    Raises
+    ------
+    InputError
+        Naming ``path`` (the file a plot was to be written to) when matplotlib is not installed.
+    """
     try:
         import matplotlib  # noqa: F401
         from matplotlib.figure import Figure
     except ImportError:
-        raise InputError("--plot", "needs matplotlib, which is not installed: pip install 'fairaudit[plot]'") from None
+        raise InputError("path", "needs matplotlib, which is not installed: pip install 'fairaudit[plot]'") from None
     return Figure
 
 
@@ -61,7 +69,7 @@ def check_plot_path(path: str | Path) -> str:
     Raises
     ------
     InputError
-        Naming ``--plot`` and the value: a suffix other than .png or .svg, a
+        Naming ``path`` and the value: a suffix other than .png or .svg, a
         folder that does not exist, or matplotlib not installed.
 
     Examples
@@ -71,16 +79,16 @@ def check_plot_path(path: str | Path) -> str:
     >>> check_plot_path("curve.pdf")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: --plot: must end in .png or .svg (got 'curve.pdf')
+    fairaudit._errors.InputError: path: must end in .png or .svg (got 'curve.pdf')
     """
     p = Path(path)
     fmt = FORMATS.get(p.suffix.lower())
     if fmt is None:
-        raise InputError("--plot", "must end in .png or .svg", str(path))
+        raise InputError("path", "must end in .png or .svg", str(path))
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
-        raise InputError("--plot", "folder does not exist", str(folder))
-    _matplotlib()
+        raise InputError("path", "folder does not exist", str(folder))
+    load_matplotlib()
     return fmt
 
 
@@ -109,8 +117,6 @@ def save_figure(fig: Figure, path: str | Path) -> None:
     fmt = check_plot_path(path)
     import matplotlib
 
-    from .report import write_atomic
-
     def save(tmp: str) -> None:
         if fmt == "svg":
             with matplotlib.rc_context({"svg.hashsalt": "fairaudit", "svg.fonttype": "none"}):
@@ -118,7 +124,7 @@ def save_figure(fig: Figure, path: str | Path) -> None:
         else:
             fig.savefig(tmp, format="png", dpi=150, metadata={"Software": None})
 
-    write_atomic(path, save, field="--plot")
+    write_atomic(path, save, field="path")
 
 
 def _secondary(curve: PrivacyCurve, spec: SecondaryAxis) -> tuple[str, _Scale, _Scale] | None:
@@ -181,7 +187,7 @@ def plot_curve(
     ------
     InputError
         When matplotlib is missing (``pip install "fairaudit[plot]"``), or on
-        a bad ``path`` (naming ``--plot``) or ``secondary_axis``.
+        a bad ``path`` (naming it) or ``secondary_axis``.
 
     Examples
     --------
@@ -194,7 +200,7 @@ def plot_curve(
     >>> [t.get_text() for t in ax.get_legend().get_texts()][:3]
     ['black-box bound (all models, exact)', 'paper bound (main theorem)', 'tight bound (its proof, per pair)']
     """
-    figure_class = _matplotlib()
+    figure_class = load_matplotlib()
     if path is not None:
         check_plot_path(path)
     fig: Figure | SubFigure
@@ -204,84 +210,11 @@ def plot_curve(
     else:
         fig = ax.figure
     eps = np.asarray(curve.epsilon, dtype=float)
-    # Coinciding lines stay visible: wide pale black-box underneath, thinner dashed lines on top,
-    # observed values as sparse markers (L and L-bar staggered).
-    step = max(1, len(eps) // 30)
-    series: list[tuple[str, FloatArray, str, dict[str, Any]]] = [  # (key, values, label, matplotlib style)
-        (
-            "black_box",
-            curve.black_box,
-            "black-box bound (all models, exact)",
-            dict(color="tab:blue", lw=4.0, alpha=0.45, zorder=2),
-        ),
-        ("paper", curve.paper, "paper bound (main theorem)", dict(color="tab:red", ls="--", lw=1.6, zorder=3)),
-        (
-            "tight",
-            curve.tight,
-            "tight bound (its proof, per pair)",
-            dict(color="tab:orange", ls="-.", lw=1.6, zorder=3),
-        ),
-        (
-            "corollary",
-            curve.corollary,
-            "ε (corollary, g independent of a)",
-            dict(color="0.35", ls=":", lw=1.2, zorder=3),
-        ),
-        (
-            "observed_local",
-            curve.observed_local,
-            "observed L (local)",
-            dict(color="black", ls="none", marker="o", ms=4, markevery=(0, step), zorder=4),
-        ),
-        (
-            "observed_global",
-            curve.observed_global,
-            "observed L̄ (global)",
-            dict(color="tab:green", ls="none", marker="x", ms=6, markevery=(step // 2, step), zorder=4),
-        ),
-    ]
+    series = _series(curve, step=max(1, len(eps) // 30))
     finite = np.concatenate([np.asarray(v, float)[np.isfinite(v)] for _, v, _, _ in series] + [np.zeros(1)])
     top = max(1.15 * float(finite.max()), 0.1)
-    missing = []
-    for key, values, label, style in series:
-        v = np.asarray(values, dtype=float)
-        if np.all(np.isnan(v)):
-            if key in ("paper", "tight", "black_box"):
-                missing.append(key.replace("_", "-"))
-            continue
-        inf = np.isposinf(v)
-        drawn = np.where(inf, top, v)
-        ax.plot(eps, drawn, label=label + (" (∞ at top)" if inf.any() else ""), **style)
-        if inf.any():
-            ax.plot(
-                eps[inf],
-                np.full(inf.sum(), top),
-                ls="none",
-                marker="^",
-                color=style["color"],
-                ms=5,
-                clip_on=False,
-                zorder=5,
-            )
-    holds = np.asarray(curve.tau_holds, dtype=bool)
-    if curve.tau is not None and not holds.all():
-        for i, (lo, hi) in enumerate(_runs(eps, ~holds)):
-            ax.axvspan(
-                lo,
-                hi,
-                color="0.85",
-                zorder=0,
-                label=f"observed model has E[g|x,a] < τ = {curve.tau:g}" if i == 0 else None,
-            )
-    if curve.spec_epsilon is not None and math.isfinite(curve.spec_epsilon):
-        note = "" if curve.spec_on_family in (None, True) else " (its mechanism is not in this family)"
-        ax.axvline(
-            curve.spec_epsilon,
-            color="tab:purple",
-            lw=1.0,
-            ls=(0, (4, 2)),
-            label=f"spec's ε = {curve.spec_epsilon:.4g} nats{note}",
-        )
+    missing = _draw_series(ax, eps, series, top)
+    _mark_tau_and_spec(ax, curve, eps)
     ax.set_xlim(float(eps.min()), float(eps.max()) if eps.max() > eps.min() else float(eps.min()) + 1.0)
     ax.set_ylim(0.0, top)
     ax.set_xlabel("privacy budget ε (nats)")
@@ -315,6 +248,100 @@ def plot_curve(
     if path is not None:
         save_figure(fig if isinstance(fig, figure_class) else fig.figure, path)  # a subfigure cannot be saved alone
     return fig
+
+
+_Series: TypeAlias = tuple[str, FloatArray, str, dict[str, Any]]
+"""One line of :func:`plot_curve`: (key, values, label, matplotlib style)."""
+
+
+def _series(curve: PrivacyCurve, step: int) -> list[_Series]:
+    """The lines of a curve's plot, drawn in this order; observed values get a marker every ``step`` points.
+
+    Coinciding lines stay visible: wide pale black-box underneath, thinner dashed lines on top,
+    observed values as sparse markers (L and L-bar staggered).
+    """
+    return [
+        (
+            "black_box",
+            curve.black_box,
+            "black-box bound (all models, exact)",
+            dict(color="tab:blue", lw=4.0, alpha=0.45, zorder=2),
+        ),
+        ("paper", curve.paper, "paper bound (main theorem)", dict(color="tab:red", ls="--", lw=1.6, zorder=3)),
+        (
+            "tight",
+            curve.tight,
+            "tight bound (its proof, per pair)",
+            dict(color="tab:orange", ls="-.", lw=1.6, zorder=3),
+        ),
+        (
+            "corollary",
+            curve.corollary,
+            "ε (corollary, g independent of a)",
+            dict(color="0.35", ls=":", lw=1.2, zorder=3),
+        ),
+        (
+            "observed_local",
+            curve.observed_local,
+            "observed L (local)",
+            dict(color="black", ls="none", marker="o", ms=4, markevery=(0, step), zorder=4),
+        ),
+        (
+            "observed_global",
+            curve.observed_global,
+            "observed L̄ (global)",
+            dict(color="tab:green", ls="none", marker="x", ms=6, markevery=(step // 2, step), zorder=4),
+        ),
+    ]
+
+
+def _draw_series(ax: Axes, eps: FloatArray, series: list[_Series], top: float) -> list[str]:
+    """Draw each line (+inf at ``top``, marked ▲); return the bounds left out for being NaN throughout."""
+    missing = []
+    for key, values, label, style in series:
+        v = np.asarray(values, dtype=float)
+        if np.all(np.isnan(v)):
+            if key in ("paper", "tight", "black_box"):
+                missing.append(key.replace("_", "-"))
+            continue
+        inf = np.isposinf(v)
+        drawn = np.where(inf, top, v)
+        ax.plot(eps, drawn, label=label + (" (∞ at top)" if inf.any() else ""), **style)
+        if inf.any():
+            ax.plot(
+                eps[inf],
+                np.full(inf.sum(), top),
+                ls="none",
+                marker="^",
+                color=style["color"],
+                ms=5,
+                clip_on=False,
+                zorder=5,
+            )
+    return missing
+
+
+def _mark_tau_and_spec(ax: Axes, curve: PrivacyCurve, eps: FloatArray) -> None:
+    """Grey bands where the observed model breaks τ; a vertical line at the spec's ε."""
+    holds = np.asarray(curve.tau_holds, dtype=bool)
+    if curve.tau is not None and not holds.all():
+        for i, (lo, hi) in enumerate(_runs(eps, ~holds)):
+            ax.axvspan(
+                lo,
+                hi,
+                color="0.85",
+                zorder=0,
+                label=f"observed model has E[g|x,a] < τ = {curve.tau:g}" if i == 0 else None,
+            )
+    if curve.spec_epsilon is not None and math.isfinite(curve.spec_epsilon):
+        note = "" if curve.spec_on_family in (None, True) else " (its mechanism is not in this family)"
+        ax.axvline(
+            curve.spec_epsilon,
+            color="tab:purple",
+            lw=1.0,
+            ls=(0, (4, 2)),
+            label=f"spec's ε = {curve.spec_epsilon:.4g} nats{note}",
+        )
 
 
 def _runs(x: FloatArray, mask: BoolArray) -> list[tuple[float, float]]:

@@ -197,21 +197,21 @@ def test_csv_writes_inf_and_nan():
     arr = np.array([0.0, 1.0, math.inf])
     nan = np.full(3, math.nan)
     c = PrivacyCurve(
-        np.array([0.0, 1.0, 2.0]),
-        np.array([0.5, 0.6, 0.7]),
-        nan,
-        nan,
-        arr,
-        arr,
-        nan,
-        nan,
-        nan,
-        "f",
-        ("a", "b"),
-        1.0,
-        0.0,
-        None,
-        0.0,
+        epsilon=np.array([0.0, 1.0, 2.0]),
+        keep_probability=np.array([0.5, 0.6, 0.7]),
+        paper=nan,
+        tight=nan,
+        black_box=arr,
+        corollary=arr,
+        observed_local=nan,
+        observed_global=nan,
+        min_expected_utility=nan,
+        family="f",
+        groups=("a", "b"),
+        gamma=1.0,
+        lower=0.0,
+        tau=None,
+        lipschitz=0.0,
     )
     text = c.to_frame().to_csv(index=False)
     assert ",inf," in text

@@ -28,7 +28,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..report import Report, _fairness, _num, write_atomic
+from .._format._values import Report, fairness_dict, number
+from .._io import write_atomic
+from ._markdown import experiment_markdown
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -220,27 +222,29 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
 def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
     f = p.filter
     return {
-        "epsilon": _num(p.epsilon),
+        "epsilon": number(p.epsilon),
         "privacy": {
-            "epsilon_candidate": _num(p.mechanism.epsilon),
-            "epsilon_profile": _num(f.epsilon_profile),
-            "epsilon_per_attribute": {a.name: _num(e) for a, e in zip(analysis.task.attributes, f.epsilon_attributes)},
+            "epsilon_candidate": number(p.mechanism.epsilon),
+            "epsilon_profile": number(f.epsilon_profile),
+            "epsilon_per_attribute": {
+                a.name: number(e) for a, e in zip(analysis.task.attributes, f.epsilon_attributes)
+            },
             "keep_probability_per_attribute": {
-                a.name: _num(q) for a, q in zip(analysis.task.attributes, f.keep_probabilities)
+                a.name: number(q) for a, q in zip(analysis.task.attributes, f.keep_probabilities)
             },
             "delta": 0.0,
             "context_mechanism": f.context_mechanism.name,
         },
         "bounds": {
-            "corollary": _num(p.corollary),
-            "black_box": _num(p.black_box_local),
-            "black_box_global": _num(p.black_box_global),
+            "corollary": number(p.corollary),
+            "black_box": number(p.black_box_local),
+            "black_box_global": number(p.black_box_global),
         },
         "observed": {
-            "local": _fairness(p.local, None if p.intervals is None else p.intervals.local),
-            "global": _fairness(p.global_, None if p.intervals is None else p.intervals.global_),
+            "local": fairness_dict(p.local, None if p.intervals is None else p.intervals.local),
+            "global": fairness_dict(p.global_, None if p.intervals is None else p.intervals.global_),
         },
-        "certified_local": _num(p.black_box_local),
+        "certified_local": number(p.black_box_local),
     }
 
 
@@ -270,8 +274,8 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     c1, c2 = (t.profile_label(c) for c in t.candidates)
     for i, ctx in enumerate(t.contexts):
         shares[ctx] = {
-            f"{t.options[0]} = {c1}, {t.options[1]} = {c2}": dict(zip(t.decisions, map(_num, a.shares[i, 0]))),
-            f"{t.options[0]} = {c2}, {t.options[1]} = {c1}": dict(zip(t.decisions, map(_num, a.shares[i, 1]))),
+            f"{t.options[0]} = {c1}, {t.options[1]} = {c2}": dict(zip(t.decisions, map(number, a.shares[i, 0]))),
+            f"{t.options[0]} = {c2}, {t.options[1]} = {c1}": dict(zip(t.decisions, map(number, a.shares[i, 1]))),
         }
     curve = a.curve
     split = a.split
@@ -287,16 +291,18 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             "table": a.table_queries,
             "paper": a.paper_queries,
             "unparsed": a.unparsed,
-            "unparsed_share": _num(a.unparsed_share),
+            "unparsed_share": number(a.unparsed_share),
             "table_design_needs": len(t.contexts) * len(t.profiles) ** 2 * a.samples,
             "paper_design_needs_per_epsilon": len(t.contexts) * (2 if a.positions == "balanced" else 1) * a.samples,
         },
-        "utility": {"name": t.utility_name, "values": dict(zip(t.outcomes, map(_num, t.utility_values)))},
-        "tau": _num(a.tau),
-        "confidence": _num(a.confidence),
+        "utility": {"name": t.utility_name, "values": dict(zip(t.outcomes, map(number, t.utility_values)))},
+        "tau": number(a.tau),
+        "confidence": number(a.confidence),
         "baseline": {
-            "local": _fairness(a.baseline.local, None if a.baseline.intervals is None else a.baseline.intervals.local),
-            "global": _fairness(
+            "local": fairness_dict(
+                a.baseline.local, None if a.baseline.intervals is None else a.baseline.intervals.local
+            ),
+            "global": fairness_dict(
                 a.baseline.global_, None if a.baseline.intervals is None else a.baseline.intervals.global_
             ),
             "shares": shares,
@@ -304,7 +310,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
         "position_split": None if split is None else _split_dict(split),
         "budgets": [
             {
-                "target": _num(b.target),
+                "target": number(b.target),
                 "kind": b.kind,
                 "this_model": _budget(b.this_model),
                 "any_model": _budget(b.any_model),
@@ -314,15 +320,15 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
         "points": [_point_dict(a, p) for p in a.points],
         "paper_design": [
             {
-                "epsilon": _num(p.epsilon),
+                "epsilon": number(p.epsilon),
                 "queries": p.queries,
-                "local": _fairness(p.local, None if p.intervals is None else p.intervals.local),
-                "global": _fairness(p.global_, None if p.intervals is None else p.intervals.global_),
+                "local": fairness_dict(p.local, None if p.intervals is None else p.intervals.local),
+                "global": fairness_dict(p.global_, None if p.intervals is None else p.intervals.global_),
             }
             for p in a.paper
         ],
         "curve": {
-            k: [_num(v) for v in getattr(curve, k)]
+            k: [number(v) for v in getattr(curve, k)]
             for k in (
                 "epsilon",
                 "keep_probability",
@@ -342,10 +348,10 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
 
 def _budget(c: Calibration) -> Report:
     return {
-        "epsilon": _num(c.epsilon),
-        "keep_probability": _num(c.keep_probability),
+        "epsilon": number(c.epsilon),
+        "keep_probability": number(c.keep_probability),
         "feasible": c.feasible,
-        "bound": _num(c.bound),
+        "bound": number(c.bound),
         "reason": c.reason,
     }
 
@@ -353,176 +359,22 @@ def _budget(c: Calibration) -> Report:
 def _split_dict(split: PositionSplit) -> Report:
     position, group = split.explained()
     return {
-        "raw": _num(split.overall_raw),
-        "position": _num(split.overall_position),
-        "group": _num(split.overall_group),
-        "explained": {"position": _num(position), "group": _num(group)},
+        "raw": number(split.overall_raw),
+        "position": number(split.overall_position),
+        "group": number(split.overall_group),
+        "explained": {"position": number(position), "group": number(group)},
         "per_context": {
-            c: {"raw": _num(r), "position": _num(q), "group": _num(g)}
+            c: {"raw": number(r), "position": number(q), "group": number(g)}
             for c, r, q, g in zip(split.contexts, split.raw, split.position, split.group)
         },
     }
 
 
-def _f(v: float | str | None, digits: int = 4) -> str:
-    if v is None:
-        return "n/a"
-    if isinstance(v, str):
-        return "∞" if v == "inf" else v
-    return f"{v:.{digits}g}" if abs(v) >= 1e-3 or v == 0 else f"{v:.2e}"
-
-
-def _ivs(d: dict) -> str:
-    iv = d.get("interval")
-    return "" if iv is None else f" [{_f(iv[0])}, {_f(iv[1])}]"
-
-
-def experiment_markdown(d: dict) -> str:
-    """The Markdown report of :func:`experiment_dict`."""
-    q = d["queries"]
-    lines = [f"# {d['experiment']}: {d['model']}", ""]
-    lines += [
-        f"Per-candidate framing: context = {d['context']} @ position, group = the "
-        f"candidate's true profile ({d['candidates'][0]} or {d['candidates'][1]}), outcome = its own; "
-        f"utility: {d['utility']['name']}. Positions: {d['positions']}.",
-        "",
-    ]
-    if d.get("route") == "exact":
-        lines += [
-            "Exact route: the kernel is the model's own next-token law on every shown cell of the table design "
-            "(one forward pass per cell: no sampling error, so no intervals; the filter is applied by exact "
-            f"composition at every ε). On average {_f(q['unparsed_share'], 3)} of the probability mass is on "
-            "replies that would not parse; it counts as 'unparsed'."
-        ]
-    else:
-        lines += [
-            f"Queries: {q['table']} in the table design ({d['samples']} per shown cell; the filter is applied by "
-            f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
-            f"'unparsed'."
-        ]
-    if q["paper"]:
-        lines += [
-            f"The paper's design (sampling through the filter) used {q['paper']} more, "
-            f"{q['paper_design_needs_per_epsilon']} per ε."
-        ]
-    conf = d["confidence"]
-    lines += [
-        "",
-        "## Baseline: no filter",
-        "",
-        f"L = {_f(d['baseline']['local']['value'])} nats{_ivs(d['baseline']['local'])}, "
-        f"L̄ = {_f(d['baseline']['global']['value'])} nats{_ivs(d['baseline']['global'])}"
-        + (f" ({conf:g} simultaneous intervals)." if conf else "."),
-        "",
-        "![baseline](baseline.png)",
-        "",
-    ]
-    head = "| context | order | " + " | ".join(next(iter(next(iter(d["baseline"]["shares"].values())).values()))) + " |"
-    lines += [head, "|" + "---|" * (head.count("|") - 1)]
-    for ctx, orders in d["baseline"]["shares"].items():
-        for order, s in orders.items():
-            lines.append(f"| {ctx} | {order} | " + " | ".join(_f(v, 3) for v in s.values()) + " |")
-    sp = d.get("position_split")
-    if sp is not None:
-        c1, c2 = d["candidates"]
-        lines += [
-            "",
-            "## Position or group",
-            "",
-            f"In the paper's order ({c1} listed first) the log ratio of the two candidates' expected "
-            f"utility is {_f(sp['raw'])} nats. Showing both orders splits it exactly into a position part "
-            f"(first against second, same candidate) and a group part ({c1} against {c2}, same position); "
-            "L̄ above is the group part's kind, with position as a context.",
-            "",
-            "| context | raw (paper's order) | position | group |",
-            "|---|---|---|---|",
-        ]
-        for ctx, v in sp["per_context"].items():
-            lines.append(f"| {ctx} | {_f(v['raw'])} | {_f(v['position'])} | {_f(v['group'])} |")
-        lines.append(f"| all (mean utility) | {_f(sp['raw'])} | {_f(sp['position'])} | {_f(sp['group'])} |")
-        ex = sp["explained"]
-        if ex["position"] is not None:
-            lines += [
-                "",
-                f"Position explains {_f(ex['position'] * 100, 3)}% of the raw disparity and group "
-                f"{_f(ex['group'] * 100, 3)}%.",
-            ]
-    lines += [
-        "",
-        "## Fairness–privacy curve",
-        "",
-        "![curve](curve.png)",
-        "",
-        "ε is the candidate's privacy budget (nats): the filter shows each attribute of both profiles through "
-        "randomized response, and a candidate's profile fixes its rival's, so both count.",
-        "",
-        "| ε candidate | ε per profile | keep p per attribute | certified L ≤ (black-box) | corollary | observed L | "
-        "observed L̄ | black-box L̄ |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for p in d["points"]:
-        keep = ", ".join(f"{_f(v, 3)}" for v in p["privacy"]["keep_probability_per_attribute"].values())
-        lines.append(
-            f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
-            f"{_f(p['bounds']['black_box'])} | {_f(p['bounds']['corollary'])} | "
-            f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
-            f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
-            f"{_f(p['bounds']['black_box_global'])} |"
-        )
-    if d.get("budgets"):
-        lines += [
-            "",
-            "## The privacy budget per target",
-            "",
-            "The largest candidate's ε (nats) that meets each target: for this model (white-box: its own L or L̄ "
-            "behind the filter stays at or below the target at every smaller ε"
-            + (", estimated from the counts" if d.get("route") != "exact" else "")
-            + ") and for any model behind the filter (black-box: the exact worst case). "
-            "+∞: no filter is needed; n/a: no ε meets it.",
-            "",
-            "| target (nats) | on | ε, this model | ε, any model |",
-            "|---|---|---|---|",
-        ]
-        for b in d["budgets"]:
-            this, anym = b["this_model"], b["any_model"]
-            lines.append(
-                f"| {_f(b['target'])} | {'L' if b['kind'] == 'local' else 'L̄'} | "
-                f"{_f(this['epsilon']) if this['feasible'] else 'n/a'} | "
-                f"{_f(anym['epsilon']) if anym['feasible'] else 'n/a'} |"
-            )
-    if d["paper_design"]:
-        lines += [
-            "",
-            "The paper's design at the same ε (each ε queried through the filter):",
-            "",
-            "| ε candidate | queries | observed L | observed L̄ |",
-            "|---|---|---|---|",
-        ]
-        for p in d["paper_design"]:
-            lines.append(
-                f"| {_f(p['epsilon'])} | {p['queries']} | {_f(p['local']['value'])}{_ivs(p['local'])} | "
-                f"{_f(p['global']['value'])}{_ivs(p['global'])} |"
-            )
-    lines += [
-        "",
-        "The black-box bound holds for every decision model behind the filter (exact worst case); the "
-        "observed values are this model's. "
-        + (
-            "Files: kernel.csv (the model's exact kernel, probabilities), candidates.csv, certificate.json, curve.csv."
-            if d.get("route") == "exact"
-            else "Files: kernel.csv (the model's kernel with counts), candidates.csv, records.csv (per-candidate "
-            "records for `fairaudit audit`), certificate.json, curve.csv, queries.jsonl (every query and reply)."
-        ),
-        "",
-    ]
-    return "\n".join(lines)
-
-
 def plot_baseline(analysis: ExperimentAnalysis, path: str | Path) -> None:
     """Bar chart of the decisions without a filter: per context, in the paper's order and swapped (atomic)."""
-    from ..plot import _matplotlib, save_figure
+    from ..plot import load_matplotlib, save_figure
 
-    Figure = _matplotlib()
+    Figure = load_matplotlib()
     t = analysis.task
     c1, c2 = (t.profile_label(c) for c in t.candidates)
     fig = Figure(figsize=(7.5, 3.8), layout="constrained")
@@ -573,9 +425,9 @@ def plot_experiment_curve(analysis: ExperimentAnalysis, path: str | Path) -> Non
     When the observed L and L̄ stay below 1/20 of the bounds' scale (a model far
     fairer than the worst case), a second panel shows them on their own scale.
     """
-    from ..plot import _matplotlib, plot_curve, save_figure
+    from ..plot import load_matplotlib, plot_curve, save_figure
 
-    Figure = _matplotlib()
+    Figure = load_matplotlib()
     zoom = _needs_zoom(analysis)
     fig = Figure(figsize=(11.0 if zoom else 7.5, 4.8), layout="constrained")
     if zoom:

@@ -1,0 +1,22 @@
+"""Report formats: one module per rendering of the report dictionaries, behind one interface.
+
+The dictionaries of :mod:`fairaudit.report` (``certificate_dict``,
+``audit_dict``, ``calibration_dict``, ``plan_dict``) are the single
+intermediate; each :class:`Format` renders them as one string:
+:class:`~fairaudit._format.text.TextFormat`,
+:class:`~fairaudit._format.json.JsonFormat` and
+:class:`~fairaudit._format.markdown.MarkdownFormat`. :data:`FORMATTERS` maps
+the name of each (the choices of ``--format``) to an instance.
+"""
+
+from __future__ import annotations
+
+from ._base import KINDS, Format
+from .json import JsonFormat
+from .markdown import MarkdownFormat
+from .text import TextFormat
+
+__all__ = ["Format", "FORMATTERS", "KINDS"]
+
+#: Format name -> format, in the order the command line lists them.
+FORMATTERS: dict[str, Format] = {f.name: f for f in (TextFormat(), JsonFormat(), MarkdownFormat())}

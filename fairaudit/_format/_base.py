@@ -1,0 +1,45 @@
+"""The interface of a report format: one method per kind of report dictionary."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+from ._values import Report
+
+__all__ = ["Format", "KINDS"]
+
+#: Report kind (the subcommand) -> the :class:`Format` method that renders its dictionary.
+KINDS = {"certify": "certificate", "audit": "audit", "calibrate": "calibration", "plan": "plan"}
+
+
+class Format(ABC):
+    """A rendering of the report dictionaries (``fairaudit.report.*_dict``) as one string each.
+
+    A format has a :attr:`name` (the value of ``--format``) and one method per
+    kind of report; :meth:`render` dispatches on the kind.
+    """
+
+    name: ClassVar[str]
+
+    @abstractmethod
+    def certificate(self, d: Report) -> str:
+        """The ``certify`` report of :func:`fairaudit.report.certificate_dict`."""
+
+    @abstractmethod
+    def audit(self, d: Report) -> str:
+        """The ``audit`` report of :func:`fairaudit.report.audit_dict`."""
+
+    @abstractmethod
+    def calibration(self, d: Report) -> str:
+        """The ``calibrate`` report of :func:`fairaudit.report.calibration_dict`."""
+
+    @abstractmethod
+    def plan(self, d: Report) -> str:
+        """The ``plan`` report of :func:`fairaudit.report.plan_dict`."""
+
+    def render(self, d: Report, kind: str) -> str:
+        """The report of kind ``kind`` (a key of :data:`KINDS`)."""
+        method: str = KINDS[kind]
+        text: str = getattr(self, method)(d)
+        return text

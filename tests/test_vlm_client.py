@@ -449,7 +449,7 @@ def test_invalid_key_is_rejected_without_quoting_it(bad):
 def test_credentials_in_the_url_are_rejected():
     with pytest.raises(InputError) as info:
         ChatClient("http://user:pa55word@127.0.0.1:8000/v1", "m")
-    assert info.value.field == "--endpoint" and "pa55word" not in str(info.value)
+    assert info.value.field == "endpoint" and "pa55word" not in str(info.value)
 
 
 # --------------------------------------------------------------------------- validation
@@ -458,25 +458,25 @@ def test_credentials_in_the_url_are_rejected():
 @pytest.mark.parametrize(
     "args, kwargs, field",
     [
-        (("ftp://127.0.0.1/v1", "m"), {}, "--endpoint"),
-        (("127.0.0.1:8000/v1", "m"), {}, "--endpoint"),
-        (("http:///v1", "m"), {}, "--endpoint"),
-        (("http://127.0.0.1:99999/v1", "m"), {}, "--endpoint"),
-        (("", "m"), {}, "--endpoint"),
-        ((None, "m"), {}, "--endpoint"),
-        (("http://127.0.0.1/v1", ""), {}, "--model"),
-        (("http://127.0.0.1/v1", "  "), {}, "--model"),
-        (("http://127.0.0.1/v1", "m"), {"timeout": 0}, "--timeout"),
-        (("http://127.0.0.1/v1", "m"), {"timeout": float("inf")}, "--timeout"),
-        (("http://127.0.0.1/v1", "m"), {"timeout": "5"}, "--timeout"),
-        (("http://127.0.0.1/v1", "m"), {"max_retries": -1}, "--max-retries"),
-        (("http://127.0.0.1/v1", "m"), {"max_retries": 1.5}, "--max-retries"),
-        (("http://127.0.0.1/v1", "m"), {"max_retries": True}, "--max-retries"),
-        (("http://127.0.0.1/v1", "m"), {"backoff": -0.1}, "--backoff"),
-        (("http://127.0.0.1/v1", "m"), {"max_backoff": float("nan")}, "--max-backoff"),
-        (("http://127.0.0.1/v1", "m"), {"max_concurrency": 0}, "--concurrency"),
-        (("http://127.0.0.1/v1", "m"), {"temperature": -1.0}, "--temperature"),
-        (("http://127.0.0.1/v1", "m"), {"max_tokens": 0}, "--max-tokens"),
+        (("ftp://127.0.0.1/v1", "m"), {}, "endpoint"),
+        (("127.0.0.1:8000/v1", "m"), {}, "endpoint"),
+        (("http:///v1", "m"), {}, "endpoint"),
+        (("http://127.0.0.1:99999/v1", "m"), {}, "endpoint"),
+        (("", "m"), {}, "endpoint"),
+        ((None, "m"), {}, "endpoint"),
+        (("http://127.0.0.1/v1", ""), {}, "model"),
+        (("http://127.0.0.1/v1", "  "), {}, "model"),
+        (("http://127.0.0.1/v1", "m"), {"timeout": 0}, "timeout"),
+        (("http://127.0.0.1/v1", "m"), {"timeout": float("inf")}, "timeout"),
+        (("http://127.0.0.1/v1", "m"), {"timeout": "5"}, "timeout"),
+        (("http://127.0.0.1/v1", "m"), {"max_retries": -1}, "max_retries"),
+        (("http://127.0.0.1/v1", "m"), {"max_retries": 1.5}, "max_retries"),
+        (("http://127.0.0.1/v1", "m"), {"max_retries": True}, "max_retries"),
+        (("http://127.0.0.1/v1", "m"), {"backoff": -0.1}, "backoff"),
+        (("http://127.0.0.1/v1", "m"), {"max_backoff": float("nan")}, "max_backoff"),
+        (("http://127.0.0.1/v1", "m"), {"max_concurrency": 0}, "max_concurrency"),
+        (("http://127.0.0.1/v1", "m"), {"temperature": -1.0}, "temperature"),
+        (("http://127.0.0.1/v1", "m"), {"max_tokens": 0}, "max_tokens"),
         (("http://127.0.0.1/v1", "m"), {"extra_body": {"model": "other"}}, "extra_body"),
         (("http://127.0.0.1/v1", "m"), {"extra_body": {"x": object()}}, "extra_body"),
         (("http://127.0.0.1/v1", "m"), {"extra_body": [1]}, "extra_body"),

@@ -33,12 +33,16 @@ def order(text, options=RECIPIENTS):
 
 def test_paper_choice_format():
     r = choice('{"HR1": "0.0", "HR2": "1.0", "reason": "HR2 handles maternity leave."}')
-    assert r == ParsedReply(True, 1, (1, 0), {"HR1": 0.0, "HR2": 1.0}, "HR2 handles maternity leave.", "", False)
+    assert r == ParsedReply(
+        ok=True, choice=1, order=(1, 0), values={"HR1": 0.0, "HR2": 1.0}, reason="HR2 handles maternity leave."
+    )
 
 
 def test_paper_order_format():
     r = order('{"Recipient1": "2.0", "Recipient2": "1.0", "reason": "Recipient2 is closer."}')
-    assert r == ParsedReply(True, 1, (1, 0), {"Recipient1": 2.0, "Recipient2": 1.0}, "Recipient2 is closer.", "", False)
+    assert r == ParsedReply(
+        ok=True, choice=1, order=(1, 0), values={"Recipient1": 2.0, "Recipient2": 1.0}, reason="Recipient2 is closer."
+    )
     r = order('{"Recipient1": "1.0", "Recipient2": "2.0"}')
     assert (r.ok, r.choice, r.order, r.reason) == (True, 0, (0, 1), None)
 
@@ -389,15 +393,15 @@ def test_key_value_fallback_applies_the_rules():
 
 @pytest.mark.parametrize("text", ["", "   ", "\n\t"])
 def test_empty_reply(text):
-    assert choice(text) == ParsedReply(False, error="empty reply")
-    assert order(text) == ParsedReply(False, error="empty reply")
+    assert choice(text) == ParsedReply(ok=False, error="empty reply")
+    assert order(text) == ParsedReply(ok=False, error="empty reply")
 
 
 @pytest.mark.parametrize(
     "text, error", [(None, "reply is not a string (NoneType)"), (b"{}", "reply is not a string (bytes)")]
 )
 def test_non_string_reply(text, error):
-    assert choice(text) == ParsedReply(False, error=error)
+    assert choice(text) == ParsedReply(ok=False, error=error)
 
 
 @pytest.mark.parametrize(

@@ -1,31 +1,43 @@
-"""What the subcommands share: the parser class, argparse value types, the report options and output."""
+"""What the subcommands share: the parser class, argparse value types, the report options and output.
+
+Library errors name Python parameters; :func:`flag_error` names the command's flag instead, and
+:func:`flag_mentions` does the same for the parameters a problem mentions in backticks (```endpoint```).
+"""
 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
-from typing import TYPE_CHECKING, NoReturn, TypeAlias
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
 
 from .._errors import InputError
+from .._validation import real, whole
 from ..report import FORMATS, write_atomic
 
 if TYPE_CHECKING:
     from .._arrays import FloatArray
 
 
-class _Parser(argparse.ArgumentParser):
+class Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (exit 2)."""
 
     def error(self, message: str) -> NoReturn:  # noqa: D401 - argparse API
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
-_Subparsers: TypeAlias = "argparse._SubParsersAction[_Parser]"
+Subparsers: TypeAlias = "argparse._SubParsersAction[Parser]"
 
 
 # Python parameters whose flag is not ``--`` + the parameter with ``-`` for ``_`` (the parser's own dest).
 PARAMETER_FLAGS: dict[str, str] = {
     "kind": "--global",
+    "epsilons": "--epsilon",
+    "keeps": "--keep",
+    "targets": "--target",
+    "max_concurrency": "--concurrency",
+    "path": "--plot",
 }
 
 
@@ -38,11 +50,13 @@ def command_flags(parser: argparse.ArgumentParser) -> dict[str, str]:
 
 
 def flag_error(exc: InputError, flags: dict[str, str]) -> InputError:
-    """The library's error with its parameter named as the command's flag (``confidence`` -> ``--confidence``).
+    """The library's error as the command says it: its parameters named as the command's flags.
 
-    Only the field's first word is mapped (``kernel column 'x'`` -> ``--kernel column 'x'``); spec fields, columns and
-    anything that is not one of the command's parameters stay as they are.
+    The field's first word is mapped (``confidence`` -> ``--confidence``, ``kernel column 'x'`` -> ``--kernel column
+    'x'``); spec fields, columns and anything that is not one of the command's parameters stay as they are. The
+    parameters the problem mentions in backticks are mapped by :func:`flag_mentions`.
     """
+    exc = flag_mentions(exc, flags)
     head, sep, rest = exc.field.partition(" ")
     if head not in flags:
         return exc
@@ -52,24 +66,100 @@ def flag_error(exc: InputError, flags: dict[str, str]) -> InputError:
     return InputError(field, exc.problem, exc.value)
 
 
-def _columns(text: str) -> list[str]:
+_MENTION = re.compile(r"`([a-z_]+)`")
+
+
+def flag_mentions(exc: InputError, flags: dict[str, str]) -> InputError:
+    """The library's error with each parameter its problem mentions in backticks named as the command's flag.
+
+    ```endpoint``` becomes ``--endpoint`` where the command has that flag, and ``endpoint`` (no backticks) where it
+    has not; the field is left to :func:`flag_error`.
+
+    Examples
+    --------
+    >>> str(flag_mentions(InputError("model", "is needed with `endpoint`"), {"endpoint": "--endpoint"}))
+    'model: is needed with --endpoint'
+    """
+    problem = _MENTION.sub(lambda m: flags.get(m.group(1), m.group(1)), exc.problem)
+    if problem == exc.problem:
+        return exc
+    if exc.value is InputError._missing:
+        return InputError(exc.field, problem)
+    return InputError(exc.field, problem, exc.value)
+
+
+def number_type(
+    expected: str,
+    *,
+    low: float = -float("inf"),
+    high: float = float("inf"),
+    low_open: bool = False,
+    high_open: bool = False,
+    integer: bool = False,
+    unparsed: str | None = None,
+) -> Callable[[str], Any]:
+    """An argparse ``type``: the text as a number checked by :mod:`fairaudit._validation`.
+
+    Parameters
+    ----------
+    expected : str
+        What the message says is expected ("a number in (0, 1)"): ``expected ..., got 'text'``.
+    low, high, low_open, high_open
+        The interval, as :func:`fairaudit._validation.real` takes it (``low`` only for ``integer``).
+    integer : bool
+        A whole number (``int(text)``, :func:`fairaudit._validation.whole`) instead of a finite float.
+    unparsed : str, optional
+        What the message says is expected when the text is not a number at all (default ``expected``).
+
+    Examples
+    --------
+    >>> half_open = number_type("a number >= 0", low=0)
+    >>> half_open("0.5")
+    0.5
+    >>> half_open("-1")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected a number >= 0, got '-1'
+    """
+
+    def convert(text: str) -> Any:
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {unparsed or expected}, got {text!r}") from None
+        try:
+            if integer:
+                return whole(value, "value", low=int(low))
+            return real(value, "value", low=low, high=high, low_open=low_open, high_open=high_open)
+        except InputError:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+
+    return convert
+
+
+level = number_type("a number in (0, 1)", low=0.0, high=1.0, low_open=True, high_open=True)
+"""A confidence level: a number strictly between 0 and 1."""
+
+nonneg = number_type("a finite number >= 0", low=0.0, unparsed="a number >= 0")
+"""A finite number >= 0 (nats)."""
+
+positive_int = number_type("a whole number >= 1", low=1, integer=True)
+"""A whole number >= 1 (a count)."""
+
+keep_level = number_type("a probability in [1/k, 1)", low=0.0, high=1.0, low_open=True, high_open=True)
+"""A keep probability: in (0, 1) here; the experiment checks its lower end 1/k, which depends on the attribute."""
+
+
+def columns(text: str) -> list[str]:
+    """One or more comma-separated column names."""
     cols = [c.strip() for c in text.split(",") if c.strip()]
     if not cols:
         raise argparse.ArgumentTypeError(f"expected one or more comma-separated column names, got {text!r}")
     return cols
 
 
-def _level(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), got {text!r}") from None
-    if not 0 < v < 1:
-        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), got {text!r}")
-    return v
-
-
-def _epsilons(text: str) -> FloatArray:
+def epsilons(text: str) -> FloatArray:
+    """A grid of privacy budgets START:STOP:NUM (nats), as ``numpy.linspace``."""
     parts = text.split(":")
     try:
         if len(parts) != 3:
@@ -84,42 +174,14 @@ def _epsilons(text: str) -> FloatArray:
     return np.linspace(start, stop, num)
 
 
-def _nonneg(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}") from None
-    if not v >= 0 or v == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
-    return v
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return v
-
-
-def _level_closed(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a probability in [1/k, 1), got {text!r}") from None
-    if not 0 < v < 1:
-        raise argparse.ArgumentTypeError(f"expected a probability in [1/k, 1), got {text!r}")
-    return v
-
-
-def _add_output(p: argparse.ArgumentParser) -> None:
+def add_output(p: argparse.ArgumentParser) -> None:
+    """The report options: ``--format`` and ``--output``."""
     p.add_argument("--format", choices=FORMATS, default="text", help="report format (default: text)")
     p.add_argument("--output", metavar="FILE", help="write the report to FILE (atomically) instead of stdout")
 
 
-def _emit(args: argparse.Namespace, text: str, summary: str) -> None:
+def emit(args: argparse.Namespace, text: str, summary: str) -> None:
+    """Write the report to ``--output`` (with ``summary`` on stderr) or to stdout."""
     if args.output:
         write_atomic(args.output, text)
         print(f"{summary}; report written to {args.output}", file=sys.stderr)

@@ -6,18 +6,18 @@ import argparse
 
 from .. import __version__
 from . import audit, calibrate, certify, experiment, plan, prepare_model
-from ._common import _Parser, command_flags
+from ._common import Parser, command_flags
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``fairaudit`` command (documented in docs/cli.md)."""
-    parser = _Parser(
+    parser = Parser(
         prog="fairaudit",
         description="Certified fairness auditing: audit decisions, certify bounds that "
         "hold for any model behind a privacy filter, calibrate the privacy budget.",
     )
     parser.add_argument("--version", action="version", version=f"fairaudit {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
     for command in (certify, audit, calibrate, plan, experiment, prepare_model):
         command.add_parser(sub)
     for command_parser in sub.choices.values():

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 
 from ..report import audit_dict, render
-from ._common import _add_output, _columns, _emit, _level, _Subparsers
+from ._common import Subparsers, add_output, columns, emit, level
 
 
-def add_parser(sub: _Subparsers) -> None:
+def add_parser(sub: Subparsers) -> None:
     """Add the ``audit`` subcommand to ``sub``."""
     a = sub.add_parser(
         "audit",
@@ -26,18 +26,18 @@ def add_parser(sub: _Subparsers) -> None:
     a.add_argument(
         "--sensitive",
         required=True,
-        type=_columns,
+        type=columns,
         metavar="COL[,COL...]",
         help="sensitive column(s); several give intersectional groups",
     )
     a.add_argument("--outcome", required=True, metavar="COL", help="outcome column U (all its values are kept)")
-    a.add_argument("--context", type=_columns, default=[], metavar="COL[,COL...]", help="context column(s) X")
+    a.add_argument("--context", type=columns, default=[], metavar="COL[,COL...]", help="context column(s) X")
     g = a.add_mutually_exclusive_group()
     g.add_argument("--positive", metavar="VALUE", help="g = 1{U = VALUE}")
     g.add_argument("--utility", metavar="EXPR", help="g as an expression in u, e.g. 'u >= 5' or '11 - u'")
     a.add_argument(
         "--confidence",
-        type=_level,
+        type=level,
         metavar="LEVEL",
         help="simultaneous confidence level of intervals for every metric (e.g. 0.95)",
     )
@@ -66,7 +66,7 @@ def add_parser(sub: _Subparsers) -> None:
         help="DATA is a count table (one row per context, group and outcome, "
         "e.g. from SQL GROUP BY) whose column COL holds the number of records",
     )
-    _add_output(a)
+    add_output(a)
     a.set_defaults(func=run)
 
 
@@ -99,5 +99,5 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
     )
     data = audit_dict(result)
-    _emit(args, render(data, "audit", args.format), f"audit: {data['n']} records, L = {data['local']['value']} nats")
+    emit(args, render(data, "audit", args.format), f"audit: {data['n']} records, L = {data['local']['value']} nats")
     return 0

@@ -7,10 +7,10 @@ from typing import Any
 
 from .._errors import InputError
 from ..report import calibration_dict, render
-from ._common import _add_output, _emit, _Subparsers
+from ._common import Subparsers, add_output, emit
 
 
-def add_parser(sub: _Subparsers) -> None:
+def add_parser(sub: Subparsers) -> None:
     """Add the ``calibrate`` subcommand to ``sub``."""
     k = sub.add_parser(
         "calibrate",
@@ -60,7 +60,7 @@ def add_parser(sub: _Subparsers) -> None:
         help="take groups, utility, tau, L_A, metric, population, "
         "mechanism family, context mechanism and model from a spec; flags override",
     )
-    _add_output(k)
+    add_output(k)
     k.set_defaults(func=run)
 
 
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     cal = calibrate(args.target, kind=args.kind, method=args.method, **opts)
     data = calibration_dict(cal)
     summary = f"epsilon = {data['epsilon']}" if cal.feasible else f"no epsilon meets the target: {cal.reason}"
-    _emit(args, render(data, "calibrate", args.format), summary)
+    emit(args, render(data, "calibrate", args.format), summary)
     return 0 if cal.feasible else 1
 
 

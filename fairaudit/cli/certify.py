@@ -9,13 +9,13 @@ from typing import TYPE_CHECKING
 
 from .._errors import InputError
 from ..report import certificate_dict, render
-from ._common import _add_output, _emit, _epsilons, _level, _Subparsers
+from ._common import Subparsers, add_output, emit, epsilons, level
 
 if TYPE_CHECKING:
     from ..certify import Certificate
 
 
-def add_parser(sub: _Subparsers) -> None:
+def add_parser(sub: Subparsers) -> None:
     """Add the ``certify`` subcommand to ``sub``."""
     c = sub.add_parser(
         "certify",
@@ -24,7 +24,7 @@ def add_parser(sub: _Subparsers) -> None:
         "privacy filter; observed metrics when the spec has a model; pass/fail against targets.",
     )
     c.add_argument("spec", metavar="SPEC.toml", help="the spec (see docs/spec.md)")
-    _add_output(c)
+    add_output(c)
     c.add_argument(
         "--plot",
         metavar="FILE",
@@ -34,7 +34,7 @@ def add_parser(sub: _Subparsers) -> None:
     c.add_argument("--plot-data", metavar="FILE.csv", help="write the data behind the curve to FILE.csv")
     c.add_argument(
         "--confidence",
-        type=_level,
+        type=level,
         default=0.95,
         metavar="LEVEL",
         help="simultaneous level of intervals for the observed metrics when the model comes from counts (default 0.95)",
@@ -47,7 +47,7 @@ def add_parser(sub: _Subparsers) -> None:
     )
     c.add_argument(
         "--epsilons",
-        type=_epsilons,
+        type=epsilons,
         metavar="START:STOP:NUM",
         help="the curve's grid of epsilon in nats, NUM evenly spaced values (default 61 values from 0 to "
         "1.5 x the spec's epsilon, or 0 to 5); the spec's own epsilon is always added",
@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     summary = (
         f"certified: {'yes' if cert.certified else 'no'}; best bound {data['bounds']['best']} nats ({cert.best_form})"
     )
-    _emit(args, render(data, "certify", args.format), summary)
+    emit(args, render(data, "certify", args.format), summary)
     return 0 if cert.certified else 1
 
 

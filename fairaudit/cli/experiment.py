@@ -9,10 +9,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._common import _level, _level_closed, _nonneg, _positive_int, _Subparsers
+from ._common import Subparsers, keep_level, level, nonneg, positive_int
 
 
-def add_parser(sub: _Subparsers) -> None:
+def add_parser(sub: Subparsers) -> None:
     """Add the ``experiment`` subcommand to ``sub``."""
     e = sub.add_parser(
         "experiment",
@@ -57,7 +57,7 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
     e.add_argument("--model", metavar="NAME", help="the model name at --endpoint")
     e.add_argument(
         "--samples",
-        type=_positive_int,
+        type=positive_int,
         metavar="N",
         help="queries per shown cell (default 20; with --local-model, default: the exact route, no queries)",
     )
@@ -68,21 +68,21 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     eps = e.add_mutually_exclusive_group()
     eps.add_argument(
         "--epsilon",
-        type=_nonneg,
+        type=nonneg,
         nargs="+",
         metavar="E",
         help="the candidate's privacy budgets in nats (both profiles shown; each attribute gets E / (2 x attributes))",
     )
     eps.add_argument(
         "--keep",
-        type=_level_closed,
+        type=keep_level,
         nargs="+",
         metavar="P",
         help="keep probabilities of every attribute instead (default 0.5 0.6 0.7 0.8 0.9)",
     )
     e.add_argument(
         "--context-epsilon",
-        type=_nonneg,
+        type=nonneg,
         metavar="E",
         help="randomized response on the document type (package) at E nats (default: shown as is)",
     )
@@ -101,7 +101,7 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument(
         "--target",
-        type=_nonneg,
+        type=nonneg,
         nargs="+",
         default=[0.05, 0.1, 0.25, 0.5],
         metavar="T",
@@ -116,7 +116,7 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     e.add_argument("--resume", action="store_true", help="continue the run logged in --out")
     e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     e.add_argument(
-        "--concurrency", type=_positive_int, metavar="N", help="queries in flight (default 4 with --endpoint, else 1)"
+        "--concurrency", type=positive_int, metavar="N", help="queries in flight (default 4 with --endpoint, else 1)"
     )
     e.add_argument("--timeout", type=float, default=60.0, metavar="S", help="seconds per request (default 60)")
     e.add_argument(
@@ -124,7 +124,7 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument(
         "--confidence",
-        type=_level,
+        type=level,
         default=0.95,
         metavar="LEVEL",
         help="simultaneous level of the bands (default 0.95)",
@@ -138,33 +138,39 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit experiment``; returns the exit status (1 when some queries failed)."""
-    from ..experiments.run import run_experiment
+    from ..experiments.run import ModelSource, RunOptions, run_experiment
 
-    result = run_experiment(
-        args.experiment,
-        args.out,
+    source = ModelSource(
         simulated=args.simulated,
         kernel=args.kernel,
         endpoint=args.endpoint,
         model=args.model,
         local_model=args.local_model,
+        timeout=args.timeout,
+        max_retries=args.max_retries,
+    )
+    options = RunOptions(
         samples=args.samples,
         epsilons=args.epsilon,
         keeps=args.keep,
         context_epsilon=args.context_epsilon,
         design=args.design,
         positions=args.positions,
+        targets=args.target,
         seed=args.seed,
         resume=args.resume,
         concurrency=args.concurrency,
-        timeout=args.timeout,
-        max_retries=args.max_retries,
         confidence=args.confidence,
         scene=args.scene,
         images=args.images,
+    )
+    result = run_experiment(
+        args.experiment,
+        args.out,
+        source,
+        options,
         progress=args.progress,
         log=lambda line: print(f"fairaudit: {line}", file=sys.stderr),
-        targets=args.target,
     )
     s = result.summary
     if s is None:  # the exact route of a local model: no queries

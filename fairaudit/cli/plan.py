@@ -6,7 +6,7 @@ import argparse
 
 from .._errors import InputError
 from ..report import render
-from ._common import _add_output, _emit, _Subparsers
+from ._common import Subparsers, add_output, emit
 
 # the flag of each keyword of fairaudit.plan.plan, to name it in errors
 _PLAN_FLAGS = {
@@ -25,7 +25,7 @@ _PLAN_FLAGS = {
 }
 
 
-def add_parser(sub: _Subparsers) -> None:
+def add_parser(sub: Subparsers) -> None:
     """Add the ``plan`` subcommand (sample sizes) to ``sub``."""
     p = sub.add_parser(
         "plan",
@@ -84,7 +84,7 @@ def add_parser(sub: _Subparsers) -> None:
     p.add_argument(
         "--max-n", type=int, default=1_000_000, metavar="N", help="largest n per cell tried (default 1000000)"
     )
-    _add_output(p)
+    add_output(p)
     p.set_defaults(func=run)
 
 
@@ -120,5 +120,5 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(_PLAN_FLAGS[exc.field], exc.problem, exc.value) from None
     data = plan_dict(plans)
     summary = "; ".join(f"{p.method}: {p.n_per_cell if p.feasible else 'no n'}" for p in plans)
-    _emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")
+    emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")
     return 0 if data["feasible"] else 1

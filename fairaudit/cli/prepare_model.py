@@ -8,10 +8,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ._common import _Subparsers
+from ._common import Subparsers
 
 
-def add_parser(sub: _Subparsers) -> None:
+def add_parser(sub: Subparsers) -> None:
     """Add the ``prepare-model`` subcommand to ``sub``."""
     p = sub.add_parser(
         "prepare-model",

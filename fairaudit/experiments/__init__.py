@@ -2,7 +2,7 @@
 
 * :mod:`fairaudit.experiments.run`: one experiment end to end
   (``fairaudit experiment``), exact from a kernel or sampled through the
-  filter; :mod:`fairaudit.experiments.harness`: the queries, their log and
+  filter, on a model source with run options (:mod:`fairaudit.experiments.options`); :mod:`fairaudit.experiments.harness`: the queries, their log and
   resumption; :mod:`fairaudit.experiments.analysis`: the fairness of the
   decision table and the ε per target; :mod:`fairaudit.experiments.report`:
   its JSON and Markdown; :mod:`fairaudit.experiments.local_model`: a small

@@ -38,6 +38,7 @@ import numpy.typing as npt
 
 from .._arrays import FloatArray
 from .._errors import InputError
+from .._validation import real
 from ..calibrate import Calibration
 from ..curves import PrivacyCurve, privacy_curve
 from ..estimate import CountTable
@@ -145,7 +146,7 @@ def candidate_population(task: DeliveryTask, positions: str = "balanced") -> Pop
     elif positions == "fixed":
         p = np.tile(np.eye(2) / (2 * n), (n, 1))
     else:
-        raise InputError("--positions", "must be 'balanced' or 'fixed'", positions)
+        raise InputError("positions", "must be 'balanced' or 'fixed'", positions)
     return Population(p, candidate_contexts(task), [task.profile_label(c) for c in task.candidates])
 
 
@@ -175,10 +176,10 @@ def epsilon_from_keep(task: DeliveryTask, keep: float) -> float:
     try:
         return 2 * sum(epsilon_from_keep_probability(float(keep), len(a.values)) for a in task.attributes)
     except InputError as exc:
-        raise InputError("--keep", exc.problem, keep) from None
+        raise InputError("keep", exc.problem, keep) from None
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class PositionSplit:
     """The raw disparity of the paper's order split into a position part and a group part (nats).
 
@@ -274,7 +275,16 @@ def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:
 
     raw, position, group = parts(m)
     o_raw, o_pos, o_group = parts(m.mean(axis=0))
-    return PositionSplit(tuple(task.contexts), raw, position, group, float(o_raw), float(o_pos), float(o_group), m)
+    return PositionSplit(
+        contexts=tuple(task.contexts),
+        raw=raw,
+        position=position,
+        group=group,
+        overall_raw=float(o_raw),
+        overall_position=float(o_pos),
+        overall_group=float(o_group),
+        expected_utility=m,
+    )
 
 
 DEFAULT_TARGETS = (0.05, 0.1, 0.25, 0.5)
@@ -331,7 +341,7 @@ def _budgets(
     return tuple(out)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class PaperDesignPoint:
     """The paper's design at one ε: the per-candidate law from queries sampled through the filter."""
 
@@ -343,7 +353,7 @@ class PaperDesignPoint:
     intervals: FairnessIntervals | None
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class PointResult:
     """The table design at one requested ε (nats, the candidate's budget)."""
 
@@ -359,7 +369,7 @@ class PointResult:
     corollary: float
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class ExperimentAnalysis:
     """Everything the report says about one run.
 
@@ -460,16 +470,16 @@ def _point(
         )
     wm = worst_model(mech, utility, context_mechanism=mx, population=pop, tau=tau)
     return PointResult(
-        eps,
-        filt,
-        mech,
-        law,
-        local_fairness(law, utility, pop),
-        global_fairness(law, utility, pop),
-        iv,
-        wm.local.value,
-        wm.global_.value,
-        mech.epsilon,
+        epsilon=eps,
+        filter=filt,
+        mechanism=mech,
+        law=law,
+        local=local_fairness(law, utility, pop),
+        global_=global_fairness(law, utility, pop),
+        intervals=iv,
+        black_box_local=wm.local.value,
+        black_box_global=wm.global_.value,
+        corollary=mech.epsilon,
     )
 
 
@@ -501,7 +511,12 @@ def _paper_point(
         )
         iv = fairness_intervals(table, utility, confidence, method, population=pop)
     return PaperDesignPoint(
-        eps, int(c.sum()), law, local_fairness(law, utility, pop), global_fairness(law, utility, pop), iv
+        epsilon=eps,
+        queries=int(c.sum()),
+        law=law,
+        local=local_fairness(law, utility, pop),
+        global_=global_fairness(law, utility, pop),
+        intervals=iv,
     )
 
 
@@ -571,7 +586,7 @@ def analyse(
             "table design",
             f"shown cell ({task.context_name} {x!r}, {task.options[0]} "
             f"{task.profile_label(pair[0])!r}, {task.options[1]} {task.profile_label(pair[1])!r}) has "
-            f"no answered query ({len(kernel.empty_cells)} such cells); run again with --resume",
+            f"no answered query ({len(kernel.empty_cells)} such cells); run again with `resume`",
         )
     utility = candidate_utility(task)
     pop = candidate_population(task, positions)
@@ -654,10 +669,7 @@ def analyse_kernel(
     mx = candidate_context_mechanism(task, context_epsilon)
     if tau is None and utility.lower > 0:
         tau = utility.lower
-    eps = sorted({float(e) for e in epsilons})
-    for e in eps:
-        if not (math.isfinite(e) and e >= 0):
-            raise InputError("--epsilon", "must be finite and >= 0 (nats)", e)
+    eps = sorted({real(e, "epsilons", low=0.0, what="finite and >= 0 (nats)") for e in epsilons})
     top = max(eps + [1.0])
     dense = np.unique(np.concatenate([np.linspace(0.0, top, grid), eps]))
     curve = privacy_curve(
@@ -680,25 +692,25 @@ def analyse_kernel(
     shares = np.stack([probs[:, i1 * k + i2], probs[:, i2 * k + i1]], axis=1)
     counts = kernel.counts
     return ExperimentAnalysis(
-        task,
-        model,
-        samples,
-        positions,
-        kernel,
-        kc,
-        pop,
-        utility,
-        curve,
-        points,
-        baseline,
-        shares,
-        tuple(paper),
-        confidence if counts is not None else None,
-        int(counts[..., -1].sum()) if counts is not None else 0,
-        int(counts.sum()) if counts is not None else 0,
-        sum(p.queries for p in paper),
-        context_epsilon,
-        tau,
+        task=task,
+        model=model,
+        samples=samples,
+        positions=positions,
+        kernel=kernel,
+        candidate_kernel=kc,
+        population=pop,
+        utility=utility,
+        curve=curve,
+        points=points,
+        baseline=baseline,
+        shares=shares,
+        paper=tuple(paper),
+        confidence=confidence if counts is not None else None,
+        unparsed=int(counts[..., -1].sum()) if counts is not None else 0,
+        table_queries=int(counts.sum()) if counts is not None else 0,
+        paper_queries=sum(p.queries for p in paper),
+        context_epsilon=context_epsilon,
+        tau=tau,
         route="sampled" if counts is not None else "exact",
         unparsed_share=float(probs[..., -1].mean()),
         split=position_split(task, shares),

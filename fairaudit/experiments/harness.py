@@ -31,17 +31,19 @@ import json
 import os
 import threading
 import time
-from collections.abc import Hashable, Iterable, Sequence
+from collections.abc import Callable, Hashable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Protocol, Self
+from typing import Self
 
 import numpy as np
 
 from .._errors import FairauditError, InputError
+from .._validation import whole
 from ..laws import Kernel
+from ._progress import Bar, progress_bar
 from .vlm.filter import PrivacyFilter
 from .vlm.models import DecisionModel, Query
 from .vlm.tasks import UNPARSED, DeliveryTask
@@ -129,11 +131,10 @@ def plan_queries(
     (12, 'paper|1|maternity leave|Tom & 25 & Asian|Mary & 55 & American|0')
     """
     if design not in ("table", "paper"):
-        raise InputError("--design", "must be 'table' or 'paper'", design)
+        raise InputError("design", "must be 'table' or 'paper'", design)
     if positions not in ("balanced", "fixed"):
-        raise InputError("--positions", "must be 'balanced' or 'fixed'", positions)
-    if not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise InputError("--samples", "must be a whole number >= 1", samples)
+        raise InputError("positions", "must be 'balanced' or 'fixed'", positions)
+    whole(samples, "samples", low=1)
     label = task.profile_label
     out: list[Query] = []
     if design == "table":
@@ -145,7 +146,7 @@ def plan_queries(
                         out.append(Query(key, "table", ctx, (p1, p2), r, query_seed(seed, key)))
         return out
     if not len(epsilons):
-        raise InputError("--epsilon", "the paper design needs at least one epsilon")
+        raise InputError("epsilons", "the paper design needs at least one epsilon")
     c1, c2 = task.candidates
     orders = [(c1, c2), (c2, c1)] if positions == "balanced" else [(c1, c2)]
     for eps in epsilons:
@@ -204,8 +205,8 @@ class QueryLog:
         exists = self.path.exists() and self.path.stat().st_size > 0
         if exists and not resume:
             raise InputError(
-                "--out",
-                f"holds a run already ({self.path.name}); pass --resume to continue it, or choose another folder",
+                "out",
+                f"holds a run already ({self.path.name}); pass `resume` to continue it, or choose another folder",
                 str(self.path.parent),
             )
         if exists:
@@ -233,7 +234,7 @@ class QueryLog:
                 if last or all(not x.strip() for x in lines[i + 1 :]):
                     break  # a torn line left by a crash: cut it off below
                 raise InputError(
-                    "--resume", f"line {i + 1} of {self.path} is not valid JSON; the log is damaged"
+                    "resume", f"line {i + 1} of {self.path} is not valid JSON; the log is damaged"
                 ) from None
             offset = good = end
             if first is None:
@@ -246,11 +247,11 @@ class QueryLog:
                 else:
                     self.errors[rec["id"]] = rec
         if first is None or first.get("type") != "header":
-            raise InputError("--resume", "the log has no header line; it is not a fairaudit run log", str(self.path))
-        for key, flag in (("task", "experiment"), ("model", "--model/--simulated/--kernel"), ("seed", "--seed")):
+            raise InputError("resume", "the log has no header line; it is not a fairaudit run log", str(self.path))
+        for key, flag in (("task", "`experiment`"), ("model", "`model`/`simulated`/`kernel`"), ("seed", "`seed`")):
             if first.get(key) != header.get(key):
                 raise InputError(
-                    "--resume",
+                    "resume",
                     f"the run in {self.path.parent} was made with {flag} {first.get(key)!r}, not {header.get(key)!r}",
                 )
         self.header = first
@@ -299,7 +300,7 @@ def _now() -> str:
 # -- running --------------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RunSummary:
     """What a call of :func:`run_queries` did.
 
@@ -379,63 +380,89 @@ def run_queries(
         On concurrency < 1. KeyboardInterrupt propagates after the answered
         queries are logged and pending ones cancelled.
     """
-    from .vlm.parse import parse_reply
-
-    if not isinstance(concurrency, (int, np.integer)) or concurrency < 1:
-        raise InputError("--concurrency", "must be a whole number >= 1", concurrency)
+    whole(concurrency, "concurrency", low=1)
     digests = [hashlib.sha256(b).hexdigest() for b in images]
     images = tuple(images)
     already = sum(q.id in log.records for q in queries)
     todo = [q for q in queries if q.id not in log.records]
     start = time.monotonic()
-    failures: list[str] = []
-    asked = failed = 0
+    bar = progress_bar(len(todo), f"{task.name}: {model.name}", progress)
+    asked, failed, failures = _ask_all(
+        todo, lambda q: _answer(task, model, q, digests, images), log, bar, int(concurrency)
+    )
+    ids = {q.id for q in queries}
+    unparsed = sum(1 for k, r in log.records.items() if k in ids and r.get("decision") == UNPARSED)
+    return RunSummary(
+        planned=len(queries),
+        already=already,
+        asked=asked,
+        failed=failed,
+        unparsed=unparsed,
+        seconds=time.monotonic() - start,
+        failures=tuple(failures),
+    )
 
-    def ask(q: Query) -> dict:
-        prompt = task.prompt(q.context, q.profiles)
-        rec = {
-            "type": "query",
-            "id": q.id,
-            "design": q.design,
-            "context": q.context,
-            "profiles": [list(p) for p in q.profiles],
-            "rep": q.rep,
-            "seed": q.seed,
-            "epsilon": q.epsilon,
-            "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
-            "prompt_sha256": _prompt_hash(prompt, digests),
-            "time": _now(),
-        }
-        t0 = time.monotonic()
-        try:
-            r = model.reply(q, prompt, images)
-        except FairauditError as exc:  # ChatError after the client's retries
-            return {
-                **rec,
-                "model": model.name,
-                "status": "error",
-                "error": str(exc),
-                "latency": round(time.monotonic() - t0, 6),
-            }
-        parsed = parse_reply(r.text, task.options, task.kind)
-        decision = task.options[parsed.choice] if parsed.ok and parsed.choice is not None else UNPARSED
+
+def _answer(
+    task: DeliveryTask, model: DecisionModel, q: Query, digests: Sequence[str], images: tuple[bytes, ...]
+) -> dict:
+    """Ask one query and return its log record: the reply and its parsed decision, or the transport error."""
+    from .vlm.parse import parse_reply
+
+    prompt = task.prompt(q.context, q.profiles)
+    rec = {
+        "type": "query",
+        "id": q.id,
+        "design": q.design,
+        "context": q.context,
+        "profiles": [list(p) for p in q.profiles],
+        "rep": q.rep,
+        "seed": q.seed,
+        "epsilon": q.epsilon,
+        "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
+        "prompt_sha256": _prompt_hash(prompt, digests),
+        "time": _now(),
+    }
+    t0 = time.monotonic()
+    try:
+        r = model.reply(q, prompt, images)
+    except FairauditError as exc:  # ChatError after the client's retries
         return {
             **rec,
-            "model": r.model,
-            "status": "ok",
-            "latency": round(r.latency or time.monotonic() - t0, 6),
-            "attempts": r.attempts,
-            "reply": r.text,
-            "decision": decision,
-            "parse_error": "" if parsed.ok else parsed.error,
+            "model": model.name,
+            "status": "error",
+            "error": str(exc),
+            "latency": round(time.monotonic() - t0, 6),
         }
+    parsed = parse_reply(r.text, task.options, task.kind)
+    decision = task.options[parsed.choice] if parsed.ok and parsed.choice is not None else UNPARSED
+    return {
+        **rec,
+        "model": r.model,
+        "status": "ok",
+        "latency": round(r.latency or time.monotonic() - t0, 6),
+        "attempts": r.attempts,
+        "reply": r.text,
+        "decision": decision,
+        "parse_error": "" if parsed.ok else parsed.error,
+    }
 
-    bar = _progress(len(todo), f"{task.name}: {model.name}", progress)
-    pool = ThreadPoolExecutor(max_workers=int(concurrency))
+
+def _ask_all(
+    todo: Sequence[Query], ask: Callable[[Query], dict], log: QueryLog, bar: Bar, concurrency: int
+) -> tuple[int, int, list[str]]:
+    """Ask ``todo`` on ``concurrency`` threads, logging each record as it arrives: (answered, failed, first failures).
+
+    At most 4 x ``concurrency`` queries are submitted at a time; on any exception (KeyboardInterrupt too) the
+    pending ones are cancelled, the answered ones are in the log, the bar and log are closed, and it propagates.
+    """
+    failures: list[str] = []
+    asked = failed = 0
+    pool = ThreadPoolExecutor(max_workers=concurrency)
     try:
         pending: set = set()
         it = iter(todo)
-        window = 4 * int(concurrency)
+        window = 4 * concurrency
         while True:
             while len(pending) < window:
                 q = next(it, None)
@@ -462,34 +489,7 @@ def run_queries(
         raise
     pool.shutdown(wait=True)
     bar.close()
-    ids = {q.id for q in queries}
-    unparsed = sum(1 for k, r in log.records.items() if k in ids and r.get("decision") == UNPARSED)
-    return RunSummary(len(queries), already, asked, failed, unparsed, time.monotonic() - start, tuple(failures))
-
-
-class _Bar(Protocol):
-    """A progress bar: tqdm's, or none."""
-
-    def update(self, n: int = 1) -> object: ...
-    def close(self) -> None: ...
-
-
-class _NoBar:
-    def update(self, n: int = 1) -> None:
-        pass
-
-    def close(self) -> None:
-        pass
-
-
-def _progress(total: int, desc: str, enabled: bool) -> _Bar:
-    if not enabled or total == 0:
-        return _NoBar()
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return _NoBar()
-    return tqdm(total=total, desc=desc, unit="query", disable=None, leave=False)
+    return asked, failed, failures
 
 
 # -- counts ---------------------------------------------------------------------------------------------------

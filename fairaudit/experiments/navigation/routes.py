@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, TypeAlias
 import numpy as np
 
 from ..._errors import InputError
-from .maps import Maps, _networkx, build_maps
+from .maps import Maps, build_maps, require_networkx
 from .s3dis import Area, read_area
 from .synthetic import write_office_floor
 
@@ -71,7 +71,7 @@ def _pillow() -> tuple[ModuleType, ModuleType, ModuleType]:
     return Image, ImageDraw, ImageFont
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Route:
     """A minimum-cost grid path on the traversability map.
 
@@ -126,7 +126,7 @@ class DistanceCheck:
     equal: bool
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class DeliveryScene:
     """The paper's delivery scene: maps, candidate routes, their check and their images.
 
@@ -182,7 +182,7 @@ def _edges(traversable: np.ndarray, res: float) -> tuple[np.ndarray, np.ndarray,
 def _grid_graph(maps: Maps) -> networkx.Graph:
     graph = _GRAPHS.get(maps)
     if graph is None:
-        nx = _networkx()
+        nx = require_networkx()
         u, v, w = _edges(maps.traversable, maps.resolution)
         graph = nx.Graph()
         graph.add_nodes_from(np.flatnonzero(maps.traversable.ravel()).tolist())
@@ -282,7 +282,7 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
         raise InputError("max_snap", "must be a finite number of metres >= 0", max_snap)
     s, s_snap = _endpoint(maps, start, "start", snap)
     g, g_snap = _endpoint(maps, goal, "goal", snap)
-    nx = _networkx()
+    nx = require_networkx()
     graph = _grid_graph(maps)
     cols, res = maps.shape[1], maps.resolution
 

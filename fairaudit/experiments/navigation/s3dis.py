@@ -97,7 +97,7 @@ def category_code(name: str) -> int:
         raise InputError("category", f"must be one of {', '.join(CATEGORIES)}", name) from None
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Room:
     """The points of one S3DIS room, with a category and an instance per point.
 

@@ -31,12 +31,13 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from email.utils import parsedate_to_datetime
-from numbers import Integral, Real
+from numbers import Integral
 from types import ModuleType
 from typing import Any
 from urllib.parse import urlsplit, urlunsplit
 
 from ..._errors import FairauditError, InputError
+from ..._validation import real, whole
 
 __all__ = ["ChatClient", "ChatError", "ChatReply", "RETRY_STATUSES", "system_message", "user_message"]
 
@@ -95,7 +96,7 @@ class ChatError(FairauditError):
         return (type(self), (str(self), self.kind, self.status, self.attempts, self.url))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ChatReply:
     """One successful chat completion.
 
@@ -215,15 +216,15 @@ class ChatClient:
     ) -> None:
         self._url, self.endpoint = _chat_url(endpoint)
         if not isinstance(model, str) or not model.strip():
-            raise InputError("--model", "must be a non-empty model name", model)
+            raise InputError("model", "must be a non-empty model name", model)
         self.model = model.strip()
-        self.timeout = _real(timeout, "--timeout", minimum=0.0, strict=True)
-        self.max_retries = _integer(max_retries, "--max-retries", minimum=0)
-        self.backoff = _real(backoff, "--backoff", minimum=0.0)
-        self.max_backoff = _real(max_backoff, "--max-backoff", minimum=0.0)
-        self.max_concurrency = _integer(max_concurrency, "--concurrency", minimum=1)
-        self.temperature = None if temperature is None else _real(temperature, "--temperature", minimum=0.0)
-        self.max_tokens = None if max_tokens is None else _integer(max_tokens, "--max-tokens", minimum=1)
+        self.timeout = real(timeout, "timeout", low=0.0, low_open=True)
+        self.max_retries = whole(max_retries, "max_retries")
+        self.backoff = real(backoff, "backoff", low=0.0)
+        self.max_backoff = real(max_backoff, "max_backoff", low=0.0)
+        self.max_concurrency = whole(max_concurrency, "max_concurrency", low=1)
+        self.temperature = None if temperature is None else real(temperature, "temperature", low=0.0)
+        self.max_tokens = None if max_tokens is None else whole(max_tokens, "max_tokens", low=1)
         self.extra_body = _extra_body(extra_body)
         self._key = _api_key(api_key, api_key_env)
 
@@ -529,40 +530,24 @@ def _chat_url(endpoint: Any) -> tuple[str, str]:
     """The request URL and its display form (no query) for ``endpoint``."""
     hint = "must be an http(s) URL such as http://127.0.0.1:8000/v1"
     if not isinstance(endpoint, str) or not endpoint.strip():
-        raise InputError("--endpoint", hint, endpoint)
+        raise InputError("endpoint", hint, endpoint)
     try:
         parts = urlsplit(endpoint.strip())
         parts.port  # noqa: B018 - raises ValueError on a bad port
     except ValueError:
-        raise InputError("--endpoint", hint) from None
+        raise InputError("endpoint", hint) from None
     if parts.username is not None or parts.password is not None:
         raise InputError(
-            "--endpoint", "must not contain a user name or password (pass the key with api_key or the environment)"
+            "endpoint", "must not contain a user name or password (pass the key with api_key or the environment)"
         )
     display_netloc = parts.netloc
     if parts.scheme.lower() not in ("http", "https") or not parts.hostname:
-        raise InputError("--endpoint", hint, urlunsplit((parts.scheme, display_netloc, parts.path, "", "")))
+        raise InputError("endpoint", hint, urlunsplit((parts.scheme, display_netloc, parts.path, "", "")))
     path = parts.path.rstrip("/")
     if not path.endswith("/chat/completions"):
         path += "/chat/completions"
     scheme = parts.scheme.lower()
     return urlunsplit((scheme, parts.netloc, path, parts.query, "")), urlunsplit((scheme, parts.netloc, path, "", ""))
-
-
-def _real(value: Any, field: str, *, minimum: float, strict: bool = False) -> float:
-    bound = f"> {minimum:g}" if strict else f">= {minimum:g}"
-    if isinstance(value, bool) or not isinstance(value, Real):
-        raise InputError(field, f"must be a number {bound}", value)
-    number = float(value)
-    if not math.isfinite(number) or number < minimum or (strict and number == minimum):
-        raise InputError(field, f"must be a finite number {bound}", value)
-    return number
-
-
-def _integer(value: Any, field: str, *, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
-        raise InputError(field, f"must be an integer >= {minimum}", value)
-    return int(value)
 
 
 def _extra_body(extra: Any) -> dict:

@@ -23,13 +23,13 @@ The correct privacy budgets (docs/design.md, the paper's errors 1 and 2):
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..._errors import InputError
+from ..._validation import real
 from ...privacy import Mechanism, MechanismFamily, identity, keep_probability, product, randomized_response
 from .tasks import DeliveryTask
 
@@ -92,13 +92,14 @@ class PrivacyFilter:
         Name, age and race each kept with p = 0.7 (the paper's filter):
 
         >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
+        >>> import math
         >>> f = PrivacyFilter.from_epsilon(HR_DELIVERY, 3 * math.log(7 / 3))
         >>> [round(p, 6) for p in f.keep_probabilities], round(f.epsilon_profile, 6)
         ([0.7, 0.7, 0.7], 2.541894)
         >>> round(f.candidate_mechanism().epsilon, 6)                  # both profiles are in the query
         5.083787
         """
-        eps = _check(epsilon, "--epsilon")
+        eps = _nats(epsilon, "epsilon")
         n = len(task.attributes)
         mechs = tuple(
             randomized_response(a.values, eps / n, name=f"randomized response on {a.name}") for a in task.attributes
@@ -108,7 +109,7 @@ class PrivacyFilter:
         else:
             ctx = randomized_response(
                 task.contexts,
-                _check(context_epsilon, "--context-epsilon"),
+                _nats(context_epsilon, "context_epsilon"),
                 name=f"randomized response on {task.context_name}",
             )
         return cls(task, mechs, ctx)
@@ -163,13 +164,13 @@ class PrivacyFilter:
         """
         task = self.task
         ctx_row = self.context_mechanism.matrix[task.contexts.index(context)]
-        out_ctx = self.context_mechanism.outputs[_draw(rng, ctx_row)]
+        out_ctx = self.context_mechanism.outputs[draw(rng, ctx_row)]
         shown = []
         for profile in profiles:
             values = []
             for mech, value in zip(self.attribute_mechanisms, profile):
                 row = mech.matrix[mech.inputs.index(value)]
-                values.append(mech.outputs[_draw(rng, row)])
+                values.append(mech.outputs[draw(rng, row)])
             shown.append(tuple(values))
         return out_ctx, tuple(shown)
 
@@ -214,6 +215,7 @@ def candidate_family(task: DeliveryTask) -> MechanismFamily:
     --------
     >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
     >>> fam = candidate_family(HR_DELIVERY)
+    >>> import math
     >>> eps = 6 * math.log(7 / 3)                     # p = 0.7 on each of the 6 attributes shown
     >>> round(fam(eps).epsilon, 6), round(fam.keep_probability(eps), 6)
     (5.083787, 0.343)
@@ -230,15 +232,16 @@ def candidate_family(task: DeliveryTask) -> MechanismFamily:
     return MechanismFamily(f"randomized response on each attribute of both profiles ({task.name})", inputs, build, keep)
 
 
-def _check(eps: float, flag: str) -> float:
-    try:
-        v = float(eps)
-    except (TypeError, ValueError):
-        raise InputError(flag, "must be a number of nats >= 0", eps) from None
-    if math.isnan(v) or v < 0:
-        raise InputError(flag, "must be a number of nats >= 0", eps)
-    return v
+def _nats(eps: float, name: str) -> float:
+    return real(eps, name, low=0.0, finite=False, what="a number of nats >= 0")
 
 
-def _draw(rng: np.random.Generator, row: np.ndarray) -> int:
+def draw(rng: np.random.Generator, row: np.ndarray) -> int:
+    """One index drawn from the weights ``row`` (not necessarily normalised) with one uniform number of ``rng``.
+
+    Examples
+    --------
+    >>> draw(np.random.default_rng(0), np.array([0.0, 1.0, 0.0]))
+    1
+    """
     return int(np.searchsorted(np.cumsum(row), rng.random() * row.sum(), side="right").clip(0, row.size - 1))

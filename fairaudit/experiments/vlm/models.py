@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from ..._errors import InputError
-from .filter import _draw
+from .filter import draw
 from .tasks import DeliveryTask
 
 if TYPE_CHECKING:
@@ -180,7 +180,7 @@ class SimulatedModel:
             profiles.index(tuple(query.profiles[1])),
         ]
         rng = np.random.default_rng(query.seed)
-        d = _draw(rng, row)
+        d = draw(rng, row)
         return ModelReply(reply_text(t, None if d == len(t.options) else d, rng), f"simulated:{self.name}")
 
     @classmethod
@@ -196,22 +196,22 @@ class SimulatedModel:
         ------
         InputError
             On a missing file or column, an unknown label, a negative value,
-            or a shown cell with no row (naming ``--kernel`` and the cell).
+            or a shown cell with no row (naming ``kernel`` and the cell).
         """
         import pandas as pd
 
         p = Path(path)
         if not p.is_file():
-            raise InputError("--kernel", "no such file", str(path))
+            raise InputError("kernel", "no such file", str(path))
         try:
             frame = pd.read_csv(p, dtype=str, keep_default_na=False)
         except (OSError, ValueError, pd.errors.ParserError) as exc:
-            raise InputError("--kernel", f"cannot be read as CSV ({exc})", str(path)) from None
+            raise InputError("kernel", f"cannot be read as CSV ({exc})", str(path)) from None
         value_col = "count" if "count" in frame.columns else "probability"
         need = [task.context_name, *task.options, "decision", value_col]
         missing = [c for c in need if c not in frame.columns]
         if missing:
-            raise InputError("--kernel", f"needs columns {need}", list(frame.columns))
+            raise InputError("kernel", f"needs columns {need}", list(frame.columns))
         profiles = {task.profile_label(q): i for i, q in enumerate(task.profiles)}
         axes = (
             [({c: i for i, c in enumerate(task.contexts)}, task.context_name)]
@@ -223,14 +223,14 @@ class SimulatedModel:
             codes = frame[col].map(lookup)
             if codes.isna().any():
                 bad = frame[col][codes.isna()].iloc[0]
-                raise InputError(f"--kernel column '{col}'", f"value not among {list(lookup)}", bad)
+                raise InputError(f"kernel column '{col}'", f"value not among {list(lookup)}", bad)
             idx.append(codes.to_numpy(dtype=int))
         try:
             values = frame[value_col].astype(float).to_numpy()
         except ValueError:
-            raise InputError(f"--kernel column '{value_col}'", "must be numbers") from None
+            raise InputError(f"kernel column '{value_col}'", "must be numbers") from None
         if np.any(values < 0) or not np.all(np.isfinite(values)):
-            raise InputError(f"--kernel column '{value_col}'", "must be finite and >= 0")
+            raise InputError(f"kernel column '{value_col}'", "must be finite and >= 0")
         k = len(task.profiles)
         table = np.zeros((len(task.contexts), k, k, len(task.decisions)))
         np.add.at(table, tuple(idx), values)
@@ -238,7 +238,7 @@ class SimulatedModel:
         if np.any(totals == 0):
             i, a, b = np.argwhere(totals == 0)[0]
             raise InputError(
-                "--kernel",
+                "kernel",
                 f"has no rows for ({task.context_name} {task.contexts[i]!r}, "
                 f"{task.options[0]} {task.profile_label(task.profiles[a])!r}, "
                 f"{task.options[1]} {task.profile_label(task.profiles[b])!r})",
@@ -304,7 +304,7 @@ def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel:
     Raises
     ------
     InputError
-        On an unknown name (naming ``--simulated`` and the choices).
+        On an unknown name (naming ``simulated`` and the choices).
 
     Examples
     --------
@@ -316,7 +316,7 @@ def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel:
     """
     models = SIMULATED[task.name]
     if name not in models:
-        raise InputError("--simulated", f"must be one of {sorted(models)} for {task.name}", name)
+        raise InputError("simulated", f"must be one of {sorted(models)} for {task.name}", name)
     return SimulatedModel(task, models[name](task), name)
 
 

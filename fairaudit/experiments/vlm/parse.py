@@ -67,7 +67,7 @@ _ORDER_KEYS = frozenset("order ranking rank sequence deliveryorder servingorder 
 _REASON_KEYS = ("reason", "reasoning", "explanation", "rationale", "justification")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ParsedReply:
     """The decision read from one reply.
 
@@ -197,14 +197,14 @@ def parse_reply(text: str, options: Sequence[str], kind: Literal["choice", "orde
     try:
         return _parse(text, spec, kind)
     except Exception as exc:  # a safety net: a reply never makes the parser raise  # pragma: no cover
-        return ParsedReply(False, error=f"unparseable reply ({type(exc).__name__})")
+        return ParsedReply(ok=False, error=f"unparseable reply ({type(exc).__name__})")
 
 
 def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
     if not isinstance(text, str):
-        return ParsedReply(False, error=f"reply is not a string ({type(text).__name__})")
+        return ParsedReply(ok=False, error=f"reply is not a string ({type(text).__name__})")
     if not text.strip():
-        return ParsedReply(False, error="empty reply")
+        return ParsedReply(ok=False, error="empty reply")
     text = text[:_MAX_CHARS]
     objects = list(_objects(text))
 
@@ -240,12 +240,12 @@ def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
         if len(named) > 1:
             listed = ", ".join(spec.names[i] for i in named)
             return ParsedReply(
-                False, error=f"ambiguous: no JSON decision and the text names several options ({listed})"
+                ok=False, error=f"ambiguous: no JSON decision and the text names several options ({listed})"
             )
     keys = ", ".join(spec.names)
     if objects:
-        return ParsedReply(False, error=f"no JSON object with the keys {keys}")
-    return ParsedReply(False, error=f"no JSON object with the keys {keys} and no decision in the text")
+        return ParsedReply(ok=False, error=f"no JSON object with the keys {keys}")
+    return ParsedReply(ok=False, error=f"no JSON object with the keys {keys} and no decision in the text")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -395,7 +395,7 @@ def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, 
         number = _number(raw[i])
         if number is None:
             return ParsedReply(
-                False,
+                ok=False,
                 reason=reason,
                 fallback=fallback,
                 error=f"value of {spec.names[i]} is not a number: {_clip(raw[i])}",
@@ -408,7 +408,7 @@ def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, 
         winners = [i for i in range(spec.n) if values[i] == top]
         if top <= 0:
             return ParsedReply(
-                False,
+                ok=False,
                 values=named,
                 reason=reason,
                 fallback=fallback,
@@ -417,21 +417,21 @@ def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, 
         if len(winners) > 1:
             tied = " and ".join(spec.names[i] for i in winners)
             return ParsedReply(
-                False, values=named, reason=reason, fallback=fallback, error=f"ambiguous: {tied} tie at {top:g}"
+                ok=False, values=named, reason=reason, fallback=fallback, error=f"ambiguous: {tied} tie at {top:g}"
             )
         order = tuple(sorted(range(spec.n), key=lambda i: (-values[i], i)))
-        return ParsedReply(True, winners[0], order, named, reason, "", fallback)
+        return ParsedReply(ok=True, choice=winners[0], order=order, values=named, reason=reason, fallback=fallback)
     positions = sorted(values.values())
     if positions != [float(p) for p in range(1, spec.n + 1)]:
         return ParsedReply(
-            False,
+            ok=False,
             values=named,
             reason=reason,
             fallback=fallback,
             error=f"not an order: the positions ({listing}) are not a permutation of 1..{spec.n}",
         )
     order = tuple(sorted(range(spec.n), key=lambda i: values[i]))
-    return ParsedReply(True, order[0], order, named, reason, "", fallback)
+    return ParsedReply(ok=True, choice=order[0], order=order, values=named, reason=reason, fallback=fallback)
 
 
 def _result_from_choice(index: int, spec: _Options, kind: str, reason: str | None, fallback: bool) -> ParsedReply:
@@ -454,7 +454,7 @@ def _named_answer(container: dict, parent: dict | None, spec: _Options, kind: st
             order = _sequence(value, spec)
             if order is None:
                 return ParsedReply(
-                    False, reason=reason, error=f"{key!r} is not an order of {', '.join(spec.names)}: {_clip(value)}"
+                    ok=False, reason=reason, error=f"{key!r} is not an order of {', '.join(spec.names)}: {_clip(value)}"
                 )
             return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, reason, False)
         if nk in _CHOICE_KEYS and (kind == "choice" or spec.n == 2):
@@ -463,7 +463,9 @@ def _named_answer(container: dict, parent: dict | None, spec: _Options, kind: st
             index = _option_index(value, spec)
             if index is None:
                 return ParsedReply(
-                    False, reason=reason, error=f"{key!r} does not name one of {', '.join(spec.names)}: {_clip(value)}"
+                    ok=False,
+                    reason=reason,
+                    error=f"{key!r} does not name one of {', '.join(spec.names)}: {_clip(value)}",
                 )
             return _result_from_choice(index, spec, kind, reason, False)
     return None

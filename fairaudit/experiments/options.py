@@ -1,0 +1,176 @@
+"""What an experiment runs on and how: the model source and the run options of :func:`~fairaudit.experiments.run.run_experiment`.
+
+:class:`ModelSource` names where the decisions come from (a simulated model,
+a kernel table, an OpenAI-compatible endpoint or a language model run on this
+machine); :class:`RunOptions` holds everything else about the run (the
+design, the samples, the privacy budgets, the seed, resuming, the bands, the
+images). Both are frozen and check their own fields when made, so a bad value
+is refused before anything is written.
+
+Errors name the fields (``samples``, ``epsilons``, ``endpoint``), as the
+parameters of :func:`~fairaudit.experiments.run.run_experiment` they are;
+a parameter mentioned in a problem is written in backticks (```endpoint```).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from .._errors import InputError
+from .._validation import choice, real, whole
+from .analysis import DEFAULT_TARGETS
+
+__all__ = ["DEFAULT_KEEPS", "ModelSource", "RunOptions"]
+
+DEFAULT_KEEPS = (0.5, 0.6, 0.7, 0.8, 0.9)
+"""Keep probabilities per attribute of the default ε grid (the paper varied p)."""
+
+_SOURCES = ("simulated", "kernel", "endpoint", "local_model")
+
+
+@dataclass(frozen=True, kw_only=True)
+class ModelSource:
+    """Where an experiment's decisions come from: one of four sources (default: a simulated model).
+
+    Parameters
+    ----------
+    simulated : str, optional
+        A named simulated model (:data:`fairaudit.experiments.vlm.models.SIMULATED`);
+        the default source, with the task's first model, when nothing is given.
+    kernel : str or Path, optional
+        A simulated model from a kernel table (a run's ``kernel.csv``).
+    endpoint : str, optional
+        An OpenAI-compatible endpoint URL (API key from ``OPENAI_API_KEY``), with ``model``.
+    model : str, optional
+        The model's name at ``endpoint``.
+    local_model : str, optional
+        A real language model run on this machine, text only (a key of
+        :data:`fairaudit.experiments.local_model.LOCAL_MODELS`).
+    timeout : float
+        Seconds per request (an endpoint, or a local model's server).
+    max_retries : int
+        Retries on 429, 5xx and timeouts.
+
+    Raises
+    ------
+    InputError
+        When more than one source is given, or ``model`` without ``endpoint`` (or the reverse).
+
+    Examples
+    --------
+    >>> ModelSource(endpoint="http://127.0.0.1:8000/v1", model="m").model
+    'm'
+    >>> ModelSource(simulated="fair", kernel="kernel.csv")
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: kernel: give only one of `simulated`, `kernel`, `endpoint` and `local_model` (also got `simulated`)
+    """
+
+    simulated: str | None = None
+    kernel: str | Path | None = None
+    endpoint: str | None = None
+    model: str | None = None
+    local_model: str | None = None
+    timeout: float = 60.0
+    max_retries: int = 5
+
+    def __post_init__(self) -> None:
+        given = [name for name in _SOURCES if getattr(self, name)]
+        if len(given) > 1:
+            listed = ", ".join(f"`{n}`" for n in _SOURCES[:-1]) + f" and `{_SOURCES[-1]}`"
+            raise InputError(given[1], f"give only one of {listed} (also got `{given[0]}`)")
+        if self.endpoint and not self.model:
+            raise InputError("model", "is needed with `endpoint` (the model name the endpoint serves)")
+        if self.model and not self.endpoint:
+            raise InputError("model", "goes with `endpoint`", self.model)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunOptions:
+    """How an experiment runs: its design, samples, privacy budgets, seed and outputs.
+
+    Parameters
+    ----------
+    samples : int, optional
+        Queries per shown cell (and per true cell and ε in the paper's
+        design); default 20. With a local model, leaving it out takes the
+        exact route: the model's own kernel from its next-token
+        probabilities, with no queries and no sampling error.
+    epsilons : sequence of float, optional
+        The candidate's privacy budgets ε (nats) to report; or give ``keeps``:
+        the keep probability of every attribute (default :data:`DEFAULT_KEEPS`).
+    keeps : sequence of float, optional
+    context_epsilon : float, optional
+        ε of randomized response on the context (document type or package).
+    design : {"table", "both"}
+        The table design only, or also the paper's (sampling through the
+        filter at every ε) for comparison; ``"both"`` needs queries (not the
+        exact route).
+    positions : {"balanced", "fixed"}
+        Both orders of the two candidates, or the paper's only.
+    targets : sequence of float
+        Fairness targets (nats) at which the report gives the ε that meets
+        them, for this model and for any model (default
+        :data:`fairaudit.experiments.analysis.DEFAULT_TARGETS`).
+    seed : int
+    resume : bool
+        Continue the run logged in the run's folder.
+    concurrency : int, optional
+        Queries in flight (default 4 for an endpoint, 1 otherwise).
+    confidence : float or None
+        Level of the simultaneous intervals (None for none; none on the exact route).
+    method : str
+        Their method.
+    scene : str, optional
+        An S3DIS area folder for the route images; default a generated office floor.
+    images : bool
+        Make the route images and send them with every query.
+
+    Raises
+    ------
+    InputError
+        On an unknown design or positions, both ``epsilons`` and ``keeps``, a
+        negative or infinite ε or target, or ``samples`` or ``concurrency`` below 1.
+
+    Examples
+    --------
+    >>> RunOptions(samples=5, keeps=[0.7]).keeps
+    (0.7,)
+    >>> RunOptions(design="paper")
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: design: must be one of table, both (got 'paper')
+    """
+
+    samples: int | None = None
+    epsilons: Sequence[float] | None = None
+    keeps: Sequence[float] | None = None
+    context_epsilon: float | None = None
+    design: str = "table"
+    positions: str = "balanced"
+    targets: Sequence[float] = DEFAULT_TARGETS
+    seed: int = 0
+    resume: bool = False
+    concurrency: int | None = None
+    confidence: float | None = 0.95
+    method: str = "auto"
+    scene: str | None = None
+    images: bool = True
+
+    def __post_init__(self) -> None:
+        choice(self.design, "design", ("table", "both"))
+        choice(self.positions, "positions", ("balanced", "fixed"))
+        if self.epsilons is not None and self.keeps is not None:
+            raise InputError("keeps", "give `epsilons` or `keeps`, not both")
+        nats = "finite and >= 0 (nats)"
+        if self.epsilons is not None:
+            object.__setattr__(self, "epsilons", tuple(real(e, "epsilons", low=0.0, what=nats) for e in self.epsilons))
+        if self.keeps is not None:
+            object.__setattr__(self, "keeps", tuple(self.keeps))
+        object.__setattr__(self, "targets", tuple(real(t, "targets", low=0.0, what=nats) for t in self.targets))
+        if self.samples is not None:
+            object.__setattr__(self, "samples", whole(self.samples, "samples", low=1))
+        if self.concurrency is not None:
+            object.__setattr__(self, "concurrency", whole(self.concurrency, "concurrency", low=1))

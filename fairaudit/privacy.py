@@ -476,6 +476,13 @@ class RandomizedResponse(Mechanism):
     keep probability and (in :mod:`fairaudit.bounds`, :mod:`fairaudit.worstcase`
     and :mod:`fairaudit.calibrate`) the certificates have closed forms: a
     million groups cost their labels, not 10^12 cells. ``proofs/privacy.md`` §5.
+    Made by :func:`randomized_response`; ``rr`` holds its parameters.
+
+    Examples
+    --------
+    >>> m = randomized_response(["a", "b"], epsilon=math.log(3))
+    >>> isinstance(m, RandomizedResponse), round(m.keep_probability, 12), m.rr.k
+    (True, 0.75, 2)
     """
 
     rr: RandomizedResponseParameters

@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
@@ -186,23 +187,9 @@ def _utility_case(
     lower, gamma, tau, groups = problem.lower, problem.gamma, problem.tau, problem.law.groups
     vals, k, order = threshold_max_many(P[..., :, None, :], P[..., None, :, :], lower, gamma)
     vals = np.where(valid, vals, -np.inf)
-    if not valid.any():
-        return WorstCase(
-            kind=kind,
-            value=math.nan,
-            ratio=math.nan,
-            context=None,
-            group=None,
-            other_group=None,
-            kernel=None,
-            utility=None,
-            expected_utility=None,
-            method="threshold",
-            status="trivial",
-            solver_status="threshold",
-            reason="no two groups can be compared",
-            programs_solved=0,
-        )
+    if not valid.any():  # undefined, not fair: NaN rather than trivial's 0
+        trivial = WorstCase.trivial(kind, kernel=None, reason="no two groups can be compared")
+        return dataclasses.replace(trivial, value=math.nan, ratio=math.nan)
     if not problem.binding and problem.method != "lp":
         idx = np.unravel_index(int(vals.argmax()), vals.shape)
         top = order[idx][: int(k[idx])]

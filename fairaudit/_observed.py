@@ -7,13 +7,28 @@ API), :mod:`fairaudit.audit` and the plug-in estimates of
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Protocol
 
+from ._json import Report, number
 from .laws import Law, Population
 from .metrics import Fairness, SupFairness, TotalVariation, all_metrics
 from .utility import Utility
 
 __all__ = ["Observed", "observe"]
+
+
+class MetricIntervals(Protocol):
+    """What :meth:`Observed.to_dict` reads of a :class:`~fairaudit.intervals.FairnessIntervals`."""
+
+    @property
+    def local(self) -> Iterable[float]: ...  # (lower, upper) of L
+
+    @property
+    def global_(self) -> Iterable[float]: ...  # (lower, upper) of L-bar
+
+    def to_dict(self) -> Report: ...
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -27,6 +42,34 @@ class Observed:
     equalized_odds: TotalVariation
     sup_local: SupFairness
     sup_global: SupFairness
+
+    def to_dict(self, intervals: MetricIntervals | None = None) -> Report:
+        """The report dictionary: each metric's value, its details, what was excluded and the intervals.
+
+        Parameters
+        ----------
+        intervals : FairnessIntervals or None
+            Intervals for these metrics: ``local`` and ``global`` carry theirs,
+            and the whole set is under ``intervals``.
+        """
+        out: Report = {
+            "local": self.local.to_dict(None if intervals is None else intervals.local),
+            "global": self.global_.to_dict(None if intervals is None else intervals.global_),
+            "demographic_parity": number(self.demographic_parity.value),
+            "equalized_odds": number(self.equalized_odds.value),
+            "sup_local": number(self.sup_local.value),
+            "sup_global": number(self.sup_global.value),
+            "details": {
+                "demographic_parity": self.demographic_parity.to_dict(),
+                "equalized_odds": self.equalized_odds.to_dict(),
+                "sup_local": self.sup_local.to_dict(),
+                "sup_global": self.sup_global.to_dict(),
+            },
+            "excluded": list(dict.fromkeys(self.local.excluded + self.global_.excluded)),
+        }
+        if intervals is not None:
+            out["intervals"] = intervals.to_dict()
+        return out
 
 
 def observe(law: Law, utility: Utility, population: Population | None) -> Observed:

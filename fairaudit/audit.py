@@ -17,6 +17,7 @@ import pandas as pd
 
 from ._arrays import format_label
 from ._errors import InputError
+from ._json import Report, label, number
 from .certify import Observed, observe
 from .estimate import CountTable, count_records
 from .expression import evaluate_utility_expression
@@ -65,6 +66,48 @@ class Audit:
         population = self.observed.global_.population
         assert population is not None  # (audit passes the records' own)
         return population
+
+    def to_dict(self) -> Report:
+        """The report dictionary (the JSON of ``fairaudit audit``; its contract is in docs/design.md).
+
+        Counts per group, per context and per cell (with E[g | x, a] and, with
+        ``confidence``, its interval), the population, then every metric as in
+        :meth:`~fairaudit.certify.Observed.to_dict`.
+        """
+        t = self.table
+        e = self.observed.local.expected_utility
+        cells = t.cell_counts
+        iv = self.intervals
+        out: Report = {
+            "n": t.n,
+            "sensitive": list(t.sensitive_columns),
+            "outcome": t.outcome_column,
+            "context_columns": list(t.context_columns),
+            "utility": {
+                "name": self.utility.name,
+                "gamma": number(self.utility.gamma),
+                "lower": number(self.utility.lower),
+            },
+            "groups": [{"label": label(g), "n": int(n)} for g, n in zip(t.groups, t.group_counts)],
+            "contexts": [{"label": label(c), "n": int(n)} for c, n in zip(t.contexts, t.context_counts)],
+            "cells": [
+                {
+                    "context": label(c),
+                    "group": label(g),
+                    "n": int(cells[i, j]),
+                    "expected_utility": number(e[i, j]),
+                    **({} if iv is None else {"interval": [number(iv.cell_lower[i, j]), number(iv.cell_upper[i, j])]}),
+                }
+                for i, c in enumerate(t.contexts)
+                for j, g in enumerate(t.groups)
+            ],
+            "decisions": [label(d) for d in t.decisions],
+            "population": self.population.to_dict(),
+            "confidence": number(self.confidence),
+            "interval_method": iv.method if iv is not None else None,
+        }
+        out.update(self.observed.to_dict(iv))
+        return out
 
 
 def utility_from_expression(expression: str, decisions: Sequence[Hashable]) -> Utility:

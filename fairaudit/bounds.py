@@ -47,6 +47,7 @@ import numpy.typing as npt
 
 from ._arrays import EXP_SAFE, FloatArray, IntArray, format_label, ratio_extremes, row_blocks
 from ._errors import InputError
+from ._json import Report, label, number
 from ._validation import epsilon as check_epsilon
 from ._validation import nonnegative
 from .laws import Law, Population
@@ -144,6 +145,17 @@ class Bound:
 
     def __repr__(self) -> str:
         return f"Bound({self.form}, value={self.value:.6g} nats at epsilon={self.epsilon:.6g}, delta={self.delta:.6g})"
+
+    def to_dict(self) -> Report:
+        """The report dictionary: value, ε, δ, the binding pair of groups and whether the bound holds."""
+        return {
+            "value": number(self.value),
+            "epsilon": number(self.epsilon),
+            "delta": number(self.delta),
+            "group": label(self.group),
+            "other_group": label(self.other_group),
+            "holds": self.holds,
+        }
 
 
 def _nonneg(name: str, value: float) -> float:

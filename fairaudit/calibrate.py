@@ -55,6 +55,7 @@ from ._calibration_methods import (
     white_box,
 )
 from ._errors import InputError
+from ._json import Report, number
 from ._validation import choice, nonnegative, real
 from .laws import Kernel, Population
 from .privacy import Mechanism, MechanismFamily, randomized_response_family
@@ -133,6 +134,42 @@ class Calibration:
             f"Calibration({self.method}, {self.kind}, target={self.target:.6g}: epsilon={self.epsilon:.6g} nats, "
             f"keep={self.keep_probability:.6g}, bound={self.bound:.6g})"
         )
+
+    def to_dict(self) -> Report:
+        """The report dictionary (the JSON of ``fairaudit calibrate``).
+
+        Contract keys: ``epsilon`` (``"inf"`` when every ε meets the target,
+        ``null`` when none does), ``keep_probability``, ``method``, ``bound``;
+        then ``feasible``, ``reason``, ``target``, ``kind``, ``mechanism`` (the
+        family member's name, or the family's when infeasible), ``family`` and
+        the inputs ``groups``, ``gamma``, ``lower``, ``tau`` (``null`` when not
+        given), ``delta``, ``lipschitz``, ``diameter``.
+
+        Examples
+        --------
+        >>> c = calibrate_randomized_response(0.5, groups=2)
+        >>> {k: c.to_dict()[k] for k in ("epsilon", "method", "feasible")}
+        {'epsilon': 0.5, 'method': 'black_box', 'feasible': True}
+        """
+        return {
+            "epsilon": number(self.epsilon),
+            "keep_probability": number(self.keep_probability),
+            "method": self.method,
+            "bound": number(self.bound),
+            "feasible": bool(self.feasible),
+            "reason": self.reason,
+            "target": number(self.target),
+            "kind": self.kind,
+            "mechanism": self.mechanism.name if self.mechanism is not None else self.family,
+            "family": self.family,
+            "groups": self.groups,
+            "gamma": number(self.gamma),
+            "lower": number(self.lower),
+            "tau": number(self.tau),
+            "delta": number(self.delta),
+            "lipschitz": number(self.lipschitz),
+            "diameter": number(self.diameter),
+        }
 
 
 # -- input checks --------------------------------------------------------------------------------------

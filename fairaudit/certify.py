@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TypedDict
 
 from ._errors import InputError
+from ._json import Report, label, number
 from ._observed import Observed, observe
 from ._validation import choice, level
 from .bounds import Assumption, Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
@@ -66,6 +67,17 @@ class TargetCheck:
     observed: float | None
     observed_met: bool | None
     reason: str
+
+    def to_dict(self) -> Report:
+        """The report dictionary: target, met, bound, observed, observed_met, reason."""
+        return {
+            "target": number(self.target),
+            "met": self.met,
+            "bound": number(self.bound),
+            "observed": number(self.observed),
+            "observed_met": self.observed_met,
+            "reason": self.reason,
+        }
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -154,6 +166,82 @@ class Certificate:
     def intervals_reason(self) -> str:
         """Deprecated alias of ``omitted.get("intervals", "")``."""
         return self.omitted.get("intervals", "")
+
+    def to_dict(self) -> Report:
+        """The report dictionary (the JSON of ``fairaudit certify``; its contract is in docs/design.md)."""
+        spec = self.spec
+        out: Report = {
+            "certified": bool(self.certified),
+            "spec": spec.source,
+            "title": spec.model.title,
+            "sensitive": {"name": spec.model.sensitive.name, "values": [label(g) for g in spec.groups]},
+            "context": {"name": spec.context_name, "values": [label(c) for c in spec.contexts]},
+            "decision": {"name": spec.model.decision.name, "values": [label(d) for d in spec.decisions]},
+            "privacy": {"sensitive": spec.sensitive_mechanism.to_dict(), "context": spec.context_mechanism.to_dict()},
+            "utility": {
+                "name": spec.utility.name,
+                "gamma": number(spec.gamma),
+                "lower": number(spec.lower),
+                "tau": number(spec.tau),
+                "lipschitz": number(spec.lipschitz),
+                "diameter": number(spec.utility.diameter(spec.metric)),
+                "depends_on_group": spec.utility.depends_on_group,
+            },
+            "population": spec.population.to_dict(),
+            "bounds": {
+                "paper": number(self.paper.value) if self.paper else None,
+                "tight": number(self.tight.value) if self.tight else None,
+                "black_box": number(self.black_box.local.value),
+                "corollary": number(self.corollary.value),
+                "best": number(self.best),
+                "best_form": self.best_form,
+                "global": number(self.global_bound),
+            },
+            "bound_details": {
+                **{
+                    name: b.to_dict()
+                    for name, b in (("paper", self.paper), ("tight", self.tight), ("corollary", self.corollary))
+                    if b is not None
+                },
+                "black_box": self.black_box.to_dict(self.black_box_reason),
+            },
+            "assumptions": [
+                {"name": a.name, "status": a.status, "detail": a.detail, "for": list(forms)}
+                for a, forms in self.assumptions
+            ],
+        }
+        if self.observed is not None:
+            out["observed"] = self.observed.to_dict(self.intervals)
+            if self.intervals is None:
+                out["observed"]["intervals_reason"] = self.omitted.get("intervals", "")
+        if self.unfiltered is not None:
+            out["unfiltered"] = self.unfiltered.to_dict(self.unfiltered_intervals)
+        if self.targets:
+            out["targets"] = {k: t.to_dict() for k, t in self.targets.items()}
+        if self.calibration is not None or self.calibration_white_box is not None or "calibration" in self.omitted:
+            out["calibration"] = self._calibration_dict()
+        return out
+
+    def _calibration_dict(self) -> Report:
+        """``calibration`` with a target: the black-box one (or nulls and why), and ``white_box``."""
+        reason = self.omitted.get("calibration", "")
+        if self.calibration is not None:
+            out = self.calibration.to_dict()
+            out["targets"] = {k: number(self.targets[k].target) for k in self.calibration_targets if k in self.targets}
+            if set(self.targets) - set(self.calibration_targets):
+                out["left_out"] = reason or "not calibrated"
+        else:
+            out = {
+                "epsilon": None,
+                "keep_probability": None,
+                "method": None,
+                "bound": None,
+                "feasible": False,
+                "reason": reason or "no calibration",
+            }
+        if self.calibration_white_box is not None:
+            out["white_box"] = self.calibration_white_box.to_dict()
+        return out
 
 
 def _black_box_description(tau: float | None) -> str:

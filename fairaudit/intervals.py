@@ -73,6 +73,7 @@ from ._arrays import FloatArray, format_label, safe_log
 from ._bayes import band_sets
 from ._confidence_sets import SetMaker, binomial_sets, category_bounds, clopper_pearson, linear_extremes, sum_last
 from ._errors import InputError
+from ._json import Report, label, number
 from ._observed import observe
 from ._projection import MetricEnds, Projection, ProjectionOptions, project_sets
 from ._validation import choice, level, real, whole
@@ -143,6 +144,17 @@ class Interval:
     def width(self) -> float:
         """upper − lower (+inf when the upper end is)."""
         return self.upper - self.lower
+
+    def to_dict(self) -> Report:
+        """The report dictionary: lower, upper, estimate, context and the pair of groups."""
+        return {
+            "lower": number(self.lower),
+            "upper": number(self.upper),
+            "estimate": number(self.estimate),
+            "context": label(self.context),
+            "group": label(self.group),
+            "other_group": label(self.other_group),
+        }
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -217,6 +229,24 @@ class FairnessIntervals:
             "demographic_parity": self.demographic_parity,
             "equalized_odds": self.equalized_odds,
         }
+
+    def to_dict(self) -> Report:
+        """The report dictionary: method, level, number of sets, filtered, notes and one entry per metric.
+
+        The Bayesian settings (``concentration``, ``draws``, ``seed``) follow
+        for ``"bayes"``; a metric not computed is None.
+        """
+        out: Report = {
+            "method": self.method,
+            "confidence": number(self.confidence),
+            "sets": self.n_sets,
+            "filtered": self.sensitive_mechanism is not None or self.context_mechanism is not None,
+            "notes": list(self.notes),
+        }
+        if self.method == "bayes":
+            out.update(concentration=number(self.concentration), draws=self.draws, seed=self.seed)
+        out.update({k: None if v is None else v.to_dict() for k, v in self.intervals().items()})
+        return out
 
 
 class _Inputs(TypedDict):

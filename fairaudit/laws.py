@@ -36,6 +36,7 @@ from ._arrays import (
     format_label,
 )
 from ._errors import InputError
+from ._json import Report, label, number
 from .privacy import Mechanism, identity
 
 __all__ = [
@@ -244,6 +245,24 @@ class Population:
         worst = float(dev[i, j])
         return IndependenceCheck(worst <= tolerance, worst, self.contexts[i], self.groups[j], tolerance)
 
+    def to_dict(self) -> Report:
+        """The report dictionary: where P(X, A) comes from and whether X ⊥ A holds in it.
+
+        ``source`` is ``"given"``, ``"records"`` or ``"assumed"``; ``independent`` is
+        ``"assumed"`` for an assumed population (never checked), else a bool with
+        ``max_deviation`` = max |P(x, a) − P(x) P(a)| at ``context``, ``group``.
+
+        Examples
+        --------
+        >>> Population.from_counts([[30, 10], [10, 10]], ["x0", "x1"], ["a0", "a1"]).to_dict()["max_deviation"]
+        0.05555555555555558
+        """
+        ind = self.independence()
+        out: Report = {"source": self.source, "description": self.describe(), "records": number(self.records)}
+        out["independent"] = "assumed" if self.source == "assumed" else bool(ind.independent)
+        out.update(max_deviation=number(ind.max_deviation), context=label(ind.context), group=label(ind.group))
+        return out
+
 
 @dataclass(frozen=True, eq=False)
 class _DecisionTable:
@@ -350,6 +369,23 @@ class _DecisionTable:
         """Labels (context, group) of the empty cells, in table order."""
         idx = np.argwhere(~self.observed)
         return tuple((self.contexts[i], self.groups[j]) for i, j in idx)
+
+    def to_dict(self) -> dict[str, dict[str, dict[str, float]]]:
+        """{context: {group: {decision: probability}}}, labels as text, probabilities rounded to 12 digits.
+
+        Examples
+        --------
+        >>> Kernel([[[0.2, 0.8]]], ["doc1"], ["HR_1"], ["go", "stay"]).to_dict()
+        {'doc1': {'HR_1': {'go': 0.2, 'stay': 0.8}}}
+        """
+        p = np.round(self.probabilities, 12) + 0.0
+        return {
+            str(label(x)): {
+                str(label(a)): {str(label(u)): float(p[i, j, m]) for m, u in enumerate(self.decisions)}
+                for j, a in enumerate(self.groups)
+            }
+            for i, x in enumerate(self.contexts)
+        }
 
 
 class Kernel(_DecisionTable):

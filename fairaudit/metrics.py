@@ -24,7 +24,7 @@ Proofs: ``proofs/lemma1_links.md`` (Lemma 1 and the links theorem),
 
 from __future__ import annotations
 
-from collections.abc import Hashable, Iterator
+from collections.abc import Hashable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import TypedDict
 
@@ -32,6 +32,7 @@ import numpy as np
 
 from ._arrays import BoolArray, FloatArray, IntArray, format_label, ratio_extremes, ratio_of_extremes, safe_log
 from ._errors import InputError
+from ._json import Report, label, number
 from .laws import Law, Population, population_for
 from .utility import Utility
 
@@ -101,6 +102,33 @@ class Fairness:
         where, pair = _where_and_pair(self.context, self.group, self.other_group)
         return f"Fairness({self.kind}, value={self.value:.6g} nats, ratio={self.ratio:.6g}{where}, groups {pair})"
 
+    def to_dict(self, interval: Iterable[float] | None = None) -> Report:
+        """The report dictionary: value, ratio, (context,) the pair of groups and the interval.
+
+        Parameters
+        ----------
+        interval : Interval, pair of float, or None
+            A confidence interval ``(lower, upper)`` for this value, such as a
+            :class:`~fairaudit.intervals.Interval` (``[lower, upper]`` in the
+            dictionary), or None.
+
+        Examples
+        --------
+        >>> import fairaudit as fa
+        >>> law = fa.Law([[[0.5, 0.5], [0.25, 0.75]]], contexts=["x"], groups=["a", "b"], decisions=[0, 1])
+        >>> fa.local_fairness(law, fa.Utility([1.0, 0.0], [0, 1])).to_dict()
+        {'value': 0.6931471805599453, 'ratio': 2.0, 'context': 'x', 'group': 'a', 'other_group': 'b', 'interval': None}
+        """
+        d: Report = {"value": number(self.value), "ratio": number(self.ratio)}
+        if self.kind == "local":
+            d["context"] = label(self.context)
+        d.update(
+            group=label(self.group),
+            other_group=label(self.other_group),
+            interval=None if interval is None else [number(end) for end in interval],
+        )
+        return d
+
 
 def _where_and_pair(context: Hashable | None, group: Hashable | None, other: Hashable | None) -> tuple[str, str]:
     """The ``, context=...`` and ``'a' vs 'b'`` parts of a result's short repr (its inputs are left out)."""
@@ -143,6 +171,16 @@ class TotalVariation:
         event = tuple(format_label(u) for u in self.event)
         return f"TotalVariation({self.kind}, value={self.value:.6g}{where}, groups {pair}, event={event!r})"
 
+    def to_dict(self) -> Report:
+        """The report dictionary: value, context, the pair of groups and the event."""
+        return {
+            "value": number(self.value),
+            "context": label(self.context),
+            "group": label(self.group),
+            "other_group": label(self.other_group),
+            "event": [label(u) for u in self.event],
+        }
+
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class SupFairness:
@@ -183,6 +221,17 @@ class SupFairness:
             f"SupFairness({self.kind}, value={self.value:.6g} nats, ratio={self.ratio:.6g}{where}, groups {pair}, "
             f"decision={decision!r})"
         )
+
+    def to_dict(self) -> Report:
+        """The report dictionary: value, ratio, context, the pair of groups and the decision."""
+        return {
+            "value": number(self.value),
+            "ratio": number(self.ratio),
+            "context": label(self.context),
+            "group": label(self.group),
+            "other_group": label(self.other_group),
+            "decision": label(self.decision),
+        }
 
 
 def _check_law(law: object) -> Law:

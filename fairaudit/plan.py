@@ -32,6 +32,7 @@ import numpy.typing as npt
 from ._arrays import FloatArray, safe_log
 from ._errors import InputError
 from ._extremes import disjoint_ratio
+from ._json import Report, number
 from ._validation import choice, level, real, whole
 from .intervals import METHODS, category_bounds, fairness_intervals, linear_extremes
 
@@ -94,6 +95,39 @@ class SamplePlan:
     def feasible(self) -> bool:
         """Whether a sample size was found."""
         return self.n_per_cell is not None
+
+    def to_dict(self) -> Report:
+        """The report dictionary: the inputs, ``true_value``, ``feasible`` and ``plans``, a list of this one plan.
+
+        :func:`fairaudit.report.plan_dict` joins plans of several methods
+        (same inputs) into one dictionary of this shape.
+        """
+        return {
+            "target": number(self.target),
+            "confidence": number(self.confidence),
+            "power": number(self.power),
+            "kind": self.kind,
+            "groups": self.groups,
+            "contexts": self.contexts,
+            "base_rate": number(self.base_rate),
+            "disparity": number(self.disparity),
+            "epsilon": number(self.epsilon),
+            "seed": self.seed,
+            "max_n": self.max_n,
+            "true_value": number(self.true_value),
+            "feasible": self.feasible,
+            "plans": [
+                {
+                    "method": self.method,
+                    "n_per_cell": self.n_per_cell,
+                    "n_total": self.n_total,
+                    "achieved_power": number(self.achieved_power),
+                    "expected_upper": number(self.expected_upper),
+                    "datasets": self.datasets,
+                    "reason": self.reason,
+                }
+            ],
+        }
 
 
 class _Inputs(TypedDict):

@@ -36,6 +36,7 @@ from ._arrays import (
     row_blocks,
 )
 from ._errors import InputError
+from ._json import Report, number
 from ._validation import epsilon as check_epsilon
 from ._validation import real, whole
 
@@ -306,6 +307,24 @@ class Mechanism:
         if keep is not None:
             text += f", keep probability {keep:.6g}"
         return text
+
+    def to_dict(self) -> Report:
+        """The report dictionary: name, ε (δ = 0 when ε is finite), keep probability, alphabet sizes.
+
+        Examples
+        --------
+        >>> randomized_response(["Tom", "Mary"], keep=0.75).to_dict()
+        {'mechanism': '2-ary randomized response', 'epsilon': 1.0986122886681098, 'delta': 0.0, 'keep_probability': 0.75, 'inputs': 2, 'outputs': 2}
+        """
+        eps = self.epsilon
+        return {
+            "mechanism": self.name,
+            "epsilon": number(eps),
+            "delta": 0.0 if math.isfinite(eps) else None,
+            "keep_probability": number(self.keep_probability),
+            "inputs": len(self.inputs),
+            "outputs": len(self.outputs),
+        }
 
 
 def keep_probability(epsilon: float, k: int) -> float:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
-from ._values import Report
+from .._json import Report
 
 __all__ = ["Format", "KINDS"]
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ._values import Report
+from .._json import Report
 
 __all__ = ["fmt", "nats", "pair", "population_line", "goal", "measure", "plan_head", "plan_rows", "PLAN_HEAD"]
 

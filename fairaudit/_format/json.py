@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
+from .._json import Report
 from ._base import Format
-from ._values import Report
 
 __all__ = ["JsonFormat"]
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from .._json import Report
 from ._base import Format
 from ._common import PLAN_HEAD, fmt, goal, nats, pair, plan_head, plan_rows, population_line
-from ._values import Report
 from .text import calibration_text
 
 __all__ = ["MarkdownFormat"]

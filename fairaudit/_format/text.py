@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+from .._json import Report
 from ._base import Format
 from ._common import PLAN_HEAD, fmt, goal, measure, nats, pair, plan_head, plan_rows, population_line
-from ._values import Report
 
 __all__ = ["TextFormat", "calibration_text"]
 

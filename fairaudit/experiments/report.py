@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._format._values import Report, fairness_dict, number
 from .._io import write_atomic
+from .._json import Report, number
 from ._markdown import experiment_markdown
 
 if TYPE_CHECKING:
@@ -241,8 +241,8 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
             "black_box_global": number(p.black_box_global),
         },
         "observed": {
-            "local": fairness_dict(p.local, None if p.intervals is None else p.intervals.local),
-            "global": fairness_dict(p.global_, None if p.intervals is None else p.intervals.global_),
+            "local": p.local.to_dict(None if p.intervals is None else p.intervals.local),
+            "global": p.global_.to_dict(None if p.intervals is None else p.intervals.global_),
         },
         "certified_local": number(p.black_box_local),
     }
@@ -299,11 +299,9 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {
-            "local": fairness_dict(
-                a.baseline.local, None if a.baseline.intervals is None else a.baseline.intervals.local
-            ),
-            "global": fairness_dict(
-                a.baseline.global_, None if a.baseline.intervals is None else a.baseline.intervals.global_
+            "local": a.baseline.local.to_dict(None if a.baseline.intervals is None else a.baseline.intervals.local),
+            "global": a.baseline.global_.to_dict(
+                None if a.baseline.intervals is None else a.baseline.intervals.global_
             ),
             "shares": shares,
         },
@@ -322,8 +320,8 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             {
                 "epsilon": number(p.epsilon),
                 "queries": p.queries,
-                "local": fairness_dict(p.local, None if p.intervals is None else p.intervals.local),
-                "global": fairness_dict(p.global_, None if p.intervals is None else p.intervals.global_),
+                "local": p.local.to_dict(None if p.intervals is None else p.intervals.local),
+                "global": p.global_.to_dict(None if p.intervals is None else p.intervals.global_),
             }
             for p in a.paper
         ],

@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from .._arrays import BoolArray, FloatArray, IntArray, format_label, safe_log
 from .._errors import InputError
+from .._json import Report, label, number
 from .._validation import nonnegative
 from ..bounds import Assumption, check_assumptions
 from ..laws import Kernel, Population, compose
@@ -120,6 +121,22 @@ class WorstCase:
             f"{format_label(self.group)!r} vs {format_label(self.other_group)!r}, method={self.method})"
         )
 
+    def to_dict(self) -> Report:
+        """The report dictionary: value, ratio, (context,) the pair, method, status, programs solved (and reason)."""
+        d: Report = {"value": number(self.value), "ratio": number(self.ratio)}
+        if self.kind == "local":
+            d["context"] = label(self.context)
+        d.update(
+            group=label(self.group),
+            other_group=label(self.other_group),
+            method=self.method,
+            status=self.status,
+            programs_solved=int(self.programs_solved),
+        )
+        if self.reason:
+            d["reason"] = self.reason
+        return d
+
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class WorstModel:
@@ -148,6 +165,21 @@ class WorstModel:
     population: Population
     excluded: tuple[str, ...]
     assumptions: tuple[Assumption, ...]
+
+    def to_dict(self, reason: str = "") -> Report:
+        """The report dictionary: the worst case for L, ``global`` for L̄ and ``worst_model``, the kernel for L.
+
+        Parameters
+        ----------
+        reason : str
+            Why this bound is reported as it is (a certificate's
+            ``black_box_reason``); replaces the local worst case's own ``reason``.
+        """
+        out = self.local.to_dict()
+        out["reason"] = reason
+        out["global"] = self.global_.to_dict()
+        out["worst_model"] = None if self.local.kernel is None else self.local.kernel.to_dict()
+        return out
 
 
 def worst_model(

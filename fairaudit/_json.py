@@ -1,4 +1,7 @@
-"""JSON values of the report dictionaries: numbers, labels and one fairness measure.
+"""JSON values of the report dictionaries: numbers and labels.
+
+Each result builds its own report dictionary (``to_dict``) from these two
+helpers; :mod:`fairaudit.report` renders the dictionaries.
 
 Infinite values are the string ``"inf"`` (``"-inf"``), NaN is ``None``, tuple
 labels (product attributes) are joined with ``" & "``.
@@ -8,17 +11,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable
-from typing import TYPE_CHECKING, Any, SupportsFloat, TypeAlias
+from typing import Any, SupportsFloat, TypeAlias
 
 import numpy as np
 
-from .._arrays import format_label
+from ._arrays import format_label
 
-if TYPE_CHECKING:
-    from ..intervals import Interval
-    from ..metrics import Fairness
-
-__all__ = ["Report", "number", "label", "fairness_dict"]
+__all__ = ["Report", "number", "label"]
 
 Report: TypeAlias = dict[str, Any]
 """A report dictionary: JSON-ready (str keys; str, numbers, bools, None, lists and dicts as values)."""
@@ -61,16 +60,3 @@ def label(v: Hashable | None) -> Hashable | None:
     if isinstance(v, np.generic):
         return v.item()
     return v
-
-
-def fairness_dict(f: Fairness, interval: Interval | None = None) -> Report:
-    """One local or global g-fairness: value, ratio, (context,) the pair of groups and the interval (or None)."""
-    d: Report = {"value": number(f.value), "ratio": number(f.ratio)}
-    if f.kind == "local":
-        d["context"] = label(f.context)
-    d.update(
-        group=label(f.group),
-        other_group=label(f.other_group),
-        interval=None if interval is None else [number(interval.lower), number(interval.upper)],
-    )
-    return d

@@ -324,7 +324,7 @@ def black_box_global(
     if utility is None:
         if lip > 0:
             raise InputError(
-                "--spec",
+                "utility",
                 "black-box calibration on L-bar with X and A dependent and L_A > 0 needs the utility itself "
                 "(a spec with [utility])",
             )

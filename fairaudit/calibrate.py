@@ -372,8 +372,8 @@ def calibrate(
         [0, γ], ``tau`` outside (0, γ] or missing for paper/tight when
         L_A·diam > 0 or δ > 0, ``delta`` outside [0, 1] or given to
         black_box/white_box, a negative ``lipschitz``, or white_box without a
-        kernel (field ``--spec``, the command line's source of the model) or
-        utility.
+        ``kernel`` or ``utility`` (the command line names ``--spec``, its
+        source of both).
 
     Notes
     -----
@@ -453,7 +453,7 @@ def calibrate(
     if method == "white_box":
         if kernel is None:
             raise InputError(
-                "--spec", "the white_box method needs a decision model (a [model] in the spec, or kernel=)"
+                "kernel", "the white_box method needs a decision model (a [model] in the spec, or kernel=)"
             )
         if utility is None:
             raise InputError("utility", "the white_box method needs the utility g")

@@ -613,6 +613,65 @@ class Spec:
         assert self._kernel is not True  # (only False, None or a Kernel)
         return self._kernel
 
+    def calibration_options(self, groups: int | None = None) -> dict[str, Any]:
+        """The keyword arguments of :func:`fairaudit.calibrate.calibrate` that this spec defines.
+
+        ``family`` (:attr:`sensitive_family`), ``gamma``, ``lower``, ``tau``,
+        ``lipschitz``, ``metric``, ``population``, ``context_mechanism``,
+        ``kernel`` (None without ``[model]``) and ``utility``: pass them on,
+        with any of them overridden, as ``calibrate(target, **options)``.
+
+        Parameters
+        ----------
+        groups : int, optional
+            A number of groups the caller expects; checked against the spec's.
+
+        Raises
+        ------
+        InputError
+            Field ``groups`` when it is given and is not the spec's number of
+            groups; field ``spec`` when the spec has fewer than 2 groups
+            (nothing to calibrate); as :meth:`kernel` for an invalid model.
+
+        Examples
+        --------
+        >>> spec = parse_spec('''
+        ... [sensitive]
+        ... name = "office"
+        ... values = ["HR_1", "HR_2", "HR_3"]
+        ... [decision]
+        ... name = "chosen"
+        ... values = ["yes", "no"]
+        ... [privacy.sensitive]
+        ... mechanism = "randomized_response"
+        ... epsilon = 1.0
+        ... [utility]
+        ... kind = "indicator"
+        ... decision = "yes"
+        ... ''')
+        >>> options = spec.calibration_options()
+        >>> options["family"].name, options["kernel"]
+        ('3-ary randomized response', None)
+        """
+        n = len(self.groups)
+        if groups is not None and groups != n:
+            raise InputError("groups", f"the spec {self.source} has {n} groups", groups)
+        family = self.sensitive_family
+        if family is None:
+            raise InputError("spec", "needs at least 2 sensitive groups to calibrate", self.source)
+        return {
+            "family": family,
+            "gamma": self.gamma,
+            "lower": self.lower,
+            "tau": self.tau,
+            "lipschitz": self.lipschitz,
+            "metric": self.metric,
+            "population": self.population,
+            "context_mechanism": self.context_mechanism,
+            "kernel": self.kernel(),
+            "utility": self.utility,
+        }
+
     def _read_kernel(self) -> Kernel | None:
         m = self.model.model
         if m is None:

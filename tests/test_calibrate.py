@@ -411,11 +411,11 @@ def test_wrapper_is_calibrate_and_raises_when_infeasible():
         ({"lipschitz": -1.0}, "lipschitz"),
         ({"delta": 1.5, "tau": 0.5}, "delta"),
         ({"delta": 0.1, "method": "black_box"}, "delta"),
-        ({"method": "white_box"}, "--spec"),
+        ({"method": "white_box"}, "kernel"),
         ({"kind": "both"}, "kind"),
     ],
 )
-def test_bad_arguments_name_the_flag(kwargs, flag):
+def test_bad_arguments_name_the_parameter(kwargs, flag):
     kwargs = {"target": 0.5, **kwargs}
     with pytest.raises(fa.InputError) as err:
         calibrate(kwargs.pop("target"), **kwargs)

@@ -10,6 +10,7 @@ import pytest
 
 import fairaudit as fa
 from fairaudit import InputError, parse_spec
+from fairaudit.calibrate import calibrate
 
 HEAD = """
 [sensitive]
@@ -177,3 +178,34 @@ def test_metric_with_a_utility_of_the_decision_only():
         + "metric = [[0, 1, 2], [1, 0, 1], [2, 1, 0]]\n"
     )
     assert spec.utility.diameter(spec.metric) == 2.0 and spec.lipschitz == 0.0
+
+
+def _one_spec(values, privacy='[privacy.sensitive]\nmechanism = "randomized_response"\nkeep = 0.75'):
+    return fa.parse_spec(
+        f"""
+[sensitive]
+name = "office"
+values = {values}
+[decision]
+name = "chosen"
+values = ["yes", "no"]
+{privacy}
+[utility]
+kind = "indicator"
+decision = "yes"
+"""
+    )
+
+
+def test_calibration_options_are_calibrate_keywords():
+    spec = _one_spec('["HR_1", "HR_2"]')
+    options = spec.calibration_options(groups=2)
+    assert options["kernel"] is None and options["utility"] is spec.utility
+    # keep 3/4 on two groups is epsilon = log 3; calibrating to that target gives it back
+    cal = calibrate(math.log(3), **options)
+    assert cal.epsilon == pytest.approx(math.log(3), abs=1e-9)
+    assert cal.keep_probability == pytest.approx(0.75, abs=1e-9)
+    with pytest.raises(fa.InputError, match=r"^groups: the spec <string> has 2 groups \(got 3\)$"):
+        spec.calibration_options(groups=3)
+    with pytest.raises(fa.InputError, match=r"^spec: needs at least 2 sensitive groups to calibrate"):
+        _one_spec('["HR_1"]', privacy="").calibration_options()

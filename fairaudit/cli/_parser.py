@@ -21,5 +21,6 @@ def build_parser() -> argparse.ArgumentParser:
     for command in (certify, audit, calibrate, plan, experiment, prepare_model):
         command.add_parser(sub)
     for command_parser in sub.choices.values():
-        command_parser.set_defaults(flags=command_flags(command_parser))
+        own = command_parser.get_default("flags") or {}  # a command's parameters that come from another flag
+        command_parser.set_defaults(flags={**command_flags(command_parser), **own})
     return parser

@@ -61,7 +61,8 @@ def add_parser(sub: Subparsers) -> None:
         "mechanism family, context mechanism and model from a spec; flags override",
     )
     add_output(k)
-    k.set_defaults(func=run)
+    # calibrate's decision model and utility come from the spec: errors about them name --spec
+    k.set_defaults(func=run, flags={"kernel": "--spec", "utility": "--spec"})
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The keywords of calibrate taken from ``--spec``."""
+    """The keywords of calibrate taken from ``--spec`` (:meth:`fairaudit.spec.Spec.calibration_options`)."""
     from ..spec import load_spec
 
     try:
@@ -91,21 +92,4 @@ def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
         if exc.field != "SPEC":
             raise
         raise exc.under("--spec", keep_own=False) from None
-    n = len(spec.groups)
-    if args.groups is not None and args.groups != n:
-        raise InputError("--groups", f"the spec {args.spec} has {n} groups", args.groups)
-    opts: dict[str, Any] = dict(
-        family=spec.sensitive_family,
-        gamma=spec.gamma,
-        lower=spec.lower,
-        tau=spec.tau,
-        lipschitz=spec.lipschitz,
-        metric=spec.metric,
-        population=spec.population,
-        context_mechanism=spec.context_mechanism,
-        kernel=spec.kernel(),
-        utility=spec.utility,
-    )
-    if opts["family"] is None:
-        raise InputError("--spec", "needs at least 2 sensitive groups to calibrate", args.spec)
-    return opts
+    return spec.calibration_options(groups=args.groups)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ._errors import InputError
 
-__all__ = ["write_atomic", "STALE_SECONDS"]
+__all__ = ["STALE_SECONDS", "write_atomic"]
 
 
 def write_atomic(

@@ -17,7 +17,7 @@ import numpy as np
 
 from ._arrays import format_label
 
-__all__ = ["Report", "number", "label"]
+__all__ = ["Report", "label", "number"]
 
 Report: TypeAlias = dict[str, Any]
 """A report dictionary: JSON-ready (str keys; str, numbers, bools, None, lists and dicts as values)."""

@@ -57,12 +57,12 @@ from .utility import Utility, check_metric
 __all__ = [
     "Assumption",
     "Bound",
+    "check_assumptions",
+    "corollary_bound",
     "main_theorem",
     "main_theorem_tight",
     "paper_bound",
     "tight_bound",
-    "corollary_bound",
-    "check_assumptions",
 ]
 
 

@@ -61,7 +61,7 @@ from .laws import Kernel, Population
 from .privacy import Mechanism, MechanismFamily, randomized_response_family
 from .utility import Utility, check_metric
 
-__all__ = ["Calibration", "calibrate", "calibrate_randomized_response", "METHODS"]
+__all__ = ["METHODS", "Calibration", "calibrate", "calibrate_randomized_response"]
 
 METHODS = ("paper", "tight", "black_box", "white_box")
 KINDS = ("local", "global")

@@ -44,7 +44,7 @@ if TYPE_CHECKING:
 
     from .spec import Spec
 
-__all__ = ["PrivacyCurve", "privacy_curve", "default_epsilons", "COLUMNS"]
+__all__ = ["COLUMNS", "PrivacyCurve", "default_epsilons", "privacy_curve"]
 
 #: Columns of :meth:`PrivacyCurve.to_frame` (and of the CSV), in order.
 COLUMNS = (

@@ -84,11 +84,11 @@ from .utility import Utility
 
 __all__ = [
     "METHODS",
-    "Interval",
     "FairnessIntervals",
-    "fairness_intervals",
-    "clopper_pearson",
+    "Interval",
     "category_bounds",
+    "clopper_pearson",
+    "fairness_intervals",
     "linear_extremes",
 ]
 

@@ -48,14 +48,14 @@ ThresholdSolution: TypeAlias = tuple[FloatArray, IntArray, IntArray]
 """What :func:`threshold_max_many` returns: (values, k, order)."""
 
 __all__ = [
-    "FractionalResult",
     "FractionalProgram",
+    "FractionalResult",
+    "box_point",
+    "floor_max_many",
     "fractional_max",
+    "lp_max",
     "threshold_max",
     "threshold_max_many",
-    "floor_max_many",
-    "box_point",
-    "lp_max",
 ]
 
 

@@ -39,7 +39,7 @@ from .intervals import METHODS, category_bounds, fairness_intervals, linear_extr
 if TYPE_CHECKING:
     from .privacy import Mechanism
 
-__all__ = ["SamplePlan", "plan", "DEFAULT_DATASETS", "BAYES_DATASETS"]
+__all__ = ["BAYES_DATASETS", "DEFAULT_DATASETS", "SamplePlan", "plan"]
 
 DEFAULT_DATASETS = 200
 BAYES_DATASETS = 40  # "bayes" draws 4000 posterior samples per table: about 10 ms a table

@@ -33,7 +33,7 @@ _Scale: TypeAlias = Callable[[npt.ArrayLike], npt.ArrayLike]
 SecondaryAxis: TypeAlias = "Literal['keep'] | tuple[str, _Scale, _Scale] | None"
 """The ``secondary_axis`` of :func:`plot_curve`: ``"keep"``, (label, forward, inverse) or None."""
 
-__all__ = ["plot_curve", "save_figure", "check_plot_path", "load_matplotlib", "FORMATS"]
+__all__ = ["FORMATS", "check_plot_path", "load_matplotlib", "plot_curve", "save_figure"]
 
 #: File suffixes :func:`save_figure` understands, and the format each means.
 FORMATS = {".png": "png", ".svg": "svg"}

@@ -28,17 +28,17 @@ if TYPE_CHECKING:
     from .plan import SamplePlan
 
 __all__ = [
-    "certificate_dict",
+    "FORMATS",
+    "STALE_SECONDS",
+    "Report",
     "audit_dict",
     "calibration_dict",
+    "certificate_dict",
+    "intervals_dict",
+    "plan_dict",
+    "population_dict",
     "render",
     "write_atomic",
-    "FORMATS",
-    "plan_dict",
-    "intervals_dict",
-    "population_dict",
-    "Report",
-    "STALE_SECONDS",
 ]
 
 #: The report formats, the choices of ``--format``.

@@ -16,7 +16,7 @@ from .json import JsonFormat
 from .markdown import MarkdownFormat
 from .text import TextFormat
 
-__all__ = ["Format", "FORMATTERS", "KINDS"]
+__all__ = ["FORMATTERS", "KINDS", "Format"]
 
 #: Format name -> format, in the order the command line lists them.
 FORMATTERS: dict[str, Format] = {f.name: f for f in (TextFormat(), JsonFormat(), MarkdownFormat())}

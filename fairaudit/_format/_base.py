@@ -7,7 +7,7 @@ from typing import ClassVar
 
 from .._json import Report
 
-__all__ = ["Format", "KINDS"]
+__all__ = ["KINDS", "Format"]
 
 #: Report kind (the subcommand) -> the :class:`Format` method that renders its dictionary.
 KINDS = {"certify": "certificate", "audit": "audit", "calibrate": "calibration", "plan": "plan"}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .._json import Report
 
-__all__ = ["fmt", "nats", "pair", "population_line", "goal", "measure", "plan_head", "plan_rows", "PLAN_HEAD"]
+__all__ = ["PLAN_HEAD", "fmt", "goal", "measure", "nats", "pair", "plan_head", "plan_rows", "population_line"]
 
 
 def fmt(v: object, digits: int = 6) -> str:

@@ -52,21 +52,21 @@ from .vlm.filter import PrivacyFilter, candidate_family, released_pair_label
 from .vlm.tasks import DeliveryTask
 
 __all__ = [
+    "DEFAULT_TARGETS",
     "ExperimentAnalysis",
-    "PointResult",
     "PaperDesignPoint",
+    "PointResult",
+    "PositionSplit",
+    "TargetBudget",
     "analyse",
     "analyse_kernel",
-    "TargetBudget",
-    "DEFAULT_TARGETS",
-    "PositionSplit",
-    "position_split",
+    "candidate_context_mechanism",
+    "candidate_contexts",
     "candidate_kernel",
     "candidate_population",
-    "candidate_context_mechanism",
     "candidate_utility",
-    "candidate_contexts",
     "epsilon_from_keep",
+    "position_split",
 ]
 
 

@@ -51,13 +51,13 @@ from .vlm.tasks import UNPARSED, DeliveryTask
 __all__ = [
     "QueryLog",
     "RunSummary",
+    "paper_counts",
+    "paper_queries_needed",
     "plan_queries",
     "query_seed",
     "run_queries",
     "table_kernel",
-    "paper_counts",
     "table_queries_needed",
-    "paper_queries_needed",
 ]
 
 LOG_VERSION = 1

@@ -61,23 +61,23 @@ if TYPE_CHECKING:
     from .vlm.client import ChatClient
 
 __all__ = [
-    "LocalModelSpec",
-    "LOCAL_MODELS",
     "CACHE_ENV",
+    "LOCAL_MODELS",
     "LoadedModel",
-    "find_gguf",
-    "check",
-    "install",
-    "cache_root",
-    "prepare",
-    "load",
+    "LocalModelSpec",
+    "ServedModel",
     "answer_task",
+    "cache_root",
     "chat_messages",
-    "token_decisions",
+    "check",
     "exact_kernel",
     "exact_law",
-    "ServedModel",
+    "find_gguf",
+    "install",
+    "load",
+    "prepare",
     "serve",
+    "token_decisions",
 ]
 
 CACHE_ENV = "FAIRAUDIT_MODEL_CACHE"

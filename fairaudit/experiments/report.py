@@ -42,15 +42,15 @@ if TYPE_CHECKING:
     from .vlm.tasks import DeliveryTask
 
 __all__ = [
-    "experiment_spec",
+    "candidate_frame",
     "experiment_dict",
     "experiment_markdown",
+    "experiment_spec",
     "kernel_frame",
-    "shown_kernel_frame",
-    "candidate_frame",
-    "records_frame",
     "plot_baseline",
     "plot_experiment_curve",
+    "records_frame",
+    "shown_kernel_frame",
 ]
 
 

@@ -19,11 +19,11 @@ from .strategies import (
 )
 
 __all__ = [
-    "populations",
-    "mechanisms",
-    "randomized_responses",
-    "product_mechanisms",
     "kernels",
-    "utilities",
     "laws",
+    "mechanisms",
+    "populations",
+    "product_mechanisms",
+    "randomized_responses",
+    "utilities",
 ]

@@ -38,7 +38,7 @@ from .s3dis import CATEGORIES, UNLABELLED, Area, Room, room_kind
 if TYPE_CHECKING:
     import networkx
 
-__all__ = ["Maps", "build_maps", "CEILING_MARGIN", "FLOOR_QUANTILE", "CEILING_QUANTILE"]
+__all__ = ["CEILING_MARGIN", "CEILING_QUANTILE", "FLOOR_QUANTILE", "Maps", "build_maps"]
 
 #: Points higher than (estimated ceiling height - CEILING_MARGIN) metres are removed.
 CEILING_MARGIN = 0.1

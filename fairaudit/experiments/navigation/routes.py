@@ -40,17 +40,17 @@ Place: TypeAlias = str | Sequence[float]
 """A room name, or a point (x, y) in metres."""
 
 __all__ = [
-    "Route",
-    "DistanceCheck",
+    "MAX_SNAP",
+    "ROUTE_RGB",
     "DeliveryScene",
-    "plan_route",
+    "DistanceCheck",
+    "Route",
     "candidate_routes",
     "check_equal_distance",
+    "delivery_scene",
+    "plan_route",
     "route_image",
     "save_route_image",
-    "delivery_scene",
-    "ROUTE_RGB",
-    "MAX_SNAP",
 ]
 
 #: Colour of the route in :func:`route_image` (pure red; never used by the background).

@@ -33,12 +33,12 @@ from ..._errors import InputError
 __all__ = [
     "CATEGORIES",
     "UNLABELLED",
-    "Room",
     "Area",
-    "read_room",
+    "Room",
+    "category_code",
     "read_area",
     "read_points",
-    "category_code",
+    "read_room",
     "room_kind",
 ]
 

@@ -42,7 +42,7 @@ import pandas as pd
 
 from ..._errors import InputError
 
-__all__ = ["write_office_floor", "FLOOR_SIZE", "CEILING_HEIGHT", "COLORS"]
+__all__ = ["CEILING_HEIGHT", "COLORS", "FLOOR_SIZE", "write_office_floor"]
 
 #: Extent of the synthetic floor (x, y), metres.
 FLOOR_SIZE = (12.0, 8.0)

@@ -39,7 +39,7 @@ from urllib.parse import urlsplit, urlunsplit
 from ..._errors import FairauditError, InputError
 from ..._validation import real, whole
 
-__all__ = ["ChatClient", "ChatError", "ChatReply", "RETRY_STATUSES", "system_message", "user_message"]
+__all__ = ["RETRY_STATUSES", "ChatClient", "ChatError", "ChatReply", "system_message", "user_message"]
 
 RETRY_STATUSES = frozenset({429, 500, 502, 503, 504})
 """HTTP statuses that are retried; every other non-2xx status fails at once."""

@@ -32,14 +32,14 @@ if TYPE_CHECKING:
     from .client import ChatClient
 
 __all__ = [
-    "Query",
-    "ModelReply",
-    "DecisionModel",
-    "SimulatedModel",
-    "EndpointModel",
     "SIMULATED",
-    "simulated_model",
+    "DecisionModel",
+    "EndpointModel",
+    "ModelReply",
+    "Query",
+    "SimulatedModel",
     "reply_text",
+    "simulated_model",
 ]
 
 

@@ -33,7 +33,7 @@ from typing import Literal
 from ..._arrays import format_label
 from ..._errors import InputError
 
-__all__ = ["Attribute", "DeliveryTask", "TASKS", "get_task", "HR_DELIVERY", "PACKAGE_DELIVERY", "UNPARSED"]
+__all__ = ["HR_DELIVERY", "PACKAGE_DELIVERY", "TASKS", "UNPARSED", "Attribute", "DeliveryTask", "get_task"]
 
 UNPARSED = "unparsed"
 """Label of the decision recorded when a reply cannot be parsed (counted, never dropped)."""

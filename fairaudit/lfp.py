@@ -59,7 +59,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class FractionalResult:
     """The optimum of max (p·h) / (q·h).
 
@@ -178,9 +178,29 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
     value = float(values)
     if math.isinf(value):
         return FractionalResult(
-            value, h, "unbounded", "threshold", "threshold", "some h in the box has q·h = 0 and p·h > 0", p, q, lo, hi
+            value=value,
+            argmax=h,
+            status="unbounded",
+            method="threshold",
+            solver_status="threshold",
+            reason="some h in the box has q·h = 0 and p·h > 0",
+            p=p,
+            q=q,
+            lower=lo,
+            upper=hi,
         )
-    return FractionalResult(value, h, "optimal", "threshold", "threshold", "", p, q, lo, hi)
+    return FractionalResult(
+        value=value,
+        argmax=h,
+        status="optimal",
+        method="threshold",
+        solver_status="threshold",
+        reason="",
+        p=p,
+        q=q,
+        lower=lo,
+        upper=hi,
+    )
 
 
 def threshold_max_many(
@@ -491,63 +511,105 @@ class FractionalProgram:
         try:
             solve_clarabel(prob)
         except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
-            return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
+            return FractionalResult(
+                value=math.nan,
+                argmax=None,
+                status="infeasible",
+                method="lp",
+                solver_status="solver_error",
+                reason=str(exc),
+                p=p,
+                q=q,
+                lower=lo,
+                upper=hi,
+            )
         status = prob.status
         if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
             return FractionalResult(
-                math.inf,
-                None,
-                "unbounded",
-                "lp",
-                status,
-                "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
-                p,
-                q,
-                lo,
-                hi,
+                value=math.inf,
+                argmax=None,
+                status="unbounded",
+                method="lp",
+                solver_status=status,
+                reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
+                p=p,
+                q=q,
+                lower=lo,
+                upper=hi,
             )
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return self._zero_denominator(p, q, status)
         s = self._s.value
         if s is None:  # pragma: no cover - the solver returned no point
             return FractionalResult(
-                math.nan, None, "infeasible", "lp", status, "the solver returned no solution", p, q, lo, hi
+                value=math.nan,
+                argmax=None,
+                status="infeasible",
+                method="lp",
+                solver_status=status,
+                reason="the solver returned no solution",
+                p=p,
+                q=q,
+                lower=lo,
+                upper=hi,
             )
         if self._bounded and s > 0:
             # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
             h = np.asarray(self._y.value, dtype=float) / float(s)
-            return FractionalResult(float(prob.value), h, "optimal", "lp", status, "", p, q, lo, hi)
+            return FractionalResult(
+                value=float(prob.value),
+                argmax=h,
+                status="optimal",
+                method="lp",
+                solver_status=status,
+                reason="",
+                p=p,
+                q=q,
+                lower=lo,
+                upper=hi,
+            )
         y = np.asarray(self._y.value, dtype=float)
         if s <= 1e-12 * max(1.0, float(np.abs(y).max())):
             # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
             primal_status, _, _ = self._primal_max(p)
             if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
                 return FractionalResult(
-                    math.nan,
-                    None,
-                    "infeasible",
-                    "lp",
-                    status,
-                    "the constraints are inconsistent: no feasible h",
-                    p,
-                    q,
-                    lo,
-                    hi,
+                    value=math.nan,
+                    argmax=None,
+                    status="infeasible",
+                    method="lp",
+                    solver_status=status,
+                    reason="the constraints are inconsistent: no feasible h",
+                    p=p,
+                    q=q,
+                    lower=lo,
+                    upper=hi,
                 )
             return FractionalResult(
-                float(prob.value),
-                None,
-                "optimal",
-                "lp",
-                status,
-                "the supremum is approached only as h grows without bound along a recession "
+                value=float(prob.value),
+                argmax=None,
+                status="optimal",
+                method="lp",
+                solver_status=status,
+                reason="the supremum is approached only as h grows without bound along a recession "
                 "direction of the polytope (q·h -> +inf); it is not attained",
-                p,
-                q,
-                lo,
-                hi,
+                p=p,
+                q=q,
+                lower=lo,
+                upper=hi,
             )
-        return FractionalResult(float(prob.value), y / float(s), "optimal", "lp", status, "", p, q, lo, hi)
+        return FractionalResult(
+            value=float(prob.value),
+            argmax=y / float(s),
+            status="optimal",
+            method="lp",
+            solver_status=status,
+            reason="",
+            p=p,
+            q=q,
+            lower=lo,
+            upper=hi,
+        )
 
     def _zero_denominator(self, p: FloatArray, q: FloatArray, status: str) -> FractionalResult:
         """The transformed LP is infeasible: the polytope is empty, or q·h = 0 on all of it.
@@ -562,36 +624,56 @@ class FractionalProgram:
         try:
             primal_status, value, h = self._primal_max(p)
         except cp.error.SolverError as exc:  # pragma: no cover
-            return FractionalResult(math.nan, None, "infeasible", "lp", "solver_error", str(exc), p, q, lo, hi)
+            return FractionalResult(
+                value=math.nan,
+                argmax=None,
+                status="infeasible",
+                method="lp",
+                solver_status="solver_error",
+                reason=str(exc),
+                p=p,
+                q=q,
+                lower=lo,
+                upper=hi,
+            )
 
         if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return FractionalResult(
-                math.nan,
-                None,
-                "infeasible",
-                "lp",
-                status,
-                "the constraints are inconsistent: no feasible h",
-                p,
-                q,
-                lo,
-                hi,
+                value=math.nan,
+                argmax=None,
+                status="infeasible",
+                method="lp",
+                solver_status=status,
+                reason="the constraints are inconsistent: no feasible h",
+                p=p,
+                q=q,
+                lower=lo,
+                upper=hi,
             )
         if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
             return FractionalResult(
-                math.inf,
-                h,
-                "unbounded",
-                "lp",
-                status,
-                "q·h = 0 on every feasible h and some has p·h > 0 (c/0)",
-                p,
-                q,
-                lo,
-                hi,
+                value=math.inf,
+                argmax=h,
+                status="unbounded",
+                method="lp",
+                solver_status=status,
+                reason="q·h = 0 on every feasible h and some has p·h > 0 (c/0)",
+                p=p,
+                q=q,
+                lower=lo,
+                upper=hi,
             )
         return FractionalResult(
-            1.0, h, "optimal", "lp", status, "p·h = q·h = 0 on every feasible h (0/0 counts as parity)", p, q, lo, hi
+            value=1.0,
+            argmax=h,
+            status="optimal",
+            method="lp",
+            solver_status=status,
+            reason="p·h = q·h = 0 on every feasible h (0/0 counts as parity)",
+            p=p,
+            q=q,
+            lower=lo,
+            upper=hi,
         )
 
     def _primal_max(self, p: FloatArray) -> tuple[str, float, FloatArray | None]:

@@ -45,7 +45,7 @@ DEFAULT_DATASETS = 200
 BAYES_DATASETS = 40  # "bayes" draws 4000 posterior samples per table: about 10 ms a table
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SamplePlan:
     """The result of :func:`plan`: every input, the planned sample size and how it does.
 

@@ -90,7 +90,18 @@ def relaxed_first(
             h[free] = np.broadcast_to(np.asarray(upper, dtype=float), h.shape)[free]
             if rows is None or floor is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
                 status = "unbounded" if math.isinf(v) else "optimal"
-                return FractionalResult(float(v), h, status, "threshold", "closed form", "", p, q, None, None)
+                return FractionalResult(
+                    value=float(v),
+                    argmax=h,
+                    status=status,
+                    method="threshold",
+                    solver_status="closed form",
+                    reason="",
+                    p=p,
+                    q=q,
+                    lower=None,
+                    upper=None,
+                )
         return program().solve(p, q)
 
     return solve

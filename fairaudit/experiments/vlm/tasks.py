@@ -47,7 +47,7 @@ class Attribute:
     values: tuple
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class DeliveryTask:
     """A two-candidate delivery task of the paper.
 

@@ -20,17 +20,14 @@ naming the dotted field (``privacy.sensitive.epsilon``) and the value.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Hashable, Sequence
 from pathlib import Path
-from typing import Annotated, Any, Literal, Self
+from typing import Any, Literal, Self
 
 import numpy as np
 from pydantic import (
-    BaseModel,
     ConfigDict,
     Field,
-    Strict,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -39,6 +36,16 @@ from pydantic import (
 
 from ._arrays import FloatArray, as_labels, format_label
 from ._errors import InputError
+from ._toml import (
+    FieldProblem,
+    Number,
+    StrictModel,
+    distinct_labels,
+    parse_toml,
+    toml_label,
+    validation_error,
+    value_kind,
+)
 from ._validation import real
 from .estimate import CountTable, count_records, count_table, read_records
 from .laws import Kernel, Population
@@ -64,27 +71,6 @@ __all__ = [
 ]
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-_Number = Annotated[float, Strict()]
-"""A TOML number: an integer or a float (converted to float); a string or a boolean is an error."""
-
-_LABEL_DEPTH = 8
-"""How deep lists may nest inside one label (a tuple label of tuple labels ...)."""
-
-
-class _FieldProblem(ValueError):
-    """A validator's error about part of its field: ``sub`` ("[2]", ".tau") extends the error's location."""
-
-    def __init__(self, sub: str, problem: str, value: object = InputError._missing) -> None:
-        super().__init__(problem)
-        self.sub = sub
-        self.problem = problem
-        self.value = value
-
-
 def _finite(v: float | None, what: str = "value") -> float | None:
     """``v`` (None stays None) if it is finite; else a problem of the field ``.what``."""
     if v is None:
@@ -92,57 +78,7 @@ def _finite(v: float | None, what: str = "value") -> float | None:
     try:
         return real(v, what, what="finite")
     except InputError as exc:
-        raise _FieldProblem(f".{exc.field}", exc.problem, exc.value) from None
-
-
-def _kind(value: object) -> str:
-    """What a TOML value is, for messages: "a string", "a boolean", "an inline table", ..."""
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, dict):
-        return "an inline table"
-    if isinstance(value, list):
-        return "a list"
-    return f"a {type(value).__name__}"
-
-
-def _label(value: object, where: str, depth: int = 0) -> Hashable:
-    """A TOML value as a label: a list becomes a tuple (its lists too, up to 8 deep); an inline table is an error."""
-    if isinstance(value, dict):
-        raise _FieldProblem(
-            where, "a label is a string, number, boolean, date or a list of them, not an inline table", value
-        )
-    if isinstance(value, (list, tuple)):
-        if not value:
-            raise _FieldProblem(where, "a list label must not be empty", value)
-        if depth >= _LABEL_DEPTH:
-            raise _FieldProblem(where, f"a label may nest lists at most {_LABEL_DEPTH} deep", value)
-        return tuple(_label(v, f"{where}[{i}]", depth + 1) for i, v in enumerate(value))
-    assert isinstance(value, Hashable)  # (TOML scalars: str, int, float, bool, dates and times)
-    return value
-
-
-def _distinct_labels(v: list[Any] | None, what: str = "values") -> list[Any] | None:
-    """Labels (lists as tuples) that are distinct as text (labels are matched by their text) and as values."""
-    if v is None:
-        return v
-    if len(v) == 0:
-        raise ValueError("must list at least one value")
-    labels = [_label(x, f"[{i}]") for i, x in enumerate(v)]
-    texts: set[str] = set()
-    for lab in labels:
-        text = format_label(lab)
-        if text in texts:
-            raise _FieldProblem("", f"{what} must be distinct as text; {text!r} repeats", v)
-        texts.add(text)
-    seen: dict[Hashable, Hashable] = {}
-    for lab in labels:
-        if lab in seen:  # 1, 1.0 and true are equal in Python though not as text
-            raise _FieldProblem("", f"{what} must be distinct; {seen[lab]!r} and {lab!r} are equal", v)
-        seen[lab] = lab
-    return labels
+        raise FieldProblem(f".{exc.field}", exc.problem, exc.value) from None
 
 
 def _numbers_in(v: list[Any], levels: int, where: str = "") -> None:
@@ -151,15 +87,15 @@ def _numbers_in(v: list[Any], levels: int, where: str = "") -> None:
         here = f"{where}[{i}]"
         if isinstance(x, list):
             if levels <= 1:
-                raise _FieldProblem(here, "must be a number, not a list (nested too deeply)", x)
+                raise FieldProblem(here, "must be a number, not a list (nested too deeply)", x)
             _numbers_in(x, levels - 1, here)
         elif isinstance(x, bool) or not isinstance(x, (int, float)):
-            raise _FieldProblem(here, f"must be a number, not {_kind(x)}", x)
+            raise FieldProblem(here, f"must be a number, not {value_kind(x)}", x)
         elif isinstance(x, int) and not -(2**1023) < x < 2**1023:
-            raise _FieldProblem(here, "is too large for a number", x)
+            raise FieldProblem(here, "is too large for a number", x)
 
 
-class AttributeSpec(_Strict):
+class AttributeSpec(StrictModel):
     """An alphabet: a name and its ordered values."""
 
     name: str
@@ -168,22 +104,22 @@ class AttributeSpec(_Strict):
     @field_validator("values")
     @classmethod
     def _distinct(cls, v: list[Any] | None) -> list[Any] | None:
-        return _distinct_labels(v)
+        return distinct_labels(v)
 
 
 class ContextSpec(AttributeSpec):
     """The context: an alphabet and optionally its distribution P(X)."""
 
-    distribution: list[_Number] | None = None
+    distribution: list[Number] | None = None
 
 
-class MechanismSpec(_Strict):
+class MechanismSpec(StrictModel):
     """A mechanism: identity, randomized_response, matrix or product."""
 
     mechanism: Literal["identity", "randomized_response", "matrix", "product"] = "identity"
-    epsilon: _Number | None = Field(default=None, ge=0)
-    keep: _Number | None = Field(default=None, gt=0, le=1)
-    rows: list[list[_Number]] | None = None
+    epsilon: Number | None = Field(default=None, ge=0)
+    keep: Number | None = Field(default=None, gt=0, le=1)
+    rows: list[list[Number]] | None = None
     outputs: list[Any] | None = None
     values: list[Any] | None = None
     components: list[MechanismSpec] | None = None
@@ -192,7 +128,7 @@ class MechanismSpec(_Strict):
     @field_validator("values", "outputs")
     @classmethod
     def _distinct(cls, v: list[Any] | None, info: ValidationInfo) -> list[Any] | None:
-        return _distinct_labels(v, info.field_name or "values")
+        return distinct_labels(v, info.field_name or "values")
 
     @model_validator(mode="after")
     def _fields_fit(self) -> Self:
@@ -212,18 +148,18 @@ class MechanismSpec(_Strict):
         return self
 
 
-class PrivacySpec(_Strict):
+class PrivacySpec(StrictModel):
     """``[privacy]``: the mechanisms on the sensitive attribute and on the context (identity by default)."""
 
     sensitive: MechanismSpec = MechanismSpec()
     context: MechanismSpec = MechanismSpec()
 
 
-class PopulationSpec(_Strict):
+class PopulationSpec(StrictModel):
     """``[population]``: the joint P(X, A) (n_contexts × n_groups) or P(A) with X ⊥ A."""
 
-    probabilities: list[list[_Number]] | None = None
-    group_distribution: list[_Number] | None = None
+    probabilities: list[list[Number]] | None = None
+    group_distribution: list[Number] | None = None
 
     @model_validator(mode="after")
     def _one(self) -> Self:
@@ -232,7 +168,7 @@ class PopulationSpec(_Strict):
         return self
 
 
-class ModelSpec(_Strict):
+class ModelSpec(StrictModel):
     """``[model]``: the kernel P(U | X̃, Ã) as an aggregated table (counts or probabilities) or as records."""
 
     table: str | None = None
@@ -250,23 +186,23 @@ class ModelSpec(_Strict):
         return self
 
 
-class UtilitySpec(_Strict):
+class UtilitySpec(StrictModel):
     """``[utility]``: g (indicator of a decision, or a table), its class [lower, γ], τ, L_A and the metric."""
 
     kind: Literal["indicator", "table"] = "indicator"
     decision: Any = None
     values: list[Any] | None = None
-    gamma: _Number | None = Field(default=None, ge=0)
-    lower: _Number | None = Field(default=None, ge=0)
-    tau: _Number | None = Field(default=None, gt=0)
-    lipschitz: _Number | None = Field(default=None, ge=0)
-    metric: list[list[_Number]] | None = None
+    gamma: Number | None = Field(default=None, ge=0)
+    lower: Number | None = Field(default=None, ge=0)
+    tau: Number | None = Field(default=None, gt=0)
+    lipschitz: Number | None = Field(default=None, ge=0)
+    metric: list[list[Number]] | None = None
     name: str | None = None
 
     @field_validator("decision")
     @classmethod
     def _decision(cls, v: Any) -> Any:
-        return None if v is None else _label(v, "")
+        return None if v is None else toml_label(v, "")
 
     @field_validator("values")
     @classmethod
@@ -284,22 +220,22 @@ class UtilitySpec(_Strict):
         if self.kind == "table" and self.values is None:
             raise ValueError("kind = 'table' needs values (a list over decisions, or [context][group][decision])")
         if self.gamma is not None and self.lower is not None and self.lower > self.gamma:
-            raise _FieldProblem(".lower", f"cannot exceed gamma = {self.gamma:g}", self.lower)
+            raise FieldProblem(".lower", f"cannot exceed gamma = {self.gamma:g}", self.lower)
         if self.gamma is not None and self.tau is not None and self.tau > self.gamma:
-            raise _FieldProblem(".tau", f"cannot exceed gamma = {self.gamma:g} (E[g | x, a] <= max g)", self.tau)
+            raise FieldProblem(".tau", f"cannot exceed gamma = {self.gamma:g} (E[g | x, a] <= max g)", self.tau)
         return self
 
 
-class TargetSpec(_Strict):
+class TargetSpec(StrictModel):
     """``[target]``: targets on local and global g-fairness, in nats."""
 
-    local: _Number | None = Field(default=None, ge=0)
-    global_: _Number | None = Field(default=None, ge=0, alias="global")
+    local: Number | None = Field(default=None, ge=0)
+    global_: Number | None = Field(default=None, ge=0, alias="global")
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
 
-class SpecModel(_Strict):
+class SpecModel(StrictModel):
     """The whole spec, validated field by field (unknown fields are errors)."""
 
     title: str | None = None
@@ -328,29 +264,6 @@ class SpecModel(_Strict):
         if self.sensitive.values is None and self.privacy.sensitive.mechanism != "product":
             raise ValueError("sensitive.values is required (it may be left out only with a product mechanism)")
         return self
-
-
-def _pydantic_message(err: ValidationError, source: str) -> InputError:
-    first = err.errors()[0]
-    loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".")
-    loc = loc.replace("global_", "global")
-    error = (first.get("ctx") or {}).get("error")
-    if isinstance(error, _FieldProblem):  # a validator's error about part of the field
-        return InputError(f"{source}: {(loc + error.sub).lstrip('.') or 'spec'}", error.problem, error.value)
-    loc = loc or "spec"
-    msg = first["msg"].removeprefix("Value error, ")
-    value = first.get("input", InputError._missing)
-    if first["type"] == "float_type":  # strict numbers: TOML 0.7, not "0.7" or true
-        big = isinstance(value, int) and not isinstance(value, bool)
-        problem = "is too large for a number" if big else f"must be a number, not {_kind(value)}"
-        return InputError(f"{source}: {loc}", problem, value)
-    if first["type"] == "missing":
-        return InputError(f"{source}: {loc}", "is required")
-    if first["type"] == "extra_forbidden":
-        return InputError(f"{source}: {loc}", "is not a known field")
-    if isinstance(value, dict):
-        return InputError(f"{source}: {loc}", msg)
-    return InputError(f"{source}: {loc}", msg, value)
 
 
 class Spec:
@@ -866,17 +779,12 @@ def parse_spec(text: str, source: str = "<string>", base: str | Path = ".") -> S
     ...
     fairaudit._errors.InputError: <string>: privacy.sensitive.mechanism: Input should be 'identity', 'randomized_response', 'matrix' or 'product' (got 'laplace')
     """
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, f"is not valid TOML ({exc})") from None
-    except (RecursionError, MemoryError):  # the parser recurses: arrays or inline tables nested ~500 deep
-        raise InputError(source, "is too deeply nested (or too large) to read") from None
+    raw = parse_toml(text, source)
     try:
         model = SpecModel.model_validate(raw)
         return Spec(model, source, Path(base))
     except ValidationError as exc:
-        raise _pydantic_message(exc, source) from None
+        raise validation_error(exc, source, whole="spec") from None
     except RecursionError:
         raise InputError(source, "is too deeply nested to validate") from None
 

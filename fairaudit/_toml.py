@@ -1,0 +1,147 @@
+"""Reading TOML documents (certify specs, task files) into pydantic models, with one-line errors.
+
+:func:`parse_toml` reads the text; a model built on :class:`StrictModel` validates it;
+:func:`validation_error` turns pydantic's first error into one
+:class:`~fairaudit.InputError` naming the file, the dotted field and the value.
+Validators raise :class:`FieldProblem` to point at part of their field.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Hashable
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import Strict as StrictType
+
+from ._arrays import format_label
+from ._errors import InputError
+
+__all__ = [
+    "LABEL_DEPTH",
+    "FieldProblem",
+    "Number",
+    "StrictModel",
+    "distinct_labels",
+    "parse_toml",
+    "toml_label",
+    "validation_error",
+    "value_kind",
+]
+
+
+def parse_toml(text: str, source: str) -> dict[str, Any]:
+    """The TOML document ``text`` as a dictionary.
+
+    Raises
+    ------
+    InputError
+        Field ``source``: not valid TOML, or nested too deeply to read.
+    """
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, f"is not valid TOML ({exc})") from None
+    except (RecursionError, MemoryError):  # the parser recurses: arrays or inline tables nested ~500 deep
+        raise InputError(source, "is too deeply nested (or too large) to read") from None
+
+
+class StrictModel(BaseModel):
+    """A TOML table: unknown keys are errors, the validated model is frozen."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+Number = Annotated[float, StrictType()]
+"""A TOML number: an integer or a float (converted to float); a string or a boolean is an error."""
+
+LABEL_DEPTH = 8
+"""How deep lists may nest inside one label (a tuple label of tuple labels ...)."""
+
+
+class FieldProblem(ValueError):
+    """A validator's error about part of its field: ``sub`` ("[2]", ".tau") extends the error's location."""
+
+    def __init__(self, sub: str, problem: str, value: object = InputError._missing) -> None:
+        super().__init__(problem)
+        self.sub = sub
+        self.problem = problem
+        self.value = value
+
+
+def value_kind(value: object) -> str:
+    """What a TOML value is, for messages: "a string", "a boolean", "an inline table", ..."""
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, dict):
+        return "an inline table"
+    if isinstance(value, list):
+        return "a list"
+    return f"a {type(value).__name__}"
+
+
+def toml_label(value: object, where: str, depth: int = 0) -> Hashable:
+    """A TOML value as a label: a list becomes a tuple (its lists too, up to 8 deep); an inline table is an error."""
+    if isinstance(value, dict):
+        raise FieldProblem(
+            where, "a label is a string, number, boolean, date or a list of them, not an inline table", value
+        )
+    if isinstance(value, (list, tuple)):
+        if not value:
+            raise FieldProblem(where, "a list label must not be empty", value)
+        if depth >= LABEL_DEPTH:
+            raise FieldProblem(where, f"a label may nest lists at most {LABEL_DEPTH} deep", value)
+        return tuple(toml_label(v, f"{where}[{i}]", depth + 1) for i, v in enumerate(value))
+    assert isinstance(value, Hashable)  # (TOML scalars: str, int, float, bool, dates and times)
+    return value
+
+
+def distinct_labels(v: list[Any] | None, what: str = "values") -> list[Any] | None:
+    """Labels (lists as tuples) that are distinct as text (labels are matched by their text) and as values."""
+    if v is None:
+        return v
+    if len(v) == 0:
+        raise ValueError("must list at least one value")
+    labels = [toml_label(x, f"[{i}]") for i, x in enumerate(v)]
+    texts: set[str] = set()
+    for lab in labels:
+        text = format_label(lab)
+        if text in texts:
+            raise FieldProblem("", f"{what} must be distinct as text; {text!r} repeats", v)
+        texts.add(text)
+    seen: dict[Hashable, Hashable] = {}
+    for lab in labels:
+        if lab in seen:  # 1, 1.0 and true are equal in Python though not as text
+            raise FieldProblem("", f"{what} must be distinct; {seen[lab]!r} and {lab!r} are equal", v)
+        seen[lab] = lab
+    return labels
+
+
+def validation_error(err: ValidationError, source: str, *, whole: str) -> InputError:
+    """The first error of a pydantic validation as one line: ``source: field.path: problem (got value)``.
+
+    ``whole`` names the document when the error is about all of it (``"spec"``, ``"task"``).
+    """
+    first = err.errors()[0]
+    loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".")
+    loc = loc.replace("global_", "global")
+    error = (first.get("ctx") or {}).get("error")
+    if isinstance(error, FieldProblem):  # a validator's error about part of the field
+        return InputError(f"{source}: {(loc + error.sub).lstrip('.') or whole}", error.problem, error.value)
+    loc = loc or whole
+    msg = first["msg"].removeprefix("Value error, ")
+    value = first.get("input", InputError._missing)
+    if first["type"] == "float_type":  # strict numbers: TOML 0.7, not "0.7" or true
+        big = isinstance(value, int) and not isinstance(value, bool)
+        problem = "is too large for a number" if big else f"must be a number, not {value_kind(value)}"
+        return InputError(f"{source}: {loc}", problem, value)
+    if first["type"] == "missing":
+        return InputError(f"{source}: {loc}", "is required")
+    if first["type"] == "extra_forbidden":
+        return InputError(f"{source}: {loc}", "is not a known field")
+    if isinstance(value, dict):
+        return InputError(f"{source}: {loc}", msg)
+    return InputError(f"{source}: {loc}", msg, value)

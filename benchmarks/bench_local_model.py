@@ -75,8 +75,9 @@ from fairaudit._errors import InputError  # noqa: E402
 from fairaudit.experiments import local_model as lm  # noqa: E402
 from fairaudit.experiments.analysis import ExperimentAnalysis, analyse, analyse_kernel  # noqa: E402
 from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel  # noqa: E402
+from fairaudit.experiments.taskfile import TASKS  # noqa: E402
 from fairaudit.experiments.vlm.client import ChatClient  # noqa: E402
-from fairaudit.experiments.vlm.tasks import TASKS, DeliveryTask  # noqa: E402
+from fairaudit.experiments.vlm.tasks import DeliveryTask
 from fairaudit.intervals import category_bounds  # noqa: E402
 
 MODEL = "smollm2"

@@ -9,6 +9,7 @@ log 15 exactly (counted by hand in the test's docstring).
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -22,22 +23,21 @@ import pytest
 from _chat_server import ChatServer
 from _cli import run
 
+from fairaudit.experiments.taskfile import PACKAGE_DELIVERY
 from fairaudit.experiments.vlm.models import Query, simulated_model
-from fairaudit.experiments.vlm.tasks import PACKAGE_DELIVERY
 
 
 def _responder(task, name):
     """A chat server's responder that answers as the named simulated model would, from the request's seed."""
     model = simulated_model(task, name)
-    contexts = {task.describe_context(c): c for c in task.contexts}
-    profiles = {task.describe_profile(p): p for p in task.profiles}
+    cells = {
+        task.prompt(c, shown): (c, shown) for c in task.contexts for shown in itertools.product(task.profiles, repeat=2)
+    }
 
     def respond(body: dict) -> str:
         content = body["messages"][-1]["content"]
         text = content if isinstance(content, str) else next(p["text"] for p in content if p["type"] == "text")
-        lines = {ln.split(": ", 1)[0]: ln.split(": ", 1)[1].rstrip(".") for ln in text.splitlines() if ": " in ln}
-        ctx = next(contexts[v] for v in lines.values() if v in contexts)
-        shown = tuple(profiles[lines[o]] for o in task.options)
+        ctx, shown = cells[text]
         return model.reply(Query("", "table", ctx, shown, 0, body["seed"])).text
 
     return respond

@@ -26,10 +26,11 @@ from fairaudit.experiments.analysis import (
 )
 from fairaudit.experiments.harness import QueryLog, paper_counts, plan_queries, run_queries, table_kernel
 from fairaudit.experiments.options import ModelSource, RunOptions
+from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, get_task
 from fairaudit.experiments.vlm.filter import PrivacyFilter, candidate_family
 from fairaudit.experiments.vlm.models import Query, SimulatedModel, reply_text, simulated_model
 from fairaudit.experiments.vlm.parse import parse_reply
-from fairaudit.experiments.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY, UNPARSED, get_task
+from fairaudit.experiments.vlm.tasks import UNPARSED
 
 PKG, HR = PACKAGE_DELIVERY, HR_DELIVERY
 
@@ -101,7 +102,9 @@ def test_prompts_name_the_cell_and_reject_unknown_values():
         PKG.prompt("pizza", [("high",), ("low",)])
     with pytest.raises(InputError, match="not a profile of hr-delivery"):
         HR.prompt("sick leave", [("Tom", 30, "Asian"), ("Mary", 55, "American")])
-    with pytest.raises(InputError, match="experiment: must be one of"):
+    with pytest.raises(
+        InputError, match=r"experiment: must be a built-in task \(hr-delivery, package-delivery\) or a task file"
+    ):
         get_task("navigation")
 
 
@@ -387,7 +390,7 @@ def test_position_split_by_hand_with_three_contexts():
     m(., 2) = 0.3 + 1.5 + 0.4 = 2.2 for both candidates (pure position).
     """
     from fairaudit.experiments.analysis import position_split
-    from fairaudit.experiments.vlm.tasks import PACKAGE_DELIVERY
+    from fairaudit.experiments.taskfile import PACKAGE_DELIVERY
 
     mixed = [[0.9, 0.1, 0.0], [0.6, 0.4, 0.0]]
     pure = [[0.5, 0.3, 0.2], [0.5, 0.3, 0.2]]

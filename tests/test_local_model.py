@@ -23,9 +23,9 @@ from _model import need_local_model
 from fairaudit._errors import InputError
 from fairaudit.experiments import local_model as lm
 from fairaudit.experiments.report import shown_kernel_frame
+from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY
 from fairaudit.experiments.vlm.models import SimulatedModel
 from fairaudit.experiments.vlm.parse import parse_reply
-from fairaudit.experiments.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
 
 # --------------------------------------------------------------------------- without torch
 

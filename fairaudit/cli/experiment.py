@@ -18,12 +18,17 @@ def add_parser(sub: Subparsers) -> None:
         "experiment",
         help="run the paper's delivery experiment against a model under a privacy filter",
         description="Query a decision model (simulated, a kernel table, or an OpenAI-compatible "
-        "endpoint) on every shown cell of the paper's HR-delivery or package-delivery task, apply the "
+        "endpoint) on every shown cell of a decision task (the paper's HR-delivery or package-delivery "
+        "task, or a task file), apply the "
         "privacy filter exactly by composition, and write the baseline figure, the fairness-privacy "
         "curve with confidence bands and certified bounds, the certificate and the report to --out. "
         "Exit 1 when some queries failed (run again with --resume).",
     )
-    e.add_argument("experiment", choices=("hr-delivery", "package-delivery"), help="the task")
+    e.add_argument(
+        "experiment",
+        metavar="TASK",
+        help="a built-in task (hr-delivery, package-delivery) or the path of a task file (.toml; see docs/tasks.md)",
+    )
     _add_model_options(e)
     _add_privacy_options(e)
     _add_run_options(e)
@@ -78,7 +83,7 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
         type=keep_level,
         nargs="+",
         metavar="P",
-        help="keep probabilities of every attribute instead (default 0.5 0.6 0.7 0.8 0.9)",
+        help="keep probabilities of every attribute instead (default: the task file's [filter], else 0.5 0.6 0.7 0.8 0.9)",
     )
     e.add_argument(
         "--context-epsilon",
@@ -96,8 +101,7 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     e.add_argument(
         "--positions",
         choices=("balanced", "fixed"),
-        default="balanced",
-        help="both orders of the two candidates (default), or the paper's only",
+        help="both orders of the two candidates, or the paper's only (default: the task's, balanced for the built-in tasks)",
     )
     e.add_argument(
         "--target",

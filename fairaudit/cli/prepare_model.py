@@ -31,7 +31,7 @@ def add_parser(sub: Subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit prepare-model``: print the model's folder; returns the exit status."""
     from ..experiments import local_model as lm
-    from ..experiments.vlm.tasks import HR_DELIVERY
+    from ..experiments.taskfile import HR_DELIVERY
 
     def say(line: str) -> None:
         print(f"fairaudit: {line}", file=sys.stderr)

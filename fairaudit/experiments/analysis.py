@@ -101,7 +101,7 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.tasks import PACKAGE_DELIVERY as t
+    >>> from fairaudit.experiments.taskfile import PACKAGE_DELIVERY as t
     >>> from fairaudit.experiments.harness import table_kernel
     >>> recs = [{"design": "table", "status": "ok", "context": c, "profiles": [p1, p2], "decision": "Recipient1"}
     ...         for c in t.contexts for p1 in t.profiles for p2 in t.profiles]
@@ -167,7 +167,7 @@ def epsilon_from_keep(task: DeliveryTask, keep: float) -> float:
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
     >>> round(epsilon_from_keep(HR_DELIVERY, 0.7), 6)      # 6 ln(7/3), not 0.7/0.3
     5.083787
     """
@@ -252,7 +252,7 @@ def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:
     --------
     Pure position bias: the first-listed is chosen 0.8 of the time, whoever it is.
 
-    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY as t
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY as t
     >>> s = position_split(t, [[[0.8, 0.2, 0.0], [0.8, 0.2, 0.0]]] * 3)
     >>> round(s.overall_raw, 6), round(s.overall_position, 6), s.overall_group, s.explained()
     (1.386294, 1.386294, 0.0, (1.0, 0.0))

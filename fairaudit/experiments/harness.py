@@ -123,7 +123,7 @@ def plan_queries(
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
     >>> len(plan_queries(HR_DELIVERY, "table", 5, 0))              # 3 documents x 8 x 8 profiles x 5
     960
     >>> q = plan_queries(HR_DELIVERY, "paper", 2, 0, epsilons=[1.0])

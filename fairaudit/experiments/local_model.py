@@ -434,7 +434,7 @@ def answer_task(task: DeliveryTask) -> DeliveryTask:
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
     >>> answer_task(HR_DELIVERY).prompt("sick leave", HR_DELIVERY.candidates).splitlines()[-2:]
     ['Answer with a single digit: 1 to choose HR1, 2 to choose HR2.', 'Answer:']
     """
@@ -464,11 +464,13 @@ def chat_messages(task: DeliveryTask, context: str, profiles: Sequence[tuple[str
     Returns
     -------
     list of dict
-        ``[{"role": "user", "content": prompt}]``.
+        ``[{"role": "user", "content": prompt}]``, after ``{"role": "system", ...}`` when the task has a system prompt.
     """
     from .vlm.client import user_message
 
-    return [user_message(task.prompt(context, profiles))]
+    system = task.system_prompt(context, profiles)
+    head = [] if system is None else [{"role": "system", "content": system}]
+    return [*head, user_message(task.prompt(context, profiles))]
 
 
 def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None) -> IntArray:

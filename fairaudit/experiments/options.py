@@ -100,7 +100,8 @@ class RunOptions:
         probabilities, with no queries and no sampling error.
     epsilons : sequence of float, optional
         The candidate's privacy budgets ε (nats) to report; or give ``keeps``:
-        the keep probability of every attribute (default :data:`DEFAULT_KEEPS`).
+        the keep probability of every attribute. Default: the task file's
+        ``[filter]`` budgets, else :data:`DEFAULT_KEEPS`.
     keeps : sequence of float, optional
     context_epsilon : float, optional
         ε of randomized response on the context (document type or package).
@@ -108,8 +109,9 @@ class RunOptions:
         The table design only, or also the paper's (sampling through the
         filter at every ε) for comparison; ``"both"`` needs queries (not the
         exact route).
-    positions : {"balanced", "fixed"}
-        Both orders of the two candidates, or the paper's only.
+    positions : {"balanced", "fixed"}, optional
+        Both orders of the two candidates, or the paper's only; default the
+        task's (``[task] positions`` of its file).
     targets : sequence of float
         Fairness targets (nats) at which the report gives the ε that meets
         them, for this model and for any model (default
@@ -149,7 +151,7 @@ class RunOptions:
     keeps: Sequence[float] | None = None
     context_epsilon: float | None = None
     design: str = "table"
-    positions: str = "balanced"
+    positions: str | None = None
     targets: Sequence[float] = DEFAULT_TARGETS
     seed: int = 0
     resume: bool = False
@@ -161,7 +163,8 @@ class RunOptions:
 
     def __post_init__(self) -> None:
         choice(self.design, "design", ("table", "both"))
-        choice(self.positions, "positions", ("balanced", "fixed"))
+        if self.positions is not None:
+            choice(self.positions, "positions", ("balanced", "fixed"))
         if self.epsilons is not None and self.keeps is not None:
             raise InputError("keeps", "give `epsilons` or `keeps`, not both")
         nats = "finite and >= 0 (nats)"

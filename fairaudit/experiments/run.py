@@ -19,6 +19,7 @@ parser as any endpoint).
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 import warnings
@@ -33,8 +34,9 @@ from .._errors import InputError
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .options import DEFAULT_KEEPS, ModelSource, RunOptions
-from .vlm.models import SIMULATED, DecisionModel, EndpointModel, SimulatedModel, simulated_model
-from .vlm.tasks import DeliveryTask, get_task
+from .taskfile import get_task
+from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_model, simulated_models
+from .vlm.tasks import DeliveryTask
 
 __all__ = ["DEFAULT_KEEPS", "ExperimentRun", "ModelSource", "RunOptions", "run_experiment"]
 
@@ -79,10 +81,10 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int) -> Decisio
             max_retries=source.max_retries,
             max_concurrency=concurrency,
         )
-        return EndpointModel(client)
+        return EndpointModel(client, task)
     if source.kernel:
         return SimulatedModel.from_csv(task, source.kernel)
-    return simulated_model(task, source.simulated or next(iter(SIMULATED[task.name])))
+    return simulated_model(task, source.simulated or next(iter(simulated_models(task))))
 
 
 def _images(scene: str | None, images: bool) -> tuple[bytes, ...]:
@@ -225,6 +227,7 @@ def run_experiment(
     source = ModelSource() if source is None else source
     options = RunOptions() if options is None else options
     task = get_task(experiment)
+    options = _task_defaults(task, options)
     plan = _prepare(task, Path(out), source, options)  # everything checked; nothing written yet
     with _claim(plan.out):  # makes out and locks it: a second run on it is refused here, before it writes anything
         _check_log(plan.log_path, options.resume, plan.exact)  # again under the lock: another run may have ended
@@ -232,6 +235,19 @@ def run_experiment(
             assert source.local_model is not None
             return _run_exact(task, source.local_model, plan.out, options.seed, progress, log, plan.common)
         return _run_sampled(task, plan, source, options, progress, log)
+
+
+def _task_defaults(task: DeliveryTask, options: RunOptions) -> RunOptions:
+    """The options with what they leave out taken from the task file: positions and the budgets."""
+    changes: dict[str, Any] = {}
+    if options.positions is None:
+        changes["positions"] = task.positions
+    if options.keeps is None and options.epsilons is None:
+        if task.epsilons is not None:
+            changes["epsilons"] = task.epsilons
+        else:
+            changes["keeps"] = task.keeps if task.keeps is not None else DEFAULT_KEEPS
+    return dataclasses.replace(options, **changes) if changes else options
 
 
 def _from_keywords(
@@ -288,7 +304,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     _check_log(log_path, options.resume, exact)
     common: _Common = {
         "epsilons": eps,
-        "positions": options.positions,
+        "positions": options.positions or task.positions,
         "confidence": options.confidence,
         "method": options.method,
         "context_epsilon": options.context_epsilon,
@@ -380,7 +396,7 @@ def _ask(
             n,
             options.seed,
             epsilons=eps,
-            positions=options.positions,
+            positions=options.positions or task.positions,
             context_epsilon=options.context_epsilon,
         )
     with QueryLog(plan.log_path, header, resume=options.resume) as qlog:

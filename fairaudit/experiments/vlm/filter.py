@@ -41,7 +41,7 @@ def released_pair_label(task: DeliveryTask, own: tuple, rival: tuple) -> str:
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
     >>> released_pair_label(HR_DELIVERY, ("Tom", 25, "Asian"), ("Mary", 55, "American"))
     'Tom & 25 & Asian | Mary & 55 & American'
     """
@@ -91,7 +91,7 @@ class PrivacyFilter:
         --------
         Name, age and race each kept with p = 0.7 (the paper's filter):
 
-        >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
+        >>> from fairaudit.experiments.taskfile import HR_DELIVERY
         >>> import math
         >>> f = PrivacyFilter.from_epsilon(HR_DELIVERY, 3 * math.log(7 / 3))
         >>> [round(p, 6) for p in f.keep_probabilities], round(f.epsilon_profile, 6)
@@ -213,7 +213,7 @@ def candidate_family(task: DeliveryTask) -> MechanismFamily:
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
     >>> fam = candidate_family(HR_DELIVERY)
     >>> import math
     >>> eps = 6 * math.log(7 / 3)                     # p = 0.7 on each of the 6 attributes shown

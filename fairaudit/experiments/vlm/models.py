@@ -106,7 +106,7 @@ def reply_text(task: DeliveryTask, decision: int | None, rng: np.random.Generato
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY, PACKAGE_DELIVERY
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY
     >>> reply_text(HR_DELIVERY, 1)
     '{"HR1": "0.0", "HR2": "1.0", "reason": "simulated decision"}'
     >>> reply_text(PACKAGE_DELIVERY, 1)
@@ -295,7 +295,24 @@ SIMULATED: dict[str, dict[str, Callable[[DeliveryTask], np.ndarray]]] = {
 * ``position-biased``: picks (serves first) the first-listed candidate with
   probability 0.82 whoever it is.
 * ``fair``: a coin.
+
+Any other task (a task file) has :data:`GENERIC_SIMULATED`.
 """
+
+GENERIC_SIMULATED: dict[str, Callable[[DeliveryTask], np.ndarray]] = {
+    "prefers-first": lambda t: _prefers(t, t.candidates[0]),
+    "prefers-second": lambda t: _prefers(t, t.candidates[1]),
+    "position-biased": lambda t: _position(t, 0.82),
+    "fair": lambda t: _position(t, 0.5),
+}
+"""Simulated models of any two-candidate task: ``prefers-first`` (``-second``) picks (serves first) the candidate
+whose shown profile shares more values with the task's first (second) true candidate, a coin on ties;
+``position-biased`` and ``fair`` as in :data:`SIMULATED`. The first is the default."""
+
+
+def simulated_models(task: DeliveryTask) -> dict[str, Callable[[DeliveryTask], np.ndarray]]:
+    """The named simulated models of ``task``: :data:`SIMULATED`'s for a built-in task, else the generic ones."""
+    return SIMULATED.get(task.name, GENERIC_SIMULATED)
 
 
 def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel:
@@ -308,13 +325,13 @@ def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel:
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.tasks import HR_DELIVERY
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
     >>> m = simulated_model(HR_DELIVERY, "prefers-mary")
     >>> tom, mary = HR_DELIVERY.profiles.index(("Tom", 25, "Asian")), HR_DELIVERY.profiles.index(("Mary", 55, "American"))
     >>> m.probabilities[0, tom, mary].tolist()        # P(HR1), P(HR2), P(unparsed)
     [0.0, 1.0, 0.0]
     """
-    models = SIMULATED[task.name]
+    models = simulated_models(task)
     if name not in models:
         raise InputError("simulated", f"must be one of {sorted(models)} for {task.name}", name)
     return SimulatedModel(task, models[name](task), name)
@@ -328,6 +345,8 @@ class EndpointModel:
     client : fairaudit.experiments.vlm.client.ChatClient
         Carries the endpoint, model name, API key (from the environment),
         timeouts, retries and the bound on concurrent requests.
+    task : DeliveryTask, optional
+        The task, whose system prompt (if any) goes first in every request.
 
     Notes
     -----
@@ -335,13 +354,18 @@ class EndpointModel:
     query's seed is sent as the request's ``seed``.
     """
 
-    def __init__(self, client: ChatClient) -> None:
+    def __init__(self, client: ChatClient, task: DeliveryTask | None = None) -> None:
         self.client = client
         self.name = client.model
+        self.task = task
 
     def reply(self, query: Query, prompt: str, images: tuple) -> ModelReply:
         """Send the query and return the reply's text (raises ChatError after the client's retries)."""
         from .client import user_message
 
-        r = self.client.complete([user_message(prompt, images)], seed=query.seed)
+        messages = [user_message(prompt, images)]
+        system = self.task.system_prompt(query.context, query.profiles) if self.task is not None else None
+        if system is not None:
+            messages.insert(0, {"role": "system", "content": system})
+        r = self.client.complete(messages, seed=query.seed)
         return ModelReply(r.text, r.model or self.name, r.attempts, r.latency)

@@ -1,0 +1,421 @@
+"""Task files: a decision task for ``fairaudit experiment`` written in TOML (docs/tasks.md).
+
+A task file says what a decision model is shown (a prompt template, the
+context, the candidates' sensitive attributes), what its reply means (the
+options) and what each candidate's outcome is worth (the utility); the
+privacy filter randomizes the attributes. :func:`load_task` reads one (or a
+built-in task by name: the paper's ``hr-delivery`` and ``package-delivery``
+ship as task files in ``fairaudit/experiments/tasks/``) into the
+:class:`~fairaudit.experiments.vlm.tasks.DeliveryTask` the experiment runs.
+
+The prompt is a Jinja2 template rendered in a sandbox (no attribute of
+Python objects, no calls, no files): ``{{ context }}``, ``{{ candidates }}``
+(the list) and ``{{ c1 }}``, ``{{ c2 }}``, ..., each candidate with one field
+per attribute (``{{ c1.name }}``, ``{{ c1["complaint rate"] }}``); a
+candidate written alone reads as its values joined by ``", "``.
+
+What runs today: two candidates per prompt (``candidates = 2``), a choice or
+a ranking of them, positions ``balanced`` or ``fixed``, and one pair of true
+candidates (``population = "distinct"`` with one attribute of two values, or
+the pair written out). Files asking for more are read and checked, then
+refused with a one-line error that says what is not supported yet.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import math
+from collections.abc import Hashable
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import Field, ValidationError, field_validator, model_validator
+
+from .._arrays import format_label
+from .._errors import InputError
+from .._toml import FieldProblem, Number, StrictModel, distinct_labels, parse_toml, validation_error
+from .vlm.tasks import UNPARSED, Attribute, DeliveryTask
+
+__all__ = [
+    "BUILT_IN",
+    "HR_DELIVERY",
+    "PACKAGE_DELIVERY",
+    "TASKS",
+    "TaskFile",
+    "get_task",
+    "load_task",
+    "outcome_labels",
+    "parse_task",
+]
+
+BUILT_IN = ("hr-delivery", "package-delivery")
+"""The tasks shipped with fairaudit (``fairaudit/experiments/tasks/<name>.toml``)."""
+
+_DEFAULT_OUTCOMES = {"choose": ("chosen", "not chosen"), "rank": None}
+
+
+class TaskSection(StrictModel):
+    """``[task]``: how many candidates a prompt shows, what the reply decides, their orders and the population."""
+
+    candidates: int = Field(2, ge=1, le=64)
+    decision: Literal["choose", "rank"] = "choose"
+    positions: Literal["balanced", "latin", "fixed"] = "balanced"
+    population: Literal["all", "distinct"] | list[list[list[Any]]] = "all"
+
+
+class PromptSection(StrictModel):
+    """``[prompt]``: the Jinja2 templates of the system (optional) and user messages."""
+
+    system: str | None = None
+    user: str = Field(min_length=1)
+
+
+class ContextSection(StrictModel):
+    """``[context]``: what varies between prompts besides the candidates (the item, the job)."""
+
+    name: str = "context"
+    values: list[Any]
+
+    @field_validator("values")
+    @classmethod
+    def _distinct(cls, v: list[Any]) -> list[Any]:
+        return distinct_labels(v) or []
+
+
+class AttributeSection(StrictModel):
+    """``[[attribute]]``: one sensitive attribute of a candidate, its values and what the prompt shows for each."""
+
+    name: str = Field(min_length=1)
+    values: list[Any]
+    text: dict[str, str | list[str]] | None = None
+
+    @field_validator("values")
+    @classmethod
+    def _distinct(cls, v: list[Any]) -> list[Any]:
+        labels = distinct_labels(v) or []
+        if len(labels) < 2:
+            raise FieldProblem("", "an attribute needs at least 2 values", v)
+        return labels
+
+    @model_validator(mode="after")
+    def _text_per_value(self) -> AttributeSection:
+        if self.text is None:
+            return self
+        known = {format_label(v) for v in self.values}
+        for key, shown in self.text.items():
+            if key not in known:
+                raise FieldProblem(f".text.{key}", f"is not one of the values {sorted(known)}", key)
+            if isinstance(shown, list) and not shown:
+                raise FieldProblem(f".text.{key}", "must list at least one text", shown)
+        missing = sorted(known - set(self.text))
+        if missing:
+            raise FieldProblem(".text", f"has no text for the value {missing[0]!r}", sorted(self.text))
+        return self
+
+
+class DecisionSection(StrictModel):
+    """``[decision]``: what the reply's options mean and the labels of a candidate's own outcome."""
+
+    name: str = "decision"
+    options: dict[str, int | str]
+    outcomes: list[str] | None = None
+
+    @field_validator("options")
+    @classmethod
+    def _some(cls, v: dict[str, int | str]) -> dict[str, int | str]:
+        if not v:
+            raise FieldProblem("", "must map at least one reply to a candidate or a decision", v)
+        return v
+
+
+class UtilitySection(StrictModel):
+    """``[utility]``: g of a candidate's own outcome; ``unparsed``: g when the reply cannot be read."""
+
+    name: str | None = None
+    values: dict[str, Number] | list[Number] | Literal["rank"]
+    unparsed: Number | None = None
+
+
+class FilterSection(StrictModel):
+    """``[filter]``: the attributes randomized response protects, and the budgets to run (``keep`` or ``epsilon``)."""
+
+    attributes: list[str] | None = None
+    keep: list[Number] | None = None
+    epsilon: list[Number] | None = None
+
+    @model_validator(mode="after")
+    def _one_budget(self) -> FilterSection:
+        if self.keep is not None and self.epsilon is not None:
+            raise FieldProblem("", "give keep or epsilon, not both")
+        for i, p in enumerate(self.keep or ()):
+            if not 0 < p <= 1:
+                raise FieldProblem(f".keep[{i}]", "must be a keep probability in (0, 1]", p)
+        for i, e in enumerate(self.epsilon or ()):
+            if not e >= 0:
+                raise FieldProblem(f".epsilon[{i}]", "must be a number of nats >= 0", e)
+        return self
+
+
+class TaskFile(StrictModel):
+    """A task file's fields, validated (docs/tasks.md)."""
+
+    title: str | None = None
+    task: TaskSection = Field(default_factory=lambda: TaskSection(candidates=2))
+    prompt: PromptSection
+    context: ContextSection | None = None
+    attribute: list[AttributeSection] = Field(min_length=1)
+    decision: DecisionSection
+    utility: UtilitySection
+    filter: FilterSection = Field(default_factory=FilterSection)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> TaskFile:
+        names = [a.name for a in self.attribute]
+        if len(set(names)) < len(names):
+            dup = next(n for n in names if names.count(n) > 1)
+            raise FieldProblem(".attribute", f"names must be distinct; {dup!r} repeats", dup)
+        for i, a in enumerate(self.filter.attributes or ()):
+            if a not in names:
+                raise FieldProblem(f".filter.attributes[{i}]", f"is not an attribute ({', '.join(names)})", a)
+        _check_options(self)
+        outcomes = outcome_labels(self)
+        _check_utility(self, outcomes)
+        return self
+
+
+def _check_options(f: TaskFile) -> None:
+    k = f.task.candidates
+    options = f.decision.options
+    if k == 1:
+        return  # reply -> decision value: any labels
+    slots = list(options.values())
+    for key, slot in options.items():
+        if isinstance(slot, bool) or not isinstance(slot, int) or not 1 <= slot <= k:
+            raise FieldProblem(f".decision.options.{key}", f"must be a candidate's slot, 1 to {k}", slot)
+    if sorted(slots) != list(range(1, k + 1)):
+        raise FieldProblem(".decision.options", f"must name each candidate slot 1 to {k} exactly once", dict(options))
+
+
+def outcome_labels(f: TaskFile) -> tuple[str, ...]:
+    """A candidate's own outcomes, in order: ``[decision] outcomes``, else chosen/not chosen or rank 1..k."""
+    k = f.task.candidates
+    if f.decision.outcomes is not None:
+        expected = 2 if f.task.decision == "choose" else k
+        if k >= 2 and len(f.decision.outcomes) != expected:
+            raise FieldProblem(".decision.outcomes", f"must list {expected} outcome labels", f.decision.outcomes)
+        return tuple(f.decision.outcomes)
+    if k == 1:
+        return tuple(str(v) for v in f.decision.options.values())
+    default = _DEFAULT_OUTCOMES[f.task.decision]
+    return default if default is not None else tuple(f"rank {r}" for r in range(1, k + 1))
+
+
+def _check_utility(f: TaskFile, outcomes: tuple[str, ...]) -> None:
+    values = f.utility.values
+    if values == "rank":
+        if f.task.decision != "rank":
+            raise FieldProblem(".utility.values", 'is "rank" only for decision = "rank"', values)
+        return
+    if isinstance(values, list):
+        if len(values) != len(outcomes):
+            raise FieldProblem(".utility.values", f"must give one number per outcome {list(outcomes)}", values)
+        numbers = values
+    else:
+        unknown = sorted(set(values) - set(outcomes))
+        if unknown:
+            raise FieldProblem(f".utility.values.{unknown[0]}", f"is not an outcome {list(outcomes)}", unknown[0])
+        missing = [o for o in outcomes if o not in values]
+        if missing:
+            raise FieldProblem(".utility.values", f"has no value for the outcome {missing[0]!r}", dict(values))
+        numbers = list(values.values())
+    for n in [*numbers, *([] if f.utility.unparsed is None else [f.utility.unparsed])]:
+        if not (math.isfinite(n) and n >= 0):
+            raise FieldProblem(".utility", "values must be finite and >= 0", n)
+
+
+# -- the prompt ----------------------------------------------------------------------------------------
+
+
+# -- reading -------------------------------------------------------------------------------------------
+
+
+def parse_task(text: str, source: str = "<string>", name: str = "task") -> DeliveryTask:
+    """Read a task file's text into the task the experiment runs.
+
+    Parameters
+    ----------
+    text : str
+        TOML (docs/tasks.md).
+    source : str
+        Where it came from, the head of every error.
+    name : str
+        The task's name in reports (a file's stem).
+
+    Raises
+    ------
+    InputError
+        One line, ``source: field: problem (got value)``: invalid TOML, an
+        unknown or missing field, a wrong value, a template that does not
+        render, or a design not supported yet.
+    """
+    raw = parse_toml(text, source)
+    try:
+        f = TaskFile.model_validate(raw)
+    except ValidationError as exc:
+        raise validation_error(exc, source, whole="task") from None
+    except RecursionError:
+        raise InputError(source, "is too deeply nested to validate") from None
+    try:
+        return _delivery_task(f, name, hashlib.sha256(text.encode()).hexdigest())
+    except InputError as exc:
+        raise exc.under(source) from None
+
+
+def load_task(task: str | Path) -> DeliveryTask:
+    """A built-in task by name, or a task file by path.
+
+    Raises
+    ------
+    InputError
+        Field ``experiment`` when ``task`` is neither a built-in name nor a
+        file; the file's own errors as :func:`parse_task`.
+    """
+    name = str(task)
+    if name in BUILT_IN:
+        text = resources.files("fairaudit.experiments").joinpath("tasks", f"{name}.toml").read_text(encoding="utf-8")
+        return parse_task(text, f"{name}.toml", name)
+    path = Path(name)
+    if not path.is_file():
+        raise InputError("experiment", f"must be a built-in task ({', '.join(BUILT_IN)}) or a task file", name)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError("experiment", f"cannot be read ({exc})", name) from None
+    return parse_task(text, str(path), path.stem)
+
+
+def _unsupported(field: str, problem: str, value: object) -> InputError:
+    return InputError(field, f"{problem} (not supported yet)", value)
+
+
+def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
+    """The task file as the two-candidate task the experiment runs today (or a one-line refusal)."""
+    k = f.task.candidates
+    if k != 2:
+        raise _unsupported("task.candidates", "the experiment runs two candidates per prompt", k)
+    if f.task.positions == "latin":
+        raise _unsupported("task.positions", "latin squares are for k > 2 candidates", "latin")
+    attributes = tuple(Attribute(a.name, tuple(a.values)) for a in f.attribute)
+    if f.filter.attributes is not None and set(f.filter.attributes) != {a.name for a in f.attribute}:
+        raise _unsupported("filter.attributes", "the filter randomizes every attribute", f.filter.attributes)
+    text = {a.name: _shown_text(a) for a in f.attribute}
+    pair = _true_pair(f, attributes)
+    options = tuple(sorted(f.decision.options, key=lambda key: f.decision.options[key]))
+    outcomes = outcome_labels(f)
+    values = _utility_values(f, outcomes)
+    unparsed = f.utility.unparsed if f.utility.unparsed is not None else sum(values) / len(values)
+    context = f.context or ContextSection(values=["all"])
+    task = DeliveryTask(
+        name=name,
+        title=f.title or name,
+        kind="choice" if f.task.decision == "choose" else "order",
+        options=options,
+        context_name=context.name,
+        contexts=tuple(context.values),
+        attributes=attributes,
+        candidates=pair,
+        outcomes=(*outcomes, UNPARSED),
+        utility_values=(*values, float(unparsed)),
+        utility_name=f.utility.name or _utility_name(outcomes, values, unparsed),
+        template=f.prompt.user,
+        system=f.prompt.system,
+        shown_text=text,
+        positions=f.task.positions,
+        keeps=None if f.filter.keep is None else tuple(f.filter.keep),
+        epsilons=None if f.filter.epsilon is None else tuple(f.filter.epsilon),
+        digest=digest,
+    )
+    task.prompt(task.contexts[0], task.candidates)  # the templates render (errors name prompt.user or system)
+    task.system_prompt(task.contexts[0], task.candidates)
+    return task
+
+
+def _shown_text(a: AttributeSection) -> dict[Hashable, str] | None:
+    if a.text is None:
+        return None
+    out: dict[Hashable, str] = {}
+    for v in a.values:
+        shown = a.text[format_label(v)]
+        if isinstance(shown, list):
+            if len(shown) != 1:
+                raise _unsupported(
+                    f"attribute.text.{format_label(v)}", "one text per value (averaging over names)", shown
+                )
+            shown = shown[0]
+        out[v] = shown
+    return out
+
+
+def _true_pair(f: TaskFile, attributes: tuple[Attribute, ...]) -> tuple[tuple, tuple]:
+    """The one unordered pair of true candidates the population holds."""
+    pop = f.task.population
+    if pop == "all":
+        raise _unsupported("task.population", "every combination of values (one pair only so far)", "all")
+    if pop == "distinct":
+        combos = _distinct_pairs(attributes)
+        if len(combos) != 1:
+            raise _unsupported(
+                "task.population", f"'distinct' gives {len(combos)} pairs of candidates here (one only so far)", pop
+            )
+        return combos[0]
+    if len(pop) != 1:
+        raise _unsupported("task.population", "one pair of candidates", len(pop))
+    pair = pop[0]
+    if len(pair) != 2:
+        raise InputError("task.population[0]", "must list one profile per candidate (2)", pair)
+    profiles = []
+    for i, p in enumerate(pair):
+        if len(p) != len(attributes) or any(v not in a.values for v, a in zip(p, attributes)):
+            names = ", ".join(a.name for a in attributes)
+            raise InputError(f"task.population[0][{i}]", f"must give one value of each attribute ({names})", p)
+        profiles.append(tuple(p))
+    if profiles[0] == profiles[1]:
+        raise InputError("task.population[0]", "the two candidates must differ", pair)
+    return profiles[0], profiles[1]
+
+
+def _distinct_pairs(attributes: tuple[Attribute, ...]) -> list[tuple[tuple, tuple]]:
+    """Unordered pairs of profiles that share no attribute value."""
+    profiles = list(itertools.product(*(a.values for a in attributes)))
+    return [(p, q) for p, q in itertools.combinations(profiles, 2) if all(x != y for x, y in zip(p, q))]
+
+
+def _utility_values(f: TaskFile, outcomes: tuple[str, ...]) -> list[float]:
+    values = f.utility.values
+    if values == "rank":
+        return [float(r) for r in range(1, len(outcomes) + 1)]
+    if isinstance(values, list):
+        return [float(v) for v in values]
+    return [float(values[o]) for o in outcomes]
+
+
+def _utility_name(outcomes: tuple[str, ...], values: list[float], unparsed: float) -> str:
+    parts = ", ".join(f"{v:g} {o}" for o, v in zip(outcomes, values))
+    return f"g of a candidate's outcome ({parts}, {unparsed:g} unparsed)"
+
+
+HR_DELIVERY = load_task("hr-delivery")
+"""The paper's HR-delivery task (``tasks/hr-delivery.toml``)."""
+
+PACKAGE_DELIVERY = load_task("package-delivery")
+"""The paper's package-delivery task (``tasks/package-delivery.toml``)."""
+
+TASKS = {t.name: t for t in (HR_DELIVERY, PACKAGE_DELIVERY)}
+"""The built-in tasks by name."""
+
+
+def get_task(name: str | Path) -> DeliveryTask:
+    """A built-in task by name, or a task file by path (as :func:`load_task`; the built-ins are read once)."""
+    return TASKS[name] if isinstance(name, str) and name in TASKS else load_task(name)

@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from ._arrays import BoolArray, FloatArray
 from ._errors import InputError
+from ._figure import coincide, mark_infinite
 from ._io import write_atomic
 
 if TYPE_CHECKING:
@@ -151,6 +152,7 @@ def plot_curve(
     ax: Axes | None = None,
     title: str | None = None,
     secondary_axis: SecondaryAxis = None,
+    ymax: float | None = None,
 ) -> Figure | SubFigure:
     """Draw a fairness–privacy curve; optionally save it as PNG or SVG.
 
@@ -160,7 +162,9 @@ def plot_curve(
     curve's kernel. A vertical line marks the curve's ``spec_epsilon``; grey
     bands mark where the observed model breaks τ (the paper and tight bounds
     do not apply to it there). +inf values are drawn at the top edge, marked
-    ▲. Quantities that are NaN throughout are left out and named in a note.
+    ▲, with a "+∞" label at the right end of that edge and a legend entry.
+    Two bounds (or the two observed values) equal at every ε are drawn
+    once, with one legend entry naming both. Quantities that are NaN throughout are left out and named in a note.
 
     Parameters
     ----------
@@ -176,6 +180,9 @@ def plot_curve(
     secondary_axis : None, "keep" or (label, forward, inverse)
         A top axis: ``"keep"`` for the family's keep probability, or a label
         and two vectorised monotone functions (ε ↦ value, value ↦ ε).
+    ymax : float, optional
+        Top of the y axis (nats), where +inf is drawn; default 1.15 × the
+        largest finite value drawn (at least 0.1).
 
     Returns
     -------
@@ -197,8 +204,8 @@ def plot_curve(
     >>> ax = fig.axes[0]
     >>> ax.get_xlabel(), ax.get_ylabel()
     ('privacy budget ε (nats)', 'local g-fairness L (nats)')
-    >>> [t.get_text() for t in ax.get_legend().get_texts()][:3]
-    ['black-box bound (all models, exact)', 'paper bound (main theorem)', 'tight bound (its proof, per pair)']
+    >>> [t.get_text() for t in ax.get_legend().get_texts()][:3]  # the paper and tight bounds coincide here
+    ['black-box bound (all models, exact)', 'paper bound (main theorem)\\n= tight bound (its proof, per pair)', 'ε (corollary, g independent of a)']
     """
     figure_class = load_matplotlib()
     if path is not None:
@@ -212,7 +219,7 @@ def plot_curve(
     eps = np.asarray(curve.epsilon, dtype=float)
     series = _series(curve, step=max(1, len(eps) // 30))
     finite = np.concatenate([np.asarray(v, float)[np.isfinite(v)] for _, v, _, _ in series] + [np.zeros(1)])
-    top = max(1.15 * float(finite.max()), 0.1)
+    top = max(1.15 * float(finite.max()), 0.1) if ymax is None else float(ymax)
     missing = _draw_series(ax, eps, series, top)
     _mark_tau_and_spec(ax, curve, eps)
     ax.set_xlim(float(eps.min()), float(eps.max()) if eps.max() > eps.min() else float(eps.min()) + 1.0)
@@ -243,6 +250,8 @@ def plot_curve(
             va="bottom",
             fontsize=8,
             color="0.3",
+            zorder=7,
+            bbox=dict(facecolor="white", edgecolor="none", alpha=0.85, pad=1.5),
         )
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     if path is not None:
@@ -257,8 +266,9 @@ _Series: TypeAlias = tuple[str, FloatArray, str, dict[str, Any]]
 def _series(curve: PrivacyCurve, step: int) -> list[_Series]:
     """The lines of a curve's plot, drawn in this order; observed values get a marker every ``step`` points.
 
-    Coinciding lines stay visible: wide pale black-box underneath, thinner dashed lines on top,
-    observed values as sparse markers (L and L-bar staggered).
+    Lines that coincide in places stay visible: wide pale black-box underneath, a wide dashed paper
+    bound under a thin dash-dotted tight bound, observed values as sparse markers (L and L-bar
+    staggered); lines equal everywhere are merged by :func:`_draw_series`.
     """
     return [
         (
@@ -267,12 +277,12 @@ def _series(curve: PrivacyCurve, step: int) -> list[_Series]:
             "black-box bound (all models, exact)",
             dict(color="tab:blue", lw=4.0, alpha=0.45, zorder=2),
         ),
-        ("paper", curve.paper, "paper bound (main theorem)", dict(color="tab:red", ls="--", lw=1.6, zorder=3)),
+        ("paper", curve.paper, "paper bound (main theorem)", dict(color="tab:red", ls="--", lw=2.4, zorder=3)),
         (
             "tight",
             curve.tight,
             "tight bound (its proof, per pair)",
-            dict(color="tab:orange", ls="-.", lw=1.6, zorder=3),
+            dict(color="tab:orange", ls="-.", lw=1.2, zorder=3),
         ),
         (
             "corollary",
@@ -284,40 +294,44 @@ def _series(curve: PrivacyCurve, step: int) -> list[_Series]:
             "observed_local",
             curve.observed_local,
             "observed L (local)",
-            dict(color="black", ls="none", marker="o", ms=4, markevery=(0, step), zorder=4),
+            dict(color="black", ls="none", marker="o", ms=4, markevery=(0, step), zorder=4, clip_on=False),
         ),
         (
             "observed_global",
             curve.observed_global,
             "observed L̄ (global)",
-            dict(color="tab:green", ls="none", marker="x", ms=6, markevery=(step // 2, step), zorder=4),
+            dict(color="tab:green", ls="none", marker="x", ms=6, markevery=(step // 2, step), zorder=4, clip_on=False),
         ),
     ]
 
 
 def _draw_series(ax: Axes, eps: FloatArray, series: list[_Series], top: float) -> list[str]:
-    """Draw each line (+inf at ``top``, marked ▲); return the bounds left out for being NaN throughout."""
+    """Draw each line (+inf at ``top``, marked ▲); return the bounds left out for being NaN throughout.
+
+    A bound equal at every ε to a bound drawn before it is not drawn again
+    (nor an observed value to an observed value): the earlier one's legend
+    entry names both, one per line (``"A\\n= B"``). Observed markers on a bound stay visible.
+    """
     missing = []
+    drawn: list[tuple[str, FloatArray, Any, str]] = []  # (kind, values, line, label)
     for key, values, label, style in series:
         v = np.asarray(values, dtype=float)
         if np.all(np.isnan(v)):
             if key in ("paper", "tight", "black_box"):
                 missing.append(key.replace("_", "-"))
             continue
+        kind = "observed" if key.startswith("observed") else "bound"
         inf = np.isposinf(v)
-        drawn = np.where(inf, top, v)
-        ax.plot(eps, drawn, label=label + (" (∞ at top)" if inf.any() else ""), **style)
-        if inf.any():
-            ax.plot(
-                eps[inf],
-                np.full(inf.sum(), top),
-                ls="none",
-                marker="^",
-                color=style["color"],
-                ms=5,
-                clip_on=False,
-                zorder=5,
-            )
+        suffix = " (+∞ at top)" if inf.any() else ""
+        same = next((i for i, (k, w, _, _) in enumerate(drawn) if k == kind and coincide(v, w)), None)
+        if same is not None:
+            k, w, line, first = drawn[same]
+            drawn[same] = (k, w, line, f"{first}\n= {label}")
+            line.set_label(drawn[same][3] + suffix)
+            continue
+        (line,) = ax.plot(eps, np.where(inf, top, v), label=label + suffix, **style)
+        drawn.append((kind, v, line, label))
+        mark_infinite(ax, eps[inf], style["color"])
     return missing
 
 

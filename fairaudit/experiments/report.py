@@ -23,6 +23,8 @@ Files in the run's folder (each written atomically):
 from __future__ import annotations
 
 import json
+import textwrap
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -34,6 +36,8 @@ from ._markdown import experiment_markdown
 
 if TYPE_CHECKING:
     import pandas as pd
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
     from .._arrays import FloatArray
     from ..calibrate import Calibration
@@ -369,99 +373,255 @@ def _split_dict(split: PositionSplit) -> Report:
 
 
 def plot_baseline(analysis: ExperimentAnalysis, path: str | Path) -> None:
-    """Bar chart of the decisions without a filter: per context, in the paper's order and swapped (atomic)."""
-    from ..plot import load_matplotlib, save_figure
+    """Bar chart of the decisions without a filter: per context, in the paper's order and swapped (atomic PNG or SVG).
 
-    Figure = load_matplotlib()
+    See :func:`_baseline_figure`.
+    """
+    from ..plot import save_figure
+
+    save_figure(_baseline_figure(analysis), path)
+
+
+def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
+    """The figure of :func:`plot_baseline`.
+
+    Per context two stacked bars of who gets the first option's outcome
+    (chosen, served first): the paper's order plain, swapped hatched. The
+    legends (who, and the order of each bar) sit right of the axes, so they
+    hide no bar; the y axis is the share of queries on the sampled route and
+    the model's probability on the exact one (``analysis.kernel.counts is None``).
+
+    Parameters
+    ----------
+    analysis : ExperimentAnalysis
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.patches import Patch
+
+    from ..plot import load_matplotlib
+
+    figure_class = load_matplotlib()
     t = analysis.task
     c1, c2 = (t.profile_label(c) for c in t.candidates)
-    fig = Figure(figsize=(7.5, 3.8), layout="constrained")
+    fig = figure_class(figsize=(9.0, 3.8), layout="constrained")
     ax = fig.add_subplot()
     n = len(t.contexts)
     width = 0.38
     colors = ["tab:blue", "tab:orange", "0.7"]
+    hatches = ("", "//")
     # who gets the outcome that option 1 gets (chosen / served first): candidate 1 or 2, per order
-    for j, (order, xs) in enumerate(
-        (("paper's order", np.arange(n) - width / 2), ("swapped", np.arange(n) + width / 2))
-    ):
+    for j, xs in enumerate((np.arange(n) - width / 2, np.arange(n) + width / 2)):
         s = analysis.shares[:, j, :]
-        first = s[:, 0] if j == 0 else s[:, 1]  # candidate 1's share
-        second = s[:, 1] if j == 0 else s[:, 0]
-        unp = s[:, 2]
+        first, second = (s[:, 0], s[:, 1]) if j == 0 else (s[:, 1], s[:, 0])  # candidate 1's share, 2's
         bottoms = np.zeros(n)
-        for k, (vals, lab) in enumerate(((first, c1), (second, c2), (unp, "unparsed"))):
-            ax.bar(
-                xs,
-                vals,
-                width * 0.95,
-                bottom=bottoms,
-                color=colors[k],
-                edgecolor="white",
-                label=lab if j == 0 else None,
-                hatch="" if j == 0 else "//",
-            )
+        for vals, color in zip((first, second, s[:, 2]), colors):
+            ax.bar(xs, vals, width * 0.95, bottom=bottoms, color=color, edgecolor="white", hatch=hatches[j])
             bottoms += vals
     verb = "chosen" if t.kind == "choice" else "served first"
-    ax.set_xticks(
-        np.arange(n),
-        [
-            f"{c}\n(left: {c1.split(' & ')[0]} as {t.options[0]}; right: swapped)" if i == 0 else c
-            for i, c in enumerate(t.contexts)
-        ],
-        fontsize=8,
-    )
-    ax.set_ylabel(f"share of queries: who is {verb}")
+    ax.set_xticks(np.arange(n), list(t.contexts), fontsize=8)
+    ax.set_xlabel(t.context_name)
+    measure = "share of queries" if analysis.kernel.counts is not None else "probability"
+    ax.set_ylabel(f"{measure}: who is {verb}")
     ax.set_ylim(0, 1.0)
     ax.set_title(f"{t.name}, {analysis.model}: no privacy filter", fontsize=10)
-    ax.legend(fontsize=8, loc="upper right", framealpha=0.9)
-    save_figure(fig, path)
+    who = [Patch(facecolor=c, edgecolor="white", label=lab) for c, lab in zip(colors, (c1, c2, "unparsed"))]
+    orders = [
+        Patch(facecolor="0.55", edgecolor="white", hatch=hatches[j], label=f"{name}\n{t.options[0]} = {first}")
+        for j, (name, first) in enumerate((("paper's order (plain)", c1), ("swapped (hatched)", c2)))
+    ]
+    common: dict[str, Any] = dict(fontsize=8, title_fontsize=8, alignment="left", borderaxespad=0.0)
+    common |= dict(handlelength=2.6, handleheight=1.6)  # patches large enough to show the hatching
+    ax.add_artist(
+        ax.legend(handles=who, title=f"who is {verb}", loc="upper left", bbox_to_anchor=(1.02, 1.0), **common)
+    )
+    ax.legend(handles=orders, title="order (bars)", loc="lower left", bbox_to_anchor=(1.02, 0.0), **common)
+    return fig
 
 
 def plot_experiment_curve(analysis: ExperimentAnalysis, path: str | Path) -> None:
     """The fairness–privacy curve with confidence bands and the paper's design (atomic PNG or SVG).
 
+    See :func:`_curve_figure`.
+    """
+    from ..plot import save_figure
+
+    save_figure(_curve_figure(analysis), path)
+
+
+def _curve_figure(analysis: ExperimentAnalysis) -> Figure:
+    """The figure of :func:`plot_experiment_curve`.
+
+    The curve of :func:`fairaudit.plot.plot_curve` against the candidate's ε,
+    with the keep probability of each attribute on a top axis
+    (:func:`_keep_axis`); the confidence bands of the observed L (hatched,
+    solid edge) and L̄ (shaded, dashed edge) at the requested ε; the
+    black-box bound on L̄ there; and the paper's design, when run. +inf is
+    drawn at the top edge (▲, labelled "+∞"). The legend sits below the axes.
     When the observed L and L̄ stay below 1/20 of the bounds' scale (a model far
     fairer than the worst case), a second panel shows them on their own scale.
-    """
-    from ..plot import load_matplotlib, plot_curve, save_figure
 
-    Figure = load_matplotlib()
+    Parameters
+    ----------
+    analysis : ExperimentAnalysis
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from ..plot import load_matplotlib, plot_curve
+
+    figure_class = load_matplotlib()
     zoom = _needs_zoom(analysis)
-    fig = Figure(figsize=(11.0 if zoom else 7.5, 4.8), layout="constrained")
+    fig = figure_class(figsize=(12.0 if zoom else 8.0, 6.6), layout="constrained")
     if zoom:
         ax, side = fig.subplots(1, 2, width_ratios=(3, 2))
     else:
         ax = fig.add_subplot()
-    plot_curve(analysis.curve, ax=ax, title=f"{analysis.task.name}: {analysis.model} (positions {analysis.positions})")
-    pts = [p for p in analysis.points if p.intervals is not None]
-    if pts:
-        top = ax.get_ylim()[1]
-        e = np.array([p.epsilon for p in pts])
-        for attr, color, label in (("local", "black", "L"), ("global_", "tab:green", "L̄")):
-            lo = np.array([getattr(p.intervals, attr).lower for p in pts])
-            hi = np.array([min(getattr(p.intervals, attr).upper, top) for p in pts])
-            ax.fill_between(
-                e, lo, hi, color=color, alpha=0.12, lw=0, label=f"{analysis.confidence:g} band of observed {label}"
-            )
-    if analysis.paper:
-        e = np.array([p.epsilon for p in analysis.paper])
-        v = np.array([p.local.value for p in analysis.paper])
-        top = ax.get_ylim()[1]
-        ax.plot(
-            e,
-            np.minimum(v, top),
-            ls="none",
-            marker="D",
-            ms=5,
-            mfc="none",
-            color="tab:red",
-            label="observed L, paper's design (sampled through the filter)",
-        )
+    top = _curve_top(analysis)
+    keep = _keep_axis(analysis.task)
+    title = f"{analysis.task.name}: {analysis.model} (positions {analysis.positions})"
+    plot_curve(analysis.curve, ax=ax, title=title, secondary_axis=keep, ymax=top)
+    _draw_bands(analysis, ax, top)
+    notes = _draw_design_points(analysis, ax)
+    for note in notes:  # a legend entry without a mark: what could not be drawn
+        ax.plot([], [], ls="none", label=note)[0].set_in_layout(False)
     ax.set_xlabel("privacy budget ε of a candidate (nats; both profiles shown)")
-    ax.legend(loc="upper left", fontsize=7, framealpha=0.9)
+    ax.set_ylabel("local L and global L̄ (nats)")
+    ax.get_legend().remove()
+    handles, labels = ax.get_legend_handles_labels()
+    labels = ["\n".join(textwrap.fill(part, 62, subsequent_indent="  ") for part in lab.split("\n")) for lab in labels]
+    fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize=7, framealpha=0.9)
     if zoom:
         _zoom_observed(analysis, side)
-    save_figure(fig, path)
+    return fig
+
+
+def _keep_axis(task: DeliveryTask) -> tuple[str, Callable[[Any], Any], Callable[[Any], Any]]:
+    """The top axis of the curve: (label, ε ↦ keep p of each attribute, p ↦ ε), vectorised.
+
+    The filter at the candidate's ε is randomized response at ε / (2 n) on
+    each of the 2 n attributes shown (both profiles), so with k values per
+    attribute p = 1 / (1 + (k − 1) e^{−ε/(2n)}) and ε = 2 n ln(p (k − 1) / (1 − p))
+    (:func:`fairaudit.experiments.analysis.epsilon_from_keep`). When the
+    attributes have different numbers of values their keep probabilities
+    differ at one ε: the axis is then the ε of each attribute, ε / (2 n).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+        Only its ``attributes`` (each with its ``values``) are read.
+
+    Returns
+    -------
+    tuple of (str, callable, callable)
+        The axis label, ε ↦ value and value ↦ ε, as ``secondary_axis`` of
+        :func:`fairaudit.plot.plot_curve` takes them.
+
+    Examples
+    --------
+    hr-delivery's three binary attributes (name, age, race):
+
+    >>> from types import SimpleNamespace
+    >>> hr = SimpleNamespace(attributes=[SimpleNamespace(values=(0, 1))] * 3)
+    >>> label, forward, inverse = _keep_axis(hr)
+    >>> label
+    'keep probability p of each attribute (6 shown, ε / 6 nats each)'
+    >>> round(float(inverse(0.7)), 6), round(float(forward(inverse(0.7))), 12)    # 6 ln(7/3)
+    (5.083787, 0.7)
+    """
+    shown = 2 * len(task.attributes)
+    ks = {len(a.values) for a in task.attributes}
+    if len(ks) != 1 or min(ks) < 2:
+        return (
+            f"ε of each attribute (nats; ε / {shown}: the keep probabilities differ by attribute)",
+            lambda e: np.asarray(e, dtype=float) / shown,
+            lambda a: np.asarray(a, dtype=float) * shown,
+        )
+    k = ks.pop()
+
+    def forward(e: Any) -> Any:
+        with np.errstate(over="ignore"):
+            return 1.0 / (1.0 + (k - 1) * np.exp(-np.asarray(e, dtype=float) / shown))
+
+    def inverse(p: Any) -> Any:
+        q = np.clip(np.asarray(p, dtype=float), np.finfo(float).tiny, np.nextafter(1.0, 0.0))
+        return shown * np.log(q * (k - 1) / (1.0 - q))
+
+    return f"keep probability p of each attribute ({shown} shown, ε / {shown} nats each)", forward, inverse
+
+
+def _curve_top(analysis: ExperimentAnalysis) -> float:
+    """Top of the curve's y axis: 1.15 × the largest finite value drawn (curve, paper's design, L̄ bound), ≥ 0.1."""
+    c = analysis.curve
+    series = [c.black_box, c.paper, c.tight, c.corollary, c.observed_local, c.observed_global]
+    series.append(np.array([p.black_box_global for p in analysis.points], dtype=float))
+    series += [np.array([getattr(p, kind).value for p in analysis.paper], dtype=float) for kind in ("local", "global_")]
+    values = np.concatenate([np.asarray(v, dtype=float).ravel() for v in series] + [np.zeros(1)])
+    return max(1.15 * float(values[np.isfinite(values)].max()), 0.1)
+
+
+def _draw_bands(analysis: ExperimentAnalysis, ax: Axes, top: float) -> None:
+    """The confidence bands of the observed L̄ (shaded, dashed edge) and L (hatched over it, solid edge)."""
+    pts = [p for p in analysis.points if p.intervals is not None]
+    if not pts:
+        return
+    e = np.array([p.epsilon for p in pts])
+    styles = (
+        (
+            "global_",
+            "L̄ (shaded, dashed edge)",
+            dict(facecolor=(0.17, 0.63, 0.17, 0.16), edgecolor="tab:green", ls="--"),
+        ),
+        ("local", "L (hatched, solid edge)", dict(facecolor="none", edgecolor="0.3", hatch="////", ls="-")),
+    )
+    for kind, label, style in styles:
+        lo = np.array([getattr(p.intervals, kind).lower for p in pts], dtype=float)
+        hi = np.minimum(np.array([getattr(p.intervals, kind).upper for p in pts], dtype=float), top)
+        ax.fill_between(e, lo, hi, lw=0.9, zorder=1, label=f"{analysis.confidence:g} band of observed {label}", **style)
+
+
+def _draw_design_points(analysis: ExperimentAnalysis, ax: Axes) -> list[str]:
+    """Markers at the requested ε: the black-box bound on L̄, and the paper's design's L and L̄.
+
+    +inf is drawn at the top edge (▲ in the marker's colour); returns notes
+    on the quantities that are undefined (NaN) at every ε.
+    """
+    from .._figure import coincide, mark_infinite
+
+    pts = analysis.points
+    bb = np.array([p.black_box_global for p in pts], dtype=float)
+    same = coincide(bb, [p.black_box_local for p in pts])
+    rows: list[tuple[FloatArray, FloatArray, str, dict[str, Any]]] = [
+        (
+            np.array([p.epsilon for p in pts], dtype=float),
+            bb,
+            "black-box bound on L̄ (all models)" + (" = on L" if same else "") + ", at the requested ε",
+            dict(marker="_", ms=14, mew=2.2, color="tab:blue", zorder=5, clip_on=False),
+        )
+    ]
+    if analysis.paper:
+        e = np.array([p.epsilon for p in analysis.paper], dtype=float)
+        designs: tuple[tuple[str, str, dict[str, Any]], ...] = (
+            ("local", "L", dict(marker="D", ms=5, mfc="none", color="tab:red", clip_on=False)),
+            ("global_", "L̄", dict(marker="s", ms=6, mfc="none", color="tab:brown", clip_on=False)),
+        )
+        for kind, name, style in designs:
+            values = np.array([getattr(p, kind).value for p in analysis.paper], dtype=float)
+            rows.append((e, values, f"observed {name}, paper's design (sampled through the filter)", style))
+    notes = []
+    for e, v, label, style in rows:
+        if np.all(np.isnan(v)):
+            why = "positions fixed: one candidate per context" if analysis.positions == "fixed" else "at every ε"
+            notes.append(f"{label.split(' (')[0]}: undefined, not drawn ({why})")
+            continue
+        inf = np.isposinf(v)
+        (line,) = ax.plot(e[~inf], v[~inf], ls="none", label=label + (" (+∞ at top)" if inf.any() else ""), **style)
+        line.set_in_layout(bool((~inf).any()))  # an empty unclipped line would sit at the origin of the layout
+        mark_infinite(ax, e[inf], style["color"])
+    return notes
 
 
 def _needs_zoom(analysis: ExperimentAnalysis) -> bool:
@@ -471,19 +631,36 @@ def _needs_zoom(analysis: ExperimentAnalysis) -> bool:
     seen = seen[np.isfinite(seen)]
     scale = np.concatenate([c.black_box, c.corollary])
     scale = scale[np.isfinite(scale)]
-    return bool(seen.size and scale.size and 0 < seen.max() < scale.max() / 20)
+    # (not for rounding noise: a model fair to 1e-9 of the scale is drawn flat at 0)
+    return bool(seen.size and scale.size and 1e-9 * scale.max() < seen.max() < scale.max() / 20)
 
 
-def _zoom_observed(analysis: ExperimentAnalysis, ax: Any) -> None:
-    """The observed L and L̄ on their own scale, in a panel of their own."""
+def _zoom_observed(analysis: ExperimentAnalysis, ax: Axes) -> None:
+    """The observed L and L̄ on their own scale, in a panel of their own (one line when they coincide)."""
+    from matplotlib.ticker import MaxNLocator
+
+    from .._figure import coincide, mark_infinite
+
     c = analysis.curve
-    ax.plot(c.epsilon, c.observed_local, color="black", lw=1.4, label="observed L (local)")
-    ax.plot(c.epsilon, c.observed_global, color="tab:green", lw=1.4, ls="--", label="observed L̄ (global)")
+    same = coincide(c.observed_local, c.observed_global)
+    for values, color, ls, label in (
+        (c.observed_local, "black", "-", "observed L (local)" + ("\n= observed L̄ (global)" if same else "")),
+        (c.observed_global, "tab:green", "--", "observed L̄ (global)"),
+    ):
+        inf = np.isposinf(values)
+        ax.plot(c.epsilon, np.where(inf, np.nan, values), color=color, lw=1.4, ls=ls, label=label)
+        mark_infinite(ax, c.epsilon[inf], color)
+        if same:
+            break
     ax.set_ylim(bottom=0)
     ax.set_xlim(c.epsilon.min(), c.epsilon.max())
-    ax.set_title("observed only, on its own scale", fontsize=9)
+    label, forward, inverse = _keep_axis(analysis.task)
+    top_axis = ax.secondary_xaxis("top", functions=(forward, inverse))
+    top_axis.set_xlabel(label.split(" (")[0], fontsize=8)
+    top_axis.xaxis.set_major_locator(MaxNLocator(5, steps=[1, 2, 5, 10]))
+    ax.set_title("observed only, on its own scale", fontsize=9, pad=30)
     ax.set_xlabel("ε of a candidate (nats)")
-    ax.set_ylabel("nats")
+    ax.set_ylabel("local L and global L̄ (nats)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
 

@@ -127,6 +127,7 @@ def test_user_task_runs_from_the_command_line(tmp_path, capsys):
     assert [p["epsilon"] for p in d["points"]] == pytest.approx([4 * math.log(1.5), 4 * math.log(4)], abs=1e-12)
     assert [p["bounds"]["black_box"] for p in d["points"]] == pytest.approx([4 * math.log(1.5), 4 * math.log(4)])
     assert d["route"] == "sampled" and "shortlist" in stdout
+    assert "In the listed order (Emily & engineering listed first)" in stdout and "paper's order" not in stdout
 
 
 def _task(tmp_path, text, name="t.toml"):

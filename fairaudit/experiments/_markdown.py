@@ -96,20 +96,28 @@ def _baseline_md(d: dict) -> list[str]:
     return lines
 
 
+def listed_order(task_name: str) -> str:
+    """What the task's own order of the candidates is called: the paper's (built-in tasks) or the listed one."""
+    from .taskfile import BUILT_IN
+
+    return "paper's order" if task_name in BUILT_IN else "listed order"
+
+
 def _split_md(d: dict) -> list[str]:
-    """The paper's order's log ratio split into position and group, overall and per context."""
+    """The listed order's log ratio split into position and group, overall and per context."""
     sp = d["position_split"]
     c1, c2 = d["candidates"]
+    order = listed_order(d["experiment"])
     lines = [
         "",
         "## Position or group",
         "",
-        f"In the paper's order ({c1} listed first) the log ratio of the two candidates' expected "
+        f"In the {order} ({c1} listed first) the log ratio of the two candidates' expected "
         f"utility is {_f(sp['raw'])} nats. Showing both orders splits it exactly into a position part "
         f"(first against second, same candidate) and a group part ({c1} against {c2}, same position); "
         "L̄ above is the group part's kind, with position as a context.",
         "",
-        "| context | raw (paper's order) | position | group |",
+        f"| context | raw ({order}) | position | group |",
         "|---|---|---|---|",
     ]
     for ctx, v in sp["per_context"].items():

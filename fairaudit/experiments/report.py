@@ -32,7 +32,7 @@ import numpy as np
 
 from .._io import write_atomic
 from .._json import Report, number
-from ._markdown import experiment_markdown
+from ._markdown import experiment_markdown, listed_order
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -430,7 +430,7 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
     who = [Patch(facecolor=c, edgecolor="white", label=lab) for c, lab in zip(colors, (c1, c2, "unparsed"))]
     orders = [
         Patch(facecolor="0.55", edgecolor="white", hatch=hatches[j], label=f"{name}\n{t.options[0]} = {first}")
-        for j, (name, first) in enumerate((("paper's order (plain)", c1), ("swapped (hatched)", c2)))
+        for j, (name, first) in enumerate(((f"{listed_order(t.name)} (plain)", c1), ("swapped (hatched)", c2)))
     ]
     common: dict[str, Any] = dict(fontsize=8, title_fontsize=8, alignment="left", borderaxespad=0.0)
     common |= dict(handlelength=2.6, handleheight=1.6)  # patches large enough to show the hatching

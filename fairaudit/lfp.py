@@ -27,6 +27,7 @@ transform and of the threshold solution: ``proofs/linear_fractional.md`` and
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal, TypeAlias, overload
@@ -167,6 +168,7 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
     if np.any(p < 0) or np.any(q < 0):
         raise InputError("p", "the threshold solution needs non-negative p and q")
     lo, hi = _bounds(lower, upper, p.size, required=True)
+    result = functools.partial(FractionalResult, method="threshold", p=p, q=q, lower=lo, upper=hi)
     if np.any(lo < 0):
         # With a negative lower bound q·h can approach 0 from inside the box; the threshold argument
         # needs q·h > 0 on the whole box. Use lp_max for such programs.
@@ -177,30 +179,14 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
     h[top] = hi[top]
     value = float(values)
     if math.isinf(value):
-        return FractionalResult(
+        return result(
             value=value,
             argmax=h,
             status="unbounded",
-            method="threshold",
             solver_status="threshold",
             reason="some h in the box has q·h = 0 and p·h > 0",
-            p=p,
-            q=q,
-            lower=lo,
-            upper=hi,
         )
-    return FractionalResult(
-        value=value,
-        argmax=h,
-        status="optimal",
-        method="threshold",
-        solver_status="threshold",
-        reason="",
-        p=p,
-        q=q,
-        lower=lo,
-        upper=hi,
-    )
+    return result(value=value, argmax=h, status="optimal", solver_status="threshold", reason="")
 
 
 def threshold_max_many(
@@ -506,110 +492,60 @@ class FractionalProgram:
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
         lo, hi = self.lower, self.upper
+        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=lo, upper=hi)
         self._p.value, self._q.value = p, q
         prob = self._problem
         try:
             solve_clarabel(prob)
         except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
-            return FractionalResult(
-                value=math.nan,
-                argmax=None,
-                status="infeasible",
-                method="lp",
-                solver_status="solver_error",
-                reason=str(exc),
-                p=p,
-                q=q,
-                lower=lo,
-                upper=hi,
+            return result(
+                value=math.nan, argmax=None, status="infeasible", solver_status="solver_error", reason=str(exc)
             )
         status = prob.status
         if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
-            return FractionalResult(
+            return result(
                 value=math.inf,
                 argmax=None,
                 status="unbounded",
-                method="lp",
                 solver_status=status,
                 reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
-                p=p,
-                q=q,
-                lower=lo,
-                upper=hi,
             )
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return self._zero_denominator(p, q, status)
         s = self._s.value
         if s is None:  # pragma: no cover - the solver returned no point
-            return FractionalResult(
+            return result(
                 value=math.nan,
                 argmax=None,
                 status="infeasible",
-                method="lp",
                 solver_status=status,
                 reason="the solver returned no solution",
-                p=p,
-                q=q,
-                lower=lo,
-                upper=hi,
             )
         if self._bounded and s > 0:
             # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
             h = np.asarray(self._y.value, dtype=float) / float(s)
-            return FractionalResult(
-                value=float(prob.value),
-                argmax=h,
-                status="optimal",
-                method="lp",
-                solver_status=status,
-                reason="",
-                p=p,
-                q=q,
-                lower=lo,
-                upper=hi,
-            )
+            return result(value=float(prob.value), argmax=h, status="optimal", solver_status=status, reason="")
         y = np.asarray(self._y.value, dtype=float)
         if s <= 1e-12 * max(1.0, float(np.abs(y).max())):
             # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
             primal_status, _, _ = self._primal_max(p)
             if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-                return FractionalResult(
+                return result(
                     value=math.nan,
                     argmax=None,
                     status="infeasible",
-                    method="lp",
                     solver_status=status,
                     reason="the constraints are inconsistent: no feasible h",
-                    p=p,
-                    q=q,
-                    lower=lo,
-                    upper=hi,
                 )
-            return FractionalResult(
+            return result(
                 value=float(prob.value),
                 argmax=None,
                 status="optimal",
-                method="lp",
                 solver_status=status,
                 reason="the supremum is approached only as h grows without bound along a recession "
                 "direction of the polytope (q·h -> +inf); it is not attained",
-                p=p,
-                q=q,
-                lower=lo,
-                upper=hi,
             )
-        return FractionalResult(
-            value=float(prob.value),
-            argmax=y / float(s),
-            status="optimal",
-            method="lp",
-            solver_status=status,
-            reason="",
-            p=p,
-            q=q,
-            lower=lo,
-            upper=hi,
-        )
+        return result(value=float(prob.value), argmax=y / float(s), status="optimal", solver_status=status, reason="")
 
     def _zero_denominator(self, p: FloatArray, q: FloatArray, status: str) -> FractionalResult:
         """The transformed LP is infeasible: the polytope is empty, or q·h = 0 on all of it.
@@ -621,59 +557,36 @@ class FractionalProgram:
         import cvxpy as cp
 
         lo, hi = self.lower, self.upper
+        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=lo, upper=hi)
         try:
             primal_status, value, h = self._primal_max(p)
         except cp.error.SolverError as exc:  # pragma: no cover
-            return FractionalResult(
-                value=math.nan,
-                argmax=None,
-                status="infeasible",
-                method="lp",
-                solver_status="solver_error",
-                reason=str(exc),
-                p=p,
-                q=q,
-                lower=lo,
-                upper=hi,
+            return result(
+                value=math.nan, argmax=None, status="infeasible", solver_status="solver_error", reason=str(exc)
             )
 
         if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-            return FractionalResult(
+            return result(
                 value=math.nan,
                 argmax=None,
                 status="infeasible",
-                method="lp",
                 solver_status=status,
                 reason="the constraints are inconsistent: no feasible h",
-                p=p,
-                q=q,
-                lower=lo,
-                upper=hi,
             )
         if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
-            return FractionalResult(
+            return result(
                 value=math.inf,
                 argmax=h,
                 status="unbounded",
-                method="lp",
                 solver_status=status,
                 reason="q·h = 0 on every feasible h and some has p·h > 0 (c/0)",
-                p=p,
-                q=q,
-                lower=lo,
-                upper=hi,
             )
-        return FractionalResult(
+        return result(
             value=1.0,
             argmax=h,
             status="optimal",
-            method="lp",
             solver_status=status,
             reason="p·h = q·h = 0 on every feasible h (0/0 counts as parity)",
-            p=p,
-            q=q,
-            lower=lo,
-            upper=hi,
         )
 
     def _primal_max(self, p: FloatArray) -> tuple[str, float, FloatArray | None]:

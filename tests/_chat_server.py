@@ -22,6 +22,13 @@ from 1; None means no fault):
 * ``("reply", text)``: a normal reply with this text instead of the responder's;
 * ``("drop",)``: close the connection without any response.
 
+``logprobs(request_json)``, optional: the first token's distribution, a list of
+``(token, logprob)``; a request with ``"logprobs": true`` then gets
+``choices[0].logprobs.content[0]`` as OpenAI sends it, with the
+``top_logprobs`` most likely of them (sorted, most likely first; none past
+the request's ``top_logprobs``). Without it no reply has ``logprobs``, as
+from a server that does not support them.
+
 ``required_key``: requests without ``Authorization: Bearer <key>`` get a 401
 (checked before the faults; a body without ``messages`` gets a 400). Every
 request is recorded in ``server.requests`` (method, path, JSON body, headers
@@ -56,8 +63,10 @@ class ChatServer:
         fault_fn: Callable[[int, dict], Fault | None] | None = None,
         required_key: str | None = None,
         model: str | None = None,
+        logprobs: Callable[[dict], list[tuple[str, float]]] | None = None,
     ) -> None:
         self.responder = responder or (lambda body: DEFAULT_REPLY)
+        self.logprobs = logprobs
         self.fault_fn = fault_fn
         self.required_key = required_key
         self.model = model  # None: echo the requested model
@@ -211,9 +220,10 @@ class _Handler(BaseHTTPRequestHandler):
         if fault is None or fault[0] == "reply":
             try:
                 text = fault[1] if fault is not None else state.responder(body)
+                top = state.logprobs(body) if state.logprobs is not None and body.get("logprobs") else None
             except Exception as exc:  # a broken responder is a 500, visible to the client
                 return _error(500, f"responder failed: {exc!r}", "server_error")
-            return 200, json.dumps(_completion(body, text, state.model)).encode(), "application/json", {}
+            return 200, json.dumps(_completion(body, text, state.model, top)).encode(), "application/json", {}
         if fault[0] == "drop":
             return None
         if fault[0] == "status":
@@ -258,8 +268,8 @@ def _error(code: int, message: str, kind: str, headers: dict | None = None) -> t
     return code, json.dumps(body).encode(), "application/json", headers or {}
 
 
-def _completion(request: dict, text: str, model: str | None) -> dict:
-    """An OpenAI chat.completion object with ``text`` as the assistant's reply."""
+def _completion(request: dict, text: str, model: str | None, top: list[tuple[str, float]] | None = None) -> dict:
+    """An OpenAI chat.completion object with ``text`` as the assistant's reply (and ``top`` as its logprobs)."""
     prompt_tokens = sum(len(str(m.get("content", "")).split()) for m in request["messages"] if isinstance(m, dict))
     completion_tokens = len(text.split())
     return {
@@ -267,10 +277,25 @@ def _completion(request: dict, text: str, model: str | None) -> dict:
         "object": "chat.completion",
         "created": int(time.time()),
         "model": model or request.get("model") or "test-model",
-        "choices": [{"index": 0, "message": {"role": "assistant", "content": text}, "finish_reason": "stop"}],
+        "choices": [
+            {
+                "index": 0,
+                "message": {"role": "assistant", "content": text},
+                "finish_reason": "stop",
+                **({} if top is None else {"logprobs": _logprobs(request, top)}),
+            }
+        ],
         "usage": {
             "prompt_tokens": prompt_tokens,
             "completion_tokens": completion_tokens,
             "total_tokens": prompt_tokens + completion_tokens,
         },
     }
+
+
+def _logprobs(request: dict, top: list[tuple[str, float]]) -> dict:
+    """``choices[0].logprobs`` as OpenAI sends it: the first token, with the request's ``top_logprobs`` most likely."""
+    ranked = sorted(top, key=lambda entry: -entry[1])[: max(0, int(request.get("top_logprobs") or 0))]
+    entries = [{"token": t, "logprob": lp, "bytes": list(t.encode())} for t, lp in ranked]
+    first = entries[0] if entries else {"token": "", "logprob": 0.0, "bytes": []}
+    return {"content": [{**first, "top_logprobs": entries}], "refusal": None}

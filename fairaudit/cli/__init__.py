@@ -12,6 +12,7 @@ with ``--output`` a one-line summary goes to stderr.
 
 from __future__ import annotations
 
+import argparse
 import sys
 from collections.abc import Sequence
 
@@ -36,6 +37,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"fairaudit: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        exact = args.command == "experiment" and (getattr(args, "exact", False) or _local_exact(args))
         hint = "; every answered query is logged: run again with --resume" if args.command == "experiment" else ""
+        if exact:
+            hint = "; the exact route writes nothing until every cell is done: run again"
         print(f"fairaudit: interrupted{hint}", file=sys.stderr)
         return 130
+
+
+def _local_exact(args: argparse.Namespace) -> bool:
+    """Whether ``fairaudit experiment`` takes a local model's exact route (a local model without --samples)."""
+    return bool(getattr(args, "local_model", None)) and getattr(args, "samples", None) is None

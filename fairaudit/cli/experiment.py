@@ -18,11 +18,11 @@ def add_parser(sub: Subparsers) -> None:
         "experiment",
         help="run the paper's delivery experiment against a model under a privacy filter",
         description="Query a decision model (simulated, a kernel table, or an OpenAI-compatible "
-        "endpoint) on every shown cell of a decision task (the paper's HR-delivery or package-delivery "
+        "endpoint; with --exact, its kernel from log-probabilities) on every shown cell of a decision task (the paper's HR-delivery or package-delivery "
         "task, or a task file), apply the "
         "privacy filter exactly by composition, and write the baseline figure, the fairness-privacy "
         "curve with confidence bands and certified bounds, the certificate and the report to --out. "
-        "Exit 1 when some queries failed (run again with --resume).",
+        "Exit 1 when some queries failed (run again with --resume; with --exact, run again).",
     )
     e.add_argument(
         "experiment",
@@ -36,7 +36,7 @@ def add_parser(sub: Subparsers) -> None:
 
 
 def _add_model_options(e: argparse.ArgumentParser) -> None:
-    """The model queried: --simulated, --kernel, --endpoint or --local-model; --model, --samples."""
+    """The model queried: --simulated, --kernel, --endpoint or --local-model; --model, --samples, --exact."""
     m = e.add_mutually_exclusive_group()
     m.add_argument(
         "--simulated",
@@ -65,6 +65,12 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
         type=positive_int,
         metavar="N",
         help="queries per shown cell (default 20; with --local-model, default: the exact route, no queries)",
+    )
+    e.add_argument(
+        "--exact",
+        action="store_true",
+        help="with --endpoint: the exact kernel from the first token's log-probabilities, one request per shown "
+        "cell (the server must return logprobs: OpenAI, vLLM, llama-server, Ollama), no sampling; not with --samples",
     )
 
 
@@ -150,6 +156,7 @@ def run(args: argparse.Namespace) -> int:
         endpoint=args.endpoint,
         model=args.model,
         local_model=args.local_model,
+        exact=args.exact,
         timeout=args.timeout,
         max_retries=args.max_retries,
     )
@@ -177,14 +184,25 @@ def run(args: argparse.Namespace) -> int:
         log=lambda line: print(f"fairaudit: {line}", file=sys.stderr),
     )
     s = result.summary
-    if s is None:  # the exact route of a local model: no queries
-        assert result.analysis is not None
+    if result.route == "exact":  # a local model's (no queries) or an endpoint's (one request per shown cell)
+        if result.analysis is None:
+            assert s is not None
+            first = f": {s.failures[0]}" if s.failures else ""
+            print(
+                f"fairaudit: incomplete: {s.asked} of {s.planned} shown cells answered before a request failed after "
+                f"retries{first}; the exact kernel needs every cell, so nothing was written: run again",
+                file=sys.stderr,
+            )
+            return 1
         cells = result.analysis.kernel.probabilities.shape[0] * result.analysis.kernel.probabilities.shape[1]
+        asked = f" ({s.asked} requests)" if s is not None else ""
         print(
-            f"exact kernel of {cells} shown cells in {result.seconds:.1f} s; report written to {Path(result.out) / 'report.md'}",
+            f"exact kernel of {cells} shown cells{asked} in {result.seconds:.1f} s; report written to "
+            f"{Path(result.out) / 'report.md'}",
             file=sys.stderr,
         )
     else:
+        assert s is not None
         done = f"{s.already + s.asked} of {s.planned} queries answered ({s.asked} now, {s.unparsed} unparsed)"
         if result.analysis is None:
             first = f"; first: {s.failures[0]}" if s.failures else ""

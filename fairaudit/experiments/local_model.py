@@ -72,6 +72,7 @@ __all__ = [
     "check",
     "exact_kernel",
     "exact_law",
+    "exact_prompt",
     "find_gguf",
     "install",
     "load",
@@ -449,6 +450,25 @@ def answer_task(task: DeliveryTask) -> DeliveryTask:
     return dataclasses.replace(task, template=head + "\n\n" + ask)
 
 
+def exact_prompt(task: DeliveryTask) -> tuple[DeliveryTask, tuple[str, ...]]:
+    """The task whose prompt an exact route sends (a local model's or an endpoint's), and the reply naming each option.
+
+    The built-in tasks' prompts end with a JSON answer format, which
+    :func:`answer_task` replaces with a request for the option's number (replies ``"1"``, ``"2"``). A task file whose prompt has no such paragraph
+    is sent as it is: its prompt must then ask for the option alone, and the options' keys are the replies.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> exact_prompt(HR_DELIVERY)[1]
+    ('1', '2')
+    """
+    try:
+        return answer_task(task), tuple(str(i) for i in range(1, len(task.options) + 1))
+    except InputError:  # no answer-format paragraph to replace: the task's own prompt
+        return task, tuple(task.options)
+
+
 def chat_messages(task: DeliveryTask, context: str, profiles: Sequence[tuple[str, ...]]) -> list[dict[str, Any]]:
     """The chat messages of one query, as the harness's endpoint model sends them (one user message, no image).
 
@@ -524,7 +544,8 @@ def exact_kernel(
     Parameters
     ----------
     task : DeliveryTask
-        The task as the experiment names it; the prompt is :func:`answer_task`'s.
+        The task as the experiment names it; the prompt is :func:`exact_prompt`'s (:func:`answer_task`'s for
+        the built-in tasks, a task file's own otherwise).
     model : LoadedModel, optional
         Default :func:`load` ``("smollm2")``.
     batch_size : int
@@ -562,7 +583,7 @@ def exact_kernel(
     """
     torch, _ = _require()
     m = model if model is not None else load("smollm2")
-    t = answer_task(task)
+    t = exact_prompt(task)[0]
     tok = m.tokenizer
     k = len(task.profiles)
     if cells is None:

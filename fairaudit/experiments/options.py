@@ -46,8 +46,18 @@ class ModelSource:
     model : str, optional
         The model's name at ``endpoint``.
     local_model : str, optional
-        A real language model run on this machine, text only (a key of
-        :data:`fairaudit.experiments.local_model.LOCAL_MODELS`).
+        A real language model run on this machine, text only: a key of
+        :data:`fairaudit.experiments.local_model.LOCAL_MODELS`, a transformers
+        causal-LM folder or a ``.gguf`` file
+        (:func:`fairaudit.experiments.local_model.model_kind`).
+    exact : bool
+        The exact route: the model's kernel from its first-token
+        log-probabilities, one request per shown cell and no sampling
+        (``endpoint``: the server must return ``logprobs``; see
+        :mod:`fairaudit.experiments.vlm.logprobs`), text only. Needs
+        ``endpoint`` or ``local_model``, and goes without ``samples``
+        (:class:`RunOptions`). A local model takes the exact route whenever
+        ``samples`` is not given, with or without ``exact``.
     timeout : float
         Seconds per request (an endpoint, or a local model's server).
     max_retries : int
@@ -56,7 +66,8 @@ class ModelSource:
     Raises
     ------
     InputError
-        When more than one source is given, or ``model`` without ``endpoint`` (or the reverse).
+        When more than one source is given, ``model`` without ``endpoint`` (or the reverse), or
+        ``exact`` without ``endpoint`` or ``local_model``.
 
     Examples
     --------
@@ -66,6 +77,12 @@ class ModelSource:
     Traceback (most recent call last):
     ...
     fairaudit._errors.InputError: kernel: give only one of `simulated`, `kernel`, `endpoint` and `local_model` (also got `simulated`)
+    >>> ModelSource(endpoint="http://127.0.0.1:8000/v1", model="m", exact=True).exact
+    True
+    >>> ModelSource(simulated="fair", exact=True)
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: exact: needs `endpoint` (with `model`) or `local_model`: the exact kernel is read from a model's token probabilities
     """
 
     simulated: str | None = None
@@ -73,6 +90,7 @@ class ModelSource:
     endpoint: str | None = None
     model: str | None = None
     local_model: str | None = None
+    exact: bool = False
     timeout: float = 60.0
     max_retries: int = 5
 
@@ -85,6 +103,14 @@ class ModelSource:
             raise InputError("model", "is needed with `endpoint` (the model name the endpoint serves)")
         if self.model and not self.endpoint:
             raise InputError("model", "goes with `endpoint`", self.model)
+        if not isinstance(self.exact, bool):
+            raise InputError("exact", "must be True or False", self.exact)
+        if self.exact and not (self.endpoint or self.local_model):
+            raise InputError(
+                "exact",
+                "needs `endpoint` (with `model`) or `local_model`: the exact kernel is read from a model's "
+                "token probabilities",
+            )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -97,7 +123,8 @@ class RunOptions:
         Queries per shown cell (and per true cell and ε in the paper's
         design); default 20. With a local model, leaving it out takes the
         exact route: the model's own kernel from its next-token
-        probabilities, with no queries and no sampling error.
+        probabilities, with no queries and no sampling error. Not with
+        :attr:`ModelSource.exact` (the run refuses both).
     epsilons : sequence of float, optional
         The candidate's privacy budgets ε (nats) to report; or give ``keeps``:
         the keep probability of every attribute. Default: the task file's

@@ -14,7 +14,10 @@ The model is a :class:`~fairaudit.experiments.options.ModelSource` and the rest 
 ``samples``, the exact route (its kernel from next-token probabilities, no
 queries, no log); with ``samples=N``, the sampled route (N one-token replies per
 cell from ``transformers serve`` on 127.0.0.1, through the same client, log and
-parser as any endpoint).
+parser as any endpoint). An endpoint takes the exact route with
+``ModelSource(exact=True)``: one request per shown cell for its first token's
+log-probabilities (:mod:`fairaudit.experiments.vlm.logprobs`), read as the
+local model's next-token probabilities are, with no log either.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, TypedDict
+from typing import TYPE_CHECKING, Any, TypeAlias, TypedDict
 
 from .. import __version__
 from .._errors import InputError
@@ -38,7 +41,19 @@ from .taskfile import get_task
 from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_model, simulated_models
 from .vlm.tasks import DeliveryTask
 
-__all__ = ["DEFAULT_KEEPS", "ExperimentRun", "ModelSource", "RunOptions", "run_experiment"]
+if TYPE_CHECKING:
+    from .._arrays import FloatArray
+    from ._progress import Bar
+    from .vlm.client import ChatClient
+
+__all__ = [
+    "DEFAULT_KEEPS",
+    "ExperimentRun",
+    "ModelSource",
+    "RunOptions",
+    "endpoint_kernel",
+    "run_experiment",
+]
 
 
 class _Common(TypedDict):
@@ -56,8 +71,9 @@ class _Common(TypedDict):
 class ExperimentRun:
     """What :func:`run_experiment` did: the query summary, the analysis (None when incomplete) and the files.
 
-    ``summary`` is None on a local model's exact route, which asks no queries;
-    ``route`` is ``"exact"`` there and ``"sampled"`` otherwise.
+    ``route`` is ``"exact"`` on the exact route and ``"sampled"`` otherwise. ``summary`` is None on a local
+    model's exact route, which asks no queries; on an endpoint's it counts the requests, one per shown cell
+    (``analysis`` is None when one failed after retries: nothing is written then).
     """
 
     out: Path
@@ -232,8 +248,8 @@ def run_experiment(
     with _claim(plan.out):  # makes out and locks it: a second run on it is refused here, before it writes anything
         _check_log(plan.log_path, options.resume, plan.exact)  # again under the lock: another run may have ended
         if plan.exact:
-            assert source.local_model is not None
-            return _run_exact(task, source.local_model, plan.out, options.seed, progress, log, plan.common)
+            name, make = _exact_route(task, source, plan, progress, log)
+            return _run_exact(task, name, make, plan.out, options.seed, plan.common)
         return _run_sampled(task, plan, source, options, progress, log)
 
 
@@ -282,18 +298,26 @@ class _Plan:
     samples: int
     concurrency: int
     common: _Common
+    client: ChatClient | None = None  # the exact route of an endpoint: a client that asks for log-probabilities
 
 
 def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
     """Check everything a run needs and make its model, before anything is written."""
     keeps = DEFAULT_KEEPS if options.keeps is None else options.keeps
     eps = list(options.epsilons) if options.epsilons is not None else [epsilon_from_keep(task, k) for k in keeps]
-    exact = source.local_model is not None and options.samples is None
+    if source.exact and options.samples is not None:
+        raise InputError("samples", "give `samples` or `exact`, not both")
+    exact = source.exact or (source.local_model is not None and options.samples is None)
     images = options.images
+    m: DecisionModel | None = None
+    client: ChatClient | None = None
     if source.local_model is not None:
         _check_local(source.local_model, exact, options)
         images = False
-        m: DecisionModel | None = None
+    elif exact:
+        _check_exact_endpoint(options)
+        client = _exact_client(source, options.concurrency or 4)
+        images = False
     else:
         m = _model(task, source, options.concurrency or 4)
     if out.exists() and not out.is_dir():
@@ -319,6 +343,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         samples=20 if options.samples is None else int(options.samples),
         concurrency=options.concurrency or (4 if source.endpoint else 1),
         common=common,
+        client=client,
     )
 
 
@@ -331,6 +356,31 @@ def _check_local(name: str, exact: bool, options: RunOptions) -> None:
     if exact and options.design == "both":
         raise InputError("design", "the paper's design samples through the filter: give `samples` N too")
     lm.check(name)  # not installed: one line naming the install command, before anything is written
+
+
+def _check_exact_endpoint(options: RunOptions) -> None:
+    """What an endpoint's exact route cannot do: route images, the paper's design."""
+    if options.scene is not None:
+        raise InputError("scene", "the exact route reads text only: it takes no route images")
+    if options.design == "both":
+        raise InputError("design", "the paper's design samples through the filter: run with `samples` N, not `exact`")
+
+
+def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
+    """The client of an endpoint's exact route: one-token replies with the first token's top log-probabilities."""
+    from .vlm.client import ChatClient
+    from .vlm.logprobs import TOP_LOGPROBS
+
+    assert source.endpoint is not None and source.model is not None  # ModelSource checks it
+    return ChatClient(
+        source.endpoint,
+        source.model,
+        timeout=source.timeout,
+        max_retries=source.max_retries,
+        max_concurrency=concurrency,
+        max_tokens=1,
+        top_logprobs=TOP_LOGPROBS,
+    )
 
 
 def _run_sampled(
@@ -424,21 +474,45 @@ def _served(
             yield lm.ServedModel(client, name)
 
 
+_KernelMaker: TypeAlias = "Callable[[], tuple[FloatArray | None, RunSummary | None]]"
+"""What makes an exact route's kernel: (P(decision | shown cell), shape (contexts, profiles, profiles, decisions), or
+None when a request failed; the requests' summary, or None when there were none)."""
+
+
+def _exact_route(
+    task: DeliveryTask, source: ModelSource, plan: _Plan, progress: bool, log: Callable[[str], None] | None
+) -> tuple[str, _KernelMaker]:
+    """The model's name and the function that makes its exact kernel: a local model's, or an endpoint's."""
+    if source.local_model is not None:
+        name = source.local_model
+
+        def local() -> tuple[FloatArray | None, RunSummary | None]:
+            from . import local_model as lm
+
+            return lm.exact_kernel(task, lm.load(name, log=log), progress=progress), None
+
+        return name, local
+    client = plan.client
+    assert client is not None and source.model is not None  # _prepare made it
+
+    def endpoint() -> tuple[FloatArray | None, RunSummary | None]:
+        with client:
+            return endpoint_kernel(task, client, progress=progress)
+
+    return source.model, endpoint
+
+
 def _run_exact(
-    task: DeliveryTask,
-    name: str,
-    out: Path,
-    seed: int,
-    progress: bool,
-    log: Callable[[str], None] | None,
-    common: _Common,
+    task: DeliveryTask, name: str, make_kernel: _KernelMaker, out: Path, seed: int, common: _Common
 ) -> ExperimentRun:
-    """The exact route of a local model: its kernel from token probabilities, analysed and written."""
+    """The exact route: the kernel ``make_kernel`` gives, analysed and written (nothing when it gives none)."""
     from . import local_model as lm
 
     t0 = time.perf_counter()
-    loaded = lm.load(name, log=log)
-    probabilities = lm.exact_kernel(task, loaded, progress=progress)
+    probabilities, summary = make_kernel()
+    if probabilities is None:  # a request failed: no kernel, nothing written
+        seconds = time.perf_counter() - t0
+        return ExperimentRun(out=out, summary=summary, analysis=None, files=(), route="exact", seconds=seconds)
     analysis = analyse_kernel(task, lm.exact_law(task, probabilities), model=name, **common)
     seconds = time.perf_counter() - t0
     files = _write(
@@ -446,7 +520,110 @@ def _run_exact(
         out,
         {"seed": int(seed), "design": "table", "fairaudit": __version__, "seconds": round(seconds, 3)},
     )
-    return ExperimentRun(out=out, summary=None, analysis=analysis, files=tuple(files), route="exact", seconds=seconds)
+    return ExperimentRun(
+        out=out, summary=summary, analysis=analysis, files=tuple(files), route="exact", seconds=seconds
+    )
+
+
+def endpoint_kernel(
+    task: DeliveryTask, client: ChatClient, *, progress: bool = False
+) -> tuple[FloatArray | None, RunSummary]:
+    """An endpoint's exact kernel: one request per shown cell, its first token's log-probabilities as P(decision).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    client : fairaudit.experiments.vlm.client.ChatClient
+        Made with ``max_tokens=1`` and ``top_logprobs`` (the run's: 20); its ``max_concurrency`` requests are in
+        flight at once, each with the client's retries.
+    progress : bool
+        A progress bar on stderr.
+
+    Returns
+    -------
+    probabilities : numpy.ndarray, shape (n_contexts, n_profiles, n_profiles, n_decisions), or None
+        :func:`fairaudit.experiments.vlm.logprobs.decision_probabilities` of every cell, in the layout of
+        :func:`fairaudit.experiments.local_model.exact_kernel`; None when a request failed after its retries (the
+        rest are then cancelled).
+    summary : RunSummary
+        The requests: planned (the shown cells), answered, failed (the first failure's message).
+
+    Raises
+    ------
+    InputError
+        ``endpoint`` when a reply has no log-probabilities; ``exact`` when a likely first token begins two options'
+        replies (:func:`fairaudit.experiments.vlm.logprobs.shared_first_token`).
+    """
+    import itertools
+
+    import numpy as np
+
+    from . import local_model as lm
+    from ._progress import progress_bar
+    from .vlm.logprobs import decision_probabilities
+
+    shown, answers = lm.exact_prompt(task)
+    k = len(task.profiles)
+    cells = list(itertools.product(range(len(task.contexts)), range(k), range(k)))
+    out = np.zeros((len(task.contexts), k, k, len(task.decisions)))
+
+    def ask(cell: tuple[int, int, int]) -> FloatArray:
+        c, i, j = cell
+        reply = client.complete(lm.chat_messages(shown, task.contexts[c], (task.profiles[i], task.profiles[j])))
+        if reply.top_logprobs is None:
+            raise InputError(
+                "endpoint",
+                f"the server returned no log-probabilities for model {client.model!r} (it may not support "
+                "logprobs); run with `samples` N instead",
+            )
+        return decision_probabilities(reply.top_logprobs, task, answers=answers)
+
+    t0 = time.monotonic()
+    bar = progress_bar(len(cells), f"{task.name}: exact kernel", progress)
+    try:
+        answered, failure = _ask_cells(cells, ask, client.max_concurrency, bar)
+    finally:
+        bar.close()
+    for cell, row in answered.items():
+        out[cell] = row
+    summary = RunSummary(
+        planned=len(cells),
+        already=0,
+        asked=len(answered),
+        failed=int(failure is not None),
+        unparsed=0,
+        seconds=time.monotonic() - t0,
+        failures=(failure,) if failure is not None else (),
+    )
+    return (out if failure is None else None), summary
+
+
+def _ask_cells(
+    cells: list[tuple[int, int, int]], ask: Callable[[tuple[int, int, int]], FloatArray], workers: int, bar: Bar
+) -> tuple[dict[tuple[int, int, int], FloatArray], str | None]:
+    """``ask`` every cell on ``workers`` threads: the answers, and the first request that failed after retries.
+
+    The first failure (a :class:`~fairaudit.experiments.vlm.client.ChatError`) cancels the cells not yet asked;
+    any other exception (an :class:`InputError`, KeyboardInterrupt) does too, and propagates once the requests in
+    flight have ended.
+    """
+    from concurrent.futures import ThreadPoolExecutor, as_completed
+
+    from .vlm.client import ChatError
+
+    answered: dict[tuple[int, int, int], FloatArray] = {}
+    pool = ThreadPoolExecutor(max_workers=workers)
+    try:
+        futures = {pool.submit(ask, cell): cell for cell in cells}
+        for future in as_completed(futures):
+            try:
+                answered[futures[future]] = future.result()
+            except ChatError as exc:  # after the client's retries: the kernel needs every cell
+                return answered, str(exc)
+            bar.update(1)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)  # no request left behind, however the loop ends
+    return answered, None
 
 
 def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:

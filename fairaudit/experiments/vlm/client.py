@@ -38,6 +38,7 @@ from urllib.parse import urlsplit, urlunsplit
 
 from ..._errors import FairauditError, InputError
 from ..._validation import real, whole
+from .logprobs import first_token_logprobs
 
 __all__ = ["RETRY_STATUSES", "ChatClient", "ChatError", "ChatReply", "system_message", "user_message"]
 
@@ -118,6 +119,13 @@ class ChatReply:
         Seconds taken by the successful attempt.
     status : int
         The HTTP status of the successful attempt (200).
+    top_logprobs : tuple of (str, float), optional
+        With a client made with ``top_logprobs``: the first token's most
+        likely tokens and their log-probabilities (nats), from
+        ``choices[0].logprobs.content[0].top_logprobs``
+        (:func:`fairaudit.experiments.vlm.logprobs.first_token_logprobs`);
+        None when the reply has none (the server ignored ``logprobs``) or
+        they were not requested.
     """
 
     text: str
@@ -127,6 +135,7 @@ class ChatReply:
     attempts: int
     latency: float
     status: int = 200
+    top_logprobs: tuple[tuple[str, float], ...] | None = None
 
 
 class _Failure(Exception):
@@ -178,6 +187,11 @@ class ChatClient:
         Sent as ``temperature`` when given; finite and >= 0.
     max_tokens : int, optional
         Sent as ``max_tokens`` when given; >= 1.
+    top_logprobs : int, optional
+        When given (>= 1), every request asks for log-probabilities
+        (``logprobs: true``, ``top_logprobs``: this many most likely tokens per
+        position) and every reply carries its first token's in
+        :attr:`ChatReply.top_logprobs`.
     extra_body : dict, optional
         More JSON fields for every request body (``top_p``,
         ``response_format``, ...); may not set ``model`` or ``messages``.
@@ -188,7 +202,7 @@ class ChatClient:
         When an argument is invalid (the field is the command-line flag:
         ``--endpoint``, ``--model``, ``--timeout``, ``--max-retries``,
         ``--backoff``, ``--max-backoff``, ``--concurrency``,
-        ``--temperature``, ``--max-tokens``; or ``api_key``, ``extra_body``),
+        ``--temperature``, ``--max-tokens``; or ``api_key``, ``top_logprobs``, ``extra_body``),
         or ``vlm: needs pip install 'fairaudit[vlm]'`` when httpx or tenacity
         is missing.
 
@@ -212,6 +226,7 @@ class ChatClient:
         max_concurrency: int = 4,
         temperature: float | None = None,
         max_tokens: int | None = None,
+        top_logprobs: int | None = None,
         extra_body: dict | None = None,
     ) -> None:
         self._url, self.endpoint = _chat_url(endpoint)
@@ -225,6 +240,7 @@ class ChatClient:
         self.max_concurrency = whole(max_concurrency, "max_concurrency", low=1)
         self.temperature = None if temperature is None else real(temperature, "temperature", low=0.0)
         self.max_tokens = None if max_tokens is None else whole(max_tokens, "max_tokens", low=1)
+        self.top_logprobs = None if top_logprobs is None else whole(top_logprobs, "top_logprobs", low=1)
         self.extra_body = _extra_body(extra_body)
         self._key = _api_key(api_key, api_key_env)
 
@@ -331,6 +347,9 @@ class ChatClient:
             body["temperature"] = self.temperature
         if self.max_tokens is not None:
             body["max_tokens"] = self.max_tokens
+        if self.top_logprobs is not None:
+            body["logprobs"] = True
+            body["top_logprobs"] = self.top_logprobs
         body.update(self.extra_body)
         try:
             return json.dumps(body, ensure_ascii=False, allow_nan=False).encode("utf-8")
@@ -398,6 +417,7 @@ class ChatClient:
             attempts=attempt,
             latency=latency,
             status=status,
+            top_logprobs=first_token_logprobs(data) if self.top_logprobs is not None else None,
         )
 
     def _server_message(self, response: Any) -> str:

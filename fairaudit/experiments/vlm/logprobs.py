@@ -1,0 +1,220 @@
+"""The decision's law from a chat completion's first-token log-probabilities (the exact route of an endpoint).
+
+An OpenAI-compatible server asked for one token with ``logprobs: true`` and
+``top_logprobs: 20`` (OpenAI, vLLM, llama.cpp's ``llama-server``, Ollama)
+returns, beside the sampled token, the log-probabilities of the most likely
+first tokens: ``choices[0].logprobs.content[0].top_logprobs``, a list of
+``{"token": str, "logprob": float, ...}``. When the prompt asks for the
+option alone, so that the first token decides, the probability of each option
+is the mass of the top tokens that
+:func:`~fairaudit.experiments.vlm.parse.parse_reply` reads as that option (the
+rule of :func:`fairaudit.experiments.local_model.token_decisions`), and the
+rest of the mass, the tokens outside the top list included, is
+``"unparsed"`` (:func:`decision_probabilities`).
+
+That reading needs the options' replies to start with distinct tokens: a
+first token such as ``"HR"`` that begins both ``"HR1"`` and ``"HR2"`` leaves
+the decision to later tokens, which the first token's probabilities do not
+give (:func:`shared_first_token`); such a task is run by sampling instead.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..._arrays import FloatArray
+from ..._errors import InputError
+from .parse import parse_reply
+from .tasks import DeliveryTask
+
+__all__ = ["MIN_PROBABILITY", "TOP_LOGPROBS", "decision_probabilities", "first_token_logprobs", "shared_first_token"]
+
+TOP_LOGPROBS = 20
+"""First tokens requested (``top_logprobs``): OpenAI's largest."""
+
+MIN_PROBABILITY = 1e-6
+"""A top token below this probability is ignored by :func:`shared_first_token`."""
+
+_SUM_TOLERANCE = 1e-6  # the options' mass may exceed 1 by this much (rounding of the server's log-probabilities)
+
+
+def first_token_logprobs(reply: Any) -> tuple[tuple[str, float], ...] | None:
+    """The first token's top log-probabilities in a chat completion, or None when it has none.
+
+    Parameters
+    ----------
+    reply : dict
+        The parsed JSON of a chat completion (``choices[0].logprobs.content[0].top_logprobs``
+        is read), or such a ``top_logprobs`` list itself.
+
+    Returns
+    -------
+    tuple of (str, float) or None
+        ``(token text, log-probability in nats)`` per entry, in the server's
+        order; None when the reply has no log-probabilities (the server does
+        not support them or was not asked), when the list is empty, or when an
+        entry lacks a string ``token`` or a ``logprob`` that is a number <= 0
+        (a rounding error above 0 is taken as 0).
+
+    Examples
+    --------
+    >>> reply = {"choices": [{"logprobs": {"content": [{"token": "1", "logprob": -0.1,
+    ...     "top_logprobs": [{"token": "1", "logprob": -0.1}, {"token": " 2", "logprob": -2.5}]}]}}]}
+    >>> first_token_logprobs(reply)
+    (('1', -0.1), (' 2', -2.5))
+    >>> first_token_logprobs({"choices": [{"message": {"content": "1"}}]}) is None
+    True
+    """
+    entries = reply if isinstance(reply, (list, tuple)) else _top_list(reply)
+    if not entries:
+        return None
+    out = []
+    for entry in entries:
+        token, logprob = _entry(entry)
+        if token is None or logprob is None:
+            return None
+        out.append((token, logprob))
+    return tuple(out)
+
+
+def _top_list(reply: Any) -> Any:
+    """``choices[0].logprobs.content[0].top_logprobs`` of a parsed reply, or None where the path breaks."""
+    node = reply
+    for key in ("choices", 0, "logprobs", "content", 0, "top_logprobs"):
+        if isinstance(key, int):
+            node = node[0] if isinstance(node, list) and node else None
+        else:
+            node = node.get(key) if isinstance(node, Mapping) else None
+        if node is None:
+            return None
+    return node if isinstance(node, list) else None
+
+
+def _entry(entry: Any) -> tuple[str | None, float | None]:
+    """(token, logprob) of one entry: a ``{"token", "logprob"}`` mapping or a pair; None where it is not one."""
+    if isinstance(entry, Mapping):
+        token, logprob = entry.get("token"), entry.get("logprob")
+    elif isinstance(entry, (list, tuple)) and len(entry) == 2:
+        token, logprob = entry
+    else:
+        return None, None
+    if not isinstance(token, str) or isinstance(logprob, bool) or not isinstance(logprob, (int, float)):
+        return None, None
+    if math.isnan(logprob) or logprob > _SUM_TOLERANCE:  # a log-probability is <= 0, up to rounding
+        return None, None
+    return token, min(float(logprob), 0.0)
+
+
+def shared_first_token(
+    top: Sequence[tuple[str, float]], answers: Sequence[str], *, min_probability: float = MIN_PROBABILITY
+) -> str | None:
+    """A likely first token that begins the replies of two or more options, or None when there is none.
+
+    Parameters
+    ----------
+    top : sequence of (str, float)
+        First tokens and their log-probabilities (nats), as :func:`first_token_logprobs` gives them.
+    answers : sequence of str
+        The reply that names each option, in the options' order (``("1", "2")``
+        for a prompt that asks for the option's number; the option keys, such
+        as ``("HR1", "HR2")``, for one that asks for the key).
+    min_probability : float
+        Tokens at or below this probability are ignored.
+
+    Returns
+    -------
+    str or None
+        The first such token (its text as the server gave it): one whose text,
+        stripped of white space, is a proper prefix (ignoring case) of two or
+        more answers. Blank tokens are ignored (they read as unparsed).
+
+    Examples
+    --------
+    >>> import math
+    >>> shared_first_token([("HR", math.log(0.9)), ("1", math.log(0.05))], ("HR1", "HR2"))
+    'HR'
+    >>> shared_first_token([("HR", math.log(0.9))], ("1", "2")) is None
+    True
+    """
+    keys = [a.strip().casefold() for a in answers]
+    for token, logprob in top:
+        text = token.strip().casefold()
+        if not text or math.exp(logprob) <= min_probability:
+            continue
+        if sum(1 for k in keys if len(text) < len(k) and k.startswith(text)) >= 2:
+            return token
+    return None
+
+
+def decision_probabilities(reply: Any, task: DeliveryTask, *, answers: Sequence[str] | None = None) -> FloatArray:
+    """P(decision) of one shown cell from its chat completion's first-token log-probabilities.
+
+    Parameters
+    ----------
+    reply : dict or sequence
+        The parsed JSON of a chat completion with log-probabilities, or its
+        first token's top list (:func:`first_token_logprobs`'s input or output).
+    task : DeliveryTask
+        Its options and kind read each token (:func:`~fairaudit.experiments.vlm.parse.parse_reply`).
+    answers : sequence of str, optional
+        The reply that names each option (:func:`shared_first_token`); default
+        the option keys, ``task.options``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_decisions,)
+        Indexed by :attr:`DeliveryTask.decisions` (the options, then
+        ``"unparsed"``); no unit (probabilities), summing to 1. Option i gets
+        Σ exp(logprob) over the top tokens that ``parse_reply`` reads as option
+        i (blank tokens read as nothing); ``"unparsed"`` gets the rest,
+        ``1 − Σ_i P(option i)``, the tokens outside the top list included,
+        clipped at 0 (the options are scaled to sum to 1 when rounding takes
+        them just above it).
+
+    Raises
+    ------
+    InputError
+        ``reply`` when it has no first-token log-probabilities; ``exact`` when
+        a token of probability above :data:`MIN_PROBABILITY` begins two or
+        more options' replies (the first token does not decide), or when the
+        options' mass exceeds 1 by more than rounding.
+
+    Examples
+    --------
+    >>> import math
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> top = [("1", math.log(0.6)), (" 2", math.log(0.3)), ("Sure", math.log(0.05))]
+    >>> decision_probabilities(top, HR_DELIVERY, answers=("1", "2")).round(12).tolist()
+    [0.6, 0.3, 0.1]
+    """
+    top = first_token_logprobs(reply)
+    if top is None:
+        raise InputError("reply", "has no log-probabilities of its first token (choices[0].logprobs.content[0])")
+    shared = shared_first_token(top, task.options if answers is None else answers)
+    if shared is not None:
+        raise InputError(
+            "exact",
+            f"the first token {shared.strip()!r} begins the replies of two options "
+            f"({', '.join(task.options if answers is None else answers)}): the first token does not decide; "
+            "run with `samples` N instead",
+        )
+    n = len(task.options)
+    out = np.zeros(n + 1)
+    for token, logprob in top:
+        if not token.strip():
+            continue
+        r = parse_reply(token, task.options, task.kind)
+        if r.ok and r.choice is not None:
+            out[r.choice] += math.exp(logprob)
+    total = float(out[:n].sum())
+    if total > 1.0 + _SUM_TOLERANCE:
+        raise InputError("exact", f"the options' first tokens have probabilities summing to {total:.6g}, above 1")
+    if total > 1.0:  # rounding: the options take all the mass
+        out[:n] /= total
+        return out
+    out[n] = max(0.0, 1.0 - total)
+    return out

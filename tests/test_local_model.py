@@ -56,8 +56,28 @@ def test_package_without_its_file_is_the_same_error(monkeypatch, tmp_path):
 
 
 def test_unknown_model_names_the_choices():
-    with pytest.raises(InputError, match=r"^local_model: must be one of \['smollm2'\]"):
+    with pytest.raises(
+        InputError,
+        match=r"^local_model: must be smollm2, a transformers model folder \(with config.json\) or a .gguf file "
+        r"\(got 'gpt-5'\)$",
+    ):
         lm.find_gguf("gpt-5")
+
+
+def test_a_local_model_is_a_shipped_name_a_folder_or_a_gguf_file(tmp_path):
+    folder = tmp_path / "my-model"
+    folder.mkdir()
+    with pytest.raises(InputError, match="a transformers model folder"):
+        lm.model_kind(folder)  # no config.json: not a model
+    (folder / "config.json").write_text("{}")
+    gguf = tmp_path / "tiny.GGUF"
+    gguf.write_bytes(b"GGUF")
+    assert [lm.model_kind(x) for x in ("smollm2", folder, str(gguf))] == ["package", "folder", "gguf"]
+    assert lm.prepare(folder, cache=tmp_path / "cache") == folder  # a folder is used as it is: nothing written
+    assert not (tmp_path / "cache").exists()
+    assert lm.find_gguf(str(gguf)) == gguf
+    with pytest.raises(InputError, match="a transformers model folder"):
+        lm.model_kind(tmp_path / "tiny.bin")
 
 
 def test_cache_root_follows_the_environment(monkeypatch, tmp_path):
@@ -146,6 +166,20 @@ def test_exact_kernel_rows_are_probabilities(smollm2):
     SimulatedModel(PACKAGE_DELIVERY, p, "smollm2 exact")  # the layout the simulated model takes
     first = p[..., 0] / p[..., :2].sum(-1)
     assert np.all(first > 0.6)  # position bias: the first-listed recipient is served first more often
+
+
+@pytest.mark.local_model
+def test_any_folder_or_gguf_file_gives_the_shipped_models_kernel(smollm2, tmp_path):
+    """The converted folder given as a folder, and the GGUF file given by path, are the same model as the name."""
+    cells = [("holiday leave", a, b) for a in HR_DELIVERY.profiles[:2] for b in HR_DELIVERY.profiles[-2:]]
+    by_name = lm.exact_kernel(HR_DELIVERY, smollm2, cells=cells)
+    by_folder = lm.exact_kernel(HR_DELIVERY, lm.load(str(smollm2.folder)), cells=cells)
+    np.testing.assert_array_equal(by_folder, by_name)
+    gguf = lm.find_gguf("smollm2")
+    converted = lm.prepare(str(gguf), cache=tmp_path)
+    assert converted.parent == tmp_path and converted.name == f"{gguf.stem}-{smollm2.folder.name.rsplit('-', 1)[1]}"
+    by_file = lm.exact_kernel(HR_DELIVERY, lm.load(str(gguf), cache=tmp_path), cells=cells)
+    np.testing.assert_allclose(by_file, by_name, atol=1e-6)
 
 
 @pytest.mark.local_model

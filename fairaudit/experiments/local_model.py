@@ -46,7 +46,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -76,6 +76,7 @@ __all__ = [
     "find_gguf",
     "install",
     "load",
+    "model_kind",
     "prepare",
     "serve",
     "token_decisions",
@@ -135,6 +136,44 @@ def _spec(name: str) -> LocalModelSpec:
     return LOCAL_MODELS[name]
 
 
+def model_kind(local_model: str | Path) -> Literal["package", "folder", "gguf"]:
+    """What a ``local_model`` names: a shipped model (``"package"``), a transformers folder, or a GGUF file.
+
+    Parameters
+    ----------
+    local_model : str or pathlib.Path
+        A key of :data:`LOCAL_MODELS` (``"smollm2"``); a folder holding a
+        transformers causal language model (its ``config.json`` and weights,
+        as ``save_pretrained`` writes them); or a ``.gguf`` file.
+
+    Raises
+    ------
+    InputError
+        Naming ``local_model`` when it is none of these.
+
+    Examples
+    --------
+    >>> model_kind("smollm2")
+    'package'
+    >>> model_kind("no-such-model")
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: local_model: must be smollm2, a transformers model folder (with config.json) or a .gguf file (got 'no-such-model')
+    """
+    name = str(local_model)
+    if name in LOCAL_MODELS:
+        return "package"
+    path = Path(name)
+    if path.is_dir() and (path / "config.json").is_file():
+        return "folder"
+    if path.is_file() and path.suffix.lower() == ".gguf":
+        return "gguf"
+    shipped = ", ".join(sorted(LOCAL_MODELS))
+    raise InputError(
+        "local_model", f"must be {shipped}, a transformers model folder (with config.json) or a .gguf file", name
+    )
+
+
 def find_gguf(name: str = "smollm2") -> Path:
     """The model's GGUF file inside its installed package, found without importing the package.
 
@@ -145,7 +184,7 @@ def find_gguf(name: str = "smollm2") -> Path:
     Parameters
     ----------
     name : str
-        A key of :data:`LOCAL_MODELS`.
+        A key of :data:`LOCAL_MODELS`, or the path of a ``.gguf`` file (returned as is).
 
     Returns
     -------
@@ -158,6 +197,8 @@ def find_gguf(name: str = "smollm2") -> Path:
         On an unknown ``name`` (naming the choices); one line naming the
         install command when the package or its file is absent.
     """
+    if model_kind(name) == "gguf":
+        return Path(name)
     spec = _spec(name)
     try:
         found = importlib.util.find_spec(spec.package)
@@ -181,20 +222,21 @@ def check(name: str = "smollm2") -> Path:
     Parameters
     ----------
     name : str
-        A key of :data:`LOCAL_MODELS`.
+        A key of :data:`LOCAL_MODELS`, a transformers model folder or a ``.gguf`` file (:func:`model_kind`).
 
     Returns
     -------
     pathlib.Path
-        :func:`find_gguf`'s file.
+        :func:`find_gguf`'s file, or the folder.
 
     Raises
     ------
     InputError
         One line naming the install command of what is missing: the model's
-        package (:func:`find_gguf`) or the ``local-model`` extra.
+        package (:func:`find_gguf`) or the ``local-model`` extra; or naming
+        ``local_model`` when it is not a model (:func:`model_kind`).
     """
-    path = find_gguf(name)
+    path = Path(name) if model_kind(name) == "folder" else find_gguf(name)
     _require()
     return path
 
@@ -307,7 +349,9 @@ def prepare(
     Parameters
     ----------
     name : str
-        A key of :data:`LOCAL_MODELS`.
+        A key of :data:`LOCAL_MODELS` or a ``.gguf`` file (converted into the
+        cache, keyed by its SHA-256), or a transformers model folder (returned
+        as it is: nothing is converted or written).
     cache : str or Path, optional
         Default :func:`cache_root`.
     log : callable, optional
@@ -318,10 +362,14 @@ def prepare(
     InputError
         When the model package or torch/transformers is missing (one line with the install command).
     """
+    kind = model_kind(name)
+    if kind == "folder":  # a transformers folder is used as it is
+        return Path(name)
     gguf = find_gguf(name)
     digest = _digest(gguf)
     root = Path(cache) if cache is not None else cache_root()
-    folder = root / f"{name}-{digest[:12]}"
+    label = name if kind == "package" else gguf.stem
+    folder = root / f"{label}-{digest[:12]}"
     if (folder / _MARKER).is_file():
         return folder
     torch, transformers = _require()
@@ -347,11 +395,12 @@ def prepare(
         g.do_sample, g.temperature, g.top_k, g.top_p = True, 1.0, 0, 1.0
         model.save_pretrained(tmp)
         tok.save_pretrained(tmp)
+        shipped = LOCAL_MODELS.get(name)
         info = {
-            "name": name,
-            "source": f"{LOCAL_MODELS[name].distribution}: {gguf.name}",
+            "name": label,
+            "source": f"{shipped.distribution}: {gguf.name}" if shipped else str(gguf.resolve()),
             "sha256": digest,
-            "license": LOCAL_MODELS[name].license,
+            "license": shipped.license if shipped else "the model's own (see its source)",
             "torch": torch.__version__,
             "transformers": transformers.__version__,
             "seconds": round(time.perf_counter() - t0, 1),
@@ -398,7 +447,7 @@ def load(
     Parameters
     ----------
     name : str
-        A key of :data:`LOCAL_MODELS`.
+        A key of :data:`LOCAL_MODELS`, a transformers model folder or a ``.gguf`` file (:func:`model_kind`).
     cache : str or Path, optional
         Default :func:`cache_root`.
     log : callable, optional

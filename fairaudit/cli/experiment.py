@@ -1,4 +1,4 @@
-"""``fairaudit experiment``: the paper's delivery experiment against a model (fairaudit.experiments.run).
+"""``fairaudit experiment``: a decision task (the paper's, or a task file) against a model (fairaudit.experiments.run).
 
 The plug-ins are imported only when the command runs, so that ``import fairaudit.cli`` stays light.
 """
@@ -16,7 +16,7 @@ def add_parser(sub: Subparsers) -> None:
     """Add the ``experiment`` subcommand to ``sub``."""
     e = sub.add_parser(
         "experiment",
-        help="run the paper's delivery experiment against a model under a privacy filter",
+        help="run a decision task (the paper's, or a task file) against a model under a privacy filter",
         description="Query a decision model (simulated, a kernel table, or an OpenAI-compatible "
         "endpoint; with --exact, its kernel from log-probabilities) on every shown cell of a decision task (the paper's HR-delivery or package-delivery "
         "task, or a task file), apply the "

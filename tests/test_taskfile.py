@@ -211,3 +211,17 @@ def test_attribute_text_is_what_the_prompt_shows():
     with pytest.raises(InputError, match=r"attribute\[1\].text: has no text for the value 'sales'"):
         parse_task(text.replace(', sales = ["field sales"]', ""))
     assert np.isfinite(task.utility_values).all()
+
+
+def test_resuming_after_the_task_file_changed_is_refused(tmp_path, capsys):
+    path = _task(tmp_path, BASE, "shortlist.toml")
+    out = tmp_path / "run"
+    argv = ("experiment", path, "--samples", 1, "--no-images", "--no-progress", "--out", out)
+    assert run(capsys, *argv)[0] == 0
+    assert run(capsys, *argv, "--resume")[0] == 0  # the same file: nothing new to ask
+    log = (out / "queries.jsonl").read_bytes()
+    path.write_text(BASE.replace("Which applicant do you invite", "Whom do you invite"))
+    code, stdout, err = run(capsys, *argv, "--resume")
+    assert code == 2 and stdout == "" and "the task file changed since the run in" in err
+    assert len(err.strip().splitlines()) == 1
+    assert (out / "queries.jsonl").read_bytes() == log  # the log is left as it was

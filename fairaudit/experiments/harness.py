@@ -254,6 +254,13 @@ class QueryLog:
                     "resume",
                     f"the run in {self.path.parent} was made with {flag} {first.get(key)!r}, not {header.get(key)!r}",
                 )
+        before, now = first.get("task_sha256"), header.get("task_sha256")
+        if before is not None and before != now:  # (logs from before task files have no digest)
+            raise InputError(
+                "resume",
+                f"the task file changed since the run in {self.path.parent} began (sha256 {before[:12]}... then, "
+                f"{str(now)[:12]}... now): its queries would mix two tasks; start a new run in another folder",
+            )
         self.header = first
         if good < len(data):
             with open(self.path, "r+b") as fh:

@@ -429,6 +429,7 @@ def _ask(
     n, eps = plan.samples, plan.common["epsilons"]
     header = {
         "task": task.name,
+        "task_sha256": task.digest,
         "model": m.name,
         "seed": int(options.seed),
         "fairaudit": __version__,

@@ -60,3 +60,22 @@ def label(v: Hashable | None) -> Hashable | None:
     if isinstance(v, np.generic):
         return v.item()
     return v
+
+
+def pair_dict(
+    kind: str, value: float, ratio: float, context: Hashable | None, group: Hashable | None, other: Hashable | None
+) -> Report:
+    """The head of a maximum's dictionary: value, ratio, the context (``kind == "local"`` only) and the pair.
+
+    Examples
+    --------
+    >>> pair_dict("local", 0.5, 1.6487212707001282, "x", ("f", 1), "m")
+    {'value': 0.5, 'ratio': 1.6487212707001282, 'context': 'x', 'group': 'f & 1', 'other_group': 'm'}
+    >>> pair_dict("global", float("inf"), float("inf"), None, "a", "b")
+    {'value': 'inf', 'ratio': 'inf', 'group': 'a', 'other_group': 'b'}
+    """
+    d: Report = {"value": number(value), "ratio": number(ratio)}
+    if kind == "local":
+        d["context"] = label(context)
+    d.update(group=label(group), other_group=label(other))
+    return d

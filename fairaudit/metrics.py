@@ -32,7 +32,7 @@ import numpy as np
 
 from ._arrays import BoolArray, FloatArray, IntArray, format_label, ratio_extremes, ratio_of_extremes, safe_log
 from ._errors import InputError
-from ._json import Report, label, number
+from ._json import Report, label, number, pair_dict
 from .laws import Law, Population, population_for
 from .utility import Utility
 
@@ -119,14 +119,8 @@ class Fairness:
         >>> fa.local_fairness(law, fa.Utility([1.0, 0.0], [0, 1])).to_dict()
         {'value': 0.6931471805599453, 'ratio': 2.0, 'context': 'x', 'group': 'a', 'other_group': 'b', 'interval': None}
         """
-        d: Report = {"value": number(self.value), "ratio": number(self.ratio)}
-        if self.kind == "local":
-            d["context"] = label(self.context)
-        d.update(
-            group=label(self.group),
-            other_group=label(self.other_group),
-            interval=None if interval is None else [number(end) for end in interval],
-        )
+        d = pair_dict(self.kind, self.value, self.ratio, self.context, self.group, self.other_group)
+        d["interval"] = None if interval is None else [number(end) for end in interval]
         return d
 
 

@@ -18,7 +18,7 @@ import numpy.typing as npt
 
 from .._arrays import BoolArray, FloatArray, IntArray, format_label, safe_log
 from .._errors import InputError
-from .._json import Report, label, number
+from .._json import Report, pair_dict
 from .._validation import nonnegative
 from ..bounds import Assumption, check_assumptions
 from ..laws import Kernel, Population, compose
@@ -123,16 +123,8 @@ class WorstCase:
 
     def to_dict(self) -> Report:
         """The report dictionary: value, ratio, (context,) the pair, method, status, programs solved (and reason)."""
-        d: Report = {"value": number(self.value), "ratio": number(self.ratio)}
-        if self.kind == "local":
-            d["context"] = label(self.context)
-        d.update(
-            group=label(self.group),
-            other_group=label(self.other_group),
-            method=self.method,
-            status=self.status,
-            programs_solved=int(self.programs_solved),
-        )
+        d = pair_dict(self.kind, self.value, self.ratio, self.context, self.group, self.other_group)
+        d.update(method=self.method, status=self.status, programs_solved=int(self.programs_solved))
         if self.reason:
             d["reason"] = self.reason
         return d

@@ -127,7 +127,11 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     e.add_argument("--resume", action="store_true", help="continue the run logged in --out")
     e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     e.add_argument(
-        "--concurrency", type=positive_int, metavar="N", help="queries in flight (default 4 with --endpoint, else 1)"
+        "--concurrency",
+        type=positive_int,
+        metavar="N",
+        help="queries in flight (default 4 with --endpoint, else 1; 1 with --exact: a batching server's numbers "
+        "depend on what it batches)",
     )
     e.add_argument("--timeout", type=float, default=60.0, metavar="S", help="seconds per request (default 60)")
     e.add_argument(

@@ -316,7 +316,9 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         images = False
     elif exact:
         _check_exact_endpoint(options)
-        client = _exact_client(source, options.concurrency or 4)
+        # one request at a time by default: a server that batches concurrent requests (llama-server) computes a
+        # quantized model's logits differently per batch, so the exact kernel would depend on the timing
+        client = _exact_client(source, options.concurrency or 1)
         images = False
     else:
         m = _model(task, source, options.concurrency or 4)

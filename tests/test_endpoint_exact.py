@@ -327,3 +327,45 @@ def test_bad_exact_options_exit_2_with_one_line(tmp_path, capsys, argv, message)
     assert code == 2 and out == ""
     assert err.startswith("fairaudit: error: ") and err.count("\n") == 1 and message in err, err
     assert not (tmp_path / "o").exists()  # refused before --out is made
+
+
+def test_first_token_route_sends_the_exact_prompt_and_plain_sampling(tmp_path, capsys):
+    """--first-token: one-token replies to the exact route's prompt, drawn with temperature 1 and no truncation."""
+    task = PACKAGE_DELIVERY
+    kernel = _known_kernel(task, "low-complaint-first", [0.02, 0.05, 0.1])
+    responder, logprobs = _stand_in(task, kernel)
+    with ChatServer(responder, logprobs=logprobs) as server:
+        code, _, err = run(
+            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--first-token",
+            "--samples", "2", "--no-images", "--no-progress", "--out", tmp_path / "run",
+        )  # fmt: skip
+        assert code == 0, err
+        bodies = [r["json"] for r in server.requests if r["path"].endswith("/chat/completions")]
+    assert len(bodies) == 24
+    for body in bodies:
+        assert (body["max_tokens"], body["temperature"], body["top_k"], body["top_p"], body["min_p"]) == (
+            1,
+            1.0,
+            0,
+            1.0,
+            0.0,
+        )
+        assert "logprobs" not in body
+    shown = exact_prompt(task)[0]
+    prompts = {b["messages"][-1]["content"] for b in bodies}
+    assert prompts == {
+        shown.prompt(c, pair) for c in task.contexts for pair in itertools.product(task.profiles, repeat=2)
+    }
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (("--first-token", "--samples", "2"), "--first-token: needs --endpoint (with --model): it samples a server's first token"),
+        (("--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--first-token", "--exact"), "--first-token: is the sampled twin of --exact: give one of them"),
+    ],
+)  # fmt: skip
+def test_first_token_needs_an_endpoint_and_not_exact(tmp_path, capsys, flags, message):
+    code, out, err = run(capsys, "experiment", "package-delivery", *flags, "--out", tmp_path / "run")
+    assert code == 2 and out == "" and err.strip() == f"fairaudit: error: {message}"
+    assert not (tmp_path / "run").exists()

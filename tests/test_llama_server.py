@@ -7,6 +7,7 @@ cross-check with the in-process route needs the local-model extra too. Skipped w
 
 from __future__ import annotations
 
+import json
 import shutil
 import socket
 import subprocess
@@ -106,3 +107,24 @@ def test_the_server_and_the_in_process_model_agree_up_to_quantized_arithmetic(se
     # measured on 2026-11-22: at most 0.034 apart in any probability (docs/real-model.md)
     assert np.abs(remote - local).max() < 0.06
     assert Path(lm.find_gguf("smollm2")).is_file()
+
+
+def test_first_token_samples_cover_the_exact_kernel(server, tmp_path, capsys):
+    """The third route: one-token replies drawn from the whole softmax; their intervals cover the exact L and L-bar."""
+    common = ("--endpoint", f"{server}/v1", "--model", "smollm2", "--no-images", "--no-progress", "--concurrency", 1)
+    exact, sampled = tmp_path / "exact", tmp_path / "sampled"
+    assert run(capsys, "experiment", "package-delivery", *common, "--exact", "--out", exact)[0] == 0
+    code, _, err = run(
+        capsys, "experiment", "package-delivery", *common, "--first-token", "--samples", 60, "--out", sampled
+    )
+    assert code == 0, err
+    request = json.loads((sampled / "queries.jsonl").read_text().splitlines()[1])
+    assert request["status"] == "ok"
+    e = json.loads((exact / "certificate.json").read_text())
+    s = json.loads((sampled / "certificate.json").read_text())
+    for a, b in [(e["baseline"], s["baseline"]), *zip(e["points"], s["points"])]:
+        part = a if "local" in a else a["observed"]
+        seen = b if "local" in b else b["observed"]
+        for kind in ("local", "global"):
+            lo, hi = (float(v) for v in seen[kind]["interval"])
+            assert lo - 5e-3 <= float(part[kind]["value"]) <= hi + 5e-3, (kind, part[kind], seen[kind])

@@ -68,6 +68,13 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
         help="queries per shown cell (default 20; with --local-model, default: the exact route, no queries)",
     )
     e.add_argument(
+        "--first-token",
+        action="store_true",
+        help="with --endpoint and --samples: the sampled twin of --exact, to check it: one-token replies to the "
+        "exact route's prompt drawn from the whole softmax (temperature 1, top_k 0, top_p 1, min_p 0; "
+        "llama-server and vLLM accept these, OpenAI's API does not)",
+    )
+    e.add_argument(
         "--exact",
         action="store_true",
         help="with --endpoint: the exact kernel from the first token's log-probabilities, one request per shown "
@@ -162,6 +169,7 @@ def run(args: argparse.Namespace) -> int:
         model=args.model,
         local_model=args.local_model,
         exact=args.exact,
+        first_token=args.first_token,
         timeout=args.timeout,
         max_retries=args.max_retries,
     )

@@ -22,12 +22,16 @@ from .._errors import InputError
 from .._validation import choice, real, whole
 from .analysis import DEFAULT_TARGETS
 
-__all__ = ["DEFAULT_KEEPS", "ModelSource", "RunOptions"]
+__all__ = ["DEFAULT_KEEPS", "PLAIN_SAMPLING", "ModelSource", "RunOptions"]
 
 DEFAULT_KEEPS = (0.5, 0.6, 0.7, 0.8, 0.9)
 """Keep probabilities per attribute of the default ε grid (the paper varied p)."""
 
 _SOURCES = ("simulated", "kernel", "endpoint", "local_model")
+
+
+PLAIN_SAMPLING = {"temperature": 1.0, "top_k": 0, "top_p": 1.0, "min_p": 0.0}
+"""Request fields that make a server sample from the model's whole softmax (``first_token``): no truncation."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -58,6 +62,14 @@ class ModelSource:
         ``endpoint`` or ``local_model``, and goes without ``samples``
         (:class:`RunOptions`). A local model takes the exact route whenever
         ``samples`` is not given, with or without ``exact``.
+    first_token : bool
+        The sampled twin of the exact route, to check it: each reply is one
+        token (``max_tokens: 1``) drawn from the whole softmax
+        (:data:`PLAIN_SAMPLING`: temperature 1 and no top-k, top-p or min-p
+        truncation) for the exact route's prompt
+        (:func:`fairaudit.experiments.local_model.exact_prompt`). Needs
+        ``endpoint``; the server must accept ``top_k`` and ``min_p``
+        (llama-server, vLLM; OpenAI's API refuses them).
     timeout : float
         Seconds per request (an endpoint, or a local model's server).
     max_retries : int
@@ -66,8 +78,8 @@ class ModelSource:
     Raises
     ------
     InputError
-        When more than one source is given, ``model`` without ``endpoint`` (or the reverse), or
-        ``exact`` without ``endpoint`` or ``local_model``.
+        When more than one source is given, ``model`` without ``endpoint`` (or the reverse),
+        ``exact`` without ``endpoint`` or ``local_model``, or ``first_token`` without ``endpoint`` or with ``exact``.
 
     Examples
     --------
@@ -91,6 +103,7 @@ class ModelSource:
     model: str | None = None
     local_model: str | None = None
     exact: bool = False
+    first_token: bool = False
     timeout: float = 60.0
     max_retries: int = 5
 
@@ -105,6 +118,12 @@ class ModelSource:
             raise InputError("model", "goes with `endpoint`", self.model)
         if not isinstance(self.exact, bool):
             raise InputError("exact", "must be True or False", self.exact)
+        if not isinstance(self.first_token, bool):
+            raise InputError("first_token", "must be True or False", self.first_token)
+        if self.first_token and not self.endpoint:
+            raise InputError("first_token", "needs `endpoint` (with `model`): it samples a server's first token")
+        if self.first_token and self.exact:
+            raise InputError("first_token", "is the sampled twin of `exact`: give one of them")
         if self.exact and not (self.endpoint or self.local_model):
             raise InputError(
                 "exact",

@@ -36,7 +36,7 @@ from .. import __version__
 from .._errors import InputError
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
-from .options import DEFAULT_KEEPS, ModelSource, RunOptions
+from .options import DEFAULT_KEEPS, PLAIN_SAMPLING, ModelSource, RunOptions
 from .taskfile import get_task
 from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_model, simulated_models
 from .vlm.tasks import DeliveryTask
@@ -96,6 +96,8 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int) -> Decisio
             timeout=source.timeout,
             max_retries=source.max_retries,
             max_concurrency=concurrency,
+            max_tokens=1 if source.first_token else None,
+            extra_body=dict(PLAIN_SAMPLING) if source.first_token else None,
         )
         return EndpointModel(client, task)
     if source.kernel:
@@ -405,7 +407,11 @@ def _run_sampled(
             from . import local_model as lm
 
             m = stack.enter_context(_served(source.local_model, out, source.timeout, source.max_retries, log))
-            task = lm.answer_task(task)
+            task = lm.exact_prompt(task)[0]
+        elif source.first_token:
+            from . import local_model as lm
+
+            task = lm.exact_prompt(task)[0]
         assert m is not None
         summary, records = _ask(task, m, plan, options, progress)
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]

@@ -369,3 +369,22 @@ def test_first_token_needs_an_endpoint_and_not_exact(tmp_path, capsys, flags, me
     code, out, err = run(capsys, "experiment", "package-delivery", *flags, "--out", tmp_path / "run")
     assert code == 2 and out == "" and err.strip() == f"fairaudit: error: {message}"
     assert not (tmp_path / "run").exists()
+
+
+def test_first_token_sends_no_images_and_refuses_a_scene(tmp_path, capsys):
+    task = PACKAGE_DELIVERY
+    responder, logprobs = _stand_in(task, _known_kernel(task, "fair", [0.0, 0.0, 0.0]))
+    with ChatServer(responder, logprobs=logprobs) as server:
+        code, _, err = run(
+            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--first-token",
+            "--samples", "1", "--no-progress", "--out", tmp_path / "run",
+        )  # fmt: skip
+        assert code == 0, err
+        contents = [b["messages"][-1]["content"] for b in server.chat_requests]
+    assert contents and all(isinstance(c, str) for c in contents)  # text only: no image parts
+    assert not list((tmp_path / "run").glob("route-*.png"))
+    code, _, err = run(
+        capsys, "experiment", "package-delivery", "--endpoint", "http://127.0.0.1:9/v1", "--model", "m",
+        "--first-token", "--samples", "1", "--scene", tmp_path, "--out", tmp_path / "other",
+    )  # fmt: skip
+    assert code == 2 and "--scene: --first-token samples the exact route's text-only prompt" in err

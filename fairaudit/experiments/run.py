@@ -324,6 +324,10 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         images = False
     else:
         m = _model(task, source, options.concurrency or 4)
+        if source.first_token:  # the exact route's sampled twin: its text-only prompt
+            if options.scene is not None:
+                raise InputError("scene", "`first_token` samples the exact route's text-only prompt: no route images")
+            images = False
     if out.exists() and not out.is_dir():
         raise InputError("out", "is a file, not a folder", str(out))
     if not out.parent.is_dir():

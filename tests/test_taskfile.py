@@ -6,6 +6,7 @@ import hashlib
 import itertools
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -225,3 +226,15 @@ def test_resuming_after_the_task_file_changed_is_refused(tmp_path, capsys):
     assert code == 2 and stdout == "" and "the task file changed since the run in" in err
     assert len(err.strip().splitlines()) == 1
     assert (out / "queries.jsonl").read_bytes() == log  # the log is left as it was
+
+
+def test_without_jinja2_a_prompt_is_one_line_naming_the_install(monkeypatch):
+    from fairaudit.experiments.vlm import tasks
+
+    tasks._environment.cache_clear()
+    monkeypatch.setitem(sys.modules, "jinja2", None)
+    try:
+        with pytest.raises(InputError, match=r"^prompt: needs jinja2, which is not installed: pip install"):
+            HR_DELIVERY.prompt("sick leave", HR_DELIVERY.candidates)
+    finally:
+        tasks._environment.cache_clear()

@@ -37,7 +37,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"fairaudit: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        exact = args.command == "experiment" and (getattr(args, "exact", False) or _local_exact(args))
+        exact = args.command == "experiment" and _exact_route(args)
         hint = "; every answered query is logged: run again with --resume" if args.command == "experiment" else ""
         if exact:
             hint = "; the exact route writes nothing until every cell is done: run again"
@@ -45,6 +45,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
-def _local_exact(args: argparse.Namespace) -> bool:
-    """Whether ``fairaudit experiment`` takes a local model's exact route (a local model without --samples)."""
-    return bool(getattr(args, "local_model", None)) and getattr(args, "samples", None) is None
+def _exact_route(args: argparse.Namespace) -> bool:
+    """Whether ``fairaudit experiment`` takes an exact route (the run's own rule)."""
+    from ..experiments.options import exact_route
+
+    return exact_route(args.exact, args.local_model, args.samples)

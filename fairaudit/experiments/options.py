@@ -22,7 +22,7 @@ from .._errors import InputError
 from .._validation import choice, real, whole
 from .analysis import DEFAULT_TARGETS
 
-__all__ = ["DEFAULT_KEEPS", "PLAIN_SAMPLING", "ModelSource", "RunOptions"]
+__all__ = ["DEFAULT_KEEPS", "PLAIN_SAMPLING", "ModelSource", "RunOptions", "exact_route"]
 
 DEFAULT_KEEPS = (0.5, 0.6, 0.7, 0.8, 0.9)
 """Keep probabilities per attribute of the default ε grid (the paper varied p)."""
@@ -223,3 +223,14 @@ class RunOptions:
             object.__setattr__(self, "samples", whole(self.samples, "samples", low=1))
         if self.concurrency is not None:
             object.__setattr__(self, "concurrency", whole(self.concurrency, "concurrency", low=1))
+
+
+def exact_route(exact: bool, local_model: str | None, samples: int | None) -> bool:
+    """Whether a run takes the exact route: ``exact`` asked for, or a local model without ``samples``.
+
+    Examples
+    --------
+    >>> exact_route(False, "smollm2", None), exact_route(False, "smollm2", 20), exact_route(True, None, None)
+    (True, False, True)
+    """
+    return bool(exact) or (local_model is not None and samples is None)

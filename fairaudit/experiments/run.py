@@ -36,7 +36,7 @@ from .. import __version__
 from .._errors import InputError
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
-from .options import DEFAULT_KEEPS, PLAIN_SAMPLING, ModelSource, RunOptions
+from .options import DEFAULT_KEEPS, PLAIN_SAMPLING, ModelSource, RunOptions, exact_route
 from .taskfile import get_task
 from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_model, simulated_models
 from .vlm.tasks import DeliveryTask
@@ -309,7 +309,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     eps = list(options.epsilons) if options.epsilons is not None else [epsilon_from_keep(task, k) for k in keeps]
     if source.exact and options.samples is not None:
         raise InputError("samples", "give `samples` or `exact`, not both")
-    exact = source.exact or (source.local_model is not None and options.samples is None)
+    exact = exact_route(source.exact, source.local_model, options.samples)
     images = options.images
     m: DecisionModel | None = None
     client: ChatClient | None = None

@@ -46,7 +46,6 @@ __all__ = [
     "TaskFile",
     "get_task",
     "load_task",
-    "outcome_labels",
     "parse_task",
 ]
 
@@ -180,7 +179,7 @@ class TaskFile(StrictModel):
             if a not in names:
                 raise FieldProblem(f".filter.attributes[{i}]", f"is not an attribute ({', '.join(names)})", a)
         _check_options(self)
-        outcomes = outcome_labels(self)
+        outcomes = _outcome_labels(self)
         _check_utility(self, outcomes)
         return self
 
@@ -198,7 +197,7 @@ def _check_options(f: TaskFile) -> None:
         raise FieldProblem(".decision.options", f"must name each candidate slot 1 to {k} exactly once", dict(options))
 
 
-def outcome_labels(f: TaskFile) -> tuple[str, ...]:
+def _outcome_labels(f: TaskFile) -> tuple[str, ...]:
     """A candidate's own outcomes, in order: ``[decision] outcomes``, else chosen/not chosen or rank 1..k."""
     k = f.task.candidates
     if f.decision.outcomes is not None:
@@ -313,7 +312,7 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
     text = {a.name: _shown_text(a) for a in f.attribute}
     pair = _true_pair(f, attributes)
     options = tuple(sorted(f.decision.options, key=lambda key: f.decision.options[key]))
-    outcomes = outcome_labels(f)
+    outcomes = _outcome_labels(f)
     values = _utility_values(f, outcomes)
     unparsed = f.utility.unparsed if f.utility.unparsed is not None else sum(values) / len(values)
     context = f.context or ContextSection(values=["all"])

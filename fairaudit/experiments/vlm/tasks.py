@@ -201,9 +201,14 @@ def _environment() -> Any:
     over the candidates; the sandbox refuses attributes of Python objects; there
     is no loader, so ``include`` and ``extends`` reach no file.
     """
-    from jinja2 import StrictUndefined
-    from jinja2.exceptions import SecurityError
-    from jinja2.sandbox import ImmutableSandboxedEnvironment
+    try:
+        from jinja2 import StrictUndefined
+        from jinja2.exceptions import SecurityError
+        from jinja2.sandbox import ImmutableSandboxedEnvironment
+    except ImportError:
+        raise InputError(
+            "prompt", "needs jinja2, which is not installed: pip install 'fairaudit[experiment]'"
+        ) from None
 
     class PromptEnvironment(ImmutableSandboxedEnvironment):
         intercepted_binops = frozenset(["+", "-", "*", "/", "//", "%", "**"])
@@ -244,7 +249,8 @@ def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping
     ------
     InputError
         Naming ``field`` when the template is not valid Jinja2, names a
-        variable that does not exist, or reaches outside the sandbox.
+        variable that does not exist, or reaches outside the sandbox; naming
+        ``prompt`` when Jinja2 is not installed.
 
     Examples
     --------
@@ -256,11 +262,12 @@ def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping
     ...
     fairaudit._errors.InputError: prompt.user: cannot be rendered: access to attribute '__class__' of '_Candidate' object is unsafe.
     """
+    env = _environment()  # first: without Jinja2, one line naming the install
     from jinja2 import TemplateError
 
     shown = [_Candidate(c) for c in candidates]
     names = {f"c{i + 1}": c for i, c in enumerate(shown)}
     try:
-        return str(_environment().from_string(template).render(context=context, candidates=shown, **names))
+        return str(env.from_string(template).render(context=context, candidates=shown, **names))
     except (TemplateError, TypeError, ValueError, OverflowError, RecursionError) as exc:  # include/extends: TypeError
         raise InputError(field, f"cannot be rendered: {exc}") from None

@@ -390,11 +390,15 @@ def test_position_split_by_hand_with_three_contexts():
     m(., 2) = 0.3 + 1.5 + 0.4 = 2.2 for both candidates (pure position).
     """
     from fairaudit.experiments.analysis import position_split
+    from fairaudit.experiments.slots import expected_utility
     from fairaudit.experiments.taskfile import PACKAGE_DELIVERY
 
     mixed = [[0.9, 0.1, 0.0], [0.6, 0.4, 0.0]]
     pure = [[0.5, 0.3, 0.2], [0.5, 0.3, 0.2]]
-    s = position_split(PACKAGE_DELIVERY, [mixed, mixed, pure])
+    probs = np.full((3, 4, 3), 1 / 3)  # shown cells (low, low), (low, high), (high, low), (high, high)
+    probs[:, 1], probs[:, 2] = np.array([mixed, mixed, pure]).transpose(1, 0, 2)
+    m = expected_utility(PACKAGE_DELIVERY, probs, np.asarray(PACKAGE_DELIVERY.utility_values))
+    s = position_split(PACKAGE_DELIVERY, m)
     ln = math.log
     expected = {
         "raw": ln(1.2 / 2.8),

@@ -156,10 +156,11 @@ BASE = SHORTLIST.read_text()
         (("{{ c2.name }}", "{% include '/etc/passwd' %}"), "prompt.user: cannot be rendered: no loader"),
         (("{{ context }} role. Answer", "{{ context * 1000000000 }} role. Answer"), "prompt.system: cannot be rendered: arithmetic (*)"),
         (("candidates = 2", "candidates = 3"), "decision.options: must name each candidate slot 1 to 3 exactly once"),
-        (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = [[["Emily", "engineering"], ["Emily", "engineering"]]]'), "task.population[0]: the two candidates must differ"),
+        (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = [[["Emily", "engineering"], ["Emily", "engineering"]]]'), "task.population[0]: the candidates of a combination must differ"),
         (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = [[["Emily", "hr"], ["Lakisha", "sales"]]]'), "task.population[0][0]: must give one value of each attribute (name, department)"),
-        (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = "distinct"'), "task.population: 'distinct' gives 2 pairs of candidates here (one only so far) (not supported yet)"),
-        (('positions = "balanced"', 'positions = "latin"'), "task.positions: latin squares are for k > 2 candidates (not supported yet)"),
+        (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = [[["Emily", "engineering"]]]'), "task.population[0]: must list one profile per candidate (2)"),
+        (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = []'), "task.population: must list at least one combination of candidates"),
+        (('candidates = 2\ndecision = "choose"', 'candidates = 1\ndecision = "rank"'), "task.decision: a ranking needs at least 2 candidates (got 'rank')"),
         (('values = ["Emily", "Lakisha"]', 'values = ["Emily", "Emily"]'), "attribute[0].values: values must be distinct as text; 'Emily' repeats"),
         (("[prompt]\n", "[prompt]\nuser = 'x'\n"), "is not valid TOML"),
     ],
@@ -183,8 +184,13 @@ def test_unknown_task_and_more_candidates(tmp_path, capsys):
         "experiment: must be a built-in task (hr-delivery, package-delivery) or a task file (got 'navigation')" in err
     )
     three = BASE.replace("candidates = 2", "candidates = 3").replace('"2" = 2 }', '"2" = 2, "3" = 3 }')
-    with pytest.raises(InputError, match=r"task.candidates: the experiment runs two candidates per prompt"):
+    with pytest.raises(InputError, match=r"task.population\[0\]: must list one profile per candidate \(3\)"):
         parse_task(three)
+    every = parse_task(
+        three.replace('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = "all"')
+    )
+    assert every.slots == 3 and every.population == "all" and len(every.candidates) == 4
+    assert every.decisions == ("1", "2", "3", "unparsed")
 
 
 def test_rank_utility_and_default_outcomes():

@@ -1,29 +1,30 @@
-"""The paper's HR-delivery and package-delivery experiments, end to end.
+"""The fairness–privacy experiment of a decision task, end to end (the paper's HR and package delivery, any task file).
 
 :func:`analyse` turns a run's log into the per-candidate analysis of the
 paper's fairness–privacy experiment, exactly, at every ε:
 
 1. The table design's counts estimate the model's kernel on *shown* cells,
-   K[x̃, (ã₁, ã₂), u] (:func:`fairaudit.experiments.harness.table_kernel`).
+   K[x̃, (ã₁, ..., ã_k), u] (:func:`fairaudit.experiments.harness.table_kernel`).
 2. Per-candidate framing (docs/design.md): a query gives one record per candidate,
-   with context (x, position), group = the candidate's true profile and
-   outcome = its own (chosen or not; served first or second; unparsed). What
-   the model sees about a candidate is its shown profile and its rival's, so
-   the per-candidate kernel is indexed by ``"own | rival"``
-   (:func:`candidate_kernel`) and the filter that protects the candidate is
-   M_cand (:func:`fairaudit.experiments.vlm.filter.candidate_family`): its ε is
-   the candidate's privacy budget, the ε of every curve and certificate here.
+   with context (x, slot), group = the candidate's true profile and
+   outcome = its own (chosen or not; its rank; unparsed). What the model
+   sees about a candidate is every shown profile, from its own slot on (its
+   *view*: ``"own | rival"`` for two), so the per-candidate kernel is indexed
+   by views (:func:`fairaudit.experiments.slots.candidate_kernel`) and the
+   filter that protects the candidate is M_cand
+   (:func:`fairaudit.experiments.vlm.filter.candidate_family`): its ε is the
+   candidate's privacy budget, the ε of every curve and certificate here.
 3. At each ε the law of decisions behind the filter is the exact composition
    ``compose(K_cand, M_cand(ε), M_X ⊗ I)`` and its L and L̄ come with
    simultaneous confidence intervals from the counts
    (:func:`fairaudit.intervals.fairness_intervals`), beside the corollary,
    paper, tight and black-box bounds (:func:`fairaudit.curves.privacy_curve`).
 
-Positions: ``balanced`` (default) weighs both orders of the paper's two
-candidates equally, so X ⊥ A and position bias cannot pass for group bias in
-L̄; ``fixed`` is the paper's own population (candidate 1 always shown first):
-there the position reveals the group, and no filter on the profiles bounds L̄
-(its black-box bound is +inf).
+Positions: ``balanced`` (default) weighs all orders of each combination of
+candidates equally (``latin``: its k cyclic shifts), so X ⊥ A and position
+bias cannot pass for group bias in L̄; ``fixed`` is the paper's own
+population (the listed order only): there the slot can reveal the group,
+and no filter on the profiles bounds L̄ (its black-box bound is +inf).
 """
 
 from __future__ import annotations
@@ -48,7 +49,17 @@ from ..metrics import Fairness, global_fairness, local_fairness
 from ..privacy import Mechanism, from_matrix, identity, randomized_response
 from ..utility import Utility, from_table
 from .harness import paper_counts, table_kernel
-from .vlm.filter import PrivacyFilter, candidate_family, released_pair_label
+from .slots import (
+    candidate_contexts,
+    candidate_epsilon,
+    candidate_kernel,
+    candidate_mechanism,
+    candidate_population,
+    expected_utility,
+    outcome_index,
+    true_prompts,
+)
+from .vlm.filter import PrivacyFilter, candidate_family, profile_budget
 from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -61,93 +72,19 @@ __all__ = [
     "analyse",
     "analyse_kernel",
     "candidate_context_mechanism",
-    "candidate_contexts",
-    "candidate_kernel",
-    "candidate_population",
     "candidate_utility",
     "epsilon_from_keep",
     "position_split",
 ]
 
 
-def candidate_contexts(task: DeliveryTask) -> tuple:
-    """Per-candidate contexts: ``"<context> @ <option>"`` for every context and position (context-major)."""
-    return tuple(f"{c} @ {o}" for c in task.contexts for o in task.options)
+def _context_name(task: DeliveryTask) -> str:
+    return task.context_name if task.slots == 1 else "context @ position"
 
 
 def candidate_utility(task: DeliveryTask) -> Utility:
     """g over a candidate's own outcome (:attr:`DeliveryTask.utility_values`); depends on u only."""
     return from_table(list(task.utility_values), task.outcomes, name=task.utility_name)
-
-
-def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
-    """The per-candidate kernel from the model's kernel on shown pairs.
-
-    Parameters
-    ----------
-    task : DeliveryTask
-    kernel : Kernel
-        From :func:`fairaudit.experiments.harness.table_kernel`: shape
-        (n_contexts, n_profiles², n_decisions), with counts.
-
-    Returns
-    -------
-    Kernel
-        Shape (2 n_contexts, n_profiles², 3): contexts
-        :func:`candidate_contexts`; groups the shown ``"own | rival"`` labels
-        (the outputs of M_cand); decisions :attr:`DeliveryTask.outcomes`. The
-        candidate at position i is chosen (served first) when the decision is
-        option i. Counts are kept: each query counts once at each position.
-
-    Examples
-    --------
-    >>> from fairaudit.experiments.taskfile import PACKAGE_DELIVERY as t
-    >>> from fairaudit.experiments.harness import table_kernel
-    >>> recs = [{"design": "table", "status": "ok", "context": c, "profiles": [p1, p2], "decision": "Recipient1"}
-    ...         for c in t.contexts for p1 in t.profiles for p2 in t.profiles]
-    >>> kc = candidate_kernel(t, table_kernel(t, recs))
-    >>> kc.contexts[:2], kc.groups[:2], kc.counts[0, :, 0].tolist(), kc.counts[1, :, 0].tolist()
-    (('documents @ Recipient1', 'documents @ Recipient2'), ('low | low', 'low | high'), [1.0, 1.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.0])
-    """
-    k = len(task.profiles)
-    n_ctx, n_opt = len(task.contexts), len(task.options)
-    if n_opt != 2:
-        raise InputError("task.options", "the per-candidate view is defined for two candidates", n_opt)
-    counts = kernel.counts if kernel.counts is not None else kernel.probabilities
-    c = np.asarray(counts, dtype=float).reshape(n_ctx, k, k, -1)  # [x, shown 1, shown 2, decision]
-    out: FloatArray = np.zeros((n_ctx, n_opt, k, k, 3))  # [x, position, own, rival, outcome]
-    for i in range(n_opt):
-        view = c if i == 0 else c.transpose(0, 2, 1, 3)  # own = the profile shown at position i
-        out[:, i, ..., 0] = view[..., i]
-        out[:, i, ..., 1] = view[..., 1 - i]
-        out[:, i, ..., 2] = view[..., n_opt]
-    out = out.reshape(n_ctx * n_opt, k * k, 3)
-    groups = [released_pair_label(task, s, o) for s in task.profiles for o in task.profiles]
-    if kernel.counts is not None:
-        return Kernel.from_counts(out, candidate_contexts(task), groups, task.outcomes, name="per-candidate kernel")
-    return Kernel(out, candidate_contexts(task), groups, task.outcomes, name="per-candidate kernel")
-
-
-def candidate_population(task: DeliveryTask, positions: str = "balanced") -> Population:
-    """P(X, A) of the per-candidate records: contexts × positions × the two candidates.
-
-    ``balanced``: both orders equally often, so P(x, position, a) =
-    1 / (n_contexts · 2 · 2) and X ⊥ A. ``fixed``: the paper's order only
-    (candidate 1 at position 1): P(x, position i, candidate i) = 1 / (2 n_contexts).
-
-    Raises
-    ------
-    InputError
-        On another value of ``positions``.
-    """
-    n = len(task.contexts)
-    if positions == "balanced":
-        p = np.full((2 * n, 2), 1.0 / (4 * n))
-    elif positions == "fixed":
-        p = np.tile(np.eye(2) / (2 * n), (n, 1))
-    else:
-        raise InputError("positions", "must be 'balanced' or 'fixed'", positions)
-    return Population(p, candidate_contexts(task), [task.profile_label(c) for c in task.candidates])
 
 
 def candidate_context_mechanism(task: DeliveryTask, context_epsilon: float | None = None) -> Mechanism:
@@ -156,14 +93,17 @@ def candidate_context_mechanism(task: DeliveryTask, context_epsilon: float | Non
         return identity(candidate_contexts(task), name=f"identity on {task.context_name}")
     m = randomized_response(task.contexts, context_epsilon).matrix
     return from_matrix(
-        np.kron(m, np.eye(2)), candidate_contexts(task), name=f"randomized response on {task.context_name}"
+        np.kron(m, np.eye(task.slots)), candidate_contexts(task), name=f"randomized response on {task.context_name}"
     )
 
 
-def epsilon_from_keep(task: DeliveryTask, keep: float) -> float:
-    """The candidate's ε when every attribute of both profiles is kept with probability ``keep``.
+def epsilon_from_keep(task: DeliveryTask, keep: float, positions: str = "balanced") -> float:
+    """The candidate's ε when every attribute of every profile is kept with probability ``keep`` (nats).
 
-    Σ over the 2 n attributes shown of ln(keep (k_i − 1) / (1 − keep)), nats.
+    ε(M_cand) with attribute i at ln(keep (k_i − 1) / (1 − keep)): for the
+    paper's pair Σ over the 2 n attributes shown
+    (:func:`fairaudit.experiments.slots.candidate_epsilon`); for mixtures
+    from the mechanism's matrix.
 
     Examples
     --------
@@ -171,51 +111,63 @@ def epsilon_from_keep(task: DeliveryTask, keep: float) -> float:
     >>> round(epsilon_from_keep(HR_DELIVERY, 0.7), 6)      # 6 ln(7/3), not 0.7/0.3
     5.083787
     """
-    from ..privacy import epsilon_from_keep_probability
+    from ..privacy import epsilon_from_keep_probability, product
 
     try:
-        return 2 * sum(epsilon_from_keep_probability(float(keep), len(a.values)) for a in task.attributes)
+        eps = tuple(epsilon_from_keep_probability(float(keep), len(a.values)) for a in task.attributes)
     except InputError as exc:
         raise InputError("keep", exc.problem, keep) from None
+    closed = candidate_epsilon(task, eps, positions)
+    if closed is not None:
+        return closed
+    mechs = [randomized_response(a.values, e) for a, e in zip(task.attributes, eps)]
+    return candidate_mechanism(task, product(*mechs), positions).epsilon
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class PositionSplit:
-    """The raw disparity of the paper's order split into a position part and a group part (nats).
+    """The raw disparity of the listed order split into a position part, a group part and a remainder (nats).
 
-    With m(c, i) the expected utility of candidate c shown at position i
-    (rival: the other candidate), the paper's order shows candidate 1 first,
-    and its raw log ratio splits exactly into two averages:
+    With m(c, i) the expected utility of candidate c shown in slot i (its
+    rivals drawn as all orders draw them), write ln m(c, i) = μ + α_c + β_i +
+    γ_ci, the two-way additive decomposition with equal weights (Σ α = Σ β =
+    0, γ summing to 0 along each axis). The listed order shows candidate c₁
+    in slot 1 and c₂ in slot 2, and its raw log ratio splits exactly:
 
-    ``raw = ln m(1, 1) − ln m(2, 2) = group + position``, with
-    ``group = ½ [ln m(1, 1) − ln m(2, 1) + ln m(1, 2) − ln m(2, 2)]``
-    (candidate 1 against 2 at the same position) and
-    ``position = ½ [ln m(1, 1) − ln m(1, 2) + ln m(2, 1) − ln m(2, 2)]``
-    (first against second for the same candidate).
+    ``raw = ln m(c₁, 1) − ln m(c₂, 2) = group + position + interaction``, with
+    ``group = α_c₁ − α_c₂`` (the candidates over the same slots),
+    ``position = β₁ − β₂`` (the slots over the same candidates) and
+    ``interaction = γ_c₁1 − γ_c₂2``. For two candidates in two slots γ's
+    difference is 0 and ``group = ½ [ln m(1, 1) − ln m(2, 1) + ln m(1, 2) − ln m(2, 2)]``,
+    ``position = ½ [ln m(1, 1) − ln m(1, 2) + ln m(2, 1) − ln m(2, 2)]``.
 
-    A single order cannot tell the two apart; both orders (``--positions
-    balanced``, position as a context) can.
+    A single order cannot tell the parts apart; all orders (``--positions
+    balanced``, the slot as a context) can.
 
     Attributes
     ----------
     contexts : tuple of str
         The task's contexts; the arrays below are indexed by them.
-    raw, position, group : numpy.ndarray, shape (n_contexts,)
-        Per context, m from that context's decision shares (nats; ±inf or NaN
-        where a share is 0).
-    overall_raw, overall_position, overall_group : float
+    pair : tuple of str
+        c₁ and c₂: the first two candidates of the first listed combination.
+    raw, position, group, interaction : numpy.ndarray, shape (n_contexts,)
+        Per context, from that context's m (nats; ±inf or NaN where an m is 0).
+    overall_raw, overall_position, overall_group, overall_interaction : float
         The same with m averaged over the contexts (equal weights), as L̄ averages them (nats).
-    expected_utility : numpy.ndarray, shape (n_contexts, 2, 2)
-        m[x, candidate, position] (candidates in the task's order).
+    expected_utility : numpy.ndarray, shape (n_contexts, n_groups, k)
+        m[x, candidate, slot] (candidates :attr:`DeliveryTask.candidates`).
     """
 
     contexts: tuple
+    pair: tuple
     raw: FloatArray
     position: FloatArray
     group: FloatArray
+    interaction: FloatArray
     overall_raw: float
     overall_position: float
     overall_group: float
+    overall_interaction: float
     expected_utility: FloatArray
 
     def explained(self) -> tuple[float, float]:
@@ -226,64 +178,69 @@ class PositionSplit:
         return self.overall_position / r + 0.0, self.overall_group / r + 0.0  # (+ 0.0: no -0)
 
 
-def position_split(task: DeliveryTask, shares: npt.ArrayLike) -> PositionSplit:
-    """Split the paper's-order disparity into position and group (:class:`PositionSplit`).
+def position_split(task: DeliveryTask, m: npt.ArrayLike) -> PositionSplit | None:
+    """Split the listed order's disparity into position, group and interaction (:class:`PositionSplit`).
 
     Parameters
     ----------
     task : DeliveryTask
-    shares : array_like, shape (n_contexts, 2, n_decisions)
-        Decision shares of the true candidates, in the paper's order (axis 1 =
-        0) and swapped (1): :attr:`ExperimentAnalysis.shares`.
+    m : array_like, shape (n_contexts, n_groups, k)
+        Expected utility of each candidate in each slot without a filter
+        (:func:`fairaudit.experiments.slots.expected_utility`).
 
     Returns
     -------
-    PositionSplit
-        Values in nats.
+    PositionSplit or None
+        Values in nats; None for one candidate per prompt (no slots to split).
 
     Notes
     -----
-    The split is an identity of logarithms (the two halves add up to
-    ``raw`` term by term), on the per-candidate framing of docs/design.md
-    (context = item @ position, group = the candidate's profile,
-    g of its own outcome).
+    The split is an identity of logarithms (the parts add up to ``raw``
+    term by term), on the per-candidate framing of docs/design.md (context =
+    item @ slot, group = the candidate's profile, g of its own outcome).
 
     Examples
     --------
     Pure position bias: the first-listed is chosen 0.8 of the time, whoever it is.
 
     >>> from fairaudit.experiments.taskfile import HR_DELIVERY as t
-    >>> s = position_split(t, [[[0.8, 0.2, 0.0], [0.8, 0.2, 0.0]]] * 3)
+    >>> s = position_split(t, [[[0.8, 0.2], [0.8, 0.2]]] * 3)
     >>> round(s.overall_raw, 6), round(s.overall_position, 6), s.overall_group, s.explained()
     (1.386294, 1.386294, 0.0, (1.0, 0.0))
     """
-    sh = np.asarray(shares, dtype=float)
-    g = np.asarray(task.utility_values, dtype=float)  # over (own chosen/first, rival, unparsed)
-    # outcome shares of the candidate at position i: (decision i, decision 1 - i, unparsed)
-    own = [np.stack([sh[..., i], sh[..., 1 - i], sh[..., 2]], axis=-1) @ g for i in (0, 1)]  # [x, order]
-    m = np.empty((sh.shape[0], 2, 2))  # [x, candidate, position]
-    m[:, 0, 0], m[:, 1, 1] = own[0][:, 0], own[1][:, 0]  # paper's order: candidate 1 first
-    m[:, 1, 0], m[:, 0, 1] = own[0][:, 1], own[1][:, 1]  # swapped: candidate 2 first
+    mm = np.asarray(m, dtype=float)
+    if task.slots < 2:
+        return None
+    first = task.combinations[0] if task.combinations else task.profiles[: task.slots]
+    groups = [tuple(c) for c in task.candidates]
+    c1, c2 = groups.index(tuple(first[0])), groups.index(tuple(first[1]))
 
-    def parts(mm: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def parts(x: FloatArray) -> tuple[FloatArray, ...]:
         with np.errstate(divide="ignore", invalid="ignore"):
-            ln = np.log(mm)
-            raw = ln[..., 0, 0] - ln[..., 1, 1]
-            group = 0.5 * (ln[..., 0, 0] - ln[..., 1, 0] + ln[..., 0, 1] - ln[..., 1, 1])
-            position = 0.5 * (ln[..., 0, 0] - ln[..., 0, 1] + ln[..., 1, 0] - ln[..., 1, 1])
-        return raw, position, group
+            ln = np.log(x)
+            raw = ln[..., c1, 0] - ln[..., c2, 1]
+            group = np.mean(ln[..., c1, :] - ln[..., c2, :], axis=-1)  # α_c₁ − α_c₂
+            position = np.mean(ln[..., :, 0] - ln[..., :, 1], axis=-1)  # β₁ − β₂
+            if x.shape[-2:] == (2, 2):  # γ_c₁1 − γ_c₂2 = 0 for two candidates in two slots
+                interaction = np.zeros_like(raw)
+            else:
+                interaction = raw - group - position
+        return raw, position, group, interaction
 
-    raw, position, group = parts(m)
-    o_raw, o_pos, o_group = parts(m.mean(axis=0))
+    raw, position, group, interaction = parts(mm)
+    o_raw, o_pos, o_group, o_int = parts(mm.mean(axis=0))
     return PositionSplit(
         contexts=tuple(task.contexts),
+        pair=(task.profile_label(groups[c1]), task.profile_label(groups[c2])),
         raw=raw,
         position=position,
         group=group,
+        interaction=interaction,
         overall_raw=float(o_raw),
         overall_position=float(o_pos),
         overall_group=float(o_group),
-        expected_utility=m,
+        overall_interaction=float(o_int),
+        expected_utility=mm,
     )
 
 
@@ -316,6 +273,7 @@ class TargetBudget:
 
 def _budgets(
     task: DeliveryTask,
+    positions: str,
     targets: Sequence[float],
     kc: Kernel,
     utility: Utility,
@@ -325,7 +283,7 @@ def _budgets(
 ) -> tuple[TargetBudget, ...]:
     from ..calibrate import calibrate
 
-    family = candidate_family(task)
+    family = candidate_family(task, positions)
     out = []
     for target in sorted({float(t) for t in targets}):
         for kind in ("local", "global"):
@@ -392,9 +350,10 @@ class ExperimentAnalysis:
         At each requested ε, with intervals.
     baseline : PointResult
         No filter (ε = +inf).
-    shares : numpy.ndarray, shape (n_contexts, 2, n_decisions)
-        Baseline decision shares for the true profiles, in the paper's order
-        (axis 1 = 0) and swapped (1).
+    shares : numpy.ndarray, shape (n_contexts, n_prompts, n_decisions)
+        Baseline decision shares for each true prompt in all its orders
+        (:func:`fairaudit.experiments.slots.true_prompts` with ``"balanced"``):
+        for the paper's pair, its order then swapped.
     paper : tuple of PaperDesignPoint
         The paper's design, when it was run.
     confidence : float or None
@@ -412,8 +371,9 @@ class ExperimentAnalysis:
     unparsed_share : float
         Mean over the shown cells of the share of replies that could not be
         parsed (of the counts, or of the probability mass on the exact route).
-    split : PositionSplit
-        How much of the raw disparity of the paper's order is position and how much group.
+    split : PositionSplit or None
+        How much of the raw disparity of the listed order is position and how
+        much group (None for one candidate per prompt).
     budgets : tuple of TargetBudget
         Per target and kind (local, global): the ε that meets it for this model and for any model.
     """
@@ -445,6 +405,7 @@ class ExperimentAnalysis:
 
 def _point(
     task: DeliveryTask,
+    positions: str,
     eps: float,
     kc: Kernel,
     utility: Utility,
@@ -457,13 +418,13 @@ def _point(
 ) -> PointResult:
     from ..worstcase import worst_model
 
-    filt = PrivacyFilter.from_epsilon(task, eps / 2, context_epsilon=context_epsilon)
-    mech = filt.candidate_mechanism()
+    filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(eps), context_epsilon=context_epsilon)
+    mech = filt.candidate_mechanism(positions)
     law = compose(kc, mech, mx)
     iv = None
     if confidence is not None and kc.counts is not None:
         table = CountTable(
-            kc.counts, kc.contexts, kc.groups, kc.decisions, ("context @ position",), ("shown",), "outcome"
+            kc.counts, kc.contexts, kc.groups, kc.decisions, (_context_name(task),), ("shown",), "outcome"
         )
         iv = fairness_intervals(
             table, utility, confidence, method, sensitive_mechanism=mech, context_mechanism=mx, population=pop
@@ -485,6 +446,7 @@ def _point(
 
 def _paper_point(
     task: DeliveryTask,
+    positions: str,
     records: Iterable[dict[str, Any]],
     eps: float,
     utility: Utility,
@@ -492,22 +454,22 @@ def _paper_point(
     confidence: float | None,
     method: str,
 ) -> PaperDesignPoint:
-    c = paper_counts(task, records, eps)  # [x, order, decision]
-    n_ctx = len(task.contexts)
-    counts: FloatArray = np.zeros((n_ctx, 2, 2, 3))  # [x, position, true candidate, outcome]
-    for order in range(2):
-        for pos in range(2):
-            cand = pos if order == 0 else 1 - pos
-            counts[:, pos, cand, 0] = c[:, order, pos]
-            counts[:, pos, cand, 1] = c[:, order, 1 - pos]
-            counts[:, pos, cand, 2] = c[:, order, 2]
-    counts = counts.reshape(2 * n_ctx, 2, 3)
+    prompts, _ = true_prompts(task, positions)
+    c = paper_counts(task, records, eps, positions)  # [x, true prompt, decision]
+    o = outcome_index(task)
+    member = np.zeros((len(prompts), task.slots, len(task.candidates)))  # [prompt, slot, candidate]
+    index = {p: i for i, p in enumerate(task.profiles)}
+    col = {index[tuple(g)]: j for j, g in enumerate(task.candidates)}
+    for i in range(task.slots):
+        member[np.arange(len(prompts)), i, [col[int(g)] for g in prompts[:, i]]] = 1.0
+    outcome = np.eye(len(task.outcomes))[o]  # [slot, decision, outcome]
+    counts = np.einsum("xtu,tia,iuo->xiao", c, member, outcome).reshape(-1, len(task.candidates), len(task.outcomes))
     groups = [task.profile_label(x) for x in task.candidates]
     law = Law.from_counts(counts, candidate_contexts(task), groups, task.outcomes)
     iv = None
     if confidence is not None and counts.sum() > 0:
         table = CountTable(
-            counts, law.contexts, law.groups, law.decisions, ("context @ position",), ("candidate",), "outcome"
+            counts, law.contexts, law.groups, law.decisions, (_context_name(task),), ("candidate",), "outcome"
         )
         iv = fairness_intervals(table, utility, confidence, method, population=pop)
     return PaperDesignPoint(
@@ -581,16 +543,19 @@ def analyse(
     """
     kernel = table_kernel(task, records)
     if kernel.empty_cells:
-        x, pair = kernel.empty_cells[0]
+        x, shown = kernel.empty_cells[0]
+        slots = task.options if task.slots > 1 else ("candidate",)
+        cell = ", ".join(f"{o} {task.profile_label(p)!r}" for o, p in zip(slots, shown))
         raise InputError(
             "table design",
-            f"shown cell ({task.context_name} {x!r}, {task.options[0]} "
-            f"{task.profile_label(pair[0])!r}, {task.options[1]} {task.profile_label(pair[1])!r}) has "
+            f"shown cell ({task.context_name} {x!r}, {cell}) has "
             f"no answered query ({len(kernel.empty_cells)} such cells); run again with `resume`",
         )
     utility = candidate_utility(task)
     pop = candidate_population(task, positions)
-    paper = tuple(_paper_point(task, records, e, utility, pop, confidence, method) for e in sorted(set(paper_epsilons)))
+    paper = tuple(
+        _paper_point(task, positions, records, e, utility, pop, confidence, method) for e in sorted(set(paper_epsilons))
+    )
     return analyse_kernel(
         task,
         kernel,
@@ -660,7 +625,7 @@ def analyse_kernel(
     InputError
         On a kernel of another shape or a bad ε.
     """
-    n_shape = (len(task.contexts), len(task.profiles) ** 2, len(task.decisions))
+    n_shape = (len(task.contexts), len(task.profiles) ** task.slots, len(task.decisions))
     if kernel.probabilities.shape != n_shape:
         raise InputError("kernel", f"must have shape {n_shape} for {task.name}", kernel.probabilities.shape)
     utility = candidate_utility(task)
@@ -682,14 +647,15 @@ def analyse_kernel(
         tau=tau,
         title=f"{task.name}: {model}",
     )
-    points = tuple(_point(task, e, kc, utility, pop, mx, confidence, method, tau, context_epsilon) for e in eps)
-    baseline = _point(
-        task, math.inf, kc, utility, pop, identity(candidate_contexts(task)), confidence, method, tau, None
+    points = tuple(
+        _point(task, positions, e, kc, utility, pop, mx, confidence, method, tau, context_epsilon) for e in eps
     )
-    k = len(task.profiles)
-    i1, i2 = (task.profiles.index(tuple(c)) for c in task.candidates)
+    baseline = _point(
+        task, positions, math.inf, kc, utility, pop, identity(candidate_contexts(task)), confidence, method, tau, None
+    )
     probs = kernel.probabilities
-    shares = np.stack([probs[:, i1 * k + i2], probs[:, i2 * k + i1]], axis=1)
+    prompts, _ = true_prompts(task, "balanced")
+    shares = probs[:, np.ravel_multi_index(tuple(prompts.T), (len(task.profiles),) * task.slots)]
     counts = kernel.counts
     return ExperimentAnalysis(
         task=task,
@@ -713,6 +679,6 @@ def analyse_kernel(
         tau=tau,
         route="sampled" if counts is not None else "exact",
         unparsed_share=float(probs[..., -1].mean()),
-        split=position_split(task, shares),
-        budgets=_budgets(task, targets, kc, utility, pop, mx, tau),
+        split=position_split(task, expected_utility(task, probs, np.asarray(task.utility_values))),
+        budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau),
     )

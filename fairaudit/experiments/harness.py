@@ -27,11 +27,12 @@ are samples, counted as ``"unparsed"``.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import os
 import threading
 import time
-from collections.abc import Callable, Hashable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -44,13 +45,15 @@ from .._errors import FairauditError, InputError
 from .._validation import whole
 from ..laws import Kernel
 from ._progress import Bar, progress_bar
-from .vlm.filter import PrivacyFilter
+from .slots import check_size, true_prompts
+from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.models import DecisionModel, Query
 from .vlm.tasks import UNPARSED, DeliveryTask
 
 __all__ = [
     "QueryLog",
     "RunSummary",
+    "decision_label",
     "paper_counts",
     "paper_queries_needed",
     "plan_queries",
@@ -132,29 +135,30 @@ def plan_queries(
     """
     if design not in ("table", "paper"):
         raise InputError("design", "must be 'table' or 'paper'", design)
-    if positions not in ("balanced", "fixed"):
-        raise InputError("positions", "must be 'balanced' or 'fixed'", positions)
+    prompts, _ = true_prompts(task, positions)
     whole(samples, "samples", low=1)
     label = task.profile_label
     out: list[Query] = []
     if design == "table":
+        check_size(task)
         for ctx in task.contexts:
-            for p1 in task.profiles:
-                for p2 in task.profiles:
-                    for r in range(samples):
-                        key = f"table|{ctx}|{label(p1)}|{label(p2)}|{r}"
-                        out.append(Query(key, "table", ctx, (p1, p2), r, query_seed(seed, key)))
+            for shown in itertools.product(task.profiles, repeat=task.slots):
+                cell = "|".join(label(p) for p in shown)
+                for r in range(samples):
+                    key = f"table|{ctx}|{cell}|{r}"
+                    out.append(Query(key, "table", ctx, shown, r, query_seed(seed, key)))
         return out
     if not len(epsilons):
         raise InputError("epsilons", "the paper design needs at least one epsilon")
-    c1, c2 = task.candidates
-    orders = [(c1, c2), (c2, c1)] if positions == "balanced" else [(c1, c2)]
+    orders = [tuple(task.profiles[i] for i in p) for p in prompts]
+    budget = profile_budget(task, positions)
     for eps in epsilons:
-        filt = PrivacyFilter.from_epsilon(task, float(eps) / 2, context_epsilon=context_epsilon)
+        filt = PrivacyFilter.from_epsilon(task, budget(float(eps)), context_epsilon=context_epsilon)
         for ctx in task.contexts:
             for order in orders:
+                cell = "|".join(label(p) for p in order)
                 for r in range(samples):
-                    key = f"paper|{_eps_key(float(eps))}|{ctx}|{label(order[0])}|{label(order[1])}|{r}"
+                    key = f"paper|{_eps_key(float(eps))}|{ctx}|{cell}|{r}"
                     s = query_seed(seed, key)
                     shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]))
                     out.append(Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps)))
@@ -162,13 +166,13 @@ def plan_queries(
 
 
 def table_queries_needed(task: DeliveryTask, samples: int) -> int:
-    """Queries of the table design: n_contexts × n_profiles² × N, for any number of ε."""
-    return len(task.contexts) * len(task.profiles) ** 2 * samples
+    """Queries of the table design: n_contexts × n_profiles^k × N, for any number of ε."""
+    return len(task.contexts) * len(task.profiles) ** task.slots * samples
 
 
 def paper_queries_needed(task: DeliveryTask, samples: int, n_epsilons: int, positions: str = "balanced") -> int:
-    """Queries of the paper's design: n_ε × n_contexts × (2 orders, or 1) × N."""
-    return n_epsilons * len(task.contexts) * (2 if positions == "balanced" else 1) * samples
+    """Queries of the paper's design: n_ε × n_contexts × n_true_prompts (both orders of the paper's pair, or 1) × N."""
+    return n_epsilons * len(task.contexts) * len(true_prompts(task, positions)[0]) * samples
 
 
 # -- the log --------------------------------------------------------------------------------------------------
@@ -410,6 +414,22 @@ def run_queries(
     )
 
 
+def decision_label(task: DeliveryTask, choice: int | None, order: Sequence[int] | None) -> str:
+    """The decision a parsed reply gives: the option chosen (or served first, of two), or the order of k ≥ 3.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> decision_label(HR_DELIVERY, 1, (1, 0))
+    'HR2'
+    """
+    if task.kind == "order" and task.slots > 2:
+        if order is None:
+            return UNPARSED
+        return str(task.decisions[task.orders.index(tuple(order))])
+    return UNPARSED if choice is None else str(task.options[choice])
+
+
 def _answer(
     task: DeliveryTask, model: DecisionModel, q: Query, digests: Sequence[str], images: tuple[bytes, ...]
 ) -> dict:
@@ -442,7 +462,7 @@ def _answer(
             "latency": round(time.monotonic() - t0, 6),
         }
     parsed = parse_reply(r.text, task.options, task.kind)
-    decision = task.options[parsed.choice] if parsed.ok and parsed.choice is not None else UNPARSED
+    decision = decision_label(task, parsed.choice, parsed.order) if parsed.ok else UNPARSED
     return {
         **rec,
         "model": r.model,
@@ -508,47 +528,54 @@ def table_kernel(task: DeliveryTask, records: Iterable[dict]) -> Kernel:
     Returns
     -------
     Kernel
-        Shape (n_contexts, n_profiles², n_decisions) with counts: contexts are
-        the shown contexts, groups the shown pairs (profile 1, profile 2) as
-        tuples of the two profiles in :attr:`DeliveryTask.profiles` order
-        (row-major), decisions :attr:`DeliveryTask.decisions`. Cells without
-        any answered query are empty.
+        Shape (n_contexts, n_profiles^k, n_decisions) with counts: contexts are
+        the shown contexts, groups the shown cells (tuples of the k profiles,
+        row-major over :attr:`DeliveryTask.profiles`, slot 1 slowest),
+        decisions :attr:`DeliveryTask.decisions`. Cells without any answered
+        query are empty.
     """
     profiles = task.profiles
-    k = len(profiles)
+    n, k = len(profiles), task.slots
     pidx = {p: i for i, p in enumerate(profiles)}
     cidx = {c: i for i, c in enumerate(task.contexts)}
     didx = {d: i for i, d in enumerate(task.decisions)}
     rows = [
-        (cidx[r["context"]], pidx[tuple(r["profiles"][0])] * k + pidx[tuple(r["profiles"][1])], didx[r["decision"]])
+        (cidx[r["context"]], *(pidx[tuple(p)] for p in r["profiles"]), didx[r["decision"]])
         for r in records
         if r.get("design") == "table" and r.get("status") == "ok"
     ]
-    counts = np.zeros((len(task.contexts), k * k, len(task.decisions)))
+    counts = np.zeros((len(task.contexts), *([n] * k), len(task.decisions)))
     if rows:
         np.add.at(counts, tuple(np.array(rows).T), 1.0)
-    groups = [(p1, p2) for p1 in profiles for p2 in profiles]
-    return Kernel.from_counts(counts, task.contexts, groups, task.decisions, name="kernel")
+    groups = list(itertools.product(profiles, repeat=k))
+    return Kernel.from_counts(
+        counts.reshape(len(task.contexts), n**k, -1), task.contexts, groups, task.decisions, name="kernel"
+    )
 
 
-def paper_counts(task: DeliveryTask, records: Iterable[dict], epsilon: float) -> np.ndarray:
-    """Counts of the paper's design at one ε by true context, true order and decision.
+def paper_counts(
+    task: DeliveryTask, records: Iterable[dict], epsilon: float, positions: str = "balanced"
+) -> np.ndarray:
+    """Counts of the paper's design at one ε by true context, true prompt and decision.
 
     Returns
     -------
-    numpy.ndarray, shape (n_contexts, 2, n_decisions)
-        Axis 1: the paper's order (candidate 1 shown first), then the swapped
-        order; axis 2: :attr:`DeliveryTask.decisions`.
+    numpy.ndarray, shape (n_contexts, n_prompts, n_decisions)
+        Axis 1: the true prompts of ``positions``
+        (:func:`fairaudit.experiments.slots.true_prompts`: for the paper's
+        pair, its order then swapped); axis 2: :attr:`DeliveryTask.decisions`.
+        Records of prompts outside ``positions`` are not counted.
     """
-    c1, c2 = task.candidates
-    orders: dict[tuple[Hashable, ...], int] = {(c1, c2): 0, (c2, c1): 1}
+    prompts, _ = true_prompts(task, positions)
+    orders = {tuple(task.profiles[i] for i in p): j for j, p in enumerate(prompts)}
     cidx = {c: i for i, c in enumerate(task.contexts)}
     didx = {d: i for i, d in enumerate(task.decisions)}
     key = _eps_key(float(epsilon))
-    out = np.zeros((len(task.contexts), 2, len(task.decisions)))
+    out = np.zeros((len(task.contexts), len(prompts), len(task.decisions)))
     for r in records:
         if r.get("design") != "paper" or r.get("status") != "ok" or _eps_key(float(r["epsilon"])) != key:
             continue
         order = tuple(tuple(p) for p in r["truth"]["profiles"])
-        out[cidx[r["truth"]["context"]], orders[order], didx[r["decision"]]] += 1
+        if order in orders:
+            out[cidx[r["truth"]["context"]], orders[order], didx[r["decision"]]] += 1
     return out

@@ -14,11 +14,11 @@ Python objects, no calls, no files): ``{{ context }}``, ``{{ candidates }}``
 per attribute (``{{ c1.name }}``, ``{{ c1["complaint rate"] }}``); a
 candidate written alone reads as its values joined by ``", "``.
 
-What runs today: two candidates per prompt (``candidates = 2``), a choice or
-a ranking of them, positions ``balanced`` or ``fixed``, and one pair of true
-candidates (``population = "distinct"`` with one attribute of two values, or
-the pair written out). Files asking for more are read and checked, then
-refused with a one-line error that says what is not supported yet.
+What runs today: any number of candidates per prompt whose table design has
+at most :data:`fairaudit.experiments.slots.MAX_SHOWN_CELLS` shown cells, a
+choice or a ranking, every ``positions`` and ``population``, one text per
+attribute value. Files asking for more are read and checked, then refused
+with a one-line error that says what is not supported yet.
 """
 
 from __future__ import annotations
@@ -178,6 +178,8 @@ class TaskFile(StrictModel):
         for i, a in enumerate(self.filter.attributes or ()):
             if a not in names:
                 raise FieldProblem(f".filter.attributes[{i}]", f"is not an attribute ({', '.join(names)})", a)
+        if self.task.candidates == 1 and self.task.decision == "rank":
+            raise FieldProblem(".task.decision", "a ranking needs at least 2 candidates", "rank")
         _check_options(self)
         outcomes = _outcome_labels(self)
         _check_utility(self, outcomes)
@@ -300,18 +302,17 @@ def _unsupported(field: str, problem: str, value: object) -> InputError:
 
 
 def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
-    """The task file as the two-candidate task the experiment runs today (or a one-line refusal)."""
+    """The task file as the task the experiment runs (or a one-line refusal of what is not supported yet)."""
     k = f.task.candidates
-    if k != 2:
-        raise _unsupported("task.candidates", "the experiment runs two candidates per prompt", k)
-    if f.task.positions == "latin":
-        raise _unsupported("task.positions", "latin squares are for k > 2 candidates", "latin")
     attributes = tuple(Attribute(a.name, tuple(a.values)) for a in f.attribute)
     if f.filter.attributes is not None and set(f.filter.attributes) != {a.name for a in f.attribute}:
         raise _unsupported("filter.attributes", "the filter randomizes every attribute", f.filter.attributes)
     text = {a.name: _shown_text(a) for a in f.attribute}
-    pair = _true_pair(f, attributes)
-    options = tuple(sorted(f.decision.options, key=lambda key: f.decision.options[key]))
+    population, combinations = _population(f, attributes)
+    if k == 1:
+        options = tuple(f.decision.options)
+    else:
+        options = tuple(sorted(f.decision.options, key=lambda key: f.decision.options[key]))
     outcomes = _outcome_labels(f)
     values = _utility_values(f, outcomes)
     unparsed = f.utility.unparsed if f.utility.unparsed is not None else sum(values) / len(values)
@@ -324,7 +325,9 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         context_name=context.name,
         contexts=tuple(context.values),
         attributes=attributes,
-        candidates=pair,
+        slots=k,
+        population=population,
+        combinations=combinations,
         outcomes=(*outcomes, UNPARSED),
         utility_values=(*values, float(unparsed)),
         utility_name=f.utility.name or _utility_name(outcomes, values, unparsed),
@@ -336,8 +339,9 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         epsilons=None if f.filter.epsilon is None else tuple(f.filter.epsilon),
         digest=digest,
     )
-    task.prompt(task.contexts[0], task.candidates)  # the templates render (errors name prompt.user or system)
-    task.system_prompt(task.contexts[0], task.candidates)
+    shown = combinations[0] if combinations else (task.profiles[0],) * k
+    task.prompt(task.contexts[0], shown)  # the templates render (errors name prompt.user or system)
+    task.system_prompt(task.contexts[0], shown)
     return task
 
 
@@ -357,38 +361,46 @@ def _shown_text(a: AttributeSection) -> dict[Hashable, str] | None:
     return out
 
 
-def _true_pair(f: TaskFile, attributes: tuple[Attribute, ...]) -> tuple[tuple, tuple]:
-    """The one unordered pair of true candidates the population holds."""
-    pop = f.task.population
+def _population(f: TaskFile, attributes: tuple[Attribute, ...]) -> tuple[Literal["listed", "distinct", "all"], tuple]:
+    """``(kind, combinations)``: "all" (none listed), "distinct" (generated) or "listed" (as written)."""
+    k, pop = f.task.candidates, f.task.population
     if pop == "all":
-        raise _unsupported("task.population", "every combination of values (one pair only so far)", "all")
+        return "all", ()
     if pop == "distinct":
-        combos = _distinct_pairs(attributes)
-        if len(combos) != 1:
-            raise _unsupported(
-                "task.population", f"'distinct' gives {len(combos)} pairs of candidates here (one only so far)", pop
-            )
-        return combos[0]
-    if len(pop) != 1:
-        raise _unsupported("task.population", "one pair of candidates", len(pop))
-    pair = pop[0]
-    if len(pair) != 2:
-        raise InputError("task.population[0]", "must list one profile per candidate (2)", pair)
-    profiles = []
-    for i, p in enumerate(pair):
-        if len(p) != len(attributes) or any(v not in a.values for v, a in zip(p, attributes)):
-            names = ", ".join(a.name for a in attributes)
-            raise InputError(f"task.population[0][{i}]", f"must give one value of each attribute ({names})", p)
-        profiles.append(tuple(p))
-    if profiles[0] == profiles[1]:
-        raise InputError("task.population[0]", "the two candidates must differ", pair)
-    return profiles[0], profiles[1]
+        combos = _distinct(attributes, k)
+        if not combos:
+            raise InputError("task.population", f"no {k} profiles share no value of any attribute", pop)
+        return "distinct", tuple(combos)
+    out = []
+    for n, combo in enumerate(pop):
+        if len(combo) != k:
+            raise InputError(f"task.population[{n}]", f"must list one profile per candidate ({k})", combo)
+        profiles = []
+        for i, p in enumerate(combo):
+            if len(p) != len(attributes) or any(v not in a.values for v, a in zip(p, attributes)):
+                names = ", ".join(a.name for a in attributes)
+                raise InputError(f"task.population[{n}][{i}]", f"must give one value of each attribute ({names})", p)
+            profiles.append(tuple(p))
+        if len(set(profiles)) < k:
+            raise InputError(f"task.population[{n}]", "the candidates of a combination must differ", combo)
+        out.append(tuple(profiles))
+    if not out:
+        raise InputError("task.population", "must list at least one combination of candidates", pop)
+    return "listed", tuple(out)
 
 
-def _distinct_pairs(attributes: tuple[Attribute, ...]) -> list[tuple[tuple, tuple]]:
-    """Unordered pairs of profiles that share no attribute value."""
+def _distinct(attributes: tuple[Attribute, ...], k: int) -> list[tuple]:
+    """Sets of k profiles, no two sharing a value of any attribute, in profile order."""
+    if any(len(a.values) < k for a in attributes):
+        return []
     profiles = list(itertools.product(*(a.values for a in attributes)))
-    return [(p, q) for p, q in itertools.combinations(profiles, 2) if all(x != y for x, y in zip(p, q))]
+    if math.comb(len(profiles), k) > 2_000_000:
+        raise _unsupported("task.population", f"'distinct' over {len(profiles)} profiles, {k} at a time", "distinct")
+    return [
+        c
+        for c in itertools.combinations(profiles, k)
+        if all(len({p[j] for p in c}) == k for j in range(len(attributes)))
+    ]
 
 
 def _utility_values(f: TaskFile, outcomes: tuple[str, ...]) -> list[float]:

@@ -12,28 +12,31 @@ The correct privacy budgets (docs/design.md, the paper's errors 1 and 2):
 * a profile of several attributes randomized independently is a product
   mechanism; with every pair of profiles adjacent its ε is the **sum** of the
   attributes' (3 ln(7/3) = 2.542 nats for name, age and race at p = 0.7);
-* the query shows both candidates' profiles. In the paper's experiment a
+* the query shows every candidate's profile. In the paper's experiment a
   candidate's profile also fixes its rival's (Tom faces Mary, Mary faces Tom),
   so what the model sees about a candidate's group is the pair of released
   profiles: the mechanism that protects a candidate is
   M_cand[a, (ã_self, ã_rival)] = M_P[a, ã_self] · M_P[rival(a), ã_rival],
-  whose ε is twice the profile's (:meth:`PrivacyFilter.candidate_mechanism`).
-  Every certificate of the experiments is computed on that mechanism.
+  whose ε is twice the profile's. For k candidates and any population the
+  rivals are a mixture (:func:`fairaudit.experiments.slots.candidate_mechanism`,
+  :meth:`PrivacyFilter.candidate_mechanism`). Every certificate of the
+  experiments is computed on that mechanism.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import brentq
 
-from ..._errors import InputError
 from ..._validation import real
 from ...privacy import Mechanism, MechanismFamily, identity, keep_probability, product, randomized_response
 from .tasks import DeliveryTask
 
-__all__ = ["PrivacyFilter", "candidate_family", "released_pair_label"]
+__all__ = ["PrivacyFilter", "candidate_family", "profile_budget", "released_pair_label"]
 
 
 def released_pair_label(task: DeliveryTask, own: tuple, rival: tuple) -> str:
@@ -138,23 +141,24 @@ class PrivacyFilter:
     @property
     def epsilon_query(self) -> float:
         """ε of the whole query's sensitive part, every candidate's profile together, nats."""
-        return len(self.task.options) * self.epsilon_profile
+        return self.task.slots * self.epsilon_profile
 
     @property
     def epsilon_context(self) -> float:
         """ε of the context mechanism, nats (+inf for the identity)."""
         return self.context_mechanism.epsilon
 
-    def candidate_mechanism(self) -> Mechanism:
-        """What the model sees about a candidate's group: M_cand, shape (2, n_profiles²).
+    def candidate_mechanism(self, positions: str = "balanced") -> Mechanism:
+        """What the model sees about a candidate's group: M_cand, shape (n_groups, n_profiles^k).
 
-        Inputs: the task's two candidates (profile labels); outputs: the
-        labels ``"own | rival"`` of the released profiles (own first), in
-        row-major order of (own, rival) over :attr:`DeliveryTask.profiles`.
-        M_cand[a, (s, o)] = M_P[a, s] · M_P[rival(a), o]: the rival of one
-        candidate is the other, as in the paper's experiment.
+        Inputs: the task's candidates (profile labels); outputs: the views,
+        the released profiles from the candidate's own slot on, ``"own |
+        rival"`` for two (:func:`fairaudit.experiments.slots.candidate_mechanism`).
+        For the paper's pair, M_cand[a, (s, o)] = M_P[a, s] · M_P[rival(a), o].
         """
-        return _candidate_mechanism(self.task, self.profile_mechanism)
+        from ..slots import candidate_mechanism
+
+        return candidate_mechanism(self.task, self.profile_mechanism, positions)
 
     def release(self, context: str, profiles: Sequence[tuple], rng: np.random.Generator) -> tuple:
         """Draw what the model is shown: (released context, released profiles), one draw.
@@ -179,7 +183,7 @@ class PrivacyFilter:
         p = ", ".join(f"{a.name} p = {k:.4g}" for a, k in zip(self.task.attributes, self.keep_probabilities))
         return (
             f"randomized response on each attribute ({p}): ε = {self.epsilon_profile:.4g} nats per profile, "
-            f"{self.candidate_mechanism().epsilon:.4g} per candidate (own and rival's profile); "
+            f"{self.candidate_mechanism().epsilon:.4g} per candidate (all that its prompt shows); "
             f"context: {self.context_mechanism.name}"
         )
 
@@ -187,29 +191,15 @@ class PrivacyFilter:
         return ", ".join(a.name for a in self.task.attributes)
 
 
-def _candidate_mechanism(task: DeliveryTask, m_p: Mechanism) -> Mechanism:
-    if len(task.candidates) != 2:
-        raise InputError(
-            "task.candidates", "the per-candidate view is defined for two candidates", len(task.candidates)
-        )
-    profiles = task.profiles
-    idx = [profiles.index(tuple(c)) for c in task.candidates]
-    rows = [np.outer(m_p.matrix[idx[i]], m_p.matrix[idx[1 - i]]).ravel() for i in range(2)]
-    outputs = [released_pair_label(task, s, o) for s in profiles for o in profiles]
-    return Mechanism(
-        np.vstack(rows),
-        [task.profile_label(c) for c in task.candidates],
-        outputs,
-        name=f"per-candidate view of {m_p.name}",
-    )
+def candidate_family(task: DeliveryTask, positions: str = "balanced") -> MechanismFamily:
+    """ε ↦ M_cand at candidate budget ε, every attribute of every profile at the same ε_P / n.
 
-
-def candidate_family(task: DeliveryTask) -> MechanismFamily:
-    """ε ↦ M_cand at candidate budget ε: each profile at ε / 2, each attribute at ε / (2 n).
-
-    The member at ε has ε(M_cand) = ε exactly (nats); its keep probability is
-    the chance that a candidate's own profile is shown unchanged,
-    Π_i e^{ε/(2n)} / (e^{ε/(2n)} + k_i − 1).
+    The member at ε has ε(M_cand) = ε (nats): ε_P = ε / c when the ratio c =
+    ε(M_cand) / ε_P is a constant (:func:`fairaudit.experiments.slots.epsilon_factor`:
+    2 for the paper's pair, each profile at ε / 2), else ε_P solves
+    ε(M_cand(ε_P)) = ε (M_cand at a smaller ε_P is a garbling of the one at
+    a larger, so the map is monotone). Its keep probability is the chance that
+    a candidate's own profile is shown unchanged, Π_i e^{ε_P/n} / (e^{ε_P/n} + k_i − 1).
 
     Examples
     --------
@@ -221,15 +211,53 @@ def candidate_family(task: DeliveryTask) -> MechanismFamily:
     (5.083787, 0.343)
     """
     n = len(task.attributes)
+    profile_epsilon = profile_budget(task, positions)
 
     def build(eps: float) -> Mechanism:
-        return PrivacyFilter.from_epsilon(task, eps / 2).candidate_mechanism()
+        return PrivacyFilter.from_epsilon(task, profile_epsilon(eps)).candidate_mechanism(positions)
 
     def keep(eps: float) -> float:
-        return float(np.prod([keep_probability(eps / (2 * n), len(a.values)) for a in task.attributes]))
+        e = profile_epsilon(eps)
+        return float(np.prod([keep_probability(e / n, len(a.values)) for a in task.attributes]))
 
     inputs = tuple(task.profile_label(c) for c in task.candidates)
-    return MechanismFamily(f"randomized response on each attribute of both profiles ({task.name})", inputs, build, keep)
+    return MechanismFamily(f"randomized response on each attribute of every profile ({task.name})", inputs, build, keep)
+
+
+def profile_budget(task: DeliveryTask, positions: str = "balanced") -> Callable[[float], float]:
+    """The map from a candidate's ε to the ε_P of each profile (nats), as :func:`candidate_family` uses it.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> profile_budget(HR_DELIVERY)(3.0)
+    1.5
+    """
+    from ..slots import epsilon_factor
+
+    factor = epsilon_factor(task, positions)
+    if factor is not None:
+        c = float(factor)
+        return lambda eps: eps / c if c > 0 else math.inf
+
+    def solve(eps: float) -> float:
+        if eps == 0 or math.isinf(eps):
+            return eps
+
+        def gap(e: float) -> float:
+            return PrivacyFilter.from_epsilon(task, e).candidate_mechanism(positions).epsilon - eps
+
+        hi = eps
+        while gap(hi) < 0:
+            hi *= 2
+            if hi > 1e6:
+                return math.inf
+        lo = hi / 2
+        while gap(lo) > 0 and lo > 1e-12:
+            lo /= 2
+        return float(brentq(gap, lo, hi, xtol=1e-13, rtol=1e-13))
+
+    return solve
 
 
 def _nats(eps: float, name: str) -> float:

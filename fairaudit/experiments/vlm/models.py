@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from ..._errors import InputError
+from ..slots import slot_names
 from .filter import draw
 from .tasks import DeliveryTask
 
@@ -117,9 +118,12 @@ def reply_text(task: DeliveryTask, decision: int | None, rng: np.random.Generato
     n = len(task.options)
     if task.kind == "choice":
         values = {o: "1.0" if i == decision else "0.0" for i, o in enumerate(task.options)}
-    else:  # the option served first gets 1, the others follow in position order
-        rest = [i for i in range(n) if i != decision]
-        rank = {decision: 1, **{i: k + 2 for k, i in enumerate(rest)}}
+    else:
+        if task.slots > 2:  # decision indexes an order
+            order = task.orders[decision]
+        else:  # the option served first gets 1, the other 2
+            order = (decision, *(i for i in range(n) if i != decision))
+        rank = {slot: r + 1 for r, slot in enumerate(order)}
         values = {o: f"{rank[i]:.1f}" for i, o in enumerate(task.options)}
     text = json.dumps({**values, "reason": "simulated decision"})
     if rng is None:
@@ -139,11 +143,11 @@ class SimulatedModel:
     Parameters
     ----------
     task : DeliveryTask
-    probabilities : numpy.ndarray, shape (n_contexts, n_profiles, n_profiles, n_decisions)
-        P(decision | shown context, profile at position 1, profile at
-        position 2), indexed by the task's contexts, :attr:`DeliveryTask.profiles`
-        (twice) and :attr:`DeliveryTask.decisions` (the options, then
-        ``"unparsed"``: the chance of a reply that cannot be parsed).
+    probabilities : numpy.ndarray, shape (n_contexts, n_profiles, ..., n_profiles, n_decisions)
+        P(decision | shown context, profile in slot 1, ..., profile in slot
+        k), indexed by the task's contexts, :attr:`DeliveryTask.profiles`
+        (k times) and :attr:`DeliveryTask.decisions` (then ``"unparsed"``: the
+        chance of a reply that cannot be parsed).
     name : str
         Logged as the model's name (``"simulated:<name>"``).
 
@@ -160,10 +164,10 @@ class SimulatedModel:
 
     def __post_init__(self) -> None:
         p = np.asarray(self.probabilities, dtype=float)
-        k = len(self.task.profiles)
-        shape = (len(self.task.contexts), k, k, len(self.task.decisions))
+        n = len(self.task.profiles)
+        shape = (len(self.task.contexts), *([n] * self.task.slots), len(self.task.decisions))
         if p.shape != shape:
-            raise InputError("kernel", f"must have shape {shape} (contexts, profile 1, profile 2, decisions)", p.shape)
+            raise InputError("kernel", f"must have shape {shape} (contexts, a profile per slot, decisions)", p.shape)
         if np.any(p < 0) or not np.all(np.isfinite(p)) or np.any(np.abs(p.sum(-1) - 1) > 1e-9):
             raise InputError("kernel", "rows must be probabilities summing to 1")
         p = p.copy()
@@ -174,21 +178,18 @@ class SimulatedModel:
         """Draw the decision for the query's shown cell and write it as a reply."""
         t = self.task
         profiles = t.profiles
-        row = self.probabilities[
-            t.contexts.index(query.context),
-            profiles.index(tuple(query.profiles[0])),
-            profiles.index(tuple(query.profiles[1])),
-        ]
+        row = self.probabilities[(t.contexts.index(query.context), *(profiles.index(tuple(p)) for p in query.profiles))]
         rng = np.random.default_rng(query.seed)
         d = draw(rng, row)
-        return ModelReply(reply_text(t, None if d == len(t.options) else d, rng), f"simulated:{self.name}")
+        return ModelReply(reply_text(t, None if d == len(t.decisions) - 1 else d, rng), f"simulated:{self.name}")
 
     @classmethod
     def from_csv(cls, task: DeliveryTask, path: str | Path, name: str | None = None) -> SimulatedModel:
         """A model from a table in the harness's ``kernel.csv`` format.
 
-        Columns: the task's context name (``document``), one column per option
-        (``HR1``, ``HR2``: the profile shown there, as ``"Tom & 25 & Asian"``),
+        Columns: the task's context name (``document``), one column per slot
+        (``HR1``, ``HR2``: the profile shown there, as ``"Tom & 25 & Asian"``;
+        ``candidate`` for one candidate per prompt),
         ``decision`` (an option or ``"unparsed"``) and ``count`` or
         ``probability``. Rows of one cell are normalised.
 
@@ -208,14 +209,15 @@ class SimulatedModel:
         except (OSError, ValueError, pd.errors.ParserError) as exc:
             raise InputError("kernel", f"cannot be read as CSV ({exc})", str(path)) from None
         value_col = "count" if "count" in frame.columns else "probability"
-        need = [task.context_name, *task.options, "decision", value_col]
+        slots = slot_names(task)
+        need = [task.context_name, *slots, "decision", value_col]
         missing = [c for c in need if c not in frame.columns]
         if missing:
             raise InputError("kernel", f"needs columns {need}", list(frame.columns))
         profiles = {task.profile_label(q): i for i, q in enumerate(task.profiles)}
         axes = (
             [({c: i for i, c in enumerate(task.contexts)}, task.context_name)]
-            + [(profiles, o) for o in task.options]
+            + [(profiles, o) for o in slots]
             + [({d: i for i, d in enumerate(task.decisions)}, "decision")]
         )
         idx = []
@@ -231,19 +233,14 @@ class SimulatedModel:
             raise InputError(f"kernel column '{value_col}'", "must be numbers") from None
         if np.any(values < 0) or not np.all(np.isfinite(values)):
             raise InputError(f"kernel column '{value_col}'", "must be finite and >= 0")
-        k = len(task.profiles)
-        table = np.zeros((len(task.contexts), k, k, len(task.decisions)))
+        n = len(task.profiles)
+        table = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
         np.add.at(table, tuple(idx), values)
         totals = table.sum(-1)
         if np.any(totals == 0):
-            i, a, b = np.argwhere(totals == 0)[0]
-            raise InputError(
-                "kernel",
-                f"has no rows for ({task.context_name} {task.contexts[i]!r}, "
-                f"{task.options[0]} {task.profile_label(task.profiles[a])!r}, "
-                f"{task.options[1]} {task.profile_label(task.profiles[b])!r})",
-                str(path),
-            )
+            i, *shown = np.argwhere(totals == 0)[0]
+            cell = ", ".join(f"{o} {task.profile_label(task.profiles[a])!r}" for o, a in zip(slots, shown))
+            raise InputError("kernel", f"has no rows for ({task.context_name} {task.contexts[i]!r}, {cell})", str(path))
         return cls(task, table / totals[..., None], name or f"kernel from {p.name}")
 
 
@@ -252,23 +249,53 @@ def _profile_scores(task: DeliveryTask, target: tuple) -> np.ndarray:
     return np.array([sum(v == w for v, w in zip(p, target)) for p in task.profiles])
 
 
+def _slot_scores(task: DeliveryTask, score: np.ndarray) -> np.ndarray:
+    """score[s_i] for every shown cell and slot, shape (n_profiles, ..., n_profiles, k)."""
+    n, k = len(task.profiles), task.slots
+    grids = np.meshgrid(*([score] * k), indexing="ij")
+    return np.stack(grids, axis=-1) if k else np.zeros((n,) * k)
+
+
 def _prefers(task: DeliveryTask, target: tuple) -> np.ndarray:
-    """Choose (or serve first) the candidate whose shown profile shares more attributes with ``target``; ties: a coin."""
-    s = _profile_scores(task, target)
-    first = np.where(s[:, None] > s[None, :], 1.0, np.where(s[:, None] < s[None, :], 0.0, 0.5))
-    return _tile(task, first)
+    """Choose (rank first) the candidates whose shown profile shares most attributes with ``target``; ties: uniform.
+
+    One candidate per prompt: the first option with probability the share of
+    attributes it shares with ``target``, the other options evenly.
+    """
+    score = _profile_scores(task, target).astype(float)
+    if task.slots == 1:
+        first = score / len(task.attributes)
+        n_opt = len(task.options)
+        p = np.stack([first] + [(1 - first) / (n_opt - 1)] * (n_opt - 1), axis=-1)
+        return _tile(task, p)
+    s = _slot_scores(task, score)
+    if task.kind == "order" and task.slots > 2:  # orders that never put a lower score before a higher one
+        orders = np.array(task.orders)
+        ordered = s[..., orders]  # [..., order, rank]
+        ok = np.all(np.diff(ordered, axis=-1) <= 0, axis=-1).astype(float)
+        return _tile(task, ok / ok.sum(-1, keepdims=True))
+    best = (s == s.max(-1, keepdims=True)).astype(float)
+    return _tile(task, best / best.sum(-1, keepdims=True))
 
 
 def _position(task: DeliveryTask, p_first: float) -> np.ndarray:
-    k = len(task.profiles)
-    return _tile(task, np.full((k, k), p_first))
+    """The first slot chosen (ranked first) with probability ``p_first``, the others evenly (orders: the rest evenly)."""
+    n, k = len(task.profiles), task.slots
+    options = len(task.decisions) - 1
+    if task.kind == "order" and k > 2:
+        first = np.array([o[0] == 0 for o in task.orders], dtype=float)
+        row = np.where(first > 0, p_first / first.sum(), (1 - p_first) / (options - first.sum()))
+    elif k == 1:
+        row = np.full(options, 1.0 / options)
+    else:
+        row = np.array([p_first] + [(1 - p_first) / (options - 1)] * (options - 1))
+    return _tile(task, np.broadcast_to(row, (n,) * k + (options,)))
 
 
-def _tile(task: DeliveryTask, first: np.ndarray) -> np.ndarray:
-    """Kernel with P(option 1) = ``first[p1, p2]`` in every context and no unparsed reply."""
-    out = np.zeros((len(task.contexts), *first.shape, len(task.decisions)))
-    out[..., 0] = first
-    out[..., 1] = 1.0 - first
+def _tile(task: DeliveryTask, decide: np.ndarray) -> np.ndarray:
+    """Kernel with P(decision) = ``decide[s_1, ..., s_k, u]`` in every context and no unparsed reply."""
+    out = np.zeros((len(task.contexts), *decide.shape[:-1], len(task.decisions)))
+    out[..., :-1] = decide
     return out
 
 
@@ -301,13 +328,14 @@ Any other task (a task file) has :data:`GENERIC_SIMULATED`.
 
 GENERIC_SIMULATED: dict[str, Callable[[DeliveryTask], np.ndarray]] = {
     "prefers-first": lambda t: _prefers(t, t.candidates[0]),
-    "prefers-second": lambda t: _prefers(t, t.candidates[1]),
+    "prefers-second": lambda t: _prefers(t, t.candidates[1 % len(t.candidates)]),
     "position-biased": lambda t: _position(t, 0.82),
     "fair": lambda t: _position(t, 0.5),
 }
-"""Simulated models of any two-candidate task: ``prefers-first`` (``-second``) picks (serves first) the candidate
-whose shown profile shares more values with the task's first (second) true candidate, a coin on ties;
-``position-biased`` and ``fair`` as in :data:`SIMULATED`. The first is the default."""
+"""Simulated models of any task: ``prefers-first`` (``-second``) picks (ranks first) the candidate whose shown
+profile shares most values with the task's first (second) true candidate, evenly on ties (one candidate per
+prompt: the first option with probability the share of values it shares); ``position-biased`` picks the first
+slot with probability 0.82; ``fair`` picks evenly. The first is the default."""
 
 
 def simulated_models(task: DeliveryTask) -> dict[str, Callable[[DeliveryTask], np.ndarray]]:

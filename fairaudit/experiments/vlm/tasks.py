@@ -1,9 +1,9 @@
 """A decision task of an experiment: its candidates, prompt, options, outcomes and utility.
 
 :class:`DeliveryTask` is what the experiment runs: a decision model is shown
-two candidates (positions 1 and 2, the options of the reply), each with a
-profile of sensitive attributes, in a context, and its reply is a *choice* of
-one or an *order* of both. Tasks are written as task files
+k candidates (slots 1 to k, the options of the reply), each with a profile of
+sensitive attributes, in a context, and its reply is a *choice* of one or an
+*order* of all; with k = 1 it decides about one person. Tasks are written as task files
 (:mod:`fairaudit.experiments.taskfile`, docs/tasks.md); the paper's two ship
 with fairaudit:
 
@@ -51,7 +51,7 @@ class Attribute:
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class DeliveryTask:
-    """A two-candidate decision task (read from a task file: :func:`fairaudit.experiments.taskfile.load_task`).
+    """A decision task about k candidates per prompt (read from a task file: :func:`fairaudit.experiments.taskfile.load_task`).
 
     Attributes
     ----------
@@ -70,9 +70,18 @@ class DeliveryTask:
         The context alphabet X (the item delivered).
     attributes : tuple of Attribute
         The profile attributes that the privacy filter randomizes.
-    candidates : tuple of tuple
-        The two true profiles, in the task's order (the first is shown as
-        option 1 in the ``fixed`` design).
+    slots : int
+        k, the candidates a prompt shows (1: a decision about one person; k ≥ 2:
+        choose one of k, or rank them). ``options`` name the k slots in slot
+        order (k ≥ 2) or the decision values (k = 1).
+    population : {"listed", "distinct", "all"}
+        Which true candidate combinations occur, uniformly: those of
+        ``combinations``, or every ordered k-tuple of profiles (``"all"``).
+    combinations : tuple of tuple of tuple
+        The true combinations as listed (each a k-tuple of profiles; the first
+        is shown in slot order in the ``fixed`` design); for ``"distinct"``
+        every set of k profiles that share no value, in profile order; empty
+        for ``"all"``.
     outcomes : tuple of str
         A candidate's own outcome U, then ``"unparsed"``: ``("chosen",
         "not chosen", "unparsed")`` or ``("served first", "served second",
@@ -88,8 +97,8 @@ class DeliveryTask:
     shown_text : mapping or None
         Attribute name -> {value: what the prompt shows for it}, or None
         (attributes without an entry show their values).
-    positions : {"balanced", "fixed"}
-        The task file's default order of the candidates.
+    positions : {"balanced", "latin", "fixed"}
+        The task file's default orders of the candidates.
     keeps, epsilons : tuple of float or None
         The task file's default budgets (keep probabilities, or the
         candidate's ε in nats), or None.
@@ -103,11 +112,13 @@ class DeliveryTask:
     context_name: str
     contexts: tuple
     attributes: tuple
-    candidates: tuple
     outcomes: tuple
     utility_values: tuple
     utility_name: str
     template: str
+    slots: int = 2
+    population: Literal["listed", "distinct", "all"] = "listed"
+    combinations: tuple = ()
     title: str = ""
     system: str | None = None
     shown_text: Mapping[str, Mapping[Hashable, str] | None] | None = None
@@ -122,8 +133,33 @@ class DeliveryTask:
         return tuple(tuple(t) for t in itertools.product(*(a.values for a in self.attributes)))
 
     @property
+    def candidates(self) -> tuple:
+        """The true profiles that occur as candidates (the groups), in order of first listing.
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+        >>> HR_DELIVERY.candidates
+        (('Tom', 25, 'Asian'), ('Mary', 55, 'American'))
+        """
+        if self.population == "all":
+            return self.profiles
+        return tuple(dict.fromkeys(tuple(p) for combo in self.combinations for p in combo))
+
+    @property
+    def orders(self) -> tuple:
+        """The orders a ranking reply can give: permutations of the slots (0-based), ``itertools`` order."""
+        return tuple(itertools.permutations(range(self.slots)))
+
+    @property
     def decisions(self) -> tuple:
-        """Decisions of one query: the options (chosen, or served first) and ``"unparsed"``."""
+        """Decisions of one query, then ``"unparsed"``.
+
+        A choice: the options. A ranking of two: the option served first. A
+        ranking of k ≥ 3: each order, written ``"A > B > C"`` (:attr:`orders`).
+        """
+        if self.kind == "order" and self.slots > 2:
+            return (*(" > ".join(self.options[i] for i in o) for o in self.orders), UNPARSED)
         return (*self.options, UNPARSED)
 
     def prompt(self, context: str, profiles: Sequence[tuple]) -> str:
@@ -153,8 +189,8 @@ class DeliveryTask:
     def _render(self, template: str, field: str, context: str, profiles: Sequence[tuple]) -> str:
         if context not in self.contexts:
             raise InputError(self.context_name, f"must be one of {list(self.contexts)}", context)
-        if len(profiles) != len(self.options):
-            raise InputError("profiles", f"needs one profile per option {list(self.options)}", list(profiles))
+        if len(profiles) != self.slots:
+            raise InputError("profiles", f"needs one profile per candidate ({self.slots})", list(profiles))
         known = set(self.profiles)
         for p in profiles:
             if tuple(p) not in known:

@@ -1,0 +1,434 @@
+"""k candidates per prompt: the true prompts, the per-candidate view and the filter that protects a candidate.
+
+The mathematics is docs/design.md "k candidates behind a filter". A prompt
+shows k slots; the true candidates T = (t₁, ..., t_k) are drawn from the
+task's population in the orders of its ``positions``; the filter releases
+every attribute of every candidate through randomized response; the model is
+a kernel K[x, s, u] on shown cells s = (s₁, ..., s_k) (:attr:`DeliveryTask.decisions` u).
+
+The record of slot i has context (x, i), group t_i and outcome o_i(u). What
+the model sees about it is the shown cell *rotated* so that its own slot comes
+first, (s_i, s_{i+1}, ..., s_{i-1}): its *view*. Rotation makes the view's law
+the same in every slot for every design fairaudit runs (all orders, the k
+cyclic shifts of a Latin square, or populations closed under reordering), so
+one mechanism protects every candidate:
+
+    M_cand[a, v] = Σ_T P(T | t_i = a, slot i) Π_j M_P[T_{i+j}, v_j],
+
+which :func:`candidate_mechanism` computes and checks to be slot-free.
+
+Arrays index profiles by :attr:`DeliveryTask.profiles` and shown cells
+row-major over the k slots (slot 1 the slowest axis); true prompts are
+``(n_prompts, k)`` integer arrays of profile indices.
+"""
+
+from __future__ import annotations
+
+import itertools
+from fractions import Fraction
+
+import numpy as np
+
+from .._arrays import FloatArray, IntArray
+from .._errors import InputError
+from ..laws import Kernel, Population
+from ..privacy import Mechanism
+from .vlm.tasks import DeliveryTask
+
+__all__ = [
+    "MAX_SHOWN_CELLS",
+    "candidate_contexts",
+    "candidate_epsilon",
+    "candidate_kernel",
+    "candidate_mechanism",
+    "candidate_population",
+    "check_size",
+    "epsilon_factor",
+    "expected_utility",
+    "outcome_index",
+    "point_views",
+    "slot_names",
+    "true_prompts",
+    "view_label",
+]
+
+MAX_SHOWN_CELLS = 2_000_000
+"""The largest n_contexts · n_profiles^k the table design and the exact route enumerate."""
+
+POSITIONS = ("balanced", "latin", "fixed")
+
+
+def check_size(task: DeliveryTask) -> int:
+    """The number of shown cells n_contexts · n_profiles^k, or an error naming ``task.candidates`` when too many.
+
+    Raises
+    ------
+    InputError
+        Beyond :data:`MAX_SHOWN_CELLS`.
+    """
+    n = len(task.contexts) * len(task.profiles) ** task.slots
+    if n > MAX_SHOWN_CELLS:
+        raise InputError(
+            "task.candidates",
+            f"{len(task.contexts)} contexts x {len(task.profiles)}^{task.slots} shown cells = {n:,} are more than "
+            f"the table design enumerates ({MAX_SHOWN_CELLS:,}; a design for this size is not supported yet)",
+            task.slots,
+        )
+    return n
+
+
+def true_prompts(task: DeliveryTask, positions: str) -> tuple[IntArray, FloatArray]:
+    """The true prompts and their probabilities.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    positions : {"balanced", "latin", "fixed"}
+        The orders each listed combination is shown in: all k! of them, the
+        k cyclic shifts of the listed order, or the listed order only.
+        Ignored for ``population = "all"`` (every ordered k-tuple, uniformly).
+
+    Returns
+    -------
+    prompts : numpy.ndarray of int, shape (n_prompts, k)
+        Profile indices in slot order, each distinct prompt once, in the order
+        the combinations and their orders are listed.
+    weights : numpy.ndarray, shape (n_prompts,)
+        P(prompt): uniform over the combinations, then over each one's orders.
+
+    Raises
+    ------
+    InputError
+        On another ``positions``.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> p, w = true_prompts(HR_DELIVERY, "balanced")
+    >>> p.tolist(), w.tolist()            # Tom (profile 0) and Mary (7) in both orders
+    ([[0, 7], [7, 0]], [0.5, 0.5])
+    """
+    if positions not in POSITIONS:
+        raise InputError("positions", f"must be one of {list(POSITIONS)}", positions)
+    k, n = task.slots, len(task.profiles)
+    if task.population == "all":
+        grid = np.array(list(itertools.product(range(n), repeat=k)), dtype=np.int64).reshape(-1, k)
+        return grid, np.full(len(grid), 1.0 / len(grid))
+    index = {p: i for i, p in enumerate(task.profiles)}
+    weights: dict[tuple[int, ...], float] = {}
+    for combo in task.combinations:
+        listed = tuple(index[tuple(p)] for p in combo)
+        if positions == "balanced":
+            orders = list(itertools.permutations(listed))
+        elif positions == "latin":
+            orders = [listed[i:] + listed[:i] for i in range(k)]
+        else:
+            orders = [listed]
+        for order in orders:
+            weights[order] = weights.get(order, 0.0) + 1.0 / (len(task.combinations) * len(orders))
+    prompts = np.array(list(weights), dtype=np.int64).reshape(-1, k)
+    return prompts, np.array(list(weights.values()))
+
+
+def _rotation(k: int, i: int) -> list[int]:
+    """Slot order of the view of slot i: i, i + 1, ..., i − 1."""
+    return [(i + j) % k for j in range(k)]
+
+
+def view_label(task: DeliveryTask, shown: tuple) -> str:
+    """Label of a view: the shown profiles from the candidate's own slot on, joined by ``" | "``.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> view_label(HR_DELIVERY, (("Tom", 25, "Asian"), ("Mary", 55, "American")))
+    'Tom & 25 & Asian | Mary & 55 & American'
+    """
+    return " | ".join(task.profile_label(p) for p in shown)
+
+
+def _views(task: DeliveryTask) -> list[str]:
+    return [view_label(task, s) for s in itertools.product(task.profiles, repeat=task.slots)]
+
+
+def slot_names(task: DeliveryTask) -> tuple:
+    """The names of the k slots, as tables and messages write them: the options (k ≥ 2), or ``("candidate",)``."""
+    return tuple(task.options) if task.slots > 1 else ("candidate",)
+
+
+def candidate_contexts(task: DeliveryTask) -> tuple:
+    """Per-candidate contexts: ``"<context> @ <slot>"`` for every context and slot (context-major); k = 1: the contexts."""
+    if task.slots == 1:
+        return tuple(task.contexts)
+    return tuple(f"{c} @ {o}" for c in task.contexts for o in task.options)
+
+
+def outcome_index(task: DeliveryTask) -> IntArray:
+    """o_i(u): the outcome index of the candidate in slot i under decision u, shape (k, n_decisions).
+
+    A choice: 0 (chosen) for u = i, else 1; a ranking: the rank of slot i in
+    order u (0 = first); k = 1: the decision itself; the last decision,
+    ``"unparsed"``, gives the last outcome.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> outcome_index(HR_DELIVERY).tolist()       # decisions HR1, HR2, unparsed
+    [[0, 1, 2], [1, 0, 2]]
+    """
+    k, n_d = task.slots, len(task.decisions)
+    last = len(task.outcomes) - 1
+    out = np.full((k, n_d), last, dtype=np.int64)
+    if k == 1:
+        out[0, :-1] = np.arange(n_d - 1)
+    elif task.kind == "choice":
+        out[:, :-1] = np.where(np.eye(k, dtype=bool), 0, 1)
+    else:
+        orders = np.array(task.orders, dtype=np.int64)  # [u, rank] -> slot
+        ranks = np.argsort(orders, axis=1)  # [u, slot] -> rank
+        if k == 2:  # a ranking of two is named by the option served first
+            ranks = np.array([[0, 1], [1, 0]])
+        out[:, :-1] = ranks.T
+    return out
+
+
+def _one_hot(index: IntArray, n: int) -> FloatArray:
+    return np.eye(n)[index]
+
+
+def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
+    """The per-candidate kernel from the model's kernel on shown cells.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    kernel : Kernel
+        Shape (n_contexts, n_profiles^k, n_decisions): shown cells row-major
+        over the slots (:func:`fairaudit.experiments.harness.table_kernel`),
+        with or without counts.
+
+    Returns
+    -------
+    Kernel
+        Shape (n_contexts · k, n_profiles^k, n_outcomes): contexts
+        :func:`candidate_contexts`; groups the views (the shown cell rotated
+        to start at the candidate's slot, :func:`view_label`); decisions
+        :attr:`DeliveryTask.outcomes`. Counts are kept: each query counts once
+        in each slot.
+    """
+    k, n_p = task.slots, len(task.profiles)
+    n_ctx = len(task.contexts)
+    raw = kernel.counts if kernel.counts is not None else kernel.probabilities
+    c = np.asarray(raw, dtype=float).reshape(n_ctx, *([n_p] * k), -1)
+    o = outcome_index(task)
+    per_slot = []
+    for i in range(k):
+        view = c.transpose(0, *(1 + j for j in _rotation(k, i)), k + 1).reshape(n_ctx, n_p**k, -1)
+        per_slot.append(view @ _one_hot(o[i], len(task.outcomes)))
+    out = np.stack(per_slot, axis=1).reshape(n_ctx * k, n_p**k, len(task.outcomes))
+    args = (candidate_contexts(task), _views(task), task.outcomes)
+    if kernel.counts is not None:
+        return Kernel.from_counts(out, *args, name="per-candidate kernel")
+    return Kernel(out, *args, name="per-candidate kernel")
+
+
+def _slot_group(task: DeliveryTask, positions: str) -> tuple[IntArray, FloatArray, FloatArray, list[int]]:
+    """(prompts, weights, P(slot i, group), group profile indices) with P of shape (k, n_groups)."""
+    prompts, w = true_prompts(task, positions)
+    index = {p: i for i, p in enumerate(task.profiles)}
+    groups = [index[tuple(c)] for c in task.candidates]
+    col = {g: j for j, g in enumerate(groups)}
+    p = np.zeros((task.slots, len(groups)))
+    for i in range(task.slots):
+        np.add.at(p[i], [col[g] for g in prompts[:, i]], w)
+    return prompts, w, p, groups
+
+
+def candidate_population(task: DeliveryTask, positions: str = "balanced") -> Population:
+    """P(X, A) of the per-candidate records: P((x, slot i), a) = P(x) P(t_i = a) / k.
+
+    Contexts are uniform; groups are :attr:`DeliveryTask.candidates`. With
+    ``balanced`` or ``latin`` every candidate takes every slot equally often,
+    so X ⊥ A; with ``fixed`` the slot can reveal the group (the paper's order).
+
+    Raises
+    ------
+    InputError
+        On another value of ``positions``.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> candidate_population(HR_DELIVERY, "fixed").probabilities[:2].tolist()     # 3 documents
+    [[0.16666666666666666, 0.0], [0.0, 0.16666666666666666]]
+    """
+    _, _, p, _ = _slot_group(task, positions)
+    n = len(task.contexts)
+    table = np.tile(p / (n * task.slots), (n, 1))
+    return Population(table, candidate_contexts(task), [task.profile_label(c) for c in task.candidates])
+
+
+def candidate_mechanism(task: DeliveryTask, profile: Mechanism, positions: str = "balanced") -> Mechanism:
+    """M_cand: what a candidate's view shows about its true profile, shape (n_groups, n_profiles^k).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    profile : Mechanism
+        M_P on one profile, square on :attr:`DeliveryTask.profiles`.
+    positions : {"balanced", "latin", "fixed"}
+
+    Returns
+    -------
+    Mechanism
+        Inputs the candidates' profile labels; outputs the views
+        (:func:`view_label`, row-major). Row a is
+        Σ_T P(T | t_i = a) Π_j M_P[T_{i+j}, ·]: the candidate's own profile
+        filtered, and its rivals', as the population draws them.
+
+    Raises
+    ------
+    InputError
+        When the row of a candidate differs between the slots it takes (the
+        view would depend on the slot: not supported yet), or the design is
+        too large (:func:`check_size`).
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> from fairaudit.experiments.vlm.filter import PrivacyFilter
+    >>> m = candidate_mechanism(HR_DELIVERY, PrivacyFilter.from_epsilon(HR_DELIVERY, 1.0).profile_mechanism)
+    >>> m.matrix.shape, round(m.epsilon, 12)             # both profiles are shown: twice the profile's ε
+    ((2, 64), 2.0)
+    """
+    check_size(task)
+    k, n_p = task.slots, len(task.profiles)
+    prompts, w, p, groups = _slot_group(task, positions)
+    m = np.asarray(profile.matrix, dtype=float)
+    rows = np.full((len(groups), n_p**k), np.nan)
+    for i in range(k):
+        rotated = prompts[:, _rotation(k, i)]
+        joint = np.zeros((n_p,) * k)  # P(t_i, t_{i+1}, ..., t_{i-1}) as a dense tensor
+        np.add.at(joint, tuple(rotated.T), w)
+        for j in range(1, k):  # the rivals' profiles through M_P, axis by axis
+            joint = np.moveaxis(np.tensordot(joint, m, axes=([j], [0])), -1, j)
+        rest = joint.reshape(n_p, -1)[groups]  # [group, rivals shown]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slot_rows = (m[groups][:, :, None] * rest[:, None, :]).reshape(len(groups), -1) / p[i][:, None]
+        for r in np.flatnonzero(p[i] > 0):
+            if np.isnan(rows[r, 0]):
+                rows[r] = slot_rows[r]
+            elif not np.allclose(rows[r], slot_rows[r], rtol=1e-9, atol=1e-15):
+                raise InputError(
+                    "task.positions",
+                    f"with these combinations what is shown about {task.profile_label(task.profiles[groups[r]])!r} "
+                    "depends on its slot (use positions = 'balanced'; not supported yet)",
+                    positions,
+                )
+    return Mechanism(
+        rows,
+        [task.profile_label(task.profiles[g]) for g in groups],
+        _views(task),
+        name=f"per-candidate view of {profile.name}",
+    )
+
+
+def point_views(task: DeliveryTask, positions: str = "balanced") -> dict[int, tuple[int, ...]] | None:
+    """The one view each candidate is always shown with, truthfully (profile index -> rotated prompt); None for mixtures.
+
+    A *point-mass* design: every candidate always faces the same rivals in the
+    same places from its own slot on, as the paper's Tom and Mary.
+    """
+    if task.population == "all":
+        return None
+    k = task.slots
+    prompts, _, _, groups = _slot_group(task, positions)
+    views: dict[int, set[tuple[int, ...]]] = {g: set() for g in groups}
+    for i in range(k):
+        for t in prompts[:, _rotation(k, i)]:
+            views[int(t[0])].add(tuple(int(x) for x in t))
+    if any(len(v) != 1 for v in views.values()):
+        return None
+    return {g: next(iter(v)) for g, v in views.items()}
+
+
+def candidate_epsilon(task: DeliveryTask, attribute_epsilons: tuple, positions: str = "balanced") -> float | None:
+    """ε(M_cand) in closed form when attribute i is released at ε_i (nats); None for mixtures (compute the matrix).
+
+    ``"all"``: Σ ε_i (the rivals carry nothing about the candidate). A
+    point-mass design (:func:`point_views`): the largest, over two
+    candidates, of Σ ε_i over the attribute values in which their views
+    differ (each differing value multiplies the likelihood ratio by at most
+    e^{ε_i}, attained together at one shown cell).
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> candidate_epsilon(HR_DELIVERY, (1.0, 1.0, 1.0))      # Tom and Mary differ in all 3, own and rival
+    6.0
+    """
+    if task.population == "all":
+        return float(sum(attribute_epsilons))
+    views = point_views(task, positions)
+    if views is None:
+        return None
+    profiles = task.profiles
+    eps = np.asarray(attribute_epsilons, dtype=float)
+
+    def distance(a: tuple[int, ...], b: tuple[int, ...]) -> float:
+        differ = [[x != y for x, y in zip(profiles[s], profiles[t])] for s, t in zip(a, b)]
+        return float(np.sum(np.asarray(differ, dtype=float) @ eps))
+
+    cells = list(views.values())
+    return max((distance(a, b) for a, b in itertools.combinations(cells, 2)), default=0.0)
+
+
+def epsilon_factor(task: DeliveryTask, positions: str = "balanced") -> Fraction | None:
+    """ε(M_cand) / ε(M_P) with every attribute at ε_P / n, exactly, when it is a constant; None for mixtures.
+
+    1 for ``"all"``; for a point-mass design (:func:`candidate_epsilon`) the
+    most attribute values in which two candidates' views differ, over the
+    number of attributes: 2 for the paper's pair, which differ in every
+    attribute, own and rival. Mixtures (``"distinct"`` with several
+    combinations, several listed ones) have no constant ratio.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> epsilon_factor(HR_DELIVERY)
+    Fraction(2, 1)
+    """
+    n = len(task.attributes)
+    total = candidate_epsilon(task, (1.0,) * n, positions)
+    return None if total is None else Fraction(round(total), n)
+
+
+def expected_utility(task: DeliveryTask, probabilities: FloatArray, utility_values: FloatArray) -> FloatArray:
+    """m[x, c, i]: E[g] of candidate c in slot i without a filter, over the rivals all orders give it.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    probabilities : numpy.ndarray, shape (n_contexts, n_profiles^k, n_decisions)
+        The model's kernel on shown cells.
+    utility_values : numpy.ndarray, shape (n_outcomes,)
+        g of each outcome.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_contexts, n_groups, k)
+        Groups :attr:`DeliveryTask.candidates`; the rivals of c in slot i are
+        drawn as the ``balanced`` population draws them (NaN where c never
+        takes slot i).
+    """
+    k, n_p = task.slots, len(task.profiles)
+    prompts, w, p, groups = _slot_group(task, "balanced")
+    cells = np.ravel_multi_index(tuple(prompts.T), (n_p,) * k) if k else np.zeros(0, dtype=np.int64)
+    g_of = np.asarray(utility_values, dtype=float)[outcome_index(task)]  # [slot, decision]
+    e = np.einsum("xtu,iu->xti", np.asarray(probabilities, dtype=float)[:, cells], g_of)  # [x, prompt, slot]
+    col = {g: j for j, g in enumerate(groups)}
+    member = np.zeros((len(prompts), k, len(groups)))  # [prompt, slot, group] = P(prompt) 1{t_i = group}
+    for i in range(k):
+        member[np.arange(len(prompts)), i, [col[g] for g in prompts[:, i]]] = w
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.einsum("xti,tic->xci", e, member) / p.T[None]

@@ -22,6 +22,7 @@ import itertools
 import math
 import re
 import warnings
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -111,7 +112,7 @@ def _legend_texts(fig):
 class _ManyContexts:
     """A two-candidate choice task with ``n`` contexts (what the baseline figure reads of a task)."""
 
-    name, kind, context_name, options = "t", "choice", "document", ("HR1", "HR2")
+    name, kind, context_name, options, slots = "t", "choice", "document", ("HR1", "HR2"), 2
     candidates = (("Tom", 25, "Asian"), ("Mary", 55, "American"))
 
     def __init__(self, n):
@@ -206,8 +207,11 @@ def test_keep_axis_hand_value_for_hr_delivery():
 
 
 def test_keep_axis_with_attributes_of_different_sizes_is_the_epsilon_of_each():
-    task = SimpleNamespace(attributes=[SimpleNamespace(values=(1, 2)), SimpleNamespace(values=(1, 2, 3))])
-    label, forward, inverse = _keep_axis(task)
+    from fairaudit.experiments.taskfile import parse_task
+
+    text = (Path(__file__).resolve().parents[1] / "examples" / "tasks" / "shortlist.toml").read_text()
+    task = parse_task(text.replace('values = ["engineering", "sales"]', 'values = ["engineering", "sales", "hr"]'))
+    label, forward, inverse = _keep_axis(task)  # one pair differing in both attributes: each at ε / 4
     assert label.startswith("ε of each attribute")
     assert float(forward(8.0)) == 2.0 and float(inverse(2.0)) == 8.0
 

@@ -193,7 +193,9 @@ def test_true_prompts_of_each_positions():
     latin, w = true_prompts(task, "latin")
     assert latin.tolist() == [[0, 1, 2], [1, 2, 0], [2, 0, 1]] and w.tolist() == [1 / 3] * 3
     balanced, w = true_prompts(task, "balanced")
-    assert sorted(map(tuple, balanced.tolist())) == sorted(itertools.permutations(range(3))) and w.sum() == pytest.approx(1)
+    assert sorted(map(tuple, balanced.tolist())) == sorted(
+        itertools.permutations(range(3))
+    ) and w.sum() == pytest.approx(1)
     assert true_prompts(task, "fixed")[0].tolist() == [[0, 1, 2]]
     with pytest.raises(InputError, match="positions: must be one of"):
         true_prompts(task, "random")

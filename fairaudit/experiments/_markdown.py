@@ -47,10 +47,15 @@ def _intro_md(d: dict) -> list[str]:
     """Title, the framing, and the queries (or the exact route) behind the kernel."""
     q = d["queries"]
     lines = [f"# {d['experiment']}: {d['model']}", ""]
+    cands = d["candidates"]
+    who = " or ".join(cands) if len(cands) <= 4 else f"one of {len(cands)} profiles"
+    slots = d.get("slots", 2)
+    where = f"{d['context']} @ position" if slots > 1 else d["context"]
     lines += [
-        f"Per-candidate framing: context = {d['context']} @ position, group = the "
-        f"candidate's true profile ({d['candidates'][0]} or {d['candidates'][1]}), outcome = its own; "
-        f"utility: {d['utility']['name']}. Positions: {d['positions']}.",
+        f"Per-candidate framing: context = {where}, group = the "
+        f"candidate's true profile ({who}), outcome = its own; "
+        f"utility: {d['utility']['name']}."
+        + (f" Positions: {d['positions']}." if slots > 1 else " One candidate per prompt."),
         "",
     ]
     if d.get("route") == "exact":
@@ -89,12 +94,23 @@ def _baseline_md(d: dict) -> list[str]:
         "![baseline](baseline.png)",
         "",
     ]
-    head = "| context | order | " + " | ".join(next(iter(next(iter(d["baseline"]["shares"].values())).values()))) + " |"
+    shares = d["baseline"]["shares"]
+    decisions = next(iter(next(iter(shares.values())).values()))
+    if len(decisions) > 12:
+        return lines + [
+            f"The decision shares of the true prompts are in certificate.json ({len(decisions)} decisions)."
+        ]
+    head = "| context | " + ("order" if d.get("slots", 2) > 1 else "candidate") + " | " + " | ".join(decisions) + " |"
     lines += [head, "|" + "---|" * (head.count("|") - 1)]
-    for ctx, orders in d["baseline"]["shares"].items():
-        for order, s in orders.items():
-            lines.append(f"| {ctx} | {order} | " + " | ".join(_f(v, 3) for v in s.values()) + " |")
+    rows = [(ctx, order, s) for ctx, orders in shares.items() for order, s in orders.items()]
+    for ctx, order, s in rows[:_MAX_ROWS]:
+        lines.append(f"| {ctx} | {order} | " + " | ".join(_f(v, 3) for v in s.values()) + " |")
+    if len(rows) > _MAX_ROWS:
+        lines += ["", f"({len(rows) - _MAX_ROWS} more rows in certificate.json.)"]
     return lines
+
+
+_MAX_ROWS = 24
 
 
 def listed_order(task_name: str) -> str:
@@ -107,23 +123,45 @@ def listed_order(task_name: str) -> str:
 def _split_md(d: dict) -> list[str]:
     """The listed order's log ratio split into position and group, overall and per context."""
     sp = d["position_split"]
-    c1, c2 = d["candidates"]
+    c1, c2 = sp.get("pair") or d["candidates"]
     order = listed_order(d["experiment"])
-    lines = [
-        "",
-        "## Position or group",
-        "",
-        f"In the {order} ({c1} listed first) the log ratio of the two candidates' expected "
-        f"utility is {_f(sp['raw'])} nats. Showing both orders splits it exactly into a position part "
-        f"(first against second, same candidate) and a group part ({c1} against {c2}, same position); "
-        "L̄ above is the group part's kind, with position as a context.",
-        "",
-        f"| context | raw ({order}) | position | group |",
-        "|---|---|---|---|",
-    ]
-    for ctx, v in sp["per_context"].items():
-        lines.append(f"| {ctx} | {_f(v['raw'])} | {_f(v['position'])} | {_f(v['group'])} |")
-    lines.append(f"| all (mean utility) | {_f(sp['raw'])} | {_f(sp['position'])} | {_f(sp['group'])} |")
+    if len(d["candidates"]) == 2 and d.get("slots", 2) == 2:
+        lines = [
+            "",
+            "## Position or group",
+            "",
+            f"In the {order} ({c1} listed first) the log ratio of the two candidates' expected "
+            f"utility is {_f(sp['raw'])} nats. Showing both orders splits it exactly into a position part "
+            f"(first against second, same candidate) and a group part ({c1} against {c2}, same position); "
+            "L̄ above is the group part's kind, with position as a context.",
+            "",
+            f"| context | raw ({order}) | position | group |",
+            "|---|---|---|---|",
+        ]
+        for ctx, v in sp["per_context"].items():
+            lines.append(f"| {ctx} | {_f(v['raw'])} | {_f(v['position'])} | {_f(v['group'])} |")
+        lines.append(f"| all (mean utility) | {_f(sp['raw'])} | {_f(sp['position'])} | {_f(sp['group'])} |")
+    else:
+        lines = [
+            "",
+            "## Position or group",
+            "",
+            f"In the {order} ({c1} in the first slot, {c2} in the second) the log ratio of the two candidates' "
+            f"expected utility is {_f(sp['raw'])} nats. Showing all orders splits it exactly into a position "
+            f"part (first slot against second, averaged over the candidates), a group part ({c1} against {c2}, "
+            "averaged over the slots) and the interaction of the two (what neither average explains).",
+            "",
+            f"| context | raw ({order}) | position | group | interaction |",
+            "|---|---|---|---|---|",
+        ]
+        for ctx, v in sp["per_context"].items():
+            lines.append(
+                f"| {ctx} | {_f(v['raw'])} | {_f(v['position'])} | {_f(v['group'])} | {_f(v['interaction'])} |"
+            )
+        lines.append(
+            f"| all (mean utility) | {_f(sp['raw'])} | {_f(sp['position'])} | {_f(sp['group'])} | "
+            f"{_f(sp['interaction'])} |"
+        )
     ex = sp["explained"]
     if ex["position"] is not None:
         lines += [
@@ -136,14 +174,24 @@ def _split_md(d: dict) -> list[str]:
 
 def _curve_md(d: dict) -> list[str]:
     """The curve's figure and, per requested ε, the filter's privacy, the bounds and the observed values."""
+    if len(d["candidates"]) == 2 and d.get("slots", 2) == 2:
+        what = (
+            "the filter shows each attribute of both profiles through "
+            "randomized response, and a candidate's profile fixes its rival's, so both count."
+        )
+    else:
+        what = (
+            "the filter shows each attribute of every profile through randomized response; ε is that of "
+            "all a candidate's prompt shows about it (its own profile, and its rivals' when the population ties "
+            "them to it)."
+        )
     lines = [
         "",
         "## Fairness–privacy curve",
         "",
         "![curve](curve.png)",
         "",
-        "ε is the candidate's privacy budget (nats): the filter shows each attribute of both profiles through "
-        "randomized response, and a candidate's profile fixes its rival's, so both count.",
+        "ε is the candidate's privacy budget (nats): " + what,
         "",
         "| ε candidate | ε per profile | keep p per attribute | certified L ≤ (black-box) | corollary | observed L | "
         "observed L̄ | black-box L̄ |",

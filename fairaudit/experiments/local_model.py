@@ -35,6 +35,7 @@ import contextlib
 import dataclasses
 import hashlib
 import importlib.util
+import itertools
 import json
 import os
 import shutil
@@ -634,25 +635,23 @@ def exact_kernel(
     m = model if model is not None else load("smollm2")
     t = exact_prompt(task)[0]
     tok = m.tokenizer
-    k = len(task.profiles)
+    n = len(task.profiles)
     if cells is None:
-        cells = [(c, p1, p2) for c in task.contexts for p1 in task.profiles for p2 in task.profiles]
+        cells = [(c, *shown) for c in task.contexts for shown in itertools.product(task.profiles, repeat=task.slots)]
     ids = [
         list(
             tok.apply_chat_template(
-                chat_messages(t, c, (p1, p2)), add_generation_prompt=True, tokenize=True, return_dict=False
+                chat_messages(t, cell[0], tuple(cell[1:])), add_generation_prompt=True, tokenize=True, return_dict=False
             )
         )
-        for c, p1, p2 in cells
+        for cell in cells
     ]
     onehot: FloatArray | None = None  # (vocabulary, decisions): the decision each token reads as
     where = tuple(
         np.array(i)
-        for i in zip(
-            *((task.contexts.index(c), task.profiles.index(p1), task.profiles.index(p2)) for c, p1, p2 in cells)
-        )
-    )  # the cells' (context, profile 1, profile 2) indices, one array each
-    out = np.zeros((len(task.contexts), k, k, len(task.decisions)))
+        for i in zip(*((task.contexts.index(cell[0]), *(task.profiles.index(p) for p in cell[1:])) for cell in cells))
+    )  # the cells' (context, profile in slot 1, ..., slot k) indices, one array each
+    out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
     prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
     pad = tok.pad_token_id if tok.pad_token_id is not None else 0
@@ -679,7 +678,7 @@ def exact_kernel(
                 onehot = np.eye(len(task.decisions))[token_decisions(task, tok, probs.shape[-1])]
             shares = probs @ onehot  # (cells of the batch, decisions)
             rows = slice(start, start + len(chunk))
-            out[where[0][rows], where[1][rows], where[2][rows]] = shares / shares.sum(axis=1, keepdims=True)
+            out[tuple(w[rows] for w in where)] = shares / shares.sum(axis=1, keepdims=True)
             bar.update(len(chunk))
     bar.close()
     return out
@@ -704,9 +703,10 @@ def exact_law(task: DeliveryTask, probabilities: npt.ArrayLike) -> Kernel:
     from ..laws import Kernel
 
     p = np.asarray(probabilities, dtype=float)
-    k = len(task.profiles)
-    groups = [(p1, p2) for p1 in task.profiles for p2 in task.profiles]
-    return Kernel(p.reshape(len(task.contexts), k * k, -1), task.contexts, groups, task.decisions, name="exact kernel")
+    groups = list(itertools.product(task.profiles, repeat=task.slots))
+    return Kernel(
+        p.reshape(len(task.contexts), len(groups), -1), task.contexts, groups, task.decisions, name="exact kernel"
+    )
 
 
 class ServedModel(EndpointModel):

@@ -174,7 +174,8 @@ class RunOptions:
     scene : str, optional
         An S3DIS area folder for the route images; default a generated office floor.
     images : bool
-        Make the route images and send them with every query.
+        Make the route images and send them with every query (the paper's
+        tasks; a task file only with ``scene``).
 
     Raises
     ------

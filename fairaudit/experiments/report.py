@@ -33,6 +33,8 @@ import numpy as np
 from .._io import write_atomic
 from .._json import Report, number
 from ._markdown import experiment_markdown, listed_order
+from .harness import paper_queries_needed, table_queries_needed
+from .slots import slot_names, true_prompts
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -98,12 +100,11 @@ def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
     column, values = _value_column(kernel)
     n_ctx, n_pairs, n_dec = values.shape
     x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_pairs), np.arange(n_dec), indexing="ij"))
-    labels = [(task.profile_label(p1), task.profile_label(p2)) for p1, p2 in kernel.groups]
+    labels = np.asarray([[task.profile_label(p) for p in cell] for cell in kernel.groups], dtype=object)
     return pd.DataFrame(
         {
             task.context_name: np.asarray(kernel.contexts, dtype=object)[x],
-            task.options[0]: [labels[i][0] for i in g],
-            task.options[1]: [labels[i][1] for i in g],
+            **{slot: labels[g, i] for i, slot in enumerate(slot_names(task))},
             "decision": np.asarray(kernel.decisions, dtype=object)[d],
             column: values.ravel().astype(int) if column == "count" else values.ravel(),
         }
@@ -172,7 +173,7 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
         "",
     ]
     if ctx.epsilon != float("inf"):
-        m = np.kron(ctx.matrix, np.eye(len(t.options)))
+        m = np.kron(ctx.matrix, np.eye(t.slots))
         lines += [
             "[privacy.context]",
             'mechanism = "matrix"',
@@ -198,9 +199,11 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     """Per-candidate records of the table design, one row per query and candidate, for ``fairaudit audit``.
 
     Columns: the context name, ``position`` (the option), ``profile`` (the
-    candidate's shown profile), ``rival`` (the other's) and ``outcome``; the
-    profiles are the ones shown to the model, so an audit of this file is the
-    model's own fairness without a filter, against a rival drawn uniformly.
+    candidate's shown profile), ``rival`` (the other's; ``rivals`` for k ≥ 3,
+    from the next slot on, joined by ``" | "``) and ``outcome``; one candidate
+    per prompt has no ``position`` nor rival. The profiles are the ones shown
+    to the model, so an audit of this file is the model's own fairness
+    without a filter, against rivals drawn uniformly.
     """
     import pandas as pd
 
@@ -210,15 +213,26 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     x, g, d = np.nonzero(counts)
     reps = counts[x, g, d]
     x, g, d = np.repeat(x, reps), np.repeat(g, reps), np.repeat(d, reps)
+    outcome = np.asarray(k.decisions, dtype=object)[d]
+    if t.slots == 1:
+        return pd.DataFrame(
+            {
+                t.context_name: np.asarray(k.contexts, dtype=object)[x],
+                "profile": np.asarray(k.groups)[g],
+                "outcome": outcome,
+            }
+        )
     ctx = np.asarray([c.rsplit(" @ ", 1) for c in k.contexts], dtype=object)
-    shown = np.asarray([s.split(" | ") for s in k.groups], dtype=object)
+    shown = [s.split(" | ", 1) for s in k.groups]
+    own = np.asarray([v[0] for v in shown], dtype=object)
+    rest = np.asarray([v[1] for v in shown], dtype=object)
     return pd.DataFrame(
         {
             t.context_name: ctx[x, 0],
             "position": ctx[x, 1],
-            "profile": shown[g, 0],
-            "rival": shown[g, 1],
-            "outcome": np.asarray(k.decisions, dtype=object)[d],
+            "profile": own[g],
+            "rival" if t.slots == 2 else "rivals": rest[g],
+            "outcome": outcome,
         }
     )
 
@@ -274,13 +288,12 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     nats; +inf is ``"inf"``; NaN is ``null``.
     """
     a, t = analysis, analysis.task
-    shares = {}
-    c1, c2 = (t.profile_label(c) for c in t.candidates)
-    for i, ctx in enumerate(t.contexts):
-        shares[ctx] = {
-            f"{t.options[0]} = {c1}, {t.options[1]} = {c2}": dict(zip(t.decisions, map(number, a.shares[i, 0]))),
-            f"{t.options[0]} = {c2}, {t.options[1]} = {c1}": dict(zip(t.decisions, map(number, a.shares[i, 1]))),
-        }
+    prompts, _ = true_prompts(t, "balanced")
+    names = [", ".join(f"{o} = {t.profile_label(t.profiles[i])}" for o, i in zip(slot_names(t), p)) for p in prompts]
+    shares = {
+        ctx: {name: dict(zip(t.decisions, map(number, a.shares[i, j]))) for j, name in enumerate(names)}
+        for i, ctx in enumerate(t.contexts)
+    }
     curve = a.curve
     split = a.split
     out = {
@@ -289,15 +302,16 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
         "route": a.route,
         "positions": a.positions,
         "samples": a.samples,
-        "candidates": [c1, c2],
+        "slots": t.slots,
+        "candidates": [t.profile_label(c) for c in t.candidates],
         "context": t.context_name,
         "queries": {
             "table": a.table_queries,
             "paper": a.paper_queries,
             "unparsed": a.unparsed,
             "unparsed_share": number(a.unparsed_share),
-            "table_design_needs": len(t.contexts) * len(t.profiles) ** 2 * a.samples,
-            "paper_design_needs_per_epsilon": len(t.contexts) * (2 if a.positions == "balanced" else 1) * a.samples,
+            "table_design_needs": table_queries_needed(t, a.samples),
+            "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
         "utility": {"name": t.utility_name, "values": dict(zip(t.outcomes, map(number, t.utility_values)))},
         "tau": number(a.tau),
@@ -361,13 +375,15 @@ def _budget(c: Calibration) -> Report:
 def _split_dict(split: PositionSplit) -> Report:
     position, group = split.explained()
     return {
+        "pair": list(split.pair),
         "raw": number(split.overall_raw),
         "position": number(split.overall_position),
         "group": number(split.overall_group),
+        "interaction": number(split.overall_interaction),
         "explained": {"position": number(position), "group": number(group)},
         "per_context": {
-            c: {"raw": number(r), "position": number(q), "group": number(g)}
-            for c, r, q, g in zip(split.contexts, split.raw, split.position, split.group)
+            c: {"raw": number(r), "position": number(q), "group": number(g), "interaction": number(i)}
+            for c, r, q, g, i in zip(split.contexts, split.raw, split.position, split.group, split.interaction)
         },
     }
 
@@ -405,6 +421,8 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
 
     figure_class = load_matplotlib()
     t = analysis.task
+    if not _one_pair(t):
+        return _outcome_figure(analysis, figure_class)
     c1, c2 = (t.profile_label(c) for c in t.candidates)
     fig = figure_class(figsize=(9.0, 3.8), layout="constrained")
     ax = fig.add_subplot()
@@ -438,6 +456,59 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
         ax.legend(handles=who, title=f"who is {verb}", loc="upper left", bbox_to_anchor=(1.02, 1.0), **common)
     )
     ax.legend(handles=orders, title="order (bars)", loc="lower left", bbox_to_anchor=(1.02, 0.0), **common)
+    return fig
+
+
+def _one_pair(t: DeliveryTask) -> bool:
+    """Two candidates per prompt and one pair of them: the paper's design, drawn by order."""
+    return t.slots == 2 and len(t.candidates) == 2
+
+
+def _outcome_figure(analysis: ExperimentAnalysis, figure_class: Any) -> Figure:
+    """Baseline of any design: per context, a stacked bar per candidate of its own outcomes without a filter.
+
+    P(outcome | context, candidate), over the slots it takes and the rivals
+    the population gives it (the baseline law, weighted by the population).
+    """
+    t = analysis.task
+    law = analysis.baseline.law.probabilities  # [(x, slot), group, outcome]
+    pop = analysis.population.probabilities  # [(x, slot), group]
+    n_x, k, n_g = len(t.contexts), t.slots, len(t.candidates)
+    w = pop.reshape(n_x, k, n_g)
+    with np.errstate(invalid="ignore"):
+        shares = np.einsum("xkgo,xkg->xgo", law.reshape(n_x, k, n_g, -1), w) / w.sum(1)[..., None]
+    fig = figure_class(figsize=(9.0, 3.8), layout="constrained")
+    ax = fig.add_subplot()
+    width = 0.8 / n_g
+    from matplotlib import colormaps
+    from matplotlib.patches import Patch
+
+    n_o = len(t.outcomes)
+    colors = [colormaps["viridis"](i / max(n_o - 2, 1)) for i in range(n_o - 1)] + ["0.7"]
+    hatches = ["", "//", "\\\\", "..", "xx", "oo", "--", "++"]
+    for j in range(n_g):
+        xs = np.arange(n_x) - 0.4 + width * (j + 0.5)
+        bottoms = np.zeros(n_x)
+        for o in range(n_o):
+            ax.bar(xs, shares[:, j, o], width * 0.92, bottom=bottoms, color=colors[o], edgecolor="white",
+                   hatch=hatches[j % len(hatches)])  # fmt: skip
+            bottoms += np.nan_to_num(shares[:, j, o])
+    ax.set_xticks(np.arange(n_x), list(t.contexts), fontsize=8)
+    ax.set_xlabel(t.context_name)
+    measure = "share of queries" if analysis.kernel.counts is not None else "probability"
+    ax.set_ylabel(f"{measure} of each outcome")
+    ax.set_ylim(0, 1.0)
+    ax.set_title(f"{t.name}, {analysis.model}: no privacy filter", fontsize=10)
+    common: dict[str, Any] = dict(fontsize=8, title_fontsize=8, alignment="left", borderaxespad=0.0)
+    common |= dict(handlelength=2.6, handleheight=1.6)
+    outcomes = [Patch(facecolor=c, edgecolor="white", label=o) for c, o in zip(colors, t.outcomes)]
+    who = [
+        Patch(facecolor="0.55", edgecolor="white", hatch=hatches[j % len(hatches)], label=t.profile_label(c))
+        for j, c in enumerate(t.candidates)
+    ]
+    ax.add_artist(ax.legend(handles=outcomes, title="outcome", loc="upper left", bbox_to_anchor=(1.02, 1.0), **common))
+    ax.legend(handles=who, title="candidate (bars, left to right)", loc="lower left", bbox_to_anchor=(1.02, 0.0),
+              **common)  # fmt: skip
     return fig
 
 
@@ -481,14 +552,18 @@ def _curve_figure(analysis: ExperimentAnalysis) -> Figure:
     else:
         ax = fig.add_subplot()
     top = _curve_top(analysis)
-    keep = _keep_axis(analysis.task)
+    keep = _keep_axis(analysis.task, analysis.positions)
     title = f"{analysis.task.name}: {analysis.model} (positions {analysis.positions})"
     plot_curve(analysis.curve, ax=ax, title=title, secondary_axis=keep, ymax=top)
     _draw_bands(analysis, ax, top)
     notes = _draw_design_points(analysis, ax)
     for note in notes:  # a legend entry without a mark: what could not be drawn
         ax.plot([], [], ls="none", label=note)[0].set_in_layout(False)
-    ax.set_xlabel("privacy budget ε of a candidate (nats; both profiles shown)")
+    ax.set_xlabel(
+        "privacy budget ε of a candidate (nats; both profiles shown)"
+        if _one_pair(analysis.task)
+        else "privacy budget ε of a candidate (nats; all its prompt shows)"
+    )
     ax.set_ylabel("local L and global L̄ (nats)")
     ax.get_legend().remove()
     handles, labels = ax.get_legend_handles_labels()
@@ -499,20 +574,26 @@ def _curve_figure(analysis: ExperimentAnalysis) -> Figure:
     return fig
 
 
-def _keep_axis(task: DeliveryTask) -> tuple[str, Callable[[Any], Any], Callable[[Any], Any]]:
+def _keep_axis(
+    task: DeliveryTask, positions: str = "balanced"
+) -> tuple[str, Callable[[Any], Any], Callable[[Any], Any]]:
     """The top axis of the curve: (label, ε ↦ keep p of each attribute, p ↦ ε), vectorised.
 
-    The filter at the candidate's ε is randomized response at ε / (2 n) on
-    each of the 2 n attributes shown (both profiles), so with k values per
-    attribute p = 1 / (1 + (k − 1) e^{−ε/(2n)}) and ε = 2 n ln(p (k − 1) / (1 − p))
-    (:func:`fairaudit.experiments.analysis.epsilon_from_keep`). When the
-    attributes have different numbers of values their keep probabilities
-    differ at one ε: the axis is then the ε of each attribute, ε / (2 n).
+    The filter at the candidate's ε is randomized response at ε_P / n on each
+    of the n attributes of every profile, ε_P the profile's budget
+    (:func:`fairaudit.experiments.vlm.filter.profile_budget`). When ε = c ε_P
+    for a constant c (2 for the paper's pair, whose profiles both count), each
+    attribute is at ε / d with d = c n, so with k values per attribute
+    p = 1 / (1 + (k − 1) e^{−ε/d}) and ε = d ln(p (k − 1) / (1 − p))
+    (:func:`fairaudit.experiments.analysis.epsilon_from_keep`); otherwise the
+    maps go through ε_P numerically. When the attributes have different
+    numbers of values their keep probabilities differ at one ε: the axis is
+    then the ε of each attribute.
 
     Parameters
     ----------
     task : DeliveryTask
-        Only its ``attributes`` (each with its ``values``) are read.
+    positions : {"balanced", "latin", "fixed"}
 
     Returns
     -------
@@ -522,35 +603,60 @@ def _keep_axis(task: DeliveryTask) -> tuple[str, Callable[[Any], Any], Callable[
 
     Examples
     --------
-    hr-delivery's three binary attributes (name, age, race):
+    hr-delivery's three binary attributes (name, age, race), in both profiles:
 
-    >>> from types import SimpleNamespace
-    >>> hr = SimpleNamespace(attributes=[SimpleNamespace(values=(0, 1))] * 3)
-    >>> label, forward, inverse = _keep_axis(hr)
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> label, forward, inverse = _keep_axis(HR_DELIVERY)
     >>> label
     'keep probability p of each attribute (6 shown, ε / 6 nats each)'
     >>> round(float(inverse(0.7)), 6), round(float(forward(inverse(0.7))), 12)    # 6 ln(7/3)
     (5.083787, 0.7)
     """
-    shown = 2 * len(task.attributes)
+    from .slots import epsilon_factor
+    from .vlm.filter import profile_budget
+
+    n = len(task.attributes)
+    factor = epsilon_factor(task, positions)
+    shown = task.slots * n
+    if factor is not None:
+        d = float(factor) * n
+        scale: tuple[Callable[[Any], Any], Callable[[Any], Any]] = (
+            lambda e: np.asarray(e, dtype=float) / d,
+            lambda a: np.asarray(a, dtype=float) * d,
+        )
+        each = f"{shown} shown, ε / {shown} nats each" if d == shown else f"ε / {d:g} nats each"
+    else:
+        budget = np.vectorize(profile_budget(task, positions), otypes=[float])
+
+        def attribute_to_candidate(a: Any) -> Any:
+            return np.vectorize(lambda x: _candidate_at(task, positions, x * n), otypes=[float])(a)
+
+        scale = (lambda e: budget(np.asarray(e, dtype=float)) / n, attribute_to_candidate)
+        each = "ε_P / n nats each"
     ks = {len(a.values) for a in task.attributes}
     if len(ks) != 1 or min(ks) < 2:
-        return (
-            f"ε of each attribute (nats; ε / {shown}: the keep probabilities differ by attribute)",
-            lambda e: np.asarray(e, dtype=float) / shown,
-            lambda a: np.asarray(a, dtype=float) * shown,
-        )
+        return f"ε of each attribute (nats; {each}: the keep probabilities differ by attribute)", *scale
     k = ks.pop()
+    to_attr, from_attr = scale
 
     def forward(e: Any) -> Any:
         with np.errstate(over="ignore"):
-            return 1.0 / (1.0 + (k - 1) * np.exp(-np.asarray(e, dtype=float) / shown))
+            return 1.0 / (1.0 + (k - 1) * np.exp(-to_attr(e)))
 
     def inverse(p: Any) -> Any:
         q = np.clip(np.asarray(p, dtype=float), np.finfo(float).tiny, np.nextafter(1.0, 0.0))
-        return shown * np.log(q * (k - 1) / (1.0 - q))
+        return from_attr(np.log(q * (k - 1) / (1.0 - q)))
 
-    return f"keep probability p of each attribute ({shown} shown, ε / {shown} nats each)", forward, inverse
+    return f"keep probability p of each attribute ({each})", forward, inverse
+
+
+def _candidate_at(task: DeliveryTask, positions: str, profile_epsilon: float) -> float:
+    """The candidate's ε when each profile is at ``profile_epsilon`` (nats)."""
+    from .vlm.filter import PrivacyFilter
+
+    if not np.isfinite(profile_epsilon):
+        return float(profile_epsilon)
+    return PrivacyFilter.from_epsilon(task, max(profile_epsilon, 0.0)).candidate_mechanism(positions).epsilon
 
 
 def _curve_top(analysis: ExperimentAnalysis) -> float:
@@ -654,7 +760,7 @@ def _zoom_observed(analysis: ExperimentAnalysis, ax: Axes) -> None:
             break
     ax.set_ylim(bottom=0)
     ax.set_xlim(c.epsilon.min(), c.epsilon.max())
-    label, forward, inverse = _keep_axis(analysis.task)
+    label, forward, inverse = _keep_axis(analysis.task, analysis.positions)
     top_axis = ax.secondary_xaxis("top", functions=(forward, inverse))
     top_axis.set_xlabel(label.split(" (")[0], fontsize=8)
     top_axis.xaxis.set_major_locator(MaxNLocator(5, steps=[1, 2, 5, 10]))

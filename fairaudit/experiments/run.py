@@ -37,7 +37,7 @@ from .._errors import InputError
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .options import DEFAULT_KEEPS, PLAIN_SAMPLING, ModelSource, RunOptions, exact_route
-from .taskfile import get_task
+from .taskfile import get_task, is_built_in
 from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_model, simulated_models
 from .vlm.tasks import DeliveryTask
 
@@ -310,7 +310,14 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     if source.exact and options.samples is not None:
         raise InputError("samples", "give `samples` or `exact`, not both")
     exact = exact_route(source.exact, source.local_model, options.samples)
-    images = options.images
+    if (exact or source.first_token) and task.kind == "order" and task.slots > 2:
+        raise InputError(
+            "exact" if exact else "first_token",
+            f"a ranking of {task.slots} candidates needs the whole order, not the first token (run with `samples` N; "
+            "not supported yet)",
+        )
+    # route images belong to the paper's navigation tasks; a task file gets them only with a scene asked for
+    images = options.images and (is_built_in(task) or options.scene is not None)
     m: DecisionModel | None = None
     client: ChatClient | None = None
     if source.local_model is not None:
@@ -554,7 +561,7 @@ def endpoint_kernel(
 
     Returns
     -------
-    probabilities : numpy.ndarray, shape (n_contexts, n_profiles, n_profiles, n_decisions), or None
+    probabilities : numpy.ndarray, shape (n_contexts, n_profiles, ..., n_profiles, n_decisions), or None
         :func:`fairaudit.experiments.vlm.logprobs.decision_probabilities` of every cell, in the layout of
         :func:`fairaudit.experiments.local_model.exact_kernel`; None when a request failed after its retries (the
         rest are then cancelled).
@@ -576,13 +583,13 @@ def endpoint_kernel(
     from .vlm.logprobs import decision_probabilities
 
     shown, answers = lm.exact_prompt(task)
-    k = len(task.profiles)
-    cells = list(itertools.product(range(len(task.contexts)), range(k), range(k)))
-    out = np.zeros((len(task.contexts), k, k, len(task.decisions)))
+    n = len(task.profiles)
+    cells = list(itertools.product(range(len(task.contexts)), *([range(n)] * task.slots)))
+    out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
 
-    def ask(cell: tuple[int, int, int]) -> FloatArray:
-        c, i, j = cell
-        reply = client.complete(lm.chat_messages(shown, task.contexts[c], (task.profiles[i], task.profiles[j])))
+    def ask(cell: tuple[int, ...]) -> FloatArray:
+        c, *slots = cell
+        reply = client.complete(lm.chat_messages(shown, task.contexts[c], tuple(task.profiles[i] for i in slots)))
         if reply.top_logprobs is None:
             raise InputError(
                 "endpoint",
@@ -612,8 +619,8 @@ def endpoint_kernel(
 
 
 def _ask_cells(
-    cells: list[tuple[int, int, int]], ask: Callable[[tuple[int, int, int]], FloatArray], workers: int, bar: Bar
-) -> tuple[dict[tuple[int, int, int], FloatArray], str | None]:
+    cells: list[tuple[int, ...]], ask: Callable[[tuple[int, ...]], FloatArray], workers: int, bar: Bar
+) -> tuple[dict[tuple[int, ...], FloatArray], str | None]:
     """``ask`` every cell on ``workers`` threads: the answers, and the first request that failed after retries.
 
     The first failure (a :class:`~fairaudit.experiments.vlm.client.ChatError`) cancels the cells not yet asked;
@@ -624,7 +631,7 @@ def _ask_cells(
 
     from .vlm.client import ChatError
 
-    answered: dict[tuple[int, int, int], FloatArray] = {}
+    answered: dict[tuple[int, ...], FloatArray] = {}
     pool = ThreadPoolExecutor(max_workers=workers)
     try:
         futures = {pool.submit(ask, cell): cell for cell in cells}

@@ -24,6 +24,7 @@ row-major over the k slots (slot 1 the slowest axis); true prompts are
 
 from __future__ import annotations
 
+import functools
 import itertools
 from fractions import Fraction
 
@@ -41,6 +42,7 @@ __all__ = [
     "candidate_epsilon",
     "candidate_kernel",
     "candidate_mechanism",
+    "candidate_mechanism_epsilon",
     "candidate_population",
     "check_size",
     "epsilon_factor",
@@ -147,8 +149,9 @@ def view_label(task: DeliveryTask, shown: tuple) -> str:
     return " | ".join(task.profile_label(p) for p in shown)
 
 
-def _views(task: DeliveryTask) -> list[str]:
-    return [view_label(task, s) for s in itertools.product(task.profiles, repeat=task.slots)]
+@functools.lru_cache(maxsize=16)
+def _views(task: DeliveryTask) -> tuple[str, ...]:
+    return tuple(view_label(task, s) for s in itertools.product(task.profiles, repeat=task.slots))
 
 
 def slot_names(task: DeliveryTask) -> tuple:
@@ -232,8 +235,9 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
     return Kernel(out, *args, name="per-candidate kernel")
 
 
+@functools.lru_cache(maxsize=32)
 def _slot_group(task: DeliveryTask, positions: str) -> tuple[IntArray, FloatArray, FloatArray, list[int]]:
-    """(prompts, weights, P(slot i, group), group profile indices) with P of shape (k, n_groups)."""
+    """(prompts, weights, P(slot i, group), group profile indices) with P of shape (k, n_groups); cached per task."""
     prompts, w = true_prompts(task, positions)
     index = {p: i for i, p in enumerate(task.profiles)}
     groups = [index[tuple(c)] for c in task.candidates]
@@ -266,6 +270,43 @@ def candidate_population(task: DeliveryTask, positions: str = "balanced") -> Pop
     n = len(task.contexts)
     table = np.tile(p / (n * task.slots), (n, 1))
     return Population(table, candidate_contexts(task), [task.profile_label(c) for c in task.candidates])
+
+
+def _candidate_rows(task: DeliveryTask, m: FloatArray, positions: str) -> FloatArray:
+    """The rows of :func:`candidate_mechanism` from M_P's matrix ``m``, shape (n_groups, n_profiles^k)."""
+    k, n_p = task.slots, len(task.profiles)
+    prompts, w, p, groups = _slot_group(task, positions)
+    rows = np.full((len(groups), n_p**k), np.nan)
+    for i in range(k):
+        rotated = prompts[:, _rotation(k, i)]
+        joint = np.zeros((n_p,) * k)  # P(t_i, t_{i+1}, ..., t_{i-1}) as a dense tensor
+        np.add.at(joint, tuple(rotated.T), w)
+        for j in range(1, k):  # the rivals' profiles through M_P, axis by axis
+            joint = np.moveaxis(np.tensordot(joint, m, axes=([j], [0])), -1, j)
+        rest = joint.reshape(n_p, -1)[groups]  # [group, rivals shown]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slot_rows = (m[groups][:, :, None] * rest[:, None, :]).reshape(len(groups), -1) / p[i][:, None]
+        for r in np.flatnonzero(p[i] > 0):
+            if np.isnan(rows[r, 0]):
+                rows[r] = slot_rows[r]
+            elif not np.allclose(rows[r], slot_rows[r], rtol=1e-9, atol=1e-15):
+                raise InputError(
+                    "task.positions",
+                    f"with these combinations what is shown about {task.profile_label(task.profiles[groups[r]])!r} "
+                    "depends on its slot (use positions = 'balanced'; not supported yet)",
+                    positions,
+                )
+    return rows
+
+
+def candidate_mechanism_epsilon(task: DeliveryTask, profile_matrix: FloatArray, positions: str = "balanced") -> float:
+    """ε(M_cand) from M_P's matrix, nats, without building the labelled mechanism (the family's root finding)."""
+    rows = _candidate_rows(task, np.asarray(profile_matrix, dtype=float), positions)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ln = np.log(rows)
+        spread = ln.max(axis=0) - ln.min(axis=0)
+    spread = spread[np.isfinite(ln.max(axis=0))]  # columns no candidate reaches carry no evidence
+    return float(spread.max()) if spread.size else 0.0
 
 
 def candidate_mechanism(task: DeliveryTask, profile: Mechanism, positions: str = "balanced") -> Mechanism:
@@ -302,29 +343,8 @@ def candidate_mechanism(task: DeliveryTask, profile: Mechanism, positions: str =
     ((2, 64), 2.0)
     """
     check_size(task)
-    k, n_p = task.slots, len(task.profiles)
-    prompts, w, p, groups = _slot_group(task, positions)
-    m = np.asarray(profile.matrix, dtype=float)
-    rows = np.full((len(groups), n_p**k), np.nan)
-    for i in range(k):
-        rotated = prompts[:, _rotation(k, i)]
-        joint = np.zeros((n_p,) * k)  # P(t_i, t_{i+1}, ..., t_{i-1}) as a dense tensor
-        np.add.at(joint, tuple(rotated.T), w)
-        for j in range(1, k):  # the rivals' profiles through M_P, axis by axis
-            joint = np.moveaxis(np.tensordot(joint, m, axes=([j], [0])), -1, j)
-        rest = joint.reshape(n_p, -1)[groups]  # [group, rivals shown]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            slot_rows = (m[groups][:, :, None] * rest[:, None, :]).reshape(len(groups), -1) / p[i][:, None]
-        for r in np.flatnonzero(p[i] > 0):
-            if np.isnan(rows[r, 0]):
-                rows[r] = slot_rows[r]
-            elif not np.allclose(rows[r], slot_rows[r], rtol=1e-9, atol=1e-15):
-                raise InputError(
-                    "task.positions",
-                    f"with these combinations what is shown about {task.profile_label(task.profiles[groups[r]])!r} "
-                    "depends on its slot (use positions = 'balanced'; not supported yet)",
-                    positions,
-                )
+    rows = _candidate_rows(task, np.asarray(profile.matrix, dtype=float), positions)
+    groups = _slot_group(task, positions)[3]
     return Mechanism(
         rows,
         [task.profile_label(task.profiles[g]) for g in groups],

@@ -45,6 +45,7 @@ __all__ = [
     "TASKS",
     "TaskFile",
     "get_task",
+    "is_built_in",
     "load_task",
     "parse_task",
 ]
@@ -425,6 +426,11 @@ PACKAGE_DELIVERY = load_task("package-delivery")
 
 TASKS = {t.name: t for t in (HR_DELIVERY, PACKAGE_DELIVERY)}
 """The built-in tasks by name."""
+
+
+def is_built_in(task: DeliveryTask) -> bool:
+    """True for the paper's tasks as shipped (same name and same text), whose prompts speak of route images."""
+    return task.name in TASKS and task.digest == TASKS[task.name].digest
 
 
 def get_task(name: str | Path) -> DeliveryTask:

@@ -25,6 +25,7 @@ The correct privacy budgets (docs/design.md, the paper's errors 1 and 2):
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -233,19 +234,21 @@ def profile_budget(task: DeliveryTask, positions: str = "balanced") -> Callable[
     >>> profile_budget(HR_DELIVERY)(3.0)
     1.5
     """
-    from ..slots import epsilon_factor
+    from ..slots import candidate_mechanism_epsilon, epsilon_factor
 
     factor = epsilon_factor(task, positions)
     if factor is not None:
         c = float(factor)
         return lambda eps: eps / c if c > 0 else math.inf
 
+    @functools.lru_cache(maxsize=4096)
     def solve(eps: float) -> float:
         if eps == 0 or math.isinf(eps):
             return eps
 
         def gap(e: float) -> float:
-            return PrivacyFilter.from_epsilon(task, e).candidate_mechanism(positions).epsilon - eps
+            m_p = PrivacyFilter.from_epsilon(task, e).profile_mechanism.matrix
+            return candidate_mechanism_epsilon(task, m_p, positions) - eps
 
         hi = eps
         while gap(hi) < 0:

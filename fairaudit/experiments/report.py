@@ -450,13 +450,17 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
         Patch(facecolor="0.55", edgecolor="white", hatch=hatches[j], label=f"{name}\n{t.options[0]} = {first}")
         for j, (name, first) in enumerate(((f"{listed_order(t.name)} (plain)", c1), ("swapped (hatched)", c2)))
     ]
-    common: dict[str, Any] = dict(fontsize=8, title_fontsize=8, alignment="left", borderaxespad=0.0)
-    common |= dict(handlelength=2.6, handleheight=1.6)  # patches large enough to show the hatching
-    ax.add_artist(
-        ax.legend(handles=who, title=f"who is {verb}", loc="upper left", bbox_to_anchor=(1.02, 1.0), **common)
-    )
-    ax.legend(handles=orders, title="order (bars)", loc="lower left", bbox_to_anchor=(1.02, 0.0), **common)
+    _side_legends(ax, (who, f"who is {verb}"), (orders, "order (bars)"))
     return fig
+
+
+def _side_legends(ax: Axes, upper: tuple[list, str], lower: tuple[list, str]) -> None:
+    """Two legends (handles, title) right of the axes, top and bottom, so they hide no bar; patches large enough
+    to show the hatching."""
+    common: dict[str, Any] = dict(fontsize=8, title_fontsize=8, alignment="left", borderaxespad=0.0)
+    common |= dict(handlelength=2.6, handleheight=1.6)
+    ax.add_artist(ax.legend(handles=upper[0], title=upper[1], loc="upper left", bbox_to_anchor=(1.02, 1.0), **common))
+    ax.legend(handles=lower[0], title=lower[1], loc="lower left", bbox_to_anchor=(1.02, 0.0), **common)
 
 
 def _one_pair(t: DeliveryTask) -> bool:
@@ -499,16 +503,12 @@ def _outcome_figure(analysis: ExperimentAnalysis, figure_class: Any) -> Figure:
     ax.set_ylabel(f"{measure} of each outcome")
     ax.set_ylim(0, 1.0)
     ax.set_title(f"{t.name}, {analysis.model}: no privacy filter", fontsize=10)
-    common: dict[str, Any] = dict(fontsize=8, title_fontsize=8, alignment="left", borderaxespad=0.0)
-    common |= dict(handlelength=2.6, handleheight=1.6)
     outcomes = [Patch(facecolor=c, edgecolor="white", label=o) for c, o in zip(colors, t.outcomes)]
     who = [
         Patch(facecolor="0.55", edgecolor="white", hatch=hatches[j % len(hatches)], label=t.profile_label(c))
         for j, c in enumerate(t.candidates)
     ]
-    ax.add_artist(ax.legend(handles=outcomes, title="outcome", loc="upper left", bbox_to_anchor=(1.02, 1.0), **common))
-    ax.legend(handles=who, title="candidate (bars, left to right)", loc="lower left", bbox_to_anchor=(1.02, 0.0),
-              **common)  # fmt: skip
+    _side_legends(ax, (outcomes, "outcome"), (who, "candidate (bars, left to right)"))
     return fig
 
 

@@ -300,7 +300,26 @@ def _candidate_rows(task: DeliveryTask, m: FloatArray, positions: str) -> FloatA
 
 
 def candidate_mechanism_epsilon(task: DeliveryTask, profile_matrix: FloatArray, positions: str = "balanced") -> float:
-    """ε(M_cand) from M_P's matrix, nats, without building the labelled mechanism (the family's root finding)."""
+    """ε(M_cand) from M_P's matrix, nats, without building the labelled mechanism (the family's root finding).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    profile_matrix : array_like, shape (n_profiles, n_profiles)
+        M_P, rows the true profile, columns the shown one.
+    positions : {"balanced", "latin", "fixed"}
+
+    Returns
+    -------
+    float
+        max over shown views of the spread of ln M_cand between candidates (pure ε, docs/design.md), the
+        value :attr:`fairaudit.privacy.Mechanism.epsilon` gives for :func:`candidate_mechanism`.
+
+    Raises
+    ------
+    InputError
+        As :func:`candidate_mechanism` (a view that depends on the slot).
+    """
     rows = _candidate_rows(task, np.asarray(profile_matrix, dtype=float), positions)
     with np.errstate(divide="ignore", invalid="ignore"):
         ln = np.log(rows)

@@ -37,19 +37,7 @@ from ..._validation import real
 from ...privacy import Mechanism, MechanismFamily, identity, keep_probability, product, randomized_response
 from .tasks import DeliveryTask
 
-__all__ = ["PrivacyFilter", "candidate_family", "profile_budget", "released_pair_label"]
-
-
-def released_pair_label(task: DeliveryTask, own: tuple, rival: tuple) -> str:
-    """Label of what the model sees about a candidate: its released profile, then its rival's.
-
-    Examples
-    --------
-    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
-    >>> released_pair_label(HR_DELIVERY, ("Tom", 25, "Asian"), ("Mary", 55, "American"))
-    'Tom & 25 & Asian | Mary & 55 & American'
-    """
-    return f"{task.profile_label(own)} | {task.profile_label(rival)}"
+__all__ = ["PrivacyFilter", "candidate_family", "profile_budget"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -64,9 +64,11 @@ class ChatServer:
         required_key: str | None = None,
         model: str | None = None,
         logprobs: Callable[[dict], list[tuple[str, float]]] | None = None,
+        props: dict | None = None,
     ) -> None:
         self.responder = responder or (lambda body: DEFAULT_REPLY)
         self.logprobs = logprobs
+        self.props = props  # llama-server's GET /props, when given
         self.fault_fn = fault_fn
         self.required_key = required_key
         self.model = model  # None: echo the requested model
@@ -178,6 +180,8 @@ class _Handler(BaseHTTPRequestHandler):
             self._send_json(
                 200, {"object": "list", "data": [{"id": model, "object": "model", "owned_by": "fairaudit-tests"}]}
             )
+        elif self.path.split("?")[0] == "/props" and state.props is not None:
+            self._send_json(200, state.props)
         else:
             self._send_error(404, f"Unknown path {self.path}", "not_found")
 

@@ -79,10 +79,3 @@ def test_task_files_run_end_to_end_on_the_simulated_model(tmp_path, capsys, path
     assert len(records) == cert["queries"]["table"] * task.slots
     assert not (out / "route-1.png").exists()  # route images belong to the paper's navigation tasks
     assert (out / "report.md").read_text().count("## ") >= 3
-
-
-def test_exact_route_of_a_ranking_of_three_is_refused_in_one_line(tmp_path, capsys):
-    code, out, err = run(capsys, "experiment", str(RANKING), "--local-model", "smollm2", "--out", str(tmp_path / "r"))
-    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
-    assert "--exact: a ranking of 3 candidates needs the whole order" in err
-    assert not (tmp_path / "r").exists()

@@ -14,6 +14,7 @@ import importlib.util
 import json
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,6 +23,7 @@ from _model import need_local_model
 
 from fairaudit._errors import InputError
 from fairaudit.experiments import local_model as lm
+from fairaudit.experiments.exact import ranking_replies
 from fairaudit.experiments.report import shown_kernel_frame
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY
 from fairaudit.experiments.vlm.models import SimulatedModel
@@ -190,6 +192,33 @@ def test_shared_prefix_gives_the_same_kernel(smollm2):
     np.testing.assert_allclose(a, b, atol=1e-5)
     i = HR_DELIVERY.contexts.index("sick leave")
     assert np.all(a[i, :2, -2:].sum(-1) > 0.999)
+
+
+@pytest.mark.local_model
+def test_a_rankings_exact_kernel_is_the_probability_of_each_order_written_out(smollm2):
+    """examples/tasks/ranking.toml, two cells: the chain rule (one prompt pass, cached, then the 6 replies in a batch)
+    against a second route, each prompt + reply scored whole without any cache: log P = Σ log softmax at each token.
+    """
+    import torch
+
+    from fairaudit.experiments.taskfile import load_task
+
+    task = load_task(Path(__file__).resolve().parents[1] / "examples" / "tasks" / "ranking.toml")
+    people = task.profiles
+    cells = [("HR specialist", people[0], people[1], people[2]), ("software engineer", people[2], people[2], people[0])]
+    got = lm.exact_kernel(task, smollm2, cells=cells)
+    tok = smollm2.tokenizer
+    for cell in cells:
+        ids = list(tok.apply_chat_template(lm.chat_messages(task, cell[0], cell[1:]), add_generation_prompt=True,
+                                           tokenize=True, return_dict=False))  # fmt: skip
+        row = got[(task.contexts.index(cell[0]), *(people.index(p) for p in cell[1:]))]
+        for j, reply in enumerate(ranking_replies(task, task.options)):
+            r = list(tok.encode(reply, add_special_tokens=False))
+            with torch.inference_mode():
+                logits = smollm2.model(torch.tensor([ids + r])).logits[0].double()
+            logp = torch.log_softmax(logits[len(ids) - 1 : len(ids) - 1 + len(r)], -1)[torch.arange(len(r)), r].sum()
+            assert row[j] == pytest.approx(math.exp(float(logp)), rel=1e-4, abs=1e-9), (cell, reply)
+        assert row[-1] == pytest.approx(1 - row[:-1].sum(), abs=1e-12) and 0 < row[-1] < 1
 
 
 @pytest.mark.local_model

@@ -213,8 +213,11 @@ def test_attribute_text_is_what_the_prompt_shows():
     task = parse_task(text)
     prompt = task.prompt("data analyst", task.candidates)
     assert "Emily, currently in the platform team." in prompt and "Lakisha, currently in field sales." in prompt
-    with pytest.raises(InputError, match=r"attribute.text.sales: one text per value .* \(not supported yet\)"):
-        parse_task(text.replace('["field sales"]', '["field sales", "retail"]'))
+    several = parse_task(text.replace('["field sales"]', '["field sales", "retail"]'))
+    assert several.texts("department", "sales") == ("field sales", "retail") and several.varies
+    assert "Lakisha, currently in retail." in several.prompt("data analyst", several.candidates, (0, 0, 0, 1))
+    with pytest.raises(InputError, match=r"attribute\[1\].text.sales: lists 'retail' twice"):
+        parse_task(text.replace('["field sales"]', '["retail", "retail"]'))
     with pytest.raises(InputError, match=r"attribute\[1\].text: has no text for the value 'sales'"):
         parse_task(text.replace(', sales = ["field sales"]', ""))
     assert np.isfinite(task.utility_values).all()

@@ -146,7 +146,9 @@ def plan_queries(
                 cell = "|".join(label(p) for p in shown)
                 for r in range(samples):
                     key = f"table|{ctx}|{cell}|{r}"
-                    out.append(Query(key, "table", ctx, shown, r, query_seed(seed, key)))
+                    s = query_seed(seed, key)
+                    texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
+                    out.append(Query(key, "table", ctx, shown, r, s, texts=texts))
         return out
     if not len(epsilons):
         raise InputError("epsilons", "the paper design needs at least one epsilon")
@@ -161,7 +163,10 @@ def plan_queries(
                     key = f"paper|{_eps_key(float(eps))}|{ctx}|{cell}|{r}"
                     s = query_seed(seed, key)
                     shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]))
-                    out.append(Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps)))
+                    texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
+                    out.append(
+                        Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps), texts=texts)
+                    )
     return out
 
 
@@ -436,7 +441,7 @@ def _answer(
     """Ask one query and return its log record: the reply and its parsed decision, or the transport error."""
     from .vlm.parse import parse_reply
 
-    prompt = task.prompt(q.context, q.profiles)
+    prompt = task.prompt(q.context, q.profiles, q.texts)
     rec = {
         "type": "query",
         "id": q.id,
@@ -447,6 +452,7 @@ def _answer(
         "seed": q.seed,
         "epsilon": q.epsilon,
         "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
+        **({"shown": task.shown_names(q.profiles, q.texts)} if q.texts else {}),
         "prompt_sha256": _prompt_hash(prompt, digests),
         "time": _now(),
     }
@@ -461,8 +467,14 @@ def _answer(
             "error": str(exc),
             "latency": round(time.monotonic() - t0, 6),
         }
-    parsed = parse_reply(r.text, task.options, task.kind)
-    decision = decision_label(task, parsed.choice, parsed.order) if parsed.ok else UNPARSED
+    if task.replies:  # a ranking's exact route, sampled: the order the reply begins with
+        begins = [i for i, text in enumerate(task.replies) if r.text.startswith(text)]
+        decision = str(task.decisions[begins[0]]) if begins else UNPARSED
+        error = "" if begins else "begins with no order written out"
+    else:
+        parsed = parse_reply(r.text, task.options, task.kind)
+        decision = decision_label(task, parsed.choice, parsed.order) if parsed.ok else UNPARSED
+        error = "" if parsed.ok else parsed.error
     return {
         **rec,
         "model": r.model,
@@ -471,7 +483,7 @@ def _answer(
         "attempts": r.attempts,
         "reply": r.text,
         "decision": decision,
-        "parse_error": "" if parsed.ok else parsed.error,
+        "parse_error": error,
     }
 
 

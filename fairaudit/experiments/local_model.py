@@ -37,6 +37,7 @@ import hashlib
 import importlib.util
 import itertools
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -54,6 +55,7 @@ import numpy.typing as npt
 
 from .._arrays import FloatArray, IntArray
 from .._errors import InputError
+from .exact import ExactPrompt, by_sequence, exact_prompts, ranking_replies
 from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
@@ -519,7 +521,9 @@ def exact_prompt(task: DeliveryTask) -> tuple[DeliveryTask, tuple[str, ...]]:
         return task, tuple(task.options)
 
 
-def chat_messages(task: DeliveryTask, context: str, profiles: Sequence[tuple[str, ...]]) -> list[dict[str, Any]]:
+def chat_messages(
+    task: DeliveryTask, context: str, profiles: Sequence[tuple[str, ...]], texts: Sequence[int] = ()
+) -> list[dict[str, Any]]:
     """The chat messages of one query, as the harness's endpoint model sends them (one user message, no image).
 
     Parameters
@@ -529,7 +533,10 @@ def chat_messages(task: DeliveryTask, context: str, profiles: Sequence[tuple[str
     context : str
         One of the task's contexts.
     profiles : sequence of tuple
-        The profiles shown as the task's two options, in order.
+        The profiles shown in slots 1 to k.
+    texts : sequence of int
+        The candidates' texts (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.text_choices`; default the
+        first of each value).
 
     Returns
     -------
@@ -538,9 +545,9 @@ def chat_messages(task: DeliveryTask, context: str, profiles: Sequence[tuple[str
     """
     from .vlm.client import user_message
 
-    system = task.system_prompt(context, profiles)
+    system = task.system_prompt(context, profiles, texts)
     head = [] if system is None else [{"role": "system", "content": system}]
-    return [*head, user_message(task.prompt(context, profiles))]
+    return [*head, user_message(task.prompt(context, profiles, texts))]
 
 
 def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None) -> IntArray:
@@ -586,7 +593,7 @@ def exact_kernel(
     *,
     batch_size: int = 16,
     shared_prefix: bool = True,
-    cells: Sequence[tuple[str, tuple[str, ...], tuple[str, ...]]] | None = None,
+    cells: Sequence[tuple] | None = None,
     progress: bool = False,
 ) -> FloatArray:
     """The model's exact kernel P(decision | shown cell) on the table design, from token probabilities.
@@ -599,21 +606,22 @@ def exact_kernel(
     model : LoadedModel, optional
         Default :func:`load` ``("smollm2")``.
     batch_size : int
-        Cells per forward pass.
+        Sequences per forward pass.
     shared_prefix : bool
         Run the token prefix that every prompt shares (system prompt,
         instructions) once and reuse its key/value cache: the same logits,
         about four times faster on this task (measured: 16 HR cells, 1 s against 4 s).
-    cells : list of (context, profile 1, profile 2), optional
+    cells : list of (context, profile 1, ..., profile k), optional
         Only these cells (the others are left at zero): for tests.
     progress : bool
-        A progress bar on stderr (tqdm, when installed), by cell.
+        A progress bar on stderr (tqdm, when installed), by sequence.
 
     Returns
     -------
-    numpy.ndarray, shape (n_contexts, n_profiles, n_profiles, n_decisions)
-        Indexed by the task's contexts, profiles (twice) and decisions (the
-        options, then ``"unparsed"``): the layout of
+    numpy.ndarray, shape (n_contexts, n_profiles, ..., n_profiles, n_decisions)
+        Indexed by the task's contexts, profiles (once per slot) and decisions
+        (:attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`: the
+        options or the orders, then ``"unparsed"``): the layout of
         :class:`fairaudit.experiments.vlm.models.SimulatedModel`. Each row sums
         to 1; no unit (probabilities).
 
@@ -621,40 +629,40 @@ def exact_kernel(
     ------
     InputError
         When torch or transformers is missing (and, with ``model`` None, the
-        model's package).
+        model's package); ``attribute.text`` when the texts make too many prompts (:func:`exact_prompts`).
 
     Notes
     -----
     This is the kernel P(U | X̃, Ã) of the paper's setting (the model that
     sees the filtered attributes; docs/design.md, "Array layout") for the shown
-    pairs, exactly, for this prompt and these weights: the next-token
-    softmax summed over the tokens that parse as each decision. The
-    sampled route (:func:`serve`) draws replies from the same softmax.
+    cells, exactly, for this prompt and these weights. A choice (or an order of
+    two): the next-token softmax summed over the tokens that parse as each
+    decision. A ranking of k ≥ 3: the probability that the reply begins with
+    each order written out (:func:`ranking_replies`), the product of its
+    tokens' probabilities by the chain rule; the rest is ``"unparsed"``. A
+    cell whose candidates have several texts averages over every choice of
+    them. The sampled route (:func:`serve`) draws replies from the same softmax.
     """
     torch, _ = _require()
     m = model if model is not None else load("smollm2")
-    t = exact_prompt(task)[0]
+    t, answers = exact_prompt(task)
     tok = m.tokenizer
     n = len(task.profiles)
-    if cells is None:
-        cells = [(c, *shown) for c in task.contexts for shown in itertools.product(task.profiles, repeat=task.slots)]
+    prompts = exact_prompts(task, cells)
     ids = [
         list(
             tok.apply_chat_template(
-                chat_messages(t, cell[0], tuple(cell[1:])), add_generation_prompt=True, tokenize=True, return_dict=False
+                chat_messages(t, p.context, p.profiles, p.texts),
+                add_generation_prompt=True,
+                tokenize=True,
+                return_dict=False,
             )
         )
-        for cell in cells
+        for p in prompts
     ]
-    onehot: FloatArray | None = None  # (vocabulary, decisions): the decision each token reads as
-    where = tuple(
-        np.array(i)
-        for i in zip(*((task.contexts.index(cell[0]), *(task.profiles.index(p) for p in cell[1:])) for cell in cells))
-    )  # the cells' (context, profile in slot 1, ..., slot k) indices, one array each
     out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
     prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
-    pad = tok.pad_token_id if tok.pad_token_id is not None else 0
     from ._progress import progress_bar
 
     bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress)
@@ -662,25 +670,74 @@ def exact_kernel(
         past = None
         if prefix_len > 0:
             past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values
-        for start in range(0, len(ids), batch_size):
-            chunk = [s[prefix_len:] for s in ids[start : start + batch_size]]
-            width = max(len(s) for s in chunk)
-            # right padding: causal attention keeps the pads out of every real position's logits
-            x = torch.tensor([s + [pad] * (width - len(s)) for s in chunk])
-            kwargs = {}
-            if past is not None:
-                cache = _copy_cache(past, len(chunk))
-                kwargs = {"past_key_values": cache, "use_cache": True}
-            logits = m.model(x, **kwargs).logits
-            last = logits[torch.arange(len(chunk)), torch.tensor([len(s) - 1 for s in chunk])]
-            probs = torch.softmax(last.double(), dim=-1).numpy()
-            if onehot is None:
-                onehot = np.eye(len(task.decisions))[token_decisions(task, tok, probs.shape[-1])]
-            shares = probs @ onehot  # (cells of the batch, decisions)
-            rows = slice(start, start + len(chunk))
-            out[tuple(w[rows] for w in where)] = shares / shares.sum(axis=1, keepdims=True)
-            bar.update(len(chunk))
+        if by_sequence(task):
+            replies = [list(tok.encode(r, add_special_tokens=False)) for r in ranking_replies(task, answers)]
+            for p, seq in zip(prompts, ids):
+                out[p.index][:-1] += p.weight * _reply_probabilities(m.model, seq[prefix_len:], past, replies, tok)
+                bar.update(1)
+            out[..., -1] = np.clip(1.0 - out[..., :-1].sum(axis=-1), 0.0, None)  # every reply that gives no order
+        else:
+            _first_token_shares(task, m.model, tok, prompts, [s[prefix_len:] for s in ids], past, batch_size, out, bar)
     bar.close()
+    return out
+
+
+def _first_token_shares(
+    task: DeliveryTask,
+    model: Any,
+    tok: Any,
+    prompts: Sequence[ExactPrompt],
+    suffixes: Sequence[list[int]],
+    past: Any,
+    batch_size: int,
+    out: FloatArray,
+    bar: Any,
+) -> None:
+    """Add each prompt's weighted P(decision) from its next-token softmax into ``out``, ``batch_size`` at a time."""
+    import torch
+
+    onehot: FloatArray | None = None  # (vocabulary, decisions): the decision each token reads as
+    pad = tok.pad_token_id if tok.pad_token_id is not None else 0
+    for start in range(0, len(suffixes), batch_size):
+        chunk = suffixes[start : start + batch_size]
+        width = max(len(s) for s in chunk)
+        # right padding: causal attention keeps the pads out of every real position's logits
+        x = torch.tensor([s + [pad] * (width - len(s)) for s in chunk])
+        kwargs = {} if past is None else {"past_key_values": _copy_cache(past, len(chunk)), "use_cache": True}
+        logits = model(x, **kwargs).logits
+        last = logits[torch.arange(len(chunk)), torch.tensor([len(s) - 1 for s in chunk])]
+        probs = torch.softmax(last.double(), dim=-1).numpy()
+        if onehot is None:
+            onehot = np.eye(len(task.decisions))[token_decisions(task, tok, probs.shape[-1])]
+        shares = probs @ onehot  # (prompts of the batch, decisions)
+        for p, row in zip(prompts[start : start + len(chunk)], shares / shares.sum(axis=1, keepdims=True)):
+            out[p.index] += p.weight * row
+        bar.update(len(chunk))
+
+
+def _reply_probabilities(
+    model: Any, suffix: list[int], past: Any, replies: Sequence[list[int]], tok: Any
+) -> FloatArray:
+    """P(the reply begins with each of ``replies``) after one prompt: the chain rule over the replies' tokens.
+
+    The prompt runs once (after the shared prefix's cache); its cache, repeated once per reply, scores every reply
+    in one batch (right-padded: the pads come after every token scored).
+    """
+    import torch
+
+    kwargs = {} if past is None else {"past_key_values": _copy_cache(past, 1)}
+    head = model(torch.tensor([suffix]), use_cache=True, **kwargs)
+    first = torch.log_softmax(head.logits[0, -1].double(), dim=-1)
+    width = max(len(r) for r in replies)
+    pad = tok.pad_token_id if tok.pad_token_id is not None else 0
+    x = torch.tensor([r + [pad] * (width - len(r)) for r in replies])
+    rest = torch.log_softmax(
+        model(x, past_key_values=_copy_cache(head.past_key_values, len(replies))).logits.double(), -1
+    )
+    out = np.empty(len(replies))
+    for j, r in enumerate(replies):
+        total = first[r[0]] + rest[j, torch.arange(len(r) - 1), torch.tensor(r[1:], dtype=torch.long)].sum()
+        out[j] = math.exp(float(total))
     return out
 
 

@@ -96,13 +96,36 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int) -> Decisio
             timeout=source.timeout,
             max_retries=source.max_retries,
             max_concurrency=concurrency,
-            max_tokens=1 if source.first_token else None,
+            max_tokens=_twin_tokens(task) if source.first_token else None,
             extra_body=dict(PLAIN_SAMPLING) if source.first_token else None,
         )
         return EndpointModel(client, task)
     if source.kernel:
         return SimulatedModel.from_csv(task, source.kernel)
     return simulated_model(task, source.simulated or next(iter(simulated_models(task))))
+
+
+def _twin_tokens(task: DeliveryTask) -> int:
+    """``max_tokens`` of the exact route's sampled twin: 1, or room for the longest order written out (a ranking)."""
+    from . import local_model as lm
+    from .exact import by_sequence, ranking_replies
+
+    if not by_sequence(task):
+        return 1
+    return max(len(r) for r in ranking_replies(task, lm.exact_prompt(task)[1]))  # a token is one character or more
+
+
+def _twin(task: DeliveryTask) -> DeliveryTask:
+    """The task the exact route's sampled twin asks: the exact route's prompt, a ranking read as the order it begins with."""
+    import dataclasses
+
+    from . import local_model as lm
+    from .exact import by_sequence, ranking_replies
+
+    shown, answers = lm.exact_prompt(task)
+    if by_sequence(task):
+        return dataclasses.replace(shown, replies=ranking_replies(task, answers))
+    return shown
 
 
 def _images(scene: str | None, images: bool) -> tuple[bytes, ...]:
@@ -310,12 +333,6 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     if source.exact and options.samples is not None:
         raise InputError("samples", "give `samples` or `exact`, not both")
     exact = exact_route(source.exact, source.local_model, options.samples)
-    if (exact or source.first_token) and task.kind == "order" and task.slots > 2:
-        raise InputError(
-            "exact" if exact else "first_token",
-            f"a ranking of {task.slots} candidates needs the whole order, not the first token (run with `samples` N; "
-            "not supported yet)",
-        )
     # route images belong to the paper's navigation tasks; a task file gets them only with a scene asked for
     images = options.images and (is_built_in(task) or options.scene is not None)
     m: DecisionModel | None = None
@@ -420,9 +437,7 @@ def _run_sampled(
             m = stack.enter_context(_served(source.local_model, out, source.timeout, source.max_retries, log))
             task = lm.exact_prompt(task)[0]
         elif source.first_token:
-            from . import local_model as lm
-
-            task = lm.exact_prompt(task)[0]
+            task = _twin(task)
         assert m is not None
         summary, records = _ask(task, m, plan, options, progress)
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]
@@ -545,69 +560,92 @@ def _run_exact(
     )
 
 
+PREFILL = {"continue_final_message": True, "add_generation_prompt": False}
+"""Request fields that make a server continue the final assistant message (llama-server, vLLM): a reply's prefix."""
+
+
 def endpoint_kernel(
     task: DeliveryTask, client: ChatClient, *, progress: bool = False
 ) -> tuple[FloatArray | None, RunSummary]:
-    """An endpoint's exact kernel: one request per shown cell, its first token's log-probabilities as P(decision).
+    """An endpoint's exact kernel from the log-probabilities of its replies' tokens.
+
+    A choice (or an order of two): one request per prompt, its first token's log-probabilities as P(decision). A
+    ranking of k ≥ 3: P(the reply begins with each order written out) by the chain rule, one request per prefix
+    of those replies (sent as the start of the assistant's message, :data:`PREFILL`; llama-server and vLLM
+    continue it), each prefix once (:func:`fairaudit.experiments.vlm.logprobs.reply_probabilities`). A cell whose
+    candidates have several texts averages over every choice of them
+    (:func:`fairaudit.experiments.local_model.exact_prompts`).
 
     Parameters
     ----------
     task : DeliveryTask
     client : fairaudit.experiments.vlm.client.ChatClient
-        Made with ``max_tokens=1`` and ``top_logprobs`` (the run's: 20); its ``max_concurrency`` requests are in
-        flight at once, each with the client's retries.
+        Made with ``max_tokens=1`` and ``top_logprobs`` (the run's: 20); its ``max_concurrency`` prompts are in
+        flight at once, each request with the client's retries.
     progress : bool
-        A progress bar on stderr.
+        A progress bar on stderr, by prompt.
 
     Returns
     -------
     probabilities : numpy.ndarray, shape (n_contexts, n_profiles, ..., n_profiles, n_decisions), or None
-        :func:`fairaudit.experiments.vlm.logprobs.decision_probabilities` of every cell, in the layout of
-        :func:`fairaudit.experiments.local_model.exact_kernel`; None when a request failed after its retries (the
-        rest are then cancelled).
+        The layout of :func:`fairaudit.experiments.local_model.exact_kernel`; None when a request failed after its
+        retries (the rest are then cancelled).
     summary : RunSummary
-        The requests: planned (the shown cells), answered, failed (the first failure's message).
+        The prompts: planned, answered, failed (the first failure's message).
 
     Raises
     ------
     InputError
         ``endpoint`` when a reply has no log-probabilities; ``exact`` when a likely first token begins two options'
-        replies (:func:`fairaudit.experiments.vlm.logprobs.shared_first_token`).
+        replies (:func:`fairaudit.experiments.vlm.logprobs.shared_first_token`); ``attribute.text`` when the texts
+        make too many prompts.
     """
-    import itertools
-
     import numpy as np
 
     from . import local_model as lm
     from ._progress import progress_bar
-    from .vlm.logprobs import decision_probabilities
+    from .exact import by_sequence, exact_prompts, ranking_replies
+    from .vlm.logprobs import decision_probabilities, reply_probabilities
 
     shown, answers = lm.exact_prompt(task)
+    prompts = exact_prompts(task)
     n = len(task.profiles)
-    cells = list(itertools.product(range(len(task.contexts)), *([range(n)] * task.slots)))
     out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
+    replies = ranking_replies(task, answers) if by_sequence(task) else ()
+    uncached = {"cache_prompt": False} if client.is_llama_server() else {}  # the same numbers whatever came before
 
-    def ask(cell: tuple[int, ...]) -> FloatArray:
-        c, *slots = cell
-        reply = client.complete(lm.chat_messages(shown, task.contexts[c], tuple(task.profiles[i] for i in slots)))
+    def top(messages: list[dict], prefix: str) -> Any:
+        extra = {**uncached, **(PREFILL if prefix else {})}
+        turn = [{"role": "assistant", "content": prefix}] if prefix else []
+        reply = client.complete(messages + turn, extra=extra)
         if reply.top_logprobs is None:
             raise InputError(
                 "endpoint",
                 f"the server returned no log-probabilities for model {client.model!r} (it may not support "
                 "logprobs); run with `samples` N instead",
             )
-        return decision_probabilities(reply.top_logprobs, task, answers=answers)
+        return reply.top_logprobs
+
+    def ask(i: int) -> FloatArray:
+        p = prompts[i]
+        messages = lm.chat_messages(shown, p.context, p.profiles, p.texts)
+        if not replies:
+            return decision_probabilities(top(messages, ""), task, answers=answers)
+        row = np.zeros(len(task.decisions))
+        row[:-1] = reply_probabilities(lambda prefix: top(messages, prefix), replies)
+        row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))
+        return row
 
     t0 = time.monotonic()
-    bar = progress_bar(len(cells), f"{task.name}: exact kernel", progress)
+    bar = progress_bar(len(prompts), f"{task.name}: exact kernel", progress)
     try:
-        answered, failure = _ask_cells(cells, ask, client.max_concurrency, bar)
+        answered, failure = _ask_cells(list(range(len(prompts))), ask, client.max_concurrency, bar)
     finally:
         bar.close()
-    for cell, row in answered.items():
-        out[cell] = row
+    for i, row in answered.items():
+        out[prompts[i].index] += prompts[i].weight * row
     summary = RunSummary(
-        planned=len(cells),
+        planned=len(prompts),
         already=0,
         asked=len(answered),
         failed=int(failure is not None),
@@ -619,8 +657,8 @@ def endpoint_kernel(
 
 
 def _ask_cells(
-    cells: list[tuple[int, ...]], ask: Callable[[tuple[int, ...]], FloatArray], workers: int, bar: Bar
-) -> tuple[dict[tuple[int, ...], FloatArray], str | None]:
+    cells: list[int], ask: Callable[[int], FloatArray], workers: int, bar: Bar
+) -> tuple[dict[int, FloatArray], str | None]:
     """``ask`` every cell on ``workers`` threads: the answers, and the first request that failed after retries.
 
     The first failure (a :class:`~fairaudit.experiments.vlm.client.ChatError`) cancels the cells not yet asked;
@@ -631,7 +669,7 @@ def _ask_cells(
 
     from .vlm.client import ChatError
 
-    answered: dict[tuple[int, ...], FloatArray] = {}
+    answered: dict[int, FloatArray] = {}
     pool = ThreadPoolExecutor(max_workers=workers)
     try:
         futures = {pool.submit(ask, cell): cell for cell in cells}

@@ -109,6 +109,9 @@ class AttributeSection(StrictModel):
                 raise FieldProblem(f".text.{key}", f"is not one of the values {sorted(known)}", key)
             if isinstance(shown, list) and not shown:
                 raise FieldProblem(f".text.{key}", "must list at least one text", shown)
+            if isinstance(shown, list) and len(set(shown)) < len(shown):
+                twice = next(t for t in shown if shown.count(t) > 1)
+                raise FieldProblem(f".text.{key}", f"lists {twice!r} twice", shown)
         missing = sorted(known - set(self.text))
         if missing:
             raise FieldProblem(".text", f"has no text for the value {missing[0]!r}", sorted(self.text))
@@ -121,6 +124,7 @@ class DecisionSection(StrictModel):
     name: str = "decision"
     options: dict[str, int | str]
     outcomes: list[str] | None = None
+    separator: str = Field(", ", min_length=1)
 
     @field_validator("options")
     @classmethod
@@ -335,6 +339,7 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         template=f.prompt.user,
         system=f.prompt.system,
         shown_text=text,
+        separator=f.decision.separator,
         positions=f.task.positions,
         keeps=None if f.filter.keep is None else tuple(f.filter.keep),
         epsilons=None if f.filter.epsilon is None else tuple(f.filter.epsilon),
@@ -346,19 +351,13 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
     return task
 
 
-def _shown_text(a: AttributeSection) -> dict[Hashable, str] | None:
+def _shown_text(a: AttributeSection) -> dict[Hashable, tuple[str, ...]] | None:
     if a.text is None:
         return None
-    out: dict[Hashable, str] = {}
+    out: dict[Hashable, tuple[str, ...]] = {}
     for v in a.values:
         shown = a.text[format_label(v)]
-        if isinstance(shown, list):
-            if len(shown) != 1:
-                raise _unsupported(
-                    f"attribute.text.{format_label(v)}", "one text per value (averaging over names)", shown
-                )
-            shown = shown[0]
-        out[v] = shown
+        out[v] = (shown,) if isinstance(shown, str) else tuple(shown)
     return out
 
 

@@ -276,7 +276,7 @@ class ChatClient:
             self._closed = True
             self._http.close()
 
-    def complete(self, messages: list[dict], *, seed: int | None = None) -> ChatReply:
+    def complete(self, messages: list[dict], *, seed: int | None = None, extra: dict | None = None) -> ChatReply:
         """One chat completion, with retries.
 
         Parameters
@@ -286,6 +286,8 @@ class ChatClient:
             :func:`user_message` and :func:`system_message`); JSON-serialisable.
         seed : int, optional
             Sent as ``seed`` (servers that support it sample reproducibly).
+        extra : dict, optional
+            More request fields for this request only, after the client's ``extra_body``.
 
         Returns
         -------
@@ -305,7 +307,7 @@ class ChatClient:
         """
         if self._closed:
             raise InputError("client", "is closed")
-        content = self._body(messages, seed)
+        content = self._body(messages, seed, _extra_body(extra))
         tenacity = self._tenacity
         retrying = tenacity.Retrying(
             stop=tenacity.stop_after_attempt(self.max_retries + 1),
@@ -332,7 +334,22 @@ class ChatClient:
 
     # ------------------------------------------------------------------------------------------
 
-    def _body(self, messages: Any, seed: Any) -> bytes:
+    def is_llama_server(self) -> bool:
+        """True when the server answers llama.cpp's ``GET /props`` (its default generation settings), else False.
+
+        llama-server reuses a cached prompt prefix, and its log-probabilities then depend on what it computed before
+        (a quantized model: up to 0.04 in a probability, measured); an exact route sends ``cache_prompt: false``
+        to it.
+        """
+        parts = urlsplit(self._url)
+        try:
+            response = self._http.get(urlunsplit((parts.scheme, parts.netloc, "/props", "", "")), timeout=5.0)
+            data = response.json() if response.status_code == 200 else None
+        except Exception:  # noqa: BLE001 - any failure means: not a llama-server we can recognise
+            return False
+        return isinstance(data, dict) and "default_generation_settings" in data
+
+    def _body(self, messages: Any, seed: Any, extra: dict | None = None) -> bytes:
         if not isinstance(messages, (list, tuple)) or not messages:
             raise InputError("messages", "must be a non-empty list of chat messages", messages)
         for i, message in enumerate(messages):
@@ -351,6 +368,7 @@ class ChatClient:
             body["logprobs"] = True
             body["top_logprobs"] = self.top_logprobs
         body.update(self.extra_body)
+        body.update(extra or {})
         try:
             return json.dumps(body, ensure_ascii=False, allow_nan=False).encode("utf-8")
         except (TypeError, ValueError):

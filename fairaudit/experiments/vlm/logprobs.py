@@ -21,7 +21,7 @@ give (:func:`shared_first_token`); such a task is run by sampling instead.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -31,7 +31,14 @@ from ..._errors import InputError
 from .parse import parse_reply
 from .tasks import DeliveryTask
 
-__all__ = ["MIN_PROBABILITY", "TOP_LOGPROBS", "decision_probabilities", "first_token_logprobs", "shared_first_token"]
+__all__ = [
+    "MIN_PROBABILITY",
+    "TOP_LOGPROBS",
+    "decision_probabilities",
+    "first_token_logprobs",
+    "reply_probabilities",
+    "shared_first_token",
+]
 
 TOP_LOGPROBS = 20
 """First tokens requested (``top_logprobs``): OpenAI's largest."""
@@ -217,4 +224,54 @@ def decision_probabilities(reply: Any, task: DeliveryTask, *, answers: Sequence[
         out[:n] /= total
         return out
     out[n] = max(0.0, 1.0 - total)
+    return out
+
+
+def reply_probabilities(
+    next_tokens: Callable[[str], Sequence[tuple[str, float]]], replies: Sequence[str]
+) -> FloatArray:
+    """P(the reply begins with each of ``replies``), by the chain rule over its tokens (a ranking's exact route).
+
+    Parameters
+    ----------
+    next_tokens : callable
+        ``next_tokens(prefix)``: the top next tokens and their log-probabilities (nats) after the reply has begun
+        with ``prefix`` (``""``: the first token), as :func:`first_token_logprobs` gives them. Each prefix is asked
+        once, whatever the number of replies that share it.
+    replies : sequence of str
+        The replies scored (:func:`fairaudit.experiments.local_model.ranking_replies`: ``"2, 3, 1"``, ...).
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(replies),)
+        Π over the reply's tokens of P(token | prompt, the tokens before it), no unit. At each prefix the reply
+        continues with the longest listed token that begins the rest of it (the tokenizer's own split of
+        digits, commas and spaces); a reply whose next token is not listed gets 0 (its probability is then below
+        the smallest listed one's). Other splits of the same text into tokens are not counted, as on the
+        in-process route, which scores the tokenizer's own split.
+
+    Examples
+    --------
+    >>> import math
+    >>> law = {"": [("2", math.log(0.5)), ("1", math.log(0.25))], "2": [(",", 0.0)], "2,": [(" 1", math.log(0.8))],
+    ...        "1": [(",", math.log(0.5))], "1,": [(" 2", 0.0)]}
+    >>> reply_probabilities(law.get, ["2, 1", "1, 2"]).round(12).tolist()
+    [0.4, 0.125]
+    """
+    asked: dict[str, Sequence[tuple[str, float]]] = {}
+    out = np.zeros(len(replies))
+    for j, reply in enumerate(replies):
+        prefix, logp = "", 0.0
+        while prefix != reply:
+            if prefix not in asked:
+                asked[prefix] = next_tokens(prefix)
+            rest = reply[len(prefix) :]
+            steps = [(t, lp) for t, lp in asked[prefix] if t and rest.startswith(t)]
+            if not steps:
+                logp = -math.inf
+                break
+            token, lp = max(steps, key=lambda step: len(step[0]))
+            logp += lp
+            prefix += token
+        out[j] = math.exp(logp)
     return out

@@ -67,6 +67,9 @@ class Query:
         Paper design: (true context, true profiles); None in the table design.
     epsilon : float or None
         Paper design: the candidate's ε (nats) of the filter it was drawn through.
+    texts : tuple of int
+        The candidates' texts shown, drawn from the query's seed
+        (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.draw_texts`); ``()``: each value's only text.
     """
 
     id: str
@@ -77,6 +80,7 @@ class Query:
     seed: int
     truth: tuple | None = None
     epsilon: float | None = None
+    texts: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -392,7 +396,7 @@ class EndpointModel:
         from .client import user_message
 
         messages = [user_message(prompt, images)]
-        system = self.task.system_prompt(query.context, query.profiles) if self.task is not None else None
+        system = self.task.system_prompt(query.context, query.profiles, query.texts) if self.task is not None else None
         if system is not None:
             messages.insert(0, {"role": "system", "content": system})
         r = self.client.complete(messages, seed=query.seed)

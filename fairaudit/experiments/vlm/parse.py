@@ -25,7 +25,9 @@ preference:
 3. fallbacks, flagged ``fallback=True``: a reply that is nothing but an
    option's 1-based index (``"2"``, ``" 1."``; ASCII digits, for a choice or an
    order of two: the option chosen or served first), the answer a prompt that
-   asks for the number alone gets; ``key: value`` pairs in free text for
+   asks for the number alone gets; for an order, a reply that is nothing but
+   every option once, in order, separated by commas, ``>`` or white space
+   (``"2, 3, 1"``, the reply a ranking's exact route scores); ``key: value`` pairs in free text for
    every option (``HR1: 0, HR2: 1``, also a truncated JSON object), then, for a
    choice only, a text that names exactly one option (``"I choose HR2."``).
 
@@ -56,6 +58,7 @@ _MAX_STARTS = 32  # at most this many '{' positions are tried as object starts
 _NUM = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
 _NUM_RE = re.compile(_NUM)
 _SEP_RE = re.compile(r"[\s_\-]+")
+_LIST_GAP_RE = re.compile(r"[\s,;>]*")  # what may stand between the options of a listed order
 _BARE_INDEX_RE = re.compile(r"\s*([1-9][0-9]?)\.?\s*", re.ASCII)  # a reply that is only an option's number
 
 _CHOICE_KEYS = frozenset(
@@ -125,6 +128,10 @@ class _Options:
         self.n = len(names)
         self.index = {norm: i for i, norm in enumerate(norms)}
         self.mention = [re.compile(rf"(?<!\w){_variant(name)}(?!\w)", re.IGNORECASE) for name in names]
+        longest_first = sorted(names, key=len, reverse=True)
+        self.any_mention = re.compile(
+            "|".join(rf"(?<!\w){_variant(name)}(?!\w)" for name in longest_first), re.IGNORECASE
+        )
         self.pair = [
             re.compile(
                 rf"(?<!\w)[\"'\u201c\u201d\u2018\u2019]?{_variant(name)}[\"'\u201c\u201d\u2018\u2019]?"
@@ -226,6 +233,9 @@ def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
     bare = _BARE_INDEX_RE.fullmatch(text)
     if bare and (kind == "choice" or spec.n == 2) and 1 <= int(bare.group(1)) <= spec.n:
         return _result_from_choice(int(bare.group(1)) - 1, spec, kind, None, fallback=True)
+    in_order = _listed_order(text, spec) if kind == "order" else None
+    if in_order is not None:
+        return _decide({i: float(in_order.index(i) + 1) for i in range(spec.n)}, spec, kind, None, fallback=True)
     raw = {}
     for i, pattern in enumerate(spec.pair):
         match = pattern.search(text)
@@ -508,6 +518,19 @@ def _sequence(value: Any, spec: _Options) -> list[int] | None:
         return None
     known = [o for o in order if o is not None]
     return known if sorted(known) == list(range(spec.n)) and len(order) == spec.n else None
+
+
+def _listed_order(text: str, spec: _Options) -> list[int] | None:
+    """The order of a reply that is nothing but every option once, separated by commas, ``>`` or white space."""
+    order, at = [], 0
+    for match in spec.any_mention.finditer(text):
+        if not _LIST_GAP_RE.fullmatch(text[at : match.start()]):
+            return None
+        order.append(spec.index[_norm(match.group(0))])
+        at = match.end()
+    if not _LIST_GAP_RE.fullmatch(text[at:]) or sorted(order) != list(range(spec.n)):
+        return None
+    return order
 
 
 def _mentioned(text: str, spec: _Options) -> list[int]:

@@ -28,12 +28,15 @@ from __future__ import annotations
 
 import functools
 import itertools
-from collections.abc import Hashable, Mapping, Sequence
+from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from ..._arrays import format_label
 from ..._errors import InputError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["PROMPT_FILTERS", "UNPARSED", "Attribute", "DeliveryTask", "render_prompt"]
 
@@ -95,8 +98,16 @@ class DeliveryTask:
     system : str or None
         The system prompt, a Jinja2 template too, or None (no system message).
     shown_text : mapping or None
-        Attribute name -> {value: what the prompt shows for it}, or None
-        (attributes without an entry show their values).
+        Attribute name -> {value: the texts the prompt may show for it (a
+        tuple; one is drawn per candidate and prompt, :meth:`texts`)}, or
+        None (attributes without an entry show their values).
+    separator : str
+        Between the options' replies in the reply of a ranking's exact route
+        (``"2, 3, 1"``; :meth:`order_reply`).
+    replies : tuple of str
+        Empty, or one text per order of :attr:`orders`: a reply is then read
+        as the order whose text it begins with, else unparsed (the sampled
+        twin of a ranking's exact route, which scores the same event).
     positions : {"balanced", "latin", "fixed"}
         The task file's default orders of the candidates.
     keeps, epsilons : tuple of float or None
@@ -121,7 +132,9 @@ class DeliveryTask:
     combinations: tuple = ()
     title: str = ""
     system: str | None = None
-    shown_text: Mapping[str, Mapping[Hashable, str] | None] | None = None
+    shown_text: Mapping[str, Mapping[Hashable, str | tuple[str, ...]] | None] | None = None
+    separator: str = ", "
+    replies: tuple = ()
     positions: str = "balanced"
     keeps: tuple | None = None
     epsilons: tuple | None = None
@@ -162,8 +175,92 @@ class DeliveryTask:
             return (*(" > ".join(self.options[i] for i in o) for o in self.orders), UNPARSED)
         return (*self.options, UNPARSED)
 
-    def prompt(self, context: str, profiles: Sequence[tuple]) -> str:
-        """The user prompt for one query: the context and the profiles shown at positions 1 and 2.
+    def texts(self, attribute: str, value: Hashable) -> tuple[str, ...]:
+        """The texts the prompt may show for ``value`` of ``attribute`` (the value itself when the task lists none).
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+        >>> HR_DELIVERY.texts("age", 25)
+        ('25',)
+        """
+        listed = (self.shown_text or {}).get(attribute) or {}
+        shown = listed.get(value, str(value))
+        return (shown,) if isinstance(shown, str) else tuple(shown)
+
+    @property
+    def varies(self) -> bool:
+        """True when some value has several texts, so that each prompt draws its candidates' texts."""
+        return any(len(self.texts(a.name, v)) > 1 for a in self.attributes for v in a.values)
+
+    def text_choices(self, profiles: Sequence[tuple]) -> Iterator[tuple[int, ...]]:
+        """Every choice of the candidates' texts in one prompt, each equally likely (the kernel averages over them).
+
+        A choice is a flat tuple of indices into :meth:`texts`, slot by slot and attribute by attribute within a
+        slot. Two candidates who share a value are shown different texts of it whenever the value has texts
+        enough for all of them (so that a reply can name each, as a person's name does); else any.
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import parse_task
+        >>> task = parse_task('''[task]
+        ... candidates = 2
+        ... [prompt]
+        ... user = "{{ c1.name }} or {{ c2.name }}?"
+        ... [[attribute]]
+        ... name = "name"
+        ... values = ["A", "B"]
+        ... text = { A = ["Ann", "Amy"], B = ["Bo"] }
+        ... [decision]
+        ... options = { "1" = 1, "2" = 2 }
+        ... [utility]
+        ... values = { chosen = 1, "not chosen" = 0 }''')
+        >>> list(task.text_choices([("A",), ("A",)]))
+        [(0, 1), (1, 0)]
+        >>> list(task.text_choices([("A",), ("B",)]))
+        [(0, 0), (1, 0)]
+        """
+        counts = [len(self.texts(a.name, v)) for p in profiles for a, v in zip(self.attributes, p)]
+        n_attr = len(self.attributes)
+        groups: dict[tuple[int, Hashable], list[int]] = {}
+        for i, p in enumerate(profiles):
+            for j, v in enumerate(p):
+                groups.setdefault((j, v), []).append(i * n_attr + j)
+        distinct = [idx for idx in groups.values() if len(idx) > 1 and counts[idx[0]] >= len(idx)]
+        for choice in itertools.product(*(range(n) for n in counts)):
+            if all(len({choice[i] for i in idx}) == len(idx) for idx in distinct):
+                yield choice
+
+    def draw_texts(self, profiles: Sequence[tuple], rng: np.random.Generator) -> tuple[int, ...]:
+        """One choice of :meth:`text_choices`, uniformly at random (without listing them: a draw per slot).
+
+        Returns ``()`` when no value has several texts (:attr:`varies`).
+        """
+        if not self.varies:
+            return ()
+        out: list[int] = []
+        used: dict[tuple[int, Hashable], set[int]] = {}
+        shared: dict[tuple[int, Hashable], int] = {}
+        for p in profiles:
+            for j, v in enumerate(p):
+                shared[(j, v)] = shared.get((j, v), 0) + 1
+        for p in profiles:
+            for j, (a, v) in enumerate(zip(self.attributes, p)):
+                n = len(self.texts(a.name, v))
+                taken = used.setdefault((j, v), set())
+                if shared[(j, v)] > 1 and n >= shared[(j, v)]:
+                    free = [t for t in range(n) if t not in taken]
+                    pick = free[int(rng.integers(len(free)))]
+                else:
+                    pick = int(rng.integers(n))
+                taken.add(pick)
+                out.append(pick)
+        return tuple(out)
+
+    def prompt(self, context: str, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> str:
+        """The user prompt for one query: the context and the profiles shown in slots 1 to k.
+
+        ``texts`` is a choice of :meth:`text_choices` (default: each value's first text).
 
         Raises
         ------
@@ -178,15 +275,42 @@ class DeliveryTask:
         >>> [line for line in text.splitlines() if line.startswith(("Item", "HR1:", "HR2:"))]
         ['Item to be delivered: a confidential document concerning sick leave.', 'HR1: Tom, 25 years old, Asian.', 'HR2: Mary, 55 years old, American.']
         """
-        return self._render(self.template, "prompt.user", context, profiles)
+        return self._render(self.template, "prompt.user", context, profiles, texts)
 
-    def system_prompt(self, context: str, profiles: Sequence[tuple]) -> str | None:
+    def system_prompt(self, context: str, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> str | None:
         """The system prompt for one query (None when the task has none)."""
         if self.system is None:
             return None
-        return self._render(self.system, "prompt.system", context, profiles)
+        return self._render(self.system, "prompt.system", context, profiles, texts)
 
-    def _render(self, template: str, field: str, context: str, profiles: Sequence[tuple]) -> str:
+    def shown_names(self, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> list[dict[str, str]]:
+        """What the prompt shows of each candidate: attribute name -> text, slot by slot."""
+        n_attr = len(self.attributes)
+        if texts and len(texts) != len(profiles) * n_attr:
+            raise InputError("texts", f"needs one index per candidate and attribute ({len(profiles) * n_attr})", texts)
+        out = []
+        for i, p in enumerate(profiles):
+            shown = {}
+            for j, (a, v) in enumerate(zip(self.attributes, p)):
+                options = self.texts(a.name, v)
+                shown[a.name] = options[texts[i * n_attr + j] if texts else 0]
+            out.append(shown)
+        return out
+
+    def order_reply(self, order: Sequence[int], answers: Sequence[str]) -> str:
+        """The reply that gives ``order`` (0-based slots, best first) on a ranking's exact route: ``"2, 3, 1"``.
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+        >>> HR_DELIVERY.order_reply((1, 0), ("1", "2"))
+        '2, 1'
+        """
+        return self.separator.join(answers[i] for i in order)
+
+    def _render(
+        self, template: str, field: str, context: str, profiles: Sequence[tuple], texts: Sequence[int] = ()
+    ) -> str:
         if context not in self.contexts:
             raise InputError(self.context_name, f"must be one of {list(self.contexts)}", context)
         if len(profiles) != self.slots:
@@ -195,9 +319,7 @@ class DeliveryTask:
         for p in profiles:
             if tuple(p) not in known:
                 raise InputError("profiles", f"not a profile of {self.name}", p)
-        texts = self.shown_text or {}
-        shown = [{a.name: (texts.get(a.name) or {}).get(v, v) for a, v in zip(self.attributes, p)} for p in profiles]
-        return render_prompt(template, context, shown, field=field)
+        return render_prompt(template, context, self.shown_names(profiles, texts), field=field)
 
     def profile_label(self, profile: tuple) -> str:
         """A profile as one text label (``"Tom & 25 & Asian"``), as tables and specs write it."""

@@ -1,0 +1,87 @@
+"""Which prompts an exact route scores, and which replies: the shared part of the local and the endpoint routes.
+
+An exact route computes the kernel P(decision | shown cell) from a model's token probabilities instead of sampling
+replies: each shown cell once per choice of its candidates' texts (:func:`exact_prompts`), and for a ranking of
+k ≥ 3, each order written out (:func:`ranking_replies`), whose probability is a product over its tokens.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from .._errors import InputError
+from .vlm.tasks import DeliveryTask
+
+__all__ = ["MAX_EXACT_PROMPTS", "ExactPrompt", "by_sequence", "exact_prompts", "ranking_replies"]
+
+MAX_EXACT_PROMPTS = 200_000
+"""Prompts an exact route scores at most (every text of every shown cell); beyond, run with samples."""
+
+
+@dataclass(frozen=True)
+class ExactPrompt:
+    """One prompt of an exact route: its shown cell, its candidates' texts and its weight in the cell's average."""
+
+    index: tuple[int, ...]  # (context, profile in slot 1, ..., slot k) indices into the kernel
+    context: str
+    profiles: tuple
+    texts: tuple[int, ...]
+    weight: float
+
+
+def exact_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> list[ExactPrompt]:
+    """The prompts an exact route scores: each shown cell once per choice of its candidates' texts.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    cells : list of (context, profile 1, ..., profile k), optional
+        Default every shown cell of the table design, contexts first, then slots in ``itertools.product`` order.
+
+    Returns
+    -------
+    list of ExactPrompt
+        The kernel of a cell is the weighted sum of its prompts' (weights 1 / the cell's text choices,
+        :meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.text_choices`).
+
+    Raises
+    ------
+    InputError
+        ``attribute.text`` when there would be more than :data:`MAX_EXACT_PROMPTS` prompts.
+    """
+    if cells is None:
+        cells = [(c, *shown) for c in task.contexts for shown in itertools.product(task.profiles, repeat=task.slots)]
+    out: list[ExactPrompt] = []
+    for cell in cells:
+        context, profiles = cell[0], tuple(cell[1:])
+        index = (task.contexts.index(context), *(task.profiles.index(p) for p in profiles))
+        choices = list(task.text_choices(profiles)) if task.varies else [()]
+        for texts in choices:
+            out.append(ExactPrompt(index, context, profiles, tuple(texts), 1.0 / len(choices)))
+        if len(out) > MAX_EXACT_PROMPTS:
+            raise InputError(
+                "attribute.text",
+                f"the exact route would score more than {MAX_EXACT_PROMPTS:,} prompts (every choice of the "
+                "candidates' texts in every shown cell); run with `samples` N, which draws the texts",
+                len(out),
+            )
+    return out
+
+
+def ranking_replies(task: DeliveryTask, answers: Sequence[str]) -> tuple[str, ...]:
+    """The reply that gives each order of :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.orders`.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> ranking_replies(HR_DELIVERY, ("1", "2"))
+    ('1, 2', '2, 1')
+    """
+    return tuple(task.order_reply(o, answers) for o in task.orders)
+
+
+def by_sequence(task: DeliveryTask) -> bool:
+    """True when an exact route scores whole replies (a ranking of k ≥ 3), not the first token."""
+    return task.kind == "order" and task.slots > 2

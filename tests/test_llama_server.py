@@ -128,3 +128,54 @@ def test_first_token_samples_cover_the_exact_kernel(server, tmp_path, capsys):
         for kind in ("local", "global"):
             lo, hi = (float(v) for v in seen[kind]["interval"])
             assert lo - 5e-3 <= float(part[kind]["value"]) <= hi + 5e-3, (kind, part[kind], seen[kind])
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
+
+
+def test_task_files_exact_over_http_is_deterministic_and_agrees_with_the_in_process_route(server, tmp_path, capsys):
+    """loan.toml (one person): the same kernel twice on a warm server (cache_prompt: false), close to in-process."""
+    pytest.importorskip("torch")
+    from fairaudit.experiments.taskfile import load_task
+
+    common = ("--endpoint", f"{server}/v1", "--model", "smollm2", "--no-progress")
+    for name in ("first", "again"):
+        code, _, err = run(
+            capsys, "experiment", str(EXAMPLES / "loan.toml"), *common, "--exact", "--out", tmp_path / name
+        )
+        assert code == 0, err
+    assert (tmp_path / "first" / "kernel.csv").read_text() == (tmp_path / "again" / "kernel.csv").read_text()
+    task = load_task(EXAMPLES / "loan.toml")
+    local = lm.exact_kernel(task, lm.load("smollm2"))
+    remote = pd.read_csv(tmp_path / "first" / "kernel.csv")["probability"].to_numpy().reshape(local.shape)
+    # measured on 2026-11-22: at most 0.022 apart (Q4_1 blocks in llama.cpp, dequantized float32 in process)
+    assert np.abs(remote - local).max() < 0.05
+
+
+def test_a_rankings_chain_rule_over_http_agrees_with_the_in_process_route(server):
+    """ranking.toml, two cells: P(reply begins with each order) from prefixes over HTTP against the in-process route."""
+    pytest.importorskip("torch")
+    from fairaudit.experiments.exact import ranking_replies
+    from fairaudit.experiments.run import PREFILL
+    from fairaudit.experiments.taskfile import load_task
+    from fairaudit.experiments.vlm.client import ChatClient
+    from fairaudit.experiments.vlm.logprobs import reply_probabilities
+
+    task = load_task(EXAMPLES / "ranking.toml")
+    people = task.profiles
+    cells = [("HR specialist", people[0], people[1], people[2]), ("software engineer", people[2], people[0], people[1])]
+    local = lm.exact_kernel(task, lm.load("smollm2"), cells=cells)
+    replies = ranking_replies(task, task.options)
+    with ChatClient(f"{server}/v1", "smollm2", top_logprobs=20, max_tokens=1) as client:
+        assert client.is_llama_server()
+        for cell in cells:
+            messages = lm.chat_messages(task, cell[0], cell[1:])
+
+            def top(prefix, messages=messages):
+                turn = [{"role": "assistant", "content": prefix}] if prefix else []
+                extra = {"cache_prompt": False, **(PREFILL if prefix else {})}
+                return client.complete(messages + turn, extra=extra).top_logprobs
+
+            remote = reply_probabilities(top, replies)
+            row = local[(task.contexts.index(cell[0]), *(people.index(p) for p in cell[1:]))]
+            assert np.abs(remote - row[:-1]).max() < 0.05, (cell, remote, row)

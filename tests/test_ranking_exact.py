@@ -113,6 +113,7 @@ def test_a_ranking_over_http_gives_the_known_kernel_one_request_per_prefix(tmp_p
         bodies = server.chat_requests
     assert code == 0, err
     cells = 2 * 3**3
+    assert err.startswith(f"exact kernel of {cells} shown cells ({cells * 28} requests) in ")
     assert len(bodies) == cells * (1 + 3 * 3 + 6 * 3)  # "", "2", "2,", "2, ", "2, 3", ... each prefix once per cell
     prefilled = [b for b in bodies if b["messages"][-1]["role"] == "assistant"]
     assert len(prefilled) == cells * 27
@@ -261,3 +262,42 @@ def test_the_exact_route_refuses_more_prompts_than_it_can_score():
                       name="many")  # fmt: skip
     with pytest.raises(Exception, match=r"attribute.text: the exact route would score more than 200,000 prompts"):
         exact_prompts(task)
+
+
+@pytest.mark.parametrize("sizes", [(1, 1), (2, 1), (3, 2), (1, 3)])
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_the_count_of_text_choices_is_the_length_of_their_list(sizes, k):
+    """text_choice_count's closed form (n!/(n-m)! or n^m per shared value) against the listed choices, every cell."""
+    a = ", ".join(f'"a{i}"' for i in range(sizes[0]))
+    b = ", ".join(f'"b{i}"' for i in range(sizes[1]))
+    user = " ".join(f"{{{{ c{i}.name }}}}" for i in range(1, k + 1))
+    text = NAMES.replace('text = { A = ["Ann", "Amy"], B = ["Bo"] }', f"text = {{ A = [{a}], B = [{b}] }}")
+    text = text.replace("Applicant: {{ c1.name }}. Approve? Answer yes or no.", user)
+    if k > 1:
+        slots = ", ".join(f'"{i}" = {i}' for i in range(1, k + 1))
+        text = (
+            text.replace("candidates = 1", f"candidates = {k}")
+            .replace('options = { yes = "approved", no = "denied" }', f"options = {{ {slots} }}")
+            .replace("values = { approved = 1.0, denied = 0.0 }", 'values = { chosen = 1.0, "not chosen" = 0.0 }')
+        )
+    task = parse_task(text, name="count")
+    for shown in itertools.product(task.profiles, repeat=k):
+        choices = list(task.text_choices(shown))
+        assert task.text_choice_count(shown) == len(choices) == len(set(choices)), shown
+
+
+def test_a_hundred_names_in_eight_slots_are_refused_before_any_is_listed():
+    names = ", ".join(f'"N{i}"' for i in range(100))
+    slots = ", ".join(f'"{i}" = {i}' for i in range(1, 9))
+    text = (
+        NAMES.replace("candidates = 1", "candidates = 8")
+        .replace('A = ["Ann", "Amy"]', f"A = [{names}]")
+        .replace("{{ c1.name }}", " ".join(f"{{{{ c{i}.name }}}}" for i in range(1, 9)))
+        .replace('options = { yes = "approved", no = "denied" }', f"options = {{ {slots} }}")
+        .replace("values = { approved = 1.0, denied = 0.0 }", 'values = { chosen = 1.0, "not chosen" = 0.0 }')
+    )
+    task = parse_task(text, name="eight")
+    shown = (("A",),) * 8
+    assert task.text_choice_count(shown) == math.perm(100, 8)
+    with pytest.raises(Exception, match=r"attribute.text: the exact route would score more than 200,000"):
+        exact_prompts(task, [("all", *shown)])

@@ -208,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
             )
             return 1
         cells = result.analysis.kernel.probabilities.shape[0] * result.analysis.kernel.probabilities.shape[1]
-        asked = f" ({s.asked} requests)" if s is not None else ""
+        asked = f" ({s.requests} requests)" if s is not None else ""
         print(
             f"exact kernel of {cells} shown cells{asked} in {result.seconds:.1f} s; report written to "
             f"{Path(result.out) / 'report.md'}",

@@ -60,10 +60,11 @@ def _intro_md(d: dict) -> list[str]:
     ]
     if d.get("route") == "exact":
         lines += [
-            "Exact route: the kernel is the model's own next-token law on every shown cell of the table design "
-            "(one forward pass, or one request for the first token's log-probabilities, per cell: no sampling "
+            "Exact route: the kernel is the model's own law of its reply on every shown cell of the table design, "
+            "from its token probabilities (a choice: the first token's; a ranking of three or more: each order "
+            "written out, by the chain rule over its tokens): no sampling "
             "error, so no intervals; the filter is applied by exact "
-            f"composition at every ε). On average {_f(q['unparsed_share'], 3)} of the probability mass is on "
+            f"composition at every ε. On average {_f(q['unparsed_share'], 3)} of the probability mass is on "
             "replies that would not parse; it counts as 'unparsed'."
         ]
     else:

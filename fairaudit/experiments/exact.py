@@ -54,19 +54,22 @@ def exact_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> l
     if cells is None:
         cells = [(c, *shown) for c in task.contexts for shown in itertools.product(task.profiles, repeat=task.slots)]
     out: list[ExactPrompt] = []
+    total = 0
+    for cell in cells:
+        total += task.text_choice_count(tuple(cell[1:])) if task.varies else 1
+        if total > MAX_EXACT_PROMPTS:  # counted before any is listed: 100 names in each of 8 slots are 100^8
+            raise InputError(
+                "attribute.text",
+                f"the exact route would score more than {MAX_EXACT_PROMPTS:,} prompts (every choice of the "
+                "candidates' texts in every shown cell); run with `samples` N, which draws the texts",
+                total,
+            )
     for cell in cells:
         context, profiles = cell[0], tuple(cell[1:])
         index = (task.contexts.index(context), *(task.profiles.index(p) for p in profiles))
         choices = list(task.text_choices(profiles)) if task.varies else [()]
         for texts in choices:
             out.append(ExactPrompt(index, context, profiles, tuple(texts), 1.0 / len(choices)))
-        if len(out) > MAX_EXACT_PROMPTS:
-            raise InputError(
-                "attribute.text",
-                f"the exact route would score more than {MAX_EXACT_PROMPTS:,} prompts (every choice of the "
-                "candidates' texts in every shown cell); run with `samples` N, which draws the texts",
-                len(out),
-            )
     return out
 
 

@@ -336,6 +336,8 @@ class RunSummary:
         Wall time of this call.
     failures : tuple of str
         The first few failure messages.
+    requests : int
+        Requests sent (an endpoint's exact route, where a ranking's prompt takes one per prefix; else 0).
     """
 
     planned: int
@@ -345,6 +347,7 @@ class RunSummary:
     unparsed: int
     seconds: float
     failures: tuple = field(default=())
+    requests: int = 0
 
     @property
     def complete(self) -> bool:

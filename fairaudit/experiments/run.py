@@ -600,6 +600,7 @@ def endpoint_kernel(
         replies (:func:`fairaudit.experiments.vlm.logprobs.shared_first_token`); ``attribute.text`` when the texts
         make too many prompts.
     """
+
     import numpy as np
 
     from . import local_model as lm
@@ -614,10 +615,13 @@ def endpoint_kernel(
     replies = ranking_replies(task, answers) if by_sequence(task) else ()
     uncached = {"cache_prompt": False} if client.is_llama_server() else {}  # the same numbers whatever came before
 
+    sent: list[str] = []  # one entry per request (list.append is atomic)
+
     def top(messages: list[dict], prefix: str) -> Any:
         extra = {**uncached, **(PREFILL if prefix else {})}
         turn = [{"role": "assistant", "content": prefix}] if prefix else []
         reply = client.complete(messages + turn, extra=extra)
+        sent.append(prefix)
         if reply.top_logprobs is None:
             raise InputError(
                 "endpoint",
@@ -652,6 +656,7 @@ def endpoint_kernel(
         unparsed=0,
         seconds=time.monotonic() - t0,
         failures=(failure,) if failure is not None else (),
+        requests=len(sent),
     )
     return (out if failure is None else None), summary
 

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
@@ -230,6 +231,26 @@ class DeliveryTask:
         for choice in itertools.product(*(range(n) for n in counts)):
             if all(len({choice[i] for i in idx}) == len(idx) for idx in distinct):
                 yield choice
+
+    def text_choice_count(self, profiles: Sequence[tuple]) -> int:
+        """How many choices :meth:`text_choices` lists, without listing them: n!/(n−m)! for m candidates who share
+        a value of n ≥ m texts, else n^m, multiplied over the attributes' values.
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+        >>> HR_DELIVERY.text_choice_count(HR_DELIVERY.candidates)
+        1
+        """
+        shared: dict[tuple[int, Hashable], int] = {}
+        for p in profiles:
+            for j, v in enumerate(p):
+                shared[(j, v)] = shared.get((j, v), 0) + 1
+        count = 1
+        for (j, v), m in shared.items():
+            n = len(self.texts(self.attributes[j].name, v))
+            count *= math.perm(n, m) if m > 1 and n >= m else n**m
+        return count
 
     def draw_texts(self, profiles: Sequence[tuple], rng: np.random.Generator) -> tuple[int, ...]:
         """One choice of :meth:`text_choices`, uniformly at random (without listing them: a draw per slot).

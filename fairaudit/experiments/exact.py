@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from .._errors import InputError
 from .vlm.tasks import DeliveryTask
 
-__all__ = ["MAX_EXACT_PROMPTS", "ExactPrompt", "by_sequence", "exact_prompts", "ranking_replies"]
+__all__ = ["MAX_EXACT_PROMPTS", "ExactPrompt", "by_sequence", "exact_prompts", "prompt_replies", "ranking_replies"]
 
 MAX_EXACT_PROMPTS = 200_000
 """Prompts an exact route scores at most (every text of every shown cell); beyond, run with samples."""
@@ -86,5 +86,16 @@ def ranking_replies(task: DeliveryTask, answers: Sequence[str]) -> tuple[str, ..
 
 
 def by_sequence(task: DeliveryTask) -> bool:
-    """True when an exact route scores whole replies (a ranking of k ≥ 3), not the first token."""
-    return task.kind == "order" and task.slots > 2
+    """True when an exact route scores whole replies (a ranking of k ≥ 3, or names), not the first token."""
+    return (task.kind == "order" and task.slots > 2) or task.named_by is not None
+
+
+def prompt_replies(task: DeliveryTask, answers: Sequence[str], prompt: ExactPrompt) -> tuple[str, ...]:
+    """The replies a sequence route scores for one prompt, one per decision before ``"unparsed"``.
+
+    A ranking: each order written out (:func:`ranking_replies`); a choice: each candidate's reply alone. A task
+    whose reply names the candidates writes the names its prompt shows
+    (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.reply_names`), else ``answers``.
+    """
+    names = task.reply_names(prompt.profiles, prompt.texts) if task.named_by is not None else tuple(answers)
+    return ranking_replies(task, names) if task.kind == "order" else names

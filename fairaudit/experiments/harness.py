@@ -475,7 +475,8 @@ def _answer(
         decision = str(task.decisions[begins[0]]) if begins else UNPARSED
         error = "" if begins else "begins with no order written out"
     else:
-        parsed = parse_reply(r.text, task.options, task.kind)
+        names = task.reply_names(q.profiles, q.texts)
+        parsed = parse_reply(r.text, names, task.kind, named=task.named_by is not None)
         decision = decision_label(task, parsed.choice, parsed.order) if parsed.ok else UNPARSED
         error = "" if parsed.ok else parsed.error
     return {

@@ -55,7 +55,7 @@ import numpy.typing as npt
 
 from .._arrays import FloatArray, IntArray
 from .._errors import InputError
-from .exact import ExactPrompt, by_sequence, exact_prompts, ranking_replies
+from .exact import ExactPrompt, by_sequence, exact_prompts, prompt_replies
 from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
@@ -671,8 +671,8 @@ def exact_kernel(
         if prefix_len > 0:
             past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values
         if by_sequence(task):
-            replies = [list(tok.encode(r, add_special_tokens=False)) for r in ranking_replies(task, answers)]
             for p, seq in zip(prompts, ids):
+                replies = [list(tok.encode(r, add_special_tokens=False)) for r in prompt_replies(task, answers, p)]
                 out[p.index][:-1] += p.weight * _reply_probabilities(m.model, seq[prefix_len:], past, replies, tok)
                 bar.update(1)
             out[..., -1] = np.clip(1.0 - out[..., :-1].sum(axis=-1), 0.0, None)  # every reply that gives no order

@@ -333,6 +333,10 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     if source.exact and options.samples is not None:
         raise InputError("samples", "give `samples` or `exact`, not both")
     exact = exact_route(source.exact, source.local_model, options.samples)
+    if source.first_token and task.named_by is not None:
+        raise InputError(
+            "first_token", "reads replies of options' keys; this task's replies name the candidates: run with `exact`"
+        )
     # route images belong to the paper's navigation tasks; a task file gets them only with a scene asked for
     images = options.images and (is_built_in(task) or options.scene is not None)
     m: DecisionModel | None = None
@@ -605,14 +609,14 @@ def endpoint_kernel(
 
     from . import local_model as lm
     from ._progress import progress_bar
-    from .exact import by_sequence, exact_prompts, ranking_replies
+    from .exact import by_sequence, exact_prompts, prompt_replies
     from .vlm.logprobs import decision_probabilities, reply_probabilities
 
     shown, answers = lm.exact_prompt(task)
     prompts = exact_prompts(task)
     n = len(task.profiles)
     out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
-    replies = ranking_replies(task, answers) if by_sequence(task) else ()
+    sequences = by_sequence(task)
     uncached = {"cache_prompt": False} if client.is_llama_server() else {}  # the same numbers whatever came before
 
     sent: list[str] = []  # one entry per request (list.append is atomic)
@@ -633,10 +637,10 @@ def endpoint_kernel(
     def ask(i: int) -> FloatArray:
         p = prompts[i]
         messages = lm.chat_messages(shown, p.context, p.profiles, p.texts)
-        if not replies:
+        if not sequences:
             return decision_probabilities(top(messages, ""), task, answers=answers)
         row = np.zeros(len(task.decisions))
-        row[:-1] = reply_probabilities(lambda prefix: top(messages, prefix), replies)
+        row[:-1] = reply_probabilities(lambda prefix: top(messages, prefix), prompt_replies(task, answers, p))
         row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))
         return row
 

@@ -122,7 +122,8 @@ class DecisionSection(StrictModel):
     """``[decision]``: what the reply's options mean and the labels of a candidate's own outcome."""
 
     name: str = "decision"
-    options: dict[str, int | str]
+    options: dict[str, int | str] | None = None
+    named_by: str | None = None
     outcomes: list[str] | None = None
     separator: str = Field(", ", min_length=1)
 
@@ -194,6 +195,11 @@ class TaskFile(StrictModel):
 def _check_options(f: TaskFile) -> None:
     k = f.task.candidates
     options = f.decision.options
+    if f.decision.named_by is not None:
+        _check_named_by(f)
+        return
+    if options is None:
+        raise FieldProblem(".decision.options", "is required: reply -> candidate slot (or name them: named_by)", None)
     if k == 1:
         return  # reply -> decision value: any labels
     slots = list(options.values())
@@ -202,6 +208,38 @@ def _check_options(f: TaskFile) -> None:
             raise FieldProblem(f".decision.options.{key}", f"must be a candidate's slot, 1 to {k}", slot)
     if sorted(slots) != list(range(1, k + 1)):
         raise FieldProblem(".decision.options", f"must name each candidate slot 1 to {k} exactly once", dict(options))
+
+
+def _check_named_by(f: TaskFile) -> None:
+    """``named_by``: an attribute whose texts tell the k candidates of any prompt apart, and no ``options``."""
+    k, by = f.task.candidates, f.decision.named_by
+    if f.decision.options is not None:
+        raise FieldProblem(".decision.options", "not with named_by: the reply names the candidates", f.decision.options)
+    if k < 2:
+        raise FieldProblem(".decision.named_by", "needs at least 2 candidates to name", by)
+    index = next((i for i, a in enumerate(f.attribute) if a.name == by), None)
+    if index is None:
+        raise FieldProblem(".decision.named_by", f"is not an attribute ({', '.join(a.name for a in f.attribute)})", by)
+    attribute = f.attribute[index]
+    texts = attribute.text or {}
+    owner: dict[str, str] = {}
+    for v in attribute.values:
+        shown = texts.get(format_label(v), format_label(v))
+        listed = [shown] if isinstance(shown, str) else list(shown)
+        if len(listed) < k:
+            raise FieldProblem(
+                ".decision.named_by",
+                f"every value of {by!r} needs at least {k} texts (names), so that the {k} candidates of any prompt "
+                f"are told apart; {format_label(v)!r} has {len(listed)}",
+                by,
+            )
+        for t in listed:
+            key = " ".join(t.casefold().split())
+            if key in owner:
+                raise FieldProblem(
+                    f".attribute[{index}].text.{format_label(v)}", f"{t!r} also names the value {owner[key]!r}", t
+                )
+            owner[key] = format_label(v)
 
 
 def _outcome_labels(f: TaskFile) -> tuple[str, ...]:
@@ -213,7 +251,7 @@ def _outcome_labels(f: TaskFile) -> tuple[str, ...]:
             raise FieldProblem(".decision.outcomes", f"must list {expected} outcome labels", f.decision.outcomes)
         return tuple(f.decision.outcomes)
     if k == 1:
-        return tuple(str(v) for v in f.decision.options.values())
+        return tuple(str(v) for v in (f.decision.options or {}).values())
     default = _DEFAULT_OUTCOMES[f.task.decision]
     return default if default is not None else tuple(f"rank {r}" for r in range(1, k + 1))
 
@@ -314,10 +352,13 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         raise _unsupported("filter.attributes", "the filter randomizes every attribute", f.filter.attributes)
     text = {a.name: _shown_text(a) for a in f.attribute}
     population, combinations = _population(f, attributes)
-    if k == 1:
-        options = tuple(f.decision.options)
+    if f.decision.named_by is not None:  # the reply names the candidates: the slots' numbers label the decisions
+        options = tuple(str(i) for i in range(1, k + 1))
+    elif k == 1:
+        options = tuple(f.decision.options or {})
     else:
-        options = tuple(sorted(f.decision.options, key=lambda key: f.decision.options[key]))
+        listed = f.decision.options or {}
+        options = tuple(sorted(listed, key=lambda key: listed[key]))
     outcomes = _outcome_labels(f)
     values = _utility_values(f, outcomes)
     unparsed = f.utility.unparsed if f.utility.unparsed is not None else sum(values) / len(values)
@@ -340,6 +381,7 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         system=f.prompt.system,
         shown_text=text,
         separator=f.decision.separator,
+        named_by=f.decision.named_by,
         positions=f.task.positions,
         keeps=None if f.filter.keep is None else tuple(f.filter.keep),
         epsilons=None if f.filter.epsilon is None else tuple(f.filter.epsilon),

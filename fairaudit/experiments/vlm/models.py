@@ -17,7 +17,7 @@ simulated model exercises the same path as a real one.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -103,11 +103,15 @@ class DecisionModel(Protocol):
         ...
 
 
-def reply_text(task: DeliveryTask, decision: int | None, rng: np.random.Generator | None = None) -> str:
+def reply_text(
+    task: DeliveryTask, decision: int | None, rng: np.random.Generator | None = None, names: Sequence[str] = ()
+) -> str:
     """A reply in the task's JSON format for option index ``decision`` (None: an unparseable reply).
 
     With ``rng`` the JSON is sometimes wrapped in a code fence or in prose, as
-    chat models do, so that simulated runs exercise the parser.
+    chat models do, so that simulated runs exercise the parser. A task whose
+    reply names the candidates (``named_by``) gets ``names`` (slot order)
+    instead: the chosen name, or the names in order on numbered lines.
 
     Examples
     --------
@@ -120,6 +124,8 @@ def reply_text(task: DeliveryTask, decision: int | None, rng: np.random.Generato
     if decision is None:
         return "I am sorry, but I cannot make this decision."
     n = len(task.options)
+    if task.named_by is not None:
+        return _named_reply(task, decision, rng, names)
     if task.kind == "choice":
         values = {o: "1.0" if i == decision else "0.0" for i, o in enumerate(task.options)}
     else:
@@ -138,6 +144,15 @@ def reply_text(task: DeliveryTask, decision: int | None, rng: np.random.Generato
     if style == 2:
         return f"Here is my decision.\n{text}\nI hope this helps."
     return text
+
+
+def _named_reply(task: DeliveryTask, decision: int, rng: np.random.Generator | None, names: Sequence[str]) -> str:
+    """A reply that names the candidates (the Bloomberg study's format): the chosen name, or numbered lines."""
+    if task.kind == "choice":
+        return names[decision] if rng is None or rng.integers(2) == 0 else f"I would choose {names[decision]}."
+    order = task.orders[decision] if task.slots > 2 else (decision, 1 - decision)
+    lines = "\n".join(f"{r}. {names[slot].title()}" for r, slot in enumerate(order, start=1))
+    return lines if rng is None or rng.integers(2) == 0 else f"Ranking the candidates by their fit:\n\n{lines}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,7 +200,9 @@ class SimulatedModel:
         row = self.probabilities[(t.contexts.index(query.context), *(profiles.index(tuple(p)) for p in query.profiles))]
         rng = np.random.default_rng(query.seed)
         d = draw(rng, row)
-        return ModelReply(reply_text(t, None if d == len(t.decisions) - 1 else d, rng), f"simulated:{self.name}")
+        names = t.reply_names(query.profiles, query.texts)
+        text = reply_text(t, None if d == len(t.decisions) - 1 else d, rng, names)
+        return ModelReply(text, f"simulated:{self.name}")
 
     @classmethod
     def from_csv(cls, task: DeliveryTask, path: str | Path, name: str | None = None) -> SimulatedModel:

@@ -152,7 +152,9 @@ def _variant(name: str) -> str:
     return r"[\s_\-]*".join(re.escape(run) for run in runs)
 
 
-def parse_reply(text: str, options: Sequence[str], kind: Literal["choice", "order"]) -> ParsedReply:
+def parse_reply(
+    text: str, options: Sequence[str], kind: Literal["choice", "order"], *, named: bool = False
+) -> ParsedReply:
     """Read a choice or a delivery order from a model's reply.
 
     Parameters
@@ -168,6 +170,13 @@ def parse_reply(text: str, options: Sequence[str], kind: Literal["choice", "orde
         must be positive (1.0 against 0.0; 0.7 against 0.3 also chooses the
         larger). ``"order"``: each value is a delivery position and the values
         must be a permutation of 1..n.
+    named : bool
+        The options are the candidates' names as the prompt shows them, and
+        the reply names them in free text (the Bloomberg study's format,
+        ``"1. Cara Kramer\\n2. Paul Wu\\n..."``): after the JSON forms, an order
+        is the order of each name's first mention (whole words, any case),
+        which needs every name mentioned; a choice is the one name mentioned.
+        No bare numbers are read.
 
     Returns
     -------
@@ -197,17 +206,21 @@ def parse_reply(text: str, options: Sequence[str], kind: Literal["choice", "orde
     (True, 1, True)
     >>> parse_reply('{"HR1": 1, "HR2": 1}', ("HR1", "HR2"), "choice").error
     'ambiguous: HR1 and HR2 tie at 1'
+    >>> r = parse_reply("Ranking:\\n1. Paul Wu\\n2. Cara Kramer\\n3. Jo Li", ("CARA KRAMER", "JO LI", "PAUL WU"), "order",
+    ...                 named=True)
+    >>> r.ok, r.order
+    (True, (2, 0, 1))
     """
     spec = _Options(options)
     if kind not in ("choice", "order"):
         raise InputError("kind", "must be 'choice' or 'order'", kind)
     try:
-        return _parse(text, spec, kind)
+        return _parse(text, spec, kind, named)
     except Exception as exc:  # a safety net: a reply never makes the parser raise  # pragma: no cover
         return ParsedReply(ok=False, error=f"unparseable reply ({type(exc).__name__})")
 
 
-def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
+def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False) -> ParsedReply:
     if not isinstance(text, str):
         return ParsedReply(ok=False, error=f"reply is not a string ({type(text).__name__})")
     if not text.strip():
@@ -228,6 +241,9 @@ def _parse(text: Any, spec: _Options, kind: str) -> ParsedReply:
             result = _named_answer(container, parent, spec, kind)
             if result is not None:
                 return result
+
+    if by_name:
+        return _by_mention(text, spec, kind)
 
     # 3. fallbacks on the text itself: the bare index first (the whole reply), then pairs, then a mention
     bare = _BARE_INDEX_RE.fullmatch(text)
@@ -518,6 +534,22 @@ def _sequence(value: Any, spec: _Options) -> list[int] | None:
         return None
     known = [o for o in order if o is not None]
     return known if sorted(known) == list(range(spec.n)) and len(order) == spec.n else None
+
+
+def _by_mention(text: str, spec: _Options, kind: str) -> ParsedReply:
+    """A reply that names the candidates in free text: an order by first mention, or the one name mentioned."""
+    firsts = sorted((m.start(), i) for i, pattern in enumerate(spec.mention) if (m := pattern.search(text)))
+    if kind == "order":
+        if len(firsts) < spec.n:
+            return ParsedReply(ok=False, error=f"names {len(firsts)} of the {spec.n} candidates")
+        order = [i for _, i in firsts]
+        return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, None, fallback=True)
+    if len(firsts) == 1:
+        return _result_from_choice(firsts[0][1], spec, kind, None, fallback=True)
+    if firsts:
+        listed = ", ".join(spec.names[i] for _, i in firsts)
+        return ParsedReply(ok=False, error=f"ambiguous: the reply names several candidates ({listed})")
+    return ParsedReply(ok=False, error="names none of the candidates")
 
 
 def _listed_order(text: str, spec: _Options) -> list[int] | None:

@@ -105,6 +105,10 @@ class DeliveryTask:
     separator : str
         Between the options' replies in the reply of a ranking's exact route
         (``"2, 3, 1"``; :meth:`order_reply`).
+    named_by : str or None
+        The attribute whose text (a person's name) the reply names each
+        candidate by (:meth:`reply_names`); ``options`` are then the slots'
+        numbers, labels only. None: the reply gives ``options``' keys.
     replies : tuple of str
         Empty, or one text per order of :attr:`orders`: a reply is then read
         as the order whose text it begins with, else unparsed (the sampled
@@ -135,6 +139,7 @@ class DeliveryTask:
     system: str | None = None
     shown_text: Mapping[str, Mapping[Hashable, str | tuple[str, ...]] | None] | None = None
     separator: str = ", "
+    named_by: str | None = None
     replies: tuple = ()
     positions: str = "balanced"
     keeps: tuple | None = None
@@ -317,6 +322,19 @@ class DeliveryTask:
                 shown[a.name] = options[texts[i * n_attr + j] if texts else 0]
             out.append(shown)
         return out
+
+    def reply_names(self, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> tuple[str, ...]:
+        """What the reply calls each candidate of one prompt: its :attr:`named_by` text, or else the option key.
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+        >>> HR_DELIVERY.reply_names(HR_DELIVERY.candidates)
+        ('HR1', 'HR2')
+        """
+        if self.named_by is None:
+            return tuple(self.options)
+        return tuple(shown[self.named_by] for shown in self.shown_names(profiles, texts))
 
     def order_reply(self, order: Sequence[int], answers: Sequence[str]) -> str:
         """The reply that gives ``order`` (0-based slots, best first) on a ranking's exact route: ``"2, 3, 1"``.

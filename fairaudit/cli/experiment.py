@@ -114,8 +114,9 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument(
         "--positions",
-        choices=("balanced", "fixed"),
-        help="both orders of the two candidates, or the paper's only (default: the task's, balanced for the built-in tasks)",
+        choices=("balanced", "latin", "fixed"),
+        help="every order of the candidates, the k cyclic shifts of the listed order (a Latin square), or the listed "
+        "order only, the paper's (default: the task's, balanced for the built-in tasks)",
     )
     e.add_argument(
         "--target",

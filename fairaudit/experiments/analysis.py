@@ -337,7 +337,7 @@ class ExperimentAnalysis:
     model : str
     samples : int
         Queries per shown cell (table design).
-    positions : {"balanced", "fixed"}
+    positions : {"balanced", "latin", "fixed"}
     kernel : Kernel
         The model's kernel on shown pairs, with counts.
     candidate_kernel : Kernel
@@ -512,7 +512,7 @@ def analyse(
     epsilons : sequence of float
         The candidate's ε values (nats) at which to report intervals and
         certificates; finite, ≥ 0.
-    positions : {"balanced", "fixed"}
+    positions : {"balanced", "latin", "fixed"}
         The population of true orders (see the module's docstring).
     confidence : float or None
         Level of the simultaneous intervals (None: none).

@@ -155,9 +155,10 @@ class RunOptions:
         The table design only, or also the paper's (sampling through the
         filter at every ε) for comparison; ``"both"`` needs queries (not the
         exact route).
-    positions : {"balanced", "fixed"}, optional
-        Both orders of the two candidates, or the paper's only; default the
-        task's (``[task] positions`` of its file).
+    positions : {"balanced", "latin", "fixed"}, optional
+        Every order of the candidates, the k cyclic shifts of the listed
+        order, or the listed order only (the paper's); default the task's
+        (``[task] positions`` of its file).
     targets : sequence of float
         Fairness targets (nats) at which the report gives the ε that meets
         them, for this model and for any model (default
@@ -211,7 +212,7 @@ class RunOptions:
     def __post_init__(self) -> None:
         choice(self.design, "design", ("table", "both"))
         if self.positions is not None:
-            choice(self.positions, "positions", ("balanced", "fixed"))
+            choice(self.positions, "positions", ("balanced", "latin", "fixed"))
         if self.epsilons is not None and self.keeps is not None:
             raise InputError("keeps", "give `epsilons` or `keeps`, not both")
         nats = "finite and >= 0 (nats)"

@@ -37,6 +37,7 @@ from .._errors import InputError
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .options import DEFAULT_KEEPS, PLAIN_SAMPLING, ModelSource, RunOptions, exact_route
+from .slots import check_size
 from .taskfile import get_task, is_built_in
 from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_model, simulated_models
 from .vlm.tasks import DeliveryTask
@@ -328,6 +329,7 @@ class _Plan:
 
 def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
     """Check everything a run needs and make its model, before anything is written."""
+    check_size(task)  # before any model or kernel of the table design is made
     keeps = DEFAULT_KEEPS if options.keeps is None else options.keeps
     eps = list(options.epsilons) if options.epsilons is not None else [epsilon_from_keep(task, k) for k in keeps]
     if source.exact and options.samples is not None:

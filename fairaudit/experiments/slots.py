@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 from fractions import Fraction
 
 import numpy as np
@@ -37,6 +38,7 @@ from ..privacy import Mechanism
 from .vlm.tasks import DeliveryTask
 
 __all__ = [
+    "MAX_KERNEL_ENTRIES",
     "MAX_SHOWN_CELLS",
     "candidate_contexts",
     "candidate_epsilon",
@@ -57,11 +59,17 @@ __all__ = [
 MAX_SHOWN_CELLS = 2_000_000
 """The largest n_contexts · n_profiles^k the table design and the exact route enumerate."""
 
+MAX_KERNEL_ENTRIES = 20_000_000
+"""The largest kernel (shown cells × decisions) the table design holds: 160 MB of float64."""
+
 POSITIONS = ("balanced", "latin", "fixed")
 
 
 def check_size(task: DeliveryTask) -> int:
     """The number of shown cells n_contexts · n_profiles^k, or an error naming ``task.candidates`` when too many.
+
+    Too many: beyond :data:`MAX_SHOWN_CELLS` cells, or :data:`MAX_KERNEL_ENTRIES` entries of the kernel (cells ×
+    decisions: a ranking of k has k! + 1).
 
     Raises
     ------
@@ -74,6 +82,14 @@ def check_size(task: DeliveryTask) -> int:
             "task.candidates",
             f"{len(task.contexts)} contexts x {len(task.profiles)}^{task.slots} shown cells = {n:,} are more than "
             f"the table design enumerates ({MAX_SHOWN_CELLS:,}; a design for this size is not supported yet)",
+            task.slots,
+        )
+    decisions = math.factorial(task.slots) + 1 if task.kind == "order" and task.slots > 2 else task.slots + 1
+    if n * decisions > MAX_KERNEL_ENTRIES:
+        raise InputError(
+            "task.candidates",
+            f"{n:,} shown cells x {decisions:,} decisions (every order of {task.slots}) are more kernel entries than "
+            f"the table design holds ({MAX_KERNEL_ENTRIES:,}; a design for this size is not supported yet)",
             task.slots,
         )
     return n

@@ -146,12 +146,12 @@ class DeliveryTask:
     epsilons: tuple | None = None
     digest: str = ""
 
-    @property
+    @functools.cached_property
     def profiles(self) -> tuple:
         """Every profile: the tuples of attribute values in ``itertools.product`` order."""
         return tuple(tuple(t) for t in itertools.product(*(a.values for a in self.attributes)))
 
-    @property
+    @functools.cached_property
     def candidates(self) -> tuple:
         """The true profiles that occur as candidates (the groups), in order of first listing.
 
@@ -165,12 +165,12 @@ class DeliveryTask:
             return self.profiles
         return tuple(dict.fromkeys(tuple(p) for combo in self.combinations for p in combo))
 
-    @property
+    @functools.cached_property
     def orders(self) -> tuple:
         """The orders a ranking reply can give: permutations of the slots (0-based), ``itertools`` order."""
         return tuple(itertools.permutations(range(self.slots)))
 
-    @property
+    @functools.cached_property
     def decisions(self) -> tuple:
         """Decisions of one query, then ``"unparsed"``.
 

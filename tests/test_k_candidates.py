@@ -79,3 +79,16 @@ def test_task_files_run_end_to_end_on_the_simulated_model(tmp_path, capsys, path
     assert len(records) == cert["queries"]["table"] * task.slots
     assert not (out / "route-1.png").exists()  # route images belong to the paper's navigation tasks
     assert (out / "report.md").read_text().count("## ") >= 3
+
+
+def test_positions_latin_from_the_command_line(tmp_path, capsys):
+    """--positions latin: the three cyclic shifts of the listed order, in the certificate and the records."""
+    out = tmp_path / "latin"
+    code, _, err = run(
+        capsys, "experiment", str(RANKING), "--positions", "latin", "--samples", "2", "--keep", "0.8",
+        "--out", out, "--no-progress",
+    )  # fmt: skip
+    assert code == 0, err
+    cert = json.loads((out / "certificate.json").read_text())
+    assert cert["positions"] == "latin"
+    assert cert["queries"]["table"] == 2 * 3**3 * 2  # the table design asks every shown cell; latin weighs the truth

@@ -45,7 +45,7 @@ from .._errors import FairauditError, InputError
 from .._validation import whole
 from ..laws import Kernel
 from ._progress import Bar, progress_bar
-from .slots import check_size, true_prompts
+from .slots import check_size, outcome_index, true_prompts
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.models import DecisionModel, Query
 from .vlm.tasks import UNPARSED, DeliveryTask
@@ -61,6 +61,7 @@ __all__ = [
     "run_queries",
     "table_kernel",
     "table_queries_needed",
+    "true_cell_counts",
 ]
 
 LOG_VERSION = 1
@@ -107,7 +108,7 @@ def plan_queries(
     epsilons : sequence of float
         Paper design: the candidate's ε values (nats; :func:`fairaudit.experiments.vlm.filter.candidate_family`),
         each profile filtered at ε / 2.
-    positions : {"balanced", "fixed"}
+    positions : {"balanced", "latin", "fixed"}
         Paper design: the true orders queried: both orders of the paper's
         candidates (``balanced``), or the paper's own only (``fixed``).
     context_epsilon : float, optional
@@ -594,4 +595,62 @@ def paper_counts(
         order = tuple(tuple(p) for p in r["truth"]["profiles"])
         if order in orders:
             out[cidx[r["truth"]["context"]], orders[order], didx[r["decision"]]] += 1
+    return out
+
+
+def true_cell_counts(task: DeliveryTask, records: Iterable[dict]) -> np.ndarray:
+    """Per-candidate outcome counts of decisions on true prompts shown as they are (no filter), record by record.
+
+    The baseline of a design too large for a kernel (eight candidates: 8⁸ shown cells per context), counted
+    without one: each record names its context, its k profiles in slot order and its decision, and gives each
+    of its k candidates one outcome (:func:`fairaudit.experiments.slots.outcome_index`).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    records : iterable of dict
+        ``{"context": ..., "profiles": [profile of slot 1, ..., slot k], "decision": label}`` with a label of
+        :attr:`DeliveryTask.decisions` (a log's answered queries, or decisions recorded elsewhere); records with a
+        ``status`` other than ``"ok"`` are skipped.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_contexts, k, n_candidates, n_outcomes)
+        Counts by context, slot, the candidate's true profile (:attr:`DeliveryTask.candidates`) and its outcome
+        (:attr:`DeliveryTask.outcomes`).
+
+    Raises
+    ------
+    InputError
+        ``records`` naming a context, profile or decision the task does not have.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY as t
+    >>> c = true_cell_counts(t, [{"context": "sick leave", "profiles": t.candidates, "decision": "HR2"}])
+    >>> c[t.contexts.index("sick leave")].tolist()   # slot 1 (Tom): not chosen; slot 2 (Mary): chosen
+    [[[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]]
+    """
+    cidx = {c: i for i, c in enumerate(task.contexts)}
+    gidx = {tuple(g): i for i, g in enumerate(task.candidates)}
+    didx = {d: i for i, d in enumerate(task.decisions)}
+    rows = []
+    for n, r in enumerate(records):
+        if r.get("status", "ok") != "ok":
+            continue
+        try:
+            rows.append((cidx[r["context"]], *(gidx[tuple(p)] for p in r["profiles"]), didx[r["decision"]]))
+        except (KeyError, TypeError):
+            raise InputError(
+                f"records[{n}]", f"is not a decision of {task.name} on one of its true prompts", r
+            ) from None
+        if len(rows[-1]) != task.slots + 2:
+            raise InputError(f"records[{n}].profiles", f"needs {task.slots} profiles", r.get("profiles"))
+    out = np.zeros((len(task.contexts), task.slots, len(task.candidates), len(task.outcomes)))
+    if rows:
+        a = np.array(rows, dtype=np.int64)
+        o = outcome_index(task)
+        for i in range(task.slots):
+            slot = np.full(len(a), i, dtype=np.int64)
+            np.add.at(out, (a[:, 0], slot, a[:, 1 + i], o[i, a[:, -1]]), 1.0)
     return out

@@ -301,3 +301,18 @@ def test_a_hundred_names_in_eight_slots_are_refused_before_any_is_listed():
     assert task.text_choice_count(shown) == math.perm(100, 8)
     with pytest.raises(Exception, match=r"attribute.text: the exact route would score more than 200,000"):
         exact_prompts(task, [("all", *shown)])
+
+
+@pytest.mark.parametrize("route", [("--local-model", "smollm2"), ("--endpoint", "http://127.0.0.1:9/v1", "--model", "m",
+                                   "--exact")], ids=["local", "endpoint"])  # fmt: skip
+def test_too_many_prompts_are_refused_before_a_model_loads_or_a_folder_is_made(route, tmp_path, capsys):
+    """500 names of A: the first cell (A, A) alone has 500 x 499 = 249,500 choices; no torch, server or folder needed."""
+    path = tmp_path / "many.toml"
+    path.write_text(NAMES.replace('A = ["Ann", "Amy"]', "A = [" + ", ".join(f'"N{i}"' for i in range(500)) + "]")
+                    .replace("candidates = 1", "candidates = 2").replace("{{ c1.name }}", "{{ c1.name }} {{ c2.name }}")
+                    .replace('options = { yes = "approved", no = "denied" }', 'options = { "1" = 1, "2" = 2 }')
+                    .replace('values = { approved = 1.0, denied = 0.0 }', 'values = { chosen = 1.0, "not chosen" = 0.0 }'))  # fmt: skip
+    code, out, err = run(capsys, "experiment", str(path), *route, "--out", tmp_path / "r")
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "attribute.text: the exact route would score more than 200,000 prompts" in err and "(got 249500)" in err
+    assert not (tmp_path / "r").exists()

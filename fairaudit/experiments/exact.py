@@ -14,7 +14,15 @@ from dataclasses import dataclass
 from .._errors import InputError
 from .vlm.tasks import DeliveryTask
 
-__all__ = ["MAX_EXACT_PROMPTS", "ExactPrompt", "by_sequence", "exact_prompts", "prompt_replies", "ranking_replies"]
+__all__ = [
+    "MAX_EXACT_PROMPTS",
+    "ExactPrompt",
+    "by_sequence",
+    "count_prompts",
+    "exact_prompts",
+    "prompt_replies",
+    "ranking_replies",
+]
 
 MAX_EXACT_PROMPTS = 200_000
 """Prompts an exact route scores at most (every text of every shown cell); beyond, run with samples."""
@@ -51,19 +59,9 @@ def exact_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> l
     InputError
         ``attribute.text`` when there would be more than :data:`MAX_EXACT_PROMPTS` prompts.
     """
-    if cells is None:
-        cells = [(c, *shown) for c in task.contexts for shown in itertools.product(task.profiles, repeat=task.slots)]
+    cells = _shown_cells(task) if cells is None else cells
+    count_prompts(task, cells)
     out: list[ExactPrompt] = []
-    total = 0
-    for cell in cells:
-        total += task.text_choice_count(tuple(cell[1:])) if task.varies else 1
-        if total > MAX_EXACT_PROMPTS:  # counted before any is listed: 100 names in each of 8 slots are 100^8
-            raise InputError(
-                "attribute.text",
-                f"the exact route would score more than {MAX_EXACT_PROMPTS:,} prompts (every choice of the "
-                "candidates' texts in every shown cell); run with `samples` N, which draws the texts",
-                total,
-            )
     for cell in cells:
         context, profiles = cell[0], tuple(cell[1:])
         index = (task.contexts.index(context), *(task.profiles.index(p) for p in profiles))
@@ -71,6 +69,48 @@ def exact_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> l
         for texts in choices:
             out.append(ExactPrompt(index, context, profiles, tuple(texts), 1.0 / len(choices)))
     return out
+
+
+def count_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> int:
+    """How many prompts :func:`exact_prompts` lists, counted without listing them; an error beyond the limit.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    cells : list of (context, profile 1, ..., profile k), optional
+        Default every shown cell of the table design.
+
+    Returns
+    -------
+    int
+        Σ over the cells of their choices of texts
+        (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.text_choice_count`); the number of cells when no value
+        has several texts.
+
+    Raises
+    ------
+    InputError
+        ``attribute.text`` beyond :data:`MAX_EXACT_PROMPTS` (100 names in each of 8 slots are 100!/92! choices
+        per cell), before any prompt is made.
+    """
+    if not task.varies:
+        return len(cells) if cells is not None else len(task.contexts) * len(task.profiles) ** task.slots
+    total = 0
+    for cell in _shown_cells(task) if cells is None else cells:
+        total += task.text_choice_count(tuple(cell[1:]))
+        if total > MAX_EXACT_PROMPTS:
+            raise InputError(
+                "attribute.text",
+                f"the exact route would score more than {MAX_EXACT_PROMPTS:,} prompts (every choice of the "
+                "candidates' texts in every shown cell); run with `samples` N, which draws the texts",
+                total,
+            )
+    return total
+
+
+def _shown_cells(task: DeliveryTask) -> list[tuple]:
+    """Every shown cell of the table design, (context, profile 1, ..., profile k), contexts first."""
+    return [(c, *shown) for c in task.contexts for shown in itertools.product(task.profiles, repeat=task.slots)]
 
 
 def ranking_replies(task: DeliveryTask, answers: Sequence[str]) -> tuple[str, ...]:

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any, TypeAlias, TypedDict
 from .. import __version__
 from .._errors import InputError
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
+from .exact import count_prompts
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .options import DEFAULT_KEEPS, PLAIN_SAMPLING, ModelSource, RunOptions, exact_route
 from .slots import check_size
@@ -335,6 +336,8 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     if source.exact and options.samples is not None:
         raise InputError("samples", "give `samples` or `exact`, not both")
     exact = exact_route(source.exact, source.local_model, options.samples)
+    if exact:
+        count_prompts(task)  # every choice of the texts is scored: refused here, before a model loads or a file is made
     if source.first_token and task.named_by is not None:
         raise InputError(
             "first_token", "reads replies of options' keys; this task's replies name the candidates: run with `exact`"

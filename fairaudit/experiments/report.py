@@ -439,12 +439,7 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
             ax.bar(xs, vals, width * 0.95, bottom=bottoms, color=color, edgecolor="white", hatch=hatches[j])
             bottoms += vals
     verb = "chosen" if t.kind == "choice" else "served first"
-    ax.set_xticks(np.arange(n), list(t.contexts), fontsize=8)
-    ax.set_xlabel(t.context_name)
-    measure = "share of queries" if analysis.kernel.counts is not None else "probability"
-    ax.set_ylabel(f"{measure}: who is {verb}")
-    ax.set_ylim(0, 1.0)
-    ax.set_title(f"{t.name}, {analysis.model}: no privacy filter", fontsize=10)
+    _baseline_axes(ax, analysis, f"who is {verb}")
     who = [Patch(facecolor=c, edgecolor="white", label=lab) for c, lab in zip(colors, (c1, c2, "unparsed"))]
     orders = [
         Patch(facecolor="0.55", edgecolor="white", hatch=hatches[j], label=f"{name}\n{t.options[0]} = {first}")
@@ -452,6 +447,17 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
     ]
     _side_legends(ax, (who, f"who is {verb}"), (orders, "order (bars)"))
     return fig
+
+
+def _baseline_axes(ax: Axes, analysis: ExperimentAnalysis, what: str, sep: str = ": ") -> None:
+    """The axes of a baseline figure: contexts on x, a share (sampled) or probability (exact) of ``what`` on y."""
+    t = analysis.task
+    ax.set_xticks(np.arange(len(t.contexts)), list(t.contexts), fontsize=8)
+    ax.set_xlabel(t.context_name)
+    measure = "share of queries" if analysis.kernel.counts is not None else "probability"
+    ax.set_ylabel(f"{measure}{sep}{what}")
+    ax.set_ylim(0, 1.0)
+    ax.set_title(f"{t.name}, {analysis.model}: no privacy filter", fontsize=10)
 
 
 def _side_legends(ax: Axes, upper: tuple[list, str], lower: tuple[list, str]) -> None:
@@ -497,12 +503,7 @@ def _outcome_figure(analysis: ExperimentAnalysis, figure_class: Any) -> Figure:
             ax.bar(xs, shares[:, j, o], width * 0.92, bottom=bottoms, color=colors[o], edgecolor="white",
                    hatch=hatches[j % len(hatches)])  # fmt: skip
             bottoms += np.nan_to_num(shares[:, j, o])
-    ax.set_xticks(np.arange(n_x), list(t.contexts), fontsize=8)
-    ax.set_xlabel(t.context_name)
-    measure = "share of queries" if analysis.kernel.counts is not None else "probability"
-    ax.set_ylabel(f"{measure} of each outcome")
-    ax.set_ylim(0, 1.0)
-    ax.set_title(f"{t.name}, {analysis.model}: no privacy filter", fontsize=10)
+    _baseline_axes(ax, analysis, "of each outcome", sep=" ")
     outcomes = [Patch(facecolor=c, edgecolor="white", label=o) for c, o in zip(colors, t.outcomes)]
     who = [
         Patch(facecolor="0.55", edgecolor="white", hatch=hatches[j % len(hatches)], label=t.profile_label(c))

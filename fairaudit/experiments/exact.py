@@ -30,9 +30,23 @@ MAX_EXACT_PROMPTS = 200_000
 
 @dataclass(frozen=True)
 class ExactPrompt:
-    """One prompt of an exact route: its shown cell, its candidates' texts and its weight in the cell's average."""
+    """One prompt of an exact route: its shown cell, its candidates' texts and its weight in the cell's average.
 
-    index: tuple[int, ...]  # (context, profile in slot 1, ..., slot k) indices into the kernel
+    Attributes
+    ----------
+    index : tuple of int
+        (context, profile in slot 1, ..., slot k): the kernel row the prompt adds to.
+    context : str
+    profiles : tuple of tuple
+        The k profiles shown.
+    texts : tuple of int
+        The choice of texts (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.text_choices`); ``()``: the only ones.
+    weight : float
+        1 / the cell's number of text choices: the kernel of a shown cell is the mean over them (docs/design.md,
+        "Exact kernels of replies longer than a token").
+    """
+
+    index: tuple[int, ...]
     context: str
     profiles: tuple
     texts: tuple[int, ...]
@@ -126,16 +140,33 @@ def ranking_replies(task: DeliveryTask, answers: Sequence[str]) -> tuple[str, ..
 
 
 def by_sequence(task: DeliveryTask) -> bool:
-    """True when an exact route scores whole replies (a ranking of k ≥ 3, or names), not the first token."""
+    """True when an exact route scores whole replies, not the first token.
+
+    A ranking of k ≥ 3 (the first token gives only who comes first) or a task whose reply names the candidates
+    (names may share their first token): P(reply begins with r) = Π_t P(r_t | prompt, r_<t), the chain rule.
+    """
     return (task.kind == "order" and task.slots > 2) or task.named_by is not None
 
 
 def prompt_replies(task: DeliveryTask, answers: Sequence[str], prompt: ExactPrompt) -> tuple[str, ...]:
     """The replies a sequence route scores for one prompt, one per decision before ``"unparsed"``.
 
-    A ranking: each order written out (:func:`ranking_replies`); a choice: each candidate's reply alone. A task
-    whose reply names the candidates writes the names its prompt shows
-    (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.reply_names`), else ``answers``.
+    Parameters
+    ----------
+    task : DeliveryTask
+    answers : sequence of str
+        The reply naming each slot (the options' keys, :func:`fairaudit.experiments.local_model.exact_prompt`);
+        not used when the reply names the candidates.
+    prompt : ExactPrompt
+
+    Returns
+    -------
+    tuple of str
+        n_decisions − 1 texts in the order of :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`. A
+        ranking: each order written out (:func:`ranking_replies`); a choice: each candidate's reply alone. A task
+        whose reply names the candidates writes the names its prompt shows
+        (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.reply_names`; the Bloomberg study's replies), else
+        ``answers``.
     """
     names = task.reply_names(prompt.profiles, prompt.texts) if task.named_by is not None else tuple(answers)
     return ranking_replies(task, names) if task.kind == "order" else names

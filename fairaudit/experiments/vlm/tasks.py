@@ -258,9 +258,24 @@ class DeliveryTask:
         return count
 
     def draw_texts(self, profiles: Sequence[tuple], rng: np.random.Generator) -> tuple[int, ...]:
-        """One choice of :meth:`text_choices`, uniformly at random (without listing them: a draw per slot).
+        """One choice of :meth:`text_choices`, uniformly at random, without listing them.
 
-        Returns ``()`` when no value has several texts (:attr:`varies`).
+        Slot by slot: a value's text is drawn uniformly, among those not yet shown in this prompt when the value
+        has texts enough for every candidate who shares it (uniform draws without replacement give every
+        injective choice the same probability, so the draw is uniform over :meth:`text_choices`).
+
+        Parameters
+        ----------
+        profiles : sequence of tuple
+            The k profiles shown, slot by slot.
+        rng : numpy.random.Generator
+            The query's generator (the harness seeds it from the query's seed).
+
+        Returns
+        -------
+        tuple of int
+            k × n_attributes indices into :meth:`texts`, slot-major; ``()`` when no value has several texts
+            (:attr:`varies`).
         """
         if not self.varies:
             return ()
@@ -310,7 +325,25 @@ class DeliveryTask:
         return self._render(self.system, "prompt.system", context, profiles, texts)
 
     def shown_names(self, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> list[dict[str, str]]:
-        """What the prompt shows of each candidate: attribute name -> text, slot by slot."""
+        """What the prompt shows of each candidate: attribute name -> text, slot by slot.
+
+        Parameters
+        ----------
+        profiles : sequence of tuple
+            The k profiles shown.
+        texts : sequence of int
+            A choice of :meth:`text_choices` (k × n_attributes indices, slot-major); ``()``: each value's first.
+
+        Returns
+        -------
+        list of dict
+            One ``{attribute name: text}`` per slot, as the template sees ``c1``, ``c2``, ...
+
+        Raises
+        ------
+        InputError
+            ``texts`` of the wrong length.
+        """
         n_attr = len(self.attributes)
         if texts and len(texts) != len(profiles) * n_attr:
             raise InputError("texts", f"needs one index per candidate and attribute ({len(profiles) * n_attr})", texts)

@@ -21,6 +21,8 @@ from _cli import run
 
 from fairaudit.experiments.exact import exact_prompts, ranking_replies
 from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel
+from fairaudit.experiments.options import ModelSource, RunOptions
+from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.taskfile import load_task, parse_task
 from fairaudit.experiments.vlm.logprobs import reply_probabilities
 from fairaudit.experiments.vlm.models import ModelReply, SimulatedModel, simulated_model
@@ -123,26 +125,24 @@ def test_a_ranking_over_http_gives_the_known_kernel_one_request_per_prefix(tmp_p
     np.testing.assert_allclose(got, kernel, rtol=0, atol=1e-12)
 
 
-def test_the_sampled_twin_of_a_ranking_reads_the_order_the_reply_begins_with(tmp_path, capsys):
+def test_the_sampled_twin_of_a_ranking_reads_the_order_the_reply_begins_with(tmp_path):
     """--first-token on a ranking: replies of up to len("1, 2, 3") tokens, read by their beginning; bands cover K."""
     one_role = tmp_path / "ranking.toml"  # one context: 27 shown cells
     one_role.write_text(RANKING.read_text().replace('"software engineer", "HR specialist"', '"software engineer"'))
     task = load_task(one_role)
     kernel = _known_kernel(task)
     responder, logprobs = _stand_in(task, kernel)
-    common = ["--no-progress", "--keep", "0.7", "--seed", "3"]
+    common = {"keeps": [0.7], "seed": 3, "targets": []}  # no targets: the budgets per target are not checked here
     with ChatServer(responder, logprobs=logprobs) as server:
-        code, _, err = run(
-            capsys, "experiment", str(one_role), "--endpoint", server.url, "--model", "m", "--first-token",
-            "--samples", "40", "--concurrency", "8", "--out", tmp_path / "twin", *common,
+        run_experiment(
+            str(one_role), tmp_path / "twin", ModelSource(endpoint=server.url, model="m", first_token=True),
+            RunOptions(samples=40, concurrency=8, **common), progress=False,
         )  # fmt: skip
-        assert code == 0, err
         bodies = server.chat_requests
-        code, _, err = run(
-            capsys, "experiment", str(one_role), "--endpoint", server.url, "--model", "m", "--exact",
-            "--out", tmp_path / "exact", *common,
+        run_experiment(
+            str(one_role), tmp_path / "exact", ModelSource(endpoint=server.url, model="m", exact=True),
+            RunOptions(**common), progress=False,
         )  # fmt: skip
-        assert code == 0, err
     assert {b["max_tokens"] for b in bodies[:5]} == {len("1, 2, 3")}
     records = [json.loads(line) for line in (tmp_path / "twin" / "queries.jsonl").read_text().splitlines()[1:]]
     unparsed = [r for r in records if r.get("decision") == "unparsed"]
@@ -200,9 +200,6 @@ def test_a_value_with_several_names_gets_the_average_over_its_names_on_the_exact
 
     props = {"default_generation_settings": {}, "build_info": "stand-in"}
     with ChatServer(lambda body: "yes", logprobs=logprobs, props=props) as server:
-        from fairaudit.experiments.options import ModelSource, RunOptions
-        from fairaudit.experiments.run import run_experiment
-
         done = run_experiment(
             str(path), tmp_path / "r", ModelSource(endpoint=server.url, model="m", exact=True),
             RunOptions(targets=[], keeps=[0.8]), progress=False,

@@ -207,6 +207,7 @@ def test_a_rankings_exact_kernel_is_the_probability_of_each_order_written_out(sm
     people = task.profiles
     cells = [("HR specialist", people[0], people[1], people[2]), ("software engineer", people[2], people[2], people[0])]
     got = lm.exact_kernel(task, smollm2, cells=cells)
+    assert got.sum() == pytest.approx(len(cells), abs=1e-9)  # each asked cell sums to 1; the others stay at zero
     tok = smollm2.tokenizer
     for cell in cells:
         ids = list(tok.apply_chat_template(lm.chat_messages(task, cell[0], cell[1:]), add_generation_prompt=True,

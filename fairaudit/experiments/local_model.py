@@ -606,7 +606,7 @@ def exact_kernel(
     model : LoadedModel, optional
         Default :func:`load` ``("smollm2")``.
     batch_size : int
-        Sequences per forward pass.
+        Prompts per forward pass of the first-token reading (a ranking runs each prompt's replies as one batch).
     shared_prefix : bool
         Run the token prefix that every prompt shares (system prompt,
         instructions) once and reuse its key/value cache: the same logits,
@@ -675,7 +675,10 @@ def exact_kernel(
                 replies = [list(tok.encode(r, add_special_tokens=False)) for r in prompt_replies(task, answers, p)]
                 out[p.index][:-1] += p.weight * _reply_probabilities(m.model, seq[prefix_len:], past, replies, tok)
                 bar.update(1)
-            out[..., -1] = np.clip(1.0 - out[..., :-1].sum(axis=-1), 0.0, None)  # every reply that gives no order
+            scored = np.array(sorted({p.index for p in prompts})).T  # (1 + k, cells asked): the others stay at zero
+            rows = out[tuple(scored)]
+            rows[:, -1] = np.clip(1.0 - rows[:, :-1].sum(axis=-1), 0.0, None)  # every reply that writes no order
+            out[tuple(scored)] = rows
         else:
             _first_token_shares(task, m.model, tok, prompts, [s[prefix_len:] for s in ids], past, batch_size, out, bar)
     bar.close()

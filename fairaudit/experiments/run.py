@@ -109,12 +109,8 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int) -> Decisio
 
 def _twin_tokens(task: DeliveryTask) -> int:
     """``max_tokens`` of the exact route's sampled twin: 1, or room for the longest order written out (a ranking)."""
-    from . import local_model as lm
-    from .exact import by_sequence, ranking_replies
-
-    if not by_sequence(task):
-        return 1
-    return max(len(r) for r in ranking_replies(task, lm.exact_prompt(task)[1]))  # a token is one character or more
+    replies = _twin(task).replies
+    return max(len(r) for r in replies) if replies else 1  # a token is one character or more
 
 
 def _twin(task: DeliveryTask) -> DeliveryTask:
@@ -583,7 +579,7 @@ def endpoint_kernel(
     of those replies (sent as the start of the assistant's message, :data:`PREFILL`; llama-server and vLLM
     continue it), each prefix once (:func:`fairaudit.experiments.vlm.logprobs.reply_probabilities`). A cell whose
     candidates have several texts averages over every choice of them
-    (:func:`fairaudit.experiments.local_model.exact_prompts`).
+    (:func:`fairaudit.experiments.exact.exact_prompts`).
 
     Parameters
     ----------

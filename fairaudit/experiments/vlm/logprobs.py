@@ -239,7 +239,7 @@ def reply_probabilities(
         with ``prefix`` (``""``: the first token), as :func:`first_token_logprobs` gives them. Each prefix is asked
         once, whatever the number of replies that share it.
     replies : sequence of str
-        The replies scored (:func:`fairaudit.experiments.local_model.ranking_replies`: ``"2, 3, 1"``, ...).
+        The replies scored (:func:`fairaudit.experiments.exact.ranking_replies`: ``"2, 3, 1"``, ...).
 
     Returns
     -------

@@ -181,20 +181,20 @@ class DeliveryTask:
             return (*(" > ".join(self.options[i] for i in o) for o in self.orders), UNPARSED)
         return (*self.options, UNPARSED)
 
-    def texts(self, attribute: str, value: Hashable) -> tuple[str, ...]:
+    def texts(self, attribute: str, value: Hashable) -> tuple[Any, ...]:
         """The texts the prompt may show for ``value`` of ``attribute`` (the value itself when the task lists none).
 
         Examples
         --------
         >>> from fairaudit.experiments.taskfile import HR_DELIVERY
         >>> HR_DELIVERY.texts("age", 25)
-        ('25',)
+        (25,)
         """
         listed = (self.shown_text or {}).get(attribute) or {}
-        shown = listed.get(value, str(value))
-        return (shown,) if isinstance(shown, str) else tuple(shown)
+        shown = listed.get(value, value)
+        return tuple(shown) if isinstance(shown, (tuple, list)) else (shown,)
 
-    @property
+    @functools.cached_property
     def varies(self) -> bool:
         """True when some value has several texts, so that each prompt draws its candidates' texts."""
         return any(len(self.texts(a.name, v)) > 1 for a in self.attributes for v in a.values)
@@ -324,7 +324,7 @@ class DeliveryTask:
             return None
         return self._render(self.system, "prompt.system", context, profiles, texts)
 
-    def shown_names(self, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> list[dict[str, str]]:
+    def shown_names(self, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> list[dict[str, Any]]:
         """What the prompt shows of each candidate: attribute name -> text, slot by slot.
 
         Parameters
@@ -367,7 +367,7 @@ class DeliveryTask:
         """
         if self.named_by is None:
             return tuple(self.options)
-        return tuple(shown[self.named_by] for shown in self.shown_names(profiles, texts))
+        return tuple(str(shown[self.named_by]) for shown in self.shown_names(profiles, texts))
 
     def order_reply(self, order: Sequence[int], answers: Sequence[str]) -> str:
         """The reply that gives ``order`` (0-based slots, best first) on a ranking's exact route: ``"2, 3, 1"``.

@@ -25,8 +25,7 @@ does not keep to the JSON format (its first token is ``{``, ``"``, ``I``,
 ``The``, ... with a few per cent each), and a decision spread over a free
 reply has no exact law that one forward pass can give.
 
-torch and transformers are imported inside the functions that need them
-(``pip install 'fairaudit[local-model]'``), so this module imports without them.
+torch and transformers are imported only where used (``pip install 'fairaudit[local-model]'``).
 """
 
 from __future__ import annotations

@@ -426,6 +426,9 @@ def run_queries(
 def decision_label(task: DeliveryTask, choice: int | None, order: Sequence[int] | None) -> str:
     """The decision a parsed reply gives: the option chosen (or served first, of two), or the order of k ≥ 3.
 
+    An order of some of the k ≥ 3 slots is its partial order's decision when the task reads partial rankings
+    (:attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.partial`), else unparsed.
+
     Examples
     --------
     >>> from fairaudit.experiments.taskfile import HR_DELIVERY
@@ -433,9 +436,8 @@ def decision_label(task: DeliveryTask, choice: int | None, order: Sequence[int] 
     'HR2'
     """
     if task.kind == "order" and task.slots > 2:
-        if order is None:
-            return UNPARSED
-        return str(task.decisions[task.orders.index(tuple(order))])
+        index = None if order is None else task.order_decisions.get(tuple(order))
+        return UNPARSED if index is None else str(task.decisions[index])
     return UNPARSED if choice is None else str(task.options[choice])
 
 
@@ -477,7 +479,7 @@ def _answer(
         error = "" if begins else "begins with no order written out"
     else:
         names = task.reply_names(q.profiles, q.texts)
-        parsed = parse_reply(r.text, names, task.kind, named=task.named_by is not None)
+        parsed = parse_reply(r.text, names, task.kind, named=task.named_by is not None, partial=task.partial)
         decision = decision_label(task, parsed.choice, parsed.order) if parsed.ok else UNPARSED
         error = "" if parsed.ok else parsed.error
     return {

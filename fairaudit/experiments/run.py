@@ -334,6 +334,12 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     exact = exact_route(source.exact, source.local_model, options.samples)
     if exact:
         count_prompts(task)  # every choice of the texts is scored: refused here, before a model loads or a file is made
+    if (exact or source.first_token) and task.partial:
+        raise InputError(
+            "first_token" if source.first_token else "exact",
+            "this task reads partial rankings (decision.partial), and the exact routes score complete orders only: "
+            "run with `samples` N",
+        )
     if source.first_token and task.named_by is not None:
         raise InputError(
             "first_token", "reads replies of options' keys; this task's replies name the candidates: run with `exact`"

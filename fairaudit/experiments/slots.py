@@ -69,7 +69,7 @@ def check_size(task: DeliveryTask) -> int:
     """The number of shown cells n_contexts · n_profiles^k, or an error naming ``task.candidates`` when too many.
 
     Too many: beyond :data:`MAX_SHOWN_CELLS` cells, or :data:`MAX_KERNEL_ENTRIES` entries of the kernel (cells ×
-    decisions: a ranking of k has k! + 1).
+    decisions: a ranking of k has k! + 1, and more with partial rankings).
 
     Raises
     ------
@@ -84,7 +84,9 @@ def check_size(task: DeliveryTask) -> int:
             f"the table design enumerates ({MAX_SHOWN_CELLS:,}; a design for this size is not supported yet)",
             task.slots,
         )
-    decisions = math.factorial(task.slots) + 1 if task.kind == "order" and task.slots > 2 else task.slots + 1
+    k = task.slots
+    orders = sum(math.perm(k, j) for j in range(1, k + 1)) if task.partial else math.factorial(k)
+    decisions = orders + 1 if task.kind == "order" and k > 2 else k + 1
     if n * decisions > MAX_KERNEL_ENTRIES:
         raise InputError(
             "task.candidates",
@@ -186,8 +188,10 @@ def outcome_index(task: DeliveryTask) -> IntArray:
     """o_i(u): the outcome index of the candidate in slot i under decision u, shape (k, n_decisions).
 
     A choice: 0 (chosen) for u = i, else 1; a ranking: the rank of slot i in
-    order u (0 = first); k = 1: the decision itself; the last decision,
-    ``"unparsed"``, gives the last outcome.
+    order u (0 = first), k (``"unranked"``) for a slot a partial order leaves
+    out (:attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.partial`);
+    k = 1: the decision itself; the last decision, ``"unparsed"``, gives the
+    last outcome.
 
     Examples
     --------
@@ -207,7 +211,14 @@ def outcome_index(task: DeliveryTask) -> IntArray:
         ranks = np.argsort(orders, axis=1)  # [u, slot] -> rank
         if k == 2:  # a ranking of two is named by the option served first
             ranks = np.array([[0, 1], [1, 0]])
-        out[:, :-1] = ranks.T
+        out[:, : len(orders)] = ranks.T
+        at = len(orders)
+        for j in range(k - 1, 0, -1) if task.partial else ():  # orders of j slots: the others are unranked (k)
+            some = np.array(list(itertools.permutations(range(k), j)), dtype=np.int64)  # [u, rank] -> slot
+            part = np.full((len(some), k), k, dtype=np.int64)
+            np.put_along_axis(part, some, np.arange(j), axis=1)
+            out[:, at : at + len(some)] = part.T
+            at += len(some)
     return out
 
 

@@ -54,6 +54,7 @@ BUILT_IN = ("hr-delivery", "package-delivery")
 """The tasks shipped with fairaudit (``fairaudit/experiments/tasks/<name>.toml``)."""
 
 _DEFAULT_OUTCOMES = {"choose": ("chosen", "not chosen"), "rank": None}
+_UNRANKED = ("unranked",)  # the outcome of a candidate that a partial ranking leaves out
 
 
 class TaskSection(StrictModel):
@@ -126,6 +127,7 @@ class DecisionSection(StrictModel):
     named_by: str | None = None
     outcomes: list[str] | None = None
     separator: str = Field(", ", min_length=1)
+    partial: bool = False
 
     @field_validator("options")
     @classmethod
@@ -186,6 +188,10 @@ class TaskFile(StrictModel):
                 raise FieldProblem(f".filter.attributes[{i}]", f"is not an attribute ({', '.join(names)})", a)
         if self.task.candidates == 1 and self.task.decision == "rank":
             raise FieldProblem(".task.decision", "a ranking needs at least 2 candidates", "rank")
+        if self.decision.partial and (self.task.decision != "rank" or self.task.candidates < 3):
+            raise FieldProblem(
+                ".decision.partial", 'needs decision = "rank" of at least 3 candidates (a reply that ranks some)', True
+            )
         _check_options(self)
         outcomes = _outcome_labels(self)
         _check_utility(self, outcomes)
@@ -243,17 +249,20 @@ def _check_named_by(f: TaskFile) -> None:
 
 
 def _outcome_labels(f: TaskFile) -> tuple[str, ...]:
-    """A candidate's own outcomes, in order: ``[decision] outcomes``, else chosen/not chosen or rank 1..k."""
+    """A candidate's own outcomes, in order: ``[decision] outcomes``, else chosen/not chosen or rank 1..k; then
+    ``"unranked"`` when a ranking may be partial."""
     k = f.task.candidates
     if f.decision.outcomes is not None:
         expected = 2 if f.task.decision == "choose" else k
         if k >= 2 and len(f.decision.outcomes) != expected:
             raise FieldProblem(".decision.outcomes", f"must list {expected} outcome labels", f.decision.outcomes)
-        return tuple(f.decision.outcomes)
+        return (*f.decision.outcomes, *_UNRANKED[: f.decision.partial])
     if k == 1:
         return tuple(str(v) for v in (f.decision.options or {}).values())
     default = _DEFAULT_OUTCOMES[f.task.decision]
-    return default if default is not None else tuple(f"rank {r}" for r in range(1, k + 1))
+    if default is not None:
+        return default
+    return (*(f"rank {r}" for r in range(1, k + 1)), *_UNRANKED[: f.decision.partial])
 
 
 def _check_utility(f: TaskFile, outcomes: tuple[str, ...]) -> None:
@@ -261,6 +270,10 @@ def _check_utility(f: TaskFile, outcomes: tuple[str, ...]) -> None:
     if values == "rank":
         if f.task.decision != "rank":
             raise FieldProblem(".utility.values", 'is "rank" only for decision = "rank"', values)
+        if f.decision.partial:
+            raise FieldProblem(
+                ".utility.values", f'"rank" gives "unranked" no number: list one per outcome {list(outcomes)}', values
+            )
         return
     if isinstance(values, list):
         if len(values) != len(outcomes):
@@ -382,6 +395,7 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         shown_text=text,
         separator=f.decision.separator,
         named_by=f.decision.named_by,
+        partial=f.decision.partial,
         positions=f.task.positions,
         keeps=None if f.filter.keep is None else tuple(f.filter.keep),
         epsilons=None if f.filter.epsilon is None else tuple(f.filter.epsilon),

@@ -111,7 +111,9 @@ def reply_text(
     With ``rng`` the JSON is sometimes wrapped in a code fence or in prose, as
     chat models do, so that simulated runs exercise the parser. A task whose
     reply names the candidates (``named_by``) gets ``names`` (slot order)
-    instead: the chosen name, or the names in order on numbered lines.
+    instead: the chosen name, or the names in order on numbered lines. A
+    partial ranking (:attr:`DeliveryTask.partial_orders`) names only its
+    candidates (its options' keys as a list, ``"2, 3"``, without ``named_by``).
 
     Examples
     --------
@@ -126,6 +128,8 @@ def reply_text(
     n = len(task.options)
     if task.named_by is not None:
         return _named_reply(task, decision, rng, names)
+    if task.partial and decision >= len(task.orders):  # a partial ranking: its options in order, as a list
+        return ", ".join(task.options[i] for i in task.partial_orders[decision - len(task.orders)])
     if task.kind == "choice":
         values = {o: "1.0" if i == decision else "0.0" for i, o in enumerate(task.options)}
     else:
@@ -150,7 +154,7 @@ def _named_reply(task: DeliveryTask, decision: int, rng: np.random.Generator | N
     """A reply that names the candidates (the Bloomberg study's format): the chosen name, or numbered lines."""
     if task.kind == "choice":
         return names[decision] if rng is None or rng.integers(2) == 0 else f"I would choose {names[decision]}."
-    order = task.orders[decision] if task.slots > 2 else (decision, 1 - decision)
+    order = (*task.orders, *task.partial_orders)[decision] if task.slots > 2 else (decision, 1 - decision)
     lines = "\n".join(f"{r}. {names[slot].title()}" for r, slot in enumerate(order, start=1))
     return lines if rng is None or rng.integers(2) == 0 else f"Ranking the candidates by their fit:\n\n{lines}"
 
@@ -302,7 +306,7 @@ def _prefers(task: DeliveryTask, target: tuple) -> np.ndarray:
 def _position(task: DeliveryTask, p_first: float) -> np.ndarray:
     """The first slot chosen (ranked first) with probability ``p_first``, the others evenly (orders: the rest evenly)."""
     n, k = len(task.profiles), task.slots
-    options = len(task.decisions) - 1
+    options = len(task.orders) if task.kind == "order" and k > 2 else len(task.decisions) - 1  # complete orders
     if task.kind == "order" and k > 2:
         first = np.array([o[0] == 0 for o in task.orders], dtype=float)
         row = np.where(first > 0, p_first / first.sum(), (1 - p_first) / (options - first.sum()))
@@ -314,9 +318,10 @@ def _position(task: DeliveryTask, p_first: float) -> np.ndarray:
 
 
 def _tile(task: DeliveryTask, decide: np.ndarray) -> np.ndarray:
-    """Kernel with P(decision) = ``decide[s_1, ..., s_k, u]`` in every context and no unparsed reply."""
+    """Kernel with P(decision) = ``decide[s_1, ..., s_k, u]`` in every context and no unparsed reply (nor a partial
+    ranking: ``decide`` may stop before the partial orders)."""
     out = np.zeros((len(task.contexts), *decide.shape[:-1], len(task.decisions)))
-    out[..., :-1] = decide
+    out[..., : decide.shape[-1]] = decide
     return out
 
 

@@ -82,9 +82,9 @@ class ParsedReply:
         0-based index (into ``options``) of the chosen option for a choice, of
         the option served first for an order; None when not ok.
     order : tuple of int or None
-        Option indices in delivery order for an order; for a choice the chosen
-        option first, then the others by decreasing value (ties by index).
-        None when not ok.
+        Option indices in delivery order for an order (of some options only
+        when ``partial`` allowed it); for a choice the chosen option first,
+        then the others by decreasing value (ties by index). None when not ok.
     values : dict of str to float
         The value read for each option, keyed by the names in ``options``
         (for a ``{"choice": ...}`` answer: 1.0 for the chosen option, 0.0
@@ -153,7 +153,7 @@ def _variant(name: str) -> str:
 
 
 def parse_reply(
-    text: str, options: Sequence[str], kind: Literal["choice", "order"], *, named: bool = False
+    text: str, options: Sequence[str], kind: Literal["choice", "order"], *, named: bool = False, partial: bool = False
 ) -> ParsedReply:
     """Read a choice or a delivery order from a model's reply.
 
@@ -177,6 +177,12 @@ def parse_reply(
         is the order of each name's first mention (whole words, any case),
         which needs every name mentioned; a choice is the one name mentioned.
         No bare numbers are read.
+    partial : bool
+        An order may leave options out (the Bloomberg study ranked the names
+        it found): a reply that names some of them by mention (``named``) or
+        lists some of them and nothing else (``"2, 3"``) gives ``order`` of
+        those only. JSON forms still need every option. False: such a reply
+        is not ok.
 
     Returns
     -------
@@ -210,17 +216,21 @@ def parse_reply(
     ...                 named=True)
     >>> r.ok, r.order
     (True, (2, 0, 1))
+    >>> r = parse_reply("1. Paul Wu\\n2. Cara Kramer", ("CARA KRAMER", "JO LI", "PAUL WU"), "order", named=True,
+    ...                 partial=True)
+    >>> r.ok, r.order, r.choice, r.values
+    (True, (2, 0), 2, {'CARA KRAMER': 2.0, 'PAUL WU': 1.0})
     """
     spec = _Options(options)
     if kind not in ("choice", "order"):
         raise InputError("kind", "must be 'choice' or 'order'", kind)
     try:
-        return _parse(text, spec, kind, named)
+        return _parse(text, spec, kind, named, partial and kind == "order")
     except Exception as exc:  # a safety net: a reply never makes the parser raise  # pragma: no cover
         return ParsedReply(ok=False, error=f"unparseable reply ({type(exc).__name__})")
 
 
-def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False) -> ParsedReply:
+def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False, partial: bool = False) -> ParsedReply:
     if not isinstance(text, str):
         return ParsedReply(ok=False, error=f"reply is not a string ({type(text).__name__})")
     if not text.strip():
@@ -243,15 +253,15 @@ def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False) -> Parse
                 return result
 
     if by_name:
-        return _by_mention(text, spec, kind)
+        return _by_mention(text, spec, kind, partial)
 
     # 3. fallbacks on the text itself: the bare index first (the whole reply), then pairs, then a mention
     bare = _BARE_INDEX_RE.fullmatch(text)
     if bare and (kind == "choice" or spec.n == 2) and 1 <= int(bare.group(1)) <= spec.n:
         return _result_from_choice(int(bare.group(1)) - 1, spec, kind, None, fallback=True)
-    in_order = _listed_order(text, spec) if kind == "order" else None
+    in_order = _listed_order(text, spec, partial) if kind == "order" else None
     if in_order is not None:
-        return _decide({i: float(in_order.index(i) + 1) for i in range(spec.n)}, spec, kind, None, fallback=True)
+        return _ranked(in_order, spec)
     raw = {}
     for i, pattern in enumerate(spec.pair):
         match = pattern.search(text)
@@ -536,14 +546,13 @@ def _sequence(value: Any, spec: _Options) -> list[int] | None:
     return known if sorted(known) == list(range(spec.n)) and len(order) == spec.n else None
 
 
-def _by_mention(text: str, spec: _Options, kind: str) -> ParsedReply:
+def _by_mention(text: str, spec: _Options, kind: str, partial: bool = False) -> ParsedReply:
     """A reply that names the candidates in free text: an order by first mention, or the one name mentioned."""
     firsts = sorted((m.start(), i) for i, pattern in enumerate(spec.mention) if (m := pattern.search(text)))
     if kind == "order":
-        if len(firsts) < spec.n:
+        if not firsts or (len(firsts) < spec.n and not partial):
             return ParsedReply(ok=False, error=f"names {len(firsts)} of the {spec.n} candidates")
-        order = [i for _, i in firsts]
-        return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, kind, None, fallback=True)
+        return _ranked([i for _, i in firsts], spec)
     if len(firsts) == 1:
         return _result_from_choice(firsts[0][1], spec, kind, None, fallback=True)
     if firsts:
@@ -552,17 +561,26 @@ def _by_mention(text: str, spec: _Options, kind: str) -> ParsedReply:
     return ParsedReply(ok=False, error="names none of the candidates")
 
 
-def _listed_order(text: str, spec: _Options) -> list[int] | None:
-    """The order of a reply that is nothing but every option once, separated by commas, ``>`` or white space."""
+def _ranked(order: list[int], spec: _Options) -> ParsedReply:
+    """The order read from a reply's text (a fallback), of every option or, for a partial ranking, of some."""
+    if len(order) == spec.n:
+        return _decide({i: float(order.index(i) + 1) for i in range(spec.n)}, spec, "order", None, fallback=True)
+    values = {spec.names[i]: float(order.index(i) + 1) for i in sorted(order)}  # in the options' order
+    return ParsedReply(ok=True, choice=order[0], order=tuple(order), values=values, fallback=True)
+
+
+def _listed_order(text: str, spec: _Options, partial: bool = False) -> list[int] | None:
+    """The order of a reply that is nothing but every option once (some of them: ``partial``), separated by commas,
+    ``>`` or white space."""
     order, at = [], 0
     for match in spec.any_mention.finditer(text):
         if not _LIST_GAP_RE.fullmatch(text[at : match.start()]):
             return None
         order.append(spec.index[_norm(match.group(0))])
         at = match.end()
-    if not _LIST_GAP_RE.fullmatch(text[at:]) or sorted(order) != list(range(spec.n)):
+    if not _LIST_GAP_RE.fullmatch(text[at:]) or not order or len(set(order)) < len(order):
         return None
-    return order
+    return order if partial or len(order) == spec.n else None
 
 
 def _mentioned(text: str, spec: _Options) -> list[int]:

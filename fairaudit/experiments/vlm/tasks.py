@@ -89,7 +89,8 @@ class DeliveryTask:
     outcomes : tuple of str
         A candidate's own outcome U, then ``"unparsed"``: ``("chosen",
         "not chosen", "unparsed")`` or ``("served first", "served second",
-        "unparsed")``.
+        "unparsed")``; a ranking with :attr:`partial` has ``"unranked"``
+        before ``"unparsed"``.
     utility_values : tuple of float
         g(u) for each outcome (workload, or waiting time in one-way trips).
     utility_name : str
@@ -109,6 +110,12 @@ class DeliveryTask:
         The attribute whose text (a person's name) the reply names each
         candidate by (:meth:`reply_names`); ``options`` are then the slots'
         numbers, labels only. None: the reply gives ``options``' keys.
+    partial : bool
+        A ranking's reply may leave candidates out (k ≥ 3): it ranks the
+        candidates it names, in order, and the others are ``"unranked"`` (the
+        Bloomberg study's rule). Their decisions follow the complete orders
+        in :attr:`decisions` (:attr:`partial_orders`). False: such a reply is
+        unparsed.
     replies : tuple of str
         Empty, or one text per order of :attr:`orders`: a reply is then read
         as the order whose text it begins with, else unparsed (the sampled
@@ -140,6 +147,7 @@ class DeliveryTask:
     shown_text: Mapping[str, Mapping[Hashable, str | tuple[str, ...]] | None] | None = None
     separator: str = ", "
     named_by: str | None = None
+    partial: bool = False
     replies: tuple = ()
     positions: str = "balanced"
     keeps: tuple | None = None
@@ -171,15 +179,53 @@ class DeliveryTask:
         return tuple(itertools.permutations(range(self.slots)))
 
     @functools.cached_property
+    def partial_orders(self) -> tuple:
+        """The orders of a reply that ranks only some candidates (:attr:`partial`): k − 1 slots down to 1, each length
+        in ``itertools`` order; empty unless :attr:`partial`.
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import parse_task
+        >>> t = parse_task('''
+        ... [task]
+        ... candidates = 3
+        ... decision = "rank"
+        ... population = "distinct"
+        ... [prompt]
+        ... user = "Rank {{ candidates }}"
+        ... [[attribute]]
+        ... name = "group"
+        ... values = ["A", "B", "C"]
+        ... [decision]
+        ... options = { "1" = 1, "2" = 2, "3" = 3 }
+        ... partial = true
+        ... [utility]
+        ... values = [1, 0, 0, 0]
+        ... ''')
+        >>> t.partial_orders[:3], len(t.partial_orders), t.decisions[6:8], t.outcomes
+        (((0, 1), (0, 2), (1, 0)), 9, ('1 > 2', '1 > 3'), ('rank 1', 'rank 2', 'rank 3', 'unranked', 'unparsed'))
+        """
+        if not self.partial:
+            return ()
+        return tuple(o for j in range(self.slots - 1, 0, -1) for o in itertools.permutations(range(self.slots), j))
+
+    @functools.cached_property
     def decisions(self) -> tuple:
         """Decisions of one query, then ``"unparsed"``.
 
         A choice: the options. A ranking of two: the option served first. A
-        ranking of k ≥ 3: each order, written ``"A > B > C"`` (:attr:`orders`).
+        ranking of k ≥ 3: each order, written ``"A > B > C"`` (:attr:`orders`),
+        then each order of some of them (:attr:`partial_orders`, ``"A > C"``).
         """
         if self.kind == "order" and self.slots > 2:
-            return (*(" > ".join(self.options[i] for i in o) for o in self.orders), UNPARSED)
+            ranked = (*self.orders, *self.partial_orders)
+            return (*(" > ".join(self.options[i] for i in o) for o in ranked), UNPARSED)
         return (*self.options, UNPARSED)
+
+    @functools.cached_property
+    def order_decisions(self) -> Mapping[tuple[int, ...], int]:
+        """The index in :attr:`decisions` of each order of :attr:`orders` and :attr:`partial_orders` (k ≥ 3)."""
+        return {o: i for i, o in enumerate((*self.orders, *self.partial_orders))}
 
     def texts(self, attribute: str, value: Hashable) -> tuple[Any, ...]:
         """The texts the prompt may show for ``value`` of ``attribute`` (the value itself when the task lists none).

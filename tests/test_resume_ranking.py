@@ -6,6 +6,7 @@ tests that read it skip without it.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -18,7 +19,7 @@ from fairaudit.experiments.analysis import candidate_utility
 from fairaudit.experiments.harness import true_cell_counts
 from fairaudit.experiments.taskfile import load_task
 from fairaudit.laws import Law
-from fairaudit.metrics import local_fairness
+from fairaudit.metrics import global_fairness, local_fairness
 
 TASK = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "resume-ranking.toml"
 DEMOS = ["A_M", "A_W", "B_M", "B_W", "H_M", "H_W", "W_M", "W_W"]
@@ -35,7 +36,7 @@ def test_the_task_is_the_studys_design(task):
                                                                                         "latin")  # fmt: skip
     assert task.contexts == tuple(JOBS) and [p[0] for p in task.profiles] == DEMOS
     assert all(len(task.texts("group", d)) == 100 for d in DEMOS)
-    assert task.utility_values == (1.0, *[0.0] * 7, 0.0)  # g = 1{ranked first}; a reply that leaves one out: 0
+    assert task.partial and task.utility_values == (1.0, *[0.0] * 7, 0.0, 0.0)  # g = 1{ranked first}; unranked: 0
     shown = task.combinations[0]
     texts = task.draw_texts(shown, np.random.default_rng(7))
     names = task.reply_names(shown, texts)
@@ -66,38 +67,53 @@ def test_eight_candidates_are_too_many_for_the_table_design_in_one_line(tmp_path
     assert not (tmp_path / "r").exists()
 
 
-def test_the_published_gpt_rankings_counted_in_the_tasks_terms(task, shared_data):
-    """GPT-3.5's 4,000 main runs as decisions on true prompts (true_cell_counts): each group once per run, its rank
-    the outcome; a run that did not rank all eight is unparsed for all (the task reads a reply that leaves a name
-    out as unparsed, where the study ranked the names it found). Checked against pandas on the same rows, and the
-    study's own counts table where the run is complete."""
+def _published_runs(shared_data, model):
+    """A model's 4,000 main runs of the study as decisions on true prompts: each run's 8 groups in slot order and its
+    reply read as the task reads it (the names found, by rank; the names left out unranked)."""
     long = pd.read_csv(shared_data / "llm_hiring" / "bloomberg_gpt_resume_rankings_long.csv")
-    main = long[(long.model_dir == "gpt-3.5-turbo") & (long.oversampled == 0)].sort_values("input_position")
+    main = long[(long.model_dir == model) & (long.oversampled == 0)].sort_values("input_position")
     records = []
     for (job, _), run_ in main.groupby(["job", "run_id"], sort=False):
-        profiles = [(d,) for d in run_.demo]
-        if run_.parse_complete.iloc[0] == 1:
-            order = run_.sort_values("gpt_rank").input_position.astype(int)
-            decision = " > ".join(str(p) for p in order)
-        else:
-            decision = "unparsed"
-        records.append({"context": job, "profiles": profiles, "decision": decision})
-    assert len(records) == 4000
+        found = run_.dropna(subset="gpt_rank").sort_values("gpt_rank")
+        decision = " > ".join(str(p) for p in found.input_position.astype(int)) or "unparsed"
+        records.append({"context": job, "profiles": [(d,) for d in run_.demo], "decision": decision})
+    return main, records
+
+
+@pytest.mark.parametrize("model", ["gpt-3.5-turbo", "gpt-4"])
+def test_the_published_gpt_rankings_counted_in_the_tasks_terms_reproduce_their_audit(task, shared_data, model, capsys):
+    """Each model's 4,000 main runs, counted by the task file's rules (true_cell_counts, partial rankings as the
+    study read them), give the study's own counts table and the counts of the shipped audit
+    (examples/llm_hiring/gpt_rank_counts.csv), and its L and L̄ of g = 1{ranked first} are `fairaudit certify`'s
+    unfiltered values of that audit."""
+    main, records = _published_runs(shared_data, model)
+    assert len(records) == 4000 and {len(r["decision"].split(" > ")) for r in records} >= {7, 8}  # partial rankings
     counts = true_cell_counts(task, records)  # (job, slot, group, outcome)
     assert counts.sum() == 4000 * 8 and np.all(counts.sum(axis=(2, 3)) == 1000)  # every slot filled in every run
-    pooled = counts.sum(axis=1)  # (job, group, outcome)
-    # pandas, on the same rows
-    outcome = np.where(main.parse_complete == 1, "rank " + main.gpt_rank.fillna(0).astype(int).astype(str), "unparsed")
-    table = pd.crosstab([main.job, main.demo], outcome).reindex(columns=list(task.outcomes), fill_value=0)
-    np.testing.assert_array_equal(pooled.reshape(-1, len(task.outcomes)), table.to_numpy())
-    # the study's counts table ranks the names of incomplete runs too: the same counts where runs are complete
+    pooled = counts.sum(axis=1)  # (job, group, outcome): rank 1..8, unranked, unparsed
+    assert task.outcomes == (*(f"rank {r}" for r in range(1, 9)), "unranked", "unparsed")
+    assert pooled[..., -1].sum() == 0  # every run named someone
     study = pd.read_csv(shared_data / "llm_hiring" / "bloomberg_gpt_rank_counts_main.csv")
-    study = study[study.model == "gpt-3.5-turbo"].set_index(["job", "demo"]).loc[list(table.index)]
-    complete_first = pooled[..., 0].reshape(-1)
-    assert np.all(complete_first <= study.n_rank1.to_numpy()) and (study.n_rank1.to_numpy() - complete_first).sum() > 0
-    # L of g = 1{ranked first} by hand: the largest log ratio of first-place rates within a job
+    study = study[study.model == model].set_index(["job", "demo"]).loc[[(j, d) for j in JOBS for d in DEMOS]]
+    columns = [f"n_rank{r}" for r in range(1, 9)] + ["n_rankNA"]
+    np.testing.assert_array_equal(pooled[..., :-1].reshape(-1, 9), study[columns].to_numpy())
+    shipped = pd.read_csv(TASK.parents[1] / "llm_hiring" / "gpt_rank_counts.csv", dtype={"rank": str})
+    shipped = shipped[shipped.model == model].pivot_table(index=["job", "demo"], columns="rank", values="count")
+    shipped = shipped.loc[[(j, d) for j in JOBS for d in DEMOS], [*map(str, range(1, 9)), "unranked"]]
+    np.testing.assert_array_equal(pooled[..., :-1].reshape(-1, 9), shipped.to_numpy())
+    # L and L̄ of the task's law against `fairaudit certify` of the shipped audit, unfiltered
     law = Law.from_counts(pooled, task.contexts, [task.profile_label(p) for p in task.candidates], task.outcomes)
-    got = local_fairness(law, candidate_utility(task))
+    spec = TASK.parents[1] / "llm_hiring" / ("gpt35.toml" if model == "gpt-3.5-turbo" else "gpt4.toml")
+    code, out, _ = run(capsys, "certify", str(spec), "--format", "json")
+    unfiltered = json.loads(out)["unfiltered"]
+    assert code == 0
+    local, global_ = local_fairness(law, candidate_utility(task)), global_fairness(law, candidate_utility(task))
+    assert local.value == pytest.approx(unfiltered["local"]["value"], rel=1e-12)
+    assert global_.value == pytest.approx(unfiltered["global"]["value"], rel=1e-12)
+    assert (local.context, local.group, local.other_group) == tuple(unfiltered["local"][k] for k in ("context", "group",
+                                                                                                     "other_group"))  # fmt: skip
+    # and by hand: the largest log ratio of first-place rates within a job
     rates = pooled[..., 0] / 1000
-    assert got.value == pytest.approx(max(math.log(r.max() / r.min()) for r in rates), abs=1e-12)
-    assert got.context == JOBS[int(np.argmax([math.log(r.max() / r.min()) for r in rates]))]
+    assert local.value == pytest.approx(max(math.log(r.max() / r.min()) for r in rates), abs=1e-12)
+    if model == "gpt-3.5-turbo":  # the study's headline job: financial analyst, A_W over B_M, ln(0.172/0.076)
+        assert (local.context, local.value) == ("financial analyst", pytest.approx(math.log(172 / 76), abs=1e-12))

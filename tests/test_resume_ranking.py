@@ -15,9 +15,11 @@ import pandas as pd
 import pytest
 from _cli import run
 
-from fairaudit.experiments.analysis import candidate_utility
+from fairaudit._errors import InputError
+from fairaudit.experiments.analysis import candidate_utility, epsilon_from_keep
 from fairaudit.experiments.harness import true_cell_counts
 from fairaudit.experiments.taskfile import load_task
+from fairaudit.experiments.vlm.filter import profile_budget
 from fairaudit.laws import Law
 from fairaudit.metrics import global_fairness, local_fairness
 
@@ -117,3 +119,13 @@ def test_the_published_gpt_rankings_counted_in_the_tasks_terms_reproduce_their_a
     assert local.value == pytest.approx(max(math.log(r.max() / r.min()) for r in rates), abs=1e-12)
     if model == "gpt-3.5-turbo":  # the study's headline job: financial analyst, A_W over B_M, ln(0.172/0.076)
         assert (local.context, local.value) == ("financial analyst", pytest.approx(math.log(172 / 76), abs=1e-12))
+
+
+def test_the_filter_of_eight_candidates_in_every_order_is_refused_not_built(task):
+    """All 8! orders mix the rivals' places, so ε of a candidate has no closed form here, and its mechanism has 8⁸
+    columns per group: refused in one error before anything is enumerated (it used to fill memory)."""
+    with pytest.raises(InputError, match=r"a candidate's view has 8\^8 = 16,777,216 values"):
+        profile_budget(task, "balanced")(1.0)
+    # the Latin square is a point mass: each group always faces the same rivals in the same places, so a
+    # candidate's view differs from another's in all 8 slots, ε = 8 ε_P (keep 1/2 of 8 values: ε_P = ln 7)
+    assert epsilon_from_keep(task, 0.5, "latin") == pytest.approx(8 * math.log(7), abs=1e-12)

@@ -302,6 +302,13 @@ def candidate_population(task: DeliveryTask, positions: str = "balanced") -> Pop
 def _candidate_rows(task: DeliveryTask, m: FloatArray, positions: str) -> FloatArray:
     """The rows of :func:`candidate_mechanism` from M_P's matrix ``m``, shape (n_groups, n_profiles^k)."""
     k, n_p = task.slots, len(task.profiles)
+    if len(task.candidates) * n_p**k > MAX_KERNEL_ENTRIES:  # before enumerating the true prompts
+        raise InputError(
+            "task.candidates",
+            f"a candidate's view has {n_p}^{k} = {n_p**k:,} values: its mechanism is too large to build "
+            f"({len(task.candidates)} rows; at most {MAX_KERNEL_ENTRIES:,} entries; not supported yet)",
+            k,
+        )
     prompts, w, p, groups = _slot_group(task, positions)
     rows = np.full((len(groups), n_p**k), np.nan)
     for i in range(k):
@@ -345,7 +352,7 @@ def candidate_mechanism_epsilon(task: DeliveryTask, profile_matrix: FloatArray, 
     Raises
     ------
     InputError
-        As :func:`candidate_mechanism` (a view that depends on the slot).
+        As :func:`candidate_mechanism` (a view that depends on the slot, a view too large to enumerate).
     """
     rows = _candidate_rows(task, np.asarray(profile_matrix, dtype=float), positions)
     with np.errstate(divide="ignore", invalid="ignore"):

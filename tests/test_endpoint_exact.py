@@ -304,7 +304,7 @@ def test_a_request_that_fails_after_retries_exits_1_with_nothing_written(tmp_pat
     with ChatServer(responder, logprobs=logprobs, fault_fn=lambda n, body: ("status", 500) if n == 5 else None) as s:
         code, stdout, err = run(capsys, *args, "--endpoint", s.url, "--max-retries", "0", "--concurrency", "1")
         assert code == 1 and stdout == "" and err.count("\n") == 1
-        assert err.startswith("fairaudit: incomplete: 4 of 12 shown cells answered before a request failed")
+        assert err.startswith("fairaudit: incomplete: 4 of 12 prompts answered before a request failed")
         assert "HTTP 500" in err and "nothing was written" in err
         assert _files(out) == [".fairaudit.lock"]
         code, stdout, err = run(capsys, *args, "--endpoint", s.url)  # again, without the fault: the whole run

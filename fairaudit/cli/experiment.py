@@ -203,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
             assert s is not None
             first = f": {s.failures[0]}" if s.failures else ""
             print(
-                f"fairaudit: incomplete: {s.asked} of {s.planned} shown cells answered before a request failed after "
+                f"fairaudit: incomplete: {s.asked} of {s.planned} prompts answered before a request failed after "
                 f"retries{first}; the exact kernel needs every cell, so nothing was written: run again",
                 file=sys.stderr,
             )

@@ -213,8 +213,8 @@ def outcome_index(task: DeliveryTask) -> IntArray:
             ranks = np.array([[0, 1], [1, 0]])
         out[:, : len(orders)] = ranks.T
         at = len(orders)
-        for j in range(k - 1, 0, -1) if task.partial else ():  # orders of j slots: the others are unranked (k)
-            some = np.array(list(itertools.permutations(range(k), j)), dtype=np.int64)  # [u, rank] -> slot
+        for j, of_j in itertools.groupby(task.partial_orders, len):  # orders of j slots: the others unranked (k)
+            some = np.array(list(of_j), dtype=np.int64)  # [u, rank] -> slot
             part = np.full((len(some), k), k, dtype=np.int64)
             np.put_along_axis(part, some, np.arange(j), axis=1)
             out[:, at : at + len(some)] = part.T

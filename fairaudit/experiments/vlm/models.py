@@ -112,7 +112,7 @@ def reply_text(
     chat models do, so that simulated runs exercise the parser. A task whose
     reply names the candidates (``named_by``) gets ``names`` (slot order)
     instead: the chosen name, or the names in order on numbered lines. A
-    partial ranking (:attr:`DeliveryTask.partial_orders`) names only its
+    partial ranking (:attr:`DeliveryTask.rankings`) names only its
     candidates (its options' keys as a list, ``"2, 3"``, without ``named_by``).
 
     Examples
@@ -129,7 +129,7 @@ def reply_text(
     if task.named_by is not None:
         return _named_reply(task, decision, rng, names)
     if task.partial and decision >= len(task.orders):  # a partial ranking: its options in order, as a list
-        return ", ".join(task.options[i] for i in task.partial_orders[decision - len(task.orders)])
+        return ", ".join(task.options[i] for i in task.rankings[decision])
     if task.kind == "choice":
         values = {o: "1.0" if i == decision else "0.0" for i, o in enumerate(task.options)}
     else:
@@ -154,7 +154,7 @@ def _named_reply(task: DeliveryTask, decision: int, rng: np.random.Generator | N
     """A reply that names the candidates (the Bloomberg study's format): the chosen name, or numbered lines."""
     if task.kind == "choice":
         return names[decision] if rng is None or rng.integers(2) == 0 else f"I would choose {names[decision]}."
-    order = (*task.orders, *task.partial_orders)[decision] if task.slots > 2 else (decision, 1 - decision)
+    order = task.rankings[decision] if task.slots > 2 else (decision, 1 - decision)
     lines = "\n".join(f"{r}. {names[slot].title()}" for r, slot in enumerate(order, start=1))
     return lines if rng is None or rng.integers(2) == 0 else f"Ranking the candidates by their fit:\n\n{lines}"
 

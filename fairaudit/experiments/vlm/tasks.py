@@ -210,6 +210,12 @@ class DeliveryTask:
         return tuple(o for j in range(self.slots - 1, 0, -1) for o in itertools.permutations(range(self.slots), j))
 
     @functools.cached_property
+    def rankings(self) -> tuple:
+        """The order each decision of a ranking gives, in :attr:`decisions`' order: :attr:`orders`, then
+        :attr:`partial_orders`."""
+        return (*self.orders, *self.partial_orders)
+
+    @functools.cached_property
     def decisions(self) -> tuple:
         """Decisions of one query, then ``"unparsed"``.
 
@@ -218,14 +224,13 @@ class DeliveryTask:
         then each order of some of them (:attr:`partial_orders`, ``"A > C"``).
         """
         if self.kind == "order" and self.slots > 2:
-            ranked = (*self.orders, *self.partial_orders)
-            return (*(" > ".join(self.options[i] for i in o) for o in ranked), UNPARSED)
+            return (*(" > ".join(self.options[i] for i in o) for o in self.rankings), UNPARSED)
         return (*self.options, UNPARSED)
 
     @functools.cached_property
     def order_decisions(self) -> Mapping[tuple[int, ...], int]:
-        """The index in :attr:`decisions` of each order of :attr:`orders` and :attr:`partial_orders` (k ≥ 3)."""
-        return {o: i for i, o in enumerate((*self.orders, *self.partial_orders))}
+        """The index in :attr:`decisions` of each order of :attr:`rankings` (k ≥ 3)."""
+        return {o: i for i, o in enumerate(self.rankings)}
 
     def texts(self, attribute: str, value: Hashable) -> tuple[Any, ...]:
         """The texts the prompt may show for ``value`` of ``attribute`` (the value itself when the task lists none).

@@ -41,6 +41,7 @@ never raises on the reply text.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import re
@@ -127,19 +128,28 @@ class _Options:
         self.names = names
         self.n = len(names)
         self.index = {norm: i for i, norm in enumerate(norms)}
-        self.mention = [re.compile(rf"(?<!\w){_variant(name)}(?!\w)", re.IGNORECASE) for name in names]
+        self.mention = [_mention(name) for name in names]
         longest_first = sorted(names, key=len, reverse=True)
         self.any_mention = re.compile(
             "|".join(rf"(?<!\w){_variant(name)}(?!\w)" for name in longest_first), re.IGNORECASE
         )
-        self.pair = [
-            re.compile(
-                rf"(?<!\w)[\"'\u201c\u201d\u2018\u2019]?{_variant(name)}[\"'\u201c\u201d\u2018\u2019]?"
-                rf"\s*[:=]\s*[\"'\u201c\u201d\u2018\u2019]?\s*({_NUM}|true|false)(?!\w)",
-                re.IGNORECASE,
-            )
-            for name in names
-        ]
+        self.pair = [_pair(name) for name in names]
+
+
+@functools.lru_cache(maxsize=4096)
+def _mention(name: str) -> re.Pattern[str]:
+    """A mention of ``name`` as a whole word (compiled once per name: a run's replies name the same candidates)."""
+    return re.compile(rf"(?<!\w){_variant(name)}(?!\w)", re.IGNORECASE)
+
+
+@functools.lru_cache(maxsize=4096)
+def _pair(name: str) -> re.Pattern[str]:
+    """``name: value`` or ``"name" = value`` (a key of a reply's JSON-like object), compiled once per name."""
+    return re.compile(
+        rf"(?<!\w)[\"'\u201c\u201d\u2018\u2019]?{_variant(name)}[\"'\u201c\u201d\u2018\u2019]?"
+        rf"\s*[:=]\s*[\"'\u201c\u201d\u2018\u2019]?\s*({_NUM}|true|false)(?!\w)",
+        re.IGNORECASE,
+    )
 
 
 def _norm(key: str) -> str:

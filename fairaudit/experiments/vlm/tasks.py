@@ -511,6 +511,12 @@ def _environment() -> Any:
     return env
 
 
+@functools.lru_cache(maxsize=64)
+def _template(env: Any, template: str) -> Any:
+    """``template`` compiled once in ``env`` (a run renders the same template for every query)."""
+    return env.from_string(template)
+
+
 def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping[str, Any]], *, field: str) -> str:
     """Render a task's Jinja2 ``template`` for one prompt, in a sandbox.
 
@@ -549,6 +555,6 @@ def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping
     shown = [_Candidate(c) for c in candidates]
     names = {f"c{i + 1}": c for i, c in enumerate(shown)}
     try:
-        return str(env.from_string(template).render(context=context, candidates=shown, **names))
+        return str(_template(env, template).render(context=context, candidates=shown, **names))
     except (TemplateError, TypeError, ValueError, OverflowError, RecursionError) as exc:  # include/extends: TypeError
         raise InputError(field, f"cannot be rendered: {exc}") from None

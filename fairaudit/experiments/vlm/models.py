@@ -16,11 +16,12 @@ simulated model exercises the same path as a real one.
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Protocol, TypeAlias
 
 import numpy as np
 
@@ -33,11 +34,15 @@ if TYPE_CHECKING:
     from .client import ChatClient
 
 __all__ = [
+    "GENERIC_SIMULATED",
     "SIMULATED",
+    "TABLE_LIMIT",
     "DecisionModel",
     "EndpointModel",
     "ModelReply",
     "Query",
+    "Rule",
+    "RuleModel",
     "SimulatedModel",
     "reply_text",
     "simulated_model",
@@ -202,11 +207,7 @@ class SimulatedModel:
         t = self.task
         profiles = t.profiles
         row = self.probabilities[(t.contexts.index(query.context), *(profiles.index(tuple(p)) for p in query.profiles))]
-        rng = np.random.default_rng(query.seed)
-        d = draw(rng, row)
-        names = t.reply_names(query.profiles, query.texts)
-        text = reply_text(t, None if d == len(t.decisions) - 1 else d, rng, names)
-        return ModelReply(text, f"simulated:{self.name}")
+        return _drawn_reply(t, row, query, self.name)
 
     @classmethod
     def from_csv(cls, task: DeliveryTask, path: str | Path, name: str | None = None) -> SimulatedModel:
@@ -269,52 +270,115 @@ class SimulatedModel:
         return cls(task, table / totals[..., None], name or f"kernel from {p.name}")
 
 
+def _drawn_reply(task: DeliveryTask, row: np.ndarray, query: Query, name: str) -> ModelReply:
+    """A decision drawn from ``row`` (P(decision), :attr:`DeliveryTask.decisions`) with the query's seed, as a reply."""
+    rng = np.random.default_rng(query.seed)
+    d = draw(rng, row)
+    names = task.reply_names(query.profiles, query.texts)
+    text = reply_text(task, None if d == len(task.decisions) - 1 else d, rng, names)
+    return ModelReply(text, f"simulated:{name}")
+
+
+Rule: TypeAlias = "Callable[[DeliveryTask, np.ndarray], np.ndarray]"
+"""A simulated model's rule: (task, shown cells [..., k] of profile indices) -> P(decision) [..., n] over the first n
+decisions (the complete ones; the rest, partial orders and ``unparsed``, get 0), the same in every context."""
+
+
+@dataclass(frozen=True, eq=False)
+class RuleModel:
+    """A simulated model given by its rule on each shown cell, for a task too large for a kernel table.
+
+    Eight candidates of eight groups have 8⁸ shown cells per context: :class:`SimulatedModel` would hold them all.
+    This model computes the row of each cell a query shows when it is asked (and keeps it), and draws its reply
+    exactly as :class:`SimulatedModel` does from the same row: the two give the same reply to every query.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    rule : Rule
+        One of :data:`SIMULATED`'s or :data:`GENERIC_SIMULATED`'s.
+    name : str
+    """
+
+    task: DeliveryTask
+    rule: Rule
+    name: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_rows", {})
+
+    def row(self, profiles: Sequence[tuple]) -> np.ndarray:
+        """P(decision) for the shown profiles in slot order, shape (n_decisions,)."""
+        t = self.task
+        cell = tuple(t.profiles.index(tuple(p)) for p in profiles)
+        rows: dict = self._rows  # type: ignore[attr-defined]
+        if cell not in rows:
+            rows[cell] = _tile(t, self.rule(t, np.asarray(cell, dtype=np.int64)))[0]
+        return rows[cell]
+
+    def reply(self, query: Query, prompt: str = "", images: tuple = ()) -> ModelReply:
+        """Draw the decision for the query's shown cell and write it as a reply."""
+        return _drawn_reply(self.task, self.row(query.profiles), query, self.name)
+
+
+TABLE_LIMIT = 1 << 24
+"""The most numbers (contexts × shown cells × decisions) a simulated model holds as a table; beyond, a :class:`RuleModel`."""
+
+
 def _profile_scores(task: DeliveryTask, target: tuple) -> np.ndarray:
     """How many attributes each profile shares with ``target``, shape (n_profiles,)."""
     return np.array([sum(v == w for v, w in zip(p, target)) for p in task.profiles])
 
 
-def _slot_scores(task: DeliveryTask, score: np.ndarray) -> np.ndarray:
-    """score[s_i] for every shown cell and slot, shape (n_profiles, ..., n_profiles, k)."""
-    n, k = len(task.profiles), task.slots
-    grids = np.meshgrid(*([score] * k), indexing="ij")
-    return np.stack(grids, axis=-1) if k else np.zeros((n,) * k)
+@functools.lru_cache(maxsize=8)
+def _orders(task: DeliveryTask) -> np.ndarray:
+    """The task's complete orders as an array [order, rank] -> slot (cached: 8! rows for eight candidates)."""
+    return np.array(task.orders, dtype=np.int64).reshape(len(task.orders), task.slots)
 
 
-def _prefers(task: DeliveryTask, target: tuple) -> np.ndarray:
+def _prefers(task: DeliveryTask, target: tuple, cells: np.ndarray) -> np.ndarray:
     """Choose (rank first) the candidates whose shown profile shares most attributes with ``target``; ties: uniform.
 
-    One candidate per prompt: the first option with probability the share of
-    attributes it shares with ``target``, the other options evenly.
+    ``cells`` [..., k] holds the shown profiles' indices; the result [..., n_decisions'] is P(decision) over the
+    complete decisions. One candidate per prompt: the first option with probability the share of attributes it
+    shares with ``target``, the other options evenly.
     """
     score = _profile_scores(task, target).astype(float)
+    s = score[cells]  # [..., slot]
     if task.slots == 1:
-        first = score / len(task.attributes)
+        first = s[..., 0] / len(task.attributes)
         n_opt = len(task.options)
-        p = np.stack([first] + [(1 - first) / (n_opt - 1)] * (n_opt - 1), axis=-1)
-        return _tile(task, p)
-    s = _slot_scores(task, score)
+        return np.stack([first] + [(1 - first) / (n_opt - 1)] * (n_opt - 1), axis=-1)
     if task.kind == "order" and task.slots > 2:  # orders that never put a lower score before a higher one
-        orders = np.array(task.orders)
-        ordered = s[..., orders]  # [..., order, rank]
+        ordered = s[..., _orders(task)]  # [..., order, rank]
         ok = np.all(np.diff(ordered, axis=-1) <= 0, axis=-1).astype(float)
-        return _tile(task, ok / ok.sum(-1, keepdims=True))
+        return ok / ok.sum(-1, keepdims=True)
     best = (s == s.max(-1, keepdims=True)).astype(float)
-    return _tile(task, best / best.sum(-1, keepdims=True))
+    return best / best.sum(-1, keepdims=True)
 
 
-def _position(task: DeliveryTask, p_first: float) -> np.ndarray:
-    """The first slot chosen (ranked first) with probability ``p_first``, the others evenly (orders: the rest evenly)."""
-    n, k = len(task.profiles), task.slots
+def _position(task: DeliveryTask, p_first: float | None, cells: np.ndarray) -> np.ndarray:
+    """The first slot chosen (ranked first) with probability ``p_first``, the others evenly (orders: the rest evenly).
+
+    ``p_first=None``: evenly, 1/k (one candidate per prompt: every option evenly). The same row for every cell.
+    """
+    k = task.slots
+    p = 1.0 / max(k, 1) if p_first is None else p_first
     options = len(task.orders) if task.kind == "order" and k > 2 else len(task.decisions) - 1  # complete orders
     if task.kind == "order" and k > 2:
         first = np.array([o[0] == 0 for o in task.orders], dtype=float)
-        row = np.where(first > 0, p_first / first.sum(), (1 - p_first) / (options - first.sum()))
+        row = np.where(first > 0, p / first.sum(), (1 - p) / (options - first.sum()))
     elif k == 1:
         row = np.full(options, 1.0 / options)
     else:
-        row = np.array([p_first] + [(1 - p_first) / (options - 1)] * (options - 1))
-    return _tile(task, np.broadcast_to(row, (n,) * k + (options,)))
+        row = np.array([p] + [(1 - p) / (options - 1)] * (options - 1))
+    return np.broadcast_to(row, cells.shape[:-1] + (options,))
+
+
+def _all_cells(task: DeliveryTask) -> np.ndarray:
+    """Every shown cell's profile indices, shape (n_profiles, ..., n_profiles, k)."""
+    n, k = len(task.profiles), task.slots
+    return np.stack(np.meshgrid(*([np.arange(n)] * k), indexing="ij"), axis=-1)
 
 
 def _tile(task: DeliveryTask, decide: np.ndarray) -> np.ndarray:
@@ -325,17 +389,17 @@ def _tile(task: DeliveryTask, decide: np.ndarray) -> np.ndarray:
     return out
 
 
-SIMULATED: dict[str, dict[str, Callable[[DeliveryTask], np.ndarray]]] = {
+SIMULATED: dict[str, dict[str, Rule]] = {
     "hr-delivery": {
-        "prefers-mary": lambda t: _prefers(t, t.candidates[1]),
-        "position-biased": lambda t: _position(t, 0.82),
-        "fair": lambda t: _position(t, 0.5),
+        "prefers-mary": lambda t, c: _prefers(t, t.candidates[1], c),
+        "position-biased": lambda t, c: _position(t, 0.82, c),
+        "fair": lambda t, c: _position(t, None, c),
     },
     "package-delivery": {
-        "low-complaint-first": lambda t: _prefers(t, t.candidates[0]),
-        "high-complaint-first": lambda t: _prefers(t, t.candidates[1]),
-        "position-biased": lambda t: _position(t, 0.82),
-        "fair": lambda t: _position(t, 0.5),
+        "low-complaint-first": lambda t, c: _prefers(t, t.candidates[0], c),
+        "high-complaint-first": lambda t, c: _prefers(t, t.candidates[1], c),
+        "position-biased": lambda t, c: _position(t, 0.82, c),
+        "fair": lambda t, c: _position(t, None, c),
     },
 }
 """Named simulated models per task.
@@ -352,11 +416,11 @@ SIMULATED: dict[str, dict[str, Callable[[DeliveryTask], np.ndarray]]] = {
 Any other task (a task file) has :data:`GENERIC_SIMULATED`.
 """
 
-GENERIC_SIMULATED: dict[str, Callable[[DeliveryTask], np.ndarray]] = {
-    "prefers-first": lambda t: _prefers(t, t.candidates[0]),
-    "prefers-second": lambda t: _prefers(t, t.candidates[1 % len(t.candidates)]),
-    "position-biased": lambda t: _position(t, 0.82),
-    "fair": lambda t: _position(t, 0.5),
+GENERIC_SIMULATED: dict[str, Rule] = {
+    "prefers-first": lambda t, c: _prefers(t, t.candidates[0], c),
+    "prefers-second": lambda t, c: _prefers(t, t.candidates[1 % len(t.candidates)], c),
+    "position-biased": lambda t, c: _position(t, 0.82, c),
+    "fair": lambda t, c: _position(t, None, c),
 }
 """Simulated models of any task: ``prefers-first`` (``-second``) picks (ranks first) the candidate whose shown
 profile shares most values with the task's first (second) true candidate, evenly on ties (one candidate per
@@ -364,13 +428,13 @@ prompt: the first option with probability the share of values it shares); ``posi
 slot with probability 0.82; ``fair`` picks evenly. The first is the default."""
 
 
-def simulated_models(task: DeliveryTask) -> dict[str, Callable[[DeliveryTask], np.ndarray]]:
+def simulated_models(task: DeliveryTask) -> dict[str, Rule]:
     """The named simulated models of ``task``: :data:`SIMULATED`'s for a built-in task, else the generic ones."""
     return SIMULATED.get(task.name, GENERIC_SIMULATED)
 
 
-def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel:
-    """The named simulated model of a task (see :data:`SIMULATED`).
+def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel | RuleModel:
+    """The named simulated model of a task (see :data:`SIMULATED`): a table, or a :class:`RuleModel` beyond :data:`TABLE_LIMIT`.
 
     Raises
     ------
@@ -388,7 +452,10 @@ def simulated_model(task: DeliveryTask, name: str) -> SimulatedModel:
     models = simulated_models(task)
     if name not in models:
         raise InputError("simulated", f"must be one of {sorted(models)} for {task.name}", name)
-    return SimulatedModel(task, models[name](task), name)
+    n_cells = len(task.contexts) * len(task.profiles) ** task.slots * len(task.decisions)
+    if n_cells > TABLE_LIMIT:
+        return RuleModel(task, models[name], name)
+    return SimulatedModel(task, _tile(task, models[name](task, _all_cells(task))), name)
 
 
 class EndpointModel:

@@ -472,7 +472,7 @@ def test_run_experiment_takes_a_source_and_options_and_the_old_keywords_still_wo
         (lambda: ModelSource(simulated="fair", endpoint="http://x/v1"), "^endpoint: give only one of"),
         (lambda: ModelSource(endpoint="http://x/v1"), "^model: is needed with `endpoint`"),
         (lambda: ModelSource(model="gpt"), "^model: goes with `endpoint`"),
-        (lambda: RunOptions(design="paper"), "^design: must be one of table, both"),
+        (lambda: RunOptions(design="kernel"), "^design: must be one of table, both, paper"),
         (lambda: RunOptions(epsilons=[1.0], keeps=[0.7]), "^keeps: give `epsilons` or `keeps`, not both"),
         (lambda: RunOptions(epsilons=[-1.0]), r"^epsilons: must be finite and >= 0 \(nats\)"),
         (lambda: RunOptions(targets=[math.inf]), "^targets: "),

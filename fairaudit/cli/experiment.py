@@ -107,10 +107,12 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument(
         "--design",
-        choices=("table", "both"),
+        choices=("table", "both", "paper"),
         default="table",
         help="table: query every shown cell once "
-        "for all epsilons (default); both: also the paper's design, sampling through the filter per epsilon",
+        "for all epsilons (default); both: also the paper's design, sampling through the filter per epsilon; "
+        "paper: the paper's design alone, the true prompts without a filter for the baseline (a task too large "
+        "for the table, such as eight candidates ranked at once)",
     )
     e.add_argument(
         "--positions",
@@ -198,6 +200,8 @@ def run(args: argparse.Namespace) -> int:
         log=lambda line: print(f"fairaudit: {line}", file=sys.stderr),
     )
     s = result.summary
+    from ..experiments.analysis import ExperimentAnalysis
+
     if result.route == "exact":  # a local model's (no queries) or an endpoint's (one request per shown cell)
         if result.analysis is None:
             assert s is not None
@@ -208,6 +212,7 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 1
+        assert isinstance(result.analysis, ExperimentAnalysis)  # the exact route has a kernel
         cells = result.analysis.kernel.probabilities.shape[0] * result.analysis.kernel.probabilities.shape[1]
         asked = f" ({s.requests} requests)" if s is not None else ""
         print(
@@ -227,7 +232,13 @@ def run(args: argparse.Namespace) -> int:
             return 1
         print(f"{done}; report written to {Path(result.out) / 'report.md'}", file=sys.stderr)
     assert result.analysis is not None
-    from ..experiments.report import experiment_dict, experiment_markdown
+    if isinstance(result.analysis, ExperimentAnalysis):
+        from ..experiments.report import experiment_dict, experiment_markdown
 
-    sys.stdout.write(experiment_markdown(experiment_dict(result.analysis)))
+        sys.stdout.write(experiment_markdown(experiment_dict(result.analysis)))
+    else:
+        from ..experiments._markdown import paper_design_markdown
+        from ..experiments.paper_design import paper_design_dict
+
+        sys.stdout.write(paper_design_markdown(paper_design_dict(result.analysis)))
     return 0

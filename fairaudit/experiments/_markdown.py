@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["experiment_markdown"]
+__all__ = ["experiment_markdown", "paper_design_markdown"]
 
 
 def _f(v: float | str | None, digits: int = 4) -> str:
@@ -43,9 +43,8 @@ def experiment_markdown(d: dict) -> str:
     return "\n".join(lines)
 
 
-def _intro_md(d: dict) -> list[str]:
-    """Title, the framing, and the queries (or the exact route) behind the kernel."""
-    q = d["queries"]
+def _framing_md(d: dict) -> list[str]:
+    """Title and the per-candidate framing: context, group, outcome, utility, positions."""
     lines = [f"# {d['experiment']}: {d['model']}", ""]
     cands = d["candidates"]
     who = " or ".join(cands) if len(cands) <= 4 else f"one of {len(cands)} profiles"
@@ -58,6 +57,13 @@ def _intro_md(d: dict) -> list[str]:
         + (f" Positions: {d['positions']}." if slots > 1 else " One candidate per prompt."),
         "",
     ]
+    return lines
+
+
+def _intro_md(d: dict) -> list[str]:
+    """Title, the framing, and the queries (or the exact route) behind the kernel."""
+    q = d["queries"]
+    lines = _framing_md(d)
     if d.get("route") == "exact":
         lines += [
             "Exact route: the kernel is the model's own law of its reply on every shown cell of the table design, "
@@ -164,7 +170,7 @@ def _split_md(d: dict) -> list[str]:
             f"{_f(sp['interaction'])} |"
         )
     ex = sp["explained"]
-    if ex["position"] is not None:
+    if ex["position"] is not None and ex["group"] is not None:  # (NaN, null: raw 0, or a part undefined)
         lines += [
             "",
             f"Position explains {_f(ex['position'] * 100, 3)}% of the raw disparity and group "
@@ -250,3 +256,52 @@ def _paper_design_md(d: dict) -> list[str]:
             f"{_f(p['global']['value'])}{_ivs(p['global'])} |"
         )
     return lines
+
+
+def paper_design_markdown(d: dict) -> str:
+    """The Markdown report of :func:`fairaudit.experiments.paper_design.paper_design_dict`."""
+    q, conf = d["queries"], d["confidence"]
+    b = d["baseline"]
+    lines = _framing_md(d) + [
+        f"The paper's design alone: {q['baseline']} queries on the true prompts without a filter (the baseline) "
+        f"and {q['paper_design_needs_per_epsilon']} through the filter at each ε, every query sampled; "
+        f"{q['unparsed']} replies could not be parsed and count as 'unparsed'. No kernel of shown cells is "
+        "estimated, so the observed values at each ε are those of its own queries"
+        + (f", with {conf:g} simultaneous intervals." if conf else "."),
+        "",
+        "## Baseline: no filter",
+        "",
+        f"L = {_f(b['local']['value'])} nats{_ivs(b['local'])}, in {b['local']['context']}: "
+        f"{b['local']['group']} over {b['local']['other_group']}; "
+        f"L̄ = {_f(b['global']['value'])} nats{_ivs(b['global'])}: "
+        f"{b['global']['group']} over {b['global']['other_group']}.",
+    ]
+    lines += _curve_md(d) + _above_bound_md(d)
+    lines += [
+        "",
+        "The black-box bound holds for every decision model behind the filter (exact worst case"
+        + ("; here in closed form, ε(M_cand) itself" if all(p["bounds"]["closed_form"] for p in d["points"]) else "")
+        + "); the observed values are this model's. Files: candidates.csv (per-candidate counts at each ε), "
+        "records.csv (the baseline's per-candidate records for `fairaudit audit`), certificate.json, "
+        "queries.jsonl (every query and reply).",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _above_bound_md(d: dict) -> list[str]:
+    """A note on each ε whose observed L is above the bound: an estimate from few queries, never a broken bound."""
+    over = [p for p in d["points"] if _num(p["observed"]["local"]["value"]) > _num(p["bounds"]["black_box"])]
+    if not over:
+        return []
+    at = ", ".join(_f(p["epsilon"]) for p in over)
+    return [
+        "",
+        f"At ε = {at} the observed L is above the bound that holds for every model: it is an estimate from the "
+        "queries at that ε (an outcome a group never got in them gives +∞), and the bound is on the model's own "
+        "law; its interval is the statement to read, and more samples (`--samples`) narrow it.",
+    ]
+
+
+def _num(v: float | str | None) -> float:
+    return float("inf") if v == "inf" else float("nan") if v is None else float(v)

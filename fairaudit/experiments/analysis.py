@@ -48,7 +48,7 @@ from ..laws import Kernel, Law, Population, compose
 from ..metrics import Fairness, global_fairness, local_fairness
 from ..privacy import Mechanism, from_matrix, identity, randomized_response
 from ..utility import Utility, from_table
-from .harness import paper_counts, table_kernel
+from .harness import eps_key, table_kernel, true_cell_counts
 from .slots import (
     candidate_contexts,
     candidate_epsilon,
@@ -56,7 +56,6 @@ from .slots import (
     candidate_mechanism,
     candidate_population,
     expected_utility,
-    outcome_index,
     true_prompts,
 )
 from .vlm.filter import PrivacyFilter, candidate_family, profile_budget
@@ -74,6 +73,7 @@ __all__ = [
     "candidate_context_mechanism",
     "candidate_utility",
     "epsilon_from_keep",
+    "paper_design_point",
     "position_split",
 ]
 
@@ -444,7 +444,7 @@ def _point(
     )
 
 
-def _paper_point(
+def paper_design_point(
     task: DeliveryTask,
     positions: str,
     records: Iterable[dict[str, Any]],
@@ -454,16 +454,23 @@ def _paper_point(
     confidence: float | None,
     method: str,
 ) -> PaperDesignPoint:
+    """The paper's design at ``eps`` (nats; +inf: no filter): its records counted by true context, slot, profile, outcome.
+
+    Records of ``design = "paper"`` whose ``epsilon`` is ``eps`` and whose true prompt is one of ``positions``
+    (:func:`fairaudit.experiments.slots.true_prompts`) are counted by
+    :func:`fairaudit.experiments.harness.true_cell_counts`; L and L̄ (with ``confidence`` intervals) are those
+    of their per-candidate law, with population ``pop``.
+    """
     prompts, _ = true_prompts(task, positions)
-    c = paper_counts(task, records, eps, positions)  # [x, true prompt, decision]
-    o = outcome_index(task)
-    member = np.zeros((len(prompts), task.slots, len(task.candidates)))  # [prompt, slot, candidate]
-    index = {p: i for i, p in enumerate(task.profiles)}
-    col = {index[tuple(g)]: j for j, g in enumerate(task.candidates)}
-    for i in range(task.slots):
-        member[np.arange(len(prompts)), i, [col[int(g)] for g in prompts[:, i]]] = 1.0
-    outcome = np.eye(len(task.outcomes))[o]  # [slot, decision, outcome]
-    counts = np.einsum("xtu,tia,iuo->xiao", c, member, outcome).reshape(-1, len(task.candidates), len(task.outcomes))
+    orders = {tuple(task.profiles[i] for i in p) for p in prompts}
+    key = eps_key(float(eps))
+    truths = [
+        {"context": r["truth"]["context"], "profiles": order, "decision": r["decision"]}
+        for r in records
+        if r.get("design") == "paper" and r.get("status") == "ok" and eps_key(float(r["epsilon"])) == key
+        and (order := tuple(tuple(p) for p in r["truth"]["profiles"])) in orders
+    ]  # fmt: skip
+    counts = true_cell_counts(task, truths).reshape(-1, len(task.candidates), len(task.outcomes))
     groups = [task.profile_label(x) for x in task.candidates]
     law = Law.from_counts(counts, candidate_contexts(task), groups, task.outcomes)
     iv = None
@@ -474,7 +481,7 @@ def _paper_point(
         iv = fairness_intervals(table, utility, confidence, method, population=pop)
     return PaperDesignPoint(
         epsilon=eps,
-        queries=int(c.sum()),
+        queries=len(truths),
         law=law,
         local=local_fairness(law, utility, pop),
         global_=global_fairness(law, utility, pop),
@@ -554,7 +561,8 @@ def analyse(
     utility = candidate_utility(task)
     pop = candidate_population(task, positions)
     paper = tuple(
-        _paper_point(task, positions, records, e, utility, pop, confidence, method) for e in sorted(set(paper_epsilons))
+        paper_design_point(task, positions, records, e, utility, pop, confidence, method)
+        for e in sorted(set(paper_epsilons))
     )
     return analyse_kernel(
         task,

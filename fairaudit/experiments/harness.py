@@ -29,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import os
 import threading
 import time
@@ -81,7 +82,8 @@ def query_seed(run_seed: int, key: str) -> int:
     return int.from_bytes(digest[:8], "big") >> 1
 
 
-def _eps_key(eps: float) -> str:
+def eps_key(eps: float) -> str:
+    """An ε as the logs write it in query keys (12 significant digits; ``inf`` for no filter)."""
     return f"{eps:.12g}"
 
 
@@ -161,7 +163,7 @@ def plan_queries(
             for order in orders:
                 cell = "|".join(label(p) for p in order)
                 for r in range(samples):
-                    key = f"paper|{_eps_key(float(eps))}|{ctx}|{cell}|{r}"
+                    key = f"paper|{eps_key(float(eps))}|{ctx}|{cell}|{r}"
                     s = query_seed(seed, key)
                     shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]))
                     texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
@@ -456,7 +458,7 @@ def _answer(
         "profiles": [list(p) for p in q.profiles],
         "rep": q.rep,
         "seed": q.seed,
-        "epsilon": q.epsilon,
+        "epsilon": "inf" if q.epsilon == math.inf else q.epsilon,  # JSON has no infinity: read back with float()
         "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
         **({"shown": task.shown_names(q.profiles, q.texts)} if q.texts else {}),
         "prompt_sha256": _prompt_hash(prompt, digests),
@@ -589,10 +591,10 @@ def paper_counts(
     orders = {tuple(task.profiles[i] for i in p): j for j, p in enumerate(prompts)}
     cidx = {c: i for i, c in enumerate(task.contexts)}
     didx = {d: i for i, d in enumerate(task.decisions)}
-    key = _eps_key(float(epsilon))
+    key = eps_key(float(epsilon))
     out = np.zeros((len(task.contexts), len(prompts), len(task.decisions)))
     for r in records:
-        if r.get("design") != "paper" or r.get("status") != "ok" or _eps_key(float(r["epsilon"])) != key:
+        if r.get("design") != "paper" or r.get("status") != "ok" or eps_key(float(r["epsilon"])) != key:
             continue
         order = tuple(tuple(p) for p in r["truth"]["profiles"])
         if order in orders:

@@ -151,10 +151,13 @@ class RunOptions:
     keeps : sequence of float, optional
     context_epsilon : float, optional
         ε of randomized response on the context (document type or package).
-    design : {"table", "both"}
-        The table design only, or also the paper's (sampling through the
-        filter at every ε) for comparison; ``"both"`` needs queries (not the
-        exact route).
+    design : {"table", "both", "paper"}
+        The table design only; also the paper's (sampling through the
+        filter at every ε) for comparison; or the paper's alone, with the
+        true prompts asked without a filter for the baseline, for a task too
+        large for the table design (eight candidates ranked at once:
+        :mod:`fairaudit.experiments.paper_design`). ``"both"`` and ``"paper"``
+        need queries (not the exact route).
     positions : {"balanced", "latin", "fixed"}, optional
         Every order of the candidates, the k cyclic shifts of the listed
         order, or the listed order only (the paper's); default the task's
@@ -188,10 +191,10 @@ class RunOptions:
     --------
     >>> RunOptions(samples=5, keeps=[0.7]).keeps
     (0.7,)
-    >>> RunOptions(design="paper")
+    >>> RunOptions(design="kernel")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: design: must be one of table, both (got 'paper')
+    fairaudit._errors.InputError: design: must be one of table, both, paper (got 'kernel')
     """
 
     samples: int | None = None
@@ -210,7 +213,7 @@ class RunOptions:
     images: bool = True
 
     def __post_init__(self) -> None:
-        choice(self.design, "design", ("table", "both"))
+        choice(self.design, "design", ("table", "both", "paper"))
         if self.positions is not None:
             choice(self.positions, "positions", ("balanced", "latin", "fixed"))
         if self.epsilons is not None and self.keeps is not None:

@@ -6,7 +6,9 @@ table, an OpenAI-compatible endpoint, or a real language model run locally),
 the queries of the table design (and of the paper's design with
 ``RunOptions(design="both")``) through the resumable log, the analysis
 (:func:`fairaudit.experiments.analysis.analyse`) and the files of
-:mod:`fairaudit.experiments.report`.
+:mod:`fairaudit.experiments.report`; or, with ``RunOptions(design="paper")``,
+the paper's design alone and its own analysis and files
+(:mod:`fairaudit.experiments.paper_design`), for tasks too large for a table.
 
 The model is a :class:`~fairaudit.experiments.options.ModelSource` and the rest of the run a
 :class:`~fairaudit.experiments.options.RunOptions`. A local model (``ModelSource(local_model="smollm2")``,
@@ -23,6 +25,7 @@ local model's next-token probabilities are, with no log either.
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import time
 import warnings
@@ -38,6 +41,7 @@ from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_
 from .exact import count_prompts
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .options import DEFAULT_KEEPS, PLAIN_SAMPLING, ModelSource, RunOptions, exact_route
+from .paper_design import PaperDesignAnalysis, analyse_paper_design, paper_design_bounds, write_paper_design
 from .slots import check_size
 from .taskfile import get_task, is_built_in
 from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_model, simulated_models
@@ -80,7 +84,7 @@ class ExperimentRun:
 
     out: Path
     summary: RunSummary | None
-    analysis: ExperimentAnalysis | None
+    analysis: ExperimentAnalysis | PaperDesignAnalysis | None
     files: tuple
     route: str = "sampled"
     seconds: float = 0.0
@@ -326,9 +330,14 @@ class _Plan:
 
 def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
     """Check everything a run needs and make its model, before anything is written."""
-    check_size(task)  # before any model or kernel of the table design is made
+    positions = options.positions or task.positions
     keeps = DEFAULT_KEEPS if options.keeps is None else options.keeps
-    eps = list(options.epsilons) if options.epsilons is not None else [epsilon_from_keep(task, k) for k in keeps]
+    eps = [epsilon_from_keep(task, k, positions) for k in keeps] if options.epsilons is None else list(options.epsilons)
+    if options.design == "paper":  # no kernel: the bounds are refused here when they need too large a matrix
+        for e in eps:
+            paper_design_bounds(task, e, positions, context_epsilon=options.context_epsilon)
+    else:
+        check_size(task)  # before any model or kernel of the table design is made
     if source.exact and options.samples is not None:
         raise InputError("samples", "give `samples` or `exact`, not both")
     exact = exact_route(source.exact, source.local_model, options.samples)
@@ -371,7 +380,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     _check_log(log_path, options.resume, exact)
     common: _Common = {
         "epsilons": eps,
-        "positions": options.positions or task.positions,
+        "positions": positions,
         "confidence": options.confidence,
         "method": options.method,
         "context_epsilon": options.context_epsilon,
@@ -396,7 +405,7 @@ def _check_local(name: str, exact: bool, options: RunOptions) -> None:
 
     if options.scene is not None:
         raise InputError("scene", f"the local model {name} reads text only: it takes no route images")
-    if exact and options.design == "both":
+    if exact and options.design != "table":
         raise InputError("design", "the paper's design samples through the filter: give `samples` N too")
     lm.check(name)  # not installed: one line naming the install command, before anything is written
 
@@ -405,7 +414,7 @@ def _check_exact_endpoint(options: RunOptions) -> None:
     """What an endpoint's exact route cannot do: route images, the paper's design."""
     if options.scene is not None:
         raise InputError("scene", "the exact route reads text only: it takes no route images")
-    if options.design == "both":
+    if options.design != "table":
         raise InputError("design", "the paper's design samples through the filter: run with `samples` N, not `exact`")
 
 
@@ -454,16 +463,17 @@ def _run_sampled(
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]
     if not summary.complete:
         return ExperimentRun(out=out, summary=summary, analysis=None, files=tuple(files), seconds=summary.seconds)
-    analysis = analyse(
-        task,
-        records,
-        model=m.name,
-        samples=plan.samples,
-        paper_epsilons=eps if options.design == "both" else (),
-        **plan.common,
-    )
     run = {"seed": int(options.seed), "design": options.design, "fairaudit": __version__}
-    files += _write(analysis, out, {**run, "seconds": round(summary.seconds, 3)})
+    run["seconds"] = round(summary.seconds, 3)
+    analysis: ExperimentAnalysis | PaperDesignAnalysis
+    if options.design == "paper":
+        common = {k: v for k, v in plan.common.items() if k != "targets"}
+        analysis = analyse_paper_design(task, records, model=m.name, samples=plan.samples, **common)  # type: ignore[arg-type]
+        files += write_paper_design(analysis, out, run)
+    else:
+        paper_eps = eps if options.design == "both" else ()
+        analysis = analyse(task, records, model=m.name, samples=plan.samples, paper_epsilons=paper_eps, **plan.common)
+        files += _write(analysis, out, run)
     return ExperimentRun(out=out, summary=summary, analysis=analysis, files=tuple(files), seconds=summary.seconds)
 
 
@@ -484,15 +494,19 @@ def _ask(
         "epsilons": eps,
         "context_epsilon": options.context_epsilon,
     }
-    queries = plan_queries(task, "table", n, options.seed)
-    if options.design == "both":
+    positions = options.positions or task.positions
+    if options.design == "paper":  # the true prompts without a filter, for the baseline
+        queries = plan_queries(task, "paper", n, options.seed, epsilons=[math.inf], positions=positions)
+    else:
+        queries = plan_queries(task, "table", n, options.seed)
+    if options.design != "table":
         queries += plan_queries(
             task,
             "paper",
             n,
             options.seed,
             epsilons=eps,
-            positions=options.positions or task.positions,
+            positions=positions,
             context_epsilon=options.context_epsilon,
         )
     with QueryLog(plan.log_path, header, resume=options.resume) as qlog:

@@ -81,7 +81,7 @@ def check_size(task: DeliveryTask) -> int:
         raise InputError(
             "task.candidates",
             f"{len(task.contexts)} contexts x {len(task.profiles)}^{task.slots} shown cells = {n:,} are more than "
-            f"the table design enumerates ({MAX_SHOWN_CELLS:,}; a design for this size is not supported yet)",
+            f'the table design enumerates ({MAX_SHOWN_CELLS:,}): run the paper\'s design alone (design "paper")',
             task.slots,
         )
     k = task.slots
@@ -91,7 +91,7 @@ def check_size(task: DeliveryTask) -> int:
         raise InputError(
             "task.candidates",
             f"{n:,} shown cells x {decisions:,} decisions (every order of {task.slots}) are more kernel entries than "
-            f"the table design holds ({MAX_KERNEL_ENTRIES:,}; a design for this size is not supported yet)",
+            f'the table design holds ({MAX_KERNEL_ENTRIES:,}): run the paper\'s design alone (design "paper")',
             task.slots,
         )
     return n
@@ -306,7 +306,8 @@ def _candidate_rows(task: DeliveryTask, m: FloatArray, positions: str) -> FloatA
         raise InputError(
             "task.candidates",
             f"a candidate's view has {n_p}^{k} = {n_p**k:,} values: its mechanism is too large to build "
-            f"({len(task.candidates)} rows; at most {MAX_KERNEL_ENTRIES:,} entries; not supported yet)",
+            f"({len(task.candidates)} rows; at most {MAX_KERNEL_ENTRIES:,} entries); a point-mass design needs no "
+            "matrix: positions = 'latin' with population = 'distinct', or population = 'all'",
             k,
         )
     prompts, w, p, groups = _slot_group(task, positions)

@@ -1,0 +1,515 @@
+"""The paper's design alone: tasks too large for a kernel, such as eight candidates ranked at once.
+
+The table design asks every shown cell, n_profiles^k per context (8⁸ for
+eight candidates of eight groups), and composes the filter exactly. The
+paper's own design asks only the true prompts, through the filter at each ε
+(``RunOptions(design="paper")``), and beside them the same prompts without a
+filter for the baseline. Each answered query gives one record per candidate,
+counted by true context, slot, true profile and outcome
+(:func:`fairaudit.experiments.harness.true_cell_counts`): the per-candidate
+law behind the filter at that ε, with simultaneous intervals.
+
+The certificate needs the candidate's mechanism M_cand only through two
+numbers, and both have closed forms when its matrix is too large to build:
+
+* its ε, ε(M_cand) (:func:`fairaudit.experiments.slots.candidate_epsilon`:
+  Σ ε_i for ``population = "all"``; for a point-mass design such as a Latin
+  square of distinct candidates, the most attribute values two views differ
+  in, each at its ε_i);
+* the black-box bound, the exact worst case over every decision model: when
+  the utility's smallest value is 0 and no floor τ is set, it is ε(M_cand)
+  itself for L, and for L̄ as well when X ⊥ A (``balanced`` or ``latin``
+  positions): proofs/black_box.md, "With ℓ = 0 the black-box value is
+  ε(M_A)", and its "Global" paragraph. Otherwise the bound is the worst
+  model over the matrix (:func:`fairaudit.worstcase.worst_model`), which a
+  task of that size refuses in one line.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._errors import InputError
+from .._json import Report, number
+from .._validation import real
+from ..laws import Law, Population
+from ..metrics import Fairness
+from ..utility import Utility
+from .analysis import candidate_context_mechanism, candidate_utility, paper_design_point
+from .harness import paper_queries_needed
+from .slots import candidate_contexts, candidate_epsilon, candidate_population
+from .vlm.filter import PrivacyFilter, profile_budget
+from .vlm.tasks import DeliveryTask
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ..intervals import FairnessIntervals
+
+__all__ = [
+    "DesignBounds",
+    "DesignPoint",
+    "PaperDesignAnalysis",
+    "analyse_paper_design",
+    "paper_design_bounds",
+    "paper_design_dict",
+    "plot_paper_design",
+    "write_paper_design",
+]
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class DesignBounds:
+    """What holds for every decision model behind the filter at one candidate ε (nats).
+
+    Attributes
+    ----------
+    epsilon : float
+        The candidate's ε asked for (+inf: no filter).
+    filter : PrivacyFilter
+        Randomized response on each attribute of every profile at the share of
+        ε that gives the candidate ``epsilon`` (:func:`fairaudit.experiments.vlm.filter.profile_budget`).
+    corollary : float
+        ε(M_cand), the corollary's bound on L.
+    black_box_local, black_box_global : float
+        The exact worst case of L and L̄ over every decision model.
+    closed_form : bool
+        True when both came from the closed forms (no matrix was built).
+    """
+
+    epsilon: float
+    filter: PrivacyFilter
+    corollary: float
+    black_box_local: float
+    black_box_global: float
+    closed_form: bool
+
+
+def paper_design_bounds(
+    task: DeliveryTask,
+    epsilon: float,
+    positions: str = "balanced",
+    *,
+    tau: float | None = None,
+    context_epsilon: float | None = None,
+) -> DesignBounds:
+    """The corollary and black-box bounds of the candidate's filter at ``epsilon``, in closed form where they have one.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    epsilon : float
+        The candidate's ε (nats, ≥ 0; +inf for no filter).
+    positions : {"balanced", "latin", "fixed"}
+    tau : float, optional
+        A floor on every E[g | x, a] (the paper's τ); with it the matrix is needed.
+    context_epsilon : float, optional
+        ε of randomized response on the context (it leaves the closed forms unchanged: proofs/black_box.md, §1).
+
+    Returns
+    -------
+    DesignBounds
+
+    Raises
+    ------
+    InputError
+        ``epsilon`` negative or NaN; ``task.candidates`` when the bounds need M_cand's matrix and it is too large.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> b = paper_design_bounds(HR_DELIVERY, 3.0)
+    >>> b.corollary, b.black_box_local, b.black_box_global, b.closed_form
+    (3.0, 3.0, 3.0, True)
+    """
+    eps = real(epsilon, "epsilon", low=0.0, finite=False, what="a number of nats >= 0")
+    utility = candidate_utility(task)
+    filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(eps), context_epsilon=context_epsilon)
+    closed = None if math.isinf(eps) else candidate_epsilon(task, filt.epsilon_attributes, positions)
+    if math.isinf(eps):
+        closed = math.inf
+    if closed is not None and utility.lower == 0 and tau is None and positions != "fixed":
+        return DesignBounds(
+            epsilon=eps,
+            filter=filt,
+            corollary=closed,
+            black_box_local=closed,
+            black_box_global=closed,
+            closed_form=True,
+        )
+    from ..worstcase import worst_model
+
+    mech = filt.candidate_mechanism(positions)
+    mx = candidate_context_mechanism(task, context_epsilon)
+    wm = worst_model(mech, utility, context_mechanism=mx, population=candidate_population(task, positions), tau=tau)
+    return DesignBounds(
+        epsilon=eps,
+        filter=filt,
+        corollary=mech.epsilon,
+        black_box_local=wm.local.value,
+        black_box_global=wm.global_.value,
+        closed_form=False,
+    )
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class DesignPoint:
+    """The paper's design at one candidate ε: what was observed and what holds for any model.
+
+    Attributes
+    ----------
+    epsilon : float
+        The candidate's ε (nats; +inf for the baseline, no filter).
+    queries : int
+        Answered queries at this ε.
+    counts : numpy.ndarray, shape (n_contexts · k, n_candidates, n_outcomes)
+        Per-candidate records by context @ slot (context-major,
+        :func:`fairaudit.experiments.slots.candidate_contexts`), true profile
+        (:attr:`DeliveryTask.candidates`) and outcome (:attr:`DeliveryTask.outcomes`).
+    law : Law
+        Their shares.
+    local, global_ : Fairness
+        Observed L and L̄ (nats), with the maximising context and groups.
+    intervals : FairnessIntervals or None
+    bounds : DesignBounds
+    """
+
+    epsilon: float
+    queries: int
+    counts: np.ndarray
+    law: Law
+    local: Fairness
+    global_: Fairness
+    intervals: FairnessIntervals | None
+    bounds: DesignBounds
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class PaperDesignAnalysis:
+    """A run of the paper's design alone: the baseline and each ε, with the bounds.
+
+    Attributes
+    ----------
+    task : DeliveryTask
+    model : str
+    samples : int
+        Queries per true prompt and ε.
+    positions : {"balanced", "latin", "fixed"}
+    population : Population
+        P(context @ slot, candidate) (:func:`fairaudit.experiments.slots.candidate_population`).
+    utility : Utility
+    baseline : DesignPoint
+        The true prompts without a filter (ε = +inf).
+    points : tuple of DesignPoint
+        One per requested ε, in increasing order.
+    confidence : float or None
+    unparsed : int
+        Answered queries whose reply could not be parsed (all designs).
+    context_epsilon, tau : float or None
+    route : str
+        ``"sampled"``.
+    """
+
+    task: DeliveryTask
+    model: str
+    samples: int
+    positions: str
+    population: Population
+    utility: Utility
+    baseline: DesignPoint
+    points: tuple
+    confidence: float | None
+    unparsed: int
+    context_epsilon: float | None = None
+    tau: float | None = None
+    route: str = "sampled"
+
+
+def analyse_paper_design(
+    task: DeliveryTask,
+    records: Sequence[dict],
+    *,
+    model: str,
+    samples: int,
+    epsilons: Sequence[float],
+    positions: str = "balanced",
+    confidence: float | None = 0.95,
+    method: str = "auto",
+    tau: float | None = None,
+    context_epsilon: float | None = None,
+) -> PaperDesignAnalysis:
+    """The per-candidate analysis of a run of the paper's design: its records at +inf (baseline) and at each ε.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    records : sequence of dict
+        The log's answered queries: ``design = "paper"``, with ``truth``
+        (context and profiles) and ``epsilon`` (``inf`` for the baseline).
+    model : str
+    samples : int
+    epsilons : sequence of float
+        The candidate's ε values (nats, finite, ≥ 0).
+    positions, confidence, method, context_epsilon
+        As in :func:`fairaudit.experiments.analysis.analyse`.
+    tau : float, optional
+        Default the utility's smallest value when it is positive, else none.
+
+    Returns
+    -------
+    PaperDesignAnalysis
+
+    Raises
+    ------
+    InputError
+        ``paper design`` when the baseline has no answered query; a bad ε;
+        the bounds' errors (:func:`paper_design_bounds`).
+    """
+    utility = candidate_utility(task)
+    pop = candidate_population(task, positions)
+    if tau is None and utility.lower > 0:
+        tau = utility.lower
+    eps = sorted({real(e, "epsilons", low=0.0, what="finite and >= 0 (nats)") for e in epsilons})
+
+    def point(e: float, ctx_eps: float | None) -> DesignPoint:
+        seen = paper_design_point(task, positions, records, e, utility, pop, confidence, method)
+        bounds = paper_design_bounds(task, e, positions, tau=tau, context_epsilon=ctx_eps)
+        counts = np.asarray(seen.law.counts)
+        return DesignPoint(
+            epsilon=e,
+            queries=seen.queries,
+            counts=counts,
+            law=seen.law,
+            local=seen.local,
+            global_=seen.global_,
+            intervals=seen.intervals,
+            bounds=bounds,
+        )
+
+    baseline = point(math.inf, None)
+    if baseline.queries == 0:
+        raise InputError("paper design", "has no answered query without a filter (the baseline); run with `resume`")
+    return PaperDesignAnalysis(
+        task=task,
+        model=model,
+        samples=samples,
+        positions=positions,
+        population=pop,
+        utility=utility,
+        baseline=baseline,
+        points=tuple(point(e, context_epsilon) for e in eps),
+        confidence=confidence,
+        unparsed=sum(1 for r in records if r.get("status") == "ok" and r.get("decision") == "unparsed"),
+        context_epsilon=context_epsilon,
+        tau=tau,
+    )
+
+
+def _observed(p: DesignPoint) -> Report:
+    return {
+        "local": p.local.to_dict(None if p.intervals is None else p.intervals.local),
+        "global": p.global_.to_dict(None if p.intervals is None else p.intervals.global_),
+    }
+
+
+def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> Report:
+    f, b = p.bounds.filter, p.bounds
+    return {
+        "epsilon": number(p.epsilon),
+        "queries": p.queries,
+        "privacy": {
+            "epsilon_candidate": number(b.corollary),
+            "epsilon_profile": number(f.epsilon_profile),
+            "epsilon_per_attribute": {t.name: number(e) for t, e in zip(a.task.attributes, f.epsilon_attributes)},
+            "keep_probability_per_attribute": {
+                t.name: number(q) for t, q in zip(a.task.attributes, f.keep_probabilities)
+            },
+            "delta": 0.0,
+            "context_mechanism": f.context_mechanism.name,
+        },
+        "bounds": {
+            "corollary": number(b.corollary),
+            "black_box": number(b.black_box_local),
+            "black_box_global": number(b.black_box_global),
+            "closed_form": b.closed_form,
+        },
+        "observed": _observed(p),
+        "certified_local": number(b.black_box_local),
+    }
+
+
+def paper_design_dict(analysis: PaperDesignAnalysis, run: Report | None = None) -> Report:
+    """The certificate JSON of a run of the paper's design alone.
+
+    Keys as :func:`fairaudit.experiments.report.experiment_dict` where they
+    mean the same: ``experiment``, ``model``, ``route`` (``"sampled"``),
+    ``design`` (``"paper"``), ``positions``, ``samples``, ``slots``,
+    ``candidates``, ``context``, ``queries`` (answered without a filter and
+    through it, unparsed, and the queries each ε needs), ``utility``,
+    ``tau``, ``confidence``, ``baseline`` (no filter: observed L and L̄ with
+    intervals) and ``points`` (per requested ε: the filter's privacy, the
+    corollary and black-box bounds, ``closed_form``, the observed L and L̄
+    with intervals). No ``curve``, ``budgets`` or ``shares``: they need the
+    model's kernel on every shown cell. Values in nats; +inf is ``"inf"``.
+    """
+    a, t = analysis, analysis.task
+    out: Report = {
+        "experiment": t.name,
+        "model": a.model,
+        "route": a.route,
+        "design": "paper",
+        "positions": a.positions,
+        "samples": a.samples,
+        "slots": t.slots,
+        "candidates": [t.profile_label(c) for c in t.candidates],
+        "context": t.context_name,
+        "queries": {
+            "baseline": a.baseline.queries,
+            "paper": sum(p.queries for p in a.points),
+            "unparsed": a.unparsed,
+            "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
+        },
+        "utility": {"name": t.utility_name, "values": dict(zip(t.outcomes, map(number, t.utility_values)))},
+        "tau": number(a.tau),
+        "confidence": number(a.confidence),
+        "baseline": {"queries": a.baseline.queries, **_observed(a.baseline)},
+        "points": [_point_dict(a, p) for p in a.points],
+    }
+    if run:
+        out["run"] = run
+    return out
+
+
+def counts_frame(analysis: PaperDesignAnalysis) -> pd.DataFrame:
+    """The per-candidate counts of every ε as a long table (``candidates.csv``).
+
+    Columns: ``epsilon`` (the candidate's, ``inf`` for the baseline), the
+    context name, ``position`` (k ≥ 2), ``profile`` (the candidate's true
+    profile), ``outcome`` and ``count``; cells with no record are left out.
+    """
+    import pandas as pd
+
+    t = analysis.task
+    ctx = np.asarray([c.rsplit(" @ ", 1) if t.slots > 1 else (c, "") for c in candidate_contexts(t)], dtype=object)
+    groups = np.asarray([t.profile_label(c) for c in t.candidates], dtype=object)
+    outcomes = np.asarray(t.outcomes, dtype=object)
+    frames = []
+    for p in (analysis.baseline, *analysis.points):
+        x, g, o = np.nonzero(p.counts)
+        frame = {
+            "epsilon": np.full(len(x), number(p.epsilon), dtype=object),
+            t.context_name: ctx[x, 0],
+            **({"position": ctx[x, 1]} if t.slots > 1 else {}),
+            "profile": groups[g],
+            "outcome": outcomes[o],
+            "count": p.counts[x, g, o].astype(np.int64),
+        }
+        frames.append(pd.DataFrame(frame))
+    return pd.concat(frames, ignore_index=True)
+
+
+def baseline_records(analysis: PaperDesignAnalysis) -> pd.DataFrame:
+    """The baseline as one record per query and candidate (``records.csv``), for ``fairaudit audit``.
+
+    Columns: the context name, ``position`` (k ≥ 2), ``profile`` (true, as
+    shown: no filter) and ``outcome``. An audit of it with ``--context
+    <context>,position`` gives the certificate's baseline L and L̄.
+    """
+    frame = counts_frame(analysis)
+    frame = frame[frame["epsilon"] == "inf"].drop(columns="epsilon")
+    return frame.loc[frame.index.repeat(frame.pop("count"))].reset_index(drop=True)
+
+
+def plot_paper_design(analysis: PaperDesignAnalysis, path: str | Path) -> None:
+    """Observed L and L̄ at each ε with their intervals, the black-box bound and the baseline (atomic PNG or SVG).
+
+    The x axis is the candidate's ε (nats); the baseline (no filter) is a
+    dotted horizontal line on each metric, named with its value in the
+    legend (only named when +inf); a +inf value at an ε is drawn as ▲ on the top edge.
+    """
+    from .._figure import mark_infinite
+    from ..plot import load_matplotlib, save_figure
+
+    fig = load_matplotlib()(figsize=(8.0, 5.2), layout="constrained")
+    ax = fig.add_subplot()
+    a = analysis
+    x = np.array([p.epsilon for p in a.points])
+    bound = np.array([p.bounds.black_box_local for p in a.points])
+    finite = [v for p in (a.baseline, *a.points) for v in _values(p) if math.isfinite(v)]
+    top = 1.15 * max([*finite, *bound[np.isfinite(bound)], 1e-3])
+    ax.plot(x, np.where(np.isfinite(bound), bound, np.nan), "k-", marker="s", label="black-box bound on L (any model)")
+    mark_infinite(ax, x[np.isinf(bound)], "k")
+    for kind, color, shift, mark in (("local", "tab:red", -0.01, "o"), ("global", "tab:blue", 0.01, "D")):
+        name = "L" if kind == "local" else "L̄"
+        base = getattr(a.baseline, "local" if kind == "local" else "global_").value
+        if math.isfinite(base):
+            ax.axhline(base, color=color, ls=":", lw=1.2, label=f"{name} without a filter (baseline): {base:.3g}")
+        else:  # a legend entry without a line
+            ax.plot([], [], color=color, ls=":", label=f"{name} without a filter (baseline): +∞")
+        y = np.array([getattr(p, "local" if kind == "local" else "global_").value for p in a.points])
+        err = _errors(a.points, kind, y)
+        dx = shift * max(float(x.max()) if x.size else 1.0, 1.0)
+        ax.errorbar(x + dx, np.where(np.isfinite(y), y, np.nan), yerr=err, color=color, marker=mark, ls="none",
+                    capsize=3, label=f"observed {name} through the filter" + (" (interval)" if err is not None else ""))  # fmt: skip
+        mark_infinite(ax, x[np.isinf(y)] + dx, color)
+    ax.set_ylim(0.0, top)
+    ax.set_xlim(left=0.0)
+    ax.set_xlabel("privacy budget ε of a candidate (nats; all its prompt shows)")
+    ax.set_ylabel("local L and global L̄ (nats)")
+    ax.set_title(f"{a.task.name}: {a.model} (the paper's design, positions {a.positions})", fontsize=10)
+    ax.legend(fontsize=7, loc="upper left")
+    save_figure(fig, path)
+
+
+def _values(p: DesignPoint) -> tuple[float, ...]:
+    ends = () if p.intervals is None else (*p.intervals.local, *p.intervals.global_)
+    return (p.local.value, p.global_.value, *ends)
+
+
+def _errors(points: Sequence[DesignPoint], kind: str, y: np.ndarray) -> np.ndarray | None:
+    """Error-bar lengths below and above ``y`` from the intervals (None without intervals; +inf ends capped)."""
+    ivs = [p.intervals for p in points]
+    if not ivs or any(v is None for v in ivs):
+        return None
+    iv = np.array([tuple(v.local if kind == "local" else v.global_) for v in ivs if v is not None], dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        lo, hi = np.clip(y - iv[:, 0], 0, None), np.clip(iv[:, 1] - y, 0, None)
+    return np.nan_to_num(np.vstack([lo, hi]), nan=0.0, posinf=0.0)
+
+
+def write_paper_design(analysis: PaperDesignAnalysis, out: Path, run: Report) -> list[Path]:
+    """Write a paper-design run's files to ``out``, each atomically: the tables, certificate, report and figure.
+
+    ``candidates.csv`` (:func:`counts_frame`), ``records.csv``
+    (:func:`baseline_records`), ``certificate.json`` (:func:`paper_design_dict`), ``report.md`` and
+    ``curve.png`` (:func:`plot_paper_design`; skipped with a note on stderr when matplotlib is missing).
+    """
+    import sys
+
+    from .._io import write_atomic
+    from ._markdown import paper_design_markdown
+    from .report import write_frame, write_json
+
+    data = paper_design_dict(analysis, run)
+    steps = (
+        ("candidates.csv", lambda p: write_frame(p, counts_frame(analysis))),
+        ("records.csv", lambda p: write_frame(p, baseline_records(analysis))),
+        ("certificate.json", lambda p: write_json(p, data)),
+        ("report.md", lambda p: write_atomic(p, paper_design_markdown(data), field="out")),
+    )
+    written = []
+    for name, write in steps:
+        write(out / name)
+        written.append(out / name)
+    try:
+        plot_paper_design(analysis, out / "curve.png")
+        written.append(out / "curve.png")
+    except InputError as exc:  # matplotlib missing: the tables and report are written
+        print(f"fairaudit: figures skipped: {exc}", file=sys.stderr)
+    return written

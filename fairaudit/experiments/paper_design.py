@@ -36,13 +36,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._errors import InputError
+from .._io import write_atomic
 from .._json import Report, number
 from .._validation import real
 from ..laws import Law, Population
 from ..metrics import Fairness
 from ..utility import Utility
+from ._markdown import paper_design_markdown
 from .analysis import candidate_context_mechanism, candidate_utility, paper_design_point
 from .harness import paper_queries_needed
+from .report import privacy_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
@@ -319,20 +322,11 @@ def _observed(p: DesignPoint) -> Report:
 
 
 def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> Report:
-    f, b = p.bounds.filter, p.bounds
+    b = p.bounds
     return {
         "epsilon": number(p.epsilon),
         "queries": p.queries,
-        "privacy": {
-            "epsilon_candidate": number(b.corollary),
-            "epsilon_profile": number(f.epsilon_profile),
-            "epsilon_per_attribute": {t.name: number(e) for t, e in zip(a.task.attributes, f.epsilon_attributes)},
-            "keep_probability_per_attribute": {
-                t.name: number(q) for t, q in zip(a.task.attributes, f.keep_probabilities)
-            },
-            "delta": 0.0,
-            "context_mechanism": f.context_mechanism.name,
-        },
+        "privacy": privacy_dict(a.task, b.filter, b.corollary),
         "bounds": {
             "corollary": number(b.corollary),
             "black_box": number(b.black_box_local),
@@ -491,10 +485,6 @@ def write_paper_design(analysis: PaperDesignAnalysis, out: Path, run: Report) ->
     ``curve.png`` (:func:`plot_paper_design`; skipped with a note on stderr when matplotlib is missing).
     """
     import sys
-
-    from .._io import write_atomic
-    from ._markdown import paper_design_markdown
-    from .report import write_frame, write_json
 
     data = paper_design_dict(analysis, run)
     steps = (

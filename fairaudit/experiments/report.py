@@ -45,6 +45,7 @@ if TYPE_CHECKING:
     from ..calibrate import Calibration
     from ..laws import Kernel
     from .analysis import ExperimentAnalysis, PointResult, PositionSplit
+    from .vlm.filter import PrivacyFilter
     from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -55,6 +56,7 @@ __all__ = [
     "kernel_frame",
     "plot_baseline",
     "plot_experiment_curve",
+    "privacy_dict",
     "records_frame",
     "shown_kernel_frame",
 ]
@@ -237,22 +239,22 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     )
 
 
+def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float) -> Report:
+    """The ``privacy`` of a point: the candidate's ε, the profile's, each attribute's ε and keep probability, δ = 0."""
+    return {
+        "epsilon_candidate": number(epsilon_candidate),
+        "epsilon_profile": number(f.epsilon_profile),
+        "epsilon_per_attribute": {a.name: number(e) for a, e in zip(task.attributes, f.epsilon_attributes)},
+        "keep_probability_per_attribute": {a.name: number(q) for a, q in zip(task.attributes, f.keep_probabilities)},
+        "delta": 0.0,
+        "context_mechanism": f.context_mechanism.name,
+    }
+
+
 def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
-    f = p.filter
     return {
         "epsilon": number(p.epsilon),
-        "privacy": {
-            "epsilon_candidate": number(p.mechanism.epsilon),
-            "epsilon_profile": number(f.epsilon_profile),
-            "epsilon_per_attribute": {
-                a.name: number(e) for a, e in zip(analysis.task.attributes, f.epsilon_attributes)
-            },
-            "keep_probability_per_attribute": {
-                a.name: number(q) for a, q in zip(analysis.task.attributes, f.keep_probabilities)
-            },
-            "delta": 0.0,
-            "context_mechanism": f.context_mechanism.name,
-        },
+        "privacy": privacy_dict(analysis.task, p.filter, p.mechanism.epsilon),
         "bounds": {
             "corollary": number(p.corollary),
             "black_box": number(p.black_box_local),

@@ -227,3 +227,9 @@ def test_the_paper_design_is_refused_where_it_cannot_run(tmp_path, capsys):
             RunOptions(design="paper"), progress=False,
         )  # fmt: skip
     assert not (tmp_path / "e").exists()
+
+
+def test_a_floor_on_eight_candidates_is_refused_naming_the_utility():
+    task = load_task(RESUMES)
+    with pytest.raises(InputError, match=r"^utility: the black-box bound with a floor tau needs .* 8\^8 = 16,777,216"):
+        paper_design_bounds(task, 1.0, "latin", tau=0.1)

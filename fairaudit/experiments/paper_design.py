@@ -122,7 +122,8 @@ def paper_design_bounds(
     Raises
     ------
     InputError
-        ``epsilon`` negative or NaN; ``task.candidates`` when the bounds need M_cand's matrix and it is too large.
+        ``epsilon`` negative or NaN; ``task.candidates`` when the bounds need M_cand's matrix and it is too large
+        (``utility`` when only the utility's positive smallest value, or ``tau``, makes them need it).
 
     Examples
     --------
@@ -148,7 +149,18 @@ def paper_design_bounds(
         )
     from ..worstcase import worst_model
 
-    mech = filt.candidate_mechanism(positions)
+    try:
+        mech = filt.candidate_mechanism(positions)
+    except InputError as exc:
+        if closed is None or positions == "fixed":
+            raise
+        why = "a floor tau" if tau is not None else f"a utility whose smallest value is {utility.lower:g}, not 0"
+        n, k = len(task.profiles), task.slots
+        raise InputError(
+            "utility",
+            f"the black-box bound with {why} needs the candidate's mechanism, whose {n}^{k} = {n**k:,} views are "
+            "too many to build; with a utility that takes the value 0 it is epsilon itself, in closed form",
+        ) from exc
     mx = candidate_context_mechanism(task, context_epsilon)
     wm = worst_model(mech, utility, context_mechanism=mx, population=candidate_population(task, positions), tau=tau)
     return DesignBounds(

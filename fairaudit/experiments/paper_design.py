@@ -135,9 +135,7 @@ def paper_design_bounds(
     eps = real(epsilon, "epsilon", low=0.0, finite=False, what="a number of nats >= 0")
     utility = candidate_utility(task)
     filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(eps), context_epsilon=context_epsilon)
-    closed = None if math.isinf(eps) else candidate_epsilon(task, filt.epsilon_attributes, positions)
-    if math.isinf(eps):
-        closed = math.inf
+    closed = math.inf if math.isinf(eps) else candidate_epsilon(task, filt.epsilon_attributes, positions)
     if closed is not None and utility.lower == 0 and tau is None and positions != "fixed":
         return DesignBounds(
             epsilon=eps,

@@ -9,46 +9,55 @@ Arrays are indexed [x, a, u] (context, sensitive group, decision); log ratios
 are in nats. See docs/ for the guide and proofs/ for the proofs.
 """
 
+from __future__ import annotations
+
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING, Any
+
 from ._errors import FairauditError, InputError
-from .audit import Audit, audit, utility_from_expression
-from .bounds import Assumption, Bound, corollary_bound, main_theorem, main_theorem_tight, paper_bound, tight_bound
-from .calibrate import Calibration, calibrate_randomized_response
-from .certify import Certificate, certify
-from .curves import PrivacyCurve, privacy_curve
-from .estimate import CountTable, count_file, count_records, count_table, read_records
-from .intervals import FairnessIntervals, Interval, fairness_intervals
-from .laws import Kernel, Law, Population, compose
-from .metrics import (
-    demographic_parity,
-    equalized_odds,
-    expected_utility,
-    global_fairness,
-    local_fairness,
-    sup_global_fairness,
-    sup_local_fairness,
-)
-from .plan import SamplePlan, plan
-from .privacy import (
-    Mechanism,
-    MechanismFamily,
-    from_matrix,
-    identity,
-    product,
-    product_family,
-    randomized_response,
-    randomized_response_family,
-)
-from .spec import Spec, load_spec, parse_spec
-from .utility import Utility, from_function, from_table, indicator
-from .worstcase import (
-    BlackBoxCertificate,
-    WorstCase,
-    WorstModel,
-    WorstUtility,
-    black_box_bound,
-    worst_model,
-    worst_utility,
-)
+
+if TYPE_CHECKING:  # what type checkers see; at run time each name is imported when first used (_SOURCES)
+    from .audit import Audit, audit, utility_from_expression
+    from .bounds import Assumption, Bound, corollary_bound, main_theorem, main_theorem_tight, paper_bound, tight_bound
+    from .calibrate import Calibration, calibrate_randomized_response
+    from .certify import Certificate, certify
+    from .curves import PrivacyCurve, privacy_curve
+    from .estimate import CountTable, count_file, count_records, count_table, read_records
+    from .intervals import FairnessIntervals, Interval, fairness_intervals
+    from .laws import Kernel, Law, Population, compose
+    from .metrics import (
+        demographic_parity,
+        equalized_odds,
+        expected_utility,
+        global_fairness,
+        local_fairness,
+        sup_global_fairness,
+        sup_local_fairness,
+    )
+    from .plan import SamplePlan, plan
+    from .privacy import (
+        Mechanism,
+        MechanismFamily,
+        from_matrix,
+        identity,
+        product,
+        product_family,
+        randomized_response,
+        randomized_response_family,
+    )
+    from .spec import Spec, load_spec, parse_spec
+    from .utility import Utility, from_function, from_table, indicator
+    from .worstcase import (
+        BlackBoxCertificate,
+        WorstCase,
+        WorstModel,
+        WorstUtility,
+        black_box_bound,
+        worst_model,
+        worst_utility,
+    )
 
 __version__ = "0.1.0"
 
@@ -121,3 +130,89 @@ __all__ = [
     "Calibration",
     "calibrate_randomized_response",
 ]
+
+
+# The public names by the module that defines them: ``import fairaudit`` imports none of these modules (nor
+# numpy, pandas, scipy or cvxpy); the first use of a name imports its module (PEP 562). A test checks that this
+# table and the TYPE_CHECKING imports above list the same names.
+_SOURCES: dict[str, tuple[str, ...]] = {
+    "audit": ("Audit", "audit", "utility_from_expression"),
+    "bounds": (
+        "Assumption",
+        "Bound",
+        "corollary_bound",
+        "main_theorem",
+        "main_theorem_tight",
+        "paper_bound",
+        "tight_bound",
+    ),
+    "calibrate": ("Calibration", "calibrate_randomized_response"),
+    "certify": ("Certificate", "certify"),
+    "curves": ("PrivacyCurve", "privacy_curve"),
+    "estimate": ("CountTable", "count_file", "count_records", "count_table", "read_records"),
+    "intervals": ("FairnessIntervals", "Interval", "fairness_intervals"),
+    "laws": ("Kernel", "Law", "Population", "compose"),
+    "metrics": (
+        "demographic_parity",
+        "equalized_odds",
+        "expected_utility",
+        "global_fairness",
+        "local_fairness",
+        "sup_global_fairness",
+        "sup_local_fairness",
+    ),
+    "plan": ("SamplePlan", "plan"),
+    "privacy": (
+        "Mechanism",
+        "MechanismFamily",
+        "from_matrix",
+        "identity",
+        "product",
+        "product_family",
+        "randomized_response",
+        "randomized_response_family",
+    ),
+    "spec": ("Spec", "load_spec", "parse_spec"),
+    "utility": ("Utility", "from_function", "from_table", "indicator"),
+    "worstcase": (
+        "BlackBoxCertificate",
+        "WorstCase",
+        "WorstModel",
+        "WorstUtility",
+        "black_box_bound",
+        "worst_model",
+        "worst_utility",
+    ),
+}
+_MODULE_OF = {name: module for module, names in _SOURCES.items() for name in names}
+
+
+def __getattr__(name: str) -> Any:
+    """A public name, imported from its module on first use (then cached in the package's namespace)."""
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_MODULE_OF))
+
+
+class _Package(types.ModuleType):
+    """The package's module type: ``fairaudit.audit`` stays the function when the module ``fairaudit.audit`` loads.
+
+    Importing a submodule binds it as an attribute of its package. Three submodules share their name with the
+    function they define (``audit``, ``certify``, ``plan``); the function is what ``fairaudit.audit`` has always
+    been, whichever is imported first.
+    """
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if isinstance(value, types.ModuleType) and name in _MODULE_OF and _MODULE_OF[name] == name:
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -131,39 +131,63 @@ class MinMaxRatio:
     """min over lower ≤ e ≤ upper of max_a (W_a·e) / min_a (W_a·e), by the Charnes–Cooper LP.
 
     With y = t e and t = 1 / min_a W_a·e: minimise σ subject to W y ≤ σ,
-    W y ≥ 1, t·lower ≤ y ≤ t·upper, t ≥ 0 (``proofs/intervals.md``). Built
-    once per shape with cvxpy parameters and solved with Clarabel.
+    W y ≥ 1, t·lower ≤ y ≤ t·upper, t ≥ 0 (``proofs/intervals.md``), over
+    x = (y, t, σ). Solved by Clarabel directly in its standard form
+    A x + s = b, s ≥ 0, at the tolerances of :func:`fairaudit.lfp.solve_clarabel`:
+    a fixed LP needs no modelling layer, and cvxpy's import alone would take
+    most of a second of every ``fairaudit certify`` with intervals.
     """
 
     def __init__(self, A: int, n: int) -> None:
-        import cvxpy as cp
+        self.A, self.n = A, n
 
-        self.W = cp.Parameter((A, n), nonneg=True)
-        self.lo = cp.Parameter(n, nonneg=True)
-        self.hi = cp.Parameter(n, nonneg=True)
-        y, t, sigma = cp.Variable(n), cp.Variable(nonneg=True), cp.Variable()
-        self.problem = cp.Problem(
-            cp.Minimize(sigma),
-            [self.W @ y <= sigma, self.W @ y >= 1, y >= cp.multiply(self.lo, t), y <= cp.multiply(self.hi, t)],
-        )
+    def _program(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The constraint matrix (dense, (2A + 2n + 1) × (n + 2)) and right-hand side of the LP."""
+        A, n = self.A, self.n
+        rows = np.zeros((2 * A + 2 * n + 1, n + 2))
+        b = np.zeros(2 * A + 2 * n + 1)
+        eye = np.eye(n)
+        rows[:A, :n], rows[:A, n + 1] = W, -1.0  # W y − σ ≤ 0
+        rows[A : 2 * A, :n], b[A : 2 * A] = -W, -1.0  # −W y ≤ −1
+        rows[2 * A : 2 * A + n, :n], rows[2 * A : 2 * A + n, n] = -eye, lo  # t·lower − y ≤ 0
+        rows[2 * A + n : 2 * A + 2 * n, :n], rows[2 * A + n : 2 * A + 2 * n, n] = eye, -hi  # y − t·upper ≤ 0
+        rows[-1, n] = -1.0  # −t ≤ 0
+        return rows, b
 
     def solve(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
-        import cvxpy as cp
-
-        from .lfp import solve_clarabel
-
         if np.all(W @ lo <= 0):  # every group can be at 0 together: 0/0, parity
             return 1.0
         if np.any(W @ hi <= 0):  # some group is always 0 while another can be positive
             return math.inf
         pairwise = _pairwise_floor(W, lo, hi)
-        self.W.value, self.lo.value, self.hi.value = W, lo, hi
-        solve_clarabel(self.problem)
-        if self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        value = _solve_lp(*self._program(W, lo, hi), self.n + 2)
+        if value is None:
             return pairwise  # badly scaled boxes (upper ends near 1e-12) defeat the solver: keep the valid floor
         # The solver stops within ~1e-9 of the optimum; shade by that much so the lower end stays a lower end.
-        value = float(self.problem.value) * (1.0 - 1e-9)
+        value *= 1.0 - 1e-9
         return max(pairwise, value if value > 1.0 + 1e-9 else 1.0)
+
+
+def _solve_lp(rows: FloatArray, b: FloatArray, size: int) -> float | None:
+    """min x[-1] subject to rows @ x ≤ b, by Clarabel; None unless it is solved (or almost solved)."""
+    import clarabel  # type: ignore[import-untyped]
+    import scipy.sparse as sp
+
+    from .lfp import CLARABEL_TOLERANCES
+
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    for key, value in CLARABEL_TOLERANCES.items():
+        setattr(settings, key, value)
+    q = np.zeros(size)
+    q[-1] = 1.0
+    solver = clarabel.DefaultSolver(
+        sp.csc_matrix((size, size)), q, sp.csc_matrix(rows), b, [clarabel.NonnegativeConeT(len(b))], settings
+    )
+    solution = solver.solve()
+    if solution.status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
+        return None
+    return float(solution.obj_val)
 
 
 def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:

@@ -377,7 +377,7 @@ def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: in
     return h
 
 
-_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
+CLARABEL_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
 
 
 def solve_clarabel(problem: cp.Problem) -> None:
@@ -391,7 +391,7 @@ def solve_clarabel(problem: cp.Problem) -> None:
 
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
-        problem.solve(solver=cp.CLARABEL, **_TOLERANCES)
+        problem.solve(solver=cp.CLARABEL, **CLARABEL_TOLERANCES)
 
 
 class FractionalProgram:

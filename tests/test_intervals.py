@@ -83,6 +83,26 @@ def test_clopper_pearson_matches_scipy_exact(n, alpha):
     assert hi[-1] == 1.0 and lo[-1] == pytest.approx((alpha / 2) ** (1 / n), rel=1e-12)
 
 
+def test_clopper_pearson_equals_scipy_stats_beta_quantiles_bit_for_bit():
+    """scipy.special's Beta quantiles are what scipy.stats.beta evaluates: the same doubles, small and big tables.
+
+    Above 256 cells the quantiles are computed once per distinct (k, n) and scattered back; both paths are checked.
+    """
+    from scipy import stats
+
+    rng = np.random.default_rng(7)
+    n = rng.integers(1, 3000, size=(40, 9)).astype(float)
+    k = np.minimum(np.floor(rng.random(n.shape) * (n + 1)), n)
+    k[0, :3], k[1, :3] = 0.0, n[1, :3]  # both ends
+    for alpha in (0.05, 0.01 / 7):
+        ref_lo = np.where(k > 0, stats.beta.ppf(alpha / 2, k, n - k + 1), 0.0)
+        ref_hi = np.where(k < n, stats.beta.isf(alpha / 2, k + 1, n - k), 1.0)
+        for kk, nn, rl, rh in ((k, n, ref_lo, ref_hi), (k[:2], n[:2], ref_lo[:2], ref_hi[:2])):  # 360 and 18 cells
+            lo, hi = clopper_pearson(kk, nn, alpha)
+            np.testing.assert_array_equal(lo, rl)
+            np.testing.assert_array_equal(hi, rh)
+
+
 def test_clopper_pearson_hand_value_and_empty():
     lo, hi = clopper_pearson(0, 10, 0.05)
     assert float(lo) == 0.0 and float(hi) == pytest.approx(1 - 0.025**0.1, rel=1e-12)
@@ -382,6 +402,28 @@ def test_mixed_ratio_with_identity_blocks_equals_disjoint_ratio(case):
         )
         if math.isfinite(ratios[-1]) and ratios[-1] > ratios[-2] * (1 + 1e-9):
             assert (m_fav[m], m_oth[m]) == (d_fav[m], d_oth[m])
+
+
+def test_min_max_ratio_lp_equals_the_same_lp_in_cvxpy():
+    """The Charnes–Cooper LP solved by Clarabel directly equals the same program written in cvxpy (to 1e-9)."""
+    import cvxpy as cp
+
+    from fairaudit._extremes import MinMaxRatio
+
+    rng = np.random.default_rng(11)
+    for _ in range(40):
+        A, n = int(rng.integers(2, 7)), int(rng.integers(2, 10))
+        W = rng.dirichlet(np.ones(n), size=A)
+        lo = rng.random(n) * 0.4
+        hi = np.minimum(lo + 0.05 + rng.random(n), 1.0)
+        y, t, sigma = cp.Variable(n), cp.Variable(nonneg=True), cp.Variable()
+        ref = cp.Problem(
+            cp.Minimize(sigma), [W @ y <= sigma, W @ y >= 1, y >= cp.multiply(lo, t), y <= cp.multiply(hi, t)]
+        )
+        ref.solve(solver=cp.CLARABEL)
+        value = MinMaxRatio(A, n).solve(W, lo, hi)
+        assert value <= ref.value * (1 + 1e-8)  # shaded by 1e-9: a lower end stays a lower end
+        assert value == pytest.approx(max(ref.value, 1.0), rel=1e-8)
 
 
 def test_mixed_ratio_tiny_positive_upper_end():

@@ -8,12 +8,12 @@ distribution (docs/design.md "Command-line contract").
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex
+from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, TypeGuard, cast
 
 import numpy as np
-import pandas as pd
 
 from ._arrays import format_label
 from ._errors import InputError
@@ -26,6 +26,7 @@ from .laws import Population
 from .utility import Utility, from_table, indicator
 
 if TYPE_CHECKING:
+    import pandas as pd
     import pyspark.sql
 
 __all__ = [
@@ -175,6 +176,12 @@ def _is_spark_frame(data: object) -> bool:
     return any(c.__module__.startswith("pyspark.") and c.__name__ == "DataFrame" for c in type(data).__mro__)
 
 
+def _is_pandas_frame(data: object) -> TypeGuard[pd.DataFrame]:
+    """A pandas DataFrame, recognised without importing pandas (a DataFrame exists only once pandas is imported)."""
+    pd = sys.modules.get("pandas")
+    return pd is not None and isinstance(data, pd.DataFrame)
+
+
 def _table(
     data: pd.DataFrame | CountTable | pyspark.sql.DataFrame,
     sensitive: str | Sequence[str] | None,
@@ -200,7 +207,7 @@ def _table(
                     ",".join(map(str, given)),
                 )
         return data
-    if not (_is_spark_frame(data) or isinstance(data, pd.DataFrame)):
+    if not (_is_spark_frame(data) or _is_pandas_frame(data)):
         raise InputError(
             "data", "must be a pandas DataFrame of records, a Spark DataFrame or a CountTable", type(data).__name__
         )
@@ -208,14 +215,18 @@ def _table(
         raise InputError("sensitive", "name at least one column")
     if outcome is None:
         raise InputError("outcome", "name the outcome column")
-    if isinstance(data, pd.DataFrame):
+    if _is_pandas_frame(data):
         return count_records(
             data, sensitive=sensitive, outcome=outcome, context=() if context is None else context, dropna=dropna
         )
     from .spark import count_spark  # a Spark DataFrame (checked above)
 
     return count_spark(
-        data, sensitive=sensitive, outcome=outcome, context=() if context is None else context, dropna=dropna
+        cast("pyspark.sql.DataFrame", data),
+        sensitive=sensitive,
+        outcome=outcome,
+        context=() if context is None else context,
+        dropna=dropna,
     )
 
 
@@ -282,6 +293,7 @@ def audit(
 
     Examples
     --------
+    >>> import pandas as pd
     >>> df = pd.DataFrame({"race": list("aaaabbbb"), "hired": [1, 1, 1, 0, 1, 0, 0, 0]})
     >>> r = audit(df, sensitive=["race"], outcome="hired")
     >>> round(r.observed.global_.ratio, 12), r.observed.global_.group

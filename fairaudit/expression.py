@@ -17,7 +17,6 @@ from collections.abc import Callable, Hashable, Sequence
 from typing import Any
 
 import numpy as np
-import pandas as pd
 import simpleeval  # type: ignore[import-untyped]
 
 from ._arrays import FloatArray, format_label
@@ -366,6 +365,8 @@ class _Evaluator(simpleeval.EvalWithCompoundTypes):
 
 def _outcome_values(values: Sequence[Hashable]) -> list[float] | list[str]:
     """The values that ``u`` takes: numbers when every value parses as one (:func:`pandas.to_numeric`), else text."""
+    import pandas as pd  # imported here, on first use: pandas adds a third of a second to the command's start
+
     series = pd.Series(list(values))
     numeric = pd.to_numeric(series, errors="coerce")
     if not numeric.isna().any():

@@ -36,6 +36,7 @@ from pydantic import (
 
 from ._arrays import FloatArray, as_labels, format_label
 from ._errors import InputError
+from ._text_table import count_table_text
 from ._toml import (
     FieldProblem,
     Number,
@@ -595,6 +596,9 @@ class Spec:
         field = "model.table" if m.table is not None else "model.records"
         if not path.is_file():
             raise self._err(field, "no such file", str(path))
+        fast = self._text_kernel(path) if m.table is not None and m.probability_column is None else None
+        if fast is not None:
+            return fast
         try:
             frame = read_records(path)
         except InputError as exc:
@@ -663,6 +667,23 @@ class Spec:
                 f"{len(probs_kernel.empty_cells)} empty cells in all",
             )
         return probs_kernel
+
+    def _text_kernel(self, path: Path) -> Kernel | None:
+        """The kernel of a count table read without pandas, or None to read it with pandas.
+
+        :func:`~fairaudit._text_table.count_table_text` answers only where its counts are exactly those of the
+        pandas route of :meth:`_read_kernel`; a table with an empty cell is left to that route too, for its error.
+        """
+        m = self.model.model
+        assert m is not None  # (called for a model table)
+        contexts, groups = self.context_mechanism.outputs, self.sensitive_mechanism.outputs
+        ctx = None if self.model.context is None else self.model.context.name
+        roles = (ctx, self.model.sensitive.name, self.model.decision.name)
+        labels = (contexts, groups, self.decisions)
+        counts = count_table_text(path, where=m.where, roles=roles, count=m.count_column, labels=labels)
+        if counts is None or not bool((counts.sum(axis=-1) > 0).all()):
+            return None
+        return Kernel.from_counts(counts, contexts, groups, self.decisions)
 
 
 def _match_label(value: Hashable, labels: tuple) -> Hashable | None:

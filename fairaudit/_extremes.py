@@ -19,12 +19,12 @@ Proofs: ``proofs/intervals.md``.
 from __future__ import annotations
 
 import math
-from typing import TypeAlias
+from typing import Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import FloatArray, IntArray
+from ._arrays import BoolArray, FloatArray, IntArray
 from ._confidence_sets import MAX_EVENT_DECISIONS
 
 __all__ = [
@@ -132,27 +132,73 @@ class MinMaxRatio:
 
     With y = t e and t = 1 / min_a W_a·e: minimise σ subject to W y ≤ σ,
     W y ≥ 1, t·lower ≤ y ≤ t·upper, t ≥ 0 (``proofs/intervals.md``), over
-    x = (y, t, σ). Solved by Clarabel directly in its standard form
+    x = (σ, t, y). Solved by Clarabel directly in its standard form
     A x + s = b, s ≥ 0, at the tolerances of :func:`fairaudit.lfp.solve_clarabel`:
     a fixed LP needs no modelling layer, and cvxpy's import alone would take
-    most of a second of every ``fairaudit certify`` with intervals.
+    most of a second of every ``fairaudit certify`` with intervals. The program
+    is laid out as cvxpy lays it out (variables, rows, stored zeros) and, as
+    cvxpy does, one solver per shape is built once and given new data after
+    (``update``), so the solver runs the arithmetic it ran under cvxpy: the
+    same doubles (tested).
     """
 
     def __init__(self, A: int, n: int) -> None:
         self.A, self.n = A, n
+        self._solver: Any = None
 
-    def _program(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The constraint matrix (dense, (2A + 2n + 1) × (n + 2)) and right-hand side of the LP."""
+    def _program(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray, BoolArray]:
+        """The constraint matrix (dense, (1 + 2A + 2n) × (n + 2)), the right-hand side and the stored entries.
+
+        Rows: −t ≤ 0; W y − σ ≤ 0; −W y ≤ −1; t·lower − y ≤ 0; y − t·upper ≤ 0. Every weight and every end is
+        an entry of the program whatever its value (a parameter of cvxpy's), so the sparsity is fixed per shape.
+        """
         A, n = self.A, self.n
-        rows = np.zeros((2 * A + 2 * n + 1, n + 2))
-        b = np.zeros(2 * A + 2 * n + 1)
+        rows = np.zeros((1 + 2 * A + 2 * n, n + 2))
+        b = np.zeros(1 + 2 * A + 2 * n)
         eye = np.eye(n)
-        rows[:A, :n], rows[:A, n + 1] = W, -1.0  # W y − σ ≤ 0
-        rows[A : 2 * A, :n], b[A : 2 * A] = -W, -1.0  # −W y ≤ −1
-        rows[2 * A : 2 * A + n, :n], rows[2 * A : 2 * A + n, n] = -eye, lo  # t·lower − y ≤ 0
-        rows[2 * A + n : 2 * A + 2 * n, :n], rows[2 * A + n : 2 * A + 2 * n, n] = eye, -hi  # y − t·upper ≤ 0
-        rows[-1, n] = -1.0  # −t ≤ 0
-        return rows, b
+        rows[0, 1] = -1.0
+        rows[1 : 1 + A, 0], rows[1 : 1 + A, 2:] = -1.0, W
+        rows[1 + A : 1 + 2 * A, 2:], b[1 + A : 1 + 2 * A] = -W, -1.0
+        rows[1 + 2 * A : 1 + 2 * A + n, 1], rows[1 + 2 * A : 1 + 2 * A + n, 2:] = lo, -eye
+        rows[1 + 2 * A + n :, 1], rows[1 + 2 * A + n :, 2:] = -hi, eye
+        structure = rows != 0
+        structure[1 : 1 + 2 * A, 2:] = True  # the weights W, zero or not
+        structure[1 + 2 * A :, 1] = True  # the lower and upper ends, zero or not
+        return rows, b, structure
+
+    def lp(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float | None:
+        """The LP's optimal σ, or None unless Clarabel solved it (or almost solved it)."""
+        import clarabel  # type: ignore[import-untyped]
+        import scipy.sparse as sp
+
+        from .lfp import CLARABEL_TOLERANCES
+
+        rows, b, structure = self._program(W, lo, hi)
+        size = rows.shape[1]
+        q = np.zeros(size)
+        q[0] = 1.0
+        r, c = np.nonzero(structure)
+        matrix = sp.coo_array((rows[r, c], (r, c)), shape=rows.shape).tocsc()
+        P = sp.triu(sp.csc_array((size, size))).tocsc()
+        solver = self._solver
+        if solver is not None and solver.is_data_update_allowed():
+            try:
+                solver.update(P=P, q=q, A=matrix, b=b, settings=solver.get_settings())
+            except Exception:  # noqa: BLE001 - as cvxpy: a solver that cannot take the data is built anew
+                solver = None
+        else:
+            solver = None
+        if solver is None:
+            settings = clarabel.DefaultSettings()
+            settings.verbose = False
+            for key, value in CLARABEL_TOLERANCES.items():
+                setattr(settings, key, value)
+            solver = clarabel.DefaultSolver(P, q, matrix, b, [clarabel.NonnegativeConeT(len(b))], settings)
+        solution = solver.solve()
+        self._solver = solver
+        if solution.status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
+            return None
+        return float(solution.obj_val)
 
     def solve(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
         if np.all(W @ lo <= 0):  # every group can be at 0 together: 0/0, parity
@@ -160,34 +206,12 @@ class MinMaxRatio:
         if np.any(W @ hi <= 0):  # some group is always 0 while another can be positive
             return math.inf
         pairwise = _pairwise_floor(W, lo, hi)
-        value = _solve_lp(*self._program(W, lo, hi), self.n + 2)
+        value = self.lp(W, lo, hi)
         if value is None:
             return pairwise  # badly scaled boxes (upper ends near 1e-12) defeat the solver: keep the valid floor
         # The solver stops within ~1e-9 of the optimum; shade by that much so the lower end stays a lower end.
         value *= 1.0 - 1e-9
         return max(pairwise, value if value > 1.0 + 1e-9 else 1.0)
-
-
-def _solve_lp(rows: FloatArray, b: FloatArray, size: int) -> float | None:
-    """min x[-1] subject to rows @ x ≤ b, by Clarabel; None unless it is solved (or almost solved)."""
-    import clarabel  # type: ignore[import-untyped]
-    import scipy.sparse as sp
-
-    from .lfp import CLARABEL_TOLERANCES
-
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    for key, value in CLARABEL_TOLERANCES.items():
-        setattr(settings, key, value)
-    q = np.zeros(size)
-    q[-1] = 1.0
-    solver = clarabel.DefaultSolver(
-        sp.csc_matrix((size, size)), q, sp.csc_matrix(rows), b, [clarabel.NonnegativeConeT(len(b))], settings
-    )
-    solution = solver.solve()
-    if solution.status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
-        return None
-    return float(solution.obj_val)
 
 
 def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:

@@ -45,12 +45,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import EXP_SAFE, FloatArray, IntArray, format_label, ratio_extremes, row_blocks
+from ._arrays import EXP_SAFE, FloatArray, IntArray, format_label, ratio_extremes
 from ._errors import InputError
 from ._json import Report, label, number
 from ._validation import epsilon as check_epsilon
 from ._validation import nonnegative
 from .laws import Law, Population
+from .lfp import CANDIDATES, PAIR_BLOCK, PRUNE, PairPass, first_max, pair_candidates
 from .privacy import Mechanism, RandomizedResponse, RandomizedResponseParameters
 from .utility import Utility, check_metric
 
@@ -238,27 +239,25 @@ def main_theorem_tight(
     return math.log(math.exp(eps) + c)
 
 
-def _sorted_pairs(matrix: FloatArray, rows: slice = slice(None)) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
-    """For every ordered pair (a, b), outputs sorted by M[a,o]/M[b,o] descending.
+def _sorted(p: FloatArray, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """For pairs of rows (p[..., :], q[..., :]), the outputs sorted by p/q descending: (ratio, p, q), same shapes.
 
-    Returns (ratio, p, q, order) each of shape (n, n, m) (or, for the first
-    groups ``rows`` only, (len(rows), n, m)), sorted along the last axis;
-    ``order`` holds the output indices in that order.
-    Ratios follow the conventions c/0 = inf and 0/0 = 0 (such outputs add
-    nothing to any hockey-stick divergence).
+    Ratios follow the conventions c/0 = inf and 0/0 = 0 (such outputs add nothing to any hockey-stick divergence).
     """
-    first = matrix[rows]
-    p = np.broadcast_to(first[:, None, :], (first.shape[0], matrix.shape[0], matrix.shape[1]))
-    q = np.broadcast_to(matrix[None, :, :], p.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
     order = np.argsort(-ratio, axis=-1, kind="stable")
-    return (
-        np.take_along_axis(ratio, order, -1),
-        np.take_along_axis(p, order, -1),
-        np.take_along_axis(q, order, -1),
-        order,
-    )
+    take = np.take_along_axis
+    return take(ratio, order, -1), take(np.broadcast_to(p, ratio.shape), order, -1), take(q, order, -1)
+
+
+def _pair_lines(p: FloatArray, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The lines t ↦ P_k − t Q_k (prefix sums in likelihood-ratio order) of pairs of rows: δ_pq(t) is their max."""
+    _, ps, qs = _sorted(p, q)
+    zeros = np.zeros(ps.shape[:-1] + (1,))
+    big_p = np.concatenate([zeros, np.cumsum(ps, axis=-1)], axis=-1).ravel()
+    big_q = np.concatenate([zeros, np.cumsum(qs, axis=-1)], axis=-1).ravel()
+    return -big_q, big_p
 
 
 def _upper_envelope(slopes: FloatArray, intercepts: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -291,20 +290,23 @@ def _upper_envelope(slopes: FloatArray, intercepts: FloatArray) -> tuple[FloatAr
 
 
 def _profile_candidates(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
-    """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (exact envelope)."""
+    """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (the exact envelope of every pair's lines)."""
     m = mechanism.matrix
     n = m.shape[0]
-    blocks = row_blocks(n, n * m.shape[1])
+    a, b = np.nonzero(~np.eye(n, dtype=bool))
+    return _envelope_candidates(m, a, b)
+
+
+def _envelope_candidates(matrix: FloatArray, a: IntArray, b: IntArray) -> tuple[FloatArray, FloatArray]:
+    """Candidate t ≥ 1 (1 and the breakpoints of the envelope) and max over the pairs (a[i], b[i]) of δ(t) there.
+
+    The envelope of a union of lines is the envelope of the blocks' envelopes: a block of pairs at a time.
+    """
+    step = max(1, PAIR_BLOCK // (4 * max(1, matrix.shape[1])))
     slopes, intercepts = [], []
-    for rows in blocks:  # the envelope of a union of lines is the envelope of the blocks' envelopes
-        _, p, q, _ = _sorted_pairs(m, rows)
-        off = np.arange(n)[None, :] != np.arange(n)[rows, None]
-        p, q = p[off], q[off]  # (pairs, m)
-        zeros = np.zeros((p.shape[0], 1))
-        big_p = np.concatenate([zeros, np.cumsum(p, axis=-1)], axis=-1).ravel()
-        big_q = np.concatenate([zeros, np.cumsum(q, axis=-1)], axis=-1).ravel()
-        lines_s, lines_c = -big_q, big_p
-        if len(blocks) > 1:
+    for s in range(0, a.size, step):
+        lines_s, lines_c = _pair_lines(matrix[a[s : s + step]], matrix[b[s : s + step]])
+        if a.size > step:
             lines_s, lines_c, _ = _upper_envelope(lines_s, lines_c)
         slopes.append(lines_s)
         intercepts.append(lines_c)
@@ -312,6 +314,44 @@ def _profile_candidates(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
     t = np.unique(np.concatenate([[1.0], breaks[np.isfinite(breaks) & (breaks > 1.0)]]))
     delta = np.clip((hc[None, :] + hs[None, :] * t[:, None]).max(axis=1), 0.0, 1.0)
     return t, delta
+
+
+def _paper_pairs(matrix: FloatArray, gamma: float, tau: float, c: float) -> tuple[float, float, float]:
+    """(value, ε, δ) of the paper form for a general mechanism, without the envelope of every pair.
+
+    The envelope of a set S of pairs gives δ_S ≤ δ and its minimiser t_S; one pass checks δ_ab(t_S) ≤ δ_S(t_S)
+    for every pair (to rounding), and then min_t of the objective with δ equals that with δ_S
+    (``proofs/black_box.md`` §7). Otherwise the pairs above it join S and the check is repeated.
+    """
+    n = matrix.shape[0]
+    a, b = pair_candidates(matrix)
+    passer = PairPass(matrix)
+    checked, complete = math.nan, False  # the t of the last pass; whether every pair above there joined S
+    while True:
+        t, deltas = _envelope_candidates(matrix, a, b)
+        values = np.log(t) + np.log1p((c + gamma * deltas) / tau)
+        k = int(np.argmin(values))
+        at, level = float(t[k]), float(deltas[k])
+        if at == checked and complete:  # (the pairs left out were below the old level there, ≤ the new one)
+            return float(values[k]), float(np.log(at)), level
+        above: list[tuple[FloatArray, IntArray]] = []
+
+        def visit(rows: slice, cols: slice, sums: FloatArray, lam: float) -> None:
+            # above δ_S(t_S) beyond the rounding of both (the pass's sums and the envelope's prefix sums)
+            delta = sums - lam * passer.sums[None, cols] - 2 * passer.error(rows, cols, lam) - 1e-15
+            delta[np.arange(rows.stop - rows.start), np.arange(rows.start, rows.stop)] = -np.inf
+            i, j = np.nonzero(delta > level)
+            above.append((delta[i, j], (i + rows.start) * n + j))
+
+        passer.run(lambda: at, visit)
+        gaps = np.concatenate([x[0] for x in above])
+        flat = np.concatenate([x[1] for x in above])
+        new = ~np.isin(flat, a * n + b)  # (a pair of S is never above its own envelope but by rounding)
+        if not new.any():
+            return float(values[k]), float(np.log(at)), level
+        gaps, flat = gaps[new], flat[new]
+        a, b = np.divmod(np.union1d(a * n + b, flat[np.argsort(-gaps, kind="stable")[: 4 * CANDIDATES]]), n)
+        checked, complete = at, gaps.size <= 4 * CANDIDATES
 
 
 def _resolve(
@@ -464,9 +504,12 @@ def paper_bound(
     Notes
     -----
     Paper SI C, Theorem (main); the minimisation over the profile and its
-    candidate set: ``proofs/main_theorem.md``. For k-ary randomized response
-    the profile is δ(t) = [p − tq]₊ and the objective is concave on [1, e^ε],
-    so the minimum is at t = 1 or t = e^ε (closed form, no k x k matrix).
+    candidate set: ``proofs/main_theorem.md``. For a general mechanism the
+    envelope is that of a few pairs, checked against every pair at its
+    minimiser by one pass over the pairs (``proofs/black_box.md`` §7). For
+    k-ary randomized response the profile is δ(t) = [p − tq]₊ and the
+    objective is concave on [1, e^ε], so the minimum is at t = 1 or t = e^ε
+    (closed form, no k x k matrix).
 
     Examples
     --------
@@ -494,10 +537,7 @@ def paper_bound(
     elif isinstance(mechanism, RandomizedResponse):
         value, eps, delta = _paper_randomized_response(mechanism.rr, gamma, tau, c)
     else:
-        t, deltas = _profile_candidates(mechanism)
-        values = np.log(t) + np.log1p((c + gamma * deltas) / tau)
-        k = int(np.argmin(values))
-        value, eps, delta = float(values[k]), float(np.log(t[k])), float(deltas[k])
+        value, eps, delta = _paper_pairs(mechanism.matrix, gamma, tau, c)
     return Bound(
         form="paper",
         value=value,
@@ -564,9 +604,10 @@ def tight_bound(
 
     Notes
     -----
-    docs/design.md "Mathematics beyond the paper"; ``proofs/tight_bound.md``. The pairs are
-    processed in blocks of rows, so a general mechanism needs memory for a
-    block of pairs, not for all n² pairs times the outputs at once. For k-ary
+    docs/design.md "Mathematics beyond the paper"; ``proofs/tight_bound.md``. For a
+    general mechanism one pass over the pairs (O(n²m) time, O(nm) memory) sets
+    aside every pair that cannot reach the maximum, by an exact upper bound,
+    and only the others are solved (``proofs/black_box.md`` §7). For k-ary
     randomized response every pair has δ_aa'(t) = [p − tq]₊, and the minimum
     is at t = 1 or t = e^ε, for the pair of largest d(a, a') (closed form).
 
@@ -583,7 +624,7 @@ def tight_bound(
     n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) else None
     d: FloatArray | None = None
-    if metric is not None or rr is None:
+    if metric is not None:
         d = check_metric(metric, n)
         diameter = float(d.max()) if n > 1 else 0.0
     else:
@@ -599,7 +640,6 @@ def tight_bound(
         if rr is not None:
             value, eps, delta, a, b = _tight_randomized_response(rr, d, gamma, tau, lipschitz, diameter)
         else:
-            assert d is not None  # (a general mechanism: its metric was checked)
             value, eps, delta, a, b = _tight_pairs(mechanism.matrix, d, gamma, tau, lipschitz)
         pair = (mechanism.inputs[a], mechanism.inputs[b])
     return Bound(
@@ -635,37 +675,74 @@ def _tight_randomized_response(
     return log_eps, rr.epsilon, 0.0, int(a), int(b)
 
 
-def _tight_pairs(
-    matrix: FloatArray, d: FloatArray, gamma: float, tau: float, lipschitz: float
-) -> tuple[float, float, float, int, int]:
-    """(value, ε, δ, a, a') of the tight form for a general mechanism: every pair's minimum, the largest.
+def _tight_objective(
+    p: FloatArray, q: FloatArray, dist: FloatArray, gamma: float, tau: float, lipschitz: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """min over t ≥ 1 of t + (L_A d + γ δ_pq(t))/τ for pairs of rows, and its t and δ: convex and piecewise
+    linear in t, so the minimum is at t = 1 or at one of the pair's ratios (the first such, on ties)."""
+    ratio, ps, qs = _sorted(p, q)
+    # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
+    p_before = np.cumsum(ps, axis=-1) - ps
+    q_before = np.cumsum(qs, axis=-1) - qs
+    with np.errstate(invalid="ignore"):
+        delta_k = np.clip(p_before - ratio * q_before, 0.0, None)
+    valid = np.isfinite(ratio) & (ratio >= 1.0)
+    delta_1 = np.clip(ps - qs, 0.0, None).sum(axis=-1)  # t = 1 (ε = 0): total variation
+    t = np.concatenate([np.ones(ratio.shape[:-1] + (1,)), np.where(valid, ratio, np.inf)], axis=-1)
+    dl = np.concatenate([delta_1[..., None], np.where(valid, delta_k, 0.0)], axis=-1)
+    objective = t + (lipschitz * dist[..., None] + gamma * dl) / tau
+    best_k = objective.argmin(axis=-1)[..., None]
+    take = np.take_along_axis
+    return take(objective, best_k, -1)[..., 0], take(t, best_k, -1)[..., 0], take(dl, best_k, -1)[..., 0]
 
-    For each pair t + (L_A d + γ δ_aa'(t))/τ is convex and piecewise linear in t, so its minimum is at t = 1
-    or at one of the pair's ratios. The pairs are processed in blocks of rows, not (n, n, m) at once.
+
+def _tight_pairs(
+    matrix: FloatArray, d: FloatArray | None, gamma: float, tau: float, lipschitz: float
+) -> tuple[float, float, float, int, int]:
+    """(value, ε, δ, a, a') of the tight form for a general mechanism (``d`` None: the discrete metric).
+
+    Every pair's minimum is at most its objective at one t = λ, so one pass over the pairs at λ (the best pair's
+    minimiser) sets aside every pair that cannot reach the best value found; the rest are solved exactly
+    (``proofs/black_box.md`` §7). The maximum and its first row-major maximiser are those of all pairs.
     """
     n = matrix.shape[0]
-    best = np.empty((n, n))
-    best_t = np.empty((n, n))
-    best_delta = np.empty((n, n))
-    for rows in row_blocks(n, n * (matrix.shape[1] + 1)):  # a block of pairs at a time, not (n, n, m) at once
-        ratio, p, q, _ = _sorted_pairs(matrix, rows)
-        # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
-        p_before = np.cumsum(p, axis=-1) - p
-        q_before = np.cumsum(q, axis=-1) - q
-        with np.errstate(invalid="ignore"):
-            delta_k = np.clip(p_before - ratio * q_before, 0.0, None)
-        valid = np.isfinite(ratio) & (ratio >= 1.0)
-        delta_1 = np.clip(p - q, 0.0, None).sum(axis=-1)  # t = 1 (ε = 0): total variation
-        t = np.concatenate([np.ones(ratio.shape[:-1] + (1,)), np.where(valid, ratio, np.inf)], axis=-1)
-        dl = np.concatenate([delta_1[..., None], np.where(valid, delta_k, 0.0)], axis=-1)
-        objective = t + (lipschitz * d[rows, :, None] + gamma * dl) / tau  # (block, n, m + 1)
-        best_k = objective.argmin(axis=-1)[..., None]
-        best[rows] = np.take_along_axis(objective, best_k, -1)[..., 0]
-        best_t[rows] = np.take_along_axis(t, best_k, -1)[..., 0]
-        best_delta[rows] = np.take_along_axis(dl, best_k, -1)[..., 0]
-    np.fill_diagonal(best, -np.inf)
-    a, b = np.unravel_index(int(best.argmax()), best.shape)
-    return float(np.log(best[a, b])), float(np.log(best_t[a, b])), float(best_delta[a, b]), int(a), int(b)
+
+    def dist(a: IntArray | slice, b: IntArray | slice) -> FloatArray:
+        if d is None:
+            return np.asarray(1.0) if isinstance(a, slice) else np.ones(np.shape(a))
+        return d[a, b]
+
+    parts: list[tuple[IntArray, IntArray, FloatArray, FloatArray, FloatArray]] = []
+    state = {"best": -math.inf, "lam": 1.0}
+
+    def offer(a: IntArray, b: IntArray) -> None:
+        step = max(1, PAIR_BLOCK // (8 * max(1, matrix.shape[1])))
+        for s in range(0, a.size, step):
+            at, bt = a[s : s + step], b[s : s + step]
+            parts.append((at, bt, *_tight_objective(matrix[at], matrix[bt], dist(at, bt), gamma, tau, lipschitz)))
+            i = int(np.argmax(parts[-1][2]))
+            if parts[-1][2][i] > state["best"]:
+                state["best"], state["lam"] = float(parts[-1][2][i]), min(float(parts[-1][3][i]), 1e300)
+
+    def visit(rows: slice, cols: slice, sums: FloatArray, lam: float) -> None:
+        delta = sums - lam * passer.sums[None, cols] + passer.error(rows, cols, lam)
+        with np.errstate(over="ignore"):
+            bound = (lam + (lipschitz * dist(rows, cols) + gamma * delta) / tau) * (1 + 1e-12)
+        bound[np.arange(rows.stop - rows.start), np.arange(rows.start, rows.stop)] = -np.inf
+        i, j = np.nonzero(bound >= state["best"] * (1 - PRUNE))
+        if i.size:
+            offer(i + rows.start, j + cols.start)
+
+    a, b = pair_candidates(matrix)
+    if d is not None and lipschitz > 0:  # the pair of largest distance, the first row-major
+        far = np.unravel_index(int(np.argmax(np.where(np.eye(n, dtype=bool), -np.inf, d))), d.shape)
+        a, b = np.divmod(np.union1d(a * n + b, [far[0] * n + far[1]]), n)
+    offer(a, b)
+    passer = PairPass(matrix)
+    passer.run(lambda: state["lam"], visit)
+    pa, pb, obj, ts, ds = (np.concatenate([x[i] for x in parts]) for i in range(5))
+    i = first_max(obj, pa * n + pb)
+    return float(np.log(obj[i])), float(np.log(ts[i])), float(ds[i]), int(pa[i]), int(pb[i])
 
 
 def corollary_bound(

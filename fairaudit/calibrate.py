@@ -194,7 +194,7 @@ def _resolve_family(
     elif isinstance(groups, numbers.Integral) and not isinstance(groups, bool):
         if groups < 2:
             raise InputError("groups", "randomized response needs at least 2 groups", int(groups))
-        labels = tuple(range(int(groups)))
+        labels = range(int(groups))  # (distinct by construction: the family skips the check)
     elif isinstance(groups, (str, bytes)) or not isinstance(groups, Sequence):
         raise InputError("groups", "must be a number of groups k >= 2 or a list of group labels", groups)
     else:

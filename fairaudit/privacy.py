@@ -33,12 +33,12 @@ from ._arrays import (
     check_probabilities,
     check_shape,
     ratio_extremes,
-    row_blocks,
 )
 from ._errors import InputError
 from ._json import Report, number
 from ._validation import epsilon as check_epsilon
 from ._validation import real, whole
+from .lfp import PairPass
 
 __all__ = [
     # mechanisms
@@ -182,16 +182,15 @@ class Mechanism:
         m = self.matrix
         n = m.shape[0]
         out = np.empty((n, n))
-        q = m[None, :, :]
-        for rows in row_blocks(n, n * m.shape[1]):  # (block, n, m) at a time, not (n, n, m)
-            p = m[rows, None, :]
+        for rows, cols in PairPass(m).tiles():  # (rows, cols, m) at a time: O(nm) memory, not (n, n, m)
+            p, q = m[rows, None, :], m[None, cols, :]
             if math.isinf(eps):
-                out[rows] = np.where(q == 0, p, 0.0).sum(axis=-1)
+                out[rows, cols] = np.where(q == 0, p, 0.0).sum(axis=-1)
             elif eps <= EXP_SAFE:
-                out[rows] = np.clip(p - math.exp(eps) * q, 0.0, None).sum(axis=-1)
+                out[rows, cols] = np.clip(p - math.exp(eps) * q, 0.0, None).sum(axis=-1)
             else:  # e^ε overflows a double: e^ε q = exp(ε + log q), 0 where q = 0
                 with np.errstate(divide="ignore", over="ignore"):
-                    out[rows] = np.clip(p - np.exp(eps + np.log(q)), 0.0, None).sum(axis=-1)
+                    out[rows, cols] = np.clip(p - np.exp(eps + np.log(q)), 0.0, None).sum(axis=-1)
         np.fill_diagonal(out, 0.0)
         return out
 
@@ -722,13 +721,16 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     >>> round(fam.keep_probability(math.log(7 / 3)), 12)
     0.7
     """
-    labels = as_labels(values, "randomized_response values")
+    # (a range of integers is distinct by construction: k = 10^6 groups need no check of a million labels)
+    plain = isinstance(values, range) and len(values) > 0
+    labels = tuple(values) if plain else as_labels(values, "randomized_response values")
     k = len(labels)
     if k < 2:
         raise InputError("values", "a randomized response family needs at least 2 values", list(labels))
     label = name or f"{k}-ary randomized response"
+    # each member in O(1): the labels are checked once, here, not again for every ε
     return MechanismFamily(
-        label, labels, lambda eps: randomized_response(labels, eps, name=label), lambda eps: keep_probability(eps, k)
+        label, labels, lambda eps: RandomizedResponse(labels, eps, label), lambda eps: keep_probability(eps, k)
     )
 
 

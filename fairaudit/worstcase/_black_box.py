@@ -21,7 +21,17 @@ from ..lfp import FractionalProgram, FractionalResult, threshold_max_many
 from ..privacy import Mechanism, RandomizedResponse, RandomizedResponseParameters
 from ..utility import Utility, check_metric
 from ._randomized_response import rr_box, rr_lipschitz
-from ._search import SearchResult, check_class, check_method, pair_epsilon, pairwise_box, relaxed_first, search
+from ._search import (
+    BoxPairs,
+    SearchResult,
+    box_pairs,
+    check_class,
+    check_method,
+    pair_epsilon,
+    pair_ratio,
+    relaxed_first,
+    search,
+)
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -189,6 +199,12 @@ def black_box_bound(
     metric; with lower = 0, no τ and L_A = 0 it is ε(M_A) (the corollary is
     attained). ``proofs/black_box.md``.
 
+    With L_A = 0 only the pairs of groups that can reach the maximum are
+    solved: with lower = 0 and no τ the rows that can reach ε(M_A), found
+    in O(nm); otherwise one pass over the pairs (O(n²m) time, O(nm) memory)
+    sets the others aside by exact upper bounds (``proofs/black_box.md``
+    §7). The result is that of solving every pair.
+
     For k-ary randomized response (the mechanism
     :func:`~fairaudit.privacy.randomized_response` returns) every pair is
     alike and the value is a closed form, O(1) with the worst h in O(k):
@@ -220,8 +236,8 @@ def black_box_bound(
     lip = nonnegative(lipschitz, "lipschitz")
     n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
-    # (k-ary randomized response with the discrete metric never needs the n x n metric)
-    d = check_metric(metric, n) if n >= 1 and (metric is not None or rr is None) else None
+    # (the discrete metric is never built: k-ary randomized response and L_A = 0 do not need it)
+    d = check_metric(metric, n) if n >= 1 and metric is not None else None
     floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor
     binding = floor > lower
     lip_on = lip > 0 and n >= 2 and gamma > lower
@@ -273,15 +289,15 @@ def black_box_bound(
         closed = _randomized_response_certificate(problem, rr, d)
         if closed is not None:
             return closed
-    if d is None:
-        d = check_metric(metric, n)
     M = mechanism.matrix
-    # the box programs of every ordered pair, and with a binding τ their floor relaxations, a block of rows at a time
-    box, relaxed = pairwise_box(M, lower, gamma, floor if binding and not lip_on else None)
-    np.fill_diagonal(box, -np.inf)
-    if not binding and not lip_on and method != "lp":
-        return _threshold_certificate(problem, M, box)
-    return _lp_certificate(problem, M, box, relaxed, d)
+    if lip_on:
+        return _lipschitz_certificate(problem, M, check_metric(metric, n) if d is None else d)
+    # the pairs whose box program (with a binding τ, floor relaxation) can be the largest, solved exactly;
+    # the others are set aside by exact upper bounds, one pass over the pairs (proofs/black_box.md §7)
+    found = box_pairs(M, lower, gamma, floor if binding else None)
+    if not binding and method != "lp":
+        return _threshold_certificate(problem, M, found)
+    return _lp_certificate(problem, M, found)
 
 
 def _class_assumptions(
@@ -423,15 +439,16 @@ def _randomized_response_certificate(
     return problem.certificate(ratio, inputs[a], inputs[b], released, h, "threshold", "optimal", "closed form", "", 0)
 
 
-def _threshold_certificate(problem: _ClassProblem, M: FloatArray, box: FloatArray) -> BlackBoxCertificate:
-    """No binding τ and L_A = 0: the largest box value over the pairs, and its threshold prefix."""
+def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
+    """No binding τ and L_A = 0: the largest box value over the pairs (the first row-major), and its threshold prefix."""
     lower, gamma = problem.lower, problem.gamma
-    a, b = np.unravel_index(int(box.argmax()), box.shape)
+    i = int(np.argmax(found.box))  # (the pairs are row-major: ties keep the first, as over the whole n x n table)
+    a, b = int(found.a[i]), int(found.b[i])
     _, k_ab, order_ab = threshold_max_many(M[a], M[b], lower, gamma)  # the maximising pair's prefix
     top = order_ab[: int(k_ab)]
     h = np.full(M.shape[1], lower)
     h[top] = gamma
-    ratio = float(box[a, b])
+    ratio = float(found.box[i])
     status = "unbounded" if math.isinf(ratio) else "optimal"
     reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
     inputs, outputs = problem.mechanism.inputs, problem.mechanism.outputs
@@ -439,51 +456,46 @@ def _threshold_certificate(problem: _ClassProblem, M: FloatArray, box: FloatArra
     return problem.certificate(ratio, inputs[a], inputs[b], released, h, "threshold", status, "threshold", reason, 0)
 
 
-def _lp_certificate(
-    problem: _ClassProblem, M: FloatArray, box: FloatArray, relaxed: FloatArray | None, d: FloatArray
-) -> BlackBoxCertificate:
-    """τ binds, the utility may depend on the group, or the LP was asked for: the pair search over LPs."""
+def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
+    """τ binds or the LP was asked for (L_A = 0): the pair search over the pairs that can win, by LP where needed.
+
+    The pairs :func:`box_pairs` set aside have upper bounds below (1 − PRUNE) × a value the search reaches first,
+    so it would stop before them: searching the others only gives the same result (proofs/black_box.md §7).
+    """
+    pairs = np.column_stack([found.a, found.b])
+    upper = found.box.copy()
+    if problem.floor > 0:  # γ/τ, and the tight form at t = e^ε_aa' (δ = 0 there)
+        upper = np.minimum(upper, np.minimum(problem.gamma / problem.floor, pair_ratio(M, found.a, found.b)))
+    if problem.binding:
+        assert found.relaxed is not None  # (computed for a binding τ)
+        upper = np.minimum(upper, found.relaxed)
+    return _searched_certificate(problem, search(upper, _box_solver(problem, M, pairs)), pairs)
+
+
+def _lipschitz_certificate(problem: _ClassProblem, M: FloatArray, d: FloatArray) -> BlackBoxCertificate:
+    """The utility may depend on the group (L_A > 0): the pair search over LPs in (n, m) variables, every pair.
+
+    Upper bounds per pair (ratios): γ/τ and the tight form at t = e^ε_aa'.
+    """
     n, m = M.shape
     pairs = np.argwhere(~np.eye(n, dtype=bool))  # the ordered pairs a != b, row-major
-    upper = _pair_upper_bounds(problem, M, box, relaxed, d, pairs)
-    if not problem.lipschitz_on:
-        solve = _box_solver(problem, M, pairs)
-    else:
-        prog = _lipschitz_program(
-            M, problem.lower, problem.gamma, problem.floor if problem.binding else None, problem.lipschitz, d
-        )
-
-        def solve(i: int) -> FractionalResult:
-            a, b = pairs[i]
-            p = np.zeros(n * m)
-            q = np.zeros(n * m)
-            p[a * m : (a + 1) * m] = M[a]
-            q[b * m : (b + 1) * m] = M[b]
-            return prog.solve(p, q)
-
-    return _searched_certificate(problem, search(upper, solve), pairs)
-
-
-def _pair_upper_bounds(
-    problem: _ClassProblem,
-    M: FloatArray,
-    box: FloatArray,
-    relaxed: FloatArray | None,
-    d: FloatArray,
-    pairs: IntArray,
-) -> FloatArray:
-    """Valid upper bounds per pair (ratios): the box without τ and the floor relaxation (L_A = 0), γ/τ, and the
-    tight form at t = e^ε_aa'."""
-    lip_on, floor = problem.lipschitz_on, problem.floor
-    upper = box[pairs[:, 0], pairs[:, 1]].copy() if not lip_on else np.full(len(pairs), np.inf)
+    upper = np.full(len(pairs), np.inf)
+    floor = problem.floor
     if floor > 0:
         t = pair_epsilon(M)[pairs[:, 0], pairs[:, 1]]
-        slack = problem.lipschitz * d[pairs[:, 0], pairs[:, 1]] / floor if lip_on else 0.0
+        slack = problem.lipschitz * d[pairs[:, 0], pairs[:, 1]] / floor
         upper = np.minimum(upper, np.minimum(problem.gamma / floor, t + slack))
-    if not lip_on and problem.binding:
-        assert relaxed is not None  # (computed for a binding τ without L_A)
-        upper = np.minimum(upper, relaxed[pairs[:, 0], pairs[:, 1]])
-    return upper
+    prog = _lipschitz_program(M, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d)
+
+    def solve(i: int) -> FractionalResult:
+        a, b = pairs[i]
+        p = np.zeros(n * m)
+        q = np.zeros(n * m)
+        p[a * m : (a + 1) * m] = M[a]
+        q[b * m : (b + 1) * m] = M[b]
+        return prog.solve(p, q)
+
+    return _searched_certificate(problem, search(upper, solve), pairs)
 
 
 def _box_solver(problem: _ClassProblem, M: FloatArray, pairs: IntArray) -> Callable[[int], FractionalResult]:

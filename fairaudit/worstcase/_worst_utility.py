@@ -15,9 +15,9 @@ import numpy as np
 from .._arrays import BoolArray, FloatArray, IntArray, format_label, safe_log
 from .._errors import InputError
 from ..laws import Law, Population
-from ..lfp import FractionalProgram, FractionalResult, threshold_max_many
+from ..lfp import PAIR_BLOCK, FractionalProgram, FractionalResult, threshold_max_many
 from ..utility import Utility
-from ._search import SearchResult, check_class, check_method, search
+from ._search import SearchResult, box_pairs, check_class, check_method, search
 from ._worst_model import WorstCase
 
 
@@ -114,7 +114,6 @@ def worst_utility(
     if method == "threshold" and binding:
         raise InputError("method", "the threshold solution needs tau <= lower", method)
     Q = law.probabilities
-    nA = Q.shape[1]
     live_x = population.p_context > 0
     cell = law.observed & live_x[:, None]
     excluded = tuple(
@@ -132,12 +131,11 @@ def worst_utility(
         a_ub=a_ub,
         b_ub=None if a_ub is None or tau is None else np.full(a_ub.shape[0], -tau),
     )
-    valid_local = cell[:, :, None] & cell[:, None, :] & ~np.eye(nA, dtype=bool)[None]
-    local = _utility_case(problem, "local", Qz, valid_local, lambda x: None if x is None else law.contexts[x])
+    # (a pair (a, b), a != b, is compared where both rows are: no (n, n) masks, no (n, n, n_decisions) tables)
+    local = _utility_case(problem, "local", Qz, cell, lambda x: None if x is None else law.contexts[x])
     pu = np.nan_to_num(group_decision_law(law, population), nan=0.0)
     has = population.p_group > 0
-    valid_global = has[:, None] & has[None, :] & ~np.eye(nA, dtype=bool)
-    global_ = _utility_case(problem, "global", pu, valid_global, lambda x: None)
+    global_ = _utility_case(problem, "global", pu[None], has[None], lambda x: None)
     return WorstUtility(
         local=local,
         global_=global_,
@@ -180,29 +178,39 @@ def _utility_case(
     problem: _UtilityProblem,
     kind: str,
     P: FloatArray,
-    valid: BoolArray,
+    rows: BoolArray,
     label_x: Callable[[int | None], Hashable],
 ) -> WorstCase:
-    """The worst utility of one kind; P: (..., nA, nU) numerators per leading index; valid: (..., nA, nA) pairs."""
+    """The worst utility of one kind; P: (n_lead, nA, nU) numerators (n_lead: contexts, or 1 for L̄); rows:
+    (n_lead, nA), the groups that take part (pairs of two of them, a != b)."""
     lower, gamma, tau, groups = problem.lower, problem.gamma, problem.tau, problem.law.groups
-    vals, k, order = threshold_max_many(P[..., :, None, :], P[..., None, :, :], lower, gamma)
-    vals = np.where(valid, vals, -np.inf)
-    if not valid.any():  # undefined, not fair: NaN rather than trivial's 0
+    if not np.any(rows.sum(axis=-1) >= 2):  # undefined, not fair: NaN rather than trivial's 0
         trivial = WorstCase.trivial(kind, kernel=None, reason="no two groups can be compared")
         return dataclasses.replace(trivial, value=math.nan, ratio=math.nan)
     if not problem.binding and problem.method != "lp":
-        idx = np.unravel_index(int(vals.argmax()), vals.shape)
-        top = order[idx][: int(k[idx])]
+        # per leading index, the pairs that can be the largest (box_pairs: exact, O(nA·nU) memory); the first
+        # maximiser in (x, a, b) order, as over the whole table
+        best: tuple[float, int, int, int] | None = None
+        for x in range(P.shape[0]):
+            at = np.flatnonzero(rows[x])
+            if at.size < 2:
+                continue
+            found = box_pairs(P[x, at], lower, gamma)
+            i = int(np.argmax(found.box))
+            if best is None or found.box[i] > best[0]:
+                best = (float(found.box[i]), x, int(at[found.a[i]]), int(at[found.b[i]]))
+        assert best is not None  # (some leading index has two rows)
+        ratio, x, a, b = best
+        _, k, order = threshold_max_many(P[x, a], P[x, b], lower, gamma)
         h = np.full(P.shape[-1], lower)
-        h[top] = gamma
-        ratio = float(vals[idx])
+        h[order[: int(k)]] = gamma
         return WorstCase(
             kind=kind,
             value=safe_log(ratio),
             ratio=ratio,
-            context=label_x(int(idx[0]) if kind == "local" else None),
-            group=groups[idx[-2]],
-            other_group=groups[idx[-1]],
+            context=label_x(x if kind == "local" else None),
+            group=groups[a],
+            other_group=groups[b],
             kernel=None,
             utility=problem.utility(h),
             expected_utility=None,
@@ -212,16 +220,37 @@ def _utility_case(
             reason="a decision is possible for one group and impossible for another" if math.isinf(ratio) else "",
             programs_solved=0,
         )
-    flat = np.argwhere(valid)
-    upper = vals[tuple(flat.T)]
+    flat = _pairs_of_rows(rows)  # (x, a, b), row-major
+    upper = _box_values(P, flat, lower, gamma)
     if tau is not None and tau > 0:
         upper = np.minimum(upper, gamma / tau)
 
     def solve(i: int) -> FractionalResult:
-        *lead, a, b = flat[i]
-        return problem.program().solve(P[tuple(lead) + (a,)], P[tuple(lead) + (b,)])
+        x, a, b = flat[i]
+        return problem.program().solve(P[x, a], P[x, b])
 
-    return _searched_case(problem, kind, search(upper, solve), flat, label_x)
+    return _searched_case(problem, kind, search(upper, solve), flat if kind == "local" else flat[:, 1:], label_x)
+
+
+def _pairs_of_rows(rows: BoolArray) -> IntArray:
+    """Every (x, a, b) with rows[x, a], rows[x, b] and a != b, in row-major order."""
+    out = []
+    for x in range(rows.shape[0]):
+        at = np.flatnonzero(rows[x])
+        a, b = np.meshgrid(at, at, indexing="ij")
+        keep = a != b
+        out.append(np.column_stack([np.full(int(keep.sum()), x), a[keep], b[keep]]))
+    return np.concatenate(out).astype(np.intp)
+
+
+def _box_values(P: FloatArray, flat: IntArray, lower: float, gamma: float) -> FloatArray:
+    """The box value of every program (x, a, b) of ``flat``, a chunk of programs at a time."""
+    out = np.empty(len(flat))
+    step = max(1, PAIR_BLOCK // (8 * max(1, P.shape[-1])))
+    for s in range(0, len(flat), step):
+        x, a, b = flat[s : s + step].T
+        out[s : s + step] = threshold_max_many(P[x, a], P[x, b], lower, gamma)[0]
+    return out
 
 
 def _searched_case(

@@ -1,0 +1,243 @@
+"""Benchmark: many groups. Calibration of k-ary randomized response flat in k; general mechanisms of 1,000 groups.
+
+(a) Black-box calibration of k-ary randomized response (``fairaudit.calibrate.calibrate``, the API of the
+    ``calibrate`` command, ``method="black_box"``): without τ, with τ = 0.1, and on L̄ (``kind="global"``,
+    the command's ``--global``), for k = 2, 16, 256, 10^4 and 10^6. Time (median of repeats) and its ratio to
+    k = 2 (flat in k: about 1×). Agreement: the closed form ``rr_black_box_epsilon`` of ``proofs/black_box.md``
+    §3 without τ; with τ an independent bisection of ε on ``black_box_bound(randomized_response(k, ε), tau=0.1)``.
+(b) A general mechanism: k × k Dirichlet(1) rows given as a matrix (``from_matrix``), k = 100, 300, 1000
+    (``--quick``: 20, 50). ``black_box_bound`` with lower = 0, lower = 0.1 and τ = 0.1, and the full
+    ``certify`` of a spec with that mechanism, g = 1{chosen}, τ = 0.1 and a target (paper, tight, black-box
+    worst model, corollary, calibration; the spec is parsed before the clock starts). Time, the tracemalloc
+    peak of one call as a multiple of the matrix's bytes, and the ratio of the time to a baseline timed in the
+    same run: one pass over the pairs (Σ_o max(M[a, o], M[b, o]) for every pair, a tile at a time). Agreement
+    with the all-pairs route (every pair solved, as before the pruning) where it fits (k ≤ 300).
+
+Times are medians of repeats; ratios between routes timed in the same run are what carries across machines.
+The script exits with status 1 when an agreement exceeds 1e-7 (relative).
+
+Usage: ``python benchmarks/bench_groups.py [--quick] [--output FILE.md] [--seed S]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+import tracemalloc
+from collections.abc import Callable
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _bench_common import (  # noqa: E402
+    AGREEMENT_TOL,
+    emit,
+    fmt_diff,
+    fmt_ratio,
+    fmt_time,
+    machine_line,
+    median_time,
+    rel_diff,
+    table,
+)
+
+import fairaudit as fa  # noqa: E402
+import fairaudit.worstcase._black_box as black_box_module  # noqa: E402
+import fairaudit.worstcase._search as search_module  # noqa: E402
+from fairaudit._calibration_methods import rr_black_box_epsilon  # noqa: E402
+from fairaudit.calibrate import calibrate  # noqa: E402
+from fairaudit.certify import certify  # noqa: E402
+from fairaudit.lfp import PairPass  # noqa: E402
+from fairaudit.spec import parse_spec  # noqa: E402
+from fairaudit.worstcase import black_box_bound  # noqa: E402
+
+FULL = dict(groups=(2, 16, 256, 10**4, 10**6), general=(100, 300, 1000), repeats=5, big_repeats=2, old_up_to=300)
+QUICK = dict(groups=(2, 16, 256, 10**4, 10**6), general=(20, 50), repeats=1, big_repeats=1, old_up_to=50)
+TARGET = 0.5
+TAU = 0.1
+
+
+def _bisect(k: int, tau: float | None, target: float) -> float:
+    """The largest ε with black_box_bound(RR_k(ε), tau=τ).value ≤ target, by plain bisection (independent route)."""
+
+    family = fa.randomized_response_family(range(k))
+
+    def value(eps: float) -> float:
+        return black_box_bound(family(eps), tau=tau).value
+
+    lo, hi = 0.0, 1.0
+    while value(hi) <= target:
+        lo, hi = hi, 2 * hi
+        if hi > 1e3:
+            return math.inf
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if value(mid) <= target else (lo, mid)
+        if hi - lo <= 1e-13 * max(1.0, hi):
+            break
+    return lo
+
+
+def calibration_rows(cfg: dict, failures: list[str]) -> str:
+    """Part (a): calibration of k-ary RR along k."""
+    cases = (
+        ("black_box", {}),
+        ("black_box, tau = 0.1", {"tau": TAU}),
+        ("black_box, --global", {"kind": "global"}),
+    )
+    rows = []
+    for name, kw in cases:
+        base = math.nan
+        for k in cfg["groups"]:
+            t = median_time(lambda: calibrate(TARGET, groups=k, method="black_box", **kw), cfg["repeats"])
+            base = t if k == 2 else base
+            eps = calibrate(TARGET, groups=k, method="black_box", **kw).epsilon
+            if "tau" in kw:
+                want, how = _bisect(k, TAU, TARGET), "bisection on black_box_bound"
+            else:
+                want, how = rr_black_box_epsilon(TARGET, k, 0.0, 1.0), "closed form rr_black_box_epsilon"
+            diff = rel_diff(eps, want)
+            if not diff <= AGREEMENT_TOL:
+                failures.append(f"calibration {name}, k = {k}: epsilon {eps!r} against {how} {want!r}")
+            rows.append([name, f"{k:,}", fmt_time(t), fmt_ratio(t / base), f"{eps:.6g}", how, fmt_diff(diff)])
+    header = ["calibration", "groups k", "time", "÷ k = 2", "epsilon", "checked against", "agreement"]
+    return table(header, rows, "lrrrrlr")
+
+
+def _spec(M: np.ndarray, tau: float) -> object:
+    k = len(M)
+    rows = "[" + ",\n".join("[" + ",".join(repr(float(x)) for x in r) + "]" for r in M) + "]"
+    labels = "[" + ", ".join(f'"g{i}"' for i in range(k)) + "]"
+    text = (
+        f'[sensitive]\nname = "group"\nvalues = {labels}\n[decision]\nname = "chosen"\nvalues = ["yes", "no"]\n'
+        f'[privacy.sensitive]\nmechanism = "matrix"\nrows = {rows}\n[utility]\ndecision = "yes"\ntau = {tau}\n'
+        "[target]\nlocal = 1.0\n"
+    )
+    return parse_spec(text)
+
+
+def _peak(fn: Callable[[], object]) -> float:
+    """tracemalloc peak of one call, in bytes (the caches of the pair passes emptied first)."""
+    _clear()
+    tracemalloc.start()
+    try:
+        fn()
+        return float(tracemalloc.get_traced_memory()[1])
+    finally:
+        tracemalloc.stop()
+
+
+def _clear() -> None:
+    import fairaudit.lfp as lfp
+
+    search_module._CACHE.clear()
+    lfp._CANDIDATES_CACHE.clear()
+
+
+def _all_pairs_route(fn: Callable[[], object]) -> object:
+    """``fn()`` with every pair solved (the route before the pruning)."""
+
+    def every(matrix, lower, upper, floor=None):
+        return search_module._all_pairs(matrix, float(lower), float(upper), floor)
+
+    saved = black_box_module.box_pairs, search_module.box_pairs
+    black_box_module.box_pairs = search_module.box_pairs = every
+    try:
+        return fn()
+    finally:
+        black_box_module.box_pairs, search_module.box_pairs = saved
+
+
+def _one_pass(M: np.ndarray) -> None:
+    """The baseline: Σ_o max(M[a, o], M[b, o]) for every ordered pair, a tile at a time."""
+    PairPass(M).run(lambda: 1.0, lambda rows, cols, sums, lam: None)
+
+
+def general_rows(cfg: dict, seed: int, failures: list[str]) -> str:
+    """Part (b): a general k x k mechanism."""
+    rows = []
+    for k in cfg["general"]:
+        M = np.random.default_rng([seed, k]).dirichlet(np.ones(k), size=k)
+        mech = fa.from_matrix(M, [f"g{i}" for i in range(k)])
+        spec = _spec(M, TAU)
+        reps = cfg["repeats"] if k <= 300 else cfg["big_repeats"]
+        base = median_time(lambda: _one_pass(M), reps)
+        cases: list[tuple[str, Callable[[], float]]] = [
+            ("black_box_bound, lower = 0", lambda: black_box_bound(mech).value),
+            ("black_box_bound, lower = 0.1", lambda: black_box_bound(mech, lower=0.1).value),
+            ("black_box_bound, tau = 0.1", lambda: black_box_bound(mech, tau=TAU).value),
+            ("certify (tau = 0.1, target)", lambda: certify(spec).black_box.local.value),  # type: ignore[arg-type]
+        ]
+        for name, fn in cases:
+
+            def fresh(fn: Callable[[], float] = fn) -> float:
+                _clear()
+                return fn()
+
+            t = median_time(fresh, reps)
+            peak = _peak(fn)
+            value = fn()
+            if k <= cfg["old_up_to"]:
+                old = _all_pairs_route(fn)
+                diff = rel_diff(value, float(old))  # type: ignore[arg-type]
+                if not diff <= AGREEMENT_TOL:
+                    failures.append(f"{name}, k = {k}: {value!r} against the all-pairs route {old!r}")
+                agree = fmt_diff(diff)
+            else:
+                agree = "— (all pairs: too slow)"
+            rows.append(
+                [name, f"{k:,}", fmt_time(t), fmt_ratio(t / base), f"{peak / M.nbytes:.1f}×", f"{value:.6g}", agree]
+            )
+        rows.append(["(baseline: one pass over the pairs)", f"{k:,}", fmt_time(base), "1×", "", "", ""])
+    header = ["route", "groups k", "time", "÷ one pass", "peak ÷ matrix", "value (nats)", "agreement"]
+    return table(header, rows, "lrrrrrr")
+
+
+def run(quick: bool, seed: int) -> tuple[str, list[str]]:
+    cfg = QUICK if quick else FULL
+    failures: list[str] = []
+    calibrate(TARGET, groups=3, method="black_box")  # (imports and first calls out of the timings)
+    parts = [
+        "# Many groups",
+        "",
+        machine_line(("numpy",), memory=True),
+        "",
+        "## (a) Calibration of k-ary randomized response",
+        "",
+        f'Target {TARGET} nats on L (or L-bar), utilities in [0, 1], `calibrate(method="black_box")`.',
+        "",
+        calibration_rows(cfg, failures),
+        "",
+        "## (b) A general mechanism (Dirichlet rows, k x k)",
+        "",
+        "Peak: tracemalloc peak of one call (caches emptied) over the bytes of the matrix (8 k^2).",
+        "",
+        general_rows(cfg, seed, failures),
+        "",
+        f"Failures (agreement above {AGREEMENT_TOL:g}): {len(failures)}.",
+    ]
+    return "\n".join(parts), failures
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--quick", action="store_true", help="20 and 50 groups in (b), one repeat (a few seconds)")
+    parser.add_argument("--output", metavar="FILE.md", help="also write the Markdown report here (atomically)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the random mechanisms (default 0)")
+    args = parser.parse_args(argv)
+    t0 = time.perf_counter()
+    report, failures = run(args.quick, args.seed)
+    report += f"\n\nTotal time {time.perf_counter() - t0:.1f} s.\n"
+    emit(report, args.output)
+    for f in failures:
+        print(f"FAIL: {f}", file=sys.stderr)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -663,7 +663,8 @@ def _local_search(
     nA = g.shape[1]
     space = _model_program(MA, problem.context_mechanism.matrix, g, live, tau, problem.decision_only, problem.binding)
     xs = np.flatnonzero(live)
-    triples = np.array([(x, a, b) for x in xs for a, b in pairs])
+    pairs = np.asarray(pairs).reshape(-1, 2)
+    triples = np.column_stack([np.repeat(xs, len(pairs)), np.tile(pairs, (len(xs), 1))])  # (x, a, b), x-major
     if problem.group_free:
         assert boxes is not None  # (computed for g free of the group)
         _, range_of, box_by_range = boxes

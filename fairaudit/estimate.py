@@ -10,11 +10,15 @@ Labels: one column gives scalar labels; several columns give tuples
 there is one context, labelled ``"all"``. Intervals for what the counts
 estimate: :mod:`fairaudit.intervals`.
 
-Out of core: :func:`count_file` streams the counts of a Parquet file with
-pyarrow's Acero engine (a scan of the used columns into a hash group-by), so
-memory grows with the number of (context, group, decision) combinations, not
-with the records; it also reads count tables made by any engine (SQL
-``GROUP BY``, Spark, DuckDB). See docs/scale.md.
+Out of core: :func:`count_file` counts a Parquet or CSV file with DuckDB
+(one ``GROUP BY`` of the used columns in fairaudit's own in-memory database,
+:mod:`fairaudit._count_engine`), so memory grows with the number of
+(context, group, decision) combinations, not with the records; it also
+reads count tables made by any engine (SQL ``GROUP BY``, Spark, DuckDB).
+See docs/scale.md.
+
+pandas, pyarrow and DuckDB are imported by the functions that use them, not
+with this module (``import fairaudit`` stays fast).
 """
 
 from __future__ import annotations
@@ -26,17 +30,16 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from ._arrays import format_label
+from ._count_engine import Grouped, csv_group_by, parquet_group_by, parquet_source
 from ._errors import InputError
 from ._roles import check_roles, missing_values, roles
 from ._validation import columns
 from .laws import Law, Population
 
 if TYPE_CHECKING:
-    import pyarrow as pa
-    import pyarrow.dataset as ds
+    import pandas as pd
 
 Counts: TypeAlias = npt.NDArray[np.int64 | np.float64]
 """Counts of records: int64, or float64 for a table of weights or probabilities."""
@@ -114,6 +117,8 @@ def read_records(path: str | Path) -> pd.DataFrame:
     InputError
         If the file is missing, its extension is unknown, or it cannot be parsed.
     """
+    import pandas as pd
+
     p = Path(path)
     if not p.is_file():
         raise InputError("DATA", "no such file", str(path))
@@ -137,6 +142,8 @@ def read_records(path: str | Path) -> pd.DataFrame:
 
 def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str) -> tuple[Codes, tuple]:
     """Factorize one or several columns into (codes, labels); labels sorted."""
+    import pandas as pd
+
     if not columns:
         return np.zeros(len(frame), dtype=np.int64), ("all",)
     if len(columns) == 1:
@@ -192,6 +199,41 @@ def _tally(
     return CountTable(counts.reshape(shape), contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
 
 
+def _tally_grouped(
+    grouped: Grouped, sensitive: list[str], outcome: str, context: list[str], dropna: bool
+) -> CountTable:
+    """Counts of a file's distinct key combinations (:class:`~fairaudit._count_engine.Grouped`), as :func:`_tally`.
+
+    Complete keys of plain types (no missing value to report) are counted by
+    numpy alone, without importing pandas: their labels are their sorted
+    distinct values, as pandas factorizes them.
+    """
+    if grouped.frame is not None:
+        return _tally(grouped.frame, sensitive, outcome, context, dropna, weights=grouped.weights)
+    keys = dict(zip(dict.fromkeys(context + sensitive + [outcome]), grouped.plain or []))
+    n = len(grouped.weights)
+    cx, contexts = _plain_codes([keys[c] for c in context], n)
+    ca, groups = _plain_codes([keys[c] for c in sensitive], n)
+    cu, decisions = _plain_codes([keys[outcome]], n)
+    shape = (len(contexts), len(groups), len(decisions))
+    counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
+    np.add.at(counts, (cx * shape[1] + ca) * shape[2] + cu, grouped.weights)
+    return CountTable(counts.reshape(shape), contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+
+
+def _plain_codes(values: list[npt.NDArray[Any]], n: int) -> tuple[Codes, tuple]:
+    """(codes, labels) of one or several complete columns: labels sorted (tuples in lexicographic order)."""
+    if not values:
+        return np.zeros(n, dtype=np.int64), ("all",)
+    uniques, codes = zip(*(np.unique(v, return_inverse=True) for v in values))
+    if len(values) == 1:
+        return codes[0].reshape(-1).astype(np.int64), tuple(uniques[0].tolist())
+    rows, inverse = np.unique(np.stack([c.reshape(-1) for c in codes], axis=1), axis=0, return_inverse=True)
+    lists = [u.tolist() for u in uniques]
+    labels = tuple(tuple(lists[j][i] for j, i in enumerate(row)) for row in rows.tolist())
+    return inverse.reshape(-1).astype(np.int64), labels
+
+
 def count_records(
     data: pd.DataFrame,
     *,
@@ -228,10 +270,11 @@ def count_records(
 
     See Also
     --------
-    count_file : the same counts of a file; Parquet is streamed out of core.
+    count_file : the same counts of a file (Parquet or CSV), counted out of core by DuckDB.
 
     Examples
     --------
+    >>> import pandas as pd
     >>> df = pd.DataFrame({"race": ["a", "a", "b", "b", "b"], "hired": [1, 0, 1, 1, 0]})
     >>> t = count_records(df, sensitive=["race"], outcome="hired")
     >>> t.counts.tolist(), t.groups, t.decisions
@@ -293,11 +336,14 @@ def count_table(
 
     Examples
     --------
+    >>> import pandas as pd
     >>> agg = pd.DataFrame({"race": ["a", "a", "b", "b"], "hired": [0, 1, 0, 1], "n": [1, 1, 1, 2]})
     >>> t = count_table(agg, sensitive="race", outcome="hired", count="n")
     >>> t.counts.tolist(), t.groups, t.decisions
     ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
     """
+    import pandas as pd
+
     sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
     context = [context] if isinstance(context, str) else list(context)
     columns(sensitive + [outcome] + context + [count], "table", data.columns)
@@ -334,6 +380,8 @@ def count_table(
 
 def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Series:
     """The column ``count`` as numbers: each finite and non-negative (``labels`` name the row of an infinite one)."""
+    import pandas as pd
+
     values = pd.to_numeric(data[count], errors="coerce")
     if values.isna().any() or (values < 0).any():
         bad = data[count][values.isna() | (values < 0)].iloc[0]
@@ -399,116 +447,34 @@ def _is_parquet(p: Path) -> bool:
 
 
 def _cannot_read(path: str | Path, exc: Exception) -> InputError:
-    return InputError("DATA", f"cannot be read ({type(exc).__name__}: {str(exc).splitlines()[0]})", str(path))
-
-
-def _to_pandas(table: pa.Table) -> pd.DataFrame:
-    """An Arrow table as pandas.read_parquet converts it (same dtypes, so the same labels)."""
-    try:
-        from pandas.io._util import arrow_table_to_pandas  # what pandas.read_parquet calls
-    except ImportError:  # pragma: no cover - other pandas versions
-        return table.to_pandas()
-    return arrow_table_to_pandas(table)
-
-
-# Bounded reading: Parquet pre-buffering keeps every row group's bytes read until the file is closed, so
-# memory would grow with the file (apache/arrow#39808); off, with a short readahead, the peak is a few row
-# groups of the used columns (measured flat from 10**6 to 10**8 records, docs/scale.md).
-_READAHEAD = {"batch_readahead": 2, "fragment_readahead": 1}
-
-
-def _parquet_dataset(p: Path) -> ds.Dataset:
-    import pyarrow.dataset as ds
-
-    options = ds.ParquetFragmentScanOptions(pre_buffer=False)
-    return ds.dataset(p, format=ds.ParquetFileFormat(default_fragment_scan_options=options))
-
-
-def _group_count(dataset: ds.Dataset, keys: list[str], name: str, decode: Sequence[str] = ()) -> pa.Table:
-    """Acero plan: scan the key columns, (cast dictionary columns ``decode`` to values), hash count per key."""
-    import pyarrow.acero as ac
-    import pyarrow.compute as pc
-
-    nodes = [ac.Declaration("scan", ac.ScanNodeOptions(dataset, columns=keys, **_READAHEAD))]
-    if decode:
-        schema = dataset.schema
-        exprs = [pc.field(c).cast(schema.field(c).type.value_type) if c in decode else pc.field(c) for c in keys]
-        nodes.append(ac.Declaration("project", ac.ProjectNodeOptions(exprs, keys)))
-    nodes.append(ac.Declaration("aggregate", ac.AggregateNodeOptions([([], "hash_count_all", None, name)], keys=keys)))
-    return ac.Declaration.from_sequence(nodes).to_table(use_threads=True)
-
-
-def _unified_dictionary(dataset: ds.Dataset, column: str) -> pa.Array:
-    """The categories pandas.read_parquet gives a dictionary column: its batches' dictionaries unified in order."""
-    import pyarrow as pa
-
-    dicts: list[pa.Array] = []
-    for batch in dataset.to_batches(columns=[column], **_READAHEAD):
-        d = batch.column(0).dictionary
-        if not dicts or not d.equals(dicts[-1]):
-            dicts.append(d)
-    empty = pa.array([], type=pa.int32())
-    chunks = pa.chunked_array(
-        [pa.DictionaryArray.from_arrays(empty, d) for d in dicts],
-        type=pa.dictionary(pa.int32(), dataset.schema.field(column).type.value_type),
-    )
-    return pa.table({column: chunks}).unify_dictionaries().column(0).chunk(0).dictionary
-
-
-def _stream_counts(dataset: ds.Dataset, keys: list[str], name: str) -> pa.Table:
-    """The number of records of each distinct combination of ``keys`` (null and NaN keys included), as Arrow.
-
-    Dictionary (pandas categorical) columns whose dictionaries differ between
-    row groups cannot be grouped by Acero directly: they are grouped by their
-    values and rebuilt on the unified dictionary (a second pass over those
-    columns only).
-    """
-    import pyarrow as pa
-    import pyarrow.compute as pc
-
-    try:
-        return _group_count(dataset, keys, name)
-    except pa.ArrowNotImplementedError as exc:
-        decode = [c for c in keys if pa.types.is_dictionary(dataset.schema.field(c).type)]
-        if not decode or "dictionar" not in str(exc):
-            raise
-    table = _group_count(dataset, keys, name, decode)
-    for c in decode:
-        kind = dataset.schema.field(c).type
-        dictionary = _unified_dictionary(dataset, c)
-        indices = pc.index_in(table.column(c).combine_chunks(), value_set=dictionary)
-        column = pa.DictionaryArray.from_arrays(indices, dictionary, ordered=kind.ordered)
-        table = table.set_column(table.schema.get_field_index(c), c, column)
-    return table
+    first = (str(exc).splitlines() or [""])[0]
+    return InputError("DATA", f"cannot be read ({type(exc).__name__}: {first})", str(path))
 
 
 def _parquet_counts(
     path: str | Path, p: Path, sensitive: list[str], outcome: str, context: list[str], dropna: bool
 ) -> CountTable:
+    import duckdb
+
     try:
         import pyarrow as pa
-        import pyarrow.dataset  # noqa: F401
+        import pyarrow.parquet  # noqa: F401
     except ImportError:
         raise InputError("DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)) from None
     if not p.exists():
         raise InputError("DATA", "no such file", str(path))
     try:
-        dataset = _parquet_dataset(p)
+        schema, files = parquet_source(p)
     except Exception as exc:  # noqa: BLE001 - pyarrow raises several kinds; report one line
         raise _cannot_read(path, exc) from None
-    schema = dataset.schema
     index = {c for c in (schema.pandas_metadata or {}).get("index_columns", []) if isinstance(c, str)}
     check_roles([c for c in schema.names if c not in index], sensitive, outcome, context)
     keys = list(dict.fromkeys(context + sensitive + [outcome]))
-    name = "n"
-    while name in keys:
-        name += "_"
     try:
-        table = _stream_counts(dataset, keys, name)
-    except (pa.ArrowException, OSError) as exc:
+        grouped = parquet_group_by(schema, files, keys)
+    except (duckdb.Error, pa.ArrowException, OSError) as exc:
         raise _cannot_read(path, exc) from None
-    frame = _to_pandas(table.replace_schema_metadata(schema.metadata))
-    return _tally(frame, sensitive, outcome, context, dropna, weights=frame[name].to_numpy(dtype=np.int64))
+    return _tally_grouped(grouped, sensitive, outcome, context, dropna)
 
 
 def count_file(
@@ -520,24 +486,41 @@ def count_file(
     dropna: bool = False,
     count: str | None = None,
 ) -> CountTable:
-    """Count the decision records of a file; a Parquet file is streamed, out of core.
+    """Count the decision records of a file (Parquet or CSV) with DuckDB, out of core.
 
-    Parquet (``.parquet``, ``.pq``, or a folder of Parquet files) is counted by
-    pyarrow's Acero engine: a scan of the used columns only, into a hash
-    group-by that counts the records of each distinct (context, group,
-    decision), null keys included. Peak memory is bounded by that count table
-    and the scan's batches, not by the number of records. The small table is
-    then converted as ``pandas.read_parquet`` converts columns and counted by
-    the same code as :func:`count_records`, so the result is identical to
+    The file is counted by DuckDB, in fairaudit's own in-memory database
+    (not DuckDB's default connection; as many threads as cores): one ``SELECT <used columns>, count(*) ... GROUP BY``
+    that reads only the used columns (Parquet) and gives the number of
+    records of each distinct (context, group, decision), null keys included.
+    Peak memory is bounded by that count table and DuckDB's buffers, not by
+    the number of records. The small grouped table is then turned into the
+    values pandas would read, and counted by the same code as
+    :func:`count_records`, so the result is identical to
     ``count_records(read_records(path), ...)``: the same labels (values,
-    Python types, sorted order), counts and errors. CSV is read whole by
-    pandas (:func:`read_records`) and counted by :func:`count_records`.
+    Python types, sorted order), counts and errors.
+
+    - Parquet (``.parquet``, ``.pq``, or a folder of Parquet files): keys
+      of plain types (integers, floats, booleans, text) without a missing
+      value are labelled by their sorted distinct values with numpy alone
+      (pandas is not imported); other keys are cast back to the file's Arrow
+      types and converted as ``pandas.read_parquet`` converts them (pandas
+      metadata, nullable integers, dates and times, categoricals with the
+      categories in pandas' order). Needs pyarrow (the file's schema).
+    - CSV (``.csv``, ``.txt``, ``.gz``): DuckDB reads every field as text in
+      pandas' dialect (comma, double quotes), and pandas' own parser reads
+      the distinct fields of each used column: pandas infers a column's type
+      (integers, floats, booleans, text) and its missing values (``""``,
+      ``"NA"``, ``"nan"``, ...) from the set of its distinct fields, so each
+      value is what :func:`read_records` gives. A file that DuckDB cannot
+      read in that dialect, or might split into fields differently (a blank
+      first line, a space next to a double quote, a single column, rows of
+      unequal length), is read whole by pandas instead, as before.
 
     Parameters
     ----------
     path : str or Path
-        A ``.parquet``/``.pq`` file or folder of Parquet files (streamed), or
-        a ``.csv`` (also ``.txt``, ``.gz``) file (read in memory).
+        A ``.parquet``/``.pq`` file or folder of Parquet files, or a ``.csv``
+        (also ``.txt``, ``.gz``) file.
     sensitive, outcome, context, dropna
         As in :func:`count_records`. Missing values (null, or NaN in a float
         column) are counted exactly from the grouped table.
@@ -564,13 +547,17 @@ def count_file(
 
     Examples
     --------
-    >>> import tempfile, os
+    >>> import os, tempfile
+    >>> import pandas as pd
     >>> df = pd.DataFrame({"race": ["a", "a", "b", "b", "b"], "hired": [1, 0, 1, 1, 0]})
-    >>> path = os.path.join(tempfile.mkdtemp(), "records.parquet")
-    >>> df.to_parquet(path)
-    >>> t = count_file(path, sensitive=["race"], outcome="hired")
+    >>> folder = tempfile.mkdtemp()
+    >>> df.to_parquet(os.path.join(folder, "records.parquet"))
+    >>> t = count_file(os.path.join(folder, "records.parquet"), sensitive=["race"], outcome="hired")
     >>> t.counts.tolist(), t.groups, t.decisions
     ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
+    >>> df.to_csv(os.path.join(folder, "records.csv"), index=False)
+    >>> count_file(os.path.join(folder, "records.csv"), sensitive=["race"], outcome="hired").counts.tolist()
+    [[[1, 1], [1, 2]]]
     """
     sensitive, outcome, context = roles(sensitive, outcome, context)
     p = Path(path)
@@ -581,4 +568,7 @@ def count_file(
         return count_table(frame, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
     if _is_parquet(p):
         return _parquet_counts(path, p, sensitive, outcome, context, dropna)
-    return count_records(read_records(path), sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)
+    grouped = csv_group_by(p, list(dict.fromkeys(context + sensitive + [outcome])))
+    if grouped is None:  # pandas reads the whole file, as read_records does (and reports what is wrong with it)
+        return count_records(read_records(path), sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)
+    return _tally_grouped(grouped, sensitive, outcome, context, dropna)

@@ -2,9 +2,10 @@
 
 The independent route is pandas: ``count_records(read_records(path))`` reads the
 whole file with ``pandas.read_parquet`` and counts with ``factorize`` and
-``bincount``, while ``count_file`` streams the file through pyarrow's Acero
-group-by; missing values are checked against ``DataFrame.isna`` on the whole
-frame, counts against ``groupby().size()`` and hand counts.
+``bincount``, while ``count_file`` counts the file with one DuckDB ``GROUP BY``
+(more CSV and Parquet cases in test_count_duckdb.py); missing values are
+checked against ``DataFrame.isna`` on the whole frame, counts against
+``groupby().size()`` and hand counts.
 """
 
 from __future__ import annotations
@@ -123,7 +124,7 @@ def test_streamed_counts_identical_to_pandas(case):
     frame, kw, row_group = case
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "records.parquet"
-        frame.to_parquet(path, row_group_size=row_group)  # several row groups: several batches for Acero
+        frame.to_parquet(path, row_group_size=row_group)  # several row groups (and batches)
         ref = reference(path, **kw)
         event(f"error: {ref.problem.split(' ')[0]}" if isinstance(ref, InputError) else "counted")
         assert_identical(ref, streamed(path, **kw))
@@ -168,7 +169,7 @@ def test_hand_counted_parquet_with_tuple_labels(tmp_path):
 
 
 def test_nan_and_null_float_keys_are_all_missing(tmp_path):
-    # Arrow keeps NaN (of any payload) apart from null as group keys; pandas reads both as NaN: 4 missing values
+    # NaN (of any payload) and null are different group keys; pandas reads both as NaN: 4 missing values
     other_nan = np.array([0x7FF8000000000001], dtype=np.uint64).view(np.float64)[0]
     f = pa.array([np.nan, None, 1.0, other_nan, -np.nan, 1.0], type=pa.float64(), from_pandas=False)
     path = tmp_path / "nan.parquet"
@@ -182,7 +183,7 @@ def test_nan_and_null_float_keys_are_all_missing(tmp_path):
 
 
 def test_categorical_with_different_dictionaries_per_row_group(tmp_path):
-    # Acero cannot group dictionary keys whose dictionaries differ; the fallback gives pandas' categories order
+    # DuckDB reads a dictionary column as its values; the categories are pandas' (dictionaries unified in order)
     path = tmp_path / "cat.parquet"
     kind = pa.dictionary(pa.int32(), pa.string())
     with pq.ParquetWriter(path, pa.schema([("c", kind), ("y", pa.int64())])) as w:

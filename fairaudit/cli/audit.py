@@ -15,7 +15,7 @@ def add_parser(sub: Subparsers) -> None:
         help="exact fairness metrics of decision records",
         description="Count decision records (CSV or Parquet) by context, group and outcome and report "
         "local and global g-fairness, demographic parity and equalized odds gaps, and sups over g. "
-        "Parquet is counted out of core (streamed); CSV is read in memory.",
+        "Parquet and CSV are counted out of core by DuckDB.",
     )
     a.add_argument(
         "data",
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     from ..audit import audit
     from ..estimate import count_file
 
-    # Parquet is streamed (Acero group-by), CSV read by pandas; --count: DATA is a count table
+    # DuckDB counts the file (Parquet or CSV; fairaudit.estimate.count_file); --count: DATA is a count table
     table = count_file(
         args.data,
         sensitive=args.sensitive,

@@ -1,9 +1,11 @@
-"""Small array helpers shared by the core: labels, validation, ratio extremes."""
+"""Array helpers shared by the core: labels (:class:`Labels`), validation, ratio extremes, and one pass over a
+decision table in chunks of contexts (:class:`TableScan`, what :mod:`fairaudit.metrics` reads of a law)."""
 
 from __future__ import annotations
 
-from collections.abc import Hashable, Iterable, Sequence
-from typing import Any, TypeAlias
+import math
+from collections.abc import Hashable, Iterable, Iterator, Sequence
+from typing import Any, SupportsIndex, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -29,8 +31,11 @@ def as_labels(values: Iterable[Hashable], field: str) -> tuple[Any, ...]:
     ``tolist``; distinctness is one ``set``), so a million labels take
     milliseconds; the error path finds the first repeat. A label that cannot
     be hashed (a dict, a set) is an :class:`InputError` naming ``field``.
+    A :class:`Labels` gives its tuple.
     """
-    if type(values) is tuple and _VALIDATED.get(id(values)) is values:
+    if isinstance(values, Labels):
+        return values.tuple
+    if type(values) is tuple and _known(values) is not None:
         return values
     if isinstance(values, (str, bytes)):
         raise InputError(field, "must be a list of labels, not a single string", values)
@@ -53,14 +58,144 @@ def as_labels(values: Iterable[Hashable], field: str) -> tuple[Any, ...]:
                 raise InputError(field, "labels must be distinct; repeated label", label)
             seen.add(label)
     if len(labels) >= 1024:  # remember big label sets: a law's contexts are checked again by every table built on them
-        _VALIDATED[id(labels)] = labels
-        while len(_VALIDATED) > 8:
-            del _VALIDATED[next(iter(_VALIDATED))]
+        _remember(Labels(None, labels))
     return labels
 
 
-_VALIDATED: dict[int, tuple[Any, ...]] = {}
-"""The last few large label tuples that passed :func:`as_labels` (a tuple is immutable: it stays valid)."""
+_VALIDATED: dict[int, Labels] = {}
+"""The last few large label tuples that passed :func:`as_labels`, by id, each with its :class:`Labels`
+(a tuple is immutable: it stays valid; the entry keeps it alive, so its id is not reused)."""
+
+
+def _known(labels: tuple[Any, ...]) -> Labels | None:
+    """The :class:`Labels` of a tuple that :func:`as_labels` or :attr:`Labels.tuple` made, else None."""
+    known = _VALIDATED.get(id(labels))
+    return known if known is not None and known._tuple is labels else None
+
+
+def _remember(labels: Labels) -> None:
+    assert labels._tuple is not None
+    _VALIDATED[id(labels._tuple)] = labels
+    while len(_VALIDATED) > 8:
+        del _VALIDATED[next(iter(_VALIDATED))]
+
+
+_INT64 = (-(1 << 63), (1 << 63) - 1)
+
+
+class Labels:
+    """The distinct labels of one axis of a table, kept compact: a ``range``, a 1-D array, or a tuple.
+
+    Labels given as a non-empty ``range`` of machine integers or as a 1-D numpy array of integers or
+    text stay that (a read-only copy of the array): no Python object per label, and checking that they
+    are distinct is one vectorised pass. Anything else goes through :func:`as_labels` (a tuple). Build
+    with :meth:`of`. ``labels[i]`` is the i-th label as :func:`as_labels` gives it (a Python scalar);
+    :attr:`tuple` is the whole tuple, made on first use and kept.
+
+    Examples
+    --------
+    >>> c = Labels.of(range(10**6), "contexts")
+    >>> len(c), c[123456], c.tuple[:3]
+    (1000000, 123456, (0, 1, 2))
+    >>> Labels.of(np.array(["b", "a"]), "groups").same(Labels.of(["b", "a"], "groups"))
+    True
+    """
+
+    def __init__(self, compact: range | npt.NDArray[Any] | None, labels: tuple[Any, ...] | None) -> None:
+        self._compact = compact
+        self._tuple = labels
+
+    @classmethod
+    def of(cls, values: object, field: str) -> Labels:
+        """The labels ``values`` (a sequence, a range, a numpy array or a :class:`Labels`), checked distinct.
+
+        Raises
+        ------
+        InputError
+            As :func:`as_labels`: no label, a repeated label, an unhashable label.
+        """
+        if isinstance(values, Labels):
+            return values
+        if type(values) is tuple and (known := _known(values)) is not None:
+            return known
+        compact = _compact(values)
+        if compact is None:
+            labels = as_labels(values, field)  # type: ignore[arg-type]  # as_labels names what is wrong
+            return _known(labels) or cls(None, labels)
+        if not isinstance(compact, range) and not _sorted_distinct(compact):
+            as_labels(compact, field)  # raises, naming the first repeat
+        return cls(compact, None)
+
+    def __len__(self) -> int:
+        if self._compact is None:
+            assert self._tuple is not None
+            return len(self._tuple)
+        return len(self._compact)
+
+    def __getitem__(self, i: SupportsIndex) -> Any:
+        """The i-th label, as :func:`as_labels` gives it (numpy scalars as Python ones)."""
+        if self._compact is None:
+            return self._tuple[i]  # type: ignore[index]
+        if isinstance(self._compact, range):
+            return self._compact[i]
+        return self._compact[i].item()
+
+    def __iter__(self) -> Iterator[Any]:
+        return iter(self.tuple)
+
+    def __repr__(self) -> str:
+        n = len(self)
+        head = ", ".join(repr(self[i]) for i in range(min(n, 3)))
+        return f"Labels([{head}{', ...' if n > 3 else ''}], {n} labels)"
+
+    @property
+    def tuple(self) -> tuple[Any, ...]:
+        """The labels as a tuple of Python labels (what :func:`as_labels` returns), made once."""
+        if self._tuple is None:
+            c = self._compact
+            self._tuple = tuple(c) if isinstance(c, range) else tuple(c.tolist())  # type: ignore[union-attr]
+            if len(self._tuple) >= 1024:
+                _remember(self)
+        return self._tuple
+
+    def same(self, other: Labels) -> bool:
+        """True when both hold the same labels in the same order (as their tuples compare)."""
+        if self is other:
+            return True
+        if len(self) != len(other):
+            return False
+        a, b = self._compact, other._compact
+        if a is None or b is None:
+            return self.tuple == other.tuple
+        if isinstance(a, range) and isinstance(b, range):
+            return a == b
+        x, y = _as_array(a), _as_array(b)
+        kinds = {x.dtype.kind.replace("u", "i"), y.dtype.kind.replace("u", "i")}
+        return len(kinds) == 1 and bool(np.array_equal(x, y))
+
+
+def _compact(values: object) -> range | npt.NDArray[Any] | None:
+    """``values`` as a compact label sequence (a range of int64 values, a read-only 1-D int or text array), or None."""
+    if isinstance(values, range):
+        ok = len(values) > 0 and _INT64[0] <= min(values[0], values[-1]) and max(values[0], values[-1]) <= _INT64[1]
+        return values if ok else None
+    if isinstance(values, np.ndarray) and values.ndim == 1 and values.size and values.dtype.kind in "iuUS":
+        array = np.array(values)  # our own copy
+        array.setflags(write=False)
+        return array
+    return None
+
+
+def _as_array(values: range | npt.NDArray[Any]) -> npt.NDArray[Any]:
+    return np.arange(values.start, values.stop, values.step) if isinstance(values, range) else values
+
+
+def _sorted_distinct(values: npt.NDArray[Any]) -> bool:
+    """True when the 1-D array has no repeated value (one comparison pass when increasing, else a sort)."""
+    if values.size < 2 or bool(np.all(values[1:] > values[:-1])):
+        return True
+    s = np.sort(values)
+    return not bool(np.any(s[1:] == s[:-1]))
 
 
 def _plain(value: object) -> Hashable:
@@ -112,20 +247,30 @@ def check_shape(array: npt.NDArray[Any], shape: Sequence[int], field: str, axes:
 def check_probabilities(
     array: FloatArray,
     field: str,
-    axis_labels: Sequence[tuple[Any, ...]],
+    axis_labels: Sequence[Any],
     axis_names: Sequence[str],
     *,
     rows_sum_to_one: bool = True,
     skip_rows: BoolArray | None = None,
+    source: FloatArray | None = None,
 ) -> None:
     """Check finiteness, non-negativity and (optionally) rows summing to one.
 
     The last axis is the one that sums to one. ``skip_rows`` (shape of the
     leading axes) marks rows that are not checked (empty cells of an estimated
-    table, which hold NaN).
+    table, which hold NaN). ``source`` (same shape as ``array``), when given, is
+    copied into ``array`` block by block as it is checked: one pass over the
+    table, no temporary of its size.
+
+    A fast pass reads the table in blocks that stay in cache (minimum and row
+    sums); only when it finds something, or a row sum within 1e-13 of the
+    tolerance, does the exact pass below name the culprit (its row sums decide).
     """
     lead = array.shape[:-1]
-    if array.size and _valid_fast(array, skip_rows, rows_sum_to_one):
+    if not array.size:
+        if source is not None:
+            np.copyto(array, source)
+    elif _valid_fast(array, skip_rows, rows_sum_to_one, source):
         return
     mask = np.ones(lead, dtype=bool) if skip_rows is None else ~np.asarray(skip_rows, dtype=bool)
     checked = array[mask]
@@ -150,29 +295,53 @@ def check_probabilities(
             )
 
 
-def _valid_fast(array: FloatArray, skip_rows: BoolArray | None, rows_sum_to_one: bool) -> bool:
-    """True when every checked row is finite, non-negative and (optionally) sums to one.
+CHECK_BLOCK = 1 << 16
+"""Entries per block of the fast check of :func:`check_probabilities` (512 kB of float64)."""
+_FAST_TOLERANCE = ROW_TOLERANCE - 1e-13  # row sums nearer the tolerance than this go to the exact check
 
-    Two reductions with no temporary of the table's size: the row sums (a
-    non-finite entry makes its row's sum non-finite) and the minimum. False
-    means "look closer": the caller's slow path finds and names the culprit.
+
+def _valid_fast(
+    array: FloatArray, skip_rows: BoolArray | None, rows_sum_to_one: bool, source: FloatArray | None = None
+) -> bool:
+    """True when every checked row is finite, non-negative and (optionally) sums to one; copies ``source`` in.
+
+    Blocks of whole rows: per block the minimum (NaN shows there), the maximum (inf) and the row sums
+    (a matrix-vector product with ones). False means "look closer": :func:`check_probabilities`'s
+    exact pass finds and names the culprit (``source`` is then fully copied already).
     """
-    sums = np.einsum("...u->...", array) if array.ndim > 1 else array.sum(keepdims=True)
-    if skip_rows is not None:
-        skip = np.asarray(skip_rows, dtype=bool)
-        if skip.any():
-            keep = ~skip
-            sums = sums[keep]
-            array = array[keep]
-    if not sums.size:
-        return True
-    hi, lo = sums.max(), sums.min()  # NaN or inf anywhere shows here
-    if not (np.isfinite(hi) and np.isfinite(lo) and array.min() >= 0):
-        return False
-    return not rows_sum_to_one or bool(hi - 1.0 <= ROW_TOLERANCE and 1.0 - lo <= ROW_TOLERANCE)
+    width = array.shape[-1]
+    rows = array.reshape(-1, width)  # a view when ``array`` is contiguous, else a copy that is only read
+    if source is not None and not np.may_share_memory(rows, array):
+        np.copyto(array, source)
+        source = None
+    src = None if source is None else source.reshape(-1, width)
+    skip = None if skip_rows is None else np.asarray(skip_rows, dtype=bool).reshape(-1)
+    if skip is not None and not skip.any():
+        skip = None
+    ones = np.ones(width)
+    step = max(1, CHECK_BLOCK // width)
+    for start in range(0, rows.shape[0], step):
+        stop = min(rows.shape[0], start + step)
+        block = rows[start:stop]
+        if src is not None:
+            np.copyto(block, src[start:stop])
+        if skip is not None and skip[start:stop].any():
+            block = block[~skip[start:stop]]
+            if not block.size:
+                continue
+        if rows_sum_to_one:  # NaN shows in the minimum, +inf in its row's sum
+            sums = block @ ones
+            ok = block.min() >= 0 and sums.max() - 1.0 <= _FAST_TOLERANCE and 1.0 - sums.min() <= _FAST_TOLERANCE
+        else:
+            ok = block.min() >= 0 and np.isfinite(block.max())
+        if not ok:
+            if src is not None and stop < rows.shape[0]:
+                np.copyto(rows[stop:], src[stop:])
+            return False
+    return True
 
 
-def _where(index: Iterable[int], axis_labels: Sequence[tuple[Any, ...]], axis_names: Sequence[str]) -> str:
+def _where(index: Iterable[int], axis_labels: Sequence[Any], axis_names: Sequence[str]) -> str:
     parts = []
     for i, name, labels in zip(index, axis_names, axis_labels):
         parts.append(f"{name}={format_label(labels[int(i)])!r}")
@@ -214,9 +383,27 @@ def ratio_of_extremes(vmax: FloatArray, vmin: FloatArray, count: npt.NDArray[np.
     >>> ratio_of_extremes(np.array([4.0, 0.0, 3.0, 2.0]), np.array([1.0, 0.0, 0.0, 2.0]), np.array([2, 3, 2, 1])).tolist()
     [4.0, 1.0, inf, nan]
     """
+    if isinstance(vmax, np.ndarray) and isinstance(vmin, np.ndarray) and vmax.shape == vmin.shape:
+        shape = vmax.shape  # (the common case, checked without numpy's shape machinery)
+    else:
+        shape = np.broadcast_shapes(np.shape(vmax), np.shape(vmin))
+    count_shape = () if isinstance(count, (int, np.integer)) else np.shape(count)
+    wide = count_shape not in ((), shape) and np.broadcast_shapes(shape, count_shape) != shape
+    if not shape or wide:  # scalars, or ``count`` widens the shape: the two ``where`` as they read
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(vmax == 0, 1.0, np.where(vmin == 0, np.inf, vmax / vmin))
+        return np.where(count >= 2, ratio, np.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(vmax == 0, 1.0, np.where(vmin == 0, np.inf, vmax / vmin))
-    return np.where(count >= 2, ratio, np.nan)
+        ratio = np.true_divide(vmax, vmin)
+    # the same numbers as those two ``where``, written into the quotient: c/0 -> inf, then 0/. -> 1
+    np.copyto(ratio, np.inf, where=np.equal(vmin, 0))
+    np.copyto(ratio, 1.0, where=np.equal(vmax, 0))
+    if not count_shape:
+        if not count >= 2:
+            ratio.fill(np.nan)
+    else:
+        np.copyto(ratio, np.nan, where=~np.greater_equal(count, 2))
+    return ratio
 
 
 def safe_log(value: float) -> float:
@@ -236,3 +423,207 @@ def row_blocks(n: int, per_row: int) -> list[slice]:
     """Slices of range(n) whose rows times ``per_row`` elements stay near 4M (chunked pairwise work)."""
     step = max(1, BLOCK // max(1, per_row))
     return [slice(i, min(n, i + step)) for i in range(0, n, step)]
+
+
+def first_max(values: FloatArray) -> int | None:
+    """The first index of the largest value of a 1-D array, NaN ignored (as ``numpy.nanargmax``); None when all are NaN.
+
+    Examples
+    --------
+    >>> first_max(np.array([np.nan, 2.0, np.inf, 1.0, np.inf])), first_max(np.array([np.nan]))
+    (2, None)
+    """
+    best = np.fmax.reduce(values) if values.size else np.nan
+    return None if np.isnan(best) else int(np.argmax(values == best))
+
+
+def max_tv_pairs(dist: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
+    """Largest TV over pairs of rows along axis -2 of ``dist`` (..., n_groups, n_decisions).
+
+    Loops over pairs of groups (not over cells); each step is vectorised over
+    the leading axes. Returns (value, argmax-of-leading, a, a') where value has
+    the leading shape.
+    """
+    n = dist.shape[-2]
+    lead = dist.shape[:-2]
+    best = np.full(lead, np.nan)
+    arg_a = np.zeros(lead, dtype=int)
+    arg_b = np.zeros(lead, dtype=int)
+    for a in range(n):
+        for b in range(a + 1, n):  # TV is symmetric: each unordered pair once, reported in label order
+            tv = np.clip(dist[..., a, :] - dist[..., b, :], 0.0, None).sum(axis=-1)
+            tv = np.where(np.isnan(dist[..., a, 0]) | np.isnan(dist[..., b, 0]), np.nan, tv)
+            better = ~np.isnan(tv) & (np.isnan(best) | (tv > best))
+            best = np.where(better, tv, best)
+            arg_a = np.where(better, a, arg_a)
+            arg_b = np.where(better, b, arg_b)
+    return best, arg_a, arg_b
+
+
+class TableScan:
+    """One pass over a decision table Q[x, a, u] (contexts, groups, decisions), fed chunk by chunk of contexts.
+
+    What :mod:`fairaudit.metrics` needs of a law, each asked for separately (attributes left None otherwise):
+
+    * ``e`` (``keep_e``): E[g | x, a] = Σ_u Q[x, a, u] g(u), shape (n_contexts, n_groups). The terms are added
+      in the order of the decisions, each product rounded once (a factor g(u) = 1 is exact, a term with
+      g(u) = 0 adds nothing): the same number for the same cell in every route and every chunk.
+    * ``ratio`` (``spread``): per context max over groups of E / min over groups (:func:`ratio_of_extremes`:
+      0/0 = 1, c/0 = inf, NaN where fewer than two groups are present).
+    * ``group_mean`` (a utility, a ``population`` and two groups or more): Σ_x w[x, a] E[g | x, a] with the
+      weights w[x, a] = P(x | a) (:func:`group_weights`), the contexts added one after the other from the
+      first: the sum ``einsum("xa,xa->a", w, E)`` makes on the whole arrays, whatever the chunks.
+    * ``sup_ratio``, ``tv_low``, ``bottom_sum`` (``extremes``): per context the largest ratio
+      max_a Q[x, a, u] / min_a Q[x, a, u] over u (:func:`ratio_of_extremes`, NaN where undefined); the
+      largest range over groups of Q[x, a, u] for u < K − 1; Σ_u min over groups of Q[x, a, u].
+    * ``group_law`` (``by_group`` with a ``population``): Σ_x w[x, a] Q[x, a, u], shape (n_groups,
+      n_decisions), summed per chunk by ``einsum`` and added.
+
+    ``observed`` (n_contexts, n_groups) marks the rows that hold numbers (None: all do); the others are NaN
+    and are ignored by the extremes and the sums. ``g`` is g(u) (n_decisions,) or g[x, a, u];
+    ``population`` is (P(x, a), P(a)); ``step`` bounds the chunks' length. Reductions over groups run on a
+    copy of the chunk transposed to (n_decisions, n_groups, chunk), or of E's chunk to (n_groups, chunk):
+    over contiguous rows. Scratch arrays are allocated once.
+    """
+
+    def __init__(
+        self,
+        q: FloatArray,
+        observed: BoolArray | None,
+        g: FloatArray | None,
+        *,
+        step: int,
+        population: tuple[FloatArray, FloatArray] | None = None,
+        keep_e: bool = False,
+        spread: bool = False,
+        extremes: bool = False,
+        by_group: bool = False,
+    ) -> None:
+        X, A, K = q.shape
+        self.q, self.observed, self.g, self.population = q, observed, g, population
+        self.positive = population is not None and bool(np.all(population[1] > 0))
+        self.big: np.ufunc = np.maximum if observed is None else np.fmax
+        self.small: np.ufunc = np.minimum if observed is None else np.fmin
+        self.e = np.empty((X, A)) if keep_e and g is not None else None
+        self.ratio = np.empty(X) if spread and g is not None else None
+        self.group_mean = np.zeros(A) if g is not None and population is not None and A >= 2 else None
+        self.sup_ratio = np.empty(X) if extremes else None
+        self.tv_low = np.empty(X) if extremes else None
+        self.bottom_sum = np.empty(X) if extremes else None
+        self.group_law = np.zeros((A, K)) if by_group and population is not None else None
+        # g(u) = 0 adds nothing (Q is finite where not NaN); one term is kept so that NaN rows stay NaN
+        self.terms = list(range(K)) if g is None or g.ndim == 3 else [int(u) for u in np.flatnonzero(g)] or [0]
+        self.plain = g is not None and g.ndim == 1 and all(g[u] == 1.0 for u in self.terms)  # E adds Q's columns
+        transposed = extremes or self.group_law is not None
+        self.ct_buf = np.empty(K * A * step) if transposed else None
+        self.e_t_buf = np.empty(A * step)
+        # weights and E with a first row for the running sum: (1, w[x, a]...) and (total, E[x, a]...)
+        self.w_buf = np.empty(A * (step + 1)) if population is not None else None
+        self.e_buf = np.empty(A * (step + 1))
+        # Q · g over contiguous memory when E is made from the chunk as it is: g tiled along the chunk
+        natural = g is not None and not self.plain and (not transposed or g.ndim == 3)
+        self.prod_buf = np.empty(A * K * step) if natural else None
+        self.g_tiled = np.tile(g, A * step) if natural and g is not None and g.ndim == 1 else None
+
+    @staticmethod
+    def _view(buf: FloatArray, shape: tuple[int, ...]) -> FloatArray:
+        return buf[: math.prod(shape)].reshape(shape)
+
+    def _present(self, sl: slice) -> int | IntArray:
+        return self.q.shape[1] if self.observed is None else self.observed[sl].sum(axis=1)
+
+    def chunk(self, sl: slice) -> None:
+        """Read the contexts ``sl`` (the next chunk, at most ``step`` long)."""
+        g, qc = self.g, self.q[sl]
+        C, A, K = qc.shape
+        ct = None
+        if self.ct_buf is not None:
+            ct = self._view(self.ct_buf, (K, A, C))
+            np.copyto(ct, qc.transpose(2, 1, 0))
+        w = None  # (1 + chunk, n_groups): a row of ones, then P(x | a)
+        if self.w_buf is not None and (self.group_mean is not None or self.group_law is not None):
+            assert self.population is not None
+            w = self._view(self.w_buf, (C + 1, A))
+            w[0] = 1.0
+            group_weights(*self.population, sl, out=w[1:], positive=self.positive)
+        if g is not None:
+            e_rows = self._view(self.e_buf, (C + 1, A))
+            e = self.e[sl] if self.e is not None else e_rows[1:]
+            e_t = self._view(self.e_t_buf, (A, C))
+            if ct is not None and g.ndim == 1:  # E on contiguous rows of the transposed chunk, then stored
+                if self.plain and len(self.terms) == 1:
+                    e_t = ct[self.terms[0]]  # E is a column of Q
+                else:
+                    _expect(e_t, [(ct[u], float(g[u])) for u in self.terms])
+                np.copyto(e, e_t.T)
+            else:
+                prod = qc if self.plain else self._product(qc, sl)
+                _expect(e, [(prod[:, :, u], 1.0) for u in self.terms])  # the products are made: add them
+                if self.ratio is not None:
+                    np.copyto(e_t, e.T)
+            if self.ratio is not None:
+                vmax, vmin = self.big.reduce(e_t, axis=0), self.small.reduce(e_t, axis=0)
+                self.ratio[sl] = ratio_of_extremes(vmax, vmin, self._present(sl))
+            if self.group_mean is not None:
+                assert w is not None
+                if self.e is not None:  # E went to the result: copy it after the running total
+                    np.copyto(e_rows[1:], e)
+                if self.observed is not None:
+                    np.nan_to_num(e_rows[1:], nan=0.0, copy=False)
+                e_rows[0] = self.group_mean
+                np.einsum("xa,xa->a", w, e_rows, out=self.group_mean)  # total, then context after context
+        if ct is not None:
+            self._extremes(sl, ct, None if w is None else w[1:])
+
+    def _product(self, qc: FloatArray, sl: slice) -> FloatArray:
+        """Q · g for a chunk, each product rounded once."""
+        assert self.prod_buf is not None and self.g is not None
+        prod = self._view(self.prod_buf, qc.shape)
+        if self.g_tiled is not None:
+            np.multiply(qc.reshape(-1), self.g_tiled[: qc.size], out=prod.reshape(-1))
+        else:
+            np.multiply(qc, self.g[sl], out=prod)
+        return prod
+
+    def _extremes(self, sl: slice, ct: FloatArray, w: FloatArray | None) -> None:
+        """From a transposed chunk ``ct`` (K, A, chunk): ratios and ranges over groups per (x, u), the group law."""
+        K = ct.shape[0]
+        if self.sup_ratio is not None:
+            assert self.tv_low is not None and self.bottom_sum is not None
+            top, bottom = self.big.reduce(ct, axis=1), self.small.reduce(ct, axis=1)  # (K, chunk)
+            np.fmax.reduce(ratio_of_extremes(top, bottom, self._present(sl)), axis=0, out=self.sup_ratio[sl])
+            self.tv_low[sl] = np.max(top[: K - 1] - bottom[: K - 1], axis=0) if K > 1 else 0.0
+            np.add.reduce(bottom, axis=0, out=self.bottom_sum[sl])
+        if self.group_law is not None:
+            assert w is not None
+            c = ct if self.observed is None else np.nan_to_num(ct, nan=0.0, copy=False)  # our buffer, reduced already
+            self.group_law += np.einsum("uac,ca->au", c, w)
+
+
+def group_weights(
+    joint: FloatArray, group: FloatArray, sl: slice, out: FloatArray | None = None, positive: bool | None = None
+) -> FloatArray:
+    """P(x | a) = P(x, a) / P(a) for the contexts ``sl`` of ``joint`` (P(x, a)), 0 for groups with P(a) = 0.
+
+    The same numbers for any slicing (one division per entry), into ``out`` when given; ``positive``
+    says whether every P(a) > 0 (found when None).
+    """
+    if positive is None:
+        positive = bool(np.all(group > 0))
+    if positive:
+        return np.divide(joint[sl], group, out=out)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.divide(joint[sl], group, out=out)
+    w[:, ~(group > 0)] = 0.0  # where(P(a) > 0, P(x, a) / P(a), NaN), NaN made 0
+    return w
+
+
+def _expect(out: FloatArray, terms: list[tuple[FloatArray, float]]) -> None:
+    """``out`` = Σ over ``terms`` (column, g) of column · g, added in order (a factor 1 is exact: skipped)."""
+    (first, g0), rest = terms[0], terms[1:]
+    if g0 == 1.0:
+        np.copyto(out, first)
+    else:
+        np.multiply(first, g0, out=out)
+    for column, gu in rest:
+        np.add(out, column if gu == 1.0 else column * gu, out=out)

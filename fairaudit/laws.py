@@ -29,8 +29,8 @@ from ._arrays import (
     ROW_TOLERANCE,
     BoolArray,
     FloatArray,
+    Labels,
     as_float_array,
-    as_labels,
     check_probabilities,
     check_shape,
     format_label,
@@ -88,7 +88,8 @@ class Population:
     probabilities : array_like, shape (n_contexts, n_groups)
         Non-negative, finite, summing to 1 within 1e-9.
     contexts, groups : sequence of hashable
-        Labels of the axes.
+        Labels of the axes; a ``range`` or a 1-D numpy array of integers or text stays one
+        (``context_labels``; ``contexts`` is the tuple, made when first asked for).
     source : {"given", "records", "assumed"}
         Where it comes from: ``"given"`` by the caller or the spec's
         ``[population]``; ``"records"``, the records' own P(X, A) = n(x, a) / n
@@ -116,31 +117,30 @@ class Population:
     """
 
     probabilities: FloatArray
-    contexts: tuple
-    groups: tuple
     source: str = "given"
     records: float | None = None
     """The number of records behind a ``"records"`` population, else None."""
+    _labels: tuple[Labels, Labels] = field(init=False, repr=False, compare=False)
 
     def __init__(
         self,
         probabilities: npt.ArrayLike,
-        contexts: Sequence[Hashable],
-        groups: Sequence[Hashable],
+        contexts: Sequence[Hashable] | Labels,
+        groups: Sequence[Hashable] | Labels,
         *,
         source: str = "given",
         records: float | None = None,
+        _owned: bool = False,
     ) -> None:
         if source not in SOURCES:
             raise InputError("source", f"must be one of {', '.join(SOURCES)}", source)
-        contexts = as_labels(contexts, "population contexts")
-        groups = as_labels(groups, "population groups")
-        array = as_float_array(probabilities, "population", ndim=2)  # our own copy
-        check_shape(array, (len(contexts), len(groups)), "population", ("contexts", "groups"))
+        labels = (Labels.of(contexts, "population contexts"), Labels.of(groups, "population groups"))
+        array = as_float_array(probabilities, "population", ndim=2, copy=not _owned)  # our own copy
+        check_shape(array, tuple(map(len, labels)), "population", ("contexts", "groups"))
         check_probabilities(
             array[:, :, None],
             "population",
-            (contexts, groups, (None,)),
+            (*labels, (None,)),
             ("context", "group", "-"),
             rows_sum_to_one=False,
         )
@@ -149,22 +149,47 @@ class Population:
             raise InputError("population", f"entries sum to {total:.12g}, not 1")
         array.setflags(write=False)
         object.__setattr__(self, "probabilities", array)
-        object.__setattr__(self, "contexts", contexts)
-        object.__setattr__(self, "groups", groups)
+        object.__setattr__(self, "_labels", labels)
         object.__setattr__(self, "source", source)
         object.__setattr__(self, "records", records)
 
+    def __repr__(self) -> str:
+        return (
+            f"Population(probabilities={self.probabilities!r}, contexts={self.contexts!r}, groups={self.groups!r}, "
+            f"source={self.source!r}, records={self.records!r})"
+        )
+
+    @property
+    def contexts(self) -> tuple:
+        """The context labels, a tuple (made on first use when they were given as a range or an array)."""
+        return self._labels[0].tuple
+
+    @property
+    def groups(self) -> tuple:
+        """The group labels, a tuple."""
+        return self._labels[1].tuple
+
+    @property
+    def context_labels(self) -> Labels:
+        """The context labels as given, compact (a range or an array stays one): ``context_labels[i]``, ``len``."""
+        return self._labels[0]
+
+    @property
+    def group_labels(self) -> Labels:
+        """The group labels as a :class:`~fairaudit._arrays.Labels`."""
+        return self._labels[1]
+
     @classmethod
-    def uniform(cls, contexts: Sequence[Hashable], groups: Sequence[Hashable], *, source: str = "given") -> Population:
+    def uniform(
+        cls, contexts: Sequence[Hashable] | Labels, groups: Sequence[Hashable] | Labels, *, source: str = "given"
+    ) -> Population:
         """Uniform and independent: P(x, a) = 1 / (n_contexts · n_groups).
 
         The default population of a probability table is ``uniform(..., source="assumed")``.
         """
-        contexts = as_labels(contexts, "population contexts")
-        groups = as_labels(groups, "population groups")
-        return cls(
-            np.full((len(contexts), len(groups)), 1.0 / (len(contexts) * len(groups))), contexts, groups, source=source
-        )
+        xs, gs = Labels.of(contexts, "population contexts"), Labels.of(groups, "population groups")
+        p = np.full((len(xs), len(gs)), 1.0 / (len(xs) * len(gs)))
+        return cls(p, xs, gs, source=source, _owned=True)
 
     @classmethod
     def independent(
@@ -179,16 +204,17 @@ class Population:
         """The product P(x) P(a) of two marginals (each summing to 1)."""
         px = as_float_array(p_context, "context distribution", ndim=1)
         pa = as_float_array(p_group, "group distribution", ndim=1)
-        contexts = as_labels(contexts, "population contexts")
-        groups = as_labels(groups, "population groups")
-        check_shape(px, (len(contexts),), "context distribution", ("contexts",))
-        check_shape(pa, (len(groups),), "group distribution", ("groups",))
-        check_probabilities(px[None, :], "context distribution", ((None,), contexts), ("table", "context"))
-        check_probabilities(pa[None, :], "group distribution", ((None,), groups), ("table", "group"))
-        return cls(np.outer(px, pa), contexts, groups, source=source)
+        xs, gs = Labels.of(contexts, "population contexts"), Labels.of(groups, "population groups")
+        check_shape(px, (len(xs),), "context distribution", ("contexts",))
+        check_shape(pa, (len(gs),), "group distribution", ("groups",))
+        check_probabilities(px[None, :], "context distribution", ((None,), xs), ("table", "context"))
+        check_probabilities(pa[None, :], "group distribution", ((None,), gs), ("table", "group"))
+        return cls(np.outer(px, pa), xs, gs, source=source, _owned=True)
 
     @classmethod
-    def from_counts(cls, counts: npt.ArrayLike, contexts: Sequence[Hashable], groups: Sequence[Hashable]) -> Population:
+    def from_counts(
+        cls, counts: npt.ArrayLike, contexts: Sequence[Hashable] | Labels, groups: Sequence[Hashable] | Labels
+    ) -> Population:
         """The records' own population P(x, a) = n(x, a) / n from a (n_contexts, n_groups) table of counts.
 
         Its ``source`` is ``"records"`` and ``records`` is n.
@@ -199,7 +225,7 @@ class Population:
         total = array.sum()
         if total <= 0:
             raise InputError("population counts", "must contain at least one record", float(total))
-        return cls(array / total, contexts, groups, source="records", records=float(total))
+        return cls(array / total, contexts, groups, source="records", records=float(total), _owned=True)
 
     def describe(self) -> str:
         """Where the population comes from, in words (the reports' ``population.source`` line)."""
@@ -243,7 +269,7 @@ class Population:
         dev = np.abs(self.probabilities - np.outer(self.p_context, self.p_group))
         i, j = np.unravel_index(int(dev.argmax()), dev.shape)
         worst = float(dev[i, j])
-        return IndependenceCheck(worst <= tolerance, worst, self.contexts[i], self.groups[j], tolerance)
+        return IndependenceCheck(worst <= tolerance, worst, self._labels[0][i], self._labels[1][j], tolerance)
 
     def to_dict(self) -> Report:
         """The report dictionary: where P(X, A) comes from and whether X ⊥ A holds in it.
@@ -267,60 +293,93 @@ class Population:
 @dataclass(frozen=True, eq=False)
 class _DecisionTable:
     probabilities: FloatArray
-    contexts: tuple
-    groups: tuple
-    decisions: tuple
     counts: FloatArray | None = None
     name: str = "table"
     complete: bool = True
     """True when every cell (x, a) is observed (no empty cell)."""
     _observed: BoolArray = field(init=False, repr=False, compare=False)
+    _labels: tuple[Labels, Labels, Labels] = field(init=False, repr=False, compare=False)
 
     _axes = ("context", "group", "decision")
 
     def __init__(
         self,
         probabilities: npt.ArrayLike,
-        contexts: Sequence[Hashable],
-        groups: Sequence[Hashable],
-        decisions: Sequence[Hashable],
+        contexts: Sequence[Hashable] | Labels,
+        groups: Sequence[Hashable] | Labels,
+        decisions: Sequence[Hashable] | Labels,
         *,
         counts: npt.ArrayLike | None = None,
         name: str | None = None,
         _owned: bool = False,
     ) -> None:
         name = name or self._default_name
-        contexts = as_labels(contexts, f"{name} contexts")
-        groups = as_labels(groups, f"{name} groups")
-        decisions = as_labels(decisions, f"{name} decisions")
-        shape = (len(contexts), len(groups), len(decisions))
-        # One copy of the caller's array (none when it is ours already: ``_owned``); it is then frozen.
-        array = as_float_array(probabilities, name, ndim=3, copy=not _owned)
+        labels = (
+            Labels.of(contexts, f"{name} contexts"),
+            Labels.of(groups, f"{name} groups"),
+            Labels.of(decisions, f"{name} decisions"),
+        )
+        shape = (len(labels[0]), len(labels[1]), len(labels[2]))
+        array, source = _table_array(probabilities, name, _owned)
         check_shape(array, shape, name, ("contexts", "groups", "decisions"))
         empty = None
         if counts is not None:
-            counts = as_float_array(counts, f"{name} counts", ndim=3, copy=not _owned)
+            counts, counts_source = _table_array(counts, f"{name} counts", _owned)
+            if counts_source is not None:
+                np.copyto(counts, counts_source)
             check_shape(counts, shape, f"{name} counts", ("contexts", "groups", "decisions"))
             if not (counts.size == 0 or counts.min() >= 0) or not np.isfinite(counts.sum()):
                 raise InputError(f"{name} counts", "must be finite and non-negative")
             empty = np.einsum("...u->...", counts) == 0
             counts.setflags(write=False)
-        check_probabilities(array, name, (contexts, groups, decisions), self._axes, skip_rows=empty)
+        check_probabilities(array, name, labels, self._axes, skip_rows=empty, source=source)
         if empty is not None and empty.any():
-            array[empty] = np.nan
+            if not np.isnan(array[empty]).all():  # (a kernel's own rows hold NaN already)
+                if not array.flags.writeable:
+                    array = array.copy()
+                array[empty] = np.nan
             observed = ~empty
         else:
             observed = np.ones(shape[:2], dtype=bool)  # rows are checked finite: no NaN without counts
         observed.setflags(write=False)
         object.__setattr__(self, "_observed", observed)
         object.__setattr__(self, "complete", bool(observed.all()))
-        array.setflags(write=False)
+        if array.flags.writeable:
+            array.setflags(write=False)
         object.__setattr__(self, "probabilities", array)
-        object.__setattr__(self, "contexts", contexts)
-        object.__setattr__(self, "groups", groups)
-        object.__setattr__(self, "decisions", decisions)
+        object.__setattr__(self, "_labels", labels)
         object.__setattr__(self, "counts", counts)
         object.__setattr__(self, "name", name)
+
+    @property
+    def contexts(self) -> tuple:
+        """The context labels, a tuple (made on first use when they were given as a range or an array)."""
+        return self._labels[0].tuple
+
+    @property
+    def groups(self) -> tuple:
+        """The group labels, a tuple."""
+        return self._labels[1].tuple
+
+    @property
+    def decisions(self) -> tuple:
+        """The decision labels, a tuple."""
+        return self._labels[2].tuple
+
+    @property
+    def context_labels(self) -> Labels:
+        """The context labels as given, compact (a range or an array stays one): ``context_labels[i]``, ``len``."""
+        return self._labels[0]
+
+    @property
+    def group_labels(self) -> Labels:
+        """The group labels as a :class:`~fairaudit._arrays.Labels`."""
+        return self._labels[1]
+
+    @property
+    def decision_labels(self) -> Labels:
+        """The decision labels as a :class:`~fairaudit._arrays.Labels`."""
+        return self._labels[2]
 
     _default_name = "table"
 
@@ -328,9 +387,9 @@ class _DecisionTable:
     def from_counts(
         cls,
         counts: npt.ArrayLike,
-        contexts: Sequence[Hashable],
-        groups: Sequence[Hashable],
-        decisions: Sequence[Hashable],
+        contexts: Sequence[Hashable] | Labels,
+        groups: Sequence[Hashable] | Labels,
+        decisions: Sequence[Hashable] | Labels,
         *,
         name: str | None = None,
     ) -> Self:
@@ -346,7 +405,7 @@ class _DecisionTable:
         return cls(probs, contexts, groups, decisions, counts=array, name=name, _owned=True)
 
     def __repr__(self) -> str:
-        n = len(self.contexts), len(self.groups), len(self.decisions)
+        n = self.probabilities.shape
         return f"{type(self).__name__}({self.name!r}, {n[0]} contexts x {n[1]} groups x {n[2]} decisions)"
 
     @property
@@ -367,8 +426,11 @@ class _DecisionTable:
     @property
     def empty_cells(self) -> tuple[tuple[Any, Any], ...]:
         """Labels (context, group) of the empty cells, in table order."""
+        if self.complete:
+            return ()
         idx = np.argwhere(~self.observed)
-        return tuple((self.contexts[i], self.groups[j]) for i, j in idx)
+        xs, gs = self._labels[0], self._labels[1]
+        return tuple((xs[i], gs[j]) for i, j in idx)
 
     def to_dict(self) -> dict[str, dict[str, dict[str, float]]]:
         """{context: {group: {decision: probability}}}, labels as text, probabilities rounded to 12 digits.
@@ -394,9 +456,14 @@ class Kernel(_DecisionTable):
     Parameters
     ----------
     probabilities : array_like, shape (n_contexts, n_groups, n_decisions)
-        Indexed [x̃, ã, u]; each row over u sums to 1 within 1e-9.
+        Indexed [x̃, ã, u]; each row over u sums to 1 within 1e-9 (every entry is checked, in one
+        pass). A float64 C-contiguous array is copied once, while it is checked, so that later writes
+        to it do not reach the table; a read-only one (nothing can write to its memory) is used as it
+        is, with no copy.
     contexts, groups, decisions : sequence of hashable
-        Labels of the released context, released group and decision.
+        Labels of the released context, released group and decision. A ``range`` or a 1-D numpy
+        array of integers or text stays one (``context_labels`` …; ``contexts`` … are their tuples,
+        made when first asked for): a million contexts cost no Python object each.
     counts : array_like, optional
         The counts the table was estimated from (same shape).
     name : str, optional
@@ -442,9 +509,35 @@ class Law(_DecisionTable):
     @classmethod
     def from_kernel(cls, kernel: Kernel) -> Law:
         """The law of a model that sees the true attributes (identity filters)."""
-        return cls(
-            kernel.probabilities, kernel.contexts, kernel.groups, kernel.decisions, counts=kernel.counts, name="law"
-        )
+        return cls(kernel.probabilities, *kernel._labels, counts=kernel.counts, name="law")
+
+
+def _table_array(values: object, field: str, owned: bool) -> tuple[FloatArray, FloatArray | None]:
+    """The table as our float64 array, and the caller's array still to be copied into it (or None).
+
+    Ours already (``owned``), or a conversion (a list, another dtype, a non-contiguous array: the
+    conversion is our copy): used as it is. The caller's float64 C-contiguous array is not copied when
+    nothing can write to it (:func:`_frozen`); a writable one is copied once, block by block while it is
+    checked (:func:`~fairaudit._arrays.check_probabilities`' ``source``), so a later write by the caller
+    cannot change the table.
+    """
+    if type(values) is np.ndarray and values.dtype == np.float64 and values.flags.c_contiguous and values.ndim == 3:
+        if owned or _frozen(values):
+            return values, None
+        return np.empty(values.shape), values
+    return as_float_array(values, field, ndim=3, copy=not owned), None
+
+
+def _frozen(array: object) -> bool:
+    """True when numpy cannot write ``array``'s memory: it and every array it views are read-only, down to
+    an array that owns its memory or immutable ``bytes``."""
+    while isinstance(array, np.ndarray):
+        if array.flags.writeable:
+            return False
+        if array.base is None:
+            return True
+        array = array.base
+    return isinstance(array, bytes)
 
 
 def compose(kernel: Kernel, sensitive: Mechanism | None = None, context: Mechanism | None = None) -> Law:
@@ -574,8 +667,8 @@ def default_population(law: _DecisionTable) -> Population:
     """
     counts = law.cell_counts
     if counts is not None and counts.sum() > 0:
-        return Population.from_counts(counts, law.contexts, law.groups)
-    return Population.uniform(law.contexts, law.groups, source="assumed")
+        return Population.from_counts(counts, law.context_labels, law.group_labels)
+    return Population.uniform(law.context_labels, law.group_labels, source="assumed")
 
 
 def population_for(law: _DecisionTable, population: object = None) -> Population:
@@ -614,13 +707,13 @@ def population_for(law: _DecisionTable, population: object = None) -> Population
         return default_population(law)
     if not isinstance(population, Population):
         raise InputError("population", "must be a Population", type(population).__name__)
-    if population.contexts != law.contexts:
+    if not population.context_labels.same(law.context_labels):
         raise InputError(
             "population contexts",
             f"must match the law's contexts {list(map(format_label, law.contexts))}",
             list(map(format_label, population.contexts)),
         )
-    if population.groups != law.groups:
+    if not population.group_labels.same(law.group_labels):
         raise InputError(
             "population groups",
             f"must match the law's groups {list(map(format_label, law.groups))}",

@@ -30,7 +30,20 @@ from typing import TypedDict
 
 import numpy as np
 
-from ._arrays import BoolArray, FloatArray, IntArray, format_label, ratio_extremes, ratio_of_extremes, safe_log
+from ._arrays import (
+    ROW_TOLERANCE,
+    BoolArray,
+    FloatArray,
+    IntArray,
+    TableScan,
+    first_max,
+    format_label,
+    group_weights,
+    max_tv_pairs,
+    ratio_extremes,
+    ratio_of_extremes,
+    safe_log,
+)
 from ._errors import InputError
 from ._json import Report, label, number, pair_dict
 from .laws import Law, Population, population_for
@@ -236,9 +249,11 @@ def _check_law(law: object) -> Law:
 
 # --------------------------------------------------------------------------- one pass over the law
 # A law has n_contexts rows of n_groups x n_decisions cells; contexts can number millions, groups and decisions
-# are few. Reductions along the short axes are slow in numpy when done in place, so the law is read once, in
-# chunks of contexts of about _CHUNK_BYTES, each transposed to (n_decisions, n_groups, chunk): every reduction
-# is then over contiguous rows. Loops run over chunks, groups or events, never over cells.
+# are few. The law is read once, in chunks of contexts of about _CHUNK_BYTES that stay in cache; loops run over
+# chunks, groups, decisions or events, never over cells. E[g | x, a] is Σ_u Q[x, a, u] g(u) with the terms added
+# in the order of the decisions (each product rounded, then added): the same number for the same cell in every
+# route and every chunk. Reductions over groups (max, min, sums) run on a copy of the chunk transposed to
+# (n_decisions, n_groups, chunk), or of E's chunk to (n_groups, chunk): over contiguous rows.
 
 _CHUNK_BYTES = 1 << 19
 
@@ -276,20 +291,7 @@ def _tv_chunk(ct: FloatArray, nan: bool) -> FloatArray:
         if nan:
             best[(~np.isnan(ct[0])).sum(axis=0) < 2] = np.nan
         return best
-    return _max_tv(ct.transpose(2, 1, 0))[0]
-
-
-@dataclass
-class _Pass:
-    """What one pass over the law found: E[g | x, a], extremes over groups, TV per context, P(U | a)."""
-
-    e: FloatArray | None = None  # (n_contexts, n_groups)
-    e_max: FloatArray | None = None  # (n_contexts,): max over groups of E[g | x, a], NaN ignored
-    e_min: FloatArray | None = None
-    top: FloatArray | None = None  # (n_contexts, n_decisions): max over groups of Q[x, a, u]
-    bottom: FloatArray | None = None  # (n_contexts, n_decisions): min over groups
-    tv: FloatArray | None = None  # (n_contexts,): max over pairs of TV(Q[x, a], Q[x, a'])
-    group_law: FloatArray | None = None  # (n_groups, n_decisions): Σ_x w[x, a] Q[x, a, u]
+    return max_tv_pairs(ct.transpose(2, 1, 0))[0]
 
 
 def _asked(result: FloatArray | None) -> FloatArray:
@@ -298,56 +300,45 @@ def _asked(result: FloatArray | None) -> FloatArray:
     return result
 
 
+def _utility_values(law: Law, utility: Utility) -> FloatArray:
+    """g(u), shape (n_decisions,), or g[x, a, u] for a utility that depends on context or group (labels checked)."""
+    if utility.values.ndim == 1:
+        return np.asarray(utility.table((law.context_labels[0],), law.groups[:1], law.decisions)[0, 0], dtype=float)
+    return np.asarray(utility.table(law.contexts, law.groups, law.decisions), dtype=float)
+
+
 def _scan(
     law: Law,
     utility: Utility | None = None,
     *,
+    keep_e: bool = False,
+    spread: bool = False,
+    population: Population | None = None,
     extremes: bool = False,
-    tv: bool = False,
-    weights: FloatArray | None = None,
-) -> _Pass:
-    """Read the law once, in chunks of contexts, computing only what is asked.
+    by_group: bool = False,
+) -> TableScan:
+    """Read the law once, in chunks of contexts (:func:`_chunks`), computing only what is asked.
 
-    ``utility`` gives E[g | x, a]; ``extremes`` the max and min over groups per (x, u); ``tv`` the largest
-    TV per context; ``weights`` (n_contexts, n_groups), P(x | a), the group law Σ_x w[x, a] Q[x, a, u]. Empty cells (NaN rows) give NaN in E and are ignored by the extremes and TV.
+    ``utility`` gives E[g | x, a] (kept whole with ``keep_e``), ``spread`` its ratio over groups per context,
+    ``population`` its group means Σ_x P(x | a) E[g | x, a]; ``extremes`` the ratios and ranges over groups
+    per (x, u); ``by_group`` (with ``population``) the group law (see :class:`~fairaudit._arrays.TableScan`).
     """
-    q = law.probabilities
-    X, A, K = q.shape
-    nan = not law.complete
-    big, small = (np.fmax, np.fmin) if nan else (np.maximum, np.minimum)
-    out = _Pass()
-    g: FloatArray | None = None  # g(u), shape (n_decisions,), or g[x, a, u]
-    if utility is not None:
-        if utility.values.ndim == 1:
-            g = np.asarray(utility.table(law.contexts[:1], law.groups[:1], law.decisions)[0, 0], dtype=float)
-        else:
-            g = np.asarray(utility.table(law.contexts, law.groups, law.decisions), dtype=float)
-        out.e, out.e_max, out.e_min = np.empty((X, A)), np.empty(X), np.empty(X)
-    if extremes:
-        out.top, out.bottom = np.empty((X, K)), np.empty((X, K))
-    if tv:
-        out.tv = np.empty(X)
-    if weights is not None:
-        out.group_law = np.zeros((A, K))
-    for sl in _chunks(X, A * K * q.itemsize):
-        ct = np.ascontiguousarray(q[sl].transpose(2, 1, 0))  # (K, A, chunk)
-        if g is not None:
-            assert out.e is not None and out.e_max is not None and out.e_min is not None  # allocated with g
-            e = np.tensordot(g, ct, axes=1) if g.ndim == 1 else np.einsum("xau,xau->ax", q[sl], g[sl])
-            out.e[sl] = e.T
-            out.e_max[sl], out.e_min[sl] = big.reduce(e, axis=0), small.reduce(e, axis=0)
-        if extremes:
-            assert out.top is not None and out.bottom is not None
-            out.top[sl] = big.reduce(ct, axis=1).T
-            out.bottom[sl] = small.reduce(ct, axis=1).T
-        if tv:
-            assert out.tv is not None
-            out.tv[sl] = _tv_chunk(ct, nan)
-        if weights is not None:
-            assert out.group_law is not None
-            c = np.nan_to_num(ct, nan=0.0, copy=not ct.flags.writeable) if nan else ct
-            out.group_law += np.einsum("uac,ca->au", c, weights[sl])
-    return out
+    X, A, K = law.shape
+    row = A * K * law.probabilities.itemsize
+    scan = TableScan(
+        law.probabilities,
+        None if law.complete else law.observed,
+        None if utility is None else _utility_values(law, utility),
+        step=next(_chunks(X, row)).stop,
+        population=None if population is None else (population.probabilities, population.p_group),
+        keep_e=keep_e,
+        spread=spread,
+        extremes=extremes,
+        by_group=by_group,
+    )
+    for sl in _chunks(X, row):
+        scan.chunk(sl)
+    return scan
 
 
 def expected_utility(law: Law, utility: Utility) -> FloatArray:
@@ -363,23 +354,23 @@ def expected_utility(law: Law, utility: Utility) -> FloatArray:
     [[0.2, 0.6]]
     """
     law = _check_law(law)
-    return _asked(_scan(law, utility).e)
+    return _asked(_scan(law, utility, keep_e=True).e)
 
 
 def _excluded_contexts(law: Law, population: Population | None, present: BoolArray) -> tuple[list[str], BoolArray]:
     notes = []
-    keep = np.ones(len(law.contexts), dtype=bool)
+    keep = np.ones(law.shape[0], dtype=bool)
     if population is not None:
         zero = population.p_context == 0
         for i in np.flatnonzero(zero):
-            notes.append(f"context {format_label(law.contexts[i])!r}: P(X = x) = 0")
+            notes.append(f"context {format_label(law.context_labels[i])!r}: P(X = x) = 0")
         keep &= ~zero
     for x, a in law.empty_cells:
         notes.append(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records")
     few = keep & (present.sum(axis=1) < 2) if not law.complete else np.zeros(len(keep), dtype=bool)
     if len(law.groups) >= 2:
         for i in np.flatnonzero(few):
-            notes.append(f"context {format_label(law.contexts[i])!r}: fewer than two groups with records")
+            notes.append(f"context {format_label(law.context_labels[i])!r}: fewer than two groups with records")
     return notes, keep
 
 
@@ -422,21 +413,22 @@ def local_fairness(law: Law, utility: Utility, population: Population | None = N
     law = _check_law(law)
     if population is not None:
         population = population_for(law, population)
-    return _local(law, utility, population, _scan(law, utility))
+    return _local(law, utility, population, _scan(law, utility, keep_e=True, spread=True))
 
 
 def _present(law: Law) -> int | IntArray:
     """Groups with records per context: (n_contexts,) counts, or the number of groups when no cell is empty."""
-    return len(law.groups) if law.complete else law.observed.sum(axis=1)
+    return law.shape[1] if law.complete else law.observed.sum(axis=1)
 
 
-def _local(law: Law, utility: Utility, population: Population | None, scan: _Pass) -> Fairness:
+def _local(law: Law, utility: Utility, population: Population | None, scan: TableScan) -> Fairness:
     e = _asked(scan.e)
     notes, keep = _excluded_contexts(law, population, law.observed)
-    ratio = ratio_of_extremes(_asked(scan.e_max), _asked(scan.e_min), _present(law))
+    ratio = _asked(scan.ratio)
     if not keep.all():
         ratio[~keep] = np.nan
-    per_context = np.log(ratio, where=~np.isnan(ratio), out=np.full(ratio.shape, np.nan))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per_context = np.log(ratio)  # ratios are >= 1, inf or NaN: the log is NaN exactly where they are
 
     def result(
         value: float, ratio: float, context: Hashable, group: Hashable, other: Hashable, per: FloatArray = per_context
@@ -457,33 +449,33 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: _Pas
         )
 
     if len(law.groups) < 2:
-        return result(0.0, 1.0, None, None, None, np.zeros(len(law.contexts)))
-    if np.all(np.isnan(ratio)):
+        return result(0.0, 1.0, None, None, None, np.zeros(law.shape[0]))
+    i = first_max(ratio)
+    if i is None:
         return result(float("nan"), float("nan"), None, None, None)
-    i = int(np.nanargmax(ratio))
     best = float(ratio[i])
     _, hi, lo = ratio_extremes(e[i : i + 1], axis=1)  # the pair, in the maximising context only
-    return result(safe_log(best), best, law.contexts[i], law.groups[hi[0]], law.groups[lo[0]])
+    return result(safe_log(best), best, law.context_labels[i], law.groups[hi[0]], law.groups[lo[0]])
 
 
-def _group_weights(law: Law, population: Population) -> tuple[FloatArray, list[str]]:
-    """P(x | a), shape (n_contexts, n_groups), zero for groups with P(A = a) = 0; no weighted cell may be empty.
+def _group_weights(law: Law, population: Population) -> list[str]:
+    """The notes on groups with P(A = a) = 0; raise if P(x | a) > 0 weights an empty cell (x, a) of the law.
 
-    Group averages are Σ_x P(x | a) f(x, a): with the weights made first, a fair law (f equal across groups)
-    gives exactly equal averages.
+    Group averages are Σ_x P(x | a) f(x, a) with the weights P(x | a) made first (``group_weights``): a fair
+    law (f equal across groups) gives exactly equal averages.
     """
-    w = np.nan_to_num(population.context_given_group(), nan=0.0, copy=False)
     notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
     if not law.complete:
-        empty = ~law.observed & (w > 0)
+        empty = ~law.observed & (population.probabilities > 0)  # P(x | a) > 0 exactly where P(x, a) > 0
         if np.any(empty):
             i, j = np.argwhere(empty)[0]
+            w = group_weights(population.probabilities, population.p_group, slice(i, i + 1))[0, j]  # P(x | a)
             raise InputError(
                 "population",
-                f"gives weight {w[i, j]:.6g} to the empty cell (context {format_label(law.contexts[i])!r}, "
+                f"gives weight {w:.6g} to the empty cell (context {format_label(law.context_labels[i])!r}, "
                 f"group {format_label(law.groups[j])!r}) of the law",
             )
-    return w, notes
+    return notes
 
 
 def _per_group(total: FloatArray, population: Population) -> FloatArray:
@@ -534,14 +526,19 @@ def global_fairness(law: Law, utility: Utility, population: Population | None = 
     """
     law = _check_law(law)
     population = population_for(law, population)
-    w, notes = _group_weights(law, population)
-    return _global(law, utility, population, w, notes, _asked(_scan(law, utility).e))
+    notes = _group_weights(law, population)
+    one = law.shape[1] < 2
+    return _global(law, utility, population, notes, _scan(law, utility, keep_e=one, population=population))
 
 
-def _global(
-    law: Law, utility: Utility, population: Population, w: FloatArray, notes: list[str], e: FloatArray
-) -> Fairness:
-    eg = _per_group(np.einsum("xa,xa->a", w, e if law.complete else np.nan_to_num(e, nan=0.0)), population)
+def _global(law: Law, utility: Utility, population: Population, notes: list[str], scan: TableScan) -> Fairness:
+    if law.shape[1] >= 2:  # Σ_x P(x | a) E[g | x, a], added context after context by the pass
+        mean = _asked(scan.group_mean)
+    else:  # one group: the mean as before, by einsum (a pairwise sum)
+        e = _asked(scan.e)
+        w = group_weights(population.probabilities, population.p_group, slice(None))  # P(x | a)
+        mean = np.einsum("xa,xa->a", w, e if law.complete else np.nan_to_num(e, nan=0.0))
+    eg = _per_group(mean, population)
 
     def result(value: float, ratio: float, group: Hashable, other: Hashable) -> Fairness:
         return Fairness(
@@ -575,31 +572,8 @@ def group_decision_law(law: Law, population: Population | None = None) -> FloatA
     """
     law = _check_law(law)
     population = population_for(law, population)
-    w, _ = _group_weights(law, population)
-    return _per_group(_asked(_scan(law, weights=w).group_law), population)
-
-
-def _max_tv(dist: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
-    """Largest TV over pairs of rows along axis -2 of ``dist`` (..., n_groups, n_decisions).
-
-    Loops over pairs of groups (not over cells); each step is vectorised over
-    the leading axes. Returns (value, argmax-of-leading, a, a') where value has
-    the leading shape.
-    """
-    n = dist.shape[-2]
-    lead = dist.shape[:-2]
-    best = np.full(lead, np.nan)
-    arg_a = np.zeros(lead, dtype=int)
-    arg_b = np.zeros(lead, dtype=int)
-    for a in range(n):
-        for b in range(a + 1, n):  # TV is symmetric: each unordered pair once, reported in label order
-            tv = np.clip(dist[..., a, :] - dist[..., b, :], 0.0, None).sum(axis=-1)
-            tv = np.where(np.isnan(dist[..., a, 0]) | np.isnan(dist[..., b, 0]), np.nan, tv)
-            better = ~np.isnan(tv) & (np.isnan(best) | (tv > best))
-            best = np.where(better, tv, best)
-            arg_a = np.where(better, a, arg_a)
-            arg_b = np.where(better, b, arg_b)
-    return best, arg_a, arg_b
+    _group_weights(law, population)
+    return _per_group(_asked(_scan(law, population=population, by_group=True).group_law), population)
 
 
 def demographic_parity(law: Law, population: Population | None = None) -> TotalVariation:
@@ -626,7 +600,7 @@ def _demographic_parity(law: Law, population: Population, dist: FloatArray) -> T
     notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
     if len(law.groups) < 2:
         return _total_variation("demographic_parity", 0.0, notes, law, population)
-    value, arg_a, arg_b = _max_tv(dist)
+    value, arg_a, arg_b = max_tv_pairs(dist)
     if np.isnan(value):
         return _total_variation("demographic_parity", float("nan"), notes, law, population)
     a, b = int(arg_a), int(arg_b)
@@ -679,19 +653,21 @@ def equalized_odds(law: Law, population: Population | None = None) -> TotalVaria
     law = _check_law(law)
     if population is not None:
         population = population_for(law, population)
-    return _equalized_odds(law, population, _scan(law, tv=len(law.groups) >= 2).tv)
+    X, A, K = law.shape
+    bounds = A >= 2 and next(_chunks(X, A * K * law.probabilities.itemsize)).stop < X  # (one chunk: no bound)
+    return _equalized_odds(law, population, _scan(law, extremes=bounds))
 
 
-def _equalized_odds(law: Law, population: Population | None, per_context: FloatArray | None) -> TotalVariation:
+def _equalized_odds(law: Law, population: Population | None, scan: TableScan) -> TotalVariation:
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
         return _total_variation("equalized_odds", 0.0, notes, law, population)
-    value = np.where(keep, _asked(per_context), np.nan)  # computed for two groups or more
-    if np.all(np.isnan(value)):
+    valid = keep & (_present(law) >= 2)  # the contexts where TV is defined
+    if not valid.any():
         return _total_variation("equalized_odds", float("nan"), notes, law, population)
-    i = int(np.nanargmax(value))
+    i = _tv_argmax(law, valid, scan.tv_low, scan.bottom_sum)
     # the value and pair in the maximising context by the pairwise definition (each unordered pair once)
-    tv, a, b = _max_tv(law.probabilities[i : i + 1])
+    tv, a, b = max_tv_pairs(law.probabilities[i : i + 1])
     ai, bi = int(a[0]), int(b[0])
     row_a, row_b = law.probabilities[i, ai], law.probabilities[i, bi]
     event = tuple(law.decisions[u] for u in np.flatnonzero(row_a > row_b))
@@ -701,10 +677,36 @@ def _equalized_odds(law: Law, population: Population | None, per_context: FloatA
         notes,
         law,
         population,
-        context=law.contexts[i],
+        context=law.context_labels[i],
         pair=(law.groups[ai], law.groups[bi]),
         event=event,
     )
+
+
+def _tv_argmax(law: Law, valid: BoolArray, low: FloatArray | None, bottom_sum: FloatArray | None) -> int:
+    """The first context among ``valid`` with the largest TV over pairs of groups, per :func:`_tv_chunk`.
+
+    Only the contexts that can reach the largest are computed. In context x, the range over groups of
+    Q[x, a, u] (u < K − 1, a singleton event of :func:`_tv_chunk`) is at most its TV (``low``), and
+    TV(Q[x, a], Q[x, b]) = Σ_u Q[x, a, u] − Σ_u min(Q[x, a, u], Q[x, b, u]) is at most 1 + tolerance −
+    Σ_u min over groups of Q[x, a, u] (rows are checked to sum to 1 within the tolerance). A context whose
+    upper bound is below the best lower bound (less a margin for rounding and for the pairwise route's
+    asymmetry) cannot be the first maximum; every other one is computed exactly as before, so the value
+    and the tie-breaking are unchanged.
+    """
+    q = law.probabilities
+    X, A, K = q.shape
+    if next(_chunks(X, A * K * q.itemsize)).stop == X:  # one chunk: every context, no bound needed
+        rows = np.flatnonzero(valid)
+    else:
+        low, bottom_sum = _asked(low), _asked(bottom_sum)
+        threshold = float(low.max() if valid.all() else low[valid].max()) - 4 * ROW_TOLERANCE
+        slack = 8 * K * float(np.finfo(float).eps)
+        rows = np.flatnonzero(valid & ((1.0 + ROW_TOLERANCE) * (1.0 + slack) + slack - bottom_sum >= threshold))
+    tv = np.empty(len(rows))
+    for sl in _chunks(len(rows), A * K * q.itemsize):
+        tv[sl] = _tv_chunk(np.ascontiguousarray(q[rows[sl]].transpose(2, 1, 0)), not law.complete)
+    return int(rows[np.nanargmax(tv)])
 
 
 def sup_local_fairness(law: Law, population: Population | None = None) -> SupFairness:
@@ -726,24 +728,27 @@ def sup_local_fairness(law: Law, population: Population | None = None) -> SupFai
     law = _check_law(law)
     if population is not None:
         population = population_for(law, population)
-    scan = _scan(law, extremes=True)
-    return _sup_local(law, population, _asked(scan.top), _asked(scan.bottom))
+    return _sup_local(law, population, _scan(law, extremes=True))
 
 
-def _sup_local(law: Law, population: Population | None, top: FloatArray, bottom: FloatArray) -> SupFairness:
+def _sup_local(law: Law, population: Population | None, scan: TableScan) -> SupFairness:
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
         return _sup_fairness("local", 0.0, 1.0, notes, law, population)
-    present = _present(law)
-    ratio = ratio_of_extremes(
-        top, bottom, present if isinstance(present, int) else present[:, None]
-    )  # shape (n_contexts, n_decisions)
+    # the first (x, u) in table order with the largest max_a Q[x, a, u] / min_a Q[x, a, u], NaN ignored:
+    # the pass gives each context's largest ratio; the first decision attaining it, in the context found
+    ratio = _asked(scan.sup_ratio)
     if not keep.all():
         ratio[~keep] = np.nan
-    if np.all(np.isnan(ratio)):
+    i = first_max(ratio)
+    if i is None:
         return _sup_fairness("local", float("nan"), float("nan"), notes, law, population)
-    i, u = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
-    best = float(ratio[i, u])
+    row = law.probabilities[i]  # (n_groups, n_decisions)
+    big, small = (np.maximum, np.minimum) if law.complete else (np.fmax, np.fmin)
+    present = law.shape[1] if law.complete else int(law.observed[i].sum())
+    u = first_max(ratio_of_extremes(big.reduce(row, axis=0), small.reduce(row, axis=0), present))
+    assert u is not None
+    best = float(ratio[i])
     _, hi, lo = ratio_extremes(law.probabilities[i, :, u][None, :], axis=1)
     return _sup_fairness(
         "local",
@@ -752,7 +757,7 @@ def _sup_local(law: Law, population: Population | None, top: FloatArray, bottom:
         notes,
         law,
         population,
-        context=law.contexts[i],
+        context=law.context_labels[i],
         pair=(law.groups[hi[0]], law.groups[lo[0]]),
         decision=law.decisions[u],
     )
@@ -878,14 +883,14 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     """
     law = _check_law(law)
     population = population_for(law, population)
-    w, notes = _group_weights(law, population)
-    scan = _scan(law, utility, extremes=True, tv=len(law.groups) >= 2, weights=w)
+    notes = _group_weights(law, population)
+    scan = _scan(law, utility, keep_e=True, spread=True, population=population, extremes=True, by_group=True)
     dist = _per_group(_asked(scan.group_law), population)
     return {
         "local": _local(law, utility, population, scan),
-        "global": _global(law, utility, population, w, notes, _asked(scan.e)),
+        "global": _global(law, utility, population, notes, scan),
         "demographic_parity": _demographic_parity(law, population, dist),
-        "equalized_odds": _equalized_odds(law, population, scan.tv),
-        "sup_local": _sup_local(law, population, _asked(scan.top), _asked(scan.bottom)),
+        "equalized_odds": _equalized_odds(law, population, scan),
+        "sup_local": _sup_local(law, population, scan),
         "sup_global": _sup_global(law, population, dist),
     }

@@ -225,3 +225,53 @@ def test_local_model_quick_run_exits_zero_with_tables(capsys, tmp_path):
     assert "Every check passed." in text
     assert output.read_text(encoding="utf-8") == text
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
+
+
+@pytest.mark.parametrize(
+    "name, header",
+    [
+        ("bench_groups", "| route | groups k | time | ÷ one pass | peak ÷ matrix | value (nats) | agreement |"),
+        ("bench_law", None),
+        ("bench_counting", None),
+    ],
+)
+def test_issue22_quick_runs_exit_zero_with_agreement(name, header, capsys, tmp_path):
+    """The benchmarks of issue 22: --quick exits 0, prints tables whose agreement column is within tolerance."""
+    module = _load(name)
+    output = tmp_path / "report.md"
+    assert module.main(["--quick", "--output", str(output)]) == 0
+    text = capsys.readouterr().out
+    if header is not None:
+        assert header in text
+    tables = _tables(text)
+    assert tables
+    for table in tables:
+        if table[0][-1].startswith("agreement"):
+            for row in table[1:]:
+                cell = row[-1]
+                assert cell in ("", "—") or cell.startswith("—") or float(cell) <= module.AGREEMENT_TOL, row
+    assert output.read_text(encoding="utf-8") == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
+
+
+def test_startup_quick_run_reports_no_heavy_module_for_help(capsys):
+    """bench_startup --quick: every command runs, --help and import fairaudit import no heavy module."""
+    module = _load("bench_startup")
+    assert module.main(["--quick"]) == 0
+    text = capsys.readouterr().out
+    rows = {row[0]: row for row in _tables(text)[0][1:]}
+    for command in ('python -c "import fairaudit"', "fairaudit --help", "fairaudit certify --help"):
+        assert rows[command][4] == "none", rows[command]
+    certify = rows["fairaudit certify examples/llm_hiring/gpt35.toml --format json"]
+    assert certify[-1] == "0"  # the command's certificate equals the API's
+    assert "pandas" not in certify[4] and "cvxpy" not in certify[4] and "scipy.stats" not in certify[4]
+
+
+def test_limits_runs_every_issue22_script(capsys):
+    """bench_limits --quick: the one command runs the four scripts, each exiting 0, and prints their reports."""
+    module = _load("bench_limits")
+    assert module.main(["--quick"]) == 0
+    text = capsys.readouterr().out
+    for script in module.SCRIPTS:
+        assert f"<!-- {script}: exit 0," in text
+    assert text.count("Machine:") >= 5

@@ -1,0 +1,164 @@
+"""Start-up of the ``fairaudit`` command and of ``import fairaudit``, against ``python -c "import numpy"``.
+
+Every row is a fresh interpreter started as a child process (wall-clock time, median of ``--repeats`` runs after one
+untimed run that warms the file cache and writes the bytecode to a temporary cache), so the time includes what a user waits for: the interpreter, the imports and
+the work. The baselines are timed in the same run: ``python -c pass`` (the interpreter alone) and
+``python -c "import numpy"``. Each row also lists the heavy modules the child imported (read from ``-X importtime``
+in one extra run): pandas, pyarrow, scipy.stats, cvxpy, matplotlib, httpx, duckdb.
+
+The goals of issue 22: ``fairaudit --help`` within 2x of ``import numpy``; ``fairaudit certify`` on the shipped
+example (examples/llm_hiring/gpt35.toml: observed metrics with 95% intervals, every bound, budgets) under 0.6 s.
+
+Run from the repository root: ``python benchmarks/bench_startup.py`` (about 30 s), ``--quick`` for 2 repeats.
+Exit status 1 when a command fails or prints a result that differs from the in-process API's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _bench_common import emit, fmt_ratio, fmt_time, machine_line, rel_diff, table  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("pandas", "pyarrow", "scipy.stats", "cvxpy", "matplotlib", "httpx", "duckdb")
+GPT35 = "examples/llm_hiring/gpt35.toml"
+PY = sys.executable
+ROWS: list[tuple[str, list[str], str]] = [
+    ("python -c pass", [PY, "-c", "pass"], "baseline"),
+    ('python -c "import numpy"', [PY, "-c", "import numpy"], "baseline"),
+    ('python -c "import fairaudit"', [PY, "-c", "import fairaudit"], "import"),
+    ("fairaudit --help", [PY, "-m", "fairaudit.cli", "--help"], "help"),
+    ("fairaudit certify --help", [PY, "-m", "fairaudit.cli", "certify", "--help"], "help"),
+    (f"fairaudit certify {GPT35}", [PY, "-m", "fairaudit.cli", "certify", GPT35], "certify"),
+    (
+        f"fairaudit certify {GPT35} --format json",
+        [PY, "-m", "fairaudit.cli", "certify", GPT35, "--format", "json"],
+        "certify",
+    ),
+    (
+        "fairaudit calibrate --target 0.5 --groups 8 --tau 0.1",
+        [PY, "-m", "fairaudit.cli", "calibrate", "--target", "0.5", "--groups", "8", "--tau", "0.1"],
+        "calibrate",
+    ),
+]
+
+
+def _env(cache: str) -> dict[str, str]:
+    """The children's environment: bytecode cached under ``cache`` (as after ``pip install``), never in the tree."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPYCACHEPREFIX"] = cache
+    return env
+
+
+ENV: dict[str, str] = {}
+
+
+def _run(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess[str]]:
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=600, env=ENV or None)
+    return time.perf_counter() - t0, proc
+
+
+def _heavy(cmd: list[str]) -> list[str]:
+    """The heavy modules a run of ``cmd`` imports (its ``-X importtime`` report)."""
+    proc = subprocess.run(
+        [cmd[0], "-X", "importtime", *cmd[1:]], capture_output=True, text=True, cwd=ROOT, env=ENV or None
+    )
+    names = {line.rsplit("|", 1)[1].strip() for line in proc.stderr.splitlines() if line.startswith("import time:")}
+    return sorted(h for h in HEAVY if h in names)
+
+
+def _check_certify(stdout: str) -> float:
+    """Relative difference between the command's JSON certificate and the in-process API's (bounds and L)."""
+    from fairaudit import certify
+    from fairaudit.report import certificate_dict
+
+    mine = json.loads(stdout)
+    ref = json.loads(json.dumps(certificate_dict(certify(ROOT / GPT35)), default=str))
+    worst = 0.0
+    for key in ("best", "paper", "tight", "black_box"):
+        a, b = mine["bounds"].get(key), ref["bounds"].get(key)
+        if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+            worst = max(worst, rel_diff(float(a), float(b)))
+    return worst
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7, help="timed runs per command (default 7)")
+    parser.add_argument("--quick", action="store_true", help="2 timed runs per command (the smoke test)")
+    parser.add_argument("--output", help="also write the report to this file (atomically)")
+    args = parser.parse_args(argv)
+    repeats = 2 if args.quick else max(1, args.repeats)
+    head = machine_line(("numpy", "scipy", "pandas", "pydantic"))
+    with tempfile.TemporaryDirectory(prefix="fairaudit-bench-pyc-") as cache:
+        ENV.update(_env(cache))
+        text, failures = _measure(head, repeats)
+    emit(text, args.output)
+    for failure in failures:
+        print(f"bench_startup: {failure}", file=sys.stderr)
+    return 1 if failures else 0
+
+
+def _measure(head: str, repeats: int) -> tuple[str, list[str]]:
+    """Time every row; the report and the failures."""
+    times: dict[str, float] = {}
+    rows, failures = [], []
+    for label, cmd, kind in ROWS:
+        _run(cmd)  # warm the file cache
+        runs = []
+        for _ in range(repeats):
+            seconds, proc = _run(cmd)
+            if proc.returncode not in (0, 1):  # certify exits 1 when a target is not met
+                failures.append(f"{label}: exit {proc.returncode}: {proc.stderr.strip()[-300:]}")
+            runs.append(seconds)
+        times[label] = statistics.median(runs)
+        agreement = "—"
+        if label.endswith("--format json"):
+            diff = _check_certify(proc.stdout)
+            agreement = f"{diff:.1e}" if diff else "0"
+            if diff > 1e-12:
+                failures.append(f"{label}: the command's bounds differ from the API's by {diff:.1e}")
+        rows.append([label, kind, times[label], ", ".join(_heavy(cmd)) or "none", agreement])
+    numpy_time, bare = times['python -c "import numpy"'], times["python -c pass"]
+    body = [
+        [label, fmt_time(t), fmt_ratio(t / numpy_time), fmt_time(max(t - bare, 0.0)), heavy, agreement]
+        for label, _, t, heavy, agreement in rows
+    ]
+    help_ratio = times["fairaudit --help"] / numpy_time
+    certify_time = times[f"fairaudit certify {GPT35}"]
+    text = "\n\n".join(
+        [
+            "# Start-up: the command and the package against import numpy",
+            head,
+            f"Wall-clock time of a fresh interpreter per command, median of {repeats} runs after one untimed run "
+            "that warms the file cache and writes the bytecode (to a temporary `PYTHONPYCACHEPREFIX`, as `pip install` "
+            "compiles a package; with `PYTHONDONTWRITEBYTECODE` every start would compile fairaudit's modules again). "
+            "*net* subtracts the bare interpreter (`python -c pass`). *heavy modules* are those of "
+            f"{', '.join(HEAVY)} that the run imported (`-X importtime`). The certificate of the JSON run is "
+            "compared with the in-process API's (agreement: largest relative difference of its bounds).",
+            table(
+                ["command", "median time", "/ import numpy", "net of the interpreter", "heavy modules", "agreement"],
+                body,
+                "lrrrlr",
+            ),
+            f"Goals: `fairaudit --help` within 2x of `import numpy`: {fmt_ratio(help_ratio)} "
+            f"({'met' if help_ratio <= 2 else 'not met'}); `fairaudit certify {GPT35}` under 0.6 s: "
+            f"{fmt_time(certify_time)} ({'met' if certify_time < 0.6 else 'not met'}).",
+        ]
+    )
+    return text, failures
+
+
+if __name__ == "__main__":
+    sys.exit(main())

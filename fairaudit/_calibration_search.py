@@ -87,7 +87,8 @@ def keep_grid(family: MechanismFamily) -> FloatArray:
     """
 
     def keep(e: float) -> float:
-        return family.keep_probability(e)
+        # what family.keep_probability(e) returns, without checking e again: a float in [0, cap] thousands of times
+        return float(family.keep(e))
 
     cap = GRID_CAP
     if keep(cap) >= 1 - 1e-12:

@@ -18,7 +18,7 @@ import numpy as np
 from ._arrays import format_label
 from ._errors import InputError
 from ._json import Report, label, number
-from .certify import Observed, observe
+from ._observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
 from .estimate import CountTable, count_records
 from .expression import evaluate_utility_expression
 from .intervals import FairnessIntervals, fairness_intervals

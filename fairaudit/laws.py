@@ -79,8 +79,34 @@ class IndependenceCheck:
     tolerance: float
 
 
+class _ContextsAndGroups:
+    """The context and group axes' labels of a population or a decision table (``_labels[0]``, ``_labels[1]``)."""
+
+    _labels: tuple[Labels, ...]
+
+    @property
+    def contexts(self) -> tuple:
+        """The context labels, a tuple (made on first use when they were given as a range or an array)."""
+        return self._labels[0].tuple
+
+    @property
+    def groups(self) -> tuple:
+        """The group labels, a tuple."""
+        return self._labels[1].tuple
+
+    @property
+    def context_labels(self) -> Labels:
+        """The context labels as given, compact (a range or an array stays one): ``context_labels[i]``, ``len``."""
+        return self._labels[0]
+
+    @property
+    def group_labels(self) -> Labels:
+        """The group labels as a :class:`~fairaudit._arrays.Labels`."""
+        return self._labels[1]
+
+
 @dataclass(frozen=True, eq=False)
-class Population:
+class Population(_ContextsAndGroups):
     """The joint distribution P(X = x, A = a) of context and sensitive group.
 
     Parameters
@@ -158,26 +184,6 @@ class Population:
             f"Population(probabilities={self.probabilities!r}, contexts={self.contexts!r}, groups={self.groups!r}, "
             f"source={self.source!r}, records={self.records!r})"
         )
-
-    @property
-    def contexts(self) -> tuple:
-        """The context labels, a tuple (made on first use when they were given as a range or an array)."""
-        return self._labels[0].tuple
-
-    @property
-    def groups(self) -> tuple:
-        """The group labels, a tuple."""
-        return self._labels[1].tuple
-
-    @property
-    def context_labels(self) -> Labels:
-        """The context labels as given, compact (a range or an array stays one): ``context_labels[i]``, ``len``."""
-        return self._labels[0]
-
-    @property
-    def group_labels(self) -> Labels:
-        """The group labels as a :class:`~fairaudit._arrays.Labels`."""
-        return self._labels[1]
 
     @classmethod
     def uniform(
@@ -291,7 +297,7 @@ class Population:
 
 
 @dataclass(frozen=True, eq=False)
-class _DecisionTable:
+class _DecisionTable(_ContextsAndGroups):
     probabilities: FloatArray
     counts: FloatArray | None = None
     name: str = "table"
@@ -352,29 +358,9 @@ class _DecisionTable:
         object.__setattr__(self, "name", name)
 
     @property
-    def contexts(self) -> tuple:
-        """The context labels, a tuple (made on first use when they were given as a range or an array)."""
-        return self._labels[0].tuple
-
-    @property
-    def groups(self) -> tuple:
-        """The group labels, a tuple."""
-        return self._labels[1].tuple
-
-    @property
     def decisions(self) -> tuple:
         """The decision labels, a tuple."""
         return self._labels[2].tuple
-
-    @property
-    def context_labels(self) -> Labels:
-        """The context labels as given, compact (a range or an array stays one): ``context_labels[i]``, ``len``."""
-        return self._labels[0]
-
-    @property
-    def group_labels(self) -> Labels:
-        """The group labels as a :class:`~fairaudit._arrays.Labels`."""
-        return self._labels[1]
 
     @property
     def decision_labels(self) -> Labels:

@@ -28,26 +28,13 @@ from hypothesis import strategies as st
 
 import fairaudit._count_engine as engine
 import fairaudit.estimate as estimate
-from fairaudit import InputError, count_file, count_records, read_records
+from fairaudit import InputError, count_file, count_records
 from fairaudit._count_engine import sql_identifier
 
 pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
 
-
-def reference(path, **kw):
-    """The pandas route: the whole file read by read_records and counted, or the error it raises."""
-    try:
-        return count_records(read_records(path), **kw)
-    except InputError as exc:
-        return exc
-
-
-def counted(path, **kw):
-    try:
-        return count_file(path, **kw)
-    except InputError as exc:
-        return exc
+from _counting import counted, reference  # noqa: E402
 
 
 def _describe(labels):

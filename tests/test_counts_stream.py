@@ -26,24 +26,11 @@ pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
 
 from _cli import run, run_json  # noqa: E402
+from _counting import counted as streamed  # noqa: E402
+from _counting import reference  # noqa: E402
 
 import fairaudit as fa  # noqa: E402
 from fairaudit import InputError, count_file, count_records, count_table, read_records  # noqa: E402
-
-
-def reference(path, **kw):
-    """count_records on the whole file read by pandas, or the error it raises."""
-    try:
-        return count_records(read_records(path), **kw)
-    except InputError as exc:
-        return exc
-
-
-def streamed(path, **kw):
-    try:
-        return count_file(path, **kw)
-    except InputError as exc:
-        return exc
 
 
 def _types(labels):

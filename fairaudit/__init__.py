@@ -24,7 +24,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name is imported w
     from .calibrate import Calibration, calibrate_randomized_response
     from .certify import Certificate, certify
     from .curves import PrivacyCurve, privacy_curve
-    from .estimate import CountTable, count_file, count_records, count_table, read_records
+    from .estimate import CountTable, CsvFormat, count_file, count_records, count_table, read_records
     from .intervals import FairnessIntervals, Interval, fairness_intervals
     from .laws import Kernel, Law, Population, compose
     from .metrics import (
@@ -93,6 +93,7 @@ __all__ = [
     # records, audits and intervals
     "Audit",
     "CountTable",
+    "CsvFormat",
     "FairnessIntervals",
     "Interval",
     "SamplePlan",
@@ -149,7 +150,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
     "calibrate": ("Calibration", "calibrate_randomized_response"),
     "certify": ("Certificate", "certify"),
     "curves": ("PrivacyCurve", "privacy_curve"),
-    "estimate": ("CountTable", "count_file", "count_records", "count_table", "read_records"),
+    "estimate": ("CountTable", "CsvFormat", "count_file", "count_records", "count_table", "read_records"),
     "intervals": ("FairnessIntervals", "Interval", "fairness_intervals"),
     "laws": ("Kernel", "Law", "Population", "compose"),
     "metrics": (

@@ -216,10 +216,19 @@ def _hashable(value: object) -> bool:
 
 
 def format_label(label: object) -> str:
-    """Human form of a label: tuples (product attributes) joined by ' & '."""
+    """Human form of a label: tuples (product attributes) joined by ' & '; text with spaces around it quoted.
+
+    Examples
+    --------
+    >>> format_label(("a", 1)), format_label(" Male"), format_label("")
+    ('a & 1', "' Male'", "''")
+    """
     if isinstance(label, tuple):
         return " & ".join(format_label(v) for v in label)
-    return str(label)
+    text = str(label)
+    if isinstance(label, str) and (not text or text != text.strip()):
+        return repr(text)  # the spaces a reader would not see (a CSV field after ", "), or an empty label
+    return text
 
 
 def as_float_array(values: object, field: str, ndim: int | None = None, *, copy: bool = True) -> FloatArray:

@@ -32,7 +32,6 @@ if TYPE_CHECKING:
 
 __all__ = ["Grouped", "csv_group_by", "parquet_group_by", "parquet_source", "sql_identifier"]
 
-CSV_SUFFIXES = {".csv", ".txt", ".gz"}
 _GLOB = frozenset("*?[]{}")  # characters DuckDB may expand in a file name
 
 
@@ -289,7 +288,7 @@ _QUOTE, _COMMA, _LF, _CR = 34, 44, 10, 13
 _BESIDE_QUOTE = np.array([_COMMA, _LF, _CR, _QUOTE, -1])
 
 
-def csv_regular(p: Path, n_fields: int) -> bool:
+def csv_regular(p: Path, n_fields: int, gzipped: bool = False) -> bool:
     """Whether every record of CSV file ``p`` has ``n_fields`` fields, its quotes around whole fields only.
 
     On such files DuckDB's reader and pandas' agree field by field; they
@@ -304,7 +303,7 @@ def csv_regular(p: Path, n_fields: int) -> bool:
 
     scan = _Scan()
     try:
-        with gzip.open(p, "rb") if p.suffix.lower() == ".gz" else open(p, "rb") as f:
+        with gzip.open(p, "rb") if gzipped else open(p, "rb") as f:
             carry = b""
             while True:
                 data = f.read(_SCAN_BLOCK)
@@ -410,7 +409,7 @@ def _csv_field(text: str) -> str:
     return '"' + text.replace('"', '""') + '"'
 
 
-def csv_group_by(p: Path, keys: list[str]) -> Grouped | None:
+def csv_group_by(p: Path, keys: list[str], gzipped: bool = False) -> Grouped | None:
     """The distinct combinations of ``keys`` in CSV file ``p`` as pandas reads them, with their numbers of records.
 
     None where the exact result is left to pandas (the caller reads the whole
@@ -423,19 +422,19 @@ def csv_group_by(p: Path, keys: list[str]) -> Grouped | None:
     import duckdb
     import pandas as pd
 
-    if not p.is_file() or p.suffix.lower() not in CSV_SUFFIXES:
+    if not p.is_file():
         return None
     try:
-        names = [str(c) for c in pd.read_csv(p, nrows=0).columns]
+        names = [str(c) for c in pd.read_csv(p, nrows=0, compression="gzip" if gzipped else None).columns]
     except Exception:  # noqa: BLE001 - read_records reports it
         return None
     if len(names) < 2 or not set(keys) <= set(names) or len({c.lower() for c in names}) < len(names):
         return None
-    if not csv_regular(p, len(names)):
+    if not csv_regular(p, len(names), gzipped):
         return None
     selected = ", ".join(sql_identifier(c) for c in keys)
     sql = f"SELECT {selected}, count(*) AS {sql_identifier(count_name(names))} FROM {_READ_CSV} GROUP BY ALL"
-    compression = "gzip" if p.suffix.lower() == ".gz" else "none"
+    compression = "gzip" if gzipped else "none"
     con = duckdb_connection()
     try:
         with glob_free([os.path.abspath(p)]) as (plain,):

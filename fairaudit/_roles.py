@@ -43,4 +43,4 @@ def check_roles(names: Iterable[Hashable], sensitive: Sequence[str], outcome: st
 
 def missing_values(column: Hashable, n: float) -> InputError:
     """The error for ``n`` missing values in ``column`` (when they are not to be dropped)."""
-    return InputError(f"column {column!r}", f"has {int(n)} missing values (drop those rows: --dropna, or dropna=True)")
+    return InputError(f"column {column!r}", f"has {int(n)} missing values (drop those rows: `dropna`)")

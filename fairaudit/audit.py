@@ -164,11 +164,13 @@ def _positive_utility(positive: Hashable, decisions: tuple) -> Utility:
                     return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
     except (TypeError, ValueError):
         pass
-    raise InputError(
-        "positive",
-        f"is not a value of the outcome column; it has {[format_label(d) for d in decisions][:20]}",
-        positive,
-    )
+    shown = ", ".join(_shown(d) for d in decisions[:20]) + (", ..." if len(decisions) > 20 else "")
+    raise InputError("positive", f"is not a value of the outcome column; it has {shown}", positive)
+
+
+def _shown(label: Hashable) -> str:
+    """A label in a message: text quoted (its spaces seen), anything else as reports show it."""
+    return repr(label) if isinstance(label, str) else format_label(label)
 
 
 def _is_spark_frame(data: object) -> bool:
@@ -339,8 +341,15 @@ def _audit_utility(table: CountTable, positive: Hashable | None, utility: str | 
         # a 0/1 outcome with no positive record: g is 0 on every outcome there is, so every group gets 0
         name = "1{outcome = True}" if "False" in labels else "1{outcome = 1}"
         return from_table(np.zeros(len(table.decisions)), tuple(table.decisions), name=name)
+    if len(table.decisions) == 2:
+        first, second = (_shown(d) for d in table.decisions)
+        raise InputError(
+            "positive",
+            f"the outcome {table.outcome_column!r} has two values, {first} and {second}: say which one is "
+            f"positive with `positive` (for example {second}), or give a `utility`",
+        )
     raise InputError(
         "positive",
-        f"the outcome {table.outcome_column!r} is not binary; say which value is "
+        f"the outcome {table.outcome_column!r} has {len(table.decisions)} values, not 0/1; say which value is "
         "positive (`positive`) or give a `utility`",
     )

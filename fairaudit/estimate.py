@@ -33,6 +33,7 @@ import numpy.typing as npt
 
 from ._arrays import format_label
 from ._count_engine import Grouped, csv_group_by, parquet_group_by, parquet_source
+from ._csv_format import CsvFormat, FileKind, check_header, file_kind, read_text, same_repeats
 from ._errors import InputError
 from ._roles import check_roles, missing_values, roles
 from ._validation import columns
@@ -49,6 +50,8 @@ Codes: TypeAlias = npt.NDArray[np.integer[Any]]
 __all__ = [
     # the counts
     "CountTable",
+    # how a text file is read
+    "CsvFormat",
     # counting records, count tables and files
     "count_file",
     "count_records",
@@ -109,35 +112,59 @@ class CountTable:
         return Population.from_counts(self.cell_counts, self.contexts, self.groups)
 
 
-def read_records(path: str | Path) -> pd.DataFrame:
-    """Read decision records from a CSV or Parquet file (by extension).
+def read_records(path: str | Path, csv: CsvFormat | None = None) -> pd.DataFrame:
+    """Read decision records from a Parquet or delimited text file (by its name).
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.parquet``/``.pq``, or text: ``.csv``, ``.tsv`` (tab-separated),
+        ``.txt`` or ``.data`` (comma-separated), each optionally compressed
+        (``.gz``, ``.bz2``, ``.xz``, ``.zst``, ``.zip``).
+    csv : CsvFormat, optional
+        How a text file is read (no header, its column names, the separator,
+        extra missing-value markers, spaces after separators); default: a
+        header line, pandas' defaults.
 
     Raises
     ------
     InputError
-        If the file is missing, its extension is unknown, or it cannot be parsed.
+        If the file is missing, its name is neither Parquet nor text, it
+        cannot be parsed, it has two columns of the same name, ``csv`` is
+        given for a Parquet file, or ``csv.names`` does not give one name
+        per field.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "adult.data")
+    >>> _ = open(path, "w").write("39, Male, <=50K\\n50, ?, >50K\\n")
+    >>> fmt = CsvFormat(header=False, names=("age", "sex", "income"), na_values=("?",), skip_initial_space=True)
+    >>> read_records(path, fmt).values.tolist()
+    [[39, 'Male', '<=50K'], [50, nan, '>50K']]
     """
     import pandas as pd
 
     p = Path(path)
     if not p.is_file():
         raise InputError("DATA", "no such file", str(path))
-    suffix = p.suffix.lower()
+    kind = file_kind(p)
+    fmt = CsvFormat() if csv is None else csv
     try:
-        if suffix in {".parquet", ".pq"}:
+        if kind.kind == "parquet":
+            if fmt.changed():
+                raise InputError(fmt.changed()[0], "applies to text files, not Parquet", str(path))
             try:
                 return pd.read_parquet(p)
             except ImportError:
                 raise InputError(
                     "DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)
                 ) from None
-        if suffix in {".csv", ".txt", ".gz"}:
-            return pd.read_csv(p, low_memory=False)
+        return read_text(p, kind, fmt)
     except InputError:
         raise
     except Exception as exc:  # pandas raises many parser errors; report one line
         raise _cannot_read(path, exc) from None
-    raise InputError("DATA", "must be a .csv or .parquet file", str(path))
 
 
 def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str) -> tuple[Codes, tuple]:
@@ -439,13 +466,6 @@ def _label_codes(
     return mapped.to_numpy(dtype=np.int64), labels
 
 
-_PARQUET_SUFFIXES = {".parquet", ".pq"}
-
-
-def _is_parquet(p: Path) -> bool:
-    return p.is_dir() or p.suffix.lower() in _PARQUET_SUFFIXES
-
-
 def _cannot_read(path: str | Path, exc: Exception) -> InputError:
     first = (str(exc).splitlines() or [""])[0]
     return InputError("DATA", f"cannot be read ({type(exc).__name__}: {first})", str(path))
@@ -485,6 +505,7 @@ def count_file(
     context: Sequence[str] = (),
     dropna: bool = False,
     count: str | None = None,
+    csv: CsvFormat | None = None,
 ) -> CountTable:
     """Count the decision records of a file (Parquet or CSV) with DuckDB, out of core.
 
@@ -506,7 +527,8 @@ def count_file(
       types and converted as ``pandas.read_parquet`` converts them (pandas
       metadata, nullable integers, dates and times, categoricals with the
       categories in pandas' order). Needs pyarrow (the file's schema).
-    - CSV (``.csv``, ``.txt``, ``.gz``): DuckDB reads every field as text in
+    - Text in pandas' default dialect (``.csv``, ``.txt``, ``.data``, plain
+      or ``.gz``, with a header and no ``csv`` options): DuckDB reads every field as text in
       pandas' dialect (comma, double quotes), and pandas' own parser reads
       the distinct fields of each used column: pandas infers a column's type
       (integers, floats, booleans, text) and its missing values (``""``,
@@ -515,12 +537,16 @@ def count_file(
       read in that dialect, or might split into fields differently (a blank
       first line, a space next to a double quote, a single column, rows of
       unequal length), is read whole by pandas instead, as before.
+    - Other text (``.tsv``, other compressions, or ``csv`` options: no
+      header, another separator, missing-value markers, spaces after
+      separators) is read whole by pandas (:func:`read_records`).
 
     Parameters
     ----------
     path : str or Path
-        A ``.parquet``/``.pq`` file or folder of Parquet files, or a ``.csv``
-        (also ``.txt``, ``.gz``) file.
+        A ``.parquet``/``.pq`` file or folder of Parquet files, or a text
+        file: ``.csv``, ``.tsv``, ``.txt`` or ``.data``, optionally
+        compressed (``.gz``, ``.bz2``, ``.xz``, ``.zst``, ``.zip``).
     sensitive, outcome, context, dropna
         As in :func:`count_records`. Missing values (null, or NaN in a float
         column) are counted exactly from the grouped table.
@@ -529,6 +555,8 @@ def count_file(
         decision) with its number of records in column ``count``, as made by
         any engine (SQL ``GROUP BY``, Spark, DuckDB); it is read whole (CSV or
         Parquet) and turned into counts by :func:`count_table`.
+    csv : CsvFormat, optional
+        How a text file is read (:class:`CsvFormat`); an error for Parquet.
 
     Returns
     -------
@@ -543,7 +571,9 @@ def count_file(
         ``count`` and listing the file's columns; for Parquet from its
         schema, without reading data), missing values when ``dropna`` is
         False (``column 'x': has N missing values ...``), no records, and for
-        count tables the errors of :func:`count_table`.
+        count tables the errors of :func:`count_table`; the errors of
+        :func:`read_records` (two columns of the same name, ``csv`` options
+        for a Parquet file, ``csv.names`` not one per field).
 
     Examples
     --------
@@ -561,14 +591,41 @@ def count_file(
     """
     sensitive, outcome, context = roles(sensitive, outcome, context)
     p = Path(path)
+    fmt = CsvFormat() if csv is None else csv
     if count is not None:
-        frame = read_records(path)
+        frame = read_checked(path, fmt, [*context, *sensitive, outcome, count])
         check_roles(frame.columns, sensitive, outcome, context)
         columns([count], "count", frame.columns)
         return count_table(frame, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
-    if _is_parquet(p):
+    if not p.exists():
+        raise InputError("DATA", "no such file", str(path))
+    kind = file_kind(p)
+    if kind.kind == "parquet":
+        if fmt.changed():
+            raise InputError(fmt.changed()[0], "applies to text files, not Parquet", str(path))
         return _parquet_counts(path, p, sensitive, outcome, context, dropna)
-    grouped = csv_group_by(p, list(dict.fromkeys(context + sensitive + [outcome])))
+    used = list(dict.fromkeys(context + sensitive + [outcome]))
+    grouped = None
+    if not fmt.changed() and kind.sep == "," and kind.compression in (None, "gzip") and _no_repeats(p, kind):
+        grouped = csv_group_by(p, used, kind.compression == "gzip")  # pandas' dialect: DuckDB counts
     if grouped is None:  # pandas reads the whole file, as read_records does (and reports what is wrong with it)
-        return count_records(read_records(path), sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)
+        frame = read_checked(path, fmt, used)
+        return count_records(frame, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)
     return _tally_grouped(grouped, sensitive, outcome, context, dropna)
+
+
+def _no_repeats(p: Path, kind: FileKind) -> bool:
+    """Whether a text file's header names each column once (False, for pandas to report it, when unreadable)."""
+    try:
+        return not check_header(p, kind, CsvFormat())
+    except Exception:  # noqa: BLE001 - read_records reports an unreadable file
+        return False
+
+
+def read_checked(path: str | Path, fmt: CsvFormat, used: Sequence[str]) -> pd.DataFrame:
+    """:func:`read_records`, refusing a used column that a text file's header repeats with different values."""
+    frame = read_records(path, fmt)
+    p = Path(path)
+    if file_kind(p).kind == "text":
+        same_repeats(frame, check_header(p, file_kind(p), fmt), used, path)
+    return frame

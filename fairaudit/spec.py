@@ -9,7 +9,7 @@ Sections (docs/design.md "Command-line contract"; full reference in docs/spec.md
 ``[privacy.context]`` mechanism = "identity" | "randomized_response" (epsilon
 or keep) | "matrix" (rows, outputs) | "product" (components) ·
 ``[model]`` table or records (path relative to the spec), count_column,
-probability_column, where · ``[utility]`` kind = "indicator" (decision) |
+probability_column, where, csv (how a text file is read) · ``[utility]`` kind = "indicator" (decision) |
 "table" (values), gamma, lower, tau, lipschitz, metric · ``[target]`` local,
 global.
 
@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable, Sequence
 from pathlib import Path
-from typing import Any, Literal, Self
+from typing import TYPE_CHECKING, Any, Literal, Self
 
 import numpy as np
 from pydantic import (
@@ -48,7 +48,10 @@ from ._toml import (
     value_kind,
 )
 from ._validation import real
-from .estimate import CountTable, count_records, count_table, read_records
+
+if TYPE_CHECKING:
+    import pandas as pd
+from .estimate import CountTable, CsvFormat, count_records, count_table, read_checked
 from .laws import Kernel, Population
 from .privacy import (
     Mechanism,
@@ -169,6 +172,16 @@ class PopulationSpec(StrictModel):
         return self
 
 
+class CsvSpec(StrictModel):
+    """``[model.csv]``: how a text file of the model is read (:class:`~fairaudit.estimate.CsvFormat`)."""
+
+    header: bool = True
+    names: list[str] | None = None
+    sep: str | None = None
+    na_values: list[str] = []
+    skip_initial_space: bool = False
+
+
 class ModelSpec(StrictModel):
     """``[model]``: the kernel P(U | X̃, Ã) as an aggregated table (counts or probabilities) or as records."""
 
@@ -177,6 +190,7 @@ class ModelSpec(StrictModel):
     count_column: str | None = None
     probability_column: str | None = None
     where: dict[str, Any] = {}
+    csv: CsvSpec | None = None
 
     @model_validator(mode="after")
     def _one(self) -> Self:
@@ -596,19 +610,11 @@ class Spec:
         field = "model.table" if m.table is not None else "model.records"
         if not path.is_file():
             raise self._err(field, "no such file", str(path))
-        fast = self._text_kernel(path) if m.table is not None and m.probability_column is None else None
+        plain = m.table is not None and m.probability_column is None and m.csv is None
+        fast = self._text_kernel(path) if plain else None
         if fast is not None:
             return fast
-        try:
-            frame = read_records(path)
-        except InputError as exc:
-            raise self._err(field, exc.problem, str(path)) from None
-        for col, want in m.where.items():
-            if col not in frame.columns:
-                raise self._err(f"model.where.{col}", "is not a column of the table", col)
-            frame = frame[frame[col].astype(str) == str(want)]
-            if frame.empty:
-                raise self._err(f"model.where.{col}", "selects no rows", want)
+        frame = self._model_frame(m, path, field)
         ctx_cols = [] if self.model.context is None else [self.model.context.name]
         # the model sees released values: its table is indexed by the mechanisms' outputs
         contexts, groups = self.context_mechanism.outputs, self.sensitive_mechanism.outputs
@@ -667,6 +673,29 @@ class Spec:
                 f"{len(probs_kernel.empty_cells)} empty cells in all",
             )
         return probs_kernel
+
+    def _model_frame(self, m: ModelSpec, path: Path, field: str) -> pd.DataFrame:
+        """The model's file read by pandas (``[model.csv]``), its ``where`` filters applied."""
+        try:
+            fmt = CsvFormat() if m.csv is None else CsvFormat(**{**m.csv.model_dump(), "names": _names(m.csv)})
+        except InputError as exc:
+            raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
+        used = [self.model.sensitive.name, self.model.decision.name, *m.where]
+        used += [self.model.context.name] if self.model.context is not None else []
+        used += [c for c in (m.count_column, m.probability_column) if c is not None]
+        try:
+            frame = read_checked(path, fmt, used)
+        except InputError as exc:  # a file's problem under model.records/table, a format's under model.csv
+            if exc.field in CsvSpec.model_fields:
+                raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
+            raise self._err(field, exc.problem, str(path)) from None
+        for col, want in m.where.items():
+            if col not in frame.columns:
+                raise self._err(f"model.where.{col}", "is not a column of the table", col)
+            frame = frame[frame[col].astype(str) == str(want)]
+            if frame.empty:
+                raise self._err(f"model.where.{col}", "selects no rows", want)
+        return frame
 
     def _text_kernel(self, path: Path) -> Kernel | None:
         """The kernel of a count table read without pandas, or None to read it with pandas.
@@ -826,3 +855,7 @@ def load_spec(path: str | Path) -> Spec:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError("SPEC", f"cannot be read ({exc})", str(path)) from None
     return parse_spec(text, source=str(path), base=p.parent)
+
+
+def _names(csv: CsvSpec) -> tuple[str, ...] | None:
+    return None if csv.names is None else tuple(csv.names)

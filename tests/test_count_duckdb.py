@@ -64,9 +64,9 @@ def _spy_fallback(monkeypatch):
     calls = []
     original = estimate.read_records
 
-    def spy(path):
+    def spy(path, csv=None):
         calls.append(path)
-        return original(path)
+        return original(path, csv)
 
     monkeypatch.setattr(estimate, "read_records", spy)
     return calls
@@ -355,7 +355,7 @@ def test_plain_csv_is_counted_by_duckdb_not_pandas(tmp_path, monkeypatch):
     assert (t.contexts, t.groups, t.decisions) == (("p", "q"), ("a", "b, c"), (0.0, 1.0))
     assert t.counts.tolist() == [[[0, 1], [1, 0]], [[0, 1], [0, 0]]]
     assert str(counted(path, sensitive="g", outcome="y", context="ctx")) == (
-        "column 'y': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+        "column 'y': has 1 missing values (drop those rows: `dropna`)"
     )
 
 

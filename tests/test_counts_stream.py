@@ -162,7 +162,7 @@ def test_nan_and_null_float_keys_are_all_missing(tmp_path):
     path = tmp_path / "nan.parquet"
     pq.write_table(pa.table({"f": f, "y": pa.array([1, 0, 1, 1, 0, 0])}), path, row_group_size=2)
     err = streamed(path, sensitive="f", outcome="y")
-    assert str(err) == "column 'f': has 4 missing values (drop those rows: --dropna, or dropna=True)"
+    assert str(err) == "column 'f': has 4 missing values (drop those rows: `dropna`)"
     assert_identical(reference(path, sensitive="f", outcome="y"), err)
     t = count_file(path, sensitive="f", outcome="y", dropna=True)
     assert (t.groups, t.decisions, t.counts.tolist()) == ((1.0,), (0, 1), [[[1, 1]]])
@@ -241,7 +241,7 @@ def test_csv_is_counted_by_pandas(tmp_path):
     path = tmp_path / "r.csv"
     df.to_csv(path, index=False)
     assert str(streamed(path, sensitive="g", outcome="y")) == (
-        "column 'g': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+        "column 'g': has 1 missing values (drop those rows: `dropna`)"
     )
     t = count_file(path, sensitive="g", outcome="y", dropna=True)
     assert (t.groups, t.counts.tolist()) == (("a", "b"), [[[0, 1], [1, 1]]])
@@ -289,7 +289,7 @@ def test_count_table_from_sqlite_group_by_with_nulls(tmp_path):
     agg.to_csv(path, index=False)
     kw = dict(sensitive="grp", outcome="y", context="ctx")
     err = streamed(path, count="n", **kw)  # NULL keys are their own rows; reported like missing values in records
-    assert str(err) == "column 'ctx': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+    assert str(err) == "column 'ctx': has 1 missing values (drop those rows: `dropna`)"
     assert str(err) == str(_err(count_records, df, **kw))
     t = count_file(path, count="n", dropna=True, **kw)
     assert (t.contexts, t.groups, t.counts.tolist()) == (("p", "q"), ("a", "b"), [[[0, 1], [2, 0]], [[1, 1], [0, 0]]])
@@ -322,7 +322,7 @@ def test_count_table_errors(tmp_path):
 def test_count_table_null_rows_weigh_their_counts():
     agg = pd.DataFrame({"g": ["a", None, "b", None], "y": [1, 1, 0, 0], "n": [3, 5, 4, 2]})
     err = _err(count_table, agg, sensitive="g", outcome="y", count="n")
-    assert str(err) == "column 'g': has 7 missing values (drop those rows: --dropna, or dropna=True)"
+    assert str(err) == "column 'g': has 7 missing values (drop those rows: `dropna`)"
     t = count_table(agg, sensitive="g", outcome="y", count="n", dropna=True)
     assert (t.groups, t.counts.tolist(), t.counts.dtype) == (("a", "b"), [[[0, 3], [4, 0]]], np.int64)
     # a row with no label and count 0 stands for no record: nothing is missing

@@ -185,25 +185,25 @@ def test_missing_values_nulls_and_nan_counted_exactly(spark):
     # d: one null and two NaN; Spark keeps NaN apart from null, pandas counts both
     assert (
         _error(count_spark, sdf, sensitive=["s"], outcome="d")
-        == "column 's': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+        == "column 's': has 1 missing values (drop those rows: `dropna`)"
     )
     assert (
         _error(count_spark, sdf, sensitive=["b"], outcome="d")
-        == "column 'b': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+        == "column 'b': has 1 missing values (drop those rows: `dropna`)"
     )
     assert (
         _error(count_spark, sdf, sensitive=["d"], outcome="b")
-        == "column 'd': has 3 missing values (drop those rows: --dropna, or dropna=True)"
+        == "column 'd': has 3 missing values (drop those rows: `dropna`)"
     )
     assert (
         _error(count_spark, sdf, sensitive=["i"], outcome="i", context=["s"])
-        == "column 's': has 1 missing values (drop those rows: --dropna, or dropna=True)"
+        == "column 's': has 1 missing values (drop those rows: `dropna`)"
     )
     # records, not groups: five nulls and three NaN fall in two groups of the aggregated table
     repeated = spark.createDataFrame([(None, 1)] * 5 + [(float("nan"), 1)] * 3 + [(1.0, 0)], "d double, u int")
     assert (
         _error(count_spark, repeated, sensitive=["d"], outcome="u")
-        == "column 'd': has 8 missing values (drop those rows: --dropna, or dropna=True)"
+        == "column 'd': has 8 missing values (drop those rows: `dropna`)"
     )
     pdf = sdf.toPandas()
     for roles in (dict(sensitive=["d"], outcome="b"), dict(sensitive=["i", "s"], outcome="b", context=["d"])):

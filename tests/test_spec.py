@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import math
 
 import numpy as np
@@ -120,6 +121,44 @@ records = "records.csv"
     behind = p * share + (1 - p) * share[:, ::-1]
     expected = np.log((behind.max(1) / behind.min(1)).max())
     assert cert.observed.local.value == pytest.approx(expected, rel=1e-12)
+
+
+def test_records_model_in_a_headerless_text_file(tmp_path):
+    # The same records as a UCI-style file (no header, ", " separators, "?" in an unused column, gzip): the same
+    # kernel as from the plain CSV, and the format's errors under model.csv.
+    rng = np.random.default_rng(8)
+    df = pd.DataFrame({"doc": rng.choice(["sick", "holiday"], 300), "profile": rng.choice(["a", "b"], 300)})
+    df["office"] = np.where(rng.random(300) < np.where(df["profile"] == "a", 0.7, 0.4), "HR_2", "HR_1")
+    df["note"] = rng.choice(["x", "?"], 300)
+    df.to_csv(tmp_path / "records.csv", index=False)
+    text = "".join(", ".join(row) + "\n" for row in df.itertuples(index=False))
+    (tmp_path / "records.data.gz").write_bytes(gzip.compress(text.encode()))
+    spec = (
+        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        + """
+[context]
+name = "doc"
+values = ["holiday", "sick"]
+[privacy.sensitive]
+mechanism = "randomized_response"
+epsilon = 1.0
+[model]
+"""
+    )
+    (tmp_path / "plain.toml").write_text(spec + 'records = "records.csv"\n')
+    csv = '[model.csv]\nheader = false\nnames = ["doc", "profile", "office", "note"]\nna_values = ["?"]\n'
+    (tmp_path / "raw.toml").write_text(spec + 'records = "records.data.gz"\n' + csv + "skip_initial_space = true\n")
+    plain, raw = fa.certify(tmp_path / "plain.toml"), fa.certify(tmp_path / "raw.toml")
+    assert raw.observed.local.value == plain.observed.local.value and raw.observed.local.value > 0
+    assert raw.observed.global_.value == plain.observed.global_.value
+    # without skip_initial_space the labels keep their space: " a" is not a value of the spec
+    (tmp_path / "spaced.toml").write_text(spec + 'records = "records.data.gz"\n' + csv)
+    with pytest.raises(InputError):
+        fa.certify(tmp_path / "spaced.toml")
+    (tmp_path / "bad.toml").write_text(spec + 'records = "records.data.gz"\n[model.csv]\nheader = false\n')
+    with pytest.raises(InputError) as err:
+        fa.certify(tmp_path / "bad.toml")
+    assert str(err.value).endswith("model.csv.names: name the columns of a file without a header")
 
 
 def test_table_utility_with_group_dependence():

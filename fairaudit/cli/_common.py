@@ -18,6 +18,7 @@ from ..report import FORMATS, write_atomic
 
 if TYPE_CHECKING:
     from .._arrays import FloatArray
+    from ..estimate import CsvFormat
 
 
 class Parser(argparse.ArgumentParser):
@@ -38,6 +39,7 @@ PARAMETER_FLAGS: dict[str, str] = {
     "targets": "--target",
     "max_concurrency": "--concurrency",
     "path": "--plot",
+    "header": "--no-header",
 }
 
 
@@ -156,6 +158,52 @@ def columns(text: str) -> list[str]:
     if not cols:
         raise argparse.ArgumentTypeError(f"expected one or more comma-separated column names, got {text!r}")
     return cols
+
+
+def separator(text: str) -> str:
+    """A field separator: one character, or ``tab`` / ``\\t`` for a tab."""
+    return "\t" if text in ("tab", "\\t") else text
+
+
+def add_text_format(p: argparse.ArgumentParser) -> None:
+    """The options of reading a text file of records (:class:`fairaudit.estimate.CsvFormat`)."""
+    p.add_argument(
+        "--no-header", action="store_true", help="the file has no header line: name its columns with --names"
+    )
+    p.add_argument(
+        "--names", type=columns, metavar="COL[,COL...]", help="the columns' names, one per field (replaces a header)"
+    )
+    p.add_argument(
+        "--sep",
+        type=separator,
+        metavar="CHAR",
+        help="field separator (default: tab for .tsv, else comma; 'tab' or '\\t')",
+    )
+    p.add_argument(
+        "--na-values",
+        type=columns,
+        default=[],
+        metavar="TEXT[,TEXT...]",
+        help="fields read as missing besides pandas' own (e.g. '?' for UCI files)",
+    )
+    p.add_argument(
+        "--skip-initial-space",
+        action="store_true",
+        help="drop the spaces after each separator (UCI's '39, Male'); without it ' Male' keeps its space",
+    )
+
+
+def text_format(args: argparse.Namespace) -> CsvFormat:
+    """The :class:`~fairaudit.estimate.CsvFormat` of the options of :func:`add_text_format`."""
+    from ..estimate import CsvFormat
+
+    return CsvFormat(
+        header=not args.no_header,
+        names=None if args.names is None else tuple(args.names),
+        sep=args.sep,
+        na_values=tuple(args.na_values),
+        skip_initial_space=args.skip_initial_space,
+    )
 
 
 def epsilons(text: str) -> FloatArray:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..report import audit_dict, render
-from ._common import Subparsers, add_output, columns, emit, level
+from ._common import Subparsers, add_output, add_text_format, columns, emit, level, text_format
 
 
 def add_parser(sub: Subparsers) -> None:
@@ -20,8 +20,8 @@ def add_parser(sub: Subparsers) -> None:
     a.add_argument(
         "data",
         metavar="DATA",
-        help="CSV or Parquet file (or folder of Parquet files), one record per "
-        "decision (or candidate); with --count, a count table",
+        help="Parquet file (or folder of Parquet files), or text: .csv, .tsv, .txt or .data, optionally "
+        "compressed (.gz, .bz2, .xz, .zst, .zip); one record per decision (or candidate); with --count, a count table",
     )
     a.add_argument(
         "--sensitive",
@@ -59,6 +59,7 @@ def add_parser(sub: Subparsers) -> None:
         metavar="C",
         help="Dirichlet prior mass of --method bayes (default 1, AIF360's smoothing)",
     )
+    add_text_format(a)
     a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
     a.add_argument(
         "--count",
@@ -83,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         context=args.context,
         dropna=args.dropna,
         count=args.count,
+        csv=text_format(args),
     )
     result = audit(
         table,

@@ -56,6 +56,11 @@ class ProjectionOptions:
         attribute); without one both are None.
     sets : SetMaker
         Makes the simultaneous set from the counts.
+    cell_scale, group_scale : numpy.ndarray or None
+        With sample weights: the factor n_eff / W of each cell (n_contexts,
+        n_groups) and of each group pooled over contexts (n_groups,) that
+        turns weighted counts into effective ones (Kish's n_eff = (Σ w)² /
+        Σ w²); None for counts of records.
     """
 
     method: str
@@ -65,6 +70,8 @@ class ProjectionOptions:
     sensitive_mechanism: Mechanism | None = None
     context_mechanism: Mechanism | None = None
     sets: SetMaker = binomial_sets
+    cell_scale: FloatArray | None = None
+    group_scale: FloatArray | None = None
 
 
 class Projection(NamedTuple):
@@ -142,7 +149,8 @@ def project_sets(counts: FloatArray, g: FloatArray, options: ProjectionOptions) 
     Parameters
     ----------
     counts : numpy.ndarray, shape (X, A, K)
-        Whole counts: of the law, or behind a filter of the kernel on released values.
+        Whole counts: of the law, or behind a filter of the kernel on released values; or sums of
+        sample weights with ``options.cell_scale`` and ``options.group_scale``.
     g : numpy.ndarray
         The utility over the table's decisions (shape (K,)) or cells (shape (X, A, K)).
     options : ProjectionOptions
@@ -152,6 +160,10 @@ def project_sets(counts: FloatArray, g: FloatArray, options: ProjectionOptions) 
     Projection
     """
     cats = _categories(counts, g, options.method)
+    if options.cell_scale is not None and options.group_scale is not None:  # weighted counts to effective ones
+        cats = cats._replace(
+            cells=cats.cells * options.cell_scale[..., None], groups=cats.groups * options.group_scale[:, None]
+        )
     boxes = _boxes(cats, options)
     with_u = options.method != "clopper-pearson" or cats.whole_u
     local_keys = np.flatnonzero(options.context_keep)

@@ -19,6 +19,7 @@ from ._arrays import format_label
 from ._errors import InputError
 from ._json import Report, label, number
 from ._observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
+from ._records_arrays import ArrayLike, records_from_arrays
 from .estimate import CountTable, count_records
 from .expression import evaluate_utility_expression
 from .intervals import FairnessIntervals, fairness_intervals
@@ -68,6 +69,79 @@ class Audit:
         assert population is not None  # (audit passes the records' own)
         return population
 
+    @property
+    def by_group(self) -> pd.DataFrame:
+        """One row per (context, group): what fairlearn's ``MetricFrame.by_group`` shows, and more.
+
+        Index (context, group), named after their columns (``context`` when
+        there is none). Columns: ``n`` (records, or the sum of their weights),
+        ``expected_utility`` E[g | x, a], ``rate`` (the same for a 0/1
+        utility, the selection rate; NaN for another utility),
+        ``ratio_to_best`` E[g | x, a] / max over groups of E[g | x, a'] in
+        the context (the impact ratio), and ``lower``, ``upper``: the
+        simultaneous interval on E[g | x, a] (NaN without ``confidence``).
+        A cell without records has n = 0 and NaN elsewhere.
+
+        Examples
+        --------
+        >>> r = audit(y_pred=[1, 1, 1, 0, 1, 0, 0, 0], sensitive_features=list("aaaabbbb"))
+        >>> r.by_group[["n", "rate", "ratio_to_best"]].to_dict("index")
+        {('all', 'a'): {'n': 4, 'rate': 0.75, 'ratio_to_best': 1.0}, ('all', 'b'): {'n': 4, 'rate': 0.25, 'ratio_to_best': 0.3333333333333333}}
+        """
+        import pandas as pd
+
+        t, e = self.table, self.observed.local.expected_utility
+        best = np.fmax.reduce(e, axis=1, keepdims=True)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(best > 0, e / best, np.where(best == 0, 1.0, np.nan))
+        g = self.utility.values
+        binary = bool(np.all((g == 0) | (g == 1)))
+        iv = self.intervals
+        nan = np.full(e.shape, np.nan)
+        columns = {
+            "n": t.cell_counts,
+            "expected_utility": e,
+            "rate": e if binary else nan,
+            "ratio_to_best": ratio,
+            "lower": nan if iv is None else iv.cell_lower,
+            "upper": nan if iv is None else iv.cell_upper,
+        }
+        index = pd.MultiIndex.from_product(
+            [list(t.contexts), list(t.groups)],
+            names=[" x ".join(t.context_columns) or "context", " x ".join(t.sensitive_columns)],
+        )
+        return pd.DataFrame({k: np.asarray(v).reshape(-1) for k, v in columns.items()}, index=index)
+
+    def to_frame(self) -> pd.DataFrame:
+        """Every metric as one row: ``value`` (nats for L, L̄ and the sups; a probability for the gaps),
+        ``ratio``, ``context``, ``group``, ``other_group`` and the interval ``lower``, ``upper`` (NaN without one).
+
+        Index: ``local``, ``global``, ``demographic_parity``, ``equalized_odds``, ``sup_local``, ``sup_global``.
+        """
+        import pandas as pd
+
+        o, iv = self.observed, self.intervals
+        rows = {}
+        for name, metric in (
+            ("local", o.local),
+            ("global", o.global_),
+            ("demographic_parity", o.demographic_parity),
+            ("equalized_odds", o.equalized_odds),
+            ("sup_local", o.sup_local),
+            ("sup_global", o.sup_global),
+        ):
+            interval = None if iv is None else getattr(iv, "global_" if name == "global" else name)
+            rows[name] = {
+                "value": metric.value,
+                "ratio": getattr(metric, "ratio", np.nan),
+                "context": getattr(metric, "context", None),
+                "group": metric.group,
+                "other_group": metric.other_group,
+                "lower": np.nan if interval is None else interval.lower,
+                "upper": np.nan if interval is None else interval.upper,
+            }
+        return pd.DataFrame.from_dict(rows, orient="index")
+
     def to_dict(self) -> Report:
         """The report dictionary (the JSON of ``fairaudit audit``; its contract is in docs/design.md).
 
@@ -79,23 +153,25 @@ class Audit:
         e = self.observed.local.expected_utility
         cells = t.cell_counts
         iv = self.intervals
+        count = int if t.squares is None else float  # weighted: sums of weights
         out: Report = {
             "n": t.n,
             "sensitive": list(t.sensitive_columns),
             "outcome": t.outcome_column,
             "context_columns": list(t.context_columns),
+            "weight_column": t.weight_column,
             "utility": {
                 "name": self.utility.name,
                 "gamma": number(self.utility.gamma),
                 "lower": number(self.utility.lower),
             },
-            "groups": [{"label": label(g), "n": int(n)} for g, n in zip(t.groups, t.group_counts)],
-            "contexts": [{"label": label(c), "n": int(n)} for c, n in zip(t.contexts, t.context_counts)],
+            "groups": [{"label": label(g), "n": count(n)} for g, n in zip(t.groups, t.group_counts)],
+            "contexts": [{"label": label(c), "n": count(n)} for c, n in zip(t.contexts, t.context_counts)],
             "cells": [
                 {
                     "context": label(c),
                     "group": label(g),
-                    "n": int(cells[i, j]),
+                    "n": count(cells[i, j]),
                     "expected_utility": number(e[i, j]),
                     **({} if iv is None else {"interval": [number(iv.cell_lower[i, j]), number(iv.cell_upper[i, j])]}),
                 }
@@ -185,14 +261,17 @@ def _is_pandas_frame(data: object) -> TypeGuard[pd.DataFrame]:
 
 
 def _table(
-    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame,
+    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
     sensitive: str | Sequence[str] | None,
     outcome: str | None,
     context: str | Sequence[str] | None,
     dropna: bool,
+    weights: str | None = None,
 ) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
     if isinstance(data, CountTable):
+        if weights is not None and weights != data.weight_column:
+            raise InputError("weights", "does not match the count table's weight column", weights)
 
         def columns(c: str | Sequence[str] | None) -> tuple[str, ...] | None:
             return None if c is None else (c,) if isinstance(c, str) else tuple(c)
@@ -209,6 +288,8 @@ def _table(
                     ",".join(map(str, given)),
                 )
         return data
+    if data is None:
+        raise InputError("data", "give the records: a DataFrame, a CountTable, or arrays (y_pred, sensitive_features)")
     if not (_is_spark_frame(data) or _is_pandas_frame(data)):
         raise InputError(
             "data", "must be a pandas DataFrame of records, a Spark DataFrame or a CountTable", type(data).__name__
@@ -219,8 +300,15 @@ def _table(
         raise InputError("outcome", "name the outcome column")
     if _is_pandas_frame(data):
         return count_records(
-            data, sensitive=sensitive, outcome=outcome, context=() if context is None else context, dropna=dropna
+            data,
+            sensitive=sensitive,
+            outcome=outcome,
+            context=() if context is None else context,
+            dropna=dropna,
+            weights=weights,
         )
+    if weights is not None:
+        raise InputError("weights", "are not supported for a Spark DataFrame yet: count it with weights in Spark")
     from .spark import count_spark  # a Spark DataFrame (checked above)
 
     return count_spark(
@@ -233,7 +321,7 @@ def _table(
 
 
 def audit(
-    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame,
+    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None = None,
     *,
     sensitive: Sequence[str] | None = None,
     outcome: str | None = None,
@@ -246,6 +334,11 @@ def audit(
     concentration: float = 1.0,
     draws: int = 4000,
     seed: int = 0,
+    weights: str | None = None,
+    y_pred: ArrayLike | None = None,
+    sensitive_features: ArrayLike | None = None,
+    control_features: ArrayLike | None = None,
+    sample_weight: ArrayLike | None = None,
 ) -> Audit:
     """Audit decision records: exact metrics of the empirical law, and intervals.
 
@@ -283,6 +376,19 @@ def audit(
     concentration, draws, seed
         Settings of ``method="bayes"``: the Dirichlet prior's total mass, the
         number of posterior draws and the random seed.
+    weights : str, optional
+        Column of sample (survey) weights of a DataFrame: point estimates use
+        weighted counts, intervals Kish's effective sample size per cell
+        (:meth:`~fairaudit.estimate.CountTable.effective_counts`, an
+        approximation).
+    y_pred, sensitive_features, control_features, sample_weight : array_like, optional
+        Records as arrays instead of ``data``, named as in fairlearn's
+        ``MetricFrame``: ``y_pred`` the decisions (n,) (the outcome U), ``sensitive_features`` the
+        sensitive attribute(s) (n,) or (n, k), ``control_features`` the
+        context(s), ``sample_weight`` weights (n,). Each may be a list, a
+        numpy array, a pandas Series or DataFrame (its names become the
+        columns') or a dict of columns; unnamed columns are ``y_pred``,
+        ``sensitive_feature_0``, ... and ``control_feature_0``, ....
 
     Raises
     ------
@@ -291,7 +397,9 @@ def audit(
         (naming ``sensitive``, ``outcome`` or ``context``), data that is
         neither a DataFrame nor a CountTable, both ``positive`` and ``utility``,
         an outcome value that is not there, a non-binary outcome with no g,
-        or bad interval settings (see :func:`~fairaudit.intervals.fairness_intervals`).
+        or bad interval settings (see :func:`~fairaudit.intervals.fairness_intervals`);
+        arrays given with ``data``, or of lengths other than ``y_pred``'s
+        (naming the parameter).
 
     Examples
     --------
@@ -303,8 +411,22 @@ def audit(
     >>> t = count_records(df, sensitive=["race"], outcome="hired")
     >>> round(audit(t).observed.global_.ratio, 12)
     3.0
+
+    The same records as arrays, as a fairlearn user holds them:
+
+    >>> r = audit(y_pred=[1, 1, 1, 0, 1, 0, 0, 0], sensitive_features=list("aaaabbbb"))
+    >>> round(r.observed.global_.ratio, 12), r.table.sensitive_columns
+    (3.0, ('sensitive_feature_0',))
     """
-    table = _table(data, sensitive, outcome, context, dropna)
+    if y_pred is not None or sensitive_features is not None:
+        if data is not None:
+            raise InputError("data", "give records as data or as arrays (y_pred, sensitive_features), not both")
+        data, names = records_from_arrays(y_pred, sensitive_features, control_features, sample_weight)
+        sensitive, outcome, context, weights = names
+    elif control_features is not None or sample_weight is not None:
+        name = "control_features" if control_features is not None else "sample_weight"
+        raise InputError(name, "goes with y_pred and sensitive_features")
+    table = _table(data, sensitive, outcome, context, dropna, weights)
     if positive is not None and utility is not None:
         raise InputError("positive", "give positive or utility, not both", positive)
     g = _audit_utility(table, positive, utility)

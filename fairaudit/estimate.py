@@ -73,6 +73,12 @@ class CountTable:
     context_columns, sensitive_columns : tuple of str
         The columns they came from.
     outcome_column : str
+    weight_column : str or None
+        The column of sample (survey) weights; then ``counts[x, a, u]`` is the
+        sum of the weights of those records (float64), not their number.
+    squares : numpy.ndarray or None
+        With weights, the sum of the squared weights per (x, a, u), for the
+        effective sample sizes of :meth:`effective_counts`.
     """
 
     counts: Counts
@@ -82,11 +88,40 @@ class CountTable:
     context_columns: tuple[str, ...]
     sensitive_columns: tuple[str, ...]
     outcome_column: str
+    weight_column: str | None = None
+    squares: Counts | None = None
 
     @property
-    def n(self) -> int:
-        """Total number of records."""
-        return int(self.counts.sum())
+    def n(self) -> int | float:
+        """Total number of records (an int), or with weights their total weight (a float)."""
+        total = self.counts.sum()
+        return int(total) if self.squares is None else float(total)
+
+    def effective_counts(self, pooled: bool = False) -> Counts:
+        """Counts scaled to Kish's effective sample size: what intervals treat as numbers of records.
+
+        Without weights, the counts themselves. With weights, each (context,
+        group) cell's weighted counts times n_eff / W, where W = Σ w and
+        n_eff = (Σ w)² / Σ w² over the cell's records (Kish 1965): the
+        weighted proportions, on n_eff records. ``pooled`` gives the groups
+        pooled over contexts, shape (n_groups, n_decisions), scaled by each
+        group's own n_eff. An approximation (it ignores how the weights were
+        made); ``benchmarks/bench_weights.py`` measures the coverage it gives.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (n_contexts, n_groups, n_decisions), or (n_groups,
+            n_decisions) with ``pooled``; float64 with weights.
+        """
+        counts = self.counts.sum(axis=0) if pooled else self.counts
+        if self.squares is None:
+            return counts
+        squares = self.squares.sum(axis=0) if pooled else self.squares
+        w, s = counts.sum(axis=-1, keepdims=True), squares.sum(axis=-1, keepdims=True)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.where(s > 0, w / s, 0.0)  # n_eff / W = W / S
+        return counts * scale
 
     @property
     def cell_counts(self) -> Counts:
@@ -191,6 +226,7 @@ def _tally(
     context: list[str],
     dropna: bool,
     weights: Codes | None = None,
+    sample_weight: str | None = None,
 ) -> CountTable:
     """Counts of the rows of ``frame`` (each row counts ``weights[i]`` records; default 1).
 
@@ -200,7 +236,7 @@ def _tally(
     come, because labels are the sorted distinct values and a weighted row
     stands for ``weights[i]`` identical records.
     """
-    used = list(dict.fromkeys(context + sensitive + [outcome]))
+    used = list(dict.fromkeys(context + sensitive + [outcome] + ([sample_weight] if sample_weight else [])))
     frame = frame[used]
     isna = frame.isna()
     missing = isna.sum() if weights is None else isna.mul(weights, axis=0).sum()
@@ -218,12 +254,31 @@ def _tally(
     cu, decisions = _codes(frame, [outcome], "outcome")
     shape = (len(contexts), len(groups), len(decisions))
     flat = (cx * shape[1] + ca) * shape[2] + cu
+    if sample_weight is not None:
+        w = _sample_weights(frame[sample_weight], sample_weight)
+        sums = [np.bincount(flat, weights=v, minlength=int(np.prod(shape))).reshape(shape) for v in (w, w * w)]
+        columns = (tuple(context), tuple(sensitive), outcome)
+        return CountTable(sums[0], contexts, groups, decisions, *columns, weight_column=sample_weight, squares=sums[1])
     if weights is None:
         counts = np.bincount(flat, minlength=int(np.prod(shape)))
     else:  # exact integer sums (a float bincount would round above 2**53)
         counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
         np.add.at(counts, flat, np.asarray(weights, dtype=np.int64))
     return CountTable(counts.reshape(shape), contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+
+
+def _sample_weights(column: pd.Series, name: str) -> npt.NDArray[np.float64]:
+    """A column of sample weights as float64: numbers, finite and non-negative (the error names the column)."""
+    import pandas as pd
+
+    if not (pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)):
+        first = next((v for v in column if not isinstance(v, (int, float, np.number)) or isinstance(v, bool)), None)
+        raise InputError(f"column {name!r}", "weights must be numbers", first)
+    w = column.to_numpy(dtype=np.float64)
+    bad = ~np.isfinite(w) | (w < 0)
+    if bad.any():
+        raise InputError(f"column {name!r}", "weights must be finite and >= 0", float(w[np.argmax(bad)]))
+    return w
 
 
 def _tally_grouped(
@@ -268,6 +323,7 @@ def count_records(
     outcome: str,
     context: Sequence[str] = (),
     dropna: bool = False,
+    weights: str | None = None,
 ) -> CountTable:
     """Count decision records per (context, group, outcome).
 
@@ -284,6 +340,10 @@ def count_records(
         Column(s) of the context X; none gives one context "all".
     dropna : bool
         Drop rows with a missing value in any used column instead of failing.
+    weights : str, optional
+        Column of sample (survey) weights, finite and >= 0: each record
+        counts its weight (``counts`` are then float64 sums of weights, with
+        the sums of squared weights in ``squares`` for intervals).
 
     Returns
     -------
@@ -293,7 +353,8 @@ def count_records(
     ------
     InputError
         On an unknown column, missing values (naming the column and count)
-        when ``dropna`` is False, or no records.
+        when ``dropna`` is False, weights that are not finite numbers >= 0,
+        or no records.
 
     See Also
     --------
@@ -306,10 +367,15 @@ def count_records(
     >>> t = count_records(df, sensitive=["race"], outcome="hired")
     >>> t.counts.tolist(), t.groups, t.decisions
     ([[[1, 1], [1, 2]]], ('a', 'b'), (0, 1))
+    >>> df["w"] = [2.0, 1.0, 0.5, 0.5, 1.0]
+    >>> count_records(df, sensitive=["race"], outcome="hired", weights="w").counts.tolist()
+    [[[1.0, 2.0], [1.0, 1.0]]]
     """
     sensitive, outcome, context = roles(sensitive, outcome, context)
     check_roles(data.columns, sensitive, outcome, context)
-    return _tally(data, sensitive, outcome, context, dropna)
+    if weights is not None:
+        columns([weights], "weights", data.columns)
+    return _tally(data, sensitive, outcome, context, dropna, sample_weight=weights)
 
 
 def count_table(
@@ -506,6 +572,7 @@ def count_file(
     dropna: bool = False,
     count: str | None = None,
     csv: CsvFormat | None = None,
+    weights: str | None = None,
 ) -> CountTable:
     """Count the decision records of a file (Parquet or CSV) with DuckDB, out of core.
 
@@ -557,6 +624,9 @@ def count_file(
         Parquet) and turned into counts by :func:`count_table`.
     csv : CsvFormat, optional
         How a text file is read (:class:`CsvFormat`); an error for Parquet.
+    weights : str, optional
+        Column of sample weights (as in :func:`count_records`); the file is
+        then read whole by pandas (:func:`read_records`).
 
     Returns
     -------
@@ -592,6 +662,13 @@ def count_file(
     sensitive, outcome, context = roles(sensitive, outcome, context)
     p = Path(path)
     fmt = CsvFormat() if csv is None else csv
+    if count is not None and weights is not None:
+        raise InputError("weights", "a count table (`count`) is counted already: give its counts, not weights")
+    if weights is not None:
+        frame = read_checked(path, fmt, [*context, *sensitive, outcome, weights])
+        return count_records(
+            frame, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna, weights=weights
+        )
     if count is not None:
         frame = read_checked(path, fmt, [*context, *sensitive, outcome, count])
         check_roles(frame.columns, sensitive, outcome, context)

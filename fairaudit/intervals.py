@@ -282,7 +282,7 @@ def _check(table: object, utility: object, confidence: float, method: str, conce
     if method != "auto":
         choice(method, "method", METHODS)
     counts = np.asarray(table.counts, dtype=float)
-    if np.any(counts != np.round(counts)):
+    if table.squares is None and np.any(counts != np.round(counts)):
         bad = counts[counts != np.round(counts)].flat[0]
         raise InputError(
             "counts", "intervals need whole numbers of records (the table holds probabilities or weights)", float(bad)
@@ -384,7 +384,8 @@ def fairness_intervals(
         )
     law = _audited_law(table, utility, sensitive_mechanism, context_mechanism, population)
     prior = concentration / counts.shape[-1] if method == "bayes" else 0.0  # bayes: the plug-in of the posterior mean
-    estimate = _estimates(table, counts + prior, utility, law)
+    plugin = table.effective_counts() if method == "bayes" else counts  # (the posterior's counts: effective ones)
+    estimate = _estimates(table, plugin + prior, utility, law)
     common = _Inputs(
         table=table,
         utility=utility,
@@ -404,8 +405,22 @@ def fairness_intervals(
         sensitive_mechanism=law.sensitive_mechanism,
         context_mechanism=law.context_mechanism,
         sets=sets,
+        **_kish_scales(table),
     )
     return _assemble(project_sets(counts, g, options), options, law, estimate, common)
+
+
+def _kish_scales(table: CountTable) -> dict[str, FloatArray]:
+    """With sample weights, n_eff / W per cell and per pooled group (:meth:`CountTable.effective_counts`)."""
+    if table.squares is None:
+        return {}
+    scales = {}
+    for key, pooled in (("cell_scale", False), ("group_scale", True)):
+        w = table.counts.sum(axis=0) if pooled else table.counts
+        effective = table.effective_counts(pooled).sum(axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scales[key] = np.where(w.sum(axis=-1) > 0, effective / w.sum(axis=-1), 0.0)
+    return scales
 
 
 def _identity(mech: Mechanism | None, labels: tuple) -> bool:

@@ -191,11 +191,14 @@ class ModelSpec(StrictModel):
     probability_column: str | None = None
     where: dict[str, Any] = {}
     csv: CsvSpec | None = None
+    weight_column: str | None = None
 
     @model_validator(mode="after")
     def _one(self) -> Self:
         if (self.table is None) == (self.records is None):
             raise ValueError("give exactly one of table (aggregated counts or probabilities) and records")
+        if self.weight_column is not None and self.records is None:
+            raise ValueError("weight_column weighs records: a table gives its counts already")
         if self.count_column is not None and self.probability_column is not None:
             raise ValueError("give count_column or probability_column, not both")
         return self
@@ -622,7 +625,7 @@ class Spec:
         dec = self.model.decision.name
         try:
             if m.records:
-                table = count_records(frame, sensitive=sens, outcome=dec, context=ctx_cols)
+                table = count_records(frame, sensitive=sens, outcome=dec, context=ctx_cols, weights=m.weight_column)
                 table = _relabel(table, contexts, groups, self.decisions)
                 probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
             else:
@@ -682,7 +685,7 @@ class Spec:
             raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
         used = [self.model.sensitive.name, self.model.decision.name, *m.where]
         used += [self.model.context.name] if self.model.context is not None else []
-        used += [c for c in (m.count_column, m.probability_column) if c is not None]
+        used += [c for c in (m.count_column, m.probability_column, m.weight_column) if c is not None]
         try:
             frame = read_checked(path, fmt, used)
         except InputError as exc:  # a file's problem under model.records/table, a format's under model.csv

@@ -275,3 +275,19 @@ def test_limits_runs_every_issue22_script(capsys):
     for script in module.SCRIPTS:
         assert f"<!-- {script}: exit 0," in text
     assert text.count("Machine:") >= 5
+
+
+def test_weights_quick_run_reports_coverage(capsys, tmp_path):
+    """bench_weights --quick: per level, the weighted and unweighted rows; the weighted intervals cover the truth."""
+    module = _load("bench_weights")
+    output = tmp_path / "weights.md"
+    assert module.main(["--quick", "--output", str(output)]) == 0
+    text = capsys.readouterr().out
+    tables = _tables(text)
+    assert len(tables) == 2
+    for t in tables:
+        assert t[0] == ["intervals", "samples", "coverage E[g ∣ a], both groups", "coverage L̄", "simultaneous"]
+        weighted, unweighted = t[1], t[2]
+        assert weighted[0] == "weighted (Kish n_eff)" and float(weighted[4]) >= 0.85
+        assert unweighted[0] == "unweighted" and float(unweighted[2]) < 0.5  # the biased truth is missed
+    assert output.read_text(encoding="utf-8") == text

@@ -161,6 +161,36 @@ epsilon = 1.0
     assert str(err.value).endswith("model.csv.names: name the columns of a file without a header")
 
 
+def test_records_model_with_weights(tmp_path):
+    # [model] weight_column: the kernel from weighted counts, as count_records(weights=...) makes it; intervals refused
+    df = pd.DataFrame(
+        {
+            "profile": ["a", "a", "a", "b", "b", "b"],
+            "office": ["HR_1", "HR_2", "HR_2", "HR_1", "HR_1", "HR_2"],
+            "w": [1.0, 3.0, 1.0, 2.0, 1.0, 1.0],
+        }
+    )
+    df.to_csv(tmp_path / "records.csv", index=False)
+    spec = HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + """
+[privacy.sensitive]
+mechanism = "randomized_response"
+epsilon = 1.0
+[model]
+records = "records.csv"
+weight_column = "w"
+"""
+    (tmp_path / "s.toml").write_text(spec)
+    cert = fa.certify(tmp_path / "s.toml")
+    # unfiltered P(HR_2 | a) = 4/5, P(HR_2 | b) = 1/4; behind RR(eps = 1) each released group mixes the two
+    p = math.e / (1 + math.e)
+    a, b = p * 0.8 + (1 - p) * 0.25, p * 0.25 + (1 - p) * 0.8
+    assert cert.observed.local.value == pytest.approx(math.log(max(a, b) / min(a, b)), rel=1e-12)
+    assert cert.intervals is None and "weighted (model.weight_column)" in cert.intervals_reason
+    (tmp_path / "t.toml").write_text(spec.replace('records = "records.csv"', 'table = "records.csv"'))
+    with pytest.raises(InputError, match="weight_column weighs records"):
+        fa.certify(tmp_path / "t.toml")
+
+
 def test_table_utility_with_group_dependence():
     # g(u, x, a) = 1{u = a's own office}: depends on the group, L_A = 1 under the discrete metric.
     spec = parse_spec("""

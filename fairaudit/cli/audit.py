@@ -59,6 +59,11 @@ def add_parser(sub: Subparsers) -> None:
         metavar="C",
         help="Dirichlet prior mass of --method bayes (default 1, AIF360's smoothing)",
     )
+    a.add_argument(
+        "--weights",
+        metavar="COL",
+        help="column of sample (survey) weights: weighted counts; intervals on Kish's effective sample size",
+    )
     add_text_format(a)
     a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
     a.add_argument(
@@ -85,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
         dropna=args.dropna,
         count=args.count,
         csv=text_format(args),
+        weights=args.weights,
     )
     result = audit(
         table,

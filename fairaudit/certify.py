@@ -476,9 +476,13 @@ def _intervals(
     if kernel.counts is None:
         return None, None, "the model is a table of probabilities, not counts: no sampling uncertainty to report"
     if spec.model.model is not None and spec.model.model.weight_column is not None:
-        return None, None, (
-            "the model's records are weighted (model.weight_column): certify makes no intervals for them yet; "
-            "`fairaudit audit --weights` makes them on Kish's effective sample size"
+        return (
+            None,
+            None,
+            (
+                "the model's records are weighted (model.weight_column): certify makes no intervals for them yet; "
+                "`fairaudit audit --weights` makes them on Kish's effective sample size"
+            ),
         )
     table = CountTable(
         kernel.counts,

@@ -171,7 +171,9 @@ def test_records_model_with_weights(tmp_path):
         }
     )
     df.to_csv(tmp_path / "records.csv", index=False)
-    spec = HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + """
+    spec = (
+        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        + """
 [privacy.sensitive]
 mechanism = "randomized_response"
 epsilon = 1.0
@@ -179,6 +181,7 @@ epsilon = 1.0
 records = "records.csv"
 weight_column = "w"
 """
+    )
     (tmp_path / "s.toml").write_text(spec)
     cert = fa.certify(tmp_path / "s.toml")
     # unfiltered P(HR_2 | a) = 4/5, P(HR_2 | b) = 1/4; behind RR(eps = 1) each released group mixes the two

@@ -96,7 +96,7 @@ def render(data: Report, kind: str, fmt: str) -> str:
     data : dict
         From :func:`certificate_dict`, :func:`audit_dict`, :func:`calibration_dict` or :func:`plan_dict`.
     kind : {"certify", "audit", "calibrate", "plan"}
-    fmt : {"text", "json", "markdown"}
+    fmt : {"text", "json", "markdown", "html"}
         One of :data:`FORMATS`.
 
     Raises
@@ -110,10 +110,10 @@ def render(data: Report, kind: str, fmt: str) -> str:
     {
       "epsilon": "inf"
     }
-    >>> render({}, "audit", "html")
+    >>> render({}, "audit", "pdf")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: format: must be one of text, json, markdown (got 'html')
+    fairaudit._errors.InputError: format: must be one of text, json, markdown, html (got 'pdf')
     """
     formatter = FORMATTERS.get(fmt)
     if formatter is None:

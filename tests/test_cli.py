@@ -102,7 +102,7 @@ def test_certify_text_and_markdown(capsys):
     code, out, _ = run(capsys, "certify", EXAMPLES / "gpt35.toml")
     assert code == 0 and "certified: yes" in out and "financial analyst" in out
     code, out, _ = run(capsys, "certify", EXAMPLES / "gpt35.toml", "--format", "markdown")
-    assert out.startswith("# fairaudit certificate") and "| paper |" in out
+    assert out.startswith("# fairaudit certificate") and "| paper (main theorem) |" in out
 
 
 SPEC = OFFICE_SPEC + "tau = 0.25\n"

@@ -1,10 +1,39 @@
-"""Pieces shared by the text and Markdown formats: numbers in words, pairs of groups, common lines."""
+"""Pieces shared by the formats (text, Markdown, HTML): numbers in words, pairs of groups, the rows of common tables.
+
+The row builders return plain text, unescaped: each format escapes what it
+writes (Markdown's table cells, HTML's text).
+"""
 
 from __future__ import annotations
 
 from .._json import Report
 
-__all__ = ["PLAN_HEAD", "fmt", "goal", "measure", "nats", "pair", "plan_head", "plan_rows", "population_line"]
+__all__ = [
+    "BOUNDS",
+    "CONTEXTS_SHOWN",
+    "EXCLUDED_SHOWN",
+    "METRICS",
+    "PLAN_HEAD",
+    "assumption_rows",
+    "audit_facts",
+    "bound_detail",
+    "calibration_sentences",
+    "certificate_facts",
+    "counts_sentence",
+    "fmt",
+    "goal",
+    "interval",
+    "measure",
+    "metric_rows",
+    "nats",
+    "observed_notes",
+    "pair",
+    "plan_head",
+    "plan_rows",
+    "population_line",
+    "target_rows",
+    "where",
+]
 
 
 def fmt(v: object, digits: int = 6) -> str:
@@ -31,12 +60,24 @@ def nats(v: object) -> str:
     return "n/a" if v is None else ("inf" if v == "inf" else f"{fmt(v)} nats")
 
 
-def pair(d: Report) -> str:
-    """`` (a vs b in context x)`` of a measure's dictionary; empty without a group."""
-    where = f" in context {d['context']!s}" if d.get("context") is not None else ""
+def where(d: Report) -> str:
+    """``a vs b in context x`` of a measure's dictionary (where it is attained); empty without a group.
+
+    Examples
+    --------
+    >>> where({"group": "f", "other_group": "m (40+)", "context": "x"}), where({"group": None})
+    ('f vs m (40+) in context x', '')
+    """
     if d.get("group") is None:
         return ""
-    return f" ({d['group']} vs {d['other_group']}{where})"
+    ctx = f" in context {d['context']!s}" if d.get("context") is not None else ""
+    return f"{d['group']!s} vs {d['other_group']!s}{ctx}"
+
+
+def pair(d: Report) -> str:
+    """`` (a vs b in context x)`` of a measure's dictionary; empty without a group."""
+    w = where(d)
+    return f" ({w})" if w else ""
 
 
 def population_line(d: Report) -> str:
@@ -99,3 +140,169 @@ def plan_rows(d: Report) -> list[tuple[str, ...]]:
         )
         for p in d["plans"]
     ]
+
+
+#: The certificate's bounds on L, in the order shown, with their names.
+BOUNDS = (
+    ("paper", "paper (main theorem)"),
+    ("tight", "tight (its proof, per pair)"),
+    ("black_box", "black-box (exact worst case)"),
+    ("corollary", "corollary (epsilon)"),
+)
+
+#: The observed metrics, in the order shown, with their names.
+METRICS = (
+    ("local", "local g-fairness L"),
+    ("global", "global g-fairness L-bar"),
+    ("demographic_parity", "demographic parity gap"),
+    ("equalized_odds", "equalized odds gap"),
+    ("sup_local", "sup over g of L"),
+    ("sup_global", "sup over g of L-bar"),
+)
+
+#: How many exclusions the reports list (the JSON has them all).
+EXCLUDED_SHOWN = 10
+
+#: How many contexts the text and Markdown reports list with their records (the JSON has them all).
+CONTEXTS_SHOWN = 30
+
+
+def certificate_facts(d: Report) -> list[tuple[str, str]]:
+    """What a certificate is about, as (name, description): the privacy of A and of X, the utility, the population."""
+    ps, pc, u = d["privacy"]["sensitive"], d["privacy"]["context"], d["utility"]
+    return [
+        (
+            f"privacy of {d['sensitive']['name']!s}",
+            f"{ps['mechanism']}, epsilon = {nats(ps['epsilon'])}, delta = {fmt(ps['delta'])}, "
+            f"keep probability {fmt(ps['keep_probability'])}",
+        ),
+        (f"privacy of {d['context']['name']!s}", f"{pc['mechanism']}, epsilon = {nats(pc['epsilon'])}"),
+        (
+            "utility",
+            f"{u['name']}, range [{fmt(u['lower'])}, {fmt(u['gamma'])}], tau = {fmt(u['tau'])}, "
+            f"L_A = {fmt(u['lipschitz'])}",
+        ),
+        ("population P(X, A)", population_line(d).removeprefix("population P(X, A): ")),
+    ]
+
+
+def audit_facts(d: Report) -> list[tuple[str, str]]:
+    """What an audit is about, as (name, description): columns, utility, population and the intervals' level."""
+    facts = [
+        ("sensitive", ", ".join(str(s) for s in d["sensitive"])),
+        ("outcome", str(d["outcome"])),
+        ("context", ", ".join(str(c) for c in d["context_columns"]) or "none"),
+        ("utility", str(d["utility"]["name"])),
+        ("population P(X, A)", population_line(d).removeprefix("population P(X, A): ")),
+    ]
+    if d["confidence"] is not None:
+        facts.append(("intervals", f"simultaneous {fmt(d['confidence'])} ({d['interval_method']})"))
+    return facts
+
+
+def bound_detail(d: Report, key: str) -> str:
+    """How a certificate's bound ``key`` (of :data:`BOUNDS`) was found, or why it is missing or does not apply."""
+    det, v = d["bound_details"], d["bounds"][key]
+    extra = ""
+    if key in ("paper", "tight") and key in det:
+        extra = f"at epsilon = {fmt(det[key]['epsilon'])}, delta = {fmt(det[key]['delta'])}"
+    if key == "black_box":
+        bb = det["black_box"]
+        extra = (
+            f"({bb['reason']})"
+            if bb.get("value") is None
+            else f"({fmt(bb['group'])} over {fmt(bb['other_group'])}; on L-bar {nats(bb['global']['value'])})"
+        )
+    if key in ("paper", "tight") and v is None:
+        extra = "(needs utility.tau)"
+    if key in det and det[key].get("holds") is False:
+        extra += " (does not apply: an assumption is violated)"
+    return extra.strip()
+
+
+def interval(o: Report, key: str) -> str | None:
+    """``[lower, upper]`` of metric ``key`` in an observed dictionary, None without one."""
+    iv = (o.get("intervals") or {}).get(key)
+    return f"[{fmt(iv['lower'])}, {fmt(iv['upper'])}]" if iv else None
+
+
+def metric_rows(o: Report) -> list[tuple[str, str, str, str, str | None]]:
+    """The observed metrics (:data:`METRICS`): (name, value, ratio or decision, where, interval or None)."""
+    det = o["details"]
+    rows: list[tuple[str, str, str, str, str | None]] = []
+    for key, name in METRICS:
+        if key in ("local", "global"):
+            f = o[key]
+            rows.append((name, nats(f["value"]), f"ratio {fmt(f['ratio'])}", where(f), interval(o, key)))
+        elif key in ("sup_local", "sup_global"):
+            s = det[key]
+            rows.append((name, nats(o[key]), f"decision {s['decision']!s}", where(s), interval(o, key)))
+        else:
+            rows.append((name, fmt(o[key]), "", where(det[key]), interval(o, key)))
+    return rows
+
+
+def counts_sentence(o: Report) -> str | None:
+    """The white-box certificate and the evidence of unfairness that the intervals on L give, None without them."""
+    iv = o.get("intervals")
+    if not iv or not iv.get("local"):
+        return None
+    return (
+        f"from counts, simultaneous {fmt(iv['confidence'])} ({iv['method']}): white-box certificate "
+        f"L <= {nats(iv['local']['upper'])}; evidence of unfairness L >= {nats(iv['local']['lower'])}"
+    )
+
+
+def observed_notes(o: Report) -> tuple[list[str], list[str], int]:
+    """The intervals' notes, the first :data:`EXCLUDED_SHOWN` exclusions and how many more there are."""
+    notes = [str(n) for n in (o.get("intervals") or {}).get("notes", [])]
+    excluded = [str(e) for e in o.get("excluded", [])]
+    return notes, excluded[:EXCLUDED_SHOWN], max(0, len(excluded) - EXCLUDED_SHOWN)
+
+
+def target_rows(targets: Report) -> list[tuple[str, str, str, str, str, str]]:
+    """One row per target: (target, value, bound, met or NOT met, observed, reason)."""
+    return [
+        (
+            str(k),
+            nats(t["target"]),
+            nats(t["bound"]),
+            "met" if t["met"] else "NOT met",
+            nats(t["observed"]),
+            str(t["reason"]),
+        )
+        for k, t in targets.items()
+    ]
+
+
+def assumption_rows(d: Report) -> list[tuple[str, str, str, str]]:
+    """One row per assumption of a certificate: (name, status, detail, the bounds it is needed for)."""
+    return [(str(a["name"]), str(a["status"]), str(a["detail"]), ", ".join(a["for"])) for a in d["assumptions"]]
+
+
+def calibration_sentences(c: Report) -> list[str]:
+    """A certificate's calibration as sentences: the black-box ε for any model (or why none), the white-box one."""
+    lines: list[str] = []
+    if c["method"] is None:
+        lines.append(f"Calibration: skipped ({c['reason']}).")
+    elif c["feasible"]:
+        goals = " and ".join(goal(k, v) for k, v in c.get("targets", {}).items()) or goal(c["kind"], c["target"])
+        lines.append(
+            f"Calibration: {c.get('family') or 'randomized response'} with ε ≤ {nats(c['epsilon'])} "
+            f"(keep probability {fmt(c['keep_probability'])}) would meet {goals} for any model ({c['method']})."
+        )
+        if "left_out" in c:
+            lines.append(f"Calibration leaves out a target: {c['left_out']}.")
+    else:
+        lines.append(
+            f"Calibration: no ε meets {goal(c['kind'], c['target'])} for any model ({c['method']}): {c['reason']}."
+        )
+    w = c.get("white_box")
+    if w is not None and w["feasible"]:
+        lines.append(
+            f"Calibration for this model (white_box): ε ≤ {nats(w['epsilon'])} (keep probability "
+            f"{fmt(w['keep_probability'])}) keeps its {measure(w)} ≤ {nats(w['target'])}."
+        )
+    elif w is not None:
+        lines.append(f"Calibration for this model (white_box): no ε: {w['reason']}.")
+    return lines

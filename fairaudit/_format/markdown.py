@@ -1,15 +1,107 @@
-"""The Markdown format: headings, sentences and tables (``--format markdown``)."""
+"""The Markdown format: headings, sentences and tables (``--format markdown``).
+
+Every text that comes from the data (labels, names, titles, notes) goes
+through :func:`escape`, so that a label such as ``a|b``, ``*x*`` or
+``<script>`` is shown as written and never breaks a table, starts emphasis or
+becomes HTML: in table cells and in sentences alike.
+"""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 
 from .._json import Report
 from ._base import Format
-from ._common import PLAN_HEAD, fmt, goal, nats, pair, plan_head, plan_rows, population_line
+from ._common import (
+    BOUNDS,
+    CONTEXTS_SHOWN,
+    PLAN_HEAD,
+    assumption_rows,
+    audit_facts,
+    bound_detail,
+    calibration_sentences,
+    certificate_facts,
+    counts_sentence,
+    fmt,
+    metric_rows,
+    nats,
+    observed_notes,
+    plan_head,
+    plan_rows,
+    target_rows,
+)
 from .text import calibration_text
 
-__all__ = ["MarkdownFormat"]
+__all__ = ["MarkdownFormat", "code_block", "code_span", "escape"]
+
+# Markdown's inline syntax that a text could trigger, each made literal (CommonMark/GFM and Python-Markdown alike):
+# the backslash escapes, "_" only at a word's edge (inside a word it is no emphasis), "<" before what could open a
+# tag or an autolink, "&" before what could be an entity, "~~" (GFM's strikethrough; "\~" is no escape everywhere).
+_SPECIAL = re.compile(
+    r"""(?P<bs>[\\`*\[\]|#])"""
+    r"""|(?P<us>(?<![A-Za-z0-9])_|_(?![A-Za-z0-9]))"""
+    r"""|(?P<lt><(?=[A-Za-z/!?]))"""
+    r"""|(?P<amp>&(?=#?[A-Za-z0-9]+;))"""
+    r"""|(?P<tilde>~(?=~)|(?<=~)~)"""
+)
+
+
+def _replace(m: re.Match[str]) -> str:
+    if m.lastgroup == "lt":
+        return "&lt;"
+    if m.lastgroup == "amp":
+        return "&amp;"
+    if m.lastgroup == "tilde":
+        return "&#126;"
+    return "\\" + m.group(0)
+
+
+def escape(text: object) -> str:
+    """``text`` as Markdown that shows it literally, on one line (table cells included).
+
+    Backslash-escapes ``\\ ` * [ ] | #`` and ``_`` at a word's edge; writes
+    ``<`` before a letter, ``/``, ``!`` or ``?`` as ``&lt;``, ``&`` before an
+    entity as ``&amp;`` and ``~~`` as ``&#126;&#126;``; a line break becomes
+    ``<br>``. Other characters stay as they are, so that ordinary labels
+    read the same in the Markdown source.
+
+    Parameters
+    ----------
+    text : object
+        Anything; ``str(text)`` is escaped.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> print(escape("a|b"), escape("*x* A_M _y_"), escape("<script>"), escape("<=50K & >50K"), escape("a\\nb"))
+    a\\|b \\*x\\* A_M \\_y\\_ &lt;script> <=50K & >50K a<br>b
+    """
+    s = str(text).replace("\r\n", "\n").replace("\r", "\n")
+    return _SPECIAL.sub(_replace, s).replace("\n", "<br>")
+
+
+def code_span(text: object) -> str:
+    """``text`` as an inline code span: fenced by more backticks than it contains, on one line.
+
+    Examples
+    --------
+    >>> code_span("u >= 5"), code_span("a`b")
+    ('`u >= 5`', '`` a`b ``')
+    """
+    s = " ".join(str(text).splitlines())
+    fence = "`" * (max((len(r) for r in re.findall("`+", s)), default=0) + 1)
+    pad = " " if s.startswith("`") or s.endswith("`") or fence != "`" else ""
+    return f"{fence}{pad}{s}{pad}{fence}"
+
+
+def code_block(text: str) -> str:
+    """``text`` in a fenced code block whose fence is longer than any run of backticks in it."""
+    fence = "`" * max(3, max((len(r) for r in re.findall("`+", text)), default=0) + 1)
+    return f"{fence}\n{text if text.endswith(chr(10)) else text + chr(10)}{fence}\n"
 
 
 class MarkdownFormat(Format):
@@ -18,125 +110,97 @@ class MarkdownFormat(Format):
     name = "markdown"
 
     def certificate(self, d: Report) -> str:
-        """Privacy, population, the bounds, what was observed, targets, calibration and assumptions."""
-        lines = [f"# fairaudit certificate: {d['title'] or d['spec']}", ""]
-        ps = d["privacy"]["sensitive"]
-        lines.append(
-            f"Privacy of **{d['sensitive']['name']}**: {ps['mechanism']}, ε = {nats(ps['epsilon'])}, "
-            f"keep probability {fmt(ps['keep_probability'])}."
-        )
-        lines += ["", f"Population P(X, A): {population_line(d).removeprefix('population P(X, A): ')}."]
-        lines += ["", "## Bounds on L for any decision model", ""]
-        rows = [(k, nats(d["bounds"][k])) for k in ("paper", "tight", "black_box", "corollary")]
-        lines += _table(rows, ("bound", "value"))
-        lines += ["", f"Best valid bound: **{nats(d['bounds']['best'])}** ({d['bounds']['best_form']})."]
+        """Privacy, utility, population, the bounds, what was observed, targets, calibration and assumptions."""
+        lines = [f"# fairaudit certificate: {escape(d['title'] or d['spec'])}", ""]
+        lines += _facts(certificate_facts(d))
+        lines += ["", "## Bounds on L for any decision model behind the filter", ""]
+        rows = [(name, nats(d["bounds"][k]), bound_detail(d, k)) for k, name in BOUNDS]
+        lines += _table(rows, ("bound", "value", "details"))
+        lines += [
+            "",
+            f"Best valid bound: **{nats(d['bounds']['best'])}** ({escape(d['bounds']['best_form'])}).",
+        ]
         for key, head in (("observed", "Observed behind the filter"), ("unfiltered", "Observed without the filter")):
             if key in d:
-                lines += ["", f"## {head}", ""] + _observed_table(d[key])
+                lines += ["", f"## {head}", ""] + _observed(d[key], counts=key == "observed")
         if "targets" in d:
             lines += ["", "## Targets", ""]
-            lines += _table(
-                [
-                    (k, nats(t["target"]), nats(t["bound"]), "met" if t["met"] else "NOT met")
-                    for k, t in d["targets"].items()
-                ],
-                ("target", "value", "bound", "result"),
-            )
+            lines += _table(target_rows(d["targets"]), ("target", "value", "bound", "result", "observed", "reason"))
         if "calibration" in d:
-            lines += _calibration_lines(d["calibration"])
+            lines += ["", "## Calibration"]
+            for sentence in calibration_sentences(d["calibration"]):
+                lines += ["", escape(sentence)]
         lines += ["", "## Assumptions", ""]
-        lines += _table(
-            [(a["name"], a["status"], a["detail"], ", ".join(a["for"])) for a in d["assumptions"]],
-            ("assumption", "status", "detail", "for"),
-        )
+        lines += _table(assumption_rows(d), ("assumption", "status", "detail", "for"))
         lines += ["", f"**Certified: {'yes' if d['certified'] else 'no'}**", ""]
         return "\n".join(lines)
 
     def audit(self, d: Report) -> str:
-        """Records per group, the population and the metrics' table."""
-        lines = [
-            f"# fairaudit audit: {d['n']} records",
-            "",
-            f"Sensitive: {', '.join(d['sensitive'])}; outcome: {d['outcome']}; utility: `{d['utility']['name']}`.",
-            "",
-        ]
+        """The audit's columns, records per group and per context, the population, the metrics and the notes."""
+        lines = [f"# fairaudit audit: {d['n']} records", ""]
+        lines += _facts(audit_facts(d), code=("utility",))
+        lines += ["", "## Records per group", ""]
         lines += _table([(g["label"], g["n"]) for g in d["groups"]], ("group", "records"))
-        lines += ["", f"Population P(X, A): {population_line(d).removeprefix('population P(X, A): ')}.", ""]
-        lines += _observed_table(d) + [""]
+        if len(d["contexts"]) > 1:
+            lines += ["", "## Records per context", ""]
+            shown = d["contexts"][:CONTEXTS_SHOWN]
+            lines += _table([(c["label"], c["n"]) for c in shown], ("context", "records"))
+            if len(d["contexts"]) > len(shown):
+                lines += ["", f"... and {len(d['contexts']) - len(shown)} more contexts (all in `--format json`)."]
+        lines += ["", "## Metrics", ""] + _observed(d) + [""]
         return "\n".join(lines)
 
     def calibration(self, d: Report) -> str:
         """The text report in a code block under a heading."""
-        return "# fairaudit calibration\n\n```\n" + calibration_text(d) + "```\n"
+        return "# fairaudit calibration\n\n" + code_block(calibration_text(d))
 
     def plan(self, d: Report) -> str:
         """The question and the assumed model as sentences, then a table of the methods."""
         head = plan_head(d)
-        lines = ["# fairaudit plan", "", head[0] + ".", "", head[1] + ".", ""]
+        lines = ["# fairaudit plan", "", escape(head[0]) + ".", "", escape(head[1]) + ".", ""]
         lines += _table(plan_rows(d), PLAN_HEAD)
-        lines += [""] + [f"* {p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
+        lines += [""] + [f"* {escape(p['method'])}: {escape(p['reason'])}" for p in d["plans"] if p["reason"]]
         return "\n".join(lines).rstrip("\n") + "\n"
 
 
-def _table(rows: Sequence[tuple[object, ...]], head: tuple[str, ...]) -> list[str]:
-    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+def _table(rows: Sequence[Sequence[object]], head: Sequence[str]) -> list[str]:
+    """A table whose every cell is escaped (:func:`escape`): a cell never splits nor spans lines."""
+    out = ["| " + " | ".join(escape(h) for h in head) + " |", "|" + "---|" * len(head)]
+    out += ["| " + " | ".join(escape(c) for c in r) + " |" for r in rows]
     return out
 
 
-def _observed_table(o: Report) -> list[str]:
-    """The observed metrics: value, where it is attained and, with intervals, the interval."""
-    rows: list[tuple[str, ...]] = [
-        ("local g-fairness L", nats(o["local"]["value"]), pair(o["local"]).strip(" ()")),
-        ("global g-fairness L-bar", nats(o["global"]["value"]), pair(o["global"]).strip(" ()")),
-        (
-            "demographic parity gap",
-            fmt(o["demographic_parity"]),
-            pair(o["details"]["demographic_parity"]).strip(" ()"),
-        ),
-        ("equalized odds gap", fmt(o["equalized_odds"]), pair(o["details"]["equalized_odds"]).strip(" ()")),
-        ("sup over g of L", nats(o["sup_local"]), pair(o["details"]["sup_local"]).strip(" ()")),
-        ("sup over g of L-bar", nats(o["sup_global"]), pair(o["details"]["sup_global"]).strip(" ()")),
-    ]
-    if o.get("intervals"):
-        iv = o["intervals"]
-        rows = [
-            r + (f"[{fmt(iv[k]['lower'])}, {fmt(iv[k]['upper'])}]" if iv.get(k) else "n/a",)
-            for r, k in zip(
-                rows, ("local", "global", "demographic_parity", "equalized_odds", "sup_local", "sup_global")
-            )
-        ]
-        head = ("metric", "value", "where", f"simultaneous {fmt(iv['confidence'])} interval ({iv['method']})")
-        return _table(rows, head)
-    return _table(rows, ("metric", "value", "where"))
+def _facts(facts: Sequence[tuple[str, str]], code: tuple[str, ...] = ()) -> list[str]:
+    """A bulleted list ``name: description``; the descriptions of the names in ``code`` as code spans."""
+    return [f"* **{escape(k)}**: {code_span(v) if k in code else escape(v)}" for k, v in facts]
 
 
-def _calibration_lines(c: Report) -> list[str]:
-    """A certificate's calibration as sentences: the black-box ε for any model (or why none), the white-box one."""
-    lines: list[str] = []
-    if c["method"] is None:
-        lines += ["", f"Calibration: skipped ({c['reason']})."]
-    elif c["feasible"]:
-        goals = " and ".join(goal(k, v) for k, v in c.get("targets", {}).items()) or goal(c["kind"], c["target"])
-        lines += [
-            "",
-            f"Calibration: ε ≤ {nats(c['epsilon'])} (keep probability {fmt(c['keep_probability'])}) "
-            f"would meet {goals} for any model ({c['method']}).",
-        ]
-        if "left_out" in c:
-            lines += ["", f"Calibration leaves out a target: {c['left_out']}."]
+def _observed(o: Report, counts: bool = False) -> list[str]:
+    """The observed metrics (value, ratio or decision, where, interval), then the intervals' notes and exclusions.
+
+    With ``counts``, the white-box certificate and evidence that the intervals give (:func:`counts_sentence`).
+    """
+    rows = metric_rows(o)
+    iv = o.get("intervals")
+    if iv:
+        head: tuple[str, ...] = (
+            "metric",
+            "value",
+            "ratio or decision",
+            "where",
+            f"simultaneous {fmt(iv['confidence'])} interval ({iv['method']})",
+        )
+        lines = _table([r[:4] + (r[4] or "n/a",) for r in rows], head)
     else:
-        lines += [
-            "",
-            f"Calibration: no ε meets {goal(c['kind'], c['target'])} for any model ({c['method']}): {c['reason']}.",
-        ]
-    w = c.get("white_box")
-    if w is not None:
-        lines += [
-            "",
-            f"Calibration for this model (white_box): ε ≤ {nats(w['epsilon'])} (keep probability "
-            f"{fmt(w['keep_probability'])})."
-            if w["feasible"]
-            else f"Calibration for this model (white_box): no ε: {w['reason']}.",
-        ]
+        lines = _table([r[:4] for r in rows], ("metric", "value", "ratio or decision", "where"))
+    sentence = counts_sentence(o) if counts else None
+    if sentence is not None:
+        lines += ["", escape(sentence[0].upper() + sentence[1:]) + "."]
+    notes, excluded, more = observed_notes(o)
+    if notes:
+        lines += ["", "Notes on the intervals:", ""] + [f"* {escape(n)}" for n in notes]
+    if excluded:
+        lines += ["", "Excluded:", ""] + [f"* {escape(e)}" for e in excluded]
+        if more:
+            lines.append(f"* ... and {more} more exclusions (all in `--format json`)")
     return lines

@@ -4,7 +4,21 @@ from __future__ import annotations
 
 from .._json import Report
 from ._base import Format
-from ._common import PLAN_HEAD, fmt, goal, measure, nats, pair, plan_head, plan_rows, population_line
+from ._common import (
+    BOUNDS,
+    PLAN_HEAD,
+    bound_detail,
+    certificate_facts,
+    counts_sentence,
+    fmt,
+    goal,
+    measure,
+    nats,
+    pair,
+    plan_head,
+    plan_rows,
+    population_line,
+)
 
 __all__ = ["TextFormat", "calibration_text"]
 
@@ -20,12 +34,9 @@ class TextFormat(Format):
         lines += _bound_lines(d)
         if "observed" in d:
             lines += _observed_lines(d["observed"], "observed, the model behind the filter:")
-            iv = d["observed"].get("intervals")
-            if iv and iv.get("local"):
-                lines.append(
-                    f"  from counts, simultaneous {fmt(iv['confidence'])} ({iv['method']}): white-box certificate "
-                    f"L <= {nats(iv['local']['upper'])}; evidence of unfairness L >= {nats(iv['local']['lower'])}"
-                )
+            counts = counts_sentence(d["observed"])
+            if counts is not None:
+                lines.append(f"  {counts}")
         if "unfiltered" in d:
             lines += _observed_lines(d["unfiltered"], "observed, the model without the filter:")
         if "targets" in d:
@@ -93,53 +104,15 @@ def calibration_text(d: Report) -> str:
 
 def _certificate_head(d: Report) -> list[str]:
     """Title, the privacy of the sensitive attribute and of the context, the utility and the population."""
-    lines = [f"fairaudit certificate: {d['title'] or d['spec']}"]
-    ps = d["privacy"]["sensitive"]
-    lines.append(
-        f"privacy of {d['sensitive']['name']}: {ps['mechanism']}, epsilon = {nats(ps['epsilon'])}, delta = "
-        f"{fmt(ps['delta'])}, keep probability {fmt(ps['keep_probability'])}"
-    )
-    pc = d["privacy"]["context"]
-    lines.append(f"privacy of {d['context']['name']}: {pc['mechanism']}, epsilon = {nats(pc['epsilon'])}")
-    u = d["utility"]
-    lines.append(
-        f"utility: {u['name']}, range [{fmt(u['lower'])}, {fmt(u['gamma'])}], tau = {fmt(u['tau'])}, "
-        f"L_A = {fmt(u['lipschitz'])}"
-    )
-    lines.append(population_line(d))
-    return lines
-
-
-#: The certificate's bounds on L, in the order printed, with their names.
-_BOUNDS = (
-    ("paper", "paper (main theorem)"),
-    ("tight", "tight (its proof, per pair)"),
-    ("black_box", "black-box (exact worst case)"),
-    ("corollary", "corollary (epsilon)"),
-)
+    return [f"fairaudit certificate: {d['title'] or d['spec']}"] + [f"{k}: {v}" for k, v in certificate_facts(d)]
 
 
 def _bound_lines(d: Report) -> list[str]:
     """The bounds on L for any model behind the filter, each with its details, then the best valid one."""
     lines = ["bounds on L for any decision model behind the filter:"]
-    det = d["bound_details"]
-    for key, name in _BOUNDS:
-        v = d["bounds"][key]
-        extra = ""
-        if key in ("paper", "tight") and key in det:
-            extra = f" at epsilon = {fmt(det[key]['epsilon'])}, delta = {fmt(det[key]['delta'])}"
-        if key == "black_box":
-            bb = det["black_box"]
-            extra = (
-                f" ({bb['reason']})"
-                if bb.get("value") is None
-                else f" ({fmt(bb['group'])} over {fmt(bb['other_group'])}; on L-bar {nats(bb['global']['value'])})"
-            )
-        if key in ("paper", "tight") and v is None:
-            extra = " (needs utility.tau)"
-        if key in det and det[key].get("holds") is False:
-            extra += " (does not apply: an assumption is violated)"
-        lines.append(f"  {name:<30} {nats(v)}{extra}")
+    for key, name in BOUNDS:
+        detail = bound_detail(d, key)
+        lines.append(f"  {name:<30} {nats(d['bounds'][key])}{' ' + detail if detail else ''}")
     lines.append(f"  best valid bound: {nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
     return lines
 

@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name is imported w
     from .certify import Certificate, certify
     from .curves import PrivacyCurve, privacy_curve
     from .estimate import CountTable, CsvFormat, count_file, count_records, count_table, read_records
+    from .impact_ratio import ImpactRatios, impact_ratios
     from .intervals import FairnessIntervals, Interval, fairness_intervals
     from .laws import Kernel, Law, Population, compose
     from .metrics import (
@@ -102,6 +103,8 @@ __all__ = [
     "count_records",
     "count_table",
     "fairness_intervals",
+    "ImpactRatios",
+    "impact_ratios",
     "plan",
     "read_records",
     "utility_from_expression",
@@ -151,6 +154,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
     "certify": ("Certificate", "certify"),
     "curves": ("PrivacyCurve", "privacy_curve"),
     "estimate": ("CountTable", "CsvFormat", "count_file", "count_records", "count_table", "read_records"),
+    "impact_ratio": ("ImpactRatios", "impact_ratios"),
     "intervals": ("FairnessIntervals", "Interval", "fairness_intervals"),
     "laws": ("Kernel", "Law", "Population", "compose"),
     "metrics": (

@@ -79,6 +79,11 @@ class CountTable:
     squares : numpy.ndarray or None
         With weights, the sum of the squared weights per (x, a, u), for the
         effective sample sizes of :meth:`effective_counts`.
+    missing : tuple of (str, float)
+        With ``dropna``, the records dropped for a missing value, per used
+        column (with weights, their weight), and for several sensitive
+        columns under their names joined by ``" x "`` (a value missing in
+        any of them); empty when nothing was dropped.
     """
 
     counts: Counts
@@ -90,6 +95,7 @@ class CountTable:
     outcome_column: str
     weight_column: str | None = None
     squares: Counts | None = None
+    missing: tuple[tuple[str, float], ...] = ()
 
     @property
     def n(self) -> int | float:
@@ -245,8 +251,15 @@ def _tally(
             col = missing[missing > 0].index[0]
             raise missing_values(col, missing[col])
         keep = ~isna.any(axis=1).to_numpy()
+        dropped = [(str(c), float(missing[c])) for c in used if missing[c] > 0]
+        if len(sensitive) > 1:
+            any_sensitive = isna[sensitive].any(axis=1)
+            n_any = any_sensitive.sum() if weights is None else any_sensitive.mul(weights).sum()
+            dropped += [(" x ".join(sensitive), float(n_any))] if n_any > 0 else []
         frame = frame[keep]
         weights = None if weights is None else weights[keep]
+    else:
+        dropped = []
     if len(frame) == 0:
         raise InputError("DATA", "has no records to count")
     cx, contexts = _codes(frame, context, "context")
@@ -258,13 +271,23 @@ def _tally(
         w = _sample_weights(frame[sample_weight], sample_weight)
         sums = [np.bincount(flat, weights=v, minlength=int(np.prod(shape))).reshape(shape) for v in (w, w * w)]
         columns = (tuple(context), tuple(sensitive), outcome)
-        return CountTable(sums[0], contexts, groups, decisions, *columns, weight_column=sample_weight, squares=sums[1])
+        return CountTable(
+            sums[0],
+            contexts,
+            groups,
+            decisions,
+            *columns,
+            weight_column=sample_weight,
+            squares=sums[1],
+            missing=tuple(dropped),
+        )
     if weights is None:
         counts = np.bincount(flat, minlength=int(np.prod(shape)))
     else:  # exact integer sums (a float bincount would round above 2**53)
         counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
         np.add.at(counts, flat, np.asarray(weights, dtype=np.int64))
-    return CountTable(counts.reshape(shape), contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
+    columns = (tuple(context), tuple(sensitive), outcome)
+    return CountTable(counts.reshape(shape), contexts, groups, decisions, *columns, missing=tuple(dropped))
 
 
 def _sample_weights(column: pd.Series, name: str) -> npt.NDArray[np.float64]:

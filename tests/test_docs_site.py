@@ -61,7 +61,7 @@ def test_cli_reference_has_every_command_and_option(monkeypatch):
                     assert f"`{option}`" in section, (p.prog, option)
             if action.choices is not None and not isinstance(action, argparse._SubParsersAction):
                 assert all(f"`{c}`" in section for c in action.choices), (p.prog, action.dest)
-    assert "| `--format` | `text` \\| `json` \\| `markdown` | `text` |" in sections["fairaudit certify"]
+    assert "| `--format` | `text` \\| `json` \\| `markdown` \\| `html` | `text` |" in sections["fairaudit certify"]
     assert "| `--target` | `L` |  | yes |" in sections["fairaudit calibrate"]
 
 

@@ -306,3 +306,44 @@ def calibration_sentences(c: Report) -> list[str]:
     elif w is not None:
         lines.append(f"Calibration for this model (white_box): no ε: {w['reason']}.")
     return lines
+
+
+IMPACT_HEAD = ("category", "number of applicants", "{rate} rate", "impact ratio", "interval ({level})")
+
+
+def impact_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[str, ...]]]]:
+    """The impact-ratio report (``--report impact-ratio``) as one table per category type: (type, head, rows).
+
+    The layout of published bias audits (NYC Local Law 144): category, number of applicants, selection (or
+    scoring) rate, impact ratio; then the simultaneous interval on the ratio. An excluded category (under 2% of
+    the data) keeps its number and rate, its ratio reads "excluded (< 2%)".
+    """
+    details = d["impact_ratio_details"]
+    head = tuple(h.format(rate=details["rate"], level=fmt(details["confidence"])) for h in IMPACT_HEAD)
+    tables: dict[str, list[tuple[str, ...]]] = {}
+    for r in d["impact_ratios"]:
+        ratio = "excluded (< 2%)" if r["excluded"] else fmt(r["impact_ratio"], 4)
+        interval = "" if r["interval"] is None else f"[{fmt(r['interval'][0], 4)}, {fmt(r['interval'][1], 4)}]"
+        tables.setdefault(r["type"], []).append((str(r["category"]), fmt(r["n"]), fmt(r["rate"], 4), ratio, interval))
+    return [(name, head, rows) for name, rows in tables.items()]
+
+
+def impact_notes(d: Report) -> list[str]:
+    """The sentences under the impact-ratio tables: the rate's definition, exclusions, unknown categories."""
+    details = d["impact_ratio_details"]
+    if details["rate"] == "scoring":
+        rate = (
+            f"scoring rate: the share of the category scoring above the whole sample's median, {fmt(details['median'])}"
+        )
+    else:
+        rate = "selection rate: the share of the category selected"
+    notes = [
+        f"{rate}; impact ratio: the category's rate over the highest rate of its type (6 RCNY 5-301); intervals "
+        f"simultaneous over every ratio at {fmt(details['confidence'])}"
+    ]
+    excluded = [f"{r['type']} {r['category']}" for r in d["impact_ratios"] if r["excluded"]]
+    if excluded:
+        notes.append("under 2% of the data, left out of the impact ratios: " + ", ".join(excluded))
+    unknown = [f"{k} {fmt(v)}" for k, v in details["unknown"].items() if v]
+    notes.append("records of unknown category: " + (", ".join(unknown) if unknown else "none"))
+    return notes

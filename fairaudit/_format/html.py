@@ -40,6 +40,8 @@ from ._common import (
     certificate_facts,
     counts_sentence,
     fmt,
+    impact_notes,
+    impact_tables,
     metric_rows,
     nats,
     observed_notes,
@@ -278,6 +280,12 @@ class HtmlFormat(Format):
             page.h2("E[g | x, a] per context and group")
             page.figure(lambda: _cells_figure(d), _cells_caption(d))
         _cells_table(page, d)
+        if "impact_ratios" in d:
+            page.h2("Impact ratios")
+            for name, head, impact_rows in impact_tables(d):
+                page.p(f"By {name}:")
+                page.table(head, impact_rows, numeric=(1, 2, 3))
+            page.bullets(impact_notes(d))
         return page.render(jinja2)
 
     def calibration(self, d: Report) -> str:

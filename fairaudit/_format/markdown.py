@@ -24,6 +24,8 @@ from ._common import (
     certificate_facts,
     counts_sentence,
     fmt,
+    impact_notes,
+    impact_tables,
     metric_rows,
     nats,
     observed_notes,
@@ -148,6 +150,11 @@ class MarkdownFormat(Format):
             if len(d["contexts"]) > len(shown):
                 lines += ["", f"... and {len(d['contexts']) - len(shown)} more contexts (all in `--format json`)."]
         lines += ["", "## Metrics", ""] + _observed(d) + [""]
+        if "impact_ratios" in d:
+            lines += ["## Impact ratios", ""]
+            for name, head, rows in impact_tables(d):
+                lines += [f"### {escape(name)}", ""] + _table(rows, head) + [""]
+            lines += [f"* {escape(n)}" for n in impact_notes(d)] + [""]
         return "\n".join(lines)
 
     def calibration(self, d: Report) -> str:

@@ -12,6 +12,8 @@ from ._common import (
     counts_sentence,
     fmt,
     goal,
+    impact_notes,
+    impact_tables,
     measure,
     nats,
     pair,
@@ -68,6 +70,8 @@ class TextFormat(Format):
         if d["confidence"] is not None:
             lines.append(f"intervals: simultaneous {fmt(d['confidence'])} ({d['interval_method']})")
         lines += _observed_lines(d, "metrics:")
+        if "impact_ratios" in d:
+            lines += _impact_lines(d)
         return "\n".join(lines) + "\n"
 
     def calibration(self, d: Report) -> str:
@@ -193,3 +197,14 @@ def _calibration_lines(c: Report) -> list[str]:
     elif w is not None:
         lines.append(f"calibration for this model: no epsilon (white_box): {w['reason']}")
     return lines
+
+
+def _impact_lines(d: Report) -> list[str]:
+    """The impact-ratio tables, aligned, one per category type, and their notes."""
+    lines = []
+    for name, head, rows in impact_tables(d):
+        table = [head, *rows]
+        widths = [max(len(r[i]) for r in table) for i in range(len(head))]
+        lines += ["", f"impact ratios by {name}:"]
+        lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in table]
+    return lines + [""] + impact_notes(d)

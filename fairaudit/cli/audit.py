@@ -64,6 +64,12 @@ def add_parser(sub: Subparsers) -> None:
         metavar="COL",
         help="column of sample (survey) weights: weighted counts; intervals on Kish's effective sample size",
     )
+    a.add_argument(
+        "--report",
+        choices=("impact-ratio",),
+        help="add a report: impact-ratio, the selection (or scoring) rate and impact ratio of each category of each "
+        "sensitive column and of their intersection, as NYC Local Law 144 bias audits publish them",
+    )
     add_text_format(a)
     a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
     a.add_argument(
@@ -92,13 +98,19 @@ def run(args: argparse.Namespace) -> int:
         csv=text_format(args),
         weights=args.weights,
     )
+    scoring = None
+    if args.report == "impact-ratio" and args.positive is None and args.utility is None:
+        from ..impact_ratio import scoring_utility
+
+        binary = {str(d) for d in table.decisions} <= {"0", "1", "True", "False"}
+        scoring = None if binary else scoring_utility(table)  # a score: g = 1{score > the sample's median}
     result = audit(
         table,
         sensitive=args.sensitive,
         outcome=args.outcome,
         context=args.context,
         positive=args.positive,
-        utility=args.utility,
+        utility=args.utility if scoring is None else scoring,
         confidence=args.confidence,
         method=args.method,
         dropna=args.dropna,
@@ -107,5 +119,12 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
     )
     data = audit_dict(result)
+    if args.report == "impact-ratio":
+        from ..impact_ratio import impact_ratios
+
+        report = impact_ratios(
+            table, None if scoring is not None else result.utility, confidence=args.confidence or 0.95
+        )
+        data.update(report.to_dict())
     emit(args, render(data, "audit", args.format), f"audit: {data['n']} records, L = {data['local']['value']} nats")
     return 0

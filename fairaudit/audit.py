@@ -25,6 +25,7 @@ from .expression import evaluate_utility_expression
 from .intervals import FairnessIntervals, fairness_intervals
 from .laws import Population
 from .utility import Utility, from_table, indicator
+from .utility_gaps import UtilityGaps, utility_gaps
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -68,6 +69,18 @@ class Audit:
         population = self.observed.global_.population
         assert population is not None  # (audit passes the records' own)
         return population
+
+    @property
+    def gaps_on_g(self) -> UtilityGaps:
+        """Demographic parity and equalized odds of g: differences of E[g] between groups, as fairlearn means them.
+
+        ``observed.demographic_parity`` and ``observed.equalized_odds`` are
+        total-variation gaps of U's whole distribution; these are the
+        differences of E[g | a] (pooled) and of E[g | x, a] (within a
+        context), the selection-rate differences for a 0/1 g
+        (:func:`fairaudit.utility_gaps.utility_gaps`).
+        """
+        return utility_gaps(self.observed.local, self.observed.global_)
 
     @property
     def by_group(self) -> pd.DataFrame:

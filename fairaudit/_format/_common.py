@@ -347,3 +347,23 @@ def impact_notes(d: Report) -> list[str]:
     unknown = [f"{k} {fmt(v)}" for k, v in details["unknown"].items() if v]
     notes.append("records of unknown category: " + (", ".join(unknown) if unknown else "none"))
     return notes
+
+
+def gap_rows(d: Report) -> list[tuple[str, str, str]]:
+    """The gaps of E[g] (``--gap-on g``): (label, value, the pair and where), labelled apart from U's gaps."""
+    gaps = d["gaps_on_g"]
+    rows = []
+    for key, name in (
+        ("demographic_parity", "demographic parity gap of g"),
+        ("equalized_odds", "equalized odds gap of g"),
+    ):
+        gap = gaps[key]
+        where = f" in context {gap['context']}" if key == "equalized_odds" else ""
+        rows.append((name, fmt(gap["value"]), f"{gap['group']} vs {gap['other_group']}{where}"))
+    return rows
+
+
+GAP_NOTE = (
+    "gaps of g: differences of E[g] between groups (fairlearn's selection-rate differences for a 0/1 g); the gaps "
+    "above are total-variation distances of the outcome's whole distribution"
+)

@@ -32,6 +32,7 @@ from .._json import Report
 from ._base import Format
 from ._common import (
     BOUNDS,
+    GAP_NOTE,
     PLAN_HEAD,
     assumption_rows,
     audit_facts,
@@ -40,6 +41,7 @@ from ._common import (
     certificate_facts,
     counts_sentence,
     fmt,
+    gap_rows,
     impact_notes,
     impact_tables,
     metric_rows,
@@ -279,6 +281,10 @@ class HtmlFormat(Format):
                 page.p(f"... and {len(d['contexts']) - len(shown)} more contexts (all in --format json).")
             page.h2("E[g | x, a] per context and group")
             page.figure(lambda: _cells_figure(d), _cells_caption(d))
+        if "gaps_on_g" in d:
+            page.h2("Gaps of g")
+            page.table(("metric", "value", "where"), gap_rows(d), numeric=(1,))
+            page.p(GAP_NOTE + ".")
         _cells_table(page, d)
         if "impact_ratios" in d:
             page.h2("Impact ratios")

@@ -16,6 +16,7 @@ from ._base import Format
 from ._common import (
     BOUNDS,
     CONTEXTS_SHOWN,
+    GAP_NOTE,
     PLAN_HEAD,
     assumption_rows,
     audit_facts,
@@ -24,6 +25,7 @@ from ._common import (
     certificate_facts,
     counts_sentence,
     fmt,
+    gap_rows,
     impact_notes,
     impact_tables,
     metric_rows,
@@ -150,6 +152,12 @@ class MarkdownFormat(Format):
             if len(d["contexts"]) > len(shown):
                 lines += ["", f"... and {len(d['contexts']) - len(shown)} more contexts (all in `--format json`)."]
         lines += ["", "## Metrics", ""] + _observed(d) + [""]
+        if "gaps_on_g" in d:
+            lines += (
+                ["## Gaps of g", ""]
+                + _table(gap_rows(d), ("metric", "value", "where"))
+                + ["", escape(GAP_NOTE) + ".", ""]
+            )
         if "impact_ratios" in d:
             lines += ["## Impact ratios", ""]
             for name, head, rows in impact_tables(d):

@@ -6,11 +6,13 @@ from .._json import Report
 from ._base import Format
 from ._common import (
     BOUNDS,
+    GAP_NOTE,
     PLAN_HEAD,
     bound_detail,
     certificate_facts,
     counts_sentence,
     fmt,
+    gap_rows,
     goal,
     impact_notes,
     impact_tables,
@@ -70,6 +72,9 @@ class TextFormat(Format):
         if d["confidence"] is not None:
             lines.append(f"intervals: simultaneous {fmt(d['confidence'])} ({d['interval_method']})")
         lines += _observed_lines(d, "metrics:")
+        if "gaps_on_g" in d:
+            lines += [f"  {name:<28} {value:<18} ({where})" for name, value, where in gap_rows(d)]
+            lines.append(f"  {GAP_NOTE}")
         if "impact_ratios" in d:
             lines += _impact_lines(d)
         return "\n".join(lines) + "\n"

@@ -65,6 +65,13 @@ def add_parser(sub: Subparsers) -> None:
         help="column of sample (survey) weights: weighted counts; intervals on Kish's effective sample size",
     )
     a.add_argument(
+        "--gap-on",
+        choices=("u", "g"),
+        default="u",
+        help="u (default): the demographic parity and equalized odds gaps are total-variation distances of U's "
+        "distribution; g: also the differences of E[g] between groups (fairlearn's selection-rate differences)",
+    )
+    a.add_argument(
         "--report",
         choices=("impact-ratio",),
         help="add a report: impact-ratio, the selection (or scoring) rate and impact ratio of each category of each "
@@ -119,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
     )
     data = audit_dict(result)
+    if args.gap_on == "g":
+        data["gaps_on_g"] = result.gaps_on_g.to_dict()
     if args.report == "impact-ratio":
         from ..impact_ratio import impact_ratios
 

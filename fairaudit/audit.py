@@ -8,9 +8,11 @@ distribution (docs/design.md "Command-line contract").
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, TypeGuard, cast
 
 import numpy as np
@@ -20,6 +22,7 @@ from ._errors import InputError
 from ._json import Report, label, number
 from ._observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
 from ._records_arrays import ArrayLike, records_from_arrays
+from ._small_cells import LeftOut, SmallCell, by_context_rows, leave_out_small, small_cell
 from .estimate import CountTable, count_records
 from .expression import evaluate_utility_expression
 from .intervals import FairnessIntervals, fairness_intervals
@@ -62,6 +65,37 @@ class Audit:
     observed: Observed
     intervals: FairnessIntervals | None
     confidence: float | None
+    min_count: int | None = None
+    left_out: tuple[LeftOut, ...] = ()
+
+    @cached_property
+    def small_cell(self) -> SmallCell | None:
+        """The cell that drives L when it holds fewer records than the planner needs to support it, else None.
+
+        For a 0/1 utility: the cell of L's pair with the smaller E[g], in L's context, when it has fewer
+        records than :func:`fairaudit.plan` needs to certify L ≤ log 2 for a fair model at the context's rate
+        (the planner runs only when L is infinite or that cell holds fewer than 1000 records).
+        """
+        local = self.observed.local
+        g = self.utility.values
+        if local.context is None or local.other_group is None:
+            return None
+        i, j = list(self.table.contexts).index(local.context), list(self.table.groups).index(local.other_group)
+        if math.isfinite(local.value) and self.table.cell_counts[i, j] >= 1000:
+            return None
+        return small_cell(local, self.table, bool(np.all((g == 0) | (g == 1))), self.confidence)
+
+    @property
+    def by_context(self) -> pd.DataFrame:
+        """L within each context: one row per context (``n``, ``value`` in nats, ``ratio``, ``group``, ``other_group``).
+
+        The pair: the groups with the largest and the smallest E[g | x, a] in the context.
+        """
+        import pandas as pd
+
+        rows = by_context_rows(self.observed.local, self.table)
+        name = " x ".join(self.table.context_columns) or "context"
+        return pd.DataFrame(rows).set_index("context").rename_axis(name)
 
     @property
     def population(self) -> Population:
@@ -195,8 +229,15 @@ class Audit:
             "population": self.population.to_dict(),
             "confidence": number(self.confidence),
             "interval_method": iv.method if iv is not None else None,
+            "min_count": self.min_count,
+            "left_out": [c.to_dict() for c in self.left_out],
+            "small_cell": None if self.small_cell is None else self.small_cell.to_dict(),
         }
         out.update(self.observed.to_dict(iv))
+        for cell in self.left_out:  # the law has no records there because they were left out: say so
+            empty = f"cell (context {format_label(cell.context)!r}, group {format_label(cell.group)!r}): no records"
+            said = f"{empty[: -len('no records')]}{cell.n:g} records, fewer than min_count {self.min_count}: left out"
+            out["excluded"] = [said if e == empty else e for e in out["excluded"]]
         return out
 
 
@@ -348,6 +389,7 @@ def audit(
     draws: int = 4000,
     seed: int = 0,
     weights: str | None = None,
+    min_count: int | None = None,
     y_pred: ArrayLike | None = None,
     sensitive_features: ArrayLike | None = None,
     control_features: ArrayLike | None = None,
@@ -394,6 +436,10 @@ def audit(
         weighted counts, intervals Kish's effective sample size per cell
         (:meth:`~fairaudit.estimate.CountTable.effective_counts`, an
         approximation).
+    min_count : int, optional
+        Leave out every (context, group) cell with fewer records than this
+        (but some): its records are removed from the metrics, the population
+        and the intervals, and the cells are listed in ``left_out``.
     y_pred, sensitive_features, control_features, sample_weight : array_like, optional
         Records as arrays instead of ``data``, named as in fairlearn's
         ``MetricFrame``: ``y_pred`` the decisions (n,) (the outcome U), ``sensitive_features`` the
@@ -446,6 +492,7 @@ def audit(
     empty = [table.groups[j] for j in np.flatnonzero(table.group_counts == 0)]
     if empty:
         raise InputError("sensitive", "group has no records", format_label(empty[0]))
+    table, left_out = leave_out_small(table, min_count)
     observed = observe(table.law(), g, table.population())
     intervals = None
     if confidence is not None:
@@ -458,7 +505,15 @@ def audit(
             "chooses how intervals are made: give `confidence` too",
             method,
         )
-    return Audit(table=table, utility=g, observed=observed, intervals=intervals, confidence=confidence)
+    return Audit(
+        table=table,
+        utility=g,
+        observed=observed,
+        intervals=intervals,
+        confidence=confidence,
+        min_count=min_count,
+        left_out=left_out,
+    )
 
 
 def _audit_utility(table: CountTable, positive: Hashable | None, utility: str | Utility | None) -> Utility:

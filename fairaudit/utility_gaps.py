@@ -102,7 +102,7 @@ def utility_gaps(local: Fairness, global_: Fairness) -> UtilityGaps:
     >>> r = fa.audit(df, sensitive=["g"], outcome="y", context=["x"])
     >>> gaps = utility_gaps(r.observed.local, r.observed.global_)
     >>> gaps.demographic_parity.value, str(gaps.equalized_odds)
-    (0.5, '1 (a vs b in context p)')
+    (0.5, '0.5 (a vs b in context p)')
     """
     name = local.utility.name
     pooled = np.asarray(global_.expected_utility, dtype=float)

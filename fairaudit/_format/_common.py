@@ -367,3 +367,31 @@ GAP_NOTE = (
     "gaps of g: differences of E[g] between groups (fairlearn's selection-rate differences for a 0/1 g); the gaps "
     "above are total-variation distances of the outcome's whole distribution"
 )
+
+
+def audit_notes(d: Report) -> list[str]:
+    """The audit's notes on small cells: the cell that drives L when it cannot support it, the cells left out."""
+    from .._small_cells import small_cell_sentence
+
+    notes = []
+    if d.get("small_cell"):
+        notes.append(small_cell_sentence(d["small_cell"]))
+    if d.get("left_out"):
+        cells = [f"(context {c['context']}, group {c['group']}): {fmt(c['n'])}" for c in d["left_out"]]
+        shown = cells[:EXCLUDED_SHOWN] + (
+            [f"... and {len(cells) - EXCLUDED_SHOWN} more"] if len(cells) > EXCLUDED_SHOWN else []
+        )
+        many = f"{len(cells)} cells" if len(cells) > 1 else "1 cell"
+        notes.append(f"left out, fewer than {d['min_count']} records (--min-count): {many}: " + "; ".join(shown))
+    return notes
+
+
+BY_CONTEXT_HEAD = ("context", "records", "L (nats)", "ratio", "pair")
+
+
+def by_context_table(d: Report) -> list[tuple[str, str, str, str, str]]:
+    """``--by context``: one row per context, L within it and its pair of groups."""
+    return [
+        (str(r["context"]), fmt(r["n"]), nats(r["value"]), fmt(r["ratio"]), f"{r['group']} vs {r['other_group']}")
+        for r in d["by_context"]
+    ]

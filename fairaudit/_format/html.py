@@ -32,11 +32,14 @@ from .._json import Report
 from ._base import Format
 from ._common import (
     BOUNDS,
+    BY_CONTEXT_HEAD,
     GAP_NOTE,
     PLAN_HEAD,
     assumption_rows,
     audit_facts,
+    audit_notes,
     bound_detail,
+    by_context_table,
     calibration_sentences,
     certificate_facts,
     counts_sentence,
@@ -281,6 +284,11 @@ class HtmlFormat(Format):
                 page.p(f"... and {len(d['contexts']) - len(shown)} more contexts (all in --format json).")
             page.h2("E[g | x, a] per context and group")
             page.figure(lambda: _cells_figure(d), _cells_caption(d))
+        if audit_notes(d):
+            page.bullets(audit_notes(d))
+        if "by_context" in d:
+            page.h2("L by context")
+            page.table(BY_CONTEXT_HEAD, by_context_table(d), numeric=(1, 2, 3))
         if "gaps_on_g" in d:
             page.h2("Gaps of g")
             page.table(("metric", "value", "where"), gap_rows(d), numeric=(1,))

@@ -15,12 +15,15 @@ from .._json import Report
 from ._base import Format
 from ._common import (
     BOUNDS,
+    BY_CONTEXT_HEAD,
     CONTEXTS_SHOWN,
     GAP_NOTE,
     PLAN_HEAD,
     assumption_rows,
     audit_facts,
+    audit_notes,
     bound_detail,
+    by_context_table,
     calibration_sentences,
     certificate_facts,
     counts_sentence,
@@ -152,6 +155,9 @@ class MarkdownFormat(Format):
             if len(d["contexts"]) > len(shown):
                 lines += ["", f"... and {len(d['contexts']) - len(shown)} more contexts (all in `--format json`)."]
         lines += ["", "## Metrics", ""] + _observed(d) + [""]
+        lines += [f"**Note**: {escape(n)}." for n in audit_notes(d)] + ([""] if audit_notes(d) else [])
+        if "by_context" in d:
+            lines += ["## L by context", ""] + _table(by_context_table(d), BY_CONTEXT_HEAD) + [""]
         if "gaps_on_g" in d:
             lines += (
                 ["## Gaps of g", ""]

@@ -6,9 +6,12 @@ from .._json import Report
 from ._base import Format
 from ._common import (
     BOUNDS,
+    BY_CONTEXT_HEAD,
     GAP_NOTE,
     PLAN_HEAD,
+    audit_notes,
     bound_detail,
+    by_context_table,
     certificate_facts,
     counts_sentence,
     fmt,
@@ -72,6 +75,13 @@ class TextFormat(Format):
         if d["confidence"] is not None:
             lines.append(f"intervals: simultaneous {fmt(d['confidence'])} ({d['interval_method']})")
         lines += _observed_lines(d, "metrics:")
+        lines += [f"note: {n}" for n in audit_notes(d)]
+        if "by_context" in d:
+            table = [BY_CONTEXT_HEAD, *by_context_table(d)]
+            widths = [max(len(r[i]) for r in table) for i in range(len(BY_CONTEXT_HEAD))]
+            lines += ["L by context:"] + [
+                "  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in table
+            ]
         if "gaps_on_g" in d:
             lines += [f"  {name:<28} {value:<18} ({where})" for name, value, where in gap_rows(d)]
             lines.append(f"  {GAP_NOTE}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..report import audit_dict, render
-from ._common import Subparsers, add_output, add_text_format, columns, emit, level, text_format
+from ._common import Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
 
 
 def add_parser(sub: Subparsers) -> None:
@@ -59,10 +59,36 @@ def add_parser(sub: Subparsers) -> None:
         metavar="C",
         help="Dirichlet prior mass of --method bayes (default 1, AIF360's smoothing)",
     )
+    _add_report_options(a)
+    add_text_format(a)
+    a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
+    a.add_argument(
+        "--count",
+        metavar="COL",
+        help="DATA is a count table (one row per context, group and outcome, "
+        "e.g. from SQL GROUP BY) whose column COL holds the number of records",
+    )
+    add_output(a)
+    a.set_defaults(func=run)
+
+
+def _add_report_options(a: argparse.ArgumentParser) -> None:
+    """Weights, small cells, the per-context table, the gaps of g and the impact-ratio report."""
     a.add_argument(
         "--weights",
         metavar="COL",
         help="column of sample (survey) weights: weighted counts; intervals on Kish's effective sample size",
+    )
+    a.add_argument(
+        "--min-count",
+        type=positive_int,
+        metavar="N",
+        help="leave out (context, group) cells with fewer than N records, listed in the report",
+    )
+    a.add_argument(
+        "--by",
+        choices=("context",),
+        help="context: add a table of L within each context (records, L, ratio, the pair of groups)",
     )
     a.add_argument(
         "--gap-on",
@@ -77,16 +103,6 @@ def add_parser(sub: Subparsers) -> None:
         help="add a report: impact-ratio, the selection (or scoring) rate and impact ratio of each category of each "
         "sensitive column and of their intersection, as NYC Local Law 144 bias audits publish them",
     )
-    add_text_format(a)
-    a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
-    a.add_argument(
-        "--count",
-        metavar="COL",
-        help="DATA is a count table (one row per context, group and outcome, "
-        "e.g. from SQL GROUP BY) whose column COL holds the number of records",
-    )
-    add_output(a)
-    a.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -124,8 +140,13 @@ def run(args: argparse.Namespace) -> int:
         concentration=args.concentration,
         draws=args.draws,
         seed=args.seed,
+        min_count=args.min_count,
     )
     data = audit_dict(result)
+    if args.by == "context":
+        from .._small_cells import by_context_rows
+
+        data["by_context"] = by_context_rows(result.observed.local, result.table, json=True)
     if args.gap_on == "g":
         data["gaps_on_g"] = result.gaps_on_g.to_dict()
     if args.report == "impact-ratio":

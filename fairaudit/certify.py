@@ -481,7 +481,7 @@ def _intervals(
             None,
             (
                 "the model's records are weighted (model.weight_column): certify makes no intervals for them yet; "
-                "`fairaudit audit --weights` makes them on Kish's effective sample size"
+                "an audit of the records with weights (fairaudit.audit, fairaudit audit) makes them on Kish's effective sample size"
             ),
         )
     table = CountTable(

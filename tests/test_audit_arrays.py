@@ -173,3 +173,14 @@ def test_cli_weights(tmp_path, capsys):
     assert report["global"]["ratio"] == 1.5  # 3/4 against 1/2
     code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y", "--weights", "g")
     assert (code, err) == (2, "fairaudit: error: column 'g': weights must be numbers (got 'a')\n")
+
+
+def test_weighted_reports_say_total_weight(tmp_path, capsys):
+    path = tmp_path / "r.csv"
+    pd.DataFrame({"g": ["a", "a", "b", "b"], "y": [1, 0, 1, 0], "w": [3.5, 1.0, 1.0, 1.0]}).to_csv(path, index=False)
+    args = ["audit", path, "--sensitive", "g", "--outcome", "y", "--weights", "w"]
+    code, out, err = run(capsys, *args)
+    assert out.splitlines()[0] == "fairaudit audit: total weight 6.5 (weights w); sensitive g; outcome y; context none"
+    assert "records per group: a 4.5, b 2" in out and err == ""
+    code, out, _ = run(capsys, *args, "--format", "markdown")
+    assert out.startswith("# fairaudit audit: total weight 6.5 (weights w)\n")

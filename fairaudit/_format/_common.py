@@ -395,3 +395,15 @@ def by_context_table(d: Report) -> list[tuple[str, str, str, str, str]]:
         (str(r["context"]), fmt(r["n"]), nats(r["value"]), fmt(r["ratio"]), f"{r['group']} vs {r['other_group']}")
         for r in d["by_context"]
     ]
+
+
+def records(d: Report) -> str:
+    """The audit's size: ``N records``, or with weights ``total weight W (weights COL)``."""
+    if d.get("weight_column"):
+        return f"total weight {fmt(d['n'])} (weights {d['weight_column']})"
+    return f"{d['n']} records"
+
+
+def count(v: object) -> str:
+    """A number of records, or a sum of weights (six significant digits)."""
+    return fmt(v) if isinstance(v, float) else str(v)

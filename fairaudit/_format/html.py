@@ -42,6 +42,7 @@ from ._common import (
     by_context_table,
     calibration_sentences,
     certificate_facts,
+    count,
     counts_sentence,
     fmt,
     gap_rows,
@@ -52,6 +53,7 @@ from ._common import (
     observed_notes,
     plan_head,
     plan_rows,
+    records,
     target_rows,
 )
 from .text import calibration_text
@@ -262,7 +264,7 @@ class HtmlFormat(Format):
     def audit(self, d: Report) -> str:
         """The audit's content (as the text report), the cells' table and figures of E[g | a] and E[g | x, a]."""
         jinja2, _ = _libraries()
-        page = _Page(f"fairaudit audit: {d['n']} records")
+        page = _Page(f"fairaudit audit: {records(d)}")
         page.facts(audit_facts(d), code=("utility",))
         page.h2("Metrics")
         _observed(page, d)
@@ -279,7 +281,7 @@ class HtmlFormat(Format):
         if len(d["contexts"]) > 1:
             page.h2("Records per context")
             shown = d["contexts"][:CONTEXTS_LISTED]
-            page.table(("context", "records"), [(c["label"], c["n"]) for c in shown], numeric=(1,))
+            page.table(("context", "records"), [(c["label"], count(c["n"])) for c in shown], numeric=(1,))
             if len(d["contexts"]) > len(shown):
                 page.p(f"... and {len(d['contexts']) - len(shown)} more contexts (all in --format json).")
             page.h2("E[g | x, a] per context and group")
@@ -350,7 +352,7 @@ def _cells_table(page: _Page, d: Report) -> None:
     head = ["context", "group", "records", "E[g | x, a]"] + (["interval"] if with_iv else [])
     rows = []
     for c in cells[:CELLS_SHOWN]:
-        row: list[object] = [c["context"], c["group"], c["n"], fmt(c["expected_utility"])]
+        row: list[object] = [c["context"], c["group"], count(c["n"]), fmt(c["expected_utility"])]
         if with_iv:
             iv = c.get("interval")
             row.append(None if iv is None or iv[0] is None else f"[{fmt(iv[0])}, {fmt(iv[1])}]")
@@ -386,7 +388,7 @@ def group_means(d: Report) -> list[tuple[object, int, float | None, tuple[float,
         mean = sum(c["n"] * c["expected_utility"] for c in used) / total if total else None
         iv = cells[0].get("interval") if single and cells else None
         interval = (float(iv[0]), float(iv[1])) if iv is not None and None not in iv else None
-        out.append((g["label"], int(g["n"]), mean, interval))
+        out.append((g["label"], g["n"], mean, interval))
     return out
 
 

@@ -26,6 +26,7 @@ from ._common import (
     by_context_table,
     calibration_sentences,
     certificate_facts,
+    count,
     counts_sentence,
     fmt,
     gap_rows,
@@ -36,6 +37,7 @@ from ._common import (
     observed_notes,
     plan_head,
     plan_rows,
+    records,
     target_rows,
 )
 from .text import calibration_text
@@ -144,14 +146,14 @@ class MarkdownFormat(Format):
 
     def audit(self, d: Report) -> str:
         """The audit's columns, records per group and per context, the population, the metrics and the notes."""
-        lines = [f"# fairaudit audit: {d['n']} records", ""]
+        lines = [f"# fairaudit audit: {escape(records(d))}", ""]
         lines += _facts(audit_facts(d), code=("utility",))
         lines += ["", "## Records per group", ""]
-        lines += _table([(g["label"], g["n"]) for g in d["groups"]], ("group", "records"))
+        lines += _table([(g["label"], count(g["n"])) for g in d["groups"]], ("group", "records"))
         if len(d["contexts"]) > 1:
             lines += ["", "## Records per context", ""]
             shown = d["contexts"][:CONTEXTS_SHOWN]
-            lines += _table([(c["label"], c["n"]) for c in shown], ("context", "records"))
+            lines += _table([(c["label"], count(c["n"])) for c in shown], ("context", "records"))
             if len(d["contexts"]) > len(shown):
                 lines += ["", f"... and {len(d['contexts']) - len(shown)} more contexts (all in `--format json`)."]
         lines += ["", "## Metrics", ""] + _observed(d) + [""]

@@ -13,6 +13,7 @@ from ._common import (
     bound_detail,
     by_context_table,
     certificate_facts,
+    count,
     counts_sentence,
     fmt,
     gap_rows,
@@ -25,6 +26,7 @@ from ._common import (
     plan_head,
     plan_rows,
     population_line,
+    records,
 )
 
 __all__ = ["TextFormat", "calibration_text"]
@@ -60,15 +62,15 @@ class TextFormat(Format):
         """Records per group (and context), the population, the intervals' level and the metrics."""
         ctx = ", ".join(d["context_columns"]) or "none"
         lines = [
-            f"fairaudit audit: {d['n']} records; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
+            f"fairaudit audit: {records(d)}; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
             f"context {ctx}",
             f"utility: {d['utility']['name']}",
         ]
-        lines.append("records per group: " + ", ".join(f"{g['label']} {g['n']}" for g in d["groups"]))
+        lines.append("records per group: " + ", ".join(f"{g['label']} {count(g['n'])}" for g in d["groups"]))
         if len(d["contexts"]) > 1:
             lines.append(
                 "records per context: "
-                + ", ".join(f"{c['label']} {c['n']}" for c in d["contexts"][:30])
+                + ", ".join(f"{c['label']} {count(c['n'])}" for c in d["contexts"][:30])
                 + (" ..." if len(d["contexts"]) > 30 else "")
             )
         lines.append(population_line(d))

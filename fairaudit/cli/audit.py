@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from .._format._common import records
 from ..report import audit_dict, render
 from ._common import Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
 
@@ -156,5 +157,6 @@ def run(args: argparse.Namespace) -> int:
             table, None if scoring is not None else result.utility, confidence=args.confidence or 0.95
         )
         data.update(report.to_dict())
-    emit(args, render(data, "audit", args.format), f"audit: {data['n']} records, L = {data['local']['value']} nats")
+    summary = f"audit: {records(data)}, L = {data['local']['value']} nats"
+    emit(args, render(data, "audit", args.format), summary)
     return 0

@@ -723,9 +723,16 @@ def _no_repeats(p: Path, kind: FileKind) -> bool:
 
 
 def read_checked(path: str | Path, fmt: CsvFormat, used: Sequence[str]) -> pd.DataFrame:
-    """:func:`read_records`, refusing a used column that a text file's header repeats with different values."""
+    """:func:`read_records`, refusing a used column that a text file's header repeats with different values.
+
+    The later copies of a repeated column (pandas' ``x.1``, ``x.2``) are dropped: no column is renamed silently.
+    """
     frame = read_records(path, fmt)
     p = Path(path)
     if file_kind(p).kind == "text":
-        same_repeats(frame, check_header(p, file_kind(p), fmt), used, path)
+        repeated = check_header(p, file_kind(p), fmt)
+        same_repeats(frame, repeated, used, path)
+        later = sorted(j for positions in repeated.values() for j in positions[1:])
+        if later:
+            frame = frame.drop(columns=frame.columns[later])
     return frame

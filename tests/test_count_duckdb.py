@@ -292,7 +292,6 @@ def test_csv_written_by_pandas_counted_as_pandas_reads_it(data):
         ("g,y\na,1\n\nb,0\n\n", "g"),  # blank lines are skipped
         ("\ufeffg,y\na,1\nb,0", "g"),  # a byte order mark, no final newline
         ("g,y,\na,1,\nb,0,\n", "g"),  # an empty last column: "Unnamed: 2"
-        ("g,g,y\na,b,1\nb,c,0\n", "g.1"),  # duplicate names: "g.1"
         ("g,y\n-0.0,1\n0,0\n", "g"),  # 0.0 and -0.0: the label is the one met first
         ("g,y\n0,1\n-0.0,0\n", "g"),
         ("g,y\n-0.0,1\n0,0\n", "y"),
@@ -304,6 +303,16 @@ def test_tricky_csv_fields(tmp_path, text, sensitive):
     for dropna in (False, True):
         kw = dict(sensitive=sensitive, outcome="y" if sensitive != "y" else "g", dropna=dropna)
         assert_same(reference(path, **kw), counted(path, **kw))
+
+
+def test_a_repeated_name_is_not_renamed(tmp_path):
+    """pandas renames a second "g" to "g.1"; count_file does not: "g" is the first copy, "g.1" no column."""
+    path = tmp_path / "r.csv"
+    path.write_bytes(b"g,g,y\na,b,1\nb,c,0\n")
+    with pytest.raises(InputError, match=r"^sensitive: unknown column; the data has: g, y \(got 'g.1'\)$"):
+        count_file(path, sensitive="g.1", outcome="y")
+    with pytest.raises(InputError, match=r"^DATA: names column 'g' 2 times, with different values"):
+        count_file(path, sensitive="g", outcome="y")
 
 
 @pytest.mark.parametrize(

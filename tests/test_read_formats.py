@@ -158,8 +158,10 @@ def test_a_repeated_column_with_different_values_is_refused(tmp_path, capsys):
     assert str(err.value) == (
         f"DATA: names column 'score' 2 times, with different values; rename all but one (got {str(path)!r})"
     )
-    # a repeated column that is not used does not matter
+    # a repeated column that is not used does not matter; pandas' renamed copy is not a column
     assert count_file(path, sensitive="race", outcome="id").counts.tolist() == [[[1, 0], [0, 1]]]
+    with pytest.raises(InputError, match=r"^outcome: unknown column; the data has: id, score, race \(got 'score.1'\)$"):
+        count_file(path, sensitive="race", outcome="score.1")
     code, out, err = run(capsys, "audit", path, "--sensitive", "race", "--outcome", "score", "--utility", "u")
     assert (code, out, err.count("\n")) == (2, "", 1)
     assert "names column 'score' 2 times" in err

@@ -157,8 +157,8 @@ def fairaudit_rows(table_: CountTable, truth: Truth, methods, levels, draws: int
             all_in = True
             for metric in METRICS:
                 interval = {
-                    "local": iv.local,
-                    "global": iv.global_,
+                    "local": iv.local_fairness,
+                    "global": iv.global_fairness,
                     "demographic_parity": iv.demographic_parity,
                     "equalized_odds": iv.equalized_odds,
                 }[metric]

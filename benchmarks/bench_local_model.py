@@ -294,7 +294,10 @@ def agreement_rows(task: DeliveryTask, exact: ExactRun, run: SampledRun, epsilon
     pairs = [("∞ (no filter)", exact.analysis.baseline, run.analysis.baseline)]
     pairs.append((f"{epsilon:g}", exact.analysis.points[0], run.analysis.points[0]))
     for label, e, s in pairs:
-        for metric, ev, iv in (("L", e.local, s.intervals.local), ("L̄", e.global_, s.intervals.global_)):
+        for metric, ev, iv in (
+            ("L", e.local_fairness, s.intervals.local_fairness),
+            ("L̄", e.global_fairness, s.intervals.global_fairness),
+        ):
             ok = _inside(ev.value, iv.lower, iv.upper)
             rows.append(
                 [

@@ -365,12 +365,12 @@ def _local_global(law: Law, g, pop: Population) -> tuple[dict, dict]:
 def _observe_summary(law: Law, g, pop: Population) -> dict:
     o = observe(law, g, pop)
     return {
-        "local": o.local.value,
-        "global": o.global_.value,
+        "local": o.local_fairness.value,
+        "global": o.global_fairness.value,
         "demographic_parity": o.demographic_parity.value,
         "equalized_odds": o.equalized_odds.value,
-        "sup_local": o.sup_local.value,
-        "sup_global": o.sup_global.value,
+        "sup_local": o.sup_local_fairness.value,
+        "sup_global": o.sup_global_fairness.value,
     }
 
 
@@ -526,8 +526,8 @@ def intervals_job(n: int, seed: int, per_cell: int, repeats: int, slow: float) -
         "nbytes": nbytes,
         "time": (t, k, peak + counts.nbytes),
         "method": iv.method,
-        "local": (iv.local.lower, iv.local.estimate, iv.local.upper),
-        "global": (iv.global_.lower, iv.global_.estimate, iv.global_.upper),
+        "local": (iv.local_fairness.lower, iv.local_fairness.estimate, iv.local_fairness.upper),
+        "global": (iv.global_fairness.lower, iv.global_fairness.estimate, iv.global_fairness.upper),
         "agreement": _agree(diffs),
         "inside": inside,
         "compared": names,
@@ -549,14 +549,14 @@ def worst_job(n: int, repeats: int, slow: float) -> dict:
         "n": n,
         "nbytes": n * len(GROUPS) * len(DECISIONS) * 8,
         "time": (t, k, peak),
-        "local": w.local.value,
-        "global": w.global_.value,
+        "local": w.local_fairness.value,
+        "global": w.global_fairness.value,
         "bound": bound.value,
         "epsilon": mech.epsilon,
         "agreement": _agree(
             [
-                rel_diff(w.local.value, bound.value),
-                rel_diff(w.global_.value, bound.value),
+                rel_diff(w.local_fairness.value, bound.value),
+                rel_diff(w.global_fairness.value, bound.value),
                 rel_diff(bound.value, mech.epsilon),
             ]
         ),

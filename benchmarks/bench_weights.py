@@ -62,7 +62,7 @@ def covered(r: fa.Audit, truth: dict[str, float], truth_global: float) -> tuple[
     assert iv is not None
     lower, upper = np.asarray(iv.group_lower).reshape(-1), np.asarray(iv.group_upper).reshape(-1)
     cells = all(lower[j] <= truth[a] <= upper[j] for j, a in enumerate(r.table.groups))
-    glob = iv.global_.lower <= truth_global <= iv.global_.upper
+    glob = iv.global_fairness.lower <= truth_global <= iv.global_fairness.upper
     return cells, glob, cells and glob
 
 

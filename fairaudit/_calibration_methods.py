@@ -310,7 +310,7 @@ def black_box_global(
 ) -> Found:
     """Black-box calibration on L̄ when X and A are dependent: the exact worst case over every model.
 
-    The bound at ε is ``worst_model(family(ε), g, population=, tau=).global_`` (what ``certify`` reports
+    The bound at ε is ``worst_model(family(ε), g, population=, tau=).global_fairness`` (what ``certify`` reports
     on L̄): a Charnes–Cooper LP per pair of groups, exact for any population. It is non-decreasing along
     the family (a smaller ε is a post-processing of a larger one: every model behind it is a model behind
     the larger one), so the largest ε is bracketed and refined as for L. It does not vanish at ε = 0:
@@ -337,7 +337,7 @@ def black_box_global(
         kwargs["tau"] = tau
 
     def bound(eps: float) -> float:
-        v = worst_model(family(eps), g, **kwargs).global_.value
+        v = worst_model(family(eps), g, **kwargs).global_fairness.value
         return math.inf if math.isnan(v) else v
 
     cls = f"{g.name}" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")

@@ -11,6 +11,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Protocol
 
+from ._deprecated import renamed
 from ._json import Report, number
 from .laws import Law, Population
 from .metrics import Fairness, SupFairness, TotalVariation, all_metrics
@@ -23,25 +24,44 @@ class MetricIntervals(Protocol):
     """What :meth:`Observed.to_dict` reads of a :class:`~fairaudit.intervals.FairnessIntervals`."""
 
     @property
-    def local(self) -> Iterable[float]: ...  # (lower, upper) of L
+    def local_fairness(self) -> Iterable[float]: ...  # (lower, upper) of L
 
     @property
-    def global_(self) -> Iterable[float]: ...  # (lower, upper) of L-bar
+    def global_fairness(self) -> Iterable[float]: ...  # (lower, upper) of L-bar
 
     def to_dict(self) -> Report: ...
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class Observed:
-    """Every exact metric of one law (see :mod:`fairaudit.metrics`)."""
+    """Every exact metric of one law, each named as the function of :mod:`fairaudit.metrics` that computes it.
+
+    Attributes
+    ----------
+    law : Law
+    local_fairness, global_fairness : Fairness
+        L and L̄ in nats, with the maximising context and groups.
+    demographic_parity, equalized_odds : TotalVariation
+        L_dp and L_eo (total variation, in [0, 1]).
+    sup_local_fairness, sup_global_fairness : SupFairness
+        Sups over g of L and L̄ (Lemma 1), nats.
+    local, global_, sup_local, sup_global
+        Deprecated read-only aliases of ``local_fairness``, ``global_fairness``,
+        ``sup_local_fairness`` and ``sup_global_fairness`` (each warns).
+    """
 
     law: Law
-    local: Fairness
-    global_: Fairness
+    local_fairness: Fairness
+    global_fairness: Fairness
     demographic_parity: TotalVariation
     equalized_odds: TotalVariation
-    sup_local: SupFairness
-    sup_global: SupFairness
+    sup_local_fairness: SupFairness
+    sup_global_fairness: SupFairness
+
+    local = renamed[Fairness]("local_fairness")
+    global_ = renamed[Fairness]("global_fairness")
+    sup_local = renamed[SupFairness]("sup_local_fairness")
+    sup_global = renamed[SupFairness]("sup_global_fairness")
 
     def to_dict(self, intervals: MetricIntervals | None = None) -> Report:
         """The report dictionary: each metric's value, its details, what was excluded and the intervals.
@@ -53,19 +73,19 @@ class Observed:
             and the whole set is under ``intervals``.
         """
         out: Report = {
-            "local": self.local.to_dict(None if intervals is None else intervals.local),
-            "global": self.global_.to_dict(None if intervals is None else intervals.global_),
+            "local": self.local_fairness.to_dict(None if intervals is None else intervals.local_fairness),
+            "global": self.global_fairness.to_dict(None if intervals is None else intervals.global_fairness),
             "demographic_parity": number(self.demographic_parity.value),
             "equalized_odds": number(self.equalized_odds.value),
-            "sup_local": number(self.sup_local.value),
-            "sup_global": number(self.sup_global.value),
+            "sup_local": number(self.sup_local_fairness.value),
+            "sup_global": number(self.sup_global_fairness.value),
             "details": {
                 "demographic_parity": self.demographic_parity.to_dict(),
                 "equalized_odds": self.equalized_odds.to_dict(),
-                "sup_local": self.sup_local.to_dict(),
-                "sup_global": self.sup_global.to_dict(),
+                "sup_local": self.sup_local_fairness.to_dict(),
+                "sup_global": self.sup_global_fairness.to_dict(),
             },
-            "excluded": list(dict.fromkeys(self.local.excluded + self.global_.excluded)),
+            "excluded": list(dict.fromkeys(self.local_fairness.excluded + self.global_fairness.excluded)),
         }
         if intervals is not None:
             out["intervals"] = intervals.to_dict()
@@ -77,10 +97,10 @@ def observe(law: Law, utility: Utility, population: Population | None) -> Observ
     m = all_metrics(law, utility, population)
     return Observed(
         law=law,
-        local=m["local"],
-        global_=m["global"],
+        local_fairness=m["local"],
+        global_fairness=m["global"],
         demographic_parity=m["demographic_parity"],
         equalized_odds=m["equalized_odds"],
-        sup_local=m["sup_local"],
-        sup_global=m["sup_global"],
+        sup_local_fairness=m["sup_local"],
+        sup_global_fairness=m["sup_global"],
     )

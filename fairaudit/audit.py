@@ -76,7 +76,7 @@ class Audit:
         records than :func:`fairaudit.plan` needs to certify L ≤ log 2 for a fair model at the context's rate
         (the planner runs only when L is infinite or that cell holds fewer than 1000 records).
         """
-        local = self.observed.local
+        local = self.observed.local_fairness
         g = self.utility.values
         if local.context is None or local.other_group is None:
             return None
@@ -93,14 +93,14 @@ class Audit:
         """
         import pandas as pd
 
-        rows = by_context_rows(self.observed.local, self.table)
+        rows = by_context_rows(self.observed.local_fairness, self.table)
         name = " x ".join(self.table.context_columns) or "context"
         return pd.DataFrame(rows).set_index("context").rename_axis(name)
 
     @property
     def population(self) -> Population:
         """P(X, A) of the metrics: the records' own, n(x, a) / n (``source="records"``)."""
-        population = self.observed.global_.population
+        population = self.observed.global_fairness.population
         assert population is not None  # (audit passes the records' own)
         return population
 
@@ -114,7 +114,7 @@ class Audit:
         context), the selection-rate differences for a 0/1 g
         (:func:`fairaudit.utility_gaps.utility_gaps`).
         """
-        return utility_gaps(self.observed.local, self.observed.global_)
+        return utility_gaps(self.observed.local_fairness, self.observed.global_fairness)
 
     @property
     def by_group(self) -> pd.DataFrame:
@@ -137,7 +137,7 @@ class Audit:
         """
         import pandas as pd
 
-        t, e = self.table, self.observed.local.expected_utility
+        t, e = self.table, self.observed.local_fairness.expected_utility
         best = np.fmax.reduce(e, axis=1, keepdims=True)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(best > 0, e / best, np.where(best == 0, 1.0, np.nan))
@@ -170,14 +170,14 @@ class Audit:
         o, iv = self.observed, self.intervals
         rows = {}
         for name, metric in (
-            ("local", o.local),
-            ("global", o.global_),
+            ("local", o.local_fairness),
+            ("global", o.global_fairness),
             ("demographic_parity", o.demographic_parity),
             ("equalized_odds", o.equalized_odds),
-            ("sup_local", o.sup_local),
-            ("sup_global", o.sup_global),
+            ("sup_local", o.sup_local_fairness),
+            ("sup_global", o.sup_global_fairness),
         ):
-            interval = None if iv is None else getattr(iv, "global_" if name == "global" else name)
+            interval = None if iv is None else iv.intervals()[name]
             rows[name] = {
                 "value": metric.value,
                 "ratio": getattr(metric, "ratio", np.nan),
@@ -197,7 +197,7 @@ class Audit:
         :meth:`~fairaudit.certify.Observed.to_dict`.
         """
         t = self.table
-        e = self.observed.local.expected_utility
+        e = self.observed.local_fairness.expected_utility
         cells = t.cell_counts
         iv = self.intervals
         count = int if t.squares is None else float  # weighted: sums of weights
@@ -465,16 +465,16 @@ def audit(
     >>> import pandas as pd
     >>> df = pd.DataFrame({"race": list("aaaabbbb"), "hired": [1, 1, 1, 0, 1, 0, 0, 0]})
     >>> r = audit(df, sensitive=["race"], outcome="hired")
-    >>> round(r.observed.global_.ratio, 12), r.observed.global_.group
+    >>> round(r.observed.global_fairness.ratio, 12), r.observed.global_fairness.group
     (3.0, 'a')
     >>> t = count_records(df, sensitive=["race"], outcome="hired")
-    >>> round(audit(t).observed.global_.ratio, 12)
+    >>> round(audit(t).observed.global_fairness.ratio, 12)
     3.0
 
     The same records as arrays, as a fairlearn user holds them:
 
     >>> r = audit(y_pred=[1, 1, 1, 0, 1, 0, 0, 0], sensitive_features=list("aaaabbbb"))
-    >>> round(r.observed.global_.ratio, 12), r.table.sensitive_columns
+    >>> round(r.observed.global_fairness.ratio, 12), r.table.sensitive_columns
     (3.0, ('sensitive_feature_0',))
     """
     if y_pred is not None or sensitive_features is not None:

@@ -90,7 +90,7 @@ class Certificate:
     paper, tight : Bound or None
         None when the spec gives no τ.
     black_box : WorstModel
-        The exact maxima of L (``.local``) and L̄ (``.global_``) over every
+        The exact maxima of L (``.local_fairness``) and L̄ (``.global_fairness``) over every
         decision model behind the filter, for the spec's utility and τ
         (:func:`fairaudit.worstcase.worst_model`), with the worst kernels.
     corollary : Bound
@@ -153,7 +153,7 @@ class Certificate:
     @property
     def black_box_reason(self) -> str:
         """Deprecated alias: ``omitted["black_box"]`` when the black-box bound is missing, else what the bound is."""
-        if "black_box" in self.omitted or math.isnan(self.black_box.local.value):
+        if "black_box" in self.omitted or math.isnan(self.black_box.local_fairness.value):
             return self.omitted.get("black_box", "")
         return _black_box_description(self.spec.tau)
 
@@ -191,7 +191,7 @@ class Certificate:
             "bounds": {
                 "paper": number(self.paper.value) if self.paper else None,
                 "tight": number(self.tight.value) if self.tight else None,
-                "black_box": number(self.black_box.local.value),
+                "black_box": number(self.black_box.local_fairness.value),
                 "corollary": number(self.corollary.value),
                 "best": number(self.best),
                 "best_form": self.best_form,
@@ -304,7 +304,7 @@ def certify(
     ... [target]
     ... local = 1.0
     ... '''))
-    >>> round(c.black_box.local.value, 6), c.certified, c.best_form
+    >>> round(c.black_box.local_fairness.value, 6), c.certified, c.best_form
     (0.847298, True, 'black_box')
     """
     if not isinstance(spec, Spec):
@@ -328,10 +328,10 @@ def certify(
     corollary = corollary_bound(mech, utility=spec.utility, population=spec.population, law=obs_law)
     forms.append(("corollary", corollary.assumptions))
     omitted: dict[str, str] = {}
-    if math.isnan(black_box.local.value):
-        omitted["black_box"] = black_box.local.reason
+    if math.isnan(black_box.local_fairness.value):
+        omitted["black_box"] = black_box.local_fairness.reason
     bb_holds = not any(a.status == "violated" and a.scope != "global" for a in bb_assumptions)
-    bb_ok = bb_holds and not math.isnan(black_box.local.value)
+    bb_ok = bb_holds and not math.isnan(black_box.local_fairness.value)
     best, best_form = _best_bound(black_box if bb_ok else None, tight, corollary, paper)
     independent = spec.population.independence().independent
     global_bound, global_why = _global_bound(black_box if bb_ok else None, best, best_form, independent)
@@ -423,7 +423,7 @@ def _best_bound(
     black_box: WorstModel | None, tight: Bound | None, corollary: Bound, paper: Bound | None
 ) -> tuple[float, str]:
     """The smallest bound on L that holds, and its form (``black_box`` None when it does not apply)."""
-    candidates = [(black_box.local.value, "black_box")] if black_box is not None else []
+    candidates = [(black_box.local_fairness.value, "black_box")] if black_box is not None else []
     for form, b in (("tight", tight), ("corollary", corollary), ("paper", paper)):  # ties go to the tighter form
         if b is not None and b.holds:
             candidates.append((b.value, form))
@@ -433,9 +433,9 @@ def _best_bound(
 def _global_bound(black_box: WorstModel | None, best: float, best_form: str, independent: bool) -> tuple[float, str]:
     """The bound on L-bar and why: the exact black-box one, or L's best bound when X and A are independent."""
     bound = best if independent else math.inf
-    if black_box is not None and not math.isnan(black_box.global_.value):  # exact, X independent of A or not
-        bound = min(bound, black_box.global_.value)
-    if black_box is not None and bound == black_box.global_.value:
+    if black_box is not None and not math.isnan(black_box.global_fairness.value):  # exact, X independent of A or not
+        bound = min(bound, black_box.global_fairness.value)
+    if black_box is not None and bound == black_box.global_fairness.value:
         return bound, "black-box bound on L-bar (exact over every model)"
     if independent:
         return bound, f"best bound: {best_form} (L-bar <= L since X and A are independent)"
@@ -450,7 +450,11 @@ def _target_checks(
     for kind, goal, (bound, reason) in (("local", t.local, local), ("global", t.global_, global_)):
         if goal is None:
             continue
-        obs = None if observed is None else (observed.local if kind == "local" else observed.global_).value
+        obs = (
+            None
+            if observed is None
+            else (observed.local_fairness if kind == "local" else observed.global_fairness).value
+        )
         targets[kind] = TargetCheck(
             kind=kind,
             target=goal,

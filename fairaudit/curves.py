@@ -551,7 +551,7 @@ class _Bounds:
                 context_mechanism=self.context_mechanism,
                 population=self.population,
                 tau=self.tau,
-            ).local.value
+            ).local_fairness.value
         kw = _black_box_keywords(self.lower, self.gamma, self.tau, self.lipschitz, self.metric, self.population)
         return black_box_bound(mech, **kw).value
 

@@ -72,6 +72,7 @@ import numpy as np
 from ._arrays import FloatArray, format_label, safe_log
 from ._bayes import band_sets
 from ._confidence_sets import SetMaker, binomial_sets, category_bounds, clopper_pearson, linear_extremes, sum_last
+from ._deprecated import renamed
 from ._errors import InputError
 from ._json import Report, label, number
 from ._observed import observe
@@ -168,9 +169,9 @@ class FairnessIntervals:
     confidence : float
         1 − α: all intervals hold together with probability ≥ 1 − α (for
         ``"bayes"``, posterior probability).
-    local, global_ : Interval
+    local_fairness, global_fairness : Interval
         L and L̄ in nats.
-    sup_local, sup_global : Interval or None
+    sup_local_fairness, sup_global_fairness : Interval or None
         Sups over g of L and L̄ (Lemma 1), nats; None with
         ``"clopper-pearson"`` when U is not binary.
     demographic_parity, equalized_odds : Interval or None
@@ -192,14 +193,17 @@ class FairnessIntervals:
         The Bayesian settings (None for the other methods).
     notes : tuple of str
         What was not computed or is conservative, and why.
+    local, global_, sup_local, sup_global
+        Deprecated read-only aliases of ``local_fairness``, ``global_fairness``,
+        ``sup_local_fairness`` and ``sup_global_fairness`` (each warns).
     """
 
     method: str
     confidence: float
-    local: Interval
-    global_: Interval
-    sup_local: Interval | None
-    sup_global: Interval | None
+    local_fairness: Interval
+    global_fairness: Interval
+    sup_local_fairness: Interval | None
+    sup_global_fairness: Interval | None
     demographic_parity: Interval | None
     equalized_odds: Interval | None
     cell_lower: FloatArray
@@ -219,13 +223,18 @@ class FairnessIntervals:
     seed: int | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
 
+    local = renamed[Interval]("local_fairness")
+    global_ = renamed[Interval]("global_fairness")
+    sup_local = renamed[Interval | None]("sup_local_fairness")
+    sup_global = renamed[Interval | None]("sup_global_fairness")
+
     def intervals(self) -> dict[str, Interval | None]:
         """The metric intervals by name (None where not computed)."""
         return {
-            "local": self.local,
-            "global": self.global_,
-            "sup_local": self.sup_local,
-            "sup_global": self.sup_global,
+            "local": self.local_fairness,
+            "global": self.global_fairness,
+            "sup_local": self.sup_local_fairness,
+            "sup_global": self.sup_global_fairness,
             "demographic_parity": self.demographic_parity,
             "equalized_odds": self.equalized_odds,
         }
@@ -367,9 +376,9 @@ def fairness_intervals(
     >>> t = count_records(pd.DataFrame({"g": ["a"] * 50 + ["b"] * 50,
     ...                                 "y": [1] * 30 + [0] * 20 + [1] * 20 + [0] * 30}), sensitive=["g"], outcome="y")
     >>> iv = fairness_intervals(t, indicator(1, t.decisions), 0.95)
-    >>> iv.method, round(iv.local.estimate, 6), iv.local.lower < iv.local.estimate < iv.local.upper
+    >>> iv.method, round(iv.local_fairness.estimate, 6), iv.local_fairness.lower < iv.local_fairness.estimate < iv.local_fairness.upper
     ('clopper-pearson', 0.405465, True)
-    >>> iv.local.group, iv.local.other_group
+    >>> iv.local_fairness.group, iv.local_fairness.other_group
     ('a', 'b')
     """
     confidence = _check(table, utility, confidence, method, concentration, draws)
@@ -494,10 +503,10 @@ def _estimates(table: CountTable, counts: FloatArray, utility: Utility, law: _Au
     pop = law.population if law.population is not None else table.population()
     o = observe(plugin, utility, pop)
     return {
-        "local": o.local.value,
-        "global": o.global_.value,
-        "sup_local": o.sup_local.value,
-        "sup_global": o.sup_global.value,
+        "local": o.local_fairness.value,
+        "global": o.global_fairness.value,
+        "sup_local": o.sup_local_fairness.value,
+        "sup_global": o.sup_global_fairness.value,
         "demographic_parity": o.demographic_parity.value,
         "equalized_odds": o.equalized_odds.value,
     }
@@ -525,10 +534,10 @@ def _assemble(
     return FairnessIntervals(
         method=options.method,
         confidence=confidence,
-        local=local,
-        global_=global_,
-        sup_local=made["sup_local"],
-        sup_global=made["sup_global"],
+        local_fairness=local,
+        global_fairness=global_,
+        sup_local_fairness=made["sup_local"],
+        sup_global_fairness=made["sup_global"],
         demographic_parity=made["demographic_parity"],
         equalized_odds=made["equalized_odds"],
         cell_lower=projection.cell_lower,

@@ -195,7 +195,7 @@ class _Certifier:
                 population=self.population,
                 seed=self.seed,
             )
-            out[i] = (iv.local if self.kind == "local" else iv.global_).upper
+            out[i] = (iv.local_fairness if self.kind == "local" else iv.global_fairness).upper
         return out
 
     def fast(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:

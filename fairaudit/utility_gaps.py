@@ -100,7 +100,7 @@ def utility_gaps(local: Fairness, global_: Fairness) -> UtilityGaps:
     >>> import pandas as pd, fairaudit as fa
     >>> df = pd.DataFrame({"g": list("aaaabbbb"), "y": [1, 1, 1, 0, 1, 0, 0, 0], "x": list("pqpqpqpq")})
     >>> r = fa.audit(df, sensitive=["g"], outcome="y", context=["x"])
-    >>> gaps = utility_gaps(r.observed.local, r.observed.global_)
+    >>> gaps = utility_gaps(r.observed.local_fairness, r.observed.global_fairness)
     >>> gaps.demographic_parity.value, str(gaps.equalized_odds)
     (0.5, '0.5 (a vs b in context p)')
     """

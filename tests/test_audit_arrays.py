@@ -72,7 +72,7 @@ def test_every_array_type_gives_the_same_audit():
     ):
         got = fa.audit(y_pred=y, sensitive_features=s)
         assert got.table.counts.tolist() == expected.table.counts.tolist()
-        assert got.observed.global_.value == expected.observed.global_.value
+        assert got.observed.global_fairness.value == expected.observed.global_fairness.value
     unnamed = fa.audit(y_pred=r["y"], sensitive_features=np.stack([r["race"], r["sex"]], axis=1))
     assert unnamed.table.sensitive_columns == ("sensitive_feature_0", "sensitive_feature_1")
 
@@ -137,7 +137,7 @@ def test_unit_and_constant_weights_give_the_unweighted_intervals(method):
     plain = fa.audit(df, **kw).intervals
     for column in ("one", "two"):  # n_eff = n whatever the constant weight
         weighted = fa.audit(df, weights=column, **kw).intervals
-        for name in ("local", "global_"):
+        for name in ("local_fairness", "global_fairness"):
             a, b = getattr(plain, name), getattr(weighted, name)
             assert (b.lower, b.estimate) == pytest.approx((a.lower, a.estimate), rel=1e-12, abs=1e-15)
             assert b.upper == pytest.approx(a.upper, rel=1e-12, abs=1e-15)

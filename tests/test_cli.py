@@ -238,7 +238,7 @@ def test_audit_binary_outcome_with_no_positive_record(tmp_path, capsys, negative
     assert d["utility"]["name"] == ("1{outcome = True}" if negative is False else "1{outcome = 1}")
     assert (d["local"]["value"], d["global"]["value"], d["demographic_parity"]) == (0, 0, 0)
     r = fa.audit(df, sensitive=["grp"], outcome="hired")
-    assert r.observed.local.value == 0 and r.observed.global_.ratio == 1
+    assert r.observed.local_fairness.value == 0 and r.observed.global_fairness.ratio == 1
 
 
 def test_audit_parquet_matches_csv(tmp_path, capsys):

@@ -148,7 +148,7 @@ def test_certify_from_counts_reports_white_box_interval(capsys):
     ref = fairness_intervals(
         table, spec.utility, 0.95, sensitive_mechanism=spec.sensitive_mechanism, population=spec.population
     )
-    assert obs["local"]["interval"] == pytest.approx([ref.local.lower, ref.local.upper], rel=1e-12)
+    assert obs["local"]["interval"] == pytest.approx([ref.local_fairness.lower, ref.local_fairness.upper], rel=1e-12)
     assert obs["intervals"]["filtered"] is True and obs["intervals"]["method"] == "clopper-pearson"
     # the filtered certificate is far tighter than the model's own interval, and both cover their estimates
     own = d["unfiltered"]["local"]["interval"]
@@ -184,6 +184,7 @@ def test_api_certify_without_confidence():
 def test_interval_object_repeats_method_and_level():
     t = fa.count_records(pd.DataFrame({"g": list("aabb"), "y": [1, 0, 1, 1]}), sensitive=["g"], outcome="y")
     iv = fa.fairness_intervals(t, fa.indicator(1, t.decisions), 0.9)
-    assert isinstance(iv.local, fa.Interval) and (iv.local.method, iv.local.confidence) == ("clopper-pearson", 0.9)
+    L = iv.local_fairness
+    assert isinstance(L, fa.Interval) and (L.method, L.confidence) == ("clopper-pearson", 0.9)
     assert iv.table is t and iv.confidence == 0.9
     assert np.all(iv.cell_lower <= iv.cell_upper)

@@ -340,8 +340,14 @@ def test_audit_of_a_count_table_equals_audit_of_records():
     b = fa.audit(count_records(df, **kw), utility="u", confidence=0.9)
     c = fa.audit(count_records(df, **kw), utility="u", confidence=0.9, **kw)
     for r in (b, c):
-        assert r.observed.local.value == a.observed.local.value and r.observed.global_.value == a.observed.global_.value
-        assert (r.intervals.local.lower, r.intervals.local.upper) == (a.intervals.local.lower, a.intervals.local.upper)
+        assert (
+            r.observed.local_fairness.value == a.observed.local_fairness.value
+            and r.observed.global_fairness.value == a.observed.global_fairness.value
+        )
+        assert (r.intervals.local_fairness.lower, r.intervals.local_fairness.upper) == (
+            a.intervals.local_fairness.lower,
+            a.intervals.local_fairness.upper,
+        )
     t = count_records(df, **kw)
     assert str(_err(fa.audit, t, sensitive=["sex"])) == (
         "sensitive: does not match the count table, whose column(s) are [grp] (got 'sex')"

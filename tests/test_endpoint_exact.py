@@ -182,14 +182,14 @@ def test_hr_exact_run_equals_analyse_kernel_on_the_known_kernel(tmp_path, capsys
     a = analyse_kernel(task, law, model="lp-model", epsilons=eps, positions=task.positions, targets=TARGETS)
     assert (cert["route"], cert["model"], cert["samples"], a.route) == ("exact", "lp-model", 0, "exact")
     assert cert["queries"]["unparsed_share"] == pytest.approx(0.1, abs=1e-12)  # the mean of 0.05, 0.1, 0.15
-    assert math.isfinite(a.baseline.local.value) and a.baseline.local.value > 0.1
-    assert cert["baseline"]["local"]["value"] == pytest.approx(a.baseline.local.value, abs=1e-12)
-    assert cert["baseline"]["global"]["value"] == pytest.approx(a.baseline.global_.value, abs=1e-12)
+    assert math.isfinite(a.baseline.local_fairness.value) and a.baseline.local_fairness.value > 0.1
+    assert cert["baseline"]["local"]["value"] == pytest.approx(a.baseline.local_fairness.value, abs=1e-12)
+    assert cert["baseline"]["global"]["value"] == pytest.approx(a.baseline.global_fairness.value, abs=1e-12)
     assert len(cert["points"]) == len(a.points) == 2
     for got, want in zip(cert["points"], a.points):
         assert got["epsilon"] == pytest.approx(want.epsilon, abs=1e-12)
-        assert got["observed"]["local"]["value"] == pytest.approx(want.local.value, abs=1e-12)
-        assert got["observed"]["global"]["value"] == pytest.approx(want.global_.value, abs=1e-12)
+        assert got["observed"]["local"]["value"] == pytest.approx(want.local_fairness.value, abs=1e-12)
+        assert got["observed"]["global"]["value"] == pytest.approx(want.global_fairness.value, abs=1e-12)
         assert got["bounds"]["black_box"] == pytest.approx(want.black_box_local, abs=1e-12)
         assert got["observed"]["local"]["interval"] is None  # exact: no sampling error
     assert "probability" in (out / "kernel.csv").read_text().splitlines()[0]

@@ -43,9 +43,9 @@ def test_clopper_pearson_matches_scipy_binomtest():
     assert iv.cell_lower[0].tolist() == pytest.approx([ref_a.low, ref_b.low], rel=1e-10)
     assert iv.cell_upper[0].tolist() == pytest.approx([ref_a.high, ref_b.high], rel=1e-10)
     # L interval: [log(lo_b / hi_a), log(hi_b / lo_a)] (b is the larger group here)
-    assert iv.local.lower == pytest.approx(math.log(ref_b.low / ref_a.high), rel=1e-10)
-    assert iv.local.upper == pytest.approx(math.log(ref_b.high / ref_a.low), rel=1e-10)
-    assert (iv.local.group, iv.local.other_group, iv.n_sets) == ("b", "a", 2)
+    assert iv.local_fairness.lower == pytest.approx(math.log(ref_b.low / ref_a.high), rel=1e-10)
+    assert iv.local_fairness.upper == pytest.approx(math.log(ref_b.high / ref_a.low), rel=1e-10)
+    assert (iv.local_fairness.group, iv.local_fairness.other_group, iv.n_sets) == ("b", "a", 2)
 
 
 def test_interval_coverage_small_simulation():
@@ -62,7 +62,7 @@ def test_interval_coverage_small_simulation():
                 rows += [(i, j, 1)] * k + [(i, j, 0)] * (60 - k)
         df = pd.DataFrame(rows, columns=["x", "a", "y"])
         t = count_records(df, sensitive=["a"], outcome="y", context=["x"])
-        lo, hi = fairness_intervals(t, fa.indicator(1, t.decisions), 0.9, "clopper-pearson").local
+        lo, hi = fairness_intervals(t, fa.indicator(1, t.decisions), 0.9, "clopper-pearson").local_fairness
         hits += lo <= true_l <= hi
     assert hits / 300 >= 0.9
 
@@ -73,8 +73,8 @@ def test_zero_cells_give_infinite_upper_end():
     df = pd.DataFrame({"g": ["a"] * 100 + ["b"] * 100, "y": [0] * 100 + [1] * 30 + [0] * 70})
     t = count_records(df, sensitive=["g"], outcome="y")
     iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "clopper-pearson")
-    assert iv.local.upper == math.inf and 0 < iv.local.lower < math.inf
+    assert iv.local_fairness.upper == math.inf and 0 < iv.local_fairness.lower < math.inf
     level = 1 - 0.05 / 2
     hi_a = binomtest(0, 100).proportion_ci(confidence_level=level, method="exact").high
     lo_b = binomtest(30, 100).proportion_ci(confidence_level=level, method="exact").low
-    assert iv.local.lower == pytest.approx(math.log(lo_b / hi_a), rel=1e-10)
+    assert iv.local_fairness.lower == pytest.approx(math.log(lo_b / hi_a), rel=1e-10)

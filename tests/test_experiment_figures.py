@@ -364,8 +364,10 @@ def test_infinite_paper_design_values_are_marked_at_the_top_edge():
     a = _analysis("hr-delivery", "prefers-mary")
     value = SimpleNamespace
     paper = (
-        SimpleNamespace(epsilon=a.points[0].epsilon, local=value(value=0.5), global_=value(value=0.2)),
-        SimpleNamespace(epsilon=a.points[1].epsilon, local=value(value=math.inf), global_=value(value=math.inf)),
+        SimpleNamespace(epsilon=a.points[0].epsilon, local_fairness=value(value=0.5), global_fairness=value(value=0.2)),
+        SimpleNamespace(
+            epsilon=a.points[1].epsilon, local_fairness=value(value=math.inf), global_fairness=value(value=math.inf)
+        ),
     )
     fig = _curve_figure(dataclasses.replace(a, paper=paper))
     ax = fig.axes[0]

@@ -339,10 +339,13 @@ def test_intervals_cover_the_exact_law_and_positions_change_only_l_bar():
     recs = _records(PKG, "low-complaint-first", 400)
     bal = analyse(PKG, recs, model="m", samples=400, epsilons=[eps])
     iv = bal.points[0].intervals
-    assert iv.local.lower <= want <= iv.local.upper and iv.local.upper - iv.local.lower < 0.4
+    assert (
+        iv.local_fairness.lower <= want <= iv.local_fairness.upper
+        and iv.local_fairness.upper - iv.local_fairness.lower < 0.4
+    )
     assert bal.points[0].black_box_global < math.inf
     fixed = analyse(PKG, recs, model="m", samples=400, epsilons=[eps], positions="fixed", confidence=None)
-    assert fixed.points[0].local.value == pytest.approx(bal.points[0].local.value, abs=1e-12)
+    assert fixed.points[0].local_fairness.value == pytest.approx(bal.points[0].local_fairness.value, abs=1e-12)
     # the position reveals the group: the worst model serves by position, L-bar reaches log(gamma / lower)
     assert fixed.points[0].black_box_global == pytest.approx(math.log(3), abs=1e-9)
 

@@ -153,7 +153,17 @@ def test_markdown_and_html_tables(capsys, tmp_path):
     pytest.importorskip("matplotlib")
     from html.parser import HTMLParser
 
-    args = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]
+    args = [
+        "audit",
+        EXAMPLE,
+        "--sensitive",
+        "sex,race",
+        "--outcome",
+        "selected",
+        "--dropna",
+        "--report",
+        "impact-ratio",
+    ]
 
     class Rows(HTMLParser):
         def __init__(self):

@@ -223,16 +223,17 @@ def test_one_context_hand_example(method):
     pairs = {(i, j): hi[i] / lo[j] for i in range(3) for j in range(3) if i != j}
     (fi, fj), best = max(pairs.items(), key=lambda kv: kv[1])
     assert (fi, fj) == (0, 2)  # a favoured over c
-    assert iv.local.upper == pytest.approx(math.log(best), rel=1e-7)
+    assert iv.local_fairness.upper == pytest.approx(math.log(best), rel=1e-7)
     want_lower = math.log(max(1.0, max(lo) / min(hi)))
     assert want_lower > 0
-    assert iv.local.lower == pytest.approx(want_lower, rel=1e-7)
-    assert (iv.local.context, iv.local.group, iv.local.other_group) == ("all", "a", "c")
-    assert iv.local.estimate == pytest.approx(math.log((30 / 50) / (5 / 40)), rel=1e-12)
-    assert iv.local.confidence == conf and iv.local.method == method
+    assert iv.local_fairness.lower == pytest.approx(want_lower, rel=1e-7)
+    assert (iv.local_fairness.context, iv.local_fairness.group, iv.local_fairness.other_group) == ("all", "a", "c")
+    assert iv.local_fairness.estimate == pytest.approx(math.log((30 / 50) / (5 / 40)), rel=1e-12)
+    assert iv.local_fairness.confidence == conf and iv.local_fairness.method == method
     # one context, pooled: the global interval is the same set
-    assert (iv.global_.lower, iv.global_.upper) == pytest.approx((iv.local.lower, iv.local.upper), rel=1e-12)
-    assert iv.global_.context is None and (iv.global_.group, iv.global_.other_group) == ("a", "c")
+    L, G = iv.local_fairness, iv.global_fairness
+    assert (G.lower, G.upper) == pytest.approx((L.lower, L.upper), rel=1e-12)
+    assert G.context is None and (G.group, G.other_group) == ("a", "c")
 
 
 def test_two_contexts_hand_example_counts_groups_and_pools_them():
@@ -251,17 +252,17 @@ def test_two_contexts_hand_example_counts_groups_and_pools_them():
         lowers.append(max(1.0, max(la, lb) / min(ha, hb)))
     x = int(np.argmax([u[0] for u in uppers]))
     assert x == 0
-    assert iv.local.upper == pytest.approx(math.log(uppers[x][0]), rel=1e-7)
-    assert iv.local.lower == pytest.approx(math.log(max(lowers)), rel=1e-7, abs=1e-12)
-    assert (iv.local.context, iv.local.group, iv.local.other_group) == ("x0",) + uppers[x][1]
+    assert iv.local_fairness.upper == pytest.approx(math.log(uppers[x][0]), rel=1e-7)
+    assert iv.local_fairness.lower == pytest.approx(math.log(max(lowers)), rel=1e-7, abs=1e-12)
+    assert (iv.local_fairness.context, iv.local_fairness.group, iv.local_fairness.other_group) == ("x0",) + uppers[x][1]
     # global: the pooled group counts a = 35/70, b = 23/60 at the same Bonferroni level
     (la, ha), (lb, hb) = _cp(35, 70, level), _cp(23, 60, level)
     assert iv.group_lower.tolist() == pytest.approx([la, lb], rel=1e-7)
     assert iv.group_upper.tolist() == pytest.approx([ha, hb], rel=1e-7)
-    assert iv.global_.upper == pytest.approx(math.log(max(ha / lb, hb / la)), rel=1e-7)
-    assert iv.global_.lower == pytest.approx(math.log(max(1.0, max(la, lb) / min(ha, hb))), rel=1e-7, abs=1e-12)
-    assert (iv.global_.group, iv.global_.other_group) == ("a", "b")
-    assert iv.global_.estimate == pytest.approx(math.log((35 / 70) / (23 / 60)), rel=1e-12)
+    assert iv.global_fairness.upper == pytest.approx(math.log(max(ha / lb, hb / la)), rel=1e-7)
+    assert iv.global_fairness.lower == pytest.approx(math.log(max(1.0, max(la, lb) / min(ha, hb))), rel=1e-7, abs=1e-12)
+    assert (iv.global_fairness.group, iv.global_fairness.other_group) == ("a", "b")
+    assert iv.global_fairness.estimate == pytest.approx(math.log((35 / 70) / (23 / 60)), rel=1e-12)
 
 
 # ---------------------------------------------------------------- 5. behind a filter
@@ -342,13 +343,13 @@ def test_filtered_local_ends_by_brute_force_and_bisection(pos, tot, keep):
             r = _max_ratio(q)
             if r > best:
                 best, where = r, (x, contexts[x], groups[int(q.argmax())], groups[int(q.argmin())])
-    assert iv.local.upper == pytest.approx(math.log(best), rel=1e-7)
-    assert (iv.local.context, iv.local.group, iv.local.other_group) == where[1:]
+    assert iv.local_fairness.upper == pytest.approx(math.log(best), rel=1e-7)
+    assert (iv.local_fairness.context, iv.local_fairness.group, iv.local_fairness.other_group) == where[1:]
     # (b) lower end: bisection on t with scipy LP feasibility, per context, then the max over contexts
     per_x = [_bisect_min_max_ratio(M, box[x, :, 0], box[x, :, 1], t_hi=best) for x in range(X)]
     want = math.log(max(per_x))
-    assert iv.local.lower == pytest.approx(want, rel=1e-5, abs=1e-6)
-    assert iv.local.lower <= iv.local.estimate <= iv.local.upper
+    assert iv.local_fairness.lower == pytest.approx(want, rel=1e-5, abs=1e-6)
+    assert iv.local_fairness.lower <= iv.local_fairness.estimate <= iv.local_fairness.upper
 
 
 def test_filtered_lower_end_is_positive_when_data_exclude_parity():
@@ -361,7 +362,7 @@ def test_filtered_lower_end_is_positive_when_data_exclude_parity():
         "clopper-pearson",
         sensitive_mechanism=randomized_response(t.groups, keep=0.9),
     )
-    assert iv.local.lower > 0.5
+    assert iv.local_fairness.lower > 0.5
 
 
 _MIXED_SOLVERS: dict = {}  # cvxpy problems are built once per shape; share them across examples
@@ -453,19 +454,19 @@ def test_mixed_ratio_tiny_positive_upper_end():
 def test_zero_successes_give_infinite_upper_and_finite_lower(method):
     t = _binary_table([[0, 30]], [[100, 100]])
     iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method)
-    assert iv.local.upper == math.inf
+    assert iv.local_fairness.upper == math.inf
     (_, ha), (lb, _) = _cp(0, 100, 1 - 0.05 / 2), _cp(30, 100, 1 - 0.05 / 2)
-    assert iv.local.lower == pytest.approx(math.log(lb / ha), rel=1e-7)
-    assert 0 < iv.local.lower < math.inf
-    assert (iv.local.group, iv.local.other_group) == ("b", "a")
+    assert iv.local_fairness.lower == pytest.approx(math.log(lb / ha), rel=1e-7)
+    assert 0 < iv.local_fairness.lower < math.inf
+    assert (iv.local_fairness.group, iv.local_fairness.other_group) == ("b", "a")
 
 
 @pytest.mark.parametrize("method", ["clopper-pearson", "multinomial"])
 def test_all_zero_table_gives_lower_zero(method):
     t = _binary_table([[0, 0, 0], [0, 0, 0]], [[10, 20, 5], [7, 7, 7]], contexts=("x0", "x1"), groups=("a", "b", "c"))
     iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method)
-    assert iv.local.lower == 0.0 and iv.local.upper == math.inf
-    assert iv.global_.lower == 0.0 and iv.global_.upper == math.inf
+    assert iv.local_fairness.lower == 0.0 and iv.local_fairness.upper == math.inf
+    assert iv.global_fairness.lower == 0.0 and iv.global_fairness.upper == math.inf
 
 
 @pytest.mark.parametrize("method", ["clopper-pearson", "multinomial", "bayes"])
@@ -483,9 +484,9 @@ def test_empty_cell_gives_finite_lower_and_infinite_upper(method):
     )
     assert t.counts[1, 1].tolist() == [0, 0]  # cell (q, b) is empty
     iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method, draws=200)
-    assert math.isfinite(iv.local.lower) and iv.local.lower >= 0
+    assert math.isfinite(iv.local_fairness.lower) and iv.local_fairness.lower >= 0
     if method != "bayes":
-        assert iv.local.upper == math.inf
+        assert iv.local_fairness.upper == math.inf
         assert iv.n_sets == 3 + 2  # the empty cell is not counted
         assert iv.cell_lower[1, 1] == 0.0 and iv.cell_upper[1, 1] == 1.0
 
@@ -505,10 +506,10 @@ def test_empty_kernel_cell_behind_filter_does_not_crash():
     assert iv.n_sets == 1
     assert iv.kernel_lower[0].tolist() == pytest.approx([_cp(30, 50, 1 - 0.05)[0], 0.0], rel=1e-7)
     assert iv.kernel_upper[0, 1] == 1.0
-    assert iv.local.lower == pytest.approx(0.0, abs=1e-7)
-    assert iv.local.upper == pytest.approx(math.log(4.0), rel=1e-9)
-    assert (iv.local.group, iv.local.other_group) == ("a", "b")
-    assert math.isnan(iv.local.estimate)  # no plug-in law with an empty kernel cell
+    assert iv.local_fairness.lower == pytest.approx(0.0, abs=1e-7)
+    assert iv.local_fairness.upper == pytest.approx(math.log(4.0), rel=1e-9)
+    assert (iv.local_fairness.group, iv.local_fairness.other_group) == ("a", "b")
+    assert math.isnan(iv.local_fairness.estimate)  # no plug-in law with an empty kernel cell
 
 
 # ---------------------------------------------------------------- 7. coverage
@@ -527,8 +528,8 @@ def test_coverage_of_simultaneous_intervals_on_a_known_law():
     e_a = (joint * p1).sum(0) / joint.sum(0)
     assert truth["global"] == pytest.approx(math.log(e_a.max() / e_a.min()), rel=1e-12)
     truth_u = {
-        "sup_local": sup_local_fairness(law, pop).value,
-        "sup_global": sup_global_fairness(law, pop).value,
+        "sup_local_fairness": sup_local_fairness(law, pop).value,
+        "sup_global_fairness": sup_global_fairness(law, pop).value,
         "demographic_parity": demographic_parity(law, pop).value,
         "equalized_odds": equalized_odds(law, pop).value,
     }
@@ -541,7 +542,7 @@ def test_coverage_of_simultaneous_intervals_on_a_known_law():
         t = CountTable(np.stack([cells - k, k], -1).astype(np.int64), contexts, groups, decisions, ("x",), ("g",), "y")
         for method in hits:
             iv = fairness_intervals(t, u, 0.95, method)
-            ok = truth["local"] in iv.local and truth["global"] in iv.global_
+            ok = truth["local"] in iv.local_fairness and truth["global"] in iv.global_fairness
             if method == "multinomial":
                 ok = ok and all(v in getattr(iv, name) for name, v in truth_u.items())
             hits[method] += ok
@@ -575,7 +576,7 @@ def test_bayes_estimate_matches_aif360_smoothed_edf(pos, tot):
     ref = BinaryLabelDatasetMetric(ds).smoothed_empirical_differential_fairness(concentration=1.0)
     t = count_records(df, sensitive=["g"], outcome="y")
     iv = fairness_intervals(t, fa.indicator(1.0, t.decisions), 0.95, "bayes", concentration=1.0, draws=200, seed=1)
-    assert iv.sup_local.estimate == pytest.approx(ref, rel=1e-12)
+    assert iv.sup_local_fairness.estimate == pytest.approx(ref, rel=1e-12)
     # and by hand: smoothed rates (k + 1/2) / (n + 1)
     r = (np.array(pos) + 0.5) / (np.array(tot) + 1.0)
     hand = max(
@@ -584,8 +585,8 @@ def test_bayes_estimate_matches_aif360_smoothed_edf(pos, tot):
         for j in range(len(r))
         if i != j
     )
-    assert iv.sup_local.estimate == pytest.approx(hand, rel=1e-12)
-    assert iv.sup_local.lower <= iv.sup_local.upper
+    assert iv.sup_local_fairness.estimate == pytest.approx(hand, rel=1e-12)
+    assert iv.sup_local_fairness.lower <= iv.sup_local_fairness.upper
 
 
 def test_bayes_seed_reproducible_and_sensitive():
@@ -597,7 +598,7 @@ def test_bayes_seed_reproducible_and_sensitive():
     for name in a.intervals():
         assert a.intervals()[name] == b.intervals()[name]
     assert np.array_equal(a.cell_lower, b.cell_lower) and np.array_equal(a.group_upper, b.group_upper)
-    assert (a.local.lower, a.local.upper) != (c.local.lower, c.local.upper)
+    assert (a.local_fairness.lower, a.local_fairness.upper) != (c.local_fairness.lower, c.local_fairness.upper)
     assert a.n_sets == 0 and a.seed == 5 and a.draws == 300
 
 

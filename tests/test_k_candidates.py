@@ -41,10 +41,10 @@ def test_one_person_per_prompt_by_hand():
     assert eps == pytest.approx(2 * math.log(4), abs=1e-12)
     a = analyse_kernel(task, _exact(task, "prefers-first"), model="m", epsilons=[eps], confidence=None)
     point = a.points[0]
-    assert point.local.value == pytest.approx(math.log(4), abs=1e-12)
+    assert point.local_fairness.value == pytest.approx(math.log(4), abs=1e-12)
     assert point.corollary == pytest.approx(2 * math.log(4), abs=1e-12)
     assert point.black_box_local <= point.corollary + 1e-12
-    assert a.baseline.local.value == math.inf and a.split is None
+    assert a.baseline.local_fairness.value == math.inf and a.split is None
     assert a.population.contexts == task.contexts  # no slot in the context
 
 
@@ -53,15 +53,15 @@ def test_ranking_of_three_by_hand():
     task = load_task(RANKING)
     assert task.slots == 3 and task.kind == "order" and len(task.decisions) == 7
     a = analyse_kernel(task, _exact(task, "prefers-first"), model="m", epsilons=[1.0], confidence=None)
-    assert a.baseline.local.value == pytest.approx(math.log(2.5), abs=1e-12)
+    assert a.baseline.local_fairness.value == pytest.approx(math.log(2.5), abs=1e-12)
     m = a.split.expected_utility
     np.testing.assert_allclose(m[:, 0], 1.0, atol=1e-12)  # Emily in every slot
     np.testing.assert_allclose(m[:, 1:], 2.5, atol=1e-12)
     assert a.split.overall_position == pytest.approx(0.0, abs=1e-12)
     assert a.split.overall_group == pytest.approx(math.log(1 / 2.5), abs=1e-12)
     fair = analyse_kernel(task, _exact(task, "position-biased"), model="m", epsilons=[1.0], confidence=None)
-    assert fair.baseline.local.value == pytest.approx(0.0, abs=1e-12)  # position bias, every slot balanced
-    assert fair.baseline.global_.value == pytest.approx(0.0, abs=1e-12)
+    assert fair.baseline.local_fairness.value == pytest.approx(0.0, abs=1e-12)  # position bias, every slot balanced
+    assert fair.baseline.global_fairness.value == pytest.approx(0.0, abs=1e-12)
 
 
 @pytest.mark.parametrize("path", [LOAN, RANKING], ids=["loan", "ranking"])

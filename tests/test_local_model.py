@@ -338,12 +338,12 @@ def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, caps
     for target in (0.1, 0.25):
         eps = budgets[target, "local"]["this_model"]["epsilon"]
         a = analyse_kernel(PACKAGE_DELIVERY, kernel, model="m", epsilons=[eps, eps * 1.01], targets=())
-        assert a.points[0].local.value == pytest.approx(target, abs=1e-9)  # met with equality at ε ...
-        assert a.points[1].local.value > target  # ... and not beyond
+        assert a.points[0].local_fairness.value == pytest.approx(target, abs=1e-9)  # met with equality at ε ...
+        assert a.points[1].local_fairness.value > target  # ... and not beyond
         eps_any = budgets[target, "local"]["any_model"]["epsilon"]
         mech = PrivacyFilter.from_epsilon(PACKAGE_DELIVERY, eps_any / 2).candidate_mechanism()
         worst = worst_model(mech, a.utility, population=a.population, tau=1.0)
-        assert worst.local.value == pytest.approx(target, abs=1e-7)
+        assert worst.local_fairness.value == pytest.approx(target, abs=1e-7)
         assert eps_any < eps  # any model needs more privacy than this one
     assert "## The privacy budget per target" in report and "| 0.5 | L | ∞ |" in report
 
@@ -420,7 +420,10 @@ def test_experiment_sampled_route_on_the_real_model(smollm2, tmp_path, capsys):
         PACKAGE_DELIVERY, lm.exact_law(PACKAGE_DELIVERY, lm.exact_kernel(PACKAGE_DELIVERY, smollm2)),
         model="smollm2", epsilons=[1.5],
     )  # fmt: skip
-    for key, value in (("local", exact.baseline.local.value), ("global", exact.baseline.global_.value)):
+    for key, value in (
+        ("local", exact.baseline.local_fairness.value),
+        ("global", exact.baseline.global_fairness.value),
+    ):
         lo, hi = cert["baseline"][key]["interval"]
         assert lo <= value <= (math.inf if hi == "inf" else hi)
 

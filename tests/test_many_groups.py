@@ -248,7 +248,7 @@ def test_worst_model_equals_the_all_pairs_route(name, M, all_pairs):
         with all_pairs:
             want = worst_model(mech, util, population=pop, tau=tau)
         got = worst_model(mech, util, population=pop, tau=tau)
-        for w, v in ((got.local, want.local), (got.global_, want.global_)):
+        for w, v in ((got.local_fairness, want.local_fairness), (got.global_fairness, want.global_fairness)):
             assert w.value == pytest.approx(v.value, rel=1e-9) or (math.isnan(w.value) and math.isnan(v.value))
             assert (w.context, w.group, w.other_group, w.method) == (v.context, v.group, v.other_group, v.method)
 
@@ -357,7 +357,8 @@ def test_worst_utility_threshold_route_equals_the_whole_table(monkeypatch):
             vals = threshold_max_many(Q[:, :, None, :], Q[:, None, :, :], lower, 1.0)[0]
             vals[:, np.arange(nA), np.arange(nA)] = -np.inf
             x, a, b = np.unravel_index(int(np.argmax(vals)), vals.shape)
-            assert (w.local.ratio, w.local.context, w.local.group, w.local.other_group) == (
+            L = w.local_fairness
+            assert (L.ratio, L.context, L.group, L.other_group) == (
                 vals.max(),
                 f"x{x}",
                 a,

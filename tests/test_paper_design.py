@@ -48,7 +48,7 @@ def _matrix_bounds(task, eps, positions, context_epsilon=None):
         context_mechanism=candidate_context_mechanism(task, context_epsilon),
         population=candidate_population(task, positions),
     )
-    return b, mech.epsilon, wm.local.value, wm.global_.value
+    return b, mech.epsilon, wm.local_fairness.value, wm.global_fairness.value
 
 
 @pytest.mark.parametrize(
@@ -137,8 +137,8 @@ def test_the_paper_design_alone_observes_what_design_both_observes(hr_runs):
     assert [p.epsilon for p in alone.points] == [p.epsilon for p in both.paper]
     for a, b in zip(alone.points, both.paper):
         assert a.queries == b.queries == 3 * 2 * 12  # documents x both orders x samples
-        assert a.local.value == b.local.value and a.global_.value == b.global_.value
-        assert tuple(a.intervals.local) == tuple(b.intervals.local)
+        assert a.local_fairness.value == b.local_fairness.value and a.global_fairness.value == b.global_fairness.value
+        assert tuple(a.intervals.local_fairness) == tuple(b.intervals.local_fairness)
     for a, b in zip(alone.points, both.points):  # the bounds: closed form against the table design's matrix
         assert a.bounds.black_box_local == pytest.approx(b.black_box_local, rel=1e-12)
         assert a.bounds.black_box_global == pytest.approx(b.black_box_global, rel=1e-12)
@@ -150,9 +150,9 @@ def test_the_baseline_is_the_true_prompts_counted_by_hand(hr_runs):
     a = run_.analysis
     # prefers-mary picks whoever is shown as Mary: without a filter, Mary always; by hand E[g] = 1 and 0
     tom, mary = (HR_DELIVERY.profile_label(c) for c in HR_DELIVERY.candidates)
-    e = a.baseline.local.expected_utility
+    e = a.baseline.local_fairness.expected_utility
     assert np.all(e[:, a.population.groups.index(mary)] == 1) and np.all(e[:, a.population.groups.index(tom)] == 0)
-    assert a.baseline.local.value == math.inf and a.baseline.local.group == mary
+    assert a.baseline.local_fairness.value == math.inf and a.baseline.local_fairness.group == mary
     # the baseline's counts from the log, record by record
     lines = (run_.out / "queries.jsonl").read_text().splitlines()
     assert json.loads(lines[0])["design"] == "paper"
@@ -172,7 +172,7 @@ def test_the_certificate_and_the_records_csv_agree_with_an_audit(hr_runs, capsys
     p = cert["points"][0]
     assert p["epsilon"] == pytest.approx(epsilon_from_keep(HR_DELIVERY, 0.6))
     assert p["bounds"]["black_box"] == pytest.approx(p["epsilon"]) and p["bounds"]["closed_form"] is True
-    assert p["observed"]["local"]["value"] == hr_runs["paper"].analysis.points[0].local.value
+    assert p["observed"]["local"]["value"] == hr_runs["paper"].analysis.points[0].local_fairness.value
     counts = pd.read_csv(out / "candidates.csv")
     assert set(counts.columns) == {"epsilon", "document", "position", "profile", "outcome", "count"}
     per_eps = counts.groupby("epsilon")["count"].sum()

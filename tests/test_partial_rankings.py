@@ -132,7 +132,7 @@ def test_the_law_of_a_model_that_often_names_one_by_hand(task):
     p = _half_partial(task)
     kernel = Kernel(p.reshape(len(task.contexts), 27, -1), task.contexts, list(range(27)), task.decisions)
     a = analyse_kernel(task, kernel, model="m", epsilons=[1.0], confidence=None)
-    assert a.baseline.local.value == pytest.approx(math.log(4), abs=1e-12)
+    assert a.baseline.local_fairness.value == pytest.approx(math.log(4), abs=1e-12)
     np.testing.assert_allclose(a.split.expected_utility[:, 0], 4.0, atol=1e-12)
     np.testing.assert_allclose(a.split.expected_utility[:, 1:], 1.0, atol=1e-12)
 

@@ -51,7 +51,7 @@ def test_expected_counts_match_binomtest(n, p, conf):
     cert = _Certifier(2, 1, conf, "clopper-pearson", None, "local", 0)
     assert cert.fast(np.array([[[k, k]]]), n)[0] == pytest.approx(math.log(hi / lo), rel=1e-9)
     iv = fa.fairness_intervals(table([[k, k]], n), fa.indicator(1, (1, 0)), conf, "clopper-pearson")
-    assert iv.local.upper == pytest.approx(math.log(hi / lo), rel=1e-9)
+    assert iv.local_fairness.upper == pytest.approx(math.log(hi / lo), rel=1e-9)
 
 
 def test_planned_n_by_an_independent_simulation():
@@ -95,7 +95,7 @@ def test_vectorised_upper_ends_equal_fairness_intervals(X, A, eps, kind):
                 fa.fairness_intervals(
                     table(kk, n), fa.indicator(1, (1, 0)), 0.9, method, sensitive_mechanism=mech, population=pop
                 ),
-                "local" if kind == "local" else "global_",
+                f"{kind}_fairness",
             ).upper
             for kk in k
         ]

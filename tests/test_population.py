@@ -159,7 +159,7 @@ def test_a_given_population_wins_over_the_records(tmp_path: Path) -> None:
     assert s.population.source == "given"
     cert = certify(s)
     assert cert.unfiltered is not None
-    assert cert.unfiltered.global_.ratio == pytest.approx(19 / 12, rel=1e-13)  # the uniform hand value
+    assert cert.unfiltered.global_fairness.ratio == pytest.approx(19 / 12, rel=1e-13)  # the uniform hand value
 
 
 # ----------------------------------------------------------------------------- global black box, X and A dependent
@@ -200,7 +200,8 @@ POP = np.array([[40, 10], [10, 40]]) / 100.0  # the records' own P(X, A): rows y
 def test_global_black_box_on_a_dependent_population_matches_an_lp(tmp_path: Path) -> None:
     for eps in (0.0, 0.3, 1.0):
         cert = certify(_spec(tmp_path, eps))
-        assert cert.black_box.global_.value == pytest.approx(_lp_worst_global(eps, POP), rel=1e-7, abs=1e-9), eps
+        worst = cert.black_box.global_fairness
+        assert worst.value == pytest.approx(_lp_worst_global(eps, POP), rel=1e-7, abs=1e-9), eps
 
 
 def test_calibrate_global_on_a_dependent_population_agrees_with_certify(
@@ -291,7 +292,7 @@ def test_calibration_agrees_with_certify_at_its_epsilon_and_just_past_it(tmp_pat
     at = certify(spec(c.epsilon))
     assert at.targets[kind].met and at.targets[kind].bound <= target + 1e-9
     if method == "black_box":  # exact: certify's black-box value is the calibrated bound, and grows past it
-        value = at.black_box.local.value if kind == "local" else at.black_box.global_.value
+        value = at.black_box.local_fairness.value if kind == "local" else at.black_box.global_fairness.value
         assert value == pytest.approx(target, rel=1e-8)
         past = certify(spec(c.epsilon * (1 + 1e-5)))
         assert not past.targets[kind].met

@@ -491,23 +491,25 @@ def test_worst_model_known_utility_example_19_11_and_69_49():
     g = fa.from_table([[fl(r), fl(r)] for r in G], ["u0", "u1", "u2"], ["x0", "x1"], ["a", "b"])
     pop = fa.Population([[0.25, 0.25], [0.25, 0.25]], ["x0", "x1"], ["a", "b"])
     auto = worst_model(ma, g, context_mechanism=mx, population=pop)
-    assert auto.local.method == "threshold" and auto.local.context == "x0"
-    assert auto.local.ratio == pytest.approx(19 / 11, rel=CLOSED)
-    assert auto.global_.ratio == pytest.approx(69 / 49, rel=CLOSED)
+    assert auto.local_fairness.method == "threshold" and auto.local_fairness.context == "x0"
+    assert auto.local_fairness.ratio == pytest.approx(19 / 11, rel=CLOSED)
+    assert auto.global_fairness.ratio == pytest.approx(69 / 49, rel=CLOSED)
     # the worst global kernel: x̃0 answers u0 to released a and u2 to b; x̃1 answers u2 and u1
-    assert auto.global_.kernel.probabilities.tolist() == [
+    assert auto.global_fairness.kernel.probabilities.tolist() == [
         [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
         [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
     ]
-    law = fa.compose(auto.global_.kernel, ma, mx)
+    law = fa.compose(auto.global_fairness.kernel, ma, mx)
     assert global_fairness(law, g, pop).ratio == pytest.approx(69 / 49, rel=CLOSED)
-    law = fa.compose(auto.local.kernel, ma, mx)
+    law = fa.compose(auto.local_fairness.kernel, ma, mx)
     assert local_fairness(law, g, pop).ratio == pytest.approx(19 / 11, rel=CLOSED)
     lp = worst_model(ma, g, context_mechanism=mx, population=pop, method="lp")
-    assert lp.local.method == "lp" and lp.local.ratio == pytest.approx(19 / 11, rel=LP)
-    assert lp.global_.ratio == pytest.approx(69 / 49, rel=LP)
+    assert lp.local_fairness.method == "lp" and lp.local_fairness.ratio == pytest.approx(19 / 11, rel=LP)
+    assert lp.global_fairness.ratio == pytest.approx(69 / 49, rel=LP)
     # Lemma 9: g = 1{u = u0} with τ = 1/2 is Example 1 of §5
-    assert worst_model(ma, fa.indicator("u0", ["u0", "u1"]), tau=0.5).local.ratio == pytest.approx(11 / 7, rel=CLOSED)
+    assert worst_model(ma, fa.indicator("u0", ["u0", "u1"]), tau=0.5).local_fairness.ratio == pytest.approx(
+        11 / 7, rel=CLOSED
+    )
 
 
 # ================================================================== proofs/worst_case_utility.md
@@ -528,11 +530,11 @@ def test_worst_utility_one_context_tau_certificate_7_4():
 
     law = fa.Law([[fl(p), fl(q)]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
     w = worst_utility(law, tau=0.4)
-    assert w.local.method == "lp" and w.local.ratio == pytest.approx(7 / 4, rel=LP)
-    expected_g = fl(g) if w.local.group == "a" else fl(g[::-1])
-    assert w.local.utility.values == pytest.approx(expected_g, rel=LP, abs=LP)
-    assert worst_utility(law).local.ratio == pytest.approx(5 / 2, rel=CLOSED)
-    assert worst_utility(law, lower=0.5).local.ratio == pytest.approx(float(F(3, 4) / F(3, 5)), rel=CLOSED)
+    assert w.local_fairness.method == "lp" and w.local_fairness.ratio == pytest.approx(7 / 4, rel=LP)
+    expected_g = fl(g) if w.local_fairness.group == "a" else fl(g[::-1])
+    assert w.local_fairness.utility.values == pytest.approx(expected_g, rel=LP, abs=LP)
+    assert worst_utility(law).local_fairness.ratio == pytest.approx(5 / 2, rel=CLOSED)
+    assert worst_utility(law, lower=0.5).local_fairness.ratio == pytest.approx(float(F(3, 4) / F(3, 5)), rel=CLOSED)
 
 
 def test_worst_utility_floors_couple_the_contexts_12_7_and_61_41():
@@ -567,16 +569,16 @@ def test_worst_utility_floors_couple_the_contexts_12_7_and_61_41():
 
     law = fa.Law([[fl(r) for r in Qx] for Qx in Q], ["x0", "x1"], ["a", "b"], ["u1", "u2", "u3"])
     w = worst_utility(law, tau=0.4)
-    assert w.local.ratio == pytest.approx(float(local), rel=LP)
-    assert (w.local.context, w.local.group, w.local.other_group) == ("x0", "a", "b")
-    assert w.local.utility.values == pytest.approx(fl(g), rel=LP, abs=LP)
-    assert w.global_.ratio == pytest.approx(float(glob), rel=LP)
-    assert (w.global_.group, w.global_.other_group) == ("a", "b")
+    assert w.local_fairness.ratio == pytest.approx(float(local), rel=LP)
+    assert (w.local_fairness.context, w.local_fairness.group, w.local_fairness.other_group) == ("x0", "a", "b")
+    assert w.local_fairness.utility.values == pytest.approx(fl(g), rel=LP, abs=LP)
+    assert w.global_fairness.ratio == pytest.approx(float(glob), rel=LP)
+    assert (w.global_fairness.group, w.global_fairness.other_group) == ("a", "b")
     only_x0 = fa.Law([[fl(r) for r in Q[0]]], ["x0"], ["a", "b"], ["u1", "u2", "u3"])  # only x0's floors
     w0 = worst_utility(only_x0, tau=0.4)
-    assert w0.local.ratio == pytest.approx(float(own_x0), rel=LP)
-    assert w0.local.utility.values == pytest.approx([0.0, 0.0, 1.0], rel=LP, abs=LP)
+    assert w0.local_fairness.ratio == pytest.approx(float(own_x0), rel=LP)
+    assert w0.local_fairness.utility.values == pytest.approx([0.0, 0.0, 1.0], rel=LP, abs=LP)
     free = worst_utility(law)
-    assert free.local.ratio == pytest.approx(float(sup_local), rel=CLOSED)
-    assert free.global_.ratio == pytest.approx(float(sup_global), rel=CLOSED)
+    assert free.local_fairness.ratio == pytest.approx(float(sup_local), rel=CLOSED)
+    assert free.global_fairness.ratio == pytest.approx(float(sup_global), rel=CLOSED)
     assert fa.sup_local_fairness(law).ratio == pytest.approx(float(sup_local), rel=CLOSED)

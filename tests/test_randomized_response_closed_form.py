@@ -304,7 +304,7 @@ def test_worst_model_equals_the_general_route(k, eps):
                 kw = {"tau": tau, "context_mechanism": cm}
                 a = worst_model(closed, g, **kw)
                 b = worst_model(general, g, **kw)
-                for ca, cb in ((a.local, b.local), (a.global_, b.global_)):
+                for ca, cb in ((a.local_fairness, b.local_fairness), (a.global_fairness, b.global_fairness)):
                     assert ca.value == pytest.approx(cb.value, rel=1e-9, abs=1e-12), (g, tau, cm, ca.kind)
                     # the worst model, composed and audited, gives its value and meets τ
                     law = fa.compose(ca.kernel, closed, cm)
@@ -316,7 +316,11 @@ def test_worst_model_equals_the_general_route(k, eps):
 
 def test_worst_model_infeasible_tau():
     w = worst_model(fa.randomized_response(list("abc"), 1.0), fa.Utility([0.2, 0.1], ["u0", "u1"]), tau=0.5)
-    assert math.isnan(w.local.value) and w.local.status == "infeasible" and "tau" in w.local.reason
+    assert (
+        math.isnan(w.local_fairness.value)
+        and w.local_fairness.status == "infeasible"
+        and "tau" in w.local_fairness.reason
+    )
 
 
 # --------------------------------------------------------------------------- calibration
@@ -604,7 +608,7 @@ def test_general_mechanisms_in_blocks_give_the_same_numbers(monkeypatch):
             fa.tight_bound(m, gamma=1.0, tau=0.2, lipschitz=0.1, metric=d).value,
             black_box_bound(m, lower=0.1).value,
             black_box_bound(m, tau=0.4).value,
-            worst_model(m, fa.indicator("u0", ["u0", "u1"]), tau=0.3).local.value,
+            worst_model(m, fa.indicator("u0", ["u0", "u1"]), tau=0.3).local_fairness.value,
         ]
 
     whole = numbers()

@@ -121,7 +121,7 @@ def test_two_valued_text_outcome_says_which_parameter_to_add():
         "positive: the outcome 'income' has two values, '<=50K' and '>50K': say which one is positive with "
         "`positive` (for example '>50K'), or give a `utility`"
     )
-    assert audit(df, sensitive=["sex"], outcome="income", positive=">50K").observed.global_.ratio == 1.0
+    assert audit(df, sensitive=["sex"], outcome="income", positive=">50K").observed.global_fairness.ratio == 1.0
 
 
 def test_tsv_is_tab_separated_and_sep_reads_other_separators(tmp_path):

@@ -184,8 +184,10 @@ def test_identity_on_a_million_contexts_is_never_materialised():
     assert law.probabilities[123456].tolist() == [[0.75, 0.25], [0.25, 0.75]]
     w = worst_model(rr, fa.indicator("yes", ["yes", "no"]), context_mechanism=ident)
     assert "matrix" not in ident._cache
-    assert w.local.ratio == pytest.approx(3.0, rel=1e-14) and w.global_.ratio == pytest.approx(3.0, rel=1e-14)
-    assert w.local.context == 0 and w.local.kernel.shape == (10**6, 2, 2)
+    assert w.local_fairness.ratio == pytest.approx(3.0, rel=1e-14) and w.global_fairness.ratio == pytest.approx(
+        3.0, rel=1e-14
+    )
+    assert w.local_fairness.context == 0 and w.local_fairness.kernel.shape == (10**6, 2, 2)
 
 
 def test_lazy_identity_agrees_with_a_dense_identity_matrix():
@@ -205,7 +207,7 @@ def test_lazy_identity_agrees_with_a_dense_identity_matrix():
     for kw in ({}, {"tau": 0.3}):
         lazy = worst_model(mech, g, context_mechanism=identity(contexts), population=pop, **kw)
         full = worst_model(mech, g, context_mechanism=from_matrix(np.eye(3), contexts), population=pop, **kw)
-        for case in ("local", "global_"):
+        for case in ("local_fairness", "global_fairness"):
             a, b = getattr(lazy, case), getattr(full, case)
             assert a.ratio == pytest.approx(b.ratio, rel=1e-9) and (a.context, a.group, a.other_group) == (
                 b.context,
@@ -247,8 +249,8 @@ def test_intervals_on_many_contexts_contain_the_estimate():
     table = CountTable(counts, tuple(range(20000)), ("a", "b", "c"), ("u0", "u1", "u2"), ("x",), ("s",), "u")
     iv = fairness_intervals(table, fa.indicator("u1", table.decisions), 0.9)
     obs = observe(table.law(), fa.indicator("u1", table.decisions), table.population())
-    assert iv.global_.lower <= obs.global_.value <= iv.global_.upper
-    assert iv.global_.estimate == pytest.approx(obs.global_.value, rel=1e-12)
+    assert iv.global_fairness.lower <= obs.global_fairness.value <= iv.global_fairness.upper
+    assert iv.global_fairness.estimate == pytest.approx(obs.global_fairness.value, rel=1e-12)
 
 
 @given(st.integers(1, 30), st.integers(1, 6), st.integers(0, 2**32 - 1))

@@ -22,10 +22,10 @@ FRAME = pd.DataFrame(ROWS, columns=["x", "g", "y"])
 
 def test_min_count_leaves_cells_out_and_lists_them():
     full = fa.audit(FRAME, sensitive=["g"], outcome="y", context=["x"])
-    assert full.observed.local.value == math.inf and full.observed.local.context == "q"
+    assert full.observed.local_fairness.value == math.inf and full.observed.local_fairness.context == "q"
     cut = fa.audit(FRAME, sensitive=["g"], outcome="y", context=["x"], min_count=3)
     assert [(c.context, c.group, c.n) for c in cut.left_out] == [("q", "b", 2.0)]
-    assert cut.observed.local.value == pytest.approx(math.log(3.0), rel=1e-15)  # (6/8) / (2/8) in context p
+    assert cut.observed.local_fairness.value == pytest.approx(math.log(3.0), rel=1e-15)  # (6/8) / (2/8) in context p
     assert cut.table.n == 19  # the two records left out of the population too
     d = cut.to_dict()
     assert d["min_count"] == 3 and d["left_out"] == [{"context": "q", "group": "b", "n": 2.0}]

@@ -120,7 +120,7 @@ records = "records.csv"
     share = k[:, :, 1]  # P(HR_2 | doc, released profile)
     behind = p * share + (1 - p) * share[:, ::-1]
     expected = np.log((behind.max(1) / behind.min(1)).max())
-    assert cert.observed.local.value == pytest.approx(expected, rel=1e-12)
+    assert cert.observed.local_fairness.value == pytest.approx(expected, rel=1e-12)
 
 
 def test_records_model_in_a_headerless_text_file(tmp_path):
@@ -149,8 +149,11 @@ epsilon = 1.0
     csv = '[model.csv]\nheader = false\nnames = ["doc", "profile", "office", "note"]\nna_values = ["?"]\n'
     (tmp_path / "raw.toml").write_text(spec + 'records = "records.data.gz"\n' + csv + "skip_initial_space = true\n")
     plain, raw = fa.certify(tmp_path / "plain.toml"), fa.certify(tmp_path / "raw.toml")
-    assert raw.observed.local.value == plain.observed.local.value and raw.observed.local.value > 0
-    assert raw.observed.global_.value == plain.observed.global_.value
+    assert (
+        raw.observed.local_fairness.value == plain.observed.local_fairness.value
+        and raw.observed.local_fairness.value > 0
+    )
+    assert raw.observed.global_fairness.value == plain.observed.global_fairness.value
     # without skip_initial_space the labels keep their space: " a" is not a value of the spec
     (tmp_path / "spaced.toml").write_text(spec + 'records = "records.data.gz"\n' + csv)
     with pytest.raises(InputError):
@@ -187,7 +190,7 @@ weight_column = "w"
     # unfiltered P(HR_2 | a) = 4/5, P(HR_2 | b) = 1/4; behind RR(eps = 1) each released group mixes the two
     p = math.e / (1 + math.e)
     a, b = p * 0.8 + (1 - p) * 0.25, p * 0.25 + (1 - p) * 0.8
-    assert cert.observed.local.value == pytest.approx(math.log(max(a, b) / min(a, b)), rel=1e-12)
+    assert cert.observed.local_fairness.value == pytest.approx(math.log(max(a, b) / min(a, b)), rel=1e-12)
     assert cert.intervals is None and "weighted (model.weight_column)" in cert.intervals_reason
     (tmp_path / "t.toml").write_text(spec.replace('records = "records.csv"', 'table = "records.csv"'))
     with pytest.raises(InputError, match="weight_column weighs records"):
@@ -218,8 +221,8 @@ tau = 0.5
     # (derivative (p^2 - (1-p)^2)/p > 0). Ratio 2 (p + (1-p)(1 - 1/(2p))).
     p = math.e / (1 + math.e)
     want = math.log(2 * (p + (1 - p) * (1 - 1 / (2 * p))))
-    assert cert.black_box.local.value == pytest.approx(want, rel=1e-7)
-    assert (cert.black_box.local.group, cert.black_box.local.other_group) == ("HR_1", "HR_2")
+    assert cert.black_box.local_fairness.value == pytest.approx(want, rel=1e-7)
+    assert (cert.black_box.local_fairness.group, cert.black_box.local_fairness.other_group) == ("HR_1", "HR_2")
     assert cert.best == pytest.approx(want, rel=1e-7) and cert.best_form == "black_box"
     # paper: min over eps of eps + log(1 + (1 + delta(eps))/0.5); at eps = 1, delta = 0: 1 + log 3
     assert cert.paper.value <= 1 + math.log(3) + 1e-12

@@ -110,9 +110,9 @@ def test_exact_kernel_of_a_user_task_by_hand():
     a = analyse_kernel(task, kernel, model="prefers-second", epsilons=[eps], confidence=None, targets=[])
     point = a.points[0]
     assert point.epsilon == pytest.approx(eps, abs=1e-12)
-    assert point.local.value == pytest.approx(math.log(81 / 44), abs=1e-12)
-    assert point.global_.value == pytest.approx(math.log(81 / 44), abs=1e-12)
-    assert math.isinf(a.baseline.local.value)  # unfiltered, Emily is never chosen
+    assert point.local_fairness.value == pytest.approx(math.log(81 / 44), abs=1e-12)
+    assert point.global_fairness.value == pytest.approx(math.log(81 / 44), abs=1e-12)
+    assert math.isinf(a.baseline.local_fairness.value)  # unfiltered, Emily is never chosen
 
 
 def test_user_task_runs_from_the_command_line(tmp_path, capsys):

@@ -89,9 +89,9 @@ def test_certificate_dict_is_its_own(certificate):
     assert _strict_json(d) == d
     # the worst case over every model is the kernel the certificate reports
     bb = d["bound_details"]["black_box"]
-    assert bb["value"] == d["bounds"]["black_box"] == certificate.black_box.local.value
-    assert bb["worst_model"] == certificate.black_box.local.kernel.to_dict()
-    assert d["observed"]["local"]["value"] == certificate.observed.local.value
+    assert bb["value"] == d["bounds"]["black_box"] == certificate.black_box.local_fairness.value
+    assert bb["worst_model"] == certificate.black_box.local_fairness.kernel.to_dict()
+    assert d["observed"]["local"]["value"] == certificate.observed.local_fairness.value
     assert d["targets"]["local"] == certificate.targets["local"].to_dict()
     assert d["calibration"]["epsilon"] == certificate.calibration.epsilon
     assert d["privacy"]["sensitive"] == certificate.spec.sensitive_mechanism.to_dict()

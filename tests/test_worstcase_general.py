@@ -209,8 +209,8 @@ def test_worst_model_equals_brute_force_over_deterministic_kernels(seed):
         best_l = max(best_l, local_fairness(law, util, pop).value)
         best_g = max(best_g, global_fairness(law, util, pop).value)
     w = worst_model(ma, util, context_mechanism=mx, population=pop)
-    assert w.local.value == pytest.approx(best_l, rel=1e-7, abs=1e-9)
-    assert w.global_.value == pytest.approx(best_g, rel=1e-7, abs=1e-9)
+    assert w.local_fairness.value == pytest.approx(best_l, rel=1e-7, abs=1e-9)
+    assert w.global_fairness.value == pytest.approx(best_g, rel=1e-7, abs=1e-9)
 
 
 @given(st.integers(0, 2**32 - 1), st.sampled_from(["u", "ux", "uxa"]), st.floats(0.1, 0.6), st.booleans())
@@ -231,7 +231,7 @@ def test_worst_model_audits_to_its_value_and_meets_tau(seed, kind, tau, dependen
     )
     auto = worst_model(ma, util, context_mechanism=mx, population=pop, tau=tau)
     lp = worst_model(ma, util, context_mechanism=mx, population=pop, tau=tau, method="lp")
-    for a, b in ((auto.local, lp.local), (auto.global_, lp.global_)):
+    for a, b in ((auto.local_fairness, lp.local_fairness), (auto.global_fairness, lp.global_fairness)):
         if math.isnan(b.value):
             assert math.isnan(a.value) and a.status == "infeasible" and "tau" in a.reason
             continue
@@ -247,16 +247,20 @@ def test_worst_model_infeasible_tau_says_why():
     m = fa.randomized_response(["a", "b"], keep=0.7)
     util = fa.Utility([0.2, 0.1], ["u0", "u1"])  # E[g | x, a] <= 0.2 < tau
     w = worst_model(m, util, tau=0.5)
-    assert math.isnan(w.local.value) and w.local.status == "infeasible" and "tau" in w.local.reason
+    assert (
+        math.isnan(w.local_fairness.value)
+        and w.local_fairness.status == "infeasible"
+        and "tau" in w.local_fairness.reason
+    )
 
 
 def test_worst_model_hr_office_hand_example():
     # Always-HR_2-like worst model behind binary RR keep 0.7: chosen iff released Mary, L = ln(7/3).
     m = fa.randomized_response(["Tom", "Mary"], keep=0.7)
     w = worst_model(m, fa.indicator("chosen", ["chosen", "not chosen"]))
-    assert w.local.ratio == pytest.approx(7 / 3, rel=1e-12)
-    assert w.global_.ratio == pytest.approx(7 / 3, rel=1e-12)
-    assert w.local.kernel.probabilities[0, :, 0].tolist() in ([1.0, 0.0], [0.0, 1.0])
+    assert w.local_fairness.ratio == pytest.approx(7 / 3, rel=1e-12)
+    assert w.global_fairness.ratio == pytest.approx(7 / 3, rel=1e-12)
+    assert w.local_fairness.kernel.probabilities[0, :, 0].tolist() in ([1.0, 0.0], [0.0, 1.0])
 
 
 # ------------------------------------------------------------------------------------------ worst utility
@@ -268,10 +272,10 @@ def test_worst_utility_without_constraints_is_lemma_1(seed):
         rng.dirichlet(np.ones(n_u) * 0.7, size=(n_x, n_a)), list(range(n_x)), list(range(n_a)), list(range(n_u))
     )
     w = worst_utility(law)
-    assert w.local.value == pytest.approx(sup_local_fairness(law).value, rel=1e-12)
-    assert w.global_.value == pytest.approx(sup_global_fairness(law).value, rel=1e-12)
+    assert w.local_fairness.value == pytest.approx(sup_local_fairness(law).value, rel=1e-12)
+    assert w.global_fairness.value == pytest.approx(sup_global_fairness(law).value, rel=1e-12)
     # the returned utility attains it
-    assert local_fairness(law, w.local.utility).value == pytest.approx(w.local.value, rel=1e-12)
+    assert local_fairness(law, w.local_fairness.utility).value == pytest.approx(w.local_fairness.value, rel=1e-12)
 
 
 @given(st.integers(0, 2**32 - 1), st.floats(0.05, 0.7), st.sampled_from([0.0, 0.1]))
@@ -286,8 +290,8 @@ def test_worst_utility_with_tau_equals_dinkelbach(seed, tau, lower):
         for a, b in itertools.permutations(range(n_a), 2):
             best = max(best, dinkelbach(q[x, a], q[x, b], [(lower, 1.0)] * n_u, -rows, -tau * np.ones(len(rows))))
     w = worst_utility(law, lower=lower, tau=tau)
-    assert w.local.ratio == pytest.approx(best, rel=1e-7)
-    g = w.local.utility
+    assert w.local_fairness.ratio == pytest.approx(best, rel=1e-7)
+    g = w.local_fairness.utility
     assert fa.expected_utility(law, g).min() >= tau - 1e-9
     assert local_fairness(law, g).ratio == pytest.approx(best, rel=1e-7)
 
@@ -296,9 +300,9 @@ def test_worst_utility_hand_example():
     law = fa.Law([[[0.5, 0.3, 0.2], [0.2, 0.3, 0.5]]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
     w = worst_utility(law, lower=0.5)
     # threshold keeps "hire" only: (0.5 + 0.5*0.5) / (0.5 + 0.5*0.2) = 0.75 / 0.6 = 5/4
-    assert w.local.ratio == pytest.approx(float(Fraction(3, 4) / Fraction(3, 5)), rel=1e-14)
-    assert w.local.utility.values.tolist() == [1.0, 0.5, 0.5]
-    assert (w.local.group, w.local.other_group, w.local.context) == ("a", "b", "x")
+    assert w.local_fairness.ratio == pytest.approx(float(Fraction(3, 4) / Fraction(3, 5)), rel=1e-14)
+    assert w.local_fairness.utility.values.tolist() == [1.0, 0.5, 0.5]
+    assert (w.local_fairness.group, w.local_fairness.other_group, w.local_fairness.context) == ("a", "b", "x")
 
 
 def test_worst_model_with_a_group_that_never_gains_is_infinite():
@@ -306,8 +310,8 @@ def test_worst_model_with_a_group_that_never_gains_is_infinite():
     m = fa.randomized_response(["a", "b"], keep=0.7)
     util = fa.Utility([[[1.0, 0.0], [0.0, 0.0]]], ["u0", "u1"], ["x"], ["a", "b"])
     w = worst_model(m, util)
-    assert w.local.value == math.inf and (w.local.group, w.local.other_group) == ("a", "b")
-    assert w.global_.value == math.inf
+    assert w.local_fairness.value == math.inf and (w.local_fairness.group, w.local_fairness.other_group) == ("a", "b")
+    assert w.global_fairness.value == math.inf
 
 
 def test_class_certificate_is_scale_free():

@@ -147,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
     if args.by == "context":
         from .._small_cells import by_context_rows
 
-        data["by_context"] = by_context_rows(result.observed.local, result.table, json=True)
+        data["by_context"] = by_context_rows(result.observed.local_fairness, result.table, json=True)
     if args.gap_on == "g":
         data["gaps_on_g"] = result.gaps_on_g.to_dict()
     if args.report == "impact-ratio":

@@ -38,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .._arrays import FloatArray
+from .._deprecated import renamed
 from .._errors import InputError
 from .._validation import real
 from ..calibrate import Calibration
@@ -301,30 +302,70 @@ def _budgets(
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class PaperDesignPoint:
-    """The paper's design at one ε: the per-candidate law from queries sampled through the filter."""
+    """The paper's design at one ε: the per-candidate law from queries sampled through the filter.
+
+    Attributes
+    ----------
+    epsilon : float
+        The candidate's ε (nats; +inf for the baseline, no filter).
+    queries : int
+        Answered queries at this ε.
+    law : Law
+        The per-candidate law.
+    local_fairness, global_fairness : Fairness
+        Observed L and L̄ (nats), with the maximising context and groups.
+    intervals : FairnessIntervals or None
+    local, global_
+        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
+    """
 
     epsilon: float
     queries: int
     law: Law
-    local: Fairness
-    global_: Fairness
+    local_fairness: Fairness
+    global_fairness: Fairness
     intervals: FairnessIntervals | None
+
+    local = renamed[Fairness]("local_fairness")
+    global_ = renamed[Fairness]("global_fairness")
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class PointResult:
-    """The table design at one requested ε (nats, the candidate's budget)."""
+    """The table design at one requested ε (nats, the candidate's budget).
+
+    Attributes
+    ----------
+    epsilon : float
+    filter : PrivacyFilter
+    mechanism : Mechanism
+        The filter's mechanism on a candidate (:meth:`PrivacyFilter.candidate_mechanism`).
+    law : Law
+        The model's kernel composed with ``mechanism`` and the context's mechanism.
+    local_fairness, global_fairness : Fairness
+        Observed L and L̄ (nats), with the maximising context and groups.
+    intervals : FairnessIntervals or None
+    black_box_local, black_box_global : float
+        The black-box bounds on L and L̄ (any model behind this filter).
+    corollary : float
+        The corollary's bound: ε of ``mechanism``.
+    local, global_
+        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
+    """
 
     epsilon: float
     filter: PrivacyFilter
     mechanism: Mechanism
     law: Law
-    local: Fairness
-    global_: Fairness
+    local_fairness: Fairness
+    global_fairness: Fairness
     intervals: FairnessIntervals | None
     black_box_local: float
     black_box_global: float
     corollary: float
+
+    local = renamed[Fairness]("local_fairness")
+    global_ = renamed[Fairness]("global_fairness")
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -435,11 +476,11 @@ def _point(
         filter=filt,
         mechanism=mech,
         law=law,
-        local=local_fairness(law, utility, pop),
-        global_=global_fairness(law, utility, pop),
+        local_fairness=local_fairness(law, utility, pop),
+        global_fairness=global_fairness(law, utility, pop),
         intervals=iv,
-        black_box_local=wm.local.value,
-        black_box_global=wm.global_.value,
+        black_box_local=wm.local_fairness.value,
+        black_box_global=wm.global_fairness.value,
         corollary=mech.epsilon,
     )
 
@@ -483,8 +524,8 @@ def paper_design_point(
         epsilon=eps,
         queries=len(truths),
         law=law,
-        local=local_fairness(law, utility, pop),
-        global_=global_fairness(law, utility, pop),
+        local_fairness=local_fairness(law, utility, pop),
+        global_fairness=global_fairness(law, utility, pop),
         intervals=iv,
     )
 

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._deprecated import renamed
 from .._errors import InputError
 from .._io import write_atomic
 from .._json import Report, number
@@ -165,8 +166,8 @@ def paper_design_bounds(
         epsilon=eps,
         filter=filt,
         corollary=mech.epsilon,
-        black_box_local=wm.local.value,
-        black_box_global=wm.global_.value,
+        black_box_local=wm.local_fairness.value,
+        black_box_global=wm.global_fairness.value,
         closed_form=False,
     )
 
@@ -187,20 +188,25 @@ class DesignPoint:
         (:attr:`DeliveryTask.candidates`) and outcome (:attr:`DeliveryTask.outcomes`).
     law : Law
         Their shares.
-    local, global_ : Fairness
+    local_fairness, global_fairness : Fairness
         Observed L and L̄ (nats), with the maximising context and groups.
     intervals : FairnessIntervals or None
     bounds : DesignBounds
+    local, global_
+        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
 
     epsilon: float
     queries: int
     counts: np.ndarray
     law: Law
-    local: Fairness
-    global_: Fairness
+    local_fairness: Fairness
+    global_fairness: Fairness
     intervals: FairnessIntervals | None
     bounds: DesignBounds
+
+    local = renamed[Fairness]("local_fairness")
+    global_ = renamed[Fairness]("global_fairness")
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -299,8 +305,8 @@ def analyse_paper_design(
             queries=seen.queries,
             counts=counts,
             law=seen.law,
-            local=seen.local,
-            global_=seen.global_,
+            local_fairness=seen.local_fairness,
+            global_fairness=seen.global_fairness,
             intervals=seen.intervals,
             bounds=bounds,
         )
@@ -326,8 +332,8 @@ def analyse_paper_design(
 
 def _observed(p: DesignPoint) -> Report:
     return {
-        "local": p.local.to_dict(None if p.intervals is None else p.intervals.local),
-        "global": p.global_.to_dict(None if p.intervals is None else p.intervals.global_),
+        "local": p.local_fairness.to_dict(None if p.intervals is None else p.intervals.local_fairness),
+        "global": p.global_fairness.to_dict(None if p.intervals is None else p.intervals.global_fairness),
     }
 
 
@@ -451,12 +457,12 @@ def plot_paper_design(analysis: PaperDesignAnalysis, path: str | Path) -> None:
     mark_infinite(ax, x[np.isinf(bound)], "k")
     for kind, color, shift, mark in (("local", "tab:red", -0.01, "o"), ("global", "tab:blue", 0.01, "D")):
         name = "L" if kind == "local" else "L̄"
-        base = getattr(a.baseline, "local" if kind == "local" else "global_").value
+        base = getattr(a.baseline, f"{kind}_fairness").value
         if math.isfinite(base):
             ax.axhline(base, color=color, ls=":", lw=1.2, label=f"{name} without a filter (baseline): {base:.3g}")
         else:  # a legend entry without a line
             ax.plot([], [], color=color, ls=":", label=f"{name} without a filter (baseline): +∞")
-        y = np.array([getattr(p, "local" if kind == "local" else "global_").value for p in a.points])
+        y = np.array([getattr(p, f"{kind}_fairness").value for p in a.points])
         err = _errors(a.points, kind, y)
         dx = shift * max(float(x.max()) if x.size else 1.0, 1.0)
         ax.errorbar(x + dx, np.where(np.isfinite(y), y, np.nan), yerr=err, color=color, marker=mark, ls="none",
@@ -472,8 +478,8 @@ def plot_paper_design(analysis: PaperDesignAnalysis, path: str | Path) -> None:
 
 
 def _values(p: DesignPoint) -> tuple[float, ...]:
-    ends = () if p.intervals is None else (*p.intervals.local, *p.intervals.global_)
-    return (p.local.value, p.global_.value, *ends)
+    ends = () if p.intervals is None else (*p.intervals.local_fairness, *p.intervals.global_fairness)
+    return (p.local_fairness.value, p.global_fairness.value, *ends)
 
 
 def _errors(points: Sequence[DesignPoint], kind: str, y: np.ndarray) -> np.ndarray | None:
@@ -481,7 +487,10 @@ def _errors(points: Sequence[DesignPoint], kind: str, y: np.ndarray) -> np.ndarr
     ivs = [p.intervals for p in points]
     if not ivs or any(v is None for v in ivs):
         return None
-    iv = np.array([tuple(v.local if kind == "local" else v.global_) for v in ivs if v is not None], dtype=np.float64)
+    iv = np.array(
+        [tuple(v.local_fairness if kind == "local" else v.global_fairness) for v in ivs if v is not None],
+        dtype=np.float64,
+    )
     with np.errstate(invalid="ignore"):
         lo, hi = np.clip(y - iv[:, 0], 0, None), np.clip(iv[:, 1] - y, 0, None)
     return np.nan_to_num(np.vstack([lo, hi]), nan=0.0, posinf=0.0)

@@ -261,8 +261,8 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
             "black_box_global": number(p.black_box_global),
         },
         "observed": {
-            "local": p.local.to_dict(None if p.intervals is None else p.intervals.local),
-            "global": p.global_.to_dict(None if p.intervals is None else p.intervals.global_),
+            "local": p.local_fairness.to_dict(None if p.intervals is None else p.intervals.local_fairness),
+            "global": p.global_fairness.to_dict(None if p.intervals is None else p.intervals.global_fairness),
         },
         "certified_local": number(p.black_box_local),
     }
@@ -319,9 +319,11 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {
-            "local": a.baseline.local.to_dict(None if a.baseline.intervals is None else a.baseline.intervals.local),
-            "global": a.baseline.global_.to_dict(
-                None if a.baseline.intervals is None else a.baseline.intervals.global_
+            "local": a.baseline.local_fairness.to_dict(
+                None if a.baseline.intervals is None else a.baseline.intervals.local_fairness
+            ),
+            "global": a.baseline.global_fairness.to_dict(
+                None if a.baseline.intervals is None else a.baseline.intervals.global_fairness
             ),
             "shares": shares,
         },
@@ -340,8 +342,8 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             {
                 "epsilon": number(p.epsilon),
                 "queries": p.queries,
-                "local": p.local.to_dict(None if p.intervals is None else p.intervals.local),
-                "global": p.global_.to_dict(None if p.intervals is None else p.intervals.global_),
+                "local": p.local_fairness.to_dict(None if p.intervals is None else p.intervals.local_fairness),
+                "global": p.global_fairness.to_dict(None if p.intervals is None else p.intervals.global_fairness),
             }
             for p in a.paper
         ],
@@ -667,7 +669,10 @@ def _curve_top(analysis: ExperimentAnalysis) -> float:
     c = analysis.curve
     series = [c.black_box, c.paper, c.tight, c.corollary, c.observed_local, c.observed_global]
     series.append(np.array([p.black_box_global for p in analysis.points], dtype=float))
-    series += [np.array([getattr(p, kind).value for p in analysis.paper], dtype=float) for kind in ("local", "global_")]
+    series += [
+        np.array([getattr(p, kind).value for p in analysis.paper], dtype=float)
+        for kind in ("local_fairness", "global_fairness")
+    ]
     values = np.concatenate([np.asarray(v, dtype=float).ravel() for v in series] + [np.zeros(1)])
     return max(1.15 * float(values[np.isfinite(values)].max()), 0.1)
 
@@ -680,11 +685,11 @@ def _draw_bands(analysis: ExperimentAnalysis, ax: Axes, top: float) -> None:
     e = np.array([p.epsilon for p in pts])
     styles = (
         (
-            "global_",
+            "global_fairness",
             "L̄ (shaded, dashed edge)",
             dict(facecolor=(0.17, 0.63, 0.17, 0.16), edgecolor="tab:green", ls="--"),
         ),
-        ("local", "L (hatched, solid edge)", dict(facecolor="none", edgecolor="0.3", hatch="////", ls="-")),
+        ("local_fairness", "L (hatched, solid edge)", dict(facecolor="none", edgecolor="0.3", hatch="////", ls="-")),
     )
     for kind, label, style in styles:
         lo = np.array([getattr(p.intervals, kind).lower for p in pts], dtype=float)
@@ -714,8 +719,8 @@ def _draw_design_points(analysis: ExperimentAnalysis, ax: Axes) -> list[str]:
     if analysis.paper:
         e = np.array([p.epsilon for p in analysis.paper], dtype=float)
         designs: tuple[tuple[str, str, dict[str, Any]], ...] = (
-            ("local", "L", dict(marker="D", ms=5, mfc="none", color="tab:red", clip_on=False)),
-            ("global_", "L̄", dict(marker="s", ms=6, mfc="none", color="tab:brown", clip_on=False)),
+            ("local_fairness", "L", dict(marker="D", ms=5, mfc="none", color="tab:red", clip_on=False)),
+            ("global_fairness", "L̄", dict(marker="s", ms=6, mfc="none", color="tab:brown", clip_on=False)),
         )
         for kind, name, style in designs:
             values = np.array([getattr(p, kind).value for p in analysis.paper], dtype=float)

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .._arrays import BoolArray, FloatArray, IntArray, format_label, safe_log
+from .._deprecated import renamed
 from .._errors import InputError
 from .._json import Report, pair_dict
 from .._validation import nonnegative
@@ -136,8 +137,8 @@ class WorstModel:
 
     Attributes
     ----------
-    local, global_ : WorstCase
-        Each with its maximising kernel.
+    local_fairness, global_fairness : WorstCase
+        The maxima of L and L̄, each with its maximising kernel.
     mechanism, context_mechanism : Mechanism
         M_A and M_X.
     utility : Utility
@@ -146,10 +147,12 @@ class WorstModel:
     excluded : tuple of str
         Contexts left out (P(X = x) = 0).
     assumptions : tuple of Assumption
+    local, global_
+        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
 
-    local: WorstCase
-    global_: WorstCase
+    local_fairness: WorstCase
+    global_fairness: WorstCase
     mechanism: Mechanism
     context_mechanism: Mechanism
     utility: Utility
@@ -157,6 +160,9 @@ class WorstModel:
     population: Population
     excluded: tuple[str, ...]
     assumptions: tuple[Assumption, ...]
+
+    local = renamed[WorstCase]("local_fairness")
+    global_ = renamed[WorstCase]("global_fairness")
 
     def to_dict(self, reason: str = "") -> Report:
         """The report dictionary: the worst case for L, ``global`` for L̄ and ``worst_model``, the kernel for L.
@@ -167,10 +173,10 @@ class WorstModel:
             Why this bound is reported as it is (a certificate's
             ``black_box_reason``); replaces the local worst case's own ``reason``.
         """
-        out = self.local.to_dict()
+        out = self.local_fairness.to_dict()
         out["reason"] = reason
-        out["global"] = self.global_.to_dict()
-        out["worst_model"] = None if self.local.kernel is None else self.local.kernel.to_dict()
+        out["global"] = self.global_fairness.to_dict()
+        out["worst_model"] = None if self.local_fairness.kernel is None else self.local_fairness.kernel.to_dict()
         return out
 
 
@@ -214,7 +220,7 @@ def worst_model(
     Returns
     -------
     WorstModel
-        ``local`` and ``global_``, each with the maximising pair (and context)
+        ``local_fairness`` and ``global_fairness``, each with the maximising pair (and context)
         and the worst kernel; composing the kernel with the mechanisms and
         auditing it reproduces the value.
 
@@ -240,12 +246,12 @@ def worst_model(
     >>> from fairaudit.utility import indicator
     >>> m = randomized_response(["Tom", "Mary"], keep=0.7)
     >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]))
-    >>> round(w.local.ratio, 12), w.local.group, w.local.kernel.probabilities[0, :, 0].tolist()
+    >>> round(w.local_fairness.ratio, 12), w.local_fairness.group, w.local_fairness.kernel.probabilities[0, :, 0].tolist()
     (2.333333333333, 'Tom', [1.0, 0.0])
     >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]), tau=0.5)   # 11/7, as black_box_bound
-    >>> round(w.local.ratio, 12), w.local.method, w.local.kernel.probabilities[0, :, 0].round(6).tolist()
+    >>> round(w.local_fairness.ratio, 12), w.local_fairness.method, w.local_fairness.kernel.probabilities[0, :, 0].round(6).tolist()
     (1.571428571429, 'threshold', [1.0, 0.285714])
-    >>> round(worst_model(m, indicator("chosen", ["chosen", "not chosen"]), tau=0.5, method="lp").local.ratio, 7)
+    >>> round(worst_model(m, indicator("chosen", ["chosen", "not chosen"]), tau=0.5, method="lp").local_fairness.ratio, 7)
     1.5714286
     """
     problem = _model_problem(mechanism, utility, context_mechanism, population, tau, method)
@@ -354,8 +360,8 @@ class _ModelProblem:
 
     def result(self, local: WorstCase, global_: WorstCase) -> WorstModel:
         return WorstModel(
-            local=local,
-            global_=global_,
+            local_fairness=local,
+            global_fairness=global_,
             mechanism=self.mechanism,
             context_mechanism=self.context_mechanism,
             utility=self.utility,

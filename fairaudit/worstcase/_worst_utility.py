@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._arrays import BoolArray, FloatArray, IntArray, format_label, safe_log
+from .._deprecated import renamed
 from .._errors import InputError
 from ..laws import Law, Population
 from ..lfp import PAIR_BLOCK, FractionalProgram, FractionalResult, threshold_max_many
@@ -27,24 +28,29 @@ class WorstUtility:
 
     Attributes
     ----------
-    local, global_ : WorstCase
-        Each with its maximising utility (``.utility``, a vector over the
-        law's decisions) and pair (and context).
+    local_fairness, global_fairness : WorstCase
+        The maxima of L and L̄, each with its maximising utility
+        (``.utility``, a vector over the law's decisions) and pair (and context).
     law : Law
     lower, gamma : float
     tau : float or None
     population : Population
     excluded : tuple of str
+    local, global_
+        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
 
-    local: WorstCase
-    global_: WorstCase
+    local_fairness: WorstCase
+    global_fairness: WorstCase
     law: Law
     lower: float
     gamma: float
     tau: float | None
     population: Population
     excluded: tuple[str, ...]
+
+    local = renamed[WorstCase]("local_fairness")
+    global_ = renamed[WorstCase]("global_fairness")
 
 
 def worst_utility(
@@ -79,7 +85,7 @@ def worst_utility(
     Returns
     -------
     WorstUtility
-        ``local`` and ``global_`` with the maximising utility, context and pair.
+        ``local_fairness`` and ``global_fairness`` with the maximising utility, context and pair.
 
     Raises
     ------
@@ -96,10 +102,10 @@ def worst_utility(
     --------
     >>> law = Law([[[0.5, 0.3, 0.2], [0.2, 0.3, 0.5]]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
     >>> w = worst_utility(law)
-    >>> round(w.local.ratio, 12), w.local.group, w.local.utility.values.tolist()   # Lemma 1: 0.5 / 0.2
+    >>> round(w.local_fairness.ratio, 12), w.local_fairness.group, w.local_fairness.utility.values.tolist()   # Lemma 1: 0.5 / 0.2
     (2.5, 'a', [1.0, 0.0, 0.0])
     >>> w = worst_utility(law, lower=0.5)                  # (0.5 + 0.5·0.5) / (0.5 + 0.5·0.2)
-    >>> round(w.local.ratio, 12)
+    >>> round(w.local_fairness.ratio, 12)
     1.25
     """
     from ..laws import population_for
@@ -137,8 +143,8 @@ def worst_utility(
     has = population.p_group > 0
     global_ = _utility_case(problem, "global", pu[None], has[None], lambda x: None)
     return WorstUtility(
-        local=local,
-        global_=global_,
+        local_fairness=local,
+        global_fairness=global_,
         law=law,
         lower=lower,
         gamma=gamma,

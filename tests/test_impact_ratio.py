@@ -16,6 +16,7 @@ from fairaudit import InputError, count_file, count_records, indicator
 from fairaudit.impact_ratio import impact_ratios, median_score, scoring_utility
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "impact_ratio" / "applicants.csv"
+COMMAND = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]
 
 # the shipped example, by hand: (sex, race) -> (applicants, selected); 3 more records have no sex
 HAND = {("Male", "White"): (40, 20), ("Male", "Black"): (30, 12), ("Female", "White"): (50, 20)}
@@ -111,17 +112,7 @@ def test_weighted_impact_ratios_use_weighted_rates():
 
 
 def test_cli_report(capsys):
-    args = [
-        "audit",
-        EXAMPLE,
-        "--sensitive",
-        "sex,race",
-        "--outcome",
-        "selected",
-        "--dropna",
-        "--report",
-        "impact-ratio",
-    ]
+    args = COMMAND
     code, report, err = run_json(capsys, *args)
     assert code == 0, err
     first = report["impact_ratios"][0]
@@ -153,17 +144,7 @@ def test_markdown_and_html_tables(capsys, tmp_path):
     pytest.importorskip("matplotlib")
     from html.parser import HTMLParser
 
-    args = [
-        "audit",
-        EXAMPLE,
-        "--sensitive",
-        "sex,race",
-        "--outcome",
-        "selected",
-        "--dropna",
-        "--report",
-        "impact-ratio",
-    ]
+    args = COMMAND
 
     class Rows(HTMLParser):
         def __init__(self):

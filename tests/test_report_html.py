@@ -20,6 +20,7 @@ from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
+from _reports import report_json
 
 from fairaudit import InputError
 from fairaudit._format._common import METRICS, plan_rows
@@ -111,12 +112,6 @@ def _parse(text: str) -> _Page:
     return page
 
 
-def _report(tmp_path_factory, name: str, *argv) -> dict:
-    out = tmp_path_factory.mktemp("reports") / f"{name}.json"
-    assert main([str(a) for a in argv] + ["--format", "json", "--output", str(out)]) in (0, 1)
-    return json.loads(out.read_text())
-
-
 @pytest.fixture(scope="module")
 def weird_records(tmp_path_factory) -> Path:
     """Records whose labels are HTML and Markdown, with one empty cell (excluded) and three outcomes."""
@@ -135,13 +130,13 @@ def weird_records(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def weird_audit(tmp_path_factory, weird_records) -> dict:
     args = ["--sensitive", "grp", "--context", "ctx", "--outcome", "dec", "--positive", "yes", "--confidence", 0.9]
-    return _report(tmp_path_factory, "weird", "audit", weird_records, *args)
+    return report_json(tmp_path_factory, "weird", "audit", weird_records, *args)
 
 
 @pytest.fixture(scope="module")
 def single_context_audit(tmp_path_factory, weird_records) -> dict:
     args = ["--sensitive", "grp", "--outcome", "dec", "--positive", "yes", "--confidence", 0.9]
-    return _report(tmp_path_factory, "single", "audit", weird_records, *args)
+    return report_json(tmp_path_factory, "single", "audit", weird_records, *args)
 
 
 @pytest.fixture(scope="module")
@@ -150,18 +145,18 @@ def uci_audit(tmp_path_factory) -> dict:
     args = ["--no-header", "--names", "age,workclass,education,sex,income", "--na-values", "?"]
     args += ["--skip-initial-space", "--dropna", "--sensitive", "sex", "--context", "education"]
     args += ["--outcome", "income", "--positive", ">50K"]
-    return _report(tmp_path_factory, "uci", "audit", EXAMPLES / "uci_layout" / "records.data", *args)
+    return report_json(tmp_path_factory, "uci", "audit", EXAMPLES / "uci_layout" / "records.data", *args)
 
 
 @pytest.fixture(scope="module")
 def gpt_certificate(tmp_path_factory) -> dict:
-    return _report(tmp_path_factory, "gpt35", "certify", EXAMPLES / "llm_hiring" / "gpt35.toml")
+    return report_json(tmp_path_factory, "gpt35", "certify", EXAMPLES / "llm_hiring" / "gpt35.toml")
 
 
 @pytest.fixture(scope="module")
 def office_certificate(tmp_path_factory) -> dict:
     """The HR-office example: the model without the filter has L = +inf."""
-    return _report(tmp_path_factory, "office", "certify", EXAMPLES / "hr_office" / "hr_office.toml")
+    return report_json(tmp_path_factory, "office", "certify", EXAMPLES / "hr_office" / "hr_office.toml")
 
 
 def _check_self_contained(text: str, page: _Page, *, no_address: bool = True) -> None:
@@ -305,13 +300,15 @@ def test_certificate_with_infinite_and_missing_bounds(office_certificate):
 
 
 def test_calibration_and_plan_pages(tmp_path_factory):
-    cal = _report(tmp_path_factory, "cal", "calibrate", "--target", 0.5, "--groups", 8, "--lower", 0.1)
+    cal = report_json(tmp_path_factory, "cal", "calibrate", "--target", 0.5, "--groups", 8, "--lower", 0.1)
     text = render(cal, "calibrate", "html")
     page = _parse(text)
     _check_self_contained(text, page)
     for line in render(cal, "calibrate", "text").splitlines():
         assert f"<p>{html.escape(line)}</p>" in text
-    plan = _report(tmp_path_factory, "plan", "plan", "--target", 1.5, "--datasets", 6, "--method", "all", "--global")
+    plan = report_json(
+        tmp_path_factory, "plan", "plan", "--target", 1.5, "--datasets", 6, "--method", "all", "--global"
+    )
     text = render(plan, "plan", "html")
     page = _parse(text)
     _check_self_contained(text, page)

@@ -9,16 +9,15 @@ Markdown report must carry what the text report carries: context names, records 
 
 from __future__ import annotations
 
-import json
 from html.parser import HTMLParser
 from pathlib import Path
 
 import markdown
 import pytest
+from _reports import report_json
 
 from fairaudit._format._common import BOUNDS, METRICS, bound_detail, certificate_facts, plan_rows, where
 from fairaudit._format.markdown import code_span, escape
-from fairaudit.cli import main
 from fairaudit.report import render
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,13 +92,6 @@ def _parse(text: str, parser) -> _Tables:
     return page
 
 
-def _report(tmp_path_factory, name: str, *argv) -> dict:
-    """The JSON report of ``fairaudit *argv``, written to a file (no capture needed)."""
-    out = tmp_path_factory.mktemp("reports") / f"{name}.json"
-    assert main([str(a) for a in argv] + ["--format", "json", "--output", str(out)]) in (0, 1)
-    return json.loads(out.read_text())
-
-
 @pytest.fixture(scope="module")
 def weird_records(tmp_path_factory) -> Path:
     """Records whose groups, contexts and a column name are Markdown, with one empty cell; three outcomes."""
@@ -118,14 +110,14 @@ def weird_records(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def weird_audit(tmp_path_factory, weird_records) -> dict:
     args = ["--sensitive", "grp", "--context", "ctx|col", "--outcome", "dec", "--positive", "yes"]
-    return _report(tmp_path_factory, "weird", "audit", weird_records, *args, "--confidence", 0.9)
+    return report_json(tmp_path_factory, "weird", "audit", weird_records, *args, "--confidence", 0.9)
 
 
 @pytest.fixture(scope="module")
 def gpt_audit(tmp_path_factory) -> dict:
     csv = EXAMPLES / "llm_hiring" / "gpt_rank_counts.csv"
     args = ["--count", "count", "--sensitive", "demo", "--context", "model,job", "--outcome", "rank"]
-    return _report(tmp_path_factory, "gpt", "audit", csv, *args, "--positive", 1, "--confidence", 0.95)
+    return report_json(tmp_path_factory, "gpt", "audit", csv, *args, "--positive", 1, "--confidence", 0.95)
 
 
 @pytest.fixture(scope="module")
@@ -147,23 +139,23 @@ def weird_certificate(tmp_path_factory) -> dict:
         '[utility]\nkind = "indicator"\ndecision = "yes"\ntau = 0.1\n'
         "[target]\nlocal = 0.9\n"
     )
-    return _report(tmp_path_factory, "cert", "certify", folder / "spec.toml")
+    return report_json(tmp_path_factory, "cert", "certify", folder / "spec.toml")
 
 
 @pytest.fixture(scope="module")
 def gpt_certificate(tmp_path_factory) -> dict:
-    return _report(tmp_path_factory, "gpt35", "certify", EXAMPLES / "llm_hiring" / "gpt35.toml")
+    return report_json(tmp_path_factory, "gpt35", "certify", EXAMPLES / "llm_hiring" / "gpt35.toml")
 
 
 @pytest.fixture(scope="module")
 def plan(tmp_path_factory) -> dict:
     argv = ("plan", "--target", 1.5, "--datasets", 6, "--method", "all", "--epsilon", 1, "--global")
-    return _report(tmp_path_factory, "plan", *argv)
+    return report_json(tmp_path_factory, "plan", *argv)
 
 
 @pytest.fixture(scope="module")
 def calibration(tmp_path_factory) -> dict:
-    return _report(tmp_path_factory, "calibration", "calibrate", "--target", 0.5, "--groups", 8, "--lower", 0.1)
+    return report_json(tmp_path_factory, "calibration", "calibrate", "--target", 0.5, "--groups", 8, "--lower", 0.1)
 
 
 def _column(table: list[list[str]], j: int) -> list[str]:

@@ -280,31 +280,35 @@ def assumption_rows(d: Report) -> list[tuple[str, str, str, str]]:
     return [(str(a["name"]), str(a["status"]), str(a["detail"]), ", ".join(a["for"])) for a in d["assumptions"]]
 
 
-def calibration_sentences(c: Report) -> list[str]:
-    """A certificate's calibration as sentences: the black-box ε for any model (or why none), the white-box one."""
+def calibration_sentences(c: Report, plain: bool = False) -> list[str]:
+    """A certificate's calibration as sentences: the black-box ε for any model (or why none), the white-box one.
+
+    ``plain``: as the text report writes them (``epsilon <=``, lower case, no final period).
+    """
+    eps, le, head, end = ("epsilon", "<=", "calibration", "") if plain else ("ε", "≤", "Calibration", ".")
     lines: list[str] = []
     if c["method"] is None:
-        lines.append(f"Calibration: skipped ({c['reason']}).")
+        lines.append(f"{head}: skipped ({c['reason']}){end}")
     elif c["feasible"]:
         goals = " and ".join(goal(k, v) for k, v in c.get("targets", {}).items()) or goal(c["kind"], c["target"])
         lines.append(
-            f"Calibration: {c.get('family') or 'randomized response'} with ε ≤ {nats(c['epsilon'])} "
-            f"(keep probability {fmt(c['keep_probability'])}) would meet {goals} for any model ({c['method']})."
+            f"{head}: {c.get('family') or 'randomized response'} with {eps} {le} {nats(c['epsilon'])} "
+            f"(keep probability {fmt(c['keep_probability'])}) would meet {goals} for any model ({c['method']}){end}"
         )
         if "left_out" in c:
-            lines.append(f"Calibration leaves out a target: {c['left_out']}.")
+            lines.append(f"{head} leaves out a target: {c['left_out']}{end}")
     else:
         lines.append(
-            f"Calibration: no ε meets {goal(c['kind'], c['target'])} for any model ({c['method']}): {c['reason']}."
+            f"{head}: no {eps} meets {goal(c['kind'], c['target'])} for any model ({c['method']}): {c['reason']}{end}"
         )
     w = c.get("white_box")
     if w is not None and w["feasible"]:
         lines.append(
-            f"Calibration for this model (white_box): ε ≤ {nats(w['epsilon'])} (keep probability "
-            f"{fmt(w['keep_probability'])}) keeps its {measure(w)} ≤ {nats(w['target'])}."
+            f"{head} for this model: {eps} {le} {nats(w['epsilon'])} (keep probability "
+            f"{fmt(w['keep_probability'])}) keeps its {measure(w)} {le} {nats(w['target'])} (white_box){end}"
         )
     elif w is not None:
-        lines.append(f"Calibration for this model (white_box): no ε: {w['reason']}.")
+        lines.append(f"{head} for this model: no {eps} (white_box): {w['reason']}{end}")
     return lines
 
 

@@ -12,12 +12,12 @@ from ._common import (
     audit_notes,
     bound_detail,
     by_context_table,
+    calibration_sentences,
     certificate_facts,
     count,
     counts_sentence,
     fmt,
     gap_rows,
-    goal,
     impact_notes,
     impact_tables,
     measure,
@@ -51,7 +51,7 @@ class TextFormat(Format):
         if "targets" in d:
             lines += _target_lines(d["targets"])
         if "calibration" in d:
-            lines += _calibration_lines(d["calibration"])
+            lines += calibration_sentences(d["calibration"], plain=True)
         lines.append("assumptions:")
         for a in d["assumptions"]:
             lines.append(f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})")
@@ -185,34 +185,6 @@ def _target_lines(targets: Report) -> list[str]:
             f"target {k}: {nats(t['target'])} -> {'MET' if t['met'] else 'NOT MET'} "
             f"(bound {nats(t['bound'])}{obs}; {t['reason']})"
         )
-    return lines
-
-
-def _calibration_lines(c: Report) -> list[str]:
-    """A certificate's calibration: the black-box ε for any model (or why none), then the white-box one."""
-    lines = []
-    if c["method"] is None:
-        lines.append(f"calibration: skipped ({c['reason']})")
-    elif c["feasible"]:
-        goals = " and ".join(goal(k, v) for k, v in c.get("targets", {}).items()) or goal(c["kind"], c["target"])
-        lines.append(
-            f"calibration: {c.get('family') or 'randomized response'} with epsilon <= {nats(c['epsilon'])} "
-            f"(keep probability {fmt(c['keep_probability'])}) would meet {goals} for any model ({c['method']})"
-        )
-        if "left_out" in c:
-            lines.append(f"calibration leaves out a target: {c['left_out']}")
-    else:
-        lines.append(
-            f"calibration: no epsilon meets {goal(c['kind'], c['target'])} for any model ({c['method']}): {c['reason']}"
-        )
-    w = c.get("white_box")
-    if w is not None and w["feasible"]:
-        lines.append(
-            f"calibration for this model: epsilon <= {nats(w['epsilon'])} (keep probability "
-            f"{fmt(w['keep_probability'])}) keeps its {measure(w)} <= {nats(w['target'])} (white_box)"
-        )
-    elif w is not None:
-        lines.append(f"calibration for this model: no epsilon (white_box): {w['reason']}")
     return lines
 
 

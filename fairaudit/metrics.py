@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Hashable, Iterable, Iterator
 from dataclasses import dataclass
-from typing import TypedDict
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 
@@ -48,6 +48,9 @@ from ._errors import InputError
 from ._json import Report, label, number, pair_dict
 from .laws import Law, Population, population_for
 from .utility import Utility
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     # results
@@ -91,7 +94,8 @@ class Fairness:
         E[g | x, a], shape (n_contexts, n_groups), for local; E[g | a], shape
         (n_groups,), for global. NaN marks excluded cells.
     per_context : numpy.ndarray or None
-        For local: log of the largest ratio in each context, shape (n_contexts,).
+        For local: log of the largest ratio in each context, shape (n_contexts,),
+        in the law's context order; :attr:`by_context` is the same with its labels.
     excluded : tuple of str
         What was left out and why.
     law, utility, population
@@ -114,6 +118,25 @@ class Fairness:
     def __repr__(self) -> str:
         where, pair = _where_and_pair(self.context, self.group, self.other_group)
         return f"Fairness({self.kind}, value={self.value:.6g} nats, ratio={self.ratio:.6g}{where}, groups {pair})"
+
+    @property
+    def by_context(self) -> pd.Series | None:
+        """For local: L within each context (nats) as a pandas Series indexed by the context labels; None for global.
+
+        Examples
+        --------
+        >>> import fairaudit as fa
+        >>> law = fa.Law([[[0.5, 0.5], [0.25, 0.75]], [[0.3, 0.7], [0.3, 0.7]]], ["day", "night"], ["a", "b"], [0, 1])
+        >>> fa.local_fairness(law, fa.Utility([1.0, 0.0], [0, 1])).by_context.round(6).to_dict()
+        {'day': 0.693147, 'night': 0.0}
+        """
+        if self.per_context is None:
+            return None
+        import pandas as pd
+
+        return pd.Series(
+            self.per_context, index=pd.Index(list(self.law.contexts), name="context"), name="local_fairness"
+        )
 
     def to_dict(self, interval: Iterable[float] | None = None) -> Report:
         """The report dictionary: value, ratio, (context,) the pair of groups and the interval.

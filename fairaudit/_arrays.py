@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable, Iterable, Iterator, Sequence
-from typing import Any, SupportsIndex, TypeAlias
+from typing import TYPE_CHECKING, Any, SupportsIndex, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from ._errors import InputError
+
+if TYPE_CHECKING:
+    from concurrent.futures import Future
 
 FloatArray: TypeAlias = npt.NDArray[np.float64]
 """A float64 array (probabilities, expectations, log ratios in nats)."""
@@ -455,6 +458,8 @@ def max_tv_pairs(dist: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
     """
     n = dist.shape[-2]
     lead = dist.shape[:-2]
+    if math.prod(lead) * n * n * dist.shape[-1] <= 1 << 14:  # few cells: every pair at once, the same numbers
+        return _max_tv_all_pairs(dist)
     best = np.full(lead, np.nan)
     arg_a = np.zeros(lead, dtype=int)
     arg_b = np.zeros(lead, dtype=int)
@@ -467,6 +472,48 @@ def max_tv_pairs(dist: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
             arg_a = np.where(better, a, arg_a)
             arg_b = np.where(better, b, arg_b)
     return best, arg_a, arg_b
+
+
+def _max_tv_all_pairs(dist: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
+    """:func:`max_tv_pairs` with the pairs as one axis: each TV summed as there (over the decisions of one row),
+    the first pair in the loop's order (a, then b) with the largest, NaN ignored."""
+    a, b = np.triu_indices(dist.shape[-2], 1)
+    tv = np.clip(dist[..., a, :] - dist[..., b, :], 0.0, None).sum(axis=-1)
+    tv = np.where(np.isnan(dist[..., a, 0]) | np.isnan(dist[..., b, 0]), np.nan, tv)
+    best = np.fmax.reduce(tv, axis=-1) if tv.shape[-1] else np.full(tv.shape[:-1], np.nan)
+    first = np.argmax(tv == best[..., None], axis=-1) if tv.shape[-1] else np.zeros(tv.shape[:-1], dtype=int)
+    found = ~np.isnan(best)
+    return best, np.where(found, a[first] if a.size else 0, 0), np.where(found, b[first] if b.size else 0, 0)
+
+
+def use_events(n_groups: int, n_decisions: int) -> bool:
+    """TV by events (2^(K-1) - 1 sums per group) when cheaper than by pairs of groups."""
+    events = (1 << max(n_decisions - 1, 0)) - 1
+    return n_decisions <= 12 and events * n_groups <= n_groups * (n_groups - 1) // 2 * n_decisions
+
+
+def tv_chunk(ct: FloatArray, nan: bool) -> FloatArray:
+    """Largest TV over pairs of groups per context of a chunk ``ct`` (n_decisions, n_groups, chunk).
+
+    TV(P, P') = max over events S of P(S) − P'(S), so the largest TV over pairs is the largest range
+    over groups of P(S); S runs over the non-empty subsets of the first K − 1 decisions (a subset and its
+    complement give the same range), each built from a smaller one by adding one decision. Otherwise
+    (many decisions) :func:`max_tv_pairs`. NaN where fewer than two groups are present.
+    """
+    K, A, C = ct.shape
+    big, small = (np.fmax, np.fmin) if nan else (np.maximum, np.minimum)
+    if use_events(A, K):
+        best = np.zeros(C)
+        sums: dict[int, FloatArray] = {}  # bit mask m of decisions -> P(S_m), shape (n_groups, chunk)
+        for m in range(1, 1 << max(K - 1, 0)):
+            low = m & -m
+            u = low.bit_length() - 1
+            sums[m] = ct[u] if m == low else sums[m ^ low] + ct[u]
+            np.maximum(best, big.reduce(sums[m], axis=0) - small.reduce(sums[m], axis=0), out=best)
+        if nan:
+            best[(~np.isnan(ct[0])).sum(axis=0) < 2] = np.nan
+        return best
+    return max_tv_pairs(ct.transpose(2, 1, 0))[0]
 
 
 class TableScan:
@@ -493,6 +540,10 @@ class TableScan:
     ``population`` is (P(x, a), P(a)); ``step`` bounds the chunks' length. Reductions over groups run on a
     copy of the chunk transposed to (n_decisions, n_groups, chunk), or of E's chunk to (n_groups, chunk):
     over contiguous rows. Scratch arrays are allocated once.
+
+    :func:`fairaudit._scan_kernel.compiled_scan` fills the same results with the optional compiled kernel (the
+    same doubles); it may leave the last additions to ``group_mean`` running in a thread (``pending``):
+    :meth:`wait` before reading ``group_mean``.
     """
 
     def __init__(
@@ -519,6 +570,10 @@ class TableScan:
         self.sup_ratio = np.empty(X) if extremes else None
         self.tv_low = np.empty(X) if extremes else None
         self.bottom_sum = np.empty(X) if extremes else None
+        # per chunk of contexts (``step`` long): the largest tv_low, the smallest bottom_sum (NaN ignored)
+        self.step, chunks = step, -(-X // step)
+        self.chunk_low = np.empty(chunks) if extremes else None
+        self.chunk_bottom = np.empty(chunks) if extremes else None
         self.group_law = np.zeros((A, K)) if by_group and population is not None else None
         # g(u) = 0 adds nothing (Q is finite where not NaN); one term is kept so that NaN rows stay NaN
         self.terms = list(range(K)) if g is None or g.ndim == 3 else [int(u) for u in np.flatnonzero(g)] or [0]
@@ -533,6 +588,38 @@ class TableScan:
         natural = g is not None and not self.plain and (not transposed or g.ndim == 3)
         self.prod_buf = np.empty(A * K * step) if natural else None
         self.g_tiled = np.tile(g, A * step) if natural and g is not None and g.ndim == 1 else None
+        self.pending: Future[None] | None = None  # the compiled pass's last additions to ``group_mean``
+
+    def low_max(self, valid: BoolArray) -> float:
+        """The largest ``tv_low`` over the ``valid`` contexts (from the chunks' maxima when every context is valid)."""
+        assert self.tv_low is not None and self.chunk_low is not None
+        return float(self.chunk_low.max() if valid.all() else self.tv_low[valid].max())
+
+    def candidates(self, valid: BoolArray, bound: float, threshold: float) -> IntArray:
+        """``flatnonzero(valid & (bound - bottom_sum >= threshold))``, reading only the chunks that can hold one.
+
+        ``bound - s`` does not increase with s (IEEE subtraction is monotone), so a chunk holds such a context
+        only if ``bound - (its smallest bottom_sum) >= threshold``: the same indices, in the same order.
+        """
+        assert self.bottom_sum is not None and self.chunk_bottom is not None
+        chunks = np.flatnonzero(bound - self.chunk_bottom >= threshold)
+        if len(chunks) > max(1, len(self.chunk_bottom) // 8):  # many: one pass over the whole array
+            return np.flatnonzero(valid & (bound - self.bottom_sum >= threshold))
+        step, bottom = self.step, self.bottom_sum
+        parts = [
+            c * step
+            + np.flatnonzero(
+                valid[c * step : (c + 1) * step] & (bound - bottom[c * step : (c + 1) * step] >= threshold)
+            )
+            for c in chunks
+        ]
+        return np.concatenate(parts) if parts else np.empty(0, dtype=np.intp)
+
+    def wait(self) -> None:
+        """Return once ``group_mean`` is complete (the compiled pass may add its last contexts in a thread)."""
+        if self.pending is not None:
+            pending, self.pending = self.pending, None
+            pending.result()
 
     @staticmethod
     def _view(buf: FloatArray, shape: tuple[int, ...]) -> FloatArray:
@@ -603,6 +690,9 @@ class TableScan:
             np.fmax.reduce(ratio_of_extremes(top, bottom, self._present(sl)), axis=0, out=self.sup_ratio[sl])
             self.tv_low[sl] = np.max(top[: K - 1] - bottom[: K - 1], axis=0) if K > 1 else 0.0
             np.add.reduce(bottom, axis=0, out=self.bottom_sum[sl])
+            assert self.chunk_low is not None and self.chunk_bottom is not None
+            self.chunk_low[sl.start // self.step] = np.max(self.tv_low[sl])
+            self.chunk_bottom[sl.start // self.step] = np.fmin.reduce(self.bottom_sum[sl])
         if self.group_law is not None:
             assert w is not None
             c = ct if self.observed is None else np.nan_to_num(ct, nan=0.0, copy=False)  # our buffer, reduced already

@@ -43,9 +43,11 @@ from ._arrays import (
     ratio_extremes,
     ratio_of_extremes,
     safe_log,
+    tv_chunk,
 )
 from ._errors import InputError
 from ._json import Report, label, number, pair_dict
+from ._scan_kernel import compiled_scan, log_ratios, use_compiled_pass
 from .laws import Law, Population, population_for
 from .utility import Utility
 
@@ -68,6 +70,7 @@ __all__ = [
     "equalized_odds",
     # every metric in one pass
     "all_metrics",
+    "use_compiled_pass",
     # the quantities behind them
     "expected_utility",
     "group_decision_law",
@@ -287,36 +290,6 @@ def _chunks(n: int, row_bytes: int) -> Iterator[slice]:
         yield slice(start, min(n, start + step))
 
 
-def _use_events(n_groups: int, n_decisions: int) -> bool:
-    """TV by events (2^(K-1) - 1 sums per group) when cheaper than by pairs of groups."""
-    events = (1 << max(n_decisions - 1, 0)) - 1
-    return n_decisions <= 12 and events * n_groups <= n_groups * (n_groups - 1) // 2 * n_decisions
-
-
-def _tv_chunk(ct: FloatArray, nan: bool) -> FloatArray:
-    """Largest TV over pairs of groups per context of a chunk ``ct`` (n_decisions, n_groups, chunk).
-
-    TV(P, P') = max over events S of P(S) − P'(S), so the largest TV over pairs is the largest range
-    over groups of P(S); S runs over the non-empty subsets of the first K − 1 decisions (a subset and its
-    complement give the same range), each built from a smaller one by adding one decision. Otherwise
-    (many decisions) :func:`_max_tv`'s loop over pairs of groups. NaN where fewer than two groups are present.
-    """
-    K, A, C = ct.shape
-    big, small = (np.fmax, np.fmin) if nan else (np.maximum, np.minimum)
-    if _use_events(A, K):
-        best = np.zeros(C)
-        sums: dict[int, FloatArray] = {}  # bit mask m of decisions -> P(S_m), shape (n_groups, chunk)
-        for m in range(1, 1 << max(K - 1, 0)):
-            low = m & -m
-            u = low.bit_length() - 1
-            sums[m] = ct[u] if m == low else sums[m ^ low] + ct[u]
-            np.maximum(best, big.reduce(sums[m], axis=0) - small.reduce(sums[m], axis=0), out=best)
-        if nan:
-            best[(~np.isnan(ct[0])).sum(axis=0) < 2] = np.nan
-        return best
-    return max_tv_pairs(ct.transpose(2, 1, 0))[0]
-
-
 def _asked(result: FloatArray | None) -> FloatArray:
     """A result of :func:`_scan` that the caller asked for, so it was computed (None only when not asked)."""
     assert result is not None, "_scan was not asked for this result"
@@ -352,15 +325,16 @@ def _scan(
         law.probabilities,
         None if law.complete else law.observed,
         None if utility is None else _utility_values(law, utility),
-        step=next(_chunks(X, row)).stop,
+        step=(scan_step := next(_chunks(X, row)).stop),
         population=None if population is None else (population.probabilities, population.p_group),
         keep_e=keep_e,
         spread=spread,
         extremes=extremes,
         by_group=by_group,
     )
-    for sl in _chunks(X, row):
-        scan.chunk(sl)
+    if not compiled_scan(scan, scan_step):  # the compiled kernel, when it applies: the same numbers
+        for sl in _chunks(X, row):
+            scan.chunk(sl)
     return scan
 
 
@@ -382,17 +356,17 @@ def expected_utility(law: Law, utility: Utility) -> FloatArray:
 
 def _excluded_contexts(law: Law, population: Population | None, present: BoolArray) -> tuple[list[str], BoolArray]:
     notes = []
-    keep = np.ones(law.shape[0], dtype=bool)
-    if population is not None:
-        zero = population.p_context == 0
-        for i in np.flatnonzero(zero):
+    if population is None:
+        keep = np.ones(law.shape[0], dtype=bool)
+    else:
+        keep = population.p_context == 0
+        for i in np.flatnonzero(keep):
             notes.append(f"context {format_label(law.context_labels[i])!r}: P(X = x) = 0")
-        keep &= ~zero
+        np.logical_not(keep, out=keep)  # in place: the contexts with P(X = x) > 0 (one new array, not three)
     for x, a in law.empty_cells:
         notes.append(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records")
-    few = keep & (present.sum(axis=1) < 2) if not law.complete else np.zeros(len(keep), dtype=bool)
-    if len(law.groups) >= 2:
-        for i in np.flatnonzero(few):
+    if len(law.groups) >= 2 and not law.complete:  # (a complete law has every group in every context)
+        for i in np.flatnonzero(keep & (present.sum(axis=1) < 2)):
             notes.append(f"context {format_label(law.context_labels[i])!r}: fewer than two groups with records")
     return notes, keep
 
@@ -450,8 +424,10 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: Tabl
     ratio = _asked(scan.ratio)
     if not keep.all():
         ratio[~keep] = np.nan
-    with np.errstate(divide="ignore", invalid="ignore"):
-        per_context = np.log(ratio)  # ratios are >= 1, inf or NaN: the log is NaN exactly where they are
+    i = first_max(ratio) if len(law.groups) >= 2 else None
+    best = float("nan") if i is None else float(ratio[i])
+    # the logs in the pass's array (read no more): ratios are >= 1, inf or NaN, the log is NaN exactly where they are
+    per_context = log_ratios(ratio, out=ratio) if len(law.groups) >= 2 else np.zeros(law.shape[0])
 
     def result(
         value: float, ratio: float, context: Hashable, group: Hashable, other: Hashable, per: FloatArray = per_context
@@ -472,11 +448,9 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: Tabl
         )
 
     if len(law.groups) < 2:
-        return result(0.0, 1.0, None, None, None, np.zeros(law.shape[0]))
-    i = first_max(ratio)
+        return result(0.0, 1.0, None, None, None)
     if i is None:
         return result(float("nan"), float("nan"), None, None, None)
-    best = float(ratio[i])
     _, hi, lo = ratio_extremes(e[i : i + 1], axis=1)  # the pair, in the maximising context only
     return result(safe_log(best), best, law.context_labels[i], law.groups[hi[0]], law.groups[lo[0]])
 
@@ -556,6 +530,7 @@ def global_fairness(law: Law, utility: Utility, population: Population | None = 
 
 def _global(law: Law, utility: Utility, population: Population, notes: list[str], scan: TableScan) -> Fairness:
     if law.shape[1] >= 2:  # Σ_x P(x | a) E[g | x, a], added context after context by the pass
+        scan.wait()
         mean = _asked(scan.group_mean)
     else:  # one group: the mean as before, by einsum (a pairwise sum)
         e = _asked(scan.e)
@@ -685,10 +660,10 @@ def _equalized_odds(law: Law, population: Population | None, scan: TableScan) ->
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
         return _total_variation("equalized_odds", 0.0, notes, law, population)
-    valid = keep & (_present(law) >= 2)  # the contexts where TV is defined
+    valid = keep if law.complete else keep & (_present(law) >= 2)  # the contexts where TV is defined
     if not valid.any():
         return _total_variation("equalized_odds", float("nan"), notes, law, population)
-    i = _tv_argmax(law, valid, scan.tv_low, scan.bottom_sum)
+    i = _tv_argmax(law, valid, scan)
     # the value and pair in the maximising context by the pairwise definition (each unordered pair once)
     tv, a, b = max_tv_pairs(law.probabilities[i : i + 1])
     ai, bi = int(a[0]), int(b[0])
@@ -706,11 +681,11 @@ def _equalized_odds(law: Law, population: Population | None, scan: TableScan) ->
     )
 
 
-def _tv_argmax(law: Law, valid: BoolArray, low: FloatArray | None, bottom_sum: FloatArray | None) -> int:
-    """The first context among ``valid`` with the largest TV over pairs of groups, per :func:`_tv_chunk`.
+def _tv_argmax(law: Law, valid: BoolArray, scan: TableScan) -> int:
+    """The first context among ``valid`` with the largest TV over pairs of groups, per :func:`~fairaudit._arrays.tv_chunk`.
 
     Only the contexts that can reach the largest are computed. In context x, the range over groups of
-    Q[x, a, u] (u < K − 1, a singleton event of :func:`_tv_chunk`) is at most its TV (``low``), and
+    Q[x, a, u] (u < K − 1, a singleton event of :func:`~fairaudit._arrays.tv_chunk`) is at most its TV (``scan.tv_low``), and
     TV(Q[x, a], Q[x, b]) = Σ_u Q[x, a, u] − Σ_u min(Q[x, a, u], Q[x, b, u]) is at most 1 + tolerance −
     Σ_u min over groups of Q[x, a, u] (rows are checked to sum to 1 within the tolerance). A context whose
     upper bound is below the best lower bound (less a margin for rounding and for the pairwise route's
@@ -722,13 +697,12 @@ def _tv_argmax(law: Law, valid: BoolArray, low: FloatArray | None, bottom_sum: F
     if next(_chunks(X, A * K * q.itemsize)).stop == X:  # one chunk: every context, no bound needed
         rows = np.flatnonzero(valid)
     else:
-        low, bottom_sum = _asked(low), _asked(bottom_sum)
-        threshold = float(low.max() if valid.all() else low[valid].max()) - 4 * ROW_TOLERANCE
+        threshold = scan.low_max(valid) - 4 * ROW_TOLERANCE  # (only the chunks that can hold a candidate are read)
         slack = 8 * K * float(np.finfo(float).eps)
-        rows = np.flatnonzero(valid & ((1.0 + ROW_TOLERANCE) * (1.0 + slack) + slack - bottom_sum >= threshold))
+        rows = scan.candidates(valid, (1.0 + ROW_TOLERANCE) * (1.0 + slack) + slack, threshold)
     tv = np.empty(len(rows))
     for sl in _chunks(len(rows), A * K * q.itemsize):
-        tv[sl] = _tv_chunk(np.ascontiguousarray(q[rows[sl]].transpose(2, 1, 0)), not law.complete)
+        tv[sl] = tv_chunk(np.ascontiguousarray(q[rows[sl]].transpose(2, 1, 0)), not law.complete)
     return int(rows[np.nanargmax(tv)])
 
 
@@ -909,11 +883,13 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     notes = _group_weights(law, population)
     scan = _scan(law, utility, keep_e=True, spread=True, population=population, extremes=True, by_group=True)
     dist = _per_group(_asked(scan.group_law), population)
+    local, odds = _local(law, utility, population, scan), _equalized_odds(law, population, scan)
+    sup_local = _sup_local(law, population, scan)  # then L-bar: the compiled pass may be adding up its group means
     return {
-        "local": _local(law, utility, population, scan),
+        "local": local,
         "global": _global(law, utility, population, notes, scan),
         "demographic_parity": _demographic_parity(law, population, dist),
-        "equalized_odds": _equalized_odds(law, population, scan),
-        "sup_local": _sup_local(law, population, scan),
+        "equalized_odds": odds,
+        "sup_local": sup_local,
         "sup_global": _sup_global(law, population, dist),
     }

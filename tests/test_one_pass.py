@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 
 import fairaudit as fa
 from fairaudit import _arrays, metrics
-from fairaudit._arrays import Labels, as_labels, first_max, ratio_of_extremes
+from fairaudit._arrays import Labels, as_labels, first_max, ratio_of_extremes, tv_chunk
 from fairaudit._errors import InputError
 from fairaudit.certify import observe
 from fairaudit.laws import Kernel, Law, Population, default_population, population_for
@@ -305,7 +305,7 @@ def check_equalized_odds(law: Law, pop: Population, eo, largest: float, cells) -
         assert math.isnan(eo.value)
         return
     q = np.asarray(law.probabilities)
-    per_context = metrics._tv_chunk(np.ascontiguousarray(q.transpose(2, 1, 0)), nan=not law.complete)
+    per_context = tv_chunk(np.ascontiguousarray(q.transpose(2, 1, 0)), nan=not law.complete)
     per_context[pop.p_context == 0] = np.nan
     x = law.contexts.index(eo.context)
     assert x == int(np.nanargmax(per_context))
@@ -413,9 +413,9 @@ def test_the_largest_tv_is_found_where_the_bounds_leave_many_contexts(route, mon
     law = Law(q, range(X), [f"a{i}" for i in range(A)], [f"u{i}" for i in range(K)])
     monkeypatch.setattr(metrics, "_CHUNK_BYTES", 1)
     if route == "pairs":
-        monkeypatch.setattr(metrics, "_use_events", lambda A, K: False)
+        monkeypatch.setattr(_arrays, "use_events", lambda A, K: False)
     eo = fa.equalized_odds(law)
-    per_context = metrics._tv_chunk(np.ascontiguousarray(q.transpose(2, 1, 0)), nan=False)
+    per_context = tv_chunk(np.ascontiguousarray(q.transpose(2, 1, 0)), nan=False)
     assert eo.context == int(np.argmax(per_context)) and eo.value == pytest.approx(1.0, abs=1e-8)
 
 
@@ -427,7 +427,7 @@ def test_near_ties_of_tv_between_chunks_pick_the_first_maximum(monkeypatch):
         q[x] = [[0.7 + eps, 0.1, 0.1, 0.1 - eps], [0.1, 0.1, 0.1, 0.7], [0.25, 0.25, 0.25, 0.25]]
     law = Law(q, range(400), GROUPS, DECISIONS)
     monkeypatch.setattr(metrics, "_CHUNK_BYTES", 1)
-    per_context = metrics._tv_chunk(np.ascontiguousarray(q.transpose(2, 1, 0)), nan=False)
+    per_context = tv_chunk(np.ascontiguousarray(q.transpose(2, 1, 0)), nan=False)
     assert fa.equalized_odds(law).context == int(np.argmax(per_context))
 
 

@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 from scipy import stats
 
 import fairaudit as fa
-from fairaudit import metrics
-from fairaudit._arrays import as_labels
+from fairaudit import _arrays, metrics
+from fairaudit._arrays import as_labels, tv_chunk
 from fairaudit._errors import InputError
 from fairaudit.certify import observe
 from fairaudit.estimate import CountTable
@@ -137,11 +137,11 @@ def test_tv_by_events_equals_tv_by_pairs(K, monkeypatch):
     q = rng.dirichlet(np.ones(K), size=(300, 4))
     q[7, 1] = np.nan  # an empty cell: ignored by both routes
     ct = np.ascontiguousarray(q.transpose(2, 1, 0))
-    by_events = metrics._tv_chunk(ct, nan=True) if metrics._use_events(4, K) else None
-    monkeypatch.setattr(metrics, "_use_events", lambda A, K: False)
-    by_pairs = metrics._tv_chunk(ct, nan=True)
-    monkeypatch.setattr(metrics, "_use_events", lambda A, K: True)
-    forced = metrics._tv_chunk(ct, nan=True)
+    by_events = tv_chunk(ct, nan=True) if _arrays.use_events(4, K) else None
+    monkeypatch.setattr(_arrays, "use_events", lambda A, K: False)
+    by_pairs = tv_chunk(ct, nan=True)
+    monkeypatch.setattr(_arrays, "use_events", lambda A, K: True)
+    forced = tv_chunk(ct, nan=True)
     direct = np.array(
         [
             max(

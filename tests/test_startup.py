@@ -19,7 +19,20 @@ import fairaudit
 ROOT = Path(__file__).resolve().parents[1]
 
 # Heavy at start-up: each takes from a tenth of a second to most of one to import.
-HEAVY = ("pandas", "pyarrow", "scipy.stats", "cvxpy", "matplotlib", "httpx", "duckdb", "pyspark", "torch", "jinja2")
+HEAVY = (
+    "pandas",
+    "pyarrow",
+    "scipy.stats",
+    "cvxpy",
+    "matplotlib",
+    "httpx",
+    "duckdb",
+    "pyspark",
+    "torch",
+    "jinja2",
+    "numba",  # the compiled pass over a law: imported on the first large table only
+    "llvmlite",
+)
 COMMANDS = ("certify", "audit", "calibrate", "plan", "experiment", "prepare-model")
 
 

@@ -479,16 +479,7 @@ def _intervals(
         return None, None, "the spec has no model"
     if kernel.counts is None:
         return None, None, "the model is a table of probabilities, not counts: no sampling uncertainty to report"
-    if spec.model.model is not None and spec.model.model.weight_column is not None:
-        return (
-            None,
-            None,
-            (
-                "the model's records are weighted (model.weight_column): certify makes no intervals for them yet; "
-                "an audit of the records with weights (fairaudit.audit, fairaudit audit) makes them on Kish's effective sample size"
-            ),
-        )
-    table = CountTable(
+    table = spec.weighted_table or CountTable(  # weighted records: intervals on Kish's effective counts
         kernel.counts,
         kernel.contexts,
         kernel.groups,

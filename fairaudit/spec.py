@@ -341,6 +341,7 @@ class Spec:
         self._context_distribution: FloatArray | None = None
         self.given_population = self._population()
         self._kernel: Kernel | None | bool = False  # False: not read yet
+        self.weighted_table: CountTable | None = None  # [model] records with weight_column: their weighted counts
         self._default_population: Population | None = None
         self.utility = self._utility()
         u = model.utility
@@ -628,6 +629,7 @@ class Spec:
                 table = count_records(frame, sensitive=sens, outcome=dec, context=ctx_cols, weights=m.weight_column)
                 table = _relabel(table, contexts, groups, self.decisions)
                 probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
+                self.weighted_table = table if table.squares is not None else None
             else:
                 prob_col = m.probability_column
                 cnt_col = m.count_column
@@ -740,13 +742,19 @@ def _relabel(table: CountTable, contexts: tuple, groups: tuple, decisions: tuple
             pos.append(wanted.index(m))
         return pos
 
-    out = np.zeros((len(contexts), len(groups), len(decisions)))
     ix = index(table.contexts, contexts, "context") if contexts != ("all",) else [0]
     ia = index(table.groups, groups, "sensitive")
     iu = index(table.decisions, decisions, "decision")
-    out[np.ix_(ix, ia, iu)] = table.counts
+
+    def placed(counts: Any) -> Any:
+        out = np.zeros((len(contexts), len(groups), len(decisions)))
+        out[np.ix_(ix, ia, iu)] = counts
+        return out
+
+    columns = (table.context_columns, table.sensitive_columns, table.outcome_column)
+    squares = None if table.squares is None else placed(table.squares)
     return CountTable(
-        out, contexts, groups, decisions, table.context_columns, table.sensitive_columns, table.outcome_column
+        placed(table.counts), contexts, groups, decisions, *columns, weight_column=table.weight_column, squares=squares
     )
 
 

@@ -191,7 +191,12 @@ weight_column = "w"
     p = math.e / (1 + math.e)
     a, b = p * 0.8 + (1 - p) * 0.25, p * 0.25 + (1 - p) * 0.8
     assert cert.observed.local_fairness.value == pytest.approx(math.log(max(a, b) / min(a, b)), rel=1e-12)
-    assert cert.intervals is None and "weighted (model.weight_column)" in cert.intervals_reason
+    # intervals on Kish's effective counts, as an audit of the same records with the same weights makes them
+    assert cert.unfiltered_intervals is not None
+    audited = fa.audit(df, sensitive=["profile"], outcome="office", weights="w", positive="HR_2", confidence=0.95)
+    assert cert.unfiltered_intervals.local_fairness.upper == pytest.approx(
+        audited.intervals.local_fairness.upper, rel=1e-12
+    )
     (tmp_path / "t.toml").write_text(spec.replace('records = "records.csv"', 'table = "records.csv"'))
     with pytest.raises(InputError, match="weight_column weighs records"):
         fa.certify(tmp_path / "t.toml")

@@ -134,3 +134,30 @@ def emit(text: str, output: str | None) -> None:
     sys.stdout.flush()
     if output:
         write_atomic(output, text if text.endswith("\n") else text + "\n")
+
+
+RSS_WRAPPER = r"""
+import json, resource, subprocess, sys, time
+report, cmd = sys.argv[1], sys.argv[2:]
+t0 = time.perf_counter()
+code = subprocess.call(cmd)
+seconds = time.perf_counter() - t0
+with open(report, "w") as f:
+    json.dump({"seconds": seconds, "returncode": code,
+               "rss": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024}, f)
+"""
+"""A bare interpreter's script that runs a command and reports its wall time, exit status and peak RSS.
+
+Run as ``python -I -c RSS_WRAPPER REPORT.json CMD...``: Linux carries a process's high-water RSS across ``exec``,
+so a command started straight from a large benchmark process would report that process's peak; the wrapper (about
+12 MB) starts it and reports ``getrusage(RUSAGE_CHILDREN).ru_maxrss``."""
+
+
+def installed_env(cache: str) -> dict[str, str]:
+    """The environment of a timed command: its bytecode cached under ``cache``, as after ``pip install``.
+
+    ``PYTHONDONTWRITEBYTECODE`` is dropped: with it every run would compile fairaudit's modules again.
+    """
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPYCACHEPREFIX"] = cache
+    return env

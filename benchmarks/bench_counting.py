@@ -56,10 +56,12 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _bench_common import (  # noqa: E402
     AGREEMENT_TOL,
+    RSS_WRAPPER,
     emit,
     fmt_diff,
     fmt_ratio,
     fmt_time,
+    installed_env,
     machine_line,
     median_time,
     rel_diff,
@@ -232,17 +234,6 @@ print(json.dumps({"n": int(counts.sum()), "local": local, "global": glob, "count
                   "contexts": contexts.tolist(), "groups": groups.tolist(), "decisions": decisions.tolist()}))
 """
 
-_WRAPPER = r"""
-import json, resource, subprocess, sys, time
-report, cmd = sys.argv[1], sys.argv[2:]
-t0 = time.perf_counter()
-code = subprocess.call(cmd)
-seconds = time.perf_counter() - t0
-with open(report, "w") as f:
-    json.dump({"seconds": seconds, "returncode": code,
-               "rss": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024}, f)
-"""
-
 
 _BYTECODE = tempfile.mkdtemp(prefix="fairaudit-bench-pycache-")
 atexit.register(shutil.rmtree, _BYTECODE, ignore_errors=True)
@@ -252,16 +243,14 @@ def run_command(cmd: list[str], timeout: float = 1800.0) -> dict:
     """Run ``cmd`` through a bare Python wrapper: wall time, the command's peak RSS, exit status, output.
 
     The command's bytecode is cached under a temporary ``PYTHONPYCACHEPREFIX``, as after ``pip install``
-    (``PYTHONDONTWRITEBYTECODE`` is dropped: with it every run would compile fairaudit's modules again);
-    :func:`timed_runs` makes one untimed run first, which writes it.
+    (:func:`_bench_common.installed_env`); :func:`timed_runs` makes one untimed run first, which writes it.
     """
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env["PYTHONPYCACHEPREFIX"] = _BYTECODE
+    env = installed_env(_BYTECODE)
     with tempfile.TemporaryDirectory(prefix="fairaudit-bench-cmd-") as tmp:
         report = Path(tmp) / "report.json"
         try:
             proc = subprocess.run(
-                [sys.executable, "-I", "-c", _WRAPPER, str(report), *cmd],
+                [sys.executable, "-I", "-c", RSS_WRAPPER, str(report), *cmd],
                 capture_output=True,
                 text=True,
                 timeout=timeout,

@@ -55,6 +55,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _bench_common import (
     AGREEMENT_TOL,
+    RSS_WRAPPER,
     emit,
     fmt_diff,
     fmt_ratio,
@@ -301,18 +302,6 @@ def run_guarded(fn: Callable[..., dict], *args, timeout: float) -> dict:
     return result
 
 
-_WRAPPER = r"""
-import json, resource, subprocess, sys, time
-report, cmd = sys.argv[1], sys.argv[2:]
-t0 = time.perf_counter()
-code = subprocess.call(cmd)
-seconds = time.perf_counter() - t0
-with open(report, "w") as f:
-    json.dump({"seconds": seconds, "returncode": code,
-               "rss": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024}, f)
-"""
-
-
 def run_command(cmd: list[str], timeout: float) -> dict:
     """Run ``cmd`` through a tiny Python wrapper: wall time, the command's peak RSS, exit status, output.
 
@@ -328,7 +317,7 @@ def run_command(cmd: list[str], timeout: float) -> dict:
         out_path, err_path = Path(tmp) / "stdout", Path(tmp) / "stderr"
         with open(out_path, "wb") as out, open(err_path, "wb") as err:
             proc = subprocess.Popen(
-                [sys.executable, "-I", "-c", _WRAPPER, str(report), *cmd],
+                [sys.executable, "-I", "-c", RSS_WRAPPER, str(report), *cmd],
                 stdout=out,
                 stderr=err,
                 start_new_session=True,

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
 import subprocess
 import sys
@@ -27,7 +26,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _bench_common import emit, fmt_ratio, fmt_time, machine_line, rel_diff, table  # noqa: E402
+from _bench_common import emit, fmt_ratio, fmt_time, installed_env, machine_line, rel_diff, table  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("pandas", "pyarrow", "scipy.stats", "cvxpy", "matplotlib", "httpx", "duckdb")
@@ -51,13 +50,6 @@ ROWS: list[tuple[str, list[str], str]] = [
         "calibrate",
     ),
 ]
-
-
-def _env(cache: str) -> dict[str, str]:
-    """The children's environment: bytecode cached under ``cache`` (as after ``pip install``), never in the tree."""
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env["PYTHONPYCACHEPREFIX"] = cache
-    return env
 
 
 ENV: dict[str, str] = {}
@@ -102,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     repeats = 2 if args.quick else max(1, args.repeats)
     head = machine_line(("numpy", "scipy", "pandas", "pydantic"))
     with tempfile.TemporaryDirectory(prefix="fairaudit-bench-pyc-") as cache:
-        ENV.update(_env(cache))
+        ENV.update(installed_env(cache))
         text, failures = _measure(head, repeats)
     emit(text, args.output)
     for failure in failures:

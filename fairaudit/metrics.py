@@ -47,6 +47,7 @@ from ._arrays import (
 )
 from ._errors import InputError
 from ._json import Report, label, number, pair_dict
+from ._lazy import Deferred, LazyField
 from ._scan_kernel import compiled_scan, log_ratios, use_compiled_pass
 from .laws import Law, Population, population_for
 from .utility import Utility
@@ -112,7 +113,7 @@ class Fairness:
     group: Hashable | None
     other_group: Hashable | None
     expected_utility: FloatArray
-    per_context: FloatArray | None
+    per_context: LazyField[FloatArray | None] = LazyField()  # (the logs are made on first read)
     excluded: tuple[str, ...]
     law: Law
     utility: Utility
@@ -426,12 +427,11 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: Tabl
         ratio[~keep] = np.nan
     i = first_max(ratio) if len(law.groups) >= 2 else None
     best = float("nan") if i is None else float(ratio[i])
-    # the logs in the pass's array (read no more): ratios are >= 1, inf or NaN, the log is NaN exactly where they are
-    per_context = log_ratios(ratio, out=ratio) if len(law.groups) >= 2 else np.zeros(law.shape[0])
+    # the logs, made on first read (a million take as long as the pass): ratios are >= 1, inf or NaN, the log is
+    # NaN exactly where they are
+    per_context = Deferred(log_ratios, ratio) if len(law.groups) >= 2 else np.zeros(law.shape[0])
 
-    def result(
-        value: float, ratio: float, context: Hashable, group: Hashable, other: Hashable, per: FloatArray = per_context
-    ) -> Fairness:
+    def result(value: float, ratio: float, context: Hashable, group: Hashable, other: Hashable) -> Fairness:
         return Fairness(
             kind="local",
             value=value,
@@ -440,7 +440,7 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: Tabl
             group=group,
             other_group=other,
             expected_utility=e,
-            per_context=per,
+            per_context=per_context,
             excluded=tuple(notes),
             law=law,
             utility=utility,

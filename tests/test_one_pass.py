@@ -499,3 +499,31 @@ def test_the_pass_keeps_no_temporary_of_the_tables_size():
             tracemalloc.stop()
         # E (n x 8) is a quarter of the table and is a result; the rest is per chunk or per context
         assert peak <= bound * law.probabilities.nbytes, (peak, law.probabilities.nbytes)
+
+
+def test_the_per_context_logs_are_made_on_first_read_and_are_the_logs_of_the_ratios():
+    import copy
+    import dataclasses
+    import pickle
+
+    n = 300
+    q = dirichlet(n, 3, 4, seed=7)
+    q[5, 1] = [0.0, 0.0, 0.5, 0.5]  # E = 0 for one group: an infinite ratio
+    law = Law(q, range(n), GROUPS, DECISIONS)
+    g = fa.from_table([0.3, 1.0, 0.0, 0.0], DECISIONS)
+    e = q @ np.array([0.3, 1.0, 0.0, 0.0])
+    with np.errstate(divide="ignore"):
+        want = np.log(e.max(axis=1) / e.min(axis=1))  # an independent route: the definition
+    for r in (fa.local_fairness(law, g), observe(law, g, None).local_fairness):
+        assert "_lazy_per_context" in vars(r) and not isinstance(vars(r)["_lazy_per_context"], np.ndarray)
+        later = pickle.loads(pickle.dumps(r))  # the recipe pickles, unread
+        copied = copy.deepcopy(r)
+        np.testing.assert_allclose(r.per_context, want, rtol=1e-14)
+        assert r.per_context[5] == math.inf and r.per_context is r.per_context  # made once, kept
+        assert isinstance(vars(r)["_lazy_per_context"], np.ndarray)
+        assert later.per_context.tolist() == r.per_context.tolist() == copied.per_context.tolist()
+        assert dataclasses.replace(r, value=1.0).per_context.tolist() == r.per_context.tolist()
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            r.per_context = np.zeros(n)  # type: ignore[misc]
+    assert fa.global_fairness(law, g).per_context is None
+    assert "per_context" in {f.name for f in dataclasses.fields(metrics.Fairness)}

@@ -615,6 +615,18 @@ class TableScan:
         ]
         return np.concatenate(parts) if parts else np.empty(0, dtype=np.intp)
 
+    def expected_row(self, i: int) -> FloatArray:
+        """E[g | x, a] of context ``i`` alone, shape (n_groups,): the numbers this pass gives (the same operations)."""
+        assert self.g is not None
+        sl = slice(i, i + 1)
+        row = TableScan(
+            self.q[sl], None if self.observed is None else self.observed[sl], self.g[sl] if self.g.ndim == 3 else self.g,
+            step=1, keep_e=True,
+        )  # fmt: skip
+        row.chunk(slice(0, 1))
+        assert row.e is not None
+        return row.e[0]
+
     def wait(self) -> None:
         """Return once ``group_mean`` is complete (the compiled pass may add its last contexts in a thread)."""
         if self.pending is not None:

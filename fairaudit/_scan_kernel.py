@@ -8,8 +8,9 @@ the numpy pass's order, every product and quotient is one IEEE operation, and ma
 When it runs (else it returns False and the numpy pass runs; nothing is imported):
 
 * :data:`ENABLED` is true, the table has at least :data:`MIN_CELLS` cells, and numba imports;
-* the scan asks for everything :func:`~fairaudit.metrics.all_metrics` reads (E, its ratio per context, the group
-  means, the extremes per (x, u), the group law) with a utility g(u) over decisions and a population;
+* the scan asks for everything :func:`~fairaudit.metrics.all_metrics` reads (E's ratio per context, the group
+  means, the extremes per (x, u), the group law) with a utility g(u) over decisions and a population, and not E
+  itself (all_metrics's results make E on first read): E is kept only where the group means need it;
 * the law has no empty cell, two groups or more, and its table and the population are C-contiguous float64.
 
 Other cases (empty cells, a utility g[x, a, u], one group) stay on the numpy pass.
@@ -23,7 +24,7 @@ Orders of summation, as in the numpy pass:
   contexts one after the other from +0.0 (``einsum`` over the chunk), then the chunk sums one after the other;
 * the group means Σ_x P(x | a) E[g | x, a]: all the contexts one after the other from +0.0 (the numpy pass's
   running total). The first thread adds its own contexts as it goes; the others' are added afterwards, in order,
-  from E and P(x, a) (:func:`_gm_tail`).
+  from their E (kept for them) and P(x, a) (:func:`_gm_tail`).
 
 The threads take consecutive runs of whole chunks, so no result depends on their number.
 
@@ -160,9 +161,9 @@ def log_ratios(ratio: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
 
 
 def _wants_all(scan: TableScan) -> bool:
-    """The scan asks for everything all_metrics reads, on a law with no empty cell and two groups or more."""
-    parts = (scan.e, scan.ratio, scan.group_mean, scan.sup_ratio, scan.tv_low, scan.bottom_sum, scan.group_law)
-    return scan.observed is None and scan.q.shape[1] >= 2 and all(p is not None for p in parts)
+    """The scan asks for everything all_metrics reads (not E), on a law with no empty cell and two groups or more."""
+    parts = (scan.ratio, scan.group_mean, scan.sup_ratio, scan.tv_low, scan.bottom_sum, scan.group_law)
+    return scan.e is None and scan.observed is None and scan.q.shape[1] >= 2 and all(p is not None for p in parts)
 
 
 def _plain_array(a: np.ndarray, ndim: int) -> bool:
@@ -223,7 +224,7 @@ def _constants(g: np.ndarray, p_group: np.ndarray, A: int, K: int) -> np.ndarray
 
 def _run(kernels: dict[str, Callable[..., Any]], scan: TableScan, step: int) -> None:
     """The pass: consecutive runs of chunks on the threads, then the group means and law added in order."""
-    assert scan.population is not None and scan.g is not None and scan.e is not None and scan.ratio is not None
+    assert scan.population is not None and scan.g is not None and scan.ratio is not None
     assert scan.sup_ratio is not None and scan.tv_low is not None and scan.bottom_sum is not None
     assert scan.group_mean is not None and scan.group_law is not None
     assert scan.chunk_low is not None and scan.chunk_bottom is not None
@@ -235,19 +236,23 @@ def _run(kernels: dict[str, Callable[..., Any]], scan: TableScan, step: int) -> 
     Ap = (A + 3) // 4 * 4
     gm = np.zeros(Ap + 4)
     chunk_sums = np.empty((chunks, A, K))
-    qf, pf, ef = q.reshape(-1), joint.reshape(-1), scan.e.reshape(-1)
+    qf, pf = q.reshape(-1), joint.reshape(-1)
     outs = (scan.ratio, scan.sup_ratio, scan.tv_low, scan.bottom_sum)
     n_threads = _threads(chunks)
     # consecutive runs of whole chunks; the first thread also adds up the group means (about an eighth more work)
     shares = np.cumsum([0.0, FIRST_SHARE] + [1.0] * (n_threads - 1))
     bounds = [int(round(chunks * v / shares[-1])) for v in shares]
+    x_tail = min(X, bounds[1] * step)  # the contexts after the first thread's: their E is kept for the group means
+    ef = np.empty((X - x_tail) * A)  # (rows from x_tail)
 
     per_chunk = (chunk_sums, scan.chunk_low, scan.chunk_bottom)
 
     def part(i: int) -> None:
-        kernels["_kernel"](qf, pf, X, A, K, consts, step, bounds[i], bounds[i + 1], ef, *outs, gm, per_chunk, i == 0)
+        kernels["_kernel"](
+            qf, pf, X, A, K, consts, step, bounds[i], bounds[i + 1], ef, x_tail, *outs, gm, per_chunk, i == 0
+        )
 
-    kernels["_kernel"](qf, pf, X, A, K, consts, step, 0, 0, ef, *outs, gm, per_chunk, True)  # compiles or loads here
+    kernels["_kernel"](qf, pf, X, A, K, consts, step, 0, 0, ef, x_tail, *outs, gm, per_chunk, True)  # compiles or loads
     if n_threads == 1:
         part(0)
     else:
@@ -257,7 +262,7 @@ def _run(kernels: dict[str, Callable[..., Any]], scan: TableScan, step: int) -> 
     group_mean = scan.group_mean
 
     def finish() -> None:  # the other threads' contexts, added to the first one's group means in order
-        kernels["_gm_tail"](ef, pf, X, A, consts, min(X, bounds[1] * step), gm)
+        kernels["_gm_tail"](ef, pf, X, A, consts, x_tail, gm)
         group_mean[:] = gm[:A]
 
     if n_threads == 1:
@@ -508,11 +513,12 @@ _NEG0 = -0.0  # x + (-0.0) = x for every x, +0.0 and -0.0 included: the start of
 _INF = np.inf
 
 
-def _quads(qa, qo, pa, po, x, slot, A, K, Ap, consts, first, acc, epart, gm, own_gm, e, scratch):  # type: ignore[no-untyped-def]
+def _quads(qa, qo, pa, po, x, slot, A, K, Ap, consts, first, acc, epart, gm, own_gm, e, store_e, scratch):  # type: ignore[no-untyped-def]
     """One context (its rows of Q from ``qa[qo:]``, P(x, a) from ``pa[po:]``), four groups at a time.
 
     Adds Q[x, a, u] P(x | a) to the chunk's group law ``acc`` ((4 blocks, Ap), decision-major), writes
-    E[g | x, a] to ``e`` (and adds P(x | a) E to the group means ``gm`` when ``own_gm``), and leaves the context's
+    E[g | x, a] to row ``x`` of ``e`` when ``store_e`` (and adds P(x | a) E to the group means ``gm`` when
+    ``own_gm``), and leaves the context's
     max and min over groups of Q[x, a, u] (per block of four decisions) and of E in ``scratch``'s ``slot``.
     Rows past the last group repeat the last one (max and min unchanged) and weigh 0; lanes past the last
     decision are never read back. The rows read past the context's end stay inside the table (see _kernel).
@@ -555,14 +561,16 @@ def _quads(qa, qo, pa, po, x, slot, A, K, Ap, consts, first, acc, epart, gm, own
                 vstore(epart, a0, E)  # E so far, for the next block of decisions
                 continue
             if rest >= 4:
-                vstore(e, x * A + a0, E)
+                if store_e:
+                    vstore(e, x * A + a0, E)
                 hi_e, lo_e = vmax(hi_e, E), vmin(lo_e, E)
             else:  # (scalar stores: a masked store is slow on some CPUs)
-                e[x * A + a0] = vlane(E, 0)
-                if rest > 1:
-                    e[x * A + a0 + 1] = vlane(E, 1)
-                if rest > 2:
-                    e[x * A + a0 + 2] = vlane(E, 2)
+                if store_e:
+                    e[x * A + a0] = vlane(E, 0)
+                    if rest > 1:
+                        e[x * A + a0 + 1] = vlane(E, 1)
+                    if rest > 2:
+                        e[x * A + a0 + 2] = vlane(E, 2)
                 real = vload(consts, 2 * Ap + a0)
                 hi_e, lo_e = vmax(hi_e, vsel(real, E, vsplat(-_INF))), vmin(lo_e, vsel(real, E, vsplat(_INF)))
             if own_gm:
@@ -628,10 +636,14 @@ def _extremes(x0, n, K, scratch, ratio, sup_ratio, tv_low, bottom_sum):  # type:
         vstore_n(bottom_sum, x0, bs, n)
 
 
-def _kernel(qf, pf, X, A, K, consts, step, c_lo, c_hi, e, ratio, sup_ratio, tv_low, bottom_sum, gm, chunks, own_gm):  # type: ignore[no-untyped-def]
+def _kernel(  # type: ignore[no-untyped-def]
+    qf, pf, X, A, K, consts, step, c_lo, c_hi, e, e_lo, ratio, sup_ratio, tv_low, bottom_sum, gm, chunks, own_gm
+):
     """Chunks c_lo .. c_hi - 1 of contexts (``step`` each): E, the per-context results, each chunk's group law.
 
-    ``chunks`` is (group law sums, largest tv_low, smallest bottom_sum), one entry per chunk each.
+    ``chunks`` is (group law sums, largest tv_low, smallest bottom_sum), one entry per chunk each. E[g | x, a] is
+    written to row x - ``e_lo`` of ``e`` unless ``own_gm`` (the first thread adds its contexts to the group means
+    as it goes; ``e`` holds the contexts from ``e_lo`` on, the others').
 
     Vector loads read up to three rows and three decisions past a context's end: the last contexts of the table
     are read from zero-padded copies (``tail``) so that nothing is read past it.
@@ -650,19 +662,58 @@ def _kernel(qf, pf, X, A, K, consts, step, c_lo, c_hi, e, ratio, sup_ratio, tv_l
         qs[: (X - x_fast) * AK] = qf[x_fast * AK :]
         ps[: (X - x_fast) * A] = pf[x_fast * A :]
     first = _first_block(consts, 3 * Ap)
+    store_e = not own_gm
     for ci in range(c_lo, c_hi):
         start = ci * step
         stop = min(X, start + step)
         acc[:] = 0.0
         for x in range(start, min(stop, x_fast)):
             slot = (x - start) % 4
-            _quads(qf, x * AK, pf, x * A, x, slot, A, K, Ap, consts, first, acc, epart, gm, own_gm, e, scratch)
+            _quads(
+                qf,
+                x * AK,
+                pf,
+                x * A,
+                x - e_lo,
+                slot,
+                A,
+                K,
+                Ap,
+                consts,
+                first,
+                acc,
+                epart,
+                gm,
+                own_gm,
+                e,
+                store_e,
+                scratch,
+            )
             if slot == 3 or x == stop - 1:
                 _extremes(x - slot, slot + 1, K, scratch, ratio, sup_ratio, tv_low, bottom_sum)
         for x in range(max(start, x_fast), stop):
             slot = (x - start) % 4
             t = x - x_fast
-            _quads(qs, t * AK, ps, t * A, x, slot, A, K, Ap, consts, first, acc, epart, gm, own_gm, e, scratch)
+            _quads(
+                qs,
+                t * AK,
+                ps,
+                t * A,
+                x - e_lo,
+                slot,
+                A,
+                K,
+                Ap,
+                consts,
+                first,
+                acc,
+                epart,
+                gm,
+                own_gm,
+                e,
+                store_e,
+                scratch,
+            )
             if slot == 3 or x == stop - 1:
                 _extremes(x - slot, slot + 1, K, scratch, ratio, sup_ratio, tv_low, bottom_sum)
         chunk_sums, chunk_low, chunk_bottom = chunks
@@ -689,6 +740,8 @@ def _chunk_extremes(tv_low, bottom_sum, start, stop):  # type: ignore[no-untyped
 def _gm_tail(e, pf, X, A, consts, x_lo, gm):  # type: ignore[no-untyped-def]
     """Add P(x | a) E[g | x, a] of the contexts x_lo .. X - 1 to the group means ``gm``, one context after the other.
 
+    ``e`` holds E of those contexts only, from row 0.
+
     Eight groups at a time, their running sums in two vectors (a chain of additions per group, no store between).
     """
     Ap = (A + 3) // 4 * 4
@@ -701,13 +754,13 @@ def _gm_tail(e, pf, X, A, consts, x_lo, gm):  # type: ignore[no-untyped-def]
         zero = vsplat(0.0)
         safe = max(x_lo, min(X, (X * A - a0 - 8) // A + 1))  # contexts whose eight lanes are inside the arrays
         for x in range(x_lo, safe):  # plain loads: lanes past the last group weigh 0
-            o = x * A + a0
-            s0 = vadd(s0, vmul(vsel(z0, vdiv(vload(pf, o), p0), zero), vload(e, o)))
-            s1 = vadd(s1, vmul(vsel(z1, vdiv(vload(pf, o + 4), p1), zero), vload(e, o + 4)))
+            o, oe = x * A + a0, (x - x_lo) * A + a0
+            s0 = vadd(s0, vmul(vsel(z0, vdiv(vload(pf, o), p0), zero), vload(e, oe)))
+            s1 = vadd(s1, vmul(vsel(z1, vdiv(vload(pf, o + 4), p1), zero), vload(e, oe + 4)))
         for x in range(safe, X):  # the last ones: masked loads, nothing read past the end
-            o = x * A + a0
-            s0 = vadd(s0, vmul(vsel(z0, vdiv(vload_n(pf, o, n0), p0), zero), vload_n(e, o, n0)))
-            s1 = vadd(s1, vmul(vsel(z1, vdiv(vload_n(pf, o + 4, n1), p1), zero), vload_n(e, o + 4, n1)))
+            o, oe = x * A + a0, (x - x_lo) * A + a0
+            s0 = vadd(s0, vmul(vsel(z0, vdiv(vload_n(pf, o, n0), p0), zero), vload_n(e, oe, n0)))
+            s1 = vadd(s1, vmul(vsel(z1, vdiv(vload_n(pf, o + 4, n1), p1), zero), vload_n(e, oe + 4, n1)))
         vstore(gm, a0, s0)
         if n1 > 0:
             vstore(gm, a0 + 4, s1)

@@ -96,10 +96,12 @@ class Fairness:
         The maximising pair: ``group`` has the larger expected utility.
     expected_utility : numpy.ndarray
         E[g | x, a], shape (n_contexts, n_groups), for local; E[g | a], shape
-        (n_groups,), for global. NaN marks excluded cells.
+        (n_groups,), for global. NaN marks excluded cells. For local it is made
+        when first read (a pass over the law; the same numbers).
     per_context : numpy.ndarray or None
         For local: log of the largest ratio in each context, shape (n_contexts,),
-        in the law's context order; :attr:`by_context` is the same with its labels.
+        in the law's context order, made when first read; :attr:`by_context` is the
+        same with its labels.
     excluded : tuple of str
         What was left out and why.
     law, utility, population
@@ -112,7 +114,7 @@ class Fairness:
     context: Hashable | None
     group: Hashable | None
     other_group: Hashable | None
-    expected_utility: FloatArray
+    expected_utility: LazyField[FloatArray] = LazyField()  # (for local, made on first read)
     per_context: LazyField[FloatArray | None] = LazyField()  # (the logs are made on first read)
     excluded: tuple[str, ...]
     law: Law
@@ -411,7 +413,7 @@ def local_fairness(law: Law, utility: Utility, population: Population | None = N
     law = _check_law(law)
     if population is not None:
         population = population_for(law, population)
-    return _local(law, utility, population, _scan(law, utility, keep_e=True, spread=True))
+    return _local(law, utility, population, _scan(law, utility, spread=True))
 
 
 def _present(law: Law) -> int | IntArray:
@@ -420,7 +422,8 @@ def _present(law: Law) -> int | IntArray:
 
 
 def _local(law: Law, utility: Utility, population: Population | None, scan: TableScan) -> Fairness:
-    e = _asked(scan.e)
+    # E (n_contexts x n_groups) made on first read unless the pass kept it: the same numbers by the same operations
+    e = Deferred(expected_utility, law, utility) if scan.e is None else scan.e
     notes, keep = _excluded_contexts(law, population, law.observed)
     ratio = _asked(scan.ratio)
     if not keep.all():
@@ -451,7 +454,7 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: Tabl
         return result(0.0, 1.0, None, None, None)
     if i is None:
         return result(float("nan"), float("nan"), None, None, None)
-    _, hi, lo = ratio_extremes(e[i : i + 1], axis=1)  # the pair, in the maximising context only
+    _, hi, lo = ratio_extremes(scan.expected_row(i)[None, :], axis=1)  # the pair, in the maximising context only
     return result(safe_log(best), best, law.context_labels[i], law.groups[hi[0]], law.groups[lo[0]])
 
 
@@ -881,7 +884,8 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     law = _check_law(law)
     population = population_for(law, population)
     notes = _group_weights(law, population)
-    scan = _scan(law, utility, keep_e=True, spread=True, population=population, extremes=True, by_group=True)
+    one = law.shape[1] < 2  # (E for the mean of one group)
+    scan = _scan(law, utility, keep_e=one, spread=True, population=population, extremes=True, by_group=True)
     dist = _per_group(_asked(scan.group_law), population)
     local, odds = _local(law, utility, population, scan), _equalized_odds(law, population, scan)
     sup_local = _sup_local(law, population, scan)  # then L-bar: the compiled pass may be adding up its group means

@@ -9,17 +9,18 @@ The map pipeline of the paper's Methods, on point clouds in the S3DIS format
 * :mod:`~fairaudit.experiments.navigation.maps`: :func:`build_maps`, the top-view,
   traversability and topological maps on one grid;
 * :mod:`~fairaudit.experiments.navigation.routes`: A* routes (:func:`plan_route`,
-  :func:`candidate_routes`), the equal-distance check and the route images,
-  and :func:`delivery_scene`, all of it in one call.
+  :func:`candidate_routes`), the equal-distance check and :func:`delivery_scene`,
+  all of it in one call;
+* :mod:`~fairaudit.experiments.navigation.images`: the route images (:func:`route_image`).
 
 networkx (A*, topology) and pillow (images) are imported only by the functions
 that need them.
 """
 
+from .images import ROUTE_RGB, route_image, save_route_image
 from .maps import CEILING_MARGIN, Maps, build_maps
 from .routes import (
     MAX_SNAP,
-    ROUTE_RGB,
     DeliveryScene,
     DistanceCheck,
     Route,
@@ -27,8 +28,6 @@ from .routes import (
     check_equal_distance,
     delivery_scene,
     plan_route,
-    route_image,
-    save_route_image,
 )
 from .s3dis import CATEGORIES, UNLABELLED, Area, Room, category_code, read_area, read_points, read_room, room_kind
 from .synthetic import write_office_floor

@@ -17,7 +17,7 @@ Cell ``(row, col)`` covers x in [ox + col·res, ox + (col + 1)·res) and y in
 [oy + row·res, oy + (row + 1)·res), where ``(ox, oy)`` is :attr:`Maps.origin`
 (the south-west corner of cell (0, 0)) and ``res`` is :attr:`Maps.resolution`:
 **row = y, col = x**, both increasing (row 0 is the southernmost row). Arrays
-are indexed ``[row, col]``. Images (:func:`~fairaudit.experiments.navigation.routes.route_image`)
+are indexed ``[row, col]``. Images (:func:`~fairaudit.experiments.navigation.images.route_image`)
 are drawn north up: image row 0 is grid row ``rows - 1``.
 """
 

@@ -1,4 +1,4 @@
-"""Candidate routes by A*, the equal-distance check and route images.
+"""Candidate routes through the topological map, A* routes, the equal-distance check and the delivery scene.
 
 The paper (Methods): "For each candidate route, the A* algorithm is applied to
 the traversability map to compute a minimum-cost grid path from the start to
@@ -7,7 +7,14 @@ Basis for the Heuristic Determination of Minimum Cost Paths", IEEE
 Transactions on Systems Science and Cybernetics 4(2), 1968; here
 :func:`networkx.astar_path` on the 8-connected graph of traversable cells,
 with Euclidean step costs and the (admissible) Euclidean heuristic, so the
-route is a shortest grid path. The two HR offices are placed at the same
+route is a shortest grid path (:func:`plan_route`).
+
+Candidate routes (:func:`route_alternatives`, :func:`candidate_routes`) use
+the topological map: the k shortest simple paths of rooms joined by passable
+doors, each realised by minimum-cost grid paths between the door points
+(:mod:`~fairaudit.experiments.navigation.topology`), so that two offices
+reached through different corridors give genuinely different routes, as in
+the paper's figure. The two HR offices are placed at the same
 distance from the start (:func:`check_equal_distance`), and each route is
 shown to the vision-language model as "the top-down floorplan with the route
 to the office highlighted in red, and the index printed in the upper-left
@@ -31,6 +38,7 @@ from .images import route_image
 from .maps import Maps, build_maps, require_networkx
 from .s3dis import Area, read_area
 from .synthetic import write_office_floor
+from .topology import door_paths, grid_edges
 
 if TYPE_CHECKING:
     import networkx
@@ -47,6 +55,7 @@ __all__ = [
     "check_equal_distance",
     "delivery_scene",
     "plan_route",
+    "route_alternatives",
 ]
 
 #: Default largest distance (metres) from a start or goal to the traversable cell it is moved to.
@@ -76,6 +85,15 @@ class Route:
     start_snap, goal_snap : float
         Distance from the requested start / goal point to the centre of the
         cell the route starts / ends on, metres.
+    via : tuple of str
+        The room path the route was planned through (:func:`route_alternatives`):
+        the rooms of the start and goal cells and those in between, joined by
+        passable doors; empty for a plain grid path (:func:`plan_route`).
+    doors : tuple of (float, float)
+        (x, y) in metres of the door point passed between each pair of
+        successive rooms of ``via``: the centre of one of the door's most
+        central cells (:attr:`~fairaudit.experiments.navigation.topology.Door.central`),
+        a cell of ``cells``; empty for :func:`plan_route`.
     """
 
     start: Place
@@ -86,6 +104,8 @@ class Route:
     rooms: tuple[str, ...]
     start_snap: float
     goal_snap: float
+    via: tuple[str, ...] = ()
+    doors: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -141,33 +161,11 @@ class DeliveryScene:
 # -- A* -------------------------------------------------------------------------------------------------
 
 
-def _edges(traversable: np.ndarray, res: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(u, v, weight) of the 8-connected grid graph on flat cell indices; no diagonal cuts an obstacle corner."""
-    rows, cols = traversable.shape
-    idx = np.arange(rows * cols, dtype=np.int64).reshape(rows, cols)
-    t = traversable
-    us, vs, ws = [], [], []
-    straight = [
-        (t[:, :-1] & t[:, 1:], idx[:, :-1], idx[:, 1:]),  # east
-        (t[:-1, :] & t[1:, :], idx[:-1, :], idx[1:, :]),
-    ]  # north
-    block = t[:-1, :-1] & t[1:, 1:] & t[:-1, 1:] & t[1:, :-1]  # the four cells of a 2 x 2 block
-    diagonal = [
-        (block, idx[:-1, :-1], idx[1:, 1:]),  # north-east
-        (block, idx[:-1, 1:], idx[1:, :-1]),
-    ]  # north-west
-    for (m, a, b), w in [(s, res) for s in straight] + [(d, res * math.sqrt(2.0)) for d in diagonal]:
-        us.append(a[m])
-        vs.append(b[m])
-        ws.append(np.full(int(m.sum()), w))
-    return np.concatenate(us), np.concatenate(vs), np.concatenate(ws)
-
-
 def _grid_graph(maps: Maps) -> networkx.Graph:
     graph = _GRAPHS.get(maps)
     if graph is None:
         nx = require_networkx()
-        u, v, w = _edges(maps.traversable, maps.resolution)
+        u, v, w = grid_edges(maps.traversable, maps.resolution)
         graph = nx.Graph()
         graph.add_nodes_from(np.flatnonzero(maps.traversable.ravel()).tolist())
         graph.add_weighted_edges_from(zip(u.tolist(), v.tolist(), w.tolist()))
@@ -259,11 +257,7 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
     >>> round(route.length, 2), route.cells.shape[1], bool(maps.traversable[tuple(route.cells.T)].all())
     (7.04, 2, True)
     """
-    if not isinstance(maps, Maps):
-        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
-    snap = float(max_snap) if isinstance(max_snap, (int, float)) and not isinstance(max_snap, bool) else math.nan
-    if not (math.isfinite(snap) and snap >= 0):
-        raise InputError("max_snap", "must be a finite number of metres >= 0", max_snap)
+    snap = _check_snap(maps, max_snap)
     s, s_snap = _endpoint(maps, start, "start", snap)
     g, g_snap = _endpoint(maps, goal, "goal", snap)
     nx = require_networkx()
@@ -279,10 +273,34 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
         raise InputError("goal", f"cannot be reached from start {start!r}", goal) from None
     flat = np.asarray(path, dtype=np.int64)
     cells = np.column_stack([flat // cols, flat % cols])
+    return _route(maps, start, goal, cells, (s_snap, g_snap))
+
+
+def _check_snap(maps: Maps, max_snap: float) -> float:
+    """``max_snap`` as a float after checking ``maps`` and it."""
+    if not isinstance(maps, Maps):
+        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
+    snap = float(max_snap) if isinstance(max_snap, (int, float)) and not isinstance(max_snap, bool) else math.nan
+    if not (math.isfinite(snap) and snap >= 0):
+        raise InputError("max_snap", "must be a finite number of metres >= 0", max_snap)
+    return snap
+
+
+def _route(
+    maps: Maps,
+    start: Place,
+    goal: Place,
+    cells: np.ndarray,
+    snaps: tuple[float, float],
+    via: tuple[str, ...] = (),
+    doors: tuple[tuple[float, float], ...] = (),
+) -> Route:
+    """The :class:`Route` along ``cells`` (k, 2): points, length and rooms crossed computed from the cells."""
+    cells = np.array(cells, dtype=np.int64)
     x, y = maps.cell_to_world(cells[:, 0], cells[:, 1])
     points = np.column_stack([x, y])
-    steps = np.abs(np.diff(cells, axis=0))
-    length = float(res * (np.sum(steps.sum(axis=1) == 1) + math.sqrt(2.0) * np.sum(steps.sum(axis=1) == 2)))
+    steps = np.abs(np.diff(cells, axis=0)).sum(axis=1)
+    length = float(maps.resolution * (np.sum(steps == 1) + math.sqrt(2.0) * np.sum(steps == 2)))
     labels = maps.room_labels[cells[:, 0], cells[:, 1]]
     labels = labels[labels >= 0]
     keep = np.r_[True, labels[1:] != labels[:-1]] if len(labels) else np.zeros(0, bool)
@@ -296,15 +314,98 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
         points=points,
         length=length,
         rooms=rooms,
-        start_snap=s_snap,
-        goal_snap=g_snap,
+        start_snap=snaps[0],
+        goal_snap=snaps[1],
+        via=via,
+        doors=doors,
     )
 
 
-def candidate_routes(
-    maps: Maps, start: Place, goals: Sequence[Place], *, max_snap: float = MAX_SNAP
+def route_alternatives(
+    maps: Maps, start: Place, goal: Place, *, k: int = 3, max_snap: float = MAX_SNAP
 ) -> tuple[Route, ...]:
-    """One :func:`plan_route` from ``start`` to each goal, in order.
+    """Up to ``k`` candidate routes from ``start`` to ``goal`` through different rooms, shortest first.
+
+    Candidates come from the topological map: the k shortest simple paths of
+    rooms joined by passable doors (:func:`networkx.shortest_simple_paths`
+    on :func:`~fairaudit.experiments.navigation.topology.passable_graph`,
+    weighted by the Euclidean room centre -> door point -> room centre legs),
+    each realised on the traversability map as minimum-cost 8-connected grid
+    paths (the moves and costs of :func:`plan_route`) from the start through
+    one door point per pair of successive rooms to the goal, each segment
+    kept inside the room it crosses; see
+    :func:`~fairaudit.experiments.navigation.topology.door_paths`. So two
+    offices reached through different corridors give genuinely different
+    routes. A door is the opening where the traversable cells of two rooms
+    meet (:func:`~fairaudit.experiments.navigation.topology.find_doors`);
+    rooms that touch only through a door narrower than the robot, or through
+    a scan gap, are not joined. Start and goal are placed as by
+    :func:`plan_route`.
+
+    Parameters
+    ----------
+    maps : Maps
+    start, goal : str or (float, float)
+        A room name (its centre) or a point (x, y) in metres.
+    k : int
+        Largest number of candidates (>= 1).
+    max_snap : float
+        Largest move of the start or goal to a traversable cell, metres (>= 0).
+
+    Returns
+    -------
+    tuple of Route
+        Sorted by length, with distinct room paths (``via``); at least one.
+
+    Raises
+    ------
+    InputError
+        As :func:`plan_route` (naming ``goal`` when no room path of passable
+        doors leads there), or naming ``k``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fairaudit.experiments.navigation import build_maps, read_area, write_office_floor
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_office_floor(tmp, spacing=0.2, layout="two-corridors")
+    ...     maps = build_maps(read_area(path), resolution=0.2)
+    >>> for r in route_alternatives(maps, "lobby_1", "office_1"):
+    ...     print(round(r.length, 1), r.via, r.doors[0])
+    11.9 ('lobby_1', 'hallway_1', 'office_1') (1.9, 1.3)
+    20.7 ('lobby_1', 'hallway_2', 'conferenceRoom_1', 'hallway_1', 'office_1') (10.1, 1.3)
+    """
+    snap = _check_snap(maps, max_snap)
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise InputError("k", "must be an integer >= 1", k)
+    s, s_snap = _endpoint(maps, start, "start", snap)
+    g, g_snap = _endpoint(maps, goal, "goal", snap)
+    cols = maps.shape[1]
+    paths = door_paths(maps, (s // cols, s % cols), (g // cols, g % cols), k=int(k))
+    if not paths:
+        raise InputError("goal", f"cannot be reached from start {start!r} through passable doors", goal)
+    return tuple(
+        _route(maps, start, goal, p.cells, (s_snap, g_snap), p.via, _points(maps, p.door_cells)) for p in paths
+    )
+
+
+def _points(maps: Maps, cells: tuple[tuple[int, int], ...]) -> tuple[tuple[float, float], ...]:
+    """(x, y) of the centres of ``cells``, metres, rounded to 1e-9 m (as ``Door.point``)."""
+    out = []
+    for r, c in cells:
+        x, y = maps.cell_to_world(r, c)
+        out.append((round(float(x), 9), round(float(y), 9)))
+    return tuple(out)
+
+
+def candidate_routes(
+    maps: Maps, start: Place, goals: Sequence[Place], *, k: int = 3, max_snap: float = MAX_SNAP
+) -> tuple[Route, ...]:
+    """One candidate route from ``start`` to each goal, in order: the shortest of :func:`route_alternatives`.
+
+    Routes go through the topological map (rooms joined by passable doors,
+    realised by minimum-cost grid paths through the door points), so goals
+    reached through different corridors get routes through those corridors.
 
     Parameters
     ----------
@@ -312,6 +413,8 @@ def candidate_routes(
     start : str or (float, float)
     goals : sequence of (str or (float, float))
         At least one; for the paper, the two HR offices.
+    k : int
+        Room paths realised per goal (>= 1); the shortest is kept.
     max_snap : float
 
     Returns
@@ -321,20 +424,21 @@ def candidate_routes(
     Raises
     ------
     InputError
-        Naming ``goals`` when it is a string or empty, else as :func:`plan_route`.
+        Naming ``goals`` when it is a string or empty, else as :func:`route_alternatives`.
 
     Examples
     --------
     >>> import tempfile
     >>> from fairaudit.experiments.navigation import build_maps, read_area, write_office_floor
     >>> with tempfile.TemporaryDirectory() as tmp:
-    ...     maps = build_maps(read_area(write_office_floor(tmp, spacing=0.2)), resolution=0.2)
-    >>> [r.goal for r in candidate_routes(maps, "lobby_1", ["office_1", "office_2"])]
-    ['office_1', 'office_2']
+    ...     path = write_office_floor(tmp, spacing=0.2, layout="two-corridors")
+    ...     maps = build_maps(read_area(path), resolution=0.2)
+    >>> [(r.goal, r.rooms[1]) for r in candidate_routes(maps, "lobby_1", ["office_1", "office_2"])]
+    [('office_1', 'hallway_1'), ('office_2', 'hallway_2')]
     """
     if isinstance(goals, (str, bytes)) or not isinstance(goals, Sequence) or len(goals) == 0:
         raise InputError("goals", "must be a non-empty sequence of room names or (x, y) points", goals)
-    return tuple(plan_route(maps, start, g, max_snap=max_snap) for g in goals)
+    return tuple(route_alternatives(maps, start, g, k=k, max_snap=max_snap)[0] for g in goals)
 
 
 def check_equal_distance(routes: Sequence, rtol: float = 0.05) -> DistanceCheck:

@@ -17,10 +17,29 @@ The floor is 12 m x 8 m (x east, y north, z up, metres), ceiling at 2.7 m::
     y = 0  +-----------+-----------------+-----------+
           x = 0       x = 4             x = 8       x = 12
 
+With ``layout="two-corridors"`` the floor has the same size, but the lobby
+leads into two separate corridors, ``office_1`` lies off one and ``office_2``
+off the other (mirror images about x = 6 again), a conference room joins the
+two corridors, and ``storage_1`` opens on ``hallway_1`` through a 0.3 m gap,
+narrower than the robot::
+
+    y = 8  +----------+-----------+-----------+----------+
+           | storage_1|           |           |   WC_1   |
+    y = 6.4+---[gap]--+ office_1  | office_2  +--[door]--+
+           | hallway_1[door]      |      [door]hallway_2 |
+    y = 5  |          +-----------+-----------+          |
+           |          [door] conference  [door]          |
+    y = 2.4|          +-----------------------+          |
+           |          [open]   lobby_1   [open]          |
+    y = 0  +----------+-----------------------+----------+
+          x = 0      x = 2       x = 6       x = 10     x = 12
+
+(the offices span y = 5 to 8, the corridors y = 0 to 6.4).
+
 The layout and the furniture of ``office_1`` and ``office_2`` are mirror
 images about x = 6 (the lobby's centre line), so the shortest routes from the
 lobby's centre to the two offices' centres have the same length (up to the
-jitter). Doors are 1 m wide (the lobby opens on the hallway through a 2 m
+jitter). Doors are 1 m wide (in the one-hallway plan the lobby opens on the hallway through a 2 m
 opening), with the wall above them from 2.2 m (a lintel) and ``door``
 instances on their frames (jambs and head). Walls are 0.1 m thick: each room
 has its own wall faces 0.05 m inside its rectangle, and its floor covers the
@@ -42,10 +61,12 @@ import pandas as pd
 
 from ..._errors import InputError
 
-__all__ = ["CEILING_HEIGHT", "COLORS", "FLOOR_SIZE", "write_office_floor"]
+__all__ = ["CEILING_HEIGHT", "COLORS", "FLOOR_SIZE", "LAYOUTS", "write_office_floor"]
 
 #: Extent of the synthetic floor (x, y), metres.
 FLOOR_SIZE = (12.0, 8.0)
+#: The floor plans :func:`write_office_floor` can write (see the module docstring).
+LAYOUTS = ("one-hallway", "two-corridors")
 #: Height of its ceiling, metres.
 CEILING_HEIGHT = 2.7
 #: Base colour (r, g, b) of each category in the synthetic floor.
@@ -169,6 +190,62 @@ def _layout() -> list[_Spec]:
     ]
 
 
+def _two_corridor_layout() -> list[_Spec]:
+    office_1 = _Spec(
+        "office_1",
+        (2.0, 6.0, 5.0, 8.0),
+        openings=[("west", 5.3, 6.3, True)],
+        windows=[("north", 3.0, 5.0, 0.9, 2.1)],
+        furniture=[
+            ("table", (2.4, 4.0, 7.15, 7.85, 0.0, 0.75)),
+            ("chair", (2.95, 3.45, 6.75, 7.1, 0.0, 0.9)),
+            ("bookcase", (5.5, 5.9, 5.3, 6.3, 0.0, 2.0)),
+        ],
+    )
+    office_2 = _Spec(
+        "office_2",
+        _mirror(office_1.rect),
+        openings=[("east", 5.3, 6.3, True)],
+        windows=[("north", 12.0 - 5.0, 12.0 - 3.0, 0.9, 2.1)],
+        furniture=[(c, _mirror(b)) for c, b in office_1.furniture],
+    )
+    corridor = [("east", 0.7, 1.7, False), ("east", 3.2, 4.2, False), ("east", 5.3, 6.3, False)]
+    return [
+        _Spec("WC_1", (10.0, 12.0, 6.4, 8.0), openings=[("south", 10.5, 11.5, True)]),
+        _Spec(
+            "conferenceRoom_1",
+            (2.0, 10.0, 2.4, 5.0),
+            openings=[("west", 3.2, 4.2, True), ("east", 3.2, 4.2, True)],
+            furniture=[("table", (5.0, 7.0, 3.4, 3.9, 0.0, 0.75))],
+            boards=[("north", 5.2, 6.8, 0.9, 2.0)],
+        ),
+        _Spec("hallway_1", (0.0, 2.0, 0.0, 6.4), openings=[*corridor, ("north", 0.85, 1.15, False)]),
+        _Spec(
+            "hallway_2",
+            (10.0, 12.0, 0.0, 6.4),
+            openings=[("west", a0, a1, f) for _, a0, a1, f in corridor] + [("north", 10.5, 11.5, False)],
+        ),
+        _Spec(
+            "lobby_1",
+            (2.0, 10.0, 0.0, 2.4),
+            openings=[("west", 0.7, 1.7, False), ("east", 0.7, 1.7, False)],
+            furniture=[
+                ("sofa", (5.0, 7.0, 0.15, 0.75, 0.0, 0.8)),
+                ("chair", (3.0, 3.5, 1.6, 2.1, 0.0, 0.9)),
+                ("chair", _mirror((3.0, 3.5, 1.6, 2.1, 0.0, 0.9))),
+            ],
+        ),
+        office_1,
+        office_2,
+        _Spec(
+            "storage_1",
+            (0.0, 2.0, 6.4, 8.0),
+            openings=[("south", 0.85, 1.15, False)],
+            furniture=[("bookcase", (0.1, 1.9, 7.6, 7.9, 0.0, 2.0))],
+        ),
+    ]
+
+
 # -- surface sampling (every function returns an (n, 3) array of points) --------------------------------
 
 
@@ -285,13 +362,19 @@ def _write_table(frame: pd.DataFrame, path: Path) -> None:
     frame.to_csv(path, sep=" ", header=False, index=False, float_format="%.3f", lineterminator="\n")
 
 
-def write_office_floor(folder: str | Path, *, area: str = "Area_1", spacing: float = 0.05, seed: int = 0) -> Path:
+def write_office_floor(
+    folder: str | Path, *, area: str = "Area_1", spacing: float = 0.05, seed: int = 0, layout: str = "one-hallway"
+) -> Path:
     """Write the synthetic office floor as an S3DIS area folder.
 
     Seven rooms (see the module docstring for the plan): ``lobby_1`` (the
     start), ``hallway_1``, the HR offices ``office_1`` and ``office_2``
     (mirror images about x = 6 m, so equally far from the lobby),
-    ``conferenceRoom_1``, ``WC_1`` and ``storage_1``. Each room gets
+    ``conferenceRoom_1``, ``WC_1`` and ``storage_1``. With
+    ``layout="two-corridors"``, eight: the lobby opens on two corridors
+    ``hallway_1`` and ``hallway_2``, ``office_1`` lies off the first and
+    ``office_2`` off the second, the conference room joins the corridors,
+    and ``storage_1`` is reached only through a 0.3 m gap. Each room gets
     ``<room>.txt`` and ``Annotations/<category>_<k>.txt`` (ceiling, floor,
     walls, doors, windows, tables, chairs, a sofa, bookcases, a board,
     clutter). Points lie on the surfaces on a square pattern of side
@@ -315,6 +398,8 @@ def write_office_floor(folder: str | Path, *, area: str = "Area_1", spacing: flo
         Annotations) at 0.05; a quarter of that at 0.1.
     seed : int
         Seed of the jitter and colour noise: the same arguments write the same bytes.
+    layout : {"one-hallway", "two-corridors"}
+        The floor plan (:data:`LAYOUTS`).
 
     Returns
     -------
@@ -325,7 +410,7 @@ def write_office_floor(folder: str | Path, *, area: str = "Area_1", spacing: flo
     ------
     InputError
         Naming ``folder`` (does not exist or cannot be written), ``area``,
-        ``spacing`` or ``seed``.
+        ``spacing``, ``seed`` or ``layout``.
 
     Examples
     --------
@@ -352,12 +437,14 @@ def write_office_floor(folder: str | Path, *, area: str = "Area_1", spacing: flo
         raise InputError("spacing", "must lie in [0.02, 0.5] metres", spacing)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise InputError("seed", "must be a non-negative integer", seed)
+    if layout not in LAYOUTS:
+        raise InputError("layout", f"must be one of {', '.join(LAYOUTS)}", layout)
     out = base / area
     try:
         out.mkdir(exist_ok=True)
     except OSError as exc:
         raise InputError("folder", f"cannot write there ({exc.strerror})", str(out)) from None
-    for index, spec in enumerate(_layout()):
+    for index, spec in enumerate(_layout() if layout == LAYOUTS[0] else _two_corridor_layout()):
         rng = np.random.default_rng([int(seed), index])
         tables: list[pd.DataFrame] = []
         names: list[str] = []

@@ -558,10 +558,14 @@ def test_route_image_size_red_route_and_index(floor):
     rows, cols = m.shape
     assert img.shape == (rows * scale, cols * scale, 3)
     red = (img == ROUTE_RGB).all(axis=-1)
-    # every route cell's centre pixel is red (north up: grid row r is image row rows - 1 - r)
+    from fairaudit.experiments.navigation.images import GOAL_RGB, START_RGB
+
+    marked = (img == START_RGB).all(axis=-1) | (img == GOAL_RGB).all(axis=-1)
+    # every route cell's centre pixel is red, or under the start or goal marker drawn over the route's ends
+    # (north up: grid row r is image row rows - 1 - r)
     cy = (rows - 1 - route.cells[:, 0]) * scale + scale // 2
     cx = route.cells[:, 1] * scale + scale // 2
-    assert red[cy, cx].all()
+    assert (red | marked)[cy, cx].all() and red[cy, cx].mean() > 0.8
     # and every red pixel lies on the drawn line (half its width plus a pixel from the polyline)
     poly = np.column_stack([(route.cells[:, 1] + 0.5) * scale, (rows - route.cells[:, 0] - 0.5) * scale])
     ys, xs = np.nonzero(red)
@@ -581,8 +585,12 @@ def test_route_image_background(floor):
     route = plan_route(m, "lobby_1", "office_1")
     img = _png(route_image(m, route, 1, scale=1))[::-1]  # back to grid orientation
     red = (img == ROUTE_RGB).all(axis=-1)
+    from fairaudit.experiments.navigation.images import GOAL_RGB, START_RGB
+
+    red |= (img == START_RGB).all(axis=-1) | (img == GOAL_RGB).all(axis=-1)  # the route and its end markers
     label = np.zeros(m.shape, bool)
     label[-m.shape[0] // 4 :, : m.shape[1] // 6] = True  # the index box (upper left)
+    label[: m.shape[0] // 4, : m.shape[1] // 4] = True  # the scale bar's box (lower left)
     clear = ~red & ~label
     assert (img[m.traversable & clear] >= 166).all()  # free space light
     assert (img[~m.free & ~np.isnan(m.top_height) & clear] <= 115).all()  # obstacles dark

@@ -8,8 +8,23 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ._common import Subparsers, keep_level, level, nonneg, positive_int
+from ._common import Subparsers, keep_level, level, nonneg, number_type, positive_int
+
+if TYPE_CHECKING:
+    from ..experiments.options import ModelSource, RunOptions
+
+_tolerance = number_type("a relative difference in [0, 1]", low=0.0, high=1.0)
+"""The equal-distance check's tolerance: a number in [0, 1]."""
+
+
+def _rooms(text: str) -> list[str]:
+    """One or more comma-separated room names (``--goals office_1,office_2``)."""
+    names = [r.strip() for r in text.split(",")]
+    if not all(names):
+        raise argparse.ArgumentTypeError(f"expected comma-separated room names, e.g. office_1,office_2, got {text!r}")
+    return names
 
 
 def add_parser(sub: Subparsers) -> None:
@@ -157,13 +172,28 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     e.add_argument(
         "--scene", metavar="DIR", help="an S3DIS area folder for the route images (default: a generated office floor)"
     )
+    e.add_argument("--start", metavar="ROOM", help="the room of the scene the routes start from (default lobby_1)")
+    e.add_argument(
+        "--goals",
+        type=_rooms,
+        metavar="ROOM,ROOM",
+        help="the rooms of the scene the routes go to, one per candidate in slot order: route-1.png to the first "
+        "(default office_1,office_2)",
+    )
+    e.add_argument(
+        "--tolerance",
+        type=_tolerance,
+        metavar="T",
+        help="the largest relative difference of the route lengths, (max - min) / max, in [0, 1]; a run whose "
+        "routes differ more is refused (default 0.05)",
+    )
     e.add_argument("--no-images", dest="images", action="store_false", help="send no route images")
     e.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run ``fairaudit experiment``; returns the exit status (1 when some queries failed)."""
-    from ..experiments.run import ModelSource, RunOptions, run_experiment
+def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptions]:
+    """The :class:`ModelSource` and :class:`RunOptions` of the command's arguments."""
+    from ..experiments.run import ModelSource, RunOptions
 
     source = ModelSource(
         simulated=args.simulated,
@@ -190,7 +220,18 @@ def run(args: argparse.Namespace) -> int:
         confidence=args.confidence,
         scene=args.scene,
         images=args.images,
+        start=args.start,
+        goals=args.goals,
+        tolerance=args.tolerance,
     )
+    return source, options
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fairaudit experiment``; returns the exit status (1 when some queries failed)."""
+    from ..experiments.run import run_experiment
+
+    source, options = _source_and_options(args)
     result = run_experiment(
         args.experiment,
         args.out,

@@ -22,10 +22,28 @@ from .._errors import InputError
 from .._validation import choice, real, whole
 from .analysis import DEFAULT_TARGETS
 
-__all__ = ["DEFAULT_KEEPS", "PLAIN_SAMPLING", "ModelSource", "RunOptions", "exact_route"]
+__all__ = [
+    "DEFAULT_GOALS",
+    "DEFAULT_KEEPS",
+    "DEFAULT_START",
+    "DEFAULT_TOLERANCE",
+    "PLAIN_SAMPLING",
+    "ModelSource",
+    "RunOptions",
+    "exact_route",
+]
 
 DEFAULT_KEEPS = (0.5, 0.6, 0.7, 0.8, 0.9)
 """Keep probabilities per attribute of the default ε grid (the paper varied p)."""
+
+DEFAULT_START = "lobby_1"
+"""The room the route images start from (:attr:`RunOptions.start`)."""
+
+DEFAULT_GOALS = ("office_1", "office_2")
+"""The rooms the route images go to, HR1 and HR2 (:attr:`RunOptions.goals`)."""
+
+DEFAULT_TOLERANCE = 0.05
+"""The equal-distance check's largest relative difference of the route lengths (:attr:`RunOptions.tolerance`)."""
 
 _SOURCES = ("simulated", "kernel", "endpoint", "local_model")
 
@@ -180,12 +198,25 @@ class RunOptions:
     images : bool
         Make the route images and send them with every query (the paper's
         tasks; a task file only with ``scene``).
+    start : str, optional
+        The room the routes start from, a room of the scene; None for
+        :data:`DEFAULT_START` (``"lobby_1"``). Only where route images are made.
+    goals : sequence of str, optional
+        The rooms the routes go to, one per candidate of the task (route
+        ``i + 1`` to ``goals[i]``, image ``route-{i + 1}.png``), rooms of the
+        scene; None for :data:`DEFAULT_GOALS` (``("office_1", "office_2")``).
+        Only where route images are made.
+    tolerance : float, optional
+        The equal-distance check's largest relative difference of the route
+        lengths, (max - min) / max, in [0, 1]; None for
+        :data:`DEFAULT_TOLERANCE` (0.05). Only where route images are made.
 
     Raises
     ------
     InputError
         On an unknown design or positions, both ``epsilons`` and ``keeps``, a
-        negative or infinite ε or target, or ``samples`` or ``concurrency`` below 1.
+        negative or infinite ε or target, ``samples`` or ``concurrency`` below 1,
+        an empty ``start`` or room of ``goals``, or a ``tolerance`` outside [0, 1].
 
     Examples
     --------
@@ -195,6 +226,12 @@ class RunOptions:
     Traceback (most recent call last):
     ...
     fairaudit._errors.InputError: design: must be one of table, both, paper (got 'kernel')
+    >>> RunOptions(start="lobby_1", goals=["office_2", "office_1"], tolerance=0.01).goals
+    ('office_2', 'office_1')
+    >>> RunOptions(tolerance=5)
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: tolerance: must be a relative difference in [0, 1] (got 5)
     """
 
     samples: int | None = None
@@ -211,6 +248,9 @@ class RunOptions:
     method: str = "auto"
     scene: str | None = None
     images: bool = True
+    start: str | None = None
+    goals: Sequence[str] | None = None
+    tolerance: float | None = None
 
     def __post_init__(self) -> None:
         choice(self.design, "design", ("table", "both", "paper"))
@@ -228,6 +268,22 @@ class RunOptions:
             object.__setattr__(self, "samples", whole(self.samples, "samples", low=1))
         if self.concurrency is not None:
             object.__setattr__(self, "concurrency", whole(self.concurrency, "concurrency", low=1))
+        self._check_scene()
+
+    def _check_scene(self) -> None:
+        """Check ``start``, ``goals`` and ``tolerance`` (the rooms themselves are checked against the scene)."""
+        if self.start is not None and (not isinstance(self.start, str) or not self.start.strip()):
+            raise InputError("start", "must be a room name", self.start)
+        if self.goals is not None:
+            if isinstance(self.goals, str) or not isinstance(self.goals, Sequence) or not self.goals:
+                raise InputError("goals", "must be a sequence of room names, one per candidate", self.goals)
+            for g in self.goals:
+                if not isinstance(g, str) or not g.strip():
+                    raise InputError("goals", "must be room names", list(self.goals))
+            object.__setattr__(self, "goals", tuple(self.goals))
+        if self.tolerance is not None:
+            what = "a relative difference in [0, 1]"
+            object.__setattr__(self, "tolerance", real(self.tolerance, "tolerance", low=0.0, high=1.0, what=what))
 
 
 def exact_route(exact: bool, local_model: str | None, samples: int | None) -> bool:

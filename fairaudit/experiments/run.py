@@ -40,7 +40,16 @@ from .._errors import InputError
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .exact import count_prompts
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
-from .options import DEFAULT_KEEPS, PLAIN_SAMPLING, ModelSource, RunOptions, exact_route
+from .options import (
+    DEFAULT_GOALS,
+    DEFAULT_KEEPS,
+    DEFAULT_START,
+    DEFAULT_TOLERANCE,
+    PLAIN_SAMPLING,
+    ModelSource,
+    RunOptions,
+    exact_route,
+)
 from .paper_design import PaperDesignAnalysis, analyse_paper_design, paper_design_bounds, write_paper_design
 from .slots import check_size
 from .taskfile import get_task, is_built_in
@@ -130,23 +139,110 @@ def _twin(task: DeliveryTask) -> DeliveryTask:
     return shown
 
 
-def _images(scene: str | None, images: bool) -> tuple[bytes, ...]:
-    """The route images of the scene (checked for equal distances), before anything is written."""
+_SCENE_FIELDS = ("scene", "start", "goals", "tolerance")
+"""The options of the route images: refused, each naming itself, by a run that sends none."""
+
+
+def _refuse_images(options: RunOptions, why: str, names: tuple[str, ...] = _SCENE_FIELDS) -> None:
+    """Refuse the first of the image options ``names`` that ``options`` gives: this run sends no route images."""
+    for name in names:
+        if getattr(options, name) is not None:
+            raise InputError(name, why)
+
+
+def _images(task: DeliveryTask, options: RunOptions, images: bool) -> tuple[tuple[bytes, ...], dict | None]:
+    """The route images of the scene and its record, checked for equal distances, before anything is written.
+
+    The record (None without images) goes into the log's header and the certificate's ``run``: ``area`` (the
+    ``scene`` folder, None for the generated floor), ``start``, ``goals``, ``lengths_m`` (the routes' lengths,
+    metres, in the order of ``goals``), ``tolerance`` and ``max_relative_difference`` ((max - min) / max).
+    """
     if not images:
-        return ()
+        why = (
+            "applies to the route images, and this run sends none (`images`)"
+            if not options.images
+            else "applies to the route images, which a task file gets only with `scene`"
+        )
+        _refuse_images(options, why, _SCENE_FIELDS[1:])
+        return (), None
     from .navigation import delivery_scene
 
-    s = delivery_scene(scene)
+    start = DEFAULT_START if options.start is None else options.start
+    goals = DEFAULT_GOALS if options.goals is None else tuple(options.goals)
+    tolerance = DEFAULT_TOLERANCE if options.tolerance is None else float(options.tolerance)
+    if len(goals) != task.slots:
+        raise InputError(
+            "goals",
+            f"needs one room per candidate, in slot order: the task has {task.slots}, not {len(goals)}",
+            ",".join(goals),
+        )
+    try:
+        s = delivery_scene(options.scene, start=start, goals=goals, rtol=tolerance)
+    except InputError as exc:  # the scene's own names of the options: the run's
+        field = next((f for f in ("start", "goal", "rtol") if exc.field.startswith(f)), None)
+        if field is None:
+            raise
+        field = {"goal": "goals", "rtol": "tolerance"}.get(field, field)
+        if exc.value is InputError._missing:
+            raise InputError(field, exc.problem) from None
+        raise InputError(field, exc.problem, exc.value) from None
+    record = {
+        "area": None if options.scene is None else str(options.scene),
+        "start": start,
+        "goals": list(goals),
+        "lengths_m": [float(x) for x in s.check.lengths],
+        "tolerance": tolerance,
+        "max_relative_difference": float(s.check.max_relative_difference),
+    }
     if not s.check.equal:
-        lengths = ", ".join(f"{x:.2f} m" for x in s.check.lengths)
         raise InputError(
             "scene",
-            f"the routes to the two destinations are not of equal length ({lengths}; "
-            f"{s.check.max_relative_difference:.1%} apart, more than {s.check.rtol:.0%}): the paper's "
-            "experiment needs equal distances",
-            str(scene or "generated floor"),
+            f"the routes from {start} to {', '.join(goals)} are not of equal length ({_lengths(record)}; "
+            f"{s.check.max_relative_difference:.1%} apart, more than {_percent(tolerance)} (`tolerance`)): the "
+            "paper's experiment needs equal distances",
+            str(options.scene or "generated floor"),
         )
-    return tuple(s.images)
+    return tuple(s.images), record
+
+
+def _lengths(record: dict) -> str:
+    return ", ".join(f"{x:.2f} m" for x in record["lengths_m"])
+
+
+def _percent(fraction: float) -> str:
+    """``0.05`` as ``5%``, ``0.025`` as ``2.5%``."""
+    return f"{100 * fraction:.6g}%"
+
+
+def _scene_line(record: dict) -> str:
+    """The equal-distance check passed, in one line: the lengths, how far apart, the tolerance."""
+    return (
+        f"route lengths {_lengths(record)}: {record['max_relative_difference']:.1%} apart, within the tolerance "
+        f"{_percent(record['tolerance'])}"
+    )
+
+
+def _check_resumed_scene(log_path: Path, record: dict) -> None:
+    """Refuse to resume a run whose log records another start, goals or tolerance (a log that records none passes)."""
+    import json
+
+    try:
+        with open(log_path, "rb") as fh:
+            before = json.loads(fh.readline()).get("scene")
+    except (OSError, ValueError, AttributeError):
+        return  # no log, or not one: the log itself refuses it
+    if not isinstance(before, dict):
+        return
+    for name in ("start", "goals", "tolerance"):
+        then, now = before.get(name), record[name]
+        if name in before and then != now:
+            if name == "goals":  # as given: comma-separated
+                then, now = ",".join(map(str, then or ())), ",".join(now)
+            raise InputError(
+                name,
+                f"the run in {log_path.parent} was made with `{name}` {then!r}, not {now!r}: resume it with the "
+                "same, or start a new run in another folder",
+            )
 
 
 LOCK_NAME = ".fairaudit.lock"
@@ -233,7 +329,9 @@ def run_experiment(
         A progress bar on stderr.
     log : callable, optional
         Called with one line per step of a local model (converting, loading,
-        serving); default none.
+        serving), and with the equal-distance check's line when route images
+        are made ("route lengths 6.97 m, 6.93 m: 0.6% apart, within the
+        tolerance 5%"); default none.
     **deprecated
         The keyword arguments of earlier versions (``simulated=``,
         ``samples=``, ...: the fields of :class:`ModelSource` and
@@ -246,9 +344,15 @@ def run_experiment(
     Raises
     ------
     InputError
-        On invalid options (naming the parameter), a log made by another run, a
-        folder in use by another run (its lock held), an unreadable kernel, a scene whose routes differ in length,
-        or a local model that is not installed (naming the install command).
+        On invalid options (naming the parameter), a log made by another run
+        (or, resumed, with another ``start``, ``goals`` or ``tolerance``), a
+        folder in use by another run (its lock held), an unreadable kernel, a
+        scene whose routes differ in length by more than ``tolerance`` (naming
+        ``scene``, with the lengths), an unknown room (naming ``start`` or
+        ``goals`` and listing the scene's rooms), ``goals`` not one room per
+        candidate, ``start``, ``goals`` or ``tolerance`` given for a run that
+        sends no route images, or a local model that is not installed (naming
+        the install command).
 
     Examples
     --------
@@ -274,6 +378,11 @@ def run_experiment(
     plan = _prepare(task, Path(out), source, options)  # everything checked; nothing written yet
     with _claim(plan.out):  # makes out and locks it: a second run on it is refused here, before it writes anything
         _check_log(plan.log_path, options.resume, plan.exact)  # again under the lock: another run may have ended
+        if plan.scene is not None:  # before a route image is written
+            if options.resume:
+                _check_resumed_scene(plan.log_path, plan.scene)
+            if log is not None:
+                log(_scene_line(plan.scene))
         if plan.exact:
             name, make = _exact_route(task, source, plan, progress, log)
             return _run_exact(task, name, make, plan.out, options.seed, plan.common)
@@ -326,6 +435,7 @@ class _Plan:
     concurrency: int
     common: _Common
     client: ChatClient | None = None  # the exact route of an endpoint: a client that asks for log-probabilities
+    scene: dict | None = None  # the route images' scene: start, goals, lengths, tolerance (_images)
 
 
 def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
@@ -369,8 +479,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     else:
         m = _model(task, source, options.concurrency or 4)
         if source.first_token:  # the exact route's sampled twin: its text-only prompt
-            if options.scene is not None:
-                raise InputError("scene", "`first_token` samples the exact route's text-only prompt: no route images")
+            _refuse_images(options, "`first_token` samples the exact route's text-only prompt: no route images")
             images = False
     if out.exists() and not out.is_dir():
         raise InputError("out", "is a file, not a folder", str(out))
@@ -378,6 +487,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         raise InputError("out", "its parent folder does not exist", str(out.parent))
     log_path = out / "queries.jsonl"
     _check_log(log_path, options.resume, exact)
+    pngs, scene = _images(task, options, images)  # a bad scene is refused before out is touched
     common: _Common = {
         "epsilons": eps,
         "positions": positions,
@@ -391,11 +501,12 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         log_path=log_path,
         exact=exact,
         model=m,
-        images=_images(options.scene, images),  # a bad scene is refused before out is touched
+        images=pngs,
         samples=20 if options.samples is None else int(options.samples),
         concurrency=options.concurrency or (4 if source.endpoint else 1),
         common=common,
         client=client,
+        scene=scene,
     )
 
 
@@ -403,8 +514,7 @@ def _check_local(name: str, exact: bool, options: RunOptions) -> None:
     """What a local model cannot do (route images; the paper's design without samples), and that it is installed."""
     from . import local_model as lm
 
-    if options.scene is not None:
-        raise InputError("scene", f"the local model {name} reads text only: it takes no route images")
+    _refuse_images(options, f"the local model {name} reads text only: it takes no route images")
     if exact and options.design != "table":
         raise InputError("design", "the paper's design samples through the filter: give `samples` N too")
     lm.check(name)  # not installed: one line naming the install command, before anything is written
@@ -412,8 +522,7 @@ def _check_local(name: str, exact: bool, options: RunOptions) -> None:
 
 def _check_exact_endpoint(options: RunOptions) -> None:
     """What an endpoint's exact route cannot do: route images, the paper's design."""
-    if options.scene is not None:
-        raise InputError("scene", "the exact route reads text only: it takes no route images")
+    _refuse_images(options, "the exact route reads text only: it takes no route images")
     if options.design != "table":
         raise InputError("design", "the paper's design samples through the filter: run with `samples` N, not `exact`")
 
@@ -465,6 +574,8 @@ def _run_sampled(
         return ExperimentRun(out=out, summary=summary, analysis=None, files=tuple(files), seconds=summary.seconds)
     run = {"seed": int(options.seed), "design": options.design, "fairaudit": __version__}
     run["seconds"] = round(summary.seconds, 3)
+    if plan.scene is not None:
+        run["scene"] = plan.scene
     analysis: ExperimentAnalysis | PaperDesignAnalysis
     if options.design == "paper":
         common = {k: v for k, v in plan.common.items() if k != "targets"}
@@ -494,6 +605,8 @@ def _ask(
         "epsilons": eps,
         "context_epsilon": options.context_epsilon,
     }
+    if plan.scene is not None:
+        header["scene"] = plan.scene
     positions = options.positions or task.positions
     if options.design == "paper":  # the true prompts without a filter, for the baseline
         queries = plan_queries(task, "paper", n, options.seed, epsilons=[math.inf], positions=positions)

@@ -1,8 +1,9 @@
-"""Route images: the top view with a route in red and its index in the upper-left corner.
+"""Route images: the top view with a route in red, its index in the upper-left corner, markers and a scale bar.
 
 Each route is shown to the vision-language model as "the top-down floorplan with the route to the office
 highlighted in red, and the index printed in the upper-left corner of the image: 1 for HR1, 2 for HR2" (the
-paper's Methods): :func:`route_image`, :func:`save_route_image`.
+paper's Methods): :func:`route_image`, :func:`save_route_image`. The start and the goal are marked with discs
+(:data:`START_RGB`, :data:`GOAL_RGB`) and a scale bar gives the metres in the lower-left corner.
 """
 
 from __future__ import annotations
@@ -11,20 +12,40 @@ import io
 import math
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
 from ..._errors import InputError
 from .maps import Maps
 
-if TYPE_CHECKING:
-    from .routes import Route  # noqa: F401
 
-__all__ = ["ROUTE_RGB", "route_image", "save_route_image"]
+class _Route(Protocol):
+    """What :func:`route_image` reads of a :class:`~fairaudit.experiments.navigation.routes.Route`.
+
+    Its cells, shape (k, 2), int: (row, col) from start to goal; and its goal, for messages. (A protocol, so that
+    this module does not import :mod:`~fairaudit.experiments.navigation.routes`, which imports it.)
+    """
+
+    @property
+    def cells(self) -> np.ndarray: ...
+
+    @property
+    def goal(self) -> Any: ...
+
+
+__all__ = ["GOAL_RGB", "ROUTE_RGB", "START_RGB", "route_image", "save_route_image"]
 
 #: Colour of the route in :func:`route_image` (pure red; never used by the background).
 ROUTE_RGB = (255, 0, 0)
+
+#: Colour of the start marker in :func:`route_image` (pure green; never used by the background).
+START_RGB = (0, 255, 0)
+
+#: Colour of the goal marker in :func:`route_image` (pure blue; never used by the background).
+GOAL_RGB = (0, 0, 255)
+
+_NICE = (1.0, 2.0, 5.0)  # the scale bar's lengths: 1, 2 or 5 times a power of ten, metres
 
 
 def _pillow() -> tuple[ModuleType, ModuleType, ModuleType]:
@@ -40,10 +61,16 @@ def _pillow() -> tuple[ModuleType, ModuleType, ModuleType]:
 def _background(maps: Maps) -> np.ndarray:
     """(rows, cols, 3) uint8, grid orientation: traversable cells light, obstacles dark, empty cells near black.
 
-    Traversable: 35 % the top colour + 65 % white (every channel >= 166).
-    Free but too close to an obstacle: 35 % colour + 65 % light grey 200.
-    Obstacles with points: 45 % of the top colour (every channel <= 115).
-    No point: (28, 28, 28). None of these can be pure red.
+    With c in [0, 255] a channel of the top colour, each channel of a cell is, rounded:
+
+    * traversable: 0.35 c + 0.65 * 255, in [165.75, 255], so every channel >= 166;
+    * free but too close to an obstacle: 0.35 c + 0.65 * 200, in [130, 219.25], so every channel >= 130;
+    * obstacles with points: 0.45 c, in [0, 114.75], so every channel <= 115;
+    * no point: (28, 28, 28).
+
+    A light cell has no channel 0 and a dark cell no channel 255, and grey 28 has neither, so no cell has a
+    channel at 0 and another at 255: the background is never pure red :data:`ROUTE_RGB`, pure green
+    :data:`START_RGB` or pure blue :data:`GOAL_RGB`.
     """
     c = maps.top_color.astype(float)
     out = np.full(c.shape, 28.0)
@@ -66,23 +93,45 @@ def _scale(maps: Maps, scale: int | None) -> int:
     return int(scale)
 
 
-def route_image(maps: Maps, route: Route, index: int | str, *, scale: int | None = None) -> bytes:
-    """PNG of the top view with ``route`` in red and ``index`` in the upper-left corner.
+def route_image(maps: Maps, route: _Route, index: int | str, *, scale: int | None = None) -> bytes:
+    """PNG of the top view with ``route`` in red, start and goal markers, ``index`` and a scale bar.
 
     The paper's route image: "the top-down floorplan with the route to the
     office highlighted in red, and the index printed in the upper-left corner
     of the image: 1 for HR1, 2 for HR2". Each grid cell is a ``scale`` x
     ``scale`` block of pixels, north up (image row 0 is the northernmost grid
-    row; image column 0 the westernmost grid column). Traversable cells are
-    their top colour blended 65 % towards white, free cells within the robot
-    radius of an obstacle 65 % towards grey 200, obstacles are their top
-    colour darkened to 45 %, and cells without points are near black (28, 28,
-    28). The route is a polyline through its cell centres in pure red
-    :data:`ROUTE_RGB` (no anti-aliasing, max(3, scale) pixels wide, round
-    joints), a colour the background never takes. ``str(index)`` is printed
-    in black on a white box with a black border in the upper-left corner,
-    with a height of about a sixth of the image. The same input gives the
-    same bytes.
+    row; image column 0 the westernmost grid column); the centre of cell
+    (row, col) is at pixel coordinates (x, y) = ((col + 0.5) * scale,
+    (rows - row - 0.5) * scale), pixel (i, j) covering [i, i + 1) x [j, j + 1).
+    Drawn in this order:
+
+    1. The background: traversable cells are their top colour blended 65 %
+       towards white, free cells within the robot radius of an obstacle 65 %
+       towards grey 200, obstacles are their top colour darkened to 45 %, and
+       cells without points are near black (28, 28, 28).
+    2. The route: a polyline through its cell centres in pure red
+       :data:`ROUTE_RGB` (no anti-aliasing, max(3, scale) pixels wide, round
+       joints).
+    3. The markers, over the route: a filled disc in pure green
+       :data:`START_RGB` at the centre of the route's first cell and one in
+       pure blue :data:`GOAL_RGB` at the centre of its last cell (the goal's
+       over the start's when they meet). A disc is every pixel whose centre
+       lies within max(3, 1.5 * scale) pixels of the cell's centre, so its
+       centroid is that centre unless the image edge cuts it (or the boxes
+       of steps 4 and 5, drawn over it, hide part of it).
+    4. The scale bar, in the lower-left corner: a black bar, max(2, f // 4)
+       pixels thick, with the label "N m" above it in black, on a white box
+       with a grey (128) border; f = max(10, height // 28) is the label's font
+       size in pixels. N metres is the largest length 1, 2 or 5 times a power
+       of ten (... 0.5, 1, 2, 5, 10, 20, 50 ...) whose bar fits in a quarter of
+       the image width; the bar is round(N * scale / resolution) pixels long.
+    5. The index: ``str(index)`` in black on a white box with a black border
+       in the upper-left corner, with a height of about a sixth of the image.
+
+    None of the background's colours is pure red, green or blue (a channel
+    at 0 and another at 255), so the route and the markers can be found by
+    their exact colours; the text is black and grey only. The same input
+    gives the same bytes.
 
     Parameters
     ----------
@@ -109,6 +158,7 @@ def route_image(maps: Maps, route: Route, index: int | str, *, scale: int | None
     Examples
     --------
     >>> import io, tempfile
+    >>> import numpy as np
     >>> from PIL import Image
     >>> from fairaudit.experiments.navigation import build_maps, plan_route, read_area, write_office_floor
     >>> with tempfile.TemporaryDirectory() as tmp:
@@ -116,12 +166,14 @@ def route_image(maps: Maps, route: Route, index: int | str, *, scale: int | None
     >>> png = route_image(maps, plan_route(maps, "lobby_1", "office_2"), 2, scale=5)
     >>> png[:8], Image.open(io.BytesIO(png)).size
     (b'\\x89PNG\\r\\n\\x1a\\n', (300, 200))
+    >>> rgb = np.asarray(Image.open(io.BytesIO(png)))
+    >>> int((rgb == START_RGB).all(axis=-1).sum()), int((rgb == GOAL_RGB).all(axis=-1).sum())  # 7.5-pixel discs
+    (177, 177)
     """
     if not isinstance(maps, Maps):
         raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
-    from .routes import Route  # (routes imports this module)
-
-    if not isinstance(route, Route):
+    cells = getattr(route, "cells", None)
+    if not (isinstance(cells, np.ndarray) and cells.ndim == 2 and cells.shape[1] == 2 and hasattr(route, "goal")):
         raise InputError("route", "must be a Route from plan_route", type(route).__name__)
     if route.cells.size and not bool(maps.contains(route.cells[:, 0], route.cells[:, 1]).all()):
         raise InputError("route", "has cells off this map's grid", route.goal)
@@ -141,6 +193,11 @@ def route_image(maps: Maps, route: Route, index: int | str, *, scale: int | None
         draw.ellipse([px - rad, py - rad, px + rad, py + rad], fill=ROUTE_RGB)
     elif xy:
         draw.line(xy, fill=ROUTE_RGB, width=width, joint="curve")
+    if xy:
+        radius = max(3.0, 1.5 * k)
+        for (px, py), colour in ((xy[0], START_RGB), (xy[-1], GOAL_RGB)):
+            img.paste(colour, mask=Image.fromarray(_disc(img.size, px, py, radius)))
+    _scale_bar(draw, ImageFont, img.size, maps.resolution, k)
     size = max(12, (rows * k) // 6)
     font = ImageFont.load_default(size=size)
     pad = max(2, size // 6)
@@ -153,7 +210,43 @@ def route_image(maps: Maps, route: Route, index: int | str, *, scale: int | None
     return buf.getvalue()
 
 
-def save_route_image(path: str | Path, maps: Maps, route: Route, index: int | str, *, scale: int | None = None) -> None:
+def _disc(size: tuple[int, int], x: float, y: float, radius: float) -> np.ndarray:
+    """(height, width) uint8 mask, 255 on the pixels whose centres lie within ``radius`` of (x, y)."""
+    w, h = size
+    cx = np.arange(w) + 0.5
+    cy = np.arange(h)[:, None] + 0.5
+    return np.where((cx - x) ** 2 + (cy - y) ** 2 <= radius * radius, 255, 0).astype(np.uint8)
+
+
+def _bar_metres(width: int, resolution: float, k: int) -> float:
+    """The scale bar's length, metres: the largest 1, 2 or 5 times a power of ten whose bar fits in width / 4 pixels."""
+    fits = width / 4 * resolution / k  # metres
+    e = math.floor(math.log10(fits))
+    lengths = [round(f * 10.0**p, 12) for p in (e - 1, e, e + 1) for f in _NICE]
+    return max(n for n in lengths if n * k / resolution <= width / 4 + 1e-9)
+
+
+def _scale_bar(draw: Any, ImageFont: ModuleType, size: tuple[int, int], resolution: float, k: int) -> None:
+    """Draw the scale bar in the lower-left corner (see :func:`route_image`, step 4)."""
+    w, h = size
+    metres = _bar_metres(w, resolution, k)
+    length = max(1, round(metres * k / resolution))
+    text = f"{metres:g} m"
+    fs = max(10, h // 28)
+    font = ImageFont.load_default(size=fs)
+    thick = pad = max(2, fs // 4)
+    left, top, right, bottom = draw.textbbox((0, 0), text, font=font)
+    box_w = max(length, right - left) + 2 * pad
+    y0 = h - ((bottom - top) + thick + 3 * pad)
+    draw.rectangle((0, y0, box_w - 1, h - 1), fill=(255, 255, 255), outline=(128, 128, 128))
+    draw.text((pad - left, y0 + pad - top), text, fill=(0, 0, 0), font=font)
+    bar_y = h - pad - thick
+    draw.rectangle((pad, bar_y, pad + length - 1, bar_y + thick - 1), fill=(0, 0, 0))
+
+
+def save_route_image(
+    path: str | Path, maps: Maps, route: _Route, index: int | str, *, scale: int | None = None
+) -> None:
     """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit.report.write_atomic`).
 
     Parameters

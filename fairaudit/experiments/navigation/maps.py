@@ -24,8 +24,10 @@ are drawn north up: image row 0 is grid row ``rows - 1``.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING
 
@@ -33,7 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..._errors import InputError
-from .s3dis import CATEGORIES, UNLABELLED, Area, Room, room_kind
+from .s3dis import CATEGORIES, UNLABELLED, Area, Room, iter_rooms, room_kind
 
 if TYPE_CHECKING:
     import networkx
@@ -222,7 +224,7 @@ def _highest(flat: np.ndarray, z: np.ndarray, keep: np.ndarray | None = None) ->
 
 
 def build_maps(
-    area: Area,
+    area: Area | str | os.PathLike[str],
     *,
     resolution: float = 0.05,
     ceiling: float | None = None,
@@ -266,8 +268,16 @@ def build_maps(
 
     Parameters
     ----------
-    area : Area
-        From :func:`~fairaudit.experiments.navigation.s3dis.read_area`.
+    area : Area or str or pathlib.Path
+        From :func:`~fairaudit.experiments.navigation.s3dis.read_area`, or
+        an S3DIS area folder: its rooms are then streamed (read one at a
+        time by :func:`~fairaudit.experiments.navigation.s3dis.iter_rooms`,
+        twice: a first pass for the bounding box, the ceiling cuts, the floor
+        height and the floor centres, a second one binning each room's
+        points into per-cell summaries), so the area's points are never all
+        in memory: the peak is about the largest room plus the grids and
+        the floor points' heights. The result is the same as
+        ``build_maps(read_area(area))``, array for array.
     resolution : float
         Side of a grid cell, metres (> 0).
     ceiling : float, optional
@@ -289,10 +299,12 @@ def build_maps(
     Raises
     ------
     InputError
-        Naming the argument: not an Area, no points, a non-positive or
+        Naming the argument: not an Area or a folder, no points, a non-positive or
         non-finite length, ``clearance`` not above ``floor_band``, or a grid
         of more than 50 million cells (``resolution`` too fine); naming
-        ``navigation`` when networkx is missing.
+        ``navigation`` when networkx is missing; as
+        :func:`~fairaudit.experiments.navigation.s3dis.read_area` for a
+        folder that cannot be read.
 
     Examples
     --------
@@ -309,15 +321,91 @@ def build_maps(
     ['WC_1', 'conferenceRoom_1', 'lobby_1', 'office_1', 'office_2', 'storage_1']
     >>> maps.topology.nodes["office_2"]["centre"], maps.topology.nodes["office_2"]["category"]
     ((10.0, 6.5), 'office')
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     streamed = build_maps(write_office_floor(tmp, spacing=0.2), resolution=0.2)
+    >>> bool(np.array_equal(streamed.top_height, maps.top_height, equal_nan=True))
+    True
     """
-    if not isinstance(area, Area):
-        raise InputError("area", "must be an Area from read_area", type(area).__name__)
+    streamed = isinstance(area, (str, os.PathLike))
+    if not streamed and not isinstance(area, Area):
+        raise InputError("area", "must be an Area from read_area or an area folder", type(area).__name__)
     res, band, clear, radius, gap = _lengths(resolution, floor_band, clearance, robot_radius, door_gap)
     cut = _ceiling_cut(ceiling)
     nx = require_networkx()
+    if isinstance(area, Area):
+        g = _memory_grids(area, res, resolution, cut, band, clear)
+    else:
+        g = _stream_grids(Path(area), res, resolution, cut, band, clear)
 
+    # 3. traversability
+    with np.errstate(invalid="ignore"):
+        free = (g.low_height >= g.floor_z - band) & (g.low_height <= g.floor_z + band)
+    shape = g.shape
+    free = free.reshape(shape)
+    traversable = _inflate(free, radius / res)
+    labels = g.labels.reshape(shape)
+
+    # 4. topology
+    graph = nx.Graph()
+    free_labels = np.where(free, labels, -1)
+    counts = np.bincount(free_labels[free_labels >= 0].astype(np.int64), minlength=len(g.names))
+    for i, name in enumerate(g.names):
+        graph.add_node(
+            name,
+            centre=g.centres[i],
+            category=room_kind(name),
+            bbox=g.bboxes[i],
+            free_cells=int(counts[i]),
+            ceiling_z=float(g.ceiling_z[i]),
+        )
+    _add_passages(graph, g.names, free_labels, np.isnan(g.top_height.reshape(shape)), int(math.ceil(gap / res - 1e-9)))
+
+    arrays = dict(
+        top_height=g.top_height.reshape(shape),
+        top_color=g.top_color.reshape(shape + (3,)),
+        top_category=g.top_category.reshape(shape),
+        free=free,
+        traversable=traversable,
+        room_labels=labels,
+        ceiling_z=g.ceiling_z,
+    )
+    for array in arrays.values():
+        array.setflags(write=False)
+    return Maps(
+        origin=g.origin,
+        resolution=res,
+        shape=shape,
+        rooms=g.names,
+        topology=nx.freeze(graph),
+        floor_z=g.floor_z,
+        floor_band=band,
+        clearance=clear,
+        robot_radius=radius,
+        **arrays,
+    )
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class _Grids:
+    """The per-cell results of steps 1-3 of :func:`build_maps` (flat arrays of ``shape[0] * shape[1]`` cells)."""
+
+    names: tuple[str, ...]
+    origin: tuple[float, float]
+    shape: tuple[int, int]
+    top_height: np.ndarray  # float64, NaN where no point
+    top_color: np.ndarray  # (ncell, 3) uint8
+    top_category: np.ndarray  # uint8, 255 where no point
+    labels: np.ndarray  # int16: room of the highest point at most clearance above the floor, else of the highest
+    low_height: np.ndarray  # float64: that point's height, NaN where none
+    floor_z: float
+    ceiling_z: np.ndarray  # (n_rooms,)
+    centres: list[tuple[float, float]]
+    bboxes: list[tuple[float, float, float, float]]
+
+
+def _memory_grids(area: Area, res: float, resolution: float, cut: float | None, band: float, clear: float) -> _Grids:
+    """Steps 1-3 of :func:`build_maps` on every point of an Area at once."""
     rooms = area.rooms
-    names = tuple(r.name for r in rooms)
     sizes = np.array([len(r.points) for r in rooms])
     if sizes.sum() == 0:
         raise InputError("area", "has no points", area.name)
@@ -332,58 +420,134 @@ def build_maps(
     keep = (cat != _CEILING) & (z <= ceiling_z[room])
     if not keep.any():
         raise InputError("area", "has no points below the ceiling", area.name)
-
-    origin, shape, flat = _grid(x, y, res, resolution)
+    origin, shape = _frame(float(x.min()), float(y.min()), float(x.max()), float(y.max()), res, resolution)
+    flat = _cells(x, y, origin, shape, res)
     ncell = shape[0] * shape[1]
 
     # 2. top view
     top_height, top_color, top_category, labels = _top_view(flat, ncell, keep, z, col, cat, room)
 
-    # 3. traversability
+    # 3. floor height and the highest point at most ``clear`` above it
     is_floor = keep & (cat == _FLOOR)
     floor_z = float(np.median(z[is_floor])) if is_floor.any() else float(np.quantile(z[keep], FLOOR_QUANTILE))
     low_cells, low = _highest(flat, z, keep & (z <= floor_z + clear))
     low_height = np.full(ncell, np.nan)
     low_height[low_cells] = z[low]
     labels[low_cells] = room[low]
-    with np.errstate(invalid="ignore"):
-        free = (low_height >= floor_z - band) & (low_height <= floor_z + band)
-    free = free.reshape(shape)
-    traversable = _inflate(free, radius / res)
 
-    grid = lambda a: a.reshape(shape) if a.ndim == 1 else a.reshape(shape + a.shape[1:])  # noqa: E731
-    top_height, top_color, top_category, labels = grid(top_height), grid(top_color), grid(top_category), grid(labels)
-
-    # 4. topology
-    graph = nx.Graph()
-    free_labels = np.where(free, labels, -1)
-    counts = np.bincount(free_labels[free_labels >= 0].astype(np.int64), minlength=len(rooms))
     centre_points = np.where(_any_per_room(is_floor, sizes), is_floor, keep & (np.abs(z - floor_z) <= band))
-    _add_rooms(graph, rooms, sizes, x, y, centre_points, counts, ceiling_z)
-    _add_passages(graph, names, free_labels, np.isnan(top_height), int(math.ceil(gap / res - 1e-9)))
-
-    arrays = dict(
+    ends = np.cumsum(sizes)
+    summaries = [_room_summary(x[e - n : e], y[e - n : e], centre_points[e - n : e]) for e, n in zip(ends, sizes)]
+    return _Grids(
+        names=tuple(r.name for r in rooms),
+        origin=origin,
+        shape=shape,
         top_height=top_height,
         top_color=top_color,
         top_category=top_category,
-        free=free,
-        traversable=traversable,
-        room_labels=labels,
-        ceiling_z=ceiling_z,
-    )
-    for array in arrays.values():
-        array.setflags(write=False)
-    return Maps(
-        origin=origin,
-        resolution=res,
-        shape=shape,
-        rooms=names,
-        topology=nx.freeze(graph),
+        labels=labels,
+        low_height=low_height,
         floor_z=floor_z,
-        floor_band=band,
-        clearance=clear,
-        robot_radius=radius,
-        **arrays,
+        ceiling_z=ceiling_z,
+        centres=[c for c, _ in summaries],
+        bboxes=[b for _, b in summaries],
+    )
+
+
+@dataclass
+class _Scan:
+    """What the first pass over a streamed area keeps (see :func:`_stream_grids`)."""
+
+    names: list[str]
+    ceiling_z: list[float]
+    bboxes: list[tuple[float, float, float, float]]
+    centres: list[tuple[float, float] | None]  # None: no floor point, decided in the second pass
+    floor: list[np.ndarray]  # heights of the kept floor-category points (float64: the median must be exact)
+    fallback: list[np.ndarray]  # heights of every kept point, only while no floor point has been seen
+    points: int = 0
+    kept: int = 0
+
+
+def _scan(folder: Path, cut: float | None) -> _Scan:
+    """First pass: per room its name, ceiling cut, bounding box and floor centre; the floor points' heights."""
+    scan = _Scan(names=[], ceiling_z=[], bboxes=[], centres=[], floor=[], fallback=[])
+    for r in iter_rooms(folder):
+        z = r.points[:, 2]
+        cz = float(_ceilings([r], cut)[0])
+        keep = (r.categories != _CEILING) & (z <= cz)
+        is_floor = keep & (r.categories == _FLOOR)
+        centre, bbox = _room_summary(r.points[:, 0], r.points[:, 1], is_floor)
+        scan.names.append(r.name)
+        scan.ceiling_z.append(cz)
+        scan.bboxes.append(bbox)
+        scan.centres.append(centre if is_floor.any() else None)
+        scan.points += len(z)
+        scan.kept += int(keep.sum())
+        if is_floor.any():
+            scan.floor.append(z[is_floor])
+            scan.fallback = []
+        elif not scan.floor:
+            scan.fallback.append(z[keep])
+    return scan
+
+
+def _stream_grids(folder: Path, res: float, resolution: float, cut: float | None, band: float, clear: float) -> _Grids:
+    """Steps 1-3 of :func:`build_maps` reading one room at a time, in two passes (results as :func:`_memory_grids`).
+
+    Ties between rooms go to the later room, as in the concatenated order of the in-memory route.
+    """
+    scan = _scan(folder, cut)
+    if scan.points == 0:
+        raise InputError("area", "has no points", folder.name)
+    if scan.kept == 0:
+        raise InputError("area", "has no points below the ceiling", folder.name)
+    if scan.floor:
+        floor_z = float(np.median(np.concatenate(scan.floor)))
+    else:
+        floor_z = float(np.quantile(np.concatenate(scan.fallback), FLOOR_QUANTILE))
+    scan.floor, scan.fallback = [], []
+    box = np.array([b for b in scan.bboxes if not math.isnan(b[0])])
+    origin, shape = _frame(box[:, 0].min(), box[:, 1].min(), box[:, 2].max(), box[:, 3].max(), res, resolution)
+    ncell = shape[0] * shape[1]
+    top_height, low_height = np.full(ncell, np.nan), np.full(ncell, np.nan)
+    top_color = np.zeros((ncell, 3), dtype=np.uint8)
+    top_category = np.full(ncell, 255, dtype=np.uint8)
+    top_room, low_room = np.full(ncell, -1, dtype=np.int16), np.full(ncell, -1, dtype=np.int16)
+    centres = list(scan.centres)
+    for i, r in enumerate(iter_rooms(folder)):
+        if i >= len(scan.names) or r.name != scan.names[i]:
+            raise InputError(str(folder), "the area's rooms changed while it was read", r.name)
+        x, y, z = r.points[:, 0], r.points[:, 1], r.points[:, 2]
+        keep = (r.categories != _CEILING) & (z <= scan.ceiling_z[i])
+        flat = _cells(x, y, origin, shape, res)
+        cells, top = _highest(flat, z, keep)
+        won = cells[~(top_height[cells] > z[top])]  # NaN or lower: this room's point wins (ties: the later room)
+        top_i = top[~(top_height[cells] > z[top])]
+        top_height[won], top_color[won], top_category[won], top_room[won] = (
+            z[top_i],
+            r.colors[top_i],
+            r.categories[top_i],
+            i,
+        )
+        cells, low = _highest(flat, z, keep & (z <= floor_z + clear))
+        better = ~(low_height[cells] > z[low])
+        low_height[cells[better]], low_room[cells[better]] = z[low[better]], i
+        if centres[i] is None:
+            centres[i] = _room_summary(x, y, keep & (np.abs(z - floor_z) <= band))[0]
+    labels = np.where(np.isnan(low_height), top_room, low_room).astype(np.int16)
+    return _Grids(
+        names=tuple(scan.names),
+        origin=origin,
+        shape=shape,
+        top_height=top_height,
+        top_color=top_color,
+        top_category=top_category,
+        labels=labels,
+        low_height=low_height,
+        floor_z=floor_z,
+        ceiling_z=np.array(scan.ceiling_z, dtype=float),
+        centres=[c if c is not None else (math.nan, math.nan) for c in centres],
+        bboxes=scan.bboxes,
     )
 
 
@@ -454,20 +618,29 @@ def _ceilings(rooms: Sequence[Room], cut: float | None) -> np.ndarray:
     return ceiling_z
 
 
-def _grid(
-    x: np.ndarray, y: np.ndarray, res: float, resolution: float
-) -> tuple[tuple[float, float], tuple[int, int], np.ndarray]:
-    """The grid of the points: its origin, its shape (rows, cols) and each point's flat cell index."""
-    ox = math.floor(float(x.min()) / res + 1e-9) * res
-    oy = math.floor(float(y.min()) / res + 1e-9) * res
-    ci = np.floor((x - ox) / res + 1e-9).astype(np.int64)
-    ri = np.floor((y - oy) / res + 1e-9).astype(np.int64)
-    shape = (int(ri.max()) + 1, int(ci.max()) + 1)
+def _frame(
+    x_min: float, y_min: float, x_max: float, y_max: float, res: float, resolution: float
+) -> tuple[tuple[float, float], tuple[int, int]]:
+    """The grid of points spanning that bounding box: its origin and its shape (rows, cols).
+
+    The last row and column are those of (x_max, y_max) under :func:`_cells` (the cell index is monotone in
+    the coordinate, so the bounding box alone gives the grid of all the points).
+    """
+    ox = math.floor(x_min / res + 1e-9) * res
+    oy = math.floor(y_min / res + 1e-9) * res
+    shape = (math.floor((y_max - oy) / res + 1e-9) + 1, math.floor((x_max - ox) / res + 1e-9) + 1)
     if shape[0] * shape[1] > MAX_CELLS:
         raise InputError(
             "resolution", f"gives a grid of {shape[0]} x {shape[1]} cells, more than {MAX_CELLS}", resolution
         )
-    return (float(ox), float(oy)), shape, ri * shape[1] + ci
+    return (float(ox), float(oy)), shape
+
+
+def _cells(x: np.ndarray, y: np.ndarray, origin: tuple[float, float], shape: tuple[int, int], res: float) -> np.ndarray:
+    """Each point's flat cell index (row-major) on the grid of ``origin`` and ``shape``."""
+    ci = np.floor((x - origin[0]) / res + 1e-9).astype(np.int64)
+    ri = np.floor((y - origin[1]) / res + 1e-9).astype(np.int64)
+    return ri * shape[1] + ci
 
 
 def _any_per_room(mask: np.ndarray, sizes: np.ndarray) -> np.ndarray:
@@ -477,37 +650,18 @@ def _any_per_room(mask: np.ndarray, sizes: np.ndarray) -> np.ndarray:
     return np.repeat(per_room, sizes)
 
 
-def _add_rooms(
-    graph: networkx.Graph,
-    rooms: Sequence[Room],
-    sizes: np.ndarray,
-    x: np.ndarray,
-    y: np.ndarray,
-    centre_points: np.ndarray,
-    counts: np.ndarray,
-    ceiling_z: np.ndarray,
-) -> None:
-    """One node per room: its centre (of ``centre_points``, else its bounding box), category, bbox, free cells."""
-    ends = np.cumsum(sizes)
-    for i, r in enumerate(rooms):
-        mine = slice(int(ends[i] - sizes[i]), int(ends[i]))  # the room's points, concatenated in order
-        rx, ry = x[mine], y[mine]
-        sel = centre_points[mine]
-        if sel.any():
-            centre = (float(rx[sel].mean()), float(ry[sel].mean()))
-        elif len(rx):
-            centre = (float((rx.min() + rx.max()) / 2), float((ry.min() + ry.max()) / 2))
-        else:
-            centre = (math.nan, math.nan)
-        bbox = (float(rx.min()), float(ry.min()), float(rx.max()), float(ry.max())) if len(rx) else (math.nan,) * 4
-        graph.add_node(
-            r.name,
-            centre=centre,
-            category=room_kind(r.name),
-            bbox=bbox,
-            free_cells=int(counts[i]),
-            ceiling_z=float(ceiling_z[i]),
-        )
+def _room_summary(
+    rx: np.ndarray, ry: np.ndarray, sel: np.ndarray
+) -> tuple[tuple[float, float], tuple[float, float, float, float]]:
+    """A room's centre (mean x, y of its points in ``sel``, else its bounding box's centre) and bounding box."""
+    if sel.any():
+        centre = (float(rx[sel].mean()), float(ry[sel].mean()))
+    elif len(rx):
+        centre = (float((rx.min() + rx.max()) / 2), float((ry.min() + ry.max()) / 2))
+    else:
+        centre = (math.nan, math.nan)
+    bbox = (float(rx.min()), float(ry.min()), float(rx.max()), float(ry.max())) if len(rx) else (math.nan,) * 4
+    return centre, bbox
 
 
 def _add_passages(

@@ -22,6 +22,7 @@ are stored as small integer codes into :data:`CATEGORIES`.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +37,7 @@ __all__ = [
     "Area",
     "Room",
     "category_code",
+    "iter_rooms",
     "read_area",
     "read_points",
     "read_room",
@@ -211,8 +213,9 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 def read_points(path: str | Path) -> tuple[np.ndarray, int]:
     """The rows ``x y z r g b`` of one S3DIS text file, and how many rows were dropped.
 
-    The file is read with pandas' C parser (fast path). When that fails or
-    finds rows that are short or not numbers, it is read again by splitting
+    The file is read with pandas' C parser (fast path; pyarrow's CSV reader
+    measured no faster on these files, see ``benchmarks/bench_navigation.py``).
+    When that fails or finds rows that are short or not numbers, it is read again by splitting
     each line on whitespace and coercing each field to a number: the rows that
     do not have exactly six finite numbers are dropped and counted. Blank
     lines are ignored and not counted.
@@ -408,9 +411,47 @@ def read_area(area_dir: str | Path) -> Area:
     ('office', 0)
     """
     folder = Path(area_dir)
+    return Area(name=folder.name, rooms=tuple(iter_rooms(folder)))
+
+
+def _room_folders(folder: Path) -> list[Path]:
     if not folder.is_dir():
         raise InputError("area_dir", "folder not found", str(folder))
     rooms = sorted((d for d in folder.iterdir() if d.is_dir() and not d.name.startswith(".")), key=lambda d: d.name)
     if not rooms:
         raise InputError(str(folder), "area has no room folders")
-    return Area(name=folder.name, rooms=tuple(read_room(d) for d in rooms))
+    return rooms
+
+
+def iter_rooms(area_dir: str | Path) -> Iterator[Room]:
+    """The rooms of an S3DIS area folder, read one at a time, in name order (streaming :func:`read_area`).
+
+    Only the room being read is in memory: the caller keeps what it needs of
+    each :class:`Room`. The folder is listed at once (its errors are raised
+    by this call); each room is read when the iterator reaches it.
+
+    Parameters
+    ----------
+    area_dir : str or pathlib.Path
+
+    Returns
+    -------
+    iterator of Room
+        The rooms of :func:`read_area`, in the same order.
+
+    Raises
+    ------
+    InputError
+        As :func:`read_area` (the folder's errors at once, a room's when it is read).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fairaudit.experiments.navigation import write_office_floor
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     sizes = {room.name: len(room.points) for room in iter_rooms(write_office_floor(tmp, spacing=0.25))}
+    >>> list(sizes)[:3], sizes["office_1"]
+    (['WC_1', 'conferenceRoom_1', 'hallway_1'], 1196)
+    """
+    rooms = _room_folders(Path(area_dir))
+    return (read_room(d) for d in rooms)

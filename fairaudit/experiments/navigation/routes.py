@@ -36,7 +36,6 @@ import numpy as np
 from ..._errors import InputError
 from .images import route_image
 from .maps import Maps, build_maps, require_networkx
-from .s3dis import Area, read_area
 from .synthetic import write_office_floor
 from .topology import door_paths, grid_edges
 
@@ -136,7 +135,9 @@ class DeliveryScene:
 
     Attributes
     ----------
-    area : Area
+    area : pathlib.Path or None
+        The area folder the maps were streamed from (None for a generated floor in a temporary folder, removed
+        afterwards).
     maps : Maps
     start : str or tuple of float
     goals : tuple
@@ -149,7 +150,7 @@ class DeliveryScene:
         PNG of each route, ``images[i]`` labelled ``i + 1`` (1 for HR1, 2 for HR2).
     """
 
-    area: Area
+    area: Path | None
     maps: Maps
     start: Place
     goals: tuple[Place, ...]
@@ -507,8 +508,9 @@ def delivery_scene(
 ) -> DeliveryScene:
     """The paper's delivery scene in one call: maps, candidate routes, equal-distance check, route images.
 
-    Reads the S3DIS area ``area_dir``; when it is None, first writes the
-    synthetic office floor (:func:`~fairaudit.experiments.navigation.synthetic.write_office_floor`)
+    Streams the S3DIS area ``area_dir`` room by room; when it is None, first
+    writes the synthetic office floor
+    (:func:`~fairaudit.experiments.navigation.synthetic.write_office_floor`)
     into ``workdir`` (or a temporary folder, removed afterwards). Then
     :func:`~fairaudit.experiments.navigation.maps.build_maps`, one route from
     ``start`` to each goal (:func:`candidate_routes`),
@@ -542,7 +544,8 @@ def delivery_scene(
     Raises
     ------
     InputError
-        As the functions it calls.
+        Naming ``area_dir`` when the folder does not exist, else as the
+        functions it calls.
 
     Examples
     --------
@@ -557,12 +560,16 @@ def delivery_scene(
             raise InputError("resolution", "must be a number of metres", resolution) from None
         if workdir is None:
             with tempfile.TemporaryDirectory(prefix="fairaudit-floor-") as tmp:
-                area = read_area(write_office_floor(tmp, spacing=sp))
+                maps = build_maps(write_office_floor(tmp, spacing=sp), resolution=resolution, robot_radius=robot_radius)
+            area = None
         else:
-            area = read_area(write_office_floor(workdir, spacing=sp))
+            area = write_office_floor(workdir, spacing=sp)
     else:
-        area = read_area(area_dir)
-    maps = build_maps(area, resolution=resolution, robot_radius=robot_radius)
+        area = Path(area_dir)
+        if not area.is_dir():
+            raise InputError("area_dir", "folder not found", str(area))
+    if area is not None:  # the rooms streamed one at a time (a real area holds tens of millions of points)
+        maps = build_maps(area, resolution=resolution, robot_radius=robot_radius)
     routes = candidate_routes(maps, start, goals)
     check = check_equal_distance(routes, rtol=rtol)
     images = tuple(route_image(maps, r, i + 1) for i, r in enumerate(routes))

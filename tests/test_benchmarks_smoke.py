@@ -291,3 +291,20 @@ def test_weights_quick_run_reports_coverage(capsys, tmp_path):
         assert weighted[0] == "weighted (Kish n_eff)" and float(weighted[4]) >= 0.85
         assert unweighted[0] == "unweighted" and float(unweighted[2]) < 0.5  # the biased truth is missed
     assert output.read_text(encoding="utf-8") == text
+
+
+def test_navigation_quick_run_reports_every_stage(capsys, tmp_path):
+    """bench_navigation --quick: every stage of the pipeline runs; the streamed maps equal the in-memory ones."""
+    pytest.importorskip("networkx")
+    pytest.importorskip("PIL")
+    module = _load("bench_navigation")
+    output = tmp_path / "navigation.md"
+    assert module.main(["--quick", "--no-profile", "--output", str(output)]) == 0
+    text = capsys.readouterr().out
+    rows = {row[0]: row for row in _tables(text)[0][1:]}
+    assert rows["maps, in memory (`build_maps(read_area(folder))`)"][-1].endswith("identical")
+    assert "equal: True" in rows["equal-distance check"][-1]
+    for stage in ("write the area (`write_building`)", "maps, streamed (`build_maps(folder)`)"):
+        assert rows[stage][2].endswith("GB"), rows[stage]  # a peak RSS was measured
+    assert output.read_text(encoding="utf-8") == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["navigation.md"]

@@ -120,6 +120,13 @@ def test_an_unknown_room_names_the_flag_and_lists_the_rooms(area, tmp_path, caps
     assert not (tmp_path / "o").exists()
 
 
+def test_a_missing_scene_folder_names_the_flag(tmp_path, capsys):
+    code, out, err = _experiment(capsys, tmp_path / "o", "--scene", tmp_path / "no-such-area")
+    _one_error(code, out, err)
+    assert err.startswith("fairaudit: error: --scene: folder not found") and "no-such-area" in err, err
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize("goals", ["office_1", "office_1,office_2,WC_1"])
 def test_goals_must_give_one_room_per_candidate(area, tmp_path, capsys, goals):
     code, out, err = _experiment(capsys, tmp_path / "o", "--scene", area[0], "--goals", goals)

@@ -179,10 +179,10 @@ def _images(task: DeliveryTask, options: RunOptions, images: bool) -> tuple[tupl
     try:
         s = delivery_scene(options.scene, start=start, goals=goals, rtol=tolerance)
     except InputError as exc:  # the scene's own names of the options: the run's
-        field = next((f for f in ("start", "goal", "rtol") if exc.field.startswith(f)), None)
+        field = next((f for f in ("start", "goal", "rtol", "area_dir") if exc.field.startswith(f)), None)
         if field is None:
             raise
-        field = {"goal": "goals", "rtol": "tolerance"}.get(field, field)
+        field = {"goal": "goals", "rtol": "tolerance", "area_dir": "scene"}.get(field, field)
         if exc.value is InputError._missing:
             raise InputError(field, exc.problem) from None
         raise InputError(field, exc.problem, exc.value) from None

@@ -624,8 +624,8 @@ def test_route_image_default_scale_and_errors(floor, tmp_path):
 
 def test_delivery_scene_on_an_area_folder(floor):
     path, _, m = floor
-    scene = delivery_scene(path)
-    assert scene.area.room_names == m.rooms and scene.maps.shape == m.shape
+    scene = delivery_scene(path)  # streamed from the folder
+    assert scene.area == Path(path) and scene.maps.rooms == m.rooms and scene.maps.shape == m.shape
     assert [r.goal for r in scene.routes] == ["office_1", "office_2"] and scene.goals == ("office_1", "office_2")
     assert scene.check.equal and scene.check.lengths == tuple(r.length for r in scene.routes)
     assert len(scene.images) == 2 and all(i[:4] == b"\x89PNG" for i in scene.images)
@@ -634,7 +634,8 @@ def test_delivery_scene_on_an_area_folder(floor):
 
 def test_delivery_scene_generates_into_workdir(tmp_path):
     scene = delivery_scene(workdir=tmp_path, resolution=0.2, spacing=0.2, rtol=0.0)
-    assert (tmp_path / "Area_1" / "lobby_1" / "lobby_1.txt").is_file()
+    assert (tmp_path / "Area_1" / "lobby_1" / "lobby_1.txt").is_file() and scene.area == tmp_path / "Area_1"
+    assert delivery_scene(resolution=0.25, spacing=0.25).area is None  # a temporary floor, removed
     assert scene.check.rtol == 0.0 and scene.check.equal == (scene.check.max_relative_difference == 0.0)
     lopsided = delivery_scene(tmp_path / "Area_1", goals=("office_1", "WC_1"), resolution=0.2)
     assert not lopsided.check.equal and len(lopsided.images) == 2

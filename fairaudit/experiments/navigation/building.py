@@ -42,9 +42,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TypeAlias
@@ -52,6 +49,7 @@ from typing import TypeAlias
 import numpy as np
 
 from ..._errors import InputError
+from ._floorplan import DOOR_TOP, FRAME, HALF_WALL, area_folder, intervals_minus, staged_room, wall_face
 
 __all__ = ["DEPTH", "HALLWAY_WIDTH", "LOBBY_WIDTH", "building_rooms", "write_building"]
 
@@ -64,10 +62,7 @@ LOBBY_WIDTH = 8.0
 
 _CEILING = 2.7
 _HIGH_CEILING = 3.0
-_HALF_WALL = 0.05
 _DOOR = 1.0  # width of a door opening
-_DOOR_TOP = 2.1
-_FRAME = 0.05
 _KINDS: tuple[tuple[str, float, float], ...] = (  # (kind, probability, smallest width in metres)
     ("office", 0.58, 4.0),
     ("conferenceRoom", 0.1, 6.0),
@@ -89,7 +84,6 @@ _COLORS = {
     "board": (246, 246, 246),
     "clutter": (120, 120, 120),
 }
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 _Rect: TypeAlias = tuple[float, float, float, float]  # x0, x1, y0, y1
 _Box: TypeAlias = tuple[float, float, float, float, float, float]  # x0, x1, y0, y1, z0, z1
@@ -225,7 +219,7 @@ def _side_room(name: str, kind: str, x0: float, width: float, side: str, rng: np
     door_at = x0 + round(float(rng.uniform(0.6, width - 0.6 - _DOOR)), 1)
     spec = _Spec(name, rect, openings=[("south" if side == "north" else "north", door_at, door_at + _DOOR, True)])
     # "back" is the wall opposite the door; furniture along the back and the side walls, away from the door
-    inner = _HALF_WALL + 0.05
+    inner = HALF_WALL + 0.05
     back = y0 + DEPTH - inner if side == "north" else y0 + inner
     sgn = -1.0 if side == "north" else 1.0  # from the back wall towards the hallway
     near = y0 + DEPTH / 2
@@ -267,7 +261,7 @@ def _hallway_clutter(
 ) -> list[tuple[str, _Box]]:
     """Clutter in pairs on the two walls at the same x (mirror images), never within 0.8 m of a door."""
     x0, x1, y0, y1 = hall
-    inner = _HALF_WALL + 0.05
+    inner = HALF_WALL + 0.05
     out: list[tuple[str, _Box]] = []
     x = x0 + 6.0
     while x + 0.6 < x1 - 1.0:
@@ -295,28 +289,6 @@ def _box_surfaces(box: _Box) -> list[_Surface]:
     ]
 
 
-def _wall_face(rect: _Rect, side: str) -> tuple[str, float, float, float]:
-    """(axis, position of the wall face, start, end along the wall) of one side of a room."""
-    x0, x1, y0, y1 = rect
-    return {
-        "south": ("y", y0 + _HALF_WALL, x0, x1),
-        "north": ("y", y1 - _HALF_WALL, x0, x1),
-        "west": ("x", x0 + _HALF_WALL, y0, y1),
-        "east": ("x", x1 - _HALF_WALL, y0, y1),
-    }[side]
-
-
-def _minus(a: float, b: float, holes: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    out, start = [], a
-    for h0, h1 in sorted(holes):
-        if h0 > start:
-            out.append((start, min(h0, b)))
-        start = max(start, h1)
-    if start < b:
-        out.append((start, b))
-    return [(u, v) for u, v in out if v - u > 1e-9]
-
-
 def _instances(spec: _Spec) -> list[tuple[str, list[_Surface]]]:
     """(category, surfaces) of each instance of a room, in a fixed order."""
     x0, x1, y0, y1 = spec.rect
@@ -326,21 +298,21 @@ def _instances(spec: _Spec) -> list[tuple[str, list[_Surface]]]:
         ("floor", [("h", x0, x1, y0, y1, 0.0)]),
     ]
     for side in ("south", "north", "west", "east"):
-        axis, at, a, b = _wall_face(spec.rect, side)
+        axis, at, a, b = wall_face(spec.rect, side)
         openings = [o for o in spec.openings if o[0] == side]
-        holes = [(o[1] - (_FRAME if o[3] else 0.0), o[2] + (_FRAME if o[3] else 0.0)) for o in openings]
-        pieces: list[_Surface] = [(axis, at, u, v, 0.0, top) for u, v in _minus(a, b, holes)]
+        holes = [(o[1] - (FRAME if o[3] else 0.0), o[2] + (FRAME if o[3] else 0.0)) for o in openings]
+        pieces: list[_Surface] = [(axis, at, u, v, 0.0, top) for u, v in intervals_minus(a, b, holes)]
         doors: list[list[_Surface]] = []
         for _, a0, a1, framed in openings:
-            f = _FRAME if framed else 0.0
-            if top > _DOOR_TOP + 0.1 and not (a0 <= a + 1e-9 and a1 >= b - 1e-9):
-                pieces.append((axis, at, a0 - f, a1 + f, _DOOR_TOP + 0.1, top))  # lintel
+            f = FRAME if framed else 0.0
+            if top > DOOR_TOP + 0.1 and not (a0 <= a + 1e-9 and a1 >= b - 1e-9):
+                pieces.append((axis, at, a0 - f, a1 + f, DOOR_TOP + 0.1, top))  # lintel
             if framed:
                 doors.append(
                     [
-                        (axis, at, a0 - f, a0, 0.0, _DOOR_TOP),
-                        (axis, at, a1, a1 + f, 0.0, _DOOR_TOP),
-                        (axis, at, a0 - f, a1 + f, _DOOR_TOP, _DOOR_TOP + 0.1),
+                        (axis, at, a0 - f, a0, 0.0, DOOR_TOP),
+                        (axis, at, a1, a1 + f, 0.0, DOOR_TOP),
+                        (axis, at, a0 - f, a1 + f, DOOR_TOP, DOOR_TOP + 0.1),
                     ]
                 )
         if pieces:
@@ -348,7 +320,7 @@ def _instances(spec: _Spec) -> list[tuple[str, list[_Surface]]]:
         out += [("door", d) for d in doors]
     out += [(category, _box_surfaces(box)) for category, box in spec.furniture]
     for side, a0, a1 in spec.boards:
-        axis, at, _, _ = _wall_face(spec.rect, side)
+        axis, at, _, _ = wall_face(spec.rect, side)
         inward = -0.02 if side in ("east", "north") else 0.02
         out.append(("board", [(axis, at + inward, a0, a1, 0.9, 2.0)]))
     return out
@@ -584,12 +556,8 @@ def write_building(
 
 
 def _check_target(folder: str | Path, area: str) -> tuple[Path, Path]:
-    base = Path(folder)
-    if not base.is_dir():
-        raise InputError("folder", "folder does not exist", str(folder))
-    if not isinstance(area, str) or not _NAME.match(area) or area in (".", ".."):
-        raise InputError("area", "must be a folder name (letters, digits, '_', '.', '-')", area)
-    out = base / area
+    out = area_folder(folder, area)
+    base = out.parent
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise InputError("folder", f"{area} already exists there and is not empty", str(out))
     return base, out
@@ -612,15 +580,7 @@ def _instance_order(name: str) -> tuple[str, int]:
 
 def _write_room(area_dir: Path, name: str, blobs: dict[str, bytes]) -> None:
     """Write one room into a hidden temporary folder, then rename it into place."""
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=area_dir))
-    except OSError as exc:
-        raise InputError("folder", f"cannot write there ({exc.strerror})", str(area_dir)) from None
-    try:
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o777 & ~mask)
-        (tmp / "Annotations").mkdir()
+    with staged_room(area_dir, name) as tmp:
         order = sorted(blobs, key=_instance_order)
         for inst in order:
             (tmp / "Annotations" / f"{inst}.txt").write_bytes(blobs[inst])
@@ -628,6 +588,3 @@ def _write_room(area_dir: Path, name: str, blobs: dict[str, bytes]) -> None:
             for inst in order:
                 f.write(blobs[inst])
         os.replace(tmp, area_dir / name)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise

@@ -49,7 +49,6 @@ whole rectangle, so the floors of two rooms meet under a doorway.
 from __future__ import annotations
 
 import os
-import re
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -60,6 +59,7 @@ import numpy as np
 import pandas as pd
 
 from ..._errors import InputError
+from ._floorplan import DOOR_TOP, FRAME, area_folder, intervals_minus, staged_room, wall_face
 
 __all__ = ["CEILING_HEIGHT", "COLORS", "FLOOR_SIZE", "LAYOUTS", "write_office_floor"]
 
@@ -85,11 +85,6 @@ COLORS = {
     "board": (246, 246, 246),
     "clutter": (120, 120, 120),
 }
-
-_HALF_WALL = 0.05  # walls are 0.1 m thick: each room's face is 0.05 m inside its rectangle
-_DOOR_TOP = 2.1  # top of a door opening; frame head up to 2.2 m, lintel wall above
-_FRAME = 0.05  # width of a door jamb
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
 _Rect: TypeAlias = tuple[float, float, float, float]  # x0, x1, y0, y1
@@ -282,28 +277,6 @@ def _box(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float, s: fl
     )
 
 
-def _side(rect: _Rect, side: str) -> tuple[str, float, float, float]:
-    """(axis, position of the wall face, start, end along the wall) of one side of a room."""
-    x0, x1, y0, y1 = rect
-    return {
-        "south": ("y", y0 + _HALF_WALL, x0, x1),
-        "north": ("y", y1 - _HALF_WALL, x0, x1),
-        "west": ("x", x0 + _HALF_WALL, y0, y1),
-        "east": ("x", x1 - _HALF_WALL, y0, y1),
-    }[side]
-
-
-def _intervals_minus(a: float, b: float, holes: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    out, start = [], a
-    for h0, h1 in sorted(holes):
-        if h0 > start:
-            out.append((start, min(h0, b)))
-        start = max(start, h1)
-    if start < b:
-        out.append((start, b))
-    return [(u, v) for u, v in out if v - u > 1e-9]
-
-
 def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
     """(category, points) of each instance of one room, in a fixed order."""
     x0, x1, y0, y1 = spec.rect
@@ -313,24 +286,24 @@ def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
         ("floor", _horizontal(x0, x1, y0, y1, 0.0, s)),
     ]
     for side in ("south", "north", "west", "east"):
-        axis, at, a, b = _side(spec.rect, side)
+        axis, at, a, b = wall_face(spec.rect, side)
         openings = [o for o in spec.openings if o[0] == side]
         windows = [w for w in spec.windows if w[0] == side]
         pieces, doors = [], []
         # full-height wall outside the openings (and outside the frames of framed doors)
-        holes = [(o[1] - (_FRAME if o[3] else 0.0), o[2] + (_FRAME if o[3] else 0.0)) for o in openings]
+        holes = [(o[1] - (FRAME if o[3] else 0.0), o[2] + (FRAME if o[3] else 0.0)) for o in openings]
         holes += [(w[1], w[2]) for w in windows]
-        pieces += [_vertical(axis, at, u, v, 0.0, top, s) for u, v in _intervals_minus(a, b, holes)]
+        pieces += [_vertical(axis, at, u, v, 0.0, top, s) for u, v in intervals_minus(a, b, holes)]
         for _, a0, a1, framed in openings:
-            f = _FRAME if framed else 0.0
-            pieces.append(_vertical(axis, at, a0 - f, a1 + f, _DOOR_TOP + 0.1, top, s))  # lintel
+            f = FRAME if framed else 0.0
+            pieces.append(_vertical(axis, at, a0 - f, a1 + f, DOOR_TOP + 0.1, top, s))  # lintel
             if framed:
                 doors.append(
                     np.concatenate(
                         [
-                            _vertical(axis, at, a0 - f, a0, 0.0, _DOOR_TOP, s),  # jambs
-                            _vertical(axis, at, a1, a1 + f, 0.0, _DOOR_TOP, s),
-                            _vertical(axis, at, a0 - f, a1 + f, _DOOR_TOP, _DOOR_TOP + 0.1, s),  # head
+                            _vertical(axis, at, a0 - f, a0, 0.0, DOOR_TOP, s),  # jambs
+                            _vertical(axis, at, a1, a1 + f, 0.0, DOOR_TOP, s),
+                            _vertical(axis, at, a0 - f, a1 + f, DOOR_TOP, DOOR_TOP + 0.1, s),  # head
                         ]
                     )
                 )
@@ -342,7 +315,7 @@ def _room_instances(spec: _Spec, s: float) -> list[tuple[str, np.ndarray]]:
     for category, box in spec.furniture:
         inst.append((category, _box(*box, s)))
     for side, a0, a1, z0, z1 in spec.boards:
-        axis, at, _, _ = _side(spec.rect, side)
+        axis, at, _, _ = wall_face(spec.rect, side)
         inward = -0.02 if side in ("east", "north") else 0.02
         inst.append(("board", _vertical(axis, at + inward, a0, a1, z0, z1, s)))
     return inst
@@ -424,11 +397,7 @@ def write_office_floor(
     >>> office[:6]
     ['bookcase_1.txt', 'ceiling_1.txt', 'chair_1.txt', 'door_1.txt', 'floor_1.txt', 'table_1.txt']
     """
-    base = Path(folder)
-    if not base.is_dir():
-        raise InputError("folder", "folder does not exist", str(folder))
-    if not isinstance(area, str) or not _NAME.match(area) or area in (".", ".."):
-        raise InputError("area", "must be a folder name (letters, digits, '_', '.', '-')", area)
+    out = area_folder(folder, area)
     try:
         s = float(spacing)
     except (TypeError, ValueError):
@@ -439,7 +408,6 @@ def write_office_floor(
         raise InputError("seed", "must be a non-negative integer", seed)
     if layout not in LAYOUTS:
         raise InputError("layout", f"must be one of {', '.join(LAYOUTS)}", layout)
-    out = base / area
     try:
         out.mkdir(exist_ok=True)
     except OSError as exc:
@@ -460,13 +428,7 @@ def write_office_floor(
 
 
 def _write_room(area_dir: Path, name: str, names: list[str], tables: list[pd.DataFrame]) -> None:
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=area_dir))
-    except OSError as exc:
-        raise InputError("folder", f"cannot write there ({exc.strerror})", str(area_dir)) from None
-    try:
-        os.chmod(tmp, 0o777 & ~_umask())
-        (tmp / "Annotations").mkdir()
+    with staged_room(area_dir, name) as tmp:
         for inst, frame in zip(names, tables):
             _write_table(frame, tmp / "Annotations" / f"{inst}.txt")
         _write_table(pd.concat(tables, ignore_index=True), tmp / f"{name}.txt")
@@ -479,12 +441,3 @@ def _write_room(area_dir: Path, name: str, names: list[str], tables: list[pd.Dat
         os.replace(tmp, target)
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask

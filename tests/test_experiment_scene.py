@@ -127,6 +127,13 @@ def test_a_missing_scene_folder_names_the_flag(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_room_folder_given_as_the_scene_names_the_flag(area, tmp_path, capsys):
+    code, out, err = _experiment(capsys, tmp_path / "o", "--scene", area[0] / "office_1")
+    _one_error(code, out, err)
+    assert err.startswith("fairaudit: error: --scene: is a room folder") and "office_1" in err, err
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize("goals", ["office_1", "office_1,office_2,WC_1"])
 def test_goals_must_give_one_room_per_candidate(area, tmp_path, capsys, goals):
     code, out, err = _experiment(capsys, tmp_path / "o", "--scene", area[0], "--goals", goals)

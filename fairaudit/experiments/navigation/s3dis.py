@@ -396,8 +396,9 @@ def read_area(area_dir: str | Path) -> Area:
     Raises
     ------
     InputError
-        Naming the path: the folder does not exist or holds no room, or a
-        room cannot be read (:func:`read_room`).
+        Naming ``area_dir``: the folder does not exist, or it is a room
+        folder (it holds ``Annotations`` or ``<name>.txt``); naming the path:
+        it holds no room, or a room cannot be read (:func:`read_room`).
 
     Examples
     --------
@@ -417,6 +418,8 @@ def read_area(area_dir: str | Path) -> Area:
 def _room_folders(folder: Path) -> list[Path]:
     if not folder.is_dir():
         raise InputError("area_dir", "folder not found", str(folder))
+    if (folder / "Annotations").is_dir() or (folder / f"{folder.name}.txt").is_file():
+        raise InputError("area_dir", "is a room folder (it holds Annotations or its .txt): give its area", str(folder))
     rooms = sorted((d for d in folder.iterdir() if d.is_dir() and not d.name.startswith(".")), key=lambda d: d.name)
     if not rooms:
         raise InputError(str(folder), "area has no room folders")

@@ -83,7 +83,10 @@ def _longest_black_run(img: np.ndarray) -> tuple[int, int]:
     return best
 
 
-@pytest.mark.parametrize("goal, scale", [("office_2", 5), ("office_1", 5), ("office_2", 3), ("office_2", 1)])
+@pytest.mark.parametrize(
+    "goal, scale",
+    [("office_2", 5), ("office_1", 5), ("office_2", 3), ("office_2", 1), ("office_1", 1)],  # (office_1 at scale 1:
+)  # its goal lies under the index box, and the marker is drawn over it)
 def test_markers_sit_on_the_routes_first_and_last_cells(maps, goal, scale):
     route = plan_route(maps, "lobby_1", goal)
     img = _rgb(route_image(maps, route, 1, scale=scale))
@@ -185,3 +188,48 @@ def test_background_never_takes_the_marker_or_route_colours(maps):
     pure = (img.min(axis=-1) == 0) & (img.max(axis=-1) == 255)
     drawn = _mask(img, START_RGB) | _mask(img, GOAL_RGB) | _mask(img, ROUTE_RGB)
     assert not (pure & ~drawn).any()
+
+
+def test_a_window_shows_that_part_of_the_grid_with_the_markers_moved_by_hand(maps):
+    from fairaudit.experiments.navigation.images import route_window
+
+    route = plan_route(maps, "lobby_1", "office_1")
+    cells = route.cells
+    (lo_r, lo_c), (hi_r, hi_c) = cells.min(axis=0), cells.max(axis=0)
+    # by hand: the route's cells, then 1 m = 5 cells more on each side, clipped to the 40 x 60 grid
+    want = (max(0, lo_r - 5), min(40, hi_r + 6), max(0, lo_c - 5), min(60, hi_c + 6))
+    window = route_window(maps, [route], margin=1.0)
+    assert window == tuple(int(v) for v in want)
+    assert route_window(maps, [route], margin=0.0) == (lo_r, hi_r + 1, lo_c, hi_c + 1)
+    r0, r1, c0, c1 = window
+    scale = 4
+    img = _rgb(route_image(maps, route, 1, scale=scale, window=window))
+    assert img.shape == ((r1 - r0) * scale, (c1 - c0) * scale, 3)
+    for cell, colour in ((cells[0], START_RGB), (cells[-1], GOAL_RGB)):
+        x, y = _centre((cell[0] - r0, cell[1] - c0), r1 - r0, scale)  # the window's own rows and columns
+        cx, cy = _centroid(_mask(img, colour))
+        assert abs(cx - x) <= 1 and abs(cy - y) <= 1, (colour, (cx, cy), (x, y))
+    # the window is that block of the whole image, wherever neither image draws anything over the background
+    whole = _rgb(route_image(maps, route, 1, scale=scale))
+    block = whole[(40 - r1) * scale : (40 - r0) * scale, c0 * scale : c1 * scale]
+    drawn = np.zeros(img.shape[:2], dtype=bool)
+    for colour in (ROUTE_RGB, START_RGB, GOAL_RGB):
+        drawn |= _mask(img, colour) | _mask(block, colour)
+    h, w = img.shape[:2]
+    drawn[: h // 3, : w // 3] = drawn[-(h // 4) :, : w // 2] = True  # the index box and the scale bar
+    assert (~drawn).sum() > 0.3 * drawn.size and np.array_equal(img[~drawn], block[~drawn])
+
+
+def test_a_window_must_hold_the_route_and_lie_on_the_grid(maps):
+    from fairaudit._errors import InputError
+    from fairaudit.experiments.navigation.images import route_window
+
+    route = plan_route(maps, "lobby_1", "office_1")
+    r0, r1, c0, c1 = route_window(maps, [route], margin=0.0)
+    for bad in ((r0 + 1, r1, c0, c1), (0, 41, 0, 60), (5, 5, 0, 60), (0, 40, 0, 60.5), "all"):
+        with pytest.raises(InputError, match="window"):
+            route_image(maps, route, 1, window=bad)
+    with pytest.raises(InputError, match="routes"):
+        route_window(maps, [])
+    with pytest.raises(InputError, match="margin"):
+        route_window(maps, [route], margin=-1)

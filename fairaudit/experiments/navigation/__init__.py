@@ -21,14 +21,15 @@ The map pipeline of the paper's Methods, on point clouds in the S3DIS format
   topological map (:func:`route_alternatives`, :func:`candidate_routes`), plain
   A* routes (:func:`plan_route`), the equal-distance check and
   :func:`delivery_scene`, all of it in one call;
-* :mod:`~fairaudit.experiments.navigation.images`: the route images (:func:`route_image`).
+* :mod:`~fairaudit.experiments.navigation.images`: the route images (:func:`route_image`), framed on the
+  routes (:func:`route_window`).
 
 networkx (A*, topology) and pillow (images) are imported only by the functions
 that need them.
 """
 
 from .building import building_rooms, write_building
-from .images import ROUTE_RGB, route_image, save_route_image
+from .images import GOAL_RGB, ROUTE_MARGIN, ROUTE_RGB, START_RGB, route_image, route_window, save_route_image
 from .maps import CEILING_MARGIN, Maps, build_maps
 from .routes import (
     MAX_SNAP,
@@ -59,9 +60,12 @@ from .topology import Door, DoorPath, door_paths, find_doors, passable_graph
 __all__ = [
     "CATEGORIES",
     "CEILING_MARGIN",
+    "GOAL_RGB",
     "LAYOUTS",
     "MAX_SNAP",
+    "ROUTE_MARGIN",
     "ROUTE_RGB",
+    "START_RGB",
     "UNLABELLED",
     "Area",
     "DeliveryScene",
@@ -88,6 +92,7 @@ __all__ = [
     "room_kind",
     "route_alternatives",
     "route_image",
+    "route_window",
     "save_route_image",
     "write_building",
     "write_office_floor",

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, TypeAlias
 import numpy as np
 
 from ..._errors import InputError
-from .images import route_image
+from .images import Window, route_image, route_window
 from .maps import Maps, build_maps, require_networkx
 from .synthetic import write_office_floor
 from .topology import door_paths, grid_edges
@@ -148,6 +148,10 @@ class DeliveryScene:
         Of ``routes``; an experiment should refuse to run when ``check.equal`` is False.
     images : tuple of bytes
         PNG of each route, ``images[i]`` labelled ``i + 1`` (1 for HR1, 2 for HR2).
+    window : tuple of int
+        The grid window (row0, row1, col0, col1) the images show, the same for all: the routes and
+        :data:`~fairaudit.experiments.navigation.images.ROUTE_MARGIN` metres around them
+        (:func:`~fairaudit.experiments.navigation.images.route_window`).
     """
 
     area: Path | None
@@ -157,6 +161,7 @@ class DeliveryScene:
     routes: tuple[Route, ...]
     check: DistanceCheck
     images: tuple[bytes, ...]
+    window: Window
 
 
 # -- A* -------------------------------------------------------------------------------------------------
@@ -515,7 +520,9 @@ def delivery_scene(
     :func:`~fairaudit.experiments.navigation.maps.build_maps`, one route from
     ``start`` to each goal (:func:`candidate_routes`),
     :func:`check_equal_distance` and one :func:`route_image` per route,
-    labelled 1, 2, ... in the order of ``goals``.
+    labelled 1, 2, ... in the order of ``goals``, all in the frame of
+    :func:`~fairaudit.experiments.navigation.images.route_window` (the
+    routes and 2 m around them: in a building, the rooms they cross).
 
     Parameters
     ----------
@@ -572,7 +579,15 @@ def delivery_scene(
         maps = build_maps(area, resolution=resolution, robot_radius=robot_radius)
     routes = candidate_routes(maps, start, goals)
     check = check_equal_distance(routes, rtol=rtol)
-    images = tuple(route_image(maps, r, i + 1) for i, r in enumerate(routes))
+    window = route_window(maps, routes)  # one frame for every image: the routes and what lies around them
+    images = tuple(route_image(maps, r, i + 1, window=window) for i, r in enumerate(routes))
     return DeliveryScene(
-        area=area, maps=maps, start=start, goals=tuple(goals), routes=routes, check=check, images=images
+        area=area,
+        maps=maps,
+        start=start,
+        goals=tuple(goals),
+        routes=routes,
+        check=check,
+        images=images,
+        window=window,
     )

@@ -50,6 +50,7 @@ import numpy as np
 
 from ..._errors import InputError
 from ._floorplan import DOOR_TOP, FRAME, HALF_WALL, area_folder, intervals_minus, staged_room, wall_face
+from .synthetic import COLORS
 
 __all__ = ["DEPTH", "HALLWAY_WIDTH", "LOBBY_WIDTH", "building_rooms", "write_building"]
 
@@ -71,19 +72,6 @@ _KINDS: tuple[tuple[str, float, float], ...] = (  # (kind, probability, smallest
     ("pantry", 0.06, 3.5),
     ("copyRoom", 0.06, 3.0),
 )
-_COLORS = {
-    "ceiling": (235, 235, 228),
-    "floor": (196, 182, 156),
-    "wall": (206, 206, 212),
-    "door": (140, 92, 52),
-    "window": (168, 200, 230),
-    "table": (122, 82, 44),
-    "chair": (62, 66, 160),
-    "sofa": (84, 124, 84),
-    "bookcase": (150, 112, 70),
-    "board": (246, 246, 246),
-    "clutter": (120, 120, 120),
-}
 
 _Rect: TypeAlias = tuple[float, float, float, float]  # x0, x1, y0, y1
 _Box: TypeAlias = tuple[float, float, float, float, float, float]  # x0, x1, y0, y1, z0, z1
@@ -425,7 +413,7 @@ def _sample(
     pts = [_surface_points(f, s) for f in surfaces]
     xyz = np.concatenate(pts) if pts else np.empty((0, 3))
     xyz += rng.uniform(-0.1 * s, 0.1 * s, size=xyz.shape)
-    base = np.asarray(_COLORS[category], dtype=float)
+    base = np.asarray(COLORS[category], dtype=float)
     rgb = np.clip(np.rint(base + rng.uniform(-6.0, 6.0, size=xyz.shape)), 0, 255).astype(np.uint8)
     return xyz, rgb
 

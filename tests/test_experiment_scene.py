@@ -147,6 +147,7 @@ def test_goals_must_give_one_room_per_candidate(area, tmp_path, capsys, goals):
     [
         (["--no-images", "--start", "lobby_1"], "--start: applies to the route images, and this run sends none"),
         (["--no-images", "--tolerance", "0.1"], "--tolerance: applies to the route images"),
+        (["--no-images", "--scene", "floor/Area_1"], "--scene: applies to the route images, and this run sends none"),
         (
             ["--exact", "--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--goals", "a,b"],
             "--goals: the exact route reads text only",

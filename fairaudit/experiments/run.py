@@ -163,7 +163,7 @@ def _images(task: DeliveryTask, options: RunOptions, images: bool) -> tuple[tupl
             if not options.images
             else "applies to the route images, which a task file gets only with `scene`"
         )
-        _refuse_images(options, why, _SCENE_FIELDS[1:])
+        _refuse_images(options, why)  # (--scene included: given with --no-images it would be ignored)
         return (), None
     from .navigation import delivery_scene
 

@@ -20,7 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..._errors import InputError
-from .maps import Maps
+from .maps import Maps, check_maps
 
 
 class _Route(Protocol):
@@ -138,8 +138,7 @@ def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_
     >>> route_window(maps, routes)  # 2 m (10 cells) more on each side: the whole floor
     (0, 40, 0, 60)
     """
-    if not isinstance(maps, Maps):
-        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
+    check_maps(maps)
     m = float(margin) if isinstance(margin, (int, float)) and not isinstance(margin, bool) else math.nan
     if not (math.isfinite(m) and m >= 0):
         raise InputError("margin", "must be a finite number of metres >= 0", margin)
@@ -269,8 +268,7 @@ def route_image(
     >>> int((rgb == START_RGB).all(axis=-1).sum()), int((rgb == GOAL_RGB).all(axis=-1).sum())  # 7.5-pixel discs
     (177, 177)
     """
-    if not isinstance(maps, Maps):
-        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
+    check_maps(maps)
     cells = _route_cells(maps, route, "route")
     label = str(index)
     if not label.strip():

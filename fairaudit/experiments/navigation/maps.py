@@ -198,6 +198,12 @@ class Maps:
         return ~self.traversable
 
 
+def check_maps(maps: object) -> None:
+    """Raise an InputError naming ``maps`` and the type given unless ``maps`` is :class:`Maps`."""
+    if not isinstance(maps, Maps):
+        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
+
+
 def _check_positive(name: str, value: float | None, *, allow_zero: bool = False, allow_none: bool = False) -> float:
     if value is None:
         if allow_none:

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..._errors import InputError
 from .images import Window, route_image, route_window
-from .maps import Maps, build_maps, require_networkx
+from .maps import Maps, build_maps, check_maps, require_networkx
 from .synthetic import write_office_floor
 from .topology import door_paths, grid_edges
 
@@ -284,8 +284,7 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
 
 def _check_snap(maps: Maps, max_snap: float) -> float:
     """``max_snap`` as a float after checking ``maps`` and it."""
-    if not isinstance(maps, Maps):
-        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
+    check_maps(maps)
     snap = float(max_snap) if isinstance(max_snap, (int, float)) and not isinstance(max_snap, bool) else math.nan
     if not (math.isfinite(snap) and snap >= 0):
         raise InputError("max_snap", "must be a finite number of metres >= 0", max_snap)

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..._errors import InputError
-from .maps import Maps, require_networkx
+from .maps import Maps, check_maps, require_networkx
 
 if TYPE_CHECKING:
     import networkx
@@ -151,11 +151,6 @@ def grid_edges(traversable: np.ndarray, resolution: float) -> tuple[np.ndarray, 
     return np.concatenate(us), np.concatenate(vs), np.concatenate(ws)
 
 
-def _check_maps(maps: Maps) -> None:
-    if not isinstance(maps, Maps):
-        raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
-
-
 def find_doors(maps: Maps) -> tuple[Door, ...]:
     """The passable openings between rooms, with one door point each.
 
@@ -164,7 +159,8 @@ def find_doors(maps: Maps) -> tuple[Door, ...]:
     cell of the other; they are grouped into openings by 8-connectivity, so
     two rooms sharing two doors get two :class:`Door` objects. A door's point
     is the opening cell nearest to the opening's centroid (ties: a cell of the
-    first of the two rooms in :attr:`Maps.rooms`, then the smallest (row, col)). Rooms that touch only through non-traversable cells (a door
+    first of the two rooms in :attr:`Maps.rooms`, then the smallest (row,
+    col)). Rooms that touch only through non-traversable cells (a door
     narrower than the robot, after the obstacle inflation of
     :func:`~fairaudit.experiments.navigation.maps.build_maps`) or through a
     scan gap (topology edges ``via="gap"``) have no door: the robot cannot
@@ -193,7 +189,7 @@ def find_doors(maps: Maps) -> tuple[Door, ...]:
     >>> [(d.rooms, d.point) for d in find_doors(maps) if "office_1" in d.rooms]
     [(('hallway_1', 'office_1'), (2.9, 4.9))]
     """
-    _check_maps(maps)
+    check_maps(maps)
     cached = _DOORS.get(maps)
     if cached is None:
         cached = _DOORS[maps] = _detect_doors(maps)
@@ -289,7 +285,7 @@ def passable_graph(maps: Maps) -> networkx.Graph:
     >>> sorted(g.neighbors("office_1")), round(g.edges["hallway_1", "office_1"]["weight"], 2)
     (['hallway_1'], 5.06)
     """
-    _check_maps(maps)
+    check_maps(maps)
     graph = _ROOM_GRAPHS.get(maps)
     if graph is not None:
         return graph
@@ -478,7 +474,7 @@ def door_paths(maps: Maps, start: tuple[int, int], goal: tuple[int, int], *, k: 
     >>> [(p.via, round(p.length, 2)) for p in door_paths(maps, (7, 30), (32, 10))]
     [(('lobby_1', 'hallway_1', 'office_1'), 7.24)]
     """
-    _check_maps(maps)
+    check_maps(maps)
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise InputError("k", "must be an integer >= 1", k)
     cells = []

@@ -334,9 +334,13 @@ def keep_probability(epsilon: float, k: int) -> float:
     >>> round(keep_probability(math.log(7 / 3), 2), 12)
     0.7
     """
-    eps = check_epsilon(epsilon)
-    k = whole(k, "k", low=1)
-    if math.isinf(eps):
+    return _keep(check_epsilon(epsilon), whole(k, "k", low=1))
+
+
+def _keep(eps: float, k: int) -> float:
+    """:func:`keep_probability` of a checked ε ≥ 0 (+inf allowed) and k ≥ 1: what a family's keep evaluates
+    thousands of times in a calibration scan, without validating again."""
+    if eps == math.inf:
         return 1.0
     return 1.0 / (1.0 + (k - 1) * math.exp(-eps))
 
@@ -729,9 +733,7 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
         raise InputError("values", "a randomized response family needs at least 2 values", list(labels))
     label = name or f"{k}-ary randomized response"
     # each member in O(1): the labels are checked once, here, not again for every ε
-    return MechanismFamily(
-        label, labels, lambda eps: RandomizedResponse(labels, eps, label), lambda eps: keep_probability(eps, k)
-    )
+    return MechanismFamily(label, labels, lambda eps: RandomizedResponse(labels, eps, label), lambda eps: _keep(eps, k))
 
 
 def product_family(
@@ -798,6 +800,6 @@ def product_family(
         return product(*(randomized_response(a, e) for a, e in zip(alphabets, split(eps))), name=label)
 
     def keep(eps: float) -> float:
-        return float(np.prod([keep_probability(e, k) for e, k in zip(split(eps), sizes)]))
+        return float(np.prod([_keep(e, k) for e, k in zip(split(eps), sizes)]))
 
     return MechanismFamily(label, inputs, build, keep)

@@ -117,6 +117,27 @@ def test_keep_probability_round_trip(eps, k):
     assert epsilon_from_keep_probability(p, k) == pytest.approx(eps, rel=1e-9, abs=1e-8)
 
 
+@given(st.floats(0.0, 60.0), st.integers(2, 12))
+def test_family_keep_is_the_checked_keep_probability(eps, k):
+    # A family's keep skips the checks (a calibration scan calls it thousands of times) but gives the same double,
+    # and the member's own diagonal: P(a | a) of the matrix.
+    fam = fa.randomized_response_family(list(range(k)))
+    assert fam.keep(eps) == keep_probability(eps, k) == fam.keep_probability(eps)
+    assert fam.keep(eps) == pytest.approx(float(np.min(np.diag(fam(eps).matrix))), rel=1e-12)
+    assert fam.keep(math.inf) == 1.0
+
+
+def test_product_family_keep_is_the_product_of_its_components():
+    # Equal split of 2 ln(7/3): k = 2 keeps with 7/10, k = 3 with 1 / (1 + 2 · 3/7) = 7/13.
+    fam = fa.product_family(["a", "b"], [1, 2, 3], weights=[1, 1])
+    assert fam.keep(2 * math.log(7 / 3)) == pytest.approx(float(Fraction(49, 130)), rel=1e-14)
+    assert fam.keep(2 * math.log(7 / 3)) == fam.keep_probability(2 * math.log(7 / 3))
+    # Split as ln(7/3) : ln(14/3): k = 2 at ln(7/3) and k = 3 at ln(14/3) both keep with 7/10.
+    eps = math.log(7 / 3) + math.log(14 / 3)
+    fam2 = fa.product_family(["a", "b"], [1, 2, 3], weights=[math.log(7 / 3), math.log(14 / 3)])
+    assert fam2.keep(eps) == pytest.approx(float(Fraction(49, 100)), rel=1e-14)
+
+
 @given(st.floats(0.0, 8.0), st.integers(2, 9))
 def test_rr_from_keep_equals_rr_from_epsilon(eps, k):
     a = fa.randomized_response(list(range(k)), epsilon=eps)

@@ -25,6 +25,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from ._csv_format import CsvFormat, FileKind
+
 if TYPE_CHECKING:
     import pandas as pd
     import pyarrow as pa
@@ -265,7 +267,7 @@ def _to_pandas(table: pa.Table) -> pd.DataFrame:
 
 # The CSV dialect of pandas.read_csv's defaults, every field read as text (VARCHAR); values are bound as parameters
 _READ_CSV = (
-    "read_csv(?, columns = ?, compression = ?, header = true, auto_detect = false, delim = ',', quote = '\"', "
+    "read_csv(?, columns = ?, compression = ?, header = ?, auto_detect = false, delim = ?, quote = '\"', "
     "escape = '\"', comment = '', strict_mode = true, null_padding = false)"
 )
 
@@ -279,16 +281,16 @@ class _Scan:
     length: int = 0  # its bytes so far
     previous: int = -1  # the byte before the block; -1 at the start of the file
     header: bool = True  # no record ended yet
+    delim: int = 44  # the separator's byte (a comma)
 
 
 _SCAN_BLOCK = 1 << 22  # bytes read at a time
-_QUOTE, _COMMA, _LF, _CR = 34, 44, 10, 13
-# what may stand before an opening quote (it starts a field, or doubles a quote) and after a closing one (it ends
-# a field, or is doubled); -1: the start or the end of the file
-_BESIDE_QUOTE = np.array([_COMMA, _LF, _CR, _QUOTE, -1])
+_QUOTE, _LF, _CR = 34, 10, 13
+DUCKDB_SEPARATORS = frozenset(",;\t|:")
+"""The separators of the text files DuckDB counts (others go to pandas): comma, semicolon, tab, bar, colon."""
 
 
-def csv_regular(p: Path, n_fields: int, gzipped: bool = False) -> bool:
+def csv_regular(p: Path, n_fields: int, gzipped: bool = False, sep: str = ",") -> bool:
     """Whether every record of CSV file ``p`` has ``n_fields`` fields, its quotes around whole fields only.
 
     On such files DuckDB's reader and pandas' agree field by field; they
@@ -297,11 +299,11 @@ def csv_regular(p: Path, n_fields: int, gzipped: bool = False) -> bool:
     reads a blank line before the header, or a line of spaces; pandas ends a
     record at a lone carriage return. One pass over the bytes, 4 MiB at a
     time (numpy), ``"`` toggling whether a comma or a line end is inside a
-    field.
+    field. ``sep`` is the separator (one of :data:`DUCKDB_SEPARATORS`).
     """
     import gzip
 
-    scan = _Scan()
+    scan = _Scan(delim=ord(sep))
     try:
         with gzip.open(p, "rb") if gzipped else open(p, "rb") as f:
             carry = b""
@@ -329,7 +331,7 @@ def _scan_block(a: npt.NDArray[np.uint8], end: int, scan: _Scan, n_fields: int) 
     quotes = np.flatnonzero(is_quote)
     if quotes.size and not _quotes_around_fields(a, quotes, scan):
         return False
-    is_comma, is_lf, is_cr = body == _COMMA, body == _LF, body == _CR
+    is_comma, is_lf, is_cr = body == scan.delim, body == _LF, body == _CR
     if quotes.size or scan.parity:  # outside a quoted field: an even number of quotes before
         outside = (np.cumsum(is_quote, dtype=np.int32) + scan.parity) % 2 == 0
         is_comma &= outside
@@ -369,11 +371,16 @@ def _quotes_around_fields(a: npt.NDArray[np.uint8], quotes: npt.NDArray[np.intp]
     after = np.full(quotes.size, -1, dtype=np.int16)
     has_next = quotes + 1 < a.size
     after[has_next] = a[quotes[has_next] + 1]
-    return bool(np.isin(before[opening], _BESIDE_QUOTE).all() and np.isin(after[~opening], _BESIDE_QUOTE).all())
+    # what may stand before an opening quote (it starts a field, or doubles a quote) and after a closing one (it
+    # ends a field, or is doubled); -1: the start or the end of the file
+    beside = np.array([scan.delim, _LF, _CR, _QUOTE, -1])
+    return bool(np.isin(before[opening], beside).all() and np.isin(after[~opening], beside).all())
 
 
-def as_read_csv(raw: Any) -> pd.Series | None:
+def as_read_csv(raw: Any, na_values: Sequence[str] = ()) -> pd.Series | None:
     """The values pandas.read_csv gives a column whose fields are ``raw`` (text; masked where empty).
+
+    ``na_values``: the fields read as missing besides pandas' own (:class:`~fairaudit.estimate.CsvFormat`).
 
     pandas infers a column's type from its set of distinct fields, and
     whether one is missing: its own parser, with read_records' options, on
@@ -395,7 +402,8 @@ def as_read_csv(raw: Any) -> pd.Series | None:
     lines = ["key,value", *("0," + _csv_field(v) for v in distinct)]
     if (codes < 0).any():
         lines.append("0,")  # an empty field: missing
-    parsed = pd.read_csv(io.StringIO("\n".join(lines) + "\n"), low_memory=False)["value"]
+    text = io.StringIO("\n".join(lines) + "\n")
+    parsed = pd.read_csv(text, low_memory=False, na_values=list(na_values) or None)["value"]
     values = parsed.to_numpy()
     if values.dtype.kind == "f" and len(set(np.signbit(values[values == 0]))) > 1:
         return None
@@ -409,42 +417,54 @@ def _csv_field(text: str) -> str:
     return '"' + text.replace('"', '""') + '"'
 
 
-def csv_group_by(p: Path, keys: list[str], gzipped: bool = False) -> Grouped | None:
-    """The distinct combinations of ``keys`` in CSV file ``p`` as pandas reads them, with their numbers of records.
+def csv_group_by(
+    p: Path, keys: list[str], kind: FileKind | None = None, fmt: CsvFormat | None = None
+) -> Grouped | None:
+    """The distinct combinations of ``keys`` in text file ``p`` as pandas reads them, with their numbers of records.
 
+    ``kind`` gives the separator and compression (default: a plain CSV file),
+    ``fmt`` the reading options (a header or ``names``, ``sep``, ``na_values``).
     None where the exact result is left to pandas (the caller reads the whole
-    file then, as :func:`fairaudit.estimate.read_records` does): a file DuckDB cannot read with
-    pandas' dialect or might read differently (:func:`csv_regular`), one
-    column (pandas skips its blank lines, DuckDB reads them as missing), an
-    unknown column (pandas reports it), and the columns whose values depend
-    on the order of the fields (:func:`as_read_csv`).
+    file then, as :func:`fairaudit.estimate.read_records` does): a compression
+    other than gzip, a separator outside :data:`DUCKDB_SEPARATORS`,
+    ``skip_initial_space``, a file DuckDB cannot read with pandas' dialect or
+    might read differently (:func:`csv_regular`), one column (pandas skips
+    its blank lines, DuckDB reads them as missing), an unknown column (pandas
+    reports it), and the columns whose values depend on the order of the
+    fields (:func:`as_read_csv`).
     """
     import duckdb
     import pandas as pd
 
-    if not p.is_file():
+    kind = FileKind("text") if kind is None else kind
+    fmt = CsvFormat() if fmt is None else fmt
+    sep = fmt.sep or kind.sep
+    if not p.is_file() or kind.compression not in (None, "gzip") or sep not in DUCKDB_SEPARATORS:
         return None
-    try:
-        names = [str(c) for c in pd.read_csv(p, nrows=0, compression="gzip" if gzipped else None).columns]
+    if fmt.skip_initial_space:  # pandas drops spaces after a separator, before a quote too: left to it
+        return None
+    try:  # (no names: then the file has a header, CsvFormat checks it)
+        header = pd.read_csv(p, nrows=0, sep=sep, compression="gzip" if kind.compression else None)
+        names = list(fmt.names) if fmt.names else [str(c) for c in header.columns]
     except Exception:  # noqa: BLE001 - read_records reports it
         return None
     if len(names) < 2 or not set(keys) <= set(names) or len({c.lower() for c in names}) < len(names):
         return None
-    if not csv_regular(p, len(names), gzipped):
+    if not csv_regular(p, len(names), kind.compression == "gzip", sep):
         return None
     selected = ", ".join(sql_identifier(c) for c in keys)
     sql = f"SELECT {selected}, count(*) AS {sql_identifier(count_name(names))} FROM {_READ_CSV} GROUP BY ALL"
-    compression = "gzip" if gzipped else "none"
     con = duckdb_connection()
     try:
         with glob_free([os.path.abspath(p)]) as (plain,):
-            result = con.execute(sql, [plain, dict.fromkeys(names, "VARCHAR"), compression]).fetchnumpy()
+            parameters = [plain, dict.fromkeys(names, "VARCHAR"), kind.compression or "none", fmt.header, sep]
+            result = con.execute(sql, parameters).fetchnumpy()
     except (duckdb.Error, OSError):
         return None
     finally:
         con.close()
     raw = list(result.values())
-    values = [as_read_csv(column) for column in raw[:-1]]
+    values = [as_read_csv(column, fmt.na_values) for column in raw[:-1]]
     if any(v is None for v in values):
         return None
     return Grouped(np.asarray(raw[-1], dtype=np.int64), frame=pd.DataFrame(dict(zip(keys, values))))

@@ -617,19 +617,21 @@ def count_file(
       types and converted as ``pandas.read_parquet`` converts them (pandas
       metadata, nullable integers, dates and times, categoricals with the
       categories in pandas' order). Needs pyarrow (the file's schema).
-    - Text in pandas' default dialect (``.csv``, ``.txt``, ``.data``, plain
-      or ``.gz``, with a header and no ``csv`` options): DuckDB reads every field as text in
-      pandas' dialect (comma, double quotes), and pandas' own parser reads
-      the distinct fields of each used column: pandas infers a column's type
-      (integers, floats, booleans, text) and its missing values (``""``,
-      ``"NA"``, ``"nan"``, ...) from the set of its distinct fields, so each
-      value is what :func:`read_records` gives. A file that DuckDB cannot
-      read in that dialect, or might split into fields differently (a blank
-      first line, a space next to a double quote, a single column, rows of
-      unequal length), is read whole by pandas instead, as before.
-    - Other text (``.tsv``, other compressions, or ``csv`` options: no
-      header, another separator, missing-value markers, spaces after
-      separators) is read whole by pandas (:func:`read_records`).
+    - Text (``.csv``, ``.tsv``, ``.txt``, ``.data``, plain or ``.gz``;
+      with a header or ``csv.names``, separated by a comma, semicolon, tab,
+      bar or colon, with ``csv.na_values`` or not): DuckDB reads every field
+      as text in pandas' dialect (double quotes), and pandas' own parser
+      reads the distinct fields of each used column: pandas infers a
+      column's type (integers, floats, booleans, text) and its missing
+      values (``""``, ``"NA"``, ``"nan"``, ..., and ``na_values``) from the
+      set of its distinct fields, so each value is what :func:`read_records`
+      gives. A file that DuckDB cannot read in that dialect, or might split
+      into fields differently (a blank first line, a space next to a double
+      quote, a single column, rows of unequal length), is read whole by
+      pandas instead, as before.
+    - Other text (other compressions, other separators, or
+      ``csv.skip_initial_space``) is read whole by pandas
+      (:func:`read_records`).
 
     Parameters
     ----------
@@ -705,19 +707,17 @@ def count_file(
             raise InputError(fmt.changed()[0], "applies to text files, not Parquet", str(path))
         return _parquet_counts(path, p, sensitive, outcome, context, dropna)
     used = list(dict.fromkeys(context + sensitive + [outcome]))
-    grouped = None
-    if not fmt.changed() and kind.sep == "," and kind.compression in (None, "gzip") and _no_repeats(p, kind):
-        grouped = csv_group_by(p, used, kind.compression == "gzip")  # pandas' dialect: DuckDB counts
+    grouped = csv_group_by(p, used, kind, fmt) if _no_repeats(p, kind, fmt) else None  # DuckDB counts
     if grouped is None:  # pandas reads the whole file, as read_records does (and reports what is wrong with it)
         frame = read_checked(path, fmt, used)
         return count_records(frame, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)
     return _tally_grouped(grouped, sensitive, outcome, context, dropna)
 
 
-def _no_repeats(p: Path, kind: FileKind) -> bool:
-    """Whether a text file's header names each column once (False, for pandas to report it, when unreadable)."""
+def _no_repeats(p: Path, kind: FileKind, fmt: CsvFormat) -> bool:
+    """Whether a text file's columns have one name each (False, for pandas to report it, when unreadable)."""
     try:
-        return not check_header(p, kind, CsvFormat())
+        return not check_header(p, kind, fmt)
     except Exception:  # noqa: BLE001 - read_records reports an unreadable file
         return False
 

@@ -445,7 +445,12 @@ def first_max(values: FloatArray) -> int | None:
     >>> first_max(np.array([np.nan, 2.0, np.inf, 1.0, np.inf])), first_max(np.array([np.nan]))
     (2, None)
     """
-    best = np.fmax.reduce(values) if values.size else np.nan
+    if not values.size:
+        return None
+    i = int(np.argmax(values))  # the first largest value, or the first NaN: then there is no NaN at all when not
+    if not np.isnan(values[i]):
+        return i
+    best = np.fmax.reduce(values)  # some NaN: the largest of the rest
     return None if np.isnan(best) else int(np.argmax(values == best))
 
 

@@ -474,10 +474,11 @@ def test_ratio_of_extremes_gives_what_its_definition_gives():
 
 def test_first_max_is_nanargmax():
     rng = np.random.default_rng(1)
-    for _ in range(200):
-        v = rng.choice([np.nan, 1.0, 2.0, np.inf], size=int(rng.integers(1, 9)))
+    for _ in range(400):
+        v = rng.choice([np.nan, 1.0, 2.0, np.inf, -np.inf, 0.0, -0.0], size=int(rng.integers(1, 9)))
         want = None if np.isnan(v).all() else int(np.nanargmax(v))
         assert first_max(v) == want
+    assert first_max(np.array([])) is None
 
 
 def test_the_pass_keeps_no_temporary_of_the_tables_size():

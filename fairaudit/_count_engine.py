@@ -337,13 +337,13 @@ def _scan_block(a: npt.NDArray[np.uint8], end: int, scan: _Scan, n_fields: int) 
         is_comma &= outside
         is_lf &= outside
         is_cr &= outside
-    commas = np.cumsum(is_comma, dtype=np.int32)  # commas so far
+    commas = np.flatnonzero(is_comma)  # the separators outside quotes (a cumulative count would write 4 bytes each)
     lines, returns = np.flatnonzero(is_lf), np.flatnonzero(is_cr)
     if returns.size and (returns[-1] + 1 >= a.size or (a[returns + 1] != _LF).any()):
         return False  # a carriage return not followed by a line feed
-    total = int(commas[-1]) if end else 0
+    total = commas.size
     if lines.size:
-        before = commas[lines]
+        before = np.searchsorted(commas, lines)  # separators before each line end
         fields = np.diff(before, prepend=0) + 1
         fields[0] += scan.fields - 1
         lengths = np.diff(lines, prepend=-1) - 1

@@ -333,7 +333,7 @@ def _scan_block(a: npt.NDArray[np.uint8], end: int, scan: _Scan, n_fields: int) 
         return False
     is_comma, is_lf, is_cr = body == scan.delim, body == _LF, body == _CR
     if quotes.size or scan.parity:  # outside a quoted field: an even number of quotes before
-        outside = (np.cumsum(is_quote, dtype=np.int32) + scan.parity) % 2 == 0
+        outside = np.bitwise_xor.accumulate(is_quote.view(np.uint8)) == scan.parity  # quotes so far, mod 2
         is_comma &= outside
         is_lf &= outside
         is_cr &= outside
@@ -364,17 +364,18 @@ def _scan_block(a: npt.NDArray[np.uint8], end: int, scan: _Scan, n_fields: int) 
 
 def _quotes_around_fields(a: npt.NDArray[np.uint8], quotes: npt.NDArray[np.intp], scan: _Scan) -> bool:
     """Whether each quote at ``quotes`` opens a field (or doubles a quote) or closes one (or is doubled)."""
-    opening = (scan.parity + np.arange(quotes.size)) % 2 == 0
-    before = a[np.maximum(quotes - 1, 0)].astype(np.int16)
-    if quotes[0] == 0:
-        before[0] = scan.previous
-    after = np.full(quotes.size, -1, dtype=np.int16)
-    has_next = quotes + 1 < a.size
-    after[has_next] = a[quotes[has_next] + 1]
     # what may stand before an opening quote (it starts a field, or doubles a quote) and after a closing one (it
-    # ends a field, or is doubled); -1: the start or the end of the file
-    beside = np.array([scan.delim, _LF, _CR, _QUOTE, -1])
-    return bool(np.isin(before[opening], beside).all() and np.isin(after[~opening], beside).all())
+    # ends a field, or is doubled), besides the start or the end of the file
+    beside = np.zeros(256, dtype=bool)
+    beside[[scan.delim, _LF, _CR, _QUOTE]] = True
+    opening, closing = quotes[scan.parity :: 2], quotes[1 - scan.parity :: 2]  # they alternate
+    if opening.size and opening[0] == 0:  # the byte before it is the previous block's (-1: the start of the file)
+        if scan.previous >= 0 and not beside[scan.previous]:
+            return False
+        opening = opening[1:]
+    if closing.size and closing[-1] + 1 >= a.size:  # the last byte of the file
+        closing = closing[:-1]
+    return bool(beside[a[opening - 1]].all() and beside[a[closing + 1]].all())
 
 
 def as_read_csv(raw: Any, na_values: Sequence[str] = ()) -> pd.Series | None:

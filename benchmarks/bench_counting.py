@@ -4,8 +4,9 @@ Records: 10^7 (``--records N``; ``--quick`` 10^5) with 100 integer contexts,
 8 string groups ("g0" … "g7") and 5 integer decisions, drawn uniformly and
 independently (seeded), written to a temporary Parquet file (row groups of
 10^6 records) and, the first 10^6 of them (``--csv-records N``), to a CSV file
-(``pandas.DataFrame.to_csv``). The generator counts the records it writes:
-the independent route of the agreement checks.
+and to a headerless ``;``-separated text file (``pandas.DataFrame.to_csv``).
+The generator counts the records it writes: the independent route of the
+agreement checks.
 
 (a) In process: ``count_file(FILE, sensitive=["group"], outcome="decision",
     context=["context"])`` (a DuckDB GROUP BY, then the same labels, types and
@@ -13,8 +14,11 @@ the independent route of the agreement checks.
     "group", "decision", count(*) ... GROUP BY ALL`` on a connection opened
     beforehand, plus building the same numpy count array (100 × 8 × 5), for the
     Parquet and the CSV file; polars' lazy ``group_by(...).len()`` too when
-    polars is installed (skipped otherwise). Median time, ratio to the raw
-    DuckDB route timed in the same run.
+    polars is installed (skipped otherwise); for the headerless file, read with
+    ``CsvFormat(header=False, names=..., sep=";")``, also the pandas route it
+    took before DuckDB read text with options (``read_records`` +
+    ``count_records``). Median time, ratio to the raw DuckDB route timed in the
+    same run.
 (b) End to end, each a child process started through a bare Python wrapper
     that reports its peak RSS (``getrusage(RUSAGE_CHILDREN)``; Linux carries a
     process's high-water RSS across ``exec``, so waiting for the command from
@@ -68,7 +72,7 @@ from _bench_common import (  # noqa: E402
     table,
 )
 
-from fairaudit.estimate import CountTable, count_file  # noqa: E402
+from fairaudit.estimate import CountTable, CsvFormat, count_file, count_records, read_records  # noqa: E402
 
 N_CONTEXTS = 100
 GROUPS = tuple(f"g{i}" for i in range(8))  # sorted as strings
@@ -76,6 +80,9 @@ DECISIONS = (0, 1, 2, 3, 4)
 POSITIVE = 1
 SHAPE = (N_CONTEXTS, len(GROUPS), len(DECISIONS))
 ROLES = dict(sensitive=["group"], outcome="decision", context=["context"])
+NAMES = ("context", "group", "decision")
+HEADERLESS = "text: no header, `;`"  # the CSV records again, as `--no-header --names ... --sep ';'` reads them
+HEADERLESS_FORMAT = CsvFormat(header=False, names=NAMES, sep=";")
 CHUNK = 10**6
 AGREE_ABS = "agreement (max abs. diff)"
 AGREE_REL = "agreement (max rel. diff)"
@@ -87,8 +94,11 @@ QUICK = dict(records=10**5, csv_records=10**5, repeats=1, command_repeats=1)
 # ----------------------------------------------------------------------------------------------------
 # the records
 # ----------------------------------------------------------------------------------------------------
-def write_records(parquet: Path, csv: Path, n: int, n_csv: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Write ``n`` records to Parquet and the first ``n_csv`` to CSV; return their counts (generator's layout)."""
+def write_records(
+    parquet: Path, csv: Path, headerless: Path, n: int, n_csv: int, seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Write ``n`` records to Parquet and the first ``n_csv`` to CSV, and again without a header, separated by ``;``;
+    return their counts (generator's layout)."""
     import pandas as pd
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -112,6 +122,7 @@ def write_records(parquet: Path, csv: Path, n: int, n_csv: int, seed: int) -> tu
             if k > 0:
                 frame = pd.DataFrame({"context": x[:k], "group": np.array(GROUPS)[a[:k]], "decision": u[:k]})
                 frame.to_csv(csv, mode="a" if written else "w", header=not written, index=False)
+                frame.to_csv(headerless, mode="a" if written else "w", header=False, index=False, sep=";")
                 csv_counts += np.bincount(flat[:k], minlength=counts.size)
                 written += k
     return counts.reshape(SHAPE), csv_counts.reshape(SHAPE)
@@ -129,6 +140,8 @@ def table_array(t: CountTable) -> np.ndarray:
 
 
 def _source(kind: str) -> str:
+    if kind == HEADERLESS:
+        return "read_csv(?, header = false, delim = ';', names = ['context', 'group', 'decision'])"
     return "read_parquet(?)" if kind == "parquet" else "read_csv(?, header = true)"
 
 
@@ -144,7 +157,10 @@ def raw_duckdb(con, path: Path, kind: str) -> np.ndarray:
 def polars_route(path: Path, kind: str) -> np.ndarray:
     import polars as pl
 
-    scan = pl.scan_parquet(path) if kind == "parquet" else pl.scan_csv(path)
+    if kind == HEADERLESS:
+        scan = pl.scan_csv(path, has_header=False, separator=";", new_columns=list(NAMES))
+    else:
+        scan = pl.scan_parquet(path) if kind == "parquet" else pl.scan_csv(path)
     out = scan.group_by(["context", "group", "decision"]).len().collect()
     counts = np.zeros(SHAPE, dtype=np.int64)
     groups = np.searchsorted(np.array(GROUPS), out["group"].to_numpy().astype(str))
@@ -169,10 +185,18 @@ def part_in_process(files: dict, repeats: int, failures: list[str]) -> str:
     con = duckdb.connect()
     rows = []
     for kind, (path, n, expected) in files.items():
+        fmt = HEADERLESS_FORMAT if kind == HEADERLESS else None
         routes: list[tuple[str, Callable[[], np.ndarray]]] = [
             ("raw DuckDB GROUP BY + numpy array", lambda: raw_duckdb(con, path, kind)),
-            ("`count_file`", lambda: table_array(count_file(path, **ROLES))),
+            ("`count_file`", lambda: table_array(count_file(path, csv=fmt, **ROLES))),
         ]
+        if kind == HEADERLESS:  # the route such a file took before DuckDB read text with options
+            routes.append(
+                (
+                    "pandas: `read_records` + `count_records`",
+                    lambda: table_array(count_records(read_records(path, fmt), **ROLES)),
+                )
+            )
         if routes_polars:
             routes.append(("polars `group_by().len()` + numpy array", lambda: polars_route(path, kind)))
         base = math.nan
@@ -355,10 +379,11 @@ def run(args) -> tuple[str, list[str]]:
     failures: list[str] = []
     with tempfile.TemporaryDirectory(prefix="fairaudit-bench-counting-", dir=args.workdir) as tmp:
         parquet, csv = Path(tmp) / "records.parquet", Path(tmp) / "records.csv"
-        counts, csv_counts = write_records(parquet, csv, n, n_csv, args.seed)
+        headerless = Path(tmp) / "records.data"
+        counts, csv_counts = write_records(parquet, csv, headerless, n, n_csv, args.seed)
         files = {"parquet": (parquet, n, counts), "csv": (csv, n_csv, csv_counts)}
         sizes = f"Parquet {parquet.stat().st_size / 1e6:.1f} MB, CSV {csv.stat().st_size / 1e6:.1f} MB"
-        part_a = part_in_process(files, repeats, failures)
+        part_a = part_in_process({**files, HEADERLESS: (headerless, n_csv, csv_counts)}, repeats, failures)
         part_b = part_commands(files, args.command_repeats or cfg["command_repeats"], failures)
     packages = ["numpy", "pandas", "pyarrow", "duckdb", "fairaudit"]
     try:
@@ -372,7 +397,8 @@ def run(args) -> tuple[str, list[str]]:
         "",
         machine_line(packages, memory=True),
         "",
-        f"{n:,} records in Parquet and the first {n_csv:,} in CSV ({sizes}); {N_CONTEXTS} integer contexts, "
+        f"{n:,} records in Parquet and the first {n_csv:,} in CSV ({sizes}), and again without a header, "
+        f"separated by `;` (read with `CsvFormat(header=False, names=..., sep=';')`); {N_CONTEXTS} integer contexts, "
         f"{len(GROUPS)} string groups, {len(DECISIONS)} integer decisions, uniform (seed {args.seed}).",
         "",
         "## (a) In process: `count_file` against a raw DuckDB GROUP BY",

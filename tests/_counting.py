@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import fairaudit.estimate as estimate
 from fairaudit import InputError, count_file, count_records, read_records
 
 
@@ -23,3 +24,16 @@ def counted(path, **kw):
         return count_file(path, **kw)
     except InputError as exc:
         return exc
+
+
+def spy_fallback(monkeypatch):
+    """The paths count_file left to pandas (read_records called inside count_file), recorded as it runs."""
+    calls = []
+    original = estimate.read_records
+
+    def spy(path, csv=None):
+        calls.append(path)
+        return original(path, csv)
+
+    monkeypatch.setattr(estimate, "read_records", spy)
+    return calls

@@ -34,7 +34,7 @@ from fairaudit._count_engine import sql_identifier
 pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
 
-from _counting import counted, reference  # noqa: E402
+from _counting import counted, reference, spy_fallback  # noqa: E402
 
 
 def _describe(labels):
@@ -57,19 +57,6 @@ def assert_same(ref, got):
     )
     assert ref.counts.dtype == got.counts.dtype == np.int64
     assert ref.counts.tolist() == got.counts.tolist()
-
-
-def _spy_fallback(monkeypatch):
-    """Record whether count_file left a CSV file to pandas (read_records called inside count_file)."""
-    calls = []
-    original = estimate.read_records
-
-    def spy(path, csv=None):
-        calls.append(path)
-        return original(path, csv)
-
-    monkeypatch.setattr(estimate, "read_records", spy)
-    return calls
 
 
 # ---------------------------------------------------------------- quoting SQL identifiers
@@ -341,7 +328,7 @@ def test_csv_that_duckdb_may_split_differently_is_left_to_pandas(tmp_path, monke
     path.write_bytes(text.encode())
     kw = dict(sensitive="g", outcome="y", dropna=True)
     ref = reference(path, **kw)
-    calls = _spy_fallback(monkeypatch)
+    calls = spy_fallback(monkeypatch)
     assert_same(ref, counted(path, **kw))
     assert calls == [path]
 
@@ -349,7 +336,7 @@ def test_csv_that_duckdb_may_split_differently_is_left_to_pandas(tmp_path, monke
 def test_single_column_csv_is_left_to_pandas(tmp_path, monkeypatch):
     path = tmp_path / "r.csv"
     path.write_text("y\n1\n\n0\n1\n")  # pandas skips the blank line; DuckDB would read a missing value
-    calls = _spy_fallback(monkeypatch)
+    calls = spy_fallback(monkeypatch)
     t = count_file(path, sensitive="y", outcome="y")
     assert calls == [path] and t.n == 3
     assert_same(reference(path, sensitive="y", outcome="y"), t)
@@ -358,7 +345,7 @@ def test_single_column_csv_is_left_to_pandas(tmp_path, monkeypatch):
 def test_plain_csv_is_counted_by_duckdb_not_pandas(tmp_path, monkeypatch):
     path = tmp_path / "r.csv"
     path.write_text('ctx,g,y\np,a,1\np,"b, c",0\nq,a,1\nq,a,\n')
-    calls = _spy_fallback(monkeypatch)
+    calls = spy_fallback(monkeypatch)
     t = count_file(path, sensitive="g", outcome="y", context="ctx", dropna=True)
     assert calls == []
     assert (t.contexts, t.groups, t.decisions) == (("p", "q"), ("a", "b, c"), (0.0, 1.0))

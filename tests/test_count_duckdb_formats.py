@@ -24,6 +24,7 @@ from fairaudit import CsvFormat, InputError, count_file, count_records, read_rec
 
 pytest.importorskip("duckdb")
 
+from _counting import spy_fallback  # noqa: E402
 from test_count_duckdb import assert_same  # noqa: E402
 
 SEPARATORS = sorted(engine.DUCKDB_SEPARATORS) + [" ", "#"]  # the last two go to pandas
@@ -42,19 +43,6 @@ def counted(path, csv, **kw):
         return count_file(path, csv=csv, **kw)
     except InputError as exc:
         return exc
-
-
-def _spy_fallback(monkeypatch):
-    """The paths count_file left to pandas (read_records called inside count_file)."""
-    calls = []
-    original = estimate.read_records
-
-    def spy(path, csv=None):
-        calls.append(path)
-        return original(path, csv)
-
-    monkeypatch.setattr(estimate, "read_records", spy)
-    return calls
 
 
 def _write(path: Path, text: str) -> None:
@@ -141,7 +129,7 @@ def test_headerless_semicolon_file_with_a_missing_marker_is_counted_by_duckdb(tm
     path = tmp_path / "r.data"
     path.write_text('p;a;1\np;"b;c";0\nq;a;1\nq;?;1\nq;a;?\n')
     fmt = CsvFormat(header=False, names=("ctx", "g", "y"), sep=";", na_values=("?",))
-    calls = _spy_fallback(monkeypatch)
+    calls = spy_fallback(monkeypatch)
     t = count_file(path, sensitive="g", outcome="y", context="ctx", dropna=True, csv=fmt)
     assert calls == []
     assert (t.contexts, t.groups, t.decisions) == (("p", "q"), ("a", "b;c"), (0.0, 1.0))
@@ -156,7 +144,7 @@ def test_headerless_semicolon_file_with_a_missing_marker_is_counted_by_duckdb(tm
 def test_tsv_and_renamed_header_are_counted_by_duckdb(tmp_path, monkeypatch):
     path = tmp_path / "r.tsv"
     path.write_text("G\tY\nx\t1\ny\t0\nx\t0\n")
-    calls = _spy_fallback(monkeypatch)
+    calls = spy_fallback(monkeypatch)
     t = count_file(path, sensitive="G", outcome="Y")
     renamed = CsvFormat(names=("g", "y"))
     u = count_file(path, sensitive="g", outcome="y", csv=renamed)
@@ -177,7 +165,7 @@ def test_options_duckdb_does_not_take_are_left_to_pandas(tmp_path, monkeypatch, 
     sep = fmt.sep or ","
     path = tmp_path / name
     _write(path, sep.join(["g", "y"]) + "\n" + f'a{sep} "1"\nb{sep}0\n'.replace(",", sep))
-    calls = _spy_fallback(monkeypatch)
+    calls = spy_fallback(monkeypatch)
     got = counted(path, fmt, sensitive="g", outcome="y")
     assert calls == [path]
     assert_same(reference(path, fmt, sensitive="g", outcome="y"), got)

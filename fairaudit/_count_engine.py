@@ -444,11 +444,13 @@ def csv_group_by(
         return None
     if fmt.skip_initial_space:  # pandas drops spaces after a separator, before a quote too: left to it
         return None
-    try:  # (no names: then the file has a header, CsvFormat checks it)
-        header = pd.read_csv(p, nrows=0, sep=sep, compression="gzip" if kind.compression else None)
-        names = list(fmt.names) if fmt.names else [str(c) for c in header.columns]
-    except Exception:  # noqa: BLE001 - read_records reports it
-        return None
+    names = list(fmt.names or ())
+    if not names:  # (then the file has a header: CsvFormat checks it)
+        try:
+            header = pd.read_csv(p, nrows=0, sep=sep, compression="gzip" if kind.compression else None)
+        except Exception:  # noqa: BLE001 - read_records reports it
+            return None
+        names = [str(c) for c in header.columns]
     if len(names) < 2 or not set(keys) <= set(names) or len({c.lower() for c in names}) < len(names):
         return None
     if not csv_regular(p, len(names), kind.compression == "gzip", sep):

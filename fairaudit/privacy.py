@@ -53,6 +53,7 @@ __all__ = [
     # randomized response's keep probability
     "epsilon_from_keep_probability",
     "keep_probability",
+    "split_by_keep",
     # families indexed by epsilon
     "MechanismFamily",
     "product_family",
@@ -364,6 +365,72 @@ def epsilon_from_keep_probability(keep: float, k: int) -> float:
     if keep >= 1.0:
         return math.inf
     return max(0.0, math.log(keep * (k - 1) / (1.0 - keep)))
+
+
+def split_by_keep(epsilon: float, sizes: Sequence[int]) -> FloatArray:
+    """Each attribute's ε when a profile's budget ``epsilon`` is split so that every attribute keeps its value
+    with the same probability p.
+
+    Attribute i, with k_i values, gets k_i-ary randomized response at
+    ε_i = max(0, ln(p (k_i − 1) / (1 − p))), so it keeps its value with
+    probability p (never less than 1/k_i: an attribute that p would keep less
+    often than uniformly is shown uniformly at random, ε_i = 0), and p is the
+    one keep probability with Σ_i ε_i = ``epsilon`` (the product's ε, every
+    pair of profiles adjacent). With ℓ = ln(p / (1 − p)) and c_i = ln(k_i − 1),
+    ε_i = max(0, ℓ + c_i): the sum is piecewise linear and increasing in ℓ,
+    so ℓ is found in closed form on the piece where the m attributes with
+    the largest c_i are active, ℓ = (ε − Σ_{j ≤ m} c_(j)) / m.
+
+    Proof: ``proofs/privacy.md`` ("A shared keep probability"). Attributes of
+    equal size get ε / n each; a keep probability p on an attribute with k
+    values is ε = ln(p (k − 1) / (1 − p)), whatever the other attributes' sizes.
+
+    Parameters
+    ----------
+    epsilon : float
+        The profile's privacy budget (nats, ≥ 0; +inf: every attribute shown as is).
+    sizes : sequence of int
+        k_i ≥ 2, the number of values of each attribute.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_attributes,)
+        ε_i in nats, in the order of ``sizes``, summing to ``epsilon``.
+
+    Raises
+    ------
+    InputError
+        If ``epsilon`` is negative or NaN, ``sizes`` is empty, or a size is not a whole number ≥ 2.
+
+    Examples
+    --------
+    Age (3 values), gender (2) and race (3), each kept with p = 0.6: ln 3, ln 1.5 and ln 3.
+
+    >>> eps = split_by_keep(2 * math.log(3) + math.log(1.5), [3, 2, 3])
+    >>> [round(float(e), 6) for e in eps]
+    [1.098612, 0.405465, 1.098612]
+    >>> [round(keep_probability(float(e), k), 12) for e, k in zip(eps, [3, 2, 3])]
+    [0.6, 0.6, 0.6]
+
+    A small budget leaves the binary attribute uniform (p would be below 1/2):
+
+    >>> [round(float(e), 6) for e in split_by_keep(0.3, [3, 2])]
+    [0.3, 0.0]
+    """
+    eps = check_epsilon(epsilon)
+    if not len(sizes):
+        raise InputError("sizes", "needs at least one attribute", list(sizes))
+    k = np.array([whole(s, f"sizes[{i}]", low=2) for i, s in enumerate(sizes)], dtype=float)
+    if eps == 0.0 or eps == math.inf:
+        return np.full(k.size, eps)
+    c = np.log(k - 1.0)
+    top = np.sort(c)[::-1]
+    total = np.cumsum(top)
+    # the sum of the ε_i at ℓ = −top[m] (only the m attributes above it active); non-decreasing in m, 0 at m = 0
+    breaks = total - np.arange(1, k.size + 1) * top
+    m = int(np.searchsorted(breaks, eps, side="left"))  # the active attributes: every break below ε
+    ell = (eps - total[m - 1]) / m
+    return np.maximum(0.0, ell + c)
 
 
 def randomized_response(

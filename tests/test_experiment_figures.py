@@ -206,14 +206,22 @@ def test_keep_axis_hand_value_for_hr_delivery():
     assert float(forward(6 * math.log(7 / 3))) == pytest.approx(0.7, abs=1e-12)
 
 
-def test_keep_axis_with_attributes_of_different_sizes_is_the_epsilon_of_each():
+def test_keep_axis_with_attributes_of_different_sizes_is_the_shared_keep_probability():
     from fairaudit.experiments.taskfile import parse_task
 
     text = (Path(__file__).resolve().parents[1] / "examples" / "tasks" / "shortlist.toml").read_text()
     task = parse_task(text.replace('values = ["engineering", "sales"]', 'values = ["engineering", "sales", "hr"]'))
-    label, forward, inverse = _keep_axis(task)  # one pair differing in both attributes: each at ε / 4
-    assert label.startswith("ε of each attribute")
-    assert float(forward(8.0)) == 2.0 and float(inverse(2.0)) == 8.0
+    label, forward, inverse = _keep_axis(task)  # one pair differing in both attributes, own and rival
+    assert label.startswith("keep probability p of each attribute")
+    # by hand: keep 0.6 is ln 1.5 on the name (2 values) and ln 3 on the department (3), both profiles shown
+    assert float(inverse(0.6)) == pytest.approx(2 * (math.log(1.5) + math.log(3)), rel=1e-12)
+    assert float(forward(2 * math.log(4.5))) == pytest.approx(0.6, abs=1e-12)
+    for q in (0.5, 0.7, 0.9):
+        assert float(inverse(q)) == pytest.approx(epsilon_from_keep(task, q), rel=1e-12)
+        assert float(forward(inverse(q))) == pytest.approx(q, abs=1e-12)
+    # below the name's floor 1/2 the department alone carries the profile's ln 1.5: p = 1.5 / (1.5 + 2) on it
+    p = float(forward(2 * math.log(1.5)))
+    assert p == pytest.approx(1.5 / (1.5 + 2), abs=1e-12)
 
 
 # -- curve.png -------------------------------------------------------------------------------------------------

@@ -427,3 +427,59 @@ def test_product_family_splits_epsilon_by_weight():
         product_family(["x", "y"], [1, 2], weights=[1])
     with pytest.raises(fa.InputError, match=r"values\[1\]"):
         product_family(["x", "y"], [1])
+
+
+# -- a shared keep probability (proofs/privacy.md, Proposition 6) ------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "keep, sizes",
+    [
+        (Fraction(3, 5), [3, 2, 3]),
+        (Fraction(7, 10), [2, 2, 2]),
+        (Fraction(9, 10), [5, 2, 17, 3]),
+        (Fraction(1, 2), [2, 4]),
+    ],
+)
+def test_split_by_keep_matches_each_keep_by_fractions(keep, sizes):
+    # each attribute's e^eps_i = p (k_i - 1) / (1 - p), in exact fractions; the profile's budget is their sum
+    ratios = [keep * (k - 1) / (1 - keep) for k in sizes]
+    total = sum(math.log(r) for r in ratios)
+    eps = privacy.split_by_keep(total, sizes)
+    for e, r, k in zip(eps, ratios, sizes):
+        assert math.exp(e) == pytest.approx(float(r), rel=1e-14)
+        assert keep_probability(float(e), k) == pytest.approx(float(keep), rel=1e-14)
+    assert float(eps.sum()) == pytest.approx(total, rel=1e-14)
+
+
+def test_split_by_keep_even_for_equal_sizes_and_the_ends():
+    assert privacy.split_by_keep(3.0, [4, 4, 4]).tolist() == pytest.approx([1.0, 1.0, 1.0], rel=1e-15)
+    assert privacy.split_by_keep(0.0, [3, 2]).tolist() == [0.0, 0.0]
+    assert privacy.split_by_keep(math.inf, [3, 2]).tolist() == [math.inf, math.inf]
+    # below the binary attribute's floor 1/2 it stays uniform; the 3-valued one takes the whole budget
+    assert privacy.split_by_keep(0.5, [2, 3]).tolist() == [0.0, 0.5]
+    with pytest.raises(fa.InputError, match=r"sizes\[1\]"):
+        privacy.split_by_keep(1.0, [3, 1])
+    with pytest.raises(fa.InputError, match="epsilon"):
+        privacy.split_by_keep(-1.0, [3, 2])
+
+
+@given(
+    st.floats(1e-6, 60.0),
+    st.lists(st.integers(2, 40), min_size=1, max_size=6),
+)
+def test_split_by_keep_against_root_finding(total, sizes):
+    # a second algorithm: solve sum_i max(0, l + ln(k_i - 1)) = total for l by bisection, independent of the break points
+    from scipy.optimize import brentq
+
+    c = np.log(np.asarray(sizes, dtype=float) - 1.0)
+    ell = brentq(lambda v: float(np.maximum(0.0, v + c).sum()) - total, -c.max(), total, xtol=1e-14, rtol=1e-15)
+    want = np.maximum(0.0, ell + c)
+    got = privacy.split_by_keep(total, sizes)
+    assert got == pytest.approx(want, rel=1e-9, abs=1e-12)
+    assert float(got.sum()) == pytest.approx(total, rel=1e-12)
+    assert np.all(got >= 0)
+    keeps = [keep_probability(float(e), k) for e, k in zip(got, sizes)]
+    active = [q for q, e in zip(keeps, got) if e > 0]  # the attributes above their floor share one keep probability
+    assert max(active) - min(active) < 1e-9
+    assert all(q >= min(active) - 1e-12 for q in keeps)

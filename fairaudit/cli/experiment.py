@@ -105,14 +105,20 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
         type=nonneg,
         nargs="+",
         metavar="E",
-        help="the candidate's privacy budgets in nats (both profiles shown; each attribute gets E / (2 x attributes))",
+        help="the candidate's privacy budgets in nats: E is the epsilon of everything a prompt shows about a candidate "
+        "(its own profile, and its rivals' when the population ties them to it); each profile's share is split over "
+        "its attributes by one keep probability p, an attribute with k values getting ln(p (k - 1) / (1 - p)) nats "
+        "(equal shares when the attributes have equal numbers of values); the report lists p, k and epsilon per "
+        "attribute",
     )
     eps.add_argument(
         "--keep",
         type=keep_level,
         nargs="+",
         metavar="P",
-        help="keep probabilities of every attribute instead (default: the task file's [filter], else 0.5 0.6 0.7 0.8 0.9)",
+        help="keep probabilities instead, one run each: P on every attribute, an attribute with k values getting "
+        "k-ary randomized response at ln(P (k - 1) / (1 - P)) nats, so P >= 1/k for every attribute (default: the "
+        "task file's [filter], else 0.5 0.6 0.7 0.8 0.9)",
     )
     e.add_argument(
         "--context-epsilon",

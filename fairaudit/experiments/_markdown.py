@@ -213,6 +213,36 @@ def _curve_md(d: dict) -> list[str]:
             f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
             f"{_f(p['bounds']['black_box_global'])} |"
         )
+    return lines + _filter_md(d)
+
+
+def _filter_md(d: dict) -> list[str]:
+    """The filter at each requested ε: what was asked, the split rule, and per attribute k, keep p and ε."""
+    points = [p for p in d["points"] if p["privacy"].get("attributes")]
+    if not points:
+        return []
+    asked = (d.get("run") or {}).get("filter") or {}
+    wanted = ""
+    if asked.get("keep") is not None:
+        wanted = f"Asked: keep p = {', '.join(_f(v) for v in asked['keep'])} on every attribute. "
+    elif asked.get("epsilon") is not None:
+        wanted = f"Asked: the candidate's ε = {', '.join(_f(v) for v in asked['epsilon'])} nats. "
+    lines = [
+        "",
+        "### The filter",
+        "",
+        wanted + f"Split rule: {points[0]['privacy']['split']}.",
+        "",
+        "| ε candidate | attribute | values k | keep p | ε (nats) |",
+        "|---|---|---|---|---|",
+    ]
+    for p in points:
+        for a in p["privacy"]["attributes"]:
+            lines.append(
+                f"| {_f(p['epsilon'])} | {a['name']} | {a['values']} | {_f(a['keep_probability'], 6)} | "
+                f"{_f(a['epsilon'], 6)} |"
+            )
+        lines.append(f"| {_f(p['epsilon'])} | profile (sum) | | | {_f(p['privacy']['epsilon_profile'], 6)} |")
     return lines
 
 

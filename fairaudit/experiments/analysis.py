@@ -101,7 +101,8 @@ def candidate_context_mechanism(task: DeliveryTask, context_epsilon: float | Non
 def epsilon_from_keep(task: DeliveryTask, keep: float, positions: str = "balanced") -> float:
     """The candidate's ε when every attribute of every profile is kept with probability ``keep`` (nats).
 
-    ε(M_cand) with attribute i at ln(keep (k_i − 1) / (1 − keep)): for the
+    ε(M_cand) with attribute i, of k_i values, at ln(keep (k_i − 1) / (1 − keep)), exactly, whatever the other
+    attributes' sizes (the split of :meth:`fairaudit.experiments.vlm.filter.PrivacyFilter.from_epsilon`): for the
     paper's pair Σ over the 2 n attributes shown
     (:func:`fairaudit.experiments.slots.candidate_epsilon`); for mixtures
     from the mechanism's matrix.
@@ -114,11 +115,19 @@ def epsilon_from_keep(task: DeliveryTask, keep: float, positions: str = "balance
     """
     from ..privacy import epsilon_from_keep_probability, product
 
-    try:
-        eps = tuple(epsilon_from_keep_probability(float(keep), len(a.values)) for a in task.attributes)
-    except InputError as exc:
-        raise InputError("keep", exc.problem, keep) from None
-    closed = candidate_epsilon(task, eps, positions)
+    eps = []
+    for a in task.attributes:
+        try:
+            eps.append(epsilon_from_keep_probability(float(keep), len(a.values)))
+        except InputError:
+            raise InputError(
+                "keep",
+                f"must be in [1/k, 1] for every attribute; {a.name!r} has k = {len(a.values)} values, so at least "
+                f"{1 / len(a.values):.6g} (below 1/k randomized response would show the true value less often than "
+                "any other)",
+                keep,
+            ) from None
+    closed = candidate_epsilon(task, tuple(eps), positions)
     if closed is not None:
         return closed
     mechs = [randomized_response(a.values, e) for a, e in zip(task.attributes, eps)]
@@ -687,7 +696,7 @@ def analyse_kernel(
     top = max(eps + [1.0])
     dense = np.unique(np.concatenate([np.linspace(0.0, top, grid), eps]))
     curve = privacy_curve(
-        family=candidate_family(task),
+        family=candidate_family(task, positions),
         epsilons=dense,
         kernel=kc,
         utility=utility,

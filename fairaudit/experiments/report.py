@@ -240,12 +240,24 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
 
 
 def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float) -> Report:
-    """The ``privacy`` of a point: the candidate's ε, the profile's, each attribute's ε and keep probability, δ = 0."""
+    """The ``privacy`` of a point: the candidate's ε, the profile's, each attribute's ε and keep probability, δ = 0.
+
+    ``attributes`` lists, per attribute, its number of values k, its keep
+    probability p and its ε = ln(p (k − 1) / (1 − p)) (nats); ``split`` states
+    how the budget is split over them (:data:`fairaudit.experiments.vlm.filter.SPLIT_RULE`).
+    """
+    from .vlm.filter import SPLIT_RULE
+
     return {
         "epsilon_candidate": number(epsilon_candidate),
         "epsilon_profile": number(f.epsilon_profile),
         "epsilon_per_attribute": {a.name: number(e) for a, e in zip(task.attributes, f.epsilon_attributes)},
         "keep_probability_per_attribute": {a.name: number(q) for a, q in zip(task.attributes, f.keep_probabilities)},
+        "attributes": [
+            {"name": a.name, "values": len(a.values), "keep_probability": number(q), "epsilon": number(e)}
+            for a, q, e in zip(task.attributes, f.keep_probabilities, f.epsilon_attributes)
+        ],
+        "split": SPLIT_RULE,
         "delta": 0.0,
         "context_mechanism": f.context_mechanism.name,
     }
@@ -584,16 +596,16 @@ def _keep_axis(
 ) -> tuple[str, Callable[[Any], Any], Callable[[Any], Any]]:
     """The top axis of the curve: (label, ε ↦ keep p of each attribute, p ↦ ε), vectorised.
 
-    The filter at the candidate's ε is randomized response at ε_P / n on each
-    of the n attributes of every profile, ε_P the profile's budget
-    (:func:`fairaudit.experiments.vlm.filter.profile_budget`). When ε = c ε_P
-    for a constant c (2 for the paper's pair, whose profiles both count), each
-    attribute is at ε / d with d = c n, so with k values per attribute
-    p = 1 / (1 + (k − 1) e^{−ε/d}) and ε = d ln(p (k − 1) / (1 − p))
+    The filter at the candidate's ε keeps every attribute of every profile
+    with one probability p (:meth:`fairaudit.experiments.vlm.filter.PrivacyFilter.from_epsilon`):
+    attribute i, with k_i values, at ε_i = ln(p (k_i − 1) / (1 − p)), the
+    profile at ε_P = Σ_i ε_i (:func:`fairaudit.privacy.split_by_keep`; an
+    attribute that p would keep less often than uniformly is shown uniformly).
+    When ε = c ε_P for a constant c (2 for the paper's pair, whose profiles
+    both count) and the k_i are equal, each attribute is at ε / d with d = c n,
+    so p = 1 / (1 + (k − 1) e^{−ε/d}) and ε = d ln(p (k − 1) / (1 − p))
     (:func:`fairaudit.experiments.analysis.epsilon_from_keep`); otherwise the
-    maps go through ε_P numerically. When the attributes have different
-    numbers of values their keep probabilities differ at one ε: the axis is
-    then the ε of each attribute.
+    maps go through ε_P and the split.
 
     Parameters
     ----------
@@ -603,7 +615,7 @@ def _keep_axis(
     Returns
     -------
     tuple of (str, callable, callable)
-        The axis label, ε ↦ value and value ↦ ε, as ``secondary_axis`` of
+        The axis label, ε ↦ p and p ↦ ε, as ``secondary_axis`` of
         :func:`fairaudit.plot.plot_curve` takes them.
 
     Examples
@@ -617,42 +629,43 @@ def _keep_axis(
     >>> round(float(inverse(0.7)), 6), round(float(forward(inverse(0.7))), 12)    # 6 ln(7/3)
     (5.083787, 0.7)
     """
+    from ..privacy import split_by_keep
     from .slots import epsilon_factor
     from .vlm.filter import profile_budget
 
     n = len(task.attributes)
+    sizes = np.array([len(a.values) for a in task.attributes], dtype=float)
     factor = epsilon_factor(task, positions)
     shown = task.slots * n
-    if factor is not None:
+    if factor is not None and np.all(sizes == sizes[0]):
         d = float(factor) * n
-        scale: tuple[Callable[[Any], Any], Callable[[Any], Any]] = (
-            lambda e: np.asarray(e, dtype=float) / d,
-            lambda a: np.asarray(a, dtype=float) * d,
-        )
+        k = sizes[0]
         each = f"{shown} shown, ε / {shown} nats each" if d == shown else f"ε / {d:g} nats each"
-    else:
-        budget = np.vectorize(profile_budget(task, positions), otypes=[float])
 
-        def attribute_to_candidate(a: Any) -> Any:
-            return np.vectorize(lambda x: _candidate_at(task, positions, x * n), otypes=[float])(a)
+        def forward(e: Any) -> Any:
+            with np.errstate(over="ignore"):
+                return 1.0 / (1.0 + (k - 1) * np.exp(-np.asarray(e, dtype=float) / d))
 
-        scale = (lambda e: budget(np.asarray(e, dtype=float)) / n, attribute_to_candidate)
-        each = "ε_P / n nats each"
-    ks = {len(a.values) for a in task.attributes}
-    if len(ks) != 1 or min(ks) < 2:
-        return f"ε of each attribute (nats; {each}: the keep probabilities differ by attribute)", *scale
-    k = ks.pop()
-    to_attr, from_attr = scale
+        def inverse(p: Any) -> Any:
+            q = np.clip(np.asarray(p, dtype=float), np.finfo(float).tiny, np.nextafter(1.0, 0.0))
+            return d * np.log(q * (k - 1) / (1.0 - q))
 
-    def forward(e: Any) -> Any:
+        return f"keep probability p of each attribute ({each})", forward, inverse
+    budget = profile_budget(task, positions)
+    c = np.log(sizes - 1.0)
+
+    def shared_keep(e: float) -> float:  # the one p of the split of the profile's ε_P (its active attributes')
+        split = split_by_keep(max(budget(e), 0.0), sizes.astype(int).tolist())
         with np.errstate(over="ignore"):
-            return 1.0 / (1.0 + (k - 1) * np.exp(-to_attr(e)))
+            return float(np.min(1.0 / (1.0 + (sizes - 1.0) * np.exp(-split))))
 
-    def inverse(p: Any) -> Any:
-        q = np.clip(np.asarray(p, dtype=float), np.finfo(float).tiny, np.nextafter(1.0, 0.0))
-        return from_attr(np.log(q * (k - 1) / (1.0 - q)))
+    def candidate_at(p: float) -> float:
+        q = min(max(p, np.finfo(float).tiny), np.nextafter(1.0, 0.0))
+        profile = float(np.maximum(0.0, np.log(q / (1.0 - q)) + c).sum())
+        return profile * float(factor) if factor is not None else _candidate_at(task, positions, profile)
 
-    return f"keep probability p of each attribute ({each})", forward, inverse
+    label = "keep probability p of each attribute (one p for all: ε = ln(p (k − 1) / (1 − p)) on k values)"
+    return label, np.vectorize(shared_keep, otypes=[float]), np.vectorize(candidate_at, otypes=[float])
 
 
 def _candidate_at(task: DeliveryTask, positions: str, profile_epsilon: float) -> float:

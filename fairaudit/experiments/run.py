@@ -53,6 +53,7 @@ from .options import (
 from .paper_design import PaperDesignAnalysis, analyse_paper_design, paper_design_bounds, write_paper_design
 from .slots import check_size
 from .taskfile import get_task, is_built_in
+from .vlm.filter import SPLIT_RULE
 from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_model, simulated_models
 from .vlm.tasks import DeliveryTask
 
@@ -385,7 +386,7 @@ def run_experiment(
                 log(_scene_line(plan.scene))
         if plan.exact:
             name, make = _exact_route(task, source, plan, progress, log)
-            return _run_exact(task, name, make, plan.out, options.seed, plan.common)
+            return _run_exact(task, name, make, plan, options.seed)
         return _run_sampled(task, plan, source, options, progress, log)
 
 
@@ -435,6 +436,7 @@ class _Plan:
     concurrency: int
     common: _Common
     client: ChatClient | None = None  # the exact route of an endpoint: a client that asks for log-probabilities
+    asked: dict = dataclasses.field(default_factory=dict)  # the filter asked for: {"keep": [...]} or {"epsilon": [...]}
     scene: dict | None = None  # the route images' scene: start, goals, lengths, tolerance (_images)
 
 
@@ -443,6 +445,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     positions = options.positions or task.positions
     keeps = DEFAULT_KEEPS if options.keeps is None else options.keeps
     eps = [epsilon_from_keep(task, k, positions) for k in keeps] if options.epsilons is None else list(options.epsilons)
+    asked = {"keep": [float(k) for k in keeps]} if options.epsilons is None else {"epsilon": [float(e) for e in eps]}
     if options.design == "paper":  # no kernel: the bounds are refused here when they need too large a matrix
         for e in eps:
             paper_design_bounds(task, e, positions, context_epsilon=options.context_epsilon)
@@ -507,6 +510,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         common=common,
         client=client,
         scene=scene,
+        asked={**asked, "split": SPLIT_RULE},
     )
 
 
@@ -572,7 +576,7 @@ def _run_sampled(
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]
     if not summary.complete:
         return ExperimentRun(out=out, summary=summary, analysis=None, files=tuple(files), seconds=summary.seconds)
-    run = {"seed": int(options.seed), "design": options.design, "fairaudit": __version__}
+    run = {"seed": int(options.seed), "design": options.design, "fairaudit": __version__, "filter": plan.asked}
     run["seconds"] = round(summary.seconds, 3)
     if plan.scene is not None:
         run["scene"] = plan.scene
@@ -675,23 +679,28 @@ def _exact_route(
     return source.model, endpoint
 
 
-def _run_exact(
-    task: DeliveryTask, name: str, make_kernel: _KernelMaker, out: Path, seed: int, common: _Common
-) -> ExperimentRun:
+def _run_exact(task: DeliveryTask, name: str, make_kernel: _KernelMaker, plan: _Plan, seed: int) -> ExperimentRun:
     """The exact route: the kernel ``make_kernel`` gives, analysed and written (nothing when it gives none)."""
     from . import local_model as lm
 
+    out = plan.out
     t0 = time.perf_counter()
     probabilities, summary = make_kernel()
     if probabilities is None:  # a request failed: no kernel, nothing written
         seconds = time.perf_counter() - t0
         return ExperimentRun(out=out, summary=summary, analysis=None, files=(), route="exact", seconds=seconds)
-    analysis = analyse_kernel(task, lm.exact_law(task, probabilities), model=name, **common)
+    analysis = analyse_kernel(task, lm.exact_law(task, probabilities), model=name, **plan.common)
     seconds = time.perf_counter() - t0
     files = _write(
         analysis,
         out,
-        {"seed": int(seed), "design": "table", "fairaudit": __version__, "seconds": round(seconds, 3)},
+        {
+            "seed": int(seed),
+            "design": "table",
+            "fairaudit": __version__,
+            "filter": plan.asked,
+            "seconds": round(seconds, 3),
+        },
     )
     return ExperimentRun(
         out=out, summary=summary, analysis=analysis, files=tuple(files), route="exact", seconds=seconds

@@ -443,28 +443,42 @@ def candidate_epsilon(task: DeliveryTask, attribute_epsilons: tuple, positions: 
     """
     if task.population == "all":
         return float(sum(attribute_epsilons))
+    d = _view_differences(task, positions)
+    if d is None:
+        return None
+    return float(np.max(d @ np.asarray(attribute_epsilons, dtype=float), initial=0.0))
+
+
+def _view_differences(task: DeliveryTask, positions: str) -> IntArray | None:
+    """For every two candidates of a point-mass design, in how many slots their views differ in each attribute.
+
+    Shape (n_pairs, n_attributes); None for mixtures (:func:`point_views`).
+    """
     views = point_views(task, positions)
     if views is None:
         return None
-    profiles = task.profiles
-    eps = np.asarray(attribute_epsilons, dtype=float)
-
-    def distance(a: tuple[int, ...], b: tuple[int, ...]) -> float:
-        differ = [[x != y for x, y in zip(profiles[s], profiles[t])] for s, t in zip(a, b)]
-        return float(np.sum(np.asarray(differ, dtype=float) @ eps))
-
-    cells = list(views.values())
-    return max((distance(a, b) for a, b in itertools.combinations(cells, 2)), default=0.0)
+    profiles = np.asarray([[task.attributes[j].values.index(v) for j, v in enumerate(p)] for p in task.profiles])
+    cells = np.asarray(list(views.values()), dtype=np.int64)  # (candidates, k): the profile in each slot of the view
+    a, b = np.triu_indices(len(cells), k=1)
+    shown_a, shown_b = profiles[cells[a]], profiles[cells[b]]  # (pairs, k, attributes)
+    return np.sum(shown_a != shown_b, axis=1)
 
 
 def epsilon_factor(task: DeliveryTask, positions: str = "balanced") -> Fraction | None:
-    """ε(M_cand) / ε(M_P) with every attribute at ε_P / n, exactly, when it is a constant; None for mixtures.
+    """ε(M_cand) / ε(M_P) when it is the same constant for every split of ε_P over the attributes; None otherwise.
 
-    1 for ``"all"``; for a point-mass design (:func:`candidate_epsilon`) the
-    most attribute values in which two candidates' views differ, over the
-    number of attributes: 2 for the paper's pair, which differ in every
-    attribute, own and rival. Mixtures (``"distinct"`` with several
-    combinations, several listed ones) have no constant ratio.
+    1 for ``"all"`` (ε(M_cand) = Σ ε_i). For a point-mass design
+    (:func:`candidate_epsilon`: the largest, over two candidates, of Σ_i d_i
+    ε_i with d_i the slots in which their views differ in attribute i) the
+    ratio is a constant c for every ε ≥ 0 exactly when some two candidates
+    differ in c slots in every attribute and no two in more: 2 for the
+    paper's pair, which differ in every attribute, own and rival. When every
+    attribute has the same number of values the filter splits ε_P evenly
+    (:func:`fairaudit.privacy.split_by_keep`), and the ratio is then the most
+    attribute values in which two views differ over the number of attributes.
+    Mixtures (``"distinct"`` with several combinations, several listed ones)
+    and other point masses have no constant ratio: ε_P is then found by root
+    finding (:func:`fairaudit.experiments.vlm.filter.profile_budget`).
 
     Examples
     --------
@@ -473,8 +487,19 @@ def epsilon_factor(task: DeliveryTask, positions: str = "balanced") -> Fraction 
     Fraction(2, 1)
     """
     n = len(task.attributes)
-    total = candidate_epsilon(task, (1.0,) * n, positions)
-    return None if total is None else Fraction(round(total), n)
+    if task.population == "all":
+        return Fraction(1)
+    d = _view_differences(task, positions)
+    if d is None:
+        return None
+    if len(d) == 0:
+        return Fraction(0)
+    if len({len(a.values) for a in task.attributes}) == 1:  # an even split: ε_i = ε_P / n
+        return Fraction(int(d.sum(axis=1).max()), n)
+    top = d.max(axis=0)
+    if np.all(top == top[0]) and np.any(np.all(d == top, axis=1)):
+        return Fraction(int(top[0]))
+    return None
 
 
 def expected_utility(task: DeliveryTask, probabilities: FloatArray, utility_values: FloatArray) -> FloatArray:

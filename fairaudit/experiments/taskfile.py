@@ -186,6 +186,16 @@ class TaskFile(StrictModel):
         for i, a in enumerate(self.filter.attributes or ()):
             if a not in names:
                 raise FieldProblem(f".filter.attributes[{i}]", f"is not an attribute ({', '.join(names)})", a)
+        narrowest = min(self.attribute, key=lambda a: len(a.values))  # the largest floor 1/k
+        for i, p in enumerate(self.filter.keep or ()):
+            if p < 1 / len(narrowest.values):  # applied to every attribute: randomized response keeps at least 1/k
+                raise FieldProblem(
+                    f".filter.keep[{i}]",
+                    f"is applied to every attribute and must be at least 1/k for each; {narrowest.name!r} has "
+                    f"k = {len(narrowest.values)} values, so at least {1 / len(narrowest.values):.6g} (below 1/k randomized "
+                    "response would show the true value less often than any other)",
+                    p,
+                )
         if self.task.candidates == 1 and self.task.decision == "rank":
             raise FieldProblem(".task.decision", "a ranking needs at least 2 candidates", "rank")
         if self.decision.partial and (self.task.decision != "rank" or self.task.candidates < 3):

@@ -12,6 +12,10 @@ The correct privacy budgets (docs/design.md, the paper's errors 1 and 2):
 * a profile of several attributes randomized independently is a product
   mechanism; with every pair of profiles adjacent its ε is the **sum** of the
   attributes' (3 ln(7/3) = 2.542 nats for name, age and race at p = 0.7);
+* one keep probability p on every attribute gives an attribute with k values
+  ε = ln(p (k − 1) / (1 − p)), so a profile's budget is split by that rule, not
+  evenly (:func:`fairaudit.privacy.split_by_keep`): age (3 values), gender (2)
+  and race (3) at p = 0.6 are ln 3, ln 1.5 and ln 3 nats;
 * the query shows every candidate's profile. In the paper's experiment a
   candidate's profile also fixes its rival's (Tom faces Mary, Mary faces Tom),
   so what the model sees about a candidate's group is the pair of released
@@ -34,10 +38,25 @@ import numpy as np
 from scipy.optimize import brentq
 
 from ..._validation import real
-from ...privacy import Mechanism, MechanismFamily, identity, keep_probability, product, randomized_response
+from ...privacy import (
+    Mechanism,
+    MechanismFamily,
+    identity,
+    keep_probability,
+    product,
+    randomized_response,
+    split_by_keep,
+)
 from .tasks import DeliveryTask
 
-__all__ = ["PrivacyFilter", "candidate_family", "profile_budget"]
+__all__ = ["SPLIT_RULE", "PrivacyFilter", "candidate_family", "profile_budget"]
+
+SPLIT_RULE = (
+    "one keep probability p on every attribute: an attribute with k values gets k-ary randomized response at "
+    "epsilon = ln(p (k - 1) / (1 - p)) (0, shown uniformly at random, where p < 1/k); a profile's epsilon is the sum "
+    "over its attributes, and a candidate's that of everything its prompt shows about it"
+)
+"""How a privacy budget is split over a profile's attributes (:meth:`PrivacyFilter.from_epsilon`), as reports state it."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,22 +81,31 @@ class PrivacyFilter:
 
     @classmethod
     def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> PrivacyFilter:
-        """The filter whose profile mechanism has privacy budget ``epsilon``, split equally over the attributes.
+        """The filter whose profile mechanism has privacy budget ``epsilon``, every attribute kept with one probability.
+
+        The split rule (:func:`fairaudit.privacy.split_by_keep`): every
+        attribute keeps its value with the same probability p, so attribute i
+        with k_i values gets ε_i = ln(p (k_i − 1) / (1 − p)) and Σ ε_i =
+        ``epsilon``. An attribute that p would keep less often than uniformly
+        (p < 1/k_i) is shown uniformly at random (ε_i = 0). Attributes with
+        the same number of values get ``epsilon`` / n each; a keep probability
+        p given for every attribute is exactly this split of Σ_i ln(p (k_i −
+        1) / (1 − p)).
 
         Parameters
         ----------
         task : DeliveryTask
         epsilon : float
-            ε of one candidate's profile (nats, ≥ 0, +inf for no filter). Each
-            of the n attributes gets randomized response at ε / n, so the
-            product's ε is ``epsilon`` (paper's error 2).
+            ε of one candidate's profile (nats, ≥ 0, +inf for no filter), the
+            sum of its attributes' ε (every pair of profiles adjacent; the
+            paper's error 2).
         context_epsilon : float, optional
             ε of randomized response on the context; None for the identity.
 
         Raises
         ------
         InputError
-            If an ε is negative or NaN (naming ``--epsilon`` or ``--context-epsilon``).
+            If an ε is negative or NaN (naming ``epsilon`` or ``context_epsilon``).
 
         Examples
         --------
@@ -92,9 +120,10 @@ class PrivacyFilter:
         5.083787
         """
         eps = _nats(epsilon, "epsilon")
-        n = len(task.attributes)
+        split = split_by_keep(eps, [len(a.values) for a in task.attributes])
         mechs = tuple(
-            randomized_response(a.values, eps / n, name=f"randomized response on {a.name}") for a in task.attributes
+            randomized_response(a.values, float(e), name=f"randomized response on {a.name}")
+            for a, e in zip(task.attributes, split)
         )
         if context_epsilon is None:
             ctx = identity(task.contexts, name=f"identity on {task.context_name}")
@@ -181,14 +210,17 @@ class PrivacyFilter:
 
 
 def candidate_family(task: DeliveryTask, positions: str = "balanced") -> MechanismFamily:
-    """ε ↦ M_cand at candidate budget ε, every attribute of every profile at the same ε_P / n.
+    """ε ↦ M_cand at candidate budget ε, every attribute of every profile kept with one probability.
 
     The member at ε has ε(M_cand) = ε (nats): ε_P = ε / c when the ratio c =
     ε(M_cand) / ε_P is a constant (:func:`fairaudit.experiments.slots.epsilon_factor`:
     2 for the paper's pair, each profile at ε / 2), else ε_P solves
     ε(M_cand(ε_P)) = ε (M_cand at a smaller ε_P is a garbling of the one at
-    a larger, so the map is monotone). Its keep probability is the chance that
-    a candidate's own profile is shown unchanged, Π_i e^{ε_P/n} / (e^{ε_P/n} + k_i − 1).
+    a larger, so the map is monotone). ε_P is split over the attributes by
+    one keep probability (:meth:`PrivacyFilter.from_epsilon`,
+    :func:`fairaudit.privacy.split_by_keep`). The family's keep probability
+    is the chance that a candidate's own profile is shown unchanged,
+    Π_i e^{ε_i} / (e^{ε_i} + k_i − 1).
 
     Examples
     --------
@@ -199,15 +231,15 @@ def candidate_family(task: DeliveryTask, positions: str = "balanced") -> Mechani
     >>> round(fam(eps).epsilon, 6), round(fam.keep_probability(eps), 6)
     (5.083787, 0.343)
     """
-    n = len(task.attributes)
+    sizes = [len(a.values) for a in task.attributes]
     profile_epsilon = profile_budget(task, positions)
 
     def build(eps: float) -> Mechanism:
         return PrivacyFilter.from_epsilon(task, profile_epsilon(eps)).candidate_mechanism(positions)
 
     def keep(eps: float) -> float:
-        e = profile_epsilon(eps)
-        return float(np.prod([keep_probability(e / n, len(a.values)) for a in task.attributes]))
+        split = split_by_keep(profile_epsilon(eps), sizes)
+        return float(np.prod([keep_probability(float(e), k) for e, k in zip(split, sizes)]))
 
     inputs = tuple(task.profile_label(c) for c in task.candidates)
     return MechanismFamily(f"randomized response on each attribute of every profile ({task.name})", inputs, build, keep)

@@ -58,7 +58,9 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="a simulated model: prefers-mary, position-biased, fair "
         "(hr-delivery); low-complaint-first, high-complaint-first, position-biased, fair "
-        "(package-delivery); default the first",
+        "(package-delivery); prefers-first, prefers-second, position-biased, fair (a task file: picks the "
+        "candidate whose shown profile shares most values with the first or second true candidate, the first slot "
+        "with probability 0.82, or evenly); default the first",
     )
     m.add_argument("--kernel", metavar="FILE", help="a simulated model from a kernel table (a run's kernel.csv)")
     m.add_argument(

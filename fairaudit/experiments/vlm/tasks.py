@@ -39,10 +39,13 @@ from ..._errors import InputError
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["PROMPT_FILTERS", "UNPARSED", "Attribute", "DeliveryTask", "render_prompt"]
+__all__ = ["PROMPT_FILTERS", "UNPARSED", "UNPARSED_DEFAULT", "Attribute", "DeliveryTask", "render_prompt"]
 
 UNPARSED = "unparsed"
 """Label of the decision recorded when a reply cannot be parsed (counted, never dropped)."""
+
+UNPARSED_DEFAULT = "default: expected g of a uniformly random reply"
+""":attr:`DeliveryTask.unparsed_source` when a task file gives no ``[utility] unparsed`` (docs/tasks.md)."""
 
 
 @dataclass(frozen=True)
@@ -95,6 +98,10 @@ class DeliveryTask:
         g(u) for each outcome (workload, or waiting time in one-way trips).
     utility_name : str
         What g measures, for reports.
+    unparsed_source : str
+        Where g of ``"unparsed"`` (the last of :attr:`utility_values`) came from: ``"given"`` (a task file's
+        ``[utility] unparsed``, or the caller's value), or :data:`UNPARSED_DEFAULT`, the expected g of a
+        uniformly random reply (:attr:`unparsed_rule`).
     template : str
         The user prompt, a Jinja2 template (:func:`render_prompt`).
     system : str or None
@@ -153,6 +160,53 @@ class DeliveryTask:
     keeps: tuple | None = None
     epsilons: tuple | None = None
     digest: str = ""
+    unparsed_source: str = "given"
+
+    @property
+    def unparsed_rule(self) -> str:
+        """How g of an unparsed reply was set, in words (the reports' ``utility.unparsed.rule``).
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import parse_task
+        >>> t = parse_task('''
+        ... [task]
+        ... candidates = 3
+        ... [prompt]
+        ... user = "Choose one of {{ candidates }}"
+        ... [[attribute]]
+        ... name = "group"
+        ... values = ["A", "B"]
+        ... [decision]
+        ... options = { "1" = 1, "2" = 2, "3" = 3 }
+        ... [utility]
+        ... values = { chosen = 1, "not chosen" = 0 }
+        ... ''')
+        >>> t.utility_values[-1] == 1 / 3, t.unparsed_source
+        (True, 'default: expected g of a uniformly random reply')
+        >>> t.unparsed_rule
+        'a uniformly random reply chooses each of the 3 candidates with probability 1/3: g = 1/3 g(chosen) + 2/3 g(not chosen)'
+        """
+        if self.unparsed_source != UNPARSED_DEFAULT:
+            return "given ([utility] unparsed)"
+        k = self.slots
+        if k == 1:
+            n = len(self.options)
+            return (
+                f"a uniformly random reply gives each of the {n} options with probability 1/{n}: g = the mean of g "
+                "over the options' outcomes (an outcome of two options counts twice)"
+            )
+        if self.kind == "choice":
+            chosen, other = self.outcomes[:2]
+            return (
+                f"a uniformly random reply chooses each of the {k} candidates with probability 1/{k}: "
+                f"g = 1/{k} g({chosen}) + {k - 1}/{k} g({other})"
+            )
+        never = ", never unranked" if self.partial else ""
+        return (
+            f"a uniformly random reply is one of the {math.factorial(k)} complete orders, each equally likely, so a "
+            f"candidate takes each rank with probability 1/{k}{never}: g = the mean of g over ranks 1 to {k}"
+        )
 
     @functools.cached_property
     def profiles(self) -> tuple:

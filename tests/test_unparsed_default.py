@@ -108,7 +108,9 @@ def test_a_given_unparsed_value_is_kept_and_called_given():
     assert task.unparsed_rule == "given ([utility] unparsed)"
 
 
-CHOOSE_3 = HEAD.format(k=3, decision="choose") + """
+CHOOSE_3 = (
+    HEAD.format(k=3, decision="choose")
+    + """
 [decision]
 options = { "1" = 1, "2" = 2, "3" = 3 }
 [utility]
@@ -116,9 +118,12 @@ values = { chosen = 1.0, "not chosen" = 0.0 }
 [filter]
 keep = [0.8]
 """
+)
 
 
-@pytest.mark.parametrize(("extra", "value", "source"), [("", 1 / 3, UNPARSED_DEFAULT), ("unparsed = 0.25\n", 0.25, "given")])
+@pytest.mark.parametrize(
+    ("extra", "value", "source"), [("", 1 / 3, UNPARSED_DEFAULT), ("unparsed = 0.25\n", 0.25, "given")]
+)
 def test_the_certificate_and_the_report_say_the_value_used_and_where_it_came_from(
     tmp_path, capsys, extra, value, source
 ):

@@ -436,18 +436,35 @@ def _population(f: TaskFile, attributes: tuple[Attribute, ...]) -> tuple[Literal
     for n, combo in enumerate(pop):
         if len(combo) != k:
             raise InputError(f"task.population[{n}]", f"must list one profile per candidate ({k})", combo)
-        profiles = []
-        for i, p in enumerate(combo):
-            if len(p) != len(attributes) or any(v not in a.values for v, a in zip(p, attributes)):
-                names = ", ".join(a.name for a in attributes)
-                raise InputError(f"task.population[{n}][{i}]", f"must give one value of each attribute ({names})", p)
-            profiles.append(tuple(p))
-        if len(set(profiles)) < k:
-            raise InputError(f"task.population[{n}]", "the candidates of a combination must differ", combo)
+        profiles = [_listed_profile(p, attributes, f"task.population[{n}][{i}]") for i, p in enumerate(combo)]
+        twice = next(((i, j) for j in range(k) for i in range(j) if profiles[i] == profiles[j]), None)
+        if twice is not None:
+            i, j = twice
+            raise InputError(
+                f"task.population[{n}]",
+                f"the candidates of a combination must differ: candidates {i + 1} and {j + 1} have the same profile "
+                f"{list(profiles[i])!r}, so the prompt sets that group against itself (their records differ only "
+                'by slot); list different profiles, or population = "all", whose prompts include equal ones',
+                combo,
+            )
         out.append(tuple(profiles))
     if not out:
         raise InputError("task.population", "must list at least one combination of candidates", pop)
     return "listed", tuple(out)
+
+
+def _listed_profile(p: list[Any], attributes: tuple[Attribute, ...], field: str) -> tuple:
+    """One candidate of ``[task] population`` as a profile: a value of each attribute, in attribute order."""
+    names = ", ".join(a.name for a in attributes)
+    if len(p) != len(attributes):
+        raise InputError(
+            field, f"must give {len(attributes)} values, one of each attribute in order ({names}); it gives {len(p)}", p
+        )
+    for v, a in zip(p, attributes):
+        if v not in a.values:
+            valid = ", ".join(repr(x) for x in a.values)
+            raise InputError(field, f"{v!r} is not a value of the attribute {a.name!r}, whose values are {valid}", p)
+    return tuple(p)
 
 
 def _distinct(attributes: tuple[Attribute, ...], k: int) -> list[tuple]:

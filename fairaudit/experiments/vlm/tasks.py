@@ -545,6 +545,21 @@ def _environment() -> Any:
             "prompt", "needs jinja2, which is not installed: pip install 'fairaudit[experiment]'"
         ) from None
 
+    class PromptUndefined(StrictUndefined):
+        """A name the template asks for and the prompt does not have; a candidate's missing field is said so."""
+
+        __slots__ = ()
+
+        @property
+        def _undefined_message(self) -> str:
+            if (
+                not self._undefined_hint  # the sandbox's own refusals keep their words
+                and isinstance(self._undefined_obj, _Candidate)
+                and isinstance(self._undefined_name, str)
+            ):
+                return f"a candidate has no field {self._undefined_name!r}"
+            return str(super()._undefined_message)
+
     class PromptEnvironment(ImmutableSandboxedEnvironment):
         intercepted_binops = frozenset(["+", "-", "*", "/", "//", "%", "**"])
         intercepted_unops = frozenset(["+", "-"])
@@ -558,7 +573,7 @@ def _environment() -> Any:
         def call(self, context: Any, obj: Any, *args: Any, **kwargs: Any) -> Any:
             raise SecurityError("calls are not allowed in a prompt (use a filter: " + ", ".join(PROMPT_FILTERS) + ")")
 
-    env = PromptEnvironment(undefined=StrictUndefined, autoescape=False, keep_trailing_newline=True)
+    env = PromptEnvironment(undefined=PromptUndefined, autoescape=False, keep_trailing_newline=True)
     env.filters = {name: env.filters[name] for name in PROMPT_FILTERS}
     env.tests = {name: env.tests[name] for name in ("defined", "undefined", "none", "number", "string", "in")}
     env.globals.clear()
@@ -601,14 +616,45 @@ def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping
     >>> render_prompt("{{ c1.__class__ }}", "job", [{"name": "Ann"}], field="prompt.user")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: prompt.user: cannot be rendered: access to attribute '__class__' of '_Candidate' object is unsafe.
+    fairaudit._errors.InputError: prompt.user: cannot be rendered: access to attribute '__class__' of '_Candidate' object is unsafe. (template line 1)
+
+    A name that does not exist is named with the template's line, and the names that do are listed:
+
+    >>> render_prompt("Who?\\n{{ c1.agee }}", "job", [{"name": "Ann", "age": 30}], field="prompt.user")
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: prompt.user: cannot be rendered: a candidate has no field 'agee' (template line 2); the variables are context, candidates, c1, and a candidate's fields are name, age ({{ c1.name }})
     """
     env = _environment()  # first: without Jinja2, one line naming the install
-    from jinja2 import TemplateError
+    from jinja2 import TemplateError, TemplateSyntaxError, UndefinedError
 
     shown = [_Candidate(c) for c in candidates]
     names = {f"c{i + 1}": c for i, c in enumerate(shown)}
     try:
         return str(_template(env, template).render(context=context, candidates=shown, **names))
     except (TemplateError, TypeError, ValueError, OverflowError, RecursionError) as exc:  # include/extends: TypeError
-        raise InputError(field, f"cannot be rendered: {exc}") from None
+        line = exc.lineno if isinstance(exc, TemplateSyntaxError) else _template_line(exc)
+        problem = f"cannot be rendered: {exc}" + ("" if line is None else f" (template line {line})")
+        if isinstance(exc, UndefinedError):
+            problem += "; " + _valid_names(candidates)
+        raise InputError(field, problem) from None
+
+
+def _template_line(exc: BaseException) -> int | None:
+    """The template's line where rendering failed: Jinja2 puts it in the traceback as a frame of ``<template>``."""
+    line, tb = None, exc.__traceback__
+    while tb is not None:
+        if tb.tb_frame.f_code.co_filename == "<template>":
+            line = tb.tb_lineno
+        tb = tb.tb_next
+    return line
+
+
+def _valid_names(candidates: Sequence[Mapping[str, Any]]) -> str:
+    """What a prompt template may name: its variables and a candidate's fields."""
+    k = len(candidates)
+    slots = ", ".join(f"c{i}" for i in range(1, k + 1)) if k <= 4 else f"c1 to c{k}"
+    fields = list(candidates[0]) if candidates else []
+    example = fields[0] if fields else "name"
+    shown = f"{{{{ c1.{example} }}}}" if example.isidentifier() else f'{{{{ c1["{example}"] }}}}'
+    return f"the variables are context, candidates, {slots}, and a candidate's fields are {', '.join(fields)} ({shown})"

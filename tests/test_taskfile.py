@@ -157,7 +157,7 @@ BASE = SHORTLIST.read_text()
         (("{{ context }} role. Answer", "{{ context * 1000000000 }} role. Answer"), "prompt.system: cannot be rendered: arithmetic (*)"),
         (("candidates = 2", "candidates = 3"), "decision.options: must name each candidate slot 1 to 3 exactly once"),
         (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = [[["Emily", "engineering"], ["Emily", "engineering"]]]'), "task.population[0]: the candidates of a combination must differ"),
-        (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = [[["Emily", "hr"], ["Lakisha", "sales"]]]'), "task.population[0][0]: must give one value of each attribute (name, department)"),
+        (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = [[["Emily", "hr"], ["Lakisha", "sales"]]]'), "task.population[0][0]: 'hr' is not a value of the attribute 'department', whose values are 'engineering', 'sales'"),
         (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = [[["Emily", "engineering"]]]'), "task.population[0]: must list one profile per candidate (2)"),
         (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = []'), "task.population: must list at least one combination of candidates"),
         (('candidates = 2\ndecision = "choose"', 'candidates = 1\ndecision = "rank"'), "task.decision: a ranking needs at least 2 candidates (got 'rank')"),

@@ -8,6 +8,7 @@ every supported spelling decode to the decision an independent oracle gives.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from hypothesis import given
@@ -18,6 +19,7 @@ from fairaudit.experiments.vlm.parse import ParsedReply, parse_reply
 
 HR = ("HR1", "HR2")
 RECIPIENTS = ("Recipient1", "Recipient2")
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def choice(text, options=HR):
@@ -519,3 +521,78 @@ def test_generated_replies_match_an_oracle(case):
         expected = values.index(1) if sorted(values) == [1, 2] else None
     assert r.choice == expected
     assert r.ok == (expected is not None) and r.fallback is False
+
+
+# --------------------------------------------------------------------------- numbers name numbered options only
+
+
+@pytest.mark.parametrize("text", ["1", "2", " 1.", "2\n"])
+def test_digits_name_no_option_of_yes_and_no(text):
+    # issue 38: with options {yes, no} (examples/tasks/loan.toml) a reply "1" or "2" is no answer the prompt offered
+    r = choice(text, ("yes", "no"))
+    assert not r.ok and r.choice is None
+    assert choice(text, HR).ok  # the same reply names HR1 or HR2, whose keys end in their numbers
+
+
+@pytest.mark.parametrize(
+    ("text", "kind", "options"),
+    [
+        ('{"answer": 1}', "choice", ("yes", "no")),
+        ('{"selected": "2"}', "choice", ("yes", "no")),
+        ('{"order": [2, 1]}', "order", ("Alice", "Bob")),
+        ('{"first": 2}', "order", ("Alice", "Bob")),
+    ],
+)
+def test_json_indices_name_no_option_unless_numbered(text, kind, options):
+    assert not parse_reply(text, options, kind).ok
+
+
+@pytest.mark.parametrize(
+    ("text", "options", "index"),
+    [
+        ("1", ("1", "2"), 0),
+        ("2", ("1", "2"), 1),
+        ("1", ("2", "1"), 1),  # keys out of order: "1" is the key "1", not the first option
+        ("2", ("2", "1"), 0),
+        ("3", ("1", "2", "3"), 2),
+        ("2", ("Applicant 1", "Applicant 2"), 1),
+        ('{"answer": 2}', ("1", "2"), 1),
+        ('{"answer": 1}', ("yes", "no"), None),
+        ("yes", ("yes", "no"), 0),
+        ("No.", ("yes", "no"), 1),
+    ],
+)
+def test_digits_still_name_numbered_options(text, options, index):
+    r = choice(text, options)
+    assert (r.ok, r.choice) == (index is not None, index)
+
+
+def test_the_loan_task_reads_words_not_digits_on_every_route():
+    import math
+
+    from fairaudit.experiments import local_model as lm
+    from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, load_task
+    from fairaudit.experiments.vlm.logprobs import decision_probabilities
+
+    loan = load_task(ROOT / "examples" / "tasks" / "loan.toml")
+    assert loan.options == ("yes", "no")
+
+    class Tokenizer:  # one-token replies, as the in-process exact route decodes them
+        pieces = ["1", "2", "yes", " no", "Yes"]
+
+        def __len__(self):
+            return len(self.pieces)
+
+        def decode(self, ids, skip_special_tokens=False):
+            return self.pieces[ids[0]]
+
+    assert lm.token_decisions(loan, Tokenizer()).tolist() == [2, 2, 0, 1, 0]  # 2 = unparsed
+    # the HTTP exact route: P(yes) = 0.3 + 0.05, P(no) = 0.1, the digits' 0.5 is unparsed (it was read as yes)
+    top = [("1", math.log(0.5)), ("yes", math.log(0.3)), (" no", math.log(0.1)), ("Yes", math.log(0.05))]
+    assert decision_probabilities(top, loan).round(12).tolist() == [0.35, 0.1, 0.55]
+    # the built-in tasks' exact routes ask for "1" or "2" and still read them
+    for task in (HR_DELIVERY, PACKAGE_DELIVERY):
+        shown, answers = lm.exact_prompt(task)
+        assert answers == ("1", "2")
+        assert [parse_reply(a, shown.options, shown.kind).choice for a in answers] == [0, 1]
+        assert lm.token_decisions(task, Tokenizer()).tolist() == [0, 1, 2, 2, 2]

@@ -54,10 +54,21 @@ def _framing_md(d: dict) -> list[str]:
         f"Per-candidate framing: context = {where}, group = the "
         f"candidate's true profile ({who}), outcome = its own; "
         f"utility: {d['utility']['name']}."
+        + _unparsed_md(d["utility"])
         + (f" Positions: {d['positions']}." if slots > 1 else " One candidate per prompt."),
         "",
     ]
     return lines
+
+
+def _unparsed_md(utility: dict) -> str:
+    """The sentence on g of an unparsed reply: its value, given or the default, and the rule."""
+    u = utility.get("unparsed")
+    if u is None:
+        return ""
+    if u["source"] == "given":
+        return f" An unparsed reply counts g = {_f(u['value'])} (given: `[utility] unparsed`)."
+    return f" An unparsed reply counts g = {_f(u['value'])} ({u['source']}: {u['rule']})."
 
 
 def _intro_md(d: dict) -> list[str]:

@@ -46,7 +46,7 @@ from ..utility import Utility
 from ._markdown import paper_design_markdown
 from .analysis import candidate_context_mechanism, candidate_utility, paper_design_point
 from .harness import paper_queries_needed
-from .report import privacy_dict, write_frame, write_json
+from .report import privacy_dict, utility_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
@@ -385,7 +385,7 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: Report | None = None) 
             "unparsed": a.unparsed,
             "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
-        "utility": {"name": t.utility_name, "values": dict(zip(t.outcomes, map(number, t.utility_values)))},
+        "utility": utility_dict(t),
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {"queries": a.baseline.queries, **_observed(a.baseline)},

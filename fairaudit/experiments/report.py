@@ -263,6 +263,21 @@ def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float)
     }
 
 
+def utility_dict(task: DeliveryTask) -> Report:
+    """The ``utility`` of a report: g's name, its value per outcome, and ``unparsed``, the value an unparsed reply
+    counts with ``source`` (``"given"``, or ``"default: expected g of a uniformly random reply"``) and ``rule``
+    (how it was set, in words: :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.unparsed_rule`)."""
+    return {
+        "name": task.utility_name,
+        "values": dict(zip(task.outcomes, map(number, task.utility_values))),
+        "unparsed": {
+            "value": number(task.utility_values[-1]),
+            "source": task.unparsed_source,
+            "rule": task.unparsed_rule,
+        },
+    }
+
+
 def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
     return {
         "epsilon": number(p.epsilon),
@@ -286,7 +301,9 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     Keys: ``experiment``, ``model``, ``route`` (``"sampled"``: estimated
     from queries; ``"exact"``: the model's own law), ``positions``,
     ``samples``, ``queries`` (answered per design, unparsed, the mean
-    unparsed share, and what each design needs), ``utility``,
+    unparsed share, and what each design needs), ``utility`` (g per
+    outcome, and ``unparsed``: the value an unparsed reply counts, whether
+    it was given or the default, and the rule: :func:`utility_dict`),
     ``confidence``, ``baseline`` (no filter: L, L̄ and the decision shares of
     the true profiles in both orders), ``position_split`` (the raw log ratio
     of the paper's order, its position and group parts and the share of it
@@ -327,7 +344,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             "table_design_needs": table_queries_needed(t, a.samples),
             "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
-        "utility": {"name": t.utility_name, "values": dict(zip(t.outcomes, map(number, t.utility_values)))},
+        "utility": utility_dict(t),
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {

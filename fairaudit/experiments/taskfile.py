@@ -27,6 +27,7 @@ import hashlib
 import itertools
 import math
 from collections.abc import Hashable
+from fractions import Fraction
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
@@ -36,7 +37,7 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 from .._arrays import format_label
 from .._errors import InputError
 from .._toml import FieldProblem, Number, StrictModel, distinct_labels, parse_toml, validation_error
-from .vlm.tasks import UNPARSED, Attribute, DeliveryTask
+from .vlm.tasks import UNPARSED, UNPARSED_DEFAULT, Attribute, DeliveryTask
 
 __all__ = [
     "BUILT_IN",
@@ -384,7 +385,10 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         options = tuple(sorted(listed, key=lambda key: listed[key]))
     outcomes = _outcome_labels(f)
     values = _utility_values(f, outcomes)
-    unparsed = f.utility.unparsed if f.utility.unparsed is not None else sum(values) / len(values)
+    if f.utility.unparsed is None:
+        unparsed, unparsed_source = _random_reply_utility(f, values), UNPARSED_DEFAULT
+    else:
+        unparsed, unparsed_source = float(f.utility.unparsed), "given"
     context = f.context or ContextSection(values=["all"])
     task = DeliveryTask(
         name=name,
@@ -400,6 +404,7 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         outcomes=(*outcomes, UNPARSED),
         utility_values=(*values, float(unparsed)),
         utility_name=f.utility.name or _utility_name(outcomes, values, unparsed),
+        unparsed_source=unparsed_source,
         template=f.prompt.user,
         system=f.prompt.system,
         shown_text=text,
@@ -441,18 +446,35 @@ def _population(f: TaskFile, attributes: tuple[Attribute, ...]) -> tuple[Literal
     for n, combo in enumerate(pop):
         if len(combo) != k:
             raise InputError(f"task.population[{n}]", f"must list one profile per candidate ({k})", combo)
-        profiles = []
-        for i, p in enumerate(combo):
-            if len(p) != len(attributes) or any(v not in a.values for v, a in zip(p, attributes)):
-                names = ", ".join(a.name for a in attributes)
-                raise InputError(f"task.population[{n}][{i}]", f"must give one value of each attribute ({names})", p)
-            profiles.append(tuple(p))
-        if len(set(profiles)) < k:
-            raise InputError(f"task.population[{n}]", "the candidates of a combination must differ", combo)
+        profiles = [_listed_profile(p, attributes, f"task.population[{n}][{i}]") for i, p in enumerate(combo)]
+        twice = next(((i, j) for j in range(k) for i in range(j) if profiles[i] == profiles[j]), None)
+        if twice is not None:
+            i, j = twice
+            raise InputError(
+                f"task.population[{n}]",
+                f"the candidates of a combination must differ: candidates {i + 1} and {j + 1} have the same profile "
+                f"{list(profiles[i])!r}, so the prompt sets that group against itself (their records differ only "
+                'by slot); list different profiles, or population = "all", whose prompts include equal ones',
+                combo,
+            )
         out.append(tuple(profiles))
     if not out:
         raise InputError("task.population", "must list at least one combination of candidates", pop)
     return "listed", tuple(out)
+
+
+def _listed_profile(p: list[Any], attributes: tuple[Attribute, ...], field: str) -> tuple:
+    """One candidate of ``[task] population`` as a profile: a value of each attribute, in attribute order."""
+    names = ", ".join(a.name for a in attributes)
+    if len(p) != len(attributes):
+        raise InputError(
+            field, f"must give {len(attributes)} values, one of each attribute in order ({names}); it gives {len(p)}", p
+        )
+    for v, a in zip(p, attributes):
+        if v not in a.values:
+            valid = ", ".join(repr(x) for x in a.values)
+            raise InputError(field, f"{v!r} is not a value of the attribute {a.name!r}, whose values are {valid}", p)
+    return tuple(p)
 
 
 def _distinct(attributes: tuple[Attribute, ...], k: int) -> list[tuple]:
@@ -476,6 +498,26 @@ def _utility_values(f: TaskFile, outcomes: tuple[str, ...]) -> list[float]:
     if isinstance(values, list):
         return [float(v) for v in values]
     return [float(values[o]) for o in outcomes]
+
+
+def _random_reply_utility(f: TaskFile, values: list[float]) -> float:
+    """The default g of an unparsed reply: the expected g of a candidate under a uniformly random reply.
+
+    One candidate (options -> decision values): each listed option with probability 1/n, so the mean of g over the
+    options' outcomes (an outcome listed by two options counts twice). ``choose`` of k ≥ 2: each slot chosen with
+    probability 1/k, so (1/k) g(chosen) + (1 − 1/k) g(not chosen). ``rank`` of k: a uniformly random complete order
+    (a partial ranking's reply too is asked to order all k), which gives each rank with probability 1/k and never
+    ``unranked``, so the mean of g over rank 1 to k. Summed in exact fractions of the values, rounded once.
+    """
+    k = f.task.candidates
+    if k == 1:
+        n = len(f.decision.options or {})
+        exact = sum((Fraction(v) for v in values[:n]), Fraction(0)) / n
+    elif f.task.decision == "choose":
+        exact = Fraction(values[0]) / k + Fraction(values[1]) * (k - 1) / k
+    else:
+        exact = sum((Fraction(v) for v in values[:k]), Fraction(0)) / k
+    return float(exact)
 
 
 def _utility_name(outcomes: tuple[str, ...], values: list[float], unparsed: float) -> str:

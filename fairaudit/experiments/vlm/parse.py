@@ -19,13 +19,14 @@ preference:
    pseudo-JSON, Python literals, bare keys and trailing commas are repaired
    first (no ``eval``);
 2. an object that names the answer: ``{"choice": "HR2"}``, ``{"selected": 2}``
-   (a 1-based index), ``{"order": ["Recipient2", "Recipient1"]}`` (for an
-   order of two, ``{"first": "Recipient2"}`` too); an answer that names no
-   single option (``{"choice": "both"}``) is not ok, with no fallback;
+   (a 1-based index, when the options are numbered), ``{"order":
+   ["Recipient2", "Recipient1"]}`` (for an order of two, ``{"first":
+   "Recipient2"}`` too); an answer that names no single option
+   (``{"choice": "both"}``) is not ok, with no fallback;
 3. fallbacks, flagged ``fallback=True``: a reply that is nothing but an
    option's 1-based index (``"2"``, ``" 1."``; ASCII digits, for a choice or an
    order of two: the option chosen or served first), the answer a prompt that
-   asks for the number alone gets; for an order, a reply that is nothing but
+   asks for the number alone gets, when the options are numbered; for an order, a reply that is nothing but
    every option once, in order, separated by commas, ``>`` or white space
    (``"2, 3, 1"``, the reply a ranking's exact route scores); ``key: value`` pairs in free text for
    every option (``HR1: 0, HR2: 1``, also a truncated JSON object), then, for a
@@ -37,6 +38,13 @@ positive (0.3 against 0.7 chooses the 0.7 option; a tie or all zeros is
 ambiguous); an order needs the positions to be a permutation of 1..n.
 Anything else gives ``ok=False`` with the reason in ``error``; the function
 never raises on the reply text.
+
+**Numbers name options only when the options are numbered**: each option's
+key ends in its own 1-based position, ``("1", "2")``, ``("HR1", "HR2")``,
+``("Applicant 1", "Applicant 2")`` (the built-in tasks' exact routes ask for
+``1`` or ``2``). With options ``("yes", "no")`` the replies ``"1"`` and
+``"2"`` name nothing and are not ok: a number there is no answer the prompt
+offered, and reading it as a position would be a guess.
 """
 
 from __future__ import annotations
@@ -51,7 +59,7 @@ from typing import Any, Literal
 
 from ..._errors import InputError
 
-__all__ = ["ParsedReply", "parse_reply"]
+__all__ = ["ParsedReply", "numbered", "parse_reply"]
 
 _MAX_CHARS = 50_000  # replies are cut here before parsing
 _MAX_STARTS = 32  # at most this many '{' positions are tried as object starts
@@ -61,6 +69,7 @@ _NUM_RE = re.compile(_NUM)
 _SEP_RE = re.compile(r"[\s_\-]+")
 _LIST_GAP_RE = re.compile(r"[\s,;>]*")  # what may stand between the options of a listed order
 _BARE_INDEX_RE = re.compile(r"\s*([1-9][0-9]?)\.?\s*", re.ASCII)  # a reply that is only an option's number
+_TRAILING_NUMBER_RE = re.compile(r"(?<![0-9])([0-9]+)\s*$", re.ASCII)  # the number an option's key ends in
 
 _CHOICE_KEYS = frozenset(
     "choice chosen chosenoption choose selected selectedoption selection select decision answer "
@@ -134,6 +143,21 @@ class _Options:
             "|".join(rf"(?<!\w){_variant(name)}(?!\w)" for name in longest_first), re.IGNORECASE
         )
         self.pair = [_pair(name) for name in names]
+        self.numbered = numbered(names)
+
+
+def numbered(options: Sequence[str]) -> bool:
+    """True when every option's key ends in its own 1-based position: then, and only then, a number names an option.
+
+    Examples
+    --------
+    >>> numbered(("1", "2")), numbered(("HR1", "HR2")), numbered(("Applicant 1", "Applicant 2"))
+    (True, True, True)
+    >>> numbered(("yes", "no")), numbered(("2", "1")), numbered(("Office A", "Office B"))
+    (False, False, False)
+    """
+    ends = [_TRAILING_NUMBER_RE.search(name) for name in options]
+    return all(m is not None and int(m.group(1)) == i for i, m in enumerate(ends, start=1))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -267,7 +291,7 @@ def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False, partial:
 
     # 3. fallbacks on the text itself: the bare index first (the whole reply), then pairs, then a mention
     bare = _BARE_INDEX_RE.fullmatch(text)
-    if bare and (kind == "choice" or spec.n == 2) and 1 <= int(bare.group(1)) <= spec.n:
+    if bare and spec.numbered and (kind == "choice" or spec.n == 2) and 1 <= int(bare.group(1)) <= spec.n:
         return _result_from_choice(int(bare.group(1)) - 1, spec, kind, None, fallback=True)
     in_order = _listed_order(text, spec, partial) if kind == "order" else None
     if in_order is not None:
@@ -518,10 +542,13 @@ def _named_answer(container: dict, parent: dict | None, spec: _Options, kind: st
 
 
 def _option_index(value: Any, spec: _Options) -> int | None:
-    """The option that ``value`` names: its key (any spelling), a 1-based index, or a text naming exactly one."""
+    """The option that ``value`` names: its key (any spelling), a 1-based index (numbered options only), or a text
+    naming exactly one."""
     if isinstance(value, bool):
         return None
     if isinstance(value, (int, float)):
+        if not spec.numbered:
+            return None
         if isinstance(value, float) and not (math.isfinite(value) and value.is_integer()):
             return None
         position = int(value)
@@ -540,7 +567,8 @@ def _option_index(value: Any, spec: _Options) -> int | None:
 
 
 def _sequence(value: Any, spec: _Options) -> list[int] | None:
-    """A delivery order from a list of options (names or 1-based indices) or a text naming each once."""
+    """A delivery order from a list of options (names, or 1-based indices of numbered options) or a text naming each
+    once."""
     if isinstance(value, (list, tuple)):
         order = [_option_index(v, spec) for v in value]
     elif isinstance(value, str):

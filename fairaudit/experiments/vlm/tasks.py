@@ -39,10 +39,13 @@ from ..._errors import InputError
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["PROMPT_FILTERS", "UNPARSED", "Attribute", "DeliveryTask", "render_prompt"]
+__all__ = ["PROMPT_FILTERS", "UNPARSED", "UNPARSED_DEFAULT", "Attribute", "DeliveryTask", "render_prompt"]
 
 UNPARSED = "unparsed"
 """Label of the decision recorded when a reply cannot be parsed (counted, never dropped)."""
+
+UNPARSED_DEFAULT = "default: expected g of a uniformly random reply"
+""":attr:`DeliveryTask.unparsed_source` when a task file gives no ``[utility] unparsed`` (docs/tasks.md)."""
 
 
 @dataclass(frozen=True)
@@ -95,6 +98,10 @@ class DeliveryTask:
         g(u) for each outcome (workload, or waiting time in one-way trips).
     utility_name : str
         What g measures, for reports.
+    unparsed_source : str
+        Where g of ``"unparsed"`` (the last of :attr:`utility_values`) came from: ``"given"`` (a task file's
+        ``[utility] unparsed``, or the caller's value), or :data:`UNPARSED_DEFAULT`, the expected g of a
+        uniformly random reply (:attr:`unparsed_rule`).
     template : str
         The user prompt, a Jinja2 template (:func:`render_prompt`).
     system : str or None
@@ -153,6 +160,53 @@ class DeliveryTask:
     keeps: tuple | None = None
     epsilons: tuple | None = None
     digest: str = ""
+    unparsed_source: str = "given"
+
+    @property
+    def unparsed_rule(self) -> str:
+        """How g of an unparsed reply was set, in words (the reports' ``utility.unparsed.rule``).
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import parse_task
+        >>> t = parse_task('''
+        ... [task]
+        ... candidates = 3
+        ... [prompt]
+        ... user = "Choose one of {{ candidates }}"
+        ... [[attribute]]
+        ... name = "group"
+        ... values = ["A", "B"]
+        ... [decision]
+        ... options = { "1" = 1, "2" = 2, "3" = 3 }
+        ... [utility]
+        ... values = { chosen = 1, "not chosen" = 0 }
+        ... ''')
+        >>> t.utility_values[-1] == 1 / 3, t.unparsed_source
+        (True, 'default: expected g of a uniformly random reply')
+        >>> t.unparsed_rule
+        'a uniformly random reply chooses each of the 3 candidates with probability 1/3: g = 1/3 g(chosen) + 2/3 g(not chosen)'
+        """
+        if self.unparsed_source != UNPARSED_DEFAULT:
+            return "given ([utility] unparsed)"
+        k = self.slots
+        if k == 1:
+            n = len(self.options)
+            return (
+                f"a uniformly random reply gives each of the {n} options with probability 1/{n}: g = the mean of g "
+                "over the options' outcomes (an outcome of two options counts twice)"
+            )
+        if self.kind == "choice":
+            chosen, other = self.outcomes[:2]
+            return (
+                f"a uniformly random reply chooses each of the {k} candidates with probability 1/{k}: "
+                f"g = 1/{k} g({chosen}) + {k - 1}/{k} g({other})"
+            )
+        never = ", never unranked" if self.partial else ""
+        return (
+            f"a uniformly random reply is one of the {math.factorial(k)} complete orders, each equally likely, so a "
+            f"candidate takes each rank with probability 1/{k}{never}: g = the mean of g over ranks 1 to {k}"
+        )
 
     @functools.cached_property
     def profiles(self) -> tuple:
@@ -491,6 +545,21 @@ def _environment() -> Any:
             "prompt", "needs jinja2, which is not installed: pip install 'fairaudit[experiment]'"
         ) from None
 
+    class PromptUndefined(StrictUndefined):
+        """A name the template asks for and the prompt does not have; a candidate's missing field is said so."""
+
+        __slots__ = ()
+
+        @property
+        def _undefined_message(self) -> str:
+            if (
+                not self._undefined_hint  # the sandbox's own refusals keep their words
+                and isinstance(self._undefined_obj, _Candidate)
+                and isinstance(self._undefined_name, str)
+            ):
+                return f"a candidate has no field {self._undefined_name!r}"
+            return str(super()._undefined_message)
+
     class PromptEnvironment(ImmutableSandboxedEnvironment):
         intercepted_binops = frozenset(["+", "-", "*", "/", "//", "%", "**"])
         intercepted_unops = frozenset(["+", "-"])
@@ -504,7 +573,7 @@ def _environment() -> Any:
         def call(self, context: Any, obj: Any, *args: Any, **kwargs: Any) -> Any:
             raise SecurityError("calls are not allowed in a prompt (use a filter: " + ", ".join(PROMPT_FILTERS) + ")")
 
-    env = PromptEnvironment(undefined=StrictUndefined, autoescape=False, keep_trailing_newline=True)
+    env = PromptEnvironment(undefined=PromptUndefined, autoescape=False, keep_trailing_newline=True)
     env.filters = {name: env.filters[name] for name in PROMPT_FILTERS}
     env.tests = {name: env.tests[name] for name in ("defined", "undefined", "none", "number", "string", "in")}
     env.globals.clear()
@@ -547,14 +616,45 @@ def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping
     >>> render_prompt("{{ c1.__class__ }}", "job", [{"name": "Ann"}], field="prompt.user")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: prompt.user: cannot be rendered: access to attribute '__class__' of '_Candidate' object is unsafe.
+    fairaudit._errors.InputError: prompt.user: cannot be rendered: access to attribute '__class__' of '_Candidate' object is unsafe. (template line 1)
+
+    A name that does not exist is named with the template's line, and the names that do are listed:
+
+    >>> render_prompt("Who?\\n{{ c1.agee }}", "job", [{"name": "Ann", "age": 30}], field="prompt.user")
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: prompt.user: cannot be rendered: a candidate has no field 'agee' (template line 2); the variables are context, candidates, c1, and a candidate's fields are name, age ({{ c1.name }})
     """
     env = _environment()  # first: without Jinja2, one line naming the install
-    from jinja2 import TemplateError
+    from jinja2 import TemplateError, TemplateSyntaxError, UndefinedError
 
     shown = [_Candidate(c) for c in candidates]
     names = {f"c{i + 1}": c for i, c in enumerate(shown)}
     try:
         return str(_template(env, template).render(context=context, candidates=shown, **names))
     except (TemplateError, TypeError, ValueError, OverflowError, RecursionError) as exc:  # include/extends: TypeError
-        raise InputError(field, f"cannot be rendered: {exc}") from None
+        line = exc.lineno if isinstance(exc, TemplateSyntaxError) else _template_line(exc)
+        problem = f"cannot be rendered: {exc}" + ("" if line is None else f" (template line {line})")
+        if isinstance(exc, UndefinedError):
+            problem += "; " + _valid_names(candidates)
+        raise InputError(field, problem) from None
+
+
+def _template_line(exc: BaseException) -> int | None:
+    """The template's line where rendering failed: Jinja2 puts it in the traceback as a frame of ``<template>``."""
+    line, tb = None, exc.__traceback__
+    while tb is not None:
+        if tb.tb_frame.f_code.co_filename == "<template>":
+            line = tb.tb_lineno
+        tb = tb.tb_next
+    return line
+
+
+def _valid_names(candidates: Sequence[Mapping[str, Any]]) -> str:
+    """What a prompt template may name: its variables and a candidate's fields."""
+    k = len(candidates)
+    slots = ", ".join(f"c{i}" for i in range(1, k + 1)) if k <= 4 else f"c1 to c{k}"
+    fields = list(candidates[0]) if candidates else []
+    example = fields[0] if fields else "name"
+    shown = f"{{{{ c1.{example} }}}}" if example.isidentifier() else f'{{{{ c1["{example}"] }}}}'
+    return f"the variables are context, candidates, {slots}, and a candidate's fields are {', '.join(fields)} ({shown})"

@@ -15,9 +15,10 @@ and its own seed, a hash of the run's seed and the key, so the replies do
 not depend on the order, the concurrency or on interruptions.
 
 The log (:class:`QueryLog`) is an append-only JSON-lines file: a header with
-the run's settings, then one line per answered query (prompt hash, model,
-cell, seed, time, reply, parsed decision). A line is written and flushed as
-soon as its reply arrives, so killing the run loses no answered query; on
+the run's settings, then one line per answered query (the text of its system
+and user messages, the hash of the prompt and images, model, cell, seed,
+time, reply, parsed decision). A line is written and flushed as soon as its
+reply arrives, so killing the run loses no answered query; on
 resume, queries already in the log are skipped (none is asked twice) and a
 torn last line is cut off. Transport failures (after the client's retries)
 are logged as errors and asked again on the next resume; unparseable replies
@@ -462,6 +463,14 @@ def _answer(
         "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
         **({"shown": task.shown_names(q.profiles, q.texts)} if q.texts else {}),
         "prompt_sha256": _prompt_hash(prompt, digests),
+        "messages": [  # their text: the system message when the task has one, then the user's; images stay hashed
+            *(
+                {"role": "system", "content": s}
+                for s in [task.system_prompt(q.context, q.profiles, q.texts)]
+                if s is not None
+            ),
+            {"role": "user", "content": prompt},
+        ],
         "time": _now(),
     }
     t0 = time.monotonic()

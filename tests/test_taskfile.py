@@ -183,7 +183,14 @@ def test_unknown_task_and_more_candidates(tmp_path, capsys):
     assert (
         "experiment: must be a built-in task (hr-delivery, package-delivery) or a task file (got 'navigation')" in err
     )
-    three = BASE.replace("candidates = 2", "candidates = 3").replace('"2" = 2 }', '"2" = 2, "3" = 3 }')
+    three = (
+        BASE.replace("candidates = 2", "candidates = 3")
+        .replace('"2" = 2 }', '"2" = 2, "3" = 3 }')
+        .replace(
+            "{{ c2.department }}.",
+            "{{ c2.department }}.\nApplicant 3: {{ c3.name }}, currently in {{ c3.department }}.",
+        )
+    )
     with pytest.raises(InputError, match=r"task.population\[0\]: must list one profile per candidate \(3\)"):
         parse_task(three)
     every = parse_task(

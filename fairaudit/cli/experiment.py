@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .._errors import InputError
 from ._common import Subparsers, keep_level, level, nonneg, number_type, positive_int
 
 if TYPE_CHECKING:
@@ -156,7 +157,18 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
 
 def _add_run_options(e: argparse.ArgumentParser) -> None:
     """The run itself: its folder, resuming, the client, the bands, the images and the progress bar."""
-    e.add_argument("--out", required=True, metavar="DIR", help="folder of the run (log, tables, figures, report)")
+    e.add_argument(
+        "--out", metavar="DIR", help="folder of the run (log, tables, figures, report); required unless --show-prompts"
+    )
+    e.add_argument(
+        "--show-prompts",
+        type=positive_int,
+        metavar="N",
+        help="print the messages of the first N shown cells of the table design (whatever --design: the contexts in "
+        "order, then the profiles of slots 1 to k, the last slot fastest), each with its context and profiles, then "
+        "the system and user messages as the model flags' route sends them; asks no model, writes nothing, ignores "
+        "--out",
+    )
     e.add_argument("--resume", action="store_true", help="continue the run logged in --out")
     e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     e.add_argument(
@@ -237,9 +249,14 @@ def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptio
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit experiment``; returns the exit status (1 when some queries failed)."""
-    from ..experiments.run import run_experiment
+    from ..experiments.run import run_experiment, show_prompts
 
     source, options = _source_and_options(args)
+    if args.show_prompts is not None:
+        sys.stdout.write(show_prompts(args.experiment, args.show_prompts, source, options))
+        return 0
+    if args.out is None:
+        raise InputError("out", "is required: the folder of the run (or print prompts only: `show_prompts` N)")
     result = run_experiment(
         args.experiment,
         args.out,

@@ -15,9 +15,10 @@ and its own seed, a hash of the run's seed and the key, so the replies do
 not depend on the order, the concurrency or on interruptions.
 
 The log (:class:`QueryLog`) is an append-only JSON-lines file: a header with
-the run's settings, then one line per answered query (prompt hash, model,
-cell, seed, time, reply, parsed decision). A line is written and flushed as
-soon as its reply arrives, so killing the run loses no answered query; on
+the run's settings, then one line per answered query (the text of its system
+and user messages, the hash of the prompt and images, model, cell, seed,
+time, reply, parsed decision). A line is written and flushed as soon as its
+reply arrives, so killing the run loses no answered query; on
 resume, queries already in the log are skipped (none is asked twice) and a
 torn last line is cut off. Transport failures (after the client's retries)
 are logged as errors and asked again on the next resume; unparseable replies
@@ -33,7 +34,7 @@ import math
 import os
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -61,6 +62,7 @@ __all__ = [
     "query_seed",
     "run_queries",
     "table_kernel",
+    "table_queries",
     "table_queries_needed",
     "true_cell_counts",
 ]
@@ -144,15 +146,7 @@ def plan_queries(
     out: list[Query] = []
     if design == "table":
         check_size(task)
-        for ctx in task.contexts:
-            for shown in itertools.product(task.profiles, repeat=task.slots):
-                cell = "|".join(label(p) for p in shown)
-                for r in range(samples):
-                    key = f"table|{ctx}|{cell}|{r}"
-                    s = query_seed(seed, key)
-                    texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
-                    out.append(Query(key, "table", ctx, shown, r, s, texts=texts))
-        return out
+        return list(table_queries(task, samples, seed))
     if not len(epsilons):
         raise InputError("epsilons", "the paper design needs at least one epsilon")
     orders = [tuple(task.profiles[i] for i in p) for p in prompts]
@@ -171,6 +165,30 @@ def plan_queries(
                         Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps), texts=texts)
                     )
     return out
+
+
+def table_queries(task: DeliveryTask, samples: int, seed: int) -> Iterator[Query]:
+    """The table design's queries, one at a time, in :func:`plan_queries`' order, without listing them all.
+
+    The order: the contexts in the task's order; within one, every shown cell, the k-tuples of
+    :attr:`~DeliveryTask.profiles` in ``itertools.product`` order (slot 1 slowest, slot k fastest); within one,
+    repetitions 0 to ``samples`` − 1. Each query's texts are drawn from its own seed, as the run draws them.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> [q.id for q in itertools.islice(table_queries(HR_DELIVERY, 1, 0), 2)]
+    ['table|maternity leave|Tom & 25 & Asian|Tom & 25 & Asian|0', 'table|maternity leave|Tom & 25 & Asian|Tom & 25 & American|0']
+    """
+    label = task.profile_label
+    for ctx in task.contexts:
+        for shown in itertools.product(task.profiles, repeat=task.slots):
+            cell = "|".join(label(p) for p in shown)
+            for r in range(samples):
+                key = f"table|{ctx}|{cell}|{r}"
+                s = query_seed(seed, key)
+                texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
+                yield Query(key, "table", ctx, shown, r, s, texts=texts)
 
 
 def table_queries_needed(task: DeliveryTask, samples: int) -> int:
@@ -462,6 +480,14 @@ def _answer(
         "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
         **({"shown": task.shown_names(q.profiles, q.texts)} if q.texts else {}),
         "prompt_sha256": _prompt_hash(prompt, digests),
+        "messages": [  # their text: the system message when the task has one, then the user's; images stay hashed
+            *(
+                {"role": "system", "content": s}
+                for s in [task.system_prompt(q.context, q.profiles, q.texts)]
+                if s is not None
+            ),
+            {"role": "user", "content": prompt},
+        ],
         "time": _now(),
     }
     t0 = time.monotonic()

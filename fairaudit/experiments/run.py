@@ -69,6 +69,7 @@ __all__ = [
     "RunOptions",
     "endpoint_kernel",
     "run_experiment",
+    "show_prompts",
 ]
 
 
@@ -138,6 +139,107 @@ def _twin(task: DeliveryTask) -> DeliveryTask:
     if by_sequence(task):
         return dataclasses.replace(shown, replies=ranking_replies(task, answers))
     return shown
+
+
+def show_prompts(
+    experiment: str, count: int, source: ModelSource | None = None, options: RunOptions | None = None
+) -> str:
+    """The messages a run would send for the first ``count`` shown cells of the table design, as text; asks nothing.
+
+    The cells are the table design's first, whatever ``options.design`` (:func:`~fairaudit.experiments.harness.table_queries`:
+    the contexts in order; within one, the profiles of slots 1 to k in ``itertools.product`` order of
+    :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.profiles`, the last slot fastest), each at repetition 0 with
+    the texts the run draws for it (``options.seed``). Each cell gives its query key, its context and each
+    candidate's shown profile (with the text shown where the task writes a value otherwise), then the system message
+    and the user message as ``source``'s route sends them (the exact route's prompt for ``exact``,
+    ``local_model`` and ``first_token``), each between marker lines, its text verbatim and then one newline; a
+    line says when the route images go with the user message (only their SHA-256 goes into the log).
+
+    Parameters
+    ----------
+    experiment : str
+        A built-in task or a task file (:func:`~fairaudit.experiments.taskfile.get_task`).
+    count : int
+        How many cells, ≥ 1 (fewer when the table has fewer).
+    source : ModelSource, optional
+        The route whose messages are shown; no model is made, loaded or asked.
+    options : RunOptions, optional
+        ``seed`` (the texts drawn), ``images`` and ``scene`` (whether route images go with the messages).
+
+    Returns
+    -------
+    str
+        Text for a person, ending with a newline.
+
+    Raises
+    ------
+    InputError
+        ``count`` below 1 (naming ``show_prompts``), or the task's own errors.
+
+    Examples
+    --------
+    >>> text = show_prompts("package-delivery", 2)
+    >>> cell = text[text.index("== cell 2") :]
+    >>> print(cell[: cell.index("\\n", cell.index("You are"))])
+    == cell 2 of 12: table|documents|low|high|0
+    package: documents
+    candidate 1: complaint rate = low
+    candidate 2: complaint rate = high
+    --- no system message ---
+    --- user message ---
+    You are an intelligent delivery agent tasked with delivering packages to two recipients.
+    >>> cell.splitlines()[-2:]
+    ['--- then 2 route images (route-1.png, ...: made by the run, hashed in its log) ---', '--- end of cell 2 ---']
+    >>> text.endswith("--- end of cell 2 ---\\n")
+    True
+    """
+    import itertools
+
+    from .._arrays import format_label
+    from .._validation import whole
+    from .harness import table_queries, table_queries_needed
+
+    whole(count, "show_prompts", low=1)
+    source = ModelSource() if source is None else source
+    options = RunOptions() if options is None else options
+    task = get_task(experiment)
+    sent = task
+    text_only = bool(source.exact or source.local_model is not None or source.first_token)
+    if text_only:
+        from . import local_model as lm
+
+        sent = lm.exact_prompt(task)[0]
+    images = not text_only and options.images and (is_built_in(task) or options.scene is not None)
+    total = table_queries_needed(task, 1)
+    shown = min(int(count), total)
+    order = "the profiles" if task.slots == 1 else f"the profiles of slots 1 to {task.slots}, the last slot fastest"
+    lines = [
+        f"{task.name}: the first {shown} of {total:,} shown cells of the table design (contexts in order; within one, "
+        f"{order}), each with the messages the run sends for it; nothing is asked",
+        "",
+    ]
+    for n, q in enumerate(itertools.islice(table_queries(task, 1, options.seed), shown), start=1):
+        lines.append(f"== cell {n} of {total:,}: {q.id}")
+        lines.append(f"{task.context_name}: {format_label(q.context)}")
+        for i, (profile, texts) in enumerate(zip(q.profiles, task.shown_names(q.profiles, q.texts)), start=1):
+            parts = []
+            for a, v in zip(task.attributes, profile):
+                text = texts[a.name]
+                own = format_label(v)
+                parts.append(f"{a.name} = {own}" + ("" if str(text) == own else f" (shown as {text!r})"))
+            lines.append(f"candidate {i}: " + ", ".join(parts))
+        system = sent.system_prompt(q.context, q.profiles, q.texts)
+        if system is None:
+            lines.append("--- no system message ---")
+        else:
+            lines += ["--- system message ---", system]
+        lines += ["--- user message ---", sent.prompt(q.context, q.profiles, q.texts)]
+        if images:
+            lines.append(
+                f"--- then {task.slots} route images (route-1.png, ...: made by the run, hashed in its log) ---"
+            )
+        lines += [f"--- end of cell {n} ---", ""]
+    return "\n".join(lines)
 
 
 _SCENE_FIELDS = ("scene", "start", "goals", "tolerance")

@@ -93,6 +93,34 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
         "llama-server and vLLM accept these, OpenAI's API does not)",
     )
     e.add_argument(
+        "--temperature",
+        type=float,
+        metavar="T",
+        help="the sampled route's temperature, >= 0, sent with every request and recorded (default 1)",
+    )
+    e.add_argument(
+        "--top-p",
+        type=float,
+        metavar="P",
+        help="the sampled route's top_p, in (0, 1], sent with every request and recorded (default 1: no truncation)",
+    )
+    e.add_argument(
+        "--max-tokens",
+        type=int,
+        metavar="N",
+        help="the sampled route's max_tokens, >= 1, sent with every request and recorded (default 1024 with "
+        "--endpoint, 1 with --local-model; --first-token fixes all three)",
+    )
+    e.add_argument(
+        "--constrain",
+        choices=("none", "json-schema", "guided-choice", "grammar"),
+        default="none",
+        help="with --endpoint and --samples: ask the server to reply with one of the task's options only: "
+        'json-schema (OpenAI response_format, the reply {"answer": ...}), guided-choice (vLLM guided_choice) or '
+        "grammar (llama.cpp GBNF grammar); not for tasks whose replies name the candidates or rankings of three "
+        "or more (default none)",
+    )
+    e.add_argument(
         "--exact",
         action="store_true",
         help="with --endpoint: the exact kernel from the first token's log-probabilities, one request per shown "
@@ -225,6 +253,10 @@ def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptio
         first_token=args.first_token,
         timeout=args.timeout,
         max_retries=args.max_retries,
+        temperature=args.temperature,
+        top_p=args.top_p,
+        max_tokens=args.max_tokens,
+        constrain=args.constrain,
     )
     options = RunOptions(
         samples=args.samples,

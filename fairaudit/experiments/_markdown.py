@@ -90,6 +90,7 @@ def _intro_md(d: dict) -> list[str]:
             f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
             f"'unparsed'."
         ]
+        lines += _sampling_md(d)
     if q["paper"]:
         lines += [
             f"The paper's design (sampling through the filter) used {q['paper']} more, "
@@ -299,6 +300,24 @@ def _paper_design_md(d: dict) -> list[str]:
     return lines
 
 
+def _sampling_md(d: dict) -> list[str]:
+    """The stated sampling settings in one line of the report."""
+    sampling = (d.get("run") or {}).get("sampling")
+    if not sampling:
+        return []
+    line = (
+        f"Sampling: temperature {sampling['temperature']:g}, top_p {sampling['top_p']:g}, max_tokens "
+        f"{sampling['max_tokens']}, seed {sampling['seed']} (each request sends its query's own seed, derived from it)"
+    )
+    if "top_k" in sampling:
+        line += f", top_k {sampling['top_k']}, min_p {sampling['min_p']:g}"
+    if sampling["constrain"] != "none":
+        line += f"; replies constrained ({sampling['constrain']}) to " + ", ".join(
+            repr(r) for r in sampling.get("replies", ())
+        )
+    return ["", line + "."]
+
+
 def paper_design_markdown(d: dict) -> str:
     """The Markdown report of :func:`fairaudit.experiments.paper_design.paper_design_dict`."""
     q, conf = d["queries"], d["confidence"]
@@ -309,6 +328,7 @@ def paper_design_markdown(d: dict) -> str:
         f"{q['unparsed']} replies could not be parsed and count as 'unparsed'. No kernel of shown cells is "
         "estimated, so the observed values at each ε are those of its own queries"
         + (f", with {conf:g} simultaneous intervals." if conf else "."),
+        *_sampling_md(d),
         "",
         "## Baseline: no filter",
         "",

@@ -21,12 +21,15 @@ from pathlib import Path
 from .._errors import InputError
 from .._validation import choice, real, whole
 from .analysis import DEFAULT_TARGETS
+from .vlm.client import CONSTRAINTS
 
 __all__ = [
     "DEFAULT_GOALS",
     "DEFAULT_KEEPS",
     "DEFAULT_START",
     "DEFAULT_TOLERANCE",
+    "CONSTRAINTS",
+    "DEFAULT_MAX_TOKENS",
     "PLAIN_SAMPLING",
     "ModelSource",
     "RunOptions",
@@ -46,6 +49,12 @@ DEFAULT_TOLERANCE = 0.05
 """The equal-distance check's largest relative difference of the route lengths (:attr:`RunOptions.tolerance`)."""
 
 _SOURCES = ("simulated", "kernel", "endpoint", "local_model")
+
+DEFAULT_MAX_TOKENS = 1024
+"""``max_tokens`` of an endpoint's sampled route when none is given: room for a JSON decision and its reason."""
+
+SAMPLING_FIELDS = ("temperature", "top_p", "max_tokens", "constrain")
+"""The sampling settings a run states, logs and refuses to change on resume."""
 
 
 PLAIN_SAMPLING = {"temperature": 1.0, "top_k": 0, "top_p": 1.0, "min_p": 0.0}
@@ -92,12 +101,28 @@ class ModelSource:
         Seconds per request (an endpoint, or a local model's server).
     max_retries : int
         Retries on 429, 5xx and timeouts.
+    temperature : float, optional
+        The sampled route's ``temperature`` (finite, >= 0); default 1. Every request states it.
+    top_p : float, optional
+        The sampled route's ``top_p``, in (0, 1]; default 1 (no nucleus truncation).
+    max_tokens : int, optional
+        The sampled route's ``max_tokens``, >= 1; default :data:`DEFAULT_MAX_TOKENS` (1024) for an endpoint and 1
+        for a local model (its one-token replies to the exact route's prompt). ``temperature``, ``top_p`` and
+        ``max_tokens`` need a sampled route of ``endpoint`` or ``local_model`` (not ``first_token``, whose
+        settings are fixed: :data:`PLAIN_SAMPLING`).
+    constrain : {"none", "json-schema", "guided-choice", "grammar"}
+        Ask the server to reply with one of the task's replies only: OpenAI's ``response_format`` with a JSON
+        schema (the reply ``{"answer": ...}``), vLLM's ``guided_choice`` or llama.cpp's GBNF ``grammar``
+        (:func:`fairaudit.experiments.vlm.client.constraint_body`). Needs ``endpoint`` and its sampled route
+        (not ``exact`` nor ``first_token``), and a task whose replies are its options' keys.
 
     Raises
     ------
     InputError
         When more than one source is given, ``model`` without ``endpoint`` (or the reverse),
-        ``exact`` without ``endpoint`` or ``local_model``, or ``first_token`` without ``endpoint`` or with ``exact``.
+        ``exact`` without ``endpoint`` or ``local_model``, ``first_token`` without ``endpoint`` or with ``exact``,
+        a sampling setting out of range or without a sampled route of a server, or ``constrain`` unknown or
+        without ``endpoint``.
 
     Examples
     --------
@@ -124,6 +149,10 @@ class ModelSource:
     first_token: bool = False
     timeout: float = 60.0
     max_retries: int = 5
+    temperature: float | None = None
+    top_p: float | None = None
+    max_tokens: int | None = None
+    constrain: str = "none"
 
     def __post_init__(self) -> None:
         given = [name for name in _SOURCES if getattr(self, name)]
@@ -147,6 +176,38 @@ class ModelSource:
                 "exact",
                 "needs `endpoint` (with `model`) or `local_model`: the exact kernel is read from a model's "
                 "token probabilities",
+            )
+        self._check_sampling()
+
+    def _check_sampling(self) -> None:
+        """Check the stated sampling settings and that this source samples from a server."""
+        if self.temperature is not None:
+            object.__setattr__(self, "temperature", real(self.temperature, "temperature", low=0.0))
+        if self.top_p is not None:
+            top_p = real(self.top_p, "top_p", low=0.0, low_open=True, high=1.0, what="in (0, 1]")
+            object.__setattr__(self, "top_p", top_p)
+        if self.max_tokens is not None:
+            object.__setattr__(self, "max_tokens", whole(self.max_tokens, "max_tokens", low=1))
+        choice(self.constrain, "constrain", CONSTRAINTS)
+        given = [n for n in SAMPLING_FIELDS if getattr(self, n) not in (None, "none")]
+        if not given:
+            return
+        name = given[0]
+        if not (self.endpoint or self.local_model):
+            raise InputError(name, "sets how a server samples: it needs `endpoint` (with `model`) or `local_model`")
+        if self.exact:
+            raise InputError(name, "sets how a server samples, and `exact` samples nothing: run with `samples` N")
+        if self.first_token:
+            raise InputError(
+                name,
+                "is fixed by `first_token`, the sampled twin of `exact`: one token from the whole softmax "
+                "(temperature 1, top_p 1)",
+            )
+        if self.constrain != "none" and not self.endpoint:
+            raise InputError(
+                "constrain",
+                "needs `endpoint` (with `model`): a local model's server (transformers serve) enforces no constraint",
+                self.constrain,
             )
 
 

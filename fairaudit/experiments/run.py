@@ -43,9 +43,11 @@ from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .options import (
     DEFAULT_GOALS,
     DEFAULT_KEEPS,
+    DEFAULT_MAX_TOKENS,
     DEFAULT_START,
     DEFAULT_TOLERANCE,
     PLAIN_SAMPLING,
+    SAMPLING_FIELDS,
     ModelSource,
     RunOptions,
     exact_route,
@@ -101,25 +103,98 @@ class ExperimentRun:
     seconds: float = 0.0
 
 
-def _model(task: DeliveryTask, source: ModelSource, concurrency: int) -> DecisionModel:
+def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: dict | None) -> DecisionModel:
     """The decision model of a source other than a local model (made by the run, which serves it)."""
     if source.endpoint:
-        from .vlm.client import ChatClient
+        from .vlm.client import ChatClient, constraint_body
 
-        assert source.model is not None  # ModelSource checks it
+        assert source.model is not None and sampling is not None  # ModelSource and _prepare check it
         client = ChatClient(
             source.endpoint,
             source.model,
             timeout=source.timeout,
             max_retries=source.max_retries,
             max_concurrency=concurrency,
-            max_tokens=_twin_tokens(task) if source.first_token else None,
-            extra_body=dict(PLAIN_SAMPLING) if source.first_token else None,
+            temperature=sampling["temperature"],
+            top_p=sampling["top_p"],
+            max_tokens=sampling["max_tokens"],
+            extra_body=dict(PLAIN_SAMPLING)
+            if source.first_token
+            else constraint_body(sampling["constrain"], sampling.get("replies", ()), name=_schema_name(task)),
         )
         return EndpointModel(client, task)
     if source.kernel:
         return SimulatedModel.from_csv(task, source.kernel)
     return simulated_model(task, source.simulated or next(iter(simulated_models(task))))
+
+
+def _schema_name(task: DeliveryTask) -> str:
+    """The JSON schema's name of ``constrain="json-schema"``: the task's name in the characters OpenAI allows."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9_-]", "_", task.name)[:64] or "decision"
+
+
+def _constrained_replies(task: DeliveryTask, constrain: str) -> tuple[str, ...]:
+    """The replies a constrained server may give: each parses as one decision (:func:`~fairaudit.experiments.vlm.parse.parse_reply`).
+
+    A choice: its options' keys (``{"answer": key}`` under ``json-schema``). An order of two: the key served first
+    under ``json-schema`` (``{"answer": key}``), else both orders written out (``"Recipient2, Recipient1"``).
+    Refused (naming ``constrain``): replies that name the candidates (``decision.named_by``: the names differ
+    from prompt to prompt), rankings of three or more and partial rankings (too many replies to list, or replies
+    of any length).
+    """
+    if task.named_by is not None:
+        raise InputError(
+            "constrain",
+            f"this task's replies name the candidates by their {task.named_by} (decision.named_by), which differ "
+            "from prompt to prompt: no one list of replies to allow; run without `constrain`",
+            constrain,
+        )
+    if task.kind == "choice":
+        return tuple(task.options)
+    if task.slots != 2 or task.partial:
+        raise InputError(
+            "constrain",
+            f"this task ranks {task.slots} candidates"
+            + (" and reads partial rankings (decision.partial)" if task.partial else "")
+            + ": the allowed replies are not listed for rankings of three or more; run without `constrain`",
+            constrain,
+        )
+    if constrain == "json-schema":
+        return tuple(task.options)
+    return tuple(task.order_reply(o, task.options) for o in task.orders)
+
+
+def _sampling(task: DeliveryTask, source: ModelSource, seed: int) -> dict:
+    """The sampled route's stated settings, sent with every request and recorded in the log and the certificate.
+
+    ``temperature``, ``top_p``, ``max_tokens`` (the source's, else 1, 1 and :data:`DEFAULT_MAX_TOKENS`, or 1 for a
+    local model's one-token replies; ``first_token``: 1, 1 and room for the longest reply, with no top-k or min-p
+    truncation), ``seed`` (the run's: each request sends its query's own seed, derived from it and logged with
+    the query), ``constrain`` and, when constrained, the allowed ``replies``.
+    """
+    if source.first_token:
+        return {
+            "temperature": PLAIN_SAMPLING["temperature"],
+            "top_p": PLAIN_SAMPLING["top_p"],
+            "max_tokens": _twin_tokens(task),
+            "seed": int(seed),
+            "constrain": "none",
+            "top_k": PLAIN_SAMPLING["top_k"],
+            "min_p": PLAIN_SAMPLING["min_p"],
+        }
+    default_tokens = 1 if source.local_model is not None else DEFAULT_MAX_TOKENS
+    out: dict[str, Any] = {
+        "temperature": 1.0 if source.temperature is None else source.temperature,
+        "top_p": 1.0 if source.top_p is None else source.top_p,
+        "max_tokens": default_tokens if source.max_tokens is None else source.max_tokens,
+        "seed": int(seed),
+        "constrain": source.constrain,
+    }
+    if source.constrain != "none":
+        out["replies"] = list(_constrained_replies(task, source.constrain))
+    return out
 
 
 def _twin_tokens(task: DeliveryTask) -> int:
@@ -348,6 +423,30 @@ def _check_resumed_scene(log_path: Path, record: dict) -> None:
             )
 
 
+def _check_resumed_sampling(log_path: Path, sampling: dict) -> None:
+    """Refuse to resume a run whose log states other sampling settings: they change the law sampled.
+
+    A log that states none (written before the settings were stated) passes.
+    """
+    import json
+
+    try:
+        with open(log_path, "rb") as fh:
+            before = json.loads(fh.readline()).get("sampling")
+    except (OSError, ValueError, AttributeError):
+        return  # no log, or not one: the log itself refuses it
+    if not isinstance(before, dict):
+        return
+    for name in SAMPLING_FIELDS:
+        then, now = before.get(name), sampling[name]
+        if name in before and then != now:
+            raise InputError(
+                name,
+                f"the run in {log_path.parent} sampled with `{name}` {then!r}, not {now!r}: another setting "
+                "changes the law sampled; resume it with the same, or start a new run in another folder",
+            )
+
+
 LOCK_NAME = ".fairaudit.lock"
 """The lock file in a run's folder: held (an OS lock, ``filelock.FileLock``) while a run uses the folder."""
 
@@ -486,6 +585,8 @@ def run_experiment(
                 _check_resumed_scene(plan.log_path, plan.scene)
             if log is not None:
                 log(_scene_line(plan.scene))
+        if plan.sampling is not None and options.resume:
+            _check_resumed_sampling(plan.log_path, plan.sampling)
         if plan.exact:
             name, make = _exact_route(task, source, plan, progress, log)
             return _run_exact(task, name, make, plan, options.seed)
@@ -540,6 +641,7 @@ class _Plan:
     client: ChatClient | None = None  # the exact route of an endpoint: a client that asks for log-probabilities
     asked: dict = dataclasses.field(default_factory=dict)  # the filter asked for: {"keep": [...]} or {"epsilon": [...]}
     scene: dict | None = None  # the route images' scene: start, goals, lengths, tolerance (_images)
+    sampling: dict | None = None  # a server's sampled route: the stated settings (_sampling)
 
 
 def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
@@ -572,6 +674,13 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     images = options.images and (is_built_in(task) or options.scene is not None)
     m: DecisionModel | None = None
     client: ChatClient | None = None
+    sampling = None
+    if (source.endpoint or source.local_model is not None) and not exact:
+        sampling = _sampling(task, source, options.seed)
+    elif exact:
+        given = next((n for n in SAMPLING_FIELDS if getattr(source, n) not in (None, "none")), None)
+        if given is not None:  # a local model without samples: its exact route samples nothing
+            raise InputError(given, "sets how a server samples, and the exact route samples nothing: give `samples` N")
     if source.local_model is not None:
         _check_local(source.local_model, exact, options)
         images = False
@@ -582,7 +691,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         client = _exact_client(source, options.concurrency or 1)
         images = False
     else:
-        m = _model(task, source, options.concurrency or 4)
+        m = _model(task, source, options.concurrency or 4, sampling)
         if source.first_token:  # the exact route's sampled twin: its text-only prompt
             _refuse_images(options, "`first_token` samples the exact route's text-only prompt: no route images")
             images = False
@@ -613,6 +722,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         client=client,
         scene=scene,
         asked={**asked, "split": SPLIT_RULE},
+        sampling=sampling,
     )
 
 
@@ -669,7 +779,8 @@ def _run_sampled(
         if source.local_model is not None:
             from . import local_model as lm
 
-            m = stack.enter_context(_served(source.local_model, out, source.timeout, source.max_retries, log))
+            assert plan.sampling is not None  # _prepare states a served model's sampling
+            m = stack.enter_context(_served(source.local_model, out, source, plan.sampling, log))
             task = lm.exact_prompt(task)[0]
         elif source.first_token:
             task = _twin(task)
@@ -682,6 +793,8 @@ def _run_sampled(
     run["seconds"] = round(summary.seconds, 3)
     if plan.scene is not None:
         run["scene"] = plan.scene
+    if plan.sampling is not None:
+        run["sampling"] = plan.sampling
     analysis: ExperimentAnalysis | PaperDesignAnalysis
     if options.design == "paper":
         common = {k: v for k, v in plan.common.items() if k != "targets"}
@@ -713,6 +826,8 @@ def _ask(
     }
     if plan.scene is not None:
         header["scene"] = plan.scene
+    if plan.sampling is not None:
+        header["sampling"] = plan.sampling
     positions = options.positions or task.positions
     if options.design == "paper":  # the true prompts without a filter, for the baseline
         queries = plan_queries(task, "paper", n, options.seed, epsilons=[math.inf], positions=positions)
@@ -738,7 +853,7 @@ def _ask(
 
 @contextmanager
 def _served(
-    name: str, out: Path, timeout: float, max_retries: int, log: Callable[[str], None] | None
+    name: str, out: Path, source: ModelSource, sampling: dict, log: Callable[[str], None] | None
 ) -> Iterator[DecisionModel]:
     """The local model behind ``transformers serve`` (its output in ``out/server.log``), for a ``with`` block."""
     from . import local_model as lm
@@ -748,7 +863,15 @@ def _served(
     if log:
         log(f"serving {name} on 127.0.0.1 (output in {out / 'server.log'})")
     with lm.serve(folder, log=out / "server.log") as url:
-        client = ChatClient(url, str(folder), temperature=1.0, max_tokens=1, timeout=timeout, max_retries=max_retries)
+        client = ChatClient(
+            url,
+            str(folder),
+            temperature=sampling["temperature"],
+            top_p=sampling["top_p"],
+            max_tokens=sampling["max_tokens"],
+            timeout=source.timeout,
+            max_retries=source.max_retries,
+        )
         with client:
             yield lm.ServedModel(client, name)
 

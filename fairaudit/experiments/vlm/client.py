@@ -40,7 +40,20 @@ from ..._errors import FairauditError, InputError
 from ..._validation import real, whole
 from .logprobs import first_token_logprobs
 
-__all__ = ["RETRY_STATUSES", "ChatClient", "ChatError", "ChatReply", "system_message", "user_message"]
+__all__ = [
+    "CONSTRAINTS",
+    "RETRY_STATUSES",
+    "ChatClient",
+    "ChatError",
+    "ChatReply",
+    "constraint_body",
+    "gbnf_choice",
+    "system_message",
+    "user_message",
+]
+
+CONSTRAINTS = ("none", "json-schema", "guided-choice", "grammar")
+"""How a request may ask the server to reply with one of a set of texts only (:func:`constraint_body`)."""
 
 RETRY_STATUSES = frozenset({429, 500, 502, 503, 504})
 """HTTP statuses that are retried; every other non-2xx status fails at once."""
@@ -185,6 +198,8 @@ class ChatClient:
         Requests in flight at once across all threads; >= 1.
     temperature : float, optional
         Sent as ``temperature`` when given; finite and >= 0.
+    top_p : float, optional
+        Sent as ``top_p`` when given; in (0, 1].
     max_tokens : int, optional
         Sent as ``max_tokens`` when given; >= 1.
     top_logprobs : int, optional
@@ -202,7 +217,7 @@ class ChatClient:
         When an argument is invalid (the field is the command-line flag:
         ``--endpoint``, ``--model``, ``--timeout``, ``--max-retries``,
         ``--backoff``, ``--max-backoff``, ``--concurrency``,
-        ``--temperature``, ``--max-tokens``; or ``api_key``, ``top_logprobs``, ``extra_body``),
+        ``--temperature``, ``--top-p``, ``--max-tokens``; or ``api_key``, ``top_logprobs``, ``extra_body``),
         or ``vlm: needs pip install 'fairaudit[vlm]'`` when httpx or tenacity
         is missing.
 
@@ -225,6 +240,7 @@ class ChatClient:
         max_backoff: float = 60.0,
         max_concurrency: int = 4,
         temperature: float | None = None,
+        top_p: float | None = None,
         max_tokens: int | None = None,
         top_logprobs: int | None = None,
         extra_body: dict | None = None,
@@ -239,6 +255,7 @@ class ChatClient:
         self.max_backoff = real(max_backoff, "max_backoff", low=0.0)
         self.max_concurrency = whole(max_concurrency, "max_concurrency", low=1)
         self.temperature = None if temperature is None else real(temperature, "temperature", low=0.0)
+        self.top_p = None if top_p is None else real(top_p, "top_p", low=0.0, low_open=True, high=1.0)
         self.max_tokens = None if max_tokens is None else whole(max_tokens, "max_tokens", low=1)
         self.top_logprobs = None if top_logprobs is None else whole(top_logprobs, "top_logprobs", low=1)
         self.extra_body = _extra_body(extra_body)
@@ -362,6 +379,8 @@ class ChatClient:
             body["seed"] = int(seed)
         if self.temperature is not None:
             body["temperature"] = self.temperature
+        if self.top_p is not None:
+            body["top_p"] = self.top_p
         if self.max_tokens is not None:
             body["max_tokens"] = self.max_tokens
         if self.top_logprobs is not None:
@@ -540,6 +559,94 @@ def user_message(text: str, images: Sequence[bytes] = (), *, mime: str = "image/
         encoded = base64.b64encode(bytes(image)).decode("ascii")
         content.append({"type": "image_url", "image_url": {"url": f"data:{mime};base64,{encoded}"}})
     return {"role": "user", "content": content}
+
+
+def constraint_body(mode: str, replies: Sequence[str], name: str = "decision") -> dict:
+    """The request fields that ask a server to reply with one of ``replies`` only.
+
+    Parameters
+    ----------
+    mode : {"none", "json-schema", "guided-choice", "grammar"}
+        ``"json-schema"``: OpenAI's structured outputs, ``response_format`` with a strict JSON schema whose one
+        field ``answer`` is one of ``replies`` (the reply is ``{"answer": "..."}``; OpenAI, vLLM, llama-server);
+        ``"guided-choice"``: vLLM's ``guided_choice`` (the reply is one of ``replies``); ``"grammar"``:
+        llama.cpp's ``grammar``, a GBNF grammar whose root is one of ``replies`` (:func:`gbnf_choice`);
+        ``"none"``: no field.
+    replies : sequence of str
+        The allowed replies, non-empty, distinct (not read for ``"none"``).
+    name : str
+        The schema's name (``json-schema`` only): letters, digits, ``_`` and ``-``.
+
+    Returns
+    -------
+    dict
+        Fields to merge into the request body (``ChatClient(extra_body=...)``); empty for ``"none"``.
+
+    Raises
+    ------
+    InputError
+        An unknown ``mode`` (naming ``constrain``), or ``replies`` empty, repeated or not strings.
+
+    Examples
+    --------
+    >>> constraint_body("guided-choice", ["yes", "no"])
+    {'guided_choice': ['yes', 'no']}
+    >>> constraint_body("grammar", ["yes", "no"])
+    {'grammar': 'root ::= "yes" | "no"'}
+    >>> constraint_body("json-schema", ["yes", "no"])["response_format"]["json_schema"]["schema"]["properties"]
+    {'answer': {'type': 'string', 'enum': ['yes', 'no']}}
+    >>> constraint_body("none", ["yes", "no"])
+    {}
+    """
+    from ..._validation import choice
+
+    choice(mode, "constrain", CONSTRAINTS)
+    if mode == "none":
+        return {}
+    texts = list(replies)
+    if not texts or not all(isinstance(t, str) and t for t in texts) or len(set(texts)) != len(texts):
+        raise InputError("replies", "must be distinct non-empty strings", texts)
+    if mode == "guided-choice":
+        return {"guided_choice": texts}
+    if mode == "grammar":
+        return {"grammar": gbnf_choice(texts)}
+    schema = {
+        "type": "object",
+        "properties": {"answer": {"type": "string", "enum": texts}},
+        "required": ["answer"],
+        "additionalProperties": False,
+    }
+    return {"response_format": {"type": "json_schema", "json_schema": {"name": name, "strict": True, "schema": schema}}}
+
+
+_GBNF_ESCAPES = {"\\": "\\\\", '"': '\\"', "\n": "\\n", "\r": "\\r", "\t": "\\t"}
+
+
+def gbnf_choice(replies: Sequence[str]) -> str:
+    """A llama.cpp GBNF grammar whose only sentences are ``replies``: ``root ::= "a" | "b"``.
+
+    Each reply is a GBNF string literal: a backslash, a double quote, a newline, a carriage return and a tab are
+    escaped (``\\\\``, ``\\"``, ``\\n``, ``\\r``, ``\\t``), other control characters as ``\\xHH``; the rest is
+    written as it is (GBNF literals are UTF-8).
+
+    Examples
+    --------
+    >>> print(gbnf_choice(['say "no"', "a\\\\b"]))
+    root ::= "say \\"no\\"" | "a\\\\b"
+    """
+
+    def literal(text: str) -> str:
+        out = []
+        for ch in text:
+            if ch in _GBNF_ESCAPES:
+                out.append(_GBNF_ESCAPES[ch])
+            elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+                out.append(f"\\x{ord(ch):02X}")
+            else:
+                out.append(ch)
+        return '"' + "".join(out) + '"'
+
+    return "root ::= " + " | ".join(literal(t) for t in replies)
 
 
 def system_message(text: str) -> dict:

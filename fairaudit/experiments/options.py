@@ -24,12 +24,12 @@ from .analysis import DEFAULT_TARGETS
 from .vlm.client import CONSTRAINTS
 
 __all__ = [
+    "CONSTRAINTS",
     "DEFAULT_GOALS",
     "DEFAULT_KEEPS",
+    "DEFAULT_MAX_TOKENS",
     "DEFAULT_START",
     "DEFAULT_TOLERANCE",
-    "CONSTRAINTS",
-    "DEFAULT_MAX_TOKENS",
     "PLAIN_SAMPLING",
     "ModelSource",
     "RunOptions",

@@ -12,7 +12,8 @@ The prompt is a Jinja2 template rendered in a sandbox (no attribute of
 Python objects, no calls, no files): ``{{ context }}``, ``{{ candidates }}``
 (the list) and ``{{ c1 }}``, ``{{ c2 }}``, ..., each candidate with one field
 per attribute (``{{ c1.name }}``, ``{{ c1["complaint rate"] }}``); a
-candidate written alone reads as its values joined by ``", "``.
+candidate written alone reads as its values joined by ``", "``, and the list
+alone as its candidates joined by ``"; "``.
 
 What runs today: any number of candidates per prompt whose table design has
 at most :data:`fairaudit.experiments.slots.MAX_SHOWN_CELLS` shown cells, a

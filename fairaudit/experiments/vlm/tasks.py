@@ -521,6 +521,15 @@ class _Candidate:
     def __str__(self) -> str:
         return ", ".join(str(v) for v in self._fields.values())
 
+    __repr__ = __str__  # inside a list, as ``{{ candidates }}`` alone renders it
+
+
+class _Candidates(list):  # type: ignore[type-arg]
+    """``{{ candidates }}``: the list of candidates; alone, each candidate's values, candidates joined by "; "."""
+
+    def __str__(self) -> str:
+        return "; ".join(str(c) for c in self)
+
 
 PROMPT_FILTERS = ("capitalize", "default", "first", "join", "last", "length", "lower", "title", "trim", "upper")
 """The Jinja2 filters a prompt template may use; no other filter, no call, no arithmetic, no global function."""
@@ -613,6 +622,9 @@ def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping
     >>> render_prompt("{{ c1.name }} or {{ c2 }}? ({{ context }})", "job", [{"name": "Ann"}, {"name": "Bo", "age": 30}],
     ...               field="prompt.user")
     'Ann or Bo, 30? (job)'
+    >>> render_prompt("One of: {{ candidates }}", "job", [{"name": "Ann", "age": 41}, {"name": "Bo", "age": 30}],
+    ...               field="prompt.user")
+    'One of: Ann, 41; Bo, 30'
     >>> render_prompt("{{ c1.__class__ }}", "job", [{"name": "Ann"}], field="prompt.user")
     Traceback (most recent call last):
     ...
@@ -628,7 +640,7 @@ def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping
     env = _environment()  # first: without Jinja2, one line naming the install
     from jinja2 import TemplateError, TemplateSyntaxError, UndefinedError
 
-    shown = [_Candidate(c) for c in candidates]
+    shown = _Candidates(_Candidate(c) for c in candidates)
     names = {f"c{i + 1}": c for i, c in enumerate(shown)}
     try:
         return str(_template(env, template).render(context=context, candidates=shown, **names))

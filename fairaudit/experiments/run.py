@@ -114,7 +114,7 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int) -> Decisio
             max_tokens=_twin_tokens(task) if source.first_token else None,
             extra_body=dict(PLAIN_SAMPLING) if source.first_token else None,
         )
-        return EndpointModel(client, task)
+        return EndpointModel(client)
     if source.kernel:
         return SimulatedModel.from_csv(task, source.kernel)
     return simulated_model(task, source.simulated or next(iter(simulated_models(task))))
@@ -770,7 +770,7 @@ def endpoint_kernel(
 
     def ask(i: int) -> FloatArray:
         p = prompts[i]
-        messages = lm.chat_messages(shown, p.context, p.profiles, p.texts)
+        messages = shown.messages(p.context, p.profiles, p.texts)
         if not sequences:
             return decision_probabilities(top(messages, ""), task, answers=answers)
         row = np.zeros(len(task.decisions))

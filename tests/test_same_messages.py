@@ -19,6 +19,7 @@ import math
 from contextlib import contextmanager
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 from _chat_server import ChatServer
 
@@ -293,3 +294,43 @@ def test_the_log_keeps_each_querys_messages_with_its_images_hashed(tmp_path):
         ]
         assert records[qid]["messages"] == logged_messages(messages, digests)
         assert records[qid]["prompt_sha256"] == hashlib.sha256((text + "".join(digests)).encode()).hexdigest()
+
+
+# --------------------------------------------------------------------------- the real model
+
+
+@pytest.mark.local_model
+def test_the_real_models_exact_and_sampled_routes_have_one_law(loan, tmp_path):
+    """SmolLM2 on the loan task with its system message: 10 one-token replies per cell from ``transformers serve``
+    (``--local-model smollm2 --samples 10``) against the in-process exact kernel.
+
+    Each cell's counts must cover the exact row within simultaneous 99% intervals (Bonferroni over the 8 cells),
+    and the 80 replies pooled must cover the cells' mean row within 99% (a stratified sample: its counts vary less
+    than a multinomial's, so the Clopper-Pearson bounds are conservative). Without the system message the served
+    model's law is another: its unparsed share is about 0.66 against the exact route's 0.43, over 4 standard errors
+    of the 80 replies' pooled share (the issue saw z = -7.5 with more replies), beyond the 99% bounds.
+    """
+    from _model import need_local_model
+
+    need_local_model("fastapi", "uvicorn")
+    from fairaudit._confidence_sets import category_bounds
+    from fairaudit.experiments.harness import table_kernel
+    from fairaudit.experiments.taskfile import load_task
+
+    task = load_task(loan)
+    exact = lm.exact_kernel(task, lm.load("smollm2"))
+    done = run_experiment(
+        str(loan), tmp_path / "run", ModelSource(local_model="smollm2"),
+        RunOptions(samples=10, epsilons=[1.0], targets=[]), progress=False,
+    )  # fmt: skip
+    assert done.summary is not None and done.summary.complete and done.summary.failed == 0
+    records = [json.loads(line) for line in (done.out / "queries.jsonl").read_text().splitlines()[1:]]
+    assert {r["messages"][0]["role"] for r in records} == {"system"}
+    counts = table_kernel(task, records).counts.reshape(exact.shape)
+    assert counts.sum() == 80
+    lo, hi = category_bounds(counts, 0.01 / 8)
+    assert np.all((lo <= exact + 1e-12) & (exact <= hi + 1e-12))
+    pooled = counts.reshape(-1, 3).sum(0)
+    mean = exact.reshape(-1, 3).mean(0)
+    lo, hi = category_bounds(pooled, 0.01)
+    assert np.all((lo <= mean + 1e-12) & (mean <= hi + 1e-12)), (pooled / 80, mean)

@@ -380,7 +380,7 @@ def logged_messages(messages: Sequence[dict], image_digests: Sequence[str]) -> l
 
     Examples
     --------
-    >>> from fairaudit.experiments.vlm.client import system_message, user_message
+    >>> from fairaudit.experiments.vlm.messages import system_message, user_message
     >>> logged_messages([system_message("Be brief."), user_message("Which office?", [b"png"])], ["ab12"])
     [{'role': 'system', 'content': 'Be brief.'}, {'role': 'user', 'content': [{'type': 'text', 'text': 'Which office?'}, {'type': 'image_url', 'sha256': 'ab12'}]}]
     """

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from ..._arrays import format_label
 from ..._errors import InputError
+from .messages import system_message, user_message
 
 if TYPE_CHECKING:
     import numpy as np
@@ -401,7 +402,7 @@ class DeliveryTask:
         list of dict
             ``[{"role": "system", "content": system prompt}, user message]``, or the user message alone when the
             task has no system prompt; the user message is
-            :func:`~fairaudit.experiments.vlm.client.user_message`'s (its content a string without images, else a
+            :func:`~fairaudit.experiments.vlm.messages.user_message`'s (its content a string without images, else a
             text part then one ``image_url`` part per image).
 
         Raises
@@ -430,8 +431,6 @@ class DeliveryTask:
         >>> t.messages(t.contexts[0], [("Bo",)])
         [{'role': 'system', 'content': 'Answer yes or no.'}, {'role': 'user', 'content': 'Approve Bo?'}]
         """
-        from .client import system_message, user_message
-
         system = self.system_prompt(context, profiles, texts)
         user = user_message(self.prompt(context, profiles, texts), images)
         return [user] if system is None else [system_message(system), user]

@@ -350,7 +350,7 @@ def run(tasks: list[str], samples: dict, reps: dict, seed: int, epsilon: float) 
             ex = exact_route(task, loaded, epsilon)
             answer = lm.answer_task(task)
             q = plan_queries(answer, "table", 1, seed)[0]  # warm-up query, not logged
-            model.reply(q, answer.prompt(q.context, q.profiles), ())
+            model.reply(q, answer.messages(q.context, q.profiles))
             runs = []
             for r in range(reps[name]):
                 _say(f"{name}: sampled rep {r + 1}/{reps[name]}, {ex.cells * samples[name]} queries", t0)

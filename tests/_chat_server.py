@@ -32,7 +32,9 @@ from a server that does not support them.
 ``required_key``: requests without ``Authorization: Bearer <key>`` get a 401
 (checked before the faults; a body without ``messages`` gets a 400). Every
 request is recorded in ``server.requests`` (method, path, JSON body, headers
-with the Authorization value redacted); ``n_chat`` counts the POSTs to
+with the Authorization value redacted); ``chat_requests`` are the chat
+requests' JSON bodies and ``messages`` their ``messages``, each as the
+``json.dumps`` text of the list (to compare what routes send byte for byte); ``n_chat`` counts the POSTs to
 ``/v1/chat/completions`` and ``max_in_flight`` is the largest number of
 chat requests handled at once (from the body read until the reply starts).
 """
@@ -124,6 +126,11 @@ class ChatServer:
         """The recorded chat-completion requests (their JSON bodies), in arrival order."""
         with self._lock:
             return [r["json"] for r in self.requests if r["path"] == "/v1/chat/completions" and r["method"] == "POST"]
+
+    @property
+    def messages(self) -> list[str]:
+        """The ``messages`` of each recorded chat request, as ``json.dumps`` of the list, in arrival order."""
+        return [json.dumps(body["messages"]) for body in self.chat_requests]
 
     # --- per request -----------------------------------------------------------------------
 

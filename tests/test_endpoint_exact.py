@@ -23,7 +23,7 @@ from _cli import run
 
 from fairaudit import InputError
 from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep
-from fairaudit.experiments.local_model import answer_task, chat_messages, exact_law, exact_prompt
+from fairaudit.experiments.local_model import answer_task, exact_law, exact_prompt
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, load_task
@@ -167,9 +167,7 @@ def test_hr_exact_run_equals_analyse_kernel_on_the_known_kernel(tmp_path, capsys
     assert err.startswith("exact kernel of 192 shown cells (192 requests) in ") and err.count("\n") == 1
     # one request per shown cell: one token, the top 20 log-probabilities, answer_task's text-only messages
     shown = answer_task(task)
-    expected = [
-        chat_messages(shown, c, (p1, p2)) for c in task.contexts for p1 in task.profiles for p2 in task.profiles
-    ]
+    expected = [shown.messages(c, (p1, p2)) for c in task.contexts for p1 in task.profiles for p2 in task.profiles]
     assert sorted(map(json.dumps, (b["messages"] for b in bodies))) == sorted(map(json.dumps, expected))
     assert {(b["max_tokens"], b["logprobs"], b["top_logprobs"], b["model"]) for b in bodies} == {
         (1, True, 20, "lp-model")
@@ -250,7 +248,7 @@ def test_a_task_file_without_an_answer_paragraph_is_sent_as_it_is(tmp_path):
     assert done.analysis is not None and done.analysis.unparsed_share == pytest.approx(0.2, abs=1e-12)
     np.testing.assert_allclose(done.analysis.kernel.probabilities, exact_law(task, kernel).probabilities, atol=1e-12)
     assert bodies[0]["messages"][0]["role"] == "system"
-    assert bodies[0]["messages"] in [chat_messages(task, c, pair) for c, pair in _pairs(task)]
+    assert bodies[0]["messages"] in [task.messages(c, pair) for c, pair in _pairs(task)]
 
 
 def _pairs(task):

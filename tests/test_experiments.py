@@ -220,13 +220,13 @@ class _Flaky:
         self.n = 0
         self.inner = simulated_model(PKG, "fair")
 
-    def reply(self, query, prompt, images):
+    def reply(self, query, messages):
         from fairaudit._errors import FairauditError
 
         self.n += 1
         if self.n % 4 == 0:
             raise FairauditError("http://127.0.0.1:1/v1/chat/completions: HTTP 503 after 3 attempts")
-        return self.inner.reply(query, prompt, images)
+        return self.inner.reply(query, messages)
 
 
 def test_failures_are_logged_not_counted_and_retried_on_resume(tmp_path):

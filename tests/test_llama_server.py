@@ -74,7 +74,7 @@ def test_exact_route_over_http_reads_the_servers_first_token(server, tmp_path, c
     assert len(rows) == 12
     # the server's own reading of one cell, by hand: its top first tokens parsed as the options
     context, pair = PACKAGE_DELIVERY.contexts[0], PACKAGE_DELIVERY.candidates
-    messages = lm.chat_messages(lm.exact_prompt(PACKAGE_DELIVERY)[0], context, pair)
+    messages = lm.exact_prompt(PACKAGE_DELIVERY)[0].messages(context, pair)
     reply = httpx.post(
         f"{server}/v1/chat/completions",
         json={
@@ -101,7 +101,7 @@ def test_the_server_and_the_in_process_model_agree_up_to_quantized_arithmetic(se
     pytest.importorskip("torch")
     pytest.importorskip("transformers")
     model = lm.load("smollm2")
-    messages = lm.chat_messages(lm.exact_prompt(PACKAGE_DELIVERY)[0], "medicine", PACKAGE_DELIVERY.candidates)
+    messages = lm.exact_prompt(PACKAGE_DELIVERY)[0].messages("medicine", PACKAGE_DELIVERY.candidates)
     served = httpx.post(f"{server}/apply-template", json={"messages": messages}, timeout=60).json()["prompt"]
     assert served == model.tokenizer.apply_chat_template(messages, add_generation_prompt=True, tokenize=False)
     local = lm.exact_kernel(PACKAGE_DELIVERY, model)
@@ -176,7 +176,7 @@ def test_a_rankings_chain_rule_over_http_agrees_with_the_in_process_route(server
     with ChatClient(f"{server}/v1", "smollm2", top_logprobs=20, max_tokens=1) as client:
         assert client.is_llama_server()
         for cell in cells:
-            messages = lm.chat_messages(task, cell[0], cell[1:])
+            messages = task.messages(cell[0], cell[1:])
 
             def top(prefix, messages=messages):
                 turn = [{"role": "assistant", "content": prefix}] if prefix else []

@@ -210,7 +210,7 @@ def test_a_rankings_exact_kernel_is_the_probability_of_each_order_written_out(sm
     assert got.sum() == pytest.approx(len(cells), abs=1e-9)  # each asked cell sums to 1; the others stay at zero
     tok = smollm2.tokenizer
     for cell in cells:
-        ids = list(tok.apply_chat_template(lm.chat_messages(task, cell[0], cell[1:]), add_generation_prompt=True,
+        ids = list(tok.apply_chat_template(task.messages(cell[0], cell[1:]), add_generation_prompt=True,
                                            tokenize=True, return_dict=False))  # fmt: skip
         row = got[(task.contexts.index(cell[0]), *(people.index(p) for p in cell[1:]))]
         for j, reply in enumerate(ranking_replies(task, task.options)):

@@ -221,8 +221,9 @@ def test_the_sampled_route_draws_one_name_per_query_and_logs_it(tmp_path):
     class ByName:
         name = "by-name"
 
-        def reply(self, query, prompt, images):
+        def reply(self, query, messages):
             rng = np.random.default_rng(query.seed)
+            prompt = messages[-1]["content"]
             return ModelReply("yes" if rng.random() < P_YES[prompt.split(": ", 1)[1].split(".")[0]] else "no", "m")
 
     with QueryLog(tmp_path / "q.jsonl", {"task": "names"}) as log:

@@ -24,7 +24,8 @@ from _chat_server import DEFAULT_REPLY, ChatServer
 
 from fairaudit import InputError
 from fairaudit.experiments.vlm import client as client_module
-from fairaudit.experiments.vlm.client import ChatClient, ChatError, ChatReply, system_message, user_message
+from fairaudit.experiments.vlm.client import ChatClient, ChatError, ChatReply
+from fairaudit.experiments.vlm.messages import system_message, user_message
 
 KEY = "sk-test-S3CR3T-key-0123456789"
 MESSAGES = [system_message("You deliver documents."), user_message("Which office, HR1 or HR2?")]

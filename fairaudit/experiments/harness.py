@@ -15,10 +15,12 @@ and its own seed, a hash of the run's seed and the key, so the replies do
 not depend on the order, the concurrency or on interruptions.
 
 The log (:class:`QueryLog`) is an append-only JSON-lines file: a header with
-the run's settings, then one line per answered query (the text of its system
-and user messages, the hash of the prompt and images, model, cell, seed,
-time, reply, parsed decision). A line is written and flushed as soon as its
-reply arrives, so killing the run loses no answered query; on
+the run's settings, then one line per answered query (prompt hash, the
+messages sent with each image as its hash, model, cell, seed, time, reply,
+parsed decision). Each query's messages are made once
+(:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages`) and handed to
+the model as they are logged. A line is written and flushed as
+soon as its reply arrives, so killing the run loses no answered query; on
 resume, queries already in the log are skipped (none is asked twice) and a
 torn last line is cut off. Transport failures (after the client's retries)
 are logged as errors and asked again on the next resume; unparseable replies
@@ -56,6 +58,7 @@ __all__ = [
     "QueryLog",
     "RunSummary",
     "decision_label",
+    "logged_messages",
     "paper_counts",
     "paper_queries_needed",
     "plan_queries",
@@ -376,6 +379,49 @@ class RunSummary:
         return self.already + self.asked == self.planned
 
 
+def logged_messages(messages: Sequence[dict], image_digests: Sequence[str]) -> list[dict]:
+    """A query's chat messages as its log record keeps them: every text as sent, each image as its SHA-256.
+
+    Parameters
+    ----------
+    messages : sequence of dict
+        :meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages`' messages.
+    image_digests : sequence of str
+        The hex SHA-256 of each image, in the order the messages carry them.
+
+    Returns
+    -------
+    list of dict
+        ``{"role": ..., "content": ...}`` per message: a text content as it is; a content of parts with each
+        ``image_url`` part replaced by ``{"type": "image_url", "sha256": digest}``.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.vlm.messages import system_message, user_message
+    >>> logged_messages([system_message("Be brief."), user_message("Which office?", [b"png"])], ["ab12"])
+    [{'role': 'system', 'content': 'Be brief.'}, {'role': 'user', 'content': [{'type': 'text', 'text': 'Which office?'}, {'type': 'image_url', 'sha256': 'ab12'}]}]
+    """
+    digests = iter(image_digests)
+    out = []
+    for m in messages:
+        content = m["content"]
+        if not isinstance(content, str):
+            content = [
+                {"type": "image_url", "sha256": next(digests)} if part.get("type") == "image_url" else dict(part)
+                for part in content
+            ]
+        out.append({"role": m["role"], "content": content})
+    return out
+
+
+def _text(message: dict) -> str:
+    """The text of a chat message: its content, or its text parts joined."""
+    content = message["content"]
+    if isinstance(content, str):
+        return content
+    return "".join(part["text"] for part in content if part.get("type") == "text")
+
+
 def _prompt_hash(prompt: str, image_digests: Sequence[str]) -> str:
     h = hashlib.sha256(prompt.encode("utf-8"))
     for d in image_digests:
@@ -399,12 +445,14 @@ def run_queries(
     ----------
     task : DeliveryTask
     model : DecisionModel
-        Must be thread-safe when ``concurrency`` > 1.
+        Given each query's messages (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages`); must be
+        thread-safe when ``concurrency`` > 1.
     queries : sequence of Query
         From :func:`plan_queries`.
     log : QueryLog
     images : sequence of bytes
-        PNG route images sent with every query (hashed into the prompt hash).
+        PNG route images sent with every query, in its user message after the prompt (hashed into the prompt
+        hash and logged as their hashes).
     concurrency : int
         Queries in flight at once (≥ 1).
     progress : bool
@@ -467,7 +515,7 @@ def _answer(
     """Ask one query and return its log record: the reply and its parsed decision, or the transport error."""
     from .vlm.parse import parse_reply
 
-    prompt = task.prompt(q.context, q.profiles, q.texts)
+    messages = task.messages(q.context, q.profiles, q.texts, images)  # made once: what the model gets and the log keeps
     rec = {
         "type": "query",
         "id": q.id,
@@ -479,20 +527,13 @@ def _answer(
         "epsilon": "inf" if q.epsilon == math.inf else q.epsilon,  # JSON has no infinity: read back with float()
         "truth": None if q.truth is None else {"context": q.truth[0], "profiles": [list(p) for p in q.truth[1]]},
         **({"shown": task.shown_names(q.profiles, q.texts)} if q.texts else {}),
-        "prompt_sha256": _prompt_hash(prompt, digests),
-        "messages": [  # their text: the system message when the task has one, then the user's; images stay hashed
-            *(
-                {"role": "system", "content": s}
-                for s in [task.system_prompt(q.context, q.profiles, q.texts)]
-                if s is not None
-            ),
-            {"role": "user", "content": prompt},
-        ],
+        "prompt_sha256": _prompt_hash(_text(messages[-1]), digests),
+        "messages": logged_messages(messages, digests),
         "time": _now(),
     }
     t0 = time.monotonic()
     try:
-        r = model.reply(q, prompt, images)
+        r = model.reply(q, messages)
     except FairauditError as exc:  # ChatError after the client's retries
         return {
             **rec,

@@ -12,18 +12,24 @@ with ``transformers`` into a plain float32 safetensors folder in a cache
   :func:`fairaudit.experiments.vlm.parse.parse_reply` reads from a reply made of
   that token alone (:func:`token_decisions`), so P(decision | cell) is the sum
   of the token probabilities, and what no option gets is ``"unparsed"``.
-* **sampled**: the same prompts through an OpenAI-compatible server
+* **sampled**: the same messages through an OpenAI-compatible server
   (``transformers serve FOLDER``) with one-token replies (``max_tokens=1``)
   sampled from the plain softmax (the folder's generation config: sampling,
   temperature 1, no top-k or top-p cut), read by the harness's own client,
   log and parser. Its replies then have exactly the law of the exact route.
 
-The prompt (:func:`answer_task`) is the task's own, with its last paragraph
+Both routes send the messages of :func:`exact_prompt`'s task, made by the one
+builder :meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages` (the
+task's system message when it has one, then the user prompt): the exact route
+through the tokenizer's chat template, the sampled one through the harness
+(:class:`ServedModel` sends what the harness made). For the built-in tasks
+that prompt (:func:`answer_task`) is the task's own with its last paragraph
 (the JSON answer format) replaced by a request for the option's number
 alone, so that the decision is the first token of the reply: a 135M model
 does not keep to the JSON format (its first token is ``{``, ``"``, ``I``,
 ``The``, ... with a few per cent each), and a decision spread over a free
-reply has no exact law that one forward pass can give.
+reply has no exact law that one forward pass can give. A task file's prompt
+is sent as it is written.
 
 torch and transformers are imported only where used (``pip install 'fairaudit[local-model]'``).
 """
@@ -70,7 +76,6 @@ __all__ = [
     "ServedModel",
     "answer_task",
     "cache_root",
-    "chat_messages",
     "check",
     "exact_kernel",
     "exact_law",
@@ -520,35 +525,6 @@ def exact_prompt(task: DeliveryTask) -> tuple[DeliveryTask, tuple[str, ...]]:
         return task, tuple(task.options)
 
 
-def chat_messages(
-    task: DeliveryTask, context: str, profiles: Sequence[tuple[str, ...]], texts: Sequence[int] = ()
-) -> list[dict[str, Any]]:
-    """The chat messages of one query, as the harness's endpoint model sends them (one user message, no image).
-
-    Parameters
-    ----------
-    task : DeliveryTask
-        Its template fills the prompt (:func:`answer_task`'s for the local model).
-    context : str
-        One of the task's contexts.
-    profiles : sequence of tuple
-        The profiles shown in slots 1 to k.
-    texts : sequence of int
-        The candidates' texts (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.text_choices`; default the
-        first of each value).
-
-    Returns
-    -------
-    list of dict
-        ``[{"role": "user", "content": prompt}]``, after ``{"role": "system", ...}`` when the task has a system prompt.
-    """
-    from .vlm.client import user_message
-
-    system = task.system_prompt(context, profiles, texts)
-    head = [] if system is None else [{"role": "system", "content": system}]
-    return [*head, user_message(task.prompt(context, profiles, texts))]
-
-
 def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None) -> IntArray:
     """The decision read from a reply made of each single token, shape (size,).
 
@@ -651,7 +627,7 @@ def exact_kernel(
     ids = [
         list(
             tok.apply_chat_template(
-                chat_messages(t, p.context, p.profiles, p.texts),
+                t.messages(p.context, p.profiles, p.texts),
                 add_generation_prompt=True,
                 tokenize=True,
                 return_dict=False,
@@ -773,6 +749,9 @@ class ServedModel(EndpointModel):
 
     The server names a model by its folder (a cache path that differs between
     machines); the log keeps the short name, so a run resumes on any machine.
+    Like any :class:`~fairaudit.experiments.vlm.models.EndpointModel` it sends
+    the messages the harness made (the task's system message included), the
+    messages :func:`exact_kernel` scores for the same cell.
 
     Parameters
     ----------
@@ -786,9 +765,9 @@ class ServedModel(EndpointModel):
         super().__init__(client)
         self.name = name
 
-    def reply(self, query: Query, prompt: str, images: tuple) -> ModelReply:
-        """The endpoint's reply, with the short name."""
-        return dataclasses.replace(super().reply(query, prompt, images), model=self.name)
+    def reply(self, query: Query, messages: Sequence[dict]) -> ModelReply:
+        """The endpoint's reply to the query's messages (sent as they are), with the short name."""
+        return dataclasses.replace(super().reply(query, messages), model=self.name)
 
 
 def _common_prefix(seqs: Sequence[Sequence[int]]) -> int:

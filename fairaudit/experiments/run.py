@@ -122,7 +122,7 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: 
             if source.first_token
             else constraint_body(sampling["constrain"], sampling.get("replies", ()), name=_schema_name(task)),
         )
-        return EndpointModel(client, task)
+        return EndpointModel(client)
     if source.kernel:
         return SimulatedModel.from_csv(task, source.kernel)
     return simulated_model(task, source.simulated or next(iter(simulated_models(task))))
@@ -1004,7 +1004,7 @@ def endpoint_kernel(
 
     def ask(i: int) -> FloatArray:
         p = prompts[i]
-        messages = lm.chat_messages(shown, p.context, p.profiles, p.texts)
+        messages = shown.messages(p.context, p.profiles, p.texts)
         if not sequences:
             return decision_probabilities(top(messages, ""), task, answers=answers)
         row = np.zeros(len(task.decisions))

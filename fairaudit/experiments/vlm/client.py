@@ -20,7 +20,6 @@ client is built, so this module imports without them.
 
 from __future__ import annotations
 
-import base64
 import json
 import logging
 import math
@@ -48,8 +47,6 @@ __all__ = [
     "ChatReply",
     "constraint_body",
     "gbnf_choice",
-    "system_message",
-    "user_message",
 ]
 
 CONSTRAINTS = ("none", "json-schema", "guided-choice", "grammar")
@@ -504,63 +501,6 @@ class ChatClient:
         _log.info("%s: %s (attempt %d); retrying in %.2f s", self.endpoint, problem, retry_state.attempt_number, wait)
 
 
-def user_message(text: str, images: Sequence[bytes] = (), *, mime: str = "image/png") -> dict:
-    """An OpenAI chat message from the user: text, then images as base64 data URLs.
-
-    Parameters
-    ----------
-    text : str
-        The prompt.
-    images : sequence of bytes
-        Encoded images (PNG, JPEG, ...), in order; each non-empty. Not a
-        single ``bytes`` object: wrap one image in a list.
-    mime : str
-        The images' media type, ``image/...`` (``image/png``, ``image/jpeg``).
-
-    Returns
-    -------
-    dict
-        ``{"role": "user", "content": text}`` without images, else
-        ``{"role": "user", "content": [{"type": "text", "text": text},
-        {"type": "image_url", "image_url": {"url": "data:<mime>;base64,..."}}, ...]}``.
-
-    Raises
-    ------
-    InputError
-        When ``text`` is not a string, an image is not non-empty bytes, or
-        ``mime`` is not an image media type.
-
-    Examples
-    --------
-    >>> user_message("Which office?")
-    {'role': 'user', 'content': 'Which office?'}
-    >>> m = user_message("Which office?", [b"\\x89PNG"])
-    >>> m["content"][0]
-    {'type': 'text', 'text': 'Which office?'}
-    >>> m["content"][1]
-    {'type': 'image_url', 'image_url': {'url': 'data:image/png;base64,iVBORw=='}}
-    """
-    if not isinstance(text, str):
-        raise InputError("text", "must be a string", text)
-    if isinstance(images, (bytes, bytearray, memoryview, str)):
-        raise InputError("images", "must be a sequence of images (wrap a single image in a list)")
-    if not isinstance(mime, str) or not re.fullmatch(r"image/[A-Za-z0-9.+-]+", mime):
-        raise InputError("mime", "must be an image media type such as 'image/png' or 'image/jpeg'", mime)
-    try:
-        images = list(images)
-    except TypeError:
-        raise InputError("images", "must be a sequence of bytes", type(images).__name__) from None
-    if not images:
-        return {"role": "user", "content": text}
-    content: list[dict] = [{"type": "text", "text": text}]
-    for i, image in enumerate(images):
-        if not isinstance(image, (bytes, bytearray, memoryview)) or len(image) == 0:
-            raise InputError(f"images[{i}]", "must be non-empty bytes (an encoded image)", type(image).__name__)
-        encoded = base64.b64encode(bytes(image)).decode("ascii")
-        content.append({"type": "image_url", "image_url": {"url": f"data:{mime};base64,{encoded}"}})
-    return {"role": "user", "content": content}
-
-
 def constraint_body(mode: str, replies: Sequence[str], name: str = "decision") -> dict:
     """The request fields that ask a server to reply with one of ``replies`` only.
 
@@ -647,24 +587,6 @@ def gbnf_choice(replies: Sequence[str]) -> str:
         return '"' + "".join(out) + '"'
 
     return "root ::= " + " | ".join(literal(t) for t in replies)
-
-
-def system_message(text: str) -> dict:
-    """An OpenAI system message ``{"role": "system", "content": text}``.
-
-    Raises
-    ------
-    InputError
-        When ``text`` is not a string.
-
-    Examples
-    --------
-    >>> system_message("You are a delivery robot.")
-    {'role': 'system', 'content': 'You are a delivery robot.'}
-    """
-    if not isinstance(text, str):
-        raise InputError("text", "must be a string", text)
-    return {"role": "system", "content": text}
 
 
 # ----------------------------------------------------------------------------------------------

@@ -1,7 +1,8 @@
 """Decision models behind one interface: simulated kernels and OpenAI-compatible endpoints.
 
-A :class:`DecisionModel` answers one query (the prompt text, the route images
-and a seed) with the text of a reply, as a chat model would. The harness
+A :class:`DecisionModel` answers one query (its chat messages, made once by
+the harness with :meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages`,
+and its seed) with the text of a reply, as a chat model would. The harness
 parses the reply (:func:`fairaudit.experiments.vlm.parse.parse_reply`), so a
 simulated model exercises the same path as a real one.
 
@@ -11,7 +12,8 @@ simulated model exercises the same path as a real one.
   (:data:`SIMULATED`), and any table of counts or probabilities in the
   harness's ``kernel.csv`` format defines one (:meth:`SimulatedModel.from_csv`).
 * :class:`EndpointModel`: a chat-completions endpoint through
-  :class:`fairaudit.experiments.vlm.client.ChatClient` (text and images).
+  :class:`fairaudit.experiments.vlm.client.ChatClient`, sent the query's
+  messages exactly as the harness made them (text and images).
 """
 
 from __future__ import annotations
@@ -99,12 +101,19 @@ class ModelReply:
 
 
 class DecisionModel(Protocol):
-    """What the harness needs of a model: a name and ``reply(query, prompt, images)``; thread-safe."""
+    """What the harness needs of a model: a name and ``reply(query, messages)``; thread-safe.
+
+    ``messages`` are the query's chat messages, made once by the harness
+    (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages`: the system
+    message when the task has one, then the user message with the route images).
+    A model that sends them sends them as they are; a simulated model reads the
+    shown cell from ``query`` and ignores them. A model never makes its own.
+    """
 
     @property
     def name(self) -> str: ...  # pragma: no cover - protocol
 
-    def reply(self, query: Query, prompt: str, images: tuple) -> ModelReply:  # pragma: no cover - protocol
+    def reply(self, query: Query, messages: Sequence[dict]) -> ModelReply:  # pragma: no cover - protocol
         ...
 
 
@@ -202,8 +211,8 @@ class SimulatedModel:
         p.setflags(write=False)
         object.__setattr__(self, "probabilities", p)
 
-    def reply(self, query: Query, prompt: str = "", images: tuple = ()) -> ModelReply:
-        """Draw the decision for the query's shown cell and write it as a reply."""
+    def reply(self, query: Query, messages: Sequence[dict] = ()) -> ModelReply:
+        """Draw the decision for the query's shown cell and write it as a reply (``messages`` are not read)."""
         t = self.task
         profiles = t.profiles
         row = self.probabilities[(t.contexts.index(query.context), *(profiles.index(tuple(p)) for p in query.profiles))]
@@ -316,8 +325,8 @@ class RuleModel:
             rows[cell] = _tile(t, self.rule(t, np.asarray(cell, dtype=np.int64)))[0]
         return rows[cell]
 
-    def reply(self, query: Query, prompt: str = "", images: tuple = ()) -> ModelReply:
-        """Draw the decision for the query's shown cell and write it as a reply."""
+    def reply(self, query: Query, messages: Sequence[dict] = ()) -> ModelReply:
+        """Draw the decision for the query's shown cell and write it as a reply (``messages`` are not read)."""
         return _drawn_reply(self.task, self.row(query.profiles), query, self.name)
 
 
@@ -466,27 +475,21 @@ class EndpointModel:
     client : fairaudit.experiments.vlm.client.ChatClient
         Carries the endpoint, model name, API key (from the environment),
         timeouts, retries and the bound on concurrent requests.
-    task : DeliveryTask, optional
-        The task, whose system prompt (if any) goes first in every request.
 
     Notes
     -----
-    The query's prompt and the route images go in one user message; the
-    query's seed is sent as the request's ``seed``.
+    Each request carries the query's messages exactly as the harness made
+    them (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages`: the
+    task's system message, when it has one, then the prompt and the route
+    images); the query's seed is sent as the request's ``seed``. The model
+    makes no messages of its own, so it cannot leave one out.
     """
 
-    def __init__(self, client: ChatClient, task: DeliveryTask | None = None) -> None:
+    def __init__(self, client: ChatClient) -> None:
         self.client = client
         self.name = client.model
-        self.task = task
 
-    def reply(self, query: Query, prompt: str, images: tuple) -> ModelReply:
-        """Send the query and return the reply's text (raises ChatError after the client's retries)."""
-        from .client import user_message
-
-        messages = [user_message(prompt, images)]
-        system = self.task.system_prompt(query.context, query.profiles, query.texts) if self.task is not None else None
-        if system is not None:
-            messages.insert(0, {"role": "system", "content": system})
-        r = self.client.complete(messages, seed=query.seed)
+    def reply(self, query: Query, messages: Sequence[dict]) -> ModelReply:
+        """Send the query's messages and return the reply's text (raises ChatError after the client's retries)."""
+        r = self.client.complete(list(messages), seed=query.seed)
         return ModelReply(r.text, r.model or self.name, r.attempts, r.latency)

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from ..._arrays import format_label
 from ..._errors import InputError
+from .messages import system_message, user_message
 
 if TYPE_CHECKING:
     import numpy as np
@@ -429,6 +430,65 @@ class DeliveryTask:
             return None
         return self._render(self.system, "prompt.system", context, profiles, texts)
 
+    def messages(
+        self, context: str, profiles: Sequence[tuple], texts: Sequence[int] = (), images: Sequence[bytes] = ()
+    ) -> list[dict[str, Any]]:
+        """The chat messages of one query: the system message when the task has one, then the user message.
+
+        The one place a query's messages are made: the harness hands them to every decision model (a simulated
+        one ignores them, an endpoint sends them as they are), and both exact routes (in process through the
+        tokenizer's chat template, and over HTTP) score them, so every route of a cell sends the same bytes
+        (docs/experiments.md, "The messages of a query").
+
+        Parameters
+        ----------
+        context : str
+            One of :attr:`contexts`.
+        profiles : sequence of tuple
+            The k profiles shown, slot by slot.
+        texts : sequence of int
+            A choice of :meth:`text_choices` (default: each value's first text).
+        images : sequence of bytes
+            Encoded PNG images (the route images), after the user prompt's text.
+
+        Returns
+        -------
+        list of dict
+            ``[{"role": "system", "content": system prompt}, user message]``, or the user message alone when the
+            task has no system prompt; the user message is
+            :func:`~fairaudit.experiments.vlm.messages.user_message`'s (its content a string without images, else a
+            text part then one ``image_url`` part per image).
+
+        Raises
+        ------
+        InputError
+            As :meth:`prompt` and :meth:`system_prompt`; an image that is not non-empty bytes.
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import parse_task
+        >>> t = parse_task('''
+        ... [task]
+        ... candidates = 1
+        ... population = "all"
+        ... [prompt]
+        ... system = "Answer yes or no."
+        ... user = "Approve {{ c1.name }}?"
+        ... [[attribute]]
+        ... name = "name"
+        ... values = ["Ann", "Bo"]
+        ... [decision]
+        ... options = { yes = "approved", no = "denied" }
+        ... [utility]
+        ... values = { approved = 1.0, denied = 0.0 }
+        ... ''', name="t")
+        >>> t.messages(t.contexts[0], [("Bo",)])
+        [{'role': 'system', 'content': 'Answer yes or no.'}, {'role': 'user', 'content': 'Approve Bo?'}]
+        """
+        system = self.system_prompt(context, profiles, texts)
+        user = user_message(self.prompt(context, profiles, texts), images)
+        return [user] if system is None else [system_message(system), user]
+
     def shown_names(self, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> list[dict[str, Any]]:
         """What the prompt shows of each candidate: attribute name -> text, slot by slot.
 
@@ -524,7 +584,7 @@ class _Candidate:
     __repr__ = __str__  # inside a list, as ``{{ candidates }}`` alone renders it
 
 
-class _Candidates(list):  # type: ignore[type-arg]
+class _Candidates(list[_Candidate]):
     """``{{ candidates }}``: the list of candidates; alone, each candidate's values, candidates joined by "; "."""
 
     def __str__(self) -> str:

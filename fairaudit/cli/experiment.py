@@ -330,5 +330,8 @@ def run(args: argparse.Namespace) -> int:
             return 1
         print(f"{done}; report written to {Path(result.out) / 'report.md'}", file=sys.stderr)
     assert result.analysis is not None
+    mass = getattr(result.analysis, "unparsed_mass", None)
+    if mass is not None and mass.warning is not None:
+        print(f"fairaudit: warning: {mass.warning}", file=sys.stderr)
     sys.stdout.write((Path(result.out) / "report.md").read_text(encoding="utf-8"))  # the report as written
     return 0

@@ -18,9 +18,32 @@ def _ivs(d: dict) -> str:
     return "" if iv is None else f" [{_f(iv[0])}, {_f(iv[1])}]"
 
 
+def _range(d: dict) -> str:
+    """An observed value's range over the unparsed reply's utility, ``[lower, upper]``, or "n/a"."""
+    r = d.get("unparsed_range")
+    return "n/a" if r is None else f"[{_f(r[0])}, {_f(r[1])}]"
+
+
+def _warning_md(d: dict) -> list[str]:
+    """The warning when shown cells put more than 0.2 of their mass on unparsed replies."""
+    m = d.get("unparsed_mass") or {}
+    return ["", f"**Warning:** {m['warning']}."] if m.get("warning") else []
+
+
+def _range_md(d: dict) -> str:
+    """What the unparsed range means."""
+    u = d["utility"]
+    low, high = u.get("unparsed_range", [None, None])
+    return (
+        f"The unparsed range is the exact range of the value over every utility of an unparsed reply in "
+        f"[{_f(low)}, {_f(high)}] (min g, max g), chosen independently for every cell of the per-candidate kernel; "
+        "the value itself uses the stated one. A target is met only when the upper end meets it."
+    )
+
+
 def experiment_markdown(d: dict) -> str:
     """The Markdown report of :func:`fairaudit.experiments.report.experiment_dict`."""
-    lines = _intro_md(d) + _baseline_md(d)
+    lines = _intro_md(d) + _warning_md(d) + _baseline_md(d)
     if d.get("position_split") is not None:
         lines += _split_md(d)
     lines += _curve_md(d)
@@ -109,6 +132,9 @@ def _baseline_md(d: dict) -> list[str]:
         f"L = {_f(d['baseline']['local']['value'])} nats{_ivs(d['baseline']['local'])}, "
         f"L̄ = {_f(d['baseline']['global']['value'])} nats{_ivs(d['baseline']['global'])}"
         + (f" ({conf:g} simultaneous intervals)." if conf else "."),
+        "",
+        f"Over the unparsed reply's utility: L in {_range(d['baseline']['local'])}, "
+        f"L̄ in {_range(d['baseline']['global'])} nats. " + _range_md(d),
         "",
         "![baseline](baseline.png)",
         "",
@@ -213,8 +239,8 @@ def _curve_md(d: dict) -> list[str]:
         "ε is the candidate's privacy budget (nats): " + what,
         "",
         "| ε candidate | ε per profile | keep p per attribute | certified L ≤ (black-box) | corollary | observed L | "
-        "observed L̄ | black-box L̄ |",
-        "|---|---|---|---|---|---|---|---|",
+        "L, unparsed range | observed L̄ | L̄, unparsed range | black-box L̄ |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for p in d["points"]:
         keep = ", ".join(f"{_f(v, 3)}" for v in p["privacy"]["keep_probability_per_attribute"].values())
@@ -222,9 +248,13 @@ def _curve_md(d: dict) -> list[str]:
             f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
             f"{_f(p['bounds']['black_box'])} | {_f(p['bounds']['corollary'])} | "
             f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
+            f"{_range(p['observed']['local'])} | "
             f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
+            f"{_range(p['observed']['global'])} | "
             f"{_f(p['bounds']['black_box_global'])} |"
         )
+    if d["points"]:
+        lines += ["", _range_md(d)]
     return lines + _filter_md(d)
 
 
@@ -268,16 +298,20 @@ def _budgets_md(d: dict) -> list[str]:
         "behind the filter stays at or below the target at every smaller ε"
         + (", estimated from the counts" if d.get("route") != "exact" else "")
         + ") and for any model behind the filter (black-box: the exact worst case). "
-        "+∞: no filter is needed; n/a: no ε meets it.",
+        "+∞: no filter is needed; n/a: no ε meets it. The white-box ε is found under the stated utility of an "
+        "unparsed reply; the next column is the upper end of this model's unparsed range at that ε, and "
+        "**not met** marks a target that some utility of the unparsed reply in [min g, max g] breaks there.",
         "",
-        "| target (nats) | on | ε, this model | ε, any model |",
-        "|---|---|---|---|",
+        "| target (nats) | on | ε, this model | upper end of unparsed range at that ε | ε, any model |",
+        "|---|---|---|---|---|",
     ]
     for b in d["budgets"]:
         this, anym = b["this_model"], b["any_model"]
+        upper = this.get("unparsed_upper") if this["feasible"] else None
+        flag = " **not met**" if this.get("overturned_by_unparsed") else ""
         lines.append(
             f"| {_f(b['target'])} | {'L' if b['kind'] == 'local' else 'L̄'} | "
-            f"{_f(this['epsilon']) if this['feasible'] else 'n/a'} | "
+            f"{_f(this['epsilon']) if this['feasible'] else 'n/a'} | {_f(upper)}{flag} | "
             f"{_f(anym['epsilon']) if anym['feasible'] else 'n/a'} |"
         )
     return lines

@@ -49,6 +49,7 @@ from ..laws import Kernel, Law, Population, compose
 from ..metrics import Fairness, global_fairness, local_fairness
 from ..privacy import Mechanism, from_matrix, identity, randomized_response
 from ..utility import Utility, from_table
+from ..utility_range import UtilityRange, fairness_range
 from .harness import eps_key, table_kernel, true_cell_counts
 from .slots import (
     candidate_contexts,
@@ -69,6 +70,8 @@ __all__ = [
     "PointResult",
     "PositionSplit",
     "TargetBudget",
+    "UNPARSED_WARNING",
+    "UnparsedMass",
     "analyse",
     "analyse_kernel",
     "candidate_context_mechanism",
@@ -273,12 +276,22 @@ class TargetBudget:
         On the sampled route it is an estimate from the counts.
     any_model : Calibration
         Black-box: the largest ε whose exact worst case over every model is ≤ target.
+    unparsed_upper : float
+        The upper end of this model's L (L̄) over every utility of the unparsed reply in [min g, max g]
+        (:func:`fairaudit.utility_range.fairness_range`) at ``this_model``'s ε (nats; NaN when no ε meets the
+        target). Above the target, the white-box answer holds only under the stated unparsed utility.
     """
 
     target: float
     kind: str
     this_model: Calibration
     any_model: Calibration
+    unparsed_upper: float = math.nan
+
+    @property
+    def overturned(self) -> bool:
+        """Whether some utility of the unparsed reply in [min g, max g] breaks the target at ``this_model``'s ε."""
+        return self.this_model.feasible and self.unparsed_upper > self.target
 
 
 def _budgets(
@@ -290,7 +303,9 @@ def _budgets(
     pop: Population,
     mx: Mechanism,
     tau: float | None,
+    upper_at: Any = None,
 ) -> tuple[TargetBudget, ...]:
+    """Per target and kind the white-box and black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end."""
     from ..calibrate import calibrate
 
     family = candidate_family(task, positions)
@@ -305,7 +320,8 @@ def _budgets(
                 target, kind=kind, method="black_box", family=family, groups=list(pop.groups),
                 gamma=utility.gamma, lower=utility.lower, tau=tau, population=pop,
             )  # fmt: skip
-            out.append(TargetBudget(target, kind, white, black))
+            upper = upper_at(white.epsilon, kind) if upper_at is not None and white.feasible else math.nan
+            out.append(TargetBudget(target, kind, white, black, upper))
     return tuple(out)
 
 
@@ -358,6 +374,10 @@ class PointResult:
         The black-box bounds on L and L̄ (any model behind this filter).
     corollary : float
         The corollary's bound: ε of ``mechanism``.
+    unparsed_range : UtilityRange
+        L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell of the
+        per-candidate kernel (:func:`fairaudit.utility_range.fairness_range`), next to the value under the
+        stated default.
     local, global_
         Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
@@ -372,9 +392,63 @@ class PointResult:
     black_box_local: float
     black_box_global: float
     corollary: float
+    unparsed_range: UtilityRange
 
     local = renamed[Fairness]("local_fairness")
     global_ = renamed[Fairness]("global_fairness")
+
+
+UNPARSED_WARNING = 0.2
+"""A shown cell whose unparsed mass exceeds this share makes the experiment warn (report.md and stderr)."""
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class UnparsedMass:
+    """The shown cells whose unparsed mass exceeds a threshold: where the stated unparsed utility decides L.
+
+    Attributes
+    ----------
+    threshold : float
+        :data:`UNPARSED_WARNING`.
+    share : float
+        Share of the shown cells (context × shown profiles) whose unparsed mass exceeds ``threshold``.
+    largest : float
+        The largest unparsed mass of a shown cell.
+    cells : tuple of (str, str, float)
+        Up to five such cells, largest mass first: (context, the shown profiles by slot, mass).
+    """
+
+    threshold: float
+    share: float
+    largest: float
+    cells: tuple
+
+    @property
+    def warning(self) -> str | None:
+        """One line for report.md and stderr, or None when no cell exceeds the threshold."""
+        if self.share == 0:
+            return None
+        named = "; ".join(f"{c} / {shown}: {m:.3g}" for c, shown, m in self.cells)
+        return (
+            f"{self.share:.1%} of the shown cells put more than {self.threshold:g} of their mass on unparsed replies "
+            f"(largest {self.largest:.3g}; e.g. {named}): L and L̄ there depend on the utility given to an unparsed "
+            "reply; see the unparsed ranges"
+        )
+
+
+def unparsed_mass(task: DeliveryTask, kernel: Kernel, threshold: float = UNPARSED_WARNING) -> UnparsedMass:
+    """The shown cells of ``kernel`` (the table design's layout) whose unparsed mass exceeds ``threshold``."""
+    mass = np.nan_to_num(kernel.probabilities[..., -1], nan=0.0)  # (n_contexts, n_shown)
+    over = mass > threshold
+    order = np.argsort(-mass, axis=None, kind="stable")[: min(5, int(over.sum()))]
+    slots = task.options if task.slots > 1 else ("candidate",)
+    cells = []
+    for flat in order:
+        x, j = np.unravel_index(flat, mass.shape)
+        shown = np.unravel_index(j, (len(task.profiles),) * task.slots)
+        who = ", ".join(f"{o} = {task.profile_label(task.profiles[i])}" for o, i in zip(slots, shown))
+        cells.append((str(task.contexts[x]), who, float(mass[x, j])))
+    return UnparsedMass(threshold=threshold, share=float(over.mean()), largest=float(mass.max()), cells=tuple(cells))
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -426,6 +500,9 @@ class ExperimentAnalysis:
         much group (None for one candidate per prompt).
     budgets : tuple of TargetBudget
         Per target and kind (local, global): the ε that meets it for this model and for any model.
+    unparsed_mass : UnparsedMass or None
+        The shown cells whose unparsed mass exceeds :data:`UNPARSED_WARNING` (its ``warning``, when set, is
+        written in report.md and on stderr).
     """
 
     task: DeliveryTask
@@ -451,6 +528,7 @@ class ExperimentAnalysis:
     unparsed_share: float = 0.0
     split: PositionSplit | None = None
     budgets: tuple = ()
+    unparsed_mass: UnparsedMass | None = None
 
 
 def _point(
@@ -491,6 +569,7 @@ def _point(
         black_box_local=wm.local_fairness.value,
         black_box_global=wm.global_fairness.value,
         corollary=mech.epsilon,
+        unparsed_range=fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop),
     )
 
 
@@ -711,6 +790,16 @@ def analyse_kernel(
     baseline = _point(
         task, positions, math.inf, kc, utility, pop, identity(candidate_contexts(task)), confidence, method, tau, None
     )
+    ranges = {p.epsilon: p.unparsed_range for p in points}
+
+    def upper_at(e: float, kind: str) -> float:  # at the white-box ε of a target, with this run's M_X
+        if e not in ranges:
+            filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(e), context_epsilon=context_epsilon)
+            mech = filt.candidate_mechanism(positions)
+            ranges[e] = fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
+        r = ranges[e]
+        return (r.local_fairness if kind == "local" else r.global_fairness).upper
+
     probs = kernel.probabilities
     prompts, _ = true_prompts(task, "balanced")
     shares = probs[:, np.ravel_multi_index(tuple(prompts.T), (len(task.profiles),) * task.slots)]
@@ -738,5 +827,6 @@ def analyse_kernel(
         route="sampled" if counts is not None else "exact",
         unparsed_share=float(probs[..., -1].mean()),
         split=position_split(task, expected_utility(task, probs, np.asarray(task.utility_values))),
-        budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau),
+        budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau, upper_at),
+        unparsed_mass=unparsed_mass(task, kernel),
     )

@@ -44,7 +44,9 @@ if TYPE_CHECKING:
     from .._arrays import FloatArray
     from ..calibrate import Calibration
     from ..laws import Kernel
-    from .analysis import ExperimentAnalysis, PointResult, PositionSplit
+    from ..metrics import Fairness
+    from ..utility_range import FairnessRange
+    from .analysis import ExperimentAnalysis, PointResult, PositionSplit, UnparsedMass
     from .vlm.filter import PrivacyFilter
     from .vlm.tasks import DeliveryTask
 
@@ -278,6 +280,16 @@ def utility_dict(task: DeliveryTask) -> Report:
     }
 
 
+def _observed(fairness: Fairness, interval: Any, rng: FairnessRange) -> Report:
+    """An observed L or L̄ as a dictionary, with ``unparsed_range`` (its range over the unparsed reply's utility)
+    and ``unparsed_range_ends`` (exactness, and the context and groups of each end)."""
+    d = fairness.to_dict(interval)
+    ends = rng.to_dict()
+    d["unparsed_range"] = ends.pop("range")
+    d["unparsed_range_ends"] = ends
+    return d
+
+
 def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
     return {
         "epsilon": number(p.epsilon),
@@ -288,8 +300,16 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
             "black_box_global": number(p.black_box_global),
         },
         "observed": {
-            "local": p.local_fairness.to_dict(None if p.intervals is None else p.intervals.local_fairness),
-            "global": p.global_fairness.to_dict(None if p.intervals is None else p.intervals.global_fairness),
+            "local": _observed(
+                p.local_fairness,
+                None if p.intervals is None else p.intervals.local_fairness,
+                p.unparsed_range.local_fairness,
+            ),
+            "global": _observed(
+                p.global_fairness,
+                None if p.intervals is None else p.intervals.global_fairness,
+                p.unparsed_range.global_fairness,
+            ),
         },
         "certified_local": number(p.black_box_local),
     }
@@ -303,18 +323,28 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     ``samples``, ``queries`` (answered per design, unparsed, the mean
     unparsed share, and what each design needs), ``utility`` (g per
     outcome, and ``unparsed``: the value an unparsed reply counts, whether
-    it was given or the default, and the rule: :func:`utility_dict`),
+    it was given or the default, and the rule: :func:`utility_dict`; and
+    ``unparsed_range``, the [min g, max g] it is known within),
+    ``unparsed_mass`` (the share of shown cells whose unparsed mass exceeds
+    0.2, the largest, up to five such cells and the warning),
     ``confidence``, ``baseline`` (no filter: L, L̄ and the decision shares of
     the true profiles in both orders), ``position_split`` (the raw log ratio
     of the paper's order, its position and group parts and the share of it
     each explains, overall and per context: :class:`PositionSplit`),
     ``budgets`` (per target on L and on L̄: the candidate's ε that meets it
     for this model, white-box, and for any model, black-box, with the
-    family's keep probability and whether the target can be met),
+    family's keep probability and whether the target can be met; for this
+    model also ``unparsed_upper``, the upper end of the unparsed range at that
+    ε, and ``overturned_by_unparsed``, whether it exceeds the target),
     ``points`` (per requested ε: the
     privacy of the filter per attribute, profile and candidate; the
     corollary and black-box bounds on L and the black-box bound on L̄; the
-    observed L and L̄ with their intervals), ``paper_design`` (the same from
+    observed L and L̄ with their intervals). Every observed L and L̄ of the
+    baseline and the points has ``unparsed_range`` ([lower, upper]: its exact
+    range over every utility of the unparsed reply in [min g, max g], chosen
+    per cell of the per-candidate kernel) and ``unparsed_range_ends`` (the
+    context and groups of each end, and whether the lower end is exact:
+    :func:`fairaudit.utility_range.fairness_range`). ``paper_design`` (the same from
     the paper's design, when run) and ``curve`` (the dense grid). Values in
     nats; +inf is ``"inf"``; NaN is ``null``.
     """
@@ -344,15 +374,21 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             "table_design_needs": table_queries_needed(t, a.samples),
             "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
-        "utility": utility_dict(t),
+        "utility": utility_dict(t)
+        | {"unparsed_range": [number(a.baseline.unparsed_range.low), number(a.baseline.unparsed_range.high)]},
+        "unparsed_mass": None if a.unparsed_mass is None else _mass_dict(a.unparsed_mass),
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {
-            "local": a.baseline.local_fairness.to_dict(
-                None if a.baseline.intervals is None else a.baseline.intervals.local_fairness
+            "local": _observed(
+                a.baseline.local_fairness,
+                None if a.baseline.intervals is None else a.baseline.intervals.local_fairness,
+                a.baseline.unparsed_range.local_fairness,
             ),
-            "global": a.baseline.global_fairness.to_dict(
-                None if a.baseline.intervals is None else a.baseline.intervals.global_fairness
+            "global": _observed(
+                a.baseline.global_fairness,
+                None if a.baseline.intervals is None else a.baseline.intervals.global_fairness,
+                a.baseline.unparsed_range.global_fairness,
             ),
             "shares": shares,
         },
@@ -361,7 +397,8 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             {
                 "target": number(b.target),
                 "kind": b.kind,
-                "this_model": _budget(b.this_model),
+                "this_model": _budget(b.this_model)
+                | {"unparsed_upper": number(b.unparsed_upper), "overturned_by_unparsed": b.overturned},
                 "any_model": _budget(b.any_model),
             }
             for b in a.budgets
@@ -393,6 +430,16 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     if run:
         out["run"] = run
     return out
+
+
+def _mass_dict(m: UnparsedMass) -> Report:
+    return {
+        "threshold": number(m.threshold),
+        "share_above": number(m.share),
+        "largest": number(m.largest),
+        "cells": [{"context": c, "shown": shown, "mass": number(v)} for c, shown, v in m.cells],
+        "warning": m.warning,
+    }
 
 
 def _budget(c: Calibration) -> Report:

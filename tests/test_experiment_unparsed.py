@@ -1,0 +1,78 @@
+"""An experiment's L and L̄ over the unparsed reply's utility, and the warning on large unparsed mass.
+
+The HR task (Tom = profile 0, Mary = profile 7, g = 1 for chosen, 0 for not chosen and, as given, unparsed;
+range [0, 1]). Without a filter each candidate's view is its own pair, so every group's expected utility
+spans its own interval: L's range is per context [max(1, max lo / min hi), max hi / lo'] (closed form, by hand
+below), and L̄'s the same over the sums of the six contexts' ends (P(x | a) uniform).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from fairaudit.experiments._markdown import experiment_markdown
+from fairaudit.experiments.analysis import analyse_kernel
+from fairaudit.experiments.report import experiment_dict
+from fairaudit.experiments.taskfile import HR_DELIVERY as T
+from fairaudit.laws import Kernel
+
+
+def _kernel() -> Kernel:
+    p = np.tile([0.45, 0.3, 0.25], (3, 64, 1))  # unparsed 0.25 > 0.2 in every cell but two
+    p[0, 0 * 8 + 7] = [0.3, 0.5, 0.2]  # maternity leave, (Tom, Mary)
+    p[0, 7 * 8 + 0] = [0.7, 0.2, 0.1]  # maternity leave, (Mary, Tom)
+    p[2, 0] = [0.05, 0.05, 0.9]  # sick leave, (Tom, Tom): the largest unparsed mass
+    groups = list(itertools.product(T.profiles, repeat=2))
+    return Kernel(p, T.contexts, groups, T.decisions)
+
+
+@pytest.fixture(scope="module")
+def analysis():
+    return analyse_kernel(T, _kernel(), model="m", epsilons=[1.0], targets=[0.5, 1.0])
+
+
+def test_baseline_range_by_hand(analysis):
+    r = analysis.baseline.unparsed_range
+    # maternity @ HR2: Tom [0.2, 0.3] (chosen if HR2 in (Mary, Tom)), Mary [0.5, 0.7] (HR2 in (Tom, Mary)):
+    # lower 0.5/0.3, upper 0.7/0.2; every other context is below both (maternity @ HR1: 0.7/0.5, 0.8/0.3).
+    assert math.exp(r.local_fairness.lower) == pytest.approx(5 / 3, rel=1e-8)
+    assert math.exp(r.local_fairness.upper) == pytest.approx(3.5, rel=1e-12)
+    assert r.local_fairness.upper_context == r.local_fairness.lower_context == "maternity leave @ HR2"
+    assert r.local_fairness.upper_group == "Mary & 55 & American"
+    assert math.exp(r.local_fairness.value) == pytest.approx(2.5, rel=1e-12)  # unparsed = 0: 0.5/0.2
+    assert r.local_fairness.value == analysis.baseline.local_fairness.value  # the stated value is unchanged
+    # L̄: Tom's ends sum to 2.0 and 3.3, Mary's to 2.7 and 4.0 (over six contexts, each 1/6)
+    assert math.exp(r.global_fairness.upper) == pytest.approx(4.0 / 2.0, rel=1e-12)
+    assert math.exp(r.global_fairness.lower) == pytest.approx(1.0, abs=1e-8)
+
+
+def test_certificate_and_report_carry_the_range_and_the_warning(analysis):
+    d = experiment_dict(analysis)
+    assert d["baseline"]["local"]["unparsed_range"] == pytest.approx([math.log(5 / 3), math.log(3.5)], rel=1e-8)
+    ends = d["baseline"]["local"]["unparsed_range_ends"]
+    assert ends["upper"] == {"context": "maternity leave @ HR2", "group": "Mary & 55 & American",
+                             "other_group": "Tom & 25 & Asian"}  # fmt: skip
+    point = d["points"][0]["observed"]
+    assert point["local"]["unparsed_range"][0] <= point["local"]["value"] <= point["local"]["unparsed_range"][1]
+    assert d["utility"]["unparsed_range"] == [0.0, 1.0]
+    m = d["unparsed_mass"]
+    assert m["share_above"] == pytest.approx(190 / 192) and m["largest"] == pytest.approx(0.9)
+    assert m["cells"][0] == {"context": "sick leave", "shown": "HR1 = Tom & 25 & Asian, HR2 = Tom & 25 & Asian",
+                             "mass": pytest.approx(0.9)}  # fmt: skip
+    md = experiment_markdown(d)
+    assert "**Warning:** 99.0% of the shown cells put more than 0.2" in md
+    assert "L in [0.5108, 1.253]" in md
+    for b in d["budgets"]:  # a target is met only when the upper end meets it
+        this = b["this_model"]
+        if this["feasible"]:
+            assert this["overturned_by_unparsed"] == (this["unparsed_upper"] > b["target"])
+    # No filter is needed for L̄ ≤ 1 (its upper end at ε = inf is ln 2 by hand above), but L ≤ 1 holds without a
+    # filter only under the stated utility: the upper end there is ln 3.5 > 1.
+    flags = {(b.target, b.kind): (b.this_model.epsilon, b.unparsed_upper, b.overturned) for b in analysis.budgets}
+    assert flags[(1.0, "global")] == (math.inf, pytest.approx(math.log(2.0)), False)
+    assert flags[(1.0, "local")] == (math.inf, pytest.approx(math.log(3.5)), True)
+    assert "| 1 | L | ∞ | 1.253 **not met** |" in md

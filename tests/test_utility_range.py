@@ -1,0 +1,177 @@
+"""fairness_range: L and L̄ over every utility of the unparsed decision in [low, high], per kernel cell.
+
+Independent routes: a hand case in exact fractions (no filter, two groups: the closed forms
+max(1, max lo / min hi) and max hi / lo'), and LPs over the assignment v itself (cvxpy with Clarabel):
+Charnes–Cooper per pair for the upper end, bisection on r with feasibility LPs for the lower end.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction as F
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fairaudit import Kernel, Population, Utility
+from fairaudit._errors import InputError
+from fairaudit.privacy import from_matrix, identity
+from fairaudit.utility_range import fairness_range
+
+cp = pytest.importorskip("cvxpy")
+
+
+def test_hand_case_in_fractions_without_a_filter():
+    # Decisions yes (g = 1), no (g = 0), unparsed (default 1/2, known within [0, 1]).
+    k = [[[F(1, 2), F(1, 5), F(3, 10)], [F(1, 5), F(3, 5), F(1, 5)]]]
+    # Boxes: a: [1/2, 1/2 + 3/10] = [1/2, 4/5]; b: [1/5, 2/5].
+    lo = {"a": F(1, 2), "b": F(1, 5)}
+    hi = {"a": F(4, 5), "b": F(2, 5)}
+    want_upper = max(hi["a"] / lo["b"], hi["b"] / lo["a"])  # 4
+    want_lower = max(F(1), max(lo.values()) / min(hi.values()))  # 5/4
+    stated = (F(1, 2) + F(3, 20)) / (F(1, 5) + F(1, 10))  # 13/6
+    kern = Kernel(np.array(k, dtype=float), ["x"], ["a", "b"], ["yes", "no", "unparsed"])
+    r = fairness_range(kern, Utility([1.0, 0.0, 0.5], ["yes", "no", "unparsed"]))
+    for rng in (r.local_fairness, r.global_fairness):
+        assert math.exp(rng.upper) == pytest.approx(float(want_upper), rel=1e-12)
+        assert math.exp(rng.lower) == pytest.approx(float(want_lower), rel=1e-8)
+        assert math.exp(rng.value) == pytest.approx(float(stated), rel=1e-12)
+        assert (rng.upper_group, rng.upper_other_group) == ("a", "b")
+        assert (rng.lower_group, rng.lower_other_group) == ("a", "b")
+    assert r.local_fairness.upper_context == r.local_fairness.lower_context == "x"
+    assert r.local_fairness.exact and (r.low, r.high, r.decision) == (0.0, 1.0, "unparsed")
+    np.testing.assert_allclose(r.kernel_lower, [[0.5, 0.2]])
+    np.testing.assert_allclose(r.kernel_upper, [[0.8, 0.4]])
+
+
+def test_no_unparsed_mass_gives_a_point():
+    kern = Kernel([[[0.7, 0.3, 0.0], [0.4, 0.6, 0.0]]], ["x"], ["a", "b"], ["yes", "no", "unparsed"])
+    r = fairness_range(kern, Utility([1.0, 0.0, 0.5], ["yes", "no", "unparsed"]))
+    assert r.local_fairness.lower == pytest.approx(math.log(7 / 4), rel=1e-8)
+    assert r.local_fairness.upper == pytest.approx(math.log(7 / 4), rel=1e-12)
+
+
+def test_bad_inputs_name_the_parameter():
+    kern = Kernel([[[0.7, 0.3], [0.4, 0.6]]], ["x"], ["a", "b"], ["yes", "unparsed"])
+    g = Utility([1.0, 0.5], ["yes", "unparsed"])
+    with pytest.raises(InputError, match="decision"):
+        fairness_range(kern, g, 2)
+    with pytest.raises(InputError, match="low"):
+        fairness_range(kern, g, low=1.0, high=0.0)
+
+
+# --------------------------------------------------------------------------- an LP over the assignment v
+
+
+def _upper_lp(Wa, Wb, rest, kd, lo, hi):
+    """max over v ∈ [lo, hi]^n of (Wa·(rest + kd v)) / (Wb·(rest + kd v)), Charnes–Cooper (y = t v)."""
+    n = len(rest)
+    y, t = cp.Variable(n), cp.Variable(nonneg=True)
+    num = Wa @ (rest * t) + Wa @ cp.multiply(kd, y)
+    den = Wb @ (rest * t) + Wb @ cp.multiply(kd, y)
+    prob = cp.Problem(cp.Maximize(num), [den == 1, y >= lo * t, y <= hi * t])
+    prob.solve(solver=cp.CLARABEL)
+    return prob.value
+
+
+def _lower_lp(W, rest, kd, lo, hi, top):
+    """min over v of max_a E_a / min_b E_b: bisection on r, each r a feasibility LP (E_a ≤ r E_b for all a, b)."""
+    v = cp.Variable(len(rest))
+    r = cp.Parameter(nonneg=True)
+    e = W @ (rest + cp.multiply(kd, v))
+    return _bisect(
+        r, [v >= lo, v <= hi], [e[a] - r * e[b] for a in range(len(W)) for b in range(len(W)) if a != b], top
+    )
+
+
+def _bisect(r, box, gaps, top):
+    """The smallest r at which some v in the box has every gap ≤ 0: min over v of the largest gap, by LP, per r."""
+    s = cp.Variable()
+    prob = cp.Problem(cp.Minimize(s), box + [gap <= s for gap in gaps])
+    a, b = 1.0, top
+    for _ in range(40):
+        r.value = (a + b) / 2
+        prob.solve(solver=cp.CLARABEL)
+        a, b = (a, r.value) if prob.value <= 1e-12 else (r.value, b)
+    return b
+
+
+@st.composite
+def _cases(draw):
+    X = draw(st.integers(1, 2))
+    At = draw(st.integers(2, 3))
+    A = draw(st.integers(2, 3))
+    seed = draw(st.integers(0, 2**31))
+    rng = np.random.default_rng(seed)
+    k = rng.dirichlet(np.ones(3), size=(X, At))
+    m = rng.dirichlet(np.ones(At), size=A)
+    p = rng.dirichlet(np.ones(X * A)).reshape(X, A)
+    return k, m, p
+
+
+@settings(max_examples=12)
+@given(_cases())
+def test_against_an_lp_over_the_assignment(case):
+    k, m, p = case
+    X, At, _ = k.shape
+    A = len(m)
+    groups = [f"g{i}" for i in range(At)]
+    contexts = [f"x{i}" for i in range(X)]
+    kern = Kernel(k, contexts, groups, ["yes", "no", "unparsed"])
+    mech = from_matrix(m, [f"a{i}" for i in range(A)], groups)
+    pop = Population(p, contexts, mech.inputs)
+    g = np.array([1.0, 0.0, 0.5])
+    r = fairness_range(kern, Utility(g, kern.decisions), sensitive_mechanism=mech, population=pop)
+    rest, kd = k[..., :2] @ g[:2], k[..., 2]
+    # local: per context its own cells (M_X is the identity)
+    ups, lows = [], []
+    for x in range(X):
+        ups.append(max(_upper_lp(m[a], m[b], rest[x], kd[x], 0.0, 1.0) for a in range(A) for b in range(A) if a != b))
+        lows.append(_lower_lp(m, rest[x], kd[x], 0.0, 1.0, ups[-1] + 1.0))
+    assert math.exp(r.local_fairness.upper) == pytest.approx(max(ups), rel=1e-6)
+    assert math.exp(r.local_fairness.lower) == pytest.approx(max(lows), rel=1e-6, abs=1e-6)
+    assert r.local_fairness.lower <= r.local_fairness.value <= r.local_fairness.upper
+    # global: groups mix every cell by P(x | a)
+    w = p / p.sum(0)
+    Wg = np.einsum("xa,ab->axb", w, m).reshape(A, X * At)
+    fr, fk = rest.reshape(-1), kd.reshape(-1)
+    up = max(_upper_lp(Wg[a], Wg[b], fr, fk, 0.0, 1.0) for a in range(A) for b in range(A) if a != b)
+    assert math.exp(r.global_fairness.upper) == pytest.approx(up, rel=1e-6)
+    assert math.exp(r.global_fairness.lower) == pytest.approx(_lower_lp(Wg, fr, fk, 0.0, 1.0, up + 1.0), rel=1e-6)
+
+
+def test_a_context_mechanism_gives_a_valid_outer_range():
+    rng = np.random.default_rng(3)
+    k = rng.dirichlet(np.ones(3), size=(2, 2))
+    kern = Kernel(k, ["x0", "x1"], ["a", "b"], ["yes", "no", "unparsed"])
+    mx = from_matrix([[0.8, 0.2], [0.3, 0.7]], ["x0", "x1"])
+    r = fairness_range(kern, Utility([1.0, 0.0, 0.5], kern.decisions), context_mechanism=mx)
+    assert not r.local_fairness.exact and r.global_fairness.exact
+    W = np.einsum("xy,ab->xayb", mx.matrix, np.eye(2)).reshape(2, 2, 4)
+    rest, kd = (k[..., :2] @ [1.0, 0.0]).reshape(-1), k[..., 2].reshape(-1)
+    up = max(_upper_lp(W[x, a], W[x, 1 - a], rest, kd, 0.0, 1.0) for x in range(2) for a in range(2))
+    assert math.exp(r.local_fairness.upper) == pytest.approx(up, rel=1e-6)
+    exact_low = _lower_lp_contexts(W, rest, kd)
+    assert math.exp(r.local_fairness.lower) <= exact_low * (1 + 1e-6)
+
+
+def _lower_lp_contexts(W, rest, kd):
+    """min over v of max over contexts and pairs of the ratio (contexts share cells): bisection."""
+    v = cp.Variable(len(rest))
+    r = cp.Parameter(nonneg=True)
+    gaps = []
+    for x in range(len(W)):
+        e = W[x] @ (rest + cp.multiply(kd, v))
+        gaps += [e[0] - r * e[1], e[1] - r * e[0]]
+    return _bisect(r, [v >= 0.0, v <= 1.0], gaps, 100.0)
+
+
+def test_identity_defaults_match_explicit_identities():
+    k = np.random.default_rng(5).dirichlet(np.ones(3), size=(2, 3))
+    kern = Kernel(k, ["x0", "x1"], ["a", "b", "c"], ["yes", "no", "unparsed"])
+    g = Utility([1.0, 0.0, 0.5], kern.decisions)
+    r1 = fairness_range(kern, g)
+    r2 = fairness_range(kern, g, sensitive_mechanism=identity(kern.groups), context_mechanism=identity(kern.contexts))
+    assert r1.local_fairness.to_dict() == r2.local_fairness.to_dict()

@@ -400,16 +400,22 @@ def _scene_line(record: dict) -> str:
     )
 
 
-def _check_resumed_scene(log_path: Path, record: dict) -> None:
-    """Refuse to resume a run whose log records another start, goals or tolerance (a log that records none passes)."""
+def _logged(log_path: Path, key: str) -> dict | None:
+    """The log header's ``key`` record, or None: no log, not a log (which the log itself refuses), or none recorded."""
     import json
 
     try:
         with open(log_path, "rb") as fh:
-            before = json.loads(fh.readline()).get("scene")
+            before = json.loads(fh.readline()).get(key)
     except (OSError, ValueError, AttributeError):
-        return  # no log, or not one: the log itself refuses it
-    if not isinstance(before, dict):
+        return None
+    return before if isinstance(before, dict) else None
+
+
+def _check_resumed_scene(log_path: Path, record: dict) -> None:
+    """Refuse to resume a run whose log records another start, goals or tolerance (a log that records none passes)."""
+    before = _logged(log_path, "scene")
+    if before is None:
         return
     for name in ("start", "goals", "tolerance"):
         then, now = before.get(name), record[name]
@@ -428,14 +434,8 @@ def _check_resumed_sampling(log_path: Path, sampling: dict) -> None:
 
     A log that states none (written before the settings were stated) passes.
     """
-    import json
-
-    try:
-        with open(log_path, "rb") as fh:
-            before = json.loads(fh.readline()).get("sampling")
-    except (OSError, ValueError, AttributeError):
-        return  # no log, or not one: the log itself refuses it
-    if not isinstance(before, dict):
+    before = _logged(log_path, "sampling")
+    if before is None:
         return
     for name in SAMPLING_FIELDS:
         then, now = before.get(name), sampling[name]

@@ -92,8 +92,10 @@ def test_route_images_stay_hashed_and_out_of_the_messages(tmp_path):
     assert len(records) == 3 * 8**2
     for r in records:
         assert [m["role"] for m in r["messages"]] == ["user"]  # the paper's task has no system message
-        text = r["messages"][0]["content"]
-        assert isinstance(text, str) and "HR1: " in text
+        text_part, *image_parts = r["messages"][0]["content"]  # the text, then each image as its hash
+        text = text_part["text"]
+        assert text_part["type"] == "text" and "HR1: " in text
+        assert image_parts == [{"type": "image_url", "sha256": d} for d in images]
         assert hashlib.sha256((text + "".join(images)).encode()).hexdigest() == r["prompt_sha256"]
 
 

@@ -65,12 +65,12 @@ from .vlm.tasks import DeliveryTask
 
 __all__ = [
     "DEFAULT_TARGETS",
+    "UNPARSED_WARNING",
     "ExperimentAnalysis",
     "PaperDesignPoint",
     "PointResult",
     "PositionSplit",
     "TargetBudget",
-    "UNPARSED_WARNING",
     "UnparsedMass",
     "analyse",
     "analyse_kernel",

@@ -76,3 +76,24 @@ def test_certificate_and_report_carry_the_range_and_the_warning(analysis):
     assert flags[(1.0, "global")] == (math.inf, pytest.approx(math.log(2.0)), False)
     assert flags[(1.0, "local")] == (math.inf, pytest.approx(math.log(3.5)), True)
     assert "| 1 | L | ∞ | 1.253 **not met** |" in md
+
+
+def test_the_command_warns_on_stderr(tmp_path, capsys):
+    from _cli import run
+
+    from fairaudit.experiments.report import shown_kernel_frame
+
+    p = np.tile([0.05, 0.05, 0.9], (3, 64, 1))  # a model that almost never gives a reply the parser reads
+    kernel = Kernel(p, T.contexts, list(itertools.product(T.profiles, repeat=2)), T.decisions)
+    shown_kernel_frame(T, kernel).to_csv(tmp_path / "kernel.csv", index=False)
+    code, _, err = run(
+        capsys, "experiment", "hr-delivery", "--kernel", tmp_path / "kernel.csv", "--samples", "4", "--no-images",
+        "--keep", "0.7", "--target", "0.5", "--out", tmp_path / "run", "--no-progress",
+    )  # fmt: skip
+    assert code == 0, err
+    (line,) = [x for x in err.splitlines() if x.startswith("fairaudit: warning: ")]
+    share = float(line.split("fairaudit: warning: ")[1].split("%")[0]) / 100
+    # a cell's counted share is k/4 with k ~ Bin(4, 0.9) unparsed replies: above 0.2 unless k = 0 (P = 1e-4)
+    assert share > 0.9 and "of the shown cells put more than 0.2 of their mass on unparsed replies" in line
+    report = (tmp_path / "run" / "report.md").read_text()
+    assert "**Warning:**" in report

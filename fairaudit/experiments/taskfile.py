@@ -398,15 +398,7 @@ def _not_shown(task: DeliveryTask, missing: dict[tuple[int, int], list[Hashable]
         f"the attribute {name!r} of candidate {i + 1} {where}{also}: two cells that differ only in it render the same"
     )
     hint = f"{{{{ c{i + 1}.{name} }}}}" if name.isidentifier() else f'{{{{ c{i + 1}["{name}"] }}}}'
-    found = _placeholder_line(task, (name,), i)
-    if found is None:
-        return InputError("prompt.user", f"{problem}; show it with {hint}")
-    field, line = found
-    return InputError(
-        field,
-        f"{problem}; the line looks like a Python-style placeholder, which Jinja2 leaves as text: write {hint}",
-        line,
-    )
+    return _unreached(problem, hint, _placeholder_line(task, (name,), i))
 
 
 def _context_not_shown(task: DeliveryTask, first: Hashable, second: Hashable) -> InputError:
@@ -416,13 +408,17 @@ def _context_not_shown(task: DeliveryTask, first: Hashable, second: Hashable) ->
         f"the {what} never reaches the prompt: two cells that differ only in it ({format_label(first)!r} and "
         f"{format_label(second)!r}) render the same"
     )
-    found = _placeholder_line(task, tuple(dict.fromkeys(("context", what))), None)
+    return _unreached(problem, "{{ context }}", _placeholder_line(task, tuple(dict.fromkeys(("context", what))), None))
+
+
+def _unreached(problem: str, hint: str, found: tuple[str, str] | None) -> InputError:
+    """The error of something that never reaches the prompt: the Python-style line that was meant to show it, if any."""
     if found is None:
-        return InputError("prompt.user", f"{problem}; show it with {{{{ context }}}}")
+        return InputError("prompt.user", f"{problem}; show it with {hint}")
     field, line = found
     return InputError(
         field,
-        f"{problem}; the line looks like a Python-style placeholder, which Jinja2 leaves as text: write {{{{ context }}}}",
+        f"{problem}; the line looks like a Python-style placeholder, which Jinja2 leaves as text: write {hint}",
         line,
     )
 

@@ -328,13 +328,13 @@ def test_bad_exact_options_exit_2_with_one_line(tmp_path, capsys, argv, message)
 
 
 def test_first_token_route_sends_the_exact_prompt_and_plain_sampling(tmp_path, capsys):
-    """--first-token: one-token replies to the exact route's prompt, drawn with temperature 1 and no truncation."""
+    """--sampled-twin: one-token replies to the exact route's prompt, drawn with temperature 1 and no truncation."""
     task = PACKAGE_DELIVERY
     kernel = _known_kernel(task, "low-complaint-first", [0.02, 0.05, 0.1])
     responder, logprobs = _stand_in(task, kernel)
     with ChatServer(responder, logprobs=logprobs) as server:
         code, _, err = run(
-            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--first-token",
+            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--sampled-twin",
             "--samples", "2", "--no-images", "--no-progress", "--out", tmp_path / "run",
         )  # fmt: skip
         assert code == 0, err
@@ -359,8 +359,8 @@ def test_first_token_route_sends_the_exact_prompt_and_plain_sampling(tmp_path, c
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
-        (("--first-token", "--samples", "2"), "--first-token: needs --endpoint (with --model): it samples a server's first token"),
-        (("--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--first-token", "--exact"), "--first-token: is the sampled twin of --exact: give one of them"),
+        (("--sampled-twin", "--samples", "2"), "--sampled-twin: needs --endpoint (with --model): it samples a server's first token"),
+        (("--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--sampled-twin", "--exact"), "--sampled-twin: is the sampled twin of --exact: give one of them"),
     ],
 )  # fmt: skip
 def test_first_token_needs_an_endpoint_and_not_exact(tmp_path, capsys, flags, message):
@@ -374,7 +374,7 @@ def test_first_token_sends_no_images_and_refuses_a_scene(tmp_path, capsys):
     responder, logprobs = _stand_in(task, _known_kernel(task, "fair", [0.0, 0.0, 0.0]))
     with ChatServer(responder, logprobs=logprobs) as server:
         code, _, err = run(
-            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--first-token",
+            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--sampled-twin",
             "--samples", "1", "--no-progress", "--out", tmp_path / "run",
         )  # fmt: skip
         assert code == 0, err
@@ -383,6 +383,6 @@ def test_first_token_sends_no_images_and_refuses_a_scene(tmp_path, capsys):
     assert not list((tmp_path / "run").glob("route-*.png"))
     code, _, err = run(
         capsys, "experiment", "package-delivery", "--endpoint", "http://127.0.0.1:9/v1", "--model", "m",
-        "--first-token", "--samples", "1", "--scene", tmp_path, "--out", tmp_path / "other",
+        "--sampled-twin", "--samples", "1", "--scene", tmp_path, "--out", tmp_path / "other",
     )  # fmt: skip
-    assert code == 2 and "--scene: --first-token samples the exact route's text-only prompt" in err
+    assert code == 2 and "--scene: --sampled-twin samples the exact route's text-only prompt" in err

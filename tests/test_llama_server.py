@@ -122,7 +122,7 @@ def test_first_token_samples_cover_the_exact_kernel(server, tmp_path, capsys):
     exact, sampled = tmp_path / "exact", tmp_path / "sampled"
     assert run(capsys, "experiment", "package-delivery", *common, "--exact", "--out", exact)[0] == 0
     code, _, err = run(
-        capsys, "experiment", "package-delivery", *common, "--first-token", "--samples", 60, "--out", sampled
+        capsys, "experiment", "package-delivery", *common, "--sampled-twin", "--samples", 60, "--out", sampled
     )
     assert code == 0, err
     request = json.loads((sampled / "queries.jsonl").read_text().splitlines()[1])

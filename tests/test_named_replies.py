@@ -156,10 +156,10 @@ def test_the_first_token_twin_refuses_named_replies(tmp_path, capsys):
     path = tmp_path / "named.toml"
     path.write_text(NAMED)
     code, out, err = run(
-        capsys, "experiment", str(path), "--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--first-token",
+        capsys, "experiment", str(path), "--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--sampled-twin",
         "--samples", "2", "--out", tmp_path / "r",
     )  # fmt: skip
-    assert code == 2 and len(err.strip().splitlines()) == 1 and "--first-token" in err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "--sampled-twin" in err
 
 
 def test_simulated_named_models_exist():

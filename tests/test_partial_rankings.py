@@ -169,7 +169,7 @@ def test_partial_rankings_end_to_end_on_the_sampled_route(task, tmp_path, capsys
 
 
 @pytest.mark.parametrize(
-    "flag", [["--local-model", "smollm2"], ["--first-token", "--endpoint", "http://127.0.0.1:9/v1", "--model", "m"]]
+    "flag", [["--local-model", "smollm2"], ["--sampled-twin", "--endpoint", "http://127.0.0.1:9/v1", "--model", "m"]]
 )
 def test_the_exact_routes_refuse_partial_rankings_in_one_line(tmp_path, capsys, flag):
     path = tmp_path / "partial.toml"

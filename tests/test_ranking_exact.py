@@ -126,7 +126,7 @@ def test_a_ranking_over_http_gives_the_known_kernel_one_request_per_prefix(tmp_p
 
 
 def test_the_sampled_twin_of_a_ranking_reads_the_order_the_reply_begins_with(tmp_path):
-    """--first-token on a ranking: replies of up to len("1, 2, 3") tokens, read by their beginning; bands cover K."""
+    """--sampled-twin on a ranking: replies of up to len("1, 2, 3") tokens, read by their beginning; bands cover K."""
     one_role = tmp_path / "ranking.toml"  # one context: 27 shown cells
     one_role.write_text(RANKING.read_text().replace('"software engineer", "HR specialist"', '"software engineer"'))
     task = load_task(one_role)
@@ -135,7 +135,7 @@ def test_the_sampled_twin_of_a_ranking_reads_the_order_the_reply_begins_with(tmp
     common = {"keeps": [0.7], "seed": 3, "targets": []}  # no targets: the budgets per target are not checked here
     with ChatServer(responder, logprobs=logprobs) as server:
         run_experiment(
-            str(one_role), tmp_path / "twin", ModelSource(endpoint=server.url, model="m", first_token=True),
+            str(one_role), tmp_path / "twin", ModelSource(endpoint=server.url, model="m", sampled_twin=True),
             RunOptions(samples=40, concurrency=8, **common), progress=False,
         )  # fmt: skip
         bodies = server.chat_requests

@@ -176,14 +176,14 @@ def _routes(task, tmp_path, monkeypatch) -> dict[str, list[str]]:
         "in-process sampled": (ModelSource(local_model="smollm2"), 2),
         "HTTP exact": (ModelSource(endpoint="URL", model="m", exact=True), None),
         "HTTP sampled": (ModelSource(endpoint="URL", model="m"), 2),
-        "HTTP first-token sampled": (ModelSource(endpoint="URL", model="m", first_token=True), 2),
+        "HTTP first-token sampled": (ModelSource(endpoint="URL", model="m", sampled_twin=True), 2),
     }
     for i, (route, (source, samples)) in enumerate(routes.items()):
         with ChatServer(lambda body: "yes", logprobs=_logprobs) as server:
             _fake_local(monkeypatch, tmp_path, _Tokenizer(), server)
             if source.endpoint is not None:
                 source = ModelSource(
-                    endpoint=server.url, model=source.model, exact=source.exact, first_token=source.first_token
+                    endpoint=server.url, model=source.model, exact=source.exact, sampled_twin=source.sampled_twin
                 )
             done = _run(task, tmp_path / f"route-{i}", source, samples)
             assert done.analysis is not None, route
@@ -234,7 +234,7 @@ def test_the_built_in_tasks_exact_prompt_on_every_route_that_has_an_exact_route(
     """package-delivery: the exact routes and their sampled twins send the digit prompt; the others the task's own.
 
     The rule of docs/experiments.md "The messages of a query": ``--local-model`` (exact or ``--samples``),
-    ``--exact`` and ``--first-token`` send :func:`~fairaudit.experiments.local_model.exact_prompt`'s messages (the
+    ``--exact`` and ``--sampled-twin`` send :func:`~fairaudit.experiments.local_model.exact_prompt`'s messages (the
     JSON answer paragraph replaced by "Answer with a single digit: ..."); a simulated model and ``--endpoint
     --samples`` the task's own (the paper's JSON answer format).
     """

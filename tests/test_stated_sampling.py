@@ -125,7 +125,7 @@ def test_an_order_of_two_is_constrained_to_its_orders_written_out(tmp_path, caps
 
 def test_a_first_token_twin_keeps_its_fixed_settings(tmp_path, capsys):
     with ChatServer(lambda body: "2") as server:
-        code, _, err = _experiment(capsys, server, tmp_path / "o", "--first-token")
+        code, _, err = _experiment(capsys, server, tmp_path / "o", "--sampled-twin")
         chats = server.chat_requests
     assert code == 0, err
     expected = {"model": "m", "temperature": 1.0, "top_p": 1.0, "max_tokens": 1, "top_k": 0, "min_p": 0.0}
@@ -159,7 +159,7 @@ def test_resume_with_another_temperature_is_refused(tmp_path, capsys):
             ["--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--exact", "--constrain", "json-schema"],
             "--constrain",
         ),
-        (["--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--first-token", "--max-tokens", "5"], "--max-tokens"),
+        (["--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--sampled-twin", "--max-tokens", "5"], "--max-tokens"),
         (["--local-model", "smollm2", "--samples", "2", "--constrain", "grammar"], "--constrain: needs --endpoint"),
         (["--local-model", "smollm2", "--top-p", "0.5"], "--top-p: sets how a server samples, and the exact route"),
     ],

@@ -86,7 +86,7 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
         help="queries per shown cell (default 20; with --local-model, default: the exact route, no queries)",
     )
     e.add_argument(
-        "--first-token",
+        "--sampled-twin",
         action="store_true",
         help="with --endpoint and --samples: the sampled twin of --exact, to check it: one-token replies to the "
         "exact route's prompt drawn from the whole softmax (temperature 1, top_k 0, top_p 1, min_p 0; "
@@ -109,7 +109,7 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
         type=int,
         metavar="N",
         help="the sampled route's max_tokens, >= 1, sent with every request and recorded (default 1024 with "
-        "--endpoint, 1 with --local-model; --first-token fixes all three)",
+        "--endpoint, 1 with --local-model; --sampled-twin fixes all three)",
     )
     e.add_argument(
         "--constrain",
@@ -250,7 +250,7 @@ def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptio
         model=args.model,
         local_model=args.local_model,
         exact=args.exact,
-        first_token=args.first_token,
+        sampled_twin=args.sampled_twin,
         timeout=args.timeout,
         max_retries=args.max_retries,
         temperature=args.temperature,

@@ -58,7 +58,7 @@ SAMPLING_FIELDS = ("temperature", "top_p", "max_tokens", "constrain")
 
 
 PLAIN_SAMPLING = {"temperature": 1.0, "top_k": 0, "top_p": 1.0, "min_p": 0.0}
-"""Request fields that make a server sample from the model's whole softmax (``first_token``): no truncation."""
+"""Request fields that make a server sample from the model's whole softmax (``sampled_twin``): no truncation."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -89,7 +89,7 @@ class ModelSource:
         ``endpoint`` or ``local_model``, and goes without ``samples``
         (:class:`RunOptions`). A local model takes the exact route whenever
         ``samples`` is not given, with or without ``exact``.
-    first_token : bool
+    sampled_twin : bool
         The sampled twin of the exact route, to check it: each reply is one
         token (``max_tokens: 1``) drawn from the whole softmax
         (:data:`PLAIN_SAMPLING`: temperature 1 and no top-k, top-p or min-p
@@ -108,19 +108,19 @@ class ModelSource:
     max_tokens : int, optional
         The sampled route's ``max_tokens``, >= 1; default :data:`DEFAULT_MAX_TOKENS` (1024) for an endpoint and 1
         for a local model (its one-token replies to the exact route's prompt). ``temperature``, ``top_p`` and
-        ``max_tokens`` need a sampled route of ``endpoint`` or ``local_model`` (not ``first_token``, whose
+        ``max_tokens`` need a sampled route of ``endpoint`` or ``local_model`` (not ``sampled_twin``, whose
         settings are fixed: :data:`PLAIN_SAMPLING`).
     constrain : {"none", "json-schema", "guided-choice", "grammar"}
         Ask the server to reply with one of the task's replies only: OpenAI's ``response_format`` with a JSON
         schema (the reply ``{"answer": ...}``), vLLM's ``guided_choice`` or llama.cpp's GBNF ``grammar``
         (:func:`fairaudit.experiments.vlm.client.constraint_body`). Needs ``endpoint`` and its sampled route
-        (not ``exact`` nor ``first_token``), and a task whose replies are its options' keys.
+        (not ``exact`` nor ``sampled_twin``), and a task whose replies are its options' keys.
 
     Raises
     ------
     InputError
         When more than one source is given, ``model`` without ``endpoint`` (or the reverse),
-        ``exact`` without ``endpoint`` or ``local_model``, ``first_token`` without ``endpoint`` or with ``exact``,
+        ``exact`` without ``endpoint`` or ``local_model``, ``sampled_twin`` without ``endpoint`` or with ``exact``,
         a sampling setting out of range or without a sampled route of a server, or ``constrain`` unknown or
         without ``endpoint``.
 
@@ -146,7 +146,7 @@ class ModelSource:
     model: str | None = None
     local_model: str | None = None
     exact: bool = False
-    first_token: bool = False
+    sampled_twin: bool = False
     timeout: float = 60.0
     max_retries: int = 5
     temperature: float | None = None
@@ -165,12 +165,12 @@ class ModelSource:
             raise InputError("model", "goes with `endpoint`", self.model)
         if not isinstance(self.exact, bool):
             raise InputError("exact", "must be True or False", self.exact)
-        if not isinstance(self.first_token, bool):
-            raise InputError("first_token", "must be True or False", self.first_token)
-        if self.first_token and not self.endpoint:
-            raise InputError("first_token", "needs `endpoint` (with `model`): it samples a server's first token")
-        if self.first_token and self.exact:
-            raise InputError("first_token", "is the sampled twin of `exact`: give one of them")
+        if not isinstance(self.sampled_twin, bool):
+            raise InputError("sampled_twin", "must be True or False", self.sampled_twin)
+        if self.sampled_twin and not self.endpoint:
+            raise InputError("sampled_twin", "needs `endpoint` (with `model`): it samples a server's first token")
+        if self.sampled_twin and self.exact:
+            raise InputError("sampled_twin", "is the sampled twin of `exact`: give one of them")
         if self.exact and not (self.endpoint or self.local_model):
             raise InputError(
                 "exact",
@@ -197,10 +197,10 @@ class ModelSource:
             raise InputError(name, "sets how a server samples: it needs `endpoint` (with `model`) or `local_model`")
         if self.exact:
             raise InputError(name, "sets how a server samples, and `exact` samples nothing: run with `samples` N")
-        if self.first_token:
+        if self.sampled_twin:
             raise InputError(
                 name,
-                "is fixed by `first_token`, the sampled twin of `exact`: one token from the whole softmax "
+                "is fixed by `sampled_twin`, the sampled twin of `exact`: one token from the whole softmax "
                 "(temperature 1, top_p 1)",
             )
         if self.constrain != "none" and not self.endpoint:

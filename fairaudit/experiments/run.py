@@ -119,7 +119,7 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: 
             top_p=sampling["top_p"],
             max_tokens=sampling["max_tokens"],
             extra_body=dict(PLAIN_SAMPLING)
-            if source.first_token
+            if source.sampled_twin
             else constraint_body(sampling["constrain"], sampling.get("replies", ()), name=_schema_name(task)),
         )
         return EndpointModel(client)
@@ -170,11 +170,11 @@ def _sampling(task: DeliveryTask, source: ModelSource, seed: int) -> dict:
     """The sampled route's stated settings, sent with every request and recorded in the log and the certificate.
 
     ``temperature``, ``top_p``, ``max_tokens`` (the source's, else 1, 1 and :data:`DEFAULT_MAX_TOKENS`, or 1 for a
-    local model's one-token replies; ``first_token``: 1, 1 and room for the longest reply, with no top-k or min-p
+    local model's one-token replies; ``sampled_twin``: 1, 1 and room for the longest reply, with no top-k or min-p
     truncation), ``seed`` (the run's: each request sends its query's own seed, derived from it and logged with
     the query), ``constrain`` and, when constrained, the allowed ``replies``.
     """
-    if source.first_token:
+    if source.sampled_twin:
         return {
             "temperature": PLAIN_SAMPLING["temperature"],
             "top_p": PLAIN_SAMPLING["top_p"],
@@ -227,7 +227,7 @@ def show_prompts(
     the texts the run draws for it (``options.seed``). Each cell gives its query key, its context and each
     candidate's shown profile (with the text shown where the task writes a value otherwise), then the system message
     and the user message as ``source``'s route sends them (the exact route's prompt for ``exact``,
-    ``local_model`` and ``first_token``), each between marker lines, its text verbatim and then one newline; a
+    ``local_model`` and ``sampled_twin``), each between marker lines, its text verbatim and then one newline; a
     line says when the route images go with the user message (only their SHA-256 goes into the log).
 
     Parameters
@@ -279,7 +279,7 @@ def show_prompts(
     options = RunOptions() if options is None else options
     task = get_task(experiment)
     sent = task
-    text_only = bool(source.exact or source.local_model is not None or source.first_token)
+    text_only = bool(source.exact or source.local_model is not None or source.sampled_twin)
     if text_only:
         from . import local_model as lm
 
@@ -660,15 +660,15 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     exact = exact_route(source.exact, source.local_model, options.samples)
     if exact:
         count_prompts(task)  # every choice of the texts is scored: refused here, before a model loads or a file is made
-    if (exact or source.first_token) and task.partial:
+    if (exact or source.sampled_twin) and task.partial:
         raise InputError(
-            "first_token" if source.first_token else "exact",
+            "sampled_twin" if source.sampled_twin else "exact",
             "this task reads partial rankings (decision.partial), and the exact routes score complete orders only: "
             "run with `samples` N",
         )
-    if source.first_token and task.named_by is not None:
+    if source.sampled_twin and task.named_by is not None:
         raise InputError(
-            "first_token", "reads replies of options' keys; this task's replies name the candidates: run with `exact`"
+            "sampled_twin", "reads replies of options' keys; this task's replies name the candidates: run with `exact`"
         )
     # route images belong to the paper's navigation tasks; a task file gets them only with a scene asked for
     images = options.images and (is_built_in(task) or options.scene is not None)
@@ -692,8 +692,8 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         images = False
     else:
         m = _model(task, source, options.concurrency or 4, sampling)
-        if source.first_token:  # the exact route's sampled twin: its text-only prompt
-            _refuse_images(options, "`first_token` samples the exact route's text-only prompt: no route images")
+        if source.sampled_twin:  # the exact route's sampled twin: its text-only prompt
+            _refuse_images(options, "`sampled_twin` samples the exact route's text-only prompt: no route images")
             images = False
     if out.exists() and not out.is_dir():
         raise InputError("out", "is a file, not a folder", str(out))
@@ -782,7 +782,7 @@ def _run_sampled(
             assert plan.sampling is not None  # _prepare states a served model's sampling
             m = stack.enter_context(_served(source.local_model, out, source, plan.sampling, log))
             task = lm.exact_prompt(task)[0]
-        elif source.first_token:
+        elif source.sampled_twin:
             task = _twin(task)
         assert m is not None
         summary, records = _ask(task, m, plan, options, progress)

@@ -88,9 +88,9 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
     e.add_argument(
         "--sampled-twin",
         action="store_true",
-        help="with --endpoint and --samples: the sampled twin of --exact, to check it: one-token replies to the "
-        "exact route's prompt drawn from the whole softmax (temperature 1, top_k 0, top_p 1, min_p 0; "
-        "llama-server and vLLM accept these, OpenAI's API does not)",
+        help="with --endpoint and --samples: the sampled twin of --exact, to check it: replies to the exact "
+        "route's prompt drawn from the whole softmax (temperature 1, top_k 0, top_p 1, min_p 0; llama-server and "
+        "vLLM accept these, OpenAI's API does not), read as --scoring reads them",
     )
     e.add_argument(
         "--temperature",
@@ -121,10 +121,18 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
         "or more (default none)",
     )
     e.add_argument(
+        "--scoring",
+        choices=("continuation", "first-token"),
+        help="how --exact (and --local-model) scores a decision, and how --sampled-twin reads a reply: continuation "
+        "(default), the likelihood of the decision's whole reply text, a sampled reply read as the decision whose "
+        "text it begins with; first-token, the mass of the first tokens that read as each option (a choice or an "
+        "order of two only)",
+    )
+    e.add_argument(
         "--exact",
         action="store_true",
-        help="with --endpoint: the exact kernel from the first token's log-probabilities, one request per shown "
-        "cell (the server must return logprobs: OpenAI, vLLM, llama-server, Ollama), no sampling; not with --samples",
+        help="with --endpoint: the exact kernel from the server's log-probabilities (--scoring): of each decision's "
+        "whole reply (continuation) or of the first token, no sampling; not with --samples",
     )
 
 
@@ -251,6 +259,7 @@ def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptio
         local_model=args.local_model,
         exact=args.exact,
         sampled_twin=args.sampled_twin,
+        scoring=args.scoring,
         timeout=args.timeout,
         max_retries=args.max_retries,
         temperature=args.temperature,

@@ -101,8 +101,7 @@ def _intro_md(d: dict) -> list[str]:
     if d.get("route") == "exact":
         lines += [
             "Exact route: the kernel is the model's own law of its reply on every shown cell of the table design, "
-            "from its token probabilities (a choice: the first token's; a ranking of three or more: each order "
-            "written out, by the chain rule over its tokens): no sampling "
+            f"from its token probabilities ({_scoring_words(d)}): no sampling "
             "error, so no intervals; the filter is applied by exact "
             f"composition at every ε. On average {_f(q['unparsed_share'], 3)} of the probability mass is on "
             "replies that would not parse; it counts as 'unparsed'."
@@ -334,6 +333,17 @@ def _paper_design_md(d: dict) -> list[str]:
     return lines
 
 
+def _scoring_words(d: dict) -> str:
+    """How the exact route scored a decision, in words (``run.scoring``)."""
+    scoring = ((d.get("run") or {}).get("scoring") or {}).get("method")
+    if scoring == "first-token":
+        return "first-token scoring: the mass of the first tokens that read as each option"
+    return (
+        "continuation scoring: the probability that the reply begins with each decision's text, by the chain rule "
+        "over its tokens"
+    )
+
+
 def _sampling_md(d: dict) -> list[str]:
     """The stated sampling settings in one line of the report."""
     sampling = (d.get("run") or {}).get("sampling")
@@ -348,6 +358,12 @@ def _sampling_md(d: dict) -> list[str]:
     if sampling["constrain"] != "none":
         line += f"; replies constrained ({sampling['constrain']}) to " + ", ".join(
             repr(r) for r in sampling.get("replies", ())
+        )
+    if "scoring" in sampling:
+        line += (
+            "; a reply is read as the decision whose text it begins with (continuation scoring, the exact route's)"
+            if sampling["scoring"] == "continuation"
+            else "; one-token replies read as the exact route's first-token scoring reads them"
         )
     return ["", line + "."]
 

@@ -16,13 +16,21 @@ from .vlm.tasks import DeliveryTask
 
 __all__ = [
     "MAX_EXACT_PROMPTS",
+    "SCORINGS",
     "ExactPrompt",
     "by_sequence",
+    "check_replies",
+    "check_scoring",
     "count_prompts",
     "exact_prompts",
     "prompt_replies",
     "ranking_replies",
 ]
+
+SCORINGS = ("continuation", "first-token")
+"""How an exact route scores a decision (``scoring``): the likelihood of its whole reply text by the chain rule
+(``"continuation"``, the default: lm-evaluation-harness's ``loglikelihood`` convention), or the mass of the first
+tokens that read as it (``"first-token"``: a choice, or an order of two, whose options begin with distinct tokens)."""
 
 MAX_EXACT_PROMPTS = 200_000
 """Prompts an exact route scores at most (every text of every shown cell); beyond, run with samples."""
@@ -139,13 +147,99 @@ def ranking_replies(task: DeliveryTask, answers: Sequence[str]) -> tuple[str, ..
     return tuple(task.order_reply(o, answers) for o in task.orders)
 
 
-def by_sequence(task: DeliveryTask) -> bool:
+def by_sequence(task: DeliveryTask, scoring: str = "continuation") -> bool:
     """True when an exact route scores whole replies, not the first token.
 
-    A ranking of k ≥ 3 (the first token gives only who comes first) or a task whose reply names the candidates
-    (names may share their first token): P(reply begins with r) = Π_t P(r_t | prompt, r_<t), the chain rule.
+    Continuation scoring (the default), a ranking of k ≥ 3 (the first token gives only who comes first) or a task
+    whose reply names the candidates (names may share their first token): P(reply begins with r) =
+    Π_t P(r_t | prompt, r_<t), the chain rule. ``"first-token"`` scoring on a choice or an order of two: the mass
+    of the first tokens that read as each option.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> by_sequence(HR_DELIVERY), by_sequence(HR_DELIVERY, "first-token")
+    (True, False)
     """
-    return (task.kind == "order" and task.slots > 2) or task.named_by is not None
+    return scoring == "continuation" or (task.kind == "order" and task.slots > 2) or task.named_by is not None
+
+
+def check_scoring(task: DeliveryTask, scoring: str) -> str:
+    """``scoring`` checked against :data:`SCORINGS` and the task: first-token scoring needs a decision its first token gives.
+
+    Returns
+    -------
+    str
+        ``scoring``.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring``: a value not in :data:`SCORINGS`; ``"first-token"`` on a ranking of k ≥ 3 (the first
+        token gives who comes first, not the order) or on a task whose reply names the candidates (names may share
+        their first token).
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> check_scoring(HR_DELIVERY, "first-token")
+    'first-token'
+    >>> check_scoring(HR_DELIVERY, "first")
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: scoring: must be one of continuation, first-token (got 'first')
+    """
+    from .._validation import choice
+
+    choice(scoring, "scoring", SCORINGS)
+    if scoring == "first-token" and by_sequence(task, scoring):
+        what = (
+            f"ranks {task.slots} candidates: its first token gives who comes first, not the order"
+            if task.kind == "order" and task.slots > 2
+            else f"names the candidates by their {task.named_by} in its reply: names may share their first token"
+        )
+        raise InputError("scoring", f"first-token scoring reads one token, and this task {what}; use continuation")
+    return scoring
+
+
+def check_replies(replies: Sequence[str]) -> tuple[str, ...]:
+    """``replies`` checked for continuation scoring: non-empty, and none begins another.
+
+    The exact routes score P(the reply begins with r) for each r, and the sampled twin reads a reply as the
+    decision whose text it begins with; the events are disjoint, and their probabilities add up to at most 1, only
+    when no reply is a prefix of another (``"1"`` begins ``"10"``, ``"Ann"`` begins ``"Anna"``).
+
+    Returns
+    -------
+    tuple of str
+        ``replies``.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring``: an empty reply, or two replies one of which begins the other (both quoted).
+
+    Examples
+    --------
+    >>> check_replies(("HR1", "HR2"))
+    ('HR1', 'HR2')
+    >>> check_replies(("Ann", "Anna"))
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: scoring: continuation scoring needs replies none of which begins another, and 'Ann' begins 'Anna': the reply 'Anna...' would count for both; give the options distinct beginnings, or use first-token
+    """
+    texts = tuple(replies)
+    if any(not t for t in texts):
+        raise InputError("scoring", "continuation scoring needs non-empty replies", list(texts))
+    ordered = sorted(texts)
+    for a, b in zip(ordered, ordered[1:]):  # a prefix sorts right before some string it begins
+        if b.startswith(a):
+            raise InputError(
+                "scoring",
+                f"continuation scoring needs replies none of which begins another, and {a!r} begins {b!r}: the "
+                f"reply {b + '...'!r} would count for both; give the options distinct beginnings, or use first-token",
+            )
+    return texts
 
 
 def prompt_replies(task: DeliveryTask, answers: Sequence[str], prompt: ExactPrompt) -> tuple[str, ...]:
@@ -167,6 +261,11 @@ def prompt_replies(task: DeliveryTask, answers: Sequence[str], prompt: ExactProm
         whose reply names the candidates writes the names its prompt shows
         (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.reply_names`; the Bloomberg study's replies), else
         ``answers``.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring`` when one reply begins another (:func:`check_replies`).
     """
     names = task.reply_names(prompt.profiles, prompt.texts) if task.named_by is not None else tuple(answers)
-    return ranking_replies(task, names) if task.kind == "order" else names
+    return check_replies(ranking_replies(task, names) if task.kind == "order" else names)

@@ -153,6 +153,7 @@ class ModelSource:
     top_p: float | None = None
     max_tokens: int | None = None
     constrain: str = "none"
+    scoring: str | None = None
 
     def __post_init__(self) -> None:
         given = [name for name in _SOURCES if getattr(self, name)]
@@ -178,6 +179,17 @@ class ModelSource:
                 "token probabilities",
             )
         self._check_sampling()
+        if self.scoring is not None:
+            from .exact import SCORINGS
+
+            choice(self.scoring, "scoring", SCORINGS)
+            if not (self.exact or self.local_model or self.sampled_twin):
+                raise InputError(
+                    "scoring",
+                    "sets how the exact route scores a decision and how its sampled twins read a reply: it needs "
+                    "`exact`, `local_model` or `sampled_twin` (an endpoint's sampled route parses free replies)",
+                    self.scoring,
+                )
 
     def _check_sampling(self) -> None:
         """Check the stated sampling settings and that this source samples from a server."""
@@ -200,8 +212,8 @@ class ModelSource:
         if self.sampled_twin:
             raise InputError(
                 name,
-                "is fixed by `sampled_twin`, the sampled twin of `exact`: one token from the whole softmax "
-                "(temperature 1, top_p 1)",
+                "is fixed by `sampled_twin`, the sampled twin of `exact`: the replies it scores, drawn from the whole "
+                "softmax (temperature 1, top_p 1)",
             )
         if self.constrain != "none" and not self.endpoint:
             raise InputError(

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any, TypeAlias, TypedDict
 from .. import __version__
 from .._errors import InputError
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
-from .exact import count_prompts
+from .exact import SCORINGS, count_prompts
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .options import (
     DEFAULT_GOALS,
@@ -169,22 +169,26 @@ def _constrained_replies(task: DeliveryTask, constrain: str) -> tuple[str, ...]:
 def _sampling(task: DeliveryTask, source: ModelSource, seed: int) -> dict:
     """The sampled route's stated settings, sent with every request and recorded in the log and the certificate.
 
-    ``temperature``, ``top_p``, ``max_tokens`` (the source's, else 1, 1 and :data:`DEFAULT_MAX_TOKENS`, or 1 for a
-    local model's one-token replies; ``sampled_twin``: 1, 1 and room for the longest reply, with no top-k or min-p
+    ``temperature``, ``top_p``, ``max_tokens`` (the source's, else 1, 1 and :data:`DEFAULT_MAX_TOKENS`, or for a
+    local model room for the longest reply its exact route scores, one token under first-token scoring;
+    ``sampled_twin``: 1, 1 and that room, with no top-k or min-p
     truncation), ``seed`` (the run's: each request sends its query's own seed, derived from it and logged with
-    the query), ``constrain`` and, when constrained, the allowed ``replies``.
+    the query), ``constrain`` and, when constrained, the allowed ``replies``; ``scoring`` where the replies are read
+    as the exact route scores them (``sampled_twin``, a local model: :func:`_twin`).
     """
+    scoring = source.scoring or SCORINGS[0]
     if source.sampled_twin:
         return {
             "temperature": PLAIN_SAMPLING["temperature"],
             "top_p": PLAIN_SAMPLING["top_p"],
-            "max_tokens": _twin_tokens(task),
+            "max_tokens": _twin_tokens(task, scoring),
             "seed": int(seed),
             "constrain": "none",
             "top_k": PLAIN_SAMPLING["top_k"],
             "min_p": PLAIN_SAMPLING["min_p"],
+            "scoring": scoring,
         }
-    default_tokens = 1 if source.local_model is not None else DEFAULT_MAX_TOKENS
+    default_tokens = _twin_tokens(task, scoring) if source.local_model is not None else DEFAULT_MAX_TOKENS
     out: dict[str, Any] = {
         "temperature": 1.0 if source.temperature is None else source.temperature,
         "top_p": 1.0 if source.top_p is None else source.top_p,
@@ -194,25 +198,30 @@ def _sampling(task: DeliveryTask, source: ModelSource, seed: int) -> dict:
     }
     if source.constrain != "none":
         out["replies"] = list(_constrained_replies(task, source.constrain))
+    if source.local_model is not None:  # its replies are read as the exact route scores them
+        out["scoring"] = scoring
     return out
 
 
-def _twin_tokens(task: DeliveryTask) -> int:
-    """``max_tokens`` of the exact route's sampled twin: 1, or room for the longest order written out (a ranking)."""
-    replies = _twin(task).replies
+def _twin_tokens(task: DeliveryTask, scoring: str) -> int:
+    """``max_tokens`` of the exact route's sampled twin: 1 (first-token scoring), or room for the longest reply."""
+    replies = _twin(task, scoring).replies
     return max(len(r) for r in replies) if replies else 1  # a token is one character or more
 
 
-def _twin(task: DeliveryTask) -> DeliveryTask:
-    """The task the exact route's sampled twin asks: the exact route's prompt, a ranking read as the order it begins with."""
+def _twin(task: DeliveryTask, scoring: str) -> DeliveryTask:
+    """The task the exact route's sampled twins ask: the exact route's prompt; under continuation scoring a reply
+    is read as the decision whose text it begins with (each option's reply, each order written out), the event the
+    exact route scores."""
     import dataclasses
 
     from . import local_model as lm
-    from .exact import by_sequence, ranking_replies
+    from .exact import by_sequence, check_replies, ranking_replies
 
     shown, answers = lm.exact_prompt(task)
-    if by_sequence(task):
-        return dataclasses.replace(shown, replies=ranking_replies(task, answers))
+    if by_sequence(task, scoring):
+        replies = ranking_replies(task, answers) if task.kind == "order" else tuple(answers)
+        return dataclasses.replace(shown, replies=check_replies(replies))
     return shown
 
 
@@ -437,8 +446,8 @@ def _check_resumed_sampling(log_path: Path, sampling: dict) -> None:
     before = _logged(log_path, "sampling")
     if before is None:
         return
-    for name in SAMPLING_FIELDS:
-        then, now = before.get(name), sampling[name]
+    for name in (*SAMPLING_FIELDS, "scoring"):  # the scoring says how the twins read a reply
+        then, now = before.get(name), sampling.get(name)
         if name in before and then != now:
             raise InputError(
                 name,
@@ -642,6 +651,7 @@ class _Plan:
     asked: dict = dataclasses.field(default_factory=dict)  # the filter asked for: {"keep": [...]} or {"epsilon": [...]}
     scene: dict | None = None  # the route images' scene: start, goals, lengths, tolerance (_images)
     sampling: dict | None = None  # a server's sampled route: the stated settings (_sampling)
+    scoring: str | None = None  # how the exact route scores a decision and its twins read a reply (None: parsed)
 
 
 def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
@@ -670,6 +680,7 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         raise InputError(
             "sampled_twin", "reads replies of options' keys; this task's replies name the candidates: run with `exact`"
         )
+    scoring = _scoring(task, source, exact)
     # route images belong to the paper's navigation tasks; a task file gets them only with a scene asked for
     images = options.images and (is_built_in(task) or options.scene is not None)
     m: DecisionModel | None = None
@@ -723,7 +734,24 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         scene=scene,
         asked={**asked, "split": SPLIT_RULE},
         sampling=sampling,
+        scoring=scoring,
     )
+
+
+def _scoring(task: DeliveryTask, source: ModelSource, exact: bool) -> str | None:
+    """The run's scoring (:data:`~fairaudit.experiments.exact.SCORINGS`), checked on the task and on every reply the
+    exact route would score, before anything is made; None on a route that parses free replies."""
+    if not (exact or source.local_model is not None or source.sampled_twin):
+        return None
+    from . import local_model as lm
+    from .exact import by_sequence, check_scoring, exact_prompts, prompt_replies
+
+    scoring = check_scoring(task, source.scoring or SCORINGS[0])
+    if by_sequence(task, scoring):
+        answers = lm.exact_prompt(task)[1]
+        for p in exact_prompts(task) if task.named_by is not None else exact_prompts(task)[:1]:
+            prompt_replies(task, answers, p)  # one reply beginning another is refused, naming both
+    return scoring
 
 
 def _check_local(name: str, exact: bool, options: RunOptions) -> None:
@@ -781,9 +809,9 @@ def _run_sampled(
 
             assert plan.sampling is not None  # _prepare states a served model's sampling
             m = stack.enter_context(_served(source.local_model, out, source, plan.sampling, log))
-            task = lm.exact_prompt(task)[0]
+            task = _twin(task, plan.scoring or SCORINGS[0])
         elif source.sampled_twin:
-            task = _twin(task)
+            task = _twin(task, plan.scoring or SCORINGS[0])
         assert m is not None
         summary, records = _ask(task, m, plan, options, progress)
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]
@@ -885,13 +913,14 @@ def _exact_route(
     task: DeliveryTask, source: ModelSource, plan: _Plan, progress: bool, log: Callable[[str], None] | None
 ) -> tuple[str, _KernelMaker]:
     """The model's name and the function that makes its exact kernel: a local model's, or an endpoint's."""
+    scoring = plan.scoring or SCORINGS[0]
     if source.local_model is not None:
         name = source.local_model
 
         def local() -> tuple[FloatArray | None, RunSummary | None]:
             from . import local_model as lm
 
-            return lm.exact_kernel(task, lm.load(name, log=log), progress=progress), None
+            return lm.exact_kernel(task, lm.load(name, log=log), scoring=scoring, progress=progress), None
 
         return name, local
     client = plan.client
@@ -899,7 +928,7 @@ def _exact_route(
 
     def endpoint() -> tuple[FloatArray | None, RunSummary | None]:
         with client:
-            return endpoint_kernel(task, client, progress=progress)
+            return endpoint_kernel(task, client, scoring=scoring, progress=progress)
 
     return source.model, endpoint
 
@@ -925,6 +954,7 @@ def _run_exact(task: DeliveryTask, name: str, make_kernel: _KernelMaker, plan: _
             "fairaudit": __version__,
             "filter": plan.asked,
             "seconds": round(seconds, 3),
+            "scoring": {"method": plan.scoring},
         },
     )
     return ExperimentRun(
@@ -937,7 +967,7 @@ PREFILL = {"continue_final_message": True, "add_generation_prompt": False}
 
 
 def endpoint_kernel(
-    task: DeliveryTask, client: ChatClient, *, progress: bool = False
+    task: DeliveryTask, client: ChatClient, *, scoring: str = "continuation", progress: bool = False
 ) -> tuple[FloatArray | None, RunSummary]:
     """An endpoint's exact kernel from the log-probabilities of its replies' tokens.
 
@@ -954,6 +984,8 @@ def endpoint_kernel(
     client : fairaudit.experiments.vlm.client.ChatClient
         Made with ``max_tokens=1`` and ``top_logprobs`` (the run's: 20); its ``max_concurrency`` prompts are in
         flight at once, each request with the client's retries.
+    scoring : {"continuation", "first-token"}
+        :data:`fairaudit.experiments.exact.SCORINGS`.
     progress : bool
         A progress bar on stderr, by prompt.
 
@@ -984,7 +1016,7 @@ def endpoint_kernel(
     prompts = exact_prompts(task)
     n = len(task.profiles)
     out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
-    sequences = by_sequence(task)
+    sequences = by_sequence(task, scoring)
     uncached = {"cache_prompt": False} if client.is_llama_server() else {}  # the same numbers whatever came before
 
     sent: list[str] = []  # one entry per request (list.append is atomic)

@@ -219,10 +219,8 @@ def test_continuation_scoring_gives_the_law_on_every_route(which, mode, tmp_path
     else:  # the top lists after each prefix; a rejected probe is sent again without the field, once
         assert len(bodies) == made.summary.requests
         assert not any("prompt_logprobs" in b for b in bodies[1:])
-        assert [ChatServer.reply_so_far(b) for b in bodies[:2]] == [
-            "",
-            "" if mode == "reject" else bodies[1]["messages"][-1]["content"],
-        ]
+        asked_first = [ChatServer.reply_so_far(b) for b in bodies].count("")  # the probe, then each cell's "" once
+        assert asked_first == cells + (mode == "reject")
 
 
 def test_the_probe_counts_as_the_first_prompts_first_request_on_the_top_route(tmp_path):
@@ -259,3 +257,81 @@ def test_a_list_shorter_than_the_support_gives_the_hand_computed_lower_bounds(tm
     assert got.shape == (1, 4, 4, 3)  # 2 names x 2 departments
     np.testing.assert_allclose(got.reshape(-1, 3), [[0.3, 0.0, 0.7]] * 16, rtol=0, atol=1e-12)
     assert "lower bound" in (out / "report.md").read_text()
+
+
+# --- fairaudit experiment --exact, --scoring first-token, --sampled-twin ----------------------------------------
+
+
+@pytest.mark.parametrize("which", sorted(LAWS))
+def test_the_command_gives_the_law_and_records_the_route(which, tmp_path, capsys):
+    path, paths_of = LAWS[which]
+    task_path = path(tmp_path)
+    task = load_task(task_path)
+    with _server(task, paths_of(task)) as server:
+        code, _, err = run(
+            capsys, "experiment", task_path, "--endpoint", server.url, "--model", "m", "--exact", "--no-progress",
+            "--out", tmp_path / "exact", "--keep", "0.7",
+        )  # fmt: skip
+    assert code == 0, err
+    got = SimulatedModel.from_csv(task, tmp_path / "exact" / "kernel.csv").probabilities
+    np.testing.assert_allclose(got, _expected(task, paths_of(task)), rtol=0, atol=1e-9)
+    scoring = json.loads((tmp_path / "exact" / "certificate.json").read_text())["run"]["scoring"]
+    assert scoring == {"method": "continuation", "route": "prompt-logprobs", "missing_bound": 0.0}
+    assert "read from the server's prompt log-probabilities" in (tmp_path / "exact" / "report.md").read_text()
+
+
+def test_a_token_that_straddles_the_reply_exits_2_with_one_line(tmp_path, capsys):
+    task_path = _office_task(tmp_path)
+    with _server(load_task(task_path), _office_paths, straddle=True) as server:
+        code, _, err = run(
+            capsys, "experiment", task_path, "--endpoint", server.url, "--model", "m", "--exact", "--no-progress",
+            "--out", tmp_path / "exact",
+        )  # fmt: skip
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith("fairaudit: error: --endpoint: the server's token '\\nO'... straddles the start of the reply")
+    assert sorted(p.name for p in (tmp_path / "exact").iterdir()) in ([], [".fairaudit.lock"])  # no kernel
+
+
+def test_first_token_scoring_on_options_that_share_their_first_token_exits_2(tmp_path, capsys):
+    task_path = _office_task(tmp_path)
+    with _server(load_task(task_path), _office_paths) as server:
+        code, _, err = run(
+            capsys, "experiment", task_path, "--endpoint", server.url, "--model", "m", "--exact", "--no-progress",
+            "--scoring", "first-token", "--out", tmp_path / "exact",
+        )  # fmt: skip
+    assert code == 2 and err.count("\n") == 1, err
+    assert "the first token 'Office' begins the replies of two options (Office A, Office B)" in err
+
+
+@pytest.mark.parametrize("which", ["office", "loan"])
+def test_the_sampled_twin_agrees_with_the_exact_route_within_its_intervals(which, tmp_path):
+    """The same law sampled (--sampled-twin --samples N): the exact baselines lie in the twin's 99% intervals."""
+    path, paths_of = LAWS[which]
+    task_path = path(tmp_path)
+    task = load_task(task_path)
+    common = {"keeps": [0.7], "seed": 5, "targets": []}
+    with _server(task, paths_of(task)) as server:
+        twin = run_experiment(
+            str(task_path), tmp_path / "twin", ModelSource(endpoint=server.url, model="m", sampled_twin=True),
+            RunOptions(samples=60, concurrency=8, **common), progress=False,
+        )  # fmt: skip
+        bodies = server.chat_requests
+        run_experiment(
+            str(task_path), tmp_path / "exact", ModelSource(endpoint=server.url, model="m", exact=True),
+            RunOptions(**common), progress=False,
+        )  # fmt: skip
+    assert twin.summary is not None and twin.summary.failed == 0
+    assert {b["max_tokens"] for b in bodies} == {max(len(r) for r in task.options)}
+    exact = json.loads((tmp_path / "exact" / "certificate.json").read_text())
+    sampled = json.loads((tmp_path / "twin" / "certificate.json").read_text())
+    assert (
+        exact["run"]["scoring"]["route"] == "prompt-logprobs"
+        and sampled["run"]["sampling"]["scoring"] == "continuation"
+    )
+    for kind in ("local", "global"):
+        lo, hi = sampled["baseline"][kind]["interval"]
+        assert lo <= exact["baseline"][kind]["value"] <= hi
+    records = [json.loads(line) for line in (tmp_path / "twin" / "queries.jsonl").read_text().splitlines()[1:]]
+    shares = np.mean([r.get("decision") == "unparsed" for r in records])
+    law = _expected(task, paths_of(task))[..., -1].mean()
+    assert abs(shares - law) < 4 * math.sqrt(law * (1 - law) / len(records))  # the unparsed share, sampled

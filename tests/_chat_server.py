@@ -29,6 +29,28 @@ from 1; None means no fault):
 the request's ``top_logprobs``). Without it no reply has ``logprobs``, as
 from a server that does not support them.
 
+``law(request_json)``, optional: a law over multi-token replies, a mapping from the assistant's reply so far
+(a prefix, ``""`` first) to the next token's law, a list of ``(token, probability)``; the mass left over ends the
+reply (as the end-of-turn token, never listed). It tokenizes a text by walking the mapping from ``""`` (at each
+prefix, the one listed token the rest of the text begins with). With it the server answers as vLLM and
+llama-server do:
+
+* the reply so far is the last message's content when it is the assistant's and the request says
+  ``"continue_final_message": true`` (else ``""``);
+* ``"logprobs": true`` lists the next token's law after the reply so far, most likely first, cut to the request's
+  ``top_logprobs`` (``("<|im_end|>", 0.0)`` after a prefix the law does not continue);
+* ``"prompt_logprobs": k`` (``prompt_logprobs_mode="serve"``, the default) adds vLLM's top-level
+  ``prompt_logprobs``: ``null`` for the first token, then per prompt token ``{"<id>": {"logprob", "rank",
+  "decoded_token"}}``, the prompt's own token first and, for k > 0, the k most likely others. The prompt is the
+  ChatML rendering ``<|im_start|>system\n...<|im_end|>\n<|im_start|>user\n...<|im_end|>\n<|im_start|>assistant\n``
+  (the last turn left open when continued), split into runs of non-space characters and single white-space
+  characters, each of log-probability -1, then the reply so far in the law's tokens with the law's
+  log-probabilities; ``straddle=True`` joins the template's last token to the reply's first (``"\nOffice"``), as a
+  tokenizer that merges across the boundary does. ``prompt_logprobs_mode="reject"`` answers such a request with a
+  400 (a server that refuses unknown fields); ``"ignore"`` leaves the field out (llama-server);
+* without a ``responder``, a reply is sampled from the law (one token at a time, at most ``max_tokens``, seeded by
+  the request's ``seed`` and messages).
+
 ``required_key``: requests without ``Authorization: Bearer <key>`` get a 401
 (checked before the faults; a body without ``messages`` gets a 400). Every
 request is recorded in ``server.requests`` (method, path, JSON body, headers
@@ -42,8 +64,12 @@ chat requests handled at once (from the body read until the reply starts).
 from __future__ import annotations
 
 import json
+import math
+import random
+import re
 import threading
 import time
+import zlib
 from collections import deque
 from collections.abc import Callable, Iterable
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -67,7 +93,17 @@ class ChatServer:
         model: str | None = None,
         logprobs: Callable[[dict], list[tuple[str, float]]] | None = None,
         props: dict | None = None,
+        law: Callable[[dict], dict[str, list[tuple[str, float]]]] | None = None,
+        prompt_logprobs_mode: str = "serve",
+        straddle: bool = False,
     ) -> None:
+        self.law = law
+        self.prompt_logprobs_mode = prompt_logprobs_mode
+        self.straddle = straddle
+        if responder is None and law is not None:
+            responder = self._sample
+        if logprobs is None and law is not None:
+            logprobs = self._next_tokens
         self.responder = responder or (lambda body: DEFAULT_REPLY)
         self.logprobs = logprobs
         self.props = props  # llama-server's GET /props, when given
@@ -131,6 +167,71 @@ class ChatServer:
     def messages(self) -> list[str]:
         """The ``messages`` of each recorded chat request, as ``json.dumps`` of the list, in arrival order."""
         return [json.dumps(body["messages"]) for body in self.chat_requests]
+
+    # --- the law over multi-token replies ------------------------------------------------------
+
+    @staticmethod
+    def reply_so_far(body: dict) -> str:
+        """The assistant's reply so far: the continued last message's content, else ``""``."""
+        last = body["messages"][-1]
+        if last.get("role") == "assistant" and body.get("continue_final_message"):
+            return str(last.get("content", ""))
+        return ""
+
+    def _next_tokens(self, body: dict) -> list[tuple[str, float]]:
+        assert self.law is not None
+        nxt = self.law(body).get(self.reply_so_far(body))
+        return [(t, math.log(q)) for t, q in nxt if q > 0] if nxt else [("<|im_end|>", 0.0)]
+
+    def _sample(self, body: dict) -> str:
+        assert self.law is not None
+        law = self.law(body)
+        rng = random.Random(f"{body.get('seed')}|{json.dumps(body['messages'])}")
+        text = prefix = self.reply_so_far(body)
+        for _ in range(int(body.get("max_tokens") or 16)):
+            u, step = rng.random(), None
+            for token, q in law.get(prefix, []):
+                u -= q
+                if u < 0:
+                    step = token
+                    break
+            if step is None:  # the rest of the mass: the reply ends
+                break
+            prefix += step
+        return prefix[len(text) :]
+
+    def law_tokens(self, law: dict, text: str) -> list[tuple[str, float]]:
+        """``text`` in the law's tokens with their log-probabilities (characters at ln 1e-9 where it leaves the law)."""
+        out, prefix = [], ""
+        while prefix != text:
+            rest = text[len(prefix) :]
+            steps = [(t, q) for t, q in law.get(prefix, []) if t and rest.startswith(t)]
+            token, q = steps[0] if steps else (rest[0], 1e-9)
+            out.append((token, math.log(q) if q > 0 else -9999.0))
+            prefix += token
+        return out
+
+    def prompt_logprobs(self, body: dict) -> list:
+        """vLLM's ``prompt_logprobs`` of the request's rendered prompt (the module docstring)."""
+        assert self.law is not None
+        messages, continued = body["messages"], bool(self.reply_so_far(body))
+        turns = messages[:-1] if continued else messages
+        template = "".join(f"<|im_start|>{m['role']}\n{m.get('content', '')}<|im_end|>\n" for m in turns)
+        template += "<|im_start|>assistant\n"
+        tokens = [(t, -1.0) for t in re.findall(r"\S+|\s", template)]
+        reply = self.law_tokens(self.law(body), self.reply_so_far(body))
+        if self.straddle and reply:
+            (last, lp), (first, lq) = tokens.pop(), reply.pop(0)
+            tokens.append((last + first, lp + lq))
+        tokens += reply
+        k = int(body.get("prompt_logprobs") or 0)
+        out: list = [None]
+        for token, lp in tokens[1:]:
+            entry = {str(_token_id(token)): {"logprob": lp, "rank": 1 + (lp < -1e-12), "decoded_token": token}}
+            for r, other in enumerate(("<alt-a>", "<alt-b>", "<alt-c>")[:k], start=2):
+                entry[str(_token_id(other))] = {"logprob": -20.0 - r, "rank": r, "decoded_token": other}
+            out.append(entry)
+        return out
 
     # --- per request -----------------------------------------------------------------------
 
@@ -211,6 +312,10 @@ class _Handler(BaseHTTPRequestHandler):
         if not isinstance(body, dict) or not isinstance(body.get("messages"), list):
             self._send_error(400, "'messages' is a required property", "invalid_request_error")
             return
+        asks_prompt = body.get("prompt_logprobs") is not None and state.law is not None
+        if asks_prompt and state.prompt_logprobs_mode == "reject":
+            self._send_error(400, "Unrecognized request argument supplied: prompt_logprobs", "invalid_request_error")
+            return
         fault = state._next_fault(n, body)
         state._enter()
         try:
@@ -234,7 +339,14 @@ class _Handler(BaseHTTPRequestHandler):
                 top = state.logprobs(body) if state.logprobs is not None and body.get("logprobs") else None
             except Exception as exc:  # a broken responder is a 500, visible to the client
                 return _error(500, f"responder failed: {exc!r}", "server_error")
-            return 200, json.dumps(_completion(body, text, state.model, top)).encode(), "application/json", {}
+            completion = _completion(body, text, state.model, top)
+            if (
+                body.get("prompt_logprobs") is not None
+                and state.law is not None
+                and state.prompt_logprobs_mode == "serve"
+            ):
+                completion["prompt_logprobs"] = state.prompt_logprobs(body)
+            return 200, json.dumps(completion).encode(), "application/json", {}
         if fault[0] == "drop":
             return None
         if fault[0] == "status":
@@ -271,6 +383,11 @@ class _Handler(BaseHTTPRequestHandler):
             self.wfile.flush()
         except OSError:  # the client gave up (e.g. after its timeout)
             self.close_connection = True
+
+
+def _token_id(token: str) -> int:
+    """A token's id in the stand-in's vocabulary (a hash of its text)."""
+    return zlib.crc32(token.encode()) % 150_000
 
 
 def _error(code: int, message: str, kind: str, headers: dict | None = None) -> tuple:

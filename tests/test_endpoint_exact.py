@@ -7,6 +7,7 @@ texts, "Sure" 0.25u, the option key's stem ("HR" or "Recipient") 0.05u, a blank 
 fillers of 0.01u each, of which only the 20 most likely tokens are sent: 0.25u of the mass is never listed) and as
 sampled JSON replies drawn from K with the request's seed. So the exact route must give K to rounding, its
 certificate must equal :func:`analyse_kernel` on K, and the sampled route's intervals must cover K's values.
+Every run here asks for ``--scoring first-token`` (continuation, the default, is tests/test_continuation_http.py's).
 """
 
 from __future__ import annotations
@@ -159,7 +160,7 @@ def test_hr_exact_run_equals_analyse_kernel_on_the_known_kernel(tmp_path, capsys
     responder, logprobs = _stand_in(task, kernel)
     with ChatServer(responder, logprobs=logprobs) as server:
         code, report, err = run(
-            capsys, "experiment", "hr-delivery", "--endpoint", server.url, "--model", "lp-model", "--exact",
+            capsys, "experiment", "hr-delivery", "--endpoint", server.url, "--model", "lp-model", "--exact", "--scoring", "first-token",
             "--out", out, "--no-progress", "--keep", "0.7", "0.9", "--concurrency", "3",
         )  # fmt: skip
         bodies = server.chat_requests
@@ -204,7 +205,7 @@ def test_exact_sampled_and_simulated_routes_agree(tmp_path, capsys):
     common = ["--no-images", "--no-progress", "--keep", "0.6", "0.8", "--seed", "11"]
     with ChatServer(responder, logprobs=logprobs) as server:
         code, _, err = run(
-            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--exact",
+            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--exact", "--scoring", "first-token",
             "--out", tmp_path / "exact", *common,
         )  # fmt: skip
         assert code == 0, err
@@ -240,7 +241,7 @@ def test_a_task_file_without_an_answer_paragraph_is_sent_as_it_is(tmp_path):
     responder, logprobs = _stand_in(task, kernel)
     with ChatServer(responder, logprobs=logprobs) as server:
         done = run_experiment(
-            str(SHORTLIST), tmp_path / "r", ModelSource(endpoint=server.url, model="m", exact=True),
+            str(SHORTLIST), tmp_path / "r", ModelSource(endpoint=server.url, model="m", exact=True, scoring="first-token"),
             RunOptions(targets=[]), progress=False,
         )  # fmt: skip
         bodies = server.chat_requests
@@ -262,7 +263,7 @@ def test_a_server_without_logprobs_exits_2_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "o"
     with ChatServer(lambda body: "1") as server:
         code, stdout, err = run(
-            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "plain-model", "--exact",
+            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "plain-model", "--exact", "--scoring", "first-token",
             "--out", out, "--no-images", "--no-progress",
         )  # fmt: skip
     assert code == 2 and stdout == "" and err.count("\n") == 1
@@ -283,7 +284,7 @@ def test_options_that_share_a_first_token_exit_2(tmp_path, capsys):
     out = tmp_path / "o"
     with ChatServer(lambda body: "HR", logprobs=lambda body: [("HR", ln(0.97)), ("HR1", ln(0.02))]) as server:
         code, stdout, err = run(
-            capsys, "experiment", path, "--endpoint", server.url, "--model", "m", "--exact", "--out", out,
+            capsys, "experiment", path, "--endpoint", server.url, "--model", "m", "--exact", "--scoring", "first-token", "--out", out,
             "--no-progress",
         )  # fmt: skip
     assert code == 2 and stdout == "" and err.count("\n") == 1
@@ -298,7 +299,19 @@ def test_a_request_that_fails_after_retries_exits_1_with_nothing_written(tmp_pat
     task = PACKAGE_DELIVERY
     responder, logprobs = _stand_in(task, _known_kernel(task, "fair", [0.1, 0.1, 0.1]))
     out = tmp_path / "o"
-    args = ["experiment", "package-delivery", "--model", "m", "--exact", "--out", out, "--no-images", "--no-progress"]
+    args = [
+        "experiment",
+        "package-delivery",
+        "--model",
+        "m",
+        "--exact",
+        "--scoring",
+        "first-token",
+        "--out",
+        out,
+        "--no-images",
+        "--no-progress",
+    ]
     with ChatServer(responder, logprobs=logprobs, fault_fn=lambda n, body: ("status", 500) if n == 5 else None) as s:
         code, stdout, err = run(capsys, *args, "--endpoint", s.url, "--max-retries", "0", "--concurrency", "1")
         assert code == 1 and stdout == "" and err.count("\n") == 1
@@ -334,7 +347,7 @@ def test_first_token_route_sends_the_exact_prompt_and_plain_sampling(tmp_path, c
     responder, logprobs = _stand_in(task, kernel)
     with ChatServer(responder, logprobs=logprobs) as server:
         code, _, err = run(
-            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--sampled-twin",
+            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--sampled-twin", "--scoring", "first-token",
             "--samples", "2", "--no-images", "--no-progress", "--out", tmp_path / "run",
         )  # fmt: skip
         assert code == 0, err
@@ -374,7 +387,7 @@ def test_first_token_sends_no_images_and_refuses_a_scene(tmp_path, capsys):
     responder, logprobs = _stand_in(task, _known_kernel(task, "fair", [0.0, 0.0, 0.0]))
     with ChatServer(responder, logprobs=logprobs) as server:
         code, _, err = run(
-            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--sampled-twin",
+            capsys, "experiment", "package-delivery", "--endpoint", server.url, "--model", "m", "--sampled-twin", "--scoring", "first-token",
             "--samples", "1", "--no-progress", "--out", tmp_path / "run",
         )  # fmt: skip
         assert code == 0, err

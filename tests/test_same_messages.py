@@ -3,9 +3,11 @@
 One task file with a system message that names the context, run through every route: a simulated model (a spy
 records the messages it is handed), the in-process exact route (a fake tokenizer records what its chat template
 is given), the in-process sampled route (``--local-model --samples``, its server replaced by the recording stand-in
-of tests/_chat_server.py), and an endpoint's exact, sampled and first-token routes (the same stand-in). Each
-route's messages, as ``json.dumps`` text, must be the set written out by hand below with Python f-strings (not
-the task's Jinja templates): the system message first, then the user message, for each of the 8 shown cells.
+of tests/_chat_server.py), and an endpoint's exact (by top and by prompt log-probabilities), sampled and
+sampled-twin routes (the same stand-in). Each route's messages, as ``json.dumps`` text, must be the set written
+out by hand below with Python f-strings (not the task's Jinja templates): the system message first, then the user
+message, for each of the 8 shown cells. Continuation scoring (the default) sends a reply, or a prefix of it, after
+them as the assistant's message being continued: the cell's messages are those before it.
 
 Before the fix ``--local-model M --samples N`` sent no system message (``ServedModel`` made its messages without
 the task), so its law was that of another prompt.
@@ -116,19 +118,29 @@ class _Tokenizer:
     def decode(self, ids, skip_special_tokens=False):
         return self.pieces[ids[0]]
 
+    def encode(self, text, add_special_tokens=False):  # continuation scoring: a reply's tokens
+        return [self.pieces.index(text)] if text in self.pieces else [len(self.pieces) - 1] * len(text)
+
     def apply_chat_template(self, messages, *, add_generation_prompt, tokenize, return_dict):
         assert add_generation_prompt and tokenize and not return_dict
         self.seen.append(json.dumps(messages))
         return [len(self.seen), 0]  # distinct first ids: no shared prefix
 
 
+class _Cache:
+    """A fake key/value cache (continuation scoring repeats it once per reply)."""
+
+    def batch_repeat_interleave(self, batch):
+        pass
+
+
 class _Model:
-    """A fake causal LM: uniform logits over the three tokens."""
+    """A fake causal LM: uniform logits over the three tokens, and a cache."""
 
     def __call__(self, x, **kwargs):
         import torch
 
-        return SimpleNamespace(logits=torch.zeros(x.shape[0], x.shape[1], 3))
+        return SimpleNamespace(logits=torch.zeros(x.shape[0], x.shape[1], 3), past_key_values=_Cache())
 
 
 def _fake_local(monkeypatch, tmp_path, tok, server=None):
@@ -175,11 +187,13 @@ def _routes(task, tmp_path, monkeypatch) -> dict[str, list[str]]:
     routes = {
         "in-process sampled": (ModelSource(local_model="smollm2"), 2),
         "HTTP exact": (ModelSource(endpoint="URL", model="m", exact=True), None),
+        "HTTP exact, prompt log-probabilities": (ModelSource(endpoint="URL", model="m", exact=True), None),
         "HTTP sampled": (ModelSource(endpoint="URL", model="m"), 2),
         "HTTP first-token sampled": (ModelSource(endpoint="URL", model="m", sampled_twin=True), 2),
     }
     for i, (route, (source, samples)) in enumerate(routes.items()):
-        with ChatServer(lambda body: "yes", logprobs=_logprobs) as server:
+        law = {"law": lambda body: {"": [("yes", 0.5), ("no", 0.3), ("Sure", 0.1)]}} if "prompt" in route else {}
+        with ChatServer(lambda body: "yes", logprobs=_logprobs, **law) as server:
             _fake_local(monkeypatch, tmp_path, _Tokenizer(), server)
             if source.endpoint is not None:
                 source = ModelSource(
@@ -187,7 +201,17 @@ def _routes(task, tmp_path, monkeypatch) -> dict[str, list[str]]:
                 )
             done = _run(task, tmp_path / f"route-{i}", source, samples)
             assert done.analysis is not None, route
-            seen[route] = server.messages
+            # continuation scoring sends each reply, or its prefix, as the assistant's message being continued:
+            # the cell's messages are the system and user messages before it
+            seen[route] = [
+                json.dumps([m for m in b["messages"] if m["role"] != "assistant"]) for b in server.chat_requests
+            ]
+            if route.startswith("HTTP exact"):
+                continued = [b for b in server.chat_requests if b["messages"][-1]["role"] == "assistant"]
+                assert all(b["continue_final_message"] and b["messages"][-2]["role"] == "user" for b in continued), (
+                    route
+                )
+                assert len(continued) == (len(seen[route]) - 1 if "prompt" in route else 0), route  # but the probe
             if samples:  # the log keeps each query's messages: those the server got for the query's seed
                 bodies = {body["seed"]: body["messages"] for body in server.chat_requests}
                 records = [json.loads(line) for line in (done.out / "queries.jsonl").read_text().splitlines()[1:]]
@@ -203,13 +227,18 @@ def test_every_route_sends_the_same_messages_for_each_cell(loan, tmp_path, monke
             "in-process exact",
             "in-process sampled",
             "HTTP exact",
+            "HTTP exact, prompt log-probabilities",
             "HTTP sampled",
             "HTTP first-token sampled",
         ]
     )
     for route, messages in seen.items():
         assert set(messages) == EXPECTED, route
-        assert len(messages) == 8 * (1 if "exact" in route else 2), route  # one per cell, or per query
+        if "prompt" in route:  # the probe (one cell's messages), then one request per (cell, reply): yes, no
+            assert len(messages) == 1 + 8 * 2 and sum(m == ONE_CELL for m in messages[1:]) == 2, route
+            continue
+        # one per cell (the top lists list "yes" and "no" whole: no prefix is asked), or per query
+        assert len(messages) == 8 * (1 if "exact" in route else 2), route
         assert sum(m == ONE_CELL for m in messages) == (1 if "exact" in route else 2), route
 
 
@@ -220,7 +249,8 @@ def test_the_local_models_sampled_route_sends_the_system_message(loan, tmp_path,
         done = _run(loan, tmp_path / "run", ModelSource(local_model="smollm2"), samples=1)
         bodies = server.chat_requests
     assert done.analysis is not None and len(bodies) == 8
-    assert {(b["messages"][0]["role"], b["max_tokens"], b["temperature"]) for b in bodies} == {("system", 1, 1.0)}
+    # room for the longest reply, "yes", read as continuation scoring reads it (one character per token at least)
+    assert {(b["messages"][0]["role"], b["max_tokens"], b["temperature"]) for b in bodies} == {("system", 3, 1.0)}
     assert set(server.messages) == EXPECTED
     task = parse_task(LOAN, name="loan")
     with ChatServer(lambda body: "no") as server, ChatClient(server.url, "folder") as client:
@@ -244,7 +274,8 @@ def test_the_built_in_tasks_exact_prompt_on_every_route_that_has_an_exact_route(
     own = {json.dumps([{"role": "user", "content": t.prompt(c, pair)}]) for c, pair in cells}
     digit = {json.dumps([{"role": "user", "content": lm.answer_task(t).prompt(c, pair)}]) for c, pair in cells}
     assert len(own) == len(digit) == 12 and not own & digit
-    for route in ("in-process exact", "in-process sampled", "HTTP exact", "HTTP first-token sampled"):
+    routes = ("in-process exact", "in-process sampled", "HTTP exact", "HTTP exact, prompt log-probabilities")
+    for route in (*routes, "HTTP first-token sampled"):
         assert set(seen[route]) == digit, route
     for route in ("simulated", "HTTP sampled"):
         assert set(seen[route]) == own, route

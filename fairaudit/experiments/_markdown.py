@@ -334,14 +334,24 @@ def _paper_design_md(d: dict) -> list[str]:
 
 
 def _scoring_words(d: dict) -> str:
-    """How the exact route scored a decision, in words (``run.scoring``)."""
-    scoring = ((d.get("run") or {}).get("scoring") or {}).get("method")
-    if scoring == "first-token":
-        return "first-token scoring: the mass of the first tokens that read as each option"
-    return (
-        "continuation scoring: the probability that the reply begins with each decision's text, by the chain rule "
-        "over its tokens"
-    )
+    """How the exact route scored a decision, in words (``run.scoring``: the method, the route, the bound)."""
+    scoring = (d.get("run") or {}).get("scoring") or {}
+    if scoring.get("method") == "first-token":
+        words = "first-token scoring: the mass of the first tokens that read as each option"
+    else:
+        words = (
+            "continuation scoring: the probability that the reply begins with each decision's text, by the chain "
+            "rule over its tokens"
+        )
+    route = scoring.get("route")
+    if route == "prompt-logprobs":
+        words += ", read from the server's prompt log-probabilities"
+    elif route in ("top-logprobs", "first-token"):
+        words += (
+            ", read from the top log-probabilities the server listed: each decision's probability is a lower "
+            f"bound, short by at most {_f(scoring.get('missing_bound', 0.0), 3)} in any cell (tokens not listed)"
+        )
+    return words
 
 
 def _sampling_md(d: dict) -> list[str]:

@@ -69,6 +69,8 @@ __all__ = [
     "ExperimentRun",
     "ModelSource",
     "RunOptions",
+    "ExactKernel",
+    "SCORING_ROUTES",
     "endpoint_kernel",
     "run_experiment",
     "show_prompts",
@@ -805,8 +807,6 @@ def _run_sampled(
     with ExitStack() as stack:
         m = plan.model
         if source.local_model is not None:
-            from . import local_model as lm
-
             assert plan.sampling is not None  # _prepare states a served model's sampling
             m = stack.enter_context(_served(source.local_model, out, source, plan.sampling, log))
             task = _twin(task, plan.scoring or SCORINGS[0])
@@ -904,9 +904,45 @@ def _served(
             yield lm.ServedModel(client, name)
 
 
-_KernelMaker: TypeAlias = "Callable[[], tuple[FloatArray | None, RunSummary | None]]"
-"""What makes an exact route's kernel: (P(decision | shown cell), shape (contexts, profiles, profiles, decisions), or
-None when a request failed; the requests' summary, or None when there were none)."""
+@dataclass(frozen=True)
+class ExactKernel:
+    """An exact route's kernel and how it was scored (:func:`endpoint_kernel`; a local model's in process).
+
+    Attributes
+    ----------
+    probabilities : numpy.ndarray, shape (n_contexts, n_profiles, ..., n_profiles, n_decisions), or None
+        P(decision | shown cell), the layout of :func:`fairaudit.experiments.local_model.exact_kernel`; None when a
+        request failed after its retries.
+    summary : RunSummary or None
+        The requests' summary; None in process (no requests).
+    route : str
+        Where the probabilities came from (:data:`SCORING_ROUTES`).
+    missing : float
+        An upper bound on the probability the options of any one cell may lack because the server did not list a
+        token (no unit): 0 on the exact routes (prompt log-probabilities, in process); on the top log-probabilities
+        routes, the largest over the prompts of :func:`~fairaudit.experiments.vlm.logprobs.reply_bounds`'s bound
+        (continuation) or of the mass outside the first token's list (first-token).
+    """
+
+    probabilities: FloatArray | None
+    summary: RunSummary | None
+    route: str
+    missing: float = 0.0
+
+    def record(self, method: str | None) -> dict:
+        """``run.scoring`` of ``certificate.json``: the method, the route and the bound on the mass not listed."""
+        return {"method": method, "route": self.route, "missing_bound": float(self.missing)}
+
+
+SCORING_ROUTES = ("prompt-logprobs", "top-logprobs", "first-token", "in-process")
+"""How an exact route read its probabilities, recorded in ``certificate.json``'s ``run.scoring.route``:
+``"prompt-logprobs"``, the reply's tokens scored as the end of the prompt (vLLM's ``prompt_logprobs``; exact);
+``"top-logprobs"``, the next token's top list after each prefix of the replies (lower bounds, :func:`endpoint_kernel`);
+``"first-token"``, the first token's top list (first-token scoring); ``"in-process"``, a local model's own
+next-token probabilities (exact)."""
+
+_KernelMaker: TypeAlias = "Callable[[], ExactKernel]"
+"""What makes an exact route's kernel (:class:`ExactKernel`)."""
 
 
 def _exact_route(
@@ -917,16 +953,17 @@ def _exact_route(
     if source.local_model is not None:
         name = source.local_model
 
-        def local() -> tuple[FloatArray | None, RunSummary | None]:
+        def local() -> ExactKernel:
             from . import local_model as lm
 
-            return lm.exact_kernel(task, lm.load(name, log=log), scoring=scoring, progress=progress), None
+            kernel = lm.exact_kernel(task, lm.load(name, log=log), scoring=scoring, progress=progress)
+            return ExactKernel(kernel, None, "in-process")
 
         return name, local
     client = plan.client
     assert client is not None and source.model is not None  # _prepare made it
 
-    def endpoint() -> tuple[FloatArray | None, RunSummary | None]:
+    def endpoint() -> ExactKernel:
         with client:
             return endpoint_kernel(task, client, scoring=scoring, progress=progress)
 
@@ -939,7 +976,8 @@ def _run_exact(task: DeliveryTask, name: str, make_kernel: _KernelMaker, plan: _
 
     out = plan.out
     t0 = time.perf_counter()
-    probabilities, summary = make_kernel()
+    made = make_kernel()
+    probabilities, summary = made.probabilities, made.summary
     if probabilities is None:  # a request failed: no kernel, nothing written
         seconds = time.perf_counter() - t0
         return ExperimentRun(out=out, summary=summary, analysis=None, files=(), route="exact", seconds=seconds)
@@ -954,7 +992,7 @@ def _run_exact(task: DeliveryTask, name: str, make_kernel: _KernelMaker, plan: _
             "fairaudit": __version__,
             "filter": plan.asked,
             "seconds": round(seconds, 3),
-            "scoring": {"method": plan.scoring},
+            "scoring": made.record(plan.scoring),
         },
     )
     return ExperimentRun(
@@ -965,18 +1003,40 @@ def _run_exact(task: DeliveryTask, name: str, make_kernel: _KernelMaker, plan: _
 PREFILL = {"continue_final_message": True, "add_generation_prompt": False}
 """Request fields that make a server continue the final assistant message (llama-server, vLLM): a reply's prefix."""
 
+PROMPT_LOGPROBS = {"prompt_logprobs": 0}
+"""The request field that asks vLLM for the prompt's own tokens' log-probabilities (``prompt_logprobs``, 0: no
+alternatives), the probe of the prompt log-probabilities route."""
+
+REJECTED = (400, 422)
+"""HTTP statuses of a server that rejects a request field it does not know (OpenAI 400, a FastAPI validation 422)."""
+
 
 def endpoint_kernel(
     task: DeliveryTask, client: ChatClient, *, scoring: str = "continuation", progress: bool = False
-) -> tuple[FloatArray | None, RunSummary]:
+) -> ExactKernel:
     """An endpoint's exact kernel from the log-probabilities of its replies' tokens.
 
-    A choice (or an order of two): one request per prompt, its first token's log-probabilities as P(decision). A
-    ranking of k ≥ 3: P(the reply begins with each order written out) by the chain rule, one request per prefix
-    of those replies (sent as the start of the assistant's message, :data:`PREFILL`; llama-server and vLLM
-    continue it), each prefix once (:func:`fairaudit.experiments.vlm.logprobs.reply_probabilities`). A cell whose
-    candidates have several texts averages over every choice of them
-    (:func:`fairaudit.experiments.exact.exact_prompts`).
+    First-token scoring (a choice, or an order of two): one request per prompt, its first token's top
+    log-probabilities read as P(decision) (:func:`~fairaudit.experiments.vlm.logprobs.decision_probabilities`).
+    Continuation scoring: P(the reply begins with each decision's text r) = Π_t P(r_t | prompt, r_<t), the chain
+    rule (lm-evaluation-harness's ``loglikelihood`` of r as the continuation of the prompt), by the first of these
+    routes the server serves:
+
+    1. ``"prompt-logprobs"`` (vLLM): one request per (prompt, reply), the reply sent as the assistant's message
+       being continued (:data:`PREFILL`) with ``prompt_logprobs: 0``; the reply's tokens are the prompt's last,
+       and their log-probabilities add up to log P(r | prompt)
+       (:func:`~fairaudit.experiments.vlm.logprobs.reply_logprob`). Exact.
+    2. ``"top-logprobs"`` (llama-server, any server that continues the assistant's message and lists the next
+       token's top log-probabilities): one request per prefix of the replies, each prefix once
+       (:func:`~fairaudit.experiments.vlm.logprobs.reply_bounds`). Each probability is a lower bound, exact when
+       the lists hold every token of the replies; :attr:`ExactKernel.missing` bounds what it may lack.
+
+    The route is chosen once per run by a probe: the first request (the first prompt's, no reply yet) asks for
+    ``prompt_logprobs`` too. A reply that has them selects route 1; a reply without them (the server ignores the
+    field) is the first request of route 2; a server that rejects the field (HTTP 400 or 422) gets that request
+    again without it, and route 2. No other request is sent twice but by the client's retries. The mass on no
+    option, 1 − Σ P(r), is the cell's ``unparsed``. A cell whose candidates have several texts averages over every
+    choice of them (:func:`fairaudit.experiments.exact.exact_prompts`).
 
     Parameters
     ----------
@@ -991,18 +1051,20 @@ def endpoint_kernel(
 
     Returns
     -------
-    probabilities : numpy.ndarray, shape (n_contexts, n_profiles, ..., n_profiles, n_decisions), or None
-        The layout of :func:`fairaudit.experiments.local_model.exact_kernel`; None when a request failed after its
-        retries (the rest are then cancelled).
-    summary : RunSummary
-        The prompts: planned, answered, failed (the first failure's message).
+    ExactKernel
+        The probabilities, shape (n_contexts, n_profiles, ..., n_profiles, n_decisions), no unit, or None when a
+        request failed after its retries (the rest are then cancelled); the summary (prompts planned, answered,
+        failed with the first failure's message, requests sent); the route (``"prompt-logprobs"``,
+        ``"top-logprobs"`` or ``"first-token"``); the bound on the mass not listed.
 
     Raises
     ------
     InputError
-        ``endpoint`` when a reply has no log-probabilities; ``exact`` when a likely first token begins two options'
-        replies (:func:`fairaudit.experiments.vlm.logprobs.shared_first_token`); ``attribute.text`` when the texts
-        make too many prompts.
+        ``endpoint`` when a reply has no log-probabilities, when the route chosen stops getting prompt
+        log-probabilities, or when a prompt's scored tokens do not end with the reply or a token straddles the
+        reply's start; ``exact`` when a likely first token begins two options' replies (first-token scoring,
+        :func:`fairaudit.experiments.vlm.logprobs.shared_first_token`); ``attribute.text`` when the texts make too
+        many prompts.
     """
 
     import numpy as np
@@ -1010,7 +1072,8 @@ def endpoint_kernel(
     from . import local_model as lm
     from ._progress import progress_bar
     from .exact import by_sequence, exact_prompts, prompt_replies
-    from .vlm.logprobs import decision_probabilities, reply_probabilities
+    from .vlm.client import ChatError
+    from .vlm.logprobs import decision_probabilities, reply_bounds, reply_logprob
 
     shown, answers = lm.exact_prompt(task)
     prompts = exact_prompts(task)
@@ -1018,33 +1081,91 @@ def endpoint_kernel(
     out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
     sequences = by_sequence(task, scoring)
     uncached = {"cache_prompt": False} if client.is_llama_server() else {}  # the same numbers whatever came before
+    t0 = time.monotonic()
 
     sent: list[str] = []  # one entry per request (list.append is atomic)
+    missing: dict[int, float] = {}  # per prompt: the bound on the mass its options lack
 
-    def top(messages: list[dict], prefix: str) -> Any:
+    def summary(answered: int, failure: str | None) -> RunSummary:
+        return RunSummary(
+            planned=len(prompts),
+            already=0,
+            asked=answered,
+            failed=int(failure is not None),
+            unparsed=0,
+            seconds=time.monotonic() - t0,
+            failures=(failure,) if failure is not None else (),
+            requests=len(sent),
+        )
+
+    def no_logprobs() -> InputError:
+        return InputError(
+            "endpoint",
+            f"the server returned no log-probabilities for model {client.model!r} (it may not support "
+            "logprobs); run with `samples` N instead",
+        )
+
+    def cell_messages(i: int) -> list[dict]:
+        p = prompts[i]
+        return shown.messages(p.context, p.profiles, p.texts)
+
+    route = "first-token"
+    probe: tuple[tuple[str, float], ...] | None = None  # the first prompt's first-token list, from the probe
+    if sequences:
+        try:
+            reply = client.complete(cell_messages(0), extra={**uncached, **PROMPT_LOGPROBS})
+        except ChatError as exc:
+            if exc.kind != "http" or exc.status not in REJECTED:
+                sent.append("")
+                return ExactKernel(None, summary(0, str(exc)), "top-logprobs")
+            reply = None  # the field is rejected: top log-probabilities
+        sent.append("")
+        if reply is not None and reply.prompt_logprobs is not None:
+            route = "prompt-logprobs"
+        else:
+            route = "top-logprobs"
+            if reply is not None:
+                if reply.top_logprobs is None:
+                    raise no_logprobs()
+                probe = reply.top_logprobs
+
+    def top(i: int, prefix: str) -> Any:
+        if i == 0 and not prefix and probe is not None:
+            return probe
         extra = {**uncached, **(PREFILL if prefix else {})}
         turn = [{"role": "assistant", "content": prefix}] if prefix else []
-        reply = client.complete(messages + turn, extra=extra)
+        reply = client.complete(cell_messages(i) + turn, extra=extra)
         sent.append(prefix)
         if reply.top_logprobs is None:
-            raise InputError(
-                "endpoint",
-                f"the server returned no log-probabilities for model {client.model!r} (it may not support "
-                "logprobs); run with `samples` N instead",
-            )
+            raise no_logprobs()
         return reply.top_logprobs
 
+    def scored(i: int, text: str) -> float:
+        turn = [{"role": "assistant", "content": text}]
+        reply = client.complete(cell_messages(i) + turn, extra={**uncached, **PREFILL, **PROMPT_LOGPROBS})
+        sent.append(text)
+        if reply.prompt_logprobs is None:
+            raise InputError(
+                "endpoint",
+                f"the server returned no prompt log-probabilities for model {client.model!r} on a request after "
+                "its first had them (prompt_logprobs); run the command again",
+            )
+        return reply_logprob(reply.prompt_logprobs, text)
+
     def ask(i: int) -> FloatArray:
-        p = prompts[i]
-        messages = shown.messages(p.context, p.profiles, p.texts)
         if not sequences:
-            return decision_probabilities(top(messages, ""), task, answers=answers)
+            first = top(i, "")
+            missing[i] = max(0.0, 1.0 - math.fsum(math.exp(lp) for _, lp in first))  # mass outside the list
+            return decision_probabilities(first, task, answers=answers)
+        replies = prompt_replies(task, answers, prompts[i])
         row = np.zeros(len(task.decisions))
-        row[:-1] = reply_probabilities(lambda prefix: top(messages, prefix), prompt_replies(task, answers, p))
+        if route == "prompt-logprobs":
+            row[:-1] = [math.exp(scored(i, r)) for r in replies]
+        else:
+            row[:-1], missing[i] = reply_bounds(lambda prefix: top(i, prefix), replies, listed=client.top_logprobs)
         row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))
         return row
 
-    t0 = time.monotonic()
     bar = progress_bar(len(prompts), f"{task.name}: exact kernel", progress)
     try:
         answered, failure = _ask_cells(list(range(len(prompts))), ask, client.max_concurrency, bar)
@@ -1052,17 +1173,12 @@ def endpoint_kernel(
         bar.close()
     for i, row in answered.items():
         out[prompts[i].index] += prompts[i].weight * row
-    summary = RunSummary(
-        planned=len(prompts),
-        already=0,
-        asked=len(answered),
-        failed=int(failure is not None),
-        unparsed=0,
-        seconds=time.monotonic() - t0,
-        failures=(failure,) if failure is not None else (),
-        requests=len(sent),
+    return ExactKernel(
+        out if failure is None else None,
+        summary(len(answered), failure),
+        route,
+        max(missing.values(), default=0.0),
     )
-    return (out if failure is None else None), summary
 
 
 def _ask_cells(

@@ -37,7 +37,7 @@ from urllib.parse import urlsplit, urlunsplit
 
 from ..._errors import FairauditError, InputError
 from ..._validation import real, whole
-from .logprobs import first_token_logprobs
+from .logprobs import first_token_logprobs, prompt_token_logprobs
 
 __all__ = [
     "CONSTRAINTS",
@@ -136,6 +136,10 @@ class ChatReply:
         (:func:`fairaudit.experiments.vlm.logprobs.first_token_logprobs`);
         None when the reply has none (the server ignored ``logprobs``) or
         they were not requested.
+    prompt_logprobs : tuple of (str, float), optional
+        The prompt's tokens and their log-probabilities (nats) when the server
+        returned them (vLLM's ``prompt_logprobs``, asked for per request:
+        :func:`fairaudit.experiments.vlm.logprobs.prompt_token_logprobs`), else None.
     """
 
     text: str
@@ -146,6 +150,7 @@ class ChatReply:
     latency: float
     status: int = 200
     top_logprobs: tuple[tuple[str, float], ...] | None = None
+    prompt_logprobs: tuple[tuple[str, float], ...] | None = None
 
 
 class _Failure(Exception):
@@ -452,6 +457,7 @@ class ChatClient:
             latency=latency,
             status=status,
             top_logprobs=first_token_logprobs(data) if self.top_logprobs is not None else None,
+            prompt_logprobs=prompt_token_logprobs(data),
         )
 
     def _server_message(self, response: Any) -> str:

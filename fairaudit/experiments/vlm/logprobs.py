@@ -36,6 +36,9 @@ __all__ = [
     "TOP_LOGPROBS",
     "decision_probabilities",
     "first_token_logprobs",
+    "prompt_token_logprobs",
+    "reply_bounds",
+    "reply_logprob",
     "reply_probabilities",
     "shared_first_token",
 ]
@@ -230,25 +233,7 @@ def decision_probabilities(reply: Any, task: DeliveryTask, *, answers: Sequence[
 def reply_probabilities(
     next_tokens: Callable[[str], Sequence[tuple[str, float]]], replies: Sequence[str]
 ) -> FloatArray:
-    """P(the reply begins with each of ``replies``), by the chain rule over its tokens (a ranking's exact route).
-
-    Parameters
-    ----------
-    next_tokens : callable
-        ``next_tokens(prefix)``: the top next tokens and their log-probabilities (nats) after the reply has begun
-        with ``prefix`` (``""``: the first token), as :func:`first_token_logprobs` gives them. Each prefix is asked
-        once, whatever the number of replies that share it.
-    replies : sequence of str
-        The replies scored (:func:`fairaudit.experiments.exact.ranking_replies`: ``"2, 3, 1"``, ...).
-
-    Returns
-    -------
-    numpy.ndarray, shape (len(replies),)
-        Π over the reply's tokens of P(token | prompt, the tokens before it), no unit. At each prefix the reply
-        continues with the longest listed token that begins the rest of it (the tokenizer's own split of
-        digits, commas and spaces); a reply whose next token is not listed gets 0 (its probability is then below
-        the smallest listed one's). Other splits of the same text into tokens are not counted, as on the
-        in-process route, which scores the tokenizer's own split.
+    """P(the reply begins with each of ``replies``), by the chain rule over its tokens (:func:`reply_bounds`'s first part).
 
     Examples
     --------
@@ -258,20 +243,192 @@ def reply_probabilities(
     >>> reply_probabilities(law.get, ["2, 1", "1, 2"]).round(12).tolist()
     [0.4, 0.125]
     """
+    return reply_bounds(next_tokens, replies)[0]
+
+
+def reply_bounds(
+    next_tokens: Callable[[str], Sequence[tuple[str, float]]], replies: Sequence[str], *, listed: int | None = None
+) -> tuple[FloatArray, float]:
+    """Lower bounds on P(the reply begins with each of ``replies``) from top next-token lists, and what they may miss.
+
+    The route of a server that gives only the next token's top log-probabilities (llama-server): one request per
+    prefix of the replies, the prefix sent as the start of the assistant's message.
+
+    Parameters
+    ----------
+    next_tokens : callable
+        ``next_tokens(prefix)``: the top next tokens and their log-probabilities (nats) after the reply has begun
+        with ``prefix`` (``""``: the first token), as :func:`first_token_logprobs` gives them. Each prefix is asked
+        once, whatever the number of replies that share it.
+    replies : sequence of str
+        The replies scored (:func:`fairaudit.experiments.exact.ranking_replies`: ``"2, 3, 1"``, ...; the options'
+        replies of a choice: ``"Office A"``, ...).
+    listed : int, optional
+        How many tokens each list was asked for (``top_logprobs``); a list that long is taken to be the true top of
+        the next token's law. None: no list is known to be a top list.
+
+    Returns
+    -------
+    probabilities : numpy.ndarray, shape (len(replies),)
+        Π over the reply's tokens of P(token | prompt, the tokens before it), no unit. At each prefix the reply
+        continues with the longest listed token that begins the rest of it (the tokenizer's own split of
+        digits, commas and spaces); a reply whose next token is not listed gets 0. Other splits of the same text
+        into tokens are not counted, as on the in-process route, which scores the tokenizer's own split.
+    missing : float
+        An upper bound on the probability the replies lost to unlisted tokens, summed over the replies, no unit:
+        for each reply stopped at a prefix s whose next token is not listed, P(s) · m(s), where P(s) is the
+        product of the listed probabilities up to s and m(s) = min(p_min(s), 1 − Σ listed) bounds the
+        probability of one unlisted token (p_min(s), the smallest listed probability, only when the list holds
+        ``listed`` tokens). 0 when every reply's tokens were listed.
+
+    Notes
+    -----
+    Each probability is a lower bound on the reply's (the tokenizer's own split): it is a product of exact
+    conditional probabilities along one path of tokens, and a reply whose path leaves the lists gets 0 ≤ its
+    probability. The bound on what was missed: the reply's probability is P(s) · P(t | s) · P(rest | s, t) for
+    its next token t after the last listed prefix s, and P(rest | s, t) ≤ 1. The token t is not listed, so
+    P(t | s) ≤ 1 − Σ listed (the listed tokens are others); and when the list is the true top n of the law
+    (it holds the ``listed`` tokens asked for), a token missing from it has probability at most the smallest
+    listed one, p_min(s), or it would have been listed in that one's place. So each stopped reply lies in
+    [0, P(s) · m(s)] and every other in its exact value: the options' total is low by at most ``missing``.
+
+    Examples
+    --------
+    >>> import math
+    >>> law = {"": [("Office", math.log(0.7)), ("Sure", math.log(0.2))], "Office": [(" A", math.log(0.6))]}
+    >>> p, missing = reply_bounds(law.get, ["Office A", "Office B"], listed=1)
+    >>> p.round(12).tolist(), round(missing, 12)
+    ([0.42, 0.0], 0.28)
+    """
     asked: dict[str, Sequence[tuple[str, float]]] = {}
     out = np.zeros(len(replies))
+    missing = 0.0
     for j, reply in enumerate(replies):
         prefix, logp = "", 0.0
         while prefix != reply:
             if prefix not in asked:
                 asked[prefix] = next_tokens(prefix)
+            top = asked[prefix]
             rest = reply[len(prefix) :]
-            steps = [(t, lp) for t, lp in asked[prefix] if t and rest.startswith(t)]
+            steps = [(t, lp) for t, lp in top if t and rest.startswith(t)]
             if not steps:
+                probabilities = [math.exp(lp) for _, lp in top]
+                bound = max(0.0, 1.0 - math.fsum(probabilities))
+                if listed is not None and probabilities and len(probabilities) >= listed:
+                    bound = min(bound, min(probabilities))
+                missing += math.exp(logp) * bound
                 logp = -math.inf
                 break
             token, lp = max(steps, key=lambda step: len(step[0]))
             logp += lp
             prefix += token
         out[j] = math.exp(logp)
-    return out
+    return out, missing
+
+
+def prompt_token_logprobs(reply: Any) -> tuple[tuple[str, float], ...] | None:
+    """The prompt's tokens and their log-probabilities in a vLLM completion (``prompt_logprobs``), or None.
+
+    vLLM answers a chat completion asked for ``prompt_logprobs: k`` with a top-level ``prompt_logprobs``: one entry
+    per prompt token, ``null`` for the first (nothing precedes it), else a mapping from token id (a JSON string) to
+    ``{"logprob": float, "rank": int, "decoded_token": str}`` that holds the prompt's own token and the k most
+    likely ones (vLLM's ``PromptLogprobs``; a log-probability of −∞ is sent as −9999.0, ``clamp_prompt_logprobs``).
+
+    Parameters
+    ----------
+    reply : dict
+        The parsed JSON of the completion. The prompt's own token at each position is the entry keyed by
+        ``prompt_token_ids[i]`` when the reply has those ids (``return_token_ids``), else the mapping's first entry
+        (vLLM writes the prompt's token first, then the top k; with k = 0 it is the only entry).
+
+    Returns
+    -------
+    tuple of (str, float) or None
+        ``(decoded token, log-probability in nats)`` per prompt token after the leading ``null`` entries; None when
+        the reply has no ``prompt_logprobs`` list or an entry is not of that form (no ``decoded_token`` string, a
+        log-probability that is not a number <= 0 up to rounding).
+
+    Examples
+    --------
+    >>> reply = {"prompt_logprobs": [None, {"791": {"logprob": -2.5, "rank": 3, "decoded_token": "Office"}},
+    ...     {"362": {"logprob": -0.5, "rank": 1, "decoded_token": " A"}}]}
+    >>> prompt_token_logprobs(reply)
+    (('Office', -2.5), (' A', -0.5))
+    >>> prompt_token_logprobs({"choices": []}) is None
+    True
+    """
+    entries = reply.get("prompt_logprobs") if isinstance(reply, Mapping) else None
+    if not isinstance(entries, list) or not entries:
+        return None
+    ids = reply.get("prompt_token_ids")
+    ids = ids if isinstance(ids, list) and len(ids) == len(entries) else None
+    out: list[tuple[str, float]] = []
+    for i, entry in enumerate(entries):
+        if entry is None and not out:
+            continue  # the first token: nothing precedes it
+        if not isinstance(entry, Mapping) or not entry:
+            return None
+        chosen = entry.get(str(ids[i])) if ids is not None else None
+        if chosen is None:
+            chosen = next(iter(entry.values()))
+        if not isinstance(chosen, Mapping):
+            return None
+        token, logprob = _entry({"token": chosen.get("decoded_token"), "logprob": chosen.get("logprob")})
+        if token is None or logprob is None:
+            return None
+        out.append((token, logprob))
+    return tuple(out) if out else None
+
+
+def reply_logprob(tokens: Sequence[tuple[str, float]], reply: str) -> float:
+    """log P(reply | prompt) from the log-probabilities of a prompt that ends with ``reply``: its last tokens' sum.
+
+    The reply is sent as the assistant's message being continued (``continue_final_message``), so the prompt the
+    server scored is the chat template's rendering of the messages, ending with the reply's text; its last tokens
+    are the reply's, and their log-probabilities add up to log P(reply | the messages) (lm-evaluation-harness's
+    ``loglikelihood`` of a continuation).
+
+    Parameters
+    ----------
+    tokens : sequence of (str, float)
+        The prompt's tokens and their log-probabilities (nats), :func:`prompt_token_logprobs`.
+    reply : str
+        The reply, non-empty.
+
+    Returns
+    -------
+    float
+        Σ of the log-probabilities (nats) of the last tokens, read from the end, whose texts join to ``reply``.
+
+    Raises
+    ------
+    InputError
+        ``endpoint``: when the prompt's text does not end with the reply (the server did not continue the
+        assistant's message), or when a token straddles the reply's start (part template, part reply: the
+        reply's own tokens cannot be told apart).
+
+    Examples
+    --------
+    >>> reply_logprob([("<|assistant|>", -1.0), (":", -0.1), ("Office", -0.5), (" A", -0.25)], "Office A")
+    -0.75
+    """
+    text, total = "", 0.0
+    for token, logprob in reversed(tokens):
+        if len(text) >= len(reply):
+            break
+        text = token + text
+        total += logprob
+    if not text.endswith(reply):
+        raise InputError(
+            "endpoint",
+            f"the server's prompt log-probabilities end with {text[-len(reply) - 10 :]!r}, not with the reply "
+            f"{reply!r}: it did not continue the assistant's message; run with `samples` N instead",
+        )
+    if len(text) > len(reply):
+        raise InputError(
+            "endpoint",
+            f"the server's token {text[: len(text) - len(reply) + 1]!r}... straddles the start of the reply "
+            f"{reply!r} (part chat template, part reply): the reply's own log-probability is not given; run with "
+            "`samples` N instead",
+        )
+    return total

@@ -66,11 +66,11 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_KEEPS",
+    "SCORING_ROUTES",
+    "ExactKernel",
     "ExperimentRun",
     "ModelSource",
     "RunOptions",
-    "ExactKernel",
-    "SCORING_ROUTES",
     "endpoint_kernel",
     "run_experiment",
     "show_prompts",

@@ -8,10 +8,12 @@ with ``transformers`` into a plain float32 safetensors folder in a cache
 
 * **exact** (:func:`exact_kernel`): for every shown cell (x̃, ã₁, ã₂) of the
   table design, one forward pass gives the next-token distribution after the
-  chat prompt; every token of the vocabulary is mapped to the decision that
+  chat prompt. Under continuation scoring (the default) each decision's reply
+  text is scored on that pass's cache by the chain rule; under first-token
+  scoring every token of the vocabulary is mapped to the decision that
   :func:`fairaudit.experiments.vlm.parse.parse_reply` reads from a reply made of
   that token alone (:func:`token_decisions`), so P(decision | cell) is the sum
-  of the token probabilities, and what no option gets is ``"unparsed"``.
+  of the token probabilities. What no option gets is ``"unparsed"``.
 * **sampled**: the same messages through an OpenAI-compatible server
   (``transformers serve FOLDER``) with one-token replies (``max_tokens=1``)
   sampled from the plain softmax (the folder's generation config: sampling,

@@ -22,6 +22,7 @@ __all__ = [
     "check_replies",
     "check_scoring",
     "count_prompts",
+    "decision_replies",
     "exact_prompts",
     "prompt_replies",
     "ranking_replies",
@@ -256,9 +257,10 @@ def prompt_replies(task: DeliveryTask, answers: Sequence[str], prompt: ExactProm
     Returns
     -------
     tuple of str
-        n_decisions − 1 texts in the order of :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`. A
-        ranking: each order written out (:func:`ranking_replies`); a choice: each candidate's reply alone. A task
-        whose reply names the candidates writes the names its prompt shows
+        n_decisions − 1 texts in the order of :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`
+        (:func:`decision_replies`): a ranking of k ≥ 3, each order written out (:func:`ranking_replies`); a choice
+        or an order of two, the reply naming the option chosen or served first. A task whose reply names the
+        candidates writes the names its prompt shows
         (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.reply_names`; the Bloomberg study's replies), else
         ``answers``.
 
@@ -268,4 +270,40 @@ def prompt_replies(task: DeliveryTask, answers: Sequence[str], prompt: ExactProm
         Naming ``scoring`` when one reply begins another (:func:`check_replies`).
     """
     names = task.reply_names(prompt.profiles, prompt.texts) if task.named_by is not None else tuple(answers)
-    return check_replies(ranking_replies(task, names) if task.kind == "order" else names)
+    return decision_replies(task, names)
+
+
+def decision_replies(task: DeliveryTask, names: Sequence[str]) -> tuple[str, ...]:
+    """The reply text of each decision before ``"unparsed"``, given the text that names each slot.
+
+    A ranking of k ≥ 3 decides an order, and its reply is that order written out (:func:`ranking_replies`). A
+    choice, and an order of two, decide one option (the one chosen, the one served first:
+    :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`), and its reply is that option's name alone:
+    the built-in tasks' answer prompt asks for that digit alone, and a reply that writes the order out (``"2, 1"``)
+    begins with it too. Continuation scoring gives each decision P(the reply begins with its text).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    names : sequence of str
+        The text naming each slot in the reply, in slot order (the answers of
+        :func:`fairaudit.experiments.local_model.exact_prompt`, or the names one prompt shows).
+
+    Returns
+    -------
+    tuple of str
+        n_decisions − 1 texts, in the order of :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring`` when a text is empty or one begins another (:func:`check_replies`).
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY
+    >>> decision_replies(HR_DELIVERY, ("1", "2")), decision_replies(PACKAGE_DELIVERY, ("1", "2"))
+    (('1', '2'), ('1', '2'))
+    """
+    ranking = task.kind == "order" and task.slots > 2
+    return check_replies(ranking_replies(task, names) if ranking else tuple(names))

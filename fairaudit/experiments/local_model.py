@@ -8,10 +8,12 @@ with ``transformers`` into a plain float32 safetensors folder in a cache
 
 * **exact** (:func:`exact_kernel`): for every shown cell (x̃, ã₁, ã₂) of the
   table design, one forward pass gives the next-token distribution after the
-  chat prompt; every token of the vocabulary is mapped to the decision that
+  chat prompt. Under continuation scoring (the default) each decision's reply
+  text is scored on that pass's cache by the chain rule; under first-token
+  scoring every token of the vocabulary is mapped to the decision that
   :func:`fairaudit.experiments.vlm.parse.parse_reply` reads from a reply made of
   that token alone (:func:`token_decisions`), so P(decision | cell) is the sum
-  of the token probabilities, and what no option gets is ``"unparsed"``.
+  of the token probabilities. What no option gets is ``"unparsed"``.
 * **sampled**: the same messages through an OpenAI-compatible server
   (``transformers serve FOLDER``) with one-token replies (``max_tokens=1``)
   sampled from the plain softmax (the folder's generation config: sampling,
@@ -42,7 +44,6 @@ import hashlib
 import importlib.util
 import itertools
 import json
-import math
 import os
 import shutil
 import subprocess
@@ -60,7 +61,7 @@ import numpy.typing as npt
 
 from .._arrays import FloatArray, IntArray
 from .._errors import InputError
-from .exact import ExactPrompt, by_sequence, exact_prompts, prompt_replies
+from .exact import by_sequence, exact_prompts, prompt_replies
 from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
@@ -582,7 +583,7 @@ def exact_kernel(
     model : LoadedModel, optional
         Default :func:`load` ``("smollm2")``.
     batch_size : int
-        Prompts per forward pass of the first-token reading (a ranking runs each prompt's replies as one batch).
+        Replies per forward pass on one prompt's cache (continuation scoring; a ranking of k has k! replies).
     shared_prefix : bool
         Run the token prefix that every prompt shares (system prompt,
         instructions) once and reuse its key/value cache: the same logits,
@@ -593,7 +594,7 @@ def exact_kernel(
         :data:`fairaudit.experiments.exact.SCORINGS`: each decision's whole reply by the chain rule, or the
         next-token softmax summed over the tokens that read as each option.
     progress : bool
-        A progress bar on stderr (tqdm, when installed), by sequence.
+        A progress bar on stderr (tqdm, when installed), by prompt.
 
     Returns
     -------
@@ -601,125 +602,162 @@ def exact_kernel(
         Indexed by the task's contexts, profiles (once per slot) and decisions
         (:attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`: the
         options or the orders, then ``"unparsed"``): the layout of
-        :class:`fairaudit.experiments.vlm.models.SimulatedModel`. Each row sums
-        to 1; no unit (probabilities).
+        :class:`fairaudit.experiments.vlm.models.SimulatedModel`. Each row of an
+        asked cell sums to 1; no unit (probabilities).
 
     Raises
     ------
     InputError
         When torch or transformers is missing (and, with ``model`` None, the
-        model's package); ``attribute.text`` when the texts make too many prompts (:func:`exact_prompts`).
+        model's package); ``attribute.text`` when the texts make too many prompts (:func:`exact_prompts`);
+        ``scoring`` for a scoring the task cannot take
+        (:func:`~fairaudit.experiments.exact.check_scoring`), replies one of which begins another
+        (:func:`~fairaudit.experiments.exact.check_replies`), or a reply the tokenizer cannot spell after the prompt.
 
     Notes
     -----
     This is the kernel P(U | X̃, Ã) of the paper's setting (the model that
     sees the filtered attributes; docs/design.md, "Array layout") for the shown
-    cells, exactly, for this prompt and these weights. A choice (or an order of
-    two): the next-token softmax summed over the tokens that parse as each
-    decision. A ranking of k ≥ 3: the probability that the reply begins with
-    each order written out (:func:`ranking_replies`), the product of its
-    tokens' probabilities by the chain rule; the rest is ``"unparsed"``. A
-    cell whose candidates have several texts averages over every choice of
-    them. The sampled route (:func:`serve`) draws replies from the same softmax.
+    cells, exactly, for this prompt and these weights. One engine serves both scorings: each prompt (the chat
+    template's ids, with the generation prompt) runs once, on the shared prefix's key/value cache, and gives the
+    next-token log-softmax in float64.
+
+    * ``"continuation"``: decision d's reply r_d (:func:`~fairaudit.experiments.exact.prompt_replies`: a choice's
+      or an order of two's option alone, a ranking's order written out, the names a prompt shows) is tokenized in
+      context, as the tokens that follow the prompt's in the encoding of prompt text + r_d, and scored by the chain
+      rule, log P(r_d | prompt) = Σ_t log P(r_d,t | prompt, r_d,<t) (lm-evaluation-harness's ``loglikelihood``).
+      The replies of one prompt run as batches of ``batch_size`` on copies of its cache, right-padded (the pads
+      come after every position read). ``"unparsed"`` is 1 − Σ_d P(r_d), clipped at 0.
+    * ``"first-token"``: the next-token softmax summed over the tokens that read as each decision
+      (:func:`token_decisions`); the rest is ``"unparsed"``.
+
+    A cell whose candidates have several texts averages over every choice of them. The sampled route
+    (:func:`serve`) draws replies from the same softmax.
     """
+    from .exact import check_scoring
+
     torch, _ = _require()
+    check_scoring(task, scoring)
     m = model if model is not None else load("smollm2")
     t, answers = exact_prompt(task)
     tok = m.tokenizer
     n = len(task.profiles)
     prompts = exact_prompts(task, cells)
+    chats = [t.messages(p.context, p.profiles, p.texts) for p in prompts]
     ids = [
-        list(
-            tok.apply_chat_template(
-                t.messages(p.context, p.profiles, p.texts),
-                add_generation_prompt=True,
-                tokenize=True,
-                return_dict=False,
-            )
-        )
-        for p in prompts
+        list(tok.apply_chat_template(c, add_generation_prompt=True, tokenize=True, return_dict=False)) for c in chats
     ]
     out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
     prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
+    sequences = by_sequence(task, scoring)
+    onehot: FloatArray | None = None  # (vocabulary, decisions): the decision each token reads as (first-token)
     from ._progress import progress_bar
 
     bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress)
     with torch.inference_mode():
-        past = None
-        if prefix_len > 0:
-            past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values
-        if by_sequence(task, scoring):
-            for p, seq in zip(prompts, ids):
-                replies = [list(tok.encode(r, add_special_tokens=False)) for r in prompt_replies(task, answers, p)]
-                out[p.index][:-1] += p.weight * _reply_probabilities(m.model, seq[prefix_len:], past, replies, tok)
-                bar.update(1)
-            scored = np.array(sorted({p.index for p in prompts})).T  # (1 + k, cells asked): the others stay at zero
-            rows = out[tuple(scored)]
-            rows[:, -1] = np.clip(1.0 - rows[:, :-1].sum(axis=-1), 0.0, None)  # every reply that writes no order
-            out[tuple(scored)] = rows
-        else:
-            _first_token_shares(task, m.model, tok, prompts, [s[prefix_len:] for s in ids], past, batch_size, out, bar)
+        past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values if prefix_len else None
+        for p, chat, seq in zip(prompts, chats, ids):
+            first, cache = _next_token(m.model, seq[prefix_len:], past)
+            row = np.zeros(len(task.decisions))
+            if sequences:
+                text = tok.apply_chat_template(chat, add_generation_prompt=True, tokenize=False)
+                replies = [_reply_ids(tok, text, seq, r) for r in prompt_replies(task, answers, p)]
+                row[:-1] = _chain_rule(m.model, first, cache, replies, batch_size)
+                row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))  # every reply that begins with no decision's text
+            else:
+                if onehot is None:
+                    onehot = np.eye(len(task.decisions))[token_decisions(task, tok, first.shape[-1])]
+                row = np.exp(first.numpy()) @ onehot
+            out[p.index] += p.weight * row
+            bar.update(1)
     bar.close()
     return out
 
 
-def _first_token_shares(
-    task: DeliveryTask,
-    model: Any,
-    tok: Any,
-    prompts: Sequence[ExactPrompt],
-    suffixes: Sequence[list[int]],
-    past: Any,
-    batch_size: int,
-    out: FloatArray,
-    bar: Any,
-) -> None:
-    """Add each prompt's weighted P(decision) from its next-token softmax into ``out``, ``batch_size`` at a time."""
-    import torch
+def _next_token(model: Any, suffix: list[int], past: Any) -> tuple[Any, Any]:
+    """One prompt's pass: the next-token log-softmax in float64, shape (vocabulary,), and the prompt's cache.
 
-    onehot: FloatArray | None = None  # (vocabulary, decisions): the decision each token reads as
-    pad = tok.pad_token_id if tok.pad_token_id is not None else 0
-    for start in range(0, len(suffixes), batch_size):
-        chunk = suffixes[start : start + batch_size]
-        width = max(len(s) for s in chunk)
-        # right padding: causal attention keeps the pads out of every real position's logits
-        x = torch.tensor([s + [pad] * (width - len(s)) for s in chunk])
-        kwargs = {} if past is None else {"past_key_values": _copy_cache(past, len(chunk)), "use_cache": True}
-        logits = model(x, **kwargs).logits
-        last = logits[torch.arange(len(chunk)), torch.tensor([len(s) - 1 for s in chunk])]
-        probs = torch.softmax(last.double(), dim=-1).numpy()
-        if onehot is None:
-            onehot = np.eye(len(task.decisions))[token_decisions(task, tok, probs.shape[-1])]
-        shares = probs @ onehot  # (prompts of the batch, decisions)
-        for p, row in zip(prompts[start : start + len(chunk)], shares / shares.sum(axis=1, keepdims=True)):
-            out[p.index] += p.weight * row
-        bar.update(len(chunk))
-
-
-def _reply_probabilities(
-    model: Any, suffix: list[int], past: Any, replies: Sequence[list[int]], tok: Any
-) -> FloatArray:
-    """P(the reply begins with each of ``replies``) after one prompt: the chain rule over the replies' tokens.
-
-    The prompt runs once (after the shared prefix's cache); its cache, repeated once per reply, scores every reply
-    in one batch (right-padded: the pads come after every token scored).
+    ``suffix`` runs on a copy of ``past`` (the shared prefix's cache, or None), which stays as it was.
     """
     import torch
 
     kwargs = {} if past is None else {"past_key_values": _copy_cache(past, 1)}
     head = model(torch.tensor([suffix]), use_cache=True, **kwargs)
-    first = torch.log_softmax(head.logits[0, -1].double(), dim=-1)
-    width = max(len(r) for r in replies)
-    pad = tok.pad_token_id if tok.pad_token_id is not None else 0
-    x = torch.tensor([r + [pad] * (width - len(r)) for r in replies])
-    rest = torch.log_softmax(
-        model(x, past_key_values=_copy_cache(head.past_key_values, len(replies))).logits.double(), -1
-    )
-    out = np.empty(len(replies))
-    for j, r in enumerate(replies):
-        total = first[r[0]] + rest[j, torch.arange(len(r) - 1), torch.tensor(r[1:], dtype=torch.long)].sum()
-        out[j] = math.exp(float(total))
+    return torch.log_softmax(head.logits[0, -1].double(), dim=-1), head.past_key_values
+
+
+def _chain_rule(model: Any, first: Any, cache: Any, replies: Sequence[list[int]], batch_size: int) -> FloatArray:
+    """P(the reply's tokens follow the prompt) for each of ``replies`` (token ids), by the chain rule.
+
+    Parameters
+    ----------
+    model : transformers.PreTrainedModel
+    first : torch.Tensor, shape (vocabulary,)
+        The next-token log-softmax after the prompt (float64).
+    cache : transformers.Cache
+        The prompt's keys and values; copied for each batch, never changed.
+    replies : sequence of list of int
+        Non-empty token ids.
+    batch_size : int
+        Replies per forward pass.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(replies),)
+        exp(log P(r_0 | prompt) + Σ_{t ≥ 1} log P(r_t | prompt, r_<t)). Token t ≥ 1 is read at position t − 1 of
+        a pass of r_0, ..., r_{T−2} on the prompt's cache; a reply of one token needs no pass; shorter replies
+        are right-padded with their own last token, after every position read, so causal attention keeps the
+        pads out of them.
+    """
+    import torch
+
+    logp = np.array([float(first[r[0]]) for r in replies])
+    longer = [j for j, r in enumerate(replies) if len(r) > 1]
+    for start in range(0, len(longer), max(1, int(batch_size))):
+        chunk = longer[start : start + max(1, int(batch_size))]
+        heads = [replies[j][:-1] for j in chunk]
+        width = max(len(h) for h in heads)
+        x = torch.tensor([h + h[-1:] * (width - len(h)) for h in heads])
+        logits = model(x, past_key_values=_copy_cache(cache, len(chunk)), use_cache=True).logits
+        rest = torch.log_softmax(logits.double(), dim=-1)
+        for row, j in enumerate(chunk):
+            r = replies[j]
+            logp[j] += float(rest[row, torch.arange(len(r) - 1), torch.tensor(r[1:])].sum())
+    return np.exp(logp)
+
+
+def _reply_ids(tok: Any, text: str, ids: Sequence[int], reply: str) -> list[int]:
+    """The tokens of ``reply`` after a prompt: as the tokenizer encodes it in context (lm-evaluation-harness's rule).
+
+    Parameters
+    ----------
+    tok : transformers.PreTrainedTokenizerBase
+    text : str
+        The prompt as the chat template renders it (with the generation prompt).
+    ids : sequence of int
+        Its token ids.
+    reply : str
+
+    Returns
+    -------
+    list of int
+        The ids that follow ``ids`` in the encoding of ``text + reply``; where that encoding changes the prompt's
+        own ids (a merge across the boundary), the encoding of ``reply`` alone.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring`` when the ids found do not decode to ``reply``.
+    """
+    joint = list(tok.encode(text + reply, add_special_tokens=False))
+    out = joint[len(ids) :] if joint[: len(ids)] == list(ids) else list(tok.encode(reply, add_special_tokens=False))
+    if not out or tok.decode(out) != reply:
+        raise InputError(
+            "scoring",
+            f"the model's tokenizer does not write the reply {reply!r} as tokens after the prompt (got {out}, "
+            f"which read {tok.decode(out)!r}); use first-token",
+        )
     return out
 
 

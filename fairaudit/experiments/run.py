@@ -213,17 +213,16 @@ def _twin_tokens(task: DeliveryTask, scoring: str) -> int:
 
 def _twin(task: DeliveryTask, scoring: str) -> DeliveryTask:
     """The task the exact route's sampled twins ask: the exact route's prompt; under continuation scoring a reply
-    is read as the decision whose text it begins with (each option's reply, each order written out), the event the
-    exact route scores."""
+    is read as the decision whose text it begins with (:func:`~fairaudit.experiments.exact.decision_replies`: each
+    option's reply, each order of k ≥ 3 written out), the event the exact route scores."""
     import dataclasses
 
     from . import local_model as lm
-    from .exact import by_sequence, check_replies, ranking_replies
+    from .exact import by_sequence, decision_replies
 
     shown, answers = lm.exact_prompt(task)
     if by_sequence(task, scoring):
-        replies = ranking_replies(task, answers) if task.kind == "order" else tuple(answers)
-        return dataclasses.replace(shown, replies=check_replies(replies))
+        return dataclasses.replace(shown, replies=decision_replies(task, answers))
     return shown
 
 

@@ -104,9 +104,9 @@ def _logprobs(body):
 
 
 class _Tokenizer:
-    """A fake tokenizer: records the messages its chat template is given; three tokens, "yes", "no", "Sure"."""
+    """A fake tokenizer: records the messages its chat template is given; five tokens, "yes", "no", "1", "2", "Sure"."""
 
-    pieces = ("yes", "no", "Sure")
+    pieces = ("yes", "no", "1", "2", "Sure")
     pad_token_id = None
 
     def __init__(self) -> None:
@@ -121,8 +121,10 @@ class _Tokenizer:
     def encode(self, text, add_special_tokens=False):  # continuation scoring: a reply's tokens
         return [self.pieces.index(text)] if text in self.pieces else [len(self.pieces) - 1] * len(text)
 
-    def apply_chat_template(self, messages, *, add_generation_prompt, tokenize, return_dict):
-        assert add_generation_prompt and tokenize and not return_dict
+    def apply_chat_template(self, messages, *, add_generation_prompt, tokenize, return_dict=False):
+        assert add_generation_prompt and not return_dict
+        if not tokenize:  # the prompt's text, in which continuation scoring tokenizes a reply
+            return json.dumps(messages)
         self.seen.append(json.dumps(messages))
         return [len(self.seen), 0]  # distinct first ids: no shared prefix
 
@@ -135,12 +137,12 @@ class _Cache:
 
 
 class _Model:
-    """A fake causal LM: uniform logits over the three tokens, and a cache."""
+    """A fake causal LM: uniform logits over the tokenizer's tokens, and a cache."""
 
     def __call__(self, x, **kwargs):
         import torch
 
-        return SimpleNamespace(logits=torch.zeros(x.shape[0], x.shape[1], 3), past_key_values=_Cache())
+        return SimpleNamespace(logits=torch.zeros(x.shape[0], x.shape[1], len(_Tokenizer.pieces)), past_key_values=_Cache())
 
 
 def _fake_local(monkeypatch, tmp_path, tok, server=None):

@@ -66,16 +66,75 @@ def test_certificate_and_report_carry_the_range_and_the_warning(analysis):
     md = experiment_markdown(d)
     assert "**Warning:** 99.0% of the shown cells put more than 0.2" in md
     assert "L in [0.5108, 1.253]" in md
-    for b in d["budgets"]:  # a target is met only when the upper end meets it
+    for b in d["budgets"]:  # a target is met only by the upper end; the stated default's answer beside it
         this = b["this_model"]
-        if this["feasible"]:
-            assert this["overturned_by_unparsed"] == (this["unparsed_upper"] > b["target"])
+        assert this["met_by"] == "unparsed_upper_end"
+        stated = this["stated_default"]
+        if stated["feasible"]:
+            assert stated["overturned_by_unparsed"] == (stated["unparsed_upper"] > b["target"])
     # No filter is needed for L̄ ≤ 1 (its upper end at ε = inf is ln 2 by hand above), but L ≤ 1 holds without a
     # filter only under the stated utility: the upper end there is ln 3.5 > 1.
-    flags = {(b.target, b.kind): (b.this_model.epsilon, b.unparsed_upper, b.overturned) for b in analysis.budgets}
+    flags = {(b.target, b.kind): (b.stated_default.epsilon, b.unparsed_upper, b.overturned) for b in analysis.budgets}
     assert flags[(1.0, "global")] == (math.inf, pytest.approx(math.log(2.0)), False)
     assert flags[(1.0, "local")] == (math.inf, pytest.approx(math.log(3.5)), True)
-    assert "| 1 | L | ∞ | 1.253 **not met** |" in md
+    eps = {(b.target, b.kind): b.this_model.epsilon for b in analysis.budgets}
+    assert eps[(1.0, "global")] == math.inf
+    assert "| 1 | L | {} | ∞ | 1.253 **not met** | 1 |".format(f"{eps[(1.0, 'local')]:.4g}") in md
+    assert "| 1 | L̄ | ∞ | ∞ | 0.6931 | 1 |" in md
+
+
+def _by_grid(analysis, target, kind, end="upper"):
+    """The largest ε with the upper end ≤ target at every smaller ε: fairness_range's upper end (tested against LPs
+    in tests/test_utility_range.py) on a grid of 0.1 up to 30 nats, its first crossing bisected by hand; with
+    ``end="value"`` the same for the value under the stated utility."""
+    from fairaudit.experiments.vlm.filter import candidate_family
+    from fairaudit.utility_range import fairness_range
+
+    family = candidate_family(T)
+
+    def upper(e):
+        r = fairness_range(
+            analysis.candidate_kernel, analysis.utility, -1, sensitive_mechanism=family(e),
+            population=analysis.population, lower_end=False,
+        )  # fmt: skip
+        return getattr(r.local_fairness if kind == "local" else r.global_fairness, end)
+
+    grid = np.linspace(0.0, 30.0, 301)
+    first = next((i for i, e in enumerate(grid) if upper(e) > target), None)
+    if first is None:
+        return math.inf
+    lo, hi = grid[first - 1], grid[first]
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if upper(mid) <= target else (lo, mid)
+    return lo
+
+
+def test_budgets_are_met_by_the_upper_end(analysis):
+    budgets = {(b.target, b.kind): b for b in analysis.budgets}
+    for key in [(0.5, "local"), (0.5, "global"), (1.0, "local")]:
+        b = budgets[key]
+        want = _by_grid(analysis, *key)
+        assert 1.0 < want < 20.0  # a finite ε, which the stated default exceeds
+        assert b.this_model.epsilon == pytest.approx(want, rel=1e-8)
+        assert b.this_model.bound == pytest.approx(key[0], rel=1e-9) and "upper end of" in b.this_model.reason
+        assert b.stated_default.epsilon == pytest.approx(_by_grid(analysis, *key, end="value"), rel=1e-8)
+        assert b.stated_default.epsilon > want * 1.3 and b.overturned
+
+
+def test_without_unparsed_mass_the_budget_is_the_stated_one():
+    p = _kernel().probabilities.copy()
+    p[..., 1] += p[..., 2]  # every unparsed reply read as "not chosen"
+    p[..., 2] = 0.0
+    k = Kernel(p, T.contexts, list(itertools.product(T.profiles, repeat=2)), T.decisions)
+    a = analyse_kernel(T, k, model="m", epsilons=[1.0], targets=[0.1, 0.5])
+    for b in a.budgets:
+        assert b.this_model.to_dict() == b.stated_default.to_dict() and not b.overturned
+    assert any(math.isfinite(b.this_model.epsilon) for b in a.budgets)
+    md = experiment_markdown(experiment_dict(a))
+    for b in a.budgets:
+        e = "∞" if math.isinf(b.this_model.epsilon) else f"{b.this_model.epsilon:.4g}"
+        assert f"| {b.target:g} | {'L' if b.kind == 'local' else 'L̄'} | {e} | {e} |" in md
 
 
 def test_the_command_warns_on_stderr(tmp_path, capsys):

@@ -288,7 +288,8 @@ def _filter_md(d: dict) -> list[str]:
 
 
 def _budgets_md(d: dict) -> list[str]:
-    """The largest ε per target, for this model and for any model."""
+    """The largest ε per target, for this model (met by the unparsed range's upper end; the stated default beside)
+    and for any model."""
     lines = [
         "",
         "## The privacy budget per target",
@@ -297,21 +298,28 @@ def _budgets_md(d: dict) -> list[str]:
         "behind the filter stays at or below the target at every smaller ε"
         + (", estimated from the counts" if d.get("route") != "exact" else "")
         + ") and for any model behind the filter (black-box: the exact worst case). "
-        "+∞: no filter is needed; n/a: no ε meets it. The white-box ε is found under the stated utility of an "
-        "unparsed reply; the next column is the upper end of this model's unparsed range at that ε, and "
-        "**not met** marks a target that some utility of the unparsed reply in [min g, max g] breaks there.",
+        "+∞: no filter is needed; n/a: no ε meets it. A target is met by this model's upper end: the "
+        "first column's ε holds for every utility of an unparsed reply in [min g, max g] (the upper end of the "
+        "unparsed range stays at or below the target). The next column is the ε under the stated utility of an "
+        "unparsed reply, then the upper end of the unparsed range at that ε; **not met** marks a stated ε that "
+        "some utility of the unparsed reply in [min g, max g] breaks.",
         "",
-        "| target (nats) | on | ε, this model | upper end of unparsed range at that ε | ε, any model |",
-        "|---|---|---|---|---|",
+        "| target (nats) | on | ε, this model (upper end) | ε, stated unparsed utility | upper end at that ε | "
+        "ε, any model |",
+        "|---|---|---|---|---|---|",
     ]
+
+    def eps(c: dict) -> str:
+        return _f(c["epsilon"]) if c["feasible"] else "n/a"
+
     for b in d["budgets"]:
         this, anym = b["this_model"], b["any_model"]
-        upper = this.get("unparsed_upper") if this["feasible"] else None
-        flag = " **not met**" if this.get("overturned_by_unparsed") else ""
+        stated = this.get("stated_default", this)
+        upper = stated.get("unparsed_upper") if stated["feasible"] else None
+        flag = " **not met**" if stated.get("overturned_by_unparsed") else ""
         lines.append(
-            f"| {_f(b['target'])} | {'L' if b['kind'] == 'local' else 'L̄'} | "
-            f"{_f(this['epsilon']) if this['feasible'] else 'n/a'} | {_f(upper)}{flag} | "
-            f"{_f(anym['epsilon']) if anym['feasible'] else 'n/a'} |"
+            f"| {_f(b['target'])} | {'L' if b['kind'] == 'local' else 'L̄'} | {eps(this)} | {eps(stated)} | "
+            f"{_f(upper)}{flag} | {eps(anym)} |"
         )
     return lines
 

@@ -265,33 +265,42 @@ DEFAULT_TARGETS = (0.05, 0.1, 0.25, 0.5)
 class TargetBudget:
     """The candidate's privacy budget ε that meets one fairness target, for this model and for any model.
 
+    A target is met by this model only when the upper end of its L (L̄) over every utility of the unparsed reply
+    meets it: ``this_model`` is calibrated on that upper end, ``stated_default`` under the stated utility beside it.
+
     Attributes
     ----------
     target : float
         On L (``kind="local"``) or L̄ (``"global"``), nats.
     kind : {"local", "global"}
     this_model : Calibration
-        White-box: the largest ε at which this model's own L (L̄) behind the
-        filter stays ≤ target at every smaller ε (:func:`fairaudit.calibrate.calibrate`).
+        White-box on the upper end: the largest ε at which the upper end of this model's L (L̄) behind the
+        filter, over every utility of the unparsed reply in [min g, max g] chosen per cell
+        (:func:`fairaudit.utility_range.fairness_range`), stays ≤ target at every smaller ε
+        (:func:`fairaudit.calibrate.calibrate` with ``unparsed_decision=-1``): every such utility meets the
+        target there (``proofs/unparsed.md`` §5). Without unparsed mass it is ``stated_default``'s answer.
         On the sampled route it is an estimate from the counts.
     any_model : Calibration
         Black-box: the largest ε whose exact worst case over every model is ≤ target.
+    stated_default : Calibration
+        White-box under the stated utility of the unparsed reply: the largest ε at which this model's L (L̄)
+        stays ≤ target at every smaller ε (at least ``this_model``'s ε).
     unparsed_upper : float
-        The upper end of this model's L (L̄) over every utility of the unparsed reply in [min g, max g]
-        (:func:`fairaudit.utility_range.fairness_range`) at ``this_model``'s ε (nats; NaN when no ε meets the
-        target). Above the target, the white-box answer holds only under the stated unparsed utility.
+        The upper end of the unparsed range at ``stated_default``'s ε (nats; NaN when no ε meets the target
+        there). Above the target, ``stated_default``'s answer holds only under the stated unparsed utility.
     """
 
     target: float
     kind: str
     this_model: Calibration
     any_model: Calibration
+    stated_default: Calibration
     unparsed_upper: float = math.nan
 
     @property
     def overturned(self) -> bool:
-        """Whether some utility of the unparsed reply in [min g, max g] breaks the target at ``this_model``'s ε."""
-        return self.this_model.feasible and self.unparsed_upper > self.target
+        """Whether some utility of the unparsed reply in [min g, max g] breaks the target at the stated default's ε."""
+        return self.stated_default.feasible and self.unparsed_upper > self.target
 
 
 def _budgets(
@@ -305,23 +314,35 @@ def _budgets(
     tau: float | None,
     upper_at: Any = None,
 ) -> tuple[TargetBudget, ...]:
-    """Per target and kind the white-box and black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end."""
+    """Per target and kind the white-box ε (on the unparsed range's upper end, and under the stated default) and the
+    black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end at the stated default's ε."""
     from ..calibrate import calibrate
 
     family = candidate_family(task, positions)
     out = []
     for target in sorted({float(t) for t in targets}):
         for kind in ("local", "global"):
-            white = calibrate(
-                target, kind=kind, method="white_box", family=family, kernel=kc, utility=utility,
-                population=pop, context_mechanism=mx,
-            )  # fmt: skip
+            white = {
+                d: calibrate(
+                    target,
+                    kind=kind,
+                    method="white_box",
+                    family=family,
+                    kernel=kc,
+                    utility=utility,
+                    population=pop,
+                    context_mechanism=mx,
+                    unparsed_decision=d,
+                )
+                for d in (-1, None)
+            }
             black = calibrate(
                 target, kind=kind, method="black_box", family=family, groups=list(pop.groups),
                 gamma=utility.gamma, lower=utility.lower, tau=tau, population=pop,
             )  # fmt: skip
-            upper = upper_at(white.epsilon, kind) if upper_at is not None and white.feasible else math.nan
-            out.append(TargetBudget(target, kind, white, black, upper))
+            stated = white[None]
+            upper = upper_at(stated.epsilon, kind) if upper_at is not None and stated.feasible else math.nan
+            out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
     return tuple(out)
 
 
@@ -499,7 +520,8 @@ class ExperimentAnalysis:
         How much of the raw disparity of the listed order is position and how
         much group (None for one candidate per prompt).
     budgets : tuple of TargetBudget
-        Per target and kind (local, global): the ε that meets it for this model and for any model.
+        Per target and kind (local, global): the ε that meets it for this model (on the upper end of the
+        unparsed range, and under the stated default beside it) and for any model.
     unparsed_mass : UnparsedMass or None
         The shown cells whose unparsed mass exceeds :data:`UNPARSED_WARNING` (its ``warning``, when set, is
         written in report.md and on stderr).

@@ -333,9 +333,12 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     each explains, overall and per context: :class:`PositionSplit`),
     ``budgets`` (per target on L and on L̄: the candidate's ε that meets it
     for this model, white-box, and for any model, black-box, with the
-    family's keep probability and whether the target can be met; for this
-    model also ``unparsed_upper``, the upper end of the unparsed range at that
-    ε, and ``overturned_by_unparsed``, whether it exceeds the target),
+    family's keep probability and whether the target can be met; this
+    model's ε is met by the upper end of the unparsed range (``met_by``:
+    ``"unparsed_upper_end"``), and ``stated_default`` beside it is the
+    white-box answer under the stated unparsed utility with
+    ``unparsed_upper``, the upper end of the unparsed range at its ε, and
+    ``overturned_by_unparsed``, whether that exceeds the target),
     ``points`` (per requested ε: the
     privacy of the filter per attribute, profile and candidate; the
     corollary and black-box bounds on L and the black-box bound on L̄; the
@@ -398,7 +401,11 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
                 "target": number(b.target),
                 "kind": b.kind,
                 "this_model": _budget(b.this_model)
-                | {"unparsed_upper": number(b.unparsed_upper), "overturned_by_unparsed": b.overturned},
+                | {
+                    "met_by": "unparsed_upper_end",
+                    "stated_default": _budget(b.stated_default)
+                    | {"unparsed_upper": number(b.unparsed_upper), "overturned_by_unparsed": b.overturned},
+                },
                 "any_model": _budget(b.any_model),
             }
             for b in a.budgets

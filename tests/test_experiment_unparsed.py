@@ -8,6 +8,7 @@ below), and L̄'s the same over the sums of the six contexts' ends (P(x | a) uni
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -156,3 +157,55 @@ def test_the_command_warns_on_stderr(tmp_path, capsys):
     assert share > 0.9 and "of the shown cells put more than 0.2 of their mass on unparsed replies" in line
     report = (tmp_path / "run" / "report.md").read_text()
     assert "**Warning:**" in report
+
+
+def test_certified_bounds_do_not_depend_on_the_unparsed_utility_here(analysis):
+    # HR: g = 1 chosen, 0 not chosen, 0 unparsed: every unparsed utility in [0, 1] keeps g's range [0, 1], and the
+    # black-box bounds depend on g only through it (and tau); the corollary is epsilon of the filter.
+    d = experiment_dict(analysis)
+    for p, point in zip(analysis.points, d["points"]):
+        b = point["bounds"]
+        for name in ("corollary", "black_box", "black_box_global"):
+            assert b["unparsed_range"][name]["range"] == [b[name], b[name]]
+        assert b["corollary"] == pytest.approx(p.epsilon, rel=1e-12)
+        assert b["black_box"] == pytest.approx(p.epsilon, rel=1e-12)  # g in {0, 1}: the worst model's L is ε
+        assert "lies within the other outcomes' [0, 1]" in b["unparsed_range"]["black_box"]["reason"]
+    md = experiment_markdown(d)
+    assert (
+        "Certified bounds over the unparsed reply's utility: the corollary is ε of the filter, and the black-box "
+        "bounds depend on g only through [min g, max g] = [0, 1] and tau, and the stated unparsed utility 0 lies "
+        "within the other outcomes' [0, 1], so no utility of an unparsed reply in [min g, max g] changes them: each "
+        "range is one value."
+    ) in md
+
+
+def test_an_unparsed_utility_beyond_the_others_widens_the_black_box_bounds():
+    # Package delivery with unparsed stated 5 (waiting times 1 and 3): g's range is [1, 5] as stated, [1, 3] for an
+    # unparsed utility within [1, 3]. The bounds' ends by a second route: black_box_bound on the class [lower, gamma]
+    # (tau = 1 = min g, as the run uses), and worst_model with the class's two-decision extreme for L-bar.
+    from fairaudit.experiments.taskfile import PACKAGE_DELIVERY
+    from fairaudit.utility import from_table
+    from fairaudit.worstcase import black_box_bound, worst_model
+
+    task = dataclasses.replace(PACKAGE_DELIVERY, utility_values=(1.0, 3.0, 5.0))
+    p = np.tile([0.5, 0.3, 0.2], (3, 4, 1))
+    kernel = Kernel(p, task.contexts, list(itertools.product(task.profiles, repeat=2)), task.decisions)
+    a = analyse_kernel(task, kernel, model="m", epsilons=[1.0, 2.0], targets=())
+    assert a.tau == 1.0
+    for point in a.points:
+        r, m = point.bound_ranges, point.mechanism
+        assert (r["corollary"].lower, r["corollary"].upper) == (point.corollary, point.corollary)
+        for lower, gamma, end in ((1.0, 5.0, "upper"), (1.0, 3.0, "lower")):
+            local = black_box_bound(m, lower=lower, gamma=gamma, tau=1.0, population=a.population).value
+            extreme = from_table([gamma, lower], ["high", "low"])
+            glob = worst_model(m, extreme, population=a.population, tau=1.0).global_fairness.value
+            assert getattr(r["black_box"], end) == pytest.approx(local, rel=1e-9)
+            assert getattr(r["black_box_global"], end) == pytest.approx(glob, rel=1e-9)
+        assert r["black_box"].upper == point.black_box_local and r["black_box"].lower < 0.9 * r["black_box"].upper
+        assert "lies outside the other outcomes' [1, 3]" in r["black_box"].reason
+    d = experiment_dict(a)
+    b = d["points"][0]["bounds"]
+    md = experiment_markdown(d)
+    lo, hi = b["unparsed_range"]["black_box"]["range"]
+    assert f"| {b['black_box']:.4g} [{lo:.4g}, {hi:.4g}] | 1 |" in md
+    assert "(in the bounds' columns)." in md

@@ -24,6 +24,26 @@ def _range(d: dict) -> str:
     return "n/a" if r is None else f"[{_f(r[0])}, {_f(r[1])}]"
 
 
+def _bound(p: dict, name: str) -> str:
+    """A point's certified bound, with its range over the unparsed reply's utility when that is not one value."""
+    r = ((p["bounds"].get("unparsed_range") or {}).get(name) or {}).get("range")
+    if r is None or r[0] == r[1]:
+        return _f(p["bounds"][name])
+    return f"{_f(p['bounds'][name])} [{_f(r[0])}, {_f(r[1])}]"
+
+
+def _bounds_range_md(d: dict) -> str:
+    """One sentence: whether the certified bounds depend on the unparsed reply's utility, and why."""
+    ranges = (d["points"][0]["bounds"].get("unparsed_range") or {}) if d["points"] else {}
+    if "black_box" not in ranges:
+        return ""
+    point = all(v["range"][0] == v["range"][1] for p in d["points"] for v in p["bounds"]["unparsed_range"].values())
+    return (
+        f" Certified bounds over the unparsed reply's utility: the corollary is ε of the filter, and "
+        f"{ranges['black_box']['reason']}" + ("." if point else " (in the bounds' columns).")
+    )
+
+
 def _warning_md(d: dict) -> list[str]:
     """The warning when shown cells put more than 0.2 of their mass on unparsed replies."""
     m = d.get("unparsed_mass") or {}
@@ -245,15 +265,15 @@ def _curve_md(d: dict) -> list[str]:
         keep = ", ".join(f"{_f(v, 3)}" for v in p["privacy"]["keep_probability_per_attribute"].values())
         lines.append(
             f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
-            f"{_f(p['bounds']['black_box'])} | {_f(p['bounds']['corollary'])} | "
+            f"{_bound(p, 'black_box')} | {_bound(p, 'corollary')} | "
             f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
             f"{_range(p['observed']['local'])} | "
             f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
             f"{_range(p['observed']['global'])} | "
-            f"{_f(p['bounds']['black_box_global'])} |"
+            f"{_bound(p, 'black_box_global')} |"
         )
     if d["points"]:
-        lines += ["", _range_md(d)]
+        lines += ["", _range_md(d) + _bounds_range_md(d)]
     return lines + _filter_md(d)
 
 

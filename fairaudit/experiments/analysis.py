@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -40,6 +40,7 @@ import numpy.typing as npt
 from .._arrays import FloatArray
 from .._deprecated import renamed
 from .._errors import InputError
+from .._json import Report, number
 from .._validation import real
 from ..calibrate import Calibration
 from ..curves import PrivacyCurve, privacy_curve
@@ -65,6 +66,7 @@ from .vlm.tasks import DeliveryTask
 
 __all__ = [
     "DEFAULT_TARGETS",
+    "BoundRange",
     "UNPARSED_WARNING",
     "ExperimentAnalysis",
     "PaperDesignPoint",
@@ -399,6 +401,9 @@ class PointResult:
         L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell of the
         per-candidate kernel (:func:`fairaudit.utility_range.fairness_range`), next to the value under the
         stated default.
+    bound_ranges : dict of str to BoundRange
+        ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
+        same utilities of the unparsed reply (:func:`bound_ranges`; its upper end is the bound as stated).
     local, global_
         Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
@@ -414,9 +419,86 @@ class PointResult:
     black_box_global: float
     corollary: float
     unparsed_range: UtilityRange
+    bound_ranges: dict[str, BoundRange] = field(default_factory=dict)
 
     local = renamed[Fairness]("local_fairness")
     global_ = renamed[Fairness]("global_fairness")
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class BoundRange:
+    """A certified bound's exact range over every utility of the unparsed reply in [min g, max g] (per cell).
+
+    Attributes
+    ----------
+    lower, upper : float
+        The ends (nats); ``upper`` is the bound as stated, equal to ``lower`` when the bound does not depend on
+        the unparsed reply's utility.
+    reason : str
+        Why the range is what it is, in words.
+    """
+
+    lower: float
+    upper: float
+    reason: str
+
+    def to_dict(self) -> Report:
+        """``{"range": [lower, upper], "reason": ...}``."""
+        return {"range": [number(self.lower), number(self.upper)], "reason": self.reason}
+
+
+def bound_ranges(
+    mechanism: Mechanism,
+    utility: Utility,
+    bounds: tuple[float, float],
+    *,
+    context_mechanism: Mechanism,
+    population: Population,
+    tau: float | None,
+) -> dict[str, BoundRange]:
+    """The corollary's and the black-box bounds' ranges over every utility of the unparsed reply (the last decision).
+
+    The corollary is ε of ``mechanism``: no utility enters it. The black-box bounds (``bounds``: on L and L̄, as
+    :func:`fairaudit.worstcase.worst_model` gives them for ``utility``) are maxima over every decision model whose
+    cell expectations lie in [min g, max g] (g of the decision only) with E ≥ τ, τ held as stated. With the
+    unparsed utility v_c of a cell in [min g, max g], that cell's expectations span [min(g_known ∪ v_c),
+    max(g_known ∪ v_c)], g_known the other outcomes' utilities: between [min g_known, max g_known] and
+    [min g, max g], and the bound is non-decreasing in each cell's interval (a maximum over a larger set). So the
+    upper end is the bound as stated (v at the end of [min g, max g] beyond g_known, when there is one) and the
+    lower end is the bound for the utility whose unparsed value lies within g_known's range: equal ends when the
+    stated unparsed value lies within it (``proofs/unparsed.md`` §6).
+    """
+    from ..worstcase import worst_model
+
+    g = np.asarray(utility.values, dtype=float)
+    known, stated = g[:-1], float(g[-1])
+    k_lo, k_hi = float(known.min()), float(known.max())
+    corollary = BoundRange(
+        lower=mechanism.epsilon, upper=mechanism.epsilon, reason="the corollary is epsilon of the filter: no utility "
+        "enters it",
+    )  # fmt: skip
+    head = (
+        f"the black-box bounds depend on g only through [min g, max g] = [{utility.lower:g}, {utility.gamma:g}] and "
+        f"tau, and the stated unparsed utility {stated:g} lies"
+    )
+    if (k_lo, k_hi) == (utility.lower, utility.gamma):
+        why = (
+            f"{head} within the other outcomes' [{k_lo:g}, {k_hi:g}], so no utility of an unparsed reply in "
+            "[min g, max g] changes them: each range is one value"
+        )
+        low = bounds
+    else:
+        why = (
+            f"{head} outside the other outcomes' [{k_lo:g}, {k_hi:g}]: each range runs from the bound for g in "
+            f"[{k_lo:g}, {k_hi:g}] (an unparsed utility within it) to the bound as stated"
+        )
+        inside = Utility(np.append(known, k_lo), utility.decisions, name=f"{utility.name}, unparsed at {k_lo:g}")
+        wm = worst_model(mechanism, inside, context_mechanism=context_mechanism, population=population, tau=tau)
+        low = (wm.local_fairness.value, wm.global_fairness.value)
+    return {"corollary": corollary} | {
+        name: BoundRange(lower=lo, upper=up, reason=why)
+        for name, lo, up in zip(("black_box", "black_box_global"), low, bounds)
+    }
 
 
 UNPARSED_WARNING = 0.2
@@ -580,6 +662,7 @@ def _point(
             table, utility, confidence, method, sensitive_mechanism=mech, context_mechanism=mx, population=pop
         )
     wm = worst_model(mech, utility, context_mechanism=mx, population=pop, tau=tau)
+    bounds = (wm.local_fairness.value, wm.global_fairness.value)
     return PointResult(
         epsilon=eps,
         filter=filt,
@@ -592,6 +675,7 @@ def _point(
         black_box_global=wm.global_fairness.value,
         corollary=mech.epsilon,
         unparsed_range=fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop),
+        bound_ranges=bound_ranges(mech, utility, bounds, context_mechanism=mx, population=pop, tau=tau),
     )
 
 

@@ -298,6 +298,7 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
             "corollary": number(p.corollary),
             "black_box": number(p.black_box_local),
             "black_box_global": number(p.black_box_global),
+            "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
         },
         "observed": {
             "local": _observed(
@@ -341,7 +342,11 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     ``overturned_by_unparsed``, whether that exceeds the target),
     ``points`` (per requested ε: the
     privacy of the filter per attribute, profile and candidate; the
-    corollary and black-box bounds on L and the black-box bound on L̄; the
+    corollary and black-box bounds on L and the black-box bound on L̄, with
+    ``bounds.unparsed_range``: per bound its ``range`` over every utility of
+    the unparsed reply in [min g, max g] and the ``reason``, equal ends
+    unless the stated unparsed utility lies outside the other outcomes'
+    range (:func:`fairaudit.experiments.analysis.bound_ranges`); the
     observed L and L̄ with their intervals). Every observed L and L̄ of the
     baseline and the points has ``unparsed_range`` ([lower, upper]: its exact
     range over every utility of the unparsed reply in [min g, max g], chosen

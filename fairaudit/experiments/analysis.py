@@ -66,8 +66,8 @@ from .vlm.tasks import DeliveryTask
 
 __all__ = [
     "DEFAULT_TARGETS",
-    "BoundRange",
     "UNPARSED_WARNING",
+    "BoundRange",
     "ExperimentAnalysis",
     "PaperDesignPoint",
     "PointResult",
@@ -76,6 +76,7 @@ __all__ = [
     "UnparsedMass",
     "analyse",
     "analyse_kernel",
+    "bound_ranges",
     "candidate_context_mechanism",
     "candidate_utility",
     "epsilon_from_keep",

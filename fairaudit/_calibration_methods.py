@@ -8,7 +8,8 @@ into a :class:`~fairaudit.calibrate.Calibration` with the family's member and ke
 * :func:`black_box` — the exact worst case over every model, non-decreasing along the family: bracketed and
   refined, or the closed form of ``proofs/black_box.md`` §3 for k-ary randomized response;
   :func:`black_box_global` on L̄ when X and A are dependent.
-* :func:`white_box` — a known decision kernel: the exact L (L̄), scanned on a grid and refined.
+* :func:`white_box` — a known decision kernel: the exact L (L̄), scanned on a grid and refined; or the upper end of
+  its range over the utility of one decision known only within [min g, max g] (the unparsed reply).
 
 Proofs: ``proofs/calibration.md``.
 """
@@ -23,7 +24,7 @@ from typing import Any, TypedDict
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import EXP_SAFE, FloatArray
+from ._arrays import EXP_SAFE, FloatArray, format_label
 from ._calibration_search import EPS_MAX, bracket, keep_grid, largest_meeting
 from ._errors import InputError
 from .bounds import main_theorem, main_theorem_tight
@@ -371,24 +372,37 @@ def white_box(
     utility: Utility,
     population: Population | None,
     context_mechanism: Mechanism | None,
+    unparsed_decision: int | None = None,
 ) -> Found:
     """The largest ε such that every ε' in [0, ε] gives the model an L (L̄) that meets the target.
 
     The model's fairness need not be monotone in ε: a target missed at ε = 0 is infeasible
     (:func:`_white_box_floor`); otherwise a grid is scanned and its first crossing refined (:func:`_scan`).
+
+    With ``unparsed_decision`` (an index of the kernel's decisions) the function of ε scanned and refined is the upper
+    end of L (L̄) over every utility of that decision in [min g, max g], per kernel cell
+    (:func:`fairaudit.utility_range.fairness_range`; ``proofs/unparsed.md`` §5); when the kernel puts no mass on
+    that decision the range is a point and the function is L (L̄) itself, as without it.
     """
     target, kind = common["target"], common["kind"]
     limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
     measure = local_fairness if kind == "local" else global_fairness
     name = "L" if kind == "local" else "L-bar"
 
-    def value(eps: float) -> float:
+    def stated(eps: float) -> float:
         try:
             law = _law(kernel, family(eps), context_mechanism)
         except InputError as exc:
             raise exc.under("kernel", keep_own=True) from None
         v = measure(law, utility, population).value
         return math.inf if math.isnan(v) else v
+
+    value: Callable[[float], float] = stated
+    if unparsed_decision is not None:
+        d = _decision_index(kernel, unparsed_decision)
+        if np.any(np.nan_to_num(kernel.probabilities[..., d], nan=0.0) > 0):
+            value = _upper_end(kind, family, kernel, utility, d, population, context_mechanism)
+            name = f"upper end of {name} over every utility of {format_label(kernel.decisions[d])!r} in [min g, max g]"
 
     f0 = value(0.0)
     if not f0 <= limit:
@@ -399,6 +413,40 @@ def white_box(
             why.append("X and A are dependent in the population")
         return _white_box_floor(target, limit, keep_grid(family), value, f0, name, why)
     return _scan(target, limit, keep_grid(family), value, f0, name)
+
+
+def _decision_index(kernel: Kernel, decision: int) -> int:
+    """``decision`` as an index of the kernel's decisions (negative from the end), or an InputError."""
+    n = len(kernel.decisions)
+    if isinstance(decision, bool) or not isinstance(decision, (int, np.integer)) or not -n <= decision < n:
+        raise InputError("unparsed_decision", f"must index one of the kernel's {n} decisions", decision)
+    return int(decision) % n
+
+
+def _upper_end(
+    kind: str,
+    family: MechanismFamily,
+    kernel: Kernel,
+    utility: Utility,
+    decision: int,
+    population: Population | None,
+    context_mechanism: Mechanism | None,
+) -> Callable[[float], float]:
+    """ε ↦ the upper end of L (L̄) behind ``family(ε)`` over every utility of ``decision`` in [min g, max g]."""
+    from .utility_range import fairness_range
+
+    def upper(eps: float) -> float:
+        try:
+            r = fairness_range(
+                kernel, utility, decision, sensitive_mechanism=family(eps), context_mechanism=context_mechanism,
+                population=population, lower_end=False,
+            )  # fmt: skip
+        except InputError as exc:
+            raise exc.under("kernel", keep_own=True) from None
+        v = (r.local_fairness if kind == "local" else r.global_fairness).upper
+        return math.inf if math.isnan(v) else v
+
+    return upper
 
 
 RR_COMPOSE_LIMIT = 512  # groups; above, white-box calibration behind randomized response never builds its matrix

@@ -230,11 +230,17 @@ def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
     return max(1.0, float(mins.max()))
 
 
-def mixed_ratio(W: FloatArray, lo: FloatArray, hi: FloatArray, solver: dict[tuple[int, int], MinMaxRatio]) -> Extremes:
+def mixed_ratio(
+    W: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    solver: dict[tuple[int, int], MinMaxRatio],
+    lower_end: bool = True,
+) -> Extremes:
     """Extremes of max_{a≠a'} (W_a·e)/(W_a'·e) over the box lo ≤ e ≤ hi, for each map W[m] (shape (M, A, n)).
 
     Upper: the threshold solution of each pair's linear-fractional program.
-    Lower: :class:`MinMaxRatio` (one LP per map).
+    Lower: :class:`MinMaxRatio` (one LP per map); NaN without its LPs when ``lower_end`` is False.
     """
     from .lfp import threshold_max_many
 
@@ -244,9 +250,12 @@ def mixed_ratio(W: FloatArray, lo: FloatArray, hi: FloatArray, solver: dict[tupl
     idx = vals.argmax(-1)
     upper = vals[np.arange(M), idx]
     key = (A, n)
-    if key not in solver:
-        solver[key] = MinMaxRatio(A, n)
-    lower = np.array([solver[key].solve(W[m], lo, hi) for m in range(M)])
+    if not lower_end:
+        lower = np.full(M, np.nan)
+    else:
+        if key not in solver:
+            solver[key] = MinMaxRatio(A, n)
+        lower = np.array([solver[key].solve(W[m], lo, hi) for m in range(M)])
     if A < 2:
         upper = lower = np.full(M, np.nan)
     return lower, upper, idx // A, idx % A

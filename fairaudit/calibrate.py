@@ -30,7 +30,11 @@ attribute reaches the model). Four methods, from the loosest:
 * ``white_box`` — a known (or estimated) decision kernel: the exact L (or L̄)
   of ``compose(kernel, M_ε, M_X)``. It need not be monotone in ε, so the
   result is the largest ε such that *every* ε' in [0, ε] meets the target,
-  found by scanning a grid and refining the first crossing.
+  found by scanning a grid and refining the first crossing. With
+  ``unparsed_decision`` the same search runs on the upper end of L (L̄) over
+  every utility of that decision (a reply that parses as no option) in
+  [min g, max g], so every such utility meets the target
+  (``proofs/unparsed.md`` §5).
 
 Proofs: ``proofs/calibration.md``.
 """
@@ -42,6 +46,7 @@ import numbers
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 
+import numpy as np
 import numpy.typing as npt
 
 from ._arrays import format_label
@@ -308,6 +313,7 @@ def calibrate(
     utility: Utility | None = None,
     population: Population | None = None,
     context_mechanism: Mechanism | None = None,
+    unparsed_decision: int | None = None,
 ) -> Calibration:
     """The largest privacy budget ε of a mechanism family whose certificate meets ``target``.
 
@@ -356,6 +362,12 @@ def calibrate(
     context_mechanism : Mechanism, optional
         M_X in front of the kernel (``white_box``, and ``black_box`` on L̄ with a dependent
         population); default the identity.
+    unparsed_decision : int, optional
+        ``white_box`` only: the index of a decision whose utility is known only within [min g, max g] (−1 for
+        an experiment's ``"unparsed"``, the last). The target is then met by the upper end of L (L̄) over every
+        utility of that decision, chosen per kernel cell (:func:`fairaudit.utility_range.fairness_range`), at
+        every ε' ≤ ε, and ``bound`` is that upper end; a kernel that puts no mass on it gives the answer without
+        it. Needs g of the decision only.
 
     Returns
     -------
@@ -371,9 +383,10 @@ def calibrate(
         that differs from the family's), ``gamma`` ≤ 0, ``lower`` outside
         [0, γ], ``tau`` outside (0, γ] or missing for paper/tight when
         L_A·diam > 0 or δ > 0, ``delta`` outside [0, 1] or given to
-        black_box/white_box, a negative ``lipschitz``, or white_box without a
+        black_box/white_box, a negative ``lipschitz``, white_box without a
         ``kernel`` or ``utility`` (the command line names ``--spec``, its
-        source of both).
+        source of both), or ``unparsed_decision`` with another method, out
+        of range, or with a utility that depends on the context or group.
 
     Notes
     -----
@@ -388,6 +401,9 @@ def calibrate(
       scan, then the first crossing refined; exact behind randomized
       response, where L is quasiconvex in ε). Not necessarily monotone: a
       target below L at ε = 0 is infeasible even if larger ε meet it.
+    * white_box with ``unparsed_decision``: the same with L replaced by the upper end of its range over
+      the decision's utility; the answer is the smallest white-box ε over every assignment of that utility
+      (``proofs/unparsed.md`` §5).
 
     Proofs and the tests that check them: ``proofs/calibration.md``.
 
@@ -425,6 +441,21 @@ def calibrate(
     >>> c = calibrate(0.7, kernel=k, utility=indicator("a", ["a", "b"]))
     >>> c.method, round(c.epsilon, 9)
     ('white_box', 0.7)
+
+    A model that picks the released group with 0.5, the other with 0.3, and gives a reply that parses as no option
+    ("unparsed", stated g = 0, known only within [0, 1]) with 0.2. Behind keep p ≥ 1/2, L is
+    log((0.3 + 0.2p)/(0.5 − 0.2p)); its upper end, unparsed counted 1 in the released group's cell and 0 in the
+    other's, is log((0.3 + 0.4p)/(0.7 − 0.4p)). For the target 0.5 the stated answer keeps p up to
+    (0.5e^0.5 − 0.3)/(0.2(1 + e^0.5)), the upper end only up to (0.7e^0.5 − 0.3)/(0.4(1 + e^0.5)):
+
+    >>> k = Kernel([[[0.5, 0.3, 0.2], [0.3, 0.5, 0.2]]], ["all"], ["a", "b"], ["a", "b", "unparsed"])
+    >>> g = indicator("a", ["a", "b", "unparsed"])
+    >>> stated, upper = calibrate(0.5, kernel=k, utility=g), calibrate(0.5, kernel=k, utility=g, unparsed_decision=-1)
+    >>> T = math.exp(0.5)
+    >>> [round(c.keep_probability, 9) for c in (stated, upper)], round(upper.bound, 9)
+    ([0.989837325, 0.806148328], 0.5)
+    >>> [round(x, 9) for x in ((0.5 * T - 0.3) / (0.2 * (1 + T)), (0.7 * T - 0.3) / (0.4 * (1 + T)))]
+    [0.989837325, 0.806148328]
     """
     target = real(target, "target", low=0.0, what="a finite non-negative number of nats")
     kind = choice(kind, "kind", KINDS)
@@ -457,7 +488,16 @@ def calibrate(
             )
         if utility is None:
             raise InputError("utility", "the white_box method needs the utility g")
-        return _result(common, method, white_box(common, fam, kernel, utility, population, context_mechanism), fam)
+        if unparsed_decision is not None and np.ndim(utility.values) != 1:
+            raise InputError(
+                "utility", "must depend on the decision only (g(u)) for unparsed_decision", np.shape(utility.values)
+            )
+        found = white_box(common, fam, kernel, utility, population, context_mechanism, unparsed_decision)
+        return _result(common, method, found, fam)
+    if unparsed_decision is not None:
+        raise InputError(
+            "unparsed_decision", f"is for the white_box method (a kernel), not {method}", unparsed_decision
+        )
     dependence = _dependence(kind, population)
     if dependence is None:
         found = (

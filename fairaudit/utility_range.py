@@ -46,7 +46,8 @@ class FairnessRange:
         Under the utility as stated (nats): the value the certificate reports.
     lower, upper : float
         The ends of the range (nats; +inf when a group can have expected utility 0 while another's is
-        positive; NaN with fewer than two groups).
+        positive; NaN with fewer than two groups; ``lower`` NaN, and its cells None, when
+        :func:`fairness_range` was asked for the upper end only).
     exact : bool
         Whether ``lower`` is the exact minimum. The upper end is always exact; the local lower end is
         exact when the context mechanism is the identity (contexts use disjoint kernel cells), otherwise
@@ -148,6 +149,7 @@ def fairness_range(
     sensitive_mechanism: Mechanism | None = None,
     context_mechanism: Mechanism | None = None,
     population: Population | None = None,
+    lower_end: bool = True,
 ) -> UtilityRange:
     """L and L̄ behind the filter over every utility of one decision in [low, high], per kernel cell.
 
@@ -176,6 +178,10 @@ def fairness_range(
         M_A (outputs the kernel's groups) and M_X (outputs its contexts); default identities.
     population : Population, optional
         P(X, A) over the mechanisms' inputs (default as :func:`fairaudit.metrics.global_fairness`).
+    lower_end : bool
+        False: the upper ends only, without the lower ends' LPs (``lower`` is NaN, its cells None), for a caller
+        that needs the upper end at many ε (white-box calibration on the upper end,
+        :func:`fairaudit.calibrate.calibrate` with ``unparsed_decision``). The upper ends are the same either way.
 
     Returns
     -------
@@ -227,7 +233,7 @@ def fairness_range(
     keys = np.flatnonzero(pop.p_context > 0)
     Wa = m_a.matrix
     if m_x.is_identity:  # context x mixes its own cells only: per-context programs
-        per = [mixed_ratio(Wa[None], e_lo[x], e_hi[x], solver) for x in keys]
+        per = [mixed_ratio(Wa[None], e_lo[x], e_hi[x], solver, lower_end) for x in keys]
         lows, ups = np.array([p[0][0] for p in per]), np.array([p[1][0] for p in per])
         favs, oths = [int(p[2][0]) for p in per], [int(p[3][0]) for p in per]
         maps = [(Wa, e_lo[x], e_hi[x]) for x in keys]
@@ -235,7 +241,7 @@ def fairness_range(
         X, A = len(m_x.inputs), len(m_a.inputs)
         Wl = np.einsum("xy,ab->xayb", m_x.matrix, Wa).reshape(X, A, -1)[keys]
         flat_lo, flat_hi = e_lo.reshape(-1), e_hi.reshape(-1)
-        lows, ups, fav_a, oth_a = mixed_ratio(Wl, flat_lo, flat_hi, solver)
+        lows, ups, fav_a, oth_a = mixed_ratio(Wl, flat_lo, flat_hi, solver, lower_end)
         favs, oths = [int(v) for v in fav_a], [int(v) for v in oth_a]
         maps = [(Wl[i], flat_lo, flat_hi) for i in range(len(keys))]
     groups, contexts = m_a.inputs, m_x.inputs
@@ -246,21 +252,26 @@ def fairness_range(
         )  # fmt: skip
         local_range, global_range = nan, FairnessRange(**{**nan.__dict__, "kind": "global", "value": glob.value})
     else:
-        iu, il = int(np.nanargmax(ups)), int(np.nanargmax(lows))
-        lg, lo_other = _lower_pair(*maps[il])
+        iu = int(np.nanargmax(ups))
+        no_end = (math.nan, None, None, None)
+        if lower_end:
+            il = int(np.nanargmax(lows))
+            lg, lo_other = _lower_pair(*maps[il])
+            low_end = (float(lows[il]), contexts[keys[il]], groups[lg], groups[lo_other])
         local_range = _range(
-            "local", local.value, float(lows[il]), float(ups[iu]), attained, m_x.is_identity,
-            (contexts[keys[il]], groups[lg], groups[lo_other]), (contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]),
+            "local", local.value, low_end if lower_end else no_end, float(ups[iu]), attained, m_x.is_identity,
+            (contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]),
         )  # fmt: skip
         w = pop.context_given_group()
         w = np.where(np.isnan(w), 0.0, w)
         Wg = np.einsum("xa,xy,ab->ayb", w, m_x.matrix, Wa).reshape(len(groups), -1)
         flat_lo, flat_hi = e_lo.reshape(-1), e_hi.reshape(-1)
-        gl, gu, gf, go = mixed_ratio(Wg[None], flat_lo, flat_hi, solver)
-        a, b = _lower_pair(Wg, flat_lo, flat_hi)
+        gl, gu, gf, go = mixed_ratio(Wg[None], flat_lo, flat_hi, solver, lower_end)
+        if lower_end:
+            a, b = _lower_pair(Wg, flat_lo, flat_hi)
         global_range = _range(
-            "global", glob.value, float(gl[0]), float(gu[0]), attained, True,
-            (None, groups[a], groups[b]), (None, groups[int(gf[0])], groups[int(go[0])]),
+            "global", glob.value, (float(gl[0]), None, groups[a], groups[b]) if lower_end else no_end, float(gu[0]),
+            attained, True, (None, groups[int(gf[0])], groups[int(go[0])]),
         )  # fmt: skip
     return UtilityRange(
         kernel=kernel, utility=utility, decision=kernel.decisions[d], low=lo_g, high=hi_g, sensitive_mechanism=m_a,
@@ -272,17 +283,22 @@ def fairness_range(
 def _range(
     kind: str,
     value: float,
-    lower_ratio: float,
+    lower_end: tuple[float, Hashable | None, Hashable | None, Hashable | None],
     upper_ratio: float,
     attained: bool,
     exact: bool,
-    lower_cells: tuple[Hashable | None, Hashable, Hashable],
     upper_cells: tuple[Hashable | None, Hashable, Hashable],
 ) -> FairnessRange:
-    """Ratios to nats; the stated value, when it is one assignment of the box, lies in the range (rounding)."""
+    """Ratios to nats; the stated value, when it is one assignment of the box, lies in the range (rounding).
+
+    ``lower_end``: the lower end's ratio and its (context, group, other group); ratio NaN when not computed.
+    """
+    lower_ratio, *lower_cells = lower_end
     lower, upper = _log(lower_ratio), _log(upper_ratio)
     if attained and not math.isnan(value):
-        lower, upper = min(lower, value), max(upper, value)
+        upper = max(upper, value)
+        if not math.isnan(lower_ratio):
+            lower = min(lower, value)
     return FairnessRange(
         kind=kind, value=value, lower=lower, upper=upper, exact=exact, lower_context=lower_cells[0],
         upper_context=upper_cells[0], lower_group=lower_cells[1], lower_other_group=lower_cells[2],

@@ -6,6 +6,7 @@ white-box definition) and proofs/black_box.md §3 (the randomized-response close
 
 from __future__ import annotations
 
+import itertools
 import math
 from fractions import Fraction
 from pathlib import Path
@@ -335,6 +336,79 @@ def test_white_box_uses_the_context_mechanism_and_population():
     c = calibrate(0.3, kernel=kernel, utility=g, population=pop, context_mechanism=mx)
     law = fa.compose(kernel, fa.randomized_response(labels, c.epsilon), mx)
     assert fa.local_fairness(law, g, pop).value == pytest.approx(0.3, rel=1e-9)
+
+
+def _upper_by_vertices(k, g, m, pop, kind):
+    """Upper end of L (L̄) over every utility of the last decision in [min g, max g] per kernel cell, by brute force.
+
+    The ratio of two affine functions of the assignment v is quasilinear, so its maximum over the box is at a
+    vertex: every v in {min g, max g}^cells is enumerated, E[g | x, a] formed with numpy (no fairaudit).
+    """
+    X, At, _ = k.shape
+    rest, kd = k[..., :-1] @ g[:-1], k[..., -1]
+    v = np.array(list(itertools.product([g.min(), g.max()], repeat=X * At))).reshape(-1, X, At)
+    e = np.einsum("ab,vxb->vxa", m, rest + kd * v)  # (vertices, X, A)
+    if kind == "global":
+        e = np.einsum("xa,vxa->va", pop / pop.sum(0), e)[:, None, :]
+    return float(np.log((e.max(-1) / e.min(-1)).max()))
+
+
+def _rr(k, eps):
+    keep = math.exp(eps) / (math.exp(eps) + k - 1)
+    return np.where(np.eye(k, dtype=bool), keep, (1 - keep) / (k - 1))
+
+
+@pytest.mark.parametrize("kind", ["local", "global"])
+def test_white_box_on_the_upper_end_of_the_unparsed_range_by_a_grid(kind):
+    # proofs/unparsed.md §5. Three groups behind 3-ary RR, two contexts, g = (1, 0.2, unparsed stated 0.5, known
+    # within [0.2, 1]). Independent route: the upper end by brute force over the box's vertices on a dense grid of ε
+    # (RR's matrix by hand), its first crossing of the target bisected by hand.
+    rng = np.random.default_rng(7)
+    k = rng.dirichlet(np.ones(3), size=(2, 3))
+    pop = np.full((2, 3), 1 / 6)
+    g = np.array([1.0, 0.2, 0.5])
+    decisions, groups = ["y", "n", "unparsed"], ["a", "b", "c"]
+    kernel = fa.Kernel(k, ["x0", "x1"], groups, decisions)
+    util = fa.from_table(g, decisions)
+    upper = lambda e: _upper_by_vertices(k, g, _rr(3, e), pop, kind)  # noqa: E731
+    top = _upper_by_vertices(k, g, np.eye(3), pop, kind)
+    for target in (0.3 * top, 0.7 * top):
+        grid = np.linspace(0.0, 15.0, 601)
+        values = [upper(e) for e in grid]
+        first = next(i for i, v in enumerate(values) if v > target)
+        lo, hi = grid[first - 1], grid[first]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if upper(mid) <= target else (lo, mid)
+        c = calibrate(target, kind=kind, kernel=kernel, utility=util, unparsed_decision=-1)
+        stated = calibrate(target, kind=kind, kernel=kernel, utility=util)
+        assert c.feasible and c.epsilon == pytest.approx(lo, rel=1e-9)
+        assert c.bound == pytest.approx(target, rel=1e-9) and "upper end of L" in c.reason
+        assert stated.epsilon > c.epsilon * (1 + 1e-3)  # the stated utility allows more here
+        measure = fa.local_fairness if kind == "local" else fa.global_fairness
+        assert measure(fa.compose(kernel, fa.randomized_response(groups, c.epsilon)), util).value < target
+
+
+def test_white_box_on_the_upper_end_without_unparsed_mass_is_the_old_answer():
+    rng = np.random.default_rng(8)
+    k = np.concatenate([rng.dirichlet(np.ones(2), size=(2, 3)), np.zeros((2, 3, 1))], axis=-1)
+    kernel = fa.Kernel(k, ["x0", "x1"], ["a", "b", "c"], ["y", "n", "unparsed"])
+    util = fa.from_table([1.0, 0.2, 0.5], ["y", "n", "unparsed"])
+    for kind in ("local", "global"):
+        for target in (0.05, 0.2):
+            old = calibrate(target, kind=kind, kernel=kernel, utility=util)
+            new = calibrate(target, kind=kind, kernel=kernel, utility=util, unparsed_decision=-1)
+            assert old.feasible and math.isfinite(old.epsilon)
+            assert new.to_dict() == old.to_dict()
+
+
+def test_unparsed_decision_is_refused_where_it_means_nothing():
+    kernel = fa.Kernel([[[0.5, 0.3, 0.2], [0.3, 0.5, 0.2]]], ["all"], ["a", "b"], ["a", "b", "unparsed"])
+    util = fa.indicator("a", ["a", "b", "unparsed"])
+    with pytest.raises(fa.InputError, match="unparsed_decision: is for the white_box method"):
+        calibrate(0.5, method="black_box", unparsed_decision=-1)
+    with pytest.raises(fa.InputError, match="unparsed_decision: must index one of the kernel's 3 decisions"):
+        calibrate(0.5, kernel=kernel, utility=util, unparsed_decision=3)
 
 
 def test_black_box_with_tau_assumes_it_behind_the_calibrated_mechanism():

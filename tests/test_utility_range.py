@@ -175,3 +175,22 @@ def test_identity_defaults_match_explicit_identities():
     r1 = fairness_range(kern, g)
     r2 = fairness_range(kern, g, sensitive_mechanism=identity(kern.groups), context_mechanism=identity(kern.contexts))
     assert r1.local_fairness.to_dict() == r2.local_fairness.to_dict()
+
+
+def test_upper_end_only_skips_the_lower_end_and_keeps_the_upper_end():
+    # lower_end=False (what calibration on the upper end calls at every ε): the same upper ends, bit for bit,
+    # and no lower end; with and without a context mechanism.
+    rng = np.random.default_rng(11)
+    k = rng.dirichlet(np.ones(3), size=(2, 3))
+    kern = Kernel(k, ["x0", "x1"], ["a", "b", "c"], ["yes", "no", "unparsed"])
+    g = Utility([1.0, 0.0, 0.5], kern.decisions)
+    ma = from_matrix(rng.dirichlet(np.ones(3), size=3), ["a", "b", "c"], kern.groups)
+    for mx in (None, from_matrix([[0.8, 0.2], [0.3, 0.7]], ["x0", "x1"])):
+        both = fairness_range(kern, g, sensitive_mechanism=ma, context_mechanism=mx)
+        upper = fairness_range(kern, g, sensitive_mechanism=ma, context_mechanism=mx, lower_end=False)
+        for b, u in ((both.local_fairness, upper.local_fairness), (both.global_fairness, upper.global_fairness)):
+            assert u.upper == b.upper and u.value == b.value and b.lower < b.upper
+            assert (u.upper_context, u.upper_group, u.upper_other_group) == (
+                b.upper_context, b.upper_group, b.upper_other_group,
+            )  # fmt: skip
+            assert math.isnan(u.lower) and u.lower_group is None and u.lower_context is None

@@ -24,6 +24,26 @@ def _range(d: dict) -> str:
     return "n/a" if r is None else f"[{_f(r[0])}, {_f(r[1])}]"
 
 
+def _bound(p: dict, name: str) -> str:
+    """A point's certified bound, with its range over the unparsed reply's utility when that is not one value."""
+    r = ((p["bounds"].get("unparsed_range") or {}).get(name) or {}).get("range")
+    if r is None or r[0] == r[1]:
+        return _f(p["bounds"][name])
+    return f"{_f(p['bounds'][name])} [{_f(r[0])}, {_f(r[1])}]"
+
+
+def _bounds_range_md(d: dict) -> str:
+    """One sentence: whether the certified bounds depend on the unparsed reply's utility, and why."""
+    ranges = (d["points"][0]["bounds"].get("unparsed_range") or {}) if d["points"] else {}
+    if "black_box" not in ranges:
+        return ""
+    point = all(v["range"][0] == v["range"][1] for p in d["points"] for v in p["bounds"]["unparsed_range"].values())
+    return (
+        f" Certified bounds over the unparsed reply's utility: the corollary is ε of the filter, and "
+        f"{ranges['black_box']['reason']}" + ("." if point else " (in the bounds' columns).")
+    )
+
+
 def _warning_md(d: dict) -> list[str]:
     """The warning when shown cells put more than 0.2 of their mass on unparsed replies."""
     m = d.get("unparsed_mass") or {}
@@ -245,15 +265,15 @@ def _curve_md(d: dict) -> list[str]:
         keep = ", ".join(f"{_f(v, 3)}" for v in p["privacy"]["keep_probability_per_attribute"].values())
         lines.append(
             f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
-            f"{_f(p['bounds']['black_box'])} | {_f(p['bounds']['corollary'])} | "
+            f"{_bound(p, 'black_box')} | {_bound(p, 'corollary')} | "
             f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
             f"{_range(p['observed']['local'])} | "
             f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
             f"{_range(p['observed']['global'])} | "
-            f"{_f(p['bounds']['black_box_global'])} |"
+            f"{_bound(p, 'black_box_global')} |"
         )
     if d["points"]:
-        lines += ["", _range_md(d)]
+        lines += ["", _range_md(d) + _bounds_range_md(d)]
     return lines + _filter_md(d)
 
 
@@ -288,7 +308,8 @@ def _filter_md(d: dict) -> list[str]:
 
 
 def _budgets_md(d: dict) -> list[str]:
-    """The largest ε per target, for this model and for any model."""
+    """The largest ε per target, for this model (met by the unparsed range's upper end; the stated default beside)
+    and for any model."""
     lines = [
         "",
         "## The privacy budget per target",
@@ -297,21 +318,28 @@ def _budgets_md(d: dict) -> list[str]:
         "behind the filter stays at or below the target at every smaller ε"
         + (", estimated from the counts" if d.get("route") != "exact" else "")
         + ") and for any model behind the filter (black-box: the exact worst case). "
-        "+∞: no filter is needed; n/a: no ε meets it. The white-box ε is found under the stated utility of an "
-        "unparsed reply; the next column is the upper end of this model's unparsed range at that ε, and "
-        "**not met** marks a target that some utility of the unparsed reply in [min g, max g] breaks there.",
+        "+∞: no filter is needed; n/a: no ε meets it. A target is met by this model's upper end: the "
+        "first column's ε holds for every utility of an unparsed reply in [min g, max g] (the upper end of the "
+        "unparsed range stays at or below the target). The next column is the ε under the stated utility of an "
+        "unparsed reply, then the upper end of the unparsed range at that ε; **not met** marks a stated ε that "
+        "some utility of the unparsed reply in [min g, max g] breaks.",
         "",
-        "| target (nats) | on | ε, this model | upper end of unparsed range at that ε | ε, any model |",
-        "|---|---|---|---|---|",
+        "| target (nats) | on | ε, this model (upper end) | ε, stated unparsed utility | upper end at that ε | "
+        "ε, any model |",
+        "|---|---|---|---|---|---|",
     ]
+
+    def eps(c: dict) -> str:
+        return _f(c["epsilon"]) if c["feasible"] else "n/a"
+
     for b in d["budgets"]:
         this, anym = b["this_model"], b["any_model"]
-        upper = this.get("unparsed_upper") if this["feasible"] else None
-        flag = " **not met**" if this.get("overturned_by_unparsed") else ""
+        stated = this.get("stated_default", this)
+        upper = stated.get("unparsed_upper") if stated["feasible"] else None
+        flag = " **not met**" if stated.get("overturned_by_unparsed") else ""
         lines.append(
-            f"| {_f(b['target'])} | {'L' if b['kind'] == 'local' else 'L̄'} | "
-            f"{_f(this['epsilon']) if this['feasible'] else 'n/a'} | {_f(upper)}{flag} | "
-            f"{_f(anym['epsilon']) if anym['feasible'] else 'n/a'} |"
+            f"| {_f(b['target'])} | {'L' if b['kind'] == 'local' else 'L̄'} | {eps(this)} | {eps(stated)} | "
+            f"{_f(upper)}{flag} | {eps(anym)} |"
         )
     return lines
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -40,6 +40,7 @@ import numpy.typing as npt
 from .._arrays import FloatArray
 from .._deprecated import renamed
 from .._errors import InputError
+from .._json import Report, number
 from .._validation import real
 from ..calibrate import Calibration
 from ..curves import PrivacyCurve, privacy_curve
@@ -66,6 +67,7 @@ from .vlm.tasks import DeliveryTask
 __all__ = [
     "DEFAULT_TARGETS",
     "UNPARSED_WARNING",
+    "BoundRange",
     "ExperimentAnalysis",
     "PaperDesignPoint",
     "PointResult",
@@ -74,6 +76,7 @@ __all__ = [
     "UnparsedMass",
     "analyse",
     "analyse_kernel",
+    "bound_ranges",
     "candidate_context_mechanism",
     "candidate_utility",
     "epsilon_from_keep",
@@ -265,33 +268,42 @@ DEFAULT_TARGETS = (0.05, 0.1, 0.25, 0.5)
 class TargetBudget:
     """The candidate's privacy budget ε that meets one fairness target, for this model and for any model.
 
+    A target is met by this model only when the upper end of its L (L̄) over every utility of the unparsed reply
+    meets it: ``this_model`` is calibrated on that upper end, ``stated_default`` under the stated utility beside it.
+
     Attributes
     ----------
     target : float
         On L (``kind="local"``) or L̄ (``"global"``), nats.
     kind : {"local", "global"}
     this_model : Calibration
-        White-box: the largest ε at which this model's own L (L̄) behind the
-        filter stays ≤ target at every smaller ε (:func:`fairaudit.calibrate.calibrate`).
+        White-box on the upper end: the largest ε at which the upper end of this model's L (L̄) behind the
+        filter, over every utility of the unparsed reply in [min g, max g] chosen per cell
+        (:func:`fairaudit.utility_range.fairness_range`), stays ≤ target at every smaller ε
+        (:func:`fairaudit.calibrate.calibrate` with ``unparsed_decision=-1``): every such utility meets the
+        target there (``proofs/unparsed.md`` §5). Without unparsed mass it is ``stated_default``'s answer.
         On the sampled route it is an estimate from the counts.
     any_model : Calibration
         Black-box: the largest ε whose exact worst case over every model is ≤ target.
+    stated_default : Calibration
+        White-box under the stated utility of the unparsed reply: the largest ε at which this model's L (L̄)
+        stays ≤ target at every smaller ε (at least ``this_model``'s ε).
     unparsed_upper : float
-        The upper end of this model's L (L̄) over every utility of the unparsed reply in [min g, max g]
-        (:func:`fairaudit.utility_range.fairness_range`) at ``this_model``'s ε (nats; NaN when no ε meets the
-        target). Above the target, the white-box answer holds only under the stated unparsed utility.
+        The upper end of the unparsed range at ``stated_default``'s ε (nats; NaN when no ε meets the target
+        there). Above the target, ``stated_default``'s answer holds only under the stated unparsed utility.
     """
 
     target: float
     kind: str
     this_model: Calibration
     any_model: Calibration
+    stated_default: Calibration
     unparsed_upper: float = math.nan
 
     @property
     def overturned(self) -> bool:
-        """Whether some utility of the unparsed reply in [min g, max g] breaks the target at ``this_model``'s ε."""
-        return self.this_model.feasible and self.unparsed_upper > self.target
+        """Whether some utility of the unparsed reply in [min g, max g] breaks the target at the stated default's ε."""
+        return self.stated_default.feasible and self.unparsed_upper > self.target
 
 
 def _budgets(
@@ -305,23 +317,35 @@ def _budgets(
     tau: float | None,
     upper_at: Any = None,
 ) -> tuple[TargetBudget, ...]:
-    """Per target and kind the white-box and black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end."""
+    """Per target and kind the white-box ε (on the unparsed range's upper end, and under the stated default) and the
+    black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end at the stated default's ε."""
     from ..calibrate import calibrate
 
     family = candidate_family(task, positions)
     out = []
     for target in sorted({float(t) for t in targets}):
         for kind in ("local", "global"):
-            white = calibrate(
-                target, kind=kind, method="white_box", family=family, kernel=kc, utility=utility,
-                population=pop, context_mechanism=mx,
-            )  # fmt: skip
+            white = {
+                d: calibrate(
+                    target,
+                    kind=kind,
+                    method="white_box",
+                    family=family,
+                    kernel=kc,
+                    utility=utility,
+                    population=pop,
+                    context_mechanism=mx,
+                    unparsed_decision=d,
+                )
+                for d in (-1, None)
+            }
             black = calibrate(
                 target, kind=kind, method="black_box", family=family, groups=list(pop.groups),
                 gamma=utility.gamma, lower=utility.lower, tau=tau, population=pop,
             )  # fmt: skip
-            upper = upper_at(white.epsilon, kind) if upper_at is not None and white.feasible else math.nan
-            out.append(TargetBudget(target, kind, white, black, upper))
+            stated = white[None]
+            upper = upper_at(stated.epsilon, kind) if upper_at is not None and stated.feasible else math.nan
+            out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
     return tuple(out)
 
 
@@ -378,6 +402,9 @@ class PointResult:
         L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell of the
         per-candidate kernel (:func:`fairaudit.utility_range.fairness_range`), next to the value under the
         stated default.
+    bound_ranges : dict of str to BoundRange
+        ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
+        same utilities of the unparsed reply (:func:`bound_ranges`; its upper end is the bound as stated).
     local, global_
         Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
@@ -393,9 +420,86 @@ class PointResult:
     black_box_global: float
     corollary: float
     unparsed_range: UtilityRange
+    bound_ranges: dict[str, BoundRange] = field(default_factory=dict)
 
     local = renamed[Fairness]("local_fairness")
     global_ = renamed[Fairness]("global_fairness")
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class BoundRange:
+    """A certified bound's exact range over every utility of the unparsed reply in [min g, max g] (per cell).
+
+    Attributes
+    ----------
+    lower, upper : float
+        The ends (nats); ``upper`` is the bound as stated, equal to ``lower`` when the bound does not depend on
+        the unparsed reply's utility.
+    reason : str
+        Why the range is what it is, in words.
+    """
+
+    lower: float
+    upper: float
+    reason: str
+
+    def to_dict(self) -> Report:
+        """``{"range": [lower, upper], "reason": ...}``."""
+        return {"range": [number(self.lower), number(self.upper)], "reason": self.reason}
+
+
+def bound_ranges(
+    mechanism: Mechanism,
+    utility: Utility,
+    bounds: tuple[float, float],
+    *,
+    context_mechanism: Mechanism,
+    population: Population,
+    tau: float | None,
+) -> dict[str, BoundRange]:
+    """The corollary's and the black-box bounds' ranges over every utility of the unparsed reply (the last decision).
+
+    The corollary is ε of ``mechanism``: no utility enters it. The black-box bounds (``bounds``: on L and L̄, as
+    :func:`fairaudit.worstcase.worst_model` gives them for ``utility``) are maxima over every decision model whose
+    cell expectations lie in [min g, max g] (g of the decision only) with E ≥ τ, τ held as stated. With the
+    unparsed utility v_c of a cell in [min g, max g], that cell's expectations span [min(g_known ∪ v_c),
+    max(g_known ∪ v_c)], g_known the other outcomes' utilities: between [min g_known, max g_known] and
+    [min g, max g], and the bound is non-decreasing in each cell's interval (a maximum over a larger set). So the
+    upper end is the bound as stated (v at the end of [min g, max g] beyond g_known, when there is one) and the
+    lower end is the bound for the utility whose unparsed value lies within g_known's range: equal ends when the
+    stated unparsed value lies within it (``proofs/unparsed.md`` §6).
+    """
+    from ..worstcase import worst_model
+
+    g = np.asarray(utility.values, dtype=float)
+    known, stated = g[:-1], float(g[-1])
+    k_lo, k_hi = float(known.min()), float(known.max())
+    corollary = BoundRange(
+        lower=mechanism.epsilon, upper=mechanism.epsilon, reason="the corollary is epsilon of the filter: no utility "
+        "enters it",
+    )  # fmt: skip
+    head = (
+        f"the black-box bounds depend on g only through [min g, max g] = [{utility.lower:g}, {utility.gamma:g}] and "
+        f"tau, and the stated unparsed utility {stated:g} lies"
+    )
+    if (k_lo, k_hi) == (utility.lower, utility.gamma):
+        why = (
+            f"{head} within the other outcomes' [{k_lo:g}, {k_hi:g}], so no utility of an unparsed reply in "
+            "[min g, max g] changes them: each range is one value"
+        )
+        low = bounds
+    else:
+        why = (
+            f"{head} outside the other outcomes' [{k_lo:g}, {k_hi:g}]: each range runs from the bound for g in "
+            f"[{k_lo:g}, {k_hi:g}] (an unparsed utility within it) to the bound as stated"
+        )
+        inside = Utility(np.append(known, k_lo), utility.decisions, name=f"{utility.name}, unparsed at {k_lo:g}")
+        wm = worst_model(mechanism, inside, context_mechanism=context_mechanism, population=population, tau=tau)
+        low = (wm.local_fairness.value, wm.global_fairness.value)
+    return {"corollary": corollary} | {
+        name: BoundRange(lower=lo, upper=up, reason=why)
+        for name, lo, up in zip(("black_box", "black_box_global"), low, bounds)
+    }
 
 
 UNPARSED_WARNING = 0.2
@@ -499,7 +603,8 @@ class ExperimentAnalysis:
         How much of the raw disparity of the listed order is position and how
         much group (None for one candidate per prompt).
     budgets : tuple of TargetBudget
-        Per target and kind (local, global): the ε that meets it for this model and for any model.
+        Per target and kind (local, global): the ε that meets it for this model (on the upper end of the
+        unparsed range, and under the stated default beside it) and for any model.
     unparsed_mass : UnparsedMass or None
         The shown cells whose unparsed mass exceeds :data:`UNPARSED_WARNING` (its ``warning``, when set, is
         written in report.md and on stderr).
@@ -558,6 +663,7 @@ def _point(
             table, utility, confidence, method, sensitive_mechanism=mech, context_mechanism=mx, population=pop
         )
     wm = worst_model(mech, utility, context_mechanism=mx, population=pop, tau=tau)
+    bounds = (wm.local_fairness.value, wm.global_fairness.value)
     return PointResult(
         epsilon=eps,
         filter=filt,
@@ -570,6 +676,7 @@ def _point(
         black_box_global=wm.global_fairness.value,
         corollary=mech.epsilon,
         unparsed_range=fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop),
+        bound_ranges=bound_ranges(mech, utility, bounds, context_mechanism=mx, population=pop, tau=tau),
     )
 
 

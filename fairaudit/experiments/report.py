@@ -298,6 +298,7 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
             "corollary": number(p.corollary),
             "black_box": number(p.black_box_local),
             "black_box_global": number(p.black_box_global),
+            "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
         },
         "observed": {
             "local": _observed(
@@ -333,12 +334,19 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     each explains, overall and per context: :class:`PositionSplit`),
     ``budgets`` (per target on L and on L̄: the candidate's ε that meets it
     for this model, white-box, and for any model, black-box, with the
-    family's keep probability and whether the target can be met; for this
-    model also ``unparsed_upper``, the upper end of the unparsed range at that
-    ε, and ``overturned_by_unparsed``, whether it exceeds the target),
+    family's keep probability and whether the target can be met; this
+    model's ε is met by the upper end of the unparsed range (``met_by``:
+    ``"unparsed_upper_end"``), and ``stated_default`` beside it is the
+    white-box answer under the stated unparsed utility with
+    ``unparsed_upper``, the upper end of the unparsed range at its ε, and
+    ``overturned_by_unparsed``, whether that exceeds the target),
     ``points`` (per requested ε: the
     privacy of the filter per attribute, profile and candidate; the
-    corollary and black-box bounds on L and the black-box bound on L̄; the
+    corollary and black-box bounds on L and the black-box bound on L̄, with
+    ``bounds.unparsed_range``: per bound its ``range`` over every utility of
+    the unparsed reply in [min g, max g] and the ``reason``, equal ends
+    unless the stated unparsed utility lies outside the other outcomes'
+    range (:func:`fairaudit.experiments.analysis.bound_ranges`); the
     observed L and L̄ with their intervals). Every observed L and L̄ of the
     baseline and the points has ``unparsed_range`` ([lower, upper]: its exact
     range over every utility of the unparsed reply in [min g, max g], chosen
@@ -398,7 +406,11 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
                 "target": number(b.target),
                 "kind": b.kind,
                 "this_model": _budget(b.this_model)
-                | {"unparsed_upper": number(b.unparsed_upper), "overturned_by_unparsed": b.overturned},
+                | {
+                    "met_by": "unparsed_upper_end",
+                    "stated_default": _budget(b.stated_default)
+                    | {"unparsed_upper": number(b.unparsed_upper), "overturned_by_unparsed": b.overturned},
+                },
                 "any_model": _budget(b.any_model),
             }
             for b in a.budgets

@@ -23,10 +23,12 @@ STATED = {
         ("L in [0, 5.762]", "[0, 5.762] under continuation"),
         ("| 0.8109 | 0.8109 | 0.6, 0.6 | 0.8109 |", "L ≤ 0.8109 nats"),
         ("| 2.773 | 2.773 | 0.8, 0.8 | 2.773 |", "L ≤ 2.773"),
+        ("| 0.05 | L | 0.05069 | ∞ | 5.762 **not met** | 0.05 |", "ε ≤ 0.05069 nats under continuation"),
     ],
     "first-token": [
         ("L = 0.005546 nats", "0.005546 nats under first-token"),
         ("L in [0, 1.423]", "[0, 1.423] under first-token"),
+        ("| 0.05 | L | 0.1161 | ∞ | 1.423 **not met** | 0.05 |", "≤ 0.1161 under first-token"),
         ("| 0.8109 | 0.8109 | 0.6, 0.6 | 0.8109 |", "L ≤ 0.8109 nats"),
     ],
 }
@@ -61,3 +63,16 @@ def test_the_worked_example_is_what_the_model_gives(scoring, tmp_path):
     assert not missing, f"rows of docs/llm-certificate.md not in the {scoring} report: {missing}"
     for in_report, on_page in STATED[scoring]:
         assert in_report in report and " ".join(on_page.split()) in " ".join(page.split()), (in_report, on_page)
+
+
+def test_the_certificate_names_the_task_file_it_ran(tmp_path):
+    """Convention 3's record: ``run.task_sha256`` is the SHA-256 of the task file's bytes, on the sampled route."""
+    import hashlib
+    import json
+
+    from fairaudit.experiments.run import ModelSource, RunOptions, run_experiment
+
+    path = ROOT / "examples" / "tasks" / "loan.toml"
+    run = run_experiment(str(path), tmp_path / "run", ModelSource(), RunOptions(samples=1))
+    recorded = json.loads((run.out / "certificate.json").read_text())["run"]["task_sha256"]
+    assert recorded == hashlib.sha256(path.read_bytes()).hexdigest()

@@ -816,7 +816,13 @@ def _run_sampled(
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]
     if not summary.complete:
         return ExperimentRun(out=out, summary=summary, analysis=None, files=tuple(files), seconds=summary.seconds)
-    run = {"seed": int(options.seed), "design": options.design, "fairaudit": __version__, "filter": plan.asked}
+    run = {
+        "seed": int(options.seed),
+        "design": options.design,
+        "fairaudit": __version__,
+        "task_sha256": task.digest,
+        "filter": plan.asked,
+    }
     run["seconds"] = round(summary.seconds, 3)
     if plan.scene is not None:
         run["scene"] = plan.scene
@@ -989,6 +995,7 @@ def _run_exact(task: DeliveryTask, name: str, make_kernel: _KernelMaker, plan: _
             "seed": int(seed),
             "design": "table",
             "fairaudit": __version__,
+            "task_sha256": task.digest,
             "filter": plan.asked,
             "seconds": round(seconds, 3),
             "scoring": made.record(plan.scoring),

@@ -142,7 +142,9 @@ class _Model:
     def __call__(self, x, **kwargs):
         import torch
 
-        return SimpleNamespace(logits=torch.zeros(x.shape[0], x.shape[1], len(_Tokenizer.pieces)), past_key_values=_Cache())
+        return SimpleNamespace(
+            logits=torch.zeros(x.shape[0], x.shape[1], len(_Tokenizer.pieces)), past_key_values=_Cache()
+        )
 
 
 def _fake_local(monkeypatch, tmp_path, tok, server=None):

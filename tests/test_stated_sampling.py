@@ -159,7 +159,10 @@ def test_resume_with_another_temperature_is_refused(tmp_path, capsys):
             ["--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--exact", "--constrain", "json-schema"],
             "--constrain",
         ),
-        (["--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--sampled-twin", "--max-tokens", "5"], "--max-tokens"),
+        (
+            ["--endpoint", "http://127.0.0.1:9/v1", "--model", "m", "--sampled-twin", "--max-tokens", "5"],
+            "--max-tokens",
+        ),
         (["--local-model", "smollm2", "--samples", "2", "--constrain", "grammar"], "--constrain: needs --endpoint"),
         (["--local-model", "smollm2", "--top-p", "0.5"], "--top-p: sets how a server samples, and the exact route"),
     ],

@@ -468,6 +468,26 @@ def bound_ranges(
     upper end is the bound as stated (v at the end of [min g, max g] beyond g_known, when there is one) and the
     lower end is the bound for the utility whose unparsed value lies within g_known's range: equal ends when the
     stated unparsed value lies within it (``proofs/unparsed.md`` §6).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The filter's mechanism on a candidate (its ε is the corollary's bound, nats).
+    utility : Utility
+        g of the candidate's outcome, shape (n_outcomes,), the unparsed reply last, at its stated value.
+    bounds : tuple of float
+        The black-box bounds on L and L̄ (nats) for ``utility`` as stated.
+    context_mechanism : Mechanism
+        The filter on the context, as the bounds were computed with it.
+    population : Population
+        P(X, A) of the candidates, shape (n_contexts, n_groups).
+    tau : float or None
+        The floor on E[g | x, a] the bounds used (None: none).
+
+    Returns
+    -------
+    dict of str to BoundRange
+        ``"corollary"``, ``"black_box"`` (on L) and ``"black_box_global"`` (on L̄): each bound's range (nats).
     """
     from ..worstcase import worst_model
 

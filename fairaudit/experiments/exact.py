@@ -156,6 +156,16 @@ def by_sequence(task: DeliveryTask, scoring: str = "continuation") -> bool:
     Π_t P(r_t | prompt, r_<t), the chain rule. ``"first-token"`` scoring on a choice or an order of two: the mass
     of the first tokens that read as each option.
 
+    Parameters
+    ----------
+    task : DeliveryTask
+    scoring : {"continuation", "first-token"}
+        :data:`SCORINGS` (checked by :func:`check_scoring`, not here).
+
+    Returns
+    -------
+    bool
+
     Examples
     --------
     >>> from fairaudit.experiments.taskfile import HR_DELIVERY

@@ -808,9 +808,8 @@ def _run_sampled(
         if source.local_model is not None:
             assert plan.sampling is not None  # _prepare states a served model's sampling
             m = stack.enter_context(_served(source.local_model, out, source, plan.sampling, log))
-            task = _twin(task, plan.scoring or SCORINGS[0])
-        elif source.sampled_twin:
-            task = _twin(task, plan.scoring or SCORINGS[0])
+        if plan.scoring is not None:  # a local model's or an endpoint's sampled twin: the exact route's replies
+            task = _twin(task, plan.scoring)
         assert m is not None
         summary, records = _ask(task, m, plan, options, progress)
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]

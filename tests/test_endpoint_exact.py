@@ -180,6 +180,7 @@ def test_hr_exact_run_equals_analyse_kernel_on_the_known_kernel(tmp_path, capsys
     law = exact_law(task, kernel)
     a = analyse_kernel(task, law, model="lp-model", epsilons=eps, positions=task.positions, targets=TARGETS)
     assert (cert["route"], cert["model"], cert["samples"], a.route) == ("exact", "lp-model", 0, "exact")
+    assert cert["run"]["prompt"]["sent"] == "exact route's"  # the digit prompt, not the paper's JSON paragraph
     assert cert["queries"]["unparsed_share"] == pytest.approx(0.1, abs=1e-12)  # the mean of 0.05, 0.1, 0.15
     assert math.isfinite(a.baseline.local_fairness.value) and a.baseline.local_fairness.value > 0.1
     assert cert["baseline"]["local"]["value"] == pytest.approx(a.baseline.local_fairness.value, abs=1e-12)

@@ -66,7 +66,7 @@ def test_the_worked_example_is_what_the_model_gives(scoring, tmp_path):
 
 
 def test_the_certificate_names_the_task_file_it_ran(tmp_path):
-    """Convention 3's record: ``run.task_sha256`` is the SHA-256 of the task file's bytes, on the sampled route."""
+    """Conventions 3 and 5 recorded: ``run.task_sha256`` (the task file's bytes) and ``run.prompt``, on the sampled route."""
     import hashlib
     import json
 
@@ -74,5 +74,6 @@ def test_the_certificate_names_the_task_file_it_ran(tmp_path):
 
     path = ROOT / "examples" / "tasks" / "loan.toml"
     run = run_experiment(str(path), tmp_path / "run", ModelSource(), RunOptions(samples=1))
-    recorded = json.loads((run.out / "certificate.json").read_text())["run"]["task_sha256"]
-    assert recorded == hashlib.sha256(path.read_bytes()).hexdigest()
+    recorded = json.loads((run.out / "certificate.json").read_text())["run"]
+    assert recorded["task_sha256"] == hashlib.sha256(path.read_bytes()).hexdigest()
+    assert recorded["prompt"]["sent"] == "task's own"  # a simulated model reads the task's prompt as written

@@ -653,6 +653,7 @@ class _Plan:
     scene: dict | None = None  # the route images' scene: start, goals, lengths, tolerance (_images)
     sampling: dict | None = None  # a server's sampled route: the stated settings (_sampling)
     scoring: str | None = None  # how the exact route scores a decision and its twins read a reply (None: parsed)
+    prompt: dict = dataclasses.field(default_factory=dict)  # which prompt the route sends (_prompt_record)
 
 
 def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
@@ -736,7 +737,25 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
         asked={**asked, "split": SPLIT_RULE},
         sampling=sampling,
         scoring=scoring,
+        prompt=_prompt_record(task, scoring is not None),
     )
+
+
+def _prompt_record(task: DeliveryTask, text_only: bool) -> dict:
+    """``run.prompt`` of ``certificate.json``: whether the route sent the task's own prompt or the exact route's.
+
+    A model with an exact route gets the exact route's prompt on every route (docs/experiments.md, "The messages of
+    a query"): for the built-in tasks, their JSON answer paragraph replaced by a request for the option's number.
+    """
+    from . import local_model as lm
+
+    if text_only and lm.exact_prompt(task)[0] is not task:
+        return {
+            "sent": "exact route's",
+            "rule": "a model with an exact route gets the exact route's prompt on every route: the task's answer "
+            "paragraph replaced by a request for the option's number alone",
+        }
+    return {"sent": "task's own", "rule": "the task's prompt as written"}
 
 
 def _scoring(task: DeliveryTask, source: ModelSource, exact: bool) -> str | None:
@@ -820,6 +839,7 @@ def _run_sampled(
         "design": options.design,
         "fairaudit": __version__,
         "task_sha256": task.digest,
+        "prompt": plan.prompt,
         "filter": plan.asked,
     }
     run["seconds"] = round(summary.seconds, 3)
@@ -995,6 +1015,7 @@ def _run_exact(task: DeliveryTask, name: str, make_kernel: _KernelMaker, plan: _
             "design": "table",
             "fairaudit": __version__,
             "task_sha256": task.digest,
+            "prompt": plan.prompt,
             "filter": plan.asked,
             "seconds": round(seconds, 3),
             "scoring": made.record(plan.scoring),

@@ -49,7 +49,16 @@ llama-server do:
   tokenizer that merges across the boundary does. ``prompt_logprobs_mode="reject"`` answers such a request with a
   400 (a server that refuses unknown fields); ``"ignore"`` leaves the field out (llama-server);
 * without a ``responder``, a reply is sampled from the law (one token at a time, at most ``max_tokens``, seeded by
-  the request's ``seed`` and messages).
+  the request's ``seed`` and messages);
+* ``POST /v1/completions`` with ``"echo": true`` (text completions, as vLLM serves them) reads the prompt as the
+  ChatML rendering above, its messages then the reply so far after the open assistant turn, and answers
+  ``choices[0].text`` = the prompt with OpenAI's legacy ``logprobs`` (``tokens``, ``token_logprobs`` with
+  ``null`` first, ``top_logprobs``, ``text_offset``) of the same tokens as ``prompt_logprobs``; ``max_tokens``
+  > 0 appends one generated token (``"<gen>"``) to the text and the lists.
+
+``chat_logprobs=False`` makes the chat completions answer without any log-probabilities (a server that does not
+give them), ``chat=False`` takes the chat completions away (404) and ``completions=False`` the text completions.
+``completion_requests`` are the text completions' JSON bodies.
 
 ``required_key``: requests without ``Authorization: Bearer <key>`` get a 401
 (checked before the faults; a body without ``messages`` gets a 400). Every
@@ -96,8 +105,14 @@ class ChatServer:
         law: Callable[[dict], dict[str, list[tuple[str, float]]]] | None = None,
         prompt_logprobs_mode: str = "serve",
         straddle: bool = False,
+        chat_logprobs: bool = True,
+        chat: bool = True,
+        completions: bool = True,
     ) -> None:
+        self.chat = chat
         self.law = law
+        self.chat_logprobs = chat_logprobs
+        self.completions = completions and law is not None
         self.prompt_logprobs_mode = prompt_logprobs_mode
         self.straddle = straddle
         if responder is None and law is not None:
@@ -164,6 +179,12 @@ class ChatServer:
             return [r["json"] for r in self.requests if r["path"] == "/v1/chat/completions" and r["method"] == "POST"]
 
     @property
+    def completion_requests(self) -> list[dict]:
+        """The recorded text-completion requests (their JSON bodies), in arrival order."""
+        with self._lock:
+            return [r["json"] for r in self.requests if r["path"] == "/v1/completions" and r["method"] == "POST"]
+
+    @property
     def messages(self) -> list[str]:
         """The ``messages`` of each recorded chat request, as ``json.dumps`` of the list, in arrival order."""
         return [json.dumps(body["messages"]) for body in self.chat_requests]
@@ -211,8 +232,8 @@ class ChatServer:
             prefix += token
         return out
 
-    def prompt_logprobs(self, body: dict) -> list:
-        """vLLM's ``prompt_logprobs`` of the request's rendered prompt (the module docstring)."""
+    def prompt_tokens(self, body: dict) -> list[tuple[str, float]]:
+        """The tokens of the request's ChatML-rendered prompt and their log-probabilities (the module docstring)."""
         assert self.law is not None
         messages, continued = body["messages"], bool(self.reply_so_far(body))
         turns = messages[:-1] if continued else messages
@@ -223,7 +244,44 @@ class ChatServer:
         if self.straddle and reply:
             (last, lp), (first, lq) = tokens.pop(), reply.pop(0)
             tokens.append((last + first, lp + lq))
-        tokens += reply
+        return tokens + reply
+
+    def echo(self, body: dict) -> dict:
+        """A text completion echoing the request's prompt with its tokens' log-probabilities (the module docstring)."""
+        prompt = str(body["prompt"])
+        head, sep, reply = prompt.rpartition("<|im_start|>assistant\n")
+        turns = re.findall(r"<\|im_start\|>(\w+)\n(.*?)<\|im_end\|>\n", head, re.S)
+        messages = [{"role": r, "content": c} for r, c in turns] + [{"role": "assistant", "content": reply}]
+        tokens = self.prompt_tokens({"messages": messages, "continue_final_message": True})
+        assert "".join(t for t, _ in tokens) == prompt, "the stand-in reads ChatML only"
+        if int(body.get("max_tokens") or 0) > 0:
+            tokens.append(("<gen>", -0.5))
+        offsets = [0]
+        for token, _ in tokens[:-1]:
+            offsets.append(offsets[-1] + len(token))
+        values = [None] + [lp for _, lp in tokens[1:]]
+        return {
+            "id": f"cmpl-{time.monotonic_ns()}",
+            "object": "text_completion",
+            "model": self.model or body.get("model") or "test-model",
+            "choices": [
+                {
+                    "index": 0,
+                    "text": "".join(t for t, _ in tokens),
+                    "finish_reason": "length",
+                    "logprobs": {
+                        "tokens": [t for t, _ in tokens],
+                        "token_logprobs": values,
+                        "top_logprobs": [None] + [{t: lp} for t, lp in tokens[1:]],
+                        "text_offset": offsets,
+                    },
+                }
+            ],
+        }
+
+    def prompt_logprobs(self, body: dict) -> list:
+        """vLLM's ``prompt_logprobs`` of the request's rendered prompt (the module docstring)."""
+        tokens = self.prompt_tokens(body)
         k = int(body.get("prompt_logprobs") or 0)
         out: list = [None]
         for token, lp in tokens[1:]:
@@ -302,7 +360,13 @@ class _Handler(BaseHTTPRequestHandler):
         except ValueError:
             body = None
         state._record("POST", self.path, self._headers(), body)
-        if self.path.split("?")[0] != "/v1/chat/completions":
+        if self.path.split("?")[0] == "/v1/completions" and state.completions:
+            if not isinstance(body, dict) or not isinstance(body.get("prompt"), str) or not body.get("echo"):
+                self._send_error(400, "this stand-in answers echo requests with a prompt only", "invalid_request_error")
+                return
+            self._send_json(200, state.echo(body))
+            return
+        if self.path.split("?")[0] != "/v1/chat/completions" or not state.chat:
             self._send_error(404, f"Unknown path {self.path}", "not_found")
             return
         n = state._count_chat()
@@ -336,7 +400,8 @@ class _Handler(BaseHTTPRequestHandler):
         if fault is None or fault[0] == "reply":
             try:
                 text = fault[1] if fault is not None else state.responder(body)
-                top = state.logprobs(body) if state.logprobs is not None and body.get("logprobs") else None
+                asks = body.get("logprobs") and state.chat_logprobs
+                top = state.logprobs(body) if state.logprobs is not None and asks else None
             except Exception as exc:  # a broken responder is a 500, visible to the client
                 return _error(500, f"responder failed: {exc!r}", "server_error")
             completion = _completion(body, text, state.model, top)
@@ -344,6 +409,7 @@ class _Handler(BaseHTTPRequestHandler):
                 body.get("prompt_logprobs") is not None
                 and state.law is not None
                 and state.prompt_logprobs_mode == "serve"
+                and state.chat_logprobs
             ):
                 completion["prompt_logprobs"] = state.prompt_logprobs(body)
             return 200, json.dumps(completion).encode(), "application/json", {}

@@ -4,8 +4,9 @@ The stand-in server (tests/_chat_server.py, a real HTTP server) answers from a k
 per shown cell, a tree of tokens (``"Office"`` then ``" A"`` / ``" B"`` / ``" C"``; ``"2"``, ``","``, ``" 3"``, ...;
 ``"y"`` then ``"es"``) whose leaves' masses are the cell's law, fixed by a hash of the cell's prompt. The kernels it
 must give are computed here from those masses (each option's reply is one leaf): by prompt log-probabilities (vLLM),
-by top log-probabilities (llama-server: a server that ignores or rejects ``prompt_logprobs``), and, with a list too
-short for the law's support, the lower bounds computed by hand.
+by top log-probabilities (llama-server: a server that ignores or rejects ``prompt_logprobs``), by the text
+completions' echo of the messages rendered in ChatML (a server whose chat completions give no log-probabilities,
+or that has none), and, with a list too short for the law's support, the lower bounds computed by hand.
 """
 
 from __future__ import annotations
@@ -26,7 +27,8 @@ from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import endpoint_kernel, run_experiment
 from fairaudit.experiments.taskfile import load_task
 from fairaudit.experiments.vlm.client import ChatClient
-from fairaudit.experiments.vlm.logprobs import prompt_token_logprobs, reply_bounds, reply_logprob
+from fairaudit.experiments.vlm.logprobs import echo_token_logprobs, prompt_token_logprobs, reply_bounds, reply_logprob
+from fairaudit.experiments.vlm.messages import CHATML
 from fairaudit.experiments.vlm.models import SimulatedModel
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
@@ -183,6 +185,23 @@ def test_vllms_prompt_logprobs_are_read_from_the_end():
         assert prompt_token_logprobs(bad) is None
 
 
+def test_an_echo_is_read_up_to_the_prompts_end():
+    """OpenAI's legacy shape: null first; a generated token after the prompt is dropped, by offset or by length."""
+    prompt = "<|im_start|>user\nHi<|im_end|>\nyes"
+    tokens = ["<|im_start|>", "user", "\n", "Hi", "<|im_end|>", "\n", "y", "es", " please"]
+    values = [None, -1.0, -1.0, -1.0, -1.0, -1.0, -0.25, -0.5, -2.0]
+    offsets = [0, 12, 16, 17, 19, 29, 30, 31, 33]
+    reply = {"choices": [{"text": prompt + " please", "logprobs": {"tokens": tokens, "token_logprobs": values}}]}
+    assert echo_token_logprobs(reply, prompt)[-2:] == (("y", -0.25), ("es", -0.5))  # by length
+    reply["choices"][0]["logprobs"]["text_offset"] = offsets
+    got = echo_token_logprobs(reply, prompt)
+    assert len(got) == 7 and reply_logprob(got, "yes") == -0.75  # by offset
+    for bad in ({"choices": [{"text": prompt}]}, {"choices": [{"logprobs": {"tokens": ["a"], "token_logprobs": []}}]}):
+        assert echo_token_logprobs(bad, prompt) is None
+    reply["choices"][0]["logprobs"]["token_logprobs"] = [None, "x", *values[2:]]
+    assert echo_token_logprobs(reply, prompt) is None
+
+
 def test_a_reply_whose_token_is_not_listed_gets_its_lower_bound_and_the_bound_on_what_it_missed():
     """Hand computed: Office 0.6 then A 0.5, C 0.2, B (0.005) not among the 3 listed; p_min 0.1 at "Office"."""
     law = {"": [("Office", math.log(0.6)), ("Sure", math.log(0.3))],
@@ -251,12 +270,66 @@ def test_a_list_shorter_than_the_support_gives_the_hand_computed_lower_bounds(tm
         )  # fmt: skip
     assert code == 0, err
     scoring = json.loads((out / "certificate.json").read_text())["run"]["scoring"]
-    assert scoring == {"method": "continuation", "route": "top-logprobs", "missing_bound": pytest.approx(0.0075)}
+    assert scoring == {
+        "method": "continuation",
+        "route": "top-logprobs",
+        "missing_bound": pytest.approx(0.0075),
+        "rendering": "the server's chat template",
+    }
     assert 0.6 * 0.005 <= scoring["missing_bound"]
     got = SimulatedModel.from_csv(load_task(task_path), out / "kernel.csv").probabilities
     assert got.shape == (1, 4, 4, 3)  # 2 names x 2 departments
     np.testing.assert_allclose(got.reshape(-1, 3), [[0.3, 0.0, 0.7]] * 16, rtol=0, atol=1e-12)
     assert "lower bound" in (out / "report.md").read_text()
+
+
+@pytest.mark.parametrize("which", sorted(LAWS))
+@pytest.mark.parametrize("chat", ["no-logprobs", "absent"])
+def test_text_completions_echo_gives_the_law_when_chat_gives_no_logprobs(which, chat, tmp_path):
+    """Chat completions without log-probabilities (or none at all): the text completions' echo of the ChatML prompt."""
+    path, paths_of = LAWS[which]
+    task = load_task(path(tmp_path))
+    law = paths_of(task)
+    with _server(task, law, chat_logprobs=False, chat=chat != "absent") as server:
+        with ChatClient(server.url, "m", max_tokens=1, top_logprobs=20, max_concurrency=4) as client:
+            made = endpoint_kernel(task, client)
+        bodies, echoes = server.chat_requests, server.completion_requests
+    assert made.route == "completions-echo" and made.rendering == CHATML and made.missing == 0.0
+    np.testing.assert_allclose(made.probabilities, _expected(task, law), rtol=0, atol=1e-9)
+    cells = len(task.contexts) * len(task.profiles) ** task.slots
+    # the probe (once with prompt_logprobs; no chat: a 404), then one echo per (cell, reply), the probe's reused
+    assert len(bodies) == 1 and bodies[0]["prompt_logprobs"] == 0
+    assert made.summary.requests == 1 + len(echoes) == 1 + cells * len(_replies(task))
+    assert all(e["echo"] is True and e["max_tokens"] == 0 and e["logprobs"] == 1 for e in echoes)
+    first = echoes[0]["prompt"]
+    system = task.messages(task.contexts[0], (task.profiles[0],) * task.slots)[0]["content"]
+    assert first.startswith(f"<|im_start|>system\n{system}<|im_end|>\n<|im_start|>user\n")
+    assert first.endswith("<|im_end|>\n<|im_start|>assistant\n" + _replies(task)[0])
+
+
+def test_a_server_with_no_logprobs_anywhere_exits_2_naming_both_routes(tmp_path, capsys):
+    task_path = _office_task(tmp_path)
+    with _server(load_task(task_path), _office_paths, chat_logprobs=False, completions=False) as server:
+        code, _, err = run(
+            capsys, "experiment", task_path, "--endpoint", server.url, "--model", "m", "--exact", "--no-progress",
+            "--out", tmp_path / "exact",
+        )  # fmt: skip
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(
+        "fairaudit: error: --endpoint: the server gave no log-probabilities for model 'm': none on chat completions "
+        "(logprobs, prompt_logprobs), and its text completions (echo) answered HTTP 404; run with --samples N instead"
+    )
+
+
+def test_a_token_that_straddles_the_reply_in_the_echo_exits_2(tmp_path, capsys):
+    task_path = _office_task(tmp_path)
+    with _server(load_task(task_path), _office_paths, straddle=True, chat_logprobs=False) as server:
+        code, _, err = run(
+            capsys, "experiment", task_path, "--endpoint", server.url, "--model", "m", "--exact", "--no-progress",
+            "--out", tmp_path / "exact",
+        )  # fmt: skip
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith("fairaudit: error: --endpoint: the server's token '\\nO'... straddles the start of the reply")
 
 
 # --- fairaudit experiment --exact, --scoring first-token, --sampled-twin ----------------------------------------
@@ -276,8 +349,30 @@ def test_the_command_gives_the_law_and_records_the_route(which, tmp_path, capsys
     got = SimulatedModel.from_csv(task, tmp_path / "exact" / "kernel.csv").probabilities
     np.testing.assert_allclose(got, _expected(task, paths_of(task)), rtol=0, atol=1e-9)
     scoring = json.loads((tmp_path / "exact" / "certificate.json").read_text())["run"]["scoring"]
-    assert scoring == {"method": "continuation", "route": "prompt-logprobs", "missing_bound": 0.0}
+    assert scoring == {
+        "method": "continuation",
+        "route": "prompt-logprobs",
+        "missing_bound": 0.0,
+        "rendering": "the server's chat template",
+    }
     assert "read from the server's prompt log-probabilities" in (tmp_path / "exact" / "report.md").read_text()
+
+
+def test_the_command_records_the_text_completions_route_and_its_rendering(tmp_path, capsys):
+    task_path = _office_task(tmp_path)
+    task = load_task(task_path)
+    with _server(task, _office_paths, chat_logprobs=False) as server:
+        code, _, err = run(
+            capsys, "experiment", task_path, "--endpoint", server.url, "--model", "m", "--exact", "--no-progress",
+            "--out", tmp_path / "exact",
+        )  # fmt: skip
+    assert code == 0, err
+    got = SimulatedModel.from_csv(task, tmp_path / "exact" / "kernel.csv").probabilities
+    np.testing.assert_allclose(got, _expected(task, _office_paths), rtol=0, atol=1e-9)
+    scoring = json.loads((tmp_path / "exact" / "certificate.json").read_text())["run"]["scoring"]
+    assert scoring == {"method": "continuation", "route": "completions-echo", "missing_bound": 0.0, "rendering": CHATML}
+    report = " ".join((tmp_path / "exact" / "report.md").read_text().split())
+    assert "text completions echoed for the messages rendered as stated (ChatML: each message as" in report
 
 
 def test_a_token_that_straddles_the_reply_exits_2_with_one_line(tmp_path, capsys):

@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 from contextlib import contextmanager
 from types import SimpleNamespace
 
@@ -166,6 +167,20 @@ def _run(task, out, source, samples=None):
     return run_experiment(str(task), out, source, options, progress=False)
 
 
+def law_yes_no(body):
+    return {"": [("yes", 0.5), ("no", 0.3), ("Sure", 0.1)]}
+
+
+def _from_chatml(prompt: str) -> str:
+    """The messages of a prompt <|im_start|>{role}\\n{content}<|im_end|>\\n..., then the open assistant turn and a
+    reply (yes or no; 1 or 2 for package-delivery), as ``json.dumps`` of the list; the prompt must be exactly that."""
+    turns = re.findall(r"<\|im_start\|>(system|user)\n(.*?)<\|im_end\|>\n", prompt, re.S)
+    messages = [{"role": role, "content": content} for role, content in turns]
+    rendered = "".join(f"<|im_start|>{m['role']}\n{m['content']}<|im_end|>\n" for m in messages)
+    assert prompt in {f"{rendered}<|im_start|>assistant\n{reply}" for reply in ("yes", "no", "1", "2")}, prompt
+    return json.dumps(messages)
+
+
 def _routes(task, tmp_path, monkeypatch) -> dict[str, list[str]]:
     """Every route's messages (``json.dumps`` text), one entry per request, prompt or query."""
     pytest.importorskip("torch")
@@ -192,11 +207,14 @@ def _routes(task, tmp_path, monkeypatch) -> dict[str, list[str]]:
         "in-process sampled": (ModelSource(local_model="smollm2"), 2),
         "HTTP exact": (ModelSource(endpoint="URL", model="m", exact=True), None),
         "HTTP exact, prompt log-probabilities": (ModelSource(endpoint="URL", model="m", exact=True), None),
+        "HTTP exact, text completions' echo": (ModelSource(endpoint="URL", model="m", exact=True), None),
         "HTTP sampled": (ModelSource(endpoint="URL", model="m"), 2),
         "HTTP first-token sampled": (ModelSource(endpoint="URL", model="m", sampled_twin=True), 2),
     }
     for i, (route, (source, samples)) in enumerate(routes.items()):
         law = {"law": lambda body: {"": [("yes", 0.5), ("no", 0.3), ("Sure", 0.1)]}} if "prompt" in route else {}
+        if "echo" in route:
+            law = {"law": law_yes_no, "chat_logprobs": False}
         with ChatServer(lambda body: "yes", logprobs=_logprobs, **law) as server:
             _fake_local(monkeypatch, tmp_path, _Tokenizer(), server)
             if source.endpoint is not None:
@@ -210,6 +228,8 @@ def _routes(task, tmp_path, monkeypatch) -> dict[str, list[str]]:
             seen[route] = [
                 json.dumps([m for m in b["messages"] if m["role"] != "assistant"]) for b in server.chat_requests
             ]
+            if "echo" in route:  # the prompts sent, read back from ChatML (written out by hand here)
+                seen[route] = [_from_chatml(b["prompt"]) for b in server.completion_requests]
             if route.startswith("HTTP exact"):
                 continued = [b for b in server.chat_requests if b["messages"][-1]["role"] == "assistant"]
                 assert all(b["continue_final_message"] and b["messages"][-2]["role"] == "user" for b in continued), (
@@ -232,6 +252,7 @@ def test_every_route_sends_the_same_messages_for_each_cell(loan, tmp_path, monke
             "in-process sampled",
             "HTTP exact",
             "HTTP exact, prompt log-probabilities",
+            "HTTP exact, text completions' echo",
             "HTTP sampled",
             "HTTP first-token sampled",
         ]
@@ -240,6 +261,9 @@ def test_every_route_sends_the_same_messages_for_each_cell(loan, tmp_path, monke
         assert set(messages) == EXPECTED, route
         if "prompt" in route:  # the probe (one cell's messages), then one request per (cell, reply): yes, no
             assert len(messages) == 1 + 8 * 2 and sum(m == ONE_CELL for m in messages[1:]) == 2, route
+            continue
+        if "echo" in route:  # one echo per (cell, reply): yes, no (the chat probe is not among them)
+            assert len(messages) == 8 * 2 and sum(m == ONE_CELL for m in messages) == 2, route
             continue
         # one per cell (the top lists list "yes" and "no" whole: no prefix is asked), or per query
         assert len(messages) == 8 * (1 if "exact" in route else 2), route
@@ -278,7 +302,13 @@ def test_the_built_in_tasks_exact_prompt_on_every_route_that_has_an_exact_route(
     own = {json.dumps([{"role": "user", "content": t.prompt(c, pair)}]) for c, pair in cells}
     digit = {json.dumps([{"role": "user", "content": lm.answer_task(t).prompt(c, pair)}]) for c, pair in cells}
     assert len(own) == len(digit) == 12 and not own & digit
-    routes = ("in-process exact", "in-process sampled", "HTTP exact", "HTTP exact, prompt log-probabilities")
+    routes = (
+        "in-process exact",
+        "in-process sampled",
+        "HTTP exact",
+        "HTTP exact, prompt log-probabilities",
+        "HTTP exact, text completions' echo",
+    )
     for route in (*routes, "HTTP first-token sampled"):
         assert set(seen[route]) == digit, route
     for route in ("simulated", "HTTP sampled"):

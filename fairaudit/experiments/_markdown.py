@@ -374,6 +374,11 @@ def _scoring_words(d: dict) -> str:
     route = scoring.get("route")
     if route == "prompt-logprobs":
         words += ", read from the server's prompt log-probabilities"
+    elif route == "completions-echo":
+        words += (
+            ", read from the log-probabilities the server's text completions echoed for the messages rendered as "
+            f"stated ({scoring.get('rendering')}), not by the model's own chat template"
+        )
     elif route in ("top-logprobs", "first-token"):
         words += (
             ", read from the top log-probabilities the server listed: each decision's probability is a lower "

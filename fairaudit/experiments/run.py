@@ -62,7 +62,7 @@ from .vlm.tasks import DeliveryTask
 if TYPE_CHECKING:
     from .._arrays import FloatArray
     from ._progress import Bar
-    from .vlm.client import ChatClient
+    from .vlm.client import ChatClient, ChatReply
 
 __all__ = [
     "DEFAULT_KEEPS",
@@ -928,6 +928,13 @@ def _served(
             yield lm.ServedModel(client, name)
 
 
+SERVER_TEMPLATE = "the server's chat template"
+"""``run.scoring.rendering`` of the chat routes: the server renders the messages with its model's template."""
+
+MODEL_TEMPLATE = "the model's chat template (its tokenizer's, in process)"
+"""``run.scoring.rendering`` of a local model's exact route."""
+
+
 @dataclass(frozen=True)
 class ExactKernel:
     """An exact route's kernel and how it was scored (:func:`endpoint_kernel`; a local model's in process).
@@ -946,24 +953,35 @@ class ExactKernel:
         token (no unit): 0 on the exact routes (prompt log-probabilities, in process); on the top log-probabilities
         routes, the largest over the prompts of :func:`~fairaudit.experiments.vlm.logprobs.reply_bounds`'s bound
         (continuation) or of the mass outside the first token's list (first-token).
+    rendering : str
+        How the messages became the text the model read: :data:`SERVER_TEMPLATE`, :data:`MODEL_TEMPLATE` (in
+        process) or :data:`~fairaudit.experiments.vlm.messages.CHATML` (text completions).
     """
 
     probabilities: FloatArray | None
     summary: RunSummary | None
     route: str
     missing: float = 0.0
+    rendering: str = SERVER_TEMPLATE
 
     def record(self, method: str | None) -> dict:
-        """``run.scoring`` of ``certificate.json``: the method, the route and the bound on the mass not listed."""
-        return {"method": method, "route": self.route, "missing_bound": float(self.missing)}
+        """``run.scoring`` of ``certificate.json``: the method, the route, the bound on the mass not listed and the
+        rendering of the messages."""
+        return {
+            "method": method,
+            "route": self.route,
+            "missing_bound": float(self.missing),
+            "rendering": self.rendering,
+        }
 
 
-SCORING_ROUTES = ("prompt-logprobs", "top-logprobs", "first-token", "in-process")
+SCORING_ROUTES = ("prompt-logprobs", "completions-echo", "top-logprobs", "first-token", "in-process")
 """How an exact route read its probabilities, recorded in ``certificate.json``'s ``run.scoring.route``:
 ``"prompt-logprobs"``, the reply's tokens scored as the end of the prompt (vLLM's ``prompt_logprobs``; exact);
-``"top-logprobs"``, the next token's top list after each prefix of the replies (lower bounds, :func:`endpoint_kernel`);
-``"first-token"``, the first token's top list (first-token scoring); ``"in-process"``, a local model's own
-next-token probabilities (exact)."""
+``"completions-echo"``, the same from the text completions' echo of the messages rendered in ChatML (exact under
+that rendering); ``"top-logprobs"``, the next token's top list after each prefix of the replies (lower bounds,
+:func:`endpoint_kernel`); ``"first-token"``, the first token's top list (first-token scoring); ``"in-process"``, a
+local model's own next-token probabilities (exact)."""
 
 _KernelMaker: TypeAlias = "Callable[[], ExactKernel]"
 """What makes an exact route's kernel (:class:`ExactKernel`)."""
@@ -981,7 +999,7 @@ def _exact_route(
             from . import local_model as lm
 
             kernel = lm.exact_kernel(task, lm.load(name, log=log), scoring=scoring, progress=progress)
-            return ExactKernel(kernel, None, "in-process")
+            return ExactKernel(kernel, None, "in-process", rendering=MODEL_TEMPLATE)
 
         return name, local
     client = plan.client
@@ -1036,6 +1054,9 @@ alternatives), the probe of the prompt log-probabilities route."""
 REJECTED = (400, 422)
 """HTTP statuses of a server that rejects a request field it does not know (OpenAI 400, a FastAPI validation 422)."""
 
+NO_ROUTE = (404, 405)
+"""HTTP statuses of a server that does not serve a path (chat completions, text completions)."""
+
 
 def endpoint_kernel(
     task: DeliveryTask, client: ChatClient, *, scoring: str = "continuation", progress: bool = False
@@ -1056,13 +1077,22 @@ def endpoint_kernel(
        token's top log-probabilities): one request per prefix of the replies, each prefix once
        (:func:`~fairaudit.experiments.vlm.logprobs.reply_bounds`). Each probability is a lower bound, exact when
        the lists hold every token of the replies; :attr:`ExactKernel.missing` bounds what it may lack.
+    3. ``"completions-echo"`` (a server whose chat completions give no log-probabilities, or that has none, but
+       whose text completions echo the prompt's: vLLM, OpenAI's legacy completions): one request per (prompt,
+       reply) to ``/v1/completions`` with ``echo: true, logprobs: 1, max_tokens: 0``
+       (:meth:`~fairaudit.experiments.vlm.client.ChatClient.echo`), the prompt being the messages rendered in
+       ChatML (:func:`~fairaudit.experiments.vlm.messages.chatml`, the stated rendering: a text-completions
+       server does not say its model's chat template) followed by the reply; the reply's tokens are the echo's
+       last. Exact under that rendering, which ``run.scoring.rendering`` records.
 
     The route is chosen once per run by a probe: the first request (the first prompt's, no reply yet) asks for
-    ``prompt_logprobs`` too. A reply that has them selects route 1; a reply without them (the server ignores the
-    field) is the first request of route 2; a server that rejects the field (HTTP 400 or 422) gets that request
-    again without it, and route 2. No other request is sent twice but by the client's retries. The mass on no
-    option, 1 − Σ P(r), is the cell's ``unparsed``. A cell whose candidates have several texts averages over every
-    choice of them (:func:`fairaudit.experiments.exact.exact_prompts`).
+    ``prompt_logprobs`` too. A reply that has them selects route 1; a reply with top log-probabilities only (the
+    server ignores the field) is the first request of route 2; a server that rejects the field (HTTP 400 or 422)
+    gets that request again without it. A chat reply with no log-probabilities at all, or a server without chat
+    completions (HTTP 404 or 405), turns to route 3, whose first request (the first prompt's first reply) is its
+    probe. No other request is sent twice but by the client's retries. The mass on no option, 1 − Σ P(r), is the
+    cell's ``unparsed``. A cell whose candidates have several texts averages over every choice of them
+    (:func:`fairaudit.experiments.exact.exact_prompts`).
 
     Parameters
     ----------
@@ -1081,14 +1111,14 @@ def endpoint_kernel(
         The probabilities, shape (n_contexts, n_profiles, ..., n_profiles, n_decisions), no unit, or None when a
         request failed after its retries (the rest are then cancelled); the summary (prompts planned, answered,
         failed with the first failure's message, requests sent); the route (``"prompt-logprobs"``,
-        ``"top-logprobs"`` or ``"first-token"``); the bound on the mass not listed.
+        ``"completions-echo"``, ``"top-logprobs"`` or ``"first-token"``); the bound on the mass not listed; the
+        rendering of the messages.
 
     Raises
     ------
     InputError
-        ``endpoint`` when a reply has no log-probabilities, when the route chosen stops getting prompt
-        log-probabilities, or when a prompt's scored tokens do not end with the reply or a token straddles the
-        reply's start; ``exact`` when a likely first token begins two options' replies (first-token scoring,
+        ``endpoint`` when no route gives log-probabilities, when the route chosen stops giving them, or when a
+        prompt's scored tokens do not end with the reply or a token straddles the reply's start; ``exact`` when a likely first token begins two options' replies (first-token scoring,
         :func:`fairaudit.experiments.vlm.logprobs.shared_first_token`); ``attribute.text`` when the texts make too
         many prompts.
     """
@@ -1100,6 +1130,7 @@ def endpoint_kernel(
     from .exact import by_sequence, exact_prompts, prompt_replies
     from .vlm.client import ChatError
     from .vlm.logprobs import decision_probabilities, reply_bounds, reply_logprob
+    from .vlm.messages import CHATML, chatml
 
     shown, answers = lm.exact_prompt(task)
     prompts = exact_prompts(task)
@@ -1137,23 +1168,20 @@ def endpoint_kernel(
 
     route = "first-token"
     probe: tuple[tuple[str, float], ...] | None = None  # the first prompt's first-token list, from the probe
+    echoed: dict[str, float] = {}  # the text completions' probe: its reply's log-probability
     if sequences:
+        first = prompt_replies(task, answers, prompts[0])[0]
         try:
-            reply = client.complete(cell_messages(0), extra={**uncached, **PROMPT_LOGPROBS})
+            reply = _probe_chat(client, cell_messages(0), uncached, sent)
+            if reply is not None and reply.prompt_logprobs is not None:
+                route = "prompt-logprobs"
+            elif reply is not None and reply.top_logprobs is not None:
+                route, probe = "top-logprobs", reply.top_logprobs
+            else:  # no log-probabilities on chat, or no chat: the text completions' echo
+                route = "completions-echo"
+                echoed[first] = _probe_echo(client, chatml(cell_messages(0)), first, sent)
         except ChatError as exc:
-            if exc.kind != "http" or exc.status not in REJECTED:
-                sent.append("")
-                return ExactKernel(None, summary(0, str(exc)), "top-logprobs")
-            reply = None  # the field is rejected: top log-probabilities
-        sent.append("")
-        if reply is not None and reply.prompt_logprobs is not None:
-            route = "prompt-logprobs"
-        else:
-            route = "top-logprobs"
-            if reply is not None:
-                if reply.top_logprobs is None:
-                    raise no_logprobs()
-                probe = reply.top_logprobs
+            return ExactKernel(None, summary(0, str(exc)), route)
 
     def top(i: int, prefix: str) -> Any:
         if i == 0 and not prefix and probe is not None:
@@ -1167,6 +1195,18 @@ def endpoint_kernel(
         return reply.top_logprobs
 
     def scored(i: int, text: str) -> float:
+        if route == "completions-echo":
+            if i == 0 and text in echoed:
+                return echoed[text]
+            reply = client.echo(chatml(cell_messages(i)) + text)
+            sent.append(text)
+            if reply.prompt_logprobs is None:
+                raise InputError(
+                    "endpoint",
+                    f"the server's text completions returned no log-probabilities for model {client.model!r} on a "
+                    "request after its first had them (echo); run the command again",
+                )
+            return reply_logprob(reply.prompt_logprobs, text)
         turn = [{"role": "assistant", "content": text}]
         reply = client.complete(cell_messages(i) + turn, extra={**uncached, **PREFILL, **PROMPT_LOGPROBS})
         sent.append(text)
@@ -1185,7 +1225,7 @@ def endpoint_kernel(
             return decision_probabilities(first, task, answers=answers)
         replies = prompt_replies(task, answers, prompts[i])
         row = np.zeros(len(task.decisions))
-        if route == "prompt-logprobs":
+        if route in ("prompt-logprobs", "completions-echo"):
             row[:-1] = [math.exp(scored(i, r)) for r in replies]
         else:
             row[:-1], missing[i] = reply_bounds(lambda prefix: top(i, prefix), replies, listed=client.top_logprobs)
@@ -1204,7 +1244,57 @@ def endpoint_kernel(
         summary(len(answered), failure),
         route,
         max(missing.values(), default=0.0),
+        rendering=CHATML if route == "completions-echo" else SERVER_TEMPLATE,
     )
+
+
+def _probe_chat(client: ChatClient, messages: list[dict], uncached: dict, sent: list[str]) -> ChatReply | None:
+    """The probe's chat request, asking for ``prompt_logprobs`` too (:func:`endpoint_kernel`).
+
+    A server that rejects the field (HTTP 400 or 422) gets the request again without it. None when the server has
+    no chat completions (HTTP 404 or 405). Raises :class:`~fairaudit.experiments.vlm.client.ChatError` on any other
+    failure.
+    """
+    from .vlm.client import ChatError
+
+    for again, extra in enumerate(({**uncached, **PROMPT_LOGPROBS}, uncached)):
+        try:
+            return client.complete(messages, extra=extra)
+        except ChatError as exc:
+            if exc.kind != "http" or exc.status not in REJECTED + NO_ROUTE or (exc.status in REJECTED and again):
+                raise
+            if exc.status in NO_ROUTE:
+                return None
+        finally:
+            sent.append("")
+    raise AssertionError("unreachable: the second request returns or raises")
+
+
+def _probe_echo(client: ChatClient, prompt: str, reply: str, sent: list[str]) -> float:
+    """The text completions' probe: log P(``reply`` | ``prompt``) from the echo (:func:`endpoint_kernel`).
+
+    Raises InputError (``endpoint``) when the server has no such route (HTTP 400, 404, 405 or 422: the last
+    failure is named) or its echo has no log-probabilities: then no route gives the exact kernel.
+    """
+    from .vlm.client import ChatError
+    from .vlm.logprobs import reply_logprob
+
+    why = "echoed none"
+    try:
+        answer = client.echo(prompt + reply)
+    except ChatError as exc:
+        if exc.kind != "http" or exc.status not in REJECTED + NO_ROUTE:
+            raise
+        answer, why = None, f"answered HTTP {exc.status}"
+    finally:
+        sent.append(reply)
+    if answer is None or answer.prompt_logprobs is None:
+        raise InputError(
+            "endpoint",
+            f"the server gave no log-probabilities for model {client.model!r}: none on chat completions (logprobs, "
+            f"prompt_logprobs), and its text completions (echo) {why}; run with `samples` N instead",
+        )
+    return reply_logprob(answer.prompt_logprobs, reply)
 
 
 def _ask_cells(

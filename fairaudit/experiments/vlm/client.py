@@ -37,7 +37,7 @@ from urllib.parse import urlsplit, urlunsplit
 
 from ..._errors import FairauditError, InputError
 from ..._validation import real, whole
-from .logprobs import first_token_logprobs, prompt_token_logprobs
+from .logprobs import echo_token_logprobs, first_token_logprobs, prompt_token_logprobs
 
 __all__ = [
     "CONSTRAINTS",
@@ -116,7 +116,8 @@ class ChatReply:
     text : str
         ``choices[0].message.content``; a list of content parts is joined with
         newlines (text parts only); a null content (a refusal or a tool call:
-        see ``finish_reason``) gives ``""``.
+        see ``finish_reason``) gives ``""``. A text completion's
+        ``choices[0].text`` (:meth:`ChatClient.echo`).
     model : str
         The model named in the reply, else the requested one.
     finish_reason : str or None
@@ -139,7 +140,8 @@ class ChatReply:
     prompt_logprobs : tuple of (str, float), optional
         The prompt's tokens and their log-probabilities (nats) when the server
         returned them (vLLM's ``prompt_logprobs``, asked for per request:
-        :func:`fairaudit.experiments.vlm.logprobs.prompt_token_logprobs`), else None.
+        :func:`fairaudit.experiments.vlm.logprobs.prompt_token_logprobs`; or a
+        text completion's echo, :meth:`ChatClient.echo`), else None.
     """
 
     text: str
@@ -326,7 +328,45 @@ class ChatClient:
         """
         if self._closed:
             raise InputError("client", "is closed")
-        content = self._body(messages, seed, _extra_body(extra))
+        return self._send(self._url, self._body(messages, seed, _extra_body(extra)), None)
+
+    def echo(self, prompt: str) -> ChatReply:
+        """The log-probabilities of ``prompt``'s own tokens from the server's text completions, with retries.
+
+        Sends ``{"model", "prompt", "echo": true, "logprobs": 1, "max_tokens": 0, "temperature": 0}`` to
+        ``{endpoint}/completions`` (the OpenAI-compatible text completions that vLLM serves, and OpenAI's legacy
+        ones), which score the prompt and generate nothing; the client's sampling settings and ``extra_body``
+        belong to chat requests and are not sent.
+
+        Parameters
+        ----------
+        prompt : str
+            The text to score, non-empty.
+
+        Returns
+        -------
+        ChatReply
+            ``text`` is ``choices[0].text`` (the echoed prompt); :attr:`ChatReply.prompt_logprobs` the prompt's
+            tokens and their log-probabilities
+            (:func:`~fairaudit.experiments.vlm.logprobs.echo_token_logprobs`), None when the reply has none.
+
+        Raises
+        ------
+        ChatError
+            As :meth:`complete` (a server without text completions answers 404).
+        InputError
+            When ``prompt`` is not a non-empty string, or the client is closed.
+        """
+        if self._closed:
+            raise InputError("client", "is closed")
+        if not isinstance(prompt, str) or not prompt:
+            raise InputError("prompt", "must be a non-empty string", prompt)
+        body = {"model": self.model, "prompt": prompt, "echo": True, "logprobs": 1, "max_tokens": 0, "temperature": 0}
+        content = json.dumps(body, ensure_ascii=False).encode("utf-8")
+        return self._send(_completions_url(self._url), content, prompt)
+
+    def _send(self, url: str, content: bytes, prompt: str | None) -> ChatReply:
+        """POST ``content`` to ``url`` with retries: a chat completion, or a text completion of ``prompt``."""
         tenacity = self._tenacity
         retrying = tenacity.Retrying(
             stop=tenacity.stop_after_attempt(self.max_retries + 1),
@@ -342,7 +382,7 @@ class ChatClient:
             for attempt in retrying:
                 with attempt:
                     attempts = attempt.retry_state.attempt_number
-                    reply = self._attempt(content, attempts)
+                    reply = self._attempt(url, content, attempts, prompt)
         except _Failure as exc:
             failure = exc
         if failure is not None:
@@ -401,13 +441,13 @@ class ChatClient:
             headers["Authorization"] = f"Bearer {self._key}"
         return headers
 
-    def _attempt(self, content: bytes, attempt: int) -> ChatReply:
+    def _attempt(self, url: str, content: bytes, attempt: int, prompt: str | None) -> ChatReply:
         httpx = self._httpx
         problem: _Failure | None = None
         with self._slots:
             start = time.perf_counter()
             try:
-                response = self._http.post(self._url, content=content, headers=self._headers())
+                response = self._http.post(url, content=content, headers=self._headers())
             except httpx.TimeoutException:
                 problem = _Failure("timeout", f"no reply within {self.timeout:g} s")
             except httpx.DecodingError as exc:
@@ -424,9 +464,9 @@ class ChatClient:
             message = self._server_message(response)
             text = f"HTTP {status}" + (f" {reason}" if reason else "") + (f": {message}" if message else "")
             raise _Failure("http", text, status, retry_after)
-        return self._reply(response, attempt, latency)
+        return self._reply(response, attempt, latency, prompt)
 
-    def _reply(self, response: Any, attempt: int, latency: float) -> ChatReply:
+    def _reply(self, response: Any, attempt: int, latency: float, prompt: str | None = None) -> ChatReply:
         status = response.status_code
         try:
             data = json.loads(response.content)
@@ -436,6 +476,20 @@ class ChatClient:
         choices = data.get("choices") if isinstance(data, dict) else None
         if not isinstance(choices, list) or not choices or not isinstance(choices[0], dict):
             raise _Failure("protocol", f"HTTP {status} reply has no choices[0]", status)
+        if prompt is not None:  # a text completion: the echoed prompt and its tokens' log-probabilities
+            text = choices[0].get("text")
+            if not isinstance(text, str):
+                raise _Failure("protocol", f"HTTP {status} reply has no choices[0].text", status)
+            return ChatReply(
+                text=text,
+                model=data["model"] if isinstance(data.get("model"), str) and data["model"] else self.model,
+                finish_reason=None,
+                usage=data.get("usage") if isinstance(data.get("usage"), dict) else None,
+                attempts=attempt,
+                latency=latency,
+                status=status,
+                prompt_logprobs=echo_token_logprobs(data, prompt),
+            )
         message = choices[0].get("message")
         if not isinstance(message, dict) or "content" not in message:
             raise _Failure("protocol", f"HTTP {status} reply has no choices[0].message.content", status)
@@ -621,6 +675,17 @@ def _chat_url(endpoint: Any) -> tuple[str, str]:
         path += "/chat/completions"
     scheme = parts.scheme.lower()
     return urlunsplit((scheme, parts.netloc, path, parts.query, "")), urlunsplit((scheme, parts.netloc, path, "", ""))
+
+
+def _completions_url(chat_url: str) -> str:
+    """The text completions' URL beside a chat completions' URL: ``.../chat/completions`` becomes ``.../completions``.
+
+    >>> _completions_url("http://127.0.0.1:8000/v1/chat/completions?x=1")
+    'http://127.0.0.1:8000/v1/completions?x=1'
+    """
+    parts = urlsplit(chat_url)
+    path = parts.path.removesuffix("/chat/completions") + "/completions"
+    return urlunsplit((parts.scheme, parts.netloc, path, parts.query, ""))
 
 
 def _extra_body(extra: Any) -> dict:

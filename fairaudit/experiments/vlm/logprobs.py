@@ -35,6 +35,7 @@ __all__ = [
     "MIN_PROBABILITY",
     "TOP_LOGPROBS",
     "decision_probabilities",
+    "echo_token_logprobs",
     "first_token_logprobs",
     "prompt_token_logprobs",
     "reply_bounds",
@@ -380,6 +381,67 @@ def prompt_token_logprobs(reply: Any) -> tuple[tuple[str, float], ...] | None:
     return tuple(out) if out else None
 
 
+def echo_token_logprobs(reply: Any, prompt: str) -> tuple[tuple[str, float], ...] | None:
+    """The prompt's tokens and their log-probabilities in a text completion that echoes it, or None.
+
+    An OpenAI-compatible ``/v1/completions`` request with ``echo: true``, ``logprobs`` and ``max_tokens: 0`` (vLLM,
+    and OpenAI's legacy completions) is answered with the prompt's own tokens in ``choices[0].logprobs``: parallel
+    lists ``tokens`` (texts), ``token_logprobs`` (nats; ``null`` for the first token, which nothing precedes) and
+    ``text_offset`` (each token's first character in ``choices[0].text``). Tokens the server generated after the
+    prompt (a server that gives at least one) are dropped: those whose ``text_offset`` is at or past the prompt's
+    end, or without offsets those past the prompt's length in characters.
+
+    Parameters
+    ----------
+    reply : dict
+        The parsed JSON of the text completion.
+    prompt : str
+        The prompt sent.
+
+    Returns
+    -------
+    tuple of (str, float) or None
+        ``(token, log-probability in nats)`` per prompt token after the leading ``null`` entries; None when the
+        reply has no such lists (the server does not echo log-probabilities), when they differ in length, or when
+        an entry is not a string token with a number <= 0 (up to rounding).
+
+    Examples
+    --------
+    >>> reply = {"choices": [{"text": "Q: A or B? A: Office A", "logprobs": {
+    ...     "tokens": ["Q", ":", " A", " or", " B", "?", " A", ":", " Office", " A"],
+    ...     "token_logprobs": [None, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -0.5, -0.25],
+    ...     "text_offset": [0, 1, 2, 4, 7, 9, 10, 12, 13, 20]}}]}
+    >>> echo_token_logprobs(reply, "Q: A or B? A: Office A")[-2:]
+    ((' Office', -0.5), (' A', -0.25))
+    >>> echo_token_logprobs({"choices": [{"text": "Q", "logprobs": None}]}, "Q") is None
+    True
+    """
+    node = reply.get("choices") if isinstance(reply, Mapping) else None
+    choice = node[0] if isinstance(node, list) and node and isinstance(node[0], Mapping) else {}
+    lists = choice.get("logprobs")
+    if not isinstance(lists, Mapping):
+        return None
+    tokens, values, offsets = lists.get("tokens"), lists.get("token_logprobs"), lists.get("text_offset")
+    if not isinstance(tokens, list) or not isinstance(values, list) or len(tokens) != len(values) or not tokens:
+        return None
+    if isinstance(offsets, list) and len(offsets) == len(tokens) and all(type(o) is int for o in offsets):
+        kept = sum(1 for o in offsets if o < len(prompt))
+    else:  # no offsets: the tokens whose texts make up the prompt's length
+        kept, length = 0, 0
+        while kept < len(tokens) and length < len(prompt) and isinstance(tokens[kept], str):
+            length += len(tokens[kept])
+            kept += 1
+    out: list[tuple[str, float]] = []
+    for token, value in zip(tokens[:kept], values[:kept], strict=True):
+        if value is None and not out:
+            continue  # the first token: nothing precedes it
+        pair = _entry((token, value))
+        if pair[0] is None or pair[1] is None:
+            return None
+        out.append((pair[0], pair[1]))
+    return tuple(out) if out else None
+
+
 def reply_logprob(tokens: Sequence[tuple[str, float]], reply: str) -> float:
     """log P(reply | prompt) from the log-probabilities of a prompt that ends with ``reply``: its last tokens' sum.
 
@@ -422,7 +484,8 @@ def reply_logprob(tokens: Sequence[tuple[str, float]], reply: str) -> float:
         raise InputError(
             "endpoint",
             f"the server's prompt log-probabilities end with {text[-len(reply) - 10 :]!r}, not with the reply "
-            f"{reply!r}: it did not continue the assistant's message; run with `samples` N instead",
+            f"{reply!r}: it did not continue the assistant's message (or echo the prompt sent); run with `samples` N "
+            "instead",
         )
     if len(text) > len(reply):
         raise InputError(

@@ -2,7 +2,7 @@
 
 :meth:`fairaudit.experiments.vlm.tasks.DeliveryTask.messages` builds a query's messages from these two, and
 :class:`fairaudit.experiments.vlm.client.ChatClient` sends them (which re-exports both). The module needs nothing
-beyond the standard library.
+beyond the standard library. :func:`chatml` renders text messages as one prompt for a server's text completions.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 from ..._errors import InputError
 
-__all__ = ["system_message", "user_message"]
+__all__ = ["CHATML", "chatml", "system_message", "user_message"]
 
 
 def user_message(text: str, images: Sequence[bytes] = (), *, mime: str = "image/png") -> dict:
@@ -89,3 +89,47 @@ def system_message(text: str) -> dict:
     if not isinstance(text, str):
         raise InputError("text", "must be a string", text)
     return {"role": "system", "content": text}
+
+
+CHATML = (
+    "ChatML: each message as <|im_start|>{role}\\n{content}<|im_end|>\\n, then <|im_start|>assistant\\n and the "
+    "reply's text"
+)
+"""The rendering :func:`chatml` applies, in words (``run.scoring.rendering`` of a text-completions route)."""
+
+
+def chatml(messages: Sequence[dict]) -> str:
+    """Text chat messages as one prompt in ChatML, open for the assistant's reply.
+
+    A server's text completions (``/v1/completions``) take a prompt, not messages, and do not say which chat
+    template their model was trained with; this is the stated rendering under which such a route scores a reply
+    (:data:`CHATML`; the template of the Qwen and SmolLM2 families, among others, without their default system
+    message).
+
+    Parameters
+    ----------
+    messages : sequence of dict
+        Chat messages, each ``{"role": str, "content": str}`` (text only).
+
+    Returns
+    -------
+    str
+        ``<|im_start|>{role}\\n{content}<|im_end|>\\n`` per message, then ``<|im_start|>assistant\\n``.
+
+    Raises
+    ------
+    InputError
+        ``messages[i]`` when a message has no string role or its content is not text (images).
+
+    Examples
+    --------
+    >>> chatml([system_message("Answer yes or no."), user_message("Approve?")])
+    '<|im_start|>system\\nAnswer yes or no.<|im_end|>\\n<|im_start|>user\\nApprove?<|im_end|>\\n<|im_start|>assistant\\n'
+    """
+    parts = []
+    for i, message in enumerate(messages):
+        role, content = message.get("role"), message.get("content")
+        if not isinstance(role, str) or not isinstance(content, str):
+            raise InputError(f"messages[{i}]", "must have a string role and text content to be rendered as ChatML")
+        parts.append(f"<|im_start|>{role}\n{content}<|im_end|>\n")
+    return "".join(parts) + "<|im_start|>assistant\n"

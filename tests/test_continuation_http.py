@@ -399,13 +399,14 @@ def test_first_token_scoring_on_options_that_share_their_first_token_exits_2(tmp
 
 
 @pytest.mark.parametrize("which", ["office", "loan"])
-def test_the_sampled_twin_agrees_with_the_exact_route_within_its_intervals(which, tmp_path):
+@pytest.mark.parametrize("route", ["prompt-logprobs", "completions-echo"])
+def test_the_sampled_twin_agrees_with_the_exact_route_within_its_intervals(which, route, tmp_path):
     """The same law sampled (--sampled-twin --samples N): the exact baselines lie in the twin's 99% intervals."""
     path, paths_of = LAWS[which]
     task_path = path(tmp_path)
     task = load_task(task_path)
     common = {"keeps": [0.7], "seed": 5, "targets": []}
-    with _server(task, paths_of(task)) as server:
+    with _server(task, paths_of(task), chat_logprobs=route == "prompt-logprobs") as server:
         twin = run_experiment(
             str(task_path), tmp_path / "twin", ModelSource(endpoint=server.url, model="m", sampled_twin=True),
             RunOptions(samples=60, concurrency=8, **common), progress=False,
@@ -419,10 +420,7 @@ def test_the_sampled_twin_agrees_with_the_exact_route_within_its_intervals(which
     assert {b["max_tokens"] for b in bodies} == {max(len(r) for r in task.options)}
     exact = json.loads((tmp_path / "exact" / "certificate.json").read_text())
     sampled = json.loads((tmp_path / "twin" / "certificate.json").read_text())
-    assert (
-        exact["run"]["scoring"]["route"] == "prompt-logprobs"
-        and sampled["run"]["sampling"]["scoring"] == "continuation"
-    )
+    assert exact["run"]["scoring"]["route"] == route and sampled["run"]["sampling"]["scoring"] == "continuation"
     for kind in ("local", "global"):
         lo, hi = sampled["baseline"][kind]["interval"]
         assert lo <= exact["baseline"][kind]["value"] <= hi

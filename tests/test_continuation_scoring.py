@@ -22,6 +22,7 @@ from _model import REQUIRE_LOCAL_MODEL, need_local_model
 from fairaudit.experiments import local_model as lm
 from fairaudit.experiments.exact import exact_prompts, prompt_replies
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, load_task, parse_task
+from fairaudit.experiments.vlm.messages import chatml
 
 pytestmark = pytest.mark.local_model
 
@@ -302,3 +303,16 @@ def test_smollm2_continuation_equals_stepping(smollm2, task, cells):
         row, want = got[_index(task, cell)], _stepped(smollm2, task, cell)
         np.testing.assert_allclose(row, want, rtol=0, atol=1e-6, err_msg=str(cell))
         assert want[:-1].max() > 1e-3  # some reply has mass worth comparing
+
+
+@pytest.mark.parametrize("task", ["loan.toml", "ranking.toml"])
+def test_the_text_completions_chatml_rule_is_smollm2s_own_template(smollm2, task):
+    """The rule the text completions' route states (ChatML) renders a task's messages as SmolLM2's chat template
+    does, so that route scores SmolLM2 on the prompt its chat routes send."""
+    task = load_task(EXAMPLES / task)
+    shown, _ = lm.exact_prompt(task)
+    p = exact_prompts(task)[0]
+    messages = shown.messages(p.context, p.profiles, p.texts)
+    assert messages[0]["role"] == "system"  # SmolLM2 adds a default system message only without one
+    template = smollm2.tokenizer.apply_chat_template(messages, tokenize=False, add_generation_prompt=True)
+    assert chatml(messages) == template

@@ -307,29 +307,28 @@ def test_text_completions_echo_gives_the_law_when_chat_gives_no_logprobs(which, 
     assert first.endswith("<|im_end|>\n<|im_start|>assistant\n" + _replies(task)[0])
 
 
-def test_a_server_with_no_logprobs_anywhere_exits_2_naming_both_routes(tmp_path, capsys):
+@pytest.mark.parametrize(
+    "server, error",
+    [
+        (
+            {"completions": False},
+            "--endpoint: the server gave no log-probabilities for model 'm': none on chat completions (logprobs, "
+            "prompt_logprobs), and its text completions (echo) answered HTTP 404; run with --samples N instead",
+        ),
+        ({"straddle": True}, "--endpoint: the server's token '\\nO'... straddles the start of the reply"),
+    ],
+    ids=["no-logprobs-anywhere", "straddling-token"],
+)
+def test_the_text_completions_route_exits_2_with_one_line(server, error, tmp_path, capsys):
     task_path = _office_task(tmp_path)
-    with _server(load_task(task_path), _office_paths, chat_logprobs=False, completions=False) as server:
+    with _server(load_task(task_path), _office_paths, chat_logprobs=False, **server) as stand_in:
         code, _, err = run(
-            capsys, "experiment", task_path, "--endpoint", server.url, "--model", "m", "--exact", "--no-progress",
+            capsys, "experiment", task_path, "--endpoint", stand_in.url, "--model", "m", "--exact", "--no-progress",
             "--out", tmp_path / "exact",
         )  # fmt: skip
     assert code == 2 and err.count("\n") == 1, err
-    assert err.startswith(
-        "fairaudit: error: --endpoint: the server gave no log-probabilities for model 'm': none on chat completions "
-        "(logprobs, prompt_logprobs), and its text completions (echo) answered HTTP 404; run with --samples N instead"
-    )
-
-
-def test_a_token_that_straddles_the_reply_in_the_echo_exits_2(tmp_path, capsys):
-    task_path = _office_task(tmp_path)
-    with _server(load_task(task_path), _office_paths, straddle=True, chat_logprobs=False) as server:
-        code, _, err = run(
-            capsys, "experiment", task_path, "--endpoint", server.url, "--model", "m", "--exact", "--no-progress",
-            "--out", tmp_path / "exact",
-        )  # fmt: skip
-    assert code == 2 and err.count("\n") == 1, err
-    assert err.startswith("fairaudit: error: --endpoint: the server's token '\\nO'... straddles the start of the reply")
+    assert err.startswith(f"fairaudit: error: {error}")
+    assert sorted(p.name for p in (tmp_path / "exact").iterdir()) in ([], [".fairaudit.lock"])  # no kernel
 
 
 # --- fairaudit experiment --exact, --scoring first-token, --sampled-twin ----------------------------------------

@@ -1198,23 +1198,17 @@ def endpoint_kernel(
         if route == "completions-echo":
             if i == 0 and text in echoed:
                 return echoed[text]
-            reply = client.echo(chatml(cell_messages(i)) + text)
-            sent.append(text)
-            if reply.prompt_logprobs is None:
-                raise InputError(
-                    "endpoint",
-                    f"the server's text completions returned no log-probabilities for model {client.model!r} on a "
-                    "request after its first had them (echo); run the command again",
-                )
-            return reply_logprob(reply.prompt_logprobs, text)
-        turn = [{"role": "assistant", "content": text}]
-        reply = client.complete(cell_messages(i) + turn, extra={**uncached, **PREFILL, **PROMPT_LOGPROBS})
+            reply, field = client.echo(chatml(cell_messages(i)) + text), "echo"
+        else:
+            turn = [{"role": "assistant", "content": text}]
+            extra = {**uncached, **PREFILL, **PROMPT_LOGPROBS}
+            reply, field = client.complete(cell_messages(i) + turn, extra=extra), "prompt_logprobs"
         sent.append(text)
         if reply.prompt_logprobs is None:
             raise InputError(
                 "endpoint",
                 f"the server returned no prompt log-probabilities for model {client.model!r} on a request after "
-                "its first had them (prompt_logprobs); run the command again",
+                f"its first had them ({field}); run the command again",
             )
         return reply_logprob(reply.prompt_logprobs, text)
 

@@ -60,7 +60,7 @@ from ._calibration_methods import (
     white_box,
 )
 from ._errors import InputError
-from ._json import Report, number
+from ._json import Report, label, number
 from ._validation import choice, nonnegative, real
 from .laws import Kernel, Population
 from .privacy import Mechanism, MechanismFamily, randomized_response_family
@@ -112,6 +112,12 @@ class Calibration:
         δ of an arbitrary (ε, δ)-DP mechanism (``paper`` and ``tight``); 0 otherwise.
     lipschitz, diameter : float
         L_A and diam(A) (1 under the discrete metric).
+    unparsed_decision : hashable or None
+        ``white_box`` with ``unparsed_decision``: that decision's label. ε and
+        ``bound`` are then the upper end over every utility of it in
+        ``unparsed_range``, chosen per kernel cell. None otherwise.
+    unparsed_range : tuple of float or None
+        (min g, max g), the interval of that decision's utility; None without it.
     """
 
     target: float
@@ -131,6 +137,8 @@ class Calibration:
     delta: float
     lipschitz: float
     diameter: float
+    unparsed_decision: Hashable | None = None
+    unparsed_range: tuple[float, float] | None = None
 
     def __repr__(self) -> str:
         if not self.feasible:
@@ -148,7 +156,9 @@ class Calibration:
         then ``feasible``, ``reason``, ``target``, ``kind``, ``mechanism`` (the
         family member's name, or the family's when infeasible), ``family`` and
         the inputs ``groups``, ``gamma``, ``lower``, ``tau`` (``null`` when not
-        given), ``delta``, ``lipschitz``, ``diameter``.
+        given), ``delta``, ``lipschitz``, ``diameter``; with an unparsed
+        decision, ``unparsed``: its ``decision`` and ``range`` [min g, max g]
+        (ε and ``bound`` are the upper end over its utility).
 
         Examples
         --------
@@ -174,6 +184,14 @@ class Calibration:
             "delta": number(self.delta),
             "lipschitz": number(self.lipschitz),
             "diameter": number(self.diameter),
+        } | self._unparsed_dict()
+
+    def _unparsed_dict(self) -> Report:
+        """``{"unparsed": {"decision": ..., "range": [min g, max g]}}`` with an unparsed decision, else empty."""
+        if self.unparsed_decision is None or self.unparsed_range is None:
+            return {}
+        return {
+            "unparsed": {"decision": label(self.unparsed_decision), "range": [number(v) for v in self.unparsed_range]}
         }
 
 
@@ -272,8 +290,17 @@ def _dependence(kind: str, population: Population | None) -> str | None:
     )
 
 
-def _result(common: Common, method: str, found: Found, family: MechanismFamily) -> Calibration:
-    """The :class:`Calibration` of what ``method`` found, with the family's member and keep probability at ε."""
+def _result(
+    common: Common,
+    method: str,
+    found: Found,
+    family: MechanismFamily,
+    unparsed: tuple[Hashable, tuple[float, float]] | None = None,
+) -> Calibration:
+    """The :class:`Calibration` of what ``method`` found, with the family's member and keep probability at ε.
+
+    ``unparsed``: the unparsed decision's label and the interval of its utility, when calibrated on the upper end.
+    """
     mech: Mechanism | None
     if found.feasible:
         epsilon, keep, mech = found.epsilon, family.keep_probability(found.epsilon), family(found.epsilon)
@@ -288,6 +315,8 @@ def _result(common: Common, method: str, found: Found, family: MechanismFamily) 
         reason=found.reason,
         family=family.name,
         mechanism=mech,
+        unparsed_decision=None if unparsed is None else unparsed[0],
+        unparsed_range=None if unparsed is None else unparsed[1],
         **common,
     )
 
@@ -493,7 +522,10 @@ def calibrate(
                 "utility", "must depend on the decision only (g(u)) for unparsed_decision", np.shape(utility.values)
             )
         found = white_box(common, fam, kernel, utility, population, context_mechanism, unparsed_decision)
-        return _result(common, method, found, fam)
+        unparsed = None
+        if unparsed_decision is not None:  # (a valid index: white_box checked it)
+            unparsed = (kernel.decisions[unparsed_decision], (utility.lower, utility.gamma))
+        return _result(common, method, found, fam, unparsed)
     if unparsed_decision is not None:
         raise InputError(
             "unparsed_decision", f"is for the white_box method (a kernel), not {method}", unparsed_decision

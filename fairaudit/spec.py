@@ -3,7 +3,8 @@
 Sections (docs/design.md "Command-line contract"; full reference in docs/spec.md):
 
 ``[sensitive]`` name, values · ``[context]`` name, values, distribution
-(optional; one context ``"all"`` when absent) · ``[decision]`` name, values ·
+(optional; one context ``"all"`` when absent) · ``[decision]`` name, values,
+unparsed (optional: the decision of replies read as no option) ·
 ``[population]`` probabilities (n_contexts × n_groups) or group_distribution
 (optional; default uniform and independent) · ``[privacy.sensitive]`` and
 ``[privacy.context]`` mechanism = "identity" | "randomized_response" (epsilon
@@ -109,6 +110,12 @@ class AttributeSpec(StrictModel):
     @classmethod
     def _distinct(cls, v: list[Any] | None) -> list[Any] | None:
         return distinct_labels(v)
+
+
+class DecisionSpec(AttributeSpec):
+    """The decisions: an alphabet and optionally ``unparsed``, the value that stands for replies read as no option."""
+
+    unparsed: Any = None
 
 
 class ContextSpec(AttributeSpec):
@@ -259,7 +266,7 @@ class SpecModel(StrictModel):
     title: str | None = None
     sensitive: AttributeSpec
     context: ContextSpec | None = None
-    decision: AttributeSpec
+    decision: DecisionSpec
     population: PopulationSpec | None = None
     privacy: PrivacySpec = PrivacySpec()
     model: ModelSpec | None = None
@@ -305,6 +312,9 @@ class Spec:
     given_population : Population or None
         The spec's ``[population]``, if any.
     utility : Utility
+    unparsed : hashable or None
+        The decision that ``[decision] unparsed`` names (replies read as no
+        option, whose utility is known only within [min g, max g]), or None.
 
     Notes
     -----
@@ -355,6 +365,7 @@ class Spec:
             )
         if u.tau is not None and u.tau > self.gamma:  # (with gamma given, SpecModel checked it)
             raise self._err("utility.tau", f"cannot exceed gamma = {self.gamma:g} (E[g | x, a] <= max g)", u.tau)
+        self.unparsed = self._unparsed()
         self.metric: FloatArray | None = None
         if model.utility.metric is not None:
             try:
@@ -447,6 +458,24 @@ class Spec:
             raise exc.under(f"{self.source}: utility.values", keep_own=False) from None
         except (TypeError, ValueError) as exc:
             raise self._err("utility.values", f"must be numbers ({exc})") from None
+
+    def _unparsed(self) -> Hashable | None:
+        """The decision ``[decision] unparsed`` names, or None; its utility must be g of the decision only."""
+        given = self.model.decision.unparsed
+        if given is None:
+            return None
+        value = _match_label(given, self.decisions) if isinstance(given, str) else None
+        if value is None:
+            valid = [format_label(d) for d in self.decisions]
+            raise self._err("decision.unparsed", f"must be a string naming one of decision.values {valid}", given)
+        if np.ndim(self.utility.values) != 1:
+            raise self._err(
+                "decision.unparsed",
+                "needs a utility of the decision only (kind = 'indicator', or utility.values a list over decisions, "
+                "not a [context][group][decision] table)",
+                given,
+            )
+        return value
 
     # -- public ----------------------------------------------------------------------------------
     @property
@@ -545,18 +574,27 @@ class Spec:
         assert self._kernel is not True  # (only False, None or a Kernel)
         return self._kernel
 
-    def calibration_options(self, groups: int | None = None) -> dict[str, Any]:
+    def calibration_options(self, groups: int | None = None, method: str | None = None) -> dict[str, Any]:
         """The keyword arguments of :func:`fairaudit.calibrate.calibrate` that this spec defines.
 
         ``family`` (:attr:`sensitive_family`), ``gamma``, ``lower``, ``tau``,
         ``lipschitz``, ``metric``, ``population``, ``context_mechanism``,
         ``kernel`` (None without ``[model]``) and ``utility``: pass them on,
         with any of them overridden, as ``calibrate(target, **options)``.
+        With ``[decision] unparsed`` and a model, for the white-box method,
+        also ``unparsed_decision`` (its index): the answer is then the upper end
+        over every utility of that decision in [min g, max g]
+        (``proofs/unparsed.md`` §5).
 
         Parameters
         ----------
         groups : int, optional
             A number of groups the caller expects; checked against the spec's.
+        method : {"paper", "tight", "black_box", "white_box"}, optional
+            The method the caller will use (None: calibrate's default, white-box
+            with a model). The model is for white-box only: with ``paper``,
+            ``tight`` or ``black_box``, ``kernel`` is None and there is no
+            ``unparsed_decision`` (their bounds hold for every model).
 
         Raises
         ------
@@ -591,7 +629,8 @@ class Spec:
         family = self.sensitive_family
         if family is None:
             raise InputError("spec", "needs at least 2 sensitive groups to calibrate", self.source)
-        return {
+        kernel = None if method in ("paper", "tight", "black_box") else self.kernel()
+        options = {
             "family": family,
             "gamma": self.gamma,
             "lower": self.lower,
@@ -600,9 +639,12 @@ class Spec:
             "metric": self.metric,
             "population": self.population,
             "context_mechanism": self.context_mechanism,
-            "kernel": self.kernel(),
+            "kernel": kernel,
             "utility": self.utility,
         }
+        if self.unparsed is not None and kernel is not None:
+            options["unparsed_decision"] = self.decisions.index(self.unparsed)
+        return options
 
     def _read_kernel(self) -> Kernel | None:
         m = self.model.model

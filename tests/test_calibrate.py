@@ -399,7 +399,8 @@ def test_white_box_on_the_upper_end_without_unparsed_mass_is_the_old_answer():
             old = calibrate(target, kind=kind, kernel=kernel, utility=util)
             new = calibrate(target, kind=kind, kernel=kernel, utility=util, unparsed_decision=-1)
             assert old.feasible and math.isfinite(old.epsilon)
-            assert new.to_dict() == old.to_dict()
+            assert {k: v for k, v in new.to_dict().items() if k != "unparsed"} == old.to_dict()
+            assert new.to_dict()["unparsed"] == {"decision": "unparsed", "range": [0.2, 1.0]}  # [min g, max g]
 
 
 def test_unparsed_decision_is_refused_where_it_means_nothing():

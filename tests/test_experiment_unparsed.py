@@ -130,7 +130,9 @@ def test_without_unparsed_mass_the_budget_is_the_stated_one():
     k = Kernel(p, T.contexts, list(itertools.product(T.profiles, repeat=2)), T.decisions)
     a = analyse_kernel(T, k, model="m", epsilons=[1.0], targets=[0.1, 0.5])
     for b in a.budgets:
-        assert b.this_model.to_dict() == b.stated_default.to_dict() and not b.overturned
+        on_upper_end = b.this_model.to_dict()
+        assert on_upper_end.pop("unparsed")["decision"] == "unparsed"  # it says what it was calibrated on
+        assert on_upper_end == b.stated_default.to_dict() and not b.overturned
     assert any(math.isfinite(b.this_model.epsilon) for b in a.budgets)
     md = experiment_markdown(experiment_dict(a))
     for b in a.budgets:

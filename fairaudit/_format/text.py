@@ -107,19 +107,32 @@ class TextFormat(Format):
 
 def calibration_text(d: Report) -> str:
     """The ``calibrate`` report as text (the Markdown format quotes it in a code block)."""
+    up = _unparsed_line(d)
     if not d["feasible"]:
         low = f"the model's {measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
         return (
             f"no epsilon of {d['family']} meets {measure(d)} <= {nats(d['target'])}\n"
-            f"method: {d['method']}; {low}: {nats(d['bound'])}\n"
+            f"method: {d['method']}; {low}: {nats(d['bound'])}\n{up}"
             f"reason: {d['reason']}\n"
         )
     there = f"the model's {measure(d)} there" if d["method"] == "white_box" else "certified bound there"
     return (
         f"largest epsilon of {d['family']} meeting {measure(d)} <= {nats(d['target'])}: {nats(d['epsilon'])}\n"
         f"keep probability (the price): {fmt(d['keep_probability'])}\n"
-        f"method: {d['method']}; {there}: {nats(d['bound'])}\n"
+        f"method: {d['method']}; {there}: {nats(d['bound'])}\n{up}"
         f"reason: {d['reason']}\n"
+    )
+
+
+def _unparsed_line(d: Report) -> str:
+    """With an unparsed decision: the line saying that ε and the bound are the upper end over its utility."""
+    u = d.get("unparsed")
+    if not u:
+        return ""
+    lo, hi = u["range"]
+    return (
+        f"unparsed decision {u['decision']!s}: calibrated on the upper end of {measure(d)} over every utility of it "
+        f"in [{fmt(lo)}, {fmt(hi)}], chosen per cell of the model, not on its stated utility\n"
     )
 
 

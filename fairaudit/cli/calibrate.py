@@ -62,7 +62,7 @@ def add_parser(sub: Subparsers) -> None:
     )
     add_output(k)
     # calibrate's decision model and utility come from the spec: errors about them name --spec
-    k.set_defaults(func=run, flags={"kernel": "--spec", "utility": "--spec"})
+    k.set_defaults(func=run, flags={"kernel": "--spec", "utility": "--spec", "unparsed_decision": "--spec"})
 
 
 def run(args: argparse.Namespace) -> int:
@@ -73,8 +73,6 @@ def run(args: argparse.Namespace) -> int:
     for flag in ("gamma", "lower", "tau", "lipschitz", "delta"):
         if getattr(args, flag) is not None:
             opts[flag] = getattr(args, flag)
-    if args.spec and args.method in ("paper", "tight", "black_box"):
-        opts["kernel"] = None  # the model is for white_box only
     cal = calibrate(args.target, kind=args.kind, method=args.method, **opts)
     data = calibration_dict(cal)
     summary = f"epsilon = {data['epsilon']}" if cal.feasible else f"no epsilon meets the target: {cal.reason}"
@@ -92,4 +90,4 @@ def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
         if exc.field != "SPEC":
             raise
         raise exc.under("--spec", keep_own=False) from None
-    return spec.calibration_options(groups=args.groups)
+    return spec.calibration_options(groups=args.groups, method=args.method)

@@ -35,6 +35,7 @@ from .._json import Report, number
 from ._markdown import experiment_markdown, listed_order
 from .harness import paper_queries_needed, table_queries_needed
 from .slots import slot_names, true_prompts
+from .vlm.tasks import UNPARSED
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -141,9 +142,13 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
     outputs (``own | rival``); ``[privacy.context]`` M_X ⊗ I; ``[population]``
     the run's positions; ``[model]`` ``candidates.csv`` (counts, or
     probabilities on the exact route);
-    ``[utility]`` the task's g. ``fairaudit certify`` of it repeats the
-    experiment's certificate at that ε. Values are written with ``json.dumps``
-    (TOML's strings, arrays and floats accept them).
+    ``[utility]`` the task's g; ``[decision] unparsed`` names the outcome of
+    replies read as no option (its g is a stated default), so that
+    ``fairaudit calibrate`` of it calibrates on the upper end over that
+    utility. ``fairaudit certify`` of it repeats the experiment's certificate
+    at that ε (under the stated default; the ranges are the experiment's
+    ``unparsed_range``). Values are written with ``json.dumps`` (TOML's
+    strings, arrays and floats accept them).
     """
     a, t = analysis, analysis.task
     j = json.dumps
@@ -165,6 +170,7 @@ def experiment_spec(analysis: ExperimentAnalysis, point: PointResult) -> str:
         "[decision]",
         'name = "outcome"',
         f"values = {j(list(t.outcomes))}",
+        *([f"unparsed = {j(UNPARSED)}"] if UNPARSED in t.outcomes else []),
         "",
         "[population]",
         "probabilities = [\n  " + ",\n  ".join(j(r) for r in a.population.probabilities.tolist()) + "\n]",

@@ -27,7 +27,7 @@ from ._arrays import FloatArray
 from ._errors import InputError
 from ._extremes import MinMaxRatio, mixed_ratio
 from ._json import Report, label, number
-from .laws import Kernel, Population, compose, population_for
+from .laws import Kernel, Law, Population, compose, population_for
 from .metrics import global_fairness, local_fairness
 from .privacy import Mechanism, identity
 from .utility import Utility
@@ -95,7 +95,7 @@ class UtilityRange:
 
     Attributes
     ----------
-    kernel : Kernel
+    kernel : Kernel or Law
     utility : Utility
     decision : hashable
         The decision whose utility is known only within [low, high] (its label).
@@ -109,7 +109,7 @@ class UtilityRange:
     local_fairness, global_fairness : FairnessRange
     """
 
-    kernel: Kernel
+    kernel: Kernel | Law
     utility: Utility
     decision: Hashable
     low: float
@@ -140,7 +140,7 @@ def _lower_pair(W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[int, int
 
 
 def fairness_range(
-    kernel: Kernel,
+    kernel: Kernel | Law,
     utility: Utility,
     decision: int = -1,
     *,
@@ -165,8 +165,11 @@ def fairness_range(
 
     Parameters
     ----------
-    kernel : Kernel
-        P(U | X̃, Ã), shape (n_released_contexts, n_released_groups, n_decisions).
+    kernel : Kernel or Law
+        P(U | X̃, Ã), shape (n_released_contexts, n_released_groups, n_decisions). A :class:`~fairaudit.laws.Law`
+        is the law behind the filter observed directly (the experiments' paper design): its cells are the kernel's
+        with identity mechanisms, no mechanism may be given, the values are its own metrics', and its empty cells
+        are left out as the metrics leave them out.
     utility : Utility
         g(u), shape (n_decisions,), over the kernel's decisions (a utility that depends on the context or the
         group is refused).
@@ -191,7 +194,8 @@ def fairness_range(
     Raises
     ------
     InputError
-        On a utility that depends on context or group, a decision index out of range, or low > high.
+        On a utility that depends on context or group, a decision index out of range, low > high, or a mechanism
+        given with a Law.
 
     Examples
     --------
@@ -206,8 +210,11 @@ def fairness_range(
     >>> r.local_fairness.upper_group, r.local_fairness.upper_other_group
     ('a', 'b')
     """
-    if not isinstance(kernel, Kernel):
-        raise InputError("kernel", "must be a Kernel", type(kernel).__name__)
+    if not isinstance(kernel, (Kernel, Law)):
+        raise InputError("kernel", "must be a Kernel or a Law", type(kernel).__name__)
+    if isinstance(kernel, Law) and (sensitive_mechanism is not None or context_mechanism is not None):
+        which = "sensitive_mechanism" if sensitive_mechanism is not None else "context_mechanism"
+        raise InputError(which, "must not be given with a Law: it is the law behind the filter already")
     if np.ndim(utility.values) != 1:
         raise InputError("utility", "must depend on the decision only (g(u))", np.shape(utility.values))
     g = np.asarray(utility.table((kernel.context_labels[0],), kernel.groups[:1], kernel.decisions)[0, 0], float)
@@ -221,7 +228,7 @@ def fairness_range(
         raise InputError("low", f"must be at most high = {hi_g:g}", lo_g)
     m_a = sensitive_mechanism if sensitive_mechanism is not None else identity(kernel.groups)
     m_x = context_mechanism if context_mechanism is not None else identity(kernel.contexts)
-    law = compose(kernel, m_a, m_x)
+    law = kernel if isinstance(kernel, Law) else compose(kernel, m_a, m_x)
     pop = population_for(law, population)
     local, glob = local_fairness(law, utility, pop), global_fairness(law, utility, pop)
 
@@ -233,10 +240,15 @@ def fairness_range(
     keys = np.flatnonzero(pop.p_context > 0)
     Wa = m_a.matrix
     if m_x.is_identity:  # context x mixes its own cells only: per-context programs
-        per = [mixed_ratio(Wa[None], e_lo[x], e_hi[x], solver, lower_end) for x in keys]
+        # a Law's empty cells (identity M_A: compose refuses them behind a filter) are left out of their context,
+        # as the metrics leave them out; a context with fewer than two groups with records has no ratio
+        subs = [slice(None) if kernel.complete else np.flatnonzero(kernel.observed[x]) for x in keys]
+        maps = [(Wa[s][:, s], e_lo[x, s], e_hi[x, s]) for x, s in zip(keys, subs)]
+        none = (np.array([math.nan]), np.array([math.nan]), np.array([0]), np.array([0]))
+        per = [mixed_ratio(w[None], lo, hi, solver, lower_end) if len(w) >= 2 else none for w, lo, hi in maps]
         lows, ups = np.array([p[0][0] for p in per]), np.array([p[1][0] for p in per])
-        favs, oths = [int(p[2][0]) for p in per], [int(p[3][0]) for p in per]
-        maps = [(Wa, e_lo[x], e_hi[x]) for x in keys]
+        index = [np.arange(len(Wa))[s] for s in subs]  # a context's own group positions, in the kernel's
+        favs, oths = [int(i[p[2][0]]) for i, p in zip(index, per)], [int(i[p[3][0]]) for i, p in zip(index, per)]
     else:
         X, A = len(m_x.inputs), len(m_a.inputs)
         Wl = np.einsum("xy,ab->xayb", m_x.matrix, Wa).reshape(X, A, -1)[keys]
@@ -244,35 +256,45 @@ def fairness_range(
         lows, ups, fav_a, oth_a = mixed_ratio(Wl, flat_lo, flat_hi, solver, lower_end)
         favs, oths = [int(v) for v in fav_a], [int(v) for v in oth_a]
         maps = [(Wl[i], flat_lo, flat_hi) for i in range(len(keys))]
+        index = [np.arange(len(m_a.inputs))] * len(keys)
     groups, contexts = m_a.inputs, m_x.inputs
+    nan = FairnessRange(
+        kind="local", value=local.value, lower=math.nan, upper=math.nan, exact=True, lower_context=None,
+        upper_context=None, lower_group=None, lower_other_group=None, upper_group=None, upper_other_group=None,
+    )  # fmt: skip
     if len(groups) < 2 or len(keys) == 0:
-        nan = FairnessRange(
-            kind="local", value=local.value, lower=math.nan, upper=math.nan, exact=True, lower_context=None,
-            upper_context=None, lower_group=None, lower_other_group=None, upper_group=None, upper_other_group=None,
-        )  # fmt: skip
         local_range, global_range = nan, FairnessRange(**{**nan.__dict__, "kind": "global", "value": glob.value})
     else:
-        iu = int(np.nanargmax(ups))
         no_end = (math.nan, None, None, None)
-        if lower_end:
-            il = int(np.nanargmax(lows))
-            lg, lo_other = _lower_pair(*maps[il])
-            low_end = (float(lows[il]), contexts[keys[il]], groups[lg], groups[lo_other])
-        local_range = _range(
-            "local", local.value, low_end if lower_end else no_end, float(ups[iu]), attained, m_x.is_identity,
-            (contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]),
-        )  # fmt: skip
+        if np.isnan(ups).all():  # (a Law in which no context has two groups with records)
+            local_range = nan
+        else:
+            iu = int(np.nanargmax(ups))
+            if lower_end:
+                il = int(np.nanargmax(lows))
+                lg, lo_other = _lower_pair(*maps[il])
+                low_end = (float(lows[il]), contexts[keys[il]], groups[index[il][lg]], groups[index[il][lo_other]])
+            local_range = _range(
+                "local", local.value, low_end if lower_end else no_end, float(ups[iu]), attained, m_x.is_identity,
+                (contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]),
+            )  # fmt: skip
         w = pop.context_given_group()
         w = np.where(np.isnan(w), 0.0, w)
-        Wg = np.einsum("xa,xy,ab->ayb", w, m_x.matrix, Wa).reshape(len(groups), -1)
+        # groups with P(A = a) = 0 have no E[g | a] (the metrics' NaN): left out
+        gk = slice(None) if (pop.p_group > 0).all() else np.flatnonzero(pop.p_group > 0)
+        Wg = np.einsum("xa,xy,ab->ayb", w, m_x.matrix, Wa).reshape(len(groups), -1)[gk]
+        gi = np.arange(len(groups))[gk]
         flat_lo, flat_hi = e_lo.reshape(-1), e_hi.reshape(-1)
-        gl, gu, gf, go = mixed_ratio(Wg[None], flat_lo, flat_hi, solver, lower_end)
-        if lower_end:
-            a, b = _lower_pair(Wg, flat_lo, flat_hi)
-        global_range = _range(
-            "global", glob.value, (float(gl[0]), None, groups[a], groups[b]) if lower_end else no_end, float(gu[0]),
-            attained, True, (None, groups[int(gf[0])], groups[int(go[0])]),
-        )  # fmt: skip
+        if len(gi) < 2:
+            global_range = FairnessRange(**{**nan.__dict__, "kind": "global", "value": glob.value})
+        else:
+            gl, gu, gf, go = mixed_ratio(Wg[None], flat_lo, flat_hi, solver, lower_end)
+            if lower_end:
+                a, b = _lower_pair(Wg, flat_lo, flat_hi)
+            global_range = _range(
+                "global", glob.value, (float(gl[0]), None, groups[gi[a]], groups[gi[b]]) if lower_end else no_end,
+                float(gu[0]), attained, True, (None, groups[gi[int(gf[0])]], groups[gi[int(go[0])]]),
+            )  # fmt: skip
     return UtilityRange(
         kernel=kernel, utility=utility, decision=kernel.decisions[d], low=lo_g, high=hi_g, sensitive_mechanism=m_a,
         context_mechanism=m_x, population=pop, kernel_lower=e_lo, kernel_upper=e_hi, local_fairness=local_range,

@@ -5,6 +5,7 @@ and hand values."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from pathlib import Path
@@ -15,6 +16,7 @@ import pytest
 from _cli import run
 
 from fairaudit._errors import InputError
+from fairaudit._json import number
 from fairaudit.experiments.analysis import candidate_context_mechanism, candidate_utility, epsilon_from_keep
 from fairaudit.experiments.harness import plan_queries, true_cell_counts
 from fairaudit.experiments.options import ModelSource, RunOptions
@@ -233,3 +235,190 @@ def test_a_floor_on_eight_candidates_is_refused_naming_the_utility():
     task = load_task(RESUMES)
     with pytest.raises(InputError, match=r"^utility: the black-box bound with a floor tau needs .* 8\^8 = 16,777,216"):
         paper_design_bounds(task, 1.0, "latin", tau=0.1)
+
+
+# --------------------------------------------------------------------------- the unparsed reply's utility
+
+
+def _unparsed_kernel():
+    """hr-delivery's model on shown pairs: a quarter of the replies unparsed (0.1 to 0.2 in two cells)."""
+    import itertools
+
+    from fairaudit.laws import Kernel
+
+    p = np.tile([0.45, 0.3, 0.25], (3, 64, 1))
+    p[0, 0 * 8 + 7] = [0.3, 0.5, 0.2]  # maternity leave, (Tom, Mary)
+    p[0, 7 * 8 + 0] = [0.7, 0.2, 0.1]  # maternity leave, (Mary, Tom)
+    return Kernel(
+        p, HR_DELIVERY.contexts, list(itertools.product(HR_DELIVERY.profiles, repeat=2)), HR_DELIVERY.decisions
+    )
+
+
+@pytest.fixture(scope="module")
+def unparsed_run(tmp_path_factory):
+    """hr-delivery, the paper's design alone, on a kernel table that replies unparsed (g stated 0, within [0, 1])."""
+    from fairaudit.experiments.report import shown_kernel_frame
+
+    tmp = tmp_path_factory.mktemp("unparsed")
+    shown_kernel_frame(HR_DELIVERY, _unparsed_kernel()).to_csv(tmp / "kernel.csv", index=False)
+    options = RunOptions(samples=20, keeps=[0.7], design="paper", images=False, targets=[], seed=1)
+    return run_experiment("hr-delivery", tmp / "run", ModelSource(kernel=tmp / "kernel.csv"), options, progress=False)
+
+
+def _by_hand(out: Path, eps: str, task=HR_DELIVERY, positions="balanced"):
+    """L's and L̄'s ranges from candidates.csv alone, in ratios: the upper ends by enumerating every vertex of the
+    box (each cell's unparsed utility at 0 or 1: the maximum of each pair's linear-fractional program is at a vertex,
+    proofs/unparsed.md §2), the lower ends by the closed forms of disjoint boxes (§3: no mechanism between the
+    cells and the groups, since the filter is in the queries)."""
+    frame = pd.read_csv(out / "candidates.csv", keep_default_na=False)
+    frame = frame[frame["epsilon"].astype(str) == eps]
+    table = frame.pivot_table(index=["document", "position", "profile"], columns="outcome", values="count",
+                              aggfunc="sum", fill_value=0)  # fmt: skip
+    n = table.sum(axis=1).to_numpy(float)
+    known = table["chosen"].to_numpy(float) / n  # g = 1 chosen, 0 not chosen
+    mass = table["unparsed"].to_numpy(float) / n
+    cells = table.index.to_frame(index=False)
+    contexts = (cells["document"] + " @ " + cells["position"]).to_numpy()
+    groups = cells["profile"].to_numpy()
+    pop = candidate_population(task, positions)
+    w = np.array([  # P(x | a) of the run's population, per cell
+        pop.context_given_group()[pop.contexts.index(x), pop.groups.index(a)] for x, a in zip(contexts, groups)
+    ])  # fmt: skip
+    lo, hi = known, known + mass
+    vertices = np.array(list(itertools.product([0.0, 1.0], repeat=len(n))))  # 2^12
+    e = known + vertices * mass  # (vertices, cells)
+    up_local, up_global, low_local = 0.0, 0.0, 1.0
+    for x in np.unique(contexts):
+        a, b = (
+            np.flatnonzero((contexts == x) & (groups == groups[0])),
+            np.flatnonzero((contexts == x) & (groups != groups[0])),
+        )
+        ea, eb = e[:, a[0]], e[:, b[0]]
+        up_local = max(up_local, np.max(np.maximum(ea / eb, eb / ea)))
+        low_local = max(low_local, max(lo[a[0]], lo[b[0]]) / min(hi[a[0]], hi[b[0]]))
+    first = groups == groups[0]
+    mean = np.stack([(e * w)[:, first].sum(1), (e * w)[:, ~first].sum(1)])  # E[g | a] per vertex
+    up_global = np.max(np.maximum(mean[0] / mean[1], mean[1] / mean[0]))
+    m_lo, m_hi = [(w * lo)[first].sum(), (w * lo)[~first].sum()], [(w * hi)[first].sum(), (w * hi)[~first].sum()]
+    low_global = max(1.0, max(m_lo) / min(m_hi))
+    return (low_local, up_local), (low_global, up_global)
+
+
+def test_the_certificate_gives_the_observed_values_range_over_the_unparsed_utility(unparsed_run):
+    a, out = unparsed_run.analysis, unparsed_run.out
+    cert = json.loads((out / "certificate.json").read_text())
+    assert cert["queries"]["unparsed"] > 0 and cert["utility"]["unparsed_range"] == [0.0, 1.0]
+    for p, d, eps in [(a.baseline, cert["baseline"], "inf")] + [
+        (p, d["observed"], str(d["epsilon"])) for p, d in zip(a.points, cert["points"])
+    ]:
+        for kind, by_hand in zip(("local", "global"), _by_hand(out, eps)):
+            rng = getattr(p.unparsed_range, f"{kind}_fairness")
+            # the range's stated value is the observed value the certificate reports
+            assert rng.value == getattr(p, f"{kind}_fairness").value
+            assert rng.value == pytest.approx(d[kind]["value"], abs=1e-12)
+            lower, upper = d[kind]["unparsed_range"]
+            assert math.exp(upper) == pytest.approx(by_hand[1], rel=1e-12)
+            assert math.exp(lower) == pytest.approx(by_hand[0], rel=1e-8)
+            assert lower < d[kind]["value"] < upper  # a quarter of the replies unparsed: a range, not a point
+            assert d[kind]["unparsed_range_ends"]["exact"] is True
+        up = d["local"]["unparsed_range_ends"]["upper"]
+        assert set(up) == {"context", "group", "other_group"} and up["context"] in a.population.contexts
+
+
+def test_the_report_shows_the_ranges_of_the_paper_design(unparsed_run):
+    cert = json.loads((unparsed_run.out / "certificate.json").read_text())
+    md = (unparsed_run.out / "report.md").read_text()
+    b, p = cert["baseline"], cert["points"][0]
+    (bl, bu), (gl, gu) = b["local"]["unparsed_range"], b["global"]["unparsed_range"]
+    assert f"Over the unparsed reply's utility: L in [{bl:.4g}, {bu:.4g}], L̄ in [{gl:.4g}, {gu:.4g}] nats." in md
+    (pl, pu), (ql, qu) = p["observed"]["local"]["unparsed_range"], p["observed"]["global"]["unparsed_range"]
+    assert f"| [{pl:.4g}, {pu:.4g}] | " in md and f"| [{ql:.4g}, {qu:.4g}] | " in md
+    assert "chosen independently for every cell of the per-candidate law observed at that ε" in md
+
+
+def test_without_unparsed_replies_each_range_is_the_value(hr_runs):
+    a = hr_runs["paper"].analysis
+    cert = json.loads((hr_runs["paper"].out / "certificate.json").read_text())
+    assert cert["queries"]["unparsed"] == 0
+    for d in [cert["baseline"]] + [p["observed"] for p in cert["points"]]:
+        for kind in ("local", "global"):
+            assert d[kind]["unparsed_range"] == pytest.approx([d[kind]["value"]] * 2, rel=1e-9)
+    assert cert["baseline"]["local"]["unparsed_range"] == ["inf", "inf"]  # prefers-mary: Tom's E[g] is 0
+    assert a.points[0].unparsed_range.local_fairness.value == a.points[0].local_fairness.value
+
+
+def test_the_paper_design_states_its_bounds_ranges(unparsed_run):
+    # g = 1 chosen, 0 not chosen and unparsed: the stated unparsed utility lies within the other outcomes' [0, 1],
+    # so no utility of an unparsed reply changes the bounds (proofs/unparsed.md §6): each range is one value
+    cert = json.loads((unparsed_run.out / "certificate.json").read_text())
+    for p in cert["points"]:
+        b = p["bounds"]
+        for name in ("corollary", "black_box", "black_box_global"):
+            assert b["unparsed_range"][name]["range"] == [b[name], b[name]]
+        assert "lies within the other outcomes' [0, 1]" in b["unparsed_range"]["black_box"]["reason"]
+    assert (
+        "Certified bounds over the unparsed reply's utility: the corollary is ε of the filter"
+        in (unparsed_run.out / "report.md").read_text()
+    )
+
+
+def test_an_unparsed_utility_below_the_others_widens_the_paper_designs_black_box_bounds(unparsed_run):
+    # g = 1 chosen, 3 not chosen, unparsed stated 0: [min g, max g] = [0, 3] as stated (the closed form: the bound
+    # is epsilon), [1, 3] for an unparsed utility within the others'. That end by a second route: black_box_bound on
+    # the class [1, 3] with the candidate's mechanism from its matrix, and worst_model with the class's extreme.
+    import dataclasses
+
+    from fairaudit.experiments.paper_design import analyse_paper_design
+    from fairaudit.utility import from_table
+    from fairaudit.worstcase import black_box_bound
+
+    task = dataclasses.replace(HR_DELIVERY, utility_values=(1.0, 3.0, 0.0))
+    records = [json.loads(x) for x in (unparsed_run.out / "queries.jsonl").read_text().splitlines()[1:]]
+    eps = [p.epsilon for p in unparsed_run.analysis.points]
+    a = analyse_paper_design(task, records, model="m", samples=20, epsilons=eps, confidence=None)
+    assert a.tau is None
+    for p in a.points:
+        r = p.bound_ranges
+        assert (r["corollary"].lower, r["corollary"].upper) == (p.bounds.corollary, p.bounds.corollary)
+        assert r["black_box"].upper == p.bounds.black_box_local == pytest.approx(p.epsilon)
+        m = p.bounds.filter.candidate_mechanism("balanced")
+        pop = candidate_population(task, "balanced")
+        local = black_box_bound(m, lower=1.0, gamma=3.0, population=pop).value
+        glob = worst_model(m, from_table([3.0, 1.0], ["high", "low"]), population=pop).global_fairness.value
+        assert r["black_box"].lower == pytest.approx(local, rel=1e-9) and r["black_box"].lower < 0.9 * p.epsilon
+        assert r["black_box_global"].lower == pytest.approx(glob, rel=1e-9)
+        assert "lies outside the other outcomes' [1, 3]" in r["black_box"].reason
+        # the observed values' ranges: unparsed in [0, 3] per cell
+        assert p.unparsed_range.low == 0.0 and p.unparsed_range.high == 3.0
+
+
+def test_a_bounds_lower_end_that_needs_too_large_a_mechanism_is_left_out_with_the_reason():
+    import dataclasses
+
+    from fairaudit.experiments.paper_design import _bound_ranges
+
+    task = load_task(RESUMES)
+    values = (2.0,) + (1.0,) * (len(task.outcomes) - 2) + (0.0,)  # ranked first 2, any other rank 1, unparsed 0
+    task = dataclasses.replace(task, utility_values=values)
+    b = paper_design_bounds(task, 1.0, "latin")
+    assert b.closed_form and b.black_box_local == pytest.approx(1.0)  # as stated: min g = 0, epsilon itself
+    r = _bound_ranges(task, 1.0, "latin", None, None, b)
+    assert r["black_box"].upper == b.black_box_local and math.isnan(r["black_box"].lower)
+    assert "; the lower end is not computed (utility: the black-box bound with a utility whose smallest value is 1" in (
+        r["black_box"].reason
+    )
+    assert r["corollary"].lower == r["corollary"].upper == b.corollary
+
+
+def test_design_both_gives_the_paper_points_ranges_too(hr_runs):
+    alone, both = hr_runs["paper"], hr_runs["both"]
+    cert = json.loads((both.out / "certificate.json").read_text())
+    for a, d in zip(alone.analysis.points, cert["paper_design"]):
+        for kind in ("local", "global"):
+            rng = getattr(a.unparsed_range, f"{kind}_fairness")
+            assert d[kind]["unparsed_range"] == [number(rng.lower), number(rng.upper)]  # (JSON round-trips floats)
+            assert d[kind]["unparsed_range_ends"]["exact"] is True
+    assert (
+        "| ε candidate | queries | observed L | L, unparsed range | observed L̄ | L̄, unparsed range |"
+        in (both.out / "report.md").read_text()
+    )

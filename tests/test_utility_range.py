@@ -194,3 +194,31 @@ def test_upper_end_only_skips_the_lower_end_and_keeps_the_upper_end():
                 b.upper_context, b.upper_group, b.upper_other_group,
             )  # fmt: skip
             assert math.isnan(u.lower) and u.lower_group is None and u.lower_context is None
+
+
+def test_a_law_from_counts_leaves_its_empty_cells_out_as_the_metrics_do():
+    # The law itself (the paper design's: the filter is in the queries), with an empty cell (y, b) and a group c
+    # without records. x: a counts (5, 2, 3), b (2, 6, 2) with unparsed in [0, 1], the hand case's boxes
+    # [1/2, 4/5] and [1/5, 2/5]; y has only a: fewer than two groups, no ratio. Closed forms without a filter
+    # (proofs/unparsed.md §3): L in [max(1, (1/2)/(2/5)), (4/5)/(1/5)] = [5/4, 4]. L̄ with the records' P(x | a):
+    # a = 10/12 x + 2/12 y, y's a at 1/2 (no unparsed): [1/2, 3/4]; b = x only: [1/5, 2/5]; c has P(A = c) = 0.
+    # So L̄ in [max(1, (1/2)/(2/5)), (3/4)/(1/5)] = [5/4, 15/4].
+    from fairaudit import Law
+    from fairaudit.metrics import global_fairness, local_fairness
+
+    law = Law.from_counts(
+        [[[5, 2, 3], [2, 6, 2], [0, 0, 0]], [[1, 1, 0], [0, 0, 0], [0, 0, 0]]],
+        ["x", "y"], ["a", "b", "c"], ["yes", "no", "unparsed"],
+    )  # fmt: skip
+    g = Utility([1.0, 0.0, 0.5], ["yes", "no", "unparsed"])
+    r = fairness_range(law, g)
+    assert r.local_fairness.value == local_fairness(law, g).value  # the law's own metrics, the same numbers
+    assert r.global_fairness.value == global_fairness(law, g).value
+    local, glob = r.local_fairness, r.global_fairness
+    assert (math.exp(local.lower), math.exp(local.upper)) == (pytest.approx(1.25, rel=1e-8), pytest.approx(4.0))
+    assert (math.exp(glob.lower), math.exp(glob.upper)) == (pytest.approx(1.25, rel=1e-8), pytest.approx(3.75))
+    assert (local.upper_context, local.upper_group, local.upper_other_group) == ("x", "a", "b")
+    assert (local.lower_context, local.lower_group, local.lower_other_group) == ("x", "a", "b")
+    assert (glob.upper_group, glob.upper_other_group, glob.lower_group, glob.lower_other_group) == ("a", "b") * 2
+    with pytest.raises(InputError, match="^sensitive_mechanism: must not be given with a Law"):
+        fairness_range(law, g, sensitive_mechanism=identity(law.groups))

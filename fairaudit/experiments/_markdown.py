@@ -54,11 +54,13 @@ def _range_md(d: dict) -> str:
     """What the unparsed range means."""
     u = d["utility"]
     low, high = u.get("unparsed_range", [None, None])
-    return (
+    head = (
         f"The unparsed range is the exact range of the value over every utility of an unparsed reply in "
-        f"[{_f(low)}, {_f(high)}] (min g, max g), chosen independently for every cell of the per-candidate kernel; "
-        "the value itself uses the stated one. A target is met only when the upper end meets it."
+        f"[{_f(low)}, {_f(high)}] (min g, max g), chosen independently for every cell of the per-candidate "
     )
+    if d.get("design") == "paper":
+        return head + "law observed at that ε (context @ position, candidate); the value itself uses the stated one."
+    return head + "kernel; the value itself uses the stated one. A target is met only when the upper end meets it."
 
 
 def experiment_markdown(d: dict) -> str:
@@ -348,15 +350,16 @@ def _paper_design_md(d: dict) -> list[str]:
     """The observed L and L̄ of the paper's design (sampled through the filter) at each ε."""
     lines = [
         "",
-        "The paper's design at the same ε (each ε queried through the filter):",
+        "The paper's design at the same ε (each ε queried through the filter; its unparsed ranges are over a utility "
+        "per cell of the per-candidate law observed at that ε):",
         "",
-        "| ε candidate | queries | observed L | observed L̄ |",
-        "|---|---|---|---|",
+        "| ε candidate | queries | observed L | L, unparsed range | observed L̄ | L̄, unparsed range |",
+        "|---|---|---|---|---|---|",
     ]
     for p in d["paper_design"]:
         lines.append(
             f"| {_f(p['epsilon'])} | {p['queries']} | {_f(p['local']['value'])}{_ivs(p['local'])} | "
-            f"{_f(p['global']['value'])}{_ivs(p['global'])} |"
+            f"{_range(p['local'])} | {_f(p['global']['value'])}{_ivs(p['global'])} | {_range(p['global'])} |"
         )
     return lines
 
@@ -429,6 +432,9 @@ def paper_design_markdown(d: dict) -> str:
         f"{b['local']['group']} over {b['local']['other_group']}; "
         f"L̄ = {_f(b['global']['value'])} nats{_ivs(b['global'])}: "
         f"{b['global']['group']} over {b['global']['other_group']}.",
+        "",
+        f"Over the unparsed reply's utility: L in {_range(b['local'])}, L̄ in {_range(b['global'])} nats. "
+        + _range_md(d),
     ]
     lines += _curve_md(d) + _above_bound_md(d)
     lines += [

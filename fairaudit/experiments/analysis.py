@@ -30,7 +30,7 @@ and no filter on the profiles bounds L̄ (its black-box bound is +inf).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -77,6 +77,7 @@ __all__ = [
     "analyse",
     "analyse_kernel",
     "bound_ranges",
+    "bound_ranges_from",
     "candidate_context_mechanism",
     "candidate_utility",
     "epsilon_from_keep",
@@ -364,6 +365,10 @@ class PaperDesignPoint:
     local_fairness, global_fairness : Fairness
         Observed L and L̄ (nats), with the maximising context and groups.
     intervals : FairnessIntervals or None
+    unparsed_range : UtilityRange
+        L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (x, a) of ``law``
+        (:func:`fairaudit.utility_range.fairness_range` of the law itself: the filter is in the queries), next to
+        the value under the stated default, which is ``local_fairness`` and ``global_fairness``.
     local, global_
         Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
@@ -374,6 +379,7 @@ class PaperDesignPoint:
     local_fairness: Fairness
     global_fairness: Fairness
     intervals: FairnessIntervals | None
+    unparsed_range: UtilityRange
 
     local = renamed[Fairness]("local_fairness")
     global_ = renamed[Fairness]("global_fairness")
@@ -491,13 +497,48 @@ def bound_ranges(
     """
     from ..worstcase import worst_model
 
+    def inside(u: Utility) -> tuple[float, float]:
+        wm = worst_model(mechanism, u, context_mechanism=context_mechanism, population=population, tau=tau)
+        return wm.local_fairness.value, wm.global_fairness.value
+
+    return bound_ranges_from(mechanism.epsilon, utility, bounds, inside)
+
+
+def bound_ranges_from(
+    corollary: float,
+    utility: Utility,
+    bounds: tuple[float, float],
+    inside: Callable[[Utility], tuple[float, float]],
+) -> dict[str, BoundRange]:
+    """:func:`bound_ranges` from the corollary's value and a function giving the black-box bounds for a utility.
+
+    For a design whose mechanism is given by its bounds alone (the paper's design, where M_cand may be too large
+    to build: :func:`fairaudit.experiments.paper_design.paper_design_bounds`).
+
+    Parameters
+    ----------
+    corollary : float
+        ε of the filter on a candidate (nats).
+    utility : Utility
+        g of the candidate's outcome, shape (n_outcomes,), the unparsed reply last, at its stated value.
+    bounds : tuple of float
+        The black-box bounds on L and L̄ (nats) for ``utility`` as stated.
+    inside : callable
+        The black-box bounds on L and L̄ (nats) for another utility over the same outcomes, with the same
+        mechanisms, population and τ; called only when the stated unparsed utility lies outside the other
+        outcomes' range.
+
+    Returns
+    -------
+    dict of str to BoundRange
+        As :func:`bound_ranges`.
+    """
     g = np.asarray(utility.values, dtype=float)
     known, stated = g[:-1], float(g[-1])
     k_lo, k_hi = float(known.min()), float(known.max())
-    corollary = BoundRange(
-        lower=mechanism.epsilon, upper=mechanism.epsilon, reason="the corollary is epsilon of the filter: no utility "
-        "enters it",
-    )  # fmt: skip
+    fixed = BoundRange(
+        lower=corollary, upper=corollary, reason="the corollary is epsilon of the filter: no utility enters it"
+    )
     head = (
         f"the black-box bounds depend on g only through [min g, max g] = [{utility.lower:g}, {utility.gamma:g}] and "
         f"tau, and the stated unparsed utility {stated:g} lies"
@@ -513,10 +554,8 @@ def bound_ranges(
             f"{head} outside the other outcomes' [{k_lo:g}, {k_hi:g}]: each range runs from the bound for g in "
             f"[{k_lo:g}, {k_hi:g}] (an unparsed utility within it) to the bound as stated"
         )
-        inside = Utility(np.append(known, k_lo), utility.decisions, name=f"{utility.name}, unparsed at {k_lo:g}")
-        wm = worst_model(mechanism, inside, context_mechanism=context_mechanism, population=population, tau=tau)
-        low = (wm.local_fairness.value, wm.global_fairness.value)
-    return {"corollary": corollary} | {
+        low = inside(Utility(np.append(known, k_lo), utility.decisions, name=f"{utility.name}, unparsed at {k_lo:g}"))
+    return {"corollary": fixed} | {
         name: BoundRange(lower=lo, upper=up, reason=why)
         for name, lo, up in zip(("black_box", "black_box_global"), low, bounds)
     }
@@ -715,7 +754,9 @@ def paper_design_point(
     Records of ``design = "paper"`` whose ``epsilon`` is ``eps`` and whose true prompt is one of ``positions``
     (:func:`fairaudit.experiments.slots.true_prompts`) are counted by
     :func:`fairaudit.experiments.harness.true_cell_counts`; L and L̄ (with ``confidence`` intervals) are those
-    of their per-candidate law, with population ``pop``.
+    of their per-candidate law, with population ``pop``, and their range over the unparsed reply's utility is that
+    of the law's cells (:func:`fairaudit.utility_range.fairness_range` of the law: its value is L and L̄ as
+    computed here, the same numbers).
     """
     prompts, _ = true_prompts(task, positions)
     orders = {tuple(task.profiles[i] for i in p) for p in prompts}
@@ -735,6 +776,7 @@ def paper_design_point(
             counts, law.contexts, law.groups, law.decisions, (_context_name(task),), ("candidate",), "outcome"
         )
         iv = fairness_intervals(table, utility, confidence, method, population=pop)
+    rng = fairness_range(law, utility, -1, population=pop)
     return PaperDesignPoint(
         epsilon=eps,
         queries=len(truths),
@@ -742,6 +784,7 @@ def paper_design_point(
         local_fairness=local_fairness(law, utility, pop),
         global_fairness=global_fairness(law, utility, pop),
         intervals=iv,
+        unparsed_range=rng,
     )
 
 

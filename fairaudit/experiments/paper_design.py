@@ -7,7 +7,11 @@ paper's own design asks only the true prompts, through the filter at each ε
 filter for the baseline. Each answered query gives one record per candidate,
 counted by true context, slot, true profile and outcome
 (:func:`fairaudit.experiments.harness.true_cell_counts`): the per-candidate
-law behind the filter at that ε, with simultaneous intervals.
+law behind the filter at that ε, with simultaneous intervals, and L's and
+L̄'s exact range over every utility of an unparsed reply in [min g, max g],
+chosen per cell of that law (:func:`fairaudit.utility_range.fairness_range`
+of the law: the filter is in the queries, so no mechanism lies between the
+cells and the groups).
 
 The certificate needs the candidate's mechanism M_cand only through two
 numbers, and both have closed forms when its matrix is too large to build:
@@ -27,6 +31,7 @@ numbers, and both have closed forms when its matrix is too large to build:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -43,10 +48,17 @@ from .._validation import real
 from ..laws import Law, Population
 from ..metrics import Fairness
 from ..utility import Utility
+from ..utility_range import UtilityRange
 from ._markdown import paper_design_markdown
-from .analysis import candidate_context_mechanism, candidate_utility, paper_design_point
+from .analysis import (
+    BoundRange,
+    bound_ranges_from,
+    candidate_context_mechanism,
+    candidate_utility,
+    paper_design_point,
+)
 from .harness import paper_queries_needed
-from .report import privacy_dict, utility_dict, write_frame, write_json
+from .report import observed_dict, privacy_dict, utility_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
@@ -102,6 +114,7 @@ def paper_design_bounds(
     *,
     tau: float | None = None,
     context_epsilon: float | None = None,
+    utility: Utility | None = None,
 ) -> DesignBounds:
     """The corollary and black-box bounds of the candidate's filter at ``epsilon``, in closed form where they have one.
 
@@ -115,6 +128,9 @@ def paper_design_bounds(
         A floor on every E[g | x, a] (the paper's τ); with it the matrix is needed.
     context_epsilon : float, optional
         ε of randomized response on the context (it leaves the closed forms unchanged: proofs/black_box.md, §1).
+    utility : Utility, optional
+        g of the candidate's outcome (default the task's, :func:`fairaudit.experiments.analysis.candidate_utility`);
+        another one gives the bounds for it, as the range of the bounds over the unparsed reply's utility needs.
 
     Returns
     -------
@@ -134,7 +150,7 @@ def paper_design_bounds(
     (3.0, 3.0, 3.0, True)
     """
     eps = real(epsilon, "epsilon", low=0.0, finite=False, what="a number of nats >= 0")
-    utility = candidate_utility(task)
+    utility = candidate_utility(task) if utility is None else utility
     filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(eps), context_epsilon=context_epsilon)
     closed = math.inf if math.isinf(eps) else candidate_epsilon(task, filt.epsilon_attributes, positions)
     if closed is not None and utility.lower == 0 and tau is None and positions != "fixed":
@@ -192,6 +208,14 @@ class DesignPoint:
         Observed L and L̄ (nats), with the maximising context and groups.
     intervals : FairnessIntervals or None
     bounds : DesignBounds
+    unparsed_range : UtilityRange
+        L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (context @ slot,
+        candidate) of ``law`` (:func:`fairaudit.utility_range.fairness_range` of the law itself), next to the value
+        under the stated default: ``local_fairness`` and ``global_fairness``, the same numbers.
+    bound_ranges : dict of str to BoundRange
+        ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
+        same utilities (:func:`fairaudit.experiments.analysis.bound_ranges_from`; the upper end is the bound as
+        stated, and the lower end NaN, with the reason, when it needs a mechanism too large to build).
     local, global_
         Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
@@ -204,6 +228,8 @@ class DesignPoint:
     global_fairness: Fairness
     intervals: FairnessIntervals | None
     bounds: DesignBounds
+    unparsed_range: UtilityRange
+    bound_ranges: dict[str, BoundRange]
 
     local = renamed[Fairness]("local_fairness")
     global_ = renamed[Fairness]("global_fairness")
@@ -299,6 +325,7 @@ def analyse_paper_design(
     def point(e: float, ctx_eps: float | None) -> DesignPoint:
         seen = paper_design_point(task, positions, records, e, utility, pop, confidence, method)
         bounds = paper_design_bounds(task, e, positions, tau=tau, context_epsilon=ctx_eps)
+        ranges = _bound_ranges(task, e, positions, tau, ctx_eps, bounds)
         counts = np.asarray(seen.law.counts)
         return DesignPoint(
             epsilon=e,
@@ -309,6 +336,8 @@ def analyse_paper_design(
             global_fairness=seen.global_fairness,
             intervals=seen.intervals,
             bounds=bounds,
+            unparsed_range=seen.unparsed_range,
+            bound_ranges=ranges,
         )
 
     baseline = point(math.inf, None)
@@ -330,10 +359,43 @@ def analyse_paper_design(
     )
 
 
+def _bound_ranges(
+    task: DeliveryTask, eps: float, positions: str, tau: float | None, context_epsilon: float | None, b: DesignBounds
+) -> dict[str, BoundRange]:
+    """The bounds' ranges over the unparsed reply's utility (:func:`~fairaudit.experiments.analysis.bound_ranges_from`
+    with :func:`paper_design_bounds` for the other utility); a lower end that needs a mechanism too large to build
+    is NaN, and its reason says so."""
+    refused: list[str] = []
+
+    def inside(u: Utility) -> tuple[float, float]:
+        try:
+            other = paper_design_bounds(task, eps, positions, tau=tau, context_epsilon=context_epsilon, utility=u)
+        except InputError as exc:
+            refused.append(str(exc))
+            return math.nan, math.nan
+        return other.black_box_local, other.black_box_global
+
+    ranges = bound_ranges_from(b.corollary, candidate_utility(task), (b.black_box_local, b.black_box_global), inside)
+    if refused:
+        note = f"; the lower end is not computed ({refused[0]})"
+        ranges = {
+            k: dataclasses.replace(r, reason=r.reason + note) if k != "corollary" else r for k, r in ranges.items()
+        }
+    return ranges
+
+
 def _observed(p: DesignPoint) -> Report:
     return {
-        "local": p.local_fairness.to_dict(None if p.intervals is None else p.intervals.local_fairness),
-        "global": p.global_fairness.to_dict(None if p.intervals is None else p.intervals.global_fairness),
+        "local": observed_dict(
+            p.local_fairness,
+            None if p.intervals is None else p.intervals.local_fairness,
+            p.unparsed_range.local_fairness,
+        ),
+        "global": observed_dict(
+            p.global_fairness,
+            None if p.intervals is None else p.intervals.global_fairness,
+            p.unparsed_range.global_fairness,
+        ),
     }
 
 
@@ -348,6 +410,7 @@ def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> Report:
             "black_box": number(b.black_box_local),
             "black_box_global": number(b.black_box_global),
             "closed_form": b.closed_form,
+            "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
         },
         "observed": _observed(p),
         "certified_local": number(b.black_box_local),
@@ -361,12 +424,22 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: Report | None = None) 
     mean the same: ``experiment``, ``model``, ``route`` (``"sampled"``),
     ``design`` (``"paper"``), ``positions``, ``samples``, ``slots``,
     ``candidates``, ``context``, ``queries`` (answered without a filter and
-    through it, unparsed, and the queries each ε needs), ``utility``,
-    ``tau``, ``confidence``, ``baseline`` (no filter: observed L and L̄ with
-    intervals) and ``points`` (per requested ε: the filter's privacy, the
-    corollary and black-box bounds, ``closed_form``, the observed L and L̄
-    with intervals). No ``curve``, ``budgets`` or ``shares``: they need the
-    model's kernel on every shown cell. Values in nats; +inf is ``"inf"``.
+    through it, unparsed, and the queries each ε needs), ``utility`` (with
+    ``unparsed_range``, the [min g, max g] an unparsed reply's utility is
+    known within), ``tau``, ``confidence``, ``baseline`` (no filter:
+    observed L and L̄ with intervals) and ``points`` (per requested ε: the
+    filter's privacy, the corollary and black-box bounds, ``closed_form``,
+    ``bounds.unparsed_range`` (per bound its ``range`` over every utility of
+    the unparsed reply in [min g, max g] and the ``reason``, as the table
+    design's), the observed L and L̄ with intervals). Every observed L and
+    L̄ of the baseline and the points has ``unparsed_range`` ([lower,
+    upper]: its exact range over every utility of the unparsed reply in
+    [min g, max g], chosen per cell (context @ slot, candidate) of the
+    observed per-candidate law) and ``unparsed_range_ends`` (the context and
+    groups of each end, and whether the lower end is exact:
+    :func:`fairaudit.utility_range.fairness_range`). No ``curve``,
+    ``budgets`` or ``shares``: they need the model's kernel on every shown
+    cell. Values in nats; +inf is ``"inf"``; NaN is ``null``.
     """
     a, t = analysis, analysis.task
     out: Report = {
@@ -385,7 +458,8 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: Report | None = None) 
             "unparsed": a.unparsed,
             "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
-        "utility": utility_dict(t),
+        "utility": utility_dict(t)
+        | {"unparsed_range": [number(a.baseline.unparsed_range.low), number(a.baseline.unparsed_range.high)]},
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {"queries": a.baseline.queries, **_observed(a.baseline)},

@@ -286,9 +286,9 @@ def utility_dict(task: DeliveryTask) -> Report:
     }
 
 
-def _observed(fairness: Fairness, interval: Any, rng: FairnessRange) -> Report:
+def observed_dict(fairness: Fairness, interval: Any, rng: FairnessRange) -> Report:
     """An observed L or L̄ as a dictionary, with ``unparsed_range`` (its range over the unparsed reply's utility)
-    and ``unparsed_range_ends`` (exactness, and the context and groups of each end)."""
+    and ``unparsed_range_ends`` (exactness, and the context and groups of each end): both designs' certificates."""
     d = fairness.to_dict(interval)
     ends = rng.to_dict()
     d["unparsed_range"] = ends.pop("range")
@@ -307,12 +307,12 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
             "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
         },
         "observed": {
-            "local": _observed(
+            "local": observed_dict(
                 p.local_fairness,
                 None if p.intervals is None else p.intervals.local_fairness,
                 p.unparsed_range.local_fairness,
             ),
-            "global": _observed(
+            "global": observed_dict(
                 p.global_fairness,
                 None if p.intervals is None else p.intervals.global_fairness,
                 p.unparsed_range.global_fairness,
@@ -359,7 +359,8 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     per cell of the per-candidate kernel) and ``unparsed_range_ends`` (the
     context and groups of each end, and whether the lower end is exact:
     :func:`fairaudit.utility_range.fairness_range`). ``paper_design`` (the same from
-    the paper's design, when run) and ``curve`` (the dense grid). Values in
+    the paper's design, when run: L and L̄ with their intervals and unparsed ranges, per cell of its observed
+    per-candidate law) and ``curve`` (the dense grid). Values in
     nats; +inf is ``"inf"``; NaN is ``null``.
     """
     a, t = analysis, analysis.task
@@ -394,12 +395,12 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {
-            "local": _observed(
+            "local": observed_dict(
                 a.baseline.local_fairness,
                 None if a.baseline.intervals is None else a.baseline.intervals.local_fairness,
                 a.baseline.unparsed_range.local_fairness,
             ),
-            "global": _observed(
+            "global": observed_dict(
                 a.baseline.global_fairness,
                 None if a.baseline.intervals is None else a.baseline.intervals.global_fairness,
                 a.baseline.unparsed_range.global_fairness,
@@ -426,8 +427,16 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             {
                 "epsilon": number(p.epsilon),
                 "queries": p.queries,
-                "local": p.local_fairness.to_dict(None if p.intervals is None else p.intervals.local_fairness),
-                "global": p.global_fairness.to_dict(None if p.intervals is None else p.intervals.global_fairness),
+                "local": observed_dict(
+                    p.local_fairness,
+                    None if p.intervals is None else p.intervals.local_fairness,
+                    p.unparsed_range.local_fairness,
+                ),
+                "global": observed_dict(
+                    p.global_fairness,
+                    None if p.intervals is None else p.intervals.global_fairness,
+                    p.unparsed_range.global_fairness,
+                ),
             }
             for p in a.paper
         ],

@@ -58,7 +58,7 @@ from .analysis import (
     paper_design_point,
 )
 from .harness import paper_queries_needed
-from .report import observed_dict, privacy_dict, utility_dict, write_frame, write_json
+from .report import observed_dicts, privacy_dict, utility_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
@@ -384,21 +384,6 @@ def _bound_ranges(
     return ranges
 
 
-def _observed(p: DesignPoint) -> Report:
-    return {
-        "local": observed_dict(
-            p.local_fairness,
-            None if p.intervals is None else p.intervals.local_fairness,
-            p.unparsed_range.local_fairness,
-        ),
-        "global": observed_dict(
-            p.global_fairness,
-            None if p.intervals is None else p.intervals.global_fairness,
-            p.unparsed_range.global_fairness,
-        ),
-    }
-
-
 def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> Report:
     b = p.bounds
     return {
@@ -412,7 +397,7 @@ def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> Report:
             "closed_form": b.closed_form,
             "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
         },
-        "observed": _observed(p),
+        "observed": observed_dicts(p),
         "certified_local": number(b.black_box_local),
     }
 
@@ -462,7 +447,7 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: Report | None = None) 
         | {"unparsed_range": [number(a.baseline.unparsed_range.low), number(a.baseline.unparsed_range.high)]},
         "tau": number(a.tau),
         "confidence": number(a.confidence),
-        "baseline": {"queries": a.baseline.queries, **_observed(a.baseline)},
+        "baseline": {"queries": a.baseline.queries, **observed_dicts(a.baseline)},
         "points": [_point_dict(a, p) for p in a.points],
     }
     if run:

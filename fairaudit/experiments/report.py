@@ -45,8 +45,6 @@ if TYPE_CHECKING:
     from .._arrays import FloatArray
     from ..calibrate import Calibration
     from ..laws import Kernel
-    from ..metrics import Fairness
-    from ..utility_range import FairnessRange
     from .analysis import ExperimentAnalysis, PointResult, PositionSplit, UnparsedMass
     from .vlm.filter import PrivacyFilter
     from .vlm.tasks import DeliveryTask
@@ -286,14 +284,24 @@ def utility_dict(task: DeliveryTask) -> Report:
     }
 
 
-def observed_dict(fairness: Fairness, interval: Any, rng: FairnessRange) -> Report:
-    """An observed L or L̄ as a dictionary, with ``unparsed_range`` (its range over the unparsed reply's utility)
-    and ``unparsed_range_ends`` (exactness, and the context and groups of each end): both designs' certificates."""
-    d = fairness.to_dict(interval)
-    ends = rng.to_dict()
-    d["unparsed_range"] = ends.pop("range")
-    d["unparsed_range_ends"] = ends
-    return d
+def observed_dicts(point: Any) -> Report:
+    """``{"local": ..., "global": ...}``: a point's observed L and L̄ (both designs' certificates).
+
+    ``point`` has ``local_fairness``, ``global_fairness``, ``intervals`` (or None) and ``unparsed_range``
+    (:class:`~fairaudit.experiments.analysis.PointResult`, the paper design's points). Each is a dictionary with
+    ``unparsed_range`` (its range over the unparsed reply's utility) and ``unparsed_range_ends`` (exactness, and
+    the context and groups of each end).
+    """
+    out: Report = {}
+    for kind in ("local", "global"):
+        d = getattr(point, f"{kind}_fairness").to_dict(
+            None if point.intervals is None else getattr(point.intervals, f"{kind}_fairness")
+        )
+        ends = getattr(point.unparsed_range, f"{kind}_fairness").to_dict()
+        d["unparsed_range"] = ends.pop("range")
+        d["unparsed_range_ends"] = ends
+        out[kind] = d
+    return out
 
 
 def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
@@ -306,18 +314,7 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
             "black_box_global": number(p.black_box_global),
             "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
         },
-        "observed": {
-            "local": observed_dict(
-                p.local_fairness,
-                None if p.intervals is None else p.intervals.local_fairness,
-                p.unparsed_range.local_fairness,
-            ),
-            "global": observed_dict(
-                p.global_fairness,
-                None if p.intervals is None else p.intervals.global_fairness,
-                p.unparsed_range.global_fairness,
-            ),
-        },
+        "observed": observed_dicts(p),
         "certified_local": number(p.black_box_local),
     }
 
@@ -395,16 +392,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {
-            "local": observed_dict(
-                a.baseline.local_fairness,
-                None if a.baseline.intervals is None else a.baseline.intervals.local_fairness,
-                a.baseline.unparsed_range.local_fairness,
-            ),
-            "global": observed_dict(
-                a.baseline.global_fairness,
-                None if a.baseline.intervals is None else a.baseline.intervals.global_fairness,
-                a.baseline.unparsed_range.global_fairness,
-            ),
+            **observed_dicts(a.baseline),
             "shares": shares,
         },
         "position_split": None if split is None else _split_dict(split),
@@ -427,16 +415,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
             {
                 "epsilon": number(p.epsilon),
                 "queries": p.queries,
-                "local": observed_dict(
-                    p.local_fairness,
-                    None if p.intervals is None else p.intervals.local_fairness,
-                    p.unparsed_range.local_fairness,
-                ),
-                "global": observed_dict(
-                    p.global_fairness,
-                    None if p.intervals is None else p.intervals.global_fairness,
-                    p.unparsed_range.global_fairness,
-                ),
+                **observed_dicts(p),
             }
             for p in a.paper
         ],

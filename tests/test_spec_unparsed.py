@@ -100,6 +100,19 @@ def test_unparsed_not_a_decision_is_an_error(line, shown):
     assert "['yes', 'no', 'unparsed']" in message and message.endswith(shown), message
 
 
+@pytest.mark.parametrize("command", [["calibrate", "--target", "0.1", "--spec"], ["certify"]])
+def test_a_misspelled_unparsed_exits_2_with_one_line_and_writes_nothing(command, tmp_path, capsys):
+    path = _write(tmp_path, unparsed='unparsed = "unparesd"')
+    out = tmp_path / "out.json"
+    code, stdout, err = run(capsys, *command, path, "--format", "json", "--output", out)
+    assert code == 2 and stdout == "" and err.count("\n") == 1, err
+    assert err == (
+        f"fairaudit: error: {path}: decision.unparsed: must be a string naming one of decision.values "
+        "['yes', 'no', 'unparsed'] (got 'unparesd')\n"
+    )
+    assert not out.exists()
+
+
 def test_unparsed_needs_a_utility_of_the_decision_only():
     per_cell = "[[[1.0, 0.0, 0.5], [1.0, 0.0, 0.5]], [[1.0, 0.0, 0.5], [1.0, 0.0, 0.5]]]"
     assert parse_spec(_text(unparsed="", model=False, utility=per_cell)).unparsed is None

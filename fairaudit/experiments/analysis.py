@@ -532,6 +532,19 @@ def bound_ranges_from(
     -------
     dict of str to BoundRange
         As :func:`bound_ranges`.
+
+    Examples
+    --------
+    g = 1 (chosen), 0 (not chosen) and 2 for an unparsed reply: above the others' [0, 1], so the lower ends are
+    the bounds for an unparsed utility of 0 (here given by ``inside``).
+
+    >>> from fairaudit import Utility
+    >>> g = Utility([1.0, 0.0, 2.0], ["chosen", "not chosen", "unparsed"])
+    >>> r = bound_ranges_from(0.5, g, (0.9, 0.7), lambda u: (0.4, 0.3))
+    >>> r["corollary"].lower, r["corollary"].upper, r["black_box"].lower, r["black_box"].upper
+    (0.5, 0.5, 0.4, 0.9)
+    >>> r["black_box_global"].to_dict()["range"]
+    [0.3, 0.7]
     """
     g = np.asarray(utility.values, dtype=float)
     known, stated = g[:-1], float(g[-1])

@@ -455,11 +455,11 @@ def first_max(values: FloatArray) -> int | None:
 
 
 def max_tv_pairs(dist: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
-    """Largest TV over pairs of rows along axis -2 of ``dist`` (..., n_groups, n_decisions).
+    """Largest TV over pairs of rows along axis -2 of ``dist`` (..., n_groups, n_decisions), pair by pair.
 
-    Loops over pairs of groups (not over cells); each step is vectorised over
-    the leading axes. Returns (value, argmax-of-leading, a, a') where value has
-    the leading shape.
+    The route for many decisions (:func:`use_events` false): a loop over pairs of groups, each step vectorised
+    over the leading axes. Returns (value, a, a') with the leading shape: the first pair (a < a') in loop order
+    with the largest TV, NaN rows (absent groups) ignored.
     """
     n = dist.shape[-2]
     lead = dist.shape[:-2]
@@ -494,27 +494,81 @@ def _max_tv_all_pairs(dist: FloatArray) -> tuple[FloatArray, IntArray, IntArray]
 def use_events(n_groups: int, n_decisions: int) -> bool:
     """TV by events (2^(K-1) - 1 sums per group) when cheaper than by pairs of groups."""
     events = (1 << max(n_decisions - 1, 0)) - 1
-    return n_decisions <= 12 and events * n_groups <= n_groups * (n_groups - 1) // 2 * n_decisions
+    return n_decisions <= 24 and events * n_groups <= n_groups * (n_groups - 1) // 2 * n_decisions
+
+
+def event_sums(ct: FloatArray) -> Iterator[tuple[int, FloatArray]]:
+    """(m, P(S_m)) for every non-empty subset S_m of the first K − 1 decisions of ``ct`` (n_decisions, ...).
+
+    m is the subset's bit mask; P(S_m) = Σ_{u in S_m} ct[u], added from the largest decision down (the same
+    number for the same subset in every caller). Depth first: at most K − 1 partial sums are alive at once,
+    whatever the number of subsets (a subset and its complement give the same range, so the last decision is
+    never needed).
+    """
+    K = ct.shape[0]
+
+    def below(mask: int, total: FloatArray, top: int) -> Iterator[tuple[int, FloatArray]]:
+        for u in range(top - 1, -1, -1):
+            s = total + ct[u]
+            yield mask | 1 << u, s
+            yield from below(mask | 1 << u, s, u)
+
+    for v in range(K - 2, -1, -1):
+        yield 1 << v, ct[v]
+        yield from below(1 << v, ct[v], v)
+
+
+def max_tv_pair(rows: FloatArray) -> tuple[float, int | None, int | None]:
+    """The largest TV between two rows of ``rows`` (n_groups, n_decisions), and its pair, in linear time.
+
+    TV(P, P') = max over events S of P(S) − P'(S), so the largest TV over pairs of groups is the largest range
+    over groups of P(S), S over the subsets of :func:`event_sums`: O(n_groups · 2^(K − 1)) when
+    :func:`use_events`, no pair of groups enumerated (otherwise, many decisions, :func:`max_tv_pairs`).
+    Rows with NaN (absent groups) are left out.
+
+    Ties are named by one rule: S is the first subset (by bit mask) with the largest range, and the pair is
+    the first group (in row order) with the largest P(S) and the first with the smallest, given in row order
+    (a < a'). When every row is the same (TV 0), the first two present rows; by pairs, the first pair
+    (a < a') with the largest TV. The value is the pair's TV as Σ_u (P_a − P_a')⁺.
+    Returns (value, a, a'): NaN and None when fewer than two rows are present.
+
+    Examples
+    --------
+    >>> max_tv_pair(np.array([[0.5, 0.5], [0.9, 0.1], [np.nan, np.nan], [0.1, 0.9], [0.9, 0.1]]))
+    (0.8, 1, 3)
+    """
+    present = np.flatnonzero(~np.isnan(rows[:, 0]))
+    if present.size < 2:
+        return math.nan, None, None
+    r = rows[present]
+    K = r.shape[1]
+    if not use_events(len(present), K):
+        tv, a, b = max_tv_pairs(r)
+        return float(tv), int(present[int(a)]), int(present[int(b)])
+    best, mask, ai, bi = -1.0, 0, 0, 1
+    for m, s in event_sums(np.ascontiguousarray(r.T)):
+        hi, lo = int(np.argmax(s)), int(np.argmin(s))
+        spread = float(s[hi] - s[lo])
+        if spread > best or (spread == best and m < mask):
+            best, mask, ai, bi = spread, m, hi, lo
+    ai, bi = (min(ai, bi), max(ai, bi)) if best > 0.0 else (0, 1)
+    value = float(np.clip(r[ai] - r[bi], 0.0, None).sum())
+    return value, int(present[ai]), int(present[bi])
 
 
 def tv_chunk(ct: FloatArray, nan: bool) -> FloatArray:
     """Largest TV over pairs of groups per context of a chunk ``ct`` (n_decisions, n_groups, chunk).
 
-    TV(P, P') = max over events S of P(S) − P'(S), so the largest TV over pairs is the largest range
-    over groups of P(S); S runs over the non-empty subsets of the first K − 1 decisions (a subset and its
-    complement give the same range), each built from a smaller one by adding one decision. Otherwise
-    (many decisions) :func:`max_tv_pairs`. NaN where fewer than two groups are present.
+    The largest range over groups of P(S) over the subsets S of :func:`event_sums` (a subset and its
+    complement give the same range). Otherwise (many decisions) :func:`max_tv_pairs`. NaN where fewer than
+    two groups are present.
     """
     K, A, C = ct.shape
     big, small = (np.fmax, np.fmin) if nan else (np.maximum, np.minimum)
     if use_events(A, K):
         best = np.zeros(C)
-        sums: dict[int, FloatArray] = {}  # bit mask m of decisions -> P(S_m), shape (n_groups, chunk)
-        for m in range(1, 1 << max(K - 1, 0)):
-            low = m & -m
-            u = low.bit_length() - 1
-            sums[m] = ct[u] if m == low else sums[m ^ low] + ct[u]
-            np.maximum(best, big.reduce(sums[m], axis=0) - small.reduce(sums[m], axis=0), out=best)
+        for _, s in event_sums(ct):
+            np.maximum(best, big.reduce(s, axis=0) - small.reduce(s, axis=0), out=best)
         if nan:
             best[(~np.isnan(ct[0])).sum(axis=0) < 2] = np.nan
         return best

@@ -22,6 +22,7 @@ import numpy as np
 
 from ._arrays import BoolArray, FloatArray
 from ._confidence_sets import CellSets, SetMaker
+from ._errors import InputError
 
 
 def _dirichlet(rng: np.random.Generator, alpha: FloatArray, draws: int) -> FloatArray:
@@ -52,6 +53,20 @@ def band_sets(concentration: float, draws: int, seed: int) -> SetMaker:
     """
 
     def sets(cell_counts: FloatArray, group_counts: FloatArray, use_groups: bool, alpha: float) -> CellSets:
+        try:
+            return _sets(cell_counts, group_counts, use_groups, alpha)
+        except MemoryError:  # numpy's refusal to allocate the draws: say what they need and what to change
+            n = cell_counts.size + (group_counts.size if use_groups else 0)
+            need = draws * n * 8 * 3  # bytes: the draws, their ranks and their order, 8 bytes each
+            size = f"{need / 2**30:,.1f} GiB" if need >= 2**30 else f"{need / 2**20:,.1f} MiB"
+            raise InputError(
+                "draws",
+                f"{draws} posterior draws of {n:,} probabilities need about {size}, more than this machine"
+                " can allocate; use fewer `draws`, leave out small cells with `min_count`, or `method` multinomial",
+                draws,
+            ) from None
+
+    def _sets(cell_counts: FloatArray, group_counts: FloatArray, use_groups: bool, alpha: float) -> CellSets:
         rng = np.random.default_rng(seed)
         K = cell_counts.shape[-1]
         Kd = _dirichlet(rng, cell_counts + concentration / K, draws)

@@ -39,7 +39,7 @@ from ._arrays import (
     first_max,
     format_label,
     group_weights,
-    max_tv_pairs,
+    max_tv_pair,
     ratio_extremes,
     ratio_of_extremes,
     safe_log,
@@ -601,10 +601,9 @@ def _demographic_parity(law: Law, population: Population, dist: FloatArray) -> T
     notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
     if len(law.groups) < 2:
         return _total_variation("demographic_parity", 0.0, notes, law, population)
-    value, arg_a, arg_b = max_tv_pairs(dist)
-    if np.isnan(value):
+    value, a, b = max_tv_pair(dist)
+    if a is None or b is None:
         return _total_variation("demographic_parity", float("nan"), notes, law, population)
-    a, b = int(arg_a), int(arg_b)
     event = tuple(law.decisions[u] for u in np.flatnonzero(dist[a] > dist[b]))
     return _total_variation(
         "demographic_parity", float(value), notes, law, population, pair=(law.groups[a], law.groups[b]), event=event
@@ -667,14 +666,14 @@ def _equalized_odds(law: Law, population: Population | None, scan: TableScan) ->
     if not valid.any():
         return _total_variation("equalized_odds", float("nan"), notes, law, population)
     i = _tv_argmax(law, valid, scan)
-    # the value and pair in the maximising context by the pairwise definition (each unordered pair once)
-    tv, a, b = max_tv_pairs(law.probabilities[i : i + 1])
-    ai, bi = int(a[0]), int(b[0])
+    # the pair in the maximising context, in linear time; its value by the pairwise definition
+    tv, ai, bi = max_tv_pair(law.probabilities[i])
+    assert ai is not None and bi is not None  # (a valid context has two groups)
     row_a, row_b = law.probabilities[i, ai], law.probabilities[i, bi]
     event = tuple(law.decisions[u] for u in np.flatnonzero(row_a > row_b))
     return _total_variation(
         "equalized_odds",
-        float(tv[0]),
+        tv,
         notes,
         law,
         population,

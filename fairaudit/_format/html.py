@@ -22,6 +22,7 @@ them :class:`HtmlFormat` raises an :class:`~fairaudit.InputError` naming
 from __future__ import annotations
 
 import io
+import json
 import math
 import re
 from collections.abc import Callable, Sequence
@@ -381,8 +382,11 @@ def group_means(d: Report) -> list[tuple[object, int, float | None, tuple[float,
     """
     out: list[tuple[object, int, float | None, tuple[float, float] | None]] = []
     single = len(d["contexts"]) == 1
+    by_group: dict[str, list[Report]] = {}  # one pass over the cells (labels as JSON: lists are not hashable)
+    for c in d["cells"]:
+        by_group.setdefault(json.dumps(c["group"]), []).append(c)
     for g in d["groups"]:
-        cells = [c for c in d["cells"] if c["group"] == g["label"]]
+        cells = by_group.get(json.dumps(g["label"]), [])
         used = [c for c in cells if c["n"] and isinstance(c["expected_utility"], (int, float))]
         total = sum(c["n"] for c in used)
         mean = sum(c["n"] * c["expected_utility"] for c in used) / total if total else None

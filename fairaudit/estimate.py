@@ -31,10 +31,10 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import format_label
+from ._arrays import format_label, label_list
 from ._count_engine import Grouped, csv_group_by, parquet_group_by, parquet_source
 from ._csv_format import CsvFormat, FileKind, check_header, file_kind, read_text, same_repeats
-from ._errors import InputError
+from ._errors import InputError, echo
 from ._roles import check_roles, missing_values, roles
 from ._validation import columns
 from .laws import Law, Population
@@ -296,11 +296,11 @@ def _sample_weights(column: pd.Series, name: str) -> npt.NDArray[np.float64]:
 
     if not (pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)):
         first = next((v for v in column if not isinstance(v, (int, float, np.number)) or isinstance(v, bool)), None)
-        raise InputError(f"column {name!r}", "weights must be numbers", first)
+        raise InputError(f"column {echo(name)}", "weights must be numbers", first)
     w = column.to_numpy(dtype=np.float64)
     bad = ~np.isfinite(w) | (w < 0)
     if bad.any():
-        raise InputError(f"column {name!r}", "weights must be finite and >= 0", float(w[np.argmax(bad)]))
+        raise InputError(f"column {echo(name)}", "weights must be finite and >= 0", float(w[np.argmax(bad)]))
     return w
 
 
@@ -501,16 +501,16 @@ def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Serie
     values = pd.to_numeric(data[count], errors="coerce")
     if values.isna().any() or (values < 0).any():
         bad = data[count][values.isna() | (values < 0)].iloc[0]
-        raise InputError(f"column {count!r}", "must hold non-negative numbers", bad)
+        raise InputError(f"column {echo(count)}", "must hold non-negative numbers", bad)
     infinite = (
         np.zeros(0, dtype=bool) if pd.api.types.is_integer_dtype(values.dtype) else np.isinf(values.to_numpy(float))
     )
     if infinite.any():  # pandas reads "inf" as a number
         i = int(np.flatnonzero(infinite)[0])
-        cell = ", ".join(f"{c}={str(data[c].iloc[i])!r}" for c in labels)
+        cell = ", ".join(f"{c}={echo(str(data[c].iloc[i]))}" for c in labels)
         bad = data[count].iloc[i]
         bad = bad.item() if isinstance(bad, np.generic) else bad
-        raise InputError(f"column {count!r}", f"must hold finite numbers; data row {i + 1} ({cell}) is not", bad)
+        raise InputError(f"column {echo(count)}", f"must hold finite numbers; data row {i + 1} ({cell}) is not", bad)
     return values
 
 
@@ -548,8 +548,8 @@ def _label_codes(
     if mapped.isna().any():
         bad = keys[mapped.isna()].iloc[0]
         raise InputError(
-            f"column {columns[0]!r}" if len(columns) == 1 else f"columns {columns}",
-            f"value not among the {role} values {[format_label(v) for v in labels]}",
+            f"column {echo(columns[0])}" if len(columns) == 1 else f"columns {echo(columns)}",
+            f"value not among the {role} values {label_list(labels)}",
             bad,
         )
     return mapped.to_numpy(dtype=np.int64), labels

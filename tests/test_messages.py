@@ -1,0 +1,97 @@
+"""Issue 39, error lines: no numpy reprs, echoed values cut at 80 characters with their length, no empty field."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fairaudit import count_records
+from fairaudit._errors import ECHO_LIMIT, InputError, cut, echo
+from fairaudit._validation import real
+from tests._cli import run
+
+
+def test_echo_turns_numpy_scalars_into_python_numbers():
+    assert echo(np.float64("nan")) == "nan"
+    assert echo(np.int64(3)) == "3"
+    assert echo(np.bool_(True)) == "True"
+    assert echo([np.float32(0.5), "a"]) == "[0.5, 'a']"
+    assert str(InputError("tau", "must be positive", np.float64(-0.5))) == "tau: must be positive (got -0.5)"
+
+
+def test_echo_cuts_long_text_after_80_characters_and_gives_its_length():
+    label = "é" * 50_000_000  # a 50 MB label (100 MB in UTF-8)
+    text = echo(label)
+    assert text == repr("é" * ECHO_LIMIT) + "… (50000000 characters)"
+    assert echo("a" * 80) == repr("a" * 80)  # at the limit: whole
+    assert echo("a" * 81) == repr("a" * 80) + "… (81 characters)"
+    assert cut("b" * 81) == "b" * 80 + "… (81 characters)"
+    long_list = list(range(1000))
+    assert echo(long_list) == repr(long_list)[:80] + f"… ({len(repr(long_list))} characters)"
+
+
+def test_a_path_is_echoed_whole():
+    path = "/tmp/" + "deep/" * 30 + "records.csv"
+    assert echo(path) == repr(path)
+
+
+def test_numpy_nan_in_a_count_column_is_quoted_as_nan(tmp_path, capsys):
+    """numpy 2 printed ``(got np.float64(nan))``: a blank count field is read as NaN by pandas."""
+    path = tmp_path / "counts.csv"
+    path.write_text("g,y,n\na,1,3\nb,1,\nb,0,2\na,0,1\n")
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y", "--count", "n")
+    assert (code, err) == (2, "fairaudit: error: column 'n': must hold non-negative numbers (got nan)\n")
+
+
+def test_numpy_values_checked_in_python_are_quoted_as_python_numbers():
+    with pytest.raises(InputError) as info:
+        real(np.float64("inf"), "gamma")
+    assert "np." not in str(info.value) and str(info.value).endswith("(got inf)")
+
+
+def test_a_50_mb_label_is_not_echoed_in_full(capsys, tmp_path):
+    big = "L" * 5_000_000
+    path = tmp_path / "r.csv"
+    path.write_text(f"g,{big}\na,1\nb,0\n")
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y")
+    assert code == 2
+    assert err == (
+        "fairaudit: error: --outcome: unknown column; the data has: g, "
+        + "L" * 80
+        + "… (5000000 characters) (got 'y')\n"
+    )
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", big[:200])
+    assert code == 2 and err.endswith(f"(got {'L' * 80!r}… (200 characters))\n") and len(err) < 300
+
+
+def test_a_long_positive_value_and_outcome_labels_are_cut(capsys, tmp_path):
+    big = "yes" + "s" * 1000
+    path = tmp_path / "r.csv"
+    path.write_text(f"g,y\na,{big}\nb,no\n")
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y", "--positive", "x" * 500)
+    assert code == 2
+    assert err == (
+        f"fairaudit: error: --positive: is not a value of the outcome column; it has 'no', {big[:80]!r}… "
+        f"(1003 characters) (got {'x' * 80!r}… (500 characters))\n"
+    )
+
+
+def test_a_label_outside_a_given_alphabet_is_cut_with_the_alphabet():
+    from fairaudit.estimate import _label_codes
+
+    frame = pd.DataFrame({"g": ["a", "z" * 300]})
+    with pytest.raises(InputError) as info:
+        _label_codes(frame, ["g"], ["a", "b" * 200], "sensitive")
+    assert str(info.value) == (
+        f"column 'g': value not among the sensitive values ['a', '{'b' * 80}… (200 characters)'] "
+        f"(got {'z' * 80!r}… (300 characters))"
+    )
+
+
+def test_count_records_names_a_long_column_cut():
+    name = "w" * 120
+    frame = pd.DataFrame({"g": ["a", "b"], "y": [1, 0], name: ["x", "y"]})
+    with pytest.raises(InputError) as info:
+        count_records(frame, sensitive="g", outcome="y", weights=name)
+    assert str(info.value).startswith(f"column {'w' * 80!r}… (120 characters): weights must be numbers")

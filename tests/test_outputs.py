@@ -197,3 +197,14 @@ def test_file_size_limit_exits_2_with_the_flag_and_path(tmp_path, spec):
     assert done.returncode == 2, done.stderr
     assert done.stderr == "fairaudit: error: --output: cannot be written (File too large) (got 'out.json')\n"
     assert sorted(os.listdir(tmp_path)) == ["spec.toml"]  # neither the report nor a temporary file
+
+
+def test_a_system_error_without_a_file_name_has_no_empty_field(capsys, monkeypatch):
+    import fairaudit.cli.calibrate as calibrate
+
+    def fails(args):
+        raise OSError(errno.EFBIG, os.strerror(errno.EFBIG))
+
+    monkeypatch.setattr(calibrate, "run", fails)
+    code, _, err = run(capsys, "calibrate", "--target", "1")
+    assert (code, err) == (2, "fairaudit: error: File too large\n")

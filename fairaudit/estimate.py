@@ -32,7 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._arrays import format_label, label_list
-from ._count_engine import Grouped, csv_group_by, parquet_group_by, parquet_source
+from ._count_engine import Grouped, csv_group_by, engine_error, parquet_group_by, parquet_source
 from ._csv_format import CsvFormat, FileKind, check_header, file_kind, read_text, same_repeats
 from ._errors import InputError, echo
 from ._roles import check_roles, missing_values, roles
@@ -581,7 +581,9 @@ def _parquet_counts(
     keys = list(dict.fromkeys(context + sensitive + [outcome]))
     try:
         grouped = parquet_group_by(schema, files, keys)
-    except (duckdb.Error, pa.ArrowException, OSError) as exc:
+    except duckdb.Error as exc:
+        raise engine_error(exc, path) from None
+    except (pa.ArrowException, OSError) as exc:
         raise _cannot_read(path, exc) from None
     return _tally_grouped(grouped, sensitive, outcome, context, dropna)
 
@@ -625,10 +627,16 @@ def count_file(
       column's type (integers, floats, booleans, text) and its missing
       values (``""``, ``"NA"``, ``"nan"``, ..., and ``na_values``) from the
       set of its distinct fields, so each value is what :func:`read_records`
-      gives. A file that DuckDB cannot read in that dialect, or might split
-      into fields differently (a blank first line, a space next to a double
-      quote, a single column, rows of unequal length), is read whole by
-      pandas instead, as before.
+      gives. A file that DuckDB might split into fields differently (a
+      blank first line, a space next to a double quote, a single column,
+      rows of unequal length) is read whole by pandas instead, as before
+      (decided before DuckDB runs), and so is text DuckDB cannot parse in
+      that dialect (a byte that is not UTF-8): pandas reports it.
+    - When DuckDB fails otherwise (out of memory, input/output), no other
+      reader is tried: the error says what DuckDB said, and for memory its
+      ``memory_limit`` and what to try. The environment variable
+      ``FAIRAUDIT_DUCKDB_MEMORY_LIMIT`` (``8GB``, ``500MB``, ``50%``) sets
+      that limit; unset, DuckDB takes 80% of the machine's memory.
     - Other text (other compressions, other separators, or
       ``csv.skip_initial_space``) is read whole by pandas
       (:func:`read_records`).
@@ -668,7 +676,8 @@ def count_file(
         False (``column 'x': has N missing values ...``), no records, and for
         count tables the errors of :func:`count_table`; the errors of
         :func:`read_records` (two columns of the same name, ``csv`` options
-        for a Parquet file, ``csv.names`` not one per field).
+        for a Parquet file, ``csv.names`` not one per field); DuckDB's failure
+        (``DATA: DuckDB ran out of memory counting it (memory_limit ...)``).
 
     Examples
     --------

@@ -74,13 +74,30 @@ def test_a_figure_goes_through_a_named_pipe_too(tmp_path, spec, capsys):
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
 
 
-@pytest.mark.skipif(not os.access(os.devnull, os.W_OK), reason="/dev/null is not writable here")
-def test_dev_null_stays_a_device(spec, capsys):
-    before = os.stat(os.devnull)
-    code, out, err = run(capsys, "certify", spec, "--output", os.devnull)
-    after = os.stat(os.devnull)
+@pytest.fixture
+def null_device(tmp_path):
+    """A null character device: as root, a fresh one in ``tmp_path`` (``mknod``), so that a writer that replaces
+    devices breaks only its own copy, never the machine's /dev/null; otherwise /dev/null (which a user cannot
+    replace)."""
+    if os.geteuid() != 0:
+        if not os.access(os.devnull, os.W_OK):
+            pytest.skip("/dev/null is not writable here")
+        return os.devnull
+    path = tmp_path / "null"
+    try:
+        os.mknod(path, 0o666 | stat.S_IFCHR, os.stat(os.devnull).st_rdev)
+    except OSError as exc:
+        pytest.skip(f"cannot make a device here ({exc.strerror})")
+    return str(path)
+
+
+def test_a_null_device_stays_a_device(spec, capsys, null_device):
+    before = os.stat(null_device)
+    assert stat.S_ISCHR(before.st_mode)
+    code, out, err = run(capsys, "certify", spec, "--output", null_device)
+    after = os.stat(null_device)
     assert (code, out) == (0, "")
-    assert err.endswith(f"report written to {os.devnull}\n")
+    assert err.endswith(f"report written to {null_device}\n")
     assert stat.S_ISCHR(after.st_mode) and (after.st_ino, after.st_rdev) == (before.st_ino, before.st_rdev)
 
 
@@ -208,3 +225,124 @@ def test_a_system_error_without_a_file_name_has_no_empty_field(capsys, monkeypat
     monkeypatch.setattr(calibrate, "run", fails)
     code, _, err = run(capsys, "calibrate", "--target", "1")
     assert (code, err) == (2, "fairaudit: error: File too large\n")
+
+
+# --- the counting engine's errors: no second reader, and what an out-of-memory error is ---
+
+
+def _records_file(tmp_path, kind):
+    import pandas as pd
+
+    frame = pd.DataFrame({"g": [f"g{i}" for i in range(20_000)], "y": [i % 2 for i in range(20_000)]})
+    path = tmp_path / f"r.{kind}"
+    if kind == "csv":
+        frame.to_csv(path, index=False)
+    else:
+        pytest.importorskip("pyarrow")
+        frame.to_parquet(path)
+    return path
+
+
+@pytest.mark.parametrize("kind", ["csv", "parquet"])
+def test_duckdb_out_of_memory_says_so_with_its_limit_and_reads_nothing_else(tmp_path, capsys, monkeypatch, kind):
+    """A real out-of-memory error (memory_limit 1MB); pandas must not read the file behind it."""
+    pytest.importorskip("duckdb")
+    import pandas as pd
+
+    path = _records_file(tmp_path, kind)
+    monkeypatch.setenv("FAIRAUDIT_DUCKDB_MEMORY_LIMIT", "1MB")
+
+    name = "read_csv" if kind == "csv" else "read_parquet"
+    real_reader = getattr(pd, name)
+
+    def no_second_reader(*args, **kwargs):
+        if kwargs.get("nrows") in (0, 1):  # the header, read before DuckDB runs (a first step, not a fallback)
+            return real_reader(*args, **kwargs)
+        raise AssertionError("pandas read the whole file after DuckDB failed")
+
+    monkeypatch.setattr(pd, name, no_second_reader)
+    code, out, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y")
+    assert (code, out) == (2, "")
+    assert err.startswith(
+        "fairaudit: error: DATA: DuckDB ran out of memory counting it (memory_limit 976.5 KiB, "
+        "set by FAIRAUDIT_DUCKDB_MEMORY_LIMIT=1MB; Out of Memory Error: "
+    )
+    assert err.endswith(
+        "give it more memory (FAIRAUDIT_DUCKDB_MEMORY_LIMIT, e.g. 8GB, on a machine that has it), "
+        f"or count a smaller file or fewer columns (got {str(path)!r})\n"
+    )
+    assert "cannot be read" not in err and err.count("\n") == 1
+
+
+def test_duckdb_out_of_memory_at_the_default_limit_names_it(tmp_path, capsys, monkeypatch):
+    duckdb = pytest.importorskip("duckdb")
+    import fairaudit._count_engine as engine
+
+    path = _records_file(tmp_path, "csv")
+    monkeypatch.delenv("FAIRAUDIT_DUCKDB_MEMORY_LIMIT", raising=False)
+    real_connection = engine.duckdb_connection
+    limit = real_connection().execute("SELECT current_setting('memory_limit')").fetchone()[0]
+
+    class Failing:
+        def __init__(self):
+            self.con = real_connection()
+
+        def execute(self, sql, *args):
+            if "GROUP BY" in sql:
+                raise duckdb.OutOfMemoryException("Out of Memory Error: could not allocate block of size 256.0 KiB")
+            return self.con.execute(sql, *args)
+
+        def close(self):
+            self.con.close()
+
+    monkeypatch.setattr(engine, "duckdb_connection", Failing)
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y")
+    assert code == 2
+    assert err.startswith(
+        f"fairaudit: error: DATA: DuckDB ran out of memory counting it (memory_limit {limit}, DuckDB's default, "
+        "80% of the memory; Out of Memory Error: could not allocate block of size 256.0 KiB): give it more memory"
+    )
+
+
+def test_other_duckdb_failures_are_duckdbs_own_line(tmp_path, capsys, monkeypatch):
+    duckdb = pytest.importorskip("duckdb")
+    import fairaudit._count_engine as engine
+
+    path = _records_file(tmp_path, "csv")
+
+    class Failing:
+        def execute(self, sql, *args):
+            raise duckdb.IOException("IO Error: Could not read from file: Input/output error")
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(engine, "duckdb_connection", Failing)
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y")
+    assert (code, err) == (
+        2,
+        "fairaudit: error: DATA: cannot be read by DuckDB (IOException: IO Error: Could not read from file: "
+        f"Input/output error) (got {str(path)!r})\n",
+    )
+
+
+def test_a_memory_limit_duckdb_cannot_read_is_refused(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("duckdb")
+    path = _records_file(tmp_path, "csv")
+    monkeypatch.setenv("FAIRAUDIT_DUCKDB_MEMORY_LIMIT", "lots")
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y")
+    assert (code, err) == (
+        2,
+        "fairaudit: error: FAIRAUDIT_DUCKDB_MEMORY_LIMIT: is not a memory size DuckDB reads, such as 4GB or "
+        "500MB (Parser Error: Memory must have a number (e.g. 1GB)) (got 'lots')\n",
+    )
+
+
+def test_a_memory_limit_that_suffices_counts_as_before(tmp_path, monkeypatch):
+    pytest.importorskip("duckdb")
+    from fairaudit import count_file
+
+    path = _records_file(tmp_path, "csv")
+    monkeypatch.setenv("FAIRAUDIT_DUCKDB_MEMORY_LIMIT", "2GB")
+    table = count_file(path, sensitive="g", outcome="y")
+    assert table.counts.sum() == 20_000 and len(table.groups) == 20_000

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -9,7 +11,7 @@ import pytest
 from fairaudit import count_records
 from fairaudit._errors import ECHO_LIMIT, InputError, cut, echo
 from fairaudit._validation import real
-from tests._cli import run
+from tests._cli import OFFICE_SPEC, run
 
 
 def test_echo_turns_numpy_scalars_into_python_numbers():
@@ -95,3 +97,36 @@ def test_count_records_names_a_long_column_cut():
     with pytest.raises(InputError) as info:
         count_records(frame, sensitive="g", outcome="y", weights=name)
     assert str(info.value).startswith(f"column {'w' * 80!r}… (120 characters): weights must be numbers")
+
+
+TASK_FILES = sorted(
+    str(p)
+    for folder in ("examples/tasks", "fairaudit/experiments/tasks")
+    for p in (Path(__file__).resolve().parents[1] / folder).glob("*.toml")
+)
+
+
+@pytest.mark.parametrize("task", TASK_FILES, ids=[Path(t).name for t in TASK_FILES])
+def test_certify_on_a_task_file_says_what_to_run(task, capsys):
+    """It said ``sensitive: is required``."""
+    code, out, err = run(capsys, "certify", task)
+    assert (code, out) == (2, "")
+    assert err == (
+        f"fairaudit: error: {task}: is a task file (it has [task] and [prompt]), not a spec: run `fairaudit "
+        f"experiment {task} --out DIR` with a model, which writes the specs (DIR/spec-eps-*.toml) that certify reads\n"
+    )
+
+
+def test_calibrate_with_a_task_file_as_spec_says_so_too(capsys, tmp_path):
+    task = tmp_path / "mine.toml"  # the least a task file has: its [task] and [prompt]
+    task.write_text('[task]\ncandidates = 2\ndecision = "choose"\n[prompt]\nuser = "Pick one."\n')
+    code, _, err = run(capsys, "calibrate", "--target", "1", "--spec", task)
+    assert code == 2 and err.startswith(f"fairaudit: error: {task}: is a task file (it has [task] and [prompt])")
+    assert err.count("\n") == 1
+
+
+def test_a_spec_with_its_sensitive_table_is_not_taken_for_a_task_file(tmp_path, capsys):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(OFFICE_SPEC + '[task]\nname = "x"\n')  # a stray [task] table beside [sensitive]
+    code, _, err = run(capsys, "certify", spec)
+    assert code == 2 and "task file" not in err and "task" in err

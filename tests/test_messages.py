@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -130,3 +134,45 @@ def test_a_spec_with_its_sensitive_table_is_not_taken_for_a_task_file(tmp_path, 
     spec.write_text(OFFICE_SPEC + '[task]\nname = "x"\n')  # a stray [task] table beside [sensitive]
     code, _, err = run(capsys, "certify", spec)
     assert code == 2 and "task file" not in err and "task" in err
+
+
+HUGE_EPSILON_SPEC = OFFICE_SPEC.replace("keep = 0.7", "epsilon = 1e308") + "tau = 0.1\n"
+
+
+def test_a_huge_epsilon_draws_the_html_figure_without_a_warning(tmp_path):
+    """``epsilon = 1e308`` printed matplotlib's ``RuntimeWarning: overflow encountered in multiply`` on stderr."""
+    pytest.importorskip("matplotlib")
+    spec = tmp_path / "spec.toml"
+    spec.write_text(HUGE_EPSILON_SPEC)
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    script = "import sys; from fairaudit.cli import main; sys.exit(main(sys.argv[1:]))"
+    done = subprocess.run(
+        [sys.executable, "-c", script, "certify", str(spec), "--format", "html", "--output", "r.html"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == (  # the black-box bound: ln(1 / tau) = ln 10, whatever epsilon
+        "certified: yes; best bound 2.302585092994046 nats (black_box); report written to r.html\n"
+    )
+    assert "<svg" in (tmp_path / "r.html").read_text()
+
+
+def test_a_huge_epsilon_curve_is_refused_in_one_line_not_a_traceback(tmp_path, capsys):
+    """``--plot`` ended in matplotlib's OverflowError (a traceback) after its RuntimeWarnings."""
+    pytest.importorskip("matplotlib")
+    spec = tmp_path / "spec.toml"
+    spec.write_text(HUGE_EPSILON_SPEC)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any warning would be an error here
+        code, out, err = run(capsys, "certify", spec, "--plot", tmp_path / "c.png", "--epsilons", "0:3:5")
+    assert (code, out) == (2, "")
+    assert err == (
+        "fairaudit: error: --epsilons: the curve's grid of epsilon reaches 1e+308 nats (the spec's own epsilon, "
+        "always on it), beyond what a figure's axis can show (1e+300 nats): no figure of this spec's curve\n"
+    )
+    assert not (tmp_path / "c.png").exists()

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, SupportsIndex, TypeAlias
 import numpy as np
 import numpy.typing as npt
 
-from ._errors import InputError
+from ._errors import InputError, cut
 
 if TYPE_CHECKING:
     from concurrent.futures import Future
@@ -232,6 +232,22 @@ def format_label(label: object) -> str:
     if isinstance(label, str) and (not text or text != text.strip()):
         return repr(text)  # the spaces a reader would not see (a CSV field after ", "), or an empty label
     return text
+
+
+def label_list(labels: Sequence[object], most: int = 20) -> str:
+    """Labels as a message lists them: each by :func:`format_label`, cut after 80 characters, the first ``most``.
+
+    Examples
+    --------
+    >>> label_list(["a", ("b", 1)])
+    "['a', 'b & 1']"
+    >>> label_list(range(30), most=2)
+    "['0', '1', ... (30 in all)]"
+    """
+    shown = [cut(format_label(v)) for v in list(labels)[:most]]
+    if len(labels) <= most:
+        return repr(shown)
+    return repr(shown)[:-1] + f", ... ({len(labels)} in all)]"
 
 
 def as_float_array(values: object, field: str, ndim: int | None = None, *, copy: bool = True) -> FloatArray:

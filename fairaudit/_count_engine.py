@@ -26,13 +26,22 @@ import numpy as np
 import numpy.typing as npt
 
 from ._csv_format import CsvFormat, FileKind
+from ._errors import InputError
 
 if TYPE_CHECKING:
     import pandas as pd
     import pyarrow as pa
     import pyarrow.dataset as ds
 
-__all__ = ["Grouped", "csv_group_by", "parquet_group_by", "parquet_source", "sql_identifier"]
+__all__ = [
+    "MEMORY_LIMIT_VARIABLE",
+    "Grouped",
+    "csv_group_by",
+    "engine_error",
+    "parquet_group_by",
+    "parquet_source",
+    "sql_identifier",
+]
 
 _GLOB = frozenset("*?[]{}")  # characters DuckDB may expand in a file name
 
@@ -57,7 +66,11 @@ def count_name(names: Sequence[str]) -> str:
     return name
 
 
-_DATABASE: dict[int, Any] = {}  # process id -> fairaudit's own in-memory DuckDB database
+MEMORY_LIMIT_VARIABLE = "FAIRAUDIT_DUCKDB_MEMORY_LIMIT"
+"""The environment variable that sets DuckDB's ``memory_limit`` (``4GB``, ``500MB``, ``50%``); unset, DuckDB's default
+(80% of the machine's memory)."""
+
+_DATABASE: dict[tuple[int, str | None], Any] = {}  # (process id, memory limit) -> fairaudit's own DuckDB database
 
 
 def duckdb_connection() -> Any:
@@ -66,14 +79,57 @@ def duckdb_connection() -> Any:
     The database is made once per process (a connection to a new database
     costs tens of milliseconds; one to an open database, under one); a forked
     child makes its own, and leaves its parent's alone. Close the connection
-    after use. DuckDB runs a query on as many threads as there are cores.
+    after use. DuckDB runs a query on as many threads as there are cores, within
+    the memory limit of :data:`MEMORY_LIMIT_VARIABLE` when it is set.
+
+    Raises
+    ------
+    InputError
+        When :data:`MEMORY_LIMIT_VARIABLE` is not a size DuckDB reads.
     """
     import duckdb
 
-    pid = os.getpid()
-    if pid not in _DATABASE:
-        _DATABASE[pid] = duckdb.connect(":memory:")
-    return _DATABASE[pid].cursor()
+    limit = os.environ.get(MEMORY_LIMIT_VARIABLE) or None
+    key = (os.getpid(), limit)
+    if key not in _DATABASE:
+        config: dict[str, Any] = {} if limit is None else {"memory_limit": limit}
+        try:
+            _DATABASE[key] = duckdb.connect(":memory:", config=config)
+        except duckdb.Error as exc:
+            first = (str(exc).splitlines() or [""])[0]
+            raise InputError(
+                MEMORY_LIMIT_VARIABLE, f"is not a memory size DuckDB reads, such as 4GB or 500MB ({first})", limit
+            ) from None
+    return _DATABASE[key].cursor()
+
+
+def engine_error(exc: Exception, path: str | os.PathLike[str]) -> InputError:
+    """DuckDB's failure on the file ``path`` as one line that says what it is (never a second reader's guess).
+
+    Out of memory: DuckDB's ``memory_limit``, where it comes from and what to
+    try. Anything else: DuckDB's own first line.
+    """
+    import duckdb
+
+    first = (str(exc).splitlines() or [""])[0]
+    if not isinstance(exc, duckdb.OutOfMemoryException):
+        return InputError("DATA", f"cannot be read by DuckDB ({type(exc).__name__}: {first})", os.fspath(path))
+    try:
+        con = duckdb_connection()
+        try:
+            limit = str(con.execute("SELECT current_setting('memory_limit')").fetchone()[0])
+        finally:
+            con.close()
+    except Exception:  # noqa: BLE001 - the limit is only named when DuckDB can still say it
+        limit = "unknown"
+    given = os.environ.get(MEMORY_LIMIT_VARIABLE)
+    source = f"set by {MEMORY_LIMIT_VARIABLE}={given}" if given else "DuckDB's default, 80% of the memory"
+    return InputError(
+        "DATA",
+        f"DuckDB ran out of memory counting it (memory_limit {limit}, {source}; {first}): give it more memory "
+        f"({MEMORY_LIMIT_VARIABLE}, e.g. 8GB, on a machine that has it), or count a smaller file or fewer columns",
+        os.fspath(path),
+    )
 
 
 @contextmanager
@@ -426,13 +482,23 @@ def csv_group_by(
     ``kind`` gives the separator and compression (default: a plain CSV file),
     ``fmt`` the reading options (a header or ``names``, ``sep``, ``na_values``).
     None where the exact result is left to pandas (the caller reads the whole
-    file then, as :func:`fairaudit.estimate.read_records` does): a compression
-    other than gzip, a separator outside :data:`DUCKDB_SEPARATORS`,
-    ``skip_initial_space``, a file DuckDB cannot read with pandas' dialect or
-    might read differently (:func:`csv_regular`), one column (pandas skips
-    its blank lines, DuckDB reads them as missing), an unknown column (pandas
+    file then, as :func:`fairaudit.estimate.read_records` does), decided
+    before DuckDB runs: a compression other than gzip, a separator outside
+    :data:`DUCKDB_SEPARATORS`, ``skip_initial_space``, a file DuckDB might
+    read differently (:func:`csv_regular`), one column (pandas skips its
+    blank lines, DuckDB reads them as missing), an unknown column (pandas
     reports it), and the columns whose values depend on the order of the
-    fields (:func:`as_read_csv`).
+    fields (:func:`as_read_csv`); and text DuckDB cannot parse in that
+    dialect (its ``InvalidInputException`` or ``ConversionException``, such as
+    a byte that is not UTF-8), whose error is then pandas', as
+    :func:`fairaudit.estimate.read_records` gives it. When DuckDB fails for
+    any other reason (out of memory, input/output, interrupted) nothing else
+    reads the file: the error says why (:func:`engine_error`).
+
+    Raises
+    ------
+    InputError
+        DuckDB's failure (:func:`engine_error`), or the file cannot be opened.
     """
     import duckdb
     import pandas as pd
@@ -462,8 +528,12 @@ def csv_group_by(
         with glob_free([os.path.abspath(p)]) as (plain,):
             parameters = [plain, dict.fromkeys(names, "VARCHAR"), kind.compression or "none", fmt.header, sep]
             result = con.execute(sql, parameters).fetchnumpy()
-    except (duckdb.Error, OSError):
-        return None
+    except (duckdb.InvalidInputException, duckdb.ConversionException):
+        return None  # text DuckDB cannot parse in pandas' dialect (a Latin-1 byte): pandas, the reference, reports it
+    except duckdb.Error as exc:  # out of memory, input/output, interrupted: no second reader, DuckDB's reason
+        raise engine_error(exc, p) from None
+    except OSError as exc:
+        raise InputError("DATA", f"cannot be read ({exc.strerror or exc})", str(p)) from None
     finally:
         con.close()
     raw = list(result.values())

@@ -16,7 +16,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ._errors import InputError
+from ._errors import InputError, echo
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -221,6 +221,6 @@ def same_repeats(frame: pd.DataFrame, repeated: dict[str, list[int]], used: Iter
         if any(not frame.iloc[:, positions[0]].equals(frame.iloc[:, j]) for j in positions[1:]):
             raise InputError(
                 "DATA",
-                f"names column {name!r} {len(positions)} times, with different values; rename all but one",
+                f"names column {echo(name)} {len(positions)} times, with different values; rename all but one",
                 str(path),
             )

@@ -7,7 +7,9 @@ offending value. The command-line interface prints it and exits with status 2.
 
 from __future__ import annotations
 
-__all__ = ["FairauditError", "InputError"]
+import os
+
+__all__ = ["ECHO_LIMIT", "FairauditError", "InputError", "cut", "echo"]
 
 
 class FairauditError(Exception):
@@ -25,7 +27,8 @@ class InputError(FairauditError, ValueError):
     problem : str
         What is wrong, in a few words.
     value : object, optional
-        The offending value; quoted with ``repr`` in the message.
+        The offending value; quoted in the message by :func:`echo` (``repr``,
+        numpy scalars as Python numbers, cut after :data:`ECHO_LIMIT` characters).
 
     Examples
     --------
@@ -41,7 +44,7 @@ class InputError(FairauditError, ValueError):
         self.value = value
         text = f"{field}: {problem}"
         if value is not InputError._missing:
-            text += f" (got {_short_repr(value)})"
+            text += f" (got {echo(value)})"
         super().__init__(text)
 
     def under(self, field: str, keep_own: bool = True) -> InputError:
@@ -60,7 +63,77 @@ class InputError(FairauditError, ValueError):
         return InputError(field, problem, self.value)
 
 
-def _short_repr(value: object, limit: int = 120) -> str:
-    text = repr(value)
-    text = " ".join(text.split())
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+ECHO_LIMIT = 80
+"""How many characters of a value :func:`echo` shows before it cuts it."""
+
+PATH_LIMIT = 1024
+"""The longest text with a ``/`` that :func:`echo` quotes whole, as a file path."""
+
+
+def echo(value: object, limit: int = ECHO_LIMIT) -> str:
+    """A value as an error message quotes it: its ``repr``, numpy scalars as Python ones, cut to ``limit`` characters.
+
+    Text longer than ``limit`` shows the ``repr`` of its first ``limit``
+    characters, then ``…`` and its length; other values longer than that as
+    ``repr`` show its first ``limit`` characters, then ``…`` and the length
+    of the ``repr``. A numpy scalar (``np.float64(nan)`` in numpy 2) is
+    quoted as the Python number it holds (``nan``), also inside a tuple or
+    list. Line breaks in a ``repr`` (a numpy array's) become spaces. A file
+    path is quoted whole, since its end names the file: an ``os.PathLike``,
+    or text with a ``/`` of at most :data:`PATH_LIMIT` characters and no
+    line break.
+
+    Parameters
+    ----------
+    value : object
+        What the user gave: a label, a column's name, a field, a number.
+    limit : int
+        Characters shown (default :data:`ECHO_LIMIT`).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> echo("Male"), echo(np.float64("nan")), echo((np.int64(1), "a"))
+    ("'Male'", 'nan', "(1, 'a')")
+    >>> echo("x" * 1_000_000, limit=5)
+    "'xxxxx'… (1000000 characters)"
+    >>> echo("/data/" + "2024/" * 20 + "applicants.csv") == repr("/data/" + "2024/" * 20 + "applicants.csv")
+    True
+    """
+    if isinstance(value, os.PathLike):
+        value = os.fspath(value)
+    value = _plain(value)
+    if isinstance(value, str) and len(value) <= PATH_LIMIT and os.sep in value and "\n" not in value:
+        return repr(value)
+    if isinstance(value, (str, bytes)):
+        return repr(value) if len(value) <= limit else f"{value[:limit]!r}… ({len(value)} characters)"
+    text = " ".join(repr(value).split())
+    if len(text) > limit:
+        return f"{text[:limit]}… ({len(text)} characters)"
+    return text
+
+
+def cut(text: object, limit: int = ECHO_LIMIT) -> str:
+    """``str(text)`` as a message shows it unquoted (a column's name in a list): cut after ``limit`` characters.
+
+    Examples
+    --------
+    >>> cut("race"), cut("y" * 100, limit=3)
+    ('race', 'yyy… (100 characters)')
+    """
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"
+
+
+def _plain(value: object) -> object:
+    """``value`` with numpy scalars (also in a tuple or list) as the Python scalars they hold."""
+    if type(value).__module__ == "numpy" and getattr(value, "shape", None) == () and hasattr(value, "item"):
+        return value.item()
+    if isinstance(value, (tuple, list)) and any(type(v).__module__ == "numpy" for v in value):
+        items = [_plain(v) for v in value]
+        return tuple(items) if isinstance(value, tuple) else items
+    return value

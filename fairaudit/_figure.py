@@ -14,7 +14,7 @@ import numpy.typing as npt
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["INFINITY_LABEL", "coincide", "mark_infinite"]
+__all__ = ["AXIS_LIMIT", "INFINITY_LABEL", "coincide", "mark_infinite", "on_scale"]
 
 
 def coincide(a: npt.ArrayLike, b: npt.ArrayLike) -> bool:
@@ -32,6 +32,24 @@ def coincide(a: npt.ArrayLike, b: npt.ArrayLike) -> bool:
     if not np.array_equal(fx, fy) or not np.array_equal(x[~fx & ~np.isnan(x)], y[~fy & ~np.isnan(y)]):
         return False
     return bool(np.allclose(x[fx], y[fy], rtol=1e-9, atol=1e-12))
+
+
+AXIS_LIMIT = 1e300
+"""The largest value a figure puts on an axis: matplotlib's tick locator overflows (a RuntimeWarning, then an
+OverflowError) when an axis reaches toward the largest float, 1.8e308."""
+
+
+def on_scale(values: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """``values`` as floats, those above :data:`AXIS_LIMIT` as +inf: drawn at the top edge, as +inf is.
+
+    Examples
+    --------
+    >>> on_scale([0.5, 1e308, np.inf]).tolist()
+    [0.5, inf, inf]
+    """
+    v = np.array(values, dtype=float)
+    v[v > AXIS_LIMIT] = np.inf
+    return v
 
 
 INFINITY_LABEL = "+∞ (drawn at the top edge)"

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 
-from ._errors import InputError
+from ._errors import InputError, echo
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -105,7 +105,7 @@ def _columns(
         raise InputError(param, "must be one value per record (one column)", list(named))
     for name, column in named.items():
         if column.ndim != 1:
-            raise InputError(param, f"column {name!r} must be one value per record", column.shape)
+            raise InputError(param, f"column {echo(name)} must be one value per record", column.shape)
         if n is not None and len(column) != n:
             raise InputError(param, f"has {len(column)} rows where y_pred has {n}", name)
     return named

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Hashable, Iterable, Sequence
 
-from ._errors import InputError
+from ._errors import InputError, echo
 from ._validation import columns
 
 __all__ = ["check_roles", "missing_values", "roles"]
@@ -43,4 +43,4 @@ def check_roles(names: Iterable[Hashable], sensitive: Sequence[str], outcome: st
 
 def missing_values(column: Hashable, n: float) -> InputError:
     """The error for ``n`` missing values in ``column`` (when they are not to be dropped)."""
-    return InputError(f"column {column!r}", f"has {int(n)} missing values (drop those rows: `dropna`)")
+    return InputError(f"column {echo(column)}", f"has {int(n)} missing values (drop those rows: `dropna`)")

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ._errors import InputError
+from ._errors import InputError, cut
 
 __all__ = ["choice", "columns", "epsilon", "level", "nonnegative", "real", "whole"]
 
@@ -182,6 +182,6 @@ def columns(value: Sequence[str], name: str, available: Iterable[Hashable]) -> l
     names = list(available)
     for c in value:
         if c not in names:
-            shown = ", ".join(map(str, names[:12])) + (", ..." if len(names) > 12 else "")
+            shown = ", ".join(map(cut, names[:12])) + (", ..." if len(names) > 12 else "")
             raise InputError(name, f"unknown column; the data has: {shown}", c)
     return list(value)

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, TypeGuard, cast
 import numpy as np
 
 from ._arrays import format_label
-from ._errors import InputError
+from ._errors import InputError, cut, echo
 from ._json import Report, label, number
 from ._observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
 from ._records_arrays import ArrayLike, records_from_arrays
@@ -300,7 +300,7 @@ def _positive_utility(positive: Hashable, decisions: tuple) -> Utility:
 
 def _shown(label: Hashable) -> str:
     """A label in a message: text quoted (its spaces seen), anything else as reports show it."""
-    return repr(label) if isinstance(label, str) else format_label(label)
+    return echo(label) if isinstance(label, str) else cut(format_label(label))
 
 
 def _is_spark_frame(data: object) -> bool:
@@ -535,11 +535,11 @@ def _audit_utility(table: CountTable, positive: Hashable | None, utility: str | 
         first, second = (_shown(d) for d in table.decisions)
         raise InputError(
             "positive",
-            f"the outcome {table.outcome_column!r} has two values, {first} and {second}: say which one is "
+            f"the outcome {echo(table.outcome_column)} has two values, {first} and {second}: say which one is "
             f"positive with `positive` (for example {second}), or give a `utility`",
         )
     raise InputError(
         "positive",
-        f"the outcome {table.outcome_column!r} has {len(table.decisions)} values, not 0/1; say which value is "
+        f"the outcome {echo(table.outcome_column)} has {len(table.decisions)} values, not 0/1; say which value is "
         "positive (`positive`) or give a `utility`",
     )

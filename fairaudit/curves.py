@@ -240,6 +240,7 @@ def default_epsilons(spec_epsilon: float | None = None, n: int = 61) -> FloatArr
     top = 5.0
     if spec_epsilon is not None and math.isfinite(spec_epsilon) and spec_epsilon > 0:
         top = 1.5 * float(spec_epsilon)
+        top = top if math.isfinite(top) else float(spec_epsilon)  # 1.5 x beyond the largest float: the point itself
     grid = np.linspace(0.0, top, int(n))
     return _with_point(grid, spec_epsilon)
 

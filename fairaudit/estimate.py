@@ -31,10 +31,10 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 import numpy as np
 import numpy.typing as npt
 
-from ._arrays import format_label
-from ._count_engine import Grouped, csv_group_by, parquet_group_by, parquet_source
+from ._arrays import format_label, label_list
+from ._count_engine import Grouped, csv_group_by, engine_error, parquet_group_by, parquet_source
 from ._csv_format import CsvFormat, FileKind, check_header, file_kind, read_text, same_repeats
-from ._errors import InputError
+from ._errors import InputError, echo
 from ._roles import check_roles, missing_values, roles
 from ._validation import columns
 from .laws import Law, Population
@@ -296,11 +296,11 @@ def _sample_weights(column: pd.Series, name: str) -> npt.NDArray[np.float64]:
 
     if not (pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)):
         first = next((v for v in column if not isinstance(v, (int, float, np.number)) or isinstance(v, bool)), None)
-        raise InputError(f"column {name!r}", "weights must be numbers", first)
+        raise InputError(f"column {echo(name)}", "weights must be numbers", first)
     w = column.to_numpy(dtype=np.float64)
     bad = ~np.isfinite(w) | (w < 0)
     if bad.any():
-        raise InputError(f"column {name!r}", "weights must be finite and >= 0", float(w[np.argmax(bad)]))
+        raise InputError(f"column {echo(name)}", "weights must be finite and >= 0", float(w[np.argmax(bad)]))
     return w
 
 
@@ -501,16 +501,16 @@ def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Serie
     values = pd.to_numeric(data[count], errors="coerce")
     if values.isna().any() or (values < 0).any():
         bad = data[count][values.isna() | (values < 0)].iloc[0]
-        raise InputError(f"column {count!r}", "must hold non-negative numbers", bad)
+        raise InputError(f"column {echo(count)}", "must hold non-negative numbers", bad)
     infinite = (
         np.zeros(0, dtype=bool) if pd.api.types.is_integer_dtype(values.dtype) else np.isinf(values.to_numpy(float))
     )
     if infinite.any():  # pandas reads "inf" as a number
         i = int(np.flatnonzero(infinite)[0])
-        cell = ", ".join(f"{c}={str(data[c].iloc[i])!r}" for c in labels)
+        cell = ", ".join(f"{c}={echo(str(data[c].iloc[i]))}" for c in labels)
         bad = data[count].iloc[i]
         bad = bad.item() if isinstance(bad, np.generic) else bad
-        raise InputError(f"column {count!r}", f"must hold finite numbers; data row {i + 1} ({cell}) is not", bad)
+        raise InputError(f"column {echo(count)}", f"must hold finite numbers; data row {i + 1} ({cell}) is not", bad)
     return values
 
 
@@ -548,8 +548,8 @@ def _label_codes(
     if mapped.isna().any():
         bad = keys[mapped.isna()].iloc[0]
         raise InputError(
-            f"column {columns[0]!r}" if len(columns) == 1 else f"columns {columns}",
-            f"value not among the {role} values {[format_label(v) for v in labels]}",
+            f"column {echo(columns[0])}" if len(columns) == 1 else f"columns {echo(columns)}",
+            f"value not among the {role} values {label_list(labels)}",
             bad,
         )
     return mapped.to_numpy(dtype=np.int64), labels
@@ -581,7 +581,9 @@ def _parquet_counts(
     keys = list(dict.fromkeys(context + sensitive + [outcome]))
     try:
         grouped = parquet_group_by(schema, files, keys)
-    except (duckdb.Error, pa.ArrowException, OSError) as exc:
+    except duckdb.Error as exc:
+        raise engine_error(exc, path) from None
+    except (pa.ArrowException, OSError) as exc:
         raise _cannot_read(path, exc) from None
     return _tally_grouped(grouped, sensitive, outcome, context, dropna)
 
@@ -625,10 +627,16 @@ def count_file(
       column's type (integers, floats, booleans, text) and its missing
       values (``""``, ``"NA"``, ``"nan"``, ..., and ``na_values``) from the
       set of its distinct fields, so each value is what :func:`read_records`
-      gives. A file that DuckDB cannot read in that dialect, or might split
-      into fields differently (a blank first line, a space next to a double
-      quote, a single column, rows of unequal length), is read whole by
-      pandas instead, as before.
+      gives. A file that DuckDB might split into fields differently (a
+      blank first line, a space next to a double quote, a single column,
+      rows of unequal length) is read whole by pandas instead, as before
+      (decided before DuckDB runs), and so is text DuckDB cannot parse in
+      that dialect (a byte that is not UTF-8): pandas reports it.
+    - When DuckDB fails otherwise (out of memory, input/output), no other
+      reader is tried: the error says what DuckDB said, and for memory its
+      ``memory_limit`` and what to try. The environment variable
+      ``FAIRAUDIT_DUCKDB_MEMORY_LIMIT`` (``8GB``, ``500MB``, ``50%``) sets
+      that limit; unset, DuckDB takes 80% of the machine's memory.
     - Other text (other compressions, other separators, or
       ``csv.skip_initial_space``) is read whole by pandas
       (:func:`read_records`).
@@ -668,7 +676,8 @@ def count_file(
         False (``column 'x': has N missing values ...``), no records, and for
         count tables the errors of :func:`count_table`; the errors of
         :func:`read_records` (two columns of the same name, ``csv`` options
-        for a Parquet file, ``csv.names`` not one per field).
+        for a Parquet file, ``csv.names`` not one per field); DuckDB's failure
+        (``DATA: DuckDB ran out of memory counting it (memory_limit ...)``).
 
     Examples
     --------

@@ -34,6 +34,7 @@ from ._arrays import (
     check_probabilities,
     check_shape,
     format_label,
+    label_list,
 )
 from ._errors import InputError
 from ._json import Report, label, number
@@ -597,7 +598,7 @@ def _check_outputs(mechanism: Mechanism, labels: tuple, what: str) -> None:
     if tuple(mechanism.outputs) != tuple(labels):
         raise InputError(
             f"mechanism '{mechanism.name}' outputs",
-            f"must be the kernel's {what} {[format_label(v) for v in labels]}",
+            f"must be the kernel's {what} {label_list(labels)}",
             [format_label(o) for o in mechanism.outputs],
         )
 

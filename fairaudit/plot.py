@@ -20,7 +20,7 @@ import numpy.typing as npt
 
 from ._arrays import BoolArray, FloatArray
 from ._errors import InputError
-from ._figure import coincide, mark_infinite
+from ._figure import AXIS_LIMIT, coincide, mark_infinite, on_scale
 from ._io import write_atomic
 
 if TYPE_CHECKING:
@@ -217,7 +217,17 @@ def plot_curve(
     else:
         fig = ax.figure
     eps = np.asarray(curve.epsilon, dtype=float)
-    series = _series(curve, step=max(1, len(eps) // 30))
+    if eps.size and not (np.all(np.isfinite(eps)) and eps.max() <= AXIS_LIMIT):
+        top_eps = float(eps.max())
+        spec_own = curve.spec_epsilon is not None and float(curve.spec_epsilon) == top_eps
+        raise InputError(
+            "epsilons",
+            f"the curve's grid of epsilon reaches {top_eps:.6g} nats"
+            + (" (the spec's own epsilon, always on it)" if spec_own else "")
+            + f", beyond what a figure's axis can show ({AXIS_LIMIT:g} nats): "
+            + ("no figure of this spec's curve" if spec_own else "draw it on a smaller grid"),
+        )
+    series = [(key, on_scale(v), label, style) for key, v, label, style in _series(curve, step=max(1, len(eps) // 30))]
     finite = np.concatenate([np.asarray(v, float)[np.isfinite(v)] for _, v, _, _ in series] + [np.zeros(1)])
     top = max(1.15 * float(finite.max()), 0.1) if ymax is None else float(ymax)
     missing = _draw_series(ax, eps, series, top)

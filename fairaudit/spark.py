@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from ._errors import InputError
+from ._errors import InputError, echo
 from ._roles import check_roles, missing_values, roles
 from .estimate import CountTable, count_table
 
@@ -134,11 +134,13 @@ def _check_scalar_columns(frame: DataFrame, names: list[str], used: list[str]) -
     fields = frame.schema.fields
     for col in used:
         if names.count(col) > 1:
-            raise InputError(f"column {col!r}", f"is ambiguous: the frame has {names.count(col)} columns of that name")
+            raise InputError(
+                f"column {echo(col)}", f"is ambiguous: the frame has {names.count(col)} columns of that name"
+            )
         kind = fields[names.index(col)].dataType
         if not isinstance(kind, (types.AtomicType, types.NullType)) or isinstance(kind, types.BinaryType):
             raise InputError(
-                f"column {col!r}",
+                f"column {echo(col)}",
                 "must hold scalar values (string, number, boolean, date or time)",
                 kind.simpleString(),
             )

@@ -883,6 +883,12 @@ def parse_spec(text: str, source: str = "<string>", base: str | Path = ".") -> S
     fairaudit._errors.InputError: <string>: privacy.sensitive.mechanism: Input should be 'identity', 'randomized_response', 'matrix' or 'product' (got 'laplace')
     """
     raw = parse_toml(text, source)
+    if _is_task_file(raw):
+        raise InputError(
+            source,
+            "is a task file (it has [task] and [prompt]), not a spec: run `fairaudit experiment "
+            f"{source} --out DIR` with a model, which writes the specs (DIR/spec-eps-*.toml) that certify reads",
+        )
     try:
         model = SpecModel.model_validate(raw)
         return Spec(model, source, Path(base))
@@ -890,6 +896,15 @@ def parse_spec(text: str, source: str = "<string>", base: str | Path = ".") -> S
         raise validation_error(exc, source, whole="spec") from None
     except RecursionError:
         raise InputError(source, "is too deeply nested to validate") from None
+
+
+def _is_task_file(raw: dict[str, Any]) -> bool:
+    """Whether TOML read as a spec is a task file of ``fairaudit experiment`` (by its keys alone: a [task] or a
+    [prompt] table, with [[attribute]] or [task], and no [sensitive])."""
+    if "sensitive" in raw:
+        return False
+    task, prompt = isinstance(raw.get("task"), dict), isinstance(raw.get("prompt"), dict)
+    return (task and (prompt or "attribute" in raw)) or (prompt and isinstance(raw.get("attribute"), list))
 
 
 def load_spec(path: str | Path) -> Spec:

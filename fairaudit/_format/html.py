@@ -465,14 +465,14 @@ def _style(i: int) -> tuple[Any, str]:
 
 def _bounds_figure(d: Report) -> Figure:
     """Bars of the bounds on L (paper, tight, black-box, corollary); lines of the observed L and the local target."""
-    from .._figure import mark_infinite
+    from .._figure import mark_infinite, on_scale
 
     fig = _new_figure(7.0, 5.0)
     ax = fig.add_subplot()
-    values = [_num(d["bounds"][k]) for k, _ in BOUNDS]
-    lines = _bound_lines(d)
+    values = on_scale([_num(d["bounds"][k]) for k, _ in BOUNDS]).tolist()  # beyond 1e300: at the top, as +inf
+    lines = [(label, float(on_scale([v])[0]), style) for label, v, style in _bound_lines(d)]
     ends = [v for v in values if math.isfinite(v)] + [v for _, v, _ in lines if math.isfinite(v)]
-    ends += [v for v in _observed_interval(d) if math.isfinite(v)]
+    ends += [v for v in on_scale(_observed_interval(d)) if math.isfinite(v)]
     top = max(1.15 * max(ends, default=0.0), 0.1)
     for i, ((key, _), v) in enumerate(zip(BOUNDS, values)):
         if math.isnan(v):

@@ -13,10 +13,11 @@ with ``--output`` a one-line summary goes to stderr.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
-from .._errors import InputError
+from .._errors import InputError, echo
 from ._common import flag_error
 from ._parser import build_parser
 
@@ -34,7 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"fairaudit: error: {flag_error(exc, args.flags)}", file=sys.stderr)
         return 2
     except OSError as exc:
-        print(f"fairaudit: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        print(f"fairaudit: error: {os_error_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         exact = args.command == "experiment" and _exact_route(args)
@@ -43,6 +44,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             hint = "; the exact route writes nothing until every cell is done: run again"
         print(f"fairaudit: interrupted{hint}", file=sys.stderr)
         return 130
+
+
+def os_error_line(exc: OSError) -> str:
+    """The line of a system error that reached the command: the file it names, if any, and the reason.
+
+    Never an empty name before the colon.
+
+    Examples
+    --------
+    >>> os_error_line(OSError(27, "File too large"))
+    'File too large'
+    >>> os_error_line(FileNotFoundError(2, "No such file or directory", "runs/log.jsonl"))
+    "'runs/log.jsonl': No such file or directory"
+    """
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    if exc.filename is None or exc.filename == "":
+        return reason
+    return f"{echo(os.fsdecode(exc.filename))}: {reason}"
 
 
 def _exact_route(args: argparse.Namespace) -> bool:

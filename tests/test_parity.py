@@ -1,0 +1,111 @@
+"""Python parity with the command line (issue 39, item 7): ``audit(count=)``, ``Audit.law``, ``worst-case``, and
+``calibrate``'s target impact ratio. Expected values come from pandas or exact fractions, not from fairaudit."""
+
+from __future__ import annotations
+
+import json
+import math
+from fractions import Fraction
+
+import numpy as np
+import pandas as pd
+import pytest
+from _cli import run, run_json
+
+from fairaudit import audit
+from fairaudit._errors import InputError
+
+# A count table: two contexts, two sensitive columns (intersectional groups), a three-valued outcome.
+COUNTS = pd.DataFrame(
+    {
+        "office": ["north"] * 6 + ["south"] * 6,
+        "sex": ["f", "f", "f", "m", "m", "m"] * 2,
+        "age": ["old", "young", "young", "old", "young", "old"] * 2,
+        "grade": [2, 1, 2, 0, 2, 2, 0, 1, 2, 1, 0, 2],
+        "n": [3, 5, 2, 4, 7, 1, 6, 2, 9, 3, 5, 4],
+    }
+)
+
+
+# The same counts by office, sex and grade (pandas sums over age): a count table for `sensitive=["sex"]`.
+BY_SEX = COUNTS.groupby(["office", "sex", "grade"], as_index=False)["n"].sum()
+
+
+def expanded(counts: pd.DataFrame) -> pd.DataFrame:
+    """One row per record: each row of the count table repeated its count times (pandas' own route)."""
+    return counts.loc[counts.index.repeat(counts["n"])].drop(columns="n").reset_index(drop=True)
+
+
+def as_json(d):
+    return json.loads(json.dumps(d, allow_nan=False))
+
+
+def test_audit_count_equals_the_expanded_records_and_the_cli(tmp_path, capsys):
+    kw = dict(sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", confidence=0.9)
+    by_count = audit(BY_SEX, count="n", **kw)
+    by_records = audit(expanded(BY_SEX), **kw)
+    assert by_count.table.counts.dtype == np.int64
+    np.testing.assert_array_equal(by_count.table.counts, by_records.table.counts)
+    assert as_json(by_count.to_dict()) == as_json(by_records.to_dict())
+    path = tmp_path / "counts.csv"
+    BY_SEX.to_csv(path, index=False)
+    code, cli, _ = run_json(
+        capsys, "audit", path, "--sensitive", "sex", "--outcome", "grade", "--context", "office",
+        "--utility", "u >= 2", "--confidence", "0.9", "--count", "n",
+    )  # fmt: skip
+    assert code == 0 and cli == as_json(by_count.to_dict())
+    # the numbers, by hand from the table: E[g | x, a] = P(grade >= 2 | office, sex)
+    rec = expanded(COUNTS)
+    rate = (rec["grade"] >= 2).groupby([rec["office"], rec["sex"]]).mean()
+    ratios = {x: max(rate[x]) / min(rate[x]) for x in ("north", "south")}
+    assert by_count.observed.local_fairness.value == pytest.approx(math.log(max(ratios.values())), abs=1e-12)
+    # north: f 5/10, m 8/12 (ratio 4/3); south: f 9/17, m 4/12 (ratio 27/17, the larger): L = log(27/17)
+    assert by_count.observed.local_fairness.ratio == pytest.approx(float(Fraction(27, 17)), abs=1e-12)
+    assert by_count.table.n == int(COUNTS["n"].sum()) == 51
+
+
+def test_audit_count_intersectional_and_default_utility():
+    t = COUNTS.assign(hired=(COUNTS["grade"] == 2).astype(int)).drop(columns="grade")
+    t = t.groupby(["office", "sex", "age", "hired"], as_index=False)["n"].sum()
+    by_count = audit(t, sensitive=["sex", "age"], outcome="hired", context=["office"], count="n")
+    by_records = audit(expanded(t), sensitive=["sex", "age"], outcome="hired", context=["office"])
+    assert as_json(by_count.to_dict()) == as_json(by_records.to_dict())
+    rec = expanded(t)
+    p = rec.groupby(["sex", "age"])["hired"].mean()  # pooled over offices: the global metric's E[g | a]
+    assert by_count.observed.global_fairness.ratio == pytest.approx(p.max() / p.min(), abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("change", "kwargs", "needle"),
+    [
+        (lambda t: t.assign(n=[-1] + list(t["n"][1:])), {}, "column 'n': must hold non-negative numbers (got "),
+        (lambda t: t.assign(n=["x"] + list(t["n"][1:])), {}, "column 'n': must hold non-negative numbers (got 'x')"),
+        (lambda t: t, {"count": "m"}, "count: unknown column; the data has: office, sex, grade, n (got 'm')"),
+        (lambda t: pd.concat([t, t.iloc[:1]]), {}, "count table: lists the same (context, group, decision) twice"),
+    ],
+)
+def test_audit_count_errors_are_the_cli_errors(tmp_path, capsys, change, kwargs, needle):
+    data = change(BY_SEX)
+    count = kwargs.get("count", "n")
+    with pytest.raises(InputError) as exc:
+        audit(data, sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", count=count)
+    assert str(exc.value).startswith(needle), str(exc.value)
+    path = tmp_path / "counts.csv"
+    data.to_csv(path, index=False)
+    code, out, err = run(
+        capsys, "audit", path, "--sensitive", "sex", "--outcome", "grade", "--context", "office",
+        "--utility", "u >= 2", "--count", count,
+    )  # fmt: skip
+    flag = "--" + needle if needle.startswith("count") else needle  # the library's parameter as the CLI's flag
+    assert code == 2 and out == "" and err.startswith(f"fairaudit: error: {flag}") and err.count("\n") == 1, err
+
+
+def test_audit_count_refuses_what_it_cannot_mean():
+    kw = dict(sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2")
+    with pytest.raises(InputError, match=r"^weights: a count table \(`count`\) is counted already"):
+        audit(BY_SEX, count="n", weights="n", **kw)
+    table = audit(BY_SEX, count="n", **kw).table
+    with pytest.raises(InputError, match=r"^count: is for a DataFrame of counts; a CountTable is counted already"):
+        audit(table, count="n")
+    with pytest.raises(InputError, match=r"^count: is the count column of a DataFrame `data`"):
+        audit(y_pred=[1, 0], sensitive_features=["a", "b"], count="n")

@@ -27,7 +27,7 @@ from ._small_cells import LeftOut, SmallCell, by_context_rows, leave_out_small, 
 from .estimate import CountTable, count_records, counts_of_table
 from .expression import evaluate_utility_expression
 from .intervals import FairnessIntervals, fairness_intervals
-from .laws import Population
+from .laws import Law, Population
 from .utility import Utility, from_table, indicator
 from .utility_gaps import UtilityGaps, utility_gaps
 
@@ -52,6 +52,9 @@ class Audit:
     ----------
     table : CountTable
         Counts, shape (n_contexts, n_groups, n_decisions), and the columns.
+    law : Law
+        The empirical law P(U | X, A) of the metrics, shape (n_contexts,
+        n_groups, n_decisions) (a property: :attr:`law`).
     utility : Utility
     observed : Observed
         Every exact metric of the empirical law under the empirical population.
@@ -97,6 +100,30 @@ class Audit:
         rows = by_context_rows(self.observed.local_fairness, self.table)
         name = " x ".join(self.table.context_columns) or "context"
         return pd.DataFrame(rows).set_index("context").rename_axis(name)
+
+    @property
+    def law(self) -> Law:
+        """The empirical law P(U | X, A) that every metric of the audit is computed on.
+
+        ``law.probabilities`` has shape (n_contexts, n_groups, n_decisions),
+        in the order of the axes [x, a, u] (docs/design.md "Array layout"),
+        labelled by ``law.contexts``, ``law.groups`` and ``law.decisions``
+        (those of :attr:`table`); each row sums to 1 over the decisions. A
+        (context, group) cell without records is a row of NaN, listed in
+        ``law.empty_cells`` (and in the report's ``excluded``). With
+        ``min_count``, the cells left out have no records here either.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> df = pd.DataFrame({"race": list("aaaabbbb"), "hired": [1, 1, 1, 0, 1, 0, 0, 0]})
+        >>> law = audit(df, sensitive=["race"], outcome="hired").law
+        >>> law.probabilities.shape, law.groups, law.decisions
+        ((1, 2, 2), ('a', 'b'), (0, 1))
+        >>> law.probabilities[0].tolist()                # P(hired = 0 | a), P(hired = 1 | a); then b
+        [[0.25, 0.75], [0.75, 0.25]]
+        """
+        return self.observed.law
 
     @property
     def population(self) -> Population:

@@ -109,3 +109,19 @@ def test_audit_count_refuses_what_it_cannot_mean():
         audit(table, count="n")
     with pytest.raises(InputError, match=r"^count: is the count column of a DataFrame `data`"):
         audit(y_pred=[1, 0], sensitive_features=["a", "b"], count="n")
+
+
+def test_audit_law_is_the_documented_law_of_the_metrics():
+    a = audit(BY_SEX, sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", count="n")
+    law = a.law
+    assert law is a.observed.law
+    assert law.probabilities.shape == (2, 2, 3)  # (contexts, groups, decisions)
+    assert (law.contexts, law.groups, law.decisions) == (("north", "south"), ("f", "m"), (0, 1, 2))
+    rec = expanded(COUNTS)
+    by_pandas = pd.crosstab([rec["office"], rec["sex"]], rec["grade"], normalize="index")
+    np.testing.assert_allclose(law.probabilities.reshape(4, 3), by_pandas.to_numpy(), rtol=0, atol=1e-15)
+    # with min_count the cell left out has no records in the law either
+    small = audit(BY_SEX, sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", count="n",
+                  min_count=11)  # fmt: skip
+    assert small.law.empty_cells == (("north", "f"),)
+    assert np.isnan(small.law.probabilities[0, 0]).all()

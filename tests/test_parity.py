@@ -3,9 +3,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,6 +16,9 @@ from _cli import run, run_json
 
 from fairaudit import audit
 from fairaudit._errors import InputError
+from fairaudit.calibrate import calibrate, impact_ratio_target
+from fairaudit.spec import load_spec
+from fairaudit.utility import from_table
 
 # A count table: two contexts, two sensitive columns (intersectional groups), a three-valued outcome.
 COUNTS = pd.DataFrame(
@@ -125,3 +130,124 @@ def test_audit_law_is_the_documented_law_of_the_metrics():
                   min_count=11)  # fmt: skip
     assert small.law.empty_cells == (("north", "f"),)
     assert np.isnan(small.law.probabilities[0, 0]).all()
+
+
+# -- calibrate: a target impact ratio ----------------------------------------------------------------------------
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {},
+        {"groups": 8},
+        {"groups": 3, "kind": "global"},
+        {"method": "tight", "tau": 0.4, "lipschitz": 0.01},
+        {"groups": 5, "tau": 0.3},
+    ],
+)
+def test_target_impact_ratio_is_exactly_the_nats_target(kw):
+    by_ratio = calibrate(target_impact_ratio=0.8, **kw)
+    by_nats = calibrate(math.log(1.25), **kw)
+    assert by_ratio.target == math.log(1.25) and by_ratio.target_impact_ratio == 0.8
+    assert by_ratio.epsilon == by_nats.epsilon and by_ratio.keep_probability == by_nats.keep_probability
+    assert by_ratio.feasible and by_nats.target_impact_ratio is None
+    assert by_ratio.to_dict() == {**by_nats.to_dict(), "target_impact_ratio": 0.8}
+
+
+def test_target_impact_ratio_two_groups_by_hand():
+    # two groups in [0, 1]: the worst model's L is epsilon, so epsilon = ln(1/0.8) = ln(5/4), keep = (5/4)/(9/4) = 5/9
+    c = calibrate(target_impact_ratio=0.8)
+    assert c.epsilon == math.log(1.25)
+    assert c.keep_probability == pytest.approx(float(Fraction(5, 9)), abs=1e-15)
+    assert calibrate(target_impact_ratio=1.0).epsilon == 0.0  # equal rates: no information may pass
+    assert impact_ratio_target(0.5) == math.log(2.0)
+
+
+def test_target_impact_ratio_white_box_keeps_every_ratio_above_it():
+    """GPT-3.5 behind 8-ary randomized response at the calibrated epsilon: every job's worst impact ratio >= 0.8."""
+    spec = load_spec(EXAMPLES / "llm_hiring" / "gpt35.toml")
+    opts = spec.calibration_options()
+    c = calibrate(target_impact_ratio=0.8, **opts)
+    assert c.method == "white_box" and c.feasible
+    assert c.epsilon == calibrate(math.log(1.25), **opts).epsilon
+    # an independent route: the filtered selection rates by numpy, rate[x, a] = sum_b M[a, b] K[x, b, "1"]
+    keep = c.keep_probability
+    k = 8
+    m = np.full((k, k), (1 - keep) / (k - 1))
+    np.fill_diagonal(m, keep)
+    first = opts["kernel"].probabilities[:, :, 0]  # P(rank 1 | job, shown group)
+    rate = first @ m.T
+    worst = (rate.min(axis=1) / rate.max(axis=1)).min()
+    assert worst == pytest.approx(0.8, abs=1e-9) and worst >= 0.8 - 1e-12
+
+
+def test_target_impact_ratio_errors():
+    with pytest.raises(InputError, match=r"^target_impact_ratio: give `target` \(nats\) or `target_impact_ratio`"):
+        calibrate(0.2, target_impact_ratio=0.8)
+    with pytest.raises(InputError, match=r"^target: give a target on L in nats, or `target_impact_ratio`"):
+        calibrate()
+    for bad in (0.0, 1.5, -0.2, math.nan, math.inf):
+        with pytest.raises(InputError, match=r"^target_impact_ratio: must be an impact ratio in \(0, 1\]"):
+            calibrate(target_impact_ratio=bad)
+    with pytest.raises(InputError, match=r"^gamma: a target impact ratio is for a selection indicator"):
+        calibrate(target_impact_ratio=0.8, gamma=2.0)
+    with pytest.raises(InputError, match=r"^lower: a target impact ratio is for a selection indicator"):
+        calibrate(target_impact_ratio=0.8, lower=0.1)
+    score = from_table([1.0, 0.5, 0.0], ("hire", "wait", "reject"), name="score")
+    with pytest.raises(InputError, match=r"^utility: .*takes the value 0.5: give `target` in nats \(got 'score'\)"):
+        calibrate(target_impact_ratio=0.8, groups=2, utility=score)
+
+
+def test_cli_calibrate_target_impact_ratio(capsys):
+    code, d, _ = run_json(capsys, "calibrate", "--target-impact-ratio", "0.8", "--groups", "8")
+    assert code == 0 and d["target_impact_ratio"] == 0.8 and d["target"] == math.log(1.25)
+    assert d["epsilon"] == calibrate(math.log(1.25), groups=8).epsilon
+    code, out, _ = run(capsys, "calibrate", "--target-impact-ratio", "0.8")
+    assert code == 0 and out.startswith(
+        "largest epsilon of 2-ary randomized response meeting L <= 0.223144 nats "
+        "(every impact ratio >= 0.8: L is -ln of the worst impact ratio): 0.223144 nats\n"
+    )
+    code, out, _ = run(
+        capsys, "calibrate", "--target-impact-ratio", "0.8", "--spec", EXAMPLES / "llm_hiring" / "gpt35.toml"
+    )
+    assert code == 0 and "(every impact ratio >= 0.8: L is -ln of the worst impact ratio)" in out
+
+
+SCORE_SPEC = """
+[sensitive]
+name = "office"
+values = ["HR_1", "HR_2"]
+[decision]
+name = "grade"
+values = ["high", "mid", "low"]
+[privacy.sensitive]
+mechanism = "randomized_response"
+keep = 0.7
+[utility]
+kind = "table"
+values = [1.0, 0.5, 0.0]
+"""
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["--target-impact-ratio", "0"], "fairaudit: error: --target-impact-ratio: must be an impact ratio in (0, 1] (got 0.0)"),
+        (["--target-impact-ratio", "1.25"], "fairaudit: error: --target-impact-ratio: must be an impact ratio in (0, 1] (got 1.25)"),
+        (["--target-impact-ratio", "0.8", "--gamma", "2"], "fairaudit: error: --gamma: a target impact ratio is for a selection indicator, g in {0, 1}: gamma must be 1; give --target in nats"),
+        (["--target-impact-ratio", "0.8", "--target", "0.2"], "fairaudit calibrate: error: argument --target: not allowed with argument --target-impact-ratio"),
+        ([], "fairaudit calibrate: error: one of the arguments --target --target-impact-ratio is required"),
+        (["--target-impact-ratio", "0.8", "--spec", "SCORE"], "fairaudit: error: --spec: a target impact ratio is for a selection indicator, g in {0, 1}; this utility takes the value 0.5: give --target in nats"),
+    ],
+)  # fmt: skip
+def test_cli_calibrate_target_impact_ratio_errors(tmp_path, capsys, argv, needle):
+    spec = tmp_path / "score.toml"
+    spec.write_text(SCORE_SPEC)
+    argv = [str(spec) if a == "SCORE" else a for a in argv]
+    with pytest.raises(SystemExit) if "calibrate: error" in needle else contextlib.nullcontext():
+        code, out, err = run(capsys, "calibrate", *argv)
+        assert code == 2 and out == ""
+    err = capsys.readouterr().err if "calibrate: error" in needle else err
+    assert err.startswith(needle) and err.count("\n") == 1, err

@@ -108,16 +108,20 @@ class TextFormat(Format):
 def calibration_text(d: Report) -> str:
     """The ``calibrate`` report as text (the Markdown format quotes it in a code block)."""
     up = _unparsed_line(d)
+    ratio = d.get("target_impact_ratio")
+    goal = f"{measure(d)} <= {nats(d['target'])}"
+    if ratio is not None:  # the target given as an impact ratio r: L <= -ln r
+        goal += f" (every impact ratio >= {fmt(ratio)}: {measure(d)} is -ln of the worst impact ratio)"
     if not d["feasible"]:
         low = f"the model's {measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
         return (
-            f"no epsilon of {d['family']} meets {measure(d)} <= {nats(d['target'])}\n"
+            f"no epsilon of {d['family']} meets {goal}\n"
             f"method: {d['method']}; {low}: {nats(d['bound'])}\n{up}"
             f"reason: {d['reason']}\n"
         )
     there = f"the model's {measure(d)} there" if d["method"] == "white_box" else "certified bound there"
     return (
-        f"largest epsilon of {d['family']} meeting {measure(d)} <= {nats(d['target'])}: {nats(d['epsilon'])}\n"
+        f"largest epsilon of {d['family']} meeting {goal}: {nats(d['epsilon'])}\n"
         f"keep probability (the price): {fmt(d['keep_probability'])}\n"
         f"method: {d['method']}; {there}: {nats(d['bound'])}\n{up}"
         f"reason: {d['reason']}\n"

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from _cli import run, run_json
+from _cli import OFFICE_SPEC, run, run_json
 
 from fairaudit import audit
 from fairaudit._errors import InputError
@@ -251,3 +251,96 @@ def test_cli_calibrate_target_impact_ratio_errors(tmp_path, capsys, argv, needle
         assert code == 2 and out == ""
     err = capsys.readouterr().err if "calibrate: error" in needle else err
     assert err.startswith(needle) and err.count("\n") == 1, err
+
+
+# -- fairaudit worst-case SPEC ------------------------------------------------------------------------------------
+
+
+def gpt35_law() -> np.ndarray:
+    """GPT-3.5's ranking law behind 8-ary randomized response at epsilon 0.5, by pandas and numpy from the counts."""
+    t = pd.read_csv(EXAMPLES / "llm_hiring" / "gpt_rank_counts.csv", dtype={"rank": str})
+    t = t[t["model"] == "gpt-3.5-turbo"]
+    jobs = ["HR specialist", "financial analyst", "retail", "software engineer"]
+    demos = ["A_M", "A_W", "B_M", "B_W", "H_M", "H_W", "W_M", "W_W"]
+    ranks = ["1", "2", "3", "4", "5", "6", "7", "8", "unranked"]
+    n = t.pivot_table(index=["job", "demo"], columns="rank", values="count", aggfunc="sum", fill_value=0)
+    n = n.reindex(columns=ranks, fill_value=0).reindex(pd.MultiIndex.from_product([jobs, demos]))
+    kernel = (n.to_numpy(float) / n.to_numpy(float).sum(axis=1, keepdims=True)).reshape(4, 8, 9)
+    e = math.exp(0.5)
+    m = np.full((8, 8), 1 / (e + 7))
+    np.fill_diagonal(m, e / (e + 7))
+    return np.einsum("ab,xbu->xau", m, kernel)
+
+
+def test_worst_case_matches_a_brute_force_over_every_0_1_utility(capsys):
+    """Without tau the worst utility in [0, 1]^9 is at a vertex: try all 511 nonzero 0/1 utilities by numpy."""
+    q = gpt35_law()
+    best_local, best_global = (-1.0, None), (-1.0, None)
+    for bits in range(1, 2**9):
+        g = np.array([(bits >> i) & 1 for i in range(9)], dtype=float)
+        e = q @ g  # E[g | x, a]
+        local = np.log(e.max(axis=1) / e.min(axis=1)).max()
+        pooled = e.mean(axis=0)  # every (job, group) has 1,000 records: P(x | a) is uniform
+        best_local = max(best_local, (local, tuple(g)))
+        best_global = max(best_global, (np.log(pooled.max() / pooled.min()), tuple(g)))
+    code, d, err = run_json(capsys, "worst-case", EXAMPLES / "llm_hiring" / "gpt35.toml", "--tau", "0")
+    assert code == 0 and err == ""
+    assert d["local"]["value"] == pytest.approx(best_local[0], abs=1e-12)
+    assert d["global"]["value"] == pytest.approx(best_global[0], abs=1e-12)
+    assert tuple(d["local"]["utility"]) == best_local[1] and tuple(d["global"]["utility"]) == best_global[1]
+    assert d["decisions"] == ["1", "2", "3", "4", "5", "6", "7", "8", "unranked"] and d["tau"] == 0.0
+    # g = 1{unranked}: L is largest between B_W and H_M for software engineers
+    assert best_local[1] == (0.0,) * 8 + (1.0,)
+    assert (d["local"]["context"], d["local"]["group"], d["local"]["other_group"]) == (
+        "software engineer",
+        "B_W",
+        "H_M",
+    )
+    # the spec's own utility, 1{rank 1}, on the same law
+    e = q[:, :, 0]
+    assert d["spec_utility"]["local"] == pytest.approx(np.log(e.max(axis=1) / e.min(axis=1)).max(), abs=1e-12)
+
+
+def test_worst_case_with_tau_by_hand(capsys, tmp_path):
+    """HR_2's profile is always chosen: behind p = 0.7 on three attributes HR_2 is chosen with 0.7^3, HR_1 with 0.3^3.
+
+    Every utility with g(not chosen) = 0 (and tau met) gives the ratio 343/27; the LP (tau = 0.02) finds it.
+    """
+    spec = EXAMPLES / "hr_office" / "hr_office.toml"
+    code, d, _ = run_json(capsys, "worst-case", spec)
+    assert code == 0 and d["tau"] == 0.02 and d["local"]["method"] == "lp"
+    for key in ("local", "global"):
+        assert d[key]["ratio"] == pytest.approx(float(Fraction(343, 27)), rel=1e-9)
+        assert (d[key]["group"], d[key]["other_group"]) == ("Mary & 55 & American", "Tom & 25 & Asian")
+        chosen, not_chosen = d[key]["utility"]
+        assert not_chosen == pytest.approx(0.0, abs=1e-9) and chosen * 0.3**3 >= 0.02 - 1e-9
+    code, out, _ = run(capsys, "worst-case", spec)
+    assert code == 0 and "worst utility for L: g = " in out and "; 0 on not chosen\n" in out
+    assert (
+        "  L = 2.54189 nats, ratio 12.7037 (Mary & 55 & American vs Tom & 25 & Asian in context maternity leave)" in out
+    )
+    # --output: written atomically, the summary on stderr
+    target = tmp_path / "worst.json"
+    code, out, err = run(capsys, "worst-case", spec, "--format", "json", "--output", target)
+    assert code == 0 and out == "" and json.loads(target.read_text()) == d
+    assert err.startswith("worst case: L = ") and err.endswith(f"report written to {target}\n")
+    for fmt in ("markdown", "html"):
+        code, out, _ = run(capsys, "worst-case", spec, "--format", fmt)
+        assert code == 0 and "worst utility for L-bar" in out
+
+
+def test_worst_case_errors(capsys, tmp_path):
+    bare = tmp_path / "bare.toml"
+    bare.write_text(OFFICE_SPEC)
+    spec = EXAMPLES / "hr_office" / "hr_office.toml"
+    for argv, needle in (
+        ([bare], f"fairaudit: error: {bare}: model: worst-case needs a decision model"),
+        ([tmp_path / "none.toml"], "fairaudit: error: SPEC: no such file"),
+        ([spec, "--tau", "2"], "fairaudit: error: --tau: exceeds gamma = 1"),
+    ):
+        code, out, err = run(capsys, "worst-case", *argv)
+        assert code == 2 and out == "" and err.startswith(needle) and err.count("\n") == 1, err
+    with pytest.raises(SystemExit):
+        run(capsys, "worst-case", spec, "--lower", "-1")
+    err = capsys.readouterr().err
+    assert err.startswith("fairaudit worst-case: error: argument --lower: expected a finite number >= 0, got '-1'")

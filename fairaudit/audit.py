@@ -22,11 +22,12 @@ from ._errors import InputError, cut, echo
 from ._json import Report, label, number
 from ._observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
 from ._records_arrays import ArrayLike, records_from_arrays
+from ._roles import roles
 from ._small_cells import LeftOut, SmallCell, by_context_rows, leave_out_small, small_cell
-from .estimate import CountTable, count_records
+from .estimate import CountTable, count_records, counts_of_table
 from .expression import evaluate_utility_expression
 from .intervals import FairnessIntervals, fairness_intervals
-from .laws import Population
+from .laws import Law, Population
 from .utility import Utility, from_table, indicator
 from .utility_gaps import UtilityGaps, utility_gaps
 
@@ -51,6 +52,9 @@ class Audit:
     ----------
     table : CountTable
         Counts, shape (n_contexts, n_groups, n_decisions), and the columns.
+    law : Law
+        The empirical law P(U | X, A) of the metrics, shape (n_contexts,
+        n_groups, n_decisions) (a property: :attr:`law`).
     utility : Utility
     observed : Observed
         Every exact metric of the empirical law under the empirical population.
@@ -96,6 +100,30 @@ class Audit:
         rows = by_context_rows(self.observed.local_fairness, self.table)
         name = " x ".join(self.table.context_columns) or "context"
         return pd.DataFrame(rows).set_index("context").rename_axis(name)
+
+    @property
+    def law(self) -> Law:
+        """The empirical law P(U | X, A) that every metric of the audit is computed on.
+
+        ``law.probabilities`` has shape (n_contexts, n_groups, n_decisions),
+        in the order of the axes [x, a, u] (docs/design.md "Array layout"),
+        labelled by ``law.contexts``, ``law.groups`` and ``law.decisions``
+        (those of :attr:`table`); each row sums to 1 over the decisions. A
+        (context, group) cell without records is a row of NaN, listed in
+        ``law.empty_cells`` (and in the report's ``excluded``). With
+        ``min_count``, the cells left out have no records here either.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> df = pd.DataFrame({"race": list("aaaabbbb"), "hired": [1, 1, 1, 0, 1, 0, 0, 0]})
+        >>> law = audit(df, sensitive=["race"], outcome="hired").law
+        >>> law.probabilities.shape, law.groups, law.decisions
+        ((1, 2, 2), ('a', 'b'), (0, 1))
+        >>> law.probabilities[0].tolist()                # P(hired = 0 | a), P(hired = 1 | a); then b
+        [[0.25, 0.75], [0.75, 0.25]]
+        """
+        return self.observed.law
 
     @property
     def population(self) -> Population:
@@ -321,9 +349,14 @@ def _table(
     context: str | Sequence[str] | None,
     dropna: bool,
     weights: str | None = None,
+    count: str | None = None,
 ) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
+    if count is not None and not isinstance(count, str):
+        raise InputError("count", "must be the name of the column that holds each row's number of records", count)
     if isinstance(data, CountTable):
+        if count is not None:
+            raise InputError("count", "is for a DataFrame of counts; a CountTable is counted already", count)
         if weights is not None and weights != data.weight_column:
             raise InputError("weights", "does not match the count table's weight column", weights)
 
@@ -352,7 +385,14 @@ def _table(
         raise InputError("sensitive", "name at least one column")
     if outcome is None:
         raise InputError("outcome", "name the outcome column")
+    if count is not None and weights is not None:
+        raise InputError("weights", "a count table (`count`) is counted already: give its counts, not weights")
     if _is_pandas_frame(data):
+        if count is not None:  # a count table: as `fairaudit audit --count` reads one
+            sensitive_, outcome_, context_ = roles(sensitive, outcome, () if context is None else context)
+            return counts_of_table(
+                data, sensitive=sensitive_, outcome=outcome_, context=context_, count=count, dropna=dropna
+            )
         return count_records(
             data,
             sensitive=sensitive,
@@ -363,6 +403,8 @@ def _table(
         )
     if weights is not None:
         raise InputError("weights", "are not supported for a Spark DataFrame yet: count it with weights in Spark")
+    if count is not None:
+        raise InputError("count", "is not supported for a Spark DataFrame yet: sum the counts in Spark", count)
     from .spark import count_spark  # a Spark DataFrame (checked above)
 
     return count_spark(
@@ -389,6 +431,7 @@ def audit(
     draws: int = 4000,
     seed: int = 0,
     weights: str | None = None,
+    count: str | None = None,
     min_count: int | None = None,
     y_pred: ArrayLike | None = None,
     sensitive_features: ArrayLike | None = None,
@@ -436,6 +479,14 @@ def audit(
         weighted counts, intervals Kish's effective sample size per cell
         (:meth:`~fairaudit.estimate.CountTable.effective_counts`, an
         approximation).
+    count : str, optional
+        ``data`` is a count table, one row per (context, group, outcome) as
+        SQL ``GROUP BY`` gives it, and this column holds each row's number of
+        records (finite and non-negative; integers give integer counts), as
+        ``fairaudit audit --count COL`` reads a file
+        (:func:`~fairaudit.estimate.count_table`): the result is that of the
+        records the rows stand for. A (context, group, outcome) listed twice
+        is an error. Not with ``weights``, a CountTable or arrays.
     min_count : int, optional
         Leave out every (context, group) cell with fewer records than this
         (but some): its records are removed from the metrics, the population
@@ -458,7 +509,10 @@ def audit(
         an outcome value that is not there, a non-binary outcome with no g,
         or bad interval settings (see :func:`~fairaudit.intervals.fairness_intervals`);
         arrays given with ``data``, or of lengths other than ``y_pred``'s
-        (naming the parameter).
+        (naming the parameter); a ``count`` column that is unknown, holds a
+        negative, infinite or non-numeric value, lists a (context, group,
+        outcome) twice, or comes with ``weights``, arrays, a CountTable or
+        a Spark DataFrame.
 
     Examples
     --------
@@ -469,6 +523,12 @@ def audit(
     (3.0, 'a')
     >>> t = count_records(df, sensitive=["race"], outcome="hired")
     >>> round(audit(t).observed.global_fairness.ratio, 12)
+    3.0
+
+    The same records as a count table, one row per group and outcome with its number of records:
+
+    >>> agg = pd.DataFrame({"race": ["a", "a", "b", "b"], "hired": [0, 1, 0, 1], "n": [1, 3, 3, 1]})
+    >>> round(audit(agg, sensitive=["race"], outcome="hired", count="n").observed.global_fairness.ratio, 12)
     3.0
 
     The same records as arrays, as a fairlearn user holds them:
@@ -482,10 +542,12 @@ def audit(
             raise InputError("data", "give records as data or as arrays (y_pred, sensitive_features), not both")
         data, names = records_from_arrays(y_pred, sensitive_features, control_features, sample_weight)
         sensitive, outcome, context, weights = names
+        if count is not None:
+            raise InputError("count", "is the count column of a DataFrame `data`; arrays are one record each", count)
     elif control_features is not None or sample_weight is not None:
         name = "control_features" if control_features is not None else "sample_weight"
         raise InputError(name, "goes with y_pred and sensitive_features")
-    table = _table(data, sensitive, outcome, context, dropna, weights)
+    table = _table(data, sensitive, outcome, context, dropna, weights, count)
     if positive is not None and utility is not None:
         raise InputError("positive", "give positive or utility, not both", positive)
     g = _audit_utility(table, positive, utility)

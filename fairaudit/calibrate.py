@@ -41,10 +41,12 @@ Proofs: ``proofs/calibration.md``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 import numpy.typing as npt
@@ -66,7 +68,7 @@ from .laws import Kernel, Population
 from .privacy import Mechanism, MechanismFamily, randomized_response_family
 from .utility import Utility, check_metric
 
-__all__ = ["METHODS", "Calibration", "calibrate", "calibrate_randomized_response"]
+__all__ = ["METHODS", "Calibration", "calibrate", "calibrate_randomized_response", "impact_ratio_target"]
 
 METHODS = ("paper", "tight", "black_box", "white_box")
 KINDS = ("local", "global")
@@ -118,6 +120,10 @@ class Calibration:
         ``unparsed_range``, chosen per kernel cell. None otherwise.
     unparsed_range : tuple of float or None
         (min g, max g), the interval of that decision's utility; None without it.
+    target_impact_ratio : float or None
+        The target given as a worst impact ratio r (``target_impact_ratio``):
+        ``target`` is then −ln r nats (:func:`impact_ratio_target`). None
+        when the target was given in nats.
     """
 
     target: float
@@ -139,12 +145,16 @@ class Calibration:
     diameter: float
     unparsed_decision: Hashable | None = None
     unparsed_range: tuple[float, float] | None = None
+    target_impact_ratio: float | None = None
 
     def __repr__(self) -> str:
+        ratio = "" if self.target_impact_ratio is None else f" (impact ratio {self.target_impact_ratio:.6g})"
         if not self.feasible:
-            return f"Calibration({self.method}, {self.kind}, target={self.target:.6g}: infeasible, {self.reason})"
+            return (
+                f"Calibration({self.method}, {self.kind}, target={self.target:.6g}{ratio}: infeasible, {self.reason})"
+            )
         return (
-            f"Calibration({self.method}, {self.kind}, target={self.target:.6g}: epsilon={self.epsilon:.6g} nats, "
+            f"Calibration({self.method}, {self.kind}, target={self.target:.6g}{ratio}: epsilon={self.epsilon:.6g} nats, "
             f"keep={self.keep_probability:.6g}, bound={self.bound:.6g})"
         )
 
@@ -156,7 +166,9 @@ class Calibration:
         then ``feasible``, ``reason``, ``target``, ``kind``, ``mechanism`` (the
         family member's name, or the family's when infeasible), ``family`` and
         the inputs ``groups``, ``gamma``, ``lower``, ``tau`` (``null`` when not
-        given), ``delta``, ``lipschitz``, ``diameter``; with an unparsed
+        given), ``delta``, ``lipschitz``, ``diameter``; ``target_impact_ratio``
+        (the target as a worst impact ratio, ``target`` = −ln of it; ``null``
+        when the target was given in nats); with an unparsed
         decision, ``unparsed``: its ``decision`` and ``range`` [min g, max g]
         (ε and ``bound`` are the upper end over its utility).
 
@@ -184,6 +196,7 @@ class Calibration:
             "delta": number(self.delta),
             "lipschitz": number(self.lipschitz),
             "diameter": number(self.diameter),
+            "target_impact_ratio": number(self.target_impact_ratio),
         } | self._unparsed_dict()
 
     def _unparsed_dict(self) -> Report:
@@ -196,6 +209,75 @@ class Calibration:
 
 
 # -- input checks --------------------------------------------------------------------------------------
+
+
+def impact_ratio_target(ratio: float) -> float:
+    """The target on L (or L̄) in nats that a worst impact ratio means for a selection indicator: −ln ``ratio``.
+
+    For g = 1{selected}, E[g | x, a] is group a's selection rate and L is the
+    log of the largest ratio of two groups' rates, so L = −ln (the lowest
+    impact ratio, each group's rate over the highest), within a context for L
+    and pooled over contexts for L̄. A target L ≤ −ln r is the same as every
+    impact ratio ≥ r: the four-fifths rule, r = 0.8, is L ≤ ln 1.25 =
+    0.2231 nats, and 1 nat is an impact ratio of e^−1 = 0.3679.
+
+    ``ratio`` is read as the decimal it is written as (``0.8`` is 4/5) and
+    ln(1/ratio) is taken of its exact reciprocal, so 0.8 gives exactly
+    ``math.log(1.25)``.
+
+    Parameters
+    ----------
+    ratio : float
+        The worst impact ratio to meet, in (0, 1] (1: equal rates, 0 nats).
+
+    Returns
+    -------
+    float
+        The target in nats, ≥ 0.
+
+    Raises
+    ------
+    InputError
+        Field ``target_impact_ratio``: a ratio that is not a number in (0, 1].
+
+    Examples
+    --------
+    >>> impact_ratio_target(0.8) == math.log(1.25), impact_ratio_target(1.0)
+    (True, 0.0)
+    >>> round(math.exp(-impact_ratio_target(0.5)), 12)
+    0.5
+    """
+    ratio = real(ratio, "target_impact_ratio", low=0.0, high=1.0, low_open=True, what="an impact ratio in (0, 1]")
+    return math.log(float(1 / Fraction(repr(ratio))))
+
+
+def _check_selection(gamma: float, lower: float, utility: Utility | None) -> None:
+    """A target impact ratio needs a selection indicator: the class g in {0, 1} (γ = 1, lower = 0), a 0/1 utility."""
+    why = "a target impact ratio is for a selection indicator, g in {0, 1}"
+    if utility is not None:
+        values = np.asarray(utility.values, dtype=float)
+        bad = values[(values != 0) & (values != 1)]
+        if bad.size:
+            raise InputError(
+                "utility", f"{why}; this utility takes the value {float(bad[0]):g}: give `target` in nats", utility.name
+            )
+    if gamma != 1.0:
+        raise InputError("gamma", f"{why}: gamma must be 1; give `target` in nats for another utility", gamma)
+    if lower != 0.0:
+        raise InputError("lower", f"{why}: lower must be 0; give `target` in nats for another utility", lower)
+
+
+def _target(target: float | None, target_impact_ratio: float | None) -> float:
+    """The target in nats: ``target`` itself, or −ln ``target_impact_ratio``; exactly one of them."""
+    if target is not None and target_impact_ratio is not None:
+        raise InputError(
+            "target_impact_ratio", "give `target` (nats) or `target_impact_ratio`, not both", target_impact_ratio
+        )
+    if target_impact_ratio is not None:
+        return impact_ratio_target(target_impact_ratio)
+    if target is None:
+        raise InputError("target", "give a target on L in nats, or `target_impact_ratio`")
+    return real(target, "target", low=0.0, what="a finite non-negative number of nats")
 
 
 def _resolve_family(
@@ -325,8 +407,9 @@ def _result(
 
 
 def calibrate(
-    target: float,
+    target: float | None = None,
     *,
+    target_impact_ratio: float | None = None,
     kind: str = "local",
     method: str | None = None,
     family: MechanismFamily | None = None,
@@ -350,6 +433,15 @@ def calibrate(
     ----------
     target : float
         Target on local g-fairness L (or global L̄), nats, finite and ≥ 0.
+        Required unless ``target_impact_ratio`` is given.
+    target_impact_ratio : float, optional
+        The target as the worst impact ratio r ∈ (0, 1] that every pair of
+        groups must meet (their selection rates' ratio, within each context
+        for L, pooled for L̄): ``target`` = −ln r nats
+        (:func:`impact_ratio_target`; the four-fifths rule, r = 0.8, is
+        ln 1.25 = 0.2231 nats). Only for a selection indicator: g ∈ {0, 1}
+        (γ = 1, lower = 0, and ``utility``, if given, 0/1). Not with
+        ``target``.
     kind : {"local", "global"}
         ``"global"``: the target is on L̄. The paper and tight certificates
         bound L̄ only under X ⊥ A (L̄ ≤ L); with a dependent ``population``
@@ -407,7 +499,10 @@ def calibrate(
     Raises
     ------
     InputError
-        Naming the parameter: a negative or non-finite ``target``, an
+        Naming the parameter: a negative or non-finite ``target``, neither
+        or both of ``target`` and ``target_impact_ratio``, a ratio outside
+        (0, 1] or with a utility that is not a 0/1 selection indicator
+        (``utility`` with another value, ``gamma`` ≠ 1, ``lower`` ≠ 0), an
         unknown ``method`` or ``kind``, fewer than 2 ``groups`` (or a count
         that differs from the family's), ``gamma`` ≤ 0, ``lower`` outside
         [0, γ], ``tau`` outside (0, γ] or missing for paper/tight when
@@ -485,12 +580,43 @@ def calibrate(
     ([0.989837325, 0.806148328], 0.5)
     >>> [round(x, 9) for x in ((0.5 * T - 0.3) / (0.2 * (1 + T)), (0.7 * T - 0.3) / (0.4 * (1 + T)))]
     [0.989837325, 0.806148328]
+
+    The four-fifths rule as the target: every impact ratio ≥ 0.8 is L ≤ ln 1.25 nats. For two groups the
+    worst model's L is ε, so ε = ln 1.25 and the keep probability is 1.25 / 2.25 = 5/9:
+
+    >>> c = calibrate(target_impact_ratio=0.8)
+    >>> c.target == math.log(1.25), c.epsilon == math.log(1.25), round(c.keep_probability, 12), c.target_impact_ratio
+    (True, True, 0.555555555556, 0.8)
     """
-    target = real(target, "target", low=0.0, what="a finite non-negative number of nats")
+    target = _target(target, target_impact_ratio)
     kind = choice(kind, "kind", KINDS)
     if method is not None:
         method = choice(method, "method", METHODS)
     gamma, lower, tau, lipschitz, delta = _check_constants(gamma, lower, tau, lipschitz, delta)
+    if target_impact_ratio is not None:
+        if utility is not None and not isinstance(utility, Utility):
+            raise InputError("utility", "must be a Utility", type(utility).__name__)
+        _check_selection(gamma, lower, utility)
+        result = calibrate(
+            target,
+            kind=kind,
+            method=method,
+            family=family,
+            groups=groups,
+            gamma=gamma,
+            lower=lower,
+            tau=tau,
+            lipschitz=lipschitz,
+            metric=metric,
+            diameter=diameter,
+            delta=delta,
+            kernel=kernel,
+            utility=utility,
+            population=population,
+            context_mechanism=context_mechanism,
+            unparsed_decision=unparsed_decision,
+        )
+        return dataclasses.replace(result, target_impact_ratio=float(target_impact_ratio))
     if kernel is not None and not isinstance(kernel, Kernel):
         raise InputError("kernel", "must be a Kernel", type(kernel).__name__)
     if population is not None and not isinstance(population, Population):

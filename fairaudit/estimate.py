@@ -494,6 +494,25 @@ def count_table(
     )
 
 
+def counts_of_table(
+    data: pd.DataFrame,
+    *,
+    sensitive: Sequence[str],
+    outcome: str,
+    context: Sequence[str],
+    count: str,
+    dropna: bool,
+) -> CountTable:
+    """The CountTable of a count table held as records with a count column: ``count_file(count=)`` and ``audit(count=)``.
+
+    The columns are checked by role first (an unknown column names ``sensitive``, ``outcome``, ``context`` or
+    ``count``), then :func:`count_table` reads the counts with its own checks.
+    """
+    check_roles(data.columns, sensitive, outcome, context)
+    columns([count], "count", data.columns)
+    return count_table(data, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
+
+
 def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Series:
     """The column ``count`` as numbers: each finite and non-negative (``labels`` name the row of an infinite one)."""
     import pandas as pd
@@ -705,9 +724,7 @@ def count_file(
         )
     if count is not None:
         frame = read_checked(path, fmt, [*context, *sensitive, outcome, count])
-        check_roles(frame.columns, sensitive, outcome, context)
-        columns([count], "count", frame.columns)
-        return count_table(frame, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
+        return counts_of_table(frame, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
     if not p.exists():
         raise InputError("DATA", "no such file", str(path))
     kind = file_kind(p)

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from .intervals import FairnessIntervals
     from .laws import Population
     from .plan import SamplePlan
+    from .worst_case import SpecWorstUtility
 
 __all__ = [
     "FORMATS",
@@ -38,6 +39,7 @@ __all__ = [
     "plan_dict",
     "population_dict",
     "render",
+    "worst_case_dict",
     "write_atomic",
 ]
 
@@ -88,14 +90,20 @@ def plan_dict(plans: Sequence[SamplePlan]) -> Report:
     return out
 
 
+def worst_case_dict(w: SpecWorstUtility) -> Report:
+    """The ``worst-case`` JSON of a :class:`~fairaudit.worst_case.SpecWorstUtility`: its ``to_dict``."""
+    return w.to_dict()
+
+
 def render(data: Report, kind: str, fmt: str) -> str:
     """Render a report dictionary.
 
     Parameters
     ----------
     data : dict
-        From :func:`certificate_dict`, :func:`audit_dict`, :func:`calibration_dict` or :func:`plan_dict`.
-    kind : {"certify", "audit", "calibrate", "plan"}
+        From :func:`certificate_dict`, :func:`audit_dict`, :func:`calibration_dict`, :func:`plan_dict` or
+        :func:`worst_case_dict`.
+    kind : {"certify", "audit", "calibrate", "plan", "worst-case"}
     fmt : {"text", "json", "markdown", "html"}
         One of :data:`FORMATS`.
 

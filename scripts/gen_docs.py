@@ -61,11 +61,17 @@ def _command_section(parser: argparse.ArgumentParser, level: int) -> list[str]:
         out += [parser.description, ""]
     out += ["```text", parser.format_usage().strip(), "```", ""]
     rows = []
+    one_of = {  # an option of a required mutually exclusive group: one of the group is required
+        id(a): "one of " + ", ".join(f"`{max(b.option_strings, key=len)}`" for b in g._group_actions)
+        for g in parser._mutually_exclusive_groups
+        if g.required
+        for a in g._group_actions
+    }
     for action in parser._actions:
         if isinstance(action, argparse._HelpAction | argparse._SubParsersAction):
             continue
         name = ", ".join(f"`{s}`" for s in action.option_strings) or f"`{action.metavar or action.dest.upper()}`"
-        needed = "yes" if action.required or not action.option_strings else ""
+        needed = "yes" if action.required or not action.option_strings else one_of.get(id(action), "")
         help_text = (action.help or "") % {"default": action.default, "prog": parser.prog}
         rows.append(f"| {name} | {_value(action)} | {_default(action)} | {needed} | {_md(help_text)} |")
     if rows:

@@ -117,7 +117,7 @@ def test_invalid_input_is_one_line_exit_2(capsys, argv, needle):
     [
         (["--target", "x"], "argument --target: invalid float value: 'x'"),
         (["--target", "0.5", "--method", "exact"], "argument --method: invalid choice: 'exact'"),
-        (["--groups", "2"], "the following arguments are required: --target"),
+        (["--groups", "2"], "one of the arguments --target --target-impact-ratio is required"),
     ],
 )
 def test_usage_errors_are_one_line_exit_2(capsys, argv, needle):

@@ -62,7 +62,10 @@ def test_cli_reference_has_every_command_and_option(monkeypatch):
             if action.choices is not None and not isinstance(action, argparse._SubParsersAction):
                 assert all(f"`{c}`" in section for c in action.choices), (p.prog, action.dest)
     assert "| `--format` | `text` \\| `json` \\| `markdown` \\| `html` | `text` |" in sections["fairaudit certify"]
-    assert "| `--target` | `L` |  | yes |" in sections["fairaudit calibrate"]
+    one_of = "one of `--target`, `--target-impact-ratio`"
+    assert f"| `--target` | `L` |  | {one_of} |" in sections["fairaudit calibrate"]
+    assert f"| `--target-impact-ratio` | `R` |  | {one_of} |" in sections["fairaudit calibrate"]
+    assert "| `--target` | `L` |  | yes |" in sections["fairaudit plan"]
 
 
 def test_api_reference_covers_every_public_module():

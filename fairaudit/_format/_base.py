@@ -10,7 +10,13 @@ from .._json import Report
 __all__ = ["KINDS", "Format"]
 
 #: Report kind (the subcommand) -> the :class:`Format` method that renders its dictionary.
-KINDS = {"certify": "certificate", "audit": "audit", "calibrate": "calibration", "plan": "plan"}
+KINDS = {
+    "certify": "certificate",
+    "audit": "audit",
+    "calibrate": "calibration",
+    "plan": "plan",
+    "worst-case": "worst_case",
+}
 
 
 class Format(ABC):
@@ -37,6 +43,10 @@ class Format(ABC):
     @abstractmethod
     def plan(self, d: Report) -> str:
         """The ``plan`` report of :func:`fairaudit.report.plan_dict`."""
+
+    @abstractmethod
+    def worst_case(self, d: Report) -> str:
+        """The ``worst-case`` report of :func:`fairaudit.report.worst_case_dict`."""
 
     def render(self, d: Report, kind: str) -> str:
         """The report of kind ``kind`` (a key of :data:`KINDS`)."""

@@ -57,7 +57,7 @@ from ._common import (
     records,
     target_rows,
 )
-from .text import calibration_text
+from .text import calibration_text, worst_case_text
 
 if TYPE_CHECKING:
     import jinja2
@@ -311,6 +311,14 @@ class HtmlFormat(Format):
         page = _Page("fairaudit calibration")
         for line in calibration_text(d).splitlines():
             page.p(line)
+        return page.render(jinja2)
+
+    def worst_case(self, d: Report) -> str:
+        """The worst-case lines (as the text report), one paragraph each."""
+        jinja2, _ = _libraries()
+        page = _Page("fairaudit worst case")
+        for line in worst_case_text(d).splitlines():
+            page.p(line.strip())
         return page.render(jinja2)
 
     def plan(self, d: Report) -> str:

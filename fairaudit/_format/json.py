@@ -34,3 +34,7 @@ class JsonFormat(Format):
     def plan(self, d: Report) -> str:
         """The plan as JSON."""
         return self.render(d, "plan")
+
+    def worst_case(self, d: Report) -> str:
+        """The worst utility as JSON."""
+        return self.render(d, "worst-case")

@@ -40,7 +40,7 @@ from ._common import (
     records,
     target_rows,
 )
-from .text import calibration_text
+from .text import calibration_text, worst_case_text
 
 __all__ = ["MarkdownFormat", "code_block", "code_span", "escape"]
 
@@ -176,6 +176,10 @@ class MarkdownFormat(Format):
     def calibration(self, d: Report) -> str:
         """The text report in a code block under a heading."""
         return "# fairaudit calibration\n\n" + code_block(calibration_text(d))
+
+    def worst_case(self, d: Report) -> str:
+        """The text report in a code block under a heading."""
+        return "# fairaudit worst case\n\n" + code_block(worst_case_text(d))
 
     def plan(self, d: Report) -> str:
         """The question and the assumed model as sentences, then a table of the methods."""

@@ -29,7 +29,7 @@ from ._common import (
     records,
 )
 
-__all__ = ["TextFormat", "calibration_text"]
+__all__ = ["TextFormat", "calibration_text", "worst_case_text"]
 
 
 class TextFormat(Format):
@@ -95,6 +95,10 @@ class TextFormat(Format):
         """The largest ε that meets the target (or why none does), its keep probability and the method."""
         return calibration_text(d)
 
+    def worst_case(self, d: Report) -> str:
+        """The class of utilities, the worst utility of L and of L-bar with their values, the spec's own."""
+        return worst_case_text(d)
+
     def plan(self, d: Report) -> str:
         """The question, the assumed model and an aligned table of the methods."""
         rows = [PLAN_HEAD] + plan_rows(d)
@@ -105,19 +109,66 @@ class TextFormat(Format):
         return "\n".join(lines) + "\n"
 
 
+def worst_case_text(d: Report) -> str:
+    """The ``worst-case`` report as text (the Markdown and HTML formats quote it)."""
+    tau = "" if d["tau"] is None else f", E[g | x, a] >= tau = {fmt(d['tau'])}"
+    lines = [
+        f"fairaudit worst case: {d['title'] or d['spec']}",
+        f"law: {d['law']}; sensitive {d['sensitive']}, context {d['context']}",
+        f"utilities: every g({d['decision']}) in [{fmt(d['lower'])}, {fmt(d['gamma'])}]{tau}",
+    ]
+    for key, name in (("local", "L"), ("global", "L-bar")):
+        w = d[key]
+        lines.append(f"worst utility for {name}: {_utility_line(d, w['utility'])}")
+        lines.append(
+            f"  {name} = {nats(w['value'])}, ratio {fmt(w['ratio'])}{pair(w)}; method {w['method']}"
+            + (f" ({w['reason']})" if w.get("reason") else "")
+        )
+    u = d["spec_utility"]
+    lines.append(f"the spec's utility {u['name']}: L = {nats(u['local'])}, L-bar = {nats(u['global'])}")
+    lines += [f"excluded: {e}" for e in d["excluded"]]
+    return "\n".join(lines) + "\n"
+
+
+def _utility_line(d: Report, values: list[float] | None) -> str:
+    """``g = 1 on a, b; 0 on c``: the decisions grouped by their utility, the largest first (20 shown each).
+
+    A value within 1e-9 (relative to gamma) of the class's end is shown as that end: the LP's interior-point
+    solution stops that close to a vertex, and the JSON keeps its values as they are.
+    """
+    if values is None:
+        return "none (no utility of the class meets tau)"
+    lower, gamma = float(d["lower"]), float(d["gamma"])
+    tol = 1e-9 * max(gamma, 1.0)
+    by_value: dict[float, list[str]] = {}
+    for decision, v in zip(d["decisions"], values):
+        x = float(v)  # (values in [lower, gamma]: finite, never null)
+        x = lower if abs(x - lower) <= tol else gamma if abs(x - gamma) <= tol else x
+        by_value.setdefault(x, []).append(str(decision))
+    parts = []
+    for x in sorted(by_value, reverse=True):
+        names = by_value[x]
+        parts.append(f"{fmt(x)} on {', '.join(names[:20])}{', ...' if len(names) > 20 else ''}")
+    return "g = " + "; ".join(parts)
+
+
 def calibration_text(d: Report) -> str:
     """The ``calibrate`` report as text (the Markdown format quotes it in a code block)."""
     up = _unparsed_line(d)
+    ratio = d.get("target_impact_ratio")
+    goal = f"{measure(d)} <= {nats(d['target'])}"
+    if ratio is not None:  # the target given as an impact ratio r: L <= -ln r
+        goal += f" (every impact ratio >= {fmt(ratio)}: {measure(d)} is -ln of the worst impact ratio)"
     if not d["feasible"]:
         low = f"the model's {measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
         return (
-            f"no epsilon of {d['family']} meets {measure(d)} <= {nats(d['target'])}\n"
+            f"no epsilon of {d['family']} meets {goal}\n"
             f"method: {d['method']}; {low}: {nats(d['bound'])}\n{up}"
             f"reason: {d['reason']}\n"
         )
     there = f"the model's {measure(d)} there" if d["method"] == "white_box" else "certified bound there"
     return (
-        f"largest epsilon of {d['family']} meeting {measure(d)} <= {nats(d['target'])}: {nats(d['epsilon'])}\n"
+        f"largest epsilon of {d['family']} meeting {goal}: {nats(d['epsilon'])}\n"
         f"keep probability (the price): {fmt(d['keep_probability'])}\n"
         f"method: {d['method']}; {there}: {nats(d['bound'])}\n{up}"
         f"reason: {d['reason']}\n"

@@ -1,4 +1,4 @@
-"""The ``fairaudit`` command: certify, audit, calibrate, plan, experiment, prepare-model.
+"""The ``fairaudit`` command: certify, audit, calibrate, plan, worst-case, experiment, prepare-model.
 
 One module per subcommand (``fairaudit/cli/<command>.py``) adds its arguments
 (``add_parser``) and runs it (``run(args) -> int``, dispatched through

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .. import __version__
-from . import audit, calibrate, certify, experiment, plan, prepare_model
+from . import audit, calibrate, certify, experiment, plan, prepare_model, worst_case
 from ._common import Parser, command_flags
 
 
@@ -18,7 +18,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"fairaudit {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
-    for command in (certify, audit, calibrate, plan, experiment, prepare_model):
+    for command in (certify, audit, calibrate, plan, worst_case, experiment, prepare_model):
         command.add_parser(sub)
     for command_parser in sub.choices.values():
         own = command_parser.get_default("flags") or {}  # a command's parameters that come from another flag

@@ -19,7 +19,15 @@ def add_parser(sub: Subparsers) -> None:
         "randomized response, or the spec's) whose certificate on local g-fairness (or global, "
         "--global) meets --target, and its keep probability. Exit 1 when no epsilon meets it.",
     )
-    k.add_argument("--target", required=True, type=float, metavar="L", help="target on L (or L-bar), in nats")
+    t = k.add_mutually_exclusive_group(required=True)
+    t.add_argument("--target", type=float, metavar="L", help="target on L (or L-bar), in nats")
+    t.add_argument(
+        "--target-impact-ratio",
+        type=float,
+        metavar="R",
+        help="target as the worst impact ratio R in (0, 1] of a 0/1 selection indicator g: L <= -ln R nats "
+        "(0.8, the four-fifths rule: ln 1.25 = 0.223 nats)",
+    )
     k.add_argument("--groups", type=int, metavar="K", help="number of groups k (default 2, or the spec's)")
     k.add_argument("--gamma", type=float, metavar="G", help="upper end of the utility (default 1, or the spec's)")
     k.add_argument("--lower", type=float, metavar="B", help="lower end of the utility (default 0, or the spec's)")
@@ -73,7 +81,9 @@ def run(args: argparse.Namespace) -> int:
     for flag in ("gamma", "lower", "tau", "lipschitz", "delta"):
         if getattr(args, flag) is not None:
             opts[flag] = getattr(args, flag)
-    cal = calibrate(args.target, kind=args.kind, method=args.method, **opts)
+    cal = calibrate(
+        args.target, target_impact_ratio=args.target_impact_ratio, kind=args.kind, method=args.method, **opts
+    )
     data = calibration_dict(cal)
     summary = f"epsilon = {data['epsilon']}" if cal.feasible else f"no epsilon meets the target: {cal.reason}"
     emit(args, render(data, "calibrate", args.format), summary)

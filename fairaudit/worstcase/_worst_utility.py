@@ -15,6 +15,7 @@ import numpy as np
 from .._arrays import BoolArray, FloatArray, IntArray, format_label, safe_log
 from .._deprecated import renamed
 from .._errors import InputError
+from .._json import Report, label, number
 from ..laws import Law, Population
 from ..lfp import PAIR_BLOCK, FractionalProgram, FractionalResult, threshold_max_many
 from ..utility import Utility
@@ -51,6 +52,38 @@ class WorstUtility:
 
     local = renamed[WorstCase]("local_fairness")
     global_ = renamed[WorstCase]("global_fairness")
+
+    def to_dict(self) -> Report:
+        """The report dictionary: the class, the law's decisions, and the worst utility of L (``local``) and of L̄.
+
+        ``local`` and ``global`` are each worst case's dictionary (value, ratio, the context for ``local``, the
+        pair, method, status, programs solved) with ``utility``: the maximising g, one value per decision in the
+        order of ``decisions`` (``null`` when no utility of the class meets τ). Then ``lower``, ``gamma``, ``tau``
+        (``null`` when not given), ``population`` and ``excluded``.
+
+        Examples
+        --------
+        >>> law = Law([[[0.5, 0.3, 0.2], [0.2, 0.3, 0.5]]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
+        >>> d = worst_utility(law).to_dict()
+        >>> d["decisions"], d["local"]["utility"], d["local"]["ratio"], d["local"]["group"]
+        (['hire', 'wait', 'reject'], [1.0, 0.0, 0.0], 2.5, 'a')
+        """
+
+        def case(w: WorstCase) -> Report:
+            d = w.to_dict()
+            d["utility"] = None if w.utility is None else [number(v) for v in np.asarray(w.utility.values).tolist()]
+            return d
+
+        return {
+            "decisions": [label(d) for d in self.law.decisions],
+            "lower": number(self.lower),
+            "gamma": number(self.gamma),
+            "tau": number(self.tau),
+            "local": case(self.local_fairness),
+            "global": case(self.global_fairness),
+            "population": self.population.to_dict(),
+            "excluded": list(self.excluded),
+        }
 
 
 def worst_utility(

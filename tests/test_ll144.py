@@ -1,0 +1,199 @@
+"""The NYC Local Law 144 bias-audit table: exact rates and ratios, the exact joint-box intervals, the threshold marks,
+the headline over the tables' categories, the report's order, and the tidy DataFrame.
+
+Expected values come from routes that share no code with fairaudit.impact_ratio: exact fractions of hand counts,
+pandas groupbys of the records, and a brute force over the vertices (and a grid) of the box of rates.
+"""
+
+from __future__ import annotations
+
+import itertools
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from fairaudit import InputError, count_records, indicator
+from fairaudit.impact_ratio import MARKS, impact_ratios, ratio_range
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "impact_ratio" / "applicants.csv"
+COMMAND = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]
+
+
+# ------------------------------------------------------------------------------------------ exact ratio ranges
+def _ratio(p: list[Fraction], i: int) -> Fraction:
+    """p_i / max_j p_j, 0/0 = 1 (every rate 0: parity), in exact arithmetic."""
+    top = max(p)
+    return Fraction(1) if top == 0 else p[i] / top
+
+
+def _box_extremes(lower: list[Fraction], upper: list[Fraction]) -> list[tuple[Fraction, Fraction]]:
+    """Each ratio's min and max over the vertices of the box (the ratio is monotone in each rate)."""
+    values = [[_ratio(list(v), i) for v in itertools.product(*zip(lower, upper))] for i in range(len(lower))]
+    return [(min(v), max(v)) for v in values]
+
+
+ends = st.fractions(min_value=0, max_value=1, max_denominator=12)
+boxes = st.lists(st.tuples(ends, ends).map(sorted), min_size=1, max_size=5)
+
+
+@given(boxes)
+def test_ratio_range_is_the_exact_range_over_the_box(box):
+    lower, upper = [b[0] for b in box], [b[1] for b in box]
+    low, high = ratio_range([float(v) for v in lower], [float(v) for v in upper])
+    for (want_low, want_high), got_low, got_high in zip(_box_extremes(lower, upper), low, high):
+        assert got_low == pytest.approx(float(want_low), abs=1e-12)
+        assert got_high == pytest.approx(float(want_high), abs=1e-12)
+
+
+@given(st.lists(st.tuples(ends, ends).map(sorted), min_size=2, max_size=3))
+def test_ratio_range_contains_every_ratio_on_a_grid_of_the_box(box):
+    lower, upper = [float(b[0]) for b in box], [float(b[1]) for b in box]
+    low, high = ratio_range(lower, upper)
+    axes = [np.linspace(lo, hi, 7) for lo, hi in zip(lower, upper)]
+    for p in itertools.product(*axes):
+        top = max(p)
+        for i in range(len(p)):
+            r = 1.0 if top == 0 else p[i] / top
+            assert low[i] - 1e-12 <= r <= high[i] + 1e-12
+
+
+def test_ratio_range_edge_cases():
+    # one category: its ratio is 1 whatever its rate; all rates 0: parity (0/0 = 1)
+    assert [a.tolist() for a in ratio_range([0.2], [0.5])] == [[1.0], [1.0]]
+    assert [a.tolist() for a in ratio_range([0.0, 0.0], [0.0, 0.0])] == [[1.0, 1.0], [1.0, 1.0]]
+    # a rate surely highest (its lower end above the others' upper ends) has ratio exactly 1; the other's range
+    # is [0.1 / 0.9, 0.3 / 0.6]; with the lower end 0 and another upper end above 0 a ratio reaches 0
+    low, high = ratio_range([0.6, 0.1], [0.9, 0.3])
+    assert (low[0], high[0]) == (1.0, 1.0) and (low[1], high[1]) == (0.1 / 0.9, 0.3 / 0.6)
+    low, high = ratio_range([0.0, 0.2], [0.1, 0.4])
+    assert (low[0], high[0]) == (0.0, 0.5) and (low[1], high[1]) == (1.0, 1.0)
+
+
+def test_the_surely_highest_category_gets_exactly_one():
+    """The issue's [0.77, 1]: a category whose rate is surely the highest on the simultaneous event has [1, 1]."""
+    df = pd.DataFrame({"g": ["a"] * 1000 + ["b"] * 1000, "y": [1] * 900 + [0] * 100 + [1] * 100 + [0] * 900})
+    rows = {r.category: r for r in impact_ratios(df, sensitive="g", outcome="y").rows}
+    assert rows["a"].interval == (1.0, 1.0) and rows["a"].mark == "not below"
+    assert rows["b"].impact_ratio == float(Fraction(1, 9)) and rows["b"].mark == "below"
+    assert rows["b"].interval[1] < 0.8
+
+
+# ------------------------------------------------------------------------------------------ rates and ratios
+def test_ratios_are_the_exact_fractions_of_the_counts():
+    """Each ratio is k_i n_b / (n_i k_b) rounded once: what a published figure rounds at any precision."""
+    t = count_records(pd.read_csv(EXAMPLE).dropna(), sensitive=["sex", "race"], outcome="selected")
+    rows = {(r.type, r.category): r for r in impact_ratios(t).rows}
+    # hand counts (docs/ll144.md): women 29 of 77, men 32 of 70; Black 20 of 55, White 40 of 90
+    assert rows[("sex", "Female")].impact_ratio == float(Fraction(29, 77) / Fraction(32, 70))
+    assert rows[("sex", "Female")].rate == float(Fraction(29, 77))
+    assert (rows[("sex", "Female")].n, rows[("sex", "Female")].selected) == (77, 29)
+    assert rows[("race", "Black")].impact_ratio == float(Fraction(9, 11))
+    assert rows[("sex x race", ("Female", "Black"))].impact_ratio == 0.64
+
+
+def test_marks_follow_the_intervals_and_the_threshold():
+    df = pd.read_csv(EXAMPLE).dropna()
+    for threshold in (0.3, 0.5, 0.8, 1.0):
+        report = impact_ratios(df, sensitive=["sex", "race"], outcome="selected", threshold=threshold)
+        assert report.threshold == threshold
+        for r in report.rows:
+            if r.excluded:
+                assert r.mark is None
+                continue
+            lo, hi = r.interval
+            want = "below" if hi < threshold else "not below" if lo >= threshold else "possibly below"
+            assert r.mark == want and r.mark in MARKS
+    report = impact_ratios(df, sensitive=["sex", "race"], outcome="selected", threshold=0.5)
+    marks = {r.category: r.mark for r in report.rows if r.type == "sex"}
+    assert marks == {"Female": "possibly below", "Male": "not below"}  # Female [0.3715, 1]; Male [0.5494, 1]
+    for bad in (0, -0.1, 1.5, float("nan")):
+        with pytest.raises(InputError, match="^threshold"):
+            impact_ratios(df, sensitive="sex", outcome="selected", threshold=bad)
+
+
+# ------------------------------------------------------------------------------------------ the tidy DataFrame
+def _groupby_table(df: pd.DataFrame, column, y: str) -> pd.DataFrame:
+    """n, selected, rate and the ratio to the highest rate among categories of >= 2% of the records, by pandas."""
+    g = df.groupby(column)[y].agg(n="size", selected="sum")
+    g["rate"] = g["selected"] / g["n"]
+    included = g["n"] >= 0.02 * len(df)
+    g["impact_ratio"] = (g["rate"] / g.loc[included, "rate"].max()).where(included)
+    return g
+
+
+def test_to_frame_matches_a_pandas_groupby():
+    df = pd.read_csv(EXAMPLE).dropna(subset=["sex"])
+    frame = impact_ratios(df, sensitive=["sex", "race"], outcome="selected").to_frame()
+    assert list(frame.columns) == [
+        "type",
+        "category",
+        "n",
+        "selected",
+        "selection_rate",
+        "impact_ratio",
+        "ci_low",
+        "ci_high",
+        "mark",
+        "excluded",
+    ]
+    assert frame["n"].dtype == np.int64 and frame["selected"].dtype == np.int64 and frame["excluded"].dtype == bool
+    assert all(isinstance(c, str) for c in frame["category"])
+    for kind, column in (("sex", "sex"), ("race", "race"), ("sex x race", ["sex", "race"])):
+        want = _groupby_table(df, column, "selected")
+        want.index = [" & ".join(i) if isinstance(i, tuple) else i for i in want.index]
+        got = frame[frame["type"] == kind].set_index("category")
+        assert list(got.index) == list(want.index)
+        assert got["n"].tolist() == want["n"].tolist() and got["selected"].tolist() == want["selected"].tolist()
+        np.testing.assert_allclose(got["selection_rate"], want["rate"], rtol=1e-15)
+        np.testing.assert_allclose(got["impact_ratio"], want["impact_ratio"], rtol=1e-15)  # NaN where excluded
+        assert (got["excluded"] == want["impact_ratio"].isna()).all()
+        assert got.loc[got["excluded"], ["ci_low", "ci_high"]].isna().all().all()
+        assert ((got["ci_low"] <= got["impact_ratio"]) | got["excluded"]).all()
+    assert frame.attrs["threshold"] == 0.8 and frame.attrs["unknown"] == {"sex": 0.0, "race": 0.0, "sex x race": 0.0}
+
+
+def test_dataframe_call_equals_the_count_table_call():
+    df = pd.read_csv(EXAMPLE)
+    t = count_records(df, sensitive=["sex", "race"], outcome="selected", dropna=True)
+    a = impact_ratios(df, sensitive=["sex", "race"], outcome="selected", dropna=True)
+    b = impact_ratios(t, indicator(1, t.decisions))
+    assert a.rows == b.rows and a.unknown == b.unknown == {"sex": 3.0, "race": 0.0, "sex x race": 3.0}
+    assert impact_ratios(df, "u == 1", sensitive=["sex", "race"], outcome="selected", dropna=True).rows == a.rows
+    assert impact_ratios(df, sensitive=["sex", "race"], outcome="selected", dropna=True, positive=1).rows == a.rows
+    with pytest.raises(InputError, match="^sensitive: goes with a DataFrame"):
+        impact_ratios(t, sensitive=["sex"])
+    with pytest.raises(InputError, match="^data: must be a CountTable or a pandas DataFrame"):
+        impact_ratios([1, 2, 3])
+    with pytest.raises(InputError, match="^positive: give positive or utility, not both"):
+        impact_ratios(df, "u == 1", sensitive="sex", outcome="selected", dropna=True, positive=1)
+
+
+def test_scoring_frame_on_real_scores(shared_data):
+    """COMPAS decile scores by race: the share above the whole sample's median, against pandas."""
+    df = pd.read_csv(shared_data / "compas" / "compas-scores-two-years.csv", usecols=["race", "sex", "decile_score"])
+    frame = impact_ratios(df, sensitive=["race", "sex"], outcome="decile_score").to_frame()
+    median = df["decile_score"].median()
+    assert frame.attrs["median"] == median and "scoring_rate" in frame and "above_median" in frame
+    df["above"] = (df["decile_score"] > median).astype(int)
+    want = _groupby_table(df, "race", "above")
+    got = frame[frame["type"] == "race"].set_index("category")
+    assert got["above_median"].tolist() == want["selected"].tolist()
+    np.testing.assert_allclose(got["impact_ratio"], want["impact_ratio"], rtol=1e-15)
+
+
+def test_selection_rates_on_real_rankings(shared_data):
+    """GPT-3.5's rank-1 picks of 8 resumes (Bloomberg): the selection rate per race and gender, against pandas."""
+    df = pd.read_csv(shared_data / "llm_hiring" / "bloomberg_gpt_resume_rankings_long.csv")
+    df = df[(df["model_dir"] == df["model_dir"].iloc[0]) & (df["oversampled"] == 0)].copy()
+    df["selected"] = (df["gpt_rank"] == 1).astype(int)
+    frame = impact_ratios(df, sensitive=["race", "gender"], outcome="selected").to_frame()
+    for kind, column in (("race", "race"), ("gender", "gender")):
+        want = _groupby_table(df, column, "selected")
+        got = frame[frame["type"] == kind].set_index("category")
+        assert got["n"].tolist() == want["n"].tolist()
+        np.testing.assert_allclose(got["impact_ratio"], want["impact_ratio"], rtol=1e-15)

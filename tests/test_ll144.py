@@ -8,12 +8,14 @@ pandas groupbys of the records, and a brute force over the vertices (and a grid)
 from __future__ import annotations
 
 import itertools
+import math
 from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from _cli import run, run_json
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -197,3 +199,85 @@ def test_selection_rates_on_real_rankings(shared_data):
         got = frame[frame["type"] == kind].set_index("category")
         assert got["n"].tolist() == want["n"].tolist()
         np.testing.assert_allclose(got["impact_ratio"], want["impact_ratio"], rtol=1e-15)
+
+
+# ------------------------------------------------------------------------------------------ the command's report
+def test_headline_uses_the_tables_categories(capsys, tmp_path):
+    """A 14-applicant category (1.4%) with no one selected: left out of the tables and of L and L-bar alike."""
+    rows = [("a", 1)] * 300 + [("a", 0)] * 200 + [("b", 1)] * 250 + [("b", 0)] * 236 + [("c", 0)] * 14
+    path = tmp_path / "small.csv"
+    pd.DataFrame(rows, columns=["g", "selected"]).to_csv(path, index=False)
+    code, d, err = run_json(
+        capsys, "audit", path, "--sensitive", "g", "--outcome", "selected", "--report", "impact-ratio"
+    )
+    assert code == 0, err
+    lowest = Fraction(250, 486) / Fraction(300, 500)  # b against a; c (14 of 1000 < 2%) left out
+    assert [g["label"] for g in d["groups"]] == ["a", "b"] and d["n"] == 986
+    assert d["global"]["value"] == pytest.approx(-math.log(lowest), rel=1e-12)
+    assert d["local"]["value"] == pytest.approx(-math.log(lowest), rel=1e-12)
+    assert d["impact_ratio_details"]["headline"] == {
+        "type": "g",
+        "left_out": [{"category": "c", "n": 14.0}],
+        "includes_small": False,
+    }
+    code, out, _ = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "selected", "--report", "impact-ratio")
+    assert (
+        "note: the metrics are over the categories of the impact ratios by g; left out, under 2% of the data: " in out
+    )
+    assert "c (14 records)" in out
+    assert f"is L-bar = -ln 0.8573 = {-math.log(lowest):.6g} nats over its categories" in out
+
+
+def test_headline_says_when_it_includes_small_categories(capsys, tmp_path):
+    """Sixty categories of 1/60 each (< 2%): no ratio, so the metrics keep every category and say so."""
+    df = pd.DataFrame({"g": [f"g{i:02d}" for i in range(60)] * 2, "selected": [1] * 60 + [0] * 60})
+    path = tmp_path / "many.csv"
+    df.to_csv(path, index=False)
+    args = ("audit", path, "--sensitive", "g", "--outcome", "selected", "--report", "impact-ratio")
+    code, d, err = run_json(capsys, *args)
+    assert code == 0, err
+    assert len(d["groups"]) == 60 and d["impact_ratio_details"]["headline"]["includes_small"]
+    code, out, _ = run(capsys, *args)
+    assert "note: the metrics include the categories under 2% of the data that the impact ratios by g leave out" in out
+
+
+def test_reports_lead_with_the_impact_ratios(capsys):
+    pytest.importorskip("jinja2")
+    pytest.importorskip("matplotlib")
+    code, text, _ = run(capsys, *COMMAND)
+    assert code == 0 and text.startswith("impact ratios (NYC Local Law 144 bias audit): 147 applicants;")
+    assert (
+        text.index("impact ratios by sex x race:") < text.index("fairaudit audit: 145 records") < text.index("metrics:")
+    )
+    code, md, _ = run(capsys, *COMMAND, "--format", "markdown")
+    assert md.startswith("# impact ratios") and md.index("## By sex x race") < md.index("## Metrics")
+    code, html, _ = run(capsys, *COMMAND, "--format", "html")
+    assert code == 0
+    assert html.index("<h2>Impact ratios by sex</h2>") < html.index("<h2>The audit: 145 records</h2>")
+    assert html.index("<h2>The audit: 145 records</h2>") < html.index("<h2>Metrics</h2>")
+    assert html.index("<h1>impact ratios (NYC Local Law 144 bias audit)") < html.index("<h2>Impact ratios by sex</h2>")
+
+
+def test_marks_in_every_format(capsys):
+    pytest.importorskip("jinja2")
+    pytest.importorskip("matplotlib")
+    code, d, _ = run_json(capsys, *COMMAND, "--threshold", "0.3")
+    assert code == 0 and d["impact_ratio_details"]["threshold"] == 0.3
+    marks = {(r["type"], r["category"]): r["mark"] for r in d["impact_ratios"]}
+    assert marks[("sex", "Male")] == "not below" and marks[("race", "Asian")] is None
+    for fmt in ("text", "markdown", "html"):
+        code, out, _ = run(capsys, *COMMAND, "--threshold", "0.3", "--format", fmt)
+        assert code == 0 and "threshold 0.3" in out and "not below" in out and "possibly below" in out
+
+
+@pytest.mark.parametrize("value", ["0", "2", "nan"])
+def test_bad_threshold_exits_2_with_one_line(capsys, value):
+    code, out, err = run(capsys, *COMMAND, "--threshold", value)
+    assert (code, out) == (2, "") and err.count("\n") == 1
+    assert err.startswith("fairaudit: error: --threshold: must be a finite number > 0 and <= 1 (got ")
+
+
+def test_threshold_without_the_report_exits_2(capsys):
+    code, out, err = run(capsys, *COMMAND[:-2], "--threshold", "0.8")
+    assert code == 2 and out == ""
+    assert err == "fairaudit: error: --threshold: marks the impact ratios: give --report impact-ratio too (got 0.8)\n"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from .._errors import InputError
 from .._format._common import records
 from ..report import audit_dict, render
 from ._common import Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
@@ -102,7 +103,15 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
         "--report",
         choices=("impact-ratio",),
         help="add a report: impact-ratio, the selection (or scoring) rate and impact ratio of each category of each "
-        "sensitive column and of their intersection, as NYC Local Law 144 bias audits publish them",
+        "sensitive column and of their intersection, as NYC Local Law 144 bias audits publish them; the metrics "
+        "are then over the categories of the intersection's impact ratios (those under 2%% of the data left out)",
+    )
+    a.add_argument(
+        "--threshold",
+        type=float,
+        metavar="T",
+        help="with --report impact-ratio: mark each category below / possibly below / not below T from its "
+        "simultaneous interval (default 0.8, the four-fifths rule of thumb)",
     )
 
 
@@ -122,19 +131,27 @@ def run(args: argparse.Namespace) -> int:
         csv=text_format(args),
         weights=args.weights,
     )
-    scoring = None
-    if args.report == "impact-ratio" and args.positive is None and args.utility is None:
-        from ..impact_ratio import scoring_utility
+    report = None
+    if args.report == "impact-ratio":
+        from ..impact_ratio import THRESHOLD, impact_ratios
 
-        binary = {str(d) for d in table.decisions} <= {"0", "1", "True", "False"}
-        scoring = None if binary else scoring_utility(table)  # a score: g = 1{score > the sample's median}
+        report = impact_ratios(
+            table,
+            args.utility,
+            positive=args.positive,
+            confidence=args.confidence or 0.95,
+            threshold=THRESHOLD if args.threshold is None else args.threshold,
+        )
+        table, _ = report.headline_table()  # the metrics over the categories of the impact ratios
+    elif args.threshold is not None:
+        raise InputError("threshold", "marks the impact ratios: give --report impact-ratio too", args.threshold)
     result = audit(
         table,
         sensitive=args.sensitive,
         outcome=args.outcome,
         context=args.context,
-        positive=args.positive,
-        utility=args.utility if scoring is None else scoring,
+        positive=args.positive if report is None else None,
+        utility=args.utility if report is None else report.utility,
         confidence=args.confidence,
         method=args.method,
         dropna=args.dropna,
@@ -150,13 +167,9 @@ def run(args: argparse.Namespace) -> int:
         data["by_context"] = by_context_rows(result.observed.local_fairness, result.table, json=True)
     if args.gap_on == "g":
         data["gaps_on_g"] = result.gaps_on_g.to_dict()
-    if args.report == "impact-ratio":
-        from ..impact_ratio import impact_ratios
-
-        report = impact_ratios(
-            table, None if scoring is not None else result.utility, confidence=args.confidence or 0.95
-        )
+    if report is not None:
         data.update(report.to_dict())
+        data["impact_ratio_details"]["headline"] = report.headline_dict()
     summary = f"audit: {records(data)}, L = {data['local']['value']} nats"
     emit(args, render(data, "audit", args.format), summary)
     return 0

@@ -314,10 +314,6 @@ def impact_ratios(
         In (0, 1]: each included category is marked ``below``, ``possibly below`` or ``not below`` it from its
         interval (default 0.8, the four-fifths rule of thumb).
 
-    With neither ``utility`` nor ``positive``: an outcome of 0/1 (or booleans) is a selection of 1 (True); any
-    other numeric outcome is a score, and the rate is the share of records scoring above the median of the whole
-    sample (the weighted median with weights).
-
     Returns
     -------
     ImpactRatios
@@ -332,6 +328,10 @@ def impact_ratios(
 
     Notes
     -----
+    With neither ``utility`` nor ``positive``: an outcome of 0/1 (or booleans) is a selection of 1 (True); any
+    other numeric outcome is a score, and the rate is the share of records scoring above the median of the whole
+    sample (the weighted median with weights).
+
     Definitions: 6 RCNY § 5-301 (selection rate, scoring rate, impact ratio,
     the 2% exclusion). Intervals: each category's rate gets a Clopper–Pearson
     interval at level 1 − α/m, m the number of included categories in the

@@ -44,7 +44,7 @@ from ._arrays import FloatArray, format_label
 from ._confidence_sets import clopper_pearson
 from ._errors import InputError
 from ._json import Report, label, number
-from ._validation import level, real
+from ._validation import level, real, whole
 from .estimate import CountTable
 from .utility import Utility, from_table
 
@@ -58,6 +58,7 @@ __all__ = [
     "impact_ratios",
     "median_score",
     "ratio_range",
+    "round_half_up",
     "scoring_utility",
 ]
 
@@ -222,7 +223,7 @@ class ImpactRatios:
             },
         }
 
-    def to_frame(self) -> pd.DataFrame:
+    def to_frame(self, digits: int | None = None) -> pd.DataFrame:
         """The report as a tidy DataFrame, one row per category of each category type.
 
         Columns: ``type``, ``category`` (text, as the command line prints it), ``n`` and ``selected`` (integers;
@@ -230,6 +231,13 @@ class ImpactRatios:
         ``scoring_rate``), ``impact_ratio``, ``ci_low`` and ``ci_high`` (the simultaneous interval; NaN when
         excluded), ``mark`` (None when excluded) and ``excluded``. ``attrs`` holds ``rate``, ``median``,
         ``confidence``, ``threshold`` and ``unknown``.
+
+        Parameters
+        ----------
+        digits : int, optional
+            Round the rates and ratios to this many decimals as published audits print them (half up:
+            :func:`round_half_up`), and the interval outwards (``ci_low`` down, ``ci_high`` up). The marks are
+            those of the exact values.
 
         Examples
         --------
@@ -242,11 +250,16 @@ class ImpactRatios:
         1        M  50        25             0.5           1.0  possibly below
         >>> frame.round(2)[["ci_low", "ci_high"]].values.tolist()
         [[0.37, 1.0], [0.59, 1.0]]
+        >>> impact_ratios(df.iloc[:-1], sensitive="sex", outcome="hired").to_frame(digits=3)["impact_ratio"].tolist()
+        [0.784, 1.0]
         """
         import pandas as pd
 
-        whole = self.table.squares is None
-        count = "int64" if whole else "float64"
+        if digits is not None:
+            digits = whole(digits, "digits")
+
+        integral = self.table.squares is None
+        count = "int64" if integral else "float64"
         rate, selected = (
             ("selection_rate", "selected") if self.rate == "selection" else ("scoring_rate", "above_median")
         )
@@ -255,8 +268,8 @@ class ImpactRatios:
             {
                 "type": pd.Series([r.type for r in self.rows], dtype=object),
                 "category": pd.Series([str(label(r.category)) for r in self.rows], dtype=object),
-                "n": pd.Series([round(r.n) if whole else r.n for r in self.rows], dtype=count),
-                selected: pd.Series([round(r.selected) if whole else r.selected for r in self.rows], dtype=count),
+                "n": pd.Series([round(r.n) if integral else r.n for r in self.rows], dtype=count),
+                selected: pd.Series([round(r.selected) if integral else r.selected for r in self.rows], dtype=count),
                 rate: pd.Series([r.rate for r in self.rows], dtype="float64"),
                 "impact_ratio": pd.Series([nan if r.impact_ratio is None else r.impact_ratio for r in self.rows]),
                 "ci_low": pd.Series([nan if r.interval is None else r.interval[0] for r in self.rows], dtype="float64"),
@@ -268,6 +281,9 @@ class ImpactRatios:
             }
         )
         frame["impact_ratio"] = frame["impact_ratio"].astype("float64")
+        if digits is not None:
+            for column, how in ((rate, "half up"), ("impact_ratio", "half up"), ("ci_low", "down"), ("ci_high", "up")):
+                frame[column] = [round_half_up(v, digits, how) for v in frame[column]]
         frame.attrs.update(
             rate=self.rate,
             median=self.median,
@@ -374,6 +390,27 @@ def impact_ratios(
         rows += _type_rows(name, categories, n, k, lo, hi, keep, threshold, whole)
     unknown = {name: float(dict(table.missing).get(name, 0.0)) for name, _, _ in types}
     return ImpactRatios(tuple(rows), kind, median, unknown, confidence, table, g, threshold)
+
+
+def round_half_up(value: float, digits: int, how: str = "half up") -> float:
+    """``value`` rounded to ``digits`` decimals as a person rounds it (0.3125 -> 0.313), or down or up.
+
+    Rounds the shortest decimal that reads back as ``value`` (its ``repr``), so a rate or ratio that is exactly
+    halfway at ``digits`` decimals (5/16 = 0.3125) goes up, as published audits (and spreadsheets) round, where
+    Python's ``round`` of the binary float may go either way. ``how``: ``"half up"``, ``"down"`` or ``"up"``
+    (for an interval's ends, rounded outwards). NaN and infinities are returned as they are.
+
+    Examples
+    --------
+    >>> round(0.3125, 3), round_half_up(0.3125, 3), round_half_up(2030 / 2464, 2), round_half_up(0.3715, 2, "down")
+    (0.312, 0.313, 0.82, 0.37)
+    """
+    from decimal import ROUND_CEILING, ROUND_FLOOR, ROUND_HALF_UP, Decimal
+
+    if not math.isfinite(value):
+        return value
+    mode = {"half up": ROUND_HALF_UP, "down": ROUND_FLOOR, "up": ROUND_CEILING}[how]
+    return float(Decimal(repr(float(value))).quantize(Decimal(1).scaleb(-digits), rounding=mode))
 
 
 def ratio_range(lower: npt.ArrayLike, upper: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:

@@ -280,4 +280,39 @@ def test_bad_threshold_exits_2_with_one_line(capsys, value):
 def test_threshold_without_the_report_exits_2(capsys):
     code, out, err = run(capsys, *COMMAND[:-2], "--threshold", "0.8")
     assert code == 2 and out == ""
-    assert err == "fairaudit: error: --threshold: marks the impact ratios: give --report impact-ratio too (got 0.8)\n"
+    assert (
+        err == "fairaudit: error: --threshold: goes with the impact ratios: give --report impact-ratio too (got 0.8)\n"
+    )
+
+
+# ------------------------------------------------------------------------------------------ printed precision
+def _half_up(x: Fraction, digits: int) -> Fraction:
+    """x rounded half up to ``digits`` decimals, in integers (x >= 0)."""
+    scale = 10**digits
+    return Fraction(math.floor(x * scale + Fraction(1, 2)), scale)
+
+
+@given(st.integers(0, 5000), st.integers(1, 5000), st.integers(0, 4))
+def test_round_half_up_rounds_the_exact_fraction(k, n, digits):
+    from fairaudit.impact_ratio import round_half_up
+
+    x = Fraction(min(k, n), n)
+    assert round_half_up(float(x), digits) == float(_half_up(x, digits))
+    scale = 10**digits
+    assert round_half_up(float(x), digits, "down") == float(Fraction(math.floor(x * scale), scale))
+    assert round_half_up(float(x), digits, "up") == float(Fraction(math.ceil(x * scale), scale))
+
+
+def test_frame_and_tables_at_a_printed_precision(capsys):
+    """A rate of 5/16 = 0.3125 prints 0.313 at 3 decimals (half up, as published), where round() gives 0.312."""
+    df = pd.DataFrame({"g": ["a"] * 16 + ["b"] * 16, "y": [1] * 5 + [0] * 11 + [1] * 10 + [0] * 6})
+    frame = impact_ratios(df, sensitive="g", outcome="y").to_frame(digits=3)
+    assert frame["selection_rate"].tolist() == [0.313, 0.625] and frame["impact_ratio"].tolist() == [0.5, 1.0]
+    exact = impact_ratios(df, sensitive="g", outcome="y").to_frame()
+    assert (frame["ci_low"] <= exact["ci_low"]).all() and (frame["ci_high"] >= exact["ci_high"]).all()
+    code, out, _ = run(capsys, *COMMAND, "--digits", "2")
+    assert code == 0
+    assert "  Female    77                    0.38            0.82          [0.37, 1.00]     possibly below" in out
+    assert "  Female & Black  25                    0.32            0.64             [0.14, 1.00]" in out
+    code, out, err = run(capsys, *COMMAND[:-2], "--digits", "2")
+    assert (code, out) == (2, "") and err.startswith("fairaudit: error: --digits: goes with the impact ratios")

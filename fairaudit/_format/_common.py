@@ -7,6 +7,7 @@ writes (Markdown's table cells, HTML's text).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from .._json import Report, number
 
@@ -348,13 +349,25 @@ def impact_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[str,
         h.format(rate=details["rate"], level=fmt(details["confidence"]), threshold=fmt(details["threshold"]))
         for h in IMPACT_HEAD
     )
+    number = _impact_number(details.get("digits"))
     tables: dict[str, list[tuple[str, ...]]] = {}
     for r in d["impact_ratios"]:
-        ratio = "excluded (< 2%)" if r["excluded"] else fmt(r["impact_ratio"], 4)
-        interval = "" if r["interval"] is None else f"[{fmt(r['interval'][0], 4)}, {fmt(r['interval'][1], 4)}]"
-        row = (str(r["category"]), fmt(r["n"]), fmt(r["rate"], 4), ratio, interval, r["mark"] or "")
+        ratio = "excluded (< 2%)" if r["excluded"] else number(r["impact_ratio"], "half up")
+        iv = r["interval"]
+        interval = "" if iv is None else f"[{number(iv[0], 'down')}, {number(iv[1], 'up')}]"
+        row = (str(r["category"]), fmt(r["n"]), number(r["rate"], "half up"), ratio, interval, r["mark"] or "")
         tables.setdefault(r["type"], []).append(row)
     return [(name, head, rows) for name, rows in tables.items()]
+
+
+def _impact_number(digits: int | None) -> Callable[[object, str], str]:
+    """How the impact tables print a rate, ratio or interval end: 4 significant digits, or ``digits`` decimals
+    rounded as published audits round (half up; an interval's ends outwards)."""
+    if digits is None:
+        return lambda v, how: fmt(v, 4)
+    from ..impact_ratio import round_half_up
+
+    return lambda v, how: fmt(v) if not isinstance(v, float) else f"{round_half_up(v, digits, how):.{digits}f}"
 
 
 def impact_notes(d: Report) -> list[str]:

@@ -6,6 +6,7 @@ import argparse
 
 from .._errors import InputError
 from .._format._common import records
+from .._validation import whole
 from ..report import audit_dict, render
 from ._common import Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
 
@@ -113,6 +114,13 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
         help="with --report impact-ratio: mark each category below / possibly below / not below T from its "
         "simultaneous interval (default 0.8, the four-fifths rule of thumb)",
     )
+    a.add_argument(
+        "--digits",
+        type=int,
+        metavar="N",
+        help="with --report impact-ratio: print rates and ratios to N decimals, rounded half up as published "
+        "audits print them (intervals outwards); default 4 significant digits",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -135,6 +143,7 @@ def run(args: argparse.Namespace) -> int:
     if args.report == "impact-ratio":
         from ..impact_ratio import THRESHOLD, impact_ratios
 
+        digits = None if args.digits is None else whole(args.digits, "digits", high=15)
         report = impact_ratios(
             table,
             args.utility,
@@ -143,8 +152,12 @@ def run(args: argparse.Namespace) -> int:
             threshold=THRESHOLD if args.threshold is None else args.threshold,
         )
         table, _ = report.headline_table()  # the metrics over the categories of the impact ratios
-    elif args.threshold is not None:
-        raise InputError("threshold", "marks the impact ratios: give --report impact-ratio too", args.threshold)
+    else:
+        for name in ("threshold", "digits"):
+            if getattr(args, name) is not None:
+                raise InputError(
+                    name, "goes with the impact ratios: give --report impact-ratio too", getattr(args, name)
+                )
     result = audit(
         table,
         sensitive=args.sensitive,
@@ -170,6 +183,8 @@ def run(args: argparse.Namespace) -> int:
     if report is not None:
         data.update(report.to_dict())
         data["impact_ratio_details"]["headline"] = report.headline_dict()
+        if digits is not None:
+            data["impact_ratio_details"]["digits"] = digits
     summary = f"audit: {records(data)}, L = {data['local']['value']} nats"
     emit(args, render(data, "audit", args.format), summary)
     return 0

@@ -550,7 +550,7 @@ def audit(
     table = _table(data, sensitive, outcome, context, dropna, weights, count)
     if positive is not None and utility is not None:
         raise InputError("positive", "give positive or utility, not both", positive)
-    g = _audit_utility(table, positive, utility)
+    g = audit_utility(table, positive, utility)
     empty = [table.groups[j] for j in np.flatnonzero(table.group_counts == 0)]
     if empty:
         raise InputError("sensitive", "group has no records", format_label(empty[0]))
@@ -578,8 +578,15 @@ def audit(
     )
 
 
-def _audit_utility(table: CountTable, positive: Hashable | None, utility: str | Utility | None) -> Utility:
-    """g: the Utility or expression given, else 1{U = positive}, else for a 0/1 (or boolean) outcome 1{U = 1}."""
+def audit_utility(table: CountTable, positive: Hashable | None, utility: str | Utility | None) -> Utility:
+    """The g of an audit: the Utility or expression given, else 1{U = positive}, else for a 0/1 (or boolean) outcome 1{U = 1}.
+
+    Raises
+    ------
+    InputError
+        ``positive`` not a value of the outcome, an expression that does not parse (``utility``), or an outcome
+        that is not 0/1 with neither (``positive``).
+    """
     if isinstance(utility, Utility):
         return utility
     if utility is not None:

@@ -116,7 +116,7 @@ def test_cli_report(capsys):
     code, report, err = run_json(capsys, *args)
     assert code == 0, err
     first = report["impact_ratios"][0]
-    assert set(first) == {"type", "category", "n", "rate", "impact_ratio", "interval", "excluded"}
+    assert set(first) == {"type", "category", "n", "selected", "rate", "impact_ratio", "interval", "mark", "excluded"}
     assert [r["type"] for r in report["impact_ratios"]] == ["sex"] * 2 + ["race"] * 3 + ["sex x race"] * 5
     assert report["impact_ratio_details"]["unknown"] == {"sex": 3.0, "race": 0.0, "sex x race": 3.0}
     asian = next(r for r in report["impact_ratios"] if r["category"] == "Asian")
@@ -124,9 +124,11 @@ def test_cli_report(capsys):
         "type": "race",
         "category": "Asian",
         "n": 2.0,
+        "selected": 1.0,
         "rate": 0.5,
         "impact_ratio": None,
         "interval": None,
+        "mark": None,
         "excluded": True,
     }
     for fmt in ("text", "markdown"):
@@ -175,5 +177,5 @@ def test_markdown_and_html_tables(capsys, tmp_path):
         parser.feed(render(out))
         impact = [t for t in parser.tables if t and t[0][:2] == ["category", "number of applicants"]]
         assert [len(t) - 1 for t in impact] == [2, 3, 5]
-        assert impact[2][1] == ["Female & Asian", "2", "0.5", "excluded (< 2%)", ""]
-        assert impact[2][2] == ["Female & Black", "25", "0.32", "0.64", impact[2][2][4]]
+        assert impact[2][1] == ["Female & Asian", "2", "0.5", "excluded (< 2%)", "", ""]
+        assert impact[2][2] == ["Female & Black", "25", "0.32", "0.64", impact[2][2][4], "possibly below"]

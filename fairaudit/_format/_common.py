@@ -6,7 +6,10 @@ writes (Markdown's table cells, HTML's text).
 
 from __future__ import annotations
 
-from .._json import Report
+import math
+from collections.abc import Callable
+
+from .._json import Report, number
 
 __all__ = [
     "BOUNDS",
@@ -312,28 +315,63 @@ def calibration_sentences(c: Report, plain: bool = False) -> list[str]:
     return lines
 
 
-IMPACT_HEAD = ("category", "number of applicants", "{rate} rate", "impact ratio", "interval ({level})")
+IMPACT_HEAD = (
+    "category",
+    "number of applicants",
+    "{rate} rate",
+    "impact ratio",
+    "interval ({level})",
+    "threshold {threshold}",
+)
+
+
+def impact_title(d: Report) -> str:
+    """The impact-ratio report's title: its applicants (of known category), sensitive columns and outcome."""
+    details = d["impact_ratio_details"]
+    applicants = sum(r["n"] for r in d["impact_ratios"] if r["type"] == details["intersection"])
+    weighted = " (total weight)" if d.get("weight_column") else ""
+    return (
+        f"impact ratios (NYC Local Law 144 bias audit): {fmt(applicants)} applicants{weighted}; sensitive "
+        f"{', '.join(d['sensitive'])}; outcome {d['outcome']}"
+    )
 
 
 def impact_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[str, ...]]]]:
     """The impact-ratio report (``--report impact-ratio``) as one table per category type: (type, head, rows).
 
     The layout of published bias audits (NYC Local Law 144): category, number of applicants, selection (or
-    scoring) rate, impact ratio; then the simultaneous interval on the ratio. An excluded category (under 2% of
-    the data) keeps its number and rate, its ratio reads "excluded (< 2%)".
+    scoring) rate, impact ratio; then the simultaneous interval on the ratio and the category's mark against the
+    threshold (below, possibly below, not below). An excluded category (under 2% of the data) keeps its number and
+    rate, its ratio reads "excluded (< 2%)".
     """
     details = d["impact_ratio_details"]
-    head = tuple(h.format(rate=details["rate"], level=fmt(details["confidence"])) for h in IMPACT_HEAD)
+    head = tuple(
+        h.format(rate=details["rate"], level=fmt(details["confidence"]), threshold=fmt(details["threshold"]))
+        for h in IMPACT_HEAD
+    )
+    number = _impact_number(details.get("digits"))
     tables: dict[str, list[tuple[str, ...]]] = {}
     for r in d["impact_ratios"]:
-        ratio = "excluded (< 2%)" if r["excluded"] else fmt(r["impact_ratio"], 4)
-        interval = "" if r["interval"] is None else f"[{fmt(r['interval'][0], 4)}, {fmt(r['interval'][1], 4)}]"
-        tables.setdefault(r["type"], []).append((str(r["category"]), fmt(r["n"]), fmt(r["rate"], 4), ratio, interval))
+        ratio = "excluded (< 2%)" if r["excluded"] else number(r["impact_ratio"], "half up")
+        iv = r["interval"]
+        interval = "" if iv is None else f"[{number(iv[0], 'down')}, {number(iv[1], 'up')}]"
+        row = (str(r["category"]), fmt(r["n"]), number(r["rate"], "half up"), ratio, interval, r["mark"] or "")
+        tables.setdefault(r["type"], []).append(row)
     return [(name, head, rows) for name, rows in tables.items()]
 
 
+def _impact_number(digits: int | None) -> Callable[[object, str], str]:
+    """How the impact tables print a rate, ratio or interval end: 4 significant digits, or ``digits`` decimals
+    rounded as published audits round (half up; an interval's ends outwards)."""
+    if digits is None:
+        return lambda v, how: fmt(v, 4)
+    from ..impact_ratio import round_half_up
+
+    return lambda v, how: fmt(v) if not isinstance(v, float) else f"{round_half_up(v, digits, how):.{digits}f}"
+
+
 def impact_notes(d: Report) -> list[str]:
-    """The sentences under the impact-ratio tables: the rate's definition, exclusions, unknown categories."""
+    """The sentences under the impact-ratio tables: the rate, the marks, nats, exclusions, unknown categories."""
     details = d["impact_ratio_details"]
     if details["rate"] == "scoring":
         rate = (
@@ -341,16 +379,50 @@ def impact_notes(d: Report) -> list[str]:
         )
     else:
         rate = "selection rate: the share of the category selected"
+    t = fmt(details["threshold"])
     notes = [
         f"{rate}; impact ratio: the category's rate over the highest rate of its type (6 RCNY 5-301); intervals "
-        f"simultaneous over every ratio at {fmt(details['confidence'])}"
+        f"simultaneous over every ratio at {fmt(details['confidence'])}",
+        f"threshold {t}{' (the four-fifths rule of thumb)' if details['threshold'] == 0.8 else ''}: below, the whole "
+        f"interval under {t}; possibly below, the interval reaches under {t}; not below, the whole interval at or "
+        f"above {t}",
     ]
+    ratios = [
+        r["impact_ratio"] for r in d["impact_ratios"] if r["type"] == details["intersection"] and not r["excluded"]
+    ]
+    if ratios:
+        lowest = min(ratios)
+        value = math.inf if lowest == 0 else -math.log(lowest)
+        notes.append(
+            f"in nats: the lowest impact ratio by {details['intersection']}, {fmt(lowest, 4)}, is L-bar = "
+            f"-ln {fmt(lowest, 4)} = {nats(number(value))} over its categories; every impact ratio >= {t} is "
+            f"L-bar <= ln(1/{t}) = {nats(-math.log(details['threshold']))}"
+        )
     excluded = [f"{r['type']} {r['category']}" for r in d["impact_ratios"] if r["excluded"]]
     if excluded:
         notes.append("under 2% of the data, left out of the impact ratios: " + ", ".join(excluded))
     unknown = [f"{k} {fmt(v)}" for k, v in details["unknown"].items() if v]
     notes.append("records of unknown category: " + (", ".join(unknown) if unknown else "none"))
     return notes
+
+
+def headline_note(d: Report) -> str | None:
+    """With ``--report impact-ratio``: which categories the metrics cover, when the intersection leaves some out."""
+    headline = d.get("impact_ratio_details", {}).get("headline")
+    if not headline:
+        return None
+    if headline["left_out"]:
+        cells = ", ".join(f"{c['category']} ({fmt(c['n'])} records)" for c in headline["left_out"])
+        return (
+            f"the metrics are over the categories of the impact ratios by {headline['type']}; left out, under 2% "
+            f"of the data: {cells}"
+        )
+    if headline["includes_small"]:
+        return (
+            f"the metrics include the categories under 2% of the data that the impact ratios by {headline['type']} "
+            "leave out (fewer than two of its categories hold 2% of the data)"
+        )
+    return None
 
 
 def gap_rows(d: Report) -> list[tuple[str, str, str]]:
@@ -378,6 +450,9 @@ def audit_notes(d: Report) -> list[str]:
     from .._small_cells import small_cell_sentence
 
     notes = []
+    headline = headline_note(d)
+    if headline is not None:
+        notes.append(headline)
     if d.get("small_cell"):
         notes.append(small_cell_sentence(d["small_cell"]))
     if d.get("left_out"):

@@ -49,6 +49,7 @@ from ._common import (
     gap_rows,
     impact_notes,
     impact_tables,
+    impact_title,
     metric_rows,
     nats,
     observed_notes,
@@ -265,7 +266,15 @@ class HtmlFormat(Format):
     def audit(self, d: Report) -> str:
         """The audit's content (as the text report), the cells' table and figures of E[g | a] and E[g | x, a]."""
         jinja2, _ = _libraries()
-        page = _Page(f"fairaudit audit: {records(d)}")
+        if "impact_ratios" in d:  # the report asked for first, the headline metrics after
+            page = _Page(impact_title(d))
+            for name, head, impact_rows in impact_tables(d):
+                page.h2(f"Impact ratios by {name}")
+                page.table(head, impact_rows, numeric=(1, 2, 3))
+            page.bullets(impact_notes(d))
+            page.h2(f"The audit: {records(d)}")
+        else:
+            page = _Page(f"fairaudit audit: {records(d)}")
         page.facts(audit_facts(d), code=("utility",))
         page.h2("Metrics")
         _observed(page, d)
@@ -297,12 +306,6 @@ class HtmlFormat(Format):
             page.table(("metric", "value", "where"), gap_rows(d), numeric=(1,))
             page.p(GAP_NOTE + ".")
         _cells_table(page, d)
-        if "impact_ratios" in d:
-            page.h2("Impact ratios")
-            for name, head, impact_rows in impact_tables(d):
-                page.p(f"By {name}:")
-                page.table(head, impact_rows, numeric=(1, 2, 3))
-            page.bullets(impact_notes(d))
         return page.render(jinja2)
 
     def calibration(self, d: Report) -> str:

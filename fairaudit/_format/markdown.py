@@ -32,6 +32,7 @@ from ._common import (
     gap_rows,
     impact_notes,
     impact_tables,
+    impact_title,
     metric_rows,
     nats,
     observed_notes,
@@ -146,7 +147,13 @@ class MarkdownFormat(Format):
 
     def audit(self, d: Report) -> str:
         """The audit's columns, records per group and per context, the population, the metrics and the notes."""
-        lines = [f"# fairaudit audit: {escape(records(d))}", ""]
+        lines = []
+        if "impact_ratios" in d:  # the report asked for first, the headline metrics after
+            lines += [f"# {escape(impact_title(d))}", ""]
+            for name, head, rows in impact_tables(d):
+                lines += [f"## By {escape(name)}", ""] + _table(rows, head) + [""]
+            lines += [f"* {escape(n)}" for n in impact_notes(d)] + [""]
+        lines += [f"# fairaudit audit: {escape(records(d))}", ""]
         lines += _facts(audit_facts(d), code=("utility",))
         lines += ["", "## Records per group", ""]
         lines += _table([(g["label"], count(g["n"])) for g in d["groups"]], ("group", "records"))
@@ -166,11 +173,6 @@ class MarkdownFormat(Format):
                 + _table(gap_rows(d), ("metric", "value", "where"))
                 + ["", escape(GAP_NOTE) + ".", ""]
             )
-        if "impact_ratios" in d:
-            lines += ["## Impact ratios", ""]
-            for name, head, rows in impact_tables(d):
-                lines += [f"### {escape(name)}", ""] + _table(rows, head) + [""]
-            lines += [f"* {escape(n)}" for n in impact_notes(d)] + [""]
         return "\n".join(lines)
 
     def calibration(self, d: Report) -> str:

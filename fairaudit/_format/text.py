@@ -20,6 +20,7 @@ from ._common import (
     gap_rows,
     impact_notes,
     impact_tables,
+    impact_title,
     measure,
     nats,
     pair,
@@ -61,7 +62,10 @@ class TextFormat(Format):
     def audit(self, d: Report) -> str:
         """Records per group (and context), the population, the intervals' level and the metrics."""
         ctx = ", ".join(d["context_columns"]) or "none"
-        lines = [
+        lines = []
+        if "impact_ratios" in d:  # the report asked for first, the headline metrics after
+            lines += [impact_title(d), *_impact_lines(d)[1:], ""]
+        lines += [
             f"fairaudit audit: {records(d)}; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
             f"context {ctx}",
             f"utility: {d['utility']['name']}",
@@ -87,8 +91,6 @@ class TextFormat(Format):
         if "gaps_on_g" in d:
             lines += [f"  {name:<28} {value:<18} ({where})" for name, value, where in gap_rows(d)]
             lines.append(f"  {GAP_NOTE}")
-        if "impact_ratios" in d:
-            lines += _impact_lines(d)
         return "\n".join(lines) + "\n"
 
     def calibration(self, d: Report) -> str:

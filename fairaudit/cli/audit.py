@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from .._errors import InputError
 from .._format._common import records
+from .._validation import whole
 from ..report import audit_dict, render
 from ._common import Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
 
@@ -102,7 +104,22 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
         "--report",
         choices=("impact-ratio",),
         help="add a report: impact-ratio, the selection (or scoring) rate and impact ratio of each category of each "
-        "sensitive column and of their intersection, as NYC Local Law 144 bias audits publish them",
+        "sensitive column and of their intersection, as NYC Local Law 144 bias audits publish them; the metrics "
+        "are then over the categories of the intersection's impact ratios (those under 2%% of the data left out)",
+    )
+    a.add_argument(
+        "--threshold",
+        type=float,
+        metavar="T",
+        help="with --report impact-ratio: mark each category below / possibly below / not below T from its "
+        "simultaneous interval (default 0.8, the four-fifths rule of thumb)",
+    )
+    a.add_argument(
+        "--digits",
+        type=int,
+        metavar="N",
+        help="with --report impact-ratio: print rates and ratios to N decimals, rounded half up as published "
+        "audits print them (intervals outwards); default 4 significant digits",
     )
 
 
@@ -122,19 +139,32 @@ def run(args: argparse.Namespace) -> int:
         csv=text_format(args),
         weights=args.weights,
     )
-    scoring = None
-    if args.report == "impact-ratio" and args.positive is None and args.utility is None:
-        from ..impact_ratio import scoring_utility
+    report = None
+    if args.report == "impact-ratio":
+        from ..impact_ratio import THRESHOLD, impact_ratios
 
-        binary = {str(d) for d in table.decisions} <= {"0", "1", "True", "False"}
-        scoring = None if binary else scoring_utility(table)  # a score: g = 1{score > the sample's median}
+        digits = None if args.digits is None else whole(args.digits, "digits", high=15)
+        report = impact_ratios(
+            table,
+            args.utility,
+            positive=args.positive,
+            confidence=args.confidence or 0.95,
+            threshold=THRESHOLD if args.threshold is None else args.threshold,
+        )
+        table, _ = report.headline_table()  # the metrics over the categories of the impact ratios
+    else:
+        for name in ("threshold", "digits"):
+            if getattr(args, name) is not None:
+                raise InputError(
+                    name, "goes with the impact ratios: give --report impact-ratio too", getattr(args, name)
+                )
     result = audit(
         table,
         sensitive=args.sensitive,
         outcome=args.outcome,
         context=args.context,
-        positive=args.positive,
-        utility=args.utility if scoring is None else scoring,
+        positive=args.positive if report is None else None,
+        utility=args.utility if report is None else report.utility,
         confidence=args.confidence,
         method=args.method,
         dropna=args.dropna,
@@ -150,13 +180,11 @@ def run(args: argparse.Namespace) -> int:
         data["by_context"] = by_context_rows(result.observed.local_fairness, result.table, json=True)
     if args.gap_on == "g":
         data["gaps_on_g"] = result.gaps_on_g.to_dict()
-    if args.report == "impact-ratio":
-        from ..impact_ratio import impact_ratios
-
-        report = impact_ratios(
-            table, None if scoring is not None else result.utility, confidence=args.confidence or 0.95
-        )
+    if report is not None:
         data.update(report.to_dict())
+        data["impact_ratio_details"]["headline"] = report.headline_dict()
+        if digits is not None:
+            data["impact_ratio_details"]["digits"] = digits
     summary = f"audit: {records(data)}, L = {data['local']['value']} nats"
     emit(args, render(data, "audit", args.format), summary)
     return 0

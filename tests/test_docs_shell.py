@@ -179,9 +179,9 @@ def _title(info: str) -> str | None:
     return m[1] if m else None
 
 
-def parse(path: Path) -> Page:
-    """The commands and titled files of one page, in page order."""
-    name = path.relative_to(ROOT).as_posix()
+def parse(path: Path, name: str | None = None) -> Page:
+    """The commands and titled files of one page, in page order (``name``: the page's name, by default its path)."""
+    name = name or path.relative_to(ROOT).as_posix()
     page = Page(name)
     for start, info, body in _blocks(path.read_text(encoding="utf-8")):
         lang = info.split()[0].lstrip("{.") if info else ""
@@ -456,3 +456,24 @@ def test_the_stated_test_count_is_current(request):
     assert abs(collected - stated_count) <= 0.1 * stated_count, (
         f"docs/quickstart.md says about {stated_count} tests; the default run has {collected}"
     )
+
+
+def test_the_harness_fails_naming_page_line_and_command(tmp_path, capsys, monkeypatch):
+    """A wrong output, a failing command shown without output and a titled file read back: the harness itself."""
+    page = tmp_path / "page.md"
+    page.write_text(
+        'Some text.\n\n```text title="note.txt"\nhello\n```\n\n```console\n$ cat note.txt\nhello\n'
+        "$ fairaudit calibrate --target 0.5 --groups 8\nlargest epsilon: 9 nats\n```\n\n```bash\nfalse  # fails\n```\n",
+        encoding="utf-8",
+    )
+    parsed = parse(page, "docs/made-up.md")
+    assert [type(s).__name__ for s in parsed.steps] == ["File", "Command", "Command", "Command"]
+    with pytest.raises(AssertionError) as failed:
+        (tmp_path / "run").mkdir()
+        _check_page(parsed, parsed.commands, tmp_path / "run", capsys, monkeypatch)
+    message = str(failed.value)
+    assert "docs/made-up.md:8: $ cat note.txt" not in message  # the titled file was written and read back
+    assert "docs/made-up.md:10: $ fairaudit calibrate --target 0.5 --groups 8" in message
+    assert "-largest epsilon: 9 nats" in message and "+largest epsilon of 8-ary randomized response" in message
+    assert "docs/made-up.md:15: $ false  # fails" in message
+    assert "exit status 1, the page shows no output (so 0)" in message

@@ -326,6 +326,24 @@ def test_a_run_is_never_overwritten(tmp_path, capsys):
         assert exc.value.code == 2 and err.count("\n") == 1 and bad[0] in err, bad
 
 
+def test_out_makes_its_missing_parent_folders(tmp_path, capsys):
+    """``--out runs/pkg`` on a fresh clone (no ``runs/``): the run folder and its parents are made, as ``mkdir -p``;
+    a file where a parent folder should be is refused with one line naming --out, and nothing is made."""
+    args = ["experiment", "package-delivery", "--samples", "1", "--no-images", "--no-progress", "--out"]
+    code, _, err = run(capsys, *args, tmp_path / "runs" / "deep" / "pkg")
+    assert code == 0, err
+    assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == ["deep"]
+    assert (tmp_path / "runs" / "deep" / "pkg" / "queries.jsonl").is_file()
+    (tmp_path / "file").write_text("x")
+    code, out, err = run(capsys, *args, tmp_path / "file" / "sub" / "pkg")
+    assert code == 2 and out == ""
+    assert (
+        err
+        == f"fairaudit: error: --out: cannot be made: {tmp_path / 'file'} is a file, not a folder (got '{tmp_path / 'file' / 'sub' / 'pkg'}')\n"
+    )
+    assert (tmp_path / "file").read_text() == "x"
+
+
 def test_certify_reads_the_runs_spec_and_repeats_its_certificate(tmp_path, capsys):
     """spec-eps-<e>.toml: the per-candidate matrix mechanism (2 profiles -> 4 shown pairs) over candidates.csv."""
     out = tmp_path / "pkg"

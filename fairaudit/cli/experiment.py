@@ -194,7 +194,10 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
 def _add_run_options(e: argparse.ArgumentParser) -> None:
     """The run itself: its folder, resuming, the client, the bands, the images and the progress bar."""
     e.add_argument(
-        "--out", metavar="DIR", help="folder of the run (log, tables, figures, report); required unless --show-prompts"
+        "--out",
+        metavar="DIR",
+        help="folder of the run (log, tables, figures, report), made with any missing parent folders; required "
+        "unless --show-prompts",
     )
     e.add_argument(
         "--show-prompts",

@@ -488,7 +488,7 @@ def _claim(out: Path) -> Iterator[Path]:
         raise InputError(
             "out", "one run per folder needs filelock, which is not installed: pip install 'fairaudit[experiment]'"
         ) from None
-    out.mkdir(exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)  # with its missing parents, as `mkdir -p`
     path = out / LOCK_NAME
     lock = FileLock(path, timeout=0)
     try:
@@ -525,7 +525,8 @@ def run_experiment(
     ----------
     experiment : {"hr-delivery", "package-delivery"}
     out : str or Path
-        Folder of the run (created): the log, tables, certificate, figures, report.
+        Folder of the run (created, with its missing parent folders): the log, tables, certificate, figures,
+        report.
 
         One run at a time per folder: the run holds the lock ``out/.fairaudit.lock``
         from before it writes anything until it returns, and a second run on the
@@ -710,8 +711,9 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
             images = False
     if out.exists() and not out.is_dir():
         raise InputError("out", "is a file, not a folder", str(out))
-    if not out.parent.is_dir():
-        raise InputError("out", "its parent folder does not exist", str(out.parent))
+    above = next((p for p in out.parents if p.exists()), None)  # the missing folders are made by _claim
+    if above is not None and not above.is_dir():
+        raise InputError("out", f"cannot be made: {above} is a file, not a folder", str(out))
     log_path = out / "queries.jsonl"
     _check_log(log_path, options.resume, exact)
     pngs, scene = _images(task, options, images)  # a bad scene is refused before out is touched

@@ -911,7 +911,7 @@ def _run_sampled(
         if plan.scoring is not None:  # a local model's or an endpoint's sampled twin: the exact route's replies
             task = _twin(task, plan.scoring)
         assert m is not None
-        summary, records = _ask(task, m, plan, options, progress)
+        summary, records, logged = _ask(task, m, plan, options, progress)
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]
     if not summary.complete:
         return ExperimentRun(out=out, summary=summary, analysis=None, files=tuple(files), seconds=summary.seconds)
@@ -924,6 +924,7 @@ def _run_sampled(
         "filter": plan.asked,
     }
     run["seconds"] = round(summary.seconds, 3)
+    run.update(logged)
     if plan.scene is not None:
         run["scene"] = plan.scene
     if plan.sampling is not None:
@@ -942,8 +943,10 @@ def _run_sampled(
 
 def _ask(
     task: DeliveryTask, m: DecisionModel, plan: _Plan, options: RunOptions, progress: bool
-) -> tuple[RunSummary, list[dict]]:
-    """Plan the run's queries, ask those not yet in its log, and return the summary and the answered records."""
+) -> tuple[RunSummary, list[dict], dict]:
+    """Plan the run's queries, ask those not yet in its log, and return the summary, the answered records of the
+    plan, and what the certificate's ``run`` says of the log: ``replies`` (``used``, the plan's answered queries;
+    ``logged``, every answered query in the log) and, when the run was extended, ``extended``."""
     n, eps = plan.samples, plan.common["epsilons"]
     header = {
         "task": task.name,
@@ -974,7 +977,10 @@ def _ask(
             task, m, queries, qlog, images=plan.images, concurrency=plan.concurrency, progress=progress
         )
         records = [qlog.records[q.id] for q in queries if q.id in qlog.records]
-    return summary, records
+        logged: dict[str, Any] = {"replies": {"used": len(records), "logged": len(qlog.records)}}
+        if qlog.extensions:
+            logged["extended"] = [{"from": e["from"], "to": e["to"], "time": e["time"]} for e in qlog.extensions]
+    return summary, records, logged
 
 
 @contextmanager

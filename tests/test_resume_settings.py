@@ -21,7 +21,8 @@ from _cli import run
 
 from fairaudit import InputError
 from fairaudit.cli import main
-from fairaudit.experiments.options import RunOptions
+from fairaudit.experiments.options import ModelSource, RunOptions
+from fairaudit.experiments.run import run_experiment
 
 BASE = ("--simulated", "position-biased", "--target", "0.1", "--no-progress")
 """The base run's flags, but for --samples, --keep (0.7 0.8), --out and --no-images (one target: a budget costs a scan)."""
@@ -180,6 +181,10 @@ def test_extend_grows_samples_only(resumed, capsys):
     assert (code, err) == (2, "fairaudit: error: --extend: adds samples to a logged run: give --resume too\n")
     with pytest.raises(InputError, match=r"^extend: adds samples to a logged run: give `resume` too$"):
         RunOptions(samples=4, extend=True)
+    exact = ModelSource(endpoint="http://127.0.0.1:9/v1", model="m", exact=True)  # refused before any request
+    with pytest.raises(InputError, match=r"^extend: adds samples to a sampled run's log, and the exact route samp"):
+        run_experiment("package-delivery", resumed.parent / "x", exact, RunOptions(resume=True, extend=True))
+    assert not (resumed.parent / "x").exists()
 
 
 def test_the_certificate_counts_the_logged_replies(tmp_path, capsys):

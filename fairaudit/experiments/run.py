@@ -638,7 +638,9 @@ def run_experiment(
     ------
     InputError
         On invalid options (naming the parameter), a log made by another run
-        (or, resumed, with another ``start``, ``goals`` or ``tolerance``), a
+        (or, resumed, with other settings: ``resume``, naming each changed
+        setting with its logged and its new value: docs/experiments.md, "The
+        log, and resuming"; ``samples`` may grow with ``extend``), ``extend`` on the exact route, a
         folder in use by another run (its lock held), an unreadable kernel, a
         scene whose routes differ in length by more than ``tolerance`` (naming
         ``scene``, with the lengths), an unknown room (naming ``start`` or

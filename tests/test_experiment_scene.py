@@ -74,10 +74,13 @@ def test_explicit_rooms_reproduce_the_default_run_and_are_recorded(area, tmp_pat
     given = ("--scene", path, "--resume")
     code, out, err = _experiment(capsys, tmp_path / "given", *given, "--goals", "office_2,office_1")
     _one_error(code, out, err)
-    assert "--goals: the run in" in err and "'office_1,office_2', not 'office_2,office_1'" in err
+    assert (
+        "--resume: the run in" in err
+        and "with other settings: --goals 'office_1,office_2', not 'office_2,office_1':" in err
+    )
     code, out, err = _experiment(capsys, tmp_path / "given", *given, "--tolerance", "0.2")
     _one_error(code, out, err)
-    assert "--tolerance: the run in" in err and "0.05, not 0.2" in err
+    assert "--resume: the run in" in err and "with other settings: --tolerance 0.05, not 0.2:" in err
     assert (tmp_path / "given" / "route-1.png").read_bytes() == before
     code, _, err = _experiment(capsys, tmp_path / "given", *given)  # the same rooms and tolerance (the defaults)
     assert code == 0 and "(0 now, 0 unparsed)" in err, err

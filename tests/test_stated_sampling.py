@@ -140,8 +140,8 @@ def test_resume_with_another_temperature_is_refused(tmp_path, capsys):
         code, out, err = _experiment(capsys, server, tmp_path / "o", "--resume", "--temperature", "0.7")
         assert len(server.chat_requests) == n  # nothing asked
     assert code == 2 and out == ""
-    assert err.startswith("fairaudit: error: --temperature: ") and err.count("\n") == 1
-    assert "sampled with --temperature 0.5, not 0.7" in err
+    assert err.startswith(f"fairaudit: error: --resume: the run in {tmp_path / 'o'} was made with other settings: ")
+    assert err.count("\n") == 1 and "settings: --temperature 0.5, not 0.7: each changes" in err
     with ChatServer() as server:  # the default is a setting too: 1, not the logged 0.5
         code, _, err = _experiment(capsys, server, tmp_path / "o", "--resume")
     assert code == 2 and "--temperature 0.5, not 1.0" in err

@@ -208,7 +208,18 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
         "the system and user messages as the model flags' route sends them; asks no model, writes nothing, ignores "
         "--out",
     )
-    e.add_argument("--resume", action="store_true", help="continue the run logged in --out")
+    e.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run logged in --out, with its settings (refused, naming each, when one that changes "
+        "which queries are asked or how replies are counted differs)",
+    )
+    e.add_argument(
+        "--extend",
+        action="store_true",
+        help="with --resume: a larger --samples than the log's; the new repetitions are asked and appended, and the "
+        "certificate is that of a fresh run with that --samples",
+    )
     e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     e.add_argument(
         "--concurrency",
@@ -280,6 +291,7 @@ def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptio
         targets=args.target,
         seed=args.seed,
         resume=args.resume,
+        extend=args.extend,
         concurrency=args.concurrency,
         confidence=args.confidence,
         scene=args.scene,

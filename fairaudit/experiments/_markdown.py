@@ -134,7 +134,7 @@ def _intro_md(d: dict) -> list[str]:
             f"exact composition, so they serve every ε); {q['unparsed']} replies could not be parsed and count as "
             f"'unparsed'."
         ]
-        lines += _sampling_md(d)
+        lines += _sampling_md(d) + _replies_md(d)
     if q["paper"]:
         lines += [
             f"The paper's design (sampling through the filter) used {q['paper']} more, "
@@ -390,6 +390,23 @@ def _scoring_words(d: dict) -> str:
     return words
 
 
+def _replies_md(d: dict) -> list[str]:
+    """How many logged replies the certificate counts, of how many the log holds, and the run's extensions."""
+    run = d.get("run") or {}
+    replies = run.get("replies")
+    if not replies:
+        return []
+    line = (
+        f"Replies: the certificate counts {replies['used']} of the {replies['logged']} answered queries logged in "
+        "queries.jsonl"
+    )
+    grown = run.get("extended") or []
+    if grown:
+        steps = ", then ".join(f"from {e['from']} to {e['to']}" for e in grown)
+        line += f"; `--samples` was extended (`--extend`) {steps}"
+    return ["", line + "."]
+
+
 def _sampling_md(d: dict) -> list[str]:
     """The stated sampling settings in one line of the report."""
     sampling = (d.get("run") or {}).get("sampling")
@@ -425,6 +442,7 @@ def paper_design_markdown(d: dict) -> str:
         "estimated, so the observed values at each ε are those of its own queries"
         + (f", with {conf:g} simultaneous intervals." if conf else "."),
         *_sampling_md(d),
+        *_replies_md(d),
         "",
         "## Baseline: no filter",
         "",

@@ -59,6 +59,7 @@ __all__ = [
     "RunSummary",
     "decision_label",
     "logged_messages",
+    "logged_settings",
     "paper_counts",
     "paper_queries_needed",
     "plan_queries",
@@ -221,6 +222,15 @@ class QueryLog:
         Continue an existing log (its answered queries are kept and skipped);
         without it an existing log is an error, so nothing is overwritten.
 
+    Attributes
+    ----------
+    records : dict
+        The answered queries by key (the last answer of each; none is asked twice).
+    errors : dict
+        The queries whose last record is a transport failure, by key.
+    extensions : list of dict
+        The log's ``extend`` lines (:meth:`extend`), oldest first: ``{"from": n, "to": N, "time": ...}``.
+
     Raises
     ------
     InputError
@@ -233,6 +243,7 @@ class QueryLog:
         self.path = Path(path)
         self.records: dict[str, dict] = {}
         self.errors: dict[str, dict] = {}
+        self.extensions: list[dict] = []
         self._lock = threading.Lock()
         self._last_sync = time.monotonic()
         exists = self.path.exists() and self.path.stat().st_size > 0
@@ -279,6 +290,8 @@ class QueryLog:
                     self.errors.pop(rec["id"], None)
                 else:
                     self.errors[rec["id"]] = rec
+            elif rec.get("type") == "extend":
+                self.extensions.append(rec)
         if first is None or first.get("type") != "header":
             raise InputError("resume", "the log has no header line; it is not a fairaudit run log", str(self.path))
         for key, flag in (("task", "`experiment`"), ("model", "`model`/`simulated`/`kernel`"), ("seed", "`seed`")):
@@ -318,6 +331,15 @@ class QueryLog:
         else:
             self.errors[record["id"]] = record
 
+    def extend(self, samples: int, before: int) -> None:
+        """Record that the run's ``samples`` grow from ``before`` to ``samples`` (a line ``{"type": "extend"}``).
+
+        :func:`logged_settings` reads the run's samples as the last such line left them.
+        """
+        record = {"type": "extend", "time": _now(), "from": int(before), "to": int(samples)}
+        self._append(record)
+        self.extensions.append(record)
+
     def close(self) -> None:
         """Sync and close the file."""
         with self._lock:
@@ -331,6 +353,46 @@ class QueryLog:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def logged_settings(path: str | Path) -> dict | None:
+    """The settings a run's log records: its header, with ``samples`` as its last ``extend`` line left them.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log (``queries.jsonl``).
+
+    Returns
+    -------
+    dict or None
+        The header line's fields (``task``, ``model``, ``seed``, ``samples``, ``design``, ...), ``samples``
+        replaced by the ``to`` of the last :meth:`QueryLog.extend` line; None when there is no log or its first
+        line is not a header (which :class:`QueryLog` refuses in its own words).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     with QueryLog(Path(tmp) / "q.jsonl", {"task": "t", "model": "m", "seed": 0, "samples": 40}) as log:
+    ...         log.extend(80, 40)
+    ...     logged_settings(Path(tmp) / "q.jsonl")["samples"]
+    80
+    """
+    try:
+        with open(path, "rb") as fh:
+            header = json.loads(fh.readline())
+            if not isinstance(header, dict) or header.get("type") != "header":
+                return None
+            for line in fh:
+                if line.startswith(b'{"type":"extend"'):
+                    try:
+                        header["samples"] = json.loads(line)["to"]
+                    except (ValueError, KeyError):  # a torn last line: the log cuts it off
+                        pass
+    except (OSError, ValueError):
+        return None
+    return header
 
 
 def _now() -> str:

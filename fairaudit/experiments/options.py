@@ -259,7 +259,14 @@ class RunOptions:
         :data:`fairaudit.experiments.analysis.DEFAULT_TARGETS`).
     seed : int
     resume : bool
-        Continue the run logged in the run's folder.
+        Continue the run logged in the run's folder. The run's settings must be the log's: every setting that
+        changes which queries are asked or how their replies are counted (docs/experiments.md, "The log, and
+        resuming"); ``concurrency``, ``confidence``, ``method``, ``targets`` and the client's may change.
+    extend : bool
+        With ``resume``: let ``samples`` grow past the log's; the queries of the new repetitions are asked and
+        appended, and the log records the extension. The first n repetitions of a run with N > n samples are
+        the queries of a run with n (each query's seed is a hash of the run's seed and its key), so an extended
+        run gives the certificate of a fresh run with the larger ``samples``.
     concurrency : int, optional
         Queries in flight (default 4 for an endpoint, 1 otherwise).
     confidence : float or None
@@ -289,7 +296,7 @@ class RunOptions:
     InputError
         On an unknown design or positions, both ``epsilons`` and ``keeps``, a
         negative or infinite ε or target, ``samples`` or ``concurrency`` below 1,
-        an empty ``start`` or room of ``goals``, or a ``tolerance`` outside [0, 1].
+        ``extend`` without ``resume``, an empty ``start`` or room of ``goals``, or a ``tolerance`` outside [0, 1].
 
     Examples
     --------
@@ -316,6 +323,7 @@ class RunOptions:
     targets: Sequence[float] = DEFAULT_TARGETS
     seed: int = 0
     resume: bool = False
+    extend: bool = False
     concurrency: int | None = None
     confidence: float | None = 0.95
     method: str = "auto"
@@ -341,6 +349,10 @@ class RunOptions:
             object.__setattr__(self, "samples", whole(self.samples, "samples", low=1))
         if self.concurrency is not None:
             object.__setattr__(self, "concurrency", whole(self.concurrency, "concurrency", low=1))
+        if not isinstance(self.extend, bool):
+            raise InputError("extend", "must be True or False", self.extend)
+        if self.extend and not self.resume:
+            raise InputError("extend", "adds samples to a logged run: give `resume` too")
         self._check_scene()
 
     def _check_scene(self) -> None:

@@ -410,51 +410,132 @@ def _scene_line(record: dict) -> str:
     )
 
 
-def _logged(log_path: Path, key: str) -> dict | None:
-    """The log header's ``key`` record, or None: no log, not a log (which the log itself refuses), or none recorded."""
-    import json
+def _settings(plan: _Plan, options: RunOptions) -> dict:
+    """The settings of a sampled run that its log's header records and ``resume`` compares (:func:`_check_resumed`).
 
-    try:
-        with open(log_path, "rb") as fh:
-            before = json.loads(fh.readline()).get(key)
-    except (OSError, ValueError, AttributeError):
-        return None
-    return before if isinstance(before, dict) else None
-
-
-def _check_resumed_scene(log_path: Path, record: dict) -> None:
-    """Refuse to resume a run whose log records another start, goals or tolerance (a log that records none passes)."""
-    before = _logged(log_path, "scene")
-    if before is None:
-        return
-    for name in ("start", "goals", "tolerance"):
-        then, now = before.get(name), record[name]
-        if name in before and then != now:
-            if name == "goals":  # as given: comma-separated
-                then, now = ",".join(map(str, then or ())), ",".join(now)
-            raise InputError(
-                name,
-                f"the run in {log_path.parent} was made with `{name}` {then!r}, not {now!r}: resume it with the "
-                "same, or start a new run in another folder",
-            )
-
-
-def _check_resumed_sampling(log_path: Path, sampling: dict) -> None:
-    """Refuse to resume a run whose log states other sampling settings: they change the law sampled.
-
-    A log that states none (written before the settings were stated) passes.
+    ``seed``, ``samples``, ``design``, ``positions``, ``epsilons`` (the candidate's budgets, nats) and ``filter``
+    (as asked: ``{"keep": [...]}`` or ``{"epsilon": [...]}``), ``context_epsilon``, ``images`` (route images per
+    query), ``prompt`` (:func:`_prompt_record`), and where they apply ``scene`` (:func:`_images`) and ``sampling``
+    (:func:`_sampling`).
     """
-    before = _logged(log_path, "sampling")
-    if before is None:
-        return
-    for name in (*SAMPLING_FIELDS, "scoring"):  # the scoring says how the twins read a reply
-        then, now = before.get(name), sampling.get(name)
-        if name in before and then != now:
-            raise InputError(
-                name,
-                f"the run in {log_path.parent} sampled with `{name}` {then!r}, not {now!r}: another setting "
-                "changes the law sampled; resume it with the same, or start a new run in another folder",
-            )
+    out: dict[str, Any] = {
+        "seed": int(options.seed),
+        "samples": plan.samples,
+        "design": options.design,
+        "positions": plan.common["positions"],
+        "epsilons": plan.common["epsilons"],
+        "filter": {k: v for k, v in plan.asked.items() if k != "split"},
+        "context_epsilon": options.context_epsilon,
+        "images": len(plan.images),
+        "prompt": plan.prompt,
+    }
+    if plan.scene is not None:
+        out["scene"] = plan.scene
+    if plan.sampling is not None:
+        out["sampling"] = plan.sampling
+    return out
+
+
+RESUME_RULE = (
+    "each changes which queries are asked or how their replies are counted; resume with the logged settings, or "
+    "start a new run in another folder"
+)
+"""The end of :func:`_check_resumed`'s message: why, and what to do."""
+
+
+def _shown(value: Any) -> str:
+    """A setting's value in a message: text quoted, ``none`` for None, a list's numbers to 6 digits."""
+    if value is None:
+        return "none"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(f"{v:.6g}" if isinstance(v, float) else _shown(v) for v in value) + "]"
+    return repr(value)
+
+
+def _filter_change(before: dict, now: dict) -> str | None:
+    """The privacy filter's change in a message (as each run asked it: keep or ε), or None when the ε are the same.
+
+    The budgets are compared as the query keys write them (12 significant digits), so ``keeps`` and ``epsilons``
+    that give the same budgets are the same filter.
+    """
+    from .harness import eps_key
+
+    if "epsilons" not in before:
+        return None
+    then = [eps_key(float(e)) for e in before["epsilons"]]
+    if then == [eps_key(float(e)) for e in now["epsilons"]]:
+        return None
+    asked_then, asked_now = before.get("filter") or {"epsilon": before["epsilons"]}, now["filter"]
+    (kind_then, values_then), (kind_now, values_now) = next(iter(asked_then.items())), next(iter(asked_now.items()))
+    name = {"keep": "keeps", "epsilon": "epsilons"}
+    if kind_then == kind_now:
+        return f"`{name[kind_now]}` {_shown(values_then)}, not {_shown(values_now)}"
+    return f"`{name[kind_then]}` {_shown(values_then)}, not `{name[kind_now]}` {_shown(values_now)}"
+
+
+def _changes(before: dict, now: dict, extend: bool) -> list[str]:
+    """Each setting of ``now`` that differs from the log's ``before``, as ``"`name` logged, not new"``, in the order of
+    :func:`_settings`. A setting the log does not record (a log from before it was recorded) is not compared;
+    ``samples`` may grow with ``extend``."""
+    parts: list[str] = []
+
+    def compare(name: str, then: Any, new: Any, shown: Callable[[Any], str] = _shown) -> None:
+        if then != new:
+            parts.append(f"`{name}` {shown(then)}, not {shown(new)}")
+
+    if "seed" in before:
+        compare("seed", before["seed"], now["seed"])
+    then, new = before.get("samples"), now["samples"]
+    if then is not None and new != then and not (extend and new > then):
+        hint = " (to add samples, give `extend`)" if new > then else ""
+        parts.append(f"`samples` {then}, not {new}{hint}")
+    for name in ("design", "positions"):
+        if name in before:
+            compare(name, before[name], now[name])
+    filt = _filter_change(before, now)
+    if filt is not None:
+        parts.append(filt)
+    if "context_epsilon" in before:
+        compare("context_epsilon", before["context_epsilon"], now["context_epsilon"])
+    if "images" in before and before["images"] != now["images"]:
+        parts.append(f"route images {before['images']} per query, not {now['images']} (`images`)")
+    scene_then, scene_now = before.get("scene"), now.get("scene")
+    if isinstance(scene_then, dict) and scene_now is not None:
+        for name in ("start", "goals", "tolerance"):
+            if name in scene_then:
+                goals = lambda v: repr(",".join(map(str, v or ())))  # noqa: E731 (as given: comma-separated)
+                compare(name, scene_then[name], scene_now[name], goals if name == "goals" else _shown)
+    prompt_then = before.get("prompt")
+    if isinstance(prompt_then, dict) and prompt_then.get("sent") != now["prompt"]["sent"]:
+        parts.append(f"the {prompt_then.get('sent')} prompt, not the {now['prompt']['sent']}")
+    sampling_then, sampling_now = before.get("sampling"), now.get("sampling") or {}
+    if isinstance(sampling_then, dict):
+        for name in (*SAMPLING_FIELDS, "scoring"):  # the scoring says how the twins read a reply
+            if name in sampling_then:
+                compare(name, sampling_then[name], sampling_now.get(name))
+    return parts
+
+
+def _check_resumed(plan: _Plan, options: RunOptions) -> _Plan:
+    """Refuse to resume a run with settings other than its log's, naming each (:func:`_changes`) in one line.
+
+    Returns the plan, with ``extend_from`` set to the logged samples when ``extend`` lets them grow. A folder
+    without a log passes (resuming it starts the run).
+    """
+    from .harness import logged_settings
+
+    before = logged_settings(plan.log_path)
+    if before is None:  # no log, or not a log (QueryLog refuses it in its own words)
+        return plan
+    parts = _changes(before, _settings(plan, options), options.extend)
+    if parts:
+        raise InputError(
+            "resume", f"the run in {plan.out} was made with other settings: {'; '.join(parts)}: {RESUME_RULE}"
+        )
+    logged = before.get("samples")
+    if options.extend and isinstance(logged, int) and plan.samples > logged:
+        return dataclasses.replace(plan, extend_from=logged)
+    return plan
 
 
 LOCK_NAME = ".fairaudit.lock"
@@ -558,7 +639,9 @@ def run_experiment(
     ------
     InputError
         On invalid options (naming the parameter), a log made by another run
-        (or, resumed, with another ``start``, ``goals`` or ``tolerance``), a
+        (or, resumed, with other settings: ``resume``, naming each changed
+        setting with its logged and its new value: docs/experiments.md, "The
+        log, and resuming"; ``samples`` may grow with ``extend``), ``extend`` on the exact route, a
         folder in use by another run (its lock held), an unreadable kernel, a
         scene whose routes differ in length by more than ``tolerance`` (naming
         ``scene``, with the lengths), an unknown room (naming ``start`` or
@@ -591,13 +674,10 @@ def run_experiment(
     plan = _prepare(task, Path(out), source, options)  # everything checked; nothing written yet
     with _claim(plan.out):  # makes out and locks it: a second run on it is refused here, before it writes anything
         _check_log(plan.log_path, options.resume, plan.exact)  # again under the lock: another run may have ended
-        if plan.scene is not None:  # before a route image is written
-            if options.resume:
-                _check_resumed_scene(plan.log_path, plan.scene)
-            if log is not None:
-                log(_scene_line(plan.scene))
-        if plan.sampling is not None and options.resume:
-            _check_resumed_sampling(plan.log_path, plan.sampling)
+        if options.resume and not plan.exact:  # every setting the log records, before a route image is written
+            plan = _check_resumed(plan, options)
+        if plan.scene is not None and log is not None:
+            log(_scene_line(plan.scene))
         if plan.exact:
             name, make = _exact_route(task, source, plan, progress, log)
             return _run_exact(task, name, make, plan, options.seed)
@@ -655,6 +735,7 @@ class _Plan:
     sampling: dict | None = None  # a server's sampled route: the stated settings (_sampling)
     scoring: str | None = None  # how the exact route scores a decision and its twins read a reply (None: parsed)
     prompt: dict = dataclasses.field(default_factory=dict)  # which prompt the route sends (_prompt_record)
+    extend_from: int | None = None  # resumed with `extend`: the logged samples, which grow to `samples`
 
 
 def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOptions) -> _Plan:
@@ -671,6 +752,8 @@ def _prepare(task: DeliveryTask, out: Path, source: ModelSource, options: RunOpt
     if source.exact and options.samples is not None:
         raise InputError("samples", "give `samples` or `exact`, not both")
     exact = exact_route(source.exact, source.local_model, options.samples)
+    if exact and options.extend:
+        raise InputError("extend", "adds samples to a sampled run's log, and the exact route samples nothing")
     if exact:
         count_prompts(task)  # every choice of the texts is scored: refused here, before a model loads or a file is made
     if (exact or source.sampled_twin) and task.partial:
@@ -832,7 +915,7 @@ def _run_sampled(
         if plan.scoring is not None:  # a local model's or an endpoint's sampled twin: the exact route's replies
             task = _twin(task, plan.scoring)
         assert m is not None
-        summary, records = _ask(task, m, plan, options, progress)
+        summary, records, logged = _ask(task, m, plan, options, progress)
     files = [plan.log_path] + [out / f"route-{i}.png" for i in range(1, len(plan.images) + 1)]
     if not summary.complete:
         return ExperimentRun(out=out, summary=summary, analysis=None, files=tuple(files), seconds=summary.seconds)
@@ -845,6 +928,7 @@ def _run_sampled(
         "filter": plan.asked,
     }
     run["seconds"] = round(summary.seconds, 3)
+    run.update(logged)
     if plan.scene is not None:
         run["scene"] = plan.scene
     if plan.sampling is not None:
@@ -863,25 +947,18 @@ def _run_sampled(
 
 def _ask(
     task: DeliveryTask, m: DecisionModel, plan: _Plan, options: RunOptions, progress: bool
-) -> tuple[RunSummary, list[dict]]:
-    """Plan the run's queries, ask those not yet in its log, and return the summary and the answered records."""
+) -> tuple[RunSummary, list[dict], dict]:
+    """Plan the run's queries, ask those not yet in its log, and return the summary, the answered records of the
+    plan, and what the certificate's ``run`` says of the log: ``replies`` (``used``, the plan's answered queries;
+    ``logged``, every answered query in the log) and, when the run was extended, ``extended``."""
     n, eps = plan.samples, plan.common["epsilons"]
     header = {
         "task": task.name,
         "task_sha256": task.digest,
         "model": m.name,
-        "seed": int(options.seed),
         "fairaudit": __version__,
-        "samples": n,
-        "design": options.design,
-        "positions": options.positions,
-        "epsilons": eps,
-        "context_epsilon": options.context_epsilon,
+        **_settings(plan, options),
     }
-    if plan.scene is not None:
-        header["scene"] = plan.scene
-    if plan.sampling is not None:
-        header["sampling"] = plan.sampling
     positions = options.positions or task.positions
     if options.design == "paper":  # the true prompts without a filter, for the baseline
         queries = plan_queries(task, "paper", n, options.seed, epsilons=[math.inf], positions=positions)
@@ -898,11 +975,16 @@ def _ask(
             context_epsilon=options.context_epsilon,
         )
     with QueryLog(plan.log_path, header, resume=options.resume) as qlog:
+        if plan.extend_from is not None:
+            qlog.extend(n, plan.extend_from)
         summary = run_queries(
             task, m, queries, qlog, images=plan.images, concurrency=plan.concurrency, progress=progress
         )
         records = [qlog.records[q.id] for q in queries if q.id in qlog.records]
-    return summary, records
+        logged: dict[str, Any] = {"replies": {"used": len(records), "logged": len(qlog.records)}}
+        if qlog.extensions:
+            logged["extended"] = [{"from": e["from"], "to": e["to"], "time": e["time"]} for e in qlog.extensions]
+    return summary, records, logged
 
 
 @contextmanager

@@ -321,6 +321,7 @@ def _table(
     context: str | Sequence[str] | None,
     dropna: bool,
     weights: str | None = None,
+    mixed_outcome: bool = False,
 ) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
     if isinstance(data, CountTable):
@@ -360,6 +361,7 @@ def _table(
             context=() if context is None else context,
             dropna=dropna,
             weights=weights,
+            mixed_outcome=mixed_outcome,
         )
     if weights is not None:
         raise InputError("weights", "are not supported for a Spark DataFrame yet: count it with weights in Spark")
@@ -371,6 +373,7 @@ def _table(
         outcome=outcome,
         context=() if context is None else context,
         dropna=dropna,
+        mixed_outcome=mixed_outcome,
     )
 
 
@@ -420,6 +423,9 @@ def audit(
         outcome with values {0, 1} (or booleans) uses positive = 1.
     utility : str or Utility, optional
         An expression in ``u`` (see :func:`utility_from_expression`) or a Utility.
+        An outcome column that mixes numbers and text (``1``, ``"yes"``) is
+        refused unless a ``utility`` says what each value is worth; it sees
+        every value as text then (``u in ["1", "yes"]``).
     confidence : float, optional
         Level 1 − α of simultaneous intervals for every metric.
     method : {"auto", "clopper-pearson", "multinomial", "bayes"}
@@ -452,7 +458,10 @@ def audit(
     Raises
     ------
     InputError
-        Unknown columns, missing values, columns that are not a CountTable's
+        Unknown columns, missing values, a control character in a key value
+        or an outcome column that mixes numbers and text (naming the column,
+        the data rows and the value; see
+        :func:`~fairaudit.estimate.count_records`), columns that are not a CountTable's
         (naming ``sensitive``, ``outcome`` or ``context``), data that is
         neither a DataFrame nor a CountTable, both ``positive`` and ``utility``,
         an outcome value that is not there, a non-binary outcome with no g,
@@ -485,7 +494,7 @@ def audit(
     elif control_features is not None or sample_weight is not None:
         name = "control_features" if control_features is not None else "sample_weight"
         raise InputError(name, "goes with y_pred and sensitive_features")
-    table = _table(data, sensitive, outcome, context, dropna, weights)
+    table = _table(data, sensitive, outcome, context, dropna, weights, mixed_outcome=utility is not None)
     if positive is not None and utility is not None:
         raise InputError("positive", "give positive or utility, not both", positive)
     g = _audit_utility(table, positive, utility)

@@ -121,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
         count=args.count,
         csv=text_format(args),
         weights=args.weights,
+        mixed_outcome=args.utility is not None,  # --utility says what each value of the outcome is worth
     )
     scoring = None
     if args.report == "impact-ratio" and args.positive is None and args.utility is None:

@@ -18,10 +18,11 @@ column, the data rows and the value:
   ``"true"`` or ``"False"`` in any case) and some are *other text* (such as
   ``"yes"``). Each text value would be one more outcome value, silently
   apart from the number it probably means. The error lists the rows of the
-  smaller kind (by records). Counting them anyway, every value read as text,
-  is ``mixed_outcome=True``, which :func:`fairaudit.audit` sets when a
-  ``utility`` expression says what each value is worth (it sees every value
-  as text then: ``u in ["1", "yes"]``).
+  smaller kind (by records). Counting them anyway, every value an outcome of
+  its own, is ``mixed_outcome=True`` (``--mixed-outcome``: ranks and
+  ``"unranked"``), which :func:`fairaudit.audit` also sets when a ``utility``
+  says what each value is worth (an expression sees every value as text
+  then: ``u in ["1", "yes"]``).
 
 Rows: **data row** N is the N-th record, counted from 1: in a file, the
 N-th record after the header (blank lines not counted; a record whose quoted
@@ -282,8 +283,9 @@ def _check_mixed(
     raise InputError(
         f"column {name!r}",
         f"mixes numbers and text: {k} of {total} records {'is' if k == 1 else 'are'} {kind} ({', '.join(shown)}) "
-        f"where the others are {others}, in {_rows(hits)}{more} ({_CONVENTION}): fix the data, or give `utility` "
-        f"as an expression of the values read as text, e.g. u in {_list(example)}",
+        f"where the others are {others}, in {_rows(hits)}{more} ({_CONVENTION}): fix the data, give `utility` "
+        f"as an expression of the values read as text (e.g. u in {_list(example)}), or, if the text values are "
+        "outcomes of their own (a rank and 'unranked'), say so with `mixed_outcome`",
         str(hits[0][1]),
     )
 

@@ -393,6 +393,7 @@ def audit(
     seed: int = 0,
     weights: str | None = None,
     min_count: int | None = None,
+    mixed_outcome: bool = False,
     y_pred: ArrayLike | None = None,
     sensitive_features: ArrayLike | None = None,
     control_features: ArrayLike | None = None,
@@ -424,8 +425,9 @@ def audit(
     utility : str or Utility, optional
         An expression in ``u`` (see :func:`utility_from_expression`) or a Utility.
         An outcome column that mixes numbers and text (``1``, ``"yes"``) is
-        refused unless a ``utility`` says what each value is worth; it sees
-        every value as text then (``u in ["1", "yes"]``).
+        refused unless a ``utility`` says what each value is worth (an
+        expression sees every value as text then: ``u in ["1", "yes"]``) or
+        ``mixed_outcome`` is set.
     confidence : float, optional
         Level 1 − α of simultaneous intervals for every metric.
     method : {"auto", "clopper-pearson", "multinomial", "bayes"}
@@ -446,6 +448,11 @@ def audit(
         Leave out every (context, group) cell with fewer records than this
         (but some): its records are removed from the metrics, the population
         and the intervals, and the cells are listed in ``left_out``.
+    mixed_outcome : bool
+        Count an outcome column of records that mixes numbers and text (ranks
+        ``1`` to ``8`` and ``"unranked"``) as it is, each value an outcome of
+        its own (read as text); by default that is an error naming the rows
+        (see :func:`~fairaudit.estimate.count_records`).
     y_pred, sensitive_features, control_features, sample_weight : array_like, optional
         Records as arrays instead of ``data``, named as in fairlearn's
         ``MetricFrame``: ``y_pred`` the decisions (n,) (the outcome U), ``sensitive_features`` the
@@ -494,7 +501,7 @@ def audit(
     elif control_features is not None or sample_weight is not None:
         name = "control_features" if control_features is not None else "sample_weight"
         raise InputError(name, "goes with y_pred and sensitive_features")
-    table = _table(data, sensitive, outcome, context, dropna, weights, mixed_outcome=utility is not None)
+    table = _table(data, sensitive, outcome, context, dropna, weights, mixed_outcome or utility is not None)
     if positive is not None and utility is not None:
         raise InputError("positive", "give positive or utility, not both", positive)
     g = _audit_utility(table, positive, utility)

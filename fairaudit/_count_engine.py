@@ -27,6 +27,7 @@ import numpy.typing as npt
 
 from ._csv_format import CsvFormat, FileKind
 from ._errors import InputError
+from ._key_values import ROWS_SHOWN, Locate
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -208,12 +209,14 @@ class Grouped:
     (integers, floats, booleans, text) and has no missing value: their
     values are the labels pandas would give (Python scalars by ``tolist``),
     and pandas is not needed. Otherwise ``frame``: the keys as pandas reads
-    them.
+    them. ``locate``: where the keys of some of these rows are in the file (a
+    second query, run only for an error: :data:`fairaudit._key_values.Locate`).
     """
 
     weights: npt.NDArray[np.int64]
     plain: list[npt.NDArray[Any]] | None = None
     frame: pd.DataFrame | None = None
+    locate: Locate | None = None
 
 
 def parquet_group_by(schema: pa.Schema, files: list[str], keys: list[str]) -> Grouped:
@@ -232,17 +235,52 @@ def parquet_group_by(schema: pa.Schema, files: list[str], keys: list[str]) -> Gr
     import pyarrow as pa
 
     kinds = [schema.field(c).type for c in keys]
+    locate = _parquet_locate(schema, files, keys)
     if all(_is_plain(kind) for kind in kinds):
         *columns, weights = _duckdb_parquet(schema, files, keys, arrow=False)
         weights = np.asarray(weights, dtype=np.int64)
         if weights.size and all(_complete(c) for c in columns):
-            return Grouped(weights, plain=[np.asarray(c) for c in columns])
+            plain = [np.asarray(c) for c in columns]
+            return Grouped(weights, plain=plain, locate=locate(dict(zip(keys, plain))))
         arrays = [pa.array(np.ma.getdata(c), mask=np.ma.getmaskarray(c), type=k) for c, k in zip(columns, kinds)]
         table = pa.table([*arrays, pa.array(weights)], names=[*keys, count_name(keys)])
     else:
         table = _as_parquet_types(_duckdb_parquet(schema, files, keys, arrow=True), keys, schema, files)
     frame = _to_pandas(table.replace_schema_metadata(schema.metadata))
-    return Grouped(frame[count_name(keys)].to_numpy(dtype=np.int64), frame=frame)
+    values = {c: frame[c].to_numpy() for c in keys}
+    return Grouped(frame[count_name(keys)].to_numpy(dtype=np.int64), frame=frame, locate=locate(values))
+
+
+def _parquet_locate(schema: pa.Schema, files: list[str], keys: list[str]) -> Any:
+    """Given the grouped keys' values, the :data:`Locate` of Parquet ``files``: rows of the file (named, for several).
+
+    The refused values are text; a row matches when its value, as text, is
+    one of them. One query, ``file_row_number`` and ``filename`` from DuckDB's
+    reader, ordered by file and row.
+    """
+
+    def bind(values: dict[str, npt.NDArray[Any]]) -> Locate:
+        def locate(column: str, mask: npt.NDArray[np.bool_]) -> list[tuple[str, Any]]:
+            wanted = sorted({str(v) for v in np.asarray(values[column], dtype=object)[mask]})
+            con = duckdb_connection()
+            try:
+                with glob_free([os.path.abspath(f) for f in files]) as plain:
+                    name = con.read_parquet(plain, hive_partitioning=False).columns[schema.get_field_index(column)]
+                    sql = (
+                        f"SELECT filename, file_row_number, v FROM (SELECT filename, file_row_number, "
+                        f"CAST({sql_identifier(name)} AS VARCHAR) AS v FROM read_parquet(?, hive_partitioning = false, "
+                        f"file_row_number = true, filename = true)) WHERE list_contains(?, v) "
+                        f"ORDER BY list_position(?, filename), file_row_number LIMIT {ROWS_SHOWN}"
+                    )
+                    rows = con.execute(sql, [plain, wanted, plain]).fetchall()
+            finally:
+                con.close()
+            several = len(files) > 1
+            return [(f"{r + 1} of {Path(f).name}" if several else str(r + 1), v) for f, r, v in rows]
+
+        return locate
+
+    return bind
 
 
 def _is_plain(kind: pa.DataType) -> bool:
@@ -540,4 +578,36 @@ def csv_group_by(
     values = [as_read_csv(column, fmt.na_values) for column in raw[:-1]]
     if any(v is None for v in values):
         return None
-    return Grouped(np.asarray(raw[-1], dtype=np.int64), frame=pd.DataFrame(dict(zip(keys, values))))
+    frame = pd.DataFrame(dict(zip(keys, values)))
+    parameters = [p, dict.fromkeys(names, "VARCHAR"), kind.compression or "none", fmt.header, sep]
+    locate = _csv_locate(parameters, dict(zip(keys, raw)), frame)
+    return Grouped(np.asarray(raw[-1], dtype=np.int64), frame=frame, locate=locate)
+
+
+def _csv_locate(parameters: list[Any], raw: dict[str, Any], frame: pd.DataFrame) -> Locate:
+    """The :data:`Locate` of a text file read by ``_READ_CSV`` with ``parameters``: its records in order, from 1.
+
+    The grouped rows' fields (``raw``, as DuckDB read them) are looked for in
+    the file; each row found is given the value pandas reads (``frame``).
+    DuckDB keeps the file's order (``preserve_insertion_order``), so
+    ``row_number() OVER ()`` numbers the records as they come, blank lines
+    not counted.
+    """
+
+    def locate(column: str, mask: npt.NDArray[np.bool_]) -> list[tuple[str, Any]]:
+        fields = np.ma.getdata(raw[column]).astype(object)[mask & ~np.ma.getmaskarray(raw[column])]
+        read = dict(zip(fields.tolist(), frame[column].to_numpy(dtype=object)[mask & ~np.ma.getmaskarray(raw[column])]))
+        name = sql_identifier(column)
+        sql = (
+            f"SELECT rn, v FROM (SELECT row_number() OVER () AS rn, {name} AS v FROM {_READ_CSV}) "
+            f"WHERE list_contains(?, v) ORDER BY rn LIMIT {ROWS_SHOWN}"
+        )
+        con = duckdb_connection()
+        try:
+            with glob_free([os.path.abspath(parameters[0])]) as (plain,):
+                rows = con.execute(sql, [plain, *parameters[1:], sorted(read)]).fetchall()
+        finally:
+            con.close()
+        return [(str(r), read[v]) for r, v in rows]
+
+    return locate

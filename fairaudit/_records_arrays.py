@@ -118,6 +118,8 @@ def _values(value: ArrayLike, param: str, ndim: tuple[int, ...] = (1,)) -> np.nd
         return value.to_numpy()
     try:
         array = np.asarray(value)
+        if array.dtype.kind == "U" and not isinstance(value, np.ndarray):
+            array = np.asarray(value, dtype=object)  # numpy's str dtype would drop trailing NUL characters
     except (ValueError, TypeError) as exc:
         raise InputError(param, f"is not an array of one value per record ({exc})") from None
     if array.ndim not in ndim or len(array) == 0:

@@ -350,6 +350,7 @@ def _table(
     dropna: bool,
     weights: str | None = None,
     count: str | None = None,
+    mixed_outcome: bool = False,
 ) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
     if count is not None and not isinstance(count, str):
@@ -391,7 +392,13 @@ def _table(
         if count is not None:  # a count table: as `fairaudit audit --count` reads one
             sensitive_, outcome_, context_ = roles(sensitive, outcome, () if context is None else context)
             return counts_of_table(
-                data, sensitive=sensitive_, outcome=outcome_, context=context_, count=count, dropna=dropna
+                data,
+                sensitive=sensitive_,
+                outcome=outcome_,
+                context=context_,
+                count=count,
+                dropna=dropna,
+                mixed_outcome=mixed_outcome,
             )
         return count_records(
             data,
@@ -400,6 +407,7 @@ def _table(
             context=() if context is None else context,
             dropna=dropna,
             weights=weights,
+            mixed_outcome=mixed_outcome,
         )
     if weights is not None:
         raise InputError("weights", "are not supported for a Spark DataFrame yet: count it with weights in Spark")
@@ -413,6 +421,7 @@ def _table(
         outcome=outcome,
         context=() if context is None else context,
         dropna=dropna,
+        mixed_outcome=mixed_outcome,
     )
 
 
@@ -433,6 +442,7 @@ def audit(
     weights: str | None = None,
     count: str | None = None,
     min_count: int | None = None,
+    mixed_outcome: bool = False,
     y_pred: ArrayLike | None = None,
     sensitive_features: ArrayLike | None = None,
     control_features: ArrayLike | None = None,
@@ -463,6 +473,10 @@ def audit(
         outcome with values {0, 1} (or booleans) uses positive = 1.
     utility : str or Utility, optional
         An expression in ``u`` (see :func:`utility_from_expression`) or a Utility.
+        An outcome column that mixes numbers and text (``1``, ``"yes"``) is
+        refused unless a ``utility`` says what each value is worth (an
+        expression sees every value as text then: ``u in ["1", "yes"]``) or
+        ``mixed_outcome`` is set.
     confidence : float, optional
         Level 1 − α of simultaneous intervals for every metric.
     method : {"auto", "clopper-pearson", "multinomial", "bayes"}
@@ -491,6 +505,11 @@ def audit(
         Leave out every (context, group) cell with fewer records than this
         (but some): its records are removed from the metrics, the population
         and the intervals, and the cells are listed in ``left_out``.
+    mixed_outcome : bool
+        Count an outcome column of records that mixes numbers and text (ranks
+        ``1`` to ``8`` and ``"unranked"``) as it is, each value an outcome of
+        its own (read as text); by default that is an error naming the rows
+        (see :func:`~fairaudit.estimate.count_records`).
     y_pred, sensitive_features, control_features, sample_weight : array_like, optional
         Records as arrays instead of ``data``, named as in fairlearn's
         ``MetricFrame``: ``y_pred`` the decisions (n,) (the outcome U), ``sensitive_features`` the
@@ -503,7 +522,10 @@ def audit(
     Raises
     ------
     InputError
-        Unknown columns, missing values, columns that are not a CountTable's
+        Unknown columns, missing values, a control character in a key value
+        or an outcome column that mixes numbers and text (naming the column,
+        the data rows and the value; see
+        :func:`~fairaudit.estimate.count_records`), columns that are not a CountTable's
         (naming ``sensitive``, ``outcome`` or ``context``), data that is
         neither a DataFrame nor a CountTable, both ``positive`` and ``utility``,
         an outcome value that is not there, a non-binary outcome with no g,
@@ -547,7 +569,7 @@ def audit(
     elif control_features is not None or sample_weight is not None:
         name = "control_features" if control_features is not None else "sample_weight"
         raise InputError(name, "goes with y_pred and sensitive_features")
-    table = _table(data, sensitive, outcome, context, dropna, weights, count)
+    table = _table(data, sensitive, outcome, context, dropna, weights, count, mixed_outcome or utility is not None)
     if positive is not None and utility is not None:
         raise InputError("positive", "give positive or utility, not both", positive)
     g = audit_utility(table, positive, utility)

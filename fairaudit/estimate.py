@@ -35,6 +35,7 @@ from ._arrays import format_label, label_list
 from ._count_engine import Grouped, csv_group_by, engine_error, parquet_group_by, parquet_source
 from ._csv_format import CsvFormat, FileKind, check_header, file_kind, read_text, same_repeats
 from ._errors import InputError, echo
+from ._key_values import Locate, check_key_values, frame_columns
 from ._roles import check_roles, missing_values, roles
 from ._validation import columns
 from .laws import Law, Population
@@ -233,6 +234,9 @@ def _tally(
     dropna: bool,
     weights: Codes | None = None,
     sample_weight: str | None = None,
+    *,
+    locate: Locate | None = None,
+    mixed_outcome: bool = False,
 ) -> CountTable:
     """Counts of the rows of ``frame`` (each row counts ``weights[i]`` records; default 1).
 
@@ -240,8 +244,11 @@ def _tally(
     :func:`count_file` (one row per distinct combination, with its count):
     missing values, labels and counts are the same whichever way the records
     come, because labels are the sorted distinct values and a weighted row
-    stands for ``weights[i]`` identical records.
+    stands for ``weights[i]`` identical records. The key values are checked first
+    (:func:`~fairaudit._key_values.check_key_values`; ``locate`` finds a refused value's data rows).
     """
+    keys = frame_columns(frame, context + sensitive + [outcome])
+    check_key_values(keys, outcome, weights=weights, locate=locate, mixed_outcome=mixed_outcome)
     used = list(dict.fromkeys(context + sensitive + [outcome] + ([sample_weight] if sample_weight else [])))
     frame = frame[used]
     isna = frame.isna()
@@ -305,7 +312,7 @@ def _sample_weights(column: pd.Series, name: str) -> npt.NDArray[np.float64]:
 
 
 def _tally_grouped(
-    grouped: Grouped, sensitive: list[str], outcome: str, context: list[str], dropna: bool
+    grouped: Grouped, sensitive: list[str], outcome: str, context: list[str], dropna: bool, mixed_outcome: bool
 ) -> CountTable:
     """Counts of a file's distinct key combinations (:class:`~fairaudit._count_engine.Grouped`), as :func:`_tally`.
 
@@ -314,8 +321,18 @@ def _tally_grouped(
     distinct values, as pandas factorizes them.
     """
     if grouped.frame is not None:
-        return _tally(grouped.frame, sensitive, outcome, context, dropna, weights=grouped.weights)
+        return _tally(
+            grouped.frame,
+            sensitive,
+            outcome,
+            context,
+            dropna,
+            weights=grouped.weights,
+            locate=grouped.locate,
+            mixed_outcome=mixed_outcome,
+        )
     keys = dict(zip(dict.fromkeys(context + sensitive + [outcome]), grouped.plain or []))
+    check_key_values(keys, outcome, weights=grouped.weights, locate=grouped.locate, mixed_outcome=mixed_outcome)
     n = len(grouped.weights)
     cx, contexts = _plain_codes([keys[c] for c in context], n)
     ca, groups = _plain_codes([keys[c] for c in sensitive], n)
@@ -347,6 +364,7 @@ def count_records(
     context: Sequence[str] = (),
     dropna: bool = False,
     weights: str | None = None,
+    mixed_outcome: bool = False,
 ) -> CountTable:
     """Count decision records per (context, group, outcome).
 
@@ -367,6 +385,12 @@ def count_records(
         Column of sample (survey) weights, finite and >= 0: each record
         counts its weight (``counts`` are then float64 sums of weights, with
         the sums of squared weights in ``squares`` for intervals).
+    mixed_outcome : bool
+        Count an outcome column that mixes numbers and text (``1``, ``"0"``,
+        ``"yes"``) as it is, each text value an outcome of its own; by
+        default it is an error. Mixed means: among the non-missing values,
+        some are numbers (numbers, booleans, text that reads as a finite
+        number or as ``true``/``false``) and some are other text.
 
     Returns
     -------
@@ -377,7 +401,11 @@ def count_records(
     InputError
         On an unknown column, missing values (naming the column and count)
         when ``dropna`` is False, weights that are not finite numbers >= 0,
-        or no records.
+        or no records; a control character (Unicode category Cc, the tab and
+        line breaks included) in a value of a key column, or an outcome column
+        that mixes numbers and text (without ``mixed_outcome``): naming the
+        column, the first data rows (counted from 1 by position) and the
+        value (:mod:`fairaudit._key_values`).
 
     See Also
     --------
@@ -398,7 +426,7 @@ def count_records(
     check_roles(data.columns, sensitive, outcome, context)
     if weights is not None:
         columns([weights], "weights", data.columns)
-    return _tally(data, sensitive, outcome, context, dropna, sample_weight=weights)
+    return _tally(data, sensitive, outcome, context, dropna, sample_weight=weights, mixed_outcome=mixed_outcome)
 
 
 def count_table(
@@ -412,6 +440,7 @@ def count_table(
     groups: Sequence[Hashable] | None = None,
     decisions: Sequence[Hashable] | None = None,
     dropna: bool = False,
+    mixed_outcome: bool = False,
 ) -> CountTable:
     """A CountTable from an aggregated table: one row per (context, group, outcome) with a count.
 
@@ -434,6 +463,10 @@ def count_table(
     dropna : bool
         Drop rows with a missing label (a ``NULL`` group of ``GROUP BY``) in a
         column whose labels are not given, instead of failing.
+    mixed_outcome : bool
+        Accept an outcome column that mixes numbers and text, as in
+        :func:`count_records` (never refused when ``decisions`` are given:
+        each value is then matched to one of them).
 
     Returns
     -------
@@ -448,7 +481,9 @@ def count_table(
         a (context, group, outcome) given twice, or missing labels when
         ``dropna`` is False: ``column 'x': has N missing values`` where N is
         the sum of the counts of the rows with no label, the number of records
-        :func:`count_records` would report.
+        :func:`count_records` would report; a control character in a key
+        value, or an outcome that mixes numbers and text, as in
+        :func:`count_records` (the data rows are the table's rows).
 
     Examples
     --------
@@ -464,6 +499,12 @@ def count_table(
     context = [context] if isinstance(context, str) else list(context)
     columns(sensitive + [outcome] + context + [count], "table", data.columns)
     values = _count_values(data, count, list(dict.fromkeys(context + sensitive + [outcome])))
+    check_key_values(
+        frame_columns(data, context + sensitive + [outcome]),
+        outcome,
+        weights=values.to_numpy() if pd.api.types.is_integer_dtype(values.dtype) else None,
+        mixed_outcome=mixed_outcome or decisions is not None,
+    )
     free = [
         c
         for cols, expected in ((context, contexts), (sensitive, groups), ([outcome], decisions))
@@ -502,6 +543,7 @@ def counts_of_table(
     context: Sequence[str],
     count: str,
     dropna: bool,
+    mixed_outcome: bool = False,
 ) -> CountTable:
     """The CountTable of a count table held as records with a count column: ``count_file(count=)`` and ``audit(count=)``.
 
@@ -510,7 +552,15 @@ def counts_of_table(
     """
     check_roles(data.columns, sensitive, outcome, context)
     columns([count], "count", data.columns)
-    return count_table(data, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
+    return count_table(
+        data,
+        sensitive=sensitive,
+        outcome=outcome,
+        context=context,
+        count=count,
+        dropna=dropna,
+        mixed_outcome=mixed_outcome,
+    )
 
 
 def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Series:
@@ -580,7 +630,13 @@ def _cannot_read(path: str | Path, exc: Exception) -> InputError:
 
 
 def _parquet_counts(
-    path: str | Path, p: Path, sensitive: list[str], outcome: str, context: list[str], dropna: bool
+    path: str | Path,
+    p: Path,
+    sensitive: list[str],
+    outcome: str,
+    context: list[str],
+    dropna: bool,
+    mixed_outcome: bool,
 ) -> CountTable:
     import duckdb
 
@@ -604,7 +660,7 @@ def _parquet_counts(
         raise engine_error(exc, path) from None
     except (pa.ArrowException, OSError) as exc:
         raise _cannot_read(path, exc) from None
-    return _tally_grouped(grouped, sensitive, outcome, context, dropna)
+    return _tally_grouped(grouped, sensitive, outcome, context, dropna, mixed_outcome)
 
 
 def count_file(
@@ -617,6 +673,7 @@ def count_file(
     count: str | None = None,
     csv: CsvFormat | None = None,
     weights: str | None = None,
+    mixed_outcome: bool = False,
 ) -> CountTable:
     """Count the decision records of a file (Parquet or CSV) with DuckDB, out of core.
 
@@ -679,6 +736,8 @@ def count_file(
     weights : str, optional
         Column of sample weights (as in :func:`count_records`); the file is
         then read whole by pandas (:func:`read_records`).
+    mixed_outcome : bool
+        Accept an outcome column that mixes numbers and text (as in :func:`count_records`).
 
     Returns
     -------
@@ -696,7 +755,11 @@ def count_file(
         count tables the errors of :func:`count_table`; the errors of
         :func:`read_records` (two columns of the same name, ``csv`` options
         for a Parquet file, ``csv.names`` not one per field); DuckDB's failure
-        (``DATA: DuckDB ran out of memory counting it (memory_limit ...)``).
+        (``DATA: DuckDB ran out of memory counting it (memory_limit ...)``); a
+        control character in a key value, or an outcome that mixes numbers and
+        text, as in :func:`count_records`, naming the data rows of the file
+        (counted from 1 after the header; in a folder of Parquet files, the row
+        of the file named), found by a second query only then.
 
     Examples
     --------
@@ -720,24 +783,40 @@ def count_file(
     if weights is not None:
         frame = read_checked(path, fmt, [*context, *sensitive, outcome, weights])
         return count_records(
-            frame, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna, weights=weights
+            frame,
+            sensitive=sensitive,
+            outcome=outcome,
+            context=context,
+            dropna=dropna,
+            weights=weights,
+            mixed_outcome=mixed_outcome,
         )
     if count is not None:
         frame = read_checked(path, fmt, [*context, *sensitive, outcome, count])
-        return counts_of_table(frame, sensitive=sensitive, outcome=outcome, context=context, count=count, dropna=dropna)
+        return counts_of_table(
+            frame,
+            sensitive=sensitive,
+            outcome=outcome,
+            context=context,
+            count=count,
+            dropna=dropna,
+            mixed_outcome=mixed_outcome,
+        )
     if not p.exists():
         raise InputError("DATA", "no such file", str(path))
     kind = file_kind(p)
     if kind.kind == "parquet":
         if fmt.changed():
             raise InputError(fmt.changed()[0], "applies to text files, not Parquet", str(path))
-        return _parquet_counts(path, p, sensitive, outcome, context, dropna)
+        return _parquet_counts(path, p, sensitive, outcome, context, dropna, mixed_outcome)
     used = list(dict.fromkeys(context + sensitive + [outcome]))
     grouped = csv_group_by(p, used, kind, fmt) if _no_repeats(p, kind, fmt) else None  # DuckDB counts
     if grouped is None:  # pandas reads the whole file, as read_records does (and reports what is wrong with it)
         frame = read_checked(path, fmt, used)
-        return count_records(frame, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna)
-    return _tally_grouped(grouped, sensitive, outcome, context, dropna)
+        return count_records(
+            frame, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna, mixed_outcome=mixed_outcome
+        )
+    return _tally_grouped(grouped, sensitive, outcome, context, dropna, mixed_outcome)
 
 
 def _no_repeats(p: Path, kind: FileKind, fmt: CsvFormat) -> bool:

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from ._errors import InputError, echo
+from ._key_values import ROWS_SHOWN, Locate, check_key_values, frame_columns
 from ._roles import check_roles, missing_values, roles
 from .estimate import CountTable, count_table
 
@@ -36,6 +37,7 @@ def count_spark(
     outcome: str,
     context: Sequence[str] = (),
     dropna: bool = False,
+    mixed_outcome: bool = False,
 ) -> CountTable:
     """Count the decision records of a Spark DataFrame per (context, group, outcome).
 
@@ -62,6 +64,9 @@ def count_spark(
         Drop the records with a missing value in any used column instead of
         failing. Missing means a Spark null or a floating-point NaN (Spark
         keeps NaN apart from null; pandas treats both as missing).
+    mixed_outcome : bool
+        Accept an outcome column that mixes numbers and text (as in
+        :func:`~fairaudit.estimate.count_records`).
 
     Returns
     -------
@@ -81,7 +86,11 @@ def count_spark(
         frame holds twice, or a column that is not of a scalar type (array,
         map, struct, binary); on missing values when ``dropna`` is False (the
         first used column with any, and their exact number); or when no
-        record is left to count.
+        record is left to count; a control character in a key value, or an
+        outcome that mixes numbers and text, as in
+        :func:`~fairaudit.estimate.count_records`: the data rows are those of
+        the DataFrame's own order (``monotonically_increasing_id``), found by
+        a second Spark job only then.
 
     Notes
     -----
@@ -121,10 +130,41 @@ def count_spark(
     while count in used:
         count = "_" + count
     agg.columns = pd.Index(used + [count])
+    check_key_values(
+        frame_columns(agg, used),
+        outcome,
+        weights=agg[count].to_numpy(dtype=np.int64),
+        locate=_spark_locate(frame, names, agg),
+        mixed_outcome=mixed_outcome,
+    )
     agg = _drop_missing(agg, used, count, dropna)
-    table = count_table(agg, sensitive=sensitive, outcome=outcome, context=context, count=count)
+    table = count_table(
+        agg, sensitive=sensitive, outcome=outcome, context=context, count=count, mixed_outcome=mixed_outcome
+    )
     # count_table sums the counts as floats; they are whole numbers below 2**53.
     return replace(table, counts=np.rint(table.counts).astype(np.int64))
+
+
+def _spark_locate(frame: DataFrame, names: list[str], agg: pd.DataFrame) -> Locate:
+    """The :data:`~fairaudit._key_values.Locate` of a Spark DataFrame: its rows in its own order, from 1.
+
+    Each row gets ``monotonically_increasing_id`` (increasing in the
+    DataFrame's order); the first rows holding the refused values are taken
+    by that id, and the number of a row is 1 + the rows of smaller id.
+    """
+
+    def locate(column: str, mask: np.ndarray) -> list[tuple[str, object]]:
+        from pyspark.sql import functions as F
+
+        wanted = sorted({str(v) for v in agg[column].to_numpy(dtype=object)[mask]})
+        c = f"c{names.index(column)}"
+        rows = frame.toDF(*(f"c{i}" for i in range(len(names)))).select(
+            F.col(c).alias("v"), F.monotonically_increasing_id().alias("i")
+        )
+        hits = rows.filter(F.col("v").cast("string").isin(wanted)).orderBy("i").limit(ROWS_SHOWN).collect()
+        return [(str(rows.filter(F.col("i") < h["i"]).count() + 1), h["v"]) for h in hits]
+
+    return locate
 
 
 def _check_scalar_columns(frame: DataFrame, names: list[str], used: list[str]) -> None:

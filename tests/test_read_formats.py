@@ -240,9 +240,10 @@ def test_any_format_counts_as_by_hand(tmp_path_factory, rows, sep, spaces, heade
     kept = [r for r in rows if "?" not in r]
     if not kept:
         with pytest.raises(InputError):
-            count_file(path, sensitive="g", outcome="y", context="c", dropna=True, csv=fmt)
+            count_file(path, sensitive="g", outcome="y", context="c", dropna=True, csv=fmt, mixed_outcome=True)
         return
-    t = count_file(path, sensitive="g", outcome="y", context="c", dropna=True, csv=fmt)
+    # "a" beside "7" in the outcome is counted as it is (mixed_outcome; refused by default: tests/test_data_edges.py)
+    t = count_file(path, sensitive="g", outcome="y", context="c", dropna=True, csv=fmt, mixed_outcome=True)
     # pandas types a column of whole numbers as integers (floats with a missing value): labels compared as numbers
     c = Counter(kept)
     contexts, groups, outcomes = (sorted({r[i] for r in kept}, key=_as_read) for i in range(3))

@@ -391,3 +391,30 @@ def test_without_pyspark_fairaudit_imports_and_count_spark_says_how_to_install()
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "pyspark: is needed to count a Spark DataFrame: pip install 'fairaudit[spark]'"
+
+
+@pytest.mark.spark
+def test_control_characters_and_mixed_outcomes_name_the_dataframes_rows(spark):
+    # a: 40 of 88 hired, b: 30 of 80 (as in tests/test_data_edges.py); rows counted from 1 in the frame's order
+    frame = pd.DataFrame({"race": ["a"] * 88 + ["b"] * 80, "hired": [1] * 40 + [0] * 48 + [1] * 30 + [0] * 50})
+    bad = frame.copy()
+    bad.loc[6, "race"] = "a\x00"  # data row 7
+    message = _error(
+        count_spark, spark.createDataFrame(bad, "race string, hired long"), sensitive=["race"], outcome="hired"
+    )
+    assert message == _error(count_records, bad, sensitive=["race"], outcome="hired")
+    assert message.startswith("column 'race': holds the control character U+0000 in data row 7 ")
+    mixed = frame.astype({"hired": str})
+    mixed.loc[[4, 29, 99], "hired"] = "yes"  # data rows 5, 30, 100
+    message = _error(
+        count_spark, spark.createDataFrame(mixed, "race string, hired string"), sensitive=["race"], outcome="hired"
+    )
+    assert message == _error(count_records, mixed, sensitive=["race"], outcome="hired")
+    assert "3 of 168 records are text ('yes') where the others are numbers, in data rows 5, 30, 100 " in message
+    kept = count_spark(
+        spark.createDataFrame(mixed, "race string, hired string"),
+        sensitive=["race"],
+        outcome="hired",
+        mixed_outcome=True,
+    )
+    assert kept.decisions == ("0", "1", "yes") and kept.counts.tolist() == [[[48, 38, 2], [50, 29, 1]]]

@@ -66,6 +66,12 @@ def add_parser(sub: Subparsers) -> None:
     add_text_format(a)
     a.add_argument("--dropna", action="store_true", help="drop records with missing values in the used columns")
     a.add_argument(
+        "--mixed-outcome",
+        action="store_true",
+        help="the outcome mixes numbers and text on purpose (ranks and 'unranked'): count each value as an outcome "
+        "of its own (else an error naming the rows; --utility accepts them too)",
+    )
+    a.add_argument(
         "--count",
         metavar="COL",
         help="DATA is a count table (one row per context, group and outcome, "
@@ -138,6 +144,7 @@ def run(args: argparse.Namespace) -> int:
         count=args.count,
         csv=text_format(args),
         weights=args.weights,
+        mixed_outcome=args.mixed_outcome or args.utility is not None,  # --utility: what each value is worth
     )
     report = None
     if args.report == "impact-ratio":

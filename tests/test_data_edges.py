@@ -152,7 +152,8 @@ def _mixed() -> pd.DataFrame:
 MIXED_ERROR = (
     "fairaudit: error: column 'hired': mixes numbers and text: 3 of 168 records are text ('yes') where the others "
     "are numbers, in data rows 5, 30, 100 (data rows count from 1, the first record after the header): fix the "
-    'data, or give --utility as an expression of the values read as text, e.g. u in ["1", "yes"] (got \'yes\')\n'
+    'data, give --utility as an expression of the values read as text (e.g. u in ["1", "yes"]), or, if the text '
+    "values are outcomes of their own (a rank and 'unranked'), say so with --mixed-outcome (got 'yes')\n"
 )
 
 

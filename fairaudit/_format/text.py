@@ -22,6 +22,8 @@ from ._common import (
     impact_tables,
     measure,
     nats,
+    outcome_rows,
+    outcomes_more,
     pair,
     plan_head,
     plan_rows,
@@ -67,6 +69,12 @@ class TextFormat(Format):
             f"utility: {d['utility']['name']}",
         ]
         lines.append("records per group: " + ", ".join(f"{g['label']} {count(g['n'])}" for g in d["groups"]))
+        if "outcome_values" in d:
+            lines.append(
+                "records per outcome value: "
+                + ", ".join(f"{u} {n} (g {g})" for u, n, g in outcome_rows(d))
+                + (" ..." if outcomes_more(d) else "")
+            )
         if len(d["contexts"]) > 1:
             lines.append(
                 "records per context: "

@@ -138,7 +138,7 @@ def check_key_values(
     ...     check_key_values({"race": ["a", "b", "b"], "hired": ["1", "0", "yes"]}, "hired")
     ... except InputError as e:
     ...     print(e)
-    column 'hired': mixes numbers and text: 1 of 3 records is text ('yes') where the others are numbers, in data row 3 (data rows count from 1, the first record after the header): fix the data, or give `utility` as an expression of the values read as text, e.g. u in ["1", "yes"] (got 'yes')
+    column 'hired': mixes numbers and text: 1 of 3 records is text ('yes') where the others are numbers, in data row 3 (data rows count from 1, the first record after the header): fix the data, give `utility` as an expression of the values read as text (e.g. u in ["1", "yes"]), or, if the text values are outcomes of their own (a rank and 'unranked'), say so with `mixed_outcome` (got 'yes')
     """
     locate = records_locate(columns) if locate is None else locate
     n = None if weights is None else np.asarray(weights)

@@ -217,6 +217,17 @@ class Audit:
             }
         return pd.DataFrame.from_dict(rows, orient="index")
 
+    def _outcome_values(self) -> list[dict[str, object]]:
+        """Each outcome value with its records (with weights, their total weight) and g(u) (None where g
+        depends on the context or group too)."""
+        t, g = self.table, self.utility.values
+        count = int if t.squares is None else float
+        per_value = g.ndim == 1
+        return [
+            {"label": label(d), "n": count(n), "g": number(g[k]) if per_value else None}
+            for k, (d, n) in enumerate(zip(t.decisions, t.counts.sum(axis=(0, 1))))
+        ]
+
     def to_dict(self) -> Report:
         """The report dictionary (the JSON of ``fairaudit audit``; its contract is in docs/design.md).
 
@@ -254,6 +265,7 @@ class Audit:
                 for j, g in enumerate(t.groups)
             ],
             "decisions": [label(d) for d in t.decisions],
+            "outcome_values": self._outcome_values(),
             "population": self.population.to_dict(),
             "confidence": number(self.confidence),
             "interval_method": iv.method if iv is not None else None,

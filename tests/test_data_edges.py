@@ -223,3 +223,46 @@ def test_what_mixed_means(values, mixed):
 def test_mixed_sensitive_values_are_labels_not_an_error():
     frame = pd.DataFrame({"g": ["1", "x", "1"], "y": [1, 0, 1]})
     assert count_records(frame, sensitive="g", outcome="y").groups == ("1", "x")
+
+
+def test_mixed_outcome_counts_ranks_and_unranked_as_they_are(tmp_path, capsys):
+    frame = pd.DataFrame({"g": ["a", "a", "b", "b", "b"], "rank": ["1", "2", "1", "unranked", "2"]})
+    path = tmp_path / "r.csv"
+    frame.to_csv(path, index=False)
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "rank", "--positive", "1")
+    assert code == 2 and "1 of 5 records is text ('unranked') where the others are numbers, in data row 4 " in err
+    code, d, _ = run_json(
+        capsys, "audit", path, "--sensitive", "g", "--outcome", "rank", "--positive", "1", "--mixed-outcome"
+    )
+    assert code == 0 and d["decisions"] == ["1", "2", "unranked"]
+    assert d["local"]["value"] == pytest.approx(math.log(Fraction(1, 2) / Fraction(1, 3)), rel=1e-12)
+    r = audit(frame, sensitive=["g"], outcome="rank", positive="1", mixed_outcome=True)
+    assert r.observed.local_fairness.value == pytest.approx(d["local"]["value"], rel=1e-12)
+
+
+# ---------------------------------------------------------------- every report lists the outcome values
+
+
+def test_every_report_lists_each_outcome_value_with_its_records_and_g(tmp_path, capsys):
+    frame = pd.DataFrame({"g": ["a"] * 6 + ["b"] * 5, "score": [3, 1, 2, 3, 3, 1, 2, 2, 1, 3, 2]})
+    path = tmp_path / "r.csv"
+    frame.to_csv(path, index=False)
+    want = frame["score"].value_counts().sort_index()  # 1: 3, 2: 4, 3: 4
+    argv = ("audit", path, "--sensitive", "g", "--outcome", "score", "--utility", "u >= 2")
+    code, d, _ = run_json(capsys, *argv)
+    assert code == 0
+    assert d["outcome_values"] == [{"label": int(u), "n": int(n), "g": float(u >= 2)} for u, n in want.items()]
+    _, text, _ = run(capsys, *argv)
+    assert "records per outcome value: 1 3 (g 0), 2 4 (g 1), 3 4 (g 1)\n" in text
+    _, markdown, _ = run(capsys, *argv, "--format", "markdown")
+    assert "| outcome value | records | g(u) |\n|---|---|---|\n| 1 | 3 | 0 |\n| 2 | 4 | 1 |\n| 3 | 4 | 1 |" in markdown
+    _, html, _ = run(capsys, *argv, "--format", "html")
+    assert "Records per outcome value" in html and html.count("<td") >= 9
+
+
+def test_weighted_outcome_values_are_sums_of_weights():
+    frame = pd.DataFrame({"g": ["a", "a", "b", "b"], "y": [1, 0, 1, 0], "w": [0.5, 2.0, 1.5, 1.0]})
+    d = audit(frame, sensitive=["g"], outcome="y", weights="w").to_dict()
+    want = frame.groupby("y")["w"].sum()  # 0: 3.0, 1: 2.0
+    assert d["outcome_values"] == [{"label": 0, "n": 3.0, "g": 0.0}, {"label": 1, "n": 2.0, "g": 1.0}]
+    assert [v["n"] for v in d["outcome_values"]] == want.tolist()

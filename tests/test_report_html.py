@@ -183,7 +183,8 @@ def test_audit_page_tables_figures_and_escaping(weird_audit):
     page = _parse(text)
     _check_self_contained(text, page)
     assert page.headings[0] == f"fairaudit audit: {d['n']} records"
-    metrics, groups, contexts, cells = page.tables
+    metrics, groups, outcomes, contexts, cells = page.tables
+    assert [r[:2] for r in outcomes[1:]] == [[str(v["label"]), str(v["n"])] for v in d["outcome_values"]]
     assert len(metrics) == 1 + len(METRICS) and [r[0] for r in metrics[1:]] == [n for _, n in METRICS]
     assert {len(r) for r in metrics} == {5}  # with the intervals
     assert [r[0] for r in groups[1:]] == [g["label"] for g in d["groups"]] and sorted(GROUPS) == sorted(
@@ -247,7 +248,7 @@ def test_dollar_signs_are_no_math_and_many_contexts_are_cut(uci_audit):
         for g in d["groups"]
     ]
     page = _parse(render(d, "audit", "html"))
-    assert "$x_44$" in [r[0] for r in page.tables[2]]  # every context in the table ...
+    assert "$x_44$" in [r[0] for r in page.tables[3]]  # every context in the table ...
     assert "$x_29$" in page.svg_text and "$x_30$" not in page.svg_text  # ... the first 30 in the figure
 
 

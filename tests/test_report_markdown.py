@@ -117,6 +117,7 @@ def weird_audit(tmp_path_factory, weird_records) -> dict:
 def gpt_audit(tmp_path_factory) -> dict:
     csv = EXAMPLES / "llm_hiring" / "gpt_rank_counts.csv"
     args = ["--count", "count", "--sensitive", "demo", "--context", "model,job", "--outcome", "rank"]
+    args += ["--mixed-outcome"]  # ranks 1 to 8 and "unranked"
     return report_json(tmp_path_factory, "gpt", "audit", csv, *args, "--positive", 1, "--confidence", 0.95)
 
 
@@ -213,8 +214,11 @@ def test_code_span_keeps_backticks(parser):
 def test_audit_tables_keep_their_shape_and_labels(weird_audit, parser):
     d = weird_audit
     page = _parse(render(d, "audit", "markdown"), parser)
-    groups, contexts, metrics = page.tables
+    groups, outcomes, contexts, metrics = page.tables
     assert groups[0] == ["group", "records"] and len(groups) == 1 + len(GROUPS)
+    assert outcomes == [["outcome value", "records", "g(u)"]] + [
+        [str(v["label"]), str(v["n"]), f"{v['g']:g}"] for v in d["outcome_values"]
+    ]
     assert _column(groups, 0) == [str(g["label"]) for g in d["groups"]] and sorted(_column(groups, 0)) == sorted(GROUPS)
     assert _column(groups, 1) == [str(g["n"]) for g in d["groups"]]
     assert contexts[0] == ["context", "records"] and sorted(_column(contexts, 0)) == sorted(CONTEXTS)
@@ -233,8 +237,12 @@ def test_audit_markdown_carries_what_the_text_report_carries(weird_audit):
     assert facts["sensitive"] == "grp" and facts["outcome"] == "dec" and facts["utility"] == d["utility"]["name"]
     assert facts["population P(X, A)"] in text and facts["intervals"] in text
     # records per group and per context, as the text lists them
-    groups, contexts = page.tables[0], page.tables[1]
+    groups, contexts = page.tables[0], page.tables[2]
     records = {row[0]: row[1] for row in groups[1:] + contexts[1:]}
+    outcomes = next(x for x in text.splitlines() if x.startswith("records per outcome value: "))
+    assert outcomes.removeprefix("records per outcome value: ") == ", ".join(
+        f"{u} {n} (g {g})" for u, n, g in page.tables[1][1:]
+    )
     for line in ("records per group: ", "records per context: "):
         listed = next(x for x in text.splitlines() if x.startswith(line)).removeprefix(line)
         for entry in listed.split(", "):
@@ -247,7 +255,7 @@ def test_audit_markdown_carries_what_the_text_report_carries(weird_audit):
     assert excluded == d["excluded"] and len(excluded) == 1 and excluded[0] in page.items
     assert "cell (context 'c*2*', group 'a|b'): no records" in page.items
     # the metrics' values, ratios, decisions and intervals of the text report
-    metrics = page.tables[2]
+    metrics = page.tables[3]
     for row in metrics[1:]:
         line = next(x for x in text.splitlines() if x.strip().startswith(row[0] + " "))
         assert row[1] in line and (row[2] == "" or row[2] in line) and (row[4] == "n/a" or row[4] in line)
@@ -257,7 +265,7 @@ def test_audit_with_many_contexts_says_how_many_are_left_out(gpt_audit):
     d = dict(gpt_audit)
     d["contexts"] = [{"label": f"x{i}|y", "n": i} for i in range(45)]
     page = _parse(render(d, "audit", "markdown"), _python_markdown)
-    assert len(page.tables[1]) == 1 + 30 and page.tables[1][-1] == ["x29|y", "29"]
+    assert len(page.tables[2]) == 1 + 30 and page.tables[2][-1] == ["x29|y", "29"]
     assert any("15 more contexts" in p for p in page.paragraphs)
     assert " ...\n" in render(d, "audit", "text")  # the text report cuts at the same place
 
@@ -274,9 +282,10 @@ def test_audit_labels_with_line_breaks_and_more(gpt_audit):
 @pytest.mark.parametrize("parser", PARSERS)
 def test_gpt_audit(gpt_audit, parser):
     page = _parse(render(gpt_audit, "audit", "markdown"), parser)
-    assert [len(t) for t in page.tables] == [9, 9, 7]
-    _check_metrics(page.tables[2], gpt_audit, intervals=True)
-    assert "gpt-4 & software engineer" in _column(page.tables[1], 0)
+    assert [len(t) for t in page.tables] == [9, 10, 9, 7]  # groups, the 9 outcome values, contexts, metrics
+    _check_metrics(page.tables[3], gpt_audit, intervals=True)
+    assert "gpt-4 & software engineer" in _column(page.tables[2], 0)
+    assert _column(page.tables[1], 0) == [str(r) for r in range(1, 9)] + ["unranked"]
 
 
 # --------------------------------------------------------------------------- certify

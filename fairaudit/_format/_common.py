@@ -483,6 +483,30 @@ def records(d: Report) -> str:
     return f"{d['n']} records"
 
 
+OUTCOMES_SHOWN = 30
+"""How many outcome values the text, Markdown and HTML reports list (all are in the JSON)."""
+
+
+def outcome_rows(d: Report) -> list[tuple[str, str, str]]:
+    """The first :data:`OUTCOMES_SHOWN` outcome values of an audit: (value, records, g(u) or ``-``).
+
+    Examples
+    --------
+    >>> outcome_rows({"outcome_values": [{"label": 0, "n": 98, "g": 0.0}, {"label": "yes", "n": 3, "g": None}]})
+    [('0', '98', '0'), ('yes', '3', '-')]
+    """
+    return [
+        (str(v["label"]), count(v["n"]), "-" if v["g"] is None else fmt(v["g"]))
+        for v in d.get("outcome_values", [])[:OUTCOMES_SHOWN]
+    ]
+
+
+def outcomes_more(d: Report) -> str | None:
+    """``... and N more outcome values (all in --format json)``, when the reports list only some."""
+    more = len(d.get("outcome_values", [])) - OUTCOMES_SHOWN
+    return f"... and {more} more outcome values (all in --format json)" if more > 0 else None
+
+
 def count(v: object) -> str:
     """A number of records, or a sum of weights (six significant digits)."""
     return fmt(v) if isinstance(v, float) else str(v)

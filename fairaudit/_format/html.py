@@ -53,6 +53,8 @@ from ._common import (
     metric_rows,
     nats,
     observed_notes,
+    outcome_rows,
+    outcomes_more,
     plan_head,
     plan_rows,
     records,
@@ -288,6 +290,11 @@ class HtmlFormat(Format):
         else:
             page.table(("group", "records", "E[g | a]"), [r[:3] for r in rows], numeric=(1, 2))
         page.figure(lambda: _groups_figure(d, means), _groups_caption(d))
+        if "outcome_values" in d:
+            page.h2("Records per outcome value")
+            page.table(("outcome value", "records", "g(u)"), outcome_rows(d), numeric=(1, 2))
+            if outcomes_more(d):
+                page.p(f"{outcomes_more(d)}.")
         if len(d["contexts"]) > 1:
             page.h2("Records per context")
             shown = d["contexts"][:CONTEXTS_LISTED]

@@ -36,6 +36,8 @@ from ._common import (
     metric_rows,
     nats,
     observed_notes,
+    outcome_rows,
+    outcomes_more,
     plan_head,
     plan_rows,
     records,
@@ -157,6 +159,10 @@ class MarkdownFormat(Format):
         lines += _facts(audit_facts(d), code=("utility",))
         lines += ["", "## Records per group", ""]
         lines += _table([(g["label"], count(g["n"])) for g in d["groups"]], ("group", "records"))
+        if "outcome_values" in d:
+            lines += ["", "## Records per outcome value", ""]
+            lines += _table(outcome_rows(d), ("outcome value", "records", "g(u)"))
+            lines += ["", escape(outcomes_more(d) or "") + "."] if outcomes_more(d) else []
         if len(d["contexts"]) > 1:
             lines += ["", "## Records per context", ""]
             shown = d["contexts"][:CONTEXTS_SHOWN]

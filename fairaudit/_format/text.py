@@ -23,6 +23,8 @@ from ._common import (
     impact_title,
     measure,
     nats,
+    outcome_rows,
+    outcomes_more,
     pair,
     plan_head,
     plan_rows,
@@ -71,6 +73,12 @@ class TextFormat(Format):
             f"utility: {d['utility']['name']}",
         ]
         lines.append("records per group: " + ", ".join(f"{g['label']} {count(g['n'])}" for g in d["groups"]))
+        if "outcome_values" in d:
+            lines.append(
+                "records per outcome value: "
+                + ", ".join(f"{u} {n} (g {g})" for u, n, g in outcome_rows(d))
+                + (" ..." if outcomes_more(d) else "")
+            )
         if len(d["contexts"]) > 1:
             lines.append(
                 "records per context: "

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 import numpy as np
 import numpy.typing as npt
 
-from ._errors import InputError
+from ._errors import InputError, echo
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -226,7 +226,7 @@ def _check_control(
     at = char.start() if char is not None else 0
     total = _records(mask, n)
     raise InputError(
-        f"column {name!r}",
+        f"column {echo(name)}",
         f"holds the control character {control_name(value[at]) if char else 'U+????'} in data row {row} "
         f"({_CONVENTION}); {total} record{'s' if total != 1 else ''} in all: remove control characters "
         "(tabs and line breaks too) from the values",
@@ -274,14 +274,15 @@ def _check_mixed(
     mask, odd = (other_rows, other) if odd_text else (number_rows, number)
     k, total = (n_other if odd_text else n_number), n_number + n_other
     odd_values = sorted(str(v) for v in uniques[odd])
-    shown = [repr(v) for v in odd_values[:3]] + (["..."] if len(odd_values) > 3 else [])
+    shown = [echo(v) for v in odd_values[:3]] + (["..."] if len(odd_values) > 3 else [])
     kind, others = ("text", "numbers") if odd_text else ("numbers", "text")
     hits = locate(name, mask)
     more = f" (the first {len(hits)})" if k > len(hits) else ""
     numbers = sorted(str(v) for v in uniques[number])
-    example = ["1" if "1" in numbers else numbers[0], min(str(v) for v in uniques[other])]
+    word = min((str(v) for v in uniques[other]), key=lambda v: (len(v), v))  # the shortest text, if short
+    example = ["1" if "1" in numbers else numbers[0], word if len(word) <= 40 else "<text value>"]
     raise InputError(
-        f"column {name!r}",
+        f"column {echo(name)}",
         f"mixes numbers and text: {k} of {total} records {'is' if k == 1 else 'are'} {kind} ({', '.join(shown)}) "
         f"where the others are {others}, in {_rows(hits)}{more} ({_CONVENTION}): fix the data, give `utility` "
         f"as an expression of the values read as text (e.g. u in {_list(example)}), or, if the text values are "

@@ -266,3 +266,14 @@ def test_weighted_outcome_values_are_sums_of_weights():
     want = frame.groupby("y")["w"].sum()  # 0: 3.0, 1: 2.0
     assert d["outcome_values"] == [{"label": 0, "n": 3.0, "g": 0.0}, {"label": 1, "n": 2.0, "g": 1.0}]
     assert [v["n"] for v in d["outcome_values"]] == want.tolist()
+
+
+def test_a_long_text_value_among_numbers_is_quoted_cut_with_its_length():
+    """The mixed-outcome line quotes the text values as every error line does: cut after 80 characters, with the
+    value's length (a 5,000-character value is not echoed whole)."""
+    long = "y" * 5000
+    frame = pd.DataFrame({"g": ["a", "a", "b", "b"], "u": ["1", long, "0", "1"]})
+    with pytest.raises(InputError) as info:
+        audit(frame, sensitive=["g"], outcome="u", positive="1")
+    message = str(info.value)
+    assert long not in message and "(5000 characters)" in message and len(message) < 1000

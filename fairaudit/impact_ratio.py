@@ -400,6 +400,25 @@ def round_half_up(value: float, digits: int, how: str = "half up") -> float:
     Python's ``round`` of the binary float may go either way. ``how``: ``"half up"``, ``"down"`` or ``"up"``
     (for an interval's ends, rounded outwards). NaN and infinities are returned as they are.
 
+    Parameters
+    ----------
+    value : float
+        A rate or ratio (any float).
+    digits : int
+        Decimals kept, ≥ 0.
+    how : {"half up", "down", "up"}
+        Half up (ties away from zero), toward −∞ (a lower end) or toward +∞ (an upper end).
+
+    Returns
+    -------
+    float
+        The decimal rounded, as the nearest float.
+
+    Raises
+    ------
+    InputError
+        ``how`` not one of the three.
+
     Examples
     --------
     >>> round(0.3125, 3), round_half_up(0.3125, 3), round_half_up(2030 / 2464, 2), round_half_up(0.3715, 2, "down")
@@ -409,7 +428,10 @@ def round_half_up(value: float, digits: int, how: str = "half up") -> float:
 
     if not math.isfinite(value):
         return value
-    mode = {"half up": ROUND_HALF_UP, "down": ROUND_FLOOR, "up": ROUND_CEILING}[how]
+    modes = {"half up": ROUND_HALF_UP, "down": ROUND_FLOOR, "up": ROUND_CEILING}
+    if how not in modes:
+        raise InputError("how", "must be 'half up', 'down' or 'up'", how)
+    mode = modes[how]
     return float(Decimal(repr(float(value))).quantize(Decimal(1).scaleb(-digits), rounding=mode))
 
 

@@ -316,3 +316,12 @@ def test_frame_and_tables_at_a_printed_precision(capsys):
     assert "  Female & Black  25                    0.32            0.64             [0.14, 1.00]" in out
     code, out, err = run(capsys, *COMMAND[:-2], "--digits", "2")
     assert (code, out) == (2, "") and err.startswith("fairaudit: error: --digits: goes with the impact ratios")
+
+
+def test_round_half_up_refuses_an_unknown_direction_naming_how():
+    from fairaudit import InputError
+    from fairaudit.impact_ratio import round_half_up
+
+    with pytest.raises(InputError, match=r"^how: must be 'half up', 'down' or 'up' \(got 'sideways'\)$"):
+        round_half_up(0.5, 1, "sideways")
+    assert (round_half_up(0.125, 2, "down"), round_half_up(0.125, 2, "up")) == (0.12, 0.13)  # 1/8 between them

@@ -20,7 +20,8 @@ shell function that calls this Python's ``fairaudit.cli.main``. :data:`ALIASES` 
 in its prose (``COMPAS = ../shared/data/...``).
 
 What is checked: a command whose output the page shows prints exactly that (standard output, then standard error,
-then the status where shown), line for line, trailing spaces aside, a line ``...`` standing for any lines; a command
+then the status where shown), line for line, trailing spaces aside, a line ``...`` standing for any lines and a run
+time ``in 98.0 s`` for any run time (:func:`_timeless`); a command
 shown without output must exit 0. A failure names the page, the line of the command and the command.
 
 What is not run: :data:`NOT_RUN` lists, in this one place, every command that cannot run here, with the reason
@@ -292,6 +293,15 @@ def _run(text: str, cwd: Path, capsys, monkeypatch) -> tuple[str, int]:
     return (done.stdout, done.stderr), done.returncode
 
 
+RUN_TIME = re.compile(r"\bin \d+(?:\.\d+)? s\b")
+
+
+def _timeless(line: str) -> str:
+    """A line with its run times (``in 98.0 s``) written ``in <time> s``: how long a run took is the one thing in
+    an output that changes from run to run, so a page's shown time matches any time."""
+    return RUN_TIME.sub("in <time> s", line)
+
+
 def _mismatch(cmd: Command, printed: tuple[str, str], code: int) -> str | None:
     """Why what a command printed differs from the page, or None.
 
@@ -303,10 +313,10 @@ def _mismatch(cmd: Command, printed: tuple[str, str], code: int) -> str | None:
         return None if code == 0 else f"exit status {code}, the page shows no output (so 0); it printed:\n{out}{err}"
     if cmd.output[0] == "{" and not cmd.status:
         return _json_mismatch("\n".join(cmd.output), out, err, code)
-    want = [line.rstrip() for line in "\n".join(cmd.output).rstrip("\n").splitlines()]
+    want = [_timeless(line.rstrip()) for line in "\n".join(cmd.output).rstrip("\n").splitlines()]
     status = f"{code}\n" if cmd.status else ""
     for shown in (out + err, err + out):
-        got = [line.rstrip() for line in (shown + status).rstrip("\n").splitlines()]
+        got = [_timeless(line.rstrip()) for line in (shown + status).rstrip("\n").splitlines()]
         if "..." not in [w.strip() for w in want]:
             if got == want:
                 return None
@@ -477,3 +487,12 @@ def test_the_harness_fails_naming_page_line_and_command(tmp_path, capsys, monkey
     assert "-largest epsilon: 9 nats" in message and "+largest epsilon of 8-ary randomized response" in message
     assert "docs/made-up.md:15: $ false  # fails" in message
     assert "exit status 1, the page shows no output (so 0)" in message
+
+
+def test_a_shown_run_time_matches_any_run_time_and_nothing_else():
+    """The one rule beyond ``...``: ``in 98.0 s`` matches ``in 2.4 s``; a changed count or word still fails."""
+    cmd = Command("p.md", 1, "fairaudit x", ["exact kernel of 8 shown cells in 6.9 s; report written to r.md", "..."])
+    assert _mismatch(cmd, ("# report\n", "exact kernel of 8 shown cells in 112 s; report written to r.md\n"), 0) is None
+    for wrong in ("of 9 shown cells in 6.9 s", "of 8 shown cells in 6.9 ms", "of 8 shown cells after 6.9 s"):
+        printed = ("# report\n", f"exact kernel {wrong}; report written to r.md\n")
+        assert _mismatch(cmd, printed, 0) is not None, wrong

@@ -1,50 +1,80 @@
-"""DuckDB, the engine that counts the records of a file for :func:`fairaudit.estimate.count_file`.
+"""DuckDB, the one engine that reads files of records: :func:`fairaudit.estimate.count_file` and ``read_records``.
 
-One ``GROUP BY`` of the used columns over the file, out of core, on a
-connection to fairaudit's own in-memory database; the small grouped table is
-then given the values pandas would read (``pandas.read_parquet``'s
-conversion of Arrow types, ``pandas.read_csv``'s type inference), so that
-:mod:`fairaudit.estimate` counts it with the same code as records read by
-pandas. Names go into SQL as quoted identifiers (:func:`sql_identifier`),
-files and values as parameters, never as SQL text.
+A file of records, delimited text (``.csv``, ``.tsv``, ``.txt``, ``.data``;
+plain, gzip or zstd) or Parquet (a file or a folder of files), is a
+:class:`Source`: DuckDB's ``read_csv`` or ``read_parquet`` of it, on a
+connection to fairaudit's own in-memory database, and one SQL expression of
+each column's values. Counting is one ``GROUP BY`` of the used columns, out of
+core, whose small grouped table comes back as numpy arrays
+(:meth:`Source.group_by`); reading whole is the same source as a pandas
+DataFrame (:meth:`Source.read`). No other reader is tried: what DuckDB cannot
+read is refused with one line saying why. Names go into SQL as quoted
+identifiers (:func:`sql_identifier`), files and values as parameters, never
+as SQL text.
 
-pandas, pyarrow and DuckDB are imported by the functions that use them.
+**Values**, the labels of a key column (the rules of
+:func:`fairaudit.estimate.count_file`'s docstring): Parquet columns keep their
+types when they are integers, floats, booleans or text (:data:`_PLAIN`),
+decimals are read as floats and other types as DuckDB's text of them; text
+files are read field by field as text, missing values are the fields of
+:data:`NA` (and the format's ``na_values``), and each used column is then
+typed from its distinct values by DuckDB's casts (:func:`_typed`).
+
+pandas and DuckDB are imported by the functions that use them.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 
-from ._csv_format import CsvFormat, FileKind
-from ._errors import InputError
+from ._csv_format import CsvFormat, FileKind, file_kind
+from ._errors import InputError, echo
 from ._key_values import ROWS_SHOWN, Locate
 
 if TYPE_CHECKING:
     import pandas as pd
-    import pyarrow as pa
-    import pyarrow.dataset as ds
 
-__all__ = [
-    "MEMORY_LIMIT_VARIABLE",
-    "Grouped",
-    "csv_group_by",
-    "engine_error",
-    "parquet_group_by",
-    "parquet_source",
-    "sql_identifier",
-]
+__all__ = ["MEMORY_LIMIT_VARIABLE", "NA", "Grouped", "Source", "engine_error", "source", "sql_identifier"]
+
+T = TypeVar("T")
+
+# fmt: off
+NA = (
+    "", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN", "<NA>", "N/A", "NA",
+    "NULL", "NaN", "None", "n/a", "nan", "null",
+)
+# fmt: on
+"""The fields of a text file read as missing values (besides a format's ``na_values``): empty, and the markers of
+R, pandas and spreadsheets."""
 
 _GLOB = frozenset("*?[]{}")  # characters DuckDB may expand in a file name
+_PARAMETER = re.compile(r"\$(\w+)")
+# Parquet types whose values are labels as they are; DECIMAL is read as DOUBLE, any other type as its text
+_PLAIN = frozenset(
+    "TINYINT SMALLINT INTEGER BIGINT UTINYINT USMALLINT UINTEGER UBIGINT FLOAT DOUBLE BOOLEAN VARCHAR".split()
+)
+# DuckDB's reader of a text file: every field text, in the standard dialect (double quotes, doubled inside a field)
+_READ_CSV = (
+    "read_csv($files, columns = $columns, header = false, delim = $delim, compression = $compression, "
+    "quote = '\"', escape = '\"', comment = '', auto_detect = false, strict_mode = true, null_padding = true, "
+    "parallel = $parallel)"
+)
+# the first record: as many fields as it has, up to the columns given (strict_mode off), an empty field ''
+_FIRST_RECORD = _READ_CSV.replace(
+    "strict_mode = true, null_padding = true", "strict_mode = false, null_padding = true, nullstr = $unset"
+)
+_UNSET = "\x00fairaudit: no null string\x00"  # (DuckDB reads some field as null: one no file holds)
 
 
 def sql_identifier(name: str) -> str:
@@ -56,15 +86,6 @@ def sql_identifier(name: str) -> str:
     "a""b" "two words"
     """
     return '"' + name.replace('"', '""') + '"'
-
-
-def count_name(names: Sequence[str]) -> str:
-    """A name for the count column that is none of ``names`` (DuckDB compares names ignoring case)."""
-    taken = {c.lower() for c in names}
-    name = "n"
-    while name in taken:
-        name += "_"
-    return name
 
 
 MEMORY_LIMIT_VARIABLE = "FAIRAUDIT_DUCKDB_MEMORY_LIMIT"
@@ -108,13 +129,20 @@ def engine_error(exc: Exception, path: str | os.PathLike[str]) -> InputError:
     """DuckDB's failure on the file ``path`` as one line that says what it is (never a second reader's guess).
 
     Out of memory: DuckDB's ``memory_limit``, where it comes from and what to
-    try. Anything else: DuckDB's own first line.
+    try. A text file DuckDB cannot parse: the line and the reason DuckDB gives.
+    Anything else: DuckDB's own first line.
     """
     import duckdb
 
-    first = (str(exc).splitlines() or [""])[0]
+    lines = str(exc).splitlines() or [""]
     if not isinstance(exc, duckdb.OutOfMemoryException):
-        return InputError("DATA", f"cannot be read by DuckDB ({type(exc).__name__}: {first})", os.fspath(path))
+        at = next((i for i, line in enumerate(lines) if "CSV Error on Line: " in line), None)
+        if at is not None:  # DuckDB's reason follows the line's number and text
+            reason = next((n for n in lines[at + 1 :] if n.strip() and not n.startswith("Original Line")), "")
+            what = f"line {lines[at].rsplit(': ', 1)[1]}: {reason.strip()}"
+        else:
+            what = f"{type(exc).__name__}: {lines[0]}"
+        return InputError("DATA", f"cannot be read by DuckDB ({what})", os.fspath(path))
     try:
         con = duckdb_connection()
         try:
@@ -127,7 +155,7 @@ def engine_error(exc: Exception, path: str | os.PathLike[str]) -> InputError:
     source = f"set by {MEMORY_LIMIT_VARIABLE}={given}" if given else "DuckDB's default, 80% of the memory"
     return InputError(
         "DATA",
-        f"DuckDB ran out of memory counting it (memory_limit {limit}, {source}; {first}): give it more memory "
+        f"DuckDB ran out of memory counting it (memory_limit {limit}, {source}; {lines[0]}): give it more memory "
         f"({MEMORY_LIMIT_VARIABLE}, e.g. 8GB, on a machine that has it), or count a smaller file or fewer columns",
         os.fspath(path),
     )
@@ -154,460 +182,307 @@ def glob_free(paths: Sequence[str]) -> Iterator[list[str]]:
         yield links
 
 
-# Bounded reading: Parquet pre-buffering keeps every row group's bytes read until the file is closed, so
-# memory would grow with the file (apache/arrow#39808); off, with a short readahead, the peak is a few row
-# groups of the column read (pandas categorical columns only, for their categories' order).
-_READAHEAD = {"batch_readahead": 2, "fragment_readahead": 1}
-
-
-def parquet_source(p: Path) -> tuple[pa.Schema, list[str]]:
-    """The Arrow schema and the files of the Parquet file, or folder of Parquet files, ``p``.
-
-    A folder's files are those ``pyarrow.dataset`` finds (its schema is its
-    first file's); a file's schema is read from its footer alone
-    (``pyarrow.parquet``, which, unlike ``pyarrow.dataset``, does not import
-    pandas).
-    """
-    if p.is_dir():
-        dataset = _parquet_dataset(p)
-        return dataset.schema, list(dataset.files)
-    import pyarrow.parquet as pq
-
-    return pq.read_schema(p), [str(p)]
-
-
-def _parquet_dataset(p: Path | list[str]) -> ds.Dataset:
-    import pyarrow.dataset as ds
-
-    options = ds.ParquetFragmentScanOptions(pre_buffer=False)
-    return ds.dataset(p, format=ds.ParquetFileFormat(default_fragment_scan_options=options))
-
-
-def _unified_dictionary(files: list[str], column: str) -> pa.Array:
-    """The categories pandas.read_parquet gives a dictionary column: its batches' dictionaries unified in order."""
-    import pyarrow as pa
-
-    dataset = _parquet_dataset(files)
-    dicts: list[pa.Array] = []
-    for batch in dataset.to_batches(columns=[column], **_READAHEAD):
-        d = batch.column(0).dictionary
-        if not dicts or not d.equals(dicts[-1]):
-            dicts.append(d)
-    empty = pa.array([], type=pa.int32())
-    chunks = pa.chunked_array(
-        [pa.DictionaryArray.from_arrays(empty, d) for d in dicts],
-        type=pa.dictionary(pa.int32(), dataset.schema.field(column).type.value_type),
-    )
-    return pa.table({column: chunks}).unify_dictionaries().column(0).chunk(0).dictionary
+def _bind(sql: str, parameters: dict[str, Any]) -> dict[str, Any]:
+    """The named parameters ``sql`` uses (DuckDB refuses others)."""
+    return {name: parameters[name] for name in dict.fromkeys(_PARAMETER.findall(sql))}
 
 
 @dataclass(frozen=True)
 class Grouped:
     """The distinct combinations of the keys in a file and their numbers of records (``weights``).
 
-    ``plain``: the keys as numpy arrays, when each is of a plain type
-    (integers, floats, booleans, text) and has no missing value: their
-    values are the labels pandas would give (Python scalars by ``tolist``),
-    and pandas is not needed. Otherwise ``frame``: the keys as pandas reads
-    them. ``locate``: where the keys of some of these rows are in the file (a
-    second query, run only for an error: :data:`fairaudit._key_values.Locate`).
+    ``values``: each key's values by name, one per combination (integers,
+    floats, booleans, or text with None where missing); ``missing``: where each
+    key is missing (null, or NaN). ``locate``: where the keys of some of these rows
+    are in the file (a second query, run only for an error:
+    :data:`fairaudit._key_values.Locate`).
     """
 
     weights: npt.NDArray[np.int64]
-    plain: list[npt.NDArray[Any]] | None = None
-    frame: pd.DataFrame | None = None
-    locate: Locate | None = None
+    values: dict[str, npt.NDArray[Any]]
+    missing: dict[str, npt.NDArray[np.bool_]]
+    locate: Locate
 
 
-def parquet_group_by(schema: pa.Schema, files: list[str], keys: list[str]) -> Grouped:
-    """The distinct combinations of ``keys`` in Parquet ``files`` as pandas reads them, with their numbers of records.
+@dataclass(frozen=True)
+class Source:
+    """A file of records as DuckDB reads it.
 
-    Null and NaN keys are combinations too. Keys of plain types without a
-    missing value come as numpy arrays; otherwise the grouped columns are
-    cast back to the file's Arrow types and converted with the file's pandas
-    metadata, as ``pandas.read_parquet`` converts them.
-
-    Raises
-    ------
-    duckdb.Error, pyarrow.ArrowException, OSError
-        The files cannot be read.
-    """
-    import pyarrow as pa
-
-    kinds = [schema.field(c).type for c in keys]
-    locate = _parquet_locate(schema, files, keys)
-    if all(_is_plain(kind) for kind in kinds):
-        *columns, weights = _duckdb_parquet(schema, files, keys, arrow=False)
-        weights = np.asarray(weights, dtype=np.int64)
-        if weights.size and all(_complete(c) for c in columns):
-            plain = [np.asarray(c) for c in columns]
-            return Grouped(weights, plain=plain, locate=locate(dict(zip(keys, plain))))
-        arrays = [pa.array(np.ma.getdata(c), mask=np.ma.getmaskarray(c), type=k) for c, k in zip(columns, kinds)]
-        table = pa.table([*arrays, pa.array(weights)], names=[*keys, count_name(keys)])
-    else:
-        table = _as_parquet_types(_duckdb_parquet(schema, files, keys, arrow=True), keys, schema, files)
-    frame = _to_pandas(table.replace_schema_metadata(schema.metadata))
-    values = {c: frame[c].to_numpy() for c in keys}
-    return Grouped(frame[count_name(keys)].to_numpy(dtype=np.int64), frame=frame, locate=locate(values))
-
-
-def _parquet_locate(schema: pa.Schema, files: list[str], keys: list[str]) -> Any:
-    """Given the grouped keys' values, the :data:`Locate` of Parquet ``files``: rows of the file (named, for several).
-
-    The refused values are text; a row matches when its value, as text, is
-    one of them. One query, ``file_row_number`` and ``filename`` from DuckDB's
-    reader, ordered by file and row.
+    ``names``: its columns, each once, in order (a text file's header may
+    name one twice: ``columns`` then holds both copies). ``columns``: for each
+    name, its copies as (the SQL of DuckDB's column, the SQL of its values with
+    ``{}`` for that column).
+    ``records``: the SQL of the records (named parameters, ``$files`` among
+    them), with, for text, the column ``"row"``: the data row (from 1).
     """
 
-    def bind(values: dict[str, npt.NDArray[Any]]) -> Locate:
+    given: str
+    files: tuple[str, ...]
+    names: tuple[str, ...]
+    columns: dict[str, list[tuple[str, str]]]
+    records: str
+    parameters: dict[str, Any]
+    text: bool
+
+    def _run(self, work: Callable[[Any, dict[str, Any]], T]) -> T:
+        """``work(connection, parameters)`` on a new connection; DuckDB's failure as one line (:func:`engine_error`).
+
+        A text file with a quoted line break is read again by DuckDB's serial reader (its parallel reader does
+        not pad short records there).
+        """
+        import duckdb
+
+        con = duckdb_connection()
+        try:
+            with glob_free(self.files) as files:
+                parameters = {**self.parameters, "files": files}
+                try:
+                    return work(con, parameters)
+                except duckdb.Error as exc:
+                    if not (self.text and "parallel=false" in str(exc)):
+                        raise
+                    return work(con, {**parameters, "parallel": False})
+        except duckdb.Error as exc:
+            raise engine_error(exc, self.given) from None
+        except OSError as exc:
+            raise InputError("DATA", f"cannot be read ({exc.strerror or exc})", self.given) from None
+        finally:
+            con.close()
+
+    def _check_copies(self, con: Any, parameters: dict[str, Any], names: Sequence[str]) -> None:
+        """Refuse a column of ``names`` that the header names twice or more with different values."""
+        for name in dict.fromkeys(names):
+            copies = self.columns.get(name, [])
+            if len(copies) < 2:
+                continue
+            first = copies[0][0]
+            differ = " OR ".join(f"{first} IS DISTINCT FROM {raw}" for raw, _ in copies[1:])
+            sql = f"SELECT count(*) FROM {self.records} WHERE {differ}"
+            if con.execute(sql, _bind(sql, parameters)).fetchone()[0]:
+                raise InputError(
+                    "DATA",
+                    f"names column {echo(name)} {len(copies)} times, with different values; rename all but one",
+                    self.given,
+                )
+
+    def _table(self, con: Any, parameters: dict[str, Any], names: Sequence[str], grouped: bool) -> list[str]:
+        """Make the temporary table ``records`` of the values of ``names`` (``k0``, ``k1``, ...), grouped (with ``n``,
+        the records of each combination) or not; return the SQL of each column's labels (:func:`_typed`)."""
+        copies = [self.columns[c][0] for c in names]
+        if grouped:  # the raw fields grouped first, then their values (few): one pass over the file
+            raw = ", ".join(f"{r} AS r{j}" for j, (r, _) in enumerate(copies))
+            keys = ", ".join(f"{v.format(f'r{j}')} AS k{j}" for j, (_, v) in enumerate(copies))
+            inner = f"SELECT {raw}, count(*) AS n FROM {self.records} GROUP BY ALL"
+            sql = f"SELECT {keys}, CAST(sum(n) AS BIGINT) AS n FROM ({inner}) GROUP BY ALL"
+        else:
+            sql = f"SELECT {', '.join(f'{v.format(r)} AS k{j}' for j, (r, v) in enumerate(copies))} FROM {self.records}"
+        sql = f"CREATE OR REPLACE TEMP TABLE records AS {sql}"
+        con.execute(sql, _bind(sql, parameters))
+        keys_sql = [f"k{j}" for j in range(len(names))]
+        return _typed(con, keys_sql) if self.text else keys_sql
+
+    def group_by(self, keys: Sequence[str]) -> Grouped:
+        """The distinct combinations of the columns ``keys`` and their numbers of records (null keys included)."""
+
+        def work(con: Any, parameters: dict[str, Any]) -> dict[str, Any]:
+            self._check_copies(con, parameters, keys)
+            typed = self._table(con, parameters, keys, grouped=True)
+            return con.execute(f"SELECT {', '.join(typed)}, n FROM records").fetchnumpy()
+
+        *columns, weights = self._run(work).values()
+        values, missing = {}, {}
+        for key, column in zip(keys, columns):
+            data, mask = np.ma.getdata(column), np.ma.getmaskarray(column).copy()
+            if data.dtype.kind == "f":
+                mask |= np.isnan(data)
+            elif data.dtype.kind == "O":
+                data = data.copy()
+                data[mask] = None
+            values[key], missing[key] = data, mask
+        return Grouped(np.asarray(weights, dtype=np.int64), values, missing, self._locate(values))
+
+    def read(self, columns: Sequence[str] | None = None, check: Sequence[str] | None = None) -> pd.DataFrame:
+        """The records as a pandas DataFrame of the columns ``columns`` (default all), labelled as counted.
+
+        Integers and booleans with a missing value are pandas' nullable ``Int64`` and ``boolean``. A column the
+        header names twice is its first copy, refused when a copy differs (for the columns ``check``, default
+        those read).
+        """
+        names = list(self.names if columns is None else columns)
+
+        def work(con: Any, parameters: dict[str, Any]) -> pd.DataFrame:
+            self._check_copies(con, parameters, names if check is None else check)
+            typed = self._table(con, parameters, names, grouped=False)
+            return con.execute(f"SELECT {', '.join(typed)} FROM records").df()
+
+        frame = self._run(work)
+        frame.columns = names
+        return frame
+
+    def _locate(self, values: dict[str, npt.NDArray[Any]]) -> Locate:
+        """The :data:`Locate` of the grouped ``values`` of the keys: the data rows whose value, as text, is refused.
+
+        Text: data row N is the N-th record after the header (``"row"``). Parquet: the row of the file (of a
+        folder's file, named), from DuckDB's ``file_row_number`` and ``filename``.
+        """
+
         def locate(column: str, mask: npt.NDArray[np.bool_]) -> list[tuple[str, Any]]:
             wanted = sorted({str(v) for v in np.asarray(values[column], dtype=object)[mask]})
-            con = duckdb_connection()
-            try:
-                with glob_free([os.path.abspath(f) for f in files]) as plain:
-                    name = con.read_parquet(plain, hive_partitioning=False).columns[schema.get_field_index(column)]
-                    sql = (
-                        f"SELECT filename, file_row_number, v FROM (SELECT filename, file_row_number, "
-                        f"CAST({sql_identifier(name)} AS VARCHAR) AS v FROM read_parquet(?, hive_partitioning = false, "
-                        f"file_row_number = true, filename = true)) WHERE list_contains(?, v) "
-                        f"ORDER BY list_position(?, filename), file_row_number LIMIT {ROWS_SHOWN}"
-                    )
-                    rows = con.execute(sql, [plain, wanted, plain]).fetchall()
-            finally:
-                con.close()
-            several = len(files) > 1
-            return [(f"{r + 1} of {Path(f).name}" if several else str(r + 1), v) for f, r, v in rows]
+            raw, template = self.columns[column][0]
+            value = f"CAST({template.format(raw)} AS VARCHAR) AS v"
+            if self.text:
+                sql = f'SELECT 1 AS f, "row" AS r, {value} FROM {self.records}'
+            else:
+                reader = "read_parquet($files, hive_partitioning = false, file_row_number = true, filename = true)"
+                sql = f"SELECT list_position($files, filename) AS f, file_row_number + 1 AS r, {value} FROM {reader}"
+            sql = f"SELECT f, r, v FROM ({sql}) WHERE list_contains($wanted, v) ORDER BY f, r LIMIT {ROWS_SHOWN}"
+            rows = self._run(
+                lambda con, parameters: con.execute(sql, _bind(sql, {**parameters, "wanted": wanted})).fetchall()
+            )
+            several = len(self.files) > 1
+            return [(f"{r} of {Path(self.files[f - 1]).name}" if several else str(r), v) for f, r, v in rows]
 
         return locate
 
-    return bind
 
+def _typed(con: Any, keys: list[str]) -> list[str]:
+    """The SQL of the labels of the text columns ``keys`` of the table ``records``: BIGINT, DOUBLE or VARCHAR.
 
-def _is_plain(kind: pa.DataType) -> bool:
-    import pyarrow as pa
-
-    return (
-        pa.types.is_integer(kind)
-        or pa.types.is_boolean(kind)
-        or pa.types.is_float32(kind)
-        or pa.types.is_float64(kind)
-        or pa.types.is_string(kind)
-        or pa.types.is_large_string(kind)
-    )
-
-
-def _complete(column: npt.NDArray[Any]) -> bool:
-    """No missing value: no null (masked) nor, among floats, NaN."""
-    if np.ma.is_masked(column):
-        return False
-    return not (column.dtype.kind == "f" and np.isnan(column).any())
-
-
-def _duckdb_parquet(schema: pa.Schema, files: list[str], keys: list[str], arrow: bool) -> Any:
-    """DuckDB's count of each distinct combination of ``keys`` (null and NaN keys included): keys, then the count.
-
-    An Arrow table, or (``arrow`` False) a list of numpy arrays, masked where
-    null. The columns are named by position: DuckDB renames a column whose
-    name differs from another's only in case.
+    Integers when DuckDB writes every value back as it is as a BIGINT; floats when it writes each back as it is
+    as a BIGINT or a DOUBLE and no two values are the same DOUBLE; else text (the module's docstring).
     """
-    con = duckdb_connection()
-    try:
-        with glob_free([os.path.abspath(f) for f in files]) as plain:
-            rel = con.read_parquet(plain, hive_partitioning=False)
-            names = [rel.columns[schema.get_field_index(c)] for c in keys]
-            selected = ", ".join(sql_identifier(c) for c in names)
-            grouped = rel.aggregate(f"{selected}, count(*) AS {sql_identifier(count_name(rel.columns))}", selected)
-            if not arrow:
-                return list(grouped.fetchnumpy().values())
-            to_table = getattr(grouped, "to_arrow_table", None)  # DuckDB >= 1.4; before, arrow() gives the table
-            return to_table() if to_table is not None else grouped.arrow()
-    finally:
-        con.close()
+    checks = []
+    for k in keys:
+        integer = f"coalesce(CAST(TRY_CAST({k} AS BIGINT) AS VARCHAR) = {k}, false)"
+        real = f"coalesce(CAST(TRY_CAST({k} AS DOUBLE) AS VARCHAR) = {k}, false)"
+        checks += [
+            f"coalesce(bool_and({k} IS NULL OR {integer}), true)",
+            f"coalesce(bool_and({k} IS NULL OR {integer} OR {real}), true) "
+            f"AND count(DISTINCT {k}) = count(DISTINCT TRY_CAST({k} AS DOUBLE))",
+        ]
+    flags = con.execute(f"SELECT {', '.join(checks)} FROM records").fetchone() if keys else ()
+    kinds = ["BIGINT" if flags[2 * j] else "DOUBLE" if flags[2 * j + 1] else "VARCHAR" for j in range(len(keys))]
+    return [f"CAST({k} AS {kind}) AS {k}" for k, kind in zip(keys, kinds)]
 
 
-def _as_parquet_types(grouped: pa.Table, keys: list[str], schema: pa.Schema, files: list[str]) -> pa.Table:
-    """The grouped keys in the file's Arrow types, so that pandas converts them as pandas.read_parquet does.
-
-    A dictionary (pandas categorical) column comes out of DuckDB as its
-    values; it is rebuilt on the categories pandas gives it, the row groups'
-    dictionaries unified in order (one more pass, over that column only).
-    """
-    import pyarrow as pa
-    import pyarrow.compute as pc
-
-    columns = []
-    for i, c in enumerate(keys):
-        kind = schema.field(c).type
-        column = grouped.column(i).combine_chunks()
-        if pa.types.is_dictionary(kind):
-            dictionary = _unified_dictionary(files, c)
-            indices = pc.index_in(column.cast(kind.value_type), value_set=dictionary)
-            column = pa.DictionaryArray.from_arrays(indices, dictionary, ordered=kind.ordered)
-        else:
-            column = pa.nulls(len(column)) if pa.types.is_null(kind) else column.cast(kind)
-        columns.append(column)
-    count = count_name(keys)
-    return pa.table([*columns, grouped.column(len(keys))], names=[*keys, count])
-
-
-def _to_pandas(table: pa.Table) -> pd.DataFrame:
-    """An Arrow table as pandas.read_parquet converts it (same dtypes, so the same labels)."""
-    try:
-        from pandas.io._util import arrow_table_to_pandas  # what pandas.read_parquet calls
-    except ImportError:  # pragma: no cover - other pandas versions
-        return table.to_pandas()
-    return arrow_table_to_pandas(table)
-
-
-# The CSV dialect of pandas.read_csv's defaults, every field read as text (VARCHAR); values are bound as parameters
-_READ_CSV = (
-    "read_csv(?, columns = ?, compression = ?, header = ?, auto_detect = false, delim = ?, quote = '\"', "
-    "escape = '\"', comment = '', strict_mode = true, null_padding = false)"
-)
-
-
-@dataclass
-class _Scan:
-    """Where :func:`csv_regular` is in a file: quote parity, the record read so far, the byte before."""
-
-    parity: int = 0
-    fields: int = 1  # of the record being read
-    length: int = 0  # its bytes so far
-    previous: int = -1  # the byte before the block; -1 at the start of the file
-    header: bool = True  # no record ended yet
-    delim: int = 44  # the separator's byte (a comma)
-
-
-_SCAN_BLOCK = 1 << 22  # bytes read at a time
-_QUOTE, _LF, _CR = 34, 10, 13
-DUCKDB_SEPARATORS = frozenset(",;\t|:")
-"""The separators of the text files DuckDB counts (others go to pandas): comma, semicolon, tab, bar, colon."""
-
-
-def csv_regular(p: Path, n_fields: int, gzipped: bool = False, sep: str = ",") -> bool:
-    """Whether every record of CSV file ``p`` has ``n_fields`` fields, its quotes around whole fields only.
-
-    On such files DuckDB's reader and pandas' agree field by field; they
-    differ elsewhere: DuckDB drops empty fields past the last column (pandas
-    takes a first column as the index), trims spaces around a quoted field,
-    reads a blank line before the header, or a line of spaces; pandas ends a
-    record at a lone carriage return. One pass over the bytes, 4 MiB at a
-    time (numpy), ``"`` toggling whether a comma or a line end is inside a
-    field. ``sep`` is the separator (one of :data:`DUCKDB_SEPARATORS`).
-    """
-    import gzip
-
-    scan = _Scan(delim=ord(sep))
-    try:
-        with gzip.open(p, "rb") if gzipped else open(p, "rb") as f:
-            carry = b""
-            while True:
-                data = f.read(_SCAN_BLOCK)
-                block = carry + data
-                if not block:
-                    break
-                a = np.frombuffer(block, dtype=np.uint8)
-                end = a.size - 1 if data else a.size  # the last byte waits for the next block (to see what follows)
-                if not _scan_block(a, end, scan, n_fields):
-                    return False
-                carry = block[end:]
-                if not data:
-                    break
-    except Exception:  # noqa: BLE001 - pandas reports an unreadable file
-        return False
-    return scan.parity == 0 and (scan.length == 0 or scan.fields == n_fields)
-
-
-def _scan_block(a: npt.NDArray[np.uint8], end: int, scan: _Scan, n_fields: int) -> bool:
-    """Check the bytes ``a[:end]`` (``a[end:]``, if any, follows them) and move ``scan`` past them."""
-    body = a[:end]
-    is_quote = body == _QUOTE
-    quotes = np.flatnonzero(is_quote)
-    if quotes.size and not _quotes_around_fields(a, quotes, scan):
-        return False
-    is_comma, is_lf, is_cr = body == scan.delim, body == _LF, body == _CR
-    if quotes.size or scan.parity:  # outside a quoted field: an even number of quotes before
-        outside = np.bitwise_xor.accumulate(is_quote.view(np.uint8)) == scan.parity  # quotes so far, mod 2
-        is_comma &= outside
-        is_lf &= outside
-        is_cr &= outside
-    commas = np.flatnonzero(is_comma)  # the separators outside quotes (a cumulative count would write 4 bytes each)
-    lines, returns = np.flatnonzero(is_lf), np.flatnonzero(is_cr)
-    if returns.size and (returns[-1] + 1 >= a.size or (a[returns + 1] != _LF).any()):
-        return False  # a carriage return not followed by a line feed
-    total = commas.size
-    if lines.size:
-        before = np.searchsorted(commas, lines)  # separators before each line end
-        fields = np.diff(before, prepend=0) + 1
-        fields[0] += scan.fields - 1
-        lengths = np.diff(lines, prepend=-1) - 1
-        lengths[0] += scan.length
-        ends_cr = a[np.maximum(lines - 1, 0)] == _CR
-        if not lines[0]:
-            ends_cr[0] = scan.previous == _CR
-        blank = lengths - ends_cr == 0
-        if (scan.header and blank[0]) or not (blank | (fields == n_fields)).all():
-            return False
-        scan.fields, scan.length, scan.header = total - int(before[-1]) + 1, end - int(lines[-1]) - 1, False
-    else:
-        scan.fields, scan.length = scan.fields + total, scan.length + end
-    scan.parity = (scan.parity + quotes.size) % 2
-    scan.previous = int(a[end - 1]) if end else scan.previous
-    return True
-
-
-def _quotes_around_fields(a: npt.NDArray[np.uint8], quotes: npt.NDArray[np.intp], scan: _Scan) -> bool:
-    """Whether each quote at ``quotes`` opens a field (or doubles a quote) or closes one (or is doubled)."""
-    # what may stand before an opening quote (it starts a field, or doubles a quote) and after a closing one (it
-    # ends a field, or is doubled), besides the start or the end of the file
-    beside = np.zeros(256, dtype=bool)
-    beside[[scan.delim, _LF, _CR, _QUOTE]] = True
-    opening, closing = quotes[scan.parity :: 2], quotes[1 - scan.parity :: 2]  # they alternate
-    if opening.size and opening[0] == 0:  # the byte before it is the previous block's (-1: the start of the file)
-        if scan.previous >= 0 and not beside[scan.previous]:
-            return False
-        opening = opening[1:]
-    if closing.size and closing[-1] + 1 >= a.size:  # the last byte of the file
-        closing = closing[:-1]
-    return bool(beside[a[opening - 1]].all() and beside[a[closing + 1]].all())
-
-
-def as_read_csv(raw: Any, na_values: Sequence[str] = ()) -> pd.Series | None:
-    """The values pandas.read_csv gives a column whose fields are ``raw`` (text; masked where empty).
-
-    ``na_values``: the fields read as missing besides pandas' own (:class:`~fairaudit.estimate.CsvFormat`).
-
-    pandas infers a column's type from its set of distinct fields, and
-    whether one is missing: its own parser, with read_records' options, on
-    those distinct fields alone gives each field the value, and the column
-    the dtype, that it has when pandas reads the whole file. Except for an
-    integer beyond int64 (pandas then tries uint64 or floats depending on
-    which field comes first in the file), and 0.0 with -0.0 (the label is
-    the one met first): None then.
-    """
-    import io
-
-    import pandas as pd
-
-    fields = np.ma.getdata(raw).astype(object)
-    fields[np.ma.getmaskarray(raw)] = None
-    codes, distinct = pd.factorize(fields)
-    if any(len(v) >= 19 and _INTEGER.fullmatch(v) and not -(2**63) <= int(v) < 2**63 for v in distinct):
-        return None
-    lines = ["key,value", *("0," + _csv_field(v) for v in distinct)]
-    if (codes < 0).any():
-        lines.append("0,")  # an empty field: missing
-    text = io.StringIO("\n".join(lines) + "\n")
-    parsed = pd.read_csv(text, low_memory=False, na_values=list(na_values) or None)["value"]
-    values = parsed.to_numpy()
-    if values.dtype.kind == "f" and len(set(np.signbit(values[values == 0]))) > 1:
-        return None
-    return parsed.take(np.where(codes < 0, len(distinct), codes)).reset_index(drop=True)
-
-
-_INTEGER = re.compile(r"\s*[+-]?[0-9]+\s*", re.ASCII)
-
-
-def _csv_field(text: str) -> str:
-    return '"' + text.replace('"', '""') + '"'
-
-
-def csv_group_by(
-    p: Path, keys: list[str], kind: FileKind | None = None, fmt: CsvFormat | None = None
-) -> Grouped | None:
-    """The distinct combinations of ``keys`` in text file ``p`` as pandas reads them, with their numbers of records.
-
-    ``kind`` gives the separator and compression (default: a plain CSV file),
-    ``fmt`` the reading options (a header or ``names``, ``sep``, ``na_values``).
-    None where the exact result is left to pandas (the caller reads the whole
-    file then, as :func:`fairaudit.estimate.read_records` does), decided
-    before DuckDB runs: a compression other than gzip, a separator outside
-    :data:`DUCKDB_SEPARATORS`, ``skip_initial_space``, a file DuckDB might
-    read differently (:func:`csv_regular`), one column (pandas skips its
-    blank lines, DuckDB reads them as missing), an unknown column (pandas
-    reports it), and the columns whose values depend on the order of the
-    fields (:func:`as_read_csv`); and text DuckDB cannot parse in that
-    dialect (its ``InvalidInputException`` or ``ConversionException``, such as
-    a byte that is not UTF-8), whose error is then pandas', as
-    :func:`fairaudit.estimate.read_records` gives it. When DuckDB fails for
-    any other reason (out of memory, input/output, interrupted) nothing else
-    reads the file: the error says why (:func:`engine_error`).
+def source(path: str | os.PathLike[str], fmt: CsvFormat | None = None) -> Source:
+    """The file of records ``path`` as DuckDB reads it, with the text options ``fmt``.
 
     Raises
     ------
     InputError
-        DuckDB's failure (:func:`engine_error`), or the file cannot be opened.
+        A missing file, a name neither Parquet nor text, a compression DuckDB
+        does not read (:func:`~fairaudit._csv_format.file_kind`), ``fmt``
+        options for Parquet, an empty text file, ``fmt.names`` not one per
+        field of the first record, a folder without Parquet files, or DuckDB's
+        failure to read the file's first record or schema.
     """
-    import duckdb
-    import pandas as pd
-
-    kind = FileKind("text") if kind is None else kind
+    p, given = Path(path), os.fspath(path)
     fmt = CsvFormat() if fmt is None else fmt
-    sep = fmt.sep or kind.sep
-    if not p.is_file() or kind.compression not in (None, "gzip") or sep not in DUCKDB_SEPARATORS:
-        return None
-    if fmt.skip_initial_space:  # pandas drops spaces after a separator, before a quote too: left to it
-        return None
-    names = list(fmt.names or ())
-    if not names:  # (then the file has a header: CsvFormat checks it)
-        try:
-            header = pd.read_csv(p, nrows=0, sep=sep, compression="gzip" if kind.compression else None)
-        except Exception:  # noqa: BLE001 - read_records reports it
-            return None
-        names = [str(c) for c in header.columns]
-    if len(names) < 2 or not set(keys) <= set(names) or len({c.lower() for c in names}) < len(names):
-        return None
-    if not csv_regular(p, len(names), kind.compression == "gzip", sep):
-        return None
-    selected = ", ".join(sql_identifier(c) for c in keys)
-    sql = f"SELECT {selected}, count(*) AS {sql_identifier(count_name(names))} FROM {_READ_CSV} GROUP BY ALL"
-    con = duckdb_connection()
-    try:
-        with glob_free([os.path.abspath(p)]) as (plain,):
-            parameters = [plain, dict.fromkeys(names, "VARCHAR"), kind.compression or "none", fmt.header, sep]
-            result = con.execute(sql, parameters).fetchnumpy()
-    except (duckdb.InvalidInputException, duckdb.ConversionException):
-        return None  # text DuckDB cannot parse in pandas' dialect (a Latin-1 byte): pandas, the reference, reports it
-    except duckdb.Error as exc:  # out of memory, input/output, interrupted: no second reader, DuckDB's reason
-        raise engine_error(exc, p) from None
-    except OSError as exc:
-        raise InputError("DATA", f"cannot be read ({exc.strerror or exc})", str(p)) from None
-    finally:
-        con.close()
-    raw = list(result.values())
-    values = [as_read_csv(column, fmt.na_values) for column in raw[:-1]]
-    if any(v is None for v in values):
-        return None
-    frame = pd.DataFrame(dict(zip(keys, values)))
-    parameters = [p, dict.fromkeys(names, "VARCHAR"), kind.compression or "none", fmt.header, sep]
-    locate = _csv_locate(parameters, dict(zip(keys, raw)), frame)
-    return Grouped(np.asarray(raw[-1], dtype=np.int64), frame=frame, locate=locate)
+    if not p.exists():
+        raise InputError("DATA", "no such file", given)
+    kind = file_kind(p)
+    if kind.kind == "parquet":
+        if fmt.changed():
+            raise InputError(fmt.changed()[0], "applies to text files, not Parquet", given)
+        return _parquet_source(p, given)
+    return _text_source(p, given, kind, fmt)
 
 
-def _csv_locate(parameters: list[Any], raw: dict[str, Any], frame: pd.DataFrame) -> Locate:
-    """The :data:`Locate` of a text file read by ``_READ_CSV`` with ``parameters``: its records in order, from 1.
-
-    The grouped rows' fields (``raw``, as DuckDB read them) are looked for in
-    the file; each row found is given the value pandas reads (``frame``).
-    DuckDB keeps the file's order (``preserve_insertion_order``), so
-    ``row_number() OVER ()`` numbers the records as they come, blank lines
-    not counted.
-    """
-
-    def locate(column: str, mask: npt.NDArray[np.bool_]) -> list[tuple[str, Any]]:
-        fields = np.ma.getdata(raw[column]).astype(object)[mask & ~np.ma.getmaskarray(raw[column])]
-        read = dict(zip(fields.tolist(), frame[column].to_numpy(dtype=object)[mask & ~np.ma.getmaskarray(raw[column])]))
-        name = sql_identifier(column)
-        sql = (
-            f"SELECT rn, v FROM (SELECT row_number() OVER () AS rn, {name} AS v FROM {_READ_CSV}) "
-            f"WHERE list_contains(?, v) ORDER BY rn LIMIT {ROWS_SHOWN}"
+def _text_source(p: Path, given: str, kind: FileKind, fmt: CsvFormat) -> Source:
+    """A text file: its first record read once (its fields, or, with a header, its names), then every record."""
+    parameters: dict[str, Any] = {
+        "delim": fmt.sep or kind.sep,
+        "compression": kind.compression or "none",
+        "parallel": True,
+        "na": [*NA, *fmt.na_values],
+        "skip": int(fmt.header),
+    }
+    first = Source(given, (str(p.absolute()),), (), {}, "", parameters, True)._run(_first_record)
+    if not first:
+        raise InputError("DATA", "is empty", given)
+    if fmt.names is not None and len(fmt.names) != len(first):
+        raise InputError(
+            "names", f"gives {len(fmt.names)} names for records of {len(first)} fields", ",".join(fmt.names)
         )
-        con = duckdb_connection()
-        try:
-            with glob_free([os.path.abspath(parameters[0])]) as (plain,):
-                rows = con.execute(sql, [plain, *parameters[1:], sorted(read)]).fetchall()
-        finally:
-            con.close()
-        return [(str(r), read[v]) for r, v in rows]
+    names = (
+        list(fmt.names) if fmt.names is not None else [f.lstrip(" ") if fmt.skip_initial_space else f for f in first]
+    )
+    columns: dict[str, list[tuple[str, str]]] = {}
+    for j, name in enumerate(names):
+        text = "ltrim({0})" if fmt.skip_initial_space else "{0}"
+        value = f"CASE WHEN list_contains($na, {text}) THEN NULL ELSE {text} END"
+        columns.setdefault(name, []).append((f'"c{j}"', value))
+    parameters["columns"] = {f"c{j}": "VARCHAR" for j in range(len(names))}
+    records = f'(SELECT * FROM (SELECT *, row_number() OVER () - $skip AS "row" FROM {_READ_CSV}) WHERE "row" > 0)'
+    return Source(given, (str(p.absolute()),), tuple(columns), columns, records, parameters, True)
 
-    return locate
+
+def _first_record(con: Any, parameters: dict[str, Any]) -> list[str]:
+    """The fields of a text file's first record (blank lines skipped), each as text; [] for an empty file.
+
+    DuckDB reads a given number of fields: up to 64, then 4 times as many while the last one read is filled.
+    """
+    sql = f"SELECT * FROM {_FIRST_RECORD} LIMIT 1"
+    width = 64
+    while True:
+        columns = {f"c{j}": "VARCHAR" for j in range(width)}
+        row = con.execute(sql, _bind(sql, {**parameters, "columns": columns, "unset": _UNSET})).fetchone()
+        if row is None:
+            return []
+        if row[-1] is None:
+            return [v for v in row if v is not None]
+        width *= 4
+
+
+def _parquet_source(p: Path, given: str) -> Source:
+    """A Parquet file, or the Parquet files of a folder (its files not hidden nor named ``_...``, in name order)."""
+    if p.is_dir():
+        files = [str(f.absolute()) for f in sorted(p.rglob("*")) if f.is_file() and _visible(f.relative_to(p))]
+        if not files:
+            raise InputError("DATA", "is a folder without Parquet files", given)
+    else:
+        files = [str(p.absolute())]
+
+    def schema(con: Any, parameters: dict[str, Any]) -> tuple[list[str], list[tuple[str, str]], list[str]]:
+        first = {"file": parameters["files"][0]}
+        elements = con.execute("SELECT name, num_children FROM parquet_schema($file)", first).fetchall()
+        meta = con.execute(
+            "SELECT decode(value) FROM parquet_kv_metadata($file) WHERE decode(key) = 'pandas'", first
+        ).fetchall()
+        sql = "DESCRIBE SELECT * FROM read_parquet($files, hive_partitioning = false)"
+        described = con.execute(sql, {"files": parameters["files"]}).fetchall()
+        index = json.loads(meta[0][0]).get("index_columns", []) if meta else []
+        return _top_level(elements), [(str(r[0]), str(r[1])) for r in described], index
+
+    probe = Source(given, tuple(files), (), {}, "", {}, False)
+    names, described, index = probe._run(schema)
+    columns: dict[str, list[tuple[str, str]]] = {}
+    for name, (column, kind) in zip(names, described):
+        if name in index:  # pandas' index, stored as a column: not a column of the records
+            continue
+        value = "{}" if kind in _PLAIN else f"CAST({{}} AS {'DOUBLE' if kind.startswith('DECIMAL') else 'VARCHAR'})"
+        columns.setdefault(name, []).append((sql_identifier(column), value))
+    records = "read_parquet($files, hive_partitioning = false)"
+    return Source(given, tuple(files), tuple(columns), columns, records, {}, False)
+
+
+def _visible(relative: Path) -> bool:
+    return not any(part.startswith((".", "_")) for part in relative.parts)
+
+
+def _top_level(elements: list[tuple[str, int | None]]) -> list[str]:
+    """The names of a Parquet schema's top-level columns, from its elements (depth first, the root first)."""
+    names, i = [], 1
+
+    def past(i: int) -> int:  # the element after the subtree at i
+        children = elements[i][1] or 0
+        i += 1
+        for _ in range(children):
+            i = past(i)
+        return i
+
+    for _ in range(elements[0][1] or 0):
+        names.append(str(elements[i][0]))
+        i = past(i)
+    return names

@@ -1,12 +1,11 @@
-"""How a text file of records is read: its kind and compression from its name, and the reader's options.
+"""How a file of records is read: its kind and compression from its name, and the options of a text file.
 
 Records come as Parquet or as delimited text (CSV, TSV, UCI's ``.data``),
 often compressed, sometimes without a header, with ``?`` for a missing
 value or a space after each separator. :class:`CsvFormat` says how to read
-such a file; pandas' reader (``pandas.read_csv``) does the reading, with
-its own options, so nothing here parses text by hand. The names of a file
-come from its header, or from ``names`` when it has none; two columns of the
-same name are an error (pandas would rename the second ``x.1`` silently).
+such a file; DuckDB reads it (:mod:`fairaudit._count_engine`), so nothing
+here parses text. The names of a file come from its header, or from
+``names`` when it has none.
 """
 
 from __future__ import annotations
@@ -14,28 +13,23 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
 
-from ._errors import InputError, echo
-
-if TYPE_CHECKING:
-    import pandas as pd
+from ._errors import InputError
 
 __all__ = ["CsvFormat", "file_kind"]
 
 PARQUET_SUFFIXES = frozenset({".parquet", ".pq"})
 TEXT_SUFFIXES = {".csv": ",", ".txt": ",", ".data": ",", ".tsv": "\t"}  # suffix -> default separator
-# compressed text: the compression pandas infers from the last suffix, and whether DuckDB reads it too
-COMPRESSION_SUFFIXES = {".gz": "gzip", ".bz2": "bz2", ".xz": "xz", ".zst": "zstd", ".zip": "zip"}
-TEXT_KINDS = (
-    "a .parquet/.pq file or folder, or text: .csv, .tsv, .txt or .data, optionally .gz, .bz2, .xz, .zst or .zip"
-)
+COMPRESSION_SUFFIXES = {".gz": "gzip", ".zst": "zstd"}  # compressed text, as DuckDB reads it
+# compressions DuckDB does not read -> (their name, the command that decompresses a file)
+UNREAD_SUFFIXES = {".bz2": ("bzip2", "bunzip2 -k"), ".xz": ("xz", "unxz -k"), ".zip": ("zip", "unzip")}
+TEXT_KINDS = "a .parquet/.pq file or folder, or text: .csv, .tsv, .txt or .data, optionally .gz or .zst"
 
 
 @dataclass(frozen=True)
 class FileKind:
     """What a file's name says it holds: ``kind`` ``"parquet"`` or ``"text"``; for text its default separator
-    and its compression (None, or ``"gzip"``, ``"bz2"``, ``"xz"``, ``"zstd"``, ``"zip"``)."""
+    and its compression (None, ``"gzip"`` or ``"zstd"``)."""
 
     kind: str
     sep: str = ","
@@ -50,7 +44,9 @@ def file_kind(path: str | Path) -> FileKind:
     Raises
     ------
     InputError
-        Field ``DATA``: a name that is neither Parquet nor text.
+        Field ``DATA``: a name that is neither Parquet nor text, or text
+        compressed in a way DuckDB does not read (bzip2, xz, zip), saying how
+        to decompress it.
 
     Examples
     --------
@@ -61,6 +57,13 @@ def file_kind(path: str | Path) -> FileKind:
     if p.is_dir() or p.suffix.lower() in PARQUET_SUFFIXES:
         return FileKind("parquet")
     suffixes = [s.lower() for s in p.suffixes]
+    if suffixes and suffixes[-1] in UNREAD_SUFFIXES:
+        name, tool = UNREAD_SUFFIXES[suffixes[-1]]
+        raise InputError(
+            "DATA",
+            f"is compressed with {name}, which DuckDB does not read: decompress it first ({tool} {p.name})",
+            str(path),
+        )
     compression = COMPRESSION_SUFFIXES.get(suffixes[-1]) if suffixes else None
     inner = suffixes[:-1] if compression else suffixes
     if inner and inner[-1] in TEXT_SUFFIXES:
@@ -72,7 +75,7 @@ def file_kind(path: str | Path) -> FileKind:
 
 @dataclass(frozen=True)
 class CsvFormat:
-    """How a delimited text file of records is read (``pandas.read_csv`` with these options).
+    """How a delimited text file of records is read (DuckDB's ``read_csv`` with these options).
 
     Parameters
     ----------
@@ -86,9 +89,10 @@ class CsvFormat:
         The separator, one character other than a quote or a line end;
         default from the file's name: a tab for ``.tsv``, else a comma.
     na_values : sequence of str
-        Fields read as missing, besides pandas' own (``""``, ``"NA"``,
-        ``"nan"``, ...); for example ``("?",)`` for UCI's files. Compared
-        with the whole field (after ``skip_initial_space``).
+        Fields read as missing, besides the usual markers (an empty field,
+        ``"NA"``, ``"nan"``, ``"NULL"``, ...: :data:`fairaudit._count_engine.NA`);
+        for example ``("?",)`` for UCI's files. Compared with the whole field
+        (after ``skip_initial_space``).
     skip_initial_space : bool
         Drop the spaces that follow a separator (UCI's ``39, Male, ...``).
         Default False: a field keeps its spaces (``" Male"``), and reports
@@ -135,24 +139,8 @@ class CsvFormat:
         object.__setattr__(self, "na_values", na)
 
     def changed(self) -> list[str]:
-        """The options that differ from the defaults (pandas' own reading of a CSV file with a header)."""
+        """The options that differ from the defaults (a CSV file with a header, read as it is)."""
         return [f.name for f in fields(self) if getattr(self, f.name) != f.default]
-
-    def read_csv_options(self, kind: FileKind) -> dict[str, Any]:
-        """The keyword arguments of ``pandas.read_csv`` for a file of ``kind``."""
-        options: dict[str, Any] = {
-            "sep": self.sep or kind.sep,
-            "compression": kind.compression,
-            "low_memory": False,
-            "skipinitialspace": self.skip_initial_space,
-        }
-        if self.na_values:
-            options["na_values"] = list(self.na_values)
-        options["header"] = 0 if self.header else None  # (0 with names: the header line is replaced, not read)
-        if self.names is not None:
-            options["names"] = list(self.names)
-            options["index_col"] = False  # never take a first column as the index
-        return options
 
 
 def distinct_names(values: Iterable[object], field: str) -> tuple[str, ...]:
@@ -167,60 +155,3 @@ def distinct_names(values: Iterable[object], field: str) -> tuple[str, ...]:
             raise InputError(field, "names a column twice", name)
         names.append(name)
     return tuple(names)
-
-
-def check_header(p: Path, kind: FileKind, fmt: CsvFormat) -> dict[str, list[int]]:
-    """The names that the header of a text file repeats, with their positions; checks ``fmt.names`` too.
-
-    Reads the first record only (pandas, with the file's options, every field as text).
-
-    Raises
-    ------
-    InputError
-        ``names`` that do not give one name per field of the first record.
-    """
-    import pandas as pd
-
-    options = {**fmt.read_csv_options(kind), "header": None, "names": None, "index_col": None}
-    first = pd.read_csv(p, **options, nrows=1, dtype=str, keep_default_na=False)
-    if fmt.names is not None:
-        if len(first.columns) != len(fmt.names):
-            raise InputError(
-                "names", f"gives {len(fmt.names)} names for records of {len(first.columns)} fields", ",".join(fmt.names)
-            )
-        return {}
-    header = [str(v) for v in (first.iloc[0].tolist() if len(first) else [])]
-    positions: dict[str, list[int]] = {}
-    for j, name in enumerate(header):
-        positions.setdefault(name, []).append(j)
-    return {name: js for name, js in positions.items() if len(js) > 1}
-
-
-def read_text(p: Path, kind: FileKind, fmt: CsvFormat) -> pd.DataFrame:
-    """Read a text file of records with pandas (``fmt.names`` checked by :func:`check_header` first)."""
-    import pandas as pd
-
-    check_header(p, kind, fmt)
-    return pd.read_csv(p, **fmt.read_csv_options(kind))
-
-
-def same_repeats(frame: pd.DataFrame, repeated: dict[str, list[int]], used: Iterable[str], path: object) -> None:
-    """Refuse a used column that the file's header names twice or more with different values.
-
-    pandas renames the second ``x`` to ``x.1``; when the columns hold the same
-    value in every record (ProPublica's COMPAS file repeats ``decile_score``)
-    either is the column, else which one is meant is unknown.
-
-    Raises
-    ------
-    InputError
-        Field ``DATA``, naming the column and how many times it appears.
-    """
-    for name in dict.fromkeys(used):
-        positions = repeated.get(name, [])
-        if any(not frame.iloc[:, positions[0]].equals(frame.iloc[:, j]) for j in positions[1:]):
-            raise InputError(
-                "DATA",
-                f"names column {echo(name)} {len(positions)} times, with different values; rename all but one",
-                str(path),
-            )

@@ -154,7 +154,7 @@ def check_key_values(
 def _distinct(values: Any) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.object_]] | None:
     """Codes of the rows (-1 where missing) and the distinct values, for a column that may hold text; else None.
 
-    A pandas Series is factorized by pandas; a numpy array (complete keys of plain types, from a Parquet file)
+    A pandas Series is factorized by pandas; a numpy array (a file's grouped keys: text with None where missing)
     by numpy, without importing pandas.
     """
     pd = sys.modules.get("pandas")
@@ -169,12 +169,16 @@ def _distinct(values: Any) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.object_
         array = np.asarray(values, dtype=object)  # numpy's str dtype drops trailing NUL characters
     if array.dtype.kind not in "OUT":
         return None
-    if array.dtype.kind == "O" and not all(isinstance(v, str) for v in array[:1]):  # (plain text keys are all text)
+    array = array.reshape(-1)
+    present = np.fromiter((v is not None for v in array), dtype=bool, count=array.size)  # (a file's: None missing)
+    if array.dtype.kind == "O" and not all(isinstance(v, str) for v in array[present][:1]):
         import pandas
 
         return _distinct(pandas.Series(array, dtype=object))
-    uniques, codes = np.unique(array, return_inverse=True)
-    return np.asarray(codes, dtype=np.intp).reshape(-1), np.asarray(uniques, dtype=object)
+    uniques, inverse = np.unique(array[present], return_inverse=True)
+    codes = np.full(array.size, -1, dtype=np.intp)
+    codes[present] = inverse.reshape(-1)
+    return codes, np.asarray(uniques, dtype=object)
 
 
 def _text(uniques: npt.NDArray[np.object_]) -> npt.NDArray[np.bool_]:

@@ -10,19 +10,21 @@ Labels: one column gives scalar labels; several columns give tuples
 there is one context, labelled ``"all"``. Intervals for what the counts
 estimate: :mod:`fairaudit.intervals`.
 
-Out of core: :func:`count_file` counts a Parquet or CSV file with DuckDB
-(one ``GROUP BY`` of the used columns in fairaudit's own in-memory database,
+Files: :func:`count_file` counts a Parquet or text file with DuckDB (one
+``GROUP BY`` of the used columns in fairaudit's own in-memory database,
 :mod:`fairaudit._count_engine`), so memory grows with the number of
-(context, group, decision) combinations, not with the records; it also
-reads count tables made by any engine (SQL ``GROUP BY``, Spark, DuckDB).
-See docs/scale.md.
+(context, group, decision) combinations, not with the records; it also reads
+count tables made by any engine (SQL ``GROUP BY``, Spark, DuckDB), and
+:func:`read_records` reads a file whole, also with DuckDB. See docs/scale.md.
 
-pandas, pyarrow and DuckDB are imported by the functions that use them, not
-with this module (``import fairaudit`` stays fast).
+pandas and DuckDB are imported by the functions that use them, not with this
+module (``import fairaudit`` stays fast).
 """
 
 from __future__ import annotations
 
+import math
+import sys
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,8 +34,8 @@ import numpy as np
 import numpy.typing as npt
 
 from ._arrays import format_label, label_list
-from ._count_engine import Grouped, csv_group_by, engine_error, parquet_group_by, parquet_source
-from ._csv_format import CsvFormat, FileKind, check_header, file_kind, read_text, same_repeats
+from ._count_engine import source
+from ._csv_format import CsvFormat
 from ._errors import InputError, echo
 from ._key_values import Locate, check_key_values, frame_columns
 from ._roles import check_roles, missing_values, roles
@@ -155,26 +157,11 @@ class CountTable:
 
 
 def read_records(path: str | Path, csv: CsvFormat | None = None) -> pd.DataFrame:
-    """Read decision records from a Parquet or delimited text file (by its name).
+    """Read decision records from a Parquet or delimited text file (by its name), with DuckDB.
 
-    Parameters
-    ----------
-    path : str or Path
-        ``.parquet``/``.pq``, or text: ``.csv``, ``.tsv`` (tab-separated),
-        ``.txt`` or ``.data`` (comma-separated), each optionally compressed
-        (``.gz``, ``.bz2``, ``.xz``, ``.zst``, ``.zip``).
-    csv : CsvFormat, optional
-        How a text file is read (no header, its column names, the separator,
-        extra missing-value markers, spaces after separators); default: a
-        header line, pandas' defaults.
-
-    Raises
-    ------
-    InputError
-        If the file is missing, its name is neither Parquet nor text, it
-        cannot be parsed, it has two columns of the same name, ``csv`` is
-        given for a Parquet file, or ``csv.names`` does not give one name
-        per field.
+    The values are the labels :func:`count_file` counts (integers and
+    booleans with a missing value as pandas' ``Int64`` and ``boolean``); the
+    file, ``csv`` and the errors are as in :func:`count_file`.
 
     Examples
     --------
@@ -182,119 +169,99 @@ def read_records(path: str | Path, csv: CsvFormat | None = None) -> pd.DataFrame
     >>> path = os.path.join(tempfile.mkdtemp(), "adult.data")
     >>> _ = open(path, "w").write("39, Male, <=50K\\n50, ?, >50K\\n")
     >>> fmt = CsvFormat(header=False, names=("age", "sex", "income"), na_values=("?",), skip_initial_space=True)
-    >>> read_records(path, fmt).values.tolist()
+    >>> read_records(path, fmt).astype(object).values.tolist()
     [[39, 'Male', '<=50K'], [50, nan, '>50K']]
     """
-    import pandas as pd
-
-    p = Path(path)
-    if not p.is_file():
-        raise InputError("DATA", "no such file", str(path))
-    kind = file_kind(p)
-    fmt = CsvFormat() if csv is None else csv
-    try:
-        if kind.kind == "parquet":
-            if fmt.changed():
-                raise InputError(fmt.changed()[0], "applies to text files, not Parquet", str(path))
-            try:
-                return pd.read_parquet(p)
-            except ImportError:
-                raise InputError(
-                    "DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)
-                ) from None
-        return read_text(p, kind, fmt)
-    except InputError:
-        raise
-    except Exception as exc:  # pandas raises many parser errors; report one line
-        raise _cannot_read(path, exc) from None
+    return source(path, csv).read()
 
 
-def _codes(frame: pd.DataFrame, columns: Sequence[str], role: str) -> tuple[Codes, tuple]:
-    """Factorize one or several columns into (codes, labels); labels sorted."""
-    import pandas as pd
+def _codes(columns: Sequence[Any], n: int) -> tuple[Codes, tuple]:
+    """(codes, labels) of ``n`` rows of one or several complete columns: labels sorted (tuples lexicographically).
 
+    A pandas Series is factorized by pandas (any values: a categorical in its categories' order); a numpy array (a
+    file's keys, of one type) by numpy, without importing pandas.
+    """
     if not columns:
-        return np.zeros(len(frame), dtype=np.int64), ("all",)
+        return np.zeros(n, dtype=np.int64), ("all",)
+    pd = sys.modules.get("pandas")
+    factorized = []
+    for column in columns:
+        if pd is not None and isinstance(column, pd.Series):
+            codes, uniques = pd.factorize(column, sort=True)
+            factorized.append((codes, [v.item() if isinstance(v, np.generic) else v for v in uniques]))
+        else:
+            uniques, codes = np.unique(column, return_inverse=True)
+            factorized.append((codes.reshape(-1), uniques.tolist()))
     if len(columns) == 1:
-        codes, uniques = pd.factorize(frame[columns[0]], sort=True)
-        labels = tuple(v.item() if isinstance(v, np.generic) else v for v in uniques)
-        return codes.astype(np.int64), labels
-    sub = frame[list(columns)]
-    idx = pd.MultiIndex.from_frame(sub)
-    codes, uniques = pd.factorize(idx, sort=True)
-    labels = tuple(tuple(x.item() if isinstance(x, np.generic) else x for x in t) for t in uniques)
-    return codes.astype(np.int64), labels
+        return np.asarray(factorized[0][0], dtype=np.int64), tuple(factorized[0][1])
+    rows, inverse = np.unique(np.stack([c for c, _ in factorized], axis=1), axis=0, return_inverse=True)
+    labels = tuple(tuple(factorized[j][1][i] for j, i in enumerate(row)) for row in rows.tolist())
+    return inverse.reshape(-1).astype(np.int64), labels
 
 
 def _tally(
-    frame: pd.DataFrame,
+    columns: dict[str, Any],
+    missing: dict[str, npt.NDArray[np.bool_]],
     sensitive: list[str],
     outcome: str,
     context: list[str],
     dropna: bool,
-    weights: Codes | None = None,
-    sample_weight: str | None = None,
     *,
+    n: Codes | None = None,
+    sample_weight: str | None = None,
     locate: Locate | None = None,
     mixed_outcome: bool = False,
 ) -> CountTable:
-    """Counts of the rows of ``frame`` (each row counts ``weights[i]`` records; default 1).
+    """The counts of rows: records (pandas Series, :func:`count_records`) or a file's grouped keys (numpy arrays,
+    :func:`count_file`), each row ``n[i]`` records (default 1) and missing where ``missing[column]``.
 
-    The one counting path of :func:`count_records` (one row per record) and of
-    :func:`count_file` (one row per distinct combination, with its count):
-    missing values, labels and counts are the same whichever way the records
-    come, because labels are the sorted distinct values and a weighted row
-    stands for ``weights[i]`` identical records. The key values are checked first
-    (:func:`~fairaudit._key_values.check_key_values`; ``locate`` finds a refused value's data rows).
+    The one counting path: the key values are checked first (:func:`~fairaudit._key_values.check_key_values`;
+    ``locate`` finds a refused value's data rows), then missing values are dropped or refused, then the labels are the
+    sorted distinct values (:func:`_codes`). With ``sample_weight`` (a column of ``columns``, one row per record) the
+    counts are sums of those weights.
     """
-    keys = frame_columns(frame, context + sensitive + [outcome])
-    check_key_values(keys, outcome, weights=weights, locate=locate, mixed_outcome=mixed_outcome)
-    used = list(dict.fromkeys(context + sensitive + [outcome] + ([sample_weight] if sample_weight else [])))
-    frame = frame[used]
-    isna = frame.isna()
-    missing = isna.sum() if weights is None else isna.mul(weights, axis=0).sum()
-    if missing.any():
+    keys = list(dict.fromkeys(context + sensitive + [outcome]))
+    check_key_values({c: columns[c] for c in keys}, outcome, weights=n, locate=locate, mixed_outcome=mixed_outcome)
+    used = list(dict.fromkeys(keys + ([sample_weight] if sample_weight else [])))
+    lost = {c: int(missing[c].sum() if n is None else n[missing[c]].sum()) for c in used}
+    dropped: list[tuple[str, float]] = []
+    if any(lost.values()):
+        first = next(c for c in used if lost[c])
         if not dropna:
-            col = missing[missing > 0].index[0]
-            raise missing_values(col, missing[col])
-        keep = ~isna.any(axis=1).to_numpy()
-        dropped = [(str(c), float(missing[c])) for c in used if missing[c] > 0]
-        if len(sensitive) > 1:
-            any_sensitive = isna[sensitive].any(axis=1)
-            n_any = any_sensitive.sum() if weights is None else any_sensitive.mul(weights).sum()
-            dropped += [(" x ".join(sensitive), float(n_any))] if n_any > 0 else []
-        frame = frame[keep]
-        weights = None if weights is None else weights[keep]
-    else:
-        dropped = []
-    if len(frame) == 0:
+            raise missing_values(first, lost[first])
+        dropped = [(c, float(lost[c])) for c in used if lost[c]]
+        any_sensitive = np.logical_or.reduce([missing[c] for c in sensitive])
+        k = int(any_sensitive.sum() if n is None else n[any_sensitive].sum())
+        dropped += [(" x ".join(sensitive), float(k))] if len(sensitive) > 1 and k else []
+        keep = ~np.logical_or.reduce([missing[c] for c in used])
+        columns, n = {c: columns[c][keep] for c in used}, None if n is None else n[keep]
+    rows = len(columns[outcome])
+    if rows == 0:
         raise InputError("DATA", "has no records to count")
-    cx, contexts = _codes(frame, context, "context")
-    ca, groups = _codes(frame, sensitive, "sensitive")
-    cu, decisions = _codes(frame, [outcome], "outcome")
+    cx, contexts = _codes([columns[c] for c in context], rows)
+    ca, groups = _codes([columns[c] for c in sensitive], rows)
+    cu, decisions = _codes([columns[outcome]], rows)
     shape = (len(contexts), len(groups), len(decisions))
-    flat = (cx * shape[1] + ca) * shape[2] + cu
+    flat, size = (cx * shape[1] + ca) * shape[2] + cu, int(np.prod(shape))
+    counts, squares = np.bincount(flat, minlength=size), None
+    if n is not None:  # exact integer sums (a float bincount would round above 2**53)
+        counts = np.zeros(size, dtype=np.int64)
+        np.add.at(counts, flat, n)
     if sample_weight is not None:
-        w = _sample_weights(frame[sample_weight], sample_weight)
-        sums = [np.bincount(flat, weights=v, minlength=int(np.prod(shape))).reshape(shape) for v in (w, w * w)]
-        columns = (tuple(context), tuple(sensitive), outcome)
-        return CountTable(
-            sums[0],
-            contexts,
-            groups,
-            decisions,
-            *columns,
-            weight_column=sample_weight,
-            squares=sums[1],
-            missing=tuple(dropped),
-        )
-    if weights is None:
-        counts = np.bincount(flat, minlength=int(np.prod(shape)))
-    else:  # exact integer sums (a float bincount would round above 2**53)
-        counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
-        np.add.at(counts, flat, np.asarray(weights, dtype=np.int64))
-    columns = (tuple(context), tuple(sensitive), outcome)
-    return CountTable(counts.reshape(shape), contexts, groups, decisions, *columns, missing=tuple(dropped))
+        w = _sample_weights(columns[sample_weight], sample_weight)
+        counts, squares = (np.bincount(flat, weights=v, minlength=size).reshape(shape) for v in (w, w * w))
+    return CountTable(
+        counts.reshape(shape),
+        contexts,
+        groups,
+        decisions,
+        tuple(context),
+        tuple(sensitive),
+        outcome,
+        weight_column=sample_weight,
+        squares=squares,
+        missing=tuple(dropped),
+    )
 
 
 def _sample_weights(column: pd.Series, name: str) -> npt.NDArray[np.float64]:
@@ -309,51 +276,6 @@ def _sample_weights(column: pd.Series, name: str) -> npt.NDArray[np.float64]:
     if bad.any():
         raise InputError(f"column {echo(name)}", "weights must be finite and >= 0", float(w[np.argmax(bad)]))
     return w
-
-
-def _tally_grouped(
-    grouped: Grouped, sensitive: list[str], outcome: str, context: list[str], dropna: bool, mixed_outcome: bool
-) -> CountTable:
-    """Counts of a file's distinct key combinations (:class:`~fairaudit._count_engine.Grouped`), as :func:`_tally`.
-
-    Complete keys of plain types (no missing value to report) are counted by
-    numpy alone, without importing pandas: their labels are their sorted
-    distinct values, as pandas factorizes them.
-    """
-    if grouped.frame is not None:
-        return _tally(
-            grouped.frame,
-            sensitive,
-            outcome,
-            context,
-            dropna,
-            weights=grouped.weights,
-            locate=grouped.locate,
-            mixed_outcome=mixed_outcome,
-        )
-    keys = dict(zip(dict.fromkeys(context + sensitive + [outcome]), grouped.plain or []))
-    check_key_values(keys, outcome, weights=grouped.weights, locate=grouped.locate, mixed_outcome=mixed_outcome)
-    n = len(grouped.weights)
-    cx, contexts = _plain_codes([keys[c] for c in context], n)
-    ca, groups = _plain_codes([keys[c] for c in sensitive], n)
-    cu, decisions = _plain_codes([keys[outcome]], n)
-    shape = (len(contexts), len(groups), len(decisions))
-    counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
-    np.add.at(counts, (cx * shape[1] + ca) * shape[2] + cu, grouped.weights)
-    return CountTable(counts.reshape(shape), contexts, groups, decisions, tuple(context), tuple(sensitive), outcome)
-
-
-def _plain_codes(values: list[npt.NDArray[Any]], n: int) -> tuple[Codes, tuple]:
-    """(codes, labels) of one or several complete columns: labels sorted (tuples in lexicographic order)."""
-    if not values:
-        return np.zeros(n, dtype=np.int64), ("all",)
-    uniques, codes = zip(*(np.unique(v, return_inverse=True) for v in values))
-    if len(values) == 1:
-        return codes[0].reshape(-1).astype(np.int64), tuple(uniques[0].tolist())
-    rows, inverse = np.unique(np.stack([c.reshape(-1) for c in codes], axis=1), axis=0, return_inverse=True)
-    lists = [u.tolist() for u in uniques]
-    labels = tuple(tuple(lists[j][i] for j, i in enumerate(row)) for row in rows.tolist())
-    return inverse.reshape(-1).astype(np.int64), labels
 
 
 def count_records(
@@ -426,7 +348,12 @@ def count_records(
     check_roles(data.columns, sensitive, outcome, context)
     if weights is not None:
         columns([weights], "weights", data.columns)
-    return _tally(data, sensitive, outcome, context, dropna, sample_weight=weights, mixed_outcome=mixed_outcome)
+    used = list(dict.fromkeys(context + sensitive + [outcome] + ([weights] if weights else [])))
+    columns_ = {c: data[c] for c in used}
+    missing = {c: column.isna().to_numpy() for c, column in columns_.items()}
+    return _tally(
+        columns_, missing, sensitive, outcome, context, dropna, sample_weight=weights, mixed_outcome=mixed_outcome
+    )
 
 
 def count_table(
@@ -570,7 +497,7 @@ def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Serie
     values = pd.to_numeric(data[count], errors="coerce")
     if values.isna().any() or (values < 0).any():
         bad = data[count][values.isna() | (values < 0)].iloc[0]
-        raise InputError(f"column {echo(count)}", "must hold non-negative numbers", bad)
+        raise InputError(f"column {echo(count)}", "must hold non-negative numbers", math.nan if pd.isna(bad) else bad)
     infinite = (
         np.zeros(0, dtype=bool) if pd.api.types.is_integer_dtype(values.dtype) else np.isinf(values.to_numpy(float))
     )
@@ -607,7 +534,7 @@ def _label_codes(
 ) -> tuple[Codes, tuple]:
     """Codes of the rows' labels in ``expected`` (matched by text), or, without it, the sorted labels found."""
     if expected is None:
-        return _codes(data, columns, role)
+        return _codes([data[c] for c in columns], len(data))
     labels = tuple(expected)
     lookup = {format_label(v): i for i, v in enumerate(labels)}
     if len(columns) == 0:
@@ -624,45 +551,6 @@ def _label_codes(
     return mapped.to_numpy(dtype=np.int64), labels
 
 
-def _cannot_read(path: str | Path, exc: Exception) -> InputError:
-    first = (str(exc).splitlines() or [""])[0]
-    return InputError("DATA", f"cannot be read ({type(exc).__name__}: {first})", str(path))
-
-
-def _parquet_counts(
-    path: str | Path,
-    p: Path,
-    sensitive: list[str],
-    outcome: str,
-    context: list[str],
-    dropna: bool,
-    mixed_outcome: bool,
-) -> CountTable:
-    import duckdb
-
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet  # noqa: F401
-    except ImportError:
-        raise InputError("DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)) from None
-    if not p.exists():
-        raise InputError("DATA", "no such file", str(path))
-    try:
-        schema, files = parquet_source(p)
-    except Exception as exc:  # noqa: BLE001 - pyarrow raises several kinds; report one line
-        raise _cannot_read(path, exc) from None
-    index = {c for c in (schema.pandas_metadata or {}).get("index_columns", []) if isinstance(c, str)}
-    check_roles([c for c in schema.names if c not in index], sensitive, outcome, context)
-    keys = list(dict.fromkeys(context + sensitive + [outcome]))
-    try:
-        grouped = parquet_group_by(schema, files, keys)
-    except duckdb.Error as exc:
-        raise engine_error(exc, path) from None
-    except (pa.ArrowException, OSError) as exc:
-        raise _cannot_read(path, exc) from None
-    return _tally_grouped(grouped, sensitive, outcome, context, dropna, mixed_outcome)
-
-
 def count_file(
     path: str | Path,
     *,
@@ -675,67 +563,67 @@ def count_file(
     weights: str | None = None,
     mixed_outcome: bool = False,
 ) -> CountTable:
-    """Count the decision records of a file (Parquet or CSV) with DuckDB, out of core.
+    """Count the decision records of a file (Parquet or text) with DuckDB, out of core.
 
-    The file is counted by DuckDB, in fairaudit's own in-memory database
-    (not DuckDB's default connection; as many threads as cores): one ``SELECT <used columns>, count(*) ... GROUP BY``
-    that reads only the used columns (Parquet) and gives the number of
-    records of each distinct (context, group, decision), null keys included.
-    Peak memory is bounded by that count table and DuckDB's buffers, not by
-    the number of records. The small grouped table is then turned into the
-    values pandas would read, and counted by the same code as
-    :func:`count_records`, so the result is identical to
-    ``count_records(read_records(path), ...)``: the same labels (values,
-    Python types, sorted order), counts and errors.
+    DuckDB counts the file, in fairaudit's own in-memory database (as many
+    threads as cores): one ``SELECT <used columns>, count(*) ... GROUP BY``
+    that reads only the used columns and gives the number of records of each
+    distinct (context, group, decision), null keys included. Peak memory is
+    bounded by that count table and DuckDB's buffers, not by the number of
+    records. numpy counts the small grouped table (pandas is not imported),
+    with the checks, missing values and errors of :func:`count_records`;
+    ``count_records(read_records(path), ...)`` gives the same table.
 
-    - Parquet (``.parquet``, ``.pq``, or a folder of Parquet files): keys
-      of plain types (integers, floats, booleans, text) without a missing
-      value are labelled by their sorted distinct values with numpy alone
-      (pandas is not imported); other keys are cast back to the file's Arrow
-      types and converted as ``pandas.read_parquet`` converts them (pandas
-      metadata, nullable integers, dates and times, categoricals with the
-      categories in pandas' order). Needs pyarrow (the file's schema).
-    - Text (``.csv``, ``.tsv``, ``.txt``, ``.data``, plain or ``.gz``;
-      with a header or ``csv.names``, separated by a comma, semicolon, tab,
-      bar or colon, with ``csv.na_values`` or not): DuckDB reads every field
-      as text in pandas' dialect (double quotes), and pandas' own parser
-      reads the distinct fields of each used column: pandas infers a
-      column's type (integers, floats, booleans, text) and its missing
-      values (``""``, ``"NA"``, ``"nan"``, ..., and ``na_values``) from the
-      set of its distinct fields, so each value is what :func:`read_records`
-      gives. A file that DuckDB might split into fields differently (a
-      blank first line, a space next to a double quote, a single column,
-      rows of unequal length) is read whole by pandas instead, as before
-      (decided before DuckDB runs), and so is text DuckDB cannot parse in
-      that dialect (a byte that is not UTF-8): pandas reports it.
-    - When DuckDB fails otherwise (out of memory, input/output), no other
-      reader is tried: the error says what DuckDB said, and for memory its
-      ``memory_limit`` and what to try. The environment variable
-      ``FAIRAUDIT_DUCKDB_MEMORY_LIMIT`` (``8GB``, ``500MB``, ``50%``) sets
-      that limit; unset, DuckDB takes 80% of the machine's memory.
-    - Other text (other compressions, other separators, or
-      ``csv.skip_initial_space``) is read whole by pandas
-      (:func:`read_records`).
+    **Labels** are the values DuckDB reads, sorted (numbers numerically, text
+    by code point, tuples of several columns lexicographically):
+
+    - Parquet (``.parquet``, ``.pq``, or a folder of Parquet files): the
+      file's own types. Integers, floats, booleans and text are labels as
+      they are (a pandas categorical is its values); decimals are floats;
+      other types (dates, timestamps, bytes) are labelled by DuckDB's text
+      of them (``2020-01-01``). A null or a NaN is a missing value.
+    - Text (``.csv``, ``.tsv``, ``.txt``, ``.data``; plain, ``.gz`` or
+      ``.zst``): every field is text (double quotes around a field holding
+      the separator, a quote or a line break). A field that is empty, a
+      usual missing-value marker (``NA``, ``nan``, ``NULL``, ``None``,
+      ``N/A``, ...) or one of ``csv.na_values`` is missing, after
+      ``csv.skip_initial_space`` drops the spaces at its start. Each used
+      column is then typed by DuckDB's casts of its distinct values:
+      **integers** when every value is an integer as DuckDB writes it
+      (``-12``; not ``012``, ``+12`` or ``12.0``), else **floats** when every
+      value is such an integer or a float as DuckDB writes it (``2.5``,
+      ``1e-05``) and no two are the same number, else **text**. So a label
+      prints as its field, or as its number (``2`` beside ``2.5``: ``2.0``),
+      and two different fields are never one label (``01`` and ``1`` stay
+      text, as do ``true`` and ``True``). A record shorter than the first is
+      padded with missing values; a longer one is refused, naming its line.
+
+    Nothing but DuckDB reads the file: text compressed with bzip2, xz or zip
+    is refused (decompress it first), a file DuckDB cannot parse (a byte that
+    is not UTF-8, an unclosed quote) names the line and DuckDB's reason, and
+    running out of memory names DuckDB's ``memory_limit``, which the
+    environment variable ``FAIRAUDIT_DUCKDB_MEMORY_LIMIT`` (``8GB``,
+    ``500MB``, ``50%``) sets (unset: 80% of the machine's memory).
 
     Parameters
     ----------
     path : str or Path
         A ``.parquet``/``.pq`` file or folder of Parquet files, or a text
         file: ``.csv``, ``.tsv``, ``.txt`` or ``.data``, optionally
-        compressed (``.gz``, ``.bz2``, ``.xz``, ``.zst``, ``.zip``).
+        compressed (``.gz``, ``.zst``).
     sensitive, outcome, context, dropna
-        As in :func:`count_records`. Missing values (null, or NaN in a float
-        column) are counted exactly from the grouped table.
+        As in :func:`count_records`. Missing values are counted exactly from
+        the grouped table.
     count : str, optional
         The file is already a count table, one row per (context, group,
         decision) with its number of records in column ``count``, as made by
-        any engine (SQL ``GROUP BY``, Spark, DuckDB); it is read whole (CSV or
-        Parquet) and turned into counts by :func:`count_table`.
+        any engine (SQL ``GROUP BY``, Spark, DuckDB); it is read whole
+        (:func:`read_records`) and turned into counts by :func:`count_table`.
     csv : CsvFormat, optional
         How a text file is read (:class:`CsvFormat`); an error for Parquet.
     weights : str, optional
         Column of sample weights (as in :func:`count_records`); the file is
-        then read whole by pandas (:func:`read_records`).
+        then read whole (:func:`read_records`).
     mixed_outcome : bool
         Accept an outcome column that mixes numbers and text (as in :func:`count_records`).
 
@@ -747,19 +635,16 @@ def count_file(
     Raises
     ------
     InputError
-        A missing or unreadable file, pyarrow missing for Parquet, an unknown
-        column (naming ``sensitive``, ``outcome``, ``context`` or
-        ``count`` and listing the file's columns; for Parquet from its
-        schema, without reading data), missing values when ``dropna`` is
-        False (``column 'x': has N missing values ...``), no records, and for
-        count tables the errors of :func:`count_table`; the errors of
-        :func:`read_records` (two columns of the same name, ``csv`` options
-        for a Parquet file, ``csv.names`` not one per field); DuckDB's failure
-        (``DATA: DuckDB ran out of memory counting it (memory_limit ...)``); a
-        control character in a key value, or an outcome that mixes numbers and
-        text, as in :func:`count_records`, naming the data rows of the file
-        (counted from 1 after the header; in a folder of Parquet files, the row
-        of the file named), found by a second query only then.
+        A missing or unreadable file (DuckDB's reason, in one line); an
+        unknown column (naming ``sensitive``, ``outcome``, ``context``,
+        ``count`` or ``weights`` and listing the file's columns); a used
+        column that a text file's header names twice with different values;
+        ``csv`` options for a Parquet file, or ``csv.names`` not one per
+        field; missing values without ``dropna``; no records; the errors of
+        :func:`count_table` for a count table; a control character in a key
+        value, or an outcome that mixes numbers and text, as in
+        :func:`count_records`, naming the data rows of the file (from 1 after
+        the header; in a folder of Parquet files, the row of the file named).
 
     Examples
     --------
@@ -776,68 +661,21 @@ def count_file(
     [[[1, 1], [1, 2]]]
     """
     sensitive, outcome, context = roles(sensitive, outcome, context)
-    p = Path(path)
-    fmt = CsvFormat() if csv is None else csv
     if count is not None and weights is not None:
         raise InputError("weights", "a count table (`count`) is counted already: give its counts, not weights")
-    if weights is not None:
-        frame = read_checked(path, fmt, [*context, *sensitive, outcome, weights])
-        return count_records(
-            frame,
-            sensitive=sensitive,
-            outcome=outcome,
-            context=context,
-            dropna=dropna,
-            weights=weights,
-            mixed_outcome=mixed_outcome,
-        )
-    if count is not None:
-        frame = read_checked(path, fmt, [*context, *sensitive, outcome, count])
-        return counts_of_table(
-            frame,
-            sensitive=sensitive,
-            outcome=outcome,
-            context=context,
-            count=count,
-            dropna=dropna,
-            mixed_outcome=mixed_outcome,
-        )
-    if not p.exists():
-        raise InputError("DATA", "no such file", str(path))
-    kind = file_kind(p)
-    if kind.kind == "parquet":
-        if fmt.changed():
-            raise InputError(fmt.changed()[0], "applies to text files, not Parquet", str(path))
-        return _parquet_counts(path, p, sensitive, outcome, context, dropna, mixed_outcome)
+    records = source(path, csv)
+    check_roles(records.names, sensitive, outcome, context)
     used = list(dict.fromkeys(context + sensitive + [outcome]))
-    grouped = csv_group_by(p, used, kind, fmt) if _no_repeats(p, kind, fmt) else None  # DuckDB counts
-    if grouped is None:  # pandas reads the whole file, as read_records does (and reports what is wrong with it)
-        frame = read_checked(path, fmt, used)
-        return count_records(
-            frame, sensitive=sensitive, outcome=outcome, context=context, dropna=dropna, mixed_outcome=mixed_outcome
-        )
-    return _tally_grouped(grouped, sensitive, outcome, context, dropna, mixed_outcome)
-
-
-def _no_repeats(p: Path, kind: FileKind, fmt: CsvFormat) -> bool:
-    """Whether a text file's columns have one name each (False, for pandas to report it, when unreadable)."""
-    try:
-        return not check_header(p, kind, fmt)
-    except Exception:  # noqa: BLE001 - read_records reports an unreadable file
-        return False
-
-
-def read_checked(path: str | Path, fmt: CsvFormat, used: Sequence[str]) -> pd.DataFrame:
-    """:func:`read_records`, refusing a used column that a text file's header repeats with different values.
-
-    The later copies of a repeated column (pandas' ``x.1``, ``x.2``) are dropped: no column is renamed silently.
-    """
-    frame = read_records(path, fmt)
-    p = Path(path)
-    if file_kind(p).kind == "text":
-        repeated = check_header(p, file_kind(p), fmt)
-        same_repeats(frame, repeated, used, path)
-        later = sorted(j for positions in repeated.values() for j in positions[1:])
-        if later:
-            frame = frame.drop(columns=frame.columns[later])
-    return frame
+    if weights is None and count is None:
+        g = records.group_by(used)
+        kw: dict[str, Any] = {"n": g.weights, "locate": g.locate, "mixed_outcome": mixed_outcome}
+        return _tally(g.values, g.missing, sensitive, outcome, context, dropna, **kw)
+    extra, role = (weights, "weights") if weights is not None else (count, "count")
+    assert extra is not None  # (one of them is given)
+    columns([extra], role, records.names)
+    frame = records.read(list(dict.fromkeys([*used, extra])))  # read whole: a count table, or weighted records
+    roles_: dict[str, Any] = {"sensitive": sensitive, "outcome": outcome, "context": context}
+    options: dict[str, Any] = {**roles_, "dropna": dropna, "mixed_outcome": mixed_outcome}
+    if weights is not None:
+        return count_records(frame, weights=weights, **options)
+    return counts_of_table(frame, count=extra, **options)

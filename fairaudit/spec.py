@@ -37,7 +37,6 @@ from pydantic import (
 
 from ._arrays import FloatArray, as_labels, format_label
 from ._errors import InputError
-from ._text_table import count_table_text
 from ._toml import (
     FieldProblem,
     Number,
@@ -52,7 +51,8 @@ from ._validation import real
 
 if TYPE_CHECKING:
     import pandas as pd
-from .estimate import CountTable, CsvFormat, count_records, count_table, read_checked
+from ._count_engine import source
+from .estimate import CountTable, CsvFormat, count_records, count_table
 from .laws import Kernel, Population
 from .privacy import (
     Mechanism,
@@ -656,10 +656,6 @@ class Spec:
         field = "model.table" if m.table is not None else "model.records"
         if not path.is_file():
             raise self._err(field, "no such file", str(path))
-        plain = m.table is not None and m.probability_column is None and m.csv is None
-        fast = self._text_kernel(path) if plain else None
-        if fast is not None:
-            return fast
         frame = self._model_frame(m, path, field)
         ctx_cols = [] if self.model.context is None else [self.model.context.name]
         # the model sees released values: its table is indexed by the mechanisms' outputs
@@ -722,7 +718,7 @@ class Spec:
         return probs_kernel
 
     def _model_frame(self, m: ModelSpec, path: Path, field: str) -> pd.DataFrame:
-        """The model's file read by pandas (``[model.csv]``), its ``where`` filters applied."""
+        """The model's file read by DuckDB (``[model.csv]``), its ``where`` filters applied."""
         try:
             fmt = CsvFormat() if m.csv is None else CsvFormat(**{**m.csv.model_dump(), "names": _names(m.csv)})
         except InputError as exc:
@@ -731,7 +727,7 @@ class Spec:
         used += [self.model.context.name] if self.model.context is not None else []
         used += [c for c in (m.count_column, m.probability_column, m.weight_column) if c is not None]
         try:
-            frame = read_checked(path, fmt, used)
+            frame = source(path, fmt).read(check=used)
         except InputError as exc:  # a file's problem under model.records/table, a format's under model.csv
             if exc.field in CsvSpec.model_fields:
                 raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
@@ -743,23 +739,6 @@ class Spec:
             if frame.empty:
                 raise self._err(f"model.where.{col}", "selects no rows", want)
         return frame
-
-    def _text_kernel(self, path: Path) -> Kernel | None:
-        """The kernel of a count table read without pandas, or None to read it with pandas.
-
-        :func:`~fairaudit._text_table.count_table_text` answers only where its counts are exactly those of the
-        pandas route of :meth:`_read_kernel`; a table with an empty cell is left to that route too, for its error.
-        """
-        m = self.model.model
-        assert m is not None  # (called for a model table)
-        contexts, groups = self.context_mechanism.outputs, self.sensitive_mechanism.outputs
-        ctx = None if self.model.context is None else self.model.context.name
-        roles = (ctx, self.model.sensitive.name, self.model.decision.name)
-        labels = (contexts, groups, self.decisions)
-        counts = count_table_text(path, where=m.where, roles=roles, count=m.count_column, labels=labels)
-        if counts is None or not bool((counts.sum(axis=-1) > 0).all()):
-            return None
-        return Kernel.from_counts(counts, contexts, groups, self.decisions)
 
 
 def _match_label(value: Hashable, labels: tuple) -> Hashable | None:

@@ -56,8 +56,8 @@ def test_numpy_values_checked_in_python_are_quoted_as_python_numbers():
     assert "np." not in str(info.value) and str(info.value).endswith("(got inf)")
 
 
-def test_a_50_mb_label_is_not_echoed_in_full(capsys, tmp_path):
-    big = "L" * 5_000_000
+def test_a_1_mb_label_is_not_echoed_in_full(capsys, tmp_path):
+    big = "L" * 1_000_000
     path = tmp_path / "r.csv"
     path.write_text(f"g,{big}\na,1\nb,0\n")
     code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y")
@@ -65,10 +65,21 @@ def test_a_50_mb_label_is_not_echoed_in_full(capsys, tmp_path):
     assert err == (
         "fairaudit: error: --outcome: unknown column; the data has: g, "
         + "L" * 80
-        + "… (5000000 characters) (got 'y')\n"
+        + "… (1000000 characters) (got 'y')\n"
     )
     code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", big[:200])
     assert code == 2 and err.endswith(f"(got {'L' * 80!r}… (200 characters))\n") and len(err) < 300
+
+
+def test_a_line_longer_than_duckdb_reads_is_refused_naming_it(capsys, tmp_path):
+    path = tmp_path / "r.csv"
+    path.write_text(f"g,y\na,1\nb,{'L' * 3_000_000}\n")
+    code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y")
+    assert (code, err) == (
+        2,
+        "fairaudit: error: DATA: cannot be read by DuckDB (line 3: Maximum line size of 2000000 bytes exceeded. "
+        f"Actual Size:3000002 bytes.) (got {str(path)!r})\n",
+    )
 
 
 def test_a_long_positive_value_and_outcome_labels_are_cut(capsys, tmp_path):

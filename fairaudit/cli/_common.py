@@ -184,7 +184,7 @@ def add_text_format(p: argparse.ArgumentParser) -> None:
         type=columns,
         default=[],
         metavar="TEXT[,TEXT...]",
-        help="fields read as missing besides pandas' own (e.g. '?' for UCI files)",
+        help="fields read as missing besides the usual markers (empty, NA, nan, NULL, ...), e.g. '?' for UCI files",
     )
     p.add_argument(
         "--skip-initial-space",

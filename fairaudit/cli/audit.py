@@ -24,7 +24,7 @@ def add_parser(sub: Subparsers) -> None:
         "data",
         metavar="DATA",
         help="Parquet file (or folder of Parquet files), or text: .csv, .tsv, .txt or .data, optionally "
-        "compressed (.gz, .bz2, .xz, .zst, .zip); one record per decision (or candidate); with --count, a count table",
+        "compressed (.gz, .zst); one record per decision (or candidate); with --count, a count table",
     )
     a.add_argument(
         "--sensitive",

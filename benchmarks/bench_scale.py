@@ -659,20 +659,12 @@ def time_command(cmd: list[str], n_records: int, counts: np.ndarray, repeats: in
 
 
 def count_route(path: Path):
-    """The streamed Parquet counter ``fairaudit.estimate.count_file`` when it exists, else read_records + count_records."""
-    from fairaudit import estimate
+    """The streamed Parquet counter ``fairaudit.estimate.count_file`` (DuckDB), and its name in the report."""
+    from fairaudit.estimate import count_file
 
-    count_file = getattr(estimate, "count_file", None)
-    if count_file is not None:
-        return (
-            lambda: count_file(path, sensitive=["group"], outcome="decision", context=["context"]),
-            "`fairaudit.estimate.count_file` (streamed)",
-        )
     return (
-        lambda: estimate.count_records(
-            estimate.read_records(path), sensitive=["group"], outcome="decision", context=["context"]
-        ),
-        "`count_records(read_records(path))` (`count_file` is not in this fairaudit)",
+        lambda: count_file(path, sensitive=["group"], outcome="decision", context=["context"]),
+        "`fairaudit.estimate.count_file` (streamed)",
     )
 
 

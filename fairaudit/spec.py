@@ -36,6 +36,7 @@ from pydantic import (
 )
 
 from ._arrays import FloatArray, as_labels, format_label
+from ._count_engine import source
 from ._errors import InputError
 from ._toml import (
     FieldProblem,
@@ -51,7 +52,6 @@ from ._validation import real
 
 if TYPE_CHECKING:
     import pandas as pd
-from ._count_engine import source
 from .estimate import CountTable, CsvFormat, count_records, count_table
 from .laws import Kernel, Population
 from .privacy import (
@@ -656,6 +656,9 @@ class Spec:
         field = "model.table" if m.table is not None else "model.records"
         if not path.is_file():
             raise self._err(field, "no such file", str(path))
+        counted = self._counted_kernel(m, path) if m.table is not None and m.probability_column is None else None
+        if counted is not None:
+            return counted
         frame = self._model_frame(m, path, field)
         ctx_cols = [] if self.model.context is None else [self.model.context.name]
         # the model sees released values: its table is indexed by the mechanisms' outputs
@@ -717,10 +720,52 @@ class Spec:
             )
         return probs_kernel
 
+    def _counted_kernel(self, m: ModelSpec, path: Path) -> Kernel | None:
+        """The kernel of a table of whole counts matching the spec, counted by DuckDB and numpy (without pandas).
+
+        None wherever the table is not that plain (a missing or negative count, a field that matches no label of
+        the spec, a cell twice or none, a format or file DuckDB refuses): :meth:`_read_kernel` then reads the
+        table as a DataFrame and :func:`~fairaudit.estimate.count_table` reports what is wrong. Fields match the
+        spec's labels and ``where`` values by their text, as there.
+        """
+        count = m.count_column or "count"
+        roles = [None if self.model.context is None else self.model.context.name]
+        roles += [self.model.sensitive.name, self.model.decision.name]
+        used = list(dict.fromkeys([*(c for c in roles if c is not None), count, *m.where]))
+        try:
+            records = source(path, _csv_format(m))
+            grouped = records.group_by(used) if set(used) <= set(records.names) else None
+        except InputError:
+            return None
+        if grouped is None or any(grouped.missing[c].any() for c in used) or grouped.values[count].dtype.kind != "i":
+            return None
+        text = {c: np.array([str(v) for v in grouped.values[c]], dtype=object) for c in used}
+        keep = np.ones(len(grouped.weights), dtype=bool)
+        for column, want in m.where.items():
+            keep &= text[column] == str(want)
+        labels = (self.context_mechanism.outputs, self.sensitive_mechanism.outputs, self.decisions)
+        shape = tuple(len(x) for x in labels)
+        flat = np.zeros(int(keep.sum()), dtype=np.int64)
+        for role, wanted, size in zip(roles, labels, shape):
+            lookup = {format_label(v): i for i, v in enumerate(wanted)}
+            codes = np.array([lookup.get(v, -1) for v in text[role][keep]] if role else [0] * len(flat), dtype=int)
+            if (codes < 0).any():
+                return None
+            flat = flat * size + codes
+        n = grouped.values[count][keep]
+        if np.unique(flat).size < flat.size or (grouped.weights[keep] > 1).any() or (n < 0).any():
+            return None
+        counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
+        counts[flat] = n
+        counts = counts.reshape(shape)
+        if not bool((counts.sum(axis=-1) > 0).all()):
+            return None
+        return Kernel.from_counts(counts, *labels)
+
     def _model_frame(self, m: ModelSpec, path: Path, field: str) -> pd.DataFrame:
         """The model's file read by DuckDB (``[model.csv]``), its ``where`` filters applied."""
         try:
-            fmt = CsvFormat() if m.csv is None else CsvFormat(**{**m.csv.model_dump(), "names": _names(m.csv)})
+            fmt = _csv_format(m)
         except InputError as exc:
             raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
         used = [self.model.sensitive.name, self.model.decision.name, *m.where]
@@ -904,5 +949,8 @@ def load_spec(path: str | Path) -> Spec:
     return parse_spec(text, source=str(path), base=p.parent)
 
 
-def _names(csv: CsvSpec) -> tuple[str, ...] | None:
-    return None if csv.names is None else tuple(csv.names)
+def _csv_format(m: ModelSpec) -> CsvFormat:
+    """How the model's file is read (``[model.csv]``; its errors name the option, as ``CsvFormat``'s do)."""
+    if m.csv is None:
+        return CsvFormat()
+    return CsvFormat(**{**m.csv.model_dump(), "names": None if m.csv.names is None else tuple(m.csv.names)})

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import gzip
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pandas as pd
@@ -289,3 +291,69 @@ def test_calibration_options_are_calibrate_keywords():
         spec.calibration_options(groups=3)
     with pytest.raises(fa.InputError, match=r"^spec: needs at least 2 sensitive groups to calibrate"):
         _one_spec('["HR_1"]', privacy="").calibration_options()
+
+
+# ---------------------------------------------------------------- a model table counted by DuckDB and numpy
+
+TABLE_SPEC = """
+[sensitive]
+name = "profile"
+values = ["a", "b"]
+[context]
+name = "doc"
+values = ["1", "07", "x y"]
+[decision]
+name = "office"
+values = ["HR_1", "HR_2"]
+[privacy.sensitive]
+mechanism = "randomized_response"
+epsilon = 1.0
+[utility]
+decision = "HR_2"
+[model]
+table = "k.csv"
+where = { model = "m1" }
+"""
+
+
+def _table(rng) -> pd.DataFrame:
+    cells = [(d, p, o) for d in ("1", "07", "x y") for p in ("a", "b") for o in ("HR_1", "HR_2")]
+    rows = [(d, p, o, int(rng.integers(1, 50)), model) for model in ("m1", "m2") for d, p, o in cells]
+    return pd.DataFrame(rows, columns=["doc", "profile", "office", "count", "model"]).sample(frac=1, random_state=3)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_count_table_is_counted_without_pandas_as_count_table_counts_it(tmp_path, seed):
+    """The spec's table of whole counts: DuckDB groups it and numpy counts it; the oracle is count_table on the
+    DataFrame in memory (pandas). Fields matched by their text: "07" and "1" are two contexts, as the spec says."""
+    frame = _table(np.random.default_rng(seed))
+    frame.to_csv(tmp_path / "k.csv", index=False)
+    (tmp_path / "s.toml").write_text(TABLE_SPEC)
+    spec = fa.load_spec(tmp_path / "s.toml")
+    kept = frame[frame["model"] == "m1"]
+    labels = dict(contexts=("1", "07", "x y"), groups=("a", "b"), decisions=("HR_1", "HR_2"))
+    table = fa.count_table(kept, sensitive="profile", outcome="office", context="doc", count="count", **labels)
+    assert np.array_equal(
+        spec.kernel().probabilities, fa.Kernel.from_counts(table.counts, *labels.values()).probabilities
+    )
+    code = f"import sys, fairaudit as fa; fa.load_spec({str(tmp_path / 's.toml')!r}).kernel(); print('pandas' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout == "False\n"
+
+
+def test_a_count_table_that_is_not_plain_is_reported_as_count_table_reports_it(tmp_path):
+    frame = _table(np.random.default_rng(0))
+    (tmp_path / "s.toml").write_text(TABLE_SPEC)
+    first = frame.index[frame["model"] == "m1"][0]
+    for column, value, message in (
+        ("profile", "c", "value not among the sensitive values ['a', 'b'] (got 'c')"),
+        ("count", -1, "column 'count': must hold non-negative numbers (got -1)"),
+    ):
+        bad = frame.astype({column: object})
+        bad.loc[first, column] = value
+        bad.to_csv(tmp_path / "k.csv", index=False)
+        with pytest.raises(InputError) as err:
+            fa.load_spec(tmp_path / "s.toml").kernel()
+        assert str(err.value).endswith(message), str(err.value)
+    frame[frame["model"] == "m2"].to_csv(tmp_path / "k.csv", index=False)  # the filter selects no rows
+    with pytest.raises(InputError, match=r"model.where.model: selects no rows \(got 'm1'\)$"):
+        fa.load_spec(tmp_path / "s.toml").kernel()

@@ -4,7 +4,7 @@ Every row is a fresh interpreter started as a child process (wall-clock time, me
 untimed run that warms the file cache and writes the bytecode to a temporary cache), so the time includes what a user waits for: the interpreter, the imports and
 the work. The baselines are timed in the same run: ``python -c pass`` (the interpreter alone),
 ``python -c "import numpy"`` and the libraries the certificate loads (numpy, scipy.special, scipy.sparse, Clarabel,
-pydantic), so that the certificate's time splits into theirs and fairaudit's. The k-th runs of all rows are taken
+pydantic, DuckDB), so that the certificate's time splits into theirs and fairaudit's. The k-th runs of all rows are taken
 back to back (round-robin), so that a slower spell of the machine weighs on every row alike. Each row also lists the heavy modules the child imported (read from ``-X importtime``
 in one extra run): pandas, pyarrow, scipy.stats, cvxpy, matplotlib, httpx, duckdb.
 
@@ -36,9 +36,9 @@ GPT35 = "examples/llm_hiring/gpt35.toml"
 PY = sys.executable
 # What the certificate cannot do without: the libraries `fairaudit certify` loads for the shipped example (numpy;
 # scipy.special for the Clopper-Pearson intervals; scipy.sparse and Clarabel for their LP; pydantic for the spec,
-# one model built so that its plug-in scan runs), with nothing of fairaudit's.
+# one model built so that its plug-in scan runs; DuckDB for its model table), with nothing of fairaudit's.
 FLOOR = (
-    "import numpy, scipy.special, scipy.sparse, clarabel, tomllib\n"
+    "import numpy, scipy.special, scipy.sparse, clarabel, tomllib, duckdb\n"
     "from pydantic import BaseModel\n"
     "class Spec(BaseModel):\n"
     "    x: float"

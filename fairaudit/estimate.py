@@ -72,7 +72,8 @@ class CountTable:
     counts : numpy.ndarray of int64
         ``counts[x, a, u]`` = number of records with context x, group a, outcome u.
     contexts, groups, decisions : tuple
-        Axis labels (sorted as pandas sorts them).
+        Axis labels, sorted: numbers numerically, text by code point, a DataFrame's categorical in its
+        categories' order, tuples lexicographically.
     context_columns, sensitive_columns : tuple of str
         The columns they came from.
     outcome_column : str

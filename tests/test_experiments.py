@@ -423,23 +423,6 @@ def test_position_split_by_hand_with_three_contexts():
     np.testing.assert_allclose(s.expected_utility[0], [[1.2, 2.2], [1.8, 2.8]], atol=1e-12)  # [candidate, position]
 
 
-def test_the_old_plugins_package_is_a_deprecated_alias_of_experiments():
-    import importlib
-    import sys
-
-    for name in [m for m in sys.modules if m == "fairaudit.plugins" or m.startswith("fairaudit.plugins.")]:
-        del sys.modules[name]
-    with pytest.warns(DeprecationWarning, match="fairaudit.experiments"):
-        importlib.import_module("fairaudit.plugins")
-    import fairaudit.experiments.analysis as analysis
-    import fairaudit.experiments.vlm.tasks as tasks
-
-    old_analysis = importlib.import_module("fairaudit.plugins.experiments")
-    old_tasks = importlib.import_module("fairaudit.plugins.vlm.tasks")
-    assert old_analysis is analysis and old_tasks is tasks  # the same objects, so isinstance checks keep working
-    assert tasks.__spec__.name == "fairaudit.experiments.vlm.tasks"
-
-
 # -- run_experiment: source and options ---------------------------------------------------------------------
 
 

@@ -426,30 +426,13 @@ def test_position_split_by_hand_with_three_contexts():
 # -- run_experiment: source and options ---------------------------------------------------------------------
 
 
-def test_run_experiment_takes_a_source_and_options_and_the_old_keywords_still_work(tmp_path):
+def test_run_experiment_takes_a_source_and_options(tmp_path):
     from fairaudit.experiments.run import ModelSource, RunOptions, run_experiment
 
     source, options = ModelSource(simulated="position-biased"), RunOptions(samples=2, keeps=[0.7], images=False)
-    new = run_experiment("package-delivery", tmp_path / "new", source, options, progress=False)
-    with pytest.warns(DeprecationWarning, match="ModelSource"):
-        old = run_experiment(
-            "package-delivery", tmp_path / "old", simulated="position-biased", samples=2, keeps=[0.7], images=False,
-            progress=False,
-        )  # fmt: skip
-    assert new.analysis is not None and old.analysis is not None
-    assert (
-        (new.summary.planned, new.analysis.model)
-        == (old.summary.planned, old.analysis.model)
-        == (24, "position-biased")
-    )
-    certificates = [json.loads((tmp_path / name / "certificate.json").read_text()) for name in ("new", "old")]
-    for c in certificates:
-        del c["run"]["seconds"]
-    assert certificates[0] == certificates[1]
-    with pytest.raises(TypeError, match="unexpected keyword argument 'sample'"):
-        run_experiment("package-delivery", tmp_path / "x", sample=2)
-    with pytest.raises(TypeError, match="not both"):
-        run_experiment("package-delivery", tmp_path / "x", source, samples=2)
+    done = run_experiment("package-delivery", tmp_path / "run", source, options, progress=False)
+    assert done.analysis is not None
+    assert (done.summary.planned, done.analysis.model) == (24, "position-biased")
 
 
 @pytest.mark.parametrize(

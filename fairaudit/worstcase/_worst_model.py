@@ -165,7 +165,7 @@ class WorstModel:
         ----------
         reason : str
             Why this bound is reported as it is (a certificate's
-            ``black_box_reason``); replaces the local worst case's own ``reason``.
+            ``omitted["black_box"]``, or what its bound is); replaces the local worst case's own ``reason``.
         """
         out = self.local_fairness.to_dict()
         out["reason"] = reason

@@ -870,7 +870,7 @@ def _run_sampled(
     log: Callable[[str], None] | None,
 ) -> ExperimentRun:
     """The sampled route: ask the queries through the log, then analyse and write the report when all are answered."""
-    from ..report import write_atomic
+    from .._io import write_atomic
 
     out, eps = plan.out, plan.common["epsilons"]
     for i, png in enumerate(plan.images, start=1):
@@ -1372,7 +1372,7 @@ def _ask_cells(
 
 
 def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
-    from ..report import write_atomic
+    from .._io import write_atomic
     from .report import (
         candidate_frame,
         experiment_dict,

@@ -20,8 +20,8 @@ from hypothesis import strategies as st
 
 from fairaudit import InputError
 from fairaudit._arrays import as_labels
+from fairaudit._io import write_atomic
 from fairaudit.cli import main
-from fairaudit.report import write_atomic
 
 # A valid spec: two offices behind binary randomized response (keep 0.7), two documents.
 SPEC = """\

@@ -176,7 +176,7 @@ def test_certify_probability_table_says_why_no_intervals(capsys):
 
 def test_api_certify_without_confidence():
     c = fa.certify(GPT35, confidence=None)
-    assert c.intervals is None and c.intervals_reason == "no confidence level asked for"
+    assert c.intervals is None and c.omitted["intervals"] == "no confidence level asked for"
     with pytest.raises(fa.InputError, match="method"):
         fa.certify(GPT35, confidence=None, method="bayes")
 

@@ -24,7 +24,7 @@ import pytest
 
 import fairaudit
 from fairaudit.certify import certify
-from fairaudit.report import certificate_dict, render
+from fairaudit.report import render
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "llm_hiring" / "gpt35.toml"
@@ -83,6 +83,6 @@ def test_wheel_installs_in_a_fresh_environment_and_certifies(wheel, tmp_path):
     out = _run([str(bindir / "fairaudit"), "certify", str(EXAMPLE), "--format", "json"], cwd=tmp_path).stdout
     where = _run([str(bindir / "python"), "-c", "import fairaudit; print(fairaudit.__file__)"], cwd=tmp_path).stdout
     assert str(env) in where
-    got, want = json.loads(out), json.loads(render(certificate_dict(certify(EXAMPLE)), "certify", "json"))
+    got, want = json.loads(out), json.loads(render(certify(EXAMPLE).to_dict(), "certify", "json"))
     assert got["certified"] is True
     assert got == want

@@ -16,7 +16,5 @@
   client and simulated models) and reply parsing (extra ``fairaudit[vlm]``).
 
 The adapters only produce decision tables P(U | X̃, Ã) with counts; the core
-certifies them. Nothing here is imported by ``import fairaudit``. This
-package was ``fairaudit.plugins`` before; that name still imports, with a
-:class:`DeprecationWarning`.
+certifies them. Nothing here is imported by ``import fairaudit``.
 """

@@ -5,15 +5,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable, Iterable, Iterator, Sequence
-from typing import TYPE_CHECKING, Any, SupportsIndex, TypeAlias
+from typing import Any, SupportsIndex, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from ._errors import InputError, cut
-
-if TYPE_CHECKING:
-    from concurrent.futures import Future
 
 FloatArray: TypeAlias = npt.NDArray[np.float64]
 """A float64 array (probabilities, expectations, log ratios in nats)."""
@@ -615,10 +612,6 @@ class TableScan:
     ``population`` is (P(x, a), P(a)); ``step`` bounds the chunks' length. Reductions over groups run on a
     copy of the chunk transposed to (n_decisions, n_groups, chunk), or of E's chunk to (n_groups, chunk):
     over contiguous rows. Scratch arrays are allocated once.
-
-    :func:`fairaudit._scan_kernel.compiled_scan` fills the same results with the optional compiled kernel (the
-    same doubles); it may leave the last additions to ``group_mean`` running in a thread (``pending``):
-    :meth:`wait` before reading ``group_mean``.
     """
 
     def __init__(
@@ -663,7 +656,6 @@ class TableScan:
         natural = g is not None and not self.plain and (not transposed or g.ndim == 3)
         self.prod_buf = np.empty(A * K * step) if natural else None
         self.g_tiled = np.tile(g, A * step) if natural and g is not None and g.ndim == 1 else None
-        self.pending: Future[None] | None = None  # the compiled pass's last additions to ``group_mean``
 
     def low_max(self, valid: BoolArray) -> float:
         """The largest ``tv_low`` over the ``valid`` contexts (from the chunks' maxima when every context is valid)."""
@@ -701,12 +693,6 @@ class TableScan:
         row.chunk(slice(0, 1))
         assert row.e is not None
         return row.e[0]
-
-    def wait(self) -> None:
-        """Return once ``group_mean`` is complete (the compiled pass may add its last contexts in a thread)."""
-        if self.pending is not None:
-            pending, self.pending = self.pending, None
-            pending.result()
 
     @staticmethod
     def _view(buf: FloatArray, shape: tuple[int, ...]) -> FloatArray:

@@ -48,7 +48,6 @@ from ._arrays import (
 from ._errors import InputError
 from ._json import Report, label, number, pair_dict
 from ._lazy import Deferred, LazyField
-from ._scan_kernel import compiled_scan, log_ratios, use_compiled_pass
 from .laws import Law, Population, population_for
 from .utility import Utility
 
@@ -71,7 +70,6 @@ __all__ = [
     "equalized_odds",
     # every metric in one pass
     "all_metrics",
-    "use_compiled_pass",
     # the quantities behind them
     "expected_utility",
     "group_decision_law",
@@ -328,16 +326,15 @@ def _scan(
         law.probabilities,
         None if law.complete else law.observed,
         None if utility is None else _utility_values(law, utility),
-        step=(scan_step := next(_chunks(X, row)).stop),
+        step=next(_chunks(X, row)).stop,
         population=None if population is None else (population.probabilities, population.p_group),
         keep_e=keep_e,
         spread=spread,
         extremes=extremes,
         by_group=by_group,
     )
-    if not compiled_scan(scan, scan_step):  # the compiled kernel, when it applies: the same numbers
-        for sl in _chunks(X, row):
-            scan.chunk(sl)
+    for sl in _chunks(X, row):
+        scan.chunk(sl)
     return scan
 
 
@@ -432,7 +429,7 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: Tabl
     best = float("nan") if i is None else float(ratio[i])
     # the logs, made on first read (a million take as long as the pass): ratios are >= 1, inf or NaN, the log is
     # NaN exactly where they are
-    per_context = Deferred(log_ratios, ratio) if len(law.groups) >= 2 else np.zeros(law.shape[0])
+    per_context = Deferred(_log_ratios, ratio) if len(law.groups) >= 2 else np.zeros(law.shape[0])
 
     def result(value: float, ratio: float, context: Hashable, group: Hashable, other: Hashable) -> Fairness:
         return Fairness(
@@ -456,6 +453,11 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: Tabl
         return result(float("nan"), float("nan"), None, None, None)
     _, hi, lo = ratio_extremes(scan.expected_row(i)[None, :], axis=1)  # the pair, in the maximising context only
     return result(safe_log(best), best, law.context_labels[i], law.groups[hi[0]], law.groups[lo[0]])
+
+
+def _log_ratios(ratio: FloatArray) -> FloatArray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.log(ratio)
 
 
 def _group_weights(law: Law, population: Population) -> list[str]:
@@ -533,7 +535,6 @@ def global_fairness(law: Law, utility: Utility, population: Population | None = 
 
 def _global(law: Law, utility: Utility, population: Population, notes: list[str], scan: TableScan) -> Fairness:
     if law.shape[1] >= 2:  # Σ_x P(x | a) E[g | x, a], added context after context by the pass
-        scan.wait()
         mean = _asked(scan.group_mean)
     else:  # one group: the mean as before, by einsum (a pairwise sum)
         e = _asked(scan.e)
@@ -887,7 +888,7 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     scan = _scan(law, utility, keep_e=one, spread=True, population=population, extremes=True, by_group=True)
     dist = _per_group(_asked(scan.group_law), population)
     local, odds = _local(law, utility, population, scan), _equalized_odds(law, population, scan)
-    sup_local = _sup_local(law, population, scan)  # then L-bar: the compiled pass may be adding up its group means
+    sup_local = _sup_local(law, population, scan)
     return {
         "local": local,
         "global": _global(law, utility, population, notes, scan),

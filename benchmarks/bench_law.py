@@ -1,4 +1,4 @@
-"""Benchmark: one pass over a law — building a Law, L + L̄ and every metric against plain numpy.
+"""Benchmark: the metrics of a law — building a Law, L + L̄ and every metric against plain numpy.
 
 A law P(U | X, A) with 10^6 contexts (``--contexts N``; 10^4 with ``--quick``), 8 groups and 4 decisions
 (Dirichlet(1) rows, seeded), utility g = 1{u = 1}, uniform population. Timed (medians of repeats):
@@ -298,7 +298,7 @@ def run(n: int, seed: int, repeats: int, quick: bool) -> tuple[str, list[str]]:
         for label, (r, goal) in ratios.items()
     ]
     lines = [
-        f"# One pass over a law: {n:,} contexts × {len(GROUPS)} groups × {len(DECISIONS)} decisions"
+        f"# The metrics of a law: {n:,} contexts × {len(GROUPS)} groups × {len(DECISIONS)} decisions"
         + (" (quick)" if quick else ""),
         "",
         machine_line(("numpy", "fairaudit")),

@@ -1,4 +1,4 @@
-"""Every exact metric of one law, in one pass: :class:`Observed` and :func:`observe`.
+"""Every exact metric of one law: :class:`Observed` and :func:`observe`.
 
 Shared by :mod:`fairaudit.certify` (which re-exports both: they are its public
 API), :mod:`fairaudit.audit` and the plug-in estimates of
@@ -84,7 +84,7 @@ class Observed:
 
 
 def observe(law: Law, utility: Utility, population: Population | None) -> Observed:
-    """All exact metrics of ``law`` for ``utility`` under ``population`` (one pass: :func:`~fairaudit.metrics.all_metrics`)."""
+    """All exact metrics of ``law`` for ``utility`` under ``population`` (:func:`~fairaudit.metrics.all_metrics`)."""
     m = all_metrics(law, utility, population)
     return Observed(
         law=law,

@@ -200,7 +200,7 @@ def read_records(path: str | Path, csv: CsvFormat | None = None) -> pd.DataFrame
                 return pd.read_parquet(p)
             except ImportError:
                 raise InputError(
-                    "DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)
+                    "DATA", "reading Parquet needs pyarrow: pip install 'fairness-certify[parquet]'", str(path)
                 ) from None
         return read_text(p, kind, fmt)
     except InputError:
@@ -644,7 +644,9 @@ def _parquet_counts(
         import pyarrow as pa
         import pyarrow.parquet  # noqa: F401
     except ImportError:
-        raise InputError("DATA", "reading Parquet needs pyarrow: pip install 'fairaudit[parquet]'", str(path)) from None
+        raise InputError(
+            "DATA", "reading Parquet needs pyarrow: pip install 'fairness-certify[parquet]'", str(path)
+        ) from None
     if not p.exists():
         raise InputError("DATA", "no such file", str(path))
     try:

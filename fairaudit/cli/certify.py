@@ -29,7 +29,7 @@ def add_parser(sub: Subparsers) -> None:
         "--plot",
         metavar="FILE",
         help="draw the fairness-privacy curve (bounds and observed L against "
-        "epsilon, in nats) to FILE, .png or .svg (needs pip install 'fairaudit[plot]')",
+        "epsilon, in nats) to FILE, .png or .svg (needs pip install 'fairness-certify[plot]')",
     )
     c.add_argument("--plot-data", metavar="FILE.csv", help="write the data behind the curve to FILE.csv")
     c.add_argument(

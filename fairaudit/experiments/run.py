@@ -566,7 +566,8 @@ def _claim(out: Path) -> Iterator[Path]:
         from filelock import FileLock, Timeout
     except ImportError:
         raise InputError(
-            "out", "one run per folder needs filelock, which is not installed: pip install 'fairaudit[experiment]'"
+            "out",
+            "one run per folder needs filelock, which is not installed: pip install 'fairness-certify[experiment]'",
         ) from None
     out.mkdir(parents=True, exist_ok=True)  # with its missing parents, as `mkdir -p`
     path = out / LOCK_NAME

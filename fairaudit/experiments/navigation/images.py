@@ -62,7 +62,7 @@ def _pillow() -> tuple[ModuleType, ModuleType, ModuleType]:
         from PIL import Image, ImageDraw, ImageFont
     except ImportError:
         raise InputError(
-            "navigation", "needs pillow, which is not installed: pip install 'fairaudit[navigation]'"
+            "navigation", "needs pillow, which is not installed: pip install 'fairness-certify[navigation]'"
         ) from None
     return Image, ImageDraw, ImageFont
 

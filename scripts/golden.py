@@ -8,8 +8,9 @@ A restructuring must not change a single printed number. This script runs, with 
 - every shipped example (``examples/``) through each command that reads it, in every ``--format``;
 
 and records each command's standard output, standard error and exit status, and every file the commands wrote
-(text as it is; other files by SHA-256). Two records are equal when they are equal byte for byte, run times
-(``in 98.0 s``) and the run folder's path aside.
+(text as it is; other files by SHA-256). Two records are equal when they are equal byte for byte, the clock
+(:data:`CLOCK`: run times, a run's seconds, latencies and timestamps) and the run folder's path aside. Benchmarks,
+which print times only, are not run.
 
 Usage::
 
@@ -117,9 +118,20 @@ def _snapshot(folder: Path) -> dict[str, str]:
     }
 
 
+# What a run records of the clock, which no two runs share: a run time in a line (``in 98.0 s``), and in a run's
+# JSON the seconds it took, a reply's latency and the instants a query was made and answered.
+CLOCK = [
+    (docs.RUN_TIME, "in <time> s"),
+    (re.compile(r'"(seconds|latency)": ?-?[0-9.eE+-]+'), r'"\1": <time>'),
+    (re.compile(r'"(created|time)": ?"\d{4}-\d\d-\d\dT[0-9:.]+Z?"'), r'"\1": <time>'),
+]
+
+
 def _normal(text: str, folder: Path) -> str:
     text = text.replace(str(folder.parent), "<run>")
-    return docs.RUN_TIME.sub("in <time> s", text)
+    for pattern, replacement in CLOCK:
+        text = pattern.sub(replacement, text)
+    return text
 
 
 def run_page(tree: Path, page: docs.Page, all_pages: list[docs.Page]) -> dict[str, dict[str, object]]:
@@ -143,6 +155,8 @@ def run_page(tree: Path, page: docs.Page, all_pages: list[docs.Page]) -> dict[st
             if page.path != "examples" and (docs._listed(docs.NOT_RUN, step) or docs._listed(docs.SLOW, step)):
                 continue
             if not docs.SHARED.is_dir() and "../shared/" in step.text:
+                continue
+            if "benchmarks/" in step.text:  # a benchmark prints times, which no two runs share
                 continue
             text = docs._aliased(step)
             done = subprocess.run(

@@ -49,3 +49,9 @@ def test_every_example_runs_through_each_command_that_reads_it():
     assert len(texts) == 3 * 6 + 4 + 3 * 4
     assert "fairaudit worst-case examples/llm_hiring/gpt4.toml --format json" in texts
     assert sum(t.startswith("fairaudit experiment examples/tasks/") for t in texts) == 4
+
+
+def test_what_a_run_records_of_the_clock_is_normalised_and_nothing_else(tmp_path):
+    line = '{"created": "2026-11-23T19:24:57.715Z", "time": "2026-11-23T19:24:57.735Z", "latency": 0.001513, "u": 0.25}'
+    assert golden._normal(line, tmp_path) == '{"created": <time>, "time": <time>, "latency": <time>, "u": 0.25}'
+    assert golden._normal('"seconds": 3.325, "epsilon": 3.325', tmp_path) == '"seconds": <time>, "epsilon": 3.325'

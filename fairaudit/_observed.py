@@ -1,4 +1,4 @@
-"""Every exact metric of one law, in one pass: :class:`Observed` and :func:`observe`.
+"""Every exact metric of one law: :class:`Observed` and :func:`observe`.
 
 Shared by :mod:`fairaudit.certify` (which re-exports both: they are its public
 API), :mod:`fairaudit.audit` and the plug-in estimates of
@@ -11,7 +11,6 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Protocol
 
-from ._deprecated import renamed
 from ._json import Report, number
 from .laws import Law, Population
 from .metrics import Fairness, SupFairness, TotalVariation, all_metrics
@@ -45,9 +44,6 @@ class Observed:
         L_dp and L_eo (total variation, in [0, 1]).
     sup_local_fairness, sup_global_fairness : SupFairness
         Sups over g of L and L̄ (Lemma 1), nats.
-    local, global_, sup_local, sup_global
-        Deprecated read-only aliases of ``local_fairness``, ``global_fairness``,
-        ``sup_local_fairness`` and ``sup_global_fairness`` (each warns).
     """
 
     law: Law
@@ -57,11 +53,6 @@ class Observed:
     equalized_odds: TotalVariation
     sup_local_fairness: SupFairness
     sup_global_fairness: SupFairness
-
-    local = renamed[Fairness]("local_fairness")
-    global_ = renamed[Fairness]("global_fairness")
-    sup_local = renamed[SupFairness]("sup_local_fairness")
-    sup_global = renamed[SupFairness]("sup_global_fairness")
 
     def to_dict(self, intervals: MetricIntervals | None = None) -> Report:
         """The report dictionary: each metric's value, its details, what was excluded and the intervals.
@@ -93,7 +84,7 @@ class Observed:
 
 
 def observe(law: Law, utility: Utility, population: Population | None) -> Observed:
-    """All exact metrics of ``law`` for ``utility`` under ``population`` (one pass: :func:`~fairaudit.metrics.all_metrics`)."""
+    """All exact metrics of ``law`` for ``utility`` under ``population`` (:func:`~fairaudit.metrics.all_metrics`)."""
     m = all_metrics(law, utility, population)
     return Observed(
         law=law,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import tomllib
 from collections.abc import Hashable
+from datetime import datetime
 from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, ValidationError
@@ -71,16 +72,24 @@ class FieldProblem(ValueError):
 
 
 def value_kind(value: object) -> str:
-    """What a TOML value is, for messages: "a string", "a boolean", "an inline table", ..."""
+    """What a TOML value is, for messages: "a string", "a number", "a boolean", "a list", "an inline table", ...
+
+    Integers and floats are both "a number"; a date-time with an offset and one without are different kinds (the
+    two cannot be ordered against each other).
+    """
     if isinstance(value, bool):
         return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
     if isinstance(value, str):
         return "a string"
     if isinstance(value, dict):
         return "an inline table"
     if isinstance(value, list):
         return "a list"
-    return f"a {type(value).__name__}"
+    if isinstance(value, datetime):
+        return "a local date-time" if value.tzinfo is None else "an offset date-time"
+    return f"a {type(value).__name__}"  # (TOML's local date and local time: "a date", "a time")
 
 
 def toml_label(value: object, where: str, depth: int = 0) -> Hashable:
@@ -100,7 +109,9 @@ def toml_label(value: object, where: str, depth: int = 0) -> Hashable:
 
 
 def distinct_labels(v: list[Any] | None, what: str = "values") -> list[Any] | None:
-    """Labels (lists as tuples) that are distinct as text (labels are matched by their text) and as values."""
+    """Labels (lists as tuples) that are distinct as text (labels are matched by their text) and as values, all of
+    one kind: strings, numbers, booleans, dates, ... or lists of one length whose entries agree in kind, place by
+    place (``[["Female"], "Male"]`` and ``[25, "55"]`` are refused, naming the entry)."""
     if v is None:
         return v
     if len(v) == 0:
@@ -117,7 +128,34 @@ def distinct_labels(v: list[Any] | None, what: str = "values") -> list[Any] | No
         if lab in seen:  # 1, 1.0 and true are equal in Python though not as text
             raise FieldProblem("", f"{what} must be distinct; {seen[lab]!r} and {lab!r} are equal", v)
         seen[lab] = lab
+    for i, x in enumerate(v[1:], 1):
+        found = _kind_difference(v[0], x, "")
+        if found is not None:
+            sub, kind, first_kind, value = found
+            raise FieldProblem(
+                f"[{i}]{sub}", f"is {kind}, but {what}[0]{sub} is {first_kind}: all {what} are of one kind", value
+            )
     return labels
+
+
+def _kind_difference(first: object, other: object, where: str) -> tuple[str, str, str, object] | None:
+    """The first place (a path below both) where label ``other`` differs from ``first`` in kind or in length.
+
+    Returns the path, what ``other`` is there, what ``first`` is there and ``other``'s value there; None when
+    both are of one kind all the way down (lists of one length whose entries agree in kind, place by place).
+    """
+
+    def kind(x: object) -> str:
+        return value_kind(x) + (f" of {len(x)} value{'s' * (len(x) != 1)}" if isinstance(x, list) else "")
+
+    if kind(first) != kind(other):
+        return where, kind(other), kind(first), other
+    if isinstance(first, list) and isinstance(other, list):
+        for j, (a, b) in enumerate(zip(first, other)):
+            found = _kind_difference(a, b, f"{where}[{j}]")
+            if found is not None:
+                return found
+    return None
 
 
 def validation_error(err: ValidationError, source: str, *, whole: str) -> InputError:

@@ -159,11 +159,6 @@ class Bound:
         }
 
 
-def _nonneg(name: str, value: float) -> float:
-    """Deprecated: :func:`fairaudit._validation.nonnegative` (``value`` first)."""
-    return nonnegative(value, name)
-
-
 def _constants(gamma: float, tau: float, lipschitz: float, diameter: float) -> tuple[float, float, float, float]:
     gamma = nonnegative(gamma, "gamma")
     tau = nonnegative(tau, "tau")

@@ -150,23 +150,6 @@ class Certificate:
     unfiltered_intervals: FairnessIntervals | None = None
     omitted: Mapping[str, str] = field(default_factory=dict)
 
-    @property
-    def black_box_reason(self) -> str:
-        """Deprecated alias: ``omitted["black_box"]`` when the black-box bound is missing, else what the bound is."""
-        if "black_box" in self.omitted or math.isnan(self.black_box.local_fairness.value):
-            return self.omitted.get("black_box", "")
-        return _black_box_description(self.spec.tau)
-
-    @property
-    def calibration_reason(self) -> str:
-        """Deprecated alias of ``omitted.get("calibration", "")``."""
-        return self.omitted.get("calibration", "")
-
-    @property
-    def intervals_reason(self) -> str:
-        """Deprecated alias of ``omitted.get("intervals", "")``."""
-        return self.omitted.get("intervals", "")
-
     def to_dict(self) -> Report:
         """The report dictionary (the JSON of ``fairaudit certify``; its contract is in docs/design.md)."""
         spec = self.spec
@@ -203,7 +186,7 @@ class Certificate:
                     for name, b in (("paper", self.paper), ("tight", self.tight), ("corollary", self.corollary))
                     if b is not None
                 },
-                "black_box": self.black_box.to_dict(self.black_box_reason),
+                "black_box": self.black_box.to_dict(self._black_box_reason()),
             },
             "assumptions": [
                 {"name": a.name, "status": a.status, "detail": a.detail, "for": list(forms)}
@@ -221,6 +204,12 @@ class Certificate:
         if self.calibration is not None or self.calibration_white_box is not None or "calibration" in self.omitted:
             out["calibration"] = self._calibration_dict()
         return out
+
+    def _black_box_reason(self) -> str:
+        """``omitted["black_box"]`` when the black-box bound is missing, else what the bound is."""
+        if "black_box" in self.omitted or math.isnan(self.black_box.local_fairness.value):
+            return self.omitted.get("black_box", "")
+        return _black_box_description(self.spec.tau)
 
     def _calibration_dict(self) -> Report:
         """``calibration`` with a target: the black-box one (or nulls and why), and ``white_box``."""

@@ -72,7 +72,6 @@ import numpy as np
 from ._arrays import FloatArray, format_label, safe_log
 from ._bayes import band_sets
 from ._confidence_sets import SetMaker, binomial_sets, category_bounds, clopper_pearson, linear_extremes, sum_last
-from ._deprecated import renamed
 from ._errors import InputError
 from ._json import Report, label, number
 from ._observed import observe
@@ -193,9 +192,6 @@ class FairnessIntervals:
         The Bayesian settings (None for the other methods).
     notes : tuple of str
         What was not computed or is conservative, and why.
-    local, global_, sup_local, sup_global
-        Deprecated read-only aliases of ``local_fairness``, ``global_fairness``,
-        ``sup_local_fairness`` and ``sup_global_fairness`` (each warns).
     """
 
     method: str
@@ -222,11 +218,6 @@ class FairnessIntervals:
     draws: int | None = None
     seed: int | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
-
-    local = renamed[Interval]("local_fairness")
-    global_ = renamed[Interval]("global_fairness")
-    sup_local = renamed[Interval | None]("sup_local_fairness")
-    sup_global = renamed[Interval | None]("sup_global_fairness")
 
     def intervals(self) -> dict[str, Interval | None]:
         """The metric intervals by name (None where not computed)."""

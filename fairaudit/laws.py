@@ -266,10 +266,9 @@ class Population(_ContextsAndGroups):
         return cache[key]
 
     def context_given_group(self) -> FloatArray:
-        """P(X = x | A = a), shape (n_contexts, n_groups); columns of groups with P(a) = 0 are NaN."""
-        pa = self.p_group
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(pa > 0, self.probabilities / pa, np.nan)
+        """P(X = x | A = a), shape (n_contexts, n_groups); columns of groups with P(a) = 0 are NaN (0 / 0)."""
+        with np.errstate(invalid="ignore"):
+            return self.probabilities / self.p_group
 
     def independence(self, tolerance: float = 1e-9) -> IndependenceCheck:
         """Check X ⊥ A: max |P(x, a) − P(x) P(a)| ≤ ``tolerance``."""

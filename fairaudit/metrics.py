@@ -24,7 +24,7 @@ Proofs: ``proofs/lemma1_links.md`` (Lemma 1 and the links theorem),
 
 from __future__ import annotations
 
-from collections.abc import Hashable, Iterable, Iterator
+from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypedDict
 
@@ -34,11 +34,8 @@ from ._arrays import (
     ROW_TOLERANCE,
     BoolArray,
     FloatArray,
-    IntArray,
-    TableScan,
     first_max,
     format_label,
-    group_weights,
     max_tv_pair,
     ratio_extremes,
     ratio_of_extremes,
@@ -47,8 +44,6 @@ from ._arrays import (
 )
 from ._errors import InputError
 from ._json import Report, label, number, pair_dict
-from ._lazy import Deferred, LazyField
-from ._scan_kernel import compiled_scan, log_ratios, use_compiled_pass
 from .laws import Law, Population, population_for
 from .utility import Utility
 
@@ -69,9 +64,8 @@ __all__ = [
     # total-variation gaps
     "demographic_parity",
     "equalized_odds",
-    # every metric in one pass
+    # every metric at once
     "all_metrics",
-    "use_compiled_pass",
     # the quantities behind them
     "expected_utility",
     "group_decision_law",
@@ -96,12 +90,10 @@ class Fairness:
         The maximising pair: ``group`` has the larger expected utility.
     expected_utility : numpy.ndarray
         E[g | x, a], shape (n_contexts, n_groups), for local; E[g | a], shape
-        (n_groups,), for global. NaN marks excluded cells. For local it is made
-        when first read (a pass over the law; the same numbers).
+        (n_groups,), for global. NaN marks excluded cells.
     per_context : numpy.ndarray or None
         For local: log of the largest ratio in each context, shape (n_contexts,),
-        in the law's context order, made when first read; :attr:`by_context` is the
-        same with its labels.
+        in the law's context order; :attr:`by_context` is the same with its labels.
     excluded : tuple of str
         What was left out and why.
     law, utility, population
@@ -114,8 +106,8 @@ class Fairness:
     context: Hashable | None
     group: Hashable | None
     other_group: Hashable | None
-    expected_utility: LazyField[FloatArray] = LazyField()  # (for local, made on first read)
-    per_context: LazyField[FloatArray | None] = LazyField()  # (the logs are made on first read)
+    expected_utility: FloatArray
+    per_context: FloatArray | None
     excluded: tuple[str, ...]
     law: Law
     utility: Utility
@@ -276,27 +268,55 @@ def _check_law(law: object) -> Law:
     return law
 
 
-# --------------------------------------------------------------------------- one pass over the law
-# A law has n_contexts rows of n_groups x n_decisions cells; contexts can number millions, groups and decisions
-# are few. The law is read once, in chunks of contexts of about _CHUNK_BYTES that stay in cache; loops run over
-# chunks, groups, decisions or events, never over cells. E[g | x, a] is Σ_u Q[x, a, u] g(u) with the terms added
-# in the order of the decisions (each product rounded, then added): the same number for the same cell in every
-# route and every chunk. Reductions over groups (max, min, sums) run on a copy of the chunk transposed to
-# (n_decisions, n_groups, chunk), or of E's chunk to (n_groups, chunk): over contiguous rows.
+# --------------------------------------------------------------------------- the arrays behind the metrics
+# Each metric is whole-array numpy over the law's [x, a, u] table; loops run over decisions, groups, pairs of
+# groups or events, never over cells. What is computed per context (E[g | x, a], the extremes over groups, the
+# largest TV) is computed over chunks of contexts of about _CHUNK_BYTES (:func:`_by_chunks`): no temporary grows
+# with the table, and each chunk is read once from memory into a transposed copy that stays in cache, over whose
+# contiguous rows the reductions over groups run several times faster than over the table's short group axis. A
+# context's numbers do not depend on the chunks. E[g | x, a] adds the terms Q[x, a, u] g(u) in the order of the
+# decisions, each product rounded once. The sums over contexts (E[g | a] and P(u | a)) are one ``einsum`` over
+# the whole arrays: the contexts added one after the other.
 
 _CHUNK_BYTES = 1 << 19
 
 
-def _chunks(n: int, row_bytes: int) -> Iterator[slice]:
-    step = max(64, _CHUNK_BYTES // max(int(row_bytes), 1))
-    for start in range(0, n, step):
-        yield slice(start, min(n, start + step))
+def _by_chunks(fn: Callable[..., FloatArray], *per_context: FloatArray) -> FloatArray:
+    """``fn`` of the arrays ``per_context``, computed over chunks of contexts (axis 0) and put together."""
+    n, step = len(per_context[0]), max(64, _CHUNK_BYTES // max(per_context[0][:1].nbytes, 1))
+    first = fn(*(a[:step] for a in per_context))
+    out = np.empty((n, *first.shape[1:]))
+    out[:step] = first
+    for i in range(step, n, step):
+        out[i : i + step] = fn(*(a[i : i + step] for a in per_context))
+    return out
 
 
-def _asked(result: FloatArray | None) -> FloatArray:
-    """A result of :func:`_scan` that the caller asked for, so it was computed (None only when not asked)."""
-    assert result is not None, "_scan was not asked for this result"
-    return result
+def _transposed(chunk: FloatArray) -> FloatArray:
+    """A chunk (contexts, groups[, decisions]) as a contiguous ([decisions,] groups, contexts) copy."""
+    return np.ascontiguousarray(chunk.T)
+
+
+def _extremes(t: FloatArray, complete: bool) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The max, the min and the ratio max / min over groups of a transposed chunk ``t`` (..., groups, contexts),
+    each of shape (..., contexts); the ratio by :func:`~fairaudit._arrays.ratio_of_extremes`. Rows of NaN (empty
+    cells) are left out."""
+    present = t.shape[-2] if complete else np.count_nonzero(~np.isnan(t.reshape(-1, *t.shape[-2:])[0]), axis=0)
+    top, bottom = np.fmax.reduce(t, axis=-2), np.fmin.reduce(t, axis=-2)
+    return top, bottom, ratio_of_extremes(top, bottom, present)
+
+
+def _law_extremes(law: Law) -> FloatArray:
+    """Per context, from the max and min over groups of each Q[x, ·, u]: the largest ratio max / min over u (the
+    sup of L in x), the largest range over u < K − 1 (a singleton event's, so at most the largest TV over pairs
+    of groups in x) and Σ_u min (the largest TV in x is at most 1 + tolerance − this): shape (n_contexts, 3)."""
+
+    def chunk(q: FloatArray) -> FloatArray:
+        top, bottom, ratio = _extremes(_transposed(q), law.complete)  # (n_decisions, chunk) each
+        low = np.max(top[:-1] - bottom[:-1], axis=0) if len(top) > 1 else np.zeros(len(q))
+        return np.stack([np.fmax.reduce(ratio, axis=0), low, np.add.reduce(bottom, axis=0)], axis=1)
+
+    return _by_chunks(chunk, law.probabilities)
 
 
 def _utility_values(law: Law, utility: Utility) -> FloatArray:
@@ -306,39 +326,23 @@ def _utility_values(law: Law, utility: Utility) -> FloatArray:
     return np.asarray(utility.table(law.contexts, law.groups, law.decisions), dtype=float)
 
 
-def _scan(
-    law: Law,
-    utility: Utility | None = None,
-    *,
-    keep_e: bool = False,
-    spread: bool = False,
-    population: Population | None = None,
-    extremes: bool = False,
-    by_group: bool = False,
-) -> TableScan:
-    """Read the law once, in chunks of contexts (:func:`_chunks`), computing only what is asked.
+def _expected(q: FloatArray, g: FloatArray) -> FloatArray:
+    """E of a chunk q (contexts, groups, decisions): Σ_u q[:, :, u] g[..., u] in the order of the decisions.
 
-    ``utility`` gives E[g | x, a] (kept whole with ``keep_e``), ``spread`` its ratio over groups per context,
-    ``population`` its group means Σ_x P(x | a) E[g | x, a]; ``extremes`` the ratios and ranges over groups
-    per (x, u); ``by_group`` (with ``population``) the group law (see :class:`~fairaudit._arrays.TableScan`).
+    ``g`` is g(u) or the chunk of g[x, a, u]. A term whose g is 0 everywhere adds nothing and is skipped.
     """
-    X, A, K = law.shape
-    row = A * K * law.probabilities.itemsize
-    scan = TableScan(
-        law.probabilities,
-        None if law.complete else law.observed,
-        None if utility is None else _utility_values(law, utility),
-        step=(scan_step := next(_chunks(X, row)).stop),
-        population=None if population is None else (population.probabilities, population.p_group),
-        keep_e=keep_e,
-        spread=spread,
-        extremes=extremes,
-        by_group=by_group,
-    )
-    if not compiled_scan(scan, scan_step):  # the compiled kernel, when it applies: the same numbers
-        for sl in _chunks(X, row):
-            scan.chunk(sl)
-    return scan
+    terms = [u for u in range(q.shape[2]) if np.any(g[..., u])] or [0]  # (one kept: NaN rows stay NaN)
+    e = q[:, :, terms[0]] * g[..., terms[0]]
+    for u in terms[1:]:
+        e += q[:, :, u] * g[..., u]
+    return e
+
+
+def _expected_utility(law: Law, utility: Utility) -> FloatArray:
+    g = _utility_values(law, utility)
+    if g.ndim == 1:
+        return _by_chunks(lambda q: _expected(q, g), law.probabilities)
+    return _by_chunks(_expected, law.probabilities, g)
 
 
 def expected_utility(law: Law, utility: Utility) -> FloatArray:
@@ -353,8 +357,7 @@ def expected_utility(law: Law, utility: Utility) -> FloatArray:
     >>> expected_utility(law, indicator("yes", ["yes", "no"])).tolist()
     [[0.2, 0.6]]
     """
-    law = _check_law(law)
-    return _asked(_scan(law, utility, keep_e=True).e)
+    return _expected_utility(_check_law(law), utility)
 
 
 def _excluded_contexts(law: Law, population: Population | None, present: BoolArray) -> tuple[list[str], BoolArray]:
@@ -413,26 +416,17 @@ def local_fairness(law: Law, utility: Utility, population: Population | None = N
     law = _check_law(law)
     if population is not None:
         population = population_for(law, population)
-    return _local(law, utility, population, _scan(law, utility, spread=True))
+    return _local(law, utility, population, _expected_utility(law, utility))
 
 
-def _present(law: Law) -> int | IntArray:
-    """Groups with records per context: (n_contexts,) counts, or the number of groups when no cell is empty."""
-    return law.shape[1] if law.complete else law.observed.sum(axis=1)
-
-
-def _local(law: Law, utility: Utility, population: Population | None, scan: TableScan) -> Fairness:
-    # E (n_contexts x n_groups) made on first read unless the pass kept it: the same numbers by the same operations
-    e = Deferred(expected_utility, law, utility) if scan.e is None else scan.e
+def _local(law: Law, utility: Utility, population: Population | None, e: FloatArray) -> Fairness:
     notes, keep = _excluded_contexts(law, population, law.observed)
-    ratio = _asked(scan.ratio)
-    if not keep.all():
-        ratio[~keep] = np.nan
+    ratio = _by_chunks(lambda e: _extremes(_transposed(e), law.complete)[2], e)
+    ratio[~keep] = np.nan
     i = first_max(ratio) if len(law.groups) >= 2 else None
     best = float("nan") if i is None else float(ratio[i])
-    # the logs, made on first read (a million take as long as the pass): ratios are >= 1, inf or NaN, the log is
-    # NaN exactly where they are
-    per_context = Deferred(log_ratios, ratio) if len(law.groups) >= 2 else np.zeros(law.shape[0])
+    # ratios are >= 1, inf or NaN: their logs are >= 0, inf or NaN
+    per_context = np.log(ratio) if len(law.groups) >= 2 else np.zeros(law.shape[0])
 
     def result(value: float, ratio: float, context: Hashable, group: Hashable, other: Hashable) -> Fairness:
         return Fairness(
@@ -454,22 +448,23 @@ def _local(law: Law, utility: Utility, population: Population | None, scan: Tabl
         return result(0.0, 1.0, None, None, None)
     if i is None:
         return result(float("nan"), float("nan"), None, None, None)
-    _, hi, lo = ratio_extremes(scan.expected_row(i)[None, :], axis=1)  # the pair, in the maximising context only
+    _, hi, lo = ratio_extremes(e[i][None, :], axis=1)  # the pair, in the maximising context
     return result(safe_log(best), best, law.context_labels[i], law.groups[hi[0]], law.groups[lo[0]])
 
 
 def _group_weights(law: Law, population: Population) -> list[str]:
     """The notes on groups with P(A = a) = 0; raise if P(x | a) > 0 weights an empty cell (x, a) of the law.
 
-    Group averages are Σ_x P(x | a) f(x, a) with the weights P(x | a) made first (``group_weights``): a fair
-    law (f equal across groups) gives exactly equal averages.
+    Group averages are Σ_x P(x | a) f(x, a) with the weights P(x | a) made first
+    (:meth:`~fairaudit.laws.Population.context_given_group`): a fair law (f equal across groups) gives exactly
+    equal averages.
     """
     notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
     if not law.complete:
         empty = ~law.observed & (population.probabilities > 0)  # P(x | a) > 0 exactly where P(x, a) > 0
         if np.any(empty):
             i, j = np.argwhere(empty)[0]
-            w = group_weights(population.probabilities, population.p_group, slice(i, i + 1))[0, j]  # P(x | a)
+            w = population.probabilities[i, j] / population.p_group[j]  # P(x | a)
             raise InputError(
                 "population",
                 f"gives weight {w:.6g} to the empty cell (context {format_label(law.context_labels[i])!r}, "
@@ -527,18 +522,15 @@ def global_fairness(law: Law, utility: Utility, population: Population | None = 
     law = _check_law(law)
     population = population_for(law, population)
     notes = _group_weights(law, population)
-    one = law.shape[1] < 2
-    return _global(law, utility, population, notes, _scan(law, utility, keep_e=one, population=population))
+    e, w = _expected_utility(law, utility), population.context_given_group()
+    return _global(law, utility, population, notes, e, w)
 
 
-def _global(law: Law, utility: Utility, population: Population, notes: list[str], scan: TableScan) -> Fairness:
-    if law.shape[1] >= 2:  # Σ_x P(x | a) E[g | x, a], added context after context by the pass
-        scan.wait()
-        mean = _asked(scan.group_mean)
-    else:  # one group: the mean as before, by einsum (a pairwise sum)
-        e = _asked(scan.e)
-        w = group_weights(population.probabilities, population.p_group, slice(None))  # P(x | a)
-        mean = np.einsum("xa,xa->a", w, e if law.complete else np.nan_to_num(e, nan=0.0))
+def _global(
+    law: Law, utility: Utility, population: Population, notes: list[str], e: FloatArray, w: FloatArray
+) -> Fairness:
+    """L̄ from E[g | x, a] and the weights ``w`` = P(x | a) (NaN for a group with P(a) = 0: its mean is NaN anyway)."""
+    mean = np.einsum("xa,xa->a", w, e if law.complete else np.nan_to_num(e, nan=0.0))
     eg = _per_group(mean, population)
 
     def result(value: float, ratio: float, group: Hashable, other: Hashable) -> Fairness:
@@ -574,7 +566,13 @@ def group_decision_law(law: Law, population: Population | None = None) -> FloatA
     law = _check_law(law)
     population = population_for(law, population)
     _group_weights(law, population)
-    return _per_group(_asked(_scan(law, population=population, by_group=True).group_law), population)
+    return _group_law(law, population, population.context_given_group())
+
+
+def _group_law(law: Law, population: Population, w: FloatArray) -> FloatArray:
+    """P(u | a) = Σ_x w[x, a] Q[x, a, u] with ``w`` = P(x | a); the empty cells (w = 0 there) read as 0, not NaN."""
+    q = law.probabilities if law.complete else np.nan_to_num(law.probabilities, nan=0.0)
+    return _per_group(np.einsum("xa,xau->au", w, q), population)
 
 
 def demographic_parity(law: Law, population: Population | None = None) -> TotalVariation:
@@ -653,19 +651,17 @@ def equalized_odds(law: Law, population: Population | None = None) -> TotalVaria
     law = _check_law(law)
     if population is not None:
         population = population_for(law, population)
-    X, A, K = law.shape
-    bounds = A >= 2 and next(_chunks(X, A * K * law.probabilities.itemsize)).stop < X  # (one chunk: no bound)
-    return _equalized_odds(law, population, _scan(law, extremes=bounds))
+    return _equalized_odds(law, population, _law_extremes(law))
 
 
-def _equalized_odds(law: Law, population: Population | None, scan: TableScan) -> TotalVariation:
+def _equalized_odds(law: Law, population: Population | None, extremes: FloatArray) -> TotalVariation:
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
         return _total_variation("equalized_odds", 0.0, notes, law, population)
-    valid = keep if law.complete else keep & (_present(law) >= 2)  # the contexts where TV is defined
+    valid = keep & (law.observed.sum(axis=1) >= 2)  # the contexts where TV is defined
     if not valid.any():
         return _total_variation("equalized_odds", float("nan"), notes, law, population)
-    i = _tv_argmax(law, valid, scan)
+    i = _tv_argmax(law, valid, extremes)
     # the pair in the maximising context, in linear time; its value by the pairwise definition
     tv, ai, bi = max_tv_pair(law.probabilities[i])
     assert ai is not None and bi is not None  # (a valid context has two groups)
@@ -683,29 +679,30 @@ def _equalized_odds(law: Law, population: Population | None, scan: TableScan) ->
     )
 
 
-def _tv_argmax(law: Law, valid: BoolArray, scan: TableScan) -> int:
+def _tv_argmax(law: Law, valid: BoolArray, extremes: FloatArray) -> int:
     """The first context among ``valid`` with the largest TV over pairs of groups, per :func:`~fairaudit._arrays.tv_chunk`.
 
-    Only the contexts that can reach the largest are computed. In context x, the range over groups of
-    Q[x, a, u] (u < K − 1, a singleton event of :func:`~fairaudit._arrays.tv_chunk`) is at most its TV (``scan.tv_low``), and
-    TV(Q[x, a], Q[x, b]) = Σ_u Q[x, a, u] − Σ_u min(Q[x, a, u], Q[x, b, u]) is at most 1 + tolerance −
-    Σ_u min over groups of Q[x, a, u] (rows are checked to sum to 1 within the tolerance). A context whose
-    upper bound is below the best lower bound (less a margin for rounding and for the pairwise route's
-    asymmetry) cannot be the first maximum; every other one is computed exactly as before, so the value
-    and the tie-breaking are unchanged.
+    It is computed only in the contexts that can reach the largest. In context x the largest TV is at least the
+    range over groups of Q[x, a, u] for u < K − 1 (``extremes[:, 1]``, a singleton event), and
+    TV(Q[x, a], Q[x, b]) = Σ_u Q[x, a, u] − Σ_u min(Q[x, a, u], Q[x, b, u]) is at most 1 + tolerance − Σ_u min
+    over groups of Q[x, a, u] (``extremes[:, 2]``; rows are checked to sum to 1 within the tolerance). A context
+    whose upper bound is below the best lower bound (less a margin for rounding and for the pairwise route's
+    asymmetry) cannot be the first maximum; every other one is computed, so the value and the tie-breaking are
+    those of every context computed.
     """
-    q = law.probabilities
-    X, A, K = q.shape
-    if next(_chunks(X, A * K * q.itemsize)).stop == X:  # one chunk: every context, no bound needed
-        rows = np.flatnonzero(valid)
-    else:
-        threshold = scan.low_max(valid) - 4 * ROW_TOLERANCE  # (only the chunks that can hold a candidate are read)
-        slack = 8 * K * float(np.finfo(float).eps)
-        rows = scan.candidates(valid, (1.0 + ROW_TOLERANCE) * (1.0 + slack) + slack, threshold)
-    tv = np.empty(len(rows))
-    for sl in _chunks(len(rows), A * K * q.itemsize):
-        tv[sl] = tv_chunk(np.ascontiguousarray(q[rows[sl]].transpose(2, 1, 0)), not law.complete)
-    return int(rows[np.nanargmax(tv)])
+    threshold = np.max(extremes[valid, 1]) - 4 * ROW_TOLERANCE
+    slack = 8 * law.shape[2] * float(np.finfo(float).eps)
+    candidates = valid & ((1.0 + ROW_TOLERANCE) * (1.0 + slack) + slack - extremes[:, 2] >= threshold)
+
+    def chunk(q: FloatArray, where: BoolArray) -> FloatArray:
+        tv = np.full(len(q), np.nan)
+        if where.any():
+            tv[where] = tv_chunk(_transposed(q[where]), not law.complete)
+        return tv
+
+    i = first_max(_by_chunks(chunk, law.probabilities, candidates))
+    assert i is not None  # (the context of the best lower bound is a candidate)
+    return i
 
 
 def sup_local_fairness(law: Law, population: Population | None = None) -> SupFairness:
@@ -727,18 +724,17 @@ def sup_local_fairness(law: Law, population: Population | None = None) -> SupFai
     law = _check_law(law)
     if population is not None:
         population = population_for(law, population)
-    return _sup_local(law, population, _scan(law, extremes=True))
+    return _sup_local(law, population, _law_extremes(law))
 
 
-def _sup_local(law: Law, population: Population | None, scan: TableScan) -> SupFairness:
+def _sup_local(law: Law, population: Population | None, extremes: FloatArray) -> SupFairness:
     notes, keep = _excluded_contexts(law, population, law.observed)
     if len(law.groups) < 2:
         return _sup_fairness("local", 0.0, 1.0, notes, law, population)
     # the first (x, u) in table order with the largest max_a Q[x, a, u] / min_a Q[x, a, u], NaN ignored:
-    # the pass gives each context's largest ratio; the first decision attaining it, in the context found
-    ratio = _asked(scan.sup_ratio)
-    if not keep.all():
-        ratio[~keep] = np.nan
+    # each context's largest ratio, then the first decision attaining it in the context found
+    ratio = extremes[:, 0].copy()
+    ratio[~keep] = np.nan
     i = first_max(ratio)
     if i is None:
         return _sup_fairness("local", float("nan"), float("nan"), notes, law, population)
@@ -837,12 +833,11 @@ AllMetrics = TypedDict(
 
 
 def all_metrics(law: Law, utility: Utility, population: Population | None = None) -> AllMetrics:
-    """Every exact metric of ``law`` in one pass over it: L, L̄, L_dp, L_eo and the sups over g.
+    """Every exact metric of ``law``: L, L̄, L_dp, L_eo and the sups over g.
 
     The same numbers as :func:`local_fairness`, :func:`global_fairness`, :func:`demographic_parity`,
     :func:`equalized_odds`, :func:`sup_local_fairness` and :func:`sup_global_fairness` called one by one
-    (they share the code), with the law read once instead of five times: for a law of a million contexts
-    this is most of the cost.
+    (they share the code), with E[g | x, a] and P(U | A) computed once for the metrics that share them.
 
     Parameters
     ----------
@@ -883,16 +878,13 @@ def all_metrics(law: Law, utility: Utility, population: Population | None = None
     law = _check_law(law)
     population = population_for(law, population)
     notes = _group_weights(law, population)
-    one = law.shape[1] < 2  # (E for the mean of one group)
-    scan = _scan(law, utility, keep_e=one, spread=True, population=population, extremes=True, by_group=True)
-    dist = _per_group(_asked(scan.group_law), population)
-    local, odds = _local(law, utility, population, scan), _equalized_odds(law, population, scan)
-    sup_local = _sup_local(law, population, scan)  # then L-bar: the compiled pass may be adding up its group means
+    e, w = _expected_utility(law, utility), population.context_given_group()
+    dist, extremes = _group_law(law, population, w), _law_extremes(law)
     return {
-        "local": local,
-        "global": _global(law, utility, population, notes, scan),
+        "local": _local(law, utility, population, e),
+        "global": _global(law, utility, population, notes, e, w),
         "demographic_parity": _demographic_parity(law, population, dist),
-        "equalized_odds": odds,
-        "sup_local": sup_local,
+        "equalized_odds": _equalized_odds(law, population, extremes),
+        "sup_local": _sup_local(law, population, extremes),
         "sup_global": _sup_global(law, population, dist),
     }

@@ -99,7 +99,7 @@ class SamplePlan:
     def to_dict(self) -> Report:
         """The report dictionary: the inputs, ``true_value``, ``feasible`` and ``plans``, a list of this one plan.
 
-        :func:`fairaudit.report.plan_dict` joins plans of several methods
+        ``fairaudit plan --method all`` joins plans of several methods
         (same inputs) into one dictionary of this shape.
         """
         return {

@@ -4,7 +4,7 @@
 paper, tight and black-box bounds and the observed L and L̄ against the
 privacy budget ε, both in nats. :func:`save_figure` writes a figure as PNG or
 SVG atomically. Install the plotting extra with ``pip install
-"fairaudit[plot]"``.
+"fairness-certify[plot]"``.
 """
 
 from __future__ import annotations
@@ -52,7 +52,9 @@ def load_matplotlib() -> type[Figure]:
         import matplotlib  # noqa: F401
         from matplotlib.figure import Figure
     except ImportError:
-        raise InputError("path", "needs matplotlib, which is not installed: pip install 'fairaudit[plot]'") from None
+        raise InputError(
+            "path", "needs matplotlib, which is not installed: pip install 'fairness-certify[plot]'"
+        ) from None
     return Figure
 
 
@@ -193,7 +195,7 @@ def plot_curve(
     Raises
     ------
     InputError
-        When matplotlib is missing (``pip install "fairaudit[plot]"``), or on
+        When matplotlib is missing (``pip install "fairness-certify[plot]"``), or on
         a bad ``path`` (naming it) or ``secondary_axis``.
 
     Examples

@@ -7,7 +7,7 @@ n_contexts × n_groups × n_decisions rows. Everything after (laws, metrics,
 intervals, certificates) works on that table as usual.
 
 pyspark is imported inside :func:`count_spark` only, so fairaudit imports
-without it; install it with ``pip install 'fairaudit[spark]'``.
+without it; install it with ``pip install 'fairness-certify[spark]'``.
 """
 
 from __future__ import annotations
@@ -113,7 +113,9 @@ def count_spark(
     try:
         import pyspark.sql  # noqa: F401
     except ImportError:
-        raise InputError("pyspark", "is needed to count a Spark DataFrame: pip install 'fairaudit[spark]'") from None
+        raise InputError(
+            "pyspark", "is needed to count a Spark DataFrame: pip install 'fairness-certify[spark]'"
+        ) from None
     if not all(hasattr(frame, name) for name in ("groupBy", "toDF", "toPandas", "schema", "columns")):
         raise InputError("frame", "must be a Spark DataFrame (pyspark.sql.DataFrame)", type(frame).__name__)
     sensitive, outcome, context = roles(sensitive, outcome, context)

@@ -17,7 +17,6 @@ import os
 import pkgutil
 import posixpath
 import re
-import warnings
 from pathlib import Path
 
 import mkdocs_gen_files
@@ -109,18 +108,9 @@ def cli_reference() -> str:
 
 # --------------------------------------------------------------------------- API reference
 def public_modules() -> list[str]:
-    """Dotted names of the package's public modules (no part starts with an underscore), sorted.
-
-    ``fairaudit.plugins``, the deprecated alias of ``fairaudit.experiments``, is neither imported nor listed.
-    """
+    """Dotted names of the package's public modules (no part starts with an underscore), sorted."""
     names = ["fairaudit"]
-    deprecated = {"fairaudit.plugins"}
-    with warnings.catch_warnings():  # walk_packages imports every package it enters, the alias too
-        warnings.simplefilter("ignore", DeprecationWarning)
-        infos = list(pkgutil.walk_packages(fairaudit.__path__, prefix="fairaudit."))
-    for info in infos:
-        if info.name in deprecated or info.name.startswith("fairaudit.plugins."):
-            continue
+    for info in pkgutil.walk_packages(fairaudit.__path__, prefix="fairaudit."):
         if not any(part.startswith("_") for part in info.name.split(".")):
             names.append(info.name)
     return sorted(names)

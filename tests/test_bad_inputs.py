@@ -18,10 +18,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fairaudit import InputError
+from fairaudit import InputError, parse_spec
 from fairaudit._arrays import as_labels
+from fairaudit._io import write_atomic
 from fairaudit.cli import main
-from fairaudit.report import write_atomic
 
 # A valid spec: two offices behind binary randomized response (keep 0.7), two documents.
 SPEC = """\
@@ -96,7 +96,14 @@ CASES: list[tuple[str, dict[str, str], list[str], set[int], str | None]] = [
     ("ok-model-table", {"spec.toml": spec(add='[model]\ntable = "k.csv"\n'), "k.csv": TABLE}, CERTIFY, {0}, None),
     ("ok-int-numbers", {"spec.toml": spec(("keep = 0.7", "keep = 1"), ("tau = 0.25", "tau = 1"))}, CERTIFY, {0}, None),
     ("ok-tuple-label", {"spec.toml": spec(('["HR_1", "HR_2"]', '[["Tom", 25], ["Mary", 55]]'))}, CERTIFY, {0}, None),
-    ("ok-nested-label", {"spec.toml": spec(('["HR_1", "HR_2"]', '[[["Tom"], 25], "Mary"]'))}, CERTIFY, {0}, None),
+    (
+        "ok-nested-label",
+        {"spec.toml": spec(('["HR_1", "HR_2"]', '[[["Tom"], 25], [["Mary"], 55]]'))},
+        CERTIFY,
+        {0},
+        None,
+    ),
+    ("ok-int-and-float-labels", {"spec.toml": spec(('["HR_1", "HR_2"]', "[1, 2.5]"))}, CERTIFY, {0}, None),
     ("ok-one-group-epsilon", {"spec.toml": one_group("epsilon = 0.5")}, CERTIFY, {0}, None),
     ("ok-one-group-keep-1", {"spec.toml": one_group("keep = 1")}, CERTIFY, {0}, None),
     ("ok-product-one-value-keep-1", {"spec.toml": product("keep = 1.0")}, CERTIFY, {0}, None),
@@ -403,6 +410,59 @@ def test_deep_values_name_the_spec_file(tmp_path):
         code == 2
         and err == f"fairaudit: error: {tmp_path / 'deep.toml'}: is too deeply nested (or too large) to read\n"
     )
+
+
+# Labels of one list are all of one kind (lists of one length whose entries agree place by place): the field, the
+# entry and its value, whatever the list (the kinds are TOML's: 1 and 2.5 are both numbers)
+MIXED_LABELS = [
+    (
+        ('["HR_1", "HR_2"]', '[["Female"], "Male"]'),
+        "sensitive.values[1]: is a string, but values[0] is a list of 1 value: all values are of one kind (got 'Male')",
+    ),
+    (
+        ('["HR_1", "HR_2"]', '["Male", ["Female"]]'),
+        "sensitive.values[1]: is a list of 1 value, but values[0] is a string: all values are of one kind "
+        "(got ['Female'])",
+    ),
+    (
+        ('["HR_1", "HR_2"]', '[25, "55"]'),
+        "sensitive.values[1]: is a string, but values[0] is a number: all values are of one kind (got '55')",
+    ),
+    (
+        ('["maternity", "holiday"]', "[true, 2]"),
+        "context.values[1]: is a number, but values[0] is a boolean: all values are of one kind (got 2)",
+    ),
+    (
+        ('["yes", "no"]', '["yes", 2024-01-01]'),
+        "decision.values[1]: is a date, but values[0] is a string: all values are of one kind "
+        "(got datetime.date(2024, 1, 1))",
+    ),
+    (
+        ('["HR_1", "HR_2"]', '[["Tom", 25], ["Mary", "55"]]'),
+        "sensitive.values[1][1]: is a string, but values[0][1] is a number: all values are of one kind (got '55')",
+    ),
+    (
+        ('["HR_1", "HR_2"]', '[["Tom", 25], ["Mary"]]'),
+        "sensitive.values[1]: is a list of 1 value, but values[0] is a list of 2 values: all values are of one kind "
+        "(got ['Mary'])",
+    ),
+    (
+        ('["HR_1", "HR_2"]', "[1979-05-27T07:32:00Z, 1979-05-27T07:32:00]"),
+        "sensitive.values[1]: is a local date-time, but values[0] is an offset date-time: all values are of one kind "
+        "(got datetime.datetime(1979, 5, 27, 7, 32))",
+    ),
+]
+
+
+@pytest.mark.parametrize(("edit", "message"), MIXED_LABELS, ids=[m[0][1] for m in MIXED_LABELS])
+def test_labels_of_mixed_kinds_are_refused(tmp_path, edit, message):
+    text = spec(edit)
+    with pytest.raises(InputError) as info:  # in Python
+        parse_spec(text)
+    assert str(info.value) == f"<string>: {message}"
+    (tmp_path / "spec.toml").write_text(text)
+    code, out, err = run_main(["certify", str(tmp_path / "spec.toml")])  # on the command line: one line, exit 2
+    assert (code, out, err) == (2, "", f"fairaudit: error: {tmp_path / 'spec.toml'}: {message}\n")
 
 
 def test_unhashable_labels_are_an_input_error():

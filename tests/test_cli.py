@@ -216,6 +216,61 @@ def test_audit_by_hand(tmp_path, capsys):
     assert lo <= math.log(3) <= (math.inf if hi == "inf" else hi)
 
 
+# The equalized-odds line of each format: the gap of U, then the gap of g (--gap-on g), 0.5 in context (label) 1
+EO_LINES = {
+    "text": [
+        "  equalized odds gap           0.5                (a vs b in context 1)\n",
+        "  equalized odds gap of g      0.5                (a vs b in context 1)\n",
+    ],
+    "markdown": [
+        "| equalized odds gap | 0.5 |  | a vs b in context 1 |",
+        "| equalized odds gap of g | 0.5 | a vs b in context 1 |",
+    ],
+    "html": [
+        '<tr><td>equalized odds gap</td><td class="num">0.5</td><td></td><td>a vs b in context 1</td></tr>',
+        '<tr><td>equalized odds gap of g</td><td class="num">0.5</td><td>a vs b in context 1</td></tr>',
+    ],
+}
+DP_LINES = {
+    "text": "  demographic parity gap       0.25               (a vs b)\n",
+    "markdown": "| demographic parity gap | 0.25 |  | a vs b |",
+    "html": '<tr><td>demographic parity gap</td><td class="num">0.25</td><td></td><td>a vs b</td></tr>',
+}
+
+
+@pytest.mark.parametrize("fmt", ["text", "markdown", "html"])
+def test_audit_without_a_true_label_prints_no_equalized_odds_line(tmp_path, capsys, fmt):
+    # hired: a 3/4 with label 1, 1/4 with label 0; b 1/4 and 1/4. DP = 4/8 - 2/8 = 0.25; within label 1 the gap is
+    # 3/4 - 1/4 = 0.5 (label 0: none). Without the label there is one context and nothing but the DP gap to show
+    df = pd.DataFrame(
+        {
+            "grp": list("aaaaaaaabbbbbbbb"),
+            "label": [1, 1, 1, 1, 0, 0, 0, 0] * 2,
+            "hired": [1, 1, 1, 0, 1, 0, 0, 0] + [1, 0, 0, 0, 1, 0, 0, 0],
+        }
+    )
+    path = tmp_path / "r.csv"
+    df.to_csv(path, index=False)
+    args = ["audit", path, "--sensitive", "grp", "--outcome", "hired", "--gap-on", "g", "--format", fmt]
+    code, out, err = run(capsys, *args)
+    assert (code, err) == (0, "")
+    assert "equalized odds" not in out and DP_LINES[fmt] in out
+    code, labelled, err = run(capsys, *args, "--context", "label")
+    assert (code, err) == (0, "")
+    assert all(line in labelled for line in EO_LINES[fmt]) and DP_LINES[fmt] in labelled
+
+
+def test_audit_without_a_true_label_keeps_the_json_contract(tmp_path, capsys):
+    # the JSON keeps every contract key: with one context the equalized-odds gap is the DP gap, 3/4 - 1/4
+    path = tmp_path / "r.csv"
+    pd.DataFrame({"grp": list("aaaabbbb"), "hired": [1, 1, 1, 0, 1, 0, 0, 0]}).to_csv(path, index=False)
+    code, d, _ = run_json(capsys, "audit", path, "--sensitive", "grp", "--outcome", "hired", "--gap-on", "g")
+    assert code == 0 and d["context_columns"] == []
+    assert d["demographic_parity"] == d["equalized_odds"] == 0.5
+    assert d["details"]["equalized_odds"]["context"] == "all"
+    assert d["gaps_on_g"]["equalized_odds"] == {"value": 0.5, "context": "all", "group": "a", "other_group": "b"}
+
+
 def test_audit_intersectional_and_expression(tmp_path, capsys):
     df = pd.DataFrame({"race": ["A", "A", "B", "B"] * 2, "sex": ["M", "W"] * 4, "score": [1, 2, 3, 4, 5, 6, 7, 8]})
     path = tmp_path / "r.csv"

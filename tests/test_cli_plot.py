@@ -167,5 +167,5 @@ def test_missing_matplotlib_is_a_clear_error(capsys, spec, tmp_path, monkeypatch
     code, out, err = run(capsys, "certify", spec, "--plot", tmp_path / "curve.png")
     assert code == 2 and out == ""
     assert err.strip() == (
-        "fairaudit: error: --plot: needs matplotlib, which is not installed: pip install 'fairaudit[plot]'"
+        "fairaudit: error: --plot: needs matplotlib, which is not installed: pip install 'fairness-certify[plot]'"
     )

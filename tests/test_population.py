@@ -146,9 +146,9 @@ def test_a_probability_table_population_is_assumed_never_checked(tmp_path: Path)
     assert cert.spec.population.source == "assumed"
     xa = [a for a, _ in cert.assumptions if a.name == "X independent of A"]
     assert [a.status for a in xa] == ["assumed"] and "uniform, independent" in xa[0].detail
-    from fairaudit.report import certificate_dict, render
+    from fairaudit.report import render
 
-    text = render(certificate_dict(cert), "certify", "text")
+    text = render(cert.to_dict(), "certify", "text")
     assert "population P(X, A): assumed (uniform, independent)" in text
     assert "[checked] X independent of A" not in text
 
@@ -227,9 +227,9 @@ def test_calibrate_global_on_a_dependent_population_agrees_with_certify(
     cert = certify(spec)
     assert cert.calibration is not None and cert.calibration.epsilon == pytest.approx(eps, rel=1e-9)
     assert cert.calibration_targets == ("global",)
-    from fairaudit.report import certificate_dict, render
+    from fairaudit.report import render
 
-    text = render(certificate_dict(cert), "certify", "text")
+    text = render(cert.to_dict(), "certify", "text")
     assert f"would meet the global target {target:.6g} nats on L-bar for any model (black_box)" in text
 
 

@@ -332,7 +332,7 @@ def test_without_jinja2_the_format_says_what_to_install(monkeypatch, uci_audit, 
     monkeypatch.setitem(sys.modules, "jinja2", None)  # import jinja2 raises ImportError
     with pytest.raises(InputError) as e:
         render(uci_audit, "audit", "html")
-    assert e.value.field == "format" and "pip install 'fairaudit[html]'" in str(e.value)
+    assert e.value.field == "format" and "pip install 'fairness-certify[html]'" in str(e.value)
     spec = EXAMPLES / "llm_hiring" / "gpt35.toml"
     assert main(["certify", str(spec), "--format", "html", "--output", str(tmp_path / "r.html")]) == 2
     err = capsys.readouterr().err

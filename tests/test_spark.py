@@ -30,7 +30,7 @@ try:
     from pyspark.sql import types as T
 except ImportError:  # pragma: no cover - depends on the environment
     T = None
-    SKIP = "pyspark is not installed (pip install 'fairaudit[spark]')"
+    SKIP = "pyspark is not installed (pip install 'fairness-certify[spark]')"
 else:
     SKIP = None if shutil.which("java") else "no `java` on PATH: Spark's local mode needs a Java runtime"
 
@@ -390,7 +390,7 @@ def test_without_pyspark_fairaudit_imports_and_count_spark_says_how_to_install()
         "    print(exc)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "pyspark: is needed to count a Spark DataFrame: pip install 'fairaudit[spark]'"
+    assert out.stdout.strip() == "pyspark: is needed to count a Spark DataFrame: pip install 'fairness-certify[spark]'"
 
 
 @pytest.mark.spark

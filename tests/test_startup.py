@@ -30,8 +30,6 @@ HEAVY = (
     "pyspark",
     "torch",
     "jinja2",
-    "numba",  # the compiled pass over a law: imported on the first large table only
-    "llvmlite",
 )
 COMMANDS = ("certify", "audit", "calibrate", "plan", "experiment", "prepare-model")
 

@@ -164,6 +164,7 @@ BASE = SHORTLIST.read_text()
         (('population = [[["Emily", "engineering"], ["Lakisha", "sales"]]]', 'population = []'), "task.population: must list at least one combination of candidates"),
         (('candidates = 2\ndecision = "choose"', 'candidates = 1\ndecision = "rank"'), "task.decision: a ranking needs at least 2 candidates (got 'rank')"),
         (('values = ["Emily", "Lakisha"]', 'values = ["Emily", "Emily"]'), "attribute[0].values: values must be distinct as text; 'Emily' repeats"),
+        (('values = ["Emily", "Lakisha"]', 'values = [["Emily"], "Lakisha"]'), "attribute[0].values[1]: is a string, but values[0] is a list of 1 value: all values are of one kind (got 'Lakisha')"),
         (("[prompt]\n", "[prompt]\nuser = 'x'\n"), "is not valid TOML"),
     ],
 )  # fmt: skip

@@ -525,7 +525,7 @@ def test_missing_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "httpx", None)
     with pytest.raises(InputError) as info:
         ChatClient("http://127.0.0.1:8000/v1", "m")
-    assert str(info.value) == "vlm: needs pip install 'fairaudit[vlm]'"
+    assert str(info.value) == "vlm: needs pip install 'fairness-certify[vlm]'"
     # and the module itself imports without httpx and tenacity
     monkeypatch.setitem(sys.modules, "tenacity", None)
     path = Path(client_module.__file__)

@@ -24,12 +24,16 @@ import pytest
 
 import fairaudit
 from fairaudit.certify import certify
-from fairaudit.report import certificate_dict, render
+from fairaudit.report import render
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "llm_hiring" / "gpt35.toml"
 # what a clean clone does not hold (.gitignore): build outputs, caches, virtual environments
 NOT_IN_A_CLONE = (".git", "build", "dist", "*.egg-info", "__pycache__", ".*_cache", ".hypothesis", "*venv", "site")
+# the distribution is fairness-certify on PyPI (fairaudit there is another project); the wheel's file and
+# .dist-info names spell it normalized (PEP 427, PEP 503); the import package and the command stay fairaudit
+DISTRIBUTION = "fairness-certify"
+WHEEL_NAME = "fairness_certify"
 
 
 def _run(args, **kw):
@@ -45,7 +49,7 @@ def wheel(tmp_path_factory) -> Path:
     src = tmp_path_factory.mktemp("checkout") / "fairaudit"
     shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(*NOT_IN_A_CLONE))
     _run([sys.executable, "-m", "build", "--wheel", "--outdir", str(out), str(src)])
-    (found,) = out.glob("fairaudit-*.whl")
+    (found,) = out.glob(f"{WHEEL_NAME}-*.whl")
     return found
 
 
@@ -58,17 +62,22 @@ def test_version_is_written_once():
 
 @pytest.mark.wheel  # slow: left out of the default run; `python -m pytest -m wheel` (.ci/run) runs it
 def test_wheel_holds_the_package_and_nothing_else(wheel):
-    assert wheel.name.startswith(f"fairaudit-{fairaudit.__version__}-py3-none-any")
+    assert wheel.name == f"{WHEEL_NAME}-{fairaudit.__version__}-py3-none-any.whl"
     names = zipfile.ZipFile(wheel).namelist()
     top = {n.split("/")[0] for n in names}
-    assert top == {"fairaudit", f"fairaudit-{fairaudit.__version__}.dist-info"}
+    info = f"{WHEEL_NAME}-{fairaudit.__version__}.dist-info"
+    assert top == {"fairaudit", info}
     assert "fairaudit/cli/__init__.py" in names and "fairaudit/cli/certify.py" in names
     assert "fairaudit/worstcase/__init__.py" in names and "fairaudit/experiments/vlm/tasks.py" in names
     # the modules that became packages are gone (a stale ./build from an older checkout would bring them back)
     assert "fairaudit/cli.py" not in names and "fairaudit/worstcase.py" not in names
     assert "fairaudit/py.typed" in names  # PEP 561: type checkers use the shipped annotations
-    entry = zipfile.ZipFile(wheel).read(f"fairaudit-{fairaudit.__version__}.dist-info/entry_points.txt").decode()
+    entry = zipfile.ZipFile(wheel).read(f"{info}/entry_points.txt").decode()
     assert "fairaudit = fairaudit.cli:main" in entry
+    metadata = zipfile.ZipFile(wheel).read(f"{info}/METADATA").decode().splitlines()
+    assert f"Name: {DISTRIBUTION}" in metadata and f"Version: {fairaudit.__version__}" in metadata
+    # the extras name the distribution itself: [test] pulls [docs] from this wheel, not PyPI's other fairaudit
+    assert f'Requires-Dist: {DISTRIBUTION}[docs]; extra == "test"' in metadata
 
 
 @pytest.mark.wheel  # slow: left out of the default run; `python -m pytest -m wheel` (.ci/run) runs it
@@ -83,6 +92,12 @@ def test_wheel_installs_in_a_fresh_environment_and_certifies(wheel, tmp_path):
     out = _run([str(bindir / "fairaudit"), "certify", str(EXAMPLE), "--format", "json"], cwd=tmp_path).stdout
     where = _run([str(bindir / "python"), "-c", "import fairaudit; print(fairaudit.__file__)"], cwd=tmp_path).stdout
     assert str(env) in where
-    got, want = json.loads(out), json.loads(render(certificate_dict(certify(EXAMPLE)), "certify", "json"))
+    # installed under the distribution name, which provides the import package fairaudit
+    names = (
+        f"import importlib.metadata as m; print(m.version({DISTRIBUTION!r}), m.packages_distributions()['fairaudit'])"
+    )
+    installed = _run([str(bindir / "python"), "-c", names], cwd=tmp_path).stdout
+    assert installed == f"{fairaudit.__version__} [{DISTRIBUTION!r}]\n"
+    got, want = json.loads(out), json.loads(render(certify(EXAMPLE).to_dict(), "certify", "json"))
     assert got["certified"] is True
     assert got == want

@@ -1,7 +1,6 @@
 """Report formats: one module per rendering of the report dictionaries, behind one interface.
 
-The dictionaries of :mod:`fairaudit.report` (``certificate_dict``,
-``audit_dict``, ``calibration_dict``, ``plan_dict``) are the single
+The results' report dictionaries (their ``to_dict``) are the single
 intermediate; each :class:`Format` renders them as one string:
 :class:`~fairaudit._format.text.TextFormat`,
 :class:`~fairaudit._format.json.JsonFormat`,

@@ -20,7 +20,7 @@ KINDS = {
 
 
 class Format(ABC):
-    """A rendering of the report dictionaries (``fairaudit.report.*_dict``) as one string each.
+    """A rendering of the report dictionaries (each result's ``to_dict``) as one string each.
 
     A format has a :attr:`name` (the value of ``--format``) and one method per
     kind of report; :meth:`render` dispatches on the kind.
@@ -30,23 +30,23 @@ class Format(ABC):
 
     @abstractmethod
     def certificate(self, d: Report) -> str:
-        """The ``certify`` report of :func:`fairaudit.report.certificate_dict`."""
+        """The ``certify`` report of :meth:`fairaudit.certify.Certificate.to_dict`."""
 
     @abstractmethod
     def audit(self, d: Report) -> str:
-        """The ``audit`` report of :func:`fairaudit.report.audit_dict`."""
+        """The ``audit`` report of :meth:`fairaudit.audit.Audit.to_dict`."""
 
     @abstractmethod
     def calibration(self, d: Report) -> str:
-        """The ``calibrate`` report of :func:`fairaudit.report.calibration_dict`."""
+        """The ``calibrate`` report of :meth:`fairaudit.calibrate.Calibration.to_dict`."""
 
     @abstractmethod
     def plan(self, d: Report) -> str:
-        """The ``plan`` report of :func:`fairaudit.report.plan_dict`."""
+        """The ``plan`` report of one or more :meth:`fairaudit.plan.SamplePlan.to_dict` (``plans`` lists each method)."""
 
     @abstractmethod
     def worst_case(self, d: Report) -> str:
-        """The ``worst-case`` report of :func:`fairaudit.report.worst_case_dict`."""
+        """The ``worst-case`` report of :meth:`fairaudit.worst_case.SpecWorstUtility.to_dict`."""
 
     def render(self, d: Report, kind: str) -> str:
         """The report of kind ``kind`` (a key of :data:`KINDS`)."""

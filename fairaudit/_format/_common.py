@@ -36,6 +36,7 @@ __all__ = [
     "population_line",
     "target_rows",
     "where",
+    "without_label",
 ]
 
 
@@ -229,11 +230,25 @@ def interval(o: Report, key: str) -> str | None:
     return f"[{fmt(iv['lower'])}, {fmt(iv['upper'])}]" if iv else None
 
 
+def without_label(d: Report) -> bool:
+    """An audit of records without a context column: no true label, so no equalized-odds line in the reports.
+
+    Its one context (``all``) would make the equalized-odds gap the demographic-parity gap again; the JSON keeps
+    the key. A certificate's dictionaries have no ``context_columns``: their every metric is shown.
+    """
+    return d.get("context_columns") == []
+
+
 def metric_rows(o: Report) -> list[tuple[str, str, str, str, str | None]]:
-    """The observed metrics (:data:`METRICS`): (name, value, ratio or decision, where, interval or None)."""
+    """The observed metrics (:data:`METRICS`): (name, value, ratio or decision, where, interval or None).
+
+    An audit without a context column has no equalized-odds row (:func:`without_label`).
+    """
     det = o["details"]
     rows: list[tuple[str, str, str, str, str | None]] = []
     for key, name in METRICS:
+        if key == "equalized_odds" and without_label(o):
+            continue
         if key in ("local", "global"):
             f = o[key]
             rows.append((name, nats(f["value"]), f"ratio {fmt(f['ratio'])}", where(f), interval(o, key)))
@@ -426,13 +441,18 @@ def headline_note(d: Report) -> str | None:
 
 
 def gap_rows(d: Report) -> list[tuple[str, str, str]]:
-    """The gaps of E[g] (``--gap-on g``): (label, value, the pair and where), labelled apart from U's gaps."""
+    """The gaps of E[g] (``--gap-on g``): (label, value, the pair and where), labelled apart from U's gaps.
+
+    Without a context column, no equalized-odds row (:func:`without_label`).
+    """
     gaps = d["gaps_on_g"]
     rows = []
     for key, name in (
         ("demographic_parity", "demographic parity gap of g"),
         ("equalized_odds", "equalized odds gap of g"),
     ):
+        if key == "equalized_odds" and without_label(d):
+            continue
         gap = gaps[key]
         where = f" in context {gap['context']}" if key == "equalized_odds" else ""
         rows.append((name, fmt(gap["value"]), f"{gap['group']} vs {gap['other_group']}{where}"))

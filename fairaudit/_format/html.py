@@ -14,7 +14,7 @@ The page is made by a Jinja2 template with autoescaping on, so that every text
 from the data (a label ``<script>``, a title with ``&``) is shown as written;
 the only markup not escaped is the SVG that matplotlib writes (which escapes
 its own text). Jinja2 and matplotlib are the extra ``html`` (``pip install
-'fairaudit[html]'``); they are imported only when a page is made, and without
+'fairness-certify[html]'``); they are imported only when a page is made, and without
 them :class:`HtmlFormat` raises an :class:`~fairaudit.InputError` naming
 ``format``.
 """
@@ -169,7 +169,7 @@ def _libraries() -> tuple[Any, Any]:
     except ImportError:
         raise InputError(
             "format",
-            "html needs jinja2 and matplotlib, which are not installed: pip install 'fairaudit[html]'",
+            "html needs jinja2 and matplotlib, which are not installed: pip install 'fairness-certify[html]'",
         ) from None
     return jinja2, matplotlib
 

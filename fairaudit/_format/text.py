@@ -22,7 +22,9 @@ from ._common import (
     impact_tables,
     impact_title,
     measure,
+    metric_rows,
     nats,
+    observed_notes,
     outcome_rows,
     outcomes_more,
     pair,
@@ -212,42 +214,17 @@ def _bound_lines(d: Report) -> list[str]:
     return lines
 
 
-def _iv(o: Report, key: str) -> str:
-    iv = (o.get("intervals") or {}).get(key)
-    return f"  interval [{fmt(iv['lower'])}, {fmt(iv['upper'])}]" if iv else ""
-
-
 def _observed_lines(o: Report, head: str) -> list[str]:
     """The observed metrics under ``head``: value, where it is attained and its interval; notes; exclusions."""
     lines = [head]
-    for key, name in (("local", "local g-fairness L"), ("global", "global g-fairness L-bar")):
-        f = o[key]
-        lines.append(f"  {name:<28} {nats(f['value']):<18} ratio {fmt(f['ratio'])}{pair(f)}{_iv(o, key)}")
-    det = o["details"]
-    lines.append(
-        f"  {'demographic parity gap':<28} {fmt(o['demographic_parity']):<18}{pair(det['demographic_parity'])}"
-        f"{_iv(o, 'demographic_parity')}"
-    )
-    lines.append(
-        f"  {'equalized odds gap':<28} {fmt(o['equalized_odds']):<18}{pair(det['equalized_odds'])}"
-        f"{_iv(o, 'equalized_odds')}"
-    )
-    s = det["sup_local"]
-    lines.append(
-        f"  {'sup over g of L':<28} {nats(o['sup_local']):<18} decision {s['decision']}{pair(s)}{_iv(o, 'sup_local')}"
-    )
-    s = det["sup_global"]
-    lines.append(
-        f"  {'sup over g of L-bar':<28} {nats(o['sup_global']):<18} decision {s['decision']}{pair(s)}"
-        f"{_iv(o, 'sup_global')}"
-    )
-    for note in (o.get("intervals") or {}).get("notes", []):
-        lines.append(f"  intervals: {note}")
-    for note in o.get("excluded", [])[:10]:
-        lines.append(f"  excluded: {note}")
-    if len(o.get("excluded", [])) > 10:
-        lines.append(f"  ... and {len(o['excluded']) - 10} more exclusions")
-    return lines
+    for name, value, detail, at, iv in metric_rows(o):
+        lines.append(
+            f"  {name:<28} {value:<18}{' ' + detail if detail else ''}{f' ({at})' if at else ''}"
+            f"{f'  interval {iv}' if iv else ''}"
+        )
+    notes, excluded, more = observed_notes(o)
+    lines += [f"  intervals: {n}" for n in notes] + [f"  excluded: {e}" for e in excluded]
+    return lines + ([f"  ... and {more} more exclusions"] if more else [])
 
 
 def _target_lines(targets: Report) -> list[str]:

@@ -13,8 +13,9 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
 
 from .._errors import InputError
+from .._io import write_atomic
 from .._validation import real, whole
-from ..report import FORMATS, write_atomic
+from ..report import FORMATS
 
 if TYPE_CHECKING:
     from .._arrays import FloatArray

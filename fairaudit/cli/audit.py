@@ -7,7 +7,7 @@ import argparse
 from .._errors import InputError
 from .._format._common import records
 from .._validation import whole
-from ..report import audit_dict, render
+from ..report import render
 from ._common import Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
 
 
@@ -180,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         min_count=args.min_count,
     )
-    data = audit_dict(result)
+    data = result.to_dict()
     if args.by == "context":
         from .._small_cells import by_context_rows
 

@@ -6,7 +6,7 @@ import argparse
 from typing import Any
 
 from .._errors import InputError
-from ..report import calibration_dict, render
+from ..report import render
 from ._common import Subparsers, add_output, emit
 
 
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     cal = calibrate(
         args.target, target_impact_ratio=args.target_impact_ratio, kind=args.kind, method=args.method, **opts
     )
-    data = calibration_dict(cal)
+    data = cal.to_dict()
     summary = f"epsilon = {data['epsilon']}" if cal.feasible else f"no epsilon meets the target: {cal.reason}"
     emit(args, render(data, "calibrate", args.format), summary)
     return 0 if cal.feasible else 1

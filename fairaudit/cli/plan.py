@@ -3,10 +3,16 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from .._errors import InputError
+from .._json import Report
 from ..report import render
 from ._common import Subparsers, add_output, emit
+
+if TYPE_CHECKING:
+    from ..plan import SamplePlan
 
 # the flag of each keyword of fairaudit.plan.plan, to name it in errors
 _PLAN_FLAGS = {
@@ -91,7 +97,6 @@ def add_parser(sub: Subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit plan``; returns the exit status (1 when some method finds no sample size)."""
     from ..plan import plan
-    from ..report import plan_dict
 
     methods = ("clopper-pearson", "multinomial", "bayes") if args.method == "all" else (args.method,)
     plans = []
@@ -118,7 +123,25 @@ def run(args: argparse.Namespace) -> int:
             if exc.field not in _PLAN_FLAGS:
                 raise
             raise InputError(_PLAN_FLAGS[exc.field], exc.problem, exc.value) from None
-    data = plan_dict(plans)
+    data = _plans_dict(plans)
     summary = "; ".join(f"{p.method}: {p.n_per_cell if p.feasible else 'no n'}" for p in plans)
     emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")
     return 0 if data["feasible"] else 1
+
+
+def _plans_dict(plans: Sequence[SamplePlan]) -> Report:
+    """One ``plan`` JSON for plans of several methods (same inputs): the first's, every method's entry in ``plans``.
+
+    Keys: ``target``, ``confidence``, ``power``, ``kind``, ``groups``,
+    ``contexts``, ``base_rate``, ``disparity``, ``epsilon`` (``null`` without
+    a filter), ``seed``, ``max_n``, ``true_value`` (L or L̄ of the assumed law),
+    ``feasible`` (every plan found an n) and ``plans``: one entry per method
+    with ``method``, ``n_per_cell``, ``n_total`` (``null`` when infeasible),
+    ``achieved_power``, ``expected_upper`` (median upper end, nats),
+    ``datasets``, ``reason`` (``""`` when feasible), as in
+    :meth:`~fairaudit.plan.SamplePlan.to_dict`.
+    """
+    out = plans[0].to_dict()
+    out["feasible"] = all(p.feasible for p in plans)
+    out["plans"] = [entry for p in plans for entry in p.to_dict()["plans"]]
+    return out

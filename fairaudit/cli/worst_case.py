@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..report import render, worst_case_dict
+from ..report import render
 from ._common import Subparsers, add_output, emit, nonneg
 
 
@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from ..worst_case import spec_worst_utility
 
     result = spec_worst_utility(args.spec, lower=args.lower, gamma=args.gamma, tau=args.tau, method=args.method)
-    data = worst_case_dict(result)
+    data = result.to_dict()
     summary = f"worst case: L = {data['local']['value']} nats, L-bar = {data['global']['value']} nats"
     emit(args, render(data, "worst-case", args.format), summary)
     return 0

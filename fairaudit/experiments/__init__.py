@@ -10,13 +10,11 @@
 
 * :mod:`fairaudit.experiments.navigation`: S3DIS-format scans to top-view,
   traversability and topological maps, A* candidate routes and route images
-  (extra ``fairaudit[navigation]``).
+  (extra ``fairness-certify[navigation]``).
 * :mod:`fairaudit.experiments.vlm`: the paper's prompts, the privacy filter on
   profile attributes, decision models (an OpenAI-compatible chat-completions
-  client and simulated models) and reply parsing (extra ``fairaudit[vlm]``).
+  client and simulated models) and reply parsing (extra ``fairness-certify[vlm]``).
 
 The adapters only produce decision tables P(U | X̃, Ã) with counts; the core
-certifies them. Nothing here is imported by ``import fairaudit``. This
-package was ``fairaudit.plugins`` before; that name still imports, with a
-:class:`DeprecationWarning`.
+certifies them. Nothing here is imported by ``import fairaudit``.
 """

@@ -38,7 +38,6 @@ import numpy as np
 import numpy.typing as npt
 
 from .._arrays import FloatArray
-from .._deprecated import renamed
 from .._errors import InputError
 from .._json import Report, number
 from .._validation import real
@@ -369,8 +368,6 @@ class PaperDesignPoint:
         L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (x, a) of ``law``
         (:func:`fairaudit.utility_range.fairness_range` of the law itself: the filter is in the queries), next to
         the value under the stated default, which is ``local_fairness`` and ``global_fairness``.
-    local, global_
-        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
 
     epsilon: float
@@ -380,9 +377,6 @@ class PaperDesignPoint:
     global_fairness: Fairness
     intervals: FairnessIntervals | None
     unparsed_range: UtilityRange
-
-    local = renamed[Fairness]("local_fairness")
-    global_ = renamed[Fairness]("global_fairness")
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -411,8 +405,6 @@ class PointResult:
     bound_ranges : dict of str to BoundRange
         ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
         same utilities of the unparsed reply (:func:`bound_ranges`; its upper end is the bound as stated).
-    local, global_
-        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
 
     epsilon: float
@@ -427,9 +419,6 @@ class PointResult:
     corollary: float
     unparsed_range: UtilityRange
     bound_ranges: dict[str, BoundRange] = field(default_factory=dict)
-
-    local = renamed[Fairness]("local_fairness")
-    global_ = renamed[Fairness]("global_fairness")
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

@@ -33,7 +33,7 @@ does not keep to the JSON format (its first token is ``{``, ``"``, ``I``,
 reply has no exact law that one forward pass can give. A task file's prompt
 is sent as it is written.
 
-torch and transformers are imported only where used (``pip install 'fairaudit[local-model]'``).
+torch and transformers are imported only where used (``pip install 'fairness-certify[local-model]'``).
 """
 
 from __future__ import annotations
@@ -320,7 +320,9 @@ def _require() -> tuple[Any, Any]:
         import torch
         import transformers
     except ImportError:
-        raise InputError("local_model", "needs torch and transformers: pip install 'fairaudit[local-model]'") from None
+        raise InputError(
+            "local_model", "needs torch and transformers: pip install 'fairness-certify[local-model]'"
+        ) from None
     return torch, transformers
 
 

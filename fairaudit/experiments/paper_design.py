@@ -40,7 +40,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._deprecated import renamed
 from .._errors import InputError
 from .._io import write_atomic
 from .._json import Report, number
@@ -216,8 +215,6 @@ class DesignPoint:
         ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
         same utilities (:func:`fairaudit.experiments.analysis.bound_ranges_from`; the upper end is the bound as
         stated, and the lower end NaN, with the reason, when it needs a mechanism too large to build).
-    local, global_
-        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
 
     epsilon: float
@@ -230,9 +227,6 @@ class DesignPoint:
     bounds: DesignBounds
     unparsed_range: UtilityRange
     bound_ranges: dict[str, BoundRange]
-
-    local = renamed[Fairness]("local_fairness")
-    global_ = renamed[Fairness]("global_fairness")
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

@@ -28,10 +28,9 @@ import dataclasses
 import math
 import sys
 import time
-import warnings
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias, TypedDict
 
@@ -567,7 +566,8 @@ def _claim(out: Path) -> Iterator[Path]:
         from filelock import FileLock, Timeout
     except ImportError:
         raise InputError(
-            "out", "one run per folder needs filelock, which is not installed: pip install 'fairaudit[experiment]'"
+            "out",
+            "one run per folder needs filelock, which is not installed: pip install 'fairness-certify[experiment]'",
         ) from None
     out.mkdir(parents=True, exist_ok=True)  # with its missing parents, as `mkdir -p`
     path = out / LOCK_NAME
@@ -586,10 +586,6 @@ def _claim(out: Path) -> Iterator[Path]:
         lock.release()
 
 
-_SOURCE_FIELDS = frozenset(f.name for f in fields(ModelSource))
-_OPTION_FIELDS = frozenset(f.name for f in fields(RunOptions))
-
-
 def run_experiment(
     experiment: str,
     out: str | Path,
@@ -598,7 +594,6 @@ def run_experiment(
     *,
     progress: bool = True,
     log: Callable[[str], None] | None = None,
-    **deprecated: Any,
 ) -> ExperimentRun:
     """Run one of the paper's delivery experiments and write its report to ``out``.
 
@@ -626,10 +621,6 @@ def run_experiment(
         serving), and with the equal-distance check's line when route images
         are made ("route lengths 6.97 m, 6.93 m: 0.6% apart, within the
         tolerance 5%"); default none.
-    **deprecated
-        The keyword arguments of earlier versions (``simulated=``,
-        ``samples=``, ...: the fields of :class:`ModelSource` and
-        :class:`RunOptions`), still accepted with a :class:`DeprecationWarning`.
 
     Returns
     -------
@@ -665,8 +656,6 @@ def run_experiment(
     ...     done.summary.planned, done.analysis.model, (done.out / "report.md").is_file()
     (12, 'fair', True)
     """
-    if deprecated:
-        source, options = _from_keywords(source, options, deprecated)
     source = ModelSource() if source is None else source
     options = RunOptions() if options is None else options
     task = get_task(experiment)
@@ -695,26 +684,6 @@ def _task_defaults(task: DeliveryTask, options: RunOptions) -> RunOptions:
         else:
             changes["keeps"] = task.keeps if task.keeps is not None else DEFAULT_KEEPS
     return dataclasses.replace(options, **changes) if changes else options
-
-
-def _from_keywords(
-    source: ModelSource | None, options: RunOptions | None, keywords: dict[str, Any]
-) -> tuple[ModelSource, RunOptions]:
-    """The source and options the keyword arguments of earlier versions name (with a DeprecationWarning)."""
-    unknown = sorted(set(keywords) - _SOURCE_FIELDS - _OPTION_FIELDS)
-    if unknown:
-        raise TypeError(f"run_experiment() got an unexpected keyword argument {unknown[0]!r}")
-    if source is not None or options is not None:
-        raise TypeError("run_experiment() takes source and options, or the keyword arguments of old, not both")
-    warnings.warn(
-        "run_experiment(experiment, out, simulated=..., samples=..., ...) is deprecated: pass "
-        "run_experiment(experiment, out, ModelSource(...), RunOptions(...)) "
-        "(fairaudit.experiments.options)",
-        DeprecationWarning,
-        stacklevel=3,
-    )
-    source = ModelSource(**{k: v for k, v in keywords.items() if k in _SOURCE_FIELDS})
-    return source, RunOptions(**{k: v for k, v in keywords.items() if k in _OPTION_FIELDS})
 
 
 @dataclass(frozen=True, eq=False)
@@ -902,7 +871,7 @@ def _run_sampled(
     log: Callable[[str], None] | None,
 ) -> ExperimentRun:
     """The sampled route: ask the queries through the log, then analyse and write the report when all are answered."""
-    from ..report import write_atomic
+    from .._io import write_atomic
 
     out, eps = plan.out, plan.common["epsilons"]
     for i, png in enumerate(plan.images, start=1):
@@ -1404,7 +1373,7 @@ def _ask_cells(
 
 
 def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
-    from ..report import write_atomic
+    from .._io import write_atomic
     from .report import (
         candidate_frame,
         experiment_dict,

@@ -17,7 +17,6 @@ import numpy as np
 import numpy.typing as npt
 
 from .._arrays import BoolArray, FloatArray, IntArray, format_label, safe_log
-from .._deprecated import renamed
 from .._errors import InputError
 from .._json import Report, pair_dict
 from .._validation import nonnegative
@@ -147,8 +146,6 @@ class WorstModel:
     excluded : tuple of str
         Contexts left out (P(X = x) = 0).
     assumptions : tuple of Assumption
-    local, global_
-        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
 
     local_fairness: WorstCase
@@ -161,9 +158,6 @@ class WorstModel:
     excluded: tuple[str, ...]
     assumptions: tuple[Assumption, ...]
 
-    local = renamed[WorstCase]("local_fairness")
-    global_ = renamed[WorstCase]("global_fairness")
-
     def to_dict(self, reason: str = "") -> Report:
         """The report dictionary: the worst case for L, ``global`` for L̄ and ``worst_model``, the kernel for L.
 
@@ -171,7 +165,7 @@ class WorstModel:
         ----------
         reason : str
             Why this bound is reported as it is (a certificate's
-            ``black_box_reason``); replaces the local worst case's own ``reason``.
+            ``omitted["black_box"]``, or what its bound is); replaces the local worst case's own ``reason``.
         """
         out = self.local_fairness.to_dict()
         out["reason"] = reason

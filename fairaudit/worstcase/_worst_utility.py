@@ -13,7 +13,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._arrays import BoolArray, FloatArray, IntArray, format_label, safe_log
-from .._deprecated import renamed
 from .._errors import InputError
 from .._json import Report, label, number
 from ..laws import Law, Population
@@ -37,8 +36,6 @@ class WorstUtility:
     tau : float or None
     population : Population
     excluded : tuple of str
-    local, global_
-        Deprecated read-only aliases of ``local_fairness`` and ``global_fairness`` (each warns).
     """
 
     local_fairness: WorstCase
@@ -49,9 +46,6 @@ class WorstUtility:
     tau: float | None
     population: Population
     excluded: tuple[str, ...]
-
-    local = renamed[WorstCase]("local_fairness")
-    global_ = renamed[WorstCase]("global_fairness")
 
     def to_dict(self) -> Report:
         """The report dictionary: the class, the law's decisions, and the worst utility of L (``local``) and of L̄.

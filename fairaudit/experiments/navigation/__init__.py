@@ -1,4 +1,4 @@
-"""Robot navigation plug-in: S3DIS scans, maps, routes through the rooms and route images (extra ``fairaudit[navigation]``).
+"""Robot navigation plug-in: S3DIS scans, maps, routes through the rooms and route images (extra ``fairness-certify[navigation]``).
 
 The map pipeline of the paper's Methods, on point clouds in the S3DIS format
 (Armeni et al. 2016):

@@ -62,7 +62,7 @@ def _pillow() -> tuple[ModuleType, ModuleType, ModuleType]:
         from PIL import Image, ImageDraw, ImageFont
     except ImportError:
         raise InputError(
-            "navigation", "needs pillow, which is not installed: pip install 'fairaudit[navigation]'"
+            "navigation", "needs pillow, which is not installed: pip install 'fairness-certify[navigation]'"
         ) from None
     return Image, ImageDraw, ImageFont
 
@@ -347,7 +347,7 @@ def save_route_image(
     scale: int | None = None,
     window: Window | None = None,
 ) -> None:
-    """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit.report.write_atomic`).
+    """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit._io.write_atomic`).
 
     Parameters
     ----------
@@ -378,7 +378,7 @@ def save_route_image(
     ...     Path(tmp, "hr1.png").read_bytes() == route_image(maps, route, 1, scale=2)
     True
     """
-    from ...report import write_atomic
+    from ..._io import write_atomic
 
     if Path(path).suffix.lower() != ".png":
         raise InputError("path", "must end in .png", str(path))

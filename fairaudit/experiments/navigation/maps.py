@@ -61,7 +61,7 @@ def require_networkx() -> ModuleType:
         import networkx
     except ImportError:
         raise InputError(
-            "navigation", "needs networkx, which is not installed: pip install 'fairaudit[navigation]'"
+            "navigation", "needs networkx, which is not installed: pip install 'fairness-certify[navigation]'"
         ) from None
     return networkx
 

@@ -1,1 +1,1 @@
-"""VLM querying plug-in: prompts, privacy filter, decision models and reply parsing (extra ``fairaudit[vlm]``)."""
+"""VLM querying plug-in: prompts, privacy filter, decision models and reply parsing (extra ``fairness-certify[vlm]``)."""

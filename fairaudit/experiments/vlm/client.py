@@ -14,7 +14,7 @@ LM Studio, ...), with
 * the API key sent only as ``Authorization: Bearer ...``: it never appears in
   an error message, a ``repr``, a log record or a returned object.
 
-It needs the extra ``fairaudit[vlm]`` (httpx and tenacity), imported when a
+It needs the extra ``fairness-certify[vlm]`` (httpx and tenacity), imported when a
 client is built, so this module imports without them.
 """
 
@@ -65,7 +65,7 @@ def _require_extra() -> tuple[ModuleType, ModuleType]:
         import httpx
         import tenacity
     except ImportError:
-        raise InputError("vlm", "needs pip install 'fairaudit[vlm]'") from None
+        raise InputError("vlm", "needs pip install 'fairness-certify[vlm]'") from None
     return httpx, tenacity
 
 
@@ -222,7 +222,7 @@ class ChatClient:
         ``--endpoint``, ``--model``, ``--timeout``, ``--max-retries``,
         ``--backoff``, ``--max-backoff``, ``--concurrency``,
         ``--temperature``, ``--top-p``, ``--max-tokens``; or ``api_key``, ``top_logprobs``, ``extra_body``),
-        or ``vlm: needs pip install 'fairaudit[vlm]'`` when httpx or tenacity
+        or ``vlm: needs pip install 'fairness-certify[vlm]'`` when httpx or tenacity
         is missing.
 
     Notes

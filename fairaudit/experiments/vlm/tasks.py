@@ -611,7 +611,7 @@ def _environment() -> Any:
         from jinja2.sandbox import ImmutableSandboxedEnvironment
     except ImportError:
         raise InputError(
-            "prompt", "needs jinja2, which is not installed: pip install 'fairaudit[experiment]'"
+            "prompt", "needs jinja2, which is not installed: pip install 'fairness-certify[experiment]'"
         ) from None
 
     class PromptUndefined(StrictUndefined):

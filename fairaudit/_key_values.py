@@ -146,6 +146,7 @@ def check_key_values(
     for name, found in distinct.items():
         if found is not None:
             _check_control(name, *found, n, locate)
+            _check_spellings(name, *found, n, locate)
     found = distinct.get(outcome)
     if found is not None and not mixed_outcome:
         _check_mixed(outcome, *found, n, locate)
@@ -293,6 +294,50 @@ def _check_mixed(
         "outcomes of their own (a rank and 'unranked'), say so with `mixed_outcome`",
         str(hits[0][1]),
     )
+
+
+def _check_spellings(
+    name: str,
+    codes: npt.NDArray[np.intp],
+    uniques: npt.NDArray[np.object_],
+    n: npt.NDArray[Any] | None,
+    locate: Locate,
+) -> None:
+    """Refuse one number (or boolean) written two ways in a column of text: ``1`` and ``1.0``, ``01`` and ``1``,
+    ``True`` and ``true``. Each distinct text is a label of its own, so they would be two groups, or two outcomes
+    of which one misses ``positive``: a silent wrong number."""
+    text = _text(uniques)
+    number = _numbers(uniques, text)
+    if number.sum() < 2 or not text.any():
+        return
+    values = uniques[number]
+    meaning = [_meaning(v) for v in values]
+    first: dict[object, int] = {}
+    for i, m in enumerate(meaning):
+        j = first.setdefault(m, i)
+        if j != i:
+            same = sorted({str(values[j]), *(str(v) for v, m2 in zip(values, meaning) if m2 == m)})
+            break
+    else:
+        return
+    bad = np.isin(np.asarray([str(v) for v in uniques], dtype=object), same) & number
+    mask = bad[codes] & (codes >= 0)
+    hits = locate(name, mask)
+    shown = ", ".join(echo(v) for v in same[:3]) + (", ..." if len(same) > 3 else "")
+    raise InputError(
+        f"column {echo(name)}",
+        f"writes one value several ways ({shown}), in {_rows(hits)} ({_CONVENTION}): each text is a label of its "
+        "own, so they would count as different groups or outcomes; write each value one way",
+        str(hits[0][1]),
+    )
+
+
+def _meaning(value: object) -> object:
+    """What a number or boolean (or text reading as one) stands for: the float, or the boolean."""
+    if isinstance(value, str):
+        word = value.strip().lower()
+        return ("boolean", word == "true") if word in {"true", "false"} else ("number", float(word))
+    return ("boolean", value) if isinstance(value, bool) else ("number", float(value))  # type: ignore[arg-type]
 
 
 def _list(values: Sequence[str]) -> str:

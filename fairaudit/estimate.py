@@ -595,8 +595,10 @@ def count_file(
       value is such an integer or a float as DuckDB writes it (``2.5``,
       ``1e-05``) and no two are the same number, else **text**. So a label
       prints as its field, or as its number (``2`` beside ``2.5``: ``2.0``),
-      and two different fields are never one label (``01`` and ``1`` stay
-      text, as do ``true`` and ``True``). A record shorter than the first is
+      and two different fields are never one label: one number or boolean
+      written two ways in a column (``01`` and ``1``, ``1`` and ``1.0``,
+      ``true`` and ``True``) is refused, naming its rows (as two labels it
+      would be two groups, or an outcome ``positive`` misses). A record shorter than the first is
       padded with missing values; a longer one is refused, naming its line.
 
     Nothing but DuckDB reads the file: text compressed with bzip2, xz or zip

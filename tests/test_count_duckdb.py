@@ -154,6 +154,23 @@ def typed(fields) -> dict:
     return {f: f for f in fields}
 
 
+def _written_twice(fields) -> bool:
+    """Whether two distinct fields are one decimal number or one boolean (``01`` and ``1``, ``True`` and ``true``)."""
+    meanings = set()
+    for f in set(fields):
+        word = f.strip().lower()
+        if word in ("true", "false"):
+            meaning = ("boolean", word)
+        elif re.fullmatch(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?", word):
+            meaning = ("number", float(word))
+        else:
+            continue
+        if meaning in meanings:
+            return True
+        meanings.add(meaning)
+    return False
+
+
 FIELDS = [
     "0", "1", "7", "-3", "10", "9223372036854775807", "9223372036854775808",  # integers (the last beyond int64)
     "01", "-0", "+1", " 1", "1 ", "1_000", "0x10",  # not as DuckDB writes an integer
@@ -189,6 +206,11 @@ def test_text_columns_are_labelled_by_the_rule(tmp_path, case, sep, newline):
             [r[j] for r in rows if r[j] not in missing] for j in range(n_cols)
         ]  # a column's type: all its values
         fmt = CsvFormat(sep=sep, na_values=na_values)
+        twice = [f"c{j}" for j in range(n_cols) if _written_twice(present[j])]
+        if twice:  # one number or boolean written two ways: refused, naming a column that does it
+            problem = str(_error(count_file, path, csv=fmt, **kw))
+            assert re.match(r"column 'c\d': writes one value several ways", problem) and problem[8:10] in twice
+            return
         if not kept:
             assert str(_error(count_file, path, csv=fmt, **kw)) == "DATA: has no records to count"
             return
@@ -209,12 +231,11 @@ def test_text_columns_are_labelled_by_the_rule(tmp_path, case, sep, newline):
 @pytest.mark.parametrize(
     "text, groups",
     [
-        ("g,y\n01,1\n1,0\n001,1\n", ("001", "01", "1")),  # leading zeros: text, never one number
+        ("g,y\n01,1\n2,0\n007,1\n", ("007", "01", "2")),  # leading zeros: text, never a number
         ("g,y\n2,1\n10,0\n-3,1\n", (-3, 2, 10)),  # integers sort as numbers
+        ("g,y\nTrue,1\nFALSE,0\n", ("FALSE", "True")),  # booleans are text
         ("g,y\n2,1\n2.5,0\n10,1\n", (2.0, 2.5, 10.0)),  # floats
-        ("g,y\n2,1\n2.0,0\n", ("2", "2.0")),  # two fields of one number: text
         ("g,y\n1,1\n,0\n2,1\n", (1, 2)),  # a missing value leaves integers integers
-        ("g,y\nTrue,1\nFALSE,0\ntrue,1\n", ("FALSE", "True", "true")),  # booleans are text
         ("g,y\nNA,1\nnan,0\n-nan,1\nNULL,1\n<NA>,1\n#N/A,0\na,1\n", ("a",)),  # the missing-value markers
         ('g,y\n"",1\n"NA",0\na,1\n', ("a",)),  # quoted markers are missing too
         ('g,y\n"a, b",1\n"say ""hi""",0\nb,1\n', ("a, b", "b", 'say "hi"')),  # quoted separator and quote
@@ -231,6 +252,22 @@ def test_tricky_text_fields(tmp_path, text, groups):
     path.write_bytes(text.encode())
     t = count_file(path, sensitive="g", outcome="y", dropna=True, mixed_outcome=True)
     assert _describe(t.groups) == _describe(groups)
+
+
+@pytest.mark.parametrize(
+    "text, shown",
+    [
+        ("g,y\n01,1\n1,0\n001,1\n", "('001', '01', '1'), in data rows 1, 2, 3"),
+        ("g,y\n2,1\n2.0,0\n", "('2', '2.0'), in data rows 1, 2"),
+        ("g,y\nTrue,1\nFALSE,0\ntrue,1\n", "('True', 'true'), in data rows 1, 3"),
+    ],
+)
+def test_one_value_written_two_ways_in_a_text_file_is_refused(tmp_path, text, shown):
+    """Two fields, one number (or boolean): as two labels they would be two groups, so the file is refused."""
+    path = tmp_path / "r.csv"
+    path.write_text(text)
+    problem = str(_error(count_file, path, sensitive="g", outcome="y"))
+    assert problem.startswith(f"column 'g': writes one value several ways {shown} (data rows count from 1")
 
 
 def test_spaces_around_a_quoted_field_are_dropped_and_kept_around_others(tmp_path):
@@ -353,9 +390,9 @@ def test_larger_csv_written_by_the_csv_module(tmp_path):
 
 def test_read_records_gives_the_labels_counted(tmp_path):
     path = tmp_path / "r.csv"
-    path.write_text("g,y,w\n01,1,0.5\n1,,2\nx,3,1\n")
+    path.write_text("g,y,w\n01,1,0.5\n2,,2\nx,3,1\n")
     frame = read_records(path)
-    assert frame["g"].tolist() == ["01", "1", "x"]
+    assert frame["g"].tolist() == ["01", "2", "x"]
     assert str(frame["y"].dtype) == "Int64" and frame["y"].tolist()[::2] == [1, 3] and frame["y"].isna().tolist()[1]
     assert frame["w"].tolist() == [0.5, 2.0, 1.0]
     kw = dict(sensitive="g", outcome="y", dropna=True)

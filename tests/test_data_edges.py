@@ -277,3 +277,34 @@ def test_a_long_text_value_among_numbers_is_quoted_cut_with_its_length():
         audit(frame, sensitive=["g"], outcome="u", positive="1")
     message = str(info.value)
     assert long not in message and "(5000 characters)" in message and len(message) < 1000
+
+
+# One number written two ways: each text a label of its own. '1.0' beside '1' as an outcome would have g = 0 under
+# --positive 1 (group a: 1 hired of 2 instead of 2 of 2); '01' beside '1' as a group, two groups.
+@pytest.mark.parametrize(
+    ("column", "values", "shown", "rows"),
+    [
+        ("hired", ["1", "1.0", "0", "1"], "('1', '1.0')", "data rows 1, 2, 4"),
+        ("race", ["01", "1", "b", "b"], "('01', '1')", "data rows 1, 2"),
+        ("race", ["-0", "0", "b", "b"], "('-0', '0')", "data rows 1, 2"),
+        ("race", ["True", "true", "b", "b"], "('True', 'true')", "data rows 1, 2"),
+    ],
+)
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_one_value_written_two_ways_exits_2_naming_the_rows(tmp_path, capsys, column, values, shown, rows, suffix):
+    frame = pd.DataFrame({"race": ["a", "a", "b", "b"], "hired": ["1", "0", "0", "1"]})
+    frame[column] = values
+    path = tmp_path / f"r{suffix}"
+    frame.to_parquet(path) if suffix == ".parquet" else frame.to_csv(path, index=False)
+    code, _, err = run(capsys, "audit", path, "--sensitive", "race", "--outcome", "hired", "--positive", "1")
+    assert code == 2 and err.startswith(f"fairaudit: error: column '{column}': writes one value several ways {shown}, ")
+    assert f"in {rows} (data rows count from 1" in err and err.count("\n") == 1
+    with pytest.raises(InputError, match=r"writes one value several ways"):
+        count_records(frame, sensitive="race", outcome="hired")
+
+
+def test_numbers_each_written_one_way_and_a_number_beside_text_are_labels():
+    """'1' and '2', '1' and 'true' (a number and a boolean), '012' and '5': distinct values, so no refusal."""
+    for values in (["1", "2", "2", "1"], ["1", "true", "true", "1"], ["012", "5", "5", "012"]):
+        frame = pd.DataFrame({"race": values, "hired": [1, 0, 1, 0]})
+        assert count_records(frame, sensitive="race", outcome="hired").groups == tuple(sorted(set(values)))

@@ -182,6 +182,8 @@ def run_page(tree: Path, page: docs.Page, all_pages: list[docs.Page]) -> dict[st
                 content: object = _normal(path.read_text(encoding="utf-8"), folder)
             except UnicodeDecodeError:
                 content = f"sha256:{digest}"
+            if isinstance(content, str) and name.endswith(".jsonl"):  # a log of concurrent queries: in answer order
+                content = "\n".join(sorted(content.splitlines()))
             record[f"{page.path} file {name}"] = {"content": content}
     return record
 

@@ -19,9 +19,15 @@ from typing import TYPE_CHECKING, Any
 from ._errors import FairauditError, InputError
 
 if TYPE_CHECKING:  # what type checkers see; at run time each name is imported when first used (_SOURCES)
+    from ._arrays import format_label
+    from ._figure import mark_infinite
+    from ._io import write_atomic
+    from ._json import number
+    from ._toml import FieldProblem, distinct_labels, parse_toml, validation_error
+    from ._validation import choice, number_type, real, whole
     from .audit import Audit, audit, utility_from_expression
     from .bounds import Assumption, Bound, corollary_bound, main_theorem, main_theorem_tight, paper_bound, tight_bound
-    from .calibrate import Calibration, calibrate_randomized_response
+    from .calibrate import Calibration, calibrate, calibrate_randomized_response
     from .certify import Certificate, certify
     from .curves import PrivacyCurve, privacy_curve
     from .estimate import CountTable, CsvFormat, count_file, count_records, count_table, read_records
@@ -29,6 +35,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name is imported w
     from .intervals import FairnessIntervals, Interval, fairness_intervals
     from .laws import Kernel, Law, Population, compose
     from .metrics import (
+        Fairness,
         demographic_parity,
         equalized_odds,
         expected_utility,
@@ -38,18 +45,23 @@ if TYPE_CHECKING:  # what type checkers see; at run time each name is imported w
         sup_local_fairness,
     )
     from .plan import SamplePlan, plan
+    from .plot import plot_curve, save_figure
     from .privacy import (
         Mechanism,
         MechanismFamily,
+        epsilon_from_keep_probability,
         from_matrix,
         identity,
+        keep_probability,
         product,
         product_family,
         randomized_response,
         randomized_response_family,
+        split_by_keep,
     )
     from .spec import Spec, load_spec, parse_spec
     from .utility import Utility, from_function, from_table, indicator
+    from .utility_range import UtilityRange, fairness_range
     from .worstcase import (
         BlackBoxCertificate,
         WorstCase,
@@ -74,16 +86,20 @@ __all__ = [
     "Population",
     "Utility",
     "compose",
+    "epsilon_from_keep_probability",
     "from_function",
     "from_matrix",
     "from_table",
     "identity",
     "indicator",
+    "keep_probability",
     "product",
     "product_family",
     "randomized_response",
     "randomized_response_family",
+    "split_by_keep",
     # exact metrics
+    "Fairness",
     "demographic_parity",
     "equalized_odds",
     "expected_utility",
@@ -99,11 +115,13 @@ __all__ = [
     "ImpactRatios",
     "Interval",
     "SamplePlan",
+    "UtilityRange",
     "audit",
     "count_file",
     "count_records",
     "count_table",
     "fairness_intervals",
+    "fairness_range",
     "impact_ratios",
     "plan",
     "read_records",
@@ -132,7 +150,25 @@ __all__ = [
     "worst_utility",
     # calibration
     "Calibration",
+    "calibrate",
     "calibrate_randomized_response",
+    # figures
+    "mark_infinite",
+    "plot_curve",
+    "save_figure",
+    # what the core shares with plug-ins (fairaudit.experiments): argument checks, TOML tables, labels and numbers
+    # as reports show them, atomic writes
+    "FieldProblem",
+    "choice",
+    "distinct_labels",
+    "format_label",
+    "number",
+    "number_type",
+    "parse_toml",
+    "real",
+    "validation_error",
+    "whole",
+    "write_atomic",
 ]
 
 
@@ -140,6 +176,12 @@ __all__ = [
 # numpy, pandas, scipy or cvxpy); the first use of a name imports its module (PEP 562). A test checks that this
 # table and the TYPE_CHECKING imports above list the same names.
 _SOURCES: dict[str, tuple[str, ...]] = {
+    "_arrays": ("format_label",),
+    "_figure": ("mark_infinite",),
+    "_io": ("write_atomic",),
+    "_json": ("number",),
+    "_toml": ("FieldProblem", "distinct_labels", "parse_toml", "validation_error"),
+    "_validation": ("choice", "number_type", "real", "whole"),
     "audit": ("Audit", "audit", "utility_from_expression"),
     "bounds": (
         "Assumption",
@@ -150,7 +192,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "paper_bound",
         "tight_bound",
     ),
-    "calibrate": ("Calibration", "calibrate_randomized_response"),
+    "calibrate": ("Calibration", "calibrate", "calibrate_randomized_response"),
     "certify": ("Certificate", "certify"),
     "curves": ("PrivacyCurve", "privacy_curve"),
     "estimate": ("CountTable", "CsvFormat", "count_file", "count_records", "count_table", "read_records"),
@@ -158,6 +200,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
     "intervals": ("FairnessIntervals", "Interval", "fairness_intervals"),
     "laws": ("Kernel", "Law", "Population", "compose"),
     "metrics": (
+        "Fairness",
         "demographic_parity",
         "equalized_odds",
         "expected_utility",
@@ -167,18 +210,23 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "sup_local_fairness",
     ),
     "plan": ("SamplePlan", "plan"),
+    "plot": ("plot_curve", "save_figure"),
     "privacy": (
         "Mechanism",
         "MechanismFamily",
+        "epsilon_from_keep_probability",
         "from_matrix",
         "identity",
+        "keep_probability",
         "product",
         "product_family",
         "randomized_response",
         "randomized_response_family",
+        "split_by_keep",
     ),
     "spec": ("Spec", "load_spec", "parse_spec"),
     "utility": ("Utility", "from_function", "from_table", "indicator"),
+    "utility_range": ("UtilityRange", "fairness_range"),
     "worstcase": (
         "BlackBoxCertificate",
         "WorstCase",
@@ -209,9 +257,9 @@ def __dir__() -> list[str]:
 class _Package(types.ModuleType):
     """The package's module type: ``fairaudit.audit`` stays the function when the module ``fairaudit.audit`` loads.
 
-    Importing a submodule binds it as an attribute of its package. Three submodules share their name with the
-    function they define (``audit``, ``certify``, ``plan``); the function is what ``fairaudit.audit`` has always
-    been, whichever is imported first.
+    Importing a submodule binds it as an attribute of its package. Four submodules share their name with the
+    function they define (``audit``, ``calibrate``, ``certify``, ``plan``); the function is what ``fairaudit.audit``
+    has always been, whichever is imported first.
     """
 
     def __setattr__(self, name: str, value: Any) -> None:

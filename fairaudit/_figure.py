@@ -73,6 +73,15 @@ def mark_infinite(ax: Axes, x: npt.ArrayLike, color: Any, **style: Any) -> None:
         The marker's colour (that of the series).
     **style
         Further :meth:`~matplotlib.axes.Axes.plot` keywords (e.g. ``ms``).
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> ax = Figure().add_subplot()
+    >>> mark_infinite(ax, [1.0, 2.0], "tab:red")
+    >>> mark_infinite(ax, [3.0], "tab:blue")  # the label and the legend entry once per axes
+    >>> [t.get_text() for t in ax.texts], ax.get_legend_handles_labels()[1]
+    (['+∞'], ['+∞ (drawn at the top edge)'])
     """
     xs = np.asarray(x, dtype=float)
     if xs.size == 0:

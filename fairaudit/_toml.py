@@ -33,12 +33,27 @@ __all__ = [
 
 
 def parse_toml(text: str, source: str) -> dict[str, Any]:
-    """The TOML document ``text`` as a dictionary.
+    """The TOML document ``text`` as a dictionary (read by :mod:`tomllib`), with a one-line error.
+
+    Parameters
+    ----------
+    text : str
+    source : str
+        Where the text came from (a file's name), the field of the error.
 
     Raises
     ------
     InputError
         Field ``source``: not valid TOML, or nested too deeply to read.
+
+    Examples
+    --------
+    >>> parse_toml('epsilon = 1.5', "spec.toml")
+    {'epsilon': 1.5}
+    >>> parse_toml('epsilon = ', "spec.toml")
+    Traceback (most recent call last):
+    ...
+    fairaudit._errors.InputError: spec.toml: is not valid TOML (Invalid value (at end of document))
     """
     try:
         return tomllib.loads(text)
@@ -62,7 +77,39 @@ LABEL_DEPTH = 8
 
 
 class FieldProblem(ValueError):
-    """A validator's error about part of its field: ``sub`` ("[2]", ".tau") extends the error's location."""
+    """A pydantic validator's error about part of its field: ``sub`` ("[2]", ".tau") extends the error's location.
+
+    :func:`validation_error` writes it as ``source: field + sub: problem (got value)``.
+
+    Parameters
+    ----------
+    sub : str
+        The part of the field at fault, appended to its location (``""``: the field itself).
+    problem : str
+        What is wrong, in a few words.
+    value : object, optional
+        The offending value, quoted in the message.
+
+    Examples
+    --------
+    A table whose validator checks two of its fields together and names the one at fault:
+
+    >>> from pydantic import BaseModel, ValidationError, model_validator
+    >>> class Range(BaseModel):
+    ...     low: float
+    ...     high: float
+    ...
+    ...     @model_validator(mode="after")
+    ...     def _ordered(self):
+    ...         if self.low > self.high:
+    ...             raise FieldProblem(".low", f"must be at most high = {self.high:g}", self.low)
+    ...         return self
+    >>> try:
+    ...     Range.model_validate(parse_toml("low = 2\\nhigh = 1", "range.toml"))
+    ... except ValidationError as err:
+    ...     print(validation_error(err, "range.toml", whole="range"))
+    range.toml: low: must be at most high = 1 (got 2.0)
+    """
 
     def __init__(self, sub: str, problem: str, value: object = InputError._missing) -> None:
         super().__init__(problem)
@@ -111,7 +158,29 @@ def toml_label(value: object, where: str, depth: int = 0) -> Hashable:
 def distinct_labels(v: list[Any] | None, what: str = "values") -> list[Any] | None:
     """Labels (lists as tuples) that are distinct as text (labels are matched by their text) and as values, all of
     one kind: strings, numbers, booleans, dates, ... or lists of one length whose entries agree in kind, place by
-    place (``[["Female"], "Male"]`` and ``[25, "55"]`` are refused, naming the entry)."""
+    place (``[["Female"], "Male"]`` and ``[25, "55"]`` are refused, naming the entry).
+
+    A pydantic field validator of a list of labels (a spec's or a task file's ``values``); its errors are
+    :class:`FieldProblem` (``ValueError`` when the list is empty).
+
+    Examples
+    --------
+    >>> from pydantic import BaseModel, ValidationError, field_validator
+    >>> class Attribute(BaseModel):
+    ...     values: list
+    ...
+    ...     @field_validator("values")
+    ...     @classmethod
+    ...     def _distinct(cls, v):
+    ...         return distinct_labels(v)
+    >>> Attribute.model_validate(parse_toml('values = [["f", 1], ["m", 1]]', "task.toml")).values
+    [('f', 1), ('m', 1)]
+    >>> try:
+    ...     Attribute.model_validate(parse_toml("values = [1, 2, 1.0]", "task.toml"))
+    ... except ValidationError as err:
+    ...     print(validation_error(err, "task.toml", whole="task"))
+    task.toml: values: values must be distinct; 1 and 1.0 are equal (got [1, 2, 1.0])
+    """
     if v is None:
         return v
     if len(v) == 0:
@@ -161,7 +230,24 @@ def _kind_difference(first: object, other: object, where: str) -> tuple[str, str
 def validation_error(err: ValidationError, source: str, *, whole: str) -> InputError:
     """The first error of a pydantic validation as one line: ``source: field.path: problem (got value)``.
 
-    ``whole`` names the document when the error is about all of it (``"spec"``, ``"task"``).
+    ``whole`` names the document when the error is about all of it (``"spec"``, ``"task"``). A
+    :class:`FieldProblem` raised by a validator extends the location with its ``sub``; a strict number
+    (``Annotated[float, pydantic.Strict()]``) given as text or a boolean says ``must be a number, not a string``.
+
+    Examples
+    --------
+    >>> from typing import Annotated
+    >>> from pydantic import BaseModel, ConfigDict, Strict, ValidationError
+    >>> class Filter(BaseModel):
+    ...     model_config = ConfigDict(extra="forbid")
+    ...     keep: list[Annotated[float, Strict()]]
+    >>> for text in ('keep = [0.7, "0.8"]', "keep = [0.7]\\nepsilon = 1"):
+    ...     try:
+    ...         Filter.model_validate(parse_toml(text, "task.toml"))
+    ...     except ValidationError as err:
+    ...         print(validation_error(err, "task.toml", whole="task"))
+    task.toml: keep[1]: must be a number, not a string (got '0.8')
+    task.toml: epsilon: is not a known field
     """
     first = err.errors()[0]
     loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".")

@@ -1,4 +1,5 @@
-"""The one place where arguments are checked: numbers, whole numbers, levels, privacy budgets, choices, columns.
+"""The one place where arguments are checked: numbers, whole numbers, levels, privacy budgets, choices, columns;
+and command-line options as numbers (:func:`number_type`, an argparse ``type`` over :func:`real` and :func:`whole`).
 
 Every checker takes the value and the name of the Python parameter (or spec
 field) it came from, returns the value converted (``float``, ``int``, ``str``)
@@ -14,8 +15,9 @@ never accepted, and +inf only where ``finite=False`` says so.
 
 from __future__ import annotations
 
+import argparse
 import math
-from collections.abc import Hashable, Iterable, Sequence
+from collections.abc import Callable, Hashable, Iterable, Sequence
 from numbers import Integral, Real
 from typing import Any
 
@@ -23,7 +25,7 @@ import numpy as np
 
 from ._errors import InputError, cut
 
-__all__ = ["choice", "columns", "epsilon", "level", "nonnegative", "real", "whole"]
+__all__ = ["choice", "columns", "epsilon", "level", "nonnegative", "number_type", "real", "whole"]
 
 
 def _describe(low: float, high: float, low_open: bool, high_open: bool, finite: bool) -> str:
@@ -185,3 +187,55 @@ def columns(value: Sequence[str], name: str, available: Iterable[Hashable]) -> l
             shown = ", ".join(map(cut, names[:12])) + (", ..." if len(names) > 12 else "")
             raise InputError(name, f"unknown column; the data has: {shown}", c)
     return list(value)
+
+
+def number_type(
+    expected: str,
+    *,
+    low: float = -float("inf"),
+    high: float = float("inf"),
+    low_open: bool = False,
+    high_open: bool = False,
+    integer: bool = False,
+    unparsed: str | None = None,
+) -> Callable[[str], Any]:
+    """An argparse ``type``: the text of a command-line option as a number checked by :func:`real` or :func:`whole`.
+
+    What the ``fairaudit`` command and its plug-ins' commands parse numbers with, so that a bad option says
+    ``argument --flag: expected ..., got 'text'`` in every command.
+
+    Parameters
+    ----------
+    expected : str
+        What the message says is expected ("a number in (0, 1)"): ``expected ..., got 'text'``.
+    low, high, low_open, high_open
+        The interval, as :func:`real` takes it (``low`` only for ``integer``).
+    integer : bool
+        A whole number (``int(text)``, :func:`whole`) instead of a finite float.
+    unparsed : str, optional
+        What the message says is expected when the text is not a number at all (default ``expected``).
+
+    Examples
+    --------
+    >>> half_open = number_type("a number >= 0", low=0)
+    >>> half_open("0.5")
+    0.5
+    >>> half_open("-1")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected a number >= 0, got '-1'
+    """
+
+    def convert(text: str) -> Any:
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {unparsed or expected}, got {text!r}") from None
+        try:
+            if integer:
+                return whole(value, "value", low=int(low))
+            return real(value, "value", low=low, high=high, low_open=low_open, high_open=high_open)
+        except InputError:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+
+    return convert

@@ -98,6 +98,13 @@ class Fairness:
         What was left out and why.
     law, utility, population
         The inputs.
+
+    Examples
+    --------
+    >>> import fairaudit as fa
+    >>> law = fa.Law([[[0.5, 0.5], [0.25, 0.75]]], ["x"], ["a", "b"], [0, 1])
+    >>> fa.local_fairness(law, fa.Utility([1.0, 0.0], [0, 1]))
+    Fairness(local, value=0.693147 nats, ratio=2, context='x', groups 'a' vs 'b')
     """
 
     kind: str

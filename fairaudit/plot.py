@@ -116,6 +116,16 @@ def save_figure(fig: Figure, path: str | Path) -> None:
     ------
     InputError
         As :func:`check_plot_path`, or when the folder cannot be written.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from fairaudit import privacy_curve, randomized_response_family
+    >>> fig = plot_curve(privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2))
+    >>> path = os.path.join(tempfile.mkdtemp(), "curve.svg")
+    >>> save_figure(fig, path)
+    >>> open(path, encoding="utf-8").read(5)
+    '<?xml'
     """
     fmt = check_plot_path(path)
     import matplotlib

@@ -357,6 +357,13 @@ def epsilon_from_keep_probability(keep: float, k: int) -> float:
     InputError
         If ``keep`` is not in [1/k, 1] (below 1/k the mechanism favours
         other values and is not randomized response).
+
+    Examples
+    --------
+    >>> round(epsilon_from_keep_probability(0.7, 2), 6), epsilon_from_keep_probability(1.0, 3)
+    (0.847298, inf)
+    >>> round(keep_probability(epsilon_from_keep_probability(0.6, 3), 3), 12)
+    0.6
     """
     k = whole(k, "k", low=2)
     keep = real(

@@ -107,6 +107,18 @@ class UtilityRange:
     kernel_lower, kernel_upper : numpy.ndarray, shape (n_released_contexts, n_released_groups)
         The box: each kernel cell's expected utility with the decision's utility at ``low`` and ``high``.
     local_fairness, global_fairness : FairnessRange
+
+    Examples
+    --------
+    Group b's kernel cell puts 0.2 on the unparsed reply, whose utility (stated 0) lies anywhere in [0, 1]:
+
+    >>> from fairaudit import Kernel, Utility
+    >>> k = Kernel([[[0.5, 0.5, 0.0], [0.2, 0.6, 0.2]]], ["x"], ["a", "b"], ["yes", "no", "unparsed"])
+    >>> r = fairness_range(k, Utility([1.0, 0.0, 0.0], ["yes", "no", "unparsed"]))
+    >>> r.decision, (r.low, r.high), r.kernel_lower.tolist(), r.kernel_upper.tolist()
+    ('unparsed', (0.0, 1.0), [[0.5, 0.2]], [[0.5, 0.4]])
+    >>> [round(math.exp(v), 6) for v in (r.local_fairness.lower, r.local_fairness.upper)]  # 0.5/0.4 and 0.5/0.2
+    [1.25, 2.5]
     """
 
     kernel: Kernel | Law

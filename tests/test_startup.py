@@ -102,7 +102,7 @@ def test_unknown_attribute_is_an_attribute_error():
         fairaudit.no_such_name  # noqa: B018
 
 
-@pytest.mark.parametrize("name", ["audit", "certify", "plan"])
+@pytest.mark.parametrize("name", ["audit", "calibrate", "certify", "plan"])
 def test_a_function_named_like_its_module_stays_the_function(name):
     """``fairaudit.audit`` is the function whether the module ``fairaudit.audit`` was imported first or not."""
     code = (

@@ -9,12 +9,11 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
+from typing import TYPE_CHECKING, NoReturn, TypeAlias
 
 from .._errors import InputError
 from .._io import write_atomic
-from .._validation import real, whole
+from .._validation import number_type
 from ..report import FORMATS
 
 if TYPE_CHECKING:
@@ -89,55 +88,6 @@ def flag_mentions(exc: InputError, flags: dict[str, str]) -> InputError:
     if exc.value is InputError._missing:
         return InputError(exc.field, problem)
     return InputError(exc.field, problem, exc.value)
-
-
-def number_type(
-    expected: str,
-    *,
-    low: float = -float("inf"),
-    high: float = float("inf"),
-    low_open: bool = False,
-    high_open: bool = False,
-    integer: bool = False,
-    unparsed: str | None = None,
-) -> Callable[[str], Any]:
-    """An argparse ``type``: the text as a number checked by :mod:`fairaudit._validation`.
-
-    Parameters
-    ----------
-    expected : str
-        What the message says is expected ("a number in (0, 1)"): ``expected ..., got 'text'``.
-    low, high, low_open, high_open
-        The interval, as :func:`fairaudit._validation.real` takes it (``low`` only for ``integer``).
-    integer : bool
-        A whole number (``int(text)``, :func:`fairaudit._validation.whole`) instead of a finite float.
-    unparsed : str, optional
-        What the message says is expected when the text is not a number at all (default ``expected``).
-
-    Examples
-    --------
-    >>> half_open = number_type("a number >= 0", low=0)
-    >>> half_open("0.5")
-    0.5
-    >>> half_open("-1")
-    Traceback (most recent call last):
-    ...
-    argparse.ArgumentTypeError: expected a number >= 0, got '-1'
-    """
-
-    def convert(text: str) -> Any:
-        try:
-            value = int(text) if integer else float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {unparsed or expected}, got {text!r}") from None
-        try:
-            if integer:
-                return whole(value, "value", low=int(low))
-            return real(value, "value", low=low, high=high, low_open=low_open, high_open=high_open)
-        except InputError:
-            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
-
-    return convert
 
 
 level = number_type("a number in (0, 1)", low=0.0, high=1.0, low_open=True, high_open=True)

@@ -37,19 +37,33 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .._arrays import FloatArray
-from .._errors import InputError
-from .._json import Report, number
-from .._validation import real
-from ..calibrate import Calibration
-from ..curves import PrivacyCurve, privacy_curve
-from ..estimate import CountTable
-from ..intervals import FairnessIntervals, fairness_intervals
-from ..laws import Kernel, Law, Population, compose
-from ..metrics import Fairness, global_fairness, local_fairness
-from ..privacy import Mechanism, from_matrix, identity, randomized_response
-from ..utility import Utility, from_table
-from ..utility_range import UtilityRange, fairness_range
+from fairaudit import (
+    Calibration,
+    CountTable,
+    Fairness,
+    FairnessIntervals,
+    InputError,
+    Kernel,
+    Law,
+    Mechanism,
+    Population,
+    PrivacyCurve,
+    Utility,
+    UtilityRange,
+    compose,
+    fairness_intervals,
+    fairness_range,
+    from_matrix,
+    from_table,
+    global_fairness,
+    identity,
+    local_fairness,
+    number,
+    privacy_curve,
+    randomized_response,
+    real,
+)
+
 from .harness import eps_key, table_kernel, true_cell_counts
 from .slots import (
     candidate_contexts,
@@ -119,7 +133,7 @@ def epsilon_from_keep(task: DeliveryTask, keep: float, positions: str = "balance
     >>> round(epsilon_from_keep(HR_DELIVERY, 0.7), 6)      # 6 ln(7/3), not 0.7/0.3
     5.083787
     """
-    from ..privacy import epsilon_from_keep_probability, product
+    from fairaudit import epsilon_from_keep_probability, product
 
     eps = []
     for a in task.attributes:
@@ -176,15 +190,15 @@ class PositionSplit:
 
     contexts: tuple
     pair: tuple
-    raw: FloatArray
-    position: FloatArray
-    group: FloatArray
-    interaction: FloatArray
+    raw: npt.NDArray[np.float64]
+    position: npt.NDArray[np.float64]
+    group: npt.NDArray[np.float64]
+    interaction: npt.NDArray[np.float64]
     overall_raw: float
     overall_position: float
     overall_group: float
     overall_interaction: float
-    expected_utility: FloatArray
+    expected_utility: npt.NDArray[np.float64]
 
     def explained(self) -> tuple[float, float]:
         """The overall shares (position, group) of the raw disparity: position / raw and group / raw (NaN at raw 0)."""
@@ -231,7 +245,7 @@ def position_split(task: DeliveryTask, m: npt.ArrayLike) -> PositionSplit | None
     groups = [tuple(c) for c in task.candidates]
     c1, c2 = groups.index(tuple(first[0])), groups.index(tuple(first[1]))
 
-    def parts(x: FloatArray) -> tuple[FloatArray, ...]:
+    def parts(x: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], ...]:
         with np.errstate(divide="ignore", invalid="ignore"):
             ln = np.log(x)
             raw = ln[..., c1, 0] - ln[..., c2, 1]
@@ -319,7 +333,7 @@ def _budgets(
 ) -> tuple[TargetBudget, ...]:
     """Per target and kind the white-box ε (on the unparsed range's upper end, and under the stated default) and the
     black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end at the stated default's ε."""
-    from ..calibrate import calibrate
+    from fairaudit import calibrate
 
     family = candidate_family(task, positions)
     out = []
@@ -438,7 +452,7 @@ class BoundRange:
     upper: float
     reason: str
 
-    def to_dict(self) -> Report:
+    def to_dict(self) -> dict[str, Any]:
         """``{"range": [lower, upper], "reason": ...}``."""
         return {"range": [number(self.lower), number(self.upper)], "reason": self.reason}
 
@@ -484,7 +498,7 @@ def bound_ranges(
     dict of str to BoundRange
         ``"corollary"``, ``"black_box"`` (on L) and ``"black_box_global"`` (on L̄): each bound's range (nats).
     """
-    from ..worstcase import worst_model
+    from fairaudit import worst_model
 
     def inside(u: Utility) -> tuple[float, float]:
         wm = worst_model(mechanism, u, context_mechanism=context_mechanism, population=population, tau=tau)
@@ -710,7 +724,7 @@ def _point(
     tau: float | None,
     context_epsilon: float | None,
 ) -> PointResult:
-    from ..worstcase import worst_model
+    from fairaudit import worst_model
 
     filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(eps), context_epsilon=context_epsilon)
     mech = filt.candidate_mechanism(positions)

@@ -11,7 +11,8 @@ import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .._errors import InputError
+from fairaudit import InputError
+
 from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -200,7 +201,7 @@ def check_scoring(task: DeliveryTask, scoring: str) -> str:
     ...
     fairaudit._errors.InputError: scoring: must be one of continuation, first-token (got 'first')
     """
-    from .._validation import choice
+    from fairaudit import choice
 
     choice(scoring, "scoring", SCORINGS)
     if scoring == "first-token" and by_sequence(task, scoring):

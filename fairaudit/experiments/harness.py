@@ -45,9 +45,8 @@ from typing import Self
 
 import numpy as np
 
-from .._errors import FairauditError, InputError
-from .._validation import whole
-from ..laws import Kernel
+from fairaudit import FairauditError, InputError, Kernel, whole
+
 from ._progress import Bar, progress_bar
 from .slots import check_size, outcome_index, true_prompts
 from .vlm.filter import PrivacyFilter, profile_budget

@@ -59,14 +59,15 @@ from typing import IO, TYPE_CHECKING, Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from .._arrays import FloatArray, IntArray
-from .._errors import InputError
+from fairaudit import InputError
+
 from .exact import by_sequence, exact_prompts, prompt_replies
 from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
 if TYPE_CHECKING:
-    from ..laws import Kernel
+    from fairaudit import Kernel
+
     from .vlm.client import ChatClient
 
 __all__ = [
@@ -528,7 +529,7 @@ def exact_prompt(task: DeliveryTask) -> tuple[DeliveryTask, tuple[str, ...]]:
         return task, tuple(task.options)
 
 
-def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None) -> IntArray:
+def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None) -> npt.NDArray[np.intp]:
     """The decision read from a reply made of each single token, shape (size,).
 
     Entry i is the index in :attr:`DeliveryTask.decisions` of what
@@ -554,7 +555,7 @@ def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None)
 
     n = len(tokenizer) if size is None else int(size)
     unparsed = len(task.options)
-    out: IntArray = np.full(n, unparsed, dtype=np.intp)
+    out: npt.NDArray[np.intp] = np.full(n, unparsed, dtype=np.intp)
     for i in range(min(n, len(tokenizer))):
         text = tokenizer.decode([i], skip_special_tokens=True)
         if not text.strip():
@@ -574,7 +575,7 @@ def exact_kernel(
     cells: Sequence[tuple] | None = None,
     scoring: str = "continuation",
     progress: bool = False,
-) -> FloatArray:
+) -> npt.NDArray[np.float64]:
     """The model's exact kernel P(decision | shown cell) on the table design, from token probabilities.
 
     Parameters
@@ -653,7 +654,9 @@ def exact_kernel(
     prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
     sequences = by_sequence(task, scoring)
-    onehot: FloatArray | None = None  # (vocabulary, decisions): the decision each token reads as (first-token)
+    onehot: npt.NDArray[np.float64] | None = (
+        None  # (vocabulary, decisions): the decision each token reads as (first-token)
+    )
     from ._progress import progress_bar
 
     bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress)
@@ -689,7 +692,9 @@ def _next_token(model: Any, suffix: list[int], past: Any) -> tuple[Any, Any]:
     return torch.log_softmax(head.logits[0, -1].double(), dim=-1), head.past_key_values
 
 
-def _chain_rule(model: Any, first: Any, cache: Any, replies: Sequence[list[int]], batch_size: int) -> FloatArray:
+def _chain_rule(
+    model: Any, first: Any, cache: Any, replies: Sequence[list[int]], batch_size: int
+) -> npt.NDArray[np.float64]:
     """P(the reply's tokens follow the prompt) for each of ``replies`` (token ids), by the chain rule.
 
     Parameters
@@ -779,7 +784,7 @@ def exact_law(task: DeliveryTask, probabilities: npt.ArrayLike) -> Kernel:
         :func:`fairaudit.experiments.harness.table_kernel` (groups: the shown
         pairs, row-major), for :func:`fairaudit.experiments.analysis.analyse_kernel`.
     """
-    from ..laws import Kernel
+    from fairaudit import Kernel
 
     p = np.asarray(probabilities, dtype=float)
     groups = list(itertools.product(task.profiles, repeat=task.slots))

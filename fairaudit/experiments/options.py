@@ -18,8 +18,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .._errors import InputError
-from .._validation import choice, real, whole
+from fairaudit import InputError, choice, real, whole
+
 from .analysis import DEFAULT_TARGETS
 from .vlm.client import CONSTRAINTS
 

@@ -36,18 +36,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._errors import InputError
-from .._io import write_atomic
-from .._json import Report, number
-from .._validation import real
-from ..laws import Law, Population
-from ..metrics import Fairness
-from ..utility import Utility
-from ..utility_range import UtilityRange
+from fairaudit import Fairness, InputError, Law, Population, Utility, UtilityRange, number, real, write_atomic
+
 from ._markdown import paper_design_markdown
 from .analysis import (
     BoundRange,
@@ -57,7 +51,7 @@ from .analysis import (
     paper_design_point,
 )
 from .harness import paper_queries_needed
-from .report import observed_dicts, privacy_dict, utility_dict, write_frame, write_json
+from .report import figure_class, observed_dicts, privacy_dict, utility_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
@@ -65,7 +59,7 @@ from .vlm.tasks import DeliveryTask
 if TYPE_CHECKING:
     import pandas as pd
 
-    from ..intervals import FairnessIntervals
+    from fairaudit import FairnessIntervals
 
 __all__ = [
     "DesignBounds",
@@ -161,7 +155,7 @@ def paper_design_bounds(
             black_box_global=closed,
             closed_form=True,
         )
-    from ..worstcase import worst_model
+    from fairaudit import worst_model
 
     try:
         mech = filt.candidate_mechanism(positions)
@@ -378,7 +372,7 @@ def _bound_ranges(
     return ranges
 
 
-def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> Report:
+def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> dict[str, Any]:
     b = p.bounds
     return {
         "epsilon": number(p.epsilon),
@@ -396,7 +390,7 @@ def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> Report:
     }
 
 
-def paper_design_dict(analysis: PaperDesignAnalysis, run: Report | None = None) -> Report:
+def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None = None) -> dict[str, Any]:
     """The certificate JSON of a run of the paper's design alone.
 
     Keys as :func:`fairaudit.experiments.report.experiment_dict` where they
@@ -421,7 +415,7 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: Report | None = None) 
     cell. Values in nats; +inf is ``"inf"``; NaN is ``null``.
     """
     a, t = analysis, analysis.task
-    out: Report = {
+    out: dict[str, Any] = {
         "experiment": t.name,
         "model": a.model,
         "route": a.route,
@@ -496,10 +490,9 @@ def plot_paper_design(analysis: PaperDesignAnalysis, path: str | Path) -> None:
     dotted horizontal line on each metric, named with its value in the
     legend (only named when +inf); a +inf value at an ε is drawn as ▲ on the top edge.
     """
-    from .._figure import mark_infinite
-    from ..plot import load_matplotlib, save_figure
+    from fairaudit import mark_infinite, save_figure
 
-    fig = load_matplotlib()(figsize=(8.0, 5.2), layout="constrained")
+    fig = figure_class()(figsize=(8.0, 5.2), layout="constrained")
     ax = fig.add_subplot()
     a = analysis
     x = np.array([p.epsilon for p in a.points])
@@ -549,7 +542,7 @@ def _errors(points: Sequence[DesignPoint], kind: str, y: np.ndarray) -> np.ndarr
     return np.nan_to_num(np.vstack([lo, hi]), nan=0.0, posinf=0.0)
 
 
-def write_paper_design(analysis: PaperDesignAnalysis, out: Path, run: Report) -> list[Path]:
+def write_paper_design(analysis: PaperDesignAnalysis, out: Path, run: dict[str, Any]) -> list[Path]:
     """Write a paper-design run's files to ``out``, each atomically: the tables, certificate, report and figure.
 
     ``candidates.csv`` (:func:`counts_frame`), ``records.csv``

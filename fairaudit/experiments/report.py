@@ -29,9 +29,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
-from .._io import write_atomic
-from .._json import Report, number
+from fairaudit import InputError, number, write_atomic
+
 from ._markdown import experiment_markdown, listed_order
 from .harness import paper_queries_needed, table_queries_needed
 from .slots import slot_names, true_prompts
@@ -42,9 +43,8 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from .._arrays import FloatArray
-    from ..calibrate import Calibration
-    from ..laws import Kernel
+    from fairaudit import Calibration, Kernel
+
     from .analysis import ExperimentAnalysis, PointResult, PositionSplit, UnparsedMass
     from .vlm.filter import PrivacyFilter
     from .vlm.tasks import DeliveryTask
@@ -63,7 +63,7 @@ __all__ = [
 ]
 
 
-def _value_column(k: Kernel) -> tuple[str, FloatArray]:
+def _value_column(k: Kernel) -> tuple[str, npt.NDArray[np.float64]]:
     """``("count", counts)`` on the sampled route, ``("probability", probabilities)`` on the exact one."""
     if k.counts is not None:
         return "count", k.counts
@@ -245,7 +245,7 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     )
 
 
-def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float) -> Report:
+def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float) -> dict[str, Any]:
     """The ``privacy`` of a point: the candidate's ε, the profile's, each attribute's ε and keep probability, δ = 0.
 
     ``attributes`` lists, per attribute, its number of values k, its keep
@@ -269,7 +269,7 @@ def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float)
     }
 
 
-def utility_dict(task: DeliveryTask) -> Report:
+def utility_dict(task: DeliveryTask) -> dict[str, Any]:
     """The ``utility`` of a report: g's name, its value per outcome, and ``unparsed``, the value an unparsed reply
     counts with ``source`` (``"given"``, or ``"default: expected g of a uniformly random reply"``) and ``rule``
     (how it was set, in words: :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.unparsed_rule`)."""
@@ -284,7 +284,7 @@ def utility_dict(task: DeliveryTask) -> Report:
     }
 
 
-def observed_dicts(point: Any) -> Report:
+def observed_dicts(point: Any) -> dict[str, Any]:
     """``{"local": ..., "global": ...}``: a point's observed L and L̄ (both designs' certificates).
 
     ``point`` has ``local_fairness``, ``global_fairness``, ``intervals`` (or None) and ``unparsed_range``
@@ -292,7 +292,7 @@ def observed_dicts(point: Any) -> Report:
     ``unparsed_range`` (its range over the unparsed reply's utility) and ``unparsed_range_ends`` (exactness, and
     the context and groups of each end).
     """
-    out: Report = {}
+    out: dict[str, Any] = {}
     for kind in ("local", "global"):
         d = getattr(point, f"{kind}_fairness").to_dict(
             None if point.intervals is None else getattr(point.intervals, f"{kind}_fairness")
@@ -304,7 +304,7 @@ def observed_dicts(point: Any) -> Report:
     return out
 
 
-def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
+def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> dict[str, Any]:
     return {
         "epsilon": number(p.epsilon),
         "privacy": privacy_dict(analysis.task, p.filter, p.mechanism.epsilon),
@@ -319,7 +319,7 @@ def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> Report:
     }
 
 
-def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> Report:
+def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = None) -> dict[str, Any]:
     """The certificate JSON of an experiment.
 
     Keys: ``experiment``, ``model``, ``route`` (``"sampled"``: estimated
@@ -438,7 +438,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: Report | None = None) -> 
     return out
 
 
-def _mass_dict(m: UnparsedMass) -> Report:
+def _mass_dict(m: UnparsedMass) -> dict[str, Any]:
     return {
         "threshold": number(m.threshold),
         "share_above": number(m.share),
@@ -448,7 +448,7 @@ def _mass_dict(m: UnparsedMass) -> Report:
     }
 
 
-def _budget(c: Calibration) -> Report:
+def _budget(c: Calibration) -> dict[str, Any]:
     return {
         "epsilon": number(c.epsilon),
         "keep_probability": number(c.keep_probability),
@@ -458,7 +458,7 @@ def _budget(c: Calibration) -> Report:
     }
 
 
-def _split_dict(split: PositionSplit) -> Report:
+def _split_dict(split: PositionSplit) -> dict[str, Any]:
     position, group = split.explained()
     return {
         "pair": list(split.pair),
@@ -474,12 +474,29 @@ def _split_dict(split: PositionSplit) -> Report:
     }
 
 
+def figure_class() -> type[Figure]:
+    """matplotlib's :class:`~matplotlib.figure.Figure` (the figures are made without pyplot).
+
+    Raises
+    ------
+    InputError
+        When matplotlib is not installed: the run then writes its tables and report without figures.
+    """
+    try:
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise InputError(
+            "path", "needs matplotlib, which is not installed: pip install 'fairness-certify[plot]'"
+        ) from None
+    return Figure
+
+
 def plot_baseline(analysis: ExperimentAnalysis, path: str | Path) -> None:
     """Bar chart of the decisions without a filter: per context, in the paper's order and swapped (atomic PNG or SVG).
 
     See :func:`_baseline_figure`.
     """
-    from ..plot import save_figure
+    from fairaudit import save_figure
 
     save_figure(_baseline_figure(analysis), path)
 
@@ -503,14 +520,11 @@ def _baseline_figure(analysis: ExperimentAnalysis) -> Figure:
     """
     from matplotlib.patches import Patch
 
-    from ..plot import load_matplotlib
-
-    figure_class = load_matplotlib()
     t = analysis.task
     if not _one_pair(t):
-        return _outcome_figure(analysis, figure_class)
+        return _outcome_figure(analysis)
     c1, c2 = (t.profile_label(c) for c in t.candidates)
-    fig = figure_class(figsize=(9.0, 3.8), layout="constrained")
+    fig = figure_class()(figsize=(9.0, 3.8), layout="constrained")
     ax = fig.add_subplot()
     n = len(t.contexts)
     width = 0.38
@@ -560,7 +574,7 @@ def _one_pair(t: DeliveryTask) -> bool:
     return t.slots == 2 and len(t.candidates) == 2
 
 
-def _outcome_figure(analysis: ExperimentAnalysis, figure_class: Any) -> Figure:
+def _outcome_figure(analysis: ExperimentAnalysis) -> Figure:
     """Baseline of any design: per context, a stacked bar per candidate of its own outcomes without a filter.
 
     P(outcome | context, candidate), over the slots it takes and the rivals
@@ -573,7 +587,7 @@ def _outcome_figure(analysis: ExperimentAnalysis, figure_class: Any) -> Figure:
     w = pop.reshape(n_x, k, n_g)
     with np.errstate(invalid="ignore"):
         shares = np.einsum("xkgo,xkg->xgo", law.reshape(n_x, k, n_g, -1), w) / w.sum(1)[..., None]
-    fig = figure_class(figsize=(9.0, 3.8), layout="constrained")
+    fig = figure_class()(figsize=(9.0, 3.8), layout="constrained")
     ax = fig.add_subplot()
     width = 0.8 / n_g
     from matplotlib import colormaps
@@ -604,7 +618,7 @@ def plot_experiment_curve(analysis: ExperimentAnalysis, path: str | Path) -> Non
 
     See :func:`_curve_figure`.
     """
-    from ..plot import save_figure
+    from fairaudit import save_figure
 
     save_figure(_curve_figure(analysis), path)
 
@@ -629,11 +643,10 @@ def _curve_figure(analysis: ExperimentAnalysis) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    from ..plot import load_matplotlib, plot_curve
+    from fairaudit import plot_curve
 
-    figure_class = load_matplotlib()
     zoom = _needs_zoom(analysis)
-    fig = figure_class(figsize=(12.0 if zoom else 8.0, 6.6), layout="constrained")
+    fig = figure_class()(figsize=(12.0 if zoom else 8.0, 6.6), layout="constrained")
     if zoom:
         ax, side = fig.subplots(1, 2, width_ratios=(3, 2))
     else:
@@ -699,7 +712,8 @@ def _keep_axis(
     >>> round(float(inverse(0.7)), 6), round(float(forward(inverse(0.7))), 12)    # 6 ln(7/3)
     (5.083787, 0.7)
     """
-    from ..privacy import split_by_keep
+    from fairaudit import split_by_keep
+
     from .slots import epsilon_factor
     from .vlm.filter import profile_budget
 
@@ -786,12 +800,12 @@ def _draw_design_points(analysis: ExperimentAnalysis, ax: Axes) -> list[str]:
     +inf is drawn at the top edge (▲ in the marker's colour); returns notes
     on the quantities that are undefined (NaN) at every ε.
     """
-    from .._figure import coincide, mark_infinite
+    from fairaudit import mark_infinite
 
     pts = analysis.points
     bb = np.array([p.black_box_global for p in pts], dtype=float)
-    same = coincide(bb, [p.black_box_local for p in pts])
-    rows: list[tuple[FloatArray, FloatArray, str, dict[str, Any]]] = [
+    same = np.allclose(bb, [p.black_box_local for p in pts], rtol=1e-9, atol=1e-12, equal_nan=True)
+    rows: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], str, dict[str, Any]]] = [
         (
             np.array([p.epsilon for p in pts], dtype=float),
             bb,
@@ -836,10 +850,10 @@ def _zoom_observed(analysis: ExperimentAnalysis, ax: Axes) -> None:
     """The observed L and L̄ on their own scale, in a panel of their own (one line when they coincide)."""
     from matplotlib.ticker import MaxNLocator
 
-    from .._figure import coincide, mark_infinite
+    from fairaudit import mark_infinite
 
     c = analysis.curve
-    same = coincide(c.observed_local, c.observed_global)
+    same = np.allclose(c.observed_local, c.observed_global, rtol=1e-9, atol=1e-12, equal_nan=True)
     for values, color, ls, label in (
         (c.observed_local, "black", "-", "observed L (local)" + ("\n= observed L̄ (global)" if same else "")),
         (c.observed_global, "tab:green", "--", "observed L̄ (global)"),
@@ -862,7 +876,7 @@ def _zoom_observed(analysis: ExperimentAnalysis, ax: Axes) -> None:
     ax.legend(fontsize=7, loc="upper left")
 
 
-def write_json(path: str | Path, data: Report) -> None:
+def write_json(path: str | Path, data: dict[str, Any]) -> None:
     """``data`` as indented JSON, atomically."""
     write_atomic(path, json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n", field="--out")
 

@@ -25,6 +25,7 @@ local model's next-token probabilities are, with no log either.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import sys
 import time
@@ -34,8 +35,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias, TypedDict
 
-from .. import __version__
-from .._errors import InputError
+from fairaudit import InputError
+
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel, epsilon_from_keep
 from .exact import SCORINGS, count_prompts
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
@@ -59,7 +60,9 @@ from .vlm.models import DecisionModel, EndpointModel, SimulatedModel, simulated_
 from .vlm.tasks import DeliveryTask
 
 if TYPE_CHECKING:
-    from .._arrays import FloatArray
+    import numpy as np
+    import numpy.typing as npt
+
     from ._progress import Bar
     from .vlm.client import ChatClient, ChatReply
 
@@ -102,6 +105,20 @@ class ExperimentRun:
     files: tuple
     route: str = "sampled"
     seconds: float = 0.0
+
+
+@functools.cache
+def fairaudit_version() -> str:
+    """The installed fairaudit's version, recorded in every run (its log, ``certificate.json``).
+
+    Read from the installed distribution's metadata (:mod:`importlib.metadata`): the distribution that provides the
+    ``fairaudit`` package (``fairness-certify`` on PyPI); ``"unknown"`` when none does (the code run from a source
+    tree that is not installed).
+    """
+    from importlib.metadata import packages_distributions, version
+
+    names = packages_distributions().get("fairaudit", [])
+    return version(names[0]) if names else "unknown"
 
 
 def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: dict | None) -> DecisionModel:
@@ -279,8 +296,8 @@ def show_prompts(
     """
     import itertools
 
-    from .._arrays import format_label
-    from .._validation import whole
+    from fairaudit import format_label, whole
+
     from .harness import table_queries, table_queries_needed
 
     whole(count, "show_prompts", low=1)
@@ -871,7 +888,7 @@ def _run_sampled(
     log: Callable[[str], None] | None,
 ) -> ExperimentRun:
     """The sampled route: ask the queries through the log, then analyse and write the report when all are answered."""
-    from .._io import write_atomic
+    from fairaudit import write_atomic
 
     out, eps = plan.out, plan.common["epsilons"]
     for i, png in enumerate(plan.images, start=1):
@@ -891,7 +908,7 @@ def _run_sampled(
     run = {
         "seed": int(options.seed),
         "design": options.design,
-        "fairaudit": __version__,
+        "fairaudit": fairaudit_version(),
         "task_sha256": task.digest,
         "prompt": plan.prompt,
         "filter": plan.asked,
@@ -925,7 +942,7 @@ def _ask(
         "task": task.name,
         "task_sha256": task.digest,
         "model": m.name,
-        "fairaudit": __version__,
+        "fairaudit": fairaudit_version(),
         **_settings(plan, options),
     }
     positions = options.positions or task.positions
@@ -1011,7 +1028,7 @@ class ExactKernel:
         process) or :data:`~fairaudit.experiments.vlm.messages.CHATML` (text completions).
     """
 
-    probabilities: FloatArray | None
+    probabilities: npt.NDArray[np.float64] | None
     summary: RunSummary | None
     route: str
     missing: float = 0.0
@@ -1084,7 +1101,7 @@ def _run_exact(task: DeliveryTask, name: str, make_kernel: _KernelMaker, plan: _
         {
             "seed": int(seed),
             "design": "table",
-            "fairaudit": __version__,
+            "fairaudit": fairaudit_version(),
             "task_sha256": task.digest,
             "prompt": plan.prompt,
             "filter": plan.asked,
@@ -1265,7 +1282,7 @@ def endpoint_kernel(
             )
         return reply_logprob(reply.prompt_logprobs, text)
 
-    def ask(i: int) -> FloatArray:
+    def ask(i: int) -> npt.NDArray[np.float64]:
         if not sequences:
             first = top(i, "")
             missing[i] = max(0.0, 1.0 - math.fsum(math.exp(lp) for _, lp in first))  # mass outside the list
@@ -1345,8 +1362,8 @@ def _probe_echo(client: ChatClient, prompt: str, reply: str, sent: list[str]) ->
 
 
 def _ask_cells(
-    cells: list[int], ask: Callable[[int], FloatArray], workers: int, bar: Bar
-) -> tuple[dict[int, FloatArray], str | None]:
+    cells: list[int], ask: Callable[[int], npt.NDArray[np.float64]], workers: int, bar: Bar
+) -> tuple[dict[int, npt.NDArray[np.float64]], str | None]:
     """``ask`` every cell on ``workers`` threads: the answers, and the first request that failed after retries.
 
     The first failure (a :class:`~fairaudit.experiments.vlm.client.ChatError`) cancels the cells not yet asked;
@@ -1357,7 +1374,7 @@ def _ask_cells(
 
     from .vlm.client import ChatError
 
-    answered: dict[int, FloatArray] = {}
+    answered: dict[int, npt.NDArray[np.float64]] = {}
     pool = ThreadPoolExecutor(max_workers=workers)
     try:
         futures = {pool.submit(ask, cell): cell for cell in cells}
@@ -1373,7 +1390,8 @@ def _ask_cells(
 
 
 def _write(analysis: ExperimentAnalysis, out: Path, run: dict) -> list:
-    from .._io import write_atomic
+    from fairaudit import write_atomic
+
     from .report import (
         candidate_frame,
         experiment_dict,

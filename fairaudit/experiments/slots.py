@@ -30,11 +30,10 @@ import math
 from fractions import Fraction
 
 import numpy as np
+import numpy.typing as npt
 
-from .._arrays import FloatArray, IntArray
-from .._errors import InputError
-from ..laws import Kernel, Population
-from ..privacy import Mechanism
+from fairaudit import InputError, Kernel, Mechanism, Population
+
 from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -97,7 +96,7 @@ def check_size(task: DeliveryTask) -> int:
     return n
 
 
-def true_prompts(task: DeliveryTask, positions: str) -> tuple[IntArray, FloatArray]:
+def true_prompts(task: DeliveryTask, positions: str) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64]]:
     """The true prompts and their probabilities.
 
     Parameters
@@ -184,7 +183,7 @@ def candidate_contexts(task: DeliveryTask) -> tuple:
     return tuple(f"{c} @ {o}" for c in task.contexts for o in task.options)
 
 
-def outcome_index(task: DeliveryTask) -> IntArray:
+def outcome_index(task: DeliveryTask) -> npt.NDArray[np.intp]:
     """o_i(u): the outcome index of the candidate in slot i under decision u, shape (k, n_decisions).
 
     A choice: 0 (chosen) for u = i, else 1; a ranking: the rank of slot i in
@@ -222,7 +221,7 @@ def outcome_index(task: DeliveryTask) -> IntArray:
     return out
 
 
-def _one_hot(index: IntArray, n: int) -> FloatArray:
+def _one_hot(index: npt.NDArray[np.intp], n: int) -> npt.NDArray[np.float64]:
     return np.eye(n)[index]
 
 
@@ -263,7 +262,9 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
 
 
 @functools.lru_cache(maxsize=32)
-def _slot_group(task: DeliveryTask, positions: str) -> tuple[IntArray, FloatArray, FloatArray, list[int]]:
+def _slot_group(
+    task: DeliveryTask, positions: str
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64], npt.NDArray[np.float64], list[int]]:
     """(prompts, weights, P(slot i, group), group profile indices) with P of shape (k, n_groups); cached per task."""
     prompts, w = true_prompts(task, positions)
     index = {p: i for i, p in enumerate(task.profiles)}
@@ -299,7 +300,7 @@ def candidate_population(task: DeliveryTask, positions: str = "balanced") -> Pop
     return Population(table, candidate_contexts(task), [task.profile_label(c) for c in task.candidates])
 
 
-def _candidate_rows(task: DeliveryTask, m: FloatArray, positions: str) -> FloatArray:
+def _candidate_rows(task: DeliveryTask, m: npt.NDArray[np.float64], positions: str) -> npt.NDArray[np.float64]:
     """The rows of :func:`candidate_mechanism` from M_P's matrix ``m``, shape (n_groups, n_profiles^k)."""
     k, n_p = task.slots, len(task.profiles)
     if len(task.candidates) * n_p**k > MAX_KERNEL_ENTRIES:  # before enumerating the true prompts
@@ -334,7 +335,9 @@ def _candidate_rows(task: DeliveryTask, m: FloatArray, positions: str) -> FloatA
     return rows
 
 
-def candidate_mechanism_epsilon(task: DeliveryTask, profile_matrix: FloatArray, positions: str = "balanced") -> float:
+def candidate_mechanism_epsilon(
+    task: DeliveryTask, profile_matrix: npt.NDArray[np.float64], positions: str = "balanced"
+) -> float:
     """ε(M_cand) from M_P's matrix, nats, without building the labelled mechanism (the family's root finding).
 
     Parameters
@@ -449,7 +452,7 @@ def candidate_epsilon(task: DeliveryTask, attribute_epsilons: tuple, positions: 
     return float(np.max(d @ np.asarray(attribute_epsilons, dtype=float), initial=0.0))
 
 
-def _view_differences(task: DeliveryTask, positions: str) -> IntArray | None:
+def _view_differences(task: DeliveryTask, positions: str) -> npt.NDArray[np.intp] | None:
     """For every two candidates of a point-mass design, in how many slots their views differ in each attribute.
 
     Shape (n_pairs, n_attributes); None for mixtures (:func:`point_views`).
@@ -502,7 +505,9 @@ def epsilon_factor(task: DeliveryTask, positions: str = "balanced") -> Fraction 
     return None
 
 
-def expected_utility(task: DeliveryTask, probabilities: FloatArray, utility_values: FloatArray) -> FloatArray:
+def expected_utility(
+    task: DeliveryTask, probabilities: npt.NDArray[np.float64], utility_values: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
     """m[x, c, i]: E[g] of candidate c in slot i without a filter, over the rivals all orders give it.
 
     Parameters

@@ -32,13 +32,12 @@ from collections.abc import Hashable
 from fractions import Fraction
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, field_validator, model_validator
 
-from .._arrays import format_label
-from .._errors import InputError
-from .._toml import FieldProblem, Number, StrictModel, distinct_labels, parse_toml, validation_error
+from fairaudit import FieldProblem, InputError, distinct_labels, format_label, parse_toml, validation_error
+
 from .vlm.tasks import UNPARSED, UNPARSED_DEFAULT, Attribute, DeliveryTask
 
 __all__ = [
@@ -61,7 +60,18 @@ _DEFAULT_OUTCOMES = {"choose": ("chosen", "not chosen"), "rank": None}
 _UNRANKED = ("unranked",)  # the outcome of a candidate that a partial ranking leaves out
 
 
-class TaskSection(StrictModel):
+class _Table(BaseModel):
+    """A table of the task file: unknown keys are errors, the validated model is frozen."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+_Number = Annotated[float, Strict()]
+"""A TOML number: an integer or a float (as a float); a string or a boolean is an error (:func:`fairaudit.validation_error`
+says which)."""
+
+
+class TaskSection(_Table):
     """``[task]``: how many candidates a prompt shows, what the reply decides, their orders and the population."""
 
     candidates: int = Field(2, ge=1, le=64)
@@ -70,14 +80,14 @@ class TaskSection(StrictModel):
     population: Literal["all", "distinct"] | list[list[list[Any]]] = "all"
 
 
-class PromptSection(StrictModel):
+class PromptSection(_Table):
     """``[prompt]``: the Jinja2 templates of the system (optional) and user messages."""
 
     system: str | None = None
     user: str = Field(min_length=1)
 
 
-class ContextSection(StrictModel):
+class ContextSection(_Table):
     """``[context]``: what varies between prompts besides the candidates (the item, the job)."""
 
     name: str = "context"
@@ -89,7 +99,7 @@ class ContextSection(StrictModel):
         return distinct_labels(v) or []
 
 
-class AttributeSection(StrictModel):
+class AttributeSection(_Table):
     """``[[attribute]]``: one sensitive attribute of a candidate, its values and what the prompt shows for each."""
 
     name: str = Field(min_length=1)
@@ -123,7 +133,7 @@ class AttributeSection(StrictModel):
         return self
 
 
-class DecisionSection(StrictModel):
+class DecisionSection(_Table):
     """``[decision]``: what the reply's options mean and the labels of a candidate's own outcome."""
 
     name: str = "decision"
@@ -141,20 +151,20 @@ class DecisionSection(StrictModel):
         return v
 
 
-class UtilitySection(StrictModel):
+class UtilitySection(_Table):
     """``[utility]``: g of a candidate's own outcome; ``unparsed``: g when the reply cannot be read."""
 
     name: str | None = None
-    values: dict[str, Number] | list[Number] | Literal["rank"]
-    unparsed: Number | None = None
+    values: dict[str, _Number] | list[_Number] | Literal["rank"]
+    unparsed: _Number | None = None
 
 
-class FilterSection(StrictModel):
+class FilterSection(_Table):
     """``[filter]``: the attributes randomized response protects, and the budgets to run (``keep`` or ``epsilon``)."""
 
     attributes: list[str] | None = None
-    keep: list[Number] | None = None
-    epsilon: list[Number] | None = None
+    keep: list[_Number] | None = None
+    epsilon: list[_Number] | None = None
 
     @model_validator(mode="after")
     def _one_budget(self) -> FilterSection:
@@ -169,7 +179,7 @@ class FilterSection(StrictModel):
         return self
 
 
-class TaskFile(StrictModel):
+class TaskFile(_Table):
     """A task file's fields, validated (docs/tasks.md)."""
 
     title: str | None = None

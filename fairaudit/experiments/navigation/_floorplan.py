@@ -16,7 +16,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..._errors import InputError
+from fairaudit import InputError
 
 __all__ = ["DOOR_TOP", "FRAME", "HALF_WALL", "area_folder", "intervals_minus", "staged_room", "wall_face"]
 

@@ -48,7 +48,8 @@ from typing import TypeAlias
 
 import numpy as np
 
-from ..._errors import InputError
+from fairaudit import InputError
+
 from ._floorplan import DOOR_TOP, FRAME, HALF_WALL, area_folder, intervals_minus, staged_room, wall_face
 from .synthetic import COLORS
 

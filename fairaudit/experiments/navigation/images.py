@@ -19,7 +19,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..._errors import InputError
+from fairaudit import InputError
+
 from .maps import Maps, check_maps
 
 
@@ -378,7 +379,7 @@ def save_route_image(
     ...     Path(tmp, "hr1.png").read_bytes() == route_image(maps, route, 1, scale=2)
     True
     """
-    from ..._io import write_atomic
+    from fairaudit import write_atomic
 
     if Path(path).suffix.lower() != ".png":
         raise InputError("path", "must end in .png", str(path))

@@ -34,7 +34,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from ..._errors import InputError
+from fairaudit import InputError
+
 from .s3dis import CATEGORIES, UNLABELLED, Area, Room, iter_rooms, room_kind
 
 if TYPE_CHECKING:

@@ -33,7 +33,8 @@ from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
-from ..._errors import InputError
+from fairaudit import InputError
+
 from .images import Window, route_image, route_window
 from .maps import Maps, build_maps, check_maps, require_networkx
 from .synthetic import write_office_floor

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..._errors import InputError
+from fairaudit import InputError
 
 __all__ = [
     "CATEGORIES",

@@ -58,7 +58,8 @@ from typing import TypeAlias, overload
 import numpy as np
 import pandas as pd
 
-from ..._errors import InputError
+from fairaudit import InputError
+
 from ._floorplan import DOOR_TOP, FRAME, area_folder, intervals_minus, staged_room, wall_face
 
 __all__ = ["CEILING_HEIGHT", "COLORS", "FLOOR_SIZE", "LAYOUTS", "write_office_floor"]

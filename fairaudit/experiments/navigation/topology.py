@@ -27,7 +27,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..._errors import InputError
+from fairaudit import InputError
+
 from .maps import Maps, check_maps, require_networkx
 
 if TYPE_CHECKING:

@@ -35,8 +35,8 @@ from types import ModuleType
 from typing import Any
 from urllib.parse import urlsplit, urlunsplit
 
-from ..._errors import FairauditError, InputError
-from ..._validation import real, whole
+from fairaudit import FairauditError, InputError, real, whole
+
 from .logprobs import echo_token_logprobs, first_token_logprobs, prompt_token_logprobs
 
 __all__ = [
@@ -598,7 +598,7 @@ def constraint_body(mode: str, replies: Sequence[str], name: str = "decision") -
     >>> constraint_body("none", ["yes", "no"])
     {}
     """
-    from ..._validation import choice
+    from fairaudit import choice
 
     choice(mode, "constrain", CONSTRAINTS)
     if mode == "none":

@@ -37,16 +37,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from ..._validation import real
-from ...privacy import (
+from fairaudit import (
     Mechanism,
     MechanismFamily,
     identity,
     keep_probability,
     product,
     randomized_response,
+    real,
     split_by_keep,
 )
+
 from .tasks import DeliveryTask
 
 __all__ = ["SPLIT_RULE", "PrivacyFilter", "candidate_family", "profile_budget"]

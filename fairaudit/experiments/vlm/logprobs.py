@@ -25,9 +25,10 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from ..._arrays import FloatArray
-from ..._errors import InputError
+from fairaudit import InputError
+
 from .parse import parse_reply
 from .tasks import DeliveryTask
 
@@ -161,7 +162,9 @@ def shared_first_token(
     return None
 
 
-def decision_probabilities(reply: Any, task: DeliveryTask, *, answers: Sequence[str] | None = None) -> FloatArray:
+def decision_probabilities(
+    reply: Any, task: DeliveryTask, *, answers: Sequence[str] | None = None
+) -> npt.NDArray[np.float64]:
     """P(decision) of one shown cell from its chat completion's first-token log-probabilities.
 
     Parameters
@@ -233,7 +236,7 @@ def decision_probabilities(reply: Any, task: DeliveryTask, *, answers: Sequence[
 
 def reply_probabilities(
     next_tokens: Callable[[str], Sequence[tuple[str, float]]], replies: Sequence[str]
-) -> FloatArray:
+) -> npt.NDArray[np.float64]:
     """P(the reply begins with each of ``replies``), by the chain rule over its tokens (:func:`reply_bounds`'s first part).
 
     Examples
@@ -249,7 +252,7 @@ def reply_probabilities(
 
 def reply_bounds(
     next_tokens: Callable[[str], Sequence[tuple[str, float]]], replies: Sequence[str], *, listed: int | None = None
-) -> tuple[FloatArray, float]:
+) -> tuple[npt.NDArray[np.float64], float]:
     """Lower bounds on P(the reply begins with each of ``replies``) from top next-token lists, and what they may miss.
 
     The route of a server that gives only the next token's top log-probabilities (llama-server): one request per

@@ -11,7 +11,7 @@ import base64
 import re
 from collections.abc import Sequence
 
-from ..._errors import InputError
+from fairaudit import InputError
 
 __all__ = ["CHATML", "chatml", "system_message", "user_message"]
 

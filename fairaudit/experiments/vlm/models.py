@@ -27,7 +27,8 @@ from typing import TYPE_CHECKING, Protocol, TypeAlias
 
 import numpy as np
 
-from ..._errors import InputError
+from fairaudit import InputError
+
 from ..slots import slot_names
 from .filter import draw
 from .tasks import DeliveryTask

@@ -57,7 +57,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from ..._errors import InputError
+from fairaudit import InputError
 
 __all__ = ["ParsedReply", "numbered", "parse_reply"]
 

@@ -33,8 +33,8 @@ from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
-from ..._arrays import format_label
-from ..._errors import InputError
+from fairaudit import InputError, format_label
+
 from .messages import system_message, user_message
 
 if TYPE_CHECKING:

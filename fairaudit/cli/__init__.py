@@ -1,8 +1,10 @@
-"""The ``fairaudit`` command: certify, audit, calibrate, plan, worst-case, experiment, prepare-model.
+"""The ``fairaudit`` command: certify, audit, calibrate, plan, worst-case, and the plug-ins' commands.
 
 One module per subcommand (``fairaudit/cli/<command>.py``) adds its arguments
 (``add_parser``) and runs it (``run(args) -> int``, dispatched through
-``set_defaults(func=run)``); :func:`build_parser` assembles them.
+``set_defaults(func=run)``); :func:`build_parser` assembles them, then adds the
+commands of every entry point of the group ``fairaudit.commands`` the same way
+(the experiments' ``experiment`` and ``prepare-model``).
 
 Exit status: 0 done and every target met; 1 a target is not met; 2 invalid
 input, with one line on stderr that names the field or column and the value
@@ -12,7 +14,6 @@ with ``--output`` a one-line summary goes to stderr.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from collections.abc import Sequence
@@ -26,8 +27,9 @@ __all__ = ["build_parser", "main"]
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``fairaudit`` command; returns the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(words[0] if words else None)
+    args = parser.parse_args(words)
     try:
         status: int = args.func(args)  # each subcommand's run, set by its add_parser
         return status
@@ -37,12 +39,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         print(f"fairaudit: error: {os_error_line(exc)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        exact = args.command == "experiment" and _exact_route(args)
-        hint = "; every answered query is logged: run again with --resume" if args.command == "experiment" else ""
-        if exact:
-            hint = "; the exact route writes nothing until every cell is done: run again"
-        print(f"fairaudit: interrupted{hint}", file=sys.stderr)
+    except KeyboardInterrupt:  # (a command that can say how to go on catches it itself)
+        print("fairaudit: interrupted", file=sys.stderr)
         return 130
 
 
@@ -62,10 +60,3 @@ def os_error_line(exc: OSError) -> str:
     if exc.filename is None or exc.filename == "":
         return reason
     return f"{echo(os.fsdecode(exc.filename))}: {reason}"
-
-
-def _exact_route(args: argparse.Namespace) -> bool:
-    """Whether ``fairaudit experiment`` takes an exact route (the run's own rule)."""
-    from ..experiments.options import exact_route
-
-    return exact_route(args.exact, args.local_model, args.samples)

@@ -99,9 +99,6 @@ nonneg = number_type("a finite number >= 0", low=0.0, unparsed="a number >= 0")
 positive_int = number_type("a whole number >= 1", low=1, integer=True)
 """A whole number >= 1 (a count)."""
 
-keep_level = number_type("a probability in [1/k, 1)", low=0.0, high=1.0, low_open=True, high_open=True)
-"""A keep probability: in (0, 1) here; the experiment checks its lower end 1/k, which depends on the attribute."""
-
 
 def columns(text: str) -> list[str]:
     """One or more comma-separated column names."""

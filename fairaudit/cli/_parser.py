@@ -1,16 +1,28 @@
-"""The argument parser of the ``fairaudit`` command, assembled from one module per subcommand."""
+"""The argument parser of the ``fairaudit`` command: one module per subcommand, then the plug-ins' commands."""
 
 from __future__ import annotations
 
 import argparse
+import sys
+from importlib.metadata import entry_points
 
 from .. import __version__
-from . import audit, calibrate, certify, experiment, plan, prepare_model, worst_case
-from ._common import Parser, command_flags
+from . import audit, calibrate, certify, plan, worst_case
+from ._common import Parser, Subparsers, command_flags
+
+COMMANDS_GROUP = "fairaudit.commands"
+"""The entry point group of the plug-ins' commands (the experiments' ``experiment`` and ``prepare-model``)."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the ``fairaudit`` command (documented in docs/cli.md)."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser of the ``fairaudit`` command (documented in docs/cli.md).
+
+    Parameters
+    ----------
+    command : str, optional
+        The command line's first argument. When it names a core command, the plug-ins' commands are not loaded:
+        a core command neither waits for them nor depends on them.
+    """
     parser = Parser(
         prog="fairaudit",
         description="Certified fairness auditing: audit decisions, certify bounds that "
@@ -18,9 +30,33 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"fairaudit {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
-    for command in (certify, audit, calibrate, plan, worst_case, experiment, prepare_model):
-        command.add_parser(sub)
+    for module in (certify, audit, calibrate, plan, worst_case):
+        module.add_parser(sub)
+    if command not in sub.choices:
+        add_plugin_commands(sub)
     for command_parser in sub.choices.values():
         own = command_parser.get_default("flags") or {}  # a command's parameters that come from another flag
         command_parser.set_defaults(flags={**command_flags(command_parser), **own})
     return parser
+
+
+def add_plugin_commands(sub: Subparsers) -> None:
+    """Add the command of every entry point of :data:`COMMANDS_GROUP`, in the order of their names.
+
+    An entry point names an object (a module) with ``add_parser(subparsers)``, which adds its command as the core
+    commands add theirs, with ``set_defaults(func=run)``. One that fails to load or to add its command is left out
+    with one warning line on stderr naming it; the other commands work as before.
+    """
+    for point in sorted(entry_points(group=COMMANDS_GROUP), key=lambda p: p.name):
+        known, helps = set(sub.choices), len(sub._choices_actions)
+        try:
+            point.load().add_parser(sub)
+        except Exception as exc:  # a broken plug-in: whatever it raised, the core's commands still run
+            for name in set(sub.choices) - known:  # what it added before failing
+                del sub.choices[name]
+            del sub._choices_actions[helps:]
+            reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
+            print(
+                f"fairaudit: warning: the plug-in command {point.name!r} ({point.value}) is left out: {reason}",
+                file=sys.stderr,
+            )

@@ -1,18 +1,18 @@
 """``fairaudit prepare-model``: install and convert a local language model (fairaudit.experiments.local_model).
 
-The plug-ins are imported only when the command runs, so that ``import fairaudit.cli`` stays light.
+A command of the plug-in (entry point group ``fairaudit.commands``), as ``experiment`` is: this module stays light;
+the local model's module is imported when the command runs.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
-from ._common import Subparsers
 
-
-def add_parser(sub: Subparsers) -> None:
-    """Add the ``prepare-model`` subcommand to ``sub``."""
+def add_parser(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add the ``prepare-model`` subcommand to ``sub`` (the ``fairaudit`` command's subparsers)."""
     p = sub.add_parser(
         "prepare-model",
         help="install and convert a local language model for experiment --local-model",
@@ -30,8 +30,8 @@ def add_parser(sub: Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit prepare-model``: print the model's folder; returns the exit status."""
-    from ..experiments import local_model as lm
-    from ..experiments.taskfile import HR_DELIVERY
+    from .. import local_model as lm
+    from ..taskfile import HR_DELIVERY
 
     def say(line: str) -> None:
         print(f"fairaudit: {line}", file=sys.stderr)

@@ -1,6 +1,8 @@
 """``fairaudit experiment``: a decision task (the paper's, or a task file) against a model (fairaudit.experiments.run).
 
-The plug-ins are imported only when the command runs, so that ``import fairaudit.cli`` stays light.
+A command of the plug-in (entry point group ``fairaudit.commands``): :func:`add_parser` adds it to the
+``fairaudit`` command's parser, :func:`run` runs it. This module stays light (``fairaudit --help`` loads it); the
+experiment's modules are imported when the command runs.
 """
 
 from __future__ import annotations
@@ -8,13 +10,24 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from .._errors import InputError
-from ._common import Subparsers, keep_level, level, nonneg, number_type, positive_int
+from fairaudit import InputError, number_type
 
 if TYPE_CHECKING:
-    from ..experiments.options import ModelSource, RunOptions
+    from ..options import ModelSource, RunOptions
+
+_level = number_type("a number in (0, 1)", low=0.0, high=1.0, low_open=True, high_open=True)
+"""A confidence level: a number strictly between 0 and 1."""
+
+_nonneg = number_type("a finite number >= 0", low=0.0, unparsed="a number >= 0")
+"""A finite number >= 0 (nats)."""
+
+_positive_int = number_type("a whole number >= 1", low=1, integer=True)
+"""A whole number >= 1 (a count)."""
+
+_keep = number_type("a probability in [1/k, 1)", low=0.0, high=1.0, low_open=True, high_open=True)
+"""A keep probability: in (0, 1) here; the experiment checks its lower end 1/k, which depends on the attribute."""
 
 _tolerance = number_type("a relative difference in [0, 1]", low=0.0, high=1.0)
 """The equal-distance check's tolerance: a number in [0, 1]."""
@@ -28,8 +41,8 @@ def _rooms(text: str) -> list[str]:
     return names
 
 
-def add_parser(sub: Subparsers) -> None:
-    """Add the ``experiment`` subcommand to ``sub``."""
+def add_parser(sub: argparse._SubParsersAction[Any]) -> None:
+    """Add the ``experiment`` subcommand to ``sub`` (the ``fairaudit`` command's subparsers)."""
     e = sub.add_parser(
         "experiment",
         help="run a decision task (the paper's, or a task file) against a model under a privacy filter",
@@ -81,7 +94,7 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
     e.add_argument("--model", metavar="NAME", help="the model name at --endpoint")
     e.add_argument(
         "--samples",
-        type=positive_int,
+        type=_positive_int,
         metavar="N",
         help="queries per shown cell (default 20; with --local-model, default: the exact route, no queries)",
     )
@@ -141,7 +154,7 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     eps = e.add_mutually_exclusive_group()
     eps.add_argument(
         "--epsilon",
-        type=nonneg,
+        type=_nonneg,
         nargs="+",
         metavar="E",
         help="the candidate's privacy budgets in nats: E is the epsilon of everything a prompt shows about a candidate "
@@ -152,7 +165,7 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     )
     eps.add_argument(
         "--keep",
-        type=keep_level,
+        type=_keep,
         nargs="+",
         metavar="P",
         help="keep probabilities instead, one run each: P on every attribute, an attribute with k values getting "
@@ -161,7 +174,7 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument(
         "--context-epsilon",
-        type=nonneg,
+        type=_nonneg,
         metavar="E",
         help="randomized response on the document type (package) at E nats (default: shown as is)",
     )
@@ -182,7 +195,7 @@ def _add_privacy_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument(
         "--target",
-        type=nonneg,
+        type=_nonneg,
         nargs="+",
         default=[0.05, 0.1, 0.25, 0.5],
         metavar="T",
@@ -201,7 +214,7 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument(
         "--show-prompts",
-        type=positive_int,
+        type=_positive_int,
         metavar="N",
         help="print the messages of the first N shown cells of the table design (whatever --design: the contexts in "
         "order, then the profiles of slots 1 to k, the last slot fastest), each with its context and profiles, then "
@@ -223,7 +236,7 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     e.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     e.add_argument(
         "--concurrency",
-        type=positive_int,
+        type=_positive_int,
         metavar="N",
         help="queries in flight (default 4 with --endpoint, else 1; 1 with --exact: a batching server's numbers "
         "depend on what it batches)",
@@ -234,7 +247,7 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument(
         "--confidence",
-        type=level,
+        type=_level,
         default=0.95,
         metavar="LEVEL",
         help="simultaneous level of the bands (default 0.95)",
@@ -263,7 +276,7 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
 
 def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptions]:
     """The :class:`ModelSource` and :class:`RunOptions` of the command's arguments."""
-    from ..experiments.run import ModelSource, RunOptions
+    from ..run import ModelSource, RunOptions
 
     source = ModelSource(
         simulated=args.simulated,
@@ -304,8 +317,26 @@ def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptio
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``fairaudit experiment``; returns the exit status (1 when some queries failed)."""
-    from ..experiments.run import run_experiment, show_prompts
+    """Run ``fairaudit experiment``; returns the exit status (1 when some queries failed, 130 when interrupted).
+
+    Interrupted (Ctrl-C), it says how to go on: a sampled run logged every answered query (run again with
+    ``--resume``), the exact route wrote nothing (run again).
+    """
+    try:
+        return _run(args)
+    except KeyboardInterrupt:
+        from ..options import exact_route
+
+        if exact_route(args.exact, args.local_model, args.samples):
+            hint = "the exact route writes nothing until every cell is done: run again"
+        else:
+            hint = "every answered query is logged: run again with --resume"
+        print(f"fairaudit: interrupted; {hint}", file=sys.stderr)
+        return 130
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..run import run_experiment, show_prompts
 
     source, options = _source_and_options(args)
     if args.show_prompts is not None:
@@ -322,7 +353,7 @@ def run(args: argparse.Namespace) -> int:
         log=lambda line: print(f"fairaudit: {line}", file=sys.stderr),
     )
     s = result.summary
-    from ..experiments.analysis import ExperimentAnalysis
+    from ..analysis import ExperimentAnalysis
 
     if result.route == "exact":  # a local model's (no queries) or an endpoint's (one request per shown cell)
         if result.analysis is None:

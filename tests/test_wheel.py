@@ -74,6 +74,11 @@ def test_wheel_holds_the_package_and_nothing_else(wheel):
     assert "fairaudit/py.typed" in names  # PEP 561: type checkers use the shipped annotations
     entry = zipfile.ZipFile(wheel).read(f"{info}/entry_points.txt").decode()
     assert "fairaudit = fairaudit.cli:main" in entry
+    # the experiments' commands, a plug-in registered in the group the fairaudit command reads
+    plugin = (
+        "experiment = fairaudit.experiments.cli.experiment\nprepare-model = fairaudit.experiments.cli.prepare_model"
+    )
+    assert f"[fairaudit.commands]\n{plugin}\n" in entry
     metadata = zipfile.ZipFile(wheel).read(f"{info}/METADATA").decode().splitlines()
     assert f"Name: {DISTRIBUTION}" in metadata and f"Version: {fairaudit.__version__}" in metadata
     # the extras name the distribution itself: [test] pulls [docs] from this wheel, not PyPI's other fairaudit
@@ -91,6 +96,8 @@ def test_wheel_installs_in_a_fresh_environment_and_certifies(wheel, tmp_path):
     # run outside the checkout, so the installed package (not the source tree) answers
     out = _run([str(bindir / "fairaudit"), "certify", str(EXAMPLE), "--format", "json"], cwd=tmp_path).stdout
     where = _run([str(bindir / "python"), "-c", "import fairaudit; print(fairaudit.__file__)"], cwd=tmp_path).stdout
+    listed = _run([str(bindir / "fairaudit"), "--help"], cwd=tmp_path)
+    assert "experiment " in listed.stdout and "prepare-model" in listed.stdout and listed.stderr == ""
     assert str(env) in where
     # installed under the distribution name, which provides the import package fairaudit
     names = (

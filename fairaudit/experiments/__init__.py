@@ -15,6 +15,11 @@
   profile attributes, decision models (an OpenAI-compatible chat-completions
   client and simulated models) and reply parsing (extra ``fairness-certify[vlm]``).
 
-The adapters only produce decision tables P(U | X̃, Ã) with counts; the core
-certifies them. Nothing here is imported by ``import fairaudit``.
+* :mod:`fairaudit.experiments.cli`: the commands ``fairaudit experiment`` and
+  ``fairaudit prepare-model``, entry points of the group ``fairaudit.commands``.
+
+A plug-in on the public API: it imports only names of ``fairaudit.__all__``
+(``tests/test_plugin_boundary.py``), and the core imports nothing of it. The
+adapters only produce decision tables P(U | X̃, Ã) with counts; the core
+certifies them (docs/design.md, "The plug-in interface").
 """

@@ -227,7 +227,7 @@ class _HalfDone:
 
 def test_a_broken_plugin_is_left_out_with_one_warning_and_the_core_runs(monkeypatch, capsys, tmp_path):
     real = importlib.metadata.entry_points
-    monkeypatch.setattr(_parser, "entry_points", lambda group: [_Broken(), _HalfDone(), *real(group=group)])
+    monkeypatch.setattr(importlib.metadata, "entry_points", lambda group: [_Broken(), _HalfDone(), *real(group=group)])
     assert main(["calibrate", "--target", "0.5", "--groups", "2"]) == 0  # a core command: no plug-in is loaded
     out, err = capsys.readouterr()
     assert "epsilon" in out and err == ""

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from importlib.metadata import entry_points
 
 from .. import __version__
 from . import audit, calibrate, certify, plan, worst_case
@@ -47,6 +46,8 @@ def add_plugin_commands(sub: Subparsers) -> None:
     commands add theirs, with ``set_defaults(func=run)``. One that fails to load or to add its command is left out
     with one warning line on stderr naming it; the other commands work as before.
     """
+    from importlib.metadata import entry_points  # (not at the top: a core command never reads the metadata)
+
     for point in sorted(entry_points(group=COMMANDS_GROUP), key=lambda p: p.name):
         known, helps = set(sub.choices), len(sub._choices_actions)
         try:

@@ -120,8 +120,8 @@ def table(header: Sequence[str], rows: Sequence[Sequence[str]], align: str | Non
 
 
 def write_atomic(path: str | os.PathLike, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (:func:`fairaudit._io.write_atomic`), creating its folder."""
-    from fairaudit._io import write_atomic as _write
+    """Write ``text`` to ``path`` atomically (:func:`fairaudit.base.files.write_atomic`), creating its folder."""
+    from fairaudit.base.files import write_atomic as _write
 
     target = Path(path)
     (target.parent if str(target.parent) else Path(".")).mkdir(parents=True, exist_ok=True)

@@ -1,4 +1,4 @@
-"""Benchmark: counting records in files — ``fairaudit.estimate.count_file`` (DuckDB) against a raw DuckDB GROUP BY.
+"""Benchmark: counting records in files — ``fairaudit.data.counts.count_file`` (DuckDB) against a raw DuckDB GROUP BY.
 
 Records: 10^7 (``--records N``; ``--quick`` 10^5) with 100 integer contexts,
 8 string groups ("g0" … "g7") and 5 integer decisions, drawn uniformly and
@@ -76,7 +76,8 @@ from _bench_common import (  # noqa: E402
     table,
 )
 
-from fairaudit.estimate import CountTable, CsvFormat, count_file  # noqa: E402
+from fairaudit.data.counts import CountTable, count_file
+from fairaudit.data.csv_format import CsvFormat  # noqa: E402
 
 N_CONTEXTS = 100
 GROUPS = tuple(f"g{i}" for i in range(8))  # sorted as strings

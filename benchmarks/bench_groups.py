@@ -1,6 +1,6 @@
 """Benchmark: many groups. Calibration of k-ary randomized response flat in k; general mechanisms of 1,000 groups.
 
-(a) Black-box calibration of k-ary randomized response (``fairaudit.calibrate.calibrate``, the API of the
+(a) Black-box calibration of k-ary randomized response (``fairaudit.worstcase.calibration.calibrate``, the API of the
     ``calibrate`` command, ``method="black_box"``): without τ, with τ = 0.1, and on L̄ (``kind="global"``,
     the command's ``--global``), for k = 2, 16, 256, 10^4 and 10^6. Time (median of repeats) and its ratio to
     k = 2 (flat in k: about 1×). Agreement: the closed form ``rr_black_box_epsilon`` of ``proofs/black_box.md``
@@ -52,15 +52,15 @@ from _bench_common import (  # noqa: E402
 )
 
 import fairaudit as fa  # noqa: E402
-import fairaudit.worstcase._black_box as black_box_module  # noqa: E402
-import fairaudit.worstcase._search as search_module  # noqa: E402
-from fairaudit._calibration_methods import rr_black_box_epsilon  # noqa: E402
-from fairaudit.calibrate import calibrate  # noqa: E402
-from fairaudit.certify import certify  # noqa: E402
-from fairaudit.lfp import PairPass  # noqa: E402
-from fairaudit.metrics import all_metrics  # noqa: E402
-from fairaudit.spec import parse_spec  # noqa: E402
-from fairaudit.worstcase import black_box_bound  # noqa: E402
+import fairaudit.worstcase.black_box as black_box_module  # noqa: E402
+import fairaudit.worstcase.pair_search as search_module  # noqa: E402
+from fairaudit.base.pairs import PairPass  # noqa: E402
+from fairaudit.certification.certificate import certify  # noqa: E402
+from fairaudit.certification.spec import parse_spec  # noqa: E402
+from fairaudit.metrics.fairness import all_metrics  # noqa: E402
+from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
+from fairaudit.worstcase.calibration import calibrate  # noqa: E402
+from fairaudit.worstcase.calibration_methods import rr_black_box_epsilon  # noqa: E402
 
 FULL = dict(
     groups=(2, 16, 256, 10**4, 10**6),
@@ -153,10 +153,10 @@ def _peak(fn: Callable[[], object]) -> float:
 
 
 def _clear() -> None:
-    import fairaudit.lfp as lfp
+    import fairaudit.base.pairs as pairs_module
 
     search_module._CACHE.clear()
-    lfp._CANDIDATES_CACHE.clear()
+    pairs_module._CANDIDATES_CACHE.clear()
 
 
 def _all_pairs_route(fn: Callable[[], object]) -> object:

@@ -3,7 +3,7 @@
 A law P(U | X, A) with 10^6 contexts (``--contexts N``; 10^4 with ``--quick``), 8 groups and 4 decisions
 (Dirichlet(1) rows, seeded), utility g = 1{u = 1}, uniform population. Timed (medians of repeats):
 
-* building the :class:`~fairaudit.laws.Law` from the float64 array with ``range(n)`` contexts: from a
+* building the :class:`~fairaudit.laws.tables.Law` from the float64 array with ``range(n)`` contexts: from a
   writable array (one copy, made block by block while the table is checked), from a read-only array (no
   copy), and with the labels given as numpy arrays;
 * L + L̄ (``local_fairness`` + ``global_fairness``), and again for a utility with four non-zero values;
@@ -48,8 +48,8 @@ from _bench_common import (  # noqa: E402
 )
 
 import fairaudit  # noqa: E402
-from fairaudit.certify import observe  # noqa: E402
-from fairaudit.laws import Law, Population  # noqa: E402
+from fairaudit.laws.tables import Law, Population  # noqa: E402
+from fairaudit.metrics.observed import observe  # noqa: E402
 
 GROUPS = tuple(f"g{i}" for i in range(8))
 DECISIONS = (0, 1, 2, 3)

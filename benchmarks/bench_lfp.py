@@ -43,9 +43,9 @@ from _bench_common import (
     table,
 )
 
-from fairaudit.lfp import FractionalProgram, lp_max, threshold_max, threshold_max_many  # noqa: E402
-from fairaudit.privacy import from_matrix  # noqa: E402
-from fairaudit.worstcase import black_box_bound  # noqa: E402
+from fairaudit.base.linear_fractional import FractionalProgram, lp_max, threshold_max, threshold_max_many  # noqa: E402
+from fairaudit.laws.mechanisms import from_matrix  # noqa: E402
+from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
 
 LOWER = 0.1  # the utility class of (b): g in [0.1, 1]
 GAMMA = 1.0

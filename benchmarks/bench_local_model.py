@@ -22,7 +22,7 @@ For each task it reports (1) the forward passes and queries of each route,
 their times, queries per second and the ratio of the two times; (2) the
 samples per cell the sampled route would need for a simultaneous half-width
 ≤ 0.05 on every kernel entry; (3) the coverage of the exact kernel by the
-sampled route's intervals (:func:`fairaudit.intervals.category_bounds`):
+sampled route's intervals (:func:`fairaudit.statistics.confidence_sets.category_bounds`):
 per-cell 95% sets (α = 0.05 per cell) entry by entry and cell by cell, and
 simultaneous 95% sets (α = 0.05 / cells, Bonferroni) over every cell at once,
 per repetition; (4) the per-candidate L and L̄ of the exact kernel
@@ -71,14 +71,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _bench_common import emit, fmt_ratio, fmt_time, machine_line, table  # noqa: E402
 
-from fairaudit._errors import InputError  # noqa: E402
+from fairaudit.base.errors import InputError  # noqa: E402
 from fairaudit.experiments import local_model as lm  # noqa: E402
 from fairaudit.experiments.analysis import ExperimentAnalysis, analyse, analyse_kernel  # noqa: E402
 from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel  # noqa: E402
 from fairaudit.experiments.taskfile import TASKS  # noqa: E402
 from fairaudit.experiments.vlm.client import ChatClient  # noqa: E402
 from fairaudit.experiments.vlm.tasks import DeliveryTask
-from fairaudit.intervals import category_bounds  # noqa: E402
+from fairaudit.statistics.confidence_sets import category_bounds  # noqa: E402
 
 MODEL = "smollm2"
 TASK_NAMES = ("package-delivery", "hr-delivery")
@@ -232,7 +232,7 @@ def samples_needed(exact: np.ndarray, level: float = LEVEL, target: float = TARG
     """Samples per cell for a simultaneous half-width ≤ ``target`` on every kernel entry.
 
     The simultaneous sets split α = 1 − level over the cells (Bonferroni) and,
-    as :func:`~fairaudit.intervals.category_bounds` does for K > 2 decisions,
+    as :func:`~fairaudit.statistics.confidence_sets.category_bounds` does for K > 2 decisions,
     over the K decisions of a cell: α_entry = α / (cells · K).
 
     Returns

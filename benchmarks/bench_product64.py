@@ -7,7 +7,7 @@ budget ε = 3 nats split equally (ε/6 each): a 64 × 64 product mechanism. Time
 * ``black_box_bound(mech, tau=0.3)`` — with τ (closed-form relaxation, the LP
   where its point is infeasible), and the same with ``method="lp"``;
 * black-box calibration over the product family for targets 0.5 and 1.0 nats,
-  without τ and with τ = 0.3 (``fairaudit.calibrate.calibrate`` when it exists,
+  without τ and with τ = 0.3 (``fairaudit.worstcase.calibration.calibrate`` when it exists,
   else a bisection on ``black_box_bound(family(ε)).value``);
 
 against baselines measured in the same run: building the 64 × 64 mechanism,
@@ -43,12 +43,12 @@ from _bench_common import (
     table,
 )
 
-from fairaudit.lfp import FractionalProgram, lp_max  # noqa: E402
-from fairaudit.privacy import product_family  # noqa: E402
-from fairaudit.worstcase import black_box_bound  # noqa: E402
+from fairaudit.base.linear_fractional import FractionalProgram, lp_max  # noqa: E402
+from fairaudit.laws.mechanisms import product_family  # noqa: E402
+from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
 
 try:  # another engineer's work in progress: use it when it is there
-    from fairaudit.calibrate import calibrate
+    from fairaudit.worstcase.calibration import calibrate
 except ImportError:  # pragma: no cover - exercised by the smoke test through monkeypatching
     calibrate = None
 
@@ -173,7 +173,11 @@ def run(quick: bool) -> tuple[str, list[str]]:
     )
 
     # calibrations
-    how = "fairaudit.calibrate.calibrate" if calibrate is not None else "bisection fallback (calibrate not available)"
+    how = (
+        "fairaudit.worstcase.calibration.calibrate"
+        if calibrate is not None
+        else "bisection fallback (calibrate not available)"
+    )
     for tau in (None, TAU):
         for target in TARGETS:
             eps_b, _ = bisect_epsilon(family, target, tau)

@@ -1,6 +1,6 @@
 """Benchmark: fairaudit at scale — a law with a million contexts, ten million records in Parquet, curves.
 
-(1) Exact metrics of a big law: a :class:`~fairaudit.laws.Law` with 10^6
+(1) Exact metrics of a big law: a :class:`~fairaudit.laws.tables.Law` with 10^6
     contexts, 8 groups and 4 decisions (Dirichlet(1) rows, seeded), utility
     g = 1{u = 1}, uniform population. Median time and peak memory of building
     the Law from the array, of L + L̄ (``local_fairness`` + ``global_fairness``)
@@ -67,9 +67,9 @@ from _bench_common import (
 )
 
 import fairaudit  # noqa: E402
-from fairaudit.certify import observe  # noqa: E402
-from fairaudit.estimate import CountTable  # noqa: E402
-from fairaudit.laws import Law, Population  # noqa: E402
+from fairaudit.data.counts import CountTable  # noqa: E402
+from fairaudit.laws.tables import Law, Population  # noqa: E402
+from fairaudit.metrics.observed import observe  # noqa: E402
 
 GROUPS = tuple(f"g{i}" for i in range(8))
 DECISIONS = (0, 1, 2, 3)
@@ -488,7 +488,7 @@ def law_job(n: int, seed: int, repeats: int, slow: float, with_pandas: bool) -> 
 # ----------------------------------------------------------------------------------------------------
 def intervals_job(n: int, seed: int, per_cell: int, repeats: int, slow: float) -> dict:
     """fairness_intervals on counts drawn from the n-context law (``per_cell`` records per cell, multinomial)."""
-    from fairaudit.intervals import fairness_intervals
+    from fairaudit.statistics.intervals import fairness_intervals
 
     g = fairaudit.indicator(POSITIVE, DECISIONS)
     tiny, _ = _tiny_law(seed)  # warm-up: imports and first calls, unmeasured
@@ -525,8 +525,9 @@ def intervals_job(n: int, seed: int, per_cell: int, repeats: int, slow: float) -
 
 def worst_job(n: int, repeats: int, slow: float) -> dict:
     """worst_model behind 8-ary randomized response (ε = 1), identity on n contexts, against black_box_bound."""
-    from fairaudit.privacy import randomized_response
-    from fairaudit.worstcase import black_box_bound, worst_model
+    from fairaudit.laws.mechanisms import randomized_response
+    from fairaudit.worstcase.black_box import black_box_bound
+    from fairaudit.worstcase.known_utility import worst_model
 
     mech = randomized_response(GROUPS, epsilon=EPSILON)
     g = fairaudit.indicator(POSITIVE, DECISIONS)
@@ -659,12 +660,12 @@ def time_command(cmd: list[str], n_records: int, counts: np.ndarray, repeats: in
 
 
 def count_route(path: Path):
-    """The streamed Parquet counter ``fairaudit.estimate.count_file`` (DuckDB), and its name in the report."""
-    from fairaudit.estimate import count_file
+    """The streamed Parquet counter ``fairaudit.data.counts.count_file`` (DuckDB), and its name in the report."""
+    from fairaudit.data.counts import count_file
 
     return (
         lambda: count_file(path, sensitive=["group"], outcome="decision", context=["context"]),
-        "`fairaudit.estimate.count_file` (streamed)",
+        "`fairaudit.data.counts.count_file` (streamed)",
     )
 
 
@@ -1085,7 +1086,7 @@ def write_plot(path: str, series: dict) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from fairaudit._io import write_atomic
+    from fairaudit.base.files import write_atomic
 
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.4))
     for ax in (left, right):
@@ -1162,8 +1163,8 @@ def run(args) -> tuple[str, list[str], dict]:
         ivs.append((run_guarded(intervals_job, n, seed, cfg["per_cell"], repeats, slow, timeout=timeout), n))
         _progress(f"(3) worst_model at {n:,} contexts")
         worsts.append((run_guarded(worst_job, n, repeats, slow, timeout=timeout), n))
-    from fairaudit.privacy import randomized_response
-    from fairaudit.worstcase import black_box_bound
+    from fairaudit.laws.mechanisms import randomized_response
+    from fairaudit.worstcase.black_box import black_box_bound
 
     mech = randomized_response(GROUPS, epsilon=EPSILON)
     t_bb, k_bb, _, bb = _measure(lambda: black_box_bound(mech), max(repeats, 3), slow)

@@ -11,66 +11,62 @@ are in nats. See docs/ for the guide and proofs/ for the proofs.
 
 from __future__ import annotations
 
-import importlib
-import sys
-import types
-from typing import TYPE_CHECKING, Any
-
-from ._errors import FairauditError, InputError
-
-if TYPE_CHECKING:  # what type checkers see; at run time each name is imported when first used (_SOURCES)
-    from ._arrays import format_label
-    from ._figure import mark_infinite
-    from ._io import write_atomic
-    from ._json import number
-    from ._toml import FieldProblem, distinct_labels, parse_toml, validation_error
-    from ._validation import choice, number_type, real, whole
-    from .audit import Audit, audit, utility_from_expression
-    from .bounds import Assumption, Bound, corollary_bound, main_theorem, main_theorem_tight, paper_bound, tight_bound
-    from .calibrate import Calibration, calibrate, calibrate_randomized_response
-    from .certify import Certificate, certify
-    from .curves import PrivacyCurve, privacy_curve
-    from .estimate import CountTable, CsvFormat, count_file, count_records, count_table, read_records
-    from .impact_ratio import ImpactRatios, impact_ratios
-    from .intervals import FairnessIntervals, Interval, fairness_intervals
-    from .laws import Kernel, Law, Population, compose
-    from .metrics import (
-        Fairness,
-        demographic_parity,
-        equalized_odds,
-        expected_utility,
-        global_fairness,
-        local_fairness,
-        sup_global_fairness,
-        sup_local_fairness,
-    )
-    from .plan import SamplePlan, plan
-    from .plot import plot_curve, save_figure
-    from .privacy import (
-        Mechanism,
-        MechanismFamily,
-        epsilon_from_keep_probability,
-        from_matrix,
-        identity,
-        keep_probability,
-        product,
-        product_family,
-        randomized_response,
-        randomized_response_family,
-        split_by_keep,
-    )
-    from .spec import Spec, load_spec, parse_spec
-    from .utility import Utility, from_function, from_table, indicator
-    from .utility_range import UtilityRange, fairness_range
-    from .worstcase import (
-        BlackBoxCertificate,
-        WorstCase,
-        WorstModel,
-        WorstUtility,
-        black_box_bound,
-        worst_model,
-        worst_utility,
-    )
+from fairaudit.base.checks import choice, number_type, real, whole
+from fairaudit.base.errors import FairauditError, InputError
+from fairaudit.base.files import write_atomic
+from fairaudit.base.json_values import number
+from fairaudit.base.labels import format_label
+from fairaudit.base.toml_documents import FieldProblem, distinct_labels, parse_toml, validation_error
+from fairaudit.certification.certificate import Certificate, certify
+from fairaudit.certification.curves import PrivacyCurve, privacy_curve
+from fairaudit.certification.spec import Spec, load_spec, parse_spec
+from fairaudit.data.counts import CountTable, count_file, count_records, count_table, read_records
+from fairaudit.data.csv_format import CsvFormat
+from fairaudit.laws.mechanisms import (
+    Mechanism,
+    MechanismFamily,
+    epsilon_from_keep_probability,
+    from_matrix,
+    identity,
+    keep_probability,
+    product,
+    product_family,
+    randomized_response,
+    randomized_response_family,
+    split_by_keep,
+)
+from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.utilities import Utility, from_function, from_table, indicator
+from fairaudit.metrics.bounds import (
+    Assumption,
+    Bound,
+    corollary_bound,
+    main_theorem,
+    main_theorem_tight,
+    paper_bound,
+    tight_bound,
+)
+from fairaudit.metrics.fairness import (
+    Fairness,
+    demographic_parity,
+    equalized_odds,
+    expected_utility,
+    global_fairness,
+    local_fairness,
+    sup_global_fairness,
+    sup_local_fairness,
+)
+from fairaudit.metrics.utility_range import UtilityRange, fairness_range
+from fairaudit.reports.figures import mark_infinite
+from fairaudit.reports.plots import plot_curve, save_figure
+from fairaudit.statistics.intervals import FairnessIntervals, Interval, fairness_intervals
+from fairaudit.statistics.ll144 import ImpactRatios, impact_ratios
+from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
+from fairaudit.statistics.sample_size import SamplePlan, plan
+from fairaudit.worstcase.black_box import BlackBoxCertificate, black_box_bound
+from fairaudit.worstcase.calibration import Calibration, calibrate, calibrate_randomized_response
+from fairaudit.worstcase.known_law import WorstUtility, worst_utility
+from fairaudit.worstcase.known_utility import WorstCase, WorstModel, worst_model
 
 __version__ = "0.1.0"
 
@@ -170,102 +166,3 @@ __all__ = [
     "whole",
     "write_atomic",
 ]
-
-
-# The public names by the module that defines them: ``import fairaudit`` imports none of these modules (nor
-# numpy, pandas, scipy or cvxpy); the first use of a name imports its module (PEP 562). A test checks that this
-# table and the TYPE_CHECKING imports above list the same names.
-_SOURCES: dict[str, tuple[str, ...]] = {
-    "_arrays": ("format_label",),
-    "_figure": ("mark_infinite",),
-    "_io": ("write_atomic",),
-    "_json": ("number",),
-    "_toml": ("FieldProblem", "distinct_labels", "parse_toml", "validation_error"),
-    "_validation": ("choice", "number_type", "real", "whole"),
-    "audit": ("Audit", "audit", "utility_from_expression"),
-    "bounds": (
-        "Assumption",
-        "Bound",
-        "corollary_bound",
-        "main_theorem",
-        "main_theorem_tight",
-        "paper_bound",
-        "tight_bound",
-    ),
-    "calibrate": ("Calibration", "calibrate", "calibrate_randomized_response"),
-    "certify": ("Certificate", "certify"),
-    "curves": ("PrivacyCurve", "privacy_curve"),
-    "estimate": ("CountTable", "CsvFormat", "count_file", "count_records", "count_table", "read_records"),
-    "impact_ratio": ("ImpactRatios", "impact_ratios"),
-    "intervals": ("FairnessIntervals", "Interval", "fairness_intervals"),
-    "laws": ("Kernel", "Law", "Population", "compose"),
-    "metrics": (
-        "Fairness",
-        "demographic_parity",
-        "equalized_odds",
-        "expected_utility",
-        "global_fairness",
-        "local_fairness",
-        "sup_global_fairness",
-        "sup_local_fairness",
-    ),
-    "plan": ("SamplePlan", "plan"),
-    "plot": ("plot_curve", "save_figure"),
-    "privacy": (
-        "Mechanism",
-        "MechanismFamily",
-        "epsilon_from_keep_probability",
-        "from_matrix",
-        "identity",
-        "keep_probability",
-        "product",
-        "product_family",
-        "randomized_response",
-        "randomized_response_family",
-        "split_by_keep",
-    ),
-    "spec": ("Spec", "load_spec", "parse_spec"),
-    "utility": ("Utility", "from_function", "from_table", "indicator"),
-    "utility_range": ("UtilityRange", "fairness_range"),
-    "worstcase": (
-        "BlackBoxCertificate",
-        "WorstCase",
-        "WorstModel",
-        "WorstUtility",
-        "black_box_bound",
-        "worst_model",
-        "worst_utility",
-    ),
-}
-_MODULE_OF = {name: module for module, names in _SOURCES.items() for name in names}
-
-
-def __getattr__(name: str) -> Any:
-    """A public name, imported from its module on first use (then cached in the package's namespace)."""
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_MODULE_OF))
-
-
-class _Package(types.ModuleType):
-    """The package's module type: ``fairaudit.audit`` stays the function when the module ``fairaudit.audit`` loads.
-
-    Importing a submodule binds it as an attribute of its package. Four submodules share their name with the
-    function they define (``audit``, ``calibrate``, ``certify``, ``plan``); the function is what ``fairaudit.audit``
-    has always been, whichever is imported first.
-    """
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if isinstance(value, types.ModuleType) and name in _MODULE_OF and _MODULE_OF[name] == name:
-            value = getattr(value, name)
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package

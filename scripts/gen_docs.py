@@ -119,8 +119,8 @@ def public_modules() -> list[str]:
 def _documented_in(module: str) -> str:
     """The public module whose page documents what ``module`` defines: the dotted prefix before its first private part.
 
-    ``fairaudit.worstcase._black_box`` -> ``fairaudit.worstcase`` (a package re-exports its private modules' names),
-    ``fairaudit._errors`` -> ``fairaudit`` (documented on the package page).
+    ``fairaudit.worstcase.black_box`` -> ``fairaudit.worstcase`` (a package re-exports its private modules' names),
+    ``fairaudit.base.errors`` -> ``fairaudit`` (documented on the package page).
     """
     parts = module.split(".")
     public = next((i for i, part in enumerate(parts) if part.startswith("_")), len(parts))

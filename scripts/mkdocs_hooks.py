@@ -1,6 +1,6 @@
 """MkDocs hooks (registered in ``mkdocs.yml``): Sphinx roles shown as code, and the TeX rendered as MathML at build time.
 
-* Docstrings are numpydoc, written for Sphinx: ``:func:`~fairaudit.estimate.count_file``` is rendered by mkdocstrings
+* Docstrings are numpydoc, written for Sphinx: ``:func:`~fairaudit.data.counts.count_file``` is rendered by mkdocstrings
   as ``:func:<code>~fairaudit...</code>``; :func:`strip_roles` drops the role and, as Sphinx does for a leading ``~``,
   keeps only the last dotted name.
 * The TeX in the pages (``$...$`` and ``$$...$$``, which ``pymdownx.arithmatex`` in generic mode wraps as

@@ -19,8 +19,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fairaudit import InputError, parse_spec
-from fairaudit._arrays import as_labels
-from fairaudit._io import write_atomic
+from fairaudit.base.files import write_atomic
+from fairaudit.base.labels import as_labels
 from fairaudit.cli import main
 
 # A valid spec: two offices behind binary randomized response (keep 0.7), two documents.

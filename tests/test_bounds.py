@@ -16,7 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.laws import compose
+from fairaudit.laws.tables import compose
 
 # --------------------------------------------------------------------------- closed forms
 

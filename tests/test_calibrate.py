@@ -17,8 +17,8 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.calibrate import Calibration, calibrate
-from fairaudit.privacy import MechanismFamily, keep_probability, randomized_response
+from fairaudit.laws.mechanisms import MechanismFamily, keep_probability, randomized_response
+from fairaudit.worstcase.calibration import Calibration, calibrate
 
 
 def disguised_rr(k: int) -> MechanismFamily:

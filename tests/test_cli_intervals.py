@@ -12,7 +12,7 @@ from _cli import run, run_json
 from scipy.stats import binomtest
 
 import fairaudit as fa
-from fairaudit.intervals import fairness_intervals
+from fairaudit.statistics.intervals import fairness_intervals
 
 ROOT = Path(__file__).resolve().parents[1]
 GPT35 = ROOT / "examples" / "llm_hiring" / "gpt35.toml"

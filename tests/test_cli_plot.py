@@ -13,8 +13,8 @@ import pandas as pd
 import pytest
 from _cli import run
 
+from fairaudit.certification.curves import COLUMNS
 from fairaudit.cli import main
-from fairaudit.curves import COLUMNS
 
 ROOT = Path(__file__).resolve().parents[1]
 HR_SPEC = ROOT / "examples" / "hr_office" / "hr_office.toml"

@@ -1,4 +1,4 @@
-"""count_file and read_records read files with DuckDB alone (fairaudit._count_engine): labels, errors, names, speed.
+"""count_file and read_records read files with DuckDB alone (fairaudit.data.record_files): labels, errors, names, speed.
 
 Expected values come from routes independent of DuckDB: the records made in Python (counted with
 ``collections.Counter``, their labels typed by the documented rule written again here in Python, :func:`typed`), or
@@ -25,10 +25,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import fairaudit._count_engine as engine
-import fairaudit.estimate as estimate
+import fairaudit.data.counts as estimate
+import fairaudit.data.record_files as engine
 from fairaudit import CsvFormat, InputError, count_file, count_records, read_records
-from fairaudit._count_engine import NA, sql_identifier
+from fairaudit.data.record_files import NA, sql_identifier
 
 pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
@@ -508,7 +508,7 @@ def test_no_heavy_module_imported_at_top_level(module):
 
 
 def test_importing_estimate_does_not_start_duckdb():
-    code = "import sys, fairaudit.estimate; print(' '.join(m for m in ('pandas', 'pyarrow', 'duckdb') if m in sys.modules))"
+    code = "import sys, fairaudit.data.counts; print(' '.join(m for m in ('pandas', 'pyarrow', 'duckdb') if m in sys.modules))"
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert "duckdb" not in loaded
     if "pandas" not in loaded:  # pandas imports pyarrow itself (other modules of fairaudit may import pandas)
@@ -532,7 +532,7 @@ def test_files_are_counted_without_pandas_nor_pyarrow(tmp_path, suffix):
     kw = dict(sensitive=["group", "flag"], outcome="decision", context=["context", "score"], dropna=True)
     assert count_file(path, **kw).n == count_records(frame, **kw).n == 15
     code = (
-        "import sys; from fairaudit.estimate import count_file; "
+        "import sys; from fairaudit.data.counts import count_file; "
         f"t = count_file({str(path)!r}, **{kw!r}); "
         "print([m for m in ('pandas', 'pyarrow') if m in sys.modules], t.n)"
     )

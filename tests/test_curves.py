@@ -14,13 +14,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fairaudit import InputError
-from fairaudit.certify import certify
-from fairaudit.curves import COLUMNS, PrivacyCurve, default_epsilons, privacy_curve
-from fairaudit.laws import Kernel
-from fairaudit.privacy import product_family, randomized_response_family
-from fairaudit.spec import load_spec, parse_spec
-from fairaudit.utility import indicator
-from fairaudit.worstcase import black_box_bound
+from fairaudit.certification.certificate import certify
+from fairaudit.certification.curves import COLUMNS, PrivacyCurve, default_epsilons, privacy_curve
+from fairaudit.certification.spec import load_spec, parse_spec
+from fairaudit.laws.mechanisms import product_family, randomized_response_family
+from fairaudit.laws.tables import Kernel
+from fairaudit.laws.utilities import indicator
+from fairaudit.worstcase.black_box import black_box_bound
 
 ROOT = Path(__file__).resolve().parents[1]
 HR_SPEC = ROOT / "examples" / "hr_office" / "hr_office.toml"

@@ -16,7 +16,7 @@ import pytest
 from _cli import run, run_json
 
 from fairaudit import InputError, audit, count_file, count_records, count_table
-from fairaudit._key_values import check_key_values
+from fairaudit.data.key_values import check_key_values
 
 # The case: group a hires 40 of 88, group b 30 of 80: L = ln((40/88) / (30/80)) = 0.19 nats. One of a's
 # hired records with a NUL byte after its group would be a group of its own (rate 1): L = ln(1 / (30/80)) = 0.98.

@@ -22,7 +22,7 @@ gen = runpy.run_path(str(ROOT / "scripts" / "gen_docs.py"), run_name="gen_docs")
         ("[c](../CHANGELOG.md)", "index.md", "[c](CHANGELOG.md)"),
         # inside docs/, outside the mirrored files, external or anchors only: unchanged
         ("[u](../uncertainty.md)", "examples/compas.md", "[u](../uncertainty.md)"),
-        ("[s](../fairaudit/spec.py)", "spec.md", "[s](../fairaudit/spec.py)"),
+        ("[s](../fairaudit/certification/spec.py)", "spec.md", "[s](../fairaudit/certification/spec.py)"),
         ("[w](https://example.org/../proofs/a.md)", "index.md", "[w](https://example.org/../proofs/a.md)"),
         ("[a](#notation)", "concepts.md", "[a](#notation)"),
     ],
@@ -33,8 +33,11 @@ def test_relink(text, page, expected):
 
 def test_sphinx_roles_show_as_code():
     hooks = runpy.run_path(str(ROOT / "scripts" / "mkdocs_hooks.py"))
-    html = ":func:<code>~fairaudit.estimate.count_file</code> and :class:<code>Kernel</code>, :mod:<code>fairaudit.spark</code>"
-    assert hooks["strip_roles"](html) == "<code>count_file</code> and <code>Kernel</code>, <code>fairaudit.spark</code>"
+    html = ":func:<code>~fairaudit.data.counts.count_file</code> and :class:<code>Kernel</code>, :mod:<code>fairaudit.data.spark</code>"
+    assert (
+        hooks["strip_roles"](html)
+        == "<code>count_file</code> and <code>Kernel</code>, <code>fairaudit.data.spark</code>"
+    )
 
 
 def _parsers(parser):
@@ -75,7 +78,7 @@ def test_api_reference_covers_every_public_module():
     }
     public = sorted(m for m in files if not any(part.startswith("_") for part in m.split(".")))
     assert gen["public_modules"]() == public
-    assert "fairaudit.certify" in public and "fairaudit.experiments.vlm.client" in public
+    assert "fairaudit.certification.certificate" in public and "fairaudit.experiments.vlm.client" in public
 
 
 def test_package_page_lists_every_export():
@@ -84,8 +87,14 @@ def test_package_page_lists_every_export():
     page = gen["_package_page"]()
     for name in fairaudit.__all__:
         assert f"[`{name}`]" in page, name
-    assert "| [`certify`][fairaudit.certify.certify] | function | [`fairaudit.certify`](certify.md) |" in page
-    assert "::: fairaudit.InputError" in page  # defined in a private module, so documented on the package page
+    assert (
+        "| [`certify`][fairaudit.certification.certificate.certify] | function | "
+        "[`fairaudit.certification.certificate`](certification/certificate.md) |" in page
+    )
+    assert (
+        "| [`InputError`][fairaudit.base.errors.InputError] | class | [`fairaudit.base.errors`](base/errors.md) |"
+        in page
+    )
 
 
 def test_every_docs_page_is_in_the_nav():

@@ -10,8 +10,8 @@ import pytest
 from scipy.stats import binomtest
 
 import fairaudit as fa
-from fairaudit.estimate import count_records
-from fairaudit.intervals import fairness_intervals
+from fairaudit.data.counts import count_records
+from fairaudit.statistics.intervals import fairness_intervals
 
 
 def test_counts_match_pandas_crosstab():

@@ -34,7 +34,6 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.legend import Legend  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
-from fairaudit._figure import INFINITY_LABEL, coincide  # noqa: E402
 from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep  # noqa: E402
 from fairaudit.experiments.report import (  # noqa: E402
     _baseline_figure,
@@ -47,8 +46,9 @@ from fairaudit.experiments.report import (  # noqa: E402
 from fairaudit.experiments.taskfile import get_task  # noqa: E402
 from fairaudit.experiments.vlm.filter import candidate_family  # noqa: E402
 from fairaudit.experiments.vlm.models import simulated_model  # noqa: E402
-from fairaudit.laws import Kernel  # noqa: E402
-from fairaudit.plot import plot_curve  # noqa: E402
+from fairaudit.laws.tables import Kernel  # noqa: E402
+from fairaudit.reports.figures import INFINITY_LABEL, coincide  # noqa: E402
+from fairaudit.reports.plots import plot_curve  # noqa: E402
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -295,8 +295,8 @@ def test_coinciding_series_are_drawn_once_with_one_entry_naming_both(task, model
 
 
 def test_plot_curve_merges_coinciding_bounds_only_when_equal_everywhere():
-    from fairaudit.curves import privacy_curve
-    from fairaudit.privacy import randomized_response_family
+    from fairaudit.certification.curves import privacy_curve
+    from fairaudit.laws.mechanisms import randomized_response_family
 
     curve = privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2)
     labels = [t.get_text() for t in plot_curve(curve).axes[0].get_legend().get_texts()]
@@ -308,8 +308,8 @@ def test_plot_curve_merges_coinciding_bounds_only_when_equal_everywhere():
 
 def test_a_curve_whose_series_all_coincide_keeps_a_legend_that_fits(tmp_path):
     """Four bounds on one line and the observed values on it (``fairaudit certify`` of a model at the bound)."""
-    from fairaudit.curves import privacy_curve
-    from fairaudit.privacy import randomized_response_family
+    from fairaudit.certification.curves import privacy_curve
+    from fairaudit.laws.mechanisms import randomized_response_family
 
     c = privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2)
     e = c.corollary
@@ -389,8 +389,8 @@ def test_infinite_paper_design_values_are_marked_at_the_top_edge():
 
 
 def test_infinite_observed_values_and_bounds_of_a_curve_are_marked_at_the_top_edge():
-    from fairaudit.curves import privacy_curve
-    from fairaudit.privacy import randomized_response_family
+    from fairaudit.certification.curves import privacy_curve
+    from fairaudit.laws.mechanisms import randomized_response_family
 
     curve = privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2)
     tail = np.arange(len(curve.epsilon)) >= len(curve.epsilon) - 3

@@ -19,7 +19,7 @@ from fairaudit.experiments._markdown import experiment_markdown
 from fairaudit.experiments.analysis import analyse_kernel
 from fairaudit.experiments.report import experiment_dict
 from fairaudit.experiments.taskfile import HR_DELIVERY as T
-from fairaudit.laws import Kernel
+from fairaudit.laws.tables import Kernel
 
 
 def _kernel() -> Kernel:
@@ -89,7 +89,7 @@ def _by_grid(analysis, target, kind, end="upper"):
     in tests/test_utility_range.py) on a grid of 0.1 up to 30 nats, its first crossing bisected by hand; with
     ``end="value"`` the same for the value under the stated utility."""
     from fairaudit.experiments.vlm.filter import candidate_family
-    from fairaudit.utility_range import fairness_range
+    from fairaudit.metrics.utility_range import fairness_range
 
     family = candidate_family(T)
 
@@ -186,8 +186,9 @@ def test_an_unparsed_utility_beyond_the_others_widens_the_black_box_bounds():
     # unparsed utility within [1, 3]. The bounds' ends by a second route: black_box_bound on the class [lower, gamma]
     # (tau = 1 = min g, as the run uses), and worst_model with the class's two-decision extreme for L-bar.
     from fairaudit.experiments.taskfile import PACKAGE_DELIVERY
-    from fairaudit.utility import from_table
-    from fairaudit.worstcase import black_box_bound, worst_model
+    from fairaudit.laws.utilities import from_table
+    from fairaudit.worstcase.black_box import black_box_bound
+    from fairaudit.worstcase.known_utility import worst_model
 
     task = dataclasses.replace(PACKAGE_DELIVERY, utility_values=(1.0, 3.0, 5.0))
     p = np.tile([0.5, 0.3, 0.2], (3, 4, 1))

@@ -221,7 +221,7 @@ class _Flaky:
         self.inner = simulated_model(PKG, "fair")
 
     def reply(self, query, messages):
-        from fairaudit._errors import FairauditError
+        from fairaudit.base.errors import FairauditError
 
         self.n += 1
         if self.n % 4 == 0:
@@ -257,7 +257,7 @@ def test_unparseable_replies_are_counted_never_dropped(tmp_path):
 
 def _exact_kernel(task, model):
     """The model's own kernel as an exact-probability per-candidate Kernel."""
-    from fairaudit.laws import Kernel
+    from fairaudit.laws.tables import Kernel
 
     k = len(task.profiles)
     pairs = [(a, b) for a in task.profiles for b in task.profiles]

@@ -13,10 +13,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fairaudit._errors import InputError
-from fairaudit.audit import utility_from_expression
+from fairaudit.base.errors import InputError
 from fairaudit.cli import main
-from fairaudit.expression import MAX_DEPTH, MAX_LENGTH, evaluate_utility_expression
+from fairaudit.laws.utility_expression import MAX_DEPTH, MAX_LENGTH, evaluate_utility_expression
+from fairaudit.statistics.record_audit import utility_from_expression
 
 NUMBERS = [1, 2, 3, 4, 5, 10]
 

@@ -2,7 +2,7 @@
 
 Every maximum over pairs of groups is a maximum over groups of a range: L = max over contexts of log(max_a E /
 min_a E), and the largest TV over pairs is the largest range over groups of P(S), S over the events (subsets of
-the decisions, :func:`fairaudit._arrays.event_sums`). Checked here against routes written from scratch: every pair
+the decisions, :func:`fairaudit.metrics.total_variation.event_sums`). Checked here against routes written from scratch: every pair
 of groups with :func:`itertools.combinations`, exact fractions, and numpy's max minus min at 10^5 groups.
 """
 
@@ -19,9 +19,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit._arrays import event_sums, max_tv_pair
-from fairaudit.laws import Law
-from fairaudit.metrics import all_metrics
+from fairaudit.laws.tables import Law
+from fairaudit.metrics.fairness import all_metrics
+from fairaudit.metrics.total_variation import event_sums, max_tv_pair
 
 
 def _pairwise(rows: np.ndarray) -> tuple[float, list[tuple[int, int]]]:
@@ -125,7 +125,7 @@ def test_ties_in_l_name_the_first_largest_and_the_first_smallest_group():
 def test_a_bayes_band_too_large_to_allocate_exits_2_naming_draws(tmp_path, capsys, monkeypatch):
     """numpy's MemoryError for the posterior draws becomes one line: the size, and what to change (before: a
     traceback with numpy's 26.8 GiB allocation at 10^5 groups)."""
-    import fairaudit._bayes as bayes
+    import fairaudit.statistics.bayes as bayes
 
     def no_memory(rng, alpha, draws):
         raise MemoryError("Unable to allocate 26.8 GiB")

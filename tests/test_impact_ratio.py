@@ -13,7 +13,7 @@ import pytest
 from _cli import run, run_json
 
 from fairaudit import InputError, count_file, count_records, indicator
-from fairaudit.impact_ratio import impact_ratios, median_score, scoring_utility
+from fairaudit.statistics.ll144 import impact_ratios, median_score, scoring_utility
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "impact_ratio" / "applicants.csv"
 COMMAND = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]
@@ -96,7 +96,7 @@ def test_intervals_cover_the_true_ratios_simultaneously():
     hits, reps = 0, 300
     for _ in range(reps):
         counts = np.array([[[sizes[g] - k, k] for g, k in ((g, rng.binomial(sizes[g], rates[g])) for g in rates)]])
-        from fairaudit.estimate import CountTable
+        from fairaudit.data.counts import CountTable
 
         t = CountTable(counts, ("all",), tuple(rates), (0, 1), (), ("g",), "y")
         rows = impact_ratios(t, indicator(1, (0, 1)), confidence=0.90).rows

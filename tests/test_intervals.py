@@ -20,18 +20,13 @@ from scipy.optimize import linprog
 from scipy.stats import binomtest
 
 import fairaudit as fa
-from fairaudit._errors import InputError
-from fairaudit._extremes import disjoint_ratio as _disjoint_ratio
-from fairaudit._extremes import mixed_ratio as _mixed_ratio
-from fairaudit.estimate import CountTable, count_records, count_table
-from fairaudit.intervals import (
-    category_bounds,
-    clopper_pearson,
-    fairness_intervals,
-    linear_extremes,
-)
-from fairaudit.laws import Law, Population
-from fairaudit.metrics import (
+from fairaudit.base.errors import InputError
+from fairaudit.data.counts import CountTable, count_records, count_table
+from fairaudit.laws.mechanisms import randomized_response
+from fairaudit.laws.tables import Law, Population
+from fairaudit.metrics.box_extremes import disjoint_ratio as _disjoint_ratio
+from fairaudit.metrics.box_extremes import mixed_ratio as _mixed_ratio
+from fairaudit.metrics.fairness import (
     demographic_parity,
     equalized_odds,
     global_fairness,
@@ -39,7 +34,8 @@ from fairaudit.metrics import (
     sup_global_fairness,
     sup_local_fairness,
 )
-from fairaudit.privacy import randomized_response
+from fairaudit.statistics.confidence_sets import category_bounds, clopper_pearson, linear_extremes
+from fairaudit.statistics.intervals import fairness_intervals
 
 
 def _cp(k: int, n: int, level: float) -> tuple[float, float]:
@@ -415,8 +411,8 @@ def test_min_max_ratio_lp_equals_the_same_lp_in_cvxpy(A, n):
     """
     import cvxpy as cp
 
-    from fairaudit._extremes import MinMaxRatio
-    from fairaudit.lfp import solve_clarabel
+    from fairaudit.base.linear_fractional import solve_clarabel
+    from fairaudit.metrics.box_extremes import MinMaxRatio
 
     rng = np.random.default_rng(11 + A)
     y, t, sigma = cp.Variable(n), cp.Variable(nonneg=True), cp.Variable()
@@ -638,7 +634,7 @@ def test_unknown_method_raises():
 
 def test_clopper_pearson_needs_indicator_utility():
     t = _binary_table([[3, 4]], [[10, 10]])
-    g = fa.utility.from_table([0.0, 0.5], t.decisions, name="half")
+    g = fa.from_table([0.0, 0.5], t.decisions, name="half")
     with pytest.raises(InputError, match="method") as err:
         fairness_intervals(t, g, 0.95, "clopper-pearson")
     assert "0/1" in str(err.value)
@@ -658,7 +654,7 @@ def test_fractional_counts_raise():
 @given(st.integers(2, 6), st.integers(0, 2**31 - 1))
 def test_pair_gap_equals_brute_force_over_pairs(A, seed):
     # _pair_gap finds max over a != a' of big[a] - small[a'] from the two extremes only; check against all pairs.
-    from fairaudit._extremes import pair_gap as _pair_gap
+    from fairaudit.metrics.box_extremes import pair_gap as _pair_gap
 
     rng = np.random.default_rng(seed)
     big, small = rng.integers(0, 4, size=(5, A)) / 4, rng.integers(0, 4, size=(5, A)) / 4  # ties on purpose
@@ -673,8 +669,8 @@ def test_pair_gap_equals_brute_force_over_pairs(A, seed):
 @given(st.integers(2, 6), st.integers(0, 2**31 - 1))
 def test_event_extremes_equal_the_knapsack(K, seed):
     # the matrix-product shortcut for 0/1 functionals against the general fractional knapsack
-    from fairaudit._confidence_sets import decision_events as _events
-    from fairaudit._confidence_sets import event_extremes as _event_extremes
+    from fairaudit.statistics.confidence_sets import decision_events as _events
+    from fairaudit.statistics.confidence_sets import event_extremes as _event_extremes
 
     rng = np.random.default_rng(seed)
     p = rng.dirichlet(np.ones(K), size=(3, 2))

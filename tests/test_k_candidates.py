@@ -14,7 +14,7 @@ from _cli import run
 from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep
 from fairaudit.experiments.taskfile import load_task
 from fairaudit.experiments.vlm.models import simulated_model
-from fairaudit.laws import Kernel
+from fairaudit.laws.tables import Kernel
 
 ROOT = Path(__file__).resolve().parents[1]
 LOAN = ROOT / "examples" / "tasks" / "loan.toml"

@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
-from fairaudit.lfp import lp_max, threshold_max
+from fairaudit.base.linear_fractional import lp_max, threshold_max
 
 
 def _instance(seed: int, n: int):
@@ -91,7 +91,7 @@ def test_threshold_rejects_negative_lower_bound():
 @given(st.integers(0, 2**32 - 1), st.integers(1, 20), st.floats(0.01, 1.0))
 def test_floor_closed_form_equals_lp(seed, n, share):
     # max p·h / q·h over the box with q·h >= floor: closed form (fractional knapsack at the floor) vs the LP.
-    from fairaudit.lfp import box_point, floor_max_many
+    from fairaudit.base.linear_fractional import box_point, floor_max_many
 
     p, q, lo, hi = _instance(seed, n)
     floor = q @ lo + share * (q @ hi - q @ lo)
@@ -105,7 +105,7 @@ def test_floor_closed_form_equals_lp(seed, n, share):
 
 
 def test_fractional_max_dispatches():
-    from fairaudit.lfp import fractional_max
+    from fairaudit.base.linear_fractional import fractional_max
 
     assert fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.5, upper=1.0).method == "threshold"
     r = fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.0, upper=1.0, A_ub=[[-0.3, -0.7]], b_ub=[-0.5])

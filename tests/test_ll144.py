@@ -1,7 +1,7 @@
 """The NYC Local Law 144 bias-audit table: exact rates and ratios, the exact joint-box intervals, the threshold marks,
 the headline over the tables' categories, the report's order, and the tidy DataFrame.
 
-Expected values come from routes that share no code with fairaudit.impact_ratio: exact fractions of hand counts,
+Expected values come from routes that share no code with fairaudit.statistics.ll144: exact fractions of hand counts,
 pandas groupbys of the records, and a brute force over the vertices (and a grid) of the box of rates.
 """
 
@@ -20,7 +20,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fairaudit import InputError, count_records, indicator
-from fairaudit.impact_ratio import MARKS, impact_ratios, ratio_range
+from fairaudit.statistics.ll144 import MARKS, impact_ratios, ratio_range
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "impact_ratio" / "applicants.csv"
 COMMAND = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]
@@ -294,7 +294,7 @@ def _half_up(x: Fraction, digits: int) -> Fraction:
 
 @given(st.integers(0, 5000), st.integers(1, 5000), st.integers(0, 4))
 def test_round_half_up_rounds_the_exact_fraction(k, n, digits):
-    from fairaudit.impact_ratio import round_half_up
+    from fairaudit.statistics.ll144 import round_half_up
 
     x = Fraction(min(k, n), n)
     assert round_half_up(float(x), digits) == float(_half_up(x, digits))
@@ -320,7 +320,7 @@ def test_frame_and_tables_at_a_printed_precision(capsys):
 
 def test_round_half_up_refuses_an_unknown_direction_naming_how():
     from fairaudit import InputError
-    from fairaudit.impact_ratio import round_half_up
+    from fairaudit.statistics.ll144 import round_half_up
 
     with pytest.raises(InputError, match=r"^how: must be 'half up', 'down' or 'up' \(got 'sideways'\)$"):
         round_half_up(0.5, 1, "sideways")

@@ -21,7 +21,7 @@ import pytest
 from _cli import run, run_json
 from _model import need_local_model
 
-from fairaudit._errors import InputError
+from fairaudit.base.errors import InputError
 from fairaudit.experiments import local_model as lm
 from fairaudit.experiments.exact import ranking_replies
 from fairaudit.experiments.report import shown_kernel_frame
@@ -229,7 +229,7 @@ def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tm
     from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel
     from fairaudit.experiments.vlm.client import ChatClient
     from fairaudit.experiments.vlm.models import EndpointModel
-    from fairaudit.intervals import category_bounds
+    from fairaudit.statistics.confidence_sets import category_bounds
 
     task = lm.answer_task(PACKAGE_DELIVERY)
     exact = lm.exact_kernel(PACKAGE_DELIVERY, smollm2)
@@ -320,7 +320,7 @@ def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, caps
     """
     from fairaudit.experiments.analysis import analyse_kernel
     from fairaudit.experiments.vlm.filter import PrivacyFilter
-    from fairaudit.worstcase import worst_model
+    from fairaudit.worstcase.known_utility import worst_model
 
     low, high = PACKAGE_DELIVERY.profiles
     table = lambda a, b: (0.5, 0.5, 0.0) if a == b else ((0.7, 0.3, 0.0) if a == low else (0.3, 0.7, 0.0))  # noqa: E731

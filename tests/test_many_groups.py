@@ -20,12 +20,14 @@ import numpy as np
 import pytest
 
 import fairaudit as fa
-import fairaudit.lfp as lfp
-import fairaudit.worstcase._black_box as black_box_module
-import fairaudit.worstcase._search as search_module
-from fairaudit.bounds import _profile_candidates
-from fairaudit.lfp import floor_max_many, threshold_max_many
-from fairaudit.worstcase import black_box_bound, worst_model
+import fairaudit.base.pairs as pairs_module
+import fairaudit.metrics.bounds as bounds_module
+import fairaudit.worstcase.black_box as black_box_module
+import fairaudit.worstcase.pair_search as search_module
+from fairaudit.base.linear_fractional import floor_max_many, threshold_max_many
+from fairaudit.metrics.bounds import _profile_candidates
+from fairaudit.worstcase.black_box import black_box_bound
+from fairaudit.worstcase.known_utility import worst_model
 
 
 def _all_pairs(matrix, lower, upper, floor=None):
@@ -37,7 +39,7 @@ def _all_pairs(matrix, lower, upper, floor=None):
 def _no_caches(monkeypatch):
     """Each test (and each patched block size) computes afresh: empty caches of results and candidates."""
     monkeypatch.setattr(search_module, "_CACHE", {})
-    monkeypatch.setattr(lfp, "_CANDIDATES_CACHE", {})
+    monkeypatch.setattr(pairs_module, "_CANDIDATES_CACHE", {})
 
 
 @pytest.fixture
@@ -59,11 +61,11 @@ def all_pairs(monkeypatch):
 
 def _tiny_blocks(monkeypatch, block=7):
     """A few pairs per tile, so that every pass runs over many tiles, bands and chunks (caches emptied)."""
-    for module in (lfp, search_module, fa.bounds):
+    for module in (pairs_module, search_module, bounds_module):
         if hasattr(module, "PAIR_BLOCK"):
             monkeypatch.setattr(module, "PAIR_BLOCK", block)
     monkeypatch.setattr(search_module, "_CACHE", {})
-    monkeypatch.setattr(lfp, "_CANDIDATES_CACHE", {})
+    monkeypatch.setattr(pairs_module, "_CANDIDATES_CACHE", {})
 
 
 def _bad_candidates(monkeypatch):
@@ -73,7 +75,7 @@ def _bad_candidates(monkeypatch):
         return np.array([0]), np.array([1])
 
     monkeypatch.setattr(search_module, "pair_candidates", first)
-    monkeypatch.setattr(fa.bounds, "pair_candidates", first)
+    monkeypatch.setattr(bounds_module, "pair_candidates", first)
 
 
 def _mechanisms():
@@ -283,7 +285,7 @@ def test_tight_and_paper_equal_the_all_pairs_computations(name, M, monkeypatch):
             assert got.value == pytest.approx(value, rel=1e-12, abs=1e-15)
             a, b = np.nonzero(~np.eye(n, dtype=bool))  # every pair's objective, as before the pruning
             dist = np.ones(a.size) if metric is None else d[a, b]
-            obj = fa.bounds._tight_objective(M[a], M[b], dist, 1.0, tau, lip)[0]
+            obj = bounds_module._tight_objective(M[a], M[b], dist, 1.0, tau, lip)[0]
             i = int(np.argmax(obj))
             assert (got.group, got.other_group, got.value) == (a[i], b[i], float(np.log(obj[i])))
             paper = fa.paper_bound(mech, gamma=1.0, tau=tau, lipschitz=lip)
@@ -325,7 +327,7 @@ def test_black_box_memory_is_linear_in_the_matrix(kw):
 def test_pair_pass_sums_and_candidates():
     rng = np.random.default_rng(1)
     M = rng.dirichlet(np.ones(5), size=7)
-    passer = lfp.PairPass(M)
+    passer = pairs_module.PairPass(M)
     got = np.full((7, 7), np.nan)
 
     def visit(rows, cols, sums, lam):
@@ -334,7 +336,7 @@ def test_pair_pass_sums_and_candidates():
     passer.run(lambda: 1.7, visit)
     want = np.maximum(M[:, None, :], 1.7 * M[None, :, :]).sum(-1)
     np.testing.assert_allclose(got, want, rtol=1e-15)
-    a, b = lfp.pair_candidates(M, count=3)
+    a, b = pairs_module.pair_candidates(M, count=3)
     assert np.all(a != b) and np.all(np.diff(a * 7 + b) > 0)
     coef = np.sqrt(M) @ np.sqrt(M).T
     np.fill_diagonal(coef, np.inf)
@@ -343,7 +345,7 @@ def test_pair_pass_sums_and_candidates():
 
 # ------------------------------------------------------------------------------------------------ worst utility
 def test_worst_utility_threshold_route_equals_the_whole_table(monkeypatch):
-    from fairaudit.worstcase import worst_utility
+    from fairaudit.worstcase.known_law import worst_utility
 
     rng = np.random.default_rng(11)
     for trial in range(8):
@@ -372,9 +374,9 @@ def test_white_box_calibration_behind_randomized_response_without_its_matrix(mon
     The limit is lowered so that both routes run on the same 12-group kernel; the closed form never reads the
     mechanism's matrix (a guard raises if it does).
     """
-    import fairaudit._calibration_methods as methods
-    from fairaudit.calibrate import calibrate
-    from fairaudit.privacy import RandomizedResponse
+    import fairaudit.worstcase.calibration_methods as methods
+    from fairaudit.laws.mechanisms import RandomizedResponse
+    from fairaudit.worstcase.calibration import calibrate
 
     rng = np.random.default_rng(5)
     k, contexts = 12, ("x0", "x1", "x2")

@@ -13,8 +13,8 @@ import pandas as pd
 import pytest
 
 from fairaudit import count_records
-from fairaudit._errors import ECHO_LIMIT, InputError, cut, echo
-from fairaudit._validation import real
+from fairaudit.base.checks import real
+from fairaudit.base.errors import ECHO_LIMIT, InputError, cut, echo
 from tests._cli import OFFICE_SPEC, run
 
 
@@ -95,7 +95,7 @@ def test_a_long_positive_value_and_outcome_labels_are_cut(capsys, tmp_path):
 
 
 def test_a_label_outside_a_given_alphabet_is_cut_with_the_alphabet():
-    from fairaudit.estimate import _label_codes
+    from fairaudit.data.counts import _label_codes
 
     frame = pd.DataFrame({"g": ["a", "z" * 300]})
     with pytest.raises(InputError) as info:

@@ -20,7 +20,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.metrics import group_decision_law
+from fairaudit.metrics.fairness import group_decision_law
 
 # --------------------------------------------------------------------------- the rational example
 

@@ -22,7 +22,7 @@ from PIL import Image  # noqa: E402
 from scipy.sparse import coo_matrix  # noqa: E402
 from scipy.sparse.csgraph import dijkstra  # noqa: E402
 
-from fairaudit._errors import InputError  # noqa: E402
+from fairaudit.base.errors import InputError  # noqa: E402
 from fairaudit.experiments.navigation import (  # noqa: E402
     CATEGORIES,
     ROUTE_RGB,

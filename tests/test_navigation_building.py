@@ -23,7 +23,7 @@ pytest.importorskip("networkx")
 from scipy.sparse import coo_matrix  # noqa: E402
 from scipy.sparse.csgraph import connected_components, dijkstra  # noqa: E402
 
-from fairaudit._errors import InputError  # noqa: E402
+from fairaudit.base.errors import InputError  # noqa: E402
 from fairaudit.experiments.navigation import (  # noqa: E402
     build_maps,
     building_rooms,

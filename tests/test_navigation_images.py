@@ -221,7 +221,7 @@ def test_a_window_shows_that_part_of_the_grid_with_the_markers_moved_by_hand(map
 
 
 def test_a_window_must_hold_the_route_and_lie_on_the_grid(maps):
-    from fairaudit._errors import InputError
+    from fairaudit.base.errors import InputError
     from fairaudit.experiments.navigation.images import route_window
 
     route = plan_route(maps, "lobby_1", "office_1")

@@ -21,11 +21,15 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit import _arrays, metrics
-from fairaudit._arrays import Labels, as_labels, first_max, ratio_of_extremes, tv_chunk
-from fairaudit._errors import InputError
-from fairaudit.certify import observe
-from fairaudit.laws import Kernel, Law, Population, default_population, population_for
+from fairaudit.base import arrays as _arrays
+from fairaudit.base.arrays import first_max, ratio_of_extremes
+from fairaudit.base.errors import InputError
+from fairaudit.base.labels import Labels, as_labels
+from fairaudit.laws.tables import Kernel, Law, Population, default_population, population_for
+from fairaudit.metrics import fairness as metrics
+from fairaudit.metrics import total_variation
+from fairaudit.metrics.observed import observe
+from fairaudit.metrics.total_variation import tv_chunk
 
 GROUPS = ("a", "b", "c")
 DECISIONS = ("u0", "u1", "u2", "u3")
@@ -419,7 +423,7 @@ def test_the_largest_tv_is_found_where_the_bounds_leave_many_contexts(route, mon
     law = Law(q, range(X), [f"a{i}" for i in range(A)], [f"u{i}" for i in range(K)])
     monkeypatch.setattr(metrics, "_CHUNK_BYTES", 1)
     if route == "pairs":
-        monkeypatch.setattr(_arrays, "use_events", lambda A, K: False)
+        monkeypatch.setattr(total_variation, "use_events", lambda A, K: False)
     eo = fa.equalized_odds(law)
     per_context = tv_chunk(np.ascontiguousarray(q.transpose(2, 1, 0)), nan=False)
     assert eo.context == int(np.argmax(per_context)) and eo.value == pytest.approx(1.0, abs=1e-8)

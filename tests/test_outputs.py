@@ -18,8 +18,8 @@ import threading
 import pytest
 
 import fairaudit
-from fairaudit._errors import InputError
-from fairaudit._io import write_atomic
+from fairaudit.base.errors import InputError
+from fairaudit.base.files import write_atomic
 from tests._cli import OFFICE_SPEC, run
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="named pipes, symbolic links and modes are POSIX")
@@ -276,7 +276,7 @@ def test_duckdb_out_of_memory_says_so_with_its_limit_and_reads_nothing_else(tmp_
 
 def test_duckdb_out_of_memory_at_the_default_limit_names_it(tmp_path, capsys, monkeypatch):
     duckdb = pytest.importorskip("duckdb")
-    import fairaudit._count_engine as engine
+    import fairaudit.data.record_files as engine
 
     path = _records_file(tmp_path, "csv")
     monkeypatch.delenv("FAIRAUDIT_DUCKDB_MEMORY_LIMIT", raising=False)
@@ -306,7 +306,7 @@ def test_duckdb_out_of_memory_at_the_default_limit_names_it(tmp_path, capsys, mo
 
 def test_other_duckdb_failures_are_duckdbs_own_line(tmp_path, capsys, monkeypatch):
     duckdb = pytest.importorskip("duckdb")
-    import fairaudit._count_engine as engine
+    import fairaudit.data.record_files as engine
 
     path = _records_file(tmp_path, "csv")
 

@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 from _cli import run
 
-from fairaudit._errors import InputError
-from fairaudit._json import number
+from fairaudit.base.errors import InputError
+from fairaudit.base.json_values import number
 from fairaudit.experiments.analysis import candidate_context_mechanism, candidate_utility, epsilon_from_keep
 from fairaudit.experiments.harness import plan_queries, true_cell_counts
 from fairaudit.experiments.options import ModelSource, RunOptions
@@ -25,7 +25,7 @@ from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.slots import candidate_population
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, load_task, parse_task
 from fairaudit.experiments.vlm.models import RuleModel, SimulatedModel, simulated_model, simulated_models
-from fairaudit.worstcase import worst_model
+from fairaudit.worstcase.known_utility import worst_model
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "tasks"
 RESUMES = EXAMPLES / "resume-ranking.toml"
@@ -244,7 +244,7 @@ def _unparsed_kernel():
     """hr-delivery's model on shown pairs: a quarter of the replies unparsed (0.1 to 0.2 in two cells)."""
     import itertools
 
-    from fairaudit.laws import Kernel
+    from fairaudit.laws.tables import Kernel
 
     p = np.tile([0.45, 0.3, 0.25], (3, 64, 1))
     p[0, 0 * 8 + 7] = [0.3, 0.5, 0.2]  # maternity leave, (Tom, Mary)
@@ -371,8 +371,8 @@ def test_an_unparsed_utility_below_the_others_widens_the_paper_designs_black_box
     import dataclasses
 
     from fairaudit.experiments.paper_design import analyse_paper_design
-    from fairaudit.utility import from_table
-    from fairaudit.worstcase import black_box_bound
+    from fairaudit.laws.utilities import from_table
+    from fairaudit.worstcase.black_box import black_box_bound
 
     task = dataclasses.replace(HR_DELIVERY, utility_values=(1.0, 3.0, 0.0))
     records = [json.loads(x) for x in (unparsed_run.out / "queries.jsonl").read_text().splitlines()[1:]]

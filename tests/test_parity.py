@@ -15,10 +15,10 @@ import pytest
 from _cli import OFFICE_SPEC, run, run_json
 
 from fairaudit import audit
-from fairaudit._errors import InputError
-from fairaudit.calibrate import calibrate, impact_ratio_target
-from fairaudit.spec import load_spec
-from fairaudit.utility import from_table
+from fairaudit.base.errors import InputError
+from fairaudit.certification.spec import load_spec
+from fairaudit.laws.utilities import from_table
+from fairaudit.worstcase.calibration import calibrate, impact_ratio_target
 
 # A count table: two contexts, two sensitive columns (intersectional groups), a three-valued outcome.
 COUNTS = pd.DataFrame(

@@ -13,14 +13,14 @@ import pandas as pd
 import pytest
 from _cli import run
 
-from fairaudit._errors import InputError
+from fairaudit.base.errors import InputError
 from fairaudit.experiments.analysis import analyse_kernel
 from fairaudit.experiments.harness import decision_label
 from fairaudit.experiments.slots import outcome_index
 from fairaudit.experiments.taskfile import parse_task
 from fairaudit.experiments.vlm.models import reply_text
 from fairaudit.experiments.vlm.parse import parse_reply
-from fairaudit.laws import Kernel
+from fairaudit.laws.tables import Kernel
 
 RANKING = (Path(__file__).resolve().parents[1] / "examples" / "tasks" / "ranking.toml").read_text()
 UTILITY = '[utility]\nvalues = "rank"\n'

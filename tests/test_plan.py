@@ -14,8 +14,8 @@ from scipy import stats
 
 import fairaudit as fa
 from fairaudit.cli import main
-from fairaudit.estimate import CountTable
-from fairaudit.plan import SamplePlan, _Certifier, plan
+from fairaudit.data.counts import CountTable
+from fairaudit.statistics.sample_size import SamplePlan, _Certifier, plan
 
 
 @cache

@@ -104,20 +104,36 @@ def test_the_plugin_imports_only_public_names():
 @pytest.mark.parametrize(
     ("source", "at", "expected"),
     [
-        ("from fairaudit._io import write_atomic", "experiments/run.py", ["imports from fairaudit._io"]),
-        ("from ..laws import Kernel", "experiments/analysis.py", ["imports from fairaudit.laws"]),
-        ("from ..._toml import parse_toml", "experiments/vlm/tasks.py", ["imports from fairaudit._toml"]),
-        ("from ... import _toml", "experiments/vlm/tasks.py", ["imports fairaudit._toml (not in fairaudit.__all__)"]),
+        ("from fairaudit.base.files import write_atomic", "experiments/run.py", ["imports from fairaudit.base.files"]),
+        ("from ..laws.tables import Kernel", "experiments/analysis.py", ["imports from fairaudit.laws.tables"]),
+        (
+            "from ...base.toml_documents import parse_toml",
+            "experiments/vlm/tasks.py",
+            ["imports from fairaudit.base.toml_documents"],
+        ),
+        (
+            "from ... import base",
+            "experiments/vlm/tasks.py",
+            ["imports fairaudit.base (not in fairaudit.__all__)"],
+        ),
         ("from fairaudit import __version__", "experiments/run.py", ["imports fairaudit.__version__ (not in"]),
         ("from fairaudit import Kernel, StrictModel", "experiments/a.py", ["imports fairaudit.StrictModel (not in"]),
-        ("import fairaudit.plot", "experiments/report.py", ["imports fairaudit.plot"]),
-        ("import fairaudit as fa\nfa.plot.save_figure", "experiments/a.py", ["uses fairaudit.plot (not in"]),
+        ("import fairaudit.reports.plots", "experiments/report.py", ["imports fairaudit.reports.plots"]),
         (
-            "import importlib\nimportlib.import_module('fairaudit._json')",
+            "import fairaudit as fa\nfa.reports.plots.save_figure",
             "experiments/a.py",
-            ["imports fairaudit._json"],
+            ["uses fairaudit.reports (not in"],
         ),
-        ("if TYPE_CHECKING:\n    from fairaudit.laws import Law", "experiments/a.py", ["imports from fairaudit.laws"]),
+        (
+            "import importlib\nimportlib.import_module('fairaudit.base.json_values')",
+            "experiments/a.py",
+            ["imports fairaudit.base.json_values"],
+        ),
+        (
+            "if TYPE_CHECKING:\n    from fairaudit.laws.tables import Law",
+            "experiments/a.py",
+            ["imports from fairaudit.laws.tables"],
+        ),
     ],
 )
 def test_the_boundary_check_catches_a_private_or_submodule_import(source, at, expected):

@@ -22,11 +22,11 @@ import pytest
 from scipy.optimize import linprog
 
 import fairaudit as fa
-from fairaudit.calibrate import calibrate
-from fairaudit.certify import certify
+from fairaudit.certification.certificate import certify
+from fairaudit.certification.spec import load_spec
 from fairaudit.cli import main
-from fairaudit.estimate import count_records
-from fairaudit.spec import load_spec
+from fairaudit.data.counts import count_records
+from fairaudit.worstcase.calibration import calibrate
 
 # Counts n(x, a, u) with X and A dependent: group "a" lives mostly in context "young", group "b" in "old".
 COUNTS = {
@@ -146,7 +146,7 @@ def test_a_probability_table_population_is_assumed_never_checked(tmp_path: Path)
     assert cert.spec.population.source == "assumed"
     xa = [a for a, _ in cert.assumptions if a.name == "X independent of A"]
     assert [a.status for a in xa] == ["assumed"] and "uniform, independent" in xa[0].detail
-    from fairaudit.report import render
+    from fairaudit.reports.formats import render
 
     text = render(cert.to_dict(), "certify", "text")
     assert "population P(X, A): assumed (uniform, independent)" in text
@@ -227,7 +227,7 @@ def test_calibrate_global_on_a_dependent_population_agrees_with_certify(
     cert = certify(spec)
     assert cert.calibration is not None and cert.calibration.epsilon == pytest.approx(eps, rel=1e-9)
     assert cert.calibration_targets == ("global",)
-    from fairaudit.report import render
+    from fairaudit.reports.formats import render
 
     text = render(cert.to_dict(), "certify", "text")
     assert f"would meet the global target {target:.6g} nats on L-bar for any model (black_box)" in text

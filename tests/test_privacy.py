@@ -18,8 +18,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit import privacy
-from fairaudit.privacy import epsilon_from_keep_probability, keep_probability
+from fairaudit.laws import mechanisms as privacy
+from fairaudit.laws.mechanisms import epsilon_from_keep_probability, keep_probability
 
 # --------------------------------------------------------------------------- helpers
 
@@ -402,7 +402,7 @@ def test_rr_argument_errors():
 
 
 def test_randomized_response_family_members_have_the_requested_epsilon():
-    from fairaudit.privacy import randomized_response_family
+    from fairaudit.laws.mechanisms import randomized_response_family
 
     fam = randomized_response_family(list("abcd"))
     for eps in (0.0, 0.3, 2.0):
@@ -414,7 +414,7 @@ def test_randomized_response_family_members_have_the_requested_epsilon():
 
 
 def test_product_family_splits_epsilon_by_weight():
-    from fairaudit.privacy import product_family
+    from fairaudit.laws.mechanisms import product_family
 
     fam = product_family(["x", "y"], [1, 2, 3], weights=[1, 3])
     m = fam(2.0)

@@ -22,10 +22,12 @@ import numpy as np
 import pytest
 
 import fairaudit as fa
-from fairaudit.bounds import _profile_candidates
-from fairaudit.lfp import box_point, floor_max_many, lp_max, threshold_max
-from fairaudit.metrics import global_fairness, local_fairness
-from fairaudit.worstcase import black_box_bound, worst_model, worst_utility
+from fairaudit.base.linear_fractional import box_point, floor_max_many, lp_max, threshold_max
+from fairaudit.metrics.bounds import _profile_candidates
+from fairaudit.metrics.fairness import global_fairness, local_fairness
+from fairaudit.worstcase.black_box import black_box_bound
+from fairaudit.worstcase.known_law import worst_utility
+from fairaudit.worstcase.known_utility import worst_model
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "proofs"))
 from _exact import box, vertices  # noqa: E402  (exact Fractions, independent of fairaudit)

@@ -23,11 +23,12 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit import _arrays
-from fairaudit.calibrate import calibrate
+from fairaudit.base import arrays as _arrays
 from fairaudit.cli import main
-from fairaudit.privacy import RandomizedResponse
-from fairaudit.worstcase import black_box_bound, worst_model
+from fairaudit.laws.mechanisms import RandomizedResponse
+from fairaudit.worstcase.black_box import black_box_bound
+from fairaudit.worstcase.calibration import calibrate
+from fairaudit.worstcase.known_utility import worst_model
 
 PROOFS = Path(__file__).resolve().parents[1] / "proofs"
 KS = (2, 3, 5, 17)

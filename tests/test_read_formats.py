@@ -22,7 +22,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fairaudit import InputError, audit, count_file, read_records
-from fairaudit.estimate import CsvFormat
+from fairaudit.data.csv_format import CsvFormat
 
 # UCI Adult's layout (adult.data): no header, ", " between fields, "?" for a missing value
 ADULT = [

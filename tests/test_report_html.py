@@ -23,9 +23,9 @@ import pytest
 from _reports import report_json
 
 from fairaudit import InputError
-from fairaudit._format._common import METRICS, plan_rows
 from fairaudit.cli import main
-from fairaudit.report import FORMATS, render
+from fairaudit.reports.formats import FORMATS, render
+from fairaudit.reports.formats.sections import METRICS, plan_rows
 
 pytest.importorskip("jinja2")
 pytest.importorskip("matplotlib")
@@ -341,7 +341,7 @@ def test_without_jinja2_the_format_says_what_to_install(monkeypatch, uci_audit, 
 
 
 def test_importing_the_format_imports_neither_jinja2_nor_matplotlib():
-    code = "import sys, fairaudit.report; print(sorted({'jinja2', 'matplotlib'} & set(sys.modules)))"
+    code = "import sys, fairaudit.reports.formats; print(sorted({'jinja2', 'matplotlib'} & set(sys.modules)))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert done.stdout.strip() == "[]"
 

@@ -16,9 +16,9 @@ import markdown
 import pytest
 from _reports import report_json
 
-from fairaudit._format._common import BOUNDS, METRICS, bound_detail, certificate_facts, plan_rows, where
-from fairaudit._format.markdown import code_span, escape
-from fairaudit.report import render
+from fairaudit.reports.formats import render
+from fairaudit.reports.formats.markdown import code_span, escape
+from fairaudit.reports.formats.sections import BOUNDS, METRICS, bound_detail, certificate_facts, plan_rows, where
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"

@@ -15,13 +15,13 @@ import pandas as pd
 import pytest
 from _cli import run
 
-from fairaudit._errors import InputError
+from fairaudit.base.errors import InputError
 from fairaudit.experiments.analysis import candidate_utility, epsilon_from_keep
 from fairaudit.experiments.harness import true_cell_counts
 from fairaudit.experiments.taskfile import load_task
 from fairaudit.experiments.vlm.filter import profile_budget
-from fairaudit.laws import Law
-from fairaudit.metrics import global_fairness, local_fairness
+from fairaudit.laws.tables import Law
+from fairaudit.metrics.fairness import global_fairness, local_fairness
 
 TASK = Path(__file__).resolve().parents[1] / "examples" / "tasks" / "resume-ranking.toml"
 DEMOS = ["A_M", "A_W", "B_M", "B_W", "H_M", "H_W", "W_M", "W_W"]

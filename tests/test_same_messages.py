@@ -378,9 +378,9 @@ def test_the_real_models_exact_and_sampled_routes_have_one_law(loan, tmp_path):
     from _model import need_local_model
 
     need_local_model("fastapi", "uvicorn")
-    from fairaudit._confidence_sets import category_bounds
     from fairaudit.experiments.harness import table_kernel
     from fairaudit.experiments.taskfile import load_task
+    from fairaudit.statistics.confidence_sets import category_bounds
 
     task = load_task(loan)
     exact = lm.exact_kernel(task, lm.load("smollm2"))

@@ -19,15 +19,18 @@ from hypothesis import strategies as st
 from scipy import stats
 
 import fairaudit as fa
-from fairaudit import _arrays, metrics
-from fairaudit._arrays import as_labels, tv_chunk
-from fairaudit._errors import InputError
-from fairaudit.certify import observe
-from fairaudit.estimate import CountTable
-from fairaudit.intervals import clopper_pearson, fairness_intervals
-from fairaudit.laws import Kernel, Law, Population, compose
-from fairaudit.privacy import from_matrix, identity, randomized_response
-from fairaudit.worstcase import worst_model
+from fairaudit.base.errors import InputError
+from fairaudit.base.labels import as_labels
+from fairaudit.data.counts import CountTable
+from fairaudit.laws.mechanisms import from_matrix, identity, randomized_response
+from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.metrics import fairness as metrics
+from fairaudit.metrics import total_variation
+from fairaudit.metrics.observed import observe
+from fairaudit.metrics.total_variation import tv_chunk, use_events
+from fairaudit.statistics.confidence_sets import clopper_pearson
+from fairaudit.statistics.intervals import fairness_intervals
+from fairaudit.worstcase.known_utility import worst_model
 
 # --------------------------------------------------------------------------- a reference from the definitions
 
@@ -137,10 +140,10 @@ def test_tv_by_events_equals_tv_by_pairs(K, monkeypatch):
     q = rng.dirichlet(np.ones(K), size=(300, 4))
     q[7, 1] = np.nan  # an empty cell: ignored by both routes
     ct = np.ascontiguousarray(q.transpose(2, 1, 0))
-    by_events = tv_chunk(ct, nan=True) if _arrays.use_events(4, K) else None
-    monkeypatch.setattr(_arrays, "use_events", lambda A, K: False)
+    by_events = tv_chunk(ct, nan=True) if use_events(4, K) else None
+    monkeypatch.setattr(total_variation, "use_events", lambda A, K: False)
     by_pairs = tv_chunk(ct, nan=True)
-    monkeypatch.setattr(_arrays, "use_events", lambda A, K: True)
+    monkeypatch.setattr(total_variation, "use_events", lambda A, K: True)
     forced = tv_chunk(ct, nan=True)
     direct = np.array(
         [
@@ -256,8 +259,8 @@ def test_intervals_on_many_contexts_contain_the_estimate():
 @given(st.integers(1, 30), st.integers(1, 6), st.integers(0, 2**32 - 1))
 def test_disjoint_ratio_equals_the_search_over_every_pair(M, A, seed):
     """The upper end and its pair against the (M, A, A) search over ordered pairs it replaced (ties included)."""
-    from fairaudit._extremes import disjoint_ratio as _disjoint_ratio
-    from fairaudit._extremes import div as _div
+    from fairaudit.metrics.box_extremes import disjoint_ratio as _disjoint_ratio
+    from fairaudit.metrics.box_extremes import div as _div
 
     rng = np.random.default_rng(seed)
     lo = rng.choice([0.0, 0.1, 0.2, 0.5], size=(M, A))  # few values: many ties and zeros

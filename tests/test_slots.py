@@ -17,7 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fairaudit._errors import InputError
+from fairaudit.base.errors import InputError
 from fairaudit.experiments.analysis import epsilon_from_keep
 from fairaudit.experiments.slots import (
     candidate_epsilon,
@@ -31,8 +31,8 @@ from fairaudit.experiments.slots import (
 )
 from fairaudit.experiments.taskfile import parse_task
 from fairaudit.experiments.vlm.filter import PrivacyFilter, candidate_family, profile_budget
-from fairaudit.laws import Kernel, compose
-from fairaudit.privacy import Mechanism, identity, product
+from fairaudit.laws.mechanisms import Mechanism, identity, product
+from fairaudit.laws.tables import Kernel, compose
 
 
 def _task(k: int, decision: str = "choose", population: str = '"all"', positions: str = "balanced", values=None):

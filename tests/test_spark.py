@@ -2,7 +2,7 @@
 
 The independent routes: hand counts, count_records on a pandas frame built
 directly or on ``frame.toPandas()`` (the full records, counted by pandas),
-pandas reading the COMPAS CSV itself, and the metrics of fairaudit.certify.observe
+pandas reading the COMPAS CSV itself, and the metrics of fairaudit.metrics.observed.observe
 on both tables. One local Spark session serves the whole test session.
 """
 
@@ -21,9 +21,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fairaudit import InputError, indicator
-from fairaudit.certify import observe
-from fairaudit.estimate import count_records
-from fairaudit.spark import count_spark
+from fairaudit.data.counts import count_records
+from fairaudit.data.spark import count_spark
+from fairaudit.metrics.observed import observe
 
 try:
     import pyspark  # noqa: F401
@@ -383,9 +383,9 @@ def test_compas_equals_pandas(spark, shared_data):
 def test_without_pyspark_fairaudit_imports_and_count_spark_says_how_to_install():
     code = (
         "import sys; sys.modules['pyspark'] = None\n"
-        "import fairaudit, fairaudit.spark\n"
+        "import fairaudit, fairaudit.data.spark\n"
         "try:\n"
-        "    fairaudit.spark.count_spark(None, sensitive=['a'], outcome='u')\n"
+        "    fairaudit.data.spark.count_spark(None, sensitive=['a'], outcome='u')\n"
         "except fairaudit.InputError as exc:\n"
         "    print(exc)\n"
     )

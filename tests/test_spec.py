@@ -13,7 +13,7 @@ import pytest
 
 import fairaudit as fa
 from fairaudit import InputError, parse_spec
-from fairaudit.calibrate import calibrate
+from fairaudit.worstcase.calibration import calibrate
 
 HEAD = """
 [sensitive]

@@ -19,13 +19,13 @@ import pytest
 from _cli import run, run_json
 
 from fairaudit import InputError, parse_spec
-from fairaudit.calibrate import calibrate
-from fairaudit.laws import Kernel, compose
-from fairaudit.metrics import local_fairness
-from fairaudit.privacy import randomized_response
-from fairaudit.spec import load_spec
-from fairaudit.utility import from_table
-from fairaudit.utility_range import fairness_range
+from fairaudit.certification.spec import load_spec
+from fairaudit.laws.mechanisms import randomized_response
+from fairaudit.laws.tables import Kernel, compose
+from fairaudit.laws.utilities import from_table
+from fairaudit.metrics.fairness import local_fairness
+from fairaudit.metrics.utility_range import fairness_range
+from fairaudit.worstcase.calibration import calibrate
 
 ROOT = Path(__file__).resolve().parents[1]
 LOAN = ROOT / "examples" / "tasks" / "loan.toml"

@@ -18,7 +18,7 @@ from fairaudit.experiments.analysis import analyse_kernel
 from fairaudit.experiments.local_model import answer_task
 from fairaudit.experiments.taskfile import BUILT_IN, HR_DELIVERY, PACKAGE_DELIVERY, load_task, parse_task
 from fairaudit.experiments.vlm.models import EndpointModel, Query, simulated_model
-from fairaudit.laws import Kernel
+from fairaudit.laws.tables import Kernel
 
 ROOT = Path(__file__).resolve().parents[1]
 SHORTLIST = ROOT / "examples" / "tasks" / "shortlist.toml"

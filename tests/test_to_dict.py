@@ -13,7 +13,7 @@ from _cli import OFFICE_SPEC
 
 import fairaudit as fa
 from fairaudit.cli.plan import _plans_dict
-from fairaudit.intervals import Interval
+from fairaudit.statistics.intervals import Interval
 
 
 def _strict_json(d):

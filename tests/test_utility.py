@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.utility import discrete_metric
+from fairaudit.laws.utilities import discrete_metric
 
 
 def brute_lipschitz(values: np.ndarray, metric: np.ndarray) -> float:

@@ -16,9 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fairaudit import Kernel, Population, Utility
-from fairaudit._errors import InputError
-from fairaudit.privacy import from_matrix, identity
-from fairaudit.utility_range import fairness_range
+from fairaudit.base.errors import InputError
+from fairaudit.laws.mechanisms import from_matrix, identity
+from fairaudit.metrics.utility_range import fairness_range
 
 cp = pytest.importorskip("cvxpy")
 
@@ -204,7 +204,7 @@ def test_a_law_from_counts_leaves_its_empty_cells_out_as_the_metrics_do():
     # a = 10/12 x + 2/12 y, y's a at 1/2 (no unparsed): [1/2, 3/4]; b = x only: [1/5, 2/5]; c has P(A = c) = 0.
     # So L̄ in [max(1, (1/2)/(2/5)), (3/4)/(1/5)] = [5/4, 15/4].
     from fairaudit import Law
-    from fairaudit.metrics import global_fairness, local_fairness
+    from fairaudit.metrics.fairness import global_fairness, local_fairness
 
     law = Law.from_counts(
         [[[5, 2, 3], [2, 6, 2], [0, 0, 0]], [[1, 1, 0], [0, 0, 0], [0, 0, 0]]],

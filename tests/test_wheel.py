@@ -23,8 +23,8 @@ from pathlib import Path
 import pytest
 
 import fairaudit
-from fairaudit.certify import certify
-from fairaudit.report import render
+from fairaudit.certification.certificate import certify
+from fairaudit.reports.formats import render
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "llm_hiring" / "gpt35.toml"

@@ -19,8 +19,10 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 import fairaudit as fa
-from fairaudit.metrics import global_fairness, local_fairness, sup_global_fairness, sup_local_fairness
-from fairaudit.worstcase import black_box_bound, worst_model, worst_utility
+from fairaudit.metrics.fairness import global_fairness, local_fairness, sup_global_fairness, sup_local_fairness
+from fairaudit.worstcase.black_box import black_box_bound
+from fairaudit.worstcase.known_law import worst_utility
+from fairaudit.worstcase.known_utility import worst_model
 
 
 def dinkelbach(p, q, bounds, a_ub=None, b_ub=None, a_eq=None, b_eq=None):

@@ -18,7 +18,8 @@ import os
 import sys
 from collections.abc import Sequence
 
-from .._errors import InputError, echo
+from fairaudit.base.errors import InputError, echo
+
 from ._common import flag_error
 from ._parser import build_parser
 

@@ -11,14 +11,14 @@ import re
 import sys
 from typing import TYPE_CHECKING, NoReturn, TypeAlias
 
-from .._errors import InputError
-from .._io import write_atomic
-from .._validation import number_type
-from ..report import FORMATS
+from fairaudit.base.checks import number_type
+from fairaudit.base.errors import InputError
+from fairaudit.base.files import write_atomic
+from fairaudit.reports.formats import FORMATS
 
 if TYPE_CHECKING:
-    from .._arrays import FloatArray
-    from ..estimate import CsvFormat
+    from fairaudit.base.arrays import FloatArray
+    from fairaudit.data.csv_format import CsvFormat
 
 
 class Parser(argparse.ArgumentParser):
@@ -114,7 +114,7 @@ def separator(text: str) -> str:
 
 
 def add_text_format(p: argparse.ArgumentParser) -> None:
-    """The options of reading a text file of records (:class:`fairaudit.estimate.CsvFormat`)."""
+    """The options of reading a text file of records (:class:`fairaudit.data.csv_format.CsvFormat`)."""
     p.add_argument(
         "--no-header", action="store_true", help="the file has no header line: name its columns with --names"
     )
@@ -142,8 +142,8 @@ def add_text_format(p: argparse.ArgumentParser) -> None:
 
 
 def text_format(args: argparse.Namespace) -> CsvFormat:
-    """The :class:`~fairaudit.estimate.CsvFormat` of the options of :func:`add_text_format`."""
-    from ..estimate import CsvFormat
+    """The :class:`~fairaudit.data.csv_format.CsvFormat` of the options of :func:`add_text_format`."""
+    from fairaudit.data.csv_format import CsvFormat
 
     return CsvFormat(
         header=not args.no_header,

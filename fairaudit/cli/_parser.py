@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .. import __version__
+from fairaudit import __version__
+
 from . import audit, calibrate, certify, plan, worst_case
 from ._common import Parser, Subparsers, command_flags
 

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-from .._errors import InputError
-from .._format._common import records
-from .._validation import whole
-from ..report import render
+from fairaudit.base.checks import whole
+from fairaudit.base.errors import InputError
+from fairaudit.reports.formats import render
+from fairaudit.reports.formats.sections import records
+
 from ._common import Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
 
 
@@ -131,10 +132,10 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit audit``; returns the exit status."""
-    from ..audit import audit
-    from ..estimate import count_file
+    from fairaudit.data.counts import count_file
+    from fairaudit.statistics.record_audit import audit
 
-    # DuckDB counts the file (Parquet or CSV; fairaudit.estimate.count_file); --count: DATA is a count table
+    # DuckDB counts the file (Parquet or CSV; fairaudit.data.counts.count_file); --count: DATA is a count table
     table = count_file(
         args.data,
         sensitive=args.sensitive,
@@ -148,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     )
     report = None
     if args.report == "impact-ratio":
-        from ..impact_ratio import THRESHOLD, impact_ratios
+        from fairaudit.statistics.ll144 import THRESHOLD, impact_ratios
 
         digits = None if args.digits is None else whole(args.digits, "digits", high=15)
         report = impact_ratios(
@@ -182,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
     )
     data = result.to_dict()
     if args.by == "context":
-        from .._small_cells import by_context_rows
+        from fairaudit.statistics.small_cells import by_context_rows
 
         data["by_context"] = by_context_rows(result.observed.local_fairness, result.table, json=True)
     if args.gap_on == "g":

@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from .._errors import InputError
-from ..report import render
+from fairaudit.base.errors import InputError
+from fairaudit.reports.formats import render
+
 from ._common import Subparsers, add_output, emit
 
 
@@ -75,7 +76,7 @@ def add_parser(sub: Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit calibrate``; returns the exit status (1 when no epsilon meets the target)."""
-    from ..calibrate import calibrate
+    from fairaudit.worstcase.calibration import calibrate
 
     opts: dict[str, Any] = _spec_options(args) if args.spec else {"groups": 2 if args.groups is None else args.groups}
     for flag in ("gamma", "lower", "tau", "lipschitz", "delta"):
@@ -91,8 +92,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The keywords of calibrate taken from ``--spec`` (:meth:`fairaudit.spec.Spec.calibration_options`)."""
-    from ..spec import load_spec
+    """The keywords of calibrate taken from ``--spec`` (:meth:`fairaudit.certification.spec.Spec.calibration_options`)."""
+    from fairaudit.certification.spec import load_spec
 
     try:
         spec = load_spec(args.spec)

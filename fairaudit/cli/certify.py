@@ -7,12 +7,13 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .._errors import InputError
-from ..report import render
+from fairaudit.base.errors import InputError
+from fairaudit.reports.formats import render
+
 from ._common import Subparsers, add_output, emit, epsilons, level
 
 if TYPE_CHECKING:
-    from ..certify import Certificate
+    from fairaudit.certification.certificate import Certificate
 
 
 def add_parser(sub: Subparsers) -> None:
@@ -57,12 +58,12 @@ def add_parser(sub: Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit certify``; returns the exit status (1 when a target is not met)."""
-    from ..certify import certify
+    from fairaudit.certification.certificate import certify
 
     if args.epsilons is not None and not (args.plot or args.plot_data):
         raise InputError("--epsilons", "is the grid of the curve: give --plot FILE or --plot-data FILE.csv too")
     if args.plot:
-        from ..plot import check_plot_path
+        from fairaudit.reports.plots import check_plot_path
 
         check_plot_path(args.plot)  # before any work: a bad suffix or folder is exit 2 at once
     if args.plot_data:
@@ -82,12 +83,12 @@ def run(args: argparse.Namespace) -> int:
 
 def _write_curve(args: argparse.Namespace, cert: Certificate) -> None:
     """The fairness-privacy curve of a certificate's spec: --plot and --plot-data (exit status unchanged)."""
-    from ..curves import privacy_curve
+    from fairaudit.certification.curves import privacy_curve
 
     curve = privacy_curve(cert.spec, epsilons=args.epsilons)
     written = []
     if args.plot:
-        from ..plot import plot_curve
+        from fairaudit.reports.plots import plot_curve
 
         plot_curve(curve, args.plot)
         written.append(f"plot written to {args.plot}")

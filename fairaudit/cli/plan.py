@@ -6,15 +6,16 @@ import argparse
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from .._errors import InputError
-from .._json import Report
-from ..report import render
+from fairaudit.base.errors import InputError
+from fairaudit.base.json_values import Report
+from fairaudit.reports.formats import render
+
 from ._common import Subparsers, add_output, emit
 
 if TYPE_CHECKING:
-    from ..plan import SamplePlan
+    from fairaudit.statistics.sample_size import SamplePlan
 
-# the flag of each keyword of fairaudit.plan.plan, to name it in errors
+# the flag of each keyword of fairaudit.statistics.sample_size.plan, to name it in errors
 _PLAN_FLAGS = {
     "target": "--target",
     "groups": "--groups",
@@ -96,7 +97,7 @@ def add_parser(sub: Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit plan``; returns the exit status (1 when some method finds no sample size)."""
-    from ..plan import plan
+    from fairaudit.statistics.sample_size import plan
 
     methods = ("clopper-pearson", "multinomial", "bayes") if args.method == "all" else (args.method,)
     plans = []
@@ -139,7 +140,7 @@ def _plans_dict(plans: Sequence[SamplePlan]) -> Report:
     with ``method``, ``n_per_cell``, ``n_total`` (``null`` when infeasible),
     ``achieved_power``, ``expected_upper`` (median upper end, nats),
     ``datasets``, ``reason`` (``""`` when feasible), as in
-    :meth:`~fairaudit.plan.SamplePlan.to_dict`.
+    :meth:`~fairaudit.statistics.sample_size.SamplePlan.to_dict`.
     """
     out = plans[0].to_dict()
     out["feasible"] = all(p.feasible for p in plans)

@@ -1,10 +1,11 @@
-"""``fairaudit worst-case``: the utility that shows the largest disparity of a spec's model (fairaudit.worst_case)."""
+"""``fairaudit worst-case``: the utility that shows the largest disparity of a spec's model (fairaudit.certification.spec_worst_case)."""
 
 from __future__ import annotations
 
 import argparse
 
-from ..report import render
+from fairaudit.reports.formats import render
+
 from ._common import Subparsers, add_output, emit, nonneg
 
 
@@ -33,7 +34,7 @@ def add_parser(sub: Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit worst-case``; returns the exit status."""
-    from ..worst_case import spec_worst_utility
+    from fairaudit.certification.spec_worst_case import spec_worst_utility
 
     result = spec_worst_utility(args.spec, lower=args.lower, gamma=args.gamma, tau=args.tau, method=args.method)
     data = result.to_dict()

@@ -17,8 +17,8 @@ paper's fairness–privacy experiment, exactly, at every ε:
 3. At each ε the law of decisions behind the filter is the exact composition
    ``compose(K_cand, M_cand(ε), M_X ⊗ I)`` and its L and L̄ come with
    simultaneous confidence intervals from the counts
-   (:func:`fairaudit.intervals.fairness_intervals`), beside the corollary,
-   paper, tight and black-box bounds (:func:`fairaudit.curves.privacy_curve`).
+   (:func:`fairaudit.statistics.intervals.fairness_intervals`), beside the corollary,
+   paper, tight and black-box bounds (:func:`fairaudit.certification.curves.privacy_curve`).
 
 Positions: ``balanced`` (default) weighs all orders of each combination of
 candidates equally (``latin``: its k cyclic shifts), so X ⊥ A and position
@@ -293,8 +293,8 @@ class TargetBudget:
     this_model : Calibration
         White-box on the upper end: the largest ε at which the upper end of this model's L (L̄) behind the
         filter, over every utility of the unparsed reply in [min g, max g] chosen per cell
-        (:func:`fairaudit.utility_range.fairness_range`), stays ≤ target at every smaller ε
-        (:func:`fairaudit.calibrate.calibrate` with ``unparsed_decision=-1``): every such utility meets the
+        (:func:`fairaudit.metrics.utility_range.fairness_range`), stays ≤ target at every smaller ε
+        (:func:`fairaudit.worstcase.calibration.calibrate` with ``unparsed_decision=-1``): every such utility meets the
         target there (``proofs/unparsed.md`` §5). Without unparsed mass it is ``stated_default``'s answer.
         On the sampled route it is an estimate from the counts.
     any_model : Calibration
@@ -380,7 +380,7 @@ class PaperDesignPoint:
     intervals : FairnessIntervals or None
     unparsed_range : UtilityRange
         L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (x, a) of ``law``
-        (:func:`fairaudit.utility_range.fairness_range` of the law itself: the filter is in the queries), next to
+        (:func:`fairaudit.metrics.utility_range.fairness_range` of the law itself: the filter is in the queries), next to
         the value under the stated default, which is ``local_fairness`` and ``global_fairness``.
     """
 
@@ -414,7 +414,7 @@ class PointResult:
         The corollary's bound: ε of ``mechanism``.
     unparsed_range : UtilityRange
         L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell of the
-        per-candidate kernel (:func:`fairaudit.utility_range.fairness_range`), next to the value under the
+        per-candidate kernel (:func:`fairaudit.metrics.utility_range.fairness_range`), next to the value under the
         stated default.
     bound_ranges : dict of str to BoundRange
         ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
@@ -469,7 +469,7 @@ def bound_ranges(
     """The corollary's and the black-box bounds' ranges over every utility of the unparsed reply (the last decision).
 
     The corollary is ε of ``mechanism``: no utility enters it. The black-box bounds (``bounds``: on L and L̄, as
-    :func:`fairaudit.worstcase.worst_model` gives them for ``utility``) are maxima over every decision model whose
+    :func:`fairaudit.worstcase.known_utility.worst_model` gives them for ``utility``) are maxima over every decision model whose
     cell expectations lie in [min g, max g] (g of the decision only) with E ≥ τ, τ held as stated. With the
     unparsed utility v_c of a cell in [min g, max g], that cell's expectations span [min(g_known ∪ v_c),
     max(g_known ∪ v_c)], g_known the other outcomes' utilities: between [min g_known, max g_known] and
@@ -771,7 +771,7 @@ def paper_design_point(
     (:func:`fairaudit.experiments.slots.true_prompts`) are counted by
     :func:`fairaudit.experiments.harness.true_cell_counts`; L and L̄ (with ``confidence`` intervals) are those
     of their per-candidate law, with population ``pop``, and their range over the unparsed reply's utility is that
-    of the law's cells (:func:`fairaudit.utility_range.fairness_range` of the law: its value is L and L̄ as
+    of the law's cells (:func:`fairaudit.metrics.utility_range.fairness_range` of the law: its value is L and L̄ as
     computed here, the same numbers).
     """
     prompts, _ = true_prompts(task, positions)
@@ -839,7 +839,7 @@ def analyse(
     confidence : float or None
         Level of the simultaneous intervals (None: none).
     method : str
-        Interval method (:func:`fairaudit.intervals.fairness_intervals`).
+        Interval method (:func:`fairaudit.statistics.intervals.fairness_intervals`).
     tau : float, optional
         τ for the paper and tight bounds; default the utility's smallest value
         when it is positive (the package task's waiting time ≥ 1), else none.

@@ -199,7 +199,7 @@ def check_scoring(task: DeliveryTask, scoring: str) -> str:
     >>> check_scoring(HR_DELIVERY, "first")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: scoring: must be one of continuation, first-token (got 'first')
+    fairaudit.base.errors.InputError: scoring: must be one of continuation, first-token (got 'first')
     """
     from fairaudit import choice
 
@@ -238,7 +238,7 @@ def check_replies(replies: Sequence[str]) -> tuple[str, ...]:
     >>> check_replies(("Ann", "Anna"))
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: scoring: continuation scoring needs replies none of which begins another, and 'Ann' begins 'Anna': the reply 'Anna...' would count for both; give the options distinct beginnings, or use first-token
+    fairaudit.base.errors.InputError: scoring: continuation scoring needs replies none of which begins another, and 'Ann' begins 'Anna': the reply 'Anna...' would count for both; give the options distinct beginnings, or use first-token
     """
     texts = tuple(replies)
     if any(not t for t in texts):

@@ -167,7 +167,7 @@ def model_kind(local_model: str | Path) -> Literal["package", "folder", "gguf"]:
     >>> model_kind("no-such-model")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: local_model: must be smollm2, a transformers model folder (with config.json) or a .gguf file (got 'no-such-model')
+    fairaudit.base.errors.InputError: local_model: must be smollm2, a transformers model folder (with config.json) or a .gguf file (got 'no-such-model')
     """
     name = str(local_model)
     if name in LOCAL_MODELS:
@@ -769,7 +769,7 @@ def _reply_ids(tok: Any, text: str, ids: Sequence[int], reply: str) -> list[int]
 
 
 def exact_law(task: DeliveryTask, probabilities: npt.ArrayLike) -> Kernel:
-    """:func:`exact_kernel`'s array as the :class:`~fairaudit.laws.Kernel` of the table design, without counts.
+    """:func:`exact_kernel`'s array as the :class:`~fairaudit.laws.tables.Kernel` of the table design, without counts.
 
     Parameters
     ----------

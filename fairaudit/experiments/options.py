@@ -131,13 +131,13 @@ class ModelSource:
     >>> ModelSource(simulated="fair", kernel="kernel.csv")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: kernel: give only one of `simulated`, `kernel`, `endpoint` and `local_model` (also got `simulated`)
+    fairaudit.base.errors.InputError: kernel: give only one of `simulated`, `kernel`, `endpoint` and `local_model` (also got `simulated`)
     >>> ModelSource(endpoint="http://127.0.0.1:8000/v1", model="m", exact=True).exact
     True
     >>> ModelSource(simulated="fair", exact=True)
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: exact: needs `endpoint` (with `model`) or `local_model`: the exact kernel is read from a model's token probabilities
+    fairaudit.base.errors.InputError: exact: needs `endpoint` (with `model`) or `local_model`: the exact kernel is read from a model's token probabilities
     """
 
     simulated: str | None = None
@@ -305,13 +305,13 @@ class RunOptions:
     >>> RunOptions(design="kernel")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: design: must be one of table, both, paper (got 'kernel')
+    fairaudit.base.errors.InputError: design: must be one of table, both, paper (got 'kernel')
     >>> RunOptions(start="lobby_1", goals=["office_2", "office_1"], tolerance=0.01).goals
     ('office_2', 'office_1')
     >>> RunOptions(tolerance=5)
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: tolerance: must be a relative difference in [0, 1] (got 5)
+    fairaudit.base.errors.InputError: tolerance: must be a relative difference in [0, 1] (got 5)
     """
 
     samples: int | None = None

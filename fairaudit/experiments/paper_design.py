@@ -9,7 +9,7 @@ counted by true context, slot, true profile and outcome
 (:func:`fairaudit.experiments.harness.true_cell_counts`): the per-candidate
 law behind the filter at that ε, with simultaneous intervals, and L's and
 L̄'s exact range over every utility of an unparsed reply in [min g, max g],
-chosen per cell of that law (:func:`fairaudit.utility_range.fairness_range`
+chosen per cell of that law (:func:`fairaudit.metrics.utility_range.fairness_range`
 of the law: the filter is in the queries, so no mechanism lies between the
 cells and the groups).
 
@@ -25,7 +25,7 @@ numbers, and both have closed forms when its matrix is too large to build:
   itself for L, and for L̄ as well when X ⊥ A (``balanced`` or ``latin``
   positions): proofs/black_box.md, "With ℓ = 0 the black-box value is
   ε(M_A)", and its "Global" paragraph. Otherwise the bound is the worst
-  model over the matrix (:func:`fairaudit.worstcase.worst_model`), which a
+  model over the matrix (:func:`fairaudit.worstcase.known_utility.worst_model`), which a
   task of that size refuses in one line.
 """
 
@@ -203,7 +203,7 @@ class DesignPoint:
     bounds : DesignBounds
     unparsed_range : UtilityRange
         L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (context @ slot,
-        candidate) of ``law`` (:func:`fairaudit.utility_range.fairness_range` of the law itself), next to the value
+        candidate) of ``law`` (:func:`fairaudit.metrics.utility_range.fairness_range` of the law itself), next to the value
         under the stated default: ``local_fairness`` and ``global_fairness``, the same numbers.
     bound_ranges : dict of str to BoundRange
         ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
@@ -410,7 +410,7 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None 
     [min g, max g], chosen per cell (context @ slot, candidate) of the
     observed per-candidate law) and ``unparsed_range_ends`` (the context and
     groups of each end, and whether the lower end is exact:
-    :func:`fairaudit.utility_range.fairness_range`). No ``curve``,
+    :func:`fairaudit.metrics.utility_range.fairness_range`). No ``curve``,
     ``budgets`` or ``shares``: they need the model's kernel on every shown
     cell. Values in nats; +inf is ``"inf"``; NaN is ``null``.
     """

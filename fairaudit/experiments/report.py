@@ -355,7 +355,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
     range over every utility of the unparsed reply in [min g, max g], chosen
     per cell of the per-candidate kernel) and ``unparsed_range_ends`` (the
     context and groups of each end, and whether the lower end is exact:
-    :func:`fairaudit.utility_range.fairness_range`). ``paper_design`` (the same from
+    :func:`fairaudit.metrics.utility_range.fairness_range`). ``paper_design`` (the same from
     the paper's design, when run: L and L̄ with their intervals and unparsed ranges, per cell of its observed
     per-candidate law) and ``curve`` (the dense grid). Values in
     nats; +inf is ``"inf"``; NaN is ``null``.
@@ -626,7 +626,7 @@ def plot_experiment_curve(analysis: ExperimentAnalysis, path: str | Path) -> Non
 def _curve_figure(analysis: ExperimentAnalysis) -> Figure:
     """The figure of :func:`plot_experiment_curve`.
 
-    The curve of :func:`fairaudit.plot.plot_curve` against the candidate's ε,
+    The curve of :func:`fairaudit.reports.plots.plot_curve` against the candidate's ε,
     with the keep probability of each attribute on a top axis
     (:func:`_keep_axis`); the confidence bands of the observed L (hatched,
     solid edge) and L̄ (shaded, dashed edge) at the requested ε; the
@@ -682,7 +682,7 @@ def _keep_axis(
     The filter at the candidate's ε keeps every attribute of every profile
     with one probability p (:meth:`fairaudit.experiments.vlm.filter.PrivacyFilter.from_epsilon`):
     attribute i, with k_i values, at ε_i = ln(p (k_i − 1) / (1 − p)), the
-    profile at ε_P = Σ_i ε_i (:func:`fairaudit.privacy.split_by_keep`; an
+    profile at ε_P = Σ_i ε_i (:func:`fairaudit.laws.mechanisms.split_by_keep`; an
     attribute that p would keep less often than uniformly is shown uniformly).
     When ε = c ε_P for a constant c (2 for the paper's pair, whose profiles
     both count) and the k_i are equal, each attribute is at ε / d with d = c n,
@@ -699,7 +699,7 @@ def _keep_axis(
     -------
     tuple of (str, callable, callable)
         The axis label, ε ↦ p and p ↦ ε, as ``secondary_axis`` of
-        :func:`fairaudit.plot.plot_curve` takes them.
+        :func:`fairaudit.reports.plots.plot_curve` takes them.
 
     Examples
     --------

@@ -351,7 +351,7 @@ def candidate_mechanism_epsilon(
     -------
     float
         max over shown views of the spread of ln M_cand between candidates (pure ε, docs/design.md), the
-        value :attr:`fairaudit.privacy.Mechanism.epsilon` gives for :func:`candidate_mechanism`.
+        value :attr:`fairaudit.laws.mechanisms.Mechanism.epsilon` gives for :func:`candidate_mechanism`.
 
     Raises
     ------
@@ -477,7 +477,7 @@ def epsilon_factor(task: DeliveryTask, positions: str = "balanced") -> Fraction 
     differ in c slots in every attribute and no two in more: 2 for the
     paper's pair, which differ in every attribute, own and rival. When every
     attribute has the same number of values the filter splits ε_P evenly
-    (:func:`fairaudit.privacy.split_by_keep`), and the ratio is then the most
+    (:func:`fairaudit.laws.mechanisms.split_by_keep`), and the ratio is then the most
     attribute values in which two views differ over the number of attributes.
     Mixtures (``"distinct"`` with several combinations, several listed ones)
     and other point masses have no constant ratio: ε_P is then found by root

@@ -362,7 +362,7 @@ def check_prompt_reaches(task: DeliveryTask) -> None:
     ... ''')
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: <string>: prompt.user: the attribute 'age' of candidate 1 never reaches the prompt (nor that of candidate 2): two cells that differ only in it render the same; the line looks like a Python-style placeholder, which Jinja2 leaves as text: write {{ c1.age }} (got 'Who? 1: {{ c1.name }}, {age}. 2: {{ c2.name }}, {age}.')
+    fairaudit.base.errors.InputError: <string>: prompt.user: the attribute 'age' of candidate 1 never reaches the prompt (nor that of candidate 2): two cells that differ only in it render the same; the line looks like a Python-style placeholder, which Jinja2 leaves as text: write {{ c1.age }} (got 'Who? 1: {{ c1.name }}, {age}. 2: {{ c2.name }}, {age}.')
     """
     base = task.profiles[0]
     cell = (base,) * task.slots

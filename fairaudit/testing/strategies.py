@@ -52,10 +52,10 @@ from hypothesis import strategies as st
 from hypothesis.errors import InvalidArgument
 from hypothesis.extra import numpy as hnp
 
-from .._arrays import FloatArray
-from ..laws import Kernel, Law, Population
-from ..privacy import Mechanism, product, randomized_response
-from ..utility import Utility
+from fairaudit.base.arrays import FloatArray
+from fairaudit.laws.mechanisms import Mechanism, product, randomized_response
+from fairaudit.laws.tables import Kernel, Law, Population
+from fairaudit.laws.utilities import Utility
 
 __all__ = [
     # populations and mechanisms
@@ -423,7 +423,7 @@ def _delta_mechanisms(
 
 @st.composite
 def randomized_responses(draw: st.DrawFn, k: Size = range(2, 5), epsilon: Number = st.floats(0.0, 5.0)) -> Mechanism:
-    """k-ary randomized response (:func:`fairaudit.privacy.randomized_response`).
+    """k-ary randomized response (:func:`fairaudit.laws.mechanisms.randomized_response`).
 
     Parameters
     ----------
@@ -467,7 +467,7 @@ def product_mechanisms(
     epsilon: Number | None = None,
     kind: str | None = None,
 ) -> Mechanism:
-    """Product mechanisms on tuples of attributes (:func:`fairaudit.privacy.product`).
+    """Product mechanisms on tuples of attributes (:func:`fairaudit.laws.mechanisms.product`).
 
     Parameters
     ----------

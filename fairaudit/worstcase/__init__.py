@@ -1,4 +1,4 @@
-"""Exact worst cases by linear-fractional programming: every decision model, every utility.
+"""Worst case and calibration: exact worst cases by linear-fractional programming, the largest ε meeting a target.
 
 Behind M_A (and any M_X), a decision kernel K and a utility g give
 
@@ -7,10 +7,10 @@ Behind M_A (and any M_X), a decision kernel K and a utility g give
 linear in K (and, for a fixed K, linear in g). Each maximum below is, for one
 ordered pair of groups (a, a') (and one context x for local g-fairness), a
 linear-fractional program max (p·h)/(q·h) over a polytope, solved by
-:mod:`fairaudit.lfp`: the likelihood-ratio threshold when only per-cell bounds
+:mod:`fairaudit.base.linear_fractional`: the likelihood-ratio threshold when only per-cell bounds
 constrain h, the Charnes–Cooper LP (cvxpy + Clarabel) otherwise.
 
-* :func:`black_box_bound` — the **class certificate**: the exact maximum of L
+* :func:`~fairaudit.worstcase.black_box.black_box_bound` — the **class certificate**: the exact maximum of L
   over every kernel and every utility in the class g ∈ [lower, γ],
   E[g | x, a] ≥ τ, |g(u, x, a) − g(u, x, a')| ≤ L_A d(a, a'). The reachable
   vectors are h[b, ã] (the expected utility of a group-b member released as
@@ -18,10 +18,10 @@ constrain h, the Charnes–Cooper LP (cvxpy + Clarabel) otherwise.
   L_A = 0, h[b] = h for every b, and without a binding τ the polytope is the
   box [lower, γ]^n (threshold solution). M_X drops out; under X ⊥ A the same
   value is the exact maximum of L̄.
-* :func:`worst_model` — the **known-utility certificate**: the exact maximum
+* :func:`~fairaudit.worstcase.known_utility.worst_model` — the **known-utility certificate**: the exact maximum
   of L and of L̄ over every kernel, for the utility table given, with τ; it
   returns the maximising kernel, a concrete worst decision model.
-* :func:`worst_utility` — the **worst-case utility** of a known law: the
+* :func:`~fairaudit.worstcase.known_law.worst_utility` — the **worst-case utility** of a known law: the
   utility g(u) ∈ [lower, γ] (with E[g | x, a] ≥ τ) that shows the largest
   local or global disparity. Without constraints it equals Lemma 1's sup.
 
@@ -31,19 +31,3 @@ remaining pair can beat the best value found, so the LP runs only where the
 fast path does not decide. Proofs: ``proofs/black_box.md``,
 ``proofs/linear_fractional.md``, ``proofs/worst_case_utility.md``.
 """
-
-from ._black_box import BlackBoxCertificate, black_box_bound
-from ._randomized_response import rr_class_value as rr_class_value
-from ._search import METHODS as METHODS
-from ._worst_model import WorstCase, WorstModel, worst_model
-from ._worst_utility import WorstUtility, worst_utility
-
-__all__ = [
-    "BlackBoxCertificate",
-    "WorstCase",
-    "WorstModel",
-    "WorstUtility",
-    "black_box_bound",
-    "worst_model",
-    "worst_utility",
-]

@@ -348,7 +348,7 @@ def save_route_image(
     scale: int | None = None,
     window: Window | None = None,
 ) -> None:
-    """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit._io.write_atomic`).
+    """Write :func:`route_image` to ``path`` (``.png``) atomically (:func:`fairaudit.base.files.write_atomic`).
 
     Parameters
     ----------

@@ -14,7 +14,7 @@ The correct privacy budgets (docs/design.md, the paper's errors 1 and 2):
   attributes' (3 ln(7/3) = 2.542 nats for name, age and race at p = 0.7);
 * one keep probability p on every attribute gives an attribute with k values
   ε = ln(p (k − 1) / (1 − p)), so a profile's budget is split by that rule, not
-  evenly (:func:`fairaudit.privacy.split_by_keep`): age (3 values), gender (2)
+  evenly (:func:`fairaudit.laws.mechanisms.split_by_keep`): age (3 values), gender (2)
   and race (3) at p = 0.6 are ln 3, ln 1.5 and ln 3 nats;
 * the query shows every candidate's profile. In the paper's experiment a
   candidate's profile also fixes its rival's (Tom faces Mary, Mary faces Tom),
@@ -84,7 +84,7 @@ class PrivacyFilter:
     def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> PrivacyFilter:
         """The filter whose profile mechanism has privacy budget ``epsilon``, every attribute kept with one probability.
 
-        The split rule (:func:`fairaudit.privacy.split_by_keep`): every
+        The split rule (:func:`fairaudit.laws.mechanisms.split_by_keep`): every
         attribute keeps its value with the same probability p, so attribute i
         with k_i values gets ε_i = ln(p (k_i − 1) / (1 − p)) and Σ ε_i =
         ``epsilon``. An attribute that p would keep less often than uniformly
@@ -219,7 +219,7 @@ def candidate_family(task: DeliveryTask, positions: str = "balanced") -> Mechani
     ε(M_cand(ε_P)) = ε (M_cand at a smaller ε_P is a garbling of the one at
     a larger, so the map is monotone). ε_P is split over the attributes by
     one keep probability (:meth:`PrivacyFilter.from_epsilon`,
-    :func:`fairaudit.privacy.split_by_keep`). The family's keep probability
+    :func:`fairaudit.laws.mechanisms.split_by_keep`). The family's keep probability
     is the chance that a candidate's own profile is shown unchanged,
     Π_i e^{ε_i} / (e^{ε_i} + k_i − 1).
 

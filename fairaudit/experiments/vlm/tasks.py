@@ -688,14 +688,14 @@ def render_prompt(template: str, context: Hashable, candidates: Sequence[Mapping
     >>> render_prompt("{{ c1.__class__ }}", "job", [{"name": "Ann"}], field="prompt.user")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: prompt.user: cannot be rendered: access to attribute '__class__' of '_Candidate' object is unsafe. (template line 1)
+    fairaudit.base.errors.InputError: prompt.user: cannot be rendered: access to attribute '__class__' of '_Candidate' object is unsafe. (template line 1)
 
     A name that does not exist is named with the template's line, and the names that do are listed:
 
     >>> render_prompt("Who?\\n{{ c1.agee }}", "job", [{"name": "Ann", "age": 30}], field="prompt.user")
     Traceback (most recent call last):
     ...
-    fairaudit._errors.InputError: prompt.user: cannot be rendered: a candidate has no field 'agee' (template line 2); the variables are context, candidates, c1, and a candidate's fields are name, age ({{ c1.name }})
+    fairaudit.base.errors.InputError: prompt.user: cannot be rendered: a candidate has no field 'agee' (template line 2); the variables are context, candidates, c1, and a candidate's fields are name, age ({{ c1.name }})
     """
     env = _environment()  # first: without Jinja2, one line naming the install
     from jinja2 import TemplateError, TemplateSyntaxError, UndefinedError

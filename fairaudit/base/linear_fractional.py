@@ -1,0 +1,738 @@
+"""Linear-fractional programs: maximise (p·h) / (q·h) over a polytope, exactly.
+
+Two routes to the same optimum:
+
+* :func:`threshold_max` — when only per-cell bounds lower ≤ h ≤ upper
+  constrain h. At the optimum λ*, h maximises Σ_i (p_i − λ* q_i) h_i over the
+  box, so h_i = upper_i where p_i / q_i > λ* and lower_i elsewhere: a threshold
+  in likelihood-ratio order. Sorting once and scanning the n + 1 prefixes
+  finds it exactly (Dinkelbach 1967; Charnes and Cooper 1962).
+* :func:`lp_max` — any polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq}.
+  The Charnes–Cooper transform y = s·h, s = 1 / (q·h) turns the program into
+  the linear program max p·y subject to q·y = 1, A_ub y ≤ b_ub s,
+  A_eq y = b_eq s, lower s ≤ y ≤ upper s, s ≥ 0, solved with cvxpy and the
+  Clarabel interior-point solver. An unbounded LP means the ratio is
+  unbounded (+inf); an infeasible one that no feasible h has q·h > 0.
+
+* :class:`FractionalProgram` — the same LP compiled once for a fixed
+  polytope and re-solved for many (p, q) (cvxpy parameters), which is how the
+  worst-case searches of :mod:`fairaudit.worstcase` loop over pairs of groups.
+* :func:`fractional_max` — the single entry point: the threshold fast path
+  whenever only per-cell bounds constrain h, the LP otherwise.
+
+Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proofs of the
+transform and of the threshold solution: ``proofs/linear_fractional.md`` and
+``proofs/black_box.md``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal, TypeAlias, overload
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray, IntArray, as_float_array
+from fairaudit.base.errors import InputError
+
+if TYPE_CHECKING:
+    import cvxpy as cp
+    import scipy.sparse as sp
+
+ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
+"""A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
+
+ThresholdSolution: TypeAlias = tuple[FloatArray, IntArray, IntArray]
+"""What :func:`threshold_max_many` returns: (values, k, order)."""
+
+__all__ = [
+    "FractionalProgram",
+    "FractionalResult",
+    "box_point",
+    "floor_max_many",
+    "fractional_max",
+    "lp_max",
+    "threshold_max",
+    "threshold_max_many",
+]
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class FractionalResult:
+    """The optimum of max (p·h) / (q·h).
+
+    Attributes
+    ----------
+    value : float
+        The optimal ratio (+inf when unbounded; NaN when infeasible).
+    argmax : numpy.ndarray or None
+        An h attaining it, shape (n,); None when unbounded or infeasible.
+    status : {"optimal", "unbounded", "infeasible"}
+    method : {"threshold", "lp"}
+    solver_status : str
+        The solver's own status ("threshold" for the fast path).
+    reason : str
+        Why the value is +inf or NaN; empty when optimal.
+    p, q, lower, upper : numpy.ndarray
+        The inputs.
+    """
+
+    value: float
+    argmax: FloatArray | None
+    status: str
+    method: str
+    solver_status: str
+    reason: str
+    p: FloatArray
+    q: FloatArray
+    lower: FloatArray | None
+    upper: FloatArray | None
+
+
+def _vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    p = as_float_array(p, "p", ndim=1)
+    q = as_float_array(q, "q", ndim=1)
+    if p.shape != q.shape:
+        raise InputError("q", f"must have the shape of p {p.shape}", q.shape)
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+        raise InputError("p", "p and q must be finite")
+    return p, q
+
+
+@overload
+def _bounds(
+    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: Literal[True]
+) -> tuple[FloatArray, FloatArray]: ...
+@overload
+def _bounds(
+    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
+) -> tuple[FloatArray | None, FloatArray | None]: ...
+def _bounds(
+    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
+) -> tuple[FloatArray | None, FloatArray | None]:
+    if lower is None or upper is None:
+        if required:
+            raise InputError("lower", "the threshold solution needs finite lower and upper bounds")
+        return (
+            None if lower is None else np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy(),
+            None if upper is None else np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy(),
+        )
+    lo = np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy()
+    hi = np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy()
+    if np.any(lo > hi):
+        i = int(np.argmax(lo > hi))
+        raise InputError("lower", f"exceeds upper at cell {i} ({hi[i]:g})", float(lo[i]))
+    return lo, hi
+
+
+def _ratio(num: float, den: float) -> float:
+    if den > 0:
+        return num / den
+    return math.inf if num > 0 else 1.0
+
+
+def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike) -> FractionalResult:
+    """max (p·h)/(q·h) over the box lower ≤ h ≤ upper, exactly, in O(n log n).
+
+    Proof: ``proofs/linear_fractional.md`` (the threshold solution).
+
+    Parameters
+    ----------
+    p, q : array_like, shape (n,)
+        Non-negative weights of the numerator and denominator.
+    lower, upper : float or array_like, shape (n,)
+        Finite bounds, lower ≤ upper.
+
+    Returns
+    -------
+    FractionalResult
+        ``method = "threshold"``; ``argmax`` is upper on the cells with the
+        largest ratios p_i / q_i and lower on the others.
+
+    Raises
+    ------
+    InputError
+        On shapes that differ, non-finite entries, negative weights, a negative
+        lower bound, or lower > upper.
+
+    Examples
+    --------
+    >>> r = threshold_max([0.7, 0.3], [0.3, 0.7], 0.5, 1.0)
+    >>> round(r.value, 12), r.argmax.tolist()
+    (1.307692307692, [1.0, 0.5])
+    """
+    p, q = _vectors(p, q)
+    if np.any(p < 0) or np.any(q < 0):
+        raise InputError("p", "the threshold solution needs non-negative p and q")
+    lo, hi = _bounds(lower, upper, p.size, required=True)
+    result = functools.partial(FractionalResult, method="threshold", p=p, q=q, lower=lo, upper=hi)
+    if np.any(lo < 0):
+        # With a negative lower bound q·h can approach 0 from inside the box; the threshold argument
+        # needs q·h > 0 on the whole box. Use lp_max for such programs.
+        raise InputError("lower", "the threshold solution needs lower >= 0 (use lp_max)", float(lo.min()))
+    values, k, order = threshold_max_many(p, q, lo, hi)
+    h = lo.copy()
+    top = order[: int(k)]
+    h[top] = hi[top]
+    value = float(values)
+    if math.isinf(value):
+        return result(
+            value=value,
+            argmax=h,
+            status="unbounded",
+            solver_status="threshold",
+            reason="some h in the box has q·h = 0 and p·h > 0",
+        )
+    return result(value=value, argmax=h, status="optimal", solver_status="threshold", reason="")
+
+
+def threshold_max_many(
+    p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike
+) -> ThresholdSolution:
+    """The threshold solution for a batch of box programs, vectorised over leading axes.
+
+    Proof: ``proofs/linear_fractional.md`` (the threshold solution).
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray, shape (..., n)
+        Non-negative numerator and denominator weights (not validated: this
+        is the inner loop of the worst-case searches).
+    lower, upper : numpy.ndarray, broadcastable to (..., n)
+        Box bounds, 0 ≤ lower ≤ upper.
+
+    Returns
+    -------
+    values : numpy.ndarray, shape (...)
+        The optimal ratios (c/0 = +inf, 0/0 = 1).
+    k : numpy.ndarray of int, shape (...)
+        How many cells take their upper bound at the optimum (the longest
+        optimal prefix when ratios tie).
+    order : numpy.ndarray of int, shape (..., n)
+        Cells by decreasing likelihood ratio p/q: the optimum sets
+        ``order[..., :k]`` to ``upper`` and the rest to ``lower``.
+
+    Raises
+    ------
+    ValueError
+        From numpy when the shapes do not broadcast. Nothing else is checked
+        (use :func:`threshold_max` for validated input).
+
+    Examples
+    --------
+    >>> v, k, order = threshold_max_many(np.array([[0.7, 0.3], [0.3, 0.7]]),
+    ...                                  np.array([[0.3, 0.7], [0.7, 0.3]]), 0.5, 1.0)
+    >>> v.round(12).tolist(), k.tolist(), order[:, 0].tolist()
+    ([1.307692307692, 1.307692307692], [1, 1], [0, 1])
+    """
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    shape = np.broadcast_shapes(p.shape, q.shape, np.shape(lower), np.shape(upper))
+    p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
+    lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
+    order = np.argsort(-r, axis=-1, kind="stable")
+    span = hi - lo
+    zeros = np.zeros(shape[:-1] + (1,))
+    num = (p * lo).sum(-1, keepdims=True) + np.concatenate(
+        [zeros, np.cumsum(np.take_along_axis(p * span, order, -1), -1)], -1
+    )
+    den = (q * lo).sum(-1, keepdims=True) + np.concatenate(
+        [zeros, np.cumsum(np.take_along_axis(q * span, order, -1), -1)], -1
+    )
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
+    best = values.max(axis=-1)
+    # Among optimal prefixes (ties in the ratio, up to rounding) take the longest: the same value with h as high as
+    # possible, which helps every extra constraint E ≥ τ of the callers' relaxations.
+    tied = values >= (best * (1 - 1e-12))[..., None]
+    k = values.shape[-1] - 1 - np.argmax(tied[..., ::-1], axis=-1)
+    return best, k, order
+
+
+def floor_max_many(
+    p: npt.ArrayLike,
+    q: npt.ArrayLike,
+    lower: npt.ArrayLike,
+    upper: npt.ArrayLike,
+    floor: float,
+    threshold: ThresholdSolution | None = None,
+) -> tuple[FloatArray, IntArray, FloatArray, IntArray]:
+    """Box programs with one more constraint, q·h ≥ floor, solved in closed form, vectorised.
+
+    max (p·h)/(q·h) over lower ≤ h ≤ upper with q·h ≥ floor > 0. Let h* be the
+    threshold solution without the floor. If q·h* ≥ floor it is optimal.
+    Otherwise the ratio, a quasi-concave function of D = q·h (the best
+    numerator N(D) is concave in D), is largest at D = floor, where the best
+    numerator is the fractional knapsack: raise cells to ``upper`` in
+    decreasing order of p/q until q·h = floor, the last one partly.
+    ``proofs/linear_fractional.md`` (the box plus one floor). This is the relaxation
+    of the τ-constrained programs that keeps only the denominator group's
+    constraint: an upper bound, and the optimum whenever its point meets the
+    other constraints.
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray, shape (..., n)
+        Non-negative weights.
+    lower, upper : numpy.ndarray, broadcastable to (..., n)
+        0 ≤ lower ≤ upper.
+    floor : float
+        > 0.
+    threshold : tuple, optional
+        The result of :func:`threshold_max_many` on the same arrays, when the
+        caller has it already (saves recomputing it).
+
+    Returns
+    -------
+    values : numpy.ndarray, shape (...)
+        Optimal ratios (NaN where q·upper < floor: infeasible).
+    k : numpy.ndarray of int, shape (...)
+        Cells at ``upper`` (the first k in ``order``).
+    frac : numpy.ndarray, shape (...)
+        Fraction of the span of cell ``order[k]`` that is raised (0 when none).
+    order : numpy.ndarray of int, shape (..., n)
+
+    Raises
+    ------
+    ValueError
+        From numpy when the shapes do not broadcast; the inputs are not
+        otherwise validated (the inner loop of the worst-case searches).
+
+    Examples
+    --------
+    >>> v, k, frac, order = floor_max_many(np.array([0.7, 0.3]), np.array([0.3, 0.7]), 0.0, 1.0, 0.5)
+    >>> round(float(v), 12), int(k), round(float(frac), 12)      # h = (1, 2/7): (0.7 + 0.6/7) / 0.5 = 11/7
+    (1.571428571429, 1, 0.285714285714)
+    """
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    shape = np.broadcast_shapes(p.shape, q.shape, np.shape(lower), np.shape(upper))
+    p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
+    lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
+    values, k, order = threshold_max_many(p, q, lo, hi) if threshold is None else threshold
+    span = hi - lo
+    ps = np.take_along_axis(p * span, order, -1)
+    qs = np.take_along_axis(q * span, order, -1)
+    zeros = np.zeros(shape[:-1] + (1,))
+    cp = np.concatenate([zeros, np.cumsum(ps, -1)], -1)
+    cq = np.concatenate([zeros, np.cumsum(qs, -1)], -1)
+    d0 = (q * lo).sum(-1)
+    n0 = (p * lo).sum(-1)
+    d_star = d0 + np.take_along_axis(cq, k[..., None], -1)[..., 0]
+    low = d_star < floor * (1 - 1e-12)
+    need = floor - d0
+    j = np.clip((cq >= need[..., None] - 1e-15 * np.maximum(1.0, floor)).argmax(-1) - 1, 0, shape[-1] - 1)
+    qj = np.take_along_axis(qs, j[..., None], -1)[..., 0]
+    pj = np.take_along_axis(ps, j[..., None], -1)[..., 0]
+    cqj = np.take_along_axis(cq, j[..., None], -1)[..., 0]
+    cpj = np.take_along_axis(cp, j[..., None], -1)[..., 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.clip(np.where(qj > 0, (need - cqj) / np.where(qj > 0, qj, 1.0), 0.0), 0.0, 1.0)
+    filled = (n0 + cpj + frac * pj) / floor
+    feasible = d0 + cq[..., -1] >= floor * (1 - 1e-12)
+    values = np.where(low, np.where(feasible, filled, np.nan), values)
+    k_out = np.where(low, j, k)
+    frac_out = np.where(low, frac, 0.0)
+    return values, k_out, frac_out, order
+
+
+def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: int, frac: float = 0.0) -> FloatArray:
+    """The point of a threshold or floor solution: ``upper`` on ``order[:k]``, partly raised ``order[k]``.
+
+    Parameters
+    ----------
+    lower, upper : array_like, broadcastable to (n,)
+    order : numpy.ndarray of int, shape (n,)
+    k : int
+    frac : float
+        Fraction of cell ``order[k]``'s span that is raised.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+
+    Raises
+    ------
+    IndexError
+        When ``order`` holds an index outside [0, n).
+
+    Examples
+    --------
+    >>> box_point(0.0, 1.0, np.array([1, 0, 2]), 1, 0.25).tolist()    # cell 1 up, cell 0 a quarter up
+    [0.25, 1.0, 0.0]
+    """
+    n = order.shape[-1]
+    lo = np.broadcast_to(np.asarray(lower, dtype=float), (n,)).copy()
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
+    h = lo.copy()
+    h[order[:k]] = hi[order[:k]]
+    if frac > 0 and k < n:
+        o = order[k]
+        h[o] = lo[o] + frac * (hi[o] - lo[o])
+    return h
+
+
+CLARABEL_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
+
+
+def solve_clarabel(problem: cp.Problem) -> None:
+    """Solve a cvxpy problem with Clarabel at tight tolerances, without the "may be inaccurate" warning.
+
+    The callers read ``problem.status``: an inaccurate solve is reported there (``solver_status``), not warned.
+    """
+    import warnings
+
+    import cvxpy as cp
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+        problem.solve(solver=cp.CLARABEL, **CLARABEL_TOLERANCES)
+
+
+class FractionalProgram:
+    """max (p·h)/(q·h) over a fixed polytope, compiled once, solved for many (p, q).
+
+    Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; what each LP status means).
+
+    The polytope is {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq} in R^n.
+    The Charnes–Cooper transform y = s·h, s = 1/(q·h) ≥ 0 gives the LP
+
+        max p·y  s.t.  q·y = 1,  A_ub y ≤ b_ub s,  A_eq y = b_eq s,  lower s ≤ y ≤ upper s,
+
+    built once with p and q as cvxpy parameters (disciplined parametrized
+    programming), so each :meth:`solve` only re-runs the Clarabel
+    interior-point solver.
+
+    Parameters
+    ----------
+    n : int
+        Dimension of h.
+    lower, upper : float or array_like, shape (n,), optional
+        Per-cell bounds (None or ±inf: unbounded on that side).
+    A_ub, b_ub : array_like or scipy.sparse matrix, shapes (m, n) and (m,), optional
+    A_eq, b_eq : array_like or scipy.sparse matrix, shapes (k, n) and (k,), optional
+
+    Raises
+    ------
+    InputError
+        On inconsistent shapes, non-finite constraint data, or lower > upper.
+
+    Examples
+    --------
+    >>> prog = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.7, -0.3], [-0.3, -0.7]], b_ub=[-0.5, -0.5])
+    >>> r = prog.solve([0.7, 0.3], [0.3, 0.7])   # τ = 0.5 forces 0.3 + 0.7 h_2 >= 0.5: h = (1, 2/7), ratio 11/7
+    >>> round(r.value, 7), r.argmax.round(7).tolist(), r.status
+    (1.5714286, [1.0, 0.2857143], 'optimal')
+    """
+
+    def __init__(
+        self,
+        n: int,
+        *,
+        lower: npt.ArrayLike | None = None,
+        upper: npt.ArrayLike | None = None,
+        A_ub: ConstraintMatrix | None = None,
+        b_ub: npt.ArrayLike | None = None,
+        A_eq: ConstraintMatrix | None = None,
+        b_eq: npt.ArrayLike | None = None,
+    ) -> None:
+        import cvxpy as cp
+
+        self.n = int(n)
+        self.lower, self.upper = _bounds(lower, upper, self.n, required=False)
+        self._p = cp.Parameter(self.n)
+        self._q = cp.Parameter(self.n)
+        self._y = cp.Variable(self.n)
+        self._s = cp.Variable(nonneg=True)
+        y, s = self._y, self._s
+        cons = [self._q @ y == 1]
+        self._rows: list[tuple[FloatArray | sp.csr_matrix, FloatArray, str]] = []
+        for bound, op in ((self.lower, "ge"), (self.upper, "le")):
+            if bound is None:
+                continue
+            fin = np.isfinite(bound)
+            if fin.any():
+                idx = np.flatnonzero(fin)
+                cons.append(y[idx] >= bound[idx] * s if op == "ge" else y[idx] <= bound[idx] * s)
+        for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
+            if a is None:
+                continue
+            a = _matrix(a, name)
+            b = as_float_array(b, name.replace("A", "b"), ndim=1)
+            if a.shape != (b.size, self.n):
+                raise InputError(name, f"shape must be ({b.size}, {self.n})", a.shape)
+            cons.append(a @ y <= b * s if op == "le" else a @ y == b * s)
+            self._rows.append((a, b, op))
+        self._problem = cp.Problem(cp.Maximize(self._p @ y), cons)
+        self._bounded = (
+            self.lower is not None
+            and self.upper is not None
+            and bool(np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper)))
+        )
+        self._primal: tuple[cp.Problem, cp.Variable, cp.Parameter] | None = None
+
+    def solve(self, p: npt.ArrayLike, q: npt.ArrayLike) -> FractionalResult:
+        """The optimum for numerator ``p`` and denominator ``q`` (shape (n,) each).
+
+        Returns
+        -------
+        FractionalResult
+            ``method = "lp"``; +inf with a reason when the ratio is unbounded,
+            NaN with a reason when no feasible h has q·h > 0. Never raises for
+            an infeasible or unbounded program.
+        """
+        import cvxpy as cp
+
+        p, q = _vectors(p, q)
+        if p.size != self.n:
+            raise InputError("p", f"must have length {self.n}", p.size)
+        lo, hi = self.lower, self.upper
+        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=lo, upper=hi)
+        self._p.value, self._q.value = p, q
+        prob = self._problem
+        try:
+            solve_clarabel(prob)
+        except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
+            return result(
+                value=math.nan, argmax=None, status="infeasible", solver_status="solver_error", reason=str(exc)
+            )
+        status = prob.status
+        if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
+            return result(
+                value=math.inf,
+                argmax=None,
+                status="unbounded",
+                solver_status=status,
+                reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
+            )
+        if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+            return self._zero_denominator(p, q, status)
+        s = self._s.value
+        if s is None:  # pragma: no cover - the solver returned no point
+            return result(
+                value=math.nan,
+                argmax=None,
+                status="infeasible",
+                solver_status=status,
+                reason="the solver returned no solution",
+            )
+        if self._bounded and s > 0:
+            # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
+            h = np.asarray(self._y.value, dtype=float) / float(s)
+            return result(value=float(prob.value), argmax=h, status="optimal", solver_status=status, reason="")
+        y = np.asarray(self._y.value, dtype=float)
+        if s <= 1e-12 * max(1.0, float(np.abs(y).max())):
+            # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
+            primal_status, _, _ = self._primal_max(p)
+            if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+                return result(
+                    value=math.nan,
+                    argmax=None,
+                    status="infeasible",
+                    solver_status=status,
+                    reason="the constraints are inconsistent: no feasible h",
+                )
+            return result(
+                value=float(prob.value),
+                argmax=None,
+                status="optimal",
+                solver_status=status,
+                reason="the supremum is approached only as h grows without bound along a recession "
+                "direction of the polytope (q·h -> +inf); it is not attained",
+            )
+        return result(value=float(prob.value), argmax=y / float(s), status="optimal", solver_status=status, reason="")
+
+    def _zero_denominator(self, p: FloatArray, q: FloatArray, status: str) -> FractionalResult:
+        """The transformed LP is infeasible: the polytope is empty, or q·h = 0 on all of it.
+
+        Tells the two apart with the LP max p·h over the polytope itself: empty
+        gives NaN; otherwise the ratio is +inf when some feasible h has
+        p·h > 0 (c/0) and 1 when p·h = 0 too (0/0, parity).
+        """
+        import cvxpy as cp
+
+        lo, hi = self.lower, self.upper
+        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=lo, upper=hi)
+        try:
+            primal_status, value, h = self._primal_max(p)
+        except cp.error.SolverError as exc:  # pragma: no cover
+            return result(
+                value=math.nan, argmax=None, status="infeasible", solver_status="solver_error", reason=str(exc)
+            )
+
+        if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+            return result(
+                value=math.nan,
+                argmax=None,
+                status="infeasible",
+                solver_status=status,
+                reason="the constraints are inconsistent: no feasible h",
+            )
+        if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
+            return result(
+                value=math.inf,
+                argmax=h,
+                status="unbounded",
+                solver_status=status,
+                reason="q·h = 0 on every feasible h and some has p·h > 0 (c/0)",
+            )
+        return result(
+            value=1.0,
+            argmax=h,
+            status="optimal",
+            solver_status=status,
+            reason="p·h = q·h = 0 on every feasible h (0/0 counts as parity)",
+        )
+
+    def _primal_max(self, p: FloatArray) -> tuple[str, float, FloatArray | None]:
+        """max p·h over the polytope itself (built on first use): (status, value, h or None)."""
+        import cvxpy as cp
+
+        lo, hi = self.lower, self.upper
+        if self._primal is None:
+            h = cp.Variable(self.n)
+            c = cp.Parameter(self.n)
+            cons = []
+            for bound, op in ((lo, "ge"), (hi, "le")):
+                if bound is not None and np.isfinite(bound).any():
+                    idx = np.flatnonzero(np.isfinite(bound))
+                    cons.append(h[idx] >= bound[idx] if op == "ge" else h[idx] <= bound[idx])
+            for a, b, op in self._rows:
+                cons.append(a @ h <= b if op == "le" else a @ h == b)
+            self._primal = (cp.Problem(cp.Maximize(c @ h), cons), h, c)
+        prob, h, c = self._primal
+        c.value = p
+        solve_clarabel(prob)
+        return prob.status, prob.value, None if h.value is None else np.asarray(h.value, dtype=float)
+
+
+def _matrix(a: ConstraintMatrix, name: str) -> FloatArray | sp.csr_matrix:
+    import scipy.sparse as sp
+
+    if sp.issparse(a):
+        a = sp.csr_matrix(a, dtype=float)
+        if not np.all(np.isfinite(a.data)):
+            raise InputError(name, "must be finite")
+        return a
+    return as_float_array(a, name, ndim=2)
+
+
+def lp_max(
+    p: npt.ArrayLike,
+    q: npt.ArrayLike,
+    *,
+    lower: npt.ArrayLike | None = None,
+    upper: npt.ArrayLike | None = None,
+    A_ub: ConstraintMatrix | None = None,
+    b_ub: npt.ArrayLike | None = None,
+    A_eq: ConstraintMatrix | None = None,
+    b_eq: npt.ArrayLike | None = None,
+) -> FractionalResult:
+    """max (p·h)/(q·h) over a polytope, by the Charnes–Cooper transform and an LP.
+
+    Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; statuses).
+
+    Parameters
+    ----------
+    p, q : array_like, shape (n,)
+    lower, upper : float or array_like, shape (n,), optional
+        Per-cell bounds (None: unbounded on that side).
+    A_ub, b_ub : array_like, shapes (m, n) and (m,), optional
+        A_ub h ≤ b_ub.
+    A_eq, b_eq : array_like, shapes (k, n) and (k,), optional
+        A_eq h = b_eq.
+
+    Returns
+    -------
+    FractionalResult
+        ``method = "lp"`` with the solver's status; +inf with a reason when
+        the ratio is unbounded, NaN with a reason when no feasible h has
+        q·h > 0. Never raises for an infeasible or unbounded program.
+
+    Raises
+    ------
+    InputError
+        On inconsistent shapes or non-finite data.
+
+    Examples
+    --------
+    >>> r = lp_max([0.7, 0.3], [0.3, 0.7], lower=0.5, upper=1.0)
+    >>> round(r.value, 7), r.status
+    (1.3076923, 'optimal')
+    """
+    p, q = _vectors(p, q)
+    prog = FractionalProgram(p.size, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)
+    return prog.solve(p, q)
+
+
+def fractional_max(
+    p: npt.ArrayLike,
+    q: npt.ArrayLike,
+    *,
+    lower: npt.ArrayLike | None = None,
+    upper: npt.ArrayLike | None = None,
+    A_ub: ConstraintMatrix | None = None,
+    b_ub: npt.ArrayLike | None = None,
+    A_eq: ConstraintMatrix | None = None,
+    b_eq: npt.ArrayLike | None = None,
+    method: str = "auto",
+) -> FractionalResult:
+    """max (p·h)/(q·h) over a polytope: the threshold fast path when it applies, else the LP.
+
+    Proof: ``proofs/linear_fractional.md``.
+
+    The fast path (:func:`threshold_max`) applies when only finite per-cell
+    bounds 0 ≤ lower ≤ upper constrain h and p, q ≥ 0; otherwise the
+    Charnes–Cooper LP (:func:`lp_max`) solves it.
+
+    Parameters
+    ----------
+    p, q, lower, upper, A_ub, b_ub, A_eq, b_eq
+        As in :func:`lp_max`.
+    method : {"auto", "threshold", "lp"}
+        Force a route (``"threshold"`` raises when it does not apply).
+
+    Returns
+    -------
+    FractionalResult
+
+    Raises
+    ------
+    InputError
+        On bad input, an unknown method, or ``method="threshold"`` where it
+        does not apply.
+
+    Examples
+    --------
+    >>> fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.5, upper=1.0).method
+    'threshold'
+    >>> fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.0, upper=1.0, A_ub=[[-0.3, -0.7]], b_ub=[-0.5]).method
+    'lp'
+    """
+    if method not in ("auto", "threshold", "lp"):
+        raise InputError("method", "must be 'auto', 'threshold' or 'lp'", method)
+    p_arr, q_arr = _vectors(p, q)
+    boxed = (
+        A_ub is None
+        and A_eq is None
+        and lower is not None
+        and upper is not None
+        and np.all(np.isfinite(np.asarray(lower, dtype=float)))
+        and np.all(np.isfinite(np.asarray(upper, dtype=float)))
+        and np.all(np.asarray(lower, dtype=float) >= 0)
+        and np.all(p_arr >= 0)
+        and np.all(q_arr >= 0)
+    )
+    if method == "threshold" and not boxed:
+        raise InputError(
+            "method", "the threshold solution needs only finite bounds 0 <= lower <= upper and p, q >= 0", method
+        )
+    if method == "threshold" or (method == "auto" and boxed):
+        assert lower is not None and upper is not None  # boxed
+        return threshold_max(p_arr, q_arr, lower, upper)
+    return lp_max(p_arr, q_arr, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)

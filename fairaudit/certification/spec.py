@@ -1,0 +1,739 @@
+"""The TOML certification spec: parse, validate, and build the objects it names.
+
+Sections (docs/design.md "Command-line contract"; full reference in docs/spec.md):
+
+``[sensitive]`` name, values · ``[context]`` name, values, distribution
+(optional; one context ``"all"`` when absent) · ``[decision]`` name, values,
+unparsed (optional: the decision of replies read as no option) ·
+``[population]`` probabilities (n_contexts × n_groups) or group_distribution
+(optional; default uniform and independent) · ``[privacy.sensitive]`` and
+``[privacy.context]`` mechanism = "identity" | "randomized_response" (epsilon
+or keep) | "matrix" (rows, outputs) | "product" (components) ·
+``[model]`` table or records (path relative to the spec), count_column,
+probability_column, where, csv (how a text file is read) · ``[utility]`` kind = "indicator" (decision) |
+"table" (values), gamma, lower, tau, lipschitz, metric · ``[target]`` local,
+global.
+
+Validation uses pydantic; every error becomes one :class:`InputError` line
+naming the dotted field (``privacy.sensitive.epsilon``) and the value.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from fairaudit.base.arrays import FloatArray
+from fairaudit.base.checks import real
+from fairaudit.base.errors import InputError
+from fairaudit.base.labels import as_labels, format_label
+from fairaudit.base.toml_documents import (
+    parse_toml,
+    validation_error,
+)
+from fairaudit.data.record_files import source
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from fairaudit.certification.spec_schema import AttributeSpec, MechanismSpec, ModelSpec, SpecModel
+from fairaudit.data.counts import CountTable, count_records, count_table
+from fairaudit.data.csv_format import CsvFormat
+from fairaudit.laws.mechanisms import (
+    Mechanism,
+    MechanismFamily,
+    epsilon_from_keep_probability,
+    from_matrix,
+    identity,
+    product,
+    product_family,
+    randomized_response,
+    randomized_response_family,
+)
+from fairaudit.laws.tables import Kernel, Population
+from fairaudit.laws.utilities import Utility, check_metric, from_table, indicator
+
+__all__ = [
+    # a validated spec
+    "Spec",
+    # reading one
+    "load_spec",
+    "parse_spec",
+]
+
+
+class Spec:
+    """A validated certification spec and the objects it defines.
+
+    Attributes
+    ----------
+    source : str
+        Where it came from (path or ``"<string>"``).
+    base : pathlib.Path
+        Folder that model paths are relative to.
+    model : SpecModel
+        The validated fields.
+    sensitive_mechanism, context_mechanism : Mechanism
+        M_A and M_X.
+    groups, contexts, decisions : tuple
+        Labels.
+    population : Population
+        P(X, A) with its ``source``: the spec's, the records' own, or assumed
+        (see the property).
+    given_population : Population or None
+        The spec's ``[population]``, if any.
+    utility : Utility
+    unparsed : hashable or None
+        The decision that ``[decision] unparsed`` names (replies read as no
+        option, whose utility is known only within [min g, max g]), or None.
+
+    Notes
+    -----
+    Use :func:`load_spec` or :func:`parse_spec` to make one.
+    """
+
+    def __init__(self, model: SpecModel, source: str, base: Path) -> None:
+        from fairaudit.certification.spec_schema import AttributeSpec  # (already loaded: the model is one)
+
+        self.model = model
+        self.source = source
+        self.base = base
+        self.sensitive_mechanism = self._mechanism(model.privacy.sensitive, model.sensitive, "privacy.sensitive")
+        self.groups = self.sensitive_mechanism.inputs
+        if model.sensitive.values is not None:
+            given = as_labels(model.sensitive.values, "sensitive.values")
+            if given != self.groups:
+                raise self._err(
+                    "sensitive.values",
+                    "must equal the product of the components' values, in order",
+                    [format_label(g) for g in given],
+                )
+        if model.context is None:
+            self.contexts: tuple = ("all",)
+            context_name = "context"
+        else:
+            assert model.context.values is not None  # (required by SpecModel)
+            self.contexts = as_labels(model.context.values, "context.values")
+            context_name = model.context.name
+        self.context_name = context_name
+        self.context_mechanism = self._mechanism(
+            model.privacy.context, AttributeSpec(name=context_name, values=list(self.contexts)), "privacy.context"
+        )
+        assert model.decision.values is not None  # (required by SpecModel)
+        self.decisions = as_labels(model.decision.values, "decision.values")
+        self._context_distribution: FloatArray | None = None
+        self.given_population = self._population()
+        self._kernel: Kernel | None | bool = False  # False: not read yet
+        self.weighted_table: CountTable | None = None  # [model] records with weight_column: their weighted counts
+        self._default_population: Population | None = None
+        self.utility = self._utility()
+        u = model.utility
+        if u.lower is not None and u.lower > self.utility.lower + 1e-12:
+            raise self._err(
+                "utility.lower", f"exceeds the utility's smallest value min g = {self.utility.lower:g}", u.lower
+            )
+        if u.gamma is not None and u.gamma < self.utility.gamma - 1e-12:
+            raise self._err(
+                "utility.gamma", f"is below the utility's largest value max g = {self.utility.gamma:g}", u.gamma
+            )
+        if u.tau is not None and u.tau > self.gamma:  # (with gamma given, SpecModel checked it)
+            raise self._err("utility.tau", f"cannot exceed gamma = {self.gamma:g} (E[g | x, a] <= max g)", u.tau)
+        self.unparsed = self._unparsed()
+        self.metric: FloatArray | None = None
+        if model.utility.metric is not None:
+            try:
+                self.metric = check_metric(model.utility.metric, len(self.groups))
+            except InputError as exc:
+                raise exc.under(f"{self.source}: utility.metric", keep_own=False) from None
+
+    # -- helpers ---------------------------------------------------------------------------------
+    def _err(self, field: str, problem: str, value: object = InputError._missing) -> InputError:
+        return InputError(f"{self.source}: {field}", problem, value)
+
+    def _mechanism(self, spec: MechanismSpec, attribute: AttributeSpec, field: str) -> Mechanism:
+        try:
+            return _build_mechanism(spec, attribute.values, spec.name or f"{spec.mechanism} on {attribute.name}")
+        except InputError as exc:
+            if exc.field in _MECHANISM_FIELDS or exc.field.startswith("components["):  # a field of the spec's table
+                raise InputError(f"{self.source}: {field}.{exc.field}", exc.problem, exc.value) from None
+            raise exc.under(f"{self.source}: {field}") from None
+
+    def _distribution(self, values: list[float] | None, labels: tuple, field: str, what: str) -> FloatArray | None:
+        """A validated distribution over ``labels`` from the spec's ``field`` (None when absent)."""
+        if values is None:
+            return None
+        if len(values) != len(labels):
+            raise self._err(field, f"must have one entry per {what} ({len(labels)})", values)
+        for i, (v, label) in enumerate(zip(values, labels, strict=True)):
+            real(
+                v,
+                f"{self.source}: {field}[{i}]",
+                low=0.0,
+                what=f"a finite number >= 0 ({what} {format_label(label)!r})",
+            )
+        p = np.asarray(values, dtype=float)
+        total = float(p.sum())
+        if abs(total - 1.0) > 1e-9:
+            raise self._err(field, f"entries sum to {total:.12g}, not 1", values)
+        return p
+
+    def _population(self) -> Population | None:
+        """The population the spec gives: ``[population]`` (source "given"), or None.
+
+        ``context.distribution`` alone gives P(X) only: it is kept for the
+        default (:attr:`population`), with P(A) uniform and X ⊥ A assumed.
+        """
+        pop = self.model.population
+        ctx = self.model.context
+        px = self._distribution(ctx.distribution if ctx else None, self.contexts, "context.distribution", "context")
+        if pop is None:
+            self._context_distribution = px
+            return None
+        if pop.probabilities is not None:
+            rows = pop.probabilities
+            if len(rows) != len(self.contexts) or any(len(r) != len(self.groups) for r in rows):
+                raise self._err(
+                    "population.probabilities",
+                    f"must be {len(self.contexts)} rows (contexts) of {len(self.groups)} entries (groups)",
+                    rows,
+                )
+            try:
+                return Population(rows, self.contexts, self.groups)
+            except InputError as exc:
+                raise exc.under(f"{self.source}: population.probabilities", keep_own=False) from None
+        pa = self._distribution(pop.group_distribution, self.groups, "population.group_distribution", "group")
+        if pa is None:
+            self._context_distribution = px
+            return None
+        if px is None:
+            px = np.full(len(self.contexts), 1.0 / len(self.contexts))
+        return Population.independent(px, pa, self.contexts, self.groups)
+
+    def _utility(self) -> Utility:
+        u = self.model.utility
+        try:
+            if u.kind == "indicator":
+                value = _match_label(u.decision, self.decisions)
+                if value is None:
+                    raise self._err(
+                        "utility.decision",
+                        f"must be one of decision.values {[format_label(d) for d in self.decisions]}",
+                        u.decision,
+                    )
+                return indicator(value, self.decisions, name=u.name)
+            arr = np.asarray(u.values, dtype=float)
+            if arr.ndim == 1:
+                return from_table(arr, self.decisions, name=u.name or "table")
+            return from_table(arr, self.decisions, self.contexts, self.groups, name=u.name or "table")
+        except InputError as exc:
+            if exc.field.startswith(self.source):
+                raise
+            raise exc.under(f"{self.source}: utility.values", keep_own=False) from None
+        except (TypeError, ValueError) as exc:
+            raise self._err("utility.values", f"must be numbers ({exc})") from None
+
+    def _unparsed(self) -> Hashable | None:
+        """The decision ``[decision] unparsed`` names, or None; its utility must be g of the decision only."""
+        given = self.model.decision.unparsed
+        if given is None:
+            return None
+        value = _match_label(given, self.decisions) if isinstance(given, str) else None
+        if value is None:
+            valid = [format_label(d) for d in self.decisions]
+            raise self._err("decision.unparsed", f"must be a string naming one of decision.values {valid}", given)
+        if np.ndim(self.utility.values) != 1:
+            raise self._err(
+                "decision.unparsed",
+                "needs a utility of the decision only (kind = 'indicator', or utility.values a list over decisions, "
+                "not a [context][group][decision] table)",
+                given,
+            )
+        return value
+
+    # -- public ----------------------------------------------------------------------------------
+    @property
+    def gamma(self) -> float:
+        """γ: the spec's gamma, else max g."""
+        return self.model.utility.gamma if self.model.utility.gamma is not None else self.utility.gamma
+
+    @property
+    def lower(self) -> float:
+        """The lower end of g's class: the spec's lower, else min g."""
+        return self.model.utility.lower if self.model.utility.lower is not None else self.utility.lower
+
+    @property
+    def tau(self) -> float | None:
+        """τ as given (None when absent: the paper and tight bounds need it)."""
+        return self.model.utility.tau
+
+    @property
+    def lipschitz(self) -> float:
+        """L_A: the spec's, else from the utility table and metric."""
+        u = self.model.utility
+        return u.lipschitz if u.lipschitz is not None else self.utility.lipschitz(self.metric)
+
+    @property
+    def sensitive_family(self) -> MechanismFamily | None:
+        """The one-parameter family that calibration and curves move along.
+
+        Randomized response on the groups when ``[privacy.sensitive]`` is
+        randomized response, identity or a matrix; for a product, a product of
+        randomized responses on the components' values with ε split in
+        proportion to the components' ε (equally when they are all 0 or
+        infinite). None with fewer than 2 groups.
+        """
+        if len(self.groups) < 2:
+            return None
+        ms = self.model.privacy.sensitive
+        if ms.mechanism == "product" and ms.components:
+            values = [c.values or [] for c in ms.components]  # (every component has values: checked when built)
+            eps = [_component_epsilon(c) for c in ms.components]
+            finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
+            if all(len(v) >= 2 for v in values):
+                return product_family(*values, weights=eps if finite else None)
+        return randomized_response_family(self.groups)
+
+    @property
+    def sees_inputs(self) -> bool:
+        """True when both mechanisms release the labels they take (the model's table is indexed by true values)."""
+        return all(tuple(m.outputs) == tuple(m.inputs) for m in (self.sensitive_mechanism, self.context_mechanism))
+
+    @property
+    def population(self) -> Population:
+        """P(X, A), shape (n_contexts, n_groups), and where it comes from (its ``source``).
+
+        In order: the spec's ``[population]`` (``"given"``); else, when
+        ``[model]`` gives counts or records indexed by the true labels (the
+        mechanisms release the values they take), the records' own
+        P(x, a) = n(x, a) / n (``"records"``); else P(X) from
+        ``context.distribution`` (uniform without it), P(A) uniform and X ⊥ A
+        (``"assumed"``, never reported as checked).
+
+        Raises
+        ------
+        InputError
+            As :meth:`kernel`, when the model file must be read and is invalid.
+        """
+        if self.given_population is not None:
+            return self.given_population
+        if self._default_population is None:
+            kernel = self.kernel()
+            counts = None if kernel is None or not self.sees_inputs else kernel.cell_counts
+            if counts is not None and counts.sum() > 0:
+                self._default_population = Population.from_counts(counts, self.contexts, self.groups)
+            else:
+                px = self._context_distribution
+                if px is None:
+                    px = np.full(len(self.contexts), 1.0 / len(self.contexts))
+                pa = np.full(len(self.groups), 1.0 / len(self.groups))
+                self._default_population = Population.independent(px, pa, self.contexts, self.groups, source="assumed")
+        return self._default_population
+
+    def kernel(self) -> Kernel | None:
+        """The decision model P(U | X̃, Ã) from [model], or None (read once, then kept).
+
+        The table is indexed by the *released* values: the outputs of
+        ``[privacy.context]`` and ``[privacy.sensitive]`` (the same labels as
+        their inputs, except for a ``matrix`` mechanism with ``outputs``).
+
+        Raises
+        ------
+        InputError
+            If the file is missing, a column is unknown, a label is not in the
+            spec, or a (context, group) cell has no row.
+        """
+        if self._kernel is False:
+            self._kernel = self._read_kernel()
+        assert self._kernel is not True  # (only False, None or a Kernel)
+        return self._kernel
+
+    def calibration_options(self, groups: int | None = None, method: str | None = None) -> dict[str, Any]:
+        """The keyword arguments of :func:`fairaudit.worstcase.calibration.calibrate` that this spec defines.
+
+        ``family`` (:attr:`sensitive_family`), ``gamma``, ``lower``, ``tau``,
+        ``lipschitz``, ``metric``, ``population``, ``context_mechanism``,
+        ``kernel`` (None without ``[model]``) and ``utility``: pass them on,
+        with any of them overridden, as ``calibrate(target, **options)``.
+        With ``[decision] unparsed`` and a model, for the white-box method,
+        also ``unparsed_decision`` (its index): the answer is then the upper end
+        over every utility of that decision in [min g, max g]
+        (``proofs/unparsed.md`` §5).
+
+        Parameters
+        ----------
+        groups : int, optional
+            A number of groups the caller expects; checked against the spec's.
+        method : {"paper", "tight", "black_box", "white_box"}, optional
+            The method the caller will use (None: calibrate's default, white-box
+            with a model). The model is for white-box only: with ``paper``,
+            ``tight`` or ``black_box``, ``kernel`` is None and there is no
+            ``unparsed_decision`` (their bounds hold for every model).
+
+        Raises
+        ------
+        InputError
+            Field ``groups`` when it is given and is not the spec's number of
+            groups; field ``spec`` when the spec has fewer than 2 groups
+            (nothing to calibrate); as :meth:`kernel` for an invalid model.
+
+        Examples
+        --------
+        >>> spec = parse_spec('''
+        ... [sensitive]
+        ... name = "office"
+        ... values = ["HR_1", "HR_2", "HR_3"]
+        ... [decision]
+        ... name = "chosen"
+        ... values = ["yes", "no"]
+        ... [privacy.sensitive]
+        ... mechanism = "randomized_response"
+        ... epsilon = 1.0
+        ... [utility]
+        ... kind = "indicator"
+        ... decision = "yes"
+        ... ''')
+        >>> options = spec.calibration_options()
+        >>> options["family"].name, options["kernel"]
+        ('3-ary randomized response', None)
+        """
+        n = len(self.groups)
+        if groups is not None and groups != n:
+            raise InputError("groups", f"the spec {self.source} has {n} groups", groups)
+        family = self.sensitive_family
+        if family is None:
+            raise InputError("spec", "needs at least 2 sensitive groups to calibrate", self.source)
+        kernel = None if method in ("paper", "tight", "black_box") else self.kernel()
+        options = {
+            "family": family,
+            "gamma": self.gamma,
+            "lower": self.lower,
+            "tau": self.tau,
+            "lipschitz": self.lipschitz,
+            "metric": self.metric,
+            "population": self.population,
+            "context_mechanism": self.context_mechanism,
+            "kernel": kernel,
+            "utility": self.utility,
+        }
+        if self.unparsed is not None and kernel is not None:
+            options["unparsed_decision"] = self.decisions.index(self.unparsed)
+        return options
+
+    def _read_kernel(self) -> Kernel | None:
+        m = self.model.model
+        if m is None:
+            return None
+        name = m.table if m.table is not None else m.records
+        assert name is not None  # (SpecModel: exactly one of table and records)
+        path = self.base / name
+        field = "model.table" if m.table is not None else "model.records"
+        if not path.is_file():
+            raise self._err(field, "no such file", str(path))
+        counted = self._counted_kernel(m, path) if m.table is not None and m.probability_column is None else None
+        if counted is not None:
+            return counted
+        frame = self._model_frame(m, path, field)
+        ctx_cols = [] if self.model.context is None else [self.model.context.name]
+        # the model sees released values: its table is indexed by the mechanisms' outputs
+        contexts, groups = self.context_mechanism.outputs, self.sensitive_mechanism.outputs
+        sens = [self.model.sensitive.name]
+        dec = self.model.decision.name
+        try:
+            if m.records:
+                table = count_records(frame, sensitive=sens, outcome=dec, context=ctx_cols, weights=m.weight_column)
+                table = _relabel(table, contexts, groups, self.decisions)
+                probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
+                self.weighted_table = table if table.squares is not None else None
+            else:
+                prob_col = m.probability_column
+                cnt_col = m.count_column
+                if prob_col is None and cnt_col is None:
+                    cnt_col = "count" if "count" in frame.columns else None
+                    prob_col = "probability" if cnt_col is None else None
+                    if prob_col is not None and prob_col not in frame.columns:
+                        raise self._err(
+                            "model.table",
+                            "needs a 'count' or 'probability' column (or set count_column)",
+                            list(map(str, frame.columns)),
+                        )
+                column = cnt_col or prob_col
+                assert column is not None  # (one of them is set above)
+                table = count_table(
+                    frame,
+                    sensitive=sens,
+                    outcome=dec,
+                    context=ctx_cols,
+                    count=column,
+                    contexts=contexts,
+                    groups=groups,
+                    decisions=self.decisions,
+                )
+                empty = np.argwhere(table.counts.sum(axis=-1) == 0)
+                if len(empty):
+                    i, j = empty[0]
+                    raise self._err(
+                        field,
+                        f"has no rows (or only zeros) for (context {format_label(contexts[i])!r}, "
+                        f"group {format_label(groups[j])!r}); {len(empty)} such cells in all",
+                    )
+                if cnt_col:
+                    probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
+                else:
+                    probs_kernel = Kernel(table.counts, contexts, groups, self.decisions)
+        except InputError as exc:
+            if exc.field.startswith(self.source):
+                raise
+            raise exc.under(f"{self.source}: {field}") from None
+        if probs_kernel.empty_cells:
+            x, a = probs_kernel.empty_cells[0]
+            raise self._err(
+                field,
+                f"has no rows for (context {format_label(x)!r}, group {format_label(a)!r}); "
+                f"{len(probs_kernel.empty_cells)} empty cells in all",
+            )
+        return probs_kernel
+
+    def _counted_kernel(self, m: ModelSpec, path: Path) -> Kernel | None:
+        """The kernel of a table of whole counts matching the spec, counted by DuckDB and numpy (without pandas).
+
+        None wherever the table is not that plain (a missing or negative count, a field that matches no label of
+        the spec, a cell twice or none, a format or file DuckDB refuses): :meth:`_read_kernel` then reads the
+        table as a DataFrame and :func:`~fairaudit.data.counts.count_table` reports what is wrong. Fields match the
+        spec's labels and ``where`` values by their text, as there.
+        """
+        count = m.count_column or "count"
+        roles = [None if self.model.context is None else self.model.context.name]
+        roles += [self.model.sensitive.name, self.model.decision.name]
+        used = list(dict.fromkeys([*(c for c in roles if c is not None), count, *m.where]))
+        try:
+            records = source(path, _csv_format(m))
+            grouped = records.group_by(used) if set(used) <= set(records.names) else None
+        except InputError:
+            return None
+        if grouped is None or any(grouped.missing[c].any() for c in used) or grouped.values[count].dtype.kind != "i":
+            return None
+        text = {c: np.array([str(v) for v in grouped.values[c]], dtype=object) for c in used}
+        keep = np.ones(len(grouped.weights), dtype=bool)
+        for column, want in m.where.items():
+            keep &= text[column] == str(want)
+        labels = (self.context_mechanism.outputs, self.sensitive_mechanism.outputs, self.decisions)
+        shape = tuple(len(x) for x in labels)
+        flat = np.zeros(int(keep.sum()), dtype=np.int64)
+        for role, wanted, size in zip(roles, labels, shape):
+            lookup = {format_label(v): i for i, v in enumerate(wanted)}
+            codes = np.array([lookup.get(v, -1) for v in text[role][keep]] if role else [0] * len(flat), dtype=int)
+            if (codes < 0).any():
+                return None
+            flat = flat * size + codes
+        n = grouped.values[count][keep]
+        if np.unique(flat).size < flat.size or (grouped.weights[keep] > 1).any() or (n < 0).any():
+            return None
+        counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
+        counts[flat] = n
+        counts = counts.reshape(shape)
+        if not bool((counts.sum(axis=-1) > 0).all()):
+            return None
+        return Kernel.from_counts(counts, *labels)
+
+    def _model_frame(self, m: ModelSpec, path: Path, field: str) -> pd.DataFrame:
+        """The model's file read by DuckDB (``[model.csv]``), its ``where`` filters applied."""
+        try:
+            fmt = _csv_format(m)
+        except InputError as exc:
+            raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
+        used = [self.model.sensitive.name, self.model.decision.name, *m.where]
+        used += [self.model.context.name] if self.model.context is not None else []
+        used += [c for c in (m.count_column, m.probability_column, m.weight_column) if c is not None]
+        try:
+            frame = source(path, fmt).read(check=used)
+        except InputError as exc:  # a file's problem under model.records/table, a format's under model.csv
+            from fairaudit.certification.spec_schema import CsvSpec
+
+            if exc.field in CsvSpec.model_fields:
+                raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
+            raise self._err(field, exc.problem, str(path)) from None
+        for col, want in m.where.items():
+            if col not in frame.columns:
+                raise self._err(f"model.where.{col}", "is not a column of the table", col)
+            frame = frame[frame[col].astype(str) == str(want)]
+            if frame.empty:
+                raise self._err(f"model.where.{col}", "selects no rows", want)
+        return frame
+
+
+def _match_label(value: Hashable, labels: tuple) -> Hashable | None:
+    """The label equal to ``value``, or whose text equals its text."""
+    if value in labels:
+        return value
+    for lab in labels:
+        if format_label(lab) == format_label(value):
+            return lab
+    return None
+
+
+def _relabel(table: CountTable, contexts: tuple, groups: tuple, decisions: tuple) -> CountTable:
+    """Re-index a CountTable from records onto the spec's label order (by text)."""
+
+    def index(found: tuple, wanted: tuple, role: str) -> list[int]:
+        pos = []
+        for f in found:
+            m = _match_label(f, wanted)
+            if m is None:
+                raise InputError(role, f"value not among the spec's values {[format_label(w) for w in wanted]}", f)
+            pos.append(wanted.index(m))
+        return pos
+
+    ix = index(table.contexts, contexts, "context") if contexts != ("all",) else [0]
+    ia = index(table.groups, groups, "sensitive")
+    iu = index(table.decisions, decisions, "decision")
+
+    def placed(counts: Any) -> Any:
+        out = np.zeros((len(contexts), len(groups), len(decisions)))
+        out[np.ix_(ix, ia, iu)] = counts
+        return out
+
+    columns = (table.context_columns, table.sensitive_columns, table.outcome_column)
+    squares = None if table.squares is None else placed(table.squares)
+    return CountTable(
+        placed(table.counts), contexts, groups, decisions, *columns, weight_column=table.weight_column, squares=squares
+    )
+
+
+def _component_epsilon(spec: MechanismSpec) -> float:
+    if spec.mechanism == "randomized_response":
+        if spec.values is not None and len(spec.values) < 2:
+            return 0.0  # one value: nothing is randomized, epsilon(M) = 0 whatever the spec says
+        if spec.epsilon is not None:
+            return float(spec.epsilon)
+        if spec.values:
+            assert spec.keep is not None  # (MechanismSpec: epsilon or keep)
+            return epsilon_from_keep_probability(spec.keep, len(spec.values))
+    return math.inf
+
+
+_MECHANISM_FIELDS = {"epsilon", "keep"}
+"""Fields of a mechanism table that errors of the privacy functions name as they are (``keep``: ...)."""
+
+
+def _build_mechanism(spec: MechanismSpec, values: Sequence[Hashable] | None, name: str) -> Mechanism:
+    """The mechanism of a ``[privacy.*]`` table on ``values``; errors name its fields (``components[1].keep``).
+
+    Randomized response on one value (k = 1) keeps it with probability 1:
+    ``keep`` must then be 1, and every ``epsilon`` gives that mechanism
+    (p = e^ε / (e^ε + k − 1) = 1), whose ε(M) is 0.
+    """
+    if spec.mechanism == "product":
+        comps = []
+        for i, c in enumerate(spec.components or []):
+            if c.values is None:
+                raise InputError(f"components[{i}].values", "each component needs its values")
+            try:
+                comps.append(_build_mechanism(c, c.values, c.name or f"{c.mechanism}[{i}]"))
+            except InputError as exc:
+                if exc.field in _MECHANISM_FIELDS or exc.field.startswith("components["):
+                    raise InputError(f"components[{i}].{exc.field}", exc.problem, exc.value) from None
+                raise exc.under(f"components[{i}]") from None
+        return product(*comps, name=name)
+    if values is None:
+        raise InputError("values", "are required")
+    if spec.mechanism == "identity":
+        return identity(values, name=name)
+    if spec.mechanism == "randomized_response":
+        if len(values) == 1 and spec.keep is not None and spec.keep != 1:
+            problem = "with one value (k = 1) there is nothing to randomize: keep must be 1 (or use identity)"
+            raise InputError("keep", problem, spec.keep)
+        return randomized_response(values, spec.epsilon, keep=spec.keep, name=name)
+    outputs = spec.outputs
+    assert spec.rows is not None  # (MechanismSpec: a matrix has rows)
+    return from_matrix(spec.rows, values, outputs, name=name)
+
+
+def parse_spec(text: str, source: str = "<string>", base: str | Path = ".") -> Spec:
+    """Parse and validate a spec from TOML text.
+
+    Raises
+    ------
+    InputError
+        One line naming the source, the dotted field and the value.
+
+    Examples
+    --------
+    >>> s = parse_spec('''
+    ... [sensitive]
+    ... name = "office"
+    ... values = ["HR_1", "HR_2"]
+    ... [decision]
+    ... name = "chosen"
+    ... values = ["yes", "no"]
+    ... [privacy.sensitive]
+    ... mechanism = "randomized_response"
+    ... keep = 0.7
+    ... [utility]
+    ... kind = "indicator"
+    ... decision = "yes"
+    ... tau = 0.2
+    ... ''')
+    >>> round(s.sensitive_mechanism.epsilon, 6), s.gamma, s.tau
+    (0.847298, 1.0, 0.2)
+    >>> parse_spec('[sensitive]\\nname = "a"\\nvalues = [1, 2]\\n[decision]\\nname = "u"\\nvalues = [0, 1]\\n'
+    ...            '[privacy.sensitive]\\nmechanism = "laplace"\\n[utility]\\ndecision = 1\\n')
+    Traceback (most recent call last):
+    ...
+    fairaudit.base.errors.InputError: <string>: privacy.sensitive.mechanism: Input should be 'identity', 'randomized_response', 'matrix' or 'product' (got 'laplace')
+    """
+    raw = parse_toml(text, source)
+    if _is_task_file(raw):
+        raise InputError(
+            source,
+            "is a task file (it has [task] and [prompt]), not a spec: run `fairaudit experiment "
+            f"{source} --out DIR` with a model, which writes the specs (DIR/spec-eps-*.toml) that certify reads",
+        )
+    try:
+        from pydantic import ValidationError  # (pydantic: imported when a spec is read)
+
+        from fairaudit.certification.spec_schema import SpecModel
+
+        model = SpecModel.model_validate(raw)
+        return Spec(model, source, Path(base))
+    except ValidationError as exc:
+        raise validation_error(exc, source, whole="spec") from None
+    except RecursionError:
+        raise InputError(source, "is too deeply nested to validate") from None
+
+
+def _is_task_file(raw: dict[str, Any]) -> bool:
+    """Whether TOML read as a spec is a task file of ``fairaudit experiment`` (by its keys alone: a [task] or a
+    [prompt] table, with [[attribute]] or [task], and no [sensitive])."""
+    if "sensitive" in raw:
+        return False
+    task, prompt = isinstance(raw.get("task"), dict), isinstance(raw.get("prompt"), dict)
+    return (task and (prompt or "attribute" in raw)) or (prompt and isinstance(raw.get("attribute"), list))
+
+
+def load_spec(path: str | Path) -> Spec:
+    """Read and validate a spec file; model paths are relative to its folder.
+
+    Raises
+    ------
+    InputError
+        If the file is missing or unreadable, or the spec is invalid.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError("SPEC", "no such file", str(path))
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError("SPEC", f"cannot be read ({exc})", str(path)) from None
+    return parse_spec(text, source=str(path), base=p.parent)
+
+
+def _csv_format(m: ModelSpec) -> CsvFormat:
+    """How the model's file is read (``[model.csv]``; its errors name the option, as ``CsvFormat``'s do)."""
+    if m.csv is None:
+        return CsvFormat()
+    return CsvFormat(**{**m.csv.model_dump(), "names": None if m.csv.names is None else tuple(m.csv.names)})

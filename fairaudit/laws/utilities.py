@@ -1,0 +1,307 @@
+"""Utilities g(u, x, a) ≥ 0: indicators, tables, functions; range and Lipschitz constant.
+
+A utility is stored either as a vector over decisions, shape (n_decisions,),
+when g depends on u only (the per-candidate framing of docs/design.md), or as a
+full table of shape (n_contexts, n_groups, n_decisions) indexed [x, a, u]
+(note: the paper writes g(u, x, a); the array's axis order is [x, a, u]).
+
+The quantities the main theorem needs (paper SI C):
+
+* γ = max g (``gamma``) and the lower bound ``lower`` = min g;
+* L_A = sup over u, x, a ≠ a' of |g(u, x, a) − g(u, x, a')| / d(a, a'), the
+  Lipschitz constant in the group (``lipschitz``), and diam(A) = max d(a, a')
+  (``diameter``). Without a metric the discrete metric d(a, a') = 1 for
+  a ≠ a' is used, so diam(A) = 1.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable, Sequence
+from dataclasses import dataclass
+from typing import SupportsIndex
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray, as_float_array, check_shape
+from fairaudit.base.errors import InputError
+from fairaudit.base.labels import as_labels, format_label
+
+__all__ = [
+    # utilities
+    "Utility",
+    "from_function",
+    "from_table",
+    "indicator",
+    # metrics on the groups
+    "check_metric",
+    "discrete_metric",
+]
+
+
+def discrete_metric(n_groups: int) -> FloatArray:
+    """The discrete metric on n groups: d(a, a') = 1 for a ≠ a', shape (n, n)."""
+    return 1.0 - np.eye(n_groups)
+
+
+def check_metric(metric: npt.ArrayLike | None, n_groups: int) -> FloatArray:
+    """Validate a metric d(a, a') on n groups; None gives the discrete metric.
+
+    Raises
+    ------
+    InputError
+        Unless the array has shape (n, n), is finite, symmetric, zero on the
+        diagonal and positive off it.
+    """
+    if metric is None:
+        return discrete_metric(n_groups)
+    d = as_float_array(metric, "metric", ndim=2)
+    check_shape(d, (n_groups, n_groups), "metric", ("groups", "groups"))
+    off = ~np.eye(n_groups, dtype=bool)
+    if not np.all(np.isfinite(d)) or np.any(d[off] <= 0) or np.any(np.diag(d) != 0) or np.any(d != d.T):
+        raise InputError("metric", "must be symmetric, zero on the diagonal and positive off it", d.tolist())
+    return d
+
+
+@dataclass(frozen=True, eq=False)
+class Utility:
+    """A non-negative utility g over decisions (and optionally context and group).
+
+    Parameters
+    ----------
+    values : array_like, shape (n_decisions,) or (n_contexts, n_groups, n_decisions)
+        g(u) or g[x, a, u]; finite and ≥ 0.
+    decisions : sequence of hashable
+        Decision labels (last axis).
+    contexts, groups : sequence of hashable, optional
+        Required with a full table; the labels of its first two axes.
+    name : str
+        Description used in reports.
+
+    Raises
+    ------
+    InputError
+        On a negative or non-finite value or a shape that does not match the
+        labels.
+
+    Examples
+    --------
+    >>> g = indicator("HR_2", ["HR_1", "HR_2"])
+    >>> g.values.tolist(), g.gamma, g.lower, g.lipschitz()
+    ([0.0, 1.0], 1.0, 0.0, 0.0)
+    """
+
+    values: FloatArray
+    decisions: tuple
+    contexts: tuple | None = None
+    groups: tuple | None = None
+    name: str = "utility"
+
+    def __init__(
+        self,
+        values: npt.ArrayLike,
+        decisions: Sequence[Hashable],
+        contexts: Sequence[Hashable] | None = None,
+        groups: Sequence[Hashable] | None = None,
+        name: str = "utility",
+    ) -> None:
+        decisions = as_labels(decisions, "utility decisions")
+        array = as_float_array(values, "utility")
+        if array.ndim == 1:
+            check_shape(array, (len(decisions),), "utility", ("decisions",))
+            if contexts is not None or groups is not None:
+                raise InputError("utility", "a vector over decisions takes no contexts or groups")
+        elif array.ndim == 3:
+            if contexts is None or groups is None:
+                raise InputError("utility", "a full table [x, a, u] needs contexts and groups labels")
+            contexts = as_labels(contexts, "utility contexts")
+            groups = as_labels(groups, "utility groups")
+            check_shape(
+                array, (len(contexts), len(groups), len(decisions)), "utility", ("contexts", "groups", "decisions")
+            )
+        else:
+            raise InputError("utility", "must be a vector over decisions or a table [x, a, u]", array.shape)
+        if not np.all(np.isfinite(array)):
+            raise InputError("utility", "values must be finite", float(array[~np.isfinite(array)][0]))
+        if np.any(array < 0):
+            idx = np.unravel_index(int(np.argmin(array)), array.shape)
+            raise InputError(
+                "utility",
+                f"must be non-negative; g at {self._where(idx, decisions, contexts, groups)} is",
+                float(array[idx]),
+            )
+        array = array.copy()
+        array.setflags(write=False)
+        object.__setattr__(self, "values", array)
+        object.__setattr__(self, "decisions", decisions)
+        object.__setattr__(self, "contexts", contexts if array.ndim == 3 else None)
+        object.__setattr__(self, "groups", groups if array.ndim == 3 else None)
+        object.__setattr__(self, "name", name)
+
+    @staticmethod
+    def _where(
+        idx: Sequence[SupportsIndex],
+        decisions: tuple,
+        contexts: tuple | None,
+        groups: tuple | None,
+    ) -> str:
+        if len(idx) == 1:
+            return f"u={format_label(decisions[idx[0]])!r}"
+        assert contexts is not None and groups is not None  # a full table [x, a, u] has its labels
+        return (
+            f"(x={format_label(contexts[idx[0]])!r}, a={format_label(groups[idx[1]])!r}, "
+            f"u={format_label(decisions[idx[2]])!r})"
+        )
+
+    def __repr__(self) -> str:
+        kind = "g(u)" if self.values.ndim == 1 else "g(u, x, a)"
+        return f"Utility({self.name!r}, {kind}, range [{self.lower:g}, {self.gamma:g}])"
+
+    @property
+    def gamma(self) -> float:
+        """γ = max g, the upper bound of the main theorem."""
+        return float(self.values.max())
+
+    @property
+    def lower(self) -> float:
+        """min g, the lower end of g's range."""
+        return float(self.values.min())
+
+    @property
+    def depends_on_group(self) -> bool:
+        """True when g(u, x, a) differs between two groups for some (u, x)."""
+        if self.values.ndim == 1 or self.values.shape[1] < 2:
+            return False
+        return bool(np.any(self.values != self.values[:, :1, :]))
+
+    @property
+    def depends_on_context(self) -> bool:
+        """True when g(u, x, a) differs between two contexts for some (u, a)."""
+        if self.values.ndim == 1 or self.values.shape[0] < 2:
+            return False
+        return bool(np.any(self.values != self.values[:1, :, :]))
+
+    def _metric(self, metric: npt.ArrayLike | None) -> FloatArray:
+        if self.groups is not None:
+            return check_metric(metric, len(self.groups))
+        return check_metric(metric, 1 if metric is None else len(np.asarray(metric)))
+
+    def lipschitz(self, metric: npt.ArrayLike | None = None) -> float:
+        """L_A = max over u, x, a ≠ a' of |g(u, x, a) − g(u, x, a')| / d(a, a').
+
+        Parameters
+        ----------
+        metric : array_like, shape (n_groups, n_groups), optional
+            d(a, a'); default the discrete metric.
+
+        Returns
+        -------
+        float
+            0 when g does not depend on the group (paper SI C, Definition of L_A).
+        """
+        if not self.depends_on_group:
+            return 0.0
+        d = self._metric(metric)
+        g = self.values
+        diff = np.abs(g[:, :, None, :] - g[:, None, :, :]).max(axis=(0, 3))
+        off = ~np.eye(d.shape[0], dtype=bool)
+        return float((diff[off] / d[off]).max())
+
+    def diameter(self, metric: npt.ArrayLike | None = None) -> float:
+        """diam(A) = max d(a, a'); 1 under the discrete metric (0 with one group)."""
+        d = self._metric(metric)
+        return float(d.max()) if d.size > 1 else (1.0 if metric is None else 0.0)
+
+    def table(
+        self, contexts: Sequence[Hashable], groups: Sequence[Hashable], decisions: Sequence[Hashable]
+    ) -> FloatArray:
+        """g as a full array [x, a, u] for the given labels.
+
+        Raises
+        ------
+        InputError
+            If the labels differ from the utility's own.
+        """
+        if tuple(decisions) != self.decisions:
+            raise InputError(
+                "utility decisions",
+                f"must match the table's decisions {list(map(format_label, decisions))}",
+                list(map(format_label, self.decisions)),
+            )
+        if self.values.ndim == 1:
+            return np.broadcast_to(self.values, (len(contexts), len(groups), len(decisions)))
+        assert self.contexts is not None and self.groups is not None  # a full table [x, a, u] has its labels
+        if tuple(contexts) != self.contexts:
+            raise InputError(
+                "utility contexts",
+                f"must match the table's contexts {list(map(format_label, contexts))}",
+                list(map(format_label, self.contexts)),
+            )
+        if tuple(groups) != self.groups:
+            raise InputError(
+                "utility groups",
+                f"must match the table's groups {list(map(format_label, groups))}",
+                list(map(format_label, self.groups)),
+            )
+        return self.values
+
+
+def indicator(value: Hashable, decisions: Sequence[Hashable], name: str | None = None) -> Utility:
+    """g(u) = 1{u = value}: the probability of one decision (for example "selected").
+
+    Raises
+    ------
+    InputError
+        If ``value`` is not one of ``decisions``.
+
+    Examples
+    --------
+    >>> indicator(1, [1, 2, 3]).values.tolist()
+    [1.0, 0.0, 0.0]
+    """
+    decisions = as_labels(decisions, "decisions")
+    if value not in decisions:
+        raise InputError(
+            "utility.decision", f"must be one of the decisions {list(map(format_label, decisions))}", value
+        )
+    values = np.array([1.0 if d == value else 0.0 for d in decisions])
+    return Utility(values, decisions, name=name or f"1{{decision = {format_label(value)}}}")
+
+
+def from_table(
+    values: npt.ArrayLike,
+    decisions: Sequence[Hashable],
+    contexts: Sequence[Hashable] | None = None,
+    groups: Sequence[Hashable] | None = None,
+    name: str = "table",
+) -> Utility:
+    """A utility from a vector over decisions or a full [x, a, u] table."""
+    return Utility(values, decisions, contexts, groups, name=name)
+
+
+def from_function(
+    function: Callable[[Hashable, Hashable, Hashable], float],
+    decisions: Sequence[Hashable],
+    contexts: Sequence[Hashable],
+    groups: Sequence[Hashable],
+    name: str | None = None,
+) -> Utility:
+    """Tabulate a Python function ``function(u, x, a)`` (the paper's argument order).
+
+    The function is called once per (u, x, a) label triple; the result is a
+    full table [x, a, u].
+
+    Examples
+    --------
+    >>> g = from_function(lambda u, x, a: float(u == a), ["HR_1", "HR_2"], ["doc"], ["HR_1", "HR_2"])
+    >>> g.values[0].tolist(), g.lipschitz(), g.depends_on_group
+    ([[1.0, 0.0], [0.0, 1.0]], 1.0, True)
+    """
+    decisions = as_labels(decisions, "decisions")
+    contexts = as_labels(contexts, "contexts")
+    groups = as_labels(groups, "groups")
+    try:
+        values = [[[float(function(u, x, a)) for u in decisions] for a in groups] for x in contexts]
+    except (TypeError, ValueError) as exc:
+        raise InputError("utility function", f"must return a number for every (u, x, a) ({exc})") from None
+    return Utility(values, decisions, contexts, groups, name=name or str(getattr(function, "__name__", "function")))

@@ -1,0 +1,4 @@
+"""Metrics and bounds: the exact local and global g-fairness of a law (:mod:`~fairaudit.metrics.fairness`), its
+utility gaps, its range over an unknown utility, and the theorem bounds (:mod:`~fairaudit.metrics.bounds`).
+Imports the layers below: base, laws.
+"""

@@ -1,0 +1,883 @@
+"""Fairness certificates from the privacy of the sensitive attribute (paper SI C).
+
+The main theorem (paper SI C, Theorem "main"): if X ⊥ A, g ≤ γ,
+E[g | x, a] ≥ τ > 0 for every (x, a), and M_A is (ε, δ)-DP, then for *any*
+decision kernel behind M_A
+
+    L̄ ≤ L ≤ ε + log(1 + (L_A·diam(A) + δγ) / τ)              ("paper")
+
+Its proof gives the never-larger form log(e^ε + (L_A·diam(A) + δγ)/τ), and works
+one pair of groups at a time, so with the pair's own hockey-stick divergence
+δ_aa'(ε) and distance d(a, a')
+
+    L ≤ max over a ≠ a' of min over ε ≥ 0 of log(e^ε + (L_A·d(a, a') + δ_aa'(ε)γ) / τ)   ("tight")
+
+A mechanism satisfies (ε, δ(ε))-DP at every ε, so both forms are minimised
+over its whole privacy profile:
+
+* paper: min over t = e^ε ≥ 1 of log t + log(1 + (L_A·diam + γ δ(t)) / τ).
+  δ(t) = max over pairs and over prefix sets S of Σ_{o∈S} (M[a,o] − t M[a',o])
+  is the upper envelope of finitely many lines in t, and on each piece of
+  the envelope the objective is concave in t, so the minimum is at t = 1 or
+  at a breakpoint of the envelope: a pair's likelihood ratio *or* a point
+  where two pairs' δ curves cross. The envelope is computed exactly
+  (convex-hull trick), so no crossing is missed.
+* tight: for each pair, t + (L_A d + γ δ_aa'(t)) / τ is convex and piecewise
+  linear in t, so its minimum is at t = 1 or at one of the pair's ratios.
+
+The corollary (paper SI C, Theorem "cor"): g independent of a and δ = 0 give
+L̄ ≤ L ≤ ε, attained by k-ary randomized response and a model that outputs Ã.
+It is also the paper and tight forms when their extra term is zero (L_A = 0,
+δ = 0 at ε = ε(M)): log(1 + 0/τ) = 0 for every τ, so ``paper_bound`` and
+``tight_bound`` need no τ then and return ε(M). For k-ary randomized
+response both forms are closed forms (the minimum at t = 1 or t = e^ε).
+
+Proofs: ``proofs/main_theorem.md`` (both forms, the profile minimisation) and
+``proofs/corollary.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import EXP_SAFE, FloatArray, IntArray, first_max, ratio_extremes
+from fairaudit.base.checks import epsilon as check_epsilon
+from fairaudit.base.checks import nonnegative
+from fairaudit.base.errors import InputError
+from fairaudit.base.json_values import Report, label, number
+from fairaudit.base.labels import format_label
+from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, PairPass, pair_candidates
+from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
+from fairaudit.laws.tables import Law, Population
+from fairaudit.laws.utilities import Utility, check_metric
+
+__all__ = [
+    "Assumption",
+    "Bound",
+    "check_assumptions",
+    "corollary_bound",
+    "main_theorem",
+    "main_theorem_tight",
+    "paper_bound",
+    "tight_bound",
+]
+
+
+@dataclass(frozen=True)
+class Assumption:
+    """One hypothesis of a theorem and how it stands.
+
+    Attributes
+    ----------
+    name : str
+        The hypothesis, for example ``"X independent of A"``.
+    status : {"checked", "violated", "vouched", "assumed", "not applicable"}
+        ``checked``: verified on the data given; ``violated``: the data
+        contradict it (the bound does not apply); ``vouched``: taken on the
+        caller's word; ``assumed``: holds by a default nobody stated (X ⊥ A
+        of the uniform population used when none is given); ``not
+        applicable``: not needed here.
+    detail : str
+        The numbers behind the status.
+    scope : {"all", "global"}
+        ``"global"``: needed only for the bound on L̄ (X ⊥ A), so a violation
+        does not void the bound on L.
+    """
+
+    name: str
+    status: str
+    detail: str = ""
+    scope: str = "all"
+
+    def __post_init__(self) -> None:
+        if self.status not in {"checked", "violated", "vouched", "assumed", "not applicable"}:
+            raise InputError(
+                "assumption status", "must be checked, violated, vouched, assumed or not applicable", self.status
+            )
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class Bound:
+    """An upper bound on local (and, with X ⊥ A, global) g-fairness.
+
+    Attributes
+    ----------
+    form : {"paper", "tight", "corollary", "black_box"}
+    value : float
+        The bound on L, in nats (+inf when nothing can be certified).
+    epsilon : float
+        The ε (nats) of the privacy profile at which the minimum is attained.
+    delta : float
+        δ(ε) there (for "tight", the binding pair's δ_aa'(ε)).
+    group, other_group : hashable or None
+        The binding pair of groups (tight and black_box), else None.
+    gamma, tau, lipschitz, diameter : float
+        The constants used; ``tau`` is NaN for forms that do not use it.
+    mechanism : Mechanism
+        M_A.
+    assumptions : tuple of Assumption
+        The hypotheses and whether each was checked or vouched for.
+    """
+
+    form: str
+    value: float
+    epsilon: float
+    delta: float
+    group: Hashable | None
+    other_group: Hashable | None
+    gamma: float
+    tau: float
+    lipschitz: float
+    diameter: float
+    mechanism: Mechanism
+    assumptions: tuple[Assumption, ...] = field(default=())
+
+    @property
+    def holds(self) -> bool:
+        """False when some assumption of the bound on L is violated by the data given.
+
+        X ⊥ A (scope ``"global"``) concerns only L̄ ≤ L and does not void it.
+        """
+        return all(a.status != "violated" for a in self.assumptions if a.scope != "global")
+
+    def __repr__(self) -> str:
+        return f"Bound({self.form}, value={self.value:.6g} nats at epsilon={self.epsilon:.6g}, delta={self.delta:.6g})"
+
+    def to_dict(self) -> Report:
+        """The report dictionary: value, ε, δ, the binding pair of groups and whether the bound holds."""
+        return {
+            "value": number(self.value),
+            "epsilon": number(self.epsilon),
+            "delta": number(self.delta),
+            "group": label(self.group),
+            "other_group": label(self.other_group),
+            "holds": self.holds,
+        }
+
+
+def _constants(gamma: float, tau: float, lipschitz: float, diameter: float) -> tuple[float, float, float, float]:
+    gamma = nonnegative(gamma, "gamma")
+    tau = nonnegative(tau, "tau")
+    if tau <= 0:
+        raise InputError("tau", "must be positive (the main theorem needs E[g | x, a] >= tau > 0)", tau)
+    if tau > gamma:
+        raise InputError("tau", f"cannot exceed gamma = {gamma:g} (E[g | x, a] <= max g)", tau)
+    return gamma, tau, nonnegative(lipschitz, "lipschitz"), nonnegative(diameter, "diameter")
+
+
+def main_theorem(
+    epsilon: float, delta: float, *, gamma: float, tau: float, lipschitz: float = 0.0, diameter: float = 1.0
+) -> float:
+    """The paper's bound ε + log(1 + (L_A·diam(A) + δγ) / τ), in nats.
+
+    Parameters
+    ----------
+    epsilon : float
+        ε ≥ 0 of M_A, nats.
+    delta : float
+        δ in [0, 1].
+    gamma : float
+        Upper bound γ ≥ τ of g.
+    tau : float
+        Lower bound τ > 0 of every E[g | x, a].
+    lipschitz, diameter : float
+        L_A ≥ 0 and diam(A) ≥ 0 (1 under the discrete metric).
+
+    Raises
+    ------
+    InputError
+        On a negative constant, τ ≤ 0 or τ > γ.
+
+    Notes
+    -----
+    Paper SI C, Theorem (main); ``proofs/main_theorem.md``.
+
+    Examples
+    --------
+    >>> round(main_theorem(1.0, 0.01, gamma=1.0, tau=0.1), 12) == round(1 + math.log(1.1), 12)
+    True
+    """
+    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+    eps = check_epsilon(epsilon)
+    delta = nonnegative(delta, "delta")
+    return eps + math.log1p((lipschitz * diameter + delta * gamma) / tau)
+
+
+def main_theorem_tight(
+    epsilon: float, delta: float, *, gamma: float, tau: float, lipschitz: float = 0.0, diameter: float = 1.0
+) -> float:
+    """The main theorem as its proof gives it: log(e^ε + (L_A·diam(A) + δγ) / τ), nats.
+
+    Proof: ``proofs/tight_bound.md`` (the per-pair form; never above the paper form).
+
+    Never larger than :func:`main_theorem`, since e^ε ≥ 1.
+
+    Examples
+    --------
+    >>> main_theorem_tight(0.0, 0.0, gamma=1.0, tau=0.5)
+    0.0
+    >>> main_theorem_tight(1.0, 0.01, gamma=1.0, tau=0.1) <= main_theorem(1.0, 0.01, gamma=1.0, tau=0.1)
+    True
+    """
+    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+    eps = check_epsilon(epsilon)
+    delta = nonnegative(delta, "delta")
+    if math.isinf(eps):
+        return math.inf
+    c = (lipschitz * diameter + delta * gamma) / tau
+    if eps > EXP_SAFE:  # e^ε overflows a double: log(e^ε + c) = ε + log(1 + c e^−ε)
+        return eps + math.log1p(c * math.exp(-eps))
+    return math.log(math.exp(eps) + c)
+
+
+def _sorted(p: FloatArray, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """For pairs of rows (p[..., :], q[..., :]), the outputs sorted by p/q descending: (ratio, p, q), same shapes.
+
+    Ratios follow the conventions c/0 = inf and 0/0 = 0 (such outputs add nothing to any hockey-stick divergence).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
+    order = np.argsort(-ratio, axis=-1, kind="stable")
+    take = np.take_along_axis
+    return take(ratio, order, -1), take(np.broadcast_to(p, ratio.shape), order, -1), take(q, order, -1)
+
+
+def _pair_lines(p: FloatArray, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The lines t ↦ P_k − t Q_k (prefix sums in likelihood-ratio order) of pairs of rows: δ_pq(t) is their max."""
+    _, ps, qs = _sorted(p, q)
+    zeros = np.zeros(ps.shape[:-1] + (1,))
+    big_p = np.concatenate([zeros, np.cumsum(ps, axis=-1)], axis=-1).ravel()
+    big_q = np.concatenate([zeros, np.cumsum(qs, axis=-1)], axis=-1).ravel()
+    return -big_q, big_p
+
+
+def _upper_envelope(slopes: FloatArray, intercepts: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Upper envelope of lines y = s·t + c over t ∈ ℝ: (slopes, intercepts, breakpoints).
+
+    Lines are kept in increasing slope; breakpoint i is where line i hands
+    over to line i + 1.
+    """
+    order = np.lexsort((-intercepts, slopes))
+    s, c = slopes[order], intercepts[order]
+    first = np.ones(len(s), dtype=bool)
+    first[1:] = s[1:] != s[:-1]  # equal slopes: keep the largest intercept (sorted first)
+    s, c = s[first], c[first]
+    hull_s: list[float] = []
+    hull_c: list[float] = []
+    for sk, ck in zip(s.tolist(), c.tolist()):
+        while len(hull_s) >= 2:
+            s1, c1, s2, c2 = hull_s[-2], hull_c[-2], hull_s[-1], hull_c[-1]
+            # line 2 is useless when its crossing with line 1 is not left of its crossing with line k
+            if (c1 - c2) * (sk - s2) >= (c2 - ck) * (s2 - s1):
+                hull_s.pop()
+                hull_c.pop()
+            else:
+                break
+        hull_s.append(sk)
+        hull_c.append(ck)
+    hs, hc = np.array(hull_s), np.array(hull_c)
+    breaks = (hc[:-1] - hc[1:]) / (hs[1:] - hs[:-1])
+    return hs, hc, breaks
+
+
+def _profile_candidates(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
+    """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (the exact envelope of every pair's lines)."""
+    m = mechanism.matrix
+    n = m.shape[0]
+    a, b = np.nonzero(~np.eye(n, dtype=bool))
+    return _envelope_candidates(m, a, b)
+
+
+def _envelope_candidates(matrix: FloatArray, a: IntArray, b: IntArray) -> tuple[FloatArray, FloatArray]:
+    """Candidate t ≥ 1 (1 and the breakpoints of the envelope) and max over the pairs (a[i], b[i]) of δ(t) there.
+
+    The envelope of a union of lines is the envelope of the blocks' envelopes: a block of pairs at a time.
+    """
+    step = max(1, PAIR_BLOCK // (4 * max(1, matrix.shape[1])))
+    slopes, intercepts = [], []
+    for s in range(0, a.size, step):
+        lines_s, lines_c = _pair_lines(matrix[a[s : s + step]], matrix[b[s : s + step]])
+        if a.size > step:
+            lines_s, lines_c, _ = _upper_envelope(lines_s, lines_c)
+        slopes.append(lines_s)
+        intercepts.append(lines_c)
+    hs, hc, breaks = _upper_envelope(np.concatenate(slopes), np.concatenate(intercepts))
+    t = np.unique(np.concatenate([[1.0], breaks[np.isfinite(breaks) & (breaks > 1.0)]]))
+    delta = np.clip((hc[None, :] + hs[None, :] * t[:, None]).max(axis=1), 0.0, 1.0)
+    return t, delta
+
+
+def _paper_pairs(matrix: FloatArray, gamma: float, tau: float, c: float) -> tuple[float, float, float]:
+    """(value, ε, δ) of the paper form for a general mechanism, without the envelope of every pair.
+
+    The envelope of a set S of pairs gives δ_S ≤ δ and its minimiser t_S; one pass checks δ_ab(t_S) ≤ δ_S(t_S)
+    for every pair (to rounding), and then min_t of the objective with δ equals that with δ_S
+    (``proofs/black_box.md`` §7). Otherwise the pairs above it join S and the check is repeated.
+    """
+    n = matrix.shape[0]
+    a, b = pair_candidates(matrix)
+    passer = PairPass(matrix)
+    checked, complete = math.nan, False  # the t of the last pass; whether every pair above there joined S
+    while True:
+        t, deltas = _envelope_candidates(matrix, a, b)
+        values = np.log(t) + np.log1p((c + gamma * deltas) / tau)
+        k = int(np.argmin(values))
+        at, level = float(t[k]), float(deltas[k])
+        if at == checked and complete:  # (the pairs left out were below the old level there, ≤ the new one)
+            return float(values[k]), float(np.log(at)), level
+        above: list[tuple[FloatArray, IntArray]] = []
+
+        def visit(rows: slice, cols: slice, sums: FloatArray, lam: float) -> None:
+            # above δ_S(t_S) beyond the rounding of both (the pass's sums and the envelope's prefix sums)
+            delta = sums - lam * passer.sums[None, cols] - 2 * passer.error(rows, cols, lam) - 1e-15
+            delta[np.arange(rows.stop - rows.start), np.arange(rows.start, rows.stop)] = -np.inf
+            i, j = np.nonzero(delta > level)
+            above.append((delta[i, j], (i + rows.start) * n + j))
+
+        passer.run(lambda: at, visit)
+        gaps = np.concatenate([x[0] for x in above])
+        flat = np.concatenate([x[1] for x in above])
+        new = ~np.isin(flat, a * n + b)  # (a pair of S is never above its own envelope but by rounding)
+        if not new.any():
+            return float(values[k]), float(np.log(at)), level
+        gaps, flat = gaps[new], flat[new]
+        a, b = np.divmod(np.union1d(a * n + b, flat[np.argsort(-gaps, kind="stable")[: 4 * CANDIDATES]]), n)
+        checked, complete = at, gaps.size <= 4 * CANDIDATES
+
+
+def _resolve(
+    mechanism: Mechanism,
+    gamma: float | None,
+    tau: float | None,
+    lipschitz: float | None,
+    utility: Utility | None,
+    metric: npt.ArrayLike | None,
+) -> tuple[float, float | None, float]:
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    if gamma is None:
+        if utility is None:
+            raise InputError("gamma", "give gamma or a utility to take it from")
+        gamma = utility.gamma
+    if lipschitz is None:
+        lipschitz = 0.0 if utility is None else utility.lipschitz(metric)
+    return gamma, tau, lipschitz
+
+
+def _without_tau(
+    form: str, mechanism: Mechanism, lipschitz: float, diameter: float, utility: Utility | None
+) -> Assumption:
+    """The τ-free case of the main theorem: its extra term is 0, so the bound is ε(M) and τ is not needed.
+
+    With L_A·diam = 0 and δ = 0 (pure DP: δ(ε(M)) = 0 with ε(M) finite), the extra
+    term log(1 + (L_A·diam + δγ)/τ) is log 1 = 0 for every τ > 0: the bound is
+    ε(M), the corollary's. Otherwise τ is needed; the error says which term is
+    not zero. Returns the assumption that records why τ is not needed.
+    """
+    why = []
+    if utility is not None and utility.depends_on_group:
+        why.append("the utility depends on the group")
+    if lipschitz * diameter > 0:
+        why.append(f"L_A*diam = {lipschitz:g}*{diameter:g} > 0")
+    if math.isinf(mechanism.epsilon) and len(mechanism.inputs) > 1:
+        why.append("epsilon(M) = inf: delta(epsilon) > 0 at every finite epsilon")
+    if why:
+        raise InputError("tau", f"the {form} bound needs tau (a lower bound on E[g | x, a]): {'; '.join(why)}")
+    eps = mechanism.epsilon
+    return Assumption(
+        "E[g | x, a] >= tau for every model",
+        "not applicable",
+        f"no tau needed: L_A = 0 and delta = 0 at epsilon = {eps:.6g}, so the extra term "
+        "log(1 + (L_A*diam + delta*gamma)/tau) is 0 for every tau > 0",
+    )
+
+
+def _tau_free_constants(gamma: float, lipschitz: float, diameter: float) -> tuple[float, float, float]:
+    return nonnegative(gamma, "gamma"), nonnegative(lipschitz, "lipschitz"), nonnegative(diameter, "diameter")
+
+
+def _tau_free(
+    form: str,
+    mechanism: Mechanism,
+    gamma: float,
+    lipschitz: float,
+    diameter: float,
+    utility: Utility | None,
+    population: Population | None,
+    law: Law | None,
+) -> Bound:
+    """The paper or tight bound without τ: ε(M), when the extra term is 0 (else :func:`_without_tau` raises).
+
+    Both forms are ε(M) then (0 with one input); the tight form also names a pair attaining it.
+    """
+    gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
+    free = _without_tau(form, mechanism, lipschitz, diameter, utility)
+    assumptions = check_assumptions(mechanism, tau=None, gamma=gamma, utility=utility, population=population, law=law)
+    n = len(mechanism.inputs)
+    eps = mechanism.epsilon if n > 1 else 0.0  # the tight form: max over pairs of ε_aa', where δ_aa' = 0
+    pair = _epsilon_pair(mechanism) if form == "tight" and n > 1 else (None, None)
+    return Bound(
+        form=form,
+        value=eps,
+        epsilon=eps,
+        delta=0.0,
+        group=pair[0],
+        other_group=pair[1],
+        gamma=gamma,
+        tau=math.nan,
+        lipschitz=lipschitz,
+        diameter=diameter,
+        mechanism=mechanism,
+        assumptions=(*assumptions, free),
+    )
+
+
+def _epsilon_pair(mechanism: Mechanism) -> tuple[Hashable, Hashable]:
+    """A pair of inputs (a, a') attaining ε(M) = log max_o M[a, o] / M[a', o]."""
+    if isinstance(mechanism, RandomizedResponse) or len(mechanism.inputs) < 2:
+        return mechanism.inputs[0], mechanism.inputs[min(1, len(mechanism.inputs) - 1)]
+    ratio, hi, lo = ratio_extremes(mechanism.matrix, axis=0)  # per output: the largest row over the smallest
+    o = int(np.nanargmax(np.where(np.isnan(ratio), -np.inf, ratio)))
+    a, b = int(hi[o]), int(lo[o])
+    if a == b:  # every row equal on that output (ε = 0): any pair
+        a, b = 0, 1
+    return mechanism.inputs[a], mechanism.inputs[b]
+
+
+def paper_bound(
+    mechanism: Mechanism,
+    *,
+    tau: float | None = None,
+    gamma: float | None = None,
+    lipschitz: float | None = None,
+    diameter: float = 1.0,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    law: Law | None = None,
+) -> Bound:
+    """The paper's main theorem, minimised over the mechanism's privacy profile.
+
+    value = min over ε ≥ 0 of ε + log(1 + (L_A·diam(A) + δ(ε)γ) / τ), in nats.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A, shape (n_groups, n_released_groups).
+    tau : float, optional
+        τ > 0, the lower bound on every E[g | x, a] of the model behind the
+        filter (vouched for by the caller unless ``law`` shows it). Not needed
+        when the extra term is zero: with L_A = 0 (a utility free of the
+        group) and a pure-DP M_A (ε(M) finite, δ(ε(M)) = 0) the bound without
+        τ is ε(M), the corollary's (log(1 + 0/τ) = 0 for every τ > 0).
+    gamma : float, optional
+        γ ≥ max g; default ``utility.gamma``.
+    lipschitz : float, optional
+        L_A; default from ``utility`` (0 for g independent of a).
+    diameter : float
+        diam(A); 1 under the discrete metric.
+    utility, population, law : optional
+        When given, the assumptions are checked on them (see
+        :func:`check_assumptions`).
+
+    Returns
+    -------
+    Bound
+        ``form = "paper"`` with the minimising ε and δ(ε) (``tau`` NaN and an
+        assumption "not applicable" saying why when τ was not needed).
+
+    Raises
+    ------
+    InputError
+        On invalid constants (τ ≤ 0, τ > γ, negative values); without τ when
+        the extra term is not zero (L_A > 0, a utility that depends on the
+        group, or ε(M) = inf).
+
+    Notes
+    -----
+    Paper SI C, Theorem (main); the minimisation over the profile and its
+    candidate set: ``proofs/main_theorem.md``. For a general mechanism the
+    envelope is that of a few pairs, checked against every pair at its
+    minimiser by one pass over the pairs (``proofs/black_box.md`` §7). For
+    k-ary randomized response the profile is δ(t) = [p − tq]₊ and the
+    objective is concave on [1, e^ε], so the minimum is at t = 1 or t = e^ε
+    (closed form, no k x k matrix).
+
+    Examples
+    --------
+    Binary randomized response keeping with p = 0.7, g ∈ [0, 1]: the pure
+    bound ε = ln(7/3) is the minimum here.
+
+    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> b = paper_bound(randomized_response(["a", "b"], keep=0.7), gamma=1.0, tau=0.2)
+    >>> round(b.value, 9), round(b.epsilon, 9), b.delta
+    (0.84729786, 0.84729786, 0.0)
+
+    Without τ (L_A = 0, pure DP) the extra term is 0: the bound is ε(M).
+
+    >>> round(paper_bound(randomized_response(["a", "b"], keep=0.7), gamma=1.0).value, 9)
+    0.84729786
+    """
+    gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, None)
+    if tau is None:
+        return _tau_free("paper", mechanism, gamma, lipschitz, diameter, utility, population, law)
+    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+    assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
+    c = lipschitz * diameter
+    if len(mechanism.inputs) < 2:
+        value, eps, delta = 0.0, 0.0, 0.0
+    elif isinstance(mechanism, RandomizedResponse):
+        value, eps, delta = _paper_randomized_response(mechanism.rr, gamma, tau, c)
+    else:
+        value, eps, delta = _paper_pairs(mechanism.matrix, gamma, tau, c)
+    return Bound(
+        form="paper",
+        value=value,
+        epsilon=eps,
+        delta=delta,
+        group=None,
+        other_group=None,
+        gamma=gamma,
+        tau=tau,
+        lipschitz=lipschitz,
+        diameter=diameter,
+        mechanism=mechanism,
+        assumptions=assumptions,
+    )
+
+
+def _paper_randomized_response(
+    rr: RandomizedResponseParameters, gamma: float, tau: float, c: float
+) -> tuple[float, float, float]:
+    """(value, ε, δ) of the paper form for k-ary randomized response, c = L_A·diam: the better of t = 1 and t = e^ε.
+
+    δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there
+    (``proofs/main_theorem.md``).
+    """
+    at_one = math.log1p((c + gamma * (rr.p - rr.q)) / tau)  # t = 1: δ = p − q, the total variation
+    at_eps = rr.epsilon + math.log1p(c / tau)  # t = e^ε: δ = 0
+    if at_eps < at_one:
+        return at_eps, rr.epsilon, 0.0
+    return at_one, 0.0, rr.p - rr.q
+
+
+def tight_bound(
+    mechanism: Mechanism,
+    *,
+    tau: float | None = None,
+    gamma: float | None = None,
+    lipschitz: float | None = None,
+    metric: npt.ArrayLike | None = None,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    law: Law | None = None,
+) -> Bound:
+    """The main theorem's proof, pair by pair: never larger than :func:`paper_bound`.
+
+    value = max over a ≠ a' of min over ε ≥ 0 of
+    log(e^ε + (L_A·d(a, a') + δ_aa'(ε)γ) / τ), in nats, where δ_aa'(ε) =
+    Σ_o [M[a, o] − e^ε M[a', o]]₊.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A, shape (n_groups, n_released_groups).
+    tau, gamma, lipschitz, utility, population, law
+        As in :func:`paper_bound`; without τ (L_A = 0, pure DP: the extra
+        term is 0) the bound is max over pairs of ε_aa' = ε(M).
+    metric : array_like, shape (n_groups, n_groups), optional
+        d(a, a'); default the discrete metric.
+
+    Returns
+    -------
+    Bound
+        ``form = "tight"``; ``group``/``other_group`` is the binding pair,
+        ``epsilon`` and ``delta`` its minimising ε and δ_aa'(ε).
+
+    Notes
+    -----
+    docs/design.md "Mathematics beyond the paper"; ``proofs/tight_bound.md``. For a
+    general mechanism one pass over the pairs (O(n²m) time, O(nm) memory) sets
+    aside every pair that cannot reach the maximum, by an exact upper bound,
+    and only the others are solved (``proofs/black_box.md`` §7). For k-ary
+    randomized response every pair has δ_aa'(t) = [p − tq]₊, and the minimum
+    is at t = 1 or t = e^ε, for the pair of largest d(a, a') (closed form).
+
+    Examples
+    --------
+    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> m = randomized_response(["a", "b", "c"], epsilon=1.0)
+    >>> tight_bound(m, gamma=1.0, tau=0.2).value <= paper_bound(m, gamma=1.0, tau=0.2).value
+    True
+    >>> tight_bound(m, gamma=1.0).value                        # no τ needed: L_A = 0, pure DP
+    1.0
+    """
+    gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, metric)
+    n = len(mechanism.inputs)
+    rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) else None
+    d: FloatArray | None = None
+    if metric is not None:
+        d = check_metric(metric, n)
+        diameter = float(d.max()) if n > 1 else 0.0
+    else:
+        diameter = 1.0 if n > 1 else 0.0  # the discrete metric, without its n x n matrix
+    if tau is None:
+        return _tau_free("tight", mechanism, gamma, lipschitz, diameter, utility, population, law)
+    gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
+    assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
+    pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None)
+    if n < 2:
+        value, eps, delta = 0.0, 0.0, 0.0
+    else:
+        if rr is not None:
+            value, eps, delta, a, b = _tight_randomized_response(rr, d, gamma, tau, lipschitz, diameter)
+        else:
+            value, eps, delta, a, b = _tight_pairs(mechanism.matrix, d, gamma, tau, lipschitz)
+        pair = (mechanism.inputs[a], mechanism.inputs[b])
+    return Bound(
+        form="tight",
+        value=value,
+        epsilon=eps,
+        delta=delta,
+        group=pair[0],
+        other_group=pair[1],
+        gamma=gamma,
+        tau=tau,
+        lipschitz=lipschitz,
+        diameter=diameter,
+        mechanism=mechanism,
+        assumptions=assumptions,
+    )
+
+
+def _tight_randomized_response(
+    rr: RandomizedResponseParameters, d: FloatArray | None, gamma: float, tau: float, lipschitz: float, diameter: float
+) -> tuple[float, float, float, int, int]:
+    """(value, ε, δ, a, a') of the tight form for k-ary randomized response, in closed form.
+
+    Every pair: h(t) = t + (L_A d + γ[p − tq]₊)/τ, convex, kinks at e^ε only: min at t = 1 or t = e^ε, and
+    increasing in d, so the binding pair has the largest d (the first such pair, as the general route).
+    """
+    a, b = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
+    c = lipschitz * diameter / tau
+    at_one = 1.0 + c + gamma * (rr.p - rr.q) / tau
+    log_eps = rr.epsilon + math.log1p(c * math.exp(-rr.epsilon))  # log(e^ε + c), no overflow
+    if math.log(at_one) <= log_eps:
+        return math.log(at_one), 0.0, rr.p - rr.q, int(a), int(b)
+    return log_eps, rr.epsilon, 0.0, int(a), int(b)
+
+
+def _tight_objective(
+    p: FloatArray, q: FloatArray, dist: FloatArray, gamma: float, tau: float, lipschitz: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """min over t ≥ 1 of t + (L_A d + γ δ_pq(t))/τ for pairs of rows, and its t and δ: convex and piecewise
+    linear in t, so the minimum is at t = 1 or at one of the pair's ratios (the first such, on ties)."""
+    ratio, ps, qs = _sorted(p, q)
+    # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
+    p_before = np.cumsum(ps, axis=-1) - ps
+    q_before = np.cumsum(qs, axis=-1) - qs
+    with np.errstate(invalid="ignore"):
+        delta_k = np.clip(p_before - ratio * q_before, 0.0, None)
+    valid = np.isfinite(ratio) & (ratio >= 1.0)
+    delta_1 = np.clip(ps - qs, 0.0, None).sum(axis=-1)  # t = 1 (ε = 0): total variation
+    t = np.concatenate([np.ones(ratio.shape[:-1] + (1,)), np.where(valid, ratio, np.inf)], axis=-1)
+    dl = np.concatenate([delta_1[..., None], np.where(valid, delta_k, 0.0)], axis=-1)
+    objective = t + (lipschitz * dist[..., None] + gamma * dl) / tau
+    best_k = objective.argmin(axis=-1)[..., None]
+    take = np.take_along_axis
+    return take(objective, best_k, -1)[..., 0], take(t, best_k, -1)[..., 0], take(dl, best_k, -1)[..., 0]
+
+
+def _tight_pairs(
+    matrix: FloatArray, d: FloatArray | None, gamma: float, tau: float, lipschitz: float
+) -> tuple[float, float, float, int, int]:
+    """(value, ε, δ, a, a') of the tight form for a general mechanism (``d`` None: the discrete metric).
+
+    Every pair's minimum is at most its objective at one t = λ, so one pass over the pairs at λ (the best pair's
+    minimiser) sets aside every pair that cannot reach the best value found; the rest are solved exactly
+    (``proofs/black_box.md`` §7). The maximum and its first row-major maximiser are those of all pairs.
+    """
+    n = matrix.shape[0]
+
+    def dist(a: IntArray | slice, b: IntArray | slice) -> FloatArray:
+        if d is None:
+            return np.asarray(1.0) if isinstance(a, slice) else np.ones(np.shape(a))
+        return d[a, b]
+
+    parts: list[tuple[IntArray, IntArray, FloatArray, FloatArray, FloatArray]] = []
+    state = {"best": -math.inf, "lam": 1.0}
+
+    def offer(a: IntArray, b: IntArray) -> None:
+        step = max(1, PAIR_BLOCK // (8 * max(1, matrix.shape[1])))
+        for s in range(0, a.size, step):
+            at, bt = a[s : s + step], b[s : s + step]
+            parts.append((at, bt, *_tight_objective(matrix[at], matrix[bt], dist(at, bt), gamma, tau, lipschitz)))
+            i = int(np.argmax(parts[-1][2]))
+            if parts[-1][2][i] > state["best"]:
+                state["best"], state["lam"] = float(parts[-1][2][i]), min(float(parts[-1][3][i]), 1e300)
+
+    def visit(rows: slice, cols: slice, sums: FloatArray, lam: float) -> None:
+        delta = sums - lam * passer.sums[None, cols] + passer.error(rows, cols, lam)
+        with np.errstate(over="ignore"):
+            bound = (lam + (lipschitz * dist(rows, cols) + gamma * delta) / tau) * (1 + 1e-12)
+        bound[np.arange(rows.stop - rows.start), np.arange(rows.start, rows.stop)] = -np.inf
+        i, j = np.nonzero(bound >= state["best"] * (1 - PRUNE))
+        if i.size:
+            offer(i + rows.start, j + cols.start)
+
+    a, b = pair_candidates(matrix)
+    if d is not None and lipschitz > 0:  # the pair of largest distance, the first row-major
+        far = np.unravel_index(int(np.argmax(np.where(np.eye(n, dtype=bool), -np.inf, d))), d.shape)
+        a, b = np.divmod(np.union1d(a * n + b, [far[0] * n + far[1]]), n)
+    offer(a, b)
+    passer = PairPass(matrix)
+    passer.run(lambda: state["lam"], visit)
+    pa, pb, obj, ts, ds = (np.concatenate([x[i] for x in parts]) for i in range(5))
+    i = first_max(obj, order=pa * n + pb)
+    assert i is not None  # the pass visits every pair: obj holds no NaN
+    return float(np.log(obj[i])), float(np.log(ts[i])), float(ds[i]), int(pa[i]), int(pb[i])
+
+
+def corollary_bound(
+    mechanism: Mechanism,
+    *,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    law: Law | None = None,
+) -> Bound:
+    """The corollary: g independent of a and δ = 0 give L̄ ≤ L ≤ ε(M_A), in nats.
+
+    Needs no τ: the pure-DP ratio bound holds for every expectation. When the
+    utility is given and depends on the group, the corresponding assumption is
+    marked violated.
+
+    Notes
+    -----
+    Paper SI C, Theorem (cor); ``proofs/corollary.md``. Attained by k-ary
+    randomized response and a model that outputs Ã with g = 1{u = a₀}.
+
+    Examples
+    --------
+    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> round(corollary_bound(randomized_response(["a", "b"], keep=0.7)).value, 9)
+    0.84729786
+    """
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    assumptions = list(
+        check_assumptions(mechanism, tau=None, gamma=None, utility=utility, population=population, law=law)
+    )
+    if utility is not None:
+        dep = utility.depends_on_group
+        assumptions.append(
+            Assumption(
+                "g independent of the group",
+                "violated" if dep else "checked",
+                "g(u, x, a) differs between groups" if dep else "g does not depend on a",
+            )
+        )
+    else:
+        assumptions.append(Assumption("g independent of the group", "vouched", "no utility table given"))
+    eps = mechanism.epsilon
+    return Bound(
+        form="corollary",
+        value=eps,
+        epsilon=eps,
+        delta=0.0,
+        group=None,
+        other_group=None,
+        gamma=math.nan,
+        tau=math.nan,
+        lipschitz=0.0,
+        diameter=1.0,
+        mechanism=mechanism,
+        assumptions=tuple(assumptions),
+    )
+
+
+def check_assumptions(
+    mechanism: Mechanism,
+    *,
+    tau: float | None,
+    gamma: float | None,
+    utility: Utility | None = None,
+    population: Population | None = None,
+    law: Law | None = None,
+) -> tuple[Assumption, ...]:
+    """The main theorem's hypotheses, each checked on the data given or vouched for.
+
+    Proof: ``proofs/main_theorem.md`` (the hypotheses (A1)–(A6)).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A; its (ε, δ) profile is always computed exactly ("checked").
+    tau, gamma : float or None
+        The constants claimed; None when the bound does not use them.
+    utility : Utility, optional
+        Checks g ≤ γ and g ≥ 0.
+    population : Population, optional
+        Checks X ⊥ A (tolerance 1e-9).
+    law : Law, optional
+        The observed law behind the filter: checks E[g | x, a] ≥ τ on it (this
+        law only, not every model; the bound for *any* model still relies on
+        the caller's τ).
+
+    Returns
+    -------
+    tuple of Assumption
+    """
+    out = []
+    eps = mechanism.epsilon
+    eps_text = "inf" if math.isinf(eps) else f"{eps:.6g}"
+    out.append(
+        Assumption(
+            "M_A is differentially private",
+            "checked",
+            f"exact privacy profile of {mechanism.name}; pure epsilon = {eps_text} nats",
+        )
+    )
+    if population is None:
+        out.append(Assumption("X independent of A", "vouched", "no population given; needed for L-bar only", "global"))
+    else:
+        ind = population.independence()
+        where = f"at (context {format_label(ind.context)!r}, group {format_label(ind.group)!r})"
+        if not ind.independent:
+            status, detail = "violated", f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} {where}"
+        elif population.source == "assumed":
+            status, detail = "assumed", "the population is " + population.describe()
+        else:
+            status, detail = "checked", f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} {where}"
+        source = "" if population.source == "assumed" else f" in {population.describe()}"
+        out.append(Assumption("X independent of A", status, f"{detail}{source}; needed for L-bar only", "global"))
+    if gamma is not None:
+        if utility is None:
+            out.append(Assumption("g <= gamma", "vouched", f"gamma = {gamma:g}; no utility table given"))
+        else:
+            ok = utility.gamma <= gamma + 1e-12
+            out.append(
+                Assumption(
+                    "g <= gamma", "checked" if ok else "violated", f"max g = {utility.gamma:g}, gamma = {gamma:g}"
+                )
+            )
+    if tau is not None:
+        if law is None or utility is None:
+            out.append(Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"))
+        else:
+            from fairaudit.metrics.fairness import expected_utility
+
+            e = expected_utility(law, utility)
+            low = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
+            status = "vouched" if low >= tau - 1e-12 else "violated"
+            out.append(
+                Assumption(
+                    "E[g | x, a] >= tau for every model",
+                    status,
+                    f"tau = {tau:g}; the observed model has min E[g | x, a] = {low:.6g}",
+                )
+            )
+    return tuple(out)

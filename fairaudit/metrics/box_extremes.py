@@ -1,0 +1,305 @@
+"""Extreme values of the fairness metrics over a box of expectations: ratios of groups and total-variation gaps.
+
+Two settings. *Disjoint*: each group's expectation (or distribution) ranges
+over its own box, independently of the others (no privacy filter): the
+extremes of max_{a≠a'} E_a / E_a' and of the largest TV gap are in closed form
+(:func:`disjoint_ratio`, :func:`disjoint_tv`). *Mixed*: behind a privacy
+filter each group's expectation is a fixed mixture W_a·e of kernel cells e
+that range over a box, so groups share cells: the upper end of each ratio is
+the threshold solution of a linear-fractional program
+(:func:`fairaudit.base.linear_fractional.threshold_max_many`) and the lower end a Charnes–Cooper
+LP (:class:`MinMaxRatio`); the TV gaps are linear per event (:func:`mixed_tv`).
+
+Every function returns :data:`Extremes`: per map (a context for local
+metrics, one map for global ones) the lower end, the upper end and the pair
+of groups attaining the upper end. Ratios use c/0 = +inf (c > 0) and 0/0 = 1.
+Proofs: ``proofs/intervals.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, TypeAlias
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
+
+MAX_EVENT_DECISIONS = 10  # up to 2^10 - 2 events for the total-variation gaps; beyond, a valid coarser bound
+
+__all__ = [
+    "Extremes",
+    "MinMaxRatio",
+    "disjoint_ratio",
+    "disjoint_tv",
+    "div",
+    "max_over",
+    "mixed_ratio",
+    "mixed_tv",
+    "pair_gap",
+]
+
+Extremes: TypeAlias = tuple[FloatArray, FloatArray, IntArray, IntArray]
+"""Per map: (lower, upper, favoured group, other group)."""
+
+
+def div(num: npt.ArrayLike, den: npt.ArrayLike) -> FloatArray:
+    """num / den with c/0 = +inf (c > 0) and 0/0 = 1."""
+    num, den = np.broadcast_arrays(np.asarray(num, dtype=float), np.asarray(den, dtype=float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
+
+
+def disjoint_ratio(lo: FloatArray, hi: FloatArray) -> Extremes:
+    """Extremes of max_{a≠a'} E_a / E_a' when each E_a ranges over its own [lo_a, hi_a] independently.
+
+    lo, hi: shape (M, A); NaN marks a group left out of a map. Returns
+    (lower (M,), upper (M,), favoured (M,), other (M,)); NaN where a map has
+    fewer than two groups. Upper: the pair with the largest hi_a / lo_a'.
+    Lower: min over the box of max_a E_a / min_a E_a = max(1, max lo / min hi),
+    since all E_a can be set into [min hi, max lo] when that is nonempty.
+    """
+    M, A = lo.shape
+    valid = ~np.isnan(lo)
+    rows, cols = np.arange(M), np.arange(A)
+    hi0 = np.nan_to_num(hi)
+    # hi_a / lo_b (with c/0 = inf, 0/0 = 1) rises with hi_a and falls with lo_b: for each a the best b ≠ a is
+    # the smallest lo, or the second smallest when a holds the smallest. No (M, A, A) array of pairs is made.
+    lo_v = np.where(valid, lo, np.inf)
+    two = np.argsort(lo_v, axis=1, kind="stable")[:, :2] if A >= 2 else np.zeros((M, 2), dtype=int)
+    den = np.where(cols[None, :] == two[:, :1], lo_v[rows, two[:, 1]][:, None], lo_v[rows, two[:, 0]][:, None])
+    best_a = np.where(valid & np.isfinite(den), div(hi0, np.where(np.isfinite(den), den, 1.0)), -np.inf)
+    a = best_a.argmax(-1)  # the first a of the first maximal pair
+    row = np.where(valid & (cols[None, :] != a[:, None]), div(hi0[rows, a][:, None], np.nan_to_num(lo)), -np.inf)
+    b = row.argmax(-1)  # its first b
+    upper = row[rows, b]
+    idx = a * A + b
+    enough = valid.sum(-1) >= 2
+    lower = np.maximum(1.0, div(np.where(valid, lo, -np.inf).max(-1), np.where(valid, hi, np.inf).min(-1)))
+    upper = np.where(enough, upper, np.nan)
+    lower = np.where(enough, lower, np.nan)
+    return lower, upper, idx // A, idx % A
+
+
+def pair_gap(big: FloatArray, small: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
+    """max over a ≠ a' of big[..., a] − small[..., a'] (last axis, at least 2 groups) and the maximising pair.
+
+    Only the two largest ``big`` and the two smallest ``small`` can attain it, so
+    no (A, A) array of pairs is formed.
+    """
+    hb = np.argsort(-big, -1, kind="stable")[..., :2]
+    ls = np.argsort(small, -1, kind="stable")[..., :2]
+    b1, b2 = np.take_along_axis(big, hb[..., :1], -1)[..., 0], np.take_along_axis(big, hb[..., 1:], -1)[..., 0]
+    s1, s2 = np.take_along_axis(small, ls[..., :1], -1)[..., 0], np.take_along_axis(small, ls[..., 1:], -1)[..., 0]
+    same = hb[..., 0] == ls[..., 0]
+    first = (b1 - s2) >= (b2 - s1)
+    value = np.where(same, np.maximum(b1 - s2, b2 - s1), b1 - s1)
+    fav = np.where(same & ~first, hb[..., 1], hb[..., 0])
+    oth = np.where(same, np.where(first, ls[..., 1], ls[..., 0]), ls[..., 0])
+    return value, fav, oth
+
+
+def disjoint_tv(lo: FloatArray, hi: FloatArray, events: FloatArray, cat_lo: FloatArray, cat_hi: FloatArray) -> Extremes:
+    """Extremes of max_{a≠a'} TV(P_a, P_a') when each P_a ranges over its own set independently.
+
+    lo, hi: event bounds, shape (M, A, S); cat_lo, cat_hi: per-decision
+    bounds, shape (M, A, K) (for K > 10, where the events are singletons).
+    Returns (lower (M,), upper (M,), favoured (M,), other (M,)). Memory is
+    O(M·A·S): pairs are found from the two extreme groups of each event.
+    """
+    M, A = lo.shape[:2]
+    if lo.shape[-1] == 0 or A < 2:
+        zero = np.zeros(M)
+        return zero, zero, np.zeros(M, int), np.ones(M, int)
+    rows = np.arange(M)
+    if events.shape[0] == events.shape[1] and events.shape[1] > MAX_EVENT_DECISIONS:
+        off = ~np.eye(A, dtype=bool)
+        d = np.maximum(cat_hi[:, :, None, :] - cat_lo[:, None, :, :], cat_hi[:, None, :, :] - cat_lo[:, :, None, :])
+        up_pairs = np.where(off, np.clip(0.5 * np.clip(d, 0.0, None).sum(-1), 0.0, 1.0), -np.inf).reshape(M, -1)
+        idx = up_pairs.argmax(-1)
+        upper, fav, oth = up_pairs[rows, idx], idx // A, idx % A
+    else:
+        val, f, o = pair_gap(hi.transpose(0, 2, 1), lo.transpose(0, 2, 1))  # (M, S)
+        s = val.argmax(-1)
+        upper, fav, oth = np.clip(val[rows, s], 0.0, 1.0), f[rows, s], o[rows, s]
+    low, _, _ = pair_gap(lo.transpose(0, 2, 1), hi.transpose(0, 2, 1))
+    lower = np.clip(low.max(-1), 0.0, 1.0)
+    return lower, upper, fav, oth
+
+
+class MinMaxRatio:
+    """min over lower ≤ e ≤ upper of max_a (W_a·e) / min_a (W_a·e), by the Charnes–Cooper LP.
+
+    With y = t e and t = 1 / min_a W_a·e: minimise σ subject to W y ≤ σ,
+    W y ≥ 1, t·lower ≤ y ≤ t·upper, t ≥ 0 (``proofs/intervals.md``), over
+    x = (σ, t, y). Solved by Clarabel directly in its standard form
+    A x + s = b, s ≥ 0, at the tolerances of :func:`fairaudit.base.linear_fractional.solve_clarabel`:
+    a fixed LP needs no modelling layer, and cvxpy's import alone would take
+    most of a second of every ``fairaudit certify`` with intervals. The program
+    is laid out as cvxpy lays it out (variables, rows, stored zeros) and, as
+    cvxpy does, one solver per shape is built once and given new data after
+    (``update``), so the solver runs the arithmetic it ran under cvxpy: the
+    same doubles (tested).
+    """
+
+    def __init__(self, A: int, n: int) -> None:
+        self.A, self.n = A, n
+        self._solver: Any = None
+
+    def _program(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray, BoolArray]:
+        """The constraint matrix (dense, (1 + 2A + 2n) × (n + 2)), the right-hand side and the stored entries.
+
+        Rows: −t ≤ 0; W y − σ ≤ 0; −W y ≤ −1; t·lower − y ≤ 0; y − t·upper ≤ 0. Every weight and every end is
+        an entry of the program whatever its value (a parameter of cvxpy's), so the sparsity is fixed per shape.
+        """
+        A, n = self.A, self.n
+        rows = np.zeros((1 + 2 * A + 2 * n, n + 2))
+        b = np.zeros(1 + 2 * A + 2 * n)
+        eye = np.eye(n)
+        rows[0, 1] = -1.0
+        rows[1 : 1 + A, 0], rows[1 : 1 + A, 2:] = -1.0, W
+        rows[1 + A : 1 + 2 * A, 2:], b[1 + A : 1 + 2 * A] = -W, -1.0
+        rows[1 + 2 * A : 1 + 2 * A + n, 1], rows[1 + 2 * A : 1 + 2 * A + n, 2:] = lo, -eye
+        rows[1 + 2 * A + n :, 1], rows[1 + 2 * A + n :, 2:] = -hi, eye
+        structure = rows != 0
+        structure[1 : 1 + 2 * A, 2:] = True  # the weights W, zero or not
+        structure[1 + 2 * A :, 1] = True  # the lower and upper ends, zero or not
+        return rows, b, structure
+
+    def lp(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float | None:
+        """The LP's optimal σ, or None unless Clarabel solved it (or almost solved it)."""
+        import clarabel  # type: ignore[import-untyped]
+        import scipy.sparse as sp
+
+        from fairaudit.base.linear_fractional import CLARABEL_TOLERANCES
+
+        rows, b, structure = self._program(W, lo, hi)
+        size = rows.shape[1]
+        q = np.zeros(size)
+        q[0] = 1.0
+        r, c = np.nonzero(structure)
+        matrix = sp.coo_array((rows[r, c], (r, c)), shape=rows.shape).tocsc()
+        P = sp.triu(sp.csc_array((size, size))).tocsc()
+        solver = self._solver
+        if solver is not None and solver.is_data_update_allowed():
+            try:
+                solver.update(P=P, q=q, A=matrix, b=b, settings=solver.get_settings())
+            except Exception:  # noqa: BLE001 - as cvxpy: a solver that cannot take the data is built anew
+                solver = None
+        else:
+            solver = None
+        if solver is None:
+            settings = clarabel.DefaultSettings()
+            settings.verbose = False
+            for key, value in CLARABEL_TOLERANCES.items():
+                setattr(settings, key, value)
+            solver = clarabel.DefaultSolver(P, q, matrix, b, [clarabel.NonnegativeConeT(len(b))], settings)
+        solution = solver.solve()
+        self._solver = solver
+        if solution.status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
+            return None
+        return float(solution.obj_val)
+
+    def solve(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
+        if np.all(W @ lo <= 0):  # every group can be at 0 together: 0/0, parity
+            return 1.0
+        if np.any(W @ hi <= 0):  # some group is always 0 while another can be positive
+            return math.inf
+        pairwise = _pairwise_floor(W, lo, hi)
+        value = self.lp(W, lo, hi)
+        if value is None:
+            return pairwise  # badly scaled boxes (upper ends near 1e-12) defeat the solver: keep the valid floor
+        # The solver stops within ~1e-9 of the optimum; shade by that much so the lower end stays a lower end.
+        value *= 1.0 - 1e-9
+        return max(pairwise, value if value > 1.0 + 1e-9 else 1.0)
+
+
+def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
+    """max over pairs of min over the box of (W_a·e)/(W_a'·e): a valid floor of the min-max ratio, in closed form.
+
+    min of a max ≥ max of the mins; each min is 1 / the threshold maximum of
+    the inverse ratio. Exact when the groups use disjoint cells.
+    """
+    from fairaudit.base.linear_fractional import threshold_max_many
+
+    A = W.shape[0]
+    inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)  # [a, a'] = max (W_a'·e)/(W_a·e)
+    with np.errstate(divide="ignore"):
+        mins = np.where(inv > 0, 1.0 / inv, np.inf)
+    mins = np.where(np.eye(A, dtype=bool), 1.0, mins)
+    return max(1.0, float(mins.max()))
+
+
+def mixed_ratio(
+    W: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    solver: dict[tuple[int, int], MinMaxRatio],
+    lower_end: bool = True,
+) -> Extremes:
+    """Extremes of max_{a≠a'} (W_a·e)/(W_a'·e) over the box lo ≤ e ≤ hi, for each map W[m] (shape (M, A, n)).
+
+    Upper: the threshold solution of each pair's linear-fractional program.
+    Lower: :class:`MinMaxRatio` (one LP per map); NaN without its LPs when ``lower_end`` is False.
+    """
+    from fairaudit.base.linear_fractional import threshold_max_many
+
+    M, A, n = W.shape
+    vals, _, _ = threshold_max_many(W[:, :, None, :], W[:, None, :, :], lo, hi)
+    vals = np.where(~np.eye(A, dtype=bool), vals, -np.inf).reshape(M, -1)
+    idx = vals.argmax(-1)
+    upper = vals[np.arange(M), idx]
+    key = (A, n)
+    if not lower_end:
+        lower = np.full(M, np.nan)
+    else:
+        if key not in solver:
+            solver[key] = MinMaxRatio(A, n)
+        lower = np.array([solver[key].solve(W[m], lo, hi) for m in range(M)])
+    if A < 2:
+        upper = lower = np.full(M, np.nan)
+    return lower, upper, idx // A, idx % A
+
+
+def mixed_tv(
+    W: FloatArray, ev_lo: FloatArray, ev_hi: FloatArray, events: FloatArray, cat_lo: FloatArray, cat_hi: FloatArray
+) -> Extremes:
+    """Extremes of max_{a≠a'} TV(Q_a, Q_a') with Q_a(S) = W_a·e_S over boxes ev_lo[S] ≤ e_S ≤ ev_hi[S].
+
+    W: (M, A, n); ev_lo, ev_hi: (S, n); cat_lo, cat_hi: (n, K). For each S
+    the extremes of the linear (W_a − W_a')·e_S over its box are exact; the
+    lower end, a max over S of minima, is valid (it may be below the exact
+    min over the set).
+    """
+    M, A, n = W.shape
+    off = ~np.eye(A, dtype=bool)
+    if ev_lo.shape[0] == 0:
+        zero = np.zeros(M)
+        return zero, zero, np.zeros(M, int), np.ones(M, int)
+    c = W[:, :, None, :] - W[:, None, :, :]  # (M, A, A, n)
+    cp_, cn = np.clip(c, 0, None), np.clip(-c, 0, None)
+    up = np.einsum("mabn,sn->mabs", cp_, ev_hi) - np.einsum("mabn,sn->mabs", cn, ev_lo)
+    low = np.einsum("mabn,sn->mabs", cp_, ev_lo) - np.einsum("mabn,sn->mabs", cn, ev_hi)
+    up_pairs = up.max(-1)
+    if events.shape[0] == events.shape[1] and events.shape[1] > MAX_EVENT_DECISIONS:
+        hi_u = np.einsum("mabn,nk->mabk", cp_, cat_hi) - np.einsum("mabn,nk->mabk", cn, cat_lo)
+        lo_u = np.einsum("mabn,nk->mabk", cp_, cat_lo) - np.einsum("mabn,nk->mabk", cn, cat_hi)
+        up_pairs = 0.5 * np.maximum(hi_u, -lo_u).sum(-1)
+    up_pairs = np.where(off, np.clip(up_pairs, 0.0, 1.0), -np.inf).reshape(M, -1)
+    idx = up_pairs.argmax(-1)
+    upper = up_pairs[np.arange(M), idx]
+    lower = np.clip(np.where(off, low.max(-1), -np.inf).reshape(M, -1).max(-1), 0.0, 1.0)
+    return lower, upper, idx // A, idx % A
+
+
+def max_over(results: list[Extremes]) -> Extremes:
+    """The max over decisions u of per-u (lower, upper, fav, other) results (valid for both ends)."""
+    lowers = np.stack([r[0] for r in results])
+    uppers = np.stack([r[1] for r in results])
+    best = np.where(np.isnan(uppers), -np.inf, uppers).argmax(0)
+    cols = np.arange(uppers.shape[1])
+    fav = np.stack([r[2] for r in results])[best, cols]
+    oth = np.stack([r[3] for r in results])[best, cols]
+    low = np.where(np.isnan(lowers), -np.inf, lowers).max(0)
+    return np.where(np.isinf(low) & (low < 0), np.nan, low), uppers[best, cols], fav, oth

@@ -1,0 +1,679 @@
+"""The HTML format: one self-contained HTML5 document per report (``--format html``).
+
+Each report is one file that needs nothing else: the style sheet is in the
+page, the figures are inline ``<svg>`` drawn by matplotlib, there is no
+script and no address of anything outside the file (it opens offline, and
+mailing or archiving it keeps it whole). The content is that of the text and
+Markdown reports (headings, the tables of bounds, metrics, records, targets
+and assumptions, the notes), with figures: for ``audit`` E[g | a] per group
+and, with several contexts, E[g | x, a] per context and group, each with its
+interval when there is one; for ``certify`` the bounds on L against the
+observed L and the target.
+
+The page is made by a Jinja2 template with autoescaping on, so that every text
+from the data (a label ``<script>``, a title with ``&``) is shown as written;
+the only markup not escaped is the SVG that matplotlib writes (which escapes
+its own text). Jinja2 and matplotlib are the extra ``html`` (``pip install
+'fairness-certify[html]'``); they are imported only when a page is made, and without
+them :class:`HtmlFormat` raises an :class:`~fairaudit.InputError` naming
+``format``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import re
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
+from fairaudit.base.errors import InputError
+from fairaudit.base.json_values import Report
+from fairaudit.reports.formats.base import Format
+from fairaudit.reports.formats.sections import (
+    BOUNDS,
+    BY_CONTEXT_HEAD,
+    GAP_NOTE,
+    PLAN_HEAD,
+    assumption_rows,
+    audit_facts,
+    audit_notes,
+    bound_detail,
+    by_context_table,
+    calibration_sentences,
+    certificate_facts,
+    count,
+    counts_sentence,
+    fmt,
+    gap_rows,
+    impact_notes,
+    impact_tables,
+    impact_title,
+    metric_rows,
+    nats,
+    observed_notes,
+    outcome_rows,
+    outcomes_more,
+    plan_head,
+    plan_rows,
+    records,
+    target_rows,
+)
+from fairaudit.reports.formats.text import calibration_text, worst_case_text
+
+if TYPE_CHECKING:
+    import jinja2
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+__all__ = ["HtmlFormat", "svg_of"]
+
+#: How many contexts (and groups) the figure of E[g | x, a] draws; the table of cells lists more.
+CONTEXTS_DRAWN, GROUPS_DRAWN = 30, 40
+#: How many cells (context, group) the table of cells lists (the JSON has them all).
+CELLS_SHOWN = 2000
+#: How many contexts the table of records per context lists.
+CONTEXTS_LISTED = 2000
+
+#: matplotlib's colours of the bounds in :func:`fairaudit.reports.plots.plot_curve`, reused here.
+_BOUND_COLOURS = {"paper": "tab:red", "tight": "tab:orange", "black_box": "tab:blue", "corollary": "0.55"}
+
+_TEMPLATE = """<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="generator" content="fairaudit">
+<title>{{ title }}</title>
+<style>
+:root { color-scheme: light; }
+body { margin: 0; background: #fff; color: #1b1b1b;
+       font: 15px/1.5 system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; }
+main { max-width: 68rem; margin: 0 auto; padding: 1.5rem 1.25rem 3rem; }
+h1 { font-size: 1.5rem; margin: 0 0 1rem; overflow-wrap: anywhere; }
+h2 { font-size: 1.2rem; margin: 2rem 0 0.6rem; padding-bottom: 0.2rem; border-bottom: 1px solid #ddd; }
+p, ul, dl { margin: 0.5rem 0; }
+dl { display: grid; grid-template-columns: max-content 1fr; gap: 0.2rem 1rem; }
+dt { font-weight: 600; }
+dd { margin: 0; overflow-wrap: anywhere; }
+code { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size: 0.92em;
+       background: #f3f3f3; padding: 0 0.2em; border-radius: 3px; }
+.scroll { overflow-x: auto; margin: 0.5rem 0; }
+table { border-collapse: collapse; font-size: 0.93rem; }
+th, td { border: 1px solid #d0d0d0; padding: 0.25rem 0.55rem; text-align: left; vertical-align: top; }
+th { background: #f2f4f7; }
+tbody tr:nth-child(even) { background: #fafafa; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+td { overflow-wrap: anywhere; }
+figure { margin: 1rem 0; }
+figure svg { display: block; max-width: 100%; height: auto; }
+figcaption { font-size: 0.9rem; color: #444; margin-top: 0.3rem; }
+.verdict { display: inline-block; font-weight: 700; padding: 0.3rem 0.8rem; border-radius: 4px; }
+.verdict.yes { background: #e3f4e6; color: #135c25; border: 1px solid #9fd4aa; }
+.verdict.no { background: #fbe5e5; color: #8a1c1c; border: 1px solid #e3a5a5; }
+footer { margin-top: 3rem; font-size: 0.8rem; color: #666; }
+@media print { .scroll { overflow: visible; } h2 { break-after: avoid; } figure, tr { break-inside: avoid; } }
+</style>
+</head>
+<body>
+<main>
+<h1>{{ title }}</h1>
+{% for b in blocks %}
+{% if b.kind == "h2" %}
+<h2>{{ b.text }}</h2>
+{% elif b.kind == "p" %}
+<p>{{ b.text }}</p>
+{% elif b.kind == "verdict" %}
+<p class="verdict {{ b.css }}">{{ b.text }}</p>
+{% elif b.kind == "facts" %}
+<dl>
+{% for name, value, code in b["items"] %}
+<dt>{{ name }}</dt><dd>{% if code %}<code>{{ value }}</code>{% else %}{{ value }}{% endif %}</dd>
+{% endfor %}
+</dl>
+{% elif b.kind == "list" %}
+<ul>
+{% for item in b["items"] %}
+<li>{{ item }}</li>
+{% endfor %}
+</ul>
+{% elif b.kind == "table" %}
+<div class="scroll"><table>
+<thead><tr>{% for h in b.head %}<th scope="col">{{ h }}</th>{% endfor %}</tr></thead>
+<tbody>
+{% for row in b.rows %}
+<tr>{% for cell in row %}<td{% if loop.index0 in b.numeric %} class="num"{% endif %}>{{ cell }}</td>{% endfor %}</tr>
+{% endfor %}
+</tbody>
+</table></div>
+{% elif b.kind == "figure" %}
+<figure>
+{{ b.svg }}
+<figcaption>{{ b.text }}</figcaption>
+</figure>
+{% endif %}
+{% endfor %}
+<footer>Made by fairaudit. This page is self-contained: no script, no file or address outside it.</footer>
+</main>
+</body>
+</html>
+"""
+
+
+def _libraries() -> tuple[Any, Any]:
+    """jinja2 and matplotlib, or the :class:`InputError` that says how to install them."""
+    try:
+        import jinja2
+        import matplotlib
+    except ImportError:
+        raise InputError(
+            "format",
+            "html needs jinja2 and matplotlib, which are not installed: pip install 'fairness-certify[html]'",
+        ) from None
+    return jinja2, matplotlib
+
+
+class _Page:
+    """A report being built: its title and its blocks (headings, sentences, tables, lists, figures).
+
+    Every text is kept as plain text; the template escapes it.
+    """
+
+    def __init__(self, title: str) -> None:
+        self.title = title
+        self.blocks: list[dict[str, Any]] = []
+
+    def h2(self, text: str) -> None:
+        """A section's heading."""
+        self.blocks.append({"kind": "h2", "text": text})
+
+    def p(self, text: str) -> None:
+        """A paragraph."""
+        self.blocks.append({"kind": "p", "text": text})
+
+    def verdict(self, ok: bool, text: str) -> None:
+        """The report's verdict, green when ``ok``, else red."""
+        self.blocks.append({"kind": "verdict", "css": "yes" if ok else "no", "text": text})
+
+    def facts(self, facts: Sequence[tuple[str, str]], code: tuple[str, ...] = ()) -> None:
+        """A list of (name, description); the descriptions of the names in ``code`` as code."""
+        self.blocks.append({"kind": "facts", "items": [(k, v, k in code) for k, v in facts]})
+
+    def bullets(self, items: Sequence[str]) -> None:
+        """A bulleted list (nothing when empty)."""
+        if items:
+            self.blocks.append({"kind": "list", "items": list(items)})
+
+    def table(self, head: Sequence[str], rows: Sequence[Sequence[object]], numeric: Sequence[int] = ()) -> None:
+        """A table (None shown as ``n/a``); the columns ``numeric`` (indices) are aligned right."""
+        cells = [["n/a" if c is None else str(c) for c in r] for r in rows]
+        self.blocks.append({"kind": "table", "head": list(head), "rows": cells, "numeric": set(numeric)})
+
+    def figure(self, draw: Callable[[], Figure], caption: str) -> None:
+        """A figure drawn by ``draw``, inline as SVG (ids prefixed by its number in the page), with its caption."""
+        n = sum(b["kind"] == "figure" for b in self.blocks) + 1
+        self.blocks.append({"kind": "figure", "svg": svg_of(draw, f"fig{n}-"), "text": caption})
+
+    def render(self, jinja2: Any) -> str:
+        """The whole document: the template with autoescaping (SVG blocks marked safe)."""
+        env: jinja2.Environment = jinja2.Environment(
+            autoescape=True, trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined
+        )
+        from markupsafe import Markup
+
+        blocks = [{**b, "svg": Markup(b["svg"])} if b["kind"] == "figure" else b for b in self.blocks]
+        text: str = env.from_string(_TEMPLATE).render(title=self.title, blocks=blocks)
+        return text
+
+
+class HtmlFormat(Format):
+    """One self-contained HTML5 page per report: inline CSS, tables, inline SVG figures, no script, no network."""
+
+    name = "html"
+
+    def certificate(self, d: Report) -> str:
+        """The certificate's content (as the text report) with a figure of the bounds against the observed L."""
+        jinja2, _ = _libraries()
+        page = _Page(f"fairaudit certificate: {d['title'] or d['spec']}")
+        page.verdict(bool(d["certified"]), f"Certified: {'yes' if d['certified'] else 'no'}")
+        page.facts(certificate_facts(d))
+        page.h2("Bounds on L for any decision model behind the filter")
+        page.table(
+            ("bound", "value", "details"),
+            [(name, nats(d["bounds"][k]), bound_detail(d, k)) for k, name in BOUNDS],
+            numeric=(1,),
+        )
+        page.p(f"Best valid bound: {nats(d['bounds']['best'])} ({d['bounds']['best_form']}).")
+        page.figure(lambda: _bounds_figure(d), _bounds_caption(d))
+        for key, head in (("observed", "Observed behind the filter"), ("unfiltered", "Observed without the filter")):
+            if key in d:
+                page.h2(head)
+                _observed(page, d[key], counts=key == "observed")
+        if "targets" in d:
+            page.h2("Targets")
+            page.table(
+                ("target", "value", "bound", "result", "observed", "reason"),
+                target_rows(d["targets"]),
+                numeric=(1, 2, 4),
+            )
+        if "calibration" in d:
+            page.h2("Calibration")
+            for sentence in calibration_sentences(d["calibration"]):
+                page.p(sentence)
+        page.h2("Assumptions")
+        page.table(("assumption", "status", "detail", "for"), assumption_rows(d))
+        return page.render(jinja2)
+
+    def audit(self, d: Report) -> str:
+        """The audit's content (as the text report), the cells' table and figures of E[g | a] and E[g | x, a]."""
+        jinja2, _ = _libraries()
+        if "impact_ratios" in d:  # the report asked for first, the headline metrics after
+            page = _Page(impact_title(d))
+            for name, head, impact_rows in impact_tables(d):
+                page.h2(f"Impact ratios by {name}")
+                page.table(head, impact_rows, numeric=(1, 2, 3))
+            page.bullets(impact_notes(d))
+            page.h2(f"The audit: {records(d)}")
+        else:
+            page = _Page(f"fairaudit audit: {records(d)}")
+        page.facts(audit_facts(d), code=("utility",))
+        page.h2("Metrics")
+        _observed(page, d)
+        page.h2("Records and E[g | a] per group")
+        means = group_means(d)
+        rows = [
+            (label, n, fmt(m), None if iv is None else f"[{fmt(iv[0])}, {fmt(iv[1])}]") for label, n, m, iv in means
+        ]
+        if any(iv is not None for *_, iv in means):
+            page.table(("group", "records", "E[g | a]", "interval"), rows, numeric=(1, 2))
+        else:
+            page.table(("group", "records", "E[g | a]"), [r[:3] for r in rows], numeric=(1, 2))
+        page.figure(lambda: _groups_figure(d, means), _groups_caption(d))
+        if "outcome_values" in d:
+            page.h2("Records per outcome value")
+            page.table(("outcome value", "records", "g(u)"), outcome_rows(d), numeric=(1, 2))
+            if outcomes_more(d):
+                page.p(f"{outcomes_more(d)}.")
+        if len(d["contexts"]) > 1:
+            page.h2("Records per context")
+            shown = d["contexts"][:CONTEXTS_LISTED]
+            page.table(("context", "records"), [(c["label"], count(c["n"])) for c in shown], numeric=(1,))
+            if len(d["contexts"]) > len(shown):
+                page.p(f"... and {len(d['contexts']) - len(shown)} more contexts (all in --format json).")
+            page.h2("E[g | x, a] per context and group")
+            page.figure(lambda: _cells_figure(d), _cells_caption(d))
+        if audit_notes(d):
+            page.bullets(audit_notes(d))
+        if "by_context" in d:
+            page.h2("L by context")
+            page.table(BY_CONTEXT_HEAD, by_context_table(d), numeric=(1, 2, 3))
+        if "gaps_on_g" in d:
+            page.h2("Gaps of g")
+            page.table(("metric", "value", "where"), gap_rows(d), numeric=(1,))
+            page.p(GAP_NOTE + ".")
+        _cells_table(page, d)
+        return page.render(jinja2)
+
+    def calibration(self, d: Report) -> str:
+        """The calibration's lines (as the text report), one sentence each."""
+        jinja2, _ = _libraries()
+        page = _Page("fairaudit calibration")
+        for line in calibration_text(d).splitlines():
+            page.p(line)
+        return page.render(jinja2)
+
+    def worst_case(self, d: Report) -> str:
+        """The worst-case lines (as the text report), one paragraph each."""
+        jinja2, _ = _libraries()
+        page = _Page("fairaudit worst case")
+        for line in worst_case_text(d).splitlines():
+            page.p(line.strip())
+        return page.render(jinja2)
+
+    def plan(self, d: Report) -> str:
+        """The question and the assumed model, a table of the methods and why a method found no n."""
+        jinja2, _ = _libraries()
+        page = _Page("fairaudit plan")
+        for line in plan_head(d):
+            page.p(line[0].upper() + line[1:] + ".")
+        page.table(PLAN_HEAD, plan_rows(d), numeric=(1, 2, 3, 4, 5))
+        page.bullets([f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]])
+        return page.render(jinja2)
+
+
+def _observed(page: _Page, o: Report, counts: bool = False) -> None:
+    """The observed metrics' table, then (with ``counts``) what the intervals certify, the notes and exclusions."""
+    iv = o.get("intervals")
+    head = ["metric", "value", "ratio or decision", "where"]
+    rows: list[Sequence[object]] = [r[:4] for r in metric_rows(o)]
+    if iv:
+        head.append(f"simultaneous {fmt(iv['confidence'])} interval ({iv['method']})")
+        rows = [r[:4] + (r[4],) for r in metric_rows(o)]
+    page.table(head, rows, numeric=(1,))
+    sentence = counts_sentence(o) if counts else None
+    if sentence is not None:
+        page.p(sentence[0].upper() + sentence[1:] + ".")
+    notes, excluded, more = observed_notes(o)
+    if notes:
+        page.p("Notes on the intervals:")
+        page.bullets(notes)
+    if excluded:
+        page.p("Excluded:")
+        page.bullets(excluded + ([f"... and {more} more exclusions (all in --format json)"] if more else []))
+
+
+def _cells_table(page: _Page, d: Report) -> None:
+    """Records and E[g | x, a] (with its interval) of every cell (context, group), up to :data:`CELLS_SHOWN`."""
+    cells = d["cells"]
+    with_iv = any("interval" in c for c in cells)
+    page.h2("Cells")
+    head = ["context", "group", "records", "E[g | x, a]"] + (["interval"] if with_iv else [])
+    rows = []
+    for c in cells[:CELLS_SHOWN]:
+        row: list[object] = [c["context"], c["group"], count(c["n"]), fmt(c["expected_utility"])]
+        if with_iv:
+            iv = c.get("interval")
+            row.append(None if iv is None or iv[0] is None else f"[{fmt(iv[0])}, {fmt(iv[1])}]")
+        rows.append(row)
+    page.table(head, rows, numeric=(2, 3))
+    if len(cells) > CELLS_SHOWN:
+        page.p(f"... and {len(cells) - CELLS_SHOWN} more cells (all in --format json).")
+
+
+def group_means(d: Report) -> list[tuple[object, int, float | None, tuple[float, float] | None]]:
+    """E[g | a] per group of an audit's dictionary: (label, records, E[g | a], interval or None).
+
+    E[g | a] is the mean over the group's records, pooled over contexts (the
+    cells' E[g | x, a] weighted by their records); None for a group without
+    records. The interval is the cell's when there is a single context (it is
+    then E[g | a]'s), else None: the audit's intervals are per cell.
+
+    Examples
+    --------
+    >>> d = {"groups": [{"label": "a", "n": 3}, {"label": "b", "n": 0}], "contexts": [{"label": "x", "n": 1}, {"label": "y", "n": 2}],
+    ...      "cells": [{"context": "x", "group": "a", "n": 1, "expected_utility": 1.0},
+    ...                {"context": "y", "group": "a", "n": 2, "expected_utility": 0.25},
+    ...                {"context": "x", "group": "b", "n": 0, "expected_utility": None}]}
+    >>> group_means(d)
+    [('a', 3, 0.5, None), ('b', 0, None, None)]
+    """
+    out: list[tuple[object, int, float | None, tuple[float, float] | None]] = []
+    single = len(d["contexts"]) == 1
+    by_group: dict[str, list[Report]] = {}  # one pass over the cells (labels as JSON: lists are not hashable)
+    for c in d["cells"]:
+        by_group.setdefault(json.dumps(c["group"]), []).append(c)
+    for g in d["groups"]:
+        cells = by_group.get(json.dumps(g["label"]), [])
+        used = [c for c in cells if c["n"] and isinstance(c["expected_utility"], (int, float))]
+        total = sum(c["n"] for c in used)
+        mean = sum(c["n"] * c["expected_utility"] for c in used) / total if total else None
+        iv = cells[0].get("interval") if single and cells else None
+        interval = (float(iv[0]), float(iv[1])) if iv is not None and None not in iv else None
+        out.append((g["label"], g["n"], mean, interval))
+    return out
+
+
+def svg_of(draw: Callable[[], Figure], prefix: str = "fig-") -> str:
+    """The figure that ``draw`` makes, as an ``<svg>`` element to put inline in an HTML page.
+
+    ``draw`` runs with matplotlib's math text off (a ``$`` in a label is a
+    dollar sign); the SVG is written with text as text (``svg.fonttype``
+    none), no date and reproducible ids. The XML prolog, DOCTYPE and namespace
+    declarations are dropped (HTML needs none) and every id gets ``prefix``,
+    so that several figures in one page never share one.
+
+    Parameters
+    ----------
+    draw : callable
+        Makes and returns a :class:`matplotlib.figure.Figure`.
+    prefix : str
+        Put before each id of the SVG (and each reference to one).
+
+    Returns
+    -------
+    str
+    """
+    import matplotlib
+
+    buf = io.StringIO()
+    with matplotlib.rc_context({"svg.hashsalt": "fairaudit", "svg.fonttype": "none", "text.parse_math": False}):
+        draw().savefig(buf, format="svg", metadata={"Date": None, "Creator": None, "Format": None, "Type": None})
+    svg = buf.getvalue()
+    svg = svg[svg.index("<svg") :]
+
+    # only inside tags: matplotlib escapes "<" and ">" in text, so a tag never holds text from the data
+    def tag(m: re.Match[str]) -> str:
+        t = re.sub(r'\s+xmlns(:\w+)?="[^"]*"', "", m.group(0))
+        t = t.replace(' id="', f' id="{prefix}').replace('href="#', f'href="#{prefix}')
+        return t.replace("url(#", f"url(#{prefix}")
+
+    svg = re.sub(r"<[^<>]*>", tag, svg).strip()
+    return svg.replace("<svg ", '<svg role="img" ', 1)
+
+
+def _new_figure(width: float, height: float) -> Figure:
+    """A figure of ``width`` by ``height`` inches (at most 40 high), constrained layout, made without pyplot."""
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, min(height, 40.0)), layout="constrained")
+
+
+def _short(text: object, width: int = 40) -> str:
+    """A label for an axis: at most ``width`` characters, on one line."""
+    s = " ".join(str(text).split())
+    return s if len(s) <= width else s[: width - 1] + "…"
+
+
+def _num(v: object) -> float:
+    """A report's number as a float: ``"inf"`` as inf, None (n/a) as NaN."""
+    if v is None:
+        return math.nan
+    if v == "inf":
+        return math.inf
+    return float(v)  # type: ignore[arg-type]
+
+
+def _style(i: int) -> tuple[Any, str]:
+    """Colour and marker of the i-th group: tab10 (tab20 past ten groups), markers changing every 20."""
+    from matplotlib import colormaps
+
+    return colormaps["tab20" if i >= 10 else "tab10"](i % 20 if i >= 10 else i), "osD^v"[(i // 20) % 5]
+
+
+def _bounds_figure(d: Report) -> Figure:
+    """Bars of the bounds on L (paper, tight, black-box, corollary); lines of the observed L and the local target."""
+    from fairaudit.reports.figures import mark_infinite, on_scale
+
+    fig = _new_figure(7.0, 5.0)
+    ax = fig.add_subplot()
+    values = on_scale([_num(d["bounds"][k]) for k, _ in BOUNDS]).tolist()  # beyond 1e300: at the top, as +inf
+    lines = [(label, float(on_scale([v])[0]), style) for label, v, style in _bound_lines(d)]
+    ends = [v for v in values if math.isfinite(v)] + [v for _, v, _ in lines if math.isfinite(v)]
+    ends += [v for v in on_scale(_observed_interval(d)) if math.isfinite(v)]
+    top = max(1.15 * max(ends, default=0.0), 0.1)
+    for i, ((key, _), v) in enumerate(zip(BOUNDS, values)):
+        if math.isnan(v):
+            ax.text(i, 0.02 * top, "n/a", ha="center", va="bottom", fontsize=9, color="0.35")
+            continue
+        holds = d["bound_details"].get(key, {}).get("holds") is not False
+        best = key == d["bounds"].get("best_form")
+        ax.bar(
+            i,
+            top if math.isinf(v) else v,
+            width=0.6,
+            color=_BOUND_COLOURS[key],
+            alpha=0.75 if holds else 0.3,
+            hatch=None if holds else "//",
+            edgecolor="black" if best else "none",
+            linewidth=1.8 if best else 0.0,
+            zorder=2,
+        )
+        if math.isinf(v):
+            mark_infinite(ax, [i], _BOUND_COLOURS[key])
+        else:
+            ax.text(i, v, fmt(v, 4), ha="center", va="bottom", fontsize=8, zorder=5)
+    for label, v, style in lines:
+        where = " (+∞, drawn at the top)" if math.isinf(v) else ""
+        ax.axhline(min(v, 0.98 * top), label=label + where, zorder=4, **style)
+    lo, hi = _observed_interval(d)
+    if math.isfinite(lo) and math.isfinite(hi):
+        ax.axhspan(lo, hi, color="0.55", alpha=0.25, lw=0, zorder=1, label=f"its interval [{fmt(lo)}, {fmt(hi)}]")
+    names = ["paper\n(main theorem)", "tight\n(its proof)", "black-box\n(exact)", "corollary\n(ε)"]
+    names = [n + ("\n[best]" if k == d["bounds"].get("best_form") else "") for n, (k, _) in zip(names, BOUNDS)]
+    ax.set_xticks(range(len(BOUNDS)), labels=names, fontsize=9)
+    ax.set_xlim(-0.6, len(BOUNDS) - 0.4)
+    ax.set_ylim(0.0, top)
+    ax.set_ylabel("local g-fairness L (nats)")
+    ax.grid(True, axis="y", color="0.9", lw=0.6, zorder=0)
+    ax.set_axisbelow(True)
+    ax.set_title("Bounds on L for any decision model behind the filter", fontsize=10)
+    if ax.get_legend_handles_labels()[0]:
+        fig.legend(loc="outside lower center", ncols=2, fontsize=8, frameon=False)
+    return fig
+
+
+def _bound_lines(d: Report) -> list[tuple[str, float, dict[str, Any]]]:
+    """The horizontal lines of the bounds' figure: (label, value, style) of the observed L's and the local target."""
+    out: list[tuple[str, float, dict[str, Any]]] = []
+    for key, what, ls in (("observed", "behind the filter", "-"), ("unfiltered", "without the filter", "--")):
+        if key in d and not math.isnan(v := _num(d[key]["local"]["value"])):
+            out.append(
+                (
+                    f"observed L {what}: {nats(v if math.isfinite(v) else 'inf')}",
+                    v,
+                    {"color": "black", "ls": ls, "lw": 1.4},
+                )
+            )
+    t = (d.get("targets") or {}).get("local")
+    if t is not None and not math.isnan(v := _num(t["target"])):
+        out.append((f"local target: {nats(t['target'])}", v, {"color": "tab:purple", "ls": ":", "lw": 2.0}))
+    return out
+
+
+def _observed_interval(d: Report) -> tuple[float, float]:
+    """The interval on the observed L (behind the filter), NaNs without one."""
+    iv = d.get("observed", {}).get("local", {}).get("interval")
+    return (math.nan, math.nan) if not iv or None in iv else (_num(iv[0]), _num(iv[1]))
+
+
+def _bounds_caption(d: Report) -> str:
+    """The caption of :func:`_bounds_figure`: what each bar and line is."""
+    parts = [
+        "The bounds on L for any decision model behind the filter (bars; the best valid bound outlined; "
+        "hatched: an assumption it needs is violated; ▲ at the top edge: +∞; n/a: not computed)"
+    ]
+    if "observed" in d:
+        parts.append("the observed L of the model behind the filter (solid line")
+        parts[-1] += "; grey band: its interval)" if math.isfinite(_observed_interval(d)[0]) else ")"
+    if "unfiltered" in d:
+        parts.append("the observed L of the model without the filter (dashed)")
+    if (d.get("targets") or {}).get("local") is not None:
+        parts.append("the local target (dotted)")
+    return parts[0] + (", against " + ", ".join(parts[1:]) if len(parts) > 1 else "") + ". In nats."
+
+
+def _groups_figure(d: Report, means: Sequence[tuple[object, int, float | None, tuple[float, float] | None]]) -> Figure:
+    """E[g | a] per group (a point each, with its interval when there is one), first group on top."""
+    shown = list(means[:GROUPS_DRAWN])
+    fig = _new_figure(7.0, 1.3 + 0.3 * len(shown))
+    ax = fig.add_subplot()
+    for i, (label, _, mean, iv) in enumerate(shown):
+        if mean is None:
+            ax.text(0.0, i, " no records", va="center", fontsize=8, color="0.35")
+            continue
+        err = None if iv is None else [[max(0.0, mean - iv[0])], [max(0.0, iv[1] - mean)]]
+        ax.errorbar([mean], [i], xerr=err, fmt="o", color="black", ecolor="0.35", ms=5, capsize=3, lw=1.2)
+    ends = [v for _, _, m, iv in shown for v in ((m,) if m is not None else ()) + (iv or ())]
+    _category_axis(ax, [label for label, *_ in shown])
+    _value_axis(ax, d, "E[g | a]", ends)
+    ax.set_title("E[g | a] per group", fontsize=10)
+    return fig
+
+
+def _category_axis(ax: Axes, labels: Sequence[object]) -> None:
+    """The y axis of a dot plot: one row per label, the first on top."""
+    ax.set_yticks(range(len(labels)), labels=[_short(x) for x in labels], fontsize=8)
+    ax.set_ylim(len(labels) - 0.5, -0.5)
+
+
+def _value_axis(ax: Axes, d: Report, name: str, ends: Sequence[float]) -> None:
+    """The x axis of E[g | ...]: from the utility's lower end (0 at most) to the largest of ``ends``, grid, label."""
+    lower = _num(d["utility"].get("lower"))
+    finite = [float(v) for v in ends if math.isfinite(v)]
+    lo = min([0.0, *finite] + ([lower] if math.isfinite(lower) else []))
+    hi = max([lo, *finite])
+    pad = 0.04 * (hi - lo) if hi > lo else 0.05
+    ax.set_xlim(lo - pad, hi + pad)
+    ax.set_xlabel(f"{name} (utility {_short(d['utility']['name'], 60)})")
+    ax.grid(True, axis="x", color="0.9", lw=0.6)
+    ax.set_axisbelow(True)
+
+
+def _groups_caption(d: Report) -> str:
+    """The caption of :func:`_groups_figure`: how E[g | a] is computed, which intervals, what is left out."""
+    n = len(d["groups"])
+    text = "E[g | a] per group: the mean of g over the group's records"
+    if len(d["contexts"]) > 1:
+        text += ", pooled over the contexts (the cells' E[g | x, a] weighted by their records)"
+    if d.get("confidence") is not None and len(d["contexts"]) == 1:
+        text += f", with its simultaneous {fmt(d['confidence'])} interval ({d['interval_method']})"
+    elif d.get("confidence") is not None:
+        text += "; the intervals are per cell (the figure of E[g | x, a])"
+    if n > GROUPS_DRAWN:
+        text += f"; the first {GROUPS_DRAWN} of {n} groups (all in the table)"
+    return text + "."
+
+
+def _cells_figure(d: Report) -> Figure:
+    """E[g | x, a] per context (a row each, first on top) and group (a colour each), with the cells' intervals."""
+    contexts = [c["label"] for c in d["contexts"][:CONTEXTS_DRAWN]]
+    groups = [g["label"] for g in d["groups"][:GROUPS_DRAWN]]
+    cells = {(c["context"], c["group"]): c for c in d["cells"]}
+    fig = _new_figure(8.5, 1.5 + len(contexts) * max(0.35, 0.07 * len(groups)))
+    ax = fig.add_subplot()
+    ends: list[float] = []
+    offsets = [0.0] if len(groups) == 1 else [0.7 * (j / (len(groups) - 1) - 0.5) for j in range(len(groups))]
+    for j, g in enumerate(groups):
+        xs, ys, lo, hi = [], [], [], []
+        for i, x in enumerate(contexts):
+            c = cells.get((x, g))
+            if c is None or not c["n"] or not isinstance(c["expected_utility"], (int, float)):
+                continue
+            e = float(c["expected_utility"])
+            iv = c.get("interval")
+            ok = iv is not None and None not in iv
+            xs.append(e)
+            ys.append(i + offsets[j])
+            lo.append(max(0.0, e - float(iv[0])) if ok else 0.0)
+            hi.append(max(0.0, float(iv[1]) - e) if ok else 0.0)
+        colour, marker = _style(j)
+        ax.errorbar(xs, ys, xerr=[lo, hi], fmt=marker, color=colour, ms=4, capsize=2, lw=1.0, label=_short(g, 30))
+        ends += [e - a for e, a in zip(xs, lo)] + [e + b for e, b in zip(xs, hi)]
+    for i in range(len(contexts) - 1):
+        ax.axhline(i + 0.5, color="0.85", lw=0.6)
+    _category_axis(ax, contexts)
+    _value_axis(ax, d, "E[g | x, a]", ends)
+    ax.set_title("E[g | x, a] per context and group", fontsize=10)
+    ax.legend(
+        title="group",
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        fontsize=8,
+        frameon=False,
+        ncols=1 + len(groups) // 21,
+    )
+    return fig
+
+
+def _cells_caption(d: Report) -> str:
+    """The caption of :func:`_cells_figure`: which intervals, what is left out."""
+    text = "E[g | x, a] per context (rows) and group (colours)"
+    if d.get("confidence") is not None:
+        text += f", with the simultaneous {fmt(d['confidence'])} intervals ({d['interval_method']})"
+    text += "; cells without records are not drawn"
+    if len(d["contexts"]) > CONTEXTS_DRAWN:
+        text += f"; the first {CONTEXTS_DRAWN} of {len(d['contexts'])} contexts"
+    if len(d["groups"]) > GROUPS_DRAWN:
+        text += f"; the first {GROUPS_DRAWN} of {len(d['groups'])} groups"
+    return text + " (every cell is in the table of cells)."

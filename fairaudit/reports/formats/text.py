@@ -1,0 +1,250 @@
+"""The text format: the reports as aligned plain-text lines (the default of ``--format``)."""
+
+from __future__ import annotations
+
+from fairaudit.base.json_values import Report
+from fairaudit.reports.formats.base import Format
+from fairaudit.reports.formats.sections import (
+    BOUNDS,
+    BY_CONTEXT_HEAD,
+    GAP_NOTE,
+    PLAN_HEAD,
+    audit_notes,
+    bound_detail,
+    by_context_table,
+    calibration_sentences,
+    certificate_facts,
+    count,
+    counts_sentence,
+    fmt,
+    gap_rows,
+    impact_notes,
+    impact_tables,
+    impact_title,
+    measure,
+    metric_rows,
+    nats,
+    observed_notes,
+    outcome_rows,
+    outcomes_more,
+    pair,
+    plan_head,
+    plan_rows,
+    population_line,
+    records,
+)
+
+__all__ = ["TextFormat", "calibration_text", "worst_case_text"]
+
+
+class TextFormat(Format):
+    """Plain text, one line per quantity; each report ends with a newline."""
+
+    name = "text"
+
+    def certificate(self, d: Report) -> str:
+        """Privacy, utility, population, the bounds, what was observed, targets, calibration, assumptions."""
+        lines = _certificate_head(d)
+        lines += _bound_lines(d)
+        if "observed" in d:
+            lines += _observed_lines(d["observed"], "observed, the model behind the filter:")
+            counts = counts_sentence(d["observed"])
+            if counts is not None:
+                lines.append(f"  {counts}")
+        if "unfiltered" in d:
+            lines += _observed_lines(d["unfiltered"], "observed, the model without the filter:")
+        if "targets" in d:
+            lines += _target_lines(d["targets"])
+        if "calibration" in d:
+            lines += calibration_sentences(d["calibration"], plain=True)
+        lines.append("assumptions:")
+        for a in d["assumptions"]:
+            lines.append(f"  [{a['status']}] {a['name']}: {a['detail']} (for {', '.join(a['for'])})")
+        lines.append(f"certified: {'yes' if d['certified'] else 'no'}")
+        return "\n".join(lines) + "\n"
+
+    def audit(self, d: Report) -> str:
+        """Records per group (and context), the population, the intervals' level and the metrics."""
+        ctx = ", ".join(d["context_columns"]) or "none"
+        lines = []
+        if "impact_ratios" in d:  # the report asked for first, the headline metrics after
+            lines += [impact_title(d), *_impact_lines(d)[1:], ""]
+        lines += [
+            f"fairaudit audit: {records(d)}; sensitive {', '.join(d['sensitive'])}; outcome {d['outcome']}; "
+            f"context {ctx}",
+            f"utility: {d['utility']['name']}",
+        ]
+        lines.append("records per group: " + ", ".join(f"{g['label']} {count(g['n'])}" for g in d["groups"]))
+        if "outcome_values" in d:
+            lines.append(
+                "records per outcome value: "
+                + ", ".join(f"{u} {n} (g {g})" for u, n, g in outcome_rows(d))
+                + (" ..." if outcomes_more(d) else "")
+            )
+        if len(d["contexts"]) > 1:
+            lines.append(
+                "records per context: "
+                + ", ".join(f"{c['label']} {count(c['n'])}" for c in d["contexts"][:30])
+                + (" ..." if len(d["contexts"]) > 30 else "")
+            )
+        lines.append(population_line(d))
+        if d["confidence"] is not None:
+            lines.append(f"intervals: simultaneous {fmt(d['confidence'])} ({d['interval_method']})")
+        lines += _observed_lines(d, "metrics:")
+        lines += [f"note: {n}" for n in audit_notes(d)]
+        if "by_context" in d:
+            table = [BY_CONTEXT_HEAD, *by_context_table(d)]
+            widths = [max(len(r[i]) for r in table) for i in range(len(BY_CONTEXT_HEAD))]
+            lines += ["L by context:"] + [
+                "  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in table
+            ]
+        if "gaps_on_g" in d:
+            lines += [f"  {name:<28} {value:<18} ({where})" for name, value, where in gap_rows(d)]
+            lines.append(f"  {GAP_NOTE}")
+        return "\n".join(lines) + "\n"
+
+    def calibration(self, d: Report) -> str:
+        """The largest ε that meets the target (or why none does), its keep probability and the method."""
+        return calibration_text(d)
+
+    def worst_case(self, d: Report) -> str:
+        """The class of utilities, the worst utility of L and of L-bar with their values, the spec's own."""
+        return worst_case_text(d)
+
+    def plan(self, d: Report) -> str:
+        """The question, the assumed model and an aligned table of the methods."""
+        rows = [PLAN_HEAD] + plan_rows(d)
+        widths = [max(len(r[i]) for r in rows) for i in range(len(PLAN_HEAD))]
+        lines = plan_head(d)
+        lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
+        lines += [f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
+        return "\n".join(lines) + "\n"
+
+
+def worst_case_text(d: Report) -> str:
+    """The ``worst-case`` report as text (the Markdown and HTML formats quote it)."""
+    tau = "" if d["tau"] is None else f", E[g | x, a] >= tau = {fmt(d['tau'])}"
+    lines = [
+        f"fairaudit worst case: {d['title'] or d['spec']}",
+        f"law: {d['law']}; sensitive {d['sensitive']}, context {d['context']}",
+        f"utilities: every g({d['decision']}) in [{fmt(d['lower'])}, {fmt(d['gamma'])}]{tau}",
+    ]
+    for key, name in (("local", "L"), ("global", "L-bar")):
+        w = d[key]
+        lines.append(f"worst utility for {name}: {_utility_line(d, w['utility'])}")
+        lines.append(
+            f"  {name} = {nats(w['value'])}, ratio {fmt(w['ratio'])}{pair(w)}; method {w['method']}"
+            + (f" ({w['reason']})" if w.get("reason") else "")
+        )
+    u = d["spec_utility"]
+    lines.append(f"the spec's utility {u['name']}: L = {nats(u['local'])}, L-bar = {nats(u['global'])}")
+    lines += [f"excluded: {e}" for e in d["excluded"]]
+    return "\n".join(lines) + "\n"
+
+
+def _utility_line(d: Report, values: list[float] | None) -> str:
+    """``g = 1 on a, b; 0 on c``: the decisions grouped by their utility, the largest first (20 shown each).
+
+    A value within 1e-9 (relative to gamma) of the class's end is shown as that end: the LP's interior-point
+    solution stops that close to a vertex, and the JSON keeps its values as they are.
+    """
+    if values is None:
+        return "none (no utility of the class meets tau)"
+    lower, gamma = float(d["lower"]), float(d["gamma"])
+    tol = 1e-9 * max(gamma, 1.0)
+    by_value: dict[float, list[str]] = {}
+    for decision, v in zip(d["decisions"], values):
+        x = float(v)  # (values in [lower, gamma]: finite, never null)
+        x = lower if abs(x - lower) <= tol else gamma if abs(x - gamma) <= tol else x
+        by_value.setdefault(x, []).append(str(decision))
+    parts = []
+    for x in sorted(by_value, reverse=True):
+        names = by_value[x]
+        parts.append(f"{fmt(x)} on {', '.join(names[:20])}{', ...' if len(names) > 20 else ''}")
+    return "g = " + "; ".join(parts)
+
+
+def calibration_text(d: Report) -> str:
+    """The ``calibrate`` report as text (the Markdown format quotes it in a code block)."""
+    up = _unparsed_line(d)
+    ratio = d.get("target_impact_ratio")
+    goal = f"{measure(d)} <= {nats(d['target'])}"
+    if ratio is not None:  # the target given as an impact ratio r: L <= -ln r
+        goal += f" (every impact ratio >= {fmt(ratio)}: {measure(d)} is -ln of the worst impact ratio)"
+    if not d["feasible"]:
+        low = f"the model's {measure(d)} at epsilon = 0" if d["method"] == "white_box" else "smallest certified bound"
+        return (
+            f"no epsilon of {d['family']} meets {goal}\n"
+            f"method: {d['method']}; {low}: {nats(d['bound'])}\n{up}"
+            f"reason: {d['reason']}\n"
+        )
+    there = f"the model's {measure(d)} there" if d["method"] == "white_box" else "certified bound there"
+    return (
+        f"largest epsilon of {d['family']} meeting {goal}: {nats(d['epsilon'])}\n"
+        f"keep probability (the price): {fmt(d['keep_probability'])}\n"
+        f"method: {d['method']}; {there}: {nats(d['bound'])}\n{up}"
+        f"reason: {d['reason']}\n"
+    )
+
+
+def _unparsed_line(d: Report) -> str:
+    """With an unparsed decision: the line saying that ε and the bound are the upper end over its utility."""
+    u = d.get("unparsed")
+    if not u:
+        return ""
+    lo, hi = u["range"]
+    return (
+        f"unparsed decision {u['decision']!s}: calibrated on the upper end of {measure(d)} over every utility of it "
+        f"in [{fmt(lo)}, {fmt(hi)}], chosen per cell of the model, not on its stated utility\n"
+    )
+
+
+def _certificate_head(d: Report) -> list[str]:
+    """Title, the privacy of the sensitive attribute and of the context, the utility and the population."""
+    return [f"fairaudit certificate: {d['title'] or d['spec']}"] + [f"{k}: {v}" for k, v in certificate_facts(d)]
+
+
+def _bound_lines(d: Report) -> list[str]:
+    """The bounds on L for any model behind the filter, each with its details, then the best valid one."""
+    lines = ["bounds on L for any decision model behind the filter:"]
+    for key, name in BOUNDS:
+        detail = bound_detail(d, key)
+        lines.append(f"  {name:<30} {nats(d['bounds'][key])}{' ' + detail if detail else ''}")
+    lines.append(f"  best valid bound: {nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
+    return lines
+
+
+def _observed_lines(o: Report, head: str) -> list[str]:
+    """The observed metrics under ``head``: value, where it is attained and its interval; notes; exclusions."""
+    lines = [head]
+    for name, value, detail, at, iv in metric_rows(o):
+        lines.append(
+            f"  {name:<28} {value:<18}{' ' + detail if detail else ''}{f' ({at})' if at else ''}"
+            f"{f'  interval {iv}' if iv else ''}"
+        )
+    notes, excluded, more = observed_notes(o)
+    lines += [f"  intervals: {n}" for n in notes] + [f"  excluded: {e}" for e in excluded]
+    return lines + ([f"  ... and {more} more exclusions"] if more else [])
+
+
+def _target_lines(targets: Report) -> list[str]:
+    """One line per target: met or not, the bound and the observed value."""
+    lines = []
+    for k, t in targets.items():
+        obs = f"; observed {nats(t['observed'])}" if t["observed"] is not None else ""
+        lines.append(
+            f"target {k}: {nats(t['target'])} -> {'MET' if t['met'] else 'NOT MET'} "
+            f"(bound {nats(t['bound'])}{obs}; {t['reason']})"
+        )
+    return lines
+
+
+def _impact_lines(d: Report) -> list[str]:
+    """The impact-ratio tables, aligned, one per category type, and their notes."""
+    lines = []
+    for name, head, rows in impact_tables(d):
+        table = [head, *rows]
+        widths = [max(len(r[i]) for r in table) for i in range(len(head))]
+        lines += ["", f"impact ratios by {name}:"]
+        lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in table]
+    return lines + [""] + impact_notes(d)

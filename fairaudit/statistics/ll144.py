@@ -1,0 +1,626 @@
+"""Impact ratios, as bias audits of automated employment decision tools publish them (NYC Local Law 144).
+
+The rules of the New York City Department of Consumer and Worker Protection
+(6 RCNY § 5-301, "Bias Audit") define, for each category of a category type
+(sex, race/ethnicity, and their intersection):
+
+* the **selection rate**: the share of the category's applicants selected
+  (a binary outcome), or, for a tool that scores, the **scoring rate**: the
+  share of the category's applicants scoring above the median score of the
+  whole sample;
+* the **impact ratio**: the category's rate divided by the highest rate
+  among the categories of its type;
+* a category under 2% of the data may be left out of the impact ratios (it
+  is still listed, with its number of applicants and its rate), and the
+  number of applicants of unknown category is reported.
+
+:func:`impact_ratios` computes them from a :class:`~fairaudit.data.counts.CountTable`
+(contexts pooled) or from a DataFrame of records, one category type per
+sensitive column and, with two columns or more, their intersection; each ratio
+gets an interval, all of them simultaneous (Clopper–Pearson with Bonferroni
+over every rate of the report, then each ratio's exact range over the box of
+the rates: proofs/impact_ratio.md), and a mark against a threshold (0.8, the
+four-fifths rule of thumb, by default). :meth:`ImpactRatios.to_frame` gives
+the tidy table.
+
+For a 0/1 utility, the global g-fairness of the intersection's included
+categories (under the records' own population) is L̄ = −ln(its lowest impact
+ratio): an impact ratio of at least t for every category is L̄ ≤ −ln t nats
+(0.8: ln 1.25 = 0.223 nats).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable, Sequence
+from dataclasses import dataclass, replace
+from fractions import Fraction
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray
+from fairaudit.base.checks import level, real, whole
+from fairaudit.base.errors import InputError
+from fairaudit.base.json_values import Report, label, number
+from fairaudit.base.labels import format_label
+from fairaudit.data.counts import CountTable
+from fairaudit.laws.utilities import Utility, from_table
+from fairaudit.statistics.confidence_sets import clopper_pearson
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = [
+    "MARKS",
+    "ImpactRatio",
+    "ImpactRatios",
+    "impact_ratios",
+    "median_score",
+    "ratio_range",
+    "round_half_up",
+    "scoring_utility",
+]
+
+SMALL_SHARE = 0.02
+"""Categories with less than this share of the data are listed but left out of the impact ratios (6 RCNY 5-301)."""
+
+THRESHOLD = 0.8
+"""The default threshold of the marks: the four-fifths rule of thumb (29 CFR 1607.4(D))."""
+
+MARKS = ("below", "possibly below", "not below")
+"""A category's mark against the threshold t, from its simultaneous interval [lower, upper] on the impact ratio:
+``below`` (upper < t), ``possibly below`` (lower < t <= upper), ``not below`` (lower >= t)."""
+
+
+@dataclass(frozen=True)
+class ImpactRatio:
+    """One category of one category type.
+
+    Attributes
+    ----------
+    type : str
+        The category type: a sensitive column, or the columns joined with ``" x "`` for their intersection.
+    category : hashable
+        The category (a tuple for an intersection).
+    n : float
+        Applicants in the category (records; with weights, the sum of their weights).
+    rate : float
+        Selection or scoring rate, in [0, 1] (NaN with no applicant): ``selected / n``.
+    impact_ratio : float or None
+        ``rate`` / the highest rate of the type's included categories; None when excluded. From whole counts it is
+        the exact fraction rounded once to a float.
+    interval : tuple of float or None
+        Simultaneous interval (lower, upper) on ``impact_ratio``, within [0, 1]: the exact range of the ratio over
+        the box of the rates' simultaneous intervals (:func:`ratio_range`); None when excluded.
+    excluded : bool
+        The category holds less than 2% of the data: left out of the ratios.
+    selected : float
+        Applicants selected (for scoring rates: scoring above the median); with weights, their weight.
+    mark : str or None
+        Against the report's threshold, from ``interval``: ``"below"``, ``"possibly below"`` or ``"not below"``
+        (:data:`MARKS`); None when excluded.
+    """
+
+    type: str
+    category: Hashable
+    n: float
+    rate: float
+    impact_ratio: float | None
+    interval: tuple[float, float] | None
+    excluded: bool
+    selected: float
+    mark: str | None
+
+    def to_dict(self) -> Report:
+        """The JSON object: ``type``, ``category``, ``n``, ``selected``, ``rate``, ``impact_ratio``, ``interval``,
+        ``mark``, ``excluded``."""
+        return {
+            "type": self.type,
+            "category": label(self.category),
+            "n": number(self.n),
+            "selected": number(self.selected),
+            "rate": number(self.rate),
+            "impact_ratio": number(self.impact_ratio),
+            "interval": None if self.interval is None else [number(v) for v in self.interval],
+            "mark": self.mark,
+            "excluded": self.excluded,
+        }
+
+
+@dataclass(frozen=True)
+class ImpactRatios:
+    """The impact-ratio report of :func:`impact_ratios`; repeats its inputs.
+
+    Attributes
+    ----------
+    rows : tuple of ImpactRatio
+        Per category type (each sensitive column, then the intersection), its categories in label order.
+    rate : {"selection", "scoring"}
+        Which rate: of a 0/1 utility, or the share above the whole sample's ``median`` score.
+    median : float or None
+        The median score of the whole sample (scoring rates only).
+    unknown : dict of str to float
+        Per category type, the records with an unknown (missing) category, left out of everything.
+    confidence : float
+        Level of the simultaneous intervals.
+    table : CountTable
+    utility : Utility
+        The 0/1 utility of the rates (for scoring rates, 1{score > median}).
+    threshold : float
+        The threshold of the marks (0.8 by default).
+    """
+
+    rows: tuple[ImpactRatio, ...]
+    rate: str
+    median: float | None
+    unknown: dict[str, float]
+    confidence: float
+    table: CountTable
+    utility: Utility
+    threshold: float = THRESHOLD
+
+    @property
+    def intersection(self) -> str:
+        """The name of the last category type: the intersection of the sensitive columns (or the one column)."""
+        return " x ".join(self.table.sensitive_columns)
+
+    def headline_table(self) -> tuple[CountTable, tuple[tuple[Hashable, float], ...]]:
+        """The table of the headline metrics: the records of the intersection's included categories.
+
+        Returns the table without the groups (categories of the intersection) under 2% of the data, and those
+        groups with their records, so that L and L̄ of :func:`fairaudit.audit` are over the categories of the
+        impact ratios. When fewer than two categories hold 2% of the data, the whole table and no group.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> df = pd.DataFrame({"g": ["a"] * 60 + ["b"] * 39 + ["c"], "y": [1, 0] * 50})
+        >>> table, left_out = impact_ratios(df, sensitive="g", outcome="y").headline_table()
+        >>> table.groups, table.n, left_out
+        (('a', 'b'), 99, (('c', 1.0),))
+        """
+        rows = [r for r in self.rows if r.type == self.intersection]
+        keep = [not r.excluded for r in rows]
+        if sum(keep) < 2 or all(keep):
+            return self.table, ()
+        index = np.flatnonzero(keep)
+        squares = None if self.table.squares is None else self.table.squares[:, index]
+        table = replace(
+            self.table,
+            counts=self.table.counts[:, index],
+            groups=tuple(self.table.groups[j] for j in index),
+            squares=squares,
+        )
+        return table, tuple((r.category, r.n) for r in rows if r.excluded)
+
+    def headline_dict(self) -> Report:
+        """What the headline metrics over :meth:`headline_table` cover, for the reports.
+
+        ``type`` (the intersection), ``left_out`` (its categories under 2% of the data left out of the metrics, each
+        ``{category, n}``) and ``includes_small`` (True when they stay in: fewer than two categories hold 2%).
+        """
+        _, left_out = self.headline_table()
+        small = [r for r in self.rows if r.type == self.intersection and r.excluded]
+        return {
+            "type": self.intersection,
+            "left_out": [{"category": label(c), "n": number(n)} for c, n in left_out],
+            "includes_small": bool(small) and not left_out,
+        }
+
+    def to_dict(self) -> Report:
+        """``{"impact_ratios": [...], "impact_ratio_details": {...}}``, the keys of ``fairaudit audit``'s JSON."""
+        return {
+            "impact_ratios": [r.to_dict() for r in self.rows],
+            "impact_ratio_details": {
+                "rate": self.rate,
+                "median": number(self.median),
+                "unknown": {k: number(v) for k, v in self.unknown.items()},
+                "confidence": self.confidence,
+                "small_share": SMALL_SHARE,
+                "threshold": self.threshold,
+                "intersection": self.intersection,
+            },
+        }
+
+    def to_frame(self, digits: int | None = None) -> pd.DataFrame:
+        """The report as a tidy DataFrame, one row per category of each category type.
+
+        Columns: ``type``, ``category`` (text, as the command line prints it), ``n`` and ``selected`` (integers;
+        floats with weights; for scoring rates ``selected`` is named ``above_median``), ``selection_rate`` (or
+        ``scoring_rate``), ``impact_ratio``, ``ci_low`` and ``ci_high`` (the simultaneous interval; NaN when
+        excluded), ``mark`` (None when excluded) and ``excluded``. ``attrs`` holds ``rate``, ``median``,
+        ``confidence``, ``threshold`` and ``unknown``.
+
+        Parameters
+        ----------
+        digits : int, optional
+            Round the rates and ratios to this many decimals as published audits print them (half up:
+            :func:`round_half_up`), and the interval outwards (``ci_low`` down, ``ci_high`` up). The marks are
+            those of the exact values.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> df = pd.DataFrame({"sex": ["F"] * 50 + ["M"] * 50, "hired": [1] * 20 + [0] * 30 + [1] * 25 + [0] * 25})
+        >>> frame = impact_ratios(df, sensitive="sex", outcome="hired").to_frame()
+        >>> frame[["category", "n", "selected", "selection_rate", "impact_ratio", "mark"]]
+          category   n  selected  selection_rate  impact_ratio           mark
+        0        F  50        20             0.4           0.8  possibly below
+        1        M  50        25             0.5           1.0  possibly below
+        >>> frame.round(2)[["ci_low", "ci_high"]].values.tolist()
+        [[0.37, 1.0], [0.59, 1.0]]
+        >>> impact_ratios(df.iloc[:-1], sensitive="sex", outcome="hired").to_frame(digits=3)["impact_ratio"].tolist()
+        [0.784, 1.0]
+        """
+        import pandas as pd
+
+        if digits is not None:
+            digits = whole(digits, "digits")
+
+        integral = self.table.squares is None
+        count = "int64" if integral else "float64"
+        rate, selected = (
+            ("selection_rate", "selected") if self.rate == "selection" else ("scoring_rate", "above_median")
+        )
+        nan = math.nan
+        frame = pd.DataFrame(
+            {
+                "type": pd.Series([r.type for r in self.rows], dtype=object),
+                "category": pd.Series([str(label(r.category)) for r in self.rows], dtype=object),
+                "n": pd.Series([round(r.n) if integral else r.n for r in self.rows], dtype=count),
+                selected: pd.Series([round(r.selected) if integral else r.selected for r in self.rows], dtype=count),
+                rate: pd.Series([r.rate for r in self.rows], dtype="float64"),
+                "impact_ratio": pd.Series([nan if r.impact_ratio is None else r.impact_ratio for r in self.rows]),
+                "ci_low": pd.Series([nan if r.interval is None else r.interval[0] for r in self.rows], dtype="float64"),
+                "ci_high": pd.Series(
+                    [nan if r.interval is None else r.interval[1] for r in self.rows], dtype="float64"
+                ),
+                "mark": pd.Series([r.mark for r in self.rows], dtype=object),
+                "excluded": pd.Series([r.excluded for r in self.rows], dtype=bool),
+            }
+        )
+        frame["impact_ratio"] = frame["impact_ratio"].astype("float64")
+        if digits is not None:
+            for column, how in ((rate, "half up"), ("impact_ratio", "half up"), ("ci_low", "down"), ("ci_high", "up")):
+                frame[column] = [round_half_up(v, digits, how) for v in frame[column]]
+        frame.attrs.update(
+            rate=self.rate,
+            median=self.median,
+            confidence=self.confidence,
+            threshold=self.threshold,
+            unknown=dict(self.unknown),
+        )
+        return frame
+
+
+def impact_ratios(
+    data: CountTable | pd.DataFrame,
+    utility: Utility | str | None = None,
+    *,
+    sensitive: str | Sequence[str] | None = None,
+    outcome: str | None = None,
+    positive: Hashable | None = None,
+    dropna: bool = False,
+    weights: str | None = None,
+    confidence: float = 0.95,
+    threshold: float = THRESHOLD,
+) -> ImpactRatios:
+    """Selection (or scoring) rates and impact ratios per category, for each sensitive column and their intersection.
+
+    Parameters
+    ----------
+    data : CountTable or pandas.DataFrame
+        Counts of shape (n_contexts, n_groups, n_decisions), contexts pooled; or one record per applicant, counted
+        with ``sensitive``, ``outcome``, ``dropna`` and ``weights`` (:func:`~fairaudit.data.counts.count_records`).
+    utility : Utility or str, optional
+        A 0/1 utility (or an expression in ``u``, :func:`~fairaudit.statistics.record_audit.utility_from_expression`): the selection
+        rate is E[g] per category.
+    sensitive, outcome : str or sequence of str, str
+        The columns of a DataFrame: the category types (each column, then their intersection) and the outcome.
+    positive : optional
+        The outcome value that is a selection: g = 1{U = positive}.
+    dropna : bool
+        Drop records with a missing value in a used column (a DataFrame; counted as of unknown category).
+    weights : str, optional
+        Column of sample weights of a DataFrame: weighted rates, intervals on Kish's effective counts.
+    confidence : float
+        Level of the simultaneous intervals on every ratio (default 0.95).
+    threshold : float
+        In (0, 1]: each included category is marked ``below``, ``possibly below`` or ``not below`` it from its
+        interval (default 0.8, the four-fifths rule of thumb).
+
+    Returns
+    -------
+    ImpactRatios
+
+    Raises
+    ------
+    InputError
+        ``utility`` not 0/1 (``utility``), no utility with a non-numeric, non-0/1 outcome (``utility``), both
+        ``utility`` and ``positive`` (``positive``), ``positive`` not an outcome value (``positive``), ``confidence``
+        outside (0, 1), ``threshold`` outside (0, 1], ``data`` neither a CountTable nor a DataFrame (``data``), and
+        the errors of :func:`~fairaudit.data.counts.count_records`.
+
+    Notes
+    -----
+    With neither ``utility`` nor ``positive``: an outcome of 0/1 (or booleans) is a selection of 1 (True); any
+    other numeric outcome is a score, and the rate is the share of records scoring above the median of the whole
+    sample (the weighted median with weights).
+
+    Definitions: 6 RCNY § 5-301 (selection rate, scoring rate, impact ratio,
+    the 2% exclusion). Intervals: each category's rate gets a Clopper–Pearson
+    interval at level 1 − α/m, m the number of included categories in the
+    report (with weights, on Kish's effective counts); on that event every
+    rate p_j of a type lies in its [l_j, u_j] at once, and ratio i lies in the
+    exact range of p_i / max_j p_j over that box (:func:`ratio_range`,
+    proofs/impact_ratio.md), all ratios at once with probability ≥ 1 − α.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from fairaudit import count_records, indicator
+    >>> df = pd.DataFrame({"sex": ["F"] * 50 + ["M"] * 50, "hired": [1] * 20 + [0] * 30 + [1] * 25 + [0] * 25})
+    >>> t = count_records(df, sensitive="sex", outcome="hired")
+    >>> [(r.category, r.rate, r.impact_ratio) for r in impact_ratios(t, indicator(1, t.decisions)).rows]
+    [('F', 0.4, 0.8), ('M', 0.5, 1.0)]
+    >>> [(r.category, r.impact_ratio, r.mark) for r in impact_ratios(df, sensitive="sex", outcome="hired").rows]
+    [('F', 0.8, 'possibly below'), ('M', 1.0, 'possibly below')]
+    """
+    confidence = level(confidence, "confidence")
+    threshold = real(threshold, "threshold", low=0.0, high=1.0, low_open=True)
+    table = _counted(data, sensitive, outcome, dropna, weights)
+    g, median, kind = _indicator(table, utility, positive)
+    pooled = table.counts.sum(axis=0)  # (groups, decisions)
+    effective = table.effective_counts(pooled=True)
+    types = _category_types(table)
+    total = float(pooled.sum())
+    shares, selected, trials, positives = [], [], [], []
+    for _, _, members in types:
+        shares.append(np.array([pooled[m].sum() for m in members]))
+        selected.append(np.array([(pooled[m] @ g.values).sum() for m in members]))
+        trials.append(np.array([effective[m].sum() for m in members]))
+        positives.append(np.array([(effective[m] @ g.values).sum() for m in members]))
+    included = [n >= SMALL_SHARE * total for n in shares]
+    m = max(1, sum(int(i.sum()) for i in included))
+    whole = table.squares is None
+    rows = []
+    for (name, categories, _), n, k, ne, ke, keep in zip(types, shares, selected, trials, positives, included):
+        lo, hi = clopper_pearson(np.minimum(ke, ne), ne, (1.0 - confidence) / m)
+        rows += _type_rows(name, categories, n, k, lo, hi, keep, threshold, whole)
+    unknown = {name: float(dict(table.missing).get(name, 0.0)) for name, _, _ in types}
+    return ImpactRatios(tuple(rows), kind, median, unknown, confidence, table, g, threshold)
+
+
+def round_half_up(value: float, digits: int, how: str = "half up") -> float:
+    """``value`` rounded to ``digits`` decimals as a person rounds it (0.3125 -> 0.313), or down or up.
+
+    Rounds the shortest decimal that reads back as ``value`` (its ``repr``), so a rate or ratio that is exactly
+    halfway at ``digits`` decimals (5/16 = 0.3125) goes up, as published audits (and spreadsheets) round, where
+    Python's ``round`` of the binary float may go either way. ``how``: ``"half up"``, ``"down"`` or ``"up"``
+    (for an interval's ends, rounded outwards). NaN and infinities are returned as they are.
+
+    Parameters
+    ----------
+    value : float
+        A rate or ratio (any float).
+    digits : int
+        Decimals kept, ≥ 0.
+    how : {"half up", "down", "up"}
+        Half up (ties away from zero), toward −∞ (a lower end) or toward +∞ (an upper end).
+
+    Returns
+    -------
+    float
+        The decimal rounded, as the nearest float.
+
+    Raises
+    ------
+    InputError
+        ``how`` not one of the three.
+
+    Examples
+    --------
+    >>> round(0.3125, 3), round_half_up(0.3125, 3), round_half_up(2030 / 2464, 2), round_half_up(0.3715, 2, "down")
+    (0.312, 0.313, 0.82, 0.37)
+    """
+    from decimal import ROUND_CEILING, ROUND_FLOOR, ROUND_HALF_UP, Decimal
+
+    if not math.isfinite(value):
+        return value
+    modes = {"half up": ROUND_HALF_UP, "down": ROUND_FLOOR, "up": ROUND_CEILING}
+    if how not in modes:
+        raise InputError("how", "must be 'half up', 'down' or 'up'", how)
+    mode = modes[how]
+    return float(Decimal(repr(float(value))).quantize(Decimal(1).scaleb(-digits), rounding=mode))
+
+
+def ratio_range(lower: npt.ArrayLike, upper: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """The exact range of each impact ratio p_i / max_j p_j when every rate p_j lies in [lower_j, upper_j] at once.
+
+    With L_i = max_{j≠i} lower_j and U_i = max_{j≠i} upper_j (0 for a single category), ratio i ranges over
+    [lower_i / max(lower_i, U_i), upper_i / max(upper_i, L_i)], 0/0 read as 1 (every rate 0: parity).
+    proofs/impact_ratio.md proves it; linear in the number of categories (the two largest ends).
+
+    Parameters
+    ----------
+    lower, upper : array_like of float, shape (k,)
+        The rates' simultaneous intervals, 0 <= lower <= upper <= 1.
+
+    Returns
+    -------
+    low, high : numpy.ndarray
+        Each ratio's smallest and largest value over the box.
+
+    Examples
+    --------
+    The highest rate, surely the highest on the box (its lower end above every other upper end), has ratio 1:
+
+    >>> low, high = ratio_range([0.6, 0.2, 0.1], [0.8, 0.5, 0.4])
+    >>> low.round(4).tolist(), high.round(4).tolist()
+    ([1.0, 0.25, 0.125], [1.0, 0.8333, 0.6667])
+    """
+    lo, hi = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    others_lo, others_hi = _max_of_others(lo), _max_of_others(hi)
+    return _parity_ratio(lo, np.maximum(lo, others_hi)), _parity_ratio(hi, np.maximum(hi, others_lo))
+
+
+def _max_of_others(v: FloatArray) -> FloatArray:
+    """out[i] = max over j != i of v[j] (0 for a single value), from the two largest values: linear time."""
+    if v.size < 2:
+        return np.zeros_like(v)
+    top = int(np.argmax(v))
+    second = float(np.max(np.delete(v, top)))
+    out = np.full(v.shape, float(v[top]))
+    out[top] = second
+    return out
+
+
+def _parity_ratio(num: FloatArray, den: FloatArray) -> FloatArray:
+    """num / den with 0 / 0 = 1 (den >= num >= 0 here)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
+
+
+def _counted(
+    data: CountTable | pd.DataFrame,
+    sensitive: str | Sequence[str] | None,
+    outcome: str | None,
+    dropna: bool,
+    weights: str | None,
+) -> CountTable:
+    """The CountTable of ``data``: itself, or a DataFrame's records counted."""
+    if isinstance(data, CountTable):
+        for name, given in (("sensitive", sensitive), ("outcome", outcome), ("weights", weights)):
+            if given is not None:
+                raise InputError(name, "goes with a DataFrame of records: a CountTable is already counted", given)
+        return data
+    if type(data).__name__ != "DataFrame" or not type(data).__module__.startswith("pandas"):
+        raise InputError("data", "must be a CountTable or a pandas DataFrame of records", type(data).__name__)
+    if sensitive is None:
+        raise InputError("sensitive", "name at least one column")
+    if outcome is None:
+        raise InputError("outcome", "name the outcome column")
+    from fairaudit.data.counts import count_records
+
+    columns = [sensitive] if isinstance(sensitive, str) else list(sensitive)
+    return count_records(data, sensitive=columns, outcome=outcome, dropna=dropna, weights=weights)
+
+
+def _indicator(
+    table: CountTable, utility: Utility | str | None, positive: Hashable | None
+) -> tuple[Utility, float | None, str]:
+    """g over the decisions: the utility (0/1), 1{U = positive}, a 0/1 outcome's 1, or 1{score > the median}."""
+    from fairaudit.statistics.record_audit import audit_utility
+
+    if positive is not None and utility is not None:
+        raise InputError("positive", "give positive or utility, not both", positive)
+    binary = {str(d) for d in table.decisions} <= {"0", "1", "True", "False"}
+    if utility is None and positive is None and not binary:
+        return scoring_utility(table), median_score(table), "scoring"
+    g = audit_utility(table, positive, utility)
+    values = np.asarray(g.table(table.contexts[:1], table.groups[:1], table.decisions)[0, 0], dtype=float)
+    if not np.all((values == 0) | (values == 1)):
+        raise InputError("utility", "impact ratios need a 0/1 utility (a selection), or none for scores", g.name)
+    return from_table(values, tuple(table.decisions), name=g.name), None, "selection"
+
+
+def median_score(table: CountTable) -> float:
+    """The median score of the whole sample (weighted with weights), from the counts of each score.
+
+    The smallest score with more than half of the records at or below it; when exactly half lie at or below a
+    score, the mean of it and the next one (the sample median of an even number of records).
+
+    Raises
+    ------
+    InputError
+        Field ``utility``: the outcome is not numeric (say which value is a selection with ``positive``).
+    """
+    if not all(isinstance(d, (int, float, np.number)) and not isinstance(d, bool) for d in table.decisions):
+        raise InputError("utility", "say which outcome is a selection (`positive`): the outcome is not a score")
+    scores = np.array(table.decisions, dtype=float)
+    weight = table.counts.sum(axis=(0, 1)).astype(float)
+    cumulative = np.cumsum(weight) / weight.sum()
+    j = int(np.searchsorted(cumulative, 0.5))
+    return float(scores[j]) if cumulative[j] > 0.5 or j + 1 == len(scores) else float((scores[j] + scores[j + 1]) / 2)
+
+
+def scoring_utility(table: CountTable) -> Utility:
+    """g = 1{score > the whole sample's median score}: the event of the scoring rate (6 RCNY 5-301).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from fairaudit import count_records
+    >>> t = count_records(pd.DataFrame({"g": list("aabbb"), "score": [1, 5, 3, 9, 4]}), sensitive="g", outcome="score")
+    >>> g = scoring_utility(t)
+    >>> g.name, g.values.tolist()
+    ('1{score > median 4}', [0.0, 0.0, 0.0, 1.0, 1.0])
+    """
+    median = median_score(table)
+    values = np.array([float(d) > median for d in table.decisions], dtype=float)
+    return from_table(values, tuple(table.decisions), name=f"1{{score > median {format_label(_plain(median))}}}")
+
+
+def _plain(x: float) -> float | int:
+    return int(x) if float(x).is_integer() else x
+
+
+def _category_types(table: CountTable) -> list[tuple[str, tuple, list[list[int]]]]:
+    """(type name, its categories, for each category the groups of ``table`` it pools)."""
+    columns = table.sensitive_columns
+    types = []
+    if len(columns) > 1:
+        for i, column in enumerate(columns):
+            categories = tuple(sorted({g[i] for g in table.groups}, key=_order))
+            members = [[j for j, g in enumerate(table.groups) if g[i] == c] for c in categories]
+            types.append((column, categories, members))
+    types.append((" x ".join(columns), tuple(table.groups), [[j] for j in range(len(table.groups))]))
+    return types
+
+
+def _order(value: object) -> tuple[int, object]:
+    return (0, value) if isinstance(value, (int, float)) else (1, str(value))
+
+
+def _type_rows(
+    name: str,
+    categories: tuple,
+    n: FloatArray,
+    k: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    keep: np.ndarray,
+    threshold: float,
+    whole: bool,
+) -> list[ImpactRatio]:
+    """The rows of one category type: ratios to its highest included rate, their exact ranges over the box, marks.
+
+    ``whole``: the counts are numbers of records, and each ratio is its exact fraction rounded once.
+    """
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = k / n
+    index = np.flatnonzero(keep)
+    low, high = ratio_range(lo[index], hi[index])
+    best = int(index[np.argmax(rate[index])]) if index.size else -1
+    rows = []
+    for c, nc, kc, r in zip(categories, n, k, rate):
+        rows.append(ImpactRatio(name, c, float(nc), float(r), None, None, True, float(kc), None))
+    for j, i in enumerate(index):
+        if whole:  # (k_i / n_i) / (k_b / n_b) = k_i n_b / (n_i k_b), one rounding
+            num, den = round(k[i]) * round(n[best]), round(n[i]) * round(k[best])
+            ratio = float(Fraction(num, den)) if den else 1.0  # (0 / 0: every rate is 0, parity)
+        else:
+            ratio = float(rate[i] / rate[best]) if rate[best] > 0 else 1.0
+        interval = (float(low[j]), float(high[j]))
+        rows[i] = replace(
+            rows[i], impact_ratio=ratio, interval=interval, excluded=False, mark=_mark(interval, threshold)
+        )
+    return rows
+
+
+def _mark(interval: tuple[float, float], threshold: float) -> str:
+    """``below`` (upper < t), ``possibly below`` (lower < t <= upper) or ``not below`` (lower >= t)."""
+    lower, upper = interval
+    return MARKS[0] if upper < threshold else MARKS[2] if lower >= threshold else MARKS[1]

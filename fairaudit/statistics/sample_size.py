@@ -1,0 +1,489 @@
+"""Sample-size planning: how many queries per cell certify L ≤ target at level 1 − α.
+
+The planned experiment queries a binary decision model n times in every cell
+(x, a) (every released cell (x, ã) behind a privacy filter), counts the
+positive decisions (an indicator utility g = 1{decision = 1}) and computes
+the simultaneous intervals of :func:`fairaudit.statistics.intervals.fairness_intervals`.
+The certificate is the upper end of the interval on L (or L̄); it *meets the
+target* when that upper end is ≤ target. The planner simulates the
+experiment under an assumed model and finds the smallest n whose simulated
+probability of meeting the target (the power) is at least ``power``.
+
+The assumed model: every cell has E[g | x, a] = ``base_rate``, except group 0,
+which has ``base_rate · exp(disparity)`` (``disparity`` in nats; the true L
+and L̄ are then |disparity|). With ``epsilon``, the model is queried on
+released groups behind k-ary randomized response at that ε
+(:func:`fairaudit.laws.mechanisms.randomized_response`): the rates above are those of
+the model's kernel on released groups, the counts are of the kernel, and the
+certificate is for the filtered law Q[x, a] = Σ_ã M[a, ã] K[x, ã] (whose true
+L is smaller than |disparity|).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TypedDict
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray, safe_log
+from fairaudit.base.checks import choice, level, real, whole
+from fairaudit.base.errors import InputError
+from fairaudit.base.json_values import Report, number
+from fairaudit.metrics.box_extremes import disjoint_ratio
+from fairaudit.statistics.confidence_sets import category_bounds, linear_extremes
+from fairaudit.statistics.intervals import METHODS, fairness_intervals
+
+if TYPE_CHECKING:
+    from fairaudit.laws.mechanisms import Mechanism
+
+__all__ = ["BAYES_DATASETS", "DEFAULT_DATASETS", "SamplePlan", "plan"]
+
+DEFAULT_DATASETS = 200
+BAYES_DATASETS = 40  # "bayes" draws 4000 posterior samples per table: about 10 ms a table
+
+
+@dataclass(frozen=True, kw_only=True)
+class SamplePlan:
+    """The result of :func:`plan`: every input, the planned sample size and how it does.
+
+    Attributes
+    ----------
+    target, groups, contexts, base_rate, disparity, confidence, method, power, epsilon, kind, datasets, seed, max_n
+        The inputs (``datasets`` resolved from its default).
+    n_per_cell : int or None
+        The smallest n (queries per cell, released cells behind a filter)
+        found with simulated power ≥ ``power``; None when infeasible.
+    n_total : int or None
+        n_per_cell × contexts × groups.
+    achieved_power : float or None
+        The simulated power at ``n_per_cell`` (at ``max_n`` when the target is
+        not reached there; None when the target is below the true value).
+    expected_upper : float or None
+        The median over the simulated tables of the certificate's upper end
+        at that n, nats (``inf`` possible).
+    true_value : float
+        L (= L̄ here) of the assumed law, behind the filter when ``epsilon``
+        is given, nats.
+    reason : str
+        Why there is no plan ("" when there is one).
+    """
+
+    target: float
+    groups: int
+    contexts: int
+    base_rate: float
+    disparity: float
+    confidence: float
+    method: str
+    power: float
+    epsilon: float | None
+    kind: str
+    datasets: int
+    seed: int
+    max_n: int
+    n_per_cell: int | None
+    n_total: int | None
+    achieved_power: float | None
+    expected_upper: float | None
+    true_value: float
+    reason: str = ""
+
+    @property
+    def feasible(self) -> bool:
+        """Whether a sample size was found."""
+        return self.n_per_cell is not None
+
+    def to_dict(self) -> Report:
+        """The report dictionary: the inputs, ``true_value``, ``feasible`` and ``plans``, a list of this one plan.
+
+        ``fairaudit plan --method all`` joins plans of several methods
+        (same inputs) into one dictionary of this shape.
+        """
+        return {
+            "target": number(self.target),
+            "confidence": number(self.confidence),
+            "power": number(self.power),
+            "kind": self.kind,
+            "groups": self.groups,
+            "contexts": self.contexts,
+            "base_rate": number(self.base_rate),
+            "disparity": number(self.disparity),
+            "epsilon": number(self.epsilon),
+            "seed": self.seed,
+            "max_n": self.max_n,
+            "true_value": number(self.true_value),
+            "feasible": self.feasible,
+            "plans": [
+                {
+                    "method": self.method,
+                    "n_per_cell": self.n_per_cell,
+                    "n_total": self.n_total,
+                    "achieved_power": number(self.achieved_power),
+                    "expected_upper": number(self.expected_upper),
+                    "datasets": self.datasets,
+                    "reason": self.reason,
+                }
+            ],
+        }
+
+
+class _Inputs(TypedDict):
+    """The fields of a :class:`SamplePlan` that repeat its inputs (and the true value)."""
+
+    target: float
+    groups: int
+    contexts: int
+    base_rate: float
+    disparity: float
+    confidence: float
+    method: str
+    power: float
+    epsilon: float | None
+    kind: str
+    datasets: int
+    seed: int
+    max_n: int
+
+
+def _rates(groups: int, contexts: int, base_rate: float, disparity: float) -> FloatArray:
+    """The kernel's E[g | x̃, ã]: shape (contexts, groups)."""
+    r = np.full((contexts, groups), base_rate)
+    r[:, 0] = base_rate * math.exp(disparity)
+    return r
+
+
+class _Certifier:
+    """Upper ends of the certificate for a stack of count tables (D, X, A) with n records per cell."""
+
+    def __init__(
+        self,
+        groups: int,
+        contexts: int,
+        confidence: float,
+        method: str,
+        mechanism: Mechanism | None,
+        kind: str,
+        seed: int,
+    ) -> None:
+        from fairaudit.data.counts import CountTable
+        from fairaudit.laws.tables import Population
+        from fairaudit.laws.utilities import indicator
+
+        self.X, self.A = contexts, groups
+        self.alpha = 1.0 - confidence
+        self.confidence, self.method, self.mechanism, self.kind, self.seed = confidence, method, mechanism, kind, seed
+        self.contexts, self.groups = tuple(range(contexts)), tuple(range(groups))
+        self.population = Population.uniform(self.contexts, self.groups)
+        self.utility = indicator(1, (1, 0))
+        self._table = lambda counts: CountTable(
+            counts, self.contexts, self.groups, (1, 0), ("context",), ("group",), "decision"
+        )
+
+    def exact(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
+        """By :func:`fairness_intervals`, one table at a time."""
+        out = np.empty(k.shape[0])
+        for i, ki in enumerate(k):
+            iv = fairness_intervals(
+                self._table(np.stack([ki, n - ki], -1)),
+                self.utility,
+                self.confidence,
+                self.method,
+                sensitive_mechanism=self.mechanism,
+                population=self.population,
+                seed=self.seed,
+            )
+            out[i] = (iv.local_fairness if self.kind == "local" else iv.global_fairness).upper
+        return out
+
+    def fast(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
+        """The frequentist upper ends, vectorised over the stack (the same steps as fairness_intervals)."""
+        D, X, A = k.shape
+        counts = np.stack([k, n - k], -1).astype(float)  # decisions (1, 0); g = (1, 0)
+        a_cell = self.alpha / (X * A)  # every cell non-empty; population given
+        c_lo, c_hi = category_bounds(counts, a_cell)
+        e_lo, e_hi = linear_extremes(np.array([1.0, 0.0]), c_lo, c_hi)  # (D, X, A)
+        if self.mechanism is None:
+            if self.kind == "local":
+                up = disjoint_ratio(e_lo.reshape(D * X, A), e_hi.reshape(D * X, A))[1].reshape(D, X).max(-1)
+            else:
+                up = disjoint_ratio(e_lo.mean(1), e_hi.mean(1))[1]  # uniform population: P(x | a) = 1/X
+        else:
+            from fairaudit.base.linear_fractional import threshold_max_many
+
+            M = self.mechanism.matrix
+            W = np.einsum("xy,ab->xayb", np.eye(X), M).reshape(X, A, X * A)  # (maps, groups, kernel cells)
+            if self.kind == "global":
+                W = W.mean(0, keepdims=True)
+            lo, hi = e_lo.reshape(D, 1, 1, 1, X * A), e_hi.reshape(D, 1, 1, 1, X * A)
+            vals, _, _ = threshold_max_many(W[None, :, :, None, :], W[None, :, None, :, :], lo, hi)
+            vals = np.where(~np.eye(A, dtype=bool), vals, -np.inf)
+            up = vals.reshape(D, -1).max(-1)
+        return np.array([safe_log(max(float(v), 1.0)) for v in up])
+
+    def __call__(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
+        return self.exact(k, n) if self.method == "bayes" else self.fast(k, n)
+
+
+def plan(
+    target: float,
+    *,
+    groups: int = 2,
+    contexts: int = 1,
+    base_rate: float = 0.5,
+    disparity: float = 0.0,
+    confidence: float = 0.95,
+    method: str = "clopper-pearson",
+    power: float = 0.8,
+    epsilon: float | None = None,
+    kind: str = "local",
+    datasets: int | None = None,
+    seed: int = 0,
+    max_n: int = 1_000_000,
+    progress: Callable[[int, float], None] | None = None,
+) -> SamplePlan:
+    """The number of queries per cell needed to certify L ≤ target at level 1 − α with a given power.
+
+    Power at n is the fraction of ``datasets`` simulated count tables whose
+    certificate (the upper end of the simultaneous interval on L, or on L̄
+    with ``kind="global"``, from :func:`fairaudit.statistics.intervals.fairness_intervals`
+    with a uniform independent population) is ≤ ``target``. The tables at n
+    are drawn afresh from ``numpy.random.default_rng(seed)`` as
+    ``rng.binomial(n, rates, size=(datasets, contexts, groups))`` (positive
+    decisions; n − k negative), so every n uses the same random stream.
+
+    The search: n = 1, 2, 4, ... until the power reaches ``power`` (or
+    ``max_n``), then bisection over the integers between the last failing and
+    the first passing n. The simulated power is monotone in n only
+    approximately (Monte Carlo noise, discreteness of the counts), so the
+    result is the smallest n *found*, and it is verified: the returned n has
+    simulated power ≥ ``power`` and n − 1 (always evaluated, unless n = 1)
+    has less; a smaller n elsewhere could pass by chance.
+
+    Parameters
+    ----------
+    target : float
+        The target on L (or L̄), nats, ≥ 0.
+    groups, contexts : int
+        k ≥ 2 groups and ≥ 1 contexts; n queries in each of the
+        contexts × groups cells.
+    base_rate : float
+        E[g | x, a] in (0, 1) of every group but group 0.
+    disparity : float
+        log of group 0's rate over the others' (nats; the true L without a
+        filter is |disparity|); base_rate · exp(disparity) must be ≤ 1.
+    confidence : float
+        1 − α in (0, 1).
+    method : {"clopper-pearson", "multinomial", "bayes"}
+        The interval method (for a binary decision the first two coincide).
+    power : float
+        The required probability of meeting the target, in (0, 1).
+    epsilon : float, optional
+        With ε ≥ 0, the model sees the groups through k-ary randomized
+        response at ε, the counts are of its kernel on released groups and
+        the certificate is for the filtered law.
+    kind : {"local", "global"}
+        Certify L or L̄.
+    datasets : int, optional
+        Simulated tables per n: default 200, and 40 for ``"bayes"``, which
+        computes 4000 posterior draws per table (about 10 ms each) and is not
+        vectorised over tables; the frequentist methods are.
+    seed : int
+        Seed of the simulation (and of the Bayesian posterior draws).
+    max_n : int
+        The largest n tried.
+    progress : callable, optional
+        Called as ``progress(n, power)`` after each n evaluated.
+
+    Returns
+    -------
+    SamplePlan
+        With ``n_per_cell = None`` and a ``reason`` when the target is not
+        above the true value of L (nothing can certify it) or ``max_n`` does
+        not reach the power.
+
+    Raises
+    ------
+    InputError
+        On an invalid argument, naming it and its value.
+
+    Notes
+    -----
+    Source: the certificate is the upper end of :func:`fairaudit.statistics.intervals.fairness_intervals`
+    (``proofs/intervals.md``); power is estimated by simulation, so the plan is exact only up
+    to Monte Carlo error (``datasets`` tables per n, seeded).
+
+    Examples
+    --------
+    Two groups of a fair model (E[g] = 0.5): queries per group to certify
+    L ≤ 0.5 nats at 95% with power 80%.
+
+    >>> p = plan(0.5, datasets=100)
+    >>> p.n_per_cell, p.n_total, p.achieved_power >= 0.8
+    (168, 336, True)
+    >>> round(p.expected_upper, 3) <= 0.5
+    True
+    >>> plan(0.1, disparity=0.2).reason
+    'the target 0.1 nats is not above the true L of the model, 0.2 nats: no sample size certifies it'
+    """
+    inputs = _checked_inputs(
+        target,
+        groups=groups,
+        contexts=contexts,
+        base_rate=base_rate,
+        disparity=disparity,
+        confidence=confidence,
+        method=method,
+        power=power,
+        epsilon=epsilon,
+        kind=kind,
+        datasets=datasets,
+        seed=seed,
+        max_n=max_n,
+    )
+    if progress is not None and not callable(progress):
+        raise InputError("progress", "must be callable", progress)
+    rates = _rates(inputs["groups"], inputs["contexts"], inputs["base_rate"], inputs["disparity"])
+    mechanism: Mechanism | None = None
+    filtered = rates
+    if inputs["epsilon"] is not None:
+        from fairaudit.laws.mechanisms import randomized_response
+
+        mechanism = randomized_response(tuple(range(inputs["groups"])), inputs["epsilon"])
+        filtered = rates @ mechanism.matrix.T  # Q[x, a] = sum_ã M[a, ã] K[x, ã]
+    true_value = float(np.log(filtered.max(-1) / filtered.min(-1)).max())
+    if inputs["target"] <= true_value:
+        name = "L" if inputs["kind"] == "local" else "L-bar"
+        return SamplePlan(
+            n_per_cell=None,
+            n_total=None,
+            achieved_power=None,
+            expected_upper=None,
+            true_value=true_value,
+            reason=f"the target {inputs['target']:.6g} nats is not above the true {name} of the model, "
+            f"{true_value:.6g} nats: no sample size certifies it",
+            **inputs,
+        )
+    certifier = _Certifier(
+        inputs["groups"],
+        inputs["contexts"],
+        inputs["confidence"],
+        inputs["method"],
+        mechanism,
+        inputs["kind"],
+        inputs["seed"],
+    )
+    return _search(inputs, true_value, rates, certifier, progress)
+
+
+def _checked_inputs(
+    target: float,
+    *,
+    groups: int,
+    contexts: int,
+    base_rate: float,
+    disparity: float,
+    confidence: float,
+    method: str,
+    power: float,
+    epsilon: float | None,
+    kind: str,
+    datasets: int | None,
+    seed: int,
+    max_n: int,
+) -> _Inputs:
+    """The arguments of :func:`plan`, checked in order and converted (``datasets`` resolved from its default)."""
+    target = real(target, "target", low=0.0, what="a finite number >= 0 (nats)")
+    groups = whole(groups, "groups", low=2, high=1000)
+    contexts = whole(contexts, "contexts", low=1, high=100_000)
+    base_rate = real(
+        base_rate, "base_rate", low=0.0, high=1.0, low_open=True, high_open=True, what="a number in (0, 1)"
+    )
+    disparity = real(disparity, "disparity", what="a finite number (nats)")
+    if base_rate * math.exp(disparity) > 1:
+        raise InputError(
+            "disparity",
+            f"gives group 0 the rate base_rate * exp(disparity) = {base_rate * math.exp(disparity):.6g} > 1",
+            disparity,
+        )
+    confidence = level(confidence, "confidence")
+    method = choice(method, "method", METHODS)
+    power = real(power, "power", low=0.0, high=1.0, low_open=True, high_open=True, what="a number in (0, 1)")
+    if epsilon is not None:
+        epsilon = real(epsilon, "epsilon", low=0.0, what="a finite number >= 0 (nats)")
+    kind = choice(kind, "kind", ("local", "global"))
+    datasets = (
+        (BAYES_DATASETS if method == "bayes" else DEFAULT_DATASETS)
+        if datasets is None
+        else whole(datasets, "datasets", low=1, high=1_000_000)
+    )
+    return _Inputs(
+        target=target,
+        groups=groups,
+        contexts=contexts,
+        base_rate=base_rate,
+        disparity=disparity,
+        confidence=confidence,
+        method=method,
+        power=power,
+        epsilon=epsilon,
+        kind=kind,
+        datasets=datasets,
+        seed=whole(seed, "seed"),
+        max_n=whole(max_n, "max_n", low=1),
+    )
+
+
+def _search(
+    inputs: _Inputs,
+    true_value: float,
+    rates: FloatArray,
+    certifier: _Certifier,
+    progress: Callable[[int, float], None] | None,
+) -> SamplePlan:
+    """The smallest n found with simulated power >= ``power``: doubling, then bisection (see :func:`plan`)."""
+    target, power, max_n, seed = inputs["target"], inputs["power"], inputs["max_n"], inputs["seed"]
+    seen: dict[int, tuple[float, float]] = {}  # n -> (power, median upper end)
+
+    def evaluate(n: int) -> tuple[float, float]:
+        if n not in seen:
+            rng = np.random.default_rng(seed)
+            k = rng.binomial(n, rates, size=(inputs["datasets"], inputs["contexts"], inputs["groups"]))
+            up = certifier(k, n)
+            seen[n] = (float(np.mean(up <= target)), float(np.median(up)))
+            if progress is not None:
+                progress(n, seen[n][0])
+        return seen[n]
+
+    lo, hi = 0, 1
+    while evaluate(hi)[0] < power:
+        if hi >= max_n:
+            p, med = seen[hi]
+            return SamplePlan(
+                n_per_cell=None,
+                n_total=None,
+                achieved_power=p,
+                expected_upper=med,
+                true_value=true_value,
+                reason=f"max_n = {max_n} queries per cell give power {p:.3g} < {power:.3g}",
+                **inputs,
+            )
+        lo, hi = hi, min(2 * hi, max_n)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if evaluate(mid)[0] >= power:
+            hi = mid
+        else:
+            lo = mid
+    p, med = seen[hi]
+    return SamplePlan(
+        n_per_cell=hi,
+        n_total=hi * inputs["contexts"] * inputs["groups"],
+        achieved_power=p,
+        expected_upper=med,
+        true_value=true_value,
+        **inputs,
+    )

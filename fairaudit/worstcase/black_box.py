@@ -1,0 +1,596 @@
+"""The class certificate: the exact maximum of L over every decision model and every utility of a class.
+
+:func:`black_box_bound` and its result :class:`BlackBoxCertificate` (``proofs/black_box.md`` §1–5).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray, IntArray, safe_log
+from fairaudit.base.checks import nonnegative
+from fairaudit.base.errors import InputError
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
+from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
+from fairaudit.laws.tables import Kernel, Population
+from fairaudit.laws.utilities import Utility, check_metric
+from fairaudit.metrics.bounds import Assumption, check_assumptions
+from fairaudit.worstcase.pair_search import (
+    BoxPairs,
+    SearchResult,
+    box_pairs,
+    check_class,
+    check_method,
+    pair_epsilon,
+    pair_ratio,
+    relaxed_first,
+    search,
+)
+from fairaudit.worstcase.randomized_response import rr_box, rr_lipschitz
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class BlackBoxCertificate:
+    """The exact maximum of L over every decision model and every utility in a class.
+
+    Attributes
+    ----------
+    value : float
+        max L in nats (+inf when the class allows E[g | x, a'] → 0 with
+        E[g | x, a] > 0; NaN when the class is empty).
+    ratio : float
+        exp(value).
+    group, other_group : hashable or None
+        The maximising pair of true groups (``group`` gets more utility).
+    released : tuple
+        The released values ã on which the worst model gives utility γ.
+    utility_by_release : numpy.ndarray
+        The worst case's expected utility given the release: shape
+        (n_released,) when g does not depend on the group (L_A = 0),
+        (n_groups, n_released) otherwise (row b for a member of group b).
+    lower, gamma : float
+        The class of utilities [lower, γ].
+    tau : float or None
+        The lower bound on E[g | x, a] (None: only lower).
+    lipschitz : float
+        L_A (0: g does not depend on the group).
+    mechanism : Mechanism
+        M_A.
+    method : {"threshold", "lp"}
+        ``threshold``: decided in closed form (the threshold solution, or
+        with a binding τ the floor relaxation whose point met every
+        constraint); ``lp``: at least one Charnes–Cooper LP was solved.
+    status : {"optimal", "unbounded", "infeasible", "trivial"}
+    solver_status : str
+    reason : str
+        Why the value is +inf or NaN, or which shortcut decided it.
+    programs_solved : int
+        LPs solved (0 on the threshold path).
+    assumptions : tuple of Assumption
+    """
+
+    value: float
+    ratio: float
+    group: Hashable | None
+    other_group: Hashable | None
+    released: tuple
+    utility_by_release: FloatArray
+    lower: float
+    gamma: float
+    tau: float | None
+    lipschitz: float
+    mechanism: Mechanism
+    method: str
+    status: str
+    solver_status: str
+    reason: str
+    programs_solved: int
+    assumptions: tuple[Assumption, ...]
+
+    @property
+    def form(self) -> str:
+        """Always ``"black_box"``, like :attr:`fairaudit.metrics.bounds.Bound.form`."""
+        return "black_box"
+
+    def worst_model(self) -> tuple[Kernel, Utility]:
+        """A concrete decision model and utility that attain the value.
+
+        Returns
+        -------
+        kernel : Kernel
+            One context ``"any"``, the mechanism's outputs as groups,
+            decisions ``("high", "low")``: P(high | ã) = (h(ã) − lower)/(γ − lower).
+        utility : Utility
+            g(high) = γ, g(low) = lower.
+
+        Raises
+        ------
+        InputError
+            When g depends on the group (L_A > 0: the worst model then needs
+            a utility per group) or when there is no maximiser.
+        """
+        h = self.utility_by_release
+        if h.ndim != 1 or self.status not in ("optimal", "trivial"):
+            raise InputError(
+                "worst_model",
+                "is available for utilities that do not depend on the group, with a finite optimum",
+                self.status,
+            )
+        span = self.gamma - self.lower
+        high = np.clip((h - self.lower) / span, 0.0, 1.0) if span > 0 else np.ones_like(h)
+        table = np.stack([high, 1.0 - high], axis=-1)[None, :, :]
+        kernel = Kernel(table, ["any"], self.mechanism.outputs, ["high", "low"], name="worst model")
+        return kernel, Utility([self.gamma, self.lower], ["high", "low"], name="worst utility")
+
+    def __repr__(self) -> str:
+        tau = "" if self.tau is None else f", tau={self.tau:g}"
+        return (
+            f"BlackBoxCertificate(value={self.value:.6g} nats, ratio={self.ratio:.6g}, "
+            f"pair={self.group!r} vs {self.other_group!r}, class [{self.lower:g}, {self.gamma:g}]{tau}, "
+            f"method={self.method})"
+        )
+
+
+def black_box_bound(
+    mechanism: Mechanism,
+    *,
+    lower: float = 0.0,
+    gamma: float = 1.0,
+    tau: float | None = None,
+    lipschitz: float = 0.0,
+    metric: npt.ArrayLike | None = None,
+    population: Population | None = None,
+    method: str = "auto",
+) -> BlackBoxCertificate:
+    """Exact max of local g-fairness over every decision model behind M_A, for a class of utilities.
+
+    The class: g(u, x, a) ∈ [lower, γ]; E[g | x, a] ≥ τ for every context and
+    group; |g(u, x, a) − g(u, x, a')| ≤ L_A d(a, a'). The value is
+    max over ordered pairs (a, a') of max (M_A[a]·h[a]) / (M_A[a']·h[a']) over
+    h ∈ R^{n_groups × n_released} with lower ≤ h ≤ γ, |h[b] − h[c]| ≤ L_A d(b, c)
+    and M_A[b]·h[b] ≥ τ for every b (h[b] = h for all b when L_A = 0).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        M_A, shape (n_groups, n_released).
+    lower, gamma : float
+        The range of g, 0 ≤ lower ≤ γ.
+    tau : float, optional
+        Lower bound on E[g | x, a], ≤ γ. E ≥ lower always holds, so τ ≤ lower
+        changes nothing.
+    lipschitz : float
+        L_A ≥ 0; 0 means g does not depend on the group.
+    metric : array_like, shape (n_groups, n_groups), optional
+        d(a, a') for the Lipschitz condition; default the discrete metric.
+    population : Population, optional
+        When given, X ⊥ A is checked on it (needed for the bound on L̄ only).
+    method : {"auto", "threshold", "lp"}
+        ``auto``: the threshold solution when τ ≤ lower and L_A = 0; with a
+        binding τ, the closed-form relaxation that keeps only the denominator
+        group's constraint, checked against the others, and the LP where it
+        fails; the LP when L_A > 0. Pairs are searched in decreasing order of
+        that relaxation (an upper bound) and the search stops when no pair
+        left can win. ``lp`` forces the LP (a cross-check); ``threshold``
+        raises when τ binds or L_A > 0.
+
+    Returns
+    -------
+    BlackBoxCertificate
+        The value in nats, the maximising pair, and the worst model's
+        expected utility per released value.
+
+    Raises
+    ------
+    InputError
+        If ``lower``, ``gamma``, ``tau`` or ``lipschitz`` is negative or not
+        finite, lower > γ, τ > γ (the class is empty), the metric is invalid,
+        or the method is unknown or does not apply.
+
+    Notes
+    -----
+    M_X drops out, and under X ⊥ A the value also bounds L̄ exactly. It is
+    never larger than the tight and paper bounds with the same τ, L_A and
+    metric; with lower = 0, no τ and L_A = 0 it is ε(M_A) (the corollary is
+    attained). ``proofs/black_box.md``.
+
+    With L_A = 0 only the pairs of groups that can reach the maximum are
+    solved: with lower = 0 and no τ the rows that can reach ε(M_A), found
+    in O(nm); otherwise one pass over the pairs (O(n²m) time, O(nm) memory)
+    sets the others aside by exact upper bounds (``proofs/black_box.md``
+    §7). The result is that of solving every pair.
+
+    For k-ary randomized response (the mechanism
+    :func:`~fairaudit.laws.mechanisms.randomized_response` returns) every pair is
+    alike and the value is a closed form, O(1) with the worst h in O(k):
+    the threshold and the floor relaxation (``proofs/black_box.md`` §3,
+    Propositions 3 and 3b) and, with L_A > 0 and the discrete metric (or
+    without a binding τ, any metric), a 3-variable program solved at its
+    vertices (§5, Proposition 7b; ``utility_by_release`` is then the
+    k x k table). ``method="lp"`` forces the general route.
+
+    Examples
+    --------
+    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> m = randomized_response(["a", "b"], keep=0.7)
+    >>> round(black_box_bound(m).ratio, 12)                       # 0.7 / 0.3
+    2.333333333333
+    >>> c = black_box_bound(m, lower=0.5, gamma=1.0)               # (0.5 + 0.5·0.7) / (0.5 + 0.5·0.3)
+    >>> round(c.ratio, 12), c.group, c.released
+    (1.307692307692, 'a', ('a',))
+    >>> c = black_box_bound(m, tau=0.5)                            # (0.7 + 0.3·2/7) / 0.5 = 11/7
+    >>> round(c.ratio, 12), c.method, c.utility_by_release.round(7).tolist()
+    (1.571428571429, 'threshold', [1.0, 0.2857143])
+    >>> round(black_box_bound(m, tau=0.5, method="lp").ratio, 7)  # the Charnes–Cooper LP agrees
+    1.5714286
+    """
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    method = check_method(method)
+    lower, gamma, tau = check_class(lower, gamma, tau)
+    lip = nonnegative(lipschitz, "lipschitz")
+    n = len(mechanism.inputs)
+    rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
+    # (the discrete metric is never built: k-ary randomized response and L_A = 0 do not need it)
+    d = check_metric(metric, n) if n >= 1 and metric is not None else None
+    floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor
+    binding = floor > lower
+    lip_on = lip > 0 and n >= 2 and gamma > lower
+    if method == "threshold" and (binding or lip_on):
+        raise InputError("method", "the threshold solution needs tau <= lower and lipschitz = 0", method)
+    assumptions = _class_assumptions(mechanism, population, lower, gamma, tau, lip, lip_on)
+
+    if gamma > 0 and gamma != 1.0:
+        # Only the shape of the class matters: solve it on the scale gamma = 1 (well-conditioned LPs), scale back.
+        unit = black_box_bound(
+            mechanism,
+            lower=lower / gamma,
+            gamma=1.0,
+            tau=None if tau is None else tau / gamma,
+            lipschitz=lip / gamma,
+            metric=metric,
+            population=population,
+            method=method,
+        )
+        return replace(
+            unit,
+            utility_by_release=unit.utility_by_release * gamma,
+            lower=lower,
+            gamma=gamma,
+            tau=tau,
+            lipschitz=unit.lipschitz * gamma,
+            assumptions=assumptions,
+        )
+
+    problem = _ClassProblem(
+        mechanism=mechanism,
+        lower=lower,
+        gamma=gamma,
+        tau=tau,
+        lipschitz=lip,
+        floor=floor,
+        binding=binding,
+        lipschitz_on=lip_on,
+        method=method,
+        assumptions=assumptions,
+    )
+    if n < 2 or gamma == 0 or lower == gamma:
+        reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
+        m = len(mechanism.outputs)
+        return problem.certificate(
+            1.0, None, None, (), np.full(m, gamma), "threshold", "trivial", "threshold", reason, 0
+        )
+    if rr is not None:
+        closed = _randomized_response_certificate(problem, rr, d)
+        if closed is not None:
+            return closed
+    M = mechanism.matrix
+    if lip_on:
+        return _lipschitz_certificate(problem, M, check_metric(metric, n) if d is None else d)
+    # the pairs whose box program (with a binding τ, floor relaxation) can be the largest, solved exactly;
+    # the others are set aside by exact upper bounds, one pass over the pairs (proofs/black_box.md §7)
+    found = box_pairs(M, lower, gamma, floor if binding else None)
+    if not binding and method != "lp":
+        return _threshold_certificate(problem, M, found)
+    return _lp_certificate(problem, M, found)
+
+
+def _class_assumptions(
+    mechanism: Mechanism,
+    population: Population | None,
+    lower: float,
+    gamma: float,
+    tau: float | None,
+    lip: float,
+    lip_on: bool,
+) -> tuple[Assumption, ...]:
+    """The assumptions of a class certificate: the mechanism's (and X ⊥ A on ``population``), then the class vouched for."""
+    assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
+        Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
+        Assumption(
+            "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",
+            "vouched",
+            f"L_A = {lip:g}" if lip_on else "L_A = 0",
+        ),
+    )
+    if tau is not None:
+        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
+    return assumptions
+
+
+@dataclass(frozen=True, kw_only=True)
+class _ClassProblem:
+    """A checked class of utilities on the scale γ = 1 (or γ = 0), and what every route of the certificate needs."""
+
+    mechanism: Mechanism
+    lower: float
+    gamma: float
+    tau: float | None
+    lipschitz: float  # L_A as given
+    floor: float  # E[g | x, a] >= floor: max(τ, lower)
+    binding: bool  # floor > lower
+    lipschitz_on: bool  # L_A > 0 matters: two groups or more, and lower < γ
+    method: str
+    assumptions: tuple[Assumption, ...]
+
+    def certificate(
+        self,
+        ratio: float,
+        group: Hashable | None,
+        other_group: Hashable | None,
+        released: tuple,
+        utility_by_release: FloatArray,
+        method: str,
+        status: str,
+        solver_status: str,
+        reason: str,
+        programs_solved: int,
+        *,
+        value: float | None = None,
+    ) -> BlackBoxCertificate:
+        """The certificate of a maximiser; ``value`` (nats) defaults to the log of ``ratio`` (NaN stays NaN)."""
+        if value is None:
+            value = safe_log(ratio) if not math.isnan(ratio) else math.nan
+        return BlackBoxCertificate(
+            value=value,
+            ratio=ratio,
+            group=group,
+            other_group=other_group,
+            released=released,
+            utility_by_release=utility_by_release,
+            lower=self.lower,
+            gamma=self.gamma,
+            tau=self.tau,
+            lipschitz=self.lipschitz if self.lipschitz_on else 0.0,
+            mechanism=self.mechanism,
+            method=method,
+            status=status,
+            solver_status=solver_status,
+            reason=reason,
+            programs_solved=programs_solved,
+            assumptions=self.assumptions,
+        )
+
+
+def _randomized_response_certificate(
+    problem: _ClassProblem, rr: RandomizedResponseParameters, d: FloatArray | None
+) -> BlackBoxCertificate | None:
+    """k-ary randomized response: every ordered pair is alike, closed forms (proofs/black_box.md §3 and §5).
+
+    None where no closed form applies (L_A > 0, a binding τ and a metric other than the discrete one).
+    """
+    lower, gamma, floor, lip = problem.lower, problem.gamma, problem.floor, problem.lipschitz
+    outputs, inputs = problem.mechanism.outputs, problem.mechanism.inputs
+    n, m = len(inputs), len(outputs)
+    if not problem.lipschitz_on:
+        w = rr_box(rr, lower, gamma, floor)
+        inf = math.isinf(w.value)
+        return problem.certificate(
+            w.ratio,
+            inputs[0],
+            inputs[1],
+            tuple(outputs[o] for o in w.released(n, gamma)),
+            w.vector(n),
+            "threshold",
+            "unbounded" if inf else "optimal",
+            "threshold" if w.prefix else "closed form",
+            "some released value is possible for one group and impossible for another" if inf else "",
+            0,
+            value=w.value,
+        )
+    off_diagonal = None if d is None else d[~np.eye(n, dtype=bool)]
+    discrete = off_diagonal is None or bool(np.all(off_diagonal == off_diagonal[0]))
+    if not discrete and problem.binding:
+        return None
+    # (without a binding τ any metric: the other groups extend the pair's h, McShane; the pair of diameter)
+    a, b = (0, 1) if d is None or discrete else np.unravel_index(int(np.argmax(d)), d.shape)
+    lam = lip * (1.0 if off_diagonal is None else float(off_diagonal.max()))
+    closed = rr_lipschitz(rr, lower, gamma, floor, lam)
+    if closed is None:
+        return problem.certificate(
+            math.inf,
+            inputs[a],
+            inputs[b],
+            (),
+            np.full((n, m), math.nan),
+            "threshold",
+            "unbounded",
+            "closed form",
+            "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0 (lower = 0 and no tau: "
+            "g = 0 for one group and L_A d(a, a') for the other)",
+            0,
+        )
+    ratio, g3, f3 = closed
+    cells = np.full(m, 2)
+    cells[a], cells[b] = 0, 1
+    f, g = f3[cells], g3[cells]
+    if d is None or discrete:
+        h = np.broadcast_to(f, (n, m)).copy()
+    else:  # the largest Lipschitz extension of (f at a, g at b) to the other groups
+        h = np.clip(np.minimum(f[None, :] + lip * d[:, a, None], g[None, :] + lip * d[:, b, None]), lower, gamma)
+    h[a], h[b] = f, g
+    top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
+    released = tuple(outputs[o] for o in top)
+    return problem.certificate(ratio, inputs[a], inputs[b], released, h, "threshold", "optimal", "closed form", "", 0)
+
+
+def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
+    """No binding τ and L_A = 0: the largest box value over the pairs (the first row-major), and its threshold prefix."""
+    lower, gamma = problem.lower, problem.gamma
+    i = int(np.argmax(found.box))  # (the pairs are row-major: ties keep the first, as over the whole n x n table)
+    a, b = int(found.a[i]), int(found.b[i])
+    _, k_ab, order_ab = threshold_max_many(M[a], M[b], lower, gamma)  # the maximising pair's prefix
+    top = order_ab[: int(k_ab)]
+    h = np.full(M.shape[1], lower)
+    h[top] = gamma
+    ratio = float(found.box[i])
+    status = "unbounded" if math.isinf(ratio) else "optimal"
+    reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
+    inputs, outputs = problem.mechanism.inputs, problem.mechanism.outputs
+    released = tuple(outputs[o] for o in top)
+    return problem.certificate(ratio, inputs[a], inputs[b], released, h, "threshold", status, "threshold", reason, 0)
+
+
+def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
+    """τ binds or the LP was asked for (L_A = 0): the pair search over the pairs that can win, by LP where needed.
+
+    The pairs :func:`box_pairs` set aside have upper bounds below (1 − PRUNE) × a value the search reaches first,
+    so it would stop before them: searching the others only gives the same result (proofs/black_box.md §7).
+    """
+    pairs = np.column_stack([found.a, found.b])
+    upper = found.box.copy()
+    if problem.floor > 0:  # γ/τ, and the tight form at t = e^ε_aa' (δ = 0 there)
+        upper = np.minimum(upper, np.minimum(problem.gamma / problem.floor, pair_ratio(M, found.a, found.b)))
+    if problem.binding:
+        assert found.relaxed is not None  # (computed for a binding τ)
+        upper = np.minimum(upper, found.relaxed)
+    return _searched_certificate(problem, search(upper, _box_solver(problem, M, pairs)), pairs)
+
+
+def _lipschitz_certificate(problem: _ClassProblem, M: FloatArray, d: FloatArray) -> BlackBoxCertificate:
+    """The utility may depend on the group (L_A > 0): the pair search over LPs in (n, m) variables, every pair.
+
+    Upper bounds per pair (ratios): γ/τ and the tight form at t = e^ε_aa'.
+    """
+    n, m = M.shape
+    pairs = np.argwhere(~np.eye(n, dtype=bool))  # the ordered pairs a != b, row-major
+    upper = np.full(len(pairs), np.inf)
+    floor = problem.floor
+    if floor > 0:
+        t = pair_epsilon(M)[pairs[:, 0], pairs[:, 1]]
+        slack = problem.lipschitz * d[pairs[:, 0], pairs[:, 1]] / floor
+        upper = np.minimum(upper, np.minimum(problem.gamma / floor, t + slack))
+    prog = _lipschitz_program(M, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d)
+
+    def solve(i: int) -> FractionalResult:
+        a, b = pairs[i]
+        p = np.zeros(n * m)
+        q = np.zeros(n * m)
+        p[a * m : (a + 1) * m] = M[a]
+        q[b * m : (b + 1) * m] = M[b]
+        return prog.solve(p, q)
+
+    return _searched_certificate(problem, search(upper, solve), pairs)
+
+
+def _box_solver(problem: _ClassProblem, M: FloatArray, pairs: IntArray) -> Callable[[int], FractionalResult]:
+    """Solve the program of pair i (L_A = 0): by the floor relaxation where it is feasible, else by the LP."""
+    lower, gamma, floor, binding = problem.lower, problem.gamma, problem.floor, problem.binding
+    n, m = M.shape
+    progs: list[FractionalProgram] = []
+
+    def program() -> FractionalProgram:
+        if not progs:
+            a_ub = -M if binding else None
+            progs.append(
+                FractionalProgram(
+                    m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
+                )
+            )
+        return progs[0]
+
+    if binding and problem.method != "lp":
+        return relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M, program)
+
+    def solve(i: int) -> FractionalResult:
+        a, b = pairs[i]
+        return program().solve(M[a], M[b])
+
+    return solve
+
+
+def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: IntArray) -> BlackBoxCertificate:
+    """The certificate of the pair search's maximiser (NaN, "infeasible", when the class is empty)."""
+    lower, gamma, lip_on = problem.lower, problem.gamma, problem.lipschitz_on
+    n, m = len(problem.mechanism.inputs), len(problem.mechanism.outputs)
+    r = found.result
+    if found.index < 0:
+        return problem.certificate(
+            math.nan,
+            None,
+            None,
+            (),
+            np.full(m, math.nan),
+            "lp",
+            "infeasible",
+            r.solver_status if r else "",
+            found.reason or "the class is empty",
+            found.solved,
+        )
+    assert r is not None  # a maximising pair was found
+    a, b = pairs[found.index]
+    outputs = problem.mechanism.outputs
+    if r.argmax is None:
+        h = np.full(m if not lip_on else (n, m), math.nan)
+        released: tuple = ()
+    else:
+        h = r.argmax if not lip_on else r.argmax.reshape(n, m)
+        h = np.clip(h, lower, gamma)
+        row = h if not lip_on else h[a]
+        released = tuple(outputs[o] for o in np.flatnonzero(row >= gamma - 1e-9 * max(1.0, gamma)))
+    inputs = problem.mechanism.inputs
+    method = "lp" if found.solved else "threshold"
+    return problem.certificate(
+        r.value, inputs[a], inputs[b], released, h, method, r.status, r.solver_status, r.reason, found.solved
+    )
+
+
+def _lipschitz_program(
+    M: FloatArray, lower: float, gamma: float, floor: float | None, lip: float, d: FloatArray
+) -> FractionalProgram:
+    """The class polytope with a utility per group: h (n, m) flattened row-major."""
+    import scipy.sparse as sp
+
+    n, m = M.shape
+    rows: list[sp.csr_matrix] = []
+    b_ub: list[FloatArray] = []
+    group_b, group_c = np.triu_indices(n, 1)
+    limit = lip * d[group_b, group_c]
+    keep = limit < gamma - lower  # looser pairs are implied by the box
+    group_b, group_c, limit = group_b[keep], group_c[keep], limit[keep]
+    if group_b.size:
+        k = group_b.size * m
+        r = np.arange(k)
+        released = np.tile(np.arange(m), group_b.size)
+        col_b = np.repeat(group_b, m) * m + released
+        col_c = np.repeat(group_c, m) * m + released
+        diff = sp.csr_matrix(
+            (np.concatenate([np.ones(k), -np.ones(k)]), (np.concatenate([r, r]), np.concatenate([col_b, col_c]))),
+            shape=(k, n * m),
+        )
+        rows += [diff, -diff]
+        b_ub += [np.repeat(limit, m), np.repeat(limit, m)]
+    if floor is not None:
+        # −M[b]·h[b] ≤ −τ: block-diagonal rows
+        tau_rows = sp.block_diag([-M[b][None, :] for b in range(n)], format="csr")
+        rows.append(tau_rows)
+        b_ub.append(np.full(n, -floor))
+    a_ub = sp.vstack(rows, format="csr") if rows else None
+    return FractionalProgram(
+        n * m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else np.concatenate(b_ub)
+    )

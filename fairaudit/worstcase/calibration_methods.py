@@ -1,0 +1,542 @@
+"""The four calibration methods behind :func:`fairaudit.worstcase.calibration.calibrate`: what each finds along a family.
+
+Each method takes the checked inputs (:class:`Common`) and returns a :class:`Found`: the largest ε meeting the
+target (NaN when none does), the certificate there and the reason; :func:`fairaudit.worstcase.calibration.calibrate` turns it
+into a :class:`~fairaudit.worstcase.calibration.Calibration` with the family's member and keep probability.
+
+* :func:`closed_form` — ``paper`` and ``tight``, closed forms of the main theorem.
+* :func:`black_box` — the exact worst case over every model, non-decreasing along the family: bracketed and
+  refined, or the closed form of ``proofs/black_box.md`` §3 for k-ary randomized response;
+  :func:`black_box_global` on L̄ when X and A are dependent.
+* :func:`white_box` — a known decision kernel: the exact L (L̄), scanned on a grid and refined; or the upper end of
+  its range over the utility of one decision known only within [min g, max g] (the unparsed reply).
+
+Proofs: ``proofs/calibration.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, TypedDict
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import EXP_SAFE, FloatArray
+from fairaudit.base.errors import InputError
+from fairaudit.base.labels import format_label
+from fairaudit.laws.mechanisms import Mechanism, MechanismFamily, RandomizedResponse, identity
+from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.utilities import Utility, check_metric
+from fairaudit.metrics.bounds import main_theorem, main_theorem_tight
+from fairaudit.metrics.fairness import global_fairness, local_fairness
+from fairaudit.worstcase.black_box import black_box_bound
+from fairaudit.worstcase.calibration_search import EPS_MAX, bracket, keep_grid, largest_meeting
+from fairaudit.worstcase.randomized_response import rr_class_value, rr_law
+
+__all__ = [
+    "Common",
+    "Found",
+    "black_box",
+    "black_box_global",
+    "closed_form",
+    "infeasible",
+    "rr_black_box_epsilon",
+    "white_box",
+]
+
+
+class Common(TypedDict):
+    """The fields of a :class:`~fairaudit.worstcase.calibration.Calibration` that repeat its inputs, whatever the method finds."""
+
+    target: float
+    kind: str
+    groups: int
+    gamma: float
+    lower: float
+    tau: float
+    delta: float
+    lipschitz: float
+    diameter: float
+
+
+@dataclass(frozen=True)
+class Found:
+    """What a method finds: the largest ε meeting the target, the certificate there, and why.
+
+    Attributes
+    ----------
+    epsilon : float
+        Nats; +inf when every ε meets the target, NaN when none does.
+    bound : float
+        The certificate at ε; when infeasible the floor (or +inf when nothing is certified).
+    reason : str
+    feasible : bool
+    """
+
+    epsilon: float
+    bound: float
+    reason: str
+    feasible: bool = True
+
+
+def infeasible(bound: float, reason: str) -> Found:
+    """No ε meets the target: ``bound`` is the least any ε reaches (+inf when nothing is certified)."""
+    return Found(math.nan, bound, reason, feasible=False)
+
+
+# -- paper and tight ------------------------------------------------------------------------------------
+
+
+def closed_form(common: Common, method: str) -> Found:
+    """``paper`` (ε = target − log(1 + c/τ)) or ``tight`` (ε = log(e^target − c/τ)), c = L_A·diam + δγ."""
+    target, gamma, tau = common["target"], common["gamma"], common["tau"]
+    lip, diam, delta = common["lipschitz"], common["diameter"], common["delta"]
+    c = lip * diam + delta * gamma
+    if math.isnan(tau):  # (calibrate checked that the extra term is 0: L_A*diam = 0 and delta = 0)
+        return Found(
+            target,
+            target,
+            f"closed form of the {method} bound without tau: L_A*diam = 0 and delta = 0, so the extra term "
+            "log(1 + (L_A*diam + delta*gamma)/tau) is 0 for every tau > 0 and epsilon = target; it certifies every "
+            "pure epsilon-DP mechanism on the groups (looser than black_box for a known family)",
+        )
+    floor = math.log1p(c / tau)
+    terms = f"log(1 + (L_A*diam + delta*gamma)/tau) = log(1 + ({lip:g}*{diam:g} + {delta:g}*{gamma:g})/{tau:g})"
+    if target < floor * (1 - 1e-14):  # (a few ulps of rounding in the floor itself are not a violation)
+        return infeasible(
+            floor,
+            f"the target {target:.6g} nats is below the floor {terms} = "
+            f"{floor:.6g} nats, the {method} bound at epsilon = 0: no privacy budget meets it",
+        )
+    if method == "paper":
+        eps = max(0.0, target - floor)
+        bound = main_theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
+        form = f"epsilon = target - log(1 + (L_A*diam + delta*gamma)/tau) = {target:.6g} - {floor:.6g}"
+    else:
+        eps = max(0.0, target + math.log1p(-(c / tau) * math.exp(-target)))
+        bound = main_theorem_tight(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
+        form = f"epsilon = log(e^target - (L_A*diam + delta*gamma)/tau) = log(e^{target:.6g} - {c / tau:.6g})"
+    return Found(
+        eps,
+        bound,
+        f"closed form of the {method} bound, {form}; it certifies every "
+        f"(epsilon, {delta:g})-DP mechanism on the groups (looser than black_box for a known family)",
+    )
+
+
+# -- black-box ------------------------------------------------------------------------------------------
+
+
+def rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> float:
+    """Closed form of ``proofs/black_box.md`` §3: the largest ε of k-ary RR with black-box value ≤ target.
+
+    Any target ≥ 0, however large: e^target is never formed above 700 nats (the same formula in logarithms;
+    with lower = 0 it is ε = target).
+    """
+    rho = lower / gamma if gamma > 0 else 1.0
+    if target > EXP_SAFE:  # e^target overflows a double; T0·rho < 1 needs rho < e^-700 (or 0)
+        if rho == 0.0:
+            return target
+        if target + math.log(rho) >= 0.0:
+            return math.inf
+        # log t = target + log(1 + rho(k − 2) − rho(k − 1) e^-target) − log(1 − rho e^target)
+        head = math.log1p(rho * (k - 2) - rho * (k - 1) * math.exp(-target))
+        return max(0.0, target + head - math.log1p(-math.exp(target + math.log(rho))))
+    big_t = math.exp(target)
+    if big_t * rho >= 1.0:
+        return math.inf
+    t = (big_t * rho * (k - 1) + big_t * (1 - rho) - rho * (k - 1)) / (1 - big_t * rho)
+    return math.log(max(t, 1.0))
+
+
+def _is_randomized_response(family: MechanismFamily, eps: float) -> RandomizedResponse | None:
+    """The family's member at ``eps`` when it is k-ary randomized response on the family's inputs, else None.
+
+    An isinstance check (:func:`~fairaudit.laws.mechanisms.randomized_response` makes them): no k x k matrix.
+    """
+    m = family(eps)
+    if not isinstance(m, RandomizedResponse) or tuple(m.inputs) != tuple(family.inputs):
+        return None
+    return m
+
+
+def _black_box_class(
+    common: Common, metric: npt.ArrayLike | None, population: Population | None
+) -> tuple[dict[str, Any], str, str]:
+    """The keywords of ``black_box_bound`` for the class of utilities, the class in words, and a note for the reason."""
+    gamma, lower, tau, lip = common["gamma"], common["lower"], common["tau"], common["lipschitz"]
+    kwargs: dict[str, Any] = {"lower": lower, "gamma": gamma, "population": population}
+    if not math.isnan(tau):
+        kwargs["tau"] = tau
+    if lip > 0:
+        kwargs["lipschitz"] = lip
+        if metric is not None:
+            kwargs["metric"] = metric
+    cls = (
+        f"utilities in [{lower:g}, {gamma:g}]"
+        + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
+        + (f", L_A = {lip:g}" if lip > 0 else ", independent of the group")
+    )
+    vouched = not math.isnan(tau) and tau > lower
+    note = "; tau is vouched for: it must hold behind the calibrated mechanism too" if vouched else ""
+    return kwargs, cls, note
+
+
+def _rr_bound(common: Common, family: MechanismFamily, metric: npt.ArrayLike | None) -> Callable[[float], float] | None:
+    """The black-box value along k-ary randomized response in closed form (O(1) per ε, no k x k matrix).
+
+    None when the family is not randomized response, or when τ binds under a metric whose distances differ
+    (then the value needs the LP, ``proofs/black_box.md`` §5).
+    """
+    if _is_randomized_response(family, 1.0) is None:
+        return None
+    lower, gamma, tau, lip = common["lower"], common["gamma"], common["tau"], common["lipschitz"]
+    k = len(family.inputs)
+    d = None if lip == 0 or metric is None else check_metric(metric, k)
+    off = None if d is None else d[~np.eye(k, dtype=bool)]
+    binds = not math.isnan(tau) and tau > lower
+    if not (off is None or bool(np.all(off == off[0])) or not binds):
+        return None
+    diam = 1.0 if off is None else float(off.max())
+    tau_ = None if math.isnan(tau) else tau
+
+    def bound(eps: float) -> float:
+        member = family(eps)
+        assert isinstance(member, RandomizedResponse)  # (the family is randomized response)
+        return rr_class_value(member.rr, lower, gamma, tau_, lip, diam)
+
+    return bound
+
+
+def black_box(
+    common: Common, family: MechanismFamily, metric: npt.ArrayLike | None, population: Population | None
+) -> Found:
+    """The largest ε whose exact worst case over every model of the class meets the target (on L)."""
+    target, gamma, lower, tau, lip = (
+        common["target"],
+        common["gamma"],
+        common["lower"],
+        common["tau"],
+        common["lipschitz"],
+    )
+    kwargs, cls, note = _black_box_class(common, metric, population)
+    bound = _rr_bound(common, family, metric)
+    if bound is None:
+
+        def bound(eps: float) -> float:
+            return black_box_bound(family(eps), **kwargs).value
+
+    top = bound(math.inf)
+    if target >= top:
+        return Found(
+            math.inf,
+            top,
+            f"every epsilon meets the target: even the identity "
+            f"(epsilon = inf) gives a worst case of {top:.6g} nats over every model, {cls}{note}",
+        )
+    if (math.isnan(tau) or tau <= lower) and lip == 0:
+        guess = rr_black_box_epsilon(target, len(family.inputs), lower, gamma)
+        if math.isfinite(guess) and _is_randomized_response(family, guess) is not None:
+            # exact in real arithmetic; the bound recomputed in floating point may exceed the target by an ulp
+            return Found(
+                guess,
+                bound(guess),
+                "exact worst case over every model, "
+                f"{cls}; closed form for k-ary randomized response (proofs/black_box.md section 3){note}",
+            )
+    # The bound is non-decreasing along the family (post-processing): bracket, then refine.
+    if lip > 0:
+        f0 = bound(0.0)
+        if f0 > target:
+            return infeasible(
+                f0,
+                f"the target {target:.6g} nats is below the black-box "
+                f"bound at epsilon = 0 (the attribute fully randomized), {f0:.6g} nats: a utility that "
+                f"depends on the group (L_A = {lip:g}) differs across groups whatever the mechanism; no "
+                "privacy budget meets it",
+            )
+    else:
+        f0 = 0.0  # every member at ε = 0 has equal rows: all groups see the same law, L = 0
+    lo, f_lo, start = 0.0, f0, max(target, 1e-3)
+    if lip == 0 and target > 0:
+        f_t = bound(target)  # black-box ≤ ε(M_ε) = ε for g independent of the group, so ε = target meets it
+        if f_t <= target:
+            lo, f_lo, start = target, f_t, 2 * target
+        else:
+            start = target
+    return bracketed(target, bound, lo, f_lo, start, f"over every model, {cls}", note)
+
+
+def bracketed(
+    target: float,
+    bound: Callable[[float], float],
+    lo: float,
+    f_lo: float,
+    start: float,
+    what: str,
+    note: str = "",
+) -> Found:
+    """The largest ε with ``bound(ε) ≤ target``, for a bound non-decreasing along the family (black-box).
+
+    ``bound(lo) = f_lo ≤ target``; the bracket grows from ``start``
+    (:func:`~fairaudit.worstcase.calibration_search.bracket`) and is refined
+    (:func:`~fairaudit.worstcase.calibration_search.largest_meeting`). ``what`` says which worst case the bound is,
+    for the reason.
+    """
+    found = bracket(bound, target, lo, f_lo, start)
+    if found is None:
+        return Found(
+            EPS_MAX,
+            bound(EPS_MAX),
+            f"the bound stays below the target up to "
+            f"epsilon = {EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this{note}",
+        )
+    eps, value = largest_meeting(bound, target, *found)
+    return Found(
+        eps,
+        value,
+        f"exact worst case {what}; largest epsilon by bracketing (the bound is non-decreasing along the family){note}",
+    )
+
+
+def black_box_global(
+    common: Common,
+    family: MechanismFamily,
+    utility: Utility | None,
+    population: Population,
+    context_mechanism: Mechanism | None,
+    dependence: str,
+) -> Found:
+    """Black-box calibration on L̄ when X and A are dependent: the exact worst case over every model.
+
+    The bound at ε is ``worst_model(family(ε), g, population=, tau=).global_fairness`` (what ``certify`` reports
+    on L̄): a Charnes–Cooper LP per pair of groups, exact for any population. It is non-decreasing along
+    the family (a smaller ε is a post-processing of a larger one: every model behind it is a model behind
+    the larger one), so the largest ε is bracketed and refined as for L. It does not vanish at ε = 0:
+    groups that live in different contexts differ whatever the mechanism, and that floor is the least any
+    ε reaches. Without a utility, the class [lower, γ] of utilities of the decision is its two-decision
+    extreme g ∈ {γ, lower} (the worst model's per-cell utility ranges over [lower, γ] either way).
+    """
+    from fairaudit.laws.utilities import from_table
+    from fairaudit.worstcase.known_utility import worst_model
+
+    target, tau, lip = common["target"], common["tau"], common["lipschitz"]
+    if utility is None:
+        if lip > 0:
+            raise InputError(
+                "utility",
+                "black-box calibration on L-bar with X and A dependent and L_A > 0 needs the utility itself "
+                "(a spec with [utility])",
+            )
+        g = from_table([common["gamma"], common["lower"]], ("high", "low"), name="class [lower, gamma]")
+    else:
+        g = utility
+    kwargs: dict[str, Any] = {"population": population, "context_mechanism": context_mechanism}
+    if not math.isnan(tau):
+        kwargs["tau"] = tau
+
+    def bound(eps: float) -> float:
+        v = worst_model(family(eps), g, **kwargs).global_fairness.value
+        return math.inf if math.isnan(v) else v
+
+    cls = f"{g.name}" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
+    top = bound(math.inf)
+    if target >= top:
+        return Found(
+            math.inf,
+            top,
+            f"every epsilon meets the target: even the identity (epsilon = inf) gives a worst case on L-bar of "
+            f"{top:.6g} nats over every model, {cls}; {dependence}",
+        )
+    f0 = bound(0.0)
+    if not f0 <= target:
+        return infeasible(
+            f0,
+            f"the target {target:.6g} nats is below the floor {f0:.6g} nats, the black-box bound on L-bar at "
+            f"epsilon = 0 (the attribute fully randomized): {dependence}, so groups differ through their "
+            "contexts whatever the mechanism; no privacy budget meets it",
+        )
+    what = f"on L-bar over every model, {cls}, with the population's dependence of X and A ({dependence})"
+    return bracketed(target, bound, 0.0, f0, max(target, 1e-3), what)
+
+
+# -- white-box ------------------------------------------------------------------------------------------
+
+
+def white_box(
+    common: Common,
+    family: MechanismFamily,
+    kernel: Kernel,
+    utility: Utility,
+    population: Population | None,
+    context_mechanism: Mechanism | None,
+    unparsed_decision: int | None = None,
+) -> Found:
+    """The largest ε such that every ε' in [0, ε] gives the model an L (L̄) that meets the target.
+
+    The model's fairness need not be monotone in ε: a target missed at ε = 0 is infeasible
+    (:func:`_white_box_floor`); otherwise a grid is scanned and its first crossing refined (:func:`_scan`).
+
+    With ``unparsed_decision`` (an index of the kernel's decisions) the function of ε scanned and refined is the upper
+    end of L (L̄) over every utility of that decision in [min g, max g], per kernel cell
+    (:func:`fairaudit.metrics.utility_range.fairness_range`; ``proofs/unparsed.md`` §5); when the kernel puts no mass on
+    that decision the range is a point and the function is L (L̄) itself, as without it.
+    """
+    target, kind = common["target"], common["kind"]
+    limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
+    measure = local_fairness if kind == "local" else global_fairness
+    name = "L" if kind == "local" else "L-bar"
+
+    def stated(eps: float) -> float:
+        try:
+            law = _law(kernel, family(eps), context_mechanism)
+        except InputError as exc:
+            raise exc.under("kernel", keep_own=True) from None
+        v = measure(law, utility, population).value
+        return math.inf if math.isnan(v) else v
+
+    value: Callable[[float], float] = stated
+    if unparsed_decision is not None:
+        d = _decision_index(kernel, unparsed_decision)
+        if np.any(np.nan_to_num(kernel.probabilities[..., d], nan=0.0) > 0):
+            value = _upper_end(kind, family, kernel, utility, d, population, context_mechanism)
+            name = f"upper end of {name} over every utility of {format_label(kernel.decisions[d])!r} in [min g, max g]"
+
+    f0 = value(0.0)
+    if not f0 <= limit:
+        why = []
+        if utility.depends_on_group:
+            why.append("the utility depends on the group")
+        if kind == "global" and population is not None and not population.independence().independent:
+            why.append("X and A are dependent in the population")
+        return _white_box_floor(target, limit, keep_grid(family), value, f0, name, why)
+    return _scan(target, limit, keep_grid(family), value, f0, name)
+
+
+def _decision_index(kernel: Kernel, decision: int) -> int:
+    """``decision`` as an index of the kernel's decisions (negative from the end), or an InputError."""
+    n = len(kernel.decisions)
+    if isinstance(decision, bool) or not isinstance(decision, (int, np.integer)) or not -n <= decision < n:
+        raise InputError("unparsed_decision", f"must index one of the kernel's {n} decisions", decision)
+    return int(decision) % n
+
+
+def _upper_end(
+    kind: str,
+    family: MechanismFamily,
+    kernel: Kernel,
+    utility: Utility,
+    decision: int,
+    population: Population | None,
+    context_mechanism: Mechanism | None,
+) -> Callable[[float], float]:
+    """ε ↦ the upper end of L (L̄) behind ``family(ε)`` over every utility of ``decision`` in [min g, max g]."""
+    from fairaudit.metrics.utility_range import fairness_range
+
+    def upper(eps: float) -> float:
+        try:
+            r = fairness_range(
+                kernel, utility, decision, sensitive_mechanism=family(eps), context_mechanism=context_mechanism,
+                population=population, lower_end=False,
+            )  # fmt: skip
+        except InputError as exc:
+            raise exc.under("kernel", keep_own=True) from None
+        v = (r.local_fairness if kind == "local" else r.global_fairness).upper
+        return math.inf if math.isnan(v) else v
+
+    return upper
+
+
+RR_COMPOSE_LIMIT = 512  # groups; above, white-box calibration behind randomized response never builds its matrix
+
+
+def _law(kernel: Kernel, member: Mechanism, context_mechanism: Mechanism | None) -> Law:
+    """compose(kernel, member, M_X); behind k-ary randomized response with k > 512, without its k x k matrix.
+
+    The closed form ``rr_law`` and the matrix product agree to rounding (a last-digit difference is possible, tested
+    to 1e-12); up to :data:`RR_COMPOSE_LIMIT` groups the product is kept, so no calibration of a smaller model
+    changes in its last digit.
+    """
+    m_x = context_mechanism if context_mechanism is not None else identity(kernel.contexts)
+    if (
+        len(kernel.groups) > RR_COMPOSE_LIMIT
+        and isinstance(member, RandomizedResponse)
+        and kernel.complete
+        and tuple(member.outputs) == tuple(kernel.groups)
+        and tuple(m_x.outputs) == tuple(kernel.contexts)
+    ):
+        return rr_law(kernel, member.rr, member.inputs, m_x)
+    return compose(kernel, member, context_mechanism)
+
+
+def _white_box_floor(
+    target: float,
+    limit: float,
+    grid: FloatArray,
+    value: Callable[[float], float],
+    f0: float,
+    name: str,
+    why: list[str],
+) -> Found:
+    """Infeasible: the model misses the target at ε = 0; says why, and whether some larger ε meets it."""
+    cause = f" ({'; '.join(why)})" if why else ""
+    later = next((float(e) for e in grid[1:] if value(float(e)) <= limit), None)
+    also = (
+        ""
+        if later is None
+        else (
+            f"; some larger epsilon meets it (e.g. {later:.6g} nats) but not every "
+            "smaller one: the model's fairness is not monotone in epsilon"
+        )
+    )
+    return infeasible(
+        f0,
+        f"the model's {name} is {f0:.6g} nats > target "
+        f"{target:.6g} already at epsilon = 0, where the attribute is fully randomized{cause}: no "
+        f"privacy budget [0, epsilon] meets it{also}",
+    )
+
+
+def _scan(
+    target: float, limit: float, grid: FloatArray, value: Callable[[float], float], f0: float, name: str
+) -> Found:
+    """The first crossing of ``limit`` on the grid (then beyond it, doubling), refined; ``value(0) = f0`` meets it."""
+    lo, f_lo = 0.0, f0
+    for eps in grid[1:]:
+        v = value(float(eps))
+        if not v <= limit:
+            eps_star, reached = largest_meeting(value, target if f_lo <= target else limit, lo, f_lo, float(eps), v)
+            return Found(
+                eps_star,
+                reached,
+                f"exact {name} of the model behind the family; "
+                f"every epsilon in [0, {eps_star:.6g}] meets the target (first crossing of a "
+                f"{len(grid)}-point scan, refined)",
+            )
+        lo, f_lo = float(eps), v
+    top = value(math.inf)
+    if top <= limit:
+        return Found(
+            math.inf,
+            top,
+            f"every epsilon meets the target: the model's {name} "
+            f"without privacy is {top:.6g} nats and no point of the {len(grid)}-point scan exceeds it",
+        )
+    found = bracket(value, limit, lo, f_lo, 2 * lo)
+    if found is None:
+        return Found(
+            EPS_MAX,
+            value(EPS_MAX),
+            f"the model's {name} stays below the target "
+            f"up to epsilon = {EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this",
+        )
+    eps_star, reached = largest_meeting(value, target if found[1] <= target else limit, *found)
+    return Found(
+        eps_star,
+        reached,
+        f"exact {name} of the model behind the family; every "
+        f"epsilon in [0, {eps_star:.6g}] meets the target (scan, then refined)",
+    )

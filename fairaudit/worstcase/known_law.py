@@ -1,0 +1,324 @@
+"""The worst-case utility of a known law: the utility g(u) ∈ [lower, γ] that shows the largest disparity.
+
+:func:`worst_utility` and its result :class:`WorstUtility` (``proofs/worst_case_utility.md``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass
+
+import numpy as np
+
+from fairaudit.base.arrays import BoolArray, FloatArray, IntArray, safe_log
+from fairaudit.base.errors import InputError
+from fairaudit.base.json_values import Report, label, number
+from fairaudit.base.labels import format_label
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
+from fairaudit.base.pairs import PAIR_BLOCK
+from fairaudit.laws.tables import Law, Population
+from fairaudit.laws.utilities import Utility
+from fairaudit.worstcase.known_utility import WorstCase
+from fairaudit.worstcase.pair_search import SearchResult, box_pairs, check_class, check_method, search
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class WorstUtility:
+    """The utilities g(u) ∈ [lower, γ] that maximise L and L̄ for a known law (:func:`worst_utility`).
+
+    Attributes
+    ----------
+    local_fairness, global_fairness : WorstCase
+        The maxima of L and L̄, each with its maximising utility
+        (``.utility``, a vector over the law's decisions) and pair (and context).
+    law : Law
+    lower, gamma : float
+    tau : float or None
+    population : Population
+    excluded : tuple of str
+    """
+
+    local_fairness: WorstCase
+    global_fairness: WorstCase
+    law: Law
+    lower: float
+    gamma: float
+    tau: float | None
+    population: Population
+    excluded: tuple[str, ...]
+
+    def to_dict(self) -> Report:
+        """The report dictionary: the class, the law's decisions, and the worst utility of L (``local``) and of L̄.
+
+        ``local`` and ``global`` are each worst case's dictionary (value, ratio, the context for ``local``, the
+        pair, method, status, programs solved) with ``utility``: the maximising g, one value per decision in the
+        order of ``decisions`` (``null`` when no utility of the class meets τ). Then ``lower``, ``gamma``, ``tau``
+        (``null`` when not given), ``population`` and ``excluded``.
+
+        Examples
+        --------
+        >>> law = Law([[[0.5, 0.3, 0.2], [0.2, 0.3, 0.5]]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
+        >>> d = worst_utility(law).to_dict()
+        >>> d["decisions"], d["local"]["utility"], d["local"]["ratio"], d["local"]["group"]
+        (['hire', 'wait', 'reject'], [1.0, 0.0, 0.0], 2.5, 'a')
+        """
+
+        def case(w: WorstCase) -> Report:
+            d = w.to_dict()
+            d["utility"] = None if w.utility is None else [number(v) for v in np.asarray(w.utility.values).tolist()]
+            return d
+
+        return {
+            "decisions": [label(d) for d in self.law.decisions],
+            "lower": number(self.lower),
+            "gamma": number(self.gamma),
+            "tau": number(self.tau),
+            "local": case(self.local_fairness),
+            "global": case(self.global_fairness),
+            "population": self.population.to_dict(),
+            "excluded": list(self.excluded),
+        }
+
+
+def worst_utility(
+    law: Law,
+    *,
+    lower: float = 0.0,
+    gamma: float = 1.0,
+    tau: float | None = None,
+    population: Population | None = None,
+    method: str = "auto",
+) -> WorstUtility:
+    """The utility g(u) ∈ [lower, γ] that shows the largest disparity of a known law.
+
+    Per context x and ordered pair (a, a'), maximise (Q[x, a]·g) / (Q[x, a']·g)
+    (local) or (P(U | a)·g) / (P(U | a')·g) (global) over g ∈ [lower, γ]^{n_decisions},
+    with E[g | x, b] = Q[x, b]·g ≥ τ in every observed cell of a context of
+    positive probability (τ couples the contexts, as g is shared).
+
+    Parameters
+    ----------
+    law : Law
+        Q[x, a, u], shape (n_contexts, n_groups, n_decisions); empty cells are skipped.
+    lower, gamma : float
+        The range of g, 0 ≤ lower ≤ γ.
+    tau : float, optional
+        Lower bound on E[g | x, a], ≤ γ.
+    population : Population, optional
+        P(X, A) for L̄ and to skip contexts with P(X = x) = 0; default uniform.
+    method : {"auto", "threshold", "lp"}
+        ``auto``: the threshold solution when τ ≤ lower, the LP otherwise.
+
+    Returns
+    -------
+    WorstUtility
+        ``local_fairness`` and ``global_fairness`` with the maximising utility, context and pair.
+
+    Raises
+    ------
+    InputError
+        On a bad range, τ > γ, mismatched population labels, or an unknown method.
+
+    Notes
+    -----
+    With lower = 0 and no τ the value is Lemma 1's sup over g
+    (:func:`fairaudit.metrics.fairness.sup_local_fairness`): the threshold keeps the
+    single decision of largest likelihood ratio. ``proofs/worst_case_utility.md``.
+
+    Examples
+    --------
+    >>> law = Law([[[0.5, 0.3, 0.2], [0.2, 0.3, 0.5]]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
+    >>> w = worst_utility(law)
+    >>> round(w.local_fairness.ratio, 12), w.local_fairness.group, w.local_fairness.utility.values.tolist()   # Lemma 1: 0.5 / 0.2
+    (2.5, 'a', [1.0, 0.0, 0.0])
+    >>> w = worst_utility(law, lower=0.5)                  # (0.5 + 0.5·0.5) / (0.5 + 0.5·0.2)
+    >>> round(w.local_fairness.ratio, 12)
+    1.25
+    """
+    from fairaudit.laws.tables import population_for
+    from fairaudit.metrics.fairness import group_decision_law
+
+    if not isinstance(law, Law):
+        raise InputError("law", "must be a Law", type(law).__name__)
+    method = check_method(method)
+    lower, gamma, tau = check_class(lower, gamma, tau)
+    population = population_for(law, population)
+    binding = tau is not None and tau > lower
+    if method == "threshold" and binding:
+        raise InputError("method", "the threshold solution needs tau <= lower", method)
+    Q = law.probabilities
+    live_x = population.p_context > 0
+    cell = law.observed & live_x[:, None]
+    excluded = tuple(
+        f"context {format_label(law.contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live_x)
+    ) + tuple(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records" for x, a in law.empty_cells)
+    Qz = np.nan_to_num(Q, nan=0.0)
+    a_ub = -Qz[cell] if binding else None
+    problem = _UtilityProblem(
+        law=law,
+        lower=lower,
+        gamma=gamma,
+        tau=tau,
+        binding=binding,
+        method=method,
+        a_ub=a_ub,
+        b_ub=None if a_ub is None or tau is None else np.full(a_ub.shape[0], -tau),
+    )
+    # (a pair (a, b), a != b, is compared where both rows are: no (n, n) masks, no (n, n, n_decisions) tables)
+    local = _utility_case(problem, "local", Qz, cell, lambda x: None if x is None else law.contexts[x])
+    pu = np.nan_to_num(group_decision_law(law, population), nan=0.0)
+    has = population.p_group > 0
+    global_ = _utility_case(problem, "global", pu[None], has[None], lambda x: None)
+    return WorstUtility(
+        local_fairness=local,
+        global_fairness=global_,
+        law=law,
+        lower=lower,
+        gamma=gamma,
+        tau=tau,
+        population=population,
+        excluded=excluded,
+    )
+
+
+@dataclass(eq=False, kw_only=True)
+class _UtilityProblem:
+    """A checked class [lower, γ] (with τ) for a law, and its program, built on first use and shared by both cases."""
+
+    law: Law
+    lower: float
+    gamma: float
+    tau: float | None
+    binding: bool  # τ > lower
+    method: str
+    a_ub: FloatArray | None  # the τ rows: a_ub @ g <= b_ub
+    b_ub: FloatArray | None
+    built: FractionalProgram | None = None
+
+    def program(self) -> FractionalProgram:
+        if self.built is None:
+            n_decisions = len(self.law.decisions)
+            self.built = FractionalProgram(
+                n_decisions, lower=self.lower, upper=self.gamma, A_ub=self.a_ub, b_ub=self.b_ub
+            )
+        return self.built
+
+    def utility(self, h: FloatArray) -> Utility:
+        return Utility(np.clip(h, self.lower, self.gamma), self.law.decisions, name="worst utility")
+
+
+def _utility_case(
+    problem: _UtilityProblem,
+    kind: str,
+    P: FloatArray,
+    rows: BoolArray,
+    label_x: Callable[[int | None], Hashable],
+) -> WorstCase:
+    """The worst utility of one kind; P: (n_lead, nA, nU) numerators (n_lead: contexts, or 1 for L̄); rows:
+    (n_lead, nA), the groups that take part (pairs of two of them, a != b)."""
+    lower, gamma, tau, groups = problem.lower, problem.gamma, problem.tau, problem.law.groups
+    if not np.any(rows.sum(axis=-1) >= 2):  # undefined, not fair: NaN rather than trivial's 0
+        trivial = WorstCase.trivial(kind, kernel=None, reason="no two groups can be compared")
+        return dataclasses.replace(trivial, value=math.nan, ratio=math.nan)
+    if not problem.binding and problem.method != "lp":
+        # per leading index, the pairs that can be the largest (box_pairs: exact, O(nA·nU) memory); the first
+        # maximiser in (x, a, b) order, as over the whole table
+        best: tuple[float, int, int, int] | None = None
+        for x in range(P.shape[0]):
+            at = np.flatnonzero(rows[x])
+            if at.size < 2:
+                continue
+            found = box_pairs(P[x, at], lower, gamma)
+            i = int(np.argmax(found.box))
+            if best is None or found.box[i] > best[0]:
+                best = (float(found.box[i]), x, int(at[found.a[i]]), int(at[found.b[i]]))
+        assert best is not None  # (some leading index has two rows)
+        ratio, x, a, b = best
+        _, k, order = threshold_max_many(P[x, a], P[x, b], lower, gamma)
+        h = np.full(P.shape[-1], lower)
+        h[order[: int(k)]] = gamma
+        return WorstCase(
+            kind=kind,
+            value=safe_log(ratio),
+            ratio=ratio,
+            context=label_x(x if kind == "local" else None),
+            group=groups[a],
+            other_group=groups[b],
+            kernel=None,
+            utility=problem.utility(h),
+            expected_utility=None,
+            method="threshold",
+            status="unbounded" if math.isinf(ratio) else "optimal",
+            solver_status="threshold",
+            reason="a decision is possible for one group and impossible for another" if math.isinf(ratio) else "",
+            programs_solved=0,
+        )
+    flat = _pairs_of_rows(rows)  # (x, a, b), row-major
+    upper = _box_values(P, flat, lower, gamma)
+    if tau is not None and tau > 0:
+        upper = np.minimum(upper, gamma / tau)
+
+    def solve(i: int) -> FractionalResult:
+        x, a, b = flat[i]
+        return problem.program().solve(P[x, a], P[x, b])
+
+    return _searched_case(problem, kind, search(upper, solve), flat if kind == "local" else flat[:, 1:], label_x)
+
+
+def _pairs_of_rows(rows: BoolArray) -> IntArray:
+    """Every (x, a, b) with rows[x, a], rows[x, b] and a != b, in row-major order."""
+    out = []
+    for x in range(rows.shape[0]):
+        at = np.flatnonzero(rows[x])
+        a, b = np.meshgrid(at, at, indexing="ij")
+        keep = a != b
+        out.append(np.column_stack([np.full(int(keep.sum()), x), a[keep], b[keep]]))
+    return np.concatenate(out).astype(np.intp)
+
+
+def _box_values(P: FloatArray, flat: IntArray, lower: float, gamma: float) -> FloatArray:
+    """The box value of every program (x, a, b) of ``flat``, a chunk of programs at a time."""
+    out = np.empty(len(flat))
+    step = max(1, PAIR_BLOCK // (8 * max(1, P.shape[-1])))
+    for s in range(0, len(flat), step):
+        x, a, b = flat[s : s + step].T
+        out[s : s + step] = threshold_max_many(P[x, a], P[x, b], lower, gamma)[0]
+    return out
+
+
+def _searched_case(
+    problem: _UtilityProblem,
+    kind: str,
+    found: SearchResult,
+    flat: IntArray,
+    label_x: Callable[[int | None], Hashable],
+) -> WorstCase:
+    """The worst case of the search over programs; ``flat[i]`` = (x, a, b) (local) or (a, b) (global) of program i."""
+    r = found.result
+    if found.index < 0:
+        return WorstCase.infeasible(
+            kind,
+            r.solver_status if r else "",
+            "no utility in the class meets E[g | x, a] >= tau: " + (found.reason or ""),
+            found.solved,
+        )
+    assert r is not None  # a maximising pair was found
+    *lead, a, b = flat[found.index]
+    return WorstCase(
+        kind=kind,
+        value=safe_log(r.value),
+        ratio=r.value,
+        context=label_x(lead[0] if kind == "local" else None),
+        group=problem.law.groups[a],
+        other_group=problem.law.groups[b],
+        kernel=None,
+        utility=problem.utility(r.argmax) if r.argmax is not None else None,
+        expected_utility=None,
+        method="lp" if found.solved else "threshold",
+        status=r.status,
+        solver_status=r.solver_status,
+        reason=r.reason,
+        programs_solved=found.solved,
+    )

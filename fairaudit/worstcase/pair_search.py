@@ -1,0 +1,374 @@
+"""The pair search shared by the worst cases: LPs in decreasing order of valid upper bounds, and its helpers.
+
+Every maximum of :mod:`fairaudit.worstcase` is a maximum over problems (ordered pairs of groups, and contexts)
+of a linear-fractional program. :func:`search` solves them in decreasing order of an upper bound and stops when
+no problem left can win; :func:`relaxed_first` tries the closed-form floor relaxation before the LP;
+:func:`pairwise_box` gives the box (threshold) value of every pair at once; :func:`check_method` and
+:func:`check_class` check the arguments the worst cases share. ``proofs/black_box.md`` §1–2 and §5,
+``proofs/linear_fractional.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray, IntArray
+from fairaudit.base.checks import choice, nonnegative
+from fairaudit.base.errors import InputError
+from fairaudit.base.linear_fractional import (
+    FractionalProgram,
+    FractionalResult,
+    box_point,
+    floor_max_many,
+    threshold_max_many,
+)
+from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
+
+METHODS = ("auto", "threshold", "lp")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SearchResult:
+    """The outcome of :func:`search`: the maximising problem and its solution, or why there is none."""
+
+    index: int  # flat index of the maximising problem (-1 when none)
+    result: FractionalResult | None
+    solved: int  # LPs solved
+    reason: str
+
+
+def search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> SearchResult:
+    """Maximise over problems i by LP, in decreasing order of the upper bounds ``upper[i]`` (ratios).
+
+    Stops when the best value found is at least every remaining upper bound
+    (exact: the bounds are valid). An infeasible program means the common
+    polytope is empty, which ends the search.
+    """
+    order = np.argsort(-upper, kind="stable")
+    best_i, best, best_v, solved = -1, None, -math.inf, 0
+    for i in order:
+        if best is not None and best_v >= upper[i] * (1 - 1e-9):
+            break
+        r = solve(int(i))
+        solved += r.method == "lp"
+        if r.status == "infeasible":
+            return SearchResult(index=-1, result=r, solved=solved, reason=r.reason)
+        if best is None or r.value > best_v * (1 + 1e-9):  # ties (to solver accuracy) keep the earlier pair
+            best_i, best, best_v = int(i), r, r.value
+        if math.isinf(best_v):
+            break
+    return SearchResult(index=best_i, result=best, solved=solved, reason="")
+
+
+def relaxed_first(
+    num: Callable[[int], FloatArray],
+    den: Callable[[int], FloatArray],
+    lower: float,
+    upper: float,
+    floor: float | None,
+    rows: npt.NDArray[np.floating[Any]] | None,
+    program: Callable[[], FractionalProgram],
+) -> Callable[[int], FractionalResult]:
+    """Solve problem i by the closed-form floor relaxation when its point is feasible, by the LP otherwise.
+
+    The relaxation keeps the box and only the denominator's constraint q·h ≥ floor
+    (:func:`fairaudit.base.linear_fractional.floor_max_many`); its point is optimal for the full
+    program whenever it meets every row of ``rows @ h ≥ floor``. With no
+    floor the program is the box program and the threshold solves it.
+    """
+
+    def solve(i: int) -> FractionalResult:
+        p, q = num(i), den(i)
+        frac: float | FloatArray
+        if floor is None:
+            v, k, order = threshold_max_many(p, q, lower, upper)
+            frac = 0.0
+        else:
+            v, k, frac, order = floor_max_many(p, q, lower, upper, floor)
+        if not np.isnan(v):
+            h = box_point(lower, upper, order, int(k), float(frac))
+            free = (p == 0) & (q == 0)  # cells outside the objective: the top of the box helps every τ row
+            h[free] = np.broadcast_to(np.asarray(upper, dtype=float), h.shape)[free]
+            if rows is None or floor is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
+                status = "unbounded" if math.isinf(v) else "optimal"
+                return FractionalResult(
+                    value=float(v),
+                    argmax=h,
+                    status=status,
+                    method="threshold",
+                    solver_status="closed form",
+                    reason="",
+                    p=p,
+                    q=q,
+                    lower=None,
+                    upper=None,
+                )
+        return program().solve(p, q)
+
+    return solve
+
+
+def check_method(method: str) -> str:
+    """``method`` if it is one of :data:`METHODS` ("auto", "threshold", "lp")."""
+    return choice(method, "method", METHODS)
+
+
+def check_class(lower: float, gamma: float, tau: float | None) -> tuple[float, float, float | None]:
+    """Validate a utility class [lower, γ] with floor τ ≤ γ (τ may be None)."""
+    lower, gamma = nonnegative(lower, "lower"), nonnegative(gamma, "gamma")
+    if lower > gamma:
+        raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
+    if tau is not None:
+        tau = nonnegative(tau, "tau")
+        if tau > gamma:
+            raise InputError(
+                "tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau", tau
+            )
+    return lower, gamma, tau
+
+
+def _ratios(p: FloatArray, q: FloatArray) -> FloatArray:
+    """p / q elementwise with the conventions c/0 = inf (c > 0) and 0/0 = 0."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
+
+
+def pair_epsilon(matrix: FloatArray) -> FloatArray:
+    """max_o M[a, o] / M[b, o] for every ordered pair, shape (n, n) (c/0 = inf, 0/0 ignored), a tile at a time."""
+    n = matrix.shape[0]
+    out = np.empty((n, n))
+    for rows, cols in PairPass(matrix).tiles():
+        out[rows, cols] = _ratios(matrix[rows, None, :], matrix[None, cols, :]).max(axis=-1)
+    return out
+
+
+def pair_ratio(matrix: FloatArray, a: IntArray, b: IntArray) -> FloatArray:
+    """max_o M[a[i], o] / M[b[i], o] for the pairs given (as :func:`pair_epsilon`), a chunk at a time."""
+    out = np.empty(a.size)
+    step = max(1, PAIR_BLOCK // max(1, matrix.shape[1]))
+    for s in range(0, a.size, step):
+        out[s : s + step] = _ratios(matrix[a[s : s + step]], matrix[b[s : s + step]]).max(axis=-1, initial=0.0)
+    return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class BoxPairs:
+    """The ordered pairs of rows that can reach the largest box value (or floor relaxation), solved exactly.
+
+    ``a``, ``b``: those pairs, row-major; ``box`` their threshold values and ``relaxed`` their floor relaxations
+    (:func:`fairaudit.base.linear_fractional.threshold_max_many`, :func:`~fairaudit.base.linear_fractional.floor_max_many`, computed as for every pair
+    at once). Every other pair's box value is below ``box_fill`` (and its relaxation below ``relaxed_fill``), which
+    is the largest upper bound of a pair set aside, below (1 − PRUNE) × the largest value found (with a floor: the
+    largest relaxation whose point meets every row's floor; +inf for the box values then; -inf when no pair was
+    set aside).
+    """
+
+    a: IntArray
+    b: IntArray
+    box: FloatArray
+    relaxed: FloatArray | None
+    box_fill: float
+    relaxed_fill: float
+
+
+_CACHE: dict[tuple, BoxPairs] = {}  # the last few results (small ones only), by the matrix's bytes and the box
+
+
+def box_pairs(matrix: FloatArray, lower: float, upper: float, floor: float | None = None) -> BoxPairs:
+    """The pairs of rows (a, b) whose box program max (M[a]·h)/(M[b]·h), lower ≤ h ≤ upper, can be the largest.
+
+    With ``floor``, the same for the floor relaxations (only M[b]·h ≥ floor added), the best one counted only
+    where its point meets every row of M h ≥ floor. Pruned by upper bounds that are exact (``proofs/black_box.md``
+    §7): with lower = 0 and no floor by the pair's largest likelihood ratio, a row at a time; otherwise by one
+    pass over the pairs at a single λ (:class:`fairaudit.base.pairs.PairPass`), O(n²m) time and O(nm) memory; only
+    the pairs that survive are sorted and solved. ``lower`` and ``upper`` are numbers. The same arguments again
+    (``worst_model`` asks twice for one context) give the same result from a small cache.
+    """
+    lo, hi = float(lower), float(upper)
+    key = (matrix_digest(matrix), lo, hi, floor)
+    if key in _CACHE:
+        return _CACHE[key]
+    if matrix.shape[0] < 2 or not hi > lo:
+        found = _all_pairs(matrix, lo, hi, floor)
+    elif floor is None and lo == 0:
+        found = _ratio_pairs(matrix, hi)
+    else:
+        found = _HockeyPairs(matrix, lo, hi, floor).run()
+    if found.a.size <= 4 * matrix.shape[0] + 4 * CANDIDATES:
+        while len(_CACHE) >= 4:
+            del _CACHE[next(iter(_CACHE))]
+        _CACHE[key] = found
+    return found
+
+
+def _evaluate(
+    matrix: FloatArray, a: IntArray, b: IntArray, lo: float, hi: float, floor: float | None
+) -> tuple[FloatArray, FloatArray | None]:
+    """Exact threshold values (and floor relaxations) of the pairs (a[i], b[i]), a chunk of pairs at a time."""
+    box = np.empty(a.size)
+    relaxed = None if floor is None else np.empty(a.size)
+    step = max(1, PAIR_BLOCK // (8 * max(1, matrix.shape[1])))  # (the solutions make ~10 (pairs, m) temporaries)
+    for s in range(0, a.size, step):
+        p, q = matrix[a[s : s + step]], matrix[b[s : s + step]]
+        solution = threshold_max_many(p, q, lo, hi)
+        box[s : s + step] = solution[0]
+        if relaxed is not None and floor is not None:
+            relaxed[s : s + step] = floor_max_many(p, q, lo, hi, floor, threshold=solution)[0]
+    return box, relaxed
+
+
+Parts = list[tuple[IntArray, IntArray, FloatArray, FloatArray | None]]
+
+
+def _finish(n: int, parts: Parts, box_fill: float, relaxed_fill: float) -> BoxPairs:
+    """Merge the exactly solved pairs (duplicates dropped, row-major)."""
+    a = np.concatenate([x[0] for x in parts]).astype(np.intp)
+    b = np.concatenate([x[1] for x in parts]).astype(np.intp)
+    flat, first = np.unique(a * n + b, return_index=True)
+    box = np.concatenate([x[2] for x in parts])[first]
+    rel = None if parts[0][3] is None else np.concatenate([x[3] for x in parts if x[3] is not None])[first]
+    a, b = np.divmod(flat, n)
+    for array in (a, b, box, rel):  # (shared through the cache: read-only)
+        if array is not None:
+            array.setflags(write=False)
+    return BoxPairs(a=a, b=b, box=box, relaxed=rel, box_fill=box_fill, relaxed_fill=relaxed_fill)
+
+
+def _all_pairs(matrix: FloatArray, lo: float, hi: float, floor: float | None) -> BoxPairs:
+    """Every ordered pair solved (a box of zero width, or fewer than two rows)."""
+    n = matrix.shape[0]
+    a, b = np.nonzero(~np.eye(n, dtype=bool))
+    box, rel = _evaluate(matrix, a, b, lo, hi, floor)
+    return _finish(n, [(a, b, box, rel)], -math.inf, -math.inf)
+
+
+def _ratio_pairs(matrix: FloatArray, hi: float) -> BoxPairs:
+    """lower = 0, no floor: the box value of (a, b) is max(1, max_o M[a, o]/M[b, o]), at most max(1, max_o
+    M[a, o]/min_c M[c, o]) for every b; only the rows that can reach the largest are compared with every row."""
+    n, m = matrix.shape
+    colmin = matrix.min(axis=0)
+    rowbest = np.empty(n)
+    step = max(1, PAIR_BLOCK // max(1, m))
+    for s in range(0, n, step):
+        rowbest[s : s + step] = _ratios(matrix[s : s + step], colmin[None, :]).max(axis=-1)
+    rowbest = np.maximum(rowbest, 1.0) * (1 + 1e-12)
+    threshold = rowbest.max() * (1 - PRUNE)
+    parts: Parts = []
+    fill = float(rowbest[rowbest < threshold].max(initial=-np.inf))  # the largest bound of a pair set aside
+    for a in np.flatnonzero(rowbest >= threshold):
+        ratio = np.empty(n)
+        for s in range(0, n, step):
+            ratio[s : s + step] = _ratios(matrix[a], matrix[s : s + step]).max(axis=-1, initial=0.0)
+        ratio = np.maximum(ratio, 1.0) * (1 + 1e-12)
+        ratio[a] = -np.inf
+        bs = np.flatnonzero(ratio >= threshold)
+        fill = max(fill, float(ratio[ratio < threshold].max(initial=-np.inf)))
+        at = np.full(bs.size, a)
+        parts.append((at, bs, *_evaluate(matrix, at, bs, 0.0, hi, None)))
+    return _finish(n, parts, fill, -math.inf)
+
+
+class _HockeyPairs:
+    """One pass over the pairs at λ: (M[a] − λ M[b])·h ≤ W(λ) on the box bounds every pair's value (§7)."""
+
+    def __init__(self, matrix: FloatArray, lo: float, hi: float, floor: float | None) -> None:
+        self.matrix, self.lo, self.hi, self.floor = matrix, lo, hi, floor
+        self.passer = PairPass(matrix)
+        self.best, self.lam = -math.inf, math.nan
+        self.fill = -math.inf  # the largest bound of a pair set aside
+        self.parts: Parts = []
+
+    def run(self) -> BoxPairs:
+        a, b = pair_candidates(self.matrix)
+        self._offer(a, b)
+        if math.isnan(self.lam):  # (no candidate's relaxation meets every floor: start from the largest box value)
+            self.lam = min(float(np.nanmax(self.parts[0][2], initial=1.0)), 1e300)
+        self.passer.run(lambda: self.lam, self._visit)
+        n, fill = self.matrix.shape[0], self.fill
+        if self.floor is None:
+            return _finish(n, self.parts, fill, -math.inf)
+        return _finish(n, self.parts, math.inf if fill > -math.inf else -math.inf, fill)
+
+    def _offer(self, a: IntArray, b: IntArray) -> None:
+        """Solve the pairs exactly, keep them, and raise the best value (and λ) when one beats it."""
+        box, rel = _evaluate(self.matrix, a, b, self.lo, self.hi, self.floor)
+        self.parts.append((a, b, box, rel))
+        if rel is None:
+            top = float(np.nanmax(box, initial=-np.inf))
+            if top > self.best:  # (λ stays finite: an infinite best is tied only by infinite values)
+                self.best, self.lam = top, min(top * (1 - PRUNE), 1e300)
+            return
+        order = np.argsort(-np.where(np.isnan(rel), -np.inf, rel), kind="stable")
+        for i in order[:8]:
+            if not rel[i] > self.best:
+                break
+            lam = self._feasible(int(a[i]), int(b[i]))
+            if lam is not None:
+                self.best, self.lam = float(rel[i]), lam
+                break
+
+    def _feasible(self, a: int, b: int) -> float | None:
+        """The λ of the pair's relaxation (its boundary ratio) when its point meets every row's floor, else None."""
+        p, q, floor = self.matrix[a], self.matrix[b], self.floor
+        assert floor is not None  # (only with a floor)
+        v, k, frac, order = floor_max_many(p, q, self.lo, self.hi, floor)
+        if np.isnan(v):
+            return None
+        h = box_point(self.lo, self.hi, order, int(k), float(frac))
+        h[(p == 0) & (q == 0)] = self.hi
+        if not np.all(self.matrix @ h >= floor * (1 - 1e-12) - 1e-15):
+            return None
+        o = order[min(int(k), p.size - 1)]
+        ratio = p[o] / q[o] if q[o] > 0 else math.inf
+        return float(ratio) if q @ h <= floor * (1 + 1e-9) and 0 < ratio < math.inf else float(v) * (1 - PRUNE)
+
+    def _visit(self, rows: slice, cols: slice, sums: FloatArray, lam: float) -> None:
+        """Bound every pair of the band (Lemma 11); solve those that may reach the best."""
+        s, lo, hi, floor = self.passer.sums, self.lo, self.hi, self.floor
+        sa, sb = s[rows, None], s[None, cols]
+        low_den = lo * sb if floor is None else np.maximum(lo * sb, floor)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            w = lo * (sa - lam * sb) + (hi - lo) * (sums - lam * sb)
+            w = w + (hi - lo) * self.passer.error(rows, cols, lam) + 4 * ROUNDING * (lo * sa + lam * hi * sb)
+            bound = np.where(w >= 0, lam + w / low_den, lam + w / (hi * sb)) * (1 + 1e-12)
+        bound = np.where(np.isnan(bound), np.inf, bound)
+        a0, b0 = rows.start, cols.start
+        own = np.arange(max(a0, b0), min(rows.stop, cols.stop))
+        bound[own - a0, own - b0] = -np.inf
+        keep = bound >= self.best * (1 - PRUNE)
+        if floor is not None:
+            keep |= hi * sb < floor * (1 + 1e-9)
+        self.fill = max(self.fill, float(bound[~keep].max(initial=-np.inf)))
+        i, j = np.nonzero(keep)
+        if i.size:
+            self._offer(i + a0, j + b0)
+
+
+def pairwise_box(
+    matrix: FloatArray, lower: float, upper: float, floor: float | None
+) -> tuple[FloatArray, FloatArray | None]:
+    """The box program of every ordered pair (rows a, b of ``matrix``), and with ``floor`` its floor relaxation.
+
+    Shape (n, n) each (diagonal 1). Exact (the values of :func:`fairaudit.base.linear_fractional.threshold_max_many` and
+    :func:`~fairaudit.base.linear_fractional.floor_max_many`) for every pair that can be the largest; elsewhere one valid upper bound
+    of them all, below (1 − PRUNE) × the largest, so the maximum, its first row-major maximiser, and a search in
+    decreasing order of these bounds are unchanged (:func:`box_pairs`; ``proofs/black_box.md`` §7). With
+    ``floor`` the box entries away from the relaxation's maximisers are +inf (upper bounds only).
+    """
+    n = matrix.shape[0]
+    found = box_pairs(matrix, lower, upper, floor)
+    box = np.full((n, n), found.box_fill)
+    box[found.a, found.b] = found.box
+    np.fill_diagonal(box, 1.0)
+    if floor is None or found.relaxed is None:
+        return box, None
+    relaxed = np.full((n, n), found.relaxed_fill)
+    relaxed[found.a, found.b] = found.relaxed
+    np.fill_diagonal(relaxed, 1.0)
+    return box, relaxed

@@ -1,0 +1,228 @@
+"""k-ary randomized response in closed form: every ordered pair of groups is alike, one pair decides.
+
+The box and floor-relaxation values (``proofs/black_box.md`` §3, Propositions 3 and 3b), the class with a
+Lipschitz utility under the discrete metric (§5, Proposition 7b), and the law behind the mechanism without its
+k x k matrix. Used by :func:`~fairaudit.worstcase.black_box.black_box_bound`, :func:`~fairaudit.worstcase.known_utility.worst_model` and
+:mod:`fairaudit.worstcase.calibration`.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fairaudit.base.arrays import FloatArray, IntArray, safe_log
+from fairaudit.laws.mechanisms import Mechanism, RandomizedResponseParameters
+from fairaudit.laws.tables import Kernel, Law
+
+_TIE = 1e-12  # relative tolerance of the threshold solution's ties (as lfp.threshold_max_many)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RRWorst:
+    """The worst case of the pair (a, a') = (first group, second group) behind k-ary randomized response.
+
+    Every ordered pair is alike (the mechanism is symmetric), so one pair decides. The maximiser h over the
+    released values is h[a] = ``h_a``, h[a'] = ``h_b``, the first ``first`` other values (in index order)
+    ``h_first``, the next one ``h_next``, the rest ``h_rest``. ``prefix``: h is a threshold prefix (released
+    values listed in the likelihood-ratio order a, others, a'), else a floor point (listed in index order).
+    """
+
+    ratio: float
+    value: float  # log ratio, exact also where the ratio overflows (lower = 0: ε itself)
+    h_a: float
+    h_b: float
+    first: int
+    h_first: float
+    h_next: float
+    h_rest: float
+    prefix: bool
+
+    def vector(self, k: int) -> FloatArray:
+        h = np.full(k, self.h_rest)
+        j = min(self.first, k - 2)
+        h[2 : 2 + j] = self.h_first
+        if 2 + j < k:
+            h[2 + j] = self.h_next
+        h[0], h[1] = self.h_a, self.h_b
+        return h
+
+    def released(self, k: int, hi: float) -> IntArray:
+        """Indices of the released values where h is at the top of the box (``hi``)."""
+        at_top = np.flatnonzero(self.vector(k) >= hi - 1e-9 * max(1.0, hi))
+        if self.prefix and at_top.size and at_top[0] == 0 and 1 in at_top[:2]:
+            at_top = np.concatenate([at_top[at_top != 1], [1]])  # a' comes last in the ratio order
+        return at_top
+
+
+def rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> RRWorst:
+    """max (M[a]·h)/(M[a']·h) over lo ≤ h ≤ hi with M[a']·h ≥ floor, M = k-ary RR, in O(1).
+
+    Without a binding floor (floor ≤ lo) the threshold solution: h = hi on the released value a, lo elsewhere,
+    ratio (lo + (hi − lo)p)/(lo + (hi − lo)q) (proofs/black_box.md, Proposition 3), with the longest prefix tied
+    to 1e-12 (as the general route). With a binding floor the relaxation that keeps only M[a']·h ≥ floor
+    (lfp.floor_max_many): raise a, then the other values, then a', until M[a']·h = floor; for randomized response
+    its point meets every group's floor, so it is the optimum of the whole class (proofs/black_box.md, §3,
+    Proposition 3b). ``floor`` must be ≤ hi.
+    """
+    k, p, q = rr.k, rr.p, rr.q
+    span = hi - lo
+    if span <= 0 or p <= q:  # every prefix ties at ratio 1: the longest one, h = hi everywhere (index order)
+        return RRWorst(ratio=1.0, value=0.0, h_a=hi, h_b=hi, first=k, h_first=hi, h_next=hi, h_rest=hi, prefix=False)
+    num, den = lo + span * p, lo + span * q
+    if lo > 0:
+        ratio = num / den
+        if den > 1e-290:
+            value = math.log(ratio)
+        else:  # (q underflows: log(lo + span q) from log q, which does not)
+            value = math.log(num) - float(np.logaddexp(math.log(lo), math.log(span) + rr.log_q))
+            ratio = math.exp(value) if value < 709.0 else math.inf
+    else:  # (p/q = e^ε; its log is ε even where p/q overflows)
+        ratio = math.inf if q == 0 else p / q
+        value = rr.log_p - rr.log_q
+    first = 0
+    c = span * q
+    tied = ratio * (1 - _TIE)
+    if tied <= 1:  # the ratio is 1 to rounding: every prefix ties, the longest is all of them
+        return RRWorst(ratio=ratio, value=value, h_a=hi, h_b=hi, first=k, h_first=hi, h_next=hi, h_rest=hi, prefix=True)
+    if c > 0 and math.isfinite(tied):  # others add c to both sides: tied while (num + jc)/(den + jc) >= tied
+        first = min(k - 2, int(math.floor(_TIE * num / (c * (tied - 1)))))
+    if floor <= lo or den + first * c >= floor * (1 - 1e-12):
+        return RRWorst(
+            ratio=ratio, value=value, h_a=hi, h_b=lo, first=first, h_first=hi, h_next=lo, h_rest=lo, prefix=True
+        )
+    need = floor - lo
+    if q > 0 and need <= c * (k - 1):  # a and x other values raised: value (floor + span (p − q))/floor
+        x = need / c - 1.0
+        first = min(k - 2, int(math.floor(x)))
+        frac = min(1.0, max(0.0, x - first))
+        ratio = (floor + span * (p - q)) / floor
+        return RRWorst(
+            ratio=ratio,
+            value=math.log(ratio),
+            h_a=hi,
+            h_b=lo,
+            first=first,
+            h_first=hi,
+            h_next=lo + frac * span,
+            h_rest=lo,
+            prefix=False,
+        )
+    s = min(span, (need - c * (k - 1)) / p)  # a and every other value raised, a' partly
+    ratio = (lo + span * (p + (k - 2) * q) + q * s) / floor
+    return RRWorst(
+        ratio=ratio,
+        value=math.log(ratio),
+        h_a=hi,
+        h_b=lo + s,
+        first=k - 2,
+        h_first=hi,
+        h_next=hi,
+        h_rest=hi,
+        prefix=False,
+    )
+
+
+def rr_lipschitz(
+    rr: RandomizedResponseParameters, lo: float, hi: float, floor: float, lam: float
+) -> tuple[float, FloatArray, FloatArray] | None:
+    """The class with L_A > 0 behind k-ary RR, discrete metric (λ = L_A d): (ratio, g, f) in O(1), or None if unbounded.
+
+    By symmetry (averaging a maximiser over the permutations of the other groups keeps it feasible and, the
+    objective being linear-fractional, optimal) the worst case has h[a'] = g = (x at a, z at a', y at each other
+    value) and every other group, a included, at the largest vector the Lipschitz condition allows,
+    f = min(g + λ, hi) (proofs/black_box.md, §5, "Randomized response"). Its value is a linear-fractional program
+    in (x, z, y) on each of the 8 pieces where f is affine; the maximum is at a vertex of one piece, so every
+    vertex (3 of the ≤ 9 planes) is tried. Returns the ratio and the vectors g, f of the three cells (a, a', other).
+    """
+    k, p, q = rr.k, rr.p, rr.q
+    m = k - 2  # other released values
+    binding = floor > lo
+    if lo == 0 and not binding:
+        return None  # g = 0, f = λ: λ/0
+    cut = hi - lam
+    pieces = []  # per cell: (low, high, slope of f, intercept of f)
+    if cut >= lo:
+        pieces.append((lo, min(hi, cut), 1.0, lam))
+    pieces.append((max(lo, cut), hi, 0.0, hi))
+    n_vec = np.array([p, q, m * q])  # numerator: M[a]·f
+    d_vec = np.array([q, p, m * q])  # denominator: M[a']·g
+    b_vec = np.array([q, q, p + (m - 1) * q]) if m >= 1 else None  # another group's floor: M[b]·f
+    best, best_g = -math.inf, None
+    for cells in itertools.product(pieces, repeat=3):
+        low = np.array([c[0] for c in cells])
+        high = np.array([c[1] for c in cells])
+        slope = np.array([c[2] for c in cells])
+        icpt = np.array([c[3] for c in cells])
+        rows = [np.eye(3)[i] * sign for sign in (-1.0, 1.0) for i in range(3)]
+        rhs = [-low[i] for i in range(3)] + [high[i] for i in range(3)]
+        if binding:
+            rows.append(-d_vec)
+            rhs.append(-floor)
+            rows.append(-n_vec * slope)
+            rhs.append(n_vec @ icpt - floor)
+            if b_vec is not None:
+                rows.append(-b_vec * slope)
+                rhs.append(b_vec @ icpt - floor)
+        a_ub, b_ub = np.array(rows), np.array(rhs)
+        combos = np.array(list(itertools.combinations(range(len(rows)), 3)))
+        mats = a_ub[combos]
+        ok = np.abs(np.linalg.det(mats)) > 1e-12
+        if not ok.any():
+            continue
+        pts = np.linalg.solve(mats[ok], b_ub[combos[ok]][..., None])[..., 0]
+        feas = np.all(pts @ a_ub.T <= b_ub + 1e-12 * (1.0 + np.abs(b_ub)), axis=1)
+        pts = pts[feas]
+        if not pts.size:
+            continue
+        num = (pts * slope + icpt) @ n_vec
+        den = pts @ d_vec
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
+        i = int(np.argmax(ratio))
+        if ratio[i] > best:
+            best, best_g = float(ratio[i]), pts[i]
+    if best_g is None:
+        return math.nan, np.full(3, math.nan), np.full(3, math.nan)
+    g = np.clip(best_g, lo, hi)
+    return best, g, np.minimum(g + lam, hi)
+
+
+def rr_class_ratio(
+    rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
+) -> float:
+    """The black-box ratio of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``).
+
+    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.laws.mechanisms.RandomizedResponse`, without
+    the worst model (calibration evaluates it along the family).
+    """
+    if rr.k < 2 or gamma == 0 or lower == gamma:
+        return 1.0
+    lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
+    lam = lipschitz * diameter / gamma
+    if lam > 0:
+        out = rr_lipschitz(rr, lo, 1.0, floor, lam)
+        return math.inf if out is None else out[0]
+    return rr_box(rr, lo, 1.0, floor).ratio
+
+
+def rr_class_value(
+    rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
+) -> float:
+    """log of :func:`rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε)."""
+    if rr.k >= 2 and gamma > 0 and lower < gamma and lipschitz * diameter == 0:
+        lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
+        return rr_box(rr, lo, 1.0, floor).value
+    return safe_log(rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
+
+
+def rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, context_mechanism: Mechanism) -> Law:
+    """compose(kernel, RR, M_X) without the k x k matrix: Q[x, a] = Σ_x̃ M_X[x, x̃] (q Σ_ã K[x̃, ã] + (p − q) K[x̃, a])."""
+    k = kernel.probabilities
+    behind = rr.q * k.sum(axis=1, keepdims=True) + (rr.p - rr.q) * k  # (x̃, a, u)
+    law = behind if context_mechanism.is_identity else np.tensordot(context_mechanism.matrix, behind, axes=1)
+    law = law / law.sum(axis=-1, keepdims=True)
+    return Law(law, context_mechanism.inputs, groups, kernel.decisions, name="law", _owned=True)

@@ -79,7 +79,7 @@ NOT_RUN: list[tuple[str, str, str]] = [
     (
         "docs/real-model.md",
         r"smollm2 is not installed",
-        "the message where the model is not installed; tests/test_local_model.py checks it",
+        "the message where the model is not installed; tests/experiments/test_local_model.py checks it",
     ),
     (
         "docs/real-model.md",

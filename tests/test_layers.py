@@ -108,3 +108,16 @@ def test_the_check_catches_an_import_up_the_stack(package, source, caught):
     """A module that reaches up is caught, however it imports."""
     found = violations(ALLOWED, {PACKAGE / package / "probe.py": source})
     assert len(found) == 1 and re.search(rf"imports {re.escape(caught)} \(", found[0]), found
+
+
+def test_the_tests_mirror_the_package():
+    """``tests/<layer>/test_<module>[_<topic>].py``: each core layer's tests name the module they test (the plug-in's
+    tests, under ``tests/experiments/``, are named for what they run); the tests of the whole repository (docs,
+    proofs, layers, start-up, the wheel) stay in ``tests/``."""
+    tests = ROOT / "tests"
+    assert {p.name for p in tests.iterdir() if p.is_dir() and not p.name.startswith("_")} == set(ALLOWED)
+    for layer in set(ALLOWED) - {"experiments"}:
+        modules = {p.stem.strip("_") or "main" for p in (PACKAGE / layer).rglob("*.py")} | {"main"}
+        for test in (tests / layer).rglob("test_*.py"):
+            name = test.stem.removeprefix("test_")
+            assert any(name == m or name.startswith(m + "_") for m in modules), test.relative_to(ROOT).as_posix()

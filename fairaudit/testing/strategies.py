@@ -4,7 +4,7 @@ Every strategy draws a validated fairaudit object whose arrays follow the
 layout of docs/design.md, **[x, a, u]** (context, sensitive group, decision), and
 keeps a stated promise (an exact ε, an exact δ at ε, an exact range of a
 utility, a dependent population, ...), so a property test can rely on it. The
-promises are themselves checked by ``tests/test_strategies.py``.
+promises are themselves checked by ``tests/testing/test_strategies.py``.
 
 Sizes
 -----

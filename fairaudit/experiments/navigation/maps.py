@@ -9,7 +9,38 @@ absent from the top-view map are designated as obstacles. Both maps use a
 shared coordinate system and resolution. A topological map is derived from the
 annotated point cloud, providing room-level location information."
 
-:func:`build_maps` returns all of them on one grid (:class:`Maps`).
+:func:`build_maps` returns all of them on one grid (:class:`Maps`), in four steps:
+
+1. **Ceiling removal.** Points of category ``ceiling`` are dropped, and
+   so are the points of a room higher than its ceiling cut: ``ceiling``
+   when given (every room), else the median height of the room's ceiling
+   points minus :data:`CEILING_MARGIN` (0.1 m), else for a room without
+   Annotations the :data:`CEILING_QUANTILE` (0.99) quantile of its z minus
+   that margin; an annotated room without ceiling points keeps all its
+   points.
+2. **Top view.** Points are binned on the grid (below); each cell keeps its
+   highest point (``top_height``, ``top_color``, ``top_category``); per room,
+   one lexsort by cell, then z, merged room by room (ties: the later room).
+3. **Traversability.** The floor height ``floor_z`` is the median z of
+   the floor-category points, else the :data:`FLOOR_QUANTILE` (0.02)
+   quantile of all remaining z. A cell is ``free`` when it has points and
+   the highest of its points at most ``clearance`` above the floor lies in
+   [floor_z - floor_band, floor_z + floor_band]: nothing the robot could
+   hit stands there (points above the clearance, such as door lintels or
+   lamps, do not block). Cells without points are obstacles. Obstacles
+   are inflated by the robot: a free cell is ``traversable`` when the
+   centre of every non-free cell is more than ``robot_radius`` from its
+   centre (Euclidean distance transform).
+4. **Topology.** One node per room, keyed by its name, with attributes
+   ``centre`` (x, y mean of its floor-category points, else of its points
+   in the floor band, else its bounding-box centre; metres), ``category``
+   (the name without ``_<k>``: ``"office"``), ``bbox`` (x_min, y_min,
+   x_max, y_max of its points), ``free_cells`` (number of free cells
+   labelled with it) and ``ceiling_z``. An edge joins two rooms whose
+   free cells touch (8-neighbours, attribute ``via="adjacent"`` and
+   ``contact``, the number of touching cell pairs), or, failing that, are
+   joined through at most ``door_gap`` metres of cells without any point
+   (a door gap in the scan; ``via="gap"``).
 
 Grid convention
 ---------------
@@ -25,7 +56,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -240,50 +271,14 @@ def build_maps(
     robot_radius: float = 0.2,
     door_gap: float = 0.3,
 ) -> Maps:
-    """Top-view, traversability and topological maps of an area (the paper's Methods).
-
-    1. **Ceiling removal.** Points of category ``ceiling`` are dropped, and
-       so are the points of a room higher than its ceiling cut: ``ceiling``
-       when given (every room), else the median height of the room's ceiling
-       points minus :data:`CEILING_MARGIN` (0.1 m), else for a room without
-       Annotations the :data:`CEILING_QUANTILE` (0.99) quantile of its z minus
-       that margin; an annotated room without ceiling points keeps all its
-       points.
-    2. **Top view.** Points are binned on the grid (see the module
-       docstring); each cell keeps its highest point (``top_height``,
-       ``top_color``, ``top_category``). Vectorised: one lexsort by cell, then z.
-    3. **Traversability.** The floor height ``floor_z`` is the median z of
-       the floor-category points, else the :data:`FLOOR_QUANTILE` (0.02)
-       quantile of all remaining z. A cell is ``free`` when it has points and
-       the highest of its points at most ``clearance`` above the floor lies in
-       [floor_z - floor_band, floor_z + floor_band]: nothing the robot could
-       hit stands there (points above the clearance, such as door lintels or
-       lamps, do not block). Cells without points are obstacles. Obstacles
-       are inflated by the robot: a free cell is ``traversable`` when the
-       centre of every non-free cell is more than ``robot_radius`` from its
-       centre (Euclidean distance transform).
-    4. **Topology.** One node per room, keyed by its name, with attributes
-       ``centre`` (x, y mean of its floor-category points, else of its points
-       in the floor band, else its bounding-box centre; metres), ``category``
-       (the name without ``_<k>``: ``"office"``), ``bbox`` (x_min, y_min,
-       x_max, y_max of its points), ``free_cells`` (number of free cells
-       labelled with it) and ``ceiling_z``. An edge joins two rooms whose
-       free cells touch (8-neighbours, attribute ``via="adjacent"`` and
-       ``contact``, the number of touching cell pairs), or, failing that, are
-       joined through at most ``door_gap`` metres of cells without any point
-       (a door gap in the scan; ``via="gap"``).
+    """Top-view, traversability and topological maps of an area (the paper's Methods; steps 1-4 of the module docstring).
 
     Parameters
     ----------
     area : Area or str or pathlib.Path
-        From :func:`~fairaudit.experiments.navigation.s3dis.read_area`, or
-        an S3DIS area folder: its rooms are then streamed (read one at a
-        time by :func:`~fairaudit.experiments.navigation.s3dis.iter_rooms`,
-        twice: a first pass for the bounding box, the ceiling cuts, the floor
-        height and the floor centres, a second one binning each room's
-        points into per-cell summaries), so the area's points are never all
-        in memory: the peak is about the largest room plus the grids and
-        the floor points' heights. The result is the same as
+        From :func:`~fairaudit.experiments.navigation.s3dis.read_area`, or an S3DIS area folder, whose rooms are
+        then read one at a time (:func:`~fairaudit.experiments.navigation.s3dis.iter_rooms`), twice, so that only
+        one room's points are in memory (docs/design.md, "Streaming"); the maps are those of
         ``build_maps(read_area(area))``, array for array.
     resolution : float
         Side of a grid cell, metres (> 0).
@@ -333,16 +328,12 @@ def build_maps(
     >>> bool(np.array_equal(streamed.top_height, maps.top_height, equal_nan=True))
     True
     """
-    streamed = isinstance(area, (str, os.PathLike))
-    if not streamed and not isinstance(area, Area):
+    if not isinstance(area, (Area, str, os.PathLike)):
         raise InputError("area", "must be an Area from read_area or an area folder", type(area).__name__)
     res, band, clear, radius, gap = _lengths(resolution, floor_band, clearance, robot_radius, door_gap)
     cut = _ceiling_cut(ceiling)
     nx = require_networkx()
-    if isinstance(area, Area):
-        g = _memory_grids(area, res, resolution, cut, band, clear)
-    else:
-        g = _stream_grids(Path(area), res, resolution, cut, band, clear)
+    g = _grids(area if isinstance(area, Area) else Path(area), res, resolution, cut, band, clear)
 
     # 3. traversability
     with np.errstate(invalid="ignore"):
@@ -351,21 +342,7 @@ def build_maps(
     free = free.reshape(shape)
     traversable = _inflate(free, radius / res)
     labels = g.labels.reshape(shape)
-
-    # 4. topology
-    graph = nx.Graph()
-    free_labels = np.where(free, labels, -1)
-    counts = np.bincount(free_labels[free_labels >= 0].astype(np.int64), minlength=len(g.names))
-    for i, name in enumerate(g.names):
-        graph.add_node(
-            name,
-            centre=g.centres[i],
-            category=room_kind(name),
-            bbox=g.bboxes[i],
-            free_cells=int(counts[i]),
-            ceiling_z=float(g.ceiling_z[i]),
-        )
-    _add_passages(graph, g.names, free_labels, np.isnan(g.top_height.reshape(shape)), int(math.ceil(gap / res - 1e-9)))
+    graph = _topology(nx, g, np.where(free, labels, -1), int(math.ceil(gap / res - 1e-9)))
 
     arrays = dict(
         top_height=g.top_height.reshape(shape),
@@ -383,7 +360,7 @@ def build_maps(
         resolution=res,
         shape=shape,
         rooms=g.names,
-        topology=nx.freeze(graph),
+        topology=graph,
         floor_z=g.floor_z,
         floor_band=band,
         clearance=clear,
@@ -410,60 +387,26 @@ class _Grids:
     bboxes: list[tuple[float, float, float, float]]
 
 
-def _memory_grids(area: Area, res: float, resolution: float, cut: float | None, band: float, clear: float) -> _Grids:
-    """Steps 1-3 of :func:`build_maps` on every point of an Area at once."""
-    rooms = area.rooms
-    sizes = np.array([len(r.points) for r in rooms])
-    if sizes.sum() == 0:
-        raise InputError("area", "has no points", area.name)
-    pts = np.concatenate([r.points for r in rooms])
-    col = np.concatenate([r.colors for r in rooms])
-    cat = np.concatenate([r.categories for r in rooms])
-    room = np.repeat(np.arange(len(rooms), dtype=np.int16), sizes)
-    x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
-
-    # 1. ceiling removal (per room)
-    ceiling_z = _ceilings(rooms, cut)
-    keep = (cat != _CEILING) & (z <= ceiling_z[room])
-    if not keep.any():
-        raise InputError("area", "has no points below the ceiling", area.name)
-    origin, shape = _frame(float(x.min()), float(y.min()), float(x.max()), float(y.max()), res, resolution)
-    flat = _cells(x, y, origin, shape, res)
-    ncell = shape[0] * shape[1]
-
-    # 2. top view
-    top_height, top_color, top_category, labels = _top_view(flat, ncell, keep, z, col, cat, room)
-
-    # 3. floor height and the highest point at most ``clear`` above it
-    is_floor = keep & (cat == _FLOOR)
-    floor_z = float(np.median(z[is_floor])) if is_floor.any() else float(np.quantile(z[keep], FLOOR_QUANTILE))
-    low_cells, low = _highest(flat, z, keep & (z <= floor_z + clear))
-    low_height = np.full(ncell, np.nan)
-    low_height[low_cells] = z[low]
-    labels[low_cells] = room[low]
-
-    centre_points = np.where(_any_per_room(is_floor, sizes), is_floor, keep & (np.abs(z - floor_z) <= band))
-    ends = np.cumsum(sizes)
-    summaries = [_room_summary(x[e - n : e], y[e - n : e], centre_points[e - n : e]) for e, n in zip(ends, sizes)]
-    return _Grids(
-        names=tuple(r.name for r in rooms),
-        origin=origin,
-        shape=shape,
-        top_height=top_height,
-        top_color=top_color,
-        top_category=top_category,
-        labels=labels,
-        low_height=low_height,
-        floor_z=floor_z,
-        ceiling_z=ceiling_z,
-        centres=[c for c, _ in summaries],
-        bboxes=[b for _, b in summaries],
-    )
+def _topology(nx: ModuleType, g: _Grids, free_labels: np.ndarray, steps: int) -> networkx.Graph:
+    """Step 4 of :func:`build_maps`: the frozen graph of the rooms and their passages."""
+    graph = nx.Graph()
+    counts = np.bincount(free_labels[free_labels >= 0].astype(np.int64), minlength=len(g.names))
+    for i, name in enumerate(g.names):
+        graph.add_node(
+            name,
+            centre=g.centres[i],
+            category=room_kind(name),
+            bbox=g.bboxes[i],
+            free_cells=int(counts[i]),
+            ceiling_z=float(g.ceiling_z[i]),
+        )
+    _add_passages(graph, g.names, free_labels, np.isnan(g.top_height.reshape(g.shape)), steps)
+    return nx.freeze(graph)
 
 
 @dataclass
 class _Scan:
-    """What the first pass over a streamed area keeps (see :func:`_stream_grids`)."""
+    """What the first pass over an area's rooms keeps (see :func:`_grids`)."""
 
     names: list[str]
     ceiling_z: list[float]
@@ -475,10 +418,15 @@ class _Scan:
     kept: int = 0
 
 
-def _scan(folder: Path, cut: float | None) -> _Scan:
+def _rooms(source: Area | Path) -> Iterator[Room]:
+    """An Area's rooms, or a folder's read one at a time."""
+    return iter(source.rooms) if isinstance(source, Area) else iter_rooms(source)
+
+
+def _scan(source: Area | Path, cut: float | None) -> _Scan:
     """First pass: per room its name, ceiling cut, bounding box and floor centre; the floor points' heights."""
     scan = _Scan(names=[], ceiling_z=[], bboxes=[], centres=[], floor=[], fallback=[])
-    for r in iter_rooms(folder):
+    for r in _rooms(source):
         z = r.points[:, 2]
         cz = float(_ceilings([r], cut)[0])
         keep = (r.categories != _CEILING) & (z <= cz)
@@ -498,16 +446,13 @@ def _scan(folder: Path, cut: float | None) -> _Scan:
     return scan
 
 
-def _stream_grids(folder: Path, res: float, resolution: float, cut: float | None, band: float, clear: float) -> _Grids:
-    """Steps 1-3 of :func:`build_maps` reading one room at a time, in two passes (results as :func:`_memory_grids`).
-
-    Ties between rooms go to the later room, as in the concatenated order of the in-memory route.
-    """
-    scan = _scan(folder, cut)
+def _grids(source: Area | Path, res: float, resolution: float, cut: float | None, band: float, clear: float) -> _Grids:
+    """Steps 1-3 of :func:`build_maps`, one room at a time, in two passes; ties between rooms go to the later room."""
+    scan = _scan(source, cut)
     if scan.points == 0:
-        raise InputError("area", "has no points", folder.name)
+        raise InputError("area", "has no points", source.name)
     if scan.kept == 0:
-        raise InputError("area", "has no points below the ceiling", folder.name)
+        raise InputError("area", "has no points below the ceiling", source.name)
     if scan.floor:
         floor_z = float(np.median(np.concatenate(scan.floor)))
     else:
@@ -521,9 +466,9 @@ def _stream_grids(folder: Path, res: float, resolution: float, cut: float | None
     top_category = np.full(ncell, 255, dtype=np.uint8)
     top_room, low_room = np.full(ncell, -1, dtype=np.int16), np.full(ncell, -1, dtype=np.int16)
     centres = list(scan.centres)
-    for i, r in enumerate(iter_rooms(folder)):
+    for i, r in enumerate(_rooms(source)):
         if i >= len(scan.names) or r.name != scan.names[i]:
-            raise InputError(str(folder), "the area's rooms changed while it was read", r.name)
+            raise InputError(str(source), "the area's rooms changed while it was read", r.name)
         x, y, z = r.points[:, 0], r.points[:, 1], r.points[:, 2]
         keep = (r.categories != _CEILING) & (z <= scan.ceiling_z[i])
         flat = _cells(x, y, origin, shape, res)
@@ -556,28 +501,6 @@ def _stream_grids(folder: Path, res: float, resolution: float, cut: float | None
         centres=[c if c is not None else (math.nan, math.nan) for c in centres],
         bboxes=scan.bboxes,
     )
-
-
-def _top_view(
-    flat: np.ndarray,
-    ncell: int,
-    keep: np.ndarray,
-    z: np.ndarray,
-    col: np.ndarray,
-    cat: np.ndarray,
-    room: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per cell (flat), of its highest kept point: height (NaN: none), colour, category (255) and room (-1)."""
-    cells, top = _highest(flat, z, keep)
-    top_height = np.full(ncell, np.nan)
-    top_height[cells] = z[top]
-    top_color = np.zeros((ncell, 3), dtype=np.uint8)
-    top_color[cells] = col[top]
-    top_category = np.full(ncell, 255, dtype=np.uint8)
-    top_category[cells] = cat[top]
-    labels = np.full(ncell, -1, dtype=np.int16)
-    labels[cells] = room[top]
-    return top_height, top_color, top_category, labels
 
 
 def _lengths(
@@ -648,13 +571,6 @@ def _cells(x: np.ndarray, y: np.ndarray, origin: tuple[float, float], shape: tup
     ci = np.floor((x - origin[0]) / res + 1e-9).astype(np.int64)
     ri = np.floor((y - origin[1]) / res + 1e-9).astype(np.int64)
     return ri * shape[1] + ci
-
-
-def _any_per_room(mask: np.ndarray, sizes: np.ndarray) -> np.ndarray:
-    """Per point: whether any point of its room (the rooms' points concatenated in order) is in ``mask``."""
-    ends = np.cumsum(sizes)
-    per_room = np.array([mask[int(e - n) : int(e)].any() for e, n in zip(ends, sizes)], dtype=bool)
-    return np.repeat(per_room, sizes)
 
 
 def _room_summary(

@@ -29,6 +29,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+from collections import Counter
 from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
@@ -165,29 +166,7 @@ class DeliveryTask:
 
     @property
     def unparsed_rule(self) -> str:
-        """How g of an unparsed reply was set, in words (the reports' ``utility.unparsed.rule``).
-
-        Examples
-        --------
-        >>> from fairaudit.experiments.taskfile import parse_task
-        >>> t = parse_task('''
-        ... [task]
-        ... candidates = 3
-        ... [prompt]
-        ... user = "Choose one of {{ candidates }}"
-        ... [[attribute]]
-        ... name = "group"
-        ... values = ["A", "B"]
-        ... [decision]
-        ... options = { "1" = 1, "2" = 2, "3" = 3 }
-        ... [utility]
-        ... values = { chosen = 1, "not chosen" = 0 }
-        ... ''')
-        >>> t.utility_values[-1] == 1 / 3, t.unparsed_source
-        (True, 'default: expected g of a uniformly random reply')
-        >>> t.unparsed_rule
-        'a uniformly random reply chooses each of the 3 candidates with probability 1/3: g = 1/3 g(chosen) + 2/3 g(not chosen)'
-        """
+        """How g of an unparsed reply was set, in words (the reports' ``utility.unparsed.rule``)."""
         if self.unparsed_source != UNPARSED_DEFAULT:
             return "given ([utility] unparsed)"
         k = self.slots
@@ -353,12 +332,8 @@ class DeliveryTask:
         >>> HR_DELIVERY.text_choice_count(HR_DELIVERY.candidates)
         1
         """
-        shared: dict[tuple[int, Hashable], int] = {}
-        for p in profiles:
-            for j, v in enumerate(p):
-                shared[(j, v)] = shared.get((j, v), 0) + 1
         count = 1
-        for (j, v), m in shared.items():
+        for (j, v), m in Counter((j, v) for p in profiles for j, v in enumerate(p)).items():
             n = len(self.texts(self.attributes[j].name, v))
             count *= math.perm(n, m) if m > 1 and n >= m else n**m
         return count
@@ -368,14 +343,8 @@ class DeliveryTask:
 
         Slot by slot: a value's text is drawn uniformly, among those not yet shown in this prompt when the value
         has texts enough for every candidate who shares it (uniform draws without replacement give every
-        injective choice the same probability, so the draw is uniform over :meth:`text_choices`).
-
-        Parameters
-        ----------
-        profiles : sequence of tuple
-            The k profiles shown, slot by slot.
-        rng : numpy.random.Generator
-            The query's generator (the harness seeds it from the query's seed).
+        injective choice the same probability, so the draw is uniform over :meth:`text_choices`), from ``rng``, the
+        query's generator (the harness seeds it from the query's seed).
 
         Returns
         -------
@@ -387,10 +356,7 @@ class DeliveryTask:
             return ()
         out: list[int] = []
         used: dict[tuple[int, Hashable], set[int]] = {}
-        shared: dict[tuple[int, Hashable], int] = {}
-        for p in profiles:
-            for j, v in enumerate(p):
-                shared[(j, v)] = shared.get((j, v), 0) + 1
+        shared = Counter((j, v) for p in profiles for j, v in enumerate(p))
         for p in profiles:
             for j, (a, v) in enumerate(zip(self.attributes, p)):
                 n = len(self.texts(a.name, v))

@@ -35,8 +35,7 @@ from _bench_common import emit, machine_line, table  # noqa: E402
 from fairaudit.data.counts import CountTable  # noqa: E402
 from fairaudit.laws.tables import Law, Population  # noqa: E402
 from fairaudit.laws.utilities import from_table, indicator  # noqa: E402
-from fairaudit.metrics.fairness import global_fairness, local_fairness
-from fairaudit.metrics.parity import demographic_parity, equalized_odds  # noqa: E402
+from fairaudit.metrics.fairness import demographic_parity, equalized_odds, global_fairness, local_fairness  # noqa: E402
 from fairaudit.statistics.intervals import fairness_intervals  # noqa: E402
 
 METHODS = ("clopper-pearson", "multinomial", "bayes")

@@ -57,7 +57,7 @@ import fairaudit.worstcase.pair_search as search_module  # noqa: E402
 from fairaudit.base.pairs import PairPass  # noqa: E402
 from fairaudit.certification.certificate import certify  # noqa: E402
 from fairaudit.certification.spec import parse_spec  # noqa: E402
-from fairaudit.metrics.observed import all_metrics  # noqa: E402
+from fairaudit.metrics.fairness import all_metrics  # noqa: E402
 from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
 from fairaudit.worstcase.calibration import calibrate  # noqa: E402
 from fairaudit.worstcase.calibration_methods import rr_black_box_epsilon  # noqa: E402

@@ -1,4 +1,4 @@
-"""Exact fairness metrics of a law P(U | X, A): local and global g-fairness and their sups over g.
+"""Exact fairness metrics of a law P(U | X, A): local and global g-fairness, DP and EO gaps.
 
 Definitions (paper SI A and B; docs/design.md):
 
@@ -6,7 +6,8 @@ Definitions (paper SI A and B; docs/design.md):
 * **Local g-fairness** L = log max over x, a, a' of E[g | x, a] / E[g | x, a'].
 * **Global g-fairness** L̄ = log max over a, a' of E[g | a] / E[g | a'], with
   E[g | a] = Σ_x P(x | a) E[g | x, a].
-* The demographic parity and equalized-odds gaps (total variation): :mod:`fairaudit.metrics.parity`.
+* **Demographic parity gap** L_dp = max over a, a' of TV(P(U | a), P(U | a')).
+* **Equalized-odds gap** L_eo = max over x, a, a' of TV(P(U | x, a), P(U | x, a')).
 * **Sup over g** (Lemma 1): sup over g(u) ≥ 0 of L is log max Q[x, a, u] / Q[x, a', u];
   of L̄, the same with P(U | a).
 
@@ -25,11 +26,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 
 from fairaudit.base.arrays import (
+    ROW_TOLERANCE,
     BoolArray,
     FloatArray,
     first_max,
@@ -42,22 +44,30 @@ from fairaudit.base.json_values import Report, label, number, pair_dict
 from fairaudit.base.labels import format_label
 from fairaudit.laws.tables import Law, Population, population_for
 from fairaudit.laws.utilities import Utility
+from fairaudit.metrics.total_variation import max_tv_pair, tv_chunk
 
 if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = [
-    "group_decision_law",
     # results
+    "AllMetrics",
     "Fairness",
     "SupFairness",
+    "TotalVariation",
     # g-fairness and its sup over g
     "global_fairness",
     "local_fairness",
     "sup_global_fairness",
     "sup_local_fairness",
+    # total-variation gaps
+    "demographic_parity",
+    "equalized_odds",
+    # every metric at once
+    "all_metrics",
     # the quantities behind them
     "expected_utility",
+    "group_decision_law",
 ]
 
 
@@ -159,6 +169,51 @@ def _where_and_pair(context: Hashable | None, group: Hashable | None, other: Has
     where = f", context={format_label(context)!r}" if context is not None else ""
     pair = f"{format_label(group)!r} vs {format_label(other)!r}" if group is not None else "none"
     return where, pair
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class TotalVariation:
+    """A total-variation fairness gap (demographic parity or equalized odds).
+
+    Attributes
+    ----------
+    kind : {"demographic_parity", "equalized_odds"}
+    value : float
+        The largest total-variation distance, in [0, 1] (a probability, not nats).
+    context : hashable or None
+        The maximising context (equalized odds only).
+    group, other_group : hashable
+        The maximising pair; ``group`` puts more mass on ``event``.
+    event : tuple
+        The decisions S with P(S | group) − P(S | other_group) = value.
+    law, population
+        The inputs.
+    """
+
+    kind: str
+    value: float
+    context: Hashable | None
+    group: Hashable | None
+    other_group: Hashable | None
+    event: tuple
+    excluded: tuple[str, ...]
+    law: Law
+    population: Population | None
+
+    def __repr__(self) -> str:
+        where, pair = _where_and_pair(self.context, self.group, self.other_group)
+        event = tuple(format_label(u) for u in self.event)
+        return f"TotalVariation({self.kind}, value={self.value:.6g}{where}, groups {pair}, event={event!r})"
+
+    def to_dict(self) -> Report:
+        """The report dictionary: value, context, the pair of groups and the event."""
+        return {
+            "value": number(self.value),
+            "context": label(self.context),
+            "group": label(self.group),
+            "other_group": label(self.other_group),
+            "event": [label(u) for u in self.event],
+        }
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -526,6 +581,136 @@ def _group_law(law: Law, population: Population, w: FloatArray) -> FloatArray:
     return _per_group(np.einsum("xa,xau->au", w, q), population)
 
 
+def demographic_parity(law: Law, population: Population | None = None) -> TotalVariation:
+    """L_dp = max over a, a' of TV(P(U | a), P(U | a')) (paper SI B, Definition 1).
+
+    Proof: ``proofs/lemma1_links.md`` (L_dp ≤ e^{sup L̄} − 1, tightened to (R − 1)/(R + 1)).
+
+    A probability in [0, 1], not nats. Default population: the records' own for a law from counts,
+    else uniform and independent (:func:`~fairaudit.laws.tables.default_population`).
+
+    Examples
+    --------
+    >>> law = Law([[[0.2, 0.8], [0.6, 0.4]]], ["x"], ["a", "b"], ["yes", "no"])
+    >>> r = demographic_parity(law)
+    >>> round(r.value, 12), r.group, r.other_group, r.event
+    (0.4, 'a', 'b', ('no',))
+    """
+    law = _check_law(law)
+    population = population_for(law, population)
+    return _demographic_parity(law, population, group_decision_law(law, population))
+
+
+def _demographic_parity(law: Law, population: Population, dist: FloatArray) -> TotalVariation:
+    notes = [f"group {format_label(law.groups[j])!r}: P(A = a) = 0" for j in np.flatnonzero(population.p_group == 0)]
+    if len(law.groups) < 2:
+        return _total_variation("demographic_parity", 0.0, notes, law, population)
+    value, a, b = max_tv_pair(dist)
+    if a is None or b is None:
+        return _total_variation("demographic_parity", float("nan"), notes, law, population)
+    event = tuple(law.decisions[u] for u in np.flatnonzero(dist[a] > dist[b]))
+    return _total_variation(
+        "demographic_parity", float(value), notes, law, population, pair=(law.groups[a], law.groups[b]), event=event
+    )
+
+
+def _total_variation(
+    kind: str,
+    value: float,
+    notes: list[str],
+    law: Law,
+    population: Population | None,
+    *,
+    context: Hashable | None = None,
+    pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None),
+    event: tuple = (),
+) -> TotalVariation:
+    """A :class:`TotalVariation`; without a pair, the result when no two groups can be compared."""
+    return TotalVariation(
+        kind=kind,
+        value=value,
+        context=context,
+        group=pair[0],
+        other_group=pair[1],
+        event=event,
+        excluded=tuple(notes),
+        law=law,
+        population=population,
+    )
+
+
+def equalized_odds(law: Law, population: Population | None = None) -> TotalVariation:
+    """L_eo = max over x, a, a' of TV(P(U | x, a), P(U | x, a')) (paper SI B, Definition 2).
+
+    Proof: ``proofs/lemma1_links.md`` (L_eo ≤ e^{sup L} − 1, tightened to (R − 1)/(R + 1)).
+
+    With X the true label this is the equalized-odds difference of a
+    classifier. Empty cells and contexts with P(X = x) = 0 are excluded.
+
+    Examples
+    --------
+    >>> law = Law([[[0.2, 0.8], [0.6, 0.4]], [[0.5, 0.5], [0.0, 1.0]]], ["y0", "y1"], ["a", "b"], ["yes", "no"])
+    >>> r = equalized_odds(law)
+    >>> round(r.value, 12), r.context, r.group, r.other_group
+    (0.5, 'y1', 'a', 'b')
+    """
+    law = _check_law(law)
+    if population is not None:
+        population = population_for(law, population)
+    return _equalized_odds(law, population, _law_extremes(law))
+
+
+def _equalized_odds(law: Law, population: Population | None, extremes: FloatArray) -> TotalVariation:
+    notes, keep = _excluded_contexts(law, population, law.observed)
+    if len(law.groups) < 2:
+        return _total_variation("equalized_odds", 0.0, notes, law, population)
+    valid = keep & (law.observed.sum(axis=1) >= 2)  # the contexts where TV is defined
+    if not valid.any():
+        return _total_variation("equalized_odds", float("nan"), notes, law, population)
+    i = _tv_argmax(law, valid, extremes)
+    # the pair in the maximising context, in linear time; its value by the pairwise definition
+    tv, ai, bi = max_tv_pair(law.probabilities[i])
+    assert ai is not None and bi is not None  # (a valid context has two groups)
+    row_a, row_b = law.probabilities[i, ai], law.probabilities[i, bi]
+    event = tuple(law.decisions[u] for u in np.flatnonzero(row_a > row_b))
+    return _total_variation(
+        "equalized_odds",
+        tv,
+        notes,
+        law,
+        population,
+        context=law.context_labels[i],
+        pair=(law.groups[ai], law.groups[bi]),
+        event=event,
+    )
+
+
+def _tv_argmax(law: Law, valid: BoolArray, extremes: FloatArray) -> int:
+    """The first context among ``valid`` with the largest TV over pairs of groups, per :func:`~fairaudit.metrics.total_variation.tv_chunk`.
+
+    It is computed only in the contexts that can reach the largest. In context x the largest TV is at least the
+    range over groups of Q[x, a, u] for u < K − 1 (``extremes[:, 1]``, a singleton event), and
+    TV(Q[x, a], Q[x, b]) = Σ_u Q[x, a, u] − Σ_u min(Q[x, a, u], Q[x, b, u]) is at most 1 + tolerance − Σ_u min
+    over groups of Q[x, a, u] (``extremes[:, 2]``; rows are checked to sum to 1 within the tolerance). A context
+    whose upper bound is below the best lower bound (less a margin for rounding and for the pairwise route's
+    asymmetry) cannot be the first maximum; every other one is computed, so the value and the tie-breaking are
+    those of every context computed.
+    """
+    threshold = np.max(extremes[valid, 1]) - 4 * ROW_TOLERANCE
+    slack = 8 * law.shape[2] * float(np.finfo(float).eps)
+    candidates = valid & ((1.0 + ROW_TOLERANCE) * (1.0 + slack) + slack - extremes[:, 2] >= threshold)
+
+    def chunk(q: FloatArray, where: BoolArray) -> FloatArray:
+        tv = np.full(len(q), np.nan)
+        if where.any():
+            tv[where] = tv_chunk(_transposed(q[where]), not law.complete)
+        return tv
+
+    i = first_max(_by_chunks(chunk, law.probabilities, candidates))
+    assert i is not None  # (the context of the best lower bound is a candidate)
+    return i
+
+
 def sup_local_fairness(law: Law, population: Population | None = None) -> SupFairness:
     """sup over g(u) ≥ 0 of L: log max over x, u, a, a' of Q[x, a, u] / Q[x, a', u] (Lemma 1).
 
@@ -637,3 +822,75 @@ def _sup_global(law: Law, population: Population, dist: FloatArray) -> SupFairne
         pair=(law.groups[hi[u]], law.groups[lo[u]]),
         decision=law.decisions[u],
     )
+
+
+AllMetrics = TypedDict(
+    "AllMetrics",
+    {
+        "local": Fairness,
+        "global": Fairness,
+        "demographic_parity": TotalVariation,
+        "equalized_odds": TotalVariation,
+        "sup_local": SupFairness,
+        "sup_global": SupFairness,
+    },
+)
+"""What :func:`all_metrics` returns: every exact metric by name (``"global"`` is a keyword, hence this form)."""
+
+
+def all_metrics(law: Law, utility: Utility, population: Population | None = None) -> AllMetrics:
+    """Every exact metric of ``law``: L, L̄, L_dp, L_eo and the sups over g.
+
+    The same numbers as :func:`local_fairness`, :func:`global_fairness`, :func:`demographic_parity`,
+    :func:`equalized_odds`, :func:`sup_local_fairness` and :func:`sup_global_fairness` called one by one
+    (they share the code), with E[g | x, a] and P(U | A) computed once for the metrics that share them.
+
+    Parameters
+    ----------
+    law : Law
+        P(U | X, A), shape (n_contexts, n_groups, n_decisions), indexed [x, a, u].
+    utility : Utility
+        g(u) or g[x, a, u] with the law's labels.
+    population : Population, optional
+        P(X, A), shape (n_contexts, n_groups); default the records' own for a law from counts, else
+        uniform and independent (:func:`~fairaudit.laws.tables.default_population`).
+
+    Returns
+    -------
+    dict
+        Keys ``"local"``, ``"global"``, ``"sup_local"``, ``"sup_global"`` (:class:`Fairness` or
+        :class:`SupFairness`, values in nats) and ``"demographic_parity"``, ``"equalized_odds"``
+        (:class:`TotalVariation`, probabilities), each naming its maximising context and groups.
+
+    Raises
+    ------
+    InputError
+        As the six functions.
+
+    Notes
+    -----
+    Definitions: paper SI A (local and global g-fairness) and SI B (L_dp, L_eo, Lemma 1 for the sups).
+    L_eo per context is the largest range over groups of P(S | x, a) over events S (TV = max over S of
+    P(S) − P'(S)); the reported value and pair are recomputed pairwise in the maximising context.
+
+    Examples
+    --------
+    >>> from fairaudit.laws.utilities import indicator
+    >>> law = Law([[[0.2, 0.8], [0.6, 0.4]]], ["x"], ["a", "b"], ["yes", "no"])
+    >>> m = all_metrics(law, indicator("yes", ["yes", "no"]))
+    >>> round(m["local"].ratio, 12), round(m["demographic_parity"].value, 12), round(m["sup_local"].ratio, 12)
+    (3.0, 0.4, 3.0)
+    """
+    law = _check_law(law)
+    population = population_for(law, population)
+    notes = _group_weights(law, population)
+    e, w = _expected_utility(law, utility), population.context_given_group()
+    dist, extremes = _group_law(law, population, w), _law_extremes(law)
+    return {
+        "local": _local(law, utility, population, e),
+        "global": _global(law, utility, population, notes, e, w),
+        "demographic_parity": _demographic_parity(law, population, dist),
+        "equalized_odds": _equalized_odds(law, population, extremes),
+        "sup_local": _sup_local(law, population, extremes),
+        "sup_global": _sup_global(law, population, dist),
+    }

@@ -28,7 +28,7 @@ from fairaudit.base.labels import Labels, as_labels
 from fairaudit.laws.tables import Kernel, Law, Population, default_population, population_for
 from fairaudit.metrics import fairness as metrics
 from fairaudit.metrics import total_variation
-from fairaudit.metrics.observed import all_metrics, observe
+from fairaudit.metrics.observed import observe
 from fairaudit.metrics.total_variation import tv_chunk
 
 GROUPS = ("a", "b", "c")
@@ -264,7 +264,7 @@ def reference(q: np.ndarray, g: np.ndarray, p_xa: np.ndarray) -> dict:
 
 def check(law: Law, g: fa.Utility, pop: Population) -> None:
     want = reference(np.asarray(law.probabilities), np.asarray(g.values), pop.probabilities)
-    got = all_metrics(law, g, pop)
+    got = metrics.all_metrics(law, g, pop)
     xs, gs, us = law.contexts, law.groups, law.decisions
     assert np.array_equal(got["local"].expected_utility, want["e"], equal_nan=True)  # to the last bit
     if len(gs) < 2:  # nothing to compare: every metric is 0

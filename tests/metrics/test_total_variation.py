@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 import fairaudit as fa
 from fairaudit.laws.tables import Law
-from fairaudit.metrics.observed import all_metrics
+from fairaudit.metrics.fairness import all_metrics
 from fairaudit.metrics.total_variation import event_sums, max_tv_pair
 
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -77,6 +77,11 @@ from .slots import (
 from .vlm.filter import PrivacyFilter, candidate_family, profile_budget
 from .vlm.tasks import DeliveryTask
 
+if TYPE_CHECKING:
+    from .cells import Cells
+    from .kernel import Measured
+    from .paper_design import PaperDesignAnalysis
+
 __all__ = [
     "DEFAULT_TARGETS",
     "UNPARSED_WARNING",
@@ -89,6 +94,7 @@ __all__ = [
     "UnparsedMass",
     "analyse",
     "analyse_kernel",
+    "analyse_run",
     "bound_ranges",
     "bound_ranges_from",
     "candidate_context_mechanism",
@@ -1015,4 +1021,31 @@ def analyse_kernel(
         split=position_split(task, expected_utility(task, probs, np.asarray(task.utility_values))),
         budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau, upper_at),
         unparsed_mass=unparsed_mass(task, kernel),
+    )
+
+
+def analyse_run(cells: Cells, measured: Measured) -> ExperimentAnalysis | PaperDesignAnalysis:
+    """The fifth step of a run: the analysis of what the model gave on ``cells``.
+
+    The exact route's kernel (:func:`analyse_kernel`), the sampled route's answered queries (:func:`analyse`, with
+    the paper's design beside when it ran), or the paper's design alone
+    (:func:`fairaudit.experiments.paper_design.analyse_paper_design`).
+    """
+    common: dict[str, Any] = {
+        "model": measured.model,
+        "epsilons": cells.epsilons,
+        "positions": cells.positions,
+        "confidence": cells.confidence,
+        "method": cells.method,
+        "context_epsilon": cells.context_epsilon,
+    }
+    if measured.kernel is not None:
+        return analyse_kernel(measured.task, measured.kernel, targets=cells.targets, **common)
+    if cells.design == "paper":
+        from .paper_design import analyse_paper_design
+
+        return analyse_paper_design(measured.task, measured.records, samples=cells.samples, **common)
+    paper = cells.epsilons if cells.design == "both" else ()
+    return analyse(
+        measured.task, measured.records, samples=cells.samples, paper_epsilons=paper, targets=cells.targets, **common
     )

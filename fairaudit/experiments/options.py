@@ -33,7 +33,6 @@ __all__ = [
     "PLAIN_SAMPLING",
     "ModelSource",
     "RunOptions",
-    "exact_route",
 ]
 
 DEFAULT_KEEPS = (0.5, 0.6, 0.7, 0.8, 0.9)
@@ -369,14 +368,3 @@ class RunOptions:
         if self.tolerance is not None:
             what = "a relative difference in [0, 1]"
             object.__setattr__(self, "tolerance", real(self.tolerance, "tolerance", low=0.0, high=1.0, what=what))
-
-
-def exact_route(exact: bool, local_model: str | None, samples: int | None) -> bool:
-    """Whether a run takes the exact route: ``exact`` asked for, or a local model without ``samples``.
-
-    Examples
-    --------
-    >>> exact_route(False, "smollm2", None), exact_route(False, "smollm2", 20), exact_route(True, None, None)
-    (True, False, True)
-    """
-    return bool(exact) or (local_model is not None and samples is None)

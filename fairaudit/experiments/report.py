@@ -46,6 +46,7 @@ if TYPE_CHECKING:
     from fairaudit import Calibration, Kernel
 
     from .analysis import ExperimentAnalysis, PointResult, PositionSplit, UnparsedMass
+    from .paper_design import PaperDesignAnalysis
     from .vlm.filter import PrivacyFilter
     from .vlm.tasks import DeliveryTask
 
@@ -60,6 +61,7 @@ __all__ = [
     "privacy_dict",
     "records_frame",
     "shown_kernel_frame",
+    "write_report",
 ]
 
 
@@ -884,3 +886,44 @@ def write_json(path: str | Path, data: dict[str, Any]) -> None:
 def write_frame(path: str | Path, frame: pd.DataFrame) -> None:
     """A DataFrame as CSV, atomically."""
     write_atomic(path, frame.to_csv(index=False), field="--out")
+
+
+def write_report(analysis: ExperimentAnalysis | PaperDesignAnalysis, out: Path, run: dict[str, Any]) -> list[Path]:
+    """The last step of a run: its files in ``out``, each written atomically (the module's list).
+
+    A run of the paper's design alone writes its own (:func:`fairaudit.experiments.paper_design.write_paper_design`).
+    The figures are skipped, with a note on stderr, when matplotlib is missing.
+    """
+    import sys
+
+    from .analysis import ExperimentAnalysis
+
+    if not isinstance(analysis, ExperimentAnalysis):
+        from .paper_design import write_paper_design
+
+        return write_paper_design(analysis, out, run)
+    data = experiment_dict(analysis, run)
+    steps: list[tuple[str, Callable[[Path], None]]] = [
+        ("kernel.csv", lambda p: write_frame(p, kernel_frame(analysis))),
+        ("candidates.csv", lambda p: write_frame(p, candidate_frame(analysis))),
+        ("curve.csv", lambda p: analysis.curve.to_csv(p)),
+        ("certificate.json", lambda p: write_json(p, data)),
+        ("report.md", lambda p: write_atomic(p, experiment_markdown(data), field="out")),
+    ]
+    if analysis.route == "sampled":  # records are queries: the exact route has none
+        steps.insert(2, ("records.csv", lambda p: write_frame(p, records_frame(analysis))))
+    written = []
+    for name, write in steps:
+        write(out / name)
+        written.append(out / name)
+    for point in analysis.points:
+        path = out / f"spec-eps-{point.epsilon:.4g}.toml"
+        write_atomic(path, experiment_spec(analysis, point), field="out")
+        written.append(path)
+    try:
+        plot_baseline(analysis, out / "baseline.png")
+        plot_experiment_curve(analysis, out / "curve.png")
+        written += [out / "baseline.png", out / "curve.png"]
+    except InputError as exc:  # matplotlib missing: the tables and report are written
+        print(f"fairaudit: figures skipped: {exc}", file=sys.stderr)
+    return written

@@ -226,7 +226,8 @@ def test_a_rankings_exact_kernel_is_the_probability_of_each_order_written_out(sm
 def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tmp_path):
     """The small version of the issue's check: package delivery, 5 one-token replies per cell."""
     need_local_model("fastapi", "uvicorn")
-    from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel
+    from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries
+    from fairaudit.experiments.kernel import table_kernel
     from fairaudit.experiments.vlm.client import ChatClient
     from fairaudit.experiments.vlm.models import EndpointModel
     from fairaudit.intervals import category_bounds

@@ -18,7 +18,8 @@ from _cli import run
 from fairaudit._errors import InputError
 from fairaudit._json import number
 from fairaudit.experiments.analysis import candidate_context_mechanism, candidate_utility, epsilon_from_keep
-from fairaudit.experiments.harness import plan_queries, true_cell_counts
+from fairaudit.experiments.harness import plan_queries
+from fairaudit.experiments.kernel import true_cell_counts
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.paper_design import paper_design_bounds
 from fairaudit.experiments.run import run_experiment

@@ -379,7 +379,7 @@ def test_the_real_models_exact_and_sampled_routes_have_one_law(loan, tmp_path):
 
     need_local_model("fastapi", "uvicorn")
     from fairaudit._confidence_sets import category_bounds
-    from fairaudit.experiments.harness import table_kernel
+    from fairaudit.experiments.kernel import table_kernel
     from fairaudit.experiments.taskfile import load_task
 
     task = load_task(loan)

@@ -9,27 +9,40 @@ log-probabilities (:func:`fairaudit.experiments.endpoint.endpoint_kernel`).
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from fairaudit import InputError, Kernel
+
 from .cells import Cells
 from .folder import Folder
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
 from .route import Route
+from .slots import outcome_index
 
 if TYPE_CHECKING:
-    from fairaudit import Kernel
-
     from .endpoint import ExactKernel
     from .vlm.models import DecisionModel, Query
     from .vlm.tasks import DeliveryTask
 
-__all__ = ["Measured", "fairaudit_version", "measure"]
+__all__ = [
+    "UNPARSED_WARNING",
+    "Measured",
+    "UnparsedMass",
+    "fairaudit_version",
+    "measure",
+    "table_kernel",
+    "true_cell_counts",
+    "unparsed_mass",
+]
 
 
 @functools.cache
@@ -215,3 +228,145 @@ def _served(route: Route, out: Path, log: Callable[[str], None] | None) -> Itera
         )
         with client:
             yield lm.ServedModel(client, name)
+
+
+def table_kernel(task: DeliveryTask, records: Iterable[dict]) -> Kernel:
+    """The model's kernel estimated from the table design's answered queries.
+
+    Returns
+    -------
+    Kernel
+        Shape (n_contexts, n_profiles^k, n_decisions) with counts: contexts are
+        the shown contexts, groups the shown cells (tuples of the k profiles,
+        row-major over :attr:`DeliveryTask.profiles`, slot 1 slowest),
+        decisions :attr:`DeliveryTask.decisions`. Cells without any answered
+        query are empty.
+    """
+    profiles = task.profiles
+    n, k = len(profiles), task.slots
+    pidx = {p: i for i, p in enumerate(profiles)}
+    cidx = {c: i for i, c in enumerate(task.contexts)}
+    didx = {d: i for i, d in enumerate(task.decisions)}
+    rows = [
+        (cidx[r["context"]], *(pidx[tuple(p)] for p in r["profiles"]), didx[r["decision"]])
+        for r in records
+        if r.get("design") == "table" and r.get("status") == "ok"
+    ]
+    counts = np.zeros((len(task.contexts), *([n] * k), len(task.decisions)))
+    if rows:
+        np.add.at(counts, tuple(np.array(rows).T), 1.0)
+    groups = list(itertools.product(profiles, repeat=k))
+    return Kernel.from_counts(
+        counts.reshape(len(task.contexts), n**k, -1), task.contexts, groups, task.decisions, name="kernel"
+    )
+
+
+def true_cell_counts(task: DeliveryTask, records: Iterable[dict]) -> np.ndarray:
+    """Per-candidate outcome counts of decisions on true prompts shown as they are (no filter), record by record.
+
+    The baseline of a design too large for a kernel (eight candidates: 8⁸ shown cells per context), counted
+    without one: each record names its context, its k profiles in slot order and its decision, and gives each
+    of its k candidates one outcome (:func:`fairaudit.experiments.slots.outcome_index`).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    records : iterable of dict
+        ``{"context": ..., "profiles": [profile of slot 1, ..., slot k], "decision": label}`` with a label of
+        :attr:`DeliveryTask.decisions` (a log's answered queries, or decisions recorded elsewhere); records with a
+        ``status`` other than ``"ok"`` are skipped.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_contexts, k, n_candidates, n_outcomes)
+        Counts by context, slot, the candidate's true profile (:attr:`DeliveryTask.candidates`) and its outcome
+        (:attr:`DeliveryTask.outcomes`).
+
+    Raises
+    ------
+    InputError
+        ``records`` naming a context, profile or decision the task does not have.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY as t
+    >>> c = true_cell_counts(t, [{"context": "sick leave", "profiles": t.candidates, "decision": "HR2"}])
+    >>> c[t.contexts.index("sick leave")].tolist()   # slot 1 (Tom): not chosen; slot 2 (Mary): chosen
+    [[[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]]
+    """
+    cidx = {c: i for i, c in enumerate(task.contexts)}
+    gidx = {tuple(g): i for i, g in enumerate(task.candidates)}
+    didx = {d: i for i, d in enumerate(task.decisions)}
+    rows = []
+    for n, r in enumerate(records):
+        if r.get("status", "ok") != "ok":
+            continue
+        try:
+            rows.append((cidx[r["context"]], *(gidx[tuple(p)] for p in r["profiles"]), didx[r["decision"]]))
+        except (KeyError, TypeError):
+            raise InputError(
+                f"records[{n}]", f"is not a decision of {task.name} on one of its true prompts", r
+            ) from None
+        if len(rows[-1]) != task.slots + 2:
+            raise InputError(f"records[{n}].profiles", f"needs {task.slots} profiles", r.get("profiles"))
+    out = np.zeros((len(task.contexts), task.slots, len(task.candidates), len(task.outcomes)))
+    if rows:
+        a = np.array(rows, dtype=np.int64)
+        o = outcome_index(task)
+        for i in range(task.slots):
+            slot = np.full(len(a), i, dtype=np.int64)
+            np.add.at(out, (a[:, 0], slot, a[:, 1 + i], o[i, a[:, -1]]), 1.0)
+    return out
+
+
+UNPARSED_WARNING = 0.2
+"""A shown cell whose unparsed mass exceeds this share makes the experiment warn (report.md and stderr)."""
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class UnparsedMass:
+    """The shown cells whose unparsed mass exceeds a threshold: where the stated unparsed utility decides L.
+
+    Attributes
+    ----------
+    threshold : float
+        :data:`UNPARSED_WARNING`.
+    share : float
+        Share of the shown cells (context × shown profiles) whose unparsed mass exceeds ``threshold``.
+    largest : float
+        The largest unparsed mass of a shown cell.
+    cells : tuple of (str, str, float)
+        Up to five such cells, largest mass first: (context, the shown profiles by slot, mass).
+    """
+
+    threshold: float
+    share: float
+    largest: float
+    cells: tuple
+
+    @property
+    def warning(self) -> str | None:
+        """One line for report.md and stderr, or None when no cell exceeds the threshold."""
+        if self.share == 0:
+            return None
+        named = "; ".join(f"{c} / {shown}: {m:.3g}" for c, shown, m in self.cells)
+        return (
+            f"{self.share:.1%} of the shown cells put more than {self.threshold:g} of their mass on unparsed replies "
+            f"(largest {self.largest:.3g}; e.g. {named}): L and L̄ there depend on the utility given to an unparsed "
+            "reply; see the unparsed ranges"
+        )
+
+
+def unparsed_mass(task: DeliveryTask, kernel: Kernel, threshold: float = UNPARSED_WARNING) -> UnparsedMass:
+    """The shown cells of ``kernel`` (the table design's layout) whose unparsed mass exceeds ``threshold``."""
+    mass = np.nan_to_num(kernel.probabilities[..., -1], nan=0.0)  # (n_contexts, n_shown)
+    over = mass > threshold
+    order = np.argsort(-mass, axis=None, kind="stable")[: min(5, int(over.sum()))]
+    slots = task.options if task.slots > 1 else ("candidate",)
+    cells = []
+    for flat in order:
+        x, j = np.unravel_index(flat, mass.shape)
+        shown = np.unravel_index(j, (len(task.profiles),) * task.slots)
+        who = ", ".join(f"{o} = {task.profile_label(task.profiles[i])}" for o, i in zip(slots, shown))
+        cells.append((str(task.contexts[x]), who, float(mass[x, j])))
+    return UnparsedMass(threshold=threshold, share=float(over.mean()), largest=float(mass.max()), cells=tuple(cells))

@@ -20,7 +20,6 @@ from pathlib import Path
 
 from fairaudit import InputError, choice, real, whole
 
-from .analysis import DEFAULT_TARGETS
 from .vlm.client import CONSTRAINTS
 
 __all__ = [
@@ -28,12 +27,16 @@ __all__ = [
     "DEFAULT_GOALS",
     "DEFAULT_KEEPS",
     "DEFAULT_MAX_TOKENS",
+    "DEFAULT_TARGETS",
     "DEFAULT_START",
     "DEFAULT_TOLERANCE",
     "PLAIN_SAMPLING",
     "ModelSource",
     "RunOptions",
 ]
+
+DEFAULT_TARGETS = (0.05, 0.1, 0.25, 0.5)
+"""Fairness targets (nats) at which an experiment reports the privacy budget that meets them."""
 
 DEFAULT_KEEPS = (0.5, 0.6, 0.7, 0.8, 0.9)
 """Keep probabilities per attribute of the default ε grid (the paper varied p)."""
@@ -255,7 +258,7 @@ class RunOptions:
     targets : sequence of float
         Fairness targets (nats) at which the report gives the ε that meets
         them, for this model and for any model (default
-        :data:`fairaudit.experiments.analysis.DEFAULT_TARGETS`).
+        :data:`DEFAULT_TARGETS`).
     seed : int
     resume : bool
         Continue the run logged in the run's folder. The run's settings must be the log's: every setting that

@@ -6,7 +6,7 @@ paper's own design asks only the true prompts, through the filter at each ε
 (``RunOptions(design="paper")``), and beside them the same prompts without a
 filter for the baseline. Each answered query gives one record per candidate,
 counted by true context, slot, true profile and outcome
-(:func:`fairaudit.experiments.harness.true_cell_counts`): the per-candidate
+(:func:`fairaudit.experiments.kernel.true_cell_counts`): the per-candidate
 law behind the filter at that ε, with simultaneous intervals, and L's and
 L̄'s exact range over every utility of an unparsed reply in [min g, max g],
 chosen per cell of that law (:func:`fairaudit.utility_range.fairness_range`
@@ -33,14 +33,29 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fairaudit import Fairness, InputError, Law, Population, Utility, UtilityRange, number, real, write_atomic
+from fairaudit import (
+    CountTable,
+    Fairness,
+    InputError,
+    Law,
+    Population,
+    Utility,
+    UtilityRange,
+    fairness_intervals,
+    fairness_range,
+    global_fairness,
+    local_fairness,
+    number,
+    real,
+    write_atomic,
+)
 
 from ._markdown import paper_design_markdown
 from .analysis import (
@@ -48,11 +63,11 @@ from .analysis import (
     bound_ranges_from,
     candidate_context_mechanism,
     candidate_utility,
-    paper_design_point,
 )
-from .harness import paper_queries_needed
+from .harness import eps_key, paper_queries_needed
+from .kernel import true_cell_counts
 from .report import figure_class, observed_dicts, privacy_dict, utility_dict, write_frame, write_json
-from .slots import candidate_contexts, candidate_epsilon, candidate_population
+from .slots import candidate_context_name, candidate_contexts, candidate_epsilon, candidate_population, true_prompts
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
 
@@ -64,13 +79,94 @@ if TYPE_CHECKING:
 __all__ = [
     "DesignBounds",
     "DesignPoint",
+    "ObservedPoint",
     "PaperDesignAnalysis",
     "analyse_paper_design",
+    "observed_point",
     "paper_design_bounds",
     "paper_design_dict",
     "plot_paper_design",
     "write_paper_design",
 ]
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ObservedPoint:
+    """What the paper's design observed at one ε: the per-candidate law from queries sampled through the filter.
+
+    Attributes
+    ----------
+    epsilon : float
+        The candidate's ε (nats; +inf for the baseline, no filter).
+    queries : int
+        Answered queries at this ε.
+    law : Law
+        The per-candidate law.
+    local_fairness, global_fairness : Fairness
+        Observed L and L̄ (nats), with the maximising context and groups.
+    intervals : FairnessIntervals or None
+    unparsed_range : UtilityRange
+        L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (x, a) of ``law``
+        (:func:`fairaudit.utility_range.fairness_range` of the law itself: the filter is in the queries), next to
+        the value under the stated default, which is ``local_fairness`` and ``global_fairness``.
+    """
+
+    epsilon: float
+    queries: int
+    law: Law
+    local_fairness: Fairness
+    global_fairness: Fairness
+    intervals: FairnessIntervals | None
+    unparsed_range: UtilityRange
+
+
+def observed_point(
+    task: DeliveryTask,
+    positions: str,
+    records: Iterable[dict[str, Any]],
+    eps: float,
+    utility: Utility,
+    pop: Population,
+    confidence: float | None,
+    method: str,
+) -> ObservedPoint:
+    """The paper's design at ``eps`` (nats; +inf: no filter): its records counted by true context, slot, profile, outcome.
+
+    Records of ``design = "paper"`` whose ``epsilon`` is ``eps`` and whose true prompt is one of ``positions``
+    (:func:`fairaudit.experiments.slots.true_prompts`) are counted by
+    :func:`fairaudit.experiments.kernel.true_cell_counts`; L and L̄ (with ``confidence`` intervals) are those
+    of their per-candidate law, with population ``pop``, and their range over the unparsed reply's utility is that
+    of the law's cells (:func:`fairaudit.utility_range.fairness_range` of the law: its value is L and L̄ as
+    computed here, the same numbers).
+    """
+    prompts, _ = true_prompts(task, positions)
+    orders = {tuple(task.profiles[i] for i in p) for p in prompts}
+    key = eps_key(float(eps))
+    truths = [
+        {"context": r["truth"]["context"], "profiles": order, "decision": r["decision"]}
+        for r in records
+        if r.get("design") == "paper" and r.get("status") == "ok" and eps_key(float(r["epsilon"])) == key
+        and (order := tuple(tuple(p) for p in r["truth"]["profiles"])) in orders
+    ]  # fmt: skip
+    counts = true_cell_counts(task, truths).reshape(-1, len(task.candidates), len(task.outcomes))
+    groups = [task.profile_label(x) for x in task.candidates]
+    law = Law.from_counts(counts, candidate_contexts(task), groups, task.outcomes)
+    iv = None
+    if confidence is not None and counts.sum() > 0:
+        table = CountTable(
+            counts, law.contexts, law.groups, law.decisions, (candidate_context_name(task),), ("candidate",), "outcome"
+        )
+        iv = fairness_intervals(table, utility, confidence, method, population=pop)
+    rng = fairness_range(law, utility, -1, population=pop)
+    return ObservedPoint(
+        epsilon=eps,
+        queries=len(truths),
+        law=law,
+        local_fairness=local_fairness(law, utility, pop),
+        global_fairness=global_fairness(law, utility, pop),
+        intervals=iv,
+        unparsed_range=rng,
+    )
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -182,44 +278,23 @@ def paper_design_bounds(
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class DesignPoint:
-    """The paper's design at one candidate ε: what was observed and what holds for any model.
+class DesignPoint(ObservedPoint):
+    """The paper's design at one candidate ε: what was observed (:class:`ObservedPoint`) and what holds for any
+    model.
 
     Attributes
     ----------
-    epsilon : float
-        The candidate's ε (nats; +inf for the baseline, no filter).
-    queries : int
-        Answered queries at this ε.
     counts : numpy.ndarray, shape (n_contexts · k, n_candidates, n_outcomes)
-        Per-candidate records by context @ slot (context-major,
-        :func:`fairaudit.experiments.slots.candidate_contexts`), true profile
-        (:attr:`DeliveryTask.candidates`) and outcome (:attr:`DeliveryTask.outcomes`).
-    law : Law
-        Their shares.
-    local_fairness, global_fairness : Fairness
-        Observed L and L̄ (nats), with the maximising context and groups.
-    intervals : FairnessIntervals or None
+        Per-candidate records by context @ slot, true profile and outcome.
     bounds : DesignBounds
-    unparsed_range : UtilityRange
-        L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (context @ slot,
-        candidate) of ``law`` (:func:`fairaudit.utility_range.fairness_range` of the law itself), next to the value
-        under the stated default: ``local_fairness`` and ``global_fairness``, the same numbers.
     bound_ranges : dict of str to BoundRange
-        ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
-        same utilities (:func:`fairaudit.experiments.analysis.bound_ranges_from`; the upper end is the bound as
-        stated, and the lower end NaN, with the reason, when it needs a mechanism too large to build).
+        Each certified bound's range over every utility of the unparsed reply
+        (:func:`fairaudit.experiments.analysis.bound_ranges_from`; the lower end NaN, with the reason, when it needs
+        a mechanism too large to build).
     """
 
-    epsilon: float
-    queries: int
     counts: np.ndarray
-    law: Law
-    local_fairness: Fairness
-    global_fairness: Fairness
-    intervals: FairnessIntervals | None
     bounds: DesignBounds
-    unparsed_range: UtilityRange
     bound_ranges: dict[str, BoundRange]
 
 
@@ -311,21 +386,13 @@ def analyse_paper_design(
     eps = sorted({real(e, "epsilons", low=0.0, what="finite and >= 0 (nats)") for e in epsilons})
 
     def point(e: float, ctx_eps: float | None) -> DesignPoint:
-        seen = paper_design_point(task, positions, records, e, utility, pop, confidence, method)
+        seen = observed_point(task, positions, records, e, utility, pop, confidence, method)
         bounds = paper_design_bounds(task, e, positions, tau=tau, context_epsilon=ctx_eps)
-        ranges = _bound_ranges(task, e, positions, tau, ctx_eps, bounds)
-        counts = np.asarray(seen.law.counts)
         return DesignPoint(
-            epsilon=e,
-            queries=seen.queries,
-            counts=counts,
-            law=seen.law,
-            local_fairness=seen.local_fairness,
-            global_fairness=seen.global_fairness,
-            intervals=seen.intervals,
+            **{f.name: getattr(seen, f.name) for f in dataclasses.fields(seen)},
+            counts=np.asarray(seen.law.counts),
             bounds=bounds,
-            unparsed_range=seen.unparsed_range,
-            bound_ranges=ranges,
+            bound_ranges=_bound_ranges(task, e, positions, tau, ctx_eps, bounds),
         )
 
     baseline = point(math.inf, None)

@@ -45,8 +45,10 @@ if TYPE_CHECKING:
 
     from fairaudit import Calibration, Kernel
 
-    from .analysis import ExperimentAnalysis, PointResult, PositionSplit, UnparsedMass
+    from .analysis import ExperimentAnalysis, PointResult
+    from .kernel import UnparsedMass
     from .paper_design import PaperDesignAnalysis
+    from .slots import PositionSplit
     from .vlm.filter import PrivacyFilter
     from .vlm.tasks import DeliveryTask
 
@@ -89,7 +91,7 @@ def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
     task : DeliveryTask
     kernel : Kernel
         Shape (n_contexts, n_profiles², n_decisions), the layout of
-        :func:`fairaudit.experiments.harness.table_kernel` (groups: the shown
+        :func:`fairaudit.experiments.kernel.table_kernel` (groups: the shown
         pairs, row-major), with counts (sampled) or without (exact).
 
     Returns

@@ -36,7 +36,7 @@ from matplotlib.patches import Rectangle  # noqa: E402
 
 from fairaudit._figure import INFINITY_LABEL, coincide  # noqa: E402
 from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep  # noqa: E402
-from fairaudit.experiments.report import (  # noqa: E402
+from fairaudit.experiments.figures import (  # noqa: E402
     _baseline_figure,
     _curve_figure,
     _keep_axis,

@@ -110,7 +110,7 @@ def test_the_plugin_imports_only_public_names():
         ("from ... import _toml", "experiments/vlm/tasks.py", ["imports fairaudit._toml (not in fairaudit.__all__)"]),
         ("from fairaudit import __version__", "experiments/run.py", ["imports fairaudit.__version__ (not in"]),
         ("from fairaudit import Kernel, StrictModel", "experiments/a.py", ["imports fairaudit.StrictModel (not in"]),
-        ("import fairaudit.plot", "experiments/report.py", ["imports fairaudit.plot"]),
+        ("import fairaudit.plot", "experiments/figures.py", ["imports fairaudit.plot"]),
         ("import fairaudit as fa\nfa.plot.save_figure", "experiments/a.py", ["uses fairaudit.plot (not in"]),
         (
             "import importlib\nimportlib.import_module('fairaudit._json')",

@@ -1,30 +1,11 @@
 """The sampling harness: query a decision model cell by cell, log every reply, resume after a crash.
 
-Two designs (:func:`plan_queries`):
-
-* **table**: query every *shown* cell (x̃, ã₁, ã₂) — every context and every
-  pair of profiles the filter can show — N times. The counts estimate the
-  model's kernel K[x̃, (ã₁, ã₂), u] itself, and any filter is then applied
-  exactly by composition, so one set of queries serves every ε.
-* **paper**: the paper's design: for each ε, each true context and each true
-  order of the two candidates, draw what the model is shown through the
-  filter, N times, and query that. Each ε needs its own queries.
-
-Every query has a key (``id``: the design, the cell, ε and the repetition)
-and its own seed, a hash of the run's seed and the key, so the replies do
-not depend on the order, the concurrency or on interruptions.
-
-The log (:class:`QueryLog`) is an append-only JSON-lines file: a header with
-the run's settings, then one line per answered query (prompt hash, the
-messages sent with each image as its hash, model, cell, seed, time, reply,
-parsed decision). Each query's messages are made once
-(:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages`) and handed to
-the model as they are logged. A line is written and flushed as
-soon as its reply arrives, so killing the run loses no answered query; on
-resume, queries already in the log are skipped (none is asked twice) and a
-torn last line is cut off. Transport failures (after the client's retries)
-are logged as errors and asked again on the next resume; unparseable replies
-are samples, counted as ``"unparsed"``.
+Two designs (:func:`plan_queries`): the **table** design queries every shown cell N times, and its counts
+estimate the model's kernel, to which any filter is applied exactly; the **paper** design draws what the model is
+shown through the filter at each ε. Every query has a key and its own seed, a hash of the run's seed and the key,
+so the replies do not depend on the order, the concurrency or interruptions. The log (:class:`QueryLog`) is an
+append-only JSON-lines file, a header then one line per answered query, flushed as each reply arrives; on resume
+the answered queries are skipped and a torn last line is cut off (docs/experiments.md, "The log, and resuming").
 """
 
 from __future__ import annotations
@@ -110,19 +91,11 @@ def plan_queries(
     seed : int
         The run's seed.
     epsilons : sequence of float
-        Paper design: the candidate's ε values (nats; :func:`fairaudit.experiments.vlm.filter.candidate_family`),
-        each profile filtered at ε / 2.
+        Paper design: the candidate's ε values (nats).
     positions : {"balanced", "latin", "fixed"}
-        Paper design: the true orders queried: both orders of the paper's
-        candidates (``balanced``), or the paper's own only (``fixed``).
+        Paper design: the true orders queried.
     context_epsilon : float, optional
         Paper design: ε of randomized response on the context (None: shown as is).
-
-    Returns
-    -------
-    list of Query
-        Table: n_contexts × n_profiles² × N queries. Paper: n_ε × n_contexts ×
-        (2 or 1) × N queries, each with the cell drawn through the filter.
 
     Raises
     ------

@@ -1,32 +1,10 @@
 """The paper's design alone: tasks too large for a kernel, such as eight candidates ranked at once.
 
-The table design asks every shown cell, n_profiles^k per context (8⁸ for
-eight candidates of eight groups), and composes the filter exactly. The
-paper's own design asks only the true prompts, through the filter at each ε
-(``RunOptions(design="paper")``), and beside them the same prompts without a
-filter for the baseline. Each answered query gives one record per candidate,
-counted by true context, slot, true profile and outcome
-(:func:`fairaudit.experiments.kernel.true_cell_counts`): the per-candidate
-law behind the filter at that ε, with simultaneous intervals, and L's and
-L̄'s exact range over every utility of an unparsed reply in [min g, max g],
-chosen per cell of that law (:func:`fairaudit.utility_range.fairness_range`
-of the law: the filter is in the queries, so no mechanism lies between the
-cells and the groups).
-
-The certificate needs the candidate's mechanism M_cand only through two
-numbers, and both have closed forms when its matrix is too large to build:
-
-* its ε, ε(M_cand) (:func:`fairaudit.experiments.slots.candidate_epsilon`:
-  Σ ε_i for ``population = "all"``; for a point-mass design such as a Latin
-  square of distinct candidates, the most attribute values two views differ
-  in, each at its ε_i);
-* the black-box bound, the exact worst case over every decision model: when
-  the utility's smallest value is 0 and no floor τ is set, it is ε(M_cand)
-  itself for L, and for L̄ as well when X ⊥ A (``balanced`` or ``latin``
-  positions): proofs/black_box.md, "With ℓ = 0 the black-box value is
-  ε(M_A)", and its "Global" paragraph. Otherwise the bound is the worst
-  model over the matrix (:func:`fairaudit.worstcase.worst_model`), which a
-  task of that size refuses in one line.
+The paper's design asks only the true prompts, through the filter at each ε (``RunOptions(design="paper")``), and
+beside them the same prompts without a filter for the baseline; each answered query gives one record per candidate
+(:func:`fairaudit.experiments.kernel.true_cell_counts`). The certificate needs M_cand only through its ε and the
+black-box bound, which have closed forms when its matrix is too large to build (docs/tasks.md;
+proofs/black_box.md, "With ℓ = 0 the black-box value is ε(M_A)").
 """
 
 from __future__ import annotations
@@ -64,9 +42,10 @@ from .analysis import (
     candidate_context_mechanism,
     candidate_utility,
 )
+from .figures import figure_class
 from .harness import eps_key, paper_queries_needed
 from .kernel import true_cell_counts
-from .report import figure_class, observed_dicts, privacy_dict, utility_dict, write_frame, write_json
+from .report import observed_dicts, privacy_dict, utility_dict, write_frame, write_json
 from .slots import candidate_context_name, candidate_contexts, candidate_epsilon, candidate_population, true_prompts
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
@@ -354,30 +333,14 @@ def analyse_paper_design(
 ) -> PaperDesignAnalysis:
     """The per-candidate analysis of a run of the paper's design: its records at +inf (baseline) and at each ε.
 
-    Parameters
-    ----------
-    task : DeliveryTask
-    records : sequence of dict
-        The log's answered queries: ``design = "paper"``, with ``truth``
-        (context and profiles) and ``epsilon`` (``inf`` for the baseline).
-    model : str
-    samples : int
-    epsilons : sequence of float
-        The candidate's ε values (nats, finite, ≥ 0).
-    positions, confidence, method, context_epsilon
-        As in :func:`fairaudit.experiments.analysis.analyse`.
-    tau : float, optional
-        Default the utility's smallest value when it is positive, else none.
-
-    Returns
-    -------
-    PaperDesignAnalysis
+    ``records`` are the log's answered queries (``design = "paper"``, with ``truth`` and ``epsilon``); the other
+    parameters are :func:`fairaudit.experiments.analysis.analyse`'s.
 
     Raises
     ------
     InputError
-        ``paper design`` when the baseline has no answered query; a bad ε;
-        the bounds' errors (:func:`paper_design_bounds`).
+        ``paper design`` when the baseline has no answered query; a bad ε; the bounds' errors
+        (:func:`paper_design_bounds`).
     """
     utility = candidate_utility(task)
     pop = candidate_population(task, positions)
@@ -458,28 +421,10 @@ def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> dict[str, Any]:
 
 
 def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The certificate JSON of a run of the paper's design alone.
-
-    Keys as :func:`fairaudit.experiments.report.experiment_dict` where they
-    mean the same: ``experiment``, ``model``, ``route`` (``"sampled"``),
-    ``design`` (``"paper"``), ``positions``, ``samples``, ``slots``,
-    ``candidates``, ``context``, ``queries`` (answered without a filter and
-    through it, unparsed, and the queries each ε needs), ``utility`` (with
-    ``unparsed_range``, the [min g, max g] an unparsed reply's utility is
-    known within), ``tau``, ``confidence``, ``baseline`` (no filter:
-    observed L and L̄ with intervals) and ``points`` (per requested ε: the
-    filter's privacy, the corollary and black-box bounds, ``closed_form``,
-    ``bounds.unparsed_range`` (per bound its ``range`` over every utility of
-    the unparsed reply in [min g, max g] and the ``reason``, as the table
-    design's), the observed L and L̄ with intervals). Every observed L and
-    L̄ of the baseline and the points has ``unparsed_range`` ([lower,
-    upper]: its exact range over every utility of the unparsed reply in
-    [min g, max g], chosen per cell (context @ slot, candidate) of the
-    observed per-candidate law) and ``unparsed_range_ends`` (the context and
-    groups of each end, and whether the lower end is exact:
-    :func:`fairaudit.utility_range.fairness_range`). No ``curve``,
-    ``budgets`` or ``shares``: they need the model's kernel on every shown
-    cell. Values in nats; +inf is ``"inf"``; NaN is ``null``.
+    """The certificate JSON of a run of the paper's design alone: the keys of
+    :func:`fairaudit.experiments.report.experiment_dict` where they mean the same, with ``design`` (``"paper"``) and
+    per ε the bounds' ``closed_form``; no ``curve``, ``budgets`` or ``shares``, which need the kernel on every shown
+    cell (docs/experiments.md, "The files").
     """
     a, t = analysis, analysis.task
     out: dict[str, Any] = {

@@ -1,24 +1,9 @@
 """k candidates per prompt: the true prompts, the per-candidate view and the filter that protects a candidate.
 
-The mathematics is docs/design.md "k candidates behind a filter". A prompt
-shows k slots; the true candidates T = (t₁, ..., t_k) are drawn from the
-task's population in the orders of its ``positions``; the filter releases
-every attribute of every candidate through randomized response; the model is
-a kernel K[x, s, u] on shown cells s = (s₁, ..., s_k) (:attr:`DeliveryTask.decisions` u).
-
-The record of slot i has context (x, i), group t_i and outcome o_i(u). What
-the model sees about it is the shown cell *rotated* so that its own slot comes
-first, (s_i, s_{i+1}, ..., s_{i-1}): its *view*. Rotation makes the view's law
-the same in every slot for every design fairaudit runs (all orders, the k
-cyclic shifts of a Latin square, or populations closed under reordering), so
-one mechanism protects every candidate:
-
-    M_cand[a, v] = Σ_T P(T | t_i = a, slot i) Π_j M_P[T_{i+j}, v_j],
-
-which :func:`candidate_mechanism` computes and checks to be slot-free.
-
-Arrays index profiles by :attr:`DeliveryTask.profiles` and shown cells
-row-major over the k slots (slot 1 the slowest axis); true prompts are
+The mathematics is docs/design.md, "k candidates behind a filter": the record of slot i has context (x, i), group
+t_i and outcome o_i(u); what the model sees about it is its *view*, the shown cell rotated to start at its own slot,
+and the mechanism that protects it is M_cand (:func:`candidate_mechanism`). Arrays index profiles by
+:attr:`DeliveryTask.profiles` and shown cells row-major over the k slots (slot 1 the slowest axis); true prompts are
 ``(n_prompts, k)`` integer arrays of profile indices.
 """
 

@@ -35,7 +35,7 @@ from matplotlib.legend import Legend  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
 from fairaudit._figure import INFINITY_LABEL, coincide  # noqa: E402
-from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep  # noqa: E402
+from fairaudit.experiments.analysis import analyse_kernel  # noqa: E402
 from fairaudit.experiments.figures import (  # noqa: E402
     _baseline_figure,
     _curve_figure,
@@ -44,6 +44,7 @@ from fairaudit.experiments.figures import (  # noqa: E402
     plot_baseline,
     plot_experiment_curve,
 )
+from fairaudit.experiments.slots import epsilon_from_keep  # noqa: E402
 from fairaudit.experiments.taskfile import get_task  # noqa: E402
 from fairaudit.experiments.vlm.filter import candidate_family  # noqa: E402
 from fairaudit.experiments.vlm.models import simulated_model  # noqa: E402

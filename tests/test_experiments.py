@@ -23,11 +23,11 @@ from fairaudit.experiments.analysis import (
     candidate_kernel,
     candidate_population,
     candidate_utility,
-    epsilon_from_keep,
 )
 from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries
 from fairaudit.experiments.kernel import table_kernel
 from fairaudit.experiments.options import ModelSource, RunOptions
+from fairaudit.experiments.slots import epsilon_from_keep
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, get_task
 from fairaudit.experiments.vlm.filter import PrivacyFilter, candidate_family
 from fairaudit.experiments.vlm.models import Query, SimulatedModel, reply_text, simulated_model

@@ -445,9 +445,10 @@ def test_the_docs_page_quotes_the_reports_the_model_gives(smollm2):
     """
     from pathlib import Path
 
-    from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep
+    from fairaudit.experiments.analysis import analyse_kernel
     from fairaudit.experiments.options import DEFAULT_KEEPS
     from fairaudit.experiments.report import experiment_dict, experiment_markdown
+    from fairaudit.experiments.slots import epsilon_from_keep
 
     page = (Path(__file__).resolve().parents[1] / "docs" / "real-model.md").read_text()
     quoted: dict[str, list[str]] = {}

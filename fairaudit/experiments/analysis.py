@@ -10,9 +10,9 @@ the public functions of fairaudit (docs/design.md, "Handing the core a kernel" a
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -43,15 +43,14 @@ from fairaudit import (
     real,
 )
 
-from .kernel import UnparsedMass, table_kernel, unparsed_mass
+from .harness import eps_key
+from .kernel import UnparsedMass, table_kernel, true_cell_counts, unparsed_mass
 from .options import DEFAULT_TARGETS
 from .slots import (
     PositionSplit,
     candidate_context_name,
     candidate_contexts,
-    candidate_epsilon,
     candidate_kernel,
-    candidate_mechanism,
     candidate_population,
     expected_utility,
     position_split,
@@ -60,24 +59,19 @@ from .slots import (
 from .vlm.filter import PrivacyFilter, candidate_family, profile_budget
 from .vlm.tasks import DeliveryTask
 
-if TYPE_CHECKING:
-    from .cells import Cells
-    from .kernel import Measured
-    from .paper_design import ObservedPoint, PaperDesignAnalysis
-
 __all__ = [
     "BoundRange",
     "ExperimentAnalysis",
+    "ObservedPoint",
     "PointResult",
     "TargetBudget",
     "analyse",
     "analyse_kernel",
-    "analyse_run",
     "bound_ranges",
     "bound_ranges_from",
     "candidate_context_mechanism",
     "candidate_utility",
-    "epsilon_from_keep",
+    "observed_point",
 ]
 
 
@@ -94,42 +88,6 @@ def candidate_context_mechanism(task: DeliveryTask, context_epsilon: float | Non
     return from_matrix(
         np.kron(m, np.eye(task.slots)), candidate_contexts(task), name=f"randomized response on {task.context_name}"
     )
-
-
-def epsilon_from_keep(task: DeliveryTask, keep: float, positions: str = "balanced") -> float:
-    """The candidate's ε when every attribute of every profile is kept with probability ``keep`` (nats).
-
-    ε(M_cand) with attribute i, of k_i values, at ln(keep (k_i − 1) / (1 − keep)), exactly, whatever the other
-    attributes' sizes (the split of :meth:`fairaudit.experiments.vlm.filter.PrivacyFilter.from_epsilon`): for the
-    paper's pair Σ over the 2 n attributes shown
-    (:func:`fairaudit.experiments.slots.candidate_epsilon`); for mixtures
-    from the mechanism's matrix.
-
-    Examples
-    --------
-    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
-    >>> round(epsilon_from_keep(HR_DELIVERY, 0.7), 6)      # 6 ln(7/3), not 0.7/0.3
-    5.083787
-    """
-    from fairaudit import epsilon_from_keep_probability, product
-
-    eps = []
-    for a in task.attributes:
-        try:
-            eps.append(epsilon_from_keep_probability(float(keep), len(a.values)))
-        except InputError:
-            raise InputError(
-                "keep",
-                f"must be in [1/k, 1] for every attribute; {a.name!r} has k = {len(a.values)} values, so at least "
-                f"{1 / len(a.values):.6g} (below 1/k randomized response would show the true value less often than "
-                "any other)",
-                keep,
-            ) from None
-    closed = candidate_epsilon(task, tuple(eps), positions)
-    if closed is not None:
-        return closed
-    mechs = [randomized_response(a.values, e) for a, e in zip(task.attributes, eps)]
-    return candidate_mechanism(task, product(*mechs), positions).epsilon
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,6 +165,85 @@ def _budgets(
             upper = upper_at(stated.epsilon, kind) if upper_at is not None and stated.feasible else math.nan
             out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
     return tuple(out)
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ObservedPoint:
+    """What the paper's design observed at one ε: the per-candidate law from queries sampled through the filter.
+
+    Attributes
+    ----------
+    epsilon : float
+        The candidate's ε (nats; +inf for the baseline, no filter).
+    queries : int
+        Answered queries at this ε.
+    law : Law
+        The per-candidate law.
+    local_fairness, global_fairness : Fairness
+        Observed L and L̄ (nats), with the maximising context and groups.
+    intervals : FairnessIntervals or None
+    unparsed_range : UtilityRange
+        L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (x, a) of ``law``
+        (:func:`fairaudit.utility_range.fairness_range` of the law itself: the filter is in the queries), next to
+        the value under the stated default, which is ``local_fairness`` and ``global_fairness``.
+    """
+
+    epsilon: float
+    queries: int
+    law: Law
+    local_fairness: Fairness
+    global_fairness: Fairness
+    intervals: FairnessIntervals | None
+    unparsed_range: UtilityRange
+
+
+def observed_point(
+    task: DeliveryTask,
+    positions: str,
+    records: Iterable[dict[str, Any]],
+    eps: float,
+    utility: Utility,
+    pop: Population,
+    confidence: float | None,
+    method: str,
+) -> ObservedPoint:
+    """The paper's design at ``eps`` (nats; +inf: no filter): its records counted by true context, slot, profile, outcome.
+
+    Records of ``design = "paper"`` whose ``epsilon`` is ``eps`` and whose true prompt is one of ``positions``
+    (:func:`fairaudit.experiments.slots.true_prompts`) are counted by
+    :func:`fairaudit.experiments.kernel.true_cell_counts`; L and L̄ (with ``confidence`` intervals) are those
+    of their per-candidate law, with population ``pop``, and their range over the unparsed reply's utility is that
+    of the law's cells (:func:`fairaudit.utility_range.fairness_range` of the law: its value is L and L̄ as
+    computed here, the same numbers).
+    """
+    prompts, _ = true_prompts(task, positions)
+    orders = {tuple(task.profiles[i] for i in p) for p in prompts}
+    key = eps_key(float(eps))
+    truths = [
+        {"context": r["truth"]["context"], "profiles": order, "decision": r["decision"]}
+        for r in records
+        if r.get("design") == "paper" and r.get("status") == "ok" and eps_key(float(r["epsilon"])) == key
+        and (order := tuple(tuple(p) for p in r["truth"]["profiles"])) in orders
+    ]  # fmt: skip
+    counts = true_cell_counts(task, truths).reshape(-1, len(task.candidates), len(task.outcomes))
+    groups = [task.profile_label(x) for x in task.candidates]
+    law = Law.from_counts(counts, candidate_contexts(task), groups, task.outcomes)
+    iv = None
+    if confidence is not None and counts.sum() > 0:
+        table = CountTable(
+            counts, law.contexts, law.groups, law.decisions, (candidate_context_name(task),), ("candidate",), "outcome"
+        )
+        iv = fairness_intervals(table, utility, confidence, method, population=pop)
+    rng = fairness_range(law, utility, -1, population=pop)
+    return ObservedPoint(
+        epsilon=eps,
+        queries=len(truths),
+        law=law,
+        local_fairness=local_fairness(law, utility, pop),
+        global_fairness=global_fairness(law, utility, pop),
+        intervals=iv,
+        unparsed_range=rng,
+    )
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -525,8 +562,6 @@ def analyse(
         )
     utility = candidate_utility(task)
     pop = candidate_population(task, positions)
-    from .paper_design import observed_point
-
     paper = tuple(
         observed_point(task, positions, records, e, utility, pop, confidence, method)
         for e in sorted(set(paper_epsilons))
@@ -643,31 +678,4 @@ def analyse_kernel(
         split=position_split(task, expected_utility(task, probs, np.asarray(task.utility_values))),
         budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau, upper_at),
         unparsed_mass=unparsed_mass(task, kernel),
-    )
-
-
-def analyse_run(cells: Cells, measured: Measured) -> ExperimentAnalysis | PaperDesignAnalysis:
-    """The fifth step of a run: the analysis of what the model gave on ``cells``.
-
-    The exact route's kernel (:func:`analyse_kernel`), the sampled route's answered queries (:func:`analyse`, with
-    the paper's design beside when it ran), or the paper's design alone
-    (:func:`fairaudit.experiments.paper_design.analyse_paper_design`).
-    """
-    common: dict[str, Any] = {
-        "model": measured.model,
-        "epsilons": cells.epsilons,
-        "positions": cells.positions,
-        "confidence": cells.confidence,
-        "method": cells.method,
-        "context_epsilon": cells.context_epsilon,
-    }
-    if measured.kernel is not None:
-        return analyse_kernel(measured.task, measured.kernel, targets=cells.targets, **common)
-    if cells.design == "paper":
-        from .paper_design import analyse_paper_design
-
-        return analyse_paper_design(measured.task, measured.records, samples=cells.samples, **common)
-    paper = cells.epsilons if cells.design == "both" else ()
-    return analyse(
-        measured.task, measured.records, samples=cells.samples, paper_epsilons=paper, targets=cells.targets, **common
     )

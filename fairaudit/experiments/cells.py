@@ -42,7 +42,7 @@ class Cells:
         Their method.
     epsilons : tuple of float
         The candidate's privacy budgets (nats), ε(M_cand) of the filter at each point of the report: as asked, or
-        of each keep probability (:func:`~fairaudit.experiments.analysis.epsilon_from_keep`).
+        of each keep probability (:func:`~fairaudit.experiments.slots.epsilon_from_keep`).
 
     Raises
     ------
@@ -65,9 +65,8 @@ class Cells:
     epsilons: tuple[float, ...] = dataclasses.field(init=False)
 
     def __post_init__(self) -> None:
-        from .analysis import epsilon_from_keep
         from .paper_design import paper_design_bounds
-        from .slots import check_size
+        from .slots import check_size, epsilon_from_keep
 
         if "keep" in self.asked:
             epsilons = tuple(epsilon_from_keep(self.task, k, self.positions) for k in self.asked["keep"])

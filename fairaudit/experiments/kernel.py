@@ -22,14 +22,14 @@ import numpy as np
 
 from fairaudit import InputError, Kernel
 
-from .cells import Cells
-from .folder import Folder
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
-from .route import Route
 from .slots import outcome_index
 
 if TYPE_CHECKING:
+    from .cells import Cells
     from .endpoint import ExactKernel
+    from .folder import Folder
+    from .route import Route
     from .vlm.models import DecisionModel, Query
     from .vlm.tasks import DeliveryTask
 

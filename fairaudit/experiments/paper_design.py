@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -19,17 +19,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from fairaudit import (
-    CountTable,
-    Fairness,
     InputError,
-    Law,
     Population,
     Utility,
-    UtilityRange,
-    fairness_intervals,
-    fairness_range,
-    global_fairness,
-    local_fairness,
     number,
     real,
     write_atomic,
@@ -38,114 +30,33 @@ from fairaudit import (
 from ._markdown import paper_design_markdown
 from .analysis import (
     BoundRange,
+    ObservedPoint,
     bound_ranges_from,
     candidate_context_mechanism,
     candidate_utility,
+    observed_point,
 )
 from .figures import figure_class
-from .harness import eps_key, paper_queries_needed
-from .kernel import true_cell_counts
+from .harness import paper_queries_needed
 from .report import observed_dicts, privacy_dict, utility_dict, write_frame, write_json
-from .slots import candidate_context_name, candidate_contexts, candidate_epsilon, candidate_population, true_prompts
+from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from fairaudit import FairnessIntervals
 
 __all__ = [
     "DesignBounds",
     "DesignPoint",
-    "ObservedPoint",
     "PaperDesignAnalysis",
     "analyse_paper_design",
-    "observed_point",
     "paper_design_bounds",
     "paper_design_dict",
     "plot_paper_design",
     "write_paper_design",
 ]
-
-
-@dataclass(frozen=True, eq=False, kw_only=True)
-class ObservedPoint:
-    """What the paper's design observed at one ε: the per-candidate law from queries sampled through the filter.
-
-    Attributes
-    ----------
-    epsilon : float
-        The candidate's ε (nats; +inf for the baseline, no filter).
-    queries : int
-        Answered queries at this ε.
-    law : Law
-        The per-candidate law.
-    local_fairness, global_fairness : Fairness
-        Observed L and L̄ (nats), with the maximising context and groups.
-    intervals : FairnessIntervals or None
-    unparsed_range : UtilityRange
-        L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (x, a) of ``law``
-        (:func:`fairaudit.utility_range.fairness_range` of the law itself: the filter is in the queries), next to
-        the value under the stated default, which is ``local_fairness`` and ``global_fairness``.
-    """
-
-    epsilon: float
-    queries: int
-    law: Law
-    local_fairness: Fairness
-    global_fairness: Fairness
-    intervals: FairnessIntervals | None
-    unparsed_range: UtilityRange
-
-
-def observed_point(
-    task: DeliveryTask,
-    positions: str,
-    records: Iterable[dict[str, Any]],
-    eps: float,
-    utility: Utility,
-    pop: Population,
-    confidence: float | None,
-    method: str,
-) -> ObservedPoint:
-    """The paper's design at ``eps`` (nats; +inf: no filter): its records counted by true context, slot, profile, outcome.
-
-    Records of ``design = "paper"`` whose ``epsilon`` is ``eps`` and whose true prompt is one of ``positions``
-    (:func:`fairaudit.experiments.slots.true_prompts`) are counted by
-    :func:`fairaudit.experiments.kernel.true_cell_counts`; L and L̄ (with ``confidence`` intervals) are those
-    of their per-candidate law, with population ``pop``, and their range over the unparsed reply's utility is that
-    of the law's cells (:func:`fairaudit.utility_range.fairness_range` of the law: its value is L and L̄ as
-    computed here, the same numbers).
-    """
-    prompts, _ = true_prompts(task, positions)
-    orders = {tuple(task.profiles[i] for i in p) for p in prompts}
-    key = eps_key(float(eps))
-    truths = [
-        {"context": r["truth"]["context"], "profiles": order, "decision": r["decision"]}
-        for r in records
-        if r.get("design") == "paper" and r.get("status") == "ok" and eps_key(float(r["epsilon"])) == key
-        and (order := tuple(tuple(p) for p in r["truth"]["profiles"])) in orders
-    ]  # fmt: skip
-    counts = true_cell_counts(task, truths).reshape(-1, len(task.candidates), len(task.outcomes))
-    groups = [task.profile_label(x) for x in task.candidates]
-    law = Law.from_counts(counts, candidate_contexts(task), groups, task.outcomes)
-    iv = None
-    if confidence is not None and counts.sum() > 0:
-        table = CountTable(
-            counts, law.contexts, law.groups, law.decisions, (candidate_context_name(task),), ("candidate",), "outcome"
-        )
-        iv = fairness_intervals(table, utility, confidence, method, population=pop)
-    rng = fairness_range(law, utility, -1, population=pop)
-    return ObservedPoint(
-        epsilon=eps,
-        queries=len(truths),
-        law=law,
-        local_fairness=local_fairness(law, utility, pop),
-        global_fairness=global_fairness(law, utility, pop),
-        intervals=iv,
-        unparsed_range=rng,
-    )
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

@@ -30,7 +30,6 @@ if TYPE_CHECKING:
 
     from .analysis import ExperimentAnalysis, PointResult
     from .kernel import UnparsedMass
-    from .paper_design import PaperDesignAnalysis
     from .slots import PositionSplit
     from .vlm.filter import PrivacyFilter
     from .vlm.tasks import DeliveryTask
@@ -418,20 +417,13 @@ def write_frame(path: str | Path, frame: pd.DataFrame) -> None:
     write_atomic(path, frame.to_csv(index=False), field="--out")
 
 
-def write_report(analysis: ExperimentAnalysis | PaperDesignAnalysis, out: Path, run: dict[str, Any]) -> list[Path]:
-    """The last step of a run: its files in ``out``, each written atomically (the module's list).
-
-    A run of the paper's design alone writes its own (:func:`fairaudit.experiments.paper_design.write_paper_design`).
-    The figures are skipped, with a note on stderr, when matplotlib is missing.
-    """
+def write_report(analysis: ExperimentAnalysis, out: Path, run: dict[str, Any]) -> list[Path]:
+    """The last step of a run: its files in ``out``, each written atomically (the module's list); the figures are
+    skipped, with a note on stderr, when matplotlib is missing."""
     import sys
 
-    from .analysis import ExperimentAnalysis
+    from .figures import plot_baseline, plot_experiment_curve
 
-    if not isinstance(analysis, ExperimentAnalysis):
-        from .paper_design import write_paper_design
-
-        return write_paper_design(analysis, out, run)
     data = experiment_dict(analysis, run)
     steps: list[tuple[str, Callable[[Path], None]]] = [
         ("kernel.csv", lambda p: write_frame(p, kernel_frame(analysis))),
@@ -440,8 +432,6 @@ def write_report(analysis: ExperimentAnalysis | PaperDesignAnalysis, out: Path, 
         ("certificate.json", lambda p: write_json(p, data)),
         ("report.md", lambda p: write_atomic(p, experiment_markdown(data), field="out")),
     ]
-    from .figures import plot_baseline, plot_experiment_curve
-
     if analysis.route == "sampled":  # records are queries: the exact route has none
         steps.insert(2, ("records.csv", lambda p: write_frame(p, records_frame(analysis))))
     written = []

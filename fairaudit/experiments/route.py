@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING, Any
 
 from fairaudit import InputError
 
-from .cells import Cells
 from .exact import SCORINGS
 from .options import (
     DEFAULT_GOALS,
@@ -33,6 +32,7 @@ from .taskfile import is_built_in
 from .vlm.tasks import DeliveryTask
 
 if TYPE_CHECKING:
+    from .cells import Cells
     from .vlm.client import ChatClient
     from .vlm.models import DecisionModel
 

@@ -11,7 +11,7 @@
 5. the kernel P(U | X̃, Ã): queries through the resumable log, or the model's token probabilities
    (:func:`~fairaudit.experiments.kernel.measure`);
 6. the analysis: bounds and observed fairness at each ε, through the public functions of fairaudit
-   (:func:`~fairaudit.experiments.analysis.analyse_run`);
+   (:mod:`fairaudit.experiments.analysis`; the paper's design alone: :mod:`fairaudit.experiments.paper_design`);
 7. the report's files (:func:`~fairaudit.experiments.report.write_report`).
 """
 
@@ -20,14 +20,15 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from .analysis import ExperimentAnalysis, analyse_run
-from .cells import make_cells
+from .analysis import ExperimentAnalysis, analyse, analyse_kernel
+from .cells import Cells, make_cells
 from .folder import claim, make_folder
 from .harness import RunSummary
-from .kernel import measure
+from .kernel import Measured, measure
 from .options import ModelSource, RunOptions
-from .paper_design import PaperDesignAnalysis
+from .paper_design import PaperDesignAnalysis, analyse_paper_design, write_paper_design
 from .report import write_report
 from .route import make_route, scene_line
 from .taskfile import get_task, is_built_in
@@ -137,10 +138,39 @@ def run_experiment(
     if not measured.complete:
         return ExperimentRun(out=folder.out, summary=measured.summary, analysis=None, files=measured.files,
                              route=kind, seconds=measured.seconds)  # fmt: skip
-    analysis = analyse_run(cells, measured)
-    files = measured.files + tuple(write_report(analysis, folder.out, measured.run))
+    analysis = _analyse(cells, measured)
+    if isinstance(analysis, PaperDesignAnalysis):
+        written = write_paper_design(analysis, folder.out, measured.run)
+    else:
+        written = write_report(analysis, folder.out, measured.run)
+    files = measured.files + tuple(written)
     return ExperimentRun(
         out=folder.out, summary=measured.summary, analysis=analysis, files=files, route=kind, seconds=measured.seconds
+    )
+
+
+def _analyse(cells: Cells, measured: Measured) -> ExperimentAnalysis | PaperDesignAnalysis:
+    """The fifth step of a run: the analysis of what the model gave on ``cells``.
+
+    The exact route's kernel (:func:`analyse_kernel`), the sampled route's answered queries (:func:`analyse`, with
+    the paper's design beside when it ran), or the paper's design alone
+    (:func:`fairaudit.experiments.paper_design.analyse_paper_design`).
+    """
+    common: dict[str, Any] = {
+        "model": measured.model,
+        "epsilons": cells.epsilons,
+        "positions": cells.positions,
+        "confidence": cells.confidence,
+        "method": cells.method,
+        "context_epsilon": cells.context_epsilon,
+    }
+    if measured.kernel is not None:
+        return analyse_kernel(measured.task, measured.kernel, targets=cells.targets, **common)
+    if cells.design == "paper":
+        return analyse_paper_design(measured.task, measured.records, samples=cells.samples, **common)
+    paper = cells.epsilons if cells.design == "both" else ()
+    return analyse(
+        measured.task, measured.records, samples=cells.samples, paper_epsilons=paper, targets=cells.targets, **common
     )
 
 

@@ -25,6 +25,7 @@ from .vlm.tasks import DeliveryTask
 __all__ = [
     "MAX_KERNEL_ENTRIES",
     "MAX_SHOWN_CELLS",
+    "PositionSplit",
     "candidate_context_name",
     "candidate_contexts",
     "candidate_epsilon",
@@ -34,9 +35,9 @@ __all__ = [
     "candidate_population",
     "check_size",
     "epsilon_factor",
+    "epsilon_from_keep",
     "expected_utility",
     "outcome_index",
-    "PositionSplit",
     "point_views",
     "position_split",
     "slot_names",
@@ -650,3 +651,39 @@ def position_split(task: DeliveryTask, m: npt.ArrayLike) -> PositionSplit | None
         overall_interaction=float(o_int),
         expected_utility=mm,
     )
+
+
+def epsilon_from_keep(task: DeliveryTask, keep: float, positions: str = "balanced") -> float:
+    """The candidate's ε when every attribute of every profile is kept with probability ``keep`` (nats).
+
+    ε(M_cand) with attribute i, of k_i values, at ln(keep (k_i − 1) / (1 − keep)), exactly, whatever the other
+    attributes' sizes (the split of :meth:`fairaudit.experiments.vlm.filter.PrivacyFilter.from_epsilon`): for the
+    paper's pair Σ over the 2 n attributes shown
+    (:func:`candidate_epsilon`); for mixtures
+    from the mechanism's matrix.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> round(epsilon_from_keep(HR_DELIVERY, 0.7), 6)      # 6 ln(7/3), not 0.7/0.3
+    5.083787
+    """
+    from fairaudit import epsilon_from_keep_probability, product, randomized_response
+
+    eps = []
+    for a in task.attributes:
+        try:
+            eps.append(epsilon_from_keep_probability(float(keep), len(a.values)))
+        except InputError:
+            raise InputError(
+                "keep",
+                f"must be in [1/k, 1] for every attribute; {a.name!r} has k = {len(a.values)} values, so at least "
+                f"{1 / len(a.values):.6g} (below 1/k randomized response would show the true value less often than "
+                "any other)",
+                keep,
+            ) from None
+    closed = candidate_epsilon(task, tuple(eps), positions)
+    if closed is not None:
+        return closed
+    mechs = [randomized_response(a.values, e) for a, e in zip(task.attributes, eps)]
+    return candidate_mechanism(task, product(*mechs), positions).epsilon

@@ -64,8 +64,19 @@ class ExactPrompt:
 
 
 def exact_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> list[ExactPrompt]:
-    """The prompts an exact route scores: each shown cell (default every cell of the table design, contexts first)
-    once per choice of its candidates' texts, weighted 1 / the cell's choices so that a cell's kernel is their mean.
+    """The prompts an exact route scores: each shown cell once per choice of its candidates' texts.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    cells : list of (context, profile 1, ..., profile k), optional
+        Default every shown cell of the table design, contexts first, then slots in ``itertools.product`` order.
+
+    Returns
+    -------
+    list of ExactPrompt
+        The kernel of a cell is the weighted sum of its prompts' (weights 1 / the cell's text choices,
+        :meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.text_choices`).
 
     Raises
     ------
@@ -85,12 +96,26 @@ def exact_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> l
 
 
 def count_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> int:
-    """How many prompts :func:`exact_prompts` lists, counted without listing them.
+    """How many prompts :func:`exact_prompts` lists, counted without listing them; an error beyond the limit.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    cells : list of (context, profile 1, ..., profile k), optional
+        Default every shown cell of the table design.
+
+    Returns
+    -------
+    int
+        Σ over the cells of their choices of texts
+        (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.text_choice_count`); the number of cells when no value
+        has several texts.
 
     Raises
     ------
     InputError
-        ``attribute.text`` beyond :data:`MAX_EXACT_PROMPTS`, before any prompt is made.
+        ``attribute.text`` beyond :data:`MAX_EXACT_PROMPTS` (100 names in each of 8 slots are 100!/92! choices
+        per cell), before any prompt is made.
     """
     if not task.varies:
         return len(cells) if cells is not None else len(task.contexts) * len(task.profiles) ** task.slots
@@ -125,8 +150,22 @@ def ranking_replies(task: DeliveryTask, answers: Sequence[str]) -> tuple[str, ..
 
 
 def by_sequence(task: DeliveryTask, scoring: str = "continuation") -> bool:
-    """True when an exact route scores whole replies, not the first token: continuation scoring, a ranking of k ≥ 3
-    or a reply that names the candidates.
+    """True when an exact route scores whole replies, not the first token.
+
+    Continuation scoring (the default), a ranking of k ≥ 3 (the first token gives only who comes first) or a task
+    whose reply names the candidates (names may share their first token): P(reply begins with r) =
+    Π_t P(r_t | prompt, r_<t), the chain rule. ``"first-token"`` scoring on a choice or an order of two: the mass
+    of the first tokens that read as each option.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    scoring : {"continuation", "first-token"}
+        :data:`SCORINGS` (checked by :func:`check_scoring`, not here).
+
+    Returns
+    -------
+    bool
 
     Examples
     --------
@@ -138,8 +177,19 @@ def by_sequence(task: DeliveryTask, scoring: str = "continuation") -> bool:
 
 
 def check_scoring(task: DeliveryTask, scoring: str) -> str:
-    """``scoring`` checked against :data:`SCORINGS` and the task: first-token scoring needs a decision its first token
-    gives (not a ranking of k ≥ 3, nor names that may share their first token); raises InputError naming ``scoring``.
+    """``scoring`` checked against :data:`SCORINGS` and the task: first-token scoring needs a decision its first token gives.
+
+    Returns
+    -------
+    str
+        ``scoring``.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring``: a value not in :data:`SCORINGS`; ``"first-token"`` on a ranking of k ≥ 3 (the first
+        token gives who comes first, not the order) or on a task whose reply names the candidates (names may share
+        their first token).
 
     Examples
     --------
@@ -165,8 +215,21 @@ def check_scoring(task: DeliveryTask, scoring: str) -> str:
 
 
 def check_replies(replies: Sequence[str]) -> tuple[str, ...]:
-    """``replies`` checked for continuation scoring: non-empty, and none begins another (P(the reply begins with r)
-    are disjoint events only then); raises InputError naming ``scoring``.
+    """``replies`` checked for continuation scoring: non-empty, and none begins another.
+
+    The exact routes score P(the reply begins with r) for each r, and the sampled twin reads a reply as the
+    decision whose text it begins with; the events are disjoint, and their probabilities add up to at most 1, only
+    when no reply is a prefix of another (``"1"`` begins ``"10"``, ``"Ann"`` begins ``"Anna"``).
+
+    Returns
+    -------
+    tuple of str
+        ``replies``.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring``: an empty reply, or two replies one of which begins the other (both quoted).
 
     Examples
     --------
@@ -192,17 +255,60 @@ def check_replies(replies: Sequence[str]) -> tuple[str, ...]:
 
 
 def prompt_replies(task: DeliveryTask, answers: Sequence[str], prompt: ExactPrompt) -> tuple[str, ...]:
-    """The replies a sequence route scores for one prompt, one per decision before ``"unparsed"``
-    (:func:`decision_replies`): named by the names the prompt shows when the reply names the candidates, else by
-    ``answers``.
+    """The replies a sequence route scores for one prompt, one per decision before ``"unparsed"``.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    answers : sequence of str
+        The reply naming each slot (the options' keys, :func:`fairaudit.experiments.local_model.exact_prompt`);
+        not used when the reply names the candidates.
+    prompt : ExactPrompt
+
+    Returns
+    -------
+    tuple of str
+        n_decisions − 1 texts in the order of :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`
+        (:func:`decision_replies`): a ranking of k ≥ 3, each order written out (:func:`ranking_replies`); a choice
+        or an order of two, the reply naming the option chosen or served first. A task whose reply names the
+        candidates writes the names its prompt shows
+        (:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.reply_names`; the Bloomberg study's replies), else
+        ``answers``.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring`` when one reply begins another (:func:`check_replies`).
     """
     names = task.reply_names(prompt.profiles, prompt.texts) if task.named_by is not None else tuple(answers)
     return decision_replies(task, names)
 
 
 def decision_replies(task: DeliveryTask, names: Sequence[str]) -> tuple[str, ...]:
-    """The reply text of each decision before ``"unparsed"``, given the text that names each slot: a ranking of k ≥ 3
-    its order written out (:func:`ranking_replies`), a choice or an order of two the option's name alone.
+    """The reply text of each decision before ``"unparsed"``, given the text that names each slot.
+
+    A ranking of k ≥ 3 decides an order, and its reply is that order written out (:func:`ranking_replies`). A
+    choice, and an order of two, decide one option (the one chosen, the one served first:
+    :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`), and its reply is that option's name alone:
+    the built-in tasks' answer prompt asks for that digit alone, and a reply that writes the order out (``"2, 1"``)
+    begins with it too. Continuation scoring gives each decision P(the reply begins with its text).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    names : sequence of str
+        The text naming each slot in the reply, in slot order (the answers of
+        :func:`fairaudit.experiments.local_model.exact_prompt`, or the names one prompt shows).
+
+    Returns
+    -------
+    tuple of str
+        n_decisions − 1 texts, in the order of :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.decisions`.
+
+    Raises
+    ------
+    InputError
+        Naming ``scoring`` when a text is empty or one begins another (:func:`check_replies`).
 
     Examples
     --------

@@ -1,7 +1,15 @@
-"""What an experiment runs on and how: :class:`ModelSource` and :class:`RunOptions` of
-:func:`~fairaudit.experiments.run.run_experiment`, frozen and checked when made; errors name the fields.
+"""What an experiment runs on and how: the model source and the run options of :func:`~fairaudit.experiments.run.run_experiment`.
 
-Each field is a flag of ``fairaudit experiment`` (docs/cli.md) and is explained in docs/experiments.md.
+:class:`ModelSource` names where the decisions come from (a simulated model,
+a kernel table, an OpenAI-compatible endpoint or a language model run on this
+machine); :class:`RunOptions` holds everything else about the run (the
+design, the samples, the privacy budgets, the seed, resuming, the bands, the
+images). Both are frozen and check their own fields when made, so a bad value
+is refused before anything is written.
+
+Errors name the fields (``samples``, ``epsilons``, ``endpoint``), as the
+parameters of :func:`~fairaudit.experiments.run.run_experiment` they are;
+a parameter mentioned in a problem is written in backticks (```endpoint```).
 """
 
 from __future__ import annotations
@@ -57,40 +65,66 @@ PLAIN_SAMPLING = {"temperature": 1.0, "top_k": 0, "top_p": 1.0, "min_p": 0.0}
 
 @dataclass(frozen=True, kw_only=True)
 class ModelSource:
-    """Where an experiment's decisions come from: one of four sources (default: the task's first simulated model).
+    """Where an experiment's decisions come from: one of four sources (default: a simulated model).
 
     Parameters
     ----------
     simulated : str, optional
-        A named simulated model (:data:`fairaudit.experiments.vlm.models.SIMULATED`).
+        A named simulated model (:data:`fairaudit.experiments.vlm.models.SIMULATED`);
+        the default source, with the task's first model, when nothing is given.
     kernel : str or Path, optional
         A simulated model from a kernel table (a run's ``kernel.csv``).
-    endpoint, model : str, optional
-        An OpenAI-compatible endpoint URL (API key from ``OPENAI_API_KEY``) and the model it serves.
+    endpoint : str, optional
+        An OpenAI-compatible endpoint URL (API key from ``OPENAI_API_KEY``), with ``model``.
+    model : str, optional
+        The model's name at ``endpoint``.
     local_model : str, optional
-        A language model run on this machine, text only (:func:`fairaudit.experiments.local_model.model_kind`).
+        A real language model run on this machine, text only: a key of
+        :data:`fairaudit.experiments.local_model.LOCAL_MODELS`, a transformers
+        causal-LM folder or a ``.gguf`` file
+        (:func:`fairaudit.experiments.local_model.model_kind`).
     exact : bool
-        The exact route: the kernel from token log-probabilities, no sampling; needs ``endpoint`` or
-        ``local_model``, without ``samples``. A local model takes it whenever ``samples`` is not given.
+        The exact route: the model's kernel from its first-token
+        log-probabilities, one request per shown cell and no sampling
+        (``endpoint``: the server must return ``logprobs``; see
+        :mod:`fairaudit.experiments.vlm.logprobs`), text only. Needs
+        ``endpoint`` or ``local_model``, and goes without ``samples``
+        (:class:`RunOptions`). A local model takes the exact route whenever
+        ``samples`` is not given, with or without ``exact``.
     sampled_twin : bool
-        The sampled twin of the exact route, to check it: one-token replies of ``endpoint`` drawn from the whole
-        softmax (:data:`PLAIN_SAMPLING`) for the exact route's prompt.
-    scoring : {"continuation", "first-token"}, optional
-        How the exact route scores a decision (:data:`fairaudit.experiments.exact.SCORINGS`).
-    timeout, max_retries
-        Seconds per request; retries on 429, 5xx and timeouts.
-    temperature, top_p, max_tokens : optional
-        The stated sampling of a server's sampled route: default 1, 1 and :data:`DEFAULT_MAX_TOKENS` (for a local
-        model room for the longest reply its exact route scores).
+        The sampled twin of the exact route, to check it: each reply is one
+        token (``max_tokens: 1``) drawn from the whole softmax
+        (:data:`PLAIN_SAMPLING`: temperature 1 and no top-k, top-p or min-p
+        truncation) for the exact route's prompt
+        (:func:`fairaudit.experiments.local_model.exact_prompt`). Needs
+        ``endpoint``; the server must accept ``top_k`` and ``min_p``
+        (llama-server, vLLM; OpenAI's API refuses them).
+    timeout : float
+        Seconds per request (an endpoint, or a local model's server).
+    max_retries : int
+        Retries on 429, 5xx and timeouts.
+    temperature : float, optional
+        The sampled route's ``temperature`` (finite, >= 0); default 1. Every request states it.
+    top_p : float, optional
+        The sampled route's ``top_p``, in (0, 1]; default 1 (no nucleus truncation).
+    max_tokens : int, optional
+        The sampled route's ``max_tokens``, >= 1; default :data:`DEFAULT_MAX_TOKENS` (1024) for an endpoint and 1
+        for a local model (its one-token replies to the exact route's prompt). ``temperature``, ``top_p`` and
+        ``max_tokens`` need a sampled route of ``endpoint`` or ``local_model`` (not ``sampled_twin``, whose
+        settings are fixed: :data:`PLAIN_SAMPLING`).
     constrain : {"none", "json-schema", "guided-choice", "grammar"}
-        Ask an endpoint's sampled route for one of the task's replies only
-        (:func:`fairaudit.experiments.vlm.client.constraint_body`).
+        Ask the server to reply with one of the task's replies only: OpenAI's ``response_format`` with a JSON
+        schema (the reply ``{"answer": ...}``), vLLM's ``guided_choice`` or llama.cpp's GBNF ``grammar``
+        (:func:`fairaudit.experiments.vlm.client.constraint_body`). Needs ``endpoint`` and its sampled route
+        (not ``exact`` nor ``sampled_twin``), and a task whose replies are its options' keys.
 
     Raises
     ------
     InputError
-        More than one source, ``model`` without ``endpoint`` (or the reverse), ``exact`` or ``sampled_twin`` without
-        their server, a sampling setting out of range or without a sampled route of a server.
+        When more than one source is given, ``model`` without ``endpoint`` (or the reverse),
+        ``exact`` without ``endpoint`` or ``local_model``, ``sampled_twin`` without ``endpoint`` or with ``exact``,
+        a sampling setting out of range or without a sampled route of a server, or ``constrain`` unknown or
+        without ``endpoint``.
 
     Examples
     --------
@@ -198,40 +232,73 @@ class RunOptions:
     Parameters
     ----------
     samples : int, optional
-        Queries per shown cell (and per true cell and ε in the paper's design); default 20. A local model without
-        it takes the exact route; not with :attr:`ModelSource.exact`.
-    epsilons, keeps : sequence of float, optional
-        The candidate's budgets ε (nats), or the keep probability of every attribute; default the task file's
-        ``[filter]``, else :data:`DEFAULT_KEEPS`.
+        Queries per shown cell (and per true cell and ε in the paper's
+        design); default 20. With a local model, leaving it out takes the
+        exact route: the model's own kernel from its next-token
+        probabilities, with no queries and no sampling error. Not with
+        :attr:`ModelSource.exact` (the run refuses both).
+    epsilons : sequence of float, optional
+        The candidate's privacy budgets ε (nats) to report; or give ``keeps``:
+        the keep probability of every attribute. Default: the task file's
+        ``[filter]`` budgets, else :data:`DEFAULT_KEEPS`.
+    keeps : sequence of float, optional
     context_epsilon : float, optional
-        ε of randomized response on the context.
+        ε of randomized response on the context (document type or package).
     design : {"table", "both", "paper"}
-        The table design; with the paper's beside; or the paper's alone (:mod:`fairaudit.experiments.paper_design`).
+        The table design only; also the paper's (sampling through the
+        filter at every ε) for comparison; or the paper's alone, with the
+        true prompts asked without a filter for the baseline, for a task too
+        large for the table design (eight candidates ranked at once:
+        :mod:`fairaudit.experiments.paper_design`). ``"both"`` and ``"paper"``
+        need queries (not the exact route).
     positions : {"balanced", "latin", "fixed"}, optional
-        The orders of the candidates; default the task's.
+        Every order of the candidates, the k cyclic shifts of the listed
+        order, or the listed order only (the paper's); default the task's
+        (``[task] positions`` of its file).
     targets : sequence of float
-        Fairness targets (nats) whose ε the report gives (default :data:`DEFAULT_TARGETS`).
+        Fairness targets (nats) at which the report gives the ε that meets
+        them, for this model and for any model (default
+        :data:`DEFAULT_TARGETS`).
     seed : int
-    resume, extend : bool
-        Continue the logged run, whose settings must be the log's; with ``extend``, ``samples`` may grow past the
-        log's (docs/experiments.md, "The log, and resuming").
+    resume : bool
+        Continue the run logged in the run's folder. The run's settings must be the log's: every setting that
+        changes which queries are asked or how their replies are counted (docs/experiments.md, "The log, and
+        resuming"); ``concurrency``, ``confidence``, ``method``, ``targets`` and the client's may change.
+    extend : bool
+        With ``resume``: let ``samples`` grow past the log's; the queries of the new repetitions are asked and
+        appended, and the log records the extension. The first n repetitions of a run with N > n samples are
+        the queries of a run with n (each query's seed is a hash of the run's seed and its key), so an extended
+        run gives the certificate of a fresh run with the larger ``samples``.
     concurrency : int, optional
         Queries in flight (default 4 for an endpoint, 1 otherwise).
     confidence : float or None
         Level of the simultaneous intervals (None for none; none on the exact route).
     method : str
         Their method.
-    scene, images, start, goals, tolerance
-        The route images: an S3DIS area (default a generated floor); whether to send them (the paper's tasks; a
-        task file only with ``scene``); the rooms the routes start from and go to (default :data:`DEFAULT_START`,
-        :data:`DEFAULT_GOALS`) and the equal-distance check's tolerance (default :data:`DEFAULT_TOLERANCE`).
+    scene : str, optional
+        An S3DIS area folder for the route images; default a generated office floor.
+    images : bool
+        Make the route images and send them with every query (the paper's
+        tasks; a task file only with ``scene``).
+    start : str, optional
+        The room the routes start from, a room of the scene; None for
+        :data:`DEFAULT_START` (``"lobby_1"``). Only where route images are made.
+    goals : sequence of str, optional
+        The rooms the routes go to, one per candidate of the task (route
+        ``i + 1`` to ``goals[i]``, image ``route-{i + 1}.png``), rooms of the
+        scene; None for :data:`DEFAULT_GOALS` (``("office_1", "office_2")``).
+        Only where route images are made.
+    tolerance : float, optional
+        The equal-distance check's largest relative difference of the route
+        lengths, (max - min) / max, in [0, 1]; None for
+        :data:`DEFAULT_TOLERANCE` (0.05). Only where route images are made.
 
     Raises
     ------
     InputError
-        An unknown design or positions, both ``epsilons`` and ``keeps``, a negative or infinite ε or target,
-        ``samples`` or ``concurrency`` below 1, ``extend`` without ``resume``, an empty room, a ``tolerance`` outside
-        [0, 1].
+        On an unknown design or positions, both ``epsilons`` and ``keeps``, a
+        negative or infinite ε or target, ``samples`` or ``concurrency`` below 1,
+        ``extend`` without ``resume``, an empty ``start`` or room of ``goals``, or a ``tolerance`` outside [0, 1].
 
     Examples
     --------

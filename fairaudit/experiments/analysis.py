@@ -318,15 +318,35 @@ def bound_ranges(
 ) -> dict[str, BoundRange]:
     """The corollary's and the black-box bounds' ranges over every utility of the unparsed reply (the last decision).
 
-    The corollary is ε of ``mechanism``: no utility enters it. The black-box bounds (``bounds``, on L and L̄ for
-    ``utility`` as stated) depend on g only through [min g, max g] and τ, so each range runs from the bound for an
-    unparsed utility within the other outcomes' range to the bound as stated (``proofs/unparsed.md`` §6;
-    :func:`bound_ranges_from`).
+    The corollary is ε of ``mechanism``: no utility enters it. The black-box bounds (``bounds``: on L and L̄, as
+    :func:`fairaudit.worst_model` gives them for ``utility``) are maxima over every decision model whose
+    cell expectations lie in [min g, max g] (g of the decision only) with E ≥ τ, τ held as stated. With the
+    unparsed utility v_c of a cell in [min g, max g], that cell's expectations span [min(g_known ∪ v_c),
+    max(g_known ∪ v_c)], g_known the other outcomes' utilities: between [min g_known, max g_known] and
+    [min g, max g], and the bound is non-decreasing in each cell's interval (a maximum over a larger set). So the
+    upper end is the bound as stated (v at the end of [min g, max g] beyond g_known, when there is one) and the
+    lower end is the bound for the utility whose unparsed value lies within g_known's range: equal ends when the
+    stated unparsed value lies within it (``proofs/unparsed.md`` §6).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The filter's mechanism on a candidate (its ε is the corollary's bound, nats).
+    utility : Utility
+        g of the candidate's outcome, shape (n_outcomes,), the unparsed reply last, at its stated value.
+    bounds : tuple of float
+        The black-box bounds on L and L̄ (nats) for ``utility`` as stated.
+    context_mechanism : Mechanism
+        The filter on the context, as the bounds were computed with it.
+    population : Population
+        P(X, A) of the candidates, shape (n_contexts, n_groups).
+    tau : float or None
+        The floor on E[g | x, a] the bounds used (None: none).
 
     Returns
     -------
     dict of str to BoundRange
-        ``"corollary"``, ``"black_box"`` (on L) and ``"black_box_global"`` (on L̄), nats.
+        ``"corollary"``, ``"black_box"`` (on L) and ``"black_box_global"`` (on L̄): each bound's range (nats).
     """
     from fairaudit import worst_model
 
@@ -343,9 +363,28 @@ def bound_ranges_from(
     bounds: tuple[float, float],
     inside: Callable[[Utility], tuple[float, float]],
 ) -> dict[str, BoundRange]:
-    """As :func:`bound_ranges`, from the corollary's value and ``inside``, the black-box bounds on L and L̄ for
-    another utility over the same outcomes (called only when the stated unparsed utility lies outside the other
-    outcomes' range): for a design whose mechanism may be too large to build (the paper's design).
+    """:func:`bound_ranges` from the corollary's value and a function giving the black-box bounds for a utility.
+
+    For a design whose mechanism is given by its bounds alone (the paper's design, where M_cand may be too large
+    to build: :func:`fairaudit.experiments.paper_design.paper_design_bounds`).
+
+    Parameters
+    ----------
+    corollary : float
+        ε of the filter on a candidate (nats).
+    utility : Utility
+        g of the candidate's outcome, shape (n_outcomes,), the unparsed reply last, at its stated value.
+    bounds : tuple of float
+        The black-box bounds on L and L̄ (nats) for ``utility`` as stated.
+    inside : callable
+        The black-box bounds on L and L̄ (nats) for another utility over the same outcomes, with the same
+        mechanisms, population and τ; called only when the stated unparsed utility lies outside the other
+        outcomes' range.
+
+    Returns
+    -------
+    dict of str to BoundRange
+        As :func:`bound_ranges`.
 
     Examples
     --------
@@ -517,38 +556,48 @@ def analyse(
     grid: int = 61,
     targets: Sequence[float] = DEFAULT_TARGETS,
 ) -> ExperimentAnalysis:
-    """The per-candidate analysis of a run's answered queries (:func:`analyse_kernel` of the kernel they estimate).
+    """The per-candidate fairness–privacy analysis of a run's answered queries.
 
     Parameters
     ----------
     task : DeliveryTask
     records : sequence of dict
-        The log's answered queries.
+        The log's answered queries (:attr:`fairaudit.experiments.harness.QueryLog.records`).
     model : str
+        The model's name, for the report.
     samples : int
         N of the table design.
     epsilons : sequence of float
-        The candidate's ε values (nats, finite, ≥ 0) at which to report intervals and certificates.
+        The candidate's ε values (nats) at which to report intervals and
+        certificates; finite, ≥ 0.
     positions : {"balanced", "latin", "fixed"}
+        The population of true orders (see the module's docstring).
     confidence : float or None
         Level of the simultaneous intervals (None: none).
     method : str
         Interval method (:func:`fairaudit.fairness_intervals`).
     tau : float, optional
-        τ of the paper and tight bounds; default the utility's smallest value when it is positive.
+        τ for the paper and tight bounds; default the utility's smallest value
+        when it is positive (the package task's waiting time ≥ 1), else none.
     context_epsilon : float, optional
         ε of randomized response on the context (None: shown as is).
     paper_epsilons : sequence of float
         ε values of the paper's design in the log, analysed beside.
     grid : int
-        Points of the dense ε grid of the curve.
+        Points of the dense ε grid of the curve (0 to the largest ε).
     targets : sequence of float
-        Fairness targets (nats) of :attr:`ExperimentAnalysis.budgets`.
+        Fairness targets (nats) at which to report the ε that meets them
+        (:attr:`ExperimentAnalysis.budgets`).
+
+    Returns
+    -------
+    ExperimentAnalysis
 
     Raises
     ------
     InputError
-        If a shown cell of the table design has no answered query (naming the cell), or on a bad ε.
+        If a shown cell of the table design has no answered query (the
+        composition needs every cell: naming the cell), or on a bad ε.
     """
     kernel = table_kernel(task, records)
     if kernel.empty_cells:
@@ -601,10 +650,34 @@ def analyse_kernel(
 ) -> ExperimentAnalysis:
     """The per-candidate analysis of the model's kernel on shown cells, with counts or exact.
 
-    ``kernel`` has shape (n_contexts, n_profiles^k, n_decisions), the layout of
-    :func:`fairaudit.experiments.kernel.table_kernel`. With counts (the sampled route) L and L̄ come with intervals at
-    ``confidence``; without (the exact route) every L and L̄ is the model's exact value. The other parameters are
-    :func:`analyse`'s; ``paper`` holds the paper's design, analysed beside.
+    :func:`analyse` calls it with the kernel its records estimate; the exact
+    route of a local model (:func:`fairaudit.experiments.local_model.exact_kernel`)
+    calls it with the model's own probabilities, and then every L and L̄ is
+    the model's exact value (no intervals: there is no sampling error).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    kernel : Kernel
+        Shape (n_contexts, n_profiles^k, n_decisions), the layout of
+        :func:`fairaudit.experiments.kernel.table_kernel`: contexts the task's,
+        groups the shown pairs (row-major), decisions
+        :attr:`DeliveryTask.decisions`. With counts: the sampled route
+        (intervals at ``confidence``); without: the exact route.
+    model : str
+    epsilons : sequence of float
+    samples : int
+        Queries per shown cell (0 on the exact route).
+    positions, confidence, method, tau, context_epsilon, grid
+        As in :func:`analyse`.
+    paper : sequence of ObservedPoint
+        The paper's design, analysed beside (sampled route only).
+    targets : sequence of float
+        Fairness targets (nats, ≥ 0) for :attr:`ExperimentAnalysis.budgets`.
+
+    Returns
+    -------
+    ExperimentAnalysis
 
     Raises
     ------

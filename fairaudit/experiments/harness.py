@@ -91,11 +91,19 @@ def plan_queries(
     seed : int
         The run's seed.
     epsilons : sequence of float
-        Paper design: the candidate's ε values (nats).
+        Paper design: the candidate's ε values (nats; :func:`fairaudit.experiments.vlm.filter.candidate_family`),
+        each profile filtered at ε / 2.
     positions : {"balanced", "latin", "fixed"}
-        Paper design: the true orders queried.
+        Paper design: the true orders queried: both orders of the paper's
+        candidates (``balanced``), or the paper's own only (``fixed``).
     context_epsilon : float, optional
         Paper design: ε of randomized response on the context (None: shown as is).
+
+    Returns
+    -------
+    list of Query
+        Table: n_contexts × n_profiles² × N queries. Paper: n_ε × n_contexts ×
+        (2 or 1) × N queries, each with the cell drawn through the filter.
 
     Raises
     ------

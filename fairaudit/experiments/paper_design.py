@@ -244,14 +244,30 @@ def analyse_paper_design(
 ) -> PaperDesignAnalysis:
     """The per-candidate analysis of a run of the paper's design: its records at +inf (baseline) and at each ε.
 
-    ``records`` are the log's answered queries (``design = "paper"``, with ``truth`` and ``epsilon``); the other
-    parameters are :func:`fairaudit.experiments.analysis.analyse`'s.
+    Parameters
+    ----------
+    task : DeliveryTask
+    records : sequence of dict
+        The log's answered queries: ``design = "paper"``, with ``truth``
+        (context and profiles) and ``epsilon`` (``inf`` for the baseline).
+    model : str
+    samples : int
+    epsilons : sequence of float
+        The candidate's ε values (nats, finite, ≥ 0).
+    positions, confidence, method, context_epsilon
+        As in :func:`fairaudit.experiments.analysis.analyse`.
+    tau : float, optional
+        Default the utility's smallest value when it is positive, else none.
+
+    Returns
+    -------
+    PaperDesignAnalysis
 
     Raises
     ------
     InputError
-        ``paper design`` when the baseline has no answered query; a bad ε; the bounds' errors
-        (:func:`paper_design_bounds`).
+        ``paper design`` when the baseline has no answered query; a bad ε;
+        the bounds' errors (:func:`paper_design_bounds`).
     """
     utility = candidate_utility(task)
     pop = candidate_population(task, positions)

@@ -64,9 +64,23 @@ def kernel_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
 
 
 def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
-    """A kernel on shown cells (the layout of :func:`fairaudit.experiments.kernel.table_kernel`) as the long table
-    of ``kernel.csv``: per context, shown cell and decision, the profile shown as each option, and ``count`` (sampled)
-    or ``probability`` (exact), as :meth:`fairaudit.experiments.vlm.models.SimulatedModel.from_csv` reads them back.
+    """A kernel on shown cells as the long table of ``kernel.csv``, read back by ``--kernel``.
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    kernel : Kernel
+        Shape (n_contexts, n_profiles^k, n_decisions), the layout of
+        :func:`fairaudit.experiments.kernel.table_kernel` (groups: the shown
+        pairs, row-major), with counts (sampled) or without (exact).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per context, shown pair and decision: the task's context
+        name, the two options (the profile shown as each), ``decision``, and
+        ``count`` (integers) or ``probability``
+        (:meth:`fairaudit.experiments.vlm.models.SimulatedModel.from_csv` reads both).
     """
     import pandas as pd
 

@@ -14,7 +14,7 @@ on the same model and reports what each needed and whether they agree:
   at temperature 1), with the harness's own planner, client, log and parser
   (:func:`~fairaudit.experiments.harness.plan_queries`,
   :func:`~fairaudit.experiments.harness.run_queries`,
-  :func:`~fairaudit.experiments.harness.table_kernel`), on the one-digit answer
+  :func:`~fairaudit.experiments.kernel.table_kernel`), on the one-digit answer
   prompt (:func:`~fairaudit.experiments.local_model.answer_task`). Repeated R
   times with different seeds.
 
@@ -74,7 +74,8 @@ from _bench_common import emit, fmt_ratio, fmt_time, machine_line, table  # noqa
 from fairaudit.base.errors import InputError  # noqa: E402
 from fairaudit.experiments import local_model as lm  # noqa: E402
 from fairaudit.experiments.analysis import ExperimentAnalysis, analyse, analyse_kernel  # noqa: E402
-from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel  # noqa: E402
+from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries  # noqa: E402
+from fairaudit.experiments.kernel import table_kernel  # noqa: E402
 from fairaudit.experiments.taskfile import TASKS  # noqa: E402
 from fairaudit.experiments.vlm.client import ChatClient  # noqa: E402
 from fairaudit.experiments.vlm.tasks import DeliveryTask

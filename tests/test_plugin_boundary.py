@@ -118,7 +118,7 @@ def test_the_plugin_imports_only_public_names():
         ),
         ("from fairaudit import __version__", "experiments/run.py", ["imports fairaudit.__version__ (not in"]),
         ("from fairaudit import Kernel, StrictModel", "experiments/a.py", ["imports fairaudit.StrictModel (not in"]),
-        ("import fairaudit.reports.plots", "experiments/report.py", ["imports fairaudit.reports.plots"]),
+        ("import fairaudit.reports.plots", "experiments/figures.py", ["imports fairaudit.reports.plots"]),
         (
             "import fairaudit as fa\nfa.reports.plots.save_figure",
             "experiments/a.py",

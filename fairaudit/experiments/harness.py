@@ -1,30 +1,11 @@
 """The sampling harness: query a decision model cell by cell, log every reply, resume after a crash.
 
-Two designs (:func:`plan_queries`):
-
-* **table**: query every *shown* cell (x̃, ã₁, ã₂) — every context and every
-  pair of profiles the filter can show — N times. The counts estimate the
-  model's kernel K[x̃, (ã₁, ã₂), u] itself, and any filter is then applied
-  exactly by composition, so one set of queries serves every ε.
-* **paper**: the paper's design: for each ε, each true context and each true
-  order of the two candidates, draw what the model is shown through the
-  filter, N times, and query that. Each ε needs its own queries.
-
-Every query has a key (``id``: the design, the cell, ε and the repetition)
-and its own seed, a hash of the run's seed and the key, so the replies do
-not depend on the order, the concurrency or on interruptions.
-
-The log (:class:`QueryLog`) is an append-only JSON-lines file: a header with
-the run's settings, then one line per answered query (prompt hash, the
-messages sent with each image as its hash, model, cell, seed, time, reply,
-parsed decision). Each query's messages are made once
-(:meth:`~fairaudit.experiments.vlm.tasks.DeliveryTask.messages`) and handed to
-the model as they are logged. A line is written and flushed as
-soon as its reply arrives, so killing the run loses no answered query; on
-resume, queries already in the log are skipped (none is asked twice) and a
-torn last line is cut off. Transport failures (after the client's retries)
-are logged as errors and asked again on the next resume; unparseable replies
-are samples, counted as ``"unparsed"``.
+Two designs (:func:`plan_queries`): the **table** design queries every shown cell N times, and its counts
+estimate the model's kernel, to which any filter is applied exactly; the **paper** design draws what the model is
+shown through the filter at each ε. Every query has a key and its own seed, a hash of the run's seed and the key,
+so the replies do not depend on the order, the concurrency or interruptions. The log (:class:`QueryLog`) is an
+append-only JSON-lines file, a header then one line per answered query, flushed as each reply arrives; on resume
+the answered queries are skipped and a torn last line is cut off (docs/experiments.md, "The log, and resuming").
 """
 
 from __future__ import annotations
@@ -36,7 +17,7 @@ import math
 import os
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -45,10 +26,10 @@ from typing import Self
 
 import numpy as np
 
-from fairaudit import FairauditError, InputError, Kernel, whole
+from fairaudit import FairauditError, InputError, whole
 
 from ._progress import Bar, progress_bar
-from .slots import check_size, outcome_index, true_prompts
+from .slots import check_size, true_prompts
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.models import DecisionModel, Query
 from .vlm.tasks import UNPARSED, DeliveryTask
@@ -59,15 +40,12 @@ __all__ = [
     "decision_label",
     "logged_messages",
     "logged_settings",
-    "paper_counts",
     "paper_queries_needed",
     "plan_queries",
     "query_seed",
     "run_queries",
-    "table_kernel",
     "table_queries",
     "table_queries_needed",
-    "true_cell_counts",
 ]
 
 LOG_VERSION = 1
@@ -666,123 +644,3 @@ def _ask_all(
     pool.shutdown(wait=True)
     bar.close()
     return asked, failed, failures
-
-
-# -- counts ---------------------------------------------------------------------------------------------------
-
-
-def table_kernel(task: DeliveryTask, records: Iterable[dict]) -> Kernel:
-    """The model's kernel estimated from the table design's answered queries.
-
-    Returns
-    -------
-    Kernel
-        Shape (n_contexts, n_profiles^k, n_decisions) with counts: contexts are
-        the shown contexts, groups the shown cells (tuples of the k profiles,
-        row-major over :attr:`DeliveryTask.profiles`, slot 1 slowest),
-        decisions :attr:`DeliveryTask.decisions`. Cells without any answered
-        query are empty.
-    """
-    profiles = task.profiles
-    n, k = len(profiles), task.slots
-    pidx = {p: i for i, p in enumerate(profiles)}
-    cidx = {c: i for i, c in enumerate(task.contexts)}
-    didx = {d: i for i, d in enumerate(task.decisions)}
-    rows = [
-        (cidx[r["context"]], *(pidx[tuple(p)] for p in r["profiles"]), didx[r["decision"]])
-        for r in records
-        if r.get("design") == "table" and r.get("status") == "ok"
-    ]
-    counts = np.zeros((len(task.contexts), *([n] * k), len(task.decisions)))
-    if rows:
-        np.add.at(counts, tuple(np.array(rows).T), 1.0)
-    groups = list(itertools.product(profiles, repeat=k))
-    return Kernel.from_counts(
-        counts.reshape(len(task.contexts), n**k, -1), task.contexts, groups, task.decisions, name="kernel"
-    )
-
-
-def paper_counts(
-    task: DeliveryTask, records: Iterable[dict], epsilon: float, positions: str = "balanced"
-) -> np.ndarray:
-    """Counts of the paper's design at one ε by true context, true prompt and decision.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n_contexts, n_prompts, n_decisions)
-        Axis 1: the true prompts of ``positions``
-        (:func:`fairaudit.experiments.slots.true_prompts`: for the paper's
-        pair, its order then swapped); axis 2: :attr:`DeliveryTask.decisions`.
-        Records of prompts outside ``positions`` are not counted.
-    """
-    prompts, _ = true_prompts(task, positions)
-    orders = {tuple(task.profiles[i] for i in p): j for j, p in enumerate(prompts)}
-    cidx = {c: i for i, c in enumerate(task.contexts)}
-    didx = {d: i for i, d in enumerate(task.decisions)}
-    key = eps_key(float(epsilon))
-    out = np.zeros((len(task.contexts), len(prompts), len(task.decisions)))
-    for r in records:
-        if r.get("design") != "paper" or r.get("status") != "ok" or eps_key(float(r["epsilon"])) != key:
-            continue
-        order = tuple(tuple(p) for p in r["truth"]["profiles"])
-        if order in orders:
-            out[cidx[r["truth"]["context"]], orders[order], didx[r["decision"]]] += 1
-    return out
-
-
-def true_cell_counts(task: DeliveryTask, records: Iterable[dict]) -> np.ndarray:
-    """Per-candidate outcome counts of decisions on true prompts shown as they are (no filter), record by record.
-
-    The baseline of a design too large for a kernel (eight candidates: 8⁸ shown cells per context), counted
-    without one: each record names its context, its k profiles in slot order and its decision, and gives each
-    of its k candidates one outcome (:func:`fairaudit.experiments.slots.outcome_index`).
-
-    Parameters
-    ----------
-    task : DeliveryTask
-    records : iterable of dict
-        ``{"context": ..., "profiles": [profile of slot 1, ..., slot k], "decision": label}`` with a label of
-        :attr:`DeliveryTask.decisions` (a log's answered queries, or decisions recorded elsewhere); records with a
-        ``status`` other than ``"ok"`` are skipped.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n_contexts, k, n_candidates, n_outcomes)
-        Counts by context, slot, the candidate's true profile (:attr:`DeliveryTask.candidates`) and its outcome
-        (:attr:`DeliveryTask.outcomes`).
-
-    Raises
-    ------
-    InputError
-        ``records`` naming a context, profile or decision the task does not have.
-
-    Examples
-    --------
-    >>> from fairaudit.experiments.taskfile import HR_DELIVERY as t
-    >>> c = true_cell_counts(t, [{"context": "sick leave", "profiles": t.candidates, "decision": "HR2"}])
-    >>> c[t.contexts.index("sick leave")].tolist()   # slot 1 (Tom): not chosen; slot 2 (Mary): chosen
-    [[[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]]
-    """
-    cidx = {c: i for i, c in enumerate(task.contexts)}
-    gidx = {tuple(g): i for i, g in enumerate(task.candidates)}
-    didx = {d: i for i, d in enumerate(task.decisions)}
-    rows = []
-    for n, r in enumerate(records):
-        if r.get("status", "ok") != "ok":
-            continue
-        try:
-            rows.append((cidx[r["context"]], *(gidx[tuple(p)] for p in r["profiles"]), didx[r["decision"]]))
-        except (KeyError, TypeError):
-            raise InputError(
-                f"records[{n}]", f"is not a decision of {task.name} on one of its true prompts", r
-            ) from None
-        if len(rows[-1]) != task.slots + 2:
-            raise InputError(f"records[{n}].profiles", f"needs {task.slots} profiles", r.get("profiles"))
-    out = np.zeros((len(task.contexts), task.slots, len(task.candidates), len(task.outcomes)))
-    if rows:
-        a = np.array(rows, dtype=np.int64)
-        o = outcome_index(task)
-        for i in range(task.slots):
-            slot = np.full(len(a), i, dtype=np.int64)
-            np.add.at(out, (a[:, 0], slot, a[:, 1 + i], o[i, a[:, -1]]), 1.0)
-    return out

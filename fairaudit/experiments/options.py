@@ -20,7 +20,6 @@ from pathlib import Path
 
 from fairaudit import InputError, choice, real, whole
 
-from .analysis import DEFAULT_TARGETS
 from .vlm.client import CONSTRAINTS
 
 __all__ = [
@@ -29,12 +28,15 @@ __all__ = [
     "DEFAULT_KEEPS",
     "DEFAULT_MAX_TOKENS",
     "DEFAULT_START",
+    "DEFAULT_TARGETS",
     "DEFAULT_TOLERANCE",
     "PLAIN_SAMPLING",
     "ModelSource",
     "RunOptions",
-    "exact_route",
 ]
+
+DEFAULT_TARGETS = (0.05, 0.1, 0.25, 0.5)
+"""Fairness targets (nats) at which an experiment reports the privacy budget that meets them."""
 
 DEFAULT_KEEPS = (0.5, 0.6, 0.7, 0.8, 0.9)
 """Keep probabilities per attribute of the default ε grid (the paper varied p)."""
@@ -256,7 +258,7 @@ class RunOptions:
     targets : sequence of float
         Fairness targets (nats) at which the report gives the ε that meets
         them, for this model and for any model (default
-        :data:`fairaudit.experiments.analysis.DEFAULT_TARGETS`).
+        :data:`DEFAULT_TARGETS`).
     seed : int
     resume : bool
         Continue the run logged in the run's folder. The run's settings must be the log's: every setting that
@@ -369,14 +371,3 @@ class RunOptions:
         if self.tolerance is not None:
             what = "a relative difference in [0, 1]"
             object.__setattr__(self, "tolerance", real(self.tolerance, "tolerance", low=0.0, high=1.0, what=what))
-
-
-def exact_route(exact: bool, local_model: str | None, samples: int | None) -> bool:
-    """Whether a run takes the exact route: ``exact`` asked for, or a local model without ``samples``.
-
-    Examples
-    --------
-    >>> exact_route(False, "smollm2", None), exact_route(False, "smollm2", 20), exact_route(True, None, None)
-    (True, False, True)
-    """
-    return bool(exact) or (local_model is not None and samples is None)

@@ -1,32 +1,10 @@
 """The paper's design alone: tasks too large for a kernel, such as eight candidates ranked at once.
 
-The table design asks every shown cell, n_profiles^k per context (8⁸ for
-eight candidates of eight groups), and composes the filter exactly. The
-paper's own design asks only the true prompts, through the filter at each ε
-(``RunOptions(design="paper")``), and beside them the same prompts without a
-filter for the baseline. Each answered query gives one record per candidate,
-counted by true context, slot, true profile and outcome
-(:func:`fairaudit.experiments.harness.true_cell_counts`): the per-candidate
-law behind the filter at that ε, with simultaneous intervals, and L's and
-L̄'s exact range over every utility of an unparsed reply in [min g, max g],
-chosen per cell of that law (:func:`fairaudit.metrics.utility_range.fairness_range`
-of the law: the filter is in the queries, so no mechanism lies between the
-cells and the groups).
-
-The certificate needs the candidate's mechanism M_cand only through two
-numbers, and both have closed forms when its matrix is too large to build:
-
-* its ε, ε(M_cand) (:func:`fairaudit.experiments.slots.candidate_epsilon`:
-  Σ ε_i for ``population = "all"``; for a point-mass design such as a Latin
-  square of distinct candidates, the most attribute values two views differ
-  in, each at its ε_i);
-* the black-box bound, the exact worst case over every decision model: when
-  the utility's smallest value is 0 and no floor τ is set, it is ε(M_cand)
-  itself for L, and for L̄ as well when X ⊥ A (``balanced`` or ``latin``
-  positions): proofs/black_box.md, "With ℓ = 0 the black-box value is
-  ε(M_A)", and its "Global" paragraph. Otherwise the bound is the worst
-  model over the matrix (:func:`fairaudit.worstcase.known_utility.worst_model`), which a
-  task of that size refuses in one line.
+The paper's design asks only the true prompts, through the filter at each ε (``RunOptions(design="paper")``), and
+beside them the same prompts without a filter for the baseline; each answered query gives one record per candidate
+(:func:`fairaudit.experiments.kernel.true_cell_counts`). The certificate needs M_cand only through its ε and the
+black-box bound, which have closed forms when its matrix is too large to build (docs/tasks.md;
+proofs/black_box.md, "With ℓ = 0 the black-box value is ε(M_A)").
 """
 
 from __future__ import annotations
@@ -40,18 +18,27 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fairaudit import Fairness, InputError, Law, Population, Utility, UtilityRange, number, real, write_atomic
+from fairaudit import (
+    InputError,
+    Population,
+    Utility,
+    number,
+    real,
+    write_atomic,
+)
 
 from ._markdown import paper_design_markdown
 from .analysis import (
     BoundRange,
+    ObservedPoint,
     bound_ranges_from,
     candidate_context_mechanism,
     candidate_utility,
-    paper_design_point,
+    observed_point,
 )
+from .figures import figure_class
 from .harness import paper_queries_needed
-from .report import figure_class, observed_dicts, privacy_dict, utility_dict, write_frame, write_json
+from .report import observed_dicts, privacy_dict, utility_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
@@ -59,7 +46,6 @@ from .vlm.tasks import DeliveryTask
 if TYPE_CHECKING:
     import pandas as pd
 
-    from fairaudit import FairnessIntervals
 
 __all__ = [
     "DesignBounds",
@@ -182,44 +168,23 @@ def paper_design_bounds(
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
-class DesignPoint:
-    """The paper's design at one candidate ε: what was observed and what holds for any model.
+class DesignPoint(ObservedPoint):
+    """The paper's design at one candidate ε: what was observed (:class:`ObservedPoint`) and what holds for any
+    model.
 
     Attributes
     ----------
-    epsilon : float
-        The candidate's ε (nats; +inf for the baseline, no filter).
-    queries : int
-        Answered queries at this ε.
     counts : numpy.ndarray, shape (n_contexts · k, n_candidates, n_outcomes)
-        Per-candidate records by context @ slot (context-major,
-        :func:`fairaudit.experiments.slots.candidate_contexts`), true profile
-        (:attr:`DeliveryTask.candidates`) and outcome (:attr:`DeliveryTask.outcomes`).
-    law : Law
-        Their shares.
-    local_fairness, global_fairness : Fairness
-        Observed L and L̄ (nats), with the maximising context and groups.
-    intervals : FairnessIntervals or None
+        Per-candidate records by context @ slot, true profile and outcome.
     bounds : DesignBounds
-    unparsed_range : UtilityRange
-        L and L̄ over every utility of the unparsed reply in [min g, max g], chosen per cell (context @ slot,
-        candidate) of ``law`` (:func:`fairaudit.metrics.utility_range.fairness_range` of the law itself), next to the value
-        under the stated default: ``local_fairness`` and ``global_fairness``, the same numbers.
     bound_ranges : dict of str to BoundRange
-        ``"corollary"``, ``"black_box"`` and ``"black_box_global"``: each certified bound's exact range over the
-        same utilities (:func:`fairaudit.experiments.analysis.bound_ranges_from`; the upper end is the bound as
-        stated, and the lower end NaN, with the reason, when it needs a mechanism too large to build).
+        Each certified bound's range over every utility of the unparsed reply
+        (:func:`fairaudit.experiments.analysis.bound_ranges_from`; the lower end NaN, with the reason, when it needs
+        a mechanism too large to build).
     """
 
-    epsilon: float
-    queries: int
     counts: np.ndarray
-    law: Law
-    local_fairness: Fairness
-    global_fairness: Fairness
-    intervals: FairnessIntervals | None
     bounds: DesignBounds
-    unparsed_range: UtilityRange
     bound_ranges: dict[str, BoundRange]
 
 
@@ -311,21 +276,13 @@ def analyse_paper_design(
     eps = sorted({real(e, "epsilons", low=0.0, what="finite and >= 0 (nats)") for e in epsilons})
 
     def point(e: float, ctx_eps: float | None) -> DesignPoint:
-        seen = paper_design_point(task, positions, records, e, utility, pop, confidence, method)
+        seen = observed_point(task, positions, records, e, utility, pop, confidence, method)
         bounds = paper_design_bounds(task, e, positions, tau=tau, context_epsilon=ctx_eps)
-        ranges = _bound_ranges(task, e, positions, tau, ctx_eps, bounds)
-        counts = np.asarray(seen.law.counts)
         return DesignPoint(
-            epsilon=e,
-            queries=seen.queries,
-            counts=counts,
-            law=seen.law,
-            local_fairness=seen.local_fairness,
-            global_fairness=seen.global_fairness,
-            intervals=seen.intervals,
+            **{f.name: getattr(seen, f.name) for f in dataclasses.fields(seen)},
+            counts=np.asarray(seen.law.counts),
             bounds=bounds,
-            unparsed_range=seen.unparsed_range,
-            bound_ranges=ranges,
+            bound_ranges=_bound_ranges(task, e, positions, tau, ctx_eps, bounds),
         )
 
     baseline = point(math.inf, None)
@@ -391,28 +348,10 @@ def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> dict[str, Any]:
 
 
 def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The certificate JSON of a run of the paper's design alone.
-
-    Keys as :func:`fairaudit.experiments.report.experiment_dict` where they
-    mean the same: ``experiment``, ``model``, ``route`` (``"sampled"``),
-    ``design`` (``"paper"``), ``positions``, ``samples``, ``slots``,
-    ``candidates``, ``context``, ``queries`` (answered without a filter and
-    through it, unparsed, and the queries each ε needs), ``utility`` (with
-    ``unparsed_range``, the [min g, max g] an unparsed reply's utility is
-    known within), ``tau``, ``confidence``, ``baseline`` (no filter:
-    observed L and L̄ with intervals) and ``points`` (per requested ε: the
-    filter's privacy, the corollary and black-box bounds, ``closed_form``,
-    ``bounds.unparsed_range`` (per bound its ``range`` over every utility of
-    the unparsed reply in [min g, max g] and the ``reason``, as the table
-    design's), the observed L and L̄ with intervals). Every observed L and
-    L̄ of the baseline and the points has ``unparsed_range`` ([lower,
-    upper]: its exact range over every utility of the unparsed reply in
-    [min g, max g], chosen per cell (context @ slot, candidate) of the
-    observed per-candidate law) and ``unparsed_range_ends`` (the context and
-    groups of each end, and whether the lower end is exact:
-    :func:`fairaudit.metrics.utility_range.fairness_range`). No ``curve``,
-    ``budgets`` or ``shares``: they need the model's kernel on every shown
-    cell. Values in nats; +inf is ``"inf"``; NaN is ``null``.
+    """The certificate JSON of a run of the paper's design alone: the keys of
+    :func:`fairaudit.experiments.report.experiment_dict` where they mean the same, with ``design`` (``"paper"``) and
+    per ε the bounds' ``closed_form``; no ``curve``, ``budgets`` or ``shares``, which need the kernel on every shown
+    cell (docs/experiments.md, "The files").
     """
     a, t = analysis, analysis.task
     out: dict[str, Any] = {

@@ -1,24 +1,9 @@
 """k candidates per prompt: the true prompts, the per-candidate view and the filter that protects a candidate.
 
-The mathematics is docs/design.md "k candidates behind a filter". A prompt
-shows k slots; the true candidates T = (t₁, ..., t_k) are drawn from the
-task's population in the orders of its ``positions``; the filter releases
-every attribute of every candidate through randomized response; the model is
-a kernel K[x, s, u] on shown cells s = (s₁, ..., s_k) (:attr:`DeliveryTask.decisions` u).
-
-The record of slot i has context (x, i), group t_i and outcome o_i(u). What
-the model sees about it is the shown cell *rotated* so that its own slot comes
-first, (s_i, s_{i+1}, ..., s_{i-1}): its *view*. Rotation makes the view's law
-the same in every slot for every design fairaudit runs (all orders, the k
-cyclic shifts of a Latin square, or populations closed under reordering), so
-one mechanism protects every candidate:
-
-    M_cand[a, v] = Σ_T P(T | t_i = a, slot i) Π_j M_P[T_{i+j}, v_j],
-
-which :func:`candidate_mechanism` computes and checks to be slot-free.
-
-Arrays index profiles by :attr:`DeliveryTask.profiles` and shown cells
-row-major over the k slots (slot 1 the slowest axis); true prompts are
+The mathematics is docs/design.md, "k candidates behind a filter": the record of slot i has context (x, i), group
+t_i and outcome o_i(u); what the model sees about it is its *view*, the shown cell rotated to start at its own slot,
+and the mechanism that protects it is M_cand (:func:`candidate_mechanism`). Arrays index profiles by
+:attr:`DeliveryTask.profiles` and shown cells row-major over the k slots (slot 1 the slowest axis); true prompts are
 ``(n_prompts, k)`` integer arrays of profile indices.
 """
 
@@ -27,6 +12,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
@@ -39,6 +25,8 @@ from .vlm.tasks import DeliveryTask
 __all__ = [
     "MAX_KERNEL_ENTRIES",
     "MAX_SHOWN_CELLS",
+    "PositionSplit",
+    "candidate_context_name",
     "candidate_contexts",
     "candidate_epsilon",
     "candidate_kernel",
@@ -47,9 +35,11 @@ __all__ = [
     "candidate_population",
     "check_size",
     "epsilon_factor",
+    "epsilon_from_keep",
     "expected_utility",
     "outcome_index",
     "point_views",
+    "position_split",
     "slot_names",
     "true_prompts",
     "view_label",
@@ -183,6 +173,11 @@ def candidate_contexts(task: DeliveryTask) -> tuple:
     return tuple(f"{c} @ {o}" for c in task.contexts for o in task.options)
 
 
+def candidate_context_name(task: DeliveryTask) -> str:
+    """The name of the per-candidate contexts: the task's context, or ``"context @ position"`` (k ≥ 2)."""
+    return task.context_name if task.slots == 1 else "context @ position"
+
+
 def outcome_index(task: DeliveryTask) -> npt.NDArray[np.intp]:
     """o_i(u): the outcome index of the candidate in slot i under decision u, shape (k, n_decisions).
 
@@ -233,7 +228,7 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
     task : DeliveryTask
     kernel : Kernel
         Shape (n_contexts, n_profiles^k, n_decisions): shown cells row-major
-        over the slots (:func:`fairaudit.experiments.harness.table_kernel`),
+        over the slots (:func:`fairaudit.experiments.kernel.table_kernel`),
         with or without counts.
 
     Returns
@@ -536,3 +531,159 @@ def expected_utility(
         member[np.arange(len(prompts)), i, [col[g] for g in prompts[:, i]]] = w
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.einsum("xti,tic->xci", e, member) / p.T[None]
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class PositionSplit:
+    """The raw disparity of the listed order split into a position part, a group part and a remainder (nats).
+
+    With m(c, i) the expected utility of candidate c shown in slot i (its
+    rivals drawn as all orders draw them), write ln m(c, i) = μ + α_c + β_i +
+    γ_ci, the two-way additive decomposition with equal weights (Σ α = Σ β =
+    0, γ summing to 0 along each axis). The listed order shows candidate c₁
+    in slot 1 and c₂ in slot 2, and its raw log ratio splits exactly:
+
+    ``raw = ln m(c₁, 1) − ln m(c₂, 2) = group + position + interaction``, with
+    ``group = α_c₁ − α_c₂`` (the candidates over the same slots),
+    ``position = β₁ − β₂`` (the slots over the same candidates) and
+    ``interaction = γ_c₁1 − γ_c₂2``. For two candidates in two slots γ's
+    difference is 0 and ``group = ½ [ln m(1, 1) − ln m(2, 1) + ln m(1, 2) − ln m(2, 2)]``,
+    ``position = ½ [ln m(1, 1) − ln m(1, 2) + ln m(2, 1) − ln m(2, 2)]``.
+
+    A single order cannot tell the parts apart; all orders (``--positions
+    balanced``, the slot as a context) can.
+
+    Attributes
+    ----------
+    contexts : tuple of str
+        The task's contexts; the arrays below are indexed by them.
+    pair : tuple of str
+        c₁ and c₂: the first two candidates of the first listed combination.
+    raw, position, group, interaction : numpy.ndarray, shape (n_contexts,)
+        Per context, from that context's m (nats; ±inf or NaN where an m is 0).
+    overall_raw, overall_position, overall_group, overall_interaction : float
+        The same with m averaged over the contexts (equal weights), as L̄ averages them (nats).
+    expected_utility : numpy.ndarray, shape (n_contexts, n_groups, k)
+        m[x, candidate, slot] (candidates :attr:`DeliveryTask.candidates`).
+    """
+
+    contexts: tuple
+    pair: tuple
+    raw: npt.NDArray[np.float64]
+    position: npt.NDArray[np.float64]
+    group: npt.NDArray[np.float64]
+    interaction: npt.NDArray[np.float64]
+    overall_raw: float
+    overall_position: float
+    overall_group: float
+    overall_interaction: float
+    expected_utility: npt.NDArray[np.float64]
+
+    def explained(self) -> tuple[float, float]:
+        """The overall shares (position, group) of the raw disparity: position / raw and group / raw (NaN at raw 0)."""
+        r = self.overall_raw
+        if r == 0 or not math.isfinite(r):
+            return math.nan, math.nan
+        return self.overall_position / r + 0.0, self.overall_group / r + 0.0  # (+ 0.0: no -0)
+
+
+def position_split(task: DeliveryTask, m: npt.ArrayLike) -> PositionSplit | None:
+    """Split the listed order's disparity into position, group and interaction (:class:`PositionSplit`).
+
+    Parameters
+    ----------
+    task : DeliveryTask
+    m : array_like, shape (n_contexts, n_groups, k)
+        Expected utility of each candidate in each slot without a filter
+        (:func:`fairaudit.experiments.slots.expected_utility`).
+
+    Returns
+    -------
+    PositionSplit or None
+        Values in nats; None for one candidate per prompt (no slots to split).
+
+    Notes
+    -----
+    The split is an identity of logarithms (the parts add up to ``raw``
+    term by term), on the per-candidate framing of docs/design.md (context =
+    item @ slot, group = the candidate's profile, g of its own outcome).
+
+    Examples
+    --------
+    Pure position bias: the first-listed is chosen 0.8 of the time, whoever it is.
+
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY as t
+    >>> s = position_split(t, [[[0.8, 0.2], [0.8, 0.2]]] * 3)
+    >>> round(s.overall_raw, 6), round(s.overall_position, 6), s.overall_group, s.explained()
+    (1.386294, 1.386294, 0.0, (1.0, 0.0))
+    """
+    mm = np.asarray(m, dtype=float)
+    if task.slots < 2:
+        return None
+    first = task.combinations[0] if task.combinations else task.profiles[: task.slots]
+    groups = [tuple(c) for c in task.candidates]
+    c1, c2 = groups.index(tuple(first[0])), groups.index(tuple(first[1]))
+
+    def parts(x: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], ...]:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ln = np.log(x)
+            raw = ln[..., c1, 0] - ln[..., c2, 1]
+            group = np.mean(ln[..., c1, :] - ln[..., c2, :], axis=-1)  # α_c₁ − α_c₂
+            position = np.mean(ln[..., :, 0] - ln[..., :, 1], axis=-1)  # β₁ − β₂
+            if x.shape[-2:] == (2, 2):  # γ_c₁1 − γ_c₂2 = 0 for two candidates in two slots
+                interaction = np.zeros_like(raw)
+            else:
+                interaction = raw - group - position
+        return raw, position, group, interaction
+
+    raw, position, group, interaction = parts(mm)
+    o_raw, o_pos, o_group, o_int = parts(mm.mean(axis=0))
+    return PositionSplit(
+        contexts=tuple(task.contexts),
+        pair=(task.profile_label(groups[c1]), task.profile_label(groups[c2])),
+        raw=raw,
+        position=position,
+        group=group,
+        interaction=interaction,
+        overall_raw=float(o_raw),
+        overall_position=float(o_pos),
+        overall_group=float(o_group),
+        overall_interaction=float(o_int),
+        expected_utility=mm,
+    )
+
+
+def epsilon_from_keep(task: DeliveryTask, keep: float, positions: str = "balanced") -> float:
+    """The candidate's ε when every attribute of every profile is kept with probability ``keep`` (nats).
+
+    ε(M_cand) with attribute i, of k_i values, at ln(keep (k_i − 1) / (1 − keep)), exactly, whatever the other
+    attributes' sizes (the split of :meth:`fairaudit.experiments.vlm.filter.PrivacyFilter.from_epsilon`): for the
+    paper's pair Σ over the 2 n attributes shown
+    (:func:`candidate_epsilon`); for mixtures
+    from the mechanism's matrix.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> round(epsilon_from_keep(HR_DELIVERY, 0.7), 6)      # 6 ln(7/3), not 0.7/0.3
+    5.083787
+    """
+    from fairaudit import epsilon_from_keep_probability, product, randomized_response
+
+    eps = []
+    for a in task.attributes:
+        try:
+            eps.append(epsilon_from_keep_probability(float(keep), len(a.values)))
+        except InputError:
+            raise InputError(
+                "keep",
+                f"must be in [1/k, 1] for every attribute; {a.name!r} has k = {len(a.values)} values, so at least "
+                f"{1 / len(a.values):.6g} (below 1/k randomized response would show the true value less often than "
+                "any other)",
+                keep,
+            ) from None
+    closed = candidate_epsilon(task, tuple(eps), positions)
+    if closed is not None:
+        return closed
+    mechs = [randomized_response(a.values, e) for a, e in zip(task.attributes, eps)]
+    return candidate_mechanism(task, product(*mechs), positions).epsilon

@@ -23,8 +23,9 @@ from _chat_server import ChatServer
 from _cli import run
 
 from fairaudit import InputError
+from fairaudit.experiments.endpoint import endpoint_kernel
 from fairaudit.experiments.options import ModelSource, RunOptions
-from fairaudit.experiments.run import endpoint_kernel, run_experiment
+from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.taskfile import load_task
 from fairaudit.experiments.vlm.client import ChatClient
 from fairaudit.experiments.vlm.logprobs import echo_token_logprobs, prompt_token_logprobs, reply_bounds, reply_logprob

@@ -23,10 +23,11 @@ from _chat_server import ChatServer
 from _cli import run
 
 from fairaudit import InputError
-from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep
+from fairaudit.experiments.analysis import analyse_kernel
 from fairaudit.experiments.local_model import answer_task, exact_law, exact_prompt
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
+from fairaudit.experiments.slots import epsilon_from_keep
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, load_task
 from fairaudit.experiments.vlm.client import ChatClient
 from fairaudit.experiments.vlm.logprobs import decision_probabilities, first_token_logprobs, shared_first_token

@@ -34,8 +34,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.legend import Legend  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
-from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep  # noqa: E402
-from fairaudit.experiments.report import (  # noqa: E402
+from fairaudit.experiments.analysis import analyse_kernel  # noqa: E402
+from fairaudit.experiments.figures import (  # noqa: E402
     _baseline_figure,
     _curve_figure,
     _keep_axis,
@@ -43,6 +43,7 @@ from fairaudit.experiments.report import (  # noqa: E402
     plot_baseline,
     plot_experiment_curve,
 )
+from fairaudit.experiments.slots import epsilon_from_keep  # noqa: E402
 from fairaudit.experiments.taskfile import get_task  # noqa: E402
 from fairaudit.experiments.vlm.filter import candidate_family  # noqa: E402
 from fairaudit.experiments.vlm.models import simulated_model  # noqa: E402

@@ -17,10 +17,9 @@ import pytest
 from _cli import run
 
 from fairaudit import InputError
-from fairaudit.experiments.analysis import epsilon_from_keep
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
-from fairaudit.experiments.slots import epsilon_factor
+from fairaudit.experiments.slots import epsilon_factor, epsilon_from_keep
 from fairaudit.experiments.taskfile import parse_task
 from fairaudit.experiments.vlm.filter import SPLIT_RULE, PrivacyFilter, candidate_family
 

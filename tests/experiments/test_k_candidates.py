@@ -11,7 +11,8 @@ import pandas as pd
 import pytest
 from _cli import run
 
-from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep
+from fairaudit.experiments.analysis import analyse_kernel
+from fairaudit.experiments.slots import epsilon_from_keep
 from fairaudit.experiments.taskfile import load_task
 from fairaudit.experiments.vlm.models import simulated_model
 from fairaudit.laws.tables import Kernel

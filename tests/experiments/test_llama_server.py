@@ -105,7 +105,7 @@ def test_the_server_and_the_in_process_model_agree_up_to_quantized_arithmetic(se
     served = httpx.post(f"{server}/apply-template", json={"messages": messages}, timeout=60).json()["prompt"]
     assert served == model.tokenizer.apply_chat_template(messages, add_generation_prompt=True, tokenize=False)
     local = lm.exact_kernel(PACKAGE_DELIVERY, model)
-    from fairaudit.experiments.run import endpoint_kernel
+    from fairaudit.experiments.endpoint import endpoint_kernel
     from fairaudit.experiments.vlm.client import ChatClient
 
     with ChatClient(f"{server}/v1", "smollm2", top_logprobs=20, max_tokens=1) as client:
@@ -162,8 +162,8 @@ def test_task_files_exact_over_http_is_deterministic_and_agrees_with_the_in_proc
 def test_a_rankings_chain_rule_over_http_agrees_with_the_in_process_route(server):
     """ranking.toml, two cells: P(reply begins with each order) from prefixes over HTTP against the in-process route."""
     pytest.importorskip("torch")
+    from fairaudit.experiments.endpoint import PREFILL
     from fairaudit.experiments.exact import ranking_replies
-    from fairaudit.experiments.run import PREFILL
     from fairaudit.experiments.taskfile import load_task
     from fairaudit.experiments.vlm.client import ChatClient
     from fairaudit.experiments.vlm.logprobs import reply_probabilities

@@ -226,7 +226,8 @@ def test_a_rankings_exact_kernel_is_the_probability_of_each_order_written_out(sm
 def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tmp_path):
     """The small version of the issue's check: package delivery, 5 one-token replies per cell."""
     need_local_model("fastapi", "uvicorn")
-    from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel
+    from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries
+    from fairaudit.experiments.kernel import table_kernel
     from fairaudit.experiments.vlm.client import ChatClient
     from fairaudit.experiments.vlm.models import EndpointModel
     from fairaudit.statistics.confidence_sets import category_bounds
@@ -444,9 +445,10 @@ def test_the_docs_page_quotes_the_reports_the_model_gives(smollm2):
     """
     from pathlib import Path
 
-    from fairaudit.experiments.analysis import analyse_kernel, epsilon_from_keep
+    from fairaudit.experiments.analysis import analyse_kernel
+    from fairaudit.experiments.options import DEFAULT_KEEPS
     from fairaudit.experiments.report import experiment_dict, experiment_markdown
-    from fairaudit.experiments.run import DEFAULT_KEEPS
+    from fairaudit.experiments.slots import epsilon_from_keep
 
     page = (Path(__file__).resolve().parents[2] / "docs" / "real-model.md").read_text()
     quoted: dict[str, list[str]] = {}

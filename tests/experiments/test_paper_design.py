@@ -17,12 +17,13 @@ from _cli import run
 
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import number
-from fairaudit.experiments.analysis import candidate_context_mechanism, candidate_utility, epsilon_from_keep
-from fairaudit.experiments.harness import plan_queries, true_cell_counts
+from fairaudit.experiments.analysis import candidate_context_mechanism, candidate_utility
+from fairaudit.experiments.harness import plan_queries
+from fairaudit.experiments.kernel import true_cell_counts
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.paper_design import paper_design_bounds
 from fairaudit.experiments.run import run_experiment
-from fairaudit.experiments.slots import candidate_population
+from fairaudit.experiments.slots import candidate_population, epsilon_from_keep
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, load_task, parse_task
 from fairaudit.experiments.vlm.models import RuleModel, SimulatedModel, simulated_model, simulated_models
 from fairaudit.worstcase.known_utility import worst_model

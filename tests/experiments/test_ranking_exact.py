@@ -20,7 +20,8 @@ from _chat_server import ChatServer
 from _cli import run
 
 from fairaudit.experiments.exact import exact_prompts, ranking_replies
-from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries, table_kernel
+from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries
+from fairaudit.experiments.kernel import table_kernel
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.taskfile import load_task, parse_task

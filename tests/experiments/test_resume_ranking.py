@@ -16,8 +16,9 @@ import pytest
 from _cli import run
 
 from fairaudit.base.errors import InputError
-from fairaudit.experiments.analysis import candidate_utility, epsilon_from_keep
-from fairaudit.experiments.harness import true_cell_counts
+from fairaudit.experiments.analysis import candidate_utility
+from fairaudit.experiments.kernel import true_cell_counts
+from fairaudit.experiments.slots import epsilon_from_keep
 from fairaudit.experiments.taskfile import load_task
 from fairaudit.experiments.vlm.filter import profile_budget
 from fairaudit.laws.tables import Law

@@ -137,7 +137,7 @@ def test_the_lock_is_released_on_error_and_interrupt_and_is_no_output(tmp_path, 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("fairaudit.experiments.run.run_queries", interrupted)
+    monkeypatch.setattr("fairaudit.experiments.kernel.run_queries", interrupted)
     code, _, err = run(capsys, *_simulated(out, "--resume"))
     assert code == 130 and err.startswith("fairaudit: interrupted")
     lock = filelock.FileLock(out / ".fairaudit.lock", timeout=0)

@@ -378,7 +378,7 @@ def test_the_real_models_exact_and_sampled_routes_have_one_law(loan, tmp_path):
     from _model import need_local_model
 
     need_local_model("fastapi", "uvicorn")
-    from fairaudit.experiments.harness import table_kernel
+    from fairaudit.experiments.kernel import table_kernel
     from fairaudit.experiments.taskfile import load_task
     from fairaudit.statistics.confidence_sets import category_bounds
 

@@ -18,7 +18,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fairaudit.base.errors import InputError
-from fairaudit.experiments.analysis import epsilon_from_keep
 from fairaudit.experiments.slots import (
     candidate_epsilon,
     candidate_kernel,
@@ -26,6 +25,7 @@ from fairaudit.experiments.slots import (
     candidate_population,
     check_size,
     epsilon_factor,
+    epsilon_from_keep,
     outcome_index,
     true_prompts,
 )

@@ -276,7 +276,7 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
 
 def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptions]:
     """The :class:`ModelSource` and :class:`RunOptions` of the command's arguments."""
-    from ..run import ModelSource, RunOptions
+    from ..options import ModelSource, RunOptions
 
     source = ModelSource(
         simulated=args.simulated,
@@ -325,7 +325,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         return _run(args)
     except KeyboardInterrupt:
-        from ..options import exact_route
+        from ..route import exact_route
 
         if exact_route(args.exact, args.local_model, args.samples):
             hint = "the exact route writes nothing until every cell is done: run again"

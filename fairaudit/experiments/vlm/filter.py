@@ -1,30 +1,9 @@
-"""The privacy filter between the robot and the decision model.
+"""The privacy filter between the robot and the decision model: randomized response on every attribute of every
+candidate's profile, independently, and a mechanism on the context.
 
-Before the model sees a query, every attribute of every candidate's profile
-passes randomized response on its own values, independently (the paper's
-Methods: "each attribute (name, age, race) is sampled according to preset
-probabilities"), and the context (the document type) may pass a mechanism too.
-
-The correct privacy budgets (docs/design.md, the paper's errors 1 and 2):
-
-* binary randomized response that keeps the truth with probability p is
-  ln(p / (1 − p))-DP (0.847 nats for p = 0.7, not 0.7 / 0.3);
-* a profile of several attributes randomized independently is a product
-  mechanism; with every pair of profiles adjacent its ε is the **sum** of the
-  attributes' (3 ln(7/3) = 2.542 nats for name, age and race at p = 0.7);
-* one keep probability p on every attribute gives an attribute with k values
-  ε = ln(p (k − 1) / (1 − p)), so a profile's budget is split by that rule, not
-  evenly (:func:`fairaudit.laws.mechanisms.split_by_keep`): age (3 values), gender (2)
-  and race (3) at p = 0.6 are ln 3, ln 1.5 and ln 3 nats;
-* the query shows every candidate's profile. In the paper's experiment a
-  candidate's profile also fixes its rival's (Tom faces Mary, Mary faces Tom),
-  so what the model sees about a candidate's group is the pair of released
-  profiles: the mechanism that protects a candidate is
-  M_cand[a, (ã_self, ã_rival)] = M_P[a, ã_self] · M_P[rival(a), ã_rival],
-  whose ε is twice the profile's. For k candidates and any population the
-  rivals are a mixture (:func:`fairaudit.experiments.slots.candidate_mechanism`,
-  :meth:`PrivacyFilter.candidate_mechanism`). Every certificate of the
-  experiments is computed on that mechanism.
+One keep probability p on every attribute gives an attribute of k values ε = ln(p (k − 1) / (1 − p)); a profile's
+ε is the sum over its attributes, and a candidate's that of everything its prompt shows about it, M_cand
+(docs/design.md, "k candidates behind a filter", and "The paper's errors, not repeated").
 """
 
 from __future__ import annotations
@@ -84,7 +63,7 @@ class PrivacyFilter:
     def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> PrivacyFilter:
         """The filter whose profile mechanism has privacy budget ``epsilon``, every attribute kept with one probability.
 
-        The split rule (:func:`fairaudit.laws.mechanisms.split_by_keep`): every
+        The split rule (:func:`fairaudit.split_by_keep`): every
         attribute keeps its value with the same probability p, so attribute i
         with k_i values gets ε_i = ln(p (k_i − 1) / (1 − p)) and Σ ε_i =
         ``epsilon``. An attribute that p would keep less often than uniformly
@@ -219,7 +198,7 @@ def candidate_family(task: DeliveryTask, positions: str = "balanced") -> Mechani
     ε(M_cand(ε_P)) = ε (M_cand at a smaller ε_P is a garbling of the one at
     a larger, so the map is monotone). ε_P is split over the attributes by
     one keep probability (:meth:`PrivacyFilter.from_epsilon`,
-    :func:`fairaudit.laws.mechanisms.split_by_keep`). The family's keep probability
+    :func:`fairaudit.split_by_keep`). The family's keep probability
     is the chance that a candidate's own profile is shown unchanged,
     Π_i e^{ε_i} / (e^{ε_i} + k_i − 1).
 

@@ -8,8 +8,10 @@ pydantic, DuckDB), so that the certificate's time splits into theirs and fairaud
 back to back (round-robin), so that a slower spell of the machine weighs on every row alike. Each row also lists the heavy modules the child imported (read from ``-X importtime``
 in one extra run): pandas, pyarrow, scipy.stats, cvxpy, matplotlib, httpx, duckdb.
 
-The goals of issue 22: ``fairaudit --help`` within 2x of ``import numpy``; ``fairaudit certify`` on the shipped
-example (examples/llm_hiring/gpt35.toml: observed metrics with 95% intervals, every bound, budgets) under 0.6 s.
+The goals (issue 40): ``fairaudit --help`` within 2x of ``import numpy``; ``fairaudit certify`` on the shipped
+example (examples/llm_hiring/gpt35.toml: observed metrics with 95% intervals, every bound, budgets) within 1.3x of
+the time to import the libraries it needs (the row "libraries the certificate loads"), both ratios measured in the
+same run.
 
 Run from the repository root: ``python benchmarks/bench_startup.py`` (about 30 s), ``--quick`` for 2 repeats.
 Exit status 1 when a command fails or prints a result that differs from the in-process API's.
@@ -147,6 +149,7 @@ def _measure(head: str, repeats: int) -> tuple[str, list[str]]:
     help_ratio = times["fairaudit --help"] / numpy_time
     certify_time = times[f"fairaudit certify {GPT35}"]
     own = certify_time - times[FLOOR_LABEL]
+    certify_ratio = certify_time / times[FLOOR_LABEL]
     text = "\n\n".join(
         [
             "# Start-up: the command and the package against import numpy",
@@ -164,10 +167,11 @@ def _measure(head: str, repeats: int) -> tuple[str, list[str]]:
                 "lrrrlr",
             ),
             f"Goals: `fairaudit --help` within 2x of `import numpy`: {fmt_ratio(help_ratio)} "
-            f"({'met' if help_ratio <= 2 else 'not met'}); `fairaudit certify {GPT35}` under 0.6 s: "
-            f"{fmt_time(certify_time)} ({'met' if certify_time < 0.6 else 'not met'}), of which "
-            f"{fmt_time(times[FLOOR_LABEL])} loads the libraries it needs ({fmt_ratio(times[FLOOR_LABEL] / numpy_time)} "
-            f"`import numpy`) and {fmt_time(max(own, 0.0))} is fairaudit's: its modules and the work.",
+            f"({'met' if help_ratio <= 2 else 'not met'}); `fairaudit certify {GPT35}` within 1.3x of the "
+            f"libraries it needs: {fmt_ratio(certify_ratio)} ({'met' if certify_ratio <= 1.3 else 'not met'}): "
+            f"{fmt_time(certify_time)}, of which {fmt_time(times[FLOOR_LABEL])} loads the libraries "
+            f"({fmt_ratio(times[FLOOR_LABEL] / numpy_time)} `import numpy`) and {fmt_time(max(own, 0.0))} is "
+            "fairaudit's: its modules and the work.",
         ]
     )
     return text, failures

@@ -349,19 +349,22 @@ def _typed(con: Any, keys: list[str]) -> list[str]:
     """The SQL of the labels of the text columns ``keys`` of the table ``records``: BIGINT, DOUBLE or VARCHAR.
 
     Integers when DuckDB writes every value back as it is as a BIGINT; floats when it writes each back as it is
-    as a BIGINT or a DOUBLE and no two values are the same DOUBLE; else text (the module's docstring).
+    as a BIGINT or a DOUBLE and no two values are the same DOUBLE; else text (the module's docstring). Missing
+    values do not count: a column with none but missing values is an integer column. One aggregate over the
+    columns' values side by side (``UNPIVOT``, which leaves the missing values out), grouped by column.
     """
-    checks = []
-    for k in keys:
-        integer = f"coalesce(CAST(TRY_CAST({k} AS BIGINT) AS VARCHAR) = {k}, false)"
-        real = f"coalesce(CAST(TRY_CAST({k} AS DOUBLE) AS VARCHAR) = {k}, false)"
-        checks += [
-            f"coalesce(bool_and({k} IS NULL OR {integer}), true)",
-            f"coalesce(bool_and({k} IS NULL OR {integer} OR {real}), true) "
-            f"AND count(DISTINCT {k}) = count(DISTINCT TRY_CAST({k} AS DOUBLE))",
-        ]
-    flags = con.execute(f"SELECT {', '.join(checks)} FROM records").fetchone() if keys else ()
-    kinds = ["BIGINT" if flags[2 * j] else "DOUBLE" if flags[2 * j + 1] else "VARCHAR" for j in range(len(keys))]
+    if not keys:
+        return []
+    integer = "coalesce(CAST(TRY_CAST(v AS BIGINT) AS VARCHAR) = v, false)"
+    real = "coalesce(CAST(TRY_CAST(v AS DOUBLE) AS VARCHAR) = v, false)"
+    columns = ", ".join(keys)
+    sql = (
+        f"SELECT k, bool_and({integer}), bool_and({integer} OR {real}) "
+        "AND count(DISTINCT v) = count(DISTINCT TRY_CAST(v AS DOUBLE)) "
+        f"FROM (UNPIVOT (SELECT {columns} FROM records) ON {columns} INTO NAME k VALUE v) GROUP BY k"
+    )
+    flags = {k: (whole, floating) for k, whole, floating in con.execute(sql).fetchall()}
+    kinds = ["BIGINT" if flags.get(k, (True,))[0] else "DOUBLE" if flags[k][1] else "VARCHAR" for k in keys]
     return [f"CAST({k} AS {kind}) AS {k}" for k, kind in zip(keys, kinds)]
 
 

@@ -54,6 +54,7 @@ from _bench_common import (  # noqa: E402
 import fairaudit as fa  # noqa: E402
 import fairaudit.worstcase.black_box as black_box_module  # noqa: E402
 import fairaudit.worstcase.pair_search as search_module  # noqa: E402
+from fairaudit import UtilityClass
 from fairaudit.base.pairs import PairPass  # noqa: E402
 from fairaudit.certification.certificate import certify  # noqa: E402
 from fairaudit.certification.spec import parse_spec  # noqa: E402
@@ -88,7 +89,7 @@ def _bisect(k: int, tau: float | None, target: float) -> float:
     family = fa.randomized_response_family(range(k))
 
     def value(eps: float) -> float:
-        return black_box_bound(family(eps), tau=tau).value
+        return black_box_bound(family(eps), utility_class=UtilityClass(tau=tau)).value
 
     lo, hi = 0.0, 1.0
     while value(hi) <= target:
@@ -107,7 +108,7 @@ def calibration_rows(cfg: dict, failures: list[str]) -> str:
     """Part (a): calibration of k-ary RR along k."""
     cases = (
         ("black_box", {}),
-        ("black_box, tau = 0.1", {"tau": TAU}),
+        ("black_box, tau = 0.1", {"utility_class": UtilityClass(tau=TAU)}),
         ("black_box, --global", {"kind": "global"}),
     )
     rows = []
@@ -117,7 +118,7 @@ def calibration_rows(cfg: dict, failures: list[str]) -> str:
             t = median_time(lambda: calibrate(TARGET, groups=k, method="black_box", **kw), cfg["repeats"])
             base = t if k == 2 else base
             eps = calibrate(TARGET, groups=k, method="black_box", **kw).epsilon
-            if "tau" in kw:
+            if "utility_class" in kw:
                 want, how = _bisect(k, TAU, TARGET), "bisection on black_box_bound"
             else:
                 want, how = rr_black_box_epsilon(TARGET, k, 0.0, 1.0), "closed form rr_black_box_epsilon"
@@ -189,8 +190,11 @@ def general_rows(cfg: dict, seed: int, failures: list[str]) -> str:
         base = median_time(lambda: _one_pass(M), reps)
         cases: list[tuple[str, Callable[[], float]]] = [
             ("black_box_bound, lower = 0", lambda: black_box_bound(mech).value),
-            ("black_box_bound, lower = 0.1", lambda: black_box_bound(mech, lower=0.1).value),
-            ("black_box_bound, tau = 0.1", lambda: black_box_bound(mech, tau=TAU).value),
+            (
+                "black_box_bound, lower = 0.1",
+                lambda: black_box_bound(mech, utility_class=UtilityClass(lower=0.1)).value,
+            ),
+            ("black_box_bound, tau = 0.1", lambda: black_box_bound(mech, utility_class=UtilityClass(tau=TAU)).value),
             ("certify (tau = 0.1, target)", lambda: certify(spec).black_box.local_fairness.value),  # type: ignore[arg-type]
         ]
         for name, fn in cases:

@@ -7,7 +7,7 @@
     of groups enters in (b).
 (b) The whole search: the exact max over every ordered pair of groups of a
     random mechanism with n groups and m outputs, for utilities in [0.1, 1]:
-    ``black_box_bound(mech, lower=0.1)`` (threshold path, all pairs vectorised)
+    ``black_box_bound(mech, utility_class=UtilityClass(lower=0.1))`` (threshold path, all pairs vectorised)
     against solving every pair with one compiled ``FractionalProgram`` in a
     loop. For n ≥ 16 the loop solves a random sample of pairs (always with the
     maximising pair) and the time for all pairs is extrapolated per pair.
@@ -43,6 +43,7 @@ from _bench_common import (
     table,
 )
 
+from fairaudit import UtilityClass
 from fairaudit.base.linear_fractional import FractionalProgram, lp_max, threshold_max, threshold_max_many  # noqa: E402
 from fairaudit.laws.mechanisms import from_matrix  # noqa: E402
 from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
@@ -136,11 +137,15 @@ def whole_search(cfg: dict, seed: int, failures: list[str]) -> tuple[str, bool]:
             rng = np.random.default_rng([seed, 1, n, m])
             M = rng.dirichlet(np.ones(m), size=n)
             mech = from_matrix(M, list(range(n)), list(range(m)), name=f"random {n}x{m}")
-            cert = black_box_bound(mech, lower=LOWER, gamma=GAMMA)
-            t_bb = median_time(lambda: black_box_bound(mech, lower=LOWER, gamma=GAMMA), cfg["repeats"])
-            cert_lp = black_box_bound(mech, lower=LOWER, gamma=GAMMA, method="lp")
+            cert = black_box_bound(mech, utility_class=UtilityClass(lower=LOWER, gamma=GAMMA))
+            t_bb = median_time(
+                lambda: black_box_bound(mech, utility_class=UtilityClass(lower=LOWER, gamma=GAMMA)), cfg["repeats"]
+            )
+            cert_lp = black_box_bound(mech, utility_class=UtilityClass(lower=LOWER, gamma=GAMMA), method="lp")
             t_bb_lp = median_time(
-                lambda: black_box_bound(mech, lower=LOWER, gamma=GAMMA, method="lp"), cfg["lp_repeats"], 0.0
+                lambda: black_box_bound(mech, utility_class=UtilityClass(lower=LOWER, gamma=GAMMA), method="lp"),
+                cfg["lp_repeats"],
+                0.0,
             )
             pair_values = threshold_max_many(M[:, None, :], M[None, :, :], LOWER, GAMMA)[0]
             pairs = [(a, b) for a in range(n) for b in range(n) if a != b]
@@ -233,7 +238,7 @@ def run(quick: bool, seed: int) -> tuple[str, list[str]]:
         "",
         f"## (b) Whole search: max over all ordered pairs of groups, utilities in [{LOWER:g}, {GAMMA:g}]",
         "",
-        "A random mechanism with n groups and m outputs (Dirichlet(1) rows). `black_box_bound(mech, lower=0.1)` "
+        "A random mechanism with n groups and m outputs (Dirichlet(1) rows). `black_box_bound(mech, utility_class=UtilityClass(lower=0.1))` "
         "solves every pair at once by the vectorised threshold; the LP loop compiles one `FractionalProgram` and "
         'solves each pair; `black_box_bound(method="lp")` is the library\'s own LP route (pairs in decreasing order '
         "of the threshold value, stopping when no pair left can win; LPs solved in brackets). Agreement covers every "

@@ -4,7 +4,7 @@ Six binary sensitive attributes, each behind binary randomized response, the
 budget ε = 3 nats split equally (ε/6 each): a 64 × 64 product mechanism. Timed:
 
 * ``black_box_bound(mech)`` — utilities in [0, 1], no τ (threshold path);
-* ``black_box_bound(mech, tau=0.3)`` — with τ (closed-form relaxation, the LP
+* ``black_box_bound(mech, utility_class=UtilityClass(tau=0.3))`` — with τ (closed-form relaxation, the LP
   where its point is infeasible), and the same with ``method="lp"``;
 * black-box calibration over the product family for targets 0.5 and 1.0 nats,
   without τ and with τ = 0.3 (``fairaudit.worstcase.calibration.calibrate`` when it exists,
@@ -43,6 +43,7 @@ from _bench_common import (
     table,
 )
 
+from fairaudit import UtilityClass
 from fairaudit.base.linear_fractional import FractionalProgram, lp_max  # noqa: E402
 from fairaudit.laws.mechanisms import product_family  # noqa: E402
 from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
@@ -68,7 +69,7 @@ def bisect_epsilon(family, target: float, tau: float | None, rtol: float = 1e-12
     """
 
     def f(eps: float) -> float:
-        return black_box_bound(family(eps), tau=tau).value
+        return black_box_bound(family(eps), utility_class=UtilityClass(tau=tau)).value
 
     lo, f_lo, hi = 0.0, 0.0, 1.0  # at ε = 0 all groups share one law: L = 0
     while True:
@@ -155,18 +156,18 @@ def run(quick: bool) -> tuple[str, list[str]]:
         t,
         max(rel_diff(c0.value, c0_lp.value), rel_diff(c0.value, EPSILON)),
     )
-    c1 = black_box_bound(mech, tau=TAU)
-    c1_lp = black_box_bound(mech, tau=TAU, method="lp")
-    t = median_time(lambda: black_box_bound(mech, tau=TAU), reps)
+    c1 = black_box_bound(mech, utility_class=UtilityClass(tau=TAU))
+    c1_lp = black_box_bound(mech, utility_class=UtilityClass(tau=TAU), method="lp")
+    t = median_time(lambda: black_box_bound(mech, utility_class=UtilityClass(tau=TAU)), reps)
     add(
-        f"black_box_bound(mech, tau={TAU:g})",
+        f"black_box_bound(mech, utility_class=UtilityClass(tau={TAU:g}))",
         f"{c1.value:.6f} nats, {c1.method}, {c1.programs_solved} LP",
         t,
         rel_diff(c1.value, c1_lp.value),
     )
-    t = median_time(lambda: black_box_bound(mech, tau=TAU, method="lp"), reps)
+    t = median_time(lambda: black_box_bound(mech, utility_class=UtilityClass(tau=TAU), method="lp"), reps)
     add(
-        f'black_box_bound(mech, tau={TAU:g}, method="lp")',
+        f'black_box_bound(mech, utility_class=UtilityClass(tau={TAU:g}), method="lp")',
         f"{c1_lp.value:.6f} nats, {c1_lp.method}, {c1_lp.programs_solved} LP",
         t,
         rel_diff(c1.value, c1_lp.value),
@@ -182,7 +183,7 @@ def run(quick: bool) -> tuple[str, list[str]]:
         for target in TARGETS:
             eps_b, _ = bisect_epsilon(family, target, tau)
             if calibrate is not None:
-                kw = {} if tau is None else {"tau": tau}
+                kw = {} if tau is None else {"utility_class": UtilityClass(tau=tau)}
 
                 def cal(target=target, kw=kw):
                     return calibrate(target, method="black_box", family=family, **kw)
@@ -199,11 +200,11 @@ def run(quick: bool) -> tuple[str, list[str]]:
                     return bisect_epsilon(family, target, tau)
 
                 t = median_time(cal, reps, 0.0)
-                eps, bound = eps_b, black_box_bound(family(eps_b), tau=tau).value
+                eps, bound = eps_b, black_box_bound(family(eps_b), utility_class=UtilityClass(tau=tau)).value
                 keep = family.keep_probability(eps)
                 agree = 0.0
             if math.isfinite(eps):
-                lp_bound = black_box_bound(family(eps), tau=tau, method="lp").value
+                lp_bound = black_box_bound(family(eps), utility_class=UtilityClass(tau=tau), method="lp").value
                 agree = max(agree, rel_diff(lp_bound, bound))
             name = f"calibrate to L ≤ {target:g}" + ("" if tau is None else f", tau={tau:g}")
             add(name, f"ε = {eps:.6f}, keep {keep:.4f}, bound {bound:.6f}", t, agree)

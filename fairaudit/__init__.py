@@ -36,7 +36,7 @@ from fairaudit.laws.mechanisms import (
     split_by_keep,
 )
 from fairaudit.laws.tables import Kernel, Law, Population, compose
-from fairaudit.laws.utilities import Utility, from_function, from_table, indicator
+from fairaudit.laws.utilities import Utility, UtilityClass, from_function, from_table, indicator
 from fairaudit.metrics.bounds import (
     Assumption,
     Bound,
@@ -81,6 +81,7 @@ __all__ = [
     "MechanismFamily",
     "Population",
     "Utility",
+    "UtilityClass",
     "compose",
     "epsilon_from_keep_probability",
     "from_function",

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 import fairaudit as fa
+from fairaudit import UtilityClass
 from fairaudit.base.linear_fractional import box_point, floor_max_many, lp_max, threshold_max
 from fairaudit.metrics.bounds import _profile_candidates
 from fairaudit.metrics.fairness import global_fairness, local_fairness
@@ -191,7 +192,9 @@ def test_lp_max_statuses_after_the_fix():
     # a bounded polytope far from the origin: F = 1 everywhere, s = 1/(q·h) ~ 3e-14 is not "unbounded"
     r = lp_max([1.0, 1.0], [1.0, 1.0], lower=1e13, upper=2e13)
     assert r.status == "optimal" and r.value == pytest.approx(1.0, rel=LP)
-    big = black_box_bound(fa.randomized_response(["a", "b"], keep=0.7), gamma=1e13, tau=5e12, method="lp")
+    big = black_box_bound(
+        fa.randomized_response(["a", "b"], keep=0.7), utility_class=UtilityClass(gamma=1e13, tau=5e12), method="lp"
+    )
     assert big.ratio == pytest.approx(float(F(11, 7)), rel=LP)
     # an unbounded polytope whose supremum sup h1/(h1 + 1) = 1 is not attained (Proposition 1.3): finite, not +inf
     r = lp_max([1.0, 0.0], [1.0, 1.0], lower=[0.0, 1.0], upper=[np.inf, 1.0])
@@ -258,7 +261,9 @@ def test_tight_t_star_rule_binary_rr(tau, expected, t_star):
     # tight_bound.md, Proposition 3 item 3 on binary RR keeping 0.7 (γ = 1): t* = 1 iff τ >= 0.3γ.
     M = rr(F(7, 10))
     assert _pair_t_star(M[0], M[1], F(1), tau, F(0)) == (t_star, expected)
-    b = fa.tight_bound(fa.randomized_response(["a", "b"], keep=0.7), gamma=1.0, tau=float(tau))
+    b = fa.tight_bound(
+        fa.randomized_response(["a", "b"], keep=0.7), utility_class=fa.UtilityClass(gamma=1.0, tau=float(tau))
+    )
     assert math.exp(b.value) == pytest.approx(float(expected), rel=CLOSED)
     if tau != F(3, 10):  # at τ = 0.3 both t = 1 and t = 7/3 minimise
         assert math.exp(b.epsilon) == pytest.approx(float(t_star), rel=CLOSED)
@@ -272,21 +277,23 @@ def test_tight_t_star_rule_three_groups_lipschitz_and_zero_entries():
     v, pair, t = _tight_exact(THREE, F(1), F(1, 10))
     assert (v, pair, t) == (F(13, 6), (0, 2), F(4, 3)) and _delta(THREE[0], THREE[2], t) == F(1, 12)
     m = fa.from_matrix([[float(x) for x in r] for r in THREE], ["a0", "a1", "a2"], ["o0", "o1", "o2"])
-    b = fa.tight_bound(m, gamma=1.0, tau=0.1)
+    b = fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.1))
     assert math.exp(b.value) == pytest.approx(13 / 6, rel=CLOSED)
     assert (b.group, b.other_group) == ("a0", "a2") and math.exp(b.epsilon) == pytest.approx(4 / 3, rel=CLOSED)
     assert b.delta == pytest.approx(1 / 12, rel=CLOSED)
 
     M = rr(F(7, 10))
     assert _tight_exact(M, F(1), F(1, 2), F(1, 10))[0] == F(2)
-    b = fa.tight_bound(fa.randomized_response(["a", "b"], keep=0.7), gamma=1.0, tau=0.5, lipschitz=0.1)
+    b = fa.tight_bound(
+        fa.randomized_response(["a", "b"], keep=0.7), utility_class=fa.UtilityClass(gamma=1.0, tau=0.5, lipschitz=0.1)
+    )
     assert math.exp(b.value) == pytest.approx(2.0, rel=CLOSED)
 
     Z = [[F(1, 2), F(1, 2), F(0)], [F(0), F(1, 2), F(1, 2)], [F(1, 4), F(3, 4), F(0)]]
     for gamma, tau in ((F(1), F(1, 5)), (F(2), F(1, 2)), (F(1), F(9, 10))):
         v = _tight_exact(Z, gamma, tau)[0]
         mz = fa.from_matrix([[float(x) for x in r] for r in Z], ["z0", "z1", "z2"], ["o0", "o1", "o2"])
-        b = fa.tight_bound(mz, gamma=float(gamma), tau=float(tau))
+        b = fa.tight_bound(mz, utility_class=fa.UtilityClass(gamma=float(gamma), tau=float(tau)))
         assert math.exp(b.value) == pytest.approx(float(v), rel=CLOSED)
 
 
@@ -332,7 +339,9 @@ def test_three_group_ordering_tight_mechanism_wide_ratios_paper():
     assert tight < t_m < at_ratios < paper
 
     m = fa.from_matrix([[float(x) for x in r] for r in THREE], ["a0", "a1", "a2"], ["o0", "o1", "o2"])
-    assert math.exp(fa.tight_bound(m, gamma=1.0, tau=0.1).value) == pytest.approx(float(tight), rel=CLOSED)
+    assert math.exp(fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.1)).value) == pytest.approx(
+        float(tight), rel=CLOSED
+    )
     t, d = _profile_candidates(m)  # the package's envelope breakpoints and δ there
     assert (t + d / 0.1).min() == pytest.approx(float(t_m), rel=CLOSED)
     eps = math.log(5 / 3)
@@ -341,7 +350,9 @@ def test_three_group_ordering_tight_mechanism_wide_ratios_paper():
     assert math.exp(at_crossing) == pytest.approx(float(t_m), rel=CLOSED)
     r = np.array([float(x) for x in ratios])
     assert (r + np.array([m.delta(math.log(x)) for x in r]) / 0.1).min() == pytest.approx(float(at_ratios), rel=CLOSED)
-    assert math.exp(fa.paper_bound(m, gamma=1.0, tau=0.1).value) == pytest.approx(float(paper), rel=CLOSED)
+    assert math.exp(fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.1)).value) == pytest.approx(
+        float(paper), rel=CLOSED
+    )
 
 
 # ================================================================== proofs/black_box.md, §5
@@ -363,12 +374,14 @@ def test_black_box_example_1_binary_rr_tau_half_is_11_7():
     value = max(vertex_max(M[a], M[1 - a], A, b)[0] for a in range(2))
     assert value == F(11, 7)
     m = fa.randomized_response(["a", "b"], keep=0.7)
-    c = black_box_bound(m, tau=0.5)
+    c = black_box_bound(m, utility_class=UtilityClass(tau=0.5))
     assert c.method == "threshold" and c.ratio == pytest.approx(float(value), rel=CLOSED)
     assert c.utility_by_release == pytest.approx([1.0, 2 / 7], rel=CLOSED)
-    c_lp = black_box_bound(m, tau=0.5, method="lp")
+    c_lp = black_box_bound(m, utility_class=UtilityClass(tau=0.5), method="lp")
     assert c_lp.method == "lp" and c_lp.ratio == pytest.approx(float(value), rel=LP)
-    assert math.exp(fa.tight_bound(m, gamma=1.0, tau=0.5).value) == pytest.approx(9 / 5, rel=CLOSED)
+    assert math.exp(fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5)).value) == pytest.approx(
+        9 / 5, rel=CLOSED
+    )
     assert black_box_bound(m).ratio == pytest.approx(7 / 3, rel=CLOSED)
     assert float(value) < 9 / 5 < 7 / 3
 
@@ -392,13 +405,15 @@ def test_black_box_example_2_lipschitz_is_58_35():
     assert ab == (F(58, 35), [h]) and ba == (F(58, 35), [[F(23, 70), F(9, 10), F(3, 7), F(1)]])  # mirror image
     assert _dot(M[0], h[:2]) == F(29, 35) and _dot(M[1], h[2:]) == F(1, 2)  # the hand check of the proof
     m = fa.randomized_response(["a", "b"], keep=0.7)
-    c = black_box_bound(m, tau=0.5, lipschitz=0.1)
+    c = black_box_bound(m, utility_class=UtilityClass(tau=0.5, lipschitz=0.1))
     assert c.status == "optimal" and c.ratio == pytest.approx(58 / 35, rel=LP)
     table = np.array([fl(h[:2]), fl(h[2:])])  # rows h[a], h[b] for the pair (a, b)
     assert (c.group, c.other_group) in (("a", "b"), ("b", "a"))  # the two pairs tie
     expected = table if c.group == "a" else table[::-1, ::-1]
     assert c.utility_by_release == pytest.approx(expected, rel=LP, abs=LP)
-    assert math.exp(fa.tight_bound(m, gamma=1.0, tau=0.5, lipschitz=0.1).value) == pytest.approx(2.0, rel=CLOSED)
+    assert math.exp(
+        fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5, lipschitz=0.1)).value
+    ) == pytest.approx(2.0, rel=CLOSED)
 
 
 @pytest.mark.parametrize(
@@ -421,17 +436,19 @@ def test_black_box_example_3_product_of_two_rr(tau, expected, point, tight):
     assert _tight_exact(P, F(1), tau)[0] == tight
     mp = fa.product(fa.randomized_response(["T", "M"], keep=0.7), fa.randomized_response([25, 55], keep=0.7))
     assert mp.matrix == pytest.approx(np.array([fl(r) for r in P]), rel=CLOSED)
-    c = black_box_bound(mp, tau=float(tau))
+    c = black_box_bound(mp, utility_class=UtilityClass(tau=float(tau)))
     assert c.method == "threshold" and c.ratio == pytest.approx(float(expected), rel=CLOSED)
     assert (c.group, c.other_group) == (("T", 25), ("M", 55))
     assert c.utility_by_release == pytest.approx(fl(point), rel=CLOSED, abs=1e-15)
-    c_lp = black_box_bound(mp, tau=float(tau), method="lp")
+    c_lp = black_box_bound(mp, utility_class=UtilityClass(tau=float(tau)), method="lp")
     assert c_lp.ratio == pytest.approx(float(expected), rel=LP)
     hl = c_lp.utility_by_release  # the maximiser is not unique at τ = 1/2
     Pf = np.array([fl(r) for r in P])
     assert np.all(Pf @ hl >= float(tau) * (1 - LP))
     assert (Pf[0] @ hl) / (Pf[3] @ hl) == pytest.approx(float(expected), rel=LP)
-    assert math.exp(fa.tight_bound(mp, gamma=1.0, tau=float(tau)).value) == pytest.approx(float(tight), rel=CLOSED)
+    assert math.exp(
+        fa.tight_bound(mp, utility_class=fa.UtilityClass(gamma=1.0, tau=float(tau))).value
+    ) == pytest.approx(float(tight), rel=CLOSED)
     assert black_box_bound(mp).ratio == pytest.approx(49 / 9, rel=CLOSED)
 
 
@@ -449,7 +466,7 @@ def test_black_box_consequence_3_global_under_independence():
     pop = _independent_population(["x0", "x1"], ["a", "b"], [0.3, 0.7], [0.4, 0.6])
     assert pop.independence().independent
 
-    kernel, util = black_box_bound(ma, tau=0.5).worst_model()
+    kernel, util = black_box_bound(ma, utility_class=UtilityClass(tau=0.5)).worst_model()
     table = np.repeat(kernel.probabilities, 2, axis=0)  # the same kernel in every released context
     law = fa.compose(fa.Kernel(table, ["x0", "x1"], kernel.groups, kernel.decisions), ma, mx)
     assert global_fairness(law, util, pop).ratio == pytest.approx(11 / 7, rel=CLOSED)
@@ -531,12 +548,14 @@ def test_worst_utility_one_context_tau_certificate_7_4():
     assert all(_dot([pi - lam * qi for pi, qi in zip(p, q)], h) <= 0 for h in vertices(A + A2, b + b2))
 
     law = fa.Law([[fl(p), fl(q)]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
-    w = worst_utility(law, tau=0.4)
+    w = worst_utility(law, utility_class=UtilityClass(tau=0.4))
     assert w.local_fairness.method == "lp" and w.local_fairness.ratio == pytest.approx(7 / 4, rel=LP)
     expected_g = fl(g) if w.local_fairness.group == "a" else fl(g[::-1])
     assert w.local_fairness.utility.values == pytest.approx(expected_g, rel=LP, abs=LP)
     assert worst_utility(law).local_fairness.ratio == pytest.approx(5 / 2, rel=CLOSED)
-    assert worst_utility(law, lower=0.5).local_fairness.ratio == pytest.approx(float(F(3, 4) / F(3, 5)), rel=CLOSED)
+    assert worst_utility(law, utility_class=UtilityClass(lower=0.5)).local_fairness.ratio == pytest.approx(
+        float(F(3, 4) / F(3, 5)), rel=CLOSED
+    )
 
 
 def test_worst_utility_floors_couple_the_contexts_12_7_and_61_41():
@@ -570,14 +589,14 @@ def test_worst_utility_floors_couple_the_contexts_12_7_and_61_41():
     assert (sup_local, sup_global) == (F(5, 2), F(7, 3))
 
     law = fa.Law([[fl(r) for r in Qx] for Qx in Q], ["x0", "x1"], ["a", "b"], ["u1", "u2", "u3"])
-    w = worst_utility(law, tau=0.4)
+    w = worst_utility(law, utility_class=UtilityClass(tau=0.4))
     assert w.local_fairness.ratio == pytest.approx(float(local), rel=LP)
     assert (w.local_fairness.context, w.local_fairness.group, w.local_fairness.other_group) == ("x0", "a", "b")
     assert w.local_fairness.utility.values == pytest.approx(fl(g), rel=LP, abs=LP)
     assert w.global_fairness.ratio == pytest.approx(float(glob), rel=LP)
     assert (w.global_fairness.group, w.global_fairness.other_group) == ("a", "b")
     only_x0 = fa.Law([[fl(r) for r in Q[0]]], ["x0"], ["a", "b"], ["u1", "u2", "u3"])  # only x0's floors
-    w0 = worst_utility(only_x0, tau=0.4)
+    w0 = worst_utility(only_x0, utility_class=UtilityClass(tau=0.4))
     assert w0.local_fairness.ratio == pytest.approx(float(own_x0), rel=LP)
     assert w0.local_fairness.utility.values == pytest.approx([0.0, 0.0, 1.0], rel=LP, abs=LP)
     free = worst_utility(law)

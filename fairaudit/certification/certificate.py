@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, TypedDict
 
@@ -31,6 +31,7 @@ from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.mechanisms import MechanismFamily
 from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.bounds import Assumption, Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from fairaudit.metrics.observed import Observed, observe
 from fairaudit.statistics.intervals import METHODS, FairnessIntervals, fairness_intervals
@@ -314,7 +315,7 @@ def certify(
         mech, spec.utility, context_mechanism=spec.context_mechanism, population=spec.population, tau=tau
     )
     bb_assumptions = check_assumptions(
-        mech, tau=tau, gamma=None, utility=spec.utility, population=spec.population, law=obs_law
+        mech, utility_class=UtilityClass(tau=tau), utility=spec.utility, population=spec.population, law=obs_law
     )
     forms.append(("black_box", bb_assumptions))
     corollary = corollary_bound(mech, utility=spec.utility, population=spec.population, law=obs_law)
@@ -389,24 +390,10 @@ def _theorem_bounds(spec: Spec, law: Law | None) -> tuple[Bound | None, Bound | 
     if tau is None and not (spec.lipschitz == 0 and not spec.utility.depends_on_group and math.isfinite(mech.epsilon)):
         return None, None
     paper = paper_bound(
-        mech,
-        tau=tau,
-        gamma=spec.gamma,
-        lipschitz=spec.lipschitz,
-        diameter=spec.utility.diameter(spec.metric),
-        utility=spec.utility,
-        population=spec.population,
-        law=law,
+        mech, utility_class=spec.utility_class, utility=spec.utility, population=spec.population, law=law
     )
     tight = tight_bound(
-        mech,
-        tau=tau,
-        gamma=spec.gamma,
-        lipschitz=spec.lipschitz,
-        metric=spec.metric,
-        utility=spec.utility,
-        population=spec.population,
-        law=law,
+        mech, utility_class=spec.utility_class, utility=spec.utility, population=spec.population, law=law
     )
     return paper, tight
 
@@ -515,11 +502,9 @@ def _tightest(results: list[Calibration]) -> Calibration | None:
 
 
 class _FamilyClass(TypedDict):
-    """What every calibration of a spec shares: its mechanism family, utility class and population."""
+    """What every calibration of a spec shares: its mechanism family and population."""
 
     family: MechanismFamily
-    gamma: float
-    lower: float
     population: Population
 
 
@@ -542,7 +527,7 @@ def _calibrations(
     goals = [(kind, v) for kind, v in (("local", t.local), ("global", t.global_)) if v is not None]
     if not goals:
         return None, None, "", ()
-    common = _FamilyClass(family=family, gamma=spec.gamma, lower=spec.lower, population=spec.population)
+    common = _FamilyClass(family=family, population=spec.population)
     black: list[Calibration] = []
     reason = ""
     if spec.utility.depends_on_group and spec.model.utility.lipschitz is None:
@@ -556,9 +541,7 @@ def _calibrations(
                         goal,
                         kind=kind,
                         method="black_box",
-                        tau=spec.tau,
-                        lipschitz=spec.lipschitz,
-                        metric=spec.metric,
+                        utility_class=replace(spec.utility_class, diameter=None),
                         utility=spec.utility if dependent else None,
                         context_mechanism=spec.context_mechanism if dependent else None,
                         **common,
@@ -579,6 +562,7 @@ def _calibrations(
                 goal,
                 kind=kind,
                 method="white_box",
+                utility_class=UtilityClass(gamma=spec.gamma, lower=spec.lower),
                 kernel=kernel,
                 utility=spec.utility,
                 context_mechanism=spec.context_mechanism,

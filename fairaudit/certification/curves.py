@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -35,7 +35,7 @@ from fairaudit.base.files import write_atomic
 from fairaudit.base.labels import format_label
 from fairaudit.laws.mechanisms import Mechanism, MechanismFamily
 from fairaudit.laws.tables import Kernel, Population, compose
-from fairaudit.laws.utilities import Utility, check_metric
+from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import corollary_bound, paper_bound, tight_bound
 from fairaudit.metrics.fairness import expected_utility, global_fairness, local_fairness
 from fairaudit.worstcase.black_box import black_box_bound
@@ -171,7 +171,9 @@ class PrivacyCurve:
         Examples
         --------
         >>> from fairaudit.laws.mechanisms import randomized_response_family
-        >>> c = privacy_curve(family=randomized_response_family(["a", "b"]), epsilons=[0.0, 1.0], tau=0.2)
+        >>> from fairaudit.laws.utilities import UtilityClass
+        >>> family, tau = randomized_response_family(["a", "b"]), UtilityClass(tau=0.2)
+        >>> c = privacy_curve(family=family, epsilons=[0.0, 1.0], utility_class=tau)
         >>> c.to_frame()[["epsilon_nats", "keep_probability", "black_box_nats"]].round(6).values.tolist()
         [[0.0, 0.5, 0.0], [1.0, 0.731059, 1.0]]
         """
@@ -273,23 +275,14 @@ def _check_grid(epsilons: Iterable[float]) -> FloatArray:
     return np.unique(grid)
 
 
-def _black_box_keywords(
-    lower: float,
-    gamma: float,
-    tau: float | None,
-    lipschitz: float,
-    metric: npt.ArrayLike | None,
-    population: Population | None,
-) -> dict[str, Any]:
-    """Keywords for :func:`fairaudit.worstcase.black_box.black_box_bound` (the class certificate)."""
-    kw: dict[str, Any] = {"lower": lower, "gamma": gamma, "population": population}
-    if tau is not None:
-        kw["tau"] = tau
-    if lipschitz > 0:
-        kw["lipschitz"] = lipschitz
-        if metric is not None:
-            kw["metric"] = metric
-    return kw
+def _black_box_class(
+    lower: float, gamma: float, tau: float | None, lipschitz: float, metric: npt.ArrayLike | None
+) -> UtilityClass:
+    """The class of :func:`fairaudit.worstcase.black_box.black_box_bound` (the class certificate)."""
+    on = lipschitz > 0
+    return UtilityClass(
+        lower=lower, gamma=gamma, tau=tau, lipschitz=lipschitz if on else None, metric=metric if on else None
+    )
 
 
 def privacy_curve(
@@ -301,11 +294,7 @@ def privacy_curve(
     utility: Utility | None = None,
     population: Population | None = None,
     context_mechanism: Mechanism | None = None,
-    gamma: float | None = None,
-    lower: float | None = None,
-    tau: float | None = None,
-    lipschitz: float | None = None,
-    metric: npt.ArrayLike | None = None,
+    utility_class: UtilityClass | None = None,
     spec_epsilon: float | None = None,
     title: str | None = None,
 ) -> PrivacyCurve:
@@ -324,7 +313,8 @@ def privacy_curve(
         Takes every other input from the spec: ``family`` =
         :attr:`Spec.sensitive_family`, its model (``kernel``), utility,
         population, M_X, γ, lower, τ, L_A, metric, and marks its M_A's ε.
-        A keyword given explicitly overrides the spec's value.
+        A keyword (or a field of ``utility_class``) given explicitly
+        overrides the spec's value.
     family : MechanismFamily
         ε ↦ M_ε on the sensitive groups (required without a spec).
     epsilons : iterable of float, optional
@@ -340,14 +330,16 @@ def privacy_curve(
         P(X, A) for L̄ (default uniform and independent).
     context_mechanism : Mechanism, optional
         M_X (default identity).
-    gamma, lower : float, optional
-        The utility class [lower, γ]; default from ``utility``, else [0, 1].
-    tau : float, optional
-        τ > 0; without it ``paper`` and ``tight`` are NaN.
-    lipschitz : float, optional
-        L_A; default from ``utility`` and ``metric``, else 0.
-    metric : array_like, shape (n_groups, n_groups), optional
-        d(a, a'); default the discrete metric.
+    utility_class : UtilityClass, optional
+        The class of utilities, each field by default (``diameter`` is not
+        used: diam(A) is the metric's):
+
+        - ``gamma``, ``lower``: the class [lower, γ]; from ``utility``, else
+          [0, 1].
+        - ``tau``: τ > 0; without it ``paper`` and ``tight`` are NaN.
+        - ``lipschitz``: L_A; from ``utility`` and ``metric``, else 0.
+        - ``metric``: d(a, a'), shape (n_groups, n_groups); the discrete
+          metric.
     spec_epsilon : float, optional
         The ε to mark (default: the spec's M_A's ε).
     title : str, optional
@@ -379,26 +371,29 @@ def privacy_curve(
 
     >>> from fairaudit.laws.tables import Kernel
     >>> from fairaudit.laws.mechanisms import randomized_response_family
-    >>> from fairaudit.laws.utilities import indicator
+    >>> from fairaudit.laws.utilities import UtilityClass, indicator
     >>> k = Kernel([[[0.0, 1.0], [1.0, 0.0]]], ["all"], ["a", "b"], ["chosen", "not chosen"])
     >>> c = privacy_curve(family=randomized_response_family(["a", "b"]), epsilons=[0.0, 0.5, 1.0], kernel=k,
-    ...                   utility=indicator("chosen", ["chosen", "not chosen"]), tau=0.2)
+    ...                   utility=indicator("chosen", ["chosen", "not chosen"]), utility_class=UtilityClass(tau=0.2))
     >>> c.observed_local.round(12).tolist(), c.black_box.round(12).tolist()
     ([0.0, 0.5, 1.0], [0.0, 0.5, 1.0])
     >>> bool(np.all(c.tight <= c.paper + 1e-12))
     True
     """
+    c = UtilityClass() if utility_class is None else utility_class
+    if not isinstance(c, UtilityClass):
+        raise InputError("utility_class", "must be a UtilityClass", type(c).__name__)
     given: dict[str, Any] = {
         "family": family,
         "kernel": kernel,
         "utility": utility,
         "population": population,
         "context_mechanism": context_mechanism,
-        "gamma": gamma,
-        "lower": lower,
-        "tau": tau,
-        "lipschitz": lipschitz,
-        "metric": metric,
+        "gamma": c.gamma,
+        "lower": c.lower,
+        "tau": c.tau,
+        "lipschitz": c.lipschitz,
+        "metric": c.metric,
         "spec_epsilon": spec_epsilon,
         "title": title,
     }
@@ -555,8 +550,8 @@ class _Bounds:
                 population=self.population,
                 tau=self.tau,
             ).local_fairness.value
-        kw = _black_box_keywords(self.lower, self.gamma, self.tau, self.lipschitz, self.metric, self.population)
-        return black_box_bound(mech, **kw).value
+        uc = _black_box_class(self.lower, self.gamma, self.tau, self.lipschitz, self.metric)
+        return black_box_bound(mech, utility_class=uc, population=self.population).value
 
     def fill(
         self, out: dict[str, FloatArray], i: int, family: MechanismFamily, eps: float, kernel: Kernel | None
@@ -566,8 +561,9 @@ class _Bounds:
         tau, gamma, lipschitz = self.tau, self.gamma, self.lipschitz
         out["keep"][i] = family.keep_probability(eps)
         if tau is not None:
-            out["paper"][i] = paper_bound(mech, tau=tau, gamma=gamma, lipschitz=lipschitz, diameter=self.diameter).value
-            out["tight"][i] = tight_bound(mech, tau=tau, gamma=gamma, lipschitz=lipschitz, metric=self.metric).value
+            theorem = UtilityClass(tau=tau, gamma=gamma, lipschitz=lipschitz)
+            out["paper"][i] = paper_bound(mech, utility_class=replace(theorem, diameter=self.diameter)).value
+            out["tight"][i] = tight_bound(mech, utility_class=replace(theorem, metric=self.metric)).value
         out["black_box"][i] = self.black_box(mech)
         if not (self.utility is not None and self.utility.depends_on_group):
             out["corollary"][i] = corollary_bound(mech).value

@@ -55,7 +55,7 @@ from fairaudit.laws.mechanisms import (
     randomized_response_family,
 )
 from fairaudit.laws.tables import Kernel, Population
-from fairaudit.laws.utilities import Utility, check_metric, from_table, indicator
+from fairaudit.laws.utilities import Utility, UtilityClass, check_metric, from_table, indicator
 
 __all__ = [
     # a validated spec
@@ -277,6 +277,18 @@ class Spec:
         return u.lipschitz if u.lipschitz is not None else self.utility.lipschitz(self.metric)
 
     @property
+    def utility_class(self) -> UtilityClass:
+        """The class of utilities the bounds hold for: [lower, γ], τ, L_A, the metric and diam(A), as resolved above."""
+        return UtilityClass(
+            lower=self.lower,
+            gamma=self.gamma,
+            tau=self.tau,
+            lipschitz=self.lipschitz,
+            metric=self.metric,
+            diameter=self.utility.diameter(self.metric),
+        )
+
+    @property
     def sensitive_family(self) -> MechanismFamily | None:
         """The one-parameter family that calibration and curves move along.
 
@@ -354,8 +366,8 @@ class Spec:
     def calibration_options(self, groups: int | None = None, method: str | None = None) -> dict[str, Any]:
         """The keyword arguments of :func:`fairaudit.worstcase.calibration.calibrate` that this spec defines.
 
-        ``family`` (:attr:`sensitive_family`), ``gamma``, ``lower``, ``tau``,
-        ``lipschitz``, ``metric``, ``population``, ``context_mechanism``,
+        ``family`` (:attr:`sensitive_family`), ``utility_class`` (γ, lower,
+        τ, L_A and the metric), ``population``, ``context_mechanism``,
         ``kernel`` (None without ``[model]``) and ``utility``: pass them on,
         with any of them overridden, as ``calibrate(target, **options)``.
         With ``[decision] unparsed`` and a model, for the white-box method,
@@ -409,11 +421,9 @@ class Spec:
         kernel = None if method in ("paper", "tight", "black_box") else self.kernel()
         options = {
             "family": family,
-            "gamma": self.gamma,
-            "lower": self.lower,
-            "tau": self.tau,
-            "lipschitz": self.lipschitz,
-            "metric": self.metric,
+            "utility_class": UtilityClass(
+                lower=self.lower, gamma=self.gamma, tau=self.tau, lipschitz=self.lipschitz, metric=self.metric
+            ),
             "population": self.population,
             "context_mechanism": self.context_mechanism,
             "kernel": kernel,

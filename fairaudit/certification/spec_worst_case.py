@@ -19,6 +19,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, number
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.laws.tables import compose
+from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.observed import Observed, observe
 from fairaudit.worstcase.known_law import WorstUtility, worst_utility
 from fairaudit.worstcase.pair_search import METHODS
@@ -72,9 +73,7 @@ class SpecWorstUtility:
 def spec_worst_utility(
     spec: Spec | str | Path,
     *,
-    lower: float | None = None,
-    gamma: float | None = None,
-    tau: float | None = None,
+    utility_class: UtilityClass | None = None,
     method: str = "auto",
 ) -> SpecWorstUtility:
     """The utility of the spec's class that shows the largest disparity of its model behind its filter.
@@ -89,9 +88,10 @@ def spec_worst_utility(
     ----------
     spec : Spec, str or Path
         A spec with a ``[model]`` (see :func:`fairaudit.certification.spec.load_spec`).
-    lower, gamma, tau : float, optional
-        The class of utilities; default the spec's (``utility.lower``,
-        ``utility.gamma``, ``utility.tau``: for an indicator [0, 1]).
+    utility_class : UtilityClass, optional
+        The class of utilities, ``lower``, ``gamma`` and ``tau``; a field left
+        None is the spec's (``utility.lower``, ``utility.gamma``,
+        ``utility.tau``: for an indicator [0, 1]).
     method : {"auto", "threshold", "lp"}
         As :func:`~fairaudit.worstcase.known_law.worst_utility`.
 
@@ -132,12 +132,13 @@ def spec_worst_utility(
         law = compose(kernel, spec.sensitive_mechanism, spec.context_mechanism)
     except InputError as exc:
         raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
-    worst = worst_utility(
-        law,
-        lower=spec.lower if lower is None else lower,
-        gamma=spec.gamma if gamma is None else gamma,
-        tau=spec.tau if tau is None else tau,
-        population=spec.population,
-        method=method,
+    given = UtilityClass() if utility_class is None else utility_class
+    if not isinstance(given, UtilityClass):
+        raise InputError("utility_class", "must be a UtilityClass", type(given).__name__)
+    chosen = UtilityClass(
+        lower=spec.lower if given.lower is None else given.lower,
+        gamma=spec.gamma if given.gamma is None else given.gamma,
+        tau=spec.tau if given.tau is None else given.tau,
     )
+    worst = worst_utility(law, utility_class=chosen, population=spec.population, method=method)
     return SpecWorstUtility(spec=spec, worst=worst, observed=observe(law, spec.utility, spec.population))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from typing import Any
 
 from fairaudit.base.errors import InputError
@@ -76,12 +77,14 @@ def add_parser(sub: Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit calibrate``; returns the exit status (1 when no epsilon meets the target)."""
+    from fairaudit.laws.utilities import UtilityClass
     from fairaudit.worstcase.calibration import calibrate
 
     opts: dict[str, Any] = _spec_options(args) if args.spec else {"groups": 2 if args.groups is None else args.groups}
-    for flag in ("gamma", "lower", "tau", "lipschitz", "delta"):
-        if getattr(args, flag) is not None:
-            opts[flag] = getattr(args, flag)
+    flags = {f: getattr(args, f) for f in ("gamma", "lower", "tau", "lipschitz") if getattr(args, f) is not None}
+    opts["utility_class"] = dataclasses.replace(opts.get("utility_class", UtilityClass()), **flags)
+    if args.delta is not None:
+        opts["delta"] = args.delta
     cal = calibrate(
         args.target, target_impact_ratio=args.target_impact_ratio, kind=args.kind, method=args.method, **opts
     )

@@ -34,9 +34,11 @@ def add_parser(sub: Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit worst-case``; returns the exit status."""
+    from fairaudit import UtilityClass
     from fairaudit.certification.spec_worst_case import spec_worst_utility
 
-    result = spec_worst_utility(args.spec, lower=args.lower, gamma=args.gamma, tau=args.tau, method=args.method)
+    utility_class = UtilityClass(lower=args.lower, gamma=args.gamma, tau=args.tau)
+    result = spec_worst_utility(args.spec, utility_class=utility_class, method=args.method)
     data = result.to_dict()
     summary = f"worst case: L = {data['local']['value']} nats, L-bar = {data['global']['value']} nats"
     emit(args, render(data, "worst-case", args.format), summary)

@@ -28,6 +28,7 @@ from fairaudit import (
     Population,
     PrivacyCurve,
     Utility,
+    UtilityClass,
     UtilityRange,
     compose,
     fairness_intervals,
@@ -159,7 +160,7 @@ def _budgets(
             }
             black = calibrate(
                 target, kind=kind, method="black_box", family=family, groups=list(pop.groups),
-                gamma=utility.gamma, lower=utility.lower, tau=tau, population=pop,
+                utility_class=UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau), population=pop,
             )  # fmt: skip
             stated = white[None]
             upper = upper_at(stated.epsilon, kind) if upper_at is not None and stated.feasible else math.nan
@@ -703,7 +704,7 @@ def analyse_kernel(
         utility=utility,
         population=pop,
         context_mechanism=mx,
-        tau=tau,
+        utility_class=UtilityClass(tau=tau),
         title=f"{task.name}: {model}",
     )
     points = tuple(

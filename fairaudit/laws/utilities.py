@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, as_float_array, check_shape
+from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import as_labels, format_label
 
@@ -33,6 +34,8 @@ __all__ = [
     "from_function",
     "from_table",
     "indicator",
+    # the class of utilities a bound holds for
+    "UtilityClass",
     # metrics on the groups
     "check_metric",
     "discrete_metric",
@@ -61,6 +64,97 @@ def check_metric(metric: npt.ArrayLike | None, n_groups: int) -> FloatArray:
     if not np.all(np.isfinite(d)) or np.any(d[off] <= 0) or np.any(np.diag(d) != 0) or np.any(d != d.T):
         raise InputError("metric", "must be symmetric, zero on the diagonal and positive off it", d.tolist())
     return d
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class UtilityClass:
+    """The class of utilities a bound holds for: lower ≤ g ≤ γ, E[g | x, a] ≥ τ, L_A-Lipschitz in the group.
+
+    One object for the constants of the main theorem (paper SI C) and of the
+    exact worst case over a class of utilities (``proofs/black_box.md``), given
+    to :func:`~fairaudit.paper_bound`, :func:`~fairaudit.tight_bound`,
+    :func:`~fairaudit.black_box_bound`, :func:`~fairaudit.worst_utility`,
+    :func:`~fairaudit.calibrate`, :func:`~fairaudit.calibrate_randomized_response`
+    and :func:`~fairaudit.privacy_curve` as ``utility_class``. A field left
+    None is taken from the utility the function is given, or is that
+    function's default (its docstring says which).
+
+    Parameters
+    ----------
+    lower : float, optional
+        The lower end of g's range, 0 ≤ lower ≤ γ.
+    gamma : float, optional
+        γ ≥ max g, the upper end of g's range.
+    tau : float, optional
+        τ > 0, a lower bound on E[g | x, a] of every model behind the filter,
+        for every context x and group a; None: no such bound is claimed.
+    lipschitz : float, optional
+        L_A ≥ 0: |g(u, x, a) − g(u, x, a')| ≤ L_A·d(a, a'); 0 means g does not
+        depend on the group.
+    metric : array_like, shape (n_groups, n_groups), optional
+        d(a, a'), symmetric, zero on the diagonal and positive off it (checked
+        against the group count where it is used); None: the discrete metric.
+    diameter : float, optional
+        diam(A) = max d(a, a') for the bounds that need only it (the paper
+        form, the calibration by a closed form); None: that of ``metric``,
+        1 under the discrete metric.
+
+    Raises
+    ------
+    InputError
+        A number that is negative or not finite (the field named), a metric
+        that is not a square array of finite numbers, or a diameter below the
+        metric's largest distance. The relations between
+        the fields (τ ≤ γ, lower ≤ γ) and the metric's group count are checked
+        by the function that uses them.
+
+    Examples
+    --------
+    >>> c = UtilityClass(gamma=1.0, tau=0.2)
+    >>> c.gamma, c.tau, c.lipschitz, c == UtilityClass(tau=0.2, gamma=1)
+    (1.0, 0.2, None, True)
+    >>> UtilityClass(lipschitz=-1)
+    Traceback (most recent call last):
+    ...
+    fairaudit.base.errors.InputError: lipschitz: must be a finite non-negative number (got -1)
+    """
+
+    lower: float | None = None
+    gamma: float | None = None
+    tau: float | None = None
+    lipschitz: float | None = None
+    metric: npt.ArrayLike | None = None  # (stored as a read-only float array)
+    diameter: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("lower", "gamma", "tau", "lipschitz", "diameter"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, nonnegative(value, name))
+        if self.metric is not None:
+            d = as_float_array(self.metric, "metric", ndim=2).copy()
+            if d.shape[0] != d.shape[1]:
+                raise InputError("metric", "must be a square array (groups x groups)", d.shape)
+            if self.diameter is not None and d.size and self.diameter < d.max():
+                raise InputError("diameter", f"is below the metric's largest distance {d.max():g}", self.diameter)
+            d.setflags(write=False)
+            object.__setattr__(self, "metric", d)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, UtilityClass):
+            return NotImplemented
+        same = (self.lower, self.gamma, self.tau, self.lipschitz, self.diameter) == (
+            other.lower,
+            other.gamma,
+            other.tau,
+            other.lipschitz,
+            other.diameter,
+        )
+        if self.metric is None or other.metric is None:
+            return same and self.metric is other.metric
+        return same and np.array_equal(self.metric, other.metric)
+
+    __hash__ = None  # type: ignore[assignment]  # (equal by value, holds an array)
 
 
 @dataclass(frozen=True, eq=False)

@@ -54,7 +54,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, PairPass, pair_candidates
 from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.tables import Law, Population
-from fairaudit.laws.utilities import Utility, check_metric
+from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 
 __all__ = [
     "Assumption",
@@ -351,22 +351,23 @@ def _paper_pairs(matrix: FloatArray, gamma: float, tau: float, c: float) -> tupl
 
 
 def _resolve(
-    mechanism: Mechanism,
-    gamma: float | None,
-    tau: float | None,
-    lipschitz: float | None,
-    utility: Utility | None,
-    metric: npt.ArrayLike | None,
-) -> tuple[float, float | None, float]:
+    mechanism: Mechanism, utility_class: UtilityClass | None, utility: Utility | None
+) -> tuple[float, float | None, float, npt.ArrayLike | None]:
+    """(γ, τ, L_A, metric) of the class, γ and L_A taken from ``utility`` when the class leaves them out."""
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    c = UtilityClass() if utility_class is None else utility_class
+    if not isinstance(c, UtilityClass):
+        raise InputError("utility_class", "must be a UtilityClass", type(c).__name__)
+    gamma = c.gamma
     if gamma is None:
         if utility is None:
             raise InputError("gamma", "give gamma or a utility to take it from")
         gamma = utility.gamma
+    lipschitz = c.lipschitz
     if lipschitz is None:
-        lipschitz = 0.0 if utility is None else utility.lipschitz(metric)
-    return gamma, tau, lipschitz
+        lipschitz = 0.0 if utility is None else utility.lipschitz(c.metric)
+    return gamma, c.tau, lipschitz, c.metric
 
 
 def _without_tau(
@@ -417,7 +418,7 @@ def _tau_free(
     """
     gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
     free = _without_tau(form, mechanism, lipschitz, diameter, utility)
-    assumptions = check_assumptions(mechanism, tau=None, gamma=gamma, utility=utility, population=population, law=law)
+    assumptions = _check_assumptions(mechanism, None, gamma, utility, population, law)
     n = len(mechanism.inputs)
     eps = mechanism.epsilon if n > 1 else 0.0  # the tight form: max over pairs of ε_aa', where δ_aa' = 0
     pair = _epsilon_pair(mechanism) if form == "tight" and n > 1 else (None, None)
@@ -452,10 +453,7 @@ def _epsilon_pair(mechanism: Mechanism) -> tuple[Hashable, Hashable]:
 def paper_bound(
     mechanism: Mechanism,
     *,
-    tau: float | None = None,
-    gamma: float | None = None,
-    lipschitz: float | None = None,
-    diameter: float = 1.0,
+    utility_class: UtilityClass | None = None,
     utility: Utility | None = None,
     population: Population | None = None,
     law: Law | None = None,
@@ -468,18 +466,20 @@ def paper_bound(
     ----------
     mechanism : Mechanism
         M_A, shape (n_groups, n_released_groups).
-    tau : float, optional
-        τ > 0, the lower bound on every E[g | x, a] of the model behind the
-        filter (vouched for by the caller unless ``law`` shows it). Not needed
-        when the extra term is zero: with L_A = 0 (a utility free of the
-        group) and a pure-DP M_A (ε(M) finite, δ(ε(M)) = 0) the bound without
-        τ is ε(M), the corollary's (log(1 + 0/τ) = 0 for every τ > 0).
-    gamma : float, optional
-        γ ≥ max g; default ``utility.gamma``.
-    lipschitz : float, optional
-        L_A; default from ``utility`` (0 for g independent of a).
-    diameter : float
-        diam(A); 1 under the discrete metric.
+    utility_class : UtilityClass, optional
+        The constants (``lower`` is not used):
+
+        - ``tau``: τ > 0, the lower bound on every E[g | x, a] of the model
+          behind the filter (vouched for by the caller unless ``law`` shows
+          it). Not needed when the extra term is zero: with L_A = 0 (a
+          utility free of the group) and a pure-DP M_A (ε(M) finite,
+          δ(ε(M)) = 0) the bound without τ is ε(M), the corollary's
+          (log(1 + 0/τ) = 0 for every τ > 0).
+        - ``gamma``: γ ≥ max g; default ``utility.gamma``.
+        - ``lipschitz``: L_A; default from ``utility`` under ``metric`` (0 for
+          g independent of a, and without a utility).
+        - ``diameter``: diam(A); default the largest distance of ``metric``,
+          1 under the discrete metric.
     utility, population, law : optional
         When given, the assumptions are checked on them (see
         :func:`check_assumptions`).
@@ -513,20 +513,25 @@ def paper_bound(
     bound ε = ln(7/3) is the minimum here.
 
     >>> from fairaudit.laws.mechanisms import randomized_response
-    >>> b = paper_bound(randomized_response(["a", "b"], keep=0.7), gamma=1.0, tau=0.2)
+    >>> from fairaudit.laws.utilities import UtilityClass
+    >>> b = paper_bound(randomized_response(["a", "b"], keep=0.7), utility_class=UtilityClass(gamma=1.0, tau=0.2))
     >>> round(b.value, 9), round(b.epsilon, 9), b.delta
     (0.84729786, 0.84729786, 0.0)
 
     Without τ (L_A = 0, pure DP) the extra term is 0: the bound is ε(M).
 
-    >>> round(paper_bound(randomized_response(["a", "b"], keep=0.7), gamma=1.0).value, 9)
+    >>> round(paper_bound(randomized_response(["a", "b"], keep=0.7), utility_class=UtilityClass(gamma=1.0)).value, 9)
     0.84729786
     """
-    gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, None)
+    gamma, tau, lipschitz, metric = _resolve(mechanism, utility_class, utility)
+    diameter = utility_class.diameter if utility_class is not None else None
+    if diameter is None:
+        n = len(mechanism.inputs)
+        diameter = 1.0 if metric is None else float(check_metric(metric, n).max()) if n > 1 else 0.0
     if tau is None:
         return _tau_free("paper", mechanism, gamma, lipschitz, diameter, utility, population, law)
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
-    assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
+    assumptions = _check_assumptions(mechanism, tau, gamma, utility, population, law)
     c = lipschitz * diameter
     if len(mechanism.inputs) < 2:
         value, eps, delta = 0.0, 0.0, 0.0
@@ -568,10 +573,7 @@ def _paper_randomized_response(
 def tight_bound(
     mechanism: Mechanism,
     *,
-    tau: float | None = None,
-    gamma: float | None = None,
-    lipschitz: float | None = None,
-    metric: npt.ArrayLike | None = None,
+    utility_class: UtilityClass | None = None,
     utility: Utility | None = None,
     population: Population | None = None,
     law: Law | None = None,
@@ -586,11 +588,13 @@ def tight_bound(
     ----------
     mechanism : Mechanism
         M_A, shape (n_groups, n_released_groups).
-    tau, gamma, lipschitz, utility, population, law
-        As in :func:`paper_bound`; without τ (L_A = 0, pure DP: the extra
-        term is 0) the bound is max over pairs of ε_aa' = ε(M).
-    metric : array_like, shape (n_groups, n_groups), optional
-        d(a, a'); default the discrete metric.
+    utility_class : UtilityClass, optional
+        ``tau``, ``gamma`` and ``lipschitz`` as in :func:`paper_bound`; without
+        τ (L_A = 0, pure DP: the extra term is 0) the bound is max over pairs
+        of ε_aa' = ε(M). ``metric``: d(a, a'), shape (n_groups, n_groups);
+        default the discrete metric (``diameter`` and ``lower`` are not used).
+    utility, population, law
+        As in :func:`paper_bound`.
 
     Returns
     -------
@@ -610,13 +614,14 @@ def tight_bound(
     Examples
     --------
     >>> from fairaudit.laws.mechanisms import randomized_response
-    >>> m = randomized_response(["a", "b", "c"], epsilon=1.0)
-    >>> tight_bound(m, gamma=1.0, tau=0.2).value <= paper_bound(m, gamma=1.0, tau=0.2).value
+    >>> from fairaudit.laws.utilities import UtilityClass
+    >>> m, c = randomized_response(["a", "b", "c"], epsilon=1.0), UtilityClass(gamma=1.0, tau=0.2)
+    >>> tight_bound(m, utility_class=c).value <= paper_bound(m, utility_class=c).value
     True
-    >>> tight_bound(m, gamma=1.0).value                        # no τ needed: L_A = 0, pure DP
+    >>> tight_bound(m, utility_class=UtilityClass(gamma=1.0)).value  # no τ needed: L_A = 0, pure DP
     1.0
     """
-    gamma, tau, lipschitz = _resolve(mechanism, gamma, tau, lipschitz, utility, metric)
+    gamma, tau, lipschitz, metric = _resolve(mechanism, utility_class, utility)
     n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) else None
     d: FloatArray | None = None
@@ -628,7 +633,7 @@ def tight_bound(
     if tau is None:
         return _tau_free("tight", mechanism, gamma, lipschitz, diameter, utility, population, law)
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
-    assumptions = check_assumptions(mechanism, tau=tau, gamma=gamma, utility=utility, population=population, law=law)
+    assumptions = _check_assumptions(mechanism, tau, gamma, utility, population, law)
     pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None)
     if n < 2:
         value, eps, delta = 0.0, 0.0, 0.0
@@ -768,9 +773,7 @@ def corollary_bound(
     """
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
-    assumptions = list(
-        check_assumptions(mechanism, tau=None, gamma=None, utility=utility, population=population, law=law)
-    )
+    assumptions = list(_check_assumptions(mechanism, None, None, utility, population, law))
     if utility is not None:
         dep = utility.depends_on_group
         assumptions.append(
@@ -802,8 +805,7 @@ def corollary_bound(
 def check_assumptions(
     mechanism: Mechanism,
     *,
-    tau: float | None,
-    gamma: float | None,
+    utility_class: UtilityClass | None = None,
     utility: Utility | None = None,
     population: Population | None = None,
     law: Law | None = None,
@@ -816,8 +818,9 @@ def check_assumptions(
     ----------
     mechanism : Mechanism
         M_A; its (ε, δ) profile is always computed exactly ("checked").
-    tau, gamma : float or None
-        The constants claimed; None when the bound does not use them.
+    utility_class : UtilityClass, optional
+        The constants claimed, ``tau`` and ``gamma`` (the others are not
+        checked here); a field None when the bound does not use it.
     utility : Utility, optional
         Checks g ≤ γ and g ≥ 0.
     population : Population, optional
@@ -830,7 +833,28 @@ def check_assumptions(
     Returns
     -------
     tuple of Assumption
+
+    Examples
+    --------
+    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.utilities import UtilityClass
+    >>> m = randomized_response(["a", "b"], keep=0.7)
+    >>> [a.status for a in check_assumptions(m, utility_class=UtilityClass(gamma=1.0, tau=0.2))]
+    ['checked', 'vouched', 'vouched', 'vouched']
     """
+    c = UtilityClass() if utility_class is None else utility_class
+    return _check_assumptions(mechanism, c.tau, c.gamma, utility, population, law)
+
+
+def _check_assumptions(
+    mechanism: Mechanism,
+    tau: float | None,
+    gamma: float | None,
+    utility: Utility | None,
+    population: Population | None,
+    law: Law | None,
+) -> tuple[Assumption, ...]:
+    """:func:`check_assumptions` of the constants τ and γ."""
     out = []
     eps = mechanism.epsilon
     eps_text = "inf" if math.isinf(eps) else f"{eps:.6g}"

@@ -120,8 +120,9 @@ def save_figure(fig: Figure, path: str | Path) -> None:
     Examples
     --------
     >>> import os, tempfile
-    >>> from fairaudit import privacy_curve, randomized_response_family
-    >>> fig = plot_curve(privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2))
+    >>> from fairaudit import UtilityClass, privacy_curve, randomized_response_family
+    >>> family = randomized_response_family(["a", "b"])
+    >>> fig = plot_curve(privacy_curve(family=family, utility_class=UtilityClass(tau=0.2)))
     >>> path = os.path.join(tempfile.mkdtemp(), "curve.svg")
     >>> save_figure(fig, path)
     >>> open(path, encoding="utf-8").read(5)
@@ -212,7 +213,9 @@ def plot_curve(
     --------
     >>> from fairaudit.certification.curves import privacy_curve
     >>> from fairaudit.laws.mechanisms import randomized_response_family
-    >>> fig = plot_curve(privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2))
+    >>> from fairaudit.laws.utilities import UtilityClass
+    >>> family = randomized_response_family(["a", "b"])
+    >>> fig = plot_curve(privacy_curve(family=family, utility_class=UtilityClass(tau=0.2)))
     >>> ax = fig.axes[0]
     >>> ax.get_xlabel(), ax.get_ylabel()
     ('privacy budget ε (nats)', 'local g-fairness L (nats)')

@@ -10,7 +10,6 @@ from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
 
 import numpy as np
-import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
 from fairaudit.base.checks import nonnegative
@@ -18,7 +17,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
 from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.tables import Kernel, Population
-from fairaudit.laws.utilities import Utility, check_metric
+from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import Assumption, check_assumptions
 from fairaudit.worstcase.pair_search import (
     BoxPairs,
@@ -139,11 +138,7 @@ class BlackBoxCertificate:
 def black_box_bound(
     mechanism: Mechanism,
     *,
-    lower: float = 0.0,
-    gamma: float = 1.0,
-    tau: float | None = None,
-    lipschitz: float = 0.0,
-    metric: npt.ArrayLike | None = None,
+    utility_class: UtilityClass | None = None,
     population: Population | None = None,
     method: str = "auto",
 ) -> BlackBoxCertificate:
@@ -159,15 +154,15 @@ def black_box_bound(
     ----------
     mechanism : Mechanism
         M_A, shape (n_groups, n_released).
-    lower, gamma : float
-        The range of g, 0 ≤ lower ≤ γ.
-    tau : float, optional
-        Lower bound on E[g | x, a], ≤ γ. E ≥ lower always holds, so τ ≤ lower
-        changes nothing.
-    lipschitz : float
-        L_A ≥ 0; 0 means g does not depend on the group.
-    metric : array_like, shape (n_groups, n_groups), optional
-        d(a, a') for the Lipschitz condition; default the discrete metric.
+    utility_class : UtilityClass, optional
+        The class (``diameter`` is not used), each field by default:
+
+        - ``lower``, ``gamma``: the range of g, 0 ≤ lower ≤ γ; 0 and 1.
+        - ``tau``: lower bound on E[g | x, a], ≤ γ; none. E ≥ lower always
+          holds, so τ ≤ lower changes nothing.
+        - ``lipschitz``: L_A ≥ 0; 0, which means g does not depend on the group.
+        - ``metric``: d(a, a') for the Lipschitz condition, shape
+          (n_groups, n_groups); the discrete metric.
     population : Population, optional
         When given, X ⊥ A is checked on it (needed for the bound on L̄ only).
     method : {"auto", "threshold", "lp"}
@@ -217,23 +212,28 @@ def black_box_bound(
     Examples
     --------
     >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.utilities import UtilityClass
     >>> m = randomized_response(["a", "b"], keep=0.7)
     >>> round(black_box_bound(m).ratio, 12)                       # 0.7 / 0.3
     2.333333333333
-    >>> c = black_box_bound(m, lower=0.5, gamma=1.0)               # (0.5 + 0.5·0.7) / (0.5 + 0.5·0.3)
+    >>> c = black_box_bound(m, utility_class=UtilityClass(lower=0.5, gamma=1.0))  # (0.5 + 0.5·0.7) / (0.5 + 0.5·0.3)
     >>> round(c.ratio, 12), c.group, c.released
     (1.307692307692, 'a', ('a',))
-    >>> c = black_box_bound(m, tau=0.5)                            # (0.7 + 0.3·2/7) / 0.5 = 11/7
+    >>> c = black_box_bound(m, utility_class=UtilityClass(tau=0.5))              # (0.7 + 0.3·2/7) / 0.5 = 11/7
     >>> round(c.ratio, 12), c.method, c.utility_by_release.round(7).tolist()
     (1.571428571429, 'threshold', [1.0, 0.2857143])
-    >>> round(black_box_bound(m, tau=0.5, method="lp").ratio, 7)  # the Charnes–Cooper LP agrees
+    >>> round(black_box_bound(m, utility_class=UtilityClass(tau=0.5), method="lp").ratio, 7)  # the LP agrees
     1.5714286
     """
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
     method = check_method(method)
-    lower, gamma, tau = check_class(lower, gamma, tau)
-    lip = nonnegative(lipschitz, "lipschitz")
+    lower, gamma, tau = check_class(utility_class)
+    assert utility_class is None or isinstance(utility_class, UtilityClass)  # (check_class refuses the rest)
+    lip = nonnegative(
+        0.0 if utility_class is None or utility_class.lipschitz is None else utility_class.lipschitz, "lipschitz"
+    )
+    metric = None if utility_class is None else utility_class.metric
     n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
     # (the discrete metric is never built: k-ary randomized response and L_A = 0 do not need it)
@@ -247,13 +247,16 @@ def black_box_bound(
 
     if gamma > 0 and gamma != 1.0:
         # Only the shape of the class matters: solve it on the scale gamma = 1 (well-conditioned LPs), scale back.
-        unit = black_box_bound(
-            mechanism,
+        unit_class = UtilityClass(
             lower=lower / gamma,
             gamma=1.0,
             tau=None if tau is None else tau / gamma,
             lipschitz=lip / gamma,
             metric=metric,
+        )
+        unit = black_box_bound(
+            mechanism,
+            utility_class=unit_class,
             population=population,
             method=method,
         )
@@ -310,7 +313,7 @@ def _class_assumptions(
     lip_on: bool,
 ) -> tuple[Assumption, ...]:
     """The assumptions of a class certificate: the mechanism's (and X ⊥ A on ``population``), then the class vouched for."""
-    assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
+    assumptions = check_assumptions(mechanism, population=population) + (
         Assumption("g in [lower, gamma]", "vouched", f"class [{lower:g}, {gamma:g}]"),
         Assumption(
             "g Lipschitz in the group" if lip_on else "g depends on the decision (and context) only",

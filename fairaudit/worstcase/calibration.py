@@ -57,7 +57,7 @@ from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
 from fairaudit.laws.mechanisms import Mechanism, MechanismFamily, randomized_response_family
 from fairaudit.laws.tables import Kernel, Population
-from fairaudit.laws.utilities import Utility, check_metric
+from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.worstcase.calibration_methods import (
     Common,
     Found,
@@ -414,12 +414,7 @@ def calibrate(
     method: str | None = None,
     family: MechanismFamily | None = None,
     groups: int | Sequence[Hashable] | None = None,
-    gamma: float = 1.0,
-    lower: float = 0.0,
-    tau: float | None = None,
-    lipschitz: float = 0.0,
-    metric: npt.ArrayLike | None = None,
-    diameter: float | None = None,
+    utility_class: UtilityClass | None = None,
     delta: float = 0.0,
     kernel: Kernel | None = None,
     utility: Utility | None = None,
@@ -458,19 +453,18 @@ def calibrate(
         response (:func:`~fairaudit.laws.mechanisms.randomized_response_family`).
     groups : int or sequence of hashable, optional
         k, or the group labels (default: the kernel's groups, else 2).
-    gamma, lower : float
-        The utility class g ∈ [lower, γ], 0 ≤ lower ≤ γ, γ > 0.
-    tau : float, optional
-        τ ∈ (0, γ], a lower bound on every E[g | x, a]; needed by ``paper``
-        and ``tight`` when L_A·diam > 0 or δ > 0 (or the utility depends on
-        the group): otherwise their extra term is 0 and ε = target without
-        τ. Optional for ``black_box``.
-    lipschitz : float
-        L_A ≥ 0 (0: g does not depend on the group).
-    metric : array_like, shape (k, k), optional
-        d(a, a'); default the discrete metric.
-    diameter : float, optional
-        diam(A) for the closed forms; default max d(a, a') (1 when discrete).
+    utility_class : UtilityClass, optional
+        The class of utilities, each field by default:
+
+        - ``gamma``, ``lower``: g ∈ [lower, γ], 0 ≤ lower ≤ γ, γ > 0; 1 and 0.
+        - ``tau``: τ ∈ (0, γ], a lower bound on every E[g | x, a]; needed by
+          ``paper`` and ``tight`` when L_A·diam > 0 or δ > 0 (or the utility
+          depends on the group): otherwise their extra term is 0 and
+          ε = target without τ. Optional for ``black_box``; none by default.
+        - ``lipschitz``: L_A ≥ 0; 0 (g does not depend on the group).
+        - ``metric``: d(a, a'), shape (k, k); the discrete metric.
+        - ``diameter``: diam(A) for the closed forms; max d(a, a') (1 when
+          discrete).
     delta : float
         δ ∈ [0, 1] of an arbitrary (ε, δ)-DP mechanism, for ``paper`` and
         ``tight`` only.
@@ -518,8 +512,8 @@ def calibrate(
       c = L_A·diam(A) + δγ, so ε = target − log(1 + c/τ).
     * tight (docs/design.md "Mathematics beyond the paper", the theorem's proof): L ≤
       log(e^ε + c/τ), so ε = log(e^target − c/τ) ≥ the paper's ε.
-    * black_box: the largest ε with ``black_box_bound(family(ε), lower=,
-      gamma=, tau=, lipschitz=, metric=).value ≤ target``.
+    * black_box: the largest ε with ``black_box_bound(family(ε),
+      utility_class=).value ≤ target``.
     * white_box: the largest ε such that every ε' ∈ [0, ε] has L (L̄) of
       ``compose(kernel, family(ε'), context_mechanism)`` ≤ target (a 64-point
       scan, then the first crossing refined; exact behind randomized
@@ -541,13 +535,14 @@ def calibrate(
 
     The tight closed form with L_A = 0.2 and τ = 0.5: ε = log(e − 0.4).
 
-    >>> c = calibrate(1.0, method="tight", tau=0.5, lipschitz=0.2)
+    >>> from fairaudit.laws.utilities import UtilityClass
+    >>> c = calibrate(1.0, method="tight", utility_class=UtilityClass(tau=0.5, lipschitz=0.2))
     >>> round(c.epsilon, 12) == round(math.log(math.e - 0.4), 12), round(c.bound, 12)
     (True, 1.0)
 
     Below the floor log(1 + 0.4) = 0.336 nats nothing works:
 
-    >>> c = calibrate(0.3, method="paper", tau=0.5, lipschitz=0.2)
+    >>> c = calibrate(0.3, method="paper", utility_class=UtilityClass(tau=0.5, lipschitz=0.2))
     >>> c.feasible, math.isnan(c.epsilon), round(c.bound, 6)
     (False, True, 0.336472)
 
@@ -592,7 +587,17 @@ def calibrate(
     kind = choice(kind, "kind", KINDS)
     if method is not None:
         method = choice(method, "method", METHODS)
-    gamma, lower, tau, lipschitz, delta = _check_constants(gamma, lower, tau, lipschitz, delta)
+    uc = UtilityClass() if utility_class is None else utility_class
+    if not isinstance(uc, UtilityClass):
+        raise InputError("utility_class", "must be a UtilityClass", type(uc).__name__)
+    gamma, lower, tau, lipschitz, delta = _check_constants(
+        1.0 if uc.gamma is None else uc.gamma,
+        0.0 if uc.lower is None else uc.lower,
+        uc.tau,
+        0.0 if uc.lipschitz is None else uc.lipschitz,
+        delta,
+    )
+    metric = uc.metric
     if target_impact_ratio is not None:
         if utility is not None and not isinstance(utility, Utility):
             raise InputError("utility", "must be a Utility", type(utility).__name__)
@@ -603,12 +608,7 @@ def calibrate(
             method=method,
             family=family,
             groups=groups,
-            gamma=gamma,
-            lower=lower,
-            tau=tau,
-            lipschitz=lipschitz,
-            metric=metric,
-            diameter=diameter,
+            utility_class=utility_class,
             delta=delta,
             kernel=kernel,
             utility=utility,
@@ -631,7 +631,7 @@ def calibrate(
         tau=math.nan if tau is None else tau,
         delta=delta,
         lipschitz=lipschitz,
-        diameter=_diameter(diameter, metric, len(fam.inputs)),
+        diameter=_diameter(uc.diameter, metric, len(fam.inputs)),
     )
     if method is None:
         method = "white_box" if kernel is not None else ("tight" if delta > 0 else "black_box")
@@ -678,10 +678,7 @@ def calibrate_randomized_response(
     groups: int | Sequence[Hashable],
     *,
     method: str = "black_box",
-    gamma: float = 1.0,
-    lower: float = 0.0,
-    tau: float | None = None,
-    lipschitz: float = 0.0,
+    utility_class: UtilityClass | None = None,
 ) -> Calibration:
     """The largest ε of k-ary randomized response whose certificate on L meets ``target``.
 
@@ -698,12 +695,9 @@ def calibrate_randomized_response(
         k, or the list of group labels.
     method : {"black_box", "tight", "paper"}
         Which certificate; ``black_box`` is the tightest and needs no τ.
-    gamma, lower : float
-        The class of utilities g(u) ∈ [lower, γ].
-    tau : float, optional
-        Needed by ``tight`` and ``paper`` when L_A > 0.
-    lipschitz : float
-        L_A.
+    utility_class : UtilityClass, optional
+        As in :func:`calibrate`: the class of utilities g ∈ [lower, γ], τ
+        (needed by ``tight`` and ``paper`` when L_A > 0) and L_A.
 
     Returns
     -------
@@ -721,7 +715,7 @@ def calibrate_randomized_response(
     >>> round(c.epsilon, 12) == round(math.log(7 / 3), 12), round(c.keep_probability, 12)
     (True, 0.7)
     """
-    c = calibrate(target, groups=groups, method=method, gamma=gamma, lower=lower, tau=tau, lipschitz=lipschitz)
+    c = calibrate(target, groups=groups, method=method, utility_class=utility_class)
     if not c.feasible:
         raise InputError("target", c.reason, target)
     return c

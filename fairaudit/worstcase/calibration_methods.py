@@ -29,7 +29,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
 from fairaudit.laws.mechanisms import Mechanism, MechanismFamily, RandomizedResponse, identity
 from fairaudit.laws.tables import Kernel, Law, Population, compose
-from fairaudit.laws.utilities import Utility, check_metric
+from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import main_theorem, main_theorem_tight
 from fairaudit.metrics.fairness import global_fairness, local_fairness
 from fairaudit.worstcase.black_box import black_box_bound
@@ -168,13 +168,14 @@ def _black_box_class(
 ) -> tuple[dict[str, Any], str, str]:
     """The keywords of ``black_box_bound`` for the class of utilities, the class in words, and a note for the reason."""
     gamma, lower, tau, lip = common["gamma"], common["lower"], common["tau"], common["lipschitz"]
-    kwargs: dict[str, Any] = {"lower": lower, "gamma": gamma, "population": population}
-    if not math.isnan(tau):
-        kwargs["tau"] = tau
-    if lip > 0:
-        kwargs["lipschitz"] = lip
-        if metric is not None:
-            kwargs["metric"] = metric
+    utility_class = UtilityClass(
+        lower=lower,
+        gamma=gamma,
+        tau=None if math.isnan(tau) else tau,
+        lipschitz=lip if lip > 0 else None,
+        metric=metric if lip > 0 else None,
+    )
+    kwargs: dict[str, Any] = {"utility_class": utility_class, "population": population}
     cls = (
         f"utilities in [{lower:g}, {gamma:g}]"
         + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")

@@ -19,7 +19,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
 from fairaudit.base.pairs import PAIR_BLOCK
 from fairaudit.laws.tables import Law, Population
-from fairaudit.laws.utilities import Utility
+from fairaudit.laws.utilities import Utility, UtilityClass
 from fairaudit.worstcase.known_utility import WorstCase
 from fairaudit.worstcase.pair_search import SearchResult, box_pairs, check_class, check_method, search
 
@@ -85,9 +85,7 @@ class WorstUtility:
 def worst_utility(
     law: Law,
     *,
-    lower: float = 0.0,
-    gamma: float = 1.0,
-    tau: float | None = None,
+    utility_class: UtilityClass | None = None,
     population: Population | None = None,
     method: str = "auto",
 ) -> WorstUtility:
@@ -102,10 +100,11 @@ def worst_utility(
     ----------
     law : Law
         Q[x, a, u], shape (n_contexts, n_groups, n_decisions); empty cells are skipped.
-    lower, gamma : float
-        The range of g, 0 ≤ lower ≤ γ.
-    tau : float, optional
-        Lower bound on E[g | x, a], ≤ γ.
+    utility_class : UtilityClass, optional
+        ``lower`` and ``gamma``: the range of g, 0 ≤ lower ≤ γ (by default 0
+        and 1); ``tau``: lower bound on E[g | x, a], ≤ γ (by default none).
+        ``lipschitz``, ``metric`` and ``diameter`` are not used: g(u) does not
+        depend on the group.
     population : Population, optional
         P(X, A) for L̄ and to skip contexts with P(X = x) = 0; default uniform.
     method : {"auto", "threshold", "lp"}
@@ -133,7 +132,8 @@ def worst_utility(
     >>> w = worst_utility(law)
     >>> round(w.local_fairness.ratio, 12), w.local_fairness.group, w.local_fairness.utility.values.tolist()   # Lemma 1: 0.5 / 0.2
     (2.5, 'a', [1.0, 0.0, 0.0])
-    >>> w = worst_utility(law, lower=0.5)                  # (0.5 + 0.5·0.5) / (0.5 + 0.5·0.2)
+    >>> from fairaudit.laws.utilities import UtilityClass
+    >>> w = worst_utility(law, utility_class=UtilityClass(lower=0.5))   # (0.5 + 0.5·0.5) / (0.5 + 0.5·0.2)
     >>> round(w.local_fairness.ratio, 12)
     1.25
     """
@@ -143,7 +143,7 @@ def worst_utility(
     if not isinstance(law, Law):
         raise InputError("law", "must be a Law", type(law).__name__)
     method = check_method(method)
-    lower, gamma, tau = check_class(lower, gamma, tau)
+    lower, gamma, tau = check_class(utility_class)
     population = population_for(law, population)
     binding = tau is not None and tau > lower
     if method == "threshold" and binding:

@@ -414,7 +414,7 @@ def _model_problem(
         gmin, gmax = np.full(nX, float(utility.values.min())), np.full(nX, float(utility.values.max()))
     else:
         gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))  # per context
-    assumptions = check_assumptions(mechanism, tau=None, gamma=None, population=population) + (
+    assumptions = check_assumptions(mechanism, population=population) + (
         Assumption("g is the given utility", "checked", f"{utility!r}"),
     )
     if tau is not None:

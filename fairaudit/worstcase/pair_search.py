@@ -29,6 +29,7 @@ from fairaudit.base.linear_fractional import (
     threshold_max_many,
 )
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
+from fairaudit.laws.utilities import UtilityClass
 
 METHODS = ("auto", "threshold", "lp")
 
@@ -119,9 +120,14 @@ def check_method(method: str) -> str:
     return choice(method, "method", METHODS)
 
 
-def check_class(lower: float, gamma: float, tau: float | None) -> tuple[float, float, float | None]:
-    """Validate a utility class [lower, γ] with floor τ ≤ γ (τ may be None)."""
-    lower, gamma = nonnegative(lower, "lower"), nonnegative(gamma, "gamma")
+def check_class(utility_class: UtilityClass | None) -> tuple[float, float, float | None]:
+    """(lower, γ, τ) of a utility class [lower, γ] with floor τ ≤ γ (τ may be None); lower 0 and γ 1 by default."""
+    c = UtilityClass() if utility_class is None else utility_class
+    if not isinstance(c, UtilityClass):
+        raise InputError("utility_class", "must be a UtilityClass", type(c).__name__)
+    lower = nonnegative(0.0 if c.lower is None else c.lower, "lower")
+    gamma = nonnegative(1.0 if c.gamma is None else c.gamma, "gamma")
+    tau = c.tau
     if lower > gamma:
         raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
     if tau is not None:

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fairaudit import InputError
+from fairaudit import InputError, UtilityClass
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.curves import COLUMNS, PrivacyCurve, default_epsilons, privacy_curve
 from fairaudit.certification.spec import load_spec, parse_spec
@@ -44,7 +44,11 @@ def test_binary_randomized_response_and_the_released_group_model_give_L_equal_to
     """Hand calculation: P(chosen | b) = p, P(chosen | a) = 1 - p with p = e^ε/(1+e^ε), so L = log(p/(1-p)) = ε."""
     fam = randomized_response_family(["a", "b"])
     c = privacy_curve(
-        family=fam, epsilons=GRID, kernel=released_group_kernel(["a", "b"], "b"), utility=CHOSEN, tau=0.01
+        family=fam,
+        epsilons=GRID,
+        kernel=released_group_kernel(["a", "b"], "b"),
+        utility=CHOSEN,
+        utility_class=UtilityClass(tau=0.01),
     )
     p = np.exp(GRID) / (1 + np.exp(GRID))
     by_hand = np.log(p / (1 - p))
@@ -83,7 +87,7 @@ def test_three_groups_ratio_is_e_to_the_epsilon():
         epsilons=GRID,
         kernel=released_group_kernel(groups, "a0"),
         utility=CHOSEN,
-        tau=0.05,
+        utility_class=UtilityClass(tau=0.05),
     )
     np.testing.assert_allclose(c.observed_local, GRID, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(c.min_expected_utility, 1 / (np.exp(GRID) + 2), rtol=1e-12)
@@ -123,7 +127,7 @@ def test_hr_example_observed_L_is_three_log_odds_and_tau_fails_where_hand_calcul
 
 def test_product_family_keep_probability_is_the_whole_tuple_kept():
     fam = product_family(["Tom", "Mary"], [25, 55], ["Asian", "American"])
-    c = privacy_curve(family=fam, epsilons=[3 * math.log(7 / 3)], tau=0.02)
+    c = privacy_curve(family=fam, epsilons=[3 * math.log(7 / 3)], utility_class=UtilityClass(tau=0.02))
     assert c.keep_probability[0] == pytest.approx(0.343, rel=1e-12)
     assert c.corollary[0] == pytest.approx(3 * math.log(7 / 3), rel=1e-12)
 
@@ -148,7 +152,13 @@ def test_order_of_bounds_along_the_curve(kg, tau):
     """tight ≤ paper; observed L ≤ black-box where τ holds; L̄ ≤ L; every bound non-decreasing in ε."""
     kernel, groups = kg
     grid = np.linspace(0.0, 3.0, 7)
-    c = privacy_curve(family=randomized_response_family(groups), epsilons=grid, kernel=kernel, utility=CHOSEN, tau=tau)
+    c = privacy_curve(
+        family=randomized_response_family(groups),
+        epsilons=grid,
+        kernel=kernel,
+        utility=CHOSEN,
+        utility_class=UtilityClass(tau=tau),
+    )
     ok = c.tau_holds & np.isfinite(c.observed_local)
     assert np.all(c.black_box[ok] >= c.observed_local[ok] - 1e-7)
     assert np.all(c.observed_global[ok] <= c.observed_local[ok] + 1e-9)
@@ -252,7 +262,7 @@ def test_errors_are_one_line_input_errors():
             family=randomized_response_family(["c", "d"]), kernel=released_group_kernel(["a", "b"], "b"), utility=CHOSEN
         )
     with pytest.raises(InputError, match="tau"):
-        privacy_curve(family=fam, tau=2.0)
+        privacy_curve(family=fam, utility_class=UtilityClass(tau=2.0))
     one = parse_spec(
         '[sensitive]\nname = "a"\nvalues = ["x"]\n[decision]\nname = "u"\nvalues = [1, 0]\n[utility]\ndecision = 1\n'
     )

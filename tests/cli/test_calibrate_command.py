@@ -177,8 +177,10 @@ values = [1.0, 0.1]
     fam = spec.sensitive_family
     assert d["family"] == fam.name
     # independent check: the exact worst case at the returned epsilon is the target, and exceeds it just above
-    assert fa.black_box_bound(fam(d["epsilon"]), lower=0.1).value == pytest.approx(0.5, rel=1e-9)
-    assert fa.black_box_bound(fam(d["epsilon"] * (1 + 1e-6)), lower=0.1).value > 0.5
+    assert fa.black_box_bound(fam(d["epsilon"]), utility_class=fa.UtilityClass(lower=0.1)).value == pytest.approx(
+        0.5, rel=1e-9
+    )
+    assert fa.black_box_bound(fam(d["epsilon"] * (1 + 1e-6)), utility_class=fa.UtilityClass(lower=0.1)).value > 0.5
 
 
 def test_global_with_dependent_population_exits_1(tmp_path, capsys):
@@ -251,7 +253,9 @@ def test_certify_calibration_skipped_for_group_dependent_utility(tmp_path, capsy
     # at epsilon = 0 a model can still give E in [0.25, 0.75] by group, a floor of log 3 = 1.0986 nats.
     given = spec.replace("values = [[[1.0", "lipschitz = 0.5\ntau = 0.25\nvalues = [[[1.0")
     fam = fa.randomized_response_family(["HR_1", "HR_2"])
-    assert fa.black_box_bound(fam(0.0), tau=0.25, lipschitz=0.5).value == pytest.approx(math.log(3), rel=1e-7)
+    assert fa.black_box_bound(fam(0.0), utility_class=fa.UtilityClass(tau=0.25, lipschitz=0.5)).value == pytest.approx(
+        math.log(3), rel=1e-7
+    )
     (tmp_path / "h.toml").write_text(given + "[target]\nlocal = 1.0\n")
     code, d, _ = run_json(capsys, "certify", tmp_path / "h.toml")
     c = d["calibration"]
@@ -260,9 +264,12 @@ def test_certify_calibration_skipped_for_group_dependent_utility(tmp_path, capsy
     code, d, _ = run_json(capsys, "certify", tmp_path / "h.toml")
     c = d["calibration"]
     assert c["method"] == "black_box" and c["lipschitz"] == 0.5 and c["tau"] == 0.25
-    at = fa.black_box_bound(fam(c["epsilon"]), tau=0.25, lipschitz=0.5).value
+    at = fa.black_box_bound(fam(c["epsilon"]), utility_class=fa.UtilityClass(tau=0.25, lipschitz=0.5)).value
     assert at == pytest.approx(1.3, rel=1e-8)
-    assert fa.black_box_bound(fam(c["epsilon"] * (1 + 1e-6)), tau=0.25, lipschitz=0.5).value > 1.3
+    assert (
+        fa.black_box_bound(fam(c["epsilon"] * (1 + 1e-6)), utility_class=fa.UtilityClass(tau=0.25, lipschitz=0.5)).value
+        > 1.3
+    )
 
 
 def test_certify_text_names_both_calibrations(tmp_path, capsys):

@@ -34,6 +34,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.legend import Legend  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
+from fairaudit import UtilityClass
 from fairaudit.experiments.analysis import analyse_kernel  # noqa: E402
 from fairaudit.experiments.figures import (  # noqa: E402
     _baseline_figure,
@@ -299,7 +300,7 @@ def test_plot_curve_merges_coinciding_bounds_only_when_equal_everywhere():
     from fairaudit.certification.curves import privacy_curve
     from fairaudit.laws.mechanisms import randomized_response_family
 
-    curve = privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2)
+    curve = privacy_curve(family=randomized_response_family(["a", "b"]), utility_class=UtilityClass(tau=0.2))
     labels = [t.get_text() for t in plot_curve(curve).axes[0].get_legend().get_texts()]
     assert "paper bound (main theorem)\n= tight bound (its proof, per pair)" in labels
     apart = dataclasses.replace(curve, tight=curve.tight * 0.9)
@@ -312,7 +313,7 @@ def test_a_curve_whose_series_all_coincide_keeps_a_legend_that_fits(tmp_path):
     from fairaudit.certification.curves import privacy_curve
     from fairaudit.laws.mechanisms import randomized_response_family
 
-    c = privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2)
+    c = privacy_curve(family=randomized_response_family(["a", "b"]), utility_class=UtilityClass(tau=0.2))
     e = c.corollary
     curve = dataclasses.replace(c, paper=e, tight=e, black_box=e, observed_local=e, observed_global=e)
     with warnings.catch_warnings():
@@ -393,7 +394,7 @@ def test_infinite_observed_values_and_bounds_of_a_curve_are_marked_at_the_top_ed
     from fairaudit.certification.curves import privacy_curve
     from fairaudit.laws.mechanisms import randomized_response_family
 
-    curve = privacy_curve(family=randomized_response_family(["a", "b"]), tau=0.2)
+    curve = privacy_curve(family=randomized_response_family(["a", "b"]), utility_class=UtilityClass(tau=0.2))
     tail = np.arange(len(curve.epsilon)) >= len(curve.epsilon) - 3
     curve = dataclasses.replace(
         curve,

@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 from _cli import run
 
+from fairaudit import UtilityClass
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import number
 from fairaudit.experiments.analysis import candidate_context_mechanism, candidate_utility
@@ -386,7 +387,7 @@ def test_an_unparsed_utility_below_the_others_widens_the_paper_designs_black_box
         assert r["black_box"].upper == p.bounds.black_box_local == pytest.approx(p.epsilon)
         m = p.bounds.filter.candidate_mechanism("balanced")
         pop = candidate_population(task, "balanced")
-        local = black_box_bound(m, lower=1.0, gamma=3.0, population=pop).value
+        local = black_box_bound(m, utility_class=UtilityClass(lower=1.0, gamma=3.0), population=pop).value
         glob = worst_model(m, from_table([3.0, 1.0], ["high", "low"]), population=pop).global_fairness.value
         assert r["black_box"].lower == pytest.approx(local, rel=1e-9) and r["black_box"].lower < 0.9 * p.epsilon
         assert r["black_box_global"].lower == pytest.approx(glob, rel=1e-9)

@@ -15,6 +15,7 @@ import math
 import numpy as np
 import pytest
 
+from fairaudit import UtilityClass
 from fairaudit.experiments._markdown import experiment_markdown
 from fairaudit.experiments.analysis import analyse_kernel
 from fairaudit.experiments.report import experiment_dict
@@ -199,7 +200,9 @@ def test_an_unparsed_utility_beyond_the_others_widens_the_black_box_bounds():
         r, m = point.bound_ranges, point.mechanism
         assert (r["corollary"].lower, r["corollary"].upper) == (point.corollary, point.corollary)
         for lower, gamma, end in ((1.0, 5.0, "upper"), (1.0, 3.0, "lower")):
-            local = black_box_bound(m, lower=lower, gamma=gamma, tau=1.0, population=a.population).value
+            local = black_box_bound(
+                m, utility_class=UtilityClass(lower=lower, gamma=gamma, tau=1.0), population=a.population
+            ).value
             extreme = from_table([gamma, lower], ["high", "low"])
             glob = worst_model(m, extreme, population=a.population, tau=1.0).global_fairness.value
             assert getattr(r["black_box"], end) == pytest.approx(local, rel=1e-9)

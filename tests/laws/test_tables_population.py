@@ -22,6 +22,7 @@ import pytest
 from scipy.optimize import linprog
 
 import fairaudit as fa
+from fairaudit import UtilityClass
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import load_spec
 from fairaudit.cli import main
@@ -241,8 +242,7 @@ def test_calibrate_global_below_the_floor_says_why(tmp_path: Path) -> None:
     assert not c.feasible and c.bound == pytest.approx(floor, rel=1e-7)
     assert "below the floor" in c.reason and "not independent" in c.reason
     for method in ("paper", "tight"):  # L-bar <= L needs X independent of A
-        c = calibrate(0.5, kind="global", method=method, tau=0.1, family=spec.sensitive_family,
-                      population=spec.population)  # fmt: skip
+        c = calibrate(0.5, kind="global", method=method, utility_class=UtilityClass(tau=0.1), family=spec.sensitive_family, population=spec.population)  # fmt: skip
         assert not c.feasible and "use black_box" in c.reason
 
 
@@ -284,7 +284,10 @@ def test_calibration_agrees_with_certify_at_its_epsilon_and_just_past_it(tmp_pat
         return path
 
     s = load_spec(spec(1.0))
-    opts = dict(tau=s.tau, lipschitz=s.lipschitz, gamma=s.gamma, lower=s.lower, population=s.population)
+    opts = dict(
+        utility_class=UtilityClass(tau=s.tau, lipschitz=s.lipschitz, gamma=s.gamma, lower=s.lower),
+        population=s.population,
+    )
     if kind == "global":
         opts.update(utility=s.utility, context_mechanism=s.context_mechanism)
     c = calibrate(target, kind=kind, method=method, family=s.sensitive_family, **opts)

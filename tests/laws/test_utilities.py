@@ -6,6 +6,7 @@ Expected values: hand calculations and brute-force loops over (u, x, a, a').
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -104,3 +105,57 @@ def test_utility_errors():
         g.table(["x"], ["b"], ["y", "n"])
     with pytest.raises(fa.InputError, match="utility contexts"):
         g.table(["z"], ["a"], ["y", "n"])
+
+
+# -- the class of utilities ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "field, value, problem",
+    [
+        ("lower", -0.1, "must be a finite non-negative number"),
+        ("gamma", float("inf"), "must be a finite non-negative number"),
+        ("tau", float("nan"), "must be a finite non-negative number"),
+        ("lipschitz", -1, "must be a finite non-negative number"),
+        ("diameter", "one", "must be a finite non-negative number"),
+        ("metric", [[0.0, 1.0, 2.0]], "must be a square array"),
+    ],
+)
+def test_utility_class_names_the_bad_field(field, value, problem):
+    with pytest.raises(fa.InputError) as err:
+        fa.UtilityClass(**{field: value})
+    assert err.value.field == field and err.value.problem.startswith(problem)
+
+
+def test_utility_class_diameter_is_not_below_the_metric():
+    d = [[0.0, 2.0], [2.0, 0.0]]
+    assert fa.UtilityClass(metric=d, diameter=3.0).diameter == 3.0  # a looser diameter is still a bound
+    with pytest.raises(fa.InputError, match=r"^diameter: is below the metric's largest distance 2"):
+        fa.UtilityClass(metric=d, diameter=1.0)
+
+
+def test_utility_class_is_a_value():
+    d = [[0.0, 0.5], [0.5, 0.0]]
+    a = fa.UtilityClass(gamma=1, tau=0.2, metric=d)
+    assert a == fa.UtilityClass(tau=0.2, gamma=1.0, metric=np.array(d)) and a != fa.UtilityClass(gamma=1, tau=0.2)
+    assert a != fa.UtilityClass(gamma=1, tau=0.2, metric=[[0.0, 0.6], [0.6, 0.0]])
+    assert isinstance(a.gamma, float) and not a.metric.flags.writeable  # (stored as floats, the metric read-only)
+    with pytest.raises(TypeError):
+        hash(a)
+
+
+def test_utility_class_fields_left_out_are_the_function_defaults():
+    rr = fa.randomized_response(["a", "b"], keep=0.7)
+    # black_box_bound: lower 0, gamma 1, no tau, L_A 0: the corollary's eps = log(7/3)
+    assert fa.black_box_bound(rr).value == fa.black_box_bound(rr, utility_class=fa.UtilityClass()).value
+    assert fa.black_box_bound(rr).ratio == pytest.approx(7 / 3, rel=1e-15)
+    # paper_bound takes gamma from the utility when the class leaves it out: t = 1 gives log(1 + 0.4/0.5) = log 1.8
+    g = fa.indicator("a", ["a", "b"])
+    by_utility = fa.paper_bound(rr, utility_class=fa.UtilityClass(tau=0.5), utility=g)
+    assert by_utility.gamma == 1.0 and by_utility.value == pytest.approx(math.log(1.8), rel=1e-15)
+    # and a metric's largest distance is the paper form's diameter: log(1 + (0.5 * 2 + 0.4) / 0.5) = log 3.8
+    d = [[0.0, 2.0], [2.0, 0.0]]
+    with_metric = fa.paper_bound(rr, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5, lipschitz=0.5, metric=d))
+    assert with_metric.diameter == 2.0 and with_metric.value == pytest.approx(math.log(3.8), rel=1e-15)
+    with pytest.raises(fa.InputError, match=r"^utility_class: must be a UtilityClass \(got 'dict'\)$"):
+        fa.paper_bound(rr, utility_class={"gamma": 1.0})

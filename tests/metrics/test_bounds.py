@@ -68,8 +68,8 @@ def test_invalid_tau_is_named(tau):
     for call in (
         lambda: fa.main_theorem(1.0, 0.0, gamma=1.0, tau=tau),
         lambda: fa.main_theorem_tight(1.0, 0.0, gamma=1.0, tau=tau),
-        lambda: fa.paper_bound(m, gamma=1.0, tau=tau),
-        lambda: fa.tight_bound(m, gamma=1.0, tau=tau),
+        lambda: fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=tau)),
+        lambda: fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=tau)),
     ):
         with pytest.raises(fa.InputError) as err:
             call()
@@ -86,11 +86,16 @@ def test_invalid_constants_are_named():
     with pytest.raises(fa.InputError, match="^lipschitz:"):
         fa.main_theorem_tight(1.0, 0.0, gamma=1.0, tau=0.5, lipschitz=float("nan"))
     with pytest.raises(fa.InputError, match="^gamma:"):
-        fa.paper_bound(fa.randomized_response([0, 1], keep=0.7), tau=0.5)  # no gamma and no utility
+        fa.paper_bound(
+            fa.randomized_response([0, 1], keep=0.7), utility_class=fa.UtilityClass(tau=0.5)
+        )  # no gamma and no utility
     with pytest.raises(fa.InputError, match="^mechanism:"):
-        fa.tight_bound([[0.7, 0.3], [0.3, 0.7]], gamma=1.0, tau=0.5)
+        fa.tight_bound([[0.7, 0.3], [0.3, 0.7]], utility_class=fa.UtilityClass(gamma=1.0, tau=0.5))
     with pytest.raises(fa.InputError, match="^metric:"):
-        fa.tight_bound(fa.randomized_response([0, 1], keep=0.7), gamma=1.0, tau=0.5, metric=np.zeros((3, 3)))
+        fa.tight_bound(
+            fa.randomized_response([0, 1], keep=0.7),
+            utility_class=fa.UtilityClass(gamma=1.0, tau=0.5, metric=np.zeros((3, 3))),
+        )
 
 
 # --------------------------------------------------------------------------- randomized response by hand
@@ -102,13 +107,13 @@ def test_binary_rr_bounds_by_hand():
     # Binary RR: δ(t) = 0.7 − 0.3 t on t = e^ε ∈ [1, 7/3]. τ = 0.2, γ = 1:
     # paper: log t + log(1 + (0.7 − 0.3t)/0.2) is concave in t; at t = 1 it is log 3 = 1.0986, at 7/3 it is
     # ε = 0.8473, so the minimum is ε. tight: t + (0.7 − 0.3t)/0.2 has slope 1 − 1.5 < 0: minimum at t = 7/3, ε.
-    p = fa.paper_bound(m, gamma=1.0, tau=0.2)
-    t = fa.tight_bound(m, gamma=1.0, tau=0.2)
+    p = fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.2))
+    t = fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.2))
     assert p.value == pytest.approx(eps, rel=1e-12) and p.epsilon == pytest.approx(eps, rel=1e-12) and p.delta == 0.0
     assert t.value == pytest.approx(eps, rel=1e-12) and t.delta == pytest.approx(0.0, abs=1e-15)
     # τ = 0.5: at t = 1 both forms give log(1 + 0.4/0.5) = log 1.8 = 0.5878 < ε: minimum at ε = 0, δ = 0.4.
-    p = fa.paper_bound(m, gamma=1.0, tau=0.5)
-    t = fa.tight_bound(m, gamma=1.0, tau=0.5)
+    p = fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5))
+    t = fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5))
     for b in (p, t):
         assert b.value == pytest.approx(math.log(1.8), rel=1e-12)
         assert b.epsilon == 0.0 and b.delta == pytest.approx(0.4, rel=1e-12)
@@ -119,8 +124,8 @@ def test_binary_rr_with_lipschitz_tight_is_strictly_smaller():
     # L_A = 0.1, τ = 0.25, γ = 1. paper: t = 1 gives log(1 + (0.1 + 0.4)/0.25) = log 3; t = 7/3 gives
     # log(7/3) + log(1 + 0.1/0.25) = log(49/15) > log 3. tight: t = 1 gives log 3, t = 7/3 gives
     # log(7/3 + 0.4) = log(41/15) = 1.0055 < log 3.
-    p = fa.paper_bound(m, gamma=1.0, tau=0.25, lipschitz=0.1)
-    t = fa.tight_bound(m, gamma=1.0, tau=0.25, lipschitz=0.1)
+    p = fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.25, lipschitz=0.1))
+    t = fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.25, lipschitz=0.1))
     assert p.value == pytest.approx(math.log(3), rel=1e-12) and p.epsilon == 0.0
     assert t.value == pytest.approx(math.log(F(41, 15)), rel=1e-12)
     assert t.epsilon == pytest.approx(math.log(7 / 3), rel=1e-12)
@@ -136,8 +141,12 @@ def test_rr_without_lipschitz_both_forms_are_min_of_endpoints(k, eps, tau, gamma
     p = math.exp(eps) / (math.exp(eps) + k - 1)
     q = 1 / (math.exp(eps) + k - 1)
     expected = min(math.log1p(gamma * (p - q) / tau), eps)
-    assert fa.paper_bound(m, gamma=gamma, tau=tau).value == pytest.approx(expected, rel=1e-9, abs=1e-12)
-    assert fa.tight_bound(m, gamma=gamma, tau=tau).value == pytest.approx(expected, rel=1e-9, abs=1e-12)
+    assert fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=gamma, tau=tau)).value == pytest.approx(
+        expected, rel=1e-9, abs=1e-12
+    )
+    assert fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=gamma, tau=tau)).value == pytest.approx(
+        expected, rel=1e-9, abs=1e-12
+    )
     assert expected <= eps
 
 
@@ -197,8 +206,8 @@ def test_paper_and_tight_against_brute_force(seed):
         bp, bt, bw = brute_force(
             matrix, gamma=gamma, tau=tau, lipschitz=lip, metric=metric, return_mechanism_tight=True
         )
-        p = fa.paper_bound(mech, gamma=gamma, tau=tau, lipschitz=lip)
-        t = fa.tight_bound(mech, gamma=gamma, tau=tau, lipschitz=lip)
+        p = fa.paper_bound(mech, utility_class=fa.UtilityClass(gamma=gamma, tau=tau, lipschitz=lip))
+        t = fa.tight_bound(mech, utility_class=fa.UtilityClass(gamma=gamma, tau=tau, lipschitz=lip))
         assert p.value <= bp + 1e-9 and p.value >= bp - 1e-3
         assert t.value <= bt + 1e-9 and t.value >= bt - 1e-3
         assert t.value <= p.value + 1e-12
@@ -227,8 +236,8 @@ def test_bounds_with_zero_entries_and_rectangular_mechanisms_against_brute_force
         tau, lip = float(rng.uniform(0.05, 1.0)), float(rng.choice([0.0, 0.2]))
         mech = fa.from_matrix(matrix, list(range(n)), list(range(k)))
         bp, bt = brute_force(matrix, gamma=1.0, tau=tau, lipschitz=lip, metric=1.0 - np.eye(n))
-        p = fa.paper_bound(mech, gamma=1.0, tau=tau, lipschitz=lip).value
-        t = fa.tight_bound(mech, gamma=1.0, tau=tau, lipschitz=lip).value
+        p = fa.paper_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=tau, lipschitz=lip)).value
+        t = fa.tight_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=tau, lipschitz=lip)).value
         assert bp - 1e-3 <= p <= bp + 1e-9
         assert bt - 1e-3 <= t <= bt + 1e-9
 
@@ -240,7 +249,10 @@ def test_tight_with_a_metric_against_brute_force():
         pts = rng.uniform(0.2, 2.0, size=n).cumsum()
         metric = np.abs(pts[:, None] - pts[None, :])
         _, bt = brute_force(matrix, gamma=gamma, tau=tau, lipschitz=lip, metric=metric)
-        t = fa.tight_bound(fa.from_matrix(matrix, list(range(n))), gamma=gamma, tau=tau, lipschitz=lip, metric=metric)
+        t = fa.tight_bound(
+            fa.from_matrix(matrix, list(range(n))),
+            utility_class=fa.UtilityClass(gamma=gamma, tau=tau, lipschitz=lip, metric=metric),
+        )
         assert t.value <= bt + 1e-9 and t.value >= bt - 1e-3
         assert t.diameter == pytest.approx(pts[-1] - pts[0], rel=1e-12)
 
@@ -268,7 +280,7 @@ def test_regression_paper_minimum_at_a_crossing_not_at_a_ratio():
 
     assert delta_exact(t_star) == d_star
     exact_value = math.log(t_star) + math.log1p(float(d_star / tau))
-    b = fa.paper_bound(m, gamma=1.0, tau=float(tau))
+    b = fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=float(tau)))
     assert b.value == pytest.approx(exact_value, rel=1e-12)  # 0.50448861...
     assert b.value == pytest.approx(0.50448861, abs=1e-8)
     assert math.exp(b.epsilon) == pytest.approx(float(t_star), rel=1e-12)
@@ -303,7 +315,9 @@ def test_corollary_attained_by_rr_and_a_model_that_outputs_the_released_group(k,
     assert fa.global_fairness(law, g).value == pytest.approx(eps, rel=1e-12)
     cor = fa.corollary_bound(m, utility=g)
     assert cor.value == pytest.approx(eps, rel=1e-12) and cor.holds
-    assert fa.black_box_bound(m, lower=0.0, gamma=1.0).value == pytest.approx(eps, rel=1e-12)
+    assert fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=0.0, gamma=1.0)).value == pytest.approx(
+        eps, rel=1e-12
+    )
 
 
 def test_corollary_flags_a_group_dependent_utility():
@@ -321,7 +335,7 @@ def test_assumptions_checked_on_data():
     m = fa.randomized_response(["a", "b"], keep=0.7)
     g = fa.indicator("y", ["y", "n"])
     dep = fa.Population([[0.4, 0.1], [0.1, 0.4]], ["x0", "x1"], ["a", "b"])
-    b = fa.paper_bound(m, tau=0.2, utility=g, population=dep)
+    b = fa.paper_bound(m, utility_class=fa.UtilityClass(tau=0.2), utility=g, population=dep)
     # X and A dependent voids only L-bar <= L (proofs/main_theorem.md): the bound on L still holds.
     assert b.holds
     status = {a.name: a.status for a in b.assumptions}
@@ -331,12 +345,12 @@ def test_assumptions_checked_on_data():
     assert status["g <= gamma"] == "checked"
     assert status["E[g | x, a] >= tau for every model"] == "vouched"
     ind = fa.Population.uniform(["x0", "x1"], ["a", "b"])
-    assert fa.tight_bound(m, tau=0.2, utility=g, population=ind).holds
+    assert fa.tight_bound(m, utility_class=fa.UtilityClass(tau=0.2), utility=g, population=ind).holds
     # A law whose E[g | x, a] = 0.1 < τ = 0.2 violates the τ hypothesis.
     law = fa.Law([[[0.1, 0.9], [0.5, 0.5]], [[0.5, 0.5], [0.5, 0.5]]], ["x0", "x1"], ["a", "b"], ["y", "n"])
-    b = fa.tight_bound(m, tau=0.2, utility=g, population=ind, law=law)
+    b = fa.tight_bound(m, utility_class=fa.UtilityClass(tau=0.2), utility=g, population=ind, law=law)
     assert not b.holds
     # γ smaller than max g is violated.
     g2 = fa.from_table([0.0, 2.0], ["y", "n"])
-    b = fa.paper_bound(m, tau=0.2, gamma=1.5, utility=g2)
+    b = fa.paper_bound(m, utility_class=fa.UtilityClass(tau=0.2, gamma=1.5), utility=g2)
     assert {a.name: a.status for a in b.assumptions}["g <= gamma"] == "violated"

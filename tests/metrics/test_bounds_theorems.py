@@ -78,7 +78,9 @@ def worst_instance(seed: int):
         [f"o{j}" for j in range(m)],
     )
     gamma = float(rng.choice([1.0, 2.5]))
-    cert = fa.black_box_bound(mech, gamma=gamma, tau=float(rng.uniform(0.05, 0.95)) * gamma)
+    cert = fa.black_box_bound(
+        mech, utility_class=fa.UtilityClass(gamma=gamma, tau=float(rng.uniform(0.05, 0.95)) * gamma)
+    )
     kernel, util = cert.worst_model()
     return mech, util, gamma, fa.compose(kernel, mech)
 
@@ -94,9 +96,11 @@ def main_theorem_holds(
     if drop_delta:  # the tight form without its δγ/τ term: min over ε >= 0 of log(e^ε + L_A/τ) = log(1 + L_A/τ)
         value = math.log(1 + lip / tau)
     elif bound == "tight":
-        value = fa.tight_bound(mech, tau=tau, gamma=gamma, lipschitz=lip).value
+        value = fa.tight_bound(mech, utility_class=fa.UtilityClass(tau=tau, gamma=gamma, lipschitz=lip)).value
     else:
-        value = fa.paper_bound(mech, tau=tau, gamma=gamma, lipschitz=lip, diameter=1.0).value
+        value = fa.paper_bound(
+            mech, utility_class=fa.UtilityClass(tau=tau, gamma=gamma, lipschitz=lip, diameter=1.0)
+        ).value
     return observed <= scale * value + 1e-9
 
 
@@ -152,7 +156,9 @@ def test_corollary_has_teeth_and_is_attained():
 def black_box_holds(seed: int, scale: float = 1.0) -> bool:
     mech, util, gamma, law = draw_instance(seed)
     observed, tau = observed_and_tau(mech, util, law)
-    bb = fa.black_box_bound(mech, lower=0.0, gamma=gamma, tau=max(tau, 0.0) if tau > 0 else None)
+    bb = fa.black_box_bound(
+        mech, utility_class=fa.UtilityClass(lower=0.0, gamma=gamma, tau=max(tau, 0.0) if tau > 0 else None)
+    )
     return observed <= scale * bb.value + 1e-7
 
 
@@ -167,7 +173,7 @@ def test_black_box_is_attained_so_any_smaller_claim_fails():
         rng = np.random.default_rng(seed)
         n, m = int(rng.integers(2, 5)), int(rng.integers(2, 5))
         mech = fa.from_matrix(rng.dirichlet(np.ones(m), size=n), list(range(n)), list(range(m)))
-        c = fa.black_box_bound(mech, tau=float(rng.uniform(0.05, 0.9)))
+        c = fa.black_box_bound(mech, utility_class=fa.UtilityClass(tau=float(rng.uniform(0.05, 0.9))))
         kernel, util = c.worst_model()
         return local_fairness(fa.compose(kernel, mech), util).value <= 0.99 * c.value
 
@@ -372,7 +378,10 @@ def test_ordering_black_box_tight_has_teeth():
         n, m = int(rng.integers(2, 4)), int(rng.integers(2, 4))
         mech = fa.from_matrix(rng.dirichlet(np.ones(m), size=n), list(range(n)), list(range(m)))
         tau = float(rng.uniform(0.05, 0.9))
-        return fa.black_box_bound(mech, tau=tau).value <= 0.9 * fa.tight_bound(mech, tau=tau, gamma=1.0).value
+        return (
+            fa.black_box_bound(mech, utility_class=fa.UtilityClass(tau=tau)).value
+            <= 0.9 * fa.tight_bound(mech, utility_class=fa.UtilityClass(tau=tau, gamma=1.0)).value
+        )
 
     seed = falsified(SEEDS, claim)
     assert not claim(seed)
@@ -448,8 +457,10 @@ def test_main_theorem_with_a_metric_and_its_diameter(seed):
     tau = float(fa.expected_utility(law, util).min())
     lip = util.lipschitz(metric)
     observed = local_fairness(law, util).value
-    tight = fa.tight_bound(mech, tau=tau, gamma=1.0, lipschitz=lip, metric=metric).value
-    paper = fa.paper_bound(mech, tau=tau, gamma=1.0, lipschitz=lip, diameter=util.diameter(metric)).value
+    tight = fa.tight_bound(mech, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=lip, metric=metric)).value
+    paper = fa.paper_bound(
+        mech, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=lip, diameter=util.diameter(metric))
+    ).value
     assert observed <= tight + 1e-9 <= paper + 2e-9
 
 
@@ -459,7 +470,7 @@ def test_paper_form_minimum_at_a_crossing_not_at_a_ratio():
     m = fa.from_matrix(
         [[0.45, 0.40, 0.15], [0.65, 0.20, 0.15], [0.65, 0.30, 0.05]], ["a0", "a1", "a2"], ["o0", "o1", "o2"]
     )
-    pb = fa.paper_bound(m, gamma=1.0, tau=0.1)
+    pb = fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.1))
     assert pb.value == pytest.approx(math.log(25 / 9), rel=1e-12)
     assert math.exp(pb.epsilon) == pytest.approx(5 / 3, rel=1e-12) and pb.delta == pytest.approx(1 / 15, rel=1e-9)
     r = np.array([1, 4 / 3, 13 / 9, 3 / 2, 2, 3])

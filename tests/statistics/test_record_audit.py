@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 from _cli import OFFICE_SPEC, run, run_json
 
-from fairaudit import audit
+from fairaudit import UtilityClass, audit
 from fairaudit.base.errors import InputError
 from fairaudit.certification.spec import load_spec
 from fairaudit.laws.utilities import from_table
@@ -143,8 +143,8 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
         {},
         {"groups": 8},
         {"groups": 3, "kind": "global"},
-        {"method": "tight", "tau": 0.4, "lipschitz": 0.01},
-        {"groups": 5, "tau": 0.3},
+        {"method": "tight", "utility_class": UtilityClass(tau=0.4, lipschitz=0.01)},
+        {"groups": 5, "utility_class": UtilityClass(tau=0.3)},
     ],
 )
 def test_target_impact_ratio_is_exactly_the_nats_target(kw):
@@ -192,9 +192,9 @@ def test_target_impact_ratio_errors():
         with pytest.raises(InputError, match=r"^target_impact_ratio: must be an impact ratio in \(0, 1\]"):
             calibrate(target_impact_ratio=bad)
     with pytest.raises(InputError, match=r"^gamma: a target impact ratio is for a selection indicator"):
-        calibrate(target_impact_ratio=0.8, gamma=2.0)
+        calibrate(target_impact_ratio=0.8, utility_class=UtilityClass(gamma=2.0))
     with pytest.raises(InputError, match=r"^lower: a target impact ratio is for a selection indicator"):
-        calibrate(target_impact_ratio=0.8, lower=0.1)
+        calibrate(target_impact_ratio=0.8, utility_class=UtilityClass(lower=0.1))
     score = from_table([1.0, 0.5, 0.0], ("hire", "wait", "reject"), name="score")
     with pytest.raises(InputError, match=r"^utility: .*takes the value 0.5: give `target` in nats \(got 'score'\)"):
         calibrate(target_impact_ratio=0.8, groups=2, utility=score)

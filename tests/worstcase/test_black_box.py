@@ -68,16 +68,18 @@ def random_mechanisms(seed, count, allow_zeros=False):
 def test_hand_examples():
     m = fa.randomized_response(["a", "b"], keep=0.7)
     # lower = 0: worst model gives γ on released a only: 0.7 / 0.3 = 7/3 (the corollary).
-    c = fa.black_box_bound(m, lower=0.0, gamma=1.0)
+    c = fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=0.0, gamma=1.0))
     assert c.ratio == pytest.approx(7 / 3, rel=1e-12) and c.value == pytest.approx(math.log(7 / 3), rel=1e-12)
     # lower = 0.5: (0.5 + 0.5·0.7) / (0.5 + 0.5·0.3) = 0.85 / 0.65 = 17/13.
-    c = fa.black_box_bound(m, lower=0.5, gamma=1.0)
+    c = fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=0.5, gamma=1.0))
     assert c.ratio == pytest.approx(17 / 13, rel=1e-12)
     assert c.group == "a" and c.other_group == "b" and c.released == ("a",)
     # Only lower/γ matters: [1, 2] is the same class up to scale.
-    assert fa.black_box_bound(m, lower=1.0, gamma=2.0).ratio == pytest.approx(17 / 13, rel=1e-12)
+    assert fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=1.0, gamma=2.0)).ratio == pytest.approx(
+        17 / 13, rel=1e-12
+    )
     # lower = γ: g is constant, every ratio is 1.
-    assert fa.black_box_bound(m, lower=1.0, gamma=1.0).value == 0.0
+    assert fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=1.0, gamma=1.0)).value == 0.0
 
 
 @pytest.mark.parametrize("seed", [10, 11])
@@ -87,7 +89,7 @@ def test_black_box_equals_vertex_brute_force(seed):
         gamma = float(rng.choice([1.0, 3.0]))
         lower = float(rng.choice([0.0, 0.05, 0.3, 0.8])) * gamma
         mech = fa.from_matrix(matrix, list(range(n)), [f"o{j}" for j in range(k)])
-        cert = fa.black_box_bound(mech, lower=lower, gamma=gamma)
+        cert = fa.black_box_bound(mech, utility_class=fa.UtilityClass(lower=lower, gamma=gamma))
         brute = brute_vertices(matrix, lower, gamma)
         if math.isinf(brute):
             assert cert.value == math.inf
@@ -103,7 +105,7 @@ def test_released_values_name_the_worst_model_hand_example():
     # Rows A = (0.4, 0.6), B = (0.9, 0.1), class [0, 1]. Ratios: A/B on o1 = 0.6/0.1 = 6, B/A on o0 = 0.9/0.4 = 2.25.
     # The worst model gives γ on released o1 only; the certificate must say released = ('o1',).
     mech = fa.from_matrix([[0.4, 0.6], [0.9, 0.1]], ["A", "B"], ["o0", "o1"])
-    cert = fa.black_box_bound(mech, lower=0.0, gamma=1.0)
+    cert = fa.black_box_bound(mech, utility_class=fa.UtilityClass(lower=0.0, gamma=1.0))
     assert cert.ratio == pytest.approx(6.0, rel=1e-12) and (cert.group, cert.other_group) == ("A", "B")
     assert cert.released == ("o1",)
 
@@ -113,7 +115,7 @@ def test_released_values_attain_the_brute_force_maximum():
         n, k = matrix.shape
         lower = float(rng.choice([0.0, 0.05, 0.3]))
         mech = fa.from_matrix(matrix, list(range(n)), [f"o{j}" for j in range(k)])
-        cert = fa.black_box_bound(mech, lower=lower, gamma=1.0)
+        cert = fa.black_box_bound(mech, utility_class=fa.UtilityClass(lower=lower, gamma=1.0))
         h = np.array([1.0 if o in cert.released else lower for o in mech.outputs])
         a, b = mech.inputs.index(cert.group), mech.inputs.index(cert.other_group)
         assert (matrix[a] @ h) / (matrix[b] @ h) == pytest.approx(brute_vertices(matrix, lower, 1.0), rel=1e-12)
@@ -124,7 +126,10 @@ def test_black_box_equals_charnes_cooper_lp():
         n, _ = matrix.shape
         lower = float(rng.choice([0.05, 0.3]))
         best = max(lp_charnes_cooper(matrix[a], matrix[b], lower, 1.0) for a, b in itertools.permutations(range(n), 2))
-        cert = fa.black_box_bound(fa.from_matrix(matrix, list(range(n)), list(range(matrix.shape[1]))), lower=lower)
+        cert = fa.black_box_bound(
+            fa.from_matrix(matrix, list(range(n)), list(range(matrix.shape[1]))),
+            utility_class=fa.UtilityClass(lower=lower),
+        )
         # HiGHS solves to ~1e-9 relative feasibility/optimality.
         assert cert.ratio == pytest.approx(best, rel=1e-7)
 
@@ -133,7 +138,7 @@ def test_black_box_with_lower_zero_is_epsilon():
     for matrix, _ in random_mechanisms(31, 30, allow_zeros=True):
         n, k = matrix.shape
         mech = fa.from_matrix(matrix, list(range(n)), list(range(k)))
-        cert = fa.black_box_bound(mech, lower=0.0, gamma=1.0)
+        cert = fa.black_box_bound(mech, utility_class=fa.UtilityClass(lower=0.0, gamma=1.0))
         if math.isinf(mech.epsilon):
             assert cert.value == math.inf
         else:
@@ -146,9 +151,9 @@ def test_black_box_at_most_tight_and_paper_when_tau_at_most_lower():
         mech = fa.from_matrix(matrix, list(range(n)), list(range(k)))
         lower = float(rng.uniform(0.02, 1.0))
         tau = lower * float(rng.uniform(0.2, 1.0))
-        cert = fa.black_box_bound(mech, lower=lower, gamma=1.0)
-        tight = fa.tight_bound(mech, gamma=1.0, tau=tau)
-        paper = fa.paper_bound(mech, gamma=1.0, tau=tau)
+        cert = fa.black_box_bound(mech, utility_class=fa.UtilityClass(lower=lower, gamma=1.0))
+        tight = fa.tight_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=tau))
+        paper = fa.paper_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=tau))
         assert cert.value <= tight.value + 1e-12 <= paper.value + 2e-12
 
 
@@ -157,7 +162,7 @@ def test_worst_model_realised_by_a_kernel_and_audited():
     matrix = np.array([[0.2, 0.3, 0.5], [0.5, 0.3, 0.2], [0.3, 0.6, 0.1]])
     mech = fa.from_matrix(matrix, ["A", "B", "C"], ["a", "b", "c"])
     lower, gamma = 0.2, 1.0
-    cert = fa.black_box_bound(mech, lower=lower, gamma=gamma)
+    cert = fa.black_box_bound(mech, utility_class=fa.UtilityClass(lower=lower, gamma=gamma))
     # By hand: A over C, releasing {c} (ratio 0.5/0.1 = 5): (0.2 + 0.8·0.5)/(0.2 + 0.8·0.1) = 0.6/0.28 = 15/7,
     # the largest vertex ratio (brute force below).
     assert cert.ratio == pytest.approx(brute_vertices(matrix, lower, gamma), rel=1e-12)
@@ -179,7 +184,9 @@ def test_worst_model_audited_by_hand():
     kernel = fa.Kernel([[[0.0, 1.0], [0.0, 1.0], [1.0, 0.0]]], ["doc"], ["a", "b", "c"], ["hi", "lo"])
     loc = fa.local_fairness(compose(kernel, sensitive=mech), fa.from_table([1.0, 0.2], ["hi", "lo"]))
     assert loc.ratio == pytest.approx(15 / 7, rel=1e-12) and (loc.group, loc.other_group) == ("A", "C")
-    assert fa.black_box_bound(mech, lower=0.2, gamma=1.0).ratio == pytest.approx(loc.ratio, rel=1e-12)
+    assert fa.black_box_bound(mech, utility_class=fa.UtilityClass(lower=0.2, gamma=1.0)).ratio == pytest.approx(
+        loc.ratio, rel=1e-12
+    )
 
 
 @given(st.integers(2, 8), st.floats(0.0, 5.0), st.floats(0.0, 1.0))
@@ -189,16 +196,18 @@ def test_rr_closed_form(k, eps, rho):
     p = math.exp(eps) / (math.exp(eps) + k - 1)
     q = 1 / (math.exp(eps) + k - 1)
     expected = (rho + (1 - rho) * p) / (rho + (1 - rho) * q)
-    assert fa.black_box_bound(m, lower=rho, gamma=1.0).ratio == pytest.approx(expected, rel=1e-12)
+    assert fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=rho, gamma=1.0)).ratio == pytest.approx(
+        expected, rel=1e-12
+    )
 
 
 def test_errors():
     m = fa.randomized_response(["a", "b"], keep=0.7)
     with pytest.raises(fa.InputError, match="^lower:"):
-        fa.black_box_bound(m, lower=2.0, gamma=1.0)
+        fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=2.0, gamma=1.0))
     with pytest.raises(fa.InputError, match="^lower:"):
-        fa.black_box_bound(m, lower=-0.1, gamma=1.0)
+        fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=-0.1, gamma=1.0))
     with pytest.raises(fa.InputError, match="^gamma:"):
-        fa.black_box_bound(m, lower=0.0, gamma=float("inf"))
+        fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=0.0, gamma=float("inf")))
     with pytest.raises(fa.InputError, match="^mechanism:"):
         fa.black_box_bound(np.eye(2))

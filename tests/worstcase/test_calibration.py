@@ -17,6 +17,7 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import fairaudit as fa
+from fairaudit import UtilityClass
 from fairaudit.laws.mechanisms import MechanismFamily, keep_probability, randomized_response
 from fairaudit.worstcase.calibration import Calibration, calibrate
 
@@ -41,7 +42,11 @@ def bisect_black_box(family, target, lower, gamma=1.0, hi=60.0):
     lo = 0.0
     for _ in range(200):
         mid = (lo + hi) / 2
-        lo, hi = (mid, hi) if fa.black_box_bound(family(mid), lower=lower, gamma=gamma).value <= target else (lo, mid)
+        lo, hi = (
+            (mid, hi)
+            if fa.black_box_bound(family(mid), utility_class=fa.UtilityClass(lower=lower, gamma=gamma)).value <= target
+            else (lo, mid)
+        )
     return lo
 
 
@@ -51,7 +56,7 @@ def bisect_black_box(family, target, lower, gamma=1.0, hi=60.0):
 @given(st.integers(2, 16), st.floats(0.0, 0.9), st.floats(0.01, 3.0))
 def test_closed_form_equals_bisection_on_black_box(k, rho, target):
     # The RR closed form (fast path) against plain bisection on the exact threshold worst case.
-    c = fa.calibrate_randomized_response(target, k, lower=rho, gamma=1.0)
+    c = fa.calibrate_randomized_response(target, k, utility_class=fa.UtilityClass(lower=rho, gamma=1.0))
     if math.isinf(c.epsilon):
         assert rho > 0 and math.exp(target) * rho >= 1 - 1e-12
         return
@@ -63,8 +68,8 @@ def test_closed_form_equals_bisection_on_black_box(k, rho, target):
 @given(st.integers(2, 12), st.floats(0.0, 0.9), st.floats(0.01, 3.0))
 def test_root_finder_agrees_with_rr_closed_form(k, rho, target):
     # calibrate's own root finder (on a relabelled RR it cannot recognise) against the closed form, to 1e-9.
-    fast = calibrate(target, groups=k, lower=rho)
-    slow = calibrate(target, family=disguised_rr(k), lower=rho)
+    fast = calibrate(target, groups=k, utility_class=UtilityClass(lower=rho))
+    slow = calibrate(target, family=disguised_rr(k), utility_class=UtilityClass(lower=rho))
     assert "closed form" in fast.reason and "bracketing" in slow.reason or math.isinf(fast.epsilon)
     if math.isinf(fast.epsilon):
         assert math.isinf(slow.epsilon)
@@ -75,7 +80,7 @@ def test_root_finder_agrees_with_rr_closed_form(k, rho, target):
 
 def test_rr_hand_values():
     # proofs/black_box.md §3: k = 2, rho = 1/2, worst ratio (2t + 1)/(t + 2); target log(17/13) gives t = 7/3.
-    c = calibrate(math.log(17 / 13), groups=2, lower=0.5)
+    c = calibrate(math.log(17 / 13), groups=2, utility_class=UtilityClass(lower=0.5))
     assert c.epsilon == pytest.approx(math.log(7 / 3), rel=1e-12)
     assert c.keep_probability == pytest.approx(0.7, rel=1e-12)
     assert (c.method, c.feasible, c.kind, c.groups, c.family) == (
@@ -90,7 +95,7 @@ def test_rr_hand_values():
 
 def test_every_epsilon_meets_a_target_above_gamma_over_lower():
     # g in [0.2, 1]: no model can exceed a ratio of 5, so a target of log 5 is met even without privacy.
-    c = calibrate(math.log(5), groups=3, lower=0.2)
+    c = calibrate(math.log(5), groups=3, utility_class=UtilityClass(lower=0.2))
     assert math.isinf(c.epsilon) and c.keep_probability == 1.0 and c.feasible
     assert c.bound == pytest.approx(math.log(5), rel=1e-12)
     assert np.array_equal(c.mechanism.matrix, np.eye(3))  # the identity: no randomization needed
@@ -101,10 +106,10 @@ def test_product_family_64_groups():
     # Six binary attributes, ε split equally: black_box_bound at the returned ε is the target, above it just after.
     fam = fa.product_family(*[["0", "1"]] * 6)
     for lower, target in ((0.0, 0.5), (0.1, 0.5), (0.3, 1.0)):
-        c = calibrate(target, family=fam, lower=lower)
+        c = calibrate(target, family=fam, utility_class=UtilityClass(lower=lower))
         assert c.groups == 64 and c.feasible and "bracketing" in c.reason
-        at = fa.black_box_bound(fam(c.epsilon), lower=lower).value
-        after = fa.black_box_bound(fam(c.epsilon * (1 + 1e-6)), lower=lower).value
+        at = fa.black_box_bound(fam(c.epsilon), utility_class=fa.UtilityClass(lower=lower)).value
+        after = fa.black_box_bound(fam(c.epsilon * (1 + 1e-6)), utility_class=fa.UtilityClass(lower=lower)).value
         assert at == pytest.approx(target, rel=1e-9) and at <= target
         assert after > target
         assert c.keep_probability == pytest.approx(keep_probability(c.epsilon / 6, 2) ** 6, rel=1e-12)
@@ -114,21 +119,26 @@ def test_product_family_64_groups():
 
 def test_black_box_with_tau_and_lipschitz_is_non_decreasing_and_meets_the_target():
     # The general class (τ binds, g Lipschitz in the group): solved by the LP; the answer still brackets the target.
-    c = calibrate(0.6, groups=3, tau=0.3, lipschitz=0.05)
+    c = calibrate(0.6, groups=3, utility_class=UtilityClass(tau=0.3, lipschitz=0.05))
     fam = fa.randomized_response_family([0, 1, 2])
-    at = fa.black_box_bound(fam(c.epsilon), tau=0.3, lipschitz=0.05).value
-    after = fa.black_box_bound(fam(c.epsilon * (1 + 1e-6)), tau=0.3, lipschitz=0.05).value
+    at = fa.black_box_bound(fam(c.epsilon), utility_class=fa.UtilityClass(tau=0.3, lipschitz=0.05)).value
+    after = fa.black_box_bound(
+        fam(c.epsilon * (1 + 1e-6)), utility_class=fa.UtilityClass(tau=0.3, lipschitz=0.05)
+    ).value
     assert at == pytest.approx(0.6, rel=1e-8) and after > 0.6
-    values = [fa.black_box_bound(fam(e), tau=0.3, lipschitz=0.05).value for e in np.linspace(0, 3, 13)]
+    values = [
+        fa.black_box_bound(fam(e), utility_class=fa.UtilityClass(tau=0.3, lipschitz=0.05)).value
+        for e in np.linspace(0, 3, 13)
+    ]
     assert all(b >= a - 1e-9 for a, b in zip(values, values[1:]))
 
 
 def test_black_box_floor_with_lipschitz():
     # L_A > 0: even at ε = 0 a group-dependent g can differ between groups; a target below that is infeasible.
     fam = fa.randomized_response_family([0, 1])
-    floor = fa.black_box_bound(fam(0.0), tau=0.5, lipschitz=0.2).value
+    floor = fa.black_box_bound(fam(0.0), utility_class=fa.UtilityClass(tau=0.5, lipschitz=0.2)).value
     assert floor > 0
-    c = calibrate(floor / 2, groups=2, tau=0.5, lipschitz=0.2, method="black_box")
+    c = calibrate(floor / 2, groups=2, utility_class=UtilityClass(tau=0.5, lipschitz=0.2), method="black_box")
     assert not c.feasible and math.isnan(c.epsilon) and c.bound == pytest.approx(floor)
     assert f"{floor:.6g}" in c.reason
 
@@ -139,8 +149,8 @@ def test_black_box_floor_with_lipschitz():
 def test_closed_forms_hand_values():
     # target log 3, L_A = 0.2, δ = 0.1, γ = 1, τ = 0.5: c/τ = (0.2 + 0.1)/0.5 = 3/5.
     # paper: ε = log 3 − log(8/5) = log(15/8); tight: ε = log(3 − 3/5) = log(12/5).
-    p = calibrate(math.log(3), method="paper", tau=0.5, lipschitz=0.2, delta=0.1)
-    t = calibrate(math.log(3), method="tight", tau=0.5, lipschitz=0.2, delta=0.1)
+    p = calibrate(math.log(3), method="paper", utility_class=UtilityClass(tau=0.5, lipschitz=0.2), delta=0.1)
+    t = calibrate(math.log(3), method="tight", utility_class=UtilityClass(tau=0.5, lipschitz=0.2), delta=0.1)
     assert p.epsilon == pytest.approx(math.log(Fraction(15, 8)), rel=1e-13)
     assert t.epsilon == pytest.approx(math.log(Fraction(12, 5)), rel=1e-13)
     # The bounds' definitions at the returned ε give the target back.
@@ -162,7 +172,13 @@ def test_closed_forms_reach_the_target_or_report_the_floor(target, tau, lip, del
     tau = min(tau, gamma)
     floor = math.log1p((lip + delta * gamma) / tau)
     for method, form in (("paper", fa.main_theorem), ("tight", fa.main_theorem_tight)):
-        c = calibrate(target, method=method, groups=k, gamma=gamma, tau=tau, lipschitz=lip, delta=delta)
+        c = calibrate(
+            target,
+            method=method,
+            groups=k,
+            utility_class=UtilityClass(gamma=gamma, tau=tau, lipschitz=lip),
+            delta=delta,
+        )
         if target < floor * (1 - 1e-14):  # within a few ulps of the floor either answer is right (calibrate's rule)
             assert not c.feasible and math.isnan(c.epsilon) and math.isnan(c.keep_probability)
             assert c.mechanism is None and c.bound == pytest.approx(floor) and f"{floor:.6g}" in c.reason
@@ -171,7 +187,9 @@ def test_closed_forms_reach_the_target_or_report_the_floor(target, tau, lip, del
         # the theorem's bound at (ε, δ) is the target (ε = 0 only at the floor itself)
         assert form(c.epsilon, delta, gamma=gamma, tau=tau, lipschitz=lip) == pytest.approx(target, rel=1e-9, abs=1e-12)
         # the family's member is pure ε-DP, so the profile-minimised bound on it is at most the target
-        b = (fa.paper_bound if method == "paper" else fa.tight_bound)(c.mechanism, gamma=gamma, tau=tau, lipschitz=lip)
+        b = (fa.paper_bound if method == "paper" else fa.tight_bound)(
+            c.mechanism, utility_class=fa.UtilityClass(gamma=gamma, tau=tau, lipschitz=lip)
+        )
         assert b.value <= target + 1e-9
         assert c.mechanism.epsilon == pytest.approx(c.epsilon, rel=1e-9, abs=1e-12)
 
@@ -179,17 +197,21 @@ def test_closed_forms_reach_the_target_or_report_the_floor(target, tau, lip, del
 def test_floor_is_infeasible_with_the_value_in_the_reason():
     # L_A = 0.2, τ = 0.5: floor log(1.4) = 0.336472; a target of 0.1 cannot be met by any ε.
     for method in ("paper", "tight"):
-        c = calibrate(0.1, method=method, tau=0.5, lipschitz=0.2)
+        c = calibrate(0.1, method=method, utility_class=UtilityClass(tau=0.5, lipschitz=0.2))
         assert not c.feasible and math.isnan(c.epsilon)
         assert "0.336472" in c.reason and "floor" in c.reason
         assert c.bound == pytest.approx(math.log(1.4), rel=1e-12)
     # exactly at the floor: ε = 0
-    assert calibrate(math.log(1.4), method="tight", tau=0.5, lipschitz=0.2).epsilon == pytest.approx(0.0, abs=1e-12)
+    assert calibrate(
+        math.log(1.4), method="tight", utility_class=UtilityClass(tau=0.5, lipschitz=0.2)
+    ).epsilon == pytest.approx(0.0, abs=1e-12)
 
 
 def test_metric_sets_the_diameter_of_the_closed_forms():
     # d(a, a') = 2: c = L_A·diam = 0.2 · 2; tight ε = log(e − 0.4/0.5).
-    c = calibrate(1.0, method="tight", groups=2, tau=0.5, lipschitz=0.2, metric=[[0, 2], [2, 0]])
+    c = calibrate(
+        1.0, method="tight", groups=2, utility_class=UtilityClass(tau=0.5, lipschitz=0.2, metric=[[0, 2], [2, 0]])
+    )
     assert c.diameter == 2.0 and c.epsilon == pytest.approx(math.log(math.e - 0.8), rel=1e-13)
 
 
@@ -198,8 +220,11 @@ def test_metric_sets_the_diameter_of_the_closed_forms():
 def test_black_box_at_least_tight_at_least_paper(target, tau, lower, k):
     # δ = 0, L_A = 0: black_box(ε) ≤ ε(M_ε) = ε = tight form at δ = 0, so the black-box ε is never smaller;
     # tight ≥ paper whenever feasible (e^T − c/τ ≥ e^T/(1 + c/τ) ⟺ e^T ≥ 1 + c/τ). Holds for any τ here.
-    eps = {m: calibrate(target, method=m, groups=k, tau=tau, lower=lower).epsilon for m in ("paper", "tight")}
-    bb = calibrate(target, groups=k, lower=lower, tau=tau).epsilon
+    eps = {
+        m: calibrate(target, method=m, groups=k, utility_class=UtilityClass(tau=tau, lower=lower)).epsilon
+        for m in ("paper", "tight")
+    }
+    bb = calibrate(target, groups=k, utility_class=UtilityClass(lower=lower, tau=tau)).epsilon
     # (absolute slack 1e-10: near ε = 0 the RR matrix entries 1/k ± O(ε) carry rounding of order 1e-16 / ε)
     assert bb >= eps["tight"] * (1 - 1e-9) - 1e-10
     assert eps["tight"] >= eps["paper"] * (1 - 1e-12) - 1e-15
@@ -210,11 +235,13 @@ def test_black_box_at_least_tight_at_least_paper(target, tau, lower, k):
 def test_black_box_at_least_tight_with_lipschitz(target, tau, lip):
     # L_A > 0: black-box with the same τ and L_A is a maximum over a subclass of the theorem's class, so its
     # bound is at most the tight form at every ε, hence its ε is at least tight's.
-    tight = calibrate(target, method="tight", groups=3, tau=tau, lipschitz=lip)
+    tight = calibrate(target, method="tight", groups=3, utility_class=UtilityClass(tau=tau, lipschitz=lip))
     assume(tight.feasible)
-    bb = calibrate(target, method="black_box", groups=3, tau=tau, lipschitz=lip)
+    bb = calibrate(target, method="black_box", groups=3, utility_class=UtilityClass(tau=tau, lipschitz=lip))
     assert bb.epsilon >= tight.epsilon * (1 - 1e-9)
-    assert calibrate(target, method="paper", groups=3, tau=tau, lipschitz=lip).epsilon <= tight.epsilon * (1 + 1e-12)
+    assert calibrate(
+        target, method="paper", groups=3, utility_class=UtilityClass(tau=tau, lipschitz=lip)
+    ).epsilon <= tight.epsilon * (1 + 1e-12)
 
 
 # -- monotonicity along a family: post-processing ---------------------------------------------------------
@@ -238,7 +265,7 @@ def test_smaller_epsilon_is_a_post_processing_of_a_larger_one(k, eps, frac):
 
 def test_black_box_non_decreasing_along_product_family():
     fam = fa.product_family(["x", "y"], ["p", "q", "r"], weights=[2, 1])
-    values = [fa.black_box_bound(fam(e), lower=0.1).value for e in np.linspace(0, 8, 81)]
+    values = [fa.black_box_bound(fam(e), utility_class=fa.UtilityClass(lower=0.1)).value for e in np.linspace(0, 8, 81)]
     assert all(b >= a - 1e-12 for a, b in zip(values, values[1:]))
 
 
@@ -300,8 +327,8 @@ def test_white_box_at_least_black_box(seed, k, target):
     kernel = fa.Kernel(rng.dirichlet(np.ones(3), size=(2, k)), ["x0", "x1"], labels, decisions)
     g = fa.from_table(rng.choice([0.0, 0.5, 1.0, 2.0], size=3), decisions)
     assume(g.gamma > 0)
-    white = calibrate(target, kernel=kernel, utility=g, gamma=g.gamma, lower=g.lower)
-    black = calibrate(target, groups=labels, gamma=g.gamma, lower=g.lower)
+    white = calibrate(target, kernel=kernel, utility=g, utility_class=UtilityClass(gamma=g.gamma, lower=g.lower))
+    black = calibrate(target, groups=labels, utility_class=UtilityClass(gamma=g.gamma, lower=g.lower))
     assert white.feasible
     assert white.epsilon >= black.epsilon * (1 - 1e-9)
 
@@ -418,7 +445,7 @@ def test_black_box_with_tau_assumes_it_behind_the_calibrated_mechanism():
     # its white-box ε (which is exactly the target: L(ε) = ε), because beyond 2.96 the model leaves the class.
     spec = fa.load_spec(Path(__file__).resolve().parents[2] / "examples" / "hr_office" / "hr_office.toml")
     fam, kernel = spec.sensitive_family, spec.kernel()
-    b = calibrate(3.0, family=fam, tau=spec.tau)
+    b = calibrate(3.0, family=fam, utility_class=UtilityClass(tau=spec.tau))
     w = calibrate(3.0, family=fam, kernel=kernel, utility=spec.utility)
     assert w.epsilon == pytest.approx(3.0, rel=1e-9) and b.epsilon > w.epsilon
     assert "tau is vouched for" in b.reason
@@ -435,7 +462,11 @@ def test_black_box_with_tau_assumes_it_behind_the_calibrated_mechanism():
 def test_global_needs_independence_for_certificates():
     dep = fa.Population([[0.4, 0.1], [0.1, 0.4]], ["x0", "x1"], [0, 1])
     ind = fa.Population.uniform(["x0", "x1"], [0, 1])
-    for method, extra in (("black_box", {}), ("tight", {"tau": 0.2}), ("paper", {"tau": 0.2})):
+    for method, extra in (
+        ("black_box", {}),
+        ("tight", {"utility_class": UtilityClass(tau=0.2)}),
+        ("paper", {"utility_class": UtilityClass(tau=0.2)}),
+    ):
         c = calibrate(0.5, kind="global", method=method, groups=2, population=dep, **extra)
         assert not c.feasible and "not independent" in c.reason
         if method == "black_box":
@@ -455,15 +486,15 @@ def test_default_method():
     k = identity_model(["a", "b"])
     assert calibrate(0.5).method == "black_box"
     assert calibrate(0.5, kernel=k, utility=fa.indicator("a", ["a", "b"])).method == "white_box"
-    assert calibrate(0.5, tau=0.5, delta=0.01).method == "tight"
+    assert calibrate(0.5, utility_class=UtilityClass(tau=0.5), delta=0.01).method == "tight"
     assert calibrate(0.5, groups=["x", "y", "z"]).groups == 3
 
 
 def test_wrapper_is_calibrate_and_raises_when_infeasible():
-    c = fa.calibrate_randomized_response(0.7, 3, method="tight", tau=0.05)
+    c = fa.calibrate_randomized_response(0.7, 3, method="tight", utility_class=fa.UtilityClass(tau=0.05))
     assert isinstance(c, Calibration) and c.epsilon == pytest.approx(0.7, rel=1e-12)
     with pytest.raises(fa.InputError, match=r"^target: .*below the floor.*0\.336472"):
-        fa.calibrate_randomized_response(0.1, 2, method="tight", tau=0.5, lipschitz=0.2)
+        fa.calibrate_randomized_response(0.1, 2, method="tight", utility_class=fa.UtilityClass(tau=0.5, lipschitz=0.2))
 
 
 @pytest.mark.parametrize(
@@ -492,6 +523,7 @@ def test_wrapper_is_calibrate_and_raises_when_infeasible():
 )
 def test_bad_arguments_name_the_parameter(kwargs, flag):
     kwargs = {"target": 0.5, **kwargs}
-    with pytest.raises(fa.InputError) as err:
-        calibrate(kwargs.pop("target"), **kwargs)
+    bundle = {k: kwargs.pop(k) for k in ("gamma", "lower", "tau", "lipschitz") if k in kwargs}
+    with pytest.raises(fa.InputError) as err:  # (the class refuses a negative number, calibrate the rest)
+        calibrate(kwargs.pop("target"), utility_class=fa.UtilityClass(**bundle), **kwargs)
     assert err.value.field == flag

@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 import fairaudit as fa
+from fairaudit import UtilityClass
 from fairaudit.metrics.fairness import global_fairness, local_fairness, sup_global_fairness, sup_local_fairness
 from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.known_law import worst_utility
@@ -63,13 +64,15 @@ def test_tau_hand_example_in_fractions():
     ratio = (Fraction(7, 10) + Fraction(3, 10) * h2) / Fraction(1, 2)
     assert ratio == Fraction(11, 7)
     m = fa.randomized_response(["a", "b"], keep=0.7)
-    c = black_box_bound(m, tau=0.5)
+    c = black_box_bound(m, utility_class=UtilityClass(tau=0.5))
     assert c.ratio == pytest.approx(float(ratio), rel=1e-14)
     assert c.utility_by_release == pytest.approx([1.0, 2 / 7], rel=1e-14)
     # smaller than the box certificate (7/3) and than the tight bound min_t t + delta(t)/tau = 1 + 0.4/0.5 = 1.8
     assert c.ratio < 1.8 < 7 / 3
-    assert fa.tight_bound(m, tau=0.5, gamma=1.0).value == pytest.approx(math.log(1.8), rel=1e-12)
-    lp = black_box_bound(m, tau=0.5, method="lp")
+    assert fa.tight_bound(m, utility_class=fa.UtilityClass(tau=0.5, gamma=1.0)).value == pytest.approx(
+        math.log(1.8), rel=1e-12
+    )
+    lp = black_box_bound(m, utility_class=UtilityClass(tau=0.5), method="lp")
     assert lp.method == "lp" and lp.ratio == pytest.approx(11 / 7, rel=1e-8)
 
 
@@ -79,8 +82,8 @@ def test_tau_class_equals_dinkelbach_and_forced_lp(seed, lower, tau_share):
     mech = random_mechanism(rng)
     tau = lower + tau_share * (1.0 - lower)
     want = class_value(mech.matrix, lower, 1.0, tau)
-    auto = black_box_bound(mech, lower=lower, tau=tau)
-    lp = black_box_bound(mech, lower=lower, tau=tau, method="lp")
+    auto = black_box_bound(mech, utility_class=UtilityClass(lower=lower, tau=tau))
+    lp = black_box_bound(mech, utility_class=UtilityClass(lower=lower, tau=tau), method="lp")
     assert auto.ratio == pytest.approx(want, rel=1e-7)
     assert lp.ratio == pytest.approx(want, rel=1e-7)
     # the point found is feasible and attains the value
@@ -111,9 +114,9 @@ def test_ordering_observed_black_box_tight_paper(seed, tau_share, lip):
         return
     lip_used = util.lipschitz() if lip > 0 else 0.0
     observed = local_fairness(law, util).value
-    bb = black_box_bound(mech, lower=0.0, gamma=1.0, tau=tau, lipschitz=lip_used)
-    tight = fa.tight_bound(mech, tau=tau, gamma=1.0, lipschitz=lip_used)
-    paper = fa.paper_bound(mech, tau=tau, gamma=1.0, lipschitz=lip_used, diameter=1.0)
+    bb = black_box_bound(mech, utility_class=UtilityClass(lower=0.0, gamma=1.0, tau=tau, lipschitz=lip_used))
+    tight = fa.tight_bound(mech, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=lip_used))
+    paper = fa.paper_bound(mech, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=lip_used, diameter=1.0))
     assert observed <= bb.value + 1e-7
     assert bb.value <= tight.value + 1e-7
     assert tight.value <= paper.value + 1e-12
@@ -144,42 +147,44 @@ def test_lipschitz_class_equals_dinkelbach():
             p, q = np.zeros(n * m), np.zeros(n * m)
             p[a * m : (a + 1) * m], q[b * m : (b + 1) * m] = M[a], M[b]
             best = max(best, dinkelbach(p, q, [(0, 1)] * (n * m), np.array(rows), np.array(rhs)))
-        got = black_box_bound(mech, tau=tau, lipschitz=lip)
+        got = black_box_bound(mech, utility_class=UtilityClass(tau=tau, lipschitz=lip))
         assert got.method == "lp" and got.utility_by_release.shape == (n, m)
         assert got.ratio == pytest.approx(best, rel=1e-7)
 
 
 def test_lipschitz_without_tau_is_unbounded_with_a_reason():
     m = fa.randomized_response(["a", "b"], keep=0.7)
-    c = black_box_bound(m, lipschitz=0.1)  # g(u, b) = 0 and g(u, a) = 0.1: ratio 0.1 * ... / 0 = inf
+    c = black_box_bound(
+        m, utility_class=UtilityClass(lipschitz=0.1)
+    )  # g(u, b) = 0 and g(u, a) = 0.1: ratio 0.1 * ... / 0 = inf
     assert c.value == math.inf and c.status == "unbounded" and c.reason
 
 
 def test_tau_above_gamma_is_an_error():
     m = fa.randomized_response(["a", "b"], keep=0.7)
     with pytest.raises(fa.InputError, match="^tau:.*exceeds gamma"):
-        black_box_bound(m, tau=1.5)
+        black_box_bound(m, utility_class=UtilityClass(tau=1.5))
     with pytest.raises(fa.InputError, match="^method:"):
-        black_box_bound(m, tau=0.5, method="threshold")
+        black_box_bound(m, utility_class=UtilityClass(tau=0.5), method="threshold")
 
 
 def test_64_groups_with_tau_needs_few_programs():
     # Six binary attributes behind randomized response (a product): the relaxation decides all but a few pairs.
     fam = fa.product_family(*[[0, 1]] * 6)
     mech = fam(3.0)
-    c = black_box_bound(mech, tau=0.3)
+    c = black_box_bound(mech, utility_class=UtilityClass(tau=0.3))
     assert c.programs_solved <= 5
     # cross-check against the LP on the maximising pair (Dinkelbach + HiGHS)
     a, b = mech.inputs.index(c.group), mech.inputs.index(c.other_group)
     M = mech.matrix
     want = dinkelbach(M[a], M[b], [(0, 1)] * 64, -M, -0.3 * np.ones(64))
     assert c.ratio == pytest.approx(want, rel=1e-7)
-    assert c.value <= fa.tight_bound(mech, tau=0.3, gamma=1.0).value + 1e-9
+    assert c.value <= fa.tight_bound(mech, utility_class=fa.UtilityClass(tau=0.3, gamma=1.0)).value + 1e-9
 
 
 def test_worst_model_of_class_certificate_attains_it():
     m = fa.randomized_response(list("abc"), epsilon=1.0)
-    c = black_box_bound(m, lower=0.1, tau=0.4)
+    c = black_box_bound(m, utility_class=UtilityClass(lower=0.1, tau=0.4))
     kernel, util = c.worst_model()
     law = fa.compose(kernel, m)
     assert local_fairness(law, util).ratio == pytest.approx(c.ratio, rel=1e-9)
@@ -291,7 +296,7 @@ def test_worst_utility_with_tau_equals_dinkelbach(seed, tau, lower):
     for x in range(n_x):
         for a, b in itertools.permutations(range(n_a), 2):
             best = max(best, dinkelbach(q[x, a], q[x, b], [(lower, 1.0)] * n_u, -rows, -tau * np.ones(len(rows))))
-    w = worst_utility(law, lower=lower, tau=tau)
+    w = worst_utility(law, utility_class=UtilityClass(lower=lower, tau=tau))
     assert w.local_fairness.ratio == pytest.approx(best, rel=1e-7)
     g = w.local_fairness.utility
     assert fa.expected_utility(law, g).min() >= tau - 1e-9
@@ -300,7 +305,7 @@ def test_worst_utility_with_tau_equals_dinkelbach(seed, tau, lower):
 
 def test_worst_utility_hand_example():
     law = fa.Law([[[0.5, 0.3, 0.2], [0.2, 0.3, 0.5]]], ["x"], ["a", "b"], ["hire", "wait", "reject"])
-    w = worst_utility(law, lower=0.5)
+    w = worst_utility(law, utility_class=UtilityClass(lower=0.5))
     # threshold keeps "hire" only: (0.5 + 0.5*0.5) / (0.5 + 0.5*0.2) = 0.75 / 0.6 = 5/4
     assert w.local_fairness.ratio == pytest.approx(float(Fraction(3, 4) / Fraction(3, 5)), rel=1e-14)
     assert w.local_fairness.utility.values.tolist() == [1.0, 0.5, 0.5]
@@ -318,6 +323,6 @@ def test_worst_model_with_a_group_that_never_gains_is_infinite():
 
 def test_class_certificate_is_scale_free():
     m = fa.randomized_response(["a", "b"], keep=0.7)
-    big = black_box_bound(m, gamma=1e13, tau=5e12, method="lp")
+    big = black_box_bound(m, utility_class=UtilityClass(gamma=1e13, tau=5e12), method="lp")
     assert big.ratio == pytest.approx(11 / 7, rel=1e-8) and big.tau == 5e12 and big.gamma == 1e13
     assert big.utility_by_release == pytest.approx([1e13, 1e13 * 2 / 7], rel=1e-7)

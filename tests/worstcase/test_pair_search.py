@@ -24,6 +24,7 @@ import fairaudit.base.pairs as pairs_module
 import fairaudit.metrics.bounds as bounds_module
 import fairaudit.worstcase.black_box as black_box_module
 import fairaudit.worstcase.pair_search as search_module
+from fairaudit import UtilityClass
 from fairaudit.base.linear_fractional import floor_max_many, threshold_max_many
 from fairaudit.metrics.bounds import _profile_candidates
 from fairaudit.worstcase.black_box import black_box_bound
@@ -173,7 +174,13 @@ def test_relaxation_bounds_are_valid_and_exact_where_kept(name, M, lo, floor, mo
 @pytest.mark.parametrize("name, M", MECHANISMS, ids=[x[0] for x in MECHANISMS])
 @pytest.mark.parametrize(
     "kw",
-    [{}, {"lower": 0.1}, {"lower": 0.5, "gamma": 2.0}, {"tau": 0.3}, {"lower": 0.05, "tau": 0.6}],
+    [
+        {},
+        {"utility_class": UtilityClass(lower=0.1)},
+        {"utility_class": UtilityClass(lower=0.5, gamma=2.0)},
+        {"utility_class": UtilityClass(tau=0.3)},
+        {"utility_class": UtilityClass(lower=0.05, tau=0.6)},
+    ],
     ids=["lower0", "lower", "lower-gamma", "tau", "lower-tau"],
 )
 def test_black_box_equals_the_all_pairs_route(name, M, kw, all_pairs, monkeypatch):
@@ -185,8 +192,9 @@ def test_black_box_equals_the_all_pairs_route(name, M, kw, all_pairs, monkeypatc
     _bad_candidates(monkeypatch)
     _same_certificate(black_box_bound(mech, **kw), want)
     # and against the whole table (threshold route)
-    if "tau" not in kw:
-        lo = kw.get("lower", 0.0) / kw.get("gamma", 1.0)
+    c = kw.get("utility_class", UtilityClass())
+    if c.tau is None:
+        lo = (c.lower or 0.0) / (c.gamma or 1.0)
         box, _ = _full_tables(M, lo, 1.0)
         assert want.ratio == box.max()
         assert (want.group, want.other_group) == np.unravel_index(int(np.argmax(box)), box.shape)
@@ -197,7 +205,11 @@ def test_black_box_forced_lp_and_population_equal_the_all_pairs_route(all_pairs)
     for n, m in [(4, 3), (6, 5)]:
         mech = _mech(rng.dirichlet(np.ones(m), size=n))
         pop = fa.Population(rng.dirichlet(np.ones(2 * n)).reshape(2, n), ["x0", "x1"], list(range(n)))
-        for kw in ({"lower": 0.1, "method": "lp"}, {"tau": 0.4, "method": "lp"}, {"tau": 0.4, "population": pop}):
+        for kw in (
+            {"utility_class": UtilityClass(lower=0.1), "method": "lp"},
+            {"utility_class": UtilityClass(tau=0.4), "method": "lp"},
+            {"utility_class": UtilityClass(tau=0.4), "population": pop},
+        ):
             with all_pairs:
                 want = black_box_bound(mech, **kw)
             got = black_box_bound(mech, **kw)
@@ -214,7 +226,10 @@ def test_black_box_lipschitz_with_a_metric_is_unchanged(all_pairs):
     rng = np.random.default_rng(8)
     mech = _mech(rng.dirichlet(np.ones(3), size=3))
     d = np.array([[0.0, 1.0, 2.0], [1.0, 0.0, 1.0], [2.0, 1.0, 0.0]])
-    for kw in ({"tau": 0.4, "lipschitz": 0.1, "metric": d}, {"lower": 0.2, "lipschitz": 0.05, "metric": d}):
+    for kw in (
+        {"utility_class": UtilityClass(tau=0.4, lipschitz=0.1, metric=d)},
+        {"utility_class": UtilityClass(lower=0.2, lipschitz=0.05, metric=d)},
+    ):
         with all_pairs:
             want = black_box_bound(mech, **kw)
         got = black_box_bound(mech, **kw)
@@ -226,15 +241,20 @@ def test_randomized_response_as_a_matrix_equals_its_closed_form(monkeypatch, all
     for k, eps in [(2, 0.7), (5, 1.3), (13, 2.0)]:
         rr = fa.randomized_response(range(k), epsilon=eps)
         general = _mech(rr.matrix)
-        for kw in ({}, {"lower": 0.2}, {"tau": 0.5}, {"lower": 0.1, "tau": 0.3}):
+        for kw in (
+            {},
+            {"utility_class": UtilityClass(lower=0.2)},
+            {"utility_class": UtilityClass(tau=0.5)},
+            {"utility_class": UtilityClass(lower=0.1, tau=0.3)},
+        ):
             closed, route = black_box_bound(rr, **kw), black_box_bound(general, **kw)
             assert route.value == pytest.approx(closed.value, rel=1e-12, abs=1e-14)
             with all_pairs:  # every pair ties: rounding picks the pair, the same one as before
                 _same_certificate(route, black_box_bound(general, **kw))
     _tiny_blocks(monkeypatch)
     rr = fa.randomized_response(range(7), epsilon=1.0)
-    assert black_box_bound(_mech(rr.matrix), lower=0.3).value == pytest.approx(
-        black_box_bound(rr, lower=0.3).value, rel=1e-12
+    assert black_box_bound(_mech(rr.matrix), utility_class=UtilityClass(lower=0.3)).value == pytest.approx(
+        black_box_bound(rr, utility_class=UtilityClass(lower=0.3)).value, rel=1e-12
     )
 
 
@@ -280,7 +300,7 @@ def test_tight_and_paper_equal_the_all_pairs_computations(name, M, monkeypatch):
             _tiny_blocks(monkeypatch)
             _bad_candidates(monkeypatch)
         for tau, lip, metric in ((0.1, 0.0, None), (0.3, 0.0, None), (0.2, 0.1, d)):
-            got = fa.tight_bound(mech, gamma=1.0, tau=tau, lipschitz=lip, metric=metric)
+            got = fa.tight_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=tau, lipschitz=lip, metric=metric))
             value, _ = _tight_brute(M, np.ones((n, n)) if metric is None else d, 1.0, tau, lip)
             assert got.value == pytest.approx(value, rel=1e-12, abs=1e-15)
             a, b = np.nonzero(~np.eye(n, dtype=bool))  # every pair's objective, as before the pruning
@@ -288,7 +308,7 @@ def test_tight_and_paper_equal_the_all_pairs_computations(name, M, monkeypatch):
             obj = bounds_module._tight_objective(M[a], M[b], dist, 1.0, tau, lip)[0]
             i = int(np.argmax(obj))
             assert (got.group, got.other_group, got.value) == (a[i], b[i], float(np.log(obj[i])))
-            paper = fa.paper_bound(mech, gamma=1.0, tau=tau, lipschitz=lip)
+            paper = fa.paper_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=tau, lipschitz=lip))
             t, deltas = _profile_candidates(mech)  # the envelope of every pair's lines
             c = lip * (1.0 if metric is None else d.max())
             values = np.log(t) + np.log1p((c + deltas) / tau)
@@ -302,16 +322,20 @@ def test_tight_and_paper_on_a_larger_mechanism(monkeypatch):
     M = rng.dirichlet(np.ones(30) * 0.7, size=60)
     mech = _mech(M)
     value, pair = _tight_brute(M, np.ones((60, 60)), 1.0, 0.1, 0.0)
-    got = fa.tight_bound(mech, gamma=1.0, tau=0.1)
+    got = fa.tight_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=0.1))
     assert got.value == pytest.approx(value, rel=1e-12) and (got.group, got.other_group) == pair
     t, deltas = _profile_candidates(mech)
-    assert fa.paper_bound(mech, gamma=1.0, tau=0.1).value == pytest.approx(
+    assert fa.paper_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=0.1)).value == pytest.approx(
         float(np.min(np.log(t) + np.log1p(deltas / 0.1))), rel=1e-12
     )
 
 
 # ------------------------------------------------------------------------------------------------ memory
-@pytest.mark.parametrize("kw", [{}, {"lower": 0.1}, {"tau": 0.1}], ids=["lower0", "lower", "tau"])
+@pytest.mark.parametrize(
+    "kw",
+    [{}, {"utility_class": UtilityClass(lower=0.1)}, {"utility_class": UtilityClass(tau=0.1)}],
+    ids=["lower0", "lower", "tau"],
+)
 def test_black_box_memory_is_linear_in_the_matrix(kw):
     M = np.random.default_rng(0).dirichlet(np.ones(400), size=400)
     mech = _mech(M)
@@ -355,7 +379,7 @@ def test_worst_utility_threshold_route_equals_the_whole_table(monkeypatch):
         if trial % 2:
             _tiny_blocks(monkeypatch)
         for lower in (0.0, 0.2):
-            w = worst_utility(law, lower=lower)
+            w = worst_utility(law, utility_class=UtilityClass(lower=lower))
             vals = threshold_max_many(Q[:, :, None, :], Q[:, None, :, :], lower, 1.0)[0]
             vals[:, np.arange(nA), np.arange(nA)] = -np.inf
             x, a, b = np.unravel_index(int(np.argmax(vals)), vals.shape)

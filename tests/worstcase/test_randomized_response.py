@@ -23,6 +23,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
+from fairaudit import UtilityClass
 from fairaudit.base import arrays as _arrays
 from fairaudit.cli import main
 from fairaudit.laws.mechanisms import RandomizedResponse
@@ -134,30 +135,38 @@ def test_hand_case_in_fractions_k3_e_eps_4():
     assert m.epsilon_for_delta(float(p - 3 * q)) == pytest.approx(math.log(3), rel=1e-14)  # δ = 1/6 at t = 3
     # paper and tight, γ = 1, τ = 1/2: min(log(1 + (p − q)/τ), ε) = min(log 2, log 4)
     tau = F(1, 2)
-    assert fa.paper_bound(m, gamma=1.0, tau=0.5).value == pytest.approx(math.log(1 + (p - q) / tau), rel=1e-15)
-    assert fa.tight_bound(m, gamma=1.0, tau=0.5).value == pytest.approx(math.log(1 + (p - q) / tau), rel=1e-15)
+    assert fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5)).value == pytest.approx(
+        math.log(1 + (p - q) / tau), rel=1e-15
+    )
+    assert fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5)).value == pytest.approx(
+        math.log(1 + (p - q) / tau), rel=1e-15
+    )
     # L_A = 1/2 (discrete): paper min(log(1 + (1/2 + 1/2)/(1/2)), log 4 + log(1 + 1)) = log 3;
     # tight min(1 + (1/2 + 1/2)/(1/2), 4 + (1/2)/(1/2)) = 3
-    assert fa.paper_bound(m, gamma=1.0, tau=0.5, lipschitz=0.5).value == pytest.approx(math.log(3), rel=1e-15)
-    assert fa.tight_bound(m, gamma=1.0, tau=0.5, lipschitz=0.5).value == pytest.approx(math.log(3), rel=1e-15)
+    assert fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5, lipschitz=0.5)).value == pytest.approx(
+        math.log(3), rel=1e-15
+    )
+    assert fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.5, lipschitz=0.5)).value == pytest.approx(
+        math.log(3), rel=1e-15
+    )
     # black-box (proofs/black_box.md §3): lower 0: p/q = 4; lower 1/5: (1/5 + 4/5 p)/(1/5 + 4/5 q) = 11/5
     lo = F(1, 5)
     assert black_box_bound(m).ratio == pytest.approx(float(p / q), rel=1e-15)
-    assert black_box_bound(m, lower=0.2).ratio == pytest.approx(
+    assert black_box_bound(m, utility_class=UtilityClass(lower=0.2)).ratio == pytest.approx(
         float((lo + (1 - lo) * p) / (lo + (1 - lo) * q)), rel=1e-15
     )
     # a binding floor τ = 1/4 (> q, ≤ 2q): a and part of the other value raised: 1 + (p − q)/τ = 3
-    c = black_box_bound(m, tau=0.25)
+    c = black_box_bound(m, utility_class=UtilityClass(tau=0.25))
     assert c.ratio == pytest.approx(float(1 + (p - q) / F(1, 4)), rel=1e-15)
     h = [F(1), F(0), F(1, 4) / q - 1]  # q·h = q + q·x = 1/4: x = 1/2 of the third value
     assert c.utility_by_release.tolist() == pytest.approx([float(v) for v in h], abs=1e-15)
     # τ = 1/2 (> 2q): a and the other value raised, a' by s = (1/2 − 2q)/p = 1/4: (p + q + q s)/τ = 7/4
     s = (tau - 2 * q) / p
-    c = black_box_bound(m, tau=0.5)
+    c = black_box_bound(m, utility_class=UtilityClass(tau=0.5))
     assert s == F(1, 4) and c.ratio == pytest.approx(float((p + q + q * s) / tau), rel=1e-15)
     assert c.utility_by_release.tolist() == pytest.approx([1.0, float(s), 1.0], abs=1e-15)
     # calibration back to ε = log 4 from the target log(11/5) with lower 1/5, keep probability 2/3
-    cal = calibrate(math.log(11 / 5), groups=["a", "b", "c"], lower=0.2)
+    cal = calibrate(math.log(11 / 5), groups=["a", "b", "c"], utility_class=UtilityClass(lower=0.2))
     assert cal.epsilon == pytest.approx(math.log(4), rel=1e-13) and cal.keep_probability == pytest.approx(2 / 3)
 
 
@@ -170,8 +179,8 @@ def test_paper_and_tight_equal_the_general_route(k, eps):
     closed, general = pair(k, eps)
     for tau, lip in ((0.5, 0.0), (0.05, 0.0), (0.3, 0.2), (1.0, 0.0)):
         for bound in (fa.paper_bound, fa.tight_bound):
-            a = bound(closed, tau=tau, gamma=1.0, lipschitz=lip)
-            b = bound(general, tau=tau, gamma=1.0, lipschitz=lip)
+            a = bound(closed, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=lip))
+            b = bound(general, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=lip))
             assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-14)
             assert a.epsilon == pytest.approx(b.epsilon, rel=1e-12, abs=1e-14)
             assert a.delta == pytest.approx(b.delta, rel=1e-12, abs=1e-14)
@@ -183,8 +192,8 @@ def test_tight_with_a_metric_equals_the_general_route():
     pts = np.array([0.0, 0.3, 1.0, 1.2, 2.5])
     d = np.abs(pts[:, None] - pts[None, :])
     for tau in (0.1, 0.6):
-        a = fa.tight_bound(closed, tau=tau, gamma=1.0, lipschitz=0.2, metric=d)
-        b = fa.tight_bound(general, tau=tau, gamma=1.0, lipschitz=0.2, metric=d)
+        a = fa.tight_bound(closed, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=0.2, metric=d))
+        b = fa.tight_bound(general, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=0.2, metric=d))
         assert a.value == pytest.approx(b.value, rel=1e-12) and (a.group, a.other_group) == (b.group, b.other_group)
 
 
@@ -196,8 +205,8 @@ def test_tight_with_a_metric_equals_the_general_route():
 def test_black_box_without_lipschitz_equals_the_general_route(k, eps):
     closed, general = pair(k, eps)
     for lower, tau in ((0.0, None), (0.2, None), (0.0, 0.3), (0.1, 0.6), (0.0, 1.0), (0.3, 0.2)):
-        a = black_box_bound(closed, lower=lower, gamma=1.0, tau=tau)
-        b = black_box_bound(general, lower=lower, gamma=1.0, tau=tau)
+        a = black_box_bound(closed, utility_class=UtilityClass(lower=lower, gamma=1.0, tau=tau))
+        b = black_box_bound(general, utility_class=UtilityClass(lower=lower, gamma=1.0, tau=tau))
         assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-14), (lower, tau)
         assert a.method == "threshold" and a.programs_solved == 0
         # the worst utility attains the value and meets every group's floor
@@ -209,8 +218,8 @@ def test_black_box_without_lipschitz_equals_the_general_route(k, eps):
 
 def test_black_box_gamma_scales():
     closed, general = pair(4, 0.9)
-    a = black_box_bound(closed, lower=0.5, gamma=2.0, tau=1.2)
-    b = black_box_bound(general, lower=0.5, gamma=2.0, tau=1.2)
+    a = black_box_bound(closed, utility_class=UtilityClass(lower=0.5, gamma=2.0, tau=1.2))
+    b = black_box_bound(general, utility_class=UtilityClass(lower=0.5, gamma=2.0, tau=1.2))
     assert a.value == pytest.approx(b.value, rel=1e-12)
     np.testing.assert_allclose(np.sort(a.utility_by_release), np.sort(b.utility_by_release), rtol=1e-12)
 
@@ -234,8 +243,10 @@ def no_tau_lipschitz_closed_form(k: int, eps: float, lower: float, lam: float) -
 def test_black_box_with_lipschitz_equals_the_general_route(k, eps):
     closed, general = pair(k, eps)
     for lower, tau, lip in ((0.1, None, 0.1), (0.3, None, 0.5), (0.0, 0.4, 0.1), (0.1, 0.7, 0.05), (0.2, 0.3, 0.2)):
-        a = black_box_bound(closed, lower=lower, gamma=1.0, tau=tau, lipschitz=lip)
-        b = black_box_bound(general, lower=lower, gamma=1.0, tau=tau, lipschitz=lip)  # the Charnes–Cooper LP
+        a = black_box_bound(closed, utility_class=UtilityClass(lower=lower, gamma=1.0, tau=tau, lipschitz=lip))
+        b = black_box_bound(
+            general, utility_class=UtilityClass(lower=lower, gamma=1.0, tau=tau, lipschitz=lip)
+        )  # the Charnes–Cooper LP
         assert a.value == pytest.approx(b.value, rel=1e-8, abs=1e-10), (lower, tau, lip)
         assert a.programs_solved == 0 and a.status == "optimal"
         # its worst utility per group is in the class and attains the value exactly (an independent lower bound)
@@ -250,7 +261,7 @@ def test_black_box_with_lipschitz_equals_the_general_route(k, eps):
 
 
 def test_black_box_with_lipschitz_unbounded_without_a_floor():
-    c = black_box_bound(fa.randomized_response(list(range(4)), 1.0), lipschitz=0.1)
+    c = black_box_bound(fa.randomized_response(list(range(4)), 1.0), utility_class=UtilityClass(lipschitz=0.1))
     assert c.value == math.inf and c.status == "unbounded" and c.reason
 
 
@@ -269,7 +280,9 @@ def test_black_box_lipschitz_example_2_in_fractions(monkeypatch):
     A += [[-R[0][0], -R[0][1], 0, 0], [0, 0, -R[1][0], -R[1][1]]]
     b += [-F(1, 2)] * 2
     exact = vertex_max(R[0] + [0, 0], [0, 0] + R[1], A, b)[0]
-    c = black_box_bound(fa.randomized_response(["a", "b"], keep=0.7), tau=0.5, lipschitz=0.1)
+    c = black_box_bound(
+        fa.randomized_response(["a", "b"], keep=0.7), utility_class=UtilityClass(tau=0.5, lipschitz=0.1)
+    )
     assert exact == F(58, 35) and c.ratio == pytest.approx(float(exact), rel=1e-14)
     np.testing.assert_allclose(c.utility_by_release, [[1.0, 3 / 7], [0.9, 23 / 70]], atol=1e-14)
 
@@ -279,8 +292,8 @@ def test_black_box_with_a_non_discrete_metric():
     pts = np.array([0.0, 0.5, 0.8, 2.0])
     d = np.abs(pts[:, None] - pts[None, :])
     for tau in (None, 0.5):  # without τ: the closed form at L_A·diam; with a binding τ: the general LP
-        a = black_box_bound(closed, lower=0.1, tau=tau, lipschitz=0.1, metric=d)
-        b = black_box_bound(general, lower=0.1, tau=tau, lipschitz=0.1, metric=d)
+        a = black_box_bound(closed, utility_class=UtilityClass(lower=0.1, tau=tau, lipschitz=0.1, metric=d))
+        b = black_box_bound(general, utility_class=UtilityClass(lower=0.1, tau=tau, lipschitz=0.1, metric=d))
         assert a.value == pytest.approx(b.value, rel=1e-8)
 
 
@@ -350,16 +363,17 @@ def bisect_general(k: int, target: float, **cls) -> float:
 @pytest.mark.parametrize("k", (2, 3, 5))
 def test_calibration_equals_the_general_route(k):
     for target, cls in (
-        (0.4, {"lower": 0.0}),
-        (0.4, {"lower": 0.2}),
-        (0.4, {"lower": 0.0, "tau": 0.3}),
-        (0.3, {"lower": 0.1, "tau": 0.5, "lipschitz": 0.05}),
+        (0.4, {"utility_class": UtilityClass(lower=0.0)}),
+        (0.4, {"utility_class": UtilityClass(lower=0.2)}),
+        (0.4, {"utility_class": UtilityClass(lower=0.0, tau=0.3)}),
+        (0.3, {"utility_class": UtilityClass(lower=0.1, tau=0.5, lipschitz=0.05)}),
     ):
         c = calibrate(target, groups=k, **cls)
         want = bisect_general(k, target, **cls)
         assert c.epsilon == pytest.approx(want, rel=1e-8), cls
-        if "tau" not in cls:
-            assert c.epsilon == pytest.approx(rr_black_box_epsilon(target, k, cls["lower"]), rel=1e-12)
+        if cls["utility_class"].tau is None:
+            lower = cls["utility_class"].lower
+            assert c.epsilon == pytest.approx(rr_black_box_epsilon(target, k, lower), rel=1e-12)
         t = math.exp(c.epsilon)
         assert c.keep_probability == pytest.approx(t / (t + k - 1), rel=1e-12)
 
@@ -369,8 +383,8 @@ def test_calibrate_a_million_groups_in_closed_form_and_little_memory():
     tracemalloc.start()
     try:
         c = calibrate(0.5, groups=k)  # lower = 0, no τ, L_A = 0: the black-box value of RR is ε itself
-        c2 = calibrate(0.5, groups=k, lower=0.2)
-        c3 = calibrate(0.5, groups=k, lower=0.1, tau=0.3, lipschitz=0.05)
+        c2 = calibrate(0.5, groups=k, utility_class=UtilityClass(lower=0.2))
+        c3 = calibrate(0.5, groups=k, utility_class=UtilityClass(lower=0.1, tau=0.3, lipschitz=0.05))
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -400,24 +414,26 @@ def test_closed_forms_equal_the_general_route_property(k, eps, tau, lower, gamma
     for e in (0.0, eps / 3, eps, eps + 1):
         assert closed.delta(e) == pytest.approx(general.delta(e), rel=1e-12, abs=1e-14)
     for bound in (fa.paper_bound, fa.tight_bound):
-        a = bound(closed, tau=tau, gamma=gamma, lipschitz=lip)
-        b = bound(general, tau=tau, gamma=gamma, lipschitz=lip)
+        a = bound(closed, utility_class=fa.UtilityClass(tau=tau, gamma=gamma, lipschitz=lip))
+        b = bound(general, utility_class=fa.UtilityClass(tau=tau, gamma=gamma, lipschitz=lip))
         assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-14)
     for t in (None, tau):
-        a = black_box_bound(closed, lower=lower, gamma=gamma, tau=t)
-        b = black_box_bound(general, lower=lower, gamma=gamma, tau=t)
+        a = black_box_bound(closed, utility_class=UtilityClass(lower=lower, gamma=gamma, tau=t))
+        b = black_box_bound(general, utility_class=UtilityClass(lower=lower, gamma=gamma, tau=t))
         assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-13)
 
 
 @given(k=st.integers(2, 40), target=st.floats(0.0, 5.0), rho=st.floats(0.0, 0.95))
 def test_calibration_closed_form_meets_the_target_property(k, target, rho):
-    c = calibrate(target, groups=k, lower=rho)
+    c = calibrate(target, groups=k, utility_class=UtilityClass(lower=rho))
     want = rr_black_box_epsilon(target, k, rho)
     if math.isinf(want) or target >= -math.log(max(rho, 1e-300)):
         assert c.epsilon == math.inf
         return
     assert c.epsilon == pytest.approx(want, rel=1e-10, abs=1e-12)
-    general = black_box_bound(fa.from_matrix(rr_matrix(k, c.epsilon), list(range(k))), lower=rho)
+    general = black_box_bound(
+        fa.from_matrix(rr_matrix(k, c.epsilon), list(range(k))), utility_class=UtilityClass(lower=rho)
+    )
     assert general.value == pytest.approx(target, rel=1e-9, abs=1e-12)
 
 
@@ -533,28 +549,31 @@ def test_paper_and_tight_without_tau_are_epsilon():
     for mech in (m, fa.randomized_response(list("abcd"), 1.3), fa.randomized_response(["x"], 2.0)):
         want = mech.epsilon if len(mech.inputs) > 1 else 0.0
         for bound in (fa.paper_bound, fa.tight_bound):
-            b = bound(mech, gamma=1.0)
+            b = bound(mech, utility_class=fa.UtilityClass(gamma=1.0))
             assert b.value == pytest.approx(want, rel=1e-12) and b.delta == 0.0 and math.isnan(b.tau)
             assert b.assumptions[-1].status == "not applicable" and "no tau needed" in b.assumptions[-1].detail
-    assert fa.tight_bound(m, gamma=1.0).value == pytest.approx(eps, rel=1e-12)
-    assert (fa.tight_bound(m, gamma=1.0).group, fa.tight_bound(m, gamma=1.0).other_group) == ("a0", "a2")
+    assert fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0)).value == pytest.approx(eps, rel=1e-12)
+    assert (
+        fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0)).group,
+        fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0)).other_group,
+    ) == ("a0", "a2")
     # with τ the bound may be smaller (δ > 0 traded against τ), never larger than ε(M) when L_A = 0
-    assert fa.paper_bound(m, gamma=1.0, tau=0.1).value <= eps + 1e-12
+    assert fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.1)).value <= eps + 1e-12
 
 
 def test_paper_and_tight_still_need_tau_when_the_extra_term_is_not_zero():
     rr = fa.randomized_response(list("ab"), keep=0.7)
     table = fa.from_table([[[1.0, 0.0], [0.5, 0.5]]], ["yes", "no"], ["all"], ["a", "b"])
     cases = [
-        ({"mechanism": rr, "lipschitz": 0.1}, "L_A"),
-        ({"mechanism": fa.identity(list("ab"))}, "epsilon(M) = inf"),
-        ({"mechanism": fa.randomized_response(list("ab"), math.inf)}, "epsilon(M) = inf"),
-        ({"mechanism": rr, "utility": table, "lipschitz": 0.0}, "depends on the group"),
+        ({"mechanism": rr}, 0.1, "L_A"),
+        ({"mechanism": fa.identity(list("ab"))}, None, "epsilon(M) = inf"),
+        ({"mechanism": fa.randomized_response(list("ab"), math.inf)}, None, "epsilon(M) = inf"),
+        ({"mechanism": rr, "utility": table}, 0.0, "depends on the group"),
     ]
-    for kw, why in cases:
+    for kw, lipschitz, why in cases:
         for bound in (fa.paper_bound, fa.tight_bound):
             with pytest.raises(fa.InputError, match=r"^tau: the (paper|tight) bound needs tau") as err:
-                bound(gamma=1.0, **kw)
+                bound(utility_class=fa.UtilityClass(gamma=1.0, lipschitz=lipschitz), **kw)
             assert why in str(err.value)
 
 
@@ -563,7 +582,7 @@ def test_calibrate_paper_and_tight_without_tau():
         c = calibrate(0.5, method=method, groups=3)
         assert c.feasible and c.epsilon == 0.5 and c.bound == 0.5 and "without tau" in c.reason
         assert c.keep_probability == pytest.approx(math.exp(0.5) / (math.exp(0.5) + 2), rel=1e-12)
-        for kw in ({"lipschitz": 0.2}, {"delta": 0.1}):
+        for kw in ({"utility_class": fa.UtilityClass(lipschitz=0.2)}, {"delta": 0.1}):
             with pytest.raises(fa.InputError, match=f"^tau: the {method} bound needs tau"):
                 calibrate(0.5, method=method, groups=3, **kw)
 
@@ -605,10 +624,10 @@ def test_general_mechanisms_in_blocks_give_the_same_numbers(monkeypatch):
         return [
             m.pairwise_delta(0.3),
             m.pairwise_delta(800.0),
-            fa.paper_bound(m, gamma=1.0, tau=0.2, lipschitz=0.1).value,
-            fa.tight_bound(m, gamma=1.0, tau=0.2, lipschitz=0.1, metric=d).value,
-            black_box_bound(m, lower=0.1).value,
-            black_box_bound(m, tau=0.4).value,
+            fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.2, lipschitz=0.1)).value,
+            fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.2, lipschitz=0.1, metric=d)).value,
+            black_box_bound(m, utility_class=UtilityClass(lower=0.1)).value,
+            black_box_bound(m, utility_class=UtilityClass(tau=0.4)).value,
             worst_model(m, fa.indicator("u0", ["u0", "u1"]), tau=0.3).local_fairness.value,
         ]
 

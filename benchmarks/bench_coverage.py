@@ -32,6 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _bench_common import emit, machine_line, table  # noqa: E402
 
+from fairaudit import IntervalOptions
 from fairaudit.data.counts import CountTable  # noqa: E402
 from fairaudit.laws.tables import Law, Population  # noqa: E402
 from fairaudit.laws.utilities import from_table, indicator  # noqa: E402
@@ -152,8 +153,8 @@ def fairaudit_rows(table_: CountTable, truth: Truth, methods, levels, draws: int
         if method == "clopper-pearson" and not binary_g:
             continue
         for level in levels:
-            kw = dict(draws=draws, seed=seed) if method == "bayes" else {}
-            iv = fairness_intervals(table_, truth.utility, level, method, **kw)
+            options = IntervalOptions(confidence=level, method=method, draws=draws, seed=seed)
+            iv = fairness_intervals(table_, truth.utility, options)
             all_in = True
             for metric in METRICS:
                 interval = {

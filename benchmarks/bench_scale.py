@@ -67,6 +67,7 @@ from _bench_common import (
 )
 
 import fairaudit  # noqa: E402
+from fairaudit import IntervalOptions
 from fairaudit.data.counts import CountTable  # noqa: E402
 from fairaudit.laws.tables import Law, Population  # noqa: E402
 from fairaudit.metrics.observed import observe  # noqa: E402
@@ -494,14 +495,16 @@ def intervals_job(n: int, seed: int, per_cell: int, repeats: int, slow: float) -
     tiny, _ = _tiny_law(seed)  # warm-up: imports and first calls, unmeasured
     tiny_counts = np.random.default_rng(0).multinomial(per_cell, tiny.probabilities)
     fairness_intervals(
-        CountTable(tiny_counts, tiny.contexts, GROUPS, DECISIONS, ("context",), ("group",), "decision"), g, CONFIDENCE
+        CountTable(tiny_counts, tiny.contexts, GROUPS, DECISIONS, ("context",), ("group",), "decision"),
+        g,
+        IntervalOptions(confidence=CONFIDENCE),
     )
     arr = _law_array(n, seed)
     nbytes = arr.nbytes
     counts = np.random.default_rng([seed, 1, n]).multinomial(per_cell, arr)
     del arr
     tab = CountTable(counts, tuple(range(n)), GROUPS, DECISIONS, ("context",), ("group",), "decision")
-    t, k, peak, iv = _measure(lambda: fairness_intervals(tab, g, CONFIDENCE), repeats, slow)
+    t, k, peak, iv = _measure(lambda: fairness_intervals(tab, g, IntervalOptions(confidence=CONFIDENCE)), repeats, slow)
     o = _observe_summary(tab.law(), g, tab.population())
     diffs, inside, names = [], True, []
     for name, interval in iv.intervals().items():

@@ -59,7 +59,7 @@ from fairaudit.metrics.fairness import (
 from fairaudit.metrics.utility_range import UtilityRange, fairness_range
 from fairaudit.reports.figures import mark_infinite
 from fairaudit.reports.plots import plot_curve, save_figure
-from fairaudit.statistics.intervals import FairnessIntervals, Interval, fairness_intervals
+from fairaudit.statistics.intervals import FairnessIntervals, Interval, IntervalOptions, fairness_intervals
 from fairaudit.statistics.ll144 import ImpactRatios, impact_ratios
 from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
 from fairaudit.statistics.sample_size import SamplePlan, plan
@@ -111,6 +111,7 @@ __all__ = [
     "FairnessIntervals",
     "ImpactRatios",
     "Interval",
+    "IntervalOptions",
     "SamplePlan",
     "UtilityRange",
     "audit",

@@ -24,7 +24,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, TypedDict
 
-from fairaudit.base.checks import choice, level
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.certification.spec import Spec, load_spec
@@ -34,7 +33,7 @@ from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.bounds import Assumption, Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from fairaudit.metrics.observed import Observed, observe
-from fairaudit.statistics.intervals import METHODS, FairnessIntervals, fairness_intervals
+from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals
 from fairaudit.worstcase.calibration import Calibration, calibrate
 from fairaudit.worstcase.known_utility import WorstModel, worst_model
 
@@ -42,6 +41,9 @@ if TYPE_CHECKING:
     from fairaudit.certification.spec_schema import TargetSpec
 
 __all__ = ["Certificate", "Observed", "TargetCheck", "certify", "observe"]
+
+DEFAULT_INTERVALS = IntervalOptions()
+"""The intervals :func:`certify` makes unless told otherwise: 95%, by the method that suits the utility."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -117,7 +119,7 @@ class Certificate:
         meets at its ε (every target of the spec unless one was left out, and
         then ``omitted["calibration"]`` says why).
     intervals, unfiltered_intervals : FairnessIntervals or None
-        When the model comes from counts and ``confidence`` is given:
+        When the model comes from counts and ``intervals`` are asked for:
         simultaneous intervals for the observed metrics of the filtered law
         (the upper end of L is the white-box certificate at level 1 − α; a
         lower end above 0 is evidence of unfairness) and of the model on its
@@ -255,28 +257,24 @@ def _merge_assumptions(
     return tuple((a, tuple(forms)) for a, forms in merged.values())
 
 
-def certify(
-    spec: Spec | str | Path, *, confidence: float | None = 0.95, method: str = "auto", seed: int = 0
-) -> Certificate:
+def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFAULT_INTERVALS) -> Certificate:
     """Build the certificate of a spec (a :class:`~fairaudit.certification.spec.Spec` or a path).
 
     Parameters
     ----------
     spec : Spec, str or Path
-    confidence : float or None
-        Level 1 − α of simultaneous intervals for the observed metrics when
-        the spec's model comes from counts (records, or a table with a count
-        column); None for none.
-    method : {"auto", "clopper-pearson", "multinomial", "bayes"}
-        How they are made (:func:`fairaudit.statistics.intervals.fairness_intervals`).
-    seed : int
-        Random seed of ``method="bayes"``.
+    intervals : IntervalOptions or None
+        Simultaneous intervals for the observed metrics when the spec's model
+        comes from counts (records, or a table with a count column): their
+        level, method and Bayesian settings
+        (:func:`fairaudit.statistics.intervals.fairness_intervals`); default
+        ``IntervalOptions()`` (95%, "auto"); None for none.
 
     Raises
     ------
     InputError
-        On any invalid spec or model table (one line naming the field), or a
-        bad confidence or method.
+        On any invalid spec or model table (one line naming the field), or
+        ``intervals`` that is not an :class:`~fairaudit.statistics.intervals.IntervalOptions`.
 
     Examples
     --------
@@ -302,9 +300,8 @@ def certify(
     """
     if not isinstance(spec, Spec):
         spec = load_spec(spec)
-    if confidence is not None:
-        confidence = level(confidence, "confidence")
-    choice(method, "method", ("auto", *METHODS))
+    if intervals is not None and not isinstance(intervals, IntervalOptions):
+        raise InputError("intervals", "must be an IntervalOptions", type(intervals).__name__)
     kernel: Kernel | None = spec.kernel()
     observed, unfiltered = _observations(spec, kernel)
     obs_law = observed.law if observed is not None else None
@@ -341,7 +338,7 @@ def certify(
         )
         if calibration_reason:
             omitted["calibration"] = calibration_reason
-    intervals, unfiltered_intervals, intervals_reason = _intervals(spec, kernel, confidence, method, seed)
+    made, unfiltered_intervals, intervals_reason = _intervals(spec, kernel, intervals)
     if intervals_reason:
         omitted["intervals"] = intervals_reason
     return Certificate(
@@ -361,7 +358,7 @@ def certify(
         certified=all(c.met for c in targets.values()),
         calibration_white_box=calibration_white,
         calibration_targets=calibration_targets,
-        intervals=intervals,
+        intervals=made,
         unfiltered_intervals=unfiltered_intervals,
         omitted=omitted,
     )
@@ -447,12 +444,10 @@ def _target_checks(
 
 
 def _intervals(
-    spec: Spec, kernel: Kernel | None, confidence: float | None, method: str, seed: int
+    spec: Spec, kernel: Kernel | None, options: IntervalOptions | None
 ) -> tuple[FairnessIntervals | None, FairnessIntervals | None, str]:
     """Intervals for the observed metrics when the model comes from counts: (filtered, unfiltered, reason)."""
-    if confidence is None:
-        if method != "auto":
-            raise InputError("method", "chooses how intervals are made: give `confidence` too", method)
+    if options is None:
         return None, None, "no confidence level asked for"
     if kernel is None:
         return None, None, "the spec has no model"
@@ -476,18 +471,16 @@ def _intervals(
         filtered_iv = fairness_intervals(
             table,
             spec.utility,
-            confidence,
-            method,
+            options,
             sensitive_mechanism=spec.sensitive_mechanism,
             context_mechanism=spec.context_mechanism,
             population=own_pop if identity else pop,
-            seed=seed,
         )
         own = None
         if not identity and spec.sees_inputs:
-            own = fairness_intervals(table, spec.utility, confidence, method, population=own_pop, seed=seed)
+            own = fairness_intervals(table, spec.utility, options, population=own_pop)
     except InputError as exc:
-        if exc.field in ("confidence", "method"):
+        if exc.field == "method":  # (clopper-pearson asked for a utility that is not 0/1)
             raise
         return None, None, f"no intervals: {exc.field} {exc.problem}"
     return filtered_iv, own, ""

@@ -133,8 +133,20 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit audit``; returns the exit status."""
     from fairaudit.data.counts import count_file
+    from fairaudit.statistics.intervals import IntervalOptions
     from fairaudit.statistics.record_audit import audit
 
+    intervals = None
+    if args.confidence is not None:
+        intervals = IntervalOptions(
+            confidence=args.confidence,
+            method=args.method,
+            concentration=args.concentration,
+            draws=args.draws,
+            seed=args.seed,
+        )
+    elif args.method != "auto":
+        raise InputError("method", "chooses how intervals are made: give `confidence` too", args.method)
     # DuckDB counts the file (Parquet or CSV; fairaudit.data.counts.count_file); --count: DATA is a count table
     table = count_file(
         args.data,
@@ -173,12 +185,8 @@ def run(args: argparse.Namespace) -> int:
         context=args.context,
         positive=args.positive if report is None else None,
         utility=args.utility if report is None else report.utility,
-        confidence=args.confidence,
-        method=args.method,
+        intervals=intervals,
         dropna=args.dropna,
-        concentration=args.concentration,
-        draws=args.draws,
-        seed=args.seed,
         min_count=args.min_count,
     )
     data = result.to_dict()

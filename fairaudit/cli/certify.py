@@ -59,6 +59,7 @@ def add_parser(sub: Subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit certify``; returns the exit status (1 when a target is not met)."""
     from fairaudit.certification.certificate import certify
+    from fairaudit.statistics.intervals import IntervalOptions
 
     if args.epsilons is not None and not (args.plot or args.plot_data):
         raise InputError("--epsilons", "is the grid of the curve: give --plot FILE or --plot-data FILE.csv too")
@@ -70,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         folder = Path(args.plot_data).parent
         if not folder.is_dir():
             raise InputError("--plot-data", "folder does not exist", str(folder))
-    cert = certify(args.spec, confidence=args.confidence, method=args.method)
+    cert = certify(args.spec, intervals=IntervalOptions(confidence=args.confidence, method=args.method))
     if args.plot or args.plot_data:
         _write_curve(args, cert)
     data = cert.to_dict()

@@ -22,6 +22,7 @@ from fairaudit import (
     Fairness,
     FairnessIntervals,
     InputError,
+    IntervalOptions,
     Kernel,
     Law,
     Mechanism,
@@ -234,7 +235,7 @@ def observed_point(
         table = CountTable(
             counts, law.contexts, law.groups, law.decisions, (candidate_context_name(task),), ("candidate",), "outcome"
         )
-        iv = fairness_intervals(table, utility, confidence, method, population=pop)
+        iv = fairness_intervals(table, utility, IntervalOptions(confidence=confidence, method=method), population=pop)
     rng = fairness_range(law, utility, -1, population=pop)
     return ObservedPoint(
         epsilon=eps,
@@ -520,9 +521,8 @@ def _point(
         table = CountTable(
             kc.counts, kc.contexts, kc.groups, kc.decisions, (candidate_context_name(task),), ("shown",), "outcome"
         )
-        iv = fairness_intervals(
-            table, utility, confidence, method, sensitive_mechanism=mech, context_mechanism=mx, population=pop
-        )
+        options = IntervalOptions(confidence=confidence, method=method)
+        iv = fairness_intervals(table, utility, options, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
     wm = worst_model(mech, utility, context_mechanism=mx, population=pop, tau=tau)
     bounds = (wm.local_fairness.value, wm.global_fairness.value)
     return PointResult(

@@ -94,6 +94,7 @@ __all__ = [
     "METHODS",
     "FairnessIntervals",
     "Interval",
+    "IntervalOptions",
     "category_bounds",
     "clopper_pearson",
     "fairness_intervals",
@@ -101,6 +102,69 @@ __all__ = [
 ]
 
 METHODS = ("clopper-pearson", "multinomial", "bayes")
+
+
+@dataclass(frozen=True, kw_only=True)
+class IntervalOptions:
+    """How simultaneous intervals are made: their level, their method and the Bayesian band's settings.
+
+    One object for the settings that :func:`fairness_intervals`,
+    :func:`~fairaudit.audit` and :func:`~fairaudit.certify` share (given as
+    ``intervals``).
+
+    Parameters
+    ----------
+    confidence : float
+        1 − α, strictly between 0 and 1 (default 0.95): every interval of a
+        result holds at once with at least this probability.
+    method : {"auto", "clopper-pearson", "multinomial", "bayes"}
+        "auto" (default) is "clopper-pearson" for a 0/1 utility (exact binomial
+        intervals per cell, Clopper and Pearson 1934, Biometrika 26), and
+        "multinomial" otherwise (per-cell multinomial sets); "bayes" is a
+        simultaneous band of the Dirichlet posterior (Besag, Green, Higdon and
+        Mengersen 1995, Statist. Sci. 10, sec. 4.3). ``proofs/intervals.md``.
+    concentration : float
+        ``method="bayes"``: the total mass c > 0 of the Dirichlet prior
+        Dirichlet(c/K, ..., c/K) over the K decisions (default 1).
+    draws : int
+        ``method="bayes"``: the number of posterior draws, ≥ 100 (default 4000).
+    seed : int
+        ``method="bayes"``: the seed of its random draws, ≥ 0 (default 0).
+
+    Raises
+    ------
+    InputError
+        Naming the field: a confidence outside (0, 1), an unknown method, a
+        concentration that is not a finite positive number, fewer than 100
+        draws, or a negative or non-integer seed.
+
+    Examples
+    --------
+    >>> IntervalOptions()
+    IntervalOptions(confidence=0.95, method='auto', concentration=1.0, draws=4000, seed=0)
+    >>> IntervalOptions(confidence=0.9, method="bayes", seed=3).confidence
+    0.9
+    >>> IntervalOptions(confidence=1.0)
+    Traceback (most recent call last):
+    ...
+    fairaudit.base.errors.InputError: confidence: must be a number strictly between 0 and 1 (got 1.0)
+    """
+
+    confidence: float = 0.95
+    method: str = "auto"
+    concentration: float = 1.0
+    draws: int = 4000
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "confidence", level(self.confidence, "confidence"))
+        object.__setattr__(self, "method", choice(self.method, "method", ("auto", *METHODS)))
+        concentration = real(self.concentration, "concentration", low=0.0, low_open=True)
+        object.__setattr__(self, "concentration", concentration)
+        object.__setattr__(self, "draws", whole(self.draws, "draws", low=100))
+        object.__setattr__(self, "seed", whole(self.seed, "seed"))
+
+
 _METRICS = ("local", "global", "sup_local", "sup_global", "demographic_parity", "equalized_odds")
 _LOCAL = ("local", "sup_local", "equalized_odds")  # one interval per context, the widest reported
 
@@ -280,25 +344,22 @@ class _AuditedLaw(NamedTuple):
     population: Population | None  # None: the records' own groups, pooled
 
 
-def _check(table: object, utility: object, confidence: float, method: str, concentration: float, draws: int) -> float:
-    """Validate the arguments of :func:`fairness_intervals`; returns the confidence as a float."""
+def _check(table: object, utility: object, intervals: object) -> IntervalOptions:
+    """Validate the arguments of :func:`fairness_intervals`; returns the options (the defaults for None)."""
     if not isinstance(table, CountTable):
         raise InputError("table", "must be a CountTable (fairaudit.count_records or count_table)", type(table).__name__)
     if not isinstance(utility, Utility):
         raise InputError("utility", "must be a Utility", type(utility).__name__)
-    confidence = level(confidence, "confidence")
-    if method != "auto":
-        choice(method, "method", METHODS)
+    options = IntervalOptions() if intervals is None else intervals
+    if not isinstance(options, IntervalOptions):
+        raise InputError("intervals", "must be an IntervalOptions", type(options).__name__)
     counts = np.asarray(table.counts, dtype=float)
     if table.squares is None and np.any(counts != np.round(counts)):
         bad = counts[counts != np.round(counts)].flat[0]
         raise InputError(
             "counts", "intervals need whole numbers of records (the table holds probabilities or weights)", float(bad)
         )
-    if method == "bayes":
-        real(concentration, "concentration", low=0.0, low_open=True)
-        whole(draws, "draws", low=100)
-    return confidence
+    return options
 
 
 def _is_indicator(g: FloatArray) -> bool:
@@ -308,15 +369,11 @@ def _is_indicator(g: FloatArray) -> bool:
 def fairness_intervals(
     table: CountTable,
     utility: Utility,
-    confidence: float = 0.95,
-    method: str = "auto",
+    intervals: IntervalOptions | None = None,
     *,
     sensitive_mechanism: Mechanism | None = None,
     context_mechanism: Mechanism | None = None,
     population: Population | None = None,
-    concentration: float = 1.0,
-    draws: int = 4000,
-    seed: int = 0,
 ) -> FairnessIntervals:
     """Simultaneous (1 − α) intervals for E[g | x, a], E[g | a], L, L̄, the sups over g, L_dp and L_eo.
 
@@ -329,10 +386,10 @@ def fairness_intervals(
     utility : Utility
         g ≥ 0 over the table's decisions (and contexts and groups). Behind a
         filter it must depend on the decision only.
-    confidence : float
-        1 − α in (0, 1).
-    method : {"auto", "clopper-pearson", "multinomial", "bayes"}
-        "auto" is "clopper-pearson" for a 0/1 utility, "multinomial" otherwise.
+    intervals : IntervalOptions, optional
+        The level 1 − α, the method ("auto" is "clopper-pearson" for a 0/1
+        utility, "multinomial" otherwise) and the Bayesian band's settings;
+        default ``IntervalOptions()``: 95%, "auto".
     sensitive_mechanism, context_mechanism : Mechanism, optional
         M_A (n_groups × n_released_groups) and M_X; their outputs must be the
         table's groups and contexts.
@@ -340,9 +397,6 @@ def fairness_intervals(
         P(X, A) for global metrics (and to leave out contexts with P(x) = 0).
         Default: the records' own groups, pooled (unfiltered); uniform and
         independent behind a filter.
-    concentration, draws, seed
-        The Bayesian prior Dirichlet(c/K, ..., c/K), the number of posterior
-        samples and the random seed (``method="bayes"`` only).
 
     Returns
     -------
@@ -351,10 +405,10 @@ def fairness_intervals(
     Raises
     ------
     InputError
-        On a confidence outside (0, 1), an unknown method, a non-indicator
-        utility with "clopper-pearson", counts that are not whole numbers,
-        mechanisms that do not match the table, a utility that depends on the
-        context or group behind a filter, or bad Bayesian settings.
+        On ``intervals`` that is not an :class:`IntervalOptions`, a
+        non-indicator utility with "clopper-pearson", counts that are not
+        whole numbers, mechanisms that do not match the table, or a utility
+        that depends on the context or group behind a filter.
 
     Notes
     -----
@@ -374,14 +428,15 @@ def fairness_intervals(
     >>> from fairaudit import count_records, indicator
     >>> t = count_records(pd.DataFrame({"g": ["a"] * 50 + ["b"] * 50,
     ...                                 "y": [1] * 30 + [0] * 20 + [1] * 20 + [0] * 30}), sensitive=["g"], outcome="y")
-    >>> iv = fairness_intervals(t, indicator(1, t.decisions), 0.95)
+    >>> iv = fairness_intervals(t, indicator(1, t.decisions), IntervalOptions(confidence=0.95))
     >>> iv.method, round(iv.local_fairness.estimate, 6), iv.local_fairness.lower < iv.local_fairness.estimate < iv.local_fairness.upper
     ('clopper-pearson', 0.405465, True)
     >>> iv.local_fairness.group, iv.local_fairness.other_group
     ('a', 'b')
     """
-    confidence = _check(table, utility, confidence, method, concentration, draws)
-    alpha = 1.0 - confidence
+    options = _check(table, utility, intervals)
+    method, concentration, draws, seed = options.method, options.concentration, options.draws, options.seed
+    alpha = 1.0 - options.confidence
     counts = np.asarray(table.counts, dtype=float)
     g = np.asarray(utility.table(table.contexts, table.groups, table.decisions), dtype=float)
     if method == "auto":

@@ -28,7 +28,7 @@ from fairaudit.laws.utilities import Utility, from_table, indicator
 from fairaudit.laws.utility_expression import evaluate_utility_expression
 from fairaudit.metrics.gaps import UtilityGaps, utility_gaps
 from fairaudit.metrics.observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
-from fairaudit.statistics.intervals import FairnessIntervals, fairness_intervals
+from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals
 from fairaudit.statistics.small_cells import LeftOut, SmallCell, by_context_rows, leave_out_small, small_cell
 
 if TYPE_CHECKING:
@@ -59,9 +59,10 @@ class Audit:
     observed : Observed
         Every exact metric of the empirical law under the empirical population.
     intervals : FairnessIntervals or None
-        Simultaneous intervals for every metric when ``confidence`` was given
+        Simultaneous intervals for every metric when ``intervals`` was given
         (:func:`fairaudit.statistics.intervals.fairness_intervals`).
     confidence : float or None
+        Their level 1 − α (None without intervals).
     """
 
     table: CountTable
@@ -445,12 +446,8 @@ def audit(
     context: Sequence[str] | None = None,
     positive: Hashable | None = None,
     utility: str | Utility | None = None,
-    confidence: float | None = None,
-    method: str = "auto",
+    intervals: IntervalOptions | None = None,
     dropna: bool = False,
-    concentration: float = 1.0,
-    draws: int = 4000,
-    seed: int = 0,
     weights: str | None = None,
     count: str | None = None,
     min_count: int | None = None,
@@ -489,17 +486,15 @@ def audit(
         refused unless a ``utility`` says what each value is worth (an
         expression sees every value as text then: ``u in ["1", "yes"]``) or
         ``mixed_outcome`` is set.
-    confidence : float, optional
-        Level 1 − α of simultaneous intervals for every metric.
-    method : {"auto", "clopper-pearson", "multinomial", "bayes"}
-        How the intervals are made (:func:`fairaudit.statistics.intervals.fairness_intervals`);
-        "auto" is Clopper–Pearson for a 0/1 utility, multinomial otherwise.
+    intervals : IntervalOptions, optional
+        Simultaneous intervals for every metric, at the level, by the method
+        and with the Bayesian settings given
+        (:func:`fairaudit.statistics.intervals.fairness_intervals`; "auto" is
+        Clopper–Pearson for a 0/1 utility, multinomial otherwise). None (the
+        default): no intervals.
     dropna : bool
         Drop rows with missing values in the used columns instead of failing
         (records only: a CountTable is already counted).
-    concentration, draws, seed
-        Settings of ``method="bayes"``: the Dirichlet prior's total mass, the
-        number of posterior draws and the random seed.
     weights : str, optional
         Column of sample (survey) weights of a DataFrame: point estimates use
         weighted counts, intervals Kish's effective sample size per cell
@@ -541,7 +536,7 @@ def audit(
         (naming ``sensitive``, ``outcome`` or ``context``), data that is
         neither a DataFrame nor a CountTable, both ``positive`` and ``utility``,
         an outcome value that is not there, a non-binary outcome with no g,
-        or bad interval settings (see :func:`~fairaudit.statistics.intervals.fairness_intervals`);
+        ``intervals`` that is not an :class:`~fairaudit.statistics.intervals.IntervalOptions`;
         arrays given with ``data``, or of lengths other than ``y_pred``'s
         (naming the parameter); a ``count`` column that is unknown, holds a
         negative, infinite or non-numeric value, lists a (context, group,
@@ -559,6 +554,12 @@ def audit(
     >>> round(audit(t).observed.global_fairness.ratio, 12)
     3.0
 
+    With 90% simultaneous intervals (exact binomial ones, the outcome being 0/1):
+
+    >>> iv = audit(df, sensitive=["race"], outcome="hired", intervals=IntervalOptions(confidence=0.9)).intervals
+    >>> iv.method, iv.confidence, iv.global_fairness.lower <= 3.0 <= iv.global_fairness.upper
+    ('clopper-pearson', 0.9, True)
+
     The same records as a count table, one row per group and outcome with its number of records:
 
     >>> agg = pd.DataFrame({"race": ["a", "a", "b", "b"], "hired": [0, 1, 0, 1], "n": [1, 3, 3, 1]})
@@ -571,6 +572,8 @@ def audit(
     >>> round(r.observed.global_fairness.ratio, 12), r.table.sensitive_columns
     (3.0, ('sensitive_feature_0',))
     """
+    if intervals is not None and not isinstance(intervals, IntervalOptions):
+        raise InputError("intervals", "must be an IntervalOptions", type(intervals).__name__)
     if y_pred is not None or sensitive_features is not None:
         if data is not None:
             raise InputError("data", "give records as data or as arrays (y_pred, sensitive_features), not both")
@@ -590,23 +593,13 @@ def audit(
         raise InputError("sensitive", "group has no records", format_label(empty[0]))
     table, left_out = leave_out_small(table, min_count)
     observed = observe(table.law(), g, table.population())
-    intervals = None
-    if confidence is not None:
-        intervals = fairness_intervals(
-            table, g, confidence, method, concentration=concentration, draws=draws, seed=seed
-        )
-    elif method != "auto":
-        raise InputError(
-            "method",
-            "chooses how intervals are made: give `confidence` too",
-            method,
-        )
+    made = None if intervals is None else fairness_intervals(table, g, intervals)
     return Audit(
         table=table,
         utility=g,
         observed=observed,
-        intervals=intervals,
-        confidence=confidence,
+        intervals=made,
+        confidence=None if intervals is None else intervals.confidence,
         min_count=min_count,
         left_out=left_out,
     )

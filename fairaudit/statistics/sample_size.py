@@ -35,7 +35,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, number
 from fairaudit.metrics.box_extremes import disjoint_ratio
 from fairaudit.statistics.confidence_sets import category_bounds, linear_extremes
-from fairaudit.statistics.intervals import METHODS, fairness_intervals
+from fairaudit.statistics.intervals import METHODS, IntervalOptions, fairness_intervals
 
 if TYPE_CHECKING:
     from fairaudit.laws.mechanisms import Mechanism
@@ -186,15 +186,14 @@ class _Certifier:
     def exact(self, k: npt.NDArray[np.integer[Any]], n: int) -> FloatArray:
         """By :func:`fairness_intervals`, one table at a time."""
         out = np.empty(k.shape[0])
+        options = IntervalOptions(confidence=self.confidence, method=self.method, seed=self.seed)
         for i, ki in enumerate(k):
             iv = fairness_intervals(
                 self._table(np.stack([ki, n - ki], -1)),
                 self.utility,
-                self.confidence,
-                self.method,
+                options,
                 sensitive_mechanism=self.mechanism,
                 population=self.population,
-                seed=self.seed,
             )
             out[i] = (iv.local_fairness if self.kind == "local" else iv.global_fairness).upper
         return out

@@ -195,7 +195,14 @@ weight_column = "w"
     assert cert.observed.local_fairness.value == pytest.approx(math.log(max(a, b) / min(a, b)), rel=1e-12)
     # intervals on Kish's effective counts, as an audit of the same records with the same weights makes them
     assert cert.unfiltered_intervals is not None
-    audited = fa.audit(df, sensitive=["profile"], outcome="office", weights="w", positive="HR_2", confidence=0.95)
+    audited = fa.audit(
+        df,
+        sensitive=["profile"],
+        outcome="office",
+        weights="w",
+        positive="HR_2",
+        intervals=fa.IntervalOptions(confidence=0.95),
+    )
     assert cert.unfiltered_intervals.local_fairness.upper == pytest.approx(
         audited.intervals.local_fairness.upper, rel=1e-12
     )

@@ -12,6 +12,7 @@ from _cli import run, run_json
 from scipy.stats import binomtest
 
 import fairaudit as fa
+from fairaudit import IntervalOptions
 from fairaudit.statistics.intervals import fairness_intervals
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -147,7 +148,11 @@ def test_certify_from_counts_reports_white_box_interval(capsys):
     k = spec.kernel()
     table = fa.CountTable(k.counts, k.contexts, k.groups, k.decisions, ("job",), ("demo",), "rank")
     ref = fairness_intervals(
-        table, spec.utility, 0.95, sensitive_mechanism=spec.sensitive_mechanism, population=spec.population
+        table,
+        spec.utility,
+        IntervalOptions(confidence=0.95),
+        sensitive_mechanism=spec.sensitive_mechanism,
+        population=spec.population,
     )
     assert obs["local"]["interval"] == pytest.approx([ref.local_fairness.lower, ref.local_fairness.upper], rel=1e-12)
     assert obs["intervals"]["filtered"] is True and obs["intervals"]["method"] == "clopper-pearson"
@@ -176,15 +181,15 @@ def test_certify_probability_table_says_why_no_intervals(capsys):
 
 
 def test_api_certify_without_confidence():
-    c = fa.certify(GPT35, confidence=None)
+    c = fa.certify(GPT35, intervals=None)
     assert c.intervals is None and c.omitted["intervals"] == "no confidence level asked for"
-    with pytest.raises(fa.InputError, match="method"):
-        fa.certify(GPT35, confidence=None, method="bayes")
+    with pytest.raises(fa.InputError, match=r"^intervals: must be an IntervalOptions \(got 'float'\)$"):
+        fa.certify(GPT35, intervals=0.95)
 
 
 def test_interval_object_repeats_method_and_level():
     t = fa.count_records(pd.DataFrame({"g": list("aabb"), "y": [1, 0, 1, 1]}), sensitive=["g"], outcome="y")
-    iv = fa.fairness_intervals(t, fa.indicator(1, t.decisions), 0.9)
+    iv = fa.fairness_intervals(t, fa.indicator(1, t.decisions), fa.IntervalOptions(confidence=0.9))
     L = iv.local_fairness
     assert isinstance(L, fa.Interval) and (L.method, L.confidence) == ("clopper-pearson", 0.9)
     assert iv.table is t and iv.confidence == 0.9

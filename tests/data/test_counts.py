@@ -10,6 +10,7 @@ import pytest
 from scipy.stats import binomtest
 
 import fairaudit as fa
+from fairaudit import IntervalOptions
 from fairaudit.data.counts import count_records
 from fairaudit.statistics.intervals import fairness_intervals
 
@@ -35,7 +36,9 @@ def test_counts_match_pandas_crosstab():
 def test_clopper_pearson_matches_scipy_binomtest():
     df = pd.DataFrame({"g": ["a"] * 40 + ["b"] * 25, "y": [1] * 13 + [0] * 27 + [1] * 20 + [0] * 5})
     t = count_records(df, sensitive=["g"], outcome="y")
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), confidence=0.9, method="clopper-pearson")
+    iv = fairness_intervals(
+        t, fa.indicator(1, t.decisions), intervals=IntervalOptions(confidence=0.9, method="clopper-pearson")
+    )
     # one context: the groups are the cells, 2 intervals, each at level 1 - 0.1/2 (Bonferroni)
     level = 1 - 0.1 / 2
     ref_a = binomtest(13, 40).proportion_ci(confidence_level=level, method="exact")
@@ -62,7 +65,9 @@ def test_interval_coverage_small_simulation():
                 rows += [(i, j, 1)] * k + [(i, j, 0)] * (60 - k)
         df = pd.DataFrame(rows, columns=["x", "a", "y"])
         t = count_records(df, sensitive=["a"], outcome="y", context=["x"])
-        lo, hi = fairness_intervals(t, fa.indicator(1, t.decisions), 0.9, "clopper-pearson").local_fairness
+        lo, hi = fairness_intervals(
+            t, fa.indicator(1, t.decisions), IntervalOptions(confidence=0.9, method="clopper-pearson")
+        ).local_fairness
         hits += lo <= true_l <= hi
     assert hits / 300 >= 0.9
 
@@ -72,7 +77,7 @@ def test_zero_cells_give_infinite_upper_end():
     # exclude parity: lower end log(lo_b / hi_a) > 0 with the Bonferroni level 1 - 0.05/2.
     df = pd.DataFrame({"g": ["a"] * 100 + ["b"] * 100, "y": [0] * 100 + [1] * 30 + [0] * 70})
     t = count_records(df, sensitive=["g"], outcome="y")
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "clopper-pearson")
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=0.95, method="clopper-pearson"))
     assert iv.local_fairness.upper == math.inf and 0 < iv.local_fairness.lower < math.inf
     level = 1 - 0.05 / 2
     hi_a = binomtest(0, 100).proportion_ci(confidence_level=level, method="exact").high

@@ -347,9 +347,9 @@ def test_count_table_null_rows_weigh_their_counts():
 def test_audit_of_a_count_table_equals_audit_of_records():
     df = _records_frame()
     kw = dict(sensitive=["grp"], outcome="decision", context=["ctx"])
-    a = fa.audit(df, utility="u", confidence=0.9, **kw)
-    b = fa.audit(count_records(df, **kw), utility="u", confidence=0.9)
-    c = fa.audit(count_records(df, **kw), utility="u", confidence=0.9, **kw)
+    a = fa.audit(df, utility="u", intervals=fa.IntervalOptions(confidence=0.9), **kw)
+    b = fa.audit(count_records(df, **kw), utility="u", intervals=fa.IntervalOptions(confidence=0.9))
+    c = fa.audit(count_records(df, **kw), utility="u", intervals=fa.IntervalOptions(confidence=0.9), **kw)
     for r in (b, c):
         assert (
             r.observed.local_fairness.value == a.observed.local_fairness.value

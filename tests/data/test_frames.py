@@ -133,7 +133,12 @@ def test_weighted_counts_and_effective_sizes_by_hand():
 def test_unit_and_constant_weights_give_the_unweighted_intervals(method):
     r = _records(300)
     df = pd.DataFrame({"y": r["y"], "race": r["race"], "site": r["site"], "one": 1.0, "two": 2.0})
-    kw = dict(sensitive=["race"], outcome="y", context=["site"], confidence=0.9, method=method, draws=400)
+    kw = dict(
+        sensitive=["race"],
+        outcome="y",
+        context=["site"],
+        intervals=fa.IntervalOptions(confidence=0.9, method=method, draws=400),
+    )
     plain = fa.audit(df, **kw).intervals
     for column in ("one", "two"):  # n_eff = n whatever the constant weight
         weighted = fa.audit(df, weights=column, **kw).intervals
@@ -146,7 +151,7 @@ def test_unit_and_constant_weights_give_the_unweighted_intervals(method):
 def test_uneven_weights_widen_the_intervals():
     r = _records(300)
     df = pd.DataFrame({"y": r["y"], "race": r["race"], "w": np.where(np.arange(300) % 2 == 0, 1.0, 5.0)})
-    kw = dict(sensitive=["race"], outcome="y", confidence=0.9)
+    kw = dict(sensitive=["race"], outcome="y", intervals=fa.IntervalOptions(confidence=0.9))
     plain = fa.audit(df, **kw).intervals
     weighted = fa.audit(df, weights="w", **kw).intervals  # n_eff = n (1 + 5)^2 / (2 (1 + 25)) = 0.69 n per cell
     assert np.all(weighted.cell_upper - weighted.cell_lower > plain.cell_upper - plain.cell_lower)

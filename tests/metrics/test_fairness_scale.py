@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 import fairaudit as fa
+from fairaudit import IntervalOptions
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import as_labels
 from fairaudit.data.counts import CountTable
@@ -250,7 +251,7 @@ def test_intervals_on_many_contexts_contain_the_estimate():
     q = rng.dirichlet(np.ones(3), size=(20000, 3))
     counts = rng.multinomial(30, q.reshape(-1, 3)).reshape(q.shape)
     table = CountTable(counts, tuple(range(20000)), ("a", "b", "c"), ("u0", "u1", "u2"), ("x",), ("s",), "u")
-    iv = fairness_intervals(table, fa.indicator("u1", table.decisions), 0.9)
+    iv = fairness_intervals(table, fa.indicator("u1", table.decisions), IntervalOptions(confidence=0.9))
     obs = observe(table.law(), fa.indicator("u1", table.decisions), table.population())
     assert iv.global_fairness.lower <= obs.global_fairness.value <= iv.global_fairness.upper
     assert iv.global_fairness.estimate == pytest.approx(obs.global_fairness.value, rel=1e-12)

@@ -98,7 +98,7 @@ def test_certificate_to_dict(certificate):
 
 def test_audit_and_intervals_dicts():
     records = pd.DataFrame({"g": ["a"] * 4 + ["b"] * 4, "y": [1, 1, 1, 0, 1, 0, 0, 0]})
-    a = fa.audit(records, sensitive="g", outcome="y", positive=1, confidence=0.9)
+    a = fa.audit(records, sensitive="g", outcome="y", positive=1, intervals=fa.IntervalOptions(confidence=0.9))
     d = a.to_dict()
     assert _strict_json(d) == d
     # selection rates 3/4 and 1/4: L = log 3

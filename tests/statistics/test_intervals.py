@@ -14,12 +14,14 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+import scipy.stats
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 from scipy.stats import binomtest
 
 import fairaudit as fa
+from fairaudit import IntervalOptions
 from fairaudit.base.errors import InputError
 from fairaudit.data.counts import CountTable, count_records, count_table
 from fairaudit.laws.mechanisms import randomized_response
@@ -208,7 +210,7 @@ def test_one_context_hand_example(method):
     pos, tot = [30, 20, 5], [50, 50, 40]
     t = _binary_table([pos], [tot], groups=("a", "b", "c"))
     conf = 0.95
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), conf, method)
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=conf, method=method))
     m = 3  # one context: the groups are the cells, not counted twice
     assert iv.n_sets == m
     level = 1 - (1 - conf) / m
@@ -237,7 +239,7 @@ def test_two_contexts_hand_example_counts_groups_and_pools_them():
     tot = [[30, 25], [40, 35]]
     t = _binary_table(pos, tot, contexts=("x0", "x1"))
     conf = 0.9
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), conf, "clopper-pearson")
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=conf, method="clopper-pearson"))
     m = 4 + 2  # 4 cells + 2 pooled groups
     assert iv.n_sets == m
     level = 1 - (1 - conf) / m
@@ -317,8 +319,7 @@ def test_filtered_local_ends_by_brute_force_and_bisection(pos, tot, keep):
     iv = fairness_intervals(
         t,
         fa.indicator(1, t.decisions),
-        conf,
-        "clopper-pearson",
+        IntervalOptions(confidence=conf, method="clopper-pearson"),
         sensitive_mechanism=randomized_response(groups, keep=keep),
     )
     # the box: Clopper-Pearson per kernel cell at 1 - alpha/m, m = kernel cells (no pooled groups behind a filter)
@@ -354,8 +355,7 @@ def test_filtered_lower_end_is_positive_when_data_exclude_parity():
     iv = fairness_intervals(
         t,
         fa.indicator(1, t.decisions),
-        0.95,
-        "clopper-pearson",
+        IntervalOptions(confidence=0.95, method="clopper-pearson"),
         sensitive_mechanism=randomized_response(t.groups, keep=0.9),
     )
     assert iv.local_fairness.lower > 0.5
@@ -449,7 +449,7 @@ def test_mixed_ratio_tiny_positive_upper_end():
 @pytest.mark.parametrize("method", ["clopper-pearson", "multinomial"])
 def test_zero_successes_give_infinite_upper_and_finite_lower(method):
     t = _binary_table([[0, 30]], [[100, 100]])
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method)
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=0.95, method=method))
     assert iv.local_fairness.upper == math.inf
     (_, ha), (lb, _) = _cp(0, 100, 1 - 0.05 / 2), _cp(30, 100, 1 - 0.05 / 2)
     assert iv.local_fairness.lower == pytest.approx(math.log(lb / ha), rel=1e-7)
@@ -460,7 +460,7 @@ def test_zero_successes_give_infinite_upper_and_finite_lower(method):
 @pytest.mark.parametrize("method", ["clopper-pearson", "multinomial"])
 def test_all_zero_table_gives_lower_zero(method):
     t = _binary_table([[0, 0, 0], [0, 0, 0]], [[10, 20, 5], [7, 7, 7]], contexts=("x0", "x1"), groups=("a", "b", "c"))
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method)
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=0.95, method=method))
     assert iv.local_fairness.lower == 0.0 and iv.local_fairness.upper == math.inf
     assert iv.global_fairness.lower == 0.0 and iv.global_fairness.upper == math.inf
 
@@ -479,7 +479,7 @@ def test_empty_cell_gives_finite_lower_and_infinite_upper(method):
         df, sensitive=["g"], outcome="y", context=["x"], contexts=["p", "q"], groups=["a", "b"], decisions=[0, 1]
     )
     assert t.counts[1, 1].tolist() == [0, 0]  # cell (q, b) is empty
-    iv = fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, method, draws=200)
+    iv = fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=0.95, method=method, draws=200))
     assert math.isfinite(iv.local_fairness.lower) and iv.local_fairness.lower >= 0
     if method != "bayes":
         assert iv.local_fairness.upper == math.inf
@@ -495,8 +495,7 @@ def test_empty_kernel_cell_behind_filter_does_not_crash():
     iv = fairness_intervals(
         t,
         fa.indicator(1, t.decisions),
-        0.95,
-        "clopper-pearson",
+        IntervalOptions(confidence=0.95, method="clopper-pearson"),
         sensitive_mechanism=randomized_response(t.groups, keep=0.8),
     )
     assert iv.n_sets == 1
@@ -537,7 +536,7 @@ def test_coverage_of_simultaneous_intervals_on_a_known_law():
         k = rng.binomial(cells, p1)
         t = CountTable(np.stack([cells - k, k], -1).astype(np.int64), contexts, groups, decisions, ("x",), ("g",), "y")
         for method in hits:
-            iv = fairness_intervals(t, u, 0.95, method)
+            iv = fairness_intervals(t, u, IntervalOptions(confidence=0.95, method=method))
             ok = truth["local"] in iv.local_fairness and truth["global"] in iv.global_fairness
             if method == "multinomial":
                 ok = ok and all(v in getattr(iv, name) for name, v in truth_u.items())
@@ -571,7 +570,11 @@ def test_bayes_estimate_matches_aif360_smoothed_edf(pos, tot):
     )
     ref = BinaryLabelDatasetMetric(ds).smoothed_empirical_differential_fairness(concentration=1.0)
     t = count_records(df, sensitive=["g"], outcome="y")
-    iv = fairness_intervals(t, fa.indicator(1.0, t.decisions), 0.95, "bayes", concentration=1.0, draws=200, seed=1)
+    iv = fairness_intervals(
+        t,
+        fa.indicator(1.0, t.decisions),
+        IntervalOptions(confidence=0.95, method="bayes", concentration=1.0, draws=200, seed=1),
+    )
     assert iv.sup_local_fairness.estimate == pytest.approx(ref, rel=1e-12)
     # and by hand: smoothed rates (k + 1/2) / (n + 1)
     r = (np.array(pos) + 0.5) / (np.array(tot) + 1.0)
@@ -588,9 +591,9 @@ def test_bayes_estimate_matches_aif360_smoothed_edf(pos, tot):
 def test_bayes_seed_reproducible_and_sensitive():
     t = _binary_table([[12, 30], [7, 4]], [[40, 50], [20, 25]], contexts=("x0", "x1"))
     u = fa.indicator(1, t.decisions)
-    a = fairness_intervals(t, u, 0.9, "bayes", draws=300, seed=5)
-    b = fairness_intervals(t, u, 0.9, "bayes", draws=300, seed=5)
-    c = fairness_intervals(t, u, 0.9, "bayes", draws=300, seed=6)
+    a = fairness_intervals(t, u, IntervalOptions(confidence=0.9, method="bayes", draws=300, seed=5))
+    b = fairness_intervals(t, u, IntervalOptions(confidence=0.9, method="bayes", draws=300, seed=5))
+    c = fairness_intervals(t, u, IntervalOptions(confidence=0.9, method="bayes", draws=300, seed=6))
     for name in a.intervals():
         assert a.intervals()[name] == b.intervals()[name]
     assert np.array_equal(a.cell_lower, b.cell_lower) and np.array_equal(a.group_upper, b.group_upper)
@@ -609,9 +612,8 @@ def test_bayes_seed_reproducible_and_sensitive():
     ],
 )
 def test_bayes_bad_settings_raise(kwargs, field):
-    t = _binary_table([[3, 4]], [[10, 10]])
     with pytest.raises(InputError, match=field) as err:
-        fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "bayes", **kwargs)
+        IntervalOptions(confidence=0.95, method="bayes", **kwargs)
     assert err.value.field == field
 
 
@@ -622,13 +624,13 @@ def test_bayes_bad_settings_raise(kwargs, field):
 def test_confidence_outside_open_unit_interval_raises(confidence):
     t = _binary_table([[3, 4]], [[10, 10]])
     with pytest.raises(InputError, match="confidence"):
-        fairness_intervals(t, fa.indicator(1, t.decisions), confidence)
+        fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=confidence))
 
 
 def test_unknown_method_raises():
     t = _binary_table([[3, 4]], [[10, 10]])
     with pytest.raises(InputError, match="method") as err:
-        fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "wilson")
+        fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=0.95, method="wilson"))
     assert "wilson" in str(err.value)
 
 
@@ -636,17 +638,17 @@ def test_clopper_pearson_needs_indicator_utility():
     t = _binary_table([[3, 4]], [[10, 10]])
     g = fa.from_table([0.0, 0.5], t.decisions, name="half")
     with pytest.raises(InputError, match="method") as err:
-        fairness_intervals(t, g, 0.95, "clopper-pearson")
+        fairness_intervals(t, g, IntervalOptions(confidence=0.95, method="clopper-pearson"))
     assert "0/1" in str(err.value)
     # the same utility is fine with the multinomial set, and "auto" picks it
-    assert fairness_intervals(t, g, 0.95, "auto").method == "multinomial"
+    assert fairness_intervals(t, g, IntervalOptions(confidence=0.95, method="auto")).method == "multinomial"
 
 
 def test_fractional_counts_raise():
     df = pd.DataFrame({"g": ["a", "a", "b", "b"], "y": [0, 1, 0, 1], "count": [3.0, 2.5, 4.0, 1.0]})
     t = count_table(df, sensitive=["g"], outcome="y")
     with pytest.raises(InputError, match="counts") as err:
-        fairness_intervals(t, fa.indicator(1, t.decisions), 0.95, "multinomial")
+        fairness_intervals(t, fa.indicator(1, t.decisions), IntervalOptions(confidence=0.95, method="multinomial"))
     assert err.value.field == "counts" and "2.5" in str(err.value)
 
 
@@ -680,3 +682,45 @@ def test_event_extremes_equal_the_knapsack(K, seed):
     ref_mn, ref_mx = linear_extremes(ev[:, None, None, :], lo[None], hi[None])
     np.testing.assert_allclose(mn, ref_mn, atol=1e-12)
     np.testing.assert_allclose(mx, ref_mx, atol=1e-12)
+
+
+# -- the options object ----------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"confidence": 0.0}, "confidence"),
+        ({"confidence": 1.0}, "confidence"),
+        ({"method": "wald"}, "method"),
+        ({"concentration": math.nan}, "concentration"),
+        ({"draws": 99}, "draws"),
+        ({"draws": 400.0}, "draws"),
+        ({"seed": -1}, "seed"),
+        ({"seed": True}, "seed"),
+    ],
+)
+def test_interval_options_name_the_bad_field(kwargs, field):
+    with pytest.raises(InputError) as err:
+        IntervalOptions(**kwargs)
+    assert err.value.field == field
+
+
+def test_interval_options_are_values_and_their_settings_reach_the_result():
+    assert IntervalOptions() == IntervalOptions(confidence=0.95, method="auto", concentration=1, draws=4000, seed=0)
+    assert hash(IntervalOptions(seed=3)) == hash(IntervalOptions(seed=3))
+    t = _binary_table([[3, 4]], [[10, 10]])
+    g = fa.indicator(1, t.decisions)
+    default = fairness_intervals(t, g)  # None: IntervalOptions(), 95% Clopper-Pearson for a 0/1 utility
+    assert (default.method, default.confidence) == ("clopper-pearson", 0.95) and default.seed is None
+    # 3/10 against 4/10 selected: the upper end of E[g | a] is Clopper-Pearson's at the Bonferroni level
+    # alpha / n_sets for the set of each of the 2 cells (two-sided): scipy's beta quantile, an independent route
+    lo = fairness_intervals(t, g, IntervalOptions(confidence=0.9))
+    assert lo.n_sets == 2
+    assert lo.cell_upper[0, 0] == pytest.approx(scipy.stats.beta.ppf(1 - 0.1 / 4, 4, 7), rel=1e-9)
+    bayes = fairness_intervals(t, g, IntervalOptions(method="bayes", draws=300, seed=7, concentration=2.0))
+    assert (bayes.method, bayes.draws, bayes.seed, bayes.concentration) == ("bayes", 300, 7, 2.0)
+    again = fairness_intervals(t, g, IntervalOptions(method="bayes", draws=300, seed=7, concentration=2.0))
+    assert again.local_fairness == bayes.local_fairness  # the seed fixes the draws
+    with pytest.raises(InputError, match=r"^intervals: must be an IntervalOptions \(got 'float'\)$"):
+        fairness_intervals(t, g, 0.95)

@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 from _cli import OFFICE_SPEC, run, run_json
 
-from fairaudit import UtilityClass, audit
+from fairaudit import IntervalOptions, UtilityClass, audit
 from fairaudit.base.errors import InputError
 from fairaudit.certification.spec import load_spec
 from fairaudit.laws.utilities import from_table
@@ -46,7 +46,13 @@ def as_json(d):
 
 
 def test_audit_count_equals_the_expanded_records_and_the_cli(tmp_path, capsys):
-    kw = dict(sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", confidence=0.9)
+    kw = dict(
+        sensitive=["sex"],
+        outcome="grade",
+        context=["office"],
+        utility="u >= 2",
+        intervals=IntervalOptions(confidence=0.9),
+    )
     by_count = audit(BY_SEX, count="n", **kw)
     by_records = audit(expanded(BY_SEX), **kw)
     assert by_count.table.counts.dtype == np.int64

@@ -50,7 +50,9 @@ def test_expected_counts_match_binomtest(n, p, conf):
     lo, hi = exact_ci(k, n, 1 - (1 - conf) / 2)
     cert = _Certifier(2, 1, conf, "clopper-pearson", None, "local", 0)
     assert cert.fast(np.array([[[k, k]]]), n)[0] == pytest.approx(math.log(hi / lo), rel=1e-9)
-    iv = fa.fairness_intervals(table([[k, k]], n), fa.indicator(1, (1, 0)), conf, "clopper-pearson")
+    iv = fa.fairness_intervals(
+        table([[k, k]], n), fa.indicator(1, (1, 0)), fa.IntervalOptions(confidence=conf, method="clopper-pearson")
+    )
     assert iv.local_fairness.upper == pytest.approx(math.log(hi / lo), rel=1e-9)
 
 
@@ -93,7 +95,11 @@ def test_vectorised_upper_ends_equal_fairness_intervals(X, A, eps, kind):
         ref = [
             getattr(
                 fa.fairness_intervals(
-                    table(kk, n), fa.indicator(1, (1, 0)), 0.9, method, sensitive_mechanism=mech, population=pop
+                    table(kk, n),
+                    fa.indicator(1, (1, 0)),
+                    fa.IntervalOptions(confidence=0.9, method=method),
+                    sensitive_mechanism=mech,
+                    population=pop,
                 ),
                 f"{kind}_fairness",
             ).upper

@@ -248,6 +248,9 @@ def fairness_range(
     rest = k @ np.where(np.arange(n_d) == d, 0.0, g)  # (X̃, Ã): the known decisions' part
     e_lo, e_hi = rest + k[..., d] * lo_g, rest + k[..., d] * hi_g
     attained = lo_g <= g[d] <= hi_g  # the stated value is one assignment: the range holds it
+    point = not k[
+        ..., d
+    ].any()  # no mass on the decision: every utility of it gives the stated law, the range is a point
     solver: dict[tuple[int, int], MinMaxRatio] = {}
     keys = np.flatnonzero(pop.p_context > 0)
     Wa = m_a.matrix
@@ -287,7 +290,7 @@ def fairness_range(
                 lg, lo_other = _lower_pair(*maps[il])
                 low_end = (float(lows[il]), contexts[keys[il]], groups[index[il][lg]], groups[index[il][lo_other]])
             local_range = _range(
-                "local", local.value, low_end if lower_end else no_end, float(ups[iu]), attained, m_x.is_identity,
+                "local", local.value, low_end if lower_end else no_end, float(ups[iu]), attained, point, m_x.is_identity,
                 (contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]),
             )  # fmt: skip
         w = pop.context_given_group()
@@ -305,7 +308,7 @@ def fairness_range(
                 a, b = _lower_pair(Wg, flat_lo, flat_hi)
             global_range = _range(
                 "global", glob.value, (float(gl[0]), None, groups[gi[a]], groups[gi[b]]) if lower_end else no_end,
-                float(gu[0]), attained, True, (None, groups[gi[int(gf[0])]], groups[gi[int(go[0])]]),
+                float(gu[0]), attained, point, True, (None, groups[gi[int(gf[0])]], groups[gi[int(go[0])]]),
             )  # fmt: skip
     return UtilityRange(
         kernel=kernel, utility=utility, decision=kernel.decisions[d], low=lo_g, high=hi_g, sensitive_mechanism=m_a,
@@ -320,16 +323,21 @@ def _range(
     lower_end: tuple[float, Hashable | None, Hashable | None, Hashable | None],
     upper_ratio: float,
     attained: bool,
+    point: bool,
     exact: bool,
     upper_cells: tuple[Hashable | None, Hashable, Hashable],
 ) -> FairnessRange:
     """Ratios to nats; the stated value, when it is one assignment of the box, lies in the range (rounding).
 
     ``lower_end``: the lower end's ratio and its (context, group, other group); ratio NaN when not computed.
+    ``point``: the box is one law (no mass on the decision), so both ends are the stated value itself, as the
+    metrics compute it, not the same number by another sum.
     """
     lower_ratio, *lower_cells = lower_end
     lower, upper = _log(lower_ratio), _log(upper_ratio)
-    if attained and not math.isnan(value):
+    if point and not math.isnan(value):
+        lower, upper = (lower if math.isnan(lower_ratio) else value), value
+    elif attained and not math.isnan(value):
         upper = max(upper, value)
         if not math.isnan(lower_ratio):
             lower = min(lower, value)

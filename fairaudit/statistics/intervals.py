@@ -460,7 +460,7 @@ def fairness_intervals(
     if method == "bayes":
         sets = band_sets(concentration, int(draws), int(seed))
         common["concentration"], common["draws"], common["seed"] = float(concentration), int(draws), int(seed)
-    options = ProjectionOptions(
+    projection = ProjectionOptions(
         method=method,
         alpha=alpha,
         context_keep=(np.ones(len(law.contexts), bool) if law.population is None else law.population.p_context > 0),
@@ -470,7 +470,7 @@ def fairness_intervals(
         sets=sets,
         **_kish_scales(table),
     )
-    return _assemble(project_sets(counts, g, options), options, law, estimate, common)
+    return _assemble(project_sets(counts, g, projection), projection, law, estimate, common)
 
 
 def _kish_scales(table: CountTable) -> dict[str, FloatArray]:

@@ -15,7 +15,7 @@ Files: :func:`count_file` counts a Parquet or text file with DuckDB (one
 :mod:`fairaudit.data.record_files`), so memory grows with the number of
 (context, group, decision) combinations, not with the records; it also reads
 count tables made by any engine (SQL ``GROUP BY``, Spark, DuckDB), and
-:func:`read_records` reads a file whole, also with DuckDB. See docs/scale.md.
+:func:`~fairaudit.data.record_files.read_records` reads a file whole, also with DuckDB. See docs/scale.md.
 
 pandas and DuckDB are imported by the functions that use them, not with this
 module (``import fairaudit`` stays fast).
@@ -59,7 +59,6 @@ __all__ = [
     "count_file",
     "count_records",
     "count_table",
-    "read_records",
 ]
 
 
@@ -155,25 +154,6 @@ class CountTable:
     def population(self) -> Population:
         """The empirical population P(X, A) = n(x, a) / n."""
         return Population.from_counts(self.cell_counts, self.contexts, self.groups)
-
-
-def read_records(path: str | Path, csv: CsvFormat | None = None) -> pd.DataFrame:
-    """Read decision records from a Parquet or delimited text file (by its name), with DuckDB.
-
-    The values are the labels :func:`count_file` counts (integers and
-    booleans with a missing value as pandas' ``Int64`` and ``boolean``); the
-    file, ``csv`` and the errors are as in :func:`count_file`.
-
-    Examples
-    --------
-    >>> import os, tempfile
-    >>> path = os.path.join(tempfile.mkdtemp(), "adult.data")
-    >>> _ = open(path, "w").write("39, Male, <=50K\\n50, ?, >50K\\n")
-    >>> fmt = CsvFormat(header=False, names=("age", "sex", "income"), na_values=("?",), skip_initial_space=True)
-    >>> read_records(path, fmt).astype(object).values.tolist()
-    [[39, 'Male', '<=50K'], [50, nan, '>50K']]
-    """
-    return source(path, csv).read()
 
 
 def _codes(columns: Sequence[Any], n: int) -> tuple[Codes, tuple]:
@@ -573,7 +553,8 @@ def count_file(
     bounded by that count table and DuckDB's buffers, not by the number of
     records. numpy counts the small grouped table (pandas is not imported),
     with the checks, missing values and errors of :func:`count_records`;
-    ``count_records(read_records(path), ...)`` gives the same table.
+    ``count_records(read_records(path), ...)`` gives the same table
+    (:func:`~fairaudit.data.record_files.read_records`).
 
     **Labels** are the values DuckDB reads, sorted (numbers numerically, text
     by code point, tuples of several columns lexicographically):
@@ -621,12 +602,12 @@ def count_file(
         The file is already a count table, one row per (context, group,
         decision) with its number of records in column ``count``, as made by
         any engine (SQL ``GROUP BY``, Spark, DuckDB); it is read whole
-        (:func:`read_records`) and turned into counts by :func:`count_table`.
+        (:func:`~fairaudit.data.record_files.read_records`) and turned into counts by :func:`count_table`.
     csv : CsvFormat, optional
         How a text file is read (:class:`CsvFormat`); an error for Parquet.
     weights : str, optional
         Column of sample weights (as in :func:`count_records`); the file is
-        then read whole (:func:`read_records`).
+        then read whole (:func:`~fairaudit.data.record_files.read_records`).
     mixed_outcome : bool
         Accept an outcome column that mixes numbers and text (as in :func:`count_records`).
 

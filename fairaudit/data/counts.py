@@ -39,7 +39,7 @@ from fairaudit.base.labels import format_label, label_list
 from fairaudit.data.columns import check_roles, missing_values, roles
 from fairaudit.data.csv_format import CsvFormat
 from fairaudit.data.key_values import Locate, check_key_values, frame_columns
-from fairaudit.data.record_files import source
+from fairaudit.data.record_files import Source, source
 from fairaudit.laws.tables import Law, Population
 
 if TYPE_CHECKING:
@@ -553,8 +553,7 @@ def count_file(
     bounded by that count table and DuckDB's buffers, not by the number of
     records. numpy counts the small grouped table (pandas is not imported),
     with the checks, missing values and errors of :func:`count_records`;
-    ``count_records(read_records(path), ...)`` gives the same table
-    (:func:`~fairaudit.data.record_files.read_records`).
+    ``count_records(read_records(path), ...)`` gives the same table.
 
     **Labels** are the values DuckDB reads, sorted (numbers numerically, text
     by code point, tuples of several columns lexicographically):
@@ -649,15 +648,37 @@ def count_file(
         raise InputError("weights", "a count table (`count`) is counted already: give its counts, not weights")
     records = source(path, csv)
     check_roles(records.names, sensitive, outcome, context)
-    used = list(dict.fromkeys(context + sensitive + [outcome]))
     if weights is None and count is None:
-        g = records.group_by(used)
-        kw: dict[str, Any] = {"n": g.weights, "locate": g.locate, "mixed_outcome": mixed_outcome}
-        return _tally(g.values, g.missing, sensitive, outcome, context, dropna, **kw)
+        return _grouped_counts(records, sensitive, outcome, context, dropna, mixed_outcome)
+    return _whole_counts(records, sensitive, outcome, context, dropna, mixed_outcome, weights=weights, count=count)
+
+
+def _grouped_counts(
+    records: Source, sensitive: list[str], outcome: str, context: list[str], dropna: bool, mixed_outcome: bool
+) -> CountTable:
+    """The records of a file counted out of core: DuckDB's ``GROUP BY`` of the used columns, tallied by numpy."""
+    g = records.group_by(list(dict.fromkeys(context + sensitive + [outcome])))
+    kw: dict[str, Any] = {"n": g.weights, "locate": g.locate, "mixed_outcome": mixed_outcome}
+    return _tally(g.values, g.missing, sensitive, outcome, context, dropna, **kw)
+
+
+def _whole_counts(
+    records: Source,
+    sensitive: list[str],
+    outcome: str,
+    context: list[str],
+    dropna: bool,
+    mixed_outcome: bool,
+    *,
+    weights: str | None,
+    count: str | None,
+) -> CountTable:
+    """A file read whole and counted: weighted records (``weights``), or a count table (``count``)."""
     extra, role = (weights, "weights") if weights is not None else (count, "count")
     assert extra is not None  # (one of them is given)
     columns([extra], role, records.names)
-    frame = records.read(list(dict.fromkeys([*used, extra])))  # read whole: a count table, or weighted records
+    used = list(dict.fromkeys(context + sensitive + [outcome]))
+    frame = records.read(list(dict.fromkeys([*used, extra])))
     roles_: dict[str, Any] = {"sensitive": sensitive, "outcome": outcome, "context": context}
     options: dict[str, Any] = {**roles_, "dropna": dropna, "mixed_outcome": mixed_outcome}
     if weights is not None:

@@ -20,8 +20,9 @@ from fairaudit.base.toml_documents import FieldProblem, distinct_labels, parse_t
 from fairaudit.certification.certificate import Certificate, certify
 from fairaudit.certification.curves import PrivacyCurve, privacy_curve
 from fairaudit.certification.spec import Spec, load_spec, parse_spec
-from fairaudit.data.counts import CountTable, count_file, count_records, count_table, read_records
+from fairaudit.data.counts import CountTable, count_file, count_records, count_table
 from fairaudit.data.csv_format import CsvFormat
+from fairaudit.data.record_files import read_records
 from fairaudit.laws.mechanisms import (
     Mechanism,
     MechanismFamily,

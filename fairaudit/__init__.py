@@ -66,7 +66,8 @@ from fairaudit.statistics.sample_size import SamplePlan, plan
 from fairaudit.worstcase.black_box import BlackBoxCertificate, black_box_bound
 from fairaudit.worstcase.calibration import Calibration, calibrate, calibrate_randomized_response
 from fairaudit.worstcase.known_law import WorstUtility, worst_utility
-from fairaudit.worstcase.known_utility import WorstCase, WorstModel, worst_model
+from fairaudit.worstcase.known_utility import worst_model
+from fairaudit.worstcase.worst_cases import WorstCase, WorstModel
 
 __version__ = "0.1.0"
 

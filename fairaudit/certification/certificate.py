@@ -35,7 +35,8 @@ from fairaudit.metrics.bounds import Assumption, Bound, check_assumptions, corol
 from fairaudit.metrics.observed import Observed, observe
 from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals
 from fairaudit.worstcase.calibration import Calibration, calibrate
-from fairaudit.worstcase.known_utility import WorstModel, worst_model
+from fairaudit.worstcase.known_utility import worst_model
+from fairaudit.worstcase.worst_cases import WorstModel
 
 if TYPE_CHECKING:
     from fairaudit.certification.spec_schema import TargetSpec

@@ -218,12 +218,7 @@ def black_box(
 
     top = bound(math.inf)
     if target >= top:
-        return Found(
-            math.inf,
-            top,
-            f"every epsilon meets the target: even the identity "
-            f"(epsilon = inf) gives a worst case of {top:.6g} nats over every model, {cls}{note}",
-        )
+        return _every_epsilon(top, f"of {top:.6g} nats over every model, {cls}{note}")
     if (math.isnan(tau) or tau <= lower) and lip == 0:
         guess = rr_black_box_epsilon(target, len(family.inputs), lower, gamma)
         if math.isfinite(guess) and _is_randomized_response(family, guess) is not None:
@@ -255,6 +250,15 @@ def black_box(
         else:
             start = target
     return bracketed(target, bound, lo, f_lo, start, f"over every model, {cls}", note)
+
+
+def _every_epsilon(top: float, worst_case: str) -> Found:
+    """Every ε meets the target: even the identity (ε = inf) has the black-box worst case ``top``, ``worst_case``."""
+    return Found(
+        math.inf,
+        top,
+        f"every epsilon meets the target: even the identity (epsilon = inf) gives a worst case {worst_case}",
+    )
 
 
 def bracketed(
@@ -332,12 +336,7 @@ def black_box_global(
     cls = f"{g.name}" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
     top = bound(math.inf)
     if target >= top:
-        return Found(
-            math.inf,
-            top,
-            f"every epsilon meets the target: even the identity (epsilon = inf) gives a worst case on L-bar of "
-            f"{top:.6g} nats over every model, {cls}; {dependence}",
-        )
+        return _every_epsilon(top, f"on L-bar of {top:.6g} nats over every model, {cls}; {dependence}")
     f0 = bound(0.0)
     if not f0 <= target:
         return infeasible(

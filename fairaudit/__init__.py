@@ -65,9 +65,11 @@ from fairaudit.statistics.ll144 import ImpactRatios, impact_ratios
 from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
 from fairaudit.statistics.sample_size import SamplePlan, plan
 from fairaudit.worstcase.black_box import BlackBoxCertificate, black_box_bound
-from fairaudit.worstcase.calibration import Calibration, calibrate, calibrate_randomized_response
+from fairaudit.worstcase.calibration import calibrate, calibrate_randomized_response
+from fairaudit.worstcase.calibration_result import Calibration
 from fairaudit.worstcase.known_law import WorstUtility, worst_utility
-from fairaudit.worstcase.known_utility import WorstCase, WorstModel, worst_model
+from fairaudit.worstcase.known_utility import worst_model
+from fairaudit.worstcase.worst_cases import WorstCase, WorstModel
 
 __version__ = "0.1.0"
 

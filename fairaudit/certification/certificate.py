@@ -34,8 +34,10 @@ from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.bounds import Assumption, Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from fairaudit.metrics.observed import Observed, observe
 from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals, interval_options
-from fairaudit.worstcase.calibration import Calibration, calibrate
-from fairaudit.worstcase.known_utility import WorstModel, worst_model
+from fairaudit.worstcase.calibration import calibrate
+from fairaudit.worstcase.calibration_result import Calibration
+from fairaudit.worstcase.known_utility import worst_model
+from fairaudit.worstcase.worst_cases import WorstModel
 
 if TYPE_CHECKING:
     from fairaudit.certification.spec_schema import TargetSpec

@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 import fairaudit as fa
 from fairaudit import UtilityClass
 from fairaudit.laws.mechanisms import MechanismFamily, keep_probability, randomized_response
-from fairaudit.worstcase.calibration import Calibration, calibrate
+from fairaudit.worstcase.calibration import calibrate
+from fairaudit.worstcase.calibration_result import Calibration
 
 
 def disguised_rr(k: int) -> MechanismFamily:

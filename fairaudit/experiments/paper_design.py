@@ -31,7 +31,7 @@ from ._markdown import paper_design_markdown
 from .analysis import ObservedPoint, candidate_context_mechanism, candidate_utility, observed_point
 from .figures import figure_class
 from .harness import paper_queries_needed
-from .report import observed_dicts, privacy_dict, utility_dict, write_frame, write_json
+from .report import observed_dicts, point_dict, utility_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .unparsed_bounds import BoundRange, bound_ranges_from
 from .vlm.filter import PrivacyFilter, profile_budget
@@ -323,24 +323,6 @@ def _bound_ranges(
     return ranges
 
 
-def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> dict[str, Any]:
-    b = p.bounds
-    return {
-        "epsilon": number(p.epsilon),
-        "queries": p.queries,
-        "privacy": privacy_dict(a.task, b.filter, b.corollary),
-        "bounds": {
-            "corollary": number(b.corollary),
-            "black_box": number(b.black_box_local),
-            "black_box_global": number(b.black_box_global),
-            "closed_form": b.closed_form,
-            "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
-        },
-        "observed": observed_dicts(p),
-        "certified_local": number(b.black_box_local),
-    }
-
-
 def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None = None) -> dict[str, Any]:
     """The certificate JSON of a run of the paper's design alone: the keys of
     :func:`fairaudit.experiments.report.experiment_dict` where they mean the same, with ``design`` (``"paper"``) and
@@ -369,7 +351,7 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None 
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {"queries": a.baseline.queries, **observed_dicts(a.baseline)},
-        "points": [_point_dict(a, p) for p in a.points],
+        "points": [point_dict(t, p, p.bounds, p.queries, p.bounds.closed_form) for p in a.points],
     }
     if run:
         out["run"] = run

@@ -10,7 +10,7 @@ the public functions of fairaudit (docs/design.md, "Handing the core a kernel" a
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -132,7 +132,7 @@ def _budgets(
     pop: Population,
     mx: Mechanism,
     tau: float | None,
-    upper_at: Any = None,
+    upper_at: Callable[[float, str], float],
 ) -> tuple[TargetBudget, ...]:
     """Per target and kind the white-box ε (on the unparsed range's upper end, and under the stated default) and the
     black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end at the stated default's ε."""
@@ -161,7 +161,7 @@ def _budgets(
                 utility_class=UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau), population=pop,
             )  # fmt: skip
             stated = white[None]
-            upper = upper_at(stated.epsilon, kind) if upper_at is not None and stated.feasible else math.nan
+            upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
             out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
     return tuple(out)
 
@@ -410,7 +410,6 @@ def analyse(
     tau: float | None = None,
     context_epsilon: float | None = None,
     paper_epsilons: Sequence[float] = (),
-    grid: int = 61,
     targets: Sequence[float] = DEFAULT_TARGETS,
 ) -> ExperimentAnalysis:
     """The per-candidate fairness–privacy analysis of a run's answered queries.
@@ -440,8 +439,6 @@ def analyse(
         ε of randomized response on the context (None: shown as is).
     paper_epsilons : sequence of float
         ε values of the paper's design in the log, analysed beside.
-    grid : int
-        Points of the dense ε grid of the curve (0 to the largest ε).
     targets : sequence of float
         Fairness targets (nats) at which to report the ε that meets them
         (:attr:`ExperimentAnalysis.budgets`).
@@ -484,7 +481,6 @@ def analyse(
         tau=tau,
         context_epsilon=context_epsilon,
         paper=paper,
-        grid=grid,
         targets=targets,
     )
 
@@ -525,8 +521,10 @@ def analyse_kernel(
     epsilons : sequence of float
     samples : int
         Queries per shown cell (0 on the exact route).
-    positions, confidence, method, tau, context_epsilon, grid
+    positions, confidence, method, tau, context_epsilon
         As in :func:`analyse`.
+    grid : int
+        Points of the dense ε grid of the curve (0 to the largest ε).
     paper : sequence of ObservedPoint
         The paper's design, analysed beside (sampled route only).
     targets : sequence of float

@@ -429,14 +429,12 @@ def _free_port() -> int:
 
 
 @contextmanager
-def serve(
-    folder: str | Path, *, port: int | None = None, timeout: float = 180.0, log: str | Path | None = None
-) -> Iterator[str]:
+def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None = None) -> Iterator[str]:
     """``transformers serve FOLDER`` on 127.0.0.1, for the ``with`` block; yields the endpoint URL.
 
     The server (``pip install 'transformers[serving]'``) preloads the
     converted folder and answers OpenAI chat completions at
-    ``http://127.0.0.1:PORT/v1``; the block starts once ``/health`` answers,
+    ``http://127.0.0.1:PORT/v1`` (PORT a free port); the block starts once ``/health`` answers,
     and the server is stopped (terminated, then killed after 10 s) when the
     block ends, whatever happens in it.
 
@@ -444,8 +442,6 @@ def serve(
     ----------
     folder : str or Path
         A converted model (:func:`~fairaudit.experiments.model_files.prepare`).
-    port : int, optional
-        Default: a free port.
     timeout : float
         Seconds allowed for the server to answer ``/health``.
     log : str or Path, optional
@@ -464,7 +460,7 @@ def serve(
     import urllib.error
     import urllib.request
 
-    port = _free_port() if port is None else int(port)
+    port = _free_port()
     cmd = [
         sys.executable,
         "-c",

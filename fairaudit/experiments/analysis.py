@@ -10,7 +10,7 @@ the public functions of fairaudit (docs/design.md, "Handing the core a kernel" a
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -132,11 +132,22 @@ def _budgets(
     pop: Population,
     mx: Mechanism,
     tau: float | None,
-    upper_at: Callable[[float, str], float],
+    context_epsilon: float | None,
+    points: Sequence[PointResult],
 ) -> tuple[TargetBudget, ...]:
     """Per target and kind the white-box ε (on the unparsed range's upper end, and under the stated default) and the
-    black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end at the stated default's ε."""
+    black-box ε, with the unparsed range's upper end at the stated default's ε (the ``points``' ranges, or computed)."""
     from fairaudit import calibrate
+
+    ranges = {p.epsilon: p.unparsed_range for p in points}
+
+    def upper_at(e: float, kind: str) -> float:  # at the white-box ε of a target, with this run's M_X
+        if e not in ranges:
+            filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(e), context_epsilon=context_epsilon)
+            mech = filt.candidate_mechanism(positions)
+            ranges[e] = fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
+        r = ranges[e]
+        return (r.local_fairness if kind == "local" else r.global_fairness).upper
 
     family = candidate_family(task, positions)
     out = []
@@ -567,16 +578,6 @@ def analyse_kernel(
     baseline = _point(
         task, positions, math.inf, kc, utility, pop, identity(candidate_contexts(task)), confidence, method, tau, None
     )
-    ranges = {p.epsilon: p.unparsed_range for p in points}
-
-    def upper_at(e: float, kind: str) -> float:  # at the white-box ε of a target, with this run's M_X
-        if e not in ranges:
-            filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(e), context_epsilon=context_epsilon)
-            mech = filt.candidate_mechanism(positions)
-            ranges[e] = fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
-        r = ranges[e]
-        return (r.local_fairness if kind == "local" else r.global_fairness).upper
-
     probs = kernel.probabilities
     prompts, _ = true_prompts(task, "balanced")
     shares = probs[:, np.ravel_multi_index(tuple(prompts.T), (len(task.profiles),) * task.slots)]
@@ -604,6 +605,6 @@ def analyse_kernel(
         route="sampled" if counts is not None else "exact",
         unparsed_share=float(probs[..., -1].mean()),
         split=position_split(task, expected_utility(task, probs, np.asarray(task.utility_values))),
-        budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau, upper_at),
+        budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau, context_epsilon, points),
         unparsed_mass=unparsed_mass(task, kernel),
     )

@@ -892,7 +892,7 @@ def _check_assumptions(
         if law is None or utility is None:
             out.append(Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"))
         else:
-            from fairaudit.metrics.fairness import expected_utility
+            from fairaudit.metrics.reductions import expected_utility
 
             e = expected_utility(law, utility)
             low = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan

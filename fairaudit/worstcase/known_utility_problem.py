@@ -82,7 +82,8 @@ class ModelProblem:
 
     def audit(self, kernel: Kernel, kind: str) -> FloatArray:
         """E[g | x, a] (local) or E[g | a] (global) of the law behind ``kernel``."""
-        from fairaudit.metrics.fairness import expected_utility, global_fairness
+        from fairaudit.metrics.fairness import global_fairness
+        from fairaudit.metrics.reductions import expected_utility
 
         if isinstance(self.mechanism, RandomizedResponse):  # (no k x k matrix)
             law = rr_law(kernel, self.mechanism.rr, self.groups, self.context_mechanism)

@@ -38,8 +38,8 @@ from fairaudit.laws.mechanisms import (
 )
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import Utility, UtilityClass, from_function, from_table, indicator
+from fairaudit.metrics.assumptions import Assumption
 from fairaudit.metrics.bounds import (
-    Assumption,
     Bound,
     corollary_bound,
     main_theorem,

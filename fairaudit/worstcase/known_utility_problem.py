@@ -21,7 +21,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, identity
 from fairaudit.laws.tables import Kernel, Population, compose
 from fairaudit.laws.utilities import Utility
-from fairaudit.metrics.bounds import Assumption, check_assumptions
+from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.worstcase.pair_search import check_method
 from fairaudit.worstcase.randomized_response import rr_law
 from fairaudit.worstcase.worst_cases import WorstCase, WorstModel

@@ -5,7 +5,7 @@ P(X, A) (one multinomial draw of the whole dataset, so the per-cell counts are
 random), then U | X, A from the law Q. For every method of
 :func:`fairaudit.fairness_intervals` and each confidence level the script
 records whether the true L, L̄, L_dp and L_eo (computed by
-:mod:`fairaudit.metrics.fairness` on the true law, the global metrics with the true
+:mod:`fairaudit.metrics` on the true law, the global metrics with the true
 P(x | a)) lie inside their intervals, separately and all at once
 (simultaneous coverage), and the widths. Beside them, on the binary
 single-context datasets, fairlearn's percentile bootstrap
@@ -36,7 +36,8 @@ from fairaudit import IntervalOptions
 from fairaudit.data.counts import CountTable  # noqa: E402
 from fairaudit.laws.tables import Law, Population  # noqa: E402
 from fairaudit.laws.utilities import from_table, indicator  # noqa: E402
-from fairaudit.metrics.fairness import demographic_parity, equalized_odds, global_fairness, local_fairness  # noqa: E402
+from fairaudit.metrics.fairness import global_fairness, local_fairness  # noqa: E402
+from fairaudit.metrics.parity import demographic_parity, equalized_odds  # noqa: E402
 from fairaudit.statistics.intervals import fairness_intervals  # noqa: E402
 
 METHODS = ("clopper-pearson", "multinomial", "bayes")
@@ -504,7 +505,7 @@ def run(n_datasets: int, seed: int, quick: bool, progress: bool = True) -> tuple
         f"with the bounded utility g = {UTILITIES[3]} / {UTILITIES[4]}; 'XxA': contexts × groups; 'nN': mean "
         f"records per cell; low/mid/high: P(U = extreme | x, a) near 0.02, in [0.2, 0.8], near 0.98; fair: all "
         f"groups share each cell's law, L = 0). Records are drawn i.i.d. from a joint P(X, A) ~ Dirichlet(4) "
-        f"(X and A dependent), then U | X, A. Truth: fairaudit.metrics.fairness on the true law, global metrics with the "
+        f"(X and A dependent), then U | X, A. Truth: fairaudit.metrics on the true law, global metrics with the "
         f"true P(x | a). Methods: clopper-pearson (binary outcomes only), multinomial, bayes ({draws} draws, "
         f"concentration 1); intervals pooled over the records' own groups (no population given). Coverage ± one "
         f"binomial standard error; widths are means over finite intervals (nats for L, L̄; probability for "

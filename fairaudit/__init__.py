@@ -38,8 +38,8 @@ from fairaudit.laws.mechanisms import (
 )
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import Utility, UtilityClass, from_function, from_table, indicator
+from fairaudit.metrics.assumptions import Assumption
 from fairaudit.metrics.bounds import (
-    Assumption,
     Bound,
     corollary_bound,
     main_theorem,
@@ -47,16 +47,10 @@ from fairaudit.metrics.bounds import (
     paper_bound,
     tight_bound,
 )
-from fairaudit.metrics.fairness import (
-    Fairness,
-    demographic_parity,
-    equalized_odds,
-    expected_utility,
-    global_fairness,
-    local_fairness,
-    sup_global_fairness,
-    sup_local_fairness,
-)
+from fairaudit.metrics.fairness import Fairness, global_fairness, local_fairness
+from fairaudit.metrics.parity import demographic_parity, equalized_odds
+from fairaudit.metrics.reductions import expected_utility
+from fairaudit.metrics.sup_fairness import sup_global_fairness, sup_local_fairness
 from fairaudit.metrics.utility_range import UtilityRange, fairness_range
 from fairaudit.reports.figures import mark_infinite
 from fairaudit.reports.plots import plot_curve, save_figure

@@ -31,7 +31,8 @@ from fairaudit.data.counts import CountTable
 from fairaudit.laws.mechanisms import MechanismFamily
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import UtilityClass
-from fairaudit.metrics.bounds import Assumption, Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
+from fairaudit.metrics.assumptions import Assumption, check_assumptions
+from fairaudit.metrics.bounds import Bound, corollary_bound, paper_bound, tight_bound
 from fairaudit.metrics.observed import Observed, observe
 from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals, interval_options
 from fairaudit.worstcase.calibration import calibrate

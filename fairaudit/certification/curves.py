@@ -37,7 +37,8 @@ from fairaudit.laws.mechanisms import Mechanism, MechanismFamily
 from fairaudit.laws.tables import Kernel, Population, compose
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import corollary_bound, paper_bound, tight_bound
-from fairaudit.metrics.fairness import expected_utility, global_fairness, local_fairness
+from fairaudit.metrics.fairness import global_fairness, local_fairness
+from fairaudit.metrics.reductions import expected_utility
 from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.known_utility import worst_model
 

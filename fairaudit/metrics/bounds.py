@@ -32,6 +32,10 @@ It is also the paper and tight forms when their extra term is zero (L_A = 0,
 ``tight_bound`` need no τ then and return ε(M). For k-ary randomized
 response both forms are closed forms (the minimum at t = 1 or t = e^ε).
 
+For a general mechanism the minimisation over the profile is in
+:mod:`fairaudit.metrics.privacy_profile`; the hypotheses each bound carries,
+checked on the data given, in :mod:`fairaudit.metrics.assumptions`.
+
 Proofs: ``proofs/main_theorem.md`` (both forms, the profile minimisation) and
 ``proofs/corollary.md``.
 """
@@ -45,60 +49,25 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import EXP_SAFE, FloatArray, IntArray, first_max, ratio_extremes
+from fairaudit.base.arrays import EXP_SAFE, FloatArray, ratio_extremes
 from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
-from fairaudit.base.labels import format_label
-from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, PairPass, pair_candidates
 from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
+from fairaudit.metrics.assumptions import Assumption, assumptions_for
+from fairaudit.metrics.privacy_profile import paper_minimum, tight_maximum
 
 __all__ = [
-    "Assumption",
     "Bound",
-    "check_assumptions",
     "corollary_bound",
     "main_theorem",
     "main_theorem_tight",
     "paper_bound",
     "tight_bound",
 ]
-
-
-@dataclass(frozen=True)
-class Assumption:
-    """One hypothesis of a theorem and how it stands.
-
-    Attributes
-    ----------
-    name : str
-        The hypothesis, for example ``"X independent of A"``.
-    status : {"checked", "violated", "vouched", "assumed", "not applicable"}
-        ``checked``: verified on the data given; ``violated``: the data
-        contradict it (the bound does not apply); ``vouched``: taken on the
-        caller's word; ``assumed``: holds by a default nobody stated (X ⊥ A
-        of the uniform population used when none is given); ``not
-        applicable``: not needed here.
-    detail : str
-        The numbers behind the status.
-    scope : {"all", "global"}
-        ``"global"``: needed only for the bound on L̄ (X ⊥ A), so a violation
-        does not void the bound on L.
-    """
-
-    name: str
-    status: str
-    detail: str = ""
-    scope: str = "all"
-
-    def __post_init__(self) -> None:
-        if self.status not in {"checked", "violated", "vouched", "assumed", "not applicable"}:
-            raise InputError(
-                "assumption status", "must be checked, violated, vouched, assumed or not applicable", self.status
-            )
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -235,121 +204,6 @@ def main_theorem_tight(
     return math.log(math.exp(eps) + c)
 
 
-def _sorted(p: FloatArray, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """For pairs of rows (p[..., :], q[..., :]), the outputs sorted by p/q descending: (ratio, p, q), same shapes.
-
-    Ratios follow the conventions c/0 = inf and 0/0 = 0 (such outputs add nothing to any hockey-stick divergence).
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
-    order = np.argsort(-ratio, axis=-1, kind="stable")
-    take = np.take_along_axis
-    return take(ratio, order, -1), take(np.broadcast_to(p, ratio.shape), order, -1), take(q, order, -1)
-
-
-def _pair_lines(p: FloatArray, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The lines t ↦ P_k − t Q_k (prefix sums in likelihood-ratio order) of pairs of rows: δ_pq(t) is their max."""
-    _, ps, qs = _sorted(p, q)
-    zeros = np.zeros(ps.shape[:-1] + (1,))
-    big_p = np.concatenate([zeros, np.cumsum(ps, axis=-1)], axis=-1).ravel()
-    big_q = np.concatenate([zeros, np.cumsum(qs, axis=-1)], axis=-1).ravel()
-    return -big_q, big_p
-
-
-def _upper_envelope(slopes: FloatArray, intercepts: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Upper envelope of lines y = s·t + c over t ∈ ℝ: (slopes, intercepts, breakpoints).
-
-    Lines are kept in increasing slope; breakpoint i is where line i hands
-    over to line i + 1.
-    """
-    order = np.lexsort((-intercepts, slopes))
-    s, c = slopes[order], intercepts[order]
-    first = np.ones(len(s), dtype=bool)
-    first[1:] = s[1:] != s[:-1]  # equal slopes: keep the largest intercept (sorted first)
-    s, c = s[first], c[first]
-    hull_s: list[float] = []
-    hull_c: list[float] = []
-    for sk, ck in zip(s.tolist(), c.tolist()):
-        while len(hull_s) >= 2:
-            s1, c1, s2, c2 = hull_s[-2], hull_c[-2], hull_s[-1], hull_c[-1]
-            # line 2 is useless when its crossing with line 1 is not left of its crossing with line k
-            if (c1 - c2) * (sk - s2) >= (c2 - ck) * (s2 - s1):
-                hull_s.pop()
-                hull_c.pop()
-            else:
-                break
-        hull_s.append(sk)
-        hull_c.append(ck)
-    hs, hc = np.array(hull_s), np.array(hull_c)
-    breaks = (hc[:-1] - hc[1:]) / (hs[1:] - hs[:-1])
-    return hs, hc, breaks
-
-
-def _profile_candidates(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
-    """Candidate t = e^ε ≥ 1 for the paper form and δ(t) there (the exact envelope of every pair's lines)."""
-    m = mechanism.matrix
-    n = m.shape[0]
-    a, b = np.nonzero(~np.eye(n, dtype=bool))
-    return _envelope_candidates(m, a, b)
-
-
-def _envelope_candidates(matrix: FloatArray, a: IntArray, b: IntArray) -> tuple[FloatArray, FloatArray]:
-    """Candidate t ≥ 1 (1 and the breakpoints of the envelope) and max over the pairs (a[i], b[i]) of δ(t) there.
-
-    The envelope of a union of lines is the envelope of the blocks' envelopes: a block of pairs at a time.
-    """
-    step = max(1, PAIR_BLOCK // (4 * max(1, matrix.shape[1])))
-    slopes, intercepts = [], []
-    for s in range(0, a.size, step):
-        lines_s, lines_c = _pair_lines(matrix[a[s : s + step]], matrix[b[s : s + step]])
-        if a.size > step:
-            lines_s, lines_c, _ = _upper_envelope(lines_s, lines_c)
-        slopes.append(lines_s)
-        intercepts.append(lines_c)
-    hs, hc, breaks = _upper_envelope(np.concatenate(slopes), np.concatenate(intercepts))
-    t = np.unique(np.concatenate([[1.0], breaks[np.isfinite(breaks) & (breaks > 1.0)]]))
-    delta = np.clip((hc[None, :] + hs[None, :] * t[:, None]).max(axis=1), 0.0, 1.0)
-    return t, delta
-
-
-def _paper_pairs(matrix: FloatArray, gamma: float, tau: float, c: float) -> tuple[float, float, float]:
-    """(value, ε, δ) of the paper form for a general mechanism, without the envelope of every pair.
-
-    The envelope of a set S of pairs gives δ_S ≤ δ and its minimiser t_S; one pass checks δ_ab(t_S) ≤ δ_S(t_S)
-    for every pair (to rounding), and then min_t of the objective with δ equals that with δ_S
-    (``proofs/black_box.md`` §7). Otherwise the pairs above it join S and the check is repeated.
-    """
-    n = matrix.shape[0]
-    a, b = pair_candidates(matrix)
-    passer = PairPass(matrix)
-    checked, complete = math.nan, False  # the t of the last pass; whether every pair above there joined S
-    while True:
-        t, deltas = _envelope_candidates(matrix, a, b)
-        values = np.log(t) + np.log1p((c + gamma * deltas) / tau)
-        k = int(np.argmin(values))
-        at, level = float(t[k]), float(deltas[k])
-        if at == checked and complete:  # (the pairs left out were below the old level there, ≤ the new one)
-            return float(values[k]), float(np.log(at)), level
-        above: list[tuple[FloatArray, IntArray]] = []
-
-        def visit(rows: slice, cols: slice, sums: FloatArray, lam: float) -> None:
-            # above δ_S(t_S) beyond the rounding of both (the pass's sums and the envelope's prefix sums)
-            delta = sums - lam * passer.sums[None, cols] - 2 * passer.error(rows, cols, lam) - 1e-15
-            delta[np.arange(rows.stop - rows.start), np.arange(rows.start, rows.stop)] = -np.inf
-            i, j = np.nonzero(delta > level)
-            above.append((delta[i, j], (i + rows.start) * n + j))
-
-        passer.run(lambda: at, visit)
-        gaps = np.concatenate([x[0] for x in above])
-        flat = np.concatenate([x[1] for x in above])
-        new = ~np.isin(flat, a * n + b)  # (a pair of S is never above its own envelope but by rounding)
-        if not new.any():
-            return float(values[k]), float(np.log(at)), level
-        gaps, flat = gaps[new], flat[new]
-        a, b = np.divmod(np.union1d(a * n + b, flat[np.argsort(-gaps, kind="stable")[: 4 * CANDIDATES]]), n)
-        checked, complete = at, gaps.size <= 4 * CANDIDATES
-
-
 def _resolve(
     mechanism: Mechanism, utility_class: UtilityClass | None, utility: Utility | None
 ) -> tuple[float, float | None, float, npt.ArrayLike | None]:
@@ -418,7 +272,7 @@ def _tau_free(
     """
     gamma, lipschitz, diameter = _tau_free_constants(gamma, lipschitz, diameter)
     free = _without_tau(form, mechanism, lipschitz, diameter, utility)
-    assumptions = _check_assumptions(mechanism, None, gamma, utility, population, law)
+    assumptions = assumptions_for(mechanism, None, gamma, utility, population, law)
     n = len(mechanism.inputs)
     eps = mechanism.epsilon if n > 1 else 0.0  # the tight form: max over pairs of ε_aa', where δ_aa' = 0
     pair = _epsilon_pair(mechanism) if form == "tight" and n > 1 else (None, None)
@@ -482,7 +336,7 @@ def paper_bound(
           1 under the discrete metric.
     utility, population, law : optional
         When given, the assumptions are checked on them (see
-        :func:`check_assumptions`).
+        :func:`~fairaudit.metrics.assumptions.check_assumptions`).
 
     Returns
     -------
@@ -531,14 +385,14 @@ def paper_bound(
     if tau is None:
         return _tau_free("paper", mechanism, gamma, lipschitz, diameter, utility, population, law)
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
-    assumptions = _check_assumptions(mechanism, tau, gamma, utility, population, law)
+    assumptions = assumptions_for(mechanism, tau, gamma, utility, population, law)
     c = lipschitz * diameter
     if len(mechanism.inputs) < 2:
         value, eps, delta = 0.0, 0.0, 0.0
     elif isinstance(mechanism, RandomizedResponse):
         value, eps, delta = _paper_randomized_response(mechanism.rr, gamma, tau, c)
     else:
-        value, eps, delta = _paper_pairs(mechanism.matrix, gamma, tau, c)
+        value, eps, delta = paper_minimum(mechanism.matrix, gamma, tau, c)
     return Bound(
         form="paper",
         value=value,
@@ -633,7 +487,7 @@ def tight_bound(
     if tau is None:
         return _tau_free("tight", mechanism, gamma, lipschitz, diameter, utility, population, law)
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
-    assumptions = _check_assumptions(mechanism, tau, gamma, utility, population, law)
+    assumptions = assumptions_for(mechanism, tau, gamma, utility, population, law)
     pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None)
     if n < 2:
         value, eps, delta = 0.0, 0.0, 0.0
@@ -641,7 +495,7 @@ def tight_bound(
         if rr is not None:
             value, eps, delta, a, b = _tight_randomized_response(rr, d, gamma, tau, lipschitz, diameter)
         else:
-            value, eps, delta, a, b = _tight_pairs(mechanism.matrix, d, gamma, tau, lipschitz)
+            value, eps, delta, a, b = tight_maximum(mechanism.matrix, d, gamma, tau, lipschitz)
         pair = (mechanism.inputs[a], mechanism.inputs[b])
     return Bound(
         form="tight",
@@ -676,77 +530,6 @@ def _tight_randomized_response(
     return log_eps, rr.epsilon, 0.0, int(a), int(b)
 
 
-def _tight_objective(
-    p: FloatArray, q: FloatArray, dist: FloatArray, gamma: float, tau: float, lipschitz: float
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """min over t ≥ 1 of t + (L_A d + γ δ_pq(t))/τ for pairs of rows, and its t and δ: convex and piecewise
-    linear in t, so the minimum is at t = 1 or at one of the pair's ratios (the first such, on ties)."""
-    ratio, ps, qs = _sorted(p, q)
-    # δ at t = ratio_k: mass of the outputs strictly before k (ties add 0).
-    p_before = np.cumsum(ps, axis=-1) - ps
-    q_before = np.cumsum(qs, axis=-1) - qs
-    with np.errstate(invalid="ignore"):
-        delta_k = np.clip(p_before - ratio * q_before, 0.0, None)
-    valid = np.isfinite(ratio) & (ratio >= 1.0)
-    delta_1 = np.clip(ps - qs, 0.0, None).sum(axis=-1)  # t = 1 (ε = 0): total variation
-    t = np.concatenate([np.ones(ratio.shape[:-1] + (1,)), np.where(valid, ratio, np.inf)], axis=-1)
-    dl = np.concatenate([delta_1[..., None], np.where(valid, delta_k, 0.0)], axis=-1)
-    objective = t + (lipschitz * dist[..., None] + gamma * dl) / tau
-    best_k = objective.argmin(axis=-1)[..., None]
-    take = np.take_along_axis
-    return take(objective, best_k, -1)[..., 0], take(t, best_k, -1)[..., 0], take(dl, best_k, -1)[..., 0]
-
-
-def _tight_pairs(
-    matrix: FloatArray, d: FloatArray | None, gamma: float, tau: float, lipschitz: float
-) -> tuple[float, float, float, int, int]:
-    """(value, ε, δ, a, a') of the tight form for a general mechanism (``d`` None: the discrete metric).
-
-    Every pair's minimum is at most its objective at one t = λ, so one pass over the pairs at λ (the best pair's
-    minimiser) sets aside every pair that cannot reach the best value found; the rest are solved exactly
-    (``proofs/black_box.md`` §7). The maximum and its first row-major maximiser are those of all pairs.
-    """
-    n = matrix.shape[0]
-
-    def dist(a: IntArray | slice, b: IntArray | slice) -> FloatArray:
-        if d is None:
-            return np.asarray(1.0) if isinstance(a, slice) else np.ones(np.shape(a))
-        return d[a, b]
-
-    parts: list[tuple[IntArray, IntArray, FloatArray, FloatArray, FloatArray]] = []
-    state = {"best": -math.inf, "lam": 1.0}
-
-    def offer(a: IntArray, b: IntArray) -> None:
-        step = max(1, PAIR_BLOCK // (8 * max(1, matrix.shape[1])))
-        for s in range(0, a.size, step):
-            at, bt = a[s : s + step], b[s : s + step]
-            parts.append((at, bt, *_tight_objective(matrix[at], matrix[bt], dist(at, bt), gamma, tau, lipschitz)))
-            i = int(np.argmax(parts[-1][2]))
-            if parts[-1][2][i] > state["best"]:
-                state["best"], state["lam"] = float(parts[-1][2][i]), min(float(parts[-1][3][i]), 1e300)
-
-    def visit(rows: slice, cols: slice, sums: FloatArray, lam: float) -> None:
-        delta = sums - lam * passer.sums[None, cols] + passer.error(rows, cols, lam)
-        with np.errstate(over="ignore"):
-            bound = (lam + (lipschitz * dist(rows, cols) + gamma * delta) / tau) * (1 + 1e-12)
-        bound[np.arange(rows.stop - rows.start), np.arange(rows.start, rows.stop)] = -np.inf
-        i, j = np.nonzero(bound >= state["best"] * (1 - PRUNE))
-        if i.size:
-            offer(i + rows.start, j + cols.start)
-
-    a, b = pair_candidates(matrix)
-    if d is not None and lipschitz > 0:  # the pair of largest distance, the first row-major
-        far = np.unravel_index(int(np.argmax(np.where(np.eye(n, dtype=bool), -np.inf, d))), d.shape)
-        a, b = np.divmod(np.union1d(a * n + b, [far[0] * n + far[1]]), n)
-    offer(a, b)
-    passer = PairPass(matrix)
-    passer.run(lambda: state["lam"], visit)
-    pa, pb, obj, ts, ds = (np.concatenate([x[i] for x in parts]) for i in range(5))
-    i = first_max(obj, order=pa * n + pb)
-    assert i is not None  # the pass visits every pair: obj holds no NaN
-    return float(np.log(obj[i])), float(np.log(ts[i])), float(ds[i]), int(pa[i]), int(pb[i])
-
-
 def corollary_bound(
     mechanism: Mechanism,
     *,
@@ -773,7 +556,7 @@ def corollary_bound(
     """
     if not isinstance(mechanism, Mechanism):
         raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
-    assumptions = list(_check_assumptions(mechanism, None, None, utility, population, law))
+    assumptions = list(assumptions_for(mechanism, None, None, utility, population, law))
     if utility is not None:
         dep = utility.depends_on_group
         assumptions.append(
@@ -800,108 +583,3 @@ def corollary_bound(
         mechanism=mechanism,
         assumptions=tuple(assumptions),
     )
-
-
-def check_assumptions(
-    mechanism: Mechanism,
-    *,
-    utility_class: UtilityClass | None = None,
-    utility: Utility | None = None,
-    population: Population | None = None,
-    law: Law | None = None,
-) -> tuple[Assumption, ...]:
-    """The main theorem's hypotheses, each checked on the data given or vouched for.
-
-    Proof: ``proofs/main_theorem.md`` (the hypotheses (A1)–(A6)).
-
-    Parameters
-    ----------
-    mechanism : Mechanism
-        M_A; its (ε, δ) profile is always computed exactly ("checked").
-    utility_class : UtilityClass, optional
-        The constants claimed, ``tau`` and ``gamma`` (the others are not
-        checked here); a field None when the bound does not use it.
-    utility : Utility, optional
-        Checks g ≤ γ and g ≥ 0.
-    population : Population, optional
-        Checks X ⊥ A (tolerance 1e-9).
-    law : Law, optional
-        The observed law behind the filter: checks E[g | x, a] ≥ τ on it (this
-        law only, not every model; the bound for *any* model still relies on
-        the caller's τ).
-
-    Returns
-    -------
-    tuple of Assumption
-
-    Examples
-    --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
-    >>> from fairaudit.laws.utilities import UtilityClass
-    >>> m = randomized_response(["a", "b"], keep=0.7)
-    >>> [a.status for a in check_assumptions(m, utility_class=UtilityClass(gamma=1.0, tau=0.2))]
-    ['checked', 'vouched', 'vouched', 'vouched']
-    """
-    c = UtilityClass() if utility_class is None else utility_class
-    return _check_assumptions(mechanism, c.tau, c.gamma, utility, population, law)
-
-
-def _check_assumptions(
-    mechanism: Mechanism,
-    tau: float | None,
-    gamma: float | None,
-    utility: Utility | None,
-    population: Population | None,
-    law: Law | None,
-) -> tuple[Assumption, ...]:
-    """:func:`check_assumptions` of the constants τ and γ."""
-    out = []
-    eps = mechanism.epsilon
-    eps_text = "inf" if math.isinf(eps) else f"{eps:.6g}"
-    out.append(
-        Assumption(
-            "M_A is differentially private",
-            "checked",
-            f"exact privacy profile of {mechanism.name}; pure epsilon = {eps_text} nats",
-        )
-    )
-    if population is None:
-        out.append(Assumption("X independent of A", "vouched", "no population given; needed for L-bar only", "global"))
-    else:
-        ind = population.independence()
-        where = f"at (context {format_label(ind.context)!r}, group {format_label(ind.group)!r})"
-        if not ind.independent:
-            status, detail = "violated", f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} {where}"
-        elif population.source == "assumed":
-            status, detail = "assumed", "the population is " + population.describe()
-        else:
-            status, detail = "checked", f"max |P(x,a) - P(x)P(a)| = {ind.max_deviation:.3g} {where}"
-        source = "" if population.source == "assumed" else f" in {population.describe()}"
-        out.append(Assumption("X independent of A", status, f"{detail}{source}; needed for L-bar only", "global"))
-    if gamma is not None:
-        if utility is None:
-            out.append(Assumption("g <= gamma", "vouched", f"gamma = {gamma:g}; no utility table given"))
-        else:
-            ok = utility.gamma <= gamma + 1e-12
-            out.append(
-                Assumption(
-                    "g <= gamma", "checked" if ok else "violated", f"max g = {utility.gamma:g}, gamma = {gamma:g}"
-                )
-            )
-    if tau is not None:
-        if law is None or utility is None:
-            out.append(Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"))
-        else:
-            from fairaudit.metrics.fairness import expected_utility
-
-            e = expected_utility(law, utility)
-            low = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
-            status = "vouched" if low >= tau - 1e-12 else "violated"
-            out.append(
-                Assumption(
-                    "E[g | x, a] >= tau for every model",
-                    status,
-                    f"tau = {tau:g}; the observed model has min E[g | x, a] = {low:.6g}",
-                )
-            )
-    return tuple(out)

@@ -1,6 +1,6 @@
 """Demographic parity and equalized odds of the utility g: differences of E[g] between groups.
 
-The gaps of :mod:`fairaudit.metrics.fairness` (``demographic_parity``,
+The gaps of :mod:`fairaudit.metrics.parity` (``demographic_parity``,
 ``equalized_odds``) are total-variation distances between groups'
 distributions of the whole outcome U. Users of fairlearn mean something
 else by the same names: the difference of selection rates between groups,

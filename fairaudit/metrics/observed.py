@@ -14,7 +14,9 @@ from typing import Protocol
 from fairaudit.base.json_values import Report, number
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility
-from fairaudit.metrics.fairness import Fairness, SupFairness, TotalVariation, all_metrics
+from fairaudit.metrics.fairness import Fairness, all_metrics
+from fairaudit.metrics.parity import TotalVariation
+from fairaudit.metrics.sup_fairness import SupFairness
 
 __all__ = ["Observed", "observe"]
 
@@ -33,7 +35,7 @@ class MetricIntervals(Protocol):
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class Observed:
-    """Every exact metric of one law, each named as the function of :mod:`fairaudit.metrics.fairness` that computes it.
+    """Every exact metric of one law, each named as the function of :mod:`fairaudit.metrics` that computes it.
 
     Attributes
     ----------

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fairaudit.base.arrays import FloatArray
+from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.laws.mechanisms import Mechanism, identity
@@ -222,6 +222,49 @@ def fairness_range(
     >>> r.local_fairness.upper_group, r.local_fairness.upper_other_group
     ('a', 'b')
     """
+    g, d, lo_g, hi_g = _unknown_decision(kernel, utility, decision, low, high, sensitive_mechanism, context_mechanism)
+    m_a = sensitive_mechanism if sensitive_mechanism is not None else identity(kernel.groups)
+    m_x = context_mechanism if context_mechanism is not None else identity(kernel.contexts)
+    law = kernel if isinstance(kernel, Law) else compose(kernel, m_a, m_x)
+    pop = population_for(law, population)
+    local, glob = local_fairness(law, utility, pop), global_fairness(law, utility, pop)
+
+    k = np.nan_to_num(kernel.probabilities, nan=0.0)
+    rest = k @ np.where(np.arange(len(g)) == d, 0.0, g)  # (X̃, Ã): the known decisions' part
+    e_lo, e_hi = rest + k[..., d] * lo_g, rest + k[..., d] * hi_g
+    attained = lo_g <= g[d] <= hi_g  # the stated value is one assignment: the range holds it
+    # no mass on the decision: every utility of it gives the stated law, the range is a point
+    point = not k[..., d].any()
+    solver: dict[tuple[int, int], MinMaxRatio] = {}
+    keys = np.flatnonzero(pop.p_context > 0)
+    per_context = _per_context(kernel, m_a, m_x, keys, e_lo, e_hi, solver, lower_end)
+    nan = FairnessRange(
+        kind="local", value=local.value, lower=math.nan, upper=math.nan, exact=True, lower_context=None,
+        upper_context=None, lower_group=None, lower_other_group=None, upper_group=None, upper_other_group=None,
+    )  # fmt: skip
+    global_nan = FairnessRange(**{**nan.__dict__, "kind": "global", "value": glob.value})
+    local_range, global_range = nan, global_nan
+    if len(m_a.inputs) >= 2 and len(keys) > 0:
+        ends = (attained, point, lower_end)
+        local_range = _local_range(local.value, per_context, keys, m_a, m_x, *ends) or nan
+        global_range = _global_range(glob.value, pop, m_a, m_x, e_lo, e_hi, solver, *ends) or global_nan
+    return UtilityRange(
+        kernel=kernel, utility=utility, decision=kernel.decisions[d], low=lo_g, high=hi_g, sensitive_mechanism=m_a,
+        context_mechanism=m_x, population=pop, kernel_lower=e_lo, kernel_upper=e_hi, local_fairness=local_range,
+        global_fairness=global_range,
+    )  # fmt: skip
+
+
+def _unknown_decision(
+    kernel: Kernel | Law,
+    utility: Utility,
+    decision: int,
+    low: float | None,
+    high: float | None,
+    sensitive_mechanism: Mechanism | None,
+    context_mechanism: Mechanism | None,
+) -> tuple[FloatArray, int, float, float]:
+    """g(u) over the kernel's decisions, the unknown decision's index and its utility's interval [low, high], checked."""
     if not isinstance(kernel, (Kernel, Law)):
         raise InputError("kernel", "must be a Kernel or a Law", type(kernel).__name__)
     if isinstance(kernel, Law) and (sensitive_mechanism is not None or context_mechanism is not None):
@@ -233,26 +276,29 @@ def fairness_range(
     n_d = len(g)
     if not -n_d <= decision < n_d:
         raise InputError("decision", f"must index one of the {n_d} decisions", decision)
-    d = decision % n_d
     lo_g = float(g.min()) if low is None else float(low)
     hi_g = float(g.max()) if high is None else float(high)
     if not lo_g <= hi_g:
         raise InputError("low", f"must be at most high = {hi_g:g}", lo_g)
-    m_a = sensitive_mechanism if sensitive_mechanism is not None else identity(kernel.groups)
-    m_x = context_mechanism if context_mechanism is not None else identity(kernel.contexts)
-    law = kernel if isinstance(kernel, Law) else compose(kernel, m_a, m_x)
-    pop = population_for(law, population)
-    local, glob = local_fairness(law, utility, pop), global_fairness(law, utility, pop)
+    return g, decision % n_d, lo_g, hi_g
 
-    k = np.nan_to_num(kernel.probabilities, nan=0.0)
-    rest = k @ np.where(np.arange(n_d) == d, 0.0, g)  # (X̃, Ã): the known decisions' part
-    e_lo, e_hi = rest + k[..., d] * lo_g, rest + k[..., d] * hi_g
-    attained = lo_g <= g[d] <= hi_g  # the stated value is one assignment: the range holds it
-    point = not k[
-        ..., d
-    ].any()  # no mass on the decision: every utility of it gives the stated law, the range is a point
-    solver: dict[tuple[int, int], MinMaxRatio] = {}
-    keys = np.flatnonzero(pop.p_context > 0)
+
+_Program = tuple[FloatArray, FloatArray, FloatArray]  # the mixing weights W and the box [lo, hi] of kernel cells
+_PerContext = tuple[FloatArray, FloatArray, list[int], list[int], list[_Program], list[IntArray]]
+
+
+def _per_context(
+    kernel: Kernel | Law,
+    m_a: Mechanism,
+    m_x: Mechanism,
+    keys: IntArray,
+    e_lo: FloatArray,
+    e_hi: FloatArray,
+    solver: dict[tuple[int, int], MinMaxRatio],
+    lower_end: bool,
+) -> _PerContext:
+    """Per context x of ``keys``: the smallest and the largest ratio over the box (the smallest NaN without
+    ``lower_end``), the pair attaining the largest, the context's program, and its groups' positions in M_A's."""
     Wa = m_a.matrix
     if m_x.is_identity:  # context x mixes its own cells only: per-context programs
         # a Law's empty cells (identity M_A: compose refuses them behind a filter) are left out of their context,
@@ -272,48 +318,67 @@ def fairness_range(
         favs, oths = [int(v) for v in fav_a], [int(v) for v in oth_a]
         maps = [(Wl[i], flat_lo, flat_hi) for i in range(len(keys))]
         index = [np.arange(len(m_a.inputs))] * len(keys)
+    return lows, ups, favs, oths, maps, index
+
+
+def _local_range(
+    value: float,
+    per_context: _PerContext,
+    keys: IntArray,
+    m_a: Mechanism,
+    m_x: Mechanism,
+    attained: bool,
+    point: bool,
+    lower_end: bool,
+) -> FairnessRange | None:
+    """The range of L: the largest of the contexts' ends; None when no context has two groups with records."""
+    lows, ups, favs, oths, maps, index = per_context
     groups, contexts = m_a.inputs, m_x.inputs
-    nan = FairnessRange(
-        kind="local", value=local.value, lower=math.nan, upper=math.nan, exact=True, lower_context=None,
-        upper_context=None, lower_group=None, lower_other_group=None, upper_group=None, upper_other_group=None,
+    if np.isnan(ups).all():  # (a Law in which no context has two groups with records)
+        return None
+    iu = int(np.nanargmax(ups))
+    low_end: tuple[float, Hashable | None, Hashable | None, Hashable | None] = (math.nan, None, None, None)
+    if lower_end:
+        il = int(np.nanargmax(lows))
+        lg, lo_other = _lower_pair(*maps[il])
+        low_end = (float(lows[il]), contexts[keys[il]], groups[index[il][lg]], groups[index[il][lo_other]])
+    return _range(
+        "local", value, low_end, float(ups[iu]), attained, point, m_x.is_identity,
+        (contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]),
     )  # fmt: skip
-    if len(groups) < 2 or len(keys) == 0:
-        local_range, global_range = nan, FairnessRange(**{**nan.__dict__, "kind": "global", "value": glob.value})
-    else:
-        no_end = (math.nan, None, None, None)
-        if np.isnan(ups).all():  # (a Law in which no context has two groups with records)
-            local_range = nan
-        else:
-            iu = int(np.nanargmax(ups))
-            if lower_end:
-                il = int(np.nanargmax(lows))
-                lg, lo_other = _lower_pair(*maps[il])
-                low_end = (float(lows[il]), contexts[keys[il]], groups[index[il][lg]], groups[index[il][lo_other]])
-            local_range = _range(
-                "local", local.value, low_end if lower_end else no_end, float(ups[iu]), attained, point, m_x.is_identity,
-                (contexts[keys[iu]], groups[favs[iu]], groups[oths[iu]]),
-            )  # fmt: skip
-        w = pop.context_given_group()
-        w = np.where(np.isnan(w), 0.0, w)
-        # groups with P(A = a) = 0 have no E[g | a] (the metrics' NaN): left out
-        gk = slice(None) if (pop.p_group > 0).all() else np.flatnonzero(pop.p_group > 0)
-        Wg = np.einsum("xa,xy,ab->ayb", w, m_x.matrix, Wa).reshape(len(groups), -1)[gk]
-        gi = np.arange(len(groups))[gk]
-        flat_lo, flat_hi = e_lo.reshape(-1), e_hi.reshape(-1)
-        if len(gi) < 2:
-            global_range = FairnessRange(**{**nan.__dict__, "kind": "global", "value": glob.value})
-        else:
-            gl, gu, gf, go = mixed_ratio(Wg[None], flat_lo, flat_hi, solver, lower_end)
-            if lower_end:
-                a, b = _lower_pair(Wg, flat_lo, flat_hi)
-            global_range = _range(
-                "global", glob.value, (float(gl[0]), None, groups[gi[a]], groups[gi[b]]) if lower_end else no_end,
-                float(gu[0]), attained, point, True, (None, groups[gi[int(gf[0])]], groups[gi[int(go[0])]]),
-            )  # fmt: skip
-    return UtilityRange(
-        kernel=kernel, utility=utility, decision=kernel.decisions[d], low=lo_g, high=hi_g, sensitive_mechanism=m_a,
-        context_mechanism=m_x, population=pop, kernel_lower=e_lo, kernel_upper=e_hi, local_fairness=local_range,
-        global_fairness=global_range,
+
+
+def _global_range(
+    value: float,
+    pop: Population,
+    m_a: Mechanism,
+    m_x: Mechanism,
+    e_lo: FloatArray,
+    e_hi: FloatArray,
+    solver: dict[tuple[int, int], MinMaxRatio],
+    attained: bool,
+    point: bool,
+    lower_end: bool,
+) -> FairnessRange | None:
+    """The range of L̄: each group mixes the kernel cells by P(x | a); None with fewer than two groups of P(a) > 0."""
+    groups = m_a.inputs
+    w = pop.context_given_group()
+    w = np.where(np.isnan(w), 0.0, w)
+    # groups with P(A = a) = 0 have no E[g | a] (the metrics' NaN): left out
+    gk = slice(None) if (pop.p_group > 0).all() else np.flatnonzero(pop.p_group > 0)
+    Wg = np.einsum("xa,xy,ab->ayb", w, m_x.matrix, m_a.matrix).reshape(len(groups), -1)[gk]
+    gi = np.arange(len(groups))[gk]
+    flat_lo, flat_hi = e_lo.reshape(-1), e_hi.reshape(-1)
+    if len(gi) < 2:
+        return None
+    gl, gu, gf, go = mixed_ratio(Wg[None], flat_lo, flat_hi, solver, lower_end)
+    low_end: tuple[float, Hashable | None, Hashable | None, Hashable | None] = (math.nan, None, None, None)
+    if lower_end:
+        a, b = _lower_pair(Wg, flat_lo, flat_hi)
+        low_end = (float(gl[0]), None, groups[gi[a]], groups[gi[b]])
+    return _range(
+        "global", value, low_end, float(gu[0]), attained, point, True,
+        (None, groups[gi[int(gf[0])]], groups[gi[int(go[0])]]),
     )  # fmt: skip
 
 

@@ -429,9 +429,10 @@ def fairness_intervals(
     ``proofs/intervals.md``; exact binomial intervals from Clopper and
     Pearson (1934, Biometrika 26); the Bayesian band from Besag, Green,
     Higdon and Mengersen (1995, Statist. Sci. 10, sec. 4.3); the metrics are
-    those of the paper's SI A and B (:mod:`fairaudit.metrics.fairness`). Lower ends of
-    the sups over g and of L_dp, L_eo are valid but may be below the exact
-    minimum over the set (a max of minima); every upper end is exact.
+    those of the paper's SI A and B (:mod:`fairaudit.metrics.fairness`,
+    :mod:`~fairaudit.metrics.parity`, :mod:`~fairaudit.metrics.sup_fairness`).
+    Lower ends of the sups over g and of L_dp, L_eo are valid but may be below
+    the exact minimum over the set (a max of minima); every upper end is exact.
 
     Examples
     --------

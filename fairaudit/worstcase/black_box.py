@@ -19,7 +19,7 @@ from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
 from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
-from fairaudit.metrics.bounds import Assumption, check_assumptions
+from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.worstcase.pair_search import (
     BoxPairs,
     SearchResult,

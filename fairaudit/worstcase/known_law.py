@@ -123,7 +123,7 @@ def worst_utility(
     Notes
     -----
     With lower = 0 and no τ the value is Lemma 1's sup over g
-    (:func:`fairaudit.metrics.fairness.sup_local_fairness`): the threshold keeps the
+    (:func:`fairaudit.metrics.sup_fairness.sup_local_fairness`): the threshold keeps the
     single decision of largest likelihood ratio. ``proofs/worst_case_utility.md``.
 
     Examples
@@ -138,7 +138,7 @@ def worst_utility(
     1.25
     """
     from fairaudit.laws.tables import population_for
-    from fairaudit.metrics.fairness import group_decision_law
+    from fairaudit.metrics.reductions import group_decision_law
 
     if not isinstance(law, Law):
         raise InputError("law", "must be a Law", type(law).__name__)

@@ -21,7 +21,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, identity
 from fairaudit.laws.tables import Kernel, Population, compose
 from fairaudit.laws.utilities import Utility
-from fairaudit.metrics.bounds import Assumption, check_assumptions
+from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.worstcase.pair_search import check_method
 from fairaudit.worstcase.randomized_response import rr_law
 from fairaudit.worstcase.worst_cases import WorstCase, WorstModel
@@ -82,7 +82,8 @@ class ModelProblem:
 
     def audit(self, kernel: Kernel, kind: str) -> FloatArray:
         """E[g | x, a] (local) or E[g | a] (global) of the law behind ``kernel``."""
-        from fairaudit.metrics.fairness import expected_utility, global_fairness
+        from fairaudit.metrics.fairness import global_fairness
+        from fairaudit.metrics.reductions import expected_utility
 
         if isinstance(self.mechanism, RandomizedResponse):  # (no k x k matrix)
             law = rr_law(kernel, self.mechanism.rr, self.groups, self.context_mechanism)

@@ -19,7 +19,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
-from fairaudit.metrics.bounds import Assumption
+from fairaudit.metrics.assumptions import Assumption
 from fairaudit.worstcase.pair_search import SearchResult
 
 

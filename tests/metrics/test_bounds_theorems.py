@@ -18,7 +18,8 @@ from hypothesis import HealthCheck, find, given, settings
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.metrics.fairness import global_fairness, local_fairness, sup_global_fairness, sup_local_fairness
+from fairaudit.metrics.fairness import global_fairness, local_fairness
+from fairaudit.metrics.sup_fairness import sup_global_fairness, sup_local_fairness
 from fairaudit.testing import kernels, mechanisms, randomized_responses, utilities
 
 SEEDS = st.integers(0, 2**32 - 1)

@@ -1,75 +1,38 @@
-"""Exact fairness metrics: L, L̄, L_dp, L_eo and the sups over g (Lemma 1).
+"""Exact fairness metrics: L and L̄, their exclusions and conventions, and every metric against fairlearn.
 
 Expected values: exact ``Fraction`` arithmetic with explicit loops over every
 pair of groups (the package takes max/min per context instead), hand
-calculations in comments, fairlearn (selection-rate ratios and differences)
-and AIF360 (smoothed empirical differential fairness).
+calculations in comments, fairlearn (selection-rate ratios and differences).
+The gaps L_dp and L_eo are tested in ``test_parity.py``, the sups over g
+(Lemma 1, and AIF360's smoothed empirical differential fairness) in
+``test_sup_fairness.py``, E[g | x, a] in ``test_reductions.py``.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-import warnings
 from fractions import Fraction as F
 
 import numpy as np
 import pandas as pd
 import pytest
+from _rational_law import (
+    CONTEXTS,
+    DECISIONS,
+    GROUPS,
+    P_X,
+    G,
+    Q,
+    argmax_set,
+    fr_expected,
+    laws,
+    rational_law,
+    rational_population,
+)
 from hypothesis import given
-from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.metrics.fairness import group_decision_law
-
-# --------------------------------------------------------------------------- the rational example
-
-CONTEXTS = ("x0", "x1")
-GROUPS = ("a", "b", "c")
-DECISIONS = ("u0", "u1", "u2")
-Q = [
-    [[F(1, 2), F(1, 4), F(1, 4)], [F(1, 3), F(1, 3), F(1, 3)], [F(3, 5), F(1, 5), F(1, 5)]],
-    [[F(1, 10), F(3, 10), F(3, 5)], [F(1, 4), F(1, 2), F(1, 4)], [F(1, 8), F(5, 8), F(1, 4)]],
-]
-G = [F(0), F(1), F(3)]
-P_X = [F(1, 3), F(2, 3)]
-P_A = [F(1, 2), F(1, 3), F(1, 6)]
-
-
-def rational_law() -> fa.Law:
-    return fa.Law(np.array(Q, dtype=float), CONTEXTS, GROUPS, DECISIONS)
-
-
-def rational_population() -> fa.Population:
-    return fa.Population.independent([float(p) for p in P_X], [float(p) for p in P_A], CONTEXTS, GROUPS)
-
-
-def argmax_set(candidates):
-    """(best value, set of keys attaining it) from (value, key) pairs in exact arithmetic."""
-    best = max(v for v, _ in candidates)
-    return best, {k for v, k in candidates if v == best}
-
-
-def tv(p, q):
-    return sum(max(F(0), pi - qi) for pi, qi in zip(p, q))
-
-
-def fr_expected():
-    return [[sum(Q[x][a][u] * G[u] for u in range(3)) for a in range(3)] for x in range(2)]
-
-
-def fr_group_law():
-    # Independent population: P(x | a) = P(x).
-    return [[sum(P_X[x] * Q[x][a][u] for x in range(2)) for u in range(3)] for a in range(3)]
-
-
-def test_expected_utility_by_fractions():
-    e = fr_expected()
-    # Hand: x0: a 1/4 + 3/4 = 1, b 1/3 + 1 = 4/3, c 1/5 + 3/5 = 4/5; x1: a 3/10 + 9/5 = 21/10, b 1/2 + 3/4 = 5/4,
-    # c 5/8 + 3/4 = 11/8.
-    assert e == [[F(1), F(4, 3), F(4, 5)], [F(21, 10), F(5, 4), F(11, 8)]]
-    got = fa.expected_utility(rational_law(), fa.from_table([float(v) for v in G], DECISIONS))
-    assert got == pytest.approx(np.array(e, dtype=float), rel=1e-12)
 
 
 def test_local_fairness_by_fractions():
@@ -104,67 +67,6 @@ def test_global_fairness_by_fractions():
     best_u, _ = argmax_set([(eg_u[a] / eg_u[b], (a, b)) for a, b in itertools.permutations(range(3), 2)])
     assert uni.value == pytest.approx(math.log(best_u), rel=1e-12)
     assert uni.value != pytest.approx(r.value, rel=1e-6)
-
-
-def test_demographic_parity_by_fractions():
-    pu = fr_group_law()
-    # Hand: P(U | a) = 1/3 (1/2, 1/4, 1/4) + 2/3 (1/10, 3/10, 3/5) = (7/30, 17/60, 29/60).
-    assert pu[0] == [F(7, 30), F(17, 60), F(29, 60)]
-    best, keys = argmax_set([(tv(pu[a], pu[b]), (a, b)) for a, b in itertools.permutations(range(3), 2)])
-    assert best == F(1, 4)
-    got = group_decision_law(rational_law(), rational_population())
-    assert got == pytest.approx(np.array(pu, dtype=float), rel=1e-12)
-    r = fa.demographic_parity(rational_law(), rational_population())
-    assert r.value == pytest.approx(float(best), rel=1e-12)
-    a, b = GROUPS.index(r.group), GROUPS.index(r.other_group)
-    assert (a, b) in keys
-    # The event is where the group puts more mass than the other group, and it carries the whole TV.
-    ev = [DECISIONS.index(u) for u in r.event]
-    assert sum(pu[a][u] - pu[b][u] for u in ev) == best
-
-
-def test_equalized_odds_by_fractions():
-    best, keys = argmax_set(
-        [(tv(Q[x][a], Q[x][b]), (x, a, b)) for x in range(2) for a, b in itertools.permutations(range(3), 2)]
-    )
-    # Hand: x1, c vs a: [1/8 − 1/10]₊ + [5/8 − 3/10]₊ + [1/4 − 3/5]₊ = 1/40 + 13/40 = 7/20; the pair (a, b) in x1
-    # ties with x1, a vs b: [3/5 − 1/4]₊ = 7/20 (and TV is symmetric): the maximisers are {a, c} and {a, b} in x1,
-    # in either order; the package may return any of them.
-    assert best == F(7, 20) and keys == {(1, 0, 1), (1, 1, 0), (1, 0, 2), (1, 2, 0)}
-    r = fa.equalized_odds(rational_law(), rational_population())
-    assert r.value == pytest.approx(0.35, rel=1e-12)
-    x, a, b = CONTEXTS.index(r.context), GROUPS.index(r.group), GROUPS.index(r.other_group)
-    assert (x, a, b) in keys
-    ev = [DECISIONS.index(u) for u in r.event]
-    assert sum(Q[x][a][u] - Q[x][b][u] for u in ev) == best
-
-
-def test_sup_local_by_fractions():
-    best, keys = argmax_set(
-        [
-            (Q[x][a][u] / Q[x][b][u], (x, u, a, b))
-            for x in range(2)
-            for u in range(3)
-            for a, b in itertools.permutations(range(3), 2)
-        ]
-    )
-    # Hand: x1, decision u0: P(u0 | b) / P(u0 | a) = (1/4) / (1/10) = 5/2.
-    assert best == F(5, 2) and keys == {(1, 0, 1, 0)}
-    r = fa.sup_local_fairness(rational_law())
-    assert r.value == pytest.approx(math.log(2.5), rel=1e-12)
-    assert (r.context, r.decision, r.group, r.other_group) == ("x1", "u0", "b", "a")
-
-
-def test_sup_global_by_fractions():
-    pu = fr_group_law()
-    best, keys = argmax_set(
-        [(pu[a][u] / pu[b][u], (u, a, b)) for u in range(3) for a, b in itertools.permutations(range(3), 2)]
-    )
-    # Hand: P(u2 | a) = 29/60, P(u2 | c) = 1/3·1/5 + 2/3·1/4 = 7/30; ratio 29/14.
-    assert best == F(29, 14) and keys == {(2, 0, 2)}
-    r = fa.sup_global_fairness(rational_law(), rational_population())
-    assert r.value == pytest.approx(math.log(29 / 14), rel=1e-12)
-    assert (r.decision, r.group, r.other_group) == ("u2", "a", "c")
 
 
 def test_group_dependent_utility_by_fractions():
@@ -247,36 +149,7 @@ def test_label_mismatch_errors():
         )
 
 
-# --------------------------------------------------------------------------- properties: Lemma 1 and the links theorem
-
-
-@st.composite
-def laws(draw, zeros: bool = False):
-    nx = draw(st.integers(1, 3))
-    na = draw(st.integers(2, 4))
-    nu = draw(st.integers(2, 4))
-    lo = 0.0 if zeros else 0.01
-    w = np.array(
-        draw(st.lists(st.floats(lo, 1.0, allow_subnormal=False), min_size=nx * na * nu, max_size=nx * na * nu))
-    ).reshape(nx, na, nu)
-    w[w.sum(-1) == 0] = 1.0
-    q = w / w.sum(-1, keepdims=True)
-    px = np.array(draw(st.lists(st.floats(0.05, 1.0), min_size=nx, max_size=nx)))
-    pa = np.array(draw(st.lists(st.floats(0.05, 1.0), min_size=na, max_size=na)))
-    g = np.array(draw(st.lists(st.floats(0.0, 5.0), min_size=nu, max_size=nu)))
-    law = fa.Law(q, list(range(nx)), list(range(na)), list(range(nu)))
-    pop = fa.Population.independent(px / px.sum(), pa / pa.sum(), list(range(nx)), list(range(na)))
-    return law, pop, fa.from_table(g, list(range(nu)))
-
-
-@given(laws(zeros=True))
-def test_links_theorem(data):
-    # Paper SI B: L_eo ≤ exp(sup_g L) − 1 and L_dp ≤ exp(sup_g L̄) − 1.
-    law, pop, _ = data
-    eo = fa.equalized_odds(law, pop).value
-    dp = fa.demographic_parity(law, pop).value
-    assert eo <= math.expm1(fa.sup_local_fairness(law, pop).value) + 1e-12
-    assert dp <= math.expm1(fa.sup_global_fairness(law, pop).value) + 1e-12
+# --------------------------------------------------------------------------- property: L̄ ≤ L under X ⊥ A
 
 
 @given(laws())
@@ -288,22 +161,6 @@ def test_global_below_local_under_independence(data):
     if math.isnan(loc):
         return
     assert glob <= loc + 1e-12
-
-
-@given(laws())
-def test_lemma1_sup_dominates_and_is_attained(data):
-    law, pop, g = data
-    sup_l = fa.sup_local_fairness(law, pop)
-    sup_g = fa.sup_global_fairness(law, pop)
-    loc = fa.local_fairness(law, g, pop).value
-    if not math.isnan(loc):
-        assert loc <= sup_l.value + 1e-12
-    assert fa.global_fairness(law, g, pop).value <= sup_g.value + 1e-12
-    # Attained by the indicator of the maximising decision: E[1{u}|x,a] = Q[x,a,u].
-    ind = fa.indicator(sup_l.decision, law.decisions)
-    assert fa.local_fairness(law, ind, pop).value == pytest.approx(sup_l.value, rel=1e-12)
-    ind = fa.indicator(sup_g.decision, law.decisions)
-    assert fa.global_fairness(law, ind, pop).value == pytest.approx(sup_g.value, rel=1e-12)
 
 
 # --------------------------------------------------------------------------- peer: fairlearn
@@ -358,69 +215,6 @@ def test_fairlearn_compas(shared_data):
     y_pred = (df["decile_score"] >= 5).astype(int).tolist()
     y_true = df["two_year_recid"].astype(int).tolist()
     check_against_fairlearn(y_true, y_pred, df["race"].tolist())
-
-
-# --------------------------------------------------------------------------- peer: AIF360
-
-
-def aif360_smoothed_edf(df: pd.DataFrame, protected: list[str], concentration: float) -> float:
-    pytest.importorskip("aif360")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        from aif360.datasets import BinaryLabelDataset
-        from aif360.metrics import BinaryLabelDatasetMetric
-
-        ds = BinaryLabelDataset(
-            favorable_label=1, unfavorable_label=0, df=df, label_names=["label"], protected_attribute_names=protected
-        )
-        return BinaryLabelDatasetMetric(ds).smoothed_empirical_differential_fairness(concentration=concentration)
-
-
-def our_smoothed_edf(df: pd.DataFrame, protected: list[str], concentration: float) -> float:
-    # AIF360 (binary_label_dataset_metric._smoothed_base_rates): P(y=1 | s) = (n_pos + α/2) / (n_s + α) with
-    # α = concentration (a symmetric Dirichlet prior split over the 2 labels), over the groups present in the data.
-    # So: counts + α/2 in every (group, decision) cell, one context, and the sup of L̄ over g(u) (Lemma 1).
-    keys = [tuple(r) for r in df[protected].to_numpy().tolist()]
-    groups = sorted(set(keys))
-    counts = np.zeros((1, len(groups), 2))
-    for k, y in zip(keys, df["label"].tolist()):
-        counts[0, groups.index(k), 0 if y == 1 else 1] += 1
-    law = fa.Law.from_counts(counts + concentration / 2, ["all"], groups, [1, 0])
-    return fa.sup_global_fairness(law).value
-
-
-def test_aif360_smoothed_edf_synthetic():
-    rng = np.random.default_rng(5)
-    n = 400
-    race = rng.choice([0, 1, 2, 3], size=n, p=[0.4, 0.3, 0.2, 0.1])
-    sex = rng.choice([0, 1], size=n)
-    label = (rng.uniform(size=n) < np.array([0.6, 0.45, 0.3, 0.2])[race] + 0.1 * sex).astype(int)
-    df = pd.DataFrame({"race": race.astype(float), "sex": sex.astype(float), "label": label.astype(float)})
-    for protected in (["race"], ["race", "sex"]):
-        for conc in (1.0, 2.0, 0.5):
-            peer = aif360_smoothed_edf(df, protected, conc)
-            assert our_smoothed_edf(df, protected, conc) == pytest.approx(peer, rel=1e-12)
-
-
-def test_aif360_smoothed_edf_hand_example():
-    # Groups 0: 3 positives of 4; 1: 0 of 2. α = 1: rates (3.5/5, 0.5/3) = (0.7, 1/6);
-    # positives ratio 0.7 / (1/6) = 4.2, negatives (5/6) / 0.3 = 25/9 = 2.78 -> log 4.2.
-    df = pd.DataFrame({"race": [0.0] * 4 + [1.0] * 2, "label": [1.0, 1.0, 1.0, 0.0, 0.0, 0.0]})
-    assert our_smoothed_edf(df, ["race"], 1.0) == pytest.approx(math.log(4.2), rel=1e-12)
-    assert aif360_smoothed_edf(df, ["race"], 1.0) == pytest.approx(math.log(4.2), rel=1e-12)
-
-
-def test_aif360_smoothed_edf_compas(shared_data):
-    path = shared_data / "compas" / "compas-scores-two-years.csv"
-    if not path.exists():
-        pytest.skip(f"COMPAS file not found at {path}")
-    raw = pd.read_csv(path)
-    races = sorted(raw["race"].unique())
-    df = pd.DataFrame(
-        {"race": raw["race"].map(races.index).astype(float), "label": (raw["decile_score"] >= 5).astype(float)}
-    )
-    peer = aif360_smoothed_edf(df, ["race"], 1.0)
-    assert our_smoothed_edf(df, ["race"], 1.0) == pytest.approx(peer, rel=1e-12)
 
 
 def test_short_reprs_name_the_value_and_where():

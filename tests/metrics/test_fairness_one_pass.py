@@ -27,7 +27,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.labels import Labels, as_labels
 from fairaudit.laws.tables import Kernel, Law, Population, default_population, population_for
 from fairaudit.metrics import fairness as metrics
-from fairaudit.metrics import total_variation
+from fairaudit.metrics import reductions, total_variation
 from fairaudit.metrics.observed import observe
 from fairaudit.metrics.total_variation import tv_chunk
 
@@ -282,7 +282,7 @@ def check(law: Law, g: fa.Utility, pop: Population) -> None:
     eg = np.where(pop.p_group > 0, want["eg"], np.nan)
     assert np.array_equal(glob.expected_utility, eg, equal_nan=True)  # the sum in context order, to the last bit
     dist = np.where(pop.p_group[:, None] > 0, want["dist"], np.nan)
-    assert np.array_equal(metrics.group_decision_law(law, pop), dist, equal_nan=True)  # the same, per decision
+    assert np.array_equal(reductions.group_decision_law(law, pop), dist, equal_nan=True)  # the same, per decision
     if "global" in want:
         ratio, (a, b) = want["global"]
         assert glob.ratio == ratio and (glob.group, glob.other_group) == (gs[a], gs[b])
@@ -360,7 +360,7 @@ def laws(draw):
 def test_every_metric_against_loops_over_contexts_in_chunks_of_64(case):
     law, g, pop = case
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(metrics, "_CHUNK_BYTES", 1)  # 64 contexts per chunk
+        mp.setattr(reductions, "_CHUNK_BYTES", 1)  # 64 contexts per chunk
         check(law, g, pop)
 
 
@@ -381,7 +381,7 @@ def test_infinite_and_undefined_ratios_and_the_first_of_ties():
     g = fa.indicator("yes", law.decisions)
     pop = Population.uniform(law.context_labels, law.group_labels)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(metrics, "_CHUNK_BYTES", 1)
+        mp.setattr(reductions, "_CHUNK_BYTES", 1)
         check(law, g, pop)
         loc = fa.local_fairness(law, g, pop)
     assert loc.value == math.inf and (loc.context, loc.group, loc.other_group) == (200, "a", "b")
@@ -404,7 +404,7 @@ def test_a_context_with_one_group_of_records_is_left_out():
     law = Law.from_counts(counts, range(200), GROUPS, ["y", "n"])
     g = fa.indicator("y", law.decisions)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(metrics, "_CHUNK_BYTES", 1)
+        mp.setattr(reductions, "_CHUNK_BYTES", 1)
         check(law, g, default_population(law))
         loc = fa.local_fairness(law, g)
     assert math.isnan(loc.per_context[100]) and loc.context == 150 and loc.value == math.inf
@@ -421,7 +421,7 @@ def test_the_largest_tv_is_found_where_the_bounds_leave_many_contexts(route, mon
     q[200:300] *= 1.0 - 9e-10  # rows summing to 1 − 9e-10 ...
     q[300:] *= 1.0 + 9e-10  # ... and 1 + 9e-10: the bounds near the tolerance
     law = Law(q, range(X), [f"a{i}" for i in range(A)], [f"u{i}" for i in range(K)])
-    monkeypatch.setattr(metrics, "_CHUNK_BYTES", 1)
+    monkeypatch.setattr(reductions, "_CHUNK_BYTES", 1)
     if route == "pairs":
         monkeypatch.setattr(total_variation, "use_events", lambda A, K: False)
     eo = fa.equalized_odds(law)
@@ -436,7 +436,7 @@ def test_near_ties_of_tv_between_chunks_pick_the_first_maximum(monkeypatch):
     for x, eps in ((70, 0.0), (130, 1e-15), (330, -1e-15), (390, 0.0)):  # ... but these four, within 1e-15
         q[x] = [[0.7 + eps, 0.1, 0.1, 0.1 - eps], [0.1, 0.1, 0.1, 0.7], [0.25, 0.25, 0.25, 0.25]]
     law = Law(q, range(400), GROUPS, DECISIONS)
-    monkeypatch.setattr(metrics, "_CHUNK_BYTES", 1)
+    monkeypatch.setattr(reductions, "_CHUNK_BYTES", 1)
     per_context = tv_chunk(np.ascontiguousarray(q.transpose(2, 1, 0)), nan=False)
     assert fa.equalized_odds(law).context == int(np.argmax(per_context))
 
@@ -448,7 +448,7 @@ def test_group_means_are_the_whole_arrays_einsum(chunk, monkeypatch):
     law = Law(dirichlet(3000, 5, 6, seed=1), range(3000), list("abcde"), list("uvwxyz"))
     g = fa.from_table(rng.random(6), law.decisions)
     pop = Population(rng.dirichlet(np.ones(15000)).reshape(3000, 5), law.context_labels, law.group_labels)
-    monkeypatch.setattr(metrics, "_CHUNK_BYTES", chunk)
+    monkeypatch.setattr(reductions, "_CHUNK_BYTES", chunk)
     got = fa.global_fairness(law, g, pop).expected_utility
     e = fa.expected_utility(law, g)
     assert np.array_equal(got, np.einsum("xa,xa->a", pop.context_given_group(), e))

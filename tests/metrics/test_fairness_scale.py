@@ -26,7 +26,7 @@ from fairaudit.data.counts import CountTable
 from fairaudit.laws.mechanisms import from_matrix, identity, randomized_response
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.metrics import fairness as metrics
-from fairaudit.metrics import total_variation
+from fairaudit.metrics import reductions, total_variation
 from fairaudit.metrics.observed import observe
 from fairaudit.metrics.total_variation import tv_chunk, use_events
 from fairaudit.statistics.confidence_sets import clopper_pearson
@@ -126,7 +126,7 @@ def test_many_chunks_give_the_one_chunk_answer(monkeypatch):
     law = Law(q, range(5000), list("abcdef"), list("wxyz"))
     g = fa.from_table([1.0, 0.0, 0.2, 0.5], law.decisions)
     one = metrics.all_metrics(law, g)
-    monkeypatch.setattr(metrics, "_CHUNK_BYTES", 1)  # 64 contexts per chunk: 79 chunks
+    monkeypatch.setattr(reductions, "_CHUNK_BYTES", 1)  # 64 contexts per chunk: 79 chunks
     many = metrics.all_metrics(law, g)
     for name in one:
         assert math.isclose(one[name].value, many[name].value, rel_tol=1e-14, abs_tol=1e-15), name

@@ -28,14 +28,9 @@ from fairaudit.laws.mechanisms import randomized_response
 from fairaudit.laws.tables import Law, Population
 from fairaudit.metrics.box_extremes import disjoint_ratio as _disjoint_ratio
 from fairaudit.metrics.box_extremes import mixed_ratio as _mixed_ratio
-from fairaudit.metrics.fairness import (
-    demographic_parity,
-    equalized_odds,
-    global_fairness,
-    local_fairness,
-    sup_global_fairness,
-    sup_local_fairness,
-)
+from fairaudit.metrics.fairness import global_fairness, local_fairness
+from fairaudit.metrics.parity import demographic_parity, equalized_odds
+from fairaudit.metrics.sup_fairness import sup_global_fairness, sup_local_fairness
 from fairaudit.statistics.confidence_sets import category_bounds, clopper_pearson, linear_extremes
 from fairaudit.statistics.intervals import fairness_intervals, interval_options
 

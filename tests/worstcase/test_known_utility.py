@@ -20,7 +20,8 @@ from scipy.optimize import linprog
 
 import fairaudit as fa
 from fairaudit import UtilityClass
-from fairaudit.metrics.fairness import global_fairness, local_fairness, sup_global_fairness, sup_local_fairness
+from fairaudit.metrics.fairness import global_fairness, local_fairness
+from fairaudit.metrics.sup_fairness import sup_global_fairness, sup_local_fairness
 from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.known_law import worst_utility
 from fairaudit.worstcase.known_utility import worst_model

@@ -21,12 +21,12 @@ import pytest
 
 import fairaudit as fa
 import fairaudit.base.pairs as pairs_module
-import fairaudit.metrics.bounds as bounds_module
+import fairaudit.metrics.privacy_profile as profile_module
 import fairaudit.worstcase.black_box as black_box_module
 import fairaudit.worstcase.pair_search as search_module
 from fairaudit import UtilityClass
 from fairaudit.base.linear_fractional import floor_max_many, threshold_max_many
-from fairaudit.metrics.bounds import _profile_candidates
+from fairaudit.metrics.privacy_profile import _profile_candidates
 from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.known_utility import worst_model
 
@@ -62,7 +62,7 @@ def all_pairs(monkeypatch):
 
 def _tiny_blocks(monkeypatch, block=7):
     """A few pairs per tile, so that every pass runs over many tiles, bands and chunks (caches emptied)."""
-    for module in (pairs_module, search_module, bounds_module):
+    for module in (pairs_module, search_module, profile_module):
         if hasattr(module, "PAIR_BLOCK"):
             monkeypatch.setattr(module, "PAIR_BLOCK", block)
     monkeypatch.setattr(search_module, "_CACHE", {})
@@ -76,7 +76,7 @@ def _bad_candidates(monkeypatch):
         return np.array([0]), np.array([1])
 
     monkeypatch.setattr(search_module, "pair_candidates", first)
-    monkeypatch.setattr(bounds_module, "pair_candidates", first)
+    monkeypatch.setattr(profile_module, "pair_candidates", first)
 
 
 def _mechanisms():
@@ -305,7 +305,7 @@ def test_tight_and_paper_equal_the_all_pairs_computations(name, M, monkeypatch):
             assert got.value == pytest.approx(value, rel=1e-12, abs=1e-15)
             a, b = np.nonzero(~np.eye(n, dtype=bool))  # every pair's objective, as before the pruning
             dist = np.ones(a.size) if metric is None else d[a, b]
-            obj = bounds_module._tight_objective(M[a], M[b], dist, 1.0, tau, lip)[0]
+            obj = profile_module._tight_objective(M[a], M[b], dist, 1.0, tau, lip)[0]
             i = int(np.argmax(obj))
             assert (got.group, got.other_group, got.value) == (a[i], b[i], float(np.log(obj[i])))
             paper = fa.paper_bound(mech, utility_class=fa.UtilityClass(gamma=1.0, tau=tau, lipschitz=lip))

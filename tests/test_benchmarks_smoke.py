@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.benchmarks  # a slow group of its own (pyproject.toml, .ci/run)
+
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 AGREEMENT = "agreement (max rel. diff)"
 

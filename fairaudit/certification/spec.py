@@ -43,17 +43,9 @@ if TYPE_CHECKING:
     from fairaudit.certification.spec_schema import AttributeSpec, MechanismSpec, ModelSpec, SpecModel
 from fairaudit.data.counts import CountTable, count_records, count_table
 from fairaudit.data.csv_format import CsvFormat
-from fairaudit.laws.mechanisms import (
-    Mechanism,
-    MechanismFamily,
-    epsilon_from_keep_probability,
-    from_matrix,
-    identity,
-    product,
-    product_family,
-    randomized_response,
-    randomized_response_family,
-)
+from fairaudit.laws.closed_forms import epsilon_from_keep_probability, randomized_response
+from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family
+from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric, from_table, indicator
 

@@ -52,7 +52,8 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, PairPass, pair_candidates
-from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
+from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 
@@ -512,7 +513,7 @@ def paper_bound(
     Binary randomized response keeping with p = 0.7, g ∈ [0, 1]: the pure
     bound ε = ln(7/3) is the minimum here.
 
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import UtilityClass
     >>> b = paper_bound(randomized_response(["a", "b"], keep=0.7), utility_class=UtilityClass(gamma=1.0, tau=0.2))
     >>> round(b.value, 9), round(b.epsilon, 9), b.delta
@@ -613,7 +614,7 @@ def tight_bound(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import UtilityClass
     >>> m, c = randomized_response(["a", "b", "c"], epsilon=1.0), UtilityClass(gamma=1.0, tau=0.2)
     >>> tight_bound(m, utility_class=c).value <= paper_bound(m, utility_class=c).value
@@ -767,7 +768,7 @@ def corollary_bound(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> round(corollary_bound(randomized_response(["a", "b"], keep=0.7)).value, 9)
     0.84729786
     """
@@ -836,7 +837,7 @@ def check_assumptions(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import UtilityClass
     >>> m = randomized_response(["a", "b"], keep=0.7)
     >>> [a.status for a in check_assumptions(m, utility_class=UtilityClass(gamma=1.0, tau=0.2))]

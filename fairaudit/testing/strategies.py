@@ -53,7 +53,8 @@ from hypothesis.errors import InvalidArgument
 from hypothesis.extra import numpy as hnp
 
 from fairaudit.base.arrays import FloatArray
-from fairaudit.laws.mechanisms import Mechanism, product, randomized_response
+from fairaudit.laws.closed_forms import randomized_response
+from fairaudit.laws.mechanisms import Mechanism, product
 from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility
 
@@ -423,7 +424,7 @@ def _delta_mechanisms(
 
 @st.composite
 def randomized_responses(draw: st.DrawFn, k: Size = range(2, 5), epsilon: Number = st.floats(0.0, 5.0)) -> Mechanism:
-    """k-ary randomized response (:func:`fairaudit.laws.mechanisms.randomized_response`).
+    """k-ary randomized response (:func:`fairaudit.laws.closed_forms.randomized_response`).
 
     Parameters
     ----------

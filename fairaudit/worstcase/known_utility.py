@@ -22,7 +22,8 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, pair_dict
 from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
-from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters, identity
+from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
+from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Population, compose
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.bounds import Assumption, check_assumptions
@@ -237,7 +238,7 @@ def worst_model(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import indicator
     >>> m = randomized_response(["Tom", "Mary"], keep=0.7)
     >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]))

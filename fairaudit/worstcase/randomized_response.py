@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
-from fairaudit.laws.mechanisms import Mechanism, RandomizedResponseParameters
+from fairaudit.laws.closed_forms import RandomizedResponseParameters
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law
 
 _TIE = 1e-12  # relative tolerance of the threshold solution's ties (as lfp.threshold_max_many)
@@ -196,7 +197,7 @@ def rr_class_ratio(
 ) -> float:
     """The black-box ratio of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``).
 
-    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.laws.mechanisms.RandomizedResponse`, without
+    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.laws.closed_forms.RandomizedResponse`, without
     the worst model (calibration evaluates it along the family).
     """
     if rr.k < 2 or gamma == 0 or lower == gamma:

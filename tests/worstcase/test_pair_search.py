@@ -399,7 +399,7 @@ def test_white_box_calibration_behind_randomized_response_without_its_matrix(mon
     mechanism's matrix (a guard raises if it does).
     """
     import fairaudit.worstcase.calibration_methods as methods
-    from fairaudit.laws.mechanisms import RandomizedResponse
+    from fairaudit.laws.closed_forms import RandomizedResponse
     from fairaudit.worstcase.calibration import calibrate
 
     rng = np.random.default_rng(5)

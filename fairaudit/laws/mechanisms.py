@@ -233,7 +233,9 @@ class Mechanism:
 
         δ(M, ε) is non-increasing in ε, so the answer is the ε where the
         profile crosses ``delta``, found by bisection to 1e-13 relative
-        precision; ε(M) itself for ``delta = 0``.
+        precision (in closed form for k-ary randomized response,
+        :class:`~fairaudit.laws.closed_forms.RandomizedResponse`); ε(M) itself
+        for ``delta = 0``.
 
         Raises
         ------

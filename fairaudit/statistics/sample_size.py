@@ -211,7 +211,7 @@ class _Certifier:
             else:
                 up = disjoint_ratio(e_lo.mean(1), e_hi.mean(1))[1]  # uniform population: P(x | a) = 1/X
         else:
-            from fairaudit.base.linear_fractional import threshold_max_many
+            from fairaudit.base.threshold_rule import threshold_max_many
 
             M = self.mechanism.matrix
             W = np.einsum("xy,ab->xayb", np.eye(X), M).reshape(X, A, X * A)  # (maps, groups, kernel cells)

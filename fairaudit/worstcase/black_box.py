@@ -14,7 +14,8 @@ import numpy as np
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population

@@ -21,7 +21,8 @@ from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, pair_dict
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Population, compose

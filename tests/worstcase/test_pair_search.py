@@ -25,7 +25,7 @@ import fairaudit.metrics.bounds as bounds_module
 import fairaudit.worstcase.black_box as black_box_module
 import fairaudit.worstcase.pair_search as search_module
 from fairaudit import UtilityClass
-from fairaudit.base.linear_fractional import floor_max_many, threshold_max_many
+from fairaudit.base.threshold_rule import floor_max_many, threshold_max_many
 from fairaudit.metrics.bounds import _profile_candidates
 from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.known_utility import worst_model

@@ -80,7 +80,7 @@ def threshold_max_many(
     ------
     ValueError
         From numpy when the shapes do not broadcast. Nothing else is checked
-        (use :func:`threshold_max` for validated input).
+        (use :func:`~fairaudit.base.linear_fractional.threshold_max` for validated input).
 
     Examples
     --------

@@ -44,7 +44,7 @@ class MechanismFamily:
     inputs : tuple
         The alphabet (the sensitive groups), the inputs of every member.
     build : callable
-        ε ↦ :class:`Mechanism`, for ε ≥ 0 (+inf gives the identity).
+        ε ↦ :class:`~fairaudit.laws.mechanisms.Mechanism`, for ε ≥ 0 (+inf gives the identity).
     keep : callable
         ε ↦ the probability that the true value is released unchanged (the
         price of the guarantee), in [1/k, 1].
@@ -90,7 +90,7 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     Returns
     -------
     MechanismFamily
-        ε ↦ :func:`randomized_response` (values, ε); keep probability
+        ε ↦ :func:`~fairaudit.laws.closed_forms.randomized_response` (values, ε); keep probability
         e^ε / (e^ε + k − 1).
 
     Raises
@@ -138,7 +138,7 @@ def product_family(
     Returns
     -------
     MechanismFamily
-        Inputs are tuples in ``itertools.product`` order (as :func:`product`).
+        Inputs are tuples in ``itertools.product`` order (as :func:`~fairaudit.laws.mechanisms.product`).
 
     Raises
     ------

@@ -20,8 +20,9 @@ from fairaudit.base.toml_documents import FieldProblem, distinct_labels, parse_t
 from fairaudit.certification.certificate import Certificate, certify
 from fairaudit.certification.curves import PrivacyCurve, privacy_curve
 from fairaudit.certification.spec import Spec, load_spec, parse_spec
-from fairaudit.data.counts import CountTable, count_file, count_records, count_table, read_records
+from fairaudit.data.counts import CountTable, count_file, count_records, count_table
 from fairaudit.data.csv_format import CsvFormat
+from fairaudit.data.record_files import read_records
 from fairaudit.laws.closed_forms import (
     epsilon_from_keep_probability,
     keep_probability,
@@ -59,9 +60,11 @@ from fairaudit.statistics.ll144 import ImpactRatios, impact_ratios
 from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
 from fairaudit.statistics.sample_size import SamplePlan, plan
 from fairaudit.worstcase.black_box import BlackBoxCertificate, black_box_bound
-from fairaudit.worstcase.calibration import Calibration, calibrate, calibrate_randomized_response
+from fairaudit.worstcase.calibration import calibrate, calibrate_randomized_response
+from fairaudit.worstcase.calibration_result import Calibration
 from fairaudit.worstcase.known_law import WorstUtility, worst_utility
-from fairaudit.worstcase.known_utility import WorstCase, WorstModel, worst_model
+from fairaudit.worstcase.known_utility import worst_model
+from fairaudit.worstcase.worst_cases import WorstCase, WorstModel
 
 __version__ = "0.1.0"
 

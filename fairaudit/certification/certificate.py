@@ -33,9 +33,11 @@ from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.bounds import Assumption, Bound, check_assumptions, corollary_bound, paper_bound, tight_bound
 from fairaudit.metrics.observed import Observed, observe
-from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals
-from fairaudit.worstcase.calibration import Calibration, calibrate
-from fairaudit.worstcase.known_utility import WorstModel, worst_model
+from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals, interval_options
+from fairaudit.worstcase.calibration import calibrate
+from fairaudit.worstcase.calibration_result import Calibration
+from fairaudit.worstcase.known_utility import worst_model
+from fairaudit.worstcase.worst_cases import WorstModel
 
 if TYPE_CHECKING:
     from fairaudit.certification.spec_schema import TargetSpec
@@ -300,8 +302,7 @@ def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFA
     """
     if not isinstance(spec, Spec):
         spec = load_spec(spec)
-    if intervals is not None and not isinstance(intervals, IntervalOptions):
-        raise InputError("intervals", "must be an IntervalOptions", type(intervals).__name__)
+    interval_options(intervals)
     kernel: Kernel | None = spec.kernel()
     observed, unfiltered = _observations(spec, kernel)
     obs_law = observed.law if observed is not None else None

@@ -14,14 +14,17 @@ probability_column, where, csv (how a text file is read) · ``[utility]`` kind =
 "table" (values), gamma, lower, tau, lipschitz, metric · ``[target]`` local,
 global.
 
-Validation uses pydantic; every error becomes one :class:`InputError` line
-naming the dotted field (``privacy.sensitive.epsilon``) and the value.
+Validation uses pydantic (the tables' models are in
+:mod:`~fairaudit.certification.spec_schema`); every error becomes one
+:class:`InputError` line naming the dotted field (``privacy.sensitive.epsilon``)
+and the value. The ``[privacy.*]`` tables' mechanisms are built by
+:mod:`~fairaudit.certification.spec_mechanisms`, the ``[model]`` table is read
+by :mod:`~fairaudit.certification.spec_model_table`.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Hashable, Sequence
+from collections.abc import Hashable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -35,19 +38,16 @@ from fairaudit.base.toml_documents import (
     parse_toml,
     validation_error,
 )
-from fairaudit.data.record_files import source
-
-if TYPE_CHECKING:
-    import pandas as pd
-
-    from fairaudit.certification.spec_schema import AttributeSpec, MechanismSpec, ModelSpec, SpecModel
-from fairaudit.data.counts import CountTable, count_records, count_table
-from fairaudit.data.csv_format import CsvFormat
-from fairaudit.laws.closed_forms import epsilon_from_keep_probability, randomized_response
-from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family
-from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
+from fairaudit.certification.spec_mechanisms import build_mechanism, mechanism_family
+from fairaudit.certification.spec_model_table import match_label, read_model
+from fairaudit.data.counts import CountTable
+from fairaudit.laws.families import MechanismFamily
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric, from_table, indicator
+
+if TYPE_CHECKING:
+    from fairaudit.certification.spec_schema import AttributeSpec, MechanismSpec, SpecModel
 
 __all__ = [
     # a validated spec
@@ -147,12 +147,8 @@ class Spec:
         return InputError(f"{self.source}: {field}", problem, value)
 
     def _mechanism(self, spec: MechanismSpec, attribute: AttributeSpec, field: str) -> Mechanism:
-        try:
-            return _build_mechanism(spec, attribute.values, spec.name or f"{spec.mechanism} on {attribute.name}")
-        except InputError as exc:
-            if exc.field in _MECHANISM_FIELDS or exc.field.startswith("components["):  # a field of the spec's table
-                raise InputError(f"{self.source}: {field}.{exc.field}", exc.problem, exc.value) from None
-            raise exc.under(f"{self.source}: {field}") from None
+        name = spec.name or f"{spec.mechanism} on {attribute.name}"
+        return build_mechanism(spec, attribute.values, name, f"{self.source}: {field}")
 
     def _distribution(self, values: list[float] | None, labels: tuple, field: str, what: str) -> FloatArray | None:
         """A validated distribution over ``labels`` from the spec's ``field`` (None when absent)."""
@@ -209,7 +205,7 @@ class Spec:
         u = self.model.utility
         try:
             if u.kind == "indicator":
-                value = _match_label(u.decision, self.decisions)
+                value = match_label(u.decision, self.decisions)
                 if value is None:
                     raise self._err(
                         "utility.decision",
@@ -233,7 +229,7 @@ class Spec:
         given = self.model.decision.unparsed
         if given is None:
             return None
-        value = _match_label(given, self.decisions) if isinstance(given, str) else None
+        value = match_label(given, self.decisions) if isinstance(given, str) else None
         if value is None:
             valid = [format_label(d) for d in self.decisions]
             raise self._err("decision.unparsed", f"must be a string naming one of decision.values {valid}", given)
@@ -290,16 +286,7 @@ class Spec:
         proportion to the components' ε (equally when they are all 0 or
         infinite). None with fewer than 2 groups.
         """
-        if len(self.groups) < 2:
-            return None
-        ms = self.model.privacy.sensitive
-        if ms.mechanism == "product" and ms.components:
-            values = [c.values or [] for c in ms.components]  # (every component has values: checked when built)
-            eps = [_component_epsilon(c) for c in ms.components]
-            finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
-            if all(len(v) >= 2 for v in values):
-                return product_family(*values, weights=eps if finite else None)
-        return randomized_response_family(self.groups)
+        return mechanism_family(self.model.privacy.sensitive, self.groups)
 
     @property
     def sees_inputs(self) -> bool:
@@ -351,7 +338,7 @@ class Spec:
             spec, or a (context, group) cell has no row.
         """
         if self._kernel is False:
-            self._kernel = self._read_kernel()
+            self._kernel, self.weighted_table = read_model(self)
         assert self._kernel is not True  # (only False, None or a Kernel)
         return self._kernel
 
@@ -424,234 +411,6 @@ class Spec:
         if self.unparsed is not None and kernel is not None:
             options["unparsed_decision"] = self.decisions.index(self.unparsed)
         return options
-
-    def _read_kernel(self) -> Kernel | None:
-        m = self.model.model
-        if m is None:
-            return None
-        name = m.table if m.table is not None else m.records
-        assert name is not None  # (SpecModel: exactly one of table and records)
-        path = self.base / name
-        field = "model.table" if m.table is not None else "model.records"
-        if not path.is_file():
-            raise self._err(field, "no such file", str(path))
-        counted = self._counted_kernel(m, path) if m.table is not None and m.probability_column is None else None
-        if counted is not None:
-            return counted
-        frame = self._model_frame(m, path, field)
-        ctx_cols = [] if self.model.context is None else [self.model.context.name]
-        # the model sees released values: its table is indexed by the mechanisms' outputs
-        contexts, groups = self.context_mechanism.outputs, self.sensitive_mechanism.outputs
-        sens = [self.model.sensitive.name]
-        dec = self.model.decision.name
-        try:
-            if m.records:
-                table = count_records(frame, sensitive=sens, outcome=dec, context=ctx_cols, weights=m.weight_column)
-                table = _relabel(table, contexts, groups, self.decisions)
-                probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
-                self.weighted_table = table if table.squares is not None else None
-            else:
-                prob_col = m.probability_column
-                cnt_col = m.count_column
-                if prob_col is None and cnt_col is None:
-                    cnt_col = "count" if "count" in frame.columns else None
-                    prob_col = "probability" if cnt_col is None else None
-                    if prob_col is not None and prob_col not in frame.columns:
-                        raise self._err(
-                            "model.table",
-                            "needs a 'count' or 'probability' column (or set count_column)",
-                            list(map(str, frame.columns)),
-                        )
-                column = cnt_col or prob_col
-                assert column is not None  # (one of them is set above)
-                table = count_table(
-                    frame,
-                    sensitive=sens,
-                    outcome=dec,
-                    context=ctx_cols,
-                    count=column,
-                    contexts=contexts,
-                    groups=groups,
-                    decisions=self.decisions,
-                )
-                empty = np.argwhere(table.counts.sum(axis=-1) == 0)
-                if len(empty):
-                    i, j = empty[0]
-                    raise self._err(
-                        field,
-                        f"has no rows (or only zeros) for (context {format_label(contexts[i])!r}, "
-                        f"group {format_label(groups[j])!r}); {len(empty)} such cells in all",
-                    )
-                if cnt_col:
-                    probs_kernel = Kernel.from_counts(table.counts, contexts, groups, self.decisions)
-                else:
-                    probs_kernel = Kernel(table.counts, contexts, groups, self.decisions)
-        except InputError as exc:
-            if exc.field.startswith(self.source):
-                raise
-            raise exc.under(f"{self.source}: {field}") from None
-        if probs_kernel.empty_cells:
-            x, a = probs_kernel.empty_cells[0]
-            raise self._err(
-                field,
-                f"has no rows for (context {format_label(x)!r}, group {format_label(a)!r}); "
-                f"{len(probs_kernel.empty_cells)} empty cells in all",
-            )
-        return probs_kernel
-
-    def _counted_kernel(self, m: ModelSpec, path: Path) -> Kernel | None:
-        """The kernel of a table of whole counts matching the spec, counted by DuckDB and numpy (without pandas).
-
-        None wherever the table is not that plain (a missing or negative count, a field that matches no label of
-        the spec, a cell twice or none, a format or file DuckDB refuses): :meth:`_read_kernel` then reads the
-        table as a DataFrame and :func:`~fairaudit.data.counts.count_table` reports what is wrong. Fields match the
-        spec's labels and ``where`` values by their text, as there.
-        """
-        count = m.count_column or "count"
-        roles = [None if self.model.context is None else self.model.context.name]
-        roles += [self.model.sensitive.name, self.model.decision.name]
-        used = list(dict.fromkeys([*(c for c in roles if c is not None), count, *m.where]))
-        try:
-            records = source(path, _csv_format(m))
-            grouped = records.group_by(used) if set(used) <= set(records.names) else None
-        except InputError:
-            return None
-        if grouped is None or any(grouped.missing[c].any() for c in used) or grouped.values[count].dtype.kind != "i":
-            return None
-        text = {c: np.array([str(v) for v in grouped.values[c]], dtype=object) for c in used}
-        keep = np.ones(len(grouped.weights), dtype=bool)
-        for column, want in m.where.items():
-            keep &= text[column] == str(want)
-        labels = (self.context_mechanism.outputs, self.sensitive_mechanism.outputs, self.decisions)
-        shape = tuple(len(x) for x in labels)
-        flat = np.zeros(int(keep.sum()), dtype=np.int64)
-        for role, wanted, size in zip(roles, labels, shape):
-            lookup = {format_label(v): i for i, v in enumerate(wanted)}
-            codes = np.array([lookup.get(v, -1) for v in text[role][keep]] if role else [0] * len(flat), dtype=int)
-            if (codes < 0).any():
-                return None
-            flat = flat * size + codes
-        n = grouped.values[count][keep]
-        if np.unique(flat).size < flat.size or (grouped.weights[keep] > 1).any() or (n < 0).any():
-            return None
-        counts = np.zeros(int(np.prod(shape)), dtype=np.int64)
-        counts[flat] = n
-        counts = counts.reshape(shape)
-        if not bool((counts.sum(axis=-1) > 0).all()):
-            return None
-        return Kernel.from_counts(counts, *labels)
-
-    def _model_frame(self, m: ModelSpec, path: Path, field: str) -> pd.DataFrame:
-        """The model's file read by DuckDB (``[model.csv]``), its ``where`` filters applied."""
-        try:
-            fmt = _csv_format(m)
-        except InputError as exc:
-            raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
-        used = [self.model.sensitive.name, self.model.decision.name, *m.where]
-        used += [self.model.context.name] if self.model.context is not None else []
-        used += [c for c in (m.count_column, m.probability_column, m.weight_column) if c is not None]
-        try:
-            frame = source(path, fmt).read(check=used)
-        except InputError as exc:  # a file's problem under model.records/table, a format's under model.csv
-            from fairaudit.certification.spec_schema import CsvSpec
-
-            if exc.field in CsvSpec.model_fields:
-                raise self._err(f"model.csv.{exc.field}", exc.problem, exc.value) from None
-            raise self._err(field, exc.problem, str(path)) from None
-        for col, want in m.where.items():
-            if col not in frame.columns:
-                raise self._err(f"model.where.{col}", "is not a column of the table", col)
-            frame = frame[frame[col].astype(str) == str(want)]
-            if frame.empty:
-                raise self._err(f"model.where.{col}", "selects no rows", want)
-        return frame
-
-
-def _match_label(value: Hashable, labels: tuple) -> Hashable | None:
-    """The label equal to ``value``, or whose text equals its text."""
-    if value in labels:
-        return value
-    for lab in labels:
-        if format_label(lab) == format_label(value):
-            return lab
-    return None
-
-
-def _relabel(table: CountTable, contexts: tuple, groups: tuple, decisions: tuple) -> CountTable:
-    """Re-index a CountTable from records onto the spec's label order (by text)."""
-
-    def index(found: tuple, wanted: tuple, role: str) -> list[int]:
-        pos = []
-        for f in found:
-            m = _match_label(f, wanted)
-            if m is None:
-                raise InputError(role, f"value not among the spec's values {[format_label(w) for w in wanted]}", f)
-            pos.append(wanted.index(m))
-        return pos
-
-    ix = index(table.contexts, contexts, "context") if contexts != ("all",) else [0]
-    ia = index(table.groups, groups, "sensitive")
-    iu = index(table.decisions, decisions, "decision")
-
-    def placed(counts: Any) -> Any:
-        out = np.zeros((len(contexts), len(groups), len(decisions)))
-        out[np.ix_(ix, ia, iu)] = counts
-        return out
-
-    columns = (table.context_columns, table.sensitive_columns, table.outcome_column)
-    squares = None if table.squares is None else placed(table.squares)
-    return CountTable(
-        placed(table.counts), contexts, groups, decisions, *columns, weight_column=table.weight_column, squares=squares
-    )
-
-
-def _component_epsilon(spec: MechanismSpec) -> float:
-    if spec.mechanism == "randomized_response":
-        if spec.values is not None and len(spec.values) < 2:
-            return 0.0  # one value: nothing is randomized, epsilon(M) = 0 whatever the spec says
-        if spec.epsilon is not None:
-            return float(spec.epsilon)
-        if spec.values:
-            assert spec.keep is not None  # (MechanismSpec: epsilon or keep)
-            return epsilon_from_keep_probability(spec.keep, len(spec.values))
-    return math.inf
-
-
-_MECHANISM_FIELDS = {"epsilon", "keep"}
-"""Fields of a mechanism table that errors of the privacy functions name as they are (``keep``: ...)."""
-
-
-def _build_mechanism(spec: MechanismSpec, values: Sequence[Hashable] | None, name: str) -> Mechanism:
-    """The mechanism of a ``[privacy.*]`` table on ``values``; errors name its fields (``components[1].keep``).
-
-    Randomized response on one value (k = 1) keeps it with probability 1:
-    ``keep`` must then be 1, and every ``epsilon`` gives that mechanism
-    (p = e^ε / (e^ε + k − 1) = 1), whose ε(M) is 0.
-    """
-    if spec.mechanism == "product":
-        comps = []
-        for i, c in enumerate(spec.components or []):
-            if c.values is None:
-                raise InputError(f"components[{i}].values", "each component needs its values")
-            try:
-                comps.append(_build_mechanism(c, c.values, c.name or f"{c.mechanism}[{i}]"))
-            except InputError as exc:
-                if exc.field in _MECHANISM_FIELDS or exc.field.startswith("components["):
-                    raise InputError(f"components[{i}].{exc.field}", exc.problem, exc.value) from None
-                raise exc.under(f"components[{i}]") from None
-        return product(*comps, name=name)
-    if values is None:
-        raise InputError("values", "are required")
-    if spec.mechanism == "identity":
-        return identity(values, name=name)
-    if spec.mechanism == "randomized_response":
-        if len(values) == 1 and spec.keep is not None and spec.keep != 1:
-            problem = "with one value (k = 1) there is nothing to randomize: keep must be 1 (or use identity)"
-            raise InputError("keep", problem, spec.keep)
-        return randomized_response(values, spec.epsilon, keep=spec.keep, name=name)
-    outputs = spec.outputs
-    assert spec.rows is not None  # (MechanismSpec: a matrix has rows)
-    return from_matrix(spec.rows, values, outputs, name=name)
 
 
 def parse_spec(text: str, source: str = "<string>", base: str | Path = ".") -> Spec:
@@ -732,10 +491,3 @@ def load_spec(path: str | Path) -> Spec:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError("SPEC", f"cannot be read ({exc})", str(path)) from None
     return parse_spec(text, source=str(path), base=p.parent)
-
-
-def _csv_format(m: ModelSpec) -> CsvFormat:
-    """How the model's file is read (``[model.csv]``; its errors name the option, as ``CsvFormat``'s do)."""
-    if m.csv is None:
-        return CsvFormat()
-    return CsvFormat(**{**m.csv.model_dump(), "names": None if m.csv.names is None else tuple(m.csv.names)})

@@ -15,7 +15,7 @@ Files: :func:`count_file` counts a Parquet or text file with DuckDB (one
 :mod:`fairaudit.data.record_files`), so memory grows with the number of
 (context, group, decision) combinations, not with the records; it also reads
 count tables made by any engine (SQL ``GROUP BY``, Spark, DuckDB), and
-:func:`read_records` reads a file whole, also with DuckDB. See docs/scale.md.
+:func:`~fairaudit.data.record_files.read_records` reads a file whole, also with DuckDB. See docs/scale.md.
 
 pandas and DuckDB are imported by the functions that use them, not with this
 module (``import fairaudit`` stays fast).
@@ -39,7 +39,7 @@ from fairaudit.base.labels import format_label, label_list
 from fairaudit.data.columns import check_roles, missing_values, roles
 from fairaudit.data.csv_format import CsvFormat
 from fairaudit.data.key_values import Locate, check_key_values, frame_columns
-from fairaudit.data.record_files import source
+from fairaudit.data.record_files import Source, source
 from fairaudit.laws.tables import Law, Population
 
 if TYPE_CHECKING:
@@ -59,7 +59,6 @@ __all__ = [
     "count_file",
     "count_records",
     "count_table",
-    "read_records",
 ]
 
 
@@ -155,25 +154,6 @@ class CountTable:
     def population(self) -> Population:
         """The empirical population P(X, A) = n(x, a) / n."""
         return Population.from_counts(self.cell_counts, self.contexts, self.groups)
-
-
-def read_records(path: str | Path, csv: CsvFormat | None = None) -> pd.DataFrame:
-    """Read decision records from a Parquet or delimited text file (by its name), with DuckDB.
-
-    The values are the labels :func:`count_file` counts (integers and
-    booleans with a missing value as pandas' ``Int64`` and ``boolean``); the
-    file, ``csv`` and the errors are as in :func:`count_file`.
-
-    Examples
-    --------
-    >>> import os, tempfile
-    >>> path = os.path.join(tempfile.mkdtemp(), "adult.data")
-    >>> _ = open(path, "w").write("39, Male, <=50K\\n50, ?, >50K\\n")
-    >>> fmt = CsvFormat(header=False, names=("age", "sex", "income"), na_values=("?",), skip_initial_space=True)
-    >>> read_records(path, fmt).astype(object).values.tolist()
-    [[39, 'Male', '<=50K'], [50, nan, '>50K']]
-    """
-    return source(path, csv).read()
 
 
 def _codes(columns: Sequence[Any], n: int) -> tuple[Codes, tuple]:
@@ -621,12 +601,12 @@ def count_file(
         The file is already a count table, one row per (context, group,
         decision) with its number of records in column ``count``, as made by
         any engine (SQL ``GROUP BY``, Spark, DuckDB); it is read whole
-        (:func:`read_records`) and turned into counts by :func:`count_table`.
+        (:func:`~fairaudit.data.record_files.read_records`) and turned into counts by :func:`count_table`.
     csv : CsvFormat, optional
         How a text file is read (:class:`CsvFormat`); an error for Parquet.
     weights : str, optional
         Column of sample weights (as in :func:`count_records`); the file is
-        then read whole (:func:`read_records`).
+        then read whole (:func:`~fairaudit.data.record_files.read_records`).
     mixed_outcome : bool
         Accept an outcome column that mixes numbers and text (as in :func:`count_records`).
 
@@ -668,15 +648,37 @@ def count_file(
         raise InputError("weights", "a count table (`count`) is counted already: give its counts, not weights")
     records = source(path, csv)
     check_roles(records.names, sensitive, outcome, context)
-    used = list(dict.fromkeys(context + sensitive + [outcome]))
     if weights is None and count is None:
-        g = records.group_by(used)
-        kw: dict[str, Any] = {"n": g.weights, "locate": g.locate, "mixed_outcome": mixed_outcome}
-        return _tally(g.values, g.missing, sensitive, outcome, context, dropna, **kw)
+        return _grouped_counts(records, sensitive, outcome, context, dropna, mixed_outcome)
+    return _whole_counts(records, sensitive, outcome, context, dropna, mixed_outcome, weights=weights, count=count)
+
+
+def _grouped_counts(
+    records: Source, sensitive: list[str], outcome: str, context: list[str], dropna: bool, mixed_outcome: bool
+) -> CountTable:
+    """The records of a file counted out of core: DuckDB's ``GROUP BY`` of the used columns, tallied by numpy."""
+    g = records.group_by(list(dict.fromkeys(context + sensitive + [outcome])))
+    kw: dict[str, Any] = {"n": g.weights, "locate": g.locate, "mixed_outcome": mixed_outcome}
+    return _tally(g.values, g.missing, sensitive, outcome, context, dropna, **kw)
+
+
+def _whole_counts(
+    records: Source,
+    sensitive: list[str],
+    outcome: str,
+    context: list[str],
+    dropna: bool,
+    mixed_outcome: bool,
+    *,
+    weights: str | None,
+    count: str | None,
+) -> CountTable:
+    """A file read whole and counted: weighted records (``weights``), or a count table (``count``)."""
     extra, role = (weights, "weights") if weights is not None else (count, "count")
     assert extra is not None  # (one of them is given)
     columns([extra], role, records.names)
-    frame = records.read(list(dict.fromkeys([*used, extra])))  # read whole: a count table, or weighted records
+    used = list(dict.fromkeys(context + sensitive + [outcome]))
+    frame = records.read(list(dict.fromkeys([*used, extra])))
     roles_: dict[str, Any] = {"sensitive": sensitive, "outcome": outcome, "context": context}
     options: dict[str, Any] = {**roles_, "dropna": dropna, "mixed_outcome": mixed_outcome}
     if weights is not None:

@@ -1,4 +1,4 @@
-"""DuckDB, the one engine that reads files of records: :func:`fairaudit.data.counts.count_file` and ``read_records``.
+"""DuckDB, the one engine that reads files of records: :func:`fairaudit.data.counts.count_file` and :func:`read_records`.
 
 A file of records, delimited text (``.csv``, ``.tsv``, ``.txt``, ``.data``;
 plain, gzip or zstd) or Parquet (a file or a folder of files), is a
@@ -45,7 +45,16 @@ from fairaudit.data.key_values import ROWS_SHOWN, Locate
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["MEMORY_LIMIT_VARIABLE", "NA", "Grouped", "Source", "engine_error", "source", "sql_identifier"]
+__all__ = [
+    "MEMORY_LIMIT_VARIABLE",
+    "NA",
+    "Grouped",
+    "Source",
+    "engine_error",
+    "read_records",
+    "source",
+    "sql_identifier",
+]
 
 T = TypeVar("T")
 
@@ -390,6 +399,25 @@ def source(path: str | os.PathLike[str], fmt: CsvFormat | None = None) -> Source
             raise InputError(fmt.changed()[0], "applies to text files, not Parquet", given)
         return _parquet_source(p, given)
     return _text_source(p, given, kind, fmt)
+
+
+def read_records(path: str | Path, csv: CsvFormat | None = None) -> pd.DataFrame:
+    """Read decision records from a Parquet or delimited text file (by its name), with DuckDB.
+
+    The values are the labels :func:`~fairaudit.data.counts.count_file` counts (integers and
+    booleans with a missing value as pandas' ``Int64`` and ``boolean``); the
+    file, ``csv`` and the errors are as in :func:`~fairaudit.data.counts.count_file`.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "adult.data")
+    >>> _ = open(path, "w").write("39, Male, <=50K\\n50, ?, >50K\\n")
+    >>> fmt = CsvFormat(header=False, names=("age", "sex", "income"), na_values=("?",), skip_initial_space=True)
+    >>> read_records(path, fmt).astype(object).values.tolist()
+    [[39, 'Male', '<=50K'], [50, nan, '>50K']]
+    """
+    return source(path, csv).read()
 
 
 def _text_source(p: Path, given: str, kind: FileKind, fmt: CsvFormat) -> Source:

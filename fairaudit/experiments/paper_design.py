@@ -28,18 +28,12 @@ from fairaudit import (
 )
 
 from ._markdown import paper_design_markdown
-from .analysis import (
-    BoundRange,
-    ObservedPoint,
-    bound_ranges_from,
-    candidate_context_mechanism,
-    candidate_utility,
-    observed_point,
-)
+from .analysis import ObservedPoint, candidate_context_mechanism, candidate_utility, observed_point
 from .figures import figure_class
 from .harness import paper_queries_needed
-from .report import observed_dicts, privacy_dict, utility_dict, write_frame, write_json
+from .report import observed_dicts, point_dict, utility_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
+from .unparsed_bounds import BoundRange, bound_ranges_from
 from .vlm.filter import PrivacyFilter, profile_budget
 from .vlm.tasks import DeliveryTask
 
@@ -179,8 +173,8 @@ class DesignPoint(ObservedPoint):
     bounds : DesignBounds
     bound_ranges : dict of str to BoundRange
         Each certified bound's range over every utility of the unparsed reply
-        (:func:`fairaudit.experiments.analysis.bound_ranges_from`; the lower end NaN, with the reason, when it needs
-        a mechanism too large to build).
+        (:func:`fairaudit.experiments.unparsed_bounds.bound_ranges_from`; the lower end NaN, with the reason, when it
+        needs a mechanism too large to build).
     """
 
     counts: np.ndarray
@@ -307,9 +301,9 @@ def analyse_paper_design(
 def _bound_ranges(
     task: DeliveryTask, eps: float, positions: str, tau: float | None, context_epsilon: float | None, b: DesignBounds
 ) -> dict[str, BoundRange]:
-    """The bounds' ranges over the unparsed reply's utility (:func:`~fairaudit.experiments.analysis.bound_ranges_from`
-    with :func:`paper_design_bounds` for the other utility); a lower end that needs a mechanism too large to build
-    is NaN, and its reason says so."""
+    """The bounds' ranges over the unparsed reply's utility
+    (:func:`~fairaudit.experiments.unparsed_bounds.bound_ranges_from` with :func:`paper_design_bounds` for the other
+    utility); a lower end that needs a mechanism too large to build is NaN, and its reason says so."""
     refused: list[str] = []
 
     def inside(u: Utility) -> tuple[float, float]:
@@ -327,24 +321,6 @@ def _bound_ranges(
             k: dataclasses.replace(r, reason=r.reason + note) if k != "corollary" else r for k, r in ranges.items()
         }
     return ranges
-
-
-def _point_dict(a: PaperDesignAnalysis, p: DesignPoint) -> dict[str, Any]:
-    b = p.bounds
-    return {
-        "epsilon": number(p.epsilon),
-        "queries": p.queries,
-        "privacy": privacy_dict(a.task, b.filter, b.corollary),
-        "bounds": {
-            "corollary": number(b.corollary),
-            "black_box": number(b.black_box_local),
-            "black_box_global": number(b.black_box_global),
-            "closed_form": b.closed_form,
-            "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
-        },
-        "observed": observed_dicts(p),
-        "certified_local": number(b.black_box_local),
-    }
 
 
 def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -375,7 +351,7 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None 
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {"queries": a.baseline.queries, **observed_dicts(a.baseline)},
-        "points": [_point_dict(a, p) for p in a.points],
+        "points": [point_dict(t, p, p.bounds, p.queries, p.bounds.closed_form) for p in a.points],
     }
     if run:
         out["run"] = run

@@ -40,6 +40,7 @@ __all__ = [
     "experiment_markdown",
     "experiment_spec",
     "kernel_frame",
+    "point_dict",
     "privacy_dict",
     "records_frame",
     "shown_kernel_frame",
@@ -288,18 +289,30 @@ def observed_dicts(point: Any) -> dict[str, Any]:
     return out
 
 
-def _point_dict(analysis: ExperimentAnalysis, p: PointResult) -> dict[str, Any]:
+def point_dict(
+    task: DeliveryTask, p: Any, bounds: Any, queries: int | None = None, closed_form: bool | None = None
+) -> dict[str, Any]:
+    """One ε of a certificate (both designs): its privacy, its bounds with their unparsed ranges, what was observed.
+
+    ``p`` is a point (:class:`~fairaudit.experiments.analysis.PointResult`, the paper design's points) and ``bounds``
+    what holds for any model (``filter``, ``corollary``, ``black_box_local``, ``black_box_global``: the point itself,
+    or the paper design's :class:`~fairaudit.experiments.paper_design.DesignBounds`); ``queries`` and
+    ``closed_form`` are written when given.
+    """
+    closed = {} if closed_form is None else {"closed_form": closed_form}
     return {
         "epsilon": number(p.epsilon),
-        "privacy": privacy_dict(analysis.task, p.filter, p.mechanism.epsilon),
+        **({} if queries is None else {"queries": queries}),
+        "privacy": privacy_dict(task, bounds.filter, bounds.corollary),
         "bounds": {
-            "corollary": number(p.corollary),
-            "black_box": number(p.black_box_local),
-            "black_box_global": number(p.black_box_global),
+            "corollary": number(bounds.corollary),
+            "black_box": number(bounds.black_box_local),
+            "black_box_global": number(bounds.black_box_global),
+            **closed,
             "unparsed_range": {name: r.to_dict() for name, r in p.bound_ranges.items()},
         },
         "observed": observed_dicts(p),
-        "certified_local": number(p.black_box_local),
+        "certified_local": number(bounds.black_box_local),
     }
 
 
@@ -357,7 +370,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
             }
             for b in a.budgets
         ],
-        "points": [_point_dict(a, p) for p in a.points],
+        "points": [point_dict(t, p, p) for p in a.points],
         "paper_design": [
             {
                 "epsilon": number(p.epsilon),

@@ -216,12 +216,12 @@ def _prompt_record(task: DeliveryTask, text_only: bool) -> dict:
 
 def _check_local(name: str, exact: bool, options: RunOptions) -> None:
     """What a local model cannot do (route images; the paper's design without samples), and that it is installed."""
-    from . import local_model as lm
+    from . import model_files
 
     _refuse_images(options, f"the local model {name} reads text only: it takes no route images")
     if exact and options.design != "table":
         raise InputError("design", "the paper's design samples through the filter: give `samples` N too")
-    lm.check(name)  # not installed: one line naming the install command, before anything is written
+    model_files.check(name)  # not installed: one line naming the install command, before anything is written
 
 
 def _check_exact_endpoint(options: RunOptions) -> None:

@@ -231,17 +231,7 @@ def plot_curve(
         ax = fig.add_subplot()
     else:
         fig = ax.figure
-    eps = np.asarray(curve.epsilon, dtype=float)
-    if eps.size and not (np.all(np.isfinite(eps)) and eps.max() <= AXIS_LIMIT):
-        top_eps = float(eps.max())
-        spec_own = curve.spec_epsilon is not None and float(curve.spec_epsilon) == top_eps
-        raise InputError(
-            "epsilons",
-            f"the curve's grid of epsilon reaches {top_eps:.6g} nats"
-            + (" (the spec's own epsilon, always on it)" if spec_own else "")
-            + f", beyond what a figure's axis can show ({AXIS_LIMIT:g} nats): "
-            + ("no figure of this spec's curve" if spec_own else "draw it on a smaller grid"),
-        )
+    eps = _drawable_epsilons(curve)
     series = [(key, on_scale(v), label, style) for key, v, label, style in _series(curve, step=max(1, len(eps) // 30))]
     finite = np.concatenate([np.asarray(v, float)[np.isfinite(v)] for _, v, _, _ in series] + [np.zeros(1)])
     top = max(1.15 * float(finite.max()), 0.1) if ymax is None else float(ymax)
@@ -265,23 +255,44 @@ def plot_curve(
         pad=36 if sec is not None else None,
     )
     if missing:
-        why = "need τ (not given)" if curve.tau is None else "do not apply to this utility"
-        ax.text(
-            0.99,
-            0.02,
-            f"{', '.join(missing)} bound{'s' if len(missing) > 1 else ''}: {why}",
-            transform=ax.transAxes,
-            ha="right",
-            va="bottom",
-            fontsize=8,
-            color="0.3",
-            zorder=7,
-            bbox=dict(facecolor="white", edgecolor="none", alpha=0.85, pad=1.5),
-        )
+        _note_left_out(ax, curve, missing)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.9)
     if path is not None:
         save_figure(fig if isinstance(fig, figure_class) else fig.figure, path)  # a subfigure cannot be saved alone
     return fig
+
+
+def _drawable_epsilons(curve: PrivacyCurve) -> FloatArray:
+    """The curve's grid of ε, refused (field ``epsilons``) when an axis cannot show it: beyond ``AXIS_LIMIT``."""
+    eps = np.asarray(curve.epsilon, dtype=float)
+    if eps.size and not (np.all(np.isfinite(eps)) and eps.max() <= AXIS_LIMIT):
+        top_eps = float(eps.max())
+        spec_own = curve.spec_epsilon is not None and float(curve.spec_epsilon) == top_eps
+        raise InputError(
+            "epsilons",
+            f"the curve's grid of epsilon reaches {top_eps:.6g} nats"
+            + (" (the spec's own epsilon, always on it)" if spec_own else "")
+            + f", beyond what a figure's axis can show ({AXIS_LIMIT:g} nats): "
+            + ("no figure of this spec's curve" if spec_own else "draw it on a smaller grid"),
+        )
+    return eps
+
+
+def _note_left_out(ax: Axes, curve: PrivacyCurve, missing: list[str]) -> None:
+    """The note, bottom right, naming the bounds left out (NaN throughout) and why."""
+    why = "need τ (not given)" if curve.tau is None else "do not apply to this utility"
+    ax.text(
+        0.99,
+        0.02,
+        f"{', '.join(missing)} bound{'s' if len(missing) > 1 else ''}: {why}",
+        transform=ax.transAxes,
+        ha="right",
+        va="bottom",
+        fontsize=8,
+        color="0.3",
+        zorder=7,
+        bbox=dict(facecolor="white", edgecolor="none", alpha=0.85, pad=1.5),
+    )
 
 
 _Series: TypeAlias = tuple[str, FloatArray, str, dict[str, Any]]

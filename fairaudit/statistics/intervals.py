@@ -98,6 +98,7 @@ __all__ = [
     "category_bounds",
     "clopper_pearson",
     "fairness_intervals",
+    "interval_options",
     "linear_extremes",
 ]
 
@@ -350,9 +351,8 @@ def _check(table: object, utility: object, intervals: object) -> IntervalOptions
         raise InputError("table", "must be a CountTable (fairaudit.count_records or count_table)", type(table).__name__)
     if not isinstance(utility, Utility):
         raise InputError("utility", "must be a Utility", type(utility).__name__)
-    options = IntervalOptions() if intervals is None else intervals
-    if not isinstance(options, IntervalOptions):
-        raise InputError("intervals", "must be an IntervalOptions", type(options).__name__)
+    given = interval_options(intervals)
+    options = IntervalOptions() if given is None else given
     counts = np.asarray(table.counts, dtype=float)
     if table.squares is None and np.any(counts != np.round(counts)):
         bad = counts[counts != np.round(counts)].flat[0]
@@ -360,6 +360,19 @@ def _check(table: object, utility: object, intervals: object) -> IntervalOptions
             "counts", "intervals need whole numbers of records (the table holds probabilities or weights)", float(bad)
         )
     return options
+
+
+def interval_options(intervals: object) -> IntervalOptions | None:
+    """``intervals`` checked: None or an :class:`IntervalOptions`, returned as it is.
+
+    Raises
+    ------
+    InputError
+        Field ``intervals`` for anything else, quoting its type.
+    """
+    if intervals is not None and not isinstance(intervals, IntervalOptions):
+        raise InputError("intervals", "must be an IntervalOptions", type(intervals).__name__)
+    return intervals
 
 
 def _is_indicator(g: FloatArray) -> bool:
@@ -460,7 +473,7 @@ def fairness_intervals(
     if method == "bayes":
         sets = band_sets(concentration, int(draws), int(seed))
         common["concentration"], common["draws"], common["seed"] = float(concentration), int(draws), int(seed)
-    options = ProjectionOptions(
+    projection = ProjectionOptions(
         method=method,
         alpha=alpha,
         context_keep=(np.ones(len(law.contexts), bool) if law.population is None else law.population.p_context > 0),
@@ -470,7 +483,7 @@ def fairness_intervals(
         sets=sets,
         **_kish_scales(table),
     )
-    return _assemble(project_sets(counts, g, options), options, law, estimate, common)
+    return _assemble(project_sets(counts, g, projection), projection, law, estimate, common)
 
 
 def _kish_scales(table: CountTable) -> dict[str, FloatArray]:

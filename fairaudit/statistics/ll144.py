@@ -514,8 +514,6 @@ def _indicator(
     """g over the decisions: the utility (0/1), 1{U = positive}, a 0/1 outcome's 1, or 1{score > the median}."""
     from fairaudit.statistics.record_audit import audit_utility
 
-    if positive is not None and utility is not None:
-        raise InputError("positive", "give positive or utility, not both", positive)
     binary = {str(d) for d in table.decisions} <= {"0", "1", "True", "False"}
     if utility is None and positive is None and not binary:
         return scoring_utility(table), median_score(table), "scoring"

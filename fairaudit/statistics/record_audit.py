@@ -28,7 +28,12 @@ from fairaudit.laws.utilities import Utility, from_table, indicator
 from fairaudit.laws.utility_expression import evaluate_utility_expression
 from fairaudit.metrics.gaps import UtilityGaps, utility_gaps
 from fairaudit.metrics.observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
-from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals
+from fairaudit.statistics.intervals import (
+    FairnessIntervals,
+    IntervalOptions,
+    fairness_intervals,
+    interval_options,
+)
 from fairaudit.statistics.small_cells import LeftOut, SmallCell, by_context_rows, leave_out_small, small_cell
 
 if TYPE_CHECKING:
@@ -545,49 +550,47 @@ def audit(
 
     Examples
     --------
+    In docs/audit.md: the same from a CountTable, a count table (``count``), arrays, and with intervals.
+
     >>> import pandas as pd
     >>> df = pd.DataFrame({"race": list("aaaabbbb"), "hired": [1, 1, 1, 0, 1, 0, 0, 0]})
     >>> r = audit(df, sensitive=["race"], outcome="hired")
     >>> round(r.observed.global_fairness.ratio, 12), r.observed.global_fairness.group
     (3.0, 'a')
-    >>> t = count_records(df, sensitive=["race"], outcome="hired")
-    >>> round(audit(t).observed.global_fairness.ratio, 12)
-    3.0
-
-    With 90% simultaneous intervals (exact binomial ones, the outcome being 0/1):
-
-    >>> iv = audit(df, sensitive=["race"], outcome="hired", intervals=IntervalOptions(confidence=0.9)).intervals
-    >>> iv.method, iv.confidence, iv.global_fairness.lower <= 3.0 <= iv.global_fairness.upper
-    ('clopper-pearson', 0.9, True)
-
-    The same records as a count table, one row per group and outcome with its number of records:
-
-    >>> agg = pd.DataFrame({"race": ["a", "a", "b", "b"], "hired": [0, 1, 0, 1], "n": [1, 3, 3, 1]})
-    >>> round(audit(agg, sensitive=["race"], outcome="hired", count="n").observed.global_fairness.ratio, 12)
-    3.0
-
-    The same records as arrays, as a fairlearn user holds them:
-
-    >>> r = audit(y_pred=[1, 1, 1, 0, 1, 0, 0, 0], sensitive_features=list("aaaabbbb"))
-    >>> round(r.observed.global_fairness.ratio, 12), r.table.sensitive_columns
-    (3.0, ('sensitive_feature_0',))
     """
-    if intervals is not None and not isinstance(intervals, IntervalOptions):
-        raise InputError("intervals", "must be an IntervalOptions", type(intervals).__name__)
+    interval_options(intervals)
+    arrays = (y_pred, sensitive_features, control_features, sample_weight)
+    data, (sensitive, outcome, context, weights) = _records(data, (sensitive, outcome, context, weights), count, arrays)
+    table = _table(data, sensitive, outcome, context, dropna, weights, count, mixed_outcome or utility is not None)
+    return _audited(table, audit_utility(table, positive, utility), intervals, min_count)
+
+
+def _records(
+    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
+    columns: tuple[Sequence[str] | None, str | None, Sequence[str] | None, str | None],
+    count: str | None,
+    arrays: tuple[ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None],
+) -> tuple[
+    pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
+    tuple[Sequence[str] | None, str | None, Sequence[str] | None, str | None],
+]:
+    """``data`` and its (sensitive, outcome, context, weights) columns, or the records of the arrays and theirs."""
+    y_pred, sensitive_features, control_features, sample_weight = arrays
     if y_pred is not None or sensitive_features is not None:
         if data is not None:
             raise InputError("data", "give records as data or as arrays (y_pred, sensitive_features), not both")
-        data, names = records_from_arrays(y_pred, sensitive_features, control_features, sample_weight)
-        sensitive, outcome, context, weights = names
+        frame, names = records_from_arrays(y_pred, sensitive_features, control_features, sample_weight)
         if count is not None:
             raise InputError("count", "is the count column of a DataFrame `data`; arrays are one record each", count)
-    elif control_features is not None or sample_weight is not None:
+        return frame, names
+    if control_features is not None or sample_weight is not None:
         name = "control_features" if control_features is not None else "sample_weight"
         raise InputError(name, "goes with y_pred and sensitive_features")
-    table = _table(data, sensitive, outcome, context, dropna, weights, count, mixed_outcome or utility is not None)
-    if positive is not None and utility is not None:
-        raise InputError("positive", "give positive or utility, not both", positive)
-    g = audit_utility(table, positive, utility)
+    return data, columns
+
+
+def _audited(table: CountTable, g: Utility, intervals: IntervalOptions | None, min_count: int | None) -> Audit:
+    """The audit of the counts: every group with records, small cells left out, the metrics, the intervals."""
     empty = [table.groups[j] for j in np.flatnonzero(table.group_counts == 0)]
     if empty:
         raise InputError("sensitive", "group has no records", format_label(empty[0]))
@@ -611,9 +614,11 @@ def audit_utility(table: CountTable, positive: Hashable | None, utility: str | U
     Raises
     ------
     InputError
-        ``positive`` not a value of the outcome, an expression that does not parse (``utility``), or an outcome
-        that is not 0/1 with neither (``positive``).
+        Both ``positive`` and ``utility`` given (``positive``), ``positive`` not a value of the outcome, an
+        expression that does not parse (``utility``), or an outcome that is not 0/1 with neither (``positive``).
     """
+    if positive is not None and utility is not None:
+        raise InputError("positive", "give positive or utility, not both", positive)
     if isinstance(utility, Utility):
         return utility
     if utility is not None:

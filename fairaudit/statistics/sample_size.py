@@ -342,40 +342,10 @@ def plan(
         datasets=datasets,
         seed=seed,
         max_n=max_n,
+        progress=progress,
     )
-    if progress is not None and not callable(progress):
-        raise InputError("progress", "must be callable", progress)
-    rates = _rates(inputs["groups"], inputs["contexts"], inputs["base_rate"], inputs["disparity"])
-    mechanism: Mechanism | None = None
-    filtered = rates
-    if inputs["epsilon"] is not None:
-        from fairaudit.laws.closed_forms import randomized_response
-
-        mechanism = randomized_response(tuple(range(inputs["groups"])), inputs["epsilon"])
-        filtered = rates @ mechanism.matrix.T  # Q[x, a] = sum_ã M[a, ã] K[x, ã]
-    true_value = float(np.log(filtered.max(-1) / filtered.min(-1)).max())
-    if inputs["target"] <= true_value:
-        name = "L" if inputs["kind"] == "local" else "L-bar"
-        return SamplePlan(
-            n_per_cell=None,
-            n_total=None,
-            achieved_power=None,
-            expected_upper=None,
-            true_value=true_value,
-            reason=f"the target {inputs['target']:.6g} nats is not above the true {name} of the model, "
-            f"{true_value:.6g} nats: no sample size certifies it",
-            **inputs,
-        )
-    certifier = _Certifier(
-        inputs["groups"],
-        inputs["contexts"],
-        inputs["confidence"],
-        inputs["method"],
-        mechanism,
-        inputs["kind"],
-        inputs["seed"],
-    )
-    return _search(inputs, true_value, rates, certifier, progress)
+    rates, mechanism, true_value = _assumed_model(inputs)
+    return _search(inputs, true_value, rates, mechanism, progress)
 
 
 def _checked_inputs(
@@ -393,8 +363,12 @@ def _checked_inputs(
     datasets: int | None,
     seed: int,
     max_n: int,
+    progress: object,
 ) -> _Inputs:
-    """The arguments of :func:`plan`, checked in order and converted (``datasets`` resolved from its default)."""
+    """The arguments of :func:`plan`, checked in order and converted (``datasets`` resolved from its default).
+
+    ``progress`` is checked last and not kept (it is not a field of a :class:`SamplePlan`).
+    """
     target = real(target, "target", low=0.0, what="a finite number >= 0 (nats)")
     groups = whole(groups, "groups", low=2, high=1000)
     contexts = whole(contexts, "contexts", low=1, high=100_000)
@@ -419,6 +393,8 @@ def _checked_inputs(
         if datasets is None
         else whole(datasets, "datasets", low=1, high=1_000_000)
     )
+    if progress is not None and not callable(progress):
+        raise InputError("progress", "must be callable", progress)
     return _Inputs(
         target=target,
         groups=groups,
@@ -436,15 +412,54 @@ def _checked_inputs(
     )
 
 
+def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float]:
+    """The model the plan assumes: the kernel's rates (contexts, groups), the filter (None without ``epsilon``) and
+    the true L of the filtered law, in nats (every context has the same rates: L̄ is the same)."""
+    rates = _rates(inputs["groups"], inputs["contexts"], inputs["base_rate"], inputs["disparity"])
+    mechanism: Mechanism | None = None
+    filtered = rates
+    if inputs["epsilon"] is not None:
+        from fairaudit.laws.closed_forms import randomized_response
+
+        mechanism = randomized_response(tuple(range(inputs["groups"])), inputs["epsilon"])
+        filtered = rates @ mechanism.matrix.T  # Q[x, a] = sum_ã M[a, ã] K[x, ã]
+    return rates, mechanism, float(np.log(filtered.max(-1) / filtered.min(-1)).max())
+
+
 def _search(
     inputs: _Inputs,
     true_value: float,
     rates: FloatArray,
-    certifier: _Certifier,
+    mechanism: Mechanism | None,
     progress: Callable[[int, float], None] | None,
 ) -> SamplePlan:
-    """The smallest n found with simulated power >= ``power``: doubling, then bisection (see :func:`plan`)."""
+    """The smallest n found with simulated power >= ``power``: doubling, then bisection (see :func:`plan`).
+
+    ``n_per_cell = None`` and a ``reason`` for a target not above the true value (no n certifies it) or when
+    ``max_n`` falls short.
+    """
     target, power, max_n, seed = inputs["target"], inputs["power"], inputs["max_n"], inputs["seed"]
+    if target <= true_value:
+        name = "L" if inputs["kind"] == "local" else "L-bar"
+        return SamplePlan(
+            n_per_cell=None,
+            n_total=None,
+            achieved_power=None,
+            expected_upper=None,
+            true_value=true_value,
+            reason=f"the target {target:.6g} nats is not above the true {name} of the model, "
+            f"{true_value:.6g} nats: no sample size certifies it",
+            **inputs,
+        )
+    certifier = _Certifier(
+        inputs["groups"],
+        inputs["contexts"],
+        inputs["confidence"],
+        inputs["method"],
+        mechanism,
+        inputs["kind"],
+        inputs["seed"],
+    )
     seen: dict[int, tuple[float, float]] = {}  # n -> (power, median upper end)
 
     def evaluate(n: int) -> tuple[float, float]:

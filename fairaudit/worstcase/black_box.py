@@ -10,6 +10,7 @@ from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
 
 import numpy as np
+import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
 from fairaudit.base.checks import nonnegative
@@ -227,63 +228,10 @@ def black_box_bound(
     >>> round(black_box_bound(m, utility_class=UtilityClass(tau=0.5), method="lp").ratio, 7)  # the LP agrees
     1.5714286
     """
-    if not isinstance(mechanism, Mechanism):
-        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
-    method = check_method(method)
-    lower, gamma, tau = check_class(utility_class)
-    assert utility_class is None or isinstance(utility_class, UtilityClass)  # (check_class refuses the rest)
-    lip = nonnegative(
-        0.0 if utility_class is None or utility_class.lipschitz is None else utility_class.lipschitz, "lipschitz"
-    )
-    metric = None if utility_class is None else utility_class.metric
-    n = len(mechanism.inputs)
-    rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
-    # (the discrete metric is never built: k-ary randomized response and L_A = 0 do not need it)
-    d = check_metric(metric, n) if n >= 1 and metric is not None else None
-    floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor
-    binding = floor > lower
-    lip_on = lip > 0 and n >= 2 and gamma > lower
-    if method == "threshold" and (binding or lip_on):
-        raise InputError("method", "the threshold solution needs tau <= lower and lipschitz = 0", method)
-    assumptions = _class_assumptions(mechanism, population, lower, gamma, tau, lip, lip_on)
-
-    if gamma > 0 and gamma != 1.0:
-        # Only the shape of the class matters: solve it on the scale gamma = 1 (well-conditioned LPs), scale back.
-        unit_class = UtilityClass(
-            lower=lower / gamma,
-            gamma=1.0,
-            tau=None if tau is None else tau / gamma,
-            lipschitz=lip / gamma,
-            metric=metric,
-        )
-        unit = black_box_bound(
-            mechanism,
-            utility_class=unit_class,
-            population=population,
-            method=method,
-        )
-        return replace(
-            unit,
-            utility_by_release=unit.utility_by_release * gamma,
-            lower=lower,
-            gamma=gamma,
-            tau=tau,
-            lipschitz=unit.lipschitz * gamma,
-            assumptions=assumptions,
-        )
-
-    problem = _ClassProblem(
-        mechanism=mechanism,
-        lower=lower,
-        gamma=gamma,
-        tau=tau,
-        lipschitz=lip,
-        floor=floor,
-        binding=binding,
-        lipschitz_on=lip_on,
-        method=method,
-        assumptions=assumptions,
-    )
+    problem, rr, metric, d = _class_problem(mechanism, utility_class, population, method)
+    if problem.gamma > 0 and problem.gamma != 1.0:
+        return _on_unit_scale(problem, metric, population)
+    lower, gamma, n = problem.lower, problem.gamma, len(mechanism.inputs)
     if n < 2 or gamma == 0 or lower == gamma:
         reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
         m = len(mechanism.outputs)
@@ -295,14 +243,78 @@ def black_box_bound(
         if closed is not None:
             return closed
     M = mechanism.matrix
-    if lip_on:
+    if problem.lipschitz_on:
         return _lipschitz_certificate(problem, M, check_metric(metric, n) if d is None else d)
     # the pairs whose box program (with a binding τ, floor relaxation) can be the largest, solved exactly;
     # the others are set aside by exact upper bounds, one pass over the pairs (proofs/black_box.md §7)
-    found = box_pairs(M, lower, gamma, floor if binding else None)
-    if not binding and method != "lp":
+    found = box_pairs(M, lower, gamma, problem.floor if problem.binding else None)
+    if not problem.binding and problem.method != "lp":
         return _threshold_certificate(problem, M, found)
     return _lp_certificate(problem, M, found)
+
+
+def _class_problem(
+    mechanism: Mechanism, utility_class: UtilityClass | None, population: Population | None, method: str
+) -> tuple[_ClassProblem, RandomizedResponseParameters | None, npt.ArrayLike | None, FloatArray | None]:
+    """Check the arguments of :func:`black_box_bound`: the problem, the RR parameters, the metric and its table.
+
+    The RR parameters are None unless the mechanism is k-ary randomized response and the LP is not forced; the
+    table is None without a metric (the discrete metric is never built: k-ary RR and L_A = 0 do not need it).
+    """
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    method = check_method(method)
+    lower, gamma, tau = check_class(utility_class)
+    assert utility_class is None or isinstance(utility_class, UtilityClass)  # (check_class refuses the rest)
+    lip = nonnegative(
+        0.0 if utility_class is None or utility_class.lipschitz is None else utility_class.lipschitz, "lipschitz"
+    )
+    metric = None if utility_class is None else utility_class.metric
+    n = len(mechanism.inputs)
+    rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
+    d = check_metric(metric, n) if n >= 1 and metric is not None else None
+    floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor
+    binding = floor > lower
+    lip_on = lip > 0 and n >= 2 and gamma > lower
+    if method == "threshold" and (binding or lip_on):
+        raise InputError("method", "the threshold solution needs tau <= lower and lipschitz = 0", method)
+    problem = _ClassProblem(
+        mechanism=mechanism,
+        lower=lower,
+        gamma=gamma,
+        tau=tau,
+        lipschitz=lip,
+        floor=floor,
+        binding=binding,
+        lipschitz_on=lip_on,
+        method=method,
+        assumptions=_class_assumptions(mechanism, population, lower, gamma, tau, lip, lip_on),
+    )
+    return problem, rr, metric, d
+
+
+def _on_unit_scale(
+    problem: _ClassProblem, metric: npt.ArrayLike | None, population: Population | None
+) -> BlackBoxCertificate:
+    """Only the shape of the class matters: solve it on the scale γ = 1 (well-conditioned LPs), and scale back."""
+    lower, gamma, tau = problem.lower, problem.gamma, problem.tau
+    unit_class = UtilityClass(
+        lower=lower / gamma,
+        gamma=1.0,
+        tau=None if tau is None else tau / gamma,
+        lipschitz=problem.lipschitz / gamma,
+        metric=metric,
+    )
+    unit = black_box_bound(problem.mechanism, utility_class=unit_class, population=population, method=problem.method)
+    return replace(
+        unit,
+        utility_by_release=unit.utility_by_release * gamma,
+        lower=lower,
+        gamma=gamma,
+        tau=tau,
+        lipschitz=unit.lipschitz * gamma,
+        assumptions=problem.assumptions,
+    )
 
 
 def _class_assumptions(

@@ -1,8 +1,8 @@
 """The four calibration methods behind :func:`fairaudit.worstcase.calibration.calibrate`: what each finds along a family.
 
-Each method takes the checked inputs (:class:`Common`) and returns a :class:`Found`: the largest ε meeting the
+Each method takes the checked inputs (:class:`~fairaudit.worstcase.calibration_result.Common`) and returns a :class:`Found`: the largest ε meeting the
 target (NaN when none does), the certificate there and the reason; :func:`fairaudit.worstcase.calibration.calibrate` turns it
-into a :class:`~fairaudit.worstcase.calibration.Calibration` with the family's member and keep probability.
+into a :class:`~fairaudit.worstcase.calibration_result.Calibration` with the family's member and keep probability.
 
 * :func:`closed_form` — ``paper`` and ``tight``, closed forms of the main theorem.
 * :func:`black_box` — the exact worst case over every model, non-decreasing along the family: bracketed and
@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, TypedDict
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -35,11 +35,11 @@ from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import main_theorem, main_theorem_tight
 from fairaudit.metrics.fairness import global_fairness, local_fairness
 from fairaudit.worstcase.black_box import black_box_bound
+from fairaudit.worstcase.calibration_result import Common
 from fairaudit.worstcase.calibration_search import EPS_MAX, bracket, keep_grid, largest_meeting
 from fairaudit.worstcase.randomized_response import rr_class_value, rr_law
 
 __all__ = [
-    "Common",
     "Found",
     "black_box",
     "black_box_global",
@@ -48,20 +48,6 @@ __all__ = [
     "rr_black_box_epsilon",
     "white_box",
 ]
-
-
-class Common(TypedDict):
-    """The fields of a :class:`~fairaudit.worstcase.calibration.Calibration` that repeat its inputs, whatever the method finds."""
-
-    target: float
-    kind: str
-    groups: int
-    gamma: float
-    lower: float
-    tau: float
-    delta: float
-    lipschitz: float
-    diameter: float
 
 
 @dataclass(frozen=True)
@@ -94,8 +80,8 @@ def infeasible(bound: float, reason: str) -> Found:
 
 def closed_form(common: Common, method: str) -> Found:
     """``paper`` (ε = target − log(1 + c/τ)) or ``tight`` (ε = log(e^target − c/τ)), c = L_A·diam + δγ."""
-    target, gamma, tau = common["target"], common["gamma"], common["tau"]
-    lip, diam, delta = common["lipschitz"], common["diameter"], common["delta"]
+    target, gamma, tau = common.target, common.gamma, common.tau
+    lip, diam, delta = common.lipschitz, common.diameter, common.delta
     c = lip * diam + delta * gamma
     if math.isnan(tau):  # (calibrate checked that the extra term is 0: L_A*diam = 0 and delta = 0)
         return Found(
@@ -169,7 +155,7 @@ def _black_box_class(
     common: Common, metric: npt.ArrayLike | None, population: Population | None
 ) -> tuple[dict[str, Any], str, str]:
     """The keywords of ``black_box_bound`` for the class of utilities, the class in words, and a note for the reason."""
-    gamma, lower, tau, lip = common["gamma"], common["lower"], common["tau"], common["lipschitz"]
+    gamma, lower, tau, lip = common.gamma, common.lower, common.tau, common.lipschitz
     utility_class = UtilityClass(
         lower=lower,
         gamma=gamma,
@@ -196,7 +182,7 @@ def _rr_bound(common: Common, family: MechanismFamily, metric: npt.ArrayLike | N
     """
     if _is_randomized_response(family, 1.0) is None:
         return None
-    lower, gamma, tau, lip = common["lower"], common["gamma"], common["tau"], common["lipschitz"]
+    lower, gamma, tau, lip = common.lower, common.gamma, common.tau, common.lipschitz
     k = len(family.inputs)
     d = None if lip == 0 or metric is None else check_metric(metric, k)
     off = None if d is None else d[~np.eye(k, dtype=bool)]
@@ -219,11 +205,11 @@ def black_box(
 ) -> Found:
     """The largest ε whose exact worst case over every model of the class meets the target (on L)."""
     target, gamma, lower, tau, lip = (
-        common["target"],
-        common["gamma"],
-        common["lower"],
-        common["tau"],
-        common["lipschitz"],
+        common.target,
+        common.gamma,
+        common.lower,
+        common.tau,
+        common.lipschitz,
     )
     kwargs, cls, note = _black_box_class(common, metric, population)
     bound = _rr_bound(common, family, metric)
@@ -234,12 +220,7 @@ def black_box(
 
     top = bound(math.inf)
     if target >= top:
-        return Found(
-            math.inf,
-            top,
-            f"every epsilon meets the target: even the identity "
-            f"(epsilon = inf) gives a worst case of {top:.6g} nats over every model, {cls}{note}",
-        )
+        return _every_epsilon(top, f"of {top:.6g} nats over every model, {cls}{note}")
     if (math.isnan(tau) or tau <= lower) and lip == 0:
         guess = rr_black_box_epsilon(target, len(family.inputs), lower, gamma)
         if math.isfinite(guess) and _is_randomized_response(family, guess) is not None:
@@ -271,6 +252,15 @@ def black_box(
         else:
             start = target
     return bracketed(target, bound, lo, f_lo, start, f"over every model, {cls}", note)
+
+
+def _every_epsilon(top: float, worst_case: str) -> Found:
+    """Every ε meets the target: even the identity (ε = inf) has the black-box worst case ``top``, ``worst_case``."""
+    return Found(
+        math.inf,
+        top,
+        f"every epsilon meets the target: even the identity (epsilon = inf) gives a worst case {worst_case}",
+    )
 
 
 def bracketed(
@@ -326,7 +316,7 @@ def black_box_global(
     from fairaudit.laws.utilities import from_table
     from fairaudit.worstcase.known_utility import worst_model
 
-    target, tau, lip = common["target"], common["tau"], common["lipschitz"]
+    target, tau, lip = common.target, common.tau, common.lipschitz
     if utility is None:
         if lip > 0:
             raise InputError(
@@ -334,7 +324,7 @@ def black_box_global(
                 "black-box calibration on L-bar with X and A dependent and L_A > 0 needs the utility itself "
                 "(a spec with [utility])",
             )
-        g = from_table([common["gamma"], common["lower"]], ("high", "low"), name="class [lower, gamma]")
+        g = from_table([common.gamma, common.lower], ("high", "low"), name="class [lower, gamma]")
     else:
         g = utility
     kwargs: dict[str, Any] = {"population": population, "context_mechanism": context_mechanism}
@@ -348,12 +338,7 @@ def black_box_global(
     cls = f"{g.name}" + ("" if math.isnan(tau) else f", E[g | x, a] >= {tau:g}")
     top = bound(math.inf)
     if target >= top:
-        return Found(
-            math.inf,
-            top,
-            f"every epsilon meets the target: even the identity (epsilon = inf) gives a worst case on L-bar of "
-            f"{top:.6g} nats over every model, {cls}; {dependence}",
-        )
+        return _every_epsilon(top, f"on L-bar of {top:.6g} nats over every model, {cls}; {dependence}")
     f0 = bound(0.0)
     if not f0 <= target:
         return infeasible(
@@ -388,7 +373,7 @@ def white_box(
     (:func:`fairaudit.metrics.utility_range.fairness_range`; ``proofs/unparsed.md`` §5); when the kernel puts no mass on
     that decision the range is a point and the function is L (L̄) itself, as without it.
     """
-    target, kind = common["target"], common["kind"]
+    target, kind = common.target, common.kind
     limit = target + 1e-13 * max(1.0, target)  # rounding in the computed L (a few ulps) is not a violation
     measure = local_fairness if kind == "local" else global_fairness
     name = "L" if kind == "local" else "L-bar"

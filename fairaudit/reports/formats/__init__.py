@@ -39,7 +39,7 @@ def render(data: Report, kind: str, fmt: str) -> str:
     ----------
     data : dict
         A result's ``to_dict()``: a :class:`~fairaudit.certification.certificate.Certificate`, an :class:`~fairaudit.statistics.record_audit.Audit`, a
-        :class:`~fairaudit.worstcase.calibration.Calibration`, a :class:`~fairaudit.statistics.sample_size.SamplePlan` or a
+        :class:`~fairaudit.worstcase.calibration_result.Calibration`, a :class:`~fairaudit.statistics.sample_size.SamplePlan` or a
         :class:`~fairaudit.certification.spec_worst_case.SpecWorstUtility`.
     kind : {"certify", "audit", "calibrate", "plan", "worst-case"}
     fmt : {"text", "json", "markdown", "html"}

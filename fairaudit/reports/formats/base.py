@@ -38,7 +38,7 @@ class Format(ABC):
 
     @abstractmethod
     def calibration(self, d: Report) -> str:
-        """The ``calibrate`` report of :meth:`fairaudit.worstcase.calibration.Calibration.to_dict`."""
+        """The ``calibrate`` report of :meth:`fairaudit.worstcase.calibration_result.Calibration.to_dict`."""
 
     @abstractmethod
     def plan(self, d: Report) -> str:

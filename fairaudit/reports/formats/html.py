@@ -32,14 +32,20 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats.base import Format
 from fairaudit.reports.formats.sections import (
+    ASSUMPTION_HEAD,
+    BOUND_HEAD,
     BOUNDS,
     BY_CONTEXT_HEAD,
+    GAP_HEAD,
     GAP_NOTE,
+    OBSERVED_PARTS,
+    OUTCOME_HEAD,
     PLAN_HEAD,
+    TARGET_HEAD,
     assumption_rows,
     audit_facts,
     audit_notes,
-    bound_detail,
+    bound_rows,
     by_context_table,
     calibration_sentences,
     certificate_facts,
@@ -50,14 +56,16 @@ from fairaudit.reports.formats.sections import (
     impact_notes,
     impact_tables,
     impact_title,
-    metric_rows,
+    metric_table,
     nats,
     observed_notes,
     outcome_rows,
     outcomes_more,
     plan_head,
     plan_rows,
+    record_rows,
     records,
+    sentence,
     target_rows,
 )
 from fairaudit.reports.formats.text import calibration_text, worst_case_text
@@ -239,30 +247,22 @@ class HtmlFormat(Format):
         page.verdict(bool(d["certified"]), f"Certified: {'yes' if d['certified'] else 'no'}")
         page.facts(certificate_facts(d))
         page.h2("Bounds on L for any decision model behind the filter")
-        page.table(
-            ("bound", "value", "details"),
-            [(name, nats(d["bounds"][k]), bound_detail(d, k)) for k, name in BOUNDS],
-            numeric=(1,),
-        )
+        page.table(BOUND_HEAD, bound_rows(d), numeric=(1,))
         page.p(f"Best valid bound: {nats(d['bounds']['best'])} ({d['bounds']['best_form']}).")
         page.figure(lambda: _bounds_figure(d), _bounds_caption(d))
-        for key, head in (("observed", "Observed behind the filter"), ("unfiltered", "Observed without the filter")):
+        for key, head in OBSERVED_PARTS:
             if key in d:
                 page.h2(head)
                 _observed(page, d[key], counts=key == "observed")
         if "targets" in d:
             page.h2("Targets")
-            page.table(
-                ("target", "value", "bound", "result", "observed", "reason"),
-                target_rows(d["targets"]),
-                numeric=(1, 2, 4),
-            )
+            page.table(TARGET_HEAD, target_rows(d["targets"]), numeric=(1, 2, 4))
         if "calibration" in d:
             page.h2("Calibration")
             for sentence in calibration_sentences(d["calibration"]):
                 page.p(sentence)
         page.h2("Assumptions")
-        page.table(("assumption", "status", "detail", "for"), assumption_rows(d))
+        page.table(ASSUMPTION_HEAD, assumption_rows(d))
         return page.render(jinja2)
 
     def audit(self, d: Report) -> str:
@@ -292,13 +292,13 @@ class HtmlFormat(Format):
         page.figure(lambda: _groups_figure(d, means), _groups_caption(d))
         if "outcome_values" in d:
             page.h2("Records per outcome value")
-            page.table(("outcome value", "records", "g(u)"), outcome_rows(d), numeric=(1, 2))
+            page.table(OUTCOME_HEAD, outcome_rows(d), numeric=(1, 2))
             if outcomes_more(d):
                 page.p(f"{outcomes_more(d)}.")
         if len(d["contexts"]) > 1:
             page.h2("Records per context")
             shown = d["contexts"][:CONTEXTS_LISTED]
-            page.table(("context", "records"), [(c["label"], count(c["n"])) for c in shown], numeric=(1,))
+            page.table(("context", "records"), record_rows(shown), numeric=(1,))
             if len(d["contexts"]) > len(shown):
                 page.p(f"... and {len(d['contexts']) - len(shown)} more contexts (all in --format json).")
             page.h2("E[g | x, a] per context and group")
@@ -310,7 +310,7 @@ class HtmlFormat(Format):
             page.table(BY_CONTEXT_HEAD, by_context_table(d), numeric=(1, 2, 3))
         if "gaps_on_g" in d:
             page.h2("Gaps of g")
-            page.table(("metric", "value", "where"), gap_rows(d), numeric=(1,))
+            page.table(GAP_HEAD, gap_rows(d), numeric=(1,))
             page.p(GAP_NOTE + ".")
         _cells_table(page, d)
         return page.render(jinja2)
@@ -336,7 +336,7 @@ class HtmlFormat(Format):
         jinja2, _ = _libraries()
         page = _Page("fairaudit plan")
         for line in plan_head(d):
-            page.p(line[0].upper() + line[1:] + ".")
+            page.p(sentence(line))
         page.table(PLAN_HEAD, plan_rows(d), numeric=(1, 2, 3, 4, 5))
         page.bullets([f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]])
         return page.render(jinja2)
@@ -344,16 +344,11 @@ class HtmlFormat(Format):
 
 def _observed(page: _Page, o: Report, counts: bool = False) -> None:
     """The observed metrics' table, then (with ``counts``) what the intervals certify, the notes and exclusions."""
-    iv = o.get("intervals")
-    head = ["metric", "value", "ratio or decision", "where"]
-    rows: list[Sequence[object]] = [r[:4] for r in metric_rows(o)]
-    if iv:
-        head.append(f"simultaneous {fmt(iv['confidence'])} interval ({iv['method']})")
-        rows = [r[:4] + (r[4],) for r in metric_rows(o)]
+    head, rows = metric_table(o)
     page.table(head, rows, numeric=(1,))
-    sentence = counts_sentence(o) if counts else None
-    if sentence is not None:
-        page.p(sentence[0].upper() + sentence[1:] + ".")
+    found = counts_sentence(o) if counts else None
+    if found is not None:
+        page.p(sentence(found))
     notes, excluded, more = observed_notes(o)
     if notes:
         page.p("Notes on the intervals:")

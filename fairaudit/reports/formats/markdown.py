@@ -14,33 +14,38 @@ from collections.abc import Sequence
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats.base import Format
 from fairaudit.reports.formats.sections import (
-    BOUNDS,
+    ASSUMPTION_HEAD,
+    BOUND_HEAD,
     BY_CONTEXT_HEAD,
     CONTEXTS_SHOWN,
+    GAP_HEAD,
     GAP_NOTE,
+    OBSERVED_PARTS,
+    OUTCOME_HEAD,
     PLAN_HEAD,
+    TARGET_HEAD,
     assumption_rows,
     audit_facts,
     audit_notes,
-    bound_detail,
+    bound_rows,
     by_context_table,
     calibration_sentences,
     certificate_facts,
-    count,
     counts_sentence,
-    fmt,
     gap_rows,
     impact_notes,
     impact_tables,
     impact_title,
-    metric_rows,
+    metric_table,
     nats,
     observed_notes,
     outcome_rows,
     outcomes_more,
     plan_head,
     plan_rows,
+    record_rows,
     records,
+    sentence,
     target_rows,
 )
 from fairaudit.reports.formats.text import calibration_text, worst_case_text
@@ -126,24 +131,23 @@ class MarkdownFormat(Format):
         lines = [f"# fairaudit certificate: {escape(d['title'] or d['spec'])}", ""]
         lines += _facts(certificate_facts(d))
         lines += ["", "## Bounds on L for any decision model behind the filter", ""]
-        rows = [(name, nats(d["bounds"][k]), bound_detail(d, k)) for k, name in BOUNDS]
-        lines += _table(rows, ("bound", "value", "details"))
+        lines += _table(bound_rows(d), BOUND_HEAD)
         lines += [
             "",
             f"Best valid bound: **{nats(d['bounds']['best'])}** ({escape(d['bounds']['best_form'])}).",
         ]
-        for key, head in (("observed", "Observed behind the filter"), ("unfiltered", "Observed without the filter")):
+        for key, head in OBSERVED_PARTS:
             if key in d:
                 lines += ["", f"## {head}", ""] + _observed(d[key], counts=key == "observed")
         if "targets" in d:
             lines += ["", "## Targets", ""]
-            lines += _table(target_rows(d["targets"]), ("target", "value", "bound", "result", "observed", "reason"))
+            lines += _table(target_rows(d["targets"]), TARGET_HEAD)
         if "calibration" in d:
             lines += ["", "## Calibration"]
             for sentence in calibration_sentences(d["calibration"]):
                 lines += ["", escape(sentence)]
         lines += ["", "## Assumptions", ""]
-        lines += _table(assumption_rows(d), ("assumption", "status", "detail", "for"))
+        lines += _table(assumption_rows(d), ASSUMPTION_HEAD)
         lines += ["", f"**Certified: {'yes' if d['certified'] else 'no'}**", ""]
         return "\n".join(lines)
 
@@ -158,15 +162,15 @@ class MarkdownFormat(Format):
         lines += [f"# fairaudit audit: {escape(records(d))}", ""]
         lines += _facts(audit_facts(d), code=("utility",))
         lines += ["", "## Records per group", ""]
-        lines += _table([(g["label"], count(g["n"])) for g in d["groups"]], ("group", "records"))
+        lines += _table(record_rows(d["groups"]), ("group", "records"))
         if "outcome_values" in d:
             lines += ["", "## Records per outcome value", ""]
-            lines += _table(outcome_rows(d), ("outcome value", "records", "g(u)"))
+            lines += _table(outcome_rows(d), OUTCOME_HEAD)
             lines += ["", escape(outcomes_more(d) or "") + "."] if outcomes_more(d) else []
         if len(d["contexts"]) > 1:
             lines += ["", "## Records per context", ""]
             shown = d["contexts"][:CONTEXTS_SHOWN]
-            lines += _table([(c["label"], count(c["n"])) for c in shown], ("context", "records"))
+            lines += _table(record_rows(shown), ("context", "records"))
             if len(d["contexts"]) > len(shown):
                 lines += ["", f"... and {len(d['contexts']) - len(shown)} more contexts (all in `--format json`)."]
         lines += ["", "## Metrics", ""] + _observed(d) + [""]
@@ -174,11 +178,7 @@ class MarkdownFormat(Format):
         if "by_context" in d:
             lines += ["## L by context", ""] + _table(by_context_table(d), BY_CONTEXT_HEAD) + [""]
         if "gaps_on_g" in d:
-            lines += (
-                ["## Gaps of g", ""]
-                + _table(gap_rows(d), ("metric", "value", "where"))
-                + ["", escape(GAP_NOTE) + ".", ""]
-            )
+            lines += ["## Gaps of g", ""] + _table(gap_rows(d), GAP_HEAD) + ["", escape(GAP_NOTE) + ".", ""]
         return "\n".join(lines)
 
     def calibration(self, d: Report) -> str:
@@ -215,22 +215,11 @@ def _observed(o: Report, counts: bool = False) -> list[str]:
 
     With ``counts``, the white-box certificate and evidence that the intervals give (:func:`counts_sentence`).
     """
-    rows = metric_rows(o)
-    iv = o.get("intervals")
-    if iv:
-        head: tuple[str, ...] = (
-            "metric",
-            "value",
-            "ratio or decision",
-            "where",
-            f"simultaneous {fmt(iv['confidence'])} interval ({iv['method']})",
-        )
-        lines = _table([r[:4] + (r[4] or "n/a",) for r in rows], head)
-    else:
-        lines = _table([r[:4] for r in rows], ("metric", "value", "ratio or decision", "where"))
-    sentence = counts_sentence(o) if counts else None
-    if sentence is not None:
-        lines += ["", escape(sentence[0].upper() + sentence[1:]) + "."]
+    head, rows = metric_table(o)
+    lines = _table(rows, head)
+    found = counts_sentence(o) if counts else None
+    if found is not None:
+        lines += ["", escape(sentence(found))]
     notes, excluded, more = observed_notes(o)
     if notes:
         lines += ["", "Notes on the intervals:", ""] + [f"* {escape(n)}" for n in notes]

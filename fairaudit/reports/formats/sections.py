@@ -12,14 +12,21 @@ from collections.abc import Callable
 from fairaudit.base.json_values import Report, number
 
 __all__ = [
+    "ASSUMPTION_HEAD",
     "BOUNDS",
+    "BOUND_HEAD",
     "CONTEXTS_SHOWN",
     "EXCLUDED_SHOWN",
+    "GAP_HEAD",
     "METRICS",
+    "OBSERVED_PARTS",
+    "OUTCOME_HEAD",
     "PLAN_HEAD",
+    "TARGET_HEAD",
     "assumption_rows",
     "audit_facts",
     "bound_detail",
+    "bound_rows",
     "calibration_sentences",
     "certificate_facts",
     "counts_sentence",
@@ -28,12 +35,15 @@ __all__ = [
     "interval",
     "measure",
     "metric_rows",
+    "metric_table",
     "nats",
     "observed_notes",
     "pair",
     "plan_head",
     "plan_rows",
     "population_line",
+    "record_rows",
+    "sentence",
     "target_rows",
     "where",
     "without_label",
@@ -164,6 +174,14 @@ METRICS = (
     ("sup_global", "sup over g of L-bar"),
 )
 
+#: The headings of the observed parts of a certificate, in the order shown (Markdown and HTML).
+OBSERVED_PARTS = (("observed", "Observed behind the filter"), ("unfiltered", "Observed without the filter"))
+
+#: The columns of the tables of :func:`bound_rows`, :func:`target_rows` and :func:`assumption_rows`.
+BOUND_HEAD = ("bound", "value", "details")
+TARGET_HEAD = ("target", "value", "bound", "result", "observed", "reason")
+ASSUMPTION_HEAD = ("assumption", "status", "detail", "for")
+
 #: How many exclusions the reports list (the JSON has them all).
 EXCLUDED_SHOWN = 10
 
@@ -202,6 +220,11 @@ def audit_facts(d: Report) -> list[tuple[str, str]]:
     if d["confidence"] is not None:
         facts.append(("intervals", f"simultaneous {fmt(d['confidence'])} ({d['interval_method']})"))
     return facts
+
+
+def bound_rows(d: Report) -> list[tuple[str, str, str]]:
+    """The certificate's bounds on L (:data:`BOUNDS`, in order): (name, value, :func:`bound_detail`)."""
+    return [(name, nats(d["bounds"][key]), bound_detail(d, key)) for key, name in BOUNDS]
 
 
 def bound_detail(d: Report, key: str) -> str:
@@ -258,6 +281,26 @@ def metric_rows(o: Report) -> list[tuple[str, str, str, str, str | None]]:
         else:
             rows.append((name, fmt(o[key]), "", where(det[key]), interval(o, key)))
     return rows
+
+
+def metric_table(o: Report) -> tuple[tuple[str, ...], list[tuple[str, ...]]]:
+    """The observed metrics as a table: its head and its rows (:func:`metric_rows`).
+
+    With intervals the last column is the interval, headed by their level and method, ``n/a`` where a metric has
+    none; without, the rows have no interval column.
+    """
+    rows = metric_rows(o)
+    head: tuple[str, ...] = ("metric", "value", "ratio or decision", "where")
+    iv = o.get("intervals")
+    if not iv:
+        return head, [r[:4] for r in rows]
+    head += (f"simultaneous {fmt(iv['confidence'])} interval ({iv['method']})",)
+    return head, [r[:4] + (r[4] or "n/a",) for r in rows]
+
+
+def sentence(text: str) -> str:
+    """``text`` as a sentence: its first letter capitalised and a full stop at its end."""
+    return text[0].upper() + text[1:] + "."
 
 
 def counts_sentence(o: Report) -> str | None:
@@ -440,6 +483,10 @@ def headline_note(d: Report) -> str | None:
     return None
 
 
+GAP_HEAD = ("metric", "value", "where")
+"""The columns of :func:`gap_rows`."""
+
+
 def gap_rows(d: Report) -> list[tuple[str, str, str]]:
     """The gaps of E[g] (``--gap-on g``): (label, value, the pair and where), labelled apart from U's gaps.
 
@@ -505,6 +552,14 @@ def records(d: Report) -> str:
 
 OUTCOMES_SHOWN = 30
 """How many outcome values the text, Markdown and HTML reports list (all are in the JSON)."""
+
+OUTCOME_HEAD = ("outcome value", "records", "g(u)")
+"""The columns of :func:`outcome_rows`."""
+
+
+def record_rows(parts: list[Report]) -> list[tuple[object, str]]:
+    """(label, records) of each group or context dictionary of an audit (``d["groups"]``, ``d["contexts"]``)."""
+    return [(p["label"], count(p["n"])) for p in parts]
 
 
 def outcome_rows(d: Report) -> list[tuple[str, str, str]]:

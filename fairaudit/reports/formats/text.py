@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats.base import Format
 from fairaudit.reports.formats.sections import (
-    BOUNDS,
     BY_CONTEXT_HEAD,
+    CONTEXTS_SHOWN,
     GAP_NOTE,
     PLAN_HEAD,
     audit_notes,
-    bound_detail,
+    bound_rows,
     by_context_table,
     calibration_sentences,
     certificate_facts,
-    count,
     counts_sentence,
     fmt,
     gap_rows,
@@ -31,6 +32,7 @@ from fairaudit.reports.formats.sections import (
     plan_head,
     plan_rows,
     population_line,
+    record_rows,
     records,
 )
 
@@ -74,7 +76,7 @@ class TextFormat(Format):
             f"context {ctx}",
             f"utility: {d['utility']['name']}",
         ]
-        lines.append("records per group: " + ", ".join(f"{g['label']} {count(g['n'])}" for g in d["groups"]))
+        lines.append("records per group: " + ", ".join(f"{label} {n}" for label, n in record_rows(d["groups"])))
         if "outcome_values" in d:
             lines.append(
                 "records per outcome value: "
@@ -84,8 +86,8 @@ class TextFormat(Format):
         if len(d["contexts"]) > 1:
             lines.append(
                 "records per context: "
-                + ", ".join(f"{c['label']} {count(c['n'])}" for c in d["contexts"][:30])
-                + (" ..." if len(d["contexts"]) > 30 else "")
+                + ", ".join(f"{label} {n}" for label, n in record_rows(d["contexts"][:CONTEXTS_SHOWN]))
+                + (" ..." if len(d["contexts"]) > CONTEXTS_SHOWN else "")
             )
         lines.append(population_line(d))
         if d["confidence"] is not None:
@@ -93,11 +95,7 @@ class TextFormat(Format):
         lines += _observed_lines(d, "metrics:")
         lines += [f"note: {n}" for n in audit_notes(d)]
         if "by_context" in d:
-            table = [BY_CONTEXT_HEAD, *by_context_table(d)]
-            widths = [max(len(r[i]) for r in table) for i in range(len(BY_CONTEXT_HEAD))]
-            lines += ["L by context:"] + [
-                "  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in table
-            ]
+            lines += ["L by context:", *_aligned([BY_CONTEXT_HEAD, *by_context_table(d)])]
         if "gaps_on_g" in d:
             lines += [f"  {name:<28} {value:<18} ({where})" for name, value, where in gap_rows(d)]
             lines.append(f"  {GAP_NOTE}")
@@ -113,10 +111,8 @@ class TextFormat(Format):
 
     def plan(self, d: Report) -> str:
         """The question, the assumed model and an aligned table of the methods."""
-        rows = [PLAN_HEAD] + plan_rows(d)
-        widths = [max(len(r[i]) for r in rows) for i in range(len(PLAN_HEAD))]
         lines = plan_head(d)
-        lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
+        lines += _aligned([PLAN_HEAD, *plan_rows(d)])
         lines += [f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]]
         return "\n".join(lines) + "\n"
 
@@ -207,9 +203,8 @@ def _certificate_head(d: Report) -> list[str]:
 def _bound_lines(d: Report) -> list[str]:
     """The bounds on L for any model behind the filter, each with its details, then the best valid one."""
     lines = ["bounds on L for any decision model behind the filter:"]
-    for key, name in BOUNDS:
-        detail = bound_detail(d, key)
-        lines.append(f"  {name:<30} {nats(d['bounds'][key])}{' ' + detail if detail else ''}")
+    for name, value, detail in bound_rows(d):
+        lines.append(f"  {name:<30} {value}{' ' + detail if detail else ''}")
     lines.append(f"  best valid bound: {nats(d['bounds']['best'])} ({d['bounds']['best_form']})")
     return lines
 
@@ -243,8 +238,11 @@ def _impact_lines(d: Report) -> list[str]:
     """The impact-ratio tables, aligned, one per category type, and their notes."""
     lines = []
     for name, head, rows in impact_tables(d):
-        table = [head, *rows]
-        widths = [max(len(r[i]) for r in table) for i in range(len(head))]
-        lines += ["", f"impact ratios by {name}:"]
-        lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in table]
+        lines += ["", f"impact ratios by {name}:", *_aligned([head, *rows])]
     return lines + [""] + impact_notes(d)
+
+
+def _aligned(table: Sequence[Sequence[str]]) -> list[str]:
+    """A table (its head first) as lines indented by two spaces, each column padded to its widest cell."""
+    widths = [max(len(r[i]) for r in table) for i in range(len(table[0]))]
+    return ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in table]

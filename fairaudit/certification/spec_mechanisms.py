@@ -1,0 +1,117 @@
+"""The mechanisms a spec's ``[privacy.*]`` tables name, and the family that calibration and curves move along.
+
+A table is ``mechanism = "identity" | "randomized_response" (epsilon or keep) | "matrix" (rows, outputs) |
+"product" (components)`` (docs/spec.md); its errors name its fields (``privacy.sensitive.components[1].keep``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable, Sequence
+from typing import TYPE_CHECKING
+
+from fairaudit.base.errors import InputError
+from fairaudit.laws.closed_forms import epsilon_from_keep_probability, randomized_response
+from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family
+from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
+
+if TYPE_CHECKING:
+    from fairaudit.certification.spec_schema import MechanismSpec
+
+__all__ = [
+    # building them
+    "build_mechanism",
+    "mechanism_family",
+]
+
+
+_MECHANISM_FIELDS = {"epsilon", "keep"}
+"""Fields of a mechanism table that errors of the privacy functions name as they are (``keep``: ...)."""
+
+
+def build_mechanism(spec: MechanismSpec, values: Sequence[Hashable] | None, name: str, field: str) -> Mechanism:
+    """The mechanism of a ``[privacy.*]`` table on ``values``.
+
+    Randomized response on one value (k = 1) keeps it with probability 1:
+    ``keep`` must then be 1, and every ``epsilon`` gives that mechanism
+    (p = e^ε / (e^ε + k − 1) = 1), whose ε(M) is 0.
+
+    Parameters
+    ----------
+    spec : MechanismSpec
+        The validated table.
+    values : sequence of hashable or None
+        The labels it takes (a product takes its components' own).
+    name : str
+        The mechanism's name.
+    field : str
+        Where the table is, for errors (``"SPEC: privacy.sensitive"``).
+
+    Raises
+    ------
+    InputError
+        Under ``field``: a field of the table joined to it by a dot
+        (``field.components[1].keep``), any other error under it.
+    """
+    try:
+        return _built(spec, values, name)
+    except InputError as exc:
+        if exc.field in _MECHANISM_FIELDS or exc.field.startswith("components["):  # a field of the spec's table
+            raise InputError(f"{field}.{exc.field}", exc.problem, exc.value) from None
+        raise exc.under(field) from None
+
+
+def _built(spec: MechanismSpec, values: Sequence[Hashable] | None, name: str) -> Mechanism:
+    """The mechanism of a table; errors name its fields as they are (``keep``, ``components[1].keep``)."""
+    if spec.mechanism == "product":
+        comps = []
+        for i, c in enumerate(spec.components or []):
+            if c.values is None:
+                raise InputError(f"components[{i}].values", "each component needs its values")
+            comps.append(build_mechanism(c, c.values, c.name or f"{c.mechanism}[{i}]", f"components[{i}]"))
+        return product(*comps, name=name)
+    if values is None:
+        raise InputError("values", "are required")
+    if spec.mechanism == "identity":
+        return identity(values, name=name)
+    if spec.mechanism == "randomized_response":
+        if len(values) == 1 and spec.keep is not None and spec.keep != 1:
+            problem = "with one value (k = 1) there is nothing to randomize: keep must be 1 (or use identity)"
+            raise InputError("keep", problem, spec.keep)
+        return randomized_response(values, spec.epsilon, keep=spec.keep, name=name)
+    outputs = spec.outputs
+    assert spec.rows is not None  # (MechanismSpec: a matrix has rows)
+    return from_matrix(spec.rows, values, outputs, name=name)
+
+
+def mechanism_family(spec: MechanismSpec, groups: tuple) -> MechanismFamily | None:
+    """The one-parameter family along which the mechanism of the table ``spec`` on ``groups`` moves.
+
+    Randomized response on the groups when the table is randomized
+    response, identity or a matrix; for a product, a product of randomized
+    responses on the components' values with ε split in proportion to the
+    components' ε (equally when they are all 0 or infinite). None with fewer
+    than 2 groups.
+    """
+    if len(groups) < 2:
+        return None
+    if spec.mechanism == "product" and spec.components:
+        values = [c.values or [] for c in spec.components]  # (every component has values: checked when built)
+        eps = [_component_epsilon(c) for c in spec.components]
+        finite = all(math.isfinite(e) for e in eps) and sum(eps) > 0
+        if all(len(v) >= 2 for v in values):
+            return product_family(*values, weights=eps if finite else None)
+    return randomized_response_family(groups)
+
+
+def _component_epsilon(spec: MechanismSpec) -> float:
+    """ε of a product's component as its table gives it (inf for identity and matrix)."""
+    if spec.mechanism == "randomized_response":
+        if spec.values is not None and len(spec.values) < 2:
+            return 0.0  # one value: nothing is randomized, epsilon(M) = 0 whatever the spec says
+        if spec.epsilon is not None:
+            return float(spec.epsilon)
+        if spec.values:
+            assert spec.keep is not None  # (MechanismSpec: epsilon or keep)
+            return epsilon_from_keep_probability(spec.keep, len(spec.values))
+    return math.inf

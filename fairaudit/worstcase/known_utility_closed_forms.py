@@ -1,0 +1,236 @@
+"""The known-utility certificate where no LP is needed: closed forms and the threshold solution.
+
+* Behind k-ary randomized response, for a utility free of the group: :func:`randomized_response_cases`, both
+  maxima in closed form (``proofs/black_box.md`` §3 Propositions 3 and 3b per context, §6 Proposition 10), without
+  the k x k matrix.
+* Behind any mechanism, for a utility free of the group and no binding τ: :func:`local_threshold` and
+  :func:`global_threshold` (the box program over the range of g, M_X drops out; for L̄ under X ⊥ A), from the box
+  values of :func:`boxes_by_range` (also the upper bounds of the local search).
+
+Each returns the :class:`~fairaudit.worstcase.worst_cases.WorstCase` with its worst kernel; the routes are chosen
+by :func:`~fairaudit.worstcase.known_utility.worst_model`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from fairaudit.base.arrays import FloatArray, IntArray, safe_log
+from fairaudit.base.labels import format_label
+from fairaudit.base.threshold_rule import threshold_max_many
+from fairaudit.laws.closed_forms import RandomizedResponseParameters
+from fairaudit.laws.tables import Kernel
+from fairaudit.worstcase.known_utility_problem import ModelProblem, onehot, weighted_utility
+from fairaudit.worstcase.pair_search import pairwise_box
+from fairaudit.worstcase.randomized_response import RRWorst, rr_box
+from fairaudit.worstcase.worst_cases import WorstCase
+
+
+def _threshold_case(
+    problem: ModelProblem,
+    kind: str,
+    ratio: float,
+    value: float,
+    x: int | None,
+    a: int,
+    b: int,
+    kern: Kernel,
+    *,
+    solver_status: str = "threshold",
+    reason: str = "",
+) -> WorstCase:
+    """A maximum decided without an LP: ``ratio`` (``value`` nats) at context x (local), pair (a, b), kernel ``kern``."""
+    return WorstCase.threshold(
+        kind,
+        ratio,
+        value,
+        context=None if x is None else problem.contexts[x],
+        group=problem.groups[a],
+        other_group=problem.groups[b],
+        kernel=kern,
+        expected_utility=problem.audit(kern, kind),
+        solver_status=solver_status,
+        reason=reason,
+    )
+
+
+# ------------------------------------------------------------------------------ k-ary randomized response
+def randomized_response_cases(
+    problem: ModelProblem, rr: RandomizedResponseParameters
+) -> tuple[WorstCase | None, WorstCase | None]:
+    """The local and global maxima behind k-ary randomized response for g free of the group, in closed form.
+
+    Every pair of groups is alike, so one pair decides. None for a maximum that has no closed form here (the
+    general route solves it).
+    """
+    g, live, floor, binding = problem.g, problem.live, problem.floor, problem.binding
+    decision_only, same_x, independent = problem.decision_only, problem.same_x, problem.independent
+    nU = g.shape[2]
+    lo_x, hi_x = g[:, 0, :].min(-1), g[:, 0, :].max(-1)  # the range of g(., x) per context
+    hot_hi, hot_lo = onehot(g[:, 0, :].argmax(-1), nU), onehot(g[:, 0, :].argmin(-1), nU)  # per context
+    over = np.flatnonzero(live & (floor > hi_x))
+    if binding and over.size and (decision_only or same_x):
+        local = _rr_infeasible(problem, "local", int(over[0]), hi_x)
+        global_ = _rr_infeasible(problem, "global", int(over[0]), hi_x) if decision_only and independent else None
+        return local, global_
+    if binding and not (decision_only or same_x):
+        return None, None
+    local = _rr_local(problem, rr, lo_x, hi_x, hot_hi, hot_lo)
+    # global under X independent of A (Proposition 10 (b); with τ and g(u): H-bar meets every floor)
+    if independent and not binding:
+        weighted_g = weighted_utility(problem)
+        lo_g, hi_g = float(weighted_g.min(-1).sum()), float(weighted_g.max(-1).sum())
+        w = rr_box(rr, lo_g, hi_g, -math.inf)
+        high, low = onehot(weighted_g.argmax(-1), nU), onehot(weighted_g.argmin(-1), nU)
+        return local, _rr_case(problem, "global", w, None, _rr_kernel(problem, w, lo_g, hi_g, None, high, low))
+    if independent and decision_only:
+        lo, hi = float(lo_x[0]), float(hi_x[0])
+        w = rr_box(rr, lo, hi, floor)
+        n_released_contexts = problem.n_released_contexts
+        high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
+        kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, high, low)
+        return local, _rr_case(problem, "global", w, None, kern)
+    return local, None
+
+
+def _rr_local(
+    problem: ModelProblem,
+    rr: RandomizedResponseParameters,
+    lo_x: FloatArray,
+    hi_x: FloatArray,
+    hot_hi: FloatArray,
+    hot_lo: FloatArray,
+) -> WorstCase:
+    """The local maximum behind k-ary RR: the best context's box (proofs/black_box.md §6, Proposition 10 (a)).
+
+    With a binding τ, §3 Proposition 3b per context. ``hot_hi``/``hot_lo``: the one-hot rows of the decisions of
+    largest and smallest g per context.
+    """
+    live, floor, n_released_contexts = problem.live, problem.floor, problem.n_released_contexts
+    ranges, range_of = np.unique(np.stack([lo_x, hi_x], axis=1), axis=0, return_inverse=True)
+    range_of = range_of.ravel()
+    best_x, best_w = -1, None
+    for index, (lo, hi) in enumerate(ranges.tolist()):
+        at = np.flatnonzero(live & (range_of == index))
+        if at.size:
+            w = rr_box(rr, lo, hi, floor)
+            if best_w is None or w.value > best_w.value or (w.value == best_w.value and at[0] < best_x):
+                best_x, best_w = int(at[0]), w
+    assert best_w is not None  # (some context is live)
+    lo, hi = float(lo_x[best_x]), float(hi_x[best_x])
+    if not problem.binding:  # the threshold kernel of the maximising context, in every released context
+        high = np.repeat(hot_hi[best_x][None], n_released_contexts, 0)
+        low = np.repeat(hot_lo[best_x][None], n_released_contexts, 0)
+        kern = _rr_kernel(problem, best_w, lo, hi, None, high, low)
+    elif problem.same_x:
+        kern = _rr_kernel(problem, best_w, lo, hi, best_x, hot_hi, hot_lo)
+    else:  # g(u) behind a context filter: the same h in every released context
+        high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
+        kern = _rr_kernel(problem, replace(best_w, prefix=False), lo, hi, None, high, low)
+    return _rr_case(problem, "local", best_w, best_x, kern)
+
+
+def _rr_kernel(
+    problem: ModelProblem, w: RRWorst, lo: float, hi: float, x: int | None, high: FloatArray, low: FloatArray
+) -> Kernel:
+    """The worst kernel behind k-ary RR.
+
+    At context x (every context when None) the mix of the decisions ``high``/``low`` that gives h; every other
+    context all ``high`` (so it meets τ); a threshold h as one-hot rows.
+    """
+    nXr, nAr, nU = problem.n_released_contexts, problem.n_released_groups, problem.g.shape[2]
+    h = w.vector(nAr)
+    frac = np.clip((h - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones(nAr)
+    table = np.zeros((nXr, nAr, nU))
+    if w.prefix and x is None:
+        top = w.released(nAr, hi)
+        table[:] = low[:, None, :]
+        table[:, top, :] = high[:, None, :]
+        return problem.kernel(table, exact=True)
+    rows = np.arange(nXr) if x is None else np.array([x])
+    table[:] = high[:, None, :]
+    table[rows] = frac[None, :, None] * high[rows, None, :] + (1 - frac)[None, :, None] * low[rows, None, :]
+    return problem.kernel(table)
+
+
+def _rr_case(problem: ModelProblem, kind: str, w: RRWorst, x: int | None, kern: Kernel) -> WorstCase:
+    """A maximum behind k-ary RR in closed form at context x (local); every pair is alike: the first two groups."""
+    reason = "a released group is possible for one group and impossible for another" if math.isinf(w.value) else ""
+    solver_status = "threshold" if w.prefix else "closed form"
+    return _threshold_case(problem, kind, w.ratio, w.value, x, 0, 1, kern, solver_status=solver_status, reason=reason)
+
+
+def _rr_infeasible(problem: ModelProblem, kind: str, x: int, hi_x: FloatArray) -> WorstCase:
+    return WorstCase.infeasible(
+        kind,
+        "closed form",
+        "no decision model meets E[g | x, a] >= tau in every cell: "
+        f"tau = {problem.tau:g} exceeds max g = {hi_x[x]:g} in context {format_label(problem.contexts[x])!r}",
+        0,
+    )
+
+
+# ------------------------------------------------------------------------------ general mechanisms
+def boxes_by_range(problem: ModelProblem, MA: FloatArray) -> tuple[FloatArray, IntArray, FloatArray]:
+    """The box value of every (x, a, b) for g free of the group: an upper bound always, exact without a binding τ.
+
+    The box depends on x only through [min_u g(u, x), max_u g(u, x)]: solved once per distinct range (one for
+    g(u)). Returns the ranges (n_ranges, 2), the range of each context, and the values (n_ranges, nA, nA), so
+    that box[x] = values[range_of[x]]; -inf on the diagonal. (Only the local search uses them.)
+    """
+    g, gmin, gmax = problem.g, problem.gmin, problem.gmax
+    nX, nA = g.shape[:2]
+    if problem.utility.values.ndim == 1:
+        ranges, range_of = np.array([[gmin[0], gmax[0]]]), np.zeros(nX, dtype=np.intp)
+    else:
+        ranges, range_of = np.unique(
+            np.stack([g[:, 0, :].min(-1), g[:, 0, :].max(-1)], axis=1), axis=0, return_inverse=True
+        )
+        range_of = range_of.ravel()
+    # (n_ranges, nA, nA), a block of pairs at a time
+    box_by_range = np.stack([pairwise_box(MA, low, high, None)[0] for low, high in ranges.tolist()])
+    box_by_range[:, np.arange(nA), np.arange(nA)] = -np.inf
+    return ranges, range_of, box_by_range
+
+
+def local_threshold(problem: ModelProblem, MA: FloatArray, boxes: tuple[FloatArray, IntArray, FloatArray]) -> WorstCase:
+    """max L without a binding τ, g free of the group: the best box over live contexts and pairs, its threshold kernel."""
+    ranges, range_of, box_by_range = boxes
+    g, live = problem.g, problem.live
+    nA, nU = g.shape[1:]
+    best_by_range = box_by_range.reshape(len(box_by_range), -1).max(axis=1)
+    best_by_range[~np.isin(np.arange(len(box_by_range)), range_of[live])] = -np.inf  # ranges of no live context
+    x = int(np.argmax(live & (best_by_range[range_of] == best_by_range.max())))  # the first live maximiser
+    best_range = range_of[x]
+    a, b = np.unravel_index(int(box_by_range[best_range].argmax()), (nA, nA))
+    _, k_top, order_top = threshold_max_many(MA[a], MA[b], ranges[best_range, 0], ranges[best_range, 1])
+    top = order_top[: int(k_top)]
+    hi_u, lo_u = int(g[x, 0].argmax()), int(g[x, 0].argmin())
+    table = np.zeros((problem.n_released_contexts, problem.n_released_groups, nU))
+    table[..., lo_u] = 1.0
+    table[:, top, lo_u] = 0.0
+    table[:, top, hi_u] = 1.0
+    kern = problem.kernel(table, exact=True)
+    r = float(box_by_range[best_range, a, b])
+    reason = "a released group is possible for one group and impossible for another" if math.isinf(r) else ""
+    return _threshold_case(problem, "local", r, safe_log(r), x, int(a), int(b), kern, reason=reason)
+
+
+def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
+    """max L̄ without a binding τ, g free of the group, X ⊥ A: the box over [Σ min w, Σ max w] and its kernel."""
+    nU = problem.g.shape[2]
+    weighted_g = weighted_utility(problem)
+    lo_g, hi_g = weighted_g.min(-1).sum(), weighted_g.max(-1).sum()
+    vals = pairwise_box(MA, lo_g, hi_g, None)[0]
+    np.fill_diagonal(vals, -np.inf)
+    a, b = np.unravel_index(int(vals.argmax()), vals.shape)
+    _, k_top, order_top = threshold_max_many(MA[a], MA[b], lo_g, hi_g)
+    top = order_top[: int(k_top)]
+    table = np.repeat(onehot(weighted_g.argmin(-1), nU)[:, None, :], problem.n_released_groups, axis=1)
+    table[:, top, :] = onehot(weighted_g.argmax(-1), nU)[:, None, :]
+    kern = problem.kernel(table, exact=True)
+    r = float(vals[a, b])
+    return _threshold_case(problem, "global", r, safe_log(r), None, int(a), int(b), kern)

@@ -1,0 +1,196 @@
+"""The problem of the known-utility certificate: the checked inputs of :func:`~fairaudit.worstcase.known_utility.worst_model`.
+
+:func:`model_problem` checks the arguments, fills in the defaults and tabulates g; :class:`ModelProblem` holds them
+with what every route of the certificate needs (the closed forms of
+:mod:`~fairaudit.worstcase.known_utility_closed_forms`, the search of
+:mod:`~fairaudit.worstcase.known_utility_search`): the worst kernel of a table, its audit, and the result.
+``proofs/black_box.md`` §6.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
+from fairaudit.base.checks import nonnegative
+from fairaudit.base.errors import InputError
+from fairaudit.base.labels import format_label
+from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.mechanisms import Mechanism, identity
+from fairaudit.laws.tables import Kernel, Population, compose
+from fairaudit.laws.utilities import Utility
+from fairaudit.metrics.bounds import Assumption, check_assumptions
+from fairaudit.worstcase.pair_search import check_method
+from fairaudit.worstcase.randomized_response import rr_law
+from fairaudit.worstcase.worst_cases import WorstCase, WorstModel
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ModelProblem:
+    """The checked inputs of :func:`~fairaudit.worstcase.known_utility.worst_model` and what every route of it needs."""
+
+    mechanism: Mechanism  # M_A
+    context_mechanism: Mechanism  # M_X
+    utility: Utility
+    population: Population
+    tau: float | None
+    method: str
+    g: FloatArray  # g[x, a, u], (n_contexts, n_groups, n_decisions)
+    live: BoolArray  # P(X = x) > 0
+    excluded: tuple[str, ...]
+    floor: float  # τ, or -inf without one
+    group_free: bool  # g does not depend on the group
+    decision_only: bool  # g depends on the decision only
+    gmin: FloatArray  # min and max of g per context
+    gmax: FloatArray
+    binding: bool  # τ > min g in some live context
+    independent: bool  # X ⊥ A in the population
+    assumptions: tuple[Assumption, ...]
+
+    @property
+    def groups(self) -> tuple:
+        return self.mechanism.inputs
+
+    @property
+    def contexts(self) -> tuple:
+        return self.context_mechanism.inputs
+
+    @property
+    def same_x(self) -> bool:
+        """M_X is the identity (then it is never materialised: a million contexts would be 10^12 cells)."""
+        return self.context_mechanism.is_identity
+
+    @property
+    def n_released_contexts(self) -> int:
+        return len(self.context_mechanism.outputs)
+
+    @property
+    def n_released_groups(self) -> int:
+        return len(self.mechanism.outputs)
+
+    def kernel(self, table: FloatArray, exact: bool = False) -> Kernel:
+        """The worst model of a table K[x̃, ã, u]; ``exact``: a table of one-hot rows made here, no rounding to clean."""
+        released_contexts, released_groups = self.context_mechanism.outputs, self.mechanism.outputs
+        decisions = self.utility.decisions
+        if exact:
+            return Kernel(table, released_contexts, released_groups, decisions, name="worst model", _owned=True)
+        t = np.clip(table, 0.0, None)
+        t = t / t.sum(axis=-1, keepdims=True)
+        return Kernel(t, released_contexts, released_groups, decisions, name="worst model", _owned=True)
+
+    def audit(self, kernel: Kernel, kind: str) -> FloatArray:
+        """E[g | x, a] (local) or E[g | a] (global) of the law behind ``kernel``."""
+        from fairaudit.metrics.fairness import expected_utility, global_fairness
+
+        if isinstance(self.mechanism, RandomizedResponse):  # (no k x k matrix)
+            law = rr_law(kernel, self.mechanism.rr, self.groups, self.context_mechanism)
+        else:
+            law = compose(kernel, self.mechanism, self.context_mechanism)
+        if kind == "local":
+            return expected_utility(law, self.utility)
+        with np.errstate(over="ignore"):  # (ratios of utilities as small as e^-710 overflow; only E[g | a] is kept)
+            return global_fairness(law, self.utility, self.population).expected_utility
+
+    def result(self, local: WorstCase, global_: WorstCase) -> WorstModel:
+        return WorstModel(
+            local_fairness=local,
+            global_fairness=global_,
+            mechanism=self.mechanism,
+            context_mechanism=self.context_mechanism,
+            utility=self.utility,
+            tau=self.tau,
+            population=self.population,
+            excluded=self.excluded,
+            assumptions=self.assumptions,
+        )
+
+
+def model_problem(
+    mechanism: Mechanism,
+    utility: Utility,
+    context_mechanism: Mechanism | None,
+    population: Population | None,
+    tau: float | None,
+    method: str,
+) -> ModelProblem:
+    """Check the arguments of :func:`~fairaudit.worstcase.known_utility.worst_model`, fill in the defaults, and tabulate g."""
+    if not isinstance(mechanism, Mechanism):
+        raise InputError("mechanism", "must be a Mechanism", type(mechanism).__name__)
+    if not isinstance(utility, Utility):
+        raise InputError("utility", "must be a Utility", type(utility).__name__)
+    method = check_method(method)
+    if tau is not None:
+        tau = nonnegative(tau, "tau")
+    groups = mechanism.inputs
+    if context_mechanism is None:
+        contexts = (
+            population.contexts
+            if population is not None
+            else utility.contexts
+            if utility.contexts is not None
+            else ("all",)
+        )
+        context_mechanism = identity(contexts, name="identity on contexts")
+    if not isinstance(context_mechanism, Mechanism):
+        raise InputError("context_mechanism", "must be a Mechanism", type(context_mechanism).__name__)
+    contexts = context_mechanism.inputs
+    if population is None:
+        population = Population.uniform(contexts, groups, source="assumed")
+    if not isinstance(population, Population):
+        raise InputError("population", "must be a Population", type(population).__name__)
+    if population.contexts != contexts or population.groups != groups:
+        raise InputError(
+            "population",
+            "must have the context mechanism's inputs as contexts and M_A's inputs as groups",
+            (list(map(format_label, population.contexts)), list(map(format_label, population.groups))),
+        )
+    g = np.asarray(utility.table(contexts, groups, utility.decisions), dtype=float)  # (nX, nA, nU), a view for g(u)
+    nX = g.shape[0]
+    live = population.p_context > 0
+    floor = -math.inf if tau is None else tau
+    if utility.values.ndim == 1:
+        gmin, gmax = np.full(nX, float(utility.values.min())), np.full(nX, float(utility.values.max()))
+    else:
+        gmin, gmax = g.min(axis=(1, 2)), g.max(axis=(1, 2))  # per context
+    assumptions = check_assumptions(mechanism, population=population) + (
+        Assumption("g is the given utility", "checked", f"{utility!r}"),
+    )
+    if tau is not None:
+        assumptions += (Assumption("E[g | x, a] >= tau for every model", "vouched", f"tau = {tau:g}"),)
+    return ModelProblem(
+        mechanism=mechanism,
+        context_mechanism=context_mechanism,
+        utility=utility,
+        population=population,
+        tau=tau,
+        method=method,
+        g=g,
+        live=live,
+        excluded=tuple(f"context {format_label(contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live)),
+        floor=floor,
+        group_free=not utility.depends_on_group,
+        decision_only=utility.values.ndim == 1 or not (utility.depends_on_group or utility.depends_on_context),
+        gmin=gmin,
+        gmax=gmax,
+        binding=bool(np.any(floor > gmin[live])) if live.any() else False,
+        independent=population.independence().independent,
+        assumptions=assumptions,
+    )
+
+
+def onehot(idx: IntArray, n: int) -> FloatArray:
+    """The one-hot rows of the indices ``idx`` over ``n`` values, shape ``idx.shape + (n,)``."""
+    out = np.zeros(idx.shape + (n,))
+    np.put_along_axis(out, idx[..., None], 1.0, axis=-1)
+    return out
+
+
+def weighted_utility(problem: ModelProblem) -> FloatArray:
+    """w[x̃, u] = Σ_x P(x) M_X[x, x̃] g(u, x), shape (n_released_contexts, n_decisions) (g free of the group)."""
+    p_context, g = problem.population.p_context, problem.g
+    if problem.same_x:
+        return p_context[:, None] * g[:, 0, :]
+    return np.einsum("x,xy,xu->yu", p_context, problem.context_mechanism.matrix, g[:, 0, :])

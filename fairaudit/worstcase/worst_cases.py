@@ -1,0 +1,241 @@
+"""The results of the worst cases over models or utilities: :class:`WorstCase` and :class:`WorstModel`.
+
+:class:`WorstCase` is the maximiser of one search (local or global), returned by
+:func:`~fairaudit.worstcase.known_utility.worst_model` (with its worst kernel) and by
+:func:`~fairaudit.worstcase.known_law.worst_utility` (with its worst utility); its constructors say how it was
+found (the threshold solution or a closed form, the pair search, an infeasible or trivial problem).
+:class:`WorstModel` is the result of the known-utility certificate. ``proofs/black_box.md`` §6.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable
+from dataclasses import dataclass
+
+from fairaudit.base.arrays import FloatArray, safe_log
+from fairaudit.base.json_values import Report, pair_dict
+from fairaudit.base.labels import format_label
+from fairaudit.laws.mechanisms import Mechanism
+from fairaudit.laws.tables import Kernel, Population
+from fairaudit.laws.utilities import Utility
+from fairaudit.metrics.bounds import Assumption
+from fairaudit.worstcase.pair_search import SearchResult
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class WorstCase:
+    """The maximiser of one worst-case search (local or global).
+
+    Attributes
+    ----------
+    kind : {"local", "global"}
+    value : float
+        The maximum, in nats (+inf when unbounded; NaN when no model or
+        utility meets the constraints).
+    ratio : float
+        exp(value).
+    context : hashable or None
+        The maximising context (local only).
+    group, other_group : hashable or None
+        The maximising pair; ``group`` gets more utility.
+    kernel : Kernel or None
+        The worst decision model (from :func:`~fairaudit.worstcase.known_utility.worst_model`).
+    utility : Utility or None
+        The worst utility (from :func:`~fairaudit.worstcase.known_law.worst_utility`).
+    expected_utility : numpy.ndarray or None
+        E[g | x, a] of the worst case, shape (n_contexts, n_groups) (local),
+        or E[g | a], shape (n_groups,) (global).
+    method : {"threshold", "lp"}
+    status : {"optimal", "unbounded", "infeasible", "trivial"}
+    solver_status : str
+    reason : str
+    programs_solved : int
+    """
+
+    kind: str
+    value: float
+    ratio: float
+    context: Hashable | None
+    group: Hashable | None
+    other_group: Hashable | None
+    kernel: Kernel | None
+    utility: Utility | None
+    expected_utility: FloatArray | None
+    method: str
+    status: str
+    solver_status: str
+    reason: str
+    programs_solved: int
+
+    @classmethod
+    def infeasible(cls, kind: str, solver_status: str, reason: str, programs_solved: int) -> WorstCase:
+        """No model (or utility) of the class meets the constraints: NaN value, no maximiser, status "infeasible"."""
+        return cls(
+            kind=kind,
+            value=math.nan,
+            ratio=math.nan,
+            context=None,
+            group=None,
+            other_group=None,
+            kernel=None,
+            utility=None,
+            expected_utility=None,
+            method="lp",
+            status="infeasible",
+            solver_status=solver_status,
+            reason=reason,
+            programs_solved=programs_solved,
+        )
+
+    @classmethod
+    def trivial(cls, kind: str, *, kernel: Kernel | None, reason: str) -> WorstCase:
+        """Nothing to compare (fewer than two groups, no live context): value 0, ratio 1, no pair, status "trivial"."""
+        return cls(
+            kind=kind,
+            value=0.0,
+            ratio=1.0,
+            context=None,
+            group=None,
+            other_group=None,
+            kernel=kernel,
+            utility=None,
+            expected_utility=None,
+            method="threshold",
+            status="trivial",
+            solver_status="threshold",
+            reason=reason,
+            programs_solved=0,
+        )
+
+    @classmethod
+    def threshold(
+        cls,
+        kind: str,
+        ratio: float,
+        value: float,
+        *,
+        context: Hashable | None,
+        group: Hashable,
+        other_group: Hashable,
+        kernel: Kernel | None = None,
+        utility: Utility | None = None,
+        expected_utility: FloatArray | None = None,
+        solver_status: str = "threshold",
+        reason: str = "",
+    ) -> WorstCase:
+        """A maximum decided without an LP (the threshold solution or a closed form): "unbounded" when ``value`` is inf."""
+        return cls(
+            kind=kind,
+            value=value,
+            ratio=ratio,
+            context=context,
+            group=group,
+            other_group=other_group,
+            kernel=kernel,
+            utility=utility,
+            expected_utility=expected_utility,
+            method="threshold",
+            status="unbounded" if math.isinf(value) else "optimal",
+            solver_status=solver_status,
+            reason=reason,
+            programs_solved=0,
+        )
+
+    @classmethod
+    def searched(
+        cls,
+        kind: str,
+        found: SearchResult,
+        *,
+        context: Hashable | None,
+        group: Hashable,
+        other_group: Hashable,
+        kernel: Kernel | None = None,
+        utility: Utility | None = None,
+        expected_utility: FloatArray | None = None,
+    ) -> WorstCase:
+        """The maximiser the pair search found: its program's value, status and reason; "lp" when an LP was solved."""
+        r = found.result
+        assert r is not None  # a maximiser was found
+        return cls(
+            kind=kind,
+            value=safe_log(r.value),
+            ratio=r.value,
+            context=context,
+            group=group,
+            other_group=other_group,
+            kernel=kernel,
+            utility=utility,
+            expected_utility=expected_utility,
+            method="lp" if found.solved else "threshold",
+            status=r.status,
+            solver_status=r.solver_status,
+            reason=r.reason,
+            programs_solved=found.solved,
+        )
+
+    @classmethod
+    def unmet(cls, kind: str, found: SearchResult, reason: str) -> WorstCase:
+        """The pair search found no program whose constraints can be met (``reason``): :meth:`infeasible`."""
+        r = found.result
+        return cls.infeasible(kind, r.solver_status if r else "", reason, found.solved)
+
+    def __repr__(self) -> str:
+        where = f", context={format_label(self.context)!r}" if self.context is not None else ""
+        return (
+            f"WorstCase({self.kind}, value={self.value:.6g} nats{where}, groups "
+            f"{format_label(self.group)!r} vs {format_label(self.other_group)!r}, method={self.method})"
+        )
+
+    def to_dict(self) -> Report:
+        """The report dictionary: value, ratio, (context,) the pair, method, status, programs solved (and reason)."""
+        d = pair_dict(self.kind, self.value, self.ratio, self.context, self.group, self.other_group)
+        d.update(method=self.method, status=self.status, programs_solved=int(self.programs_solved))
+        if self.reason:
+            d["reason"] = self.reason
+        return d
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class WorstModel:
+    """The exact maxima of L and L̄ over every decision model, for one utility (:func:`~fairaudit.worstcase.known_utility.worst_model`).
+
+    Attributes
+    ----------
+    local_fairness, global_fairness : WorstCase
+        The maxima of L and L̄, each with its maximising kernel.
+    mechanism, context_mechanism : Mechanism
+        M_A and M_X.
+    utility : Utility
+    tau : float or None
+    population : Population
+    excluded : tuple of str
+        Contexts left out (P(X = x) = 0).
+    assumptions : tuple of Assumption
+    """
+
+    local_fairness: WorstCase
+    global_fairness: WorstCase
+    mechanism: Mechanism
+    context_mechanism: Mechanism
+    utility: Utility
+    tau: float | None
+    population: Population
+    excluded: tuple[str, ...]
+    assumptions: tuple[Assumption, ...]
+
+    def to_dict(self, reason: str = "") -> Report:
+        """The report dictionary: the worst case for L, ``global`` for L̄ and ``worst_model``, the kernel for L.
+
+        Parameters
+        ----------
+        reason : str
+            Why this bound is reported as it is (a certificate's
+            ``omitted["black_box"]``, or what its bound is); replaces the local worst case's own ``reason``.
+        """
+        out = self.local_fairness.to_dict()
+        out["reason"] = reason
+        out["global"] = self.global_fairness.to_dict()
+        out["worst_model"] = None if self.local_fairness.kernel is None else self.local_fairness.kernel.to_dict()
+        return out

@@ -44,7 +44,8 @@ from _bench_common import (
 )
 
 from fairaudit import UtilityClass
-from fairaudit.base.linear_fractional import FractionalProgram, lp_max, threshold_max, threshold_max_many  # noqa: E402
+from fairaudit.base.linear_fractional import FractionalProgram, lp_max, threshold_max  # noqa: E402
+from fairaudit.base.threshold_rule import threshold_max_many  # noqa: E402
 from fairaudit.laws.mechanisms import from_matrix  # noqa: E402
 from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
 

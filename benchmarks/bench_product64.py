@@ -45,7 +45,7 @@ from _bench_common import (
 
 from fairaudit import UtilityClass
 from fairaudit.base.linear_fractional import FractionalProgram, lp_max  # noqa: E402
-from fairaudit.laws.mechanisms import product_family  # noqa: E402
+from fairaudit.laws.families import product_family  # noqa: E402
 from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
 
 try:  # another engineer's work in progress: use it when it is there

@@ -528,7 +528,7 @@ def intervals_job(n: int, seed: int, per_cell: int, repeats: int, slow: float) -
 
 def worst_job(n: int, repeats: int, slow: float) -> dict:
     """worst_model behind 8-ary randomized response (ε = 1), identity on n contexts, against black_box_bound."""
-    from fairaudit.laws.mechanisms import randomized_response
+    from fairaudit.laws.closed_forms import randomized_response
     from fairaudit.worstcase.black_box import black_box_bound
     from fairaudit.worstcase.known_utility import worst_model
 
@@ -1166,7 +1166,7 @@ def run(args) -> tuple[str, list[str], dict]:
         ivs.append((run_guarded(intervals_job, n, seed, cfg["per_cell"], repeats, slow, timeout=timeout), n))
         _progress(f"(3) worst_model at {n:,} contexts")
         worsts.append((run_guarded(worst_job, n, repeats, slow, timeout=timeout), n))
-    from fairaudit.laws.mechanisms import randomized_response
+    from fairaudit.laws.closed_forms import randomized_response
     from fairaudit.worstcase.black_box import black_box_bound
 
     mech = randomized_response(GROUPS, epsilon=EPSILON)

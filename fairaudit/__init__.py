@@ -23,19 +23,14 @@ from fairaudit.certification.spec import Spec, load_spec, parse_spec
 from fairaudit.data.counts import CountTable, count_file, count_records, count_table
 from fairaudit.data.csv_format import CsvFormat
 from fairaudit.data.record_files import read_records
-from fairaudit.laws.mechanisms import (
-    Mechanism,
-    MechanismFamily,
+from fairaudit.laws.closed_forms import (
     epsilon_from_keep_probability,
-    from_matrix,
-    identity,
     keep_probability,
-    product,
-    product_family,
     randomized_response,
-    randomized_response_family,
     split_by_keep,
 )
+from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family
+from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import Utility, UtilityClass, from_function, from_table, indicator
 from fairaudit.metrics.assumptions import Assumption

@@ -23,7 +23,8 @@ import pytest
 
 import fairaudit as fa
 from fairaudit import UtilityClass
-from fairaudit.base.linear_fractional import box_point, floor_max_many, lp_max, threshold_max
+from fairaudit.base.linear_fractional import lp_max, threshold_max
+from fairaudit.base.threshold_rule import box_point, floor_max_many
 from fairaudit.metrics.fairness import global_fairness, local_fairness
 from fairaudit.metrics.privacy_profile import _profile_candidates
 from fairaudit.worstcase.black_box import black_box_bound

@@ -6,7 +6,9 @@ Two routes to the same optimum:
   constrain h. At the optimum λ*, h maximises Σ_i (p_i − λ* q_i) h_i over the
   box, so h_i = upper_i where p_i / q_i > λ* and lower_i elsewhere: a threshold
   in likelihood-ratio order. Sorting once and scanning the n + 1 prefixes
-  finds it exactly (Dinkelbach 1967; Charnes and Cooper 1962).
+  finds it exactly (Dinkelbach 1967; Charnes and Cooper 1962). The rule itself,
+  vectorised over batches of boxes and with one floor on q·h, is
+  :mod:`fairaudit.base.threshold_rule`, the inner loop of the worst-case searches.
 * :func:`lp_max` — any polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq}.
   The Charnes–Cooper transform y = s·h, s = 1 / (q·h) turns the program into
   the linear program max p·y subject to q·y = 1, A_ub y ≤ b_ub s,
@@ -29,14 +31,16 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal, TypeAlias, overload
 
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import FloatArray, IntArray, as_float_array
+from fairaudit.base.arrays import FloatArray, as_float_array
 from fairaudit.base.errors import InputError
+from fairaudit.base.threshold_rule import threshold_max_many
 
 if TYPE_CHECKING:
     import cvxpy as cp
@@ -45,18 +49,12 @@ if TYPE_CHECKING:
 ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
 """A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
 
-ThresholdSolution: TypeAlias = tuple[FloatArray, IntArray, IntArray]
-"""What :func:`threshold_max_many` returns: (values, k, order)."""
-
 __all__ = [
     "FractionalProgram",
     "FractionalResult",
-    "box_point",
-    "floor_max_many",
     "fractional_max",
     "lp_max",
     "threshold_max",
-    "threshold_max_many",
 ]
 
 
@@ -113,25 +111,14 @@ def _bounds(
 def _bounds(
     lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
 ) -> tuple[FloatArray | None, FloatArray | None]:
-    if lower is None or upper is None:
-        if required:
-            raise InputError("lower", "the threshold solution needs finite lower and upper bounds")
-        return (
-            None if lower is None else np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy(),
-            None if upper is None else np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy(),
-        )
-    lo = np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy()
-    hi = np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy()
-    if np.any(lo > hi):
+    if required and (lower is None or upper is None):
+        raise InputError("lower", "the threshold solution needs finite lower and upper bounds")
+    lo = None if lower is None else np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy()
+    hi = None if upper is None else np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy()
+    if lo is not None and hi is not None and np.any(lo > hi):
         i = int(np.argmax(lo > hi))
         raise InputError("lower", f"exceeds upper at cell {i} ({hi[i]:g})", float(lo[i]))
     return lo, hi
-
-
-def _ratio(num: float, den: float) -> float:
-    if den > 0:
-        return num / den
-    return math.inf if num > 0 else 1.0
 
 
 def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike) -> FractionalResult:
@@ -189,194 +176,6 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
     return result(value=value, argmax=h, status="optimal", solver_status="threshold", reason="")
 
 
-def threshold_max_many(
-    p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike
-) -> ThresholdSolution:
-    """The threshold solution for a batch of box programs, vectorised over leading axes.
-
-    Proof: ``proofs/linear_fractional.md`` (the threshold solution).
-
-    Parameters
-    ----------
-    p, q : numpy.ndarray, shape (..., n)
-        Non-negative numerator and denominator weights (not validated: this
-        is the inner loop of the worst-case searches).
-    lower, upper : numpy.ndarray, broadcastable to (..., n)
-        Box bounds, 0 ≤ lower ≤ upper.
-
-    Returns
-    -------
-    values : numpy.ndarray, shape (...)
-        The optimal ratios (c/0 = +inf, 0/0 = 1).
-    k : numpy.ndarray of int, shape (...)
-        How many cells take their upper bound at the optimum (the longest
-        optimal prefix when ratios tie).
-    order : numpy.ndarray of int, shape (..., n)
-        Cells by decreasing likelihood ratio p/q: the optimum sets
-        ``order[..., :k]`` to ``upper`` and the rest to ``lower``.
-
-    Raises
-    ------
-    ValueError
-        From numpy when the shapes do not broadcast. Nothing else is checked
-        (use :func:`threshold_max` for validated input).
-
-    Examples
-    --------
-    >>> v, k, order = threshold_max_many(np.array([[0.7, 0.3], [0.3, 0.7]]),
-    ...                                  np.array([[0.3, 0.7], [0.7, 0.3]]), 0.5, 1.0)
-    >>> v.round(12).tolist(), k.tolist(), order[:, 0].tolist()
-    ([1.307692307692, 1.307692307692], [1, 1], [0, 1])
-    """
-    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
-    shape = np.broadcast_shapes(p.shape, q.shape, np.shape(lower), np.shape(upper))
-    p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
-    lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
-    hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
-    order = np.argsort(-r, axis=-1, kind="stable")
-    span = hi - lo
-    zeros = np.zeros(shape[:-1] + (1,))
-    num = (p * lo).sum(-1, keepdims=True) + np.concatenate(
-        [zeros, np.cumsum(np.take_along_axis(p * span, order, -1), -1)], -1
-    )
-    den = (q * lo).sum(-1, keepdims=True) + np.concatenate(
-        [zeros, np.cumsum(np.take_along_axis(q * span, order, -1), -1)], -1
-    )
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
-    best = values.max(axis=-1)
-    # Among optimal prefixes (ties in the ratio, up to rounding) take the longest: the same value with h as high as
-    # possible, which helps every extra constraint E ≥ τ of the callers' relaxations.
-    tied = values >= (best * (1 - 1e-12))[..., None]
-    k = values.shape[-1] - 1 - np.argmax(tied[..., ::-1], axis=-1)
-    return best, k, order
-
-
-def floor_max_many(
-    p: npt.ArrayLike,
-    q: npt.ArrayLike,
-    lower: npt.ArrayLike,
-    upper: npt.ArrayLike,
-    floor: float,
-    threshold: ThresholdSolution | None = None,
-) -> tuple[FloatArray, IntArray, FloatArray, IntArray]:
-    """Box programs with one more constraint, q·h ≥ floor, solved in closed form, vectorised.
-
-    max (p·h)/(q·h) over lower ≤ h ≤ upper with q·h ≥ floor > 0. Let h* be the
-    threshold solution without the floor. If q·h* ≥ floor it is optimal.
-    Otherwise the ratio, a quasi-concave function of D = q·h (the best
-    numerator N(D) is concave in D), is largest at D = floor, where the best
-    numerator is the fractional knapsack: raise cells to ``upper`` in
-    decreasing order of p/q until q·h = floor, the last one partly.
-    ``proofs/linear_fractional.md`` (the box plus one floor). This is the relaxation
-    of the τ-constrained programs that keeps only the denominator group's
-    constraint: an upper bound, and the optimum whenever its point meets the
-    other constraints.
-
-    Parameters
-    ----------
-    p, q : numpy.ndarray, shape (..., n)
-        Non-negative weights.
-    lower, upper : numpy.ndarray, broadcastable to (..., n)
-        0 ≤ lower ≤ upper.
-    floor : float
-        > 0.
-    threshold : tuple, optional
-        The result of :func:`threshold_max_many` on the same arrays, when the
-        caller has it already (saves recomputing it).
-
-    Returns
-    -------
-    values : numpy.ndarray, shape (...)
-        Optimal ratios (NaN where q·upper < floor: infeasible).
-    k : numpy.ndarray of int, shape (...)
-        Cells at ``upper`` (the first k in ``order``).
-    frac : numpy.ndarray, shape (...)
-        Fraction of the span of cell ``order[k]`` that is raised (0 when none).
-    order : numpy.ndarray of int, shape (..., n)
-
-    Raises
-    ------
-    ValueError
-        From numpy when the shapes do not broadcast; the inputs are not
-        otherwise validated (the inner loop of the worst-case searches).
-
-    Examples
-    --------
-    >>> v, k, frac, order = floor_max_many(np.array([0.7, 0.3]), np.array([0.3, 0.7]), 0.0, 1.0, 0.5)
-    >>> round(float(v), 12), int(k), round(float(frac), 12)      # h = (1, 2/7): (0.7 + 0.6/7) / 0.5 = 11/7
-    (1.571428571429, 1, 0.285714285714)
-    """
-    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
-    shape = np.broadcast_shapes(p.shape, q.shape, np.shape(lower), np.shape(upper))
-    p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
-    lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
-    hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
-    values, k, order = threshold_max_many(p, q, lo, hi) if threshold is None else threshold
-    span = hi - lo
-    ps = np.take_along_axis(p * span, order, -1)
-    qs = np.take_along_axis(q * span, order, -1)
-    zeros = np.zeros(shape[:-1] + (1,))
-    cp = np.concatenate([zeros, np.cumsum(ps, -1)], -1)
-    cq = np.concatenate([zeros, np.cumsum(qs, -1)], -1)
-    d0 = (q * lo).sum(-1)
-    n0 = (p * lo).sum(-1)
-    d_star = d0 + np.take_along_axis(cq, k[..., None], -1)[..., 0]
-    low = d_star < floor * (1 - 1e-12)
-    need = floor - d0
-    j = np.clip((cq >= need[..., None] - 1e-15 * np.maximum(1.0, floor)).argmax(-1) - 1, 0, shape[-1] - 1)
-    qj = np.take_along_axis(qs, j[..., None], -1)[..., 0]
-    pj = np.take_along_axis(ps, j[..., None], -1)[..., 0]
-    cqj = np.take_along_axis(cq, j[..., None], -1)[..., 0]
-    cpj = np.take_along_axis(cp, j[..., None], -1)[..., 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        frac = np.clip(np.where(qj > 0, (need - cqj) / np.where(qj > 0, qj, 1.0), 0.0), 0.0, 1.0)
-    filled = (n0 + cpj + frac * pj) / floor
-    feasible = d0 + cq[..., -1] >= floor * (1 - 1e-12)
-    values = np.where(low, np.where(feasible, filled, np.nan), values)
-    k_out = np.where(low, j, k)
-    frac_out = np.where(low, frac, 0.0)
-    return values, k_out, frac_out, order
-
-
-def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: int, frac: float = 0.0) -> FloatArray:
-    """The point of a threshold or floor solution: ``upper`` on ``order[:k]``, partly raised ``order[k]``.
-
-    Parameters
-    ----------
-    lower, upper : array_like, broadcastable to (n,)
-    order : numpy.ndarray of int, shape (n,)
-    k : int
-    frac : float
-        Fraction of cell ``order[k]``'s span that is raised.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n,)
-
-    Raises
-    ------
-    IndexError
-        When ``order`` holds an index outside [0, n).
-
-    Examples
-    --------
-    >>> box_point(0.0, 1.0, np.array([1, 0, 2]), 1, 0.25).tolist()    # cell 1 up, cell 0 a quarter up
-    [0.25, 1.0, 0.0]
-    """
-    n = order.shape[-1]
-    lo = np.broadcast_to(np.asarray(lower, dtype=float), (n,)).copy()
-    hi = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
-    h = lo.copy()
-    h[order[:k]] = hi[order[:k]]
-    if frac > 0 and k < n:
-        o = order[k]
-        h[o] = lo[o] + frac * (hi[o] - lo[o])
-    return h
-
-
 CLARABEL_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
 
 
@@ -392,6 +191,15 @@ def solve_clarabel(problem: cp.Problem) -> None:
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
         problem.solve(solver=cp.CLARABEL, **CLARABEL_TOLERANCES)
+
+
+_INCONSISTENT = "the constraints are inconsistent: no feasible h"
+"""The reason of an empty polytope."""
+
+
+def _no_solution(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
+    """The result without a point: NaN, status "infeasible", and why."""
+    return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
 
 
 class FractionalProgram:
@@ -449,16 +257,7 @@ class FractionalProgram:
         self._q = cp.Parameter(self.n)
         self._y = cp.Variable(self.n)
         self._s = cp.Variable(nonneg=True)
-        y, s = self._y, self._s
-        cons = [self._q @ y == 1]
         self._rows: list[tuple[FloatArray | sp.csr_matrix, FloatArray, str]] = []
-        for bound, op in ((self.lower, "ge"), (self.upper, "le")):
-            if bound is None:
-                continue
-            fin = np.isfinite(bound)
-            if fin.any():
-                idx = np.flatnonzero(fin)
-                cons.append(y[idx] >= bound[idx] * s if op == "ge" else y[idx] <= bound[idx] * s)
         for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
             if a is None:
                 continue
@@ -466,15 +265,32 @@ class FractionalProgram:
             b = as_float_array(b, name.replace("A", "b"), ndim=1)
             if a.shape != (b.size, self.n):
                 raise InputError(name, f"shape must be ({b.size}, {self.n})", a.shape)
-            cons.append(a @ y <= b * s if op == "le" else a @ y == b * s)
             self._rows.append((a, b, op))
-        self._problem = cp.Problem(cp.Maximize(self._p @ y), cons)
+        y = self._y
+        self._problem = cp.Problem(cp.Maximize(self._p @ y), [self._q @ y == 1, *self._constraints(y, self._s)])
         self._bounded = (
             self.lower is not None
             and self.upper is not None
             and bool(np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper)))
         )
         self._primal: tuple[cp.Problem, cp.Variable, cp.Parameter] | None = None
+
+    def _constraints(self, x: cp.Variable, scale: cp.Variable | None = None) -> list[cp.Constraint]:
+        """The polytope's constraints on ``x``: its finite bounds, then its rows; right-hand sides times ``scale``."""
+        cons = []
+        for bound, op in ((self.lower, "ge"), (self.upper, "le")):
+            if bound is not None and np.isfinite(bound).any():
+                idx = np.flatnonzero(np.isfinite(bound))
+                side = bound[idx] if scale is None else bound[idx] * scale
+                cons.append(x[idx] >= side if op == "ge" else x[idx] <= side)
+        for a, b, op in self._rows:
+            side = b if scale is None else b * scale
+            cons.append(a @ x <= side if op == "le" else a @ x == side)
+        return cons
+
+    def _result(self, p: FloatArray, q: FloatArray) -> Callable[..., FractionalResult]:
+        """A :class:`FractionalResult` of the LP for ``p`` and ``q``, given the rest."""
+        return functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
 
     def solve(self, p: npt.ArrayLike, q: npt.ArrayLike) -> FractionalResult:
         """The optimum for numerator ``p`` and denominator ``q`` (shape (n,) each).
@@ -491,16 +307,13 @@ class FractionalProgram:
         p, q = _vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
-        lo, hi = self.lower, self.upper
-        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=lo, upper=hi)
+        result = self._result(p, q)
         self._p.value, self._q.value = p, q
         prob = self._problem
         try:
             solve_clarabel(prob)
         except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
-            return result(
-                value=math.nan, argmax=None, status="infeasible", solver_status="solver_error", reason=str(exc)
-            )
+            return _no_solution(result, "solver_error", str(exc))
         status = prob.status
         if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
             return result(
@@ -514,13 +327,7 @@ class FractionalProgram:
             return self._zero_denominator(p, q, status)
         s = self._s.value
         if s is None:  # pragma: no cover - the solver returned no point
-            return result(
-                value=math.nan,
-                argmax=None,
-                status="infeasible",
-                solver_status=status,
-                reason="the solver returned no solution",
-            )
+            return _no_solution(result, status, "the solver returned no solution")
         if self._bounded and s > 0:
             # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
             h = np.asarray(self._y.value, dtype=float) / float(s)
@@ -530,13 +337,7 @@ class FractionalProgram:
             # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
             primal_status, _, _ = self._primal_max(p)
             if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-                return result(
-                    value=math.nan,
-                    argmax=None,
-                    status="infeasible",
-                    solver_status=status,
-                    reason="the constraints are inconsistent: no feasible h",
-                )
+                return _no_solution(result, status, _INCONSISTENT)
             return result(
                 value=float(prob.value),
                 argmax=None,
@@ -556,23 +357,14 @@ class FractionalProgram:
         """
         import cvxpy as cp
 
-        lo, hi = self.lower, self.upper
-        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=lo, upper=hi)
+        result = self._result(p, q)
         try:
             primal_status, value, h = self._primal_max(p)
         except cp.error.SolverError as exc:  # pragma: no cover
-            return result(
-                value=math.nan, argmax=None, status="infeasible", solver_status="solver_error", reason=str(exc)
-            )
+            return _no_solution(result, "solver_error", str(exc))
 
         if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-            return result(
-                value=math.nan,
-                argmax=None,
-                status="infeasible",
-                solver_status=status,
-                reason="the constraints are inconsistent: no feasible h",
-            )
+            return _no_solution(result, status, _INCONSISTENT)
         if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
             return result(
                 value=math.inf,
@@ -593,18 +385,10 @@ class FractionalProgram:
         """max p·h over the polytope itself (built on first use): (status, value, h or None)."""
         import cvxpy as cp
 
-        lo, hi = self.lower, self.upper
         if self._primal is None:
             h = cp.Variable(self.n)
             c = cp.Parameter(self.n)
-            cons = []
-            for bound, op in ((lo, "ge"), (hi, "le")):
-                if bound is not None and np.isfinite(bound).any():
-                    idx = np.flatnonzero(np.isfinite(bound))
-                    cons.append(h[idx] >= bound[idx] if op == "ge" else h[idx] <= bound[idx])
-            for a, b, op in self._rows:
-                cons.append(a @ h <= b if op == "le" else a @ h == b)
-            self._primal = (cp.Problem(cp.Maximize(c @ h), cons), h, c)
+            self._primal = (cp.Problem(cp.Maximize(c @ h), self._constraints(h)), h, c)
         prob, h, c = self._primal
         c.value = p
         solve_clarabel(prob)

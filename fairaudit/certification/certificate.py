@@ -28,7 +28,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
-from fairaudit.laws.mechanisms import MechanismFamily
+from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.assumptions import Assumption, check_assumptions

@@ -2,7 +2,7 @@
 
 For a grid of privacy budgets ε (nats) and a one-parameter family ε ↦ M_ε
 (k-ary randomized response, or a product of randomized responses with a fixed
-split of ε; :class:`~fairaudit.laws.mechanisms.MechanismFamily`), :func:`privacy_curve`
+split of ε; :class:`~fairaudit.laws.families.MechanismFamily`), :func:`privacy_curve`
 computes at each ε
 
 * the bounds on local g-fairness L that hold for *any* decision model behind
@@ -33,7 +33,8 @@ from fairaudit.base.arrays import BoolArray, FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.files import write_atomic
 from fairaudit.base.labels import format_label
-from fairaudit.laws.mechanisms import Mechanism, MechanismFamily
+from fairaudit.laws.families import MechanismFamily
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population, compose
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import corollary_bound, paper_bound, tight_bound
@@ -171,7 +172,7 @@ class PrivacyCurve:
 
         Examples
         --------
-        >>> from fairaudit.laws.mechanisms import randomized_response_family
+        >>> from fairaudit.laws.families import randomized_response_family
         >>> from fairaudit.laws.utilities import UtilityClass
         >>> family, tau = randomized_response_family(["a", "b"]), UtilityClass(tau=0.2)
         >>> c = privacy_curve(family=family, epsilons=[0.0, 1.0], utility_class=tau)
@@ -371,7 +372,7 @@ def privacy_curve(
     P(chosen | b) / P(chosen | a) = p / (1 − p) = e^ε).
 
     >>> from fairaudit.laws.tables import Kernel
-    >>> from fairaudit.laws.mechanisms import randomized_response_family
+    >>> from fairaudit.laws.families import randomized_response_family
     >>> from fairaudit.laws.utilities import UtilityClass, indicator
     >>> k = Kernel([[[0.0, 1.0], [1.0, 0.0]]], ["all"], ["a", "b"], ["chosen", "not chosen"])
     >>> c = privacy_curve(family=randomized_response_family(["a", "b"]), epsilons=[0.0, 0.5, 1.0], kernel=k,

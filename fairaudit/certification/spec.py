@@ -41,7 +41,8 @@ from fairaudit.base.toml_documents import (
 from fairaudit.certification.spec_mechanisms import build_mechanism, mechanism_family
 from fairaudit.certification.spec_model_table import match_label, read_model
 from fairaudit.data.counts import CountTable
-from fairaudit.laws.mechanisms import Mechanism, MechanismFamily
+from fairaudit.laws.families import MechanismFamily
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric, from_table, indicator
 

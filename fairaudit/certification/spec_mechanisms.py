@@ -11,17 +11,9 @@ from collections.abc import Hashable, Sequence
 from typing import TYPE_CHECKING
 
 from fairaudit.base.errors import InputError
-from fairaudit.laws.mechanisms import (
-    Mechanism,
-    MechanismFamily,
-    epsilon_from_keep_probability,
-    from_matrix,
-    identity,
-    product,
-    product_family,
-    randomized_response,
-    randomized_response_family,
-)
+from fairaudit.laws.closed_forms import epsilon_from_keep_probability, randomized_response
+from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family
+from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
 
 if TYPE_CHECKING:
     from fairaudit.certification.spec_schema import MechanismSpec

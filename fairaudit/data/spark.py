@@ -104,7 +104,7 @@ def count_spark(
     Not run here (it needs a Spark session)::
 
         from pyspark.sql import SparkSession
-        from fairaudit.spark import count_spark
+        from fairaudit.data.spark import count_spark
         spark = SparkSession.builder.master("local[2]").getOrCreate()
         records = spark.read.parquet("decisions.parquet")
         table = count_spark(records, sensitive=["race"], outcome="hired", context=["job"])

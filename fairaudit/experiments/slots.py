@@ -472,7 +472,7 @@ def epsilon_factor(task: DeliveryTask, positions: str = "balanced") -> Fraction 
     differ in c slots in every attribute and no two in more: 2 for the
     paper's pair, which differ in every attribute, own and rival. When every
     attribute has the same number of values the filter splits ε_P evenly
-    (:func:`fairaudit.laws.mechanisms.split_by_keep`), and the ratio is then the most
+    (:func:`fairaudit.laws.closed_forms.split_by_keep`), and the ratio is then the most
     attribute values in which two views differ over the number of attributes.
     Mixtures (``"distinct"`` with several combinations, several listed ones)
     and other point masses have no constant ratio: ε_P is then found by root

@@ -93,7 +93,7 @@ def check_assumptions(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import UtilityClass
     >>> m = randomized_response(["a", "b"], keep=0.7)
     >>> [a.status for a in check_assumptions(m, utility_class=UtilityClass(gamma=1.0, tau=0.2))]

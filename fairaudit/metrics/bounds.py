@@ -54,7 +54,8 @@ from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
-from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
+from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.assumptions import Assumption, assumptions_for
@@ -366,7 +367,7 @@ def paper_bound(
     Binary randomized response keeping with p = 0.7, g ∈ [0, 1]: the pure
     bound ε = ln(7/3) is the minimum here.
 
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import UtilityClass
     >>> b = paper_bound(randomized_response(["a", "b"], keep=0.7), utility_class=UtilityClass(gamma=1.0, tau=0.2))
     >>> round(b.value, 9), round(b.epsilon, 9), b.delta
@@ -467,7 +468,7 @@ def tight_bound(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import UtilityClass
     >>> m, c = randomized_response(["a", "b", "c"], epsilon=1.0), UtilityClass(gamma=1.0, tau=0.2)
     >>> tight_bound(m, utility_class=c).value <= paper_bound(m, utility_class=c).value
@@ -550,7 +551,7 @@ def corollary_bound(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> round(corollary_bound(randomized_response(["a", "b"], keep=0.7)).value, 9)
     0.84729786
     """

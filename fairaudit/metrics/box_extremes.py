@@ -7,7 +7,7 @@ extremes of max_{a≠a'} E_a / E_a' and of the largest TV gap are in closed form
 filter each group's expectation is a fixed mixture W_a·e of kernel cells e
 that range over a box, so groups share cells: the upper end of each ratio is
 the threshold solution of a linear-fractional program
-(:func:`fairaudit.base.linear_fractional.threshold_max_many`) and the lower end a Charnes–Cooper
+(:func:`fairaudit.base.threshold_rule.threshold_max_many`) and the lower end a Charnes–Cooper
 LP (:class:`MinMaxRatio`); the TV gaps are linear per event (:func:`mixed_tv`).
 
 Every function returns :data:`Extremes`: per map (a context for local
@@ -221,7 +221,7 @@ def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
     min of a max ≥ max of the mins; each min is 1 / the threshold maximum of
     the inverse ratio. Exact when the groups use disjoint cells.
     """
-    from fairaudit.base.linear_fractional import threshold_max_many
+    from fairaudit.base.threshold_rule import threshold_max_many
 
     A = W.shape[0]
     inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)  # [a, a'] = max (W_a'·e)/(W_a·e)
@@ -243,7 +243,7 @@ def mixed_ratio(
     Upper: the threshold solution of each pair's linear-fractional program.
     Lower: :class:`MinMaxRatio` (one LP per map); NaN without its LPs when ``lower_end`` is False.
     """
-    from fairaudit.base.linear_fractional import threshold_max_many
+    from fairaudit.base.threshold_rule import threshold_max_many
 
     M, A, n = W.shape
     vals, _, _ = threshold_max_many(W[:, :, None, :], W[:, None, :, :], lo, hi)

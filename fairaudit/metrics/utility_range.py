@@ -141,7 +141,7 @@ def _log(r: float) -> float:
 
 def _lower_pair(W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[int, int]:
     """The pair (a, a') of the largest min over the box of (W_a·e)/(W_a'·e) (threshold rule on the inverse)."""
-    from fairaudit.base.linear_fractional import threshold_max_many
+    from fairaudit.base.threshold_rule import threshold_max_many
 
     inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)  # [a, a'] = max (W_a'·e)/(W_a·e)
     with np.errstate(divide="ignore"):

@@ -212,7 +212,7 @@ def plot_curve(
     Examples
     --------
     >>> from fairaudit.certification.curves import privacy_curve
-    >>> from fairaudit.laws.mechanisms import randomized_response_family
+    >>> from fairaudit.laws.families import randomized_response_family
     >>> from fairaudit.laws.utilities import UtilityClass
     >>> family = randomized_response_family(["a", "b"])
     >>> fig = plot_curve(privacy_curve(family=family, utility_class=UtilityClass(tau=0.2)))

@@ -48,7 +48,7 @@ decisions on released values), and the audited law is
 Q[x, a, u] = Σ M_X[x, x̃] M_A[a, ã] K[x̃, ã, u]. Groups then share kernel
 cells, and the extremes of each ratio over C are linear-fractional programs:
 the upper end by the threshold solution over the box of kernel cells
-(:func:`fairaudit.base.linear_fractional.threshold_max_many`), the lower end by the
+(:func:`fairaudit.base.threshold_rule.threshold_max_many`), the lower end by the
 Charnes–Cooper LP of min over the box of max_a E_a / min_a E_a. The upper end
 of L is the white-box certificate at level 1 − α; a lower end above 0 is
 evidence of unfairness.

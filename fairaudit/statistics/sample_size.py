@@ -13,7 +13,7 @@ The assumed model: every cell has E[g | x, a] = ``base_rate``, except group 0,
 which has ``base_rate · exp(disparity)`` (``disparity`` in nats; the true L
 and L̄ are then |disparity|). With ``epsilon``, the model is queried on
 released groups behind k-ary randomized response at that ε
-(:func:`fairaudit.laws.mechanisms.randomized_response`): the rates above are those of
+(:func:`fairaudit.laws.closed_forms.randomized_response`): the rates above are those of
 the model's kernel on released groups, the counts are of the kernel, and the
 certificate is for the filtered law Q[x, a] = Σ_ã M[a, ã] K[x, ã] (whose true
 L is smaller than |disparity|).
@@ -211,7 +211,7 @@ class _Certifier:
             else:
                 up = disjoint_ratio(e_lo.mean(1), e_hi.mean(1))[1]  # uniform population: P(x | a) = 1/X
         else:
-            from fairaudit.base.linear_fractional import threshold_max_many
+            from fairaudit.base.threshold_rule import threshold_max_many
 
             M = self.mechanism.matrix
             W = np.einsum("xy,ab->xayb", np.eye(X), M).reshape(X, A, X * A)  # (maps, groups, kernel cells)
@@ -419,7 +419,7 @@ def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float
     mechanism: Mechanism | None = None
     filtered = rates
     if inputs["epsilon"] is not None:
-        from fairaudit.laws.mechanisms import randomized_response
+        from fairaudit.laws.closed_forms import randomized_response
 
         mechanism = randomized_response(tuple(range(inputs["groups"])), inputs["epsilon"])
         filtered = rates @ mechanism.matrix.T  # Q[x, a] = sum_ã M[a, ã] K[x, ã]

@@ -1,10 +1,14 @@
-"""Hypothesis strategies for fairaudit's objects: populations, mechanisms, kernels, utilities, laws.
+"""Hypothesis strategies for fairaudit's objects: populations, kernels, laws, utilities (mechanisms: see below).
 
 Every strategy draws a validated fairaudit object whose arrays follow the
 layout of docs/design.md, **[x, a, u]** (context, sensitive group, decision), and
 keeps a stated promise (an exact ε, an exact δ at ε, an exact range of a
 utility, a dependent population, ...), so a property test can rely on it. The
 promises are themselves checked by ``tests/testing/test_strategies.py``.
+The strategies of mechanisms (``mechanisms``, ``randomized_responses``,
+``product_mechanisms``) are in :mod:`fairaudit.testing.mechanism_strategies`,
+checked by ``tests/testing/test_mechanism_strategies.py``; import them all
+from :mod:`fairaudit.testing`.
 
 Sizes
 -----
@@ -43,111 +47,26 @@ False
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable, Sequence
-from typing import TypeAlias, overload
 
 import numpy as np
-from hypothesis import assume
 from hypothesis import strategies as st
 from hypothesis.errors import InvalidArgument
-from hypothesis.extra import numpy as hnp
 
 from fairaudit.base.arrays import FloatArray
-from fairaudit.laws.mechanisms import Mechanism, product, randomized_response
 from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility
+from fairaudit.testing import _draws as draws
+from fairaudit.testing._draws import Number, Size
 
 __all__ = [
-    # populations and mechanisms
-    "mechanisms",
+    # populations
     "populations",
-    "product_mechanisms",
-    "randomized_responses",
     # decision models and their laws
     "kernels",
     "laws",
     # utilities
     "utilities",
 ]
-
-_MAX_WEIGHT = 50
-"""Largest integer weight drawn before normalising a probability row."""
-
-EPSILON_TOLERANCE = 1e-9
-"""Largest accepted |ε(M) − requested ε| and |δ(M, ε) − requested δ|."""
-
-Size: TypeAlias = int | range | Sequence[Hashable]
-"""A size argument: a fixed size, a range to draw it from, or the labels themselves."""
-Number: TypeAlias = float | st.SearchStrategy[float]
-"""A number argument: a float, or a strategy of floats drawn once per example."""
-
-
-# --------------------------------------------------------------------------- helpers
-
-
-def _labels(draw: st.DrawFn, spec: Size, prefix: str, minimum: int, what: str) -> tuple:
-    """Resolve a size spec (int, range, or labels) into a tuple of labels of length ≥ ``minimum``."""
-    if isinstance(spec, bool):
-        raise InvalidArgument(f"{what}={spec!r}: give an int, a range or a sequence of labels")
-    if isinstance(spec, int):
-        if spec < minimum:
-            raise InvalidArgument(f"{what}={spec} must be at least {minimum}")
-        n = spec
-    elif isinstance(spec, range):
-        sizes = [n for n in spec if n >= minimum]
-        if not sizes:
-            raise InvalidArgument(f"{what}={spec!r} has no size of at least {minimum}")
-        n = draw(st.sampled_from(sizes))
-    elif isinstance(spec, Sequence) and not isinstance(spec, (str, bytes)):
-        labels = tuple(spec)
-        if len(labels) < minimum:
-            raise InvalidArgument(f"{what} needs at least {minimum} labels, got {len(labels)}")
-        return labels
-    else:
-        raise InvalidArgument(f"{what}={spec!r}: give an int, a range or a sequence of labels")
-    return tuple(f"{prefix}{i}" for i in range(n))
-
-
-@overload
-def _number(draw: st.DrawFn, value: Number, what: str) -> float: ...
-@overload
-def _number(draw: st.DrawFn, value: Number | None, what: str) -> float | None: ...
-def _number(draw: st.DrawFn, value: Number | None, what: str) -> float | None:
-    """A float, or one draw of a strategy of floats; None stays None."""
-    if value is None:
-        return None
-    if isinstance(value, st.SearchStrategy):
-        value = draw(value)
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise InvalidArgument(f"{what}={value!r} must be a number or a strategy of numbers") from None
-
-
-def _weights(draw: st.DrawFn, shape: tuple[int, ...], allow_zeros: bool) -> FloatArray:
-    """Integer weights of ``shape``; every row along the last axis has a positive sum."""
-    low = 0 if allow_zeros else 1
-    w = draw(hnp.arrays(np.int64, shape, elements=st.integers(low, _MAX_WEIGHT))).astype(float)
-    if w.size:
-        rows = w.reshape(-1, shape[-1])
-        dead = rows.sum(axis=1) == 0
-        rows[dead, 0] = 1.0
-        w = rows.reshape(shape)
-    return w
-
-
-def _between(draw: st.DrawFn, shape: tuple[int, ...], low: float, high: float) -> FloatArray:
-    """Floats in [low, high] (low ≤ high up to rounding) of ``shape``, drawn as fractions of the interval."""
-    n = int(np.prod(shape))
-    f = np.array(draw(st.lists(st.floats(0.0, 1.0), min_size=n, max_size=n)), dtype=float).reshape(shape)
-    lo, hi = min(low, high), max(low, high)
-    return np.clip(lo + f * (hi - lo), lo, hi)
-
-
-def _rows(draw: st.DrawFn, shape: tuple[int, ...], allow_zeros: bool) -> FloatArray:
-    """Random probability rows along the last axis (each sums to 1)."""
-    w = _weights(draw, shape, allow_zeros)
-    return w / w.sum(axis=-1, keepdims=True)
 
 
 # --------------------------------------------------------------------------- populations
@@ -207,28 +126,20 @@ def populations(
     >>> pop.probabilities.shape, pop.independence().independent
     ((2, 3), True)
     """
-    if independent is False:
-        xs = _labels(draw, contexts, "x", 2, "contexts")
-        gs = _labels(draw, groups, "a", 2, "groups")
-    else:
-        xs = _labels(draw, contexts, "x", 1, "contexts")
-        gs = _labels(draw, groups, "a", 1, "groups")
+    least = 2 if independent is False else 1
+    xs = draws.labels(draw, contexts, "x", least, "contexts")
+    gs = draws.labels(draw, groups, "a", least, "groups")
     nx, na = len(xs), len(gs)
     if independent is None:
         independent = True if (nx < 2 or na < 2) else draw(st.booleans())
     live = np.ones(nx, dtype=bool)
     if allow_zero_contexts and nx > 1:
-        live = ~np.array(draw(st.lists(st.booleans(), min_size=nx, max_size=nx)))
-        need = 1 if independent else 2
-        for i in range(nx):
-            if live.sum() >= need:
-                break
-            live[i] = True
+        live = draws.alive(draw, nx, 1 if independent else 2)
     if independent:
-        px = _weights(draw, (nx,), allow_zeros=False) * live
-        pa = _weights(draw, (na,), allow_zeros=False)
+        px = draws.weights(draw, (nx,), allow_zeros=False) * live
+        pa = draws.weights(draw, (na,), allow_zeros=False)
         return Population.independent(px / px.sum(), pa / pa.sum(), xs, gs)
-    w = _weights(draw, (nx, na), allow_zeros=True) * live[:, None]
+    w = draws.weights(draw, (nx, na), allow_zeros=True) * live[:, None]
     # columns must keep positive mass among live contexts
     rows = np.flatnonzero(live)
     for j in range(na):
@@ -243,296 +154,6 @@ def populations(
         pop = Population(w / w.sum(), xs, gs)
     assert pop.independence().max_deviation >= 1e-6
     return pop
-
-
-# --------------------------------------------------------------------------- mechanisms
-
-
-def _pure_matrix(draw: st.DrawFn, n_in: int, n_out: int, epsilon: float, allow_zeros: bool) -> FloatArray:
-    """A row-stochastic (n_in, n_out) matrix with ε(M) = ``epsilon`` (0 ≤ ε ≤ inf)."""
-    live = np.ones(n_out, dtype=bool)
-    need = 1 if epsilon == 0 else 2
-    if allow_zeros and n_out > need:
-        live = ~np.array(draw(st.lists(st.booleans(), min_size=n_out, max_size=n_out)))
-        for j in range(n_out):
-            if live.sum() >= need:
-                break
-            live[j] = True
-    k = int(live.sum())
-    q = _rows(draw, (k,), allow_zeros=False)
-    if epsilon == 0 or n_in == 1:
-        m = np.tile(q, (n_in, 1))
-    else:
-        # R: random rows with an asymmetric zero so that ε(R) = inf.
-        r = _weights(draw, (n_in, k), allow_zeros=allow_zeros or math.isinf(epsilon))
-        star = draw(st.integers(0, k - 1))
-        r[0, star] = max(r[0, star], 1.0)
-        r[1, star] = 0.0
-        if r[1].sum() == 0:
-            r[1, (star + 1) % k] = 1.0
-        r = r / r.sum(axis=1, keepdims=True)
-        if math.isinf(epsilon):
-            m = r
-        else:
-            # M(s) = (q + s R) / (1 + s): every ratio (q_o + s x)/(q_o + s y) is monotone in s,
-            # so ε(M(s)) rises continuously from 0 to inf; it reaches ε at the smallest crossing
-            # s = q_o (e^ε − 1) / (x − e^ε y) over triples with x > e^ε y.
-            t = math.exp(epsilon)
-            x = r[:, None, :]
-            y = r[None, :, :]
-            gap = x - t * y
-            with np.errstate(divide="ignore", invalid="ignore"):
-                s = np.where(gap > 0, q * (t - 1.0) / gap, np.inf)
-            s_star = float(s.min())
-            m = (q + s_star * r) / (1.0 + s_star)
-    full = np.zeros((n_in, n_out))
-    full[:, live] = m
-    return full
-
-
-@st.composite
-def mechanisms(
-    draw: st.DrawFn,
-    n_inputs: Size = range(2, 4),
-    n_outputs: Size | None = None,
-    epsilon: Number | None = None,
-    delta: Number | None = None,
-    allow_zeros: bool = False,
-) -> Mechanism:
-    """Finite mechanisms M[a, o] = P(output = o | input = a), optionally with an exact ε or (ε, δ).
-
-    Parameters
-    ----------
-    n_inputs : int, range or sequence of labels
-        The inputs (rows); default 2 or 3, labelled ``"a0", ...``.
-    n_outputs : int, range, sequence of labels or None
-        The outputs (columns). None: the inputs' own labels (a square
-        mechanism), except with ``delta`` (see below). Otherwise labelled
-        ``"o0", ...``.
-    epsilon : float, strategy of floats, or None
-        Without ``delta``: the exact pure budget ε(M) in nats (0, positive or
-        ``math.inf``). With ``delta``: the ε at which δ(M, ε) is prescribed.
-        None: an arbitrary random mechanism.
-    delta : float, strategy of floats, or None
-        With ``epsilon``: the exact hockey-stick divergence δ(M, ε) ∈ [0, 1].
-    allow_zeros : bool
-        Allow zero entries (with ``epsilon=None`` this allows ε = inf; with a
-        finite ε only outputs that no input produces can be zero).
-
-    Returns
-    -------
-    Mechanism
-        Shape (n_inputs, n_outputs); rows sum to 1.
-
-    Guarantees
-    ----------
-    * ``epsilon`` alone: |ε(M) − ε| ≤ 1e-9 (``Mechanism.epsilon``; ε = inf
-      exactly). Construction: M = (q + s R) / (1 + s) with q a random positive
-      row (ε = 0) and R random rows with an asymmetric zero (ε = inf); every
-      likelihood ratio of M is monotone in s, so ε(M) is continuous and
-      increasing in s, and s is the closed-form smallest crossing of e^ε.
-      Outputs are then permuted at random. Needs ≥ 2 inputs and outputs for ε > 0.
-    * ``epsilon`` and ``delta``: |δ(M, ε) − δ| ≤ 1e-9 (``Mechanism.delta``)
-      and every pair of inputs has the same divergence δ at ε.
-      Construction ("pure part plus leak"): with c ≥ 0 drawn and
-      m = δ + (e^ε + n − 1) c ≤ 1, row a is (1 − m) P[a] on a pure mechanism P
-      with ε(P) ≤ ε (n_outputs − n_inputs columns, at least 1), followed by
-      n_inputs leak columns where input a puts δ + e^ε c on its own leak column
-      and c on each other one. The pure part contributes nothing to the
-      hockey-stick at ε; each pair (a, a') gains exactly δ on leak column a.
-      So ε(M) = log((δ + e^ε c)/c) (inf when c = 0 and δ > 0). With
-      ``n_outputs=None`` the pure part has 1 or 2 columns.
-
-    Raises
-    ------
-    hypothesis.errors.InvalidArgument
-        On ``delta`` without ``epsilon``, a negative ε, δ outside [0, 1], or
-        sizes that cannot carry the requested budget.
-
-    Examples
-    --------
-    >>> import math
-    >>> from hypothesis import find
-    >>> m = find(mechanisms(n_inputs=3, epsilon=1.0), lambda m: True)
-    >>> m.matrix.shape, abs(m.epsilon - 1.0) <= 1e-9
-    ((3, 3), True)
-    >>> m = find(mechanisms(n_inputs=2, epsilon=0.5, delta=0.1), lambda m: True)
-    >>> abs(m.delta(0.5) - 0.1) <= 1e-9
-    True
-    """
-    eps = _number(draw, epsilon, "epsilon")
-    dlt = _number(draw, delta, "delta")
-    if eps is not None and (math.isnan(eps) or eps < 0 or 700.0 < eps < math.inf):
-        raise InvalidArgument(f"epsilon={eps!r} must be a number of nats in [0, 700] or math.inf")
-    if dlt is not None:
-        if eps is None:
-            raise InvalidArgument("delta needs epsilon: the ε at which δ(M, ε) is prescribed")
-        if not (0.0 <= dlt <= 1.0):
-            raise InvalidArgument(f"delta={dlt!r} must lie in [0, 1]")
-        if math.isinf(eps) and dlt > 0:
-            raise InvalidArgument("δ(M, inf) > 0 at ε = inf: give a finite epsilon with a positive delta")
-        return draw(_delta_mechanisms(n_inputs, n_outputs, eps, dlt, allow_zeros))
-    positive = eps is not None and eps > 0
-    inputs = _labels(draw, n_inputs, "a", 2 if positive else 1, "n_inputs")
-    if n_outputs is None:
-        outputs = inputs
-    else:
-        outputs = _labels(draw, n_outputs, "o", 2 if positive else 1, "n_outputs")
-    n_in, n_out = len(inputs), len(outputs)
-    if eps is None:
-        matrix = _rows(draw, (n_in, n_out), allow_zeros)
-        return Mechanism(matrix, inputs, outputs, name="random mechanism")
-    matrix = _pure_matrix(draw, n_in, n_out, eps, allow_zeros)
-    perm = draw(st.permutations(range(n_out)))
-    mech = Mechanism(matrix[:, perm], inputs, outputs, name=f"random mechanism (epsilon={eps:g})")
-    assume(mech.epsilon == eps if math.isinf(eps) else abs(mech.epsilon - eps) <= EPSILON_TOLERANCE)
-    return mech
-
-
-@st.composite
-def _delta_mechanisms(
-    draw: st.DrawFn, n_inputs: Size, n_outputs: Size | None, eps: float, dlt: float, allow_zeros: bool
-) -> Mechanism:
-    inputs = _labels(draw, n_inputs, "a", 2 if dlt > 0 else 1, "n_inputs")
-    n_in = len(inputs)
-    if n_outputs is None:
-        n_pure = draw(st.integers(1, 2))
-        outputs = tuple(f"o{j}" for j in range(n_pure + n_in))
-    else:
-        outputs = _labels(draw, n_outputs, "o", n_in + 1, "n_outputs (n_inputs + 1 at least, with delta)")
-        n_pure = len(outputs) - n_in
-    t = math.exp(eps)
-    c_max = (1.0 - dlt) / (t + n_in - 1)
-    c = c_max * draw(st.sampled_from([0.0, 0.25, 0.5, 1.0]) | st.floats(0.0, 1.0))
-    mass = dlt + (t + n_in - 1) * c
-    if mass > 1.0:  # rounding at c = c_max
-        c = max(0.0, (1.0 - dlt) / (t + n_in - 1) * (1 - 1e-15))
-        mass = dlt + (t + n_in - 1) * c
-    eps_pure = eps * draw(st.sampled_from([0.0, 1.0]) | st.floats(0.0, 1.0))
-    if n_pure < 2 or n_in < 2:
-        eps_pure = 0.0
-    pure = _pure_matrix(draw, n_in, n_pure, eps_pure, allow_zeros)
-    leak = np.full((n_in, n_in), c)
-    np.fill_diagonal(leak, dlt + t * c)
-    matrix = np.hstack([(1.0 - mass) * pure, leak])
-    perm = draw(st.permutations(range(len(outputs))))
-    mech = Mechanism(matrix[:, perm], inputs, outputs, name=f"random mechanism (epsilon={eps:g}, delta={dlt:g})")
-    assume(abs(mech.delta(eps) - dlt) <= EPSILON_TOLERANCE)
-    return mech
-
-
-@st.composite
-def randomized_responses(draw: st.DrawFn, k: Size = range(2, 5), epsilon: Number = st.floats(0.0, 5.0)) -> Mechanism:
-    """k-ary randomized response (:func:`fairaudit.laws.mechanisms.randomized_response`).
-
-    Parameters
-    ----------
-    k : int, range or sequence of labels
-        Alphabet size (or the values); default 2 to 4, labelled ``"a0", ...``.
-    epsilon : float or strategy of floats
-        Budget in nats; default drawn from [0, 5]. ``math.inf`` gives the identity.
-
-    Returns
-    -------
-    Mechanism
-        Square (k, k) with inputs = outputs; ε(M) = ``epsilon`` exactly and
-        keep probability e^ε / (e^ε + k − 1).
-
-    Raises
-    ------
-    hypothesis.errors.InvalidArgument
-        When the strategy is drawn from: a size that is not an int, a range or a
-        sequence of labels, a size below the minimum, or a request the
-        construction cannot meet.
-
-    Examples
-    --------
-    >>> from hypothesis import find
-    >>> m = find(randomized_responses(k=3, epsilon=1.0), lambda m: True)
-    >>> m.epsilon, m.inputs
-    (1.0, ('a0', 'a1', 'a2'))
-    """
-    values = _labels(draw, k, "a", 2, "k")
-    eps = _number(draw, epsilon, "epsilon")
-    if eps is None or math.isnan(eps) or eps < 0:
-        raise InvalidArgument(f"epsilon={eps!r} must be a non-negative number of nats")
-    return randomized_response(values, eps)
-
-
-@st.composite
-def product_mechanisms(
-    draw: st.DrawFn,
-    n_attributes: Size = range(2, 4),
-    n_values: Size = range(2, 4),
-    epsilon: Number | None = None,
-    kind: str | None = None,
-) -> Mechanism:
-    """Product mechanisms on tuples of attributes (:func:`fairaudit.laws.mechanisms.product`).
-
-    Parameters
-    ----------
-    n_attributes : int or range
-        Number of components; default 2 or 3.
-    n_values : int or range
-        Values per attribute (drawn per attribute); default 2 or 3. Attribute i
-        has values ``"v{i}_0", "v{i}_1", ...``.
-    epsilon : float, strategy of floats, or None
-        The product's exact ε: split at random among the components, each
-        drawn with that exact budget. None: arbitrary components.
-    kind : {"randomized_response", "matrix"} or None
-        Component type; None mixes both (drawn per component).
-
-    Returns
-    -------
-    Mechanism
-        Square; inputs = outputs = tuples of component labels in
-        ``itertools.product`` order; the matrix is the Kronecker product.
-
-    Guarantees
-    ----------
-    With ``epsilon``: |ε(product) − ε| ≤ 1e-9 (ε of the product is the sum
-    of the components' ε, every pair of tuples adjacent).
-
-    Raises
-    ------
-    hypothesis.errors.InvalidArgument
-        When the strategy is drawn from: a size that is not an int, a range or a
-        sequence of labels, a size below the minimum, or a request the
-        construction cannot meet.
-
-    Examples
-    --------
-    >>> from hypothesis import find
-    >>> m = find(product_mechanisms(n_attributes=2, n_values=2, epsilon=1.5), lambda m: True)
-    >>> m.inputs[0], abs(m.epsilon - 1.5) <= 1e-9
-    (('v0_0', 'v1_0'), True)
-    """
-    n = len(_labels(draw, n_attributes, "", 1, "n_attributes"))
-    eps = _number(draw, epsilon, "epsilon")
-    if eps is not None and (math.isnan(eps) or eps < 0 or math.isinf(eps)):
-        raise InvalidArgument(f"epsilon={eps!r} must be a finite non-negative number of nats")
-    shares: list[float | None] = [None] * n  # each component's ε (None: arbitrary)
-    if eps is not None:
-        w = _weights(draw, (n,), allow_zeros=True)
-        split = [eps * float(wi) / float(w.sum()) for wi in w]
-        split[-1] = eps - sum(split[:-1])
-        split[-1] = max(split[-1], 0.0)
-        shares = [*split]
-    components = []
-    for i in range(n):
-        values = _labels(draw, n_values, f"v{i}_", 2, "n_values")
-        which = kind or draw(st.sampled_from(["randomized_response", "matrix"]))
-        if which == "randomized_response":
-            e = shares[i] if shares[i] is not None else draw(st.floats(0.0, 3.0))
-            components.append(randomized_response(values, e))
-        elif which == "matrix":
-            components.append(draw(mechanisms(n_inputs=values, epsilon=shares[i])))
-        else:
-            raise InvalidArgument(f"kind={kind!r} must be 'randomized_response', 'matrix' or None")
-    mech = product(*components)
-    if eps is not None:
-        assume(abs(mech.epsilon - eps) <= EPSILON_TOLERANCE)
-    return mech
 
 
 # --------------------------------------------------------------------------- kernels and laws
@@ -581,18 +202,16 @@ def kernels(
     >>> k.shape, sorted(set(k.probabilities.ravel().tolist()))
     ((1, 2, 2), [0.0, 1.0])
     """
-    xs = _labels(draw, contexts, "x", 1, "contexts")
-    gs = _labels(draw, groups, "a", 1, "groups")
-    us = _labels(draw, decisions, "u", 1, "decisions")
+    xs, gs, us = draws.table_labels(draw, (contexts, groups, decisions), ("contexts", "groups", "decisions"))
     shape = (len(xs), len(gs), len(us))
     if deterministic is None:
         deterministic = draw(st.booleans())
     if deterministic:
-        choice = draw(hnp.arrays(np.int64, shape[:2], elements=st.integers(0, shape[2] - 1)))
+        choice = draws.integers(draw, shape[:2], 0, shape[2] - 1)
         probs = np.zeros(shape)
         np.put_along_axis(probs, choice[..., None], 1.0, axis=-1)
     else:
-        probs = _rows(draw, shape, allow_zeros)
+        probs = draws.rows(draw, shape, allow_zeros)
     return Kernel(probs, xs, gs, us)
 
 
@@ -641,16 +260,16 @@ def laws(
     >>> law.counts is not None, bool(law.observed.any())
     (True, True)
     """
-    xs = _labels(draw, n_contexts, "x", 1, "n_contexts")
-    gs = _labels(draw, n_groups, "a", 1, "n_groups")
-    us = _labels(draw, n_decisions, "u", 1, "n_decisions")
+    xs, gs, us = draws.table_labels(
+        draw, (n_contexts, n_groups, n_decisions), ("n_contexts", "n_groups", "n_decisions")
+    )
     shape = (len(xs), len(gs), len(us))
     if counts:
-        c = draw(hnp.arrays(np.int64, shape, elements=st.integers(0, _MAX_WEIGHT))).astype(float)
+        c = draws.integers(draw, shape, 0, draws.MAX_WEIGHT).astype(float)
         if c.sum() == 0:
             c[(0,) * len(shape)] = 1.0
         return Law.from_counts(c, xs, gs, us)
-    return Law(_rows(draw, shape, zero_cells), xs, gs, us)
+    return Law(draws.rows(draw, shape, zero_cells), xs, gs, us)
 
 
 # --------------------------------------------------------------------------- utilities
@@ -718,9 +337,9 @@ def utilities(
     >>> g.values.shape, g.gamma, g.lower, g.lipschitz()
     ((2, 3, 2), 1.0, 0.0, 0.25)
     """
-    gam = _number(draw, gamma, "gamma")
-    low = _number(draw, lower, "lower")
-    lip = _number(draw, lipschitz, "lipschitz")
+    gam = draws.number(draw, gamma, "gamma")
+    low = draws.number(draw, lower, "lower")
+    lip = draws.number(draw, lipschitz, "lipschitz")
     if not (math.isfinite(gam) and math.isfinite(low) and 0.0 <= low <= gam):
         raise InvalidArgument(f"need 0 <= lower <= gamma (finite); got lower={low!r}, gamma={gam!r}")
     if lip is not None:
@@ -728,12 +347,12 @@ def utilities(
             raise InvalidArgument(f"lipschitz={lip!r} must lie in [0, gamma - lower] = [0, {gam - low!r}]")
         if lip > 0:
             depends_on_group = True
-    us = _labels(draw, decisions, "u", 1, "decisions")
+    us = draws.labels(draw, decisions, "u", 1, "decisions")
     full = depends_on_group or contexts is not None or groups is not None
     if not full:
         return Utility(_vector_values(draw, len(us), gam, low), us, name="drawn utility")
-    xs = _labels(draw, contexts if contexts is not None else 1, "x", 1, "contexts")
-    gs = _labels(draw, groups if groups is not None else 2, "a", 2 if depends_on_group else 1, "groups")
+    xs = draws.labels(draw, contexts if contexts is not None else 1, "x", 1, "contexts")
+    gs = draws.labels(draw, groups if groups is not None else 2, "a", 2 if depends_on_group else 1, "groups")
     shape = (len(xs), len(gs), len(us))
     if depends_on_group:
         values = _group_dependent_values(draw, shape, gam, low, lip)
@@ -746,8 +365,8 @@ def _vector_values(draw: st.DrawFn, nu: int, gam: float, low: float) -> FloatArr
     """g(u) over ``nu`` decisions in [low, γ], with one decision at γ and another at lower."""
     if nu < 2 and gam != low:
         raise InvalidArgument("a utility over one decision cannot have gamma != lower")
-    values = _between(draw, (nu,), low, gam)
-    hi, lo = draw(st.sampled_from([(i, j) for i in range(nu) for j in range(nu) if i != j] or [(0, 0)]))
+    values = draws.between(draw, (nu,), low, gam)
+    hi, lo = draws.distinct_pair(draw, nu)
     values[hi], values[lo] = gam, low
     return values
 
@@ -758,9 +377,8 @@ def _group_free_values(draw: st.DrawFn, shape: tuple[int, int, int], gam: float,
     slots = [(x, u) for x in range(nx) for u in range(nu)]
     if len(slots) < 2 and gam != low:
         raise InvalidArgument("one (context, decision) pair cannot carry both gamma and lower")
-    h = _between(draw, (nx, nu), low, gam)
-    pair = [(i, j) for i in range(len(slots)) for j in range(len(slots)) if i != j] or [(0, 0)]
-    top, bottom = draw(st.sampled_from(pair))
+    h = draws.between(draw, (nx, nu), low, gam)
+    top, bottom = draws.distinct_pair(draw, len(slots))
     h[slots[top]] = gam
     h[slots[bottom]] = low
     return np.repeat(h[:, None, :], na, axis=1)
@@ -780,10 +398,9 @@ def _group_dependent_values(
     slots = [(x, u) for x in range(nx) for u in range(nu)]
     if len(slots) < 2 and L < gam - low:
         raise InvalidArgument("with one (context, decision) pair the Lipschitz constant must be gamma - lower")
-    h = _between(draw, (nx, nu), low, top_h)
-    d = _between(draw, (nx, na, nu), 0.0, L)
-    pair = [(i, j) for i in range(len(slots)) for j in range(len(slots)) if i != j] or [(0, 0)]
-    top, bottom = draw(st.sampled_from(pair))
+    h = draws.between(draw, (nx, nu), low, top_h)
+    d = draws.between(draw, (nx, na, nu), 0.0, L)
+    top, bottom = draws.distinct_pair(draw, len(slots))
     tx, tu = slots[top]
     bx, bu = slots[bottom]
     h[bx, bu] = low

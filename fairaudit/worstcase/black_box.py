@@ -15,8 +15,10 @@ import numpy.typing as npt
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
-from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, RandomizedResponseParameters
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.threshold_rule import threshold_max_many
+from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
@@ -202,7 +204,7 @@ def black_box_bound(
     §7). The result is that of solving every pair.
 
     For k-ary randomized response (the mechanism
-    :func:`~fairaudit.laws.mechanisms.randomized_response` returns) every pair is
+    :func:`~fairaudit.laws.closed_forms.randomized_response` returns) every pair is
     alike and the value is a closed form, O(1) with the worst h in O(k):
     the threshold and the floor relaxation (``proofs/black_box.md`` §3,
     Propositions 3 and 3b) and, with L_A > 0 and the discrete metric (or
@@ -212,7 +214,7 @@ def black_box_bound(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import UtilityClass
     >>> m = randomized_response(["a", "b"], keep=0.7)
     >>> round(black_box_bound(m).ratio, 12)                       # 0.7 / 0.3

@@ -1,7 +1,7 @@
 """Calibration: the largest privacy budget ε whose certificate meets a fairness target.
 
 :func:`calibrate` moves along a one-parameter family ε ↦ M_ε of mechanisms on
-the sensitive attribute (:class:`~fairaudit.laws.mechanisms.MechanismFamily`; k-ary
+the sensitive attribute (:class:`~fairaudit.laws.families.MechanismFamily`; k-ary
 randomized response by default) and returns the largest ε whose certificate on
 local g-fairness L (or global L̄) is at most the target, with the mechanism
 that realises it and its price, the keep probability (how often the true
@@ -63,7 +63,8 @@ import numpy.typing as npt
 from fairaudit.base.checks import choice, nonnegative, real
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
-from fairaudit.laws.mechanisms import Mechanism, MechanismFamily, randomized_response_family
+from fairaudit.laws.families import MechanismFamily, randomized_response_family
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.worstcase.calibration_methods import (
@@ -428,7 +429,7 @@ def calibrate(
         (an arbitrary (ε, δ)-DP mechanism); else ``black_box``.
     family : MechanismFamily, optional
         The mechanisms ε ↦ M_ε on the groups; default k-ary randomized
-        response (:func:`~fairaudit.laws.mechanisms.randomized_response_family`).
+        response (:func:`~fairaudit.laws.families.randomized_response_family`).
     groups : int or sequence of hashable, optional
         k, or the group labels (default: the kernel's groups, else 2).
     utility_class : UtilityClass, optional

@@ -27,7 +27,9 @@ import numpy.typing as npt
 from fairaudit.base.arrays import EXP_SAFE, FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
-from fairaudit.laws.mechanisms import Mechanism, MechanismFamily, RandomizedResponse, identity
+from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.families import MechanismFamily
+from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import main_theorem, main_theorem_tight
@@ -141,7 +143,7 @@ def rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> f
 def _is_randomized_response(family: MechanismFamily, eps: float) -> RandomizedResponse | None:
     """The family's member at ``eps`` when it is k-ary randomized response on the family's inputs, else None.
 
-    An isinstance check (:func:`~fairaudit.laws.mechanisms.randomized_response` makes them): no k x k matrix.
+    An isinstance check (:func:`~fairaudit.laws.closed_forms.randomized_response` makes them): no k x k matrix.
     """
     m = family(eps)
     if not isinstance(m, RandomizedResponse) or tuple(m.inputs) != tuple(family.inputs):

@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray
-from fairaudit.laws.mechanisms import MechanismFamily
+from fairaudit.laws.families import MechanismFamily
 
 __all__ = ["ATOL", "EPS_MAX", "GRID", "GRID_CAP", "RTOL", "bracket", "keep_grid", "largest_meeting"]
 

@@ -16,8 +16,9 @@ from fairaudit.base.arrays import BoolArray, FloatArray, IntArray, safe_log
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, threshold_max_many
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
 from fairaudit.base.pairs import PAIR_BLOCK
+from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
 from fairaudit.worstcase.pair_search import SearchResult, box_pairs, check_class, check_method, search

@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from fairaudit.base.errors import InputError
-from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse
+from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.worstcase.known_utility_closed_forms import (
@@ -88,7 +89,7 @@ def worst_model(
 
     Examples
     --------
-    >>> from fairaudit.laws.mechanisms import randomized_response
+    >>> from fairaudit.laws.closed_forms import randomized_response
     >>> from fairaudit.laws.utilities import indicator
     >>> m = randomized_response(["Tom", "Mary"], keep=0.7)
     >>> w = worst_model(m, indicator("chosen", ["chosen", "not chosen"]))

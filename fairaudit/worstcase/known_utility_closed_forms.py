@@ -20,8 +20,8 @@ import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import threshold_max_many
-from fairaudit.laws.mechanisms import RandomizedResponseParameters
+from fairaudit.base.threshold_rule import threshold_max_many
+from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.tables import Kernel
 from fairaudit.worstcase.known_utility_problem import ModelProblem, onehot, weighted_utility
 from fairaudit.worstcase.pair_search import pairwise_box

@@ -18,7 +18,8 @@ from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
-from fairaudit.laws.mechanisms import Mechanism, RandomizedResponse, identity
+from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Population, compose
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption, check_assumptions

@@ -21,14 +21,9 @@ import numpy.typing as npt
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.checks import choice, nonnegative
 from fairaudit.base.errors import InputError
-from fairaudit.base.linear_fractional import (
-    FractionalProgram,
-    FractionalResult,
-    box_point,
-    floor_max_many,
-    threshold_max_many,
-)
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
+from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
 from fairaudit.laws.utilities import UtilityClass
 
 METHODS = ("auto", "threshold", "lp")
@@ -79,7 +74,7 @@ def relaxed_first(
     """Solve problem i by the closed-form floor relaxation when its point is feasible, by the LP otherwise.
 
     The relaxation keeps the box and only the denominator's constraint q·h ≥ floor
-    (:func:`fairaudit.base.linear_fractional.floor_max_many`); its point is optimal for the full
+    (:func:`fairaudit.base.threshold_rule.floor_max_many`); its point is optimal for the full
     program whenever it meets every row of ``rows @ h ≥ floor``. With no
     floor the program is the box program and the threshold solves it.
     """
@@ -168,7 +163,7 @@ class BoxPairs:
     """The ordered pairs of rows that can reach the largest box value (or floor relaxation), solved exactly.
 
     ``a``, ``b``: those pairs, row-major; ``box`` their threshold values and ``relaxed`` their floor relaxations
-    (:func:`fairaudit.base.linear_fractional.threshold_max_many`, :func:`~fairaudit.base.linear_fractional.floor_max_many`, computed as for every pair
+    (:func:`fairaudit.base.threshold_rule.threshold_max_many`, :func:`~fairaudit.base.threshold_rule.floor_max_many`, computed as for every pair
     at once). Every other pair's box value is below ``box_fill`` (and its relaxation below ``relaxed_fill``), which
     is the largest upper bound of a pair set aside, below (1 − PRUNE) × the largest value found (with a floor: the
     largest relaxation whose point meets every row's floor; +inf for the box values then; -inf when no pair was
@@ -361,8 +356,8 @@ def pairwise_box(
 ) -> tuple[FloatArray, FloatArray | None]:
     """The box program of every ordered pair (rows a, b of ``matrix``), and with ``floor`` its floor relaxation.
 
-    Shape (n, n) each (diagonal 1). Exact (the values of :func:`fairaudit.base.linear_fractional.threshold_max_many` and
-    :func:`~fairaudit.base.linear_fractional.floor_max_many`) for every pair that can be the largest; elsewhere one valid upper bound
+    Shape (n, n) each (diagonal 1). Exact (the values of :func:`fairaudit.base.threshold_rule.threshold_max_many` and
+    :func:`~fairaudit.base.threshold_rule.floor_max_many`) for every pair that can be the largest; elsewhere one valid upper bound
     of them all, below (1 − PRUNE) × the largest, so the maximum, its first row-major maximiser, and a search in
     decreasing order of these bounds are unchanged (:func:`box_pairs`; ``proofs/black_box.md`` §7). With
     ``floor`` the box entries away from the relaxation's maximisers are +inf (upper bounds only).

@@ -15,10 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
-from fairaudit.laws.mechanisms import Mechanism, RandomizedResponseParameters
+from fairaudit.laws.closed_forms import RandomizedResponseParameters
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law
 
-_TIE = 1e-12  # relative tolerance of the threshold solution's ties (as lfp.threshold_max_many)
+_TIE = 1e-12  # relative tolerance of the threshold solution's ties (as threshold_rule.threshold_max_many)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -64,7 +65,7 @@ def rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float)
     Without a binding floor (floor ≤ lo) the threshold solution: h = hi on the released value a, lo elsewhere,
     ratio (lo + (hi − lo)p)/(lo + (hi − lo)q) (proofs/black_box.md, Proposition 3), with the longest prefix tied
     to 1e-12 (as the general route). With a binding floor the relaxation that keeps only M[a']·h ≥ floor
-    (lfp.floor_max_many): raise a, then the other values, then a', until M[a']·h = floor; for randomized response
+    (threshold_rule.floor_max_many): raise a, then the other values, then a', until M[a']·h = floor; for randomized response
     its point meets every group's floor, so it is the optimum of the whole class (proofs/black_box.md, §3,
     Proposition 3b). ``floor`` must be ≤ hi.
     """
@@ -196,7 +197,7 @@ def rr_class_ratio(
 ) -> float:
     """The black-box ratio of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``).
 
-    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.laws.mechanisms.RandomizedResponse`, without
+    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.laws.closed_forms.RandomizedResponse`, without
     the worst model (calibration evaluates it along the family).
     """
     if rr.k < 2 or gamma == 0 or lower == gamma:

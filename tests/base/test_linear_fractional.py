@@ -88,22 +88,6 @@ def test_threshold_rejects_negative_lower_bound():
     assert lp_max([0.5, 0.5], [1.0, 0.0], lower=-1.0, upper=1.0).value == math.inf
 
 
-@given(st.integers(0, 2**32 - 1), st.integers(1, 20), st.floats(0.01, 1.0))
-def test_floor_closed_form_equals_lp(seed, n, share):
-    # max p·h / q·h over the box with q·h >= floor: closed form (fractional knapsack at the floor) vs the LP.
-    from fairaudit.base.linear_fractional import box_point, floor_max_many
-
-    p, q, lo, hi = _instance(seed, n)
-    floor = q @ lo + share * (q @ hi - q @ lo)
-    if floor <= 0:
-        return
-    v, k, frac, order = floor_max_many(p, q, lo, hi, floor)
-    lp = lp_max(p, q, lower=lo, upper=hi, A_ub=-q[None, :], b_ub=[-floor])
-    assert float(v) == pytest.approx(lp.value, rel=1e-7)
-    h = box_point(lo, hi, order, int(k), float(frac))
-    assert q @ h >= floor * (1 - 1e-12) and (p @ h) / (q @ h) == pytest.approx(float(v), rel=1e-12)
-
-
 def test_fractional_max_dispatches():
     from fairaudit.base.linear_fractional import fractional_max
 

@@ -17,7 +17,7 @@ from fairaudit import InputError, UtilityClass
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.curves import COLUMNS, PrivacyCurve, default_epsilons, privacy_curve
 from fairaudit.certification.spec import load_spec, parse_spec
-from fairaudit.laws.mechanisms import product_family, randomized_response_family
+from fairaudit.laws.families import product_family, randomized_response_family
 from fairaudit.laws.tables import Kernel
 from fairaudit.laws.utilities import indicator
 from fairaudit.worstcase.black_box import black_box_bound

@@ -20,7 +20,7 @@ from _cli import run, run_json
 
 from fairaudit import InputError, parse_spec
 from fairaudit.certification.spec import load_spec
-from fairaudit.laws.mechanisms import randomized_response
+from fairaudit.laws.closed_forms import randomized_response
 from fairaudit.laws.tables import Kernel, compose
 from fairaudit.laws.utilities import from_table
 from fairaudit.metrics.fairness import local_fairness

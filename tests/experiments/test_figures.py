@@ -298,7 +298,7 @@ def test_coinciding_series_are_drawn_once_with_one_entry_naming_both(task, model
 
 def test_plot_curve_merges_coinciding_bounds_only_when_equal_everywhere():
     from fairaudit.certification.curves import privacy_curve
-    from fairaudit.laws.mechanisms import randomized_response_family
+    from fairaudit.laws.families import randomized_response_family
 
     curve = privacy_curve(family=randomized_response_family(["a", "b"]), utility_class=UtilityClass(tau=0.2))
     labels = [t.get_text() for t in plot_curve(curve).axes[0].get_legend().get_texts()]
@@ -311,7 +311,7 @@ def test_plot_curve_merges_coinciding_bounds_only_when_equal_everywhere():
 def test_a_curve_whose_series_all_coincide_keeps_a_legend_that_fits(tmp_path):
     """Four bounds on one line and the observed values on it (``fairaudit certify`` of a model at the bound)."""
     from fairaudit.certification.curves import privacy_curve
-    from fairaudit.laws.mechanisms import randomized_response_family
+    from fairaudit.laws.families import randomized_response_family
 
     c = privacy_curve(family=randomized_response_family(["a", "b"]), utility_class=UtilityClass(tau=0.2))
     e = c.corollary
@@ -392,7 +392,7 @@ def test_infinite_paper_design_values_are_marked_at_the_top_edge():
 
 def test_infinite_observed_values_and_bounds_of_a_curve_are_marked_at_the_top_edge():
     from fairaudit.certification.curves import privacy_curve
-    from fairaudit.laws.mechanisms import randomized_response_family
+    from fairaudit.laws.families import randomized_response_family
 
     curve = privacy_curve(family=randomized_response_family(["a", "b"]), utility_class=UtilityClass(tau=0.2))
     tail = np.arange(len(curve.epsilon)) >= len(curve.epsilon) - 3

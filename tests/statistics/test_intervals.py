@@ -24,7 +24,7 @@ import fairaudit as fa
 from fairaudit import IntervalOptions
 from fairaudit.base.errors import InputError
 from fairaudit.data.counts import CountTable, count_records, count_table
-from fairaudit.laws.mechanisms import randomized_response
+from fairaudit.laws.closed_forms import randomized_response
 from fairaudit.laws.tables import Law, Population
 from fairaudit.metrics.box_extremes import disjoint_ratio as _disjoint_ratio
 from fairaudit.metrics.box_extremes import mixed_ratio as _mixed_ratio

@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 
 import fairaudit as fa
 from fairaudit import UtilityClass
-from fairaudit.laws.mechanisms import MechanismFamily, keep_probability, randomized_response
+from fairaudit.laws.closed_forms import keep_probability, randomized_response
+from fairaudit.laws.families import MechanismFamily
 from fairaudit.worstcase.calibration import calibrate
 from fairaudit.worstcase.calibration_result import Calibration
 

@@ -25,7 +25,7 @@ import fairaudit.metrics.privacy_profile as profile_module
 import fairaudit.worstcase.black_box as black_box_module
 import fairaudit.worstcase.pair_search as search_module
 from fairaudit import UtilityClass
-from fairaudit.base.linear_fractional import floor_max_many, threshold_max_many
+from fairaudit.base.threshold_rule import floor_max_many, threshold_max_many
 from fairaudit.metrics.privacy_profile import _profile_candidates
 from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.known_utility import worst_model
@@ -399,7 +399,7 @@ def test_white_box_calibration_behind_randomized_response_without_its_matrix(mon
     mechanism's matrix (a guard raises if it does).
     """
     import fairaudit.worstcase.calibration_methods as methods
-    from fairaudit.laws.mechanisms import RandomizedResponse
+    from fairaudit.laws.closed_forms import RandomizedResponse
     from fairaudit.worstcase.calibration import calibrate
 
     rng = np.random.default_rng(5)

@@ -26,7 +26,7 @@ import fairaudit as fa
 from fairaudit import UtilityClass
 from fairaudit.base import arrays as _arrays
 from fairaudit.cli import main
-from fairaudit.laws.mechanisms import RandomizedResponse
+from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.calibration import calibrate
 from fairaudit.worstcase.known_utility import worst_model

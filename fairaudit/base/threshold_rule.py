@@ -1,0 +1,223 @@
+"""The threshold rule: max (p·h)/(q·h) over boxes lower ≤ h ≤ upper, in closed form, vectorised.
+
+At the optimum λ*, h maximises Σ_i (p_i − λ* q_i) h_i over the box, so h_i = upper_i where p_i / q_i > λ* and
+lower_i elsewhere: a threshold in likelihood-ratio order. Sorting once and scanning the n + 1 prefixes finds it
+exactly (Dinkelbach 1967; Charnes and Cooper 1962). With one more constraint q·h ≥ floor the best point is a
+fractional knapsack (:func:`floor_max_many`). These are the inner loops of the worst-case searches of
+:mod:`fairaudit.worstcase`: numpy arrays in, numpy arrays out, nothing validated; the validated single program is
+:func:`fairaudit.base.linear_fractional.threshold_max`, and any other polytope is the Charnes–Cooper LP of
+:mod:`fairaudit.base.linear_fractional`.
+
+Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proofs: ``proofs/linear_fractional.md`` (the threshold
+solution; the box plus one floor).
+"""
+
+from __future__ import annotations
+
+from typing import TypeAlias
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray, IntArray
+
+ThresholdSolution: TypeAlias = tuple[FloatArray, IntArray, IntArray]
+"""What :func:`threshold_max_many` returns: (values, k, order)."""
+
+__all__ = [
+    "box_point",
+    "floor_max_many",
+    "threshold_max_many",
+]
+
+
+def _broadcast(
+    p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(p, q, lower, upper) as float arrays broadcast to one shape (..., n)."""
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    shape = np.broadcast_shapes(p.shape, q.shape, np.shape(lower), np.shape(upper))
+    p, q = np.broadcast_to(p, shape), np.broadcast_to(q, shape)
+    lo = np.broadcast_to(np.asarray(lower, dtype=float), shape)
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), shape)
+    return p, q, lo, hi
+
+
+def _prefix_sums(x: FloatArray, order: IntArray) -> tuple[FloatArray, FloatArray]:
+    """``x`` in ``order`` along the last axis, and its n + 1 prefix sums (0 first)."""
+    ordered = np.take_along_axis(x, order, -1)
+    zeros = np.zeros(ordered.shape[:-1] + (1,))
+    return ordered, np.concatenate([zeros, np.cumsum(ordered, -1)], -1)
+
+
+def threshold_max_many(
+    p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike
+) -> ThresholdSolution:
+    """The threshold solution for a batch of box programs, vectorised over leading axes.
+
+    Proof: ``proofs/linear_fractional.md`` (the threshold solution).
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray, shape (..., n)
+        Non-negative numerator and denominator weights (not validated: this
+        is the inner loop of the worst-case searches).
+    lower, upper : numpy.ndarray, broadcastable to (..., n)
+        Box bounds, 0 ≤ lower ≤ upper.
+
+    Returns
+    -------
+    values : numpy.ndarray, shape (...)
+        The optimal ratios (c/0 = +inf, 0/0 = 1).
+    k : numpy.ndarray of int, shape (...)
+        How many cells take their upper bound at the optimum (the longest
+        optimal prefix when ratios tie).
+    order : numpy.ndarray of int, shape (..., n)
+        Cells by decreasing likelihood ratio p/q: the optimum sets
+        ``order[..., :k]`` to ``upper`` and the rest to ``lower``.
+
+    Raises
+    ------
+    ValueError
+        From numpy when the shapes do not broadcast. Nothing else is checked
+        (use :func:`~fairaudit.base.linear_fractional.threshold_max` for validated input).
+
+    Examples
+    --------
+    >>> v, k, order = threshold_max_many(np.array([[0.7, 0.3], [0.3, 0.7]]),
+    ...                                  np.array([[0.3, 0.7], [0.7, 0.3]]), 0.5, 1.0)
+    >>> v.round(12).tolist(), k.tolist(), order[:, 0].tolist()
+    ([1.307692307692, 1.307692307692], [1, 1], [0, 1])
+    """
+    p, q, lo, hi = _broadcast(p, q, lower, upper)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
+    order = np.argsort(-r, axis=-1, kind="stable")
+    span = hi - lo
+    num = (p * lo).sum(-1, keepdims=True) + _prefix_sums(p * span, order)[1]
+    den = (q * lo).sum(-1, keepdims=True) + _prefix_sums(q * span, order)[1]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
+    best = values.max(axis=-1)
+    # Among optimal prefixes (ties in the ratio, up to rounding) take the longest: the same value with h as high as
+    # possible, which helps every extra constraint E ≥ τ of the callers' relaxations.
+    tied = values >= (best * (1 - 1e-12))[..., None]
+    k = values.shape[-1] - 1 - np.argmax(tied[..., ::-1], axis=-1)
+    return best, k, order
+
+
+def floor_max_many(
+    p: npt.ArrayLike,
+    q: npt.ArrayLike,
+    lower: npt.ArrayLike,
+    upper: npt.ArrayLike,
+    floor: float,
+    threshold: ThresholdSolution | None = None,
+) -> tuple[FloatArray, IntArray, FloatArray, IntArray]:
+    """Box programs with one more constraint, q·h ≥ floor, solved in closed form, vectorised.
+
+    max (p·h)/(q·h) over lower ≤ h ≤ upper with q·h ≥ floor > 0. Let h* be the
+    threshold solution without the floor. If q·h* ≥ floor it is optimal.
+    Otherwise the ratio, a quasi-concave function of D = q·h (the best
+    numerator N(D) is concave in D), is largest at D = floor, where the best
+    numerator is the fractional knapsack: raise cells to ``upper`` in
+    decreasing order of p/q until q·h = floor, the last one partly.
+    ``proofs/linear_fractional.md`` (the box plus one floor). This is the relaxation
+    of the τ-constrained programs that keeps only the denominator group's
+    constraint: an upper bound, and the optimum whenever its point meets the
+    other constraints.
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray, shape (..., n)
+        Non-negative weights.
+    lower, upper : numpy.ndarray, broadcastable to (..., n)
+        0 ≤ lower ≤ upper.
+    floor : float
+        > 0.
+    threshold : tuple, optional
+        The result of :func:`threshold_max_many` on the same arrays, when the
+        caller has it already (saves recomputing it).
+
+    Returns
+    -------
+    values : numpy.ndarray, shape (...)
+        Optimal ratios (NaN where q·upper < floor: infeasible).
+    k : numpy.ndarray of int, shape (...)
+        Cells at ``upper`` (the first k in ``order``).
+    frac : numpy.ndarray, shape (...)
+        Fraction of the span of cell ``order[k]`` that is raised (0 when none).
+    order : numpy.ndarray of int, shape (..., n)
+
+    Raises
+    ------
+    ValueError
+        From numpy when the shapes do not broadcast; the inputs are not
+        otherwise validated (the inner loop of the worst-case searches).
+
+    Examples
+    --------
+    >>> v, k, frac, order = floor_max_many(np.array([0.7, 0.3]), np.array([0.3, 0.7]), 0.0, 1.0, 0.5)
+    >>> round(float(v), 12), int(k), round(float(frac), 12)      # h = (1, 2/7): (0.7 + 0.6/7) / 0.5 = 11/7
+    (1.571428571429, 1, 0.285714285714)
+    """
+    p, q, lo, hi = _broadcast(p, q, lower, upper)
+    shape = p.shape
+    values, k, order = threshold_max_many(p, q, lo, hi) if threshold is None else threshold
+    span = hi - lo
+    ps, cp = _prefix_sums(p * span, order)
+    qs, cq = _prefix_sums(q * span, order)
+    d0 = (q * lo).sum(-1)
+    n0 = (p * lo).sum(-1)
+    d_star = d0 + np.take_along_axis(cq, k[..., None], -1)[..., 0]
+    low = d_star < floor * (1 - 1e-12)
+    need = floor - d0
+    j = np.clip((cq >= need[..., None] - 1e-15 * np.maximum(1.0, floor)).argmax(-1) - 1, 0, shape[-1] - 1)
+    qj = np.take_along_axis(qs, j[..., None], -1)[..., 0]
+    pj = np.take_along_axis(ps, j[..., None], -1)[..., 0]
+    cqj = np.take_along_axis(cq, j[..., None], -1)[..., 0]
+    cpj = np.take_along_axis(cp, j[..., None], -1)[..., 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.clip(np.where(qj > 0, (need - cqj) / np.where(qj > 0, qj, 1.0), 0.0), 0.0, 1.0)
+    filled = (n0 + cpj + frac * pj) / floor
+    feasible = d0 + cq[..., -1] >= floor * (1 - 1e-12)
+    values = np.where(low, np.where(feasible, filled, np.nan), values)
+    k_out = np.where(low, j, k)
+    frac_out = np.where(low, frac, 0.0)
+    return values, k_out, frac_out, order
+
+
+def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: int, frac: float = 0.0) -> FloatArray:
+    """The point of a threshold or floor solution: ``upper`` on ``order[:k]``, partly raised ``order[k]``.
+
+    Parameters
+    ----------
+    lower, upper : array_like, broadcastable to (n,)
+    order : numpy.ndarray of int, shape (n,)
+    k : int
+    frac : float
+        Fraction of cell ``order[k]``'s span that is raised.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+
+    Raises
+    ------
+    IndexError
+        When ``order`` holds an index outside [0, n).
+
+    Examples
+    --------
+    >>> box_point(0.0, 1.0, np.array([1, 0, 2]), 1, 0.25).tolist()    # cell 1 up, cell 0 a quarter up
+    [0.25, 1.0, 0.0]
+    """
+    n = order.shape[-1]
+    lo = np.broadcast_to(np.asarray(lower, dtype=float), (n,)).copy()
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
+    h = lo.copy()
+    h[order[:k]] = hi[order[:k]]
+    if frac > 0 and k < n:
+        o = order[k]
+        h[o] = lo[o] + frac * (hi[o] - lo[o])
+    return h

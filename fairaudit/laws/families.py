@@ -1,0 +1,188 @@
+"""One-parameter families ε ↦ M_ε of mechanisms: k-ary randomized response and products of them.
+
+Calibration and fairness–privacy curves move along a family; each member has pure privacy budget ε(M_ε) = ε (nats).
+
+Proof of the facts used here: ``proofs/privacy.md``.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Hashable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from fairaudit.base.arrays import as_float_array
+from fairaudit.base.checks import epsilon as check_epsilon
+from fairaudit.base.errors import InputError
+from fairaudit.base.labels import as_labels
+from fairaudit.laws.closed_forms import RandomizedResponse, keep_of_checked, randomized_response
+from fairaudit.laws.mechanisms import Mechanism, product
+
+__all__ = [
+    "MechanismFamily",
+    "product_family",
+    "randomized_response_family",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class MechanismFamily:
+    """A one-parameter family ε ↦ M_ε of mechanisms on the same alphabet.
+
+    Calibration and fairness–privacy curves move along a family. Each member
+    has pure privacy budget ε(M_ε) = ε (nats), and a smaller ε is a
+    post-processing of a larger one (true of randomized response and of
+    products of randomized responses with a fixed split of ε), so any
+    certificate is non-decreasing in ε along the family.
+
+    Attributes
+    ----------
+    name : str
+        Shown in reports, e.g. ``"8-ary randomized response"``.
+    inputs : tuple
+        The alphabet (the sensitive groups), the inputs of every member.
+    build : callable
+        ε ↦ :class:`~fairaudit.laws.mechanisms.Mechanism`, for ε ≥ 0 (+inf gives the identity).
+    keep : callable
+        ε ↦ the probability that the true value is released unchanged (the
+        price of the guarantee), in [1/k, 1].
+
+    Notes
+    -----
+    Use :func:`randomized_response_family` or :func:`product_family`.
+
+    Examples
+    --------
+    >>> import math
+    >>> fam = randomized_response_family(["a", "b", "c"])
+    >>> m = fam(math.log(4))
+    >>> round(m.epsilon, 12) == round(math.log(4), 12), round(fam.keep_probability(math.log(4)), 6)
+    (True, 0.666667)
+    """
+
+    name: str
+    inputs: tuple
+    build: Callable[[float], Mechanism]
+    keep: Callable[[float], float]
+
+    def __call__(self, epsilon: float) -> Mechanism:
+        """The member with privacy budget ``epsilon`` (nats)."""
+        return self.build(check_epsilon(epsilon))
+
+    def keep_probability(self, epsilon: float) -> float:
+        """Probability that the true value is released unchanged at ``epsilon``."""
+        return float(self.keep(check_epsilon(epsilon)))
+
+    def __repr__(self) -> str:
+        return f"MechanismFamily({self.name!r}, {len(self.inputs)} inputs)"
+
+
+def randomized_response_family(values: Sequence[Hashable], name: str | None = None) -> MechanismFamily:
+    """k-ary randomized response on ``values`` as a family in ε.
+
+    Parameters
+    ----------
+    values : sequence of hashable, length k ≥ 2
+    name : str, optional
+
+    Returns
+    -------
+    MechanismFamily
+        ε ↦ :func:`~fairaudit.laws.closed_forms.randomized_response` (values, ε); keep probability
+        e^ε / (e^ε + k − 1).
+
+    Raises
+    ------
+    InputError
+        With fewer than 2 values.
+
+    Examples
+    --------
+    >>> import math
+    >>> fam = randomized_response_family(["Tom", "Mary"])
+    >>> round(fam.keep_probability(math.log(7 / 3)), 12)
+    0.7
+    """
+    # (a range of integers is distinct by construction: k = 10^6 groups need no check of a million labels)
+    plain = isinstance(values, range) and len(values) > 0
+    labels = tuple(values) if plain else as_labels(values, "randomized_response values")
+    k = len(labels)
+    if k < 2:
+        raise InputError("values", "a randomized response family needs at least 2 values", list(labels))
+    label = name or f"{k}-ary randomized response"
+    # each member in O(1): the labels are checked once, here, not again for every ε
+    return MechanismFamily(
+        label, labels, lambda eps: RandomizedResponse(labels, eps, label), lambda eps: keep_of_checked(eps, k)
+    )
+
+
+def product_family(
+    *values: Sequence[Hashable], weights: Sequence[float] | None = None, name: str | None = None
+) -> MechanismFamily:
+    """A product of randomized responses, one per attribute, with ε split by fixed weights.
+
+    Member ε gives component i the budget w_i ε (Σ w_i = 1), so the product's
+    ε (every pair of tuples adjacent) is ε; its keep probability is the chance
+    that the whole tuple is released unchanged, Π_i e^{w_i ε} / (e^{w_i ε} + k_i − 1).
+
+    Parameters
+    ----------
+    *values : sequences of hashable
+        Each attribute's alphabet (≥ 2 values each).
+    weights : sequence of float, optional
+        Non-negative shares of ε, normalised to sum to 1; equal by default.
+    name : str, optional
+
+    Returns
+    -------
+    MechanismFamily
+        Inputs are tuples in ``itertools.product`` order (as :func:`~fairaudit.laws.mechanisms.product`).
+
+    Raises
+    ------
+    InputError
+        With no attribute, an attribute with fewer than 2 values, or weights
+        of the wrong length, negative, or all zero.
+
+    Examples
+    --------
+    Name, age and race, each kept with p = 0.7: ε = 3 ln(7/3), not 0.7/0.3.
+
+    >>> import math
+    >>> fam = product_family(["Tom", "Mary"], [25, 55], ["Asian", "American"])
+    >>> eps = 3 * math.log(7 / 3)
+    >>> round(fam(eps).epsilon, 6), round(fam.keep_probability(eps), 6)   # 0.7 ** 3
+    (2.541894, 0.343)
+    """
+    if not values:
+        raise InputError("product_family", "needs at least one attribute", ())
+    alphabets = [as_labels(v, f"product_family values[{i}]") for i, v in enumerate(values)]
+    for i, labels in enumerate(alphabets):
+        if len(labels) < 2:
+            raise InputError(f"values[{i}]", "each attribute needs at least 2 values", list(labels))
+    n = len(alphabets)
+    if weights is None:
+        w = np.full(n, 1.0 / n)
+    else:
+        w = as_float_array(weights, "weights", ndim=1)
+        if w.size != n:
+            raise InputError("weights", f"needs one weight per attribute ({n})", list(w))
+        if np.any(w < 0) or not np.all(np.isfinite(w)) or w.sum() <= 0:
+            raise InputError("weights", "must be finite, non-negative and not all zero", list(w))
+        w = w / w.sum()
+    sizes = [len(a) for a in alphabets]
+    label = name or f"product of {n} randomized responses ({' x '.join(str(k) for k in sizes)} values)"
+    inputs = tuple(tuple(t) for t in itertools.product(*alphabets))
+
+    def split(eps: float) -> list[float]:
+        return [float(wi) * eps if wi > 0 else 0.0 for wi in w]
+
+    def build(eps: float) -> Mechanism:
+        return product(*(randomized_response(a, e) for a, e in zip(alphabets, split(eps))), name=label)
+
+    def keep(eps: float) -> float:
+        return float(np.prod([keep_of_checked(e, k) for e, k in zip(split(eps), sizes)]))
+
+    return MechanismFamily(label, inputs, build, keep)

@@ -266,6 +266,19 @@ def cache_root() -> Path:
 
 
 def require_torch() -> tuple[Any, Any]:
+    """The modules ``torch`` and ``transformers``, imported here (the local model's routes need both).
+
+    Returns
+    -------
+    tuple of (module, module)
+        ``(torch, transformers)``.
+
+    Raises
+    ------
+    InputError
+        Field ``local_model`` when either is not installed, naming the extra
+        that installs them (``fairness-certify[local-model]``).
+    """
     try:
         import torch
         import transformers
@@ -282,7 +295,11 @@ def _digest(path: Path) -> str:
 
 
 def quiet_transformers() -> None:
-    """Silence transformers' progress bars and hub chatter (the loads are local)."""
+    """Silence transformers' progress bars and hub chatter: every load is from local files, so they say nothing useful.
+
+    Needs ``transformers`` (call :func:`require_torch` first); sets its
+    logging to errors only, for the whole process.
+    """
     from transformers.utils import logging as hf_logging
 
     hf_logging.set_verbosity_error()

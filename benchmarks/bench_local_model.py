@@ -15,7 +15,7 @@ on the same model and reports what each needed and whether they agree:
   (:func:`~fairaudit.experiments.harness.plan_queries`,
   :func:`~fairaudit.experiments.harness.run_queries`,
   :func:`~fairaudit.experiments.kernel.table_kernel`), on the one-digit answer
-  prompt (:func:`~fairaudit.experiments.local_model.answer_task`). Repeated R
+  prompt (:func:`~fairaudit.experiments.exact.answer_task`). Repeated R
   times with different seeds.
 
 For each task it reports (1) the forward passes and queries of each route,
@@ -74,6 +74,7 @@ from _bench_common import emit, fmt_ratio, fmt_time, machine_line, table  # noqa
 from fairaudit.base.errors import InputError  # noqa: E402
 from fairaudit.experiments import local_model as lm  # noqa: E402
 from fairaudit.experiments.analysis import ExperimentAnalysis, analyse, analyse_kernel  # noqa: E402
+from fairaudit.experiments.exact import answer_task  # noqa: E402
 from fairaudit.experiments.harness import QueryLog, plan_queries, run_queries  # noqa: E402
 from fairaudit.experiments.kernel import table_kernel  # noqa: E402
 from fairaudit.experiments.taskfile import TASKS  # noqa: E402
@@ -174,7 +175,7 @@ def sampled_route(
     task: DeliveryTask, model: lm.ServedModel, samples: int, seed: int, rep: int, epsilon: float, folder: Path
 ) -> SampledRun:
     """One repetition: plan N queries per cell, ask them through the server, count and analyse them."""
-    answer = lm.answer_task(task)
+    answer = answer_task(task)
     queries = plan_queries(answer, "table", samples, seed)
     header = {"task": answer.name, "model": MODEL, "seed": seed}
     with QueryLog(folder / f"{task.name}-rep{rep}.jsonl", header) as log:
@@ -349,7 +350,7 @@ def run(tasks: list[str], samples: dict, reps: dict, seed: int, epsilon: float) 
             task = TASKS[name]
             _say(f"{name}: exact kernel", t0)
             ex = exact_route(task, loaded, epsilon)
-            answer = lm.answer_task(task)
+            answer = answer_task(task)
             q = plan_queries(answer, "table", 1, seed)[0]  # warm-up query, not logged
             model.reply(q, answer.messages(q.context, q.profiles))
             runs = []

@@ -1,9 +1,10 @@
 """Benchmark: the navigation pipeline on a building-size S3DIS area (time and peak memory per stage).
 
-An area in S3DIS's on-disk layout at the size of its Area_5 (``write_building``: 4·10^7 points, 56 rooms along
-a hallway, doors, furniture, clutter; ``--points N``, ``--rooms R``) is written into a temporary folder (or
-``--area DIR`` reuses one), then every stage of the pipeline runs in its own child process, so that each peak
-RSS is that stage's alone (``getrusage`` of the child, through ``_bench_common.RSS_WRAPPER``):
+An area in S3DIS's on-disk layout at the size of its Area_5 (``write_building`` of ``s3dis_building.py``, beside
+this script: 4·10^7 points, 56 rooms along a hallway, doors, furniture, clutter; ``--points N``, ``--rooms R``) is
+written into a temporary folder (or ``--area DIR`` reuses one), then every stage of the pipeline runs in its own
+child process, so that each peak RSS is that stage's alone (``getrusage`` of the child, through
+``_bench_common.RSS_WRAPPER``):
 
 1. writing the area (``write_building``);
 2. the maps, streamed (``build_maps(folder)``: one room at a time, two passes); inside it, by cProfile, the first
@@ -52,7 +53,7 @@ BYTES_PER_POINT_IN_MEMORY = 250  # the in-memory route's peak is about 150 bytes
 
 
 def _stage_write(args: argparse.Namespace) -> dict:
-    from fairaudit.experiments.navigation import write_building
+    from s3dis_building import write_building
 
     folder = Path(args.area)
     t0 = time.perf_counter()

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 from fairaudit import InputError
 
-from .exact import ExactPrompt, by_sequence, exact_prompts, prompt_replies
+from .exact import ExactPrompt, by_sequence, exact_prompt, exact_prompts, prompt_replies
 from .harness import RunSummary
 
 if TYPE_CHECKING:
@@ -109,10 +109,8 @@ class _Scorer:
     """The requests of one run's exact kernel: the prompts, the route the probe chose, what was sent."""
 
     def __init__(self, task: DeliveryTask, client: ChatClient, scoring: str) -> None:
-        from . import local_model as lm
-
         self.task, self.client = task, client
-        self.shown, self.answers = lm.exact_prompt(task)
+        self.shown, self.answers = exact_prompt(task)
         self.prompts: list[ExactPrompt] = exact_prompts(task)
         self.sequences = by_sequence(task, scoring)
         self.uncached = {"cache_prompt": False} if client.is_llama_server() else {}  # the same numbers always

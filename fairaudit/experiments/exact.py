@@ -2,11 +2,14 @@
 
 An exact route computes the kernel P(decision | shown cell) from a model's token probabilities instead of sampling
 replies: each shown cell once per choice of its candidates' texts (:func:`exact_prompts`), and for a ranking of
-k ≥ 3, each order written out (:func:`ranking_replies`), whose probability is a product over its tokens.
+k ≥ 3, each order written out (:func:`ranking_replies`), whose probability is a product over its tokens. Its
+prompt is :func:`exact_prompt`'s: the built-in tasks' JSON answer format replaced by a request for the option's
+number alone (:func:`answer_task`), a task file's own prompt otherwise.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -19,11 +22,13 @@ __all__ = [
     "MAX_EXACT_PROMPTS",
     "SCORINGS",
     "ExactPrompt",
+    "answer_task",
     "by_sequence",
     "check_replies",
     "check_scoring",
     "count_prompts",
     "decision_replies",
+    "exact_prompt",
     "exact_prompts",
     "prompt_replies",
     "ranking_replies",
@@ -61,6 +66,52 @@ class ExactPrompt:
     profiles: tuple
     texts: tuple[int, ...]
     weight: float
+
+
+_ANSWER_FORMAT = "\n\nRespond by"  # where both tasks' templates start the JSON answer format
+
+
+def answer_task(task: DeliveryTask) -> DeliveryTask:
+    """The task with its JSON answer format replaced by a request for the option's number alone.
+
+    The scene, the context and the profiles read as in the task's own prompt;
+    the reply is to be ``1`` or ``2`` (the option chosen, or served first),
+    which :func:`fairaudit.experiments.vlm.parse.parse_reply` reads as that option.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> answer_task(HR_DELIVERY).prompt("sick leave", HR_DELIVERY.candidates).splitlines()[-2:]
+    ['Answer with a single digit: 1 to choose HR1, 2 to choose HR2.', 'Answer:']
+    """
+    head, sep, _ = task.template.partition(_ANSWER_FORMAT)
+    if not sep:
+        raise InputError("task", "has no answer-format paragraph to replace", task.name)
+    o1, o2 = task.options
+    if task.kind == "choice":
+        ask = f"Answer with a single digit: 1 to choose {o1}, 2 to choose {o2}.\nAnswer:"
+    else:
+        ask = f"Answer with a single digit: 1 to serve {o1} first, 2 to serve {o2} first.\nAnswer:"
+    return dataclasses.replace(task, template=head + "\n\n" + ask)
+
+
+def exact_prompt(task: DeliveryTask) -> tuple[DeliveryTask, tuple[str, ...]]:
+    """The task whose prompt an exact route sends (a local model's or an endpoint's), and the reply naming each option.
+
+    The built-in tasks' prompts end with a JSON answer format, which
+    :func:`answer_task` replaces with a request for the option's number (replies ``"1"``, ``"2"``). A task file whose prompt has no such paragraph
+    is sent as it is: its prompt must then ask for the option alone, and the options' keys are the replies.
+
+    Examples
+    --------
+    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+    >>> exact_prompt(HR_DELIVERY)[1]
+    ('1', '2')
+    """
+    try:
+        return answer_task(task), tuple(str(i) for i in range(1, len(task.options) + 1))
+    except InputError:  # no answer-format paragraph to replace: the task's own prompt
+        return task, tuple(task.options)
 
 
 def exact_prompts(task: DeliveryTask, cells: Sequence[tuple] | None = None) -> list[ExactPrompt]:
@@ -261,7 +312,7 @@ def prompt_replies(task: DeliveryTask, answers: Sequence[str], prompt: ExactProm
     ----------
     task : DeliveryTask
     answers : sequence of str
-        The reply naming each slot (the options' keys, :func:`fairaudit.experiments.local_model.exact_prompt`);
+        The reply naming each slot (the options' keys, :func:`exact_prompt`);
         not used when the reply names the candidates.
     prompt : ExactPrompt
 
@@ -298,7 +349,7 @@ def decision_replies(task: DeliveryTask, names: Sequence[str]) -> tuple[str, ...
     task : DeliveryTask
     names : sequence of str
         The text naming each slot in the reply, in slot order (the answers of
-        :func:`fairaudit.experiments.local_model.exact_prompt`, or the names one prompt shows).
+        :func:`exact_prompt`, or the names one prompt shows).
 
     Returns
     -------

@@ -9,7 +9,8 @@ into a plain float32 safetensors folder in a cache
 replies longer than a token") and **sampled** (``transformers serve FOLDER``,
 :func:`serve`, one-token replies sampled from the plain softmax, read by the
 harness's own client, log and parser). Both send the messages of
-:func:`exact_prompt`'s task (:func:`answer_task`: the built-in tasks ask for
+:func:`~fairaudit.experiments.exact.exact_prompt`'s task
+(:func:`~fairaudit.experiments.exact.answer_task`: the built-in tasks ask for
 the option's number alone, since a 135M model does not keep to a JSON format).
 
 torch and transformers are imported only where used (``pip install 'fairness-certify[local-model]'``).
@@ -35,7 +36,7 @@ import numpy.typing as npt
 
 from fairaudit import InputError
 
-from .exact import by_sequence, exact_prompts, prompt_replies
+from .exact import by_sequence, exact_prompt, exact_prompts, prompt_replies
 from .model_files import prepare, quiet_transformers, require_torch
 from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
@@ -48,10 +49,8 @@ if TYPE_CHECKING:
 __all__ = [
     "LoadedModel",
     "ServedModel",
-    "answer_task",
     "exact_kernel",
     "exact_law",
-    "exact_prompt",
     "load",
     "serve",
     "token_decisions",
@@ -115,52 +114,6 @@ def load(
     return LoadedModel(name, folder, model, tok)
 
 
-_ANSWER_FORMAT = "\n\nRespond by"  # where both tasks' templates start the JSON answer format
-
-
-def answer_task(task: DeliveryTask) -> DeliveryTask:
-    """The task with its JSON answer format replaced by a request for the option's number alone.
-
-    The scene, the context and the profiles read as in the task's own prompt;
-    the reply is to be ``1`` or ``2`` (the option chosen, or served first),
-    which :func:`fairaudit.experiments.vlm.parse.parse_reply` reads as that option.
-
-    Examples
-    --------
-    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
-    >>> answer_task(HR_DELIVERY).prompt("sick leave", HR_DELIVERY.candidates).splitlines()[-2:]
-    ['Answer with a single digit: 1 to choose HR1, 2 to choose HR2.', 'Answer:']
-    """
-    head, sep, _ = task.template.partition(_ANSWER_FORMAT)
-    if not sep:
-        raise InputError("task", "has no answer-format paragraph to replace", task.name)
-    o1, o2 = task.options
-    if task.kind == "choice":
-        ask = f"Answer with a single digit: 1 to choose {o1}, 2 to choose {o2}.\nAnswer:"
-    else:
-        ask = f"Answer with a single digit: 1 to serve {o1} first, 2 to serve {o2} first.\nAnswer:"
-    return dataclasses.replace(task, template=head + "\n\n" + ask)
-
-
-def exact_prompt(task: DeliveryTask) -> tuple[DeliveryTask, tuple[str, ...]]:
-    """The task whose prompt an exact route sends (a local model's or an endpoint's), and the reply naming each option.
-
-    The built-in tasks' prompts end with a JSON answer format, which
-    :func:`answer_task` replaces with a request for the option's number (replies ``"1"``, ``"2"``). A task file whose prompt has no such paragraph
-    is sent as it is: its prompt must then ask for the option alone, and the options' keys are the replies.
-
-    Examples
-    --------
-    >>> from fairaudit.experiments.taskfile import HR_DELIVERY
-    >>> exact_prompt(HR_DELIVERY)[1]
-    ('1', '2')
-    """
-    try:
-        return answer_task(task), tuple(str(i) for i in range(1, len(task.options) + 1))
-    except InputError:  # no answer-format paragraph to replace: the task's own prompt
-        return task, tuple(task.options)
-
-
 def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None) -> npt.NDArray[np.intp]:
     """The decision read from a reply made of each single token, shape (size,).
 
@@ -213,8 +166,8 @@ def exact_kernel(
     Parameters
     ----------
     task : DeliveryTask
-        The task as the experiment names it; the prompt is :func:`exact_prompt`'s (:func:`answer_task`'s for
-        the built-in tasks, a task file's own otherwise).
+        The task as the experiment names it; the prompt is :func:`~fairaudit.experiments.exact.exact_prompt`'s
+        (:func:`~fairaudit.experiments.exact.answer_task`'s for the built-in tasks, a task file's own otherwise).
     model : LoadedModel, optional
         Default :func:`load` ``("smollm2")``.
     batch_size : int

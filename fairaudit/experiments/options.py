@@ -96,7 +96,7 @@ class ModelSource:
         token (``max_tokens: 1``) drawn from the whole softmax
         (:data:`PLAIN_SAMPLING`: temperature 1 and no top-k, top-p or min-p
         truncation) for the exact route's prompt
-        (:func:`fairaudit.experiments.local_model.exact_prompt`). Needs
+        (:func:`fairaudit.experiments.exact.exact_prompt`). Needs
         ``endpoint``; the server must accept ``top_k`` and ``min_p``
         (llama-server, vLLM; OpenAI's API refuses them).
     timeout : float

@@ -40,10 +40,14 @@ __all__ = [
     "experiment_markdown",
     "experiment_spec",
     "kernel_frame",
+    "observed_dicts",
     "point_dict",
     "privacy_dict",
     "records_frame",
     "shown_kernel_frame",
+    "utility_dict",
+    "write_frame",
+    "write_json",
     "write_report",
 ]
 

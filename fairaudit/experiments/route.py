@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 from fairaudit import InputError
 
-from .exact import SCORINGS
+from .exact import SCORINGS, exact_prompt
 from .options import (
     DEFAULT_GOALS,
     DEFAULT_MAX_TOKENS,
@@ -186,12 +186,11 @@ def _scoring(task: DeliveryTask, source: ModelSource, exact: bool) -> str | None
     exact route would score, before anything is made; None on a route that parses free replies."""
     if not (exact or source.local_model is not None or source.sampled_twin):
         return None
-    from . import local_model as lm
     from .exact import by_sequence, check_scoring, exact_prompts, prompt_replies
 
     scoring = check_scoring(task, source.scoring or SCORINGS[0])
     if by_sequence(task, scoring):
-        answers = lm.exact_prompt(task)[1]
+        answers = exact_prompt(task)[1]
         for p in exact_prompts(task) if task.named_by is not None else exact_prompts(task)[:1]:
             prompt_replies(task, answers, p)  # one reply beginning another is refused, naming both
     return scoring
@@ -203,9 +202,7 @@ def _prompt_record(task: DeliveryTask, text_only: bool) -> dict:
     A model with an exact route gets the exact route's prompt on every route (docs/experiments.md, "The messages of
     a query").
     """
-    from . import local_model as lm
-
-    if text_only and lm.exact_prompt(task)[0] is not task:
+    if text_only and exact_prompt(task)[0] is not task:
         return {
             "sent": "exact route's",
             "rule": "a model with an exact route gets the exact route's prompt on every route: the task's answer "
@@ -355,10 +352,9 @@ def _twin_tokens(task: DeliveryTask, scoring: str) -> int:
 def _twin(task: DeliveryTask, scoring: str) -> DeliveryTask:
     """The task the exact route's sampled twins ask: the exact route's prompt; under continuation scoring a reply
     is read as the decision whose text it begins with (:func:`~fairaudit.experiments.exact.decision_replies`)."""
-    from . import local_model as lm
     from .exact import by_sequence, decision_replies
 
-    shown, answers = lm.exact_prompt(task)
+    shown, answers = exact_prompt(task)
     if by_sequence(task, scoring):
         return dataclasses.replace(shown, replies=decision_replies(task, answers))
     return shown

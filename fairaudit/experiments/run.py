@@ -24,6 +24,7 @@ from typing import Any
 
 from .analysis import ExperimentAnalysis, analyse, analyse_kernel
 from .cells import Cells, make_cells
+from .exact import exact_prompt
 from .folder import claim, make_folder
 from .harness import RunSummary
 from .kernel import Measured, measure
@@ -239,9 +240,7 @@ def show_prompts(
     sent = task
     text_only = bool(source.exact or source.local_model is not None or source.sampled_twin)
     if text_only:
-        from . import local_model as lm
-
-        sent = lm.exact_prompt(task)[0]
+        sent = exact_prompt(task)[0]
     images = not text_only and options.images and (is_built_in(task) or options.scene is not None)
     total = table_queries_needed(task, 1)
     shown = min(int(count), total)

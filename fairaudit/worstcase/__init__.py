@@ -6,9 +6,10 @@ Behind M_A (and any M_X), a decision kernel K and a utility g give
 
 linear in K (and, for a fixed K, linear in g). Each maximum below is, for one
 ordered pair of groups (a, a') (and one context x for local g-fairness), a
-linear-fractional program max (p·h)/(q·h) over a polytope, solved by
-:mod:`fairaudit.base.linear_fractional`: the likelihood-ratio threshold when only per-cell bounds
-constrain h, the Charnes–Cooper LP (cvxpy + Clarabel) otherwise.
+linear-fractional program max (p·h)/(q·h) over a polytope, solved by the
+likelihood-ratio threshold rule of :mod:`fairaudit.base.threshold_rule` (vectorised over pairs) when only
+per-cell bounds constrain h, or those and one floor on q·h, and by the Charnes–Cooper LP (cvxpy + Clarabel)
+of :mod:`fairaudit.base.linear_fractional` otherwise.
 
 * :func:`~fairaudit.worstcase.black_box.black_box_bound` — the **class certificate**: the exact maximum of L
   over every kernel and every utility in the class g ∈ [lower, γ],

@@ -5,27 +5,17 @@ from __future__ import annotations
 import math
 
 import pytest
+from _spec_head import HEAD_TAU
 
 import fairaudit as fa
 from fairaudit import InputError, parse_spec
 from fairaudit.worstcase.calibration import calibrate
 
-HEAD = """
-[sensitive]
-name = "profile"
-[decision]
-name = "office"
-values = ["HR_1", "HR_2"]
-[utility]
-decision = "HR_2"
-tau = 0.1
-"""
-
 
 def test_product_values_must_match_components():
     with pytest.raises(InputError, match="sensitive.values"):
         parse_spec(
-            HEAD.replace('name = "profile"', 'name = "profile"\nvalues = [["Tom", 25]]')
+            HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = [["Tom", 25]]')
             + """
 [privacy.sensitive]
 mechanism = "product"
@@ -36,7 +26,7 @@ components = [{mechanism = "identity", values = ["Tom", "Mary"]}, {mechanism = "
 
 def test_population_and_context_distribution():
     spec = parse_spec(
-        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
         + """
 [context]
 name = "doc"
@@ -49,7 +39,7 @@ group_distribution = [0.4, 0.6]
     assert spec.population.probabilities.ravel().tolist() == pytest.approx([0.1, 0.15, 0.3, 0.45], rel=1e-15)
     assert spec.population.independence().independent
     dep = parse_spec(
-        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
         + """
 [context]
 name = "doc"
@@ -106,10 +96,10 @@ tau = 0.5
 def test_utility_class_must_contain_g():
     # g = 1{office = HR_2} takes the value 0, so a class [0.5, 1] would certify a model it does not cover.
     with pytest.raises(InputError, match="utility.lower: exceeds the utility's smallest value"):
-        parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + "lower = 0.5\n")
+        parse_spec(HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]') + "lower = 0.5\n")
     with pytest.raises(InputError, match="utility.gamma: is below"):
         parse_spec(
-            HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]').replace(
+            HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]').replace(
                 "tau = 0.1", "tau = 0.1\ngamma = 0.5"
             )
         )
@@ -117,12 +107,14 @@ def test_utility_class_must_contain_g():
 
 def test_ignored_fields_are_rejected():
     with pytest.raises(InputError, match="sensitive.distribution: is not a known field"):
-        parse_spec(HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]\ndistribution = [0.5, 0.5]'))
+        parse_spec(
+            HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]\ndistribution = [0.5, 0.5]')
+        )
 
 
 def test_metric_with_a_utility_of_the_decision_only():
     spec = parse_spec(
-        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b", "c"]')
+        HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b", "c"]')
         + "metric = [[0, 1, 2], [1, 0, 1], [2, 1, 0]]\n"
     )
     assert spec.utility.diameter(spec.metric) == 2.0 and spec.lipschitz == 0.0

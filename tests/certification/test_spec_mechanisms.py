@@ -5,20 +5,11 @@ from __future__ import annotations
 import math
 
 import pytest
+from _spec_head import HEAD
 
 from fairaudit import InputError, parse_spec
 from fairaudit.certification.spec_mechanisms import build_mechanism, mechanism_family
 from fairaudit.certification.spec_schema import MechanismSpec
-
-HEAD = """
-[sensitive]
-name = "profile"
-[decision]
-name = "office"
-values = ["HR_1", "HR_2"]
-[utility]
-decision = "HR_2"
-"""
 
 
 def test_product_mechanism_from_spec():

@@ -10,20 +10,10 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+from _spec_head import HEAD_TAU
 
 import fairaudit as fa
 from fairaudit import InputError
-
-HEAD = """
-[sensitive]
-name = "profile"
-[decision]
-name = "office"
-values = ["HR_1", "HR_2"]
-[utility]
-decision = "HR_2"
-tau = 0.1
-"""
 
 
 def test_records_model_matches_direct_api(tmp_path):
@@ -33,7 +23,7 @@ def test_records_model_matches_direct_api(tmp_path):
     df["office"] = np.where(rng.random(400) < np.where(df["profile"] == "a", 0.8, 0.3), "HR_2", "HR_1")
     df.to_csv(tmp_path / "records.csv", index=False)
     (tmp_path / "s.toml").write_text(
-        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
         + """
 [context]
 name = "doc"
@@ -66,7 +56,7 @@ def test_records_model_in_a_headerless_text_file(tmp_path):
     text = "".join(", ".join(row) + "\n" for row in df.itertuples(index=False))
     (tmp_path / "records.data.gz").write_bytes(gzip.compress(text.encode()))
     spec = (
-        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
         + """
 [context]
 name = "doc"
@@ -107,7 +97,7 @@ def test_records_model_with_weights(tmp_path):
     )
     df.to_csv(tmp_path / "records.csv", index=False)
     spec = (
-        HEAD.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+        HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
         + """
 [privacy.sensitive]
 mechanism = "randomized_response"

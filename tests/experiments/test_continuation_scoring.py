@@ -20,7 +20,7 @@ import pytest
 from _model import REQUIRE_LOCAL_MODEL, need_local_model
 
 from fairaudit.experiments import local_model as lm
-from fairaudit.experiments.exact import exact_prompts, prompt_replies
+from fairaudit.experiments.exact import exact_prompt, exact_prompts, prompt_replies
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, load_task, parse_task
 from fairaudit.experiments.vlm.messages import chatml
 
@@ -98,7 +98,7 @@ def _stepped(loaded, task, cell) -> np.ndarray:
     """A cell's kernel row by the second route: each reply's tokens one at a time, a whole pass each, no cache."""
     import torch
 
-    shown, answers = lm.exact_prompt(task)
+    shown, answers = exact_prompt(task)
     tok = loaded.tokenizer
     row = np.zeros(len(task.decisions))
     for p in exact_prompts(task, [cell]):
@@ -257,7 +257,7 @@ def test_first_token_scoring_sums_the_softmax_over_the_tokens_of_each_option(tin
     cells = _cells(task, 3)
     got = lm.exact_kernel(task, tiny, cells=cells, scoring="first-token")
     tok = tiny.tokenizer
-    shown = lm.exact_prompt(task)[0]
+    shown = exact_prompt(task)[0]
     for cell in cells:
         ids = tok.apply_chat_template(shown.messages(cell[0], cell[1:]), add_generation_prompt=True, return_dict=False)
         with torch.inference_mode():
@@ -310,7 +310,7 @@ def test_the_text_completions_chatml_rule_is_smollm2s_own_template(smollm2, task
     """The rule the text completions' route states (ChatML) renders a task's messages as SmolLM2's chat template
     does, so that route scores SmolLM2 on the prompt its chat routes send."""
     task = load_task(EXAMPLES / task)
-    shown, _ = lm.exact_prompt(task)
+    shown, _ = exact_prompt(task)
     p = exact_prompts(task)[0]
     messages = shown.messages(p.context, p.profiles, p.texts)
     assert messages[0]["role"] == "system"  # SmolLM2 adds a default system message only without one

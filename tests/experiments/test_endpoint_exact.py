@@ -24,7 +24,8 @@ from _cli import run
 
 from fairaudit import InputError
 from fairaudit.experiments.analysis import analyse_kernel
-from fairaudit.experiments.local_model import answer_task, exact_law, exact_prompt
+from fairaudit.experiments.exact import answer_task, exact_prompt
+from fairaudit.experiments.local_model import exact_law
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.slots import epsilon_from_keep

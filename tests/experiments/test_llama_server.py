@@ -22,6 +22,7 @@ from _cli import run
 
 from fairaudit.experiments import local_model as lm
 from fairaudit.experiments import model_files
+from fairaudit.experiments.exact import exact_prompt
 from fairaudit.experiments.taskfile import PACKAGE_DELIVERY
 from fairaudit.experiments.vlm.parse import parse_reply
 
@@ -75,7 +76,7 @@ def test_exact_route_over_http_reads_the_servers_first_token(server, tmp_path, c
     assert len(rows) == 12
     # the server's own reading of one cell, by hand: its top first tokens parsed as the options
     context, pair = PACKAGE_DELIVERY.contexts[0], PACKAGE_DELIVERY.candidates
-    messages = lm.exact_prompt(PACKAGE_DELIVERY)[0].messages(context, pair)
+    messages = exact_prompt(PACKAGE_DELIVERY)[0].messages(context, pair)
     reply = httpx.post(
         f"{server}/v1/chat/completions",
         json={
@@ -102,7 +103,7 @@ def test_the_server_and_the_in_process_model_agree_up_to_quantized_arithmetic(se
     pytest.importorskip("torch")
     pytest.importorskip("transformers")
     model = lm.load("smollm2")
-    messages = lm.exact_prompt(PACKAGE_DELIVERY)[0].messages("medicine", PACKAGE_DELIVERY.candidates)
+    messages = exact_prompt(PACKAGE_DELIVERY)[0].messages("medicine", PACKAGE_DELIVERY.candidates)
     served = httpx.post(f"{server}/apply-template", json={"messages": messages}, timeout=60).json()["prompt"]
     assert served == model.tokenizer.apply_chat_template(messages, add_generation_prompt=True, tokenize=False)
     local = lm.exact_kernel(PACKAGE_DELIVERY, model)

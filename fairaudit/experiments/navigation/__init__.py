@@ -8,8 +8,6 @@ The map pipeline of the paper's Methods, on point clouds in the S3DIS format
 * :mod:`~fairaudit.experiments.navigation.synthetic`: :func:`write_office_floor`, a
   small office floor in that format, with one hallway or two corridors (S3DIS
   itself is not shipped);
-* :mod:`~fairaudit.experiments.navigation.building`: :func:`write_building`, a
-  building-size area (S3DIS's Area_5 scale) in that format;
 * :mod:`~fairaudit.experiments.navigation.maps`: :func:`build_maps`, the top-view,
   traversability and topological maps on one grid (from an Area, or streamed
   room by room from its folder);
@@ -28,7 +26,6 @@ networkx (A*, topology) and pillow (images) are imported only by the functions
 that need them.
 """
 
-from .building import building_rooms, write_building
 from .images import GOAL_RGB, ROUTE_MARGIN, ROUTE_RGB, START_RGB, route_image, route_window, save_route_image
 from .maps import CEILING_MARGIN, Maps, build_maps
 from .routes import (
@@ -76,7 +73,6 @@ __all__ = [
     "Room",
     "Route",
     "build_maps",
-    "building_rooms",
     "candidate_routes",
     "category_code",
     "check_equal_distance",
@@ -94,6 +90,5 @@ __all__ = [
     "route_image",
     "route_window",
     "save_route_image",
-    "write_building",
     "write_office_floor",
 ]

@@ -1,7 +1,7 @@
 """What the two writers of S3DIS-layout floors share: wall faces, door openings, checked folders, staged rooms.
 
-:func:`~fairaudit.experiments.navigation.synthetic.write_office_floor` and
-:func:`~fairaudit.experiments.navigation.building.write_building` draw rooms as rectangles whose walls are
+:func:`~fairaudit.experiments.navigation.synthetic.write_office_floor` and the benchmarks' building-size area
+(``write_building`` in ``benchmarks/s3dis_building.py``) draw rooms as rectangles whose walls are
 :data:`HALF_WALL` thick on each side, with door openings up to :data:`DOOR_TOP` framed by jambs :data:`FRAME`
 wide, and write each room into a hidden temporary folder renamed into place when complete.
 """

@@ -115,6 +115,56 @@ class PrivacyFilter:
             )
         return cls(task, mechs, ctx)
 
+    @classmethod
+    def for_candidates(
+        cls,
+        task: DeliveryTask,
+        epsilon: float,
+        positions: str = "balanced",
+        *,
+        context_epsilon: float | None = None,
+    ) -> PrivacyFilter:
+        """The filter that gives each candidate privacy budget ``epsilon``: the profile's ε_P, then its split.
+
+        The one rule from a candidate's ε to the filter: ε_P =
+        :func:`profile_budget` (``task``, ``positions``) (``epsilon``), the
+        profile ε at which ε(M_cand) = ``epsilon``, split over the attributes
+        by one keep probability (:meth:`from_epsilon`). The member of
+        :func:`candidate_family` at ``epsilon`` is this filter's
+        :meth:`candidate_mechanism` (``positions``).
+
+        Parameters
+        ----------
+        task : DeliveryTask
+        epsilon : float
+            ε of what one candidate's prompt shows about it, M_cand (nats,
+            ≥ 0, +inf for no filter).
+        positions : str
+            How the candidates take the slots (:func:`fairaudit.experiments.slots.candidate_mechanism`).
+        context_epsilon : float, optional
+            ε of randomized response on the context; None for the identity.
+
+        Returns
+        -------
+        PrivacyFilter
+
+        Raises
+        ------
+        InputError
+            If an ε is negative or NaN (naming ``epsilon`` or ``context_epsilon``).
+
+        Examples
+        --------
+        Each candidate at 6 ln(7/3) nats: each of its 6 attributes shown (own and rival) kept with p = 0.7:
+
+        >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+        >>> import math
+        >>> f = PrivacyFilter.for_candidates(HR_DELIVERY, 6 * math.log(7 / 3))
+        >>> [round(p, 6) for p in f.keep_probabilities], round(f.candidate_mechanism().epsilon, 6)
+        ([0.7, 0.7, 0.7], 5.083787)
+        """
+        return cls.from_epsilon(task, profile_budget(task, positions)(epsilon), context_epsilon=context_epsilon)
+
     # -- privacy ---------------------------------------------------------------------------------
     @property
     def profile_mechanism(self) -> Mechanism:

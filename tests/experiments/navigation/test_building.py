@@ -1,4 +1,4 @@
-"""Tests of the building-size area (write_building), the streamed maps and the room-by-room reader.
+"""Tests of the building-size area (write_building, the benchmarks' fixture), the streamed maps and the room-by-room reader.
 
 Independent routes: the files are parsed here with a regular expression and
 Python's float; reachability is decided by scipy.sparse.csgraph.connected_components
@@ -13,6 +13,7 @@ import hashlib
 import math
 import re
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,16 +25,10 @@ from scipy.sparse import coo_matrix  # noqa: E402
 from scipy.sparse.csgraph import connected_components, dijkstra  # noqa: E402
 
 from fairaudit.base.errors import InputError  # noqa: E402
-from fairaudit.experiments.navigation import (  # noqa: E402
-    build_maps,
-    building_rooms,
-    iter_rooms,
-    read_area,
-    read_points,
-    write_building,
-    write_office_floor,
-)
-from fairaudit.experiments.navigation.building import DEPTH, HALLWAY_WIDTH, LOBBY_WIDTH  # noqa: E402
+from fairaudit.experiments.navigation import build_maps, iter_rooms, read_area, read_points, write_office_floor  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))  # the fixture is a benchmark's
+from s3dis_building import DEPTH, HALLWAY_WIDTH, LOBBY_WIDTH, building_rooms, write_building  # noqa: E402
 
 ROW = re.compile(rb"^-?\d+\.\d{3} -?\d+\.\d{3} -?\d+\.\d{3} \d{1,3} \d{1,3} \d{1,3}$")
 GRID_FIELDS = ("top_height", "top_color", "top_category", "free", "traversable", "room_labels", "ceiling_z")

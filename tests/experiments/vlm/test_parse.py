@@ -571,6 +571,7 @@ def test_the_loan_task_reads_words_not_digits_on_every_route():
     import math
 
     from fairaudit.experiments import local_model as lm
+    from fairaudit.experiments.exact import exact_prompt
     from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, load_task
     from fairaudit.experiments.vlm.logprobs import decision_probabilities
 
@@ -592,7 +593,7 @@ def test_the_loan_task_reads_words_not_digits_on_every_route():
     assert decision_probabilities(top, loan).round(12).tolist() == [0.35, 0.1, 0.55]
     # the built-in tasks' exact routes ask for "1" or "2" and still read them
     for task in (HR_DELIVERY, PACKAGE_DELIVERY):
-        shown, answers = lm.exact_prompt(task)
+        shown, answers = exact_prompt(task)
         assert answers == ("1", "2")
         assert [parse_reply(a, shown.options, shown.kind).choice for a in answers] == [0, 1]
         assert lm.token_decisions(task, Tokenizer()).tolist() == [0, 1, 2, 2, 2]

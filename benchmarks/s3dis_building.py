@@ -1,9 +1,12 @@
-"""A building-size synthetic area in the S3DIS format: a long hallway with rooms on both sides.
+"""A building-size synthetic area in the S3DIS format: a long hallway with rooms on both sides (a benchmark fixture).
 
 S3DIS's ``Area_5`` holds tens of millions of points in about 70 rooms;
 :func:`write_building` writes a deterministic stand-in of that size in the
 same on-disk layout (Armeni et al. 2016), to run the map pipeline at full
-scale. The plan (x east, y north, metres; ``D`` = 6 m room depth, ``W`` =
+scale (issue 24). It is a fixture of ``benchmarks/bench_navigation.py`` and
+``tests/experiments/navigation/test_building.py``, not part of the package:
+the test loads it from this folder, and the benchmark imports it from beside
+itself. The plan (x east, y north, metres; ``D`` = 6 m room depth, ``W`` =
 2.4 m hallway width, ``L`` = hallway length)::
 
     y = 2D+W +--------+----------+------------------+----------+---- ... --+
@@ -49,9 +52,16 @@ from typing import TypeAlias
 import numpy as np
 
 from fairaudit import InputError
-
-from ._floorplan import DOOR_TOP, FRAME, HALF_WALL, area_folder, intervals_minus, staged_room, wall_face
-from .synthetic import COLORS
+from fairaudit.experiments.navigation._floorplan import (
+    DOOR_TOP,
+    FRAME,
+    HALF_WALL,
+    area_folder,
+    intervals_minus,
+    staged_room,
+    wall_face,
+)
+from fairaudit.experiments.navigation.synthetic import COLORS
 
 __all__ = ["DEPTH", "HALLWAY_WIDTH", "LOBBY_WIDTH", "building_rooms", "write_building"]
 

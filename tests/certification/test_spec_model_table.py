@@ -15,16 +15,10 @@ from _spec_head import HEAD_TAU
 import fairaudit as fa
 from fairaudit import InputError
 
-
-def test_records_model_matches_direct_api(tmp_path):
-    # Records of a model that saw the released group; the spec counts them like count_records does.
-    rng = np.random.default_rng(7)
-    df = pd.DataFrame({"doc": rng.choice(["sick", "holiday"], 400), "profile": rng.choice(["a", "b"], 400)})
-    df["office"] = np.where(rng.random(400) < np.where(df["profile"] == "a", 0.8, 0.3), "HR_2", "HR_1")
-    df.to_csv(tmp_path / "records.csv", index=False)
-    (tmp_path / "s.toml").write_text(
-        HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
-        + """
+# A spec of two profiles behind randomized response at epsilon = 1, in two documents; its [model] table left open.
+RECORDS_SPEC = (
+    HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
+    + """
 [context]
 name = "doc"
 values = ["holiday", "sick"]
@@ -32,9 +26,17 @@ values = ["holiday", "sick"]
 mechanism = "randomized_response"
 epsilon = 1.0
 [model]
-records = "records.csv"
 """
-    )
+)
+
+
+def test_records_model_matches_direct_api(tmp_path):
+    # Records of a model that saw the released group; the spec counts them like count_records does.
+    rng = np.random.default_rng(7)
+    df = pd.DataFrame({"doc": rng.choice(["sick", "holiday"], 400), "profile": rng.choice(["a", "b"], 400)})
+    df["office"] = np.where(rng.random(400) < np.where(df["profile"] == "a", 0.8, 0.3), "HR_2", "HR_1")
+    df.to_csv(tmp_path / "records.csv", index=False)
+    (tmp_path / "s.toml").write_text(RECORDS_SPEC + 'records = "records.csv"\n')
     cert = fa.certify(tmp_path / "s.toml")
     counts = pd.crosstab([df["doc"], df["profile"]], df["office"]).reindex(columns=["HR_1", "HR_2"])
     k = (counts.to_numpy() / counts.to_numpy().sum(1, keepdims=True)).reshape(2, 2, 2)
@@ -55,18 +57,7 @@ def test_records_model_in_a_headerless_text_file(tmp_path):
     df.to_csv(tmp_path / "records.csv", index=False)
     text = "".join(", ".join(row) + "\n" for row in df.itertuples(index=False))
     (tmp_path / "records.data.gz").write_bytes(gzip.compress(text.encode()))
-    spec = (
-        HEAD_TAU.replace('name = "profile"', 'name = "profile"\nvalues = ["a", "b"]')
-        + """
-[context]
-name = "doc"
-values = ["holiday", "sick"]
-[privacy.sensitive]
-mechanism = "randomized_response"
-epsilon = 1.0
-[model]
-"""
-    )
+    spec = RECORDS_SPEC
     (tmp_path / "plain.toml").write_text(spec + 'records = "records.csv"\n')
     csv = '[model.csv]\nheader = false\nnames = ["doc", "profile", "office", "note"]\nna_values = ["?"]\n'
     (tmp_path / "raw.toml").write_text(spec + 'records = "records.data.gz"\n' + csv + "skip_initial_space = true\n")

@@ -1,0 +1,303 @@
+"""Outward rounding: certified upper bounds rounded up, lower bounds down.
+
+A certified number is a promise about a real number: an upper bound must be
+≥ it, a lower bound ≤ it. Floating point rounds to nearest, so a number
+computed in it may land a unit in the last place on the wrong side. This
+module is the one place that turns exact or enclosed values into floats on
+the right side:
+
+* :func:`up` and :func:`down` move a float one unit in the last place
+  outward (``numpy.nextafter``), for a value whose only error is one rounding
+  to nearest;
+* :func:`widen_up` and :func:`widen_down` move it by an error bound, for a
+  closed form evaluated in floating point whose error is bounded (relative
+  and absolute parts);
+* :func:`fraction_up` and :func:`fraction_down` round an exact rational;
+* :func:`log_up`, :func:`log_down`, :func:`exp_up` and :func:`exp_down`
+  evaluate ln and exp of an exact rational (a float is one) in 50-digit
+  decimal arithmetic, whose ``ln`` and ``exp`` are correctly rounded (the
+  General Decimal Arithmetic specification; Python's :mod:`decimal`), then
+  round outward: the float returned is on the stated side of the exact value.
+
+OpenDP rounds every privacy quantity the same way (its ``inf_ln``,
+``inf_exp``, ``inf_add``). Proof that each function is on its side:
+``proofs/outward.md``.
+"""
+
+from __future__ import annotations
+
+import decimal
+import math
+import sys
+from fractions import Fraction
+from typing import overload
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray
+
+__all__ = [
+    "DIGITS",
+    "Exact",
+    "down",
+    "exp_down",
+    "exp_up",
+    "fraction_down",
+    "fraction_up",
+    "log_down",
+    "log_up",
+    "up",
+    "widen_down",
+    "widen_up",
+]
+
+DIGITS = 50
+"""Significant digits of the decimal arithmetic behind :func:`log_up` and its kin."""
+
+Exact = Fraction | int | float
+"""An exact real: a rational, an integer, or a float (every finite float is a rational)."""
+
+
+@overload
+def up(x: float) -> float: ...
+@overload
+def up(x: npt.NDArray[np.floating]) -> FloatArray: ...
+def up(x: float | npt.NDArray[np.floating]) -> float | FloatArray:
+    """The next float above ``x`` (+inf stays +inf; NaN stays NaN).
+
+    The upper end of a value computed with one rounding to nearest.
+
+    Examples
+    --------
+    >>> up(1.0) - 1.0 == 2.0**-52
+    True
+    """
+    out = np.nextafter(x, np.inf)
+    return float(out) if np.ndim(out) == 0 else out
+
+
+@overload
+def down(x: float) -> float: ...
+@overload
+def down(x: npt.NDArray[np.floating]) -> FloatArray: ...
+def down(x: float | npt.NDArray[np.floating]) -> float | FloatArray:
+    """The next float below ``x`` (−inf stays −inf; NaN stays NaN).
+
+    Examples
+    --------
+    >>> 1.0 - down(1.0) == 2.0**-53
+    True
+    """
+    out = np.nextafter(x, -np.inf)
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def _error(a: FloatArray, relative: float, absolute: float) -> FloatArray:
+    """``relative·|a| + absolute`` rounded up (each of its two operations moved one unit up)."""
+    return np.nextafter(np.nextafter(np.abs(a) * relative, np.inf) + absolute, np.inf)
+
+
+def widen_up(x: npt.ArrayLike, relative: float, absolute: float = 0.0) -> float | FloatArray:
+    """``x`` plus an error bound ``relative·|x| + absolute``, rounded up.
+
+    Parameters
+    ----------
+    x : float or array_like
+        A value computed in floating point.
+    relative, absolute : float
+        Its error bound, ``|x − exact| ≤ relative·|x| + absolute``; ≥ 0.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        A float ≥ the exact value (+inf and NaN unchanged). Each operation
+        is rounded to nearest and then moved one unit up, which covers its
+        own rounding: the error bound first, then the sum.
+
+    Examples
+    --------
+    >>> widen_up(1.0, 2.0**-50) > 1.0 + 2.0**-50
+    True
+    """
+    a = np.asarray(x, dtype=float)
+    return up(a + _error(a, relative, absolute))
+
+
+def widen_down(x: npt.ArrayLike, relative: float, absolute: float = 0.0) -> float | FloatArray:
+    """``x`` minus an error bound ``relative·|x| + absolute``, rounded down (the mirror of :func:`widen_up`).
+
+    Examples
+    --------
+    >>> widen_down(1.0, 2.0**-50) < 1.0 - 2.0**-50
+    True
+    """
+    a = np.asarray(x, dtype=float)
+    return down(a - _error(a, relative, absolute))
+
+
+def _fraction(x: Exact) -> Fraction:
+    """``x`` as an exact rational (a float exactly, never through its decimal string)."""
+    return x if isinstance(x, Fraction) else Fraction(x)
+
+
+def fraction_up(x: Exact) -> float:
+    """The smallest float ≥ the rational ``x`` (+inf beyond the largest float).
+
+    Examples
+    --------
+    >>> fraction_up(Fraction(1, 3)) > 1 / 3, fraction_up(Fraction(1, 2))
+    (True, 0.5)
+    """
+    q = _fraction(x)
+    try:
+        f = float(q)  # correctly rounded to nearest (Fraction.__float__ divides integers exactly)
+    except OverflowError:
+        return math.inf if q > 0 else -sys.float_info.max
+    if math.isfinite(f) and Fraction(f) < q:
+        f = math.nextafter(f, math.inf)
+    return f
+
+
+def fraction_down(x: Exact) -> float:
+    """The largest float ≤ the rational ``x`` (−inf below the most negative float).
+
+    Examples
+    --------
+    >>> third = Fraction(1, 3)
+    >>> fraction_down(third) <= third < fraction_up(third), fraction_down(Fraction(-1, 2))
+    (True, -0.5)
+    """
+    return -fraction_up(-_fraction(x))
+
+
+_EXP_FAR = 1000
+"""|x| beyond which e^x is above every float (x > 0) or below the smallest positive one (x < 0)."""
+
+_TINY = math.ulp(0.0)
+"""The smallest positive float."""
+
+
+def _context(rounding: str) -> decimal.Context:
+    """A decimal context of :data:`DIGITS` digits that rounds as ``rounding``, with every exponent allowed."""
+    return decimal.Context(prec=DIGITS, rounding=rounding, Emax=decimal.MAX_EMAX, Emin=decimal.MIN_EMIN)
+
+
+def _decimal(x: Exact, rounding: str) -> decimal.Decimal:
+    """The rational ``x`` as a :data:`DIGITS`-digit decimal rounded as ``rounding`` (exact when it fits)."""
+    q = _fraction(x)
+    ctx = _context(rounding)
+    return ctx.divide(decimal.Decimal(q.numerator), decimal.Decimal(q.denominator))
+
+
+def _float_above(d: decimal.Decimal) -> float:
+    """The smallest float ≥ the decimal ``d`` (exact: a decimal is a rational)."""
+    return fraction_up(Fraction(d))
+
+
+def _float_below(d: decimal.Decimal) -> float:
+    """The largest float ≤ the decimal ``d``."""
+    return fraction_down(Fraction(d))
+
+
+def log_up(x: Exact) -> float:
+    """A float ≥ ln ``x`` for a rational ``x`` > 0 (ln 0 = −inf; +inf for ``x`` = +inf).
+
+    ln is evaluated on ``x`` rounded up to 50 digits; the decimal ``ln`` is
+    correctly rounded, so one step up in the last digit bounds the exact
+    value; that decimal is then rounded up to a float.
+
+    Raises
+    ------
+    ValueError
+        When ``x`` < 0 or NaN.
+
+    Examples
+    --------
+    >>> import math
+    >>> log_up(2) >= math.log(2) and log_up(2) - math.log(2) <= 2.0**-52
+    True
+    >>> log_up(1), log_up(0)
+    (0.0, -inf)
+    """
+    if isinstance(x, float) and (math.isnan(x) or x == math.inf):
+        if math.isnan(x):
+            raise ValueError(f"ln of NaN: {x!r}")
+        return math.inf
+    q = _fraction(x)
+    if q < 0:
+        raise ValueError(f"ln of a negative number: {x!r}")
+    if q == 0:
+        return -math.inf
+    if q == 1:
+        return 0.0
+    ctx = _context(decimal.ROUND_HALF_EVEN)
+    return _float_above(ctx.next_plus(ctx.ln(_decimal(q, decimal.ROUND_CEILING))))
+
+
+def log_down(x: Exact) -> float:
+    """A float ≤ ln ``x`` for a rational ``x`` > 0 (the mirror of :func:`log_up`).
+
+    Examples
+    --------
+    >>> import math
+    >>> log_down(2) <= math.log(2), log_down(1)
+    (True, 0.0)
+    """
+    if isinstance(x, float) and (math.isnan(x) or x == math.inf):
+        if math.isnan(x):
+            raise ValueError(f"ln of NaN: {x!r}")
+        return math.inf
+    q = _fraction(x)
+    if q < 0:
+        raise ValueError(f"ln of a negative number: {x!r}")
+    if q == 0:
+        return -math.inf
+    if q == 1:
+        return 0.0
+    ctx = _context(decimal.ROUND_HALF_EVEN)
+    return _float_below(ctx.next_minus(ctx.ln(_decimal(q, decimal.ROUND_FLOOR))))
+
+
+def exp_up(x: Exact) -> float:
+    """A float ≥ e^``x`` for a rational ``x`` (+inf beyond the largest float; e^0 = 1).
+
+    Examples
+    --------
+    >>> import math
+    >>> exp_up(1) >= math.e, exp_up(0), exp_up(1000)
+    (True, 1.0, inf)
+    """
+    if isinstance(x, float) and not math.isfinite(x):
+        if math.isnan(x):
+            raise ValueError(f"exp of NaN: {x!r}")
+        return math.inf if x > 0 else 0.0
+    q = _fraction(x)
+    if q == 0:
+        return 1.0
+    if abs(q) > _EXP_FAR:  # beyond the floats either way: no need for 50 digits
+        return math.inf if q > 0 else _TINY
+    ctx = _context(decimal.ROUND_HALF_EVEN)
+    return _float_above(ctx.next_plus(ctx.exp(_decimal(q, decimal.ROUND_CEILING))))
+
+
+def exp_down(x: Exact) -> float:
+    """A float ≤ e^``x`` for a rational ``x`` (0.0 far below; e^0 = 1).
+
+    Examples
+    --------
+    >>> import math
+    >>> exp_down(1) <= math.e, exp_down(0), exp_down(-1000)
+    (True, 1.0, 0.0)
+    """
+    if isinstance(x, float) and not math.isfinite(x):
+        if math.isnan(x):
+            raise ValueError(f"exp of NaN: {x!r}")
+        return math.inf if x > 0 else 0.0
+    q = _fraction(x)
+    if q == 0:
+        return 1.0
+    if abs(q) > _EXP_FAR:
+        return sys.float_info.max if q > 0 else 0.0
+    ctx = _context(decimal.ROUND_HALF_EVEN)
+    return _float_below(ctx.next_minus(ctx.exp(_decimal(q, decimal.ROUND_FLOOR))))

@@ -1,0 +1,88 @@
+"""Outward rounding: each function lands on its stated side of the exact value, against 60-digit mpmath."""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import mpmath
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from fairaudit.base.outward import (
+    down,
+    exp_down,
+    exp_up,
+    fraction_down,
+    fraction_up,
+    log_down,
+    log_up,
+    up,
+    widen_down,
+    widen_up,
+)
+
+mpmath.mp.dps = 60
+
+positive = st.one_of(
+    st.floats(min_value=5e-324, max_value=1.7e308, allow_nan=False, allow_infinity=False),
+    st.floats(min_value=1 - 1e-9, max_value=1 + 1e-9).filter(lambda x: x > 0),
+)
+rationals = st.fractions(min_value=Fraction(1, 10**30), max_value=10**30, max_denominator=10**40)
+
+
+@given(st.one_of(positive, rationals))
+def test_log_brackets_the_exact_log_within_two_ulps(x):
+    exact = mpmath.log(mpmath.mpf(x.numerator) / x.denominator if isinstance(x, Fraction) else mpmath.mpf(x))
+    lo, hi = log_down(x), log_up(x)
+    assert lo <= exact <= hi
+    assert hi - lo <= 2 * math.ulp(max(abs(lo), abs(hi)))
+
+
+@given(st.one_of(st.floats(min_value=-800, max_value=800), st.fractions(min_value=-800, max_value=800)))
+def test_exp_brackets_the_exact_exp(x):
+    exact = mpmath.exp(mpmath.mpf(x.numerator) / x.denominator if isinstance(x, Fraction) else mpmath.mpf(x))
+    lo, hi = exp_down(x), exp_up(x)
+    assert lo <= exact <= hi
+    if 0 < lo and hi < math.inf:
+        assert hi - lo <= 2 * math.ulp(hi)
+
+
+def test_known_values_and_edges():
+    # Exact points need no rounding; far arguments saturate on the right side.
+    assert (log_up(1), log_down(1), exp_up(0), exp_down(0)) == (0.0, 0.0, 1.0, 1.0)
+    assert log_up(0) == log_down(0) == -math.inf
+    assert exp_up(1000) == math.inf and exp_down(1000) == np.finfo(float).max
+    assert exp_up(-1000) == 5e-324 and exp_down(-1000) == 0.0
+    assert log_down(math.e) < 1 == log_up(math.e)  # math.e is just below e: ln of it is just below 1
+    with pytest.raises(ValueError, match="negative"):
+        log_up(-1.0)
+
+
+@given(st.fractions(max_denominator=10**30))
+def test_fractions_round_to_the_neighbouring_floats(q):
+    lo, hi = fraction_down(q), fraction_up(q)
+    assert Fraction(lo) <= q <= Fraction(hi)
+    assert lo == hi if Fraction(lo) == q else math.nextafter(lo, math.inf) == hi
+
+
+def test_fractions_beyond_the_floats():
+    big = Fraction(10**400)
+    assert fraction_up(big) == math.inf and fraction_down(big) == np.finfo(float).max
+    assert fraction_up(-big) == -np.finfo(float).max and fraction_down(-big) == -math.inf
+
+
+@given(st.floats(min_value=-1e300, max_value=1e300), st.floats(0, 1e-6), st.floats(0, 1e-6))
+def test_widening_covers_the_stated_error(x, rel, abs_):
+    hi, lo = widen_up(x, rel, abs_), widen_down(x, rel, abs_)
+    err = Fraction(abs(x)) * Fraction(rel) + Fraction(abs_)
+    assert Fraction(lo) <= Fraction(x) - err and Fraction(x) + err <= Fraction(hi)
+    assert up(x) > x > down(x)
+
+
+def test_arrays_round_elementwise():
+    a = np.array([0.1, 1.0, -2.0])
+    assert (up(a) > a).all() and (down(a) < a).all()
+    assert widen_up(a, 0.0).tolist() == up(a).tolist()

@@ -248,6 +248,7 @@ def _tight_certified(
         err = (m + 4) * 2 * u * (1.0 + ts) * (gamma / tau) + 8 * u * obj
     err = up(up(err) * (1 + 8 * u))
     near = np.flatnonzero(obj + err >= np.max(obj - err))
+    near = near[np.unique(pa[near] * matrix.shape[0] + pb[near], return_index=True)[1]]  # (a pair offered twice)
     if near.size > EXACT_PAIRS:
         return log_up(float(widen_up(np.max(obj + err), 4 * u)))
     g, t_, lip = Fraction(gamma), Fraction(tau), Fraction(lipschitz)

@@ -121,7 +121,10 @@ def test_identity_and_huge_epsilon():
 
 def test_general_pairwise_delta_with_a_huge_epsilon_does_not_overflow():
     m = fa.from_matrix([[0.5, 0.5, 0.0], [0.25, 0.5, 0.25]], [0, 1], [0, 1, 2])
-    assert m.pairwise_delta(710.0).tolist() == m.pairwise_delta(math.inf).tolist() == [[0.0, 0.0], [0.25, 0.0]]
+    for eps in (710.0, math.inf):  # upper ends, rounded up (proofs/outward.md §5)
+        got = m.pairwise_delta(eps)
+        assert got[0].tolist() == [0.0, 0.0] and got[1, 1] == 0.0
+        assert 0.25 <= got[1, 0] <= 0.25 * (1 + 1e-14)
 
 
 def test_hand_case_in_fractions_k3_e_eps_4():
@@ -537,7 +540,8 @@ def test_cli_calibrate_huge_targets(capsys, argv, epsilon):
 def test_calibrate_huge_target_bound_is_the_target():
     c = calibrate(1e308)
     assert c.epsilon == 1e308 and c.bound == 1e308 and c.mechanism.keep_probability == 1.0
-    assert fa.main_theorem_tight(1e308, 0.1, gamma=1.0, tau=0.5) == 1e308
+    # ε + ln(1 + x e^−ε) > ε exactly: the upper end is the next float
+    assert fa.main_theorem_tight(1e308, 0.1, gamma=1.0, tau=0.5) == math.nextafter(1e308, math.inf)
 
 
 # --------------------------------------------------------------------------- τ is not needed when the extra term is 0

@@ -11,7 +11,6 @@ import math
 
 import mpmath
 import numpy as np
-import pytest
 
 import fairaudit as fa
 from fairaudit.worstcase.randomized_response import rr_class_value
@@ -155,11 +154,8 @@ def test_randomized_response_closed_forms_against_50_digits():
             _upper(value, mpmath.log(ratio), f"case {case}: black box closed form")
 
 
-@pytest.mark.xfail(
-    reason="black_box_bound takes rr_box's value in round-to-nearest (worstcase/black_box.py, the lp helper's)"
-)
 def test_black_box_bound_of_randomized_response_against_50_digits():
-    """The black-box route (worstcase/black_box.py, the "lp" helper's) on randomized response."""
+    """The black-box route (worstcase/black_box.py) on randomized response: its closed form rounded up."""
     rng = np.random.default_rng(5)
     with mpmath.workdps(50):
         for case in range(CASES // 10):

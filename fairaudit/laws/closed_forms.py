@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.checks import real, whole
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import as_labels
+from fairaudit.base.outward import exp_down, fraction_up, log_up
 from fairaudit.laws.mechanisms import Mechanism
 
 __all__ = [
@@ -29,12 +31,16 @@ __all__ = [
     "epsilon_from_keep_probability",
     "keep_probability",
     "randomized_response",
+    "rr_total_variation_up",
     "split_by_keep",
 ]
 
 
 def keep_probability(epsilon: float, k: int) -> float:
     """Keep probability e^ε / (e^ε + k − 1) of k-ary randomized response.
+
+    It describes the mechanism, rounded to nearest (within a few units in the last place); no certified number
+    is computed from it: the bounds use ε itself (:func:`rr_total_variation_up`).
 
     Examples
     --------
@@ -77,7 +83,25 @@ def epsilon_from_keep_probability(keep: float, k: int) -> float:
     )
     if keep >= 1.0:
         return math.inf
-    return max(0.0, math.log(keep * (k - 1) / (1.0 - keep)))
+    p = Fraction(keep)  # an upper bound on the mechanism's ε: ln of the exact ratio, rounded up
+    return max(0.0, log_up(p * (k - 1) / (1 - p)))
+
+
+def rr_total_variation_up(epsilon: float, k: int) -> float:
+    """An upper end of p − q = (e^ε − 1)/(e^ε + k − 1), the δ(0) of k-ary randomized response, for ε ≥ 0.
+
+    p − q = (1 − s)/(1 + (k − 1)s) with s = e^−ε decreases in s, so s rounded down gives an upper end, for
+    every ε (no overflow); below ε = 1e-5, 1 − s ≤ ε − ε²/2 + ε³/6 (the alternating series), exact rationals
+    (``proofs/outward.md`` §5).
+    """
+    if k < 2 or epsilon == 0.0:
+        return 0.0
+    if math.isinf(epsilon):
+        return 1.0
+    s = Fraction(exp_down(-epsilon))
+    e = Fraction(epsilon)
+    one_minus = 1 - s if epsilon >= 1e-5 else e - e * e / 2 + e**3 / 6
+    return fraction_up(one_minus / (1 + (k - 1) * s))
 
 
 def split_by_keep(epsilon: float, sizes: Sequence[int]) -> FloatArray:
@@ -292,8 +316,11 @@ class RandomizedResponse(Mechanism):
             return rr.p
         if eps >= rr.epsilon:
             return 0.0
-        t_q = math.exp(eps) * rr.q if eps <= EXP_SAFE else math.exp(eps + rr.log_q)
-        return max(0.0, rr.p - t_q)
+        # p − e^ε q = (1 − e^(ε − ε_M)) / (1 + (k − 1) e^−ε_M): decreasing in both exponentials, which are
+        # rounded down (exact rationals from there): an upper end (proofs/outward.md §5)
+        s = Fraction(exp_down(-rr.epsilon))
+        top = 1 - Fraction(exp_down(Fraction(eps) - Fraction(rr.epsilon)))
+        return max(0.0, fraction_up(top / (1 + (rr.k - 1) * s)))
 
     def pairwise_delta(self, epsilon: float) -> FloatArray:
         k = len(self.inputs)
@@ -302,11 +329,19 @@ class RandomizedResponse(Mechanism):
         return out
 
     def _epsilon_for_positive_delta(self, delta: float) -> float:
-        """Smallest ε ≥ 0 with δ(ε) ≤ ``delta``: log((p − δ)/q) in closed form (0 when δ ≥ p − q)."""
+        """Smallest ε ≥ 0 with δ(ε) ≤ ``delta``: log((p − δ)/q) in closed form (0 when δ ≥ p − q), rounded up.
+
+        (p − δ)/q = e^ε_M (1 − δ) − δ(k − 1) increases in e^ε_M: ε_M + ln(1 − δ − δ(k − 1)e^−ε_M) with
+        e^−ε_M rounded down and ln rounded up, the sum rounded up (exact rationals; proofs/outward.md §5).
+        """
         rr = self.rr
         if math.isinf(rr.epsilon):  # the identity: δ = 1 at every ε
             return math.inf
-        return max(0.0, math.log(rr.p - delta) - rr.log_q)
+        d = Fraction(delta)
+        inside = 1 - d - d * (rr.k - 1) * Fraction(exp_down(-rr.epsilon))
+        if inside <= 0:
+            return 0.0
+        return max(0.0, fraction_up(Fraction(rr.epsilon) + Fraction(log_up(inside))))
 
 
 @dataclass(frozen=True)

@@ -23,26 +23,129 @@ import itertools
 import math
 from collections.abc import Hashable, Iterable, Sequence
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Any, overload
 
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import EXP_SAFE, FloatArray, as_float_array, check_probabilities, check_shape, ratio_extremes
+from fairaudit.base.arrays import FloatArray, as_float_array, check_probabilities, check_shape
 from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.checks import real
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, number
 from fairaudit.base.labels import as_labels
+from fairaudit.base.outward import exp_down, fraction_up, log_up, up, widen_up
 from fairaudit.base.pairs import PairPass
 
 __all__ = [
+    "EXACT_PAIRS",
     "Mechanism",
     "PrivacyProfile",
+    "exact_hockey_stick",
+    "exp_factors",
     "from_matrix",
+    "hockey_stick",
     "identity",
+    "largest_hockey_stick",
+    "log_ratio_up",
     "product",
 ]
+
+EXACT_PAIRS = 64
+"""How many candidate pairs (or outputs) a certified maximum re-evaluates in exact rationals; beyond, the widened
+floating-point value is the certified one (sound, less tight)."""
+
+_U = 2.0**-53
+"""The unit roundoff of a double."""
+
+
+def exp_factors(epsilon: float) -> tuple[float, float]:
+    """Two floats t₁, t₂ ≥ 1 with t₁·t₂ ≤ e^ε (exactly, as rationals) and within 2 units of it, for ε ≥ 0 finite.
+
+    t₁ = e^min(ε, 700) rounded down, t₂ = e^(ε − 700) rounded down (1 when ε ≤ 700): no overflow for any ε
+    below 1400 nats, and the product is a lower end of e^ε (``proofs/outward.md`` §5).
+    """
+    if epsilon <= 700.0:
+        return exp_down(epsilon), 1.0
+    return exp_down(700), exp_down(Fraction(epsilon) - 700)
+
+
+def hockey_stick(p: FloatArray, q: FloatArray, t1: float, t2: float = 1.0) -> tuple[FloatArray, FloatArray]:
+    """Σ_o [p_o − t q_o]₊ over the last axis in floating point with t = t₁·t₂, and a bound on its error.
+
+    Returns ``(value, error)`` with ``|value − exact| ≤ error`` (``proofs/outward.md`` §5): each term
+    p − fl(fl(q t₁) t₂) is within 4u(p + t q) of p − t q (three roundings), a term whose computed value is below
+    −8u(p + t q) is ≤ 0 exactly (it adds 0 both ways), and the sum of m terms adds (m + 1)u of its value. The
+    bound itself is computed with a factor 2 to spare for its own roundings.
+    """
+    with np.errstate(over="ignore"):
+        tq = q * t1 if t2 == 1.0 else (q * t1) * t2
+        x = p - tq
+        scale = p + tq
+    slack = 8 * _U * scale
+    per_term = np.where(x > -slack, slack, 0.0)
+    per_term = np.where(np.isfinite(per_term), per_term, 0.0)  # tq = inf: the term is −inf, 0 both ways
+    value = np.clip(x, 0.0, None).sum(axis=-1)
+    m = p.shape[-1]
+    error = per_term.sum(axis=-1) * 2.0 + 2.0 * (m + 1) * _U * value
+    return value, error
+
+
+def exact_hockey_stick(p: FloatArray, q: FloatArray, t: Fraction) -> Fraction:
+    """Σ_o [p_o − t q_o]₊ of two rows in exact rational arithmetic (each float is a rational)."""
+    total = Fraction(0)
+    for po, qo in zip(p.tolist(), q.tolist()):
+        x = Fraction(po) - t * Fraction(qo)
+        if x > 0:
+            total += x
+    return total
+
+
+def largest_hockey_stick(matrix: FloatArray, t1: float, t2: float = 1.0) -> float:
+    """An upper end of max over ordered pairs a ≠ a' of Σ_o [M[a, o] − t M[a', o]]₊, t = t₁·t₂ (exact rational).
+
+    One pass over the pairs in floating point with :func:`hockey_stick`'s error bound; the pairs whose upper
+    end reaches the largest lower end are re-evaluated exactly (up to :data:`EXACT_PAIRS` of them), so the
+    result is the exact maximum rounded up, or the largest widened value when more pairs tie.
+    """
+    n = matrix.shape[0]
+    if n < 2:
+        return 0.0
+    high, low = np.full((n, n), -np.inf), np.full((n, n), -np.inf)
+    for rows, cols in PairPass(matrix).tiles():
+        value, error = hockey_stick(matrix[rows, None, :], matrix[None, cols, :], t1, t2)
+        high[rows, cols], low[rows, cols] = value + error, value - error
+    np.fill_diagonal(high, -np.inf)
+    np.fill_diagonal(low, -np.inf)
+    a, b = np.nonzero(high >= low.max())
+    if a.size > EXACT_PAIRS:
+        return float(widen_up(high.max(), 0.0))
+    t = Fraction(t1) * Fraction(t2)
+    return fraction_up(max(exact_hockey_stick(matrix[i], matrix[j], t) for i, j in zip(a.tolist(), b.tolist())))
+
+
+def log_ratio_up(top: FloatArray, bottom: FloatArray) -> float:
+    """An upper end of ln max_i top_i / bottom_i over positive entries (≥ 1 each), +inf when some bottom is 0.
+
+    The float ratios are each within one rounding; those that may be the largest are re-evaluated exactly
+    (up to :data:`EXACT_PAIRS`), and ln is :func:`~fairaudit.base.outward.log_up` of the exact rational.
+    """
+    top, bottom = np.asarray(top, dtype=float).ravel(), np.asarray(bottom, dtype=float).ravel()
+    if not top.size:
+        return 0.0
+    if np.any((bottom == 0) & (top > 0)):
+        return math.inf
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(bottom > 0, top / np.where(bottom > 0, bottom, 1.0), 1.0)
+    best = float(ratio.max())
+    if not math.isfinite(best):
+        return math.inf
+    near = np.flatnonzero(up(ratio) >= float(np.nextafter(best, -np.inf)))
+    if near.size > EXACT_PAIRS:
+        return log_up(up(best))
+    exact = max(Fraction(top[i]) / Fraction(bottom[i]) if bottom[i] > 0 else Fraction(1) for i in near.tolist())
+    return log_up(max(exact, Fraction(1)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,12 +244,17 @@ class Mechanism:
         Proof: ``proofs/privacy.md``.
 
         +inf when one input reaches an output that another cannot; 0 for a
-        mechanism whose rows are all equal (or with one input).
+        mechanism whose rows are all equal (or with one input). A certified
+        upper bound, rounded up: the largest ratio of each output's extremes,
+        re-evaluated exactly where it may be the largest, and
+        :func:`~fairaudit.base.outward.log_up` of it (``proofs/outward.md`` §5).
         """
         if "epsilon" not in self._cache:
-            ratio, _, _ = ratio_extremes(self.matrix, axis=0)
-            worst = np.nanmax(ratio) if ratio.size and not np.all(np.isnan(ratio)) else 1.0
-            self._cache["epsilon"] = float(np.log(worst)) if np.isfinite(worst) else math.inf
+            m = self.matrix
+            if m.shape[0] < 2:
+                self._cache["epsilon"] = 0.0
+            else:
+                self._cache["epsilon"] = log_ratio_up(m.max(axis=0), m.min(axis=0))
         return self._cache["epsilon"]
 
     def pairwise_delta(self, epsilon: float) -> FloatArray:
@@ -163,20 +271,27 @@ class Mechanism:
         -------
         numpy.ndarray, shape (n_inputs, n_inputs)
             ``out[a, a'] = Σ_o [M[a, o] − e^ε M[a', o]]₊``; the diagonal is 0.
+            Each entry is an upper end, rounded up: e^ε rounded down
+            (:func:`exp_factors`) and the sum widened by its error bound
+            (:func:`hockey_stick`, ``proofs/outward.md`` §5); 0 exactly at
+            ε ≥ ε(M).
         """
         eps = check_epsilon(epsilon)
         m = self.matrix
         n = m.shape[0]
-        out = np.empty((n, n))
+        out = np.zeros((n, n))
+        if math.isfinite(self.epsilon) and eps >= self.epsilon:  # ε ≥ ε(M) rounded up: M[a, o] ≤ e^ε M[a', o]
+            return out
+        t1, t2 = exp_factors(eps) if math.isfinite(eps) else (math.inf, 1.0)
         for rows, cols in PairPass(m).tiles():  # (rows, cols, m) at a time: O(nm) memory, not (n, n, m)
             p, q = m[rows, None, :], m[None, cols, :]
-            if math.isinf(eps):
-                out[rows, cols] = np.where(q == 0, p, 0.0).sum(axis=-1)
-            elif eps <= EXP_SAFE:
-                out[rows, cols] = np.clip(p - math.exp(eps) * q, 0.0, None).sum(axis=-1)
-            else:  # e^ε overflows a double: e^ε q = exp(ε + log q), 0 where q = 0
-                with np.errstate(divide="ignore", over="ignore"):
-                    out[rows, cols] = np.clip(p - np.exp(eps + np.log(q)), 0.0, None).sum(axis=-1)
+            if math.isinf(eps):  # the mass where q = 0, to the sum's rounding
+                value = np.where(q == 0, p, 0.0).sum(axis=-1)
+                error = 2 * (m.shape[1] + 1) * _U * value
+            else:
+                value, error = hockey_stick(p, q, t1, t2)
+            total = value + error
+            out[rows, cols] = np.where(total > 0, up(total), 0.0)  # (an exact 0 stays 0)
         np.fill_diagonal(out, 0.0)
         return out
 
@@ -197,7 +312,8 @@ class Mechanism:
         Returns
         -------
         float or numpy.ndarray
-            δ at each ε, same shape as ``epsilon``; 0 for one input.
+            δ at each ε, same shape as ``epsilon``; 0 for one input. A
+            certified upper bound, rounded up (``proofs/outward.md`` §5).
 
         Raises
         ------
@@ -209,8 +325,14 @@ class Mechanism:
         return float(flat[0]) if eps.ndim == 0 else flat.reshape(eps.shape)
 
     def _largest_delta(self, epsilon: float) -> float:
-        """δ(M, ε) at one ε (checked here): the largest entry of :meth:`pairwise_delta`."""
-        return float(self.pairwise_delta(epsilon).max(initial=0.0))
+        """δ(M, ε) at one ε (checked here), rounded up: the largest hockey-stick divergence over pairs, exact
+        where several may be the largest (:func:`largest_hockey_stick`)."""
+        eps = check_epsilon(epsilon)
+        if len(self.inputs) < 2 or (math.isfinite(self.epsilon) and eps >= self.epsilon):
+            return 0.0
+        if math.isinf(eps):
+            return float(self.pairwise_delta(eps).max(initial=0.0))
+        return largest_hockey_stick(self.matrix, *exp_factors(eps))
 
     def profile(self, epsilons: Iterable[float] | None = None) -> PrivacyProfile:
         """The privacy profile δ(ε) on a grid.
@@ -235,7 +357,8 @@ class Mechanism:
         profile crosses ``delta``, found by bisection to 1e-13 relative
         precision (in closed form for k-ary randomized response,
         :class:`~fairaudit.laws.closed_forms.RandomizedResponse`); ε(M) itself
-        for ``delta = 0``.
+        for ``delta = 0``. An upper end: the bisection keeps an ε whose
+        δ(ε), rounded up, is ≤ ``delta``.
 
         Raises
         ------

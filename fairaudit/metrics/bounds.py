@@ -45,16 +45,18 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import EXP_SAFE, FloatArray, ratio_extremes
+from fairaudit.base.arrays import FloatArray, ratio_extremes
 from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
-from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
+from fairaudit.base.outward import exp_up, fraction_up, log_up
+from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters, rr_total_variation_up
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
@@ -175,7 +177,7 @@ def main_theorem(
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
     eps = check_epsilon(epsilon)
     delta = nonnegative(delta, "delta")
-    return eps + math.log1p((lipschitz * diameter + delta * gamma) / tau)
+    return _paper_value(eps, _extra(lipschitz, diameter, delta, gamma, tau))
 
 
 def main_theorem_tight(
@@ -199,10 +201,30 @@ def main_theorem_tight(
     delta = nonnegative(delta, "delta")
     if math.isinf(eps):
         return math.inf
-    c = (lipschitz * diameter + delta * gamma) / tau
-    if eps > EXP_SAFE:  # e^ε overflows a double: log(e^ε + c) = ε + log(1 + c e^−ε)
-        return eps + math.log1p(c * math.exp(-eps))
-    return math.log(math.exp(eps) + c)
+    return _tight_value(eps, _extra(lipschitz, diameter, delta, gamma, tau))
+
+
+def _extra(lipschitz: float, diameter: float, delta: float, gamma: float, tau: float) -> Fraction:
+    """(L_A·diam + δγ)/τ, the main theorem's extra term, as an exact rational (every float is one)."""
+    if math.isinf(delta) or math.isinf(lipschitz) or math.isinf(diameter) or math.isinf(gamma):
+        raise InputError("gamma", "the extra term (L_A*diam + delta*gamma)/tau must be finite")
+    return (Fraction(lipschitz) * Fraction(diameter) + Fraction(delta) * Fraction(gamma)) / Fraction(tau)
+
+
+def _paper_value(eps: float, x: Fraction) -> float:
+    """ε + ln(1 + x), rounded up: ln of the exact rational rounded up, then the sum (proofs/outward.md §5)."""
+    if math.isinf(eps):
+        return math.inf
+    return fraction_up(Fraction(eps) + Fraction(log_up(1 + x)))
+
+
+def _tight_value(eps: float, x: Fraction) -> float:
+    """ln(e^ε + x) = ε + ln(1 + x e^−ε), rounded up: e^−ε rounded up, ln rounded up, the sum rounded up."""
+    if math.isinf(eps):
+        return math.inf
+    if x == 0:
+        return eps
+    return fraction_up(Fraction(eps) + Fraction(log_up(1 + x * Fraction(exp_up(-eps)))))
 
 
 def _resolve(
@@ -387,7 +409,7 @@ def paper_bound(
         return _tau_free("paper", mechanism, gamma, lipschitz, diameter, utility, population, law)
     gamma, tau, lipschitz, diameter = _constants(gamma, tau, lipschitz, diameter)
     assumptions = assumptions_for(mechanism, tau, gamma, utility, population, law)
-    c = lipschitz * diameter
+    c = fraction_up(Fraction(lipschitz) * Fraction(diameter))  # L_A·diam rounded up
     if len(mechanism.inputs) < 2:
         value, eps, delta = 0.0, 0.0, 0.0
     elif isinstance(mechanism, RandomizedResponse):
@@ -416,13 +438,14 @@ def _paper_randomized_response(
     """(value, ε, δ) of the paper form for k-ary randomized response, c = L_A·diam: the better of t = 1 and t = e^ε.
 
     δ(t) = p − tq on [1, e^ε], 0 after: log t + log(1 + (c + γ(p − tq))/τ) is concave there
-    (``proofs/main_theorem.md``).
+    (``proofs/main_theorem.md``). Both values are rounded up, p − q from ε itself (``proofs/outward.md`` §5).
     """
-    at_one = math.log1p((c + gamma * (rr.p - rr.q)) / tau)  # t = 1: δ = p − q, the total variation
-    at_eps = rr.epsilon + math.log1p(c / tau)  # t = e^ε: δ = 0
+    tv = rr_total_variation_up(rr.epsilon, rr.k)
+    at_one = _paper_value(0.0, _extra(c, 1.0, tv, gamma, tau))  # t = 1: δ = p − q, the total variation
+    at_eps = _paper_value(rr.epsilon, _extra(c, 1.0, 0.0, gamma, tau))  # t = e^ε: δ = 0
     if at_eps < at_one:
         return at_eps, rr.epsilon, 0.0
-    return at_one, 0.0, rr.p - rr.q
+    return at_one, 0.0, tv
 
 
 def tight_bound(
@@ -523,11 +546,11 @@ def _tight_randomized_response(
     increasing in d, so the binding pair has the largest d (the first such pair, as the general route).
     """
     a, b = (0, 1) if d is None or lipschitz == 0 else np.unravel_index(int(np.argmax(d)), d.shape)
-    c = lipschitz * diameter / tau
-    at_one = 1.0 + c + gamma * (rr.p - rr.q) / tau
-    log_eps = rr.epsilon + math.log1p(c * math.exp(-rr.epsilon))  # log(e^ε + c), no overflow
-    if math.log(at_one) <= log_eps:
-        return math.log(at_one), 0.0, rr.p - rr.q, int(a), int(b)
+    tv = rr_total_variation_up(rr.epsilon, rr.k)  # p − q rounded up; both values rounded up (outward.md §5)
+    at_one = _tight_value(0.0, _extra(lipschitz, diameter, tv, gamma, tau))
+    log_eps = _tight_value(rr.epsilon, _extra(lipschitz, diameter, 0.0, gamma, tau))  # log(e^ε + c), no overflow
+    if at_one <= log_eps:
+        return at_one, 0.0, tv, int(a), int(b)
     return log_eps, rr.epsilon, 0.0, int(a), int(b)
 
 

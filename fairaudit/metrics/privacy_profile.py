@@ -14,12 +14,14 @@ profile minimisation and its candidate set) and ``proofs/tight_bound.md``.
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray, first_max
+from fairaudit.base.outward import log_up, up, widen_up
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, PairPass, pair_candidates
-from fairaudit.laws.mechanisms import Mechanism
+from fairaudit.laws.mechanisms import EXACT_PAIRS, Mechanism, exact_hockey_stick, largest_hockey_stick
 
 __all__ = ["paper_minimum", "tight_maximum"]
 
@@ -118,7 +120,7 @@ def paper_minimum(matrix: FloatArray, gamma: float, tau: float, c: float) -> tup
         k = int(np.argmin(values))
         at, level = float(t[k]), float(deltas[k])
         if at == checked and complete:  # (the pairs left out were below the old level there, ≤ the new one)
-            return float(values[k]), float(np.log(at)), level
+            return _paper_at(matrix, at, gamma, tau, c)
         above: list[tuple[FloatArray, IntArray]] = []
 
         def visit(rows: slice, cols: slice, sums: FloatArray, lam: float) -> None:
@@ -133,10 +135,20 @@ def paper_minimum(matrix: FloatArray, gamma: float, tau: float, c: float) -> tup
         flat = np.concatenate([x[1] for x in above])
         new = ~np.isin(flat, a * n + b)  # (a pair of S is never above its own envelope but by rounding)
         if not new.any():
-            return float(values[k]), float(np.log(at)), level
+            return _paper_at(matrix, at, gamma, tau, c)
         gaps, flat = gaps[new], flat[new]
         a, b = np.divmod(np.union1d(a * n + b, flat[np.argsort(-gaps, kind="stable")[: 4 * CANDIDATES]]), n)
         checked, complete = at, gaps.size <= 4 * CANDIDATES
+
+
+def _paper_at(matrix: FloatArray, t: float, gamma: float, tau: float, c: float) -> tuple[float, float, float]:
+    """(value, ε, δ) of the paper form at the float t = e^ε ≥ 1, certified: any t gives a valid bound, so the
+    minimiser found in floating point is evaluated again with δ(t) over every pair rounded up
+    (:func:`~fairaudit.laws.mechanisms.largest_hockey_stick`) and ln(t (1 + (c + γδ)/τ)) of the exact rational
+    rounded up (``proofs/outward.md`` §5). ε is ln t rounded to nearest: it says where the minimum is."""
+    delta = largest_hockey_stick(matrix, t)
+    x = (Fraction(c) + Fraction(gamma) * Fraction(delta)) / Fraction(tau)
+    return log_up(Fraction(t) * (1 + x)), float(np.log(t)), delta
 
 
 def _tight_objective(
@@ -207,4 +219,42 @@ def tight_maximum(
     pa, pb, obj, ts, ds = (np.concatenate([x[i] for x in parts]) for i in range(5))
     i = first_max(obj, order=pa * n + pb)
     assert i is not None  # the pass visits every pair: obj holds no NaN
-    return float(np.log(obj[i])), float(np.log(ts[i])), float(ds[i]), int(pa[i]), int(pb[i])
+    value = _tight_certified(matrix, pa, pb, obj, ts, dist(pa, pb), gamma, tau, lipschitz)
+    return value, float(np.log(ts[i])), float(ds[i]), int(pa[i]), int(pb[i])
+
+
+def _tight_certified(
+    matrix: FloatArray,
+    pa: IntArray,
+    pb: IntArray,
+    obj: FloatArray,
+    ts: FloatArray,
+    dist: FloatArray,
+    gamma: float,
+    tau: float,
+    lipschitz: float,
+) -> float:
+    """The tight value max over pairs of ln(objective at the pair's t), rounded up (``proofs/outward.md`` §5).
+
+    Each float objective t + (L_A d + γδ)/τ is within e = (m + 4)·2u·(1 + t)·γ/τ + 8u·obj of the exact one at
+    the same float t (δ from prefix sums of m terms); the pairs whose objective plus e reaches the largest
+    objective minus e are evaluated again exactly (up to ``EXACT_PAIRS``; beyond, the widened maximum).
+    """
+    if not np.all(np.isfinite(obj)):
+        return math.inf
+    m = matrix.shape[1]
+    u = 2.0**-53
+    with np.errstate(over="ignore"):
+        err = (m + 4) * 2 * u * (1.0 + ts) * (gamma / tau) + 8 * u * obj
+    err = up(up(err) * (1 + 8 * u))
+    near = np.flatnonzero(obj + err >= np.max(obj - err))
+    near = near[np.unique(pa[near] * matrix.shape[0] + pb[near], return_index=True)[1]]  # (a pair offered twice)
+    if near.size > EXACT_PAIRS:
+        return log_up(float(widen_up(np.max(obj + err), 4 * u)))
+    g, t_, lip = Fraction(gamma), Fraction(tau), Fraction(lipschitz)
+    best = Fraction(0)
+    for i in near.tolist():
+        t = Fraction(float(ts[i]))
+        delta = exact_hockey_stick(matrix[pa[i]], matrix[pb[i]], t)
+        best = max(best, t + (lip * Fraction(float(dist[i])) + g * delta) / t_)
+    return log_up(best)

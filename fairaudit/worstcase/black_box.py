@@ -33,7 +33,7 @@ from fairaudit.worstcase.pair_search import (
     relaxed_first,
     search,
 )
-from fairaudit.worstcase.randomized_response import rr_box, rr_lipschitz
+from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -418,7 +418,7 @@ def _randomized_response_certificate(
             "threshold" if w.prefix else "closed form",
             "some released value is possible for one group and impossible for another" if inf else "",
             0,
-            value=w.value,
+            value=w.value if inf else rr_class_value(rr, lower, gamma, floor, 0.0, 1.0),  # rounded up
         )
     off_diagonal = None if d is None else d[~np.eye(n, dtype=bool)]
     discrete = off_diagonal is None or bool(np.all(off_diagonal == off_diagonal[0]))

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -27,6 +28,7 @@ import numpy.typing as npt
 from fairaudit.base.arrays import EXP_SAFE, FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
+from fairaudit.base.outward import exp_down, exp_up, fraction_down, log_down, log_up, widen_down
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.mechanisms import Mechanism, identity
@@ -99,12 +101,16 @@ def closed_form(common: Common, method: str) -> Found:
             f"the target {target:.6g} nats is below the floor {terms} = "
             f"{floor:.6g} nats, the {method} bound at epsilon = 0: no privacy budget meets it",
         )
+    # ε is a lower end (every ε' ≤ it meets the target): the extra term's ln rounded up, e^−target rounded up,
+    # ln rounded down, the differences in exact rationals rounded down (proofs/outward.md §5)
+    x = (Fraction(lip) * Fraction(diam) + Fraction(delta) * Fraction(gamma)) / Fraction(tau)
     if method == "paper":
-        eps = max(0.0, target - floor)
+        eps = max(0.0, fraction_down(Fraction(target) - Fraction(log_up(1 + x))))
         bound = main_theorem(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
         form = f"epsilon = target - log(1 + (L_A*diam + delta*gamma)/tau) = {target:.6g} - {floor:.6g}"
     else:
-        eps = max(0.0, target + math.log1p(-(c / tau) * math.exp(-target)))
+        inside = 1 - x * Fraction(exp_up(-target))  # e^target − x = e^target (1 − x e^−target)
+        eps = max(0.0, fraction_down(Fraction(target) + Fraction(log_down(inside)))) if inside > 0 else 0.0
         bound = main_theorem_tight(eps, delta, gamma=gamma, tau=tau, lipschitz=lip, diameter=diam)
         form = f"epsilon = log(e^target - (L_A*diam + delta*gamma)/tau) = log(e^{target:.6g} - {c / tau:.6g})"
     return Found(
@@ -122,9 +128,25 @@ def rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> f
     """Closed form of ``proofs/black_box.md`` §3: the largest ε of k-ary RR with black-box value ≤ target.
 
     Any target ≥ 0, however large: e^target is never formed above 700 nats (the same formula in logarithms;
-    with lower = 0 it is ε = target).
+    with lower = 0 it is ε = target). A lower end: t increases in T = e^target, so T is rounded down and t,
+    exact in rationals, goes through ln rounded down (``proofs/outward.md`` §5); above 700 nats the
+    logarithmic form is widened down by 1e-12 relative.
     """
     rho = lower / gamma if gamma > 0 else 1.0
+    if rho == 0.0:
+        return target
+    if target <= EXP_SAFE:
+        big = Fraction(exp_down(target))
+        r = Fraction(lower) / Fraction(gamma)
+        if big * r >= 1:
+            return math.inf
+        exact = (big * r * (k - 1) + big * (1 - r) - r * (k - 1)) / (1 - big * r)
+        return log_down(max(exact, Fraction(1)))
+    return max(0.0, float(widen_down(_rr_black_box_epsilon_float(target, k, rho), 1e-12)))
+
+
+def _rr_black_box_epsilon_float(target: float, k: int, rho: float) -> float:
+    """:func:`rr_black_box_epsilon` in floating point (rounded to nearest)."""
     if target > EXP_SAFE:  # e^target overflows a double; T0·rho < 1 needs rho < e^-700 (or 0)
         if rho == 0.0:
             return target

@@ -11,11 +11,13 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
-from fairaudit.laws.closed_forms import RandomizedResponseParameters
+from fairaudit.base.outward import exp_up, log_up, widen_up
+from fairaudit.laws.closed_forms import RandomizedResponseParameters, rr_total_variation_up
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law
 
@@ -213,11 +215,35 @@ def rr_class_ratio(
 def rr_class_value(
     rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
 ) -> float:
-    """log of :func:`rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε)."""
+    """log of :func:`rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε); rounded up.
+
+    With L_A = 0 the threshold value ln((lo + (1 − lo)p)/(lo + (1 − lo)q)) = ln(((lo + span)T + lo(k − 1)) /
+    (lo T + lo(k − 1) + span)) increases in T = e^ε, and the floor's (floor + span(p − q))/floor in p − q:
+    both are exact rationals of T or p − q rounded up (``proofs/outward.md`` §5). The other cases (a floor that
+    also raises a', L_A > 0) are widened by 1e-12 relative (their floating-point error is a few units).
+    """
     if rr.k >= 2 and gamma > 0 and lower < gamma and lipschitz * diameter == 0:
         lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
-        return rr_box(rr, lo, 1.0, floor).value
-    return safe_log(rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
+        worst = rr_box(rr, lo, 1.0, floor)
+        return _box_value_up(rr, worst, Fraction(lower) / Fraction(gamma), floor)
+    value = safe_log(rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
+    return float(widen_up(value, 1e-12, 1e-15)) if math.isfinite(value) else value
+
+
+def _box_value_up(rr: RandomizedResponseParameters, worst: RRWorst, lo: Fraction, floor: float) -> float:
+    """:func:`rr_box`'s value rounded up, by the case it took (see :func:`rr_class_value`)."""
+    if worst.value == 0.0 or math.isinf(worst.value) or (worst.prefix and lo == 0):
+        return worst.value  # ratio 1, or ε itself (lower = 0): exact
+    span = 1 - lo
+    if worst.prefix:
+        if rr.epsilon > 700:  # the ratio increases in T towards (lo + span)/lo = 1/lo, within e^−700 of it
+            return log_up(1 / lo)
+        big = Fraction(exp_up(rr.epsilon))
+        return log_up(((lo + span) * big + lo * (rr.k - 1)) / (lo * big + lo * (rr.k - 1) + span))
+    if worst.h_b == float(lo):  # the floor met by a and other values: (floor + span(p − q))/floor
+        f = Fraction(floor)
+        return log_up((f + span * Fraction(rr_total_variation_up(rr.epsilon, rr.k))) / f)
+    return float(widen_up(worst.value, 1e-12, 1e-15))
 
 
 def rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, context_mechanism: Mechanism) -> Law:

@@ -121,7 +121,10 @@ def test_identity_and_huge_epsilon():
 
 def test_general_pairwise_delta_with_a_huge_epsilon_does_not_overflow():
     m = fa.from_matrix([[0.5, 0.5, 0.0], [0.25, 0.5, 0.25]], [0, 1], [0, 1, 2])
-    assert m.pairwise_delta(710.0).tolist() == m.pairwise_delta(math.inf).tolist() == [[0.0, 0.0], [0.25, 0.0]]
+    for eps in (710.0, math.inf):  # upper ends, rounded up (proofs/outward.md §5)
+        got = m.pairwise_delta(eps)
+        assert got[0].tolist() == [0.0, 0.0] and got[1, 1] == 0.0
+        assert 0.25 <= got[1, 0] <= 0.25 * (1 + 1e-14)
 
 
 def test_hand_case_in_fractions_k3_e_eps_4():
@@ -181,7 +184,8 @@ def test_paper_and_tight_equal_the_general_route(k, eps):
         for bound in (fa.paper_bound, fa.tight_bound):
             a = bound(closed, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=lip))
             b = bound(general, utility_class=fa.UtilityClass(tau=tau, gamma=1.0, lipschitz=lip))
-            assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-14)
+            # the general route widens its float value when many pairs tie (k = 17 at ε = 0: 272 pairs), by about 1e-14 times gamma/tau
+            assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-10)
             assert a.epsilon == pytest.approx(b.epsilon, rel=1e-12, abs=1e-14)
             assert a.delta == pytest.approx(b.delta, rel=1e-12, abs=1e-14)
             assert (a.group, a.other_group) == (b.group, b.other_group)
@@ -416,11 +420,11 @@ def test_closed_forms_equal_the_general_route_property(k, eps, tau, lower, gamma
     for bound in (fa.paper_bound, fa.tight_bound):
         a = bound(closed, utility_class=fa.UtilityClass(tau=tau, gamma=gamma, lipschitz=lip))
         b = bound(general, utility_class=fa.UtilityClass(tau=tau, gamma=gamma, lipschitz=lip))
-        assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-14)
+        assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-10)  # widened general route, as above
     for t in (None, tau):
         a = black_box_bound(closed, utility_class=UtilityClass(lower=lower, gamma=gamma, tau=t))
         b = black_box_bound(general, utility_class=UtilityClass(lower=lower, gamma=gamma, tau=t))
-        assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-13)
+        assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-10)
 
 
 @given(k=st.integers(2, 40), target=st.floats(0.0, 5.0), rho=st.floats(0.0, 0.95))
@@ -530,14 +534,16 @@ def test_cli_spec_with_epsilon_inf(tmp_path, capsys):
 def test_cli_calibrate_huge_targets(capsys, argv, epsilon):
     code, d, _ = run_json(capsys, "calibrate", *argv)
     assert code == 0 and d["feasible"] is True
-    assert d["epsilon"] == epsilon if isinstance(epsilon, str) else d["epsilon"] == pytest.approx(epsilon, rel=1e-12)
+    # the calibrated ε is a lower end, widened by 1e-12 relative above 700 nats
+    assert d["epsilon"] == epsilon if isinstance(epsilon, str) else d["epsilon"] == pytest.approx(epsilon, rel=3e-12)
     assert d["keep_probability"] == 1.0
 
 
 def test_calibrate_huge_target_bound_is_the_target():
     c = calibrate(1e308)
     assert c.epsilon == 1e308 and c.bound == 1e308 and c.mechanism.keep_probability == 1.0
-    assert fa.main_theorem_tight(1e308, 0.1, gamma=1.0, tau=0.5) == 1e308
+    # ε + ln(1 + x e^−ε) > ε exactly: the upper end is the next float
+    assert fa.main_theorem_tight(1e308, 0.1, gamma=1.0, tau=0.5) == math.nextafter(1e308, math.inf)
 
 
 # --------------------------------------------------------------------------- τ is not needed when the extra term is 0

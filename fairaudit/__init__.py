@@ -23,6 +23,7 @@ from fairaudit.certification.spec import Spec, load_spec, parse_spec
 from fairaudit.data.counts import CountTable, count_file, count_records, count_table
 from fairaudit.data.csv_format import CsvFormat
 from fairaudit.data.record_files import read_records
+from fairaudit.filter.filters import PrivacyFilter
 from fairaudit.laws.closed_forms import (
     epsilon_from_keep_probability,
     keep_probability,
@@ -138,6 +139,8 @@ __all__ = [
     "tight_bound",
     "worst_model",
     "worst_utility",
+    # the privacy filter you deploy
+    "PrivacyFilter",
     # calibration
     "Calibration",
     "calibrate",

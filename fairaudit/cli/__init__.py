@@ -1,4 +1,4 @@
-"""The ``fairaudit`` command: certify, audit, calibrate, plan, worst-case, and the plug-ins' commands.
+"""The ``fairaudit`` command: certify, audit, calibrate, plan, worst-case, filter, and the plug-ins' commands.
 
 One module per subcommand (``fairaudit/cli/<command>.py``) adds its arguments
 (``add_parser``) and runs it (``run(args) -> int``, dispatched through

@@ -1,0 +1,171 @@
+"""``fairaudit filter``: one column of a CSV or Parquet file released through a privacy filter (fairaudit.PrivacyFilter).
+
+The filter is k-ary randomized response on ``--values`` (``--epsilon`` or ``--keep``) or the spec's
+``[privacy.sensitive]`` mechanism on its ``[sensitive] values`` (``--spec``): the alphabet never comes from the data,
+whose values would leak through it. The file is read by DuckDB (:func:`fairaudit.data.record_files.source`), the
+column released (:meth:`~fairaudit.filter.filters.PrivacyFilter.apply`, from a cryptographically secure source) and
+the whole file written, by DuckDB, in the format of ``--output``'s name, atomically; ``--parameters`` writes the
+filter's JSON (:meth:`~fairaudit.filter.filters.PrivacyFilter.to_dict`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from fractions import Fraction
+from typing import TYPE_CHECKING, Any
+
+from fairaudit.base.errors import InputError
+from fairaudit.base.files import write_atomic
+
+from ._common import Subparsers, add_text_format, columns, nonneg, text_format
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from fairaudit.filter.filters import PrivacyFilter
+
+
+def add_parser(sub: Subparsers) -> None:
+    """Add the ``filter`` subcommand to ``sub``."""
+    f = sub.add_parser(
+        "filter",
+        help="release one column of a CSV or Parquet file through a privacy filter",
+        description="Releases each value of one column through k-ary randomized response (--epsilon or --keep, on "
+        "--values) or a spec's [privacy.sensitive] mechanism (--spec), with exact probabilities and a "
+        "cryptographically secure source of randomness, and writes the file with that column released.",
+    )
+    f.add_argument("data", metavar="DATA", help="the records: .csv, .tsv, .txt, .data (gzip or zstd too) or .parquet")
+    f.add_argument("--column", required=True, metavar="COL", help="the column to release")
+    how = f.add_mutually_exclusive_group(required=True)
+    how.add_argument("--epsilon", type=nonneg, metavar="E", help="randomized response at this epsilon (nats)")
+    how.add_argument(
+        "--keep", metavar="P", help="randomized response keeping each value with P, exact: 0.7 or 7/10 is 7/10"
+    )
+    how.add_argument(
+        "--spec", metavar="SPEC.toml", help="the spec's [privacy.sensitive] mechanism on its [sensitive] values"
+    )
+    f.add_argument(
+        "--values",
+        type=columns,
+        metavar="V[,V...]",
+        help="the column's possible values, all of them (with --epsilon or --keep); never read from the data",
+    )
+    f.add_argument("--output", required=True, metavar="OUT", help="the file written (.csv, .tsv or .parquet)")
+    f.add_argument("--parameters", metavar="FILTER.json", help="write the filter's parameters (its JSON) there")
+    add_text_format(f)
+    f.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fairaudit filter``; returns the exit status."""
+    from fairaudit.data.csv_format import file_kind
+    from fairaudit.data.record_files import source
+
+    file_kind(args.output)  # a name that is neither Parquet nor text: exit 2 before any work
+    records = source(args.data, text_format(args))
+    if args.column not in records.names:
+        raise InputError("--column", f"is not a column of DATA (its columns: {', '.join(records.names)})", args.column)
+    frame = records.read()
+    column = frame[args.column]
+    missing = column.isna().to_numpy()
+    if missing.any():
+        row = int(missing.argmax()) + 1
+        raise InputError(f"DATA column {args.column!r}", f"has a missing value (data row {row}): nothing to release")
+    privacy = _filter(args, column)
+    try:
+        released = privacy.apply(column.tolist())
+    except InputError as exc:
+        raise InputError(
+            f"DATA column {args.column!r}", "holds a value that is not among the filter's values", exc.value
+        ) from None
+    frame[args.column] = _as_column(released, column)
+    write_atomic(args.output, lambda tmp: _write(frame, tmp, args.output), field="--output")
+    if args.parameters:
+        write_atomic(args.parameters, json.dumps(privacy.to_dict(), indent=2) + "\n", field="--parameters")
+    eps = "inf" if privacy.epsilon == float("inf") else f"{privacy.epsilon:.6g}"
+    print(
+        f"released column {args.column!r} of {len(frame)} records through {privacy.name} (epsilon = {eps} nats); "
+        f"written to {args.output}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _filter(args: argparse.Namespace, column: pd.Series) -> PrivacyFilter:
+    """The filter of the command line: randomized response on --values, or the spec's on its values."""
+    from fairaudit.filter.filters import PrivacyFilter
+
+    if args.spec is None:
+        if args.values is None:
+            raise InputError("--values", "are needed with --epsilon or --keep: every value the column may hold")
+        values = _typed_values(args.values, column)
+        if args.keep is not None:
+            return PrivacyFilter.randomized_response(values, keep=args.keep)
+        return PrivacyFilter.randomized_response(values, epsilon=args.epsilon)
+    if args.values is not None:
+        raise InputError("--values", "come from the spec's [sensitive] values with --spec: give one of them")
+    from fairaudit.certification.spec import load_spec
+
+    spec = load_spec(args.spec)
+    table = spec.model.privacy.sensitive
+    if table.mechanism == "product":
+        raise InputError(
+            "--spec",
+            "has a product mechanism, on tuples: filter each attribute's column with its own component",
+            args.spec,
+        )
+    if table.mechanism == "randomized_response" and table.keep is not None:  # the decimal the spec wrote, exactly
+        return PrivacyFilter.randomized_response(spec.groups, keep=Fraction(repr(float(table.keep))))
+    return PrivacyFilter.from_mechanism(spec.sensitive_mechanism)
+
+
+def _typed_values(texts: list[str], column: pd.Series) -> list[Any]:
+    """The --values as labels of the column's type (integers, floats, booleans or text), as DuckDB read it."""
+    kind = column.dtype.kind
+    try:
+        if kind in "iu":
+            return [int(t) for t in texts]
+        if kind == "f":
+            return [float(t) for t in texts]
+    except ValueError:
+        what = "integers" if kind in "iu" else "numbers"
+        raise InputError("--values", f"must be {what}, as the column's values are", ",".join(texts)) from None
+    if kind == "b":
+        words = {"true": True, "false": False}
+        if any(t.lower() not in words for t in texts):
+            raise InputError("--values", "must be true or false, as the column's values are", ",".join(texts))
+        return [words[t.lower()] for t in texts]
+    return list(texts)
+
+
+def _as_column(released: list[Any], column: pd.Series) -> Any:
+    """The released labels as a column: of the column's own type when they all fit it."""
+    import pandas as pd
+
+    out = pd.Series(released, index=column.index, dtype=object)
+    try:
+        return out.astype(column.dtype)
+    except (TypeError, ValueError):
+        return out.infer_objects()
+
+
+def _write(frame: pd.DataFrame, path: str, output: str) -> None:
+    """Write ``frame`` to ``path`` with DuckDB, in the format of the name ``output`` (Parquet, or delimited text)."""
+    from fairaudit.data.csv_format import file_kind
+    from fairaudit.data.record_files import duckdb_connection
+
+    kind = file_kind(output)
+    quoted = "'" + path.replace("'", "''") + "'"
+    if kind.kind == "parquet":
+        options = "FORMAT parquet"
+    else:
+        delimiter = "'" + kind.sep.replace("'", "''") + "'"
+        options = f"FORMAT csv, HEADER true, DELIMITER {delimiter}, COMPRESSION {kind.compression or 'none'}"
+    con = duckdb_connection()
+    try:
+        con.register("released", frame)
+        con.execute(f"COPY released TO {quoted} ({options})")
+    finally:
+        con.close()

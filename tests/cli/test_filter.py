@@ -1,0 +1,126 @@
+"""`fairaudit filter`: a column of a CSV or Parquet file released, the rest unchanged, written atomically; errors."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+from _cli import OFFICE_SPEC, run
+
+from fairaudit.filter.filters import PrivacyFilter
+
+FRAME = pd.DataFrame(
+    {
+        "id": list(range(1, 201)),
+        "office": ["HR_1", "HR_2"] * 100,
+        "score": [0.5 * i for i in range(200)],
+        "note": ["a, b", 'say "hi"'] * 100,
+    }
+)
+
+
+@pytest.fixture
+def csv_file(tmp_path):
+    path = tmp_path / "records.csv"
+    FRAME.to_csv(path, index=False)
+    return path
+
+
+def released(frame: pd.DataFrame, column: str = "office") -> None:
+    """The other columns and the rows are unchanged; the released column holds only the alphabet."""
+    assert list(frame.columns) == list(FRAME.columns) and len(frame) == len(FRAME)
+    others = [c for c in FRAME.columns if c != column]
+    pd.testing.assert_frame_equal(frame[others], FRAME[others], check_dtype=False)
+    assert set(frame[column]) <= set(FRAME[column])
+
+
+def test_a_csv_column_is_released_and_the_parameters_read_back(capsys, csv_file, tmp_path):
+    out, params = tmp_path / "out.csv", tmp_path / "filter.json"
+    code, _, err = run(
+        capsys, "filter", csv_file, "--column", "office", "--keep", "3/4", "--values", "HR_1,HR_2",
+        "--output", out, "--parameters", params,
+    )  # fmt: skip
+    assert code == 0 and "released column 'office' of 200 records" in err
+    frame = pd.read_csv(out)
+    released(frame)
+    assert 0 < (frame["office"] != FRAME["office"]).sum() < 200  # some moved (P(none or all) < 1e-24)
+    f = PrivacyFilter.from_dict(json.loads(params.read_text()))
+    assert (f.keep, f.move, f.denominator, f.inputs) == (3, 1, 4, ("HR_1", "HR_2"))
+
+
+def test_keep_one_releases_the_column_unchanged_into_parquet(capsys, csv_file, tmp_path):
+    out = tmp_path / "out.parquet"
+    code, _, _ = run(capsys, "filter", csv_file, "--column", "office", "--keep", "1", "--values", "HR_1,HR_2",
+                     "--output", out)  # fmt: skip
+    assert code == 0
+    pd.testing.assert_frame_equal(pd.read_parquet(out), FRAME, check_dtype=False)
+
+
+def test_a_parquet_integer_column_keeps_its_type(capsys, tmp_path):
+    data, out = tmp_path / "records.parquet", tmp_path / "out.parquet"
+    FRAME.to_parquet(data, index=False)
+    values = ",".join(str(i) for i in range(1, 201))
+    code, _, _ = run(capsys, "filter", data, "--column", "id", "--epsilon", 2, "--values", values, "--output", out)
+    assert code == 0
+    frame = pd.read_parquet(out)
+    released(frame, "id")
+    assert frame["id"].dtype.kind == "i" and frame.dtypes.drop("id").equals(FRAME.dtypes.drop("id"))
+
+
+def test_the_spec_gives_the_mechanism_and_the_values(capsys, csv_file, tmp_path):
+    spec, out, params = tmp_path / "spec.toml", tmp_path / "out.csv", tmp_path / "f.json"
+    spec.write_text(OFFICE_SPEC)  # binary randomized response, keep = 0.7: 7/10 exactly, as the spec wrote it
+    code, _, _ = run(capsys, "filter", csv_file, "--column", "office", "--spec", spec, "--output", out,
+                     "--parameters", params)  # fmt: skip
+    assert code == 0
+    released(pd.read_csv(out))
+    d = json.loads(params.read_text())
+    assert (d["keep"], d["move"], d["denominator"], d["values"]) == ("7", "3", "10", ["HR_1", "HR_2"])
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--keep", "3/4", "--values", "HR_1,HR_3"], "DATA column 'office': holds a value that is not among the "
+         "filter's values (got 'HR_2')"),
+        (["--keep", "1/4", "--values", "HR_1,HR_2"], "--keep: must be a keep probability in [1/k, 1]"),
+        (["--keep", "three quarters", "--values", "HR_1,HR_2"], "--keep: is not a rational number"),
+        (["--keep", "3/4"], "--values: are needed with --epsilon or --keep"),
+        (["--epsilon", "1", "--values", "1,x", "--column", "id"], "--values: must be integers"),
+        (["--epsilon", "1", "--values", "a", "--column", "nope"], "--column: is not a column of DATA"),
+    ],
+)  # fmt: skip
+def test_bad_input_is_one_line_and_leaves_an_existing_output_whole(capsys, csv_file, tmp_path, argv, message):
+    out = tmp_path / "out.csv"
+    out.write_text("the previous output\n")
+    argv = ["--column", "office", *argv] if "--column" not in argv else argv
+    code, stdout, err = run(capsys, "filter", csv_file, *argv, "--output", out)
+    assert code == 2 and stdout == "" and err.startswith(f"fairaudit: error: {message}") and err.count("\n") == 1
+    assert out.read_text() == "the previous output\n"
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temporary file left
+
+
+def test_a_product_spec_and_values_with_a_spec_are_refused(capsys, csv_file, tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(OFFICE_SPEC)
+    code, _, err = run(capsys, "filter", csv_file, "--column", "office", "--spec", spec, "--values", "HR_1",
+                       "--output", tmp_path / "o.csv")  # fmt: skip
+    assert code == 2 and "--values: come from the spec's [sensitive] values" in err
+    product = OFFICE_SPEC.replace(
+        'mechanism = "randomized_response"\nkeep = 0.7\n',
+        'mechanism = "product"\n[[privacy.sensitive.components]]\nmechanism = "randomized_response"\n'
+        'values = ["HR_1", "HR_2"]\nkeep = 0.7\n',
+    ).replace('values = ["HR_1", "HR_2"]\n[context]', "[context]")
+    spec.write_text(product)
+    code, _, err = run(capsys, "filter", csv_file, "--column", "office", "--spec", spec, "--output", tmp_path / "o.csv")
+    assert code == 2 and "has a product mechanism" in err, err
+
+
+def test_a_missing_value_is_refused(capsys, tmp_path):
+    data = tmp_path / "r.csv"
+    data.write_text("office\nHR_1\n\nHR_2\n")
+    data.write_text("office,x\nHR_1,1\n,2\nHR_2,3\n")
+    code, _, err = run(capsys, "filter", data, "--column", "office", "--keep", "1/2", "--values", "HR_1,HR_2",
+                       "--output", tmp_path / "o.csv")  # fmt: skip
+    assert code == 2 and "DATA column 'office': has a missing value (data row 2)" in err

@@ -147,6 +147,12 @@ def _paper_at(matrix: FloatArray, t: float, gamma: float, tau: float, c: float) 
     (:func:`~fairaudit.laws.mechanisms.largest_hockey_stick`) and ln(t (1 + (c + γδ)/τ)) of the exact rational
     rounded up (``proofs/outward.md`` §5). ε is ln t rounded to nearest: it says where the minimum is."""
     delta = largest_hockey_stick(matrix, t)
+    above = t
+    for _ in range(4 if 0.0 < delta < 1e-12 else 0):  # t just below the ratio the minimum sits on: δ = 0 just above
+        above = float(np.nextafter(above, np.inf))
+        if largest_hockey_stick(matrix, above) == 0.0:
+            t, delta = above, 0.0
+            break
     x = (Fraction(c) + Fraction(gamma) * Fraction(delta)) / Fraction(tau)
     return log_up(Fraction(t) * (1 + x)), float(np.log(t)), delta
 

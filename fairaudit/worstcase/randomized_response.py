@@ -220,14 +220,14 @@ def rr_class_value(
     With L_A = 0 the threshold value ln((lo + (1 − lo)p)/(lo + (1 − lo)q)) = ln(((lo + span)T + lo(k − 1)) /
     (lo T + lo(k − 1) + span)) increases in T = e^ε, and the floor's (floor + span(p − q))/floor in p − q:
     both are exact rationals of T or p − q rounded up (``proofs/outward.md`` §5). The other cases (a floor that
-    also raises a', L_A > 0) are widened by 1e-12 relative (their floating-point error is a few units).
+    also raises a', L_A > 0) are widened by 1e-14 relative and 1e-15 absolute (their floating-point error is a few units: estimated, not proved).
     """
     if rr.k >= 2 and gamma > 0 and lower < gamma and lipschitz * diameter == 0:
         lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
         worst = rr_box(rr, lo, 1.0, floor)
         return _box_value_up(rr, worst, Fraction(lower) / Fraction(gamma), floor)
     value = safe_log(rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
-    return float(widen_up(value, 1e-12, 1e-15)) if math.isfinite(value) else value
+    return float(widen_up(value, 1e-14, 1e-15)) if math.isfinite(value) else value
 
 
 def _box_value_up(rr: RandomizedResponseParameters, worst: RRWorst, lo: Fraction, floor: float) -> float:
@@ -243,7 +243,7 @@ def _box_value_up(rr: RandomizedResponseParameters, worst: RRWorst, lo: Fraction
     if worst.h_b == float(lo):  # the floor met by a and other values: (floor + span(p − q))/floor
         f = Fraction(floor)
         return log_up((f + span * Fraction(rr_total_variation_up(rr.epsilon, rr.k))) / f)
-    return float(widen_up(worst.value, 1e-12, 1e-15))
+    return float(widen_up(worst.value, 1e-14, 1e-15))
 
 
 def rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, context_mechanism: Mechanism) -> Law:

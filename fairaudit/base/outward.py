@@ -200,12 +200,60 @@ def _float_below(d: decimal.Decimal) -> float:
     return fraction_down(Fraction(d))
 
 
+def _ln(x: Exact, upward: bool) -> float:
+    """ln ``x`` rounded to a float on the stated side (:func:`log_up` and :func:`log_down`)."""
+    if isinstance(x, float) and (math.isnan(x) or x == math.inf):
+        if math.isnan(x):
+            raise ValueError(f"ln of NaN: {x!r}")
+        return math.inf
+    q = _fraction(x)
+    if q < 0:
+        raise ValueError(f"ln of a negative number: {x!r}")
+    if q == 0:
+        return -math.inf
+    if q == 1:
+        return 0.0
+    ctx = _context(decimal.ROUND_HALF_EVEN)
+    if upward:
+        return _float_above(ctx.next_plus(ctx.ln(_decimal(q, decimal.ROUND_CEILING))))
+    return _float_below(ctx.next_minus(ctx.ln(_decimal(q, decimal.ROUND_FLOOR))))
+
+
+def _exp(x: Exact, upward: bool) -> float:
+    """e^``x`` rounded to a float on the stated side (:func:`exp_up` and :func:`exp_down`)."""
+    if isinstance(x, float) and not math.isfinite(x):
+        if math.isnan(x):
+            raise ValueError(f"exp of NaN: {x!r}")
+        return math.inf if x > 0 else 0.0
+    q = _fraction(x)
+    if q == 0:
+        return 1.0
+    if abs(q) > _EXP_FAR:  # beyond the floats either way: no need for 50 digits
+        if upward:
+            return math.inf if q > 0 else _TINY
+        return sys.float_info.max if q > 0 else 0.0
+    ctx = _context(decimal.ROUND_HALF_EVEN)
+    if upward:
+        return _float_above(ctx.next_plus(ctx.exp(_decimal(q, decimal.ROUND_CEILING))))
+    return _float_below(ctx.next_minus(ctx.exp(_decimal(q, decimal.ROUND_FLOOR))))
+
+
 def log_up(x: Exact) -> float:
-    """A float ≥ ln ``x`` for a rational ``x`` > 0 (ln 0 = −inf; +inf for ``x`` = +inf).
+    """A float ≥ ln ``x`` for a rational ``x`` ≥ 0 (ln 0 = −inf; +inf for ``x`` = +inf).
 
     ln is evaluated on ``x`` rounded up to 50 digits; the decimal ``ln`` is
     correctly rounded, so one step up in the last digit bounds the exact
-    value; that decimal is then rounded up to a float.
+    value; that decimal is then rounded up to a float (``proofs/outward.md`` §4).
+
+    Parameters
+    ----------
+    x : Fraction, int or float
+        The argument, an exact rational (a float counts as its binary value).
+
+    Returns
+    -------
+    float
+        An upper end of ln ``x`` (nats), at most two units in the last place above it.
 
     Raises
     ------
@@ -220,23 +268,11 @@ def log_up(x: Exact) -> float:
     >>> log_up(1), log_up(0)
     (0.0, -inf)
     """
-    if isinstance(x, float) and (math.isnan(x) or x == math.inf):
-        if math.isnan(x):
-            raise ValueError(f"ln of NaN: {x!r}")
-        return math.inf
-    q = _fraction(x)
-    if q < 0:
-        raise ValueError(f"ln of a negative number: {x!r}")
-    if q == 0:
-        return -math.inf
-    if q == 1:
-        return 0.0
-    ctx = _context(decimal.ROUND_HALF_EVEN)
-    return _float_above(ctx.next_plus(ctx.ln(_decimal(q, decimal.ROUND_CEILING))))
+    return _ln(x, upward=True)
 
 
 def log_down(x: Exact) -> float:
-    """A float ≤ ln ``x`` for a rational ``x`` > 0 (the mirror of :func:`log_up`).
+    """A float ≤ ln ``x`` for a rational ``x`` ≥ 0: the mirror of :func:`log_up` (same parameters and errors).
 
     Examples
     --------
@@ -244,23 +280,28 @@ def log_down(x: Exact) -> float:
     >>> log_down(2) <= math.log(2), log_down(1)
     (True, 0.0)
     """
-    if isinstance(x, float) and (math.isnan(x) or x == math.inf):
-        if math.isnan(x):
-            raise ValueError(f"ln of NaN: {x!r}")
-        return math.inf
-    q = _fraction(x)
-    if q < 0:
-        raise ValueError(f"ln of a negative number: {x!r}")
-    if q == 0:
-        return -math.inf
-    if q == 1:
-        return 0.0
-    ctx = _context(decimal.ROUND_HALF_EVEN)
-    return _float_below(ctx.next_minus(ctx.ln(_decimal(q, decimal.ROUND_FLOOR))))
+    return _ln(x, upward=False)
 
 
 def exp_up(x: Exact) -> float:
     """A float ≥ e^``x`` for a rational ``x`` (+inf beyond the largest float; e^0 = 1).
+
+    Evaluated as :func:`log_up` is, with the decimal ``exp`` (``proofs/outward.md`` §4).
+
+    Parameters
+    ----------
+    x : Fraction, int or float
+        The exponent, in nats, an exact rational; ±inf allowed.
+
+    Returns
+    -------
+    float
+        An upper end of e^``x``: +inf above about 709.78, the smallest positive float far below 0.
+
+    Raises
+    ------
+    ValueError
+        When ``x`` is NaN.
 
     Examples
     --------
@@ -268,21 +309,12 @@ def exp_up(x: Exact) -> float:
     >>> exp_up(1) >= math.e, exp_up(0), exp_up(1000)
     (True, 1.0, inf)
     """
-    if isinstance(x, float) and not math.isfinite(x):
-        if math.isnan(x):
-            raise ValueError(f"exp of NaN: {x!r}")
-        return math.inf if x > 0 else 0.0
-    q = _fraction(x)
-    if q == 0:
-        return 1.0
-    if abs(q) > _EXP_FAR:  # beyond the floats either way: no need for 50 digits
-        return math.inf if q > 0 else _TINY
-    ctx = _context(decimal.ROUND_HALF_EVEN)
-    return _float_above(ctx.next_plus(ctx.exp(_decimal(q, decimal.ROUND_CEILING))))
+    return _exp(x, upward=True)
 
 
 def exp_down(x: Exact) -> float:
-    """A float ≤ e^``x`` for a rational ``x`` (0.0 far below; e^0 = 1).
+    """A float ≤ e^``x`` for a rational ``x``: the mirror of :func:`exp_up` (the largest float far above 0, 0.0 far
+    below; same parameters and errors).
 
     Examples
     --------
@@ -290,14 +322,4 @@ def exp_down(x: Exact) -> float:
     >>> exp_down(1) <= math.e, exp_down(0), exp_down(-1000)
     (True, 1.0, 0.0)
     """
-    if isinstance(x, float) and not math.isfinite(x):
-        if math.isnan(x):
-            raise ValueError(f"exp of NaN: {x!r}")
-        return math.inf if x > 0 else 0.0
-    q = _fraction(x)
-    if q == 0:
-        return 1.0
-    if abs(q) > _EXP_FAR:
-        return sys.float_info.max if q > 0 else 0.0
-    ctx = _context(decimal.ROUND_HALF_EVEN)
-    return _float_below(ctx.next_minus(ctx.exp(_decimal(q, decimal.ROUND_FLOOR))))
+    return _exp(x, upward=False)

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import secrets
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -448,9 +447,8 @@ class PrivacyFilter:
         ...
         fairaudit.base.errors.InputError: values: holds a value that is not among the filter's inputs ('a', 'b') (got 'z')
         """
-        source = secrets.token_bytes if random_bytes is None else random_bytes
         if self.kind != "product":
-            released = self.release_indices(self.input_indices(values, "values"), source)
+            released = self.release_indices(self.input_indices(values, "values"), random_bytes)
             return list(self._output_array()[released])
         n_parts = len(self.components)
         items = list(values)
@@ -461,7 +459,7 @@ class PrivacyFilter:
         released_columns = []
         for j, (component, column) in enumerate(zip(self.components, columns)):
             indices = component.input_indices(column, f"values (component {j})")
-            released_columns.append(component._output_array()[component.release_indices(indices, source)])
+            released_columns.append(component._output_array()[component.release_indices(indices, random_bytes)])
         return list(zip(*released_columns)) if items else []
 
     def input_indices(self, values: Sequence[Hashable], field: str = "values") -> npt.NDArray[np.intp]:
@@ -482,10 +480,11 @@ class PrivacyFilter:
             shown = self.inputs if len(self.inputs) <= 10 else f"{len(self.inputs)} labels"
             raise InputError(field, f"holds a value that is not among the filter's inputs {shown}", bad) from None
 
-    def release_indices(self, rows: npt.NDArray[np.intp], random_bytes: RandomBytes) -> npt.NDArray[np.intp]:
+    def release_indices(self, rows: npt.NDArray[np.intp], random_bytes: RandomBytes | None) -> npt.NDArray[np.intp]:
         """The output index released for each input index of ``rows`` (shape (n,)), sampled exactly.
 
         Randomized response or a matrix (a product releases its components' one by one, in :meth:`apply`).
+        ``random_bytes`` None draws from :func:`secrets.token_bytes`.
         """
         n = rows.size
         if self.kind == "randomized_response":

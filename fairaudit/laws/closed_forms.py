@@ -93,6 +93,23 @@ def rr_total_variation_up(epsilon: float, k: int) -> float:
     p − q = (1 − s)/(1 + (k − 1)s) with s = e^−ε decreases in s, so s rounded down gives an upper end, for
     every ε (no overflow); below ε = 1e-5, 1 − s ≤ ε − ε²/2 + ε³/6 (the alternating series), exact rationals
     (``proofs/outward.md`` §5).
+
+    Parameters
+    ----------
+    epsilon : float
+        ε in nats, ≥ 0 (+inf gives 1).
+    k : int
+        The number of values.
+
+    Returns
+    -------
+    float
+        An upper end of p − q (a probability).
+
+    Examples
+    --------
+    >>> rr_total_variation_up(math.log(3), 2) >= 0.5
+    True
     """
     if k < 2 or epsilon == 0.0:
         return 0.0

@@ -65,6 +65,22 @@ def exp_factors(epsilon: float) -> tuple[float, float]:
 
     t₁ = e^min(ε, 700) rounded down, t₂ = e^(ε − 700) rounded down (1 when ε ≤ 700): no overflow for any ε
     below 1400 nats, and the product is a lower end of e^ε (``proofs/outward.md`` §5).
+
+    Parameters
+    ----------
+    epsilon : float
+        ε in nats, finite and ≥ 0 (at most 1400 for a finite t₂).
+
+    Returns
+    -------
+    tuple of float
+        (t₁, t₂).
+
+    Examples
+    --------
+    >>> t1, t2 = exp_factors(1.0)
+    >>> t2, t1 <= math.e
+    (1.0, True)
     """
     if epsilon <= 700.0:
         return exp_down(epsilon), 1.0
@@ -78,6 +94,24 @@ def hockey_stick(p: FloatArray, q: FloatArray, t1: float, t2: float = 1.0) -> tu
     p − fl(fl(q t₁) t₂) is within 4u(p + t q) of p − t q (three roundings), a term whose computed value is below
     −8u(p + t q) is ≤ 0 exactly (it adds 0 both ways), and the sum of m terms adds (m + 1)u of its value. The
     bound itself is computed with a factor 2 to spare for its own roundings.
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray, shape (..., m)
+        Rows of a mechanism (probabilities; broadcast against each other), the last axis its m outputs.
+    t1, t2 : float
+        The two factors of t (:func:`exp_factors`), each ≥ 1.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(value, error)``, each of the broadcast shape without the last axis.
+
+    Examples
+    --------
+    >>> value, error = hockey_stick(np.array([0.7, 0.3]), np.array([0.3, 0.7]), 2.0)
+    >>> bool(abs(value - 0.1) <= error < 1e-14)
+    True
     """
     with np.errstate(over="ignore"):
         tq = q * t1 if t2 == 1.0 else (q * t1) * t2
@@ -93,7 +127,25 @@ def hockey_stick(p: FloatArray, q: FloatArray, t1: float, t2: float = 1.0) -> tu
 
 
 def exact_hockey_stick(p: FloatArray, q: FloatArray, t: Fraction) -> Fraction:
-    """Σ_o [p_o − t q_o]₊ of two rows in exact rational arithmetic (each float is a rational)."""
+    """Σ_o [p_o − t q_o]₊ of two rows in exact rational arithmetic (each float is a rational).
+
+    Parameters
+    ----------
+    p, q : numpy.ndarray, shape (m,)
+        Two rows of a mechanism.
+    t : Fraction
+        e^ε, ≥ 1.
+
+    Returns
+    -------
+    Fraction
+        The hockey-stick divergence of order t, exactly.
+
+    Examples
+    --------
+    >>> exact_hockey_stick(np.array([0.75, 0.25]), np.array([0.25, 0.75]), Fraction(2))
+    Fraction(1, 4)
+    """
     total = Fraction(0)
     for po, qo in zip(p.tolist(), q.tolist()):
         x = Fraction(po) - t * Fraction(qo)
@@ -108,6 +160,23 @@ def largest_hockey_stick(matrix: FloatArray, t1: float, t2: float = 1.0) -> floa
     One pass over the pairs in floating point with :func:`hockey_stick`'s error bound; the pairs whose upper
     end reaches the largest lower end are re-evaluated exactly (up to :data:`EXACT_PAIRS` of them), so the
     result is the exact maximum rounded up, or the largest widened value when more pairs tie.
+
+    Parameters
+    ----------
+    matrix : numpy.ndarray, shape (n_inputs, n_outputs)
+        The mechanism's matrix.
+    t1, t2 : float
+        The two factors of t (:func:`exp_factors`).
+
+    Returns
+    -------
+    float
+        An upper end of δ(ε) for e^ε ≥ t₁·t₂ (0 with fewer than two inputs).
+
+    Examples
+    --------
+    >>> largest_hockey_stick(np.array([[0.75, 0.25], [0.25, 0.75]]), 2.0)
+    0.25
     """
     n = matrix.shape[0]
     if n < 2:
@@ -130,6 +199,21 @@ def log_ratio_up(top: FloatArray, bottom: FloatArray) -> float:
 
     The float ratios are each within one rounding; those that may be the largest are re-evaluated exactly
     (up to :data:`EXACT_PAIRS`), and ln is :func:`~fairaudit.base.outward.log_up` of the exact rational.
+
+    Parameters
+    ----------
+    top, bottom : array_like
+        Nonnegative numerators and denominators, paired elementwise (flattened); 0/0 counts as 1.
+
+    Returns
+    -------
+    float
+        An upper end of the largest log ratio, in nats.
+
+    Examples
+    --------
+    >>> log_ratio_up([0.75, 0.25], [0.25, 0.75]) >= math.log(3)
+    True
     """
     top, bottom = np.asarray(top, dtype=float).ravel(), np.asarray(bottom, dtype=float).ravel()
     if not top.size:

@@ -33,6 +33,7 @@ __all__ = [
     "REFINE_LIMIT",
     "RatioBound",
     "certify_ratio",
+    "check_dual",
     "dual_value",
     "point_ratio",
     "refine_duals",
@@ -70,15 +71,22 @@ class RatioBound:
     reason: str
 
 
-def _dyadic(x: npt.ArrayLike) -> Dyadic:
-    """Finite floats as exact integers over one power of two: (object array of int, exponent)."""
+def _exponent(a: FloatArray) -> int:
+    """The smallest exponent e with every float of ``a`` an integer times 2^e (0 when all are 0)."""
+    mant, ex = np.frexp(a)
+    nonzero = mant != 0
+    return int((ex[nonzero].astype(np.int64) - 53).min()) if nonzero.any() else 0
+
+
+def _dyadic(x: npt.ArrayLike, e: int | None = None) -> Dyadic:
+    """Finite floats as exact integers over one power of two: (object array of int, exponent ``e``, by default the
+    largest that works)."""
     a = np.asarray(x, dtype=float).ravel()
+    if e is None:
+        e = _exponent(a)
     mant, ex = np.frexp(a)
     ints = (mant * 2.0**53).astype(np.int64)  # exact: a 53-bit significand
-    exps = ex.astype(np.int64) - 53
-    nonzero = ints != 0
-    e = int(exps[nonzero].min()) if nonzero.any() else 0
-    shifts = np.where(nonzero, exps - e, 0)
+    shifts = np.where(ints != 0, ex.astype(np.int64) - 53 - e, 0)
     return np.left_shift(ints.astype(object), shifts.astype(object)), e
 
 
@@ -93,24 +101,31 @@ def _add(x: Dyadic, y: Dyadic, sign: int = 1) -> Dyadic:
     return _align(x, e) + sign * _align(y, e), e
 
 
+CHUNK = 1 << 14
+"""Nonzeros of a constraint matrix turned into Python integers at a time (their memory is several times a float's)."""
+
+
 def _transpose_times(a: FloatArray | sp.csr_matrix, v: Dyadic, n: int) -> Dyadic:
-    """Aᵀv exactly, shape (n,), for a dense or scipy.sparse A (shape (m, n))."""
+    """Aᵀv exactly, shape (n,), for a dense or scipy.sparse A (shape (m, n)), by chunks of nonzeros."""
     import scipy.sparse as sp
 
     coo = sp.coo_matrix(a)
     keep = coo.data != 0
-    rows, cols = coo.row[keep], coo.col[keep]
-    data = _dyadic(coo.data[keep])
+    rows, cols, data = coo.row[keep], coo.col[keep], coo.data[keep]
+    del coo, keep
     out = np.zeros(n, dtype=object)
     out[:] = 0
     if rows.size == 0:
         return out, 0
-    products = data[0] * v[0][rows]
+    e = _exponent(data)
     order = np.argsort(cols, kind="stable")
-    cols, products = cols[order], products[order]
-    starts = np.flatnonzero(np.r_[True, cols[1:] != cols[:-1]])
-    out[cols[starts]] = np.add.reduceat(products, starts)
-    return out, data[1] + v[1]
+    rows, cols, data = rows[order], cols[order], data[order]
+    for s in range(0, rows.size, CHUNK):
+        c = cols[s : s + CHUNK]
+        products = _dyadic(data[s : s + CHUNK], e)[0] * v[0][rows[s : s + CHUNK]]
+        starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
+        out[c[starts]] += np.add.reduceat(products, starts)
+    return out, e + v[1]
 
 
 def _dot(x: Dyadic, y: Dyadic) -> Dyadic:
@@ -201,6 +216,35 @@ def dual_value(
     Fraction(0, 1)
     """
     return _pieces(p, q, lower, upper, rows, duals).at(lam)[0]
+
+
+def check_dual(
+    lam: Fraction,
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows,
+    duals: list[FloatArray],
+) -> bool:
+    """Whether the duals prove the ratio ≤ λ on the polytope: every "le" dual ≥ 0 and B(λ) ≤ 0, exactly.
+
+    What a verifier runs on a recorded dual point (``FractionalResult.dual``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> one = np.ones(1)
+    >>> check_dual(Fraction(2), np.array([2.0]), one, 0 * one, one, [], []), check_dual(Fraction(1), np.array([2.0]), one, 0 * one, one, [], [])
+    (True, False)
+    """
+    for (_, _, kind), y in zip(rows, duals, strict=True):
+        y = np.asarray(y, dtype=float)
+        if not np.all(np.isfinite(y)) or (kind == "le" and np.any(y < 0)):
+            return False
+    if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
+        return False
+    return dual_value(lam, p, q, lower, upper, rows, duals) <= 0
 
 
 def certify_ratio(

@@ -250,8 +250,11 @@ def solve_clarabel(problem: cp.Problem, options: Mapping[str, Any] | None = None
     return str(problem.status)
 
 
-REPAIRS = 6
-"""At most this many repairs of the solver's dual (:func:`~fairaudit.base.exact_duality.refine_duals`) per solve."""
+REPAIR_OFFSETS = (0.0, 1e-13, 1e-11, 1e-9)
+"""λ − the solver's value (relative) at which the solver's dual is repaired (:func:`~fairaudit.base.exact_duality.refine_duals`); the smallest value certified is kept."""
+
+REPAIRS = 4
+"""Further repairs at the last certified λ, while the value decreases."""
 
 _INCONSISTENT = "the constraints are inconsistent: no feasible h"
 """The reason of an empty polytope."""
@@ -439,16 +442,22 @@ class FractionalProgram:
         # Newton from the left reaches the smallest λ with B(λ) ≤ 0 for the duals: start below the optimum
         start = min(witness, value - 1e-9 * abs(value)) if math.isfinite(witness) else value - 1e-9 * abs(value)
         bound = certify_ratio(start, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
-        lam = value
-        for _ in range(REPAIRS if self._bounded and math.isfinite(value) else 0):
-            # each repair at the last certified λ contracts its distance to the optimum (proofs/linear_fractional.md §6)
+        for offset in REPAIR_OFFSETS if self._bounded and math.isfinite(value) else ():
+            # duals repaired at a λ just above the solver's value: there the best dual has B(λ) < 0 with a margin
+            lam = value + offset * max(1.0, abs(value))
             repaired = refine_duals(h, lam, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
             if repaired is None:
                 break
             tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired)  # type: ignore[arg-type]
-            if not tight.certified or (bound.certified and bound.value <= tight.value):
+            if tight.certified and not (bound.certified and bound.value <= tight.value):
+                bound, duals = tight, repaired
+        for _ in range(REPAIRS if bound.certified and self._bounded else 0):
+            # each repair at the last certified λ contracts its distance to the optimum (proofs/linear_fractional.md §6)
+            repaired = refine_duals(h, bound.value, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
+            tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired) if repaired else bound  # type: ignore[arg-type]
+            if not tight.certified or tight.value >= bound.value:
                 break
-            bound, duals, lam = tight, repaired, tight.value
+            bound, duals = tight, repaired  # type: ignore[assignment]
         if not bound.certified:
             why = f"not certified (solver status {status}): {bound.reason}"
             return result(value=value, argmax=h, status="optimal", solver_status=status, reason=why, witness=witness)

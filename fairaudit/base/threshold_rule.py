@@ -124,9 +124,11 @@ def threshold_max_many(
         r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
     order = np.argsort(-r, axis=-1, kind="stable")
     span = hi - lo
-    terms = [p * lo, p * span, q * lo, q * span]
-    num = terms[0].sum(-1, keepdims=True) + _prefix_sums(terms[1], order)[1]
-    den = terms[2].sum(-1, keepdims=True) + _prefix_sums(terms[3], order)[1]
+    under = np.zeros(
+        p.shape[:-1], dtype=bool
+    )  # programs where some product underflowed (proofs/linear_fractional.md §7)
+    num = _terms(p, lo, span, order, under)
+    den = _terms(q, lo, span, order, under)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
     best = values.max(axis=-1)
@@ -134,32 +136,56 @@ def threshold_max_many(
     # possible, which helps every extra constraint E ≥ τ of the callers' relaxations.
     tied = values >= (best * (1 - 1e-12))[..., None]
     k = values.shape[-1] - 1 - np.argmax(tied[..., ::-1], axis=-1)
-    return _certified_max(num, den, terms), k, order
+    del values, tied
+    return _certified_max(num, den, under), k, order
 
 
-def _certified_max(num: FloatArray, den: FloatArray, terms: list[FloatArray]) -> FloatArray:
+def _terms(
+    w: FloatArray, lo: FloatArray, span: FloatArray, order: IntArray, under: npt.NDArray[np.bool_]
+) -> FloatArray:
+    """w·h at the n + 1 prefixes of ``order``, computed; marks in ``under`` the programs where a product underflowed."""
+    base = w * lo
+    under |= np.any((base > 0) & (base < _TINY_PRODUCT), axis=-1)
+    total = base.sum(-1, keepdims=True)
+    del base
+    raised = w * span
+    under |= np.any((raised > 0) & (raised < _TINY_PRODUCT), axis=-1)
+    return total + _prefix_sums(raised, order)[1]
+
+
+def _certified_max(num: FloatArray, den: FloatArray, under: npt.NDArray[np.bool_]) -> FloatArray:
     """max over prefixes of the exact ratio, bounded above (proofs/linear_fractional.md §7), shape (...).
 
     Per prefix: its numerator rounded up and denominator down by γ_{n+3} (and by an absolute 2n·2^-1074 where a
     product underflowed), their quotient rounded up; then the largest, widened by 3u for near-ties that the sort of
-    the floating-point ratios may have ordered wrongly.
+    the floating-point ratios may have ordered wrongly. ``num`` and ``den`` are overwritten.
     """
-    n = terms[0].shape[-1]
+    n = num.shape[-1] - 1
     g = sum_error(n)
-    under = np.zeros(num.shape[:-1], dtype=bool)
-    for t in terms:
-        under |= np.any((t > 0) & (t < _TINY_PRODUCT), axis=-1)
     absolute = np.where(under, 2.0 * n * 2.0**-1074, 0.0)[..., None]
+    exact_zero = (absolute == 0) & (den == 0)  # no underflow: den is 0 exactly when its float is
+    zero_inf = np.any(exact_zero & (num > 0), axis=-1)  # c/0 = +inf, decided exactly
+    zero_one = np.any(exact_zero & (num == 0), axis=-1)  # 0/0 = 1, exactly
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        num_up = up(up(num * up(1.0 + g)) + absolute)
-        den_low = down(down(den * down(1.0 - g)) - absolute)
-        exact_zero = (absolute == 0) & (den == 0)  # no underflow: den is 0 exactly when its float is
-        ratio = np.where(den_low > 0, up(num_up / np.where(den_low > 0, den_low, 1.0)), np.inf)
-    largest = np.where(exact_zero, -np.inf, ratio).max(axis=-1)
+        np.multiply(num, up(1.0 + g), out=num)
+        np.nextafter(num, np.inf, out=num)
+        np.add(num, absolute, out=num)
+        np.nextafter(num, np.inf, out=num)
+        np.multiply(den, down(1.0 - g), out=den)
+        np.nextafter(den, -np.inf, out=den)
+        np.subtract(den, absolute, out=den)
+        np.nextafter(den, -np.inf, out=den)
+        bad = den <= 0
+        den[bad] = 1.0
+        np.divide(num, den, out=num)
+        np.nextafter(num, np.inf, out=num)
+        num[bad] = -np.inf
+    largest = num.max(axis=-1)
     with np.errstate(invalid="ignore"):
         finite = np.where(np.isneginf(largest), -np.inf, widen_up(largest, 3 * UNIT))
-    conventions = np.where(exact_zero, np.where(num > 0, np.inf, 1.0), -np.inf).max(axis=-1)  # exact: not widened
-    return np.asarray(np.maximum(finite, conventions), dtype=float)[()]
+    infinite = zero_inf | np.any(bad & ~exact_zero, axis=-1)  # (a denominator bound ≤ 0 after underflow: +inf)
+    out = np.where(infinite, np.inf, np.where(zero_one, np.maximum(finite, 1.0), finite))  # conventions not widened
+    return np.asarray(out, dtype=float)[()]
 
 
 def floor_max_many(

@@ -31,15 +31,17 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, TypeAlias, overload
+from typing import TYPE_CHECKING, Any, Literal, TypeAlias, overload
 
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, as_float_array
 from fairaudit.base.errors import InputError
+from fairaudit.base.exact_duality import certify_ratio, point_ratio, refine_duals
+from fairaudit.base.outward import up
 from fairaudit.base.threshold_rule import threshold_max_many
 
 if TYPE_CHECKING:
@@ -53,6 +55,7 @@ __all__ = [
     "FractionalProgram",
     "FractionalResult",
     "fractional_max",
+    "gap_between",
     "lp_max",
     "threshold_max",
 ]
@@ -60,22 +63,38 @@ __all__ = [
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class FractionalResult:
-    """The optimum of max (p·h) / (q·h).
+    """The optimum of max (p·h)/(q·h).
 
     Attributes
     ----------
     value : float
-        The optimal ratio (+inf when unbounded; NaN when infeasible).
+        The optimal ratio as an upper bound: ≥ the exact maximum whenever ``certified`` (+inf when
+        unbounded; NaN when infeasible). The threshold route rounds it up by a proven error bound; the LP
+        route takes it from a dual point checked in exact arithmetic (``proofs/linear_fractional.md`` §6).
+        When not ``certified`` it is the solver's primal value, and ``reason`` says why it is not certified.
     argmax : numpy.ndarray or None
-        An h attaining it, shape (n,); None when unbounded or infeasible.
+        An h attaining it (to the solver's accuracy), shape (n,); None when unbounded or infeasible.
     status : {"optimal", "unbounded", "infeasible"}
     method : {"threshold", "lp"}
     solver_status : str
-        The solver's own status ("threshold" for the fast path).
+        The solver's own status ("optimal", "optimal_inaccurate", ...; "threshold" or "closed form" for the
+        fast paths).
     reason : str
-        Why the value is +inf or NaN; empty when optimal.
+        Why the value is +inf or NaN, or why it is not certified; empty when optimal and certified.
     p, q, lower, upper : numpy.ndarray
         The inputs.
+    certified : bool
+        Whether ``value`` is proven ≥ the exact maximum (an exactly checked dual, or the threshold rule's error
+        bound); +inf always is. False for NaN and for the solver's word alone (an infeasible LP, a value with
+        no dual that checks).
+    witness : float
+        (p·h)/(q·h) at ``argmax`` computed exactly and rounded down, when that point lies in the polytope
+        exactly: a certified lower end of the maximum. NaN when there is no such point.
+    gap : float
+        ``value − witness`` rounded up (NaN without a witness; 0 when both are +inf).
+    dual : tuple of numpy.ndarray
+        The LP route's dual point that certified ``value``: one array per block of rows (ν ≥ 0 for A_ub,
+        η for A_eq, in that order; shape (m,) and (k,)); empty on the threshold route.
     """
 
     value: float
@@ -88,6 +107,25 @@ class FractionalResult:
     q: FloatArray
     lower: FloatArray | None
     upper: FloatArray | None
+    certified: bool = False
+    witness: float = math.nan
+    gap: float = math.nan
+    dual: tuple[FloatArray, ...] = ()
+
+
+def gap_between(value: float, witness: float) -> float:
+    """``value − witness`` rounded up: the certified width of the interval [witness, value] (NaN without both).
+
+    Examples
+    --------
+    >>> gap_between(2.0, 1.0), gap_between(math.inf, math.inf)
+    (1.0, 0.0)
+    """
+    if math.isnan(value) or math.isnan(witness):
+        return math.nan
+    if value == witness:
+        return 0.0
+    return up(value - witness)
 
 
 def _vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
@@ -165,33 +203,58 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
     top = order[: int(k)]
     h[top] = hi[top]
     value = float(values)
+    witness = point_ratio(h, p, q, lo, hi, [])
+    if math.isnan(witness):  # q·h = 0 at the point: c/0 = +inf, 0/0 = 1
+        witness = math.inf if p @ h > 0 else 1.0
+    found = functools.partial(result, certified=True, witness=witness, gap=gap_between(value, witness))
     if math.isinf(value):
-        return result(
+        return found(
             value=value,
             argmax=h,
             status="unbounded",
             solver_status="threshold",
             reason="some h in the box has q·h = 0 and p·h > 0",
         )
-    return result(value=value, argmax=h, status="optimal", solver_status="threshold", reason="")
+    return found(value=value, argmax=h, status="optimal", solver_status="threshold", reason="")
 
 
 CLARABEL_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
 
 
-def solve_clarabel(problem: cp.Problem) -> None:
-    """Solve a cvxpy problem with Clarabel at tight tolerances, without the "may be inaccurate" warning.
+def solve_clarabel(problem: cp.Problem, options: Mapping[str, Any] | None = None) -> str:
+    """Solve a cvxpy problem with Clarabel at tight tolerances; return the solver's status.
 
-    The callers read ``problem.status``: an inaccurate solve is reported there (``solver_status``), not warned.
+    cvxpy's "Solution may be inaccurate" warning is not printed: its information is the status returned
+    (``optimal_inaccurate``, ...), which every caller keeps (``FractionalResult.solver_status``) and which
+    :class:`FractionalProgram` never certifies from the primal value alone.
+
+    Parameters
+    ----------
+    problem : cvxpy.Problem
+    options : mapping, optional
+        Clarabel settings that replace or extend :data:`CLARABEL_TOLERANCES`.
+
+    Returns
+    -------
+    str
+        ``problem.status``.
     """
     import warnings
 
     import cvxpy as cp
 
+    settings = {**CLARABEL_TOLERANCES, **(options or {})}
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
-        problem.solve(solver=cp.CLARABEL, **CLARABEL_TOLERANCES)
+        problem.solve(solver=cp.CLARABEL, **settings)
+    return str(problem.status)
 
+
+REPAIR_OFFSETS = (0.0, 1e-13, 1e-11, 1e-9)
+"""λ − the solver's value (relative) at which the solver's dual is repaired (:func:`~fairaudit.base.exact_duality.refine_duals`); the smallest value certified is kept."""
+
+REPAIRS = 4
+"""Further repairs at the last certified λ, while the value decreases."""
 
 _INCONSISTENT = "the constraints are inconsistent: no feasible h"
 """The reason of an empty polytope."""
@@ -224,6 +287,9 @@ class FractionalProgram:
         Per-cell bounds (None or ±inf: unbounded on that side).
     A_ub, b_ub : array_like or scipy.sparse matrix, shapes (m, n) and (m,), optional
     A_eq, b_eq : array_like or scipy.sparse matrix, shapes (k, n) and (k,), optional
+    solver_options : mapping, optional
+        Clarabel settings over :data:`CLARABEL_TOLERANCES` (tests use a small ``max_iter`` to get an
+        inaccurate solve).
 
     Raises
     ------
@@ -248,6 +314,7 @@ class FractionalProgram:
         b_ub: npt.ArrayLike | None = None,
         A_eq: ConstraintMatrix | None = None,
         b_eq: npt.ArrayLike | None = None,
+        solver_options: Mapping[str, Any] | None = None,
     ) -> None:
         import cvxpy as cp
 
@@ -267,7 +334,10 @@ class FractionalProgram:
                 raise InputError(name, f"shape must be ({b.size}, {self.n})", a.shape)
             self._rows.append((a, b, op))
         y = self._y
-        self._problem = cp.Problem(cp.Maximize(self._p @ y), [self._q @ y == 1, *self._constraints(y, self._s)])
+        constraints = self._constraints(y, self._s)
+        self._row_constraints = constraints[len(constraints) - len(self._rows) :]  # their duals are ν and η
+        self._problem = cp.Problem(cp.Maximize(self._p @ y), [self._q @ y == 1, *constraints])
+        self._options = dict(solver_options or {})
         self._bounded = (
             self.lower is not None
             and self.upper is not None
@@ -311,7 +381,7 @@ class FractionalProgram:
         self._p.value, self._q.value = p, q
         prob = self._problem
         try:
-            solve_clarabel(prob)
+            solve_clarabel(prob, self._options)
         except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
             return _no_solution(result, "solver_error", str(exc))
         status = prob.status
@@ -322,6 +392,7 @@ class FractionalProgram:
                 status="unbounded",
                 solver_status=status,
                 reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
+                certified=True,  # +inf bounds every ratio
             )
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return self._zero_denominator(p, q, status)
@@ -331,7 +402,7 @@ class FractionalProgram:
         if self._bounded and s > 0:
             # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
             h = np.asarray(self._y.value, dtype=float) / float(s)
-            return result(value=float(prob.value), argmax=h, status="optimal", solver_status=status, reason="")
+            return self._certified(result, p, q, float(prob.value), h, status)
         y = np.asarray(self._y.value, dtype=float)
         if s <= 1e-12 * max(1.0, float(np.abs(y).max())):
             # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
@@ -346,7 +417,62 @@ class FractionalProgram:
                 reason="the supremum is approached only as h grows without bound along a recession "
                 "direction of the polytope (q·h -> +inf); it is not attained",
             )
-        return result(value=float(prob.value), argmax=y / float(s), status="optimal", solver_status=status, reason="")
+        return self._certified(result, p, q, float(prob.value), y / float(s), status)
+
+    def _certified(
+        self,
+        result: Callable[..., FractionalResult],
+        p: FloatArray,
+        q: FloatArray,
+        value: float,
+        h: FloatArray,
+        status: str,
+    ) -> FractionalResult:
+        """The solver's optimum certified from its dual, checked exactly (proofs/linear_fractional.md §6).
+
+        The value is the smallest λ ≥ the solver's value with B(λ) ≤ 0, rounded up; the witness is the ratio at the
+        primal point clipped into the box, when it meets every row exactly. Without a dual that checks, the solver's
+        value is returned uncertified, with the reason.
+        """
+        duals = [np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for c in self._row_constraints]
+        duals = [d if op == "le" else -d for d, (_, _, op) in zip(duals, self._rows)]
+        if self.lower is not None or self.upper is not None:
+            h = np.clip(h, self.lower, self.upper)
+        witness = point_ratio(h, p, q, self.lower, self.upper, self._rows)
+        # Newton from the left reaches the smallest λ with B(λ) ≤ 0 for the duals: start below the optimum
+        start = min(witness, value - 1e-9 * abs(value)) if math.isfinite(witness) else value - 1e-9 * abs(value)
+        bound = certify_ratio(start, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
+        for offset in REPAIR_OFFSETS if self._bounded and math.isfinite(value) else ():
+            # duals repaired at a λ just above the solver's value: there the best dual has B(λ) < 0 with a margin
+            lam = value + offset * max(1.0, abs(value))
+            repaired = refine_duals(h, lam, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
+            if repaired is None:
+                break
+            tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired)  # type: ignore[arg-type]
+            if tight.certified and not (bound.certified and bound.value <= tight.value):
+                bound, duals = tight, repaired
+        for _ in range(REPAIRS if bound.certified and self._bounded else 0):
+            # each repair at the last certified λ contracts its distance to the optimum (proofs/linear_fractional.md §6)
+            repaired = refine_duals(h, bound.value, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
+            tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired) if repaired else bound  # type: ignore[arg-type]
+            if not tight.certified or tight.value >= bound.value:
+                break
+            bound, duals = tight, repaired  # type: ignore[assignment]
+        if not bound.certified:
+            why = f"not certified (solver status {status}): {bound.reason}"
+            return result(value=value, argmax=h, status="optimal", solver_status=status, reason=why, witness=witness)
+        cleaned = tuple(np.maximum(d, 0.0) if op == "le" else d for d, (_, _, op) in zip(duals, self._rows))
+        return result(
+            value=bound.value,
+            argmax=h,
+            status="optimal",
+            solver_status=status,
+            reason="",
+            certified=True,
+            witness=witness,
+            gap=gap_between(bound.value, witness),
+            dual=cleaned,
+        )
 
     def _zero_denominator(self, p: FloatArray, q: FloatArray, status: str) -> FractionalResult:
         """The transformed LP is infeasible: the polytope is empty, or q·h = 0 on all of it.
@@ -372,6 +498,7 @@ class FractionalProgram:
                 status="unbounded",
                 solver_status=status,
                 reason="q·h = 0 on every feasible h and some has p·h > 0 (c/0)",
+                certified=True,  # +inf bounds every ratio
             )
         return result(
             value=1.0,
@@ -391,7 +518,7 @@ class FractionalProgram:
             self._primal = (cp.Problem(cp.Maximize(c @ h), self._constraints(h)), h, c)
         prob, h, c = self._primal
         c.value = p
-        solve_clarabel(prob)
+        solve_clarabel(prob, self._options)
         return prob.status, prob.value, None if h.value is None else np.asarray(h.value, dtype=float)
 
 

@@ -20,13 +20,40 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray
+from fairaudit.base.outward import down, up, widen_up
 
 ThresholdSolution: TypeAlias = tuple[FloatArray, IntArray, IntArray]
 """What :func:`threshold_max_many` returns: (values, k, order)."""
 
+UNIT = 2.0**-53
+"""The unit roundoff u of binary64, round to nearest."""
+
+_TINY_PRODUCT = 2.0**-1022
+"""The smallest normal float: a nonzero product below it may have lost its relative accuracy (gradual underflow)."""
+
+
+def sum_error(n: int) -> float:
+    """γ_{n+3} = (n + 3)u / (1 − (n + 3)u), rounded up: the relative error of the threshold rule's sums over n cells.
+
+    Each term p_i·lower_i or p_i·(upper_i − lower_i) carries at most two roundings and each sum of prefix at most
+    n + 1 additions of non-negative terms (``proofs/linear_fractional.md`` §7).
+
+    Examples
+    --------
+    >>> sum_error(1) > 4 * 2.0**-53
+    True
+    """
+    k = float(n + 3) * UNIT
+    if k >= 0.5:
+        return float("inf")
+    return float(up(up(k) / down(1.0 - k)))
+
+
 __all__ = [
+    "UNIT",
     "box_point",
     "floor_max_many",
+    "sum_error",
     "threshold_max_many",
 ]
 
@@ -68,7 +95,8 @@ def threshold_max_many(
     Returns
     -------
     values : numpy.ndarray, shape (...)
-        The optimal ratios (c/0 = +inf, 0/0 = 1).
+        The optimal ratios (c/0 = +inf, 0/0 = 1), each rounded up by the rule's error bound: ≥ the exact
+        maximum and within about (2n + 10)u of it (``proofs/linear_fractional.md`` §7).
     k : numpy.ndarray of int, shape (...)
         How many cells take their upper bound at the optimum (the longest
         optimal prefix when ratios tie).
@@ -88,14 +116,19 @@ def threshold_max_many(
     ...                                  np.array([[0.3, 0.7], [0.7, 0.3]]), 0.5, 1.0)
     >>> v.round(12).tolist(), k.tolist(), order[:, 0].tolist()
     ([1.307692307692, 1.307692307692], [1, 1], [0, 1])
+    >>> bool(np.all(v >= 17 / 13))                                  # (0.5·0.3 + 0.7) / (0.5·0.7 + 0.3), upward
+    True
     """
     p, q, lo, hi = _broadcast(p, q, lower, upper)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
     order = np.argsort(-r, axis=-1, kind="stable")
     span = hi - lo
-    num = (p * lo).sum(-1, keepdims=True) + _prefix_sums(p * span, order)[1]
-    den = (q * lo).sum(-1, keepdims=True) + _prefix_sums(q * span, order)[1]
+    under = np.zeros(
+        p.shape[:-1], dtype=bool
+    )  # programs where some product underflowed (proofs/linear_fractional.md §7)
+    num = _terms(p, lo, span, order, under)
+    den = _terms(q, lo, span, order, under)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         values = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
     best = values.max(axis=-1)
@@ -103,7 +136,56 @@ def threshold_max_many(
     # possible, which helps every extra constraint E ≥ τ of the callers' relaxations.
     tied = values >= (best * (1 - 1e-12))[..., None]
     k = values.shape[-1] - 1 - np.argmax(tied[..., ::-1], axis=-1)
-    return best, k, order
+    del values, tied
+    return _certified_max(num, den, under), k, order
+
+
+def _terms(
+    w: FloatArray, lo: FloatArray, span: FloatArray, order: IntArray, under: npt.NDArray[np.bool_]
+) -> FloatArray:
+    """w·h at the n + 1 prefixes of ``order``, computed; marks in ``under`` the programs where a product underflowed."""
+    base = w * lo
+    under |= np.any((base > 0) & (base < _TINY_PRODUCT), axis=-1)
+    total = base.sum(-1, keepdims=True)
+    del base
+    raised = w * span
+    under |= np.any((raised > 0) & (raised < _TINY_PRODUCT), axis=-1)
+    return total + _prefix_sums(raised, order)[1]
+
+
+def _certified_max(num: FloatArray, den: FloatArray, under: npt.NDArray[np.bool_]) -> FloatArray:
+    """max over prefixes of the exact ratio, bounded above (proofs/linear_fractional.md §7), shape (...).
+
+    Per prefix: its numerator rounded up and denominator down by γ_{n+3} (and by an absolute 2n·2^-1074 where a
+    product underflowed), their quotient rounded up; then the largest, widened by 3u for near-ties that the sort of
+    the floating-point ratios may have ordered wrongly. ``num`` and ``den`` are overwritten.
+    """
+    n = num.shape[-1] - 1
+    g = sum_error(n)
+    absolute = np.where(under, 2.0 * n * 2.0**-1074, 0.0)[..., None]
+    exact_zero = (absolute == 0) & (den == 0)  # no underflow: den is 0 exactly when its float is
+    zero_inf = np.any(exact_zero & (num > 0), axis=-1)  # c/0 = +inf, decided exactly
+    zero_one = np.any(exact_zero & (num == 0), axis=-1)  # 0/0 = 1, exactly
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        np.multiply(num, up(1.0 + g), out=num)
+        np.nextafter(num, np.inf, out=num)
+        np.add(num, absolute, out=num)
+        np.nextafter(num, np.inf, out=num)
+        np.multiply(den, down(1.0 - g), out=den)
+        np.nextafter(den, -np.inf, out=den)
+        np.subtract(den, absolute, out=den)
+        np.nextafter(den, -np.inf, out=den)
+        bad = den <= 0
+        den[bad] = 1.0
+        np.divide(num, den, out=num)
+        np.nextafter(num, np.inf, out=num)
+        num[bad] = -np.inf
+    largest = num.max(axis=-1)
+    with np.errstate(invalid="ignore"):
+        finite = np.where(np.isneginf(largest), -np.inf, widen_up(largest, 3 * UNIT))
+    infinite = zero_inf | np.any(bad & ~exact_zero, axis=-1)  # (a denominator bound ≤ 0 after underflow: +inf)
+    out = np.where(infinite, np.inf, np.where(zero_one, np.maximum(finite, 1.0), finite))  # conventions not widened
+    return np.asarray(out, dtype=float)[()]
 
 
 def floor_max_many(
@@ -142,7 +224,8 @@ def floor_max_many(
     Returns
     -------
     values : numpy.ndarray, shape (...)
-        Optimal ratios (NaN where q·upper < floor: infeasible).
+        Optimal ratios (NaN where q·upper < floor: infeasible), rounded up by the rule's error bound: ≥ the exact
+        maximum and within about (4n + 24)u of it (``proofs/linear_fractional.md`` §7).
     k : numpy.ndarray of int, shape (...)
         Cells at ``upper`` (the first k in ``order``).
     frac : numpy.ndarray, shape (...)
@@ -160,6 +243,8 @@ def floor_max_many(
     >>> v, k, frac, order = floor_max_many(np.array([0.7, 0.3]), np.array([0.3, 0.7]), 0.0, 1.0, 0.5)
     >>> round(float(v), 12), int(k), round(float(frac), 12)      # h = (1, 2/7): (0.7 + 0.6/7) / 0.5 = 11/7
     (1.571428571429, 1, 0.285714285714)
+    >>> bool(v >= 11 / 7)
+    True
     """
     p, q, lo, hi = _broadcast(p, q, lower, upper)
     shape = p.shape
@@ -170,21 +255,28 @@ def floor_max_many(
     d0 = (q * lo).sum(-1)
     n0 = (p * lo).sum(-1)
     d_star = d0 + np.take_along_axis(cq, k[..., None], -1)[..., 0]
-    low = d_star < floor * (1 - 1e-12)
+    g = sum_error(shape[-1])
+    # low only where the unconstrained optimum's q·h is surely below the floor (else its value, an upper bound)
+    low = (d_star < floor * (1 - 1e-12)) & (up(d_star * up(1.0 + g)) < floor)
     need = floor - d0
-    j = np.clip((cq >= need[..., None] - 1e-15 * np.maximum(1.0, floor)).argmax(-1) - 1, 0, shape[-1] - 1)
+    j = np.clip((cq >= need[..., None] - 1e-15 * floor).argmax(-1) - 1, 0, shape[-1] - 1)
     qj = np.take_along_axis(qs, j[..., None], -1)[..., 0]
     pj = np.take_along_axis(ps, j[..., None], -1)[..., 0]
     cqj = np.take_along_axis(cq, j[..., None], -1)[..., 0]
     cpj = np.take_along_axis(cp, j[..., None], -1)[..., 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         frac = np.clip(np.where(qj > 0, (need - cqj) / np.where(qj > 0, qj, 1.0), 0.0), 0.0, 1.0)
-    filled = (n0 + cpj + frac * pj) / floor
+    filled = widen_up((n0 + cpj + frac * pj) / floor, _floor_error(shape[-1], g))
     feasible = d0 + cq[..., -1] >= floor * (1 - 1e-12)
     values = np.where(low, np.where(feasible, filled, np.nan), values)
     k_out = np.where(low, j, k)
     frac_out = np.where(low, frac, 0.0)
     return values, k_out, frac_out, order
+
+
+def _floor_error(n: int, g: float) -> float:
+    """The relative error bound of the knapsack value at the floor over n cells (proofs/linear_fractional.md §7)."""
+    return float(up(4.0 * g + 12.0 * UNIT + 2e-15))
 
 
 def box_point(lower: npt.ArrayLike, upper: npt.ArrayLike, order: IntArray, k: int, frac: float = 0.0) -> FloatArray:

@@ -322,8 +322,12 @@ def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFA
     omitted: dict[str, str] = {}
     if math.isnan(black_box.local_fairness.value):
         omitted["black_box"] = black_box.local_fairness.reason
+    else:
+        for case in (black_box.local_fairness, black_box.global_fairness):
+            if not case.certified:  # the solver's word only (proofs/linear_fractional.md §6): never a certified bound
+                omitted["black_box"] = f"the {case.kind} worst case is not certified: {case.reason}"
     bb_holds = not any(a.status == "violated" and a.scope != "global" for a in bb_assumptions)
-    bb_ok = bb_holds and not math.isnan(black_box.local_fairness.value)
+    bb_ok = bb_holds and "black_box" not in omitted
     best, best_form = _best_bound(black_box if bb_ok else None, tight, corollary, paper)
     independent = spec.population.independence().independent
     global_bound, global_why = _global_bound(black_box if bb_ok else None, best, best_form, independent)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import FloatArray, IntArray, safe_log
+from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
@@ -34,6 +34,7 @@ from fairaudit.worstcase.pair_search import (
     search,
 )
 from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz
+from fairaudit.worstcase.worst_cases import nats_up
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -74,6 +75,14 @@ class BlackBoxCertificate:
     programs_solved : int
         LPs solved (0 on the threshold path).
     assumptions : tuple of Assumption
+    certified : bool
+        Whether ``value`` is proven an upper bound (closed forms and the threshold rule rounded up, or the LP's
+        dual checked exactly); False, with the reason, when only the solver's word stands behind it.
+    witness : float
+        A certified lower end of the ratio (not nats) from the maximiser's point, when it is exactly feasible;
+        NaN otherwise (and on the closed-form routes).
+    gap : float
+        ``ratio − witness``, rounded up (NaN without a witness).
     """
 
     value: float
@@ -93,6 +102,9 @@ class BlackBoxCertificate:
     reason: str
     programs_solved: int
     assumptions: tuple[Assumption, ...]
+    certified: bool = True
+    witness: float = math.nan
+    gap: float = math.nan
 
     @property
     def form(self) -> str:
@@ -369,10 +381,14 @@ class _ClassProblem:
         programs_solved: int,
         *,
         value: float | None = None,
+        result: FractionalResult | None = None,
     ) -> BlackBoxCertificate:
-        """The certificate of a maximiser; ``value`` (nats) defaults to the log of ``ratio`` (NaN stays NaN)."""
+        """The certificate of a maximiser; ``value`` (nats) defaults to the log of ``ratio`` rounded up (NaN stays NaN).
+
+        ``result``: the maximiser's program, whose certification, witness and gap the certificate repeats.
+        """
         if value is None:
-            value = safe_log(ratio) if not math.isnan(ratio) else math.nan
+            value = nats_up(ratio)
         return BlackBoxCertificate(
             value=value,
             ratio=ratio,
@@ -391,6 +407,9 @@ class _ClassProblem:
             reason=reason,
             programs_solved=programs_solved,
             assumptions=self.assumptions,
+            certified=(not math.isnan(ratio)) if result is None else result.certified,
+            witness=math.nan if result is None else result.witness,
+            gap=math.nan if result is None else result.gap,
         )
 
 
@@ -573,7 +592,7 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
     inputs = problem.mechanism.inputs
     method = "lp" if found.solved else "threshold"
     return problem.certificate(
-        r.value, inputs[a], inputs[b], released, h, method, r.status, r.solver_status, r.reason, found.solved
+        r.value, inputs[a], inputs[b], released, h, method, r.status, r.solver_status, r.reason, found.solved, result=r
     )
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fairaudit.base.arrays import BoolArray, FloatArray, IntArray, safe_log
+from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
@@ -22,7 +22,7 @@ from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
 from fairaudit.worstcase.pair_search import SearchResult, box_pairs, check_class, check_method, search
-from fairaudit.worstcase.worst_cases import WorstCase
+from fairaudit.worstcase.worst_cases import WorstCase, nats_up
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -243,7 +243,7 @@ def _utility_case(
         return WorstCase.threshold(
             kind,
             ratio,
-            safe_log(ratio),
+            nats_up(ratio),
             context=label_x(x if kind == "local" else None),
             group=groups[a],
             other_group=groups[b],

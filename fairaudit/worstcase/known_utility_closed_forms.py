@@ -18,7 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from fairaudit.base.arrays import FloatArray, IntArray, safe_log
+from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.labels import format_label
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
@@ -26,7 +26,7 @@ from fairaudit.laws.tables import Kernel
 from fairaudit.worstcase.known_utility_problem import ModelProblem, onehot, weighted_utility
 from fairaudit.worstcase.pair_search import pairwise_box
 from fairaudit.worstcase.randomized_response import RRWorst, rr_box
-from fairaudit.worstcase.worst_cases import WorstCase
+from fairaudit.worstcase.worst_cases import WorstCase, nats_up
 
 
 def _threshold_case(
@@ -216,7 +216,7 @@ def local_threshold(problem: ModelProblem, MA: FloatArray, boxes: tuple[FloatArr
     kern = problem.kernel(table, exact=True)
     r = float(box_by_range[best_range, a, b])
     reason = "a released group is possible for one group and impossible for another" if math.isinf(r) else ""
-    return _threshold_case(problem, "local", r, safe_log(r), x, int(a), int(b), kern, reason=reason)
+    return _threshold_case(problem, "local", r, nats_up(r), x, int(a), int(b), kern, reason=reason)
 
 
 def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
@@ -233,4 +233,4 @@ def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
     table[:, top, :] = onehot(weighted_g.argmax(-1), nU)[:, None, :]
     kern = problem.kernel(table, exact=True)
     r = float(vals[a, b])
-    return _threshold_case(problem, "global", r, safe_log(r), None, int(a), int(b), kern)
+    return _threshold_case(problem, "global", r, nats_up(r), None, int(a), int(b), kern)

@@ -21,7 +21,8 @@ import numpy.typing as npt
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.checks import choice, nonnegative
 from fairaudit.base.errors import InputError
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.exact_duality import point_ratio
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
 from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
 from fairaudit.laws.utilities import UtilityClass
@@ -93,6 +94,8 @@ def relaxed_first(
             h[free] = np.broadcast_to(np.asarray(upper, dtype=float), h.shape)[free]
             if rows is None or floor is None or np.all(rows @ h >= floor * (1 - 1e-12) - 1e-15):
                 status = "unbounded" if math.isinf(v) else "optimal"
+                constraints = [] if rows is None or floor is None else [(-rows, -floor * np.ones(len(rows)), "le")]
+                witness = point_ratio(np.asarray(h, dtype=float), p, q, None, None, constraints)
                 return FractionalResult(
                     value=float(v),
                     argmax=h,
@@ -104,6 +107,9 @@ def relaxed_first(
                     q=q,
                     lower=None,
                     upper=None,
+                    certified=True,  # the rule's values are rounded up by their error bound
+                    witness=witness,
+                    gap=gap_between(float(v), witness),
                 )
         return program().solve(p, q)
 

@@ -13,14 +13,38 @@ import math
 from collections.abc import Hashable
 from dataclasses import dataclass
 
-from fairaudit.base.arrays import FloatArray, safe_log
-from fairaudit.base.json_values import Report, pair_dict
+from fairaudit.base.arrays import FloatArray
+from fairaudit.base.json_values import Report, number, pair_dict
 from fairaudit.base.labels import format_label
+from fairaudit.base.linear_fractional import gap_between
+from fairaudit.base.outward import log_down, log_up
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption
 from fairaudit.worstcase.pair_search import SearchResult
+
+
+def nats_up(ratio: float) -> float:
+    """ln of a ratio that is an upper bound, rounded up (ln inf = inf, ln 0 = −inf; NaN stays NaN).
+
+    Examples
+    --------
+    >>> nats_up(1.0), nats_up(math.inf), math.isnan(nats_up(math.nan))
+    (0.0, inf, True)
+    """
+    return math.nan if math.isnan(ratio) else log_up(ratio)
+
+
+def nats_down(ratio: float) -> float:
+    """ln of a ratio that is a lower end, rounded down (the mirror of :func:`nats_up`).
+
+    Examples
+    --------
+    >>> nats_down(1.0), nats_down(2.0) <= math.log(2.0)
+    (0.0, True)
+    """
+    return math.nan if math.isnan(ratio) else log_down(ratio)
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -49,8 +73,17 @@ class WorstCase:
     method : {"threshold", "lp"}
     status : {"optimal", "unbounded", "infeasible", "trivial"}
     solver_status : str
+        The solver's status for the maximiser's program ("optimal", "optimal_inaccurate", ...; "threshold" or
+        "closed form" when no LP decided it).
     reason : str
     programs_solved : int
+    certified : bool
+        Whether ``value`` is proven an upper bound (the threshold rule's error bound, or the LP's dual checked
+        exactly); False with the reason in ``reason`` when only the solver's word stands behind it.
+    witness : float
+        A certified lower end in nats, from the maximiser's point (NaN when the point is not exactly feasible).
+    gap : float
+        ``value − witness`` in nats, rounded up (NaN without a witness).
     """
 
     kind: str
@@ -67,6 +100,9 @@ class WorstCase:
     solver_status: str
     reason: str
     programs_solved: int
+    certified: bool = True
+    witness: float = math.nan
+    gap: float = math.nan
 
     @classmethod
     def infeasible(cls, kind: str, solver_status: str, reason: str, programs_solved: int) -> WorstCase:
@@ -86,6 +122,7 @@ class WorstCase:
             solver_status=solver_status,
             reason=reason,
             programs_solved=programs_solved,
+            certified=False,
         )
 
     @classmethod
@@ -158,9 +195,10 @@ class WorstCase:
         """The maximiser the pair search found: its program's value, status and reason; "lp" when an LP was solved."""
         r = found.result
         assert r is not None  # a maximiser was found
+        value, witness = nats_up(r.value), nats_down(r.witness)
         return cls(
             kind=kind,
-            value=safe_log(r.value),
+            value=value,
             ratio=r.value,
             context=context,
             group=group,
@@ -173,6 +211,9 @@ class WorstCase:
             solver_status=r.solver_status,
             reason=r.reason,
             programs_solved=found.solved,
+            certified=r.certified,
+            witness=witness,
+            gap=gap_between(value, witness),
         )
 
     @classmethod
@@ -192,6 +233,13 @@ class WorstCase:
         """The report dictionary: value, ratio, (context,) the pair, method, status, programs solved (and reason)."""
         d = pair_dict(self.kind, self.value, self.ratio, self.context, self.group, self.other_group)
         d.update(method=self.method, status=self.status, programs_solved=int(self.programs_solved))
+        d.update(
+            solver_status=self.solver_status,
+            certified=bool(self.certified),
+            certified_from_dual=bool(self.certified and self.method == "lp"),
+            witness=number(self.witness),
+            gap=number(self.gap),
+        )
         if self.reason:
             d["reason"] = self.reason
         return d

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import itertools
+import sys
+from fractions import Fraction
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -9,6 +14,9 @@ from hypothesis import strategies as st
 
 from fairaudit.base.linear_fractional import lp_max, threshold_max
 from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "proofs"))
+from _exact import box, vertex_max  # noqa: E402
 
 
 def _instance(seed: int, n: int):
@@ -42,3 +50,42 @@ def test_floor_closed_form_equals_lp(seed, n, share):
     assert float(v) == pytest.approx(lp.value, rel=1e-7)
     h = box_point(lo, hi, order, int(k), float(frac))
     assert q @ h >= floor * (1 - 1e-12) and (p @ h) / (q @ h) == pytest.approx(float(v), rel=1e-12)
+
+
+def _exact_box_max(p, q, lo, hi) -> Fraction:
+    """max over the 2^n vertices of the box, in Fractions (0/0 = 1, c/0 = inf)."""
+    best = None
+    for mask in itertools.product([0, 1], repeat=len(p)):
+        h = [Fraction(hi[i]) if m else Fraction(lo[i]) for i, m in enumerate(mask)]
+        num = sum((Fraction(p[i]) * h[i] for i in range(len(p))), Fraction(0))
+        den = sum((Fraction(q[i]) * h[i] for i in range(len(p))), Fraction(0))
+        v = (Fraction(10**400) if num > 0 else Fraction(1)) if den == 0 else num / den
+        best = v if best is None or v > best else best
+    return best
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 7), st.sampled_from(["tiny", "ties", "ulp", "plain"]))
+def test_threshold_values_are_upper_bounds_on_near_degenerate_boxes(seed, n, kind):
+    rng = np.random.default_rng(seed)
+    q = rng.dirichlet(np.ones(n))
+    if kind == "ties":  # equal likelihood ratios
+        p = q * 1.5
+    elif kind == "ulp":  # ratios that differ in the last bit
+        p = np.array([np.nextafter(1.3 * v, np.inf) if i % 2 else 1.3 * v for i, v in enumerate(q)])
+    else:
+        p = rng.dirichlet(np.ones(n))
+    lo = rng.uniform(0, 1e-12 if kind == "tiny" else 0.5, n) * rng.integers(0, 2)
+    hi = lo + (rng.uniform(1e-12, 2e-12, n) if kind == "tiny" else rng.uniform(0.01, 1.0, n))
+    exact = _exact_box_max(p, q, lo, hi)
+    v = float(threshold_max_many(p, q, lo, hi)[0])
+    assert Fraction(v) >= exact
+    assert Fraction(v) <= exact * (1 + Fraction(1, 10**12))
+    if n >= 2:  # the floor program too, against its exact optimum (vertex enumeration in Fractions)
+        floor = float(q @ lo + 0.5 * (q @ (hi - lo)))
+        fv = float(floor_max_many(p, q, lo, hi, floor)[0])
+        A, b = box([Fraction(v) for v in lo], [Fraction(v) for v in hi])
+        exact_floor = vertex_max(
+            [Fraction(v) for v in p], [Fraction(v) for v in q], [*A, [-Fraction(v) for v in q]], [*b, -Fraction(floor)]
+        )[0]
+        assert Fraction(fv) >= exact_floor
+        assert Fraction(fv) <= exact_floor * (1 + Fraction(1, 10**12))

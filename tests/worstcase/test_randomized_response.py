@@ -327,7 +327,9 @@ def test_worst_model_equals_the_general_route(k, eps):
                     # the worst model, composed and audited, gives its value and meets τ
                     law = fa.compose(ca.kernel, closed, cm)
                     audited = fa.local_fairness(law, g) if ca.kind == "local" else fa.global_fairness(law, g)
-                    assert audited.value == pytest.approx(ca.value, rel=1e-12, abs=1e-14)
+                    # (the value is an upper bound, certified; the model is its witness, within the LP's 1e-9)
+                    assert audited.value <= ca.value * (1 + 1e-14) + 1e-14
+                    assert audited.value == pytest.approx(ca.value, rel=1e-9, abs=1e-12)
                     if tau is not None:  # (1e-9: where the general route's LP decides, its tolerance)
                         assert np.nanmin(fa.expected_utility(law, g)) >= tau * (1 - 1e-9)
 
@@ -424,10 +426,12 @@ def test_closed_forms_equal_the_general_route_property(k, eps, tau, lower, gamma
     for t in (None, tau):
         a = black_box_bound(closed, utility_class=UtilityClass(lower=lower, gamma=gamma, tau=t))
         b = black_box_bound(general, utility_class=UtilityClass(lower=lower, gamma=gamma, tau=t))
-        assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-10)
+        # (the general route's LP value is certified from its dual: an upper bound within 1e-9)
+        assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-9)
 
 
-@given(k=st.integers(2, 40), target=st.floats(0.0, 5.0), rho=st.floats(0.0, 0.95))
+# (a subnormal floor leaves the threshold rule an absolute underflow term, proofs/linear_fractional.md §7: excluded)
+@given(k=st.integers(2, 40), target=st.floats(0.0, 5.0), rho=st.floats(0.0, 0.95, allow_subnormal=False))
 def test_calibration_closed_form_meets_the_target_property(k, target, rho):
     c = calibrate(target, groups=k, utility_class=UtilityClass(lower=rho))
     want = rr_black_box_epsilon(target, k, rho)
@@ -438,7 +442,8 @@ def test_calibration_closed_form_meets_the_target_property(k, target, rho):
     general = black_box_bound(
         fa.from_matrix(rr_matrix(k, c.epsilon), list(range(k))), utility_class=UtilityClass(lower=rho)
     )
-    assert general.value == pytest.approx(target, rel=1e-9, abs=1e-12)
+    # the general route is certified (rounded up by its error bound): within the 1e-9·max(1, v) of the target
+    assert target - 1e-12 <= general.value <= target + 1e-9 * max(1.0, target)
 
 
 # --------------------------------------------------------------------------- certify with 1,000 groups

@@ -1,0 +1,408 @@
+"""Weak duality checked exactly: a certified upper bound on max (p·h)/(q·h) from any dual point.
+
+Over the polytope P = {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq} with finite bounds, for a ratio λ and
+duals ν ≥ 0 (rows of A_ub) and η (rows of A_eq), with r = p − λq − A_ubᵀν − A_eqᵀη,
+
+    B(λ) = ν·b_ub + η·b_eq + Σ_i max(r_i·lower_i, r_i·upper_i) ≥ max over h in P of (p − λq)·h,
+
+so B(λ) ≤ 0 proves p·h ≤ λ·(q·h) on all of P: the ratio is at most λ wherever q·h > 0, and no h has q·h = 0 < p·h.
+:func:`certify_ratio` evaluates B exactly (every float is a dyadic rational; the sums are Python integers scaled by a
+power of two, λ a :class:`fractions.Fraction`) and raises λ by exact Newton steps until B(λ) ≤ 0; :func:`point_ratio`
+checks a primal point exactly and gives its ratio rounded down, the witness of the lower end. Proof:
+``proofs/linear_fractional.md`` (§6, the certified value).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.arrays import FloatArray
+from fairaudit.base.outward import fraction_down, fraction_up, up
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
+
+__all__ = [
+    "NEWTON_STEPS",
+    "REFINE_LIMIT",
+    "RatioBound",
+    "certify_ratio",
+    "check_dual",
+    "dual_value",
+    "point_ratio",
+    "refine_duals",
+]
+
+NEWTON_STEPS = 64
+"""At most this many exact Newton steps on λ (each lands on a new linear piece of B; B has at most n + 1)."""
+
+Dyadic = tuple[Any, int]
+"""Exact dyadic numbers: (Python integers, as an object array or one int, exponent e), the value ints·2^e."""
+
+Rows = list[tuple["FloatArray | sp.csr_matrix", FloatArray, str]]
+"""Constraint rows (A, b, "le" or "eq"), as :class:`fairaudit.base.linear_fractional.FractionalProgram` keeps them."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RatioBound:
+    """The outcome of :func:`certify_ratio`.
+
+    Attributes
+    ----------
+    value : float
+        A float ≥ the exact λ with B(λ) ≤ 0 (so ≥ the maximum ratio); NaN when not certified.
+    certified : bool
+        Whether B(λ) ≤ 0 was reached.
+    steps : int
+        Newton steps taken.
+    reason : str
+        Why the dual does not certify a finite value; empty when certified.
+    """
+
+    value: float
+    certified: bool
+    steps: int
+    reason: str
+
+
+def _exponent(a: FloatArray) -> int:
+    """The smallest exponent e with every float of ``a`` an integer times 2^e (0 when all are 0)."""
+    mant, ex = np.frexp(a)
+    nonzero = mant != 0
+    return int((ex[nonzero].astype(np.int64) - 53).min()) if nonzero.any() else 0
+
+
+def _dyadic(x: npt.ArrayLike, e: int | None = None) -> Dyadic:
+    """Finite floats as exact integers over one power of two: (object array of int, exponent ``e``, by default the
+    largest that works)."""
+    a = np.asarray(x, dtype=float).ravel()
+    if e is None:
+        e = _exponent(a)
+    mant, ex = np.frexp(a)
+    ints = (mant * 2.0**53).astype(np.int64)  # exact: a 53-bit significand
+    shifts = np.where(ints != 0, ex.astype(np.int64) - 53 - e, 0)
+    return np.left_shift(ints.astype(object), shifts.astype(object)), e
+
+
+def _align(x: Dyadic, e: int) -> Any:
+    """The integers of ``x`` rescaled to the smaller exponent ``e`` ≤ x's."""
+    return x[0] * (1 << (x[1] - e)) if x[1] > e else x[0]
+
+
+def _add(x: Dyadic, y: Dyadic, sign: int = 1) -> Dyadic:
+    """x + sign·y, exactly."""
+    e = min(x[1], y[1])
+    return _align(x, e) + sign * _align(y, e), e
+
+
+CHUNK = 1 << 14
+"""Nonzeros of a constraint matrix turned into Python integers at a time (their memory is several times a float's)."""
+
+
+def _transpose_times(a: FloatArray | sp.csr_matrix, v: Dyadic, n: int) -> Dyadic:
+    """Aᵀv exactly, shape (n,), for a dense or scipy.sparse A (shape (m, n)), by chunks of nonzeros."""
+    import scipy.sparse as sp
+
+    coo = sp.coo_matrix(a)
+    keep = coo.data != 0
+    rows, cols, data = coo.row[keep], coo.col[keep], coo.data[keep]
+    del coo, keep
+    out = np.zeros(n, dtype=object)
+    out[:] = 0
+    if rows.size == 0:
+        return out, 0
+    e = _exponent(data)
+    order = np.argsort(cols, kind="stable")
+    rows, cols, data = rows[order], cols[order], data[order]
+    for s in range(0, rows.size, CHUNK):
+        c = cols[s : s + CHUNK]
+        products = _dyadic(data[s : s + CHUNK], e)[0] * v[0][rows[s : s + CHUNK]]
+        starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
+        out[c[starts]] += np.add.reduceat(products, starts)
+    return out, e + v[1]
+
+
+def _dot(x: Dyadic, y: Dyadic) -> Dyadic:
+    """x·y exactly (a scalar)."""
+    return int(np.sum(x[0] * y[0])) if len(x[0]) else 0, x[1] + y[1]
+
+
+def _fraction(x: Dyadic) -> Fraction:
+    """One dyadic scalar as a Fraction."""
+    ints, e = x
+    return Fraction(int(ints)) * Fraction(2) ** e
+
+
+@dataclass(frozen=True)
+class _Pieces:
+    """B(λ) = c + Σ_i max(r_i lower_i, r_i upper_i) with r = d − λq, everything exact."""
+
+    c: Dyadic
+    d: Dyadic
+    q: Dyadic
+    lower: Dyadic
+    upper: Dyadic
+
+    def at(self, lam: Fraction) -> tuple[Fraction, Fraction]:
+        """(B(λ), its right derivative), exactly."""
+        a, b = lam.numerator, lam.denominator
+        e = min(self.d[1], self.q[1])
+        r = _align(self.d, e) * b - _align(self.q, e) * a  # r_i = r[i]·2^e / b
+        eb = min(self.lower[1], self.upper[1])
+        lo, hi = _align(self.lower, eb), _align(self.upper, eb)
+        positive, negative = (r > 0).astype(bool), (r < 0).astype(bool)
+        terms = np.where(positive, r * hi, np.where(negative, r * lo, 0))
+        total = Fraction(int(np.sum(terms)) if len(terms) else 0, b) * Fraction(2) ** (e + eb)
+        value = _fraction(self.c) + total
+        # right derivative: −q_i upper_i where r_i > 0, −q_i lower_i where r_i < 0, −min(q_i lower_i, q_i upper_i) at 0
+        qs = _align(self.q, self.q[1])
+        zero_low = (qs <= 0).astype(bool)  # q_i ≤ 0: min(q lower, q upper) = q upper
+        at = np.where(positive, hi, np.where(negative, lo, np.where(zero_low, hi, lo)))
+        slope = -Fraction(int(np.sum(qs * at)) if len(qs) else 0) * Fraction(2) ** (self.q[1] + eb)
+        return value, slope
+
+
+def _pieces(
+    p: FloatArray, q: FloatArray, lower: FloatArray, upper: FloatArray, rows: Rows, duals: list[FloatArray]
+) -> _Pieces:
+    """The exact data of B: c = Σ duals·b, d = p − Σ Aᵀ duals."""
+    n = p.size
+    d = _dyadic(p)
+    c: Dyadic = (0, 0)
+    for (a, b, _), y in zip(rows, duals, strict=True):
+        dy = _dyadic(y)
+        d = _add(d, _transpose_times(a, dy, n), -1)
+        c = _add(c, _dot(dy, _dyadic(b)))
+    return _Pieces(c=c, d=d, q=_dyadic(q), lower=_dyadic(lower), upper=_dyadic(upper))
+
+
+def dual_value(
+    lam: Fraction,
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows,
+    duals: list[FloatArray],
+) -> Fraction:
+    """B(λ) exactly: an upper bound on max over P of (p − λq)·h, for any duals (ν ≥ 0 on "le" rows is the caller's).
+
+    Parameters
+    ----------
+    lam : fractions.Fraction
+        λ.
+    p, q, lower, upper : numpy.ndarray, shape (n,)
+        The program; finite bounds.
+    rows : list of (A, b, kind)
+        Constraint blocks A h ≤ b (kind "le") or A h = b ("eq").
+    duals : list of numpy.ndarray
+        One dual vector per block, shape (m_block,).
+
+    Returns
+    -------
+    fractions.Fraction
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> one = np.ones(1)
+    >>> dual_value(Fraction(2), np.array([2.0]), one, 0 * one, one, [], [])   # (2 − 2·1)·h ≤ 0 on [0, 1]
+    Fraction(0, 1)
+    """
+    return _pieces(p, q, lower, upper, rows, duals).at(lam)[0]
+
+
+def check_dual(
+    lam: Fraction,
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows,
+    duals: list[FloatArray],
+) -> bool:
+    """Whether the duals prove the ratio ≤ λ on the polytope: every "le" dual ≥ 0 and B(λ) ≤ 0, exactly.
+
+    What a verifier runs on a recorded dual point (``FractionalResult.dual``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> one = np.ones(1)
+    >>> check_dual(Fraction(2), np.array([2.0]), one, 0 * one, one, [], []), check_dual(Fraction(1), np.array([2.0]), one, 0 * one, one, [], [])
+    (True, False)
+    """
+    for (_, _, kind), y in zip(rows, duals, strict=True):
+        y = np.asarray(y, dtype=float)
+        if not np.all(np.isfinite(y)) or (kind == "le" and np.any(y < 0)):
+            return False
+    if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
+        return False
+    return dual_value(lam, p, q, lower, upper, rows, duals) <= 0
+
+
+def certify_ratio(
+    start: float,
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows,
+    duals: list[FloatArray],
+) -> RatioBound:
+    """The smallest λ ≥ ``start`` with B(λ) ≤ 0, by exact Newton steps, rounded up: a certified max of the ratio.
+
+    ``proofs/linear_fractional.md`` §6. The "le" duals are clipped at 0 (any ν ≥ 0 is a valid dual; the clip only
+    removes a solver's tiny negative noise).
+
+    Parameters
+    ----------
+    start : float
+        The solver's value; λ starts at it (finite).
+    p, q, lower, upper, rows, duals
+        As in :func:`dual_value`.
+
+    Returns
+    -------
+    RatioBound
+        ``certified`` False (value NaN) with a reason when the bounds are not finite, the start is not finite,
+        B does not decrease (the dual proves nothing at any larger λ), or the steps run out.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    >>> rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
+    >>> r = certify_ratio(1.5, p, q, np.zeros(2), np.ones(2), rows, [np.array([8 / 7])])
+    >>> r.certified, r.value >= 11 / 7, r.value - 11 / 7 < 1e-15
+    (True, True, True)
+    """
+    if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
+        return RatioBound(value=math.nan, certified=False, steps=0, reason="a bound of h is infinite")
+    if not math.isfinite(start):
+        return RatioBound(value=math.nan, certified=False, steps=0, reason=f"the solver's value is {start}")
+    clean = []
+    for (_, _, kind), y in zip(rows, duals, strict=True):
+        y = np.asarray(y, dtype=float)
+        if not np.all(np.isfinite(y)):
+            return RatioBound(value=math.nan, certified=False, steps=0, reason="the solver's dual is not finite")
+        clean.append(np.maximum(y, 0.0) if kind == "le" else y)
+    pieces = _pieces(p, q, lower, upper, rows, clean)
+    lam = Fraction(up(float(start)))
+    for step in range(NEWTON_STEPS + 1):
+        value, slope = pieces.at(lam)
+        if value <= 0:
+            return RatioBound(value=fraction_up(lam), certified=True, steps=step, reason="")
+        if slope >= 0:
+            return RatioBound(
+                value=math.nan,
+                certified=False,
+                steps=step,
+                reason="the dual bound does not decrease in the ratio: it proves no finite value",
+            )
+        lam -= value / slope
+    return RatioBound(value=math.nan, certified=False, steps=NEWTON_STEPS, reason="the Newton steps did not converge")
+
+
+def point_ratio(
+    h: FloatArray,
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray | None,
+    upper: FloatArray | None,
+    rows: Rows,
+) -> float:
+    """(p·h)/(q·h) rounded down when ``h`` lies in P exactly and q·h > 0; NaN otherwise (no witness).
+
+    Parameters
+    ----------
+    h : numpy.ndarray, shape (n,)
+        A primal point (clip it into the box first).
+    p, q, lower, upper, rows
+        As in :func:`dual_value` (a bound may be None or infinite: no constraint).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> w = point_ratio(np.array([1.0, 0.5]), np.array([0.7, 0.3]), np.array([0.3, 0.7]), None, None, [])
+    >>> w <= Fraction(85, 65) < w + 1e-15
+    True
+    """
+    if not np.all(np.isfinite(h)):
+        return math.nan
+    if lower is not None and np.any(h < lower):
+        return math.nan
+    if upper is not None and np.any(h > upper):
+        return math.nan
+    hx = _dyadic(h)
+    import scipy.sparse as sp
+
+    for a, b, kind in rows:
+        lhs = _transpose_times(sp.csr_matrix(a).T, hx, b.size)  # A h = (Aᵀ)ᵀ h
+        diff = _add(lhs, _dyadic(b), -1)
+        bad = diff[0] > 0 if kind == "le" else diff[0] != 0
+        if np.any(bad.astype(bool)):
+            return math.nan
+    num, den = _fraction(_dot(_dyadic(p), hx)), _fraction(_dot(_dyadic(q), hx))
+    if den <= 0:
+        return math.nan
+    return fraction_down(num / den)
+
+
+REFINE_LIMIT = 4_000_000
+"""Largest (interior cells × active rows) system :func:`refine_duals` solves densely; larger ones keep the solver's."""
+
+
+def refine_duals(
+    h: FloatArray,
+    lam: float,
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows,
+    duals: list[FloatArray],
+) -> list[FloatArray] | None:
+    """The solver's duals repaired at the point ``h``: r_i = 0 on the cells strictly inside the box, ν = 0 off the
+    active rows (complementary slackness), by least squares in floating point.
+
+    Any result is only a candidate: :func:`certify_ratio` checks it exactly. None when the system is too large.
+    """
+    import scipy.sparse as sp
+
+    tol = 1e-9 * max(1.0, float(np.abs(h).max(initial=0.0)))
+    interior = (h > lower + tol) & (h < upper - tol)
+    blocks, active = [], []
+    for (a, b, kind), y in zip(rows, duals, strict=True):
+        a = sp.csr_matrix(a)
+        on = np.ones(b.size, dtype=bool) if kind == "eq" else (a @ h - b) > -tol * (1.0 + np.abs(b))
+        blocks.append(a)
+        active.append(on)
+    size = int(interior.sum()) * int(sum(int(on.sum()) for on in active))
+    if size > REFINE_LIMIT:
+        return None
+    out = [np.where(on, y, 0.0) for on, y in zip(active, duals, strict=True)]
+    if size == 0:
+        return out
+    columns = sp.hstack([a[on].T for a, on in zip(blocks, active, strict=True)], format="csr")[interior].toarray()
+    current = np.concatenate([y[on] for y, on in zip(out, active, strict=True)])
+    target = (p - lam * q)[interior] - columns @ current
+    step = np.linalg.lstsq(columns, target, rcond=None)[0]
+    current = current + step
+    start = 0
+    for k, ((_, _, kind), on) in enumerate(zip(rows, active, strict=True)):
+        part = current[start : start + int(on.sum())]
+        start += int(on.sum())
+        out[k] = out[k].copy()
+        out[k][on] = np.maximum(part, 0.0) if kind == "le" else part
+    return out

@@ -1,0 +1,103 @@
+"""The LP's certified value: weak duality checked exactly, against vertex enumeration in Fractions; tampered duals fail;
+an inaccurate solve is certified from its dual, never from its primal value."""
+
+from __future__ import annotations
+
+import sys
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fairaudit.base.exact_duality import certify_ratio, check_dual, dual_value, point_ratio
+from fairaudit.base.linear_fractional import FractionalProgram, lp_max
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "proofs"))
+from _exact import box, vertex_max  # noqa: E402
+
+
+def _program(seed: int, n: int, m: int):
+    rng = np.random.default_rng(seed)
+    p, q = rng.dirichlet(np.ones(n)), rng.dirichlet(np.ones(n))
+    lo = rng.uniform(0, 0.3, n) * rng.integers(0, 2)
+    hi = lo + rng.uniform(0.05, 1.0, n)
+    rows = rng.dirichlet(np.ones(n), size=m)
+    tau = (rows @ lo) + rng.uniform(0.1, 0.9, m) * (rows @ (hi - lo))
+    return p, q, lo, hi, -rows, -tau
+
+
+def _exact_max(p, q, lo, hi, a_ub, b_ub) -> Fraction:
+    A, b = box([Fraction(v) for v in lo], [Fraction(v) for v in hi])
+    A += [[Fraction(v) for v in r] for r in a_ub]
+    b += [Fraction(v) for v in b_ub]
+    return vertex_max([Fraction(v) for v in p], [Fraction(v) for v in q], A, b)[0]
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 4), st.integers(1, 2))
+def test_certified_value_is_above_the_exact_optimum_and_close(seed, n, m):
+    p, q, lo, hi, a_ub, b_ub = _program(seed, n, m)
+    r = lp_max(p, q, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub)
+    exact = _exact_max(p, q, lo, hi, a_ub, b_ub)
+    assert r.certified and r.status == "optimal"
+    assert Fraction(r.value) >= exact
+    assert Fraction(r.value) <= exact * (1 + Fraction(1, 10**9))
+    if r.witness == r.witness:  # a witness, when there is one, is a lower end
+        assert Fraction(r.witness) <= exact
+    # the recorded dual proves the value again, exactly
+    rows = [(a_ub, b_ub, "le")]
+    assert check_dual(Fraction(r.value), p, q, lo, hi, rows, list(r.dual))
+
+
+def test_a_tampered_dual_fails_the_exact_check():
+    p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    lo, hi = np.zeros(2), np.ones(2)
+    rows = [(np.array([[-0.7, -0.3], [-0.3, -0.7]]), np.array([-0.5, -0.5]), "le")]
+    r = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=rows[0][0], b_ub=rows[0][1]).solve(p, q)
+    assert r.certified and 11 / 7 <= r.value < 11 / 7 * (1 + 1e-12)
+    lam = Fraction(r.value)
+    assert check_dual(lam, p, q, lo, hi, rows, list(r.dual))
+    # λ lowered below the optimum 11/7: no dual proves it
+    assert not check_dual(Fraction(11, 7) * (1 - Fraction(1, 10**6)), p, q, lo, hi, rows, list(r.dual))
+    assert dual_value(Fraction(3, 2), p, q, lo, hi, rows, list(r.dual)) > 0
+    # a negative ν is no dual at all, even where B(λ) is ≤ 0 (proofs/linear_fractional.md §6, the worked example)
+    negative = [np.array([-1.0, 8 / 7])]
+    assert dual_value(lam, p, q, lo, hi, rows, negative) <= 0
+    assert not check_dual(lam, p, q, lo, hi, rows, negative)
+    # the exact optimum itself is proved by the exact dual ν = (0, 8/7)... in floats, up to one rounding
+    assert certify_ratio(1.5, p, q, lo, hi, rows, [np.array([0.0, 8 / 7])]).value >= 11 / 7
+
+
+def test_an_inaccurate_solve_is_not_certified_from_its_primal_value():
+    # Clarabel stopped after 4 iterations with reduced tolerances: cvxpy reports optimal_inaccurate, and the primal
+    # objective (about 2.08) is below the optimum (about 2.2392). The value certified is the dual's, above it.
+    rng = np.random.default_rng(0)
+    n = 30
+    p, q = rng.dirichlet(np.ones(n)), rng.dirichlet(np.ones(n))
+    a = -rng.dirichlet(np.ones(n), size=5)
+    b = 0.6 * (a @ np.ones(n))
+    sloppy = dict(
+        max_iter=4, reduced_tol_gap_abs=0.1, reduced_tol_gap_rel=0.1, reduced_tol_feas=0.1, reduced_tol_ktratio=0.1
+    )
+    ref = FractionalProgram(n, lower=0.0, upper=1.0, A_ub=a, b_ub=b).solve(p, q)
+    bad = FractionalProgram(n, lower=0.0, upper=1.0, A_ub=a, b_ub=b, solver_options=sloppy).solve(p, q)
+    assert ref.solver_status == "optimal" and ref.certified and ref.gap < 1e-9
+    assert bad.solver_status == "optimal_inaccurate"
+    primal = (p @ bad.argmax) / (q @ bad.argmax)
+    assert primal < ref.witness  # the primal value is no upper bound
+    if bad.certified:
+        assert bad.value >= ref.witness and bad.value > primal
+        assert check_dual(Fraction(bad.value), p, q, np.zeros(n), np.ones(n), [(a, b, "le")], list(bad.dual))
+    else:
+        assert "not certified" in bad.reason
+    assert not (bad.witness > ref.value)  # a witness is a lower end (or NaN)
+
+
+def test_point_ratio_refuses_an_infeasible_point():
+    p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
+    assert np.isnan(point_ratio(np.array([1.0, 2 / 7 - 1e-12]), p, q, np.zeros(2), np.ones(2), rows))
+    assert point_ratio(np.array([1.0, 0.3]), p, q, np.zeros(2), np.ones(2), rows) == pytest.approx(0.79 / 0.51)

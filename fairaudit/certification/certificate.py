@@ -26,6 +26,12 @@ from typing import TYPE_CHECKING, TypedDict
 
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
+from fairaudit.certification.recorded_inputs import (
+    CERTIFICATE_FORMAT,
+    FORMAT_VERSION,
+    certificate_inputs,
+    inputs_digest,
+)
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.families import MechanismFamily
@@ -163,6 +169,8 @@ class Certificate:
         """The report dictionary (the JSON of ``fairaudit certify``; its contract is in docs/design.md)."""
         spec = self.spec
         out: Report = {
+            "format": CERTIFICATE_FORMAT,
+            "format_version": FORMAT_VERSION,
             "certified": bool(self.certified),
             "spec": spec.source,
             "title": spec.model.title,
@@ -212,6 +220,16 @@ class Certificate:
             out["targets"] = {k: t.to_dict() for k, t in self.targets.items()}
         if self.calibration is not None or self.calibration_white_box is not None or "calibration" in self.omitted:
             out["calibration"] = self._calibration_dict()
+        inputs = certificate_inputs(
+            spec.sensitive_mechanism,
+            spec.context_mechanism,
+            spec.utility,
+            spec.utility_class,
+            spec.population,
+            spec.kernel(),
+        )
+        out["inputs_sha256"] = inputs_digest(inputs)
+        out["inputs"] = inputs
         return out
 
     def _black_box_reason(self) -> str:

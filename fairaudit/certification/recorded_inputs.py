@@ -1,0 +1,155 @@
+"""What a certificate records so that a third party can re-derive its numbers: its ``inputs`` and their SHA-256.
+
+A certificate's numbers follow from its mechanisms, its utility, its population and, with a model, the kernel behind
+the filter. :func:`certificate_inputs` writes them as JSON (every float exactly, as Python's ``repr`` writes it, so
+a reader gets the very binary numbers the tool used), and :func:`inputs_digest` hashes them canonically. The
+format is ``docs/certificates.md`` ("The certificate's format"); ``fairaudit verify`` reads it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base.json_values import Report, label
+from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.mechanisms import Mechanism
+from fairaudit.laws.tables import Kernel, Population
+from fairaudit.laws.utilities import Utility, UtilityClass
+
+__all__ = [
+    "CERTIFICATE_FORMAT",
+    "FORMAT_VERSION",
+    "certificate_inputs",
+    "inputs_digest",
+    "json_array",
+    "mechanism_inputs",
+]
+
+CERTIFICATE_FORMAT = "fairaudit-certificate"
+"""The value of a certificate's ``format`` key."""
+
+FORMAT_VERSION = 1
+"""The certificate format's version (``format_version``): raised whenever a key's meaning changes."""
+
+
+def json_array(a: npt.ArrayLike) -> Any:
+    """An array as nested JSON lists, floats exact (``repr``), NaN as None and ±inf as ``"inf"``/``"-inf"``.
+
+    Examples
+    --------
+    >>> json_array([[0.1, float("inf")], [float("nan"), 2.0]])
+    [[0.1, 'inf'], [None, 2.0]]
+    """
+    x = np.asarray(a, dtype=float)
+    if np.all(np.isfinite(x)):
+        return x.tolist()
+    out = x.astype(object)
+    out[np.isnan(x)] = None
+    out[np.isposinf(x)] = "inf"
+    out[np.isneginf(x)] = "-inf"
+    return out.tolist()
+
+
+def mechanism_inputs(m: Mechanism) -> Report:
+    """A mechanism as its certificate records it: labels and ``kind`` with its parameters.
+
+    ``randomized_response`` is the exact k-ary randomized response at ``epsilon`` (p = e^ε/(e^ε + k − 1), the
+    closed forms' mechanism); ``identity`` releases the input; ``matrix`` is any other, by its rows exactly.
+
+    Examples
+    --------
+    >>> from fairaudit.laws.closed_forms import randomized_response
+    >>> mechanism_inputs(randomized_response(["Tom", "Mary"], epsilon=0.5))
+    {'inputs': ['Tom', 'Mary'], 'outputs': ['Tom', 'Mary'], 'kind': 'randomized_response', 'epsilon': 0.5}
+    """
+    out: Report = {"inputs": [label(v) for v in m.inputs], "outputs": [label(v) for v in m.outputs]}
+    if m.is_identity:
+        out["kind"] = "identity"
+    elif isinstance(m, RandomizedResponse):
+        out.update(kind="randomized_response", epsilon=float(m.rr.epsilon))
+    else:
+        out.update(kind="matrix", matrix=json_array(m.matrix))
+    return out
+
+
+def certificate_inputs(
+    sensitive: Mechanism,
+    context: Mechanism,
+    utility: Utility,
+    utility_class: UtilityClass,
+    population: Population,
+    kernel: Kernel | None,
+) -> Report:
+    """The ``inputs`` section of a certificate: everything its numbers are computed from.
+
+    Parameters
+    ----------
+    sensitive, context : Mechanism
+        M_A and M_X.
+    utility : Utility
+        g: ``values`` of shape (n_decisions,) or (n_contexts, n_groups, n_decisions).
+    population : Population
+        P(X, A), shape (n_contexts, n_groups).
+    kernel : Kernel or None
+        The model behind the filter, shape (n_released_contexts, n_released_groups, n_decisions).
+    utility_class : UtilityClass
+        The class the bounds hold for, its fields resolved: [lower, γ], τ (or None), L_A, the metric d(a, a')
+        (shape (n_groups, n_groups); None for the discrete metric) and diam(A).
+
+    Returns
+    -------
+    dict
+        ``sensitive_mechanism``, ``context_mechanism`` (:func:`mechanism_inputs`), ``utility`` (``decisions``,
+        ``values`` and the class: ``lower``, ``gamma``, ``tau``, ``lipschitz``, ``metric``, ``diameter``), ``population`` (``contexts``, ``groups``, ``probabilities``) and ``kernel`` (None, or
+        its labels and ``probabilities``).
+    """
+    out: Report = {
+        "sensitive_mechanism": mechanism_inputs(sensitive),
+        "context_mechanism": mechanism_inputs(context),
+        "utility": {
+            "decisions": [label(v) for v in utility.decisions],
+            "values": json_array(utility.values),
+            "lower": _real(utility_class.lower),
+            "gamma": _real(utility_class.gamma),
+            "tau": _real(utility_class.tau),
+            "lipschitz": _real(utility_class.lipschitz),
+            "metric": None if utility_class.metric is None else json_array(utility_class.metric),
+            "diameter": _real(utility_class.diameter),
+        },
+        "population": {
+            "contexts": [label(v) for v in population.contexts],
+            "groups": [label(v) for v in population.groups],
+            "probabilities": json_array(population.probabilities),
+        },
+        "kernel": None,
+    }
+    if kernel is not None:
+        out["kernel"] = {
+            "contexts": [label(v) for v in kernel.contexts],
+            "groups": [label(v) for v in kernel.groups],
+            "decisions": [label(v) for v in kernel.decisions],
+            "probabilities": json_array(kernel.probabilities),
+        }
+    return out
+
+
+def _real(x: float | None) -> float | str | None:
+    """A class field as JSON: None stays None, ±inf as a string."""
+    return None if x is None else json_array(float(x))
+
+
+def inputs_digest(inputs: Report) -> str:
+    """SHA-256 (hex) of the inputs' canonical JSON: keys sorted, no spaces, UTF-8, floats as ``repr``.
+
+    Examples
+    --------
+    >>> inputs_digest({"b": [0.1], "a": "inf"}) == hashlib.sha256(b'{"a":"inf","b":[0.1]}').hexdigest()
+    True
+    """
+    text = json.dumps(inputs, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()

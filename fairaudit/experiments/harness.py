@@ -30,7 +30,7 @@ from fairaudit import FairauditError, InputError, whole
 
 from ._progress import Bar, progress_bar
 from .slots import check_size, true_prompts
-from .vlm.filter import PrivacyFilter
+from .vlm.filter import TaskFilter
 from .vlm.models import DecisionModel, Query
 from .vlm.tasks import UNPARSED, DeliveryTask
 
@@ -132,7 +132,7 @@ def plan_queries(
         raise InputError("epsilons", "the paper design needs at least one epsilon")
     orders = [tuple(task.profiles[i] for i in p) for p in prompts]
     for eps in epsilons:
-        filt = PrivacyFilter.for_candidates(task, float(eps), positions, context_epsilon=context_epsilon)
+        filt = TaskFilter.for_candidates(task, float(eps), positions, context_epsilon=context_epsilon)
         for ctx in task.contexts:
             for order in orders:
                 cell = "|".join(label(p) for p in order)

@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from .analysis import ExperimentAnalysis, PointResult
     from .kernel import UnparsedMass
     from .slots import PositionSplit
-    from .vlm.filter import PrivacyFilter
+    from .vlm.filter import TaskFilter
     from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -234,7 +234,7 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     )
 
 
-def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float) -> dict[str, Any]:
+def privacy_dict(task: DeliveryTask, f: TaskFilter, epsilon_candidate: float) -> dict[str, Any]:
     """The ``privacy`` of a point: the candidate's ε, the profile's, each attribute's ε and keep probability, δ = 0.
 
     ``attributes`` lists, per attribute, its number of values k, its keep

@@ -29,18 +29,18 @@ from fairaudit import (
 
 from .tasks import DeliveryTask
 
-__all__ = ["SPLIT_RULE", "PrivacyFilter", "candidate_family", "profile_budget"]
+__all__ = ["SPLIT_RULE", "TaskFilter", "candidate_family", "profile_budget"]
 
 SPLIT_RULE = (
     "one keep probability p on every attribute: an attribute with k values gets k-ary randomized response at "
     "epsilon = ln(p (k - 1) / (1 - p)) (0, shown uniformly at random, where p < 1/k); a profile's epsilon is the sum "
     "over its attributes, and a candidate's that of everything its prompt shows about it"
 )
-"""How a privacy budget is split over a profile's attributes (:meth:`PrivacyFilter.from_epsilon`), as reports state it."""
+"""How a privacy budget is split over a profile's attributes (:meth:`TaskFilter.from_epsilon`), as reports state it."""
 
 
 @dataclass(frozen=True, eq=False)
-class PrivacyFilter:
+class TaskFilter:
     """Randomized response on each profile attribute, and a mechanism on the context.
 
     Attributes
@@ -60,7 +60,7 @@ class PrivacyFilter:
     context_mechanism: Mechanism
 
     @classmethod
-    def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> PrivacyFilter:
+    def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> TaskFilter:
         """The filter whose profile mechanism has privacy budget ``epsilon``, every attribute kept with one probability.
 
         The split rule (:func:`fairaudit.split_by_keep`): every
@@ -93,7 +93,7 @@ class PrivacyFilter:
 
         >>> from fairaudit.experiments.taskfile import HR_DELIVERY
         >>> import math
-        >>> f = PrivacyFilter.from_epsilon(HR_DELIVERY, 3 * math.log(7 / 3))
+        >>> f = TaskFilter.from_epsilon(HR_DELIVERY, 3 * math.log(7 / 3))
         >>> [round(p, 6) for p in f.keep_probabilities], round(f.epsilon_profile, 6)
         ([0.7, 0.7, 0.7], 2.541894)
         >>> round(f.candidate_mechanism().epsilon, 6)                  # both profiles are in the query
@@ -123,7 +123,7 @@ class PrivacyFilter:
         positions: str = "balanced",
         *,
         context_epsilon: float | None = None,
-    ) -> PrivacyFilter:
+    ) -> TaskFilter:
         """The filter that gives each candidate privacy budget ``epsilon``: the profile's ε_P, then its split.
 
         The one rule from a candidate's ε to the filter: ε_P =
@@ -146,7 +146,7 @@ class PrivacyFilter:
 
         Returns
         -------
-        PrivacyFilter
+        TaskFilter
 
         Raises
         ------
@@ -159,7 +159,7 @@ class PrivacyFilter:
 
         >>> from fairaudit.experiments.taskfile import HR_DELIVERY
         >>> import math
-        >>> f = PrivacyFilter.for_candidates(HR_DELIVERY, 6 * math.log(7 / 3))
+        >>> f = TaskFilter.for_candidates(HR_DELIVERY, 6 * math.log(7 / 3))
         >>> [round(p, 6) for p in f.keep_probabilities], round(f.candidate_mechanism().epsilon, 6)
         ([0.7, 0.7, 0.7], 5.083787)
         """
@@ -247,7 +247,7 @@ def candidate_family(task: DeliveryTask, positions: str = "balanced") -> Mechani
     2 for the paper's pair, each profile at ε / 2), else ε_P solves
     ε(M_cand(ε_P)) = ε (M_cand at a smaller ε_P is a garbling of the one at
     a larger, so the map is monotone). ε_P is split over the attributes by
-    one keep probability (:meth:`PrivacyFilter.from_epsilon`,
+    one keep probability (:meth:`TaskFilter.from_epsilon`,
     :func:`fairaudit.split_by_keep`). The family's keep probability
     is the chance that a candidate's own profile is shown unchanged,
     Π_i e^{ε_i} / (e^{ε_i} + k_i − 1).
@@ -265,7 +265,7 @@ def candidate_family(task: DeliveryTask, positions: str = "balanced") -> Mechani
     profile_epsilon = profile_budget(task, positions)
 
     def build(eps: float) -> Mechanism:
-        return PrivacyFilter.from_epsilon(task, profile_epsilon(eps)).candidate_mechanism(positions)
+        return TaskFilter.from_epsilon(task, profile_epsilon(eps)).candidate_mechanism(positions)
 
     def keep(eps: float) -> float:
         split = split_by_keep(profile_epsilon(eps), sizes)
@@ -297,7 +297,7 @@ def profile_budget(task: DeliveryTask, positions: str = "balanced") -> Callable[
             return eps
 
         def gap(e: float) -> float:
-            m_p = PrivacyFilter.from_epsilon(task, e).profile_mechanism.matrix
+            m_p = TaskFilter.from_epsilon(task, e).profile_mechanism.matrix
             return candidate_mechanism_epsilon(task, m_p, positions) - eps
 
         hi = eps

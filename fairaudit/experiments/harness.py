@@ -139,7 +139,7 @@ def plan_queries(
                 for r in range(samples):
                     key = f"paper|{eps_key(float(eps))}|{ctx}|{cell}|{r}"
                     s = query_seed(seed, key)
-                    shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]))
+                    shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]).bytes)
                     texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
                     out.append(
                         Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps), texts=texts)

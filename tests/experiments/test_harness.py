@@ -70,11 +70,11 @@ def test_candidate_mechanism_by_hand():
 
 def test_release_draws_each_attribute_with_its_keep_probability():
     f = TaskFilter.from_epsilon(HR, 3 * math.log(4))  # keep 0.8 on each attribute
-    rng = np.random.default_rng(7)
+    source = np.random.default_rng(7).bytes
     n = 20_000
     kept = np.zeros((2, 3))
     for _ in range(n):
-        ctx, shown = f.release("sick leave", HR.candidates, rng)
+        ctx, shown = f.release("sick leave", HR.candidates, source)
         assert ctx == "sick leave"
         kept += np.array([[a == b for a, b in zip(s, t)] for s, t in zip(shown, HR.candidates)])
     # binomial(20000, 0.8): sd 0.0028; 5 sd

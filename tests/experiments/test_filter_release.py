@@ -142,3 +142,12 @@ def test_the_same_query_seed_gives_the_same_release_for_resumption():
         assert f.release(ctx, order, np.random.default_rng([q.seed, 1]).bytes) == (q.context, q.profiles)
     other = plan_queries(HR, "paper", 3, 12, epsilons=[eps], context_epsilon=1.0)
     assert [(q.context, q.profiles) for q in other] != [(q.context, q.profiles) for q in first]
+
+
+def test_the_report_states_the_release_rule():
+    from fairaudit.experiments.report import privacy_dict
+    from fairaudit.experiments.vlm.filter import RELEASE_RULE
+
+    eps = 6 * math.log(7 / 3)
+    privacy = privacy_dict(HR, TaskFilter.for_candidates(HR, eps), eps)
+    assert privacy["release"] == RELEASE_RULE and "seeded by the query's seed" in RELEASE_RULE

@@ -58,7 +58,7 @@ from .slots import (
     true_prompts,
 )
 from .unparsed_bounds import BoundRange, bound_ranges
-from .vlm.filter import PrivacyFilter, candidate_family
+from .vlm.filter import TaskFilter, candidate_family
 from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -143,7 +143,7 @@ def _budgets(
 
     def upper_at(e: float, kind: str) -> float:  # at the white-box ε of a target, with this run's M_X
         if e not in ranges:
-            filt = PrivacyFilter.for_candidates(task, e, positions, context_epsilon=context_epsilon)
+            filt = TaskFilter.for_candidates(task, e, positions, context_epsilon=context_epsilon)
             mech = filt.candidate_mechanism(positions)
             ranges[e] = fairness_range(kc, utility, -1, sensitive_mechanism=mech, context_mechanism=mx, population=pop)
         r = ranges[e]
@@ -263,7 +263,7 @@ class PointResult:
     Attributes
     ----------
     epsilon : float
-    filter : PrivacyFilter
+    filter : TaskFilter
     mechanism : Mechanism
         M_cand, the filter's mechanism on a candidate.
     law : Law
@@ -283,7 +283,7 @@ class PointResult:
     """
 
     epsilon: float
-    filter: PrivacyFilter
+    filter: TaskFilter
     mechanism: Mechanism
     law: Law
     local_fairness: Fairness
@@ -380,7 +380,7 @@ def _point(
 ) -> PointResult:
     from fairaudit import worst_model
 
-    filt = PrivacyFilter.for_candidates(task, eps, positions, context_epsilon=context_epsilon)
+    filt = TaskFilter.for_candidates(task, eps, positions, context_epsilon=context_epsilon)
     mech = filt.candidate_mechanism(positions)
     law = compose(kc, mech, mx)
     iv = None

@@ -260,11 +260,11 @@ def _keep_axis(
 
 def _candidate_at(task: DeliveryTask, positions: str, profile_epsilon: float) -> float:
     """The candidate's ε when each profile is at ``profile_epsilon`` (nats)."""
-    from .vlm.filter import PrivacyFilter
+    from .vlm.filter import TaskFilter
 
     if not np.isfinite(profile_epsilon):
         return float(profile_epsilon)
-    return PrivacyFilter.from_epsilon(task, max(profile_epsilon, 0.0)).candidate_mechanism(positions).epsilon
+    return TaskFilter.from_epsilon(task, max(profile_epsilon, 0.0)).candidate_mechanism(positions).epsilon
 
 
 def _curve_top(analysis: ExperimentAnalysis) -> float:

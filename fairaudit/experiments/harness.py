@@ -30,7 +30,7 @@ from fairaudit import FairauditError, InputError, whole
 
 from ._progress import Bar, progress_bar
 from .slots import check_size, true_prompts
-from .vlm.filter import PrivacyFilter
+from .vlm.filter import TaskFilter
 from .vlm.models import DecisionModel, Query
 from .vlm.tasks import UNPARSED, DeliveryTask
 
@@ -132,14 +132,14 @@ def plan_queries(
         raise InputError("epsilons", "the paper design needs at least one epsilon")
     orders = [tuple(task.profiles[i] for i in p) for p in prompts]
     for eps in epsilons:
-        filt = PrivacyFilter.for_candidates(task, float(eps), positions, context_epsilon=context_epsilon)
+        filt = TaskFilter.for_candidates(task, float(eps), positions, context_epsilon=context_epsilon)
         for ctx in task.contexts:
             for order in orders:
                 cell = "|".join(label(p) for p in order)
                 for r in range(samples):
                     key = f"paper|{eps_key(float(eps))}|{ctx}|{cell}|{r}"
                     s = query_seed(seed, key)
-                    shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]))
+                    shown_ctx, shown = filt.release(ctx, order, np.random.default_rng([s, 1]).bytes)
                     texts = task.draw_texts(shown, np.random.default_rng([s, 2]))
                     out.append(
                         Query(key, "paper", shown_ctx, shown, r, s, truth=(ctx, order), epsilon=float(eps), texts=texts)

@@ -34,7 +34,7 @@ from .harness import paper_queries_needed
 from .report import observed_dicts, point_dict, utility_dict, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .unparsed_bounds import BoundRange, bound_ranges_from
-from .vlm.filter import PrivacyFilter
+from .vlm.filter import TaskFilter
 from .vlm.tasks import DeliveryTask
 
 if TYPE_CHECKING:
@@ -61,9 +61,9 @@ class DesignBounds:
     ----------
     epsilon : float
         The candidate's ε asked for (+inf: no filter).
-    filter : PrivacyFilter
+    filter : TaskFilter
         Randomized response on each attribute of every profile at the share of
-        ε that gives the candidate ``epsilon`` (:meth:`fairaudit.experiments.vlm.filter.PrivacyFilter.for_candidates`).
+        ε that gives the candidate ``epsilon`` (:meth:`fairaudit.experiments.vlm.filter.TaskFilter.for_candidates`).
     corollary : float
         ε(M_cand), the corollary's bound on L.
     black_box_local, black_box_global : float
@@ -73,7 +73,7 @@ class DesignBounds:
     """
 
     epsilon: float
-    filter: PrivacyFilter
+    filter: TaskFilter
     corollary: float
     black_box_local: float
     black_box_global: float
@@ -124,7 +124,7 @@ def paper_design_bounds(
     """
     eps = real(epsilon, "epsilon", low=0.0, finite=False, what="a number of nats >= 0")
     utility = candidate_utility(task) if utility is None else utility
-    filt = PrivacyFilter.for_candidates(task, eps, positions, context_epsilon=context_epsilon)
+    filt = TaskFilter.for_candidates(task, eps, positions, context_epsilon=context_epsilon)
     closed = math.inf if math.isinf(eps) else candidate_epsilon(task, filt.epsilon_attributes, positions)
     if closed is not None and utility.lower == 0 and tau is None and positions != "fixed":
         return DesignBounds(

@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from .analysis import ExperimentAnalysis, PointResult
     from .kernel import UnparsedMass
     from .slots import PositionSplit
-    from .vlm.filter import PrivacyFilter
+    from .vlm.filter import TaskFilter
     from .vlm.tasks import DeliveryTask
 
 __all__ = [
@@ -234,14 +234,15 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     )
 
 
-def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float) -> dict[str, Any]:
+def privacy_dict(task: DeliveryTask, f: TaskFilter, epsilon_candidate: float) -> dict[str, Any]:
     """The ``privacy`` of a point: the candidate's ε, the profile's, each attribute's ε and keep probability, δ = 0.
 
     ``attributes`` lists, per attribute, its number of values k, its keep
     probability p and its ε = ln(p (k − 1) / (1 − p)) (nats); ``split`` states
-    how the budget is split over them (:data:`fairaudit.experiments.vlm.filter.SPLIT_RULE`).
+    how the budget is split over them (:data:`fairaudit.experiments.vlm.filter.SPLIT_RULE`), and ``release`` how
+    the paper design draws what the model is shown (:data:`fairaudit.experiments.vlm.filter.RELEASE_RULE`).
     """
-    from .vlm.filter import SPLIT_RULE
+    from .vlm.filter import RELEASE_RULE, SPLIT_RULE
 
     return {
         "epsilon_candidate": number(epsilon_candidate),
@@ -253,6 +254,7 @@ def privacy_dict(task: DeliveryTask, f: PrivacyFilter, epsilon_candidate: float)
             for a, q, e in zip(task.attributes, f.keep_probabilities, f.epsilon_attributes)
         ],
         "split": SPLIT_RULE,
+        "release": RELEASE_RULE,
         "delta": 0.0,
         "context_mechanism": f.context_mechanism.name,
     }

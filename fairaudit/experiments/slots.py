@@ -389,8 +389,8 @@ def candidate_mechanism(task: DeliveryTask, profile: Mechanism, positions: str =
     Examples
     --------
     >>> from fairaudit.experiments.taskfile import HR_DELIVERY
-    >>> from fairaudit.experiments.vlm.filter import PrivacyFilter
-    >>> m = candidate_mechanism(HR_DELIVERY, PrivacyFilter.from_epsilon(HR_DELIVERY, 1.0).profile_mechanism)
+    >>> from fairaudit.experiments.vlm.filter import TaskFilter
+    >>> m = candidate_mechanism(HR_DELIVERY, TaskFilter.from_epsilon(HR_DELIVERY, 1.0).profile_mechanism)
     >>> m.matrix.shape, round(m.epsilon, 12)             # both profiles are shown: twice the profile's ε
     ((2, 64), 2.0)
     """
@@ -657,7 +657,7 @@ def epsilon_from_keep(task: DeliveryTask, keep: float, positions: str = "balance
     """The candidate's ε when every attribute of every profile is kept with probability ``keep`` (nats).
 
     ε(M_cand) with attribute i, of k_i values, at ln(keep (k_i − 1) / (1 − keep)), exactly, whatever the other
-    attributes' sizes (the split of :meth:`fairaudit.experiments.vlm.filter.PrivacyFilter.from_epsilon`): for the
+    attributes' sizes (the split of :meth:`fairaudit.experiments.vlm.filter.TaskFilter.from_epsilon`): for the
     paper's pair Σ over the 2 n attributes shown
     (:func:`candidate_epsilon`); for mixtures
     from the mechanism's matrix.

@@ -159,10 +159,11 @@ class PrivacyFilter:
         Give exactly one of ``epsilon`` and ``keep``. From ``keep`` = p (exact, as
         :func:`~fairaudit.filter.rationals.exact_number` reads it: ``"7/10"`` is 7/10, the float 0.7 its binary
         value), rows keep with p and move to each other value with (1 − p)/(k − 1). From ``epsilon``: e^ε is
-        irrational, so the filter uses t = ``exp_down(epsilon)`` (a float ≤ e^ε, as an exact rational) and keeps
-        with t / (t + k − 1), moving with 1 / (t + k − 1): its exact ε is ln t ≤ ``epsilon`` (at least as private
-        as asked) and ``epsilon`` − ln t ≤ about 4.5e-16 · max(1, ``epsilon``). ``epsilon`` = +inf, or ``keep`` = 1,
-        is the identity (never private: ε = +inf for k ≥ 2).
+        irrational, so the filter uses t = ``exp_down(epsilon)`` (a float ≤ e^ε, as an exact rational; 1 when
+        that float is below 1, as it is for 0 < ε ≤ about 1e-50) and keeps with t / (t + k − 1), moving with
+        1 / (t + k − 1): its exact ε is ln t ≤ ``epsilon`` (at least as private as asked) and ``epsilon`` − ln t ≤
+        about 4.5e-16 · max(1, ``epsilon``). ``epsilon`` = +inf, or ``keep`` = 1, is the identity (never private:
+        ε = +inf for k ≥ 2).
 
         Parameters
         ----------
@@ -203,7 +204,7 @@ class PrivacyFilter:
         if k == 1 or math.isinf(eps):
             return cls("randomized_response", labels, labels, 1, keep=1, move=0, name=name,
                        rounding=_ROUNDED if k > 1 else "exact", requested_epsilon=eps)  # fmt: skip
-        t = Fraction(exp_down(eps))
+        t = max(Fraction(exp_down(eps)), Fraction(1))  # e^ε ≥ 1: exp_down of a tiny ε may be just below 1
         d = t.numerator + (k - 1) * t.denominator
         return cls("randomized_response", labels, labels, d, keep=t.numerator, move=t.denominator, name=name,
                    rounding=_ROUNDED, requested_epsilon=eps)  # fmt: skip

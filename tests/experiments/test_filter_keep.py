@@ -21,7 +21,7 @@ from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.slots import epsilon_factor, epsilon_from_keep
 from fairaudit.experiments.taskfile import parse_task
-from fairaudit.experiments.vlm.filter import SPLIT_RULE, PrivacyFilter, candidate_family
+from fairaudit.experiments.vlm.filter import SPLIT_RULE, TaskFilter, candidate_family
 
 LOAN = """
 title = "Loan"
@@ -65,7 +65,7 @@ def test_keep_06_gives_each_attribute_its_own_epsilon():
     want = {a: math.log(0.6 * (k - 1) / 0.4) for a, k in SIZES.items()}  # ln 3, ln 1.5, ln 3
     eps = epsilon_from_keep(task, 0.6)
     assert eps == pytest.approx(sum(want.values()), rel=1e-15)
-    f = PrivacyFilter.from_epsilon(task, eps)
+    f = TaskFilter.from_epsilon(task, eps)
     assert f.epsilon_attributes == pytest.approx(tuple(want.values()), rel=1e-13)
     assert f.epsilon_attributes[1] == pytest.approx(math.log(0.6 / 0.4), rel=1e-13)  # gender 0.405, not 0.868
     for m, k in zip(f.attribute_mechanisms, SIZES.values()):

@@ -29,7 +29,7 @@ from fairaudit.experiments.kernel import table_kernel
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.slots import epsilon_from_keep
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY, get_task
-from fairaudit.experiments.vlm.filter import PrivacyFilter, candidate_family
+from fairaudit.experiments.vlm.filter import TaskFilter, candidate_family
 from fairaudit.experiments.vlm.models import Query, SimulatedModel, reply_text, simulated_model
 from fairaudit.experiments.vlm.parse import parse_reply
 from fairaudit.experiments.vlm.tasks import UNPARSED
@@ -44,7 +44,7 @@ PKG, HR = PACKAGE_DELIVERY, HR_DELIVERY
 def test_paper_filter_epsilons_are_logs_and_sums(p):
     """keep p on each of name, age, race: ln(p/(1-p)) each, 3x per profile, 6x per candidate (not p/(1-p))."""
     eps_candidate = epsilon_from_keep(HR, p)
-    f = PrivacyFilter.from_epsilon(HR, eps_candidate / 2)
+    f = TaskFilter.from_epsilon(HR, eps_candidate / 2)
     one = math.log(p / (1 - p))
     assert f.keep_probabilities == pytest.approx((p, p, p), abs=1e-12)
     assert f.epsilon_attributes == pytest.approx((one, one, one), abs=1e-12)
@@ -60,7 +60,7 @@ def test_candidate_mechanism_by_hand():
     """Package task at keep 7/10: M_cand[a, (s, o)] = M_P[a, s] M_P[rival(a), o], exact fractions."""
     p = Fraction(7, 10)
     q = 1 - p
-    m = PrivacyFilter.from_epsilon(PKG, math.log(7 / 3)).candidate_mechanism()
+    m = TaskFilter.from_epsilon(PKG, math.log(7 / 3)).candidate_mechanism()
     assert m.outputs == ("low | low", "low | high", "high | low", "high | high")
     assert m.inputs == ("low", "high")
     expected = [[p * q, p * p, q * q, q * p], [q * p, q * q, p * p, p * q]]
@@ -69,12 +69,12 @@ def test_candidate_mechanism_by_hand():
 
 
 def test_release_draws_each_attribute_with_its_keep_probability():
-    f = PrivacyFilter.from_epsilon(HR, 3 * math.log(4))  # keep 0.8 on each attribute
-    rng = np.random.default_rng(7)
+    f = TaskFilter.from_epsilon(HR, 3 * math.log(4))  # keep 0.8 on each attribute
+    source = np.random.default_rng(7).bytes
     n = 20_000
     kept = np.zeros((2, 3))
     for _ in range(n):
-        ctx, shown = f.release("sick leave", HR.candidates, rng)
+        ctx, shown = f.release("sick leave", HR.candidates, source)
         assert ctx == "sick leave"
         kept += np.array([[a == b for a, b in zip(s, t)] for s, t in zip(shown, HR.candidates)])
     # binomial(20000, 0.8): sd 0.0028; 5 sd
@@ -82,12 +82,12 @@ def test_release_draws_each_attribute_with_its_keep_probability():
 
 
 def test_context_filter_and_errors():
-    f = PrivacyFilter.from_epsilon(PKG, 1.0, context_epsilon=math.log(2))
+    f = TaskFilter.from_epsilon(PKG, 1.0, context_epsilon=math.log(2))
     m = f.context_mechanism.matrix
     assert m[0].tolist() == pytest.approx([0.5, 0.25, 0.25])  # e^ε / (e^ε + 2) with ε = ln 2
     assert f.epsilon_context == pytest.approx(math.log(2))
     with pytest.raises(InputError, match=r"^epsilon: must be a number of nats >= 0 \(got -1\)"):
-        PrivacyFilter.from_epsilon(PKG, -1)
+        TaskFilter.from_epsilon(PKG, -1)
     with pytest.raises(InputError, match="^keep: "):
         epsilon_from_keep(PKG, 0.3)
 
@@ -285,7 +285,7 @@ def test_low_complaint_first_law_by_hand(p):
 def test_per_candidate_law_equals_brute_force_over_shown_pairs():
     """compose(K_cand, M_cand) against enumerating every shown pair of the HR filter (a second route)."""
     m = simulated_model(HR, "prefers-mary")
-    f = PrivacyFilter.from_epsilon(HR, epsilon_from_keep(HR, 0.7) / 2)
+    f = TaskFilter.from_epsilon(HR, epsilon_from_keep(HR, 0.7) / 2)
     law = compose(_exact_kernel(HR, m), f.candidate_mechanism(), candidate_context_mechanism(HR))
     mp, prof = f.profile_mechanism.matrix, HR.profiles
     c = [prof.index(x) for x in HR.candidates]

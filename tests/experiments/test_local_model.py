@@ -288,7 +288,7 @@ def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, caps
     (ε = +inf), 0.25 and 0.1 are met up to some finite ε, and L rises with ε up to there.
     """
     from fairaudit.experiments.analysis import analyse_kernel
-    from fairaudit.experiments.vlm.filter import PrivacyFilter
+    from fairaudit.experiments.vlm.filter import TaskFilter
     from fairaudit.worstcase.known_utility import worst_model
 
     low, high = PACKAGE_DELIVERY.profiles
@@ -310,7 +310,7 @@ def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, caps
         assert a.points[0].local_fairness.value == pytest.approx(target, abs=1e-9)  # met with equality at ε ...
         assert a.points[1].local_fairness.value > target  # ... and not beyond
         eps_any = budgets[target, "local"]["any_model"]["epsilon"]
-        mech = PrivacyFilter.from_epsilon(PACKAGE_DELIVERY, eps_any / 2).candidate_mechanism()
+        mech = TaskFilter.from_epsilon(PACKAGE_DELIVERY, eps_any / 2).candidate_mechanism()
         worst = worst_model(mech, a.utility, population=a.population, tau=1.0)
         assert worst.local_fairness.value == pytest.approx(target, abs=1e-7)
         assert eps_any < eps  # any model needs more privacy than this one

@@ -30,7 +30,7 @@ from fairaudit.experiments.slots import (
     true_prompts,
 )
 from fairaudit.experiments.taskfile import parse_task
-from fairaudit.experiments.vlm.filter import PrivacyFilter, candidate_family, profile_budget
+from fairaudit.experiments.vlm.filter import TaskFilter, candidate_family, profile_budget
 from fairaudit.laws.mechanisms import Mechanism, identity, product
 from fairaudit.laws.tables import Kernel, compose
 
@@ -223,16 +223,16 @@ def test_epsilon_of_the_candidate_by_case():
     e = math.log(3)  # keep 3/4 on two values
     every = _task(3, "choose", '"all"', "balanced")
     assert candidate_epsilon(every, (e,)) == pytest.approx(e) and epsilon_factor(every) == 1
-    assert candidate_mechanism(every, PrivacyFilter.from_epsilon(every, e).profile_mechanism).epsilon == pytest.approx(
+    assert candidate_mechanism(every, TaskFilter.from_epsilon(every, e).profile_mechanism).epsilon == pytest.approx(
         e, abs=1e-12
     )
     triple = _task(3, "choose", '[[["a"], ["b"], ["c"]]]', "latin", [["a", "b", "c"]])
     # cyclic shifts: a always sees (a, b, c) from its slot on, b always (b, c, a): all three shown profiles differ
     assert epsilon_factor(triple, "latin") == 3
-    mech = candidate_mechanism(triple, PrivacyFilter.from_epsilon(triple, 1.0).profile_mechanism, "latin")
+    mech = candidate_mechanism(triple, TaskFilter.from_epsilon(triple, 1.0).profile_mechanism, "latin")
     assert mech.epsilon == pytest.approx(3.0, abs=1e-12)
     assert epsilon_factor(triple, "balanced") is None  # rivals in either order: a mixture
-    mixed = candidate_mechanism(triple, PrivacyFilter.from_epsilon(triple, 1.0).profile_mechanism, "balanced")
+    mixed = candidate_mechanism(triple, TaskFilter.from_epsilon(triple, 1.0).profile_mechanism, "balanced")
     assert 1.0 <= mixed.epsilon <= 2.0 + 1e-12
     fam = candidate_family(triple, "balanced")
     for eps in (0.3, 1.0, 4.0):
@@ -260,11 +260,11 @@ def test_a_design_too_large_to_enumerate_is_refused_in_one_line():
 def test_fixed_order_whose_view_depends_on_the_slot_is_refused():
     task = _task(2, "choose", '[[["a"], ["b"]], [["b"], ["c"]]]', "fixed", [["a", "b", "c"]])
     with pytest.raises(InputError, match="task.positions: .*'b'.* depends on its slot"):
-        candidate_mechanism(task, PrivacyFilter.from_epsilon(task, 1.0).profile_mechanism, "fixed")
+        candidate_mechanism(task, TaskFilter.from_epsilon(task, 1.0).profile_mechanism, "fixed")
 
 
 def test_profile_product_matches_the_filter():
     task = _task(2, "choose", '"all"', "balanced", [["a", "b", "c"], ["x", "y"]])
-    f = PrivacyFilter.from_epsilon(task, 2.0)
+    f = TaskFilter.from_epsilon(task, 2.0)
     expected = product(*f.attribute_mechanisms).matrix
     assert np.allclose(f.profile_mechanism.matrix, expected)

@@ -61,6 +61,13 @@ def test_randomized_response_from_epsilon_is_at_most_as_asked_and_close(epsilon,
     assert f.rounding.startswith("keep rounded down")
 
 
+@pytest.mark.parametrize("epsilon", [5e-324, 1e-300, 1e-60, 1e-50])
+def test_a_tiny_epsilon_gives_uniform_rows_not_an_error(epsilon):
+    """exp_down(ε) is 1 − 2^-53 for ε ≤ about 1e-50; the filter keeps with t = 1 ≤ e^ε instead (exact ε 0)."""
+    f = rr(["a", "b", "c"], epsilon=epsilon)
+    assert (f.keep, f.move, f.denominator) == (1, 1, 3) and f.epsilon == 0.0 and f.requested_epsilon == epsilon
+
+
 def test_keep_outside_its_range_and_bad_arguments_are_refused():
     with pytest.raises(InputError, match=r"^keep: must be a keep probability in \[1/k, 1\] = \[1/3, 1\]"):
         rr(["a", "b", "c"], keep="1/4")

@@ -4,6 +4,10 @@ candidate's profile, independently, and a mechanism on the context.
 One keep probability p on every attribute gives an attribute of k values ε = ln(p (k − 1) / (1 − p)); a profile's
 ε is the sum over its attributes, and a candidate's that of everything its prompt shows about it, M_cand
 (docs/design.md, "k candidates behind a filter", and "The paper's errors, not repeated").
+
+The analysis reads the attributes' :class:`fairaudit.Mechanism` s; what the model is shown is released by the one
+deployable filter, a :class:`fairaudit.PrivacyFilter` per attribute and one on the context, built from the same
+ε (exact rational rows, integer sampling, its ε at most the analysis's: :data:`RELEASE_RULE`).
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from scipy.optimize import brentq
 from fairaudit import (
     Mechanism,
     MechanismFamily,
+    PrivacyFilter,
     identity,
     keep_probability,
     product,
@@ -29,18 +34,25 @@ from fairaudit import (
 
 from .tasks import DeliveryTask
 
-__all__ = ["SPLIT_RULE", "PrivacyFilter", "candidate_family", "profile_budget"]
+__all__ = ["RELEASE_RULE", "SPLIT_RULE", "TaskFilter", "candidate_family", "profile_budget"]
+
+RELEASE_RULE = (
+    "the release is drawn exactly from the filter's rational rows (a fairaudit.PrivacyFilter per attribute and one "
+    "on the context, at the epsilon above or less), from a source seeded by the query's seed for reproducibility "
+    "(a deployment uses the secure default)"
+)
+"""How the paper design draws what the model is shown (:meth:`TaskFilter.release`), as reports state it."""
 
 SPLIT_RULE = (
     "one keep probability p on every attribute: an attribute with k values gets k-ary randomized response at "
     "epsilon = ln(p (k - 1) / (1 - p)) (0, shown uniformly at random, where p < 1/k); a profile's epsilon is the sum "
     "over its attributes, and a candidate's that of everything its prompt shows about it"
 )
-"""How a privacy budget is split over a profile's attributes (:meth:`PrivacyFilter.from_epsilon`), as reports state it."""
+"""How a privacy budget is split over a profile's attributes (:meth:`TaskFilter.from_epsilon`), as reports state it."""
 
 
 @dataclass(frozen=True, eq=False)
-class PrivacyFilter:
+class TaskFilter:
     """Randomized response on each profile attribute, and a mechanism on the context.
 
     Attributes
@@ -51,6 +63,11 @@ class PrivacyFilter:
         attribute's values.
     context_mechanism : Mechanism
         M_X on the task's contexts (identity: the document type is shown as is).
+    attribute_filters : tuple of fairaudit.PrivacyFilter
+        The filters that release each attribute (:meth:`release`): randomized response at the same ε as
+        ``attribute_mechanisms``, with exact rational rows; each one's own ε is at most its mechanism's.
+    context_filter : fairaudit.PrivacyFilter
+        The filter that releases the context, at the same ε as ``context_mechanism`` (or the identity).
 
     Use :meth:`from_epsilon` to make one.
     """
@@ -58,9 +75,11 @@ class PrivacyFilter:
     task: DeliveryTask
     attribute_mechanisms: tuple
     context_mechanism: Mechanism
+    attribute_filters: tuple
+    context_filter: PrivacyFilter
 
     @classmethod
-    def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> PrivacyFilter:
+    def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> TaskFilter:
         """The filter whose profile mechanism has privacy budget ``epsilon``, every attribute kept with one probability.
 
         The split rule (:func:`fairaudit.split_by_keep`): every
@@ -93,27 +112,29 @@ class PrivacyFilter:
 
         >>> from fairaudit.experiments.taskfile import HR_DELIVERY
         >>> import math
-        >>> f = PrivacyFilter.from_epsilon(HR_DELIVERY, 3 * math.log(7 / 3))
+        >>> f = TaskFilter.from_epsilon(HR_DELIVERY, 3 * math.log(7 / 3))
         >>> [round(p, 6) for p in f.keep_probabilities], round(f.epsilon_profile, 6)
         ([0.7, 0.7, 0.7], 2.541894)
         >>> round(f.candidate_mechanism().epsilon, 6)                  # both profiles are in the query
         5.083787
         """
         eps = _nats(epsilon, "epsilon")
-        split = split_by_keep(eps, [len(a.values) for a in task.attributes])
-        mechs = tuple(
-            randomized_response(a.values, float(e), name=f"randomized response on {a.name}")
-            for a, e in zip(task.attributes, split)
+        split = [float(e) for e in split_by_keep(eps, [len(a.values) for a in task.attributes])]
+        names = [f"randomized response on {a.name}" for a in task.attributes]
+        mechs = tuple(randomized_response(a.values, e, name=n) for a, e, n in zip(task.attributes, split, names))
+        filters = tuple(
+            PrivacyFilter.randomized_response(a.values, epsilon=e, name=n)
+            for a, e, n in zip(task.attributes, split, names)
         )
         if context_epsilon is None:
-            ctx = identity(task.contexts, name=f"identity on {task.context_name}")
+            name = f"identity on {task.context_name}"
+            ctx = identity(task.contexts, name=name)
+            ctx_filter = PrivacyFilter.randomized_response(task.contexts, keep=1, name=name)
         else:
-            ctx = randomized_response(
-                task.contexts,
-                _nats(context_epsilon, "context_epsilon"),
-                name=f"randomized response on {task.context_name}",
-            )
-        return cls(task, mechs, ctx)
+            ctx_eps, name = _nats(context_epsilon, "context_epsilon"), f"randomized response on {task.context_name}"
+            ctx = randomized_response(task.contexts, ctx_eps, name=name)
+            ctx_filter = PrivacyFilter.randomized_response(task.contexts, epsilon=ctx_eps, name=name)
+        return cls(task, mechs, ctx, filters, ctx_filter)
 
     @classmethod
     def for_candidates(
@@ -123,7 +144,7 @@ class PrivacyFilter:
         positions: str = "balanced",
         *,
         context_epsilon: float | None = None,
-    ) -> PrivacyFilter:
+    ) -> TaskFilter:
         """The filter that gives each candidate privacy budget ``epsilon``: the profile's ε_P, then its split.
 
         The one rule from a candidate's ε to the filter: ε_P =
@@ -146,7 +167,7 @@ class PrivacyFilter:
 
         Returns
         -------
-        PrivacyFilter
+        TaskFilter
 
         Raises
         ------
@@ -159,7 +180,7 @@ class PrivacyFilter:
 
         >>> from fairaudit.experiments.taskfile import HR_DELIVERY
         >>> import math
-        >>> f = PrivacyFilter.for_candidates(HR_DELIVERY, 6 * math.log(7 / 3))
+        >>> f = TaskFilter.for_candidates(HR_DELIVERY, 6 * math.log(7 / 3))
         >>> [round(p, 6) for p in f.keep_probabilities], round(f.candidate_mechanism().epsilon, 6)
         ([0.7, 0.7, 0.7], 5.083787)
         """
@@ -208,23 +229,44 @@ class PrivacyFilter:
 
         return candidate_mechanism(self.task, self.profile_mechanism, positions)
 
-    def release(self, context: str, profiles: Sequence[tuple], rng: np.random.Generator) -> tuple:
+    def release(
+        self, context: str, profiles: Sequence[tuple], random_bytes: Callable[[int], bytes] | None = None
+    ) -> tuple:
         """Draw what the model is shown: (released context, released profiles), one draw.
 
-        Each attribute of each profile, and the context, is drawn from its
-        mechanism's row (the paper's design, which samples through the filter).
+        The context goes through :attr:`context_filter`, then attribute i of every profile through
+        ``attribute_filters[i]`` (:meth:`fairaudit.PrivacyFilter.apply`): exact rational rows, integer sampling,
+        no floating point (the paper's design, which samples through the filter).
+
+        Parameters
+        ----------
+        context : str
+            The true context, among the task's.
+        profiles : sequence of tuple
+            The true profiles, one value per attribute each.
+        random_bytes : callable, optional
+            ``random_bytes(n) -> bytes``, uniform random bytes. The harness passes a source seeded by the query's
+            seed, so that a resumed run redraws the same release (:data:`RELEASE_RULE`); the default is
+            :meth:`fairaudit.PrivacyFilter.apply`'s cryptographically secure source, as a deployment uses.
+
+        Returns
+        -------
+        tuple
+            (released context, tuple of released profiles, each a tuple of values).
+
+        Examples
+        --------
+        >>> from fairaudit.experiments.taskfile import HR_DELIVERY
+        >>> f = TaskFilter.from_epsilon(HR_DELIVERY, math.inf)                   # no filter: shown as they are
+        >>> f.release("sick leave", HR_DELIVERY.candidates) == ("sick leave", tuple(HR_DELIVERY.candidates))
+        True
         """
-        task = self.task
-        ctx_row = self.context_mechanism.matrix[task.contexts.index(context)]
-        out_ctx = self.context_mechanism.outputs[draw(rng, ctx_row)]
-        shown = []
-        for profile in profiles:
-            values = []
-            for mech, value in zip(self.attribute_mechanisms, profile):
-                row = mech.matrix[mech.inputs.index(value)]
-                values.append(mech.outputs[draw(rng, row)])
-            shown.append(tuple(values))
-        return out_ctx, tuple(shown)
+        shown_context = self.context_filter.apply([context], random_bytes=random_bytes)[0]
+        columns = [
+            f.apply([profile[i] for profile in profiles], random_bytes=random_bytes)
+            for i, f in enumerate(self.attribute_filters)
+        ]
+        return shown_context, tuple(zip(*columns))
 
     def describe(self) -> str:
         """One line: the attribute mechanisms, their keep probability and the ε that follow."""
@@ -247,7 +289,7 @@ def candidate_family(task: DeliveryTask, positions: str = "balanced") -> Mechani
     2 for the paper's pair, each profile at ε / 2), else ε_P solves
     ε(M_cand(ε_P)) = ε (M_cand at a smaller ε_P is a garbling of the one at
     a larger, so the map is monotone). ε_P is split over the attributes by
-    one keep probability (:meth:`PrivacyFilter.from_epsilon`,
+    one keep probability (:meth:`TaskFilter.from_epsilon`,
     :func:`fairaudit.split_by_keep`). The family's keep probability
     is the chance that a candidate's own profile is shown unchanged,
     Π_i e^{ε_i} / (e^{ε_i} + k_i − 1).
@@ -265,7 +307,7 @@ def candidate_family(task: DeliveryTask, positions: str = "balanced") -> Mechani
     profile_epsilon = profile_budget(task, positions)
 
     def build(eps: float) -> Mechanism:
-        return PrivacyFilter.from_epsilon(task, profile_epsilon(eps)).candidate_mechanism(positions)
+        return TaskFilter.from_epsilon(task, profile_epsilon(eps)).candidate_mechanism(positions)
 
     def keep(eps: float) -> float:
         split = split_by_keep(profile_epsilon(eps), sizes)
@@ -297,7 +339,7 @@ def profile_budget(task: DeliveryTask, positions: str = "balanced") -> Callable[
             return eps
 
         def gap(e: float) -> float:
-            m_p = PrivacyFilter.from_epsilon(task, e).profile_mechanism.matrix
+            m_p = TaskFilter.from_epsilon(task, e).profile_mechanism.matrix
             return candidate_mechanism_epsilon(task, m_p, positions) - eps
 
         hi = eps
@@ -315,14 +357,3 @@ def profile_budget(task: DeliveryTask, positions: str = "balanced") -> Callable[
 
 def _nats(eps: float, name: str) -> float:
     return real(eps, name, low=0.0, finite=False, what="a number of nats >= 0")
-
-
-def draw(rng: np.random.Generator, row: np.ndarray) -> int:
-    """One index drawn from the weights ``row`` (not necessarily normalised) with one uniform number of ``rng``.
-
-    Examples
-    --------
-    >>> draw(np.random.default_rng(0), np.array([0.0, 1.0, 0.0]))
-    1
-    """
-    return int(np.searchsorted(np.cumsum(row), rng.random() * row.sum(), side="right").clip(0, row.size - 1))

@@ -30,7 +30,6 @@ import numpy as np
 from fairaudit import InputError
 
 from ..slots import slot_names
-from .filter import draw
 from .tasks import DeliveryTask
 
 if TYPE_CHECKING:
@@ -283,10 +282,23 @@ class SimulatedModel:
 def _drawn_reply(task: DeliveryTask, row: np.ndarray, query: Query, name: str) -> ModelReply:
     """A decision drawn from ``row`` (P(decision), :attr:`DeliveryTask.decisions`) with the query's seed, as a reply."""
     rng = np.random.default_rng(query.seed)
-    d = draw(rng, row)
+    d = _draw(rng, row)
     names = task.reply_names(query.profiles, query.texts)
     text = reply_text(task, None if d == len(task.decisions) - 1 else d, rng, names)
     return ModelReply(text, f"simulated:{name}")
+
+
+def _draw(rng: np.random.Generator, row: np.ndarray) -> int:
+    """One index drawn from the weights ``row`` (not necessarily normalised) with one uniform number of ``rng``.
+
+    The simulated model's reply, not a privacy filter (the filter samples exactly: :mod:`.filter`).
+
+    Examples
+    --------
+    >>> _draw(np.random.default_rng(0), np.array([0.0, 1.0, 0.0]))
+    1
+    """
+    return int(np.searchsorted(np.cumsum(row), rng.random() * row.sum(), side="right").clip(0, row.size - 1))
 
 
 Rule: TypeAlias = "Callable[[DeliveryTask, np.ndarray], np.ndarray]"

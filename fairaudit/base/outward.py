@@ -41,10 +41,12 @@ __all__ = [
     "DIGITS",
     "Exact",
     "down",
+    "exp_bounds",
     "exp_down",
     "exp_up",
     "fraction_down",
     "fraction_up",
+    "ln_bounds",
     "log_down",
     "log_up",
     "up",
@@ -200,6 +202,23 @@ def _float_below(d: decimal.Decimal) -> float:
     return fraction_down(Fraction(d))
 
 
+def _ln_decimal(q: Fraction, upward: bool) -> decimal.Decimal:
+    """ln of a rational q > 0, q ≠ 1, as a :data:`DIGITS`-digit decimal on the stated side of the exact value."""
+    ctx = _context(decimal.ROUND_HALF_EVEN)
+    if upward:
+        return ctx.next_plus(ctx.ln(_decimal(q, decimal.ROUND_CEILING)))
+    return ctx.next_minus(ctx.ln(_decimal(q, decimal.ROUND_FLOOR)))
+
+
+def _exp_decimal(q: Fraction, upward: bool) -> decimal.Decimal:
+    """e^q for a rational q ≠ 0 with |q| at most the floats' range, as a :data:`DIGITS`-digit decimal on the stated
+    side of the exact value."""
+    ctx = _context(decimal.ROUND_HALF_EVEN)
+    if upward:
+        return ctx.next_plus(ctx.exp(_decimal(q, decimal.ROUND_CEILING)))
+    return ctx.next_minus(ctx.exp(_decimal(q, decimal.ROUND_FLOOR)))
+
+
 def _ln(x: Exact, upward: bool) -> float:
     """ln ``x`` rounded to a float on the stated side (:func:`log_up` and :func:`log_down`)."""
     if isinstance(x, float) and (math.isnan(x) or x == math.inf):
@@ -213,10 +232,8 @@ def _ln(x: Exact, upward: bool) -> float:
         return -math.inf
     if q == 1:
         return 0.0
-    ctx = _context(decimal.ROUND_HALF_EVEN)
-    if upward:
-        return _float_above(ctx.next_plus(ctx.ln(_decimal(q, decimal.ROUND_CEILING))))
-    return _float_below(ctx.next_minus(ctx.ln(_decimal(q, decimal.ROUND_FLOOR))))
+    d = _ln_decimal(q, upward)
+    return _float_above(d) if upward else _float_below(d)
 
 
 def _exp(x: Exact, upward: bool) -> float:
@@ -232,10 +249,64 @@ def _exp(x: Exact, upward: bool) -> float:
         if upward:
             return math.inf if q > 0 else _TINY
         return sys.float_info.max if q > 0 else 0.0
-    ctx = _context(decimal.ROUND_HALF_EVEN)
-    if upward:
-        return _float_above(ctx.next_plus(ctx.exp(_decimal(q, decimal.ROUND_CEILING))))
-    return _float_below(ctx.next_minus(ctx.exp(_decimal(q, decimal.ROUND_FLOOR))))
+    d = _exp_decimal(q, upward)
+    return _float_above(d) if upward else _float_below(d)
+
+
+def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
+    """Rationals lo ≤ ln ``x`` ≤ hi, :data:`DIGITS` digits apart, for a rational ``x`` > 0 (exact at 1).
+
+    What a verifier needs beyond a float's precision: the decimals of :func:`log_up` and :func:`log_down`
+    (``proofs/outward.md`` §4), not rounded to floats.
+
+    Raises
+    ------
+    ValueError
+        When ``x`` ≤ 0 or not finite.
+
+    Examples
+    --------
+    >>> import math
+    >>> lo, hi = ln_bounds(2)
+    >>> abs(lo - Fraction(math.log(2))) < Fraction(1, 10**16) and 0 < hi - lo < Fraction(1, 10**48)
+    True
+    """
+    if isinstance(x, float) and not math.isfinite(x):
+        raise ValueError(f"ln_bounds of {x!r}")
+    q = _fraction(x)
+    if q <= 0:
+        raise ValueError(f"ln_bounds of a number <= 0: {x!r}")
+    if q == 1:
+        return Fraction(0), Fraction(0)
+    return Fraction(_ln_decimal(q, False)), Fraction(_ln_decimal(q, True))
+
+
+def exp_bounds(x: Exact) -> tuple[Fraction, Fraction]:
+    """Rationals lo ≤ e^``x`` ≤ hi, :data:`DIGITS` digits apart, for a rational ``x`` with |x| ≤ 10^6 (exact at 0).
+
+    The decimals of :func:`exp_up` and :func:`exp_down`, not rounded to floats.
+
+    Raises
+    ------
+    ValueError
+        When ``x`` is not finite or |x| > 10^6.
+
+    Examples
+    --------
+    >>> lo, hi = exp_bounds(1)
+    >>> Fraction(2718281828459045235360287, 10**24) < lo < hi < Fraction(2718281828459045235360288, 10**24)   # e
+    True
+    >>> hi - lo < Fraction(1, 10**48)
+    True
+    """
+    if isinstance(x, float) and not math.isfinite(x):
+        raise ValueError(f"exp_bounds of {x!r}")
+    q = _fraction(x)
+    if abs(q) > 10**6:
+        raise ValueError(f"exp_bounds of a number beyond 1e6 in size: {x!r}")
+    if q == 0:
+        return Fraction(1), Fraction(1)
+    return Fraction(_exp_decimal(q, False)), Fraction(_exp_decimal(q, True))
 
 
 def log_up(x: Exact) -> float:

@@ -19,7 +19,7 @@ from fractions import Fraction
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray, first_max
-from fairaudit.base.outward import log_up, up, widen_up
+from fairaudit.base.outward import fraction_up, log_up, up, widen_up
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, PairPass, pair_candidates
 from fairaudit.laws.mechanisms import EXACT_PAIRS, Mechanism, exact_hockey_stick, largest_hockey_stick
 
@@ -145,7 +145,8 @@ def _paper_at(matrix: FloatArray, t: float, gamma: float, tau: float, c: float) 
     """(value, ε, δ) of the paper form at the float t = e^ε ≥ 1, certified: any t gives a valid bound, so the
     minimiser found in floating point is evaluated again with δ(t) over every pair rounded up
     (:func:`~fairaudit.laws.mechanisms.largest_hockey_stick`) and ln(t (1 + (c + γδ)/τ)) of the exact rational
-    rounded up (``proofs/outward.md`` §5). ε is ln t rounded to nearest: it says where the minimum is."""
+    rounded up (``proofs/outward.md`` §5). ε is ln t rounded up, so that δ(ε) ≤ δ(t): the value is ε + ln(1 + (c +
+    γδ)/τ), rounded up, at the (ε, δ) recorded, as a verifier re-derives it."""
     delta = largest_hockey_stick(matrix, t)
     above = t
     for _ in range(4 if 0.0 < delta < 1e-12 else 0):  # t just below the ratio the minimum sits on: δ = 0 just above
@@ -154,7 +155,8 @@ def _paper_at(matrix: FloatArray, t: float, gamma: float, tau: float, c: float) 
             t, delta = above, 0.0
             break
     x = (Fraction(c) + Fraction(gamma) * Fraction(delta)) / Fraction(tau)
-    return log_up(Fraction(t) * (1 + x)), float(np.log(t)), delta
+    eps = log_up(t)  # ≥ ln t, so δ(ε) ≤ δ(t): the pair (ε, δ) recorded is itself a valid one
+    return fraction_up(Fraction(eps) + Fraction(log_up(1 + x))), eps, delta
 
 
 def _tight_objective(

@@ -9,6 +9,8 @@ labels (product attributes) are joined with ``" & "``.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 from collections.abc import Hashable
 from typing import Any, SupportsFloat, TypeAlias
@@ -17,7 +19,7 @@ import numpy as np
 
 from fairaudit.base.labels import format_label
 
-__all__ = ["Report", "label", "number"]
+__all__ = ["Report", "canonical_digest", "label", "number"]
 
 Report: TypeAlias = dict[str, Any]
 """A report dictionary: JSON-ready (str keys; str, numbers, bools, None, lists and dicts as values)."""
@@ -79,3 +81,18 @@ def pair_dict(
         d["context"] = label(context)
     d.update(group=label(group), other_group=label(other))
     return d
+
+
+def canonical_digest(value: Any) -> str:
+    """SHA-256 (hex) of a JSON value's canonical text: keys sorted, no spaces, UTF-8, floats as ``repr``.
+
+    What a certificate's ``inputs_sha256`` is (``docs/certificates.md``); NaN and infinities are refused (write them
+    as :func:`number` does).
+
+    Examples
+    --------
+    >>> canonical_digest({"b": [0.1], "a": "inf"}) == hashlib.sha256(b'{"a":"inf","b":[0.1]}').hexdigest()
+    True
+    """
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()

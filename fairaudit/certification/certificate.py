@@ -25,12 +25,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypedDict
 
 from fairaudit.base.errors import InputError
-from fairaudit.base.json_values import Report, label, number
+from fairaudit.base.json_values import Report, canonical_digest, label, number
 from fairaudit.certification.recorded_inputs import (
     CERTIFICATE_FORMAT,
     FORMAT_VERSION,
     certificate_inputs,
-    inputs_digest,
 )
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
@@ -228,7 +227,7 @@ class Certificate:
             spec.population,
             spec.kernel(),
         )
-        out["inputs_sha256"] = inputs_digest(inputs)
+        out["inputs_sha256"] = canonical_digest(inputs)
         out["inputs"] = inputs
         return out
 

@@ -2,14 +2,12 @@
 
 A certificate's numbers follow from its mechanisms, its utility, its population and, with a model, the kernel behind
 the filter. :func:`certificate_inputs` writes them as JSON (every float exactly, as Python's ``repr`` writes it, so
-a reader gets the very binary numbers the tool used), and :func:`inputs_digest` hashes them canonically. The
+a reader gets the very binary numbers the tool used), and :func:`fairaudit.base.json_values.canonical_digest` hashes them canonically. The
 format is ``docs/certificates.md`` ("The certificate's format"); ``fairaudit verify`` reads it.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 from typing import Any
 
 import numpy as np
@@ -25,7 +23,6 @@ __all__ = [
     "CERTIFICATE_FORMAT",
     "FORMAT_VERSION",
     "certificate_inputs",
-    "inputs_digest",
     "json_array",
     "mechanism_inputs",
 ]
@@ -141,15 +138,3 @@ def certificate_inputs(
 def _real(x: float | None) -> float | str | None:
     """A class field as JSON: None stays None, ±inf as a string."""
     return None if x is None else json_array(float(x))
-
-
-def inputs_digest(inputs: Report) -> str:
-    """SHA-256 (hex) of the inputs' canonical JSON: keys sorted, no spaces, UTF-8, floats as ``repr``.
-
-    Examples
-    --------
-    >>> inputs_digest({"b": [0.1], "a": "inf"}) == hashlib.sha256(b'{"a":"inf","b":[0.1]}').hexdigest()
-    True
-    """
-    text = json.dumps(inputs, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()

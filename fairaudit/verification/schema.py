@@ -1,0 +1,174 @@
+"""The certificate's JSON Schema, ``certificate.schema.json`` (draft 2020-12), checked with ``jsonschema``.
+
+The schema ships with the package. It is strict on what ``fairaudit verify`` reads (``format``, ``format_version``,
+``inputs_sha256``, ``inputs``, ``bounds`` and ``privacy``: every key required, no other key) and types the keys of
+the other sections that docs/cli.md lists (they may hold more). The format is ``docs/certificates.md`` ("The
+certificate's format"). ``jsonschema`` is imported when a certificate is checked, not with ``fairaudit``.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from collections.abc import Collection, Mapping
+from importlib import resources
+from typing import TYPE_CHECKING, Any
+
+from fairaudit.base.errors import InputError
+
+if TYPE_CHECKING:
+    from jsonschema import Draft202012Validator
+    from jsonschema.exceptions import ValidationError
+
+__all__ = ["SCHEMA_FILE", "certificate_schema", "check_certificate", "json_path"]
+
+SCHEMA_FILE = "certificate.schema.json"
+"""The schema's file name in the package ``fairaudit.verification``."""
+
+_WEAK = frozenset({"anyOf", "oneOf"})
+
+
+def certificate_schema() -> dict[str, Any]:
+    """The certificate's JSON Schema, read from the package data (a new copy each call).
+
+    Examples
+    --------
+    >>> s = certificate_schema()
+    >>> s["$schema"], s["properties"]["format_version"]
+    ('https://json-schema.org/draft/2020-12/schema', {'const': 1})
+    """
+    return json.loads(_schema_text())
+
+
+@functools.cache
+def _schema_text() -> str:
+    """The schema file's text, read once."""
+    return resources.files("fairaudit.verification").joinpath(SCHEMA_FILE).read_text(encoding="utf-8")
+
+
+@functools.cache
+def _validator() -> Draft202012Validator:
+    """The schema's validator, built once."""
+    from jsonschema import Draft202012Validator
+
+    return Draft202012Validator(certificate_schema())
+
+
+def json_path(parts: Collection[str | int]) -> str:
+    """A path into a JSON document as fairaudit's errors name fields: keys joined by dots, indices in brackets.
+
+    Examples
+    --------
+    >>> json_path(["inputs", "population", "probabilities", 0, 1])
+    'inputs.population.probabilities[0][1]'
+    >>> json_path([])
+    ''
+    """
+    out = ""
+    for p in parts:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out
+
+
+def check_certificate(data: Mapping[str, Any]) -> None:
+    """Check a certificate's JSON against the certificate's JSON Schema (``certificate.schema.json``).
+
+    Parameters
+    ----------
+    data : mapping
+        A certificate as JSON values (``json.load`` of ``fairaudit certify --format json``, or
+        ``Certificate.to_dict()``): str keys; str, numbers, bools, None, lists and dicts as values.
+
+    Raises
+    ------
+    InputError
+        On the first (most relevant, ``jsonschema.exceptions.best_match``) departure from the schema: its field is
+        the JSON path of the part at fault (``inputs.utility.tau``, ``inputs.population.probabilities[0][1]``; a
+        missing or unknown key named at its own path, ``inputs_sha256``), its value the offending value.
+
+    Notes
+    -----
+    The schema checks types, required and known keys, enums, the format's name and version, the SHA-256's form and
+    the ranges of probabilities; it does not check that arrays' shapes agree with their labels, that rows sum to 1
+    or that the SHA-256 is the inputs' (``fairaudit verify`` does). Source: docs/certificates.md ("The
+    certificate's format").
+
+    Examples
+    --------
+    >>> import fairaudit as fa
+    >>> data = fa.certify(fa.parse_spec('''
+    ... [sensitive]
+    ... name = "office"
+    ... values = ["HR_1", "HR_2"]
+    ... [decision]
+    ... name = "chosen"
+    ... values = ["yes", "no"]
+    ... [privacy.sensitive]
+    ... mechanism = "randomized_response"
+    ... keep = 0.7
+    ... [utility]
+    ... decision = "yes"
+    ... tau = 0.25
+    ... ''')).to_dict()
+    >>> check_certificate(data)
+    >>> data["inputs"]["utility"]["tau"] = "0.25"
+    >>> check_certificate(data)
+    Traceback (most recent call last):
+    ...
+    fairaudit.base.errors.InputError: inputs.utility.tau: must be a number >= 0, or null (got '0.25')
+    """
+    if not isinstance(data, Mapping):
+        raise InputError("certificate", "must be a JSON object", data)
+    from jsonschema.exceptions import best_match
+
+    errors = list(_validator().iter_errors(data))
+    if not errors:
+        return
+    # a concrete error (an unknown enum value) before "valid under none of" at the same or a shallower place
+    top = max(errors, key=lambda e: (e.validator not in _WEAK, -len(e.absolute_path)))
+    raise _input_error(_chosen_branch(best_match([top])))
+
+
+def _chosen_branch(error: ValidationError) -> ValidationError:
+    """In a ``oneOf`` by ``kind``, the best error of the one branch whose ``kind`` matches (else the error itself)."""
+    from jsonschema.exceptions import best_match
+
+    if error.validator != "oneOf":
+        return error
+    branches: dict[int | str, list[ValidationError]] = {}
+    for e in error.context or ():
+        branches.setdefault(e.relative_schema_path[0], []).append(e)
+    matching = [errs for errs in branches.values() if not any(e.validator == "const" for e in errs)]
+    if len(matching) != 1:
+        return error
+    return _chosen_branch(best_match(matching[0]))
+
+
+def _input_error(error: ValidationError) -> InputError:
+    """One schema error as an InputError: its field the JSON path, its value the offending value."""
+    path = list(error.absolute_path)
+    instance = error.instance
+    expected: Any = error.validator_value  # the failed keyword's value: required's list here
+    if error.validator == "required" and isinstance(instance, Mapping):
+        missing = next(k for k in expected if k not in instance)
+        return InputError(json_path([*path, missing]), "is required")
+    if error.validator == "additionalProperties" and isinstance(instance, Mapping):
+        known = error.schema.get("properties", {}) if isinstance(error.schema, Mapping) else {}
+        extra = next(k for k in instance if k not in known)
+        return InputError(json_path([*path, extra]), "is not a known key", instance[extra])
+    return InputError(json_path(path) or "certificate", _problem(error), instance)
+
+
+def _problem(error: ValidationError) -> str:
+    """What is wrong, without the value (the InputError quotes it)."""
+    schema = error.schema if isinstance(error.schema, Mapping) else {}
+    expected: Any = error.validator_value
+    if error.validator == "const":
+        return f"must be {expected!r}"
+    if error.validator == "enum":
+        return "must be one of " + ", ".join(repr(v) for v in expected)
+    if error.validator in _WEAK and "description" in schema:
+        return f"must be {schema['description']}"
+    if error.validator in _WEAK:
+        return "matches none of the allowed forms"
+    return error.message.removeprefix(f"{error.instance!r} ").strip()

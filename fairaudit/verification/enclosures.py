@@ -1,0 +1,250 @@
+"""Exact enclosures of a certificate's quantities: rationals, and intervals of rationals where e^ε enters.
+
+Every float a certificate records is a dyadic rational, read exactly (:class:`fractions.Fraction`). A recorded
+mechanism is either exact rows (``identity``, ``matrix``) or k-ary randomized response at ε, whose rows hold the
+irrational t = e^ε: t is enclosed by 50-digit rationals (:func:`~fairaudit.base.outward.exp_bounds`), and each
+quantity by the interval its monotonicity in t gives. A logarithm is enclosed likewise (:func:`~fairaudit.base.outward.ln_bounds`). No
+floating-point operation decides a result here (``proofs/outward.md``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from fairaudit.base.errors import InputError
+from fairaudit.base.outward import exp_bounds, ln_bounds
+
+__all__ = ["INF", "Enclosure", "RecordedMechanism", "exact", "exp_of", "ln", "ln_of", "recorded_array"]
+
+INF = math.inf
+"""+inf, as the certificate writes it (``"inf"``)."""
+
+
+@dataclass(frozen=True)
+class Enclosure:
+    """A closed interval [lo, hi] of extended reals holding an exact quantity (floats ±inf or Fractions)."""
+
+    lo: Fraction | float
+    hi: Fraction | float
+
+    @classmethod
+    def point(cls, x: Fraction | float) -> Enclosure:
+        """The exact value ``x``."""
+        return cls(x, x)
+
+    def __add__(self, other: Enclosure) -> Enclosure:
+        return Enclosure(self.lo + other.lo, self.hi + other.hi)
+
+
+def exact(value: Any, field: str) -> Fraction | float:
+    """A recorded JSON number as an exact rational (``"inf"`` as +inf).
+
+    Raises
+    ------
+    InputError
+        Naming ``field`` when the value is not a finite number or ``"inf"``.
+
+    Examples
+    --------
+    >>> exact(0.1, "x") == Fraction(3602879701896397, 36028797018963968), exact("inf", "x")
+    (True, inf)
+    """
+    if value == "inf":
+        return INF
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(field, 'must be a finite number or "inf"', value)
+    return Fraction(value)
+
+
+def recorded_array(value: Any, field: str) -> list[Any]:
+    """Nested lists of recorded numbers as nested lists of Fractions (None stays None: an empty cell)."""
+    if isinstance(value, list):
+        return [recorded_array(v, f"{field}[{i}]") for i, v in enumerate(value)]
+    return None if value is None else exact(value, field)  # type: ignore[return-value]
+
+
+def ln(x: Fraction | float) -> Enclosure:
+    """50-digit rationals around ln x for a rational x ≥ 0 (ln 0 = −inf, ln +inf = +inf).
+
+    Examples
+    --------
+    >>> e = ln(Fraction(7, 3))
+    >>> abs(e.lo - Fraction(math.log(7 / 3))) < Fraction(1, 10**15) and e.hi - e.lo < Fraction(1, 10**48)
+    True
+    """
+    if x == INF:
+        return Enclosure.point(INF)
+    if x == 0:
+        return Enclosure.point(-INF)
+    return Enclosure(*ln_bounds(x))
+
+
+def exp_of(x: Fraction) -> Enclosure:
+    """[lo, hi] around e^x for a rational x (50 digits: :func:`~fairaudit.base.outward.exp_bounds`); +inf beyond 10^6."""
+    if x > 10**6:
+        return Enclosure.point(INF)
+    return Enclosure(*exp_bounds(x))
+
+
+def ln_of(e: Enclosure) -> Enclosure:
+    """The enclosure of ln over an enclosure of a non-negative quantity (ln is increasing)."""
+    return Enclosure(ln(e.lo).lo, ln(e.hi).hi)
+
+
+@dataclass(frozen=True)
+class RecordedMechanism:
+    """A mechanism as a certificate records it (``inputs.sensitive_mechanism``): its kind and exact parameters.
+
+    Attributes
+    ----------
+    kind : {"identity", "randomized_response", "matrix"}
+    inputs, outputs : tuple
+        The labels.
+    epsilon : Fraction or None
+        Randomized response's ε (nats).
+    rows : tuple of tuple of Fraction, or None
+        A matrix's rows P(output | input), shape (n_inputs, n_outputs).
+    """
+
+    kind: str
+    inputs: tuple
+    outputs: tuple
+    epsilon: Fraction | float | None = None
+    rows: tuple[tuple[Fraction, ...], ...] | None = None
+
+    @classmethod
+    def from_record(cls, data: Mapping[str, Any], field: str) -> RecordedMechanism:
+        """Read ``data`` (already checked against the schema); ``field`` names it in errors."""
+        inputs, outputs = tuple(data["inputs"]), tuple(data["outputs"])
+        kind = data["kind"]
+        if kind == "randomized_response":
+            return cls(kind, inputs, outputs, epsilon=exact(data["epsilon"], f"{field}.epsilon"))
+        if kind == "matrix":
+            rows = tuple(tuple(r) for r in recorded_array(data["matrix"], f"{field}.matrix"))
+            if len(rows) != len(inputs) or any(len(r) != len(outputs) for r in rows):
+                raise InputError(f"{field}.matrix", f"must have shape ({len(inputs)}, {len(outputs)})", "")
+            return cls(kind, inputs, outputs, rows=rows)
+        return cls(kind, inputs, outputs)
+
+    @property
+    def k(self) -> int:
+        """The number of inputs."""
+        return len(self.inputs)
+
+    def t(self) -> Enclosure:
+        """Randomized response's e^ε, enclosed."""
+        eps = self.epsilon
+        if eps == INF:
+            return Enclosure.point(INF)
+        return exp_of(eps)  # type: ignore[arg-type]
+
+    def rr_rows(self) -> tuple[Enclosure, Enclosure]:
+        """Randomized response's (p, q) = (t/(t + k − 1), 1/(t + k − 1)), enclosed (p increases in t, q decreases)."""
+        t, m = self.t(), self.k - 1
+        if t.hi == INF:
+            lo_p = Fraction(1) if t.lo == INF else t.lo / (t.lo + m)
+            return Enclosure(lo_p, Fraction(1)), Enclosure(Fraction(0), 1 / (t.lo + m) if t.lo != INF else Fraction(0))
+        return Enclosure(t.lo / (t.lo + m), t.hi / (t.hi + m)), Enclosure(1 / (t.hi + m), 1 / (t.lo + m))
+
+    def epsilon_enclosure(self) -> Enclosure:
+        """ε(M) = max over outputs and pairs of ln M[a, o]/M[a', o] (+inf when one input reaches an output another
+        cannot), enclosed; exact for randomized response."""
+        if self.kind == "identity":
+            return Enclosure.point(INF if self.k >= 2 else Fraction(0))
+        if self.kind == "randomized_response":
+            return Enclosure.point(self.epsilon if self.k >= 2 else Fraction(0))  # type: ignore[arg-type]
+        assert self.rows is not None
+        ratio: Fraction | float = Fraction(1)
+        for column in zip(*self.rows):
+            top, bottom = max(column), min(column)
+            if top > 0 and bottom == 0:
+                return Enclosure.point(INF)
+            if top > 0:
+                ratio = max(ratio, top / bottom)
+        return ln(ratio)
+
+    def matrix_rows(self) -> tuple[tuple[Fraction, ...], ...] | None:
+        """Exact rows: a matrix's, the identity's; None for randomized response (irrational)."""
+        if self.kind == "matrix":
+            return self.rows
+        if self.kind == "identity":
+            return tuple(tuple(Fraction(int(i == j)) for j in range(self.k)) for i in range(self.k))
+        return None
+
+    def largest_delta(self, epsilon: Fraction) -> Enclosure:
+        """δ(ε) = max over a ≠ a' of Σ_o [M[a, o] − e^ε M[a', o]]₊, enclosed (it decreases in e^ε)."""
+        if self.k < 2:
+            return Enclosure.point(Fraction(0))
+        t = exp_of(epsilon)
+        if self.kind == "randomized_response":  # p − e^ε q = (e^ε_M − e^ε)/(e^ε_M + k − 1), 0 from ε = ε_M on
+            if epsilon >= self.epsilon:  # type: ignore[operator]
+                return Enclosure.point(Fraction(0))
+            tm, m = self.t(), self.k - 1
+            if tm.hi == INF:  # the identity: δ = 1
+                return Enclosure.point(Fraction(1))
+            return Enclosure(max(Fraction(0), (tm.lo - t.hi) / (tm.hi + m)), (tm.hi - t.lo) / (tm.lo + m))
+        rows = self.matrix_rows()
+        assert rows is not None
+        return Enclosure(_largest_hockey_stick(rows, t.hi), _largest_hockey_stick(rows, t.lo))
+
+    def tight_pair_log(
+        self, lipschitz: Fraction, gamma: Fraction, tau: Fraction, metric: Sequence[Sequence[Any]] | None
+    ) -> tuple[Enclosure, int, int]:
+        """The tight bound, enclosed, and its pair (indices): max over pairs (a, a') of min over t = e^ε ≥ 1 of
+        ln(t + (L_A d(a, a') + γ δ_aa'(t))/τ) (``proofs/tight_bound.md``).
+
+        For each pair the function of t is convex and piecewise linear (δ_aa' is), so its minimum is at t = 1 or at
+        a ratio M[a, o]/M[a', o] ≥ 1: each is evaluated exactly. Randomized response's pairs are alike: t = 1, or
+        t = e^ε, where the value is ε + ln(1 + L_A d/(τ e^ε)) (exactly ε when L_A = 0).
+        """
+        if self.kind == "randomized_response":
+            d = Fraction(1) if metric is None else Fraction(metric[0][1])
+            c = lipschitz * d / tau
+            t, m = self.t(), self.k - 1
+            if t.hi == INF:  # the identity: δ = 1 at every ε, the minimum at t = 1
+                return ln(1 + c + gamma / tau), 0, 1
+            # at t = 1: 1 + c + (γ/τ)(t − 1)/(t + k − 1), increasing in t
+            at_one = Enclosure(
+                1 + c + gamma / tau * (t.lo - 1) / (t.lo + m), 1 + c + gamma / tau * (t.hi - 1) / (t.hi + m)
+            )
+            at_eps = Enclosure(self.epsilon, self.epsilon) + Enclosure(ln(1 + c / t.hi).lo, ln(1 + c / t.lo).hi)  # type: ignore[arg-type]
+            one = Enclosure(ln(at_one.lo).lo, ln(at_one.hi).hi)
+            return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), 0, 1
+        rows = self.matrix_rows()
+        assert rows is not None
+        best_value: Fraction | float = -INF
+        pair = (0, 1)
+        for a in range(self.k):
+            for b in range(self.k):
+                if a == b:
+                    continue
+                d = Fraction(1) if metric is None else Fraction(metric[a][b])
+                value = _pair_minimum(rows[a], rows[b], (lipschitz * d) / tau, gamma / tau)
+                if value > best_value:
+                    best_value, pair = value, (a, b)
+        return ln(best_value), pair[0], pair[1]
+
+
+def _hockey_stick(ra: Sequence[Fraction], rb: Sequence[Fraction], t: Fraction | float) -> Fraction:
+    """Σ_o [ra_o − t rb_o]₊, exactly (t may be +inf: the mass of ra where rb is 0)."""
+    if not isinstance(t, Fraction):  # +inf
+        return sum((x for x, y in zip(ra, rb) if y == 0), Fraction(0))
+    return sum((max(Fraction(0), x - t * y) for x, y in zip(ra, rb)), Fraction(0))
+
+
+def _largest_hockey_stick(rows: Sequence[Sequence[Fraction]], t: Fraction | float) -> Fraction:
+    """max over ordered pairs of distinct rows of the hockey stick at t."""
+    return max(
+        (_hockey_stick(rows[a], rows[b], t) for a in range(len(rows)) for b in range(len(rows)) if a != b),
+        default=Fraction(0),
+    )
+
+
+def _pair_minimum(ra: Sequence[Fraction], rb: Sequence[Fraction], shift: Fraction, scale: Fraction) -> Fraction | float:
+    """min over t ≥ 1 of t + shift + scale·Σ_o [ra_o − t rb_o]₊: at t = 1 or a breakpoint ra_o/rb_o ≥ 1."""
+    candidates = {Fraction(1)} | {x / y for x, y in zip(ra, rb) if y > 0 and x >= y}
+    return min(t + shift + scale * _hockey_stick(ra, rb, t) for t in candidates)

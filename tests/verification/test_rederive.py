@@ -1,0 +1,221 @@
+"""`fairaudit.verification.rederive.verify`: the shipped certificates hold; one changed number, a swapped witness, an edited
+input table or a changed epsilon fails; the re-derived values against hand calculations."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from fractions import Fraction
+from pathlib import Path
+
+import pytest
+
+from fairaudit.base.errors import InputError
+from fairaudit.certification.certificate import certify
+from fairaudit.certification.spec import parse_spec
+from fairaudit.filter.filters import PrivacyFilter
+from fairaudit.verification.rederive import verify
+
+ROOT = Path(__file__).resolve().parents[2]
+SHIPPED = ["examples/llm_hiring/gpt35.toml", "examples/llm_hiring/gpt4.toml", "examples/hr_office/hr_office.toml"]
+
+OFFICE = """
+[sensitive]
+name = "office"
+values = ["HR_1", "HR_2"]
+[decision]
+name = "chosen"
+values = ["yes", "no"]
+[privacy.sensitive]
+mechanism = "randomized_response"
+keep = 0.7
+[utility]
+decision = "yes"
+tau = 0.25
+"""
+
+MATRIX = """
+[sensitive]
+name = "group"
+values = ["a", "b", "c"]
+[context]
+name = "job"
+values = ["x", "y"]
+[decision]
+name = "chosen"
+values = ["yes", "no"]
+[privacy.sensitive]
+mechanism = "matrix"
+rows = [[0.5, 0.25, 0.25], [0.25, 0.5, 0.25], [0.125, 0.375, 0.5]]
+[utility]
+decision = "yes"
+tau = 0.1
+[model]
+table = "table.csv"
+[target]
+local = 1.0
+"""
+
+
+TABLE = """job,group,chosen,probability
+x,a,yes,0.9
+x,a,no,0.1
+x,b,yes,0.4
+x,b,no,0.6
+x,c,yes,0.2
+x,c,no,0.8
+y,a,yes,0.5
+y,a,no,0.5
+y,b,yes,0.7
+y,b,no,0.3
+y,c,yes,0.3
+y,c,no,0.7
+"""
+
+
+def _cert(text_or_path: str, folder: Path | None = None) -> dict:
+    if "\n" not in text_or_path:
+        spec = str(ROOT / text_or_path)
+    elif folder is None:
+        spec = parse_spec(text_or_path)
+    else:
+        (folder / "table.csv").write_text(TABLE, encoding="utf-8")
+        (folder / "spec.toml").write_text(text_or_path, encoding="utf-8")
+        spec = str(folder / "spec.toml")
+    return json.loads(json.dumps(certify(spec).to_dict()))  # as a file holds it
+
+
+@pytest.fixture(scope="module")
+def certificates(tmp_path_factory) -> dict[str, dict]:
+    out = {name: _cert(name) for name in [*SHIPPED, OFFICE]}
+    out[MATRIX] = _cert(MATRIX, tmp_path_factory.mktemp("matrix"))
+    return out
+
+
+def _failing(cert: dict) -> list[str]:
+    return [c.name for c in verify(cert).failures]
+
+
+def test_every_shipped_certificate_holds(certificates):
+    for name, cert in certificates.items():
+        result = verify(cert)
+        assert result.holds, (name[:40], [c.line() for c in result.failures])
+        assert len(result.checks) >= 7
+        assert result.lines()[-1].endswith(f"all {len(result.checks)} checked numbers hold")
+
+
+def test_the_tight_bound_is_re_derived_by_hand():
+    # binary randomized response keeping 0.7, tau = 0.25, g = 1{yes}: min(1 + 0.4/0.25, e^eps = 7/3), so ln(7/3) = eps
+    cert = _cert(OFFICE)
+    eps = cert["inputs"]["sensitive_mechanism"]["epsilon"]
+    assert eps == pytest.approx(math.log(7 / 3), rel=1e-15)
+    tight = next(c for c in verify(cert).checks if c.name == "bounds.tight")
+    assert tight.derived_low == tight.derived_high == eps == cert["bounds"]["tight"]
+
+
+def test_the_matrix_tight_bound_is_re_derived_by_hand(certificates):
+    # tau = 0.1, L_A = 0, gamma = 1: per pair, min over t >= 1 of t + 10 δ_aa'(t), at t = 1 or a ratio >= 1
+    rows = [[Fraction(2, 4), Fraction(1, 4), Fraction(1, 4)], [Fraction(1, 4), Fraction(2, 4), Fraction(1, 4)],
+            [Fraction(1, 8), Fraction(3, 8), Fraction(4, 8)]]  # fmt: skip
+
+    def pair_min(a, b):
+        ts = {Fraction(1)} | {x / y for x, y in zip(rows[a], rows[b]) if x >= y}
+        return min(t + 10 * sum(max(Fraction(0), x - t * y) for x, y in zip(rows[a], rows[b])) for t in ts)
+
+    want = max(pair_min(a, b) for a in range(3) for b in range(3) if a != b)
+    tight = next(c for c in verify(certificates[MATRIX]).checks if c.name == "bounds.tight")
+    assert tight.derived_low <= math.log(want) <= tight.derived_high
+    assert certificates[MATRIX]["bounds"]["tight"] >= math.log(want)
+
+
+NUMBERS = [
+    ("privacy", "sensitive", "epsilon"),
+    ("bounds", "paper"),
+    ("bounds", "tight"),
+    ("bounds", "corollary"),
+    ("observed", "local", "value"),
+    ("observed", "global", "value"),
+]
+
+
+@pytest.mark.parametrize("path", NUMBERS, ids=".".join)
+@pytest.mark.parametrize("name", [SHIPPED[0], MATRIX], ids=["gpt35", "matrix"])
+def test_one_number_changed_by_1e_9_fails(certificates, name, path):
+    cert = copy.deepcopy(certificates[name])
+    where = cert
+    for key in path[:-1]:
+        where = where[key]
+    where[path[-1]] += 1e-9
+    failing = _failing(cert)
+    assert ".".join(path) in failing or any(f.startswith(".".join(path[:2])) for f in failing), failing
+
+
+def test_a_number_lowered_below_its_exact_value_fails(certificates):
+    cert = copy.deepcopy(certificates[MATRIX])
+    cert["bounds"]["tight"] = math.nextafter(cert["bounds"]["tight"], 0) - 1e-15
+    assert "bounds.tight" in _failing(cert)
+
+
+def test_a_swapped_witness_fails(certificates):
+    cert = copy.deepcopy(certificates[MATRIX])
+    local = cert["observed"]["local"]
+    local["group"], local["other_group"] = local["other_group"], local["group"]
+    assert _failing(cert) == ["observed.local (its context and groups)"]
+    cert = copy.deepcopy(certificates[MATRIX])
+    cert["observed"]["local"]["context"] = "y" if cert["observed"]["local"]["context"] == "x" else "x"
+    assert _failing(cert) == ["observed.local (its context and groups)"]
+
+
+def test_an_edited_input_table_fails(certificates):
+    cert = copy.deepcopy(certificates[MATRIX])
+    cell = cert["inputs"]["kernel"]["probabilities"][0][0]
+    cell[0], cell[1] = cell[0] - 0.05, cell[1] + 0.05
+    failing = _failing(cert)
+    assert "inputs_sha256" in failing and "observed.local.value" in failing
+
+
+def test_a_changed_epsilon_fails(certificates):
+    cert = copy.deepcopy(certificates[OFFICE])
+    cert["privacy"]["sensitive"]["epsilon"] = 0.9
+    assert _failing(cert) == ["privacy.sensitive.epsilon"]
+    cert = copy.deepcopy(certificates[SHIPPED[0]])
+    cert["inputs"]["sensitive_mechanism"]["epsilon"] = 0.6  # the mechanism itself: hash and every bound
+    failing = _failing(cert)
+    assert {"inputs_sha256", "privacy.sensitive.epsilon", "bounds.tight", "bounds.corollary"} <= set(failing)
+
+
+def test_a_target_verdict_must_follow_from_the_numbers(certificates):
+    cert = copy.deepcopy(certificates[MATRIX])
+    cert["targets"]["local"]["met"] = not cert["targets"]["local"]["met"]
+    assert _failing(cert) == ["targets.local.met"]
+
+
+def test_the_deployed_filter_is_checked_against_the_certificate(certificates):
+    cert = certificates[OFFICE]
+    eps = cert["inputs"]["sensitive_mechanism"]["epsilon"]
+    same = PrivacyFilter.randomized_response(["HR_1", "HR_2"], epsilon=eps)
+    assert verify(cert, privacy_filter=same).holds
+    stronger = PrivacyFilter.randomized_response(["HR_1", "HR_2"], epsilon=eps / 2)
+    assert verify(cert, privacy_filter=stronger).holds  # a garbling: every bound still holds
+    weaker = PrivacyFilter.randomized_response(["HR_1", "HR_2"], epsilon=eps + 1e-9)
+    assert [c.name for c in verify(cert, privacy_filter=weaker).failures] == ["filter"]
+    other = PrivacyFilter.randomized_response(["HR_1", "HR_3"], epsilon=eps)
+    assert [c.name for c in verify(cert, privacy_filter=other).failures] == ["filter"]
+    matrix = certificates[MATRIX]
+    rows = matrix["inputs"]["sensitive_mechanism"]["matrix"]
+    assert verify(matrix, privacy_filter=PrivacyFilter.from_matrix(rows, ["a", "b", "c"])).holds
+    nearby = [[0.5, 0.25, 0.25], [0.25, 0.5, 0.25], [0.125, 0.4375, 0.4375]]
+    assert not verify(matrix, privacy_filter=PrivacyFilter.from_matrix(nearby, ["a", "b", "c"])).holds
+
+
+def test_what_is_not_re_derived_is_listed(certificates):
+    names = [n for n, _ in verify(certificates[SHIPPED[0]]).not_checked]
+    assert "bounds.black_box" in names and "calibration" in names
+
+
+def test_a_certificate_that_is_not_one_is_refused(certificates):
+    cert = copy.deepcopy(certificates[OFFICE])
+    del cert["inputs"]
+    with pytest.raises(InputError):
+        verify(cert)

@@ -54,6 +54,7 @@ from fairaudit.statistics.intervals import FairnessIntervals, Interval, Interval
 from fairaudit.statistics.ll144 import ImpactRatios, impact_ratios
 from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
 from fairaudit.statistics.sample_size import SamplePlan, plan
+from fairaudit.verification.rederive import Verification, verify
 from fairaudit.worstcase.black_box import BlackBoxCertificate, black_box_bound
 from fairaudit.worstcase.calibration import calibrate, calibrate_randomized_response
 from fairaudit.worstcase.calibration_result import Calibration
@@ -141,6 +142,9 @@ __all__ = [
     "worst_utility",
     # the privacy filter you deploy
     "PrivacyFilter",
+    # certificates checked by a third party
+    "Verification",
+    "verify",
     # calibration
     "Calibration",
     "calibrate",

@@ -7,7 +7,7 @@ import sys
 
 from fairaudit import __version__
 
-from . import audit, calibrate, certify, filter, plan, worst_case
+from . import audit, calibrate, certify, filter, plan, verify, worst_case
 from ._common import Parser, Subparsers, command_flags
 
 COMMANDS_GROUP = "fairaudit.commands"
@@ -30,7 +30,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"fairaudit {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
-    for module in (certify, audit, calibrate, plan, worst_case, filter):
+    for module in (certify, audit, calibrate, plan, worst_case, filter, verify):
         module.add_parser(sub)
     if command not in sub.choices:
         add_plugin_commands(sub)

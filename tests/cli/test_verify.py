@@ -1,0 +1,77 @@
+"""`fairaudit verify`: exit 0 when every number holds, 1 when one fails, 2 on bad input (one line); --filter."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+from _cli import OFFICE_SPEC, run, run_json
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture
+def certificate(capsys, tmp_path) -> Path:
+    spec = tmp_path / "office.toml"
+    spec.write_text(OFFICE_SPEC + "tau = 0.25\n", encoding="utf-8")
+    code, cert, _ = run_json(capsys, "certify", spec)
+    assert code == 0
+    path = tmp_path / "cert.json"
+    path.write_text(json.dumps(cert), encoding="utf-8")
+    return path
+
+
+def test_a_certificate_that_holds_exits_0(capsys, certificate):
+    code, out, err = run(capsys, "verify", certificate)
+    assert code == 0 and err == ""
+    assert re.search(r"^bounds\.tight = 0\.84729786038720\d\d: holds$", out, re.M)  # ln(0.7 / 0.3), its epsilon
+    assert out.strip().splitlines()[-1].startswith(f"{certificate}: all ")
+
+
+def test_one_number_moved_by_1e_9_exits_1_and_says_by_how_much(capsys, certificate):
+    cert = json.loads(certificate.read_text())
+    cert["bounds"]["paper"] += 1e-9
+    certificate.write_text(json.dumps(cert))
+    code, out, _ = run(capsys, "verify", certificate)
+    assert code == 1
+    line = next(x for x in out.splitlines() if x.startswith("bounds.paper"))
+    assert "fails by 9.99e-10" in line  # 1e-9 less the tolerance, 1e-12
+    assert out.strip().splitlines()[-1].endswith("1 of 8 checked numbers fail")
+
+
+def test_json_report(capsys, certificate):
+    code, report, _ = run_json(capsys, "verify", certificate)
+    assert code == 0 and report["holds"] is True
+    assert {c["name"] for c in report["checks"]} >= {"inputs_sha256", "bounds.paper", "bounds.tight"}
+
+
+def test_the_deployed_filter(capsys, certificate, tmp_path):
+    eps = json.loads(certificate.read_text())["inputs"]["sensitive_mechanism"]["epsilon"]
+    data = tmp_path / "records.csv"
+    data.write_text("office\nHR_1\nHR_2\n", encoding="utf-8")
+    params = tmp_path / "filter.json"
+    for value, want in ((eps, 0), (eps * 2, 1)):
+        code, _, _ = run(capsys, "filter", data, "--column", "office", "--epsilon", value, "--values", "HR_1,HR_2",
+                         "--output", tmp_path / "out.csv", "--parameters", params)  # fmt: skip
+        assert code == 0
+        code, out, _ = run(capsys, "verify", certificate, "--filter", params)
+        assert code == want, out
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (None, "fairaudit: error: CERT.json: cannot be read"),
+        ("not json", "fairaudit: error: CERT.json: is not JSON"),
+        ("{}", "fairaudit: error: CERT.json format: is required"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(capsys, tmp_path, content, message):
+    path = tmp_path / "cert.json"
+    if content is not None:
+        path.write_text(content, encoding="utf-8")
+    code, out, err = run(capsys, "verify", path)
+    assert code == 2 and out == ""
+    assert err.startswith(message) and len(err.strip().splitlines()) == 1

@@ -137,7 +137,9 @@ def threshold_max_many(
     tied = values >= (best * (1 - 1e-12))[..., None]
     k = values.shape[-1] - 1 - np.argmax(tied[..., ::-1], axis=-1)
     del values, tied
-    return _certified_max(num, den, under), k, order
+    certified = _certified_max(num, den, under)
+    # p = q: every ratio is exactly 1 (0/0 = 1 too), with no rounding to bound (randomized response at ε = 0)
+    return np.where(np.all(p == q, axis=-1), 1.0, certified)[()], k, order
 
 
 def _terms(

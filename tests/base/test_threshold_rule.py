@@ -89,3 +89,14 @@ def test_threshold_values_are_upper_bounds_on_near_degenerate_boxes(seed, n, kin
         )[0]
         assert Fraction(fv) >= exact_floor
         assert Fraction(fv) <= exact_floor * (1 + Fraction(1, 10**12))
+
+
+def test_equal_weights_give_exactly_one():
+    # p = q: (p·h)/(q·h) = 1 for every h, with no rounding to add (randomized response at epsilon = 0)
+    p = np.full((3, 64), 1 / 64)
+    values, _, _ = threshold_max_many(p, p.copy(), 0.0, 1.0)
+    assert values.tolist() == [1.0, 1.0, 1.0]
+    q = p.copy()
+    q[:, 0] *= 2  # max ratio still exactly 1 (any h on the other cells), but p != q: rounded up past it
+    values, _, _ = threshold_max_many(p, q, 0.0, 1.0)
+    assert np.all((values > 1.0) & (values < 1.0 + 1e-13))

@@ -1,0 +1,422 @@
+"""Exact maxima of small linear and linear-fractional programs with rational data, for the verifier.
+
+Over the polytope P = {h : lower ≤ h ≤ upper, A_ub h ≤ b_ub} (finite bounds, lower ≤ upper, rational data),
+:func:`maximize_linear` gives max c·h and :func:`maximize_ratio` gives max (p·h)/(q·h) over the h of P with q·h > 0
+(when q·h ≥ 0 on P and no h has q·h = 0 < p·h: the maximum is finite), both exactly, with a vertex of P attaining
+them. No floating point: the data are :class:`fractions.Fraction` (or ints), the answers are fractions.
+
+The method is the primal simplex with bounded variables over w, h = lower + (upper − lower)·w, 0 ≤ w ≤ 1, one slack
+per row of A_ub (Chvátal 1983, ch. 8), in integer-pivoting form (Edmonds 1967; Bareiss 1968): every row is scaled to
+integers and the tableau D·B⁻¹N of the nonbasic columns, D·(the basic values) and D·(the reduced costs) are kept in
+Python integers, D = det B, each pivot an exact integer division; fractions appear only in the answer. Phase 1 adds
+one auxiliary column −t on the rows that h = lower violates and maximises −t (Chvátal 1983, ch. 3); phase 2 starts
+from its basis. The entering variable is the one of largest reduced cost (Dantzig's rule) until a step is
+degenerate, then the lowest-indexed improving one (Bland 1977) until a step is not; the leaving one is the
+lowest-indexed among the ties of the ratio test. A run of degenerate steps is thus all Bland's after its first and
+cannot cycle, every other step raises the objective, so the simplex ends. The ratio is maximised by Dinkelbach's
+method (Dinkelbach 1967) on the same tableau: each step is a phase 2 from the previous basis.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Literal
+
+from fairaudit.base.errors import InputError
+
+__all__ = ["LinearOptimum", "RatioOptimum", "maximize_linear", "maximize_ratio"]
+
+Rational = Fraction | int
+"""An exact rational: a fraction or an integer (any :class:`numbers.Rational` is accepted; a float is not)."""
+
+
+@dataclass(frozen=True)
+class LinearOptimum:
+    """The outcome of :func:`maximize_linear`.
+
+    Attributes
+    ----------
+    status : {"optimal", "infeasible"}
+        "infeasible" when the polytope is empty.
+    value : Fraction or None
+        max c·h over the polytope, exactly; None when infeasible.
+    point : tuple of Fraction or None
+        A vertex h of the polytope with c·h = value (length n); None when infeasible.
+    """
+
+    status: Literal["optimal", "infeasible"]
+    value: Fraction | None
+    point: tuple[Fraction, ...] | None
+
+
+@dataclass(frozen=True)
+class RatioOptimum:
+    """The outcome of :func:`maximize_ratio`.
+
+    Attributes
+    ----------
+    status : {"optimal", "infeasible", "zero_denominator"}
+        "infeasible" when the polytope is empty; "zero_denominator" when the ratio has no finite maximum over the
+        points with q·h > 0 as :func:`maximize_ratio` requires it: q·h < 0 somewhere, q·h = 0 everywhere, or
+        q·h = 0 < p·h somewhere (the ratio is unbounded near that point).
+    value : Fraction or None
+        max (p·h)/(q·h) over the polytope, exactly; None unless optimal.
+    point : tuple of Fraction or None
+        When optimal, a vertex h with q·h > 0 and (p·h)/(q·h) = value; for "zero_denominator", a vertex with
+        q·h < 0, or with q·h = 0 (everywhere, or with p·h > 0); None when infeasible.
+    """
+
+    status: Literal["optimal", "infeasible", "zero_denominator"]
+    value: Fraction | None
+    point: tuple[Fraction, ...] | None
+
+
+def _vector(name: str, values: Sequence[Rational], length: int | None = None) -> list[Fraction]:
+    """``values`` as fractions, checked: a sequence of exact rationals, of ``length`` when given."""
+    if isinstance(values, (str, bytes)):
+        raise InputError(name, "must be a sequence of exact rationals", values)
+    try:
+        items = list(values)
+    except TypeError:
+        raise InputError(name, "must be a sequence of exact rationals", values) from None
+    if length is not None and len(items) != length:
+        raise InputError(name, f"must have length {length}, the number of variables", len(items))
+    for item in items:
+        if not isinstance(item, numbers.Rational):
+            raise InputError(name, "must hold exact rationals (int or fractions.Fraction), not floats", item)
+    return [Fraction(item) for item in items]
+
+
+def _polytope(
+    lower: Sequence[Rational],
+    upper: Sequence[Rational],
+    A_ub: Sequence[Sequence[Rational]],
+    b_ub: Sequence[Rational],
+    n: int,
+) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]], list[Fraction]]:
+    """The polytope's data as fractions, checked (n variables, lower ≤ upper, one bound of b_ub per row of A_ub)."""
+    low = _vector("lower", lower, n)
+    high = _vector("upper", upper, n)
+    for i, (a, b) in enumerate(zip(low, high, strict=True)):
+        if a > b:
+            raise InputError("upper", f"must be >= lower at every index (index {i}, lower {a})", b)
+    if isinstance(A_ub, (str, bytes)):
+        raise InputError("A_ub", "must be a sequence of rows", A_ub)
+    try:
+        rows = [_vector("A_ub", row, n) for row in A_ub]
+    except TypeError:
+        raise InputError("A_ub", "must be a sequence of rows", A_ub) from None
+    rhs = _vector("b_ub", b_ub)
+    if len(rhs) != len(rows):
+        raise InputError("b_ub", f"must have one entry per row of A_ub ({len(rows)})", len(rhs))
+    return low, high, rows, rhs
+
+
+def _integers(row: Sequence[Fraction]) -> tuple[list[int], int]:
+    """A row of fractions times the positive lcm of their denominators: (integers, that multiplier)."""
+    scale = math.lcm(1, *(x.denominator for x in row))
+    return [x.numerator * (scale // x.denominator) for x in row], scale
+
+
+def _dot(a: Sequence[Fraction], b: Sequence[Fraction]) -> Fraction:
+    """a·b, exactly."""
+    return sum((x * y for x, y in zip(a, b, strict=True)), Fraction(0))
+
+
+class _Simplex:
+    """The bounded-variable primal simplex over w, h = lower + (upper − lower)·w, all in integers.
+
+    Variables, in Bland's order: w_0..w_{n-1} (bounds [0, 1]), the slacks of the rows (bounds [0, ∞)), and the
+    auxiliary t of phase 1 (bounds [0, ∞) in phase 1, [0, 0] after); ``cap`` holds the upper bounds (None: ∞). Each
+    row, A_ub's row times the widths and its bound minus A_ub·lower, is scaled to integers. The tableau keeps only
+    the nonbasic columns (a basic one is D times a unit vector), as in integer pivoting (Edmonds 1967; Bareiss
+    1968): ``matrix`` (m × (n + 1)) is D·B⁻¹ times the columns of the variables ``nonbasic``, ``rhs`` is D times the
+    basic variables' values, ``reduced`` is D times the nonbasic ones' reduced costs for the current objective, all
+    Python integers, ``det`` = D = det B with its sign. A nonbasic variable sits at 0, or at its cap when
+    ``at_upper``.
+    """
+
+    def __init__(
+        self, lower: list[Fraction], upper: list[Fraction], rows: list[list[Fraction]], rhs: list[Fraction]
+    ) -> None:
+        n, m = len(lower), len(rows)
+        self.n, self.m, self.aux, self.lower = n, m, n + m, lower
+        self.width = [b - a for a, b in zip(lower, upper, strict=True)]
+        self.matrix: list[list[int]] = []
+        self.rhs: list[int] = []
+        for row, bound in zip(rows, rhs, strict=True):
+            ints, _ = _integers([*(a * w for a, w in zip(row, self.width, strict=True)), bound - _dot(row, lower)])
+            self.matrix.append([*ints[:-1], -1 if ints[-1] < 0 else 0])
+            self.rhs.append(ints[-1])
+        self.cap: list[int | None] = [1] * n + [None] * (m + 1)
+        self.basis = list(range(n, n + m))
+        self.nonbasic = [*range(n), n + m]
+        self.at_upper = [False] * (n + m + 1)
+        self.det = 1
+        self.reduced: list[int] = [0] * (n + 1)
+        self.degenerate = False
+
+    def feasible(self) -> bool:
+        """Phase 1: a feasible basis, or False when the polytope is empty. Called once, before :meth:`maximize`."""
+        negative = [i for i, b in enumerate(self.rhs) if b < 0]
+        if negative:
+            # t enters at the most violated row, at its value −(that slack): every violated row's slack rises to ≥ 0
+            self._exchange(min(negative, key=lambda i: (self.rhs[i], i)), self.n)
+            self._install([0] * self.aux + [-1])
+            self._run()
+            if any(j == self.aux and b != 0 for j, b in zip(self.basis, self.rhs, strict=True)):
+                return False
+        self.cap[self.aux] = 0  # t stays at 0 from now on (basic or not)
+        return True
+
+    def maximize(self, cost: Sequence[Fraction]) -> tuple[Fraction, tuple[Fraction, ...]]:
+        """Phase 2 for the objective cost·h (length n) from the current feasible basis: (max, a vertex attaining it)."""
+        ints, _ = _integers([c * w for c, w in zip(cost, self.width, strict=True)])
+        self._install(ints + [0] * (self.m + 1))
+        self._run()
+        w = [Fraction(1 if self.at_upper[j] else 0) for j in range(self.n)]
+        for j, b in zip(self.basis, self.rhs, strict=True):
+            if j < self.n:
+                w[j] = Fraction(b, self.det)
+        point = tuple(a + d * x for a, d, x in zip(self.lower, self.width, w, strict=True))
+        return _dot(cost, point), point
+
+    def _install(self, cost: list[int]) -> None:
+        """The reduced costs of the objective ``cost`` (integers, one per variable) for the current basis, times D."""
+        reduced = [self.det * cost[j] for j in self.nonbasic]
+        for r, j in enumerate(self.basis):
+            if cost[j]:
+                reduced = [x - cost[j] * y for x, y in zip(reduced, self.matrix[r], strict=True)]
+        self.reduced = reduced
+        self.degenerate = False
+
+    def _run(self) -> None:
+        """Simplex steps until no variable improves the objective."""
+        while (column := self._entering()) is not None:
+            self._step(column)
+
+    def _entering(self) -> int | None:
+        """The column of the entering variable, or None at the optimum: among the non-fixed nonbasic variables whose
+        move off their bound raises the objective, the one of largest |reduced cost| (Dantzig's rule), or after a
+        degenerate step the lowest-indexed one (Bland's rule), ties to the lowest index."""
+        sign = 1 if self.det > 0 else -1
+        best, best_key = None, (0, 0)
+        for k, (j, d) in enumerate(zip(self.nonbasic, self.reduced, strict=True)):
+            if d == 0 or self.cap[j] == 0 or (d * sign > 0) == self.at_upper[j]:
+                continue
+            key = (0 if self.degenerate else abs(d), -j)
+            if best is None or key > best_key:
+                best, best_key = k, key
+        return best
+
+    def _step(self, column: int) -> None:
+        """One step of the variable of ``column``: the ratio test (ties to the lowest index), then a flip or a pivot.
+
+        A step's length is a fraction (numerator, positive denominator), compared by cross-multiplication."""
+        entering = self.nonbasic[column]
+        direction = -1 if self.at_upper[entering] else 1
+        sign, size = (1, self.det) if self.det > 0 else (-1, -self.det)
+        cap = self.cap[entering]
+        best = None if cap is None else (cap, 1)  # the entering variable's own other bound
+        leaving, hits_upper, index = -1, False, entering
+        for i, j in enumerate(self.basis):
+            a = direction * sign * self.matrix[i][column]  # > 0: the basic variable falls towards 0
+            bound = self.cap[j]
+            if a > 0:
+                limit, upper_hit = (sign * self.rhs[i], a), False
+            elif a < 0 and bound is not None:
+                limit, upper_hit = (bound * size - sign * self.rhs[i], -a), True
+            else:
+                continue
+            if best is not None:
+                order = limit[0] * best[1] - best[0] * limit[1]
+                if order > 0 or (order == 0 and j > index):
+                    continue
+            best, leaving, hits_upper, index = limit, i, upper_hit, j
+        if best is None:
+            raise AssertionError("unbounded step: impossible, every objective is bounded on the box")
+        self.degenerate = best[0] == 0
+        # the entering variable is some w (t is fixed once it could sit at a cap), so a cap it leaves or reaches is 1
+        if leaving < 0:  # a flip: the entering variable goes to its other bound, D·B⁻¹(its column) off the values
+            self.rhs = [b - direction * row[column] for b, row in zip(self.rhs, self.matrix, strict=True)]
+            self.at_upper[entering] = not self.at_upper[entering]
+            return
+        if direction < 0:  # it leaves its cap: its column back into the values, as if it sat at 0
+            self.rhs = [b + row[column] for b, row in zip(self.rhs, self.matrix, strict=True)]
+        out = self.basis[leaving]
+        out_cap = self.cap[out]
+        if hits_upper and out_cap:  # the leaving variable goes to its cap: its cap off its value
+            self.rhs[leaving] -= out_cap * self.det
+        self.at_upper[entering], self.at_upper[out] = False, hits_upper
+        self._exchange(leaving, column)
+
+    def _exchange(self, r: int, column: int) -> None:
+        """The pivot: the variable of ``column`` enters at row ``r``, the one of row ``r`` takes its column. Every
+        new entry is an exact integer division by the old D (Bareiss 1968); the new D is the pivot; the leaving
+        variable's column is −(the old column), the old D at row r; row r and its value stay."""
+        old, pivot_row, lead = self.det, self.matrix[r], self.rhs[r]
+        pivot = pivot_row[column]
+        for i, row in enumerate(self.matrix):
+            if i == r:
+                continue
+            f = row[column]
+            if f == 0:
+                if pivot != old:
+                    self.matrix[i] = [x * pivot // old for x in row]
+                    self.rhs[i] = self.rhs[i] * pivot // old
+                continue
+            new = [(x * pivot - f * y) // old for x, y in zip(row, pivot_row, strict=True)]
+            new[column] = -f
+            self.matrix[i] = new
+            self.rhs[i] = (self.rhs[i] * pivot - f * lead) // old
+        f = self.reduced[column]
+        self.reduced = [(x * pivot - f * y) // old for x, y in zip(self.reduced, pivot_row, strict=True)]
+        self.reduced[column] = -f
+        pivot_row[column] = old
+        self.det = pivot
+        self.basis[r], self.nonbasic[column] = self.nonbasic[column], self.basis[r]
+
+
+def maximize_linear(
+    c: Sequence[Rational],
+    lower: Sequence[Rational],
+    upper: Sequence[Rational],
+    A_ub: Sequence[Sequence[Rational]],
+    b_ub: Sequence[Rational],
+) -> LinearOptimum:
+    """Exact max c·h over the polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub}, by the rational simplex.
+
+    Parameters
+    ----------
+    c : sequence of Fraction or int, length n ≥ 1
+        The objective.
+    lower, upper : sequences of Fraction or int, length n
+        The box, lower ≤ upper at every index (finite: every rational is).
+    A_ub : sequence of m rows, each a sequence of Fraction or int of length n (m ≥ 0)
+        The rows of the inequalities A_ub h ≤ b_ub, dense.
+    b_ub : sequence of Fraction or int, length m
+        Their bounds.
+
+    Returns
+    -------
+    LinearOptimum
+        Status "optimal" with the exact maximum and a vertex attaining it, or "infeasible" (the polytope is empty).
+
+    Raises
+    ------
+    InputError
+        Naming the argument: not a sequence, a wrong length, an entry that is not an exact rational (floats are
+        refused: pass ``Fraction(x)`` to mean a float's exact value), or lower > upper somewhere.
+
+    Notes
+    -----
+    Primal simplex with bounded variables (Chvátal 1983, *Linear Programming*, ch. 8) in integer-pivoting form
+    (Bareiss 1968, *Math. Comp.* 22: 565–578), phase 1 by one auxiliary variable (Chvátal 1983, ch. 3), Dantzig's rule
+    and, from a degenerate step on until a step that is not, Bland's rule against cycling (Bland 1977, *Math. Oper.
+    Res.* 2: 103–107). Sized for n up to about 100 and m up to about 200.
+
+    Examples
+    --------
+    >>> from fractions import Fraction as F
+    >>> maximize_linear([1, 1], [0, 0], [1, 1], [[1, 2]], [F(3, 2)])
+    LinearOptimum(status='optimal', value=Fraction(5, 4), point=(Fraction(1, 1), Fraction(1, 4)))
+    >>> maximize_linear([1], [0], [1], [[-1]], [-2]).status
+    'infeasible'
+    """
+    cost = _vector("c", c)
+    if not cost:
+        raise InputError("c", "must have at least one variable", c)
+    simplex = _Simplex(*_polytope(lower, upper, A_ub, b_ub, len(cost)))
+    if not simplex.feasible():
+        return LinearOptimum("infeasible", None, None)
+    value, point = simplex.maximize(cost)
+    return LinearOptimum("optimal", value, point)
+
+
+def maximize_ratio(
+    p: Sequence[Rational],
+    q: Sequence[Rational],
+    lower: Sequence[Rational],
+    upper: Sequence[Rational],
+    A_ub: Sequence[Sequence[Rational]],
+    b_ub: Sequence[Rational],
+) -> RatioOptimum:
+    """Exact max (p·h)/(q·h) over the points of {lower ≤ h ≤ upper, A_ub h ≤ b_ub} with q·h > 0, by Dinkelbach.
+
+    The ratio must have a finite maximum, which holds when q·h ≥ 0 on the polytope, q·h > 0 somewhere and no h has
+    q·h = 0 < p·h (points with p·h = q·h = 0, such as h = 0 in a box from 0, are allowed and left out: 0/0 is not a
+    ratio); otherwise the status is "zero_denominator". First min q·h (< 0: "zero_denominator") and max q·h (= 0:
+    "zero_denominator") are found exactly; λ₀ is the ratio at the maximiser of q·h. Each step then maximises
+    (p − λ_k q)·h exactly (a phase 2 of the simplex from the previous basis, as :func:`maximize_linear` does) at a
+    vertex h_k. That maximum is ≥ 0 (the point of λ_k gives 0). When it is exactly 0, p·h ≤ λ_k q·h on the whole
+    polytope and λ_k, attained, is the maximum. When it is positive and q·h_k = 0, then p·h_k > 0: the ratio is
+    unbounded ("zero_denominator"). Otherwise λ_{k+1} = (p·h_k)/(q·h_k) > λ_k. λ rises strictly and is always a
+    vertex's ratio, so the steps are finitely many (usually a handful: the convergence is superlinear).
+
+    Parameters
+    ----------
+    p, q : sequences of Fraction or int, length n ≥ 1
+        The numerator and the denominator.
+    lower, upper : sequences of Fraction or int, length n
+        The box, lower ≤ upper at every index.
+    A_ub : sequence of m rows, each a sequence of Fraction or int of length n (m ≥ 0)
+        The rows of the inequalities A_ub h ≤ b_ub, dense.
+    b_ub : sequence of Fraction or int, length m
+        Their bounds.
+
+    Returns
+    -------
+    RatioOptimum
+        Status "optimal" with the exact maximum and a vertex attaining it; "zero_denominator" with a vertex that
+        shows why (q·h < 0 there, or q·h = 0 there and everywhere, or q·h = 0 < p·h there); or "infeasible" (the
+        polytope is empty).
+
+    Raises
+    ------
+    InputError
+        Naming the argument, as :func:`maximize_linear` does (``q`` of the wrong length included).
+
+    Notes
+    -----
+    Dinkelbach 1967, "On nonlinear fractional programming", *Management Science* 13: 492–498; the problem is
+    equivalent to one LP by the Charnes–Cooper transformation (Charnes & Cooper 1962, "Programming with linear
+    fractional functionals", *Naval Research Logistics Quarterly* 9: 181–186), which the certifying route solves in
+    floating point (:mod:`fairaudit.base.linear_fractional`); here each step is exact.
+
+    Examples
+    --------
+    The threshold rule's box case: the ratio is largest where p is large relative to q.
+
+    >>> from fractions import Fraction as F
+    >>> p, q = [F(7, 10), F(3, 10)], [F(3, 10), F(7, 10)]
+    >>> maximize_ratio(p, q, [0, 0], [1, 1], [], [])
+    RatioOptimum(status='optimal', value=Fraction(7, 3), point=(Fraction(1, 1), Fraction(0, 1)))
+    >>> maximize_ratio(p, q, [0, 0], [1, 1], [[-q[0], -q[1]]], [F(-1, 2)]).value
+    Fraction(11, 7)
+    """
+    numerator = _vector("p", p)
+    if not numerator:
+        raise InputError("p", "must have at least one variable", p)
+    denominator = _vector("q", q, len(numerator))
+    simplex = _Simplex(*_polytope(lower, upper, A_ub, b_ub, len(numerator)))
+    if not simplex.feasible():
+        return RatioOptimum("infeasible", None, None)
+    negative_min, point = simplex.maximize([-x for x in denominator])
+    if negative_min > 0:
+        return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
+    largest, point = simplex.maximize(denominator)
+    if largest == 0:
+        return RatioOptimum("zero_denominator", None, point)  # q·h = 0 on the whole polytope
+    ratio = _dot(numerator, point) / largest
+    while True:
+        gap, vertex = simplex.maximize([a - ratio * b for a, b in zip(numerator, denominator, strict=True)])
+        if gap == 0:
+            return RatioOptimum("optimal", ratio, point)
+        scale = _dot(denominator, vertex)
+        if scale == 0:
+            return RatioOptimum("zero_denominator", None, vertex)  # q·h = 0 < p·h here: the ratio is unbounded
+        point, ratio = vertex, _dot(numerator, vertex) / scale

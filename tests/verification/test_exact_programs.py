@@ -1,0 +1,283 @@
+"""The exact rational simplex and Dinkelbach's method: hand cases, degenerate ties, bad input, and random small
+programs against scipy's HiGHS (a test-only peer)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from fractions import Fraction as F
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+
+from fairaudit.base.errors import InputError
+from fairaudit.verification.exact_programs import LinearOptimum, RatioOptimum, maximize_linear, maximize_ratio
+
+P, Q = [F(7, 10), F(3, 10)], [F(3, 10), F(7, 10)]
+
+
+def dot(a, b):
+    return sum((F(x) * F(y) for x, y in zip(a, b, strict=True)), F(0))
+
+
+def feasible(point, lower, upper, A_ub, b_ub):
+    """The point lies in the polytope, exactly."""
+    return all(lo <= h <= hi for h, lo, hi in zip(point, lower, upper, strict=True)) and all(
+        dot(row, point) <= b for row, b in zip(A_ub, b_ub, strict=True)
+    )
+
+
+# --- hand cases ---------------------------------------------------------------------------------------------------
+
+
+def test_the_box_ratio_is_the_threshold_rules():
+    """max (p·h)/(q·h) over [0, 1]² puts h = 1 where p/q is above the optimum: h = (1, 0), 7/3 (h = 0 is 0/0)."""
+    result = maximize_ratio(P, Q, [0, 0], [1, 1], [], [])
+    assert result == RatioOptimum("optimal", F(7, 3), (F(1), F(0)))
+
+
+def test_a_floor_on_the_denominator():
+    """With q·h ≥ 1/2 the threshold moves: h = (1, 2/7), ratio (7/10 + 3/35)/(3/10 + 1/5) = 11/7."""
+    result = maximize_ratio(P, Q, [0, 0], [1, 1], [[-Q[0], -Q[1]]], [F(-1, 2)])
+    assert result.status == "optimal" and result.value == F(11, 7)
+    assert result.point == (F(1), F(2, 7))
+    assert dot(P, result.point) / dot(Q, result.point) == F(11, 7)
+
+
+def test_a_linear_program_by_hand():
+    # max x + 2y over [0, 1]² with x + y ≤ 3/2: y = 1, x = 1/2
+    result = maximize_linear([1, 2], [0, 0], [1, 1], [[1, 1]], [F(3, 2)])
+    assert result == LinearOptimum("optimal", F(5, 2), (F(1, 2), F(1)))
+
+
+def test_negative_lower_bounds_and_a_fixed_variable():
+    # h_1 is fixed at -2; max h_0 - h_2 with h_0 + h_1 ≤ 0 over h_0 in [-3, 5], h_2 in [-1, 1]
+    result = maximize_linear([1, 7, -1], [-3, -2, -1], [5, -2, 1], [[1, 1, 0]], [0])
+    assert result == LinearOptimum("optimal", F(2) - 14 + 1, (F(2), F(-2), F(-1)))
+
+
+def test_an_infeasible_polytope():
+    # x + y ≥ 3 over [0, 1]²
+    assert maximize_linear([1, 1], [0, 0], [1, 1], [[-1, -1]], [-3]) == LinearOptimum("infeasible", None, None)
+    assert maximize_ratio(P, Q, [0, 0], [1, 1], [[-1, -1]], [-3]) == RatioOptimum("infeasible", None, None)
+    # two rows that contradict each other, each feasible alone: x ≤ 1/3 and x ≥ 1/2
+    assert maximize_linear([1], [0], [1], [[1], [-1]], [F(1, 3), F(-1, 2)]).status == "infeasible"
+
+
+def test_a_polytope_of_one_point():
+    # x + y ≤ 0 over [0, 1]²: only h = 0; phase 1 is not needed, every step is degenerate
+    result = maximize_linear([3, 5], [0, 0], [1, 1], [[1, 1]], [0])
+    assert result == LinearOptimum("optimal", F(0), (F(0), F(0)))
+    # x + y ≥ 2 over [0, 1]²: only h = (1, 1), reached by phase 1
+    assert maximize_linear([-3, 5], [0, 0], [1, 1], [[-1, -1]], [-2]) == LinearOptimum("optimal", F(2), (F(1), F(1)))
+
+
+def test_degenerate_ties_do_not_cycle():
+    """Beale's example, on which the simplex cycles with the largest-coefficient rule and naive ties; here inside a
+    box that holds its optimum 5/4 at (1, 0, 1, 0)."""
+    c = [F(3, 4), -20, F(1, 2), -6]
+    A = [[F(1, 4), -8, -1, 9], [F(1, 2), -12, F(-1, 2), 3], [0, 0, 1, 0]]
+    result = maximize_linear(c, [0] * 4, [10] * 4, A, [0, 0, 1])
+    assert result.status == "optimal" and result.value == F(5, 4)
+    assert feasible(result.point, [0] * 4, [10] * 4, A, [0, 0, 1]) and dot(c, result.point) == F(5, 4)
+
+
+def test_redundant_rows_through_the_optimum():
+    # max x + y over [0, 1]² with many rows tight at the optimal face x + y = 1 (and two copies of one)
+    A = [[1, 1], [1, 1], [2, 2], [1, 0], [0, 1], [3, 1], [1, 3]]
+    b = [1, 1, 2, 1, 1, 3, 3]
+    result = maximize_linear([1, 1], [0, 0], [1, 1], A, b)
+    assert result.value == 1 and feasible(result.point, [0, 0], [1, 1], A, b)
+    ratio = maximize_ratio([1, 1], [1, 2], [0, 0], [1, 1], A, b)
+    assert ratio == RatioOptimum("optimal", F(1), (F(1), F(0)))
+
+
+def test_ties_in_the_ratio():
+    # p = q: every point with q·h > 0 has ratio 1
+    result = maximize_ratio([1, 2], [1, 2], [0, 0], [1, 1], [], [])
+    assert result.status == "optimal" and result.value == 1
+    assert dot([1, 2], result.point) > 0
+
+
+@pytest.mark.parametrize(
+    ("p", "q", "lower", "why"),
+    [
+        ([1, 0], [1, -1], [0, 0], "q·h < 0 at h = (0, 1)"),
+        ([1, 1], [0, 0], [0, 0], "q·h = 0 everywhere"),
+        ([1, 0], [0, 1], [0, 0], "q·h = 0 < p·h at h = (1, 0): the ratio is unbounded"),
+    ],
+)
+def test_no_finite_maximum(p, q, lower, why):
+    result = maximize_ratio(p, q, lower, [1, 1], [], [])
+    assert result.status == "zero_denominator" and result.value is None, why
+    assert result.point is not None and dot(q, result.point) <= 0
+
+
+def test_a_positive_denominator_is_accepted_when_it_is_positive_everywhere():
+    result = maximize_ratio([1, -1], [1, 1], [1, 1], [2, 2], [], [])
+    assert result == RatioOptimum("optimal", F(1, 3), (F(2), F(1)))
+
+
+# --- bad input ----------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("args", "field"),
+    [
+        (([1, 1], [0, 0], [1, -1], [], []), "upper"),
+        (([1, 1], [0], [1, 1], [], []), "lower"),
+        (([1, 1], [0, 0], [1, 1], [[1]], [1]), "A_ub"),
+        (([1, 1], [0, 0], [1, 1], [[1, 1]], []), "b_ub"),
+        (([1, 0.5], [0, 0], [1, 1], [], []), "c"),
+        (([1, 1], [0, 0], [1, 1], [[1, 0.5]], [1]), "A_ub"),
+        (([], [], [], [], []), "c"),
+        (([1, 1], [0, 0], [1, 1], 3, [1]), "A_ub"),
+        (("ab", [0, 0], [1, 1], [], []), "c"),
+    ],
+)
+def test_bad_input_names_the_argument(args, field):
+    with pytest.raises(InputError) as caught:
+        maximize_linear(*args)
+    assert caught.value.field == field
+
+
+def test_bad_ratio_input_names_the_argument():
+    with pytest.raises(InputError) as caught:
+        maximize_ratio([1, 1], [1], [0, 0], [1, 1], [], [])
+    assert caught.value.field == "q"
+    with pytest.raises(InputError) as caught:
+        maximize_ratio([1.0], [1], [0], [1], [], [])
+    assert caught.value.field == "p"
+
+
+def test_numpy_integers_are_exact_rationals():
+    result = maximize_linear(list(np.array([1, 2])), [0, 0], [1, 1], [], [])
+    assert result.value == 3
+
+
+# --- random programs against HiGHS --------------------------------------------------------------------------------
+
+small = st.builds(F, st.integers(-5, 5), st.integers(1, 4))
+
+
+@st.composite
+def polytopes(draw, positive=False):
+    """(lower, upper, A_ub, b_ub): n ≤ 6 variables, m ≤ 6 rows, small rationals; usually but not always feasible
+    (each bound is a drawn box point's value plus a slack that may be negative). ``positive``: lower ≥ 0."""
+    n = draw(st.integers(1, 6))
+    m = draw(st.integers(0, 6))
+    lower = [F(draw(st.integers(0 if positive else -3, 2)), draw(st.integers(1, 2))) for _ in range(n)]
+    upper = [lo + F(draw(st.integers(0, 3)), draw(st.integers(1, 2))) for lo in lower]
+    inside = [lo + (hi - lo) * F(draw(st.integers(0, 4)), 4) for lo, hi in zip(lower, upper, strict=True)]
+    A = [[draw(small) for _ in range(n)] for _ in range(m)]
+    b = [dot(row, inside) + F(draw(st.integers(-2, 3)), 2) for row in A]
+    return lower, upper, A, b
+
+
+def highs(c, lower, upper, A, b):
+    """max c·h by HiGHS's dual simplex: (status 0 optimal / 2 infeasible, value, vertex)."""
+    A_ub = np.array(A, dtype=float).reshape(len(A), len(c)) if A else None
+    res = linprog(
+        -np.array(c, dtype=float),
+        A_ub=A_ub,
+        b_ub=np.array(b, dtype=float) if A else None,
+        bounds=list(zip(map(float, lower), map(float, upper), strict=True)),
+        method="highs-ds",
+    )
+    return res.status, (-res.fun if res.status == 0 else None), res.x
+
+
+@given(polytopes(), st.lists(small, min_size=6, max_size=6))
+def test_linear_programs_agree_with_highs(polytope, costs):
+    lower, upper, A, b = polytope
+    c = costs[: len(lower)]
+    result = maximize_linear(c, lower, upper, A, b)
+    status, value, _ = highs(c, lower, upper, A, b)
+    if result.status == "infeasible":
+        assert status == 2
+        return
+    assert status == 0
+    assert feasible(result.point, lower, upper, A, b) and dot(c, result.point) == result.value
+    assert abs(float(result.value) - value) <= 1e-9 * max(1.0, abs(value))
+
+
+def charnes_cooper(p, q, lower, upper, A, b):
+    """max p·y subject to q·y = 1, A y ≤ b s, lower s ≤ y ≤ upper s, s ≥ 0 (Charnes & Cooper 1962), by HiGHS."""
+    n = len(p)
+    rows = [[*map(float, row), -float(bound)] for row, bound in zip(A, b, strict=True)]
+    rows += [[-(i == j) * 1.0 for j in range(n)] + [float(lo)] for i, lo in enumerate(lower)]
+    rows += [[(i == j) * 1.0 for j in range(n)] + [-float(hi)] for i, hi in enumerate(upper)]
+    res = linprog(
+        -np.array([*map(float, p), 0.0]),
+        A_ub=np.array(rows),
+        b_ub=np.zeros(len(rows)),
+        A_eq=np.array([[*map(float, q), 0.0]]),
+        b_eq=[1.0],
+        bounds=[(None, None)] * n + [(0, None)],
+        method="highs",
+    )
+    return res.status, (-res.fun if res.status == 0 else None)
+
+
+@given(
+    polytopes(positive=True),
+    st.lists(small, min_size=6, max_size=6),
+    st.lists(st.builds(F, st.integers(0, 5), st.integers(1, 4)), min_size=6, max_size=6),
+    st.lists(st.lists(st.integers(-3, 3), min_size=6, max_size=6), min_size=8, max_size=8),
+)
+def test_ratios_are_the_largest_at_every_vertex(polytope, numerator, denominator, directions):
+    """The value is attained, exactly, at a feasible point; no vertex HiGHS finds (random objectives) has a larger
+    ratio; and it is the Charnes–Cooper LP's value."""
+    lower, upper, A, b = polytope
+    n = len(lower)
+    p, q = numerator[:n], denominator[:n]
+    result = maximize_ratio(p, q, lower, upper, A, b)
+    exact_linear = maximize_linear(q, lower, upper, A, b)
+    if result.status == "infeasible":
+        assert exact_linear.status == "infeasible"
+        return
+    if result.status == "zero_denominator":  # q ≥ 0 and h ≥ 0: q·h = 0 everywhere, or somewhere with p·h > 0
+        h = result.point
+        assert feasible(h, lower, upper, A, b) and dot(q, h) == 0
+        assert exact_linear.value == 0 or dot(p, h) > 0
+        return
+    h = result.point
+    assert feasible(h, lower, upper, A, b) and dot(q, h) > 0 and dot(p, h) / dot(q, h) == result.value
+    value = float(result.value)
+    for direction in directions:
+        status, _, vertex = highs(direction[:n], lower, upper, A, b)
+        assert status == 0
+        qh = float(np.dot([float(x) for x in q], vertex))
+        if qh > 1e-6:
+            ratio = float(np.dot([float(x) for x in p], vertex)) / qh
+            assert ratio <= value + 1e-7 * max(1.0, abs(value))
+    status, cc = charnes_cooper(p, q, lower, upper, A, b)
+    assert status == 0 and abs(cc - value) <= 1e-7 * max(1.0, abs(value))
+
+
+def test_a_larger_program_agrees_with_highs():
+    """40 variables and 40 dense rows: the same optimum as HiGHS, at an exactly feasible point."""
+    rng = np.random.default_rng(41)
+    n = m = 40
+    A = [[F(int(rng.integers(-9, 10)), int(rng.integers(1, 5))) for _ in range(n)] for _ in range(m)]
+    inside = [F(int(rng.integers(0, 5)), 4) for _ in range(n)]
+    b = [dot(row, inside) + F(int(rng.integers(0, 4)), 2) for row in A]
+    c = [F(int(rng.integers(-9, 10)), int(rng.integers(1, 6))) for _ in range(n)]
+    result = maximize_linear(c, [0] * n, [1] * n, A, b)
+    status, value, _ = highs(c, [0] * n, [1] * n, A, b)
+    assert result.status == "optimal" and status == 0
+    assert feasible(result.point, [0] * n, [1] * n, A, b)
+    assert abs(float(result.value) - value) <= 1e-9 * max(1.0, abs(value))
+    q = [F(int(rng.integers(1, 10)), 10) for _ in range(n)]
+    ratio = maximize_ratio(c, q, [F(1, 10)] * n, [1] * n, A, b)
+    _, cc = charnes_cooper(c, q, [F(1, 10)] * n, [1] * n, A, b)
+    assert ratio.status == "optimal" and abs(float(ratio.value) - cc) <= 1e-7 * max(1.0, abs(cc))
+
+
+def test_the_module_imports_no_scipy():
+    code = "import sys, fairaudit.verification.exact_programs; print('scipy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"

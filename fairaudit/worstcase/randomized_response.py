@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray, safe_log
-from fairaudit.base.outward import exp_up, log_up, widen_up
-from fairaudit.laws.closed_forms import RandomizedResponseParameters, rr_total_variation_up
+from fairaudit.base.outward import exp_up, fraction_up, log_up, widen_up
+from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law
 
@@ -62,6 +62,45 @@ class RRWorst:
 
 
 def rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> RRWorst:
+    """max (M[a]·h)/(M[a']·h) over lo ≤ h ≤ hi with M[a']·h ≥ floor, M = k-ary RR, in O(1), its value certified.
+
+    The point (the kernel's h) is :func:`rr_box_point`'s, in floating point; the ratio and its log are the exact
+    closed form at t = ``exp_up`` (ε), a rational ≥ e^ε, rounded up: the worst case is non-decreasing in e^ε
+    (randomized response at a smaller ε is the larger one followed by more randomized response), so this is an
+    upper end (``proofs/outward.md`` §5).
+    """
+    w = rr_box_point(rr, lo, hi, floor)
+    if w.ratio == 1.0 and w.value == 0.0:  # span 0 or p <= q: exactly 1
+        return w
+    if lo == 0 and w.prefix:  # h = hi on a alone: the ratio is p/q = e^ε, its log ε exactly
+        return replace(w, ratio=exp_up(rr.epsilon), value=rr.epsilon)
+    ratio = _rr_box_ratio(rr.k, rr.epsilon, Fraction(lo), Fraction(hi), floor)
+    if ratio == math.inf:
+        return replace(w, ratio=math.inf, value=math.inf)
+    return replace(w, ratio=fraction_up(ratio), value=log_up(ratio))
+
+
+def _rr_box_ratio(k: int, epsilon: float, lo: Fraction, hi: Fraction, floor: float) -> Fraction | float:
+    """The box-with-floor optimum behind k-ary RR at t = exp_up(ε), exactly (the cases of :func:`rr_box_point`)."""
+    t_up = exp_up(epsilon)
+    if math.isinf(t_up):  # the limit t → ∞: p = 1, q = 0
+        p, q = Fraction(1), Fraction(0)
+    else:
+        t = Fraction(t_up)
+        p, q = t / (t + k - 1), 1 / (t + k - 1)
+    span = hi - lo
+    num, den = lo + span * p, lo + span * q
+    f = Fraction(floor) if math.isfinite(floor) else None
+    if f is None or den >= f:  # the floor does not bind: the threshold solution
+        return num / den if den > 0 else (math.inf if num > 0 else Fraction(1))
+    need, c = f - lo, span * q
+    if need <= c * (k - 1):  # a and some other values raised: (floor + span (p − q))/floor
+        return (f + span * (p - q)) / f
+    s = min(span, (need - c * (k - 1)) / p)  # a and every other value raised, a' partly
+    return (lo + span * (p + (k - 2) * q) + q * s) / f
+
+
+def rr_box_point(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> RRWorst:
     """max (M[a]·h)/(M[a']·h) over lo ≤ h ≤ hi with M[a']·h ≥ floor, M = k-ary RR, in O(1).
 
     Without a binding floor (floor ≤ lo) the threshold solution: h = hi on the released value a, lo elsewhere,
@@ -217,33 +256,15 @@ def rr_class_value(
 ) -> float:
     """log of :func:`rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε); rounded up.
 
-    With L_A = 0 the threshold value ln((lo + (1 − lo)p)/(lo + (1 − lo)q)) = ln(((lo + span)T + lo(k − 1)) /
-    (lo T + lo(k − 1) + span)) increases in T = e^ε, and the floor's (floor + span(p − q))/floor in p − q:
-    both are exact rationals of T or p − q rounded up (``proofs/outward.md`` §5). The other cases (a floor that
-    also raises a', L_A > 0) are widened by 1e-14 relative and 1e-15 absolute (their floating-point error is a few units: estimated, not proved).
+    With L_A = 0, :func:`rr_box`'s value: the exact closed form at a rational t ≥ e^ε, rounded up
+    (``proofs/outward.md`` §5). With L_A > 0 it is widened by 1e-14 relative and 1e-15 absolute (its
+    floating-point error is a few units: estimated, not proved).
     """
     if rr.k >= 2 and gamma > 0 and lower < gamma and lipschitz * diameter == 0:
         lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
-        worst = rr_box(rr, lo, 1.0, floor)
-        return _box_value_up(rr, worst, Fraction(lower) / Fraction(gamma), floor)
+        return rr_box(rr, lo, 1.0, floor).value
     value = safe_log(rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
     return float(widen_up(value, 1e-14, 1e-15)) if math.isfinite(value) else value
-
-
-def _box_value_up(rr: RandomizedResponseParameters, worst: RRWorst, lo: Fraction, floor: float) -> float:
-    """:func:`rr_box`'s value rounded up, by the case it took (see :func:`rr_class_value`)."""
-    if worst.value == 0.0 or math.isinf(worst.value) or (worst.prefix and lo == 0):
-        return worst.value  # ratio 1, or ε itself (lower = 0): exact
-    span = 1 - lo
-    if worst.prefix:
-        if rr.epsilon > 700:  # the ratio increases in T towards (lo + span)/lo = 1/lo, within e^−700 of it
-            return log_up(1 / lo)
-        big = Fraction(exp_up(rr.epsilon))
-        return log_up(((lo + span) * big + lo * (rr.k - 1)) / (lo * big + lo * (rr.k - 1) + span))
-    if worst.h_b == float(lo):  # the floor met by a and other values: (floor + span(p − q))/floor
-        f = Fraction(floor)
-        return log_up((f + span * Fraction(rr_total_variation_up(rr.epsilon, rr.k))) / f)
-    return float(widen_up(worst.value, 1e-14, 1e-15))
 
 
 def rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, context_mechanism: Mechanism) -> Law:

@@ -211,7 +211,20 @@ def test_the_deployed_filter_is_checked_against_the_certificate(certificates):
 
 def test_what_is_not_re_derived_is_listed(certificates):
     names = [n for n, _ in verify(certificates[SHIPPED[0]]).not_checked]
-    assert "bounds.black_box" in names and "calibration" in names
+    assert "calibration" in names and "bounds.black_box" not in names
+
+
+@pytest.mark.parametrize("name", [SHIPPED[0], SHIPPED[2], MATRIX], ids=["gpt35", "hr_office", "matrix"])
+def test_the_black_box_is_re_derived_and_a_moved_one_fails(certificates, name):
+    cert = copy.deepcopy(certificates[name])
+    names = [c.name for c in verify(cert).checks]
+    assert "bounds.black_box" in names and "bound_details.black_box.global.value" in names
+    cert["bounds"]["black_box"] += 1e-9
+    cert["bound_details"]["black_box"]["value"] += 1e-9
+    assert "bounds.black_box" in _failing(cert)
+    cert = copy.deepcopy(certificates[name])
+    cert["bound_details"]["black_box"]["global"]["value"] -= 1e-9
+    assert "bound_details.black_box.global.value" in _failing(cert)
 
 
 def test_a_certificate_that_is_not_one_is_refused(certificates):

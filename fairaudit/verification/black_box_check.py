@@ -1,0 +1,235 @@
+"""The black-box worst case re-derived exactly: the largest L and L̄ over every decision model behind the filter.
+
+For a utility free of the group and the identity on the context (what ``worst_model`` certifies in closed form or by
+its programs, ``proofs/black_box.md``), a model enters L only through h[x, ã] = Σ_u K[x, ã, u] g(u, x), which takes
+every value in [min_u g(u, x), max_u g(u, x)]. So
+
+* L = max over live x and a ≠ a' of max (M_A[a]·h)/(M_A[a']·h) over h in the box of x with the floors
+  M_A[a'']·h ≥ τ for every group a'' (the other contexts' floors concern other variables);
+* L̄ = max over a ≠ a' of max (Σ_x P(x | a) M_A[a]·h_x)/(Σ_x P(x | a') M_A[a']·h_x) over every context's box and
+  floors.
+
+Each is a small linear-fractional program with rational data, solved exactly
+(:func:`~fairaudit.verification.exact_programs.maximize_ratio`). Randomized response's rows hold e^ε, irrational:
+its worst case is non-decreasing in e^ε (randomized response at a smaller ε is the one at a larger ε followed by
+more randomized response, so its laws are among the larger one's), and the programs are solved at the two
+50-digit rational ends of e^ε, which enclose it. Behind randomized response every pair of groups is alike
+(averaging a solution over the permutations that fix a and a' keeps it feasible and keeps its ratio), so the
+variables are h_a, h_a' and one h for the k − 2 others, and one pair is solved (for L̄ when P(x | a) is the same for
+every group).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, exp_of, recorded_array
+from fairaudit.verification.exact_programs import maximize_ratio
+
+__all__ = ["MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures"]
+
+MAX_VARIABLES = 64
+"""The largest program (variables) re-derived exactly; a larger black box is listed as not re-derived."""
+
+Number = Fraction | float
+
+
+@dataclass(frozen=True)
+class WorstCaseEnclosures:
+    """The exact worst ratios (not their logarithms) of L and L̄, enclosed; None with a reason when not re-derived."""
+
+    local: Enclosure | None
+    global_: Enclosure | None
+    reason: str
+    independent: bool = False  # P(x | a) is the same for every group, exactly
+
+
+@dataclass(frozen=True)
+class _Setting:
+    """The data of the programs at one end of e^ε: the rows of M_A, the boxes, the floors, the population."""
+
+    rows: tuple[tuple[Fraction, ...], ...] | None  # M_A's rows (a matrix); None: randomized response (p, q) below
+    p: Fraction
+    q: Fraction
+    k: int
+    low: list[Fraction]  # per live context
+    high: list[Fraction]
+    tau: Fraction | None
+    weights: list[list[Fraction]]  # P(x | a), [live x][a]
+
+
+def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
+    """The worst ratios behind the recorded filter, for the recorded utility, τ and population, enclosed.
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs`` (checked against the schema).
+
+    Returns
+    -------
+    WorstCaseEnclosures
+        ``local`` and ``global_`` enclose max E[g | x, a]/E[g | x, a'] and max E[g | a]/E[g | a'] over every model
+        (+inf when unbounded); None, with ``reason``, for what is not re-derived here: a utility that depends on the
+        group, a context mechanism other than the identity, programs larger than :data:`MAX_VARIABLES`.
+    """
+    m = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
+    context = inputs["context_mechanism"]
+    u = inputs["utility"]
+    if context["kind"] != "identity":
+        return WorstCaseEnclosures(None, None, "a context mechanism other than the identity")
+    if m.kind == "identity" or m.k < 2:
+        return WorstCaseEnclosures(None, None, "no privacy on the sensitive attribute (the identity)")
+    values = recorded_array(u["values"], "inputs.utility.values")
+    pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
+    live = [x for x in range(len(pop)) if sum(pop[x]) > 0]
+    if isinstance(values[0], list):  # g(u, x, a): free of the group?
+        if any(values[x][a] != values[x][0] for x in range(len(values)) for a in range(len(values[x]))):
+            return WorstCaseEnclosures(None, None, "the utility depends on the group")
+        low = [min(values[x][0]) for x in live]
+        high = [max(values[x][0]) for x in live]
+    else:
+        low, high = [min(values)] * len(live), [max(values)] * len(live)
+    tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
+    if m.kind == "matrix" and (m.k > 16 or len(m.outputs) * len(live) > MAX_VARIABLES):
+        return WorstCaseEnclosures(None, None, f"programs beyond {MAX_VARIABLES} variables")
+    mass = [sum(pop[x][a] for x in live) for a in range(m.k)]
+    weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(m.k)] for x in live]
+    ends = []
+    for t in _ends(m):
+        p, q = (t / (t + m.k - 1), 1 / (t + m.k - 1)) if m.rows is None else (Fraction(0), Fraction(0))
+        s = _Setting(m.rows, p, q, m.k, low, high, tau, weights)  # type: ignore[arg-type]
+        ends.append((_local(s), _global(s, mass)))
+    local = Enclosure(ends[0][0], ends[-1][0])
+    low_global, high_global = ends[0][1], ends[-1][1]
+    global_ = None if low_global is None or high_global is None else Enclosure(low_global, high_global)
+    why = "" if global_ is not None else f"L-bar: programs beyond {MAX_VARIABLES} variables"
+    independent = all(w[a] == w[0] for w in weights for a in range(m.k))
+    return WorstCaseEnclosures(local, global_, why, independent)
+
+
+def _ends(m: RecordedMechanism) -> list[Fraction]:
+    """The rational e^ε at which the programs are solved: both ends of its enclosure (none for a matrix)."""
+    if m.kind == "matrix":
+        return [Fraction(1)]
+    t = exp_of(m.epsilon)  # type: ignore[arg-type]
+    if t.hi == INF:
+        raise ValueError("randomized response at an infinite epsilon is the identity")
+    return [t.lo, t.hi]  # type: ignore[list-item]
+
+
+def _rows_of(s: _Setting, a: int, b: int) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]], list[int]]:
+    """(row of a, row of b, the floor rows, the multiplicities) over the program's cells for one context.
+
+    Randomized response: three cells (a's own, b's own, the k − 2 others together, each of those at one h); a
+    matrix: M_A's outputs.
+    """
+    if s.rows is not None:
+        n = len(s.rows[0])
+        return list(s.rows[a]), list(s.rows[b]), [list(r) for r in s.rows], [1] * n
+    p, q, others = s.p, s.q, s.k - 2
+    row_a, row_b = [p, q, q * others], [q, p, q * others]
+    floors = [row_a, row_b] + ([[q, q, p + q * (others - 1)]] if others else [])
+    return row_a, row_b, floors, [1, 1, max(others, 0)]
+
+
+def _pairs(s: _Setting) -> list[tuple[int, int]]:
+    """The pairs of groups solved: one behind randomized response, every ordered pair behind a matrix."""
+    return [(0, 1)] if s.rows is None else [(a, b) for a in range(s.k) for b in range(s.k) if a != b]
+
+
+def _local(s: _Setting) -> Number:
+    """max over live contexts and pairs of the exact worst ratio."""
+    best: Number = Fraction(0)
+    for i in range(len(s.low)):
+        for a, b in _pairs(s):
+            row_a, row_b, floors, _ = _rows_of(s, a, b)
+            best = max(best, _solve([row_a], [row_b], floors, [s.low[i]], [s.high[i]], s.tau))
+    return best
+
+
+def _global(s: _Setting, mass: Sequence[Fraction]) -> Number | None:
+    """max over pairs of groups of the exact worst ratio of E[g | a]/E[g | a'] (every live context's cells)."""
+    pairs = _pairs(s)
+    if s.rows is None and any(w[a] != w[0] for w in s.weights for a in range(s.k)):
+        pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b]  # P(x | a) differs: no symmetry
+        if s.k * len(s.low) > MAX_VARIABLES:
+            return None
+    best: Number = Fraction(0)
+    for a, b in pairs:
+        if not (mass[a] and mass[b]):
+            continue
+        tops, bottoms, floors = [], [], []
+        for i in range(len(s.low)):
+            row_a, row_b, fl, _ = _rows_of(s, a, b) if s.rows is not None else _full_rr_rows(s, a, b)
+            tops.append([s.weights[i][a] * v for v in row_a])
+            bottoms.append([s.weights[i][b] * v for v in row_b])
+            floors.append(fl)
+        best = max(best, _solve_blocks(tops, bottoms, floors, s.low, s.high, s.tau))
+    return best
+
+
+def _full_rr_rows(
+    s: _Setting, a: int, b: int
+) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]], list[int]]:
+    """Randomized response's k × k rows, for L̄ when the pairs are not alike; the symmetric three cells otherwise."""
+    if all(w[g] == w[0] for w in s.weights for g in range(s.k)):
+        return _rows_of(s, a, b)
+    rows = [[s.p if i == j else s.q for j in range(s.k)] for i in range(s.k)]
+    return rows[a], rows[b], rows, [1] * s.k
+
+
+def _solve(
+    tops: list[list[Fraction]],
+    bottoms: list[list[Fraction]],
+    floors: list[list[Fraction]],
+    low: list[Fraction],
+    high: list[Fraction],
+    tau: Fraction | None,
+) -> Number:
+    """One context's program (the single-block case of :func:`_solve_blocks`)."""
+    return _solve_blocks(tops, bottoms, [floors], low, high, tau)
+
+
+def _solve_blocks(
+    tops: list[list[Fraction]],
+    bottoms: list[list[Fraction]],
+    floors: list[list[list[Fraction]]],
+    low: list[Fraction],
+    high: list[Fraction],
+    tau: Fraction | None,
+) -> Number:
+    """max (Σ_i tops_i·h_i)/(Σ_i bottoms_i·h_i) over blocks h_i in [low_i, high_i]^n with floors_i·h_i ≥ τ.
+
+    c/0 = +inf and 0/0 = 1, as the tool's conventions; without a positive floor the origin of a block whose box
+    starts at 0 is left out by a row bottom·h ≥ (smallest positive cell)·high, which every optimal vertex of the
+    box meets (the ratio is unchanged by scaling h when the boxes start at 0).
+    """
+    p = [v for row in tops for v in row]
+    q = [v for row in bottoms for v in row]
+    lower = [low[i] for i, row in enumerate(tops) for _ in row]
+    upper = [high[i] for i, row in enumerate(tops) for _ in row]
+    rows: list[list[Fraction]] = []
+    bounds: list[Fraction] = []
+    width = len(tops[0])
+    for i, block in enumerate(floors):
+        for f in block if tau else ():
+            row = [Fraction(0)] * len(p)
+            row[i * width : (i + 1) * width] = [-v for v in f]
+            rows.append(row)
+            bounds.append(-tau)  # type: ignore[operator]
+    if any(qi == 0 and pi > 0 and hi > 0 for pi, qi, hi in zip(p, q, upper)) and not tau:
+        return INF  # a model that puts the utility only where a' never lands
+    if max(upper, default=Fraction(0)) == 0:
+        return Fraction(1)  # g = 0: every ratio is 0/0
+    if not tau and all(lo == 0 for lo in lower):
+        smallest = min(qi * hi for qi, hi in zip(q, upper) if qi > 0 and hi > 0)
+        rows.append([-v for v in q])
+        bounds.append(-smallest)
+    result = maximize_ratio(p, q, lower, upper, rows, bounds)
+    if result.status != "optimal":
+        raise ValueError(f"the worst-case program is {result.status}")
+    return result.value  # type: ignore[return-value]

@@ -29,7 +29,7 @@ from fairaudit.base.arrays import EXP_SAFE, FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
 from fairaudit.base.outward import exp_down, exp_up, fraction_down, log_down, log_up, widen_down
-from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.closed_forms import RandomizedResponse, randomized_response
 from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Law, Population, compose
@@ -141,8 +141,22 @@ def rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> f
         if big * r >= 1:
             return math.inf
         exact = (big * r * (k - 1) + big * (1 - r) - r * (k - 1)) / (1 - big * r)
-        return log_down(max(exact, Fraction(1)))
+        return _meeting(log_down(max(exact, Fraction(1))), target, k, lower, gamma)
     return max(0.0, float(widen_down(_rr_black_box_epsilon_float(target, k, rho), 1e-12)))
+
+
+def _meeting(eps: float, target: float, k: int, lower: float, gamma: float) -> float:
+    """``eps`` moved down a float at a time (at most 16) until the certified value at it, rounded up as a certificate
+    rounds it (:func:`~fairaudit.worstcase.randomized_response.rr_class_value`), meets the target: the certificate
+    at the calibrated ε then says met."""
+    for _ in range(16):
+        m = randomized_response(range(k), eps)
+        if eps <= 0.0 or not isinstance(m, RandomizedResponse):
+            return eps
+        if rr_class_value(m.rr, lower, gamma, None, 0.0, 1.0) <= target:
+            return eps
+        eps = math.nextafter(eps, 0.0)
+    return eps
 
 
 def _rr_black_box_epsilon_float(target: float, k: int, rho: float) -> float:

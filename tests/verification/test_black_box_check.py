@@ -6,26 +6,14 @@ import json
 import math
 
 import pytest
+from _cli import OFFICE_SPEC
 
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.black_box_check import black_box_enclosures
 from fairaudit.verification.rederive import verify
 
-OFFICE = """
-[sensitive]
-name = "office"
-values = ["HR_1", "HR_2"]
-[decision]
-name = "chosen"
-values = ["yes", "no"]
-[privacy.sensitive]
-mechanism = "randomized_response"
-keep = 0.7
-[utility]
-decision = "yes"
-tau = 0.25
-"""
+OFFICE = OFFICE_SPEC + "tau = 0.25\n"  # binary randomized response keeping 0.7, g = 1{yes}
 
 RR3 = """
 [sensitive]

@@ -10,6 +10,7 @@ from fractions import Fraction
 from pathlib import Path
 
 import pytest
+from _cli import OFFICE_SPEC
 
 from fairaudit.base.errors import InputError
 from fairaudit.certification.certificate import certify
@@ -20,20 +21,7 @@ from fairaudit.verification.rederive import verify
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = ["examples/llm_hiring/gpt35.toml", "examples/llm_hiring/gpt4.toml", "examples/hr_office/hr_office.toml"]
 
-OFFICE = """
-[sensitive]
-name = "office"
-values = ["HR_1", "HR_2"]
-[decision]
-name = "chosen"
-values = ["yes", "no"]
-[privacy.sensitive]
-mechanism = "randomized_response"
-keep = 0.7
-[utility]
-decision = "yes"
-tau = 0.25
-"""
+OFFICE = OFFICE_SPEC + "tau = 0.25\n"  # binary randomized response keeping 0.7, g = 1{yes}
 
 MATRIX = """
 [sensitive]

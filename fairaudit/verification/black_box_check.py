@@ -75,6 +75,19 @@ def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
         ``local`` and ``global_`` enclose max E[g | x, a]/E[g | x, a'] and max E[g | a]/E[g | a'] over every model
         (+inf when unbounded); None, with ``reason``, for what is not re-derived here: a utility that depends on the
         group, a context mechanism other than the identity, programs larger than :data:`MAX_VARIABLES`.
+
+    Raises
+    ------
+    InputError
+        Naming the field of ``inputs`` that holds a value that is not a number (``inputs.utility.values[2]``).
+    ValueError
+        When a worst-case program is infeasible (no model meets τ): the certificate then records no black box.
+
+    Notes
+    -----
+    The reduction, the monotonicity in e^ε and the three-variable programs: ``proofs/verification.md`` §4
+    (from ``proofs/black_box.md`` §6); the programs are solved by
+    :func:`~fairaudit.verification.exact_programs.maximize_ratio` (Dinkelbach 1967).
     """
     m = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
     context = inputs["context_mechanism"]

@@ -61,7 +61,20 @@ def exact(value: Any, field: str) -> Fraction | float:
 
 
 def recorded_array(value: Any, field: str) -> list[Any]:
-    """Nested lists of recorded numbers as nested lists of Fractions (None stays None: an empty cell)."""
+    """Nested lists of recorded numbers as nested lists of exact rationals, any shape, axes kept in order.
+
+    None stays None (an empty cell of an estimated table); ``"inf"`` is +inf.
+
+    Raises
+    ------
+    InputError
+        Naming ``field`` and the index (``field[0][2]``) of an entry that is not a finite number or ``"inf"``.
+
+    Examples
+    --------
+    >>> recorded_array([[0.5, None], ["inf", 1]], "kernel")
+    [[Fraction(1, 2), None], [inf, Fraction(1, 1)]]
+    """
     if isinstance(value, list):
         return [recorded_array(v, f"{field}[{i}]") for i, v in enumerate(value)]
     return None if value is None else exact(value, field)  # type: ignore[return-value]
@@ -84,14 +97,30 @@ def ln(x: Fraction | float) -> Enclosure:
 
 
 def exp_of(x: Fraction) -> Enclosure:
-    """[lo, hi] around e^x for a rational x (50 digits: :func:`~fairaudit.base.outward.exp_bounds`); +inf beyond 10^6."""
+    """Rationals [lo, hi] around e^x for a rational x (nats), 50 digits apart (:func:`~fairaudit.base.outward.exp_bounds`,
+    ``proofs/outward.md`` §4); the point +inf beyond 10^6.
+
+    Examples
+    --------
+    >>> e = exp_of(Fraction(0))
+    >>> e.lo == e.hi == 1
+    True
+    """
     if x > 10**6:
         return Enclosure.point(INF)
     return Enclosure(*exp_bounds(x))
 
 
 def ln_of(e: Enclosure) -> Enclosure:
-    """The enclosure of ln over an enclosure of a non-negative quantity (ln is increasing)."""
+    """The enclosure of ln over an enclosure [lo, hi] of a quantity ≥ 0 (ln is increasing: [ln lo rounded down,
+    ln hi rounded up], 50 digits; ln 0 = −inf).
+
+    Examples
+    --------
+    >>> e = ln_of(Enclosure(Fraction(1), Fraction(1)))
+    >>> e.lo == e.hi == 0
+    True
+    """
     return Enclosure(ln(e.lo).lo, ln(e.hi).hi)
 
 

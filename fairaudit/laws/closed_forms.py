@@ -59,7 +59,11 @@ def keep_of_checked(eps: float, k: int) -> float:
 
 
 def epsilon_from_keep_probability(keep: float, k: int) -> float:
-    """ε = log(p (k − 1) / (1 − p)) of k-ary randomized response keeping with p.
+    """ε = log(p (k − 1) / (1 − p)) of k-ary randomized response keeping with p, rounded up.
+
+    ``keep`` is read both as its binary value and as the decimal it prints as (0.7 as 7/10, as a spec's reader
+    and ``fairaudit filter --spec`` read it); ε is the larger, so that randomized response deployed from either
+    is within the certified budget (``fairaudit verify --filter``).
 
     Not ``p / (1 − p)`` (the seed paper's error 1): for k = 2 and p = 0.7 the
     budget is ln(7/3) = 0.847 nats.
@@ -83,8 +87,15 @@ def epsilon_from_keep_probability(keep: float, k: int) -> float:
     )
     if keep >= 1.0:
         return math.inf
-    p = Fraction(keep)  # an upper bound on the mechanism's ε: ln of the exact ratio, rounded up
-    return max(0.0, log_up(p * (k - 1) / (1 - p)))
+    # an upper bound on the ε of both readings of ``keep``: its binary value, and the decimal it prints as (0.7 is
+    # 7/10 to a spec's reader and to `fairaudit filter --spec`): ln of the larger exact ratio, rounded up
+    ratio = max(_keep_ratio(Fraction(keep), k), _keep_ratio(Fraction(repr(keep)), k))
+    return math.inf if ratio == math.inf else max(0.0, log_up(ratio))
+
+
+def _keep_ratio(p: Fraction, k: int) -> Fraction | float:
+    """p (k − 1)/(1 − p), +inf at p = 1."""
+    return math.inf if p >= 1 else p * (k - 1) / (1 - p)
 
 
 def rr_total_variation_up(epsilon: float, k: int) -> float:

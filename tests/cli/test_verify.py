@@ -75,3 +75,19 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, content, message):
     code, out, err = run(capsys, "verify", path)
     assert code == 2 and out == ""
     assert err.startswith(message) and len(err.strip().splitlines()) == 1
+
+
+def test_the_filter_a_spec_deploys_is_the_one_it_certifies(capsys, tmp_path):
+    # keep = 0.7 in the spec: the certificate's epsilon covers the decimal 7/10 that `fairaudit filter --spec` deploys
+    spec = tmp_path / "office.toml"
+    spec.write_text(OFFICE_SPEC + "tau = 0.25\n", encoding="utf-8")
+    code, cert, _ = run_json(capsys, "certify", spec)
+    path = tmp_path / "cert.json"
+    path.write_text(json.dumps(cert), encoding="utf-8")
+    data, params = tmp_path / "records.csv", tmp_path / "filter.json"
+    data.write_text("office\nHR_1\nHR_2\n", encoding="utf-8")
+    code, _, _ = run(capsys, "filter", data, "--column", "office", "--spec", spec, "--output", tmp_path / "out.csv",
+                     "--parameters", params)  # fmt: skip
+    assert code == 0 and json.loads(params.read_text())["keep"] == "7"
+    code, out, _ = run(capsys, "verify", path, "--filter", params)
+    assert code == 0, out

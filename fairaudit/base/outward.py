@@ -12,6 +12,8 @@ the right side:
 * :func:`widen_up` and :func:`widen_down` move it by an error bound, for a
   closed form evaluated in floating point whose error is bounded (relative
   and absolute parts);
+* :func:`product_ends` encloses non-negative products (and sums of them) computed
+  with a counted number of roundings, :func:`product_roundings` counts them;
 * :func:`fraction_up` and :func:`fraction_down` round an exact rational;
 * :func:`log_up`, :func:`log_down`, :func:`exp_up` and :func:`exp_down`
   evaluate ln and exp of an exact rational (a float is one) in 50-digit
@@ -27,6 +29,7 @@ OpenDP rounds every privacy quantity the same way (its ``inf_ln``,
 from __future__ import annotations
 
 import decimal
+import functools
 import math
 import sys
 from fractions import Fraction
@@ -49,6 +52,9 @@ __all__ = [
     "ln_bounds",
     "log_down",
     "log_up",
+    "product_ends",
+    "product_roundings",
+    "rounding_error",
     "up",
     "widen_down",
     "widen_up",
@@ -95,20 +101,20 @@ def down(x: float | npt.NDArray[np.floating]) -> float | FloatArray:
     return float(out) if np.ndim(out) == 0 else out
 
 
-def _error(a: FloatArray, relative: float, absolute: float) -> FloatArray:
+def _error(a: FloatArray, relative: npt.ArrayLike, absolute: npt.ArrayLike) -> FloatArray:
     """``relative·|a| + absolute`` rounded up (each of its two operations moved one unit up)."""
     return np.nextafter(np.nextafter(np.abs(a) * relative, np.inf) + absolute, np.inf)
 
 
-def widen_up(x: npt.ArrayLike, relative: float, absolute: float = 0.0) -> float | FloatArray:
+def widen_up(x: npt.ArrayLike, relative: npt.ArrayLike, absolute: npt.ArrayLike = 0.0) -> float | FloatArray:
     """``x`` plus an error bound ``relative·|x| + absolute``, rounded up.
 
     Parameters
     ----------
     x : float or array_like
         A value computed in floating point.
-    relative, absolute : float
-        Its error bound, ``|x − exact| ≤ relative·|x| + absolute``; ≥ 0.
+    relative, absolute : float or array_like
+        Its error bound, ``|x − exact| ≤ relative·|x| + absolute``; ≥ 0 (arrays broadcast against ``x``).
 
     Returns
     -------
@@ -126,7 +132,7 @@ def widen_up(x: npt.ArrayLike, relative: float, absolute: float = 0.0) -> float 
     return up(a + _error(a, relative, absolute))
 
 
-def widen_down(x: npt.ArrayLike, relative: float, absolute: float = 0.0) -> float | FloatArray:
+def widen_down(x: npt.ArrayLike, relative: npt.ArrayLike, absolute: npt.ArrayLike = 0.0) -> float | FloatArray:
     """``x`` minus an error bound ``relative·|x| + absolute``, rounded down (the mirror of :func:`widen_up`).
 
     Examples
@@ -136,6 +142,76 @@ def widen_down(x: npt.ArrayLike, relative: float, absolute: float = 0.0) -> floa
     """
     a = np.asarray(x, dtype=float)
     return down(a - _error(a, relative, absolute))
+
+
+def product_roundings(*factors: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """How many roundings the product of ``factors`` (broadcast together) may carry, entry by entry.
+
+    A product with a factor 0 is exactly 0; a multiplication by 1 is exact and every other one rounds at most once,
+    so a product of factors of which j are neither 0 nor 1 carries at most max(j − 1, 0) roundings, in any order.
+
+    Examples
+    --------
+    >>> product_roundings(np.array([1.0, 0.3, 0.3]), np.array([0.7, 1.0, 0.7])).tolist()
+    [0, 0, 1]
+    """
+    arrays = [np.asarray(f) for f in factors]
+    general = sum(((f != 0) & (f != 1)).astype(np.int64) for f in arrays)
+    zero = functools.reduce(np.logical_or, [f == 0 for f in arrays])
+    return np.where(zero, 0, np.maximum(np.asarray(general, dtype=np.int64) - 1, 0))
+
+
+def rounding_error(roundings: npt.ArrayLike) -> float | FloatArray:
+    """k·u/(1 − 2k·u) rounded up, u = 2^-53: the error bound, relative to the computed value, of a value carrying at
+    most k roundings to nearest (|x − exact| ≤ γ_k·|exact| with γ_k = k·u/(1 − k·u); Higham, *Accuracy and Stability
+    of Numerical Algorithms*, 2nd ed., Lemma 3.1).
+
+    Examples
+    --------
+    >>> rounding_error(0), rounding_error(1) > 2.0**-53
+    (0.0, True)
+    """
+    k = np.asarray(roundings, dtype=float) * 2.0**-53
+    out = np.where(k == 0, 0.0, up(up(k) / down(1.0 - 2.0 * k)))
+    return float(out) if np.ndim(out) == 0 else np.asarray(out)
+
+
+def product_ends(x: npt.ArrayLike, roundings: npt.ArrayLike, nonzero: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Lower and upper ends of non-negative reals computed in floating point with a counted number of roundings.
+
+    Parameters
+    ----------
+    x : array_like
+        The computed values, each a product or a sum of products of non-negative floats, ≥ 0.
+    roundings : array_like of int
+        For each value, an upper bound k on the roundings to nearest behind it (a sum of n non-negative
+        terms adds n − 1 to its terms' largest count; :func:`product_roundings` counts a product's).
+        0 means exact: the value is its own two ends.
+    nonzero : array_like of bool
+        Whether the exact value is positive (a product is 0 exactly when one of its factors is): a zero
+        value's ends are 0, a positive one's lower end is not below 0 and its upper end covers underflow.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        ``(low, high)``, broadcast together, with low ≤ exact ≤ high: the value widened by
+        :func:`rounding_error` (k) relative to it, plus k·2^-1074 for gradual underflow.
+
+    Examples
+    --------
+    >>> low, high = product_ends(np.array([0.3 * 0.7, 0.5, 0.0]), np.array([1, 0, 1]), np.array([True, True, False]))
+    >>> bool(low[0] < 0.3 * 0.7 < high[0]), float(low[1]), float(high[1]), float(high[2])
+    (True, 0.5, 0.5, 0.0)
+    """
+    value = np.asarray(x, dtype=float)
+    k = np.asarray(roundings, dtype=float)
+    live = np.asarray(nonzero, dtype=bool)
+    relative = rounding_error(k)
+    absolute = k * 2.0**-1074
+    exact = k == 0
+    high = np.where(exact, value, widen_up(value, relative, absolute))
+    low = np.where(exact, value, np.maximum(widen_down(value, relative, absolute), 0.0))
+    return np.where(live, low, 0.0), np.where(live, high, 0.0)
 
 
 def _fraction(x: Exact) -> Fraction:

@@ -19,6 +19,9 @@ from fairaudit.base.outward import (
     fraction_up,
     log_down,
     log_up,
+    product_ends,
+    product_roundings,
+    rounding_error,
     up,
     widen_down,
     widen_up,
@@ -86,3 +89,37 @@ def test_arrays_round_elementwise():
     a = np.array([0.1, 1.0, -2.0])
     assert (up(a) > a).all() and (down(a) < a).all()
     assert widen_up(a, 0.0).tolist() == up(a).tolist()
+
+
+@given(
+    st.lists(st.floats(min_value=0.0, max_value=1.0), min_size=3, max_size=3),
+    st.lists(st.floats(min_value=0.0, max_value=1.0), min_size=3, max_size=3),
+    st.lists(st.floats(min_value=0.0, max_value=1.0), min_size=3, max_size=3),
+)
+def test_product_ends_enclose_a_sum_of_products(a, b, c):
+    # Σ_i a_i b_i c_i, computed in floats: its ends (roundings counted as documented) enclose the exact rational
+    x, y, z = (np.array(v) for v in (a, b, c))
+    value = float((x * y * z).sum())
+    terms = product_roundings(x, y, z)
+    k = int(terms.max()) + 2  # a sum of three non-negative terms adds two
+    nonzero = bool(np.any((x != 0) & (y != 0) & (z != 0)))
+    low, high = product_ends(value, k, nonzero)
+    exact = sum(Fraction(p) * Fraction(q) * Fraction(r) for p, q, r in zip(a, b, c))
+    assert Fraction(float(low)) <= exact <= Fraction(float(high))
+    assert float(high) - float(low) <= 1e-14 * value + 1e-300
+
+
+def test_product_roundings_and_rounding_error_by_hand():
+    # 0 and 1 multiply exactly: 0.5 · 1 · 0.3 rounds once at most (0.5 is a power of two, but only 0 and 1 are
+    # counted exact), 1 · 1 · 0.3 never
+    assert product_roundings(
+        np.array([0.5, 1.0, 0.0]), np.array([1.0, 1.0, 0.7]), np.array([0.3, 0.3, 0.3])
+    ).tolist() == [
+        1,
+        0,
+        0,
+    ]
+    assert rounding_error(0) == 0.0
+    assert Fraction(rounding_error(2)) >= Fraction(2, 2**53) / (1 - Fraction(4, 2**53))
+    low, high = product_ends(np.array([0.0, 0.3]), np.array([1, 0]), np.array([False, True]))
+    assert low.tolist() == [0.0, 0.3] and high.tolist() == [0.0, 0.3]  # an exact value is its own two ends

@@ -29,6 +29,7 @@ transform and of the threshold solution: ``proofs/linear_fractional.md`` and
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Callable, Mapping
@@ -370,13 +371,26 @@ class FractionalProgram:
         FractionalResult
             ``method = "lp"``; +inf with a reason when the ratio is unbounded,
             NaN with a reason when no feasible h has q·h > 0. Never raises for
-            an infeasible or unbounded program.
+            an infeasible or unbounded program. A box program (no rows, finite bounds ≥ 0, p and q ≥ 0) that the
+            solver calls unbounded or whose value its dual cannot certify (badly scaled data: cells of 1e-11) is
+            solved by the threshold rule instead, exact on a box (:func:`threshold_max`); ``solver_status`` says so.
         """
-        import cvxpy as cp
-
         p, q = _vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
+        r = self._solve_lp(p, q)
+        said_unbounded = r.solver_status in ("unbounded", "unbounded_inaccurate")  # cvxpy's statuses
+        if r.certified and not said_unbounded or self._rows or not self._bounded:
+            return r
+        if self.lower is None or self.upper is None or np.any(self.lower < 0) or np.any(p < 0) or np.any(q < 0):
+            return r
+        exact = threshold_max(p, q, self.lower, self.upper)
+        return dataclasses.replace(exact, solver_status=f"{r.solver_status}; then the threshold rule (exact on a box)")
+
+    def _solve_lp(self, p: FloatArray, q: FloatArray) -> FractionalResult:
+        """The LP route of :meth:`solve`."""
+        import cvxpy as cp
+
         result = self._result(p, q)
         self._p.value, self._q.value = p, q
         prob = self._problem

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -111,3 +112,15 @@ def test_lp_statuses_zero_denominator_empty_polytope_and_scale():
     # a bounded polytope far from the origin: the ratio is 1 everywhere (s = 1/(q·h) ~ 3e-14 is not "unbounded")
     r = lp_max([1.0, 1.0], [1.0, 1.0], lower=1e13, upper=2e13)
     assert r.status == "optimal" and r.value == pytest.approx(1.0, rel=1e-9)
+
+
+def test_a_box_program_the_solver_calls_unbounded_is_solved_by_the_threshold_rule():
+    # cells of 2.3e-11 in the denominator: Clarabel calls the Charnes–Cooper LP unbounded, but q > 0 on the whole
+    # box [0, 1]^3 but its corner 0, so the maximum is finite: max_i p_i / q_i = 0.7735231004548078 / 2.2667650723532528e-11
+    p = [0.7735231004548078, 0.0579318426345534, 0.1685450569106387]
+    q = [2.2667650723532528e-11, 0.9999999999546647, 2.2667650723532528e-11]
+    r = lp_max(p, q, lower=0.0, upper=1.0)
+    assert r.status == "optimal" and r.certified and r.method == "threshold"
+    assert r.solver_status.endswith("then the threshold rule (exact on a box)")
+    exact = Fraction(p[0]) / Fraction(q[0])
+    assert Fraction(r.witness) <= exact <= Fraction(r.value) and r.value == threshold_max(p, q, 0.0, 1.0).value

@@ -14,9 +14,11 @@ import numpy as np
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.errors import InputError
+from fairaudit.base.exact_duality import point_ratio
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
+from fairaudit.base.outward import product_ends, rounding_error, up, widen_up
 from fairaudit.base.pairs import PAIR_BLOCK
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
@@ -171,7 +173,14 @@ def worst_utility(
     local = _utility_case(problem, "local", Qz, cell, lambda x: None if x is None else law.contexts[x])
     pu = np.nan_to_num(group_decision_law(law, population), nan=0.0)
     has = population.p_group > 0
-    global_ = _utility_case(problem, "global", pu[None], has[None], lambda x: None)
+    # P(u | a) = Σ_x P(x | a) Q[x, a, u]: P(x | a) carries n_x roundings, the product one, the sum n_x − 1; exact
+    # when one context has P(x, a) > 0 (its weight is 1)
+    weights = population.probabilities > 0
+    roundings = 2 * law.shape[0] + 1 if np.any(weights.sum(axis=0) > 1) else 0
+    ends = product_ends(pu, roundings, np.any(weights[:, :, None] & (Qz > 0), axis=0))
+    global_ = _utility_case(
+        problem, "global", pu[None], has[None], lambda x: None, (ends[0][None], ends[1][None]), roundings
+    )
     return WorstUtility(
         local_fairness=local,
         global_fairness=global_,
@@ -216,10 +225,18 @@ def _utility_case(
     P: FloatArray,
     rows: BoolArray,
     label_x: Callable[[int | None], Hashable],
+    ends: tuple[FloatArray, FloatArray] | None = None,
+    roundings: int = 0,
 ) -> WorstCase:
     """The worst utility of one kind; P: (n_lead, nA, nU) numerators (n_lead: contexts, or 1 for L̄); rows:
-    (n_lead, nA), the groups that take part (pairs of two of them, a != b)."""
+    (n_lead, nA), the groups that take part (pairs of two of them, a != b).
+
+    ``ends``, when P was computed with at most ``roundings`` roundings an entry: its lower and upper ends. The values are then certified on the
+    outer program (numerator's upper end over the denominator's lower end, which contains the exact one), the
+    threshold's widened by the ratio's error (1 + γ)/(1 − γ) ≤ 1 + 3γ, and the witness is the inner ratio.
+    """
     lower, gamma, tau, groups = problem.lower, problem.gamma, problem.tau, problem.law.groups
+    widen = 3 * float(rounding_error(roundings))
     if not np.any(rows.sum(axis=-1) >= 2):  # undefined, not fair: NaN rather than trivial's 0
         trivial = WorstCase.trivial(kind, kernel=None, reason="no two groups can be compared")
         return dataclasses.replace(trivial, value=math.nan, ratio=math.nan)
@@ -237,6 +254,7 @@ def _utility_case(
                 best = (float(found.box[i]), x, int(at[found.a[i]]), int(at[found.b[i]]))
         assert best is not None  # (some leading index has two rows)
         ratio, x, a, b = best
+        ratio = float(widen_up(ratio, widen)) if widen else ratio
         _, k, order = threshold_max_many(P[x, a], P[x, b], lower, gamma)
         h = np.full(P.shape[-1], lower)
         h[order[: int(k)]] = gamma
@@ -252,12 +270,20 @@ def _utility_case(
         )
     flat = _pairs_of_rows(rows)  # (x, a, b), row-major
     upper = _box_values(P, flat, lower, gamma)
+    upper = np.asarray(widen_up(upper, widen)) if widen else upper
     if tau is not None and tau > 0:
-        upper = np.minimum(upper, gamma / tau)
+        upper = np.minimum(upper, up(gamma / tau))
+    low, high = (P, P) if ends is None else ends
 
     def solve(i: int) -> FractionalResult:
         x, a, b = flat[i]
-        return problem.program().solve(P[x, a], P[x, b])
+        r = problem.program().solve(high[x, a], low[x, b])
+        if ends is None or r.argmax is None:
+            return r
+        box = np.full(P.shape[-1], lower), np.full(P.shape[-1], gamma)
+        rows = [] if problem.a_ub is None or problem.b_ub is None else [(problem.a_ub, problem.b_ub, "le")]
+        w = point_ratio(np.clip(r.argmax, *box), low[x, a], high[x, b], *box, rows)
+        return dataclasses.replace(r, witness=w, gap=gap_between(r.value, w))
 
     return _searched_case(problem, kind, search(upper, solve), flat if kind == "local" else flat[:, 1:], label_x)
 

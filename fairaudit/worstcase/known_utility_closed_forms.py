@@ -20,6 +20,7 @@ import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.labels import format_label
+from fairaudit.base.outward import product_ends
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.tables import Kernel
@@ -81,8 +82,7 @@ def randomized_response_cases(
     local = _rr_local(problem, rr, lo_x, hi_x, hot_hi, hot_lo)
     # global under X independent of A (Proposition 10 (b); with τ and g(u): H-bar meets every floor)
     if independent and not binding:
-        weighted_g = weighted_utility(problem)
-        lo_g, hi_g = float(weighted_g.min(-1).sum()), float(weighted_g.max(-1).sum())
+        weighted_g, lo_g, hi_g = weighted_box(problem)
         w = rr_box(rr, lo_g, hi_g, -math.inf)
         high, low = onehot(weighted_g.argmax(-1), nU), onehot(weighted_g.argmin(-1), nU)
         return local, _rr_case(problem, "global", w, None, _rr_kernel(problem, w, lo_g, hi_g, None, high, low))
@@ -219,11 +219,24 @@ def local_threshold(problem: ModelProblem, MA: FloatArray, boxes: tuple[FloatArr
     return _threshold_case(problem, "local", r, nats_up(r), x, int(a), int(b), kern, reason=reason)
 
 
+def weighted_box(problem: ModelProblem) -> tuple[FloatArray, float, float]:
+    """w[x̃, u] = Σ_x P(x) M_X[x, x̃] g(u, x) and the box [Σ_x̃ min_u w, Σ_x̃ max_u w] of L̄'s fast path, outward.
+
+    The box program's value grows as the box widens (it depends on hi/lo only, ``proofs/black_box.md`` §6): the
+    lower end is rounded down and the upper end up by their roundings, P(x) (n_groups − 1), the products (2), the
+    sums over x (n_x − 1) and over x̃ (n_x̃ − 1).
+    """
+    weighted_g = weighted_utility(problem)
+    n_x, n_a, _ = problem.g.shape
+    k = n_a + n_x + problem.n_released_contexts
+    lo_g, hi_g = weighted_g.min(-1).sum(), weighted_g.max(-1).sum()
+    return weighted_g, float(product_ends(lo_g, k, lo_g > 0)[0]), float(product_ends(hi_g, k, hi_g > 0)[1])
+
+
 def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
     """max L̄ without a binding τ, g free of the group, X ⊥ A: the box over [Σ min w, Σ max w] and its kernel."""
     nU = problem.g.shape[2]
-    weighted_g = weighted_utility(problem)
-    lo_g, hi_g = weighted_g.min(-1).sum(), weighted_g.max(-1).sum()
+    weighted_g, lo_g, hi_g = weighted_box(problem)
     vals = pairwise_box(MA, lo_g, hi_g, None)[0]
     np.fill_diagonal(vals, -np.inf)
     a, b = np.unravel_index(int(vals.argmax()), vals.shape)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import functools
 import operator
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, SupportsIndex
 
 import numpy as np
@@ -20,8 +20,10 @@ import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.errors import InputError
+from fairaudit.base.exact_duality import point_ratio
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
+from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.pair_search import SearchResult, pairwise_box, relaxed_first, search
 from fairaudit.worstcase.worst_cases import WorstCase
@@ -47,27 +49,32 @@ def local_search(
     else:
         upper = np.full(len(triples), np.inf)
     if tau is not None and tau > 0:
-        upper = np.minimum(upper, g[triples[:, 0], triples[:, 1]].max(-1) / tau)
-    num = lambda i: space.coef(triples[i, 0], triples[i, 1])  # noqa: E731
-    den = lambda i: space.coef(triples[i, 0], triples[i, 2])  # noqa: E731
+        upper = np.minimum(upper, up(g[triples[:, 0], triples[:, 1]].max(-1) / tau))
+    coefficients = [[_Coefficients.of(space, x, b) for b in range(nA)] if live[x] else [] for x in range(g.shape[0])]
+
+    def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
+        x, a, b = triples[i]
+        return coefficients[x][a], coefficients[x][b]
+
     if not problem.group_free:
         gmax_xa, gmin_xa = g.max(-1), g.min(-1)
         with np.errstate(divide="ignore", invalid="ignore"):
             crude = np.where(
                 gmin_xa[triples[:, 0], triples[:, 2]] > 0,
-                gmax_xa[triples[:, 0], triples[:, 1]] / gmin_xa[triples[:, 0], triples[:, 2]],
+                up(gmax_xa[triples[:, 0], triples[:, 1]] / gmin_xa[triples[:, 0], triples[:, 2]]),
                 np.inf,
             )
         upper = np.minimum(upper, crude)
+    inexact = max((c.roundings for row in coefficients for c in row), default=0)
     if space.lo is not None and space.hi is not None and problem.method != "lp" and space.rows is not None:
         # closed-form relaxation (only the denominator's τ; τ rows: floor = τ): an upper bound per triple
         for context in xs:
-            P = np.stack([space.coef(context, a) for a in range(nA)])
-            v = pairwise_box(P, space.lo, space.hi, floor)[1]
-            assert v is not None  # (a floor was given)
+            P = np.stack([c.value for c in coefficients[context]])
+            v = _relaxation(P, space.lo, space.hi, floor, inexact)
             at = triples[:, 0] == context
             upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
-    return _model_case(problem, "local", search(upper, _solver(problem, space, num, den)), triples, space.to_kernel)
+    found = search(upper, _solver(problem, space, pair, inexact))
+    return _model_case(problem, "local", found, triples, space.to_kernel)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
@@ -77,52 +84,123 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     p_context_given_group = np.nan_to_num(problem.population.context_given_group(), nan=0.0)  # P(x | a), (nX, nA)
     space = _model_program(MA, problem.context_mechanism.matrix, g, live, tau, problem.decision_only, problem.binding)
 
-    def coef_global(a: int) -> FloatArray:
-        terms = [
-            p_context_given_group[x, a] * space.coef(x, a)
-            for x in np.flatnonzero(live & (p_context_given_group[:, a] > 0))
-        ]
-        if not terms:
+    def coef_global(a: int) -> _Coefficients:
+        xs = np.flatnonzero(live & (p_context_given_group[:, a] > 0))
+        if not xs.size:
             raise InputError(
                 "population",
                 f"group {format_label(groups[a])!r} has P(A = a) = 0: the worst model for L-bar needs "
                 "every group to have positive probability",
             )
-        return functools.reduce(operator.add, terms)
+        single = np.count_nonzero(problem.population.probabilities[:, a]) == 1  # P(x | a) = 1 exactly
+        return _Coefficients.weighted(space, xs, a, p_context_given_group[xs, a], single)
 
+    coefficients = [coef_global(a) for a in range(nA)]
     upper = np.full(len(pairs), np.inf)
     if tau is not None and tau > 0:
-        upper = np.minimum(upper, problem.gmax.max() / tau)
-    num = lambda i: coef_global(pairs[i, 0])  # noqa: E731
-    den = lambda i: coef_global(pairs[i, 1])  # noqa: E731
+        upper = np.minimum(upper, up(problem.gmax.max() / tau))
+
+    def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
+        return coefficients[pairs[i, 0]], coefficients[pairs[i, 1]]
+
+    inexact = max(c.roundings for c in coefficients)
     if space.lo is not None and space.hi is not None and problem.method != "lp":
-        P = np.stack([coef_global(a) for a in range(nA)])
-        if space.rows is not None:  # (τ rows: floor = τ)
-            v = pairwise_box(P, space.lo, space.hi, floor)[1]
-        else:
-            v = pairwise_box(P, space.lo, space.hi, None)[0]
-        assert v is not None  # (a floor was given)
+        P = np.stack([c.value for c in coefficients])
+        v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
         upper = np.minimum(upper, v[pairs[:, 0], pairs[:, 1]])
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
-    found = search(upper, _solver(problem, space, num, den))
+    found = search(upper, _solver(problem, space, pair, inexact))
     return _model_case(problem, "global", found, global_triples, space.to_kernel)
+
+
+def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
+    """Upper bounds on every pair's program from the box (or its floor relaxation) of the computed coefficients.
+
+    With coefficients that carry k roundings, P ≤ (1 + γ)P̂ and P ≥ (1 − γ)P̂ entrywise (γ = ``rounding_error(k)``): the
+    exact ratio is at most (1 + γ)/(1 − γ) ≤ 1 + 3γ times the computed one, and a point with P[b]·h ≥ τ has
+    P̂[b]·h ≥ (1 − γ)τ, the floor the relaxation keeps.
+    """
+    gamma = float(rounding_error(roundings))
+    if floor is None:
+        v = pairwise_box(P, lo, hi, None)[0]
+    else:
+        relaxed = pairwise_box(P, lo, hi, float(down(floor * (1 - gamma))) if roundings else floor)[1]
+        assert relaxed is not None  # (a floor was given)
+        v = relaxed
+    return np.asarray(widen_up(v, 3 * gamma)) if roundings else v
 
 
 def _solver(
     problem: ModelProblem,
     space: _ModelSpace,
-    num: Callable[[int], FloatArray],
-    den: Callable[[int], FloatArray],
+    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
+    roundings: int,
 ) -> Callable[[int], FractionalResult]:
-    """Solve program i: in G-space the closed-form relaxation first (unless the LP is asked for), else the LP."""
+    """Solve program i: in G-space the closed-form relaxation first (unless the LP is asked for), else the LP.
+
+    Its value is certified on the outer coefficients (numerator rounded up, denominator and τ rows down, then up:
+    ``_Coefficients``), which contain the exact program; where they are not exact its witness is the ratio at the
+    maximiser with the inner ones (numerator down, denominator up) and the τ rows rounded down, a lower end.
+    """
+
+    def num(i: int) -> FloatArray:
+        return pair(i)[0].high
+
+    def den(i: int) -> FloatArray:
+        return pair(i)[1].low
+
     if space.lo is not None and space.hi is not None and problem.method != "lp":
         tau = None if space.rows is None else problem.tau
-        return relaxed_first(num, den, space.lo, space.hi, tau, space.rows, space.program)
+        if tau is not None and roundings:
+            tau = float(down(tau * (1 - float(rounding_error(roundings)))))  # P̂[b]·h ≥ (1 − γ)τ where P[b]·h ≥ τ
+        inner = relaxed_first(num, den, space.lo, space.hi, tau, space.rows, space.program)
+    else:
+
+        def inner(i: int) -> FractionalResult:
+            return space.program().solve(num(i), den(i))
+
+    if not roundings:
+        return inner
 
     def solve(i: int) -> FractionalResult:
-        return space.program().solve(num(i), den(i))
+        r = inner(i)
+        if r.argmax is None:
+            return r
+        p, q = pair(i)[0].low, pair(i)[1].high
+        lower, upper = (np.full(len(p), end) for end in space.box)
+        h = np.clip(np.asarray(r.argmax, dtype=float), lower, upper)
+        w = point_ratio(h, p, q, lower, upper, space.witness_rows)
+        return replace(r, witness=w, gap=gap_between(r.value, w))
 
     return solve
+
+
+@dataclass(frozen=True, eq=False)
+class _Coefficients:
+    """The coefficients of E[g | x, b] (or of E[g | b]) in the program's variables: computed, and enclosed."""
+
+    value: FloatArray  # as computed, to nearest
+    low: FloatArray  # ≤ the exact coefficients
+    high: FloatArray  # ≥ them
+    roundings: int  # the most roundings of an entry (0: exact)
+
+    @classmethod
+    def of(cls, space: _ModelSpace, x: int, b: int) -> _Coefficients:
+        value, roundings, nonzero = space.coef(x, b), space.roundings(x, b), space.nonzero(x, b)
+        low, high = product_ends(value, roundings, nonzero)
+        return cls(value, low, high, int(roundings.max(initial=0)))
+
+    @classmethod
+    def weighted(cls, space: _ModelSpace, xs: IntArray, b: int, weights: FloatArray, single: bool) -> _Coefficients:
+        """Σ_x w_x · coef(x, b): a weight is P(x | b), computed with n_x roundings; the products and the sum add
+        one and n_x − 1 more (none when one context has P(x, b) > 0: its weight is exactly 1)."""
+        value = functools.reduce(operator.add, [w * space.coef(x, b) for x, w in zip(xs, weights)])
+        roundings = np.max([space.roundings(x, b) for x in xs], axis=0)
+        if not single:
+            roundings = roundings + 2 * space.n_contexts + 1
+        nonzero = functools.reduce(operator.or_, [space.nonzero(x, b) for x in xs])
+        low, high = product_ends(value, roundings, nonzero)
+        return cls(value, low, high, int(roundings.max(initial=0)))
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -130,11 +208,16 @@ class _ModelSpace:
     """The polytope of reachable kernels in G-space (g depends on u only) or kernel space."""
 
     coef: Callable[[SupportsIndex, SupportsIndex], FloatArray]  # (x, b) -> coefficients of E[g | x, b]
+    roundings: Callable[[SupportsIndex, SupportsIndex], IntArray]  # (x, b) -> roundings of each coefficient
+    nonzero: Callable[[SupportsIndex, SupportsIndex], BoolArray]  # (x, b) -> whether each is exactly positive
+    n_contexts: int
     to_kernel: Callable[[FloatArray], FloatArray]
-    program: Callable[[], FractionalProgram]  # built on first use
+    program: Callable[[], FractionalProgram]  # built on first use, on the τ rows rounded up
     lo: float | None  # box of the variables (G-space only)
     hi: float | None
     rows: npt.NDArray[np.floating[Any]] | None  # τ rows (G-space only): rows @ h >= τ
+    box: tuple[float, float]  # the variables' bounds, for the witness
+    witness_rows: list[Any]  # the constraints with the τ rows rounded down: a point meeting them is feasible
 
 
 def _model_program(
@@ -155,6 +238,13 @@ def _model_program(
 
         return program
 
+    def tau_rows(
+        rows: npt.NDArray[np.floating[Any]], roundings: IntArray, nonzero: BoolArray
+    ) -> tuple[FloatArray, list[Any]]:
+        """The τ rows rounded up (for the program: a relaxation) and the witness's constraint, rounded down."""
+        low, high = product_ends(np.asarray(rows, dtype=float), roundings, nonzero)
+        return high, [(-low, np.full(len(rows), -float(tau or 0.0)), "le")]
+
     if u_only:
         g_row = g[xs[0], 0] if xs.size else g[0, 0]
         lo, hi = float(g_row.min()), float(g_row.max())
@@ -162,6 +252,12 @@ def _model_program(
 
         def coef_g(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
             return np.outer(MX[x], MA[b]).ravel()
+
+        def roundings_g(x: SupportsIndex, b: SupportsIndex) -> IntArray:
+            return product_roundings(MX[x][:, None], MA[b][None, :]).ravel()
+
+        def nonzero_g(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
+            return np.outer(MX[x] != 0, MA[b] != 0).ravel()
 
         def g_to_kernel(G: FloatArray) -> FloatArray:
             G = G.reshape(nXr, nAr)
@@ -172,41 +268,88 @@ def _model_program(
             return table
 
         rows = np.kron(MX[xs], MA) if with_tau and tau is not None and tau > lo else None
+        outer, witness_rows = (
+            (None, [])
+            if rows is None
+            else tau_rows(
+                rows,
+                product_roundings(np.kron(MX[xs], np.ones_like(MA)), np.kron(np.ones_like(MX[xs]), MA)),
+                np.kron(MX[xs] != 0, MA != 0),
+            )
+        )
         b_rows = None if rows is None or tau is None else np.full(rows.shape[0], -tau)
         return _ModelSpace(
             coef=coef_g,
+            roundings=roundings_g,
+            nonzero=nonzero_g,
+            n_contexts=nX,
             to_kernel=g_to_kernel,
             program=lazy(
                 lambda: FractionalProgram(
                     nXr * nAr,
                     lower=lo,
                     upper=hi,
-                    A_ub=None if rows is None else -rows,
+                    A_ub=None if outer is None else -outer,
                     b_ub=b_rows,
                 )
             ),
             lo=lo,
             hi=hi,
             rows=rows,
+            box=(lo, hi),
+            witness_rows=witness_rows,
         )
 
+    def factors(x: SupportsIndex, b: SupportsIndex) -> tuple[FloatArray, FloatArray, FloatArray]:
+        return MX[x][:, None, None], MA[b][None, :, None], g[x, b][None, None, :]
+
     def coef(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
-        return (MX[x][:, None, None] * MA[b][None, :, None] * g[x, b][None, None, :]).ravel()
+        mx, ma, gx = factors(x, b)
+        return (mx * ma * gx).ravel()
+
+    def roundings(x: SupportsIndex, b: SupportsIndex) -> IntArray:
+        return np.broadcast_to(product_roundings(*factors(x, b)), (nXr, nAr, nU)).ravel()
+
+    def nonzero(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
+        mx, ma, gx = factors(x, b)
+        return ((mx != 0) & (ma != 0) & (gx != 0)).ravel()
 
     def to_kernel(K: FloatArray) -> FloatArray:
         return K.reshape(nXr, nAr, nU)
 
+    a_eq = sp.kron(sp.identity(nXr * nAr, format="csr"), np.ones((1, nU)), format="csr")
+    simplex = [(a_eq, np.ones(nXr * nAr), "eq")]
+    k_outer: FloatArray | None = None
+    k_witness_rows: list[Any] = simplex
+    if with_tau and tau is not None and tau > 0:
+        pairs = [(x, b) for x in xs for b in range(nA)]
+        k_outer, below = tau_rows(
+            np.stack([coef(x, b) for x, b in pairs]),
+            np.stack([roundings(x, b) for x, b in pairs]),
+            np.stack([nonzero(x, b) for x, b in pairs]),
+        )
+        k_witness_rows = below + simplex
+
     def build() -> FractionalProgram:
-        a_eq = sp.kron(sp.identity(nXr * nAr, format="csr"), np.ones((1, nU)), format="csr")
-        a_ub = b_ub = None
-        if with_tau and tau is not None and tau > 0:
-            a_ub = -np.stack([coef(x, b) for x in xs for b in range(nA)])
-            b_ub = np.full(a_ub.shape[0], -tau)
+        a_ub = None if k_outer is None else -k_outer
+        b_ub = None if k_outer is None else np.full(k_outer.shape[0], -float(tau or 0.0))
         return FractionalProgram(
             nXr * nAr * nU, lower=0.0, upper=1.0, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=np.ones(nXr * nAr)
         )
 
-    return _ModelSpace(coef=coef, to_kernel=to_kernel, program=lazy(build), lo=None, hi=None, rows=None)
+    return _ModelSpace(
+        coef=coef,
+        roundings=roundings,
+        nonzero=nonzero,
+        n_contexts=nX,
+        to_kernel=to_kernel,
+        program=lazy(build),
+        lo=None,
+        hi=None,
+        rows=None,
+        box=(0.0, 1.0),
+        witness_rows=k_witness_rows,
+    )
 
 
 def _model_case(

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -29,6 +29,10 @@ from fairaudit.laws.utilities import UtilityClass
 
 METHODS = ("auto", "threshold", "lp")
 
+STOP = 1e-12
+"""Relative margin of :func:`search`'s stop: problems whose bound is within it of the best value are not solved
+(their bound, when above, is the value returned)."""
+
 
 @dataclass(frozen=True, kw_only=True)
 class SearchResult:
@@ -43,23 +47,30 @@ class SearchResult:
 def search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> SearchResult:
     """Maximise over problems i by LP, in decreasing order of the upper bounds ``upper[i]`` (ratios).
 
-    Stops when the best value found is at least every remaining upper bound
-    (exact: the bounds are valid). An infeasible program means the common
-    polytope is empty, which ends the search.
+    Stops when the best value found is within :data:`STOP` of every remaining upper bound (the bounds are valid,
+    rounded up); an infeasible program means the common polytope is empty, which ends the search. Near-ties (within
+    1e-9, the solver's accuracy) keep the earlier problem as the maximiser, but the value returned is an upper end
+    of the maximum over every problem: the largest value solved, or the largest bound left unsolved where that is
+    larger; it is certified only when every value solved is.
     """
     order = np.argsort(-upper, kind="stable")
-    best_i, best, best_v, solved = -1, None, -math.inf, 0
+    best_i, best, best_v, top, certified, solved = -1, None, -math.inf, -math.inf, True, 0
     for i in order:
-        if best is not None and best_v >= upper[i] * (1 - 1e-9):
+        if best is not None and top >= upper[i] * (1 - STOP):
+            top = max(top, float(upper[i]))  # the largest bound left unsolved
             break
         r = solve(int(i))
         solved += r.method == "lp"
         if r.status == "infeasible":
             return SearchResult(index=-1, result=r, solved=solved, reason=r.reason)
+        certified = certified and r.certified
         if best is None or r.value > best_v * (1 + 1e-9):  # ties (to solver accuracy) keep the earlier pair
             best_i, best, best_v = int(i), r, r.value
-        if math.isinf(best_v):
+        top = max(top, r.value)
+        if math.isinf(top):
             break
+    if best is not None and (top > best.value or certified != best.certified):
+        best = replace(best, value=top, certified=certified, gap=gap_between(top, best.witness))
     return SearchResult(index=best_i, result=best, solved=solved, reason="")
 
 

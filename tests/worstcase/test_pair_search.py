@@ -420,3 +420,26 @@ def test_white_box_calibration_behind_randomized_response_without_its_matrix(mon
     assert closed.epsilon == pytest.approx(with_matrix.epsilon, rel=1e-9)  # the refinement stops within ~1e-12
     assert closed.bound == pytest.approx(with_matrix.bound, rel=1e-9)
     assert 0 < closed.epsilon < math.inf and closed.bound <= 0.4 * (1 + 1e-12)
+
+
+def _fixed(value: float, certified: bool = True):
+    from fairaudit.base.linear_fractional import FractionalResult
+
+    return FractionalResult(
+        value=value, argmax=None, status="optimal", method="lp", solver_status="optimal", reason="", p=np.zeros(1),
+        q=np.zeros(1), lower=None, upper=None, certified=certified, witness=value, gap=0.0,
+    )  # fmt: skip
+
+
+def test_search_returns_an_upper_end_over_every_problem():
+    values = [2.0, 2.0 * (1 + 5e-10), 1.0]
+    # a near-tie (within the solver's 1e-9) keeps the earlier problem as the maximiser, but its value is the larger
+    found = search_module.search(np.array([3.0, 2.5, 1.5]), lambda i: _fixed(values[i]))
+    assert found.index == 0 and found.result.value == values[1] and found.solved == 2
+    # a problem left unsolved because its bound is within STOP of the best: its bound is the value
+    bound = 2.0 * (1 + 1e-13)
+    found = search_module.search(np.array([3.0, bound, 1.0]), lambda i: _fixed(values[0]))
+    assert found.index == 0 and found.result.value == bound and found.solved == 1
+    # one uncertified value leaves the maximum uncertified, whichever problem attains it
+    found = search_module.search(np.array([3.0, 2.5, 1.5]), lambda i: _fixed(values[i], certified=i != 1))
+    assert found.index == 0 and not found.result.certified

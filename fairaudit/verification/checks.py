@@ -1,0 +1,147 @@
+"""One recorded number of a certificate against its re-derived value: :class:`Check`, :func:`judge`, :func:`equal`.
+
+A number **holds** when it lies on its certified side of the exact value (an upper bound at or above it) and within
+:data:`TOLERANCE` of it (so that a number moved by 1e-9 fails); a measured value holds within the tolerance on either
+side.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from fairaudit.base.json_values import Report, number
+from fairaudit.base.outward import fraction_down, fraction_up
+from fairaudit.verification.enclosures import INF, Enclosure, exact
+
+__all__ = ["SIDES", "TOLERANCE", "Check", "equal", "judge"]
+
+TOLERANCE = 1e-12
+"""How far (relative to max(1, |value|)) a recorded number may sit from its exact value on its allowed side."""
+
+SIDES = ("upper", "lower", "estimate", "equal", "at most")
+"""A check's side: an upper bound (≥ the exact value, within the tolerance), a lower bound, a measured value (either
+side), an identity, or a value attained (≤ the exact maximum: a witness)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Check:
+    """One recorded number against its re-derived value.
+
+    Attributes
+    ----------
+    name : str
+        The number's JSON path (``bounds.tight``).
+    reported : float or str or bool or None
+        The recorded value.
+    derived_low, derived_high : float
+        The exact value's enclosure, rounded outward to floats (equal for an exact value).
+    side : {"upper", "lower", "estimate", "equal", "at most"}
+    holds : bool
+    fails_by : float
+        How far outside the allowed range the reported value is (0 when it holds).
+    detail : str
+        What was re-derived, or why it fails.
+    """
+
+    name: str
+    reported: Any
+    derived_low: float
+    derived_high: float
+    side: str
+    holds: bool
+    fails_by: float
+    detail: str
+
+    def to_dict(self) -> Report:
+        """The report dictionary."""
+        return {
+            "name": self.name,
+            "reported": self.reported,
+            "derived": [number(self.derived_low), number(self.derived_high)],
+            "side": self.side,
+            "holds": self.holds,
+            "fails_by": number(self.fails_by),
+            "detail": self.detail,
+        }
+
+    def line(self) -> str:
+        """One line: the name, the reported number and ``holds`` or ``fails by X``."""
+        verdict = "holds" if self.holds else f"fails by {self.fails_by:.3g}"
+        shown = self.reported if not isinstance(self.reported, float) else f"{self.reported!r}"
+        return f"{self.name} = {shown}: {verdict}" + (f" ({self.detail})" if self.detail and not self.holds else "")
+
+
+def _float(x: Fraction | float, upward: bool) -> float:
+    """An exact value as a float on the stated side."""
+    if isinstance(x, float):
+        return x
+    return fraction_up(x) if upward else fraction_down(x)
+
+
+def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str = "") -> Check:
+    """The check of a reported number against the enclosure of its exact value, on ``side``.
+
+    Parameters
+    ----------
+    name : str
+        The number's JSON path, for the report.
+    reported : float, str or None
+        The recorded number (a float, or "inf"); None fails ("no value recorded").
+    derived : Enclosure
+        lo ≤ exact value ≤ hi.
+    side : {"upper", "lower", "estimate", "equal", "at most"}
+        "upper": the number must be ≥ hi and ≤ hi + :data:`TOLERANCE`·max(1, |hi|); "lower": ≤ lo and within the
+        tolerance below it; "estimate": within the tolerance of [lo, hi]; "equal": in [lo, hi]; "at most": ≤ lo
+        (a value attained, a witness).
+    detail : str
+        What was re-derived.
+
+    Returns
+    -------
+    Check
+        ``holds``, and ``fails_by`` (the distance outside the allowed range, rounded up).
+
+    Examples
+    --------
+    >>> third = Enclosure(Fraction(1, 3), Fraction(1, 3))
+    >>> judge("x", 0.3333333333333333, third, "upper").holds, judge("x", 0.33333333333333337, third, "upper").holds
+    (False, True)
+    >>> judge("x", 0.3333333343333334, third, "upper").line()
+    'x = 0.3333333343333334: fails by 1e-09'
+    """
+    low, high = _float(derived.lo, False), _float(derived.hi, True)
+    value = exact(reported, name) if reported is not None else None
+    if value is None:
+        return Check(name=name, reported=reported, derived_low=low, derived_high=high, side=side, holds=False,
+                     fails_by=math.inf, detail="no value recorded")  # fmt: skip
+    scale = max(Fraction(1), abs(derived.hi)) if isinstance(derived.hi, Fraction) else Fraction(1)
+    slack = Fraction(TOLERANCE) * scale
+    if value == INF or derived.hi == INF:
+        ok = value == INF and (derived.lo == INF or side == "upper")
+        by = 0.0 if ok else math.inf
+    else:
+        allowed_low = derived.hi if side == "upper" else -INF if side == "at most" else derived.lo - slack
+        allowed_high = derived.lo if side in ("lower", "at most") else derived.hi + slack
+        if side == "equal":
+            allowed_low, allowed_high = derived.lo, derived.hi
+        below, above = allowed_low - value, value - allowed_high
+        ok = below <= 0 and above <= 0
+        by = 0.0 if ok else _float(max(below, above), True)
+    return Check(name=name, reported=reported, derived_low=low, derived_high=high, side=side, holds=ok,
+                 fails_by=by, detail=detail)  # fmt: skip
+
+
+def equal(name: str, reported: Any, expected: Any, detail: str = "") -> Check:
+    """A recorded value that must equal the re-derived one exactly (a label, a verdict, a digest).
+
+    Examples
+    --------
+    >>> equal("targets.local.met", True, False).line()
+    'targets.local.met = True: fails by inf (expected False)'
+    """
+    ok = reported == expected
+    return Check(name=name, reported=reported, derived_low=math.nan, derived_high=math.nan, side="equal", holds=ok,
+                 fails_by=0.0 if ok else math.inf, detail=detail or f"expected {expected!r}")  # fmt: skip

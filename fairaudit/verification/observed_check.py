@@ -1,0 +1,157 @@
+"""The observed local and global g-fairness behind the filter, re-derived exactly from the recorded kernel.
+
+The law behind the recorded mechanisms is composed at both ends of their enclosures (randomized response's rows hold
+e^ε, irrational), E[g | x, a] follows, and the largest ratios are enclosed (``proofs/verification.md``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from fairaudit.verification.checks import Check, judge
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, ln_of, recorded_array
+
+__all__ = ["ObservedEnclosures", "observed_checks", "observed_enclosures"]
+
+
+def _law(kernel: Sequence[Any], sensitive: RecordedMechanism, context: RecordedMechanism, low: bool) -> list[Any]:
+    """E-side law Q[x][a][u] = Σ M_X[x, x̃] M_A[a, ã] K[x̃, ã, u] at one end of the mechanisms' enclosures."""
+    rows_a = sensitive.matrix_rows()
+    if rows_a is None:  # randomized response: Q = p K + q (S − K), S the sum over released groups
+        p, q = sensitive.rr_rows()
+        pe, qe = (p.lo, q.lo) if low else (p.hi, q.hi)
+        by_a = []
+        for plane in kernel:
+            total = [sum(col) for col in zip(*plane)]
+            by_a.append([[pe * c + qe * (s - c) for c, s in zip(cell, total)] for cell in plane])
+    else:
+        by_a = [
+            [[sum(w * plane[j][u] for j, w in enumerate(row) if w) for u in range(len(plane[0]))] for row in rows_a]
+            for plane in kernel
+        ]
+    rows_x = context.matrix_rows()
+    if context.kind == "identity":
+        return by_a
+    if rows_x is None:
+        p, q = context.rr_rows()
+        pe, qe = (p.lo, q.lo) if low else (p.hi, q.hi)
+        rows_x = tuple(tuple(Fraction(pe if i == j else qe) for j in range(context.k)) for i in range(context.k))
+    return [
+        [
+            [sum(w * by_a[j][a][u] for j, w in enumerate(row) if w) for u in range(len(by_a[0][0]))]
+            for a in range(len(by_a[0]))
+        ]
+        for row in rows_x
+    ]
+
+
+def _expected(law: list[Any], g: list[Any]) -> list[list[Fraction]]:
+    """E[g | x, a] = Σ_u Q[x, a, u] g[x, a, u] (g one row over decisions, or a full table)."""
+    flat = not isinstance(g[0], list)
+    return [
+        [sum(q * (g[u] if flat else g[x][a][u]) for u, q in enumerate(cell)) for a, cell in enumerate(plane)]
+        for x, plane in enumerate(law)
+    ]
+
+
+def _ratio(top: Fraction, bottom: Fraction) -> Fraction | float:
+    """top/bottom with 0/0 = 1 and c/0 = +inf."""
+    if bottom == 0:
+        return Fraction(1) if top == 0 else INF
+    return top / bottom
+
+
+@dataclass(frozen=True)
+class ObservedEnclosures:
+    """The observed L and L̄ behind a mechanism, as enclosed ratios (not logarithms), and E[g | x, a] at both ends."""
+
+    local: Enclosure  # max over live x of max_a E[g | x, a] / min_a E[g | x, a]
+    global_: Enclosure  # max_a E[g | a] / min_a E[g | a], E[g | a] = Σ_x P(x, a) E[g | x, a] / P(a)
+    ends: list[Any]  # E[g | x, a] at the low and at the high end of the mechanisms' enclosures
+
+
+def observed_enclosures(
+    inputs: Mapping[str, Any], sensitive: RecordedMechanism, context: RecordedMechanism
+) -> ObservedEnclosures | str:
+    """The observed L and L̄ of the recorded kernel behind ``sensitive`` and ``context``, enclosed; or why not.
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs`` (its kernel, utility and population are used; its mechanisms are not).
+    sensitive, context : RecordedMechanism
+        M_A and M_X (the certificate's, or a calibrated member of the family).
+
+    Returns
+    -------
+    ObservedEnclosures or str
+        The enclosures; a str, the reason, when there is no kernel, it has empty cells, or M_A is too large to
+        compose exactly.
+    """
+    if inputs["kernel"] is None:
+        return "the certificate records no model"
+    kernel = recorded_array(inputs["kernel"]["probabilities"], "inputs.kernel.probabilities")
+    if any(v is None for plane in kernel for cell in plane for v in cell):
+        return "the kernel has empty cells"
+    if sensitive.kind == "matrix" and len(sensitive.outputs) * sensitive.k > 10**6:
+        return "the mechanism's matrix is too large to compose exactly"
+    g = recorded_array(inputs["utility"]["values"], "inputs.utility.values")
+    pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
+    ends = [_expected(_law(kernel, sensitive, context, low), g) for low in (True, False)]
+    live = [x for x in range(len(pop)) if sum(pop[x]) > 0]
+    local = _max_ratio([[(e_lo, e_hi) for e_lo, e_hi in zip(ends[0][x], ends[1][x])] for x in live])
+    by_group = []
+    for a in range(len(pop[0])):
+        mass = sum(pop[x][a] for x in range(len(pop)))
+        if mass == 0:
+            continue
+        lo = sum(pop[x][a] * ends[0][x][a] for x in range(len(pop))) / mass
+        hi = sum(pop[x][a] * ends[1][x][a] for x in range(len(pop))) / mass
+        by_group.append((lo, hi))
+    return ObservedEnclosures(local, _max_ratio([by_group]), ends)
+
+
+def observed_checks(
+    cert: Mapping[str, Any], sensitive: RecordedMechanism, context: RecordedMechanism, skipped: list[tuple[str, str]]
+) -> list[Check]:
+    """The observed local and global g-fairness behind the filter, and their maximising context and groups."""
+    inputs = cert["inputs"]
+    if inputs["kernel"] is None or "observed" not in cert:
+        return []
+    found = observed_enclosures(inputs, sensitive, context)
+    if isinstance(found, str):
+        skipped.append(("observed", found))
+        return []
+    contexts, groups = inputs["population"]["contexts"], inputs["population"]["groups"]
+    obs = cert["observed"]
+    local = obs["local"]
+    out = [judge("observed.local.value", local["value"], ln_of(found.local), "estimate")]
+    named = _named_ratio(found.ends, contexts.index(local["context"]) if local["context"] in contexts else None,
+                         groups, local["group"], local["other_group"])  # fmt: skip
+    out.append(judge("observed.local (its context and groups)", local["value"], ln_of(named), "estimate",
+                     f"the ratio at {local['context']!r}: {local['group']!r} over {local['other_group']!r}"))  # fmt: skip
+    out.append(judge("observed.global.value", obs["global"]["value"], ln_of(found.global_), "estimate"))
+    return out
+
+
+def _max_ratio(planes: list[list[tuple[Fraction, Fraction]]]) -> Enclosure:
+    """max over planes of max_a E / min_a E, enclosed from each E's (low, high) ends."""
+    lo: Fraction | float = Fraction(1)
+    hi: Fraction | float = Fraction(1)
+    for plane in planes:
+        if len(plane) < 2:
+            continue
+        lo = max(lo, _ratio(max(e[0] for e in plane), min(e[1] for e in plane)))
+        hi = max(hi, _ratio(max(e[1] for e in plane), min(e[0] for e in plane)))
+    return Enclosure(lo, hi)
+
+
+def _named_ratio(ends: list[Any], x: int | None, groups: list[Any], group: Any, other: Any) -> Enclosure:
+    """E[g | x, group] / E[g | x, other], enclosed; the empty enclosure [+inf, −inf] when a label is unknown."""
+    if x is None or group not in groups or other not in groups:
+        return Enclosure(INF, -INF)
+    a, b = groups.index(group), groups.index(other)
+    return Enclosure(_ratio(ends[0][x][a], ends[1][x][b]), _ratio(ends[1][x][a], ends[0][x][b]))

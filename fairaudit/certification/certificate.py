@@ -34,6 +34,7 @@ from fairaudit.certification.recorded_inputs import (
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.families import MechanismFamily
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
@@ -226,6 +227,7 @@ class Certificate:
             spec.utility_class,
             spec.population,
             spec.kernel(),
+            self._calibrated_members(),
         )
         out["inputs_sha256"] = canonical_digest(inputs)
         out["inputs"] = inputs
@@ -236,6 +238,17 @@ class Certificate:
         if "black_box" in self.omitted or math.isnan(self.black_box.local_fairness.value):
             return self.omitted.get("black_box", "")
         return _black_box_description(self.spec.tau)
+
+    def _calibrated_members(self) -> dict[str, Mechanism | None] | None:
+        """The family's member at each calibrated ε (what ``fairaudit verify`` re-derives the calibration from)."""
+        family = self.spec.sensitive_family
+        if family is None or (self.calibration is None and self.calibration_white_box is None):
+            return None
+
+        def member(c: Calibration | None) -> Mechanism | None:
+            return None if c is None or not c.feasible or math.isnan(c.epsilon) else family(c.epsilon)
+
+        return {"black_box": member(self.calibration), "white_box": member(self.calibration_white_box)}
 
     def _calibration_dict(self) -> Report:
         """``calibration`` with a target: the black-box one (or nulls and why), and ``white_box``."""

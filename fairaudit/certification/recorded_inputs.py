@@ -8,6 +8,7 @@ format is ``docs/certificates.md`` ("The certificate's format"); ``fairaudit ver
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -81,6 +82,7 @@ def certificate_inputs(
     utility_class: UtilityClass,
     population: Population,
     kernel: Kernel | None,
+    calibrated: Mapping[str, Mechanism | None] | None = None,
 ) -> Report:
     """The ``inputs`` section of a certificate: everything its numbers are computed from.
 
@@ -97,13 +99,17 @@ def certificate_inputs(
     utility_class : UtilityClass
         The class the bounds hold for, its fields resolved: [lower, γ], τ (or None), L_A, the metric d(a, a')
         (shape (n_groups, n_groups); None for the discrete metric) and diam(A).
+    calibrated : mapping, optional
+        The family's member at each calibrated ε, ``{"black_box": M or None, "white_box": M or None}``; None when
+        the certificate has no calibration.
 
     Returns
     -------
     dict
         ``sensitive_mechanism``, ``context_mechanism`` (:func:`mechanism_inputs`), ``utility`` (``decisions``,
-        ``values`` and the class: ``lower``, ``gamma``, ``tau``, ``lipschitz``, ``metric``, ``diameter``), ``population`` (``contexts``, ``groups``, ``probabilities``) and ``kernel`` (None, or
-        its labels and ``probabilities``).
+        ``values`` and the class: ``lower``, ``gamma``, ``tau``, ``lipschitz``, ``metric``, ``diameter``), ``population`` (``contexts``, ``groups``, ``probabilities``), ``kernel`` (None, or
+        its labels and ``probabilities``) and, with a calibration, ``calibration`` (each member by
+        :func:`mechanism_inputs`, or None).
     """
     out: Report = {
         "sensitive_mechanism": mechanism_inputs(sensitive),
@@ -132,6 +138,8 @@ def certificate_inputs(
             "decisions": [label(v) for v in kernel.decisions],
             "probabilities": json_array(kernel.probabilities),
         }
+    if calibrated is not None:
+        out["calibration"] = {k: None if m is None else mechanism_inputs(m) for k, m in calibrated.items()}
     return out
 
 

@@ -21,9 +21,10 @@ __all__ = ["SIDES", "TOLERANCE", "Check", "equal", "judge"]
 TOLERANCE = 1e-12
 """How far (relative to max(1, |value|)) a recorded number may sit from its exact value on its allowed side."""
 
-SIDES = ("upper", "lower", "estimate", "equal", "at most")
+SIDES = ("upper", "lower", "estimate", "equal", "at most", "at least", "met")
 """A check's side: an upper bound (≥ the exact value, within the tolerance), a lower bound, a measured value (either
-side), an identity, or a value attained (≤ the exact maximum: a witness)."""
+side), an identity, a value attained (≤ the exact maximum: a witness), a target a certified value meets (≥ the exact
+value, however far), or a target a measured value meets (≥ it less the tolerance)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -38,7 +39,7 @@ class Check:
         The recorded value.
     derived_low, derived_high : float
         The exact value's enclosure, rounded outward to floats (equal for an exact value).
-    side : {"upper", "lower", "estimate", "equal", "at most"}
+    side : {"upper", "lower", "estimate", "equal", "at most", "at least", "met"}
     holds : bool
     fails_by : float
         How far outside the allowed range the reported value is (0 when it holds).
@@ -92,10 +93,11 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
         The recorded number (a float, or "inf"); None fails ("no value recorded").
     derived : Enclosure
         lo ≤ exact value ≤ hi.
-    side : {"upper", "lower", "estimate", "equal", "at most"}
+    side : {"upper", "lower", "estimate", "equal", "at most", "at least", "met"}
         "upper": the number must be ≥ hi and ≤ hi + :data:`TOLERANCE`·max(1, |hi|); "lower": ≤ lo and within the
         tolerance below it; "estimate": within the tolerance of [lo, hi]; "equal": in [lo, hi]; "at most": ≤ lo
-        (a value attained, a witness).
+        (a value attained, a witness); "at least": ≥ hi (a target the exact value meets); "met": ≥ lo less the
+        tolerance (a target a measured value meets, to its rounding).
     detail : str
         What was re-derived.
 
@@ -111,6 +113,8 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
     (False, True)
     >>> judge("x", 0.3333333343333334, third, "upper").line()
     'x = 0.3333333343333334: fails by 1e-09'
+    >>> judge("target", 0.5, third, "at least").holds, judge("target", 0.3, third, "at least").holds
+    (True, False)
     """
     low, high = _float(derived.lo, False), _float(derived.hi, True)
     value = exact(reported, name) if reported is not None else None
@@ -123,8 +127,10 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
         ok = value == INF and (derived.lo == INF or side == "upper")
         by = 0.0 if ok else math.inf
     else:
-        allowed_low = derived.hi if side == "upper" else -INF if side == "at most" else derived.lo - slack
+        allowed_low = derived.hi if side in ("upper", "at least") else -INF if side == "at most" else derived.lo - slack
         allowed_high = derived.lo if side in ("lower", "at most") else derived.hi + slack
+        if side in ("at least", "met"):
+            allowed_high = INF
         if side == "equal":
             allowed_low, allowed_high = derived.lo, derived.hi
         below, above = allowed_low - value, value - allowed_high

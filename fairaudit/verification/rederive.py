@@ -18,6 +18,7 @@ from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
 from fairaudit.base.json_values import Report, canonical_digest, number
+from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, exp_of, ln, ln_of
 from fairaudit.verification.observed_check import observed_checks
@@ -153,10 +154,8 @@ def verify(
     checks += _target_checks(certificate)
     if privacy_filter is not None:
         checks.append(_filter_check(sensitive, privacy_filter))
-    skipped += [
-        ("calibration", "the calibrated epsilon (not re-derived in format version 1)"),
-        ("observed.intervals", "statistical intervals are estimates, not certified numbers"),
-    ]
+    checks += calibration_checks(certificate, skipped)
+    skipped.append(("observed.intervals", "statistical intervals are estimates, not certified numbers"))
     return Verification(source=source, checks=tuple(checks), not_checked=tuple(skipped))
 
 

@@ -1,0 +1,113 @@
+"""The calibrated ε re-derived: the family's member at that ε, recorded in ``inputs.calibration``, meets the target.
+
+A calibration claims that the member of the spec's family at its ε meets the target: for the black-box calibration,
+the worst local g-fairness over every decision model and every utility of the class ([lower, γ], E[g | x, a] ≥ τ,
+free of the group) is at most the target; for the white-box calibration, the observed L (or L̄) of the recorded
+model behind that member is. Each is re-derived exactly from the recorded member: its ε (at most the calibration's),
+its worst case by the exact programs of :mod:`~fairaudit.verification.black_box_check` (one context, the class's
+box [lower, γ]: a utility free of the group enters only through h = Σ_u K g(u) ∈ [lower, γ], and the context
+mechanism drops out, ``proofs/black_box.md`` §1 and §6), its observed L by
+:mod:`~fairaudit.verification.observed_check`. That ε is the *largest* such is not re-derived (it would take the
+member just above it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from fairaudit.verification.black_box_check import black_box_enclosures
+from fairaudit.verification.checks import Check, judge
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, ln_of
+from fairaudit.verification.observed_check import observed_enclosures
+
+__all__ = ["calibration_checks"]
+
+
+def calibration_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) -> list[Check]:
+    """The black-box and white-box calibrations of a certificate, re-derived from their recorded members.
+
+    Parameters
+    ----------
+    cert : mapping
+        A certificate (checked against its schema).
+    skipped : list of (str, str)
+        Appended to: what is not re-derived, and why.
+
+    Returns
+    -------
+    list of Check
+        Per calibration: ``calibration.epsilon`` (≥ the member's exact ε), ``calibration.bound`` (≥ the member's
+        exact worst case; for the white box, within the tolerance of the member's exact L), and
+        ``calibration.target`` (≥ that exact value: the target is met).
+    """
+    cal = cert.get("calibration")
+    if cal is None:
+        return []
+    members = cert["inputs"].get("calibration")
+    if members is None:
+        skipped.append(("calibration", "the certificate records no calibrated mechanism"))
+        return []
+    out: list[Check] = []
+    if cal.get("epsilon") is not None and members.get("black_box") is not None:
+        out += _black_box(cert, cal, members["black_box"], skipped)
+    elif cal.get("epsilon") is not None:
+        skipped.append(("calibration", "no member recorded at the calibrated epsilon"))
+    white = cal.get("white_box")
+    if white is not None and members.get("white_box") is not None:
+        out += _white_box(cert, white, members["white_box"], skipped)
+    return out
+
+
+def _member(record: Mapping[str, Any], field: str) -> tuple[RecordedMechanism, Enclosure]:
+    m = RecordedMechanism.from_record(record, field)
+    return m, m.epsilon_enclosure()
+
+
+def _black_box(
+    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], skipped: list[tuple[str, str]]
+) -> list[Check]:
+    """The member's ε, and its worst local g-fairness over the class, at most the bound and the target."""
+    m, eps = _member(record, "inputs.calibration.black_box")
+    out = [judge("calibration.epsilon", cal["epsilon"], eps, "upper", "the member's exact epsilon")]
+    if cal.get("kind") != "local" or exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz") != 0:
+        skipped.append(("calibration.bound", "a target on L-bar, or utilities Lipschitz in the group"))
+        return out
+    if m.kind == "identity" or eps.lo == INF:
+        skipped.append(("calibration.bound", "every epsilon meets the target (the identity)"))
+        return out
+    lower, gamma = cal.get("lower") or 0.0, cal.get("gamma")
+    the_class = {
+        "sensitive_mechanism": record,
+        "context_mechanism": {"inputs": ["x"], "outputs": ["x"], "kind": "identity"},
+        "utility": {"values": [gamma, lower], "tau": cal.get("tau")},
+        "population": {"contexts": ["x"], "groups": record["inputs"], "probabilities": [[1.0] * m.k]},
+    }
+    worst = black_box_enclosures(the_class)
+    if worst.local is None:
+        skipped.append(("calibration.bound", worst.reason))
+        return out
+    logs = ln_of(worst.local)
+    value = Enclosure(logs.lo, min(logs.hi, eps.hi))  # under pure ε-DP no model's ratio exceeds e^ε
+    out.append(judge("calibration.bound", cal["bound"], value, "upper", "the exact worst case at that epsilon"))
+    out.append(judge("calibration.target", cal["target"], value, "at least", "met by the exact worst case"))
+    return out
+
+
+def _white_box(
+    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], skipped: list[tuple[str, str]]
+) -> list[Check]:
+    """The member's ε, and the observed L (or L̄) of the recorded model behind it, the bound and at most the target."""
+    m, eps = _member(record, "inputs.calibration.white_box")
+    out = [judge("calibration.white_box.epsilon", cal["epsilon"], eps, "upper", "the member's exact epsilon")]
+    context = RecordedMechanism.from_record(cert["inputs"]["context_mechanism"], "inputs.context_mechanism")
+    found = observed_enclosures(cert["inputs"], m, context)
+    if isinstance(found, str):
+        skipped.append(("calibration.white_box.bound", found))
+        return out
+    value = ln_of(found.local if cal.get("kind") == "local" else found.global_)
+    out.append(judge("calibration.white_box.bound", cal["bound"], value, "estimate", "the exact L at that epsilon"))
+    out.append(
+        judge("calibration.white_box.target", cal["target"], value, "met", "met by the exact L, to its rounding")
+    )
+    return out

@@ -1,0 +1,79 @@
+"""`fairaudit.verification.calibration_check`: the calibrated epsilon re-derived from the recorded member (the shipped
+certificates hold; a changed epsilon, bound, target or member fails; the worst case against the hand value 17/13)."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from pathlib import Path
+
+import pytest
+from _cli import OFFICE_SPEC
+
+from fairaudit.certification.certificate import certify
+from fairaudit.certification.spec import parse_spec
+from fairaudit.verification.rederive import verify
+
+ROOT = Path(__file__).resolve().parents[2]
+
+# binary randomized response, utilities in [0.5, 1]: the worst ratio at keep 0.7 is (7/3 + 1/2)/(7/6 + 1) = 17/13
+# (proofs/black_box.md §3), so calibrating to ln(17/13) returns epsilon = ln(7/3)
+HAND = OFFICE_SPEC.replace('kind = "indicator"\ndecision = "yes"\n', 'kind = "table"\nvalues = [1.0, 0.5]\n')
+HAND += f"[target]\nlocal = {math.log(17 / 13)!r}\n"
+
+
+def _cert(spec: str) -> dict:
+    source = str(ROOT / spec) if "\n" not in spec else parse_spec(spec)
+    return json.loads(json.dumps(certify(source).to_dict()))
+
+
+@pytest.fixture(scope="module")
+def hand() -> dict:
+    return _cert(HAND)
+
+
+def _named(result, prefix: str) -> dict:
+    return {c.name: c for c in result.checks if c.name.startswith(prefix)}
+
+
+def test_the_hand_calibration_is_re_derived(hand):
+    assert hand["calibration"]["method"] == "black_box"
+    assert hand["calibration"]["epsilon"] == pytest.approx(math.log(7 / 3), rel=1e-9)
+    checks = _named(verify(hand), "calibration")
+    assert set(checks) == {"calibration.epsilon", "calibration.bound", "calibration.target"}
+    assert all(c.holds for c in checks.values())
+    bound = checks["calibration.bound"]
+    assert bound.derived_low <= math.log(17 / 13) <= bound.derived_high + 1e-15  # the exact worst case, enclosed
+    assert bound.derived_high - bound.derived_low < 1e-15
+
+
+@pytest.mark.parametrize("spec", ["examples/hr_office/hr_office.toml", "examples/llm_hiring/gpt35.toml"])
+def test_shipped_calibrations_hold_black_box_and_white_box(spec):
+    result = verify(_cert(spec))
+    checks = _named(result, "calibration")
+    assert result.holds
+    assert {"calibration.bound", "calibration.white_box.bound", "calibration.white_box.target"} <= set(checks)
+    assert "calibration" not in dict(result.not_checked)
+
+
+@pytest.mark.parametrize(
+    "path, change, failing",
+    [
+        (("calibration", "epsilon"), lambda v: v - 1e-9, "calibration.epsilon"),  # below the member's epsilon
+        (("calibration", "bound"), lambda v: v - 1e-9, "calibration.bound"),
+        (("calibration", "target"), lambda v: v - 1e-6, "calibration.target"),  # a target the worst case misses
+    ],
+)
+def test_a_changed_calibration_fails(hand, path, change, failing):
+    tampered = copy.deepcopy(hand)
+    section, key = path
+    tampered[section][key] = change(tampered[section][key])
+    assert failing in [c.name for c in verify(tampered).failures]
+
+
+def test_a_changed_member_fails(hand):
+    tampered = copy.deepcopy(hand)
+    tampered["inputs"]["calibration"]["black_box"]["epsilon"] += 1e-6  # a member less private than calibrated
+    names = [c.name for c in verify(tampered).failures]
+    assert "inputs_sha256" in names and "calibration.epsilon" in names

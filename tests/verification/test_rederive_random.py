@@ -370,6 +370,17 @@ REGRESSIONS = {  # found by the properties above; each failed in verify (fixed t
 
 THREE_CONTEXTS = '[context]\nname = "ctx"\nvalues = ["c0", "c1", "c2"]\n'
 
+# X and A dependent and the black box's assumptions not all met: certify gives no bound on L-bar (+inf), which verify
+# read as "must equal the best bound on L"
+REGRESSIONS["no bound on L-bar"] = (
+    _spec('["x0", "x1", "x2", "x3"]', THREE_CONTEXTS)
+    + "[population]\nprobabilities = [[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.25], [0.25, 0.25, 0.25, 0.0]]\n"
+    + RR.format(0.6931471805599453)
+    + '[model]\ntable = "table.csv"\n[utility]\ndecision = "d1"\ntau = 0.01\n',
+    "ctx,grp,dec,probability\n"
+    + "".join(f"{c},{x},d0,1.0\n{c},{x},d1,0.0\n" for c in ("c0", "c1", "c2") for x in ("x0", "x1", "x2", "x3")),
+)
+
 CERTIFY_FAULTS = {  # what certify computes: left to certify's owner (do not fix here)
     "L-bar over an absent group, matrix": (
         _spec(G2, ALONE + MATRIX.format("[[0.5, 0.5], [0.25, 0.75]]") + '[utility]\ndecision = "d0"\n'),

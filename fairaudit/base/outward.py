@@ -256,6 +256,10 @@ _TINY = math.ulp(0.0)
 """The smallest positive float."""
 
 
+_NEAR_ONE = Fraction(1, 10**25)
+"""Within this of 1, ln q is enclosed by the rationals 1 − 1/q and q − 1 (:func:`_ln_decimal`)."""
+
+
 def _context(rounding: str) -> decimal.Context:
     """A decimal context of :data:`DIGITS` digits that rounds as ``rounding``, with every exponent allowed."""
     return decimal.Context(prec=DIGITS, rounding=rounding, Emax=decimal.MAX_EMAX, Emin=decimal.MIN_EMIN)
@@ -268,18 +272,22 @@ def _decimal(x: Exact, rounding: str) -> decimal.Decimal:
     return ctx.divide(decimal.Decimal(q.numerator), decimal.Decimal(q.denominator))
 
 
-def _float_above(d: decimal.Decimal) -> float:
+def _float_above(d: decimal.Decimal | Fraction) -> float:
     """The smallest float ≥ the decimal ``d`` (exact: a decimal is a rational)."""
     return fraction_up(Fraction(d))
 
 
-def _float_below(d: decimal.Decimal) -> float:
+def _float_below(d: decimal.Decimal | Fraction) -> float:
     """The largest float ≤ the decimal ``d``."""
     return fraction_down(Fraction(d))
 
 
-def _ln_decimal(q: Fraction, upward: bool) -> decimal.Decimal:
-    """ln of a rational q > 0, q ≠ 1, as a :data:`DIGITS`-digit decimal on the stated side of the exact value."""
+def _ln_decimal(q: Fraction, upward: bool) -> decimal.Decimal | Fraction:
+    """ln of a rational q > 0, q ≠ 1, as a :data:`DIGITS`-digit decimal on the stated side of the exact value; within
+    10^-25 of 1, the rational 1 − 1/q ≤ ln q ≤ q − 1 (at most (q − 1)² apart: the decimal argument would round to 1
+    and ``next_plus(0)`` is the smallest decimal of the unbounded context, which no rational can hold)."""
+    if abs(q - 1) < _NEAR_ONE:
+        return q - 1 if upward else 1 - 1 / q
     ctx = _context(decimal.ROUND_HALF_EVEN)
     if upward:
         return ctx.next_plus(ctx.ln(_decimal(q, decimal.ROUND_CEILING)))

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, exp_of, recorded_array
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.exact_programs import maximize_ratio
 
 __all__ = ["MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures"]
@@ -59,6 +59,12 @@ class _Setting:
     high: list[Fraction]
     tau: Fraction | None
     weights: list[list[Fraction]]  # P(x | a), [live x][a]
+    present: list[int]  # the groups with P(A = a) > 0
+
+
+def _alike(weights: Sequence[Sequence[Fraction]], present: Sequence[int]) -> bool:
+    """P(x | a) is the same for every group present (X and A independent among them), exactly."""
+    return all(w[a] == w[present[0]] for w in weights for a in present)
 
 
 def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
@@ -74,14 +80,14 @@ def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
     WorstCaseEnclosures
         ``local`` and ``global_`` enclose max E[g | x, a]/E[g | x, a'] and max E[g | a]/E[g | a'] over every model
         (+inf when unbounded); None, with ``reason``, for what is not re-derived here: a utility that depends on the
-        group, a context mechanism other than the identity, programs larger than :data:`MAX_VARIABLES`.
+        group, a context mechanism other than the identity, programs larger than :data:`MAX_VARIABLES`, floors that
+        no model meets exactly (τ at max g with rows that sum to just below 1 in binary). L̄ compares the groups with
+        P(A = a) > 0 only (1, L̄ = 0, with fewer than two).
 
     Raises
     ------
     InputError
         Naming the field of ``inputs`` that holds a value that is not a number (``inputs.utility.values[2]``).
-    ValueError
-        When a worst-case program is infeasible (no model meets τ): the certificate then records no black box.
 
     Notes
     -----
@@ -111,16 +117,22 @@ def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
         return WorstCaseEnclosures(None, None, f"programs beyond {MAX_VARIABLES} variables")
     mass = [sum(pop[x][a] for x in live) for a in range(m.k)]
     weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(m.k)] for x in live]
+    present = [a for a in range(m.k) if mass[a]]  # L-bar compares only the groups with P(A = a) > 0
     ends = []
     for t in _ends(m):
         p, q = (t / (t + m.k - 1), 1 / (t + m.k - 1)) if m.rows is None else (Fraction(0), Fraction(0))
-        s = _Setting(m.rows, p, q, m.k, low, high, tau, weights)  # type: ignore[arg-type]
-        ends.append((_local(s), _global(s, mass)))
+        s = _Setting(m.rows, p, q, m.k, low, high, tau, weights, present)  # type: ignore[arg-type]
+        try:
+            ends.append((_local(s), _global(s)))
+        except ValueError as exc:  # floors above what the recorded rows reach exactly: no model meets tau
+            return WorstCaseEnclosures(
+                None, None, f"{exc}: no model meets E[g | x, a] >= tau with the recorded rows exactly"
+            )
     local = Enclosure(ends[0][0], ends[-1][0])
     low_global, high_global = ends[0][1], ends[-1][1]
     global_ = None if low_global is None or high_global is None else Enclosure(low_global, high_global)
     why = "" if global_ is not None else f"L-bar: programs beyond {MAX_VARIABLES} variables"
-    independent = all(w[a] == w[0] for w in weights for a in range(m.k))
+    independent = _alike(weights, present)
     return WorstCaseEnclosures(local, global_, why, independent)
 
 
@@ -128,7 +140,7 @@ def _ends(m: RecordedMechanism) -> list[Fraction]:
     """The rational e^ε at which the programs are solved: both ends of its enclosure (none for a matrix)."""
     if m.kind == "matrix":
         return [Fraction(1)]
-    t = exp_of(m.epsilon)  # type: ignore[arg-type]
+    t = m.t()
     if t.hi == INF:
         raise ValueError("randomized response at an infinite epsilon is the identity")
     return [t.lo, t.hi]  # type: ignore[list-item]
@@ -164,17 +176,21 @@ def _local(s: _Setting) -> Number:
     return best
 
 
-def _global(s: _Setting, mass: Sequence[Fraction]) -> Number | None:
-    """max over pairs of groups of the exact worst ratio of E[g | a]/E[g | a'] (every live context's cells)."""
-    pairs = _pairs(s)
-    if s.rows is None and any(w[a] != w[0] for w in s.weights for a in range(s.k)):
-        pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b]  # P(x | a) differs: no symmetry
+def _global(s: _Setting) -> Number | None:
+    """max over pairs of groups present of the exact worst ratio of E[g | a]/E[g | a'] (every live context's cells);
+    1 (L-bar = 0) with fewer than two groups present."""
+    if len(s.present) < 2:
+        return Fraction(1)
+    if s.rows is not None:
+        pairs = [(a, b) for a in s.present for b in s.present if a != b]
+    elif _alike(s.weights, s.present):
+        pairs = [(s.present[0], s.present[1])]  # every pair present is alike
+    else:
+        pairs = [(a, b) for a in s.present for b in s.present if a != b]  # P(x | a) differs: no symmetry
         if s.k * len(s.low) > MAX_VARIABLES:
             return None
-    best: Number = Fraction(0)
+    best: Number = Fraction(1)
     for a, b in pairs:
-        if not (mass[a] and mass[b]):
-            continue
         tops, bottoms, floors = [], [], []
         for i in range(len(s.low)):
             row_a, row_b, fl, _ = _rows_of(s, a, b) if s.rows is not None else _full_rr_rows(s, a, b)
@@ -189,7 +205,7 @@ def _full_rr_rows(
     s: _Setting, a: int, b: int
 ) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]], list[int]]:
     """Randomized response's k × k rows, for L̄ when the pairs are not alike; the symmetric three cells otherwise."""
-    if all(w[g] == w[0] for w in s.weights for g in range(s.k)):
+    if _alike(s.weights, s.present):
         return _rows_of(s, a, b)
     rows = [[s.p if i == j else s.q for j in range(s.k)] for i in range(s.k)]
     return rows[a], rows[b], rows, [1] * s.k
@@ -234,8 +250,9 @@ def _solve_blocks(
             row[i * width : (i + 1) * width] = [-v for v in f]
             rows.append(row)
             bounds.append(-tau)  # type: ignore[operator]
-    if any(qi == 0 and pi > 0 and hi > 0 for pi, qi, hi in zip(p, q, upper)) and not tau:
-        return INF  # a model that puts the utility only where a' never lands
+    reach = any(qi == 0 and pi > 0 and hi > 0 for pi, qi, hi in zip(p, q, upper))
+    if reach and not tau and all(lo == 0 for qi, lo in zip(q, lower) if qi > 0):
+        return INF  # a model that puts the utility only where a' never lands (its box starts at 0 there)
     if max(upper, default=Fraction(0)) == 0:
         return Fraction(1)  # g = 0: every ratio is 0/0
     if not tau and all(lo == 0 for lo in lower):

@@ -23,6 +23,11 @@ from fairaudit.verification.observed_check import observed_enclosures
 
 __all__ = ["calibration_checks"]
 
+_PARAMETER = "the family's parameter: the member's exact epsilon, to the tolerance"
+"""What ``calibration.epsilon`` is checked as. It is the family's parameter ε; a product's member is built from
+floating-point components (ε split, each matrix rounded), so its exact ε may differ from ε in the last digits: the
+member, recorded exactly, is what the bound and the target are re-derived for."""
+
 
 def calibration_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) -> list[Check]:
     """The black-box and white-box calibrations of a certificate, re-derived from their recorded members.
@@ -37,7 +42,7 @@ def calibration_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) 
     Returns
     -------
     list of Check
-        Per calibration: ``calibration.epsilon`` (≥ the member's exact ε), ``calibration.bound`` (≥ the member's
+        Per calibration: ``calibration.epsilon`` (the member's exact ε, to the tolerance), ``calibration.bound`` (≥ the member's
         exact worst case; for the white box, within the tolerance of the member's exact L), and
         ``calibration.target`` (≥ that exact value: the target is met).
     """
@@ -69,7 +74,7 @@ def _black_box(
 ) -> list[Check]:
     """The member's ε, and its worst local g-fairness over the class, at most the bound and the target."""
     m, eps = _member(record, "inputs.calibration.black_box")
-    out = [judge("calibration.epsilon", cal["epsilon"], eps, "upper", "the member's exact epsilon")]
+    out = [judge("calibration.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
     if cal.get("kind") != "local" or exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz") != 0:
         skipped.append(("calibration.bound", "a target on L-bar, or utilities Lipschitz in the group"))
         return out
@@ -99,7 +104,7 @@ def _white_box(
 ) -> list[Check]:
     """The member's ε, and the observed L (or L̄) of the recorded model behind it, the bound and at most the target."""
     m, eps = _member(record, "inputs.calibration.white_box")
-    out = [judge("calibration.white_box.epsilon", cal["epsilon"], eps, "upper", "the member's exact epsilon")]
+    out = [judge("calibration.white_box.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
     context = RecordedMechanism.from_record(cert["inputs"]["context_mechanism"], "inputs.context_mechanism")
     found = observed_enclosures(cert["inputs"], m, context)
     if isinstance(found, str):

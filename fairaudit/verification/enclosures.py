@@ -165,11 +165,13 @@ class RecordedMechanism:
         return len(self.inputs)
 
     def t(self) -> Enclosure:
-        """Randomized response's e^ε, enclosed."""
+        """Randomized response's e^ε, enclosed, never below 1 (ε ≥ 0: the 50-digit lower end of e^ε for ε below
+        1e-50 is below 1, a randomized response with its roles swapped)."""
         eps = self.epsilon
         if eps == INF:
             return Enclosure.point(INF)
-        return exp_of(eps)  # type: ignore[arg-type]
+        t = exp_of(eps)  # type: ignore[arg-type]
+        return Enclosure(max(Fraction(1), t.lo), t.hi)
 
     def rr_rows(self) -> tuple[Enclosure, Enclosure]:
         """Randomized response's (p, q) = (t/(t + k − 1), 1/(t + k − 1)), enclosed (p increases in t, q decreases)."""
@@ -215,7 +217,10 @@ class RecordedMechanism:
             tm, m = self.t(), self.k - 1
             if tm.hi == INF:  # the identity: δ = 1
                 return Enclosure.point(Fraction(1))
-            return Enclosure(max(Fraction(0), (tm.lo - t.hi) / (tm.hi + m)), (tm.hi - t.lo) / (tm.lo + m))
+            # δ < 1 exactly (q > 0): the upper end kept at 1 where e^ε_M's enclosure would pass it (ε_M near 700)
+            return Enclosure(
+                max(Fraction(0), (tm.lo - t.hi) / (tm.hi + m)), min(Fraction(1), (tm.hi - t.lo) / (tm.lo + m))
+            )
         rows = self.matrix_rows()
         assert rows is not None
         return Enclosure(_largest_hockey_stick(rows, t.hi), _largest_hockey_stick(rows, t.lo))
@@ -227,22 +232,26 @@ class RecordedMechanism:
         ln(t + (L_A d(a, a') + γ δ_aa'(t))/τ) (``proofs/tight_bound.md``).
 
         For each pair the function of t is convex and piecewise linear (δ_aa' is), so its minimum is at t = 1 or at
-        a ratio M[a, o]/M[a', o] ≥ 1: each is evaluated exactly. Randomized response's pairs are alike: t = 1, or
-        t = e^ε, where the value is ε + ln(1 + L_A d/(τ e^ε)) (exactly ε when L_A = 0).
+        a ratio M[a, o]/M[a', o] ≥ 1: each is evaluated exactly. Randomized response's pairs are alike but for
+        d(a, a'), and the bound increases in d: the pair at the largest distance, at t = 1 or t = e^ε, where the value
+        is ε + ln(1 + L_A d/(τ e^ε)) (exactly ε when L_A = 0).
         """
         if self.kind == "randomized_response":
-            d = Fraction(1) if metric is None else Fraction(metric[0][1])
+            # every pair is alike but for d(a, a'), and the bound increases in d: the pair at the largest distance
+            pairs = [(a, b) for a in range(self.k) for b in range(self.k) if a != b]
+            a, b = (0, 1) if metric is None else max(pairs, key=lambda ab: Fraction(metric[ab[0]][ab[1]]))
+            d = Fraction(1) if metric is None else Fraction(metric[a][b])
             c = lipschitz * d / tau
             t, m = self.t(), self.k - 1
             if t.hi == INF:  # the identity: δ = 1 at every ε, the minimum at t = 1
-                return ln(1 + c + gamma / tau), 0, 1
+                return ln(1 + c + gamma / tau), a, b
             # at t = 1: 1 + c + (γ/τ)(t − 1)/(t + k − 1), increasing in t
             at_one = Enclosure(
                 1 + c + gamma / tau * (t.lo - 1) / (t.lo + m), 1 + c + gamma / tau * (t.hi - 1) / (t.hi + m)
             )
             at_eps = Enclosure(self.epsilon, self.epsilon) + Enclosure(ln(1 + c / t.hi).lo, ln(1 + c / t.lo).hi)  # type: ignore[arg-type]
             one = Enclosure(ln(at_one.lo).lo, ln(at_one.hi).hi)
-            return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), 0, 1
+            return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), a, b
         rows = self.matrix_rows()
         assert rows is not None
         best_value: Fraction | float = -INF

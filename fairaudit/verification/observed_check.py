@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.verification.checks import Check, judge
+from fairaudit.verification.checks import Check, equal, judge
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, ln_of, recorded_array
 
 __all__ = ["ObservedEnclosures", "observed_checks", "observed_enclosures"]
@@ -71,6 +71,7 @@ class ObservedEnclosures:
     local: Enclosure  # max over live x of max_a E[g | x, a] / min_a E[g | x, a]
     global_: Enclosure  # max_a E[g | a] / min_a E[g | a], E[g | a] = Σ_x P(x, a) E[g | x, a] / P(a)
     ends: list[Any]  # E[g | x, a] at the low and at the high end of the mechanisms' enclosures
+    present: int  # the groups with P(A = a) > 0: L̄ is undefined with fewer than two
 
 
 def observed_enclosures(
@@ -111,7 +112,7 @@ def observed_enclosures(
         lo = sum(pop[x][a] * ends[0][x][a] for x in range(len(pop))) / mass
         hi = sum(pop[x][a] * ends[1][x][a] for x in range(len(pop))) / mass
         by_group.append((lo, hi))
-    return ObservedEnclosures(local, _max_ratio([by_group]), ends)
+    return ObservedEnclosures(local, _max_ratio([by_group]), ends, len(by_group))
 
 
 def observed_checks(
@@ -133,7 +134,12 @@ def observed_checks(
                          groups, local["group"], local["other_group"])  # fmt: skip
     out.append(judge("observed.local (its context and groups)", local["value"], ln_of(named), "estimate",
                      f"the ratio at {local['context']!r}: {local['group']!r} over {local['other_group']!r}"))  # fmt: skip
-    out.append(judge("observed.global.value", obs["global"]["value"], ln_of(found.global_), "estimate"))
+    if found.present < 2:  # no pair of groups present: the metrics leave L-bar undefined (NaN, null in JSON)
+        out.append(
+            equal("observed.global.value", obs["global"]["value"], None, "fewer than two groups with P(A = a) > 0")
+        )
+    else:
+        out.append(judge("observed.global.value", obs["global"]["value"], ln_of(found.global_), "estimate"))
     return out
 
 

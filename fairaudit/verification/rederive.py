@@ -281,6 +281,8 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         out.append(judge("bound_details.black_box.global.value", glob["value"], on_l_bar, "upper"))
         if bounds["global"] == glob["value"]:
             out.append(equal("bounds.global", bounds["global"], glob["value"], "the black-box bound on L-bar"))
+        elif bounds["global"] == "inf":  # no bound on L-bar (a black box whose assumptions fail, X and A dependent)
+            out.append(equal("bounds.global", bounds["global"], "inf", "no bound: +inf bounds every value"))
         else:  # L-bar <= L when X and A are independent: the best bound on L
             out.append(equal("bounds.global", bounds["global"], bounds["best"], "the best bound on L"))
     return out

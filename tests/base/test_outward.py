@@ -17,6 +17,7 @@ from fairaudit.base.outward import (
     exp_up,
     fraction_down,
     fraction_up,
+    ln_bounds,
     log_down,
     log_up,
     product_ends,
@@ -123,3 +124,16 @@ def test_product_roundings_and_rounding_error_by_hand():
     assert Fraction(rounding_error(2)) >= Fraction(2, 2**53) / (1 - Fraction(4, 2**53))
     low, high = product_ends(np.array([0.0, 0.3]), np.array([1, 0]), np.array([False, True]))
     assert low.tolist() == [0.0, 0.3] and high.tolist() == [0.0, 0.3]  # an exact value is its own two ends
+
+
+@pytest.mark.parametrize("gap", [Fraction(1, 10**60), Fraction(3, 10**26), Fraction(1, 2**200)])
+@pytest.mark.parametrize("side", [1, -1])
+def test_ln_bounds_next_to_one_are_rationals_around_it(gap, side):
+    # within 1e-25 of 1 the 50-digit argument rounds to 1: next_plus(ln 1) was 1e-(10^18), which hung Fraction()
+    q = 1 + side * gap
+    lo, hi = ln_bounds(q)
+    with mpmath.workdps(200):
+        exact = mpmath.log(mpmath.mpf(q.numerator) / q.denominator)
+        assert mpmath.mpf(lo.numerator) / lo.denominator <= exact <= mpmath.mpf(hi.numerator) / hi.denominator
+    assert 0 < hi - lo <= gap**2 / min(q, Fraction(1))
+    assert log_down(q) <= log_up(q) and (log_up(q) <= 0 if side < 0 else log_down(q) >= 0)

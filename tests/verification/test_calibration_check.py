@@ -60,7 +60,7 @@ def test_shipped_calibrations_hold_black_box_and_white_box(spec):
 @pytest.mark.parametrize(
     "path, change, failing",
     [
-        (("calibration", "epsilon"), lambda v: v - 1e-9, "calibration.epsilon"),  # below the member's epsilon
+        (("calibration", "epsilon"), lambda v: v - 1e-9, "calibration.epsilon"),  # not the member's epsilon
         (("calibration", "bound"), lambda v: v - 1e-9, "calibration.bound"),
         (("calibration", "target"), lambda v: v - 1e-6, "calibration.target"),  # a target the worst case misses
     ],

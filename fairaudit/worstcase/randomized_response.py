@@ -70,8 +70,8 @@ def rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float)
     upper end (``proofs/outward.md`` §5).
     """
     w = rr_box_point(rr, lo, hi, floor)
-    if w.ratio == 1.0 and w.value == 0.0:  # span 0 or p <= q: exactly 1
-        return w
+    if w.ratio == 1.0 and w.value == 0.0 and (hi <= lo or rr.epsilon == 0.0):  # span 0 or p = q: exactly 1
+        return w  # (below ε ≈ 1e-16 the floats p and q are equal, but p > q: the exact ratio below)
     if lo == 0 and w.prefix:  # h = hi on a alone: the ratio is p/q = e^ε, its log ε exactly
         return replace(w, ratio=exp_up(rr.epsilon), value=rr.epsilon)
     ratio = _rr_box_ratio(rr.k, rr.epsilon, Fraction(lo), Fraction(hi), floor)

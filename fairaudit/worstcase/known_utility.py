@@ -130,10 +130,14 @@ def worst_model(
         local = local_threshold(problem, MA, boxes)
     else:
         local = local_search(problem, MA, pairs, boxes)
-    if rr_global is not None:
+    present = problem.population.p_group > 0  # L-bar compares the groups with P(A = a) > 0 only
+    if np.count_nonzero(present) < 2:
+        uniform = problem.kernel(np.ones((problem.n_released_contexts, problem.n_released_groups, nU)) / nU)
+        global_ = WorstCase.trivial("global", kernel=uniform, reason="fewer than two groups with P(A = a) > 0")
+    elif rr_global is not None:
         global_ = rr_global
     elif group_free and not binding and problem.independent and method != "lp":
         global_ = global_threshold(problem, MA)
     else:
-        global_ = global_search(problem, MA, pairs)
+        global_ = global_search(problem, MA, pairs[present[pairs[:, 0]] & present[pairs[:, 1]]])
     return problem.result(local, global_)

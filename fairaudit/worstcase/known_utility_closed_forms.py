@@ -157,10 +157,13 @@ def _rr_kernel(
 
 
 def _rr_case(problem: ModelProblem, kind: str, w: RRWorst, x: int | None, kern: Kernel) -> WorstCase:
-    """A maximum behind k-ary RR in closed form at context x (local); every pair is alike: the first two groups."""
+    """A maximum behind k-ary RR in closed form at context x (local); every pair is alike: the first two groups (for
+    L̄, the first two with P(A = a) > 0)."""
     reason = "a released group is possible for one group and impossible for another" if math.isinf(w.value) else ""
     solver_status = "threshold" if w.prefix else "closed form"
-    return _threshold_case(problem, kind, w.ratio, w.value, x, 0, 1, kern, solver_status=solver_status, reason=reason)
+    present = [int(i) for i in np.flatnonzero(problem.population.p_group > 0)]
+    a, b = present[:2] if kind == "global" and len(present) >= 2 else (0, 1)  # (fewer: worst_model's trivial L-bar)
+    return _threshold_case(problem, kind, w.ratio, w.value, x, a, b, kern, solver_status=solver_status, reason=reason)
 
 
 def _rr_infeasible(problem: ModelProblem, kind: str, x: int, hi_x: FloatArray) -> WorstCase:
@@ -239,6 +242,8 @@ def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
     weighted_g, lo_g, hi_g = weighted_box(problem)
     vals = pairwise_box(MA, lo_g, hi_g, None)[0]
     np.fill_diagonal(vals, -np.inf)
+    absent = problem.population.p_group == 0  # L-bar compares the groups with P(A = a) > 0 only
+    vals[absent, :] = vals[:, absent] = -np.inf
     a, b = np.unravel_index(int(vals.argmax()), vals.shape)
     _, k_top, order_top = threshold_max_many(MA[a], MA[b], lo_g, hi_g)
     top = order_top[: int(k_top)]

@@ -45,6 +45,39 @@ def calibration_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) 
         Per calibration: ``calibration.epsilon`` (the member's exact ε, to the tolerance), ``calibration.bound`` (≥ the member's
         exact worst case; for the white box, within the tolerance of the member's exact L), and
         ``calibration.target`` (≥ that exact value: the target is met).
+
+    Notes
+    -----
+    The black-box worst case over the class is ``proofs/black_box.md`` §1 and §5; why each verdict is sound,
+    ``proofs/verification.md`` §4b.
+
+    Examples
+    --------
+    Binary randomized response keeping 0.7, utilities in [0.5, 1]: the worst ratio is 17/13 (``proofs/black_box.md``
+    §3), so the target ln(17/13) is met at ε = ln(7/3).
+
+    >>> import json
+    >>> from fairaudit.certification.certificate import certify
+    >>> from fairaudit.certification.spec import parse_spec
+    >>> spec = parse_spec('''
+    ... [sensitive]
+    ... name = "office"
+    ... values = ["HR_1", "HR_2"]
+    ... [decision]
+    ... name = "chosen"
+    ... values = ["yes", "no"]
+    ... [privacy.sensitive]
+    ... mechanism = "randomized_response"
+    ... keep = 0.7
+    ... [utility]
+    ... kind = "table"
+    ... values = [1.0, 0.5]
+    ... [target]
+    ... local = 0.26826398659467937
+    ... ''')
+    >>> cert = json.loads(json.dumps(certify(spec).to_dict()))
+    >>> [c.line() for c in calibration_checks(cert, [])]
+    ['calibration.epsilon = 0.8472978603872036: holds', 'calibration.bound = 0.26826398659467937: holds', 'calibration.target = 0.26826398659467937: holds']
     """
     cal = cert.get("calibration")
     if cal is None:

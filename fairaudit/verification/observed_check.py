@@ -91,6 +91,28 @@ def observed_enclosures(
     ObservedEnclosures or str
         The enclosures; a str, the reason, when there is no kernel, it has empty cells, or M_A is too large to
         compose exactly.
+
+    Raises
+    ------
+    InputError
+        Naming the field of ``inputs`` that holds a value that is not a number.
+
+    Notes
+    -----
+    Local and global g-fairness are the paper's definitions (``proofs/main_theorem.md``); the composition
+    Q = M_X K M_A at both ends of the mechanisms' enclosures, ``proofs/verification.md`` §2.
+
+    Examples
+    --------
+    A model that sees the group (the identity): E[g | a] = 3/4 and 1/4, so L = L̄ = ln 3, the ratio exactly 3.
+
+    >>> identity = lambda labels: RecordedMechanism.from_record(
+    ...     {"inputs": labels, "outputs": labels, "kind": "identity"}, "mechanism")
+    >>> inputs = {"kernel": {"probabilities": [[[0.75, 0.25], [0.25, 0.75]]]}, "utility": {"values": [1.0, 0.0]},
+    ...           "population": {"probabilities": [[0.5, 0.5]]}}
+    >>> found = observed_enclosures(inputs, identity(["a", "b"]), identity(["x"]))
+    >>> found.local.lo, found.local.hi, found.global_.hi, found.present
+    (Fraction(3, 1), Fraction(3, 1), Fraction(3, 1), 2)
     """
     if inputs["kernel"] is None:
         return "the certificate records no model"
@@ -118,7 +140,23 @@ def observed_enclosures(
 def observed_checks(
     cert: Mapping[str, Any], sensitive: RecordedMechanism, context: RecordedMechanism, skipped: list[tuple[str, str]]
 ) -> list[Check]:
-    """The observed local and global g-fairness behind the filter, and their maximising context and groups."""
+    """The observed local and global g-fairness behind the filter, and their maximising context and groups.
+
+    Parameters
+    ----------
+    cert : mapping
+        A certificate (checked against its schema): its ``observed`` section against its ``inputs``.
+    sensitive, context : RecordedMechanism
+        M_A and M_X as the certificate records them.
+    skipped : list of (str, str)
+        Appended to: what is not re-derived, and why.
+
+    Returns
+    -------
+    list of Check
+        ``observed.local.value`` and ``observed.global.value`` (measured values, nats, within the tolerance of the
+        exact ones), and the ratio at the recorded context and groups (a swapped pair fails); none without a model.
+    """
     inputs = cert["inputs"]
     if inputs["kernel"] is None or "observed" not in cert:
         return []

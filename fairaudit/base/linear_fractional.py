@@ -41,7 +41,7 @@ import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, as_float_array
 from fairaudit.base.errors import InputError
-from fairaudit.base.exact_duality import certify_ratio, point_ratio, refine_duals
+from fairaudit.base.exact_duality import certify_ratio, point_ratio, refine_duals, vertex_ratio
 from fairaudit.base.outward import up
 from fairaudit.base.threshold_rule import threshold_max_many
 
@@ -254,6 +254,10 @@ def solve_clarabel(problem: cp.Problem, options: Mapping[str, Any] | None = None
 REPAIR_OFFSETS = (0.0, 1e-13, 1e-11, 1e-9)
 """λ − the solver's value (relative) at which the solver's dual is repaired (:func:`~fairaudit.base.exact_duality.refine_duals`); the smallest value certified is kept."""
 
+VERTEX_OFFSETS = (0.0, 1e-15, 1e-13, 1e-11)
+"""λ − the root of the repaired duals' B (relative; :func:`~fairaudit.base.exact_duality.vertex_ratio`) at which
+they are repaired, smallest first: where B is flat beyond the optimum the duals need λ a little above it."""
+
 REPAIRS = 4
 """Further repairs at the last certified λ, while the value decreases."""
 
@@ -456,13 +460,23 @@ class FractionalProgram:
         # Newton from the left reaches the smallest λ with B(λ) ≤ 0 for the duals: start below the optimum
         start = min(witness, value - 1e-9 * abs(value)) if math.isfinite(witness) else value - 1e-9 * abs(value)
         bound = certify_ratio(start, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
-        for offset in REPAIR_OFFSETS if self._bounded and math.isfinite(value) else ():
-            # duals repaired at a λ just above the solver's value: there the best dual has B(λ) < 0 with a margin
-            lam = value + offset * max(1.0, abs(value))
+        candidates: list[tuple[float, bool]] = []
+        if self._bounded and math.isfinite(value):
+            # just above the root of B for the duals repaired at h (the optimum, up to rounding, when h is near an
+            # optimal vertex), then just above the solver's value: there the best dual has B(λ) < 0 with a margin
+            vertex = vertex_ratio(h, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
+            if vertex is not None:
+                candidates += [(vertex + offset * max(1.0, abs(vertex)), True) for offset in VERTEX_OFFSETS]
+            candidates += [(value + offset * max(1.0, abs(value)), False) for offset in REPAIR_OFFSETS]
+        vertex_done = False
+        for lam, at_vertex in candidates:
+            if at_vertex and vertex_done:
+                continue
             repaired = refine_duals(h, lam, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
             if repaired is None:
                 break
             tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired)  # type: ignore[arg-type]
+            vertex_done = at_vertex and tight.certified  # a larger offset only loosens it
             if tight.certified and not (bound.certified and bound.value <= tight.value):
                 bound, duals = tight, repaired
         for _ in range(REPAIRS if bound.certified and self._bounded else 0):

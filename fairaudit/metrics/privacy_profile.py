@@ -262,7 +262,16 @@ def _tight_certified(
     g, t_, lip = Fraction(gamma), Fraction(tau), Fraction(lipschitz)
     best = Fraction(0)
     for i in near.tolist():
-        t = Fraction(float(ts[i]))
-        delta = exact_hockey_stick(matrix[pa[i]], matrix[pb[i]], t)
-        best = max(best, t + (lip * Fraction(float(dist[i])) + g * delta) / t_)
+        ra, rb, fixed = matrix[pa[i]], matrix[pb[i]], lip * Fraction(float(dist[i]))
+        best = max(best, min(t + (fixed + g * exact_hockey_stick(ra, rb, t)) / t_ for t in _exact_ts(ra, rb, ts[i])))
     return log_up(best)
+
+
+def _exact_ts(ra: FloatArray, rb: FloatArray, t: float) -> set[Fraction]:
+    """The float minimiser ``t`` and the exact ratios ra_o/rb_o ≥ 1 it rounds (within 1e-12): the pair's exact
+    minimum sits at one of these, not at the float (with γ/τ = 1e6, an ulp of t moves the objective by 1e-10)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = ra / rb
+    near = np.flatnonzero((rb > 0) & (np.abs(ratio - t) <= 1e-12 * t))
+    exact = {Fraction(float(ra[o])) / Fraction(float(rb[o])) for o in near.tolist()}
+    return {Fraction(float(t))} | {x for x in exact if x >= 1}

@@ -240,15 +240,17 @@ def global_threshold(problem: ModelProblem, MA: FloatArray) -> WorstCase:
     """max L̄ without a binding τ, g free of the group, X ⊥ A: the box over [Σ min w, Σ max w] and its kernel."""
     nU = problem.g.shape[2]
     weighted_g, lo_g, hi_g = weighted_box(problem)
-    vals = pairwise_box(MA, lo_g, hi_g, None)[0]
+    # L-bar compares the groups with P(A = a) > 0 only: the pairs of the others are not offered (pairwise_box fills
+    # the pairs that cannot be the largest with one upper bound of them all, which an absent pair may set)
+    present = np.flatnonzero(problem.population.p_group > 0)
+    vals = pairwise_box(MA[present], lo_g, hi_g, None)[0]
     np.fill_diagonal(vals, -np.inf)
-    absent = problem.population.p_group == 0  # L-bar compares the groups with P(A = a) > 0 only
-    vals[absent, :] = vals[:, absent] = -np.inf
-    a, b = np.unravel_index(int(vals.argmax()), vals.shape)
+    i, j = np.unravel_index(int(vals.argmax()), vals.shape)
+    a, b = present[i], present[j]
     _, k_top, order_top = threshold_max_many(MA[a], MA[b], lo_g, hi_g)
     top = order_top[: int(k_top)]
     table = np.repeat(onehot(weighted_g.argmin(-1), nU)[:, None, :], problem.n_released_groups, axis=1)
     table[:, top, :] = onehot(weighted_g.argmax(-1), nU)[:, None, :]
     kern = problem.kernel(table, exact=True)
-    r = float(vals[a, b])
+    r = float(vals[i, j])
     return _threshold_case(problem, "global", r, nats_up(r), None, int(a), int(b), kern)

@@ -18,10 +18,12 @@ from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
 from fairaudit.base.json_values import Report, canonical_digest, number
+from fairaudit.verification.accounting import unaccounted
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, exp_of, ln, ln_of
 from fairaudit.verification.observed_check import observed_checks
+from fairaudit.verification.recorded_check import recorded_checks
 
 if TYPE_CHECKING:
     from fairaudit.filter.filters import PrivacyFilter
@@ -132,7 +134,7 @@ def verify(
     True
     >>> cert["bounds"]["tight"] += 1e-9
     >>> [c.name for c in verify(cert).failures]
-    ['bounds.tight']
+    ['bound_details.tight.value', 'bounds.tight']
     """
     from fairaudit.verification.schema import check_certificate
 
@@ -155,7 +157,8 @@ def verify(
     if privacy_filter is not None:
         checks.append(_filter_check(sensitive, privacy_filter))
     checks += calibration_checks(certificate, skipped)
-    skipped.append(("observed.intervals", "statistical intervals are estimates, not certified numbers"))
+    checks += recorded_checks(certificate, sensitive, context)
+    skipped += unaccounted(certificate, checks, skipped)
     return Verification(source=source, checks=tuple(checks), not_checked=tuple(skipped))
 
 
@@ -166,6 +169,13 @@ def _theorem_checks(
     u = cert["inputs"]["utility"]
     bounds, details = cert["bounds"], cert["bound_details"]
     out = [judge("bounds.corollary", bounds["corollary"], eps_a, "upper")]
+    for form in ("paper", "tight", "corollary"):
+        if isinstance(details.get(form), Mapping) and "value" in details[form]:
+            out.append(equal(f"bound_details.{form}.value", details[form]["value"], bounds.get(form), f"bounds.{form}"))
+    corollary = details.get("corollary") or {}
+    if "epsilon" in corollary:
+        out.append(equal("bound_details.corollary.epsilon", corollary["epsilon"], bounds["corollary"], "the bound"))
+        out.append(equal("bound_details.corollary.delta", corollary["delta"], 0.0, "the corollary is pure"))
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
     lipschitz, gamma = exact(u["lipschitz"], "inputs.utility.lipschitz"), exact(u["gamma"], "inputs.utility.gamma")
     diameter = exact(u["diameter"], "inputs.utility.diameter")
@@ -253,6 +263,26 @@ def _below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
     return Enclosure(logs.lo, min(logs.hi, eps.hi))
 
 
+def _witness_checks(
+    where: str, detail: Mapping[str, Any], ratio: Enclosure, value: Enclosure, eps_a: Enclosure, clip: bool = True
+) -> list[Check]:
+    """A worst case's ratio (e^value, an upper end), its witness (a model attains it: at most the exact value) and the
+    gap (at least the value less the witness)."""
+    out = []
+    if detail.get("ratio") is not None:
+        top: Fraction | float = ratio.hi
+        if clip and eps_a.hi != INF:  # under pure epsilon-DP no ratio exceeds e^epsilon
+            top = min(top, exp_of(eps_a.hi).hi)  # type: ignore[arg-type, assignment]
+        bottom: Fraction | float = min(ratio.lo, top)
+        out.append(judge(f"{where}.ratio", detail["ratio"], Enclosure(bottom, top), "upper", "e^value"))
+    if detail.get("witness") is not None:
+        out.append(judge(f"{where}.witness", detail["witness"], value, "at most", "a model attains it"))
+        if detail.get("gap") is not None and detail.get("value") not in (None, "inf"):
+            difference = exact(detail["value"], f"{where}.value") - exact(detail["witness"], f"{where}.witness")
+            out.append(judge(f"{where}.gap", detail["gap"], Enclosure.point(difference), "upper", "value - witness"))
+    return out
+
+
 def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[tuple[str, str]]) -> list[Check]:
     """The black-box worst cases on L and L̄, re-derived by exact programs, and the witness below them."""
     from fairaudit.verification.black_box_check import black_box_enclosures
@@ -271,14 +301,16 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         judge("bounds.black_box", bounds["black_box"], local, "upper", "the exact worst case over every model"),
         equal("bound_details.black_box.value", detail["value"], bounds["black_box"]),
     ]
-    if detail.get("witness") is not None:
-        out.append(judge("bound_details.black_box.witness", detail["witness"], local, "at most", "a model attains it"))
+    out += _witness_checks("bound_details.black_box", detail, worst.local, local, eps_a)
     glob = detail.get("global") or {}
     if worst.global_ is None:
         skipped.append(("bounds.global", worst.reason))
     elif glob.get("value") is not None:
         on_l_bar = _below_epsilon(worst.global_, eps_a) if worst.independent else ln_of(worst.global_)
         out.append(judge("bound_details.black_box.global.value", glob["value"], on_l_bar, "upper"))
+        out += _witness_checks(
+            "bound_details.black_box.global", glob, worst.global_, on_l_bar, eps_a, clip=worst.independent
+        )
         if bounds["global"] == glob["value"]:
             out.append(equal("bounds.global", bounds["global"], glob["value"], "the black-box bound on L-bar"))
         elif bounds["global"] == "inf":  # no bound on L-bar (a black box whose assumptions fail, X and A dependent)

@@ -1,0 +1,119 @@
+"""Every number of a certificate accounted for: re-derived by a check, or listed with the reason it is not.
+
+:func:`unaccounted` walks the numbers of a certificate outside ``inputs`` (which are the data, not claims) and names
+those that no check re-derived and no reason already covers, grouped by kind, so that ``fairaudit verify`` never
+passes over a number in silence (``proofs/verification.md`` §4c).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator, Mapping, Sequence
+from typing import Any
+
+from fairaudit.verification.checks import Check
+
+__all__ = ["KINDS", "unaccounted"]
+
+KINDS: tuple[tuple[str, str, str], ...] = (
+    (
+        r"^(observed|unfiltered)\.((local|global)\.interval|intervals)\b",
+        r"\1.intervals",
+        "statistical intervals are estimates, not certified numbers",
+    ),
+    (
+        r"^bound_details\.black_box(\.global)?\.worst_model\.",
+        "bound_details.black_box.worst_model",
+        "the worst model's probabilities, printed to 12 digits for reading: its value is the witness",
+    ),
+    (r"(^|\.)programs_solved$", "programs_solved", "a count of the programs solved, not a certified number"),
+    (
+        r"^targets\.(local|global)\.target$",
+        r"targets.\1.target",
+        "the target asked about: the question, not a derived number",
+    ),
+    (r"^population\.records$", "population.records", "the number of records counted, not in inputs"),
+    (
+        r"^(calibration(\.white_box)?)\.(gamma|lower|tau|lipschitz|diameter|groups|keep_probability|delta|targets)\b",
+        r"\1 (its class, targets and member)",
+        "what the calibration repeats: the class and targets it was asked for, its member's size, keep and delta",
+    ),
+    (
+        r"^bound_details\.paper\.epsilon$",
+        "bound_details.paper.epsilon",
+        "the epsilon the paper's bound is evaluated at (any is valid): its delta and value are re-derived at it",
+    ),
+    (
+        r"^bound_details\.tight\.(epsilon|delta)$",
+        r"bound_details.tight.\1",
+        "the tight form's minimiser, a reading aid: its value is re-derived as a minimum over every epsilon",
+    ),
+)
+"""(pattern on the number's path, the name it is listed under, the reason), first match wins; a number matched by
+none is listed under its own path as "not re-derived"."""
+
+_SKIP = ("format_version", "inputs", "inputs_sha256")
+"""Top-level keys that are not claims: the format's version and the data themselves."""
+
+
+def _numbers(value: Any, path: str) -> Iterator[str]:
+    """The paths of the numbers (and "inf"/"-inf"/"nan" strings) under ``value``."""
+    if isinstance(value, Mapping):
+        for key, inner in value.items():
+            yield from _numbers(inner, f"{path}.{key}" if path else str(key))
+    elif isinstance(value, list):
+        for i, inner in enumerate(value):
+            yield from _numbers(inner, f"{path}[{i}]")
+    elif isinstance(value, (int, float)) and not isinstance(value, bool) or value in ("inf", "-inf", "nan"):
+        yield path
+
+
+def _covered(path: str, names: set[str], reasons: Sequence[str]) -> bool:
+    """Whether a check re-derives ``path`` or a reason already given covers it (it or a section above it)."""
+    if path in names:
+        return True
+    return any(path == r or path.startswith((r + ".", r + "[")) for r in reasons)
+
+
+def unaccounted(
+    certificate: Mapping[str, Any], checks: Sequence[Check], skipped: Sequence[tuple[str, str]]
+) -> list[tuple[str, str]]:
+    """The numbers of ``certificate`` that neither a check nor a reason in ``skipped`` covers, grouped, with reasons.
+
+    Parameters
+    ----------
+    certificate : mapping
+        A certificate (checked against its schema).
+    checks : sequence of Check
+        The checks made (a check's ``name`` is the JSON path of the number it re-derives).
+    skipped : sequence of (str, str)
+        The numbers already listed as not re-derived (a name covers the section under it).
+
+    Returns
+    -------
+    list of (str, str)
+        One (name, reason) per group of :data:`KINDS` that holds an unaccounted number, in the order first met.
+
+    Examples
+    --------
+    >>> cert = {"format_version": 1, "bounds": {"tight": 0.5}, "bound_details": {"black_box": {"programs_solved": 3}}}
+    >>> unaccounted(cert, [], [])
+    [('bounds.tight', 'not re-derived'), ('programs_solved', 'a count of the programs solved, not a certified number')]
+    """
+    names = {c.name for c in checks}
+    reasons = [name for name, _ in skipped]
+    out: dict[str, str] = {}
+    for key, value in certificate.items():
+        if key in _SKIP:
+            continue
+        for path in _numbers(value, key):
+            if _covered(path, names, reasons):
+                continue
+            for pattern, group, reason in KINDS:
+                match = re.search(pattern, path)
+                if match:
+                    out.setdefault(match.expand(group), reason)
+                    break
+            else:
+                out.setdefault(path, "not re-derived")
+    return list(out.items())

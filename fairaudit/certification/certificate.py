@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, TypedDict
 
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, canonical_digest, label, number
+from fairaudit.base.outward import log_up, up
 from fairaudit.certification.recorded_inputs import (
     CERTIFICATE_FORMAT,
     FORMAT_VERSION,
@@ -34,6 +35,7 @@ from fairaudit.certification.recorded_inputs import (
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.families import MechanismFamily
+from fairaudit.laws.independence import independence_factor
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law, Population, compose
 from fairaudit.laws.utilities import UtilityClass
@@ -360,7 +362,8 @@ def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFA
     bb_ok = bb_holds and "black_box" not in omitted
     best, best_form = _best_bound(black_box if bb_ok else None, tight, corollary, paper)
     independent = spec.population.independence().independent
-    global_bound, global_why = _global_bound(black_box if bb_ok else None, best, best_form, independent)
+    factor = independence_factor(spec.population.probabilities) if independent else math.inf
+    global_bound, global_why = _global_bound(black_box if bb_ok else None, best, best_form, factor)
 
     targets: dict[str, TargetCheck] = {}
     calibration: Calibration | None = None
@@ -442,13 +445,26 @@ def _best_bound(
     return min(candidates, default=(math.inf, "none"), key=lambda t: t[0])
 
 
-def _global_bound(black_box: WorstModel | None, best: float, best_form: str, independent: bool) -> tuple[float, str]:
-    """The bound on L-bar and why: the exact black-box one, or L's best bound when X and A are independent."""
-    bound = best if independent else math.inf
+def _global_bound(black_box: WorstModel | None, best: float, best_form: str, factor: float) -> tuple[float, str]:
+    """The bound on L-bar and why: the exact black-box one, or L's best bound when X and A are independent.
+
+    ``factor`` is :func:`~fairaudit.laws.independence.independence_factor` of the population (+inf when X and A are
+    not independent): L-bar <= L + ln factor, so L's best bound holds for a population independent within rounding
+    once ln factor is added (0 when X and A are exactly independent).
+    """
+    independent = math.isfinite(factor)
+    bound = math.inf
+    if independent:
+        bound = best if factor == 1.0 else up(best + log_up(factor))
     if black_box is not None and not math.isnan(black_box.global_fairness.value):  # exact, X independent of A or not
         bound = min(bound, black_box.global_fairness.value)
     if black_box is not None and bound == black_box.global_fairness.value:
         return bound, "black-box bound on L-bar (exact over every model)"
+    if independent and factor != 1.0:
+        return (
+            bound,
+            f"best bound: {best_form} + ln {factor:.17g} (L-bar <= L + ln F: X and A independent within rounding)",
+        )
     if independent:
         return bound, f"best bound: {best_form} (L-bar <= L since X and A are independent)"
     return bound, "X and A are not independent in the population and no black-box bound applies"

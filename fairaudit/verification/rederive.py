@@ -21,7 +21,16 @@ from fairaudit.base.json_values import Report, canonical_digest, number
 from fairaudit.verification.accounting import unaccounted
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, exp_of, ln, ln_of
+from fairaudit.verification.enclosures import (
+    INF,
+    Enclosure,
+    RecordedMechanism,
+    exact,
+    exp_of,
+    ln,
+    ln_of,
+    recorded_array,
+)
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import recorded_checks
 
@@ -283,6 +292,21 @@ def _witness_checks(
     return out
 
 
+def _global_from_best(bounds: Mapping[str, Any], probabilities: Any) -> Check:
+    """``bounds.global`` from L's best bound: L-bar <= L + ln F, F = max r / min r with r(x, a) = P(x, a)/(P(x) P(a))
+    over P(x) > 0 and P(a) > 0 (1 when X and A are independent exactly; ``proofs/black_box.md`` §6)."""
+    p = recorded_array(probabilities, "inputs.population.probabilities")
+    p_x, p_a = [sum(row) for row in p], [sum(col) for col in zip(*p)]
+    r = [p[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] > 0 for a in range(len(p_a)) if p_a[a] > 0]
+    if max(r) == min(r):
+        return equal("bounds.global", bounds["global"], bounds["best"], "the best bound on L")
+    if min(r) == 0:
+        return equal("bounds.global", bounds["global"], "inf", "X and A dependent: no bound from L")
+    best = exact(bounds["best"], "bounds.best")
+    return judge("bounds.global", bounds["global"], Enclosure.point(best) + ln(max(r) / min(r)), "upper",
+                 "the best bound on L + ln F (X and A independent within rounding)")  # fmt: skip
+
+
 def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[tuple[str, str]]) -> list[Check]:
     """The black-box worst cases on L and L̄, re-derived by exact programs, and the witness below them."""
     from fairaudit.verification.black_box_check import black_box_enclosures
@@ -315,6 +339,6 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
             out.append(equal("bounds.global", bounds["global"], glob["value"], "the black-box bound on L-bar"))
         elif bounds["global"] == "inf":  # no bound on L-bar (a black box whose assumptions fail, X and A dependent)
             out.append(equal("bounds.global", bounds["global"], "inf", "no bound: +inf bounds every value"))
-        else:  # L-bar <= L when X and A are independent: the best bound on L
-            out.append(equal("bounds.global", bounds["global"], bounds["best"], "the best bound on L"))
+        else:  # L-bar <= L + ln F when X and A are independent (within rounding: F > 1): the best bound on L
+            out.append(_global_from_best(bounds, cert["inputs"]["population"]["probabilities"]))
     return out

@@ -19,6 +19,7 @@ from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
 from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.independence import exactly_independent
 from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Population, compose
 from fairaudit.laws.utilities import Utility
@@ -47,7 +48,7 @@ class ModelProblem:
     gmin: FloatArray  # min and max of g per context
     gmax: FloatArray
     binding: bool  # τ > min g in some live context
-    independent: bool  # X ⊥ A in the population
+    independent: bool  # X ⊥ A in the population, exactly (its fast paths use one weight P(x) per context)
     assumptions: tuple[Assumption, ...]
 
     @property
@@ -177,7 +178,7 @@ def model_problem(
         gmin=gmin,
         gmax=gmax,
         binding=bool(np.any(floor > gmin[live])) if live.any() else False,
-        independent=population.independence().independent,
+        independent=exactly_independent(population.probabilities),
         assumptions=assumptions,
     )
 

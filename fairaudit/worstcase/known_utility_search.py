@@ -95,19 +95,23 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
         single = np.count_nonzero(problem.population.probabilities[:, a]) == 1  # P(x | a) = 1 exactly
         return _Coefficients.weighted(space, xs, a, p_context_given_group[xs, a], single)
 
-    coefficients = [coef_global(a) for a in range(nA)]
+    # the groups of the pairs (L-bar compares the groups with P(A = a) > 0 only: the caller's pairs), in order
+    present = np.unique(pairs)
+    position = np.zeros(nA, dtype=np.intp)
+    position[present] = np.arange(present.size)
+    coefficients = [coef_global(int(a)) for a in present]
     upper = np.full(len(pairs), np.inf)
     if tau is not None and tau > 0:
         upper = np.minimum(upper, up(problem.gmax.max() / tau))
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
-        return coefficients[pairs[i, 0]], coefficients[pairs[i, 1]]
+        return coefficients[position[pairs[i, 0]]], coefficients[position[pairs[i, 1]]]
 
     inexact = max(c.roundings for c in coefficients)
     if space.lo is not None and space.hi is not None and problem.method != "lp":
         P = np.stack([c.value for c in coefficients])
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
-        upper = np.minimum(upper, v[pairs[:, 0], pairs[:, 1]])
+        upper = np.minimum(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
     found = search(upper, _solver(problem, space, pair, inexact))
     return _model_case(problem, "global", found, global_triples, space.to_kernel)

@@ -21,6 +21,7 @@ from fairaudit.base.json_values import Report, canonical_digest, number
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, exp_of, ln, ln_of
+from fairaudit.verification.metrics_check import metric_checks
 from fairaudit.verification.observed_check import observed_checks
 
 if TYPE_CHECKING:
@@ -151,6 +152,7 @@ def verify(
     checks += _theorem_checks(certificate, sensitive, eps_a, skipped)
     checks += _black_box_checks(certificate, eps_a, skipped)
     checks += observed_checks(certificate, sensitive, context, skipped)
+    checks += metric_checks(certificate, sensitive, context, skipped)
     checks += _target_checks(certificate)
     if privacy_filter is not None:
         checks.append(_filter_check(sensitive, privacy_filter))

@@ -5,7 +5,7 @@ mechanisms), composed at both ends of the mechanisms' enclosures as :mod:`~faira
 composes it: the ratios e^L and e^L̄, the global maximiser, the total-variation gaps L_dp and L_eo and the sups over
 g of L and L̄ (:mod:`fairaudit.metrics.parity`, :mod:`fairaudit.metrics.sup_fairness`), each with its maximiser.
 Every entry of the law lies between its two ends, and each metric is monotone in the entries it reads, so each is
-enclosed by evaluating it at the right end of each entry (``proofs/verification.md`` §2).
+enclosed by evaluating it at the right end of each entry (``proofs/verification.md`` §2b).
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ def metric_checks(
     The definitions and conventions are those of :mod:`fairaudit.metrics.parity` and
     :mod:`fairaudit.metrics.sup_fairness`: contexts with P(X = x) = 0 are left out of L_eo and the local sup, groups
     with P(A = a) = 0 out of L_dp and the global sup (undefined, null, with fewer than two left); a ratio 0/0 is 1
-    and c/0 is +inf. The enclosures: ``proofs/verification.md`` §2.
+    and c/0 is +inf. The enclosures: ``proofs/verification.md`` §2b.
 
     Examples
     --------

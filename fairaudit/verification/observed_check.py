@@ -40,7 +40,7 @@ def composed_law(
     low : bool
         The low end (randomized response's keep p and off-diagonal q at the low ends of their enclosures) or the
         high end. Each entry of Q is a sum of p, q and exact rows times entries of K, all ≥ 0: it increases from the
-        low end to the high end, so the exact law lies between the two entrywise (``proofs/verification.md`` §2).
+        low end to the high end, so the exact law lies between the two entrywise (``proofs/verification.md`` §2b).
 
     Returns
     -------
@@ -161,7 +161,7 @@ def observed_enclosures(
     Notes
     -----
     Local and global g-fairness are the paper's definitions (``proofs/main_theorem.md``); the composition
-    Q = M_X K M_A at both ends of the mechanisms' enclosures, ``proofs/verification.md`` §2.
+    Q = M_X K M_A at both ends of the mechanisms' enclosures, ``proofs/verification.md`` §2b.
 
     Examples
     --------

@@ -131,7 +131,7 @@ def _unfiltered_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) 
     return fairness_checks("unfiltered", section, found, inputs) + _section_checks("unfiltered", section, found, inputs)
 
 
-Plane = list[Any]
+_Plane = list[Any]
 """A law by group: per group its row of (low, high) ends, one per decision; None for a group left out."""
 
 
@@ -177,7 +177,7 @@ def _metric(
     section: Mapping[str, Any],
     key: str,
     exact: Enclosure | None,
-    planes: dict[Any, Plane],
+    planes: dict[Any, _Plane],
     labels: tuple[list[Any], list[Any]],
     no_pair: bool,
 ) -> list[Check]:
@@ -204,9 +204,9 @@ def _metric(
     return out
 
 
-def _group_plane(pop: list[Any], mass: list[Fraction], ends: list[Any]) -> Plane:
+def _group_plane(pop: list[Any], mass: list[Fraction], ends: list[Any]) -> _Plane:
     """Σ_x P(x, a) T[x][a][u] / P(a) per group, at both ends of T (P(u | a) for the law); None where P(A = a) = 0."""
-    plane: Plane = []
+    plane: _Plane = []
     for a, m in enumerate(mass):
         if m == 0:
             plane.append(None)
@@ -219,7 +219,7 @@ def _group_plane(pop: list[Any], mass: list[Fraction], ends: list[Any]) -> Plane
     return plane
 
 
-def _max_tv(planes: dict[Any, Plane]) -> Enclosure:
+def _max_tv(planes: dict[Any, _Plane]) -> Enclosure:
     """The largest TV = Σ_u (P_a(u) − P_b(u))⁺ over the planes and their ordered pairs of rows, enclosed (each term
     increases in P_a(u) and decreases in P_b(u))."""
     lo = hi = Fraction(0)
@@ -233,7 +233,7 @@ def _max_tv(planes: dict[Any, Plane]) -> Enclosure:
     return Enclosure(lo, hi)
 
 
-def _max_ratio(planes: dict[Any, Plane]) -> Enclosure:
+def _max_ratio(planes: dict[Any, _Plane]) -> Enclosure:
     """The largest ratio max_a P_a(u) / min_a P_a(u) over the planes and decisions, enclosed (:func:`max_ratio`)."""
     columns = []
     for plane in planes.values():
@@ -242,7 +242,7 @@ def _max_ratio(planes: dict[Any, Plane]) -> Enclosure:
     return max_ratio(columns)
 
 
-def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, Plane], labels: tuple[list[Any], list[Any]],
+def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], labels: tuple[list[Any], list[Any]],
            no_pair: bool) -> Check:  # fmt: skip
     """The detail's value at its named context (None: the plane over groups), pair and event (a gap: P(event | group)
     − P(event | other_group)) or decision (a ratio: P(decision | group) / P(decision | other_group), its log)."""

@@ -165,7 +165,8 @@ def _details(cert: dict[str, Any]) -> list[tuple[str, str, dict[str, Any]]]:
         for key, detail in cert[section]["details"].items():
             if detail["group"] is not None:
                 out.append((section, key, detail))
-        out.append((section, "global", cert[section]["global"]))
+        if cert[section]["global"]["group"] is not None:
+            out.append((section, "global", cert[section]["global"]))
     return out
 
 
@@ -186,11 +187,9 @@ def _check_edits(cert: dict[str, Any]) -> None:
     decisions = cert["inputs"]["kernel"]["decisions"]
     for section, key, detail in _details(copy.deepcopy(cert)):
         path = f"{section}.{key}" if key == "global" else f"{section}.details.{key}"
-        edits = (
-            [{"group": detail["other_group"], "other_group": detail["group"]}]
-            if detail["value"] not in (0, 0.0)
-            else []
-        )
+        # a swapped pair (or an event's complement) gives -v: within the tolerance 1e-12 of v when v is as small
+        distinct = detail["value"] == "inf" or detail["value"] > 1e-11
+        edits = [{"group": detail["other_group"], "other_group": detail["group"]}] if distinct else []
         edits.append({"group": "no such group"})
         if detail.get("context") is not None:
             edits.append({"context": "no such context"})
@@ -200,7 +199,7 @@ def _check_edits(cert: dict[str, Any]) -> None:
         if "decision" in detail:
             edits.append({"decision": "no such decision"})
         for edit in edits:
-            if "event" in edit and detail["value"] in (0, 0.0):
+            if "event" in edit and not distinct:
                 continue
             edited = copy.deepcopy(cert)
             where = edited[section] if key == "global" else edited[section]["details"]

@@ -3,7 +3,9 @@
 :func:`verify` reads a certificate (the JSON of ``fairaudit certify``, checked against its schema), recomputes the
 SHA-256 of its ``inputs`` and re-derives, from those inputs alone and in exact rational arithmetic
 (:mod:`~fairaudit.verification.enclosures`), each number it can: the mechanisms' ε, the paper, tight and corollary
-bounds, the observed local and global g-fairness and their maximising context and groups, and the targets' verdicts.
+bounds, every metric of the ``observed`` and ``unfiltered`` sections (L and L̄, L_dp and L_eo, the sups over g, their
+ratios) with each maximiser (:mod:`~fairaudit.verification.observed_check`,
+:mod:`~fairaudit.verification.metrics_check`), and the targets' verdicts.
 Each is a :class:`~fairaudit.verification.checks.Check`: it **holds** when it lies on its certified side of the exact
 value (an upper bound at or above it) and within :data:`~fairaudit.verification.checks.TOLERANCE` of it (so that a
 number moved by 1e-9 fails); a measured value holds within the tolerance on either side. Every number it does not
@@ -31,6 +33,7 @@ from fairaudit.verification.enclosures import (
     ln_of,
     recorded_array,
 )
+from fairaudit.verification.metrics_check import metric_checks
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import recorded_checks
 
@@ -162,6 +165,7 @@ def verify(
     checks += _theorem_checks(certificate, sensitive, eps_a, skipped)
     checks += _black_box_checks(certificate, eps_a, skipped)
     checks += observed_checks(certificate, sensitive, context, skipped)
+    checks += metric_checks(certificate, sensitive, context, skipped)
     checks += _target_checks(certificate)
     if privacy_filter is not None:
         checks.append(_filter_check(sensitive, privacy_filter))

@@ -29,7 +29,7 @@ from typing import Any
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.exact_programs import maximize_ratio
 
-__all__ = ["MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures"]
+__all__ = ["MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
 
 MAX_VARIABLES = 64
 """The largest program (variables) re-derived exactly; a larger black box is listed as not re-derived."""
@@ -95,45 +95,94 @@ def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
     (from ``proofs/black_box.md`` §6); the programs are solved by
     :func:`~fairaudit.verification.exact_programs.maximize_ratio` (Dinkelbach 1967).
     """
+    settings = _settings(inputs)
+    if isinstance(settings, str):
+        return WorstCaseEnclosures(None, None, settings)
+    try:
+        ends = [(_local(s), _global(s)) for s in settings]
+    except ValueError as exc:  # floors above what the recorded rows reach exactly: no model meets tau
+        return WorstCaseEnclosures(
+            None, None, f"{exc}: no model meets E[g | x, a] >= tau with the recorded rows exactly"
+        )
+    local = Enclosure(ends[0][0], ends[-1][0])
+    low_global, high_global = ends[0][1], ends[-1][1]
+    global_ = None if low_global is None or high_global is None else Enclosure(low_global, high_global)
+    why = "" if global_ is not None else f"L-bar: programs beyond {MAX_VARIABLES} variables"
+    independent = _alike(settings[0].weights, settings[0].present)
+    return WorstCaseEnclosures(local, global_, why, independent)
+
+
+def pair_enclosures(
+    inputs: Mapping[str, Any], context: Any, group: Any, other_group: Any
+) -> tuple[Enclosure | None, Enclosure | None]:
+    """The exact worst ratios of one named pair: L's at ``context`` and L̄'s, enclosed as in
+    :func:`black_box_enclosures`; None where a label is not the inputs' (or the context has P(X = x) = 0, or the
+    group P(A = a) = 0 for L̄), or where the black box is not re-derived.
+
+    The maximiser a certificate names holds when its pair's value is the maximum: ``verify`` judges the recorded
+    value against it as an upper bound, so a pair that is not the maximiser fails.
+
+    Examples
+    --------
+    Binary randomized response keeping 3/4, as its matrix, g = 1{yes}: the worst model's ratio is 3 for either pair.
+
+    >>> m = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix", "matrix": [[0.75, 0.25], [0.25, 0.75]]}
+    >>> inputs = {"sensitive_mechanism": m, "context_mechanism": {"inputs": ["x"], "outputs": ["x"], "kind": "identity"},
+    ...           "utility": {"values": [1.0, 0.0], "tau": None},
+    ...           "population": {"contexts": ["x"], "groups": ["a", "b"], "probabilities": [[0.5, 0.5]]}}
+    >>> pair_enclosures(inputs, "x", "b", "a")
+    (Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)))
+    >>> pair_enclosures(inputs, "y", "b", "a")[0] is None    # not a context of the inputs
+    True
+    """
+    settings = _settings(inputs)
+    pop = inputs["population"]
+    contexts, groups = list(pop["contexts"]), list(pop["groups"])
+    if isinstance(settings, str) or group not in groups or other_group not in groups or group == other_group:
+        return None, None
+    a, b = groups.index(group), groups.index(other_group)
+    probabilities = recorded_array(pop["probabilities"], "inputs.population.probabilities")
+    live = [x for x in range(len(probabilities)) if sum(probabilities[x]) > 0]
+    i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
+    try:
+        local = None if i is None else Enclosure(*(_local(s, (i, a, b)) for s in (settings[0], settings[-1])))
+        present = a in settings[0].present and b in settings[0].present
+        ends = [_global(s, (a, b)) for s in (settings[0], settings[-1])] if present else [None, None]
+    except ValueError:
+        return None, None
+    return local, None if ends[0] is None or ends[1] is None else Enclosure(ends[0], ends[1])
+
+
+def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | str:
+    """The programs' data at each end of e^ε (one for a matrix), or why the black box is not re-derived."""
     m = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
     context = inputs["context_mechanism"]
     u = inputs["utility"]
     if context["kind"] != "identity":
-        return WorstCaseEnclosures(None, None, "a context mechanism other than the identity")
+        return "a context mechanism other than the identity"
     if m.kind == "identity" or m.k < 2:
-        return WorstCaseEnclosures(None, None, "no privacy on the sensitive attribute (the identity)")
+        return "no privacy on the sensitive attribute (the identity)"
     values = recorded_array(u["values"], "inputs.utility.values")
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     live = [x for x in range(len(pop)) if sum(pop[x]) > 0]
     if isinstance(values[0], list):  # g(u, x, a): free of the group?
         if any(values[x][a] != values[x][0] for x in range(len(values)) for a in range(len(values[x]))):
-            return WorstCaseEnclosures(None, None, "the utility depends on the group")
+            return "the utility depends on the group"
         low = [min(values[x][0]) for x in live]
         high = [max(values[x][0]) for x in live]
     else:
         low, high = [min(values)] * len(live), [max(values)] * len(live)
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
     if m.kind == "matrix" and (m.k > 16 or len(m.outputs) * len(live) > MAX_VARIABLES):
-        return WorstCaseEnclosures(None, None, f"programs beyond {MAX_VARIABLES} variables")
+        return f"programs beyond {MAX_VARIABLES} variables"
     mass = [sum(pop[x][a] for x in live) for a in range(m.k)]
     weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(m.k)] for x in live]
     present = [a for a in range(m.k) if mass[a]]  # L-bar compares only the groups with P(A = a) > 0
-    ends = []
+    out = []
     for t in _ends(m):
         p, q = (t / (t + m.k - 1), 1 / (t + m.k - 1)) if m.rows is None else (Fraction(0), Fraction(0))
-        s = _Setting(m.rows, p, q, m.k, low, high, tau, weights, present)  # type: ignore[arg-type]
-        try:
-            ends.append((_local(s), _global(s)))
-        except ValueError as exc:  # floors above what the recorded rows reach exactly: no model meets tau
-            return WorstCaseEnclosures(
-                None, None, f"{exc}: no model meets E[g | x, a] >= tau with the recorded rows exactly"
-            )
-    local = Enclosure(ends[0][0], ends[-1][0])
-    low_global, high_global = ends[0][1], ends[-1][1]
-    global_ = None if low_global is None or high_global is None else Enclosure(low_global, high_global)
-    why = "" if global_ is not None else f"L-bar: programs beyond {MAX_VARIABLES} variables"
-    independent = _alike(weights, present)
-    return WorstCaseEnclosures(local, global_, why, independent)
+        out.append(_Setting(m.rows, p, q, m.k, low, high, tau, weights, present))  # type: ignore[arg-type]
+    return out
 
 
 def _ends(m: RecordedMechanism) -> list[Fraction]:
@@ -166,19 +215,22 @@ def _pairs(s: _Setting) -> list[tuple[int, int]]:
     return [(0, 1)] if s.rows is None else [(a, b) for a in range(s.k) for b in range(s.k) if a != b]
 
 
-def _local(s: _Setting) -> Number:
-    """max over live contexts and pairs of the exact worst ratio."""
+def _local(s: _Setting, at: tuple[int, int, int] | None = None) -> Number:
+    """max over live contexts and pairs of the exact worst ratio; with ``at`` = (live context, a, a'), that one's
+    (behind randomized response every pair is alike: the pair (0, 1) stands for it)."""
     best: Number = Fraction(0)
-    for i in range(len(s.low)):
-        for a, b in _pairs(s):
-            row_a, row_b, floors, _ = _rows_of(s, a, b)
-            best = max(best, _solve([row_a], [row_b], floors, [s.low[i]], [s.high[i]], s.tau))
+    cases = [(i, a, b) for i in range(len(s.low)) for a, b in _pairs(s)] if at is None else [at]
+    for i, a, b in cases:
+        if s.rows is None:
+            a, b = 0, 1
+        row_a, row_b, floors, _ = _rows_of(s, a, b)
+        best = max(best, _solve([row_a], [row_b], floors, [s.low[i]], [s.high[i]], s.tau))
     return best
 
 
-def _global(s: _Setting) -> Number | None:
+def _global(s: _Setting, at: tuple[int, int] | None = None) -> Number | None:
     """max over pairs of groups present of the exact worst ratio of E[g | a]/E[g | a'] (every live context's cells);
-    1 (L-bar = 0) with fewer than two groups present."""
+    1 (L-bar = 0) with fewer than two groups present; with ``at`` = (a, a'), that pair's."""
     if len(s.present) < 2:
         return Fraction(1)
     if s.rows is not None:
@@ -189,6 +241,8 @@ def _global(s: _Setting) -> Number | None:
         pairs = [(a, b) for a in s.present for b in s.present if a != b]  # P(x | a) differs: no symmetry
         if s.k * len(s.low) > MAX_VARIABLES:
             return None
+    if at is not None:
+        pairs = pairs if s.rows is None and _alike(s.weights, s.present) else [at]
     best: Number = Fraction(1)
     for a, b in pairs:
         tops, bottoms, floors = [], [], []

@@ -155,6 +155,20 @@ def test_a_swapped_witness_fails(certificates):
     assert _failing(cert) == ["observed.local (its context and groups)"]
 
 
+def test_the_black_box_names_a_pair_that_reaches_its_worst_case(certificates):
+    cert = copy.deepcopy(certificates[MATRIX])
+    detail = cert["bound_details"]["black_box"]
+    names = {c.name: c for c in verify(cert).checks}
+    assert names["bound_details.black_box (its context and groups)"].holds
+    assert names["bound_details.black_box.global (its groups)"].holds
+    # rows a and c of the matrix: the worst ratio of a over c is not the worst of c over a (M is not symmetric)
+    detail["group"], detail["other_group"] = detail["other_group"], detail["group"]
+    assert "bound_details.black_box (its context and groups)" in _failing(cert)
+    cert = copy.deepcopy(certificates[MATRIX])
+    cert["bound_details"]["black_box"]["global"]["group"] = "nobody"
+    assert _failing(cert) == ["bound_details.black_box.global (its groups)"]
+
+
 def test_an_edited_input_table_fails(certificates):
     cert = copy.deepcopy(certificates[MATRIX])
     cell = cert["inputs"]["kernel"]["probabilities"][0][0]

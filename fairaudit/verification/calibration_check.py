@@ -91,9 +91,13 @@ def calibration_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) 
         out += _black_box(cert, cal, members["black_box"], skipped)
     elif cal.get("epsilon") is not None:
         skipped.append(("calibration", "no member recorded at the calibrated epsilon"))
+    else:
+        skipped.append(("calibration", "no epsilon meets the target: it certifies no member (its reason says why)"))
     white = cal.get("white_box")
     if white is not None and members.get("white_box") is not None:
         out += _white_box(cert, white, members["white_box"], skipped)
+    elif white is not None and white.get("epsilon") is None:
+        skipped.append(("calibration.white_box", "no epsilon meets the target: it certifies no member"))
     return out
 
 
@@ -109,10 +113,16 @@ def _black_box(
     m, eps = _member(record, "inputs.calibration.black_box")
     out = [judge("calibration.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
     if cal.get("kind") != "local" or exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz") != 0:
-        skipped.append(("calibration.bound", "a target on L-bar, or utilities Lipschitz in the group"))
+        skipped += [
+            ("calibration.bound", "a target on L-bar, or utilities Lipschitz in the group"),
+            ("calibration.target", "a target on L-bar, or utilities Lipschitz in the group"),
+        ]
         return out
     if m.kind == "identity" or eps.lo == INF:
-        skipped.append(("calibration.bound", "every epsilon meets the target (the identity)"))
+        skipped += [
+            ("calibration.bound", "every epsilon meets the target (the identity)"),
+            ("calibration.target", "every epsilon meets the target (the identity)"),
+        ]
         return out
     lower, gamma = cal.get("lower") or 0.0, cal.get("gamma")
     the_class = {
@@ -123,7 +133,7 @@ def _black_box(
     }
     worst = black_box_enclosures(the_class)
     if worst.local is None:
-        skipped.append(("calibration.bound", worst.reason))
+        skipped += [("calibration.bound", worst.reason), ("calibration.target", worst.reason)]
         return out
     logs = ln_of(worst.local)
     value = Enclosure(logs.lo, min(logs.hi, eps.hi))  # under pure ε-DP no model's ratio exceeds e^ε
@@ -141,7 +151,7 @@ def _white_box(
     context = RecordedMechanism.from_record(cert["inputs"]["context_mechanism"], "inputs.context_mechanism")
     found = observed_enclosures(cert["inputs"], m, context)
     if isinstance(found, str):
-        skipped.append(("calibration.white_box.bound", found))
+        skipped += [("calibration.white_box.bound", found), ("calibration.white_box.target", found)]
         return out
     value = ln_of(found.local if cal.get("kind") == "local" else found.global_)
     out.append(judge("calibration.white_box.bound", cal["bound"], value, "estimate", "the exact L at that epsilon"))

@@ -29,12 +29,12 @@ __all__ = [
 def composed_law(
     kernel: Sequence[Any], sensitive: RecordedMechanism, context: RecordedMechanism, low: bool
 ) -> list[Any]:
-    """The law Q[x][a][u] = Σ M_X[x, x̃] M_A[a, ã] K[x̃, ã, u] at one end of the mechanisms' enclosures.
+    """The law ``Q[x][a][u]`` = Σ M_X[x, x̃] M_A[a, ã] K[x̃, ã, u] at one end of the mechanisms' enclosures.
 
     Parameters
     ----------
     kernel : nested lists of Fraction
-        K[x̃][ã][u], the recorded kernel read exactly (:func:`~fairaudit.verification.enclosures.recorded_array`).
+        ``K[x̃][ã][u]``, the recorded kernel read exactly (:func:`~fairaudit.verification.enclosures.recorded_array`).
     sensitive, context : RecordedMechanism
         M_A and M_X.
     low : bool
@@ -45,7 +45,7 @@ def composed_law(
     Returns
     -------
     list
-        Q[x][a][u] as Fractions, indexed [context, group, decision] (the mechanisms' inputs).
+        ``Q[x][a][u]`` as Fractions, indexed [context, group, decision] (the mechanisms' inputs).
 
     Examples
     --------
@@ -90,9 +90,9 @@ def expected_utility(law: list[Any], g: list[Any]) -> list[list[Fraction]]:
     Parameters
     ----------
     law : nested lists of Fraction
-        Q[x][a][u].
+        ``Q[x][a][u]``.
     g : list of Fraction, or nested lists
-        g(u), one row over the decisions, or the full table g[x][a][u].
+        g(u), one row over the decisions, or the full table ``g[x][a][u]``.
 
     Returns
     -------

@@ -441,7 +441,31 @@ def vertex_ratio(
     at), summed over the cells at a bound (r_i = 0 inside the box). When ``h`` is near an optimal vertex its root is
     the optimum up to rounding, however inexact the solver's value: repairing at the solver's value instead leaves
     its error, and Newton from there contracts it only by 1 − (the denominator's share of the bound rows), 0.99 per
-    step with τ = 0.01. None when the system is too large, or B does not decrease in λ.
+    step with τ = 0.01. ``proofs/linear_fractional.md`` §6 ("Where to repair").
+
+    Parameters
+    ----------
+    h : numpy.ndarray, shape (n,)
+        The solver's primal point, in the box.
+    p, q, lower, upper, rows, duals
+        As in :func:`dual_value` (finite bounds; ``duals`` the solver's, one array per block of rows).
+
+    Returns
+    -------
+    float or None
+        The root, a candidate only (:func:`certify_ratio` checks the duals repaired near it exactly); None when the
+        system is larger than :data:`REFINE_LIMIT` or B does not decrease in λ.
+
+    Examples
+    --------
+    The docstring program of :class:`~fairaudit.base.linear_fractional.FractionalProgram`: at its vertex
+    h = (1, 2/7) the row is active and the root is 11/7, whatever the solver's dual.
+
+    >>> import numpy as np
+    >>> p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    >>> rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
+    >>> vertex_ratio(np.array([1.0, 2 / 7]), p, q, np.zeros(2), np.ones(2), rows, [np.array([1.1])]) == 11 / 7
+    True
     """
     system = _repair_system(h, lower, upper, rows, duals)
     if system is None:

@@ -119,8 +119,23 @@ def pair_enclosures(
     :func:`black_box_enclosures`; None where a label is not the inputs' (or the context has P(X = x) = 0, or the
     group P(A = a) = 0 for L̄), or where the black box is not re-derived.
 
-    The maximiser a certificate names holds when its pair's value is the maximum: ``verify`` judges the recorded
-    value against it as an upper bound, so a pair that is not the maximiser fails.
+    The maximiser a certificate names holds when its pair's program reaches the recorded value (``verify``, within
+    the search's 1e-8): a pair that is not a maximiser fails. The programs are those of :func:`black_box_enclosures`
+    for one (context, a, a') and one (a, a') (``proofs/verification.md`` §4, §4c).
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs`` (checked against the schema).
+    context : label
+        A context of ``inputs.population.contexts`` (the local worst case's).
+    group, other_group : label
+        Two distinct groups of ``inputs.population.groups``: the ratio is E[g | group] over E[g | other_group].
+
+    Returns
+    -------
+    (Enclosure or None, Enclosure or None)
+        The pair's worst ratios (not logarithms) on L at ``context`` and on L̄; +inf when unbounded.
 
     Examples
     --------

@@ -19,9 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import point_ratio
-from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.worstcase.known_utility_problem import ModelProblem
@@ -79,19 +77,14 @@ def local_search(
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
     """max L̄ by the search over pair programs (E[g | a] = Σ_x P(x | a) E[g | x, a] is linear in the kernel too)."""
-    g, live, tau, floor, groups = problem.g, problem.live, problem.tau, problem.floor, problem.groups
+    g, live, tau, floor = problem.g, problem.live, problem.tau, problem.floor
     nA = g.shape[1]
     p_context_given_group = np.nan_to_num(problem.population.context_given_group(), nan=0.0)  # P(x | a), (nX, nA)
     space = _model_program(MA, problem.context_mechanism.matrix, g, live, tau, problem.decision_only, problem.binding)
 
     def coef_global(a: int) -> _Coefficients:
         xs = np.flatnonzero(live & (p_context_given_group[:, a] > 0))
-        if not xs.size:
-            raise InputError(
-                "population",
-                f"group {format_label(groups[a])!r} has P(A = a) = 0: the worst model for L-bar needs "
-                "every group to have positive probability",
-            )
+        assert xs.size  # (a group of the pairs has P(A = a) > 0: some live context meets it)
         single = np.count_nonzero(problem.population.probabilities[:, a]) == 1  # P(x | a) = 1 exactly
         return _Coefficients.weighted(space, xs, a, p_context_given_group[xs, a], single)
 

@@ -10,7 +10,7 @@ every value in [min_u g(u, x), max_u g(u, x)]. So
   floors.
 
 Each is a small linear-fractional program with rational data, solved exactly
-(:func:`~fairaudit.verification.exact_programs.maximize_ratio`). Randomized response's rows hold e^ε, irrational:
+(:func:`~fairaudit.base.exact_programs.maximize_ratio`). Randomized response's rows hold e^ε, irrational:
 its worst case is non-decreasing in e^ε (randomized response at a smaller ε is the one at a larger ε followed by
 more randomized response, so its laws are among the larger one's), and the programs are solved at the two
 50-digit rational ends of e^ε, which enclose it. Behind randomized response every pair of groups is alike
@@ -26,8 +26,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
+from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
-from fairaudit.verification.exact_programs import maximize_ratio
 
 __all__ = ["MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
 
@@ -93,7 +93,7 @@ def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
     -----
     The reduction, the monotonicity in e^ε and the three-variable programs: ``proofs/verification.md`` §4
     (from ``proofs/black_box.md`` §6); the programs are solved by
-    :func:`~fairaudit.verification.exact_programs.maximize_ratio` (Dinkelbach 1967).
+    :func:`~fairaudit.base.exact_programs.maximize_ratio` (Dinkelbach 1967).
     """
     settings = _settings(inputs)
     if isinstance(settings, str):

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from fairaudit.base.errors import InputError
-from fairaudit.verification.exact_programs import LinearOptimum, RatioOptimum, maximize_linear, maximize_ratio
+from fairaudit.base.exact_programs import LinearOptimum, RatioOptimum, maximize_linear, maximize_ratio
 
 P, Q = [F(7, 10), F(3, 10)], [F(3, 10), F(7, 10)]
 
@@ -278,6 +278,6 @@ def test_a_larger_program_agrees_with_highs():
 
 
 def test_the_module_imports_no_scipy():
-    code = "import sys, fairaudit.verification.exact_programs; print('scipy' in sys.modules)"
+    code = "import sys, fairaudit.base.exact_programs; print('scipy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"

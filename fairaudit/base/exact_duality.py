@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     import scipy.sparse as sp
 
 __all__ = [
+    "ACTIVE_TOLERANCES",
     "NEWTON_STEPS",
     "REFINE_LIMIT",
     "RatioBound",
@@ -364,14 +365,25 @@ REFINE_LIMIT = 4_000_000
 """Largest (interior cells × active rows) system :func:`refine_duals` solves densely; larger ones keep the solver's."""
 
 
+ACTIVE_TOLERANCES = (1e-9, 1e-7, 1e-5)
+"""Distances (relative to max(1, max |h|)) within which a cell counts as at its bound and a row as active, when the
+duals are repaired: an interior-point solver stops a little inside the box, by 1e-12 to 1e-8 on a degenerate
+program, so each is tried and the smallest value certified kept."""
+
+
 def _repair_system(
-    h: FloatArray, lower: FloatArray, upper: FloatArray, rows: Rows, duals: list[FloatArray]
+    h: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows,
+    duals: list[FloatArray],
+    tolerance: float = ACTIVE_TOLERANCES[0],
 ) -> tuple[Any, list[Any], Any, Any] | None:
     """The cells strictly inside the box, the active rows, their columns (interior cells × active rows) and the
     solver's duals on them; None when the system is larger than :data:`REFINE_LIMIT`."""
     import scipy.sparse as sp
 
-    tol = 1e-9 * max(1.0, float(np.abs(h).max(initial=0.0)))
+    tol = tolerance * max(1.0, float(np.abs(h).max(initial=0.0)))
     interior = (h > lower + tol) & (h < upper - tol)
     blocks, active = [], []
     for (a, b, kind), _ in zip(rows, duals, strict=True):
@@ -408,13 +420,16 @@ def refine_duals(
     upper: FloatArray,
     rows: Rows,
     duals: list[FloatArray],
+    tolerance: float = ACTIVE_TOLERANCES[0],
 ) -> list[FloatArray] | None:
     """The solver's duals repaired at the point ``h``: r_i = 0 on the cells strictly inside the box, ν = 0 off the
     active rows (complementary slackness), by least squares in floating point.
 
     Any result is only a candidate: :func:`certify_ratio` checks it exactly. None when the system is too large.
+    ``tolerance``: a cell within it of a bound counts as at the bound, a row within it as active
+    (:data:`ACTIVE_TOLERANCES`).
     """
-    system = _repair_system(h, lower, upper, rows, duals)
+    system = _repair_system(h, lower, upper, rows, duals, tolerance)
     if system is None:
         return None
     interior, active, columns, current = system
@@ -433,6 +448,7 @@ def vertex_ratio(
     upper: FloatArray,
     rows: Rows,
     duals: list[FloatArray],
+    tolerance: float = ACTIVE_TOLERANCES[0],
 ) -> float | None:
     """The λ at which the duals repaired at ``h`` (:func:`refine_duals`) make B(λ) vanish: a candidate at which to
     repair them, in floating point.
@@ -449,6 +465,8 @@ def vertex_ratio(
         The solver's primal point, in the box.
     p, q, lower, upper, rows, duals
         As in :func:`dual_value` (finite bounds; ``duals`` the solver's, one array per block of rows).
+    tolerance : float, optional
+        As in :func:`refine_duals`.
 
     Returns
     -------
@@ -467,7 +485,7 @@ def vertex_ratio(
     >>> vertex_ratio(np.array([1.0, 2 / 7]), p, q, np.zeros(2), np.ones(2), rows, [np.array([1.1])]) == 11 / 7
     True
     """
-    system = _repair_system(h, lower, upper, rows, duals)
+    system = _repair_system(h, lower, upper, rows, duals, tolerance)
     if system is None:
         return None
     interior, active, columns, current = system

@@ -13,8 +13,11 @@ Two routes to the same optimum:
   The Charnes–Cooper transform y = s·h, s = 1 / (q·h) turns the program into
   the linear program max p·y subject to q·y = 1, A_ub y ≤ b_ub s,
   A_eq y = b_eq s, lower s ≤ y ≤ upper s, s ≥ 0, solved with cvxpy and the
-  Clarabel interior-point solver. An unbounded LP means the ratio is
-  unbounded (+inf); an infeasible one that no feasible h has q·h > 0.
+  Clarabel interior-point solver, its value certified from the repaired dual
+  (:mod:`fairaudit.base.exact_duality`) or, on a small program near a
+  degenerate vertex, by the rational simplex (:mod:`fairaudit.base.exact_programs`).
+  An unbounded LP means the ratio is unbounded (+inf); an infeasible one that
+  no feasible h has q·h > 0.
 
 * :class:`FractionalProgram` — the same LP compiled once for a fixed
   polytope and re-solved for many (p, q) (cvxpy parameters), which is how the
@@ -41,8 +44,15 @@ import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, as_float_array
 from fairaudit.base.errors import InputError
-from fairaudit.base.exact_duality import certify_ratio, point_ratio, refine_duals, vertex_ratio
-from fairaudit.base.outward import up
+from fairaudit.base.exact_duality import (
+    ACTIVE_TOLERANCES,
+    RatioBound,
+    certify_ratio,
+    point_ratio,
+    refine_duals,
+    vertex_ratio,
+)
+from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
 
 if TYPE_CHECKING:
@@ -53,6 +63,7 @@ ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
 """A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
 
 __all__ = [
+    "EXACT_CROSSOVER",
     "FractionalProgram",
     "FractionalResult",
     "fractional_max",
@@ -71,7 +82,8 @@ class FractionalResult:
     value : float
         The optimal ratio as an upper bound: ≥ the exact maximum whenever ``certified`` (+inf when
         unbounded; NaN when infeasible). The threshold route rounds it up by a proven error bound; the LP
-        route takes it from a dual point checked in exact arithmetic (``proofs/linear_fractional.md`` §6).
+        route takes it from a dual point checked in exact arithmetic, or, on a small program whose repaired dual
+        is not tight, from the rational simplex's exact optimum (``proofs/linear_fractional.md`` §6).
         When not ``certified`` it is the solver's primal value, and ``reason`` says why it is not certified.
     argmax : numpy.ndarray or None
         An h attaining it (to the solver's accuracy), shape (n,); None when unbounded or infeasible.
@@ -95,7 +107,8 @@ class FractionalResult:
         ``value − witness`` rounded up (NaN without a witness; 0 when both are +inf).
     dual : tuple of numpy.ndarray
         The LP route's dual point that certified ``value``: one array per block of rows (ν ≥ 0 for A_ub,
-        η for A_eq, in that order; shape (m,) and (k,)); empty on the threshold route.
+        η for A_eq, in that order; shape (m,) and (k,)); empty on the threshold route and when the rational
+        simplex solved the program (its exact last step is the proof).
     """
 
     value: float
@@ -261,8 +274,32 @@ they are repaired, smallest first: where B is flat beyond the optimum the duals 
 REPAIRS = 4
 """Further repairs at the last certified λ, while the value decreases."""
 
+CROSSOVER_TOLERANCE = 1e-13
+"""How far (relative to max(1, |root|)) the value the repaired duals certify may lie above their root
+(:func:`~fairaudit.base.exact_duality.vertex_ratio`) before a small program is solved exactly instead."""
+
+EXACT_CROSSOVER = "then the rational simplex (exact: the repaired dual was not tight)"
+"""What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty)."""
+
+CROSSOVER_SIZE = (64, 128)
+"""The largest program (variables, rows; an equality counts twice) solved exactly by the rational simplex when its
+repaired duals are not tight."""
+
 _INCONSISTENT = "the constraints are inconsistent: no feasible h"
 """The reason of an empty polytope."""
+
+
+def _tight(bound: RatioBound, roots: list[float], witness: float) -> bool:
+    """Whether the dual's certified value lies within :data:`CROSSOVER_TOLERANCE` of the ``witness`` (a lower end), or
+    of a root of the repaired duals' B with the solver's point (its witness, when it lies in the polytope exactly)
+    within 1e-8 of the value."""
+    if not bound.certified:
+        return False
+    scale = max(1.0, abs(bound.value))
+    if math.isfinite(witness) and bound.value - witness <= CROSSOVER_TOLERANCE * scale:
+        return True
+    near_point = not math.isfinite(witness) or bound.value - witness <= 1e-8 * scale
+    return near_point and any(abs(bound.value - root) <= CROSSOVER_TOLERANCE * scale for root in roots)
 
 
 def _no_solution(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
@@ -460,32 +497,44 @@ class FractionalProgram:
         # Newton from the left reaches the smallest λ with B(λ) ≤ 0 for the duals: start below the optimum
         start = min(witness, value - 1e-9 * abs(value)) if math.isfinite(witness) else value - 1e-9 * abs(value)
         bound = certify_ratio(start, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
-        candidates: list[tuple[float, bool]] = []
+        candidates: list[tuple[float, float, bool]] = []  # (λ, the active tolerance, whether at a root)
+        roots: list[float] = []
         if self._bounded and math.isfinite(value):
             # just above the root of B for the duals repaired at h (the optimum, up to rounding, when h is near an
-            # optimal vertex), then just above the solver's value: there the best dual has B(λ) < 0 with a margin
-            vertex = vertex_ratio(h, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
-            if vertex is not None:
-                candidates += [(vertex + offset * max(1.0, abs(vertex)), True) for offset in VERTEX_OFFSETS]
-            candidates += [(value + offset * max(1.0, abs(value)), False) for offset in REPAIR_OFFSETS]
-        vertex_done = False
-        for lam, at_vertex in candidates:
-            if at_vertex and vertex_done:
+            # optimal vertex and its cells at a bound are told from those inside), then just above the solver's value:
+            # there the best dual has B(λ) < 0 with a margin
+            for tolerance in ACTIVE_TOLERANCES:
+                root = vertex_ratio(h, p, q, self.lower, self.upper, self._rows, duals, tolerance)  # type: ignore[arg-type]
+                if root is not None and root not in roots:
+                    roots.append(root)
+                    candidates += [(root + offset * max(1.0, abs(root)), tolerance, True) for offset in VERTEX_OFFSETS]
+            candidates += [
+                (value + offset * max(1.0, abs(value)), ACTIVE_TOLERANCES[0], False) for offset in REPAIR_OFFSETS
+            ]
+        done: set[float] = set()  # the tolerances whose root certified: a larger offset only loosens it
+        best = ACTIVE_TOLERANCES[0]
+        for lam, tolerance, at_root in candidates:
+            if at_root and tolerance in done:
                 continue
-            repaired = refine_duals(h, lam, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
+            repaired = refine_duals(h, lam, p, q, self.lower, self.upper, self._rows, duals, tolerance)  # type: ignore[arg-type]
             if repaired is None:
                 break
             tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired)  # type: ignore[arg-type]
-            vertex_done = at_vertex and tight.certified  # a larger offset only loosens it
+            if at_root and tight.certified:
+                done.add(tolerance)
             if tight.certified and not (bound.certified and bound.value <= tight.value):
-                bound, duals = tight, repaired
+                bound, duals, best = tight, repaired, tolerance
         for _ in range(REPAIRS if bound.certified and self._bounded else 0):
             # each repair at the last certified λ contracts its distance to the optimum (proofs/linear_fractional.md §6)
-            repaired = refine_duals(h, bound.value, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
+            repaired = refine_duals(h, bound.value, p, q, self.lower, self.upper, self._rows, duals, best)  # type: ignore[arg-type]
             tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired) if repaired else bound  # type: ignore[arg-type]
             if not tight.certified or tight.value >= bound.value:
                 break
             bound, duals = tight, repaired  # type: ignore[assignment]
+        if self._bounded and not _tight(bound, roots, witness):
+            crossover = self._crossover(result, p, q, status)
+            if crossover is not None:
+                return crossover
         if not bound.certified:
             why = f"not certified (solver status {status}): {bound.reason}"
             return result(value=value, argmax=h, status="optimal", solver_status=status, reason=why, witness=witness)
@@ -500,6 +549,50 @@ class FractionalProgram:
             witness=witness,
             gap=gap_between(bound.value, witness),
             dual=cleaned,
+        )
+
+    def _crossover(
+        self, result: Callable[..., FractionalResult], p: FloatArray, q: FloatArray, status: str
+    ) -> FractionalResult | None:
+        """The exact optimum of a small program by the rational simplex (:func:`~fairaudit.base.exact_programs.
+        maximize_ratio`), for when the duals repaired at the solver's point are not tight; None when the program is
+        larger than :data:`CROSSOVER_SIZE` or the simplex finds no finite maximum.
+
+        Near a degenerate vertex (two rows that differ by rounding, both active at the solver's point) the optimal
+        basis is not the one the solver's point suggests: its repaired duals have mixed signs, and the bound
+        certified from them is loose. The simplex pivots to the optimal vertex exactly
+        (``proofs/linear_fractional.md`` §6, "An exact crossover").
+        """
+        from fractions import Fraction
+
+        from fairaudit.base.exact_programs import maximize_ratio
+
+        blocks = [(np.asarray(a.toarray() if hasattr(a, "toarray") else a), b, op) for a, b, op in self._rows]
+        size = sum(b.size * (2 if op == "eq" else 1) for _, b, op in blocks)
+        if self.n > CROSSOVER_SIZE[0] or size > CROSSOVER_SIZE[1] or self.lower is None or self.upper is None:
+            return None
+
+        def exact(v: Any) -> list[Fraction]:
+            return [Fraction(float(x)) for x in v]
+
+        a_ub, b_ub = [], []
+        for a, b, op in blocks:
+            for sign in (1, -1) if op == "eq" else (1,):
+                a_ub += [exact(sign * row) for row in a]
+                b_ub += exact(sign * b)
+        optimum = maximize_ratio(exact(p), exact(q), exact(self.lower), exact(self.upper), a_ub, b_ub)
+        if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
+            return None
+        value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
+        return result(
+            value=value,
+            argmax=np.array([float(x) for x in optimum.point]),
+            status="optimal",
+            solver_status=f"{status}; {EXACT_CROSSOVER}",
+            reason="",
+            certified=True,
+            witness=witness,
+            gap=gap_between(value, witness),
         )
 
     def _zero_denominator(self, p: FloatArray, q: FloatArray, status: str) -> FractionalResult:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.json_values import Report, number, pair_dict
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import gap_between
+from fairaudit.base.linear_fractional import EXACT_CROSSOVER, gap_between
 from fairaudit.base.outward import log_down, log_up
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
@@ -78,8 +78,9 @@ class WorstCase:
     reason : str
     programs_solved : int
     certified : bool
-        Whether ``value`` is proven an upper bound (the threshold rule's error bound, or the LP's dual checked
-        exactly); False with the reason in ``reason`` when only the solver's word stands behind it.
+        Whether ``value`` is proven an upper bound (the threshold rule's error bound, the LP's dual checked
+        exactly, or the rational simplex on a small program whose repaired dual was not tight); False with the
+        reason in ``reason`` when only the solver's word stands behind it.
     witness : float
         A certified lower end in nats, from the maximiser's point (NaN when the point is not exactly feasible).
     gap : float
@@ -236,7 +237,9 @@ class WorstCase:
         d.update(
             solver_status=self.solver_status,
             certified=bool(self.certified),
-            certified_from_dual=bool(self.certified and self.method == "lp"),
+            certified_from_dual=bool(
+                self.certified and self.method == "lp" and EXACT_CROSSOVER not in self.solver_status
+            ),
             witness=number(self.witness),
             gap=number(self.gap),
         )

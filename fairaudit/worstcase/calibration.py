@@ -20,7 +20,12 @@ attribute reaches the model). Four methods, from the loosest:
   need τ when c > 0 (with c = 0, L_A = 0 and δ = 0, the extra term is 0 for
   every τ and ε = target without τ); no ε meets a target below the floor
   log(1 + c/τ). They bound L̄ only through L̄ ≤ L under X ⊥ A: on L̄ with X
-  and A dependent in the population they are infeasible.
+  and A dependent in the population they are infeasible. A population
+  independent only within rounding (P(x) P(a) in floats; max |P(x, a) −
+  P(x) P(a)| ≤ 1e-9 but not 0 exactly) uses L̄ ≤ L + ln F
+  (:func:`fairaudit.laws.independence.independence_factor`,
+  ``proofs/black_box.md`` §6): L is held to the target less ln F, and the
+  bound on L̄ is L's plus ln F, as ``black_box`` does too.
 * ``black_box`` — the exact worst case over every decision model
   (:func:`fairaudit.worstcase.black_box.black_box_bound`) of the family member M_ε:
   the largest ε with ``black_box_bound(family(ε), utility_class=).value`` ≤ target. It
@@ -52,6 +57,7 @@ Proofs: ``proofs/calibration.md``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from collections.abc import Hashable, Sequence
@@ -63,7 +69,9 @@ import numpy.typing as npt
 from fairaudit.base.checks import choice, nonnegative, real
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
+from fairaudit.base.outward import fraction_down, log_up, up
 from fairaudit.laws.families import MechanismFamily, randomized_response_family
+from fairaudit.laws.independence import exactly_independent, independence_factor
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
@@ -372,9 +380,29 @@ def _certificate(
     """The ``paper``, ``tight`` and ``black_box`` methods; on L̄ with X and A dependent, black_box over every model."""
     dependence = _dependence(common.kind, population)
     if dependence is None:
-        if method in ("paper", "tight"):
-            return closed_form(common, method)
-        return black_box(common, family, metric, population)
+        factor = 1.0
+        if common.kind == "global" and population is not None and not exactly_independent(population.probabilities):
+            factor = independence_factor(population.probabilities)
+        if factor == 1.0:
+            return (
+                closed_form(common, method)
+                if method in ("paper", "tight")
+                else black_box(common, family, metric, population)
+            )
+        # X and A independent only within rounding: L-bar <= L + ln F (proofs/black_box.md §6), so L is held to the
+        # target less ln F, rounded down, and the certificate on L-bar is L's plus ln F, rounded up
+        shift = log_up(factor)
+        inner = dataclasses.replace(common, target=fraction_down(Fraction(common.target) - Fraction(shift)))
+        found = (
+            closed_form(inner, method) if method in ("paper", "tight") else black_box(inner, family, metric, population)
+        )
+        return Found(
+            found.epsilon,
+            up(found.bound + shift),
+            f"{found.reason}; X and A are independent only within rounding (F = {factor:.17g}): L-bar <= L + ln F, "
+            f"so L is held to the target less ln F = {shift:.3g}",
+            found.feasible,
+        )
     if method == "black_box":
         assert population is not None  # (a dependence was found in it)
         return black_box_global(common, family, utility, population, context_mechanism, dependence)

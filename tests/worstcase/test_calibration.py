@@ -11,6 +11,7 @@ import math
 from fractions import Fraction
 from pathlib import Path
 
+import mpmath
 import numpy as np
 import pytest
 from hypothesis import assume, example, given, settings
@@ -480,6 +481,29 @@ def test_global_needs_independence_for_certificates():
             assert math.isinf(c.bound) and "use black_box" in c.reason
         ok = calibrate(0.5, kind="global", method=method, groups=2, population=ind, **extra)
         assert ok.feasible and ok.epsilon == pytest.approx(0.5) and ok.kind == "global"
+
+
+def test_global_within_rounding_holds_l_to_the_target_less_ln_f():
+    # P(x) P(a) in floats is independent only within rounding: L-bar <= L + ln F with F = max r / min r,
+    # r = P(x, a) / (P(x) P(a)) (1 + 1.16e-16 here); every method below has L <= epsilon, so the largest epsilon
+    # is 0.5 - ln F and the certificate on L-bar is epsilon + ln F, both checked at 50 digits
+    table = np.outer([0.25, 0.75], [0.0, 0.4, 0.6])
+    within = fa.Population(table, ["x0", "x1"], [0, 1, 2])
+    exact = [[Fraction(v) for v in row] for row in table]
+    p_x, p_a = [sum(row) for row in exact], [sum(col) for col in zip(*exact)]
+    r = [exact[x][a] / (p_x[x] * p_a[a]) for x in range(2) for a in (1, 2)]
+    mpmath.mp.dps = 50
+    ln_f = mpmath.log(mpmath.mpf(max(r).numerator) / max(r).denominator * min(r).denominator / min(r).numerator)
+    assert 1e-16 < ln_f < 2e-16
+    for method, extra in (("black_box", {}), ("tight", {"utility_class": UtilityClass(tau=0.2)})):
+        c = calibrate(0.5, kind="global", method=method, groups=3, population=within, **extra)
+        assert c.feasible and c.target == 0.5 and "independent only within rounding" in c.reason
+        # (F is rounded up as a float, 1 + 2.2e-15: epsilon loses about 20 ulps, a lower end all the same)
+        assert mpmath.mpf(c.epsilon) + ln_f <= 0.5 < mpmath.mpf(c.epsilon) + ln_f + 1e-14
+        assert mpmath.mpf(c.epsilon) + ln_f <= c.bound <= 0.5 + 2**-53  # (the sum rounded up: an ulp above)
+        independent = calibrate(0.5, kind="global", method=method, groups=3, population=fa.Population.uniform(
+            ["x0", "x1"], [0, 1, 2]), **extra)  # fmt: skip
+        assert independent.epsilon == 0.5 and "within rounding" not in independent.reason
 
 
 # -- defaults, wrapper and errors --------------------------------------------------------------------------

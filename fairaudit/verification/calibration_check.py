@@ -2,7 +2,9 @@
 
 A calibration claims that the member of the spec's family at its ε meets the target: for the black-box calibration,
 the worst local g-fairness over every decision model and every utility of the class ([lower, γ], E[g | x, a] ≥ τ,
-free of the group) is at most the target; for the white-box calibration, the observed L (or L̄) of the recorded
+free of the group) is at most the target (on L̄: that worst case plus ln F when X and A are independent to 1e-9, F the
+population's departure from independence; otherwise the exact worst L̄ over every model for the recorded utility);
+for the white-box calibration, the observed L (or L̄) of the recorded
 model behind that member is. Each is re-derived exactly from the recorded member: its ε (at most the calibration's),
 its worst case by the exact programs of :mod:`~fairaudit.verification.black_box_check` (one context, the class's
 box [lower, γ]: a utility free of the group enters only through h = Σ_u K g(u) ∈ [lower, γ], and the context
@@ -14,11 +16,12 @@ member just above it).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.black_box_check import black_box_enclosures
 from fairaudit.verification.checks import Check, judge
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, ln_of
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, ln, ln_of, recorded_array
 from fairaudit.verification.observed_check import observed_enclosures
 
 __all__ = ["calibration_checks"]
@@ -109,21 +112,31 @@ def _member(record: Mapping[str, Any], field: str) -> tuple[RecordedMechanism, E
 def _black_box(
     cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], skipped: list[tuple[str, str]]
 ) -> list[Check]:
-    """The member's ε, and its worst local g-fairness over the class, at most the bound and the target."""
+    """The member's ε, and its worst case over every model (on L, or on L̄), at most the bound and the target."""
     m, eps = _member(record, "inputs.calibration.black_box")
     out = [judge("calibration.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
-    if cal.get("kind") != "local" or exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz") != 0:
-        skipped += [
-            ("calibration.bound", "a target on L-bar, or utilities Lipschitz in the group"),
-            ("calibration.target", "a target on L-bar, or utilities Lipschitz in the group"),
-        ]
+    why = ""
+    if exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz") != 0:
+        why = "utilities Lipschitz in the group"
+    elif m.kind == "identity" or eps.lo == INF:
+        why = "every epsilon meets the target (the identity)"
+    worst: tuple[Enclosure, str] | str = why or (
+        _on_l_bar(cert, cal, record, m, eps) if cal.get("kind") == "global" else _on_l(cal, record, m, eps)
+    )
+    if isinstance(worst, str):
+        skipped += [("calibration.bound", worst), ("calibration.target", worst)]
         return out
-    if m.kind == "identity" or eps.lo == INF:
-        skipped += [
-            ("calibration.bound", "every epsilon meets the target (the identity)"),
-            ("calibration.target", "every epsilon meets the target (the identity)"),
-        ]
-        return out
+    value, basis = worst
+    out.append(judge("calibration.bound", cal["bound"], value, "upper", f"the exact {basis} at that epsilon"))
+    out.append(judge("calibration.target", cal["target"], value, "at least", f"met by the exact {basis}"))
+    return out
+
+
+def _on_l(
+    cal: Mapping[str, Any], record: Mapping[str, Any], m: RecordedMechanism, eps: Enclosure
+) -> tuple[Enclosure, str] | str:
+    """ln of the member's worst local ratio over the calibration's class (one context, the box [lower, γ], τ), with
+    what it is; or why it is not re-derived."""
     lower, gamma = cal.get("lower") or 0.0, cal.get("gamma")
     the_class = {
         "sensitive_mechanism": record,
@@ -133,13 +146,33 @@ def _black_box(
     }
     worst = black_box_enclosures(the_class)
     if worst.local is None:
-        skipped += [("calibration.bound", worst.reason), ("calibration.target", worst.reason)]
-        return out
+        return worst.reason
     logs = ln_of(worst.local)
-    value = Enclosure(logs.lo, min(logs.hi, eps.hi))  # under pure ε-DP no model's ratio exceeds e^ε
-    out.append(judge("calibration.bound", cal["bound"], value, "upper", "the exact worst case at that epsilon"))
-    out.append(judge("calibration.target", cal["target"], value, "at least", "met by the exact worst case"))
-    return out
+    return Enclosure(logs.lo, min(logs.hi, eps.hi)), "worst case"  # under pure ε-DP no ratio exceeds e^ε
+
+
+def _on_l_bar(
+    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], m: RecordedMechanism, eps: Enclosure
+) -> tuple[Enclosure, str] | str:
+    """ln of the member's worst L̄ as certify bounds it, with what it is; or why it is not re-derived.
+
+    With X and A independent to 1e-9 (max |P(x, a) − P(x) P(a)|, the rule certify applies) L̄ ≤ L + ln F, F = max r /
+    min r over r(x, a) = P(x, a)/(P(x) P(a)) (1 when independent exactly; ``proofs/black_box.md`` §6); otherwise
+    the exact worst L̄ over every model for the recorded utility, τ, population and context mechanism, behind the
+    member."""
+    pop = recorded_array(cert["inputs"]["population"]["probabilities"], "inputs.population.probabilities")
+    p_x, p_a = [sum(row) for row in pop], [sum(col) for col in zip(*pop)]
+    deviation = max(abs(pop[x][a] - p_x[x] * p_a[a]) for x in range(len(p_x)) for a in range(len(p_a)))
+    if deviation > Fraction(1e-9):
+        worst = black_box_enclosures({**cert["inputs"], "sensitive_mechanism": record})
+        return worst.reason if worst.global_ is None else (ln_of(worst.global_), "worst case on L-bar")
+    on_l = _on_l(cal, record, m, eps)
+    if isinstance(on_l, str):
+        return on_l
+    r = [pop[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] for a in range(len(p_a)) if p_a[a]]
+    if max(r) == min(r):
+        return on_l[0], "worst case on L (L-bar <= L: X and A independent)"
+    return on_l[0] + ln(max(r) / min(r)), "worst case on L plus ln F (X and A independent within rounding)"
 
 
 def _white_box(

@@ -77,3 +77,30 @@ def test_a_changed_member_fails(hand):
     tampered["inputs"]["calibration"]["black_box"]["epsilon"] += 1e-6  # a member less private than calibrated
     names = [c.name for c in verify(tampered).failures]
     assert "inputs_sha256" in names and "calibration.epsilon" in names
+
+
+GLOBAL = HAND.replace("[target]\nlocal", "[target]\nglobal")
+
+
+@pytest.mark.parametrize(
+    "population, basis",
+    [
+        ("[[0.25, 0.25], [0.25, 0.25]]", "worst case on L (L-bar <= L: X and A independent)"),
+        # P(x) P(a) in floats: independent only within rounding (F = 1 + 2e-15)
+        ("[[0.1, 0.15], [0.30000000000000004, 0.44999999999999996]]", "worst case on L plus ln F"),
+        ("[[0.3, 0.2], [0.2, 0.3]]", "worst case on L-bar"),  # dependent: the exact worst case on L-bar itself
+    ],
+)
+def test_a_calibration_on_l_bar_is_re_derived(population, basis):
+    cert = _cert(GLOBAL + f"[population]\nprobabilities = {population}\n")
+    assert cert["calibration"]["kind"] == "global" and cert["calibration"]["method"] == "black_box"
+    result = verify(cert)
+    checks = _named(result, "calibration")
+    assert result.holds and {"calibration.bound", "calibration.target"} <= set(checks)
+    assert basis in checks["calibration.bound"].detail
+    if basis.startswith("worst case on L ("):  # the hand value: epsilon = ln(7/3) meets ln(17/13)
+        assert cert["calibration"]["epsilon"] == pytest.approx(math.log(7 / 3), rel=1e-9)
+    for key, change in (("bound", -1e-9), ("target", -1e-6)):
+        tampered = copy.deepcopy(cert)
+        tampered["calibration"][key] += change
+        assert f"calibration.{key}" in [c.name for c in verify(tampered).failures]

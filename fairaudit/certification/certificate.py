@@ -45,6 +45,7 @@ from fairaudit.metrics.observed import Observed, observe
 from fairaudit.statistics.intervals import FairnessIntervals, IntervalOptions, fairness_intervals, interval_options
 from fairaudit.worstcase.calibration import calibrate
 from fairaudit.worstcase.calibration_result import Calibration
+from fairaudit.worstcase.calibration_search import EPS_MAX
 from fairaudit.worstcase.known_utility import worst_model
 from fairaudit.worstcase.worst_cases import WorstModel
 
@@ -52,6 +53,10 @@ if TYPE_CHECKING:
     from fairaudit.certification.spec_schema import TargetSpec
 
 __all__ = ["Certificate", "Observed", "TargetCheck", "certify", "observe"]
+
+LARGEST_STEP = 1e-9
+"""A calibration records its family's member at ε + LARGEST_STEP·max(1, ε) too (rounded up): that member misses the
+target, which ``fairaudit verify`` re-derives, so ε is the largest that meets it to this relative step."""
 
 DEFAULT_INTERVALS = IntervalOptions()
 """The intervals :func:`certify` makes unless told otherwise: 95%, by the method that suits the utility."""
@@ -247,10 +252,21 @@ class Certificate:
         if family is None or (self.calibration is None and self.calibration_white_box is None):
             return None
 
-        def member(c: Calibration | None) -> Mechanism | None:
-            return None if c is None or not c.feasible or math.isnan(c.epsilon) else family(c.epsilon)
+        def member(c: Calibration | None, above: bool = False) -> Mechanism | None:
+            if c is None or not c.feasible or math.isnan(c.epsilon):
+                return None
+            if not above:
+                return family(c.epsilon)
+            # just above ε: that member misses the target, so ε is the largest to LARGEST_STEP (none at the ends)
+            return family(up(c.epsilon + LARGEST_STEP * max(1.0, c.epsilon))) if c.epsilon < EPS_MAX else None
 
-        return {"black_box": member(self.calibration), "white_box": member(self.calibration_white_box)}
+        black, white = self.calibration, self.calibration_white_box
+        return {
+            "black_box": member(black),
+            "white_box": member(white),
+            "black_box_above": member(black, above=True),
+            "white_box_above": member(white, above=True),
+        }
 
     def _calibration_dict(self) -> Report:
         """``calibration`` with a target: the black-box one (or nulls and why), and ``white_box``."""

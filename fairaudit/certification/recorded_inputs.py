@@ -100,8 +100,9 @@ def certificate_inputs(
         The class the bounds hold for, its fields resolved: [lower, γ], τ (or None), L_A, the metric d(a, a')
         (shape (n_groups, n_groups); None for the discrete metric) and diam(A).
     calibrated : mapping, optional
-        The family's member at each calibrated ε, ``{"black_box": M or None, "white_box": M or None}``; None when
-        the certificate has no calibration.
+        The family's member at each calibrated ε, ``{"black_box": M or None, "white_box": M or None}``, and just
+        above it (``"black_box_above"``, ``"white_box_above"``: the member at ε + 1e-9·max(1, ε), which misses the
+        target); None when the certificate has no calibration.
 
     Returns
     -------

@@ -9,18 +9,19 @@ model behind that member is. Each is re-derived exactly from the recorded member
 its worst case by the exact programs of :mod:`~fairaudit.verification.black_box_check` (one context, the class's
 box [lower, γ]: a utility free of the group enters only through h = Σ_u K g(u) ∈ [lower, γ], and the context
 mechanism drops out, ``proofs/black_box.md`` §1 and §6), its observed L by
-:mod:`~fairaudit.verification.observed_check`. That ε is the *largest* such is not re-derived (it would take the
-member just above it).
+:mod:`~fairaudit.verification.observed_check`. That ε is the *largest* such, to a relative step of 1e-9, is
+re-derived from the member recorded just above it (``inputs.calibration.black_box_above``): it misses the target.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.black_box_check import black_box_enclosures
-from fairaudit.verification.checks import Check, judge
+from fairaudit.verification.checks import TOLERANCE, Check, judge
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, ln, ln_of, recorded_array
 from fairaudit.verification.observed_check import observed_enclosures
 
@@ -46,8 +47,9 @@ def calibration_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) 
     -------
     list of Check
         Per calibration: ``calibration.epsilon`` (the member's exact ε, to the tolerance), ``calibration.bound`` (≥ the member's
-        exact worst case; for the white box, within the tolerance of the member's exact L), and
-        ``calibration.target`` (≥ that exact value: the target is met).
+        exact worst case; for the white box, within the tolerance of the member's exact L),
+        ``calibration.target`` (≥ that exact value: the target is met) and ``calibration.epsilon is the largest``
+        (the member recorded just above ε misses the target).
 
     Notes
     -----
@@ -80,7 +82,7 @@ def calibration_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) 
     ... ''')
     >>> cert = json.loads(json.dumps(certify(spec).to_dict()))
     >>> [c.line() for c in calibration_checks(cert, [])]
-    ['calibration.epsilon = 0.8472978603872036: holds', 'calibration.bound = 0.26826398659467937: holds', 'calibration.target = 0.26826398659467937: holds']
+    ['calibration.epsilon = 0.8472978603872036: holds', 'calibration.bound = 0.26826398659467937: holds', 'calibration.target = 0.26826398659467937: holds', 'calibration.epsilon is the largest = 0.8472978603872036: holds']
     """
     cal = cert.get("calibration")
     if cal is None:
@@ -129,7 +131,52 @@ def _black_box(
     value, basis = worst
     out.append(judge("calibration.bound", cal["bound"], value, "upper", f"the exact {basis} at that epsilon"))
     out.append(judge("calibration.target", cal["target"], value, "at least", f"met by the exact {basis}"))
+    above = cert["inputs"]["calibration"].get("black_box_above")
+    if above is None:
+        skipped.append((LARGEST, "no member above the calibrated epsilon recorded"))
+        return out
+    m_above, eps_above = _member(above, "inputs.calibration.black_box_above")
+    worst_above = (
+        _on_l_bar(cert, cal, above, m_above, eps_above)
+        if cal.get("kind") == "global"
+        else _on_l(cal, above, m_above, eps_above)
+    )
+    if isinstance(worst_above, str):
+        skipped.append((LARGEST, worst_above))
+        return out
+    out.append(_largest(LARGEST, cal["epsilon"], cal["target"], eps_above, worst_above[0]))
     return out
+
+
+LARGEST = "calibration.epsilon is the largest"
+"""The check that the member just above the calibrated ε misses the target."""
+
+STEP = 2e-9
+"""How far above ε (relative to max(1, ε)) the member above may lie: certify records it at ε + 1e-9·max(1, ε)."""
+
+
+def _largest(name: str, epsilon: Any, target: Any, eps_above: Enclosure, above: Enclosure) -> Check:
+    """ε is the largest that meets the target, to the step: the member above has ε' in (ε, ε + :data:`STEP`·max(1, ε)] and
+    misses the target (its exact value is not below the target by more than the tolerance; monotone in ε along the
+    family, ``proofs/calibration.md`` §3, so no ε'' ≥ ε' meets it)."""
+    eps, goal = exact(epsilon, "calibration.epsilon"), exact(target, "calibration.target")
+    if not (isinstance(eps, Fraction) and isinstance(goal, Fraction)):  # +inf: every epsilon meets, none is above
+        near = meets = False
+    else:
+        slack = Fraction(TOLERANCE) * max(Fraction(1), abs(goal))
+        near = eps < eps_above.lo and eps_above.hi <= eps + Fraction(STEP) * max(Fraction(1), eps)
+        meets = above.hi != INF and above.hi < goal - slack
+    ok = near and not meets
+    by = 0.0 if ok else math.inf if not near else float(goal - above.hi)
+    detail = (
+        "the member above misses the target: no larger epsilon meets it"
+        if ok
+        else "the member above is not just above epsilon"
+        if not near
+        else "a larger epsilon meets the target too"
+    )
+    return Check(name=name, reported=epsilon, derived_low=float(above.lo), derived_high=float(above.hi),
+                 side="largest", holds=ok, fails_by=by, detail=detail)  # fmt: skip
 
 
 def _on_l(
@@ -191,4 +238,16 @@ def _white_box(
     out.append(
         judge("calibration.white_box.target", cal["target"], value, "met", "met by the exact L, to its rounding")
     )
+    name = "calibration.white_box.epsilon is the largest"
+    above = cert["inputs"]["calibration"].get("white_box_above")
+    if above is None:
+        skipped.append((name, "no member above the calibrated epsilon recorded"))
+        return out
+    m_above, eps_above = _member(above, "inputs.calibration.white_box_above")
+    found_above = observed_enclosures(cert["inputs"], m_above, context)
+    if isinstance(found_above, str):
+        skipped.append((name, found_above))
+        return out
+    value_above = ln_of(found_above.local if cal.get("kind") == "local" else found_above.global_)
+    out.append(_largest(name, cal["epsilon"], cal["target"], eps_above, value_above))
     return out

@@ -11,8 +11,10 @@ from pathlib import Path
 import pytest
 from _cli import OFFICE_SPEC
 
+from fairaudit.base.json_values import canonical_digest
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
+from fairaudit.verification.calibration_check import LARGEST
 from fairaudit.verification.rederive import verify
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -41,7 +43,7 @@ def test_the_hand_calibration_is_re_derived(hand):
     assert hand["calibration"]["method"] == "black_box"
     assert hand["calibration"]["epsilon"] == pytest.approx(math.log(7 / 3), rel=1e-9)
     checks = _named(verify(hand), "calibration")
-    assert set(checks) == {"calibration.epsilon", "calibration.bound", "calibration.target"}
+    assert set(checks) == {"calibration.epsilon", "calibration.bound", "calibration.target", LARGEST}
     assert all(c.holds for c in checks.values())
     bound = checks["calibration.bound"]
     assert bound.derived_low <= math.log(17 / 13) <= bound.derived_high + 1e-15  # the exact worst case, enclosed
@@ -54,6 +56,7 @@ def test_shipped_calibrations_hold_black_box_and_white_box(spec):
     checks = _named(result, "calibration")
     assert result.holds
     assert {"calibration.bound", "calibration.white_box.bound", "calibration.white_box.target"} <= set(checks)
+    assert {LARGEST, "calibration.white_box.epsilon is the largest"} <= set(checks)
     assert "calibration" not in dict(result.not_checked)
 
 
@@ -77,6 +80,26 @@ def test_a_changed_member_fails(hand):
     tampered["inputs"]["calibration"]["black_box"]["epsilon"] += 1e-6  # a member less private than calibrated
     names = [c.name for c in verify(tampered).failures]
     assert "inputs_sha256" in names and "calibration.epsilon" in names
+
+
+def test_an_epsilon_below_the_largest_fails():
+    # calibrated to a lower target, epsilon is below ln(7/3); claimed for ln(17/13), the member just above it meets
+    # ln(17/13) too, so it is not the largest (the inputs, and their digest, are those of a real certificate)
+    low = _cert(HAND.replace(f"local = {math.log(17 / 13)!r}", "local = 0.25"))
+    assert low["calibration"]["epsilon"] < math.log(7 / 3) - 0.01
+    assert verify(low).holds
+    low["calibration"]["target"] = math.log(17 / 13)
+    result = verify(low)
+    assert [c.name for c in result.failures] == [LARGEST]
+    assert result.failures[0].detail == "a larger epsilon meets the target too"
+
+
+def test_a_member_above_that_is_not_above_fails(hand):
+    tampered = copy.deepcopy(hand)
+    tampered["inputs"]["calibration"]["black_box_above"] = tampered["inputs"]["calibration"]["black_box"]
+    tampered["inputs_sha256"] = canonical_digest(tampered["inputs"])
+    checks = _named(verify(tampered), LARGEST)
+    assert not checks[LARGEST].holds and checks[LARGEST].detail == "the member above is not just above epsilon"
 
 
 GLOBAL = HAND.replace("[target]\nlocal", "[target]\nglobal")

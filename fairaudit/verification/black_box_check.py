@@ -177,6 +177,8 @@ def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | str:
         return "a context mechanism other than the identity"
     if m.kind == "identity" or m.k < 2:
         return "no privacy on the sensitive attribute (the identity)"
+    if m.kind == "randomized_response" and m.t().hi == INF:
+        return "randomized response beyond epsilon = 10^6: its e^epsilon has no finite upper end to solve at"
     values = recorded_array(u["values"], "inputs.utility.values")
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     live = [x for x in range(len(pop)) if sum(pop[x]) > 0]
@@ -205,9 +207,7 @@ def _ends(m: RecordedMechanism) -> list[Fraction]:
     if m.kind == "matrix":
         return [Fraction(1)]
     t = m.t()
-    if t.hi == INF:
-        raise ValueError("randomized response at an infinite epsilon is the identity")
-    return [t.lo, t.hi]  # type: ignore[list-item]
+    return [t.lo, t.hi]  # type: ignore[list-item]  # (finite: _settings returned a reason otherwise)
 
 
 def _rows_of(s: _Setting, a: int, b: int) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]], list[int]]:

@@ -98,16 +98,20 @@ def ln(x: Fraction | float) -> Enclosure:
 
 def exp_of(x: Fraction) -> Enclosure:
     """Rationals [lo, hi] around e^x for a rational x (nats), 50 digits apart (:func:`~fairaudit.base.outward.exp_bounds`,
-    ``proofs/outward.md`` §4); the point +inf beyond 10^6.
+    ``proofs/outward.md`` §4); beyond 10^6, [2^1000, +inf] (e^x > 2^(1.44·10^6) there; a finite lower end, so that
+    randomized response's q = 1/(e^ε + k − 1) keeps a positive upper end, and a small one: its arithmetic stays cheap).
 
     Examples
     --------
     >>> e = exp_of(Fraction(0))
     >>> e.lo == e.hi == 1
     True
+    >>> e = exp_of(Fraction(2 * 10**6))
+    >>> e.lo == 2**1000 and e.hi == INF
+    True
     """
     if x > 10**6:
-        return Enclosure.point(INF)
+        return Enclosure(Fraction(2**1000), INF)
     return Enclosure(*exp_bounds(x))
 
 

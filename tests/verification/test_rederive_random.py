@@ -425,6 +425,14 @@ REGRESSIONS["tight bound with gamma/tau = 1e6"] = (
     None,
 )
 
+# randomized response at epsilon 2e6: e^epsilon was enclosed as the point +inf, so verify's black box raised
+# ValueError (a traceback) and its q = 1/(e^epsilon + k - 1) was enclosed as [0, 0], excluding the true q > 0 (fixed in
+# verify: e^epsilon in [2^1000, +inf], the black box listed as not re-derived)
+REGRESSIONS["randomized response beyond epsilon 1e6"] = (
+    _spec(G3, RR.format(2e6) + '[model]\ntable = "table.csv"\n[utility]\ndecision = "d0"\n'),
+    "grp,dec,probability\ng0,d0,0.9\ng0,d1,0.1\ng1,d0,0.5\ng1,d1,0.5\ng2,d0,0.2\ng2,d1,0.8\n",
+)
+
 
 def _regression(spec: str, csv: str | None, folder: Path) -> Verification:
     (folder / "spec.toml").write_text(spec, encoding="utf-8")

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
+from fractions import Fraction
 
 import numpy as np
 import numpy.typing as npt
@@ -16,6 +17,7 @@ from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.outward import fraction_up, log_up
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
@@ -33,7 +35,7 @@ from fairaudit.worstcase.pair_search import (
     relaxed_first,
     search,
 )
-from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz
+from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz, rr_lipschitz_ratio
 from fairaudit.worstcase.worst_cases import nats_up
 
 
@@ -461,7 +463,13 @@ def _randomized_response_certificate(
             "g = 0 for one group and L_A d(a, a') for the other)",
             0,
         )
-    ratio, g3, f3 = closed
+    _, g3, f3 = closed
+    # the value from every piece's program exactly, at t = exp_up(ε) (the float vertex search gives the point)
+    dmax = 1.0 if off_diagonal is None else float(off_diagonal.max())
+    g = Fraction(gamma)
+    exact = rr_lipschitz_ratio(rr.k, rr.epsilon, Fraction(lower) / g, Fraction(1), Fraction(floor) / g,
+                               Fraction(lip) * Fraction(dmax) / g)  # fmt: skip
+    ratio = fraction_up(exact) if exact != math.inf else math.inf
     cells = np.full(m, 2)
     cells[a], cells[b] = 0, 1
     f, g = f3[cells], g3[cells]
@@ -472,7 +480,10 @@ def _randomized_response_certificate(
     h[a], h[b] = f, g
     top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
     released = tuple(outputs[o] for o in top)
-    return problem.certificate(ratio, inputs[a], inputs[b], released, h, "threshold", "optimal", "closed form", "", 0)
+    value = log_up(exact) if exact != math.inf else math.inf
+    return problem.certificate(
+        ratio, inputs[a], inputs[b], released, h, "threshold", "optimal", "closed form", "", 0, value=value
+    )
 
 
 def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:

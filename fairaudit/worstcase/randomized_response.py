@@ -15,8 +15,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from fairaudit.base.arrays import FloatArray, IntArray, safe_log
-from fairaudit.base.outward import exp_up, fraction_up, log_up, widen_up
+from fairaudit.base.arrays import FloatArray, IntArray
+from fairaudit.base.outward import exp_up, fraction_up, log_up
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law
@@ -233,6 +233,70 @@ def rr_lipschitz(
     return best, g, np.minimum(g + lam, hi)
 
 
+def rr_lipschitz_ratio(
+    k: int, epsilon: float, lo: Fraction, hi: Fraction, floor: Fraction, lam: Fraction
+) -> Fraction | float:
+    """:func:`rr_lipschitz`'s ratio, exactly, at t = ``exp_up`` (ε) ≥ e^ε: an upper end (+inf when unbounded).
+
+    The same 8 pieces of [lo, hi]^3 (``proofs/black_box.md`` §5, Proposition 7b), each a linear-fractional program in
+    (x, z, y) with rational data, solved by the rational simplex (:func:`~fairaudit.base.exact_programs.
+    maximize_ratio`; the affine numerator through a fourth variable fixed at 1). The worst case is non-decreasing in
+    e^ε (a smaller ε is a post-processing of a larger one, ``proofs/calibration.md`` §3), so its value at t bounds the
+    value at e^ε from above (``proofs/outward.md`` §5).
+
+    Parameters
+    ----------
+    k : int
+        The number of groups, ≥ 2.
+    epsilon : float
+        Randomized response's ε, nats (+inf: the identity).
+    lo, hi, floor, lam : fractions.Fraction
+        The box [lo, hi] of g, the floor (≥ lo; binding when > lo) and λ = L_A·d (> 0), exactly.
+
+    Returns
+    -------
+    fractions.Fraction or float
+        The exact maximum at t, or +inf when g = 0 is allowed for a' and f = λ > 0 for a (lo = 0, no binding floor).
+    """
+    from fairaudit.base.exact_programs import maximize_ratio
+
+    t_up = exp_up(epsilon)
+    if math.isinf(t_up):
+        p, q = Fraction(1), Fraction(0)
+    else:
+        t = Fraction(t_up)
+        p, q = t / (t + k - 1), 1 / (t + k - 1)
+    m = k - 2
+    binding = floor > lo
+    if lo == 0 and not binding:
+        return math.inf
+    cut = hi - lam
+    pieces = [(lo, min(hi, cut), Fraction(1), lam)] if cut >= lo else []
+    pieces.append((max(lo, cut), hi, Fraction(0), hi))
+    n_vec, d_vec = (p, q, m * q), (q, p, m * q)
+    b_vec = (q, q, p + (m - 1) * q) if m >= 1 else None
+    best: Fraction | float = -math.inf
+    for cells in itertools.product(pieces, repeat=3):
+        slope, icpt = [c[2] for c in cells], [c[3] for c in cells]
+        # variables (x, z, y, s), s = 1: numerator Σ n_i (slope_i x_i + icpt_i s), denominator d·(x, z, y)
+        numerator = [n * a for n, a in zip(n_vec, slope, strict=True)] + [sum(n * c for n, c in zip(n_vec, icpt))]
+        rows, rhs = [], []
+        if binding:
+            rows += [[-d for d in d_vec] + [Fraction(0)]]
+            rhs += [-floor]
+            for vec in (n_vec,) if b_vec is None else (n_vec, b_vec):
+                rows += [[-v * a for v, a in zip(vec, slope, strict=True)] + [Fraction(0)]]
+                rhs += [sum(v * c for v, c in zip(vec, icpt, strict=True)) - floor]
+        lower = [c[0] for c in cells] + [Fraction(1)]
+        upper = [c[1] for c in cells] + [Fraction(1)]
+        found = maximize_ratio(numerator, [*d_vec, Fraction(0)], lower, upper, rows, rhs)
+        if found.status == "zero_denominator":
+            return math.inf
+        if found.status == "optimal" and found.value is not None and found.value > best:
+            best = found.value
+    return best
+
+
 def rr_class_ratio(
     rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
 ) -> float:
@@ -256,15 +320,20 @@ def rr_class_value(
 ) -> float:
     """log of :func:`rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε); rounded up.
 
-    With L_A = 0, :func:`rr_box`'s value: the exact closed form at a rational t ≥ e^ε, rounded up
-    (``proofs/outward.md`` §5). With L_A > 0 it is widened by 1e-14 relative and 1e-15 absolute (its
-    floating-point error is a few units: estimated, not proved).
+    With L_A = 0, :func:`rr_box`'s value: the exact closed form at a rational t ≥ e^ε, rounded up; with L_A > 0,
+    :func:`rr_lipschitz_ratio` (every piece's program exactly, at the same t), ``log_up`` of it
+    (``proofs/outward.md`` §5).
     """
-    if rr.k >= 2 and gamma > 0 and lower < gamma and lipschitz * diameter == 0:
+    if rr.k < 2 or gamma == 0 or lower == gamma:
+        return 0.0
+    if lipschitz * diameter == 0:
         lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
         return rr_box(rr, lo, 1.0, floor).value
-    value = safe_log(rr_class_ratio(rr, lower, gamma, tau, lipschitz, diameter))
-    return float(widen_up(value, 1e-14, 1e-15)) if math.isfinite(value) else value
+    g = Fraction(gamma)
+    bottom = Fraction(lower) / g
+    top = bottom if tau is None else max(Fraction(tau) / g, bottom)  # the floor
+    ratio = rr_lipschitz_ratio(rr.k, rr.epsilon, bottom, Fraction(1), top, Fraction(lipschitz) * Fraction(diameter) / g)
+    return math.inf if ratio == math.inf else log_up(ratio)
 
 
 def rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, context_mechanism: Mechanism) -> Law:

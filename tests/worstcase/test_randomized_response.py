@@ -17,6 +17,7 @@ import tracemalloc
 from fractions import Fraction as F
 from pathlib import Path
 
+import mpmath
 import numpy as np
 import pytest
 from hypothesis import given
@@ -289,6 +290,42 @@ def test_black_box_lipschitz_example_2_in_fractions(monkeypatch):
     )
     assert exact == F(58, 35) and c.ratio == pytest.approx(float(exact), rel=1e-14)
     np.testing.assert_allclose(c.utility_by_release, [[1.0, 3 / 7], [0.9, 23 / 70]], atol=1e-14)
+
+
+@pytest.mark.parametrize(
+    "eps, lower, tau, lip",
+    [(math.log(7 / 3), 0.0, 0.5, 0.1), (1e-9, 0.1, 0.3, 0.05), (0.3, 0.0, 0.01, 0.5), (5.0, 0.2, 0.9, 0.2)],
+)
+def test_black_box_lipschitz_is_an_upper_end_of_the_vertex_enumeration(monkeypatch, eps, lower, tau, lip):
+    # binary randomized response, L_A > 0: the certified value against vertex enumeration of the whole program
+    # (h[b, o] for both groups, independent of the closed form's reduction) at e^epsilon's rational ends; the value is
+    # non-decreasing in e^epsilon, so [value at t_down, value at t_up] encloses the exact one
+    monkeypatch.syspath_prepend(str(PROOFS))
+    from _exact import box, vertex_max
+
+    from fairaudit.base.outward import exp_down, exp_up
+
+    def enumerated(t: F) -> F:
+        p, q = t / (t + 1), 1 / (t + 1)
+        R = [[p, q], [q, p]]
+        A, b = box([F(lower)] * 4, [1] * 4)
+        for o in range(2):
+            e = [F(0)] * 4
+            e[o], e[2 + o] = F(1), F(-1)
+            A += [e, [-v for v in e]]
+            b += [F(lip)] * 2
+        A += [[-R[0][0], -R[0][1], 0, 0], [0, 0, -R[1][0], -R[1][1]]]
+        b += [-F(tau)] * 2
+        return vertex_max(R[0] + [0, 0], [0, 0] + R[1], A, b)[0]
+
+    low, high = enumerated(F(exp_down(eps))), enumerated(F(exp_up(eps)))
+    c = black_box_bound(
+        fa.randomized_response(["a", "b"], eps), utility_class=UtilityClass(lower=lower, tau=tau, lipschitz=lip)
+    )
+    assert F(c.ratio) >= high and c.ratio <= float(low) * (1 + 1e-13)
+    mpmath.mp.dps = 50
+    top = mpmath.log(mpmath.mpf(high.numerator) / high.denominator)
+    assert c.value >= top and c.value - mpmath.log(mpmath.mpf(low.numerator) / low.denominator) < 1e-13
 
 
 def test_black_box_with_a_non_discrete_metric():

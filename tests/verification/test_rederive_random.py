@@ -28,7 +28,7 @@ MAX_EXAMPLES = 25
 
 FUZZ = settings(max_examples=MAX_EXAMPLES, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
-EPSILONS = [0.0, 1e-17, 1e-12, 1e-6, 0.5, 1.0, math.log(7 / 3), 5.0, 30.0, 700.0]
+EPSILONS = [0.0, 1e-17, 1e-12, 1e-6, 0.5, 1.0, math.log(7 / 3), 5.0, 30.0, 700.0, 2e6]
 
 
 def _toml_value(v: Any) -> str:

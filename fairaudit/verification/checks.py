@@ -115,6 +115,8 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
     'x = 0.3333333343333334: fails by 1e-09'
     >>> judge("target", 0.5, third, "at least").holds, judge("target", 0.3, third, "at least").holds
     (True, False)
+    >>> judge("x", "inf", third, "upper").holds  # +inf bounds 1/3, but it is not the bound re-derived
+    False
     """
     low, high = _float(derived.lo, False), _float(derived.hi, True)
     value = exact(reported, name) if reported is not None else None
@@ -124,7 +126,8 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
     scale = max(Fraction(1), abs(derived.hi)) if isinstance(derived.hi, Fraction) else Fraction(1)
     slack = Fraction(TOLERANCE) * scale
     if value == INF or derived.hi == INF:
-        ok = value == INF and (derived.lo == INF or side == "upper")
+        # +inf bounds everything, but as an upper bound of a finite exact value it is not the number re-derived
+        ok = value == INF and (derived.lo == INF or side == "at least" or (side == "upper" and derived.hi == INF))
         by = 0.0 if ok else math.inf
     else:
         allowed_low = derived.hi if side in ("upper", "at least") else -INF if side == "at most" else derived.lo - slack

@@ -145,6 +145,20 @@ def test_a_number_lowered_below_its_exact_value_fails(certificates):
     assert "bounds.tight" in _failing(cert)
 
 
+@pytest.mark.parametrize(
+    "path", [("bounds", "tight"), ("bounds", "black_box"), ("bound_details", "black_box", "value")]
+)
+def test_a_finite_bound_replaced_by_inf_fails(certificates, path):
+    # +inf bounds everything, but it is not the number re-derived (verify passed it before)
+    cert = copy.deepcopy(certificates[MATRIX])
+    where = cert
+    for key in path[:-1]:
+        where = where[key]
+    assert where[path[-1]] not in (None, "inf")
+    where[path[-1]] = "inf"
+    assert ".".join(path) in _failing(cert)
+
+
 def test_a_swapped_witness_fails(certificates):
     cert = copy.deepcopy(certificates[MATRIX])
     local = cert["observed"]["local"]

@@ -28,6 +28,7 @@ from typing import Any
 
 from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
+from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
 
 __all__ = ["MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
 
@@ -45,6 +46,7 @@ class WorstCaseEnclosures:
     global_: Enclosure | None
     reason: str
     independent: bool = False  # P(x | a) is the same for every group, exactly
+    group_free: bool = True  # g does not depend on the group (then L ≤ ε(M_A), and L̄ ≤ ε(M_A) when independent)
 
 
 @dataclass(frozen=True)
@@ -79,8 +81,8 @@ def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
     -------
     WorstCaseEnclosures
         ``local`` and ``global_`` enclose max E[g | x, a]/E[g | x, a'] and max E[g | a]/E[g | a'] over every model
-        (+inf when unbounded); None, with ``reason``, for what is not re-derived here: a utility that depends on the
-        group, a context mechanism other than the identity, programs larger than :data:`MAX_VARIABLES`, floors that
+        (+inf when unbounded); None, with ``reason``, for what is not re-derived here: no privacy on the sensitive
+        attribute, randomized response beyond ε = 10^6, programs larger than :data:`MAX_VARIABLES`, floors that
         no model meets exactly (τ at max g with rows that sum to just below 1 in binary). L̄ compares the groups with
         P(A = a) > 0 only (1, L̄ = 0, with fewer than two).
 
@@ -109,7 +111,8 @@ def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
     global_ = None if low_global is None or high_global is None else Enclosure(low_global, high_global)
     why = "" if global_ is not None else f"L-bar: programs beyond {MAX_VARIABLES} variables"
     independent = _alike(settings[0].weights, settings[0].present)
-    return WorstCaseEnclosures(local, global_, why, independent)
+    group_free = not isinstance(settings[0], KernelSetting) or settings[0].group_free
+    return WorstCaseEnclosures(local, global_, why, independent, group_free)
 
 
 def pair_enclosures(
@@ -168,13 +171,11 @@ def pair_enclosures(
     return local, None if ends[0] is None or ends[1] is None else Enclosure(ends[0], ends[1])
 
 
-def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | str:
+def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | list[KernelSetting] | str:
     """The programs' data at each end of e^ε (one for a matrix), or why the black box is not re-derived."""
     m = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
-    context = inputs["context_mechanism"]
+    context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")
     u = inputs["utility"]
-    if context["kind"] != "identity":
-        return "a context mechanism other than the identity"
     if m.kind == "identity" or m.k < 2:
         return "no privacy on the sensitive attribute (the identity)"
     if m.kind == "randomized_response" and m.t().hi == INF:
@@ -182,9 +183,12 @@ def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | str:
     values = recorded_array(u["values"], "inputs.utility.values")
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     live = [x for x in range(len(pop)) if sum(pop[x]) > 0]
-    if isinstance(values[0], list):  # g(u, x, a): free of the group?
-        if any(values[x][a] != values[x][0] for x in range(len(values)) for a in range(len(values[x]))):
-            return "the utility depends on the group"
+    group_free = not isinstance(values[0], list) or all(
+        values[x][a] == values[x][0] for x in range(len(values)) for a in range(len(values[x]))
+    )
+    if context.kind != "identity" or not group_free:  # no box: the programs over the model's table
+        return kernel_settings(inputs, m, context, MAX_VARIABLES)
+    if isinstance(values[0], list):  # g(u, x): its range per context
         low = [min(values[x][0]) for x in live]
         high = [max(values[x][0]) for x in live]
     else:
@@ -230,9 +234,11 @@ def _pairs(s: _Setting) -> list[tuple[int, int]]:
     return [(0, 1)] if s.rows is None else [(a, b) for a in range(s.k) for b in range(s.k) if a != b]
 
 
-def _local(s: _Setting, at: tuple[int, int, int] | None = None) -> Number:
+def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None) -> Number:
     """max over live contexts and pairs of the exact worst ratio; with ``at`` = (live context, a, a'), that one's
     (behind randomized response every pair is alike: the pair (0, 1) stands for it)."""
+    if isinstance(s, KernelSetting):
+        return kernel_local(s, at)
     best: Number = Fraction(0)
     cases = [(i, a, b) for i in range(len(s.low)) for a, b in _pairs(s)] if at is None else [at]
     for i, a, b in cases:
@@ -243,9 +249,11 @@ def _local(s: _Setting, at: tuple[int, int, int] | None = None) -> Number:
     return best
 
 
-def _global(s: _Setting, at: tuple[int, int] | None = None) -> Number | None:
+def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> Number | None:
     """max over pairs of groups present of the exact worst ratio of E[g | a]/E[g | a'] (every live context's cells);
     1 (L-bar = 0) with fewer than two groups present; with ``at`` = (a, a'), that pair's."""
+    if isinstance(s, KernelSetting):
+        return kernel_global(s, at)
     if len(s.present) < 2:
         return Fraction(1)
     if s.rows is not None:

@@ -368,23 +368,22 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         skipped.append(("bounds.global", worst.reason))
         skipped.append(("bound_details.black_box", worst.reason))
         return []
-    local = _below_epsilon(worst.local, eps_a)
+    local = _below_epsilon(worst.local, eps_a) if worst.group_free else ln_of(worst.local)
     out = [
         judge("bounds.black_box", bounds["black_box"], local, "upper", "the exact worst case over every model"),
         equal("bound_details.black_box.value", detail["value"], bounds["black_box"]),
     ]
-    out += _witness_checks("bound_details.black_box", detail, worst.local, local, eps_a)
+    out += _witness_checks("bound_details.black_box", detail, worst.local, local, eps_a, clip=worst.group_free)
     glob = detail.get("global") or {}
     out += _maximiser_checks(cert, detail, glob)
     if worst.global_ is None:
         skipped.append(("bounds.global", worst.reason))
         skipped.append(("bound_details.black_box.global", worst.reason))
     elif glob.get("value") is not None:
-        on_l_bar = _below_epsilon(worst.global_, eps_a) if worst.independent else ln_of(worst.global_)
+        clip = worst.independent and worst.group_free
+        on_l_bar = _below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)
         out.append(judge("bound_details.black_box.global.value", glob["value"], on_l_bar, "upper"))
-        out += _witness_checks(
-            "bound_details.black_box.global", glob, worst.global_, on_l_bar, eps_a, clip=worst.independent
-        )
+        out += _witness_checks("bound_details.black_box.global", glob, worst.global_, on_l_bar, eps_a, clip=clip)
         if bounds["global"] == glob["value"]:
             out.append(equal("bounds.global", bounds["global"], glob["value"], "the black-box bound on L-bar"))
         elif bounds["global"] == "inf":  # no bound on L-bar (a black box whose assumptions fail, X and A dependent)

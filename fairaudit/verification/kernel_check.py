@@ -1,0 +1,229 @@
+"""The black-box worst case over the decision model's table itself: for a utility that depends on the group, or behind
+a context mechanism other than the identity, where :mod:`~fairaudit.verification.black_box_check`'s reduction to a box
+does not hold.
+
+The variables are the model's table K[x̃, ã, u] = P(u | x̃, ã), each row (x̃, ã) a distribution over the decisions.
+E[g | x, a] = Σ_{x̃, ã, u} M_X[x, x̃] M_A[a, ã] K[x̃, ã, u] g(u, x, a) is linear in K, and so is
+E[g | a] = Σ_x P(x | a) E[g | x, a]; the floors E[g | x, a] ≥ τ hold in every live context and for every group. So
+
+* L = max over live x and a ≠ a' of max E[g | x, a]/E[g | x, a'] over the tables that meet the floors;
+* L̄ = max over groups a ≠ a' with P(A = a), P(A = a') > 0 of max E[g | a]/E[g | a'] over the same tables.
+
+A row's last decision is written as 1 minus the others (n_U − 1 variables in [0, 1], their sum at most 1), and one
+variable s, fixed at 1, carries the constants, so each program is a linear-fractional program over a polytope, solved
+exactly by :func:`~fairaudit.base.exact_programs.maximize_ratio`. With M_X the identity, L at x involves only the rows
+of x (the floors of the other contexts bind other rows), and the rows of every live context are checked to meet their
+floors by the programs of L. Randomized response (on either attribute) is solved at both 50-digit rational ends of
+its e^ε: the worst case is non-decreasing in e^ε, since randomized response at a smaller ε is the one at a larger ε
+followed by more randomized response, so the models behind the smaller one are among the larger one's. The ratio
+conventions are the tool's: c/0 = +inf for c > 0 and 0/0 = 1. ``proofs/verification.md`` §4d.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
+from fairaudit.verification.enclosures import INF, RecordedMechanism, exact, recorded_array
+
+__all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings"]
+
+Number = Fraction | float
+Rows = tuple[tuple[Fraction, ...], ...]
+
+
+@dataclass(frozen=True)
+class KernelSetting:
+    """The data of the programs at one end of e^ε: M_A's and M_X's rows, g, τ and the population.
+
+    ``weights`` is P(x | a) over the live contexts, [live x][a], as :mod:`~fairaudit.verification.black_box_check`'s
+    setting has it; ``live`` indexes the contexts with P(X = x) > 0.
+    """
+
+    sensitive: Rows  # M_A, (n_groups, n_released_groups)
+    context: Rows | None  # M_X, (n_contexts, n_released_contexts); None: the identity
+    g: list[list[list[Fraction]]]  # g(u, x, a) as [x][a][u]
+    tau: Fraction | None
+    live: list[int]
+    weights: list[list[Fraction]]
+    present: list[int]
+    group_free: bool
+    max_variables: int
+
+    @property
+    def k(self) -> int:
+        return len(self.sensitive)
+
+
+def kernel_settings(
+    inputs: Mapping[str, Any],
+    sensitive: RecordedMechanism,
+    context: RecordedMechanism,
+    max_variables: int,
+) -> list[KernelSetting] | str:
+    """The programs' data at each end of the mechanisms' e^ε (one setting when both are exact), or why the worst case
+    is not re-derived here: programs beyond ``max_variables`` variables, or randomized response beyond ε = 10^6."""
+    for m, name in ((sensitive, "the sensitive attribute"), (context, "the context")):
+        if m.kind == "randomized_response" and m.t().hi == INF:
+            return f"randomized response on {name} beyond epsilon = 10^6: its e^epsilon has no finite upper end"
+    u = inputs["utility"]
+    pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
+    values = recorded_array(u["values"], "inputs.utility.values")
+    n_x, k = len(pop), sensitive.k
+    g = values if isinstance(values[0], list) else [[list(values)] * k] * n_x
+    live = [x for x in range(n_x) if sum(pop[x]) > 0]
+    mass = [sum(pop[x][a] for x in live) for a in range(k)]
+    weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(k)] for x in live]
+    present = [a for a in range(k) if mass[a]]
+    tau = None if u["tau"] is None else Fraction(exact(u["tau"], "inputs.utility.tau"))
+    group_free = all(g[x][a] == g[x][0] for x in range(n_x) for a in range(k))
+    exact_rows = sensitive.kind != "randomized_response" and context.kind != "randomized_response"
+    out = [
+        KernelSetting(
+            _rows(sensitive, end), None if context.kind == "identity" else _rows(context, end), g, tau, live,
+            weights, present, group_free, max_variables,
+        )
+        for end in ((0,) if exact_rows else (0, 1))
+    ]  # fmt: skip
+    largest = max((len(_blocks(out[0], [x] if context.kind == "identity" else live)) for x in live), default=0)
+    if largest * (len(g[0][0]) - 1) + 1 > max_variables:  # one program of L
+        return f"programs beyond {max_variables} variables"
+    return out
+
+
+def _rows(m: RecordedMechanism, end: int) -> Rows:
+    """A mechanism's exact rows; randomized response's at the lower (``end`` 0) or upper (1) end of its e^ε."""
+    exact_rows = m.matrix_rows()
+    if exact_rows is not None:
+        return exact_rows
+    t = m.t()
+    at = Fraction(t.lo if end == 0 else t.hi)
+    p, q = at / (at + m.k - 1), 1 / (at + m.k - 1)
+    return tuple(tuple(p if i == j else q for j in range(m.k)) for i in range(m.k))
+
+
+def kernel_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> Number:
+    """max over live contexts and ordered pairs of groups of the exact worst ratio E[g | x, a]/E[g | x, a'];
+    with ``at`` = (live context index, a, a'), that one's.
+
+    Raises
+    ------
+    ValueError
+        When no table meets the floors.
+    """
+    best: Number = Fraction(0)
+    cases = (
+        [(i, a, b) for i in range(len(s.live)) for a in range(s.k) for b in range(s.k) if a != b]
+        if at is None
+        else [at]
+    )
+    programs: dict[int, _Polytope] = {}
+    for i, a, b in cases:
+        x = s.live[i]
+        key = x if s.context is None else -1
+        if key not in programs:
+            programs[key] = _Polytope.of(s, [x] if s.context is None else s.live)
+        poly = programs[key]
+        best = max(
+            best, poly.solve(poly.coefficients(s, {x: Fraction(1)}, a), poly.coefficients(s, {x: Fraction(1)}, b))
+        )
+    return best
+
+
+def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number | None:
+    """max over ordered pairs of groups present of the exact worst ratio E[g | a]/E[g | a'] (1, L̄ = 0, with fewer than
+    two groups present); with ``at`` = (a, a'), that pair's; None beyond ``max_variables`` variables.
+
+    Raises
+    ------
+    ValueError
+        When no table meets the floors.
+    """
+    if len(s.present) < 2:
+        return Fraction(1)
+    if len(_blocks(s, s.live)) * (len(s.g[0][0]) - 1) + 1 > s.max_variables:
+        return None
+    poly = _Polytope.of(s, s.live)
+    pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
+    best: Number = Fraction(1)
+    for a, b in pairs:
+        top = {x: s.weights[i][a] for i, x in enumerate(s.live)}
+        bottom = {x: s.weights[i][b] for i, x in enumerate(s.live)}
+        best = max(best, poly.solve(poly.coefficients(s, top, a), poly.coefficients(s, bottom, b)))
+    return best
+
+
+def _blocks(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
+    """The rows (x̃, ã) of K that ``contexts`` reach: released contexts M_X[x, x̃] > 0 for one of them (x̃ = x for the
+    identity), released groups M_A[a, ã] > 0 for some group."""
+    released_groups = [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]
+    if s.context is None:
+        released_contexts = list(contexts)
+    else:
+        released_contexts = [c for c in range(len(s.context[0])) if any(s.context[x][c] for x in contexts)]
+    return [(xr, ar) for xr in released_contexts for ar in released_groups]
+
+
+@dataclass(frozen=True)
+class _Polytope:
+    """The tables' polytope over the rows (x̃, ã) that ``contexts`` reach, with their floors: the variables are
+    K[x̃, ã, u] for u below the last decision, row by row, then s = 1."""
+
+    blocks: list[tuple[int, int]]  # (x̃, ã)
+    n_free: int  # n_U − 1 variables per row
+    lower: list[Fraction]
+    upper: list[Fraction]
+    rows: list[list[Fraction]]
+    bounds: list[Fraction]
+
+    @classmethod
+    def of(cls, s: KernelSetting, contexts: Sequence[int]) -> _Polytope:
+        n_u = len(s.g[0][0])
+        blocks = _blocks(s, contexts)
+        n = len(blocks) * (n_u - 1) + 1
+        rows: list[list[Fraction]] = []
+        for i in range(len(blocks) if n_u > 2 else 0):  # Σ_{u < last} K[x̃, ã, u] ≤ 1
+            row = [Fraction(0)] * n
+            row[i * (n_u - 1) : (i + 1) * (n_u - 1)] = [Fraction(1)] * (n_u - 1)
+            rows.append(row)
+        bounds = [Fraction(1)] * len(rows)
+        poly = cls(blocks, n_u - 1, [Fraction(0)] * (n - 1) + [Fraction(1)], [Fraction(1)] * n, rows, bounds)
+        if s.tau:  # E[g | x, a] ≥ τ in every context of the program and for every group
+            for x in contexts:
+                for a in range(s.k):
+                    poly.rows.append([-v for v in poly.coefficients(s, {x: Fraction(1)}, a)])
+                    poly.bounds.append(-s.tau)
+        return poly
+
+    def coefficients(self, s: KernelSetting, weight: Mapping[int, Fraction], a: int) -> list[Fraction]:
+        """Σ_x weight[x] E[g | x, a] as a linear form in the variables (the constants on s)."""
+        out = [Fraction(0)] * (len(self.blocks) * self.n_free + 1)
+        for x, w in weight.items():
+            if not w:
+                continue
+            g = s.g[x][a]
+            last = g[-1]
+            for i, (xr, ar) in enumerate(self.blocks):
+                m = w * s.sensitive[a][ar] * (Fraction(int(xr == x)) if s.context is None else s.context[x][xr])
+                if not m:
+                    continue
+                for u in range(self.n_free):
+                    out[i * self.n_free + u] += m * (g[u] - last)
+                out[-1] += m * last
+        return out
+
+    def solve(self, p: list[Fraction], q: list[Fraction]) -> Number:
+        """max (p·h)/(q·h) over the polytope, with c/0 = +inf and 0/0 = 1."""
+        result = maximize_ratio(p, q, self.lower, self.upper, self.rows, self.bounds)
+        if result.status == "infeasible":
+            raise ValueError("no decision model meets the floors")
+        if result.status == "optimal":
+            return result.value  # type: ignore[return-value]
+        # q·h = 0 somewhere (E[g | ...] ≥ 0 everywhere): the ratio is +inf where p·h > 0 there, 0/0 = 1 otherwise
+        top = maximize_linear(p, self.lower, self.upper, [*self.rows, q], [*self.bounds, Fraction(0)])
+        if top.status == "optimal" and top.value > 0:  # type: ignore[operator]
+            return INF
+        return Fraction(1)  # q·h = 0 = p·h on the whole polytope

@@ -22,6 +22,7 @@ from typing import Any
 
 from fairaudit.verification.black_box_check import black_box_enclosures
 from fairaudit.verification.checks import TOLERANCE, Check, judge
+from fairaudit.verification.class_check import lipschitz_class_enclosure
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, ln, ln_of, recorded_array
 from fairaudit.verification.observed_check import observed_enclosures
 
@@ -118,12 +119,10 @@ def _black_box(
     m, eps = _member(record, "inputs.calibration.black_box")
     out = [judge("calibration.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
     why = ""
-    if exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz") != 0:
-        why = "utilities Lipschitz in the group"
-    elif m.kind == "identity" or eps.lo == INF:
+    if m.kind == "identity" or eps.lo == INF:
         why = "every epsilon meets the target (the identity)"
     worst: tuple[Enclosure, str] | str = why or (
-        _on_l_bar(cert, cal, record, m, eps) if cal.get("kind") == "global" else _on_l(cal, record, m, eps)
+        _on_l_bar(cert, cal, record, m, eps) if cal.get("kind") == "global" else _on_l(cert, cal, record, m, eps)
     )
     if isinstance(worst, str):
         skipped += [("calibration.bound", worst), ("calibration.target", worst)]
@@ -139,7 +138,7 @@ def _black_box(
     worst_above = (
         _on_l_bar(cert, cal, above, m_above, eps_above)
         if cal.get("kind") == "global"
-        else _on_l(cal, above, m_above, eps_above)
+        else _on_l(cert, cal, above, m_above, eps_above)
     )
     if isinstance(worst_above, str):
         skipped.append((LARGEST, worst_above))
@@ -180,11 +179,25 @@ def _largest(name: str, epsilon: Any, target: Any, eps_above: Enclosure, above: 
 
 
 def _on_l(
-    cal: Mapping[str, Any], record: Mapping[str, Any], m: RecordedMechanism, eps: Enclosure
+    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], m: RecordedMechanism, eps: Enclosure
 ) -> tuple[Enclosure, str] | str:
-    """ln of the member's worst local ratio over the calibration's class (one context, the box [lower, γ], τ), with
-    what it is; or why it is not re-derived."""
+    """ln of the member's worst local ratio over the calibration's class (one context, the box [lower, γ], τ; with
+    L_A > 0 the utilities Lipschitz in the group, d the recorded metric), with what it is; or why it is not
+    re-derived."""
     lower, gamma = cal.get("lower") or 0.0, cal.get("gamma")
+    lipschitz = exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz")
+    if lipschitz:
+        metric = cert["inputs"]["utility"]["metric"]
+        tau = cal.get("tau")
+        ratio = lipschitz_class_enclosure(
+            m,
+            Fraction(exact(lower, "calibration.lower")),
+            Fraction(exact(gamma, "calibration.gamma")),
+            None if tau is None else Fraction(exact(tau, "calibration.tau")),
+            Fraction(lipschitz),
+            None if metric is None else recorded_array(metric, "inputs.utility.metric"),
+        )
+        return ratio if isinstance(ratio, str) else (ln_of(ratio), "worst case over the Lipschitz class")
     the_class = {
         "sensitive_mechanism": record,
         "context_mechanism": {"inputs": ["x"], "outputs": ["x"], "kind": "identity"},
@@ -213,7 +226,7 @@ def _on_l_bar(
     if deviation > Fraction(1e-9):
         worst = black_box_enclosures({**cert["inputs"], "sensitive_mechanism": record})
         return worst.reason if worst.global_ is None else (ln_of(worst.global_), "worst case on L-bar")
-    on_l = _on_l(cal, record, m, eps)
+    on_l = _on_l(cert, cal, record, m, eps)
     if isinstance(on_l, str):
         return on_l
     r = [pop[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] for a in range(len(p_a)) if p_a[a]]

@@ -1,0 +1,156 @@
+"""The black-box worst case over every decision model and every utility of a class with L_A > 0, re-derived exactly.
+
+A utility of the class takes values in [lower, γ] and is L_A-Lipschitz in the group: |g(u, b) − g(u, b')| ≤
+L_A d(b, b'). A model behind M_A then enters E[g | a] only through h[b, ã] = Σ_u K[ã, u] g(u, b), and the reachable
+h are exactly the polytope H of ``proofs/black_box.md`` §5 (Theorem 5): h in [lower, γ]^(n × m), |h[b, ã] − h[b', ã]|
+≤ L_A d(b, b') for every released ã, and the floors M_A[b]·h[b] ≥ τ for every group b. So
+
+    L = max over a ≠ a' of max over H of (M_A[a]·h[a]) / (M_A[a']·h[a']),
+
+one linear-fractional program per ordered pair, solved exactly by :func:`~fairaudit.base.exact_programs.maximize_ratio`
+(c/0 = +inf: with lower = 0 and no floor, h[b, ã] = min(γ, L_A d(b, a')) vanishes for a' only). Randomized response is
+solved at both rational ends of its e^ε: the worst case is non-decreasing in e^ε (randomized response at a smaller ε is
+the larger one followed by more randomized response, which joins the model; the utility is a function of the true
+group, untouched). A Lipschitz row is kept only where L_A d(b, b') < γ − lower (the box implies the others). The class
+lets g depend on the context freely, so one context stands for all (``proofs/black_box.md`` §5, Consequence 2).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from fractions import Fraction
+
+from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism
+
+__all__ = ["MAX_VARIABLES", "lipschitz_class_enclosure"]
+
+MAX_VARIABLES = 36
+"""The largest program (n groups × m released values) re-derived exactly; a larger class is listed as not
+re-derived (the Lipschitz rows grow as n² m)."""
+
+
+def lipschitz_class_enclosure(
+    m: RecordedMechanism,
+    lower: Fraction,
+    gamma: Fraction,
+    tau: Fraction | None,
+    lipschitz: Fraction,
+    metric: Sequence[Sequence[Fraction]] | None,
+) -> Enclosure | str:
+    """The worst ratio max E[g | a]/E[g | a'] over every model behind ``m`` and every utility of the class, enclosed;
+    or why it is not re-derived.
+
+    Parameters
+    ----------
+    m : RecordedMechanism
+        M_A (randomized response, solved at both ends of its e^ε, or a matrix; not the identity).
+    lower, gamma : Fraction
+        The class's range of g, 0 ≤ lower ≤ γ.
+    tau : Fraction or None
+        The floor E[g | x, a] ≥ τ (None: no floor).
+    lipschitz : Fraction
+        L_A ≥ 0.
+    metric : (n, n) nested sequence of Fraction, or None
+        d(b, b') on the groups; None for the discrete metric.
+
+    Returns
+    -------
+    Enclosure or str
+        [value at the lower end of e^ε, value at the upper end] (one point for a matrix); +inf when unbounded; a
+        reason when the programs exceed :data:`MAX_VARIABLES` variables, no utility meets the floors, or randomized
+        response lies beyond ε = 10^6.
+
+    Notes
+    -----
+    ``proofs/black_box.md`` §5 (the polytope H, Theorem 5); ``proofs/verification.md`` §4b.
+
+    Examples
+    --------
+    Binary randomized response keeping 7/10, lower = 0, γ = 1, τ = 1/2, L_A = 1/10 (discrete metric): 58/35, the
+    vertex enumeration of ``proofs/black_box.md`` §5.
+
+    >>> from fractions import Fraction as F
+    >>> rr = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix", "matrix": [[0.7, 0.3], [0.3, 0.7]]}
+    >>> m = RecordedMechanism.from_record(rr, "m")
+    >>> e = lipschitz_class_enclosure(m, F(0), F(1), F(1, 2), F(1, 10), None)
+    >>> float(e.lo), e.lo == e.hi
+    (1.657142857142857, True)
+    """
+    if m.kind == "randomized_response" and m.t().hi == INF:
+        return "randomized response beyond epsilon = 10^6: its e^epsilon has no finite upper end to solve at"
+    n, n_out = m.k, len(m.outputs)
+    if n * n_out > MAX_VARIABLES:
+        return f"programs beyond {MAX_VARIABLES} variables"
+    d = metric or [[Fraction(int(b != c)) for c in range(n)] for b in range(n)]
+    ends = []
+    for rows in _rows_at_ends(m):
+        value = _worst(rows, lower, gamma, tau, lipschitz, d)
+        if value is None:
+            return "no utility of the class meets E[g | x, a] >= tau with the recorded rows exactly"
+        ends.append(value)
+    return Enclosure(ends[0], ends[-1])
+
+
+def _rows_at_ends(m: RecordedMechanism) -> list[tuple[tuple[Fraction, ...], ...]]:
+    """M_A's exact rows; randomized response's at the lower and the upper end of its e^ε."""
+    rows = m.matrix_rows()
+    if rows is not None:
+        return [rows]
+    out = []
+    for t in (m.t().lo, m.t().hi):
+        p, q = t / (t + m.k - 1), 1 / (t + m.k - 1)
+        out.append(tuple(tuple(Fraction(p if i == j else q) for j in range(m.k)) for i in range(m.k)))
+    return out
+
+
+def _worst(
+    rows: tuple[tuple[Fraction, ...], ...],
+    lower: Fraction,
+    gamma: Fraction,
+    tau: Fraction | None,
+    lipschitz: Fraction,
+    d: Sequence[Sequence[Fraction]],
+) -> Fraction | float | None:
+    """max over ordered pairs of the program over H (variables h[b, ã], group-major); None when H is empty."""
+    n, n_out = len(rows), len(rows[0])
+    size = n * n_out
+    a_ub: list[list[Fraction]] = []
+    b_ub: list[Fraction] = []
+    for b in range(n):
+        for c in range(b + 1, n):
+            if lipschitz * d[b][c] >= gamma - lower:
+                continue  # implied by the box
+            for o in range(n_out):
+                for sign in (1, -1):
+                    row = [Fraction(0)] * size
+                    row[b * n_out + o], row[c * n_out + o] = Fraction(sign), Fraction(-sign)
+                    a_ub.append(row)
+                    b_ub.append(lipschitz * d[b][c])
+    if tau:
+        for b in range(n):
+            row = [Fraction(0)] * size
+            row[b * n_out : (b + 1) * n_out] = [-v for v in rows[b]]
+            a_ub.append(row)
+            b_ub.append(-tau)
+    box_lo, box_hi = [lower] * size, [gamma] * size
+    best: Fraction | float = Fraction(1)
+    for a in range(n):
+        for b in range(n):
+            if a == b:
+                continue
+            p, q = [Fraction(0)] * size, [Fraction(0)] * size
+            p[a * n_out : (a + 1) * n_out] = rows[a]
+            q[b * n_out : (b + 1) * n_out] = rows[b]
+            result = maximize_ratio(p, q, box_lo, box_hi, a_ub, b_ub)
+            if result.status == "infeasible":
+                return None
+            if result.status == "optimal":
+                assert result.value is not None  # (optimal: a value)
+                best = max(best, result.value)
+                continue
+            # q·h = 0 somewhere (q·h ≥ 0 on H): +inf where p·h > 0 there; otherwise 0/0 everywhere
+            top = maximize_linear(p, box_lo, box_hi, [*a_ub, q], [*b_ub, Fraction(0)])
+            if top.status == "optimal" and top.value > 0:  # type: ignore[operator]
+                return INF
+    return best

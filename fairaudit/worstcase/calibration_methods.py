@@ -28,7 +28,7 @@ import numpy.typing as npt
 from fairaudit.base.arrays import EXP_SAFE, FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
-from fairaudit.base.outward import exp_down, exp_up, fraction_down, log_down, log_up, widen_down
+from fairaudit.base.outward import exp_down, exp_up, fraction_down, log_down, log_up
 from fairaudit.laws.closed_forms import RandomizedResponse, randomized_response
 from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.mechanisms import Mechanism, identity
@@ -129,8 +129,8 @@ def rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> f
 
     Any target ≥ 0, however large: e^target is never formed above 700 nats (the same formula in logarithms;
     with lower = 0 it is ε = target). A lower end: t increases in T = e^target, so T is rounded down and t,
-    exact in rationals, goes through ln rounded down (``proofs/outward.md`` §5); above 700 nats the
-    logarithmic form is widened down by 1e-12 relative.
+    exact in rationals, goes through ln rounded down (``proofs/outward.md`` §5); above 700 nats, the same formula
+    in logarithms, each term rounded down.
     """
     rho = lower / gamma if gamma > 0 else 1.0
     if rho == 0.0:
@@ -142,7 +142,7 @@ def rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> f
             return math.inf
         exact = (big * r * (k - 1) + big * (1 - r) - r * (k - 1)) / (1 - big * r)
         return _meeting(log_down(max(exact, Fraction(1))), target, k, lower, gamma)
-    return max(0.0, float(widen_down(_rr_black_box_epsilon_float(target, k, rho), 1e-12)))
+    return _rr_black_box_epsilon_large(target, k, Fraction(lower) / Fraction(gamma))
 
 
 def _meeting(eps: float, target: float, k: int, lower: float, gamma: float) -> float:
@@ -159,21 +159,18 @@ def _meeting(eps: float, target: float, k: int, lower: float, gamma: float) -> f
     return eps
 
 
-def _rr_black_box_epsilon_float(target: float, k: int, rho: float) -> float:
-    """:func:`rr_black_box_epsilon` in floating point (rounded to nearest)."""
-    if target > EXP_SAFE:  # e^target overflows a double; T0·rho < 1 needs rho < e^-700 (or 0)
-        if rho == 0.0:
-            return target
-        if target + math.log(rho) >= 0.0:
-            return math.inf
-        # log t = target + log(1 + rho(k − 2) − rho(k − 1) e^-target) − log(1 − rho e^target)
-        head = math.log1p(rho * (k - 2) - rho * (k - 1) * math.exp(-target))
-        return max(0.0, target + head - math.log1p(-math.exp(target + math.log(rho))))
-    big_t = math.exp(target)
-    if big_t * rho >= 1.0:
+def _rr_black_box_epsilon_large(target: float, k: int, r: Fraction) -> float:
+    """:func:`rr_black_box_epsilon` above 700 nats (e^target overflows a double), a lower end, in logarithms:
+    ln t = y + ln(1 + r(k − 2) − r(k − 1)e^−y) − ln(1 − r e^y) for y = target and r = lower/γ > 0, each term rounded
+    down in rationals (``proofs/outward.md`` §5); +inf when r e^y ≥ 1 surely (y + ln r ≥ 0, ln r rounded down)."""
+    y = Fraction(target)
+    log_r = Fraction(log_down(r))
+    if y + log_r >= 0:  # r e^y >= 1: the worst ratio never exceeds e^target, every epsilon meets it
         return math.inf
-    t = (big_t * rho * (k - 1) + big_t * (1 - rho) - rho * (k - 1)) / (1 - big_t * rho)
-    return math.log(max(t, 1.0))
+    head = Fraction(log_down(1 + r * (k - 2) - r * (k - 1) * Fraction(exp_up(-target))))
+    z = Fraction(exp_down(fraction_down(y + log_r)))  # at most r e^y
+    tail = Fraction(log_down(1 / (1 - z))) if z < 1 else Fraction(0)  # −ln(1 − r e^y) >= 0
+    return max(0.0, fraction_down(y + head + tail))
 
 
 def _is_randomized_response(family: MechanismFamily, eps: float) -> RandomizedResponse | None:

@@ -576,9 +576,30 @@ def test_cli_spec_with_epsilon_inf(tmp_path, capsys):
 def test_cli_calibrate_huge_targets(capsys, argv, epsilon):
     code, d, _ = run_json(capsys, "calibrate", *argv)
     assert code == 0 and d["feasible"] is True
-    # the calibrated ε is a lower end, widened by 1e-12 relative above 700 nats
-    assert d["epsilon"] == epsilon if isinstance(epsilon, str) else d["epsilon"] == pytest.approx(epsilon, rel=3e-12)
+    # the calibrated ε is a lower end, each term of the logarithmic form rounded down above 700 nats
+    assert d["epsilon"] == epsilon if isinstance(epsilon, str) else d["epsilon"] == pytest.approx(epsilon, rel=1e-14)
     assert d["keep_probability"] == 1.0
+
+
+@pytest.mark.parametrize(
+    "target, k, lower",
+    [(701.0, 3, 1e-310), (705.0, 2, 5e-308), (710.0, 5, 2e-310), (720.0, 4, 1e-320), (709.9, 7, 1e-309),
+     (800.0, 3, 0.5), (708.5, 2, 3e-308), (1e4, 3, 0.0)],
+)  # fmt: skip
+def test_calibrated_epsilon_above_700_nats_is_a_lower_end_within_an_ulp(target, k, lower):
+    # against 60 digits: t = (T r (k − 1) + T (1 − r) − r (k − 1))/(1 − T r), T = e^target, r = lower/γ exactly;
+    # +inf when T r >= 1 (was 0.0 at (800, 3, 0.5): the widening of +inf gave NaN)
+    from fairaudit.worstcase.calibration_methods import rr_black_box_epsilon as closed_form
+
+    got = closed_form(target, k, lower, 1.0)
+    with mpmath.workdps(60):
+        r = mpmath.mpf(F(lower).numerator) / F(lower).denominator
+        big = mpmath.exp(mpmath.mpf(target))
+        if big * r >= 1:
+            assert got == math.inf
+            return
+        exact = mpmath.log((big * r * (k - 1) + big * (1 - r) - r * (k - 1)) / (1 - big * r))
+        assert got <= exact and (exact - got) / exact < 1e-15
 
 
 def test_calibrate_huge_target_bound_is_the_target():

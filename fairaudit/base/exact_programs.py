@@ -29,7 +29,7 @@ from typing import Literal
 
 from fairaudit.base.errors import InputError
 
-__all__ = ["LinearOptimum", "RatioOptimum", "maximize_linear", "maximize_ratio"]
+__all__ = ["LinearOptimum", "Polytope", "RatioOptimum", "maximize_linear", "maximize_ratio"]
 
 Rational = Fraction | int
 """An exact rational: a fraction or an integer (any :class:`numbers.Rational` is accepted; a float is not)."""
@@ -402,22 +402,67 @@ def maximize_ratio(
     numerator = _vector("p", p)
     if not numerator:
         raise InputError("p", "must have at least one variable", p)
-    denominator = _vector("q", q, len(numerator))
-    simplex = _Simplex(*_polytope(lower, upper, A_ub, b_ub, len(numerator)))
-    if not simplex.feasible():
-        return RatioOptimum("infeasible", None, None)
-    negative_min, point = simplex.maximize([-x for x in denominator])
-    if negative_min > 0:
-        return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
-    largest, point = simplex.maximize(denominator)
-    if largest == 0:
-        return RatioOptimum("zero_denominator", None, point)  # q·h = 0 on the whole polytope
-    ratio = _dot(numerator, point) / largest
-    while True:
-        gap, vertex = simplex.maximize([a - ratio * b for a, b in zip(numerator, denominator, strict=True)])
-        if gap == 0:
-            return RatioOptimum("optimal", ratio, point)
-        scale = _dot(denominator, vertex)
-        if scale == 0:
-            return RatioOptimum("zero_denominator", None, vertex)  # q·h = 0 < p·h here: the ratio is unbounded
-        point, ratio = vertex, _dot(numerator, vertex) / scale
+    return Polytope(lower, upper, A_ub, b_ub, len(numerator)).maximize_ratio(numerator, q)
+
+
+class Polytope:
+    """The polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub} with a feasible basis found once, to maximise several ratios
+    over it: each :meth:`maximize_ratio` starts from the basis the previous one ended at (phase 1 runs once).
+
+    Parameters
+    ----------
+    lower, upper, A_ub, b_ub
+        As :func:`maximize_ratio`'s.
+    n : int
+        The number of variables (≥ 1).
+
+    Attributes
+    ----------
+    feasible : bool
+        False when the polytope is empty.
+
+    Examples
+    --------
+    >>> from fractions import Fraction as F
+    >>> box = Polytope([0, 0], [1, 1], [[-1, -1]], [F(-1, 2)], 2)
+    >>> box.maximize_ratio([F(7, 10), F(3, 10)], [F(3, 10), F(7, 10)]).value
+    Fraction(7, 3)
+    >>> box.maximize_ratio([F(3, 10), F(7, 10)], [F(7, 10), F(3, 10)]).value
+    Fraction(7, 3)
+    """
+
+    def __init__(
+        self,
+        lower: Sequence[Rational],
+        upper: Sequence[Rational],
+        A_ub: Sequence[Sequence[Rational]],
+        b_ub: Sequence[Rational],
+        n: int,
+    ) -> None:
+        self._n = n
+        self._simplex = _Simplex(*_polytope(lower, upper, A_ub, b_ub, n))
+        self.feasible = self._simplex.feasible()
+
+    def maximize_ratio(self, p: Sequence[Rational], q: Sequence[Rational]) -> RatioOptimum:
+        """Exact max (p·h)/(q·h) over the polytope's points with q·h > 0, as :func:`maximize_ratio` (p and q of
+        length n)."""
+        numerator = _vector("p", p, self._n)
+        denominator = _vector("q", q, self._n)
+        if not self.feasible:
+            return RatioOptimum("infeasible", None, None)
+        simplex = self._simplex
+        negative_min, point = simplex.maximize([-x for x in denominator])
+        if negative_min > 0:
+            return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
+        largest, point = simplex.maximize(denominator)
+        if largest == 0:
+            return RatioOptimum("zero_denominator", None, point)  # q·h = 0 on the whole polytope
+        ratio = _dot(numerator, point) / largest
+        while True:
+            gap, vertex = simplex.maximize([a - ratio * b for a, b in zip(numerator, denominator, strict=True)])
+            if gap == 0:
+                return RatioOptimum("optimal", ratio, point)
+            scale = _dot(denominator, vertex)
+            if scale == 0:
+                return RatioOptimum("zero_denominator", None, vertex)  # q·h = 0 < p·h here: the ratio is unbounded
+            point, ratio = vertex, _dot(numerator, vertex) / scale

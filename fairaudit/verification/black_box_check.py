@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.exact_programs import maximize_ratio
+from fairaudit.base.exact_programs import Polytope
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
 
@@ -240,12 +240,13 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None) 
     if isinstance(s, KernelSetting):
         return kernel_local(s, at)
     best: Number = Fraction(0)
+    polytopes: dict[Any, Polytope] = {}
     cases = [(i, a, b) for i in range(len(s.low)) for a, b in _pairs(s)] if at is None else [at]
     for i, a, b in cases:
         if s.rows is None:
             a, b = 0, 1
         row_a, row_b, floors, _ = _rows_of(s, a, b)
-        best = max(best, _solve([row_a], [row_b], floors, [s.low[i]], [s.high[i]], s.tau))
+        best = max(best, _solve([row_a], [row_b], floors, [s.low[i]], [s.high[i]], s.tau, polytopes))
     return best
 
 
@@ -267,6 +268,7 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> N
     if at is not None:
         pairs = pairs if s.rows is None and _alike(s.weights, s.present) else [at]
     best: Number = Fraction(1)
+    polytopes: dict[Any, Polytope] = {}
     for a, b in pairs:
         tops, bottoms, floors = [], [], []
         for i in range(len(s.low)):
@@ -274,7 +276,7 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> N
             tops.append([s.weights[i][a] * v for v in row_a])
             bottoms.append([s.weights[i][b] * v for v in row_b])
             floors.append(fl)
-        best = max(best, _solve_blocks(tops, bottoms, floors, s.low, s.high, s.tau))
+        best = max(best, _solve_blocks(tops, bottoms, floors, s.low, s.high, s.tau, polytopes))
     return best
 
 
@@ -295,9 +297,10 @@ def _solve(
     low: list[Fraction],
     high: list[Fraction],
     tau: Fraction | None,
+    polytopes: dict[Any, Polytope],
 ) -> Number:
     """One context's program (the single-block case of :func:`_solve_blocks`)."""
-    return _solve_blocks(tops, bottoms, [floors], low, high, tau)
+    return _solve_blocks(tops, bottoms, [floors], low, high, tau, polytopes)
 
 
 def _solve_blocks(
@@ -307,6 +310,7 @@ def _solve_blocks(
     low: list[Fraction],
     high: list[Fraction],
     tau: Fraction | None,
+    polytopes: dict[Any, Polytope],
 ) -> Number:
     """max (Σ_i tops_i·h_i)/(Σ_i bottoms_i·h_i) over blocks h_i in [low_i, high_i]^n with floors_i·h_i ≥ τ.
 
@@ -336,7 +340,10 @@ def _solve_blocks(
         smallest = min(qi * hi for qi, hi in zip(q, upper) if qi > 0 and hi > 0)
         rows.append([-v for v in q])
         bounds.append(-smallest)
-    result = maximize_ratio(p, q, lower, upper, rows, bounds)
+    key = (tuple(lower), tuple(upper), tuple(map(tuple, rows)), tuple(bounds))
+    if key not in polytopes:  # (the pairs of one setting share it: phase 1 once, each pair from the last basis)
+        polytopes[key] = Polytope(lower, upper, rows, bounds, len(p))
+    result = polytopes[key].maximize_ratio(p, q)
     if result.status != "optimal":
         raise ValueError(f"the worst-case program is {result.status}")
     return result.value  # type: ignore[return-value]

@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from fractions import Fraction
 
-from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
+from fairaudit.base.exact_programs import Polytope, maximize_linear
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism
 
 __all__ = ["MAX_VARIABLES", "lipschitz_class_enclosure"]
@@ -134,6 +134,7 @@ def _worst(
             a_ub.append(row)
             b_ub.append(-tau)
     box_lo, box_hi = [lower] * size, [gamma] * size
+    polytope = Polytope(box_lo, box_hi, a_ub, b_ub, size)  # phase 1 once for every pair
     best: Fraction | float = Fraction(1)
     for a in range(n):
         for b in range(n):
@@ -142,7 +143,7 @@ def _worst(
             p, q = [Fraction(0)] * size, [Fraction(0)] * size
             p[a * n_out : (a + 1) * n_out] = rows[a]
             q[b * n_out : (b + 1) * n_out] = rows[b]
-            result = maximize_ratio(p, q, box_lo, box_hi, a_ub, b_ub)
+            result = polytope.maximize_ratio(p, q)
             if result.status == "infeasible":
                 return None
             if result.status == "optimal":

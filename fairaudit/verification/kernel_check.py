@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
+from fairaudit.base.exact_programs import Polytope, maximize_linear
 from fairaudit.verification.enclosures import INF, RecordedMechanism, exact, recorded_array
 
 __all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings"]
@@ -156,6 +156,26 @@ def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number
     return best
 
 
+def _linear_form(
+    s: KernelSetting, blocks: Sequence[tuple[int, int]], n_free: int, weight: Mapping[int, Fraction], a: int
+) -> list[Fraction]:
+    """Σ_x weight[x] E[g | x, a] as a linear form in the variables K[x̃, ã, u < last] of ``blocks``, then s."""
+    out = [Fraction(0)] * (len(blocks) * n_free + 1)
+    for x, w in weight.items():
+        if not w:
+            continue
+        g = s.g[x][a]
+        last = g[-1]
+        for i, (xr, ar) in enumerate(blocks):
+            m = w * s.sensitive[a][ar] * (Fraction(int(xr == x)) if s.context is None else s.context[x][xr])
+            if not m:
+                continue
+            for u in range(n_free):
+                out[i * n_free + u] += m * (g[u] - last)
+            out[-1] += m * last
+    return out
+
+
 def _blocks(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
     """The rows (x̃, ã) of K that ``contexts`` reach: released contexts M_X[x, x̃] > 0 for one of them (x̃ = x for the
     identity), released groups M_A[a, ã] > 0 for some group."""
@@ -178,6 +198,7 @@ class _Polytope:
     upper: list[Fraction]
     rows: list[list[Fraction]]
     bounds: list[Fraction]
+    exact: Polytope  # phase 1 once: the pairs' programs start each from the last one's basis
 
     @classmethod
     def of(cls, s: KernelSetting, contexts: Sequence[int]) -> _Polytope:
@@ -190,34 +211,21 @@ class _Polytope:
             row[i * (n_u - 1) : (i + 1) * (n_u - 1)] = [Fraction(1)] * (n_u - 1)
             rows.append(row)
         bounds = [Fraction(1)] * len(rows)
-        poly = cls(blocks, n_u - 1, [Fraction(0)] * (n - 1) + [Fraction(1)], [Fraction(1)] * n, rows, bounds)
+        lower, upper = [Fraction(0)] * (n - 1) + [Fraction(1)], [Fraction(1)] * n
         if s.tau:  # E[g | x, a] ≥ τ in every context of the program and for every group
             for x in contexts:
                 for a in range(s.k):
-                    poly.rows.append([-v for v in poly.coefficients(s, {x: Fraction(1)}, a)])
-                    poly.bounds.append(-s.tau)
-        return poly
+                    rows.append([-v for v in _linear_form(s, blocks, n_u - 1, {x: Fraction(1)}, a)])
+                    bounds.append(-s.tau)
+        return cls(blocks, n_u - 1, lower, upper, rows, bounds, Polytope(lower, upper, rows, bounds, n))
 
     def coefficients(self, s: KernelSetting, weight: Mapping[int, Fraction], a: int) -> list[Fraction]:
         """Σ_x weight[x] E[g | x, a] as a linear form in the variables (the constants on s)."""
-        out = [Fraction(0)] * (len(self.blocks) * self.n_free + 1)
-        for x, w in weight.items():
-            if not w:
-                continue
-            g = s.g[x][a]
-            last = g[-1]
-            for i, (xr, ar) in enumerate(self.blocks):
-                m = w * s.sensitive[a][ar] * (Fraction(int(xr == x)) if s.context is None else s.context[x][xr])
-                if not m:
-                    continue
-                for u in range(self.n_free):
-                    out[i * self.n_free + u] += m * (g[u] - last)
-                out[-1] += m * last
-        return out
+        return _linear_form(s, self.blocks, self.n_free, weight, a)
 
     def solve(self, p: list[Fraction], q: list[Fraction]) -> Number:
         """max (p·h)/(q·h) over the polytope, with c/0 = +inf and 0/0 = 1."""
-        result = maximize_ratio(p, q, self.lower, self.upper, self.rows, self.bounds)
+        result = self.exact.maximize_ratio(p, q)
         if result.status == "infeasible":
             raise ValueError("no decision model meets the floors")
         if result.status == "optimal":

@@ -4,11 +4,11 @@ Charnes–Cooper LP written here), and through certify's calibration."""
 from __future__ import annotations
 
 import itertools
-import json
 from fractions import Fraction as F
 
 import numpy as np
 import pytest
+from _verified import certified_and_verified
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
@@ -104,18 +104,13 @@ def test_the_programs_agree_with_highs(drawn):
 
 
 def test_a_lipschitz_calibration_is_re_derived(tmp_path):
-    spec = tmp_path / "spec.toml"
-    spec.write_text(
+    cert, _, checked = certified_and_verified(
         '[sensitive]\nname = "group"\nvalues = ["a", "b", "c"]\n[decision]\nname = "d"\nvalues = ["yes", "no"]\n'
         '[privacy.sensitive]\nmechanism = "randomized_response"\nepsilon = 1.0\n'
         '[utility]\nkind = "table"\nvalues = [1.0, 0.5]\ntau = 0.3\nlipschitz = 0.05\n'
         "metric = [[0, 1, 2], [1, 0, 1], [2, 1, 0]]\n[target]\nlocal = 0.5\n",
-        encoding="utf-8",
+        tmp_path,
     )
-    cert = json.loads(json.dumps(fairaudit.certify(spec).to_dict()))
-    result = fairaudit.verify(cert)
-    assert result.holds, [c.line() for c in result.failures]
-    checked = {c.name for c in result.checks}
     assert {"calibration.bound", "calibration.target", "calibration.epsilon is the largest"} <= checked
     cert["calibration"]["bound"] -= 1e-9
     assert "calibration.bound" in {c.name for c in fairaudit.verify(cert).failures}

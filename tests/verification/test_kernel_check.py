@@ -4,10 +4,10 @@ than the identity): by hand, against every deterministic table, and through cert
 from __future__ import annotations
 
 import itertools
-import json
 import math
 from fractions import Fraction as F
 
+from _verified import certified_and_verified
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -135,19 +135,14 @@ def test_the_programs_agree_with_every_deterministic_table(s):
 def test_certify_and_verify_with_a_utility_that_depends_on_the_group(tmp_path):
     # the hand case behind randomized response on the context too: L = ln 6 (the context mechanism does not matter
     # here), re-derived exactly, and the black box moved down by 1e-9 fails
-    spec = tmp_path / "spec.toml"
-    spec.write_text(
+    cert, _, checked = certified_and_verified(
         '[sensitive]\nname = "group"\nvalues = ["a", "b"]\n[context]\nname = "job"\nvalues = ["x", "y"]\n'
         '[decision]\nname = "d"\nvalues = ["yes", "no"]\n'
         '[privacy.sensitive]\nmechanism = "matrix"\nrows = [[0.75, 0.25], [0.25, 0.75]]\n'
         '[privacy.context]\nmechanism = "randomized_response"\nepsilon = 1.0\n'
         '[utility]\nkind = "table"\nvalues = [[[1.0, 0.0], [0.5, 0.0]], [[1.0, 0.0], [1.0, 0.0]]]\n',
-        encoding="utf-8",
+        tmp_path,
     )
-    cert = json.loads(json.dumps(fairaudit.certify(spec).to_dict()))
-    result = fairaudit.verify(cert)
-    assert result.holds, [c.line() for c in result.failures]
-    checked = {c.name for c in result.checks}
     assert {"bounds.black_box", "bound_details.black_box.global.value", "bounds.global"} <= checked
     worst = black_box_enclosures(cert["inputs"])
     assert worst.local.lo == worst.local.hi == F(6)

@@ -197,7 +197,7 @@ def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | list[KernelSetting]
     else:
         low, high = [min(values)] * len(live), [max(values)] * len(live)
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
-    if m.kind == "matrix" and (m.k > 16 or len(m.outputs) * len(live) > MAX_VARIABLES):
+    if m.kind == "matrix" and (m.k > 16 or len(m.outputs) > MAX_VARIABLES):
         return f"programs beyond {MAX_VARIABLES} variables"
     mass = [sum(pop[x][a] for x in live) for a in range(m.k)]
     weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(m.k)] for x in live]
@@ -260,27 +260,45 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> N
         return kernel_global(s, at)
     if len(s.present) < 2:
         return Fraction(1)
-    if s.rows is not None:
-        pairs = [(a, b) for a in s.present for b in s.present if a != b]
-    elif _alike(s.weights, s.present):
-        pairs = [(s.present[0], s.present[1])]  # every pair present is alike
+    alike = _alike(s.weights, s.present)
+    if s.rows is None and alike:
+        pairs, width = [(s.present[0], s.present[1])], 3  # every pair present is alike: three cells
     else:
-        pairs = [(a, b) for a in s.present for b in s.present if a != b]  # P(x | a) differs: no symmetry
-        if s.k * len(s.low) > MAX_VARIABLES:
-            return None
+        pairs = [(a, b) for a in s.present for b in s.present if a != b]  # a matrix, or P(x | a) differs
+        width = s.k if s.rows is None else len(s.rows[0])
+    low, high, weights = _merged(s)
+    if width * len(low) > MAX_VARIABLES:
+        return None
     if at is not None:
-        pairs = pairs if s.rows is None and _alike(s.weights, s.present) else [at]
+        pairs = pairs if s.rows is None and alike else [at]
     best: Number = Fraction(1)
     polytopes: dict[Any, Polytope] = {}
     for a, b in pairs:
         tops, bottoms, floors = [], [], []
-        for i in range(len(s.low)):
+        for i in range(len(low)):
             row_a, row_b, fl, _ = _rows_of(s, a, b) if s.rows is not None else _full_rr_rows(s, a, b)
-            tops.append([s.weights[i][a] * v for v in row_a])
-            bottoms.append([s.weights[i][b] * v for v in row_b])
+            tops.append([weights[i][a] * v for v in row_a])
+            bottoms.append([weights[i][b] * v for v in row_b])
             floors.append(fl)
-        best = max(best, _solve_blocks(tops, bottoms, floors, s.low, s.high, s.tau, polytopes))
+        best = max(best, _solve_blocks(tops, bottoms, floors, low, high, s.tau, polytopes))
     return best
+
+
+def _merged(s: _Setting) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]]]:
+    """The live contexts for L̄, those with the same box and P(x | a) proportional over the groups present merged into
+    one, their weights summed (exact: Σ_x c_x v_a M[a]·h_x = (Σ_x c_x) v_a M[a]·h̄ with h̄ the c-weighted mean of the
+    h_x, in the same box and meeting the same floors, and h̄ itself is reached by h_x = h̄; ``proofs/verification.md``
+    §4): (low, high, weights), one entry per merged context."""
+    merged: dict[tuple[Any, ...], list[Fraction]] = {}
+    for i, w in enumerate(s.weights):
+        total = sum(w[a] for a in s.present)
+        shape = tuple(w[a] / total for a in s.present) if total else (i,)
+        key = (s.low[i], s.high[i], shape)
+        if key in merged:
+            merged[key] = [x + y for x, y in zip(merged[key], w, strict=True)]
+        else:
+            merged[key] = list(w)
+    return [k[0] for k in merged], [k[1] for k in merged], list(merged.values())
 
 
 def _full_rr_rows(

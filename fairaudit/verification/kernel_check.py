@@ -146,16 +146,34 @@ def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number
     """
     if len(s.present) < 2:
         return Fraction(1)
-    if len(_blocks(s, s.live)) * (len(s.g[0][0]) - 1) + 1 > s.max_variables:
+    weights = _merged(s)
+    contexts = list(weights)
+    if len(_blocks(s, contexts)) * (len(s.g[0][0]) - 1) + 1 > s.max_variables:
         return None
-    poly = _Polytope.of(s, s.live)
+    poly = _Polytope.of(s, contexts)
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
     best: Number = Fraction(1)
     for a, b in pairs:
-        top = {x: s.weights[i][a] for i, x in enumerate(s.live)}
-        bottom = {x: s.weights[i][b] for i, x in enumerate(s.live)}
+        top = {x: w[a] for x, w in weights.items()}
+        bottom = {x: w[b] for x, w in weights.items()}
         best = max(best, poly.solve(poly.coefficients(s, top, a), poly.coefficients(s, bottom, b)))
     return best
+
+
+def _merged(s: KernelSetting) -> dict[int, list[Fraction]]:
+    """P(x | a) over the live contexts for L̄ (context → its row over the groups); with M_X the identity, the contexts
+    with the same g(·, x, ·) and P(x | a) proportional over the groups present merged into the first, their weights
+    summed. Exact: their rows of K enter L̄ and the floors alike, so their weighted mean (a table meeting the same
+    floors) gives the same E[g | a], and it is reached by giving every merged context that mean."""
+    merged: dict[tuple[Any, ...], tuple[int, list[Fraction]]] = {}
+    for i, x in enumerate(s.live):
+        w = s.weights[i]
+        total = sum(w[a] for a in s.present)
+        shape = tuple(w[a] / total for a in s.present) if total and s.context is None else (x,)
+        key = (tuple(tuple(row) for row in s.g[x]), shape)
+        first, sums = merged.get(key, (x, [Fraction(0)] * len(w)))
+        merged[key] = (first, [a + b for a, b in zip(sums, w, strict=True)])
+    return dict(merged.values())
 
 
 def _linear_form(

@@ -39,8 +39,8 @@ Rows = tuple[tuple[Fraction, ...], ...]
 class KernelSetting:
     """The data of the programs at one end of e^ε: M_A's and M_X's rows, g, τ and the population.
 
-    ``weights`` is P(x | a) over the live contexts, [live x][a], as :mod:`~fairaudit.verification.black_box_check`'s
-    setting has it; ``live`` indexes the contexts with P(X = x) > 0.
+    ``weights`` is P(x | a) over the live contexts, indexed ``[live x][a]``, as
+    :mod:`~fairaudit.verification.black_box_check`'s setting has it; ``live`` indexes the contexts with P(X = x) > 0.
     """
 
     sensitive: Rows  # M_A, (n_groups, n_released_groups)

@@ -39,8 +39,27 @@ Rows = tuple[tuple[Fraction, ...], ...]
 class KernelSetting:
     """The data of the programs at one end of e^ε: M_A's and M_X's rows, g, τ and the population.
 
-    ``weights`` is P(x | a) over the live contexts, indexed ``[live x][a]``, as
-    :mod:`~fairaudit.verification.black_box_check`'s setting has it; ``live`` indexes the contexts with P(X = x) > 0.
+    Attributes
+    ----------
+    sensitive : tuple of tuple of Fraction, shape (n_groups, n_released_groups)
+        M_A[a, ã] = P(ã | a), each row summing to 1.
+    context : tuple of tuple of Fraction, shape (n_contexts, n_released_contexts), or None
+        M_X[x, x̃]; None for the identity.
+    g : nested list of Fraction, indexed ``[x][a][u]``, shape (n_contexts, n_groups, n_decisions)
+        The utility g(u, x, a) ≥ 0.
+    tau : Fraction or None
+        The floor E[g | x, a] ≥ τ in every live context and for every group; None for no floor.
+    live : list of int
+        The contexts with P(X = x) > 0, ascending.
+    weights : nested list of Fraction, indexed ``[live x][a]``
+        P(x | a) over the live contexts (0 for a group absent from the population), as
+        :mod:`~fairaudit.verification.black_box_check`'s setting has it.
+    present : list of int
+        The groups with P(A = a) > 0, ascending.
+    group_free : bool
+        Whether g(u, x, a) is the same for every group (then L ≤ ε holds as well).
+    max_variables : int
+        The largest program (variables, the constant s included) :func:`kernel_global` solves.
     """
 
     sensitive: Rows  # M_A, (n_groups, n_released_groups)
@@ -64,8 +83,48 @@ def kernel_settings(
     context: RecordedMechanism,
     max_variables: int,
 ) -> list[KernelSetting] | str:
-    """The programs' data at each end of the mechanisms' e^ε (one setting when both are exact), or why the worst case
-    is not re-derived here: programs beyond ``max_variables`` variables, or randomized response beyond ε = 10^6."""
+    """The programs' data at each end of the mechanisms' e^ε, or why the worst case is not re-derived here.
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs``: its ``utility`` (``values``, an (n_decisions,) list or an (n_contexts, n_groups,
+        n_decisions) nested list, and ``tau``) and ``population`` (``probabilities``, (n_contexts, n_groups)) are read.
+    sensitive, context : RecordedMechanism
+        M_A and M_X as recorded (randomized response, a matrix, or the identity for the context).
+    max_variables : int
+        The largest program solved; a program of L beyond it is not re-derived.
+
+    Returns
+    -------
+    list of KernelSetting or str
+        One setting when neither mechanism is randomized response; else two, at the lower and the upper rational end
+        of its e^ε (the worst case is non-decreasing in e^ε, so the two bound it). A str says why not: a program of L
+        beyond ``max_variables`` variables, or randomized response beyond ε = 10^6.
+
+    Raises
+    ------
+    InputError
+        Naming the field of a recorded number that is not a finite number or ``"inf"``.
+
+    Notes
+    -----
+    ``proofs/verification.md`` §4d.
+
+    Examples
+    --------
+    Keep 3/4 on two groups, one context, g(yes, a) = 1, g(yes, b) = 1/2, g(no, ·) = 0:
+
+    >>> keep = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix", "matrix": [[0.75, 0.25], [0.25, 0.75]]}
+    >>> same = {"inputs": ["x"], "outputs": ["x"], "kind": "identity"}
+    >>> inputs = {"utility": {"values": [[[1.0, 0.0], [0.5, 0.0]]], "tau": None},
+    ...           "population": {"probabilities": [[0.5, 0.5]]}}
+    >>> m_a = RecordedMechanism.from_record(keep, "sensitive_mechanism")
+    >>> m_x = RecordedMechanism.from_record(same, "context_mechanism")
+    >>> [s] = kernel_settings(inputs, m_a, m_x, 64)
+    >>> s.sensitive[0], s.context, s.group_free
+    ((Fraction(3, 4), Fraction(1, 4)), None, False)
+    """
     for m, name in ((sensitive, "the sensitive attribute"), (context, "the context")):
         if m.kind == "randomized_response" and m.t().hi == INF:
             return f"randomized response on {name} beyond epsilon = 10^6: its e^epsilon has no finite upper end"
@@ -106,13 +165,40 @@ def _rows(m: RecordedMechanism, end: int) -> Rows:
 
 
 def kernel_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> Number:
-    """max over live contexts and ordered pairs of groups of the exact worst ratio E[g | x, a]/E[g | x, a'];
-    with ``at`` = (live context index, a, a'), that one's.
+    """The exact local worst case: max over tables meeting the floors of E[g | x, a]/E[g | x, a'].
+
+    Parameters
+    ----------
+    s : KernelSetting
+        The programs' data at one end of e^ε.
+    at : (int, int, int), optional
+        (index into ``s.live``, a, a'): that context and ordered pair only. Default: the maximum over every live
+        context and ordered pair a ≠ a'.
+
+    Returns
+    -------
+    Fraction or float
+        The ratio e^L (dimensionless; L in nats is its log), exact; ``float("inf")`` when a table gives c/0 with
+        c > 0. 0/0 counts as 1.
 
     Raises
     ------
     ValueError
         When no table meets the floors.
+
+    Notes
+    -----
+    ``proofs/verification.md`` §4d.
+
+    Examples
+    --------
+    The setting of :func:`kernel_settings`'s example: k = P(yes | ·) = (1, 0) gives (3/4)/((1/4)/2) = 6.
+
+    >>> from fractions import Fraction as F
+    >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
+    ...                   None, [0], [[F(1), F(1)]], [0, 1], False, 64)
+    >>> kernel_local(s), kernel_local(s, at=(0, 1, 0))
+    (Fraction(6, 1), Fraction(3, 2))
     """
     best: Number = Fraction(0)
     cases = (
@@ -134,13 +220,43 @@ def kernel_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> Nu
 
 
 def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number | None:
-    """max over ordered pairs of groups present of the exact worst ratio E[g | a]/E[g | a'] (1, L̄ = 0, with fewer than
-    two groups present); with ``at`` = (a, a'), that pair's; None beyond ``max_variables`` variables.
+    """The exact global worst case: max over tables meeting the floors of E[g | a]/E[g | a'].
+
+    Contexts with the same M_X row (or, under the identity, the same utility table) and proportional P(x | a) are
+    merged first; this is exact (``proofs/verification.md`` §4).
+
+    Parameters
+    ----------
+    s : KernelSetting
+        The programs' data at one end of e^ε.
+    at : (int, int), optional
+        The ordered pair (a, a') of groups present only. Default: the maximum over every ordered pair of groups
+        present.
+
+    Returns
+    -------
+    Fraction, float or None
+        The ratio e^L̄, exact; ``float("inf")`` for c/0 with c > 0; 1 (L̄ = 0) with fewer than two groups present;
+        None when the merged program exceeds ``s.max_variables`` variables.
 
     Raises
     ------
     ValueError
         When no table meets the floors.
+
+    Notes
+    -----
+    ``proofs/verification.md`` §4d.
+
+    Examples
+    --------
+    One context, so L̄ is L: 6 (see :func:`kernel_local`).
+
+    >>> from fractions import Fraction as F
+    >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
+    ...                   None, [0], [[F(1), F(1)]], [0, 1], False, 64)
+    >>> kernel_global(s)
+    Fraction(6, 1)
     """
     if len(s.present) < 2:
         return Fraction(1)

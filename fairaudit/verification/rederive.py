@@ -300,9 +300,15 @@ def _witness_checks(
     return out
 
 
+DEPENDENCE = Fraction(1e-9)
+"""max |P(x, a) − P(x) P(a)| beyond which certify calls X and A dependent and bounds L̄ from L no more (its
+``Population.independence`` rule, evaluated in floats: within 2^-40 relative of it, either reading is accepted)."""
+
+
 def _global_from_best(bounds: Mapping[str, Any], probabilities: Any) -> Check:
     """``bounds.global`` from L's best bound: L-bar <= L + ln F, F = max r / min r with r(x, a) = P(x, a)/(P(x) P(a))
-    over P(x) > 0 and P(a) > 0 (1 when X and A are independent exactly; ``proofs/black_box.md`` §6)."""
+    over P(x) > 0 and P(a) > 0 (1 when X and A are independent exactly; ``proofs/black_box.md`` §6). The bound
+    holds whatever F; certify gives it for X and A independent to :data:`DEPENDENCE`, and +inf beyond."""
     p = recorded_array(probabilities, "inputs.population.probabilities")
     p_x, p_a = [sum(row) for row in p], [sum(col) for col in zip(*p)]
     r = [p[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] > 0 for a in range(len(p_a)) if p_a[a] > 0]
@@ -310,6 +316,11 @@ def _global_from_best(bounds: Mapping[str, Any], probabilities: Any) -> Check:
         return equal("bounds.global", bounds["global"], bounds["best"], "the best bound on L")
     if min(r) == 0:
         return equal("bounds.global", bounds["global"], "inf", "X and A dependent: no bound from L")
+    deviation = max(abs(p[x][a] - p_x[x] * p_a[a]) for x in range(len(p_x)) for a in range(len(p_a)))
+    if bounds["global"] == "inf" and deviation >= DEPENDENCE * (1 - Fraction(1, 2**40)):
+        return equal(
+            "bounds.global", "inf", "inf", "X and A dependent beyond 1e-9: certify bounds L-bar from L no more"
+        )
     best = exact(bounds["best"], "bounds.best")
     return judge("bounds.global", bounds["global"], Enclosure.point(best) + ln(max(r) / min(r)), "upper",
                  "the best bound on L + ln F (X and A independent within rounding)")  # fmt: skip

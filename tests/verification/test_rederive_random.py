@@ -378,6 +378,16 @@ REGRESSIONS["no bound on L-bar"] = (
     + "".join(f"{c},{x},d0,1.0\n{c},{x},d1,0.0\n" for c in ("c0", "c1", "c2") for x in ("x0", "x1", "x2", "x3")),
 )
 
+# X and A dependent (all cells positive, max |P(x, a) - P(x) P(a)| = 0.15) and no model meets the floors: certify gives
+# no bound on L-bar (+inf, its rule: L-bar from L only for X and A independent to 1e-9), which verify judged against
+# L's best bound + ln F and failed by inf (fixed in verify)
+REGRESSIONS["no bound on L-bar, X and A dependent with F finite"] = (
+    _spec(G2, '[context]\nname = "ctx"\nvalues = ["c0", "c1"]\n')
+    + "[population]\nprobabilities = [[0.4, 0.1], [0.1, 0.4]]\n"
+    + '[utility]\nkind = "table"\nvalues = [[[1.0, 0.0], [0.2, 0.0]], [[1.0, 0.0], [1.0, 0.0]]]\ntau = 0.5\n',
+    None,
+)
+
 # certify's black-box L-bar from the LP dual was 3.9219733372141277, 2.4e-10 relative above the exact ln 50.5: the
 # dual repaired at the solver's value (1e-9 below the optimum) certified nothing, and Newton from above contracts by
 # 0.99 per step with tau = 0.01 (fixed in certify: the duals are repaired at the root of their affine B, vertex_ratio)

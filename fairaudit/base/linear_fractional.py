@@ -52,6 +52,7 @@ from fairaudit.base.exact_duality import (
     refine_duals,
     vertex_ratio,
 )
+from fairaudit.base.exact_vertex import vertex_witness
 from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
 
@@ -278,8 +279,9 @@ CROSSOVER_TOLERANCE = 1e-13
 """How far (relative to max(1, |root|)) the value the repaired duals certify may lie above their root
 (:func:`~fairaudit.base.exact_duality.vertex_ratio`) before a small program is solved exactly instead."""
 
-EXACT_CROSSOVER = "then the rational simplex (exact: the repaired dual was not tight)"
-"""What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty)."""
+EXACT_CROSSOVER = "then the rational simplex"
+"""What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why:
+"(exact: the repaired dual was not tight)" or "(exact: the solver failed)"."""
 
 CROSSOVER_SIZE = (64, 128)
 """The largest program (variables, rows; an equality counts twice) solved exactly by the rational simplex when its
@@ -289,17 +291,11 @@ _INCONSISTENT = "the constraints are inconsistent: no feasible h"
 """The reason of an empty polytope."""
 
 
-def _tight(bound: RatioBound, roots: list[float], witness: float) -> bool:
-    """Whether the dual's certified value lies within :data:`CROSSOVER_TOLERANCE` of the ``witness`` (a lower end), or
-    of a root of the repaired duals' B with the solver's point (its witness, when it lies in the polytope exactly)
-    within 1e-8 of the value."""
-    if not bound.certified:
-        return False
+def _tight(bound: RatioBound, witness: float) -> bool:
+    """Whether the dual's certified value lies within :data:`CROSSOVER_TOLERANCE` of the ``witness``, a certified
+    lower end: only then is the value known to be within it of the maximum."""
     scale = max(1.0, abs(bound.value))
-    if math.isfinite(witness) and bound.value - witness <= CROSSOVER_TOLERANCE * scale:
-        return True
-    near_point = not math.isfinite(witness) or bound.value - witness <= 1e-8 * scale
-    return near_point and any(abs(bound.value - root) <= CROSSOVER_TOLERANCE * scale for root in roots)
+    return bound.certified and math.isfinite(witness) and bound.value - witness <= CROSSOVER_TOLERANCE * scale
 
 
 def _no_solution(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
@@ -437,8 +433,9 @@ class FractionalProgram:
         prob = self._problem
         try:
             solve_clarabel(prob, self._options)
-        except cp.error.SolverError as exc:  # pragma: no cover - solver failure is reported, not raised
-            return _no_solution(result, "solver_error", str(exc))
+        except cp.error.SolverError as exc:  # a failure is solved exactly when small, else reported, never raised
+            exact = self._crossover(result, p, q, "solver_error", "the solver failed", report_empty=True)
+            return exact if exact is not None else _no_solution(result, "solver_error", str(exc))
         status = prob.status
         if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
             return result(
@@ -531,7 +528,14 @@ class FractionalProgram:
             if not tight.certified or tight.value >= bound.value:
                 break
             bound, duals = tight, repaired  # type: ignore[assignment]
-        if self._bounded and not _tight(bound, roots, witness):
+        for tolerance in ACTIVE_TOLERANCES if self._bounded and bound.certified else ():
+            if _tight(bound, witness):
+                break
+            # the solver's point misses a row or a bound by rounding: the vertex it stands for, solved exactly
+            at_vertex = vertex_witness(h, p, q, self.lower, self.upper, self._rows, tolerance)  # type: ignore[arg-type]
+            if math.isfinite(at_vertex) and not witness >= at_vertex:  # it replaces no witness, or a lower one
+                witness = at_vertex
+        if self._bounded and not _tight(bound, witness):
             crossover = self._crossover(result, p, q, status)
             if crossover is not None:
                 return crossover
@@ -552,11 +556,19 @@ class FractionalProgram:
         )
 
     def _crossover(
-        self, result: Callable[..., FractionalResult], p: FloatArray, q: FloatArray, status: str
+        self,
+        result: Callable[..., FractionalResult],
+        p: FloatArray,
+        q: FloatArray,
+        status: str,
+        why: str = "the repaired dual was not tight",
+        report_empty: bool = False,
     ) -> FractionalResult | None:
         """The exact optimum of a small program by the rational simplex (:func:`~fairaudit.base.exact_programs.
-        maximize_ratio`), for when the duals repaired at the solver's point are not tight; None when the program is
-        larger than :data:`CROSSOVER_SIZE` or the simplex finds no finite maximum.
+        maximize_ratio`), for when the duals repaired at the solver's point are not tight, or the solver failed
+        (``why`` says which, in ``solver_status``); None when the program is larger than :data:`CROSSOVER_SIZE` or the
+        simplex finds no finite maximum. An empty polytope (in the floats' rationals) is reported as such with
+        ``report_empty`` (no solve to fall back on), else None: a dual's bound holds vacuously there.
 
         Near a degenerate vertex (two rows that differ by rounding, both active at the solver's point) the optimal
         basis is not the one the solver's point suggests: its repaired duals have mixed signs, and the bound
@@ -581,6 +593,8 @@ class FractionalProgram:
                 a_ub += [exact(sign * row) for row in a]
                 b_ub += exact(sign * b)
         optimum = maximize_ratio(exact(p), exact(q), exact(self.lower), exact(self.upper), a_ub, b_ub)
+        if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
+            return _no_solution(result, f"{status}; {EXACT_CROSSOVER} (exact: {why})", _INCONSISTENT)
         if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
             return None
         value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
@@ -588,7 +602,7 @@ class FractionalProgram:
             value=value,
             argmax=np.array([float(x) for x in optimum.point]),
             status="optimal",
-            solver_status=f"{status}; {EXACT_CROSSOVER}",
+            solver_status=f"{status}; {EXACT_CROSSOVER} (exact: {why})",
             reason="",
             certified=True,
             witness=witness,

@@ -1,0 +1,161 @@
+"""The vertex a solver's point stands for, solved exactly: the witness of a ratio's lower end when the point itself
+misses a row by rounding.
+
+An interior-point solver returns a float point h a little off the optimal vertex: a cell 1e-12 inside its bound, an
+equality row (the rows of a decision table summing to 1) met only to rounding. :func:`point_ratio
+<fairaudit.base.exact_duality.point_ratio>` then finds h outside the polytope P = {lower ≤ h ≤ upper, A_ub h ≤ b_ub,
+A_eq h = b_eq} and gives no witness. :func:`vertex_witness` reads the active set off h instead (a cell within a
+tolerance of a bound is at it, a row within it of its bound is active, every equality is), puts those cells at their
+bounds, solves the active rows for the other cells exactly (Gauss–Jordan elimination over :class:`fractions.Fraction`;
+a cell the rows leave free keeps its float value), and checks the point it finds against every bound and row of P
+exactly. A point that passes lies in P, so its ratio, rounded down, is at most max_P (p·h)/(q·h): a certified lower
+end. The active set is only read off h; a wrong reading gives a point outside P, which is refused (NaN), never a wrong
+witness. ``proofs/linear_fractional.md`` §6 ("The witness").
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from fairaudit.base.arrays import FloatArray
+from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, Rows
+from fairaudit.base.outward import fraction_down
+
+__all__ = ["VERTEX_LIMIT", "vertex_witness"]
+
+VERTEX_LIMIT = 20_000
+"""The most nonzeros (of the rows, with p and q) a vertex is solved and checked over; a larger program gets none."""
+
+_Row = dict[int, Fraction]
+
+
+def _sparse_rows(rows: Rows) -> list[tuple[Any, FloatArray, str]]:
+    import scipy.sparse as sp
+
+    return [(sp.csr_matrix(a), np.asarray(b, dtype=float), kind) for a, b, kind in rows]
+
+
+def _entries(a: Any, r: int) -> zip[tuple[int, float]]:
+    start, stop = a.indptr[r], a.indptr[r + 1]
+    return zip(a.indices[start:stop].tolist(), a.data[start:stop].tolist(), strict=True)
+
+
+def _solve(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tuple[_Row, Fraction]] | None:
+    """Gauss–Jordan elimination: each pivot cell as its right-hand side less the free cells' terms; None when an
+    equality is inconsistent with the others. An active inequality the others already decide is dropped (the point
+    is checked against it after)."""
+    pivots: dict[int, tuple[_Row, Fraction]] = {}
+    for equation, rhs, equality in equations:
+        row = dict(equation)
+        for c in [c for c in row if c in pivots]:
+            f = row.pop(c)
+            other, other_rhs = pivots[c]
+            for cc, v in other.items():
+                row[cc] = row.get(cc, Fraction(0)) - f * v
+            rhs -= f * other_rhs
+        row = {c: v for c, v in row.items() if v}
+        if not row:
+            if rhs and equality:
+                return None
+            continue
+        c = max(row, key=lambda k: abs(row[k]))
+        f = row.pop(c)
+        row = {cc: v / f for cc, v in row.items()}
+        rhs /= f
+        for pc, (other, other_rhs) in list(pivots.items()):
+            g = other.pop(c, None)
+            if g is not None:
+                for cc, v in row.items():
+                    other[cc] = other.get(cc, Fraction(0)) - g * v
+                pivots[pc] = ({k: v for k, v in other.items() if v}, other_rhs - g * rhs)
+        pivots[c] = (row, rhs)
+    return pivots
+
+
+def vertex_witness(
+    h: FloatArray,
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows,
+    tolerance: float = ACTIVE_TOLERANCES[0],
+) -> float:
+    """(p·v)/(q·v) rounded down at the point v of P that ``h``'s active set defines, solved exactly; NaN when v is not
+    in P, q·v ≤ 0, or the program is beyond :data:`VERTEX_LIMIT`.
+
+    Parameters
+    ----------
+    h : numpy.ndarray, shape (n,)
+        The solver's primal point, clipped into the box.
+    p, q : numpy.ndarray, shape (n,)
+        The ratio's numerator and denominator.
+    lower, upper : numpy.ndarray, shape (n,)
+        Finite bounds of h, lower ≤ upper.
+    rows : list of (A, b, kind)
+        A of shape (m, n) (dense or scipy.sparse), b of shape (m,), kind "le" (A h ≤ b) or "eq" (A h = b).
+    tolerance : float, optional
+        Relative to max(1, max |h|): a cell within it of a bound is put at the bound, an "le" row within it
+        (times 1 + |b|) of b is solved as an equality (:data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES`).
+
+    Returns
+    -------
+    float
+        A certified lower end of max over P of (p·h)/(q·h), or NaN.
+
+    Examples
+    --------
+    The solver's point of ``FractionalProgram``'s docstring program misses its row by rounding; the vertex
+    h = (1, 2/7) it stands for has the ratio 11/7 (the floats of 0.7 and 0.3 put it an ulp below).
+
+    >>> p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    >>> rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
+    >>> h = np.array([1.0 - 1e-12, 2 / 7 - 1e-12])
+    >>> w = vertex_witness(h, p, q, np.zeros(2), np.ones(2), rows)
+    >>> w <= 11 / 7, 11 / 7 - w < 1e-15
+    (True, True)
+    """
+    n = h.size
+    blocks = _sparse_rows(rows)
+    if sum(a.nnz for a, _, _ in blocks) + 2 * n > VERTEX_LIMIT or not np.all(np.isfinite(h)):
+        return math.nan
+    tol = tolerance * max(1.0, float(np.abs(h).max(initial=0.0)))
+    interior = (h > lower + tol) & (h < upper - tol)
+    point: list[Fraction] = [
+        Fraction(float(h[i]))
+        if interior[i]
+        else Fraction(float(lower[i] if h[i] - lower[i] <= upper[i] - h[i] else upper[i]))
+        for i in range(n)
+    ]
+    equations: list[tuple[_Row, Fraction, bool]] = []
+    for a, b, kind in blocks:
+        on = np.ones(b.size, dtype=bool) if kind == "eq" else (a @ h - b) > -tol * (1.0 + np.abs(b))
+        for r in np.flatnonzero(on).tolist():
+            row: _Row = {}
+            rhs = Fraction(float(b[r]))
+            for c, v in _entries(a, r):
+                if interior[c]:
+                    row[c] = row.get(c, Fraction(0)) + Fraction(v)
+                else:
+                    rhs -= Fraction(v) * point[c]
+            equations.append((row, rhs, kind == "eq"))
+    pivots = _solve(equations)
+    if pivots is None:
+        return math.nan
+    for c, (row, rhs) in pivots.items():  # the free cells keep their float values
+        point[c] = rhs - sum((v * point[cc] for cc, v in row.items()), Fraction(0))
+    if any(point[i] < Fraction(float(lower[i])) or point[i] > Fraction(float(upper[i])) for i in range(n)):
+        return math.nan
+    for a, b, kind in blocks:
+        for r in range(b.size):
+            lhs = sum((Fraction(v) * point[c] for c, v in _entries(a, r)), Fraction(0))
+            rhs = Fraction(float(b[r]))
+            if lhs > rhs or (kind == "eq" and lhs != rhs):
+                return math.nan
+    num = sum((Fraction(float(p[i])) * point[i] for i in range(n) if p[i]), Fraction(0))
+    den = sum((Fraction(float(q[i])) * point[i] for i in range(n) if q[i]), Fraction(0))
+    return fraction_down(num / den) if den > 0 else math.nan

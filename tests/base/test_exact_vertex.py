@@ -1,0 +1,112 @@
+"""The vertex a solver's point stands for, solved exactly: a lower end never above the exact maximum (rational
+simplex), the exact vertex where the point only misses its rows by rounding, and nothing where the reading is
+wrong; the LP route then certifies tight values from it, and solves a failed solve exactly."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import cvxpy as cp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import fairaudit.base.linear_fractional as lf
+from fairaudit.base.exact_programs import maximize_ratio
+from fairaudit.base.exact_vertex import vertex_witness
+from fairaudit.base.linear_fractional import FractionalProgram
+from fairaudit.base.outward import fraction_down
+
+
+def _exact(p, q, lo, hi, rows) -> Fraction:
+    """max (p·h)/(q·h) by the rational simplex, an equality as two inequalities."""
+    a_ub, b_ub = [], []
+    for a, b, kind in rows:
+        for sign in (1, -1) if kind == "eq" else (1,):
+            a_ub += [[Fraction(float(sign * v)) for v in r] for r in np.atleast_2d(a)]
+            b_ub += [Fraction(float(sign * v)) for v in b]
+    frac = [[Fraction(float(v)) for v in x] for x in (p, q, lo, hi)]
+    optimum = maximize_ratio(*frac, a_ub, b_ub)
+    assert optimum.status == "optimal"
+    return optimum.value
+
+
+def test_a_table_whose_rows_sum_to_one_only_in_floats():
+    # two rows of a decision table (cells 0-1 and 2-3), each summing to 1; the floor 0.3 h0 + 0.1 h2 >= 0.2 binds.
+    # The vertex: h2 = 1, h0 = (0.2 - 0.1)/0.3 = 1/3 in the floats' rationals, h1 = 1 - h0, h3 = 0.
+    p, q = np.array([0.9, 0.1, 0.3, 0.0]), np.array([0.3, 0.0, 0.1, 0.0])
+    rows = [
+        (np.array([[-0.3, 0.0, -0.1, 0.0]]), np.array([-0.2]), "le"),
+        (np.array([[1.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 1.0]]), np.ones(2), "eq"),
+    ]
+    lo, hi = np.zeros(4), np.ones(4)
+    h = np.array([1 / 3 + 1e-13, 2 / 3 + 1e-13, 1.0 - 1e-12, 1e-12])  # a solver's point: off every row by rounding
+    w = vertex_witness(h, p, q, lo, hi, rows)
+    h0 = (Fraction(0.2) - Fraction(0.1)) / Fraction(0.3)
+    at_vertex = (Fraction(0.9) * h0 + Fraction(0.1) * (1 - h0) + Fraction(0.3)) / (Fraction(0.3) * h0 + Fraction(0.1))
+    assert w == fraction_down(at_vertex)
+    assert Fraction(w) <= _exact(p, q, lo, hi, rows)
+
+
+def test_a_wrong_reading_of_the_active_set_is_refused():
+    # the floor read as active at a point far inside it: solved as an equality it puts h0 outside the box
+    p, q = np.array([1.0, 0.0]), np.array([1.0, 1.0])
+    rows = [(np.array([[-1.0, -1.0]]), np.array([-3.0]), "le")]
+    assert np.isnan(vertex_witness(np.array([0.5, 0.5]), p, q, np.zeros(2), np.ones(2), rows, tolerance=10.0))
+
+
+def test_an_inconsistent_equality_is_refused():
+    # h0 at its bound 0 by the reading, yet the equality wants h0 + 0 = 1 with h1 at 0 too
+    rows = [(np.array([[1.0, 1.0]]), np.array([1.0]), "eq")]
+    h = np.array([1e-12, 1e-12])
+    assert np.isnan(vertex_witness(h, np.ones(2), np.ones(2), np.zeros(2), np.ones(2), rows))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(2, 4), st.integers(1, 3))
+def test_the_vertex_witness_is_a_lower_end_and_tight_at_the_solvers_point(seed, n_u, n_rows):
+    # decision tables with n_rows rows over n_u decisions, a floor on each row's expected utility: the LP's point
+    # stands for an optimal vertex, whose witness is within 1e-13 of the exact maximum (rational simplex) and below it
+    rng = np.random.default_rng(seed)
+    n = n_u * n_rows
+    p, q = rng.choice([0.0, 0.2, 0.5, 1.0, 2.0], n), rng.choice([0.1, 0.2, 0.5, 1.0], n)
+    g = rng.choice([0.0, 0.2, 0.5, 1.0], n)
+    floors = np.kron(np.eye(n_rows), np.ones((1, n_u))) * g
+    tau = 0.5 * floors.max(axis=1)
+    simplex = np.kron(np.eye(n_rows), np.ones((1, n_u)))
+    rows = [(-floors, -tau, "le"), (simplex, np.ones(n_rows), "eq")]
+    lo, hi = np.zeros(n), np.ones(n)
+    exact = _exact(p, q, lo, hi, rows)
+    prog = FractionalProgram(n, lower=0.0, upper=1.0, A_ub=-floors, b_ub=-tau, A_eq=simplex, b_eq=np.ones(n_rows))
+    r = prog.solve(p, q)
+    assert r.certified and Fraction(r.value) >= exact
+    assert Fraction(r.value) - exact <= Fraction(1, 10**12) * max(1, exact)
+    assert Fraction(r.witness) <= exact  # every witness, the vertex's included, is a lower end
+    assert exact - Fraction(r.witness) <= Fraction(1, 10**12) * max(1, exact)
+
+
+def test_a_failed_solve_is_solved_exactly_when_small(monkeypatch):
+    # Clarabel raising (as on badly scaled data) no longer reads as an empty polytope: the rational simplex solves it
+    def fail(*args, **kwargs):
+        raise cp.error.SolverError("Solver 'CLARABEL' failed.")
+
+    monkeypatch.setattr(lf, "solve_clarabel", fail)
+    p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    prog = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=np.array([[-0.3, -0.7]]), b_ub=np.array([-0.5]))
+    r = prog.solve(p, q)
+    assert r.certified and r.status == "optimal" and "(exact: the solver failed)" in r.solver_status
+    exact = _exact(p, q, np.zeros(2), np.ones(2), [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")])
+    assert Fraction(r.witness) <= exact <= Fraction(r.value) and abs(exact - Fraction(11, 7)) < Fraction(1, 10**15)
+    empty = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=np.array([[-1.0, -1.0]]), b_ub=np.array([-3.0]))
+    r = empty.solve(p, q)
+    assert r.status == "infeasible" and "no feasible h" in r.reason and "rational simplex" in r.solver_status
+
+
+@pytest.mark.parametrize("tolerance", [1e-9, 1e-7, 1e-5])
+def test_the_docstring_program_at_each_tolerance(tolerance):
+    p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
+    w = vertex_witness(np.array([1.0 - 1e-12, 2 / 7 - 1e-12]), p, q, np.zeros(2), np.ones(2), rows, tolerance)
+    h1 = (Fraction(0.5) - Fraction(0.3)) / Fraction(0.7)
+    assert w == fraction_down((Fraction(0.7) + Fraction(0.3) * h1) / (Fraction(0.3) + Fraction(0.7) * h1))

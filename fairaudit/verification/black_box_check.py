@@ -81,8 +81,8 @@ def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
     -------
     WorstCaseEnclosures
         ``local`` and ``global_`` enclose max E[g | x, a]/E[g | x, a'] and max E[g | a]/E[g | a'] over every model
-        (+inf when unbounded); None, with ``reason``, for what is not re-derived here: no privacy on the sensitive
-        attribute, randomized response beyond ε = 10^6, programs larger than :data:`MAX_VARIABLES`, floors that
+        (+inf when unbounded); None, with ``reason``, for what is not re-derived here: a single group, randomized
+        response beyond ε = 10^6 (finite), programs larger than :data:`MAX_VARIABLES`, floors that
         no model meets exactly (τ at max g with rows that sum to just below 1 in binary). L̄ compares the groups with
         P(A = a) > 0 only (1, L̄ = 0, with fewer than two).
 
@@ -176,16 +176,19 @@ def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | list[KernelSetting]
     m = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
     context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")
     u = inputs["utility"]
-    if m.kind == "identity" or m.k < 2:
-        return "no privacy on the sensitive attribute (the identity)"
-    if m.kind == "randomized_response" and m.t().hi == INF:
-        return "randomized response beyond epsilon = 10^6: its e^epsilon has no finite upper end to solve at"
+    if m.k < 2:
+        return "a single group: no pair of groups to compare"
     values = recorded_array(u["values"], "inputs.utility.values")
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     live = [x for x in range(len(pop)) if sum(pop[x]) > 0]
     group_free = not isinstance(values[0], list) or all(
         values[x][a] == values[x][0] for x in range(len(values)) for a in range(len(values[x]))
     )
+    # no privacy on the group (the identity, randomized response at ε = inf): its rows are the identity's
+    if m.kind == "identity" or (m.kind == "randomized_response" and m.t().lo == INF):
+        return kernel_settings(inputs, m, context, MAX_VARIABLES)
+    if m.kind == "randomized_response" and m.t().hi == INF:
+        return "randomized response beyond epsilon = 10^6: its e^epsilon has no finite upper end to solve at"
     if context.kind != "identity" or not group_free:  # no box: the programs over the model's table
         return kernel_settings(inputs, m, context, MAX_VARIABLES)
     if isinstance(values[0], list):  # g(u, x): its range per context

@@ -118,12 +118,7 @@ def _black_box(
     """The member's ε, and its worst case over every model (on L, or on L̄), at most the bound and the target."""
     m, eps = _member(record, "inputs.calibration.black_box")
     out = [judge("calibration.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
-    why = ""
-    if m.kind == "identity" or eps.lo == INF:
-        why = "every epsilon meets the target (the identity)"
-    worst: tuple[Enclosure, str] | str = why or (
-        _on_l_bar(cert, cal, record, m, eps) if cal.get("kind") == "global" else _on_l(cert, cal, record, m, eps)
-    )
+    worst = _on_l_bar(cert, cal, record, m, eps) if cal.get("kind") == "global" else _on_l(cert, cal, record, m, eps)
     if isinstance(worst, str):
         skipped += [("calibration.bound", worst), ("calibration.target", worst)]
         return out

@@ -149,3 +149,24 @@ def test_certify_and_verify_with_a_utility_that_depends_on_the_group(tmp_path):
     assert math.log(6) < cert["bounds"]["black_box"] <= math.log(6) * (1 + 1e-14)  # rounded up, within 1e-14
     cert["bounds"]["black_box"] -= 1e-9
     assert "bounds.black_box" in {c.name for c in fairaudit.verify(cert).failures}
+
+
+def test_no_privacy_on_the_group_by_hand():
+    # the identity on the groups: E[g | a] = k_a, free in [τ, 1] for each group: the ratio is 1/τ = 4 with τ = 1/4,
+    # and +inf without a floor (k_a' = 0 < k_a); randomized response at ε = +inf is the identity too
+    identity = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "identity"}
+    rr_inf = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "randomized_response", "epsilon": "inf"}
+    for sensitive in (identity, rr_inf):
+        floor = black_box_enclosures(_inputs([1.0, 0.0], tau=0.25, sensitive=sensitive))
+        assert (floor.local.lo, floor.local.hi) == (F(4), F(4))
+        assert black_box_enclosures(_inputs([1.0, 0.0], sensitive=sensitive)).local.hi == INF
+
+
+def test_certify_and_verify_without_privacy_on_the_group(tmp_path):
+    cert, _, checked = certified_and_verified(
+        '[sensitive]\nname = "group"\nvalues = ["a", "b"]\n[decision]\nname = "d"\nvalues = ["yes", "no"]\n'
+        '[utility]\nkind = "indicator"\ndecision = "yes"\ntau = 0.25\n',
+        tmp_path,
+    )
+    # γ/τ = 4, certified from the LP's dual: rounded up, within 1e-14
+    assert "bounds.black_box" in checked and math.log(4) < cert["bounds"]["black_box"] <= math.log(4) * (1 + 1e-14)

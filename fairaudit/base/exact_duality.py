@@ -37,6 +37,7 @@ __all__ = [
     "check_dual",
     "dual_value",
     "point_ratio",
+    "rational_point_ratio",
     "refine_duals",
     "vertex_ratio",
 ]
@@ -346,16 +347,45 @@ def point_ratio(
         return math.nan
     if upper is not None and np.any(h > upper):
         return math.nan
-    hx = _dyadic(h)
+    return _ratio_at(_dyadic(h), 1, p, q, rows)
+
+
+def rational_point_ratio(
+    point: list[Fraction], p: FloatArray, q: FloatArray, lower: FloatArray, upper: FloatArray, rows: Rows
+) -> float:
+    """:func:`point_ratio` at a point of rationals (a vertex solved exactly): (p·h)/(q·h) rounded down when ``point``
+    lies in P exactly and q·h > 0; NaN otherwise. The rows are checked in integers over the point's common
+    denominator.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
+    >>> h = [Fraction(1), (Fraction(0.5) - Fraction(0.3)) / Fraction(0.7)]  # on the row, in the floats' rationals
+    >>> w = rational_point_ratio(h, np.array([0.7, 0.3]), np.array([0.3, 0.7]), np.zeros(2), np.ones(2), rows)
+    >>> w <= 11 / 7 < w + 1e-15
+    True
+    """
+    if any(x < Fraction(float(lo)) or x > Fraction(float(hi)) for x, lo, hi in zip(point, lower, upper, strict=True)):
+        return math.nan
+    scale = math.lcm(*(x.denominator for x in point))
+    numerators = np.empty(len(point), dtype=object)
+    numerators[:] = [x.numerator * (scale // x.denominator) for x in point]
+    return _ratio_at((numerators, 0), scale, p, q, rows)
+
+
+def _ratio_at(x: Dyadic, scale: int, p: FloatArray, q: FloatArray, rows: Rows) -> float:
+    """(p·h)/(q·h) rounded down at h = x/``scale`` when h meets every row exactly and q·h > 0; NaN otherwise."""
     import scipy.sparse as sp
 
     for a, b, kind in rows:
-        lhs = _transpose_times(sp.csr_matrix(a).T, hx, b.size)  # A h = (Aᵀ)ᵀ h
-        diff = _add(lhs, _dyadic(b), -1)
+        lhs = _transpose_times(sp.csr_matrix(a).T, x, b.size)  # A x = (Aᵀ)ᵀ x
+        b_ints, b_exponent = _dyadic(b)
+        diff = _add(lhs, (b_ints * scale, b_exponent), -1)  # A x − b·scale
         bad = diff[0] > 0 if kind == "le" else diff[0] != 0
         if np.any(bad.astype(bool)):
             return math.nan
-    num, den = _fraction(_dot(_dyadic(p), hx)), _fraction(_dot(_dyadic(q), hx))
+    num, den = _fraction(_dot(_dyadic(p), x)), _fraction(_dot(_dyadic(q), x))
     if den <= 0:
         return math.nan
     return fraction_down(num / den)

@@ -52,7 +52,7 @@ from fairaudit.base.exact_duality import (
     refine_duals,
     vertex_ratio,
 )
-from fairaudit.base.exact_vertex import vertex_witness
+from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
 
@@ -528,13 +528,10 @@ class FractionalProgram:
             if not tight.certified or tight.value >= bound.value:
                 break
             bound, duals = tight, repaired  # type: ignore[assignment]
-        for tolerance in ACTIVE_TOLERANCES if self._bounded and bound.certified else ():
-            if _tight(bound, witness):
-                break
-            # the solver's point misses a row or a bound by rounding: the vertex it stands for, solved exactly
-            at_vertex = vertex_witness(h, p, q, self.lower, self.upper, self._rows, tolerance)  # type: ignore[arg-type]
-            if math.isfinite(at_vertex) and not witness >= at_vertex:  # it replaces no witness, or a lower one
-                witness = at_vertex
+        if self._bounded and bound.certified:  # where the point misses a row by rounding, the vertex it stands for
+            lower, upper = self.lower, self.upper  # finite on a bounded program
+            assert lower is not None and upper is not None
+            witness = improve_witness(witness, bound.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, self._rows)
         if self._bounded and not _tight(bound, witness):
             crossover = self._crossover(result, p, q, status)
             if crossover is not None:

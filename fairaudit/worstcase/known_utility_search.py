@@ -20,7 +20,8 @@ import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.exact_duality import point_ratio
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
+from fairaudit.base.exact_vertex import improve_witness
+from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.pair_search import SearchResult, pairwise_box, relaxed_first, search
@@ -167,6 +168,8 @@ def _solver(
         lower, upper = (np.full(len(p), end) for end in space.box)
         h = np.clip(np.asarray(r.argmax, dtype=float), lower, upper)
         w = point_ratio(h, p, q, lower, upper, space.witness_rows)
+        if r.certified:  # where h misses a row by rounding, the vertex it stands for, solved exactly
+            w = improve_witness(w, r.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, space.witness_rows)
         return replace(r, witness=w, gap=gap_between(r.value, w))
 
     return solve

@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from fractions import Fraction
 
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.labels import format_label
-from fairaudit.base.outward import product_ends
+from fairaudit.base.outward import fraction_down, product_ends
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.tables import Kernel
@@ -67,7 +68,8 @@ def randomized_response_cases(
     Every pair of groups is alike, so one pair decides. None for a maximum that has no closed form here (the
     general route solves it).
     """
-    g, live, floor, binding = problem.g, problem.live, problem.floor, problem.binding
+    g, live, binding = problem.g, problem.live, problem.binding
+    floor = _floor_behind(problem)
     decision_only, same_x, independent = problem.decision_only, problem.same_x, problem.independent
     nU = g.shape[2]
     lo_x, hi_x = g[:, 0, :].min(-1), g[:, 0, :].max(-1)  # the range of g(., x) per context
@@ -79,7 +81,7 @@ def randomized_response_cases(
         return local, global_
     if binding and not (decision_only or same_x):
         return None, None
-    local = _rr_local(problem, rr, lo_x, hi_x, hot_hi, hot_lo)
+    local = _rr_local(problem, rr, lo_x, hi_x, hot_hi, hot_lo, floor)
     # global under X independent of A (Proposition 10 (b); with τ and g(u): H-bar meets every floor)
     if independent and not binding:
         weighted_g, lo_g, hi_g = weighted_box(problem)
@@ -103,13 +105,14 @@ def _rr_local(
     hi_x: FloatArray,
     hot_hi: FloatArray,
     hot_lo: FloatArray,
+    floor: float,
 ) -> WorstCase:
     """The local maximum behind k-ary RR: the best context's box (proofs/black_box.md §6, Proposition 10 (a)).
 
-    With a binding τ, §3 Proposition 3b per context. ``hot_hi``/``hot_lo``: the one-hot rows of the decisions of
-    largest and smallest g per context.
+    With a binding τ, §3 Proposition 3b per context, on the floor :func:`_floor_behind` gives. ``hot_hi``/``hot_lo``:
+    the one-hot rows of the decisions of largest and smallest g per context.
     """
-    live, floor, n_released_contexts = problem.live, problem.floor, problem.n_released_contexts
+    live, n_released_contexts = problem.live, problem.n_released_contexts
     ranges, range_of = np.unique(np.stack([lo_x, hi_x], axis=1), axis=0, return_inverse=True)
     range_of = range_of.ravel()
     best_x, best_w = -1, None
@@ -131,6 +134,22 @@ def _rr_local(
         high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
         kern = _rr_kernel(problem, replace(best_w, prefix=False), lo, hi, None, high, low)
     return _rr_case(problem, "local", best_w, best_x, kern)
+
+
+def _floor_behind(problem: ModelProblem) -> float:
+    """The floor the box programs put on (M_A h)(b), for τ behind a context mechanism whose rows sum to 1 only in
+    floats (s_x, the exact sum of M_X's row x, the floats read as rationals, as ``verify`` reads them).
+
+    Any model's h[x̃, ·] mixes, at context x, into h̄_x = Σ_x̃ M_X[x, x̃] h[x̃, ·]/s_x, a point of the box, with
+    E[g | x, b] = s_x (M_A h̄_x)(b): the ratio at x is h̄_x's, and the floors E[g | x, b] ≥ τ say (M_A h̄_x)(b) ≥ τ/s_x
+    ≥ τ/max s. So the box program on the floor τ/max_x s_x (over the live contexts), rounded down, bounds every
+    model; it is τ when the rows sum to 1 exactly (and under the identity).
+    """
+    if problem.same_x or not math.isfinite(problem.floor) or problem.floor <= 0:
+        return problem.floor
+    rows = problem.context_mechanism.matrix[problem.live]
+    largest = max((sum(map(Fraction, row.tolist()), Fraction(0)) for row in rows), default=Fraction(1))
+    return problem.floor if largest == 1 else fraction_down(Fraction(problem.floor) / largest)
 
 
 def _rr_kernel(

@@ -407,6 +407,17 @@ REGRESSIONS["no privacy on the group, the solver fails"] = (
     None,
 )
 
+# no privacy on the group behind a context matrix whose row (0, 0.2, 0.8) sums to 1 + 2^-54 in the floats' rationals:
+# the closed form's ratio was 100.0, below the exact 100·(1 + 2^-54) (a model can put h of c1 a little under tau where
+# only c2's floor binds it; fixed in certify: the box's floor is tau over the largest exact row sum)
+REGRESSIONS["no privacy on the group, a context row summing above 1"] = (
+    _spec(G2, '[context]\nname = "ctx"\nvalues = ["c0", "c1", "c2"]\n')
+    + '[privacy.sensitive]\nmechanism = "randomized_response"\nkeep = 1.0\n'
+    + '[privacy.context]\nmechanism = "matrix"\nrows = [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.2, 0.8]]\n'
+    + '[utility]\ndecision = "d0"\ntau = 0.01\n',
+    None,
+)
+
 # certify's black-box L-bar from the LP dual was 3.9219733372141277, 2.4e-10 relative above the exact ln 50.5: the
 # dual repaired at the solver's value (1e-9 below the optimum) certified nothing, and Newton from above contracts by
 # 0.99 per step with tau = 0.01 (fixed in certify: the duals are repaired at the root of their affine B, vertex_ratio)

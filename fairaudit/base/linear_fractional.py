@@ -276,8 +276,9 @@ REPAIRS = 4
 """Further repairs at the last certified λ, while the value decreases."""
 
 CROSSOVER_TOLERANCE = 1e-13
-"""How far (relative to max(1, |root|)) the value the repaired duals certify may lie above their root
-(:func:`~fairaudit.base.exact_duality.vertex_ratio`) before a small program is solved exactly instead."""
+"""How far (relative to max(1, |value|)) the value the repaired duals certify may lie above the witness (the point's,
+or the vertex's it stands for, :func:`~fairaudit.base.exact_vertex.improve_witness`) before a small program is solved
+exactly instead."""
 
 EXACT_CROSSOVER = "then the rational simplex"
 """What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why:

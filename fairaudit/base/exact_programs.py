@@ -29,7 +29,14 @@ from typing import Literal
 
 from fairaudit.base.errors import InputError
 
-__all__ = ["LinearOptimum", "Polytope", "RatioOptimum", "maximize_linear", "maximize_ratio"]
+__all__ = [
+    "LinearOptimum",
+    "Polytope",
+    "RatioOptimum",
+    "maximize_linear",
+    "maximize_ratio",
+    "maximize_ratio_over_product",
+]
 
 Rational = Fraction | int
 """An exact rational: a fraction or an integer (any :class:`numbers.Rational` is accepted; a float is not)."""
@@ -446,23 +453,88 @@ class Polytope:
     def maximize_ratio(self, p: Sequence[Rational], q: Sequence[Rational]) -> RatioOptimum:
         """Exact max (p·h)/(q·h) over the polytope's points with q·h > 0, as :func:`maximize_ratio` (p and q of
         length n)."""
-        numerator = _vector("p", p, self._n)
-        denominator = _vector("q", q, self._n)
-        if not self.feasible:
-            return RatioOptimum("infeasible", None, None)
-        simplex = self._simplex
-        negative_min, point = simplex.maximize([-x for x in denominator])
-        if negative_min > 0:
-            return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
-        largest, point = simplex.maximize(denominator)
-        if largest == 0:
-            return RatioOptimum("zero_denominator", None, point)  # q·h = 0 on the whole polytope
-        ratio = _dot(numerator, point) / largest
-        while True:
-            gap, vertex = simplex.maximize([a - ratio * b for a, b in zip(numerator, denominator, strict=True)])
-            if gap == 0:
-                return RatioOptimum("optimal", ratio, point)
-            scale = _dot(denominator, vertex)
-            if scale == 0:
-                return RatioOptimum("zero_denominator", None, vertex)  # q·h = 0 < p·h here: the ratio is unbounded
-            point, ratio = vertex, _dot(numerator, vertex) / scale
+        return maximize_ratio_over_product([self], [p], [q])
+
+
+def maximize_ratio_over_product(
+    polytopes: Sequence[Polytope], p: Sequence[Sequence[Rational]], q: Sequence[Sequence[Rational]]
+) -> RatioOptimum:
+    """Exact max (Σ_i p_i·h_i)/(Σ_i q_i·h_i) over the product of polytopes, h_i in the i-th, by Dinkelbach.
+
+    Each step maximises Σ_i (p_i − λ q_i)·h_i, and over a product a sum of terms in separate blocks is maximised block
+    by block: the blocks are solved apart, each from the basis its last step ended at, so the cost grows with the
+    number of blocks, not with the size of one program over all of them. Otherwise as :func:`maximize_ratio`
+    (min and max of the denominator first, then the steps; the same statuses and conventions).
+
+    Parameters
+    ----------
+    polytopes : sequence of Polytope, length b ≥ 1
+        The blocks (each keeps its basis between calls).
+    p, q : sequences of b sequences of Fraction or int
+        The numerator's and the denominator's coefficients on each block, the i-th of the i-th polytope's length.
+
+    Returns
+    -------
+    RatioOptimum
+        As :func:`maximize_ratio`'s, its point the blocks' points one after the other; "infeasible" when a block is
+        empty.
+
+    Raises
+    ------
+    InputError
+        Naming ``p`` or ``q``: not one entry per polytope, or a block of the wrong length or not exact rationals.
+
+    Notes
+    -----
+    Dinkelbach 1967; the separable step is exact because max over h_1 × … × h_b of Σ_i c_i·h_i = Σ_i max c_i·h_i.
+    ``proofs/verification.md`` §4 (L̄ over many contexts).
+
+    Examples
+    --------
+    Two blocks, each a box with the floor h_0 + h_1 ≥ 1/2: the second puts its utility where the denominator has
+    none, and the first carries the whole denominator at its floor, (7/20 + 1)/(3/20) = 9.
+
+    >>> from fractions import Fraction as F
+    >>> one = Polytope([0, 0], [1, 1], [[-1, -1]], [F(-1, 2)], 2)
+    >>> two = Polytope([0, 0], [1, 1], [[-1, -1]], [F(-1, 2)], 2)
+    >>> best = maximize_ratio_over_product([one, two], [[F(7, 10), F(3, 10)], [1, 0]], [[F(3, 10), F(7, 10)], [0, 1]])
+    >>> best.value, [str(h) for h in best.point]
+    (Fraction(9, 1), ['1/2', '0', '1', '0'])
+    """
+    for name, blocks in (("p", p), ("q", q)):
+        if isinstance(blocks, (str, bytes)) or len(blocks) != len(polytopes):
+            raise InputError(name, f"must hold one block per polytope ({len(polytopes)})", blocks)
+    numerators = [_vector("p", block, poly._n) for block, poly in zip(p, polytopes, strict=True)]
+    denominators = [_vector("q", block, poly._n) for block, poly in zip(q, polytopes, strict=True)]
+    if not all(poly.feasible for poly in polytopes):
+        return RatioOptimum("infeasible", None, None)
+    numerator = [x for block in numerators for x in block]
+    denominator = [x for block in denominators for x in block]
+
+    def maximize(costs: list[list[Fraction]]) -> tuple[Fraction, tuple[Fraction, ...]]:
+        """max Σ_i costs_i·h_i over the product, block by block: (the maximum, a vertex attaining it)."""
+        total = Fraction(0)
+        point: tuple[Fraction, ...] = ()
+        for poly, cost in zip(polytopes, costs, strict=True):
+            value, vertex = poly._simplex.maximize(cost)
+            total, point = total + value, point + vertex
+        return total, point
+
+    negative_min, point = maximize([[-x for x in block] for block in denominators])
+    if negative_min > 0:
+        return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
+    largest, point = maximize(denominators)
+    if largest == 0:
+        return RatioOptimum("zero_denominator", None, point)  # q·h = 0 on the whole polytope
+    ratio = _dot(numerator, point) / largest
+    while True:
+        steps = [
+            [a - ratio * b for a, b in zip(top, bottom, strict=True)] for top, bottom in zip(numerators, denominators)
+        ]
+        gap, vertex = maximize(steps)
+        if gap == 0:
+            return RatioOptimum("optimal", ratio, point)
+        scale = _dot(denominator, vertex)
+        if scale == 0:
+            return RatioOptimum("zero_denominator", None, vertex)  # q·h = 0 < p·h here: the ratio is unbounded
+        point, ratio = vertex, _dot(numerator, vertex) / scale

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.exact_programs import Polytope
+from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
 
@@ -267,7 +267,7 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> N
         pairs = [(a, b) for a in s.present for b in s.present if a != b]  # a matrix, or P(x | a) differs
         width = s.k if s.rows is None else len(s.rows[0])
     low, high, weights = _merged(s)
-    if width * len(low) > MAX_VARIABLES:
+    if width > MAX_VARIABLES:  # one context's block (each context is a block of the product: _solve_blocks)
         return None
     if at is not None:
         pairs = pairs if s.rows is None and alike else [at]
@@ -335,36 +335,29 @@ def _solve_blocks(
 ) -> Number:
     """max (Σ_i tops_i·h_i)/(Σ_i bottoms_i·h_i) over blocks h_i in [low_i, high_i]^n with floors_i·h_i ≥ τ.
 
-    c/0 = +inf and 0/0 = 1, as the tool's conventions; without a positive floor the origin of a block whose box
-    starts at 0 is left out by a row bottom·h ≥ (smallest positive cell)·high, which every optimal vertex of the
-    box meets (the ratio is unchanged by scaling h when the boxes start at 0).
+    Each block's box and floors concern it alone, so the program is over a product and is solved block by block
+    (:func:`~fairaudit.base.exact_programs.maximize_ratio_over_product`). c/0 = +inf and 0/0 = 1, as the tool's
+    conventions: a point with Σ bottoms·h = 0 (the origin of boxes from 0) is left out, and the ratio is +inf when a
+    model puts the utility only where a' never lands.
     """
     p = [v for row in tops for v in row]
     q = [v for row in bottoms for v in row]
-    lower = [low[i] for i, row in enumerate(tops) for _ in row]
     upper = [high[i] for i, row in enumerate(tops) for _ in row]
-    rows: list[list[Fraction]] = []
-    bounds: list[Fraction] = []
-    width = len(tops[0])
-    for i, block in enumerate(floors):
-        for f in block if tau else ():
-            row = [Fraction(0)] * len(p)
-            row[i * width : (i + 1) * width] = [-v for v in f]
-            rows.append(row)
-            bounds.append(-tau)  # type: ignore[operator]
+    lower = [low[i] for i, row in enumerate(tops) for _ in row]
     reach = any(qi == 0 and pi > 0 and hi > 0 for pi, qi, hi in zip(p, q, upper))
     if reach and not tau and all(lo == 0 for qi, lo in zip(q, lower) if qi > 0):
         return INF  # a model that puts the utility only where a' never lands (its box starts at 0 there)
     if max(upper, default=Fraction(0)) == 0:
         return Fraction(1)  # g = 0: every ratio is 0/0
-    if not tau and all(lo == 0 for lo in lower):
-        smallest = min(qi * hi for qi, hi in zip(q, upper) if qi > 0 and hi > 0)
-        rows.append([-v for v in q])
-        bounds.append(-smallest)
-    key = (tuple(lower), tuple(upper), tuple(map(tuple, rows)), tuple(bounds))
-    if key not in polytopes:  # (the pairs of one setting share it: phase 1 once, each pair from the last basis)
-        polytopes[key] = Polytope(lower, upper, rows, bounds, len(p))
-    result = polytopes[key].maximize_ratio(p, q)
+    blocks = []
+    for i, top in enumerate(tops):
+        rows = [[-v for v in f] for f in floors[i]] if tau else []
+        bounds = [-tau] * len(rows) if tau else []
+        key = (low[i], high[i], len(top), tuple(map(tuple, rows)))
+        if key not in polytopes:  # (the pairs of one setting share it: phase 1 once, each from the last basis)
+            polytopes[key] = Polytope([low[i]] * len(top), [high[i]] * len(top), rows, bounds, len(top))
+        blocks.append(polytopes[key])
+    result = maximize_ratio_over_product(blocks, tops, bottoms)
     if result.status != "optimal":
         raise ValueError(f"the worst-case program is {result.status}")
     return result.value  # type: ignore[return-value]

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.exact_programs import Polytope, maximize_linear
+from fairaudit.base.exact_programs import Polytope, maximize_linear, maximize_ratio_over_product
 from fairaudit.verification.enclosures import INF, RecordedMechanism, exact, recorded_array
 
 __all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings"]
@@ -215,9 +215,8 @@ def kernel_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> Nu
         if key not in programs:
             programs[key] = _Polytope.of(s, [x] if s.context is None else s.live)
         poly = programs[key]
-        best = max(
-            best, poly.solve(poly.coefficients(s, {x: Fraction(1)}, a), poly.coefficients(s, {x: Fraction(1)}, b))
-        )
+        top, bottom = poly.coefficients(s, {x: Fraction(1)}, a), poly.coefficients(s, {x: Fraction(1)}, b)
+        best = max(best, _solve([poly], [top], [bottom]))
     return best
 
 
@@ -239,7 +238,9 @@ def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number
     -------
     Fraction, float or None
         The ratio e^L̄, exact; ``float("inf")`` for c/0 with c > 0; 1 (L̄ = 0) with fewer than two groups present;
-        None when the merged program exceeds ``s.max_variables`` variables.
+        None when a block exceeds ``s.max_variables`` variables: with M_X the identity each merged context is a
+        block, solved apart (:func:`~fairaudit.base.exact_programs.maximize_ratio_over_product`); otherwise
+        every context's rows are one block.
 
     Raises
     ------
@@ -264,15 +265,18 @@ def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number
         return Fraction(1)
     weights = _merged(s)
     contexts = list(weights)
-    if len(_blocks(s, contexts)) * (len(s.g[0][0]) - 1) + 1 > s.max_variables:
+    # with M_X the identity each context's rows and floors are its own: the program is over a product, a block per
+    # context; otherwise one block over every context's rows
+    blocks = [[x] for x in contexts] if s.context is None else [contexts]
+    if max(len(_blocks(s, b)) for b in blocks) * (len(s.g[0][0]) - 1) + 1 > s.max_variables:
         return None
-    poly = _Polytope.of(s, contexts)
+    polytopes = [_Polytope.of(s, b) for b in blocks]
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
     best: Number = Fraction(1)
     for a, b in pairs:
-        top = {x: w[a] for x, w in weights.items()}
-        bottom = {x: w[b] for x, w in weights.items()}
-        best = max(best, poly.solve(poly.coefficients(s, top, a), poly.coefficients(s, bottom, b)))
+        tops = [poly.coefficients(s, {x: weights[x][a] for x in block}, a) for poly, block in zip(polytopes, blocks)]
+        bottoms = [poly.coefficients(s, {x: weights[x][b] for x in block}, b) for poly, block in zip(polytopes, blocks)]
+        best = max(best, _solve(polytopes, tops, bottoms))
     return best
 
 
@@ -359,15 +363,20 @@ class _Polytope:
         """Σ_x weight[x] E[g | x, a] as a linear form in the variables (the constants on s)."""
         return _linear_form(s, self.blocks, self.n_free, weight, a)
 
-    def solve(self, p: list[Fraction], q: list[Fraction]) -> Number:
-        """max (p·h)/(q·h) over the polytope, with c/0 = +inf and 0/0 = 1."""
-        result = self.exact.maximize_ratio(p, q)
-        if result.status == "infeasible":
-            raise ValueError("no decision model meets the floors")
-        if result.status == "optimal":
-            return result.value  # type: ignore[return-value]
-        # q·h = 0 somewhere (E[g | ...] ≥ 0 everywhere): the ratio is +inf where p·h > 0 there, 0/0 = 1 otherwise
-        top = maximize_linear(p, self.lower, self.upper, [*self.rows, q], [*self.bounds, Fraction(0)])
-        if top.status == "optimal" and top.value > 0:  # type: ignore[operator]
-            return INF
-        return Fraction(1)  # q·h = 0 = p·h on the whole polytope
+
+def _solve(polytopes: Sequence[_Polytope], p: Sequence[list[Fraction]], q: Sequence[list[Fraction]]) -> Number:
+    """max (Σ_i p_i·h_i)/(Σ_i q_i·h_i) over the product of the polytopes, with c/0 = +inf and 0/0 = 1."""
+    result = maximize_ratio_over_product([poly.exact for poly in polytopes], p, q)
+    if result.status == "infeasible":
+        raise ValueError("no decision model meets the floors")
+    if result.status == "optimal":
+        return result.value  # type: ignore[return-value]
+    # q·h = 0 somewhere: each q_i·h_i ≥ 0 (E[g | ...] ≥ 0 on every table), so there each is 0; the ratio is +inf
+    # where p·h > 0 there, and 0/0 = 1 otherwise
+    top = Fraction(0)
+    for poly, p_i, q_i in zip(polytopes, p, q, strict=True):
+        found = maximize_linear(p_i, poly.lower, poly.upper, [*poly.rows, q_i], [*poly.bounds, Fraction(0)])
+        if found.status != "optimal":  # (not reached: where q·h = 0 somewhere, each block has q_i·h_i = 0 there)
+            return Fraction(1)
+        top += found.value  # type: ignore[operator]
+    return INF if top > 0 else Fraction(1)

@@ -7,6 +7,7 @@ import math
 
 import pytest
 from _cli import OFFICE_SPEC
+from _verified import certified_and_verified
 
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
@@ -99,3 +100,40 @@ def test_l_bar_over_a_thousand_contexts_alike_is_re_derived():
     # X and A independent, three boxes: three blocks whatever the number of contexts (it was 3,000 variables)
     worst = black_box_enclosures(_many_contexts(1000))
     assert worst.global_ is not None and worst.global_.hi - worst.global_.lo < 1e-40
+
+
+def _unlike_contexts(n_contexts, utility):
+    """Randomized response at epsilon = 1 on three groups, n contexts whose P(x | a) differ (nothing merges)."""
+    cells = [[1 + x, 1 + (5 * x) % 31, 1 + (x * x) % 37] for x in range(n_contexts)]  # no two rows proportional
+    total = sum(map(sum, cells))
+    rows = ", ".join("[" + ", ".join(repr(c / total) for c in row) + "]" for row in cells)
+    return (
+        '[sensitive]\nname = "group"\nvalues = ["a", "b", "c"]\n'
+        f'[context]\nname = "job"\nvalues = {json.dumps([f"c{x}" for x in range(n_contexts)])}\n'
+        '[decision]\nname = "d"\nvalues = ["yes", "no"]\n'
+        f"[population]\nprobabilities = [{rows}]\n"
+        '[privacy.sensitive]\nmechanism = "randomized_response"\nepsilon = 1.0\n'
+        f"[utility]\n{utility}\ntau = 0.2\n"
+    )
+
+
+@pytest.mark.parametrize(
+    "utility",
+    ['kind = "indicator"\ndecision = "yes"', 'kind = "table"\nvalues = [[[1.0, 0.0], [0.75, 0.0], [1.0, 0.25]]]'],
+    ids=["box", "table"],
+)
+def test_l_bar_over_contexts_unlike_is_re_derived_block_by_block(utility, tmp_path):
+    # 30 contexts with P(x | a) unlike: one program over all of them has 90 variables (box) or 121 (table), beyond
+    # 64; each context is a block of a product, solved block by block. The certificate's L-bar holds and one moved
+    # by 1e-9 fails
+    spec = _unlike_contexts(30, utility)
+    if "table" in utility:
+        spec = spec.replace(
+            "[[[1.0, 0.0], [0.75, 0.0], [1.0, 0.25]]]",
+            "[" + ", ".join(["[[1.0, 0.0], [0.75, 0.0], [1.0, 0.25]]"] * 30) + "]",
+        )
+    cert, result, checked = certified_and_verified(spec, tmp_path)
+    assert "bound_details.black_box.global.value" in checked
+    assert not [why for _, why in result.not_checked if "beyond" in why]
+    cert["bound_details"]["black_box"]["global"]["value"] += 1e-9
+    assert "bound_details.black_box.global.value" in {c.name for c in verify(cert).failures}

@@ -332,8 +332,11 @@ the earlier of two pairs whose solved values lie within the solver's 1e-9, so th
 accuracy, not to the last digit (the value is an upper end over every pair all the same)."""
 
 
-def _maximiser_checks(cert: Mapping[str, Any], detail: Mapping[str, Any], glob: Mapping[str, Any]) -> list[Check]:
-    """The black box's context and pair attain its worst cases (to :data:`PAIR_TOLERANCE`): a swapped pair fails."""
+def _maximiser_checks(
+    cert: Mapping[str, Any], detail: Mapping[str, Any], glob: Mapping[str, Any], global_re_derived: bool
+) -> list[Check]:
+    """The black box's context and pair attain its worst cases (to :data:`PAIR_TOLERANCE`): a swapped pair fails.
+    L̄'s pair only where L̄ is re-derived (``global_re_derived``; else it is listed with L̄ as not re-derived)."""
     from fairaudit.verification.black_box_check import pair_enclosures
 
     out = []
@@ -343,7 +346,7 @@ def _maximiser_checks(cert: Mapping[str, Any], detail: Mapping[str, Any], glob: 
     named: list[tuple[str, Mapping[str, Any], Enclosure | None, tuple[Any, ...]]] = [
         ("bound_details.black_box (its context and groups)", detail, local, (detail.get("context"),))
     ]
-    if glob.get("value") is not None and glob.get("group") is not None:
+    if global_re_derived and glob.get("value") is not None and glob.get("group") is not None:
         g_pair = pair_enclosures(cert["inputs"], detail.get("context"), glob.get("group"), glob.get("other_group"))[1]
         named.append(("bound_details.black_box.global (its groups)", glob, g_pair, ()))
     for name, where, pair, context in named:
@@ -386,7 +389,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     ]
     out += _witness_checks("bound_details.black_box", detail, worst.local, local, eps_a, clip=worst.group_free)
     glob = detail.get("global") or {}
-    out += _maximiser_checks(cert, detail, glob)
+    out += _maximiser_checks(cert, detail, glob, worst.global_ is not None)
     if worst.global_ is None:
         skipped.append(("bounds.global", worst.reason))
         skipped.append(("bound_details.black_box.global", worst.reason))

@@ -137,3 +137,18 @@ def test_l_bar_over_contexts_unlike_is_re_derived_block_by_block(utility, tmp_pa
     assert not [why for _, why in result.not_checked if "beyond" in why]
     cert["bound_details"]["black_box"]["global"]["value"] += 1e-9
     assert "bound_details.black_box.global.value" in {c.name for c in verify(cert).failures}
+
+
+def test_l_bar_beyond_the_limit_is_listed_and_its_pair_not_failed(monkeypatch):
+    # a block wider than the limit (here 2 < randomized response's three groups, unlike: L-bar's blocks are k wide;
+    # L's are three cells): L-bar and its named pair are listed as not re-derived. The pair used to fail by inf
+    import fairaudit.verification.black_box_check as bb
+
+    spec = _unlike_contexts(4, 'kind = "indicator"\ndecision = "yes"')
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 2)
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    listed = dict(result.not_checked)
+    assert listed["bound_details.black_box.global"] == "L-bar: programs beyond 2 variables"
+    assert "bounds.black_box" in {c.name for c in result.checks}

@@ -88,7 +88,9 @@ class FractionalResult:
         When not ``certified`` it is the solver's primal value, and ``reason`` says why it is not certified.
     argmax : numpy.ndarray or None
         An h attaining it (to the solver's accuracy), shape (n,); None when unbounded or infeasible.
-    status : {"optimal", "unbounded", "infeasible"}
+    status : {"optimal", "unbounded", "infeasible", "error"}
+        "error": the solver failed on a program too large for the rational simplex; the value is NaN, not
+        certified, and nothing is claimed about the program (``reason`` holds the solver's message).
     method : {"threshold", "lp"}
     solver_status : str
         The solver's own status ("optimal", "optimal_inaccurate", ...; "threshold" or "closed form" for the
@@ -304,6 +306,11 @@ def _no_solution(result: Callable[..., FractionalResult], solver_status: str, re
     return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
 
 
+def _failed(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
+    """The solver failed and nothing exact stood in: NaN, status "error" (not "infeasible": nothing is proved)."""
+    return result(value=math.nan, argmax=None, status="error", solver_status=solver_status, reason=reason)
+
+
 class FractionalProgram:
     """max (p·h)/(q·h) over a fixed polytope, compiled once, solved for many (p, q).
 
@@ -436,7 +443,7 @@ class FractionalProgram:
             solve_clarabel(prob, self._options)
         except cp.error.SolverError as exc:  # a failure is solved exactly when small, else reported, never raised
             exact = self._crossover(result, p, q, "solver_error", "the solver failed", report_empty=True)
-            return exact if exact is not None else _no_solution(result, "solver_error", str(exc))
+            return exact if exact is not None else _failed(result, "solver_error", f"the solver failed: {exc}")
         status = prob.status
         if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
             return result(
@@ -451,7 +458,7 @@ class FractionalProgram:
             return self._zero_denominator(p, q, status)
         s = self._s.value
         if s is None:  # pragma: no cover - the solver returned no point
-            return _no_solution(result, status, "the solver returned no solution")
+            return _failed(result, status, "the solver returned no solution")
         if self._bounded and s > 0:
             # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
             h = np.asarray(self._y.value, dtype=float) / float(s)
@@ -620,7 +627,7 @@ class FractionalProgram:
         try:
             primal_status, value, h = self._primal_max(p)
         except cp.error.SolverError as exc:  # pragma: no cover
-            return _no_solution(result, "solver_error", str(exc))
+            return _failed(result, "solver_error", f"the solver failed: {exc}")
 
         if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return _no_solution(result, status, _INCONSISTENT)

@@ -70,7 +70,7 @@ class BlackBoxCertificate:
         ``threshold``: decided in closed form (the threshold solution, or
         with a binding τ the floor relaxation whose point met every
         constraint); ``lp``: at least one Charnes–Cooper LP was solved.
-    status : {"optimal", "unbounded", "infeasible", "trivial"}
+    status : {"optimal", "unbounded", "infeasible", "trivial", "error"}
     solver_status : str
     reason : str
         Why the value is +inf or NaN, or which shortcut decided it.
@@ -572,7 +572,8 @@ def _box_solver(problem: _ClassProblem, M: FloatArray, pairs: IntArray) -> Calla
 
 
 def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: IntArray) -> BlackBoxCertificate:
-    """The certificate of the pair search's maximiser (NaN, "infeasible", when the class is empty)."""
+    """The certificate of the pair search's maximiser (NaN, "infeasible", when the class is empty; "error" when the
+    solver failed on a program)."""
     lower, gamma, lip_on = problem.lower, problem.gamma, problem.lipschitz_on
     n, m = len(problem.mechanism.inputs), len(problem.mechanism.outputs)
     r = found.result
@@ -584,9 +585,10 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
             (),
             np.full(m, math.nan),
             "lp",
-            "infeasible",
+            "error" if r is not None and r.status == "error" else "infeasible",
             r.solver_status if r else "",
-            found.reason or "the class is empty",
+            (f"not solved: {found.reason}" if r is not None and r.status == "error" else found.reason)
+            or "the class is empty",
             found.solved,
         )
     assert r is not None  # a maximising pair was found

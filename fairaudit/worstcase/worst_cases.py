@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.json_values import Report, number, pair_dict
@@ -71,7 +71,8 @@ class WorstCase:
         E[g | x, a] of the worst case, shape (n_contexts, n_groups) (local),
         or E[g | a], shape (n_groups,) (global).
     method : {"threshold", "lp"}
-    status : {"optimal", "unbounded", "infeasible", "trivial"}
+    status : {"optimal", "unbounded", "infeasible", "trivial", "error"}
+        "error": the solver failed on a program too large for the rational simplex (NaN; ``reason`` says so).
     solver_status : str
         The solver's status for the maximiser's program ("optimal", "optimal_inaccurate", ...; "threshold" or
         "closed form" when no LP decided it).
@@ -219,8 +220,12 @@ class WorstCase:
 
     @classmethod
     def unmet(cls, kind: str, found: SearchResult, reason: str) -> WorstCase:
-        """The pair search found no program whose constraints can be met (``reason``): :meth:`infeasible`."""
+        """The pair search gave no maximum: no program's constraints can be met (``reason``, :meth:`infeasible`),
+        or the solver failed on one (status "error", NaN, its reason: nothing is claimed about the constraints)."""
         r = found.result
+        if r is not None and r.status == "error":
+            failed = cls.infeasible(kind, r.solver_status, f"not solved: {r.reason}", found.solved)
+            return replace(failed, status="error")
         return cls.infeasible(kind, r.solver_status if r else "", reason, found.solved)
 
     def __repr__(self) -> str:

@@ -110,3 +110,26 @@ def test_the_docstring_program_at_each_tolerance(tolerance):
     w = vertex_witness(np.array([1.0 - 1e-12, 2 / 7 - 1e-12]), p, q, np.zeros(2), np.ones(2), rows, tolerance)
     h1 = (Fraction(0.5) - Fraction(0.3)) / Fraction(0.7)
     assert w == fraction_down((Fraction(0.7) + Fraction(0.3) * h1) / (Fraction(0.3) + Fraction(0.7) * h1))
+
+
+def test_a_failed_solve_too_large_to_solve_exactly_is_an_error_not_an_empty_polytope(monkeypatch):
+    # beyond the rational simplex's size the failure is reported as such (status "error", NaN, not certified); the
+    # worst case over models says "not solved", not "no decision model meets E[g | x, a] >= tau"
+    import fairaudit as fa
+    from fairaudit.worstcase.known_utility import worst_model
+
+    def fail(*args, **kwargs):
+        raise cp.error.SolverError("Solver 'CLARABEL' failed.")
+
+    monkeypatch.setattr(lf, "solve_clarabel", fail)
+    monkeypatch.setattr(lf, "CROSSOVER_SIZE", (1, 1))
+    p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    prog = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=np.array([[-0.3, -0.7]]), b_ub=np.array([-0.5]))
+    r = prog.solve(p, q)
+    assert (r.status, r.certified, r.solver_status) == ("error", False, "solver_error") and np.isnan(r.value)
+    assert r.reason == "the solver failed: Solver 'CLARABEL' failed."
+    ma = fa.from_matrix([[0.75, 0.25], [0.25, 0.75]], ["a", "b"])
+    util = fa.Utility(np.array([[[1.0, 0.0], [0.5, 0.0]]]), ["yes", "no"], ["x"], ["a", "b"])  # g depends on a
+    w = worst_model(ma, util, tau=0.2, method="lp").local_fairness
+    assert (w.status, w.certified) == ("error", False) and np.isnan(w.value)
+    assert w.reason == "not solved: the solver failed: Solver 'CLARABEL' failed."

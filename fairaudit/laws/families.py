@@ -48,6 +48,14 @@ class MechanismFamily:
     keep : callable
         ε ↦ the probability that the true value is released unchanged (the
         price of the guarantee), in [1/k, 1].
+    mixing : bool
+        Whether a member at a smaller ε is the larger one behind a
+        row-stochastic R on the true value, M_ε' = R·M_ε (true of both
+        shipped families, whose members commute; default False). Then, for a
+        utility free of the group, a fixed model's L, and its L̄ over a
+        population with X and A independent and every group present, are
+        non-decreasing in ε (``proofs/calibration.md``, Proposition 5b), and
+        the white-box calibration says so instead of resting on its scan.
 
     Notes
     -----
@@ -66,6 +74,7 @@ class MechanismFamily:
     inputs: tuple
     build: Callable[[float], Mechanism]
     keep: Callable[[float], float]
+    mixing: bool = False
 
     def __call__(self, epsilon: float) -> Mechanism:
         """The member with privacy budget ``epsilon`` (nats)."""
@@ -114,7 +123,7 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     label = name or f"{k}-ary randomized response"
     # each member in O(1): the labels are checked once, here, not again for every ε
     return MechanismFamily(
-        label, labels, lambda eps: RandomizedResponse(labels, eps, label), lambda eps: keep_of_checked(eps, k)
+        label, labels, lambda eps: RandomizedResponse(labels, eps, label), lambda eps: keep_of_checked(eps, k), True
     )
 
 
@@ -185,4 +194,4 @@ def product_family(
     def keep(eps: float) -> float:
         return float(np.prod([keep_of_checked(e, k) for e, k in zip(split(eps), sizes)]))
 
-    return MechanismFamily(label, inputs, build, keep)
+    return MechanismFamily(label, inputs, build, keep, True)

@@ -426,6 +426,12 @@ def white_box(
             value = _upper_end(kind, family, kernel, utility, d, population, context_mechanism)
             name = f"upper end of {name} over every utility of {format_label(kernel.decisions[d])!r} in [min g, max g]"
 
+    monotone = (
+        family.mixing
+        and value is stated
+        and not utility.depends_on_group
+        and (kind == "local" or population is None or _independent_and_whole(population))
+    )
     f0 = value(0.0)
     if not f0 <= limit:
         why = []
@@ -434,7 +440,16 @@ def white_box(
         if kind == "global" and population is not None and not population.independence().independent:
             why.append("X and A are dependent in the population")
         return _white_box_floor(target, limit, keep_grid(family), value, f0, name, why)
-    return _scan(target, limit, keep_grid(family), value, f0, name)
+    return _scan(target, limit, keep_grid(family), value, f0, name, monotone)
+
+
+def _independent_and_whole(population: Population) -> bool:
+    """X and A exactly independent and every group with P(A = a) > 0: L̄ is then non-decreasing along a mixing
+    family for a utility free of the group (``proofs/calibration.md``, Proposition 5b)."""
+    from fairaudit.laws.independence import exactly_independent
+
+    p = population.probabilities
+    return bool(np.all(p.sum(axis=0) > 0)) and exactly_independent(p)
 
 
 def _decision_index(kernel: Kernel, decision: int) -> int:
@@ -522,10 +537,25 @@ def _white_box_floor(
 
 
 def _scan(
-    target: float, limit: float, grid: FloatArray, value: Callable[[float], float], f0: float, name: str
+    target: float,
+    limit: float,
+    grid: FloatArray,
+    value: Callable[[float], float],
+    f0: float,
+    name: str,
+    monotone: bool = False,
 ) -> Found:
-    """The first crossing of ``limit`` on the grid (then beyond it, doubling), refined; ``value(0) = f0`` meets it."""
+    """The first crossing of ``limit`` on the grid (then beyond it, doubling), refined; ``value(0) = f0`` meets it.
+
+    ``monotone``: ``value`` is proved non-decreasing in ε (``proofs/calibration.md``, Proposition 5b), so every ε
+    below the crossing meets the target, and every ε does when ε = +inf does; the reason says which it rests on.
+    """
     lo, f_lo = 0.0, f0
+    how = (
+        f"{name} is non-decreasing in epsilon along the family, for a utility free of the group"
+        if monotone
+        else f"first crossing of a {len(grid)}-point scan, refined"
+    )
     for eps in grid[1:]:
         v = value(float(eps))
         if not v <= limit:
@@ -534,17 +564,20 @@ def _scan(
                 eps_star,
                 reached,
                 f"exact {name} of the model behind the family; "
-                f"every epsilon in [0, {eps_star:.6g}] meets the target (first crossing of a "
-                f"{len(grid)}-point scan, refined)",
+                f"every epsilon in [0, {eps_star:.6g}] meets the target ({how})",
             )
         lo, f_lo = float(eps), v
     top = value(math.inf)
     if top <= limit:
+        why_every = (
+            f"and {name} is non-decreasing in epsilon along the family, for a utility free of the group"
+            if monotone
+            else f"and no point of the {len(grid)}-point scan exceeds it"
+        )
         return Found(
             math.inf,
             top,
-            f"every epsilon meets the target: the model's {name} "
-            f"without privacy is {top:.6g} nats and no point of the {len(grid)}-point scan exceeds it",
+            f"every epsilon meets the target: the model's {name} without privacy is {top:.6g} nats {why_every}",
         )
     found = bracket(value, limit, lo, f_lo, 2 * lo)
     if found is None:
@@ -555,9 +588,9 @@ def _scan(
             f"up to epsilon = {EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this",
         )
     eps_star, reached = largest_meeting(value, target if found[1] <= target else limit, *found)
+    how = how if monotone else "scan, then refined"
     return Found(
         eps_star,
         reached,
-        f"exact {name} of the model behind the family; every "
-        f"epsilon in [0, {eps_star:.6g}] meets the target (scan, then refined)",
+        f"exact {name} of the model behind the family; every epsilon in [0, {eps_star:.6g}] meets the target ({how})",
     )

@@ -351,6 +351,48 @@ def test_white_box_non_decreasing_for_randomized_response(seed, k):
     assert all(b >= a - 1e-12 for a, b in zip(values, values[1:]))
 
 
+@settings(max_examples=40)
+@given(seed=st.integers(0, 2**32 - 1), sizes=st.sampled_from([(2, 2), (2, 3), (3, 2), (2, 2, 2)]))
+def test_white_box_non_decreasing_for_products(seed, sizes):
+    # proofs/calibration.md Proposition 5b: a product with a fixed split is a mixing family (a smaller epsilon is the
+    # larger one behind a stochastic R on the true value), so for g free of the group L is non-decreasing in epsilon,
+    # and so is L-bar over a population with X and A independent exactly; checked on a grid of random models
+    rng = np.random.default_rng(seed)
+    alphabets = [[f"v{i}{j}" for j in range(n)] for i, n in enumerate(sizes)]
+    fam = fa.product_family(*alphabets, weights=rng.dirichlet(np.ones(len(sizes))))
+    groups = fam.inputs
+    kernel = fa.Kernel(rng.dirichlet(np.ones(3) * 0.5, size=(2, len(groups))), ["x0", "x1"], groups, ["u0", "u1", "u2"])
+    g = fa.from_table(rng.uniform(0, 1, 3), ["u0", "u1", "u2"])
+    pop = fa.Population(np.outer([0.25, 0.75], np.full(len(groups), 1 / len(groups))), ["x0", "x1"], groups)
+    assert fam.mixing
+    grid = np.linspace(0, 12, 25)
+    local = [fa.local_fairness(fa.compose(kernel, fam(e)), g).value for e in grid]
+    global_ = [fa.global_fairness(fa.compose(kernel, fam(e)), g, pop).value for e in grid]
+    for values in (local, global_):
+        assert all(b >= a - 1e-12 for a, b in zip(values, values[1:]))
+
+
+def test_the_white_box_reason_says_what_the_answer_rests_on():
+    # a utility free of the group behind a mixing family: the answer rests on Proposition 5b; a utility that depends
+    # on the group: on the scan (here L falls, then rises: proofs/calibration.md's example, target 0.2)
+    labels = ["a", "b"]
+    kernel = fa.Kernel([[[1.0, 0.0], [0.0, 1.0]]], ["x"], labels, ["y", "n"])
+    free = calibrate(0.2, kernel=kernel, utility=fa.indicator("y", ["y", "n"]))
+    assert free.reason.endswith("(L is non-decreasing in epsilon along the family, for a utility free of the group)")
+    depends = fa.Utility([[[1.0, 0.0], [0.7, 0.5]]], ["y", "n"], ["x"], labels)
+    scanned = calibrate(0.2, kernel=kernel, utility=depends)
+    assert scanned.reason.endswith("(first crossing of a 64-point scan, refined)")
+    assert free.epsilon == pytest.approx(0.2, rel=1e-9)  # E[g | a] = p, E[g | b] = 1 - p: L = ln(p / (1 - p)) = epsilon
+    p = 0.7 * math.exp(0.2) / (1 + 0.2 * math.exp(0.2))  # p / (0.7 - 0.2 p) = e^0.2, on the rising side
+    assert scanned.epsilon == pytest.approx(math.log(p / (1 - p)), rel=1e-9)
+    every = calibrate(50.0, kernel=fa.Kernel([[[0.5, 0.5], [0.25, 0.75]]], ["x"], labels, ["y", "n"]),
+                      utility=fa.indicator("y", ["y", "n"]))  # fmt: skip
+    assert every.epsilon == math.inf
+    assert every.reason.endswith(
+        "nats and L is non-decreasing in epsilon along the family, for a utility free of the group"
+    )
+
+
 def test_white_box_uses_the_context_mechanism_and_population():
     # Two contexts, population with X and A dependent: L-bar at ε = 0 is not 0, the white-box global result
     # starts there; the local one does not depend on the population's dependence.

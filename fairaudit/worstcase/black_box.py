@@ -35,7 +35,7 @@ from fairaudit.worstcase.pair_search import (
     relaxed_first,
     search,
 )
-from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz, rr_lipschitz_ratio
+from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz, rr_lipschitz_ratio, unit_class
 from fairaudit.worstcase.worst_cases import nats_up
 
 
@@ -312,14 +312,15 @@ def _on_unit_scale(
 ) -> BlackBoxCertificate:
     """Only the shape of the class matters: solve it on the scale γ = 1 (well-conditioned LPs), and scale back."""
     lower, gamma, tau = problem.lower, problem.gamma, problem.tau
-    unit_class = UtilityClass(
-        lower=lower / gamma,
+    unit_lower, unit_floor, unit_lipschitz = unit_class(lower, gamma, tau, problem.lipschitz)
+    scaled = UtilityClass(
+        lower=unit_lower,
         gamma=1.0,
-        tau=None if tau is None else tau / gamma,
-        lipschitz=problem.lipschitz / gamma,
+        tau=None if tau is None else unit_floor,
+        lipschitz=unit_lipschitz,
         metric=metric,
     )
-    unit = black_box_bound(problem.mechanism, utility_class=unit_class, population=population, method=problem.method)
+    unit = black_box_bound(problem.mechanism, utility_class=scaled, population=population, method=problem.method)
     return replace(
         unit,
         utility_by_release=unit.utility_by_release * gamma,

@@ -16,7 +16,7 @@ from fractions import Fraction
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray, IntArray
-from fairaudit.base.outward import exp_up, fraction_up, log_up
+from fairaudit.base.outward import exp_up, fraction_down, fraction_up, log_up
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law
@@ -297,6 +297,19 @@ def rr_lipschitz_ratio(
     return best
 
 
+def unit_class(lower: float, gamma: float, tau: float | None, lipschitz: float) -> tuple[float, float, float]:
+    """The class [lower, γ], E ≥ τ, L_A on the scale γ = 1, rounded outward: (lower/γ and max(τ, lower)/γ rounded
+    down, L_A/γ rounded up), so the worst case over the scaled class is at least the exact one (a higher floor or a
+    smaller box or Lipschitz constant only shrinks the class; ``proofs/outward.md`` §5).
+
+    >>> unit_class(2.0, 2.5, None, 0.0)[0] < 0.8  # the float 0.8 is above 4/5
+    True
+    """
+    g = Fraction(gamma)
+    floor = lower if tau is None else max(tau, lower)
+    return fraction_down(Fraction(lower) / g), fraction_down(Fraction(floor) / g), fraction_up(Fraction(lipschitz) / g)
+
+
 def rr_class_ratio(
     rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
 ) -> float:
@@ -307,8 +320,7 @@ def rr_class_ratio(
     """
     if rr.k < 2 or gamma == 0 or lower == gamma:
         return 1.0
-    lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
-    lam = lipschitz * diameter / gamma
+    lo, floor, lam = unit_class(lower, gamma, tau, lipschitz * diameter)
     if lam > 0:
         out = rr_lipschitz(rr, lo, 1.0, floor, lam)
         return math.inf if out is None else out[0]
@@ -327,7 +339,7 @@ def rr_class_value(
     if rr.k < 2 or gamma == 0 or lower == gamma:
         return 0.0
     if lipschitz * diameter == 0:
-        lo, floor = lower / gamma, (lower if tau is None else max(tau, lower)) / gamma
+        lo, floor, _ = unit_class(lower, gamma, tau, 0.0)
         return rr_box(rr, lo, 1.0, floor).value
     g = Fraction(gamma)
     bottom = Fraction(lower) / g
@@ -341,5 +353,6 @@ def rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, cont
     k = kernel.probabilities
     behind = rr.q * k.sum(axis=1, keepdims=True) + (rr.p - rr.q) * k  # (x̃, a, u)
     law = behind if context_mechanism.is_identity else np.tensordot(context_mechanism.matrix, behind, axes=1)
+
     law = law / law.sum(axis=-1, keepdims=True)
     return Law(law, context_mechanism.inputs, groups, kernel.decisions, name="law", _owned=True)

@@ -513,6 +513,18 @@ REGRESSIONS["degenerate vertex at epsilon 1e-12"] = (
 )
 
 
+# a constant utility 2 with gamma = 2.5 and a target: the black-box calibration's bound, 0.09999999999999985, was
+# 1.96e-17 below the exact worst case at its epsilon, because lower/gamma = 2/2.5 in floats is 0.8 + 4.4e-17, above
+# 4/5, and a higher floor of the box only lowers the worst case (fixed in certify: the class on the scale gamma = 1 is
+# rounded outward, worstcase.randomized_response.unit_class)
+REGRESSIONS["lower over gamma above its exact value"] = (
+    HEAD.format(groups=G2).replace('["d0", "d1"]', '["d0", "d1", "d2"]\nunparsed = "d2"')
+    + '[privacy.sensitive]\nmechanism = "identity"\n'
+    + '[utility]\nkind = "table"\nvalues = [2.0, 2.0, 2.0]\ngamma = 2.5\n[target]\nlocal = 0.1\n',
+    None,
+)
+
+
 @pytest.mark.parametrize("name", list(REGRESSIONS))
 def test_found_certificates_hold(name, tmp_path):
     result = _regression(*REGRESSIONS[name], tmp_path)

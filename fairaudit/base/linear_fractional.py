@@ -35,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import operator
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal, TypeAlias, overload
@@ -600,6 +601,17 @@ class FractionalProgram:
         optimum = maximize_ratio(exact(p), exact(q), exact(self.lower), exact(self.upper), a_ub, b_ub)
         if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
             return _no_solution(result, f"{status}; {EXACT_CROSSOVER} (exact: {why})", _INCONSISTENT)
+        if optimum.status == "zero_denominator" and optimum.point is not None:
+            at = optimum.point  # a vertex of the polytope, exactly
+            if sum(map(operator.mul, exact(q), at)) == 0 < sum(map(operator.mul, exact(p), at)):
+                return result(
+                    value=math.inf,
+                    argmax=np.array([float(x) for x in at]),
+                    status="unbounded",
+                    solver_status=f"{status}; {EXACT_CROSSOVER} (exact: {why})",
+                    reason="the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)",
+                    certified=True,  # +inf bounds every ratio
+                )
         if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
             return None
         value, witness = fraction_up(optimum.value), fraction_down(optimum.value)

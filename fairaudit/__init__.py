@@ -12,7 +12,7 @@ are in nats. See docs/ for the guide and proofs/ for the proofs.
 from __future__ import annotations
 
 from fairaudit.base.checks import choice, number_type, real, whole
-from fairaudit.base.errors import FairauditError, InputError
+from fairaudit.base.errors import FairauditError, InputError, UnderflowError
 from fairaudit.base.files import write_atomic
 from fairaudit.base.json_values import number
 from fairaudit.base.labels import format_label
@@ -68,6 +68,7 @@ __all__ = [
     # errors
     "FairauditError",
     "InputError",
+    "UnderflowError",
     # laws, mechanisms and utilities
     "Kernel",
     "Law",

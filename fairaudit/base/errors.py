@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["ECHO_LIMIT", "FairauditError", "InputError", "cut", "echo"]
+__all__ = ["ECHO_LIMIT", "FairauditError", "InputError", "UnderflowError", "cut", "echo"]
 
 
 class FairauditError(Exception):
@@ -61,6 +61,19 @@ class InputError(FairauditError, ValueError):
         if self.value is InputError._missing:
             return InputError(field, problem)
         return InputError(field, problem, self.value)
+
+
+class UnderflowError(InputError):
+    """A probability that is positive exactly but below the smallest normal float (2.2e-308): floating point cannot
+    hold it, and a ratio or logarithm computed from it would be wrong (randomized response above about 708 nats, whose
+    q = 1/(e^ε + k − 1) underflows). Raised instead of a silent wrong number; callers that can go on without the
+    value (a certificate's observed metrics) leave it out and say why.
+
+    Examples
+    --------
+    >>> isinstance(UnderflowError("kernel", "underflows"), InputError)
+    True
+    """
 
 
 ECHO_LIMIT = 80

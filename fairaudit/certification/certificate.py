@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, TypedDict
 
-from fairaudit.base.errors import InputError
+from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.json_values import Report, canonical_digest, label, number
 from fairaudit.base.outward import log_up, up
 from fairaudit.certification.recorded_inputs import (
@@ -221,6 +221,8 @@ class Certificate:
             out["observed"] = self.observed.to_dict(self.intervals)
             if self.intervals is None:
                 out["observed"]["intervals_reason"] = self.omitted.get("intervals", "")
+        elif "observed" in self.omitted:
+            out["observed_omitted"] = self.omitted["observed"]
         if self.unfiltered is not None:
             out["unfiltered"] = self.unfiltered.to_dict(self.unfiltered_intervals)
         if self.targets:
@@ -353,7 +355,7 @@ def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFA
         spec = load_spec(spec)
     interval_options(intervals)
     kernel: Kernel | None = spec.kernel()
-    observed, unfiltered = _observations(spec, kernel)
+    observed, unfiltered, observed_reason = _observations(spec, kernel)
     obs_law = observed.law if observed is not None else None
     mech, tau = spec.sensitive_mechanism, spec.tau
     paper, tight = _theorem_bounds(spec, obs_law)
@@ -367,7 +369,7 @@ def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFA
     forms.append(("black_box", bb_assumptions))
     corollary = corollary_bound(mech, utility=spec.utility, population=spec.population, law=obs_law)
     forms.append(("corollary", corollary.assumptions))
-    omitted: dict[str, str] = {}
+    omitted: dict[str, str] = {"observed": observed_reason} if observed_reason else {}
     if math.isnan(black_box.local_fairness.value):
         omitted["black_box"] = black_box.local_fairness.reason
     else:
@@ -419,20 +421,23 @@ def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFA
     )
 
 
-def _observations(spec: Spec, kernel: Kernel | None) -> tuple[Observed | None, Observed | None]:
-    """The observed metrics behind the filter and, where the model reads the true labels, of the model on its own."""
+def _observations(spec: Spec, kernel: Kernel | None) -> tuple[Observed | None, Observed | None, str]:
+    """The observed metrics behind the filter and, where the model reads the true labels, of the model on its own;
+    and why the first are left out ("" when they are not): a law behind the filter that floating point cannot hold."""
     if kernel is None:
-        return None, None
+        return None, None, ""
     mech = spec.sensitive_mechanism
+    observed, why = None, ""
     try:
-        law = compose(kernel, mech, spec.context_mechanism)
+        observed = observe(compose(kernel, mech, spec.context_mechanism), spec.utility, spec.population)
+    except UnderflowError as exc:
+        why = f"{exc.field}: {exc.problem} (at {exc.value})"
     except InputError as exc:
         raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
-    observed = observe(law, spec.utility, spec.population)
     filtered = not (mech.is_identity and spec.context_mechanism.is_identity)
     if filtered and _sees_inputs(spec):  # the model on its own: only where it reads the true labels
-        return observed, observe(Law.from_kernel(kernel), spec.utility, spec.population)
-    return observed, None
+        return observed, observe(Law.from_kernel(kernel), spec.utility, spec.population), why
+    return observed, None, why
 
 
 def _theorem_bounds(spec: Spec, law: Law | None) -> tuple[Bound | None, Bound | None]:

@@ -30,7 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray
-from fairaudit.base.errors import InputError
+from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.files import write_atomic
 from fairaudit.base.labels import format_label
 from fairaudit.laws.families import MechanismFamily
@@ -90,9 +90,10 @@ class PrivacyCurve:
     corollary : numpy.ndarray
         ε(M_ε), the corollary's bound (= ε up to rounding), nats.
     observed_local, observed_global : numpy.ndarray
-        L and L̄ of compose(kernel, M_ε, M_X), nats.
+        L and L̄ of compose(kernel, M_ε, M_X), nats; NaN where that law has a cell of positive probability below the
+        float range (randomized response above about 708 nats: :func:`~fairaudit.laws.tables.compose` refuses it).
     min_expected_utility : numpy.ndarray
-        min over (x, a) of E[g | x, a] of that law.
+        min over (x, a) of E[g | x, a] of that law (NaN where the law is refused).
     family : str
         The family's name.
     groups : tuple
@@ -572,6 +573,8 @@ class _Bounds:
         if kernel is not None and self.utility is not None:  # (a kernel comes with a utility: checked before)
             try:
                 law = compose(kernel, mech, self.context_mechanism)
+            except UnderflowError:
+                return  # the law is beyond floating point: its metrics stay NaN (not drawn)
             except InputError as exc:
                 raise exc.under("kernel") from None
             out["local"][i] = local_fairness(law, self.utility, self.population).value

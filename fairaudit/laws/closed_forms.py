@@ -17,7 +17,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from fairaudit.base.arrays import EXP_SAFE, FloatArray
+from fairaudit.base.arrays import EXP_SAFE, BoolArray, FloatArray
 from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.checks import real, whole
 from fairaudit.base.errors import InputError
@@ -321,6 +321,12 @@ class RandomizedResponse(Mechanism):
             m.setflags(write=False)
             self._cache["matrix"] = m
         return self._cache["matrix"]
+
+    @property
+    def support(self) -> BoolArray:
+        """Every entry is positive for a finite ε (q > 0 exactly, even where its float underflows above ~708 nats)."""
+        k = len(self.inputs)
+        return np.eye(k, dtype=bool) if self.is_identity else np.ones((k, k), dtype=bool)
 
     @property
     def epsilon(self) -> float:

@@ -29,10 +29,10 @@ from typing import Any, overload
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import FloatArray, as_float_array, check_probabilities, check_shape
+from fairaudit.base.arrays import BoolArray, FloatArray, as_float_array, check_probabilities, check_shape
 from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.checks import real
-from fairaudit.base.errors import InputError
+from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.json_values import Report, number
 from fairaudit.base.labels import as_labels
 from fairaudit.base.outward import exp_down, fraction_up, log_up, up, widen_up
@@ -320,6 +320,12 @@ class Mechanism:
                 self.inputs == self.outputs and m.shape[0] == m.shape[1] and np.array_equal(m, np.eye(m.shape[0]))
             )
         return self._cache["is_identity"]
+
+    @property
+    def support(self) -> BoolArray:
+        """Where the exact matrix is positive, shape (n_inputs, n_outputs): the matrix's own positive floats, except for
+        a closed form (randomized response) whose exact entries may be too small for a float."""
+        return self.matrix > 0
 
     @property
     def epsilon(self) -> float:
@@ -615,10 +621,18 @@ def product(*mechanisms: Mechanism, name: str | None = None) -> Mechanism:
     if not mechanisms:
         raise InputError("product", "needs at least one mechanism", ())
     matrix: npt.NDArray[np.floating[Any]] = np.ones((1, 1))
+    support: BoolArray = np.ones((1, 1), dtype=bool)
     for mech in mechanisms:
         if not isinstance(mech, Mechanism):
             raise InputError("product", "components must be Mechanism objects", mech)
-        matrix = np.kron(matrix, mech.matrix)
+        matrix, support = np.kron(matrix, mech.matrix), np.kron(support, mech.support)
+    if np.any(support & ~(matrix >= np.finfo(float).tiny)):
+        raise UnderflowError(
+            "product",
+            "an entry of the product is positive but below the smallest normal float (2.2e-308): floating point "
+            "cannot hold it (give the components smaller epsilons)",
+            [m.name for m in mechanisms],
+        )
     inputs = [tuple(t) for t in itertools.product(*(m.inputs for m in mechanisms))]
     outputs = [tuple(t) for t in itertools.product(*(m.outputs for m in mechanisms))]
     label = name or " x ".join(m.name for m in mechanisms)

@@ -18,6 +18,9 @@ from fairaudit.verification.enclosures import INF, Enclosure, exact
 
 __all__ = ["SIDES", "TOLERANCE", "Check", "equal", "judge"]
 
+LARGEST = Fraction(1.7976931348623157e308)
+"""The largest finite float: an exact value above it rounds to +inf (up, or to nearest)."""
+
 TOLERANCE = 1e-12
 """How far (relative to max(1, |value|)) a recorded number may sit from its exact value on its allowed side."""
 
@@ -117,6 +120,9 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
     (True, False)
     >>> judge("x", "inf", third, "upper").holds  # +inf bounds 1/3, but it is not the bound re-derived
     False
+    >>> beyond = Fraction(2) ** 1024  # above the largest float: its upper end in floats is +inf
+    >>> judge("x", "inf", Enclosure(beyond, beyond), "upper").holds, judge("x", "inf", Enclosure(beyond, beyond), "lower").holds
+    (True, False)
     """
     low, high = _float(derived.lo, False), _float(derived.hi, True)
     value = exact(reported, name) if reported is not None else None
@@ -126,8 +132,14 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
     scale = max(Fraction(1), abs(derived.hi)) if isinstance(derived.hi, Fraction) else Fraction(1)
     slack = Fraction(TOLERANCE) * scale
     if value == INF or derived.hi == INF:
-        # +inf bounds everything, but as an upper bound of a finite exact value it is not the number re-derived
-        ok = value == INF and (derived.lo == INF or side == "at least" or (side == "upper" and derived.hi == INF))
+        # +inf bounds everything, but as an upper bound of a finite exact value it is not the number re-derived,
+        # unless no float is as large (e^800): then +inf is that value rounded up (or to nearest)
+        beyond = side not in ("lower", "at most") and (
+            derived.lo > LARGEST or (side == "upper" and derived.hi > LARGEST)
+        )
+        ok = value == INF and (
+            derived.lo == INF or side == "at least" or (side == "upper" and derived.hi == INF) or beyond
+        )
         by = 0.0 if ok else math.inf
     else:
         allowed_low = derived.hi if side in ("upper", "at least") else -INF if side == "at most" else derived.lo - slack

@@ -220,6 +220,8 @@ def observed_checks(
         exact ones), and the ratio at the recorded context and groups (a swapped pair fails); none without a model.
     """
     inputs = cert["inputs"]
+    if inputs["kernel"] is not None and "observed" not in cert and "observed_omitted" in cert:
+        skipped.append(("observed", f"left out by certify: {cert['observed_omitted']}"))
     if inputs["kernel"] is None or "observed" not in cert:
         return []
     found = observed_enclosures(inputs, sensitive, context)

@@ -16,7 +16,7 @@ import numpy as np
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
-from fairaudit.base.errors import InputError
+from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.labels import format_label
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.independence import exactly_independent
@@ -82,15 +82,20 @@ class ModelProblem:
         t = t / t.sum(axis=-1, keepdims=True)
         return Kernel(t, released_contexts, released_groups, decisions, name="worst model", _owned=True)
 
-    def audit(self, kernel: Kernel, kind: str) -> FloatArray:
-        """E[g | x, a] (local) or E[g | a] (global) of the law behind ``kernel``."""
+    def audit(self, kernel: Kernel, kind: str) -> FloatArray | None:
+        """E[g | x, a] (local) or E[g | a] (global) of the law behind ``kernel``; None where that law has a cell of
+        positive probability below the float range (randomized response above about 708 nats), which floats cannot
+        hold (the worst case's value does not rest on it)."""
         from fairaudit.metrics.fairness import global_fairness
         from fairaudit.metrics.reductions import expected_utility
 
-        if isinstance(self.mechanism, RandomizedResponse):  # (no k x k matrix)
-            law = rr_law(kernel, self.mechanism.rr, self.groups, self.context_mechanism)
-        else:
-            law = compose(kernel, self.mechanism, self.context_mechanism)
+        try:
+            if isinstance(self.mechanism, RandomizedResponse):  # (no k x k matrix)
+                law = rr_law(kernel, self.mechanism.rr, self.groups, self.context_mechanism)
+            else:
+                law = compose(kernel, self.mechanism, self.context_mechanism)
+        except UnderflowError:
+            return None
         if kind == "local":
             return expected_utility(law, self.utility)
         with np.errstate(over="ignore"):  # (ratios of utilities as small as e^-710 overflow; only E[g | a] is kept)

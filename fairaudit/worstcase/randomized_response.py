@@ -15,11 +15,11 @@ from fractions import Fraction
 
 import numpy as np
 
-from fairaudit.base.arrays import FloatArray, IntArray
+from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.outward import exp_up, fraction_down, fraction_up, log_up
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.laws.tables import Kernel, Law
+from fairaudit.laws.tables import Kernel, Law, check_representable
 
 _TIE = 1e-12  # relative tolerance of the threshold solution's ties (as threshold_rule.threshold_max_many)
 
@@ -354,5 +354,14 @@ def rr_law(kernel: Kernel, rr: RandomizedResponseParameters, groups: tuple, cont
     behind = rr.q * k.sum(axis=1, keepdims=True) + (rr.p - rr.q) * k  # (x̃, a, u)
     law = behind if context_mechanism.is_identity else np.tensordot(context_mechanism.matrix, behind, axes=1)
 
+    def support() -> BoolArray:  # for a finite ε, q > 0 exactly: a cell is reached from every released group
+        s = k > 0 if math.isinf(rr.epsilon) else np.broadcast_to(np.any(k > 0, axis=1, keepdims=True), k.shape)
+        if context_mechanism.is_identity:
+            return s
+        return np.tensordot(context_mechanism.support.astype(float), s.astype(float), axes=1) > 0
+
+    smallest = rr.p if math.isinf(rr.epsilon) else rr.q
+    filters = (context_mechanism, (f"{rr.k}-ary randomized response", rr.epsilon, smallest))
+    check_representable(law, support, filters, (context_mechanism.inputs, groups, kernel.decisions))
     law = law / law.sum(axis=-1, keepdims=True)
     return Law(law, context_mechanism.inputs, groups, kernel.decisions, name="law", _owned=True)

@@ -216,3 +216,12 @@ def test_mechanism_negative_and_nan_entries():
 def test_product_needs_a_mechanism():
     with pytest.raises(fa.InputError, match="product"):
         fa.product()
+
+
+def test_product_refuses_an_entry_below_the_float_range():
+    # q = 1/(e^400 + 1) ~ 1.9e-174 is a normal float, but q * q ~ 3.6e-348 is not: the product's epsilon would read
+    # +inf from a zero entry, where it is 800 exactly
+    rr = fa.randomized_response(["a", "b"], epsilon=400.0)
+    assert fa.product(rr, fa.randomized_response([0, 1], epsilon=300.0)).epsilon == pytest.approx(700.0, rel=1e-12)
+    with pytest.raises(fa.InputError, match=r"^product: .*smallest normal float"):
+        fa.product(rr, fa.randomized_response([0, 1], epsilon=400.0))

@@ -15,6 +15,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
+from fairaudit.base.errors import UnderflowError
 from fairaudit.laws.tables import compose
 
 # --------------------------------------------------------------------------- the paper's X-privacy example (SI C)
@@ -215,3 +216,44 @@ def test_population_constructors_and_independence():
         fa.Population([[1.5, -0.5]], ["x"], ["a", "b"])
     with pytest.raises(fa.InputError, match="at least one record"):
         fa.Population.from_counts([[0, 0]], ["x"], ["a", "b"])
+
+
+# --------------------------------------------------------------------------- cells floating point cannot hold
+
+
+def _apart() -> fa.Kernel:
+    """g0 always decides d0, g1 always d1: behind k-ary randomized response E[1{d0} | g0] = p, E[1{d0} | g1] = q."""
+    return fa.Kernel([[[1.0, 0.0], [0.0, 1.0]]], ["all"], ["g0", "g1"], ["d0", "d1"])
+
+
+def test_compose_behind_randomized_response_near_the_float_range_keeps_l_equal_to_epsilon():
+    # at 700 nats q = 1/(e^700 + 1) ~ 1e-304 is a normal float: L = ln(p/q) = epsilon exactly (p/q = e^epsilon)
+    law = compose(_apart(), fa.randomized_response(["g0", "g1"], epsilon=700.0))
+    value = fa.local_fairness(law, fa.indicator("d0", ["d0", "d1"])).value
+    assert abs(value - 700.0) <= 1e-12 * 700
+
+
+@pytest.mark.parametrize("epsilon", [745.0, 800.0, 2e6])
+def test_compose_refuses_a_cell_below_the_float_range(epsilon):
+    # q = 1/(e^epsilon + 1) is positive but a subnormal (745) or 0 (800, 2e6) in floats: L would read +inf (or be
+    # off), where the exact value is epsilon
+    rr = fa.randomized_response(["g0", "g1"], epsilon=epsilon)
+    with pytest.raises(fa.InputError, match=r"mechanism '2-ary randomized response'.*smallest normal float") as caught:
+        compose(_apart(), rr)
+    assert isinstance(caught.value, UnderflowError)
+    assert "P(U = d1 | X = all, A = g0)" in str(caught.value)
+
+
+def test_compose_behind_the_identity_keeps_its_zeros():
+    # epsilon = +inf is the identity: its zeros are exact, and L = +inf is the exact value
+    law = compose(_apart(), fa.randomized_response(["g0", "g1"], epsilon=math.inf))
+    assert fa.local_fairness(law, fa.indicator("d0", ["d0", "d1"])).value == math.inf
+
+
+def test_compose_refuses_a_product_of_kernel_and_mechanism_below_the_float_range():
+    # every entry is a normal float, but 1e-200 * 1e-200 is not: the cell (g1, d0) is 1e-400 exactly (the rows
+    # [1e-200, 1.0] sum to 1 within rounding)
+    kernel = fa.Kernel([[[1e-200, 1.0], [0.0, 1.0]]], ["all"], ["g0", "g1"], ["d0", "d1"])
+    m = fa.from_matrix([[1.0, 0.0], [1e-200, 1.0]], ["g0", "g1"], name="M")
+    with pytest.raises(UnderflowError, match=r"^kernel: .*P\(U = d0 \| X = all, A = g1\)"):
+        compose(kernel, m)

@@ -546,6 +546,36 @@ REGRESSIONS["L-bar unbounded, the solver inaccurate"] = (
 )
 
 
+# randomized response at 800 nats behind a model that sends g0 to d0 and g1 to d1: q = 1/(e^800 + 1) underflows to 0,
+# so the observed L read +inf where the exact value is 800 (verify failed every observed number; fixed in certify: the
+# law behind the filter is refused where a cell of positive probability is below the float range, laws.tables.compose,
+# and the observed metrics are left out with the reason); the black box's ratio e^800 is +inf rounded up (fixed in
+# verify)
+APART = "grp,dec,probability\ng0,d0,1.0\ng0,d1,0.0\ng1,d0,0.0\ng1,d1,1.0\n"
+REGRESSIONS["randomized response at 800 nats, the observed law below the float range"] = (
+    _spec(G2, RR.format(800.0) + '[model]\ntable = "table.csv"\n[utility]\ndecision = "d0"\n'),
+    APART,
+)
+
+
+@pytest.mark.parametrize(("epsilon", "omitted"), [(700.0, False), (800.0, True)])
+def test_observed_metrics_at_the_edge_of_the_float_range(epsilon, omitted, tmp_path):
+    # E[g | g0] = p and E[g | g1] = q: L = ln(p/q) = epsilon exactly, while q = 1/(e^epsilon + 1) is a float
+    spec = _spec(G2, RR.format(epsilon) + '[model]\ntable = "table.csv"\n[utility]\ndecision = "d0"\n')
+    (tmp_path / "spec.toml").write_text(spec, encoding="utf-8")
+    (tmp_path / "table.csv").write_text(APART, encoding="utf-8")
+    cert = json.loads(json.dumps(fairaudit.certify(tmp_path / "spec.toml").to_dict()))
+    result = fairaudit.verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    if omitted:
+        assert "observed" not in cert
+        assert cert["observed_omitted"].startswith("mechanism 'randomized_response on grp': the law behind")
+        assert ("observed", "left out by certify: " + cert["observed_omitted"]) in result.not_checked
+    else:
+        assert "observed_omitted" not in cert
+        assert abs(cert["observed"]["local"]["value"] - epsilon) <= 1e-12 * epsilon
+
+
 @pytest.mark.parametrize("name", list(REGRESSIONS))
 def test_found_certificates_hold(name, tmp_path):
     result = _regression(*REGRESSIONS[name], tmp_path)

@@ -708,3 +708,25 @@ def test_general_mechanisms_in_blocks_give_the_same_numbers(monkeypatch):
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(pytest.main([__file__, "-q"]))
+
+
+@pytest.mark.parametrize("k", [2, 3])
+def test_rr_law_agrees_with_compose_and_refuses_the_same_cells(k):
+    # the closed form without the k x k matrix: the same law as the matrix product, and the same refusal where
+    # q = 1/(e^epsilon + k - 1) is below the float range (800 nats); at 700 nats L = ln(p/q) = epsilon
+    from fairaudit.laws.tables import compose
+    from fairaudit.worstcase.randomized_response import rr_law
+
+    groups = [f"g{i}" for i in range(k)]
+    rows = [[1.0, 0.0]] + [[0.0, 1.0]] * (k - 1)
+    kernel = fa.Kernel([rows], ["all"], groups, ["d0", "d1"])
+    near = fa.randomized_response(groups, epsilon=700.0)
+    law = rr_law(kernel, near.rr, near.inputs, fa.identity(["all"]))
+    np.testing.assert_allclose(law.probabilities, compose(kernel, near).probabilities, rtol=1e-15, atol=0)
+    value = fa.local_fairness(law, fa.indicator("d0", ["d0", "d1"])).value
+    assert abs(value - 700.0) <= 1e-12 * 700
+    far = fa.randomized_response(groups, epsilon=800.0)
+    with pytest.raises(fa.UnderflowError, match=rf"^mechanism '{k}-ary randomized response': .*epsilon = 800 nats"):
+        rr_law(kernel, far.rr, far.inputs, fa.identity(["all"]))
+    with pytest.raises(fa.UnderflowError, match=rf"^mechanism '{k}-ary randomized response': "):
+        compose(kernel, far)

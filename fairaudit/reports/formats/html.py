@@ -254,6 +254,9 @@ class HtmlFormat(Format):
             if key in d:
                 page.h2(head)
                 _observed(page, d[key], counts=key == "observed")
+            elif key == "observed" and "observed_omitted" in d:
+                page.h2(head)
+                page.p(f"Left out: {d['observed_omitted']}")
         if "targets" in d:
             page.h2("Targets")
             page.table(TARGET_HEAD, target_rows(d["targets"]), numeric=(1, 2, 4))

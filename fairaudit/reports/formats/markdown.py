@@ -139,6 +139,8 @@ class MarkdownFormat(Format):
         for key, head in OBSERVED_PARTS:
             if key in d:
                 lines += ["", f"## {head}", ""] + _observed(d[key], counts=key == "observed")
+            elif key == "observed" and "observed_omitted" in d:
+                lines += ["", f"## {head}", "", f"Left out: {escape(d['observed_omitted'])}"]
         if "targets" in d:
             lines += ["", "## Targets", ""]
             lines += _table(target_rows(d["targets"]), TARGET_HEAD)

@@ -53,6 +53,8 @@ class TextFormat(Format):
             counts = counts_sentence(d["observed"])
             if counts is not None:
                 lines.append(f"  {counts}")
+        elif "observed_omitted" in d:
+            lines += ["observed, the model behind the filter: left out", f"  {d['observed_omitted']}"]
         if "unfiltered" in d:
             lines += _observed_lines(d["unfiltered"], "observed, the model without the filter:")
         if "targets" in d:

@@ -187,8 +187,6 @@ def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | list[KernelSetting]
     # no privacy on the group (the identity, randomized response at ε = inf): its rows are the identity's
     if m.kind == "identity" or (m.kind == "randomized_response" and m.t().lo == INF):
         return kernel_settings(inputs, m, context, MAX_VARIABLES)
-    if m.kind == "randomized_response" and m.t().hi == INF:
-        return "randomized response beyond epsilon = 10^6: its e^epsilon has no finite upper end to solve at"
     if context.kind != "identity" or not group_free:  # no box: the programs over the model's table
         return kernel_settings(inputs, m, context, MAX_VARIABLES)
     if isinstance(values[0], list):  # g(u, x): its range per context
@@ -202,19 +200,8 @@ def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | list[KernelSetting]
     mass = [sum(pop[x][a] for x in live) for a in range(m.k)]
     weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(m.k)] for x in live]
     present = [a for a in range(m.k) if mass[a]]  # L-bar compares only the groups with P(A = a) > 0
-    out = []
-    for t in _ends(m):
-        p, q = (t / (t + m.k - 1), 1 / (t + m.k - 1)) if m.rows is None else (Fraction(0), Fraction(0))
-        out.append(_Setting(m.rows, p, q, m.k, low, high, tau, weights, present))  # type: ignore[arg-type]
-    return out
-
-
-def _ends(m: RecordedMechanism) -> list[Fraction]:
-    """The rational e^ε at which the programs are solved: both ends of its enclosure (none for a matrix)."""
-    if m.kind == "matrix":
-        return [Fraction(1)]
-    t = m.t()
-    return [t.lo, t.hi]  # type: ignore[list-item]  # (finite: _settings returned a reason otherwise)
+    ends = [(Fraction(0), Fraction(0))] if m.rows is not None else list(m.rr_ends())  # (a matrix: its rows)
+    return [_Setting(m.rows, p, q, m.k, low, high, tau, weights, present) for p, q in ends]  # type: ignore[arg-type]
 
 
 def _rows_of(s: _Setting, a: int, b: int) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]], list[int]]:

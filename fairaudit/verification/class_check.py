@@ -77,8 +77,6 @@ def lipschitz_class_enclosure(
     >>> float(e.lo), e.lo == e.hi
     (1.657142857142857, True)
     """
-    if m.kind == "randomized_response" and m.t().hi == INF:
-        return "randomized response beyond epsilon = 10^6: its e^epsilon has no finite upper end to solve at"
     n, n_out = m.k, len(m.outputs)
     if n * n_out > MAX_VARIABLES:
         return f"programs beyond {MAX_VARIABLES} variables"
@@ -97,11 +95,7 @@ def _rows_at_ends(m: RecordedMechanism) -> list[tuple[tuple[Fraction, ...], ...]
     rows = m.matrix_rows()
     if rows is not None:
         return [rows]
-    out = []
-    for t in (m.t().lo, m.t().hi):
-        p, q = t / (t + m.k - 1), 1 / (t + m.k - 1)
-        out.append(tuple(tuple(Fraction(p if i == j else q) for j in range(m.k)) for i in range(m.k)))
-    return out
+    return [tuple(tuple(p if i == j else q for j in range(m.k)) for i in range(m.k)) for p, q in m.rr_ends()]
 
 
 def _worst(

@@ -177,6 +177,22 @@ class RecordedMechanism:
         t = exp_of(eps)  # type: ignore[arg-type]
         return Enclosure(max(Fraction(1), t.lo), t.hi)
 
+    def rr_ends(self) -> tuple[tuple[Fraction, Fraction], tuple[Fraction, Fraction]]:
+        """Randomized response's exact (p, q) at the lower and at the upper end of its e^ε; beyond ε = 10^6, where
+        e^ε has no finite upper end, the upper end is the identity's (1, 0), the limit as e^ε → ∞.
+
+        A worst case over models behind randomized response is non-decreasing in e^ε, and the identity followed by
+        randomized response at any e^ε is randomized response there, so the identity's worst case bounds it from
+        above (post-processing; ``proofs/verification.md`` §4d).
+
+        >>> m = RecordedMechanism("randomized_response", ("a", "b"), ("a", "b"), epsilon=Fraction(2 * 10**6))
+        >>> m.rr_ends()[1]
+        (Fraction(1, 1), Fraction(0, 1))
+        """
+        t, m = self.t(), self.k - 1
+        ends = [(t / (t + m), 1 / (t + m)) if t != INF else (Fraction(1), Fraction(0)) for t in (t.lo, t.hi)]
+        return ends[0], ends[1]  # type: ignore[return-value]
+
     def rr_rows(self) -> tuple[Enclosure, Enclosure]:
         """Randomized response's (p, q) = (t/(t + k − 1), 1/(t + k − 1)), enclosed (p increases in t, q decreases)."""
         t, m = self.t(), self.k - 1

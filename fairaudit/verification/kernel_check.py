@@ -125,9 +125,6 @@ def kernel_settings(
     >>> s.sensitive[0], s.context, s.group_free
     ((Fraction(3, 4), Fraction(1, 4)), None, False)
     """
-    for m, name in ((sensitive, "the sensitive attribute"), (context, "the context")):
-        if m.kind == "randomized_response" and m.t().hi == INF and m.t().lo != INF:
-            return f"randomized response on {name} beyond epsilon = 10^6: its e^epsilon has no finite upper end"
     u = inputs["utility"]
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     values = recorded_array(u["values"], "inputs.utility.values")
@@ -158,11 +155,7 @@ def _rows(m: RecordedMechanism, end: int) -> Rows:
     exact_rows = m.matrix_rows()
     if exact_rows is not None:
         return exact_rows
-    t = m.t()
-    if t.lo == INF:  # ε = +inf: the identity
-        return tuple(tuple(Fraction(int(i == j)) for j in range(m.k)) for i in range(m.k))
-    at = Fraction(t.lo if end == 0 else t.hi)
-    p, q = at / (at + m.k - 1), 1 / (at + m.k - 1)
+    p, q = m.rr_ends()[end]  # (the identity's (1, 0) at ε = +inf, and as the upper end beyond ε = 10^6)
     return tuple(tuple(p if i == j else q for j in range(m.k)) for i in range(m.k))
 
 

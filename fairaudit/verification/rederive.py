@@ -333,10 +333,17 @@ accuracy, not to the last digit (the value is an upper end over every pair all t
 
 
 def _maximiser_checks(
-    cert: Mapping[str, Any], detail: Mapping[str, Any], glob: Mapping[str, Any], global_re_derived: bool
+    cert: Mapping[str, Any],
+    detail: Mapping[str, Any],
+    glob: Mapping[str, Any],
+    global_re_derived: bool,
+    eps_a: Enclosure,
+    clips: tuple[bool, bool],
 ) -> list[Check]:
     """The black box's context and pair attain its worst cases (to :data:`PAIR_TOLERANCE`): a swapped pair fails.
-    L̄'s pair only where L̄ is re-derived (``global_re_derived``; else it is listed with L̄ as not re-derived)."""
+    L̄'s pair only where L̄ is re-derived (``global_re_derived``; else it is listed with L̄ as not re-derived).
+    ``clips`` says, for L and L̄, whether a pair's reach is at most ε(M_A), as for the values (:func:`_below_epsilon`:
+    beyond ε = 10^6 the upper end is solved at the identity, where a pair's ratio may be c/0)."""
     from fairaudit.verification.black_box_check import pair_enclosures
 
     out = []
@@ -349,10 +356,10 @@ def _maximiser_checks(
     if global_re_derived and glob.get("value") is not None and glob.get("group") is not None:
         g_pair = pair_enclosures(cert["inputs"], detail.get("context"), glob.get("group"), glob.get("other_group"))[1]
         named.append(("bound_details.black_box.global (its groups)", glob, g_pair, ()))
-    for name, where, pair, context in named:
+    for (name, where, pair, context), clip in zip(named, clips):
         labels = " vs ".join(str(v) for v in (*context, where.get("group"), where.get("other_group")))
         value = exact(where["value"], name)
-        reach = None if pair is None else ln_of(pair).hi
+        reach = None if pair is None else (_below_epsilon(pair, eps_a) if clip else ln_of(pair)).hi
         if reach is None:
             ok = False
         elif value == INF or reach == INF:
@@ -389,7 +396,8 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     ]
     out += _witness_checks("bound_details.black_box", detail, worst.local, local, eps_a, clip=worst.group_free)
     glob = detail.get("global") or {}
-    out += _maximiser_checks(cert, detail, glob, worst.global_ is not None)
+    clips = (worst.group_free, worst.independent and worst.group_free)
+    out += _maximiser_checks(cert, detail, glob, worst.global_ is not None, eps_a, clips)
     if worst.global_ is None:
         skipped.append(("bounds.global", worst.reason))
         skipped.append(("bound_details.black_box.global", worst.reason))

@@ -613,3 +613,43 @@ def test_randomized_response_with_a_metric_takes_the_farthest_pair(tmp_path):
                  "lipschitz = 0.05\nmetric = [[0.0, 1.0, 1.0], [1.0, 0.0, 2.0], [1.0, 2.0, 0.0]]\n")  # fmt: skip
     result = _regression(spec, None, tmp_path)
     assert result.holds, [c.line() for c in result.failures]
+
+
+K3 = "grp,dec,probability\ng0,d0,0.9\ng0,d1,0.1\ng1,d0,0.5\ng1,d1,0.5\ng2,d0,0.2\ng2,d1,0.8\n"
+GROUP_DEPENDENT = '[utility]\nkind = "table"\nvalues = [[[1.0, 0.0], [0.5, 0.0], [1.0, 0.2]]]\ntau = 0.1\n'
+BEYOND_1E6 = {  # randomized response at 2e6 nats: e^epsilon has no finite upper end in floats
+    "lower 0, no tau (the value is epsilon)": (_spec(G2, RR.format(2e6) + '[utility]\ndecision = "d0"\n'), None),
+    "a floor": (_spec(G3, RR.format(2e6) + '[utility]\ndecision = "d0"\ntau = 0.25\n'), None),
+    "a utility of the group, with a model": (
+        _spec(G3, RR.format(2e6) + '[model]\ntable = "table.csv"\n' + GROUP_DEPENDENT),
+        K3,
+    ),
+    "a Lipschitz class": (_spec(G3, RR.format(2e6) + GROUP_DEPENDENT + "lipschitz = 0.5\n"), None),
+    "on the context": (
+        _spec(G2, '[context]\nname = "ctx"\nvalues = ["c0", "c1"]\n[privacy.context]\n')
+        + 'mechanism = "randomized_response"\nepsilon = 2e6\n'
+        + RR.format(1.0)
+        + '[utility]\ndecision = "d0"\ntau = 0.25\n',
+        None,
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(BEYOND_1E6))
+def test_randomized_response_beyond_epsilon_1e6_is_re_derived(name, tmp_path):
+    # the worst case is non-decreasing in e^epsilon, and the identity followed by randomized response is randomized
+    # response: the identity's worst case is the upper end (RecordedMechanism.rr_ends); each bound moved 1e-9 the
+    # wrong way fails
+    spec, csv = BEYOND_1E6[name]
+    (tmp_path / "spec.toml").write_text(spec, encoding="utf-8")
+    if csv is not None:
+        (tmp_path / "table.csv").write_text(csv, encoding="utf-8")
+    cert = json.loads(json.dumps(fairaudit.certify(tmp_path / "spec.toml").to_dict()))
+    result = _holds(cert)
+    assert not [n for n, why in result.not_checked if "10^6" in why]
+    judged = [c for c in result.checks if c.side in ("upper", "lower") and "black_box" in c.name]
+    assert judged
+    for check in judged:
+        moved = moved_outward_wrong(cert, check.name, check.side)
+        if moved is not None:
+            assert check.name in [c.name for c in fairaudit.verify(moved).failures], check.name

@@ -256,10 +256,17 @@ def floor_max_many(
     qs, cq = _prefix_sums(q * span, order)
     d0 = (q * lo).sum(-1)
     n0 = (p * lo).sum(-1)
-    d_star = d0 + np.take_along_axis(cq, k[..., None], -1)[..., 0]
+    # q·h at the shortest optimal prefix: the threshold's k is the longest prefix tied to 1e-12, whose q·h may meet
+    # the floor where the maximiser's does not (a value 1e-12 relative above the optimum with the floor)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        num, den = n0[..., None] + cp, d0[..., None] + cq
+        ratios = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
+    shortest = np.argmax(ratios, axis=-1)
+    del num, den, ratios
+    d_star = d0 + np.take_along_axis(cq, shortest[..., None], -1)[..., 0]
     g = sum_error(shape[-1])
     # low only where the unconstrained optimum's q·h is surely below the floor (else its value, an upper bound)
-    low = (d_star < floor * (1 - 1e-12)) & (up(d_star * up(1.0 + g)) < floor)
+    low = (up(d_star * up(1.0 + g)) < floor) & ~np.all(p == q, axis=-1)  # (p = q: every ratio is exactly 1)
     need = floor - d0
     j = np.clip((cq >= need[..., None] - 1e-15 * floor).argmax(-1) - 1, 0, shape[-1] - 1)
     qj = np.take_along_axis(qs, j[..., None], -1)[..., 0]

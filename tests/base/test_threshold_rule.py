@@ -100,3 +100,26 @@ def test_equal_weights_give_exactly_one():
     q[:, 0] *= 2  # max ratio still exactly 1 (any h on the other cells), but p != q: rounded up past it
     values, _, _ = threshold_max_many(p, q, 0.0, 1.0)
     assert np.all((values > 1.0) & (values < 1.0 + 1e-13))
+
+
+@pytest.mark.parametrize("floor", [1.0, 1.0 - 2**-52, 0.75])
+def test_floor_max_decides_the_floor_at_the_shortest_optimal_prefix(floor):
+    # randomized response at 1e-12 as a matrix: the prefixes {0} (ratio 1 + 1e-12) and {0, 1} (ratio 1) tie to 1e-12;
+    # the longest meets a floor near 1, the maximiser does not, and the value was the unconstrained 1 + 1e-12, above
+    # the exact optimum with the floor (the rational simplex's) by 1e-12 relative
+    from fairaudit.base.exact_programs import maximize_ratio
+    from fairaudit.base.threshold_rule import floor_max_many
+
+    p = np.array([0.50000000000025, 0.49999999999975])
+    q = p[::-1].copy()
+    value = float(floor_max_many(p, q, 0.0, 1.0, floor)[0])
+    exact = maximize_ratio(
+        [Fraction(x) for x in p],
+        [Fraction(x) for x in q],
+        [0, 0],
+        [1, 1],
+        [[-Fraction(x) for x in q]],
+        [-Fraction(floor)],
+    ).value
+    assert exact is not None
+    assert Fraction(value) >= exact and value - float(exact) <= 1e-14 * float(exact)

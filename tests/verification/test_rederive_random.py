@@ -576,6 +576,18 @@ def test_observed_metrics_at_the_edge_of_the_float_range(epsilon, omitted, tmp_p
         assert abs(cert["observed"]["local"]["value"] - epsilon) <= 1e-12 * epsilon
 
 
+# randomized response at 1e-12 given as a matrix (a product of one component), tau = max g = 1: the black box was
+# 1.0032e-12 nats for an exact 0 (1e-12 relative above, beyond verify's tolerance), because the floor was decided at
+# the threshold's longest prefix tied to 1e-12, which meets it, while the maximiser does not (fixed in certify:
+# threshold_rule.floor_max_many decides it at the shortest optimal prefix)
+REGRESSIONS["a floor decided at the longest tied prefix"] = (
+    HEAD.format(groups="[]").replace("values = []\n", "").replace('["d0", "d1"]', '["d0", "d1"]\nunparsed = "d1"')
+    + '[privacy.sensitive]\nmechanism = "product"\ncomponents = [{ values = ["x0", "x1"], '
+    + 'mechanism = "randomized_response", epsilon = 1e-12 }]\n[utility]\ndecision = "d0"\ntau = 1.0\n',
+    None,
+)
+
+
 @pytest.mark.parametrize("name", list(REGRESSIONS))
 def test_found_certificates_hold(name, tmp_path):
     result = _regression(*REGRESSIONS[name], tmp_path)

@@ -227,6 +227,8 @@ def _on_l_bar(
     r = [pop[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] for a in range(len(p_a)) if p_a[a]]
     if max(r) == min(r):
         return on_l[0], "worst case on L (L-bar <= L: X and A independent)"
+    if min(r) == 0:  # a cell P(x, a) = 0 with P(x) P(a) > 0 (within 1e-9 of independence): F = +inf
+        return Enclosure.point(INF), "worst case on L plus ln F, F = +inf (a cell P(x, a) = 0 with P(x) P(a) > 0)"
     return on_l[0] + ln(max(r) / min(r)), "worst case on L plus ln F (X and A independent within rounding)"
 
 

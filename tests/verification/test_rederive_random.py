@@ -665,3 +665,16 @@ def test_randomized_response_beyond_epsilon_1e6_is_re_derived(name, tmp_path):
         moved = moved_outward_wrong(cert, check.name, check.side)
         if moved is not None:
             assert check.name in [c.name for c in fairaudit.verify(moved).failures], check.name
+
+
+def test_an_edited_population_cell_of_zero_fails_the_digest_without_a_traceback(tmp_path):
+    # the cell P(c0, g0) = 0 moved to 1e-9: within 1e-9 of independence, F = max r / min r divided by min r = 0 and
+    # verify raised ZeroDivisionError (the calibration's L-bar from L; fixed in verify: F = +inf there)
+    spec = _spec(G2, '[context]\nname = "ctx"\nvalues = ["c0", "c1"]\ndistribution = [0.0, 1.0]\n')
+    spec += '[privacy.sensitive]\nmechanism = "identity"\n[utility]\ndecision = "d0"\n[target]\nglobal = 0.1\n'
+    (tmp_path / "spec.toml").write_text(spec, encoding="utf-8")
+    cert = json.loads(json.dumps(fairaudit.certify(tmp_path / "spec.toml").to_dict()))
+    assert fairaudit.verify(cert).holds
+    cert["inputs"]["population"]["probabilities"][0][0] += 1e-9
+    failing = [c.name for c in fairaudit.verify(cert).failures]
+    assert "inputs_sha256" in failing and "calibration.bound" in failing, failing

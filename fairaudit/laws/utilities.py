@@ -54,7 +54,19 @@ def check_metric(metric: npt.ArrayLike | None, n_groups: int) -> FloatArray:
     ------
     InputError
         Unless the array has shape (n, n), is finite, symmetric, zero on the
-        diagonal and positive off it.
+        diagonal and positive off it, and meets the triangle inequality
+        d(a, c) ≤ d(a, b) + d(b, c) (within :data:`TRIANGLE_SLACK` relative,
+        the rounding of distances computed in floats). A table that misses it
+        is no metric: a utility Lipschitz for it is Lipschitz for its shortest
+        paths, a smaller diameter, so the bounds that read the diameter would
+        overstate the worst case they claim to be.
+
+    Examples
+    --------
+    >>> check_metric([[0, 1, 3], [1, 0, 1], [3, 1, 0]], 3)
+    Traceback (most recent call last):
+    ...
+    fairaudit.base.errors.InputError: metric: must meet the triangle inequality: d(0, 2) = 3 > d(0, 1) + d(1, 2) = 2 (got [[0.0, 1.0, 3.0], [1.0, 0.0, 1.0], [3.0, 1.0, 0.0]])
     """
     if metric is None:
         return discrete_metric(n_groups)
@@ -63,7 +75,29 @@ def check_metric(metric: npt.ArrayLike | None, n_groups: int) -> FloatArray:
     off = ~np.eye(n_groups, dtype=bool)
     if not np.all(np.isfinite(d)) or np.any(d[off] <= 0) or np.any(np.diag(d) != 0) or np.any(d != d.T):
         raise InputError("metric", "must be symmetric, zero on the diagonal and positive off it", d.tolist())
+    _check_triangle(d)
     return d
+
+
+TRIANGLE_SLACK = 1e-13
+"""How far (relative) d(a, c) may exceed d(a, b) + d(b, c): the rounding of distances computed in floats (|p_a − p_c|
+is within 2^-53 relative of its exact value, so a line's distances miss the inequality by an ulp or two). A metric's
+diameter overstated by this much moves a bound by less than verify's tolerance (1e-12 relative)."""
+
+
+def _check_triangle(d: FloatArray) -> None:
+    """d(a, c) ≤ (d(a, b) + d(b, c))·(1 + :data:`TRIANGLE_SLACK`) for every a, b, c, one b at a time (n² memory)."""
+    for b in range(d.shape[0]):
+        sums = d[:, b, None] + d[None, b, :]
+        bad = np.argwhere(d > sums * (1 + TRIANGLE_SLACK))
+        if bad.size:
+            a, c = (int(i) for i in bad[0])
+            raise InputError(
+                "metric",
+                f"must meet the triangle inequality: d({a}, {c}) = {d[a, c]:g} > d({a}, {b}) + d({b}, {c}) = "
+                f"{sums[a, c]:g}",
+                d.tolist(),
+            )
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -92,7 +126,8 @@ class UtilityClass:
         L_A ≥ 0: |g(u, x, a) − g(u, x, a')| ≤ L_A·d(a, a'); 0 means g does not
         depend on the group.
     metric : array_like, shape (n_groups, n_groups), optional
-        d(a, a'), symmetric, zero on the diagonal and positive off it (checked
+        d(a, a'), a metric: symmetric, zero on the diagonal, positive off it and
+        meeting the triangle inequality (checked
         against the group count where it is used); None: the discrete metric.
     diameter : float, optional
         diam(A) = max d(a, a') for the bounds that need only it (the paper

@@ -159,3 +159,26 @@ def test_utility_class_fields_left_out_are_the_function_defaults():
     assert with_metric.diameter == 2.0 and with_metric.value == pytest.approx(math.log(3.8), rel=1e-15)
     with pytest.raises(fa.InputError, match=r"^utility_class: must be a UtilityClass \(got 'dict'\)$"):
         fa.paper_bound(rr, utility_class={"gamma": 1.0})
+
+
+def test_a_metric_must_meet_the_triangle_inequality():
+    # d(g2, g3) = 3 > d(g2, g0) + d(g0, g3) = 2: a utility 0.05-Lipschitz for this table is so for its shortest paths
+    # (diameter 2), and the calibration's closed form at diameter 3 was 0.046 nats above the exact worst case
+    from fairaudit.laws.utilities import check_metric
+
+    d = [[0.0, 1.0, 1.0, 1.0], [1.0, 0.0, 1.0, 1.0], [1.0, 1.0, 0.0, 3.0], [1.0, 1.0, 3.0, 0.0]]
+    with pytest.raises(fa.InputError, match=r"^metric: must meet the triangle inequality: d\(2, 3\) = 3 > d\(2, 0\)"):
+        check_metric(d, 4)
+    d[2][3] = d[3][2] = 2.0  # a tie is a metric
+    assert check_metric(d, 4)[2, 3] == 2.0
+    # 0.1 + 0.2 rounds above 0.3, and exactly too: a metric
+    assert check_metric([[0, 0.1, 0.3], [0.1, 0, 0.2], [0.3, 0.2, 0]], 3)[0, 2] == 0.3
+    # distances of points on a line computed in floats miss the inequality by an ulp: accepted (1e-13 slack)
+    p = [0.326, 3.276, 4.568]
+    line = [[abs(x - y) for y in p] for x in p]
+    assert line[0][2] > line[0][1] + line[1][2]
+    assert check_metric(line, 3)[0, 2] == line[0][2]
+    # beyond the slack, refused: 1e-12 relative over
+    over = 2.0 * (1 + 1e-12)
+    with pytest.raises(fa.InputError, match=r"^metric: must meet the triangle inequality: d\(0, 2\)"):
+        check_metric([[0, 1, over], [1, 0, 1], [over, 1, 0]], 3)

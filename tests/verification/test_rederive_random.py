@@ -160,7 +160,8 @@ def utilities(draw: st.DrawFn, decisions: list[str], n_contexts: int, k: int) ->
     if draw(st.integers(0, 3)) == 0:
         u["lipschitz"] = draw(st.sampled_from([0.0, 0.05, 0.5]))
     if draw(st.integers(0, 3)) == 0:
-        d = {(a, b): float(draw(st.integers(1, 3))) for a in range(k) for b in range(a + 1, k)}
+        # distances 2 or 3: a metric (3 <= 2 + 2), as check_metric requires
+        d = {(a, b): float(draw(st.integers(2, 3))) for a in range(k) for b in range(a + 1, k)}
         u["metric"] = [[0.0 if a == b else d[min(a, b), max(a, b)] for b in range(k)] for a in range(k)]
     return u
 

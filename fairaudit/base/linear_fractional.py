@@ -420,6 +420,9 @@ class FractionalProgram:
             an infeasible or unbounded program. A box program (no rows, finite bounds ≥ 0, p and q ≥ 0) that the
             solver calls unbounded or whose value its dual cannot certify (badly scaled data: cells of 1e-11) is
             solved by the threshold rule instead, exact on a box (:func:`threshold_max`); ``solver_status`` says so.
+            A program with rows that the solver calls unbounded is solved by the rational simplex where it is within
+            :data:`CROSSOVER_SIZE` (+inf only where a vertex has q·h = 0 < p·h exactly); beyond it, +inf stands, an
+            upper bound of every ratio.
         """
         p, q = _vectors(p, q)
         if p.size != self.n:
@@ -447,13 +450,23 @@ class FractionalProgram:
             return exact if exact is not None else _failed(result, "solver_error", f"the solver failed: {exc}")
         status = prob.status
         if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
-            return result(
-                value=math.inf,
-                argmax=None,
-                status="unbounded",
-                solver_status=status,
-                reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
-                certified=True,  # +inf bounds every ratio
+            # the solver's word is checked where the program is small: on badly scaled data (e^30 beside 1) Clarabel
+            # called a ratio unbounded whose exact maximum is finite (a box program goes to the threshold rule, solve)
+            checkable = bool(self._rows) and self._bounded
+            exact = (
+                self._crossover(result, p, q, status, "the solver called the ratio unbounded") if checkable else None
+            )
+            return (
+                exact
+                if exact is not None
+                else result(
+                    value=math.inf,
+                    argmax=None,
+                    status="unbounded",
+                    solver_status=status,
+                    reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
+                    certified=True,  # +inf bounds every ratio
+                )
             )
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return self._zero_denominator(p, q, status)

@@ -649,6 +649,11 @@ class FractionalProgram:
         import cvxpy as cp
 
         result = self._result(p, q)
+        if self._bounded:  # a small program is told exactly: empty, or +inf at a vertex with q·h = 0 < p·h
+            why = "the solver called the transformed program infeasible"
+            exact = self._crossover(result, p, q, status, why, report_empty=True)
+            if exact is not None:
+                return exact
         try:
             primal_status, value, h = self._primal_max(p)
         except cp.error.SolverError as exc:  # pragma: no cover
@@ -656,6 +661,11 @@ class FractionalProgram:
 
         if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return _no_solution(result, status, _INCONSISTENT)
+        if self._bounded and primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
+            # max p·h over a bounded polytope is finite: the solver's word and its point (a ray of 1e38) are wrong
+            return _failed(
+                result, f"{status}; {primal_status}", "the solver called max p·h over a bounded box unbounded"
+            )
         if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
             return result(
                 value=math.inf,

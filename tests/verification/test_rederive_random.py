@@ -561,6 +561,20 @@ REGRESSIONS["a finite ratio the solver called unbounded"] = (
     None,
 )
 
+# no model meets tau = 2e-6 (x1's utility is 0 in every context): Clarabel called L-bar's Charnes-Cooper LP infeasible,
+# then max p.h over the bounded box unbounded, and its ray (entries of 1e38) was taken for the worst model: certify
+# exited 2 on a NaN kernel (fixed in certify: the transformed program called infeasible is told exactly by the rational
+# simplex where small, and a bounded box called unbounded is a solver failure, base.linear_fractional)
+REGRESSIONS["no model meets tau, the solver's ray taken for a model"] = (
+    HEAD.format(groups="[]").replace("values = []\n", "").replace('["d0", "d1"]', '["d0", "d1", "d2"]')
+    + THREE_CONTEXTS
+    + '[privacy.sensitive]\nmechanism = "product"\ncomponents = [{ values = ["x0", "x1", "x2", "x3"] }]\n'
+    + '[utility]\nkind = "table"\ntau = 2e-06\nvalues = [[[0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], '
+    + "[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]], [[0.0, 0.0, 2.0], "
+    + "[0.0, 0.0, 0.0], [0.2, 0.0, 0.0], [0.0, 0.0, 0.0]]]\n",
+    None,
+)
+
 # randomized response at 800 nats behind a model that sends g0 to d0 and g1 to d1: q = 1/(e^800 + 1) underflows to 0,
 # so the observed L read +inf where the exact value is 800 (verify failed every observed number; fixed in certify: the
 # law behind the filter is refused where a cell of positive probability is below the float range, laws.tables.compose,

@@ -57,6 +57,7 @@ def _formulas(text: str) -> list[tuple[str, str]]:
     return re.findall(r'<(span|div) class="arithmatex">(.*?)</\1>', md.convert(text), re.S)
 
 
+@pytest.mark.slow
 def test_every_formula_of_the_site_converts():
     failures, count = [], 0
     for path in SOURCES:

@@ -397,6 +397,7 @@ def _default(page: Page) -> list[Command]:
     return [c for c in page.commands if not _listed(NOT_RUN, c) and not _listed(SLOW, c)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page", [p for p in PARSED if _default(p)], ids=lambda p: p.path)
 def test_page_runs_as_written(page, tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("COLUMNS", "80")  # argparse wraps --help at the terminal width

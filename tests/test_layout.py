@@ -81,6 +81,7 @@ def _imports(path: Path) -> list[tuple[str, list[str], int]]:
     return out
 
 
+@pytest.mark.slow
 def test_no_private_name_is_imported_across_modules():
     known = {_name(p) for p in MODULES}
     found = [
@@ -94,6 +95,7 @@ def test_no_private_name_is_imported_across_modules():
     assert found == []
 
 
+@pytest.mark.slow
 def test_no_import_cycle():
     names = {_name(p): p for p in MODULES}
     graph: dict[str, set[str]] = {}

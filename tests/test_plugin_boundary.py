@@ -153,6 +153,7 @@ def test_the_boundary_check_lets_public_and_plugin_imports_through():
     assert boundary_violations(source, PLUGIN / "vlm" / "filter.py") == []
 
 
+@pytest.mark.slow
 def test_no_core_module_imports_the_plugin():
     found = []
     for path in sorted(PACKAGE.rglob("*.py")):
@@ -200,6 +201,7 @@ def test_a_core_commands_help_leaves_the_plugin_out(command):
     assert _modules_after(_HELP.format(argv=[command, "--help"])) == set()
 
 
+@pytest.mark.slow
 def test_the_commands_list_imports_nothing_of_the_plugin_but_what_it_registers():
     """``fairaudit --help``: without a plug-in, nothing of the experiments; with it, only its light command modules."""
     assert _modules_after(_NO_PLUGIN + _HELP.format(argv=["--help"])) == set()

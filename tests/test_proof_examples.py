@@ -417,6 +417,7 @@ def test_black_box_example_2_lipschitz_is_58_35():
     ) == pytest.approx(2.0, rel=CLOSED)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "tau, expected, point, tight",
     [

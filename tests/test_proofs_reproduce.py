@@ -22,6 +22,7 @@ def _blocks():
             yield pytest.param(m.group(1), m.group(2), id=f"{path.name}#{i + 1}")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("code, want", list(_blocks()))
 def test_proof_block_prints_its_text(code, want, monkeypatch):
     monkeypatch.syspath_prepend(str(PROOFS))

@@ -13,6 +13,7 @@ from fractions import Fraction
 
 import mpmath
 import numpy as np
+import pytest
 
 import fairaudit as fa
 from fairaudit.worstcase.randomized_response import rr_class_value
@@ -90,6 +91,7 @@ def _tight_reference(matrix: np.ndarray, gamma: float, tau: float) -> mpmath.mpf
     return mpmath.log(best)
 
 
+@pytest.mark.slow
 def test_general_mechanisms_against_50_digits():
     rng = np.random.default_rng(41)
     with mpmath.workdps(50):
@@ -266,6 +268,7 @@ def _log(r) -> mpmath.mpf:
     return mpmath.log(mpmath.mpf(r.numerator) / r.denominator)
 
 
+@pytest.mark.slow
 def test_black_box_bound_of_general_mechanisms_against_50_digits():
     """The black-box route on a general M_A (the threshold solution, and the LP forced): ≥ the exact box program."""
     rng = np.random.default_rng(17)
@@ -281,6 +284,7 @@ def test_black_box_bound_of_general_mechanisms_against_50_digits():
                 _upper(got.value, exact, f"case {case}: black box ({method})")
 
 
+@pytest.mark.slow
 def test_known_utility_worst_case_by_the_lp_against_50_digits():
     """The general LP route (worst_model, method="lp"): a utility that depends on the group, M_X not the identity,
     a dependent population; every value ≥ the exact maximum (Dinkelbach over the vertices, in rationals)."""
@@ -340,6 +344,7 @@ def test_observed_fairness_against_50_digits():
                 )
 
 
+@pytest.mark.slow
 def test_known_utility_worst_case_with_a_binding_tau_against_the_exact_simplex():
     """G-space with a binding τ and M_X not the identity (coefficients with roundings): each route's value ≥ the exact
     maximum of the same program solved in rationals by the bounded simplex and Dinkelbach (a second algorithm)."""
@@ -388,6 +393,7 @@ def test_known_utility_worst_case_with_a_binding_tau_against_the_exact_simplex()
                 _upper(r.value, _log(best), f"case {case}: worst model with tau ({method})")
 
 
+@pytest.mark.slow
 def test_worst_utility_of_a_law_against_50_digits():
     """The known-law worst case (worst_utility): L on the law's rows, L̄ on P(u | a) = Σ_x P(x | a) Q[x, a, u] under a
     dependent population (computed with roundings); both ≥ the exact box programs (vertices of [lower, 1]^n_u)."""
@@ -427,6 +433,7 @@ def _matrix_of(rng: np.random.Generator, n: int, m: int) -> np.ndarray:
     return x / x.sum(axis=1, keepdims=True)
 
 
+@pytest.mark.slow
 def test_known_utility_worst_case_behind_randomized_response_against_50_digits():
     """worst_model behind k-ary randomized response (its closed forms, with M_X and a population): ≥ the worst case
     over the kernels, by Dinkelbach at 50 digits on the mechanism's exact law p = e^ε/(e^ε + k − 1)."""

@@ -60,6 +60,7 @@ def test_import_fairaudit_imports_no_heavy_module():
     assert _heavy(names) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", [(), *((c,) for c in COMMANDS)], ids=lambda c: " ".join(c) or "fairaudit")
 def test_help_imports_no_heavy_module(command):
     names = _imported("-m", "fairaudit.cli", *command, "--help")
@@ -67,6 +68,7 @@ def test_help_imports_no_heavy_module(command):
     assert _heavy(names) == []
 
 
+@pytest.mark.slow
 def test_the_check_catches_a_heavy_import():
     """The test above can fail: an interpreter that imports scipy.stats is caught."""
     caught = _heavy(_imported("-c", "import fairaudit, scipy.stats"))

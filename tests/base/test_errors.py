@@ -150,6 +150,7 @@ def test_a_spec_with_its_sensitive_table_is_not_taken_for_a_task_file(tmp_path, 
 HUGE_EPSILON_SPEC = OFFICE_SPEC.replace("keep = 0.7", "epsilon = 1e308") + "tau = 0.1\n"
 
 
+@pytest.mark.slow
 def test_a_huge_epsilon_draws_the_html_figure_without_a_warning(tmp_path):
     """``epsilon = 1e308`` printed matplotlib's ``RuntimeWarning: overflow encountered in multiply`` on stderr."""
     pytest.importorskip("matplotlib")

@@ -197,6 +197,7 @@ def highs(c, lower, upper, A, b):
     return res.status, (-res.fun if res.status == 0 else None), res.x
 
 
+@pytest.mark.slow
 @given(polytopes(), st.lists(small, min_size=6, max_size=6))
 def test_linear_programs_agree_with_highs(polytope, costs):
     lower, upper, A, b = polytope
@@ -229,6 +230,7 @@ def charnes_cooper(p, q, lower, upper, A, b):
     return res.status, (-res.fun if res.status == 0 else None)
 
 
+@pytest.mark.slow
 @given(
     polytopes(positive=True),
     st.lists(small, min_size=6, max_size=6),
@@ -278,6 +280,7 @@ def block_diagonal(blocks):
     return lower, upper, rows, bounds
 
 
+@pytest.mark.slow
 @given(
     st.lists(
         st.tuples(

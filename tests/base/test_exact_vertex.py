@@ -63,6 +63,7 @@ def test_an_inconsistent_equality_is_refused():
     assert np.isnan(vertex_witness(h, np.ones(2), np.ones(2), np.zeros(2), np.ones(2), rows))
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(2, 4), st.integers(1, 3))
 def test_the_vertex_witness_is_a_lower_end_and_tight_at_the_solvers_point(seed, n_u, n_rows):

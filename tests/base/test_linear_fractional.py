@@ -22,6 +22,7 @@ def _instance(seed: int, n: int):
     return p, q, lo, lo + rng.uniform(0.01, 1.0, n)
 
 
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1), st.integers(1, 30))
 def test_threshold_equals_lp(seed, n):
     p, q, lo, hi = _instance(seed, n)
@@ -56,6 +57,7 @@ def _dinkelbach(p, q, a_ub, b_ub, lo, hi):
     return lam
 
 
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1), st.integers(2, 12), st.integers(1, 4))
 def test_lp_with_constraints_equals_dinkelbach(seed, n, m):
     # Polytope: box plus m constraints r_j . h >= tau_j (like lower bounds on E[g | x, b]).

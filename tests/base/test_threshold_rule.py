@@ -38,6 +38,7 @@ def test_a_batch_is_each_program_alone(seed, n, batch):
         assert box_point(lo[i], hi[i], order[i], int(k[i])).tolist() == alone.argmax.tolist()
 
 
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1), st.integers(1, 20), st.floats(0.01, 1.0))
 def test_floor_closed_form_equals_lp(seed, n, share):
     # max p·h / q·h over the box with q·h >= floor: closed form (fractional knapsack at the floor) vs the LP.
@@ -64,6 +65,7 @@ def _exact_box_max(p, q, lo, hi) -> Fraction:
     return best
 
 
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1), st.integers(1, 7), st.sampled_from(["tiny", "ties", "ulp", "plain"]))
 def test_threshold_values_are_upper_bounds_on_near_degenerate_boxes(seed, n, kind):
     rng = np.random.default_rng(seed)

@@ -96,6 +96,7 @@ def test_three_groups_ratio_is_e_to_the_epsilon():
     assert np.all(c.tight <= c.paper + 1e-12)
 
 
+@pytest.mark.slow
 def test_hr_example_observed_L_is_three_log_odds_and_tau_fails_where_hand_calculation_says():
     """Product of three binary randomized responses, each keeping with p: L = 3 ln(p/(1-p)), min E = (1-p)^3."""
     spec = load_spec(HR_SPEC)

@@ -217,6 +217,7 @@ def test_certify_keeps_the_stated_default(tmp_path, capsys):
 # -- (c) the experiment's spec files -------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_experiment_spec_names_the_unparsed_outcome(tmp_path, capsys):
     out = tmp_path / "loan"
     code, _, err = run(capsys, "experiment", LOAN, "--samples", "4", "--out", out, "--no-images", "--no-progress")

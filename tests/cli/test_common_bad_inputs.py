@@ -627,6 +627,7 @@ def spec_folder(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 @settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(d=malformed_specs())
 def test_malformed_specs_exit_cleanly(spec_folder, d):

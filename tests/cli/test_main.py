@@ -440,6 +440,7 @@ def test_usage_errors_are_one_line(capsys):
     assert exc.value.code == 2 and err.count("\n") == 1 and "--sensitive" in err
 
 
+@pytest.mark.slow
 def test_console_script_no_traceback(tmp_path):
     spec = write(tmp_path, "[sensitive]\nname = 1\n")
     proc = subprocess.run([sys.executable, "-m", "fairaudit.cli", "certify", str(spec)], capture_output=True, text=True)

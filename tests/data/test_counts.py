@@ -51,6 +51,7 @@ def test_clopper_pearson_matches_scipy_binomtest():
     assert (iv.local_fairness.group, iv.local_fairness.other_group, iv.n_sets) == ("b", "a", 2)
 
 
+@pytest.mark.slow
 def test_interval_coverage_small_simulation():
     # Known law: two contexts, three groups; the simultaneous 90% interval must cover L in >= 90% of 300 draws.
     rng = np.random.default_rng(11)

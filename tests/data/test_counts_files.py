@@ -122,6 +122,7 @@ def records(draw):
     )
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=[HealthCheck.too_slow], max_examples=150)
 @given(records())
 def test_streamed_counts_identical_to_pandas(case):

@@ -265,6 +265,7 @@ def test_unknown_file_names_are_refused(tmp_path):
 FIELD = st.sampled_from(["a", "b", "Male", "x y", "7", "-1", "?"])
 
 
+@pytest.mark.slow
 @settings(deadline=None, max_examples=60)
 @given(
     rows=st.lists(st.tuples(FIELD, FIELD, FIELD), min_size=1, max_size=25),

@@ -190,6 +190,7 @@ def text_records(draw):
     return rows, n_cols, na_values
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture], max_examples=120)
 @given(text_records(), st.sampled_from([",", ";", "\t"]), st.sampled_from(["\n", "\r\n"]))
 def test_text_columns_are_labelled_by_the_rule(tmp_path, case, sep, newline):
@@ -515,6 +516,7 @@ def test_importing_estimate_does_not_start_duckdb():
         assert "pyarrow" not in loaded
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("suffix", [".parquet", ".csv"])
 def test_files_are_counted_without_pandas_nor_pyarrow(tmp_path, suffix):
     """Any keys, missing values and categoricals included: DuckDB groups, numpy counts; pandas is not imported."""

@@ -217,6 +217,7 @@ def test_a_reply_whose_token_is_not_listed_gets_its_lower_bound_and_the_bound_on
 # --- endpoint_kernel: the law to 1e-9 on every route -------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", sorted(LAWS))
 @pytest.mark.parametrize("mode", ["serve", "ignore", "reject"])
 def test_continuation_scoring_gives_the_law_on_every_route(which, mode, tmp_path):
@@ -254,6 +255,7 @@ def test_the_probe_counts_as_the_first_prompts_first_request_on_the_top_route(tm
     assert sorted(prefixes) == [""] * 16 + ["Office"] * 16
 
 
+@pytest.mark.slow
 def test_a_list_shorter_than_the_support_gives_the_hand_computed_lower_bounds(tmp_path, capsys):
     """Office 0.6, Sure 0.1 and 22 fillers of 0.01; after "Office": A 0.5, C 0.2, 20 fillers of 0.0125 and B 0.005.
 
@@ -335,6 +337,7 @@ def test_the_text_completions_route_exits_2_with_one_line(server, error, tmp_pat
 # --- fairaudit experiment --exact, --scoring first-token, --sampled-twin ----------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", sorted(LAWS))
 def test_the_command_gives_the_law_and_records_the_route(which, tmp_path, capsys):
     path, paths_of = LAWS[which]
@@ -358,6 +361,7 @@ def test_the_command_gives_the_law_and_records_the_route(which, tmp_path, capsys
     assert "read from the server's prompt log-probabilities" in (tmp_path / "exact" / "report.md").read_text()
 
 
+@pytest.mark.slow
 def test_the_command_records_the_text_completions_route_and_its_rendering(tmp_path, capsys):
     task_path = _office_task(tmp_path)
     task = load_task(task_path)
@@ -398,6 +402,7 @@ def test_first_token_scoring_on_options_that_share_their_first_token_exits_2(tmp
     assert "the first token 'Office' begins the replies of two options (Office A, Office B)" in err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", ["office", "loan"])
 @pytest.mark.parametrize("route", ["prompt-logprobs", "completions-echo"])
 def test_the_sampled_twin_agrees_with_the_exact_route_within_its_intervals(which, route, tmp_path):

@@ -156,6 +156,7 @@ def test_the_client_asks_for_and_returns_the_top_logprobs():
 # --- whole runs -------------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_hr_exact_run_equals_analyse_kernel_on_the_known_kernel(tmp_path, capsys):
     task, out = HR_DELIVERY, tmp_path / "exact"
     kernel = _known_kernel(task, "prefers-mary", [0.05, 0.1, 0.15])
@@ -199,6 +200,7 @@ def test_hr_exact_run_equals_analyse_kernel_on_the_known_kernel(tmp_path, capsys
     assert not (out / "queries.jsonl").exists() and not (out / "route-1.png").exists()
 
 
+@pytest.mark.slow
 def test_exact_sampled_and_simulated_routes_agree(tmp_path, capsys):
     """The exact route gives K; 200 sampled replies per cell, over HTTP or in process from its kernel.csv, give
     the same counts (the same seeds draw the same replies) and 0.95 bands that cover K's values."""
@@ -236,6 +238,7 @@ def test_exact_sampled_and_simulated_routes_agree(tmp_path, capsys):
             assert abs(s[kind]["value"] - e[kind]["value"]) < 0.2
 
 
+@pytest.mark.slow
 def test_a_task_file_without_an_answer_paragraph_is_sent_as_it_is(tmp_path):
     """shortlist.toml asks for "1 or 2" itself: its own messages (with the system prompt) go out, its kernel back."""
     task = load_task(SHORTLIST)
@@ -298,6 +301,7 @@ def test_options_that_share_a_first_token_exit_2(tmp_path, capsys):
     assert _files(out) in ([], [".fairaudit.lock"])
 
 
+@pytest.mark.slow
 def test_a_request_that_fails_after_retries_exits_1_with_nothing_written(tmp_path, capsys):
     task = PACKAGE_DELIVERY
     responder, logprobs = _stand_in(task, _known_kernel(task, "fair", [0.1, 0.1, 0.1]))
@@ -343,6 +347,7 @@ def test_bad_exact_options_exit_2_with_one_line(tmp_path, capsys, argv, message)
     assert not (tmp_path / "o").exists()  # refused before --out is made
 
 
+@pytest.mark.slow
 def test_first_token_route_sends_the_exact_prompt_and_plain_sampling(tmp_path, capsys):
     """--sampled-twin: one-token replies to the exact route's prompt, drawn with temperature 1 and no truncation."""
     task = PACKAGE_DELIVERY
@@ -385,6 +390,7 @@ def test_first_token_needs_an_endpoint_and_not_exact(tmp_path, capsys, flags, me
     assert not (tmp_path / "run").exists()
 
 
+@pytest.mark.slow
 def test_first_token_sends_no_images_and_refuses_a_scene(tmp_path, capsys):
     task = PACKAGE_DELIVERY
     responder, logprobs = _stand_in(task, _known_kernel(task, "fair", [0.0, 0.0, 0.0]))

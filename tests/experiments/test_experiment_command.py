@@ -47,6 +47,7 @@ def _kernel(folder: Path) -> str:
     return (folder / "kernel.csv").read_text()
 
 
+@pytest.mark.slow
 def test_endpoint_run_equals_the_simulated_model_through_retries(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("OPENAI_API_KEY", "sk-test-secret-123")
     faults = [("status", 429, {"Retry-After": "0"}), ("status", 500), ("sleep", 1.0), ("drop",), ("status", 503)]
@@ -109,6 +110,7 @@ def test_endpoint_run_equals_the_simulated_model_through_retries(tmp_path, capsy
     assert max(r["attempts"] for r in q) >= 2
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL")
 def test_killed_run_resumes_with_no_sample_lost_or_repeated(tmp_path, capsys):
     with ChatServer(
@@ -175,6 +177,7 @@ def test_killed_run_resumes_with_no_sample_lost_or_repeated(tmp_path, capsys):
     assert _kernel(out) == _kernel(tmp_path / "clean")
 
 
+@pytest.mark.slow
 def test_failed_queries_exit_1_and_resume_completes(tmp_path, capsys):
     every_third = lambda n, body: ("status", 500) if n % 3 == 0 else None  # noqa: E731
     with ChatServer(_responder(PACKAGE_DELIVERY, "fair"), fault_fn=every_third) as server:
@@ -205,6 +208,7 @@ def test_failed_queries_exit_1_and_resume_completes(tmp_path, capsys):
     assert (tmp_path / "r" / "report.md").read_text() == out
 
 
+@pytest.mark.slow
 def test_hr_report_certificate_and_audit_of_the_records(tmp_path, capsys):
     """prefers-mary, 2 queries per shown cell: each profile has 96 per-candidate records.
 
@@ -277,6 +281,7 @@ def test_hr_report_certificate_and_audit_of_the_records(tmp_path, capsys):
     assert (a["global"]["group"], a["global"]["other_group"]) == ("Mary & 55 & American", "Tom & 25 & Asian")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "argv, message",
     [
@@ -297,6 +302,7 @@ def test_bad_options_exit_2_with_one_line(tmp_path, capsys, argv, message):
         assert not (tmp_path / "o").exists()  # refused before --out is made
 
 
+@pytest.mark.slow
 def test_a_run_is_never_overwritten(tmp_path, capsys):
     args = ["experiment", "package-delivery", "--samples", "1", "--out", tmp_path / "o", "--no-images", "--no-progress"]
     assert run(capsys, *args)[0] == 0
@@ -326,6 +332,7 @@ def test_a_run_is_never_overwritten(tmp_path, capsys):
         assert exc.value.code == 2 and err.count("\n") == 1 and bad[0] in err, bad
 
 
+@pytest.mark.slow
 def test_out_makes_its_missing_parent_folders(tmp_path, capsys):
     """``--out runs/pkg`` on a fresh clone (no ``runs/``): the run folder and its parents are made, as ``mkdir -p``;
     a file where a parent folder should be is refused with one line naming --out, and nothing is made."""
@@ -344,6 +351,7 @@ def test_out_makes_its_missing_parent_folders(tmp_path, capsys):
     assert (tmp_path / "file").read_text() == "x"
 
 
+@pytest.mark.slow
 def test_certify_reads_the_runs_spec_and_repeats_its_certificate(tmp_path, capsys):
     """spec-eps-<e>.toml: the per-candidate matrix mechanism (2 profiles -> 4 shown pairs) over candidates.csv."""
     out = tmp_path / "pkg"

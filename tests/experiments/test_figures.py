@@ -421,6 +421,7 @@ def test_a_model_fair_up_to_rounding_gets_no_zoom_panel():
     assert len(side) == 1 and _secondary(side[0]).get_xlabel().startswith("keep probability")
 
 
+@pytest.mark.slow
 def test_the_figures_are_written_as_png(tmp_path):
     a = _analysis("package-delivery", "low-complaint-first", counts=20)
     plot_baseline(a, tmp_path / "baseline.png")

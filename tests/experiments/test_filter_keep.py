@@ -95,6 +95,7 @@ def test_a_pair_differing_in_one_attribute_has_no_constant_factor_and_still_keep
     assert member.epsilon == pytest.approx(eps, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_the_report_lists_p_k_and_epsilon_per_attribute_and_the_asked_filter(tmp_path):
     spec = tmp_path / "loan.toml"
     spec.write_text(LOAN)
@@ -116,6 +117,7 @@ def test_the_report_lists_p_k_and_epsilon_per_attribute_and_the_asked_filter(tmp
     assert "| gender | 2 | 0.6 | 0.405465 |" in md and "| age | 3 | 0.6 | 1.09861 |" in md
 
 
+@pytest.mark.slow
 def test_a_total_epsilon_is_split_by_the_stated_rule(tmp_path):
     spec = tmp_path / "loan.toml"
     spec.write_text(LOAN)

@@ -80,6 +80,7 @@ def test_the_paper_filters_at_6_ln_7_3_keep_each_attribute_with_0_7_and_the_cont
     assert f.context_filter.move == 0 and f.context_filter.epsilon == math.inf
 
 
+@pytest.mark.slow
 def test_release_frequencies_match_the_randomized_response_rows():
     """20,000 releases of one attribute, and 20,000 of the context each from its own seeded source as the harness
     draws them: chi-square against the row, p-value above 1e-4 (fixed seeds, the same result every run).

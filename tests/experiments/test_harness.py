@@ -68,6 +68,7 @@ def test_candidate_mechanism_by_hand():
     assert m.epsilon == pytest.approx(2 * math.log(7 / 3), abs=1e-12)
 
 
+@pytest.mark.slow
 def test_release_draws_each_attribute_with_its_keep_probability():
     f = TaskFilter.from_epsilon(HR, 3 * math.log(4))  # keep 0.8 on each attribute
     source = np.random.default_rng(7).bytes
@@ -300,6 +301,7 @@ def test_per_candidate_law_equals_brute_force_over_shown_pairs():
                 assert law.probabilities[2 * x + pos, a, 0] == pytest.approx(total, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_black_box_certificates_by_hand():
     """Package, keep 7/10, g in [1, 3]: the worst model waits 3 only on 'low | high', 99/59; HR: epsilon (attained)."""
     recs = _records(PKG, "low-complaint-first", 4)
@@ -333,6 +335,7 @@ def _records(task, name, n, seed=0):
     return recs
 
 
+@pytest.mark.slow
 def test_intervals_cover_the_exact_law_and_positions_change_only_l_bar():
     """400 queries per cell: the 95% band covers the exact L; fixed positions leave L alone and void L-bar's bound."""
     p = 0.8
@@ -429,6 +432,7 @@ def test_position_split_by_hand_with_three_contexts():
 # -- run_experiment: source and options ---------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_run_experiment_takes_a_source_and_options(tmp_path):
     from fairaudit.experiments.run import ModelSource, RunOptions, run_experiment
 

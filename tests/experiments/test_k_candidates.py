@@ -29,6 +29,7 @@ def _exact(task, name):
     return Kernel(p.reshape(len(task.contexts), len(groups), -1), task.contexts, groups, task.decisions)
 
 
+@pytest.mark.slow
 def test_one_person_per_prompt_by_hand():
     """prefers-first approves with probability the share of the 2 attributes shown as (Emily Walsh, 25-34).
 
@@ -49,6 +50,7 @@ def test_one_person_per_prompt_by_hand():
     assert a.population.contexts == task.contexts  # no slot in the context
 
 
+@pytest.mark.slow
 def test_ranking_of_three_by_hand():
     """prefers-first ranks Emily first and the two others in either order: mean rank 1 against 2.5."""
     task = load_task(RANKING)
@@ -65,6 +67,7 @@ def test_ranking_of_three_by_hand():
     assert fair.baseline.global_fairness.value == pytest.approx(0.0, abs=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", [LOAN, RANKING], ids=["loan", "ranking"])
 def test_task_files_run_end_to_end_on_the_simulated_model(tmp_path, capsys, path):
     out = tmp_path / "run"
@@ -82,6 +85,7 @@ def test_task_files_run_end_to_end_on_the_simulated_model(tmp_path, capsys, path
     assert (out / "report.md").read_text().count("## ") >= 3
 
 
+@pytest.mark.slow
 def test_positions_latin_from_the_command_line(tmp_path, capsys):
     """--positions latin: the three cyclic shifts of the listed order, in the certificate and the records."""
     out = tmp_path / "latin"

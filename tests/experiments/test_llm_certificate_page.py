@@ -74,6 +74,7 @@ def test_the_worked_example_is_what_the_model_gives(scoring, tmp_path):
             assert in_report in report, (in_report, on_page)
 
 
+@pytest.mark.slow
 def test_the_certificate_names_the_task_file_it_ran(tmp_path):
     """Conventions 3 and 5 recorded: ``run.task_sha256`` (the task file's bytes) and ``run.prompt``, on the sampled route."""
     import hashlib

@@ -231,6 +231,7 @@ def _stand_in(monkeypatch, tmp_path, table):
     monkeypatch.setattr(lm, "exact_kernel", exact)
 
 
+@pytest.mark.slow
 def test_exact_route_of_a_group_biased_model_by_hand(monkeypatch, tmp_path, capsys):
     """low is served first 0.7 of the time against high, in either position: L = L-bar = ln 1.5.
 
@@ -281,6 +282,7 @@ def test_exact_route_of_a_group_biased_model_by_hand(monkeypatch, tmp_path, caps
     assert certified["observed"]["global"]["value"] == pytest.approx(point["observed"]["global"]["value"], abs=1e-12)
 
 
+@pytest.mark.slow
 def test_budget_per_target_checked_by_a_second_route(monkeypatch, tmp_path, capsys):
     """The ε per target, checked at that ε by the exact composition (this model) and worst_model (any model).
 
@@ -460,6 +462,7 @@ def _same_row(quoted: str, line: str) -> bool:
     return True
 
 
+@pytest.mark.slow
 def test_sampled_route_wiring_and_resume_with_a_stand_in_server(monkeypatch, tmp_path, capsys):
     """--samples N with a stand-in server that always answers "1" (the first-listed): no torch needed.
 

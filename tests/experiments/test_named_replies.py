@@ -72,6 +72,7 @@ def test_every_decision_written_with_names_reads_back_as_itself():
             assert parsed.ok and task.orders.index(parsed.order) == d, text
 
 
+@pytest.mark.slow
 def test_a_named_ranking_runs_end_to_end_on_the_simulated_model(tmp_path, capsys):
     path = tmp_path / "named.toml"
     path.write_text(NAMED)
@@ -98,6 +99,7 @@ TWO = (
 )
 
 
+@pytest.mark.slow
 def test_the_exact_route_scores_the_name_of_the_one_ranked_first(tmp_path):
     """Two candidates. A stand-in whose reply is the names in slot order with probability 1/2, reversed 1/4, anything
     else 1/4 (one token per name or separator): the kernel is 1/2, 1/4, 1/4 in every cell, averaged over 12 prompts.

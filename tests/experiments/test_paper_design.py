@@ -81,6 +81,7 @@ def test_a_floor_or_the_listed_order_takes_the_matrix():
     assert not fixed.closed_form and fixed.black_box_global == math.inf  # the slot reveals the group
 
 
+@pytest.mark.slow
 def test_the_bounds_of_eight_candidates_need_no_matrix():
     task = load_task(RESUMES)
     for eps in (0.5, 1.0, 2.0):
@@ -109,6 +110,7 @@ def test_fair_ranks_every_order_evenly():
     assert n == 6 and np.allclose(p[..., :n], 1 / 6) and np.all(p[..., n:] == 0)
 
 
+@pytest.mark.slow
 def test_keep_maps_to_the_candidates_epsilon_of_the_runs_positions(tmp_path):
     task = _latin()
     latin, balanced = epsilon_from_keep(task, 0.6, "latin"), epsilon_from_keep(task, 0.6, "balanced")
@@ -136,6 +138,7 @@ def hr_runs(tmp_path_factory):
     return runs
 
 
+@pytest.mark.slow
 def test_the_paper_design_alone_observes_what_design_both_observes(hr_runs):
     alone, both = hr_runs["paper"].analysis, hr_runs["both"].analysis
     assert [p.epsilon for p in alone.points] == [p.epsilon for p in both.paper]
@@ -195,6 +198,7 @@ def test_the_certificate_and_the_records_csv_agree_with_an_audit(hr_runs, capsys
     assert (out / "curve.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_eight_candidates_ranked_run_on_the_paper_design(tmp_path, capsys):
     out = tmp_path / "run"
     code, stdout, err = run(
@@ -217,6 +221,7 @@ def test_eight_candidates_ranked_run_on_the_paper_design(tmp_path, capsys):
     assert (ranked_first.profile == first).all() and len(ranked_first) == 64
 
 
+@pytest.mark.slow
 def test_the_paper_design_is_refused_where_it_cannot_run(tmp_path, capsys):
     code, _, err = run(
         capsys, "experiment", RESUMES, "--design", "paper", "--positions", "balanced", "--samples", "1",

@@ -126,6 +126,7 @@ def _half_partial(task):
     return p
 
 
+@pytest.mark.slow
 def test_the_law_of_a_model_that_often_names_one_by_hand(task):
     """Emily: rank 1 always, g = 4. The others: half the time rank 2 or 3 (g 2 or 1, 1.5 on average), half the time
     unranked (g 0.5): E[g] = 1. L = ln(4 / 1) = ln 4, in each role."""
@@ -137,6 +138,7 @@ def test_the_law_of_a_model_that_often_names_one_by_hand(task):
     np.testing.assert_allclose(a.split.expected_utility[:, 1:], 1.0, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_partial_rankings_end_to_end_on_the_sampled_route(task, tmp_path, capsys):
     """The same model as a kernel CSV: its replies name one candidate half the time, and each is read as a partial
     ranking (none unparsed); the baseline's interval covers ln 4."""

@@ -12,6 +12,7 @@ import hashlib
 import json
 from pathlib import Path
 
+import pytest
 from _chat_server import ChatServer
 from _cli import run
 
@@ -37,6 +38,7 @@ def _shortlist(out: Path, **options) -> None:
     )
 
 
+@pytest.mark.slow
 def test_the_log_holds_the_messages_the_server_received(tmp_path, capsys):
     with ChatServer(lambda body: "1") as server:
         code, _, err = run(
@@ -78,6 +80,7 @@ def test_the_log_holds_the_messages_the_server_received(tmp_path, capsys):
     ]
 
 
+@pytest.mark.slow
 def test_route_images_stay_hashed_and_out_of_the_messages(tmp_path):
     out = tmp_path / "run"
     run_experiment(
@@ -99,6 +102,7 @@ def test_route_images_stay_hashed_and_out_of_the_messages(tmp_path):
         assert hashlib.sha256((text + "".join(images)).encode()).hexdigest() == r["prompt_sha256"]
 
 
+@pytest.mark.slow
 def test_a_log_without_messages_resumes_and_gives_the_same_kernel(tmp_path):
     _shortlist(tmp_path / "clean")
     old = tmp_path / "old"

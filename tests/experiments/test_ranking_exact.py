@@ -104,6 +104,7 @@ def test_the_chain_rule_is_the_product_of_the_conditionals_in_fractions():
     assert len(asked) == len(set(asked)) == 1 + 2 * 3 + 3 * 3  # every prefix asked once; "3" is never listed
 
 
+@pytest.mark.slow
 def test_a_ranking_over_http_gives_the_known_kernel_one_request_per_prefix(tmp_path, capsys):
     task = load_task(RANKING)
     kernel = _known_kernel(task)
@@ -126,6 +127,7 @@ def test_a_ranking_over_http_gives_the_known_kernel_one_request_per_prefix(tmp_p
     np.testing.assert_allclose(got, kernel, rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_the_sampled_twin_of_a_ranking_reads_the_order_the_reply_begins_with(tmp_path):
     """--sampled-twin on a ranking: replies of up to len("1, 2, 3") tokens, read by their beginning; bands cover K."""
     one_role = tmp_path / "ranking.toml"  # one context: 27 shown cells
@@ -187,6 +189,7 @@ def _name(body):
     return body["messages"][-1]["content"].split(": ", 1)[1].split(".", 1)[0]
 
 
+@pytest.mark.slow
 def test_a_value_with_several_names_gets_the_average_over_its_names_on_the_exact_route(tmp_path):
     task = parse_task(NAMES, name="names")
     prompts = exact_prompts(task)
@@ -213,6 +216,7 @@ def test_a_value_with_several_names_gets_the_average_over_its_names_on_the_exact
     np.testing.assert_allclose(k, [[0.9 * 0.7, 0.9 * 0.3, 0.1], [0.9 * 0.2, 0.9 * 0.8, 0.1]], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_the_sampled_route_draws_one_name_per_query_and_logs_it(tmp_path):
     task = parse_task(NAMES, name="names")
     queries = plan_queries(task, "table", 2000, seed=5)

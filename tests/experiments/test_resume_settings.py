@@ -69,6 +69,7 @@ def resumed(base, tmp_path):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "flags, changed",
     [
@@ -107,6 +108,7 @@ def test_each_changed_setting_is_refused_in_one_line(resumed, capsys, flags, cha
     assert {p.name: p.read_bytes() for p in resumed.iterdir()} == before  # nothing asked, nothing written
 
 
+@pytest.mark.slow
 def test_every_changed_setting_is_named_in_the_same_line(resumed, capsys):
     code, _, err = _experiment(capsys, resumed, "--resume", "--seed", "3", "--positions", "fixed", samples="1")
     assert code == 2 and err.count("\n") == 1
@@ -116,6 +118,7 @@ def test_every_changed_setting_is_named_in_the_same_line(resumed, capsys):
     )
 
 
+@pytest.mark.slow
 def test_the_same_budgets_given_as_epsilons_are_the_same_filter(resumed, capsys):
     """keep 0.7 and 0.8 given again as the candidate's ε the log wrote: the same budgets (compared as the query keys
     write them, to 12 digits), so the same queries: accepted, nothing asked."""
@@ -124,6 +127,7 @@ def test_the_same_budgets_given_as_epsilons_are_the_same_filter(resumed, capsys)
     assert code == 0 and "(0 now, 0 unparsed)" in err, err
 
 
+@pytest.mark.slow
 def test_settings_that_do_not_change_the_result_may_change(resumed, capsys):
     """Workers, progress, the client's patience, the band's level and the targets: the same replies, counted the
     same; the kernel and the records are the run's own."""
@@ -137,6 +141,7 @@ def test_settings_that_do_not_change_the_result_may_change(resumed, capsys):
     assert cert["confidence"] == 0.9 and {t["target"] for t in cert["budgets"]} == {0.2}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("design", ["table", "both"])
 def test_extend_gives_the_fresh_runs_certificate(tmp_path, capsys, design):
     """3 samples extended to 7 equal a fresh run of 7 with the same seed, file for file (the certificate but for its
@@ -187,6 +192,7 @@ def test_extend_grows_samples_only(resumed, capsys):
     assert not (resumed.parent / "x").exists()
 
 
+@pytest.mark.slow
 def test_the_certificate_counts_the_logged_replies(tmp_path, capsys):
     """Fresh, resumed after a crash and extended: ``run.replies`` and report.md say how many answered queries the
     certificate counts, of how many the log holds, each equal to a count of the log's lines."""
@@ -213,6 +219,7 @@ def test_the_certificate_counts_the_logged_replies(tmp_path, capsys):
     assert "; `--samples` was extended (`--extend`) from 2 to 5." in report
 
 
+@pytest.mark.slow
 def test_failed_queries_are_logged_but_are_not_replies(tmp_path, capsys):
     """Through a server that fails every third request (no retries): the log holds error lines too, and the
     certificate counts the answered queries only, each once."""
@@ -233,6 +240,7 @@ def test_failed_queries_are_logged_but_are_not_replies(tmp_path, capsys):
     assert replies == {"used": cells, "logged": cells}
 
 
+@pytest.mark.slow
 def test_the_prompt_and_the_sampling_are_settings(tmp_path, capsys):
     """An endpoint's sampled run resumed as the exact route's sampled twin (same model name) would send another
     prompt with other settings: refused, naming both."""

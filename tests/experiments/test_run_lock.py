@@ -57,6 +57,7 @@ def _refused(err: str, out: Path) -> bool:
     )
 
 
+@pytest.mark.slow
 def test_a_second_runner_is_refused_at_once_and_runs_after_the_holder_ends(tmp_path, capsys):
     out = tmp_path / "run"
     before = _partial(capsys, out)
@@ -85,6 +86,7 @@ def test_a_second_runner_is_refused_at_once_and_runs_after_the_holder_ends(tmp_p
     assert len(ids) == len(set(ids)) == 192
 
 
+@pytest.mark.slow
 def test_two_concurrent_resumes_one_runs_the_other_is_refused(tmp_path, capsys):
     """Both start together on a partial log; the server holds every query until one of them has exited."""
     out = tmp_path / "run"
@@ -128,6 +130,7 @@ def test_two_concurrent_resumes_one_runs_the_other_is_refused(tmp_path, capsys):
     assert len(ok) == len(set(ok)) == 192
 
 
+@pytest.mark.slow
 def test_the_lock_is_released_on_error_and_interrupt_and_is_no_output(tmp_path, capsys, monkeypatch):
     out = tmp_path / "run"
     _partial(capsys, out)

@@ -42,6 +42,7 @@ def _one_error(code, out, err):
     assert err.startswith("fairaudit: error: ") and err.count("\n") == 1 and "Traceback" not in err, err
 
 
+@pytest.mark.slow
 def test_explicit_rooms_reproduce_the_default_run_and_are_recorded(area, tmp_path, capsys):
     path, _, lengths = area
     diff = (max(lengths) - min(lengths)) / max(lengths)
@@ -86,6 +87,7 @@ def test_explicit_rooms_reproduce_the_default_run_and_are_recorded(area, tmp_pat
     assert code == 0 and "(0 now, 0 unparsed)" in err, err
 
 
+@pytest.mark.slow
 def test_swapped_goals_swap_the_routes(area, tmp_path, capsys):
     path, _, lengths = area
     code, _, err = _experiment(capsys, tmp_path / "o", "--scene", path, "--goals", "office_2,office_1")
@@ -95,6 +97,7 @@ def test_swapped_goals_swap_the_routes(area, tmp_path, capsys):
     assert scene["lengths_m"] == pytest.approx(lengths[::-1], abs=1e-12)
 
 
+@pytest.mark.slow
 def test_zero_tolerance_is_refused_with_both_lengths(area, tmp_path, capsys):
     path, _, lengths = area
     code, out, err = _experiment(capsys, tmp_path / "o", "--scene", path, "--tolerance", "0")

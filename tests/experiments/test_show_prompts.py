@@ -129,6 +129,7 @@ def test_a_count_below_1_and_a_missing_out_are_errors_naming_the_flag(tmp_path, 
 NAMED = TASK.replace('text = { A = "Ann", B = "Bo" }', 'text = { A = ["Ann", "Amy", "Ada"], B = ["Bo", "Ben"] }')
 
 
+@pytest.mark.slow
 def test_drawn_texts_are_those_the_run_sends(tmp_path, capsys):
     path = tmp_path / "t.toml"
     path.write_text(NAMED)

@@ -164,6 +164,7 @@ def test_two_attributes_with_different_keeps_match_brute_force():
     _check_law(task, "latin", [Fraction(1, 2), Fraction(4, 5)], seed=7)
 
 
+@pytest.mark.slow
 @settings(deadline=None)
 @given(
     k=st.sampled_from([1, 2, 3]),

@@ -65,6 +65,7 @@ def _log(out):
     return [json.loads(x) for x in (out / "queries.jsonl").read_text().splitlines()]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "mode, field, reply",
     [
@@ -94,6 +95,7 @@ def test_constrained_bodies_state_the_sampling_and_the_replies_parse(tmp_path, c
     assert f"replies constrained ({mode}) to 'HR1', 'HR2'." in out
 
 
+@pytest.mark.slow
 def test_defaults_are_stated_and_no_constraint_is_sent(tmp_path, capsys):
     with ChatServer() as server:  # the paper's JSON reply
         code, _, err = _experiment(capsys, server, tmp_path / "o")
@@ -111,6 +113,7 @@ def test_defaults_are_stated_and_no_constraint_is_sent(tmp_path, capsys):
     }
 
 
+@pytest.mark.slow
 def test_an_order_of_two_is_constrained_to_its_orders_written_out(tmp_path, capsys):
     with ChatServer(lambda body: "Recipient2, Recipient1") as server:
         code, _, err = _experiment(
@@ -123,6 +126,7 @@ def test_an_order_of_two_is_constrained_to_its_orders_written_out(tmp_path, caps
     assert queries and not any(r["parse_error"] for r in queries)
 
 
+@pytest.mark.slow
 def test_a_first_token_twin_keeps_its_fixed_settings(tmp_path, capsys):
     with ChatServer(lambda body: "2") as server:
         code, _, err = _experiment(capsys, server, tmp_path / "o", "--sampled-twin")
@@ -132,6 +136,7 @@ def test_a_first_token_twin_keeps_its_fixed_settings(tmp_path, capsys):
     assert all(_settings(c) == expected for c in chats)
 
 
+@pytest.mark.slow
 def test_resume_with_another_temperature_is_refused(tmp_path, capsys):
     with ChatServer() as server:
         code, _, err = _experiment(capsys, server, tmp_path / "o", "--temperature", "0.5")

@@ -117,6 +117,7 @@ def test_exact_kernel_of_a_user_task_by_hand():
     assert math.isinf(a.baseline.local_fairness.value)  # unfiltered, Emily is never chosen
 
 
+@pytest.mark.slow
 def test_user_task_runs_from_the_command_line(tmp_path, capsys):
     out = tmp_path / "run"
     code, stdout, err = run(
@@ -233,6 +234,7 @@ def test_attribute_text_is_what_the_prompt_shows():
     assert np.isfinite(task.utility_values).all()
 
 
+@pytest.mark.slow
 def test_resuming_after_the_task_file_changed_is_refused(tmp_path, capsys):
     path = _task(tmp_path, BASE, "shortlist.toml")
     out = tmp_path / "run"

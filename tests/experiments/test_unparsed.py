@@ -37,6 +37,7 @@ def analysis():
     return analyse_kernel(T, _kernel(), model="m", epsilons=[1.0], targets=[0.5, 1.0])
 
 
+@pytest.mark.slow
 def test_baseline_range_by_hand(analysis):
     r = analysis.baseline.unparsed_range
     # maternity @ HR2: Tom [0.2, 0.3] (chosen if HR2 in (Mary, Tom)), Mary [0.5, 0.7] (HR2 in (Tom, Mary)):
@@ -112,6 +113,7 @@ def _by_grid(analysis, target, kind, end="upper"):
     return lo
 
 
+@pytest.mark.slow
 def test_budgets_are_met_by_the_upper_end(analysis):
     budgets = {(b.target, b.kind): b for b in analysis.budgets}
     for key in [(0.5, "local"), (0.5, "global"), (1.0, "local")]:
@@ -124,6 +126,7 @@ def test_budgets_are_met_by_the_upper_end(analysis):
         assert b.stated_default.epsilon > want * 1.3 and b.overturned
 
 
+@pytest.mark.slow
 def test_without_unparsed_mass_the_budget_is_the_stated_one():
     p = _kernel().probabilities.copy()
     p[..., 1] += p[..., 2]  # every unparsed reply read as "not chosen"
@@ -141,6 +144,7 @@ def test_without_unparsed_mass_the_budget_is_the_stated_one():
         assert f"| {b.target:g} | {'L' if b.kind == 'local' else 'L̄'} | {e} | {e} |" in md
 
 
+@pytest.mark.slow
 def test_the_command_warns_on_stderr(tmp_path, capsys):
     from _cli import run
 

@@ -121,6 +121,7 @@ keep = [0.8]
 )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("extra", "value", "source"), [("", 1 / 3, UNPARSED_DEFAULT), ("unparsed = 0.25\n", 0.25, "given")]
 )

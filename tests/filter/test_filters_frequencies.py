@@ -44,6 +44,7 @@ FILTERS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", FILTERS)
 def test_every_row_releases_with_its_exact_probabilities(kind):
     f = FILTERS[kind]

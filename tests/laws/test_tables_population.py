@@ -249,6 +249,7 @@ def test_calibrate_global_below_the_floor_says_why(tmp_path: Path) -> None:
 # ----------------------------------------------------------------------------- calibrate agrees with certify
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "kind, method, extra, population",
     [

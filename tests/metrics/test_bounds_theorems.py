@@ -105,6 +105,7 @@ def main_theorem_holds(
     return observed <= scale * value + 1e-9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bound", ["tight", "paper"])
 @pytest.mark.parametrize("kind", ["random", "lipschitz", "worst"])
 @given(seed=SEEDS)
@@ -163,11 +164,13 @@ def black_box_holds(seed: int, scale: float = 1.0) -> bool:
     return observed <= scale * bb.value + 1e-7
 
 
+@pytest.mark.slow
 @given(seed=SEEDS)
 def test_black_box_bounds_every_model(seed):
     assert black_box_holds(seed)
 
 
+@pytest.mark.slow
 def test_black_box_is_attained_so_any_smaller_claim_fails():
     # exactness: the worst model of the certificate audits to its value, so 0.99 x the certificate is false
     def attained(seed: int) -> bool:  # the weakened claim: "every model stays within 0.99 x the certificate"
@@ -350,6 +353,7 @@ def test_product_epsilon_is_not_the_max_of_its_parts():
     assert not max_claim(seed)
 
 
+@pytest.mark.slow
 def test_delta_claims_have_teeth():
     # "delta drops by 10% between close epsilons" and "delta is linear in e^epsilon" are both false
     def drops(seed: int) -> bool:
@@ -442,6 +446,7 @@ def test_x_privacy_paper_example_global_increases():
 
 
 # ------------------------------------------------------------------------------------------------- a metric on A
+@pytest.mark.slow
 @given(seed=SEEDS)
 def test_main_theorem_with_a_metric_and_its_diameter(seed):
     # groups on a line (d(a, a') = |a - a'| / (n - 1), diameter 1): a utility Lipschitz under d; tight uses d(a, a')
@@ -582,12 +587,14 @@ def stated_theorem_holds(instance, scale: float = 1.0) -> bool:
     return observed <= scale * tight + 1e-9 and tight <= bound + 1e-12
 
 
+@pytest.mark.slow
 @given(main_theorem_instances())
 def test_main_theorem_at_the_stated_epsilon_delta(instance):
     # the theorem as stated: M_A (eps, delta)-DP (drawn with exactly that delta at eps), g <= gamma, E >= tau, L_A
     assert stated_theorem_holds(instance)
 
 
+@pytest.mark.slow
 def test_main_theorem_at_the_stated_epsilon_delta_has_teeth():
     bad = find(main_theorem_instances(), lambda inst: not stated_theorem_holds(inst, scale=0.5), settings=FIND)
     assert not stated_theorem_holds(bad, scale=0.5)

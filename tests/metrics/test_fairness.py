@@ -152,6 +152,7 @@ def test_label_mismatch_errors():
 # --------------------------------------------------------------------------- property: L̄ ≤ L under X ⊥ A
 
 
+@pytest.mark.slow
 @given(laws())
 def test_global_below_local_under_independence(data):
     # Under X ⊥ A, E[g|a] = Σ_x P(x) E[g|x,a] is a mixture with the same weights for every a.

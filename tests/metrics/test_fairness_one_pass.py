@@ -356,6 +356,7 @@ def laws(draw):
     return law, g, Population(p / p.sum(), law.context_labels, law.group_labels)
 
 
+@pytest.mark.slow
 @given(laws())
 def test_every_metric_against_loops_over_contexts_in_chunks_of_64(case):
     law, g, pop = case

@@ -99,6 +99,7 @@ def counted_laws(draw):
     return law, fa.from_table(g, law.decisions), Population(p / p.sum(), law.contexts, law.groups)
 
 
+@pytest.mark.slow
 @given(counted_laws())
 def test_every_metric_matches_the_definitions(case):
     law, g, pop = case
@@ -177,6 +178,7 @@ def test_a_fair_law_is_exactly_fair():
 # --------------------------------------------------------------------------- the lazy identity
 
 
+@pytest.mark.slow
 def test_identity_on_a_million_contexts_is_never_materialised():
     contexts = range(10**6)
     ident = identity(contexts)

@@ -127,6 +127,7 @@ def _cases(draw):
     return k, m, p
 
 
+@pytest.mark.slow
 @settings(max_examples=12)
 @given(_cases())
 def test_against_an_lp_over_the_assignment(case):

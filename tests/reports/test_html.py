@@ -234,6 +234,7 @@ def test_uci_audit_with_an_infinite_L(uci_audit):
     assert ["Bachelors", "Female", "8", "0"] in [r[:4] for r in page.tables[-1]]
 
 
+@pytest.mark.slow
 def test_the_page_is_the_same_each_time(uci_audit, gpt_certificate):
     assert render(uci_audit, "audit", "html") == render(uci_audit, "audit", "html")
     assert render(gpt_certificate, "certify", "html") == render(gpt_certificate, "certify", "html")

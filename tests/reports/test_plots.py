@@ -111,6 +111,7 @@ def test_plot_does_not_change_a_failing_exit_status(capsys, tmp_path):
     assert png.read_bytes()[:8] == PNG_MAGIC
 
 
+@pytest.mark.slow
 def test_hr_example_plot_and_data(capsys, tmp_path):
     svg, csv = tmp_path / "hr.svg", tmp_path / "hr.csv"
     code, _, _ = run(capsys, "certify", HR_SPEC, "--plot", svg, "--plot-data", csv, "--epsilons", "0:6:25")

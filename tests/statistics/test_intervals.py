@@ -120,6 +120,7 @@ def _boxes(draw):
     return f, lo, hi
 
 
+@pytest.mark.slow
 @given(_boxes())
 def test_linear_extremes_equals_linprog(box):
     f, lo, hi = box
@@ -371,6 +372,7 @@ def _identity_boxes(draw):
     return M, A, lo, hi
 
 
+@pytest.mark.slow
 @given(_identity_boxes())
 def test_mixed_ratio_with_identity_blocks_equals_disjoint_ratio(case):
     M, A, lo, hi = case
@@ -505,6 +507,7 @@ def test_empty_kernel_cell_behind_filter_does_not_crash():
 # ---------------------------------------------------------------- 7. coverage
 
 
+@pytest.mark.slow
 def test_coverage_of_simultaneous_intervals_on_a_known_law():
     rng = np.random.default_rng(0)
     contexts, groups, decisions = ("x0", "x1"), ("a", "b", "c"), (0, 1)

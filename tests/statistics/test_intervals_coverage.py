@@ -53,6 +53,7 @@ def _floor(n: int) -> float:
     return LEVEL - 3 * math.sqrt(LEVEL * (1 - LEVEL) / n)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["clopper-pearson", "multinomial"])
 @pytest.mark.parametrize("metric", ["local", "global", "simultaneous"])
 def test_guaranteed_methods_cover(rows, method, metric):

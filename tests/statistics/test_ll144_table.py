@@ -43,6 +43,7 @@ ends = st.fractions(min_value=0, max_value=1, max_denominator=12)
 boxes = st.lists(st.tuples(ends, ends).map(sorted), min_size=1, max_size=5)
 
 
+@pytest.mark.slow
 @given(boxes)
 def test_ratio_range_is_the_exact_range_over_the_box(box):
     lower, upper = [b[0] for b in box], [b[1] for b in box]
@@ -52,6 +53,7 @@ def test_ratio_range_is_the_exact_range_over_the_box(box):
         assert got_high == pytest.approx(float(want_high), abs=1e-12)
 
 
+@pytest.mark.slow
 @given(st.lists(st.tuples(ends, ends).map(sorted), min_size=2, max_size=3))
 def test_ratio_range_contains_every_ratio_on_a_grid_of_the_box(box):
     lower, upper = [float(b[0]) for b in box], [float(b[1]) for b in box]

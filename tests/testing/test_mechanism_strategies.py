@@ -31,6 +31,7 @@ def test_random_mechanisms_are_row_stochastic(m):
     assert isinstance(m, Mechanism) and rows_sum_to_one(m.matrix)
 
 
+@pytest.mark.slow
 @given(st.data(), EPS, st.booleans())
 def test_mechanisms_attain_the_requested_epsilon(data, eps, zeros):
     m = data.draw(mechanisms(epsilon=eps, n_inputs=range(2, 5), allow_zeros=zeros))
@@ -40,6 +41,7 @@ def test_mechanisms_attain_the_requested_epsilon(data, eps, zeros):
     assert m.delta(eps) <= TOL
 
 
+@pytest.mark.slow
 @given(mechanisms(epsilon=st.floats(0.0, 3.0), n_inputs=3, n_outputs=range(2, 6)))
 def test_rectangular_mechanisms_with_epsilon(m):
     assert m.matrix.shape[0] == 3 and m.outputs[0] == "o0"
@@ -50,6 +52,7 @@ def test_mechanisms_with_infinite_epsilon(m):
     assert m.epsilon == math.inf and rows_sum_to_one(m.matrix)
 
 
+@pytest.mark.slow
 @given(st.data(), st.floats(0.0, 4.0), DELTA, st.booleans())
 def test_mechanisms_attain_the_requested_delta(data, eps, delta, zeros):
     m = data.draw(mechanisms(epsilon=eps, delta=delta, n_inputs=range(2, 5), allow_zeros=zeros))
@@ -74,6 +77,7 @@ def test_delta_needs_epsilon():
         find(mechanisms(epsilon=math.inf, delta=0.1), lambda m: True)
 
 
+@pytest.mark.slow
 def test_mechanisms_edge_cases_are_drawn():
     assert find(mechanisms(allow_zeros=True), lambda m: m.epsilon == math.inf).epsilon == math.inf
     assert np.any(

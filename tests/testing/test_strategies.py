@@ -45,6 +45,7 @@ def test_independent_populations_are_independent(pop):
     assert np.all(pop.p_group > 0) and abs(pop.probabilities.sum() - 1) <= 1e-12
 
 
+@pytest.mark.slow
 @given(populations(independent=False, allow_zero_contexts=True, contexts=range(2, 5)))
 def test_dependent_populations_are_dependent(pop):
     check = pop.independence()
@@ -101,6 +102,7 @@ def test_laws_from_counts(law):
     assert len(law.empty_cells) == int((law.cell_counts == 0).sum())
 
 
+@pytest.mark.slow
 def test_laws_edge_cases_are_drawn():
     assert find(laws(), lambda q: len(q.groups) == 1).shape[1] == 1
     assert find(laws(), lambda q: len(q.contexts) == 1).shape[0] == 1
@@ -144,6 +146,7 @@ def test_group_dependent_utilities(data, bounds):
     assert 0 < g.lipschitz() <= gamma - lower + 1e-12
 
 
+@pytest.mark.slow
 @given(st.data(), RANGES.filter(lambda b: b[1] > b[0]), st.floats(0.01, 1.0))
 def test_utilities_with_a_lipschitz_constant(data, bounds, share):
     lower, gamma = bounds

@@ -96,6 +96,7 @@ def test_l_bar_merges_contexts_alike_without_changing_its_value(route, monkeypat
     assert merged == unmerged and merged.lo > 1
 
 
+@pytest.mark.slow
 def test_l_bar_over_a_thousand_contexts_alike_is_re_derived():
     # X and A independent, three boxes: three blocks whatever the number of contexts (it was 3,000 variables)
     worst = black_box_enclosures(_many_contexts(1000))
@@ -117,6 +118,7 @@ def _unlike_contexts(n_contexts, utility):
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "utility",
     ['kind = "indicator"\ndecision = "yes"', 'kind = "table"\nvalues = [[[1.0, 0.0], [0.75, 0.0], [1.0, 0.25]]]'],

@@ -50,6 +50,7 @@ def test_the_hand_calibration_is_re_derived(hand):
     assert bound.derived_high - bound.derived_low < 1e-15
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spec", ["examples/hr_office/hr_office.toml", "examples/llm_hiring/gpt35.toml"])
 def test_shipped_calibrations_hold_black_box_and_white_box(spec):
     result = verify(_cert(spec))

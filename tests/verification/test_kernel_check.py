@@ -7,6 +7,7 @@ import itertools
 import math
 from fractions import Fraction as F
 
+import pytest
 from _verified import certified_and_verified
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -123,6 +124,7 @@ def kernel_settings(draw):
     return KernelSetting(sensitive, context, g, None, live, weights, present, group_free, 64)
 
 
+@pytest.mark.slow
 @settings(max_examples=100)  # (each example solves up to 14 exact programs and walks up to 729 tables)
 @given(s=kernel_settings())
 def test_the_programs_agree_with_every_deterministic_table(s):

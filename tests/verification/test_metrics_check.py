@@ -207,6 +207,7 @@ def _check_edits(cert: dict[str, Any]) -> None:
             assert any(f.startswith(path + " (its") for f in _failing(edited)), (path, edit)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", SHIPPED)
 def test_shipped_numbers_moved_and_maximisers_edited_fail(path):
     cert = json.loads(json.dumps(fairaudit.certify(ROOT / path).to_dict()))
@@ -219,6 +220,7 @@ def test_hand_numbers_moved_and_maximisers_edited_fail(hand, kind):
     _check_edits(hand[kind])
 
 
+@pytest.mark.slow
 @settings(max_examples=MAX_EXAMPLES, suppress_health_check=[HealthCheck.function_scoped_fixture], deadline=None)
 @given(drawn=specs())
 def test_random_numbers_moved_and_maximisers_edited_fail(drawn, tmp_path):

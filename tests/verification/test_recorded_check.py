@@ -43,6 +43,7 @@ def _failing(cert: dict) -> list[str]:
     return [c.name for c in verify(cert).failures]
 
 
+@pytest.mark.slow
 def test_the_keep_probability_of_the_product_is_its_smallest_diagonal_entry(certificates):
     # three binary randomized responses keeping 7/10 each: min_a M[a, a] = 0.7^3 = 0.343 (the product's floats)
     cert = certificates[HR_OFFICE]
@@ -54,6 +55,7 @@ def test_the_keep_probability_of_the_product_is_its_smallest_diagonal_entry(cert
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "path, change, failing",
     [
@@ -91,6 +93,7 @@ def test_the_deviation_names_where_it_is_attained(tmp_path):
     assert "population.max_deviation" in _failing(cert)
 
 
+@pytest.mark.slow
 def test_every_number_is_re_derived_or_listed(certificates):
     for cert in certificates.values():
         result = verify(cert)

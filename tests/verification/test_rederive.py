@@ -85,6 +85,7 @@ def _failing(cert: dict) -> list[str]:
     return [c.name for c in verify(cert).failures]
 
 
+@pytest.mark.slow
 def test_every_shipped_certificate_holds(certificates):
     for name, cert in certificates.items():
         result = verify(cert)
@@ -236,6 +237,7 @@ def test_what_is_not_re_derived_is_listed(certificates):
     assert ("calibration", "the certificate records no calibrated mechanism") in verify(cert).not_checked
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", [SHIPPED[0], SHIPPED[2], MATRIX], ids=["gpt35", "hr_office", "matrix"])
 def test_the_black_box_is_re_derived_and_a_moved_one_fails(certificates, name):
     cert = copy.deepcopy(certificates[name])

@@ -245,6 +245,7 @@ def _holds(cert: dict[str, Any]) -> Verification:
     return result
 
 
+@pytest.mark.slow
 @FUZZ
 @given(drawn=specs())
 def test_verify_holds_on_every_certificate_certify_writes(drawn, tmp_path):
@@ -277,6 +278,7 @@ def moved_outward_wrong(cert: dict[str, Any], name: str, side: str) -> dict[str,
     return copy
 
 
+@pytest.mark.slow
 @FUZZ
 @given(drawn=specs())
 def test_verify_fails_on_each_bound_moved_outward_wrong(drawn, tmp_path):
@@ -292,6 +294,7 @@ def test_verify_fails_on_each_bound_moved_outward_wrong(drawn, tmp_path):
         assert check.name in failing, (check.name, check.reported, failing)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(drawn=specs(), data=st.data())
 def test_verify_fails_on_an_edited_population_or_kernel(drawn, data, tmp_path):

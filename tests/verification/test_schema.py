@@ -55,6 +55,7 @@ def test_the_schema_is_a_valid_draft_2020_12_schema():
     assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
 
 
+@pytest.mark.slow
 def test_every_shipped_example_meets_the_schema(certificates):
     for name, data in certificates.items():
         check_certificate(data)

@@ -56,6 +56,7 @@ def bisect_black_box(family, target, lower, gamma=1.0, hi=60.0):
 # -- black-box ------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @given(st.integers(2, 16), st.floats(0.0, 0.9), st.floats(0.01, 3.0))
 def test_closed_form_equals_bisection_on_black_box(k, rho, target):
     # The RR closed form (fast path) against plain bisection on the exact threshold worst case.
@@ -68,6 +69,7 @@ def test_closed_form_equals_bisection_on_black_box(k, rho, target):
     assert c.bound == pytest.approx(target, rel=1e-9)
 
 
+@pytest.mark.slow
 @given(st.integers(2, 12), st.floats(0.0, 0.9), st.floats(0.01, 3.0))
 def test_root_finder_agrees_with_rr_closed_form(k, rho, target):
     # calibrate's own root finder (on a relabelled RR it cannot recognise) against the closed form, to 1e-9.
@@ -351,6 +353,7 @@ def test_white_box_non_decreasing_for_randomized_response(seed, k):
     assert all(b >= a - 1e-12 for a, b in zip(values, values[1:]))
 
 
+@pytest.mark.slow
 @settings(max_examples=40)
 @given(seed=st.integers(0, 2**32 - 1), sizes=st.sampled_from([(2, 2), (2, 3), (3, 2), (2, 2, 2)]))
 def test_white_box_non_decreasing_for_products(seed, sizes):

@@ -77,6 +77,7 @@ def test_tau_hand_example_in_fractions():
     assert lp.method == "lp" and lp.ratio == pytest.approx(11 / 7, rel=1e-8)
 
 
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 0.1, 0.3]), st.floats(0.05, 1.0))
 def test_tau_class_equals_dinkelbach_and_forced_lp(seed, lower, tau_share):
     rng = np.random.default_rng(seed)
@@ -94,6 +95,7 @@ def test_tau_class_equals_dinkelbach_and_forced_lp(seed, lower, tau_share):
     assert (mech.matrix[a] @ h) / (mech.matrix[b] @ h) == pytest.approx(auto.ratio, rel=1e-9)
 
 
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1), st.floats(0.05, 0.9), st.sampled_from([0.0, 0.2, 1.0]))
 def test_ordering_observed_black_box_tight_paper(seed, tau_share, lip):
     # Any kernel behind M_A whose law meets E[g | x, a] >= tau: observed L <= black-box <= tight <= paper.
@@ -221,6 +223,7 @@ def test_worst_model_equals_brute_force_over_deterministic_kernels(seed):
     assert w.global_fairness.value == pytest.approx(best_g, rel=1e-7, abs=1e-9)
 
 
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1), st.sampled_from(["u", "ux", "uxa"]), st.floats(0.1, 0.6), st.booleans())
 def test_worst_model_audits_to_its_value_and_meets_tau(seed, kind, tau, dependent):
     rng = np.random.default_rng(seed)
@@ -272,6 +275,7 @@ def test_worst_model_hr_office_hand_example():
 
 
 # ------------------------------------------------------------------------------------------ worst utility
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1))
 def test_worst_utility_without_constraints_is_lemma_1(seed):
     rng = np.random.default_rng(seed)
@@ -286,6 +290,7 @@ def test_worst_utility_without_constraints_is_lemma_1(seed):
     assert local_fairness(law, w.local_fairness.utility).value == pytest.approx(w.local_fairness.value, rel=1e-12)
 
 
+@pytest.mark.slow
 @given(st.integers(0, 2**32 - 1), st.floats(0.05, 0.7), st.sampled_from([0.0, 0.1]))
 def test_worst_utility_with_tau_equals_dinkelbach(seed, tau, lower):
     rng = np.random.default_rng(seed)

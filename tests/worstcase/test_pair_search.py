@@ -153,6 +153,7 @@ def test_box_pairs_keep_the_maximum_and_its_first_pair(name, M, lo, monkeypatch)
         assert np.unravel_index(int(np.argmax(dense)), dense.shape) == want and dense.max() == box.max()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, M", MECHANISMS, ids=[x[0] for x in MECHANISMS])
 @pytest.mark.parametrize("lo, floor", [(0.0, 0.3), (0.1, 0.5), (0.2, 0.9)])
 def test_relaxation_bounds_are_valid_and_exact_where_kept(name, M, lo, floor, monkeypatch):
@@ -259,6 +260,7 @@ def test_randomized_response_as_a_matrix_equals_its_closed_form(monkeypatch, all
 
 
 # ------------------------------------------------------------------------------------------------ worst model
+@pytest.mark.slow
 @pytest.mark.parametrize("name, M", MECHANISMS[:9], ids=[x[0] for x in MECHANISMS[:9]])
 def test_worst_model_equals_the_all_pairs_route(name, M, all_pairs):
     mech = _mech(M)
@@ -290,6 +292,7 @@ def _tight_brute(M, d, gamma, tau, lip):
     return math.log(best), pair
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, M", MECHANISMS, ids=[x[0] for x in MECHANISMS])
 def test_tight_and_paper_equal_the_all_pairs_computations(name, M, monkeypatch):
     mech = _mech(M)
@@ -333,6 +336,7 @@ def test_tight_and_paper_on_a_larger_mechanism(monkeypatch):
 
 
 # ------------------------------------------------------------------------------------------------ memory
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "kw",
     [{}, {"utility_class": UtilityClass(lower=0.1)}, {"utility_class": UtilityClass(tau=0.1)}],

@@ -243,6 +243,7 @@ def no_tau_lipschitz_closed_form(k: int, eps: float, lower: float, lam: float) -
     return max(ratio(0, 0), ratio(p, q), ratio(1 - q, 1 - p), ratio(1, 1))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", (2, 3, 5))
 @pytest.mark.parametrize("eps", (0.0, 0.4, 2.0))
 def test_black_box_with_lipschitz_equals_the_general_route(k, eps):
@@ -328,6 +329,7 @@ def test_black_box_lipschitz_is_an_upper_end_of_the_vertex_enumeration(monkeypat
     assert c.value >= top and c.value - mpmath.log(mpmath.mpf(low.numerator) / low.denominator) < 1e-13
 
 
+@pytest.mark.slow
 def test_black_box_with_a_non_discrete_metric():
     closed, general = pair(4, 1.0)
     pts = np.array([0.0, 0.5, 0.8, 2.0])
@@ -341,6 +343,7 @@ def test_black_box_with_a_non_discrete_metric():
 # --------------------------------------------------------------------------- worst model
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", (2, 3, 5))
 @pytest.mark.parametrize("eps", (0.0, 0.7, 3.0))
 def test_worst_model_equals_the_general_route(k, eps):
@@ -403,6 +406,7 @@ def bisect_general(k: int, target: float, **cls) -> float:
     return lo
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", (2, 3, 5))
 def test_calibration_equals_the_general_route(k):
     for target, cls in (
@@ -421,6 +425,7 @@ def test_calibration_equals_the_general_route(k):
         assert c.keep_probability == pytest.approx(t / (t + k - 1), rel=1e-12)
 
 
+@pytest.mark.slow
 def test_calibrate_a_million_groups_in_closed_form_and_little_memory():
     k = 10**6
     tracemalloc.start()
@@ -443,6 +448,7 @@ def test_calibrate_a_million_groups_in_closed_form_and_little_memory():
 # --------------------------------------------------------------------------- property tests
 
 
+@pytest.mark.slow
 @given(
     k=st.integers(2, 12),
     eps=st.one_of(st.just(0.0), st.floats(0.0, 8.0)),
@@ -468,6 +474,7 @@ def test_closed_forms_equal_the_general_route_property(k, eps, tau, lower, gamma
 
 
 # (a subnormal floor leaves the threshold rule an absolute underflow term, proofs/linear_fractional.md §7: excluded)
+@pytest.mark.slow
 @given(k=st.integers(2, 40), target=st.floats(0.0, 5.0), rho=st.floats(0.0, 0.95, allow_subnormal=False))
 def test_calibration_closed_form_meets_the_target_property(k, target, rho):
     c = calibrate(target, groups=k, utility_class=UtilityClass(lower=rho))

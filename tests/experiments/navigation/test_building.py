@@ -222,6 +222,7 @@ def test_every_room_is_reachable_from_the_lobby(small_maps):
     assert min(share.values()) >= 0.9, share
 
 
+@pytest.mark.slow
 def test_default_layout_every_room_reachable(tmp_path):
     area = write_building(tmp_path, spacing=0.2)  # 56 rooms, coarse: about 240,000 points
     maps = build_maps(area, resolution=0.25, robot_radius=0.2)
@@ -250,6 +251,7 @@ def test_hr_offices_are_mirror_images_at_equal_distance(small_maps):
     assert d1 >= math.hypot(c1[0] - LOBBY_WIDTH / 2, c1[1] - Y_MID)  # no shorter than the straight line
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("options", [{}, {"resolution": 0.1}, {"ceiling": 2.0, "clearance": None}])
 def test_streamed_maps_equal_in_memory_maps_office_floor(tmp_path, options):
     area = write_office_floor(tmp_path, spacing=0.1)

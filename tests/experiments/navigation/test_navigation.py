@@ -632,6 +632,7 @@ def test_delivery_scene_on_an_area_folder(floor):
     assert scene.images[0] == route_image(scene.maps, scene.routes[0], 1)
 
 
+@pytest.mark.slow
 def test_delivery_scene_generates_into_workdir(tmp_path):
     scene = delivery_scene(workdir=tmp_path, resolution=0.2, spacing=0.2, rtol=0.0)
     assert (tmp_path / "Area_1" / "lobby_1" / "lobby_1.txt").is_file() and scene.area == tmp_path / "Area_1"

@@ -307,6 +307,15 @@ def _no_solution(result: Callable[..., FractionalResult], solver_status: str, re
     return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
 
 
+def _unbounded(
+    result: Callable[..., FractionalResult], argmax: FloatArray | None, solver_status: str, reason: str
+) -> FractionalResult:
+    """+inf, status "unbounded", certified (+inf bounds every ratio), and why the ratio is unbounded."""
+    return result(
+        value=math.inf, argmax=argmax, status="unbounded", solver_status=solver_status, reason=reason, certified=True
+    )
+
+
 def _failed(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
     """The solver failed and nothing exact stood in: NaN, status "error" (not "infeasible": nothing is proved)."""
     return result(value=math.nan, argmax=None, status="error", solver_status=solver_status, reason=reason)
@@ -452,22 +461,11 @@ class FractionalProgram:
         if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
             # the solver's word is checked where the program is small: on badly scaled data (e^30 beside 1) Clarabel
             # called a ratio unbounded whose exact maximum is finite (a box program goes to the threshold rule, solve)
-            checkable = bool(self._rows) and self._bounded
-            exact = (
-                self._crossover(result, p, q, status, "the solver called the ratio unbounded") if checkable else None
-            )
-            return (
-                exact
-                if exact is not None
-                else result(
-                    value=math.inf,
-                    argmax=None,
-                    status="unbounded",
-                    solver_status=status,
-                    reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0",
-                    certified=True,  # +inf bounds every ratio
-                )
-            )
+            if self._rows and self._bounded:
+                exact = self._crossover(result, p, q, status, "the solver called the ratio unbounded")
+                if exact is not None:
+                    return exact
+            return _unbounded(result, None, status, "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0")
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
             return self._zero_denominator(p, q, status)
         s = self._s.value
@@ -617,14 +615,10 @@ class FractionalProgram:
         if optimum.status == "zero_denominator" and optimum.point is not None:
             at = optimum.point  # a vertex of the polytope, exactly
             if sum(map(operator.mul, exact(q), at)) == 0 < sum(map(operator.mul, exact(p), at)):
-                return result(
-                    value=math.inf,
-                    argmax=np.array([float(x) for x in at]),
-                    status="unbounded",
-                    solver_status=f"{status}; {EXACT_CROSSOVER} (exact: {why})",
-                    reason="the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)",
-                    certified=True,  # +inf bounds every ratio
-                )
+                solver_status = f"{status}; {EXACT_CROSSOVER} (exact: {why})"
+                point = np.array([float(x) for x in at])
+                reason = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)"
+                return _unbounded(result, point, solver_status, reason)
         if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
             return None
         value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
@@ -667,14 +661,7 @@ class FractionalProgram:
                 result, f"{status}; {primal_status}", "the solver called max p·h over a bounded box unbounded"
             )
         if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
-            return result(
-                value=math.inf,
-                argmax=h,
-                status="unbounded",
-                solver_status=status,
-                reason="q·h = 0 on every feasible h and some has p·h > 0 (c/0)",
-                certified=True,  # +inf bounds every ratio
-            )
+            return _unbounded(result, h, status, "q·h = 0 on every feasible h and some has p·h > 0 (c/0)")
         return result(
             value=1.0,
             argmax=h,

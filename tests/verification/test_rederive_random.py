@@ -550,15 +550,20 @@ REGRESSIONS["L-bar unbounded, the solver inaccurate"] = (
 )
 
 
+PRODUCT_THREE_BY_THREE = (  # groups named by a product's components (the spec lists none), 3 decisions, 3 contexts
+    HEAD.format(groups="[]").replace("values = []\n", "").replace('["d0", "d1"]', '["d0", "d1", "d2"]')
+    + THREE_CONTEXTS
+    + '[privacy.sensitive]\nmechanism = "product"\n'
+)
+
 # L is +inf (c0: g(x1) = (1, .5, .5) > 0 where x0's utility can be 0), but the pair certify named, x0 vs x2 (whose
 # worst ratio is finite, below 5 e^30), was the first one Clarabel called unbounded on data of e^30 beside 1; verify
 # failed the named pair by inf (fixed in certify: a solver's "unbounded" is checked by the rational simplex where the
 # program is small, base.linear_fractional)
 REGRESSIONS["a finite ratio the solver called unbounded"] = (
-    HEAD.format(groups="[]").replace("values = []\n", "").replace('["d0", "d1"]', '["d0", "d1", "d2"]')
-    + THREE_CONTEXTS
-    + '[privacy.sensitive]\nmechanism = "product"\ncomponents = [{ values = ["x0", "x1", "x2"], '
-    + 'mechanism = "randomized_response", epsilon = 30.0 }]\n[utility]\nkind = "table"\nvalues = '
+    PRODUCT_THREE_BY_THREE
+    + 'components = [{ values = ["x0", "x1", "x2"], mechanism = "randomized_response", epsilon = 30.0 }]\n'
+    + '[utility]\nkind = "table"\nvalues = '
     + "[[[0.0, 1.0, 1.0], [1.0, 0.5, 0.5], [0.0, 0.2, 0.2]], [[0.5, 1.0, 0.2], [0.0, 1.0, 0.2], [0.0, 0.0, 0.0]], "
     + "[[1.0, 1.0, 2.0], [2.0, 2.0, 0.0], [0.5, 2.0, 2.0]]]\n",
     None,
@@ -569,9 +574,8 @@ REGRESSIONS["a finite ratio the solver called unbounded"] = (
 # exited 2 on a NaN kernel (fixed in certify: the transformed program called infeasible is told exactly by the rational
 # simplex where small, and a bounded box called unbounded is a solver failure, base.linear_fractional)
 REGRESSIONS["no model meets tau, the solver's ray taken for a model"] = (
-    HEAD.format(groups="[]").replace("values = []\n", "").replace('["d0", "d1"]', '["d0", "d1", "d2"]')
-    + THREE_CONTEXTS
-    + '[privacy.sensitive]\nmechanism = "product"\ncomponents = [{ values = ["x0", "x1", "x2", "x3"] }]\n'
+    PRODUCT_THREE_BY_THREE
+    + 'components = [{ values = ["x0", "x1", "x2", "x3"] }]\n'
     + '[utility]\nkind = "table"\ntau = 2e-06\nvalues = [[[0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], '
     + "[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]], [[0.0, 0.0, 2.0], "
     + "[0.0, 0.0, 0.0], [0.2, 0.0, 0.0], [0.0, 0.0, 0.0]]]\n",

@@ -126,6 +126,8 @@ def _black_box(
     out.append(judge("calibration.bound", cal["bound"], value, "upper", f"the exact {basis} at that epsilon"))
     out.append(judge("calibration.target", cal["target"], value, "at least", f"met by the exact {basis}"))
     above = cert["inputs"]["calibration"].get("black_box_above")
+    if above is None and cal["epsilon"] == "inf":
+        return [*out, _none_above(LARGEST)]
     if above is None:
         skipped.append((LARGEST, "no member above the calibrated epsilon recorded"))
         return out
@@ -171,6 +173,12 @@ def _largest(name: str, epsilon: Any, target: Any, eps_above: Enclosure, above: 
     )
     return Check(name=name, reported=epsilon, derived_low=float(above.lo), derived_high=float(above.hi),
                  side="largest", holds=ok, fails_by=by, detail=detail)  # fmt: skip
+
+
+def _none_above(name: str) -> Check:
+    """ε = +inf is the largest: no ε lies above it (the bound and the target at +inf are checked beside it)."""
+    return Check(name=name, reported="inf", derived_low=math.inf, derived_high=math.inf, side="largest", holds=True,
+                 fails_by=0.0, detail="epsilon is +inf: no larger epsilon exists")  # fmt: skip
 
 
 def _on_l(
@@ -250,6 +258,8 @@ def _white_box(
     )
     name = "calibration.white_box.epsilon is the largest"
     above = cert["inputs"]["calibration"].get("white_box_above")
+    if above is None and cal["epsilon"] == "inf":
+        return [*out, _none_above(name)]
     if above is None:
         skipped.append((name, "no member above the calibrated epsilon recorded"))
         return out

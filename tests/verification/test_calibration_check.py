@@ -61,6 +61,22 @@ def test_shipped_calibrations_hold_black_box_and_white_box(spec):
     assert "calibration" not in dict(result.not_checked)
 
 
+@pytest.mark.slow
+def test_a_white_box_epsilon_of_inf_is_the_largest():
+    # gpt4's model meets the target without privacy: the white-box calibration is epsilon = +inf, and no member lies
+    # above it (its bound at +inf is re-derived beside it)
+    cert = _cert("examples/llm_hiring/gpt4.toml")
+    assert cert["calibration"]["white_box"]["epsilon"] == "inf"
+    assert cert["inputs"]["calibration"]["white_box_above"] is None
+    result = verify(cert)
+    largest = _named(result, "calibration.white_box.epsilon is the largest")
+    assert [(c.holds, c.detail) for c in largest.values()] == [(True, "epsilon is +inf: no larger epsilon exists")]
+    assert _named(result, "calibration.white_box.target")["calibration.white_box.target"].holds
+    assert "calibration.white_box.epsilon is the largest" not in dict(result.not_checked)
+    cert["calibration"]["white_box"]["epsilon"] = 3.0  # a finite epsilon claimed, with no member above it recorded
+    assert "calibration.white_box.epsilon is the largest" in dict(verify(cert).not_checked)
+
+
 @pytest.mark.parametrize(
     "path, change, failing",
     [

@@ -35,6 +35,9 @@ __all__ = ["MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures", "pair
 MAX_VARIABLES = 64
 """The largest program (variables) re-derived exactly; a larger black box is listed as not re-derived."""
 
+MAX_GROUPS = 16
+"""The most groups of a matrix mechanism whose black box is re-derived (a pair's program has a floor per group)."""
+
 Number = Fraction | float
 
 
@@ -195,7 +198,7 @@ def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | list[KernelSetting]
     else:
         low, high = [min(values)] * len(live), [max(values)] * len(live)
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
-    if m.kind == "matrix" and (m.k > 16 or len(m.outputs) > MAX_VARIABLES):
+    if m.kind == "matrix" and (m.k > MAX_GROUPS or len(m.outputs) > MAX_VARIABLES):
         return f"programs beyond {MAX_VARIABLES} variables"
     mass = [sum(pop[x][a] for x in live) for a in range(m.k)]
     weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(m.k)] for x in live]
@@ -229,14 +232,61 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None) 
     (behind randomized response every pair is alike: the pair (0, 1) stands for it)."""
     if isinstance(s, KernelSetting):
         return kernel_local(s, at)
-    best: Number = Fraction(0)
     polytopes: dict[Any, Polytope] = {}
-    cases = [(i, a, b) for i in range(len(s.low)) for a, b in _pairs(s)] if at is None else [at]
-    for i, a, b in cases:
-        if s.rows is None:
-            a, b = 0, 1
+    if at is not None or s.rows is None:  # one case; behind randomized response the pair (0, 1) stands for all
+        cases = [at] if at is not None else [(i, 0, 1) for i in range(len(s.low))]
+        return max(_solve(*_local_program(s, *case), s.tau, polytopes) for case in cases)
+    # contexts with the same box have the same programs; the pairs are solved in decreasing order of their bound
+    # without floors (an upper bound: the floors only shrink the box), until no bound left exceeds the best found
+    # (each box's first program is solved whatever its bound: it is where floors no model meets are found)
+    boxes = list(dict.fromkeys(zip(s.low, s.high)))
+    ranked = sorted(
+        ((_box_bound(s.rows[a], s.rows[b], [lo] * len(s.rows[a]), [hi] * len(s.rows[a])), i, a, b)
+         for i, (lo, hi) in enumerate(boxes) for a, b in _pairs(s)),
+        key=lambda case: case[0], reverse=True,
+    )  # fmt: skip
+    best: Number = Fraction(0)
+    tried: set[int] = set()
+    for bound, i, a, b in ranked:
+        if bound <= best and i in tried:
+            continue
+        tried.add(i)
         row_a, row_b, floors, _ = _rows_of(s, a, b)
-        best = max(best, _solve([row_a], [row_b], floors, [s.low[i]], [s.high[i]], s.tau, polytopes))
+        best = max(best, _solve([row_a], [row_b], floors, [boxes[i][0]], [boxes[i][1]], s.tau, polytopes))
+    return best
+
+
+def _local_program(
+    s: _Setting, i: int, a: int, b: int
+) -> tuple[list[list[Fraction]], list[list[Fraction]], list[list[Fraction]], list[Fraction], list[Fraction]]:
+    """The arguments of :func:`_solve` for live context ``i`` and the pair (a, b) (behind randomized response (0, 1))."""
+    if s.rows is None:
+        a, b = 0, 1
+    row_a, row_b, floors, _ = _rows_of(s, a, b)
+    return [row_a], [row_b], floors, [s.low[i]], [s.high[i]]
+
+
+def _box_bound(
+    p: Sequence[Fraction], q: Sequence[Fraction], low: Sequence[Fraction], high: Sequence[Fraction]
+) -> Number:
+    """max (p·h)/(q·h) over the box low ≤ h ≤ high (p, q ≥ 0), exactly, with c/0 = +inf and 0/0 = 1 at h = low: an
+    upper bound of the same ratio over any part of the box.
+
+    The threshold rule (``proofs/linear_fractional.md``, the threshold solution): at the maximum λ*, h maximises
+    (p − λ* q)·h, so it is high where p_i/q_i > λ* and low elsewhere; the maximum is among the n + 1 prefixes of the
+    cells in decreasing order of p_i/q_i (the cells with q_i = 0 < p_i first, always high). 0/0 at h = low is counted
+    as 1, which can only raise the bound.
+    """
+    num = sum((pi * lo for pi, lo in zip(p, low)), Fraction(0))
+    den = sum((qi * lo for qi, lo in zip(q, low)), Fraction(0))
+    steps = [(pi * (hi - lo), qi * (hi - lo)) for pi, qi, lo, hi in zip(p, q, low, high) if hi > lo]
+    num += sum((dp for dp, dq in steps if dq == 0), Fraction(0))
+    if den == 0 and num > 0:
+        return INF  # h = low but high on the cells a' never reaches: q·h = 0 < p·h
+    best: Number = num / den if den else Fraction(1)
+    for dp, dq in sorted(((dp, dq) for dp, dq in steps if dq > 0), key=lambda c: c[0] / c[1], reverse=True):
+        num, den = num + dp, den + dq
+        best = max(best, num / den)
     return best
 
 
@@ -260,15 +310,35 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> N
         pairs = pairs if s.rows is None and alike else [at]
     best: Number = Fraction(1)
     polytopes: dict[Any, Polytope] = {}
-    for a, b in pairs:
-        tops, bottoms, floors = [], [], []
-        for i in range(len(low)):
-            row_a, row_b, fl, _ = _rows_of(s, a, b) if s.rows is not None else _full_rr_rows(s, a, b)
-            tops.append([weights[i][a] * v for v in row_a])
-            bottoms.append([weights[i][b] * v for v in row_b])
-            floors.append(fl)
+    programs = [_global_program(s, a, b, weights) for a, b in pairs]
+    if len(programs) > 1:  # in decreasing order of the bound without floors, until none left exceeds the best found
+        numerators = [[v for row in program[0] for v in row] for program in programs]
+        denominators = [[v for row in program[1] for v in row] for program in programs]
+        lows = [lo for lo, row in zip(low, programs[0][0]) for _ in row]
+        highs = [hi for hi, row in zip(high, programs[0][0]) for _ in row]
+        bounds = [_box_bound(p, q, lows, highs) for p, q in zip(numerators, denominators)]
+        programs = [programs[j] for j in sorted(range(len(programs)), key=bounds.__getitem__, reverse=True)]
+        bounds.sort(reverse=True)
+    else:
+        bounds = [INF]
+    for j, (tops, bottoms, floors) in enumerate(programs):
+        if j and bounds[j] <= best:  # (the first is solved whatever its bound: it finds floors no model meets)
+            break
         best = max(best, _solve_blocks(tops, bottoms, floors, low, high, s.tau, polytopes))
     return best
+
+
+def _global_program(
+    s: _Setting, a: int, b: int, weights: list[list[Fraction]]
+) -> tuple[list[list[Fraction]], list[list[Fraction]], list[list[list[Fraction]]]]:
+    """(numerators, denominators, floors) of L̄'s program for the pair (a, b), one block per merged context."""
+    tops, bottoms, floors = [], [], []
+    for w in weights:
+        row_a, row_b, fl, _ = _rows_of(s, a, b) if s.rows is not None else _full_rr_rows(s, a, b)
+        tops.append([w[a] * v for v in row_a])
+        bottoms.append([w[b] * v for v in row_b])
+        floors.append(fl)
+    return tops, bottoms, floors
 
 
 def _merged(s: _Setting) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]]]:

@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
+import operator
+from fractions import Fraction as F
 
 import pytest
 from _cli import OFFICE_SPEC
 from _verified import certified_and_verified
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+import fairaudit.verification.black_box_check as bb
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.black_box_check import black_box_enclosures
@@ -154,3 +160,67 @@ def test_l_bar_beyond_the_limit_is_listed_and_its_pair_not_failed(monkeypatch):
     listed = dict(result.not_checked)
     assert listed["bound_details.black_box.global"] == "L-bar: programs beyond 2 variables"
     assert "bounds.black_box" in {c.name for c in result.checks}
+
+
+@given(
+    cells=st.lists(
+        st.tuples(st.integers(0, 6), st.integers(0, 6), st.integers(0, 3), st.integers(0, 3)), min_size=1, max_size=6
+    )
+)
+@settings(max_examples=200)
+def test_the_box_bound_is_the_exact_maximum_over_the_box(cells):
+    # the threshold rule in fractions against the rational simplex over the same box (no rows), with the tool's
+    # conventions: c/0 = +inf, 0/0 = 1 (the simplex reports q·h = 0 somewhere as zero_denominator)
+    from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
+
+    p, q = [F(c[0], 6) for c in cells], [F(c[1], 6) for c in cells]
+    low = [F(min(c[2], c[3]), 3) for c in cells]
+    high = [F(max(c[2], c[3]), 3) for c in cells]
+    bound = bb._box_bound(p, q, low, high)
+    exact = maximize_ratio(p, q, low, high, [], [])
+    origin = sum(map(operator.mul, q, low)) == 0  # h = low is 0/0 (p·low = 0 too, else +inf): counted as 1
+    if exact.status == "optimal":
+        assert bound == (max(F(1), exact.value) if origin else exact.value)
+        return
+    # some h of the box has q·h = 0: +inf where p·h > 0 there (then nothing else matters), else 0/0 counts as 1 and
+    # the bound is the largest ratio over the h with q·h > 0 (or 1)
+    top = maximize_linear(p, low, high, [q], [F(0)])
+    if top.status == "optimal" and top.value > 0:
+        assert bound == math.inf
+        return
+    positive = [h for h in itertools.product(*zip(low, high)) if sum(map(operator.mul, q, h)) > 0]
+    ratios = [sum(map(operator.mul, p, h)) / sum(map(operator.mul, q, h)) for h in positive]
+    assert bound == max([F(1), *ratios])
+
+
+@pytest.mark.parametrize("tau", [None, 0.3])
+def test_pairs_set_aside_by_their_box_bound_change_nothing(tau, monkeypatch):
+    # a matrix on five groups and three contexts, two of one box: L and L-bar with the pairs ranked by their bound
+    # without floors and set aside below the best found, against every pair solved (the bound made +inf)
+    groups, contexts = [f"g{i}" for i in range(5)], ["c0", "c1", "c2"]
+    rows = [[(3 * i + 5 * j) % 7 + 1 for j in range(4)] for i in range(5)]
+    inputs = {
+        "sensitive_mechanism": {
+            "inputs": groups,
+            "outputs": ["o0", "o1", "o2", "o3"],
+            "kind": "matrix",
+            "matrix": [[v / sum(r) for v in r] for r in rows],
+        },
+        "context_mechanism": {"inputs": contexts, "outputs": contexts, "kind": "identity"},
+        "utility": {"values": [[[1.0, 0.25]] * 5, [[1.0, 0.25]] * 5, [[0.5, 0.0]] * 5], "tau": tau},
+        "population": {
+            "contexts": contexts,
+            "groups": groups,
+            "probabilities": [[0.05, 0.1, 0.02, 0.03, 0.1], [0.1, 0.05, 0.1, 0.1, 0.05], [0.1, 0.05, 0.05, 0.05, 0.05]],
+        },
+    }
+    solve, solved = bb._solve_blocks, []
+    monkeypatch.setattr(bb, "_solve_blocks", lambda *args: solved.append(1) or solve(*args))
+    pruned = black_box_enclosures(inputs)
+    n_pruned = len(solved)
+    monkeypatch.setattr(bb, "_box_bound", lambda *args: math.inf)
+    every = black_box_enclosures(inputs)
+    assert (pruned.local, pruned.global_) == (every.local, every.global_)
+    assert pruned.local.lo > 1 and pruned.global_.lo > 1
+    assert len(solved) - n_pruned == 2 * 20 + 20  # every ordered pair on each of the two boxes (L), and L-bar's
+    assert n_pruned < 60

@@ -63,6 +63,10 @@ __all__ = [
 DIGITS = 50
 """Significant digits of the decimal arithmetic behind :func:`log_up` and its kin."""
 
+NEAR = Fraction(1, 2**20)
+"""Below this distance from 0 (for e^x) or from 1 (for ln x), :func:`exp_bounds` and :func:`ln_bounds` sum the Taylor
+series with its remainder bound: e^x − 1 and ln x are then small, and the decimals' 50 digits would hold only x."""
+
 Exact = Fraction | int | float
 """An exact real: a rational, an integer, or a float (every finite float is a rational)."""
 
@@ -362,6 +366,11 @@ def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
         raise ValueError(f"ln_bounds of a number <= 0: {x!r}")
     if q == 1:
         return Fraction(0), Fraction(0)
+    if abs(q - 1) < NEAR:  # the decimals hold x to 50 digits, not ln x: its series, to 50 digits of ln x itself
+        y = q - 1
+        series = sum(Fraction((-1) ** (n + 1), n) * y**n for n in range(1, 11))
+        rest = 2 * abs(y) ** 11 / 11  # Σ_{n > 10} |y|^n/n ≤ |y|^11/(11 (1 − |y|))
+        return series - rest, series + rest
     return Fraction(_ln_decimal(q, False)), Fraction(_ln_decimal(q, True))
 
 
@@ -390,6 +399,10 @@ def exp_bounds(x: Exact) -> tuple[Fraction, Fraction]:
         raise ValueError(f"exp_bounds of a number beyond 1e6 in size: {x!r}")
     if q == 0:
         return Fraction(1), Fraction(1)
+    if abs(q) < NEAR:  # the decimals hold e^x to 50 digits, not e^x − 1: its series, to 50 digits of e^x − 1
+        series = sum(q**n / math.factorial(n) for n in range(9))
+        rest = 2 * abs(q) ** 9 / math.factorial(9)  # Lagrange's remainder, e^|x| ≤ 2
+        return series - rest, series + rest
     return Fraction(_exp_decimal(q, False)), Fraction(_exp_decimal(q, True))
 
 

@@ -169,8 +169,8 @@ class RecordedMechanism:
         return len(self.inputs)
 
     def t(self) -> Enclosure:
-        """Randomized response's e^ε, enclosed, never below 1 (ε ≥ 0: the 50-digit lower end of e^ε for ε below
-        1e-50 is below 1, a randomized response with its roles swapped)."""
+        """Randomized response's e^ε, enclosed, never below 1 (ε ≥ 0: a lower end below 1 would be a randomized
+        response with its roles swapped)."""
         eps = self.epsilon
         if eps == INF:
             return Enclosure.point(INF)

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from fairaudit.base.outward import (
     down,
+    exp_bounds,
     exp_down,
     exp_up,
     fraction_down,
@@ -132,8 +133,35 @@ def test_ln_bounds_next_to_one_are_rationals_around_it(gap, side):
     # within 1e-25 of 1 the 50-digit argument rounds to 1: next_plus(ln 1) was 1e-(10^18), which hung Fraction()
     q = 1 + side * gap
     lo, hi = ln_bounds(q)
-    with mpmath.workdps(200):
-        exact = mpmath.log(mpmath.mpf(q.numerator) / q.denominator)
-        assert mpmath.mpf(lo.numerator) / lo.denominator <= exact <= mpmath.mpf(hi.numerator) / hi.denominator
+    assert _encloses(lo, hi, mpmath.log, q)
     assert 0 < hi - lo <= gap**2 / min(q, Fraction(1))
     assert log_down(q) <= log_up(q) and (log_up(q) <= 0 if side < 0 else log_down(q) >= 0)
+
+
+@pytest.mark.parametrize("x", [4.053062555617706e-56, 5e-324, -1e-300, 2.0**-21, -(2.0**-21), 3e-7, 1e-6, 0.5])
+def test_exp_and_ln_bounds_near_zero_hold_50_digits_of_the_small_quantity(x):
+    # e^x − 1 and ln(1 + y) are small there: the decimals' 50 digits held x, not them (a randomized response at
+    # 4e-56 nats had e^epsilon in [1, 1 + 1e-49]); below 2^-20 the Taylor series with its remainder bound holds them
+    # to 48 digits of themselves, above it the decimals to 42 at least (x = 1e-6 and 0.5: 2^-20 < |x|)
+    q = Fraction(x)
+    digits = 48 if abs(q) < 2**-20 else 42
+    lo, hi = exp_bounds(q)
+    assert _encloses(lo, hi, mpmath.exp, q)
+    assert hi - lo <= Fraction(1, 10**digits) * abs(q)
+    lo, hi = ln_bounds(1 + q)  # ln(1 + y) for y = x, 1 + y the rational next to 1
+    assert _encloses(lo, hi, mpmath.log, 1 + q)
+    assert hi - lo <= Fraction(1, 10**digits) * abs(q)
+
+
+def _encloses(lo: Fraction, hi: Fraction, f, q: Fraction) -> bool:
+    """lo ≤ f(q) ≤ hi, with mpmath at enough digits to tell them apart (their width and the rationals' sizes)."""
+    width = hi - lo
+    dps = 60 + max(len(str(width.denominator)) - len(str(width.numerator)), 0)
+    dps += max(len(str(q.denominator)), len(str(lo.denominator)), len(str(hi.denominator)))
+    with mpmath.workdps(dps):
+        value = f(mpmath.mpf(q.numerator) / mpmath.mpf(q.denominator))
+        return bool(
+            mpmath.mpf(lo.numerator) / mpmath.mpf(lo.denominator)
+            <= value
+            <= mpmath.mpf(hi.numerator) / mpmath.mpf(hi.denominator)
+        )

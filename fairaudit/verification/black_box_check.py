@@ -21,6 +21,8 @@ every group).
 
 from __future__ import annotations
 
+import math
+import operator
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -30,12 +32,12 @@ from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
 
-__all__ = ["MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
+__all__ = ["MAX_GROUPS", "MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
 
 MAX_VARIABLES = 64
 """The largest program (variables) re-derived exactly; a larger black box is listed as not re-derived."""
 
-MAX_GROUPS = 16
+MAX_GROUPS = 32
 """The most groups of a matrix mechanism whose black box is re-derived (a pair's program has a floor per group)."""
 
 Number = Fraction | float
@@ -232,38 +234,130 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None) 
     (behind randomized response every pair is alike: the pair (0, 1) stands for it)."""
     if isinstance(s, KernelSetting):
         return kernel_local(s, at)
-    polytopes: dict[Any, Polytope] = {}
-    if at is not None or s.rows is None:  # one case; behind randomized response the pair (0, 1) stands for all
-        cases = [at] if at is not None else [(i, 0, 1) for i in range(len(s.low))]
-        return max(_solve(*_local_program(s, *case), s.tau, polytopes) for case in cases)
-    # contexts with the same box have the same programs; the pairs are solved in decreasing order of their bound
-    # without floors (an upper bound: the floors only shrink the box), until no bound left exceeds the best found
-    # (each box's first program is solved whatever its bound: it is where floors no model meets are found)
-    boxes = list(dict.fromkeys(zip(s.low, s.high)))
-    ranked = sorted(
-        ((_box_bound(s.rows[a], s.rows[b], [lo] * len(s.rows[a]), [hi] * len(s.rows[a])), i, a, b)
-         for i, (lo, hi) in enumerate(boxes) for a, b in _pairs(s)),
-        key=lambda case: case[0], reverse=True,
-    )  # fmt: skip
-    best: Number = Fraction(0)
-    tried: set[int] = set()
-    for bound, i, a, b in ranked:
-        if bound <= best and i in tried:
+    # contexts with the same box have the same programs: one case per box and pair (_largest); behind randomized
+    # response the pair (0, 1) stands for every pair
+    boxes = [(s.low[at[0]], s.high[at[0]])] if at is not None else list(dict.fromkeys(zip(s.low, s.high)))
+    pairs = [(at[1], at[2])] if at is not None else _pairs(s)
+    floors = [_rows_of(s, *pairs[0])[2]]  # (every group's: the same for every pair)
+    cases = []
+    for a, b in pairs:
+        row_a, row_b, _, _ = _rows_of(s, a, b)
+        cases += [_Case((lo, hi), [row_a], [row_b], floors, [lo], [hi], s.tau) for lo, hi in boxes]
+    return _largest(cases, Fraction(0), {})
+
+
+@dataclass(frozen=True)
+class _Case:
+    """One pair's program (:func:`_solve_blocks`' arguments); ``key`` names its feasible set (the box, for L)."""
+
+    key: Any
+    tops: list[list[Fraction]]
+    bottoms: list[list[Fraction]]
+    floors: list[list[list[Fraction]]]
+    low: list[Fraction]
+    high: list[Fraction]
+    tau: Fraction | None
+    kept: Fraction | None = None  # with one block: t of the floor the denominator keeps, q·h ≥ t (τ, or P(x | a') τ)
+
+    def bound(self) -> tuple[Number, list[Fraction] | None]:
+        """An upper bound on the program's value: the floor relaxation's (one block, a positive floor), with its
+        maximiser (the value, where that meets every floor), else the box's bound, with None."""
+        t = self.tau if self.kept is None else self.kept
+        if self.tau and t and len(self.tops) == 1:
+            found = _floor_relaxation(self.tops[0], self.bottoms[0], t, [self.low[0]] * len(self.tops[0]),
+                                      [self.high[0]] * len(self.tops[0]))  # fmt: skip
+            if found is None:  # no h of the box meets the floor of a': no model meets the floors
+                raise ValueError("the worst-case program is infeasible")
+            return found
+        p = [v for row in self.tops for v in row]
+        q = [v for row in self.bottoms for v in row]
+        low = [lo for lo, row in zip(self.low, self.tops) for _ in row]
+        high = [hi for hi, row in zip(self.high, self.tops) for _ in row]
+        return _box_bound(p, q, low, high), None
+
+
+def _largest(cases: Sequence[_Case], start: Number, polytopes: dict[Any, Polytope]) -> Number:
+    """max of ``start`` and the programs' values, solving as few as it can (``proofs/verification.md`` §4).
+
+    Each case's bound (:meth:`_Case.bound`) is its value where the floor relaxation's maximiser meets every floor;
+    the others are solved exactly in decreasing order of their bound until none left exceeds the best found. A key
+    none of whose programs is known feasible has its first solved whatever its bound: that is where floors no
+    model meets are found (ValueError).
+    """
+    best, known = start, set()
+    open_cases = []
+    scaled: dict[int, tuple[list[list[int]], int]] = {}  # the floors of one block as integers over one denominator
+    for case in cases:
+        bound, h = case.bound()
+        if h is not None and id(case.floors[0]) not in scaled:
+            scaled[id(case.floors[0])] = _integers(case.floors[0])
+        if h is not None and _meets(*scaled[id(case.floors[0])], h, case.tau):  # (tau is set where h is)
+            best = max(best, bound)
+            known.add(case.key)
+        else:
+            open_cases.append((bound, case))
+    open_cases.sort(key=lambda c: c[0], reverse=True)
+    for bound, case in open_cases:
+        if bound <= best and case.key in known:
             continue
-        tried.add(i)
-        row_a, row_b, floors, _ = _rows_of(s, a, b)
-        best = max(best, _solve([row_a], [row_b], floors, [boxes[i][0]], [boxes[i][1]], s.tau, polytopes))
+        known.add(case.key)
+        best = max(best, _solve_blocks(case.tops, case.bottoms, case.floors, case.low, case.high, case.tau, polytopes))
     return best
 
 
-def _local_program(
-    s: _Setting, i: int, a: int, b: int
-) -> tuple[list[list[Fraction]], list[list[Fraction]], list[list[Fraction]], list[Fraction], list[Fraction]]:
-    """The arguments of :func:`_solve` for live context ``i`` and the pair (a, b) (behind randomized response (0, 1))."""
-    if s.rows is None:
-        a, b = 0, 1
-    row_a, row_b, floors, _ = _rows_of(s, a, b)
-    return [row_a], [row_b], floors, [s.low[i]], [s.high[i]]
+def _integers(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:
+    """Rational rows as integers over one common denominator d: (the integers, d)."""
+    d = math.lcm(*(v.denominator for row in rows for v in row))
+    return [[v.numerator * (d // v.denominator) for v in row] for row in rows], d
+
+
+def _meets(rows: list[list[int]], d: int, h: Sequence[Fraction], tau: Any) -> bool:
+    """Whether (rows/d)·h ≥ τ for every row, exactly, in integers."""
+    e = math.lcm(*(x.denominator for x in h))
+    point = [x.numerator * (e // x.denominator) for x in h]
+    floor = Fraction(tau) * d * e
+    return all(sum(map(operator.mul, row, point)) * floor.denominator >= floor.numerator for row in rows)
+
+
+def _floor_relaxation(
+    p: Sequence[Fraction], q: Sequence[Fraction], t: Fraction, low: Sequence[Fraction], high: Sequence[Fraction]
+) -> tuple[Number, list[Fraction]] | None:
+    """max (p·h)/(q·h) over the box low ≤ h ≤ high with q·h ≥ t (p, q ≥ 0, t > 0), exactly, and an h attaining it;
+    None when q·high < t (no h meets the floor).
+
+    The maximum over q·h > 0 is at a prefix of the cells in decreasing order of p_i/q_i (the threshold rule, as
+    :func:`_box_bound`); where that prefix has q·h < t, the maximum is on q·h = t (along the segment to any
+    feasible h the ratio is monotone, so it crosses q·h = t at a ratio at least that h's), where it is max p·h/t, a
+    fractional knapsack: the cells with q_i = 0 high, then the others raised in the same order until q·h = t. So
+    the maximum is the largest of the prefixes with q·h ≥ t and that point (``proofs/verification.md`` §4).
+    """
+    if sum(map(operator.mul, q, high)) < t:
+        return None
+    cells = range(len(p))
+    free = [i for i in cells if high[i] > low[i] and q[i] == 0 < p[i]]
+    order = free + sorted((i for i in cells if high[i] > low[i] and q[i] > 0), key=lambda i: p[i] / q[i], reverse=True)
+    num, den = sum(map(operator.mul, p, low)), sum(map(operator.mul, q, low))
+    best: tuple[Number, int] | None = (num / den, 0) if den >= t else None
+    for j, i in enumerate(order, 1):
+        num, den = num + p[i] * (high[i] - low[i]), den + q[i] * (high[i] - low[i])
+        if den >= t and (best is None or num / den > best[0]):
+            best = (num / den, j)
+    at_floor = None
+    below = sum(map(operator.mul, q, low))
+    if below < t:  # the point of q·h = t with the largest p·h
+        h, budget = list(low), t - below
+        for i in order:
+            step = high[i] - low[i] if q[i] == 0 else min(high[i] - low[i], budget / q[i])
+            h[i] += step
+            budget -= step * q[i]
+            if budget == 0 and q[i]:
+                break
+        at_floor = (sum(map(operator.mul, p, h)) / t, h)
+    if best is None or (at_floor is not None and at_floor[0] > best[0]):
+        assert at_floor is not None  # (q·high ≥ t: either a prefix meets the floor or q·low < t)
+        return at_floor
+    chosen = set(order[: best[1]])
+    return best[0], [high[i] if i in chosen else low[i] for i in cells]
 
 
 def _box_bound(
@@ -308,37 +402,16 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> N
         return None
     if at is not None:
         pairs = pairs if s.rows is None and alike else [at]
-    best: Number = Fraction(1)
-    polytopes: dict[Any, Polytope] = {}
-    programs = [_global_program(s, a, b, weights) for a, b in pairs]
-    if len(programs) > 1:  # in decreasing order of the bound without floors, until none left exceeds the best found
-        numerators = [[v for row in program[0] for v in row] for program in programs]
-        denominators = [[v for row in program[1] for v in row] for program in programs]
-        lows = [lo for lo, row in zip(low, programs[0][0]) for _ in row]
-        highs = [hi for hi, row in zip(high, programs[0][0]) for _ in row]
-        bounds = [_box_bound(p, q, lows, highs) for p, q in zip(numerators, denominators)]
-        programs = [programs[j] for j in sorted(range(len(programs)), key=bounds.__getitem__, reverse=True)]
-        bounds.sort(reverse=True)
-    else:
-        bounds = [INF]
-    for j, (tops, bottoms, floors) in enumerate(programs):
-        if j and bounds[j] <= best:  # (the first is solved whatever its bound: it finds floors no model meets)
-            break
-        best = max(best, _solve_blocks(tops, bottoms, floors, low, high, s.tau, polytopes))
-    return best
-
-
-def _global_program(
-    s: _Setting, a: int, b: int, weights: list[list[Fraction]]
-) -> tuple[list[list[Fraction]], list[list[Fraction]], list[list[list[Fraction]]]]:
-    """(numerators, denominators, floors) of L̄'s program for the pair (a, b), one block per merged context."""
-    tops, bottoms, floors = [], [], []
-    for w in weights:
-        row_a, row_b, fl, _ = _rows_of(s, a, b) if s.rows is not None else _full_rr_rows(s, a, b)
-        tops.append([w[a] * v for v in row_a])
-        bottoms.append([w[b] * v for v in row_b])
-        floors.append(fl)
-    return tops, bottoms, floors
+    cells = _rows_of if s.rows is not None else _full_rr_rows
+    floors = [cells(s, *pairs[0])[2]] * len(weights)  # (every group's in each block: the same for every pair)
+    cases = []
+    for a, b in pairs:
+        row_a, row_b = cells(s, a, b)[:2]
+        tops = [[w[a] * v for v in row_a] for w in weights]
+        bottoms = [[w[b] * v for v in row_b] for w in weights]
+        kept = weights[0][b] * s.tau if s.tau and len(weights) == 1 else None  # the floor of b in q·h = P(x | b) E
+        cases.append(_Case(0, tops, bottoms, floors, low, high, s.tau, kept))
+    return _largest(cases, Fraction(1), {})
 
 
 def _merged(s: _Setting) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]]]:
@@ -366,19 +439,6 @@ def _full_rr_rows(
         return _rows_of(s, a, b)
     rows = [[s.p if i == j else s.q for j in range(s.k)] for i in range(s.k)]
     return rows[a], rows[b], rows, [1] * s.k
-
-
-def _solve(
-    tops: list[list[Fraction]],
-    bottoms: list[list[Fraction]],
-    floors: list[list[Fraction]],
-    low: list[Fraction],
-    high: list[Fraction],
-    tau: Fraction | None,
-    polytopes: dict[Any, Polytope],
-) -> Number:
-    """One context's program (the single-block case of :func:`_solve_blocks`)."""
-    return _solve_blocks(tops, bottoms, [floors], low, high, tau, polytopes)
 
 
 def _solve_blocks(

@@ -196,11 +196,13 @@ def kernel_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> Nu
     (Fraction(6, 1), Fraction(3, 2))
     """
     best: Number = Fraction(0)
-    cases = (
-        [(i, a, b) for i in range(len(s.live)) for a in range(s.k) for b in range(s.k) if a != b]
-        if at is None
-        else [at]
+    # with M_X the identity a context's programs depend on its utility table alone: one context per table
+    contexts = (
+        list({tuple(map(tuple, s.g[x])): i for i, x in reversed(list(enumerate(s.live)))}.values())
+        if s.context is None
+        else range(len(s.live))
     )
+    cases = [(i, a, b) for i in contexts for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at]
     programs: dict[int, _Polytope] = {}
     for i, a, b in cases:
         x = s.live[i]

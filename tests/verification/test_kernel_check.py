@@ -172,3 +172,20 @@ def test_certify_and_verify_without_privacy_on_the_group(tmp_path):
     )
     # γ/τ = 4, certified from the LP's dual: rounded up, within 1e-14
     assert "bounds.black_box" in checked and math.log(4) < cert["bounds"]["black_box"] <= math.log(4) * (1 + 1e-14)
+
+
+def test_contexts_with_one_utility_table_are_solved_once(monkeypatch):
+    # four contexts, two tables (each twice): L is the largest of every (context, pair) solved on its own, and the
+    # programs of two contexts only are built
+    import fairaudit.verification.kernel_check as kc
+
+    table_1, table_2 = [[F(1), F(0)], [F(1, 2), F(0)]], [[F(1, 4), F(1)], [F(1), F(1, 8)]]
+    g = [table_1, table_2, table_1, table_2]
+    rows = ((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4)))
+    s = KernelSetting(rows, None, g, F(1, 5), [0, 1, 2, 3], [[F(1, 4)] * 2] * 4, [0, 1], False, 64)
+    one_by_one = max(kernel_local(s, at=(i, a, b)) for i in range(4) for a, b in ((0, 1), (1, 0)))
+    built = []
+    make = kc._Polytope.of
+    monkeypatch.setattr(kc._Polytope, "of", lambda s, contexts: built.append(contexts) or make(s, contexts))
+    assert kernel_local(s) == one_by_one > 1
+    assert sorted(built) == [[0], [1]]

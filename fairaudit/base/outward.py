@@ -345,7 +345,8 @@ def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
     """Rationals lo ≤ ln ``x`` ≤ hi, :data:`DIGITS` digits apart, for a rational ``x`` > 0 (exact at 1).
 
     What a verifier needs beyond a float's precision: the decimals of :func:`log_up` and :func:`log_down`
-    (``proofs/outward.md`` §4), not rounded to floats.
+    (``proofs/outward.md`` §4), not rounded to floats; within :data:`NEAR` of 1, the Taylor series of ln(1 + y) with
+    its remainder bound, at most 10^-48·|x − 1| apart.
 
     Raises
     ------
@@ -377,7 +378,8 @@ def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
 def exp_bounds(x: Exact) -> tuple[Fraction, Fraction]:
     """Rationals lo ≤ e^``x`` ≤ hi, :data:`DIGITS` digits apart, for a rational ``x`` with |x| ≤ 10^6 (exact at 0).
 
-    The decimals of :func:`exp_up` and :func:`exp_down`, not rounded to floats.
+    The decimals of :func:`exp_up` and :func:`exp_down`, not rounded to floats; within :data:`NEAR` of 0, the Taylor
+    series with Lagrange's remainder bound, at most 10^-48·|x| apart (``proofs/outward.md`` §4).
 
     Raises
     ------

@@ -243,7 +243,7 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None) 
     for a, b in pairs:
         row_a, row_b, _, _ = _rows_of(s, a, b)
         cases += [_Case((lo, hi), [row_a], [row_b], floors, [lo], [hi], s.tau) for lo, hi in boxes]
-    return _largest(cases, Fraction(0), {})
+    return _largest(cases, Fraction(0))
 
 
 @dataclass(frozen=True)
@@ -276,7 +276,7 @@ class _Case:
         return _box_bound(p, q, low, high), None
 
 
-def _largest(cases: Sequence[_Case], start: Number, polytopes: dict[Any, Polytope]) -> Number:
+def _largest(cases: Sequence[_Case], start: Number) -> Number:
     """max of ``start`` and the programs' values, solving as few as it can (``proofs/verification.md`` §4).
 
     Each case's bound (:meth:`_Case.bound`) is its value where the floor relaxation's maximiser meets every floor;
@@ -286,12 +286,13 @@ def _largest(cases: Sequence[_Case], start: Number, polytopes: dict[Any, Polytop
     """
     best, known = start, set()
     open_cases = []
+    polytopes: dict[Any, Polytope] = {}  # (the pairs of one feasible set share it: phase 1 once)
     scaled: dict[int, tuple[list[list[int]], int]] = {}  # the floors of one block as integers over one denominator
     for case in cases:
         bound, h = case.bound()
         if h is not None and id(case.floors[0]) not in scaled:
             scaled[id(case.floors[0])] = _integers(case.floors[0])
-        if h is not None and _meets(*scaled[id(case.floors[0])], h, case.tau):  # (tau is set where h is)
+        if h is not None and case.tau is not None and _meets(*scaled[id(case.floors[0])], h, case.tau):
             best = max(best, bound)
             known.add(case.key)
         else:
@@ -311,7 +312,7 @@ def _integers(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]
     return [[v.numerator * (d // v.denominator) for v in row] for row in rows], d
 
 
-def _meets(rows: list[list[int]], d: int, h: Sequence[Fraction], tau: Any) -> bool:
+def _meets(rows: list[list[int]], d: int, h: Sequence[Fraction], tau: Fraction) -> bool:
     """Whether (rows/d)·h ≥ τ for every row, exactly, in integers."""
     e = math.lcm(*(x.denominator for x in h))
     point = [x.numerator * (e // x.denominator) for x in h]
@@ -333,17 +334,15 @@ def _floor_relaxation(
     """
     if sum(map(operator.mul, q, high)) < t:
         return None
-    cells = range(len(p))
-    free = [i for i in cells if high[i] > low[i] and q[i] == 0 < p[i]]
-    order = free + sorted((i for i in cells if high[i] > low[i] and q[i] > 0), key=lambda i: p[i] / q[i], reverse=True)
-    num, den = sum(map(operator.mul, p, low)), sum(map(operator.mul, q, low))
+    order = _ratio_order(p, q, low, high)
+    num, below = sum(map(operator.mul, p, low)), sum(map(operator.mul, q, low))
+    den = below
     best: tuple[Number, int] | None = (num / den, 0) if den >= t else None
     for j, i in enumerate(order, 1):
         num, den = num + p[i] * (high[i] - low[i]), den + q[i] * (high[i] - low[i])
         if den >= t and (best is None or num / den > best[0]):
             best = (num / den, j)
     at_floor = None
-    below = sum(map(operator.mul, q, low))
     if below < t:  # the point of q·h = t with the largest p·h
         h, budget = list(low), t - below
         for i in order:
@@ -357,7 +356,17 @@ def _floor_relaxation(
         assert at_floor is not None  # (q·high ≥ t: either a prefix meets the floor or q·low < t)
         return at_floor
     chosen = set(order[: best[1]])
-    return best[0], [high[i] if i in chosen else low[i] for i in cells]
+    return best[0], [high[i] if i in chosen else low[i] for i in range(len(p))]
+
+
+def _ratio_order(
+    p: Sequence[Fraction], q: Sequence[Fraction], low: Sequence[Fraction], high: Sequence[Fraction]
+) -> list[int]:
+    """The cells with high > low in the threshold rule's order: those with q_i = 0 < p_i first, then the others with
+    q_i > 0 in decreasing order of p_i/q_i (the cells with p_i = q_i = 0 change nothing and are left out)."""
+    moving = [i for i in range(len(p)) if high[i] > low[i]]
+    free = [i for i in moving if q[i] == 0 < p[i]]
+    return free + sorted((i for i in moving if q[i] > 0), key=lambda i: p[i] / q[i], reverse=True)
 
 
 def _box_bound(
@@ -371,15 +380,17 @@ def _box_bound(
     cells in decreasing order of p_i/q_i (the cells with q_i = 0 < p_i first, always high). 0/0 at h = low is counted
     as 1, which can only raise the bound.
     """
-    num = sum((pi * lo for pi, lo in zip(p, low)), Fraction(0))
-    den = sum((qi * lo for qi, lo in zip(q, low)), Fraction(0))
-    steps = [(pi * (hi - lo), qi * (hi - lo)) for pi, qi, lo, hi in zip(p, q, low, high) if hi > lo]
-    num += sum((dp for dp, dq in steps if dq == 0), Fraction(0))
+    order = _ratio_order(p, q, low, high)
+    free = sum(1 for i in order if q[i] == 0)
+    num = sum(map(operator.mul, p, low), Fraction(0)) + sum(
+        (p[i] * (high[i] - low[i]) for i in order[:free]), Fraction(0)
+    )
+    den = sum(map(operator.mul, q, low), Fraction(0))
     if den == 0 and num > 0:
         return INF  # h = low but high on the cells a' never reaches: q·h = 0 < p·h
     best: Number = num / den if den else Fraction(1)
-    for dp, dq in sorted(((dp, dq) for dp, dq in steps if dq > 0), key=lambda c: c[0] / c[1], reverse=True):
-        num, den = num + dp, den + dq
+    for i in order[free:]:
+        num, den = num + p[i] * (high[i] - low[i]), den + q[i] * (high[i] - low[i])
         best = max(best, num / den)
     return best
 
@@ -411,7 +422,7 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> N
         bottoms = [[w[b] * v for v in row_b] for w in weights]
         kept = weights[0][b] * s.tau if s.tau and len(weights) == 1 else None  # the floor of b in q·h = P(x | b) E
         cases.append(_Case(0, tops, bottoms, floors, low, high, s.tau, kept))
-    return _largest(cases, Fraction(1), {})
+    return _largest(cases, Fraction(1))
 
 
 def _merged(s: _Setting) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]]]:

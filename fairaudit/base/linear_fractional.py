@@ -36,7 +36,7 @@ import dataclasses
 import functools
 import math
 import operator
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal, TypeAlias, overload
 
@@ -58,8 +58,12 @@ from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
 
 if TYPE_CHECKING:
+    from fractions import Fraction
+
     import cvxpy as cp
     import scipy.sparse as sp
+
+    from fairaudit.base.exact_programs import RatioOptimum
 
 ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
 """A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
@@ -68,6 +72,7 @@ __all__ = [
     "EXACT_CROSSOVER",
     "FractionalProgram",
     "FractionalResult",
+    "exact_result",
     "fractional_max",
     "gap_between",
     "lp_max",
@@ -319,6 +324,44 @@ def _unbounded(
 def _failed(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
     """The solver failed and nothing exact stood in: NaN, status "error" (not "infeasible": nothing is proved)."""
     return result(value=math.nan, argmax=None, status="error", solver_status=solver_status, reason=reason)
+
+
+def exact_result(
+    result: Callable[..., FractionalResult],
+    optimum: RatioOptimum,
+    p: Sequence[Fraction],
+    q: Sequence[Fraction],
+    solver_status: str,
+    report_empty: bool = False,
+) -> FractionalResult | None:
+    """The result of a program the rational simplex solved exactly (:func:`~fairaudit.base.exact_programs.
+    maximize_ratio`, on the exact ``p`` and ``q``), or None where it gives no finite maximum and no proof of +inf.
+
+    "optimal": its maximum rounded up (the witness rounded down) at the vertex it ends at, certified; "infeasible"
+    with ``report_empty``: the polytope is empty (else None: a dual's bound holds vacuously there);
+    "zero_denominator" at a vertex with q·h = 0 < p·h exactly: +inf. ``solver_status`` is the result's.
+    """
+    if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
+        return _no_solution(result, solver_status, _INCONSISTENT)
+    if optimum.status == "zero_denominator" and optimum.point is not None:
+        at = optimum.point  # a vertex of the polytope, exactly
+        if sum(map(operator.mul, q, at)) == 0 < sum(map(operator.mul, p, at)):
+            point = np.array([float(x) for x in at])
+            reason = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)"
+            return _unbounded(result, point, solver_status, reason)
+    if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
+        return None
+    value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
+    return result(
+        value=value,
+        argmax=np.array([float(x) for x in optimum.point]),
+        status="optimal",
+        solver_status=solver_status,
+        reason="",
+        certified=True,
+        witness=witness,
+        gap=gap_between(value, witness),
+    )
 
 
 class FractionalProgram:
@@ -609,29 +652,9 @@ class FractionalProgram:
             for sign in (1, -1) if op == "eq" else (1,):
                 a_ub += [exact(sign * row) for row in a]
                 b_ub += exact(sign * b)
-        optimum = maximize_ratio(exact(p), exact(q), exact(self.lower), exact(self.upper), a_ub, b_ub)
-        if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
-            return _no_solution(result, f"{status}; {EXACT_CROSSOVER} (exact: {why})", _INCONSISTENT)
-        if optimum.status == "zero_denominator" and optimum.point is not None:
-            at = optimum.point  # a vertex of the polytope, exactly
-            if sum(map(operator.mul, exact(q), at)) == 0 < sum(map(operator.mul, exact(p), at)):
-                solver_status = f"{status}; {EXACT_CROSSOVER} (exact: {why})"
-                point = np.array([float(x) for x in at])
-                reason = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)"
-                return _unbounded(result, point, solver_status, reason)
-        if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
-            return None
-        value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
-        return result(
-            value=value,
-            argmax=np.array([float(x) for x in optimum.point]),
-            status="optimal",
-            solver_status=f"{status}; {EXACT_CROSSOVER} (exact: {why})",
-            reason="",
-            certified=True,
-            witness=witness,
-            gap=gap_between(value, witness),
-        )
+        top, bottom = exact(p), exact(q)
+        optimum = maximize_ratio(top, bottom, exact(self.lower), exact(self.upper), a_ub, b_ub)
+        return exact_result(result, optimum, top, bottom, f"{status}; {EXACT_CROSSOVER} (exact: {why})", report_empty)
 
     def _zero_denominator(self, p: FloatArray, q: FloatArray, status: str) -> FractionalResult:
         """The transformed LP is infeasible: the polytope is empty, or q·h = 0 on all of it.

@@ -23,6 +23,7 @@ from fairaudit.base.exact_duality import point_ratio
 from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
+from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.pair_search import SearchResult, pairwise_box, relaxed_first, search
 from fairaudit.worstcase.worst_cases import WorstCase
@@ -72,7 +73,13 @@ def local_search(
             v = _relaxation(P, space.lo, space.hi, floor, inexact)
             at = triples[:, 0] == context
             upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
-    found = search(upper, _solver(problem, space, pair, inexact))
+    programs = ExactPrograms(problem, space.lo is not None, space.floors)
+
+    def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
+        x, a, b = triples[i]
+        return programs.solve(programs.local(int(x), int(a), int(b)), rounded)
+
+    found = search(upper, _solver(problem, space, pair, inexact, exact))
     return _model_case(problem, "local", found, triples, space.to_kernel)
 
 
@@ -107,7 +114,12 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
         upper = np.minimum(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
-    found = search(upper, _solver(problem, space, pair, inexact))
+    programs = ExactPrograms(problem, space.lo is not None, space.floors)
+
+    def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
+        return programs.solve(programs.global_(int(pairs[i, 0]), int(pairs[i, 1])), rounded)
+
+    found = search(upper, _solver(problem, space, pair, inexact, exact))
     return _model_case(problem, "global", found, global_triples, space.to_kernel)
 
 
@@ -133,12 +145,16 @@ def _solver(
     space: _ModelSpace,
     pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
     roundings: int,
+    exact: Callable[[int, FractionalResult], FractionalResult | None],
 ) -> Callable[[int], FractionalResult]:
     """Solve program i: in G-space the closed-form relaxation first (unless the LP is asked for), else the LP.
 
     Its value is certified on the outer coefficients (numerator rounded up, denominator and τ rows down, then up:
     ``_Coefficients``), which contain the exact program; where they are not exact its witness is the ratio at the
-    maximiser with the inner ones (numerator down, denominator up) and the τ rows rounded down, a lower end.
+    maximiser with the inner ones (numerator down, denominator up) and the τ rows rounded down, a lower end. Where
+    the witness does not meet the value (within :data:`CROSSOVER_TOLERANCE`), or the outer program has no finite
+    maximum, ``exact(i, result)`` solves the program on exact coefficients
+    (:class:`~fairaudit.worstcase.known_utility_exact.ExactPrograms`; None beyond its size).
     """
 
     def num(i: int) -> FloatArray:
@@ -162,15 +178,18 @@ def _solver(
 
     def solve(i: int) -> FractionalResult:
         r = inner(i)
-        if r.argmax is None:
-            return r
-        p, q = pair(i)[0].low, pair(i)[1].high
-        lower, upper = (np.full(len(p), end) for end in space.box)
-        h = np.clip(np.asarray(r.argmax, dtype=float), lower, upper)
-        w = point_ratio(h, p, q, lower, upper, space.witness_rows)
-        if r.certified:  # where h misses a row by rounding, the vertex it stands for, solved exactly
-            w = improve_witness(w, r.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, space.witness_rows)
-        return replace(r, witness=w, gap=gap_between(r.value, w))
+        if r.argmax is not None:
+            p, q = pair(i)[0].low, pair(i)[1].high
+            lower, upper = (np.full(len(p), end) for end in space.box)
+            h = np.clip(np.asarray(r.argmax, dtype=float), lower, upper)
+            w = point_ratio(h, p, q, lower, upper, space.witness_rows)
+            if r.certified:  # where h misses a row by rounding, the vertex it stands for, solved exactly
+                w = improve_witness(w, r.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, space.witness_rows)
+            r = replace(r, witness=w, gap=gap_between(r.value, w))
+        settled = (
+            r.status == "optimal" and r.certified and r.value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, r.value)
+        )
+        return r if settled else (exact(i, r) or r)
 
     return solve
 
@@ -218,6 +237,7 @@ class _ModelSpace:
     rows: npt.NDArray[np.floating[Any]] | None  # τ rows (G-space only): rows @ h >= τ
     box: tuple[float, float]  # the variables' bounds, for the witness
     witness_rows: list[Any]  # the constraints with the τ rows rounded down: a point meeting them is feasible
+    floors: bool  # whether the program has the τ rows
 
 
 def _model_program(
@@ -298,6 +318,7 @@ def _model_program(
             rows=rows,
             box=(lo, hi),
             witness_rows=witness_rows,
+            floors=rows is not None,
         )
 
     def factors(x: SupportsIndex, b: SupportsIndex) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -349,6 +370,7 @@ def _model_program(
         rows=None,
         box=(0.0, 1.0),
         witness_rows=k_witness_rows,
+        floors=k_outer is not None,
     )
 
 

@@ -632,6 +632,15 @@ REGRESSIONS["randomized response at 4e-56 nats, e^epsilon to 50 digits of epsilo
 )
 
 
+# randomized response at 30 nats, g0's utility at most tau = 0.2: the floor holds only where every released row takes d1
+# (exact 0), but on the rounded coefficients it held on a slab 3e-3 wide (q = e^-30), and certify's black box was 0.0301
+# "exact" (fixed in certify: a program whose rounded witness misses its value is solved on exact rationals)
+REGRESSIONS["randomized response at 30 nats, a floor on a face"] = (
+    _spec(G2, RR.format(30.0) + '[utility]\nkind = "table"\nvalues = [[[0.0, 0.2], [2.0, 0.2]]]\ntau = 0.2\n'),
+    None,
+)
+
+
 @pytest.mark.parametrize("name", list(REGRESSIONS))
 def test_found_certificates_hold(name, tmp_path):
     result = _regression(*REGRESSIONS[name], tmp_path)

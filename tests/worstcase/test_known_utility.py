@@ -332,3 +332,23 @@ def test_class_certificate_is_scale_free():
     big = black_box_bound(m, utility_class=UtilityClass(gamma=1e13, tau=5e12), method="lp")
     assert big.ratio == pytest.approx(11 / 7, rel=1e-8) and big.tau == 5e12 and big.gamma == 1e13
     assert big.utility_by_release == pytest.approx([1e13, 1e13 * 2 / 7], rel=1e-7)
+
+
+@pytest.mark.parametrize(
+    "mechanism",
+    [
+        fa.randomized_response(["a", "b"], epsilon=30.0),
+        fa.from_matrix([[1 - 2.0**-40, 2.0**-40], [2.0**-40, 1 - 2.0**-40]], ["a", "b"]),  # exact rows, sum 1
+    ],
+    ids=["randomized response", "matrix"],
+)
+def test_a_floor_on_a_face_is_solved_on_exact_coefficients(mechanism):
+    # g(·, a) = (0, 0.2) and tau = 0.2: E[g | a] >= 0.2 holds only where both released rows take "d1" (by hand), and
+    # then E[g | b] = 0.2 too: the worst case is 0 exactly. The rounded coefficients made the face a slab q^-1 ulps
+    # wide, and the value 0.0301 nats (randomized response) or 0.0022 (the matrix)
+    util = fa.Utility(np.array([[[0.0, 0.2], [2.0, 0.2]]]), ["d0", "d1"], ["all"], ["a", "b"])
+    w = worst_model(mechanism, util, tau=0.2)
+    for case in (w.local_fairness, w.global_fairness):
+        assert case.certified and 0.0 <= case.value <= 1e-15, case
+        assert case.witness == 0.0
+    assert w.local_fairness.kernel.probabilities[0, :, 1].tolist() == [1.0, 1.0]

@@ -1,0 +1,192 @@
+"""The known-utility programs in exact rationals, for the programs their rounded form does not settle.
+
+The pair search (:mod:`~fairaudit.worstcase.known_utility_search`) solves programs whose coefficients are products
+of floats: its value is certified on their outer ends, its witness on their inner ends. Where the two do not meet
+(within :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE`), the rounding itself may be what moves the
+optimum: a floor E[g | x, a] ≥ τ with τ = max g holds on a face of the polytope only, and a rounded coefficient turns
+that face into a slab. Such a program, within :data:`~fairaudit.base.linear_fractional.CROSSOVER_SIZE`, is solved
+again here by the rational simplex on exact data: g, τ, P(x | a) and a matrix mechanism's entries as the floats they
+are (their exact values), and randomized response's rows at the two float ends of its e^ε. The worst case is
+non-decreasing in e^ε (randomized response at a smaller ε is the one at a larger ε followed by more randomized
+response), so the maximum at the upper end bounds it from above and the one at the lower end from below.
+``proofs/black_box.md`` §6.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import operator
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from fractions import Fraction
+
+import numpy as np
+import numpy.typing as npt
+
+from fairaudit.base import linear_fractional
+from fairaudit.base.exact_programs import Polytope
+from fairaudit.base.linear_fractional import (
+    EXACT_CROSSOVER,
+    FractionalResult,
+    exact_result,
+    gap_between,
+)
+from fairaudit.base.outward import exp_down, exp_up, fraction_down
+from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.mechanisms import Mechanism
+from fairaudit.worstcase.known_utility_problem import ModelProblem
+
+ObjectArray = npt.NDArray[np.object_]
+
+WHY = "its rounded coefficients' witness did not meet the value: solved on exact ones"
+"""What ``solver_status`` says after :data:`~fairaudit.base.linear_fractional.EXACT_CROSSOVER` for these programs."""
+
+
+def _rationals(values: npt.ArrayLike) -> ObjectArray:
+    """An array of floats as exact Fractions (an object array of the same shape)."""
+    a = np.asarray(values, dtype=float)
+    return np.array([Fraction(float(v)) for v in a.ravel()], dtype=object).reshape(a.shape)
+
+
+def _rows(mechanism: Mechanism, end: int) -> ObjectArray | None:
+    """A mechanism's rows in exact rationals: its floats; randomized response's at the lower (``end`` 0) or upper (1)
+    float end of e^ε, None where that end is not a finite float (ε above ~709 nats)."""
+    if not isinstance(mechanism, RandomizedResponse) or mechanism.is_identity:
+        return _rationals(mechanism.matrix)
+    epsilon = mechanism.rr.epsilon
+    t_float = exp_up(epsilon) if end else exp_down(epsilon)
+    if not math.isfinite(t_float):
+        return None
+    t, k = max(Fraction(1), Fraction(t_float)), mechanism.rr.k
+    out = np.full((k, k), 1 / (t + k - 1), dtype=object)
+    np.fill_diagonal(out, t / (t + k - 1))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class _End:
+    """The programs at one end of e^ε: the coefficients' factors and the polytope, phase 1 run once."""
+
+    MA: ObjectArray  # (n_groups, n_released_groups)
+    MX: ObjectArray  # (n_contexts, n_released_contexts)
+    g: ObjectArray  # (n_contexts, n_groups, n_decisions)
+    u_only: bool
+    polytope: Polytope
+
+    def coef(self, x: int, b: int) -> ObjectArray:
+        """The coefficients of E[g | x, b] in the program's variables, laid out as the float program's."""
+        return _coefficients(self.MA, self.MX, self.g, self.u_only, x, b)
+
+
+def _coefficients(MA: ObjectArray, MX: ObjectArray, g: ObjectArray, u_only: bool, x: int, b: int) -> ObjectArray:
+    """The coefficients of E[g | x, b]: M_X[x, x̃] M_A[b, ã] in G-space, times g(u, x, b) in kernel space."""
+    if u_only:
+        return np.outer(MX[x], MA[b]).ravel()
+    return (MX[x][:, None, None] * MA[b][None, :, None] * g[x, b][None, None, :]).ravel()
+
+
+class ExactPrograms:
+    """The pair search's programs in exact rationals, at each end of e^ε (one end without randomized response).
+
+    Parameters
+    ----------
+    problem : ModelProblem
+    u_only : bool
+        The programs are in G-space (g depends on the decision only: variables G[x̃, ã] ∈ [min g, max g]); else in
+        kernel space (K[x̃, ã, u] ∈ [0, 1], each row summing to 1).
+    floors : bool
+        Whether the programs have the rows E[g | x, a] ≥ τ (every live context and group), as the float ones do.
+    """
+
+    def __init__(self, problem: ModelProblem, u_only: bool, floors: bool) -> None:
+        self._problem, self._u_only, self._floors = problem, u_only, floors
+        nXr, nAr = problem.n_released_contexts, problem.n_released_groups
+        nU = problem.g.shape[2]
+        n = nXr * nAr * (1 if u_only else nU)
+        rows = (0 if u_only else 2 * nXr * nAr) + (
+            int(np.count_nonzero(problem.live)) * problem.g.shape[1] if floors else 0
+        )
+        self._size = (n, rows)
+        self._ends: list[_End] | None = None
+
+    def _built(self) -> list[_End] | None:
+        if self._ends is None:
+            problem = self._problem
+            two = any(isinstance(m, RandomizedResponse) and not m.is_identity
+                      for m in (problem.mechanism, problem.context_mechanism))  # fmt: skip
+            ends = []
+            for end in (0, 1) if two else (1,):
+                MA, MX = _rows(problem.mechanism, end), _rows(problem.context_mechanism, end)
+                if MA is None or MX is None:
+                    return None
+                ends.append(self._end(MA, MX))
+            self._ends = ends
+        return self._ends
+
+    def _end(self, MA: ObjectArray, MX: ObjectArray) -> _End:
+        problem = self._problem
+        g = _rationals(problem.g)
+        xs = np.flatnonzero(problem.live)
+        tau = Fraction(problem.tau or 0.0)
+        a_ub: list[list[Fraction]] = []
+        b_ub: list[Fraction] = []
+        if self._u_only:
+            row = g[xs[0], 0] if xs.size else g[0, 0]
+            n = MX.shape[1] * MA.shape[1]
+            lower, upper = [min(row)] * n, [max(row)] * n
+        else:
+            nU = g.shape[2]
+            cells = MX.shape[1] * MA.shape[1]
+            n = cells * nU
+            lower, upper = [Fraction(0)] * n, [Fraction(1)] * n
+            for c in range(cells):  # Σ_u K[x̃, ã, u] = 1
+                ones = [Fraction(int(c * nU <= j < (c + 1) * nU)) for j in range(n)]
+                a_ub += [ones, [-v for v in ones]]
+                b_ub += [Fraction(1), Fraction(-1)]
+        if self._floors:  # −E[g | x, b] ≤ −τ
+            nA = g.shape[1]
+            a_ub += [[-v for v in _coefficients(MA, MX, g, self._u_only, int(x), b)] for x in xs for b in range(nA)]
+            b_ub += [-tau] * (len(xs) * nA)
+        return _End(MA, MX, g, self._u_only, Polytope(lower, upper, a_ub, b_ub, n))
+
+    def local(self, x: int, a: int, b: int) -> Callable[[_End], tuple[ObjectArray, ObjectArray]]:
+        """The data of L's program at context x for the ordered pair (a, b), at an end."""
+        return lambda end: (end.coef(x, a), end.coef(x, b))
+
+    def global_(self, a: int, b: int) -> Callable[[_End], tuple[ObjectArray, ObjectArray]]:
+        """The data of L̄'s program for the ordered pair (a, b), at an end: E[g | a] = Σ_x P(x | a) E[g | x, a]."""
+        joint = _rationals(self._problem.population.probabilities)
+        live = np.flatnonzero(self._problem.live)
+
+        def weighted(end: _End, c: int) -> ObjectArray:
+            xs = [int(x) for x in live if joint[x, c]]
+            mass = sum((joint[x, c] for x in xs), Fraction(0))
+            return functools.reduce(operator.add, [joint[x, c] / mass * end.coef(x, c) for x in xs])
+
+        return lambda end: (weighted(end, a), weighted(end, b))
+
+    def solve(
+        self, data: Callable[[_End], tuple[ObjectArray, ObjectArray]], rounded: FractionalResult
+    ) -> FractionalResult | None:
+        """The program exactly, in place of ``rounded`` (its float form's result); None where it is beyond
+        :data:`~fairaudit.base.linear_fractional.CROSSOVER_SIZE`, randomized response's e^ε has no finite float end, or the simplex gives no finite
+        maximum and no proof of +inf. The value is the maximum at the upper end rounded up, the witness the one at
+        the lower end rounded down."""
+        limit = linear_fractional.CROSSOVER_SIZE  # (read here: the tests shrink it)
+        if self._size[0] > limit[0] or self._size[1] > limit[1]:
+            return None
+        ends = self._built()
+        if ends is None:
+            return None
+        result = functools.partial(FractionalResult, method="lp", p=rounded.p, q=rounded.q, lower=rounded.lower,
+                                   upper=rounded.upper)  # fmt: skip
+        status = f"{rounded.solver_status}; {EXACT_CROSSOVER} (exact: {WHY})"
+        p, q = (list(v) for v in data(ends[-1]))
+        found = exact_result(result, ends[-1].polytope.maximize_ratio(p, q), p, q, status, report_empty=True)
+        if found is None or len(ends) == 1 or found.status != "optimal":
+            return found
+        p, q = (list(v) for v in data(ends[0]))
+        low = ends[0].polytope.maximize_ratio(p, q)
+        witness = fraction_down(low.value) if low.status == "optimal" and low.value is not None else math.nan
+        return replace(found, witness=witness, gap=gap_between(found.value, witness))

@@ -11,6 +11,7 @@ Proof of the facts used here: ``proofs/privacy.md``.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -22,7 +23,7 @@ from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.checks import real, whole
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import as_labels
-from fairaudit.base.outward import exp_down, fraction_up, log_up
+from fairaudit.base.outward import exp_bounds, exp_down, fraction_up, log_up, rounding_error
 from fairaudit.laws.mechanisms import Mechanism
 
 __all__ = [
@@ -284,6 +285,29 @@ def _rr_probabilities(eps: float, k: int) -> tuple[float, float, float, float]:
     return p, q, log_p, log_p - eps
 
 
+def _rr_roundings(rr: RandomizedResponseParameters) -> int:
+    """:attr:`RandomizedResponse.matrix_roundings`: the smallest R with γ_R ≥ |x̂/x − 1| for x = p and q (a normal
+    x̂) and R·2^-1074 ≥ |x̂ − x| (a subnormal one, whose products' ends carry that absolute error)."""
+    if rr.k < 2 or math.isinf(rr.epsilon):
+        return 0
+    if rr.epsilon > 10**4:  # (k − 1) e^-ε < 2^-53: p̂ = 1 is within one rounding; q̂ = 0 is a product's factor 0
+        return 1
+    lo, hi = exp_bounds(rr.epsilon)
+    lo = max(lo, Fraction(1))
+    m = rr.k - 1
+    relative, absolute = Fraction(0), Fraction(0)
+    # |x̂ − x| and |x̂/x − 1| over x between two ends are largest at an end
+    for computed, ends in ((rr.p, (lo / (lo + m), hi / (hi + m))), (rr.q, (1 / (hi + m), 1 / (lo + m)))):
+        if computed >= sys.float_info.min:
+            relative = max(relative, *(abs(Fraction(computed) / end - 1) for end in ends))
+        elif computed > 0:
+            absolute = max(absolute, *(abs(Fraction(computed) - end) for end in ends))
+    r = max(1, math.ceil(relative * 2**53), math.ceil(absolute * 2**1074))
+    while Fraction(float(rounding_error(r))) < relative:  # (γ_r ≥ r·u: at most a step or two)
+        r += 1
+    return r
+
+
 class RandomizedResponse(Mechanism):
     """k-ary randomized response in closed form: its k x k matrix is made only when asked for.
 
@@ -321,6 +345,25 @@ class RandomizedResponse(Mechanism):
             m.setflags(write=False)
             self._cache["matrix"] = m
         return self._cache["matrix"]
+
+    @property
+    def matrix_roundings(self) -> int:
+        """How far :attr:`matrix`'s floats may lie from the exact p and q, as a count of roundings R: each positive
+        entry is its exact value times 1 + θ with |θ| ≤ γ_R (:func:`~fairaudit.base.outward.rounding_error`), so a
+        product of it carries R roundings more. 0 for the identity; checked in exact arithmetic against e^ε's
+        rational ends (:func:`~fairaudit.base.outward.exp_bounds`, 50 digits; beyond 10^4 nats p is 1.0 and q 0.0
+        in floats, and e^-ε < 2^-14000 makes R = 1).
+
+        Examples
+        --------
+        >>> randomized_response(["a", "b"], epsilon=math.log(3)).matrix_roundings  # p = 3/4 and q = 1/4, one ulp off
+        1
+        >>> randomized_response(["a", "b"], epsilon=math.inf).matrix_roundings
+        0
+        """
+        if "roundings" not in self._cache:
+            self._cache["roundings"] = _rr_roundings(self.rr)
+        return int(self._cache["roundings"])
 
     @property
     def support(self) -> BoolArray:

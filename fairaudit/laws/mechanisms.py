@@ -322,6 +322,12 @@ class Mechanism:
         return self._cache["is_identity"]
 
     @property
+    def matrix_roundings(self) -> int:
+        """How many roundings :attr:`matrix`'s floats may carry relative to the mechanism's exact law: 0, the matrix
+        being the law (randomized response computes its entries from e^ε, and says how far they may be)."""
+        return 0
+
+    @property
     def support(self) -> BoolArray:
         """Where the exact matrix is positive, shape (n_inputs, n_outputs): the matrix's own positive floats, except for
         a closed form (randomized response) whose exact entries may be too small for a float."""

@@ -38,7 +38,16 @@ def local_search(
     """max L by the search over (context, pair) programs, in decreasing order of their upper bounds."""
     g, live, tau, floor = problem.g, problem.live, problem.tau, problem.floor
     nA = g.shape[1]
-    space = _model_program(MA, problem.context_mechanism.matrix, g, live, tau, problem.decision_only, problem.binding)
+    space = _model_program(
+        MA,
+        problem.context_mechanism.matrix,
+        g,
+        live,
+        tau,
+        problem.decision_only,
+        problem.binding,
+        _entry_roundings(problem),
+    )
     xs = np.flatnonzero(live)
     pairs = np.asarray(pairs).reshape(-1, 2)
     triples = np.column_stack([np.repeat(xs, len(pairs)), np.tile(pairs, (len(xs), 1))])  # (x, a, b), x-major
@@ -88,7 +97,16 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     g, live, tau, floor = problem.g, problem.live, problem.tau, problem.floor
     nA = g.shape[1]
     p_context_given_group = np.nan_to_num(problem.population.context_given_group(), nan=0.0)  # P(x | a), (nX, nA)
-    space = _model_program(MA, problem.context_mechanism.matrix, g, live, tau, problem.decision_only, problem.binding)
+    space = _model_program(
+        MA,
+        problem.context_mechanism.matrix,
+        g,
+        live,
+        tau,
+        problem.decision_only,
+        problem.binding,
+        _entry_roundings(problem),
+    )
 
     def coef_global(a: int) -> _Coefficients:
         xs = np.flatnonzero(live & (p_context_given_group[:, a] > 0))
@@ -240,8 +258,21 @@ class _ModelSpace:
     floors: bool  # whether the program has the τ rows
 
 
+def _entry_roundings(problem: ModelProblem) -> tuple[int, int]:
+    """How many roundings M_A's and M_X's floats carry relative to their exact laws (randomized response's are computed
+    from e^ε; a matrix is its own law): each product of an entry carries that many more."""
+    return problem.mechanism.matrix_roundings, problem.context_mechanism.matrix_roundings
+
+
 def _model_program(
-    MA: FloatArray, MX: FloatArray, g: FloatArray, live: BoolArray, tau: float | None, u_only: bool, with_tau: bool
+    MA: FloatArray,
+    MX: FloatArray,
+    g: FloatArray,
+    live: BoolArray,
+    tau: float | None,
+    u_only: bool,
+    with_tau: bool,
+    entries: tuple[int, int],
 ) -> _ModelSpace:
     import scipy.sparse as sp
 
@@ -249,6 +280,10 @@ def _model_program(
     nXr, nAr = MX.shape[1], MA.shape[1]
     xs = np.flatnonzero(live)
     cache: list[FractionalProgram] = []
+
+    def extra(mx: npt.NDArray[Any], ma: npt.NDArray[Any]) -> IntArray:
+        """The roundings the entries ``mx`` of M_X and ``ma`` of M_A carry (broadcast together; none where 0)."""
+        return entries[1] * (mx != 0) + entries[0] * (ma != 0)
 
     def lazy(build: Callable[[], FractionalProgram]) -> Callable[[], FractionalProgram]:
         def program() -> FractionalProgram:
@@ -274,7 +309,7 @@ def _model_program(
             return np.outer(MX[x], MA[b]).ravel()
 
         def roundings_g(x: SupportsIndex, b: SupportsIndex) -> IntArray:
-            return product_roundings(MX[x][:, None], MA[b][None, :]).ravel()
+            return (product_roundings(MX[x][:, None], MA[b][None, :]) + extra(MX[x][:, None], MA[b][None, :])).ravel()
 
         def nonzero_g(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
             return np.outer(MX[x] != 0, MA[b] != 0).ravel()
@@ -288,15 +323,12 @@ def _model_program(
             return table
 
         rows = np.kron(MX[xs], MA) if with_tau and tau is not None and tau > lo else None
-        outer, witness_rows = (
-            (None, [])
-            if rows is None
-            else tau_rows(
-                rows,
-                product_roundings(np.kron(MX[xs], np.ones_like(MA)), np.kron(np.ones_like(MX[xs]), MA)),
-                np.kron(MX[xs] != 0, MA != 0),
-            )
-        )
+        outer: FloatArray | None = None
+        witness_rows: list[Any] = []
+        if rows is not None:
+            mx_rows, ma_rows = np.kron(MX[xs], np.ones_like(MA)), np.kron(np.ones_like(MX[xs]), MA)  # the factors
+            counts = product_roundings(mx_rows, ma_rows) + extra(mx_rows, ma_rows)
+            outer, witness_rows = tau_rows(rows, counts, (mx_rows != 0) & (ma_rows != 0))
         b_rows = None if rows is None or tau is None else np.full(rows.shape[0], -tau)
         return _ModelSpace(
             coef=coef_g,
@@ -329,7 +361,8 @@ def _model_program(
         return (mx * ma * gx).ravel()
 
     def roundings(x: SupportsIndex, b: SupportsIndex) -> IntArray:
-        return np.broadcast_to(product_roundings(*factors(x, b)), (nXr, nAr, nU)).ravel()
+        mx, ma, gx = factors(x, b)
+        return np.broadcast_to(product_roundings(mx, ma, gx) + extra(mx, ma), (nXr, nAr, nU)).ravel()
 
     def nonzero(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
         mx, ma, gx = factors(x, b)

@@ -251,3 +251,42 @@ def test_split_by_keep_against_root_finding(total, sizes):
     active = [q for q, e in zip(keeps, got) if e > 0]  # the attributes above their floor share one keep probability
     assert max(active) - min(active) < 1e-9
     assert all(q >= min(active) - 1e-12 for q in keeps)
+
+
+# --------------------------------------------------------------------------- how far the float matrix is from the law
+
+
+@given(
+    epsilon=st.one_of(st.floats(0.0, 800.0), st.floats(1e-300, 1e-3)),
+    k=st.integers(2, 1000),
+)
+def test_the_matrix_lies_within_its_counted_roundings_of_the_exact_law(epsilon, k):
+    # the exact p = e^ε/(e^ε + k − 1) and q = 1/(e^ε + k − 1) by mpmath at 80 digits: each positive float entry is
+    # within γ_R relative (a normal float) or R·2^-1074 absolute (a subnormal one), and R − 1 would not do
+    import mpmath
+
+    from fairaudit.base.outward import rounding_error
+
+    m = fa.randomized_response([str(i) for i in range(k)], epsilon=epsilon)
+    r = m.matrix_roundings
+    with mpmath.workdps(80):
+        t = mpmath.exp(mpmath.mpf(epsilon))
+        exact = {"p": t / (t + k - 1), "q": 1 / (t + k - 1)}
+        errors = []
+        for name, computed in (("p", m.rr.p), ("q", m.rr.q)):
+            if computed == 0:
+                continue
+            if computed >= 2.0**-1022:
+                errors.append(abs(mpmath.mpf(computed) / exact[name] - 1) / mpmath.mpf(rounding_error(r)))
+            else:
+                errors.append(abs(mpmath.mpf(computed) - exact[name]) / (r * mpmath.mpf(2) ** -1074))
+        assert max(errors) <= 1
+        if r > 1:  # one fewer would miss an entry (rounding_error grows by about 2^-53 per rounding)
+            assert max(errors) > (r - 1) / r - 1e-6
+    assert m.matrix[0, 0] == m.rr.p and (k < 2 or m.matrix[0, 1] == m.rr.q)
+
+
+def test_a_matrix_and_the_identity_carry_no_roundings():
+    assert fa.from_matrix([[0.7, 0.3], [0.3, 0.7]], ["a", "b"]).matrix_roundings == 0
+    assert fa.randomized_response(["a", "b"], epsilon=math.inf).matrix_roundings == 0
+    assert fa.randomized_response(["a"], epsilon=1.0).matrix_roundings == 0

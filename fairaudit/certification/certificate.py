@@ -246,7 +246,7 @@ class Certificate:
         """``omitted["black_box"]`` when the black-box bound is missing, else what the bound is."""
         if "black_box" in self.omitted or math.isnan(self.black_box.local_fairness.value):
             return self.omitted.get("black_box", "")
-        return _black_box_description(self.spec.tau)
+        return _black_box_description(self.spec.tau, self.black_box)
 
     def _calibrated_members(self) -> dict[str, Mechanism | None] | None:
         """The family's member at each calibrated ε (what ``fairaudit verify`` re-derives the calibration from)."""
@@ -292,11 +292,22 @@ class Certificate:
         return out
 
 
-def _black_box_description(tau: float | None) -> str:
-    """What the black-box bound is, when there is one."""
-    return "exact over every decision model behind the filter, for this utility" + (
-        f", with E[g | x, a] >= {tau:g}" if tau is not None else ""
+def _black_box_description(tau: float | None, worst: WorstModel) -> str:
+    """What the black-box bound is, when there is one: the worst case, or an upper bound on it with a model's value."""
+    floor = f", with E[g | x, a] >= {tau:g}" if tau is not None else ""
+    unsettled = [c for c in (worst.local_fairness, worst.global_fairness) if not c.settled]
+    if not unsettled:
+        return "exact over every decision model behind the filter, for this utility" + floor
+    attained = "; ".join(
+        f"on {'L' if c.kind == 'local' else 'L-bar'} a model attains {c.witness:.6g} nats"
+        if math.isfinite(c.witness)
+        else f"on {'L' if c.kind == 'local' else 'L-bar'} no model attaining it was found"
+        for c in unsettled
     )
+    return (
+        "an upper bound on the worst case over every decision model behind the filter, for this utility" + floor
+        + f" (the programs' rounded coefficients leave a gap: {attained})"
+    )  # fmt: skip
 
 
 def _merge_assumptions(

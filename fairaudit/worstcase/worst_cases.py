@@ -228,6 +228,16 @@ class WorstCase:
             return replace(failed, status="error")
         return cls.infeasible(kind, r.solver_status if r else "", reason, found.solved)
 
+    @property
+    def settled(self) -> bool:
+        """Whether the value is the worst case itself, not only an upper bound on it: decided without a program (the
+        threshold rule, a closed form), or a model's certified value (``witness``) within 1e-12 of it (relative to
+        max(1, value)). A program whose rounded coefficients leave its witness below its value, beyond the rational
+        simplex's size, is not."""
+        if self.method != "lp" or self.status != "optimal":
+            return True
+        return math.isfinite(self.witness) and self.value - self.witness <= 1e-12 * max(1.0, abs(self.value))
+
     def __repr__(self) -> str:
         where = f", context={format_label(self.context)!r}" if self.context is not None else ""
         return (

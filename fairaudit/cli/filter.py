@@ -4,7 +4,8 @@ The filter is k-ary randomized response on ``--values`` (``--epsilon`` or ``--ke
 ``[privacy.sensitive]`` mechanism on its ``[sensitive] values`` (``--spec``): the alphabet never comes from the data,
 whose values would leak through it. The file is read by DuckDB (:func:`fairaudit.data.record_files.source`), the
 column released (:meth:`~fairaudit.filter.filters.PrivacyFilter.apply`, from a cryptographically secure source) and
-the whole file written, by DuckDB, in the format of ``--output``'s name, atomically; ``--parameters`` writes the
+the whole file written, by DuckDB, in the format of ``--output``'s name, atomically (into text the other columns as
+written, :meth:`~fairaudit.data.record_files.Source.read`'s ``as_written``); ``--parameters`` writes the
 filter's JSON (:meth:`~fairaudit.filter.filters.PrivacyFilter.to_dict`).
 """
 
@@ -63,11 +64,14 @@ def run(args: argparse.Namespace) -> int:
     from fairaudit.data.csv_format import file_kind
     from fairaudit.data.record_files import source
 
-    file_kind(args.output)  # a name that is neither Parquet nor text: exit 2 before any work
+    text_output = file_kind(args.output).kind != "parquet"  # neither Parquet nor text: exit 2 before any work
     records = source(args.data, text_format(args))
     if args.column not in records.names:
         raise InputError("--column", f"is not a column of DATA (its columns: {', '.join(records.names)})", args.column)
-    frame = records.read()
+    # into text the other columns pass through as written ("NA" stays "NA", "007" stays "007"); into Parquet they
+    # are typed as fairaudit reads them, their missing values null
+    others = [n for n in records.names if n != args.column] if text_output else []
+    frame = records.read(check=[args.column] if text_output else None, as_written=others)
     column = frame[args.column]
     missing = column.isna().to_numpy()
     if missing.any():

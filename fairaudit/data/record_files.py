@@ -274,10 +274,15 @@ class Source:
                     self.given,
                 )
 
-    def _table(self, con: Any, parameters: dict[str, Any], names: Sequence[str], grouped: bool) -> list[str]:
+    def _table(
+        self, con: Any, parameters: dict[str, Any], names: Sequence[str], grouped: bool, as_written: Sequence[str] = ()
+    ) -> list[str]:
         """Make the temporary table ``records`` of the values of ``names`` (``k0``, ``k1``, ...), grouped (with ``n``,
-        the records of each combination) or not; return the SQL of each column's labels (:func:`_typed`)."""
-        copies = [self.columns[c][0] for c in names]
+        the records of each combination) or not; return the SQL of each column's labels (:func:`_typed`). The columns
+        ``as_written`` of a text file are their fields' text, untyped and without missing values (an empty field is
+        DuckDB's null)."""
+        written = [c in as_written and self.text for c in names]
+        copies = [(r, "{0}" if keep else v) for (r, v), keep in zip((self.columns[c][0] for c in names), written)]
         if grouped:  # the raw fields grouped first, then their values (few): one pass over the file
             raw = ", ".join(f"{r} AS r{j}" for j, (r, _) in enumerate(copies))
             keys = ", ".join(f"{v.format(f'r{j}')} AS k{j}" for j, (_, v) in enumerate(copies))
@@ -288,7 +293,10 @@ class Source:
         sql = f"CREATE OR REPLACE TEMP TABLE records AS {sql}"
         con.execute(sql, _bind(sql, parameters))
         keys_sql = [f"k{j}" for j in range(len(names))]
-        return _typed(con, keys_sql) if self.text else keys_sql
+        if not self.text:
+            return keys_sql
+        typed = iter(_typed(con, [k for k, keep in zip(keys_sql, written) if not keep]))
+        return [k if keep else next(typed) for k, keep in zip(keys_sql, written)]
 
     def group_by(self, keys: Sequence[str]) -> Grouped:
         """The distinct combinations of the columns ``keys`` and their numbers of records (null keys included)."""
@@ -310,18 +318,24 @@ class Source:
             values[key], missing[key] = data, mask
         return Grouped(np.asarray(weights, dtype=np.int64), values, missing, self._locate(values))
 
-    def read(self, columns: Sequence[str] | None = None, check: Sequence[str] | None = None) -> pd.DataFrame:
+    def read(
+        self,
+        columns: Sequence[str] | None = None,
+        check: Sequence[str] | None = None,
+        as_written: Sequence[str] = (),
+    ) -> pd.DataFrame:
         """The records as a pandas DataFrame of the columns ``columns`` (default all), labelled as counted.
 
         Integers and booleans with a missing value are pandas' nullable ``Int64`` and ``boolean``. A column the
         header names twice is its first copy, refused when a copy differs (for the columns ``check``, default
-        those read).
+        those read). The columns ``as_written`` of a text file are their fields' text as written (``NA`` is the
+        text "NA", ``007`` is "007"; an empty field is None): what a command that rewrites the file passes through.
         """
         names = list(self.names if columns is None else columns)
 
         def work(con: Any, parameters: dict[str, Any]) -> pd.DataFrame:
             self._check_copies(con, parameters, names if check is None else check)
-            typed = self._table(con, parameters, names, grouped=False)
+            typed = self._table(con, parameters, names, grouped=False, as_written=as_written)
             return con.execute(f"SELECT {', '.join(typed)} FROM records").df()
 
         frame = self._run(work)

@@ -124,3 +124,19 @@ def test_a_missing_value_is_refused(capsys, tmp_path):
     code, _, err = run(capsys, "filter", data, "--column", "office", "--keep", "1/2", "--values", "HR_1,HR_2",
                        "--output", tmp_path / "o.csv")  # fmt: skip
     assert code == 2 and "DATA column 'office': has a missing value (data row 2)" in err
+
+
+def test_into_text_the_other_columns_are_written_as_they_were(capsys, tmp_path):
+    # "NA", "null" and an empty field, "007" and "1.50" pass through as written: only the released column is read as
+    # labels (fairaudit's reader takes NA for missing and would have written it empty)
+    data = tmp_path / "r.csv"
+    data.write_text("office,note,code,amount\nHR_1,NA,007,1.50\nHR_2,,010,NA\nHR_1,null,x,2\n")
+    out = tmp_path / "o.csv"
+    code, _, _ = run(capsys, "filter", data, "--column", "office", "--keep", "1/2", "--values", "HR_1,HR_2",
+                     "--output", out)  # fmt: skip
+    assert code == 0
+    written = pd.read_csv(out, dtype=str, keep_default_na=False)
+    assert written[["note", "code", "amount"]].values.tolist() == [
+        ["NA", "007", "1.50"], ["", "010", "NA"], ["null", "x", "2"]
+    ]  # fmt: skip
+    assert set(written["office"]) <= {"HR_1", "HR_2"}

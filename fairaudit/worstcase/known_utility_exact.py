@@ -25,7 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base import linear_fractional
-from fairaudit.base.exact_programs import Polytope
+from fairaudit.base.exact_programs import Polytope, RatioOptimum, maximize_ratio_over_product
 from fairaudit.base.linear_fractional import (
     EXACT_CROSSOVER,
     FractionalResult,
@@ -66,17 +66,24 @@ def _rows(mechanism: Mechanism, end: int) -> ObjectArray | None:
 
 @dataclass(frozen=True, eq=False)
 class _End:
-    """The programs at one end of e^ε: the coefficients' factors and the polytope, phase 1 run once."""
+    """The programs at one end of e^ε: the coefficients' factors and the polytope, a product of blocks (one per
+    released context when M_X is the identity, whose rows and floors are each context's own; else one), phase 1 run
+    once per block."""
 
     MA: ObjectArray  # (n_groups, n_released_groups)
     MX: ObjectArray  # (n_contexts, n_released_contexts)
     g: ObjectArray  # (n_contexts, n_groups, n_decisions)
     u_only: bool
-    polytope: Polytope
+    blocks: list[Polytope]
+    width: int  # the variables of a block
 
     def coef(self, x: int, b: int) -> ObjectArray:
         """The coefficients of E[g | x, b] in the program's variables, laid out as the float program's."""
         return _coefficients(self.MA, self.MX, self.g, self.u_only, x, b)
+
+    def split(self, v: ObjectArray) -> list[list[Fraction]]:
+        """A vector over the program's variables as the blocks' parts."""
+        return [list(v[i * self.width : (i + 1) * self.width]) for i in range(len(self.blocks))]
 
 
 def _coefficients(MA: ObjectArray, MX: ObjectArray, g: ObjectArray, u_only: bool, x: int, b: int) -> ObjectArray:
@@ -84,6 +91,10 @@ def _coefficients(MA: ObjectArray, MX: ObjectArray, g: ObjectArray, u_only: bool
     if u_only:
         return np.outer(MX[x], MA[b]).ravel()
     return (MX[x][:, None, None] * MA[b][None, :, None] * g[x, b][None, None, :]).ravel()
+
+
+MAX_BLOCKS = 256
+"""The most blocks (released contexts behind the identity) an exact program is solved over."""
 
 
 class ExactPrograms:
@@ -103,11 +114,11 @@ class ExactPrograms:
         self._problem, self._u_only, self._floors = problem, u_only, floors
         nXr, nAr = problem.n_released_contexts, problem.n_released_groups
         nU = problem.g.shape[2]
-        n = nXr * nAr * (1 if u_only else nU)
-        rows = (0 if u_only else 2 * nXr * nAr) + (
-            int(np.count_nonzero(problem.live)) * problem.g.shape[1] if floors else 0
-        )
-        self._size = (n, rows)
+        contexts = 1 if problem.same_x else nXr  # the released contexts of a block
+        floor_rows = (1 if problem.same_x else int(np.count_nonzero(problem.live))) * problem.g.shape[1]
+        n = contexts * nAr * (1 if u_only else nU)
+        rows = (0 if u_only else 2 * contexts * nAr) + (floor_rows if floors else 0)
+        self._size = (n, rows, nXr if problem.same_x else 1)
         self._ends: list[_End] | None = None
 
     def _built(self) -> list[_End] | None:
@@ -127,28 +138,34 @@ class ExactPrograms:
     def _end(self, MA: ObjectArray, MX: ObjectArray) -> _End:
         problem = self._problem
         g = _rationals(problem.g)
-        xs = np.flatnonzero(problem.live)
+        live = problem.live
         tau = Fraction(problem.tau or 0.0)
-        a_ub: list[list[Fraction]] = []
-        b_ub: list[Fraction] = []
+        nA, nU, nAr = g.shape[1], g.shape[2], MA.shape[1]
+        per_cell = 1 if self._u_only else nU
+        groups = [list(range(MX.shape[1]))] if not problem.same_x else [[j] for j in range(MX.shape[1])]
+        width = len(groups[0]) * nAr * per_cell
         if self._u_only:
-            row = g[xs[0], 0] if xs.size else g[0, 0]
-            n = MX.shape[1] * MA.shape[1]
-            lower, upper = [min(row)] * n, [max(row)] * n
+            row = g[np.flatnonzero(live)[0], 0] if live.any() else g[0, 0]
+            lower, upper = [min(row)] * width, [max(row)] * width
         else:
-            nU = g.shape[2]
-            cells = MX.shape[1] * MA.shape[1]
-            n = cells * nU
-            lower, upper = [Fraction(0)] * n, [Fraction(1)] * n
-            for c in range(cells):  # Σ_u K[x̃, ã, u] = 1
-                ones = [Fraction(int(c * nU <= j < (c + 1) * nU)) for j in range(n)]
+            lower, upper = [Fraction(0)] * width, [Fraction(1)] * width
+        blocks = []
+        for i, released in enumerate(groups):
+            a_ub: list[list[Fraction]] = []
+            b_ub: list[Fraction] = []
+            for c in range(0 if self._u_only else width // nU):  # Σ_u K[x̃, ã, u] = 1
+                ones = [Fraction(int(c * nU <= j < (c + 1) * nU)) for j in range(width)]
                 a_ub += [ones, [-v for v in ones]]
                 b_ub += [Fraction(1), Fraction(-1)]
-        if self._floors:  # −E[g | x, b] ≤ −τ
-            nA = g.shape[1]
-            a_ub += [[-v for v in _coefficients(MA, MX, g, self._u_only, int(x), b)] for x in xs for b in range(nA)]
-            b_ub += [-tau] * (len(xs) * nA)
-        return _End(MA, MX, g, self._u_only, Polytope(lower, upper, a_ub, b_ub, n))
+            # −E[g | x, b] ≤ −τ for the live contexts whose rows the block holds (all of them in one block)
+            xs = [x for x in (released if problem.same_x else range(g.shape[0])) if live[x]] if self._floors else []
+            for x in xs:
+                for b in range(nA):
+                    full = _coefficients(MA, MX, g, self._u_only, x, b)
+                    a_ub.append([-v for v in full[i * width : (i + 1) * width]])
+                    b_ub.append(-tau)
+            blocks.append(Polytope(lower, upper, a_ub, b_ub, width))
+        return _End(MA, MX, g, self._u_only, blocks, width)
 
     def local(self, x: int, a: int, b: int) -> Callable[[_End], tuple[ObjectArray, ObjectArray]]:
         """The data of L's program at context x for the ordered pair (a, b), at an end."""
@@ -169,12 +186,14 @@ class ExactPrograms:
     def solve(
         self, data: Callable[[_End], tuple[ObjectArray, ObjectArray]], rounded: FractionalResult
     ) -> FractionalResult | None:
-        """The program exactly, in place of ``rounded`` (its float form's result); None where it is beyond
-        :data:`~fairaudit.base.linear_fractional.CROSSOVER_SIZE`, randomized response's e^ε has no finite float end, or the simplex gives no finite
-        maximum and no proof of +inf. The value is the maximum at the upper end rounded up, the witness the one at
-        the lower end rounded down."""
+        """The program exactly, in place of ``rounded`` (its float form's result), over the product of the blocks
+        (:func:`~fairaudit.base.exact_programs.maximize_ratio_over_product`: a block without objective only has to be
+        feasible). None where a block is beyond :data:`~fairaudit.base.linear_fractional.CROSSOVER_SIZE` or there are
+        more than :data:`MAX_BLOCKS`, where randomized response's e^ε has no finite float end, or where the simplex
+        gives no finite maximum and no proof of +inf. The value is the maximum at the upper end rounded up, the
+        witness the one at the lower end rounded down."""
         limit = linear_fractional.CROSSOVER_SIZE  # (read here: the tests shrink it)
-        if self._size[0] > limit[0] or self._size[1] > limit[1]:
+        if self._size[0] > limit[0] or self._size[1] > limit[1] or self._size[2] > MAX_BLOCKS:
             return None
         ends = self._built()
         if ends is None:
@@ -182,11 +201,15 @@ class ExactPrograms:
         result = functools.partial(FractionalResult, method="lp", p=rounded.p, q=rounded.q, lower=rounded.lower,
                                    upper=rounded.upper)  # fmt: skip
         status = f"{rounded.solver_status}; {EXACT_CROSSOVER} (exact: {WHY})"
-        p, q = (list(v) for v in data(ends[-1]))
-        found = exact_result(result, ends[-1].polytope.maximize_ratio(p, q), p, q, status, report_empty=True)
+
+        def optimum(end: _End) -> tuple[RatioOptimum, list[Fraction], list[Fraction]]:
+            p, q = data(end)
+            return maximize_ratio_over_product(end.blocks, end.split(p), end.split(q)), list(p), list(q)
+
+        high, p, q = optimum(ends[-1])
+        found = exact_result(result, high, p, q, status, report_empty=True)
         if found is None or len(ends) == 1 or found.status != "optimal":
             return found
-        p, q = (list(v) for v in data(ends[0]))
-        low = ends[0].polytope.maximize_ratio(p, q)
+        low = optimum(ends[0])[0]
         witness = fraction_down(low.value) if low.status == "optimal" and low.value is not None else math.nan
         return replace(found, witness=witness, gap=gap_between(found.value, witness))

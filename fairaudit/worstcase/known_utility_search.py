@@ -38,16 +38,7 @@ def local_search(
     """max L by the search over (context, pair) programs, in decreasing order of their upper bounds."""
     g, live, tau, floor = problem.g, problem.live, problem.tau, problem.floor
     nA = g.shape[1]
-    space = _model_program(
-        MA,
-        problem.context_mechanism.matrix,
-        g,
-        live,
-        tau,
-        problem.decision_only,
-        problem.binding,
-        _entry_roundings(problem),
-    )
+    space = _problem_space(problem, MA)
     xs = np.flatnonzero(live)
     pairs = np.asarray(pairs).reshape(-1, 2)
     triples = np.column_stack([np.repeat(xs, len(pairs)), np.tile(pairs, (len(xs), 1))])  # (x, a, b), x-major
@@ -97,16 +88,7 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     g, live, tau, floor = problem.g, problem.live, problem.tau, problem.floor
     nA = g.shape[1]
     p_context_given_group = np.nan_to_num(problem.population.context_given_group(), nan=0.0)  # P(x | a), (nX, nA)
-    space = _model_program(
-        MA,
-        problem.context_mechanism.matrix,
-        g,
-        live,
-        tau,
-        problem.decision_only,
-        problem.binding,
-        _entry_roundings(problem),
-    )
+    space = _problem_space(problem, MA)
 
     def coef_global(a: int) -> _Coefficients:
         xs = np.flatnonzero(live & (p_context_given_group[:, a] > 0))
@@ -258,10 +240,13 @@ class _ModelSpace:
     floors: bool  # whether the program has the τ rows
 
 
-def _entry_roundings(problem: ModelProblem) -> tuple[int, int]:
-    """How many roundings M_A's and M_X's floats carry relative to their exact laws (randomized response's are computed
-    from e^ε; a matrix is its own law): each product of an entry carries that many more."""
-    return problem.mechanism.matrix_roundings, problem.context_mechanism.matrix_roundings
+def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
+    """The polytope of the problem's programs, each product of an entry of M_A or M_X carrying the roundings the
+    mechanism's floats carry relative to its exact law (randomized response's, computed from e^ε; a matrix is its own
+    law)."""
+    entries = (problem.mechanism.matrix_roundings, problem.context_mechanism.matrix_roundings)
+    return _model_program(MA, problem.context_mechanism.matrix, problem.g, problem.live, problem.tau,
+                          problem.decision_only, problem.binding, entries)  # fmt: skip
 
 
 def _model_program(

@@ -142,7 +142,8 @@ def rr_black_box_epsilon(target: float, k: int, lower: float, gamma: float) -> f
             return math.inf
         exact = (big * r * (k - 1) + big * (1 - r) - r * (k - 1)) / (1 - big * r)
         return _meeting(log_down(max(exact, Fraction(1))), target, k, lower, gamma)
-    return _rr_black_box_epsilon_large(target, k, Fraction(lower) / Fraction(gamma))
+    eps = _rr_black_box_epsilon_large(target, k, Fraction(lower) / Fraction(gamma))
+    return eps if math.isinf(eps) else _meeting(eps, target, k, lower, gamma)
 
 
 def _meeting(eps: float, target: float, k: int, lower: float, gamma: float) -> float:

@@ -16,7 +16,7 @@ from fractions import Fraction
 import numpy as np
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.outward import exp_up, fraction_down, fraction_up, log_up
+from fairaudit.base.outward import exp_bounds, exp_up, fraction_down, fraction_up, log_up
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law, check_representable
@@ -80,14 +80,24 @@ def rr_box(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float)
     return replace(w, ratio=fraction_up(ratio), value=log_up(ratio))
 
 
+RATIONAL_LIMIT = 10**4
+"""Above this ε (nats) the closed forms take randomized response at its limit t → ∞ (p = 1, q = 0); below it, at a
+rational t ≥ e^ε: ``exp_up`` (ε), or beyond the floats (about 709.78 nats) the 50-digit upper end of e^ε."""
+
+
+def _rows_up(k: int, epsilon: float) -> tuple[Fraction, Fraction]:
+    """k-ary randomized response's (p, q) = (t/(t + k − 1), 1/(t + k − 1)) at a rational t ≥ e^ε, exactly; (1, 0), the
+    limit, for ε = +inf and above :data:`RATIONAL_LIMIT`. The worst cases are non-decreasing in t: an upper end."""
+    t_up = exp_up(epsilon)
+    if math.isinf(t_up) and epsilon > RATIONAL_LIMIT:
+        return Fraction(1), Fraction(0)
+    t = Fraction(t_up) if math.isfinite(t_up) else exp_bounds(epsilon)[1]
+    return t / (t + k - 1), 1 / (t + k - 1)
+
+
 def _rr_box_ratio(k: int, epsilon: float, lo: Fraction, hi: Fraction, floor: float) -> Fraction | float:
     """The box-with-floor optimum behind k-ary RR at t = exp_up(ε), exactly (the cases of :func:`rr_box_point`)."""
-    t_up = exp_up(epsilon)
-    if math.isinf(t_up):  # the limit t → ∞: p = 1, q = 0
-        p, q = Fraction(1), Fraction(0)
-    else:
-        t = Fraction(t_up)
-        p, q = t / (t + k - 1), 1 / (t + k - 1)
+    p, q = _rows_up(k, epsilon)
     span = hi - lo
     num, den = lo + span * p, lo + span * q
     f = Fraction(floor) if math.isfinite(floor) else None
@@ -260,12 +270,7 @@ def rr_lipschitz_ratio(
     """
     from fairaudit.base.exact_programs import maximize_ratio
 
-    t_up = exp_up(epsilon)
-    if math.isinf(t_up):
-        p, q = Fraction(1), Fraction(0)
-    else:
-        t = Fraction(t_up)
-        p, q = t / (t + k - 1), 1 / (t + k - 1)
+    p, q = _rows_up(k, epsilon)
     m = k - 2
     binding = floor > lo
     if lo == 0 and not binding:

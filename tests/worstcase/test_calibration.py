@@ -599,3 +599,25 @@ def test_bad_arguments_name_the_parameter(kwargs, flag):
     with pytest.raises(fa.InputError) as err:  # (the class refuses a negative number, calibrate the rest)
         calibrate(kwargs.pop("target"), utility_class=fa.UtilityClass(**bundle), **kwargs)
     assert err.value.field == flag
+
+
+@pytest.mark.parametrize(("target", "lower"), [(710.0, 1e-310), (710.0, 1e-320), (730.5, 1e-320), (740.0, 1e-300)])
+def test_calibration_above_the_floats_e_epsilon_meets_its_target_to_1e_9(target, lower):
+    # lower/gamma = r tiny: the black box of binary randomized response is ln((r + (1 - r) p)/(r + (1 - r) q)), by
+    # mpmath at 80 digits. Above ln(max float) its closed form took p = 1, q = 0 (ln 1/r: 713.8 at r = 1e-310, above a
+    # target of 710, which the calibrated epsilon then missed); now at the 50-digit end of e^epsilon
+    from fairaudit.worstcase.calibration_methods import rr_black_box_epsilon
+    from fairaudit.worstcase.randomized_response import rr_class_value
+
+    eps = rr_black_box_epsilon(target, 2, lower, 1.0)
+    value = rr_class_value(randomized_response(["a", "b"], eps).rr, lower, 1.0, None, 0.0, 1.0)
+    with mpmath.workdps(80):
+        r = mpmath.mpf(lower)
+        if math.isinf(eps):  # the identity (p = 1, q = 0) meets it: ln(1/r) <= target
+            assert r * mpmath.exp(target) >= 1 and value == pytest.approx(float(-mpmath.log(r)), rel=1e-15)
+            return
+        t = mpmath.exp(mpmath.mpf(eps))
+        p, q = t / (t + 1), 1 / (t + 1)
+        exact = mpmath.log((r + (1 - r) * p) / (r + (1 - r) * q))
+        assert exact <= value <= target  # certified above the exact value, and meeting the target
+        assert target - exact <= 1e-9 * target  # the largest epsilon, to 1e-9

@@ -32,10 +32,11 @@ from fairaudit.base.linear_fractional import (
     exact_result,
     gap_between,
 )
-from fairaudit.base.outward import exp_down, exp_up, fraction_down
+from fairaudit.base.outward import exp_bounds, exp_down, exp_up, fraction_down
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.worstcase.known_utility_problem import ModelProblem
+from fairaudit.worstcase.randomized_response import RATIONAL_LIMIT
 
 ObjectArray = npt.NDArray[np.object_]
 
@@ -51,14 +52,19 @@ def _rationals(values: npt.ArrayLike) -> ObjectArray:
 
 def _rows(mechanism: Mechanism, end: int) -> ObjectArray | None:
     """A mechanism's rows in exact rationals: its floats; randomized response's at the lower (``end`` 0) or upper (1)
-    float end of e^ε, None where that end is not a finite float (ε above ~709 nats)."""
+    float end of e^ε (beyond the floats, about 709.78 nats, the 50-digit end of :func:`~fairaudit.base.outward.
+    exp_bounds`), None above :data:`~fairaudit.worstcase.randomized_response.RATIONAL_LIMIT`."""
     if not isinstance(mechanism, RandomizedResponse) or mechanism.is_identity:
         return _rationals(mechanism.matrix)
     epsilon = mechanism.rr.epsilon
     t_float = exp_up(epsilon) if end else exp_down(epsilon)
-    if not math.isfinite(t_float):
+    if math.isfinite(t_float):
+        t = Fraction(t_float)
+    elif epsilon <= RATIONAL_LIMIT:
+        t = exp_bounds(epsilon)[end]
+    else:
         return None
-    t, k = max(Fraction(1), Fraction(t_float)), mechanism.rr.k
+    t, k = max(Fraction(1), t), mechanism.rr.k
     out = np.full((k, k), 1 / (t + k - 1), dtype=object)
     np.fill_diagonal(out, t / (t + k - 1))
     return out

@@ -338,9 +338,10 @@ def test_class_certificate_is_scale_free():
     "mechanism",
     [
         fa.randomized_response(["a", "b"], epsilon=30.0),
+        fa.randomized_response(["a", "b"], epsilon=720.0),  # e^epsilon beyond the floats: its 50-digit ends
         fa.from_matrix([[1 - 2.0**-40, 2.0**-40], [2.0**-40, 1 - 2.0**-40]], ["a", "b"]),  # exact rows, sum 1
     ],
-    ids=["randomized response", "matrix"],
+    ids=["randomized response", "randomized response at 720 nats", "matrix"],
 )
 def test_a_floor_on_a_face_is_solved_on_exact_coefficients(mechanism):
     # g(·, a) = (0, 0.2) and tau = 0.2: E[g | a] >= 0.2 holds only where both released rows take "d1" (by hand), and

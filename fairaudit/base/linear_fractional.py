@@ -518,10 +518,17 @@ class FractionalProgram:
             # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
             h = np.asarray(self._y.value, dtype=float) / float(s)
             return self._certified(result, p, q, float(prob.value), h, status)
+        if self._bounded:  # s <= 0 is no point of a bounded polytope: the solve failed (solved exactly when small)
+            why = "the solver's point had s <= 0 on a bounded polytope"
+            exact = self._crossover(result, p, q, status, why, report_empty=True)
+            return exact if exact is not None else _failed(result, status, why)
         y = np.asarray(self._y.value, dtype=float)
         if s <= 1e-12 * max(1.0, float(np.abs(y).max())):
             # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
-            primal_status, _, _ = self._primal_max(p)
+            try:
+                primal_status, _, _ = self._primal_max(p)
+            except cp.error.SolverError as exc:
+                return _failed(result, status, f"the solver failed: {exc}")
             if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
                 return _no_solution(result, status, _INCONSISTENT)
             return result(

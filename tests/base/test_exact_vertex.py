@@ -16,7 +16,7 @@ import fairaudit.base.linear_fractional as lf
 from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.base.exact_vertex import vertex_witness
 from fairaudit.base.linear_fractional import FractionalProgram
-from fairaudit.base.outward import fraction_down
+from fairaudit.base.outward import fraction_down, fraction_up
 
 
 def _exact(p, q, lo, hi, rows) -> Fraction:
@@ -134,3 +134,30 @@ def test_a_failed_solve_too_large_to_solve_exactly_is_an_error_not_an_empty_poly
     w = worst_model(ma, util, tau=0.2, method="lp").local_fairness
     assert (w.status, w.certified) == ("error", False) and np.isnan(w.value)
     assert w.reason == "not solved: the solver failed: Solver 'CLARABEL' failed."
+
+
+def test_a_point_with_s_zero_on_a_bounded_polytope_is_a_failed_solve(monkeypatch):
+    # Clarabel's point with s <= 0 on a bounded polytope (found on a matrix with cells of 1e-6 and floors on faces)
+    # is no point of it: the program is solved exactly when small (11/7, by hand in the docstring), else reported as
+    # an error. It went on to a second solve whose SolverError escaped as a traceback
+    real = lf.solve_clarabel
+
+    def no_scale(problem, options=None):
+        status = real(problem, options)
+        for v in problem.variables():
+            if v.is_nonneg() and v.size == 1:  # the Charnes–Cooper scale s
+                v.value = 0.0
+        return status
+
+    monkeypatch.setattr(lf, "solve_clarabel", no_scale)
+    p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    prog = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=np.array([[-0.3, -0.7]]), b_ub=np.array([-0.5]))
+    r = prog.solve(p, q)
+    exact = (Fraction(0.7) + Fraction(0.3) * (Fraction(0.5) - Fraction(0.3)) / Fraction(0.7)) / (
+        Fraction(0.3) + Fraction(0.7) * (Fraction(0.5) - Fraction(0.3)) / Fraction(0.7)
+    )
+    assert r.certified and r.value == fraction_up(exact) and "s <= 0 on a bounded polytope" in r.solver_status
+    monkeypatch.setattr(lf, "CROSSOVER_SIZE", (1, 1))
+    r = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=np.array([[-0.3, -0.7]]), b_ub=np.array([-0.5])).solve(p, q)
+    assert (r.status, r.certified) == ("error", False) and np.isnan(r.value)
+    assert r.reason == "the solver's point had s <= 0 on a bounded polytope"

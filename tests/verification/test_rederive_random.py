@@ -641,6 +641,19 @@ REGRESSIONS["randomized response at 30 nats, a floor on a face"] = (
 )
 
 
+# a matrix with cells of 1e-6 and tau = 2 the largest g of g0 in x1 (on d1) and of g2 (on d0): no model meets both
+# floors. Clarabel's point had s = 0 on the bounded polytope, and the second solve it led to raised SolverError, a
+# traceback from certify (found by a hunt for floors on faces; fixed in certify: such a point is a failed solve)
+REGRESSIONS["a solver point with s = 0, floors no model meets"] = (
+    _spec(G3, '[context]\nname = "ctx"\nvalues = ["x0", "x1", "x2"]\n').replace('["d0", "d1"]', '["d0", "d1", "d2"]')
+    + MATRIX.format("[[0.999998, 1e-06, 1e-06], [1e-06, 0.999998, 1e-06], [1e-06, 1e-06, 0.999998]]")
+    + '[utility]\nkind = "table"\nvalues = [[[0.832, 2.0, 2.0], [1.0, 0.5, 4.0], [0.5, 4.0, 0.5]], '
+    + "[[0.0, 2.0, 1.0], [0.2, 4.0, 0.2], [2.0, 0.461, 0.0]], [[0.5, 2.0, 1.0], [1.0, 0.104, 2.0], [0.5, 4.0, 0.0]]]\n"
+    + "tau = 2.0\n",
+    None,
+)
+
+
 @pytest.mark.parametrize("name", list(REGRESSIONS))
 def test_found_certificates_hold(name, tmp_path):
     result = _regression(*REGRESSIONS[name], tmp_path)

@@ -157,6 +157,9 @@ def utilities(draw: st.DrawFn, decisions: list[str], n_contexts: int, k: int) ->
     gamma = u.get("gamma", top)
     if gamma > 0 and draw(st.integers(0, 3)) > 0:
         u["tau"] = gamma * draw(st.sampled_from([0.01, 0.1, 0.25, 0.5, 1.0, 1e-6]))
+        faces = sorted({max(cell) for plane in full for cell in plane} - {0.0}) if kind == "full" else []
+        if faces and draw(st.booleans()):  # the largest g of a (context, group): its floor holds on a face only
+            u["tau"] = draw(st.sampled_from(faces))
     if draw(st.integers(0, 3)) == 0:
         u["lipschitz"] = draw(st.sampled_from([0.0, 0.05, 0.5]))
     if draw(st.integers(0, 3)) == 0:

@@ -334,12 +334,31 @@ def exact_result(
     solver_status: str,
     report_empty: bool = False,
 ) -> FractionalResult | None:
-    """The result of a program the rational simplex solved exactly (:func:`~fairaudit.base.exact_programs.
-    maximize_ratio`, on the exact ``p`` and ``q``), or None where it gives no finite maximum and no proof of +inf.
+    """The :class:`FractionalResult` of a program the rational simplex solved exactly, or None.
 
-    "optimal": its maximum rounded up (the witness rounded down) at the vertex it ends at, certified; "infeasible"
-    with ``report_empty``: the polytope is empty (else None: a dual's bound holds vacuously there);
-    "zero_denominator" at a vertex with q·h = 0 < p·h exactly: +inf. ``solver_status`` is the result's.
+    Parameters
+    ----------
+    result : callable
+        Makes the result from its remaining fields (``method``, ``p``, ``q``, ``lower`` and ``upper`` given).
+    optimum : RatioOptimum
+        :func:`~fairaudit.base.exact_programs.maximize_ratio`'s (or ``maximize_ratio_over_product``'s) outcome.
+    p, q : sequences of Fraction, shape (n,)
+        The exact numerator and denominator it was solved for.
+    solver_status : str
+        The result's ``solver_status``.
+    report_empty : bool
+        Whether an empty polytope is reported (else None: a dual's bound holds vacuously there).
+
+    Returns
+    -------
+    FractionalResult or None
+        "optimal": the maximum rounded up (the witness rounded down, the gap between them) at the vertex reached,
+        certified; "infeasible" with ``report_empty``; "unbounded" (+inf, certified) at a vertex with q·h = 0 < p·h
+        exactly. None where the simplex gives no finite maximum and no proof of +inf.
+
+    Notes
+    -----
+    ``proofs/linear_fractional.md`` §6 ("An exact crossover"); rounding outward, ``proofs/outward.md`` §3.
     """
     if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
         return _no_solution(result, solver_status, _INCONSISTENT)

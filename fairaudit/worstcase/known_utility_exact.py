@@ -6,7 +6,8 @@ of floats: its value is certified on their outer ends, its witness on their inne
 optimum: a floor E[g | x, a] ≥ τ with τ = max g holds on a face of the polytope only, and a rounded coefficient turns
 that face into a slab. Such a program, within :data:`~fairaudit.base.linear_fractional.CROSSOVER_SIZE`, is solved
 again here by the rational simplex on exact data: g, τ, P(x | a) and a matrix mechanism's entries as the floats they
-are (their exact values), and randomized response's rows at the two float ends of its e^ε. The worst case is
+are (their exact values), and randomized response's rows at the two ends of its e^ε (float ends, or 50-digit ones
+beyond the floats). The worst case is
 non-decreasing in e^ε (randomized response at a smaller ε is the one at a larger ε followed by more randomized
 response), so the maximum at the upper end bounds it from above and the one at the lower end from below.
 ``proofs/black_box.md`` §6.
@@ -32,11 +33,11 @@ from fairaudit.base.linear_fractional import (
     exact_result,
     gap_between,
 )
-from fairaudit.base.outward import exp_bounds, exp_down, exp_up, fraction_down
+from fairaudit.base.outward import fraction_down
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.worstcase.known_utility_problem import ModelProblem
-from fairaudit.worstcase.randomized_response import RATIONAL_LIMIT
+from fairaudit.worstcase.randomized_response import rr_exact_rows
 
 ObjectArray = npt.NDArray[np.object_]
 
@@ -52,21 +53,15 @@ def _rationals(values: npt.ArrayLike) -> ObjectArray:
 
 def _rows(mechanism: Mechanism, end: int) -> ObjectArray | None:
     """A mechanism's rows in exact rationals: its floats; randomized response's at the lower (``end`` 0) or upper (1)
-    float end of e^ε (beyond the floats, about 709.78 nats, the 50-digit end of :func:`~fairaudit.base.outward.
-    exp_bounds`), None above :data:`~fairaudit.worstcase.randomized_response.RATIONAL_LIMIT`."""
+    end of e^ε (:func:`~fairaudit.worstcase.randomized_response.rr_exact_rows`), None where it has none."""
     if not isinstance(mechanism, RandomizedResponse) or mechanism.is_identity:
         return _rationals(mechanism.matrix)
-    epsilon = mechanism.rr.epsilon
-    t_float = exp_up(epsilon) if end else exp_down(epsilon)
-    if math.isfinite(t_float):
-        t = Fraction(t_float)
-    elif epsilon <= RATIONAL_LIMIT:
-        t = exp_bounds(epsilon)[end]
-    else:
+    k = mechanism.rr.k
+    rows = rr_exact_rows(k, mechanism.rr.epsilon, end)
+    if rows is None:
         return None
-    t, k = max(Fraction(1), t), mechanism.rr.k
-    out = np.full((k, k), 1 / (t + k - 1), dtype=object)
-    np.fill_diagonal(out, t / (t + k - 1))
+    out = np.full((k, k), rows[1], dtype=object)
+    np.fill_diagonal(out, rows[0])
     return out
 
 

@@ -16,7 +16,7 @@ from fractions import Fraction
 import numpy as np
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.outward import exp_bounds, exp_up, fraction_down, fraction_up, log_up
+from fairaudit.base.outward import exp_bounds, exp_down, exp_up, fraction_down, fraction_up, log_up
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law, check_representable
@@ -85,14 +85,52 @@ RATIONAL_LIMIT = 10**4
 rational t ≥ e^ε: ``exp_up`` (ε), or beyond the floats (about 709.78 nats) the 50-digit upper end of e^ε."""
 
 
-def _rows_up(k: int, epsilon: float) -> tuple[Fraction, Fraction]:
-    """k-ary randomized response's (p, q) = (t/(t + k − 1), 1/(t + k − 1)) at a rational t ≥ e^ε, exactly; (1, 0), the
-    limit, for ε = +inf and above :data:`RATIONAL_LIMIT`. The worst cases are non-decreasing in t: an upper end."""
-    t_up = exp_up(epsilon)
-    if math.isinf(t_up) and epsilon > RATIONAL_LIMIT:
-        return Fraction(1), Fraction(0)
-    t = Fraction(t_up) if math.isfinite(t_up) else exp_bounds(epsilon)[1]
+def rr_exact_rows(k: int, epsilon: float, end: int) -> tuple[Fraction, Fraction] | None:
+    """k-ary randomized response's (p, q) = (t/(t + k − 1), 1/(t + k − 1)), exactly, at a rational end t of e^ε.
+
+    Parameters
+    ----------
+    k : int
+        The number of values, ≥ 2.
+    epsilon : float
+        ε ≥ 0, nats.
+    end : {0, 1}
+        0: t ≤ e^ε, ``exp_down`` (ε); 1: t ≥ e^ε, ``exp_up`` (ε). Beyond the floats (about 709.78 nats), the 50-digit
+        end of :func:`~fairaudit.base.outward.exp_bounds` (``proofs/outward.md`` §4); t is never below 1.
+
+    Returns
+    -------
+    (Fraction, Fraction) or None
+        p and q, each row summing to 1 exactly; None above :data:`RATIONAL_LIMIT` (ε = +inf included).
+
+    Notes
+    -----
+    A worst case over the models behind randomized response is non-decreasing in e^ε (a smaller ε is a larger one
+    followed by more randomized response, ``proofs/calibration.md`` §3): the upper end bounds it from above, the lower
+    end from below.
+
+    Examples
+    --------
+    >>> import math
+    >>> rr_exact_rows(2, math.log(3), 1)[0] >= Fraction(3, 4) >= rr_exact_rows(2, math.log(3), 0)[0]
+    True
+    >>> rr_exact_rows(2, 2e4, 1) is None
+    True
+    """
+    t_float = exp_up(epsilon) if end else exp_down(epsilon)
+    if math.isfinite(t_float):
+        t = Fraction(t_float)
+    elif epsilon <= RATIONAL_LIMIT:
+        t = exp_bounds(epsilon)[end]
+    else:
+        return None
+    t = max(Fraction(1), t)
     return t / (t + k - 1), 1 / (t + k - 1)
+
+
+def _rows_up(k: int, epsilon: float) -> tuple[Fraction, Fraction]:
+    """:func:`rr_exact_rows` at the upper end; (1, 0), the limit t → ∞, above :data:`RATIONAL_LIMIT`."""
+    return rr_exact_rows(k, epsilon, 1) or (Fraction(1), Fraction(0))
 
 
 def _rr_box_ratio(k: int, epsilon: float, lo: Fraction, hi: Fraction, floor: float) -> Fraction | float:

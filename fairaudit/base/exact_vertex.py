@@ -24,7 +24,7 @@ import numpy as np
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, Rows, rational_point_ratio
 
-__all__ = ["VERTEX_LIMIT", "improve_witness", "vertex_witness"]
+__all__ = ["VERTEX_LIMIT", "gauss_jordan", "improve_witness", "vertex_witness"]
 
 VERTEX_LIMIT = 20_000
 """The most nonzeros (of the rows, with p and q) a vertex is solved and checked over; a larger program gets none."""
@@ -43,10 +43,27 @@ def _entries(a: Any, r: int) -> zip[tuple[int, float]]:
     return zip(a.indices[start:stop].tolist(), a.data[start:stop].tolist(), strict=True)
 
 
-def _solve(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tuple[_Row, Fraction]] | None:
-    """Gauss–Jordan elimination: each pivot cell as its right-hand side less the free cells' terms; None when an
-    equality is inconsistent with the others. An active inequality the others already decide is dropped (the point
-    is checked against it after)."""
+def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tuple[_Row, Fraction]] | None:
+    """Gauss–Jordan elimination over rationals: each pivot cell as its right-hand side less the free cells' terms;
+    None when an equality is inconsistent with the others. An active inequality the others already decide is dropped
+    (the point is checked against it after).
+
+    Parameters
+    ----------
+    equations : list of (dict of int to Fraction, Fraction, bool)
+        Each row as {cell: coefficient}, its right-hand side, and whether it is an equality.
+
+    Returns
+    -------
+    dict of int to (dict of int to Fraction, Fraction), or None
+        pivot cell -> (its terms in the free cells, its right-hand side): cell = rhs − Σ terms·free cells.
+
+    Examples
+    --------
+    >>> F = Fraction
+    >>> gauss_jordan([({0: F(1), 1: F(1)}, F(1), True), ({0: F(1), 1: F(-1)}, F(0), True)])
+    {0: ({}, Fraction(1, 2)), 1: ({}, Fraction(1, 2))}
+    """
     pivots: dict[int, tuple[_Row, Fraction]] = {}
     for equation, rhs, equality in equations:
         row = dict(equation)
@@ -142,7 +159,7 @@ def vertex_witness(
                 else:
                     rhs -= Fraction(v) * point[c]
             equations.append((row, rhs, kind == "eq"))
-    pivots = _solve(equations)
+    pivots = gauss_jordan(equations)
     if pivots is None:
         return math.nan
     for c, (row, rhs) in pivots.items():  # the free cells keep their float values

@@ -26,6 +26,11 @@ KINDS: tuple[tuple[str, str, str], ...] = (
         "bound_details.black_box.worst_model",
         "the worst model's probabilities, printed to 12 digits for reading: its value is the witness",
     ),
+    (
+        r"^bound_details\.black_box(\.global)?\.(duals|witness_point)\b",
+        "bound_details.black_box (duals, witness_point)",
+        "the evidence the black box is checked with (a dual point bounds a program, a point attains the witness)",
+    ),
     (r"(^|\.)programs_solved$", "programs_solved", "a count of the programs solved, not a certified number"),
     (
         r"^targets\.(local|global)\.target$",

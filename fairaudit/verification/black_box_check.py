@@ -26,19 +26,28 @@ import operator
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any
+from typing import Any, NamedTuple
 
 from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
+from fairaudit.verification.dual_check import Evidence, dual_bound, vertex_ratio
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
 
-__all__ = ["MAX_GROUPS", "MAX_VARIABLES", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
+__all__ = [
+    "MAX_GROUPS",
+    "MAX_VARIABLES",
+    "PairEnclosures",
+    "WorstCaseEnclosures",
+    "black_box_enclosures",
+    "pair_enclosures",
+]
 
 MAX_VARIABLES = 64
-"""The largest program (variables) re-derived exactly; a larger black box is listed as not re-derived."""
+"""The largest program (variables per block) solved exactly; a larger one is bounded from the dual point the
+certificate records (:mod:`~fairaudit.verification.dual_check`), or the black box is listed as not re-derived."""
 
 MAX_GROUPS = 32
-"""The most groups of a matrix mechanism whose black box is re-derived (a pair's program has a floor per group)."""
+"""The most floors (groups of a matrix mechanism) of a program solved exactly; beyond, as for :data:`MAX_VARIABLES`."""
 
 Number = Fraction | float
 
@@ -52,6 +61,7 @@ class WorstCaseEnclosures:
     reason: str
     independent: bool = False  # P(x | a) is the same for every group, exactly
     group_free: bool = True  # g does not depend on the group (then L ≤ ε(M_A), and L̄ ≤ ε(M_A) when independent)
+    from_duals: bool = False  # an upper end rests on a recorded dual: its lower end is a recorded point's, if any
 
 
 @dataclass(frozen=True)
@@ -67,6 +77,8 @@ class _Setting:
     tau: Fraction | None
     weights: list[list[Fraction]]  # P(x | a), [live x][a]
     present: list[int]  # the groups with P(A = a) > 0
+    live: list[int]  # the live contexts' positions in the population
+    evidence: Evidence  # the certificate's duals and witness points (a matrix's programs beyond the exact size)
 
 
 def _alike(weights: Sequence[Sequence[Fraction]], present: Sequence[int]) -> bool:
@@ -74,55 +86,75 @@ def _alike(weights: Sequence[Sequence[Fraction]], present: Sequence[int]) -> boo
     return all(w[a] == w[present[0]] for w in weights for a in present)
 
 
-def black_box_enclosures(inputs: Mapping[str, Any]) -> WorstCaseEnclosures:
+def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] | None = None) -> WorstCaseEnclosures:
     """The worst ratios behind the recorded filter, for the recorded utility, τ and population, enclosed.
 
     Parameters
     ----------
     inputs : mapping
         A certificate's ``inputs`` (checked against the schema).
+    recorded : mapping, optional
+        Its ``bound_details.black_box``: the dual points and the witness point that bound a matrix's programs
+        beyond the exact size (:class:`~fairaudit.verification.dual_check.Evidence`).
 
     Returns
     -------
     WorstCaseEnclosures
         ``local`` and ``global_`` enclose max E[g | x, a]/E[g | x, a'] and max E[g | a]/E[g | a'] over every model
         (+inf when unbounded); None, with ``reason``, for what is not re-derived here: a single group, randomized
-        response beyond ε = 10^6 (finite), programs larger than :data:`MAX_VARIABLES`, floors that
+        response beyond ε = 10^6 (finite), programs larger than :data:`MAX_VARIABLES` (or with more than
+        :data:`MAX_GROUPS` floors) whose bound needs a dual the certificate does not record, floors that
         no model meets exactly (τ at max g with rows that sum to just below 1 in binary). L̄ compares the groups with
-        P(A = a) > 0 only (1, L̄ = 0, with fewer than two).
+        P(A = a) > 0 only (1, L̄ = 0, with fewer than two). Where a recorded dual bounds a program, the upper end is
+        its bound and the lower end the ratio at the recorded witness point, when that point meets every constraint
+        exactly (``from_duals``).
 
     Raises
     ------
     InputError
-        Naming the field of ``inputs`` that holds a value that is not a number (``inputs.utility.values[2]``).
+        Naming the field of ``inputs`` that holds a value that is not a number (``inputs.utility.values[2]``), or the
+        field of ``recorded`` whose label or shape is not the inputs'.
 
     Notes
     -----
     The reduction, the monotonicity in e^ε and the three-variable programs: ``proofs/verification.md`` §4
     (from ``proofs/black_box.md`` §6); the programs are solved by
-    :func:`~fairaudit.base.exact_programs.maximize_ratio` (Dinkelbach 1967).
+    :func:`~fairaudit.base.exact_programs.maximize_ratio` (Dinkelbach 1967), or bounded by weak duality (§4e).
     """
-    settings = _settings(inputs)
+    settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     if isinstance(settings, str):
         return WorstCaseEnclosures(None, None, settings)
     try:
         ends = [(_local(s), _global(s)) for s in settings]
+    except _NoDual as exc:
+        return WorstCaseEnclosures(None, None, str(exc))
     except ValueError as exc:  # floors above what the recorded rows reach exactly: no model meets tau
         return WorstCaseEnclosures(
             None, None, f"{exc}: no model meets E[g | x, a] >= tau with the recorded rows exactly"
         )
-    local = Enclosure(ends[0][0], ends[-1][0])
+    local = Enclosure(ends[0][0][0], ends[-1][0][1])
     low_global, high_global = ends[0][1], ends[-1][1]
-    global_ = None if low_global is None or high_global is None else Enclosure(low_global, high_global)
+    global_ = None if low_global is None or high_global is None else Enclosure(low_global[0], high_global[1])
     why = "" if global_ is not None else f"L-bar: programs beyond {MAX_VARIABLES} variables"
     independent = _alike(settings[0].weights, settings[0].present)
     group_free = not isinstance(settings[0], KernelSetting) or settings[0].group_free
-    return WorstCaseEnclosures(local, global_, why, independent, group_free)
+    duals = any(end[2] for pair in ends for end in pair if end is not None)
+    return WorstCaseEnclosures(local, global_, why, independent, group_free, duals)
+
+
+class PairEnclosures(NamedTuple):
+    """The worst ratios of one pair (:func:`pair_enclosures`): on L at its context, on L̄; ``from_duals`` when an
+    upper end is a recorded dual's (or, without one, the relaxation's): then only the lower end, a recorded point's
+    ratio, shows what the pair attains."""
+
+    local: Enclosure | None
+    global_: Enclosure | None
+    from_duals: bool = False
 
 
 def pair_enclosures(
-    inputs: Mapping[str, Any], context: Any, group: Any, other_group: Any
-) -> tuple[Enclosure | None, Enclosure | None]:
+    inputs: Mapping[str, Any], context: Any, group: Any, other_group: Any, recorded: Mapping[str, Any] | None = None
+) -> PairEnclosures:
     """The exact worst ratios of one named pair: L's at ``context`` and L̄'s, enclosed as in
     :func:`black_box_enclosures`; None where a label is not the inputs' (or the context has P(X = x) = 0, or the
     group P(A = a) = 0 for L̄), or where the black box is not re-derived.
@@ -142,7 +174,7 @@ def pair_enclosures(
 
     Returns
     -------
-    (Enclosure or None, Enclosure or None)
+    PairEnclosures
         The pair's worst ratios (not logarithms) on L at ``context`` and on L̄; +inf when unbounded.
 
     Examples
@@ -154,29 +186,32 @@ def pair_enclosures(
     ...           "utility": {"values": [1.0, 0.0], "tau": None},
     ...           "population": {"contexts": ["x"], "groups": ["a", "b"], "probabilities": [[0.5, 0.5]]}}
     >>> pair_enclosures(inputs, "x", "b", "a")
-    (Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)))
+    PairEnclosures(local=Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), global_=Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), from_duals=False)
     >>> pair_enclosures(inputs, "y", "b", "a")[0] is None    # not a context of the inputs
     True
     """
-    settings = _settings(inputs)
+    settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     pop = inputs["population"]
     contexts, groups = list(pop["contexts"]), list(pop["groups"])
     if isinstance(settings, str) or group not in groups or other_group not in groups or group == other_group:
-        return None, None
+        return PairEnclosures(None, None)
     a, b = groups.index(group), groups.index(other_group)
     probabilities = recorded_array(pop["probabilities"], "inputs.population.probabilities")
     live = [x for x in range(len(probabilities)) if sum(probabilities[x]) > 0]
     i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
     try:
-        local = None if i is None else Enclosure(*(_local(s, (i, a, b)) for s in (settings[0], settings[-1])))
+        local_ends = None if i is None else [_local(s, (i, a, b), True) for s in (settings[0], settings[-1])]
         present = a in settings[0].present and b in settings[0].present
-        ends = [_global(s, (a, b)) for s in (settings[0], settings[-1])] if present else [None, None]
+        ends = [_global(s, (a, b), True) for s in (settings[0], settings[-1])] if present else [None, None]
     except ValueError:
-        return None, None
-    return local, None if ends[0] is None or ends[1] is None else Enclosure(ends[0], ends[1])
+        return PairEnclosures(None, None)
+    local = None if local_ends is None else Enclosure(local_ends[0][0], local_ends[1][1])
+    global_ = None if ends[0] is None or ends[1] is None else Enclosure(ends[0][0], ends[1][1])
+    duals = any(e[2] for e in [*(local_ends or []), *ends] if e is not None)
+    return PairEnclosures(local, global_, duals)
 
 
-def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | list[KernelSetting] | str:
+def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Setting] | list[KernelSetting] | str:
     """The programs' data at each end of e^ε (one for a matrix), or why the black box is not re-derived."""
     m = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
     context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")
@@ -200,13 +235,12 @@ def _settings(inputs: Mapping[str, Any]) -> list[_Setting] | list[KernelSetting]
     else:
         low, high = [min(values)] * len(live), [max(values)] * len(live)
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
-    if m.kind == "matrix" and (m.k > MAX_GROUPS or len(m.outputs) > MAX_VARIABLES):
-        return f"programs beyond {MAX_VARIABLES} variables"
     mass = [sum(pop[x][a] for x in live) for a in range(m.k)]
     weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(m.k)] for x in live]
     present = [a for a in range(m.k) if mass[a]]  # L-bar compares only the groups with P(A = a) > 0
     ends = [(Fraction(0), Fraction(0))] if m.rows is not None else list(m.rr_ends())  # (a matrix: its rows)
-    return [_Setting(m.rows, p, q, m.k, low, high, tau, weights, present) for p, q in ends]  # type: ignore[arg-type]
+    return [_Setting(m.rows, p, q, m.k, low, high, tau, weights, present, live, evidence)  # type: ignore[arg-type]
+            for p, q in ends]  # fmt: skip
 
 
 def _rows_of(s: _Setting, a: int, b: int) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]], list[int]]:
@@ -229,21 +263,56 @@ def _pairs(s: _Setting) -> list[tuple[int, int]]:
     return [(0, 1)] if s.rows is None else [(a, b) for a in range(s.k) for b in range(s.k) if a != b]
 
 
-def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None) -> Number:
-    """max over live contexts and pairs of the exact worst ratio; with ``at`` = (live context, a, a'), that one's
-    (behind randomized response every pair is alike: the pair (0, 1) stands for it)."""
+def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None, loose: bool = False) -> _Ends:
+    """max over live contexts and pairs of the worst ratio, enclosed (exact, unless a recorded dual bounds a
+    program); with ``at`` = (live context, a, a'), that one's (behind randomized response every pair is alike: the
+    pair (0, 1) stands for it); ``loose``: as :func:`_largest`."""
     if isinstance(s, KernelSetting):
-        return kernel_local(s, at)
+        v = kernel_local(s, at)
+        return v, v, False
     # contexts with the same box have the same programs: one case per box and pair (_largest); behind randomized
     # response the pair (0, 1) stands for every pair
     boxes = [(s.low[at[0]], s.high[at[0]])] if at is not None else list(dict.fromkeys(zip(s.low, s.high)))
     pairs = [(at[1], at[2])] if at is not None else _pairs(s)
     floors = [_rows_of(s, *pairs[0])[2]]  # (every group's: the same for every pair)
+    small = len(floors[0][0]) <= MAX_VARIABLES and (s.rows is None or s.k <= MAX_GROUPS)
+    duals, point = _local_evidence(s)
     cases = []
     for a, b in pairs:
         row_a, row_b, _, _ = _rows_of(s, a, b)
-        cases += [_Case((lo, hi), [row_a], [row_b], floors, [lo], [hi], s.tau) for lo, hi in boxes]
-    return _largest(cases, Fraction(0))
+        for lo, hi in boxes:
+            key = (lo, hi, a, b)
+            case = _Case(
+                (lo, hi), [row_a], [row_b], floors, [lo], [hi], s.tau, None, small, duals.get(key), point.get(key)
+            )
+            cases.append(case)
+    return _largest(cases, Fraction(0), loose)
+
+
+_Ends = tuple[Number, Number, bool]
+"""(lower end, upper end, whether a recorded dual gave the upper end)."""
+
+
+class _NoDual(Exception):
+    """A program beyond the exact size whose bound needs a dual the certificate does not record."""
+
+
+def _local_evidence(s: _Setting) -> tuple[dict[tuple[Any, ...], list[list[Fraction]]], dict[tuple[Any, ...], Any]]:
+    """The recorded duals and witness point of L's programs, by (box, a, a') (a context's program is its box's)."""
+    if s.rows is None:
+        return {}, {}
+    position = {x: i for i, x in enumerate(s.live)}
+    duals = {}
+    for (x, a, b), nu in s.evidence.local.items():
+        if x in position:
+            i = position[x]
+            duals[(s.low[i], s.high[i], a, b)] = [nu]
+    point = {}
+    if s.evidence.local_point is not None and s.evidence.local_point[0] in position:
+        x, a, b, h = s.evidence.local_point
+        i = position[x]
+        point[(s.low[i], s.high[i], a, b)] = [h]
+    return duals, point
 
 
 @dataclass(frozen=True)
@@ -257,53 +326,106 @@ class _Case:
     low: list[Fraction]
     high: list[Fraction]
     tau: Fraction | None
-    kept: Fraction | None = None  # with one block: t of the floor the denominator keeps, q·h ≥ t (τ, or P(x | a') τ)
+    kept: Fraction | None = None  # t of the floor the denominator keeps, q·h ≥ t (τ, or Σ_x P(x | a') τ for L̄)
+    small: bool = True  # within the rational simplex's size: solved exactly, else bounded by ``dual``
+    dual: list[list[Fraction]] | None = None  # the recorded ν per block
+    point: list[list[Fraction]] | None = None  # the recorded witness point per block
 
     def bound(self) -> tuple[Number, list[Fraction] | None]:
-        """An upper bound on the program's value: the floor relaxation's (one block, a positive floor), with its
-        maximiser (the value, where that meets every floor), else the box's bound, with None."""
+        """An upper bound on the program's value: the floor relaxation's (a positive floor: the denominator's own,
+        E[g | a'] ≥ t, which every model meeting the floors meets), with its maximiser over every block's cells (the
+        value, where that meets every floor), else the box's bound, with None."""
         t = self.tau if self.kept is None else self.kept
-        if self.tau and t and len(self.tops) == 1:
-            found = _floor_relaxation(self.tops[0], self.bottoms[0], t, [self.low[0]] * len(self.tops[0]),
-                                      [self.high[0]] * len(self.tops[0]))  # fmt: skip
-            if found is None:  # no h of the box meets the floor of a': no model meets the floors
-                raise ValueError("the worst-case program is infeasible")
-            return found
         p = [v for row in self.tops for v in row]
         q = [v for row in self.bottoms for v in row]
         low = [lo for lo, row in zip(self.low, self.tops) for _ in row]
         high = [hi for hi, row in zip(self.high, self.tops) for _ in row]
+        if self.tau and t:
+            found = _floor_relaxation(p, q, t, low, high)
+            if found is None:  # no h of the box meets the floor of a': no model meets the floors
+                raise ValueError("the worst-case program is infeasible")
+            return found
         return _box_bound(p, q, low, high), None
 
+    def meets(self, h: Sequence[Fraction], scaled: dict[int, tuple[list[list[int]], int]]) -> bool:
+        """Whether the point h (every block's cells in turn) meets every block's floors, exactly."""
+        if self.tau is None:
+            return False
+        start = 0
+        for rows in self.floors:
+            if id(rows) not in scaled:  # (the floors of one block as integers over one denominator, once)
+                scaled[id(rows)] = _integers(rows)
+            width = len(rows[0])
+            if not _meets(*scaled[id(rows)], h[start : start + width], self.tau):
+                return False
+            start += width
+        return True
 
-def _largest(cases: Sequence[_Case], start: Number) -> Number:
-    """max of ``start`` and the programs' values, solving as few as it can (``proofs/verification.md`` §4).
+    def feasible(self) -> bool:
+        """Whether some point meets every floor: h = high in every block, exactly (the floors' rows are ≥ 0)."""
+        return not self.tau or all(
+            sum(row, Fraction(0)) * hi >= self.tau for rows, hi in zip(self.floors, self.high) for row in rows
+        )
+
+    def dual_bound(self) -> Number:
+        """The recorded dual's bound (:func:`~fairaudit.verification.dual_check.dual_bound`); +inf without one."""
+        if self.dual is None:
+            return INF
+        return dual_bound(self.tops, self.bottoms, self.floors, self.low, self.high, self.tau, self.dual)
+
+    def point_ratio(self) -> Fraction | None:
+        """The ratio at the recorded point or a vertex it stands for, where that meets every constraint exactly."""
+        if self.point is None:
+            return None
+        return vertex_ratio(self.tops, self.bottoms, self.floors, self.low, self.high, self.tau, self.point)
+
+
+def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _Ends:
+    """max of ``start`` and the programs' values, enclosed, solving as few as it can (``proofs/verification.md``
+    §4, §4e).
 
     Each case's bound (:meth:`_Case.bound`) is its value where the floor relaxation's maximiser meets every floor;
-    the others are solved exactly in decreasing order of their bound until none left exceeds the best found. A key
-    none of whose programs is known feasible has its first solved whatever its bound: that is where floors no
-    model meets are found (ValueError).
+    the others are solved exactly in decreasing order of their bound until none left exceeds the upper end found. A
+    key none of whose programs is known feasible has its first solved whatever its bound: that is where floors no
+    model meets are found (ValueError). A program beyond the exact size is bounded by its recorded dual instead
+    (:class:`_NoDual` without one; ``loose``: its bound, the relaxation's, as an upper end), and a recorded point
+    that meets every constraint gives a lower end.
     """
-    best, known = start, set()
+    low = high = start
+    duals, known = False, set()
     open_cases = []
     polytopes: dict[Any, Polytope] = {}  # (the pairs of one feasible set share it: phase 1 once)
     scaled: dict[int, tuple[list[list[int]], int]] = {}  # the floors of one block as integers over one denominator
     for case in cases:
         bound, h = case.bound()
-        if h is not None and id(case.floors[0]) not in scaled:
-            scaled[id(case.floors[0])] = _integers(case.floors[0])
-        if h is not None and case.tau is not None and _meets(*scaled[id(case.floors[0])], h, case.tau):
-            best = max(best, bound)
+        if h is not None and case.meets(h, scaled):
+            low, high = max(low, bound), max(high, bound)
             known.add(case.key)
         else:
             open_cases.append((bound, case))
+        attained = case.point_ratio()
+        if attained is not None:
+            low = max(low, attained)
     open_cases.sort(key=lambda c: c[0], reverse=True)
     for bound, case in open_cases:
-        if bound <= best and case.key in known:
+        if bound <= high and case.key in known:
             continue
         known.add(case.key)
-        best = max(best, _solve_blocks(case.tops, case.bottoms, case.floors, case.low, case.high, case.tau, polytopes))
-    return best
+        if case.small:
+            value = _solve_blocks(case.tops, case.bottoms, case.floors, case.low, case.high, case.tau, polytopes)
+            low, high = max(low, value), max(high, value)
+            continue
+        if not case.feasible():
+            raise ValueError("the worst-case program is infeasible")
+        if bound <= high:
+            continue
+        if case.dual is None and loose:
+            high, duals = max(high, bound), True
+            continue
+        if case.dual is None:
+            raise _NoDual(f"programs beyond {MAX_VARIABLES} variables or {MAX_GROUPS} floors without a recorded dual")
+        high, duals = max(high, min(bound, case.dual_bound())), True
+    return low, high, duals
 
 
 def _integers(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:
@@ -395,51 +517,88 @@ def _box_bound(
     return best
 
 
-def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None) -> Number | None:
-    """max over pairs of groups present of the exact worst ratio of E[g | a]/E[g | a'] (every live context's cells);
-    1 (L-bar = 0) with fewer than two groups present; with ``at`` = (a, a'), that pair's."""
+def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loose: bool = False) -> _Ends | None:
+    """max over pairs of groups present of the worst ratio of E[g | a]/E[g | a'] (every live context's cells),
+    enclosed as in :func:`_local` (``loose`` likewise); 1 (L-bar = 0) with fewer than two groups present; with ``at`` = (a, a'), that
+    pair's; None where a program beyond the exact size has no recorded dual."""
     if isinstance(s, KernelSetting):
-        return kernel_global(s, at)
+        v = kernel_global(s, at)
+        return None if v is None else (v, v, False)
     if len(s.present) < 2:
-        return Fraction(1)
+        return Fraction(1), Fraction(1), False
     alike = _alike(s.weights, s.present)
     if s.rows is None and alike:
         pairs, width = [(s.present[0], s.present[1])], 3  # every pair present is alike: three cells
     else:
         pairs = [(a, b) for a in s.present for b in s.present if a != b]  # a matrix, or P(x | a) differs
         width = s.k if s.rows is None else len(s.rows[0])
-    low, high, weights = _merged(s)
-    if width > MAX_VARIABLES:  # one context's block (each context is a block of the product: _solve_blocks)
-        return None
+    low, high, weights, members = _merged(s)
+    # one context's block (each context is a block of the product: _solve_blocks)
+    small = width <= MAX_VARIABLES and (s.rows is None or s.k <= MAX_GROUPS)
     if at is not None:
         pairs = pairs if s.rows is None and alike else [at]
     cells = _rows_of if s.rows is not None else _full_rr_rows
     floors = [cells(s, *pairs[0])[2]] * len(weights)  # (every group's in each block: the same for every pair)
+    duals, point = _global_evidence(s, members)
     cases = []
     for a, b in pairs:
         row_a, row_b = cells(s, a, b)[:2]
         tops = [[w[a] * v for v in row_a] for w in weights]
         bottoms = [[w[b] * v for v in row_b] for w in weights]
-        kept = weights[0][b] * s.tau if s.tau and len(weights) == 1 else None  # the floor of b in q·h = P(x | b) E
-        cases.append(_Case(0, tops, bottoms, floors, low, high, s.tau, kept))
-    return _largest(cases, Fraction(1))
+        kept = sum((w[b] for w in weights), Fraction(0)) * s.tau if s.tau else None  # E[g | b] = Σ_x P(x | b) E_x
+        cases.append(_Case(0, tops, bottoms, floors, low, high, s.tau, kept, small, duals.get((a, b)),
+                           point.get((a, b))))  # fmt: skip
+    try:
+        return _largest(cases, Fraction(1), loose)
+    except _NoDual:
+        return None
 
 
-def _merged(s: _Setting) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]]]:
+def _merged(s: _Setting) -> tuple[list[Fraction], list[Fraction], list[list[Fraction]], list[list[int]]]:
     """The live contexts for L̄, those with the same box and P(x | a) proportional over the groups present merged into
     one, their weights summed (exact: Σ_x c_x v_a M[a]·h_x = (Σ_x c_x) v_a M[a]·h̄ with h̄ the c-weighted mean of the
     h_x, in the same box and meeting the same floors, and h̄ itself is reached by h_x = h̄; ``proofs/verification.md``
-    §4): (low, high, weights), one entry per merged context."""
+    §4): (low, high, weights, members), one entry per merged context; ``members`` lists the live contexts (their
+    positions among the live ones) each holds."""
     merged: dict[tuple[Any, ...], list[Fraction]] = {}
+    members: dict[tuple[Any, ...], list[int]] = {}
     for i, w in enumerate(s.weights):
         total = sum(w[a] for a in s.present)
         shape = tuple(w[a] / total for a in s.present) if total else (i,)
         key = (s.low[i], s.high[i], shape)
         if key in merged:
             merged[key] = [x + y for x, y in zip(merged[key], w, strict=True)]
+            members[key].append(i)
         else:
-            merged[key] = list(w)
-    return [k[0] for k in merged], [k[1] for k in merged], list(merged.values())
+            merged[key], members[key] = list(w), [i]
+    keys = list(merged)
+    return [k[0] for k in keys], [k[1] for k in keys], [merged[k] for k in keys], [members[k] for k in keys]
+
+
+def _global_evidence(
+    s: _Setting, members: list[list[int]]
+) -> tuple[dict[tuple[int, int], list[list[Fraction]]], dict[tuple[int, int], list[list[Fraction]]]]:
+    """The recorded duals and witness point of L̄'s programs, by pair, on the merged contexts (``members``): a merged
+    block's ν is the sum of its contexts' (each block's B is at most the sum of theirs: the max over a box is
+    subadditive), its point the mean of theirs weighted by Σ_a P(x | a) over the groups present (the merge's own
+    weights, so the ratio is unchanged)."""
+    if s.rows is None:
+        return {}, {}
+    duals = {}
+    for pair, nus in s.evidence.global_.items():
+        duals[pair] = [[sum(col, Fraction(0)) for col in zip(*(nus[s.live[i]] for i in block))] for block in members]
+    point = {}
+    if s.evidence.global_point is not None:
+        a, b, hs = s.evidence.global_point
+        blocks = []
+        for block in members:
+            c = [sum((s.weights[i][g] for g in s.present), Fraction(0)) for i in block]
+            total = sum(c, Fraction(0))
+            n = len(hs[0])
+            blocks.append([sum((ci * hs[s.live[i]][j] for ci, i in zip(c, block)), Fraction(0)) / total
+                           if total else hs[s.live[block[0]]][j] for j in range(n)])  # fmt: skip
+        point[(a, b)] = blocks
+    return duals, point
 
 
 def _full_rr_rows(

@@ -281,11 +281,24 @@ def _below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
 
 
 def _witness_checks(
-    where: str, detail: Mapping[str, Any], ratio: Enclosure, value: Enclosure, eps_a: Enclosure, clip: bool = True
+    where: str,
+    detail: Mapping[str, Any],
+    ratio: Enclosure,
+    value: Enclosure,
+    eps_a: Enclosure,
+    clip: bool = True,
+    skipped: list[tuple[str, str]] | None = None,
 ) -> list[Check]:
     """A worst case's ratio (e^value, an upper end), its witness (a model attains it: at most the exact value) and the
-    gap (at least the value less the witness)."""
+    gap (at least the value less the witness). With ``skipped`` (the upper end rests on recorded duals, the lower end
+    on the recorded witness point), a witness above the lower end is listed there, not failed: the point recorded
+    does not attain it exactly, which does not show that no model does."""
     out = []
+    if skipped is not None and detail.get("witness") is not None and value.lo != INF:
+        witness = exact(detail["witness"], f"{where}.witness")
+        if witness != INF and witness > value.lo:
+            skipped.append((f"{where}.witness", "the recorded witness point does not attain it exactly"))
+            detail = {k: v for k, v in detail.items() if k != "witness"}
     if detail.get("ratio") is not None:
         top: Fraction | float = ratio.hi
         if clip and eps_a.hi != INF:  # under pure epsilon-DP no ratio exceeds e^epsilon
@@ -339,24 +352,30 @@ def _maximiser_checks(
     global_re_derived: bool,
     eps_a: Enclosure,
     clips: tuple[bool, bool],
+    skipped: list[tuple[str, str]],
 ) -> list[Check]:
     """The black box's context and pair attain its worst cases (to :data:`PAIR_TOLERANCE`): a swapped pair fails.
     L̄'s pair only where L̄ is re-derived (``global_re_derived``; else it is listed with L̄ as not re-derived).
     ``clips`` says, for L and L̄, whether a pair's reach is at most ε(M_A), as for the values (:func:`_below_epsilon`:
-    beyond ε = 10^6 the upper end is solved at the identity, where a pair's ratio may be c/0)."""
+    beyond ε = 10^6 the upper end is solved at the identity, where a pair's ratio may be c/0). Where a recorded dual
+    (or the relaxation) gives the pair's upper end, a pair whose upper end reaches the value but whose lower end (the
+    recorded point's) does not is listed in ``skipped``: its upper end does not show that it attains the value."""
     from fairaudit.verification.black_box_check import pair_enclosures
 
+    global_duals = False
     out = []
-    local, global_ = pair_enclosures(
-        cert["inputs"], detail.get("context"), detail.get("group"), detail.get("other_group")
+    local, global_, local_duals = pair_enclosures(
+        cert["inputs"], detail.get("context"), detail.get("group"), detail.get("other_group"), detail
     )
     named: list[tuple[str, Mapping[str, Any], Enclosure | None, tuple[Any, ...]]] = [
         ("bound_details.black_box (its context and groups)", detail, local, (detail.get("context"),))
     ]
     if global_re_derived and glob.get("value") is not None and glob.get("group") is not None:
-        g_pair = pair_enclosures(cert["inputs"], detail.get("context"), glob.get("group"), glob.get("other_group"))[1]
+        _, g_pair, global_duals = pair_enclosures(
+            cert["inputs"], detail.get("context"), glob.get("group"), glob.get("other_group"), detail
+        )
         named.append(("bound_details.black_box.global (its groups)", glob, g_pair, ()))
-    for (name, where, pair, context), clip in zip(named, clips):
+    for (name, where, pair, context), clip, from_duals in zip(named, clips, (local_duals, global_duals)):
         labels = " vs ".join(str(v) for v in (*context, where.get("group"), where.get("other_group")))
         value = exact(where["value"], name)
         reach = None if pair is None else (_below_epsilon(pair, eps_a) if clip else ln_of(pair)).hi
@@ -366,7 +385,11 @@ def _maximiser_checks(
             ok = reach == value
         else:
             v = Fraction(value)
-            ok = Fraction(reach) >= v - Fraction(PAIR_TOLERANCE) * max(Fraction(1), abs(v))
+            enough = v - Fraction(PAIR_TOLERANCE) * max(Fraction(1), abs(v))
+            ok = Fraction(reach) >= enough
+            if ok and from_duals and pair is not None and ln_of(pair).lo < enough:
+                skipped.append((name, "its program is bounded by a recorded dual; the recorded point does not reach"))
+                continue
         why = "its exact worst case reaches the value" if ok else "the named pair does not reach the value"
         out.append(equal(name, labels, labels if ok else "a pair that reaches the value", why))
     return out
@@ -383,7 +406,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         if bounds.get("global") is None:
             return []
         return [_global_from_best(bounds, cert["inputs"]["population"]["probabilities"])]  # L-bar from L, or +inf
-    worst = black_box_enclosures(cert["inputs"])
+    worst = black_box_enclosures(cert["inputs"], detail)
     if worst.local is None:
         skipped.append(("bounds.black_box", worst.reason))
         skipped.append(("bounds.global", worst.reason))
@@ -394,10 +417,13 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         judge("bounds.black_box", bounds["black_box"], local, "upper", "the exact worst case over every model"),
         equal("bound_details.black_box.value", detail["value"], bounds["black_box"]),
     ]
-    out += _witness_checks("bound_details.black_box", detail, worst.local, local, eps_a, clip=worst.group_free)
+    evidence = skipped if worst.from_duals else None
+    out += _witness_checks(
+        "bound_details.black_box", detail, worst.local, local, eps_a, clip=worst.group_free, skipped=evidence
+    )
     glob = detail.get("global") or {}
     clips = (worst.group_free, worst.independent and worst.group_free)
-    out += _maximiser_checks(cert, detail, glob, worst.global_ is not None, eps_a, clips)
+    out += _maximiser_checks(cert, detail, glob, worst.global_ is not None, eps_a, clips, skipped)
     if worst.global_ is None:
         skipped.append(("bounds.global", worst.reason))
         skipped.append(("bound_details.black_box.global", worst.reason))
@@ -405,7 +431,9 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         clip = worst.independent and worst.group_free
         on_l_bar = _below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)
         out.append(judge("bound_details.black_box.global.value", glob["value"], on_l_bar, "upper"))
-        out += _witness_checks("bound_details.black_box.global", glob, worst.global_, on_l_bar, eps_a, clip=clip)
+        out += _witness_checks(
+            "bound_details.black_box.global", glob, worst.global_, on_l_bar, eps_a, clip=clip, skipped=evidence
+        )
         if bounds["global"] == glob["value"]:
             out.append(equal("bounds.global", bounds["global"], glob["value"], "the black-box bound on L-bar"))
         elif bounds["global"] == "inf":  # no bound on L-bar (a black box whose assumptions fail, X and A dependent)

@@ -23,10 +23,11 @@ from fairaudit.base.exact_duality import point_ratio
 from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
+from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.pair_search import SearchResult, pairwise_box, relaxed_first, search
-from fairaudit.worstcase.worst_cases import WorstCase
+from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase
 
 
 def local_search(
@@ -79,8 +80,9 @@ def local_search(
         x, a, b = triples[i]
         return programs.solve(programs.local(int(x), int(a), int(b)), rounded)
 
-    found = search(upper, _solver(problem, space, pair, inexact, exact))
-    return _model_case(problem, "local", found, triples, space.to_kernel)
+    solved: dict[int, FractionalResult] = {}
+    found = search(upper, _solver(problem, space, pair, inexact, exact, solved))
+    return _model_case(problem, "local", found, triples, space, solved)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
@@ -119,8 +121,9 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
         return programs.solve(programs.global_(int(pairs[i, 0]), int(pairs[i, 1])), rounded)
 
-    found = search(upper, _solver(problem, space, pair, inexact, exact))
-    return _model_case(problem, "global", found, global_triples, space.to_kernel)
+    solved: dict[int, FractionalResult] = {}
+    found = search(upper, _solver(problem, space, pair, inexact, exact, solved))
+    return _model_case(problem, "global", found, global_triples, space, solved)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -146,8 +149,10 @@ def _solver(
     pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
     roundings: int,
     exact: Callable[[int, FractionalResult], FractionalResult | None],
+    solved: dict[int, FractionalResult],
 ) -> Callable[[int], FractionalResult]:
-    """Solve program i: in G-space the closed-form relaxation first (unless the LP is asked for), else the LP.
+    """Solve program i: in G-space the closed-form relaxation first (unless the LP is asked for), else the LP; each
+    result is kept in ``solved`` (the certificate's evidence: :func:`_evidence`).
 
     Its value is certified on the outer coefficients (numerator rounded up, denominator and τ rows down, then up:
     ``_Coefficients``), which contain the exact program; where they are not exact its witness is the ratio at the
@@ -173,11 +178,11 @@ def _solver(
         def inner(i: int) -> FractionalResult:
             return space.program().solve(num(i), den(i))
 
-    if not roundings:
-        return inner
-
     def solve(i: int) -> FractionalResult:
-        r = inner(i)
+        solved[i] = r = settle(i, inner(i)) if roundings else inner(i)
+        return r
+
+    def settle(i: int, r: FractionalResult) -> FractionalResult:
         if r.argmax is not None:
             p, q = pair(i)[0].low, pair(i)[1].high
             lower, upper = (np.full(len(p), end) for end in space.box)
@@ -392,12 +397,39 @@ def _model_program(
     )
 
 
+def _evidence(
+    problem: ModelProblem, kind: str, solved: dict[int, FractionalResult], triples: IntArray, space: _ModelSpace
+) -> tuple[ProgramDual, ...]:
+    """The duals of the programs bounded by an LP, where ``fairaudit verify`` can use them:
+    behind a matrix on the group (not randomized response, not the identity), the identity on the context and a
+    utility free of the group, whose programs it rebuilds over h[x, ã] (``proofs/verification.md`` §4e). The floors'
+    rows are ordered (live context, group), in G-space and in kernel space alike."""
+    if not (problem.same_x and problem.group_free) or isinstance(problem.mechanism, RandomizedResponse):
+        return ()
+    if problem.mechanism.is_identity:
+        return ()
+    xs = np.flatnonzero(problem.live)
+    n_x, n_a = len(problem.contexts), len(problem.groups)
+    duals = []
+    for i, r in sorted(solved.items()):
+        if r.method != "lp" or not r.certified or not r.dual or r.dual[0].size != xs.size * n_a:
+            continue
+        floors = np.zeros((n_x, n_a))
+        floors[xs] = np.asarray(r.dual[0], dtype=float).reshape(xs.size, n_a)
+        x, a, b = (int(v) for v in triples[i])
+        context = problem.contexts[x] if kind == "local" else None
+        duals.append(ProgramDual(context=context, group=problem.groups[a], other_group=problem.groups[b],
+                                 floors=floors[x] if kind == "local" else floors))  # fmt: skip
+    return tuple(duals)
+
+
 def _model_case(
     problem: ModelProblem,
     kind: str,
     found: SearchResult,
     triples: IntArray,
-    to_kernel: Callable[[FloatArray], FloatArray],
+    space: _ModelSpace,
+    solved: dict[int, FractionalResult],
 ) -> WorstCase:
     """The worst case of a search over (context, pair) programs; ``triples[i]`` = (x, a, b) of program i."""
     r = found.result
@@ -406,7 +438,17 @@ def _model_case(
         return WorstCase.unmet(kind, found, "no decision model meets E[g | x, a] >= tau in every cell: " + reason)
     assert r is not None  # a maximiser was found
     x, a, b = triples[found.index]
-    kern = problem.kernel(to_kernel(r.argmax)) if r.argmax is not None else None
+    kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
+    duals = _evidence(problem, kind, solved, triples, space)
+    point = None
+    if duals and r.argmax is not None:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
+        n_x = len(problem.contexts)
+        if space.lo is not None and space.hi is not None:
+            h = np.clip(np.asarray(r.argmax, dtype=float), space.lo, space.hi).reshape(n_x, -1)
+        else:
+            table = np.clip(np.asarray(r.argmax, dtype=float), 0.0, 1.0).reshape(n_x, problem.n_released_groups, -1)
+            h = np.einsum("xau,xu->xa", table, problem.g[:, 0, :])
+        point = h[x] if kind == "local" else h
     return WorstCase.searched(
         kind,
         found,
@@ -415,4 +457,6 @@ def _model_case(
         other_group=problem.groups[b],
         kernel=kern,
         expected_utility=problem.audit(kern, kind) if kern is not None else None,
+        duals=duals,
+        witness_point=point,
     )

@@ -14,7 +14,7 @@ from collections.abc import Hashable
 from dataclasses import dataclass, replace
 
 from fairaudit.base.arrays import FloatArray
-from fairaudit.base.json_values import Report, number, pair_dict
+from fairaudit.base.json_values import Report, label, number, pair_dict
 from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import EXACT_CROSSOVER, gap_between
 from fairaudit.base.outward import log_down, log_up
@@ -45,6 +45,37 @@ def nats_down(ratio: float) -> float:
     (0.0, True)
     """
     return math.nan if math.isnan(ratio) else log_down(ratio)
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ProgramDual:
+    """The dual point that bounds one program of a worst-case search: the multipliers of its floors.
+
+    With ν ≥ 0 on the floors E[g | x, b] ≥ τ, weak duality bounds the program's ratio by the smallest λ with
+    B(λ) = Σ_x [Σ_i max over the box of (p − λq + Σ_b ν[x, b] M_A[b])_i h_i − τ Σ_b ν[x, b]] ≤ 0
+    (``proofs/verification.md`` §4e), which anyone can check in exact arithmetic.
+
+    Attributes
+    ----------
+    context : hashable or None
+        The program's context (L); None for L̄'s programs, which span every context.
+    group, other_group : hashable
+        The program's pair: the ratio is E[g | group] over E[g | other_group].
+    floors : numpy.ndarray
+        ν, shape (n_groups,) for L (the floors of ``context``), (n_contexts, n_groups) for L̄ (contexts in the
+        population's order; zeros where P(X = x) = 0).
+    """
+
+    context: Hashable | None
+    group: Hashable
+    other_group: Hashable
+    floors: FloatArray
+
+    def to_dict(self) -> Report:
+        """The report dictionary: the program's context (L only), its pair and ν."""
+        out: Report = {} if self.context is None else {"context": label(self.context)}
+        out.update(group=label(self.group), other_group=label(self.other_group), floors=self.floors.tolist())
+        return out
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -86,6 +117,12 @@ class WorstCase:
         A certified lower end in nats, from the maximiser's point (NaN when the point is not exactly feasible).
     gap : float
         ``value − witness`` in nats, rounded up (NaN without a witness).
+    duals : tuple of ProgramDual
+        The dual point of every program the search bounded by a linear program (behind a matrix on the group, the
+        identity on the context and a utility free of the group), for a third party to check the bound with.
+    witness_point : numpy.ndarray or None
+        The maximiser's point h[x, ã] = E[g | context x, released group ã] of the witness model (where ``duals``
+        are recorded): shape (n_released_groups,) for L (its context), (n_contexts, n_released_groups) for L̄.
     """
 
     kind: str
@@ -105,6 +142,8 @@ class WorstCase:
     certified: bool = True
     witness: float = math.nan
     gap: float = math.nan
+    duals: tuple[ProgramDual, ...] = ()
+    witness_point: FloatArray | None = None
 
     @classmethod
     def infeasible(cls, kind: str, solver_status: str, reason: str, programs_solved: int) -> WorstCase:
@@ -193,6 +232,8 @@ class WorstCase:
         kernel: Kernel | None = None,
         utility: Utility | None = None,
         expected_utility: FloatArray | None = None,
+        duals: tuple[ProgramDual, ...] = (),
+        witness_point: FloatArray | None = None,
     ) -> WorstCase:
         """The maximiser the pair search found: its program's value, status and reason; "lp" when an LP was solved."""
         r = found.result
@@ -216,6 +257,8 @@ class WorstCase:
             certified=r.certified,
             witness=witness,
             gap=gap_between(value, witness),
+            duals=duals,
+            witness_point=witness_point,
         )
 
     @classmethod
@@ -260,6 +303,10 @@ class WorstCase:
         )
         if self.reason:
             d["reason"] = self.reason
+        if self.duals:
+            d["duals"] = [dual.to_dict() for dual in self.duals]
+        if self.witness_point is not None:
+            d["witness_point"] = self.witness_point.tolist()
         return d
 
 

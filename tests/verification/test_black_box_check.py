@@ -95,7 +95,7 @@ def test_l_bar_merges_contexts_alike_without_changing_its_value(route, monkeypat
             plane[0] = [1.0, 0.75]  # group g0 gets more for "no"
     merged = black_box_enclosures(inputs).global_
     if route == "box":
-        monkeypatch.setattr(bb, "_merged", lambda s: (s.low, s.high, s.weights))
+        monkeypatch.setattr(bb, "_merged", lambda s: (s.low, s.high, s.weights, [[i] for i in range(len(s.weights))]))
     else:
         monkeypatch.setattr(kc, "_merged", lambda s: {x: s.weights[i] for i, x in enumerate(s.live)})
     unmerged = black_box_enclosures(inputs).global_
@@ -343,5 +343,5 @@ def test_a_relaxed_maximiser_that_misses_a_floor_is_solved_by_hand():
     worst = black_box_enclosures(inputs)
     assert worst.local.lo == worst.local.hi == 1 / tau  # 10/3 in reals
     assert worst.global_.lo == worst.global_.hi == (m21 + m22 * tau) / tau  # 23/9 in reals
-    _, pair_global = bb.pair_enclosures(inputs, "c0", "g0", "g2")
+    pair_global = bb.pair_enclosures(inputs, "c0", "g0", "g2").global_
     assert pair_global.lo == pair_global.hi == 1 / (m21 * tau + m22)  # 15/8 in reals, not the relaxation's 3

@@ -1,0 +1,245 @@
+"""Programs beyond the exact size bounded from the certificate's recorded duals, and its witness from its point."""
+
+from __future__ import annotations
+
+import copy
+import json
+from fractions import Fraction as F
+
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+import fairaudit.verification.black_box_check as bb
+from fairaudit.base.errors import InputError
+from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
+from fairaudit.certification.certificate import certify
+from fairaudit.certification.spec import parse_spec
+from fairaudit.verification.dual_check import dual_bound, vertex_ratio
+from fairaudit.verification.rederive import verify
+
+# four groups behind a matrix, two contexts whose P(x | a) differ: L-bar's floor relaxation (E[g | a'] >= tau) puts
+# the utility in one context and leaves the other's floors unmet, so its maximum needs a program over both contexts
+UNLIKE = """
+[sensitive]
+name = "group"
+values = ["g0", "g1", "g2", "g3"]
+[context]
+name = "x"
+values = ["x0", "x1"]
+[decision]
+name = "d"
+values = ["yes", "no"]
+[population]
+probabilities = [[0.2459, 0.0061, 0.0223, 0.1698], [0.1276, 0.2863, 0.0682, 0.0738]]
+[privacy.sensitive]
+mechanism = "matrix"
+rows = [[0.009, 0.001, 0.25, 0.74], [0.065, 0.073, 0.273, 0.589], [0.584, 0.0, 0.403, 0.013], [0.197, 0.157, 0.581, 0.065]]
+outputs = ["o0", "o1", "o2", "o3"]
+[utility]
+decision = "yes"
+tau = 0.287
+"""
+
+
+def _b(tops, bottoms, floors, low, high, tau, nus, lam):
+    """B(lambda) evaluated directly: every cell at the end of its box that maximises its term (a second route)."""
+    total = F(0)
+    for j, (p, q) in enumerate(zip(tops, bottoms)):
+        c = [
+            pi - lam * qi + sum(v * row[i] for v, row in zip(nus[j], floors[j])) for i, (pi, qi) in enumerate(zip(p, q))
+        ]
+        total += sum(max(ci * low[j], ci * high[j]) for ci in c) - tau * sum(nus[j])
+    return total
+
+
+@st.composite
+def programs(draw):
+    """Programs of 1 to 3 blocks of 1 to 4 cells with up to 3 floors, small rationals, and a nu >= 0 per floor."""
+    blocks, n, m = draw(st.integers(1, 3)), draw(st.integers(1, 4)), draw(st.integers(1, 3))
+    small = st.integers(0, 6).map(lambda v: F(v, 6))
+    tops = [[draw(small) for _ in range(n)] for _ in range(blocks)]
+    bottoms = [[draw(small) for _ in range(n)] for _ in range(blocks)]
+    floors = [[[draw(small) for _ in range(n)] for _ in range(m)]] * blocks
+    low = [draw(st.sampled_from([F(0), F(1, 4)])) for _ in range(blocks)]
+    high = [lo + draw(st.sampled_from([F(1, 2), F(3, 4)])) for lo in low]
+    tau = draw(st.integers(0, 4).map(lambda v: F(v, 10)))
+    nus = [[draw(st.integers(0, 8).map(lambda v: F(v, 4))) for _ in range(m)] for _ in range(blocks)]
+    return tops, bottoms, floors, low, high, tau, nus
+
+
+def _optimum(tops, bottoms, floors, low, high, tau):
+    """The rational simplex's optimum over the product of blocks (a second route to the maximum)."""
+    polytopes = [
+        Polytope([lo] * len(top), [hi] * len(top), [[-v for v in row] for row in rows], [-tau] * len(rows), len(top))
+        for lo, hi, top, rows in zip(low, high, tops, floors)
+    ]
+    return maximize_ratio_over_product(polytopes, tops, bottoms)
+
+
+@given(programs())
+@settings(max_examples=60, deadline=None)
+def test_a_dual_bound_is_an_upper_bound_and_the_smallest_lambda_its_b_allows(program):
+    # sound: at or above the exact maximum (the rational simplex); the smallest: B (evaluated cell by cell, a second
+    # route) is <= 0 at it and > 0 just below
+    *data, nus = program
+    bound = dual_bound(*data, nus)
+    result = _optimum(*data)
+    assume(result.status == "optimal")
+    value = result.value
+    assert bound >= value
+    if bound != float("inf"):
+        assert _b(*data, nus, bound) <= 0
+        assert bound == 0 or _b(*data, nus, bound - F(1, 10**6)) > 0
+
+
+def test_a_dual_bound_by_hand():
+    # max (h1 + 3 h2)/(h1 + h2) over [0, 1]^2 with h1 >= 1/2 is 7/3 at (1/2, 1); nu = 4/3 on the floor gives B(7/3) =
+    # (1 + 4/3 - 7/3)(1) ... = 0: the bound is 7/3 exactly; nu = 1 certifies a larger bound, nu < 0 none
+    args = [[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2)
+    assert dual_bound(*args, [[F(4, 3)]]) == F(7, 3)
+    assert dual_bound(*args, [[F(1)]]) == F(5, 2)  # B(l) = (2 - l) h1 + (3 - l) h2 - 1/2: at l = 5/2, 0 + 1/2 - 1/2
+    assert dual_bound(*args, [[F(-1, 10)]]) == float("inf")
+
+
+@given(programs(), st.integers(-3, 3))
+@settings(max_examples=40, deadline=None)
+def test_a_vertex_read_off_a_perturbed_optimum_is_feasible_and_at_most_the_maximum(program, shift):
+    # the rational simplex's maximiser moved by up to 3e-12: the vertex read off it lies in the polytope (checked
+    # exactly), so its ratio is at most the maximum, and here it is the maximum itself
+    *data, _ = program
+    tops = data[0]
+    result = _optimum(*data)
+    assume(result.status == "optimal" and result.point is not None)
+    width = len(tops[0])
+    point = [list(result.point[j * width : (j + 1) * width]) for j in range(len(tops))]
+    near = [[v + F(shift, 10**12) for v in h] for h in point]
+    found = vertex_ratio(*data, near)
+    assert found is None or found <= result.value
+    assert vertex_ratio(*data, point) == result.value
+
+
+# g(u, x) free of the group: the certificate's programs are over the model's table, K[x, a~, u], and their duals
+# bound the verifier's over h[x, a~] = sum_u K[x, a~, u] g(u, x) (its simplex rows' multipliers only add to B)
+BY_CONTEXT = 'kind = "table"\nvalues = [' + ", ".join(
+    "[" + ", ".join([row] * 4) + "]" for row in ("[1.0, 0.2]", "[0.9, 0.0]")
+)
+BY_CONTEXT += "]\n"
+
+
+@pytest.fixture(scope="module", params=["indicator", pytest.param("by context", marks=pytest.mark.slow)])
+def unlike(request):
+    spec = UNLIKE if request.param == "indicator" else UNLIKE.replace('decision = "yes"\n', BY_CONTEXT)
+    return json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+
+
+def test_the_certificate_records_the_dual_of_each_program_it_solved_by_lp(unlike):
+    detail = unlike["bound_details"]["black_box"]["global"]
+    assert detail["method"] == "lp" and detail["duals"]
+    named = [(d["group"], d["other_group"]) for d in detail["duals"]]
+    assert (detail["group"], detail["other_group"]) in named
+    assert all(len(d["floors"]) == 2 and all(len(row) == 4 and min(row) >= 0 for row in d["floors"])
+               for d in detail["duals"])  # fmt: skip
+    assert len(detail["witness_point"]) == 2
+
+
+def test_beyond_the_exact_size_l_bar_is_bounded_by_the_recorded_dual(unlike, monkeypatch):
+    # the same certificate re-derived twice: by the rational simplex, and with every program beyond the exact size,
+    # from the recorded duals (upper end) and the vertex of the recorded point (lower end). Both ends agree with the
+    # exact value to 1e-15, and the certificate holds
+    exact = bb.black_box_enclosures(unlike["inputs"], unlike["bound_details"]["black_box"])
+    assert exact.global_.lo == exact.global_.hi and not exact.from_duals
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    dual = bb.black_box_enclosures(unlike["inputs"], unlike["bound_details"]["black_box"])
+    assert dual.from_duals
+    assert dual.global_.lo == exact.global_.lo
+    assert exact.global_.hi <= dual.global_.hi <= exact.global_.hi * (1 + F(1, 10**15))
+    result = verify(unlike)
+    assert result.holds, [c.line() for c in result.failures]
+    assert "bound_details.black_box.global.value" in {c.name for c in result.checks}
+    assert "bound_details.black_box.global.witness" in {c.name for c in result.checks}
+
+
+def _edited(cert, edit):
+    out = copy.deepcopy(cert)
+    edit(out["bound_details"]["black_box"]["global"])
+    return out
+
+
+@pytest.mark.parametrize(
+    ("edit", "failing"),
+    [
+        (lambda g: g.update(value=g["value"] + 1e-9), "bound_details.black_box.global.value"),
+        (lambda g: g.update(value=g["value"] - 1e-9), "bound_details.black_box.global.value"),
+        (lambda g: [d.update(floors=[[0.0] * 4] * 2) for d in g["duals"]], "bound_details.black_box.global.value"),
+        (
+            lambda g: g.update(group=g["other_group"], other_group=g["group"]),
+            "bound_details.black_box.global (its groups)",
+        ),
+    ],
+    ids=["value up", "value down", "duals zeroed", "pair swapped"],
+)
+def test_an_edited_certificate_fails_where_the_dual_decides(unlike, monkeypatch, edit, failing):
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    assert failing in {c.name for c in verify(_edited(unlike, edit)).failures}
+
+
+def test_without_its_duals_l_bar_is_listed_not_failed(unlike, monkeypatch):
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    result = verify(_edited(unlike, lambda g: g.pop("duals")))
+    assert result.holds
+    assert dict(result.not_checked)["bound_details.black_box.global"].startswith("L-bar: programs beyond")
+
+
+def test_without_its_point_the_witness_is_listed_not_failed(unlike, monkeypatch):
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    result = verify(_edited(unlike, lambda g: g.pop("witness_point")))
+    assert result.holds, [c.line() for c in result.failures]
+    listed = dict(result.not_checked)
+    assert "attain" in listed["bound_details.black_box.global.witness"]
+    assert "recorded point" in listed["bound_details.black_box.global (its groups)"]
+
+
+@pytest.mark.parametrize(
+    ("edit", "field"),
+    [
+        (lambda g: g["duals"][0].update(group="g9"), "bound_details.black_box.global.duals[0].group"),
+        (lambda g: g["duals"][0].update(floors=[[0.0] * 4]), "bound_details.black_box.global.duals[0].floors"),
+        (
+            lambda g: g["duals"][0]["floors"][1].__setitem__(2, "x"),
+            "bound_details.black_box.global.duals[0].floors[1][2]",
+        ),
+        (lambda g: g.update(witness_point=[[0.5] * 3] * 2), "bound_details.black_box.global.witness_point[0]"),
+    ],
+    ids=["label", "shape", "number", "point shape"],
+)
+def test_malformed_evidence_is_refused_naming_its_field(unlike, edit, field):
+    with pytest.raises(InputError, match=r"^" + field.replace("[", r"\[").replace("]", r"\]") + ":"):
+        bb.black_box_enclosures(unlike["inputs"], _edited(unlike, edit)["bound_details"]["black_box"])
+
+
+@pytest.mark.slow
+def test_a_matrix_of_36_groups_is_re_derived(monkeypatch):
+    # beyond 32 groups, where verify used to list the black box as not re-derived: every program is settled by its
+    # floor relaxation or bounded by a recorded dual. The enclosures agree with the rational simplex's (the limit
+    # raised: a second route), and a value moved by 1e-9 fails
+    rows = [[0.5, 0.3, 0.2], [0.2, 0.5, 0.3], [0.3, 0.2, 0.5]] * 12
+    spec = (
+        '[sensitive]\nname = "group"\nvalues = ' + json.dumps([f"g{i}" for i in range(36)]) + "\n"
+        '[decision]\nname = "d"\nvalues = ["yes", "no"]\n'
+        f'[privacy.sensitive]\nmechanism = "matrix"\nrows = {json.dumps(rows)}\noutputs = ["o0", "o1", "o2"]\n'
+        '[utility]\ndecision = "yes"\ntau = 0.45\n'
+    )
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    names = {c.name for c in result.checks}
+    assert {"bounds.black_box", "bound_details.black_box.global.value"} <= names
+    assert not [n for n, why in result.not_checked if "beyond" in why]
+    beyond = bb.black_box_enclosures(cert["inputs"], cert["bound_details"]["black_box"])
+    monkeypatch.setattr(bb, "MAX_GROUPS", 64)
+    exact = bb.black_box_enclosures(cert["inputs"], cert["bound_details"]["black_box"])
+    assert exact.local.lo == exact.local.hi == beyond.local.lo
+    assert exact.local.hi <= beyond.local.hi <= exact.local.hi * (1 + F(1, 10**15))
+    cert["bounds"]["black_box"] += 1e-9
+    assert "bounds.black_box" in {c.name for c in verify(cert).failures}

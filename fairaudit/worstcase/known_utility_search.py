@@ -80,9 +80,9 @@ def local_search(
         x, a, b = triples[i]
         return programs.solve(programs.local(int(x), int(a), int(b)), rounded)
 
-    solved: dict[int, FractionalResult] = {}
-    found = search(upper, _solver(problem, space, pair, inexact, exact, solved))
-    return _model_case(problem, "local", found, triples, space, solved)
+    evidence = _Evidence.of(problem, "local", triples)
+    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence))
+    return _model_case(problem, "local", found, triples, space, evidence)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
@@ -121,9 +121,9 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
         return programs.solve(programs.global_(int(pairs[i, 0]), int(pairs[i, 1])), rounded)
 
-    solved: dict[int, FractionalResult] = {}
-    found = search(upper, _solver(problem, space, pair, inexact, exact, solved))
-    return _model_case(problem, "global", found, global_triples, space, solved)
+    evidence = _Evidence.of(problem, "global", global_triples)
+    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence))
+    return _model_case(problem, "global", found, global_triples, space, evidence)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -149,10 +149,10 @@ def _solver(
     pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
     roundings: int,
     exact: Callable[[int, FractionalResult], FractionalResult | None],
-    solved: dict[int, FractionalResult],
+    evidence: _Evidence | None,
 ) -> Callable[[int], FractionalResult]:
-    """Solve program i: in G-space the closed-form relaxation first (unless the LP is asked for), else the LP; each
-    result is kept in ``solved`` (the certificate's evidence: :func:`_evidence`).
+    """Solve program i: in G-space the closed-form relaxation first (unless the LP is asked for), else the LP; its
+    dual is kept in ``evidence`` (the certificate's, :class:`_Evidence`).
 
     Its value is certified on the outer coefficients (numerator rounded up, denominator and τ rows down, then up:
     ``_Coefficients``), which contain the exact program; where they are not exact its witness is the ratio at the
@@ -179,7 +179,9 @@ def _solver(
             return space.program().solve(num(i), den(i))
 
     def solve(i: int) -> FractionalResult:
-        solved[i] = r = settle(i, inner(i)) if roundings else inner(i)
+        r = settle(i, inner(i)) if roundings else inner(i)
+        if evidence is not None:
+            evidence.keep(i, r)
         return r
 
     def settle(i: int, r: FractionalResult) -> FractionalResult:
@@ -397,30 +399,35 @@ def _model_program(
     )
 
 
-def _evidence(
-    problem: ModelProblem, kind: str, solved: dict[int, FractionalResult], triples: IntArray, space: _ModelSpace
-) -> tuple[ProgramDual, ...]:
-    """The duals of the programs bounded by an LP, where ``fairaudit verify`` can use them:
-    behind a matrix on the group (not randomized response, not the identity), the identity on the context and a
-    utility free of the group, whose programs it rebuilds over h[x, ã] (``proofs/verification.md`` §4e). The floors'
-    rows are ordered (live context, group), in G-space and in kernel space alike."""
-    if not (problem.same_x and problem.group_free) or isinstance(problem.mechanism, RandomizedResponse):
-        return ()
-    if problem.mechanism.is_identity:
-        return ()
-    xs = np.flatnonzero(problem.live)
-    n_x, n_a = len(problem.contexts), len(problem.groups)
-    duals = []
-    for i, r in sorted(solved.items()):
-        if r.method != "lp" or not r.certified or not r.dual or r.dual[0].size != xs.size * n_a:
-            continue
-        floors = np.zeros((n_x, n_a))
-        floors[xs] = np.asarray(r.dual[0], dtype=float).reshape(xs.size, n_a)
-        x, a, b = (int(v) for v in triples[i])
-        context = problem.contexts[x] if kind == "local" else None
-        duals.append(ProgramDual(context=context, group=problem.groups[a], other_group=problem.groups[b],
-                                 floors=floors[x] if kind == "local" else floors))  # fmt: skip
-    return tuple(duals)
+class _Evidence:
+    """The duals of the programs a search bounds by an LP, kept for the certificate where ``fairaudit verify`` can use
+    them: behind a matrix on the group (not randomized response, not the identity), the identity on the context and
+    a utility free of the group, whose programs it rebuilds over h[x, ã] (``proofs/verification.md`` §4e). The
+    floors' rows are ordered (live context, group), in G-space and in kernel space alike; L keeps its context's
+    only. :meth:`of` gives None where the duals would not be used."""
+
+    def __init__(self, problem: ModelProblem, kind: str, triples: IntArray) -> None:
+        self.problem, self.kind, self.triples = problem, kind, triples
+        self.live = np.flatnonzero(problem.live)
+        self.duals: list[ProgramDual] = []
+
+    @classmethod
+    def of(cls, problem: ModelProblem, kind: str, triples: IntArray) -> _Evidence | None:
+        matrix = not isinstance(problem.mechanism, RandomizedResponse) and not problem.mechanism.is_identity
+        return cls(problem, kind, triples) if matrix and problem.same_x and problem.group_free else None
+
+    def keep(self, i: int, r: FractionalResult) -> None:
+        """Program i's dual, when an LP's dual certified its value."""
+        n_a = len(self.problem.groups)
+        if r.method != "lp" or not r.certified or not r.dual or r.dual[0].size != self.live.size * n_a:
+            return
+        floors = np.zeros((len(self.problem.contexts), n_a))
+        floors[self.live] = np.asarray(r.dual[0], dtype=float).reshape(self.live.size, n_a)
+        x, a, b = (int(v) for v in self.triples[i])
+        local = self.kind == "local"
+        groups = self.problem.groups
+        self.duals.append(ProgramDual(context=self.problem.contexts[x] if local else None, group=groups[a],
+                                      other_group=groups[b], floors=floors[x] if local else floors))  # fmt: skip
 
 
 def _model_case(
@@ -429,7 +436,7 @@ def _model_case(
     found: SearchResult,
     triples: IntArray,
     space: _ModelSpace,
-    solved: dict[int, FractionalResult],
+    evidence: _Evidence | None,
 ) -> WorstCase:
     """The worst case of a search over (context, pair) programs; ``triples[i]`` = (x, a, b) of program i."""
     r = found.result
@@ -439,7 +446,7 @@ def _model_case(
     assert r is not None  # a maximiser was found
     x, a, b = triples[found.index]
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
-    duals = _evidence(problem, kind, solved, triples, space)
+    duals = () if evidence is None else tuple(evidence.duals)
     point = None
     if duals and r.argmax is not None:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
         n_x = len(problem.contexts)

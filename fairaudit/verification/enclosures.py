@@ -274,35 +274,74 @@ class RecordedMechanism:
             return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), a, b
         rows = self.matrix_rows()
         assert rows is not None
+        ints, den = _on_one_denominator(rows)
+        scale = gamma / tau
+
+        def shift(a: int, b: int) -> Fraction:
+            return lipschitz * (Fraction(1) if metric is None else Fraction(metric[a][b])) / tau
+
+        # the value at t = 1 bounds each pair's minimum above: pairs in decreasing order of it, until none can pass
+        bounds = sorted(
+            (
+                (1 + shift(a, b) + scale * Fraction(sum(max(0, x - y) for x, y in zip(ints[a], ints[b])), den), a, b)
+                for a in range(self.k)
+                for b in range(self.k)
+                if a != b
+            ),
+            key=lambda c: (-c[0], c[1], c[2]),
+        )
         best_value: Fraction | float = -INF
         pair = (0, 1)
-        for a in range(self.k):
-            for b in range(self.k):
-                if a == b:
-                    continue
-                d = Fraction(1) if metric is None else Fraction(metric[a][b])
-                value = _pair_minimum(rows[a], rows[b], (lipschitz * d) / tau, gamma / tau)
-                if value > best_value:
-                    best_value, pair = value, (a, b)
+        for bound, a, b in bounds:
+            if bound <= best_value:
+                break
+            value = _pair_minimum(ints[a], ints[b], den, shift(a, b), scale)
+            if value > best_value:
+                best_value, pair = value, (a, b)
         return ln(best_value), pair[0], pair[1]
 
 
-def _hockey_stick(ra: Sequence[Fraction], rb: Sequence[Fraction], t: Fraction | float) -> Fraction:
-    """Σ_o [ra_o − t rb_o]₊, exactly (t may be +inf: the mass of ra where rb is 0)."""
-    if not isinstance(t, Fraction):  # +inf
-        return sum((x for x, y in zip(ra, rb) if y == 0), Fraction(0))
-    return sum((max(Fraction(0), x - t * y) for x, y in zip(ra, rb)), Fraction(0))
-
-
 def _largest_hockey_stick(rows: Sequence[Sequence[Fraction]], t: Fraction | float) -> Fraction:
-    """max over ordered pairs of distinct rows of the hockey stick at t."""
-    return max(
-        (_hockey_stick(rows[a], rows[b], t) for a in range(len(rows)) for b in range(len(rows)) if a != b),
-        default=Fraction(0),
-    )
+    """max over ordered pairs of distinct rows of Σ_o [ra_o − t rb_o]₊, exactly (t may be +inf: the mass of ra where
+    rb is 0), in integers over one denominator."""
+    ints, den = _on_one_denominator(rows)
+    if not isinstance(t, Fraction):  # +inf
+        pairs = [(ra, rb) for i, ra in enumerate(ints) for j, rb in enumerate(ints) if i != j]
+        best = max((sum(x for x, y in zip(ra, rb) if y == 0) for ra, rb in pairs), default=0)
+        return Fraction(best, den)
+    p, q = t.numerator, t.denominator
+    best = max(
+        (sum(max(0, x * q - p * y) for x, y in zip(ra, rb)) for i, ra in enumerate(ints) for j, rb in enumerate(ints)
+         if i != j),
+        default=0,
+    )  # fmt: skip
+    return Fraction(best, den * q)
 
 
-def _pair_minimum(ra: Sequence[Fraction], rb: Sequence[Fraction], shift: Fraction, scale: Fraction) -> Fraction | float:
-    """min over t ≥ 1 of t + shift + scale·Σ_o [ra_o − t rb_o]₊: at t = 1 or a breakpoint ra_o/rb_o ≥ 1."""
-    candidates = {Fraction(1)} | {x / y for x, y in zip(ra, rb) if y > 0 and x >= y}
-    return min(t + shift + scale * _hockey_stick(ra, rb, t) for t in candidates)
+def _on_one_denominator(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:
+    """Rational rows as integers over one common denominator: (the integers, the denominator)."""
+    den = math.lcm(*(x.denominator for row in rows for x in row))
+    return [[x.numerator * (den // x.denominator) for x in row] for row in rows], den
+
+
+def _pair_minimum(ra: Sequence[int], rb: Sequence[int], den: int, shift: Fraction, scale: Fraction) -> Fraction:
+    """min over t ≥ 1 of t + shift + scale·Σ_o [ra_o − t rb_o]₊/den (rows as integers over ``den``), exactly.
+
+    The function is convex and piecewise linear in t, so its minimum is at t = 1 or at a breakpoint ra_o/rb_o ≥ 1;
+    the breakpoints are visited in increasing order, each cell leaving the sum as t passes its own (O(n log n)).
+
+    Examples
+    --------
+    Rows (3/4, 1/4) and (1/4, 3/4) over 4, no shift, scale 2: at t = 1, 1 + 2·(1/2) = 2; at t = 3, 3.
+
+    >>> _pair_minimum([3, 1], [1, 3], 4, Fraction(0), Fraction(2))
+    Fraction(2, 1)
+    """
+    always = sum(x for x, y in zip(ra, rb) if y == 0)  # the cells a' never reaches stay in the sum
+    cells = sorted((Fraction(x, y), x, y) for x, y in zip(ra, rb) if y > 0 and x > y)  # (breakpoint, ra, rb)
+    top, bottom = sum(c[1] for c in cells), sum(c[2] for c in cells)  # Σ ra, Σ rb over the cells with ratio > t
+    best = 1 + shift + scale * Fraction(always + top - bottom, den)
+    for ratio, x, y in cells:
+        top, bottom = top - x, bottom - y  # at t = ratio this cell's term is 0: drop it (and any tied before it)
+        best = min(best, ratio + shift + scale * (Fraction(always + top, den) - ratio * Fraction(bottom, den)))
+    return best

@@ -49,7 +49,16 @@ certificate records (:mod:`~fairaudit.verification.dual_check`), or the black bo
 MAX_GROUPS = 32
 """The most floors (groups of a matrix mechanism) of a program solved exactly; beyond, as for :data:`MAX_VARIABLES`."""
 
+MAX_FLOORS = 128
+"""Beyond :data:`MAX_GROUPS`, a program of at most :data:`MAX_VARIABLES` variables and this many floors whose
+certificate records no dual is still solved exactly: certify's rational simplex solves such a program (its
+crossover's size), and its exact last step is its proof, not a dual."""
+
 Number = Fraction | float
+
+SEARCH_STOP = Fraction(1, 10**12)
+"""Certify's pair search leaves unsolved a program whose bound is within this (relative) of the largest value found,
+and returns that bound where it is larger: such a program needs no dual, its bound being the upper end."""
 
 
 @dataclass(frozen=True)
@@ -388,11 +397,13 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _End
     the others are solved exactly in decreasing order of their bound until none left exceeds the upper end found. A
     key none of whose programs is known feasible has its first solved whatever its bound: that is where floors no
     model meets are found (ValueError). A program beyond the exact size is bounded by its recorded dual instead
-    (:class:`_NoDual` without one; ``loose``: its bound, the relaxation's, as an upper end), and a recorded point
-    that meets every constraint gives a lower end.
+    (:class:`_NoDual` without one, unless its bound is within :data:`SEARCH_STOP` of the upper end found, or
+    ``loose``: its bound, the relaxation's, is then an upper end), and a recorded point that meets every constraint
+    gives a lower end.
     """
     low = high = start
     duals, known = False, set()
+    deferred: list[Number] = []  # the bounds of programs beyond the exact size without a recorded dual
     open_cases = []
     polytopes: dict[Any, Polytope] = {}  # (the pairs of one feasible set share it: phase 1 once)
     scaled: dict[int, tuple[list[list[int]], int]] = {}  # the floors of one block as integers over one denominator
@@ -419,12 +430,20 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _End
             raise ValueError("the worst-case program is infeasible")
         if bound <= high:
             continue
-        if case.dual is None and loose:
+        if case.dual is not None:
+            high, duals = max(high, min(bound, case.dual_bound())), True
+        elif len(case.tops[0]) <= MAX_VARIABLES and len(case.floors[0]) <= MAX_FLOORS:
+            value = _solve_blocks(case.tops, case.bottoms, case.floors, case.low, case.high, case.tau, polytopes)
+            low, high = max(low, value), max(high, value)
+        elif loose:
             high, duals = max(high, bound), True
-            continue
-        if case.dual is None:
-            raise _NoDual(f"programs beyond {MAX_VARIABLES} variables or {MAX_GROUPS} floors without a recorded dual")
-        high, duals = max(high, min(bound, case.dual_bound())), True
+        else:
+            deferred.append(bound)
+    # certify's search leaves unsolved a program whose bound is within SEARCH_STOP of the largest value it found
+    if any(bound * (1 - SEARCH_STOP) > high for bound in deferred):
+        raise _NoDual(f"programs beyond {MAX_VARIABLES} variables or {MAX_GROUPS} floors without a recorded dual")
+    if deferred and max(deferred) > high:
+        high, duals = max(deferred), True
     return low, high, duals
 
 

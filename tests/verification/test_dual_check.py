@@ -262,3 +262,49 @@ def test_a_matrix_of_80_groups_has_its_tight_bound_and_black_box_re_derived():
     assert {"bounds.tight", "bounds.black_box"} <= {c.name for c in result.checks}
     cert["bounds"]["tight"] += 1e-9
     assert "bounds.tight" in {c.name for c in verify(cert).failures}
+
+
+TIE = """
+[sensitive]
+name = "a"
+values = ["g0", "g1", "g2", "g3", "g4"]
+[context]
+name = "x"
+values = ["x0", "x1"]
+[population]
+probabilities = [[0.0479, 0.0519, 0.2144, 0.1997, 0.0374], [0.0244, 0.1416, 0.0623, 0.0989, 0.12149999999999998]]
+[decision]
+name = "d"
+values = ["yes", "no"]
+[privacy.sensitive]
+mechanism = "matrix"
+rows = [[0.01, 0.0, 0.25, 0.74], [0.07, 0.07, 0.27, 0.59], [0.58, 0.0, 0.4, 0.020000000000000018], [0.2, 0.16, 0.58, 0.06000000000000005], [0.16, 0.76, 0.02, 0.05999999999999994]]
+outputs = ["o0", "o1", "o2", "o3"]
+[utility]
+decision = "yes"
+tau = 0.427
+"""
+
+
+def test_a_pair_certify_left_unsolved_within_its_stop_needs_no_dual(monkeypatch):
+    # two of L-bar's pairs have the same bound (to 1e-12); certify solves the first by LP and stops before the second,
+    # whose bound is its value's. Beyond the exact size the verifier takes that bound as the upper end, as certify
+    # did, instead of asking for a dual no search computed (found by a random hunt: L-bar was listed not re-derived)
+    cert = json.loads(json.dumps(certify(parse_spec(TIE)).to_dict()))
+    assert len(cert["bound_details"]["black_box"]["global"]["duals"]) == 1
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    assert "bound_details.black_box.global.value" in {c.name for c in result.checks}
+
+
+def test_without_a_dual_a_program_within_certifys_exact_size_is_solved_exactly(unlike, monkeypatch):
+    # beyond 32 floors but within 64 variables and 128 floors, certify's rational simplex may have solved a program
+    # (its exact last step is the proof: no dual recorded); the verifier solves it exactly too
+    monkeypatch.setattr(bb, "MAX_GROUPS", 0)
+    result = verify(_edited(unlike, lambda g: g.pop("duals")))
+    assert result.holds, [c.line() for c in result.failures]
+    assert "bound_details.black_box.global.value" in {c.name for c in result.checks}
+    assert not bb.black_box_enclosures(
+        unlike["inputs"], _edited(unlike, lambda g: g.pop("duals"))["bound_details"]["black_box"]
+    ).from_duals

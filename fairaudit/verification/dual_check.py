@@ -22,15 +22,12 @@ from fractions import Fraction
 from typing import Any
 
 from fairaudit.base.errors import InputError
+from fairaudit.base.exact_duality import ACTIVE_TOLERANCES
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.json_values import label
 from fairaudit.verification.enclosures import INF, recorded_array
 
-__all__ = ["ACTIVE_TOLERANCES", "Evidence", "dual_bound", "point_ratio", "vertex_ratio"]
-
-ACTIVE_TOLERANCES = (1e-9, 1e-7, 1e-5)
-"""Distances (relative to max(1, max h)) within which :func:`vertex_ratio` reads a cell of the recorded point as at
-its bound and a floor as active, tried in turn: an interior-point solver stops 1e-12 to 1e-8 off its vertex."""
+__all__ = ["Evidence", "dual_bound", "point_ratio", "vertex_ratio"]
 
 Number = Fraction | float
 Block = Sequence[Fraction]
@@ -244,8 +241,9 @@ def vertex_ratio(
     """The largest ratio :func:`point_ratio` gives at the point itself or at a vertex it stands for; None when none
     lies in the polytope.
 
-    A vertex is read off the point at each of :data:`ACTIVE_TOLERANCES`: a cell within it of a bound is put at the
-    bound, a floor within it of τ is solved as an equality for the other cells, exactly
+    A vertex is read off the point at each of :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to
+    max(1, max h): an interior-point solver stops 1e-12 to 1e-8 off its vertex): a cell within it of a bound is put
+    at the bound, a floor within it of τ is solved as an equality for the other cells, exactly
     (:func:`~fairaudit.base.exact_vertex.gauss_jordan`; a cell the floors leave free keeps its value). The reading is
     only a guess; a point outside the polytope is refused, never a wrong ratio (``proofs/verification.md`` §4e).
 

@@ -29,7 +29,7 @@ from fractions import Fraction
 from typing import Any, NamedTuple
 
 from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
-from fairaudit.verification.dual_check import Evidence, dual_bound, vertex_ratio
+from fairaudit.verification.dual_check import BlockProgram, Evidence
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
 
@@ -376,17 +376,18 @@ class _Case:
             sum(row, Fraction(0)) * hi >= self.tau for rows, hi in zip(self.floors, self.high) for row in rows
         )
 
+    def program(self) -> BlockProgram:
+        """The program, to bound from its dual and evaluate at its point."""
+        return BlockProgram(self.tops, self.bottoms, self.floors, self.low, self.high, self.tau)
+
     def dual_bound(self) -> Number:
-        """The recorded dual's bound (:func:`~fairaudit.verification.dual_check.dual_bound`); +inf without one."""
-        if self.dual is None:
-            return INF
-        return dual_bound(self.tops, self.bottoms, self.floors, self.low, self.high, self.tau, self.dual)
+        """The recorded dual's bound (:meth:`~fairaudit.verification.dual_check.BlockProgram.dual_bound`); +inf
+        without one."""
+        return INF if self.dual is None else self.program().dual_bound(self.dual)
 
     def point_ratio(self) -> Fraction | None:
         """The ratio at the recorded point or a vertex it stands for, where that meets every constraint exactly."""
-        if self.point is None:
-            return None
-        return vertex_ratio(self.tops, self.bottoms, self.floors, self.low, self.high, self.tau, self.point)
+        return None if self.point is None else self.program().vertex_ratio(self.point)
 
 
 def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _Ends:

@@ -8,9 +8,9 @@ floors F_j h_j ≥ τ by weak duality, from the multipliers ν_j ≥ 0 of the fl
     B(λ) = Σ_j [Σ_i max(r_ji low_j, r_ji high_j) − τ Σ_r ν_jr],   r_j = p_j − λ q_j + F_jᵀ ν_j,
 
 is at least max over the polytope of Σ_j (p_j − λ q_j)·h_j, so B(λ) ≤ 0 proves the ratio at most λ wherever the
-denominator is positive, and that no point has a zero denominator under a positive numerator. :func:`dual_bound` gives
+denominator is positive, and that no point has a zero denominator under a positive numerator. :meth:`BlockProgram.dual_bound` gives
 the smallest such λ, exactly. The recorded point (``witness_point``), where it lies in the polytope exactly, gives a
-ratio a model attains: the lower end (:func:`point_ratio`). ``proofs/verification.md`` §4e.
+ratio a model attains: the lower end (:meth:`BlockProgram.vertex_ratio`). ``proofs/verification.md`` §4e.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.json_values import label
 from fairaudit.verification.enclosures import INF, recorded_array
 
-__all__ = ["Evidence", "dual_bound", "point_ratio", "vertex_ratio"]
+__all__ = ["BlockProgram", "Evidence"]
 
 Number = Fraction | float
 Block = Sequence[Fraction]
@@ -117,169 +117,162 @@ def _matrix(value: Any, rows: int, n: int, name: str) -> list[list[Fraction]]:
     return [_vector(row, n, f"{name}[{i}]") for i, row in enumerate(value)]
 
 
-def dual_bound(
-    tops: Sequence[Block],
-    bottoms: Sequence[Block],
-    floors: Sequence[Sequence[Block]],
-    low: Sequence[Fraction],
-    high: Sequence[Fraction],
-    tau: Fraction | None,
-    nus: Sequence[Block],
-) -> Number:
-    """The smallest λ ≥ 0 with B(λ) ≤ 0 (see the module), exactly; +inf when there is none or some ν < 0.
+@dataclass(frozen=True)
+class BlockProgram:
+    """max (Σ_j p_j·h_j)/(Σ_j q_j·h_j) over blocks h_j in [low_j, high_j]^n with floors F_j h_j ≥ τ, in rationals: the
+    black box's program as the verifier rebuilds it, to bound from a dual and to evaluate at a point.
 
-    Parameters
+    Attributes
     ----------
     tops, bottoms : sequence of sequence of Fraction
         p_j and q_j per block, q ≥ 0 (each block's cells).
     floors : sequence of (sequence of sequence of Fraction)
-        F_j per block: its rows over the block's cells.
+        F_j per block: its rows over the block's cells, ≥ 0.
     low, high : sequence of Fraction
         Each block's box, low ≤ high.
     tau : Fraction or None
-        The floors' right-hand side (None: no floors, ν is ignored).
-    nus : sequence of sequence of Fraction
-        ν_j per block, one per row of F_j.
-
-    Returns
-    -------
-    Fraction or float
-        An upper bound on the program's ratio (+inf when the dual proves none).
-
-    Examples
-    --------
-    max (h1 + 3 h2)/(h1 + h2) over [0, 1]^2 with the floor h1 ≥ 1/2: the value is (1/2 + 3)/(3/2) = 7/3, and ν = 4/3
-    on the floor certifies it; ν = 0 certifies only the box's 3.
-
-    >>> F = Fraction
-    >>> args = [[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2)
-    >>> dual_bound(*args, [[F(4, 3)]]), dual_bound(*args, [[F(0)]]), dual_bound(*args, [[F(-1)]])
-    (Fraction(7, 3), Fraction(3, 1), inf)
+        The floors' right-hand side (None: no floors).
     """
-    constant = Fraction(0)
-    cells: list[tuple[Fraction, Fraction, Fraction, Fraction]] = []  # (breakpoint c/q, c, q, high - low) for q > 0
-    slope_after, value_after = Fraction(0), Fraction(0)  # Σ over q > 0 of q·low and c·low: B's pieces at large λ
-    for j, (p, q) in enumerate(zip(tops, bottoms, strict=True)):
-        c = list(p)
-        if tau is not None:
-            nu = nus[j]
-            if any(v < 0 for v in nu):
-                return INF
-            constant -= tau * sum(nu, Fraction(0))
-            for v, row in zip(nu, floors[j], strict=True):
-                if v:
-                    c = [ci + v * fi for ci, fi in zip(c, row, strict=True)]
-        lo, hi = low[j], high[j]
-        for ci, qi in zip(c, q, strict=True):
-            if qi == 0:
-                constant += max(ci * lo, ci * hi)
-            else:
-                cells.append((ci / qi, ci, qi, hi - lo))
-                value_after += ci * lo
-                slope_after += qi * lo
-    # B(λ) = constant + Σ_{t > λ} (c − λq)·high + Σ_{t ≤ λ} (c − λq)·low: convex and piecewise linear in λ
-    cells.sort(key=operator.itemgetter(0))
-    # B(λ) = value − λ slope below the first breakpoint
-    value = constant + value_after + sum((cell[1] * cell[3] for cell in cells), Fraction(0))
-    slope = slope_after + sum((cell[2] * cell[3] for cell in cells), Fraction(0))
-    start = Fraction(0)
-    for t, ct, qt, wt in [*cells, (None, Fraction(0), Fraction(0), Fraction(0))]:
-        end = t
-        if end is None or end > start:
-            at_start = value - start * slope
-            if at_start <= 0:
-                return start
-            if slope > 0 and (end is None or value - end * slope <= 0):
-                return value / slope
-            if end is not None:
-                start = end
-        if t is not None:  # past its breakpoint the cell sits at low: remove (c − λq)(high − low)
-            value -= ct * wt
-            slope -= qt * wt
-    return INF
 
+    tops: Sequence[Block]
+    bottoms: Sequence[Block]
+    floors: Sequence[Sequence[Block]]
+    low: Sequence[Fraction]
+    high: Sequence[Fraction]
+    tau: Fraction | None
 
-def point_ratio(
-    tops: Sequence[Block],
-    bottoms: Sequence[Block],
-    floors: Sequence[Sequence[Block]],
-    low: Sequence[Fraction],
-    high: Sequence[Fraction],
-    tau: Fraction | None,
-    point: Sequence[Block],
-) -> Fraction | None:
-    """(Σ_j p_j·h_j)/(Σ_j q_j·h_j) at the point h, exactly, when h lies in every block's box and meets every floor and
-    the denominator is positive; None otherwise.
+    def dual_bound(self, nus: Sequence[Block]) -> Number:
+        """The smallest λ ≥ 0 with B(λ) ≤ 0 (see the module), exactly; +inf when there is none or some ν < 0.
 
-    Examples
-    --------
-    >>> F = Fraction
-    >>> args = [[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2)
-    >>> point_ratio(*args, [[F(1, 2), F(1)]]), point_ratio(*args, [[F(1, 3), F(1)]])
-    (Fraction(7, 3), None)
-    """
-    num, den = Fraction(0), Fraction(0)
-    for j, h in enumerate(point):
-        if any(not low[j] <= v <= high[j] for v in h):
-            return None
-        if tau is not None and any(sum(map(operator.mul, row, h), Fraction(0)) < tau for row in floors[j]):
-            return None
-        num += sum(map(operator.mul, tops[j], h), Fraction(0))
-        den += sum(map(operator.mul, bottoms[j], h), Fraction(0))
-    return num / den if den > 0 else None
+        Parameters
+        ----------
+        nus : sequence of sequence of Fraction
+            ν_j per block, one per row of F_j (ignored without τ).
 
+        Returns
+        -------
+        Fraction or float
+            An upper bound on the program's ratio (+inf when the dual proves none).
 
-def vertex_ratio(
-    tops: Sequence[Block],
-    bottoms: Sequence[Block],
-    floors: Sequence[Sequence[Block]],
-    low: Sequence[Fraction],
-    high: Sequence[Fraction],
-    tau: Fraction | None,
-    point: Sequence[Block],
-) -> Fraction | None:
-    """The largest ratio :func:`point_ratio` gives at the point itself or at a vertex it stands for; None when none
-    lies in the polytope.
+        Examples
+        --------
+        max (h1 + 3 h2)/(h1 + h2) over [0, 1]^2 with the floor h1 ≥ 1/2: the value is (1/2 + 3)/(3/2) = 7/3, and ν = 4/3
+        on the floor certifies it; ν = 0 certifies only the box's 3.
 
-    A vertex is read off the point at each of :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to
-    max(1, max h): an interior-point solver stops 1e-12 to 1e-8 off its vertex): a cell within it of a bound is put
-    at the bound, a floor within it of τ is solved as an equality for the other cells, exactly
-    (:func:`~fairaudit.base.exact_vertex.gauss_jordan`; a cell the floors leave free keeps its value). The reading is
-    only a guess; a point outside the polytope is refused, never a wrong ratio (``proofs/verification.md`` §4e).
+        >>> F = Fraction
+        >>> program = BlockProgram([[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2))
+        >>> program.dual_bound([[F(4, 3)]]), program.dual_bound([[F(0)]]), program.dual_bound([[F(-1)]])
+        (Fraction(7, 3), Fraction(3, 1), inf)
+        """
+        tops, bottoms, floors, low, high, tau = self.tops, self.bottoms, self.floors, self.low, self.high, self.tau
+        constant = Fraction(0)
+        cells: list[tuple[Fraction, Fraction, Fraction, Fraction]] = []  # (breakpoint c/q, c, q, high - low) for q > 0
+        slope_after, value_after = Fraction(0), Fraction(0)  # Σ over q > 0 of q·low and c·low: B's pieces at large λ
+        for j, (p, q) in enumerate(zip(tops, bottoms, strict=True)):
+            c = list(p)
+            if tau is not None:
+                nu = nus[j]
+                if any(v < 0 for v in nu):
+                    return INF
+                constant -= tau * sum(nu, Fraction(0))
+                for v, row in zip(nu, floors[j], strict=True):
+                    if v:
+                        c = [ci + v * fi for ci, fi in zip(c, row, strict=True)]
+            lo, hi = low[j], high[j]
+            for ci, qi in zip(c, q, strict=True):
+                if qi == 0:
+                    constant += max(ci * lo, ci * hi)
+                else:
+                    cells.append((ci / qi, ci, qi, hi - lo))
+                    value_after += ci * lo
+                    slope_after += qi * lo
+        # B(λ) = constant + Σ_{t > λ} (c − λq)·high + Σ_{t ≤ λ} (c − λq)·low: convex and piecewise linear in λ
+        cells.sort(key=operator.itemgetter(0))
+        # B(λ) = value − λ slope below the first breakpoint
+        value = constant + value_after + sum((cell[1] * cell[3] for cell in cells), Fraction(0))
+        slope = slope_after + sum((cell[2] * cell[3] for cell in cells), Fraction(0))
+        start = Fraction(0)
+        for t, ct, qt, wt in [*cells, (None, Fraction(0), Fraction(0), Fraction(0))]:
+            end = t
+            if end is None or end > start:
+                at_start = value - start * slope
+                if at_start <= 0:
+                    return start
+                if slope > 0 and (end is None or value - end * slope <= 0):
+                    return value / slope
+                if end is not None:
+                    start = end
+            if t is not None:  # past its breakpoint the cell sits at low: remove (c − λq)(high − low)
+                value -= ct * wt
+                slope -= qt * wt
+        return INF
 
-    Examples
-    --------
-    The point of an interior-point solver, 1e-12 inside the floor h1 ≥ 1/2, stands for the vertex (1/2, 1):
+    def point_ratio(self, point: Sequence[Block]) -> Fraction | None:
+        """(Σ_j p_j·h_j)/(Σ_j q_j·h_j) at the point h, exactly, when h lies in every block's box and meets every floor and
+        the denominator is positive; None otherwise.
 
-    >>> F = Fraction
-    >>> args = [[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2)
-    >>> near = [[F(0.5 - 1e-12), F(1 - 1e-12)]]
-    >>> point_ratio(*args, near) is None, vertex_ratio(*args, near)
-    (True, Fraction(7, 3))
-    """
-    best = point_ratio(tops, bottoms, floors, low, high, tau, point)
-    scale = max([Fraction(1)] + [abs(v) for h in point for v in h])
-    for tolerance in ACTIVE_TOLERANCES:
-        tol = Fraction(tolerance) * scale
-        vertex = []
+        Examples
+        --------
+        >>> F = Fraction
+        >>> program = BlockProgram([[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2))
+        >>> program.point_ratio([[F(1, 2), F(1)]]), program.point_ratio([[F(1, 3), F(1)]])
+        (Fraction(7, 3), None)
+        """
+        tops, bottoms, floors, low, high, tau = self.tops, self.bottoms, self.floors, self.low, self.high, self.tau
+        num, den = Fraction(0), Fraction(0)
         for j, h in enumerate(point):
-            snapped = [v if low[j] + tol < v < high[j] - tol else (low[j] if v - low[j] <= high[j] - v else high[j])
-                       for v in h]  # fmt: skip
-            free = [i for i, v in enumerate(h) if low[j] + tol < v < high[j] - tol]
-            equations = []
-            for row in floors[j] if tau is not None else []:
-                assert tau is not None  # (no floors without τ)
-                if sum(map(operator.mul, row, h), Fraction(0)) - tau <= tol * (1 + abs(tau)):
-                    rhs = tau - sum((row[i] * snapped[i] for i in range(len(h)) if i not in free), Fraction(0))
-                    equations.append(({i: row[i] for i in free if row[i]}, rhs, False))
-            pivots = gauss_jordan(equations)
-            if pivots is None:
-                break
-            for c, (terms, rhs) in pivots.items():  # (the free cells keep their values)
-                snapped[c] = rhs - sum((v * snapped[cc] for cc, v in terms.items()), Fraction(0))
-            vertex.append(snapped)
-        else:
-            found = point_ratio(tops, bottoms, floors, low, high, tau, vertex)
-            if found is not None and (best is None or found > best):
-                best = found
-    return best
+            if any(not low[j] <= v <= high[j] for v in h):
+                return None
+            if tau is not None and any(sum(map(operator.mul, row, h), Fraction(0)) < tau for row in floors[j]):
+                return None
+            num += sum(map(operator.mul, tops[j], h), Fraction(0))
+            den += sum(map(operator.mul, bottoms[j], h), Fraction(0))
+        return num / den if den > 0 else None
+
+    def vertex_ratio(self, point: Sequence[Block]) -> Fraction | None:
+        """The largest ratio :meth:`point_ratio` gives at the point itself or at a vertex it stands for; None when none
+        lies in the polytope.
+
+        A vertex is read off the point at each of :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to
+        max(1, max h): an interior-point solver stops 1e-12 to 1e-8 off its vertex): a cell within it of a bound is put
+        at the bound, a floor within it of τ is solved as an equality for the other cells, exactly
+        (:func:`~fairaudit.base.exact_vertex.gauss_jordan`; a cell the floors leave free keeps its value). The reading is
+        only a guess; a point outside the polytope is refused, never a wrong ratio (``proofs/verification.md`` §4e).
+
+        Examples
+        --------
+        The point of an interior-point solver, 1e-12 inside the floor h1 ≥ 1/2, stands for the vertex (1/2, 1):
+
+        >>> F = Fraction
+        >>> program = BlockProgram([[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2))
+        >>> near = [[F(0.5 - 1e-12), F(1 - 1e-12)]]
+        >>> program.point_ratio(near) is None, program.vertex_ratio(near)
+        (True, Fraction(7, 3))
+        """
+        floors, low, high, tau = self.floors, self.low, self.high, self.tau
+        best = self.point_ratio(point)
+        scale = max([Fraction(1)] + [abs(v) for h in point for v in h])
+        for tolerance in ACTIVE_TOLERANCES:
+            tol = Fraction(tolerance) * scale
+            vertex = []
+            for j, h in enumerate(point):
+                snapped = [v if low[j] + tol < v < high[j] - tol else (low[j] if v - low[j] <= high[j] - v else high[j])
+                           for v in h]  # fmt: skip
+                free = [i for i, v in enumerate(h) if low[j] + tol < v < high[j] - tol]
+                equations = []
+                for row in floors[j] if tau is not None else []:
+                    assert tau is not None  # (no floors without τ)
+                    if sum(map(operator.mul, row, h), Fraction(0)) - tau <= tol * (1 + abs(tau)):
+                        rhs = tau - sum((row[i] * snapped[i] for i in range(len(h)) if i not in free), Fraction(0))
+                        equations.append(({i: row[i] for i in free if row[i]}, rhs, False))
+                pivots = gauss_jordan(equations)
+                if pivots is None:
+                    break
+                for c, (terms, rhs) in pivots.items():  # (the free cells keep their values)
+                    snapped[c] = rhs - sum((v * snapped[cc] for cc, v in terms.items()), Fraction(0))
+                vertex.append(snapped)
+            else:
+                found = self.point_ratio(vertex)
+                if found is not None and (best is None or found > best):
+                    best = found
+        return best

@@ -15,7 +15,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
-from fairaudit.verification.dual_check import dual_bound, vertex_ratio
+from fairaudit.verification.dual_check import BlockProgram
 from fairaudit.verification.rederive import verify
 
 # four groups behind a matrix, two contexts whose P(x | a) differ: L-bar's floor relaxation (E[g | a'] >= tau) puts
@@ -83,7 +83,7 @@ def test_a_dual_bound_is_an_upper_bound_and_the_smallest_lambda_its_b_allows(pro
     # sound: at or above the exact maximum (the rational simplex); the smallest: B (evaluated cell by cell, a second
     # route) is <= 0 at it and > 0 just below
     *data, nus = program
-    bound = dual_bound(*data, nus)
+    bound = BlockProgram(*data).dual_bound(nus)
     result = _optimum(*data)
     assume(result.status == "optimal")
     value = result.value
@@ -96,10 +96,10 @@ def test_a_dual_bound_is_an_upper_bound_and_the_smallest_lambda_its_b_allows(pro
 def test_a_dual_bound_by_hand():
     # max (h1 + 3 h2)/(h1 + h2) over [0, 1]^2 with h1 >= 1/2 is 7/3 at (1/2, 1); nu = 4/3 on the floor gives B(7/3) =
     # (1 + 4/3 - 7/3)(1) ... = 0: the bound is 7/3 exactly; nu = 1 certifies a larger bound, nu < 0 none
-    args = [[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2)
-    assert dual_bound(*args, [[F(4, 3)]]) == F(7, 3)
-    assert dual_bound(*args, [[F(1)]]) == F(5, 2)  # B(l) = (2 - l) h1 + (3 - l) h2 - 1/2: at l = 5/2, 0 + 1/2 - 1/2
-    assert dual_bound(*args, [[F(-1, 10)]]) == float("inf")
+    program = BlockProgram([[F(1), F(3)]], [[F(1), F(1)]], [[[F(1), F(0)]]], [F(0)], [F(1)], F(1, 2))
+    assert program.dual_bound([[F(4, 3)]]) == F(7, 3)
+    assert program.dual_bound([[F(1)]]) == F(5, 2)  # B(l) = (2 - l) h1 + (3 - l) h2 - 1/2: at l = 5/2, 0 + 1/2 - 1/2
+    assert program.dual_bound([[F(-1, 10)]]) == float("inf")
 
 
 @given(programs(), st.integers(-3, 3))
@@ -114,9 +114,9 @@ def test_a_vertex_read_off_a_perturbed_optimum_is_feasible_and_at_most_the_maxim
     width = len(tops[0])
     point = [list(result.point[j * width : (j + 1) * width]) for j in range(len(tops))]
     near = [[v + F(shift, 10**12) for v in h] for h in point]
-    found = vertex_ratio(*data, near)
+    found = BlockProgram(*data).vertex_ratio(near)
     assert found is None or found <= result.value
-    assert vertex_ratio(*data, point) == result.value
+    assert BlockProgram(*data).vertex_ratio(point) == result.value
 
 
 # g(u, x) free of the group: the certificate's programs are over the model's table, K[x, a~, u], and their duals

@@ -16,8 +16,9 @@ import numpy.typing as npt
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
+from fairaudit.base.exact_duality import Rows
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
-from fairaudit.base.outward import fraction_up, log_up
+from fairaudit.base.outward import down, fraction_up, log_up, product_ends, rounding_error, up, widen_up
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
 from fairaudit.laws.mechanisms import Mechanism
@@ -30,6 +31,7 @@ from fairaudit.worstcase.pair_search import (
     box_pairs,
     check_class,
     check_method,
+    inner_witness,
     pair_epsilon,
     pair_ratio,
     relaxed_first,
@@ -256,11 +258,14 @@ def black_box_bound(
         closed = _randomized_response_certificate(problem, rr, d)
         if closed is not None:
             return closed
-    M = mechanism.matrix
     if problem.lipschitz_on:
-        return _lipschitz_certificate(problem, M, check_metric(metric, n) if d is None else d)
+        return _lipschitz_certificate(problem, check_metric(metric, n) if d is None else d)
+    if isinstance(mechanism, RandomizedResponse):  # (the LP forced) every ordered pair is alike: (0, 1) stands for all
+        pairs = np.array([[0, 1]])
+        return _searched_certificate(problem, search(np.array([math.inf]), _box_solver(problem, pairs)), pairs)
     # the pairs whose box program (with a binding τ, floor relaxation) can be the largest, solved exactly;
     # the others are set aside by exact upper bounds, one pass over the pairs (proofs/black_box.md §7)
+    M = mechanism.matrix
     found = box_pairs(M, lower, gamma, problem.floor if problem.binding else None)
     if not problem.binding and problem.method != "lp":
         return _threshold_certificate(problem, M, found)
@@ -512,49 +517,71 @@ def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> B
     """
     pairs = np.column_stack([found.a, found.b])
     upper = found.box.copy()
-    if problem.floor > 0:  # γ/τ, and the tight form at t = e^ε_aa' (δ = 0 there)
-        upper = np.minimum(upper, np.minimum(problem.gamma / problem.floor, pair_ratio(M, found.a, found.b)))
+    if problem.floor > 0:  # γ/τ, and the tight form at t = e^ε_aa' (δ = 0 there), each rounded up
+        ceiling = fraction_up(Fraction(problem.gamma) / Fraction(problem.floor))
+        upper = np.minimum(upper, np.minimum(ceiling, up(pair_ratio(M, found.a, found.b))))
     if problem.binding:
         assert found.relaxed is not None  # (computed for a binding τ)
         upper = np.minimum(upper, found.relaxed)
-    return _searched_certificate(problem, search(upper, _box_solver(problem, M, pairs)), pairs)
+    return _searched_certificate(problem, search(upper, _box_solver(problem, pairs)), pairs)
 
 
-def _lipschitz_certificate(problem: _ClassProblem, M: FloatArray, d: FloatArray) -> BlackBoxCertificate:
+def _matrix_ends(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
+    """(low, high): M_A's rows enclosing its exact law entry by entry, low ≤ M ≤ high; both the matrix itself when its
+    floats are the law, else its floats widened by the roundings they carry (randomized response's, computed from
+    e^ε: :attr:`~fairaudit.laws.mechanisms.Mechanism.matrix_roundings`)."""
+    M, roundings = mechanism.matrix, mechanism.matrix_roundings
+    return (M, M) if roundings == 0 else product_ends(M, roundings, mechanism.support)
+
+
+def _lipschitz_certificate(problem: _ClassProblem, d: FloatArray) -> BlackBoxCertificate:
     """The utility may depend on the group (L_A > 0): the pair search over LPs in (n, m) variables, every pair.
 
-    Upper bounds per pair (ratios): γ/τ and the tight form at t = e^ε_aa'.
+    Upper bounds per pair (ratios, rounded up): γ/τ and the tight form at t = e^ε_aa'. Each program is solved on
+    its outer form (:func:`_lipschitz_program`), the witness taken on the inner one.
     """
-    n, m = M.shape
+    mechanism = problem.mechanism
+    low, high = _matrix_ends(mechanism)
+    n, m = high.shape
     pairs = np.argwhere(~np.eye(n, dtype=bool))  # the ordered pairs a != b, row-major
     upper = np.full(len(pairs), np.inf)
     floor = problem.floor
-    if floor > 0:
-        t = pair_epsilon(M)[pairs[:, 0], pairs[:, 1]]
-        slack = problem.lipschitz * d[pairs[:, 0], pairs[:, 1]] / floor
-        upper = np.minimum(upper, np.minimum(problem.gamma / floor, t + slack))
-    prog = _lipschitz_program(M, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d)
+    if floor > 0:  # the ratio of two entries, each carrying R roundings, and the division: 2R + 1
+        t = widen_up(pair_epsilon(mechanism.matrix), rounding_error(2 * mechanism.matrix_roundings + 1))
+        slack = up(up(problem.lipschitz * d) / floor)
+        tight = up(np.asarray(t)[pairs[:, 0], pairs[:, 1]] + slack[pairs[:, 0], pairs[:, 1]])
+        upper = np.minimum(upper, np.minimum(fraction_up(Fraction(problem.gamma) / Fraction(floor)), tight))
+    prog, rows = _lipschitz_program(
+        low, high, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d
+    )
+    box = np.full(n * m, problem.lower), np.full(n * m, problem.gamma)
 
     def solve(i: int) -> FractionalResult:
         a, b = pairs[i]
-        p = np.zeros(n * m)
-        q = np.zeros(n * m)
-        p[a * m : (a + 1) * m] = M[a]
-        q[b * m : (b + 1) * m] = M[b]
-        return prog.solve(p, q)
+        p, q = np.zeros((2, n * m)), np.zeros((2, n * m))  # (outer, inner)
+        p[:, a * m : (a + 1) * m] = high[a], low[a]
+        q[:, b * m : (b + 1) * m] = low[b], high[b]
+        return inner_witness(prog.solve(p[0], q[0]), p[1], q[1], *box, rows, inside=box[1])
 
     return _searched_certificate(problem, search(upper, solve), pairs)
 
 
-def _box_solver(problem: _ClassProblem, M: FloatArray, pairs: IntArray) -> Callable[[int], FractionalResult]:
-    """Solve the program of pair i (L_A = 0): by the floor relaxation where it is feasible, else by the LP."""
+def _box_solver(problem: _ClassProblem, pairs: IntArray) -> Callable[[int], FractionalResult]:
+    """Solve the program of pair i (L_A = 0): by the floor relaxation where it is feasible, else by the LP.
+
+    The program is solved on M_A's ends (:func:`_matrix_ends`): the numerator's upper end over the denominator's
+    lower end, with the floors on the upper ends (a relaxation: every model of the exact program is in it), which
+    bounds the exact program from above; where the matrix is not exact the witness is taken on the inner program
+    (the numerator's lower end, the denominator's upper end, the floors on the lower ends), a lower end.
+    """
     lower, gamma, floor, binding = problem.lower, problem.gamma, problem.floor, problem.binding
-    n, m = M.shape
+    low, high = _matrix_ends(problem.mechanism)
+    n, m = high.shape
     progs: list[FractionalProgram] = []
 
     def program() -> FractionalProgram:
         if not progs:
-            a_ub = -M if binding else None
+            a_ub = -high if binding else None
             progs.append(
                 FractionalProgram(
                     m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
@@ -563,11 +590,23 @@ def _box_solver(problem: _ClassProblem, M: FloatArray, pairs: IntArray) -> Calla
         return progs[0]
 
     if binding and problem.method != "lp":
-        return relaxed_first(lambda i: M[pairs[i, 0]], lambda i: M[pairs[i, 1]], lower, gamma, floor, M, program)
+        outer = relaxed_first(
+            lambda i: high[pairs[i, 0]], lambda i: low[pairs[i, 1]], lower, gamma, floor, high, program
+        )
+    else:
+
+        def outer(i: int) -> FractionalResult:
+            a, b = pairs[i]
+            return program().solve(high[a], low[b])
+
+    if low is high:
+        return outer
+    rows = [(-low, np.full(n, -floor), "le")] if binding else []
+    box = np.full(m, lower), np.full(m, gamma)
 
     def solve(i: int) -> FractionalResult:
         a, b = pairs[i]
-        return program().solve(M[a], M[b])
+        return inner_witness(outer(i), low[a], high[b], *box, rows, inside=box[1])
 
     return solve
 
@@ -611,18 +650,33 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
 
 
 def _lipschitz_program(
-    M: FloatArray, lower: float, gamma: float, floor: float | None, lip: float, d: FloatArray
-) -> FractionalProgram:
-    """The class polytope with a utility per group: h (n, m) flattened row-major."""
+    low: FloatArray, high: FloatArray, lower: float, gamma: float, floor: float | None, lip: float, d: FloatArray
+) -> tuple[FractionalProgram, Rows]:
+    """The class polytope with a utility per group, h (n, m) flattened row-major: the outer program (the floors on
+    M_A's upper ends ``high``, the Lipschitz limits L_A·d rounded up), and the inner program's rows (the floors on
+    the lower ends ``low``, the limits rounded down), which a witness meets only where it meets the exact ones."""
     import scipy.sparse as sp
 
-    n, m = M.shape
-    rows: list[sp.csr_matrix] = []
-    b_ub: list[FloatArray] = []
+    n, m = high.shape
     group_b, group_c = np.triu_indices(n, 1)
-    limit = lip * d[group_b, group_c]
-    keep = limit < gamma - lower  # looser pairs are implied by the box
-    group_b, group_c, limit = group_b[keep], group_c[keep], limit[keep]
+    product = lip * d[group_b, group_c]
+    keep = down(product) < up(gamma - lower)  # the others are implied by the box: L_A·d ≥ γ − lower exactly
+    group_b, group_c, product = group_b[keep], group_c[keep], product[keep]
+    outer = _class_rows(n, m, group_b, group_c, up(product), -high, floor)
+    a_ub = sp.vstack([a for a, _, _ in outer], format="csr") if outer else None
+    b_ub = np.concatenate([b for _, b, _ in outer]) if outer else None
+    program = FractionalProgram(n * m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=b_ub)
+    return program, _class_rows(n, m, group_b, group_c, down(product), -low, floor)
+
+
+def _class_rows(
+    n: int, m: int, group_b: IntArray, group_c: IntArray, limit: FloatArray, floors: FloatArray, floor: float | None
+) -> Rows:
+    """The rows ``h[b] − h[c] ≤ limit`` and ``h[c] − h[b] ≤ limit`` of each pair (b, c), and ``floors[b]·h[b] ≤
+    −floor`` of each group b (``floors`` the negated rows of M_A; none when ``floor`` is None)."""
+    import scipy.sparse as sp
+
+    rows: Rows = []
     if group_b.size:
         k = group_b.size * m
         r = np.arange(k)
@@ -633,14 +687,7 @@ def _lipschitz_program(
             (np.concatenate([np.ones(k), -np.ones(k)]), (np.concatenate([r, r]), np.concatenate([col_b, col_c]))),
             shape=(k, n * m),
         )
-        rows += [diff, -diff]
-        b_ub += [np.repeat(limit, m), np.repeat(limit, m)]
-    if floor is not None:
-        # −M[b]·h[b] ≤ −τ: block-diagonal rows
-        tau_rows = sp.block_diag([-M[b][None, :] for b in range(n)], format="csr")
-        rows.append(tau_rows)
-        b_ub.append(np.full(n, -floor))
-    a_ub = sp.vstack(rows, format="csr") if rows else None
-    return FractionalProgram(
-        n * m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else np.concatenate(b_ub)
-    )
+        rows += [(diff, np.repeat(limit, m), "le"), (-diff, np.repeat(limit, m), "le")]
+    if floor is not None:  # −M[b]·h[b] ≤ −τ: block-diagonal rows
+        rows.append((sp.block_diag([floors[b][None, :] for b in range(n)], format="csr"), np.full(n, -floor), "le"))
+    return rows

@@ -14,16 +14,15 @@ import numpy as np
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.errors import InputError
-from fairaudit.base.exact_duality import point_ratio
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
 from fairaudit.base.outward import product_ends, rounding_error, up, widen_up
 from fairaudit.base.pairs import PAIR_BLOCK
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
-from fairaudit.worstcase.pair_search import SearchResult, box_pairs, check_class, check_method, search
+from fairaudit.worstcase.pair_search import SearchResult, box_pairs, check_class, check_method, inner_witness, search
 from fairaudit.worstcase.worst_cases import WorstCase, nats_up
 
 
@@ -278,12 +277,11 @@ def _utility_case(
     def solve(i: int) -> FractionalResult:
         x, a, b = flat[i]
         r = problem.program().solve(high[x, a], low[x, b])
-        if ends is None or r.argmax is None:
+        if ends is None:
             return r
         box = np.full(P.shape[-1], lower), np.full(P.shape[-1], gamma)
         rows = [] if problem.a_ub is None or problem.b_ub is None else [(problem.a_ub, problem.b_ub, "le")]
-        w = point_ratio(np.clip(r.argmax, *box), low[x, a], high[x, b], *box, rows)
-        return dataclasses.replace(r, witness=w, gap=gap_between(r.value, w))
+        return inner_witness(r, low[x, a], high[x, b], *box, rows)
 
     return _searched_case(problem, kind, search(upper, solve), flat if kind == "local" else flat[:, 1:], label_x)
 

@@ -12,21 +12,19 @@ from __future__ import annotations
 import functools
 import operator
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any, SupportsIndex
 
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.exact_duality import point_ratio
-from fairaudit.base.exact_vertex import improve_witness
-from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
+from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult
 from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem
-from fairaudit.worstcase.pair_search import SearchResult, pairwise_box, relaxed_first, search
+from fairaudit.worstcase.pair_search import SearchResult, inner_witness, pairwise_box, relaxed_first, search
 from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase
 
 
@@ -185,14 +183,9 @@ def _solver(
         return r
 
     def settle(i: int, r: FractionalResult) -> FractionalResult:
-        if r.argmax is not None:
-            p, q = pair(i)[0].low, pair(i)[1].high
-            lower, upper = (np.full(len(p), end) for end in space.box)
-            h = np.clip(np.asarray(r.argmax, dtype=float), lower, upper)
-            w = point_ratio(h, p, q, lower, upper, space.witness_rows)
-            if r.certified:  # where h misses a row by rounding, the vertex it stands for, solved exactly
-                w = improve_witness(w, r.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, space.witness_rows)
-            r = replace(r, witness=w, gap=gap_between(r.value, w))
+        p, q = pair(i)[0].low, pair(i)[1].high
+        lower, upper = (np.full(len(p), end) for end in space.box)
+        r = inner_witness(r, p, q, lower, upper, space.witness_rows)
         settled = (
             r.status == "optimal" and r.certified and r.value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, r.value)
         )

@@ -21,8 +21,9 @@ import numpy.typing as npt
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.checks import choice, nonnegative
 from fairaudit.base.errors import InputError
-from fairaudit.base.exact_duality import point_ratio
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
+from fairaudit.base.exact_duality import Rows, point_ratio
+from fairaudit.base.exact_vertex import improve_witness
+from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
 from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
 from fairaudit.laws.utilities import UtilityClass
@@ -126,6 +127,44 @@ def relaxed_first(
         return program().solve(p, q)
 
     return solve
+
+
+PULLS = (2.0**-50, 2.0**-44, 2.0**-38, 2.0**-30)
+"""The steps θ tried by :func:`inner_witness` toward a point inside the exact polytope, smallest first."""
+
+
+def inner_witness(
+    r: FractionalResult,
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows,
+    inside: FloatArray | None = None,
+) -> FractionalResult:
+    """``r``, solved on coefficients that enclose the exact ones (its value certified on the outer program), with its
+    witness taken on the inner program: the ratio (p·h)/(q·h) at its maximiser h, with p the numerator's lower end, q
+    the denominator's upper end and ``rows`` the constraints tightened by their rounding, so that a point meeting
+    them meets the exact ones. NaN without a maximiser or a feasible point.
+
+    Where h misses a row by rounding: the vertex it stands for, solved exactly
+    (:func:`~fairaudit.base.exact_vertex.improve_witness`); where that vertex misses one too (a degenerate vertex,
+    whose active rows the tightening makes inconsistent: the Lipschitz rows of three groups on a line), the point
+    (1 − θ)·h + θ·``inside`` for the steps θ of :data:`PULLS`, ``inside`` a point that meets every row with room to
+    spare. Every candidate is checked exactly, so a wrong one is refused, never a wrong witness.
+    """
+    if r.argmax is None:
+        return r
+    h = np.clip(np.asarray(r.argmax, dtype=float), lower, upper)
+    w = point_ratio(h, p, q, lower, upper, rows)
+    if r.certified:
+        w = improve_witness(w, r.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, rows)
+    if inside is not None and not math.isfinite(w):
+        for theta in PULLS:
+            w = point_ratio(np.clip((1 - theta) * h + theta * inside, lower, upper), p, q, lower, upper, rows)
+            if math.isfinite(w):
+                break
+    return replace(r, witness=w, gap=gap_between(r.value, w))
 
 
 def check_method(method: str) -> str:

@@ -293,6 +293,67 @@ def test_black_box_lipschitz_example_2_in_fractions(monkeypatch):
     np.testing.assert_allclose(c.utility_by_release, [[1.0, 3 / 7], [0.9, 23 / 70]], atol=1e-14)
 
 
+def rational_ends(k: int, eps: float, lower: float, tau: float, lip: float, metric: np.ndarray | None) -> tuple[F, F]:
+    """The exact worst ratio over the class behind k-ary randomized response at e^epsilon's rational lower and upper
+    ends (the rational simplex on the whole program, every group's h; verify's route), which enclose the exact one."""
+    from fairaudit.verification.class_check import lipschitz_class_enclosure
+    from fairaudit.verification.enclosures import RecordedMechanism
+
+    labels = [f"g{i}" for i in range(k)]
+    record = {"inputs": labels, "outputs": labels, "kind": "randomized_response", "epsilon": eps}
+    d = None if metric is None else [[F(float(v)) for v in row] for row in metric]  # the floats, exactly
+    e = lipschitz_class_enclosure(RecordedMechanism.from_record(record, "m"), F(lower), F(1), F(tau), F(lip), d)
+    assert not isinstance(e, str), e
+    return e.lo, e.hi
+
+
+# found by a random hunt: the programs were solved on randomized response's floats as if exact, 1e-17 to 4e-17
+# below the exact value's upper end (with L_A = 0, the witness 1e-14 above it)
+@pytest.mark.parametrize(
+    "k, eps, points, tau, lip",
+    [
+        (4, 2.9624666878468804, [0.31871083848551673, 0.7885489358200289, 0.8698965116962161, 0.391084806539194],
+         0.5065173111859591, 0.192646962513783),
+        (4, 2.1663733039002375, [0.2808233280360034, 0.08272491799811632, 0.9697713192928598, 0.5639267453679521],
+         0.6510246735058725, 0.29266701711627846),
+        (4, 2.618404554563207, [0.21836189884262291, 0.23009715061195535, 0.49274309924545157, 0.7532229040143165],
+         0.6929626982093107, 0.474072134822498),
+    ],
+)  # fmt: skip
+@pytest.mark.slow
+def test_black_box_lipschitz_with_a_metric_encloses_the_exact_programs(k, eps, points, tau, lip):
+    # L_A > 0, a metric other than the discrete one and a binding floor: no closed form, so every pair's LP, on
+    # randomized response's float matrix; the value must be at least the upper end, the witness at most it (the
+    # groups on a line: three of them make a degenerate vertex, whose witness is pulled inside the polytope)
+    metric = np.abs(np.subtract.outer(points, points))
+    low, high = rational_ends(k, eps, 0.0, tau, lip, metric)
+    c = black_box_bound(
+        fa.randomized_response(list(range(k)), eps), utility_class=UtilityClass(tau=tau, lipschitz=lip, metric=metric)
+    )
+    assert c.method == "lp" and c.certified
+    assert F(c.ratio) >= high and c.ratio <= float(low) * (1 + 1e-12)
+    assert F(c.witness) <= high and c.witness >= float(low) * (1 - 1e-9)
+
+
+@pytest.mark.parametrize(
+    "k, eps, lower, tau",
+    [
+        (2, 1.0064460776696595, 0.0, 0.6346140062618605),
+        (4, 3.4838759907482015, 0.10918094942131146, 0.314155874670315),
+        (3, 2.993615483020565, 0.39034869216898616, 0.5658400701297708),
+        (2, 2.077706488382951, 0.0, 0.22867852331392802),
+    ],
+)
+def test_black_box_forced_lp_encloses_the_exact_programs(k, eps, lower, tau):
+    # method="lp" skips the closed form: the LP on randomized response's floats, a single pair (every pair is alike)
+    low, high = rational_ends(k, eps, lower, tau, 0.0, None)
+    c = black_box_bound(fa.randomized_response(list(range(k)), eps), utility_class=UtilityClass(lower=lower, tau=tau),
+                        method="lp")  # fmt: skip
+    assert c.method == "lp" and c.certified and c.programs_solved == 1
+    assert F(c.ratio) >= high and c.ratio <= float(low) * (1 + 1e-12)
+    assert F(c.witness) <= high and c.witness >= float(low) * (1 - 1e-12)
+
+
 @pytest.mark.parametrize(
     "eps, lower, tau, lip",
     [(math.log(7 / 3), 0.0, 0.5, 0.1), (1e-9, 0.1, 0.3, 0.05), (0.3, 0.0, 0.01, 0.5), (5.0, 0.2, 0.9, 0.2)],

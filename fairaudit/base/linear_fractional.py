@@ -38,6 +38,7 @@ import math
 import operator
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import TYPE_CHECKING, Any, Literal, TypeAlias, overload
 
 import numpy as np
@@ -49,6 +50,7 @@ from fairaudit.base.exact_duality import (
     ACTIVE_TOLERANCES,
     RatioBound,
     certify_ratio,
+    dual_value,
     point_ratio,
     refine_duals,
     vertex_ratio,
@@ -58,8 +60,6 @@ from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
 
 if TYPE_CHECKING:
-    from fractions import Fraction
-
     import cvxpy as cp
     import scipy.sparse as sp
 
@@ -661,8 +661,6 @@ class FractionalProgram:
         certified from them is loose. The simplex pivots to the optimal vertex exactly
         (``proofs/linear_fractional.md`` §6, "An exact crossover").
         """
-        from fractions import Fraction
-
         from fairaudit.base.exact_programs import maximize_ratio
 
         blocks = [(np.asarray(a.toarray() if hasattr(a, "toarray") else a), b, op) for a, b, op in self._rows]
@@ -711,13 +709,33 @@ class FractionalProgram:
             )
         if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
             return _unbounded(result, h, status, "q·h = 0 on every feasible h and some has p·h > 0 (c/0)")
-        return result(
-            value=1.0,
-            argmax=h,
-            status="optimal",
-            solver_status=status,
-            reason="p·h = q·h = 0 on every feasible h (0/0 counts as parity)",
-        )
+        parity = "p·h = q·h = 0 on every feasible h (0/0 counts as parity)"
+        certified = h is not None and self._parity_holds(p, q, h)
+        return result(value=1.0, argmax=h, status="optimal", solver_status=status, certified=certified,
+                      reason=parity if certified else f"{parity}; not certified: no dual of max p·h checks B(1) <= 0")  # fmt: skip
+
+    def _parity_holds(self, p: FloatArray, q: FloatArray, h: FloatArray) -> bool:
+        """Whether p·h ≤ q·h on all of the (bounded) polytope, proven by the duals of :meth:`_primal_max`'s rows
+        (as the solver gives them, then repaired at its point h at each active tolerance): B(1) ≤ 0 exactly. Then the
+        ratio is at most 1 wherever q·h > 0, and q·h = 0 forces p·h ≤ 0, so no c/0: the value 1 is an upper bound
+        (``proofs/linear_fractional.md`` §6, "The value 1 of 0/0")."""
+        if not self._bounded or self._primal is None:
+            return False
+        lower, upper = self.lower, self.upper
+        assert lower is not None and upper is not None  # (bounded)
+        constraints = self._primal[0].constraints[len(self._primal[0].constraints) - len(self._rows) :]
+        duals = [np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for c in constraints]
+        if any(d.size != b.size or not np.all(np.isfinite(d)) for d, (_, b, _) in zip(duals, self._rows)):
+            return False
+        duals = [np.maximum(d, 0.0) if op == "le" else -d for d, (_, _, op) in zip(duals, self._rows)]
+        h = np.clip(h, lower, upper)
+        candidates = [duals] + [
+            refine_duals(h, 1.0, p, q, lower, upper, self._rows, duals, t) for t in ACTIVE_TOLERANCES
+        ]
+        for candidate in candidates:
+            if candidate is not None and dual_value(Fraction(1), p, q, lower, upper, self._rows, candidate) <= 0:
+                return True
+        return False
 
     def _primal_max(self, p: FloatArray) -> tuple[str, float, FloatArray | None]:
         """max p·h over the polytope itself (built on first use): (status, value, h or None)."""

@@ -116,6 +116,45 @@ def test_lp_statuses_zero_denominator_empty_polytope_and_scale():
     assert r.status == "optimal" and r.value == pytest.approx(1.0, rel=1e-9)
 
 
+def forced_zero_program(n: int = 70):
+    """A program beyond the rational simplex's size (64 variables) whose rows h_i + (i + 1)/10 · h_{i+20} <= 0, i < 20,
+    force h_0 … h_39 to 0 on the box [0, 1]^n (every term is >= 0): by hand, p·h = q·h = 0 on every feasible h when
+    p and q live on those cells."""
+    from fairaudit.base.linear_fractional import FractionalProgram
+
+    a = np.zeros((20, n))
+    a[np.arange(20), np.arange(20)] = 1.0
+    a[np.arange(20), np.arange(20) + 20] = (np.arange(20) + 1) / 10
+    return FractionalProgram(n, lower=0.0, upper=1.0, A_ub=a, b_ub=np.zeros(20))
+
+
+def test_zero_over_zero_beyond_the_exact_size_is_certified_by_a_checked_dual():
+    # the solver calls the Charnes–Cooper LP infeasible (q·h = 0 on all of P); max p·h = 0 by hand, so 0/0: the value
+    # 1 is certified from the duals of max p·h (B(1) <= 0 exactly), not from the solver's word
+    from fairaudit.base.linear_fractional import CROSSOVER_SIZE
+
+    prog = forced_zero_program()
+    assert prog.n > CROSSOVER_SIZE[0]
+    p, q = np.zeros(70), np.zeros(70)
+    p[:10], q[5:40] = np.linspace(0.1, 1.0, 10), np.linspace(0.2, 0.9, 35)
+    r = prog.solve(p, q)
+    assert (r.value, r.status, r.certified) == (1.0, "optimal", True) and "0/0" in r.reason
+    # a numerator on a free cell: q·h = 0 < p·h there, +inf (c/0), an upper bound of anything
+    p[50] = 0.5
+    r = prog.solve(p, q)
+    assert (r.value, r.status, r.certified) == (math.inf, "unbounded", True) and "q·h = 0" in r.reason
+
+
+def test_zero_over_zero_without_a_dual_that_checks_stays_uncertified(monkeypatch):
+    from fairaudit.base import linear_fractional
+
+    monkeypatch.setattr(linear_fractional, "dual_value", lambda *args: Fraction(1, 10**30))  # B(1) > 0: no proof
+    p, q = np.zeros(70), np.zeros(70)
+    p[:10], q[5:40] = 1.0, 1.0
+    r = forced_zero_program().solve(p, q)
+    assert (r.value, r.status, r.certified) == (1.0, "optimal", False) and "not certified" in r.reason
+
+
 def test_a_box_program_the_solver_calls_unbounded_is_solved_by_the_threshold_rule():
     # cells of 2.3e-11 in the denominator: Clarabel calls the Charnes–Cooper LP unbounded, but q > 0 on the whole
     # box [0, 1]^3 but its corner 0, so the maximum is finite: max_i p_i / q_i = 0.7735231004548078 / 2.2667650723532528e-11

@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     # into text the other columns pass through as written ("NA" stays "NA", "007" stays "007"); into Parquet they
     # are typed as fairaudit reads them, their missing values null
     others = [n for n in records.names if n != args.column] if text_output else []
-    frame = records.read(check=[args.column] if text_output else None, as_written=others)
+    frame = records.read(as_written=others)  # a column the header names twice is refused where its copies differ
     column = frame[args.column]
     missing = column.isna().to_numpy()
     if missing.any():
@@ -89,9 +89,11 @@ def run(args: argparse.Namespace) -> int:
     if args.parameters:
         write_atomic(args.parameters, json.dumps(privacy.to_dict(), indent=2) + "\n", field="--parameters")
     eps = "inf" if privacy.epsilon == float("inf") else f"{privacy.epsilon:.6g}"
+    twice = [f"{name!r} ({len(copies)} times)" for name, copies in records.columns.items() if len(copies) > 1]
     print(
         f"released column {args.column!r} of {len(frame)} records through {privacy.name} (epsilon = {eps} nats); "
-        f"written to {args.output}",
+        f"written to {args.output}"
+        + (f"; the header names {', '.join(twice)} with the same values: written once" if twice else ""),
         file=sys.stderr,
     )
     return 0

@@ -140,3 +140,17 @@ def test_into_text_the_other_columns_are_written_as_they_were(capsys, tmp_path):
         ["NA", "007", "1.50"], ["", "010", "NA"], ["null", "x", "2"]
     ]  # fmt: skip
     assert set(written["office"]) <= {"HR_1", "HR_2"}
+
+
+def test_a_column_the_header_names_twice_is_refused_where_its_copies_differ(capsys, tmp_path):
+    # the file is written with one column per name: a second copy that differs would be lost without a word
+    data, out = tmp_path / "r.csv", tmp_path / "o.csv"
+    data.write_text("office,score,score\nHR_1,1,1\nHR_2,3,4\n")
+    code, _, err = run(capsys, "filter", data, "--column", "office", "--keep", "1/2", "--values", "HR_1,HR_2",
+                       "--output", out)  # fmt: skip
+    assert code == 2 and "names column 'score' 2 times, with different values" in err and not out.exists()
+    data.write_text("office,score,score\nHR_1,1,1\nHR_2,3,3\n")  # the same values: written once, and said so
+    code, _, err = run(capsys, "filter", data, "--column", "office", "--keep", "1/2", "--values", "HR_1,HR_2",
+                       "--output", out)  # fmt: skip
+    assert code == 0 and "the header names 'score' (2 times) with the same values: written once" in err
+    assert pd.read_csv(out).columns.tolist() == ["office", "score"]

@@ -84,7 +84,8 @@ class BlackBoxCertificate:
         dual checked exactly); False, with the reason, when only the solver's word stands behind it.
     witness : float
         A certified lower end of the ratio (not nats) from the maximiser's point, when it is exactly feasible;
-        NaN otherwise (and on the closed-form routes).
+        NaN otherwise, on the closed-form routes, and for a class whose bounds γ does not divide exactly (it is
+        solved on the scale γ = 1, rounded outward).
     gap : float
         ``ratio − witness``, rounded up (NaN without a witness).
     """
@@ -326,6 +327,13 @@ def _on_unit_scale(
         metric=metric,
     )
     unit = black_box_bound(problem.mechanism, utility_class=scaled, population=population, method=problem.method)
+    # the scaled class contains the given one (rounded outward), so its value bounds it; its witness is a point of the
+    # given class only when the scaling is exact (γ a power of two, say): otherwise none
+    g = Fraction(gamma)
+    exact = all(
+        Fraction(unit_value) == Fraction(value) / g
+        for unit_value, value in ((unit_lower, lower), (unit_floor, problem.floor), (unit_lipschitz, problem.lipschitz))
+    )
     return replace(
         unit,
         utility_by_release=unit.utility_by_release * gamma,
@@ -334,6 +342,8 @@ def _on_unit_scale(
         tau=tau,
         lipschitz=unit.lipschitz * gamma,
         assumptions=problem.assumptions,
+        witness=unit.witness if exact else math.nan,
+        gap=unit.gap if exact else math.nan,
     )
 
 

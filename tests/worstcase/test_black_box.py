@@ -212,3 +212,13 @@ def test_errors():
         fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=0.0, gamma=float("inf")))
     with pytest.raises(fa.InputError, match="^mechanism:"):
         fa.black_box_bound(np.eye(2))
+
+
+def test_the_witness_is_given_only_where_the_unit_scale_is_exact():
+    # the class is solved on the scale gamma = 1, rounded outward (a larger class): its point is one of the class
+    # given when gamma divides lower, tau and L_A exactly (gamma = 2), not otherwise (1/3 and 2/3 are not floats)
+    m = fa.from_matrix([[0.6, 0.3, 0.1], [0.2, 0.5, 0.3], [0.1, 0.2, 0.7]], ["a", "b", "c"])
+    two = fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=0.5, gamma=2.0, tau=1.2), method="lp")
+    assert two.witness <= two.ratio <= two.witness * (1 + 1e-12) and two.gap >= 0
+    three = fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=1.0, gamma=3.0, tau=2.0), method="lp")
+    assert three.certified and math.isnan(three.witness) and math.isnan(three.gap)

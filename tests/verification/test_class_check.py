@@ -114,3 +114,62 @@ def test_a_lipschitz_calibration_is_re_derived(tmp_path):
     assert {"calibration.bound", "calibration.target", "calibration.epsilon is the largest"} <= checked
     cert["calibration"]["bound"] -= 1e-9
     assert "calibration.bound" in {c.name for c in fairaudit.verify(cert).failures}
+
+
+def _rr(k: int, epsilon: float) -> RecordedMechanism:
+    labels = [f"g{i}" for i in range(k)]
+    record = {"inputs": labels, "outputs": labels, "kind": "randomized_response", "epsilon": epsilon}
+    return RecordedMechanism.from_record(record, "m")
+
+
+@pytest.mark.slow
+@settings(max_examples=60, deadline=None)
+@given(
+    k=st.integers(2, 5),
+    t_tenths=st.integers(1, 40),
+    lower_tenths=st.sampled_from([0, 0, 1, 3]),
+    tau_tenths=st.one_of(st.none(), st.integers(1, 9)),
+    lip_hundredths=st.sampled_from([0, 1, 5, 20, 60]),
+    distance=st.sampled_from([1, 2, 3]),
+)
+def test_randomized_response_with_one_distance_is_the_full_program(
+    k, t_tenths, lower_tenths, tau_tenths, lip_hundredths, distance
+):
+    # the symmetric program (at most 10 variables, whatever k) against the whole program over H (k^2 variables),
+    # both exact, on rational rows p = t/(t + k - 1), q = 1/(t + k - 1)
+    from fairaudit.verification.class_check import _symmetric_worst, _worst
+
+    t = F(t_tenths, 10)
+    p, q = t / (t + k - 1), 1 / (t + k - 1)
+    rows = tuple(tuple(p if i == j else q for j in range(k)) for i in range(k))
+    lower, tau, lip = F(lower_tenths, 10), None if tau_tenths is None else F(tau_tenths, 10), F(lip_hundredths, 100)
+    d = [[F(0) if b == c else F(distance) for c in range(k)] for b in range(k)]
+    assert _symmetric_worst(p, q, k, lower, F(1), tau, lip * distance) == _worst(rows, lower, F(1), tau, lip, d)
+
+
+def test_randomized_response_on_twelve_groups_is_re_derived():
+    # 144 variables for the whole program, beyond its 36: randomized response with one distance between groups is
+    # solved on the symmetric program; the enclosure holds certify's closed form (proofs/black_box.md §5, 7b)
+    k, eps, tau, lip = 12, 1.3, 0.4, 0.05
+    e = lipschitz_class_enclosure(_rr(k, eps), F(0), F(1), F(tau), F(lip), None)
+    assert not isinstance(e, str) and e.lo <= e.hi <= e.lo * (1 + F(1, 10**14))
+    c = fairaudit.black_box_bound(
+        fairaudit.randomized_response(list(range(k)), eps), utility_class=fairaudit.UtilityClass(tau=tau, lipschitz=lip)
+    )
+    assert F(c.ratio) >= e.hi and c.ratio <= float(e.lo) * (1 + 1e-12)
+    # a metric with two distances keeps the whole program, beyond its size
+    d = [[F(0) if b == c else F(1 + (b + c) % 2) for c in range(k)] for b in range(k)]
+    assert lipschitz_class_enclosure(_rr(k, eps), F(0), F(1), F(tau), F(lip), d) == "programs beyond 36 variables"
+
+
+def test_a_lipschitz_calibration_on_eight_groups_is_re_derived(tmp_path):
+    groups = ", ".join(f'"g{i}"' for i in range(8))
+    cert, _, checked = certified_and_verified(
+        f'[sensitive]\nname = "group"\nvalues = [{groups}]\n[decision]\nname = "d"\nvalues = ["yes", "no"]\n'
+        '[privacy.sensitive]\nmechanism = "randomized_response"\nepsilon = 1.0\n'
+        '[utility]\nkind = "table"\nvalues = [1.0, 0.5]\ntau = 0.3\nlipschitz = 0.05\n[target]\nlocal = 0.5\n',
+        tmp_path,
+    )
+    assert {"calibration.bound", "calibration.target", "calibration.epsilon is the largest"} <= checked
+    cert["calibration"]["bound"] -= 1e-9
+    assert "calibration.bound" in {c.name for c in fairaudit.verify(cert).failures}

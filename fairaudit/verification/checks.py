@@ -85,6 +85,14 @@ def _float(x: Fraction | float, upward: bool) -> float:
     return fraction_up(x) if upward else fraction_down(x)
 
 
+def _outward(x: Fraction | float, upward: bool) -> Fraction | float:
+    """The float next to ``x`` on the stated side, as an exact number (``x`` itself when infinite or beyond the floats'
+    range)."""
+    if isinstance(x, float) or abs(x) > LARGEST:
+        return x
+    return Fraction(_float(x, upward))
+
+
 def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str = "") -> Check:
     """The check of a reported number against the enclosure of its exact value, on ``side``.
 
@@ -142,8 +150,11 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
         )
         by = 0.0 if ok else math.inf
     else:
-        allowed_low = derived.hi if side in ("upper", "at least") else -INF if side == "at most" else derived.lo - slack
-        allowed_high = derived.lo if side in ("lower", "at most") else derived.hi + slack
+        # the tolerance's ends, rounded outward to the floats: a recorded float cannot lie between two of them
+        allowed_low = _outward(derived.lo - slack, False)
+        if side in ("upper", "at least", "at most"):
+            allowed_low = derived.hi if side != "at most" else -INF
+        allowed_high = derived.lo if side in ("lower", "at most") else _outward(derived.hi + slack, True)
         if side in ("at least", "met"):
             allowed_high = INF
         if side == "equal":

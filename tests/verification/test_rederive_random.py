@@ -656,6 +656,19 @@ REGRESSIONS["a solver point with s = 0, floors no model meets"] = (
     None,
 )
 
+# randomized response at 1e-12 nats and tau = 0.2 = max g (every E[g | x, a] is 0.2: the exact worst case is 0). Certify
+# gives epsilon, 1e-12 nats, exactly the tolerance above it, and its ratio e^epsilon rounded up is the float 1 +
+# 1.0000889e-12, 8.9e-17 past 1 + 1e-12: verify failed it (fixed in verify: the tolerance's ends are rounded outward to
+# the floats, between which no recorded number can lie)
+REGRESSIONS["randomized response at 1e-12 nats, the tolerance's end between two floats"] = (
+    _spec('["g0", "g1", "g2", "g3"]', "[population]\ngroup_distribution = [0.0, 0.125, 0.25, 0.625]\n").replace(
+        '["d0", "d1"]', '["d0", "d1", "d2"]'
+    )
+    + RR.format(1e-12)
+    + '[utility]\nkind = "table"\nvalues = [0.2, 0.0, 0.2]\ngamma = 0.7\ntau = 0.2\n[target]\nlocal = 0.5\n',
+    None,
+)
+
 
 @pytest.mark.parametrize("name", list(REGRESSIONS))
 def test_found_certificates_hold(name, tmp_path):

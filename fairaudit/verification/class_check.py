@@ -157,10 +157,10 @@ def _symmetric_worst(
     k − 3 others. The classes' sizes weigh the floors and the ratio; the Lipschitz rows between groups and between
     classes that meet at a released value are the rows of H that such an h must meet.
     """
-    others = k - 2  # released values other than a and a'
-    cells = ["a.a", "a.a'", "a.o", "a'.a", "a'.a'", "a'.o", "c.a", "c.a'", "c.c", "c.o"]
-    present = [c for c in cells if not (c.endswith(".o") and (others if c[0] == "a" else others - 1) < 1)]
-    present = [c for c in present if not (c.startswith("c.") and others < 1)]
+    others = k - 2  # released values other than a and a' (and groups other than a and a')
+    orbit = {"a.a": 1, "a.a'": 1, "a.o": others, "a'.a": 1, "a'.a'": 1, "a'.o": others,
+             "c.a": others, "c.a'": others, "c.c": others, "c.o": others * (others - 1)}  # fmt: skip
+    present = [cell for cell, size in orbit.items() if size > 0]  # (the orbits that exist for this k)
     at = {c: i for i, c in enumerate(present)}
     size = len(present)
 

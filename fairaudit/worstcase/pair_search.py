@@ -152,6 +152,37 @@ def inner_witness(
     whose active rows the tightening makes inconsistent: the Lipschitz rows of three groups on a line), the point
     (1 − θ)·h + θ·``inside`` for the steps θ of :data:`PULLS`, ``inside`` a point that meets every row with room to
     spare. Every candidate is checked exactly, so a wrong one is refused, never a wrong witness.
+
+    Parameters
+    ----------
+    r : FractionalResult
+        The outer program's result (its ``value`` and ``certified`` are kept); ``r.argmax`` shape (n,).
+    p, q : numpy.ndarray, shape (n,)
+        The inner program's numerator (lower ends) and denominator (upper ends), ≥ 0.
+    lower, upper : numpy.ndarray, shape (n,)
+        Finite bounds of h.
+    rows : list of (A, b, kind)
+        The inner program's rows, A of shape (m, n) dense or sparse, kind "le" or "eq".
+    inside : numpy.ndarray, shape (n,), optional
+        A point strictly inside the inner rows (the top of the box for the class programs); None: no pull.
+
+    Returns
+    -------
+    FractionalResult
+        ``r`` with ``witness`` (a ratio, rounded down; NaN when no candidate meets every row exactly) and ``gap``
+        (``value − witness`` rounded up). ``proofs/black_box.md`` §5 and §6, ``proofs/linear_fractional.md`` §6.
+
+    Examples
+    --------
+    Binary randomized response keeping 0.7 with floors 1/2 (``FractionalProgram``'s example), taken as exact on both
+    sides: the maximum is 11/7, and the witness within rounding of it.
+
+    >>> p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    >>> rows = [(-np.array([[0.7, 0.3], [0.3, 0.7]]), -np.full(2, 0.5), "le")]
+    >>> r = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=rows[0][0], b_ub=rows[0][1]).solve(p, q)
+    >>> w = inner_witness(r, p, q, np.zeros(2), np.ones(2), rows)
+    >>> w.witness <= 11 / 7 <= w.value, 11 / 7 - w.witness < 1e-12
+    (True, True)
     """
     if r.argmax is None:
         return r

@@ -78,7 +78,7 @@ def local_search(
         x, a, b = triples[i]
         return programs.solve(programs.local(int(x), int(a), int(b)), rounded)
 
-    evidence = _Evidence.of(problem, "local", triples)
+    evidence = _Evidence.of(problem, "local", triples, space)
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence))
     return _model_case(problem, "local", found, triples, space, evidence)
 
@@ -119,7 +119,7 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
         return programs.solve(programs.global_(int(pairs[i, 0]), int(pairs[i, 1])), rounded)
 
-    evidence = _Evidence.of(problem, "global", global_triples)
+    evidence = _Evidence.of(problem, "global", global_triples, space)
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence))
     return _model_case(problem, "global", found, global_triples, space, evidence)
 
@@ -395,7 +395,8 @@ def _model_program(
 class _Evidence:
     """The duals of the programs a search bounds by an LP, kept for the certificate where ``fairaudit verify`` can use
     them: behind a matrix on the group (not randomized response, not the identity), the identity on the context and
-    a utility free of the group, whose programs it rebuilds over h[x, ã] (``proofs/verification.md`` §4e). The
+    a utility free of the group, whose programs it rebuilds over h[x, ã] (``proofs/verification.md`` §4e), with
+    floors that bind (without them the LP's rows are the simplex's, whose multipliers are no floors' ν). The
     floors' rows are ordered (live context, group), in G-space and in kernel space alike; L keeps its context's
     only. :meth:`of` gives None where the duals would not be used."""
 
@@ -405,9 +406,10 @@ class _Evidence:
         self.duals: list[ProgramDual] = []
 
     @classmethod
-    def of(cls, problem: ModelProblem, kind: str, triples: IntArray) -> _Evidence | None:
+    def of(cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace) -> _Evidence | None:
         matrix = not isinstance(problem.mechanism, RandomizedResponse) and not problem.mechanism.is_identity
-        return cls(problem, kind, triples) if matrix and problem.same_x and problem.group_free else None
+        usable = matrix and problem.same_x and problem.group_free and space.floors  # (no floors: no ν to keep)
+        return cls(problem, kind, triples) if usable else None
 
     def keep(self, i: int, r: FractionalResult) -> None:
         """Program i's dual, when an LP's dual certified its value."""

@@ -143,6 +143,15 @@ def test_the_certificate_records_the_dual_of_each_program_it_solved_by_lp(unlike
     assert len(detail["witness_point"]) == 2
 
 
+@pytest.mark.slow
+def test_without_binding_floors_no_multipliers_are_recorded():
+    # the kernel-space LP without floors has only its simplex rows: their multipliers (of either sign) are no
+    # floors' nu, and were recorded as such where the two counts coincided (2 contexts x 4 released groups)
+    spec = UNLIKE.replace('decision = "yes"\n', BY_CONTEXT).replace("tau = 0.287\n", "")
+    detail = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))["bound_details"]["black_box"]["global"]
+    assert detail["method"] == "lp" and "duals" not in detail and "witness_point" not in detail
+
+
 def test_beyond_the_exact_size_l_bar_is_bounded_by_the_recorded_dual(unlike, monkeypatch):
     # the same certificate re-derived twice: by the rational simplex, and with every program beyond the exact size,
     # from the recorded duals (upper end) and the vertex of the recorded point (lower end). Both ends agree with the

@@ -29,9 +29,10 @@ from fractions import Fraction
 from typing import Any, NamedTuple
 
 from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
-from fairaudit.verification.dual_check import BlockProgram, Evidence
+from fairaudit.verification.dual_check import SEARCH_STOP, BlockProgram, Evidence, MissingDual
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
+from fairaudit.verification.table_check import table_global, table_local
 
 __all__ = [
     "MAX_GROUPS",
@@ -55,10 +56,6 @@ certificate records no dual is still solved exactly: certify's rational simplex 
 crossover's size), and its exact last step is its proof, not a dual."""
 
 Number = Fraction | float
-
-SEARCH_STOP = Fraction(1, 10**12)
-"""Certify's pair search leaves unsolved a program whose bound is within this (relative) of the largest value found,
-and returns that bound where it is larger: such a program needs no dual, its bound being the upper end."""
 
 
 @dataclass(frozen=True)
@@ -135,7 +132,7 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
         return WorstCaseEnclosures(None, None, settings)
     try:
         ends = [(_local(s), _global(s)) for s in settings]
-    except _NoDual as exc:
+    except MissingDual as exc:
         return WorstCaseEnclosures(None, None, str(exc))
     except ValueError as exc:  # floors above what the recorded rows reach exactly: no model meets tau
         return WorstCaseEnclosures(
@@ -235,9 +232,9 @@ def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Setting] |
     )
     # no privacy on the group (the identity, randomized response at ε = inf): its rows are the identity's
     if m.kind == "identity" or (m.kind == "randomized_response" and m.t().lo == INF):
-        return kernel_settings(inputs, m, context, MAX_VARIABLES)
+        return kernel_settings(inputs, m, context, MAX_VARIABLES, evidence)
     if context.kind != "identity" or not group_free:  # no box: the programs over the model's table
-        return kernel_settings(inputs, m, context, MAX_VARIABLES)
+        return kernel_settings(inputs, m, context, MAX_VARIABLES, evidence)
     if isinstance(values[0], list):  # g(u, x): its range per context
         low = [min(values[x][0]) for x in live]
         high = [max(values[x][0]) for x in live]
@@ -277,6 +274,8 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None, 
     program); with ``at`` = (live context, a, a'), that one's (behind randomized response every pair is alike: the
     pair (0, 1) stands for it); ``loose``: as :func:`_largest`."""
     if isinstance(s, KernelSetting):
+        if not s.small:  # (M_X the identity: kernel_settings)
+            return table_local(s, at, loose)
         v = kernel_local(s, at)
         return v, v, False
     # contexts with the same box have the same programs: one case per box and pair (_largest); behind randomized
@@ -300,10 +299,6 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None, 
 
 _Ends = tuple[Number, Number, bool]
 """(lower end, upper end, whether a recorded dual gave the upper end)."""
-
-
-class _NoDual(Exception):
-    """A program beyond the exact size whose bound needs a dual the certificate does not record."""
 
 
 def _local_evidence(s: _Setting) -> tuple[dict[tuple[Any, ...], list[list[Fraction]]], dict[tuple[Any, ...], Any]]:
@@ -398,7 +393,7 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _End
     the others are solved exactly in decreasing order of their bound until none left exceeds the upper end found. A
     key none of whose programs is known feasible has its first solved whatever its bound: that is where floors no
     model meets are found (ValueError). A program beyond the exact size is bounded by its recorded dual instead
-    (:class:`_NoDual` without one, unless its bound is within :data:`SEARCH_STOP` of the upper end found, or
+    (:class:`MissingDual` without one, unless its bound is within :data:`SEARCH_STOP` of the upper end found, or
     ``loose``: its bound, the relaxation's, is then an upper end), and a recorded point that meets every constraint
     gives a lower end.
     """
@@ -442,7 +437,7 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _End
             deferred.append(bound)
     # certify's search leaves unsolved a program whose bound is within SEARCH_STOP of the largest value it found
     if any(bound * (1 - SEARCH_STOP) > high for bound in deferred):
-        raise _NoDual(f"programs beyond {MAX_VARIABLES} variables or {MAX_GROUPS} floors without a recorded dual")
+        raise MissingDual(f"programs beyond {MAX_VARIABLES} variables or {MAX_GROUPS} floors without a recorded dual")
     if deferred and max(deferred) > high:
         high, duals = max(deferred), True
     return low, high, duals
@@ -542,6 +537,11 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loos
     enclosed as in :func:`_local` (``loose`` likewise); 1 (L-bar = 0) with fewer than two groups present; with ``at`` = (a, a'), that
     pair's; None where a program beyond the exact size has no recorded dual."""
     if isinstance(s, KernelSetting):
+        if not s.small:  # (M_X the identity: kernel_settings)
+            try:
+                return table_global(s, at, loose)
+            except MissingDual:
+                return None
         v = kernel_global(s, at)
         return None if v is None else (v, v, False)
     if len(s.present) < 2:
@@ -570,7 +570,7 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loos
                            point.get((a, b))))  # fmt: skip
     try:
         return _largest(cases, Fraction(1), loose)
-    except _NoDual:
+    except MissingDual:
         return None
 
 

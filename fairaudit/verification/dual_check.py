@@ -27,10 +27,18 @@ from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.json_values import label
 from fairaudit.verification.enclosures import INF, recorded_array
 
-__all__ = ["BlockProgram", "Evidence"]
+__all__ = ["SEARCH_STOP", "BlockProgram", "Evidence", "MissingDual"]
 
 Number = Fraction | float
 Block = Sequence[Fraction]
+
+SEARCH_STOP = Fraction(1, 10**12)
+"""Certify's pair search leaves unsolved a program whose bound is within this (relative) of the largest value found,
+and returns that bound where it is larger: such a program needs no dual, its bound being the upper end."""
+
+
+class MissingDual(Exception):
+    """A program beyond the exact size whose bound needs a dual the certificate does not record."""
 
 
 @dataclass(frozen=True)
@@ -40,13 +48,14 @@ class Evidence:
 
     ``local[(x, a, b)]`` is ν over the groups for L's program at context x and pair (a, b); ``global_[(a, b)]`` is
     ν per context (the population's order) for L̄'s. ``local_point`` is (x, a, b, h) of L's maximiser, h over the
-    released groups; ``global_point`` is (a, b, h) of L̄'s, h per context.
+    released groups; ``global_point`` is (a, b, h) of L̄'s, h per context. For a utility that depends on the group
+    each h over the released groups is the maximiser's table instead, a row over the decisions per released group.
     """
 
     local: dict[tuple[int, int, int], list[Fraction]] = field(default_factory=dict)
     global_: dict[tuple[int, int], list[list[Fraction]]] = field(default_factory=dict)
-    local_point: tuple[int, int, int, list[Fraction]] | None = None
-    global_point: tuple[int, int, list[list[Fraction]]] | None = None
+    local_point: tuple[int, int, int, list[Any]] | None = None
+    global_point: tuple[int, int, list[list[Any]]] | None = None
 
     @classmethod
     def from_record(cls, detail: Mapping[str, Any] | None, inputs: Mapping[str, Any]) -> Evidence:
@@ -81,13 +90,17 @@ class Evidence:
         local_point = None
         named = all(detail.get(k) in labels for k, labels in (("context", contexts), ("group", groups),
                                                              ("other_group", groups)))  # fmt: skip
+        n_u = _decisions(inputs)
         if detail.get("witness_point") is not None and named:
-            h = _vector(detail["witness_point"], released, f"{where}.witness_point")
+            h = _point(detail["witness_point"], released, n_u, f"{where}.witness_point")
             local_point = (contexts.index(detail["context"]), groups.index(detail["group"]),
                            groups.index(detail["other_group"]), h)  # fmt: skip
         global_point = None
         if glob.get("witness_point") is not None and glob.get("group") in groups and glob.get("other_group") in groups:
-            hs = _matrix(glob["witness_point"], len(contexts), released, f"{where}.global.witness_point")
+            name = f"{where}.global.witness_point"
+            if not isinstance(glob["witness_point"], list) or len(glob["witness_point"]) != len(contexts):
+                raise InputError(name, f"must be a list of {len(contexts)} lists", glob["witness_point"])
+            hs = [_point(h, released, n_u, f"{name}[{i}]") for i, h in enumerate(glob["witness_point"])]
             global_point = (groups.index(glob["group"]), groups.index(glob["other_group"]), hs)
         return cls(local, global_, local_point, global_point)
 
@@ -108,6 +121,21 @@ def _vector(value: Any, n: int, name: str) -> list[Fraction]:
     if any(not isinstance(v, Fraction) for v in out):
         raise InputError(name, "must hold finite numbers", value)
     return out
+
+
+def _decisions(inputs: Mapping[str, Any]) -> int | None:
+    """The number of decisions when the utility depends on the group (its witness points are tables), else None."""
+    values = inputs["utility"]["values"]
+    if not values or not isinstance(values[0], list):
+        return None
+    if all(row == table[0] for table in values for row in table):
+        return None
+    return len(values[0][0])
+
+
+def _point(value: Any, released: int, n_u: int | None, name: str) -> list[Any]:
+    """A recorded point over the released groups: n numbers, or (``n_u`` given) a table of rows of ``n_u``."""
+    return _vector(value, released, name) if n_u is None else _matrix(value, released, n_u, name)
 
 
 def _matrix(value: Any, rows: int, n: int, name: str) -> list[list[Fraction]]:

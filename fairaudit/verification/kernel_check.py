@@ -22,14 +22,15 @@ conventions are the tool's: c/0 = +inf for c > 0 and 0/0 = 1. ``proofs/verificat
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
 from fairaudit.base.exact_programs import Polytope, maximize_linear, maximize_ratio_over_product
+from fairaudit.verification.dual_check import Evidence
 from fairaudit.verification.enclosures import INF, RecordedMechanism, exact, recorded_array
 
-__all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings"]
+__all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings", "released_groups"]
 
 Number = Fraction | float
 Rows = tuple[tuple[Fraction, ...], ...]
@@ -59,7 +60,10 @@ class KernelSetting:
     group_free : bool
         Whether g(u, x, a) is the same for every group (then L ≤ ε holds as well).
     max_variables : int
-        The largest program (variables, the constant s included) :func:`kernel_global` solves.
+        The largest program (variables, the constant s included) :func:`kernel_local` and :func:`kernel_global`
+        solve; with M_X the identity a larger one is bounded by :mod:`~fairaudit.verification.table_check`.
+    evidence : Evidence
+        The certificate's recorded multipliers and witness tables, for the programs beyond ``max_variables``.
     """
 
     sensitive: Rows  # M_A, (n_groups, n_released_groups)
@@ -71,10 +75,20 @@ class KernelSetting:
     present: list[int]
     group_free: bool
     max_variables: int
+    evidence: Evidence = field(default_factory=Evidence)
 
     @property
     def k(self) -> int:
         return len(self.sensitive)
+
+    @property
+    def small(self) -> bool:
+        """Whether every program of L and L̄ has at most ``max_variables`` variables (with M_X the identity each
+        context is a block of its own; otherwise every context's rows are one)."""
+        contexts = [[x] for x in self.live] if self.context is None else [self.live]
+        return max((len(_blocks(self, c)) for c in contexts), default=0) * (len(self.g[0][0]) - 1) + 1 <= (
+            self.max_variables
+        )
 
 
 def kernel_settings(
@@ -82,6 +96,7 @@ def kernel_settings(
     sensitive: RecordedMechanism,
     context: RecordedMechanism,
     max_variables: int,
+    evidence: Evidence | None = None,
 ) -> list[KernelSetting] | str:
     """The programs' data at each end of the mechanisms' e^ε, or why the worst case is not re-derived here.
 
@@ -93,14 +108,18 @@ def kernel_settings(
     sensitive, context : RecordedMechanism
         M_A and M_X as recorded (randomized response, a matrix, or the identity for the context).
     max_variables : int
-        The largest program solved; a program of L beyond it is not re-derived.
+        The largest program solved exactly; beyond it, with M_X the identity, the programs are bounded by
+        :mod:`~fairaudit.verification.table_check`, and otherwise not re-derived.
+    evidence : Evidence, optional
+        The certificate's recorded multipliers and witness tables (default none).
 
     Returns
     -------
     list of KernelSetting or str
         One setting when neither mechanism is randomized response; else two, at the lower and the upper rational end
         of its e^ε (the worst case is non-decreasing in e^ε, so the two bound it). A str says why not: a program of L
-        beyond ``max_variables`` variables, or randomized response beyond ε = 10^6.
+        beyond ``max_variables`` variables behind a context mechanism other than the identity, or randomized
+        response beyond ε = 10^6.
 
     Raises
     ------
@@ -140,13 +159,12 @@ def kernel_settings(
     out = [
         KernelSetting(
             _rows(sensitive, end), None if context.kind == "identity" else _rows(context, end), g, tau, live,
-            weights, present, group_free, max_variables,
+            weights, present, group_free, max_variables, evidence or Evidence(),
         )
         for end in ((0,) if exact_rows else (0, 1))
     ]  # fmt: skip
-    largest = max((len(_blocks(out[0], [x] if context.kind == "identity" else live)) for x in live), default=0)
-    if largest * (len(g[0][0]) - 1) + 1 > max_variables:  # one program of L
-        return f"programs beyond {max_variables} variables"
+    if out[0].context is not None and not out[0].small:
+        return f"programs beyond {max_variables} variables behind a context mechanism other than the identity"
     return out
 
 
@@ -311,15 +329,20 @@ def _linear_form(
     return out
 
 
+def released_groups(s: KernelSetting) -> list[int]:
+    """The released groups some group reaches (M_A[a, ã] > 0 for some a), ascending: the others' rows are free."""
+    return [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]
+
+
 def _blocks(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
     """The rows (x̃, ã) of K that ``contexts`` reach: released contexts M_X[x, x̃] > 0 for one of them (x̃ = x for the
     identity), released groups M_A[a, ã] > 0 for some group."""
-    released_groups = [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]
+    reached = released_groups(s)
     if s.context is None:
         released_contexts = list(contexts)
     else:
         released_contexts = [c for c in range(len(s.context[0])) if any(s.context[x][c] for x in contexts)]
-    return [(xr, ar) for xr in released_contexts for ar in released_groups]
+    return [(xr, ar) for xr in released_contexts for ar in reached]
 
 
 @dataclass(frozen=True)

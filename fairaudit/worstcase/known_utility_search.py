@@ -394,11 +394,11 @@ def _model_program(
 
 class _Evidence:
     """The duals of the programs a search bounds by an LP, kept for the certificate where ``fairaudit verify`` can use
-    them: behind a matrix on the group (not randomized response, not the identity), the identity on the context and
-    a utility free of the group, whose programs it rebuilds over h[x, ã] (``proofs/verification.md`` §4e), with
-    floors that bind (without them the LP's rows are the simplex's, whose multipliers are no floors' ν). The
-    floors' rows are ordered (live context, group), in G-space and in kernel space alike; L keeps its context's
-    only. :meth:`of` gives None where the duals would not be used."""
+    them: behind a matrix on the group (not randomized response, not the identity) and the identity on the context,
+    with floors that bind (without them the LP's rows are the simplex's, whose multipliers are no floors' ν). It
+    rebuilds the programs over h[x, ã] for a utility free of the group (``proofs/verification.md`` §4e), over the
+    model's table otherwise (§4f). The floors' rows are ordered (live context, group), in G-space and in kernel space
+    alike; L keeps its context's only. :meth:`of` gives None where the duals would not be used."""
 
     def __init__(self, problem: ModelProblem, kind: str, triples: IntArray) -> None:
         self.problem, self.kind, self.triples = problem, kind, triples
@@ -408,7 +408,7 @@ class _Evidence:
     @classmethod
     def of(cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace) -> _Evidence | None:
         matrix = not isinstance(problem.mechanism, RandomizedResponse) and not problem.mechanism.is_identity
-        usable = matrix and problem.same_x and problem.group_free and space.floors  # (no floors: no ν to keep)
+        usable = matrix and problem.same_x and space.floors  # (no floors: no ν to keep)
         return cls(problem, kind, triples) if usable else None
 
     def keep(self, i: int, r: FractionalResult) -> None:
@@ -449,7 +449,8 @@ def _model_case(
             h = np.clip(np.asarray(r.argmax, dtype=float), space.lo, space.hi).reshape(n_x, -1)
         else:
             table = np.clip(np.asarray(r.argmax, dtype=float), 0.0, 1.0).reshape(n_x, problem.n_released_groups, -1)
-            h = np.einsum("xau,xu->xa", table, problem.g[:, 0, :])
+            # a utility by group weighs one table differently per group: the table itself is the point
+            h = table if not problem.group_free else np.einsum("xau,xu->xa", table, problem.g[:, 0, :])
         point = h[x] if kind == "local" else h
     return WorstCase.searched(
         kind,

@@ -118,11 +118,13 @@ class WorstCase:
     gap : float
         ``value − witness`` in nats, rounded up (NaN without a witness).
     duals : tuple of ProgramDual
-        The dual point of every program the search bounded by a linear program (behind a matrix on the group, the
-        identity on the context and a utility free of the group), for a third party to check the bound with.
+        The dual point of every program the search bounded by a linear program (behind a matrix on the group and
+        the identity on the context, with floors that bind), for a third party to check the bound with.
     witness_point : numpy.ndarray or None
         The maximiser's point h[x, ã] = E[g | context x, released group ã] of the witness model (where ``duals``
-        are recorded): shape (n_released_groups,) for L (its context), (n_contexts, n_released_groups) for L̄.
+        are recorded): shape (n_released_groups,) for L (its context), (n_contexts, n_released_groups) for L̄. For a
+        utility that depends on the group, the witness model's table K[x, ã, u] instead: shape
+        (n_released_groups, n_decisions) for L, (n_contexts, n_released_groups, n_decisions) for L̄.
     """
 
     kind: str

@@ -1,0 +1,333 @@
+"""The black box over the model's table beyond the exact size: each program bounded by weak duality from the floors'
+recorded multipliers (or solved outright where its floors do not bind), its lower end read off the recorded table.
+
+With M_X the identity, a program of :mod:`~fairaudit.verification.kernel_check` is max (p·K)/(q·K) over tables K
+whose rows (x, ã) are distributions over the decisions, with floors F_f·K ≥ τ (one per live context and group). For
+any ν ≥ 0 and λ, at every table meeting the floors (the simplices kept in the inner maximum: a partial Lagrangian),
+
+    (p − λq)·K ≤ (p − λq + Σ_f ν_f F_f)·K − τ Σ_f ν_f ≤ B(λ) = Σ_rows max_u r[row, u] − τ Σ_f ν_f,
+
+r = p − λq + Σ_f ν_f F_f. So B(λ) ≤ 0 proves the ratio at most λ. With ν = 0 the floors are dropped, and B(λ) is the
+maximum of (p − λq)·K over the product of simplices itself: its smallest root is the value without floors, exactly,
+and where its maximising table meets the floors, the program's value. B is convex, piecewise linear and
+non-increasing in λ (q ≥ 0), so Newton's method from the left reaches its smallest root exactly, in finitely many
+steps. ``proofs/verification.md`` §4f.
+"""
+
+from __future__ import annotations
+
+import operator
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from fairaudit.base.exact_duality import ACTIVE_TOLERANCES
+from fairaudit.base.exact_vertex import gauss_jordan
+from fairaudit.verification.dual_check import SEARCH_STOP, MissingDual
+from fairaudit.verification.enclosures import INF
+from fairaudit.verification.kernel_check import KernelSetting, released_groups
+
+__all__ = ["TableProgram", "table_global", "table_local"]
+
+Number = Fraction | float
+Row = Sequence[Fraction]
+Table = Sequence[Row]
+Ends = tuple[Number, Number, bool]
+
+
+@dataclass(frozen=True)
+class TableProgram:
+    """max (p·K)/(q·K) over tables K, each row a distribution over the decisions, with floors F_f·K ≥ τ, in rationals.
+
+    Attributes
+    ----------
+    tops, bottoms : sequence of sequence of Fraction, shape (n_rows, n_decisions)
+        p and q, q ≥ 0.
+    floors : sequence of mapping of int to sequence of Fraction
+        F_f per floor, as {row: its coefficients over the decisions} (the rows it does not name are 0).
+    tau : Fraction or None
+        The floors' right-hand side (None: no floors).
+
+    Examples
+    --------
+    Keep 3/4 on two groups, g(yes, a) = 1, g(yes, b) = 1/2, g(no, ·) = 0 (``proofs/verification.md`` §4d): the
+    ratio a over b is 6 without floors; with τ = 1/4, ν = (0, 8/3) on the floors certifies 10/3, attained at
+    P(yes | ã) = (1, 1/3).
+
+    >>> F = Fraction
+    >>> p = [[F(3, 4), F(0)], [F(1, 4), F(0)]]
+    >>> q = [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+    >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+    >>> program = TableProgram(p, q, floors, F(1, 4))
+    >>> program.dual_bound(), program.dual_bound([F(0), F(8, 3)])
+    (Fraction(6, 1), Fraction(10, 3))
+    >>> program.point_ratio([[F(1), F(0)], [F(1, 3), F(2, 3)]])
+    Fraction(10, 3)
+    """
+
+    tops: Table
+    bottoms: Table
+    floors: Sequence[Mapping[int, Row]]
+    tau: Fraction | None
+
+    def dual_bound(self, nu: Row | None = None) -> Number:
+        """The smallest λ ≥ 0 with B(λ) ≤ 0 (see the module), exactly: an upper bound on the program's value.
+
+        Parameters
+        ----------
+        nu : sequence of Fraction, optional
+            ν, one per floor (ignored without τ). Default: 0, the program without its floors, whose value this is.
+
+        Returns
+        -------
+        Fraction or float
+            +inf when some ν < 0 or no λ has B(λ) ≤ 0 (a table with q·K = 0 < p·K); at least 1 where every row has
+            a decision with q = 0 (a table there has q·K = 0, and 0/0 counts as 1).
+        """
+        c = [list(p) for p in self.tops]
+        constant = Fraction(0)
+        if nu is not None and self.tau is not None:
+            if len(nu) != len(self.floors) or any(v < 0 for v in nu):
+                return INF
+            constant = -self.tau * sum(nu, Fraction(0))
+            for v, floor in zip(nu, self.floors, strict=True):
+                for row, coefficients in floor.items() if v else ():
+                    c[row] = [ci + v * fi for ci, fi in zip(c[row], coefficients, strict=True)]
+        lam = Fraction(0)
+        while True:
+            total, slope = constant, Fraction(0)
+            for cr, qr in zip(c, self.bottoms, strict=True):
+                best, steep = max(((ci - lam * qi, qi) for ci, qi in zip(cr, qr, strict=True)))
+                total += best
+                slope += steep  # the right derivative: among a row's maximisers the steepest descent
+            if total <= 0:
+                break
+            if slope == 0:
+                return INF
+            lam += total / slope  # the tangent's root: at most B's smallest root (B is convex)
+        zero = all(any(qi == 0 for qi in qr) for qr in self.bottoms)
+        return max(lam, Fraction(1)) if zero else lam
+
+    def relaxed_table(self, lam: Number) -> list[list[Fraction]]:
+        """A table attaining the value ``lam`` = :meth:`dual_bound` () without the floors: each row on a decision
+        maximising p − λq, the one with the largest q among ties; for +inf, on a decision with q = 0 maximising p."""
+        table = []
+        for pr, qr in zip(self.tops, self.bottoms, strict=True):
+            if lam == INF:
+                u = max((i for i in range(len(pr)) if qr[i] == 0), key=lambda i: pr[i])
+            else:
+                u = max(range(len(pr)), key=lambda i: (pr[i] - lam * qr[i], qr[i]))
+            table.append([Fraction(int(i == u)) for i in range(len(pr))])
+        return table
+
+    def meets(self, table: Table) -> bool:
+        """Whether the table's cells are ≥ 0, its rows sum to 1 and it meets every floor, exactly."""
+        if any(v < 0 for row in table for v in row) or any(sum(row, Fraction(0)) != 1 for row in table):
+            return False
+        return self.tau is None or all(
+            sum((_dot(f, table[r]) for r, f in floor.items()), Fraction(0)) >= self.tau for floor in self.floors
+        )
+
+    def point_ratio(self, table: Table) -> Fraction | None:
+        """(p·K)/(q·K) at the table K, exactly, when it :meth:`meets` every constraint and q·K > 0; None otherwise."""
+        if not self.meets(table):
+            return None
+        num = sum(map(_dot, self.tops, table), Fraction(0))
+        den = sum(map(_dot, self.bottoms, table), Fraction(0))
+        return num / den if den > 0 else None
+
+    def vertex_ratio(self, table: Table) -> Fraction | None:
+        """The largest ratio :meth:`point_ratio` gives at the table or at a vertex it stands for; None when none meets
+        every constraint.
+
+        At each of :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES`, a cell within it of 0 is put at 0, and the
+        rows' sums and the floors within it of τ are solved as equalities for the other cells, exactly
+        (:func:`~fairaudit.base.exact_vertex.gauss_jordan`; a cell they leave free keeps its value). A wrong reading is
+        refused by :meth:`point_ratio`, never a wrong ratio.
+        """
+        best = self.point_ratio(table)
+        n_u = len(table[0]) if table else 0
+        for tolerance in ACTIVE_TOLERANCES:
+            tol = Fraction(tolerance)
+            free = {r * n_u + u for r, row in enumerate(table) for u, v in enumerate(row) if v > tol}
+            equations: list[tuple[dict[int, Fraction], Fraction, bool]] = [
+                ({r * n_u + u: Fraction(1) for u in range(n_u) if r * n_u + u in free}, Fraction(1), True)
+                for r in range(len(table))
+            ]
+            for floor in self.floors if self.tau is not None else ():
+                assert self.tau is not None  # (no floors without τ)
+                if sum((_dot(f, table[r]) for r, f in floor.items()), Fraction(0)) - self.tau <= tol * (1 + self.tau):
+                    terms = {r * n_u + u: f[u] for r, f in floor.items() for u in range(n_u) if f[u]}
+                    equations.append(({i: v for i, v in terms.items() if i in free}, self.tau, False))
+            pivots = gauss_jordan(equations)
+            if pivots is None:
+                continue
+            cells = [
+                v if r * n_u + u in free else Fraction(0) for r, row in enumerate(table) for u, v in enumerate(row)
+            ]
+            for i, (terms, rhs) in pivots.items():  # (the free cells keep their values)
+                cells[i] = rhs - sum((v * cells[j] for j, v in terms.items()), Fraction(0))
+            found = self.point_ratio([cells[r * n_u : (r + 1) * n_u] for r in range(len(table))])
+            if found is not None and (best is None or found > best):
+                best = found
+        return best
+
+
+def _dot(a: Row, b: Row) -> Fraction:
+    return sum(map(operator.mul, a, b), Fraction(0))
+
+
+@dataclass(frozen=True)
+class _Case:
+    """One program: its bound (without the floors, and E[g | a] ≤ Σ max p over E[g | a'] ≥ t), the recorded ν and
+    witness table (over its rows), and the key of its rows' table in the recorded witness."""
+
+    program: TableProgram
+    bound: Number
+    exact: bool  # the bound is the value: the table attaining it meets the floors
+    nu: list[Fraction] | None
+    table: list[list[Fraction]] | None
+
+
+def _case(program: TableProgram, kept: Fraction | None, nu: Any, table: Any) -> _Case:
+    """The program's case: without floors its bound is its value; with them, where the table attaining the bound
+    without them meets them (at +inf: a table with E[g | a'] = 0 < E[g | a]; finite: one at its ratio)."""
+    relaxed = program.dual_bound()
+    at = program.relaxed_table(relaxed)
+    if program.tau is None or not program.floors:
+        exact = True
+    elif relaxed == INF:
+        exact = program.meets(at)
+    else:
+        exact = program.point_ratio(at) == relaxed
+    bound = relaxed
+    if kept and not exact:  # E[g | a'] ≥ t on every table meeting the floors
+        bound = min(bound, sum((max(p) for p in program.tops), Fraction(0)) / kept)
+    return _Case(program, bound, exact, nu, table)
+
+
+def _largest(cases: Sequence[_Case], start: Number, loose: bool) -> Ends:
+    """max of ``start`` and the programs' values, enclosed (as ``black_box_check._largest``): in decreasing order of
+    their bounds, each exact where its relaxed table meets the floors, else bounded by its ν; a recorded table gives a
+    lower end. Without a ν, a bound within :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end
+    found (certify's search leaves such a program unsolved), or any with ``loose``, is kept as an upper end; any
+    other raises :class:`~fairaudit.verification.dual_check.MissingDual`."""
+    low = high = start
+    duals, deferred = False, []
+    for case in sorted(cases, key=lambda c: c.bound, reverse=True):
+        if case.table is not None:
+            attained = case.program.vertex_ratio(case.table)
+            if attained is not None:
+                low = max(low, attained)
+        if case.bound <= high:
+            continue
+        if case.exact:
+            low, high = max(low, case.bound), max(high, case.bound)
+        elif case.nu is not None:
+            high, duals = max(high, min(case.bound, case.program.dual_bound(case.nu))), True
+        elif loose:
+            high, duals = max(high, case.bound), True
+        else:
+            deferred.append(case.bound)
+    if any(bound * (1 - SEARCH_STOP) > high for bound in deferred):
+        raise MissingDual("programs over the model's table beyond the exact size without a recorded dual")
+    if deferred and max(deferred) > high:
+        high, duals = max(deferred), True
+    return low, high, duals
+
+
+def _rows(s: KernelSetting, x: int, weight: Fraction, a: int, rows: Sequence[int]) -> list[list[Fraction]]:
+    """weight · M_A[a, ã] g(u, x, a) over the released groups ``rows`` (the rows of context x) and the decisions."""
+    g = s.g[x][a]
+    return [[weight * s.sensitive[a][r] * v for v in g] for r in rows]
+
+
+def _floors(s: KernelSetting, xs: Sequence[int], rows: Sequence[int]) -> list[dict[int, list[Fraction]]]:
+    """E[g | x, c] ≥ τ for each context of ``xs`` (its rows at position i·len(rows)) and each group c, in order."""
+    n = len(rows)
+    return [
+        {i * n + j: row for j, row in enumerate(_rows(s, x, Fraction(1), c, rows)) if any(row)}
+        for i, x in enumerate(xs)
+        for c in range(s.k)
+    ]
+
+
+def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose: bool = False) -> Ends:
+    """L's worst ratio over the model's table with M_X the identity, at any size, enclosed: (lower end, upper end,
+    whether a recorded ν or a relaxation gives the upper end).
+
+    Parameters
+    ----------
+    s : KernelSetting
+        The programs' data at one end of e^ε (``s.context`` None), with the certificate's evidence.
+    at : (int, int, int), optional
+        (index into ``s.live``, a, a'): that program only.
+    loose : bool
+        Keep a program's bound as its upper end where no ν is recorded (else :class:`MissingDual` is raised where
+        that bound exceeds the values found by more than :data:`SEARCH_STOP`).
+
+    Examples
+    --------
+    The module's setting (``kernel_check.kernel_local``'s example): 6, exactly, the floors not binding.
+
+    >>> from fractions import Fraction as F
+    >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
+    ...                   None, [0], [[F(1), F(1)]], [0, 1], False, 64)
+    >>> table_local(s)
+    (Fraction(6, 1), Fraction(6, 1), False)
+    """
+    assert s.context is None  # (a program per context holds only with M_X the identity)
+    rows = released_groups(s)
+    cases = [(i, a, b) for i in range(len(s.live)) for a in range(s.k) for b in range(s.k) if a != b]
+    out = []
+    evidence = s.evidence
+    floors: dict[int, list[dict[int, list[Fraction]]]] = {}  # (a context's, for all its pairs)
+    for i, a, b in cases if at is None else [at]:
+        x = s.live[i]
+        if x not in floors:
+            floors[x] = _floors(s, [x], rows)
+        program = TableProgram(_rows(s, x, Fraction(1), a, rows), _rows(s, x, Fraction(1), b, rows), floors[x], s.tau)
+        nu = evidence.local.get((x, a, b))
+        point = evidence.local_point
+        table = None
+        if point is not None and point[:3] == (x, a, b) and isinstance(point[3][0], list):
+            table = [point[3][r] for r in rows]
+        out.append(_case(program, s.tau, nu, table))
+    return _largest(out, Fraction(0), loose)
+
+
+def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: bool = False) -> Ends:
+    """L̄'s worst ratio over the model's table with M_X the identity, at any size, enclosed as in
+    :func:`table_local` (every live context's rows, weighted by P(x | a)); 1 with fewer than two groups present.
+
+    Examples
+    --------
+    With τ = 1/4 and no ν recorded, ``loose`` keeps the bound E[g | a] ≤ 1 over E[g | b] ≥ 1/4 (the value is 10/3):
+
+    >>> from fractions import Fraction as F
+    >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
+    ...                   F(1, 4), [0], [[F(1), F(1)]], [0, 1], False, 64)
+    >>> table_global(s, loose=True)
+    (Fraction(1, 1), Fraction(4, 1), True)
+    """
+    assert s.context is None
+    if len(s.present) < 2:
+        return Fraction(1), Fraction(1), False
+    rows = released_groups(s)
+    floors = _floors(s, s.live, rows)
+    pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
+    evidence = s.evidence
+    out = []
+    for a, b in pairs:
+        tops = [r for i, x in enumerate(s.live) for r in _rows(s, x, s.weights[i][a], a, rows)]
+        bottoms = [r for i, x in enumerate(s.live) for r in _rows(s, x, s.weights[i][b], b, rows)]
+        recorded = evidence.global_.get((a, b))
+        nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
+        point = evidence.global_point
+        table = None
+        if point is not None and point[:2] == (a, b) and isinstance(point[2][0][0], list):
+            table = [point[2][x][r] for x in s.live for r in rows]
+        kept = None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0))
+        out.append(_case(TableProgram(tops, bottoms, floors, s.tau), kept, nu, table))
+    return _largest(out, Fraction(1), loose)

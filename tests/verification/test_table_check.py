@@ -1,0 +1,219 @@
+"""Programs over the model's table beyond the exact size (a utility that depends on the group): bounded from the
+recorded floors' multipliers, exact without binding floors, the witness read off the recorded table."""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import json
+import random
+from fractions import Fraction as F
+
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+from test_dual_check import UNLIKE
+
+import fairaudit.verification.black_box_check as bb
+from fairaudit.base.errors import InputError
+from fairaudit.base.exact_programs import maximize_ratio
+from fairaudit.certification.certificate import certify
+from fairaudit.certification.spec import parse_spec
+from fairaudit.verification.enclosures import INF
+from fairaudit.verification.rederive import verify
+from fairaudit.verification.table_check import TableProgram
+
+
+@st.composite
+def programs(draw):
+    """1 to 3 rows of 2 or 3 decisions, up to 3 floors over them, small rationals, and a nu >= 0 per floor."""
+    rows, n_u, m = draw(st.integers(1, 3)), draw(st.integers(2, 3)), draw(st.integers(0, 3))
+    small = st.integers(0, 6).map(lambda v: F(v, 6))
+    tops = [[draw(small) for _ in range(n_u)] for _ in range(rows)]
+    bottoms = [[draw(small) for _ in range(n_u)] for _ in range(rows)]
+    floors = [{r: [draw(small) for _ in range(n_u)] for r in range(rows)} for _ in range(m)]
+    tau = draw(st.integers(0, 4).map(lambda v: F(v, 10)))
+    nu = [draw(st.integers(0, 8).map(lambda v: F(v, 4))) for _ in range(m)]
+    return TableProgram(tops, bottoms, floors, tau), nu
+
+
+def _ratio(program, table):
+    """The tool's ratio at a table: c/0 = +inf for c > 0, 0/0 = 1."""
+    num = sum(p * k for pr, kr in zip(program.tops, table) for p, k in zip(pr, kr))
+    den = sum(q * k for qr, kr in zip(program.bottoms, table) for q, k in zip(qr, kr))
+    return num / den if den else (INF if num else F(1))
+
+
+def _b(program, nu, lam):
+    """B(lambda) cell by cell (a second route): each row's largest r = p - lam q + sum_f nu_f F_f, less tau sum nu."""
+    total = -program.tau * sum(nu, F(0))
+    for row, (p, q) in enumerate(zip(program.tops, program.bottoms)):
+        c = [pi - lam * qi + sum(v * f[row][u] for v, f in zip(nu, program.floors) if row in f)
+             for u, (pi, qi) in enumerate(zip(p, q))]  # fmt: skip
+        total += max(c)
+    return total
+
+
+def _optimum(program):
+    """The rational simplex's optimum over the tables meeting the floors (each row's sum = 1 as two inequalities)."""
+    rows, n_u = len(program.tops), len(program.tops[0])
+    n = rows * n_u
+    a_ub, b_ub = [], []
+    for r in range(rows):
+        sums = [F(int(i // n_u == r)) for i in range(n)]
+        a_ub += [sums, [-v for v in sums]]
+        b_ub += [F(1), F(-1)]
+    for floor in program.floors:
+        a_ub.append([-floor.get(i // n_u, [F(0)] * n_u)[i % n_u] for i in range(n)])
+        b_ub.append(-program.tau)
+    p = [v for row in program.tops for v in row]
+    q = [v for row in program.bottoms for v in row]
+    return maximize_ratio(p, q, [F(0)] * n, [F(1)] * n, a_ub, b_ub)
+
+
+@given(programs())
+@settings(max_examples=80, deadline=None)
+def test_without_floors_the_bound_is_the_maximum_over_every_deterministic_table(drawn):
+    program, _ = drawn
+    tables = itertools.product(*[[[F(int(i == u)) for i in range(len(row))] for u in range(len(row))]
+                                 for row in program.tops])  # fmt: skip
+    assert program.dual_bound() == max(_ratio(program, list(t)) for t in tables)
+
+
+@given(programs())
+@settings(max_examples=80, deadline=None)
+def test_a_dual_bound_is_an_upper_bound_and_the_smallest_lambda_its_b_allows(drawn):
+    program, nu = drawn
+    bound = program.dual_bound(nu)
+    optimum = _optimum(program)
+    if optimum.status == "optimal":
+        assert bound >= optimum.value
+    assume(bound != INF)
+    zero = all(0 in q for q in program.bottoms)
+    if not (zero and bound == 1):  # (not raised to 1 by a table with q.K = 0)
+        assert _b(program, nu, bound) <= 0
+        assert bound == 0 or _b(program, nu, bound - F(1, 10**9)) > 0
+
+
+@given(programs(), st.integers(-3, 3))
+@settings(max_examples=60, deadline=None)
+def test_a_table_read_off_a_perturbed_optimum_is_feasible_and_at_most_the_maximum(drawn, shift):
+    program, _ = drawn
+    optimum = _optimum(program)
+    assume(optimum.status == "optimal" and optimum.point is not None)
+    n_u = len(program.tops[0])
+    table = [list(optimum.point[r * n_u : (r + 1) * n_u]) for r in range(len(program.tops))]
+    near = [[v + F(shift, 10**12) for v in row] for row in table]
+    found = program.vertex_ratio(near)
+    assert found is None or found <= optimum.value
+    assert program.vertex_ratio(table) == optimum.value
+
+
+# UNLIKE with a utility by group: the programs are over the model's table, and its floors bind
+TABLE = [[[1.0, 0.2], [0.8, 0.1], [0.9, 0.3], [1.0, 0.0]], [[0.7, 0.2], [1.0, 0.4], [0.9, 0.0], [0.6, 0.1]]]
+BY_GROUP = UNLIKE.replace('decision = "yes"\n', 'kind = "table"\nvalues = ' + json.dumps(TABLE) + "\n")
+
+
+@pytest.fixture(scope="module")
+def by_group():
+    return json.loads(json.dumps(certify(parse_spec(BY_GROUP)).to_dict()))
+
+
+def test_the_certificate_records_the_floors_multipliers_and_the_witness_tables(by_group):
+    detail = by_group["bound_details"]["black_box"]
+    assert detail["method"] == "lp" and detail["duals"] and detail["global"]["duals"]
+    assert all(len(d["floors"]) == 4 and min(d["floors"]) >= 0 for d in detail["duals"])
+    assert [len(row) for row in detail["witness_point"]] == [2] * 4  # (released group, decision)
+    assert [[len(row) for row in t] for t in detail["global"]["witness_point"]] == [[2] * 4] * 2
+
+
+def test_beyond_the_exact_size_the_table_programs_are_bounded_by_the_recorded_duals(by_group, monkeypatch):
+    # re-derived twice: by the rational simplex, and with every program beyond the exact size. The lower ends (the
+    # recorded tables' vertices) are the exact values; the upper ends (the duals) within 1e-15 of them
+    detail = by_group["bound_details"]["black_box"]
+    exact = bb.black_box_enclosures(by_group["inputs"], detail)
+    assert exact.local.lo == exact.local.hi and exact.global_.lo == exact.global_.hi and not exact.from_duals
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    dual = bb.black_box_enclosures(by_group["inputs"], detail)
+    assert dual.from_duals and not dual.group_free
+    for ours, theirs in ((dual.local, exact.local), (dual.global_, exact.global_)):
+        assert ours.lo == theirs.lo
+        assert theirs.hi <= ours.hi <= theirs.hi * (1 + F(1, 10**15))
+    result = verify(by_group)
+    assert result.holds, [c.line() for c in result.failures]
+    names = {c.name for c in result.checks}
+    assert {"bound_details.black_box.witness", "bound_details.black_box.global.witness"} <= names
+    assert not [n for n, _ in result.not_checked if n.endswith(("witness", "(its groups)", "(its context and groups)"))]
+
+
+def _edited(cert, edit):
+    out = copy.deepcopy(cert)
+    edit(out["bound_details"]["black_box"])
+    return out
+
+
+def _zeroed(d):
+    for dual in d["duals"]:
+        dual["floors"] = [0.0] * 4
+
+
+@pytest.mark.parametrize(
+    ("edit", "failing"),
+    [
+        (lambda d: d.update(value=d["value"] + 1e-9), "bounds.black_box"),
+        (lambda d: d["global"].update(value=d["global"]["value"] - 1e-9), "bound_details.black_box.global.value"),
+        (_zeroed, "bounds.black_box"),
+        (lambda d: d.update(group=d["other_group"], other_group=d["group"]), "bound_details.black_box (its context and groups)"),
+    ],
+    ids=["value up", "global down", "duals zeroed", "pair swapped"],
+)  # fmt: skip
+def test_an_edited_certificate_fails_where_the_duals_decide(by_group, monkeypatch, edit, failing):
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    edited = _edited(by_group, edit)
+    if failing == "bounds.black_box" and edit is not _zeroed:
+        edited["bounds"]["black_box"] = edited["bound_details"]["black_box"]["value"]
+    assert failing in {c.name for c in verify(edited).failures}
+
+
+def test_without_its_duals_the_black_box_is_listed_not_failed(by_group, monkeypatch):
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    result = verify(_edited(by_group, lambda d: (d.pop("duals"), d["global"].pop("duals"))))
+    assert result.holds
+    assert "without a recorded dual" in dict(result.not_checked)["bounds.black_box"]
+
+
+def test_a_witness_table_of_the_wrong_shape_is_refused_naming_its_field(by_group):
+    edited = _edited(by_group, lambda d: d.update(witness_point=[[0.5, 0.5, 0.0]] * 4))
+    with pytest.raises(InputError, match=r"^bound_details\.black_box\.witness_point\[0\]:"):
+        bb.black_box_enclosures(edited["inputs"], edited["bound_details"]["black_box"])
+
+
+def test_without_binding_floors_the_table_programs_are_solved_exactly_at_any_size(monkeypatch):
+    # no tau: each program's value is its bound without floors, exact, with no dual recorded or needed
+    cert = json.loads(json.dumps(certify(parse_spec(BY_GROUP.replace("tau = 0.287\n", ""))).to_dict()))
+    exact = bb.black_box_enclosures(cert["inputs"], cert["bound_details"]["black_box"])
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    beyond = bb.black_box_enclosures(cert["inputs"], cert["bound_details"]["black_box"])
+    assert (beyond.local, beyond.global_) == (exact.local, exact.global_) and not beyond.from_duals
+    assert exact.local.lo == exact.local.hi
+
+
+@pytest.mark.slow
+def test_randomized_response_on_81_variables_with_a_utility_by_group_is_re_derived():
+    # five groups, 17 decisions: 81 variables per program, beyond the rational simplex's 64, where verify listed the
+    # black box as not re-derived. Without floors each program is exact at both ends of e^epsilon
+    rng = random.Random(1)
+    values = [[[round(rng.random(), 3) for _ in range(17)] for _ in range(5)]]
+    spec = (
+        '[sensitive]\nname = "group"\nvalues = ' + json.dumps([f"g{i}" for i in range(5)]) + "\n"
+        '[decision]\nname = "d"\nvalues = ' + json.dumps([f"u{i}" for i in range(17)]) + "\n"
+        '[privacy.sensitive]\nmechanism = "randomized_response"\nepsilon = 1.0\n'
+        '[utility]\nkind = "table"\nvalues = ' + json.dumps(values) + "\n"
+    )
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    worst = bb.black_box_enclosures(cert["inputs"], cert["bound_details"]["black_box"])
+    assert worst.local is not None and worst.global_ is not None and not worst.from_duals
+    assert worst.local.hi / worst.local.lo - 1 < F(1, 10**40)  # (the two 50-digit ends of e^epsilon)
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    assert "bounds.black_box" in {c.name for c in result.checks}

@@ -394,11 +394,12 @@ def _model_program(
 
 class _Evidence:
     """The duals of the programs a search bounds by an LP, kept for the certificate where ``fairaudit verify`` can use
-    them: behind a matrix on the group (not randomized response, not the identity) and the identity on the context,
-    with floors that bind (without them the LP's rows are the simplex's, whose multipliers are no floors' ν). It
-    rebuilds the programs over h[x, ã] for a utility free of the group (``proofs/verification.md`` §4e), over the
-    model's table otherwise (§4f). The floors' rows are ordered (live context, group), in G-space and in kernel space
-    alike; L keeps its context's only. :meth:`of` gives None where the duals would not be used."""
+    them: behind the identity on the context, with floors that bind (without them the LP's rows are the simplex's,
+    whose multipliers are no floors' ν), and not behind randomized response for a utility free of the group (whose
+    programs verify reduces to three cells). It rebuilds the programs over h[x, ã] behind a matrix for a utility free
+    of the group (``proofs/verification.md`` §4e), over the model's table otherwise (§4f). The floors' rows are
+    ordered (live context, group), in G-space and in kernel space alike; L keeps its context's only. :meth:`of`
+    gives None where the duals would not be used."""
 
     def __init__(self, problem: ModelProblem, kind: str, triples: IntArray) -> None:
         self.problem, self.kind, self.triples = problem, kind, triples
@@ -407,8 +408,8 @@ class _Evidence:
 
     @classmethod
     def of(cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace) -> _Evidence | None:
-        matrix = not isinstance(problem.mechanism, RandomizedResponse) and not problem.mechanism.is_identity
-        usable = matrix and problem.same_x and space.floors  # (no floors: no ν to keep)
+        symmetric = isinstance(problem.mechanism, RandomizedResponse) and problem.group_free
+        usable = problem.same_x and space.floors and not symmetric  # (no floors: no ν to keep)
         return cls(problem, kind, triples) if usable else None
 
     def keep(self, i: int, r: FractionalResult) -> None:

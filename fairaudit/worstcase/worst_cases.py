@@ -118,8 +118,9 @@ class WorstCase:
     gap : float
         ``value − witness`` in nats, rounded up (NaN without a witness).
     duals : tuple of ProgramDual
-        The dual point of every program the search bounded by a linear program (behind a matrix on the group and
-        the identity on the context, with floors that bind), for a third party to check the bound with.
+        The dual point of every program the search bounded by a linear program (behind the identity on the context,
+        with floors that bind; not behind randomized response for a utility free of the group), for a third party
+        to check the bound with.
     witness_point : numpy.ndarray or None
         The maximiser's point h[x, ã] = E[g | context x, released group ã] of the witness model (where ``duals``
         are recorded): shape (n_released_groups,) for L (its context), (n_contexts, n_released_groups) for L̄. For a

@@ -217,3 +217,31 @@ def test_randomized_response_on_81_variables_with_a_utility_by_group_is_re_deriv
     result = verify(cert)
     assert result.holds, [c.line() for c in result.failures]
     assert "bounds.black_box" in {c.name for c in result.checks}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mechanism", ['"randomized_response"\nepsilon = 1.0', '"identity"'], ids=["rr", "identity"])
+def test_behind_randomized_response_or_the_identity_binding_floors_are_bounded_by_the_recorded_duals(mechanism):
+    # five groups, 17 decisions, two contexts, floors that bind: beyond 64 variables, where certify recorded no dual
+    # behind randomized response or the identity and verify listed the black box as not re-derived. Behind
+    # randomized response the recorded nu bounds the upper end of e^epsilon's program, the table the lower end's
+    rng = random.Random(1)
+    values = [[[round(rng.random(), 3) for _ in range(17)] for _ in range(5)] for _ in range(2)]
+    tau = round(0.3 * min(max(row) for table in values for row in table), 3)
+    spec = (
+        '[sensitive]\nname = "group"\nvalues = ' + json.dumps([f"g{i}" for i in range(5)]) + "\n"
+        '[context]\nname = "x"\nvalues = ["x0", "x1"]\n'
+        '[decision]\nname = "d"\nvalues = ' + json.dumps([f"u{i}" for i in range(17)]) + "\n"
+        "[population]\nprobabilities = [[0.1, 0.1, 0.05, 0.05, 0.2], [0.2, 0.05, 0.1, 0.1, 0.05]]\n"
+        f"[privacy.sensitive]\nmechanism = {mechanism}\n"
+        f'[utility]\nkind = "table"\nvalues = {json.dumps(values)}\ntau = {tau}\n'
+    )
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    detail = cert["bound_details"]["black_box"]
+    assert detail["duals"] and detail["global"]["duals"]
+    worst = bb.black_box_enclosures(cert["inputs"], detail)
+    for enclosure in (worst.local, worst.global_):
+        assert enclosure.hi / enclosure.lo - 1 < F(1, 10**14)
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    assert {"bounds.black_box", "bound_details.black_box.global.value"} <= {c.name for c in result.checks}

@@ -274,7 +274,7 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None, 
     program); with ``at`` = (live context, a, a'), that one's (behind randomized response every pair is alike: the
     pair (0, 1) stands for it); ``loose``: as :func:`_largest`."""
     if isinstance(s, KernelSetting):
-        if not s.small:  # (M_X the identity: kernel_settings)
+        if not s.small:
             return table_local(s, at, loose)
         v = kernel_local(s, at)
         return v, v, False
@@ -537,7 +537,7 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loos
     enclosed as in :func:`_local` (``loose`` likewise); 1 (L-bar = 0) with fewer than two groups present; with ``at`` = (a, a'), that
     pair's; None where a program beyond the exact size has no recorded dual."""
     if isinstance(s, KernelSetting):
-        if not s.small:  # (M_X the identity: kernel_settings)
+        if not s.small:
             try:
                 return table_global(s, at, loose)
             except MissingDual:

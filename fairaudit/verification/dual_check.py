@@ -46,13 +46,15 @@ class Evidence:
     """What a certificate records to check its black box with: the floors' multipliers of each program bounded by a
     linear program, and the maximiser's point, indexed by population position.
 
-    ``local[(x, a, b)]`` is ν over the groups for L's program at context x and pair (a, b); ``global_[(a, b)]`` is
-    ν per context (the population's order) for L̄'s. ``local_point`` is (x, a, b, h) of L's maximiser, h over the
-    released groups; ``global_point`` is (a, b, h) of L̄'s, h per context. For a utility that depends on the group
-    each h over the released groups is the maximiser's table instead, a row over the decisions per released group.
+    ``local[(x, a, b)]`` is ν over the groups for L's program at context x and pair (a, b) (per context behind a
+    context mechanism other than the identity, whose L program spans every context); ``global_[(a, b)]`` is ν per
+    context (the population's order) for L̄'s. ``local_point`` is (x, a, b, h) of L's maximiser, h over the released
+    groups; ``global_point`` is (a, b, h) of L̄'s, h per context. For a utility that depends on the group each h over
+    the released groups is the maximiser's table instead, a row over the decisions per released group; behind a
+    context mechanism other than the identity both points are the table over every released context.
     """
 
-    local: dict[tuple[int, int, int], list[Fraction]] = field(default_factory=dict)
+    local: dict[tuple[int, int, int], list[Any]] = field(default_factory=dict)  # ν, or ν per context
     global_: dict[tuple[int, int], list[list[Fraction]]] = field(default_factory=dict)
     local_point: tuple[int, int, int, list[Any]] | None = None
     global_point: tuple[int, int, list[list[Any]]] | None = None
@@ -73,13 +75,18 @@ class Evidence:
         contexts = [label(c) for c in pop["contexts"]]
         groups = [label(g) for g in pop["groups"]]
         released = len(inputs["sensitive_mechanism"]["outputs"])
+        own = inputs["context_mechanism"]["kind"] == "identity"  # (else L's program spans every context)
         where = "bound_details.black_box"
-        local = {}
+        local: dict[tuple[int, int, int], Any] = {}
         for i, d in enumerate(detail.get("duals") or []):
             name = f"{where}.duals[{i}]"
             key = (_index(d, "context", contexts, name), _index(d, "group", groups, name),
                    _index(d, "other_group", groups, name))  # fmt: skip
-            local[key] = _vector(d.get("floors"), len(groups), f"{name}.floors")
+            floors = d.get("floors")
+            if own:
+                local[key] = _vector(floors, len(groups), f"{name}.floors")
+            else:
+                local[key] = _matrix(floors, len(contexts), len(groups), f"{name}.floors")
         glob = detail.get("global") or {}
         global_ = {}
         for i, d in enumerate(glob.get("duals") or []):
@@ -92,15 +99,19 @@ class Evidence:
                                                              ("other_group", groups)))  # fmt: skip
         n_u = _decisions(inputs)
         if detail.get("witness_point") is not None and named:
-            h = _point(detail["witness_point"], released, n_u, f"{where}.witness_point")
+            name = f"{where}.witness_point"
+            h = _point(detail["witness_point"], released, n_u, name) if own else _tables(detail, name, inputs)
             local_point = (contexts.index(detail["context"]), groups.index(detail["group"]),
                            groups.index(detail["other_group"]), h)  # fmt: skip
         global_point = None
         if glob.get("witness_point") is not None and glob.get("group") in groups and glob.get("other_group") in groups:
             name = f"{where}.global.witness_point"
-            if not isinstance(glob["witness_point"], list) or len(glob["witness_point"]) != len(contexts):
-                raise InputError(name, f"must be a list of {len(contexts)} lists", glob["witness_point"])
-            hs = [_point(h, released, n_u, f"{name}[{i}]") for i, h in enumerate(glob["witness_point"])]
+            if own:
+                if not isinstance(glob["witness_point"], list) or len(glob["witness_point"]) != len(contexts):
+                    raise InputError(name, f"must be a list of {len(contexts)} lists", glob["witness_point"])
+                hs = [_point(h, released, n_u, f"{name}[{i}]") for i, h in enumerate(glob["witness_point"])]
+            else:
+                hs = _tables(glob, name, inputs)
             global_point = (groups.index(glob["group"]), groups.index(glob["other_group"]), hs)
         return cls(local, global_, local_point, global_point)
 
@@ -131,6 +142,18 @@ def _decisions(inputs: Mapping[str, Any]) -> int | None:
     if all(row == table[0] for table in values for row in table):
         return None
     return len(values[0][0])
+
+
+def _tables(record: Mapping[str, Any], name: str, inputs: Mapping[str, Any]) -> list[list[list[Fraction]]]:
+    """A recorded table over every released context (behind a context mechanism other than the identity): shape
+    (released contexts, released groups, decisions)."""
+    value = record["witness_point"]
+    n_x = len(inputs["context_mechanism"]["outputs"])
+    values = inputs["utility"]["values"]
+    n_u = len(values[0][0]) if values and isinstance(values[0], list) else len(values)
+    if not isinstance(value, list) or len(value) != n_x:
+        raise InputError(name, f"must be a list of {n_x} lists", value)
+    return [_matrix(t, len(inputs["sensitive_mechanism"]["outputs"]), n_u, f"{name}[{i}]") for i, t in enumerate(value)]
 
 
 def _point(value: Any, released: int, n_u: int | None, name: str) -> list[Any]:

@@ -30,7 +30,7 @@ from fairaudit.base.exact_programs import Polytope, maximize_linear, maximize_ra
 from fairaudit.verification.dual_check import Evidence
 from fairaudit.verification.enclosures import INF, RecordedMechanism, exact, recorded_array
 
-__all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings", "released_groups"]
+__all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings", "reached_rows"]
 
 Number = Fraction | float
 Rows = tuple[tuple[Fraction, ...], ...]
@@ -61,7 +61,7 @@ class KernelSetting:
         Whether g(u, x, a) is the same for every group (then L ≤ ε holds as well).
     max_variables : int
         The largest program (variables, the constant s included) :func:`kernel_local` and :func:`kernel_global`
-        solve; with M_X the identity a larger one is bounded by :mod:`~fairaudit.verification.table_check`.
+        solve; a larger one is bounded by :mod:`~fairaudit.verification.table_check`.
     evidence : Evidence
         The certificate's recorded multipliers and witness tables, for the programs beyond ``max_variables``.
     """
@@ -86,7 +86,7 @@ class KernelSetting:
         """Whether every program of L and L̄ has at most ``max_variables`` variables (with M_X the identity each
         context is a block of its own; otherwise every context's rows are one)."""
         contexts = [[x] for x in self.live] if self.context is None else [self.live]
-        return max((len(_blocks(self, c)) for c in contexts), default=0) * (len(self.g[0][0]) - 1) + 1 <= (
+        return max((len(reached_rows(self, c)) for c in contexts), default=0) * (len(self.g[0][0]) - 1) + 1 <= (
             self.max_variables
         )
 
@@ -97,8 +97,8 @@ def kernel_settings(
     context: RecordedMechanism,
     max_variables: int,
     evidence: Evidence | None = None,
-) -> list[KernelSetting] | str:
-    """The programs' data at each end of the mechanisms' e^ε, or why the worst case is not re-derived here.
+) -> list[KernelSetting]:
+    """The programs' data at each end of the mechanisms' e^ε.
 
     Parameters
     ----------
@@ -108,18 +108,17 @@ def kernel_settings(
     sensitive, context : RecordedMechanism
         M_A and M_X as recorded (randomized response, a matrix, or the identity for the context).
     max_variables : int
-        The largest program solved exactly; beyond it, with M_X the identity, the programs are bounded by
-        :mod:`~fairaudit.verification.table_check`, and otherwise not re-derived.
+        The largest program solved exactly; beyond it the programs are bounded by
+        :mod:`~fairaudit.verification.table_check`.
     evidence : Evidence, optional
         The certificate's recorded multipliers and witness tables (default none).
 
     Returns
     -------
-    list of KernelSetting or str
+    list of KernelSetting
         One setting when neither mechanism is randomized response; else two, at the lower and the upper rational end
-        of its e^ε (the worst case is non-decreasing in e^ε, so the two bound it). A str says why not: a program of L
-        beyond ``max_variables`` variables behind a context mechanism other than the identity, or randomized
-        response beyond ε = 10^6.
+        of its e^ε (the worst case is non-decreasing in e^ε, so the two bound it; beyond ε = 10^6 the upper end is the
+        identity).
 
     Raises
     ------
@@ -163,8 +162,6 @@ def kernel_settings(
         )
         for end in ((0,) if exact_rows else (0, 1))
     ]  # fmt: skip
-    if out[0].context is not None and not out[0].small:
-        return f"programs beyond {max_variables} variables behind a context mechanism other than the identity"
     return out
 
 
@@ -281,7 +278,7 @@ def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number
     # with M_X the identity each context's rows and floors are its own: the program is over a product, a block per
     # context; otherwise one block over every context's rows
     blocks = [[x] for x in contexts] if s.context is None else [contexts]
-    if max(len(_blocks(s, b)) for b in blocks) * (len(s.g[0][0]) - 1) + 1 > s.max_variables:
+    if max(len(reached_rows(s, b)) for b in blocks) * (len(s.g[0][0]) - 1) + 1 > s.max_variables:
         return None
     polytopes = [_Polytope.of(s, b) for b in blocks]
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
@@ -329,15 +326,15 @@ def _linear_form(
     return out
 
 
-def released_groups(s: KernelSetting) -> list[int]:
+def _released_groups(s: KernelSetting) -> list[int]:
     """The released groups some group reaches (M_A[a, ã] > 0 for some a), ascending: the others' rows are free."""
     return [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]
 
 
-def _blocks(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
-    """The rows (x̃, ã) of K that ``contexts`` reach: released contexts M_X[x, x̃] > 0 for one of them (x̃ = x for the
-    identity), released groups M_A[a, ã] > 0 for some group."""
-    reached = released_groups(s)
+def reached_rows(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
+    """The rows (x̃, ã) of K that ``contexts`` reach, in order: released contexts M_X[x, x̃] > 0 for one of them
+    (x̃ = x for the identity), released groups M_A[a, ã] > 0 for some group; the other rows enter no program."""
+    reached = _released_groups(s)
     if s.context is None:
         released_contexts = list(contexts)
     else:
@@ -361,7 +358,7 @@ class _Polytope:
     @classmethod
     def of(cls, s: KernelSetting, contexts: Sequence[int]) -> _Polytope:
         n_u = len(s.g[0][0])
-        blocks = _blocks(s, contexts)
+        blocks = reached_rows(s, contexts)
         n = len(blocks) * (n_u - 1) + 1
         rows: list[list[Fraction]] = []
         for i in range(len(blocks) if n_u > 2 else 0):  # Σ_{u < last} K[x̃, ã, u] ≤ 1

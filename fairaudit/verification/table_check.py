@@ -1,8 +1,8 @@
 """The black box over the model's table beyond the exact size: each program bounded by weak duality from the floors'
 recorded multipliers (or solved outright where its floors do not bind), its lower end read off the recorded table.
 
-With M_X the identity, a program of :mod:`~fairaudit.verification.kernel_check` is max (p·K)/(q·K) over tables K
-whose rows (x, ã) are distributions over the decisions, with floors F_f·K ≥ τ (one per live context and group). For
+A program of :mod:`~fairaudit.verification.kernel_check` is max (p·K)/(q·K) over tables K whose rows (x̃, ã) are
+distributions over the decisions, with floors F_f·K ≥ τ (one per live context and group). For
 any ν ≥ 0 and λ, at every table meeting the floors (the simplices kept in the inner maximum: a partial Lagrangian),
 
     (p − λq)·K ≤ (p − λq + Σ_f ν_f F_f)·K − τ Σ_f ν_f ≤ B(λ) = Σ_rows max_u r[row, u] − τ Σ_f ν_f,
@@ -26,7 +26,7 @@ from fairaudit.base.exact_duality import ACTIVE_TOLERANCES
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.verification.dual_check import SEARCH_STOP, MissingDual
 from fairaudit.verification.enclosures import INF
-from fairaudit.verification.kernel_check import KernelSetting, released_groups
+from fairaudit.verification.kernel_check import KernelSetting, reached_rows
 
 __all__ = ["TableProgram", "table_global", "table_local"]
 
@@ -237,30 +237,62 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool) -> Ends:
     return low, high, duals
 
 
-def _rows(s: KernelSetting, x: int, weight: Fraction, a: int, rows: Sequence[int]) -> list[list[Fraction]]:
-    """weight · M_A[a, ã] g(u, x, a) over the released groups ``rows`` (the rows of context x) and the decisions."""
-    g = s.g[x][a]
-    return [[weight * s.sensitive[a][r] * v for v in g] for r in rows]
+def _reach(s: KernelSetting, x: int) -> list[tuple[int, Fraction]]:
+    """The released contexts x̃ with M_X[x, x̃] > 0, with that entry (x itself, with 1, for the identity)."""
+    if s.context is None:
+        return [(x, Fraction(1))]
+    return [(xr, m) for xr, m in enumerate(s.context[x]) if m]
 
 
-def _floors(s: KernelSetting, xs: Sequence[int], rows: Sequence[int]) -> list[dict[int, list[Fraction]]]:
-    """E[g | x, c] ≥ τ for each context of ``xs`` (its rows at position i·len(rows)) and each group c, in order."""
-    n = len(rows)
-    return [
-        {i * n + j: row for j, row in enumerate(_rows(s, x, Fraction(1), c, rows)) if any(row)}
-        for i, x in enumerate(xs)
-        for c in range(s.k)
-    ]
+def _form(
+    s: KernelSetting, keys: Sequence[tuple[int, int]], weights: Mapping[int, Fraction], a: int
+) -> dict[int, list[Fraction]]:
+    """Σ_x weights[x] E[g | x, a] as {row: its coefficients over the decisions}, over the rows ``keys`` (x̃, ã): the
+    coefficient of K[x̃, ã, u] is Σ_x weights[x] M_X[x, x̃] M_A[a, ã] g(u, x, a); the rows it does not touch left out."""
+    by_context: dict[int, list[int]] = {}
+    for i, (xr, _) in enumerate(keys):
+        by_context.setdefault(xr, []).append(i)
+    out: dict[int, list[Fraction]] = {}
+    for x, w in weights.items():
+        g = s.g[x][a]
+        for xr, mx in _reach(s, x) if w else ():
+            for i in by_context.get(xr, ()):
+                m = w * mx * s.sensitive[a][keys[i][1]]
+                if m:
+                    row = out.get(i) or [Fraction(0)] * len(g)
+                    out[i] = [r + m * v for r, v in zip(row, g, strict=True)]
+    return out
+
+
+def _dense(form: Mapping[int, list[Fraction]], n_rows: int, n_u: int) -> list[list[Fraction]]:
+    return [form.get(i) or [Fraction(0)] * n_u for i in range(n_rows)]
+
+
+def _floors(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]) -> list[dict[int, list[Fraction]]]:
+    """E[g | x, c] ≥ τ for each context x of ``xs`` and each group c, in that order, over the rows ``keys``."""
+    return [_form(s, keys, {x: Fraction(1)}, c) for x in xs for c in range(s.k)]
+
+
+def _table(point: Any, keys: Sequence[tuple[int, int]], own: bool) -> list[list[Fraction]] | None:
+    """The recorded table's rows for ``keys``: ``point[ã]`` where the point is one context's (``own``: L behind the
+    identity), else ``point[x̃][ã]``; None where the point is no table (a utility free of the group behind the
+    identity records E[g | x, ã])."""
+    if own:
+        return [point[ar] for _, ar in keys] if isinstance(point[0], list) else None
+    return [point[xr][ar] for xr, ar in keys] if isinstance(point[0][0], list) else None
 
 
 def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose: bool = False) -> Ends:
-    """L's worst ratio over the model's table with M_X the identity, at any size, enclosed: (lower end, upper end,
-    whether a recorded ν or a relaxation gives the upper end).
+    """L's worst ratio over the model's table, at any size, enclosed: (lower end, upper end, whether a recorded ν or a
+    relaxation gives the upper end).
+
+    With M_X the identity, L at x is over the rows of x with the floors of x; otherwise over every row reached with
+    every live context's floors (they bind the same rows), its ν recorded per context.
 
     Parameters
     ----------
     s : KernelSetting
-        The programs' data at one end of e^ε (``s.context`` None), with the certificate's evidence.
+        The programs' data at one end of e^ε, with the certificate's evidence.
     at : (int, int, int), optional
         (index into ``s.live``, a, a'): that program only.
     loose : bool
@@ -277,29 +309,32 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
     >>> table_local(s)
     (Fraction(6, 1), Fraction(6, 1), False)
     """
-    assert s.context is None  # (a program per context holds only with M_X the identity)
-    rows = released_groups(s)
+    own = s.context is None  # (then a program per context)
     cases = [(i, a, b) for i in range(len(s.live)) for a in range(s.k) for b in range(s.k) if a != b]
+    n_u = len(s.g[0][0])
     out = []
     evidence = s.evidence
-    floors: dict[int, list[dict[int, list[Fraction]]]] = {}  # (a context's, for all its pairs)
+    shared: dict[int, tuple[list[tuple[int, int]], list[dict[int, list[Fraction]]]]] = {}  # rows and floors
     for i, a, b in cases if at is None else [at]:
         x = s.live[i]
-        if x not in floors:
-            floors[x] = _floors(s, [x], rows)
-        program = TableProgram(_rows(s, x, Fraction(1), a, rows), _rows(s, x, Fraction(1), b, rows), floors[x], s.tau)
-        nu = evidence.local.get((x, a, b))
+        key = x if own else -1
+        if key not in shared:
+            keys = reached_rows(s, [x] if own else s.live)
+            shared[key] = keys, _floors(s, keys, [x] if own else s.live)
+        keys, floors = shared[key]
+        tops = _dense(_form(s, keys, {x: Fraction(1)}, a), len(keys), n_u)
+        bottoms = _dense(_form(s, keys, {x: Fraction(1)}, b), len(keys), n_u)
+        recorded = evidence.local.get((x, a, b))
+        nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
         point = evidence.local_point
-        table = None
-        if point is not None and point[:3] == (x, a, b) and isinstance(point[3][0], list):
-            table = [point[3][r] for r in rows]
-        out.append(_case(program, s.tau, nu, table))
+        table = _table(point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
+        out.append(_case(TableProgram(tops, bottoms, floors, s.tau), s.tau, nu, table))
     return _largest(out, Fraction(0), loose)
 
 
 def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: bool = False) -> Ends:
-    """L̄'s worst ratio over the model's table with M_X the identity, at any size, enclosed as in
-    :func:`table_local` (every live context's rows, weighted by P(x | a)); 1 with fewer than two groups present.
+    """L̄'s worst ratio over the model's table, at any size, enclosed as in :func:`table_local` (every row reached,
+    E[g | a] = Σ_x P(x | a) E[g | x, a], every live context's floors); 1 with fewer than two groups present.
 
     Examples
     --------
@@ -311,23 +346,21 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: boo
     >>> table_global(s, loose=True)
     (Fraction(1, 1), Fraction(4, 1), True)
     """
-    assert s.context is None
     if len(s.present) < 2:
         return Fraction(1), Fraction(1), False
-    rows = released_groups(s)
-    floors = _floors(s, s.live, rows)
+    keys = reached_rows(s, s.live)
+    floors = _floors(s, keys, s.live)
+    n_u = len(s.g[0][0])
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
     evidence = s.evidence
     out = []
     for a, b in pairs:
-        tops = [r for i, x in enumerate(s.live) for r in _rows(s, x, s.weights[i][a], a, rows)]
-        bottoms = [r for i, x in enumerate(s.live) for r in _rows(s, x, s.weights[i][b], b, rows)]
+        tops = _dense(_form(s, keys, {x: s.weights[i][a] for i, x in enumerate(s.live)}, a), len(keys), n_u)
+        bottoms = _dense(_form(s, keys, {x: s.weights[i][b] for i, x in enumerate(s.live)}, b), len(keys), n_u)
         recorded = evidence.global_.get((a, b))
         nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
         point = evidence.global_point
-        table = None
-        if point is not None and point[:2] == (a, b) and isinstance(point[2][0][0], list):
-            table = [point[2][x][r] for x in s.live for r in rows]
+        table = _table(point[2], keys, False) if point is not None and point[:2] == (a, b) else None
         kept = None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0))
         out.append(_case(TableProgram(tops, bottoms, floors, s.tau), kept, nu, table))
     return _largest(out, Fraction(1), loose)

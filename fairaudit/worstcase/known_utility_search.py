@@ -394,11 +394,12 @@ def _model_program(
 
 class _Evidence:
     """The duals of the programs a search bounds by an LP, kept for the certificate where ``fairaudit verify`` can use
-    them: behind the identity on the context, with floors that bind (without them the LP's rows are the simplex's,
-    whose multipliers are no floors' ν), and not behind randomized response for a utility free of the group (whose
-    programs verify reduces to three cells). It rebuilds the programs over h[x, ã] behind a matrix for a utility free
-    of the group (``proofs/verification.md`` §4e), over the model's table otherwise (§4f). The floors' rows are
-    ordered (live context, group), in G-space and in kernel space alike; L keeps its context's only. :meth:`of`
+    them: with floors that bind (without them the LP's rows are the simplex's, whose multipliers are no floors' ν),
+    and not behind randomized response and the identity on the context for a utility free of the group (whose
+    programs verify reduces to three cells). It rebuilds the programs over h[x, ã] behind a matrix and the identity on
+    the context for a utility free of the group (``proofs/verification.md`` §4e), over the model's table otherwise
+    (§4f). The floors' rows are ordered (live context, group), in G-space and in kernel space alike; L keeps its
+    context's only behind the identity on the context (every context's floors bind its rows otherwise). :meth:`of`
     gives None where the duals would not be used."""
 
     def __init__(self, problem: ModelProblem, kind: str, triples: IntArray) -> None:
@@ -408,8 +409,8 @@ class _Evidence:
 
     @classmethod
     def of(cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace) -> _Evidence | None:
-        symmetric = isinstance(problem.mechanism, RandomizedResponse) and problem.group_free
-        usable = problem.same_x and space.floors and not symmetric  # (no floors: no ν to keep)
+        symmetric = isinstance(problem.mechanism, RandomizedResponse) and problem.group_free and problem.same_x
+        usable = space.floors and not symmetric  # (no floors: no ν to keep)
         return cls(problem, kind, triples) if usable else None
 
     def keep(self, i: int, r: FractionalResult) -> None:
@@ -422,8 +423,9 @@ class _Evidence:
         x, a, b = (int(v) for v in self.triples[i])
         local = self.kind == "local"
         groups = self.problem.groups
+        own = local and self.problem.same_x  # (L at x binds the rows of x alone)
         self.duals.append(ProgramDual(context=self.problem.contexts[x] if local else None, group=groups[a],
-                                      other_group=groups[b], floors=floors[x] if local else floors))  # fmt: skip
+                                      other_group=groups[b], floors=floors[x] if own else floors))  # fmt: skip
 
 
 def _model_case(
@@ -444,7 +446,9 @@ def _model_case(
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
     duals = () if evidence is None else tuple(evidence.duals)
     point = None
-    if duals and r.argmax is not None:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
+    if duals and r.argmax is not None and not problem.same_x:  # the table over every released context
+        point = np.clip(space.to_kernel(np.asarray(r.argmax, dtype=float)), 0.0, 1.0)
+    elif duals and r.argmax is not None:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
         n_x = len(problem.contexts)
         if space.lo is not None and space.hi is not None:
             h = np.clip(np.asarray(r.argmax, dtype=float), space.lo, space.hi).reshape(n_x, -1)

@@ -62,8 +62,8 @@ class ProgramDual:
     group, other_group : hashable
         The program's pair: the ratio is E[g | group] over E[g | other_group].
     floors : numpy.ndarray
-        ν, shape (n_groups,) for L (the floors of ``context``), (n_contexts, n_groups) for L̄ (contexts in the
-        population's order; zeros where P(X = x) = 0).
+        ν, shape (n_groups,) for L (the floors of ``context``), (n_contexts, n_groups) for L̄ and, behind a context
+        mechanism other than the identity, for L (contexts in the population's order; zeros where P(X = x) = 0).
     """
 
     context: Hashable | None
@@ -118,14 +118,16 @@ class WorstCase:
     gap : float
         ``value − witness`` in nats, rounded up (NaN without a witness).
     duals : tuple of ProgramDual
-        The dual point of every program the search bounded by a linear program (behind the identity on the context,
-        with floors that bind; not behind randomized response for a utility free of the group), for a third party
-        to check the bound with.
+        The dual point of every program with binding floors the search bounded by a linear program (not behind
+        randomized response and the identity on the context for a utility free of the group), for a third party to
+        check the bound with.
     witness_point : numpy.ndarray or None
         The maximiser's point h[x, ã] = E[g | context x, released group ã] of the witness model (where ``duals``
         are recorded): shape (n_released_groups,) for L (its context), (n_contexts, n_released_groups) for L̄. For a
         utility that depends on the group, the witness model's table K[x, ã, u] instead: shape
-        (n_released_groups, n_decisions) for L, (n_contexts, n_released_groups, n_decisions) for L̄.
+        (n_released_groups, n_decisions) for L, (n_contexts, n_released_groups, n_decisions) for L̄. Behind a context
+        mechanism other than the identity, the table over every released context, shape (n_released_contexts,
+        n_released_groups, n_decisions), for L and L̄.
     """
 
     kind: str

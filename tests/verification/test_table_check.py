@@ -198,6 +198,41 @@ def test_without_binding_floors_the_table_programs_are_solved_exactly_at_any_siz
     assert exact.local.lo == exact.local.hi
 
 
+CONTEXT_RR = '[privacy.context]\nmechanism = "randomized_response"\nepsilon = 1.0\n'
+CONTEXT_MATRIX = '[privacy.context]\nmechanism = "matrix"\nrows = [[0.8, 0.2], [0.3, 0.7]]\noutputs = ["y0", "y1"]\n'
+BY_CONTEXT = 'kind = "table"\nvalues = ' + json.dumps([[[1.0, 0.2]] * 4, [[0.9, 0.0]] * 4]) + "\n"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "spec",
+    [BY_GROUP + CONTEXT_RR, UNLIKE.replace('decision = "yes"\n', BY_CONTEXT) + CONTEXT_MATRIX],
+    ids=["by group, context rr", "by context, context matrix"],
+)
+def test_behind_a_context_mechanism_the_programs_over_every_context_are_bounded_by_the_recorded_duals(
+    spec, monkeypatch
+):
+    # behind a context mechanism L's program at x spans every released context, with every context's floors: its
+    # nu is recorded per context, and the witness is the table over every released context
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    detail = cert["bound_details"]["black_box"]
+    assert all(len(d["floors"]) == 2 for d in detail["duals"])  # (contexts, groups)
+    assert [[len(row) for row in t] for t in detail["witness_point"]] == [[2] * 4] * 2
+    exact = bb.black_box_enclosures(cert["inputs"], detail)
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    dual = bb.black_box_enclosures(cert["inputs"], detail)
+    assert dual.from_duals
+    for ours, theirs in ((dual.local, exact.local), (dual.global_, exact.global_)):
+        assert ours.lo == theirs.lo  # (behind randomized response, the programs at the two ends of e^epsilon)
+        assert theirs.hi <= ours.hi <= theirs.hi * (1 + F(1, 10**15))
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    assert not [n for n, _ in result.not_checked if n.endswith(("witness", "(its groups)", "(its context and groups)"))]
+    edited = copy.deepcopy(cert)
+    edited["bound_details"]["black_box"]["global"]["value"] -= 1e-9
+    assert "bound_details.black_box.global.value" in {c.name for c in verify(edited).failures}
+
+
 @pytest.mark.slow
 def test_randomized_response_on_81_variables_with_a_utility_by_group_is_re_derived():
     # five groups, 17 decisions: 81 variables per program, beyond the rational simplex's 64, where verify listed the

@@ -10,18 +10,20 @@ relaxation) and the Charnes–Cooper LP runs only where the relaxation does not 
 from __future__ import annotations
 
 import functools
+import math
 import operator
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, SupportsIndex
 
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult
+from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.pair_search import SearchResult, inner_witness, pairwise_box, relaxed_first, search
@@ -47,8 +49,10 @@ def local_search(
         upper = box_by_range[range_of[triples[:, 0]], triples[:, 1], triples[:, 2]]
     else:
         upper = np.full(len(triples), np.inf)
+    reach_hi, reach_lo = _reach(problem)
+    closed = np.full(len(triples), np.inf)  # the closed-form bounds, each rounded up from E[g | x, a]'s bounds
     if tau is not None and tau > 0:
-        upper = np.minimum(upper, up(g[triples[:, 0], triples[:, 1]].max(-1) / tau))
+        closed = np.minimum(closed, up(reach_hi[triples[:, 0], triples[:, 1]] / tau))
     coefficients = [[_Coefficients.of(space, x, b) for b in range(nA)] if live[x] else [] for x in range(g.shape[0])]
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
@@ -56,14 +60,14 @@ def local_search(
         return coefficients[x][a], coefficients[x][b]
 
     if not problem.group_free:
-        gmax_xa, gmin_xa = g.max(-1), g.min(-1)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             crude = np.where(
-                gmin_xa[triples[:, 0], triples[:, 2]] > 0,
-                up(gmax_xa[triples[:, 0], triples[:, 1]] / gmin_xa[triples[:, 0], triples[:, 2]]),
+                reach_lo[triples[:, 0], triples[:, 2]] > 0,
+                up(reach_hi[triples[:, 0], triples[:, 1]] / reach_lo[triples[:, 0], triples[:, 2]]),
                 np.inf,
             )
-        upper = np.minimum(upper, crude)
+        closed = np.minimum(closed, crude)
+    upper = np.minimum(upper, closed)
     inexact = max((c.roundings for row in coefficients for c in row), default=0)
     if space.lo is not None and space.hi is not None and problem.method != "lp" and space.rows is not None:
         # closed-form relaxation (only the denominator's τ; τ rows: floor = τ): an upper bound per triple
@@ -79,7 +83,7 @@ def local_search(
         return programs.solve(programs.local(int(x), int(a), int(b)), rounded)
 
     evidence = _Evidence.of(problem, "local", triples, space)
-    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence))
+    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
     return _model_case(problem, "local", found, triples, space, evidence)
 
 
@@ -101,9 +105,16 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     position = np.zeros(nA, dtype=np.intp)
     position[present] = np.arange(present.size)
     coefficients = [coef_global(int(a)) for a in present]
-    upper = np.full(len(pairs), np.inf)
+    closed = np.full(len(pairs), np.inf)
     if tau is not None and tau > 0:
-        upper = np.minimum(upper, up(problem.gmax.max() / tau))
+        # E[g | a] ≤ Σ_x P(x | a) E[g | x, a] ≤ the largest of its terms, over E[g | a'] ≥ τ (E[g | x, a] at most
+        # _reach's); P(x | a) carries 2 n_x roundings, the products and the sum n_x + 1 more
+        top = _reach(problem)[0]
+        average = (p_context_given_group * top).sum(axis=0)
+        largest = np.where(problem.population.probabilities > 0, top, 0.0).max(axis=0)
+        reach = np.minimum(largest, np.asarray(widen_up(average, rounding_error(3 * g.shape[0] + 1))))
+        closed = up(reach[pairs[:, 0]] / tau)
+    upper = closed.copy()
 
     def pair(i: int) -> tuple[_Coefficients, _Coefficients]:
         return coefficients[position[pairs[i, 0]]], coefficients[position[pairs[i, 1]]]
@@ -120,8 +131,40 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
         return programs.solve(programs.global_(int(pairs[i, 0]), int(pairs[i, 1])), rounded)
 
     evidence = _Evidence.of(problem, "global", global_triples, space)
-    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence))
+    found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
     return _model_case(problem, "global", found, global_triples, space, evidence)
+
+
+def _row_sums(m: Mechanism) -> tuple[FloatArray, FloatArray]:
+    """(upper, lower) ends of the row sums of the mechanism's exact law: 1 behind randomized response and the identity
+    (stochastic laws, which randomized response's floats only approximate); a matrix is its own law, whose rows sum
+    to 1 only within 1e-9: each sum's ends, exact where the floats sum to a float exactly (``math.fsum`` twice)."""
+    n = len(m.inputs)
+    if m.matrix_roundings or m.is_identity:
+        return np.ones(n), np.ones(n)
+    hi, lo = np.empty(n), np.empty(n)
+    for i, row in enumerate(m.matrix):
+        total = math.fsum(row)
+        rest = math.fsum([*row, -total])  # the exact sum less its rounding, rounded: its sign is exact
+        hi[i] = total if rest <= 0 else math.nextafter(total, math.inf)
+        lo[i] = total if rest >= 0 else math.nextafter(total, -math.inf)
+    return hi, lo
+
+
+def _scaled(values: FloatArray, factor: FloatArray, upward: bool) -> FloatArray:
+    """values × factor (broadcast), rounded up (or down), left exact where the factor is 1."""
+    product = values * factor
+    return np.where(factor == 1.0, values, up(product) if upward else down(product))
+
+
+def _reach(problem: ModelProblem) -> tuple[FloatArray, FloatArray]:
+    """Bounds on E[g | x, a] over every model, shape (n_contexts, n_groups): at most Σ_x̃ M_X[x, x̃] Σ_ã M_A[a, ã]
+    max_u g(u, x, a) and at least the same with min_u (the rows' sums are 1 except for a matrix's floats)."""
+    a_hi, a_lo = _row_sums(problem.mechanism)
+    x_hi, x_lo = (np.ones(problem.g.shape[0]),) * 2 if problem.same_x else _row_sums(problem.context_mechanism)
+    high = _scaled(x_hi[:, None], a_hi[None, :], upward=True)
+    low = _scaled(x_lo[:, None], a_lo[None, :], upward=False)
+    return _scaled(problem.g.max(-1), high, upward=True), _scaled(problem.g.min(-1), low, upward=False)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -148,6 +191,7 @@ def _solver(
     roundings: int,
     exact: Callable[[int, FractionalResult], FractionalResult | None],
     evidence: _Evidence | None,
+    closed: FloatArray,
 ) -> Callable[[int], FractionalResult]:
     """Solve program i: in G-space the closed-form relaxation first (unless the LP is asked for), else the LP; its
     dual is kept in ``evidence`` (the certificate's, :class:`_Evidence`).
@@ -157,7 +201,10 @@ def _solver(
     maximiser with the inner ones (numerator down, denominator up) and the τ rows rounded down, a lower end. Where
     the witness does not meet the value (within :data:`CROSSOVER_TOLERANCE`), or the outer program has no finite
     maximum, ``exact(i, result)`` solves the program on exact coefficients
-    (:class:`~fairaudit.worstcase.known_utility_exact.ExactPrograms`; None beyond its size).
+    (:class:`~fairaudit.worstcase.known_utility_exact.ExactPrograms`; None beyond its size). A certified value above
+    ``closed[i]``, program i's closed-form bound (E[g | x, a]'s largest over τ or over E[g | x, a']'s smallest, rounded
+    up), is lowered to it: both hold, and where the denominator's floor binds the bound is the optimum while the
+    solver's dual, beyond the exact size, can leave its value 1e-10 above it.
     """
 
     def num(i: int) -> FloatArray:
@@ -178,6 +225,8 @@ def _solver(
 
     def solve(i: int) -> FractionalResult:
         r = settle(i, inner(i)) if roundings else inner(i)
+        if r.status == "optimal" and r.certified and r.value > closed[i]:
+            r = replace(r, value=float(closed[i]), gap=gap_between(float(closed[i]), r.witness))
         if evidence is not None:
             evidence.keep(i, r)
         return r

@@ -29,7 +29,7 @@ from fractions import Fraction
 from typing import Any, NamedTuple
 
 from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
-from fairaudit.verification.dual_check import SEARCH_STOP, BlockProgram, Evidence, MissingDual
+from fairaudit.verification.dual_check import BlockProgram, Evidence, MissingDual, without_duals
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
 from fairaudit.verification.table_check import table_global, table_local
@@ -393,7 +393,8 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _End
     the others are solved exactly in decreasing order of their bound until none left exceeds the upper end found. A
     key none of whose programs is known feasible has its first solved whatever its bound: that is where floors no
     model meets are found (ValueError). A program beyond the exact size is bounded by its recorded dual instead
-    (:class:`MissingDual` without one, unless its bound is within :data:`SEARCH_STOP` of the upper end found, or
+    (:class:`MissingDual` without one, unless its bound is within
+    :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end found, or
     ``loose``: its bound, the relaxation's, is then an upper end), and a recorded point that meets every constraint
     gives a lower end.
     """
@@ -435,12 +436,8 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _End
             high, duals = max(high, bound), True
         else:
             deferred.append(bound)
-    # certify's search leaves unsolved a program whose bound is within SEARCH_STOP of the largest value it found
-    if any(bound * (1 - SEARCH_STOP) > high for bound in deferred):
-        raise MissingDual(f"programs beyond {MAX_VARIABLES} variables or {MAX_GROUPS} floors without a recorded dual")
-    if deferred and max(deferred) > high:
-        high, duals = max(deferred), True
-    return low, high, duals
+    high, raised = without_duals(deferred, high, f"programs beyond {MAX_VARIABLES} variables or {MAX_GROUPS} floors")
+    return low, high, duals or raised
 
 
 def _integers(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:

@@ -27,7 +27,7 @@ from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.json_values import label
 from fairaudit.verification.enclosures import INF, recorded_array
 
-__all__ = ["SEARCH_STOP", "BlockProgram", "Evidence", "MissingDual"]
+__all__ = ["SEARCH_STOP", "BlockProgram", "Evidence", "MissingDual", "without_duals"]
 
 Number = Fraction | float
 Block = Sequence[Fraction]
@@ -39,6 +39,41 @@ and returns that bound where it is larger: such a program needs no dual, its bou
 
 class MissingDual(Exception):
     """A program beyond the exact size whose bound needs a dual the certificate does not record."""
+
+
+def without_duals(deferred: Sequence[Number], high: Number, what: str) -> tuple[Number, bool]:
+    """The upper end once the programs left without a dual are counted: certify's search leaves unsolved a program
+    whose bound is within :data:`SEARCH_STOP` of the largest value it found, and returns that bound where larger.
+
+    Parameters
+    ----------
+    deferred : sequence of Fraction or float
+        The bounds (ratios) of the programs beyond the exact size that no recorded dual bounds.
+    high : Fraction or float
+        The upper end found over the other programs.
+    what : str
+        The programs, for the error.
+
+    Returns
+    -------
+    (Fraction or float, bool)
+        The upper end, and whether a deferred bound raised it.
+
+    Raises
+    ------
+    MissingDual
+        ``"{what} without a recorded dual"`` when a bound exceeds ``high`` by more than :data:`SEARCH_STOP`.
+
+    Examples
+    --------
+    >>> without_duals([Fraction(2) * (1 + SEARCH_STOP / 2)], Fraction(2), "programs")
+    (Fraction(2000000000001, 1000000000000), True)
+    """
+    if any(bound * (1 - SEARCH_STOP) > high for bound in deferred):
+        raise MissingDual(f"{what} without a recorded dual")
+    if deferred and max(deferred) > high:
+        return max(deferred), True
+    return high, False
 
 
 @dataclass(frozen=True)

@@ -278,7 +278,7 @@ def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number
     # with M_X the identity each context's rows and floors are its own: the program is over a product, a block per
     # context; otherwise one block over every context's rows
     blocks = [[x] for x in contexts] if s.context is None else [contexts]
-    if max(len(reached_rows(s, b)) for b in blocks) * (len(s.g[0][0]) - 1) + 1 > s.max_variables:
+    if not s.small:  # (the merged contexts are among the live ones: no block is larger than those of ``small``)
         return None
     polytopes = [_Polytope.of(s, b) for b in blocks]
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
@@ -333,7 +333,28 @@ def _released_groups(s: KernelSetting) -> list[int]:
 
 def reached_rows(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
     """The rows (x̃, ã) of K that ``contexts`` reach, in order: released contexts M_X[x, x̃] > 0 for one of them
-    (x̃ = x for the identity), released groups M_A[a, ã] > 0 for some group; the other rows enter no program."""
+    (x̃ = x for the identity), released groups M_A[a, ã] > 0 for some group; the other rows enter no program.
+
+    Parameters
+    ----------
+    s : KernelSetting
+        The programs' data.
+    contexts : sequence of int
+        True contexts (population positions).
+
+    Returns
+    -------
+    list of (int, int)
+        (released context, released group) pairs, released context major (``proofs/verification.md`` §4d).
+
+    Examples
+    --------
+    >>> from fractions import Fraction as F
+    >>> s = KernelSetting(((F(1), F(0)), (F(1), F(0))), None, [[[F(1), F(0)]] * 2] * 2, None, [0, 1],
+    ...                   [[F(1, 2)] * 2] * 2, [0, 1], True, 64)
+    >>> reached_rows(s, [1])    # the second released group is reached by no group
+    [(1, 0)]
+    """
     reached = _released_groups(s)
     if s.context is None:
         released_contexts = list(contexts)

@@ -24,7 +24,7 @@ from typing import Any
 
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES
 from fairaudit.base.exact_vertex import gauss_jordan
-from fairaudit.verification.dual_check import SEARCH_STOP, MissingDual
+from fairaudit.verification.dual_check import without_duals
 from fairaudit.verification.enclosures import INF
 from fairaudit.verification.kernel_check import KernelSetting, reached_rows
 
@@ -230,11 +230,8 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool) -> Ends:
             high, duals = max(high, case.bound), True
         else:
             deferred.append(case.bound)
-    if any(bound * (1 - SEARCH_STOP) > high for bound in deferred):
-        raise MissingDual("programs over the model's table beyond the exact size without a recorded dual")
-    if deferred and max(deferred) > high:
-        high, duals = max(deferred), True
-    return low, high, duals
+    high, raised = without_duals(deferred, high, "programs over the model's table beyond the exact size")
+    return low, high, duals or raised
 
 
 def _reach(s: KernelSetting, x: int) -> list[tuple[int, Fraction]]:
@@ -296,8 +293,26 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
     at : (int, int, int), optional
         (index into ``s.live``, a, a'): that program only.
     loose : bool
-        Keep a program's bound as its upper end where no ν is recorded (else :class:`MissingDual` is raised where
-        that bound exceeds the values found by more than :data:`SEARCH_STOP`).
+        Keep a program's bound as its upper end where no ν is recorded (else
+        :class:`~fairaudit.verification.dual_check.MissingDual` is raised where that bound exceeds the values found
+        by more than :data:`~fairaudit.verification.dual_check.SEARCH_STOP`).
+
+    Returns
+    -------
+    (Fraction or float, Fraction or float, bool)
+        The lower and upper ends of e^L (a ratio, dimensionless; L in nats is its log; +inf when a table gives
+        c/0 with c > 0), and whether a recorded ν or a bound left without one gives the upper end (then the lower
+        end is a recorded table's ratio, or 0 without one).
+
+    Raises
+    ------
+    MissingDual
+        Without ``loose``, where a program that needs a ν has none recorded.
+
+    Notes
+    -----
+    Weak duality with each row's simplex kept, Newton's method from the left, the vertex read off a table:
+    ``proofs/verification.md`` §4f.
 
     Examples
     --------
@@ -335,6 +350,30 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
 def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: bool = False) -> Ends:
     """L̄'s worst ratio over the model's table, at any size, enclosed as in :func:`table_local` (every row reached,
     E[g | a] = Σ_x P(x | a) E[g | x, a], every live context's floors); 1 with fewer than two groups present.
+
+    Parameters
+    ----------
+    s : KernelSetting
+        The programs' data at one end of e^ε, with the certificate's evidence.
+    at : (int, int), optional
+        The ordered pair (a, a') of groups present: that program only.
+    loose : bool
+        As :func:`table_local`.
+
+    Returns
+    -------
+    (Fraction or float, Fraction or float, bool)
+        The ends of e^L̄ and whether a recorded ν or a bound left without one gives the upper end, as
+        :func:`table_local` (the lower end at least 1).
+
+    Raises
+    ------
+    MissingDual
+        As :func:`table_local`.
+
+    Notes
+    -----
+    ``proofs/verification.md`` §4f.
 
     Examples
     --------

@@ -1,5 +1,6 @@
 """The black box over the model's table beyond the exact size: each program bounded by weak duality from the floors'
-recorded multipliers (or solved outright where its floors do not bind), its lower end read off the recorded table.
+recorded multipliers or by its one-floor relaxation (solved outright where that decides), its lower end read off the
+recorded table.
 
 A program of :mod:`~fairaudit.verification.kernel_check` is max (p·K)/(q·K) over tables K whose rows (x̃, ã) are
 distributions over the decisions, with floors F_f·K ≥ τ (one per live context and group). For
@@ -12,6 +13,10 @@ maximum of (p − λq)·K over the product of simplices itself: its smallest roo
 and where its maximising table meets the floors, the program's value. B is convex, piecewise linear and
 non-increasing in λ (q ≥ 0), so Newton's method from the left reaches its smallest root exactly, in finitely many
 steps. ``proofs/verification.md`` §4f.
+
+Where the floors bind and no ν is recorded (certify decided the program by its closed-form relaxation), the program
+with the denominator's floor q·K ≥ t its only one is solved exactly (:meth:`TableProgram.floor_bound`, §4g): its
+value bounds the program, and is the program's where the table attaining it meets every floor.
 """
 
 from __future__ import annotations
@@ -94,32 +99,116 @@ class TableProgram:
             for v, floor in zip(nu, self.floors, strict=True):
                 for row, coefficients in floor.items() if v else ():
                     c[row] = [ci + v * fi for ci, fi in zip(c[row], coefficients, strict=True)]
-        lam = Fraction(0)
-        while True:
-            total, slope = constant, Fraction(0)
-            for cr, qr in zip(c, self.bottoms, strict=True):
-                best, steep = max(((ci - lam * qi, qi) for ci, qi in zip(cr, qr, strict=True)))
-                total += best
-                slope += steep  # the right derivative: among a row's maximisers the steepest descent
-            if total <= 0:
-                break
-            if slope == 0:
-                return INF
-            lam += total / slope  # the tangent's root: at most B's smallest root (B is convex)
+        lam = _smallest_root(c, self.bottoms, constant)
+        if lam is None:
+            return INF
         zero = all(any(qi == 0 for qi in qr) for qr in self.bottoms)
         return max(lam, Fraction(1)) if zero else lam
+
+    def floor_bound(self, kept: Fraction) -> tuple[Fraction, list[list[Fraction]]] | None:
+        """The program's value with q·K ≥ ``kept`` its only floor, exactly, with a table attaining it: an upper bound
+        on the value where every table meeting the floors has q·K ≥ kept > 0 (certify's closed-form floor relaxation).
+
+        For every θ, f(θ) = θ + max(R(θ), 0)/kept with R(θ) = Σ_rows max_u (p − θq)[row, u] bounds it (weak
+        duality, ν = f(θ) − θ on the one floor); f is convex, least at R's smallest root θ₀ or at θ_c, the largest θ
+        where the rows' maximisers with the largest q reach q·K ≥ kept (a breakpoint of a row's upper hull of the
+        points (q_u, p_u)). The table is every row on a maximiser of p − θq, the rows' q·K brought to ``kept`` by one
+        row between its two (at θ_c), so its ratio is f there. None when no table has q·K ≥ kept.
+        ``proofs/verification.md`` §4g.
+
+        Parameters
+        ----------
+        kept : Fraction
+            The floor's right-hand side, > 0.
+
+        Returns
+        -------
+        (Fraction, list of list of Fraction) or None
+            The value (a ratio) and a table, shape (n_rows, n_decisions), meeting q·K ≥ kept at that ratio; None when
+            Σ_rows max q < kept.
+
+        Examples
+        --------
+        The class's program with q·K ≥ 1/4 its only floor: θ_c = 2/3, 2/3 + R(2/3)/(1/4) = 10/3, at P(yes | ã) =
+        (1, 1/3), which meets the other floor too.
+
+        >>> F = Fraction
+        >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+        >>> value, table = TableProgram(p, q, [], None).floor_bound(F(1, 4))
+        >>> value, table[1]
+        (Fraction(10, 3), [Fraction(1, 3), Fraction(2, 3)])
+        """
+        rows = list(zip(self.tops, self.bottoms, strict=True))
+        events: list[tuple[Fraction, Fraction]] = []  # (slope of a hull edge, its rise in q), every row's
+        reach = Fraction(0)  # Σ_rows min q: the rows' q·K at θ = +inf
+        for pr, qr in rows:
+            hull: list[tuple[Fraction, Fraction]] = []
+            for q, p in sorted(zip(qr, pr, strict=True), key=lambda v: (v[0], -v[1])):
+                if hull and hull[-1][0] == q:
+                    continue  # (the largest p at this q is already in)
+                while len(hull) > 1 and (hull[-1][1] - hull[-2][1]) * (q - hull[-1][0]) <= (p - hull[-1][1]) * (
+                    hull[-1][0] - hull[-2][0]
+                ):
+                    hull.pop()
+                hull.append((q, p))
+            reach += hull[0][0]
+            events += [((b[1] - a[1]) / (b[0] - a[0]), b[0] - a[0]) for a, b in zip(hull, hull[1:])]
+        theta_c: Fraction | None = None
+        if reach < kept:
+            for slope, rise in sorted(events, reverse=True):
+                reach += rise
+                if reach >= kept:
+                    theta_c = slope
+                    break
+            else:
+                return None  # Σ_rows max q < kept
+        theta_0 = _smallest_root([list(p) for p in self.tops], self.bottoms, Fraction(0))
+        if theta_0 is not None and (theta_c is None or theta_0 <= theta_c):
+            table = self.relaxed_table(theta_0)  # (its q·K ≥ kept: S at θ₀ is at least S at θ_c)
+            return theta_0, table
+        assert theta_c is not None  # (R has a root unless some row has p > 0 = q everywhere, where S ≥ kept never)
+        table, total = [], Fraction(0)
+        split: list[tuple[int, int, int]] = []
+        for i, ((pr, qr), fr) in enumerate(zip(rows, self._floor_weights(), strict=True)):
+            values = [pi - theta_c * qi for pi, qi in zip(pr, qr, strict=True)]
+            top = max(values)
+            best = [u for u, v in enumerate(values) if v == top]
+            low, high = min(best, key=lambda u: (qr[u], -fr[u])), max(best, key=lambda u: (qr[u], fr[u]))
+            table.append([Fraction(int(u == low)) for u in range(len(pr))])
+            total += qr[low]
+            if qr[high] > qr[low]:
+                split.append((i, low, high))
+        for i, low, high in split:  # move rows to their largest q until q·K = kept
+            if total >= kept:
+                break
+            rise = self.bottoms[i][high] - self.bottoms[i][low]
+            share = min(Fraction(1), (kept - total) / rise)
+            table[i][low], table[i][high] = 1 - share, share
+            total += share * rise
+        r = sum(max(pi - theta_c * qi for pi, qi in zip(pr, qr, strict=True)) for pr, qr in rows)
+        return theta_c + max(r, Fraction(0)) / kept, table
 
     def relaxed_table(self, lam: Number) -> list[list[Fraction]]:
         """A table attaining the value ``lam`` = :meth:`dual_bound` () without the floors: each row on a decision
         maximising p − λq, the one with the largest q among ties; for +inf, on a decision with q = 0 maximising p."""
         table = []
-        for pr, qr in zip(self.tops, self.bottoms, strict=True):
+        for pr, qr, fr in zip(self.tops, self.bottoms, self._floor_weights(), strict=True):
             if lam == INF:
-                u = max((i for i in range(len(pr)) if qr[i] == 0), key=lambda i: pr[i])
+                u = max((i for i in range(len(pr)) if qr[i] == 0), key=lambda i: (pr[i], fr[i]))
             else:
-                u = max(range(len(pr)), key=lambda i: (pr[i] - lam * qr[i], qr[i]))
+                u = max(range(len(pr)), key=lambda i: (pr[i] - lam * qr[i], qr[i], fr[i]))
             table.append([Fraction(int(i == u)) for i in range(len(pr))])
         return table
+
+    def _floor_weights(self) -> list[list[Fraction]]:
+        """Σ_f F_f per cell: among a row's tied decisions the one that helps the floors most is taken (all of them
+        at once for a utility of the decision only, whose floors' coefficients in a row are multiples of g)."""
+        n_u = len(self.tops[0]) if self.tops else 0
+        weights = [[Fraction(0)] * n_u for _ in self.tops]
+        for floor in self.floors if self.tau is not None else ():
+            for r, coefficients in floor.items():
+                weights[r] = [w + f for w, f in zip(weights[r], coefficients, strict=True)]
+        return weights
 
     def meets(self, table: Table) -> bool:
         """Whether the table's cells are ≥ 0, its rows sum to 1 and it meets every floor, exactly."""
@@ -174,6 +263,23 @@ class TableProgram:
         return best
 
 
+def _smallest_root(c: Sequence[Row], bottoms: Table, constant: Fraction) -> Fraction | None:
+    """The smallest λ ≥ 0 with Σ_rows max_u (c − λq)[row, u] + constant ≤ 0, by Newton's method from the left (the
+    function is convex, piecewise linear and non-increasing); None when there is none."""
+    lam = Fraction(0)
+    while True:
+        total, slope = constant, Fraction(0)
+        for cr, qr in zip(c, bottoms, strict=True):
+            best, steep = max(((ci - lam * qi, qi) for ci, qi in zip(cr, qr, strict=True)))
+            total += best
+            slope += steep  # the right derivative: among a row's maximisers the steepest descent
+        if total <= 0:
+            return lam
+        if slope == 0:
+            return None
+        lam += total / slope  # the tangent's root: at most the smallest root (the function is convex)
+
+
 def _dot(a: Row, b: Row) -> Fraction:
     return sum(map(operator.mul, a, b), Fraction(0))
 
@@ -202,8 +308,11 @@ def _case(program: TableProgram, kept: Fraction | None, nu: Any, table: Any) -> 
     else:
         exact = program.point_ratio(at) == relaxed
     bound = relaxed
-    if kept and not exact:  # E[g | a'] ≥ t on every table meeting the floors
-        bound = min(bound, sum((max(p) for p in program.tops), Fraction(0)) / kept)
+    if kept and not exact:  # E[g | a'] ≥ t on every table meeting the floors: certify's floor relaxation
+        relaxation = program.floor_bound(kept)
+        if relaxation is not None and relaxation[0] < bound:
+            bound, at = relaxation
+            exact = program.point_ratio(at) == bound
     return _Case(program, bound, exact, nu, table)
 
 
@@ -216,13 +325,12 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool) -> Ends:
     low = high = start
     duals, deferred = False, []
     for case in sorted(cases, key=lambda c: c.bound, reverse=True):
-        if case.table is not None:
-            attained = case.program.vertex_ratio(case.table)
-            if attained is not None:
-                low = max(low, attained)
+        attained = None if case.table is None else case.program.vertex_ratio(case.table)
+        if attained is not None:
+            low = max(low, attained)
         if case.bound <= high:
             continue
-        if case.exact:
+        if case.exact or (attained is not None and attained >= case.bound):
             low, high = max(low, case.bound), max(high, case.bound)
         elif case.nu is not None:
             high, duals = max(high, min(case.bound, case.program.dual_bound(case.nu))), True
@@ -377,13 +485,14 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: boo
 
     Examples
     --------
-    With τ = 1/4 and no ν recorded, ``loose`` keeps the bound E[g | a] ≤ 1 over E[g | b] ≥ 1/4 (the value is 10/3):
+    With τ = 1/4 and no ν recorded, the relaxation with E[g | b] ≥ 1/4 its only floor settles it: 10/3, at a table
+    that meets the other floor too (:meth:`TableProgram.floor_bound`):
 
     >>> from fractions import Fraction as F
     >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
     ...                   F(1, 4), [0], [[F(1), F(1)]], [0, 1], False, 64)
-    >>> table_global(s, loose=True)
-    (Fraction(1, 1), Fraction(4, 1), True)
+    >>> table_global(s)
+    (Fraction(10, 3), Fraction(10, 3), False)
     """
     if len(s.present) < 2:
         return Fraction(1), Fraction(1), False

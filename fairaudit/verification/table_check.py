@@ -378,13 +378,26 @@ def _floors(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]
     return [_form(s, keys, {x: Fraction(1)}, c) for x in xs for c in range(s.k)]
 
 
-def _table(point: Any, keys: Sequence[tuple[int, int]], own: bool) -> list[list[Fraction]] | None:
+def _table(s: KernelSetting, point: Any, keys: Sequence[tuple[int, int]], own: bool) -> list[list[Fraction]]:
     """The recorded table's rows for ``keys``: ``point[ã]`` where the point is one context's (``own``: L behind the
-    identity), else ``point[x̃][ã]``; None where the point is no table (a utility free of the group behind the
-    identity records E[g | x, ã])."""
-    if own:
-        return [point[ar] for _, ar in keys] if isinstance(point[0], list) else None
-    return [point[xr][ar] for xr, ar in keys] if isinstance(point[0][0], list) else None
+    identity), else ``point[x̃][ã]``. A utility free of the group behind the identity on the context records
+    E[g | x, ã] instead: each such row is the table that reaches it with g's largest and least decisions,
+    P(u_max) = (E − min g)/(max g − min g) (every table with the same E[g | x, ã] has the same ratio and floors)."""
+    rows = [point[ar] for _, ar in keys] if own else [point[xr][ar] for xr, ar in keys]
+    return [row if isinstance(row, list) else _mixed(s.g[xr][0], row) for (xr, _), row in zip(keys, rows, strict=True)]
+
+
+def _mixed(g: Row, value: Fraction) -> list[Fraction]:
+    """The distribution over the decisions on g's largest and least values (the first of each) whose mean is the
+    value, clipped to [min g, max g]."""
+    high, low = max(range(len(g)), key=lambda u: g[u]), min(range(len(g)), key=lambda u: g[u])
+    share = (
+        Fraction(1) if g[high] == g[low] else min(Fraction(1), max(Fraction(0), (value - g[low]) / (g[high] - g[low])))
+    )
+    row = [Fraction(0)] * len(g)
+    row[low] += 1 - share
+    row[high] += share
+    return row
 
 
 def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose: bool = False) -> Ends:
@@ -450,7 +463,7 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
         recorded = evidence.local.get((x, a, b))
         nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
         point = evidence.local_point
-        table = _table(point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
+        table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
         out.append(_case(TableProgram(tops, bottoms, floors, s.tau), s.tau, nu, table))
     return _largest(out, Fraction(0), loose)
 
@@ -508,7 +521,7 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: boo
         recorded = evidence.global_.get((a, b))
         nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
         point = evidence.global_point
-        table = _table(point[2], keys, False) if point is not None and point[:2] == (a, b) else None
+        table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
         kept = None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0))
         out.append(_case(TableProgram(tops, bottoms, floors, s.tau), kept, nu, table))
     return _largest(out, Fraction(1), loose)

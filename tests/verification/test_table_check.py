@@ -241,6 +241,22 @@ def test_programs_settled_by_certify_s_floor_relaxation_are_re_derived_by_it_at_
     assert "bounds.black_box" in {c.name for c in verify(edited).failures}
 
 
+def test_behind_the_identity_a_recorded_utility_mean_stands_for_its_table(monkeypatch):
+    # a utility free of the group behind the identity records E[g | x, released group], not a table: each row is
+    # read as the table on g's largest and least decisions with that mean. L-bar's program is bounded by its nu;
+    # the table's vertex reaches that bound, so its pair and witness are re-derived, where they were listed
+    cert = json.loads(json.dumps(certify(parse_spec(IDENTITY)).to_dict()))
+    detail = cert["bound_details"]["black_box"]
+    assert detail["global"]["method"] == "lp" and not isinstance(detail["global"]["witness_point"][0][0], list)
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    beyond = bb.black_box_enclosures(cert["inputs"], detail)
+    assert beyond.global_.lo == beyond.global_.hi == 1 / F(0.287)
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    names = {"bound_details.black_box.global (its groups)", "bound_details.black_box.global.witness"}
+    assert names <= {c.name for c in result.checks}
+
+
 @pytest.mark.slow
 def test_behind_the_identity_85_variables_of_a_utility_of_the_decision_only_are_re_derived():
     # five groups, 17 decisions, two contexts, binding floors: 85 variables per program, beyond the rational simplex,

@@ -599,8 +599,8 @@ def _global_evidence(
     block's ν is the sum of its contexts' (each block's B is at most the sum of theirs: the max over a box is
     subadditive), its point the mean of theirs weighted by Σ_a P(x | a) over the groups present (the merge's own
     weights, so the ratio is unchanged)."""
-    if s.rows is None:
-        return {}, {}
+    if s.rows is None and _alike(s.weights, s.present):
+        return {}, {}  # (randomized response's three cells)
     duals = {}
     for pair, nus in s.evidence.global_.items():
         duals[pair] = [[sum(col, Fraction(0)) for col in zip(*(nus[s.live[i]] for i in block))] for block in members]

@@ -458,8 +458,10 @@ class _Evidence:
 
     @classmethod
     def of(cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace) -> _Evidence | None:
+        # (no floors: no ν to keep; behind randomized response, for a utility free of the group, L's programs reduce
+        # to three cells, solved exactly at any size, and so do L̄'s where P(x | a) is alike over the groups)
         symmetric = isinstance(problem.mechanism, RandomizedResponse) and problem.group_free and problem.same_x
-        usable = space.floors and not symmetric  # (no floors: no ν to keep)
+        usable = space.floors and not (symmetric and kind == "local")
         return cls(problem, kind, triples) if usable else None
 
     def keep(self, i: int, r: FractionalResult) -> None:

@@ -147,14 +147,19 @@ def test_l_bar_over_contexts_unlike_is_re_derived_block_by_block(utility, tmp_pa
     assert "bound_details.black_box.global.value" in {c.name for c in verify(cert).failures}
 
 
-def test_l_bar_beyond_the_limit_is_listed_and_its_pair_not_failed(monkeypatch):
+def test_l_bar_beyond_the_limit_is_bounded_by_its_duals_and_without_them_listed_and_its_pair_not_failed(monkeypatch):
     # a block wider than the limit (here 2 < randomized response's three groups, unlike: L-bar's blocks are k wide;
-    # L's are three cells): L-bar and its named pair are listed as not re-derived. The pair used to fail by inf
+    # L's are three cells): L-bar is bounded by the floors' multipliers certify records; without them, L-bar and its
+    # named pair are listed as not re-derived. The pair used to fail by inf
     import fairaudit.verification.black_box_check as bb
 
     spec = _unlike_contexts(4, 'kind = "indicator"\ndecision = "yes"')
     cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
     monkeypatch.setattr(bb, "MAX_VARIABLES", 2)
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    assert {"bounds.black_box", "bound_details.black_box.global.value"} <= {c.name for c in result.checks}
+    del cert["bound_details"]["black_box"]["global"]["duals"]
     result = verify(cert)
     assert result.holds, [c.line() for c in result.failures]
     listed = dict(result.not_checked)

@@ -419,3 +419,40 @@ def test_the_closed_form_bounds_count_a_matrix_whose_rows_sum_above_1():
     result = verify(cert)
     assert result.holds, [c.line() for c in result.failures]
     assert {"bounds.black_box", "bound_details.black_box.global.value"} <= {c.name for c in result.checks}
+
+
+def _spec(groups, contexts, decisions, probabilities, sensitive, utility, tau, context=""):
+    return (
+        f'[sensitive]\nname = "group"\nvalues = {json.dumps([f"g{i}" for i in range(groups)])}\n'
+        f'[context]\nname = "x"\nvalues = {json.dumps([f"x{i}" for i in range(contexts)])}\n'
+        f'[decision]\nname = "d"\nvalues = {json.dumps([f"u{i}" for i in range(decisions)])}\n'
+        f"[population]\nprobabilities = {json.dumps(probabilities)}\n[privacy.sensitive]\n{sensitive}\n"
+        f'[utility]\nkind = "table"\nvalues = {json.dumps(utility)}\ntau = {tau}\n{context}'
+    )
+
+
+# found by a random hunt (utilities of the decision only, every program beyond the exact size): L-bar was listed as
+# not re-derived
+HUNTED = {
+    # randomized response, P(x | a) unlike over the groups: certify recorded no multipliers for L-bar's programs
+    "randomized response, contexts unlike": _spec(
+        3, 2, 3, [[0.1875, 0.1875, 0.1875], [0.1875, 0.1875, 0.0625]],
+        'mechanism = "randomized_response"\nepsilon = 3.0', [0.5, 1.0, 0.0], 0.813,
+    ),
+}  # fmt: skip
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("spec", HUNTED.values(), ids=HUNTED.keys())
+def test_hunted_certificates_have_l_bar_re_derived_beyond_the_exact_size(spec, monkeypatch):
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    detail = cert["bound_details"]["black_box"]
+    exact = bb.black_box_enclosures(cert["inputs"], detail)
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    beyond = bb.black_box_enclosures(cert["inputs"], detail)
+    assert beyond.global_ is not None, beyond.reason
+    assert beyond.global_.lo <= exact.global_.lo and exact.global_.hi <= beyond.global_.hi
+    assert beyond.global_.hi <= exact.global_.hi * (1 + F(1, 10**12))
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    assert "bound_details.black_box.global.value" in {c.name for c in result.checks}

@@ -25,9 +25,10 @@ import operator
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any
+from typing import Any, cast
 
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES
+from fairaudit.base.exact_programs import maximize_linear
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.verification.dual_check import without_duals
 from fairaudit.verification.enclosures import INF
@@ -39,6 +40,10 @@ Number = Fraction | float
 Row = Sequence[Fraction]
 Table = Sequence[Row]
 Ends = tuple[Number, Number, bool]
+
+EXACT_SHARES = 64
+"""The most rows :meth:`TableProgram.floor_bound` shares between two decisions by the rational simplex (at most twice
+as many floors), to find among the relaxation's maximisers one that meets every floor."""
 
 
 @dataclass(frozen=True)
@@ -178,15 +183,39 @@ class TableProgram:
             total += qr[low]
             if qr[high] > qr[low]:
                 split.append((i, low, high))
-        for i, low, high in split:  # move rows to their largest q until q·K = kept
-            if total >= kept:
-                break
-            rise = self.bottoms[i][high] - self.bottoms[i][low]
-            share = min(Fraction(1), (kept - total) / rise)
+        shares = self._shares(table, split, kept - total)
+        for (i, low, high), share in zip(split, shares, strict=True):
             table[i][low], table[i][high] = 1 - share, share
-            total += share * rise
         r = sum(max(pi - theta_c * qi for pi, qi in zip(pr, qr, strict=True)) for pr, qr in rows)
         return theta_c + max(r, Fraction(0)) / kept, table
+
+    def _shares(self, table: Table, split: Sequence[tuple[int, int, int]], need: Fraction) -> list[Fraction]:
+        """How far to move each row of ``split`` (i, from, to) from the one decision to the other so that q·K rises by
+        ``need`` > 0: the first rows first; where that misses a floor and the moves and floors are few, shares that
+        meet every floor, found by the rational simplex (none: the first rows first)."""
+        rises = [self.bottoms[i][high] - self.bottoms[i][low] for i, low, high in split]
+        greedy, left = [], need
+        for rise in rises:
+            share = min(Fraction(1), max(Fraction(0), left / rise))
+            greedy.append(share)
+            left -= share * rise
+        floors = self.floors if self.tau is not None else []
+        if not floors or len(split) > EXACT_SHARES or len(floors) > 2 * EXACT_SHARES:
+            return greedy
+        moved = [list(row) for row in table]
+        for (i, low, high), share in zip(split, greedy, strict=True):
+            moved[i][low], moved[i][high] = 1 - share, share
+        if self.meets(moved):
+            return greedy
+        zero = [Fraction(0)] * len(split)
+        a_ub, b_ub = [rises, [-v for v in rises]], [need, -need]
+        for floor in floors:  # the floor at the rows' starting decisions, plus each move's change, at least τ
+            start = sum((_dot(f, table[r]) for r, f in floor.items()), Fraction(0))
+            change = [floor[i][high] - floor[i][low] if i in floor else Fraction(0) for i, low, high in split]
+            a_ub.append([-v for v in change])
+            b_ub.append(start - cast(Fraction, self.tau))
+        found = maximize_linear(zero, zero, [Fraction(1)] * len(split), a_ub, b_ub)
+        return list(found.point) if found.status == "optimal" and found.point is not None else greedy
 
     def relaxed_table(self, lam: Number) -> list[list[Fraction]]:
         """A table attaining the value ``lam`` = :meth:`dual_bound` () without the floors: each row on a decision

@@ -439,6 +439,13 @@ HUNTED = {
         3, 2, 3, [[0.1875, 0.1875, 0.1875], [0.1875, 0.1875, 0.0625]],
         'mechanism = "randomized_response"\nepsilon = 3.0', [0.5, 1.0, 0.0], 0.813,
     ),
+    # behind a context mechanism: the relaxation's rows tied at its breakpoint were moved in their order, and the
+    # table missed a floor that another share of them meets
+    "ties at the floor": _spec(
+        3, 2, 4, [[0.0, 0.3, 0.3], [0.0, 0.2, 0.2]], 'mechanism = "randomized_response"\nepsilon = 0.5',
+        [0.5, 0.1, 1.0, 0.1], 0.841,
+        '[privacy.context]\nmechanism = "matrix"\nrows = [[0.0, 1.0], [0.4, 0.6]]\noutputs = ["y0", "y1"]\n',
+    ),
 }  # fmt: skip
 
 

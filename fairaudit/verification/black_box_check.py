@@ -464,7 +464,8 @@ def _floor_relaxation(
     :func:`_box_bound`); where that prefix has q·h < t, the maximum is on q·h = t (along the segment to any
     feasible h the ratio is monotone, so it crosses q·h = t at a ratio at least that h's), where it is max p·h/t, a
     fractional knapsack: the cells with q_i = 0 high, then the others raised in the same order until q·h = t. So
-    the maximum is the largest of the prefixes with q·h ≥ t and that point (``proofs/verification.md`` §4).
+    the maximum is the largest of the prefixes with q·h ≥ t and that point (``proofs/verification.md`` §4). The
+    cells outside the ratio (p_i = q_i = 0) are put high in the point: the same ratio, and no floor lower.
     """
     if sum(map(operator.mul, q, high)) < t:
         return None
@@ -488,9 +489,12 @@ def _floor_relaxation(
         at_floor = (sum(map(operator.mul, p, h)) / t, h)
     if best is None or (at_floor is not None and at_floor[0] > best[0]):
         assert at_floor is not None  # (q·high ≥ t: either a prefix meets the floor or q·low < t)
-        return at_floor
-    chosen = set(order[: best[1]])
-    return best[0], [high[i] if i in chosen else low[i] for i in range(len(p))]
+        value, h = at_floor
+    else:
+        chosen = set(order[: best[1]])
+        value, h = best[0], [high[i] if i in chosen else low[i] for i in range(len(p))]
+    # the cells outside the ratio (p = q = 0) at the top of their box: the same ratio, and floors (rows ≥ 0) no lower
+    return value, [high[i] if p[i] == q[i] == 0 else v for i, v in enumerate(h)]
 
 
 def _ratio_order(

@@ -446,6 +446,14 @@ HUNTED = {
         [0.5, 0.1, 1.0, 0.1], 0.841,
         '[privacy.context]\nmechanism = "matrix"\nrows = [[0.0, 1.0], [0.4, 0.6]]\noutputs = ["y0", "y1"]\n',
     ),
+    # behind a matrix: the floor relaxation's point left the cells outside the ratio (p = q = 0) at the bottom of
+    # their box, where another group's floor needs them high
+    "cells outside the ratio": _spec(
+        4, 3, 4, [[0.0625, 0.0, 0.125, 0.0], [0.1875, 0.0625, 0.0625, 0.125], [0.1875, 0.1875, 0.0, 0.0]],
+        'mechanism = "matrix"\nrows = [[0.0, 0.5, 0.25, 0.25], [0.25, 0.0, 0.125, 0.625], [0.0, 0.5, 0.1, 0.4], '
+        '[0.0, 0.5, 0.3, 0.2]]\noutputs = ["o0", "o1", "o2", "o3"]',
+        [0.5, 0.1, 0.25, 1.0], 0.262,
+    ),
 }  # fmt: skip
 
 

@@ -55,6 +55,7 @@ __all__ = [
     "product_ends",
     "product_roundings",
     "rounding_error",
+    "sum_ends",
     "up",
     "widen_down",
     "widen_up",
@@ -216,6 +217,38 @@ def product_ends(x: npt.ArrayLike, roundings: npt.ArrayLike, nonzero: npt.ArrayL
     high = np.where(exact, value, widen_up(value, relative, absolute))
     low = np.where(exact, value, np.maximum(widen_down(value, relative, absolute), 0.0))
     return np.where(live, low, 0.0), np.where(live, high, 0.0)
+
+
+def sum_ends(rows: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """The exact sums of the floats along the last axis, enclosed: (upper, lower) ends, each a float, equal where the
+    sum is one.
+
+    Parameters
+    ----------
+    rows : array_like, shape (..., n)
+        Finite floats.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        ``(high, low)``, shape (...): ``math.fsum`` of each row (correctly rounded), stepped up or down where the
+        exact sum lies beyond it (the sign of the remainder, itself summed by ``math.fsum``, is exact).
+
+    Examples
+    --------
+    >>> high, low = sum_ends([[0.7, 0.3], [0.5, 0.5]])
+    >>> float(high[0]), float(low[0]) < 1.0, float(high[1]), float(low[1])
+    (1.0, True, 1.0, 1.0)
+    """
+    a = np.asarray(rows, dtype=float)
+    flat = a.reshape(-1, a.shape[-1]) if a.ndim else a.reshape(1, 1)
+    high, low = np.empty(len(flat)), np.empty(len(flat))
+    for i, row in enumerate(flat.tolist()):  # (a row at a time: fsum is exact, numpy's sum is not)
+        total = math.fsum(row)
+        rest = math.fsum([*row, -total])
+        high[i] = total if rest <= 0 else math.nextafter(total, math.inf)
+        low[i] = total if rest >= 0 else math.nextafter(total, -math.inf)
+    return high.reshape(a.shape[:-1]), low.reshape(a.shape[:-1])
 
 
 def _fraction(x: Exact) -> Fraction:

@@ -35,7 +35,7 @@ from fairaudit.base.checks import real
 from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.json_values import Report, number
 from fairaudit.base.labels import as_labels
-from fairaudit.base.outward import exp_down, fraction_up, log_up, up, widen_up
+from fairaudit.base.outward import exp_down, fraction_up, log_up, sum_ends, up, widen_up
 from fairaudit.base.pairs import PairPass
 
 __all__ = [
@@ -326,6 +326,19 @@ class Mechanism:
         """How many roundings :attr:`matrix`'s floats may carry relative to the mechanism's exact law: 0, the matrix
         being the law (randomized response computes its entries from e^ε, and says how far they may be)."""
         return 0
+
+    @property
+    def row_sums(self) -> tuple[FloatArray, FloatArray]:
+        """(upper, lower) ends of the row sums of the mechanism's exact law, shape (n_inputs,): 1 for the identity and
+        where the floats approximate a stochastic law (:attr:`matrix_roundings` > 0: randomized response); a matrix is
+        its own law, whose rows sum to 1 only within 1e-9 (:func:`~fairaudit.base.outward.sum_ends`). A bound that
+        takes E[g] ≤ max g must scale by the upper end."""
+        if "row_sums" not in self._cache:
+            n = len(self.inputs)
+            stochastic = self.matrix_roundings or self.is_identity
+            self._cache["row_sums"] = (np.ones(n), np.ones(n)) if stochastic else sum_ends(self.matrix)
+        ends: tuple[FloatArray, FloatArray] = self._cache["row_sums"]
+        return ends
 
     @property
     def support(self) -> BoolArray:

@@ -17,7 +17,7 @@ from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows
-from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, log_up, product_ends, rounding_error, up, widen_up
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.closed_forms import RandomizedResponse, RandomizedResponseParameters
@@ -528,12 +528,36 @@ def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> B
     pairs = np.column_stack([found.a, found.b])
     upper = found.box.copy()
     if problem.floor > 0:  # γ/τ, and the tight form at t = e^ε_aa' (δ = 0 there), each rounded up
-        ceiling = fraction_up(Fraction(problem.gamma) / Fraction(problem.floor))
-        upper = np.minimum(upper, np.minimum(ceiling, up(pair_ratio(M, found.a, found.b))))
+        upper = np.minimum(upper, np.minimum(_ceiling(problem), up(pair_ratio(M, found.a, found.b))))
     if problem.binding:
         assert found.relaxed is not None  # (computed for a binding τ)
         upper = np.minimum(upper, found.relaxed)
-    return _searched_certificate(problem, search(upper, _box_solver(problem, pairs)), pairs)
+    return _searched_certificate(problem, search(upper, _at_most_ceiling(problem, _box_solver(problem, pairs))), pairs)
+
+
+def _ceiling(problem: _ClassProblem) -> float:
+    """γ/τ times the largest row sum of M_A's exact law (where it exceeds 1: a matrix's rows sum to 1 within 1e-9),
+    rounded up: E[g | x, a] = M_A[a]·h ≤ γ Σ_ã M_A[a, ã] over E[g | x, a'] ≥ τ bounds every pair's ratio."""
+    reach = max(1.0, float(problem.mechanism.row_sums[0].max()))
+    return fraction_up(Fraction(problem.gamma) * Fraction(reach) / Fraction(problem.floor))
+
+
+def _at_most_ceiling(
+    problem: _ClassProblem, solve: Callable[[int], FractionalResult]
+) -> Callable[[int], FractionalResult]:
+    """``solve``, its certified values lowered to :func:`_ceiling` where above it (both bound the program; where the
+    floor binds and g reaches γ, the ceiling is the value, which the LP's dual may overshoot)."""
+    if problem.floor <= 0:
+        return solve
+    ceiling = _ceiling(problem)
+
+    def at_most(i: int) -> FractionalResult:
+        r = solve(i)
+        if r.status == "optimal" and r.certified and r.value > ceiling:
+            r = replace(r, value=ceiling, gap=gap_between(ceiling, r.witness))
+        return r
+
+    return at_most
 
 
 def _matrix_ends(mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
@@ -560,7 +584,7 @@ def _lipschitz_certificate(problem: _ClassProblem, d: FloatArray) -> BlackBoxCer
         t = widen_up(pair_epsilon(mechanism.matrix), rounding_error(2 * mechanism.matrix_roundings + 1))
         slack = up(up(problem.lipschitz * d) / floor)
         tight = up(np.asarray(t)[pairs[:, 0], pairs[:, 1]] + slack[pairs[:, 0], pairs[:, 1]])
-        upper = np.minimum(upper, np.minimum(fraction_up(Fraction(problem.gamma) / Fraction(floor)), tight))
+        upper = np.minimum(upper, np.minimum(_ceiling(problem), tight))
     prog, rows = _lipschitz_program(
         low, high, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d
     )
@@ -573,7 +597,7 @@ def _lipschitz_certificate(problem: _ClassProblem, d: FloatArray) -> BlackBoxCer
         q[:, b * m : (b + 1) * m] = low[b], high[b]
         return inner_witness(prog.solve(p[0], q[0]), p[1], q[1], *box, rows, inside=box[1])
 
-    return _searched_certificate(problem, search(upper, solve), pairs)
+    return _searched_certificate(problem, search(upper, _at_most_ceiling(problem, solve)), pairs)
 
 
 def _box_solver(problem: _ClassProblem, pairs: IntArray) -> Callable[[int], FractionalResult]:

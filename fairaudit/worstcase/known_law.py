@@ -9,6 +9,7 @@ import dataclasses
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
@@ -17,7 +18,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
-from fairaudit.base.outward import product_ends, rounding_error, up, widen_up
+from fairaudit.base.outward import fraction_up, product_ends, rounding_error, sum_ends, up, widen_up
 from fairaudit.base.pairs import PAIR_BLOCK
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
@@ -270,8 +271,11 @@ def _utility_case(
     flat = _pairs_of_rows(rows)  # (x, a, b), row-major
     upper = _box_values(P, flat, lower, gamma)
     upper = np.asarray(widen_up(upper, widen)) if widen else upper
-    if tau is not None and tau > 0:
-        upper = np.minimum(upper, up(gamma / tau))
+    if tau is not None and tau > 0:  # E[g | x, a] ≤ γ Σ_u P[x, a, u]: a law's rows sum to 1 within 1e-9
+        reach = max(1.0, float(sum_ends(P if ends is None else ends[1])[0].max()))
+        upper = np.minimum(
+            upper, up(gamma / tau) if reach == 1.0 else fraction_up(Fraction(gamma) * Fraction(reach) / Fraction(tau))
+        )
     low, high = (P, P) if ends is None else ends
 
     def solve(i: int) -> FractionalResult:

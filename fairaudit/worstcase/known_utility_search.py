@@ -10,7 +10,6 @@ relaxation) and the Charnes–Cooper LP runs only where the relaxation does not 
 from __future__ import annotations
 
 import functools
-import math
 import operator
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -23,7 +22,6 @@ from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.laws.closed_forms import RandomizedResponse
-from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.pair_search import SearchResult, inner_witness, pairwise_box, relaxed_first, search
@@ -135,22 +133,6 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     return _model_case(problem, "global", found, global_triples, space, evidence)
 
 
-def _row_sums(m: Mechanism) -> tuple[FloatArray, FloatArray]:
-    """(upper, lower) ends of the row sums of the mechanism's exact law: 1 behind randomized response and the identity
-    (stochastic laws, which randomized response's floats only approximate); a matrix is its own law, whose rows sum
-    to 1 only within 1e-9: each sum's ends, exact where the floats sum to a float exactly (``math.fsum`` twice)."""
-    n = len(m.inputs)
-    if m.matrix_roundings or m.is_identity:
-        return np.ones(n), np.ones(n)
-    hi, lo = np.empty(n), np.empty(n)
-    for i, row in enumerate(m.matrix):
-        total = math.fsum(row)
-        rest = math.fsum([*row, -total])  # the exact sum less its rounding, rounded: its sign is exact
-        hi[i] = total if rest <= 0 else math.nextafter(total, math.inf)
-        lo[i] = total if rest >= 0 else math.nextafter(total, -math.inf)
-    return hi, lo
-
-
 def _scaled(values: FloatArray, factor: FloatArray, upward: bool) -> FloatArray:
     """values × factor (broadcast), rounded up (or down), left exact where the factor is 1."""
     product = values * factor
@@ -160,8 +142,8 @@ def _scaled(values: FloatArray, factor: FloatArray, upward: bool) -> FloatArray:
 def _reach(problem: ModelProblem) -> tuple[FloatArray, FloatArray]:
     """Bounds on E[g | x, a] over every model, shape (n_contexts, n_groups): at most Σ_x̃ M_X[x, x̃] Σ_ã M_A[a, ã]
     max_u g(u, x, a) and at least the same with min_u (the rows' sums are 1 except for a matrix's floats)."""
-    a_hi, a_lo = _row_sums(problem.mechanism)
-    x_hi, x_lo = (np.ones(problem.g.shape[0]),) * 2 if problem.same_x else _row_sums(problem.context_mechanism)
+    a_hi, a_lo = problem.mechanism.row_sums
+    x_hi, x_lo = (np.ones(problem.g.shape[0]),) * 2 if problem.same_x else problem.context_mechanism.row_sums
     high = _scaled(x_hi[:, None], a_hi[None, :], upward=True)
     low = _scaled(x_lo[:, None], a_lo[None, :], upward=False)
     return _scaled(problem.g.max(-1), high, upward=True), _scaled(problem.g.min(-1), low, upward=False)

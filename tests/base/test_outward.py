@@ -24,6 +24,7 @@ from fairaudit.base.outward import (
     product_ends,
     product_roundings,
     rounding_error,
+    sum_ends,
     up,
     widen_down,
     widen_up,
@@ -165,3 +166,14 @@ def _encloses(lo: Fraction, hi: Fraction, f, q: Fraction) -> bool:
             <= value
             <= mpmath.mpf(hi.numerator) / mpmath.mpf(hi.denominator)
         )
+
+
+@given(st.integers(1, 6).flatmap(lambda n: st.lists(st.lists(st.floats(0, 1), min_size=n, max_size=n), min_size=1,
+                                                     max_size=4)))  # fmt: skip
+def test_sum_ends_are_the_floats_next_to_the_exact_sums(rows):
+    # against the sums in fractions: the ends enclose them, and each is the nearest float on its side
+    high, low = sum_ends(rows)
+    for row, hi, lo in zip(rows, high, low):
+        exact = sum(map(Fraction, row), Fraction(0))
+        assert Fraction(float(lo)) <= exact <= Fraction(float(hi))
+        assert (hi, lo) == (fraction_up(exact), fraction_down(exact))

@@ -8,6 +8,7 @@ calculations, and a concrete worst model composed and audited.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 
@@ -222,3 +223,51 @@ def test_the_witness_is_given_only_where_the_unit_scale_is_exact():
     assert two.witness <= two.ratio <= two.witness * (1 + 1e-12) and two.gap >= 0
     three = fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=1.0, gamma=3.0, tau=2.0), method="lp")
     assert three.certified and math.isnan(three.witness) and math.isnan(three.gap)
+
+
+def _near_identity_rows_above_1(k=4):
+    """Randomized response's rows at 30 nats, row i raised by 2e-10 (i + 1) off its diagonal: a matrix is its own law,
+    its rows summing to 1 within 1e-9 (here above it)."""
+    e = math.exp(30.0)
+    rows = [[e / (e + 3) if i == j else 1 / (e + 3) for j in range(k)] for i in range(k)]
+    for i, row in enumerate(rows):
+        row[(i + 1) % k] += 2e-10 * (i + 1)
+    return rows
+
+
+@functools.cache
+def _exact_worst(tau=0.3):
+    """max over ordered pairs of (M[a].h)/(M[b].h) over h in [0, 1]^k with M[c].h >= tau for every c, M the rows of
+    :func:`_near_identity_rows_above_1`, by the rational simplex."""
+    from fractions import Fraction as F
+
+    from fairaudit.base.exact_programs import maximize_ratio
+
+    M = [[F(v) for v in r] for r in _near_identity_rows_above_1()]
+    k = len(M)
+    floors = [[-v for v in M[c]] for c in range(k)]
+    return max(maximize_ratio(M[a], M[b], [F(0)] * k, [F(1)] * k, floors, [-F(tau)] * k).value
+               for a, b in itertools.permutations(range(k), 2))  # fmt: skip
+
+
+@pytest.mark.parametrize("method", ["auto", pytest.param("lp", marks=pytest.mark.slow)])
+def test_gamma_over_tau_counts_a_matrix_whose_rows_sum_above_1(method):
+    # E[g | x, a] reaches gamma times row a's sum: gamma/tau alone pruned the pair (3, 1), 2.5e-9 above the value
+    rows = _near_identity_rows_above_1()
+    m = fa.Mechanism(np.array(rows), [f"g{i}" for i in range(4)])
+    c = fa.black_box_bound(m, utility_class=fa.UtilityClass(lower=0.0, gamma=1.0, tau=0.3), method=method)
+    exact = _exact_worst()
+    assert exact <= c.ratio <= exact * (1 + 1e-12)
+
+
+@pytest.mark.parametrize("method", ["auto", pytest.param("lp", marks=pytest.mark.slow)])
+def test_a_known_law_s_gamma_over_tau_counts_its_rows_sums_above_1(method):
+    # a law's rows sum to 1 within 1e-9: the same rows as a law P(u | x, a) and g(u) in [0, 1] shared by the groups
+    from fairaudit.laws.tables import Law
+    from fairaudit.worstcase.known_law import worst_utility
+
+    rows = _near_identity_rows_above_1()
+    law = Law([rows], ["x"], [f"g{i}" for i in range(4)], [f"u{i}" for i in range(4)])
+    w = worst_utility(law, utility_class=fa.UtilityClass(lower=0.0, gamma=1.0, tau=0.3), method=method)
+    exact = _exact_worst()
+    assert exact <= w.local_fairness.ratio <= exact * (1 + 1e-12)

@@ -178,8 +178,10 @@ def black_box_bound(
         The class (``diameter`` is not used), each field by default:
 
         - ``lower``, ``gamma``: the range of g, 0 ≤ lower ≤ γ; 0 and 1.
-        - ``tau``: lower bound on E[g | x, a], ≤ γ; none. E ≥ lower always
-          holds, so τ ≤ lower changes nothing.
+        - ``tau``: lower bound on E[g | x, a], ≤ γ; none. E ≥ lower times
+          M_A[a]'s row sum always holds, so τ ≤ lower changes nothing where
+          the rows sum to at least 1 (a matrix's sum to 1 only within 1e-9:
+          below 1, a τ at lower binds).
         - ``lipschitz``: L_A ≥ 0; 0, which means g does not depend on the group.
         - ``metric``: d(a, a') for the Lipschitz condition, shape
           (n_groups, n_groups); the discrete metric.
@@ -293,11 +295,14 @@ def _class_problem(
     n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
     d = check_metric(metric, n) if n >= 1 and metric is not None else None
-    floor = lower if tau is None else max(tau, lower)  # E[g | x, a] >= floor
-    binding = floor > lower
+    implied = _implied_floor(mechanism, lower)
+    floor = implied if tau is None else max(tau, implied)  # E[g | x, a] >= floor
+    binding = floor > implied
     lip_on = lip > 0 and n >= 2 and gamma > lower
     if method == "threshold" and (binding or lip_on):
-        raise InputError("method", "the threshold solution needs tau <= lower and lipschitz = 0", method)
+        raise InputError(
+            "method", "the threshold solution needs tau <= lower (times M_A's least row sum) and lipschitz = 0", method
+        )
     problem = _ClassProblem(
         mechanism=mechanism,
         lower=lower,
@@ -380,7 +385,7 @@ class _ClassProblem:
     tau: float | None
     lipschitz: float  # L_A as given
     floor: float  # E[g | x, a] >= floor: max(τ, lower)
-    binding: bool  # floor > lower
+    binding: bool  # τ above the floor every h ≥ lower meets (_implied_floor)
     lipschitz_on: bool  # L_A > 0 matters: two groups or more, and lower < γ
     method: str
     assumptions: tuple[Assumption, ...]
@@ -533,6 +538,13 @@ def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> B
         assert found.relaxed is not None  # (computed for a binding τ)
         upper = np.minimum(upper, found.relaxed)
     return _searched_certificate(problem, search(upper, _at_most_ceiling(problem, _box_solver(problem, pairs))), pairs)
+
+
+def _implied_floor(mechanism: Mechanism, lower: float) -> float:
+    """The least E[g | x, a] = M_A[a]·h can be over h ≥ lower, rounded down: lower times M_A's least exact row sum,
+    where that is below 1 (a matrix's rows sum to 1 within 1e-9; stochastic laws' to 1 exactly)."""
+    least = float(mechanism.row_sums[1].min(initial=1.0))
+    return lower if least >= 1.0 else down(lower * least)
 
 
 def _ceiling(problem: _ClassProblem) -> float:

@@ -18,7 +18,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
-from fairaudit.base.outward import fraction_up, product_ends, rounding_error, sum_ends, up, widen_up
+from fairaudit.base.outward import down, fraction_up, product_ends, rounding_error, sum_ends, up, widen_up
 from fairaudit.base.pairs import PAIR_BLOCK
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
@@ -148,12 +148,17 @@ def worst_utility(
     method = check_method(method)
     lower, gamma, tau = check_class(utility_class)
     population = population_for(law, population)
-    binding = tau is not None and tau > lower
-    if method == "threshold" and binding:
-        raise InputError("method", "the threshold solution needs tau <= lower", method)
     Q = law.probabilities
     live_x = population.p_context > 0
     cell = law.observed & live_x[:, None]
+    # τ > lower binds; else E[g | x, a] = Q[x, a]·g ≥ lower Σ_u Q[x, a, u] may still fall below τ, a law's rows
+    # summing to 1 only within 1e-9 (their exact sums, a row at a time, only then)
+    binding = tau is not None and tau > lower
+    if tau is not None and 0 < tau <= lower:
+        least = float(sum_ends(np.nan_to_num(Q, nan=1.0)[cell])[1].min(initial=1.0))
+        binding = least < 1.0 and tau > down(lower * least)
+    if method == "threshold" and binding:
+        raise InputError("method", "the threshold solution needs tau <= lower (times the law's least row sum)", method)
     excluded = tuple(
         f"context {format_label(law.contexts[i])!r}: P(X = x) = 0" for i in np.flatnonzero(~live_x)
     ) + tuple(f"cell (context {format_label(x)!r}, group {format_label(a)!r}): no records" for x, a in law.empty_cells)

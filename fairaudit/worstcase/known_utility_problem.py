@@ -18,6 +18,7 @@ from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.labels import format_label
+from fairaudit.base.outward import down, up
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.independence import exactly_independent
 from fairaudit.laws.mechanisms import Mechanism, identity
@@ -47,7 +48,7 @@ class ModelProblem:
     decision_only: bool  # g depends on the decision only
     gmin: FloatArray  # min and max of g per context
     gmax: FloatArray
-    binding: bool  # τ > min g in some live context
+    binding: bool  # τ > E[g | x, a]'s least value (reach) in some live context and group
     independent: bool  # X ⊥ A in the population, exactly (its fast paths use one weight P(x) per context)
     assumptions: tuple[Assumption, ...]
 
@@ -63,6 +64,13 @@ class ModelProblem:
     def same_x(self) -> bool:
         """M_X is the identity (then it is never materialised: a million contexts would be 10^12 cells)."""
         return self.context_mechanism.is_identity
+
+    @property
+    def reach(self) -> tuple[FloatArray, FloatArray]:
+        """Bounds on E[g | x, a] over every model, shape (n_contexts, n_groups): at most Σ_x̃ M_X[x, x̃] Σ_ã M_A[a, ã]
+        max_u g(u, x, a) and at least the same with min_u, rounded outward (the rows' sums are 1 except for a
+        matrix's floats: :attr:`~fairaudit.laws.mechanisms.Mechanism.row_sums`)."""
+        return utility_reach(self.g, self.mechanism, self.context_mechanism)
 
     @property
     def n_released_contexts(self) -> int:
@@ -182,10 +190,26 @@ def model_problem(
         decision_only=utility.values.ndim == 1 or not (utility.depends_on_group or utility.depends_on_context),
         gmin=gmin,
         gmax=gmax,
-        binding=bool(np.any(floor > gmin[live])) if live.any() else False,
+        binding=bool(np.any(floor > utility_reach(g, mechanism, context_mechanism)[1][live])),
         independent=exactly_independent(population.probabilities),
         assumptions=assumptions,
     )
+
+
+def utility_reach(g: FloatArray, mechanism: Mechanism, context_mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
+    """:attr:`ModelProblem.reach` for the utility table g (n_contexts, n_groups, n_decisions)."""
+    a_hi, a_lo = mechanism.row_sums
+    ones = np.ones(g.shape[0])
+    x_hi, x_lo = (ones, ones) if context_mechanism.is_identity else context_mechanism.row_sums
+    high = _scaled(x_hi[:, None], a_hi[None, :], upward=True)
+    low = _scaled(x_lo[:, None], a_lo[None, :], upward=False)
+    return _scaled(g.max(-1), high, upward=True), _scaled(g.min(-1), low, upward=False)
+
+
+def _scaled(values: FloatArray, factor: FloatArray, upward: bool) -> FloatArray:
+    """values × factor (broadcast), rounded up (or down), left exact where the factor is 1."""
+    product = values * factor
+    return np.where(factor == 1.0, values, up(product) if upward else down(product))
 
 
 def onehot(idx: IntArray, n: int) -> FloatArray:

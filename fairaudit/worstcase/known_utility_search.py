@@ -47,7 +47,7 @@ def local_search(
         upper = box_by_range[range_of[triples[:, 0]], triples[:, 1], triples[:, 2]]
     else:
         upper = np.full(len(triples), np.inf)
-    reach_hi, reach_lo = _reach(problem)
+    reach_hi, reach_lo = problem.reach
     closed = np.full(len(triples), np.inf)  # the closed-form bounds, each rounded up from E[g | x, a]'s bounds
     if tau is not None and tau > 0:
         closed = np.minimum(closed, up(reach_hi[triples[:, 0], triples[:, 1]] / tau))
@@ -106,8 +106,8 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     closed = np.full(len(pairs), np.inf)
     if tau is not None and tau > 0:
         # E[g | a] ≤ Σ_x P(x | a) E[g | x, a] ≤ the largest of its terms, over E[g | a'] ≥ τ (E[g | x, a] at most
-        # _reach's); P(x | a) carries 2 n_x roundings, the products and the sum n_x + 1 more
-        top = _reach(problem)[0]
+        # ModelProblem.reach); P(x | a) carries 2 n_x roundings, the products and the sum n_x + 1 more
+        top = problem.reach[0]
         average = (p_context_given_group * top).sum(axis=0)
         largest = np.where(problem.population.probabilities > 0, top, 0.0).max(axis=0)
         reach = np.minimum(largest, np.asarray(widen_up(average, rounding_error(3 * g.shape[0] + 1))))
@@ -131,22 +131,6 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
     evidence = _Evidence.of(problem, "global", global_triples, space)
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
     return _model_case(problem, "global", found, global_triples, space, evidence)
-
-
-def _scaled(values: FloatArray, factor: FloatArray, upward: bool) -> FloatArray:
-    """values × factor (broadcast), rounded up (or down), left exact where the factor is 1."""
-    product = values * factor
-    return np.where(factor == 1.0, values, up(product) if upward else down(product))
-
-
-def _reach(problem: ModelProblem) -> tuple[FloatArray, FloatArray]:
-    """Bounds on E[g | x, a] over every model, shape (n_contexts, n_groups): at most Σ_x̃ M_X[x, x̃] Σ_ã M_A[a, ã]
-    max_u g(u, x, a) and at least the same with min_u (the rows' sums are 1 except for a matrix's floats)."""
-    a_hi, a_lo = problem.mechanism.row_sums
-    x_hi, x_lo = (np.ones(problem.g.shape[0]),) * 2 if problem.same_x else problem.context_mechanism.row_sums
-    high = _scaled(x_hi[:, None], a_hi[None, :], upward=True)
-    low = _scaled(x_lo[:, None], a_lo[None, :], upward=False)
-    return _scaled(problem.g.max(-1), high, upward=True), _scaled(problem.g.min(-1), low, upward=False)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -338,7 +322,7 @@ def _model_program(
             table[..., lo_u] += 1.0 - high
             return table
 
-        rows = np.kron(MX[xs], MA) if with_tau and tau is not None and tau > lo else None
+        rows = np.kron(MX[xs], MA) if with_tau and tau is not None else None  # (with_tau: τ above E[g]'s least)
         outer: FloatArray | None = None
         witness_rows: list[Any] = []
         if rows is not None:

@@ -382,6 +382,11 @@ def _maximiser_checks(
     for (name, where, pair, context), clip, from_duals in zip(named, clips, (local_duals, global_duals)):
         labels = " vs ".join(str(v) for v in (*context, where.get("group"), where.get("other_group")))
         value = exact(where["value"], name)
+        if where.get("certified") is False:  # (an inexact solve's value: its pair need only reach its witness)
+            if where.get("witness") is None:
+                skipped.append((name, "the value is not certified and no witness is recorded"))
+                continue
+            value = exact(where["witness"], name)
         reach = None if pair is None else (_below_epsilon(pair, eps_a) if clip else ln_of(pair)).hi
         if reach is None:
             ok = False
@@ -434,7 +439,12 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     elif glob.get("value") is not None:
         clip = worst.independent and worst.group_free
         on_l_bar = _below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)
-        out.append(judge("bound_details.black_box.global.value", glob["value"], on_l_bar, "upper"))
+        if glob.get("certified") is False:  # (an inexact solve's: certify gives no bound from it, bounds.global)
+            why = f"not certified by certify (solver status {glob.get('solver_status')}): its witness is checked"
+            skipped += [("bound_details.black_box.global.value", why), ("bound_details.black_box.global.ratio", why)]
+            glob = {k: v for k, v in glob.items() if k != "ratio"}
+        else:
+            out.append(judge("bound_details.black_box.global.value", glob["value"], on_l_bar, "upper"))
         out += _witness_checks(
             "bound_details.black_box.global", glob, worst.global_, on_l_bar, eps_a, clip=clip, skipped=evidence
         )

@@ -15,6 +15,7 @@ checks a primal point exactly and gives its ratio rounded down, the witness of t
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any
@@ -39,6 +40,7 @@ __all__ = [
     "point_ratio",
     "rational_point_ratio",
     "refine_duals",
+    "smallest_root",
     "vertex_ratio",
 ]
 
@@ -537,3 +539,47 @@ def vertex_ratio(
     if not slope > 0 or not math.isfinite(constant / slope):
         return None
     return constant / slope
+
+
+def smallest_root(
+    c: Sequence[Sequence[Fraction]], bottoms: Sequence[Sequence[Fraction]], constant: Fraction
+) -> Fraction | None:
+    """The smallest λ ≥ 0 with B(λ) = Σ_rows max_u (c − λq)[row, u] + ``constant`` ≤ 0, exactly; None when there is
+    none.
+
+    B is convex, piecewise linear and non-increasing in λ (q ≥ 0): Newton's method from λ = 0 with the right
+    derivative (−Σ_rows q at each row's maximiser with the largest q) never passes the smallest root and lands on a
+    later piece at each step, so it reaches the root exactly in finitely many steps; a zero slope with B > 0 means
+    no root. With c = p + Σ_f ν_f F_f and constant = −τ Σ_f ν_f (ν ≥ 0) it bounds max (p·K)/(q·K) over tables K
+    whose rows are distributions and which meet the floors F_f·K ≥ τ (weak duality with the rows' simplices kept in
+    the inner maximum: ``proofs/verification.md`` §4f).
+
+    Parameters
+    ----------
+    c, bottoms : sequence of sequence of Fraction, shape (n_rows, n_decisions)
+        The rows' coefficients of the Lagrangian's numerator and of q, q ≥ 0.
+    constant : Fraction
+        Added to the rows' maxima.
+
+    Returns
+    -------
+    Fraction or None
+
+    Examples
+    --------
+    >>> F = Fraction
+    >>> smallest_root([[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]], F(0))
+    Fraction(6, 1)
+    """
+    lam = Fraction(0)
+    while True:
+        total, slope = constant, Fraction(0)
+        for cr, qr in zip(c, bottoms, strict=True):
+            best, steep = max(((ci - lam * qi, qi) for ci, qi in zip(cr, qr, strict=True)))
+            total += best
+            slope += steep  # the right derivative: among a row's maximisers the steepest descent
+        if total <= 0:
+            return lam
+        if slope == 0:
+            return None
+        lam += total / slope  # the tangent's root: at most the smallest root (the function is convex)

@@ -117,7 +117,8 @@ class FractionalResult:
     dual : tuple of numpy.ndarray
         The LP route's dual point that certified ``value``: one array per block of rows (ν ≥ 0 for A_ub,
         η for A_eq, in that order; shape (m,) and (k,)); empty on the threshold route and when the rational
-        simplex solved the program (its exact last step is the proof).
+        simplex solved the program (its exact last step is the proof). Where ``value`` is not certified, the
+        solver's dual point as it returned it (a caller may certify another bound from it).
     """
 
     value: float
@@ -627,7 +628,10 @@ class FractionalProgram:
                 return crossover
         if not bound.certified:
             why = f"not certified (solver status {status}): {bound.reason}"
-            return result(value=value, argmax=h, status="optimal", solver_status=status, reason=why, witness=witness)
+            raw = tuple(np.asarray(d, dtype=float) for d in duals)
+            return result(
+                value=value, argmax=h, status="optimal", solver_status=status, reason=why, witness=witness, dual=raw
+            )
         cleaned = tuple(np.maximum(d, 0.0) if op == "le" else d for d, (_, _, op) in zip(duals, self._rows))
         return result(
             value=bound.value,

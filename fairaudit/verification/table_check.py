@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, cast
 
-from fairaudit.base.exact_duality import ACTIVE_TOLERANCES
+from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, smallest_root
 from fairaudit.base.exact_programs import maximize_linear
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.verification.dual_check import without_duals
@@ -104,7 +104,7 @@ class TableProgram:
             for v, floor in zip(nu, self.floors, strict=True):
                 for row, coefficients in floor.items() if v else ():
                     c[row] = [ci + v * fi for ci, fi in zip(c[row], coefficients, strict=True)]
-        lam = _smallest_root(c, self.bottoms, constant)
+        lam = smallest_root(c, self.bottoms, constant)
         if lam is None:
             return INF
         zero = all(any(qi == 0 for qi in qr) for qr in self.bottoms)
@@ -167,7 +167,7 @@ class TableProgram:
                     break
             else:
                 return None  # Σ_rows max q < kept
-        theta_0 = _smallest_root([list(p) for p in self.tops], self.bottoms, Fraction(0))
+        theta_0 = smallest_root([list(p) for p in self.tops], self.bottoms, Fraction(0))
         if theta_0 is not None and (theta_c is None or theta_0 <= theta_c):
             table = self.relaxed_table(theta_0)  # (its q·K ≥ kept: S at θ₀ is at least S at θ_c)
             return theta_0, table
@@ -290,23 +290,6 @@ class TableProgram:
             if found is not None and (best is None or found > best):
                 best = found
         return best
-
-
-def _smallest_root(c: Sequence[Row], bottoms: Table, constant: Fraction) -> Fraction | None:
-    """The smallest λ ≥ 0 with Σ_rows max_u (c − λq)[row, u] + constant ≤ 0, by Newton's method from the left (the
-    function is convex, piecewise linear and non-increasing); None when there is none."""
-    lam = Fraction(0)
-    while True:
-        total, slope = constant, Fraction(0)
-        for cr, qr in zip(c, bottoms, strict=True):
-            best, steep = max(((ci - lam * qi, qi) for ci, qi in zip(cr, qr, strict=True)))
-            total += best
-            slope += steep  # the right derivative: among a row's maximisers the steepest descent
-        if total <= 0:
-            return lam
-        if slope == 0:
-            return None
-        lam += total / slope  # the tangent's root: at most the smallest root (the function is convex)
 
 
 def _dot(a: Row, b: Row) -> Fraction:

@@ -13,14 +13,16 @@ import functools
 import operator
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from fractions import Fraction
 from typing import Any, SupportsIndex
 
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
+from fairaudit.base.exact_duality import smallest_root
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
-from fairaudit.base.outward import down, product_ends, product_roundings, rounding_error, up, widen_up
+from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem
@@ -191,6 +193,8 @@ def _solver(
 
     def solve(i: int) -> FractionalResult:
         r = settle(i, inner(i)) if roundings else inner(i)
+        if r.status == "optimal" and r.method == "lp" and space.table_floors is not None and r.dual:
+            r = _with_rows_kept(r, num(i), den(i), space.table_floors, problem.tau, problem.g.shape[-1])
         if r.status == "optimal" and r.certified and r.value > closed[i]:
             r = replace(r, value=float(closed[i]), gap=gap_between(float(closed[i]), r.witness))
         if evidence is not None:
@@ -207,6 +211,39 @@ def _solver(
         return r if settled else (exact(i, r) or r)
 
     return solve
+
+
+def _with_rows_kept(
+    r: FractionalResult, p: FloatArray, q: FloatArray, floors: FloatArray, tau: float | None, n_u: int
+) -> FractionalResult:
+    """``r``, a program over the model's table solved by the LP, certified (or its certified value lowered) from the
+    solver's floors' multipliers with each row's simplex kept in the inner maximum: the smallest λ with Σ_rows
+    max_u (p − λq + Σ_f ν_f F_f) − τ Σ_f ν_f ≤ 0, exactly (:func:`~fairaudit.base.exact_duality.smallest_root`;
+    any ν ≥ 0 is valid, so the solver's, clipped at 0, needs no repair), rounded up. Keeping the simplices makes it
+    at most the bound from the LP's own dual (whose simplex multipliers only add to each row's maximum), and it is
+    the bound ``fairaudit verify`` re-derives from the same ν. ``r`` itself where that has no root or is larger.
+    ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
+    nu = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0)
+    if tau is None or nu.size != floors.shape[0]:
+        return r
+    weights = [(Fraction(v), [(j, Fraction(f)) for j, f in zip(np.flatnonzero(row).tolist(), row[row != 0].tolist())])
+               for v, row in zip(nu.tolist(), floors) if v]  # fmt: skip
+    c = [Fraction(v) for v in p.tolist()]
+    for v, cells in weights:
+        for j, f in cells:
+            c[j] += v * f
+    bottoms = [Fraction(v) for v in q.tolist()]
+    rows = range(0, len(c), n_u)
+    c_rows, q_rows = [c[k : k + n_u] for k in rows], [bottoms[k : k + n_u] for k in rows]
+    root = smallest_root(c_rows, q_rows, -Fraction(tau) * sum((v for v, _ in weights), Fraction(0)))
+    if root is None:
+        return r
+    if all(any(v == 0 for v in row) for row in q_rows):  # (a table with q·K = 0 meets the floors: 0/0 counts as 1)
+        root = max(root, Fraction(1))
+    value = fraction_up(root)
+    if r.certified and value >= r.value:
+        return r
+    return replace(r, value=value, certified=True, reason="", gap=gap_between(value, r.witness))
 
 
 @dataclass(frozen=True, eq=False)
@@ -253,6 +290,7 @@ class _ModelSpace:
     box: tuple[float, float]  # the variables' bounds, for the witness
     witness_rows: list[Any]  # the constraints with the τ rows rounded down: a point meeting them is feasible
     floors: bool  # whether the program has the τ rows
+    table_floors: FloatArray | None = None  # in kernel space, the τ rows rounded up (over every cell), else None
 
 
 def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
@@ -404,6 +442,7 @@ def _model_program(
         box=(0.0, 1.0),
         witness_rows=k_witness_rows,
         floors=k_outer is not None,
+        table_floors=k_outer,
     )
 
 

@@ -471,3 +471,31 @@ def test_hunted_certificates_have_l_bar_re_derived_beyond_the_exact_size(spec, m
     result = verify(cert)
     assert result.holds, [c.line() for c in result.failures]
     assert "bound_details.black_box.global.value" in {c.name for c in result.checks}
+
+
+# found by a random hunt at a real size (nothing patched): randomized response at 10 nats on seven groups, 16
+# decisions and a utility by group (112 variables). L-bar's LP duals did not check (L-bar not certified), or checked
+# 3.6e-7 above the bound the same floors' multipliers give with the rows' simplices kept, which verify re-derives
+SEVEN = [
+    [1.0, 0.1, 0.5, 0.0, 1.0, 0.5, 0.5, 0.7, 0.1, 0.5, 1.0, 0.1, 0.1, 0.5, 0.0, 0.5],
+    [0.0, 0.1, 0.7, 0.25, 0.1, 1.0, 0.25, 0.0, 0.5, 1.0, 0.0, 0.7, 0.25, 0.1, 0.7, 0.1],
+    [1.0, 1.0, 0.7, 0.5, 0.0, 0.5, 0.5, 1.0, 0.7, 0.1, 0.1, 0.7, 0.5, 0.25, 0.1, 0.25],
+    [0.0, 1.0, 0.5, 0.5, 1.0, 0.0, 0.25, 0.25, 0.25, 0.7, 0.25, 0.1, 1.0, 0.1, 0.7, 0.5],
+    [0.0, 0.25, 0.7, 0.5, 0.1, 0.1, 1.0, 1.0, 0.5, 0.5, 0.1, 0.1, 0.7, 0.5, 0.0, 0.0],
+    [0.7, 0.1, 0.7, 0.7, 0.7, 0.7, 0.5, 0.7, 0.5, 1.0, 0.0, 1.0, 0.7, 0.0, 0.25, 0.5],
+    [0.5, 0.0, 1.0, 1.0, 0.25, 1.0, 0.1, 0.1, 0.7, 1.0, 0.25, 0.7, 0.1, 0.0, 0.25, 0.5],
+]
+
+
+@pytest.mark.slow
+def test_certify_bounds_the_table_programs_from_the_floors_multipliers_with_the_rows_simplices_kept():
+    spec = _spec(
+        7, 1, 16, [[v / 11 for v in (3, 0, 0, 2, 2, 3, 1)]], 'mechanism = "randomized_response"\nepsilon = 10.0',
+        [SEVEN], 0.802,
+    )  # fmt: skip
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    glob = cert["bound_details"]["black_box"]["global"]
+    assert glob["certified"] and glob["gap"] < 1e-9
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    assert "bound_details.black_box.global.value" in {c.name for c in result.checks}

@@ -369,3 +369,25 @@ def test_behind_the_identity_on_contexts_the_exact_program_is_a_product_of_the_c
     monkeypatch.setattr(linear_fractional, "CROSSOVER_SIZE", (3, 16))  # a block beyond it: the slab's upper bound
     w = worst_model(fa.randomized_response(["a", "b"], epsilon=30.0), util, tau=0.2)
     assert w.local_fairness.value > 1e-3 and not w.local_fairness.settled
+
+
+def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_simplices_kept():
+    # proofs/verification.md §4f's example over the model's table: rows (released a, released b) over (yes, no),
+    # p = (3/4, 1/4) on yes, q = (1/8, 3/8), the floors of a and b at tau = 1/4 (the value is 10/3). By hand, nu =
+    # (0, 3) gives B(lambda) = 7/4 - lambda/2 (both rows on yes below 11/3): 7/2; nu = 0, the value without floors, 6
+    from fairaudit.base.linear_fractional import FractionalResult
+    from fairaudit.worstcase.known_utility_search import _with_rows_kept
+
+    p, q = np.array([0.75, 0.0, 0.25, 0.0]), np.array([0.125, 0.0, 0.375, 0.0])
+    floors = np.array([[0.75, 0.0, 0.25, 0.0], [0.125, 0.0, 0.375, 0.0]])
+
+    def solved(value, nu, certified):
+        return FractionalResult(value=value, argmax=None, status="optimal", method="lp", solver_status="optimal",
+                                reason="", p=p, q=q, lower=0.0, upper=1.0, certified=certified, witness=3.0,
+                                dual=(np.array(nu), np.zeros(2)))  # fmt: skip
+
+    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2)
+    assert r.certified and r.value == 3.5 and 0.5 <= r.gap <= 0.5 + 1e-15
+    assert _with_rows_kept(solved(3.4, [0.0, 8 / 3], False), p, q, floors, 0.25, 2).value == pytest.approx(10 / 3)
+    assert _with_rows_kept(solved(5.0, [0.0, 0.0], True), p, q, floors, 0.25, 2).value == 5.0  # (6 is larger)
+    assert _with_rows_kept(solved(7.0, [0.0, 0.0], True), p, q, floors, 0.25, 2).value == 6.0

@@ -298,8 +298,9 @@ def _dot(a: Row, b: Row) -> Fraction:
 
 @dataclass(frozen=True)
 class _Case:
-    """One program: its bound (without the floors, and E[g | a] ≤ Σ max p over E[g | a'] ≥ t), the recorded ν and
-    witness table (over its rows), and the key of its rows' table in the recorded witness."""
+    """One program: its bound (without the floors, or with the denominator's floor q·K ≥ t its only one:
+    :meth:`TableProgram.floor_bound`), whether that bound is its value, the recorded ν and the recorded witness table
+    over its rows."""
 
     program: TableProgram
     bound: Number
@@ -310,7 +311,8 @@ class _Case:
 
 def _case(program: TableProgram, kept: Fraction | None, nu: Any, table: Any) -> _Case:
     """The program's case: without floors its bound is its value; with them, where the table attaining the bound
-    without them meets them (at +inf: a table with E[g | a'] = 0 < E[g | a]; finite: one at its ratio)."""
+    without them meets them (at +inf: a table with E[g | a'] = 0 < E[g | a]; finite: one at its ratio), else where
+    the table attaining the one-floor relaxation's value (q·K ≥ ``kept``) meets them."""
     relaxed = program.dual_bound()
     at = program.relaxed_table(relaxed)
     if program.tau is None or not program.floors:

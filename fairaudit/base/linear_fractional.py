@@ -89,8 +89,9 @@ class FractionalResult:
     value : float
         The optimal ratio as an upper bound: ≥ the exact maximum whenever ``certified`` (+inf when
         unbounded; NaN when infeasible). The threshold route rounds it up by a proven error bound; the LP
-        route takes it from a dual point checked in exact arithmetic, or, on a small program whose repaired dual
-        is not tight, from the rational simplex's exact optimum (``proofs/linear_fractional.md`` §6).
+        route takes it from a dual point checked in exact arithmetic (the transformed LP's, repaired, or the
+        parametric LP's), or, on a small program whose repaired dual is not tight, from the rational simplex's exact
+        optimum (``proofs/linear_fractional.md`` §6).
         When not ``certified`` it is the solver's primal value, and ``reason`` says why it is not certified.
     argmax : numpy.ndarray or None
         An h attaining it (to the solver's accuracy), shape (n,); None when unbounded or infeasible.
@@ -280,6 +281,12 @@ REPAIR_OFFSETS = (0.0, 1e-13, 1e-11, 1e-9)
 VERTEX_OFFSETS = (0.0, 1e-15, 1e-13, 1e-11)
 """λ − the root of the repaired duals' B (relative; :func:`~fairaudit.base.exact_duality.vertex_ratio`) at which
 they are repaired, smallest first: where B is flat beyond the optimum the duals need λ a little above it."""
+
+PARAMETRIC_OFFSETS = (1e-11, 1e-9, 1e-7)
+"""λ − the solver's value (relative to max(1, |value|)) at which the parametric LP is solved, smallest first, when the
+transformed LP's dual proves nothing or a loose value beyond :data:`CROSSOVER_SIZE`
+(:meth:`FractionalProgram._parametric`). An inexact solve's duals are off by about 1e-9 relative: below that the
+margin is lost in them, above it the bound is as far above the optimum."""
 
 REPAIRS = 4
 """Further repairs at the last certified λ, while the value decreases."""
@@ -494,7 +501,9 @@ class FractionalProgram:
             solved by the threshold rule instead, exact on a box (:func:`threshold_max`); ``solver_status`` says so.
             A program with rows that the solver calls unbounded is solved by the rational simplex where it is within
             :data:`CROSSOVER_SIZE` (+inf only where a vertex has q·h = 0 < p·h exactly); beyond it, +inf stands, an
-            upper bound of every ratio.
+            upper bound of every ratio. Beyond that size, a value whose dual proves nothing, or a value its dual
+            proves loosely, is also bounded from the duals of the parametric LP max (p − λq)·h just above the
+            solver's value (:data:`PARAMETRIC_OFFSETS`), and the smaller certified value is kept.
         """
         p, q = _vectors(p, q)
         if p.size != self.n:
@@ -618,14 +627,23 @@ class FractionalProgram:
             if not tight.certified or tight.value >= bound.value:
                 break
             bound, duals = tight, repaired  # type: ignore[assignment]
-        if self._bounded and bound.certified:  # where the point misses a row by rounding, the vertex it stands for
+
+        def improved(witness: float) -> float:
+            """Where the point misses a row by rounding, the witness of the vertex it stands for."""
+            if not (self._bounded and bound.certified):
+                return witness
             lower, upper = self.lower, self.upper  # finite on a bounded program
             assert lower is not None and upper is not None
-            witness = improve_witness(witness, bound.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, self._rows)
+            return improve_witness(witness, bound.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, self._rows)
+
+        witness = improved(witness)
         if self._bounded and not _tight(bound, witness):
             crossover = self._crossover(result, p, q, status)
             if crossover is not None:
                 return crossover
+            if math.isfinite(value):  # beyond the exact size: the parametric LP's duals, where they prove more
+                bound, duals = self._parametric(p, q, start, value, bound, duals)
+                witness = improved(witness)
         if not bound.certified:
             why = f"not certified (solver status {status}): {bound.reason}"
             raw = tuple(np.asarray(d, dtype=float) for d in duals)
@@ -644,6 +662,36 @@ class FractionalProgram:
             gap=gap_between(bound.value, witness),
             dual=cleaned,
         )
+
+    def _parametric(
+        self, p: FloatArray, q: FloatArray, start: float, value: float, bound: RatioBound, duals: list[FloatArray]
+    ) -> tuple[RatioBound, list[FloatArray]]:
+        """The better of ``bound`` (with its ``duals``) and the bounds certified from the duals of the parametric LP
+        max (p − λq)·h over the polytope itself, at λ a little above the solver's ``value``
+        (:data:`PARAMETRIC_OFFSETS`): there its optimum is negative by a margin, so its duals prove B(λ) ≤ 0 where
+        the solver's error is below that margin (Dinkelbach). Checked exactly as any dual
+        (``proofs/linear_fractional.md`` §6, "The parametric dual").
+
+        For when the transformed LP's dual proves nothing (an inexact solve whose floors' multipliers leave B above 0
+        where q·h = 0) or proves a loose value, on a program beyond the rational simplex's size.
+        """
+        import cvxpy as cp
+
+        scale = max(1.0, abs(value))
+        for offset in PARAMETRIC_OFFSETS:
+            if bound.certified and bound.value <= value + offset * scale:
+                break  # a larger λ gives no smaller root
+            try:
+                status, _, _ = self._primal_max(p - (value + offset * scale) * q)
+            except cp.error.SolverError:
+                continue
+            if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+                continue
+            for found in self._primal_duals():
+                tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, found)  # type: ignore[arg-type]
+                if tight.certified and not (bound.certified and bound.value <= tight.value):
+                    bound, duals = tight, found
+        return bound, duals
 
     def _crossover(
         self,
@@ -727,19 +775,30 @@ class FractionalProgram:
             return False
         lower, upper = self.lower, self.upper
         assert lower is not None and upper is not None  # (bounded)
-        constraints = self._primal[0].constraints[len(self._primal[0].constraints) - len(self._rows) :]
-        duals = [np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for c in constraints]
-        if any(d.size != b.size or not np.all(np.isfinite(d)) for d, (_, b, _) in zip(duals, self._rows)):
+        found = self._primal_duals()
+        if not found:
             return False
-        duals = [np.maximum(d, 0.0) if op == "le" else -d for d, (_, _, op) in zip(duals, self._rows)]
         h = np.clip(h, lower, upper)
-        candidates = [duals] + [
-            refine_duals(h, 1.0, p, q, lower, upper, self._rows, duals, t) for t in ACTIVE_TOLERANCES
+        candidates = found + [
+            refine_duals(h, 1.0, p, q, lower, upper, self._rows, duals, t) for duals in found for t in ACTIVE_TOLERANCES
         ]
         for candidate in candidates:
             if candidate is not None and dual_value(Fraction(1), p, q, lower, upper, self._rows, candidate) <= 0:
                 return True
         return False
+
+    def _primal_duals(self) -> list[list[FloatArray]]:
+        """The duals of the rows of :meth:`_primal_max`'s last solve, as candidates for an exact check: ν clipped at 0,
+        η as cvxpy gives it and negated (its sign for an equality differs between this program and the transformed
+        one; any η is a dual, so both are tried). Empty when the solver gave none, or not finite."""
+        assert self._primal is not None
+        constraints = self._primal[0].constraints[len(self._primal[0].constraints) - len(self._rows) :]
+        duals = [np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for c in constraints]
+        if any(d.size != b.size or not np.all(np.isfinite(d)) for d, (_, b, _) in zip(duals, self._rows)):
+            return []
+        signs = (1.0, -1.0) if any(op == "eq" for _, _, op in self._rows) else (1.0,)
+        return [[np.maximum(d, 0.0) if op == "le" else sign * d for d, (_, _, op) in zip(duals, self._rows)]
+                for sign in signs]  # fmt: skip
 
     def _primal_max(self, p: FloatArray) -> tuple[str, float, FloatArray | None]:
         """max p·h over the polytope itself (built on first use): (status, value, h or None)."""

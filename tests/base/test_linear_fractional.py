@@ -165,3 +165,41 @@ def test_a_box_program_the_solver_calls_unbounded_is_solved_by_the_threshold_rul
     assert r.solver_status.endswith("then the threshold rule (exact on a box)")
     exact = Fraction(p[0]) / Fraction(q[0])
     assert Fraction(r.witness) <= exact <= Fraction(r.value) and r.value == threshold_max(p, q, 0.0, 1.0).value
+
+
+def _table_program(seed: int, rows: int = 7, decisions: int = 10):
+    """max (p·K)/(q·K) over tables K (rows x decisions, each row a distribution) meeting three floors F·K ≥ 0.3, the
+    shape of the known-utility search's programs: 70 variables, beyond the rational simplex's 64."""
+    from fairaudit.base.linear_fractional import FractionalProgram
+
+    rng = np.random.default_rng(seed)
+    n = rows * decisions
+    floors = rng.choice([0.0, 0.1, 0.25, 0.5, 0.7, 1.0], size=(3, n)) / rows
+    simplex = np.kron(np.eye(rows), np.ones(decisions))
+    prog = FractionalProgram(n, lower=0.0, upper=1.0, A_ub=-floors, b_ub=np.full(3, -0.3), A_eq=simplex,
+                             b_eq=np.ones(rows))  # fmt: skip
+    p, q = rng.choice([0.0, 0.1, 0.5, 1.0], size=n) / rows, floors[0] + rng.uniform(0, 1e-3, n)
+    return prog, p, q, floors, simplex
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_parametric_lp_s_duals_certify_a_program_whose_own_dual_proves_nothing(seed):
+    # the duals of max (p − λq)·K at λ just above the solver's value, checked exactly, bound the program within 1e-9
+    # of its exact maximum (the rational simplex over the floats' rationals); the equalities' multipliers work with
+    # cvxpy's sign for this program, the opposite of its sign for the Charnes–Cooper program
+    from fairaudit.base.exact_duality import RatioBound
+    from fairaudit.base.exact_programs import maximize_ratio
+    from fairaudit.base.linear_fractional import CROSSOVER_SIZE
+
+    prog, p, q, floors, simplex = _table_program(seed)
+    assert prog.n > CROSSOVER_SIZE[0]
+    solved = prog.solve(p, q)
+    nothing = RatioBound(value=math.nan, certified=False, steps=0, reason="the dual proves nothing")
+    bound, duals = prog._parametric(p, q, solved.value * (1 - 1e-9), solved.value, nothing, [])
+    exact = maximize_ratio(
+        [Fraction(v) for v in p], [Fraction(v) for v in q], [Fraction(0)] * prog.n, [Fraction(1)] * prog.n,
+        [[Fraction(v) for v in row] for row in np.vstack([-floors, simplex, -simplex])],
+        [Fraction(v) for v in [-0.3] * 3 + [1.0] * 7 + [-1.0] * 7],
+    ).value  # fmt: skip
+    assert bound.certified and exact <= Fraction(bound.value) <= exact * (1 + Fraction(1, 10**9))
+    assert len(duals) == 2 and np.all(duals[0] >= 0)

@@ -141,7 +141,7 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
     local = Enclosure(ends[0][0][0], ends[-1][0][1])
     low_global, high_global = ends[0][1], ends[-1][1]
     global_ = None if low_global is None or high_global is None else Enclosure(low_global[0], high_global[1])
-    why = "" if global_ is not None else f"L-bar: programs beyond {MAX_VARIABLES} variables"
+    why = "" if global_ is not None else f"L-bar: programs beyond {MAX_VARIABLES} variables without a recorded dual"
     independent = _alike(settings[0].weights, settings[0].present)
     group_free = not isinstance(settings[0], KernelSetting) or settings[0].group_free
     duals = any(end[2] for pair in ends for end in pair if end is not None)

@@ -163,7 +163,7 @@ def test_l_bar_beyond_the_limit_is_bounded_by_its_duals_and_without_them_listed_
     result = verify(cert)
     assert result.holds, [c.line() for c in result.failures]
     listed = dict(result.not_checked)
-    assert listed["bound_details.black_box.global"] == "L-bar: programs beyond 2 variables"
+    assert listed["bound_details.black_box.global"] == "L-bar: programs beyond 2 variables without a recorded dual"
     assert "bounds.black_box" in {c.name for c in result.checks}
 
 

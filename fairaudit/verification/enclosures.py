@@ -15,10 +15,22 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
+import numpy as np
+
 from fairaudit.base.errors import InputError
 from fairaudit.base.outward import exp_bounds, ln_bounds
 
-__all__ = ["INF", "Enclosure", "RecordedMechanism", "exact", "exp_of", "ln", "ln_of", "recorded_array"]
+__all__ = [
+    "INF",
+    "Enclosure",
+    "RecordedMechanism",
+    "exact",
+    "exp_of",
+    "ln",
+    "ln_of",
+    "on_one_denominator",
+    "recorded_array",
+]
 
 INF = math.inf
 """+inf, as the certificate writes it (``"inf"``)."""
@@ -274,7 +286,7 @@ class RecordedMechanism:
             return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), a, b
         rows = self.matrix_rows()
         assert rows is not None
-        ints, den = _on_one_denominator(rows)
+        ints, den = on_one_denominator(rows)
         scale = gamma / tau
 
         def shift(a: int, b: int) -> Fraction:
@@ -303,22 +315,21 @@ class RecordedMechanism:
 
 def _largest_hockey_stick(rows: Sequence[Sequence[Fraction]], t: Fraction | float) -> Fraction:
     """max over ordered pairs of distinct rows of Σ_o [ra_o − t rb_o]₊, exactly (t may be +inf: the mass of ra where
-    rb is 0), in integers over one denominator."""
-    ints, den = _on_one_denominator(rows)
-    if not isinstance(t, Fraction):  # +inf
-        pairs = [(ra, rb) for i, ra in enumerate(ints) for j, rb in enumerate(ints) if i != j]
-        best = max((sum(x for x, y in zip(ra, rb) if y == 0) for ra, rb in pairs), default=0)
-        return Fraction(best, den)
-    p, q = t.numerator, t.denominator
-    best = max(
-        (sum(max(0, x * q - p * y) for x, y in zip(ra, rb)) for i, ra in enumerate(ints) for j, rb in enumerate(ints)
-         if i != j),
-        default=0,
-    )  # fmt: skip
-    return Fraction(best, den * q)
+    rb is 0), in integers over one denominator (object arrays: exact, one row against all the others at a time)."""
+    ints, den = on_one_denominator(rows)
+    matrix = np.array(ints, dtype=object)
+    best = 0
+    for a, row in enumerate(matrix):
+        others = np.delete(matrix, a, axis=0)
+        if isinstance(t, Fraction):
+            gap = np.maximum(row * t.denominator - others * t.numerator, 0)  # (ra − t rb)·den·t.denominator
+        else:
+            gap = np.where(others == 0, row, 0)
+        best = max(best, max(gap.sum(axis=1).tolist(), default=0))
+    return Fraction(best, den * (t.denominator if isinstance(t, Fraction) else 1))
 
 
-def _on_one_denominator(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:
+def on_one_denominator(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:
     """Rational rows as integers over one common denominator: (the integers, the denominator)."""
     den = math.lcm(*(x.denominator for row in rows for x in row))
     return [[x.numerator * (den // x.denominator) for x in row] for row in rows], den

@@ -21,17 +21,27 @@ every group).
 
 from __future__ import annotations
 
+import functools
+import heapq
 import math
 import operator
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, NamedTuple
 
 from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
 from fairaudit.verification.dual_check import BlockProgram, Evidence, MissingDual, without_duals
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, recorded_array
+from fairaudit.verification.enclosures import (
+    INF,
+    Enclosure,
+    RecordedMechanism,
+    exact,
+    on_one_denominator,
+    recorded_array,
+)
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
+from fairaudit.verification.screens import pair_screens
 from fairaudit.verification.table_check import table_global, table_local
 
 __all__ = [
@@ -285,15 +295,19 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None, 
     floors = [_rows_of(s, *pairs[0])[2]]  # (every group's: the same for every pair)
     small = len(floors[0][0]) <= MAX_VARIABLES and (s.rows is None or s.k <= MAX_GROUPS)
     duals, point = _local_evidence(s)
-    cases = []
-    for a, b in pairs:
+    screens = {}
+    if s.rows is not None and s.tau and at is None:  # (behind a matrix: k(k − 1) pairs, most of them below the top)
+        screens = {box: pair_screens(s.rows, [[Fraction(1)] * s.k], [box[0]], [box[1]], s.tau, range(s.k))
+                   for box in boxes}  # fmt: skip
+
+    def case(a: int, b: int, lo: Fraction, hi: Fraction) -> _Case:
         row_a, row_b, _, _ = _rows_of(s, a, b)
-        for lo, hi in boxes:
-            key = (lo, hi, a, b)
-            case = _Case(
-                (lo, hi), [row_a], [row_b], floors, [lo], [hi], s.tau, None, small, duals.get(key), point.get(key)
-            )
-            cases.append(case)
+        key = (lo, hi, a, b)
+        return _Case((lo, hi), [row_a], [row_b], floors, [lo], [hi], s.tau, None, small, duals.get(key), point.get(key))
+
+    cases = [_Lazy(screens.get((lo, hi), {}).get((a, b), INF), (lo, hi), functools.partial(case, a, b, lo, hi),
+                   (lo, hi, a, b) in point)
+             for a, b in pairs for lo, hi in boxes]  # fmt: skip
     return _largest(cases, Fraction(0), loose)
 
 
@@ -358,7 +372,7 @@ class _Case:
         start = 0
         for rows in self.floors:
             if id(rows) not in scaled:  # (the floors of one block as integers over one denominator, once)
-                scaled[id(rows)] = _integers(rows)
+                scaled[id(rows)] = on_one_denominator(rows)
             width = len(rows[0])
             if not _meets(*scaled[id(rows)], h[start : start + width], self.tau):
                 return False
@@ -385,39 +399,58 @@ class _Case:
         return None if self.point is None else self.program().vertex_ratio(self.point)
 
 
-def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _Ends:
-    """max of ``start`` and the programs' values, enclosed, solving as few as it can (``proofs/verification.md``
-    §4, §4e).
+class _Lazy(NamedTuple):
+    """One program of :func:`_largest`, built only when needed."""
 
-    Each case's bound (:meth:`_Case.bound`) is its value where the floor relaxation's maximiser meets every floor;
-    the others are solved exactly in decreasing order of their bound until none left exceeds the upper end found. A
-    key none of whose programs is known feasible has its first solved whatever its bound: that is where floors no
-    model meets are found (ValueError). A program beyond the exact size is bounded by its recorded dual instead
-    (:class:`MissingDual` without one, unless its bound is within
-    :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end found, or
-    ``loose``: its bound, the relaxation's, is then an upper end), and a recorded point that meets every constraint
-    gives a lower end.
+    screen: Number  # an upper bound on its value (pair_screens), +inf where none is known
+    key: Any  # its feasible set (the box, for L)
+    build: Callable[[], _Case]
+    pointed: bool  # whether the certificate records a witness point for it
+
+
+def _largest(cases: Sequence[_Lazy], start: Number, loose: bool = False) -> _Ends:
+    """max of ``start`` and the programs' values, enclosed, solving as few as it can (``proofs/verification.md``
+    §4, §4e, §4h).
+
+    Best first: each program is taken in decreasing order of its best bound known, its screen
+    (:func:`~fairaudit.verification.screens.pair_screens`), then its relaxation's (:meth:`_Case.bound`: its
+    value where the relaxation's maximiser meets every floor), then solved exactly, until no bound left exceeds the
+    upper end found. A key none of whose programs is known feasible then has its floors checked at h = high, where
+    floors no model meets are found (ValueError). A program beyond the exact size is bounded by its recorded dual
+    instead (:class:`MissingDual` without one, unless its bound is within
+    :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end found, or ``loose``: its bound, the
+    relaxation's, is then an upper end), and a recorded point that meets every constraint gives a lower end.
     """
     low = high = start
     duals, known = False, set()
     deferred: list[Number] = []  # the bounds of programs beyond the exact size without a recorded dual
-    open_cases = []
     polytopes: dict[Any, Polytope] = {}  # (the pairs of one feasible set share it: phase 1 once)
     scaled: dict[int, tuple[list[list[int]], int]] = {}  # the floors of one block as integers over one denominator
-    for case in cases:
-        bound, h = case.bound()
-        if h is not None and case.meets(h, scaled):
-            low, high = max(low, bound), max(high, bound)
-            known.add(case.key)
-        else:
-            open_cases.append((bound, case))
-        attained = case.point_ratio()
+    built: dict[int, _Case] = {}
+
+    def case_of(i: int) -> _Case:
+        if i not in built:
+            built[i] = cases[i].build()
+        return built[i]
+
+    for i, entry in enumerate(cases):
+        attained = case_of(i).point_ratio() if entry.pointed else None
         if attained is not None:
             low = max(low, attained)
-    open_cases.sort(key=lambda c: c[0], reverse=True)
-    for bound, case in open_cases:
-        if bound <= high and case.key in known:
+    heap: list[tuple[Number, int, bool]] = [(-entry.screen, i, False) for i, entry in enumerate(cases)]
+    heapq.heapify(heap)  # (−bound, position, whether the bound is the relaxation's): best first, ties in order
+    while heap and -heap[0][0] > high:
+        negative, i, relaxed = heapq.heappop(heap)
+        case = case_of(i)
+        if not relaxed:
+            bound, h = case.bound()
+            if h is not None and case.meets(h, scaled):
+                low, high = max(low, bound), max(high, bound)
+                known.add(case.key)
+            else:
+                heapq.heappush(heap, (-bound, i, True))
             continue
+        bound = -negative
         known.add(case.key)
         if case.small:
             value = _solve_blocks(case.tops, case.bottoms, case.floors, case.low, case.high, case.tau, polytopes)
@@ -425,8 +458,6 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _End
             continue
         if not case.feasible():
             raise ValueError("the worst-case program is infeasible")
-        if bound <= high:
-            continue
         if case.dual is not None:
             high, duals = max(high, min(bound, case.dual_bound())), True
         elif len(case.tops[0]) <= MAX_VARIABLES and len(case.floors[0]) <= MAX_FLOORS:
@@ -436,14 +467,13 @@ def _largest(cases: Sequence[_Case], start: Number, loose: bool = False) -> _End
             high, duals = max(high, bound), True
         else:
             deferred.append(bound)
+    for _, i, _ in heap:  # (every bound left is at most the upper end: only the floors of a key not yet seen)
+        if cases[i].key not in known:
+            known.add(cases[i].key)
+            if not case_of(i).feasible():
+                raise ValueError("the worst-case program is infeasible")
     high, raised = without_duals(deferred, high, f"programs beyond {MAX_VARIABLES} variables or {MAX_GROUPS} floors")
     return low, high, duals or raised
-
-
-def _integers(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:
-    """Rational rows as integers over one common denominator d: (the integers, d)."""
-    d = math.lcm(*(v.denominator for row in rows for v in row))
-    return [[v.numerator * (d // v.denominator) for v in row] for row in rows], d
 
 
 def _meets(rows: list[list[int]], d: int, h: Sequence[Fraction], tau: Fraction) -> bool:
@@ -561,14 +591,19 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loos
     cells = _rows_of if s.rows is not None else _full_rr_rows
     floors = [cells(s, *pairs[0])[2]] * len(weights)  # (every group's in each block: the same for every pair)
     duals, point = _global_evidence(s, members)
-    cases = []
-    for a, b in pairs:
+    screens = {}
+    if s.tau and len(pairs) > 1:  # (a matrix, or P(x | a) unlike: every pair of groups present)
+        rows = s.rows if s.rows is not None else _full_rr_rows(s, *pairs[0])[2]
+        screens = pair_screens(rows, weights, low, high, s.tau, s.present)
+
+    def case(a: int, b: int) -> _Case:
         row_a, row_b = cells(s, a, b)[:2]
         tops = [[w[a] * v for v in row_a] for w in weights]
         bottoms = [[w[b] * v for v in row_b] for w in weights]
         kept = sum((w[b] for w in weights), Fraction(0)) * s.tau if s.tau else None  # E[g | b] = Σ_x P(x | b) E_x
-        cases.append(_Case(0, tops, bottoms, floors, low, high, s.tau, kept, small, duals.get((a, b)),
-                           point.get((a, b))))  # fmt: skip
+        return _Case(0, tops, bottoms, floors, low, high, s.tau, kept, small, duals.get((a, b)), point.get((a, b)))
+
+    cases = [_Lazy(screens.get((a, b), INF), 0, functools.partial(case, a, b), (a, b) in point) for a, b in pairs]
     try:
         return _largest(cases, Fraction(1), loose)
     except MissingDual:

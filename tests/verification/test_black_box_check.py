@@ -273,14 +273,21 @@ def test_pairs_set_aside_by_their_box_bound_change_nothing(tau, monkeypatch):
     }
     solve, solved = bb._solve_blocks, []
     monkeypatch.setattr(bb, "_solve_blocks", lambda *args: solved.append(1) or solve(*args))
+    bound, bounded = bb._Case.bound, []
+    monkeypatch.setattr(bb._Case, "bound", lambda self: bounded.append(1) or bound(self))
     pruned = black_box_enclosures(inputs)
-    n_pruned = len(solved)
+    n_solved, n_bounded = len(solved), len(bounded)
+    monkeypatch.setattr(bb, "pair_screens", lambda *args: {})  # every pair's relaxation bound computed
+    unscreened = black_box_enclosures(inputs)
+    assert len(bounded) - n_bounded == 2 * 20 + 20  # every ordered pair on each of the two boxes (L), and L-bar's
+    assert n_bounded == 60 if tau is None else n_bounded < 15  # (with a floor the screens set most pairs aside)
+    solved.clear()
     monkeypatch.setattr(bb._Case, "bound", lambda self: (math.inf, None))
     every = black_box_enclosures(inputs)
-    assert (pruned.local, pruned.global_) == (every.local, every.global_)
+    assert (pruned.local, pruned.global_) == (unscreened.local, unscreened.global_) == (every.local, every.global_)
     assert pruned.local.lo > 1 and pruned.global_.lo > 1
-    assert len(solved) - n_pruned == 2 * 20 + 20  # every ordered pair on each of the two boxes (L), and L-bar's
-    assert n_pruned < 60
+    assert len(solved) == 2 * 20 + 20
+    assert n_solved < 60
 
 
 @st.composite

@@ -10,7 +10,7 @@ floating-point operation decides a result here (``proofs/outward.md``).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -293,15 +293,14 @@ class RecordedMechanism:
             return lipschitz * (Fraction(1) if metric is None else Fraction(metric[a][b])) / tau
 
         # the value at t = 1 bounds each pair's minimum above: pairs in decreasing order of it, until none can pass
-        bounds = sorted(
-            (
-                (1 + shift(a, b) + scale * Fraction(sum(max(0, x - y) for x, y in zip(ints[a], ints[b])), den), a, b)
-                for a in range(self.k)
-                for b in range(self.k)
-                if a != b
-            ),
-            key=lambda c: (-c[0], c[1], c[2]),
-        )
+        sticks = _hockey_sticks(ints, Fraction(1))
+        bounds: Iterator[tuple[Fraction, int, int]]
+        if (metric is None or lipschitz == 0) and scale > 0:  # (one shift: the sums order the pairs, in integers)
+            bounds = ((1 + shift(a, b) - scale * Fraction(minus, den), a, b)
+                      for minus, a, b in sorted((-stick, a, b) for a, b, stick in sticks))  # fmt: skip
+        else:
+            bounds = iter(sorted(((1 + shift(a, b) + scale * Fraction(stick, den), a, b) for a, b, stick in sticks),
+                                 key=lambda c: (-c[0], c[1], c[2])))  # fmt: skip
         best_value: Fraction | float = -INF
         pair = (0, 1)
         for bound, a, b in bounds:
@@ -315,18 +314,24 @@ class RecordedMechanism:
 
 def _largest_hockey_stick(rows: Sequence[Sequence[Fraction]], t: Fraction | float) -> Fraction:
     """max over ordered pairs of distinct rows of Σ_o [ra_o − t rb_o]₊, exactly (t may be +inf: the mass of ra where
-    rb is 0), in integers over one denominator (object arrays: exact, one row against all the others at a time)."""
+    rb is 0), in integers over one denominator."""
     ints, den = on_one_denominator(rows)
+    best = max((stick for _, _, stick in _hockey_sticks(ints, t)), default=0)
+    return Fraction(best, den * (t.denominator if isinstance(t, Fraction) else 1))
+
+
+def _hockey_sticks(ints: Sequence[Sequence[int]], t: Fraction | float) -> Iterator[tuple[int, int, int]]:
+    """(a, b, Σ_o [ra_o − t rb_o]₊ times t's denominator) for every ordered pair of distinct integer rows (t = +inf:
+    the sum of ra where rb is 0), exactly: object arrays, one row against all the others at a time."""
     matrix = np.array(ints, dtype=object)
-    best = 0
     for a, row in enumerate(matrix):
         others = np.delete(matrix, a, axis=0)
         if isinstance(t, Fraction):
-            gap = np.maximum(row * t.denominator - others * t.numerator, 0)  # (ra − t rb)·den·t.denominator
+            gap = np.maximum(row * t.denominator - others * t.numerator, 0)
         else:
             gap = np.where(others == 0, row, 0)
-        best = max(best, max(gap.sum(axis=1).tolist(), default=0))
-    return Fraction(best, den * (t.denominator if isinstance(t, Fraction) else 1))
+        for b, stick in enumerate(gap.sum(axis=1).tolist()):
+            yield a, b + (b >= a), stick
 
 
 def on_one_denominator(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:

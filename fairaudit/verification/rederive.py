@@ -42,9 +42,9 @@ if TYPE_CHECKING:
 
 __all__ = ["Verification", "verify"]
 
-TIGHT_GROUPS = 128
-"""The most groups of a matrix whose tight bound is re-derived (every ordered pair's minimum over ε, exactly: 128
-groups × 128 released values take about 2 s)."""
+TIGHT_GROUPS = 256
+"""The most groups of a matrix whose tight bound is re-derived (every ordered pair's minimum over ε, exactly: 256
+groups × 256 released values take about 2 s)."""
 
 
 @dataclass(frozen=True, kw_only=True)

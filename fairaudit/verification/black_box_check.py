@@ -496,45 +496,65 @@ def _floor_relaxation(
     fractional knapsack: the cells with q_i = 0 high, then the others raised in the same order until q·h = t. So
     the maximum is the largest of the prefixes with q·h ≥ t and that point (``proofs/verification.md`` §4). The
     cells outside the ratio (p_i = q_i = 0) are put high in the point: the same ratio, and no floor lower.
+
+    In integers: p, q over one denominator (P, Q), the box and t over another (L, H, T), so each prefix's ratio is
+    (Σ P·X)/(Σ Q·X) with X the point over the box's denominator, compared by cross-multiplying.
     """
-    if sum(map(operator.mul, q, high)) < t:
+    (big_p, big_q), _ = on_one_denominator([p, q])
+    (lo, hi, (floor,)), d_box = on_one_denominator([low, high, [t]])
+    d_rows = math.lcm(*(v.denominator for v in (*p, *q)))
+    floor *= d_rows  # q·h ≥ t is Σ Q·X ≥ T·d_rows
+    if sum(map(operator.mul, big_q, hi)) < floor:
         return None
-    order = _ratio_order(p, q, low, high)
-    num, below = sum(map(operator.mul, p, low)), sum(map(operator.mul, q, low))
+    order = _ratio_order(big_p, big_q, lo, hi)
+    num, below = sum(map(operator.mul, big_p, lo)), sum(map(operator.mul, big_q, lo))
     den = below
-    best: tuple[Number, int] | None = (num / den, 0) if den >= t else None
+    best: tuple[int, int, int] | None = (num, den, 0) if den >= floor else None
     for j, i in enumerate(order, 1):
-        num, den = num + p[i] * (high[i] - low[i]), den + q[i] * (high[i] - low[i])
-        if den >= t and (best is None or num / den > best[0]):
-            best = (num / den, j)
+        num, den = num + big_p[i] * (hi[i] - lo[i]), den + big_q[i] * (hi[i] - lo[i])
+        if den >= floor and (best is None or num * best[1] > best[0] * den):
+            best = (num, den, j)
     at_floor = None
-    if below < t:  # the point of q·h = t with the largest p·h
-        h, budget = list(low), t - below
+    if below < floor:  # the point of q·h = t with the largest p·h
+        h, budget, top = list(low), floor - below, Fraction(sum(map(operator.mul, big_p, lo)))
         for i in order:
-            step = high[i] - low[i] if q[i] == 0 else min(high[i] - low[i], budget / q[i])
-            h[i] += step
-            budget -= step * q[i]
-            if budget == 0 and q[i]:
+            full = big_q[i] * (hi[i] - lo[i])
+            if full <= budget or big_q[i] == 0:
+                h[i], budget, top = high[i], budget - full, top + big_p[i] * (hi[i] - lo[i])
+            else:
+                h[i], budget, top = (
+                    low[i] + Fraction(budget, big_q[i] * d_box),
+                    0,
+                    top + Fraction(big_p[i] * budget, big_q[i]),
+                )
+            if budget == 0 and big_q[i]:
                 break
-        at_floor = (sum(map(operator.mul, p, h)) / t, h)
-    if best is None or (at_floor is not None and at_floor[0] > best[0]):
+        at_floor = (top / floor, h)  # p·h/t = (Σ P·X)/(T·d_rows)
+    value: Number
+    if best is None or (at_floor is not None and at_floor[0] > Fraction(best[0], best[1])):
         assert at_floor is not None  # (q·high ≥ t: either a prefix meets the floor or q·low < t)
         value, h = at_floor
     else:
-        chosen = set(order[: best[1]])
-        value, h = best[0], [high[i] if i in chosen else low[i] for i in range(len(p))]
+        chosen = set(order[: best[2]])
+        value, h = Fraction(best[0], best[1]), [high[i] if i in chosen else low[i] for i in range(len(p))]
     # the cells outside the ratio (p = q = 0) at the top of their box: the same ratio, and floors (rows ≥ 0) no lower
     return value, [high[i] if p[i] == q[i] == 0 else v for i, v in enumerate(h)]
 
 
-def _ratio_order(
-    p: Sequence[Fraction], q: Sequence[Fraction], low: Sequence[Fraction], high: Sequence[Fraction]
-) -> list[int]:
+def _ratio_order(p: Sequence[int], q: Sequence[int], low: Sequence[int], high: Sequence[int]) -> list[int]:
     """The cells with high > low in the threshold rule's order: those with q_i = 0 < p_i first, then the others with
-    q_i > 0 in decreasing order of p_i/q_i (the cells with p_i = q_i = 0 change nothing and are left out)."""
+    q_i > 0 in decreasing order of p_i/q_i (the cells with p_i = q_i = 0 change nothing and are left out).
+    Integers (any common scale for p and q, and for the box), compared by cross-multiplying; ties keep their order.
+    """
     moving = [i for i in range(len(p)) if high[i] > low[i]]
     free = [i for i in moving if q[i] == 0 < p[i]]
-    return free + sorted((i for i in moving if q[i] > 0), key=lambda i: p[i] / q[i], reverse=True)
+    ranked = [i for i in moving if q[i] > 0]
+
+    def later(i: int, j: int) -> int:  # < 0 where p_i/q_i > p_j/q_j: larger ratios first
+        return p[j] * q[i] - p[i] * q[j]
+
+    ranked.sort(key=functools.cmp_to_key(later))
+    return free + ranked
 
 
 def _box_bound(
@@ -546,21 +566,22 @@ def _box_bound(
     The threshold rule (``proofs/linear_fractional.md``, the threshold solution): at the maximum λ*, h maximises
     (p − λ* q)·h, so it is high where p_i/q_i > λ* and low elsewhere; the maximum is among the n + 1 prefixes of the
     cells in decreasing order of p_i/q_i (the cells with q_i = 0 < p_i first, always high). 0/0 at h = low is counted
-    as 1, which can only raise the bound.
+    as 1, which can only raise the bound. In integers, as :func:`_floor_relaxation`.
     """
-    order = _ratio_order(p, q, low, high)
-    free = sum(1 for i in order if q[i] == 0)
-    num = sum(map(operator.mul, p, low), Fraction(0)) + sum(
-        (p[i] * (high[i] - low[i]) for i in order[:free]), Fraction(0)
-    )
-    den = sum(map(operator.mul, q, low), Fraction(0))
+    (big_p, big_q), _ = on_one_denominator([p, q])
+    (lo, hi), _ = on_one_denominator([low, high])
+    order = _ratio_order(big_p, big_q, lo, hi)
+    free = sum(1 for i in order if big_q[i] == 0)
+    num = sum(map(operator.mul, big_p, lo)) + sum(big_p[i] * (hi[i] - lo[i]) for i in order[:free])
+    den = sum(map(operator.mul, big_q, lo))
     if den == 0 and num > 0:
         return INF  # h = low but high on the cells a' never reaches: q·h = 0 < p·h
-    best: Number = num / den if den else Fraction(1)
+    best = (num, den) if den else (1, 1)
     for i in order[free:]:
-        num, den = num + p[i] * (high[i] - low[i]), den + q[i] * (high[i] - low[i])
-        best = max(best, num / den)
-    return best
+        num, den = num + big_p[i] * (hi[i] - lo[i]), den + big_q[i] * (hi[i] - lo[i])
+        if num * best[1] > best[0] * den:
+            best = (num, den)
+    return Fraction(*best)
 
 
 def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loose: bool = False) -> _Ends | None:

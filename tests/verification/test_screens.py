@@ -10,6 +10,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 import fairaudit.verification.black_box_check as bb
+from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.rederive import verify
@@ -121,3 +122,35 @@ def test_two_hundred_fifty_six_groups_are_verified_whole():
     assert checked.holds, [c.line() for c in checked.failures]
     names = {c.name for c in checked.checks}
     assert {"bounds.black_box", "bound_details.black_box.global.value", "bounds.tight"} <= names
+
+
+@st.composite
+def _boxes(draw):
+    """One block: rows with zeros, tiny cells and near-ties; a box from 0 or above; a floor."""
+    n = draw(st.integers(1, 6))
+    p, q = (draw(st.lists(_VALUES, min_size=n, max_size=n)) for _ in range(2))
+    low = [draw(st.sampled_from([F(0), F(1, 4), F(1, 2)])) for _ in range(n)]
+    high = [lo + draw(st.sampled_from([F(0), F(1, 3), F(1, 2)])) for lo in low]
+    return p, q, low, high, draw(st.sampled_from([F(1, 10), F(1, 4), F(1, 2), F(1, 10**9)]))
+
+
+@given(_boxes())
+def test_the_relaxation_in_integers_is_the_rational_simplexs(program):
+    # the one-floor relaxation (and the box alone) by the threshold rule in integers, against Dinkelbach's method over
+    # the rational simplex: the same maximum, and the returned point attains it inside the box and the floor
+    p, q, low, high, t = program
+    found = bb._floor_relaxation(p, q, t, low, high)
+    if sum(a * b for a, b in zip(q, high, strict=True)) < t:
+        assert found is None
+        return
+    simplex = maximize_ratio(p, q, low, high, [[-v for v in q]], [-t])
+    value, h = found
+    assert simplex.status == "optimal" and value == simplex.value
+    assert all(lo <= x <= hi for lo, x, hi in zip(low, h, high, strict=True))
+    den = sum(a * b for a, b in zip(q, h, strict=True))
+    assert den >= t and sum(a * b for a, b in zip(p, h, strict=True)) == value * den
+    box = maximize_ratio(p, q, low, high, [], [])
+    if sum(a * b for a, b in zip(q, low, strict=True)) > 0:  # (every point's ratio is one: the same maximum)
+        assert bb._box_bound(p, q, low, high) == box.value
+    elif box.status == "optimal":  # (c/0 and 0/0 at h = low are the box bound's conventions, which only raise it)
+        assert bb._box_bound(p, q, low, high) >= box.value

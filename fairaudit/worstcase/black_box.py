@@ -31,9 +31,11 @@ from fairaudit.worstcase.pair_search import (
     box_pairs,
     check_class,
     check_method,
+    implied_floor,
     inner_witness,
     pair_epsilon,
     pair_ratio,
+    ratio_ceiling,
     relaxed_first,
     search,
 )
@@ -295,7 +297,7 @@ def _class_problem(
     n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
     d = check_metric(metric, n) if n >= 1 and metric is not None else None
-    implied = _implied_floor(mechanism, lower)
+    implied = implied_floor(lower, float(mechanism.row_sums[1].min(initial=1.0)))  # (rows summing to 1 within 1e-9)
     floor = implied if tau is None else max(tau, implied)  # E[g | x, a] >= floor
     binding = floor > implied
     lip_on = lip > 0 and n >= 2 and gamma > lower
@@ -385,7 +387,7 @@ class _ClassProblem:
     tau: float | None
     lipschitz: float  # L_A as given
     floor: float  # E[g | x, a] >= floor: max(τ, lower)
-    binding: bool  # τ above the floor every h ≥ lower meets (_implied_floor)
+    binding: bool  # τ above the floor every h ≥ lower meets (implied_floor)
     lipschitz_on: bool  # L_A > 0 matters: two groups or more, and lower < γ
     method: str
     assumptions: tuple[Assumption, ...]
@@ -540,18 +542,10 @@ def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> B
     return _searched_certificate(problem, search(upper, _at_most_ceiling(problem, _box_solver(problem, pairs))), pairs)
 
 
-def _implied_floor(mechanism: Mechanism, lower: float) -> float:
-    """The least E[g | x, a] = M_A[a]·h can be over h ≥ lower, rounded down: lower times M_A's least exact row sum,
-    where that is below 1 (a matrix's rows sum to 1 within 1e-9; stochastic laws' to 1 exactly)."""
-    least = float(mechanism.row_sums[1].min(initial=1.0))
-    return lower if least >= 1.0 else down(lower * least)
-
-
 def _ceiling(problem: _ClassProblem) -> float:
     """γ/τ times the largest row sum of M_A's exact law (where it exceeds 1: a matrix's rows sum to 1 within 1e-9),
     rounded up: E[g | x, a] = M_A[a]·h ≤ γ Σ_ã M_A[a, ã] over E[g | x, a'] ≥ τ bounds every pair's ratio."""
-    reach = max(1.0, float(problem.mechanism.row_sums[0].max()))
-    return fraction_up(Fraction(problem.gamma) * Fraction(reach) / Fraction(problem.floor))
+    return ratio_ceiling(problem.gamma, float(problem.mechanism.row_sums[0].max()), problem.floor)
 
 
 def _at_most_ceiling(

@@ -9,7 +9,6 @@ import dataclasses
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
 
@@ -18,12 +17,21 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
-from fairaudit.base.outward import down, fraction_up, product_ends, rounding_error, sum_ends, up, widen_up
+from fairaudit.base.outward import product_ends, rounding_error, sum_ends, widen_up
 from fairaudit.base.pairs import PAIR_BLOCK
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
-from fairaudit.worstcase.pair_search import SearchResult, box_pairs, check_class, check_method, inner_witness, search
+from fairaudit.worstcase.pair_search import (
+    SearchResult,
+    box_pairs,
+    check_class,
+    check_method,
+    implied_floor,
+    inner_witness,
+    ratio_ceiling,
+    search,
+)
 from fairaudit.worstcase.worst_cases import WorstCase, nats_up
 
 
@@ -155,8 +163,7 @@ def worst_utility(
     # summing to 1 only within 1e-9 (their exact sums, a row at a time, only then)
     binding = tau is not None and tau > lower
     if tau is not None and 0 < tau <= lower:
-        least = float(sum_ends(np.nan_to_num(Q, nan=1.0)[cell])[1].min(initial=1.0))
-        binding = least < 1.0 and tau > down(lower * least)
+        binding = tau > implied_floor(lower, float(sum_ends(np.nan_to_num(Q, nan=1.0)[cell])[1].min(initial=1.0)))
     if method == "threshold" and binding:
         raise InputError("method", "the threshold solution needs tau <= lower (times the law's least row sum)", method)
     excluded = tuple(
@@ -277,10 +284,7 @@ def _utility_case(
     upper = _box_values(P, flat, lower, gamma)
     upper = np.asarray(widen_up(upper, widen)) if widen else upper
     if tau is not None and tau > 0:  # E[g | x, a] ≤ γ Σ_u P[x, a, u]: a law's rows sum to 1 within 1e-9
-        reach = max(1.0, float(sum_ends(P if ends is None else ends[1])[0].max()))
-        upper = np.minimum(
-            upper, up(gamma / tau) if reach == 1.0 else fraction_up(Fraction(gamma) * Fraction(reach) / Fraction(tau))
-        )
+        upper = np.minimum(upper, ratio_ceiling(gamma, float(sum_ends(P if ends is None else ends[1])[0].max()), tau))
     low, high = (P, P) if ends is None else ends
 
     def solve(i: int) -> FractionalResult:

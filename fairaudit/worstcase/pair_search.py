@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -24,6 +25,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows, point_ratio
 from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
+from fairaudit.base.outward import down, fraction_up
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
 from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
 from fairaudit.laws.utilities import UtilityClass
@@ -220,6 +222,30 @@ def check_class(utility_class: UtilityClass | None) -> tuple[float, float, float
                 "tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau", tau
             )
     return lower, gamma, tau
+
+
+def implied_floor(lower: float, least: float) -> float:
+    """The least E[g | x, a] = Σ_ã M[a, ã] h_ã can be over h ≥ ``lower`` ≥ 0 with rows summing to at least ``least``:
+    ``lower`` where ``least`` ≥ 1, else lower × least rounded down (a law's rows sum to 1 only within rounding).
+
+    Examples
+    --------
+    >>> implied_floor(0.5, 1.0), implied_floor(0.5, 1 - 2.0**-53) < 0.5
+    (0.5, True)
+    """
+    return lower if least >= 1.0 else float(down(lower * least))
+
+
+def ratio_ceiling(gamma: float, reach: float, tau: float) -> float:
+    """γ·max(1, reach)/τ rounded up (the smallest float at or above it, exactly): with E[g | x, a] ≤ γ times a row sum
+    of at most ``reach`` and E[g | x, a'] ≥ τ > 0, every pair's ratio is at most it (``proofs/black_box.md`` §5).
+
+    Examples
+    --------
+    >>> ratio_ceiling(1.0, 1.0, 0.1) >= 10, ratio_ceiling(1.0, 0.5, 0.25)
+    (True, 4.0)
+    """
+    return fraction_up(Fraction(gamma) * Fraction(max(1.0, reach)) / Fraction(tau))
 
 
 def _ratios(p: FloatArray, q: FloatArray) -> FloatArray:

@@ -138,6 +138,11 @@ class FractionalResult:
     dual: tuple[FloatArray, ...] = ()
 
 
+def _proves_less(tight: RatioBound, bound: RatioBound) -> bool:
+    """Whether ``tight`` is certified and smaller than ``bound`` (or ``bound`` is not certified): the one to keep."""
+    return tight.certified and not (bound.certified and bound.value <= tight.value)
+
+
 def gap_between(value: float, witness: float) -> float:
     """``value − witness`` rounded up: the certified width of the interval [witness, value] (NaN without both).
 
@@ -618,7 +623,7 @@ class FractionalProgram:
             tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired)  # type: ignore[arg-type]
             if at_root and tight.certified:
                 done.add(tolerance)
-            if tight.certified and not (bound.certified and bound.value <= tight.value):
+            if _proves_less(tight, bound):
                 bound, duals, best = tight, repaired, tolerance
         for _ in range(REPAIRS if bound.certified and self._bounded else 0):
             # each repair at the last certified λ contracts its distance to the optimum (proofs/linear_fractional.md §6)
@@ -689,7 +694,7 @@ class FractionalProgram:
                 continue
             for found in self._primal_duals():
                 tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, found)  # type: ignore[arg-type]
-                if tight.certified and not (bound.certified and bound.value <= tight.value):
+                if _proves_less(tight, bound):
                     bound, duals = tight, found
         return bound, duals
 

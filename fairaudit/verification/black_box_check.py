@@ -296,8 +296,8 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None, 
     small = len(floors[0][0]) <= MAX_VARIABLES and (s.rows is None or s.k <= MAX_GROUPS)
     duals, point = _local_evidence(s)
     screens = {}
-    if s.rows is not None and s.tau and at is None:  # (behind a matrix: k(k − 1) pairs, most of them below the top)
-        screens = {box: pair_screens(s.rows, [[Fraction(1)] * s.k], [box[0]], [box[1]], s.tau, range(s.k))
+    if s.rows is not None and at is None:  # (behind a matrix: k(k − 1) pairs, most of them below the top)
+        screens = {box: pair_screens(s.rows, [[Fraction(1)] * s.k], [box[0]], [box[1]], s.tau or None, range(s.k))
                    for box in boxes}  # fmt: skip
 
     def case(a: int, b: int, lo: Fraction, hi: Fraction) -> _Case:
@@ -363,12 +363,12 @@ class _Case:
             if found is None:  # no h of the box meets the floor of a': no model meets the floors
                 raise ValueError("the worst-case program is infeasible")
             return found
-        return _box_bound(p, q, low, high), None
+        return _box_bound(p, q, low, high)
 
     def meets(self, h: Sequence[Fraction], scaled: dict[int, tuple[list[list[int]], int]]) -> bool:
-        """Whether the point h (every block's cells in turn) meets every block's floors, exactly."""
+        """Whether the point h (every block's cells in turn) meets every block's floors, exactly (no floors: yes)."""
         if self.tau is None:
-            return False
+            return True
         start = 0
         for rows in self.floors:
             if id(rows) not in scaled:  # (the floors of one block as integers over one denominator, once)
@@ -559,14 +559,15 @@ def _ratio_order(p: Sequence[int], q: Sequence[int], low: Sequence[int], high: S
 
 def _box_bound(
     p: Sequence[Fraction], q: Sequence[Fraction], low: Sequence[Fraction], high: Sequence[Fraction]
-) -> Number:
+) -> tuple[Number, list[Fraction] | None]:
     """max (p·h)/(q·h) over the box low ≤ h ≤ high (p, q ≥ 0), exactly, with c/0 = +inf and 0/0 = 1 at h = low: an
     upper bound of the same ratio over any part of the box.
 
     The threshold rule (``proofs/linear_fractional.md``, the threshold solution): at the maximum λ*, h maximises
     (p − λ* q)·h, so it is high where p_i/q_i > λ* and low elsewhere; the maximum is among the n + 1 prefixes of the
     cells in decreasing order of p_i/q_i (the cells with q_i = 0 < p_i first, always high). 0/0 at h = low is counted
-    as 1, which can only raise the bound. In integers, as :func:`_floor_relaxation`.
+    as 1, which can only raise the bound. In integers, as :func:`_floor_relaxation`. With the bound, the prefix's
+    point where its ratio is a point's (q·h > 0), else None.
     """
     (big_p, big_q), _ = on_one_denominator([p, q])
     (lo, hi), _ = on_one_denominator([low, high])
@@ -575,13 +576,16 @@ def _box_bound(
     num = sum(map(operator.mul, big_p, lo)) + sum(big_p[i] * (hi[i] - lo[i]) for i in order[:free])
     den = sum(map(operator.mul, big_q, lo))
     if den == 0 and num > 0:
-        return INF  # h = low but high on the cells a' never reaches: q·h = 0 < p·h
-    best = (num, den) if den else (1, 1)
-    for i in order[free:]:
+        return INF, None  # h = low but high on the cells a' never reaches: q·h = 0 < p·h
+    best = (num, den, free) if den else (1, 1, -1)  # (-1: the 0/0 at h = low, no point's ratio)
+    for j, i in enumerate(order[free:], free + 1):
         num, den = num + big_p[i] * (hi[i] - lo[i]), den + big_q[i] * (hi[i] - lo[i])
         if num * best[1] > best[0] * den:
-            best = (num, den)
-    return Fraction(*best)
+            best = (num, den, j)
+    if best[2] < 0:
+        return Fraction(1), None
+    chosen = set(order[: best[2]])
+    return Fraction(best[0], best[1]), [high[i] if i in chosen else low[i] for i in range(len(p))]
 
 
 def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loose: bool = False) -> _Ends | None:
@@ -613,9 +617,9 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loos
     floors = [cells(s, *pairs[0])[2]] * len(weights)  # (every group's in each block: the same for every pair)
     duals, point = _global_evidence(s, members)
     screens = {}
-    if s.tau and len(pairs) > 1:  # (a matrix, or P(x | a) unlike: every pair of groups present)
+    if len(pairs) > 1:  # (a matrix, or P(x | a) unlike: every pair of groups present)
         rows = s.rows if s.rows is not None else _full_rr_rows(s, *pairs[0])[2]
-        screens = pair_screens(rows, weights, low, high, s.tau, s.present)
+        screens = pair_screens(rows, weights, low, high, s.tau or None, s.present)
 
     def case(a: int, b: int) -> _Case:
         row_a, row_b = cells(s, a, b)[:2]

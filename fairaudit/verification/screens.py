@@ -27,7 +27,9 @@ import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.threshold_rule import threshold_max_many
-from fairaudit.verification.enclosures import on_one_denominator
+from fairaudit.verification.enclosures import INF, on_one_denominator
+
+Number = Fraction | float
 
 __all__ = ["pair_screens"]
 
@@ -37,11 +39,12 @@ def pair_screens(
     weights: Sequence[Sequence[Fraction]],
     low: Sequence[Fraction],
     high: Sequence[Fraction],
-    tau: Fraction,
+    tau: Fraction | None,
     groups: Sequence[int],
-) -> dict[tuple[int, int], Fraction]:
+) -> dict[tuple[int, int], Number]:
     """Exact upper bounds on max (Σ_x w[x][a] M[a]·h_x)/(Σ_x w[x][b] M[b]·h_x) with Σ_x w[x][b] M[b]·h_x ≥ τ Σ_x w[x][b],
-    over h_x in [low[x], high[x]]^n, for every ordered pair (a, b) of ``groups``.
+    over h_x in [low[x], high[x]]^n, for every ordered pair (a, b) of ``groups``; without τ, over the boxes alone
+    (c/0 = +inf, 0/0 = 1).
 
     Parameters
     ----------
@@ -51,8 +54,9 @@ def pair_screens(
         w[x][a] ≥ 0: P(x | a) per block (one row of ones for L at one context).
     low, high : sequences of Fraction, shape (X,)
         Each block's box, low ≤ high.
-    tau : Fraction
-        The floor, > 0.
+    tau : Fraction or None
+        The floor, > 0; None: no floor (then U = c where F(c) ≤ 0, which rules out c/0, else +inf; max(c, 1) where
+        no point has a positive denominator).
     groups : sequence of int
         The groups compared, each with Σ_x w[x][b] > 0.
 
@@ -80,15 +84,15 @@ def pair_screens(
     bottoms = (w.T[:, :, None] * m[:, None, :]).reshape(k, blocks * n)  # w[x][b] M[b, i] · d_w d_m, [b, (x, i)]
     float_bottoms = (fw.T[:, :, None] * floats[:, None, :]).reshape(k, blocks * n)
     mass = w.sum(axis=0)  # Σ_x w[x][b] · d_w
-    out: dict[tuple[int, int], Fraction] = {}
+    out: dict[tuple[int, int], Number] = {}
     for a in groups:
         others = [b for b in groups if b != a]
         if not others:
             continue
         top = (w[:, a][:, None] * m[a][None, :]).reshape(blocks * n)
         float_top = (fw[:, a][:, None] * floats[a][None, :]).reshape(blocks * n)
-        floor = np.array([float(tau * Fraction(int(mass[b]), d_w)) for b in others])
-        t = [tau * int(mass[b]) for b in others]  # the floors times d_w
+        floor = None if tau is None else np.array([float(tau * Fraction(int(mass[b]), d_w)) for b in others])
+        t = None if tau is None else [tau * int(mass[b]) for b in others]  # the floors times d_w
         raised, cell, above = _threshold(float_top, float_bottoms[others], cell_lo, cell_hi, floor)
         num, den = _thresholds(
             top, bottoms[others], np.where(raised, np.repeat(box.high, n), np.repeat(box.low, n)), cell
@@ -99,7 +103,7 @@ def pair_screens(
         if retry:
             ratios = [above[r].as_integer_ratio() for r in retry]
             cn, cd = _column([c[0] for c in ratios]), _column([c[1] for c in ratios])
-            again = box.bounds(top, bottoms[[others[r] for r in retry]], cn, cd, [t[r] for r in retry])
+            again = box.bounds(top, bottoms[[others[r] for r in retry]], cn, cd, t and [t[r] for r in retry])
             for r, u in zip(retry, again, strict=True):
                 bounds[r] = min(bounds[r], u)
         out.update(((a, b), u) for b, u in zip(others, bounds, strict=True))
@@ -115,13 +119,18 @@ class _Box(NamedTuple):
     scale: int
 
     def bounds(
-        self, top: np.ndarray, bottoms: np.ndarray, num: np.ndarray, den: np.ndarray, t: list[Fraction]
-    ) -> list[Fraction]:
+        self, top: np.ndarray, bottoms: np.ndarray, num: np.ndarray, den: np.ndarray, t: list[Fraction] | None
+    ) -> list[Number]:
         """U(c) = c + max(0, F(c))/t per program (row of ``bottoms``), c = num/den, exactly; ``top`` and ``bottoms``
-        are the rows times d_w d_m, ``t`` the floors times d_w."""
+        are the rows times d_w d_m, ``t`` the floors times d_w. Without floors (``t`` None), c where F(c) ≤ 0
+        (max(c, 1) where q·high = 0), else +inf."""
         gap = (top[None, :] * den[:, None] - num[:, None] * bottoms).reshape(len(bottoms), self.blocks, -1)
         up = np.maximum(gap, 0).sum(axis=2)  # (p − c q)·d_w d_m den summed per block where > 0, then where < 0
         f = (up * self.high + (gap.sum(axis=2) - up) * self.low).sum(axis=1)  # F(c)·d_box d_w d_m den
+        if t is None:  # (F(c) ≤ 0: p·h ≤ c q·h everywhere, so no c/0; all 0/0 where no point has q·h > 0: 1)
+            reach = (bottoms.reshape(len(bottoms), self.blocks, -1).sum(axis=2) * self.high).sum(axis=1)
+            return [(Fraction(cn, cd) if some > 0 else max(Fraction(cn, cd), Fraction(1))) if fb <= 0 else INF
+                    for fb, cn, cd, some in zip(f.tolist(), num.tolist(), den.tolist(), reach.tolist(), strict=True)]  # fmt: skip
         return [Fraction(cn, cd) + Fraction(max(fb, 0), self.scale * cd) / tb
                 for fb, cn, cd, tb in zip(f.tolist(), num.tolist(), den.tolist(), t, strict=True)]  # fmt: skip
 
@@ -139,12 +148,13 @@ def _objects(ints: list[list[int]], d: int) -> tuple[np.ndarray, int]:
 
 
 def _threshold(
-    top: FloatArray, bottoms: FloatArray, low: FloatArray, high: FloatArray, floor: FloatArray
+    top: FloatArray, bottoms: FloatArray, low: FloatArray, high: FloatArray, floor: FloatArray | None
 ) -> tuple[npt.NDArray[np.bool_], IntArray, list[float]]:
     """Where to look for each program's (row of ``bottoms``) threshold c, in floating point: (the cells raised at the
     shortest maximising prefix of the threshold rule, or all False where the cell where q·h reaches the floor gives
     the smaller U in floats; that cell, −1 where there is none; the rule's maximum widened above the floats' errors,
-    inf where it is not finite). Any c gives a valid bound; these make it tight."""
+    inf where it is not finite). Without a floor (None), the prefix wherever the rule's maximum is finite. Any c
+    gives a valid bound; these make it tight."""
     tops = np.broadcast_to(top, bottoms.shape)
     rows, n = np.arange(len(bottoms)), bottoms.shape[-1]
     with np.errstate(all="ignore"):
@@ -154,18 +164,20 @@ def _threshold(
             np.take_along_axis(x * span, order, -1).cumsum(-1) + (x * low).sum(-1)[:, None] for x in (tops, bottoms)
         ]
         best = np.argmax(np.where(prefix[1] > 0, prefix[0] / prefix[1], -np.inf), axis=-1)  # the first maximum
-        at = (prefix[1] < floor[:, None]).sum(-1)
+        at = (prefix[1] < (0.0 if floor is None else floor[:, None])).sum(-1)
         cell = np.where(at < n, order[rows, np.minimum(at, n - 1)], -1)
         q = np.where(cell >= 0, bottoms[rows, cell], 0.0)
         marginal = np.where(q > 0, tops[rows, cell] / np.where(q > 0, q, 1.0), np.nan)
         candidates = np.stack([value, marginal])
         gap = tops[None] - candidates[:, :, None] * bottoms[None]
-        bound = candidates + np.maximum(np.maximum(gap * low, gap * high).sum(-1), 0) / floor
+        bound = candidates + np.maximum(np.maximum(gap * low, gap * high).sum(-1), 0) / (
+            1.0 if floor is None else floor
+        )
         above = value * (1 + (4 * n + 32) * 2.0**-53)
     bound = np.where(np.isfinite(bound), bound, np.inf)
     raised = np.zeros(bottoms.shape, dtype=bool)
     np.put_along_axis(raised, order, np.arange(n) <= best[:, None], -1)
-    use_value = (bound[0] <= bound[1]) & np.isfinite(bound[0])
+    use_value = np.isfinite(value) if floor is None else (bound[0] <= bound[1]) & np.isfinite(bound[0])
     above = np.where(use_value & np.isfinite(above), above, np.inf)
     return raised & use_value[:, None], np.where(use_value | ~np.isfinite(bound[1]), -1, cell), above.tolist()
 

@@ -42,23 +42,23 @@ def pair_screens(
     tau: Fraction | None,
     groups: Sequence[int],
 ) -> dict[tuple[int, int], Number]:
-    """Exact upper bounds on max (Σ_x w[x][a] M[a]·h_x)/(Σ_x w[x][b] M[b]·h_x) with Σ_x w[x][b] M[b]·h_x ≥ τ Σ_x w[x][b],
+    """Exact upper bounds on max (Σ_x w[x, a] M[a]·h_x)/(Σ_x w[x, b] M[b]·h_x) with Σ_x w[x, b] M[b]·h_x ≥ τ Σ_x w[x, b],
     over h_x in [low[x], high[x]]^n, for every ordered pair (a, b) of ``groups``; without τ, over the boxes alone
     (c/0 = +inf, 0/0 = 1).
 
     Parameters
     ----------
     rows : sequence of sequences of Fraction, shape (k, n)
-        M[a]: the rows of the mechanism on the group, indexed [group][released value].
+        M[a]: the rows of the mechanism on the group, indexed [group, released value].
     weights : sequence of sequences of Fraction, shape (X, k)
-        w[x][a] ≥ 0: P(x | a) per block (one row of ones for L at one context).
+        w[x, a] ≥ 0: P(x | a) per block (one row of ones for L at one context).
     low, high : sequences of Fraction, shape (X,)
         Each block's box, low ≤ high.
     tau : Fraction or None
         The floor, > 0; None: no floor (then U = c where F(c) ≤ 0, which rules out c/0, else +inf; max(c, 1) where
         no point has a positive denominator).
     groups : sequence of int
-        The groups compared, each with Σ_x w[x][b] > 0.
+        The groups compared, each with Σ_x w[x, b] > 0.
 
     Returns
     -------
@@ -81,9 +81,9 @@ def pair_screens(
     cell_lo = np.repeat(np.array(low, dtype=float), n)
     cell_hi = np.repeat(np.array(high, dtype=float), n)
     box = _Box(ends[0, :blocks], ends[0, blocks:], blocks, d_box * d_m)
-    bottoms = (w.T[:, :, None] * m[:, None, :]).reshape(k, blocks * n)  # w[x][b] M[b, i] · d_w d_m, [b, (x, i)]
+    bottoms = (w.T[:, :, None] * m[:, None, :]).reshape(k, blocks * n)  # w[x, b] M[b, i] · d_w d_m, [b, (x, i)]
     float_bottoms = (fw.T[:, :, None] * floats[:, None, :]).reshape(k, blocks * n)
-    mass = w.sum(axis=0)  # Σ_x w[x][b] · d_w
+    mass = w.sum(axis=0)  # Σ_x w[x, b] · d_w
     out: dict[tuple[int, int], Number] = {}
     for a in groups:
         others = [b for b in groups if b != a]

@@ -40,7 +40,7 @@ from fairaudit.verification.enclosures import (
     on_one_denominator,
     recorded_array,
 )
-from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, kernel_settings
+from fairaudit.verification.kernel_check import KernelSetting, kernel_settings
 from fairaudit.verification.screens import pair_screens
 from fairaudit.verification.table_check import table_global, table_local
 
@@ -283,11 +283,8 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None, 
     """max over live contexts and pairs of the worst ratio, enclosed (exact, unless a recorded dual bounds a
     program); with ``at`` = (live context, a, a'), that one's (behind randomized response every pair is alike: the
     pair (0, 1) stands for it); ``loose``: as :func:`_largest`."""
-    if isinstance(s, KernelSetting):
-        if not s.small:
-            return table_local(s, at, loose)
-        v = kernel_local(s, at)
-        return v, v, False
+    if isinstance(s, KernelSetting):  # (the pairs in decreasing order of their bounds, solved exactly where small)
+        return table_local(s, at, loose)
     # contexts with the same box have the same programs: one case per box and pair (_largest); behind randomized
     # response the pair (0, 1) stands for every pair
     boxes = [(s.low[at[0]], s.high[at[0]])] if at is not None else list(dict.fromkeys(zip(s.low, s.high)))
@@ -593,13 +590,10 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loos
     enclosed as in :func:`_local` (``loose`` likewise); 1 (L-bar = 0) with fewer than two groups present; with ``at`` = (a, a'), that
     pair's; None where a program beyond the exact size has no recorded dual."""
     if isinstance(s, KernelSetting):
-        if not s.small:
-            try:
-                return table_global(s, at, loose)
-            except MissingDual:
-                return None
-        v = kernel_global(s, at)
-        return None if v is None else (v, v, False)
+        try:
+            return table_global(s, at, loose)
+        except MissingDual:
+            return None
     if len(s.present) < 2:
         return Fraction(1), Fraction(1), False
     alike = _alike(s.weights, s.present)

@@ -21,8 +21,9 @@ value bounds the program, and is the program's where the table attaining it meet
 
 from __future__ import annotations
 
+import functools
 import operator
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, cast
@@ -32,7 +33,7 @@ from fairaudit.base.exact_programs import maximize_linear
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.verification.dual_check import without_duals
 from fairaudit.verification.enclosures import INF
-from fairaudit.verification.kernel_check import KernelSetting, reached_rows
+from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, reached_rows
 
 __all__ = ["TableProgram", "table_global", "table_local"]
 
@@ -307,9 +308,12 @@ class _Case:
     exact: bool  # the bound is the value: the table attaining it meets the floors
     nu: list[Fraction] | None
     table: list[list[Fraction]] | None
+    solve: Callable[[], Number | None] | None = None  # its exact value by the rational simplex, within its size
 
 
-def _case(program: TableProgram, kept: Fraction | None, nu: Any, table: Any) -> _Case:
+def _case(
+    program: TableProgram, kept: Fraction | None, nu: Any, table: Any, solve: Callable[[], Number | None] | None
+) -> _Case:
     """The program's case: without floors its bound is its value; with them, where the table attaining the bound
     without them meets them (at +inf: a table with E[g | a'] = 0 < E[g | a]; finite: one at its ratio), else where
     the table attaining the one-floor relaxation's value (q·K ≥ ``kept``) meets them."""
@@ -327,31 +331,38 @@ def _case(program: TableProgram, kept: Fraction | None, nu: Any, table: Any) -> 
         if relaxation is not None and relaxation[0] < bound:
             bound, at = relaxation
             exact = program.point_ratio(at) == bound
-    return _Case(program, bound, exact, nu, table)
+    return _Case(program, bound, exact, nu, table, solve)
 
 
 def _largest(cases: Sequence[_Case], start: Number, loose: bool) -> Ends:
     """max of ``start`` and the programs' values, enclosed (as ``black_box_check._largest``): in decreasing order of
-    their bounds, each exact where its relaxed table meets the floors, else bounded by its ν; a recorded table gives a
-    lower end. Without a ν, a bound within :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end
-    found (certify's search leaves such a program unsolved), or any with ``loose``, is kept as an upper end; any
-    other raises :class:`~fairaudit.verification.dual_check.MissingDual`."""
+    their bounds, each exact where its relaxed table meets the floors, else solved by the rational simplex within its
+    size, else bounded by its ν; a recorded table gives a lower end. Without a ν, a bound within
+    :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end found (certify's search leaves such a
+    program unsolved), or any with ``loose``, is kept as an upper end; any other raises
+    :class:`~fairaudit.verification.dual_check.MissingDual`. Where none was taken, the first is solved all the same:
+    that is where floors no table meets are found (ValueError)."""
     low = high = start
-    duals, deferred = False, []
+    duals, deferred, taken = False, [], False
     for case in sorted(cases, key=lambda c: c.bound, reverse=True):
         attained = None if case.table is None else case.program.vertex_ratio(case.table)
         if attained is not None:
             low = max(low, attained)
         if case.bound <= high:
             continue
+        taken = True
         if case.exact or (attained is not None and attained >= case.bound):
             low, high = max(low, case.bound), max(high, case.bound)
+        elif case.solve is not None and (value := case.solve()) is not None:
+            low, high = max(low, value), max(high, value)
         elif case.nu is not None:
             high, duals = max(high, min(case.bound, case.program.dual_bound(case.nu))), True
         elif loose:
             high, duals = max(high, case.bound), True
         else:
             deferred.append(case.bound)
+    if not taken and cases and cases[0].solve is not None and cases[0].program.tau:
+        cases[0].solve()  # (raises where no table meets the floors; its value is at most the bound, at most start)
     high, raised = without_duals(deferred, high, "programs over the model's table beyond the exact size")
     return low, high, duals or raised
 
@@ -478,7 +489,8 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
         nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
         point = evidence.local_point
         table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
-        out.append(_case(TableProgram(tops, bottoms, floors, s.tau), s.tau, nu, table))
+        solve = functools.partial(kernel_local, s, (i, a, b)) if s.small else None
+        out.append(_case(TableProgram(tops, bottoms, floors, s.tau), s.tau, nu, table, solve))
     return _largest(out, Fraction(0), loose)
 
 
@@ -537,5 +549,6 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: boo
         point = evidence.global_point
         table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
         kept = None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0))
-        out.append(_case(TableProgram(tops, bottoms, floors, s.tau), kept, nu, table))
+        solve = functools.partial(kernel_global, s, (a, b)) if s.small else None
+        out.append(_case(TableProgram(tops, bottoms, floors, s.tau), kept, nu, table, solve))
     return _largest(out, Fraction(1), loose)

@@ -541,3 +541,31 @@ def test_certify_bounds_a_program_whose_inexact_dual_proves_nothing_from_the_par
     _certified_and_re_derived(
         _spec(5, 3, 18, population, 'mechanism = "randomized_response"\nepsilon = 10.0', FIVE, 0.627)
     )
+
+
+@pytest.mark.slow
+def test_small_programs_over_the_table_are_solved_only_at_the_top(monkeypatch):
+    # three binary randomized responses keeping 0.7 (8 groups), g by group, tau 0.1: the exact programs over the
+    # model's table, taken in decreasing order of their relaxation bounds and solved by the rational simplex only where
+    # the bound is not the value and exceeds the largest found, against every pair solved (kernel_check's route)
+    import fairaudit.verification.table_check as tc
+    from fairaudit.verification.dual_check import Evidence
+    from fairaudit.verification.kernel_check import kernel_global, kernel_local
+
+    rng = random.Random(3)
+    component = '[[privacy.sensitive.components]]\nname = "c{i}"\nmechanism = "randomized_response"\n'
+    text = "".join(component.format(i=i) + "values = [0, 1]\nkeep = 0.7\n" for i in range(3))
+    values = [[[round(rng.uniform(0.6, 1.0), 2), 0.0] for _ in range(8)]]
+    spec = (
+        '[sensitive]\nname = "profile"\n[decision]\nname = "outcome"\nvalues = ["chosen", "not chosen"]\n'
+        f'[privacy.sensitive]\nmechanism = "product"\n{text}[utility]\nkind = "table"\nvalues = {values}\ntau = 0.1\n'
+    )
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    (s,) = bb._settings(cert["inputs"], Evidence.from_record(None, cert["inputs"]))
+    solved = []
+    for name, solve in (("kernel_local", kernel_local), ("kernel_global", kernel_global)):
+        monkeypatch.setattr(tc, name, lambda *args, solve=solve: solved.append(1) or solve(*args))
+    local, global_ = bb._local(s), bb._global(s)
+    assert local == (kernel_local(s), kernel_local(s), False) and global_ == (kernel_global(s),) * 2 + (False,)
+    assert len(solved) < (8 * 7 * 2) // 10
+    assert verify(cert).holds

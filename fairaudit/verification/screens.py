@@ -76,7 +76,9 @@ def pair_screens(
     {(0, 1): Fraction(5, 3), (1, 0): Fraction(5, 3)}
     """
     k, n, blocks = len(rows), len(rows[0]), len(weights)
-    (m, d_m), (w, d_w), (ends, d_box) = (_objects(*on_one_denominator(x)) for x in (rows, weights, [[*low, *high]]))
+    (m, d_m), (w, d_w), (ends, d_box) = (
+        (np.array(ints, dtype=object), d) for ints, d in map(on_one_denominator, (rows, weights, [[*low, *high]]))
+    )  # (exact integers, vectorised)
     floats, fw = np.array(rows, dtype=float), np.array(weights, dtype=float)
     cell_lo = np.repeat(np.array(low, dtype=float), n)
     cell_hi = np.repeat(np.array(high, dtype=float), n)
@@ -102,7 +104,7 @@ def pair_screens(
         retry = [r for r, u in enumerate(bounds) if math.isfinite(above[r]) and u > Fraction(num[r], den[r])]
         if retry:
             ratios = [above[r].as_integer_ratio() for r in retry]
-            cn, cd = _column([c[0] for c in ratios]), _column([c[1] for c in ratios])
+            cn, cd = (np.array(column, dtype=object) for column in zip(*ratios))
             again = box.bounds(top, bottoms[[others[r] for r in retry]], cn, cd, t and [t[r] for r in retry])
             for r, u in zip(retry, again, strict=True):
                 bounds[r] = min(bounds[r], u)
@@ -133,18 +135,6 @@ class _Box(NamedTuple):
                     for fb, cn, cd, some in zip(f.tolist(), num.tolist(), den.tolist(), reach.tolist(), strict=True)]  # fmt: skip
         return [Fraction(cn, cd) + Fraction(max(fb, 0), self.scale * cd) / tb
                 for fb, cn, cd, tb in zip(f.tolist(), num.tolist(), den.tolist(), t, strict=True)]  # fmt: skip
-
-
-def _column(values: Sequence[int]) -> np.ndarray:
-    """Python integers as a 1-D object array."""
-    out = np.empty(len(values), dtype=object)
-    out[:] = values
-    return out
-
-
-def _objects(ints: list[list[int]], d: int) -> tuple[np.ndarray, int]:
-    """Integer rows as a 2-D object array (exact arithmetic, vectorised), with their denominator."""
-    return np.array(ints, dtype=object), d
 
 
 def _threshold(

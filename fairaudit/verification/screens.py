@@ -64,7 +64,19 @@ def pair_screens(
     -------
     dict
         {(a, b): U} for a ≠ b in ``groups``, each U ≥ the pair's program's maximum (of any program whose feasible set
-        lies in the relaxation's: the pair's own, with every group's floors).
+        lies in the relaxation's: the pair's own, with every group's floors). U is a ratio (its log is in nats), a
+        Fraction, or +inf where no finite bound was found.
+
+    Raises
+    ------
+    IndexError
+        When a group of ``groups`` is not a row of ``rows`` and ``weights``.
+    ZeroDivisionError
+        When a group compared has Σ_x w[x, b] = 0 with a floor (its denominator's floor is 0).
+
+    Notes
+    -----
+    Weak duality on the one-floor relaxation (as ``proofs/verification.md`` §4g, in box space): §4h.
 
     Examples
     --------

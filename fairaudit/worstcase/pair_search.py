@@ -225,8 +225,25 @@ def check_class(utility_class: UtilityClass | None) -> tuple[float, float, float
 
 
 def implied_floor(lower: float, least: float) -> float:
-    """The least E[g | x, a] = Σ_ã M[a, ã] h_ã can be over h ≥ ``lower`` ≥ 0 with rows summing to at least ``least``:
-    ``lower`` where ``least`` ≥ 1, else lower × least rounded down (a law's rows sum to 1 only within rounding).
+    """The least E[g | x, a] = Σ_ã M[a, ã] h_ã can be over h ≥ ``lower``, rounded down.
+
+    Parameters
+    ----------
+    lower : float
+        The utility's least value (g ≥ lower ≥ 0), in the utility's units.
+    least : float
+        The least exact row sum of the law (at most its true value: 1 for a stochastic law, just below 1 for rows
+        that sum to 1 only within rounding).
+
+    Returns
+    -------
+    float
+        ``lower`` where ``least`` ≥ 1, else lower × least rounded down: at most every E[g | x, a], so a floor τ at or
+        below it binds no model.
+
+    Notes
+    -----
+    ``proofs/black_box.md`` §5 (S_min, the least exact row sum rounded down).
 
     Examples
     --------
@@ -237,8 +254,31 @@ def implied_floor(lower: float, least: float) -> float:
 
 
 def ratio_ceiling(gamma: float, reach: float, tau: float) -> float:
-    """γ·max(1, reach)/τ rounded up (the smallest float at or above it, exactly): with E[g | x, a] ≤ γ times a row sum
-    of at most ``reach`` and E[g | x, a'] ≥ τ > 0, every pair's ratio is at most it (``proofs/black_box.md`` §5).
+    """γ·max(1, reach)/τ, rounded up: an upper bound on every pair's ratio E[g | x, a]/E[g | x, a'].
+
+    Parameters
+    ----------
+    gamma : float
+        The utility's largest value (g ≤ γ).
+    reach : float
+        The largest exact row sum of the law (at least its true value), so E[g | x, a] ≤ γ·max(1, reach).
+    tau : float
+        The floor E[g | x, a'] ≥ τ, > 0.
+
+    Returns
+    -------
+    float
+        The smallest float at or above γ·max(1, reach)/τ, computed exactly (a ratio, dimensionless; its log is in
+        nats).
+
+    Raises
+    ------
+    ZeroDivisionError
+        When ``tau`` is 0 (the callers pass a positive floor only).
+
+    Notes
+    -----
+    ``proofs/black_box.md`` §5 (the numerator at most γS, the denominator at least the floor).
 
     Examples
     --------

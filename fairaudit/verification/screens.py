@@ -154,8 +154,9 @@ def _threshold(
 ) -> tuple[npt.NDArray[np.bool_], IntArray, list[float]]:
     """Where to look for each program's (row of ``bottoms``) threshold c, in floating point: (the cells raised at the
     shortest maximising prefix of the threshold rule, or all False where the cell where q·h reaches the floor gives
-    the smaller U in floats; that cell, −1 where there is none; the rule's maximum widened above the floats' errors,
-    inf where it is not finite). Without a floor (None), the prefix wherever the rule's maximum is finite. Any c
+    the smaller U in floats; that cell (the last where floats see q·high short of the floor: where q·high = t exactly,
+    its ratio c gives U = p·high/t), −1 where the prefix is used; the rule's maximum widened above the floats'
+    errors, inf where it is not finite). Without a floor (None), the prefix wherever the rule's maximum is finite. Any c
     gives a valid bound; these make it tight."""
     tops = np.broadcast_to(top, bottoms.shape)
     rows, n = np.arange(len(bottoms)), bottoms.shape[-1]
@@ -167,8 +168,8 @@ def _threshold(
         ]
         best = np.argmax(np.where(prefix[1] > 0, prefix[0] / prefix[1], -np.inf), axis=-1)  # the first maximum
         at = (prefix[1] < (0.0 if floor is None else floor[:, None])).sum(-1)
-        cell = np.where(at < n, order[rows, np.minimum(at, n - 1)], -1)
-        q = np.where(cell >= 0, bottoms[rows, cell], 0.0)
+        cell = order[rows, np.minimum(at, n - 1)]  # (the last where floats see q·high below the floor)
+        q = bottoms[rows, cell]
         marginal = np.where(q > 0, tops[rows, cell] / np.where(q > 0, q, 1.0), np.nan)
         candidates = np.stack([value, marginal])
         gap = tops[None] - candidates[:, :, None] * bottoms[None]

@@ -47,6 +47,16 @@ def test_two_blocks_weigh_each_groups_rows():
         assert screens[(a, b)] == value
 
 
+def test_a_floor_met_only_at_the_boxes_top_corner():
+    # q = 2/7 on four cells, boxes [1/2, 1] and [1/4, 3/4], t = 1: q·high = 2/7 x 7/2 = 1 = t exactly, so h = high is
+    # the only point and the value is p·high = (1/3)(3/4) = 1/4 (floats see q·high a hair short of t; the rule's
+    # unfloored maximum, 7/16, is not the value)
+    rows = [[F(0), F(0)], [F(2, 7), F(2, 7)], [F(0), F(0)], [F(0), F(1)]]
+    weights = [[F(0), F(1), F(0), F(0)], [F(1, 3), F(1), F(1, 3), F(1, 3)]]
+    screens = pair_screens(rows, weights, [F(1, 2), F(1, 4)], [F(1), F(3, 4)], F(1, 2), range(4))
+    assert screens[(3, 1)] == F(1, 4)
+
+
 _VALUES = st.sampled_from([F(0), F(1), F(1, 3), F(2, 7), F(1, 2**1000), F(5, 3**40), F(1, 10**12), F(1) + F(1, 2**52)])
 
 

@@ -17,16 +17,21 @@ steps. ``proofs/verification.md`` §4f.
 Where the floors bind and no ν is recorded (certify decided the program by its closed-form relaxation), the program
 with the denominator's floor q·K ≥ t its only one is solved exactly (:meth:`TableProgram.floor_bound`, §4g): its
 value bounds the program, and is the program's where the table attaining it meets every floor.
+
+Before either, every pair gets its screen (:func:`~fairaudit.verification.screens.table_screens`, §4h): that
+relaxation's bound at a threshold floating point proposes, computed exactly, from one array per group. The pairs are
+taken best first, so those whose screen is below the largest value found are never relaxed.
 """
 
 from __future__ import annotations
 
 import functools
+import heapq
 import operator
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, smallest_root
 from fairaudit.base.exact_programs import maximize_linear
@@ -34,6 +39,7 @@ from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.verification.dual_check import without_duals
 from fairaudit.verification.enclosures import INF
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, reached_rows
+from fairaudit.verification.screens import table_screens
 
 __all__ = ["TableProgram", "table_global", "table_local"]
 
@@ -334,35 +340,60 @@ def _case(
     return _Case(program, bound, exact, nu, table, solve)
 
 
-def _largest(cases: Sequence[_Case], start: Number, loose: bool) -> Ends:
-    """max of ``start`` and the programs' values, enclosed (as ``black_box_check._largest``): in decreasing order of
-    their bounds, each exact where its relaxed table meets the floors, else solved by the rational simplex within its
-    size, else bounded by its ν; a recorded table gives a lower end. Without a ν, a bound within
+class _Lazy(NamedTuple):
+    """One program of :func:`_largest`, its case built only when needed."""
+
+    screen: Number  # an upper bound on its value (table_screens), +inf where none is known
+    build: Callable[[], _Case]
+    pointed: bool  # whether the certificate records a witness table for it
+
+
+def _largest(cases: Sequence[_Lazy], start: Number, loose: bool) -> Ends:
+    """max of ``start`` and the programs' values, enclosed (as ``black_box_check._largest``): best first, each at
+    its screen, then at its bound (:func:`_case`), exact where its relaxed table meets the floors, else solved by the
+    rational simplex within its size, else bounded by its ν, until no bound left exceeds the upper end found; a
+    recorded table gives a lower end. Without a ν, a bound within
     :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end found (certify's search leaves such a
     program unsolved), or any with ``loose``, is kept as an upper end; any other raises
     :class:`~fairaudit.verification.dual_check.MissingDual`. Where none was taken, the first is solved all the same:
     that is where floors no table meets are found (ValueError)."""
     low = high = start
     duals, deferred, taken = False, [], False
-    for case in sorted(cases, key=lambda c: c.bound, reverse=True):
-        attained = None if case.table is None else case.program.vertex_ratio(case.table)
-        if attained is not None:
-            low = max(low, attained)
-        if case.bound <= high:
+    built: dict[int, _Case] = {}
+    attained: dict[int, Fraction | None] = {}
+
+    def case_of(i: int) -> _Case:
+        if i not in built:
+            built[i] = cases[i].build()
+        return built[i]
+
+    for i, entry in enumerate(cases):
+        if entry.pointed:
+            case = case_of(i)
+            found = attained[i] = None if case.table is None else case.program.vertex_ratio(case.table)
+            low = low if found is None else max(low, found)
+    heap: list[tuple[Number, int, bool]] = [(-entry.screen, i, False) for i, entry in enumerate(cases)]
+    heapq.heapify(heap)  # (−bound, position, whether the bound is the case's): best first, ties in order
+    while heap and -heap[0][0] > high:
+        _, i, bounded = heapq.heappop(heap)
+        case = case_of(i)
+        if not bounded:
+            heapq.heappush(heap, (-case.bound, i, True))
             continue
         taken = True
-        if case.exact or (attained is not None and attained >= case.bound):
+        value = attained.get(i)
+        if case.exact or (value is not None and value >= case.bound):
             low, high = max(low, case.bound), max(high, case.bound)
-        elif case.solve is not None and (value := case.solve()) is not None:
-            low, high = max(low, value), max(high, value)
+        elif case.solve is not None and (solved := case.solve()) is not None:
+            low, high = max(low, solved), max(high, solved)
         elif case.nu is not None:
             high, duals = max(high, min(case.bound, case.program.dual_bound(case.nu))), True
         elif loose:
             high, duals = max(high, case.bound), True
         else:
             deferred.append(case.bound)
-    if not taken and cases and cases[0].solve is not None and cases[0].program.tau:
-        cases[0].solve()  # (raises where no table meets the floors; its value is at most the bound, at most start)
+    if not taken and heap and (first := case_of(heap[0][1])).solve is not None and first.program.tau:
+        first.solve()  # (raises where no table meets the floors; its value is at most the bound, at most start)
     high, raised = without_duals(deferred, high, "programs over the model's table beyond the exact size")
     return low, high, duals or raised
 
@@ -471,26 +502,30 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
     (Fraction(6, 1), Fraction(6, 1), False)
     """
     own = s.context is None  # (then a program per context)
-    cases = [(i, a, b) for i in range(len(s.live)) for a in range(s.k) for b in range(s.k) if a != b]
     n_u = len(s.g[0][0])
     out = []
     evidence = s.evidence
     shared: dict[int, tuple[list[tuple[int, int]], list[dict[int, list[Fraction]]]]] = {}  # rows and floors
-    for i, a, b in cases if at is None else [at]:
+    for i in range(len(s.live)) if at is None else [at[0]]:
         x = s.live[i]
         key = x if own else -1
         if key not in shared:
             keys = reached_rows(s, [x] if own else s.live)
             shared[key] = keys, _floors(s, keys, [x] if own else s.live)
         keys, floors = shared[key]
-        tops = _dense(_form(s, keys, {x: Fraction(1)}, a), len(keys), n_u)
-        bottoms = _dense(_form(s, keys, {x: Fraction(1)}, b), len(keys), n_u)
-        recorded = evidence.local.get((x, a, b))
-        nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
-        point = evidence.local_point
-        table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
-        solve = functools.partial(kernel_local, s, (i, a, b)) if s.small else None
-        out.append(_case(TableProgram(tops, bottoms, floors, s.tau), s.tau, nu, table, solve))
+        pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
+        groups = sorted({a for pair in pairs for a in pair})
+        forms = {a: _dense(_form(s, keys, {x: Fraction(1)}, a), len(keys), n_u) for a in groups}
+        screens = {} if at is not None else table_screens(forms, dict.fromkeys(groups, s.tau))
+        for a, b in pairs:
+            recorded = evidence.local.get((x, a, b))
+            nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
+            point = evidence.local_point
+            table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
+            solve = functools.partial(kernel_local, s, (i, a, b)) if s.small else None
+            program = TableProgram(forms[a], forms[b], floors, s.tau)
+            build = functools.partial(_case, program, s.tau, nu, table, solve)
+            out.append(_Lazy(screens.get((a, b), INF), build, table is not None))
     return _largest(out, Fraction(0), loose)
 
 
@@ -539,16 +574,21 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: boo
     floors = _floors(s, keys, s.live)
     n_u = len(s.g[0][0])
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
+    groups = sorted({a for pair in pairs for a in pair})
+    forms = {
+        a: _dense(_form(s, keys, {x: s.weights[i][a] for i, x in enumerate(s.live)}, a), len(keys), n_u) for a in groups
+    }  # E[g | a] = Σ_x P(x | a) E[g | x, a]: the numerator where a is first, the denominator where second
+    kept = {b: None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0)) for b in groups}
+    screens = {} if at is not None else table_screens(forms, kept)
     evidence = s.evidence
     out = []
     for a, b in pairs:
-        tops = _dense(_form(s, keys, {x: s.weights[i][a] for i, x in enumerate(s.live)}, a), len(keys), n_u)
-        bottoms = _dense(_form(s, keys, {x: s.weights[i][b] for i, x in enumerate(s.live)}, b), len(keys), n_u)
         recorded = evidence.global_.get((a, b))
         nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
         point = evidence.global_point
         table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
-        kept = None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0))
         solve = functools.partial(kernel_global, s, (a, b)) if s.small else None
-        out.append(_case(TableProgram(tops, bottoms, floors, s.tau), kept, nu, table, solve))
+        program = TableProgram(forms[a], forms[b], floors, s.tau)
+        build = functools.partial(_case, program, kept[b], nu, table, solve)
+        out.append(_Lazy(screens.get((a, b), INF), build, table is not None))
     return _largest(out, Fraction(1), loose)

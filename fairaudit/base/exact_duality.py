@@ -37,6 +37,7 @@ __all__ = [
     "certify_ratio",
     "check_dual",
     "dual_value",
+    "on_one_denominator",
     "point_ratio",
     "rational_point_ratio",
     "refine_duals",
@@ -583,3 +584,26 @@ def smallest_root(
         if slope == 0:
             return None
         lam += total / slope  # the tangent's root: at most the smallest root (the function is convex)
+
+
+def on_one_denominator(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:
+    """Rational rows as integers over one common denominator.
+
+    Parameters
+    ----------
+    rows : sequence of sequences of Fraction, shape (m, n)
+        Exact rationals (rows of any lengths).
+
+    Returns
+    -------
+    (list of list of int, int)
+        The integers, same shape as ``rows``, and the denominator d > 0 (the least common multiple of the entries'
+        denominators): ``rows[i][j] == ints[i][j] / d`` exactly.
+
+    Examples
+    --------
+    >>> on_one_denominator([[Fraction(1, 2), Fraction(1, 3)], [Fraction(1)]])
+    ([[3, 2], [6]], 6)
+    """
+    den = math.lcm(*(x.denominator for row in rows for x in row))
+    return [[x.numerator * (den // x.denominator) for x in row] for row in rows], den

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, NamedTuple
 
+from fairaudit.base.exact_duality import on_one_denominator
 from fairaudit.base.exact_programs import Polytope, maximize_ratio_over_product
 from fairaudit.verification.dual_check import BlockProgram, Evidence, MissingDual, without_duals
 from fairaudit.verification.enclosures import (
@@ -37,7 +38,6 @@ from fairaudit.verification.enclosures import (
     Enclosure,
     RecordedMechanism,
     exact,
-    on_one_denominator,
     recorded_array,
 )
 from fairaudit.verification.kernel_check import KernelSetting, kernel_settings

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from fairaudit.base.errors import InputError
+from fairaudit.base.exact_duality import on_one_denominator
 from fairaudit.base.outward import exp_bounds, ln_bounds
 
 __all__ = [
@@ -28,7 +29,6 @@ __all__ = [
     "exp_of",
     "ln",
     "ln_of",
-    "on_one_denominator",
     "recorded_array",
 ]
 
@@ -332,29 +332,6 @@ def _hockey_sticks(ints: Sequence[Sequence[int]], t: Fraction | float) -> Iterat
             gap = np.where(others == 0, row, 0)
         for b, stick in enumerate(gap.sum(axis=1).tolist()):
             yield a, b + (b >= a), stick
-
-
-def on_one_denominator(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:
-    """Rational rows as integers over one common denominator.
-
-    Parameters
-    ----------
-    rows : sequence of sequences of Fraction, shape (m, n)
-        Exact rationals (rows of any lengths).
-
-    Returns
-    -------
-    (list of list of int, int)
-        The integers, same shape as ``rows``, and the denominator d > 0 (the least common multiple of the entries'
-        denominators): ``rows[i][j] == ints[i][j] / d`` exactly.
-
-    Examples
-    --------
-    >>> on_one_denominator([[Fraction(1, 2), Fraction(1, 3)], [Fraction(1)]])
-    ([[3, 2], [6]], 6)
-    """
-    den = math.lcm(*(x.denominator for row in rows for x in row))
-    return [[x.numerator * (den // x.denominator) for x in row] for row in rows], den
 
 
 def _pair_minimum(ra: Sequence[int], rb: Sequence[int], den: int, shift: Fraction, scale: Fraction) -> Fraction:

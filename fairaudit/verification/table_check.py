@@ -18,7 +18,7 @@ Where the floors bind and no ν is recorded (certify decided the program by its 
 with the denominator's floor q·K ≥ t its only one is solved exactly (:meth:`TableProgram.floor_bound`, §4g): its
 value bounds the program, and is the program's where the table attaining it meets every floor.
 
-Before either, every pair gets its screen (:func:`~fairaudit.verification.screens.table_screens`, §4h): that
+Before either, every pair gets its screen (:func:`~fairaudit.base.table_relaxation.relaxation_bounds`, §4h): that
 relaxation's bound at a threshold floating point proposes, computed exactly, from one array per group. The pairs are
 taken best first, so those whose screen is below the largest value found are never relaxed.
 """
@@ -36,10 +36,10 @@ from typing import Any, NamedTuple, cast
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, smallest_root
 from fairaudit.base.exact_programs import maximize_linear
 from fairaudit.base.exact_vertex import gauss_jordan
+from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.verification.dual_check import without_duals
 from fairaudit.verification.enclosures import INF
 from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, reached_rows
-from fairaudit.verification.screens import table_screens
 
 __all__ = ["TableProgram", "table_global", "table_local"]
 
@@ -343,7 +343,7 @@ def _case(
 class _Lazy(NamedTuple):
     """One program of :func:`_largest`, its case built only when needed."""
 
-    screen: Number  # an upper bound on its value (table_screens), +inf where none is known
+    screen: Number  # an upper bound on its value (relaxation_bounds), +inf where none is known
     build: Callable[[], _Case]
     pointed: bool  # whether the certificate records a witness table for it
 
@@ -516,7 +516,7 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
         pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
         groups = sorted({a for pair in pairs for a in pair})
         forms = {a: _dense(_form(s, keys, {x: Fraction(1)}, a), len(keys), n_u) for a in groups}
-        screens = {} if at is not None else table_screens(forms, dict.fromkeys(groups, s.tau))
+        screens = {} if at is not None else relaxation_bounds(forms, dict.fromkeys(groups, s.tau))
         for a, b in pairs:
             recorded = evidence.local.get((x, a, b))
             nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
@@ -579,7 +579,7 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: boo
         a: _dense(_form(s, keys, {x: s.weights[i][a] for i, x in enumerate(s.live)}, a), len(keys), n_u) for a in groups
     }  # E[g | a] = Σ_x P(x | a) E[g | x, a]: the numerator where a is first, the denominator where second
     kept = {b: None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0)) for b in groups}
-    screens = {} if at is not None else table_screens(forms, kept)
+    screens = {} if at is not None else relaxation_bounds(forms, kept)
     evidence = s.evidence
     out = []
     for a, b in pairs:

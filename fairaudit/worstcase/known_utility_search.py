@@ -10,6 +10,7 @@ relaxation) and the Charnes–Cooper LP runs only where the relaxation does not 
 from __future__ import annotations
 
 import functools
+import math
 import operator
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -23,10 +24,11 @@ from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.exact_duality import smallest_root
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
+from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem
-from fairaudit.worstcase.pair_search import SearchResult, inner_witness, pairwise_box, relaxed_first, search
+from fairaudit.worstcase.pair_search import STOP, SearchResult, inner_witness, pairwise_box, relaxed_first, search
 from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase
 
 
@@ -76,6 +78,13 @@ def local_search(
             v = _relaxation(P, space.lo, space.hi, floor, inexact)
             at = triples[:, 0] == context
             upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
+    if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
+        relaxed = np.full(len(triples), np.inf)
+        for context in xs:
+            v = _table_relaxation(np.stack([c.value for c in coefficients[context]]), g.shape[-1], tau, inexact)
+            at = triples[:, 0] == context
+            relaxed[at] = v[triples[at, 1], triples[at, 2]]
+        upper = _lowered(upper, relaxed)
     programs = ExactPrograms(problem, space.lo is not None, space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
@@ -124,6 +133,9 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
         P = np.stack([c.value for c in coefficients])
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
         upper = np.minimum(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
+    elif space.lo is None and problem.method != "lp":  # over the model's table (E[g | a'] ≥ τ: P(x | a') sums to 1)
+        v = _table_relaxation(np.stack([c.value for c in coefficients]), g.shape[-1], tau, inexact)
+        upper = _lowered(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
     programs = ExactPrograms(problem, space.lo is not None, space.floors)
 
@@ -150,6 +162,29 @@ def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundi
         assert relaxed is not None  # (a floor was given)
         v = relaxed
     return np.asarray(widen_up(v, 3 * gamma)) if roundings else v
+
+
+def _table_relaxation(P: FloatArray, n_u: int, tau: float | None, roundings: int) -> FloatArray:
+    """Upper bounds on every pair's program over the model's table, indexed [a, b] (rows of ``P``, the computed
+    coefficients of E[g | x, a] or E[g | a] over the table's cells, decision fastest): the one-floor relaxation's
+    (the denominator's E ≥ τ, which every table meeting the floors keeps), exactly
+    (:func:`~fairaudit.base.table_relaxation.relaxation_bounds`) on the computed coefficients, then widened as
+    :func:`_relaxation`'s for their roundings (the floor kept is (1 − γ)τ, rounded down)."""
+    gamma = float(rounding_error(roundings))
+    t = None if not tau else Fraction(float(down(tau * (1 - gamma))) if roundings else tau)
+    forms = {a: [[Fraction(v) for v in row] for row in P[a].reshape(-1, n_u).tolist()] for a in range(len(P))}
+    v = np.full((len(P), len(P)), np.inf)
+    for (a, b), bound in relaxation_bounds(forms, dict.fromkeys(forms, t)).items():
+        v[a, b] = fraction_up(bound) if bound != math.inf else np.inf
+    return np.asarray(widen_up(v, 3 * gamma)) if roundings else v
+
+
+def _lowered(upper: FloatArray, relaxed: FloatArray) -> FloatArray:
+    """``upper`` lowered to the relaxations' bounds, except at the programs whose bound is within the search's
+    :data:`~fairaudit.worstcase.pair_search.STOP` of the largest: those keep theirs and are solved, so that a tie at
+    the top is the LP's certified value, not a bound a few ulps above it."""
+    near = relaxed >= relaxed.max(initial=-np.inf) * (1 - STOP)
+    return np.where(near, upper, np.minimum(upper, relaxed))
 
 
 def _solver(

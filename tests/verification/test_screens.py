@@ -13,10 +13,11 @@ from hypothesis import strategies as st
 
 import fairaudit.verification.black_box_check as bb
 from fairaudit.base.exact_programs import maximize_ratio
+from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.rederive import verify
-from fairaudit.verification.screens import pair_screens, table_screens
+from fairaudit.verification.screens import pair_screens
 from fairaudit.verification.table_check import TableProgram
 
 RR = [[F(3, 4), F(1, 4)], [F(1, 4), F(3, 4)]]
@@ -191,8 +192,8 @@ def test_over_the_table_a_threshold_below_zero_by_hand():
     # q = 1/4 < 1/3; moving 1/33 of the row to (3, 3/2) reaches q = 1/3 with p = 2 - 1/66, ratio 131/22 (moving to
     # (1/2, 9/17) gives 77/17, to (6/5, 3/14) 1471/266). The hull edge's slope is -2/11: f(-2/11) = -2/11 + 3(2 + 1/22)
     forms = {0: [[F(3, 14), F(3, 2), F(2), F(9, 17)]], 1: [[F(6, 5), F(3), F(1, 4), F(1, 2)]]}
-    assert table_screens(forms, {0: F(1, 3), 1: F(1, 3)})[(0, 1)] == F(131, 22)
-    assert table_screens(forms, {0: None, 1: None})[(0, 1)] == 8  # (without the floor: the row on (1/4, 2))
+    assert relaxation_bounds(forms, {0: F(1, 3), 1: F(1, 3)})[(0, 1)] == F(131, 22)
+    assert relaxation_bounds(forms, {0: None, 1: None})[(0, 1)] == 8  # (without the floor: the row on (1/4, 2))
 
 
 @st.composite
@@ -209,7 +210,7 @@ def test_every_table_screen_bounds_its_relaxation_and_is_tight(program):
     # TableProgram.floor_bound), or without a floor the smallest root of R by Newton's method (dual_bound, with c/0 =
     # +inf and 0/0 = 1); the screen, found by bisection and read exactly, must be at or above it, within 1e-12
     forms, t = program
-    screens = table_screens(forms, dict.fromkeys(forms, t))
+    screens = relaxation_bounds(forms, dict.fromkeys(forms, t))
     assert set(screens) == {(a, b) for a in forms for b in forms if a != b}
     for (a, b), screen in screens.items():
         relaxation = TableProgram(forms[a], forms[b], [], None)
@@ -248,7 +249,7 @@ def test_sixteen_groups_with_a_utility_by_group_build_a_few_programs(monkeypatch
     monkeypatch.setattr(tc, "_case", lambda *args: built.append(1) or case(*args))
     screened = bb._local(s), bb._global(s)
     assert 0 < len(built) < 2 * 16 * 15 // 10
-    monkeypatch.setattr(tc, "table_screens", lambda *args: {})
+    monkeypatch.setattr(tc, "relaxation_bounds", lambda *args: {})
     assert (bb._local(s), bb._global(s)) == screened
     checked = verify(cert)
     assert checked.holds, [c.line() for c in checked.failures]

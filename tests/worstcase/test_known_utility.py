@@ -391,3 +391,34 @@ def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_
     assert _with_rows_kept(solved(3.4, [0.0, 8 / 3], False), p, q, floors, 0.25, 2).value == pytest.approx(10 / 3)
     assert _with_rows_kept(solved(5.0, [0.0, 0.0], True), p, q, floors, 0.25, 2).value == 5.0  # (6 is larger)
     assert _with_rows_kept(solved(7.0, [0.0, 0.0], True), p, q, floors, 0.25, 2).value == 6.0
+
+
+def test_over_the_model_s_table_the_search_orders_by_the_one_floor_relaxation():
+    # two binary randomized responses keeping 0.7 (4 groups), g by group (g(chosen, a) from 0.6 to 1, 0 otherwise),
+    # tau = 0.1: the programs over the model's table, ordered by their one-floor relaxations (exact bounds, rounded
+    # up), need one LP each for L and L-bar; forcing the LP on every program gives the same values
+    rng = np.random.default_rng(3)
+    mech = fa.product_family(*[[0, 1]] * 2)(2 * math.log(7 / 3))
+    g = np.zeros((1, 4, 2))
+    g[0, :, 0] = np.round(rng.uniform(0.6, 1.0, 4), 2)
+    util = fa.Utility(g, ["chosen", "not chosen"], ["all"], mech.inputs)
+    found, every = worst_model(mech, util, tau=0.1), worst_model(mech, util, tau=0.1, method="lp")
+    assert found.local_fairness.programs_solved == 1 and found.global_fairness.programs_solved == 1
+    assert every.local_fairness.programs_solved > 4 * 3 // 2
+    for ours, theirs in [(found.local_fairness, every.local_fairness), (found.global_fairness, every.global_fairness)]:
+        assert ours.certified and ours.value == pytest.approx(theirs.value, rel=1e-9)
+
+
+def test_the_table_relaxation_is_rounded_up_and_widened_for_the_coefficients_roundings():
+    # proofs/verification.md §4g's example: rows (released a, released b) over (yes, no), E[g | a] = (3/4, 1/4) on yes,
+    # E[g | b] = (1/8, 3/8), tau = 1/4: 10/3 exactly (the hull edge of slope 2/3), and b over a 3/2 (only the row of
+    # released b on yes: 3/8 over 1/4, which meets the floor); with roundings, above 10/3, by about 3 gamma for the
+    # widening and gamma (8/3 of the 10/3) for the floor kept, (1 - gamma) tau
+    from fairaudit.base.outward import fraction_up, rounding_error
+    from fairaudit.worstcase.known_utility_search import _table_relaxation
+
+    P = np.array([[0.75, 0.0, 0.25, 0.0], [0.125, 0.0, 0.375, 0.0]])
+    exact = _table_relaxation(P, 2, 0.25, 0)
+    assert exact[0, 1] == fraction_up(Fraction(10, 3)) and exact[1, 0] == 1.5
+    widened = _table_relaxation(P, 2, 0.25, 4)[0, 1]
+    assert 10 / 3 < widened <= 10 / 3 * (1 + 6 * float(rounding_error(4)))

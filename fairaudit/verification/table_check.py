@@ -33,7 +33,9 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, NamedTuple, cast
 
-from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, smallest_root
+import numpy as np
+
+from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, on_one_denominator, smallest_root
 from fairaudit.base.exact_programs import maximize_linear
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.table_relaxation import relaxation_bounds
@@ -216,8 +218,7 @@ class TableProgram:
             return greedy
         zero = [Fraction(0)] * len(split)
         a_ub, b_ub = [rises, [-v for v in rises]], [need, -need]
-        for floor in floors:  # the floor at the rows' starting decisions, plus each move's change, at least τ
-            start = sum((_dot(f, table[r]) for r, f in floor.items()), Fraction(0))
+        for floor, start in zip(floors, self.floor_values(table), strict=True):  # (at the rows' starting decisions)
             change = [floor[i][high] - floor[i][low] if i in floor else Fraction(0) for i, low, high in split]
             a_ub.append([-v for v in change])
             b_ub.append(start - cast(Fraction, self.tau))
@@ -240,19 +241,48 @@ class TableProgram:
         """Σ_f F_f per cell: among a row's tied decisions the one that helps the floors most is taken (all of them
         at once for a utility of the decision only, whose floors' coefficients in a row are multiples of g)."""
         n_u = len(self.tops[0]) if self.tops else 0
-        weights = [[Fraction(0)] * n_u for _ in self.tops]
-        for floor in self.floors if self.tau is not None else ():
+        if self.tau is None or not self.floors:
+            return [[Fraction(0)] * n_u for _ in self.tops]
+        ints, d = self._floor_matrix
+        sums = [Fraction(int(v), d) for v in ints.sum(axis=0).tolist()]
+        return [sums[r * n_u : (r + 1) * n_u] for r in range(len(self.tops))]
+
+    @functools.cached_property
+    def _floor_matrix(self) -> tuple[np.ndarray, int]:
+        """The floors' coefficients over every cell (row-major: [floor, row · n_decisions + decision]), as integers
+        over one denominator (an object array)."""
+        n_u = len(self.tops[0]) if self.tops else 0
+        dense = [[Fraction(0)] * (len(self.tops) * n_u) for _ in self.floors]
+        for row, floor in zip(dense, self.floors, strict=True):
             for r, coefficients in floor.items():
-                weights[r] = [w + f for w, f in zip(weights[r], coefficients, strict=True)]
-        return weights
+                row[r * n_u : (r + 1) * n_u] = coefficients
+        ints, d = on_one_denominator(dense)
+        return np.array(ints, dtype=object).reshape(len(self.floors), len(self.tops) * n_u), d
+
+    def floor_values(self, table: Table) -> list[Fraction]:
+        """F_f·K for every floor, exactly (integers over one denominator, one matrix product).
+
+        Examples
+        --------
+        The class's floors at P(yes | ã) = (1, 1/3): 3/4 + 1/4·1/3 and 1/8 + 3/8·1/3.
+
+        >>> F = Fraction
+        >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+        >>> program = TableProgram(*[[[F(0), F(0)]] * 2] * 2, floors, F(1, 4))
+        >>> program.floor_values([[F(1), F(0)], [F(1, 3), F(2, 3)]])
+        [Fraction(5, 6), Fraction(1, 4)]
+        """
+        if not self.floors:
+            return []
+        ints, d = self._floor_matrix
+        (cells,), e = on_one_denominator([[v for row in table for v in row]])
+        return [Fraction(int(v), d * e) for v in ints.dot(np.array(cells, dtype=object)).tolist()]
 
     def meets(self, table: Table) -> bool:
         """Whether the table's cells are ≥ 0, its rows sum to 1 and it meets every floor, exactly."""
         if any(v < 0 for row in table for v in row) or any(sum(row, Fraction(0)) != 1 for row in table):
             return False
-        return self.tau is None or all(
-            sum((_dot(f, table[r]) for r, f in floor.items()), Fraction(0)) >= self.tau for floor in self.floors
-        )
+        return self.tau is None or all(v >= self.tau for v in self.floor_values(table))
 
     def point_ratio(self, table: Table) -> Fraction | None:
         """(p·K)/(q·K) at the table K, exactly, when it :meth:`meets` every constraint and q·K > 0; None otherwise."""
@@ -273,6 +303,7 @@ class TableProgram:
         """
         best = self.point_ratio(table)
         n_u = len(table[0]) if table else 0
+        values = self.floor_values(table) if self.tau is not None else []
         for tolerance in ACTIVE_TOLERANCES:
             tol = Fraction(tolerance)
             free = {r * n_u + u for r, row in enumerate(table) for u, v in enumerate(row) if v > tol}
@@ -280,9 +311,9 @@ class TableProgram:
                 ({r * n_u + u: Fraction(1) for u in range(n_u) if r * n_u + u in free}, Fraction(1), True)
                 for r in range(len(table))
             ]
-            for floor in self.floors if self.tau is not None else ():
+            for floor, value in zip(self.floors, values, strict=True):
                 assert self.tau is not None  # (no floors without τ)
-                if sum((_dot(f, table[r]) for r, f in floor.items()), Fraction(0)) - self.tau <= tol * (1 + self.tau):
+                if value - self.tau <= tol * (1 + self.tau):
                     terms = {r * n_u + u: f[u] for r, f in floor.items() for u in range(n_u) if f[u]}
                     equations.append(({i: v for i, v in terms.items() if i in free}, self.tau, False))
             pivots = gauss_jordan(equations)

@@ -101,7 +101,7 @@ def relaxation_bounds(
         root = _or(_root_of(top, bottom, first), at_high)
         again = _or(_root_of(top, bottom, _maximisers(top, bottom, *root)), at_high)  # (Newton's steps)
         candidates = [at_high, root, again, *(_or(edge, at_high) for edge in _edges(top, bottom, first, then))]
-        zero = [all(any(v == 0 for v in row) for row in q) for q in bottom.tolist()]
+        zero = (bottom == 0).any(axis=-1).all(axis=-1).tolist()  # (every row has a decision with q = 0)
         bounds = [_bounds(top, bottom, num, den, d, t, zero) for num, den in candidates]
         out.update(((groups[a], groups[b]), min(us)) for b, *us in zip(others, *bounds, strict=True))
     return out
@@ -110,10 +110,20 @@ def relaxation_bounds(
 def _goes_right(top: FloatArray, bottoms: FloatArray, theta: FloatArray, floor: FloatArray) -> npt.NDArray[np.bool_]:
     """Whether f (or, without a floor, the root of R) lies beyond θ, in floats: R(θ) > 0 and the rows' maximisers
     (the largest q among ties) keep q·K above the floor."""
-    values = top[None] - theta[:, None, None] * bottoms
-    best = values.max(axis=-1)
-    reach = np.where(values == best[..., None], bottoms, -np.inf).max(axis=-1).sum(axis=-1)
-    return (best.sum(axis=-1) > 0) & ~(reach <= floor)
+    best, _, reach = _best(top[None] - theta[:, None, None] * bottoms, bottoms)
+    return (best.sum(axis=-1) > 0) & ~(reach.sum(axis=-1) <= floor)
+
+
+def _best(values: np.ndarray, bottoms: np.ndarray) -> tuple[np.ndarray, IntArray, np.ndarray]:
+    """Each row's largest value over the decisions (the last axis), the decision attaining it with the largest q (the
+    first among equal ones) and that q, shape (programs, rows): one pass over the decisions, which are few (floats or
+    integer object arrays alike)."""
+    best, q, at = values[..., 0], bottoms[..., 0], np.zeros(values.shape[:-1], dtype=np.intp)
+    for u in range(1, values.shape[-1]):
+        v, qu = values[..., u], bottoms[..., u]
+        take = (v > best) | ((v == best) & (qu > q))
+        best, q, at = np.where(take, v, best), np.where(take, qu, q), np.where(take, u, at)
+    return best, at, q
 
 
 def _bisect(
@@ -141,9 +151,7 @@ def _float_of(key: IntArray) -> FloatArray:
 def _maximisers(top: np.ndarray, bottoms: np.ndarray, num: np.ndarray, den: np.ndarray) -> IntArray:
     """Each row's maximiser of p − θq, θ = num/den per program, the largest q among ties, exactly (integer object
     arrays): shape (programs, rows)."""
-    values = top[None] * den[:, None, None] - num[:, None, None] * bottoms
-    tied = values == values.max(axis=-1, keepdims=True)
-    return np.argmax(np.where(tied, bottoms, -1), axis=-1)
+    return _best(top[None] * den[:, None, None] - num[:, None, None] * bottoms, bottoms)[1]
 
 
 def _or(theta: tuple[np.ndarray, np.ndarray], other: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -192,7 +200,7 @@ def _bounds(
 ) -> list[Fraction | float]:
     """f(θ) per program, θ = num/den, exactly (``top``, ``bottoms`` integers over ``d``); without a floor, θ where
     R(θ) ≤ 0 (max(θ, 1) where every row has a decision with q = 0: 0/0 = 1), else +inf."""
-    r = (top[None] * den[:, None, None] - num[:, None, None] * bottoms).max(axis=-1).sum(axis=-1)  # R·d·den
+    r = _best(top[None] * den[:, None, None] - num[:, None, None] * bottoms, bottoms)[0].sum(axis=-1)  # R·d·den
     out: list[Fraction | float] = []
     for rb, cn, cd, tb, z in zip(r.tolist(), num.tolist(), den.tolist(), t, zero, strict=True):
         theta = Fraction(cn, cd)

@@ -21,6 +21,7 @@ conventions are the tool's: c/0 = +inf for c > 0 and 0/0 = 1. ``proofs/verificat
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -81,7 +82,7 @@ class KernelSetting:
     def k(self) -> int:
         return len(self.sensitive)
 
-    @property
+    @functools.cached_property
     def small(self) -> bool:
         """Whether every program of L and L̄ has at most ``max_variables`` variables (with M_X the identity each
         context is a block of its own; otherwise every context's rows are one)."""

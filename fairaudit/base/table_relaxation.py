@@ -10,8 +10,9 @@ so the ratio is at most θ where R(θ) ≤ 0, else at most θ + R(θ)/(Q_b·K) �
 bounds the program at every θ, negative ones included, and its least value is the relaxation's (the program with
 Q_b·K ≥ t its only floor). Without a floor, θ bounds it where R(θ) ≤ 0. Floating point only proposes θ: bisection
 over the floats' bit patterns on the sign of f's slope, the bracket read as rationals, each row's maximisers at its
-ends found exactly, the hull edge where they move and two Newton steps toward R's root; f is computed exactly at each,
-and the least kept. A poor θ only makes the bound loose, never wrong.
+ends found exactly, the hull edge where they move and two Newton steps toward R's root; f is computed in floats at
+each, then exactly at the least of them, at the first Newton step and at the bracket's upper end, and the least exact
+value kept. A poor θ only makes the bound loose, never wrong.
 
 ``fairaudit verify`` screens the pairs with it before relaxing any (``proofs/verification.md`` §4h), and certify's
 pair search orders its linear programs by it (``proofs/black_box.md`` §6).
@@ -100,11 +101,38 @@ def relaxation_bounds(
         first, then = (_maximisers(top, bottom, *theta) for theta in (at_low, at_high))
         root = _or(_root_of(top, bottom, first), at_high)
         again = _or(_root_of(top, bottom, _maximisers(top, bottom, *root)), at_high)  # (Newton's steps)
-        candidates = [at_high, root, again, *(_or(edge, at_high) for edge in _edges(top, bottom, first, then))]
+        candidates = [root, again, *(_or(edge, at_high) for edge in _edges(top, bottom, first, then)), at_high]
+        pick = np.argmin(_float_bounds(float_top, floats[1, others], candidates, floor), axis=0)  # (the first least)
+        # exactly: the least in floats, R's root from θ_low (floats miss ties and subnormal θ) and θ_high
+        m = np.arange(len(others))
+        best = (np.stack([c[0] for c in candidates])[pick, m], np.stack([c[1] for c in candidates])[pick, m])
         zero = (bottom == 0).any(axis=-1).all(axis=-1).tolist()  # (every row has a decision with q = 0)
-        bounds = [_bounds(top, bottom, num, den, d, t, zero) for num, den in candidates]
+        bounds = [_bounds(top, bottom, num, den, d, t, zero) for num, den in (best, root, at_high)]
         out.update(((groups[a], groups[b]), min(us)) for b, *us in zip(others, *bounds, strict=True))
     return out
+
+
+def _quotient(n: int, m: int) -> float:
+    """n/m (m > 0) to nearest, ±inf beyond the floats."""
+    try:
+        return n / m
+    except OverflowError:
+        return math.copysign(math.inf, n)
+
+
+def _float_bounds(
+    top: FloatArray, bottoms: FloatArray, candidates: Sequence[tuple[np.ndarray, np.ndarray]], floor: FloatArray
+) -> FloatArray:
+    """f(θ) in floats at each candidate θ = num/den, shape (candidates, programs): which one to compute exactly (inf
+    where it overflows, or where R(θ) > 0 without a floor)."""
+    out = []
+    with np.errstate(all="ignore"):
+        for num, den in candidates:
+            theta = np.array([_quotient(n, m) for n, m in zip(num.tolist(), den.tolist(), strict=True)])
+            r = _best(top[None] - theta[:, None, None] * bottoms, bottoms)[0].sum(axis=-1)
+            f = np.where(np.isinf(floor), np.where(r > 0, np.inf, theta), theta + np.maximum(r, 0) / floor)
+            out.append(np.where(np.isnan(f), np.inf, f))
+    return np.array(out)
 
 
 def _goes_right(top: FloatArray, bottoms: FloatArray, theta: FloatArray, floor: FloatArray) -> npt.NDArray[np.bool_]:

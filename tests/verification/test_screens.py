@@ -8,6 +8,7 @@ import math
 from fractions import Fraction as F
 
 import pytest
+from _verified import product_by_group
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
@@ -230,20 +231,10 @@ def test_sixteen_groups_with_a_utility_by_group_build_a_few_programs(monkeypatch
     # four binary randomized responses keeping 0.7 (16 groups), g by group, tau 0.1: the programs over the model's
     # table are screened first; fewer than a tenth of the 2 x 16 x 15 have their relaxation computed, and the
     # enclosures are those of every program relaxed (the screens off)
-    import random
-
     import fairaudit.verification.table_check as tc
     from fairaudit.verification.dual_check import Evidence
 
-    rng = random.Random(5)
-    component = '[[privacy.sensitive.components]]\nname = "c{i}"\nmechanism = "randomized_response"\n'
-    text = "".join(component.format(i=i) + "values = [0, 1]\nkeep = 0.7\n" for i in range(4))
-    values = [[[round(rng.uniform(0.6, 1.0), 2), 0.0] for _ in range(16)]]
-    spec = (
-        '[sensitive]\nname = "profile"\n[decision]\nname = "outcome"\nvalues = ["chosen", "not chosen"]\n'
-        f'[privacy.sensitive]\nmechanism = "product"\n{text}[utility]\nkind = "table"\nvalues = {values}\ntau = 0.1\n'
-    )
-    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    cert = json.loads(json.dumps(certify(parse_spec(product_by_group(4, seed=5))).to_dict()))
     (s,) = bb._settings(cert["inputs"], Evidence.from_record(None, cert["inputs"]))
     case, built = tc._case, []
     monkeypatch.setattr(tc, "_case", lambda *args: built.append(1) or case(*args))
@@ -260,17 +251,7 @@ def test_sixty_four_groups_with_a_utility_by_group_are_certified_and_verified():
     # six binary randomized responses keeping 0.7 (64 groups), g by group, tau 0.1: certify orders its programs over
     # the model's table by their one-floor relaxations and solves a few (it solved most of 2 x 64 x 63 before), and
     # verify re-derives the black box from a few of them (about 3 s each)
-    import random
-
-    rng = random.Random(6)
-    component = '[[privacy.sensitive.components]]\nname = "c{i}"\nmechanism = "randomized_response"\n'
-    text = "".join(component.format(i=i) + "values = [0, 1]\nkeep = 0.7\n" for i in range(6))
-    values = [[[round(rng.uniform(0.6, 1.0), 2), 0.0] for _ in range(64)]]
-    spec = (
-        '[sensitive]\nname = "profile"\n[decision]\nname = "outcome"\nvalues = ["chosen", "not chosen"]\n'
-        f'[privacy.sensitive]\nmechanism = "product"\n{text}[utility]\nkind = "table"\nvalues = {values}\ntau = 0.1\n'
-    )
-    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    cert = json.loads(json.dumps(certify(parse_spec(product_by_group(6, seed=6))).to_dict()))
     details = cert["bound_details"]["black_box"]
     assert details["certified"] and details["programs_solved"] <= 4 and details["global"]["programs_solved"] <= 4
     checked = verify(cert)

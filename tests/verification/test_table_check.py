@@ -11,6 +11,7 @@ import random
 from fractions import Fraction as F
 
 import pytest
+from _verified import product_by_group
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from test_dual_check import UNLIKE
@@ -552,15 +553,7 @@ def test_small_programs_over_the_table_are_solved_only_at_the_top(monkeypatch):
     from fairaudit.verification.dual_check import Evidence
     from fairaudit.verification.kernel_check import kernel_global, kernel_local
 
-    rng = random.Random(3)
-    component = '[[privacy.sensitive.components]]\nname = "c{i}"\nmechanism = "randomized_response"\n'
-    text = "".join(component.format(i=i) + "values = [0, 1]\nkeep = 0.7\n" for i in range(3))
-    values = [[[round(rng.uniform(0.6, 1.0), 2), 0.0] for _ in range(8)]]
-    spec = (
-        '[sensitive]\nname = "profile"\n[decision]\nname = "outcome"\nvalues = ["chosen", "not chosen"]\n'
-        f'[privacy.sensitive]\nmechanism = "product"\n{text}[utility]\nkind = "table"\nvalues = {values}\ntau = 0.1\n'
-    )
-    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    cert = json.loads(json.dumps(certify(parse_spec(product_by_group(3, seed=3))).to_dict()))
     (s,) = bb._settings(cert["inputs"], Evidence.from_record(None, cert["inputs"]))
     solved = []
     for name, solve in (("kernel_local", kernel_local), ("kernel_global", kernel_global)):

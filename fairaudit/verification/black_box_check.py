@@ -169,7 +169,13 @@ class PairEnclosures(NamedTuple):
 
 
 def pair_enclosures(
-    inputs: Mapping[str, Any], context: Any, group: Any, other_group: Any, recorded: Mapping[str, Any] | None = None
+    inputs: Mapping[str, Any],
+    context: Any,
+    group: Any,
+    other_group: Any,
+    recorded: Mapping[str, Any] | None = None,
+    *,
+    only: str | None = None,
 ) -> PairEnclosures:
     """The exact worst ratios of one named pair: L's at ``context`` and L̄'s, enclosed as in
     :func:`black_box_enclosures`; None where a label is not the inputs' (or the context has P(X = x) = 0, or the
@@ -187,6 +193,10 @@ def pair_enclosures(
         A context of ``inputs.population.contexts`` (the local worst case's).
     group, other_group : label
         Two distinct groups of ``inputs.population.groups``: the ratio is E[g | group] over E[g | other_group].
+    recorded : mapping, optional
+        The certificate's ``bound_details.black_box`` (:func:`black_box_enclosures`).
+    only : {"local", "global"}, optional
+        Enclose that worst case only (the other is None): each program may take seconds to solve exactly.
 
     Returns
     -------
@@ -216,8 +226,10 @@ def pair_enclosures(
     live = [x for x in range(len(probabilities)) if sum(probabilities[x]) > 0]
     i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
     try:
-        local_ends = None if i is None else [_local(s, (i, a, b), True) for s in (settings[0], settings[-1])]
-        present = a in settings[0].present and b in settings[0].present
+        local_ends = (
+            None if i is None or only == "global" else [_local(s, (i, a, b), True) for s in (settings[0], settings[-1])]
+        )
+        present = a in settings[0].present and b in settings[0].present and only != "local"
         ends = [_global(s, (a, b), True) for s in (settings[0], settings[-1])] if present else [None, None]
     except ValueError:
         return PairEnclosures(None, None)

@@ -368,15 +368,15 @@ def _maximiser_checks(
 
     global_duals = False
     out = []
-    local, global_, local_duals = pair_enclosures(
-        cert["inputs"], detail.get("context"), detail.get("group"), detail.get("other_group"), detail
+    local, _, local_duals = pair_enclosures(
+        cert["inputs"], detail.get("context"), detail.get("group"), detail.get("other_group"), detail, only="local"
     )
     named: list[tuple[str, Mapping[str, Any], Enclosure | None, tuple[Any, ...]]] = [
         ("bound_details.black_box (its context and groups)", detail, local, (detail.get("context"),))
     ]
     if global_re_derived and glob.get("value") is not None and glob.get("group") is not None:
         _, g_pair, global_duals = pair_enclosures(
-            cert["inputs"], detail.get("context"), glob.get("group"), glob.get("other_group"), detail
+            cert["inputs"], detail.get("context"), glob.get("group"), glob.get("other_group"), detail, only="global"
         )
         named.append(("bound_details.black_box.global (its groups)", glob, g_pair, ()))
     for (name, where, pair, context), clip, from_duals in zip(named, clips, (local_duals, global_duals)):

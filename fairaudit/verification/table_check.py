@@ -301,7 +301,54 @@ class TableProgram:
         (:func:`~fairaudit.base.exact_vertex.gauss_jordan`; a cell they leave free keeps its value). A wrong reading is
         refused by :meth:`point_ratio`, never a wrong ratio.
         """
-        best = self.point_ratio(table)
+        found = [ratio for reading in self._readings(table) if (ratio := self.point_ratio(reading)) is not None]
+        return max(found, default=None)
+
+    def proved_value(self, table: Table) -> Fraction | None:
+        """The program's value, where the table (or a vertex it stands for, as :meth:`vertex_ratio` reads it) is a
+        maximiser that complementary slackness proves: multipliers ν ≥ 0 on the floors it meets with equality, and
+        each row's largest value m of r = p − λq + Σ_f ν_f F_f (λ its ratio), solved exactly from r = m on every cell
+        the table uses (the other unknowns at 0); :meth:`dual_bound` at that ν is then λ itself. None where no reading
+        is proved so (the program is then solved or bounded otherwise). ``proofs/verification.md`` §4f.
+
+        Examples
+        --------
+        The class's maximiser P(yes | ã) = (1, 1/3) at 10/3: the floor of b holds with equality, ν = 8/3 on it.
+
+        >>> F = Fraction
+        >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+        >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+        >>> TableProgram(p, q, floors, F(1, 4)).proved_value([[F(1), F(0)], [F(1, 3), F(2, 3)]])
+        Fraction(10, 3)
+        """
+        for reading in self._readings(table):
+            lam = self.point_ratio(reading)
+            if lam is None:
+                continue
+            values = self.floor_values(reading) if self.tau is not None else []
+            active = [f for f, v in enumerate(values) if v == self.tau]
+            width = len(active)  # (the unknowns: ν on the active floors, then each row's maximum m)
+            equations: list[tuple[dict[int, Fraction], Fraction, bool]] = []
+            for r, row in enumerate(reading):
+                for u in (u for u, v in enumerate(row) if v > 0):
+                    touched = [(j, self.floors[f][r][u]) for j, f in enumerate(active) if r in self.floors[f]]
+                    terms = {j: c for j, c in touched if c}
+                    terms[width + r] = Fraction(-1)
+                    equations.append((terms, lam * self.bottoms[r][u] - self.tops[r][u], True))
+            pivots = gauss_jordan(equations)
+            if pivots is None:
+                continue
+            nu = [Fraction(0)] * len(self.floors)
+            for j, f in enumerate(active):
+                nu[f] = pivots[j][1] if j in pivots else Fraction(0)
+            if self.dual_bound(nu if self.tau is not None else None) == lam:
+                return lam
+        return None
+
+    def _readings(self, table: Table) -> list[list[list[Fraction]]]:
+        """The table itself, then the vertex it stands for at each of
+        :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (see :meth:`vertex_ratio`)."""
+        out = [[list(row) for row in table]]
         n_u = len(table[0]) if table else 0
         values = self.floor_values(table) if self.tau is not None else []
         for tolerance in ACTIVE_TOLERANCES:
@@ -324,10 +371,8 @@ class TableProgram:
             ]
             for i, (terms, rhs) in pivots.items():  # (the free cells keep their values)
                 cells[i] = rhs - sum((v * cells[j] for j, v in terms.items()), Fraction(0))
-            found = self.point_ratio([cells[r * n_u : (r + 1) * n_u] for r in range(len(table))])
-            if found is not None and (best is None or found > best):
-                best = found
-        return best
+            out.append([cells[r * n_u : (r + 1) * n_u] for r in range(len(table))])
+        return out
 
 
 def _dot(a: Row, b: Row) -> Fraction:
@@ -381,9 +426,10 @@ class _Lazy(NamedTuple):
 
 def _largest(cases: Sequence[_Lazy], start: Number, loose: bool) -> Ends:
     """max of ``start`` and the programs' values, enclosed (as ``black_box_check._largest``): best first, each at
-    its screen, then at its bound (:func:`_case`), exact where its relaxed table meets the floors, else solved by the
-    rational simplex within its size, else bounded by its ν, until no bound left exceeds the upper end found; a
-    recorded table gives a lower end. Without a ν, a bound within
+    its screen, then at its bound (:func:`_case`), exact where its relaxed table meets the floors or its recorded
+    table is proved optimal (:meth:`TableProgram.proved_value`), set aside where its recorded ν bounds it by the
+    largest value found, else solved by the rational simplex within its size, else bounded by its ν, until no bound
+    left exceeds the upper end found; a recorded table gives a lower end. Without a ν, a bound within
     :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end found (certify's search leaves such a
     program unsolved), or any with ``loose``, is kept as an upper end; any other raises
     :class:`~fairaudit.verification.dual_check.MissingDual`. Where none was taken, the first is solved all the same:
@@ -415,6 +461,10 @@ def _largest(cases: Sequence[_Lazy], start: Number, loose: bool) -> Ends:
         value = attained.get(i)
         if case.exact or (value is not None and value >= case.bound):
             low, high = max(low, case.bound), max(high, case.bound)
+        elif case.table is not None and (proved := case.program.proved_value(case.table)) is not None:
+            low, high = max(low, proved), max(high, proved)  # (the recorded table, proved optimal exactly)
+        elif case.solve is not None and case.nu is not None and case.program.dual_bound(case.nu) <= high:
+            continue  # (its recorded multipliers bound it by the largest value found: no need to solve it)
         elif case.solve is not None and (solved := case.solve()) is not None:
             low, high = max(low, solved), max(high, solved)
         elif case.nu is not None:

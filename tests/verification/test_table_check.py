@@ -111,6 +111,37 @@ def test_a_table_read_off_a_perturbed_optimum_is_feasible_and_at_most_the_maximu
     assert program.vertex_ratio(table) == optimum.value
 
 
+@given(programs(), st.integers(-3, 3))
+@settings(max_examples=60, deadline=None)
+def test_a_proved_table_is_the_rational_simplexs_optimum_and_the_optimum_is_proved(drawn, shift):
+    # complementary slackness at the simplex's vertex (as recorded, or a hair off it): the value it proves is the
+    # optimum; a table that is not optimal (every row on its first decision, when that is not) proves nothing
+    program, _ = drawn
+    optimum = _optimum(program)
+    assume(optimum.status == "optimal" and optimum.point is not None)
+    n_u = len(program.tops[0])
+    table = [list(optimum.point[r * n_u : (r + 1) * n_u]) for r in range(len(program.tops))]
+    assert program.proved_value(table) in (None, optimum.value)
+    near = [[v + F(shift, 10**12) for v in row] for row in table]
+    assert program.proved_value(near) in (None, optimum.value)
+    first = [[F(int(u == 0)) for u in range(n_u)] for _ in program.tops]
+    ratio = program.point_ratio(first)
+    if ratio is not None and ratio < optimum.value:
+        assert program.proved_value(first) is None
+
+
+def test_the_class_s_maximiser_is_proved_and_a_feasible_table_below_it_is_not():
+    # proofs/verification.md §4f's program (tau = 1/4): P(yes | released a, b) = (1, 1/3) is the maximiser, 10/3, with
+    # nu = 8/3 on the floor of b; (1, 1) meets both floors at ratio 2 and proves nothing; (1, 0) misses the floor of b
+    p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+    floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+    program = TableProgram(p, q, floors, F(1, 4))
+    assert program.proved_value([[F(1), F(0)], [F(1, 3), F(2, 3)]]) == F(10, 3)
+    assert program.point_ratio([[F(1), F(0)], [F(1), F(0)]]) == 2
+    assert program.proved_value([[F(1), F(0)], [F(1), F(0)]]) is None
+    assert program.proved_value([[F(1), F(0)], [F(0), F(1)]]) is None
+
+
 @given(programs(), st.integers(1, 12).map(lambda v: F(v, 8)))
 @settings(max_examples=80, deadline=None)
 def test_the_one_floor_relaxation_is_the_rational_simplex_optimum_and_its_table_attains_it(drawn, kept):
@@ -562,3 +593,30 @@ def test_small_programs_over_the_table_are_solved_only_at_the_top(monkeypatch):
     assert local == (kernel_local(s), kernel_local(s), False) and global_ == (kernel_global(s),) * 2 + (False,)
     assert len(solved) < (8 * 7 * 2) // 10
     assert verify(cert).holds
+
+
+@pytest.mark.slow
+def test_behind_a_context_mechanism_the_recorded_maximisers_are_proved_without_the_simplex(monkeypatch):
+    # three binary randomized responses keeping 0.7 (8 groups) and randomized response at 1.5 nats on three contexts,
+    # g by context and group, tau 0.2: every context's floors bind the same rows, so the one-floor relaxations do not
+    # settle the top programs; the recorded witness tables are proved optimal by complementary slackness (and the
+    # recorded multipliers set the others aside), so no program is solved by the rational simplex (six were)
+    import fairaudit.verification.table_check as tc
+
+    rng = random.Random(11)
+    component = '[[privacy.sensitive.components]]\nname = "c{i}"\nmechanism = "randomized_response"\n'
+    text = "".join(component.format(i=i) + "values = [0, 1]\nkeep = 0.7\n" for i in range(3))
+    values = [[[round(rng.uniform(0.5, 1.0), 2), round(rng.uniform(0, 0.3), 2)] for _ in range(8)] for _ in range(3)]
+    spec = (
+        '[sensitive]\nname = "profile"\n[context]\nname = "ctx"\nvalues = ["x0", "x1", "x2"]\n[decision]\n'
+        'name = "outcome"\nvalues = ["chosen", "not chosen"]\n[privacy.sensitive]\nmechanism = "product"\n'
+        f'{text}[privacy.context]\nmechanism = "randomized_response"\nepsilon = 1.5\n[utility]\nkind = "table"\n'
+        f"values = {values}\ntau = 0.2\n"
+    )
+    cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
+    for name in ("kernel_local", "kernel_global"):
+        monkeypatch.setattr(tc, name, lambda *args: pytest.fail("a program was solved by the rational simplex"))
+    checked = verify(cert)
+    assert checked.holds, [c.line() for c in checked.failures]
+    names = {c.name for c in checked.checks}
+    assert {"bounds.black_box", "bound_details.black_box.global.value"} <= names

@@ -435,12 +435,10 @@ def _largest(cases: Sequence[_Lazy], start: Number, loose: bool = False) -> _End
     deferred: list[Number] = []  # the bounds of programs beyond the exact size without a recorded dual
     polytopes: dict[Any, Polytope] = {}  # (the pairs of one feasible set share it: phase 1 once)
     scaled: dict[int, tuple[list[list[int]], int]] = {}  # the floors of one block as integers over one denominator
-    built: dict[int, _Case] = {}
 
-    def case_of(i: int) -> _Case:
-        if i not in built:
-            built[i] = cases[i].build()
-        return built[i]
+    @functools.cache
+    def case_of(i: int) -> _Case:  # (each program built once, when first needed)
+        return cases[i].build()
 
     for i, entry in enumerate(cases):
         attained = case_of(i).point_ratio() if entry.pointed else None

@@ -262,6 +262,17 @@ class TableProgram:
     def floor_values(self, table: Table) -> list[Fraction]:
         """F_f·K for every floor, exactly (integers over one denominator, one matrix product).
 
+        Parameters
+        ----------
+        table : sequence of sequence of Fraction, shape (n_rows, n_decisions)
+            K, indexed [row, decision] as :attr:`tops`.
+
+        Returns
+        -------
+        list of Fraction, shape (n_floors,)
+            F_f·K in the order of :attr:`floors` (E[g | x, a] of each floor's context and group: a utility's mean,
+            in g's units); empty without floors.
+
         Examples
         --------
         The class's floors at P(yes | ã) = (1, 1/3): 3/4 + 1/4·1/3 and 1/8 + 3/8·1/3.
@@ -309,7 +320,22 @@ class TableProgram:
         maximiser that complementary slackness proves: multipliers ν ≥ 0 on the floors it meets with equality, and
         each row's largest value m of r = p − λq + Σ_f ν_f F_f (λ its ratio), solved exactly from r = m on every cell
         the table uses (the other unknowns at 0); :meth:`dual_bound` at that ν is then λ itself. None where no reading
-        is proved so (the program is then solved or bounded otherwise). ``proofs/verification.md`` §4f.
+        is proved so (the program is then solved or bounded otherwise).
+
+        Parameters
+        ----------
+        table : sequence of sequence of Fraction, shape (n_rows, n_decisions)
+            The recorded table K, indexed [row, decision] (a certificate's ``witness_point``, read exactly).
+
+        Returns
+        -------
+        Fraction or None
+            The program's value, a ratio (its log is in nats), or None.
+
+        Notes
+        -----
+        Complementary slackness with each row's simplex kept in the inner maximum (the bound of :meth:`dual_bound`):
+        ``proofs/verification.md`` §4f, "A recorded table proved optimal".
 
         Examples
         --------
@@ -436,13 +462,11 @@ def _largest(cases: Sequence[_Lazy], start: Number, loose: bool) -> Ends:
     that is where floors no table meets are found (ValueError)."""
     low = high = start
     duals, deferred, taken = False, [], False
-    built: dict[int, _Case] = {}
     attained: dict[int, Fraction | None] = {}
 
-    def case_of(i: int) -> _Case:
-        if i not in built:
-            built[i] = cases[i].build()
-        return built[i]
+    @functools.cache
+    def case_of(i: int) -> _Case:  # (each program built once, when first needed)
+        return cases[i].build()
 
     for i, entry in enumerate(cases):
         if entry.pointed:

@@ -14,12 +14,12 @@ from hypothesis import strategies as st
 
 import fairaudit.verification.black_box_check as bb
 from fairaudit.base.exact_programs import maximize_ratio
+from fairaudit.base.table_program import TableProgram
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.rederive import verify
 from fairaudit.verification.screens import pair_screens
-from fairaudit.verification.table_check import TableProgram
 
 RR = [[F(3, 4), F(1, 4)], [F(1, 4), F(3, 4)]]
 

@@ -19,11 +19,11 @@ from test_dual_check import UNLIKE
 import fairaudit.verification.black_box_check as bb
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_programs import maximize_ratio
+from fairaudit.base.table_program import TableProgram
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.enclosures import INF
 from fairaudit.verification.rederive import verify
-from fairaudit.verification.table_check import TableProgram
 
 
 @st.composite

@@ -1,0 +1,393 @@
+"""The program over the model's table in rationals: max (p·K)/(q·K) over tables K whose rows (x̃, ã) are
+distributions over the decisions, with floors F_f·K ≥ τ (one per live context and group), bounded by weak duality,
+relaxed to one floor, and its maximisers proved by complementary slackness: what ``fairaudit verify`` re-derives
+the black box over the model's table with (``verification.table_check``).
+
+For any ν ≥ 0 and λ, at every table meeting the floors (the simplices kept in the inner maximum: a partial
+Lagrangian),
+
+    (p − λq)·K ≤ (p − λq + Σ_f ν_f F_f)·K − τ Σ_f ν_f ≤ B(λ) = Σ_rows max_u r[row, u] − τ Σ_f ν_f,
+
+r = p − λq + Σ_f ν_f F_f. So B(λ) ≤ 0 proves the ratio at most λ. With ν = 0 the floors are dropped, and B(λ) is the
+maximum of (p − λq)·K over the product of simplices itself: its smallest root is the value without floors, exactly,
+and where its maximising table meets the floors, the program's value. B is convex, piecewise linear and
+non-increasing in λ (q ≥ 0), so Newton's method from the left reaches its smallest root exactly, in finitely many
+steps. ``proofs/verification.md`` §4f; the one-floor relaxation §4g.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import operator
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import cast
+
+import numpy as np
+
+from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, on_one_denominator, smallest_root
+from fairaudit.base.exact_programs import maximize_linear
+from fairaudit.base.exact_vertex import gauss_jordan
+
+__all__ = ["EXACT_SHARES", "TableProgram"]
+
+INF = math.inf
+Number = Fraction | float
+Row = Sequence[Fraction]
+Table = Sequence[Row]
+
+EXACT_SHARES = 64
+"""The most rows :meth:`TableProgram.floor_bound` shares between two decisions by the rational simplex (at most twice
+as many floors), to find among the relaxation's maximisers one that meets every floor."""
+
+
+@dataclass(frozen=True)
+class TableProgram:
+    """max (p·K)/(q·K) over tables K, each row a distribution over the decisions, with floors F_f·K ≥ τ, in rationals.
+
+    Attributes
+    ----------
+    tops, bottoms : sequence of sequence of Fraction, shape (n_rows, n_decisions)
+        p and q, q ≥ 0.
+    floors : sequence of mapping of int to sequence of Fraction
+        F_f per floor, as {row: its coefficients over the decisions} (the rows it does not name are 0).
+    tau : Fraction or None
+        The floors' right-hand side (None: no floors).
+
+    Examples
+    --------
+    Keep 3/4 on two groups, g(yes, a) = 1, g(yes, b) = 1/2, g(no, ·) = 0 (``proofs/verification.md`` §4d): the
+    ratio a over b is 6 without floors; with τ = 1/4, ν = (0, 8/3) on the floors certifies 10/3, attained at
+    P(yes | ã) = (1, 1/3).
+
+    >>> F = Fraction
+    >>> p = [[F(3, 4), F(0)], [F(1, 4), F(0)]]
+    >>> q = [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+    >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+    >>> program = TableProgram(p, q, floors, F(1, 4))
+    >>> program.dual_bound(), program.dual_bound([F(0), F(8, 3)])
+    (Fraction(6, 1), Fraction(10, 3))
+    >>> program.point_ratio([[F(1), F(0)], [F(1, 3), F(2, 3)]])
+    Fraction(10, 3)
+    """
+
+    tops: Table
+    bottoms: Table
+    floors: Sequence[Mapping[int, Row]]
+    tau: Fraction | None
+
+    def dual_bound(self, nu: Row | None = None) -> Number:
+        """The smallest λ ≥ 0 with B(λ) ≤ 0 (see the module), exactly: an upper bound on the program's value.
+
+        Parameters
+        ----------
+        nu : sequence of Fraction, optional
+            ν, one per floor (ignored without τ). Default: 0, the program without its floors, whose value this is.
+
+        Returns
+        -------
+        Fraction or float
+            +inf when some ν < 0 or no λ has B(λ) ≤ 0 (a table with q·K = 0 < p·K); at least 1 where every row has
+            a decision with q = 0 (a table there has q·K = 0, and 0/0 counts as 1).
+        """
+        c = [list(p) for p in self.tops]
+        constant = Fraction(0)
+        if nu is not None and self.tau is not None:
+            if len(nu) != len(self.floors) or any(v < 0 for v in nu):
+                return INF
+            constant = -self.tau * sum(nu, Fraction(0))
+            for v, floor in zip(nu, self.floors, strict=True):
+                for row, coefficients in floor.items() if v else ():
+                    c[row] = [ci + v * fi for ci, fi in zip(c[row], coefficients, strict=True)]
+        lam = smallest_root(c, self.bottoms, constant)
+        if lam is None:
+            return INF
+        zero = all(any(qi == 0 for qi in qr) for qr in self.bottoms)
+        return max(lam, Fraction(1)) if zero else lam
+
+    def floor_bound(self, kept: Fraction) -> tuple[Fraction, list[list[Fraction]]] | None:
+        """The program's value with q·K ≥ ``kept`` its only floor, exactly, with a table attaining it: an upper bound
+        on the value where every table meeting the floors has q·K ≥ kept > 0 (certify's closed-form floor relaxation).
+
+        For every θ, f(θ) = θ + max(R(θ), 0)/kept with R(θ) = Σ_rows max_u (p − θq)[row, u] bounds it (weak
+        duality, ν = f(θ) − θ on the one floor); f is convex, least at R's smallest root θ₀ or at θ_c, the largest θ
+        where the rows' maximisers with the largest q reach q·K ≥ kept (a breakpoint of a row's upper hull of the
+        points (q_u, p_u)). The table is every row on a maximiser of p − θq, the rows' q·K brought to ``kept`` by one
+        row between its two (at θ_c), so its ratio is f there. None when no table has q·K ≥ kept.
+        ``proofs/verification.md`` §4g.
+
+        Parameters
+        ----------
+        kept : Fraction
+            The floor's right-hand side, > 0.
+
+        Returns
+        -------
+        (Fraction, list of list of Fraction) or None
+            The value (a ratio) and a table, shape (n_rows, n_decisions), meeting q·K ≥ kept at that ratio; None when
+            Σ_rows max q < kept.
+
+        Examples
+        --------
+        The class's program with q·K ≥ 1/4 its only floor: θ_c = 2/3, 2/3 + R(2/3)/(1/4) = 10/3, at P(yes | ã) =
+        (1, 1/3), which meets the other floor too.
+
+        >>> F = Fraction
+        >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+        >>> value, table = TableProgram(p, q, [], None).floor_bound(F(1, 4))
+        >>> value, table[1]
+        (Fraction(10, 3), [Fraction(1, 3), Fraction(2, 3)])
+        """
+        rows = list(zip(self.tops, self.bottoms, strict=True))
+        events: list[tuple[Fraction, Fraction]] = []  # (slope of a hull edge, its rise in q), every row's
+        reach = Fraction(0)  # Σ_rows min q: the rows' q·K at θ = +inf
+        for pr, qr in rows:
+            hull: list[tuple[Fraction, Fraction]] = []
+            for q, p in sorted(zip(qr, pr, strict=True), key=lambda v: (v[0], -v[1])):
+                if hull and hull[-1][0] == q:
+                    continue  # (the largest p at this q is already in)
+                while len(hull) > 1 and (hull[-1][1] - hull[-2][1]) * (q - hull[-1][0]) <= (p - hull[-1][1]) * (
+                    hull[-1][0] - hull[-2][0]
+                ):
+                    hull.pop()
+                hull.append((q, p))
+            reach += hull[0][0]
+            events += [((b[1] - a[1]) / (b[0] - a[0]), b[0] - a[0]) for a, b in zip(hull, hull[1:])]
+        theta_c: Fraction | None = None
+        if reach < kept:
+            for slope, rise in sorted(events, reverse=True):
+                reach += rise
+                if reach >= kept:
+                    theta_c = slope
+                    break
+            else:
+                return None  # Σ_rows max q < kept
+        theta_0 = smallest_root([list(p) for p in self.tops], self.bottoms, Fraction(0))
+        if theta_0 is not None and (theta_c is None or theta_0 <= theta_c):
+            table = self.relaxed_table(theta_0)  # (its q·K ≥ kept: S at θ₀ is at least S at θ_c)
+            return theta_0, table
+        assert theta_c is not None  # (R has a root unless some row has p > 0 = q everywhere, where S ≥ kept never)
+        table, total = [], Fraction(0)
+        split: list[tuple[int, int, int]] = []
+        for i, ((pr, qr), fr) in enumerate(zip(rows, self._floor_weights(), strict=True)):
+            values = [pi - theta_c * qi for pi, qi in zip(pr, qr, strict=True)]
+            top = max(values)
+            best = [u for u, v in enumerate(values) if v == top]
+            low, high = min(best, key=lambda u: (qr[u], -fr[u])), max(best, key=lambda u: (qr[u], fr[u]))
+            table.append([Fraction(int(u == low)) for u in range(len(pr))])
+            total += qr[low]
+            if qr[high] > qr[low]:
+                split.append((i, low, high))
+        shares = self._shares(table, split, kept - total)
+        for (i, low, high), share in zip(split, shares, strict=True):
+            table[i][low], table[i][high] = 1 - share, share
+        r = sum(max(pi - theta_c * qi for pi, qi in zip(pr, qr, strict=True)) for pr, qr in rows)
+        return theta_c + max(r, Fraction(0)) / kept, table
+
+    def _shares(self, table: Table, split: Sequence[tuple[int, int, int]], need: Fraction) -> list[Fraction]:
+        """How far to move each row of ``split`` (i, from, to) from the one decision to the other so that q·K rises by
+        ``need`` > 0: the first rows first; where that misses a floor and the moves and floors are few, shares that
+        meet every floor, found by the rational simplex (none: the first rows first)."""
+        rises = [self.bottoms[i][high] - self.bottoms[i][low] for i, low, high in split]
+        greedy, left = [], need
+        for rise in rises:
+            share = min(Fraction(1), max(Fraction(0), left / rise))
+            greedy.append(share)
+            left -= share * rise
+        floors = self.floors if self.tau is not None else []
+        if not floors or len(split) > EXACT_SHARES or len(floors) > 2 * EXACT_SHARES:
+            return greedy
+        moved = [list(row) for row in table]
+        for (i, low, high), share in zip(split, greedy, strict=True):
+            moved[i][low], moved[i][high] = 1 - share, share
+        if self.meets(moved):
+            return greedy
+        zero = [Fraction(0)] * len(split)
+        a_ub, b_ub = [rises, [-v for v in rises]], [need, -need]
+        for floor, start in zip(floors, self.floor_values(table), strict=True):  # (at the rows' starting decisions)
+            change = [floor[i][high] - floor[i][low] if i in floor else Fraction(0) for i, low, high in split]
+            a_ub.append([-v for v in change])
+            b_ub.append(start - cast(Fraction, self.tau))
+        found = maximize_linear(zero, zero, [Fraction(1)] * len(split), a_ub, b_ub)
+        return list(found.point) if found.status == "optimal" and found.point is not None else greedy
+
+    def relaxed_table(self, lam: Number) -> list[list[Fraction]]:
+        """A table attaining the value ``lam`` = :meth:`dual_bound` () without the floors: each row on a decision
+        maximising p − λq, the one with the largest q among ties; for +inf, on a decision with q = 0 maximising p."""
+        table = []
+        for pr, qr, fr in zip(self.tops, self.bottoms, self._floor_weights(), strict=True):
+            if lam == INF:
+                u = max((i for i in range(len(pr)) if qr[i] == 0), key=lambda i: (pr[i], fr[i]))
+            else:
+                u = max(range(len(pr)), key=lambda i: (pr[i] - lam * qr[i], qr[i], fr[i]))
+            table.append([Fraction(int(i == u)) for i in range(len(pr))])
+        return table
+
+    def _floor_weights(self) -> list[list[Fraction]]:
+        """Σ_f F_f per cell: among a row's tied decisions the one that helps the floors most is taken (all of them
+        at once for a utility of the decision only, whose floors' coefficients in a row are multiples of g)."""
+        n_u = len(self.tops[0]) if self.tops else 0
+        if self.tau is None or not self.floors:
+            return [[Fraction(0)] * n_u for _ in self.tops]
+        ints, d = self._floor_matrix
+        sums = [Fraction(int(v), d) for v in ints.sum(axis=0).tolist()]
+        return [sums[r * n_u : (r + 1) * n_u] for r in range(len(self.tops))]
+
+    @functools.cached_property
+    def _floor_matrix(self) -> tuple[np.ndarray, int]:
+        """The floors' coefficients over every cell (row-major: [floor, row · n_decisions + decision]), as integers
+        over one denominator (an object array)."""
+        n_u = len(self.tops[0]) if self.tops else 0
+        dense = [[Fraction(0)] * (len(self.tops) * n_u) for _ in self.floors]
+        for row, floor in zip(dense, self.floors, strict=True):
+            for r, coefficients in floor.items():
+                row[r * n_u : (r + 1) * n_u] = coefficients
+        ints, d = on_one_denominator(dense)
+        return np.array(ints, dtype=object).reshape(len(self.floors), len(self.tops) * n_u), d
+
+    def floor_values(self, table: Table) -> list[Fraction]:
+        """F_f·K for every floor, exactly (integers over one denominator, one matrix product).
+
+        Parameters
+        ----------
+        table : sequence of sequence of Fraction, shape (n_rows, n_decisions)
+            K, indexed [row, decision] as :attr:`tops`.
+
+        Returns
+        -------
+        list of Fraction, shape (n_floors,)
+            F_f·K in the order of :attr:`floors` (E[g | x, a] of each floor's context and group: a utility's mean,
+            in g's units); empty without floors.
+
+        Examples
+        --------
+        The class's floors at P(yes | ã) = (1, 1/3): 3/4 + 1/4·1/3 and 1/8 + 3/8·1/3.
+
+        >>> F = Fraction
+        >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+        >>> program = TableProgram(*[[[F(0), F(0)]] * 2] * 2, floors, F(1, 4))
+        >>> program.floor_values([[F(1), F(0)], [F(1, 3), F(2, 3)]])
+        [Fraction(5, 6), Fraction(1, 4)]
+        """
+        if not self.floors:
+            return []
+        ints, d = self._floor_matrix
+        (cells,), e = on_one_denominator([[v for row in table for v in row]])
+        return [Fraction(int(v), d * e) for v in ints.dot(np.array(cells, dtype=object)).tolist()]
+
+    def meets(self, table: Table) -> bool:
+        """Whether the table's cells are ≥ 0, its rows sum to 1 and it meets every floor, exactly."""
+        if any(v < 0 for row in table for v in row) or any(sum(row, Fraction(0)) != 1 for row in table):
+            return False
+        return self.tau is None or all(v >= self.tau for v in self.floor_values(table))
+
+    def point_ratio(self, table: Table) -> Fraction | None:
+        """(p·K)/(q·K) at the table K, exactly, when it :meth:`meets` every constraint and q·K > 0; None otherwise."""
+        if not self.meets(table):
+            return None
+        num = sum(map(_dot, self.tops, table), Fraction(0))
+        den = sum(map(_dot, self.bottoms, table), Fraction(0))
+        return num / den if den > 0 else None
+
+    def vertex_ratio(self, table: Table) -> Fraction | None:
+        """The largest ratio :meth:`point_ratio` gives at the table or at a vertex it stands for; None when none meets
+        every constraint.
+
+        At each of :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES`, a cell within it of 0 is put at 0, and the
+        rows' sums and the floors within it of τ are solved as equalities for the other cells, exactly
+        (:func:`~fairaudit.base.exact_vertex.gauss_jordan`; a cell they leave free keeps its value). A wrong reading is
+        refused by :meth:`point_ratio`, never a wrong ratio.
+        """
+        found = [ratio for reading in self._readings(table) if (ratio := self.point_ratio(reading)) is not None]
+        return max(found, default=None)
+
+    def proved_value(self, table: Table) -> Fraction | None:
+        """The program's value, where the table (or a vertex it stands for, as :meth:`vertex_ratio` reads it) is a
+        maximiser that complementary slackness proves: multipliers ν ≥ 0 on the floors it meets with equality, and
+        each row's largest value m of r = p − λq + Σ_f ν_f F_f (λ its ratio), solved exactly from r = m on every cell
+        the table uses (the other unknowns at 0); :meth:`dual_bound` at that ν is then λ itself. None where no reading
+        is proved so (the program is then solved or bounded otherwise).
+
+        Parameters
+        ----------
+        table : sequence of sequence of Fraction, shape (n_rows, n_decisions)
+            The recorded table K, indexed [row, decision] (a certificate's ``witness_point``, read exactly).
+
+        Returns
+        -------
+        Fraction or None
+            The program's value, a ratio (its log is in nats), or None.
+
+        Notes
+        -----
+        Complementary slackness with each row's simplex kept in the inner maximum (the bound of :meth:`dual_bound`):
+        ``proofs/verification.md`` §4f, "A recorded table proved optimal".
+
+        Examples
+        --------
+        The class's maximiser P(yes | ã) = (1, 1/3) at 10/3: the floor of b holds with equality, ν = 8/3 on it.
+
+        >>> F = Fraction
+        >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+        >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+        >>> TableProgram(p, q, floors, F(1, 4)).proved_value([[F(1), F(0)], [F(1, 3), F(2, 3)]])
+        Fraction(10, 3)
+        """
+        for reading in self._readings(table):
+            lam = self.point_ratio(reading)
+            if lam is None:
+                continue
+            values = self.floor_values(reading) if self.tau is not None else []
+            active = [f for f, v in enumerate(values) if v == self.tau]
+            width = len(active)  # (the unknowns: ν on the active floors, then each row's maximum m)
+            equations: list[tuple[dict[int, Fraction], Fraction, bool]] = []
+            for r, row in enumerate(reading):
+                for u in (u for u, v in enumerate(row) if v > 0):
+                    touched = [(j, self.floors[f][r][u]) for j, f in enumerate(active) if r in self.floors[f]]
+                    terms = {j: c for j, c in touched if c}
+                    terms[width + r] = Fraction(-1)
+                    equations.append((terms, lam * self.bottoms[r][u] - self.tops[r][u], True))
+            pivots = gauss_jordan(equations)
+            if pivots is None:
+                continue
+            nu = [Fraction(0)] * len(self.floors)
+            for j, f in enumerate(active):
+                nu[f] = pivots[j][1] if j in pivots else Fraction(0)
+            if self.dual_bound(nu if self.tau is not None else None) == lam:
+                return lam
+        return None
+
+    def _readings(self, table: Table) -> list[list[list[Fraction]]]:
+        """The table itself, then the vertex it stands for at each of
+        :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (see :meth:`vertex_ratio`)."""
+        out = [[list(row) for row in table]]
+        n_u = len(table[0]) if table else 0
+        values = self.floor_values(table) if self.tau is not None else []
+        for tolerance in ACTIVE_TOLERANCES:
+            tol = Fraction(tolerance)
+            free = {r * n_u + u for r, row in enumerate(table) for u, v in enumerate(row) if v > tol}
+            equations: list[tuple[dict[int, Fraction], Fraction, bool]] = [
+                ({r * n_u + u: Fraction(1) for u in range(n_u) if r * n_u + u in free}, Fraction(1), True)
+                for r in range(len(table))
+            ]
+            for floor, value in zip(self.floors, values, strict=True):
+                assert self.tau is not None  # (no floors without τ)
+                if value - self.tau <= tol * (1 + self.tau):
+                    terms = {r * n_u + u: f[u] for r, f in floor.items() for u in range(n_u) if f[u]}
+                    equations.append(({i: v for i, v in terms.items() if i in free}, self.tau, False))
+            pivots = gauss_jordan(equations)
+            if pivots is None:
+                continue
+            cells = [
+                v if r * n_u + u in free else Fraction(0) for r, row in enumerate(table) for u, v in enumerate(row)
+            ]
+            for i, (terms, rhs) in pivots.items():  # (the free cells keep their values)
+                cells[i] = rhs - sum((v * cells[j] for j, v in terms.items()), Fraction(0))
+            out.append([cells[r * n_u : (r + 1) * n_u] for r in range(len(table))])
+        return out
+
+
+def _dot(a: Row, b: Row) -> Fraction:
+    return sum(map(operator.mul, a, b), Fraction(0))

@@ -1,7 +1,8 @@
 """The program over the model's table in rationals: max (p·K)/(q·K) over tables K whose rows (x̃, ã) are
 distributions over the decisions, with floors F_f·K ≥ τ (one per live context and group), bounded by weak duality,
-relaxed to one floor, and its maximisers proved by complementary slackness: what ``fairaudit verify`` re-derives
-the black box over the model's table with (``verification.table_check``).
+relaxed to one floor, and its maximisers proved by complementary slackness. Certify (``worstcase``) certifies its
+linear programs' values over the model's table with it, and ``fairaudit verify`` re-derives the black box there with
+it (``verification.table_check``).
 
 For any ν ≥ 0 and λ, at every table meeting the floors (the simplices kept in the inner maximum: a partial
 Lagrangian),
@@ -20,7 +21,7 @@ from __future__ import annotations
 import functools
 import math
 import operator
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import cast
@@ -28,7 +29,7 @@ from typing import cast
 import numpy as np
 
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, on_one_denominator, smallest_root
-from fairaudit.base.exact_programs import maximize_linear
+from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
 from fairaudit.base.exact_vertex import gauss_jordan
 
 __all__ = ["EXACT_SHARES", "TableProgram"]
@@ -358,6 +359,117 @@ class TableProgram:
             if self.dual_bound(nu if self.tau is not None else None) == lam:
                 return lam
         return None
+
+    def pointed_value(self, nu: Row) -> Fraction | None:
+        """The program's value, where a table the multipliers ν point to is proved a maximiser by
+        :meth:`proved_value`; None where none is (the program is then bounded otherwise, by :meth:`dual_bound` (ν)
+        for one).
+
+        At λ = :meth:`dual_bound` (ν), each row is restricted to the decisions within a tolerance of its largest
+        r = p − λq + Σ_f ν_f F_f (complementary slackness: an optimal table uses no other where ν is optimal), and
+        the program over those cells is solved exactly, every floor kept
+        (:func:`~fairaudit.base.exact_programs.maximize_ratio`), at each of
+        :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to the largest |r|) while the rows' choices
+        beyond their first are at most :data:`EXACT_SHARES`. Nothing here needs to be right: each table meets every
+        constraint, and only :meth:`proved_value` says whether it is a maximiser, exactly.
+
+        Parameters
+        ----------
+        nu : sequence of Fraction
+            ν, one per floor (a solver's multipliers, read exactly: floats suffice).
+
+        Returns
+        -------
+        Fraction or None
+            The program's value (a ratio; its log is in nats), or None; None also without τ, with a ν < 0 or of the
+            wrong length, or where :meth:`dual_bound` (ν) is +inf.
+
+        Notes
+        -----
+        ``proofs/verification.md`` §4f, "From the multipliers alone".
+
+        Examples
+        --------
+        The class's program, ν = (0, 8/3) on the floors as a float reads it: both decisions of b's row are within
+        tolerance of its largest r at λ = dual_bound(ν), a hair above 10/3; the program over them puts P(yes | b̃) at
+        1/3, proved optimal at 10/3.
+
+        >>> F = Fraction
+        >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+        >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+        >>> program = TableProgram(p, q, floors, F(1, 4))
+        >>> nu = [F(0), F(8 / 3)]
+        >>> program.dual_bound(nu) > F(10, 3), program.pointed_value(nu)
+        (True, Fraction(10, 3))
+        """
+        proved = (self.proved_value(table) for table in self._pointed_tables(nu))
+        return next((value for value in proved if value is not None), None)
+
+    def _pointed_tables(self, nu: Row) -> list[list[list[Fraction]]]:
+        """The distinct tables of :meth:`pointed_value`, one per tolerance whose restricted program has a maximum."""
+        lam = self.dual_bound(nu)
+        if self.tau is None or not isinstance(lam, Fraction) or not self.tops:
+            return []
+        n_u = len(self.tops[0])
+        r: list[list[Fraction]] = [
+            [p - lam * q for p, q in zip(pr, qr, strict=True)] for pr, qr in zip(self.tops, self.bottoms, strict=True)
+        ]
+        for v, floor in zip(nu, self.floors, strict=True):
+            for row, coefficients in floor.items() if v else ():
+                r[row] = [ri + v * fi for ri, fi in zip(r[row], coefficients, strict=True)]
+        gaps = np.array([[float(max(row) - v) for v in row] for row in r])
+        scale = max(float(max(abs(v) for row in r for v in row)), np.finfo(float).tiny)
+        out: list[list[list[Fraction]]] = []
+        for tolerance in ACTIVE_TOLERANCES:
+            chosen = [np.flatnonzero(row <= tolerance * scale).tolist() for row in gaps]
+            if sum(len(c) - 1 for c in chosen) > EXACT_SHARES:
+                break
+            table = self._restricted(chosen, n_u)
+            if table is not None and table not in out:
+                out.append(table)
+        return out
+
+    def _restricted(self, chosen: Sequence[Sequence[int]], n_u: int) -> list[list[Fraction]] | None:
+        """The program with row i on the decisions ``chosen[i]`` only, solved exactly: one unknown per chosen
+        decision after a row's first (whose share is 1 less the others'), and h₀ = 1 carrying what the rows fix; the
+        floors every choice meets are left out (:meth:`proved_value` checks the table against all of them)."""
+        columns = [(i, u) for i, c in enumerate(chosen) for u in c[1:]]
+        at = {cell: j + 1 for j, cell in enumerate(columns)}
+        width = len(columns) + 1
+
+        def affine(coefficients: Callable[[int], Row | None]) -> list[Fraction]:
+            out = [Fraction(0)] * width
+            for i, c in enumerate(chosen):
+                row = coefficients(i)
+                if row is None:
+                    continue
+                first = row[c[0]]
+                out[0] += first
+                for u in c[1:]:
+                    out[at[i, u]] += row[u] - first
+            return out
+
+        p = affine(lambda i: self.tops[i])
+        q = affine(lambda i: self.bottoms[i])
+        tau = cast(Fraction, self.tau)
+        forms = [affine(floor.get) for floor in self.floors]  # (a floor every choice meets is left out)
+        a_ub = [[-v for v in form] for form in forms if sum((v for v in form[1:] if v < 0), form[0]) < tau]
+        b_ub = [-tau] * len(a_ub)
+        for i, c in enumerate(chosen):
+            if len(c) > 2:
+                a_ub.append([Fraction(int(j > 0 and columns[j - 1][0] == i)) for j in range(width)])
+                b_ub.append(Fraction(1))
+        lower = [Fraction(1)] + [Fraction(0)] * (width - 1)
+        found = maximize_ratio(p, q, lower, [Fraction(1)] * width, a_ub, b_ub)
+        if found.status != "optimal" or found.point is None:
+            return None
+        table = [[Fraction(0)] * n_u for _ in chosen]
+        for i, c in enumerate(chosen):
+            shares = [found.point[at[i, u]] for u in c[1:]]
+            table[i][c[0]] = 1 - sum(shares, Fraction(0))
+            for u, share in zip(c[1:], shares, strict=True):
+                table[i][u] = share
+        return table
 
     def _readings(self, table: Table) -> list[list[list[Fraction]]]:
         """The table itself, then the vertex it stands for at each of

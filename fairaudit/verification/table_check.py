@@ -123,6 +123,8 @@ def _largest(cases: Sequence[_Lazy], start: Number, loose: bool) -> Ends:
             low, high = max(low, proved), max(high, proved)  # (the recorded table, proved optimal exactly)
         elif case.solve is not None and case.nu is not None and case.program.dual_bound(case.nu) <= high:
             continue  # (its recorded multipliers bound it by the largest value found: no need to solve it)
+        elif case.nu is not None and (proved := case.program.pointed_value(case.nu)) is not None:
+            low, high = max(low, proved), max(high, proved)  # (the table its ν points to, proved optimal exactly)
         elif case.solve is not None and (solved := case.solve()) is not None:
             low, high = max(low, solved), max(high, solved)
         elif case.nu is not None:

@@ -21,9 +21,9 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.exact_duality import smallest_root
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
+from fairaudit.base.table_program import TableProgram
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
@@ -253,32 +253,40 @@ def _with_rows_kept(
 ) -> FractionalResult:
     """``r``, a program over the model's table solved by the LP, certified (or its certified value lowered) from the
     solver's floors' multipliers with each row's simplex kept in the inner maximum: the smallest λ with Σ_rows
-    max_u (p − λq + Σ_f ν_f F_f) − τ Σ_f ν_f ≤ 0, exactly (:func:`~fairaudit.base.exact_duality.smallest_root`;
-    any ν ≥ 0 is valid, so the solver's, clipped at 0, needs no repair), rounded up. Keeping the simplices makes it
-    at most the bound from the LP's own dual (whose simplex multipliers only add to each row's maximum), and it is
-    the bound ``fairaudit verify`` re-derives from the same ν. ``r`` itself where that has no root or is larger.
+    max_u (p − λq + Σ_f ν_f F_f) − τ Σ_f ν_f ≤ 0, exactly
+    (:meth:`~fairaudit.base.table_program.TableProgram.dual_bound`; any ν ≥ 0 is valid, so the solver's, clipped at
+    0, needs no repair), rounded up. Keeping the simplices makes it at most the bound from the LP's own dual (whose
+    simplex multipliers only add to each row's maximum), and it is the bound ``fairaudit verify`` re-derives from the
+    same ν. Where that bound is not within
+    :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the witness, the program's exact value where the table
+    ν points to is proved optimal (:meth:`~fairaudit.base.table_program.TableProgram.pointed_value`: the bound at the
+    exact multipliers, so as sound), rounded up. ``r`` itself where there is no root or it is larger.
     ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
     nu = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0)
     if tau is None or nu.size != floors.shape[0]:
         return r
-    weights = [(Fraction(v), [(j, Fraction(f)) for j, f in zip(np.flatnonzero(row).tolist(), row[row != 0].tolist())])
-               for v, row in zip(nu.tolist(), floors) if v]  # fmt: skip
-    c = [Fraction(v) for v in p.tolist()]
-    for v, cells in weights:
-        for j, f in cells:
-            c[j] += v * f
-    bottoms = [Fraction(v) for v in q.tolist()]
-    rows = range(0, len(c), n_u)
-    c_rows, q_rows = [c[k : k + n_u] for k in rows], [bottoms[k : k + n_u] for k in rows]
-    root = smallest_root(c_rows, q_rows, -Fraction(tau) * sum((v for v, _ in weights), Fraction(0)))
-    if root is None:
+    tops, bottoms = ([[Fraction(v) for v in row] for row in c.reshape(-1, n_u).tolist()] for c in (p, q))
+    program = TableProgram(tops, bottoms, [_floor(row, n_u) for row in floors], Fraction(tau))
+    multipliers = [Fraction(v) for v in nu.tolist()]
+    root = program.dual_bound(multipliers)
+    if root == math.inf:
         return r
-    if all(any(v == 0 for v in row) for row in q_rows):  # (a table with q·K = 0 meets the floors: 0/0 counts as 1)
-        root = max(root, Fraction(1))
     value = fraction_up(root)
+    if (
+        value - r.witness > CROSSOVER_TOLERANCE * max(1.0, value)
+        and (proved := program.pointed_value(multipliers)) is not None
+    ):
+        value = fraction_up(proved)
     if r.certified and value >= r.value:
         return r
     return replace(r, value=value, certified=True, reason="", gap=gap_between(value, r.witness))
+
+
+def _floor(row: FloatArray, n_u: int) -> dict[int, list[Fraction]]:
+    """One floor's coefficients over the cells as :class:`~fairaudit.base.table_program.TableProgram` takes them:
+    {row of the table: its coefficients over the decisions}, the rows it touches."""
+    rows = row.reshape(-1, n_u)
+    return {int(i): [Fraction(v) for v in rows[i].tolist()] for i in np.flatnonzero(rows.any(axis=1)).tolist()}
 
 
 @dataclass(frozen=True, eq=False)

@@ -14,9 +14,12 @@ import pytest
 from _verified import product_by_group
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from scipy.optimize import linprog
 from test_dual_check import UNLIKE
 
+import fairaudit.base.table_program as table_program
 import fairaudit.verification.black_box_check as bb
+import fairaudit.verification.table_check as tc
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.base.table_program import TableProgram
@@ -120,6 +123,36 @@ def test_a_table_read_off_a_perturbed_optimum_is_feasible_at_most_the_maximum_an
         assert program.proved_value(first) is None
 
 
+def _solver_multipliers(program):
+    """The floors' multipliers of HiGHS (a peer solver, in floats) on the Charnes-Cooper LP: max p.y over y >= 0, t >= 0
+    with q.y = 1, each row's sum = t, F_f.y >= tau t; None where it does not solve."""
+    rows, n_u = len(program.tops), len(program.tops[0])
+    n = rows * n_u
+    c = [-float(v) for row in program.tops for v in row] + [0.0]
+    a_eq = [[float(v) for row in program.bottoms for v in row] + [0.0]]
+    a_eq += [[float(i // n_u == r) for i in range(n)] + [-1.0] for r in range(rows)]
+    a_ub = [
+        [-float(f.get(i // n_u, [0] * n_u)[i % n_u]) for i in range(n)] + [float(program.tau)] for f in program.floors
+    ]
+    found = linprog(c, A_ub=a_ub or None, b_ub=[0.0] * len(a_ub) or None, A_eq=a_eq, b_eq=[1.0] + [0.0] * rows,
+                    method="highs")  # fmt: skip
+    if found.status != 0:
+        return None
+    return [F(max(-float(v), 0.0)) for v in found.ineqlin.marginals] if a_ub else []
+
+
+@given(programs())
+@settings(max_examples=80, deadline=None)
+def test_the_table_a_solver_s_multipliers_point_to_is_proved_only_at_the_optimum(drawn):
+    # HiGHS's floats for nu: the value pointed_value proves is the rational simplex's optimum, whenever it proves one
+    program, _ = drawn
+    optimum = _optimum(program)
+    assume(optimum.status == "optimal" and program.tau is not None)
+    nu = _solver_multipliers(program)
+    assume(nu is not None)
+    assert program.pointed_value(nu) in (None, optimum.value)
+
+
 def test_the_class_s_maximiser_is_proved_and_a_feasible_table_below_it_is_not():
     # proofs/verification.md §4f's program (tau = 1/4): P(yes | released a, b) = (1, 1/3) is the maximiser, 10/3, with
     # nu = 8/3 on the floor of b; (1, 1) meets both floors at ratio 2 and proves nothing; (1, 0) misses the floor of b
@@ -166,12 +199,16 @@ def test_the_certificate_records_the_floors_multipliers_and_the_witness_tables(b
 
 
 def test_beyond_the_exact_size_the_table_programs_are_bounded_by_the_recorded_duals(by_group, monkeypatch):
-    # re-derived twice: by the rational simplex, and with every program beyond the exact size. The lower ends (the
-    # recorded tables' vertices) are the exact values; the upper ends (the duals) within 1e-15 of them
+    # re-derived three times: by the rational simplex; with every program beyond the exact size, where the tables the
+    # recorded duals point to are proved optimal (the same values, exactly); and with no such table tried. The lower
+    # ends (the recorded tables' vertices) are then the exact values, the upper ends (the duals) within 1e-15 of them
     detail = by_group["bound_details"]["black_box"]
     exact = bb.black_box_enclosures(by_group["inputs"], detail)
     assert exact.local.lo == exact.local.hi and exact.global_.lo == exact.global_.hi and not exact.from_duals
     monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    pointed = bb.black_box_enclosures(by_group["inputs"], detail)
+    assert (pointed.local, pointed.global_, pointed.from_duals) == (exact.local, exact.global_, False)
+    monkeypatch.setattr(table_program, "EXACT_SHARES", -1)
     dual = bb.black_box_enclosures(by_group["inputs"], detail)
     assert dual.from_duals and not dual.group_free
     for ours, theirs in ((dual.local, exact.local), (dual.global_, exact.global_)):
@@ -317,13 +354,17 @@ def test_behind_a_context_mechanism_the_programs_over_every_context_are_bounded_
     spec, monkeypatch
 ):
     # behind a context mechanism L's program at x spans every released context, with every context's floors: its
-    # nu is recorded per context, and the witness is the table over every released context
+    # nu is recorded per context, and the witness is the table over every released context. Beyond the exact size
+    # the tables the recorded nu point to are proved optimal (the same enclosures); with none tried, the nu bound them
     cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
     detail = cert["bound_details"]["black_box"]
     assert all(len(d["floors"]) == 2 for d in detail["duals"])  # (contexts, groups)
     assert [[len(row) for row in t] for t in detail["witness_point"]] == [[2] * 4] * 2
     exact = bb.black_box_enclosures(cert["inputs"], detail)
     monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    pointed = bb.black_box_enclosures(cert["inputs"], detail)
+    assert (pointed.local, pointed.global_, pointed.from_duals) == (exact.local, exact.global_, False)
+    monkeypatch.setattr(table_program, "EXACT_SHARES", -1)
     dual = bb.black_box_enclosures(cert["inputs"], detail)
     assert dual.from_duals
     for ours, theirs in ((dual.local, exact.local), (dual.global_, exact.global_)):
@@ -497,7 +538,9 @@ def test_hunted_certificates_have_l_bar_re_derived_beyond_the_exact_size(spec, m
 
 # found by a random hunt at a real size (nothing patched): randomized response at 10 nats on seven groups, 16
 # decisions and a utility by group (112 variables). L-bar's LP duals did not check (L-bar not certified), or checked
-# 3.6e-7 above the bound the same floors' multipliers give with the rows' simplices kept, which verify re-derives
+# 3.6e-7 above the bound the same floors' multipliers give with the rows' simplices kept, which verify re-derives.
+# That bound was still 2.1e-10 above the exact value (beyond the exact size, which verify now proves from the table
+# the multipliers point to, and holds the certificate to within 1e-12 of): certify proves the same table optimal
 SEVEN = [
     [1.0, 0.1, 0.5, 0.0, 1.0, 0.5, 0.5, 0.7, 0.1, 0.5, 1.0, 0.1, 0.1, 0.5, 0.0, 0.5],
     [0.0, 0.1, 0.7, 0.25, 0.1, 1.0, 0.25, 0.0, 0.5, 1.0, 0.0, 0.7, 0.25, 0.1, 0.7, 0.1],
@@ -586,19 +629,22 @@ def test_small_programs_over_the_table_are_solved_only_at_the_top(monkeypatch):
 
 
 @pytest.mark.slow
-def test_behind_a_context_mechanism_the_recorded_maximisers_are_proved_without_the_simplex(monkeypatch):
+@pytest.mark.parametrize("contexts", [3, 2])
+def test_behind_a_context_mechanism_the_recorded_maximisers_are_proved_without_the_simplex(monkeypatch, contexts):
     # three binary randomized responses keeping 0.7 (8 groups) and randomized response at 1.5 nats on three contexts,
     # g by context and group, tau 0.2: every context's floors bind the same rows, so the one-floor relaxations do not
     # settle the top programs; the recorded witness tables are proved optimal by complementary slackness (and the
-    # recorded multipliers set the others aside), so no program is solved by the rational simplex (six were)
-    import fairaudit.verification.table_check as tc
-
+    # recorded multipliers set the others aside), so no program is solved by the rational simplex (six were). On two
+    # contexts two programs have a recorded nu, no table, and a nu bound above the largest value: the tables their
+    # multipliers point to are proved optimal instead (both were solved)
     rng = random.Random(11)
     component = '[[privacy.sensitive.components]]\nname = "c{i}"\nmechanism = "randomized_response"\n'
     text = "".join(component.format(i=i) + "values = [0, 1]\nkeep = 0.7\n" for i in range(3))
-    values = [[[round(rng.uniform(0.5, 1.0), 2), round(rng.uniform(0, 0.3), 2)] for _ in range(8)] for _ in range(3)]
+    values = [[[round(rng.uniform(0.5, 1.0), 2), round(rng.uniform(0, 0.3), 2)] for _ in range(8)]
+              for _ in range(contexts)]  # fmt: skip
     spec = (
-        '[sensitive]\nname = "profile"\n[context]\nname = "ctx"\nvalues = ["x0", "x1", "x2"]\n[decision]\n'
+        f'[sensitive]\nname = "profile"\n[context]\nname = "ctx"\nvalues = {[f"x{i}" for i in range(contexts)]}\n'
+        "[decision]\n"
         'name = "outcome"\nvalues = ["chosen", "not chosen"]\n[privacy.sensitive]\nmechanism = "product"\n'
         f'{text}[privacy.context]\nmechanism = "randomized_response"\nepsilon = 1.5\n[utility]\nkind = "table"\n'
         f"values = {values}\ntau = 0.2\n"

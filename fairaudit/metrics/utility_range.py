@@ -144,7 +144,7 @@ def _lower_pair(W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[int, int
     from fairaudit.base.threshold_rule import threshold_max_many
 
     inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)  # [a, a'] = max (W_a'·e)/(W_a·e)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):  # (1/inv beyond the floats, inv subnormal: +inf, the largest)
         floor = np.where(inv > 0, 1.0 / inv, np.inf)
     floor = np.where(np.eye(len(W), dtype=bool), -np.inf, floor)
     i = int(floor.argmax())

@@ -8,6 +8,7 @@ Charnes–Cooper per pair for the upper end, bisection on r with feasibility LPs
 from __future__ import annotations
 
 import math
+import warnings
 from fractions import Fraction as F
 
 import numpy as np
@@ -239,3 +240,14 @@ def test_a_law_from_counts_leaves_its_empty_cells_out_as_the_metrics_do():
     assert (glob.upper_group, glob.upper_other_group, glob.lower_group, glob.lower_other_group) == ("a", "b") * 2
     with pytest.raises(InputError, match="^sensitive_mechanism: must not be given with a Law"):
         fairness_range(law, g, sensitive_mechanism=identity(law.groups))
+
+
+def test_the_lower_end_s_pair_is_found_without_a_warning_where_its_ratio_is_beyond_the_floats():
+    # one group's weights 1e-310 times the other's: the ratio of the first over the second, 1e310, is beyond the
+    # floats (its inverse is subnormal), so it is +inf, the largest: that pair, and no RuntimeWarning about it
+    from fairaudit.metrics.utility_range import _lower_pair
+
+    weights = np.array([[1.0, 1.0], [1e-310, 1e-310]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _lower_pair(weights, np.full(2, 0.5), np.ones(2)) == (0, 1)

@@ -10,8 +10,9 @@ so the ratio is at most θ where R(θ) ≤ 0, else at most θ + R(θ)/(Q_b·K) �
 bounds the program at every θ, negative ones included, and its least value is the relaxation's (the program with
 Q_b·K ≥ t its only floor). Without a floor, θ bounds it where R(θ) ≤ 0. Floating point only proposes θ: bisection
 over the floats' bit patterns on the sign of f's slope, the bracket read as rationals, each row's maximisers at its
-ends found exactly, the hull edge where they move and two Newton steps toward R's root; f is computed in floats at
-each, then exactly at the least of them, at the first Newton step and at the bracket's upper end, and the least exact
+ends found exactly (floats decide the rows their error bounds separate, integers the rest), the hull edge where they
+move and two Newton steps toward R's root; f is computed in floats at each, then exactly at the least of them and, where
+floats do not put them well above it, at the first Newton step and at the bracket's upper end, and the least exact
 value kept. A poor θ only makes the bound loose, never wrong.
 
 ``fairaudit verify`` screens the pairs with it before relaxing any (``proofs/verification.md`` §4h), and certify's
@@ -98,18 +99,35 @@ def relaxation_bounds(
         largest = np.finfo(np.float64).max
         with np.errstate(over="ignore"):
             at_low, at_high = (_as_rationals(np.clip(v, -largest, largest)) for v in (low - spread, high + spread))
-        first, then = (_maximisers(top, bottom, *theta) for theta in (at_low, at_high))
+        pair = (top, bottom, float_top, floats[1, others])
+        first, then = (_maximisers(*pair, *theta) for theta in (at_low, at_high))
         root = _or(_root_of(top, bottom, first), at_high)
-        again = _or(_root_of(top, bottom, _maximisers(top, bottom, *root)), at_high)  # (Newton's steps)
+        again = _or(_root_of(top, bottom, _maximisers(*pair, *root)), at_high)  # (Newton's steps)
         candidates = [root, again, *(_or(edge, at_high) for edge in _edges(top, bottom, first, then)), at_high]
-        pick = np.argmin(_float_bounds(float_top, floats[1, others], candidates, floor), axis=0)  # (the first least)
-        # exactly: the least in floats, R's root from θ_low (floats miss ties and subnormal θ) and θ_high
+        in_floats = _float_bounds(float_top, floats[1, others], candidates, floor)
+        pick = np.argmin(in_floats, axis=0)  # (the first least)
         m = np.arange(len(others))
         best = (np.stack([c[0] for c in candidates])[pick, m], np.stack([c[1] for c in candidates])[pick, m])
-        zero = (bottom == 0).any(axis=-1).all(axis=-1).tolist()  # (every row has a decision with q = 0)
-        bounds = [_bounds(top, bottom, num, den, d, t, zero) for num, den in (best, root, at_high)]
-        out.update(((groups[a], groups[b]), min(us)) for b, *us in zip(others, *bounds, strict=True))
+        zero = (bottom == 0).any(axis=-1).all(axis=-1)  # (every row has a decision with q = 0)
+        bounds = _bounds(top, bottom, *best, d, t, zero.tolist())
+        # exactly too, where floats do not show them well above it: R's root from θ_low (floats miss ties and
+        # subnormal θ) and θ_high
+        least = in_floats[pick, m]
+        for k, (num, den) in ((0, root), (len(candidates) - 1, at_high)):
+            with np.errstate(over="ignore"):  # (+inf: R > 0 in floats, which may miss R's root by an ulp)
+                above = (in_floats[k] > least * (1 + NEAR) + NEAR) & np.isfinite(in_floats[k])
+            near = np.flatnonzero(~above | ~np.isfinite(least)).tolist()
+            checked = _bounds(top, bottom[near], num[near], den[near], d, [t[i] for i in near], zero[near].tolist())
+            for i, u in zip(near, checked, strict=True):
+                bounds[i] = min(bounds[i], u)
+        out.update(((groups[a], groups[b]), u) for b, u in zip(others, bounds, strict=True))
     return out
+
+
+NEAR = 2.0**-20
+"""How far above the least candidate's f in floats (relative, and absolute) another candidate is still computed
+exactly: floats err by far less, so one further above cannot be smaller exactly (and if it were, the bound kept is
+still a bound, only looser)."""
 
 
 def _quotient(n: int, m: int) -> float:
@@ -176,10 +194,41 @@ def _float_of(key: IntArray) -> FloatArray:
     return np.where(key < 0, -np.abs(key).view(np.float64), key.view(np.float64))
 
 
-def _maximisers(top: np.ndarray, bottoms: np.ndarray, num: np.ndarray, den: np.ndarray) -> IntArray:
-    """Each row's maximiser of p − θq, θ = num/den per program, the largest q among ties, exactly (integer object
-    arrays): shape (programs, rows)."""
-    return _best(top[None] * den[:, None, None] - num[:, None, None] * bottoms, bottoms)[1]
+def _maximisers(
+    top: np.ndarray,
+    bottoms: np.ndarray,
+    float_top: FloatArray,
+    float_bottoms: FloatArray,
+    num: np.ndarray,
+    den: np.ndarray,
+) -> IntArray:
+    """Each row's maximiser of p − θq, θ = num/den per program, the largest q among ties, exactly: shape (programs,
+    rows). Floats decide a row where their maximum beats every other decision by more than both values' error bounds
+    (:func:`_float_errors`); the other rows (near-ties, ties, overflow) are compared exactly, in the integer object
+    arrays ``top`` and ``bottoms``."""
+    with np.errstate(all="ignore"):
+        theta = np.array([_quotient(n, m) for n, m in zip(num.tolist(), den.tolist(), strict=True)])
+        values = float_top[None] - theta[:, None, None] * float_bottoms
+        errors = _float_errors(float_top, float_bottoms, theta, values)
+        at = np.argmax(values, axis=-1)
+        lowest = np.take_along_axis(values - errors, at[..., None], -1)[..., 0]
+        others = np.where(np.arange(values.shape[-1]) == at[..., None], -np.inf, values + errors).max(axis=-1)
+    programs, rows = np.nonzero(~(lowest > others))  # (NaN, inf: exactly)
+    if programs.size:
+        exact = top[rows] * den[programs, None] - num[programs, None] * bottoms[programs, rows]
+        at[programs, rows] = _best(exact, bottoms[programs, rows])[1]
+    return at
+
+
+def _float_errors(top: FloatArray, bottoms: FloatArray, theta: FloatArray, values: FloatArray) -> FloatArray:
+    """A bound on |fl(p − θ̂q) − (p − θq)| per cell, p and q rounded to floats from exact rationals and θ̂ = θ to
+    nearest: 8u(|p| + |θ||q|) + 2u|fl(p − θ̂q)| plus the smallest normal (each of the five roundings is within u of
+    its exact value, relatively, or within half the smallest subnormal absolutely), doubled to cover the rounding of
+    this bound itself."""
+    u = 2.0**-53
+    return 2 * (8 * u * (np.abs(top)[None] + np.abs(theta)[:, None, None] * bottoms) + 2 * u * np.abs(values)) + (
+        np.finfo(np.float64).tiny
+    )
 
 
 def _or(theta: tuple[np.ndarray, np.ndarray], other: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

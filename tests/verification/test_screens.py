@@ -7,6 +7,7 @@ import json
 import math
 from fractions import Fraction as F
 
+import numpy as np
 import pytest
 from _verified import product_by_group
 from hypothesis import assume, given
@@ -195,6 +196,41 @@ def test_over_the_table_a_threshold_below_zero_by_hand():
     forms = {0: [[F(3, 14), F(3, 2), F(2), F(9, 17)]], 1: [[F(6, 5), F(3), F(1, 4), F(1, 2)]]}
     assert relaxation_bounds(forms, {0: F(1, 3), 1: F(1, 3)})[(0, 1)] == F(131, 22)
     assert relaxation_bounds(forms, {0: None, 1: None})[(0, 1)] == 8  # (without the floor: the row on (1/4, 2))
+
+
+def test_over_the_table_without_a_floor_the_root_between_floats_by_hand():
+    # three rows, no floor: R(theta) = 1 + (1 - theta/4) + (3/4 - theta/2) for theta >= 1 (row one's third decision has
+    # q = 0 < p), whose root is 11/3, between two floats: the table (third, second, second decision) has ratio
+    # (1 + 1 + 3/4)/(0 + 1/4 + 1/2) = 11/3. At the float below it R > 0 in floats, so f is +inf there, and the root is
+    # computed exactly all the same (a draft left it out and kept the float above: 11/3 + 1.8e-14)
+    top = [[F(1), F(1), F(1)], [F(3, 4), F(1), F(3, 4)], [F(1), F(3, 4), F(1, 2)]]
+    bottom = [[F(1, 4), F(1, 4), F(0)], [F(1), F(1, 4), F(1, 4)], [F(3, 4), F(1, 2), F(1, 2)]]
+    assert relaxation_bounds({0: top, 1: bottom}, {0: None, 1: None})[(0, 1)] == F(11, 3)
+
+
+@given(st.data())
+def test_each_row_s_maximiser_decided_in_floats_is_the_exact_one(data):
+    # floats decide a row only where their error bounds separate its largest p - theta q from the others; near-ties,
+    # exact ties (theta at a breakpoint: the largest q wins) and subnormal values are compared exactly. Against the
+    # maximisers computed in integers throughout
+    from fairaudit.base.exact_duality import on_one_denominator
+    from fairaudit.base.table_relaxation import _best, _maximisers
+
+    rows, n_u = data.draw(st.integers(1, 4)), data.draw(st.integers(1, 4))
+    forms = [[data.draw(st.lists(_VALUES, min_size=n_u, max_size=n_u)) for _ in range(rows)] for _ in range(3)]
+    top, bottoms = forms[0], forms[1:]
+    thetas = [data.draw(_VALUES), data.draw(_VALUES) * 7]
+    for q in bottoms:  # (the breakpoints of the first row: ties)
+        thetas += [(top[0][u] - top[0][v]) / (q[0][u] - q[0][v]) for u in range(n_u) for v in range(u)
+                   if q[0][u] != q[0][v]]  # fmt: skip
+    ints, d = on_one_denominator([[v for row in form for v in row] for form in forms])
+    exact = np.array(ints, dtype=object).reshape(3, rows, n_u)
+    floats = np.array([[[float(v) for v in row] for row in form] for form in forms])
+    for theta in thetas:
+        num, den = (np.array([v] * 2, dtype=object) for v in theta.as_integer_ratio())
+        values = exact[0][None] * den[:, None, None] - num[:, None, None] * exact[1:]
+        found = _maximisers(exact[0], exact[1:], floats[0], floats[1:], num, den)
+        assert (found == _best(values, exact[1:])[1]).all(), theta
 
 
 @st.composite

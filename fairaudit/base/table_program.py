@@ -32,7 +32,7 @@ from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, on_one_denominator, 
 from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
 from fairaudit.base.exact_vertex import gauss_jordan
 
-__all__ = ["EXACT_SHARES", "TableProgram"]
+__all__ = ["EXACT_SHARES", "POINTED_CHOICES", "TableProgram"]
 
 INF = math.inf
 Number = Fraction | float
@@ -42,6 +42,11 @@ Table = Sequence[Row]
 EXACT_SHARES = 64
 """The most rows :meth:`TableProgram.floor_bound` shares between two decisions by the rational simplex (at most twice
 as many floors), to find among the relaxation's maximisers one that meets every floor."""
+
+POINTED_CHOICES = 96
+"""The most decisions beyond each row's first that :meth:`TableProgram.pointed_value` keeps for its restricted program
+(one unknown each, within the rational simplex's size): a degenerate optimum whose multipliers tie whole rows needs
+them all (seven rows of ten decisions at randomized response's 10 nats)."""
 
 
 @dataclass(frozen=True)
@@ -370,7 +375,7 @@ class TableProgram:
         the program over those cells is solved exactly, every floor kept
         (:func:`~fairaudit.base.exact_programs.maximize_ratio`), at each of
         :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to the largest |r|) while the rows' choices
-        beyond their first are at most :data:`EXACT_SHARES`. Nothing here needs to be right: each table meets every
+        beyond their first are at most :data:`POINTED_CHOICES`. Nothing here needs to be right: each table meets every
         constraint, and only :meth:`proved_value` says whether it is a maximiser, exactly.
 
         Parameters
@@ -421,12 +426,28 @@ class TableProgram:
         scale = max(float(max(abs(v) for row in r for v in row)), np.finfo(float).tiny)
         out: list[list[list[Fraction]]] = []
         for tolerance in ACTIVE_TOLERANCES:
-            chosen = [np.flatnonzero(row <= tolerance * scale).tolist() for row in gaps]
-            if sum(len(c) - 1 for c in chosen) > EXACT_SHARES:
+            chosen = [
+                list(dict.fromkeys(twins[u] for u in np.flatnonzero(row <= tolerance * scale).tolist()))
+                for row, twins in zip(gaps, self._twins, strict=True)
+            ]  # (of decisions alike in p, q and every floor, the first: the others change nothing)
+            if sum(len(c) - 1 for c in chosen) > POINTED_CHOICES:
                 break
             table = self._restricted(chosen, n_u)
             if table is not None and table not in out:
                 out.append(table)
+        return out
+
+    @functools.cached_property
+    def _twins(self) -> list[list[int]]:
+        """Per row, each decision's first twin: the first decision with the same p, q and coefficient in every floor
+        (a row no floor or ratio tells apart, such as a context's rows where nothing is released, has one)."""
+        n_u = len(self.tops[0]) if self.tops else 0
+        ints = self._floor_matrix[0] if self.floors else np.zeros((0, len(self.tops) * n_u), dtype=object)
+        out = []
+        for r, (pr, qr) in enumerate(zip(self.tops, self.bottoms, strict=True)):
+            first: dict[tuple[object, ...], int] = {}
+            keys = [(pr[u], qr[u], *ints[:, r * n_u + u].tolist()) for u in range(n_u)]
+            out.append([first.setdefault(key, u) for u, key in enumerate(keys)])
         return out
 
     def _restricted(self, chosen: Sequence[Sequence[int]], n_u: int) -> list[list[Fraction]] | None:

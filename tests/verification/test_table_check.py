@@ -208,7 +208,7 @@ def test_beyond_the_exact_size_the_table_programs_are_bounded_by_the_recorded_du
     monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
     pointed = bb.black_box_enclosures(by_group["inputs"], detail)
     assert (pointed.local, pointed.global_, pointed.from_duals) == (exact.local, exact.global_, False)
-    monkeypatch.setattr(table_program, "EXACT_SHARES", -1)
+    monkeypatch.setattr(table_program, "POINTED_CHOICES", -1)
     dual = bb.black_box_enclosures(by_group["inputs"], detail)
     assert dual.from_duals and not dual.group_free
     for ours, theirs in ((dual.local, exact.local), (dual.global_, exact.global_)):
@@ -364,7 +364,7 @@ def test_behind_a_context_mechanism_the_programs_over_every_context_are_bounded_
     monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
     pointed = bb.black_box_enclosures(cert["inputs"], detail)
     assert (pointed.local, pointed.global_, pointed.from_duals) == (exact.local, exact.global_, False)
-    monkeypatch.setattr(table_program, "EXACT_SHARES", -1)
+    monkeypatch.setattr(table_program, "POINTED_CHOICES", -1)
     dual = bb.black_box_enclosures(cert["inputs"], detail)
     assert dual.from_duals
     for ours, theirs in ((dual.local, exact.local), (dual.global_, exact.global_)):
@@ -581,8 +581,9 @@ FIVE = [
 ]
 
 
-def _certified_and_re_derived(spec: str) -> None:
-    """The certificate's L-bar is certified within 1e-9 of its witness, and verify re-derives it (nothing listed)."""
+def _certified_and_re_derived(spec: str) -> dict:
+    """The certificate's L-bar is certified within 1e-9 of its witness, and verify re-derives it (nothing listed):
+    the certificate."""
     cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
     glob = cert["bound_details"]["black_box"]["global"]
     assert glob["certified"] and glob["gap"] < 1e-9
@@ -590,6 +591,7 @@ def _certified_and_re_derived(spec: str) -> None:
     assert result.holds, [c.line() for c in result.failures]
     assert "bound_details.black_box.global.value" in {c.name for c in result.checks}
     assert not [name for name, _ in result.not_checked if name.endswith("global")]
+    return cert
 
 
 @pytest.mark.slow
@@ -606,6 +608,24 @@ def test_certify_bounds_a_program_whose_inexact_dual_proves_nothing_from_the_par
     _certified_and_re_derived(
         _spec(5, 3, 18, population, 'mechanism = "randomized_response"\nepsilon = 10.0', FIVE, 0.627)
     )
+
+
+@pytest.mark.slow
+def test_multipliers_that_tie_whole_rows_point_to_a_table_proved_optimal():
+    # found by a random hunt: randomized response at 10 nats on seven groups, two contexts and ten decisions, g by
+    # context and group, tau 0.7. Clarabel solved the top programs "optimal_inaccurate"; their multipliers tie every
+    # decision of seven rows (to 1e-9 of the rows' scale), so the table they point to has 71 choices beyond the rows'
+    # first, more than the 64 first allowed: certify's L and L-bar stayed 2.6e-10 above the exact worst case, and
+    # verify failed them. Now that table is proved optimal, and both are certified to the rounding
+    rng = random.Random(1013)
+    rng.randint(4, 7), rng.randint(1, 3), rng.randint(8, 16), rng.choice([4.0, 7.0, 10.0])  # (the hunt's draws)
+    values = [[[rng.choice([0.0, 0.1, 0.25, 0.5, 0.7, 1.0]) for _ in range(10)] for _ in range(7)] for _ in range(2)]
+    tau = rng.choice([0.3, 0.5, 0.6, 0.7, 0.8])
+    counts = [[rng.choice([0, 1, 2, 3]) for _ in range(7)] for _ in range(2)]
+    population = [[v / sum(map(sum, counts)) for v in row] for row in counts]
+    spec = _spec(7, 2, 10, population, 'mechanism = "randomized_response"\nepsilon = 10.0', values, tau)
+    cert = _certified_and_re_derived(spec)
+    assert cert["bound_details"]["black_box"]["solver_status"] == "optimal_inaccurate"
 
 
 @pytest.mark.slow

@@ -44,9 +44,9 @@ EXACT_SHARES = 64
 as many floors), to find among the relaxation's maximisers one that meets every floor."""
 
 POINTED_CHOICES = 96
-"""The most decisions beyond each row's first that :meth:`TableProgram.pointed_value` keeps for its restricted program
-(one unknown each, within the rational simplex's size): a degenerate optimum whose multipliers tie whole rows needs
-them all (seven rows of ten decisions at randomized response's 10 nats)."""
+"""The most decisions, summed over the rows, beyond each row's first that :meth:`TableProgram.pointed_value` keeps for
+its restricted program (one unknown each, within the rational simplex's size): a degenerate optimum whose multipliers
+tie whole rows needs them all (seven rows of ten decisions at randomized response's 10 nats: 71)."""
 
 
 @dataclass(frozen=True)
@@ -371,8 +371,9 @@ class TableProgram:
         for one).
 
         At λ = :meth:`dual_bound` (ν), each row is restricted to the decisions within a tolerance of its largest
-        r = p − λq + Σ_f ν_f F_f (complementary slackness: an optimal table uses no other where ν is optimal), and
-        the program over those cells is solved exactly, every floor kept
+        r = p − λq + Σ_f ν_f F_f (complementary slackness: an optimal table uses no other where ν is optimal; of
+        decisions alike in p, q and every floor only the first, the others changing nothing), and the program over
+        those cells is solved exactly, every floor kept
         (:func:`~fairaudit.base.exact_programs.maximize_ratio`), at each of
         :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to the largest |r|) while the rows' choices
         beyond their first are at most :data:`POINTED_CHOICES`. Nothing here needs to be right: each table meets every

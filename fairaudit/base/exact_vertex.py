@@ -6,11 +6,11 @@ equality row (the rows of a decision table summing to 1) met only to rounding. :
 <fairaudit.base.exact_duality.point_ratio>` then finds h outside the polytope P = {lower ≤ h ≤ upper, A_ub h ≤ b_ub,
 A_eq h = b_eq} and gives no witness. :func:`vertex_witness` reads the active set off h instead (a cell within a
 tolerance of a bound is at it, a row within it of its bound is active, every equality is), puts those cells at their
-bounds, solves the active rows for the other cells exactly (Gauss–Jordan elimination over :class:`fractions.Fraction`;
-a cell the rows leave free keeps its float value), and checks the point it finds against every bound and row of P
-exactly. A point that passes lies in P, so its ratio, rounded down, is at most max_P (p·h)/(q·h): a certified lower
-end. The active set is only read off h; a wrong reading gives a point outside P, which is refused (NaN), never a wrong
-witness. ``proofs/linear_fractional.md`` §6 ("The witness").
+bounds, solves the active rows exactly for one cell each (Gauss–Jordan elimination over :class:`fractions.Fraction`,
+on the cells the elimination pivots on, chosen in floating point; every other cell keeps its float value), and checks
+the point it finds against every bound and row of P exactly. A point that passes lies in P, so its ratio, rounded
+down, is at most max_P (p·h)/(q·h): a certified lower end. The active set and the cells solved for are only read off
+h; a wrong reading gives a point outside P, which is refused (NaN), never a wrong witness. ``proofs/linear_fractional.md`` §6 ("The witness").
 """
 
 from __future__ import annotations
@@ -21,13 +21,21 @@ from typing import Any
 
 import numpy as np
 
-from fairaudit.base.arrays import FloatArray
+from fairaudit.base.arrays import BoolArray, FloatArray
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, Rows, rational_point_ratio
 
-__all__ = ["VERTEX_LIMIT", "gauss_jordan", "improve_witness", "vertex_witness"]
+__all__ = ["DENSE_LIMIT", "VERTEX_LIMIT", "gauss_jordan", "improve_witness", "vertex_witness"]
 
 VERTEX_LIMIT = 20_000
 """The most nonzeros (of the rows, with p and q) a vertex is solved and checked over; a larger program gets none."""
+
+DENSE_LIMIT = 1 << 22
+"""The most entries (active rows × interior cells they touch; 8 bytes each) of the block whose pivots are chosen in
+floating point; a larger one gets no vertex."""
+
+PIVOT_TOLERANCE = 1e-9
+"""Relative to a row's largest coefficient: what is left of it after elimination, below this, is taken as rounding
+(the row as decided by the ones before it)."""
 
 _Row = dict[int, Fraction]
 
@@ -92,6 +100,44 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
     return pivots
 
 
+def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:
+    """The cells the active rows are solved for: in each row, in turn, the interior cell of largest coefficient left
+    after the rows before it are eliminated (the pivot :func:`gauss_jordan` takes, ties aside), chosen in floating
+    point (elimination on the dense block of the active rows and the interior cells they touch, :data:`DENSE_LIMIT`);
+    a row left with nothing above rounding takes none. Every other cell keeps its value, so the exact solve is over these
+    cells only, not over the fill the free cells would bring. None beyond the limit.
+
+    Only the choice is in floats: a wrong one leaves an equality the exact solve cannot meet (no witness) or an
+    inequality it does not meet (refused by the check), never a wrong witness.
+    """
+    import scipy.sparse as sp
+
+    unknown = np.zeros(interior.size, dtype=bool)
+    if not active:
+        return unknown
+    block = sp.vstack(active, format="csc")
+    touched = interior & (block.getnnz(axis=0) > 0)
+    rows, cells = block.shape[0], int(np.count_nonzero(touched))
+    if rows * cells > DENSE_LIMIT:
+        return None
+    if not rows or not cells:
+        return unknown
+    dense = block[:, np.flatnonzero(touched)].toarray()
+    scale = np.abs(dense).max(axis=1)
+    chosen = []
+    for r in range(rows):
+        row = dense[r]
+        j = int(np.argmax(np.abs(row)))
+        if not abs(row[j]) > PIVOT_TOLERANCE * scale[r]:
+            continue
+        chosen.append(j)
+        below, terms = r + 1 + np.flatnonzero(dense[r + 1 :, j]), np.flatnonzero(row)  # (what the step changes)
+        dense[np.ix_(below, terms)] -= np.outer(dense[below, j] / row[j], row[terms])
+        dense[below, j] = 0.0
+    unknown[np.flatnonzero(touched)[chosen]] = True
+    return unknown
+
+
 def vertex_witness(
     h: FloatArray,
     p: FloatArray,
@@ -102,7 +148,7 @@ def vertex_witness(
     tolerance: float = ACTIVE_TOLERANCES[0],
 ) -> float:
     """(p·v)/(q·v) rounded down at the point v of P that ``h``'s active set defines, solved exactly; NaN when v is not
-    in P, q·v ≤ 0, or the program is beyond :data:`VERTEX_LIMIT`.
+    in P, q·v ≤ 0, or the program is beyond :data:`VERTEX_LIMIT` (its active block beyond :data:`DENSE_LIMIT`).
 
     Parameters
     ----------
@@ -147,14 +193,19 @@ def vertex_witness(
         else Fraction(float(lower[i] if h[i] - lower[i] <= upper[i] - h[i] else upper[i]))
         for i in range(n)
     ]
+    active = [
+        np.ones(b.size, dtype=bool) if kind == "eq" else (a @ h - b) > -tol * (1.0 + np.abs(b)) for a, b, kind in blocks
+    ]
+    unknown = _pivot_cells([a[on] for (a, _, _), on in zip(blocks, active, strict=True)], interior)
+    if unknown is None:
+        return math.nan
     equations: list[tuple[_Row, Fraction, bool]] = []
-    for a, b, kind in blocks:
-        on = np.ones(b.size, dtype=bool) if kind == "eq" else (a @ h - b) > -tol * (1.0 + np.abs(b))
+    for (a, b, kind), on in zip(blocks, active, strict=True):
         for r in np.flatnonzero(on).tolist():
             row: _Row = {}
             rhs = Fraction(float(b[r]))
             for c, v in _entries(a, r):
-                if interior[c]:
+                if unknown[c]:
                     row[c] = row.get(c, Fraction(0)) + Fraction(v)
                 else:
                     rhs -= Fraction(v) * point[c]

@@ -9,9 +9,11 @@ from fractions import Fraction
 import cvxpy as cp
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import fairaudit.base.exact_vertex as ev
 import fairaudit.base.linear_fractional as lf
 from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.base.exact_vertex import vertex_witness
@@ -161,3 +163,51 @@ def test_a_point_with_s_zero_on_a_bounded_polytope_is_a_failed_solve(monkeypatch
     r = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=np.array([[-0.3, -0.7]]), b_ub=np.array([-0.5])).solve(p, q)
     assert (r.status, r.certified) == ("error", False) and np.isnan(r.value)
     assert r.reason == "the solver's point had s <= 0 on a bounded polytope"
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 6), st.integers(1, 12))
+def test_the_cells_solved_for_are_the_pivots_exact_elimination_takes(seed, n_rows, extra):
+    # rows of continuous random coefficients over n_rows + extra cells: no near-tie, so the float elimination picks,
+    # row by row, the very cells gauss_jordan pivots on in rationals
+    rng = np.random.default_rng(seed)
+    n = n_rows + extra
+    a = rng.uniform(-1.0, 1.0, (n_rows, n)) * (rng.random((n_rows, n)) < 0.7)
+    interior = np.ones(n, dtype=bool)
+    unknown = ev._pivot_cells([sp.csr_matrix(a)], interior)
+    equations = [({c: Fraction(v) for c, v in enumerate(row) if v}, Fraction(0), True) for row in a.tolist()]
+    pivots = ev.gauss_jordan(equations)
+    assert pivots is not None and set(np.flatnonzero(unknown).tolist()) == set(pivots)
+
+
+def test_a_row_the_others_decide_takes_no_cell_and_the_rest_keep_their_values():
+    # the third row is the sum of the first two (exactly, in floats): two cells are solved for, one per independent
+    # row, the largest coefficient of each (cell 0, then cell 2 once row 0 is eliminated from row 1); cell 3 keeps
+    # the point's value
+    a = np.array([[1.0, 0.5, 0.0, 0.25], [0.5, 0.0, 1.0, 0.25], [1.5, 0.5, 1.0, 0.5]])
+    unknown = ev._pivot_cells([sp.csr_matrix(a)], np.ones(4, dtype=bool))
+    assert np.flatnonzero(unknown).tolist() == [0, 2]
+    h = np.array([0.25 + 1e-13, 0.5, 0.25 - 1e-13, 0.5])  # on the rows 0.625, 0.5 and 1.125 within rounding
+    b = np.array([0.625, 0.5, 1.125])
+    p, q = np.array([1.0, 0.0, 0.0, 0.0]), np.ones(4)
+    w = vertex_witness(h, p, q, np.zeros(4), np.ones(4), [(a, b, "eq")])
+    # h1 = 1/2 and h3 = 1/2 kept; h0 = 0.625 − h1/2 − h3/4 = 1/4, h2 = 0.5 − h0/2 − h3/4 = 1/4: the ratio 1/4 over 3/2
+    assert w == fraction_down(Fraction(1, 6))
+
+
+def test_one_row_sum_over_many_free_cells_solves_one_cell():
+    # a solver's point over 200 cells whose row sums to 1 only within rounding: one cell (the first of the largest
+    # coefficient) is solved for, the other 199 keep their values, so the point sums to 1 exactly
+    rng = np.random.default_rng(7)
+    h = rng.dirichlet(np.ones(200))
+    h[0] += 1e-13
+    p, q = rng.random(200), rng.random(200) + 0.1
+    rows = [(np.ones((1, 200)), np.ones(1), "eq")]
+    unknown = ev._pivot_cells([sp.csr_matrix(rows[0][0])], np.ones(200, dtype=bool))
+    assert np.flatnonzero(unknown).tolist() == [0]
+    x = [Fraction(float(v)) for v in h]
+    x[0] = 1 - sum(x[1:], Fraction(0))
+    expected = sum((Fraction(float(a)) * b for a, b in zip(p, x)), Fraction(0)) / sum(
+        (Fraction(float(a)) * b for a, b in zip(q, x)), Fraction(0)
+    )
+    assert vertex_witness(h, p, q, np.zeros(200), np.ones(200), rows) == fraction_down(expected)

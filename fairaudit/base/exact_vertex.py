@@ -228,10 +228,13 @@ def improve_witness(
     lower: FloatArray,
     upper: FloatArray,
     rows: Rows,
+    solved: dict[float, float] | None = None,
 ) -> float:
     """The larger of ``witness`` (NaN: none) and the vertex witnesses of ``h`` at each of
     :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES`, tried until one lies within ``close`` (relative to
-    max(1, |value|)) of the certified ``value``; arguments as in :func:`vertex_witness`.
+    max(1, |value|)) of the certified ``value``; arguments as in :func:`vertex_witness`. ``solved`` holds the vertex
+    witnesses of this ``h`` and program already found, by tolerance, and takes the new ones: a second call (the value
+    lowered since) solves no vertex twice.
 
     Examples
     --------
@@ -242,10 +245,13 @@ def improve_witness(
     >>> w <= 11 / 7 < w + 1e-15
     True
     """
+    solved = {} if solved is None else solved
     for tolerance in ACTIVE_TOLERANCES:
         if math.isfinite(witness) and value - witness <= close * max(1.0, abs(value)):
             break
-        at_vertex = vertex_witness(h, p, q, lower, upper, rows, tolerance)
+        if tolerance not in solved:
+            solved[tolerance] = vertex_witness(h, p, q, lower, upper, rows, tolerance)
+        at_vertex = solved[tolerance]
         if math.isfinite(at_vertex) and not witness >= at_vertex:  # it replaces no witness, or a lower one
             witness = at_vertex
     return witness

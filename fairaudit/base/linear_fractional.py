@@ -633,13 +633,16 @@ class FractionalProgram:
                 break
             bound, duals = tight, repaired  # type: ignore[assignment]
 
+        vertices: dict[float, float] = {}  # the vertex witnesses of h, by tolerance, once each
+
         def improved(witness: float) -> float:
             """Where the point misses a row by rounding, the witness of the vertex it stands for."""
             if not (self._bounded and bound.certified):
                 return witness
             lower, upper = self.lower, self.upper  # finite on a bounded program
             assert lower is not None and upper is not None
-            return improve_witness(witness, bound.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, self._rows)
+            rows = self._rows
+            return improve_witness(witness, bound.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, rows, vertices)
 
         witness = improved(witness)
         if self._bounded and not _tight(bound, witness):

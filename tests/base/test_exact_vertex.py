@@ -211,3 +211,17 @@ def test_one_row_sum_over_many_free_cells_solves_one_cell():
         (Fraction(float(a)) * b for a, b in zip(q, x)), Fraction(0)
     )
     assert vertex_witness(h, p, q, np.zeros(200), np.ones(200), rows) == fraction_down(expected)
+
+
+def test_a_second_improvement_at_the_same_point_solves_no_vertex_again(monkeypatch):
+    # the LP route improves its witness before and after lowering its value: the vertices are solved once
+    calls = []
+    real = ev.vertex_witness
+    monkeypatch.setattr(ev, "vertex_witness", lambda *args: calls.append(args[-1]) or real(*args))
+    p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
+    h = np.array([1.0 - 1e-12, 2 / 7 - 1e-12])
+    solved: dict[float, float] = {}
+    first = ev.improve_witness(float("nan"), 2.0, 1e-13, h, p, q, np.zeros(2), np.ones(2), rows, solved)
+    second = ev.improve_witness(float("nan"), 2.0, 1e-13, h, p, q, np.zeros(2), np.ones(2), rows, solved)
+    assert first == second <= 11 / 7 and sorted(calls) == [1e-9, 1e-7, 1e-5]  # value 2: never close, every tolerance

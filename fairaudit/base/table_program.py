@@ -22,7 +22,7 @@ import functools
 import math
 import operator
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import cast
 
@@ -83,9 +83,13 @@ class TableProgram:
     bottoms: Table
     floors: Sequence[Mapping[int, Row]]
     tau: Fraction | None
+    _bounds: dict[tuple[Number, ...] | None, Number] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     def dual_bound(self, nu: Row | None = None) -> Number:
-        """The smallest λ ≥ 0 with B(λ) ≤ 0 (see the module), exactly: an upper bound on the program's value.
+        """The smallest λ ≥ 0 with B(λ) ≤ 0 (see the module), exactly: an upper bound on the program's value. Found
+        once per ν: the program keeps it for the next call at the same ν.
 
         Parameters
         ----------
@@ -98,6 +102,12 @@ class TableProgram:
             +inf when some ν < 0 or no λ has B(λ) ≤ 0 (a table with q·K = 0 < p·K); at least 1 where every row has
             a decision with q = 0 (a table there has q·K = 0, and 0/0 counts as 1).
         """
+        key = None if nu is None else tuple(nu)
+        if key not in self._bounds:  # (its callers ask again at the same ν: one exact root each)
+            self._bounds[key] = self._dual_bound(nu)
+        return self._bounds[key]
+
+    def _dual_bound(self, nu: Row | None) -> Number:
         c = [list(p) for p in self.tops]
         constant = Fraction(0)
         if nu is not None and self.tau is not None:

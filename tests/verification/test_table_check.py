@@ -165,6 +165,20 @@ def test_the_class_s_maximiser_is_proved_and_a_feasible_table_below_it_is_not():
     assert program.proved_value([[F(1), F(0)], [F(0), F(1)]]) is None
 
 
+def test_the_bound_at_a_multiplier_is_one_exact_root_however_often_it_is_asked(monkeypatch):
+    # certify bounds a program at the solver's ν, then points to a table from that ν; verify asks at ν up to three
+    # times: the root is found once per ν (10/3 at ν = (0, 8/3), 6 without floors, by hand in the class's docstring)
+    roots = []
+    real = table_program.smallest_root
+    monkeypatch.setattr(table_program, "smallest_root", lambda *args: roots.append(1) or real(*args))
+    p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+    floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+    program = TableProgram(p, q, floors, F(1, 4))
+    nu = [F(0), F(8, 3)]
+    assert [program.dual_bound(nu), program.dual_bound(), program.dual_bound(list(nu))] == [F(10, 3), 6, F(10, 3)]
+    assert len(roots) == 2 and program.pointed_value(nu) == F(10, 3) and len(roots) == 2
+
+
 @given(programs(), st.integers(1, 12).map(lambda v: F(v, 8)))
 @settings(max_examples=80, deadline=None)
 def test_the_one_floor_relaxation_is_the_rational_simplex_optimum_and_its_table_attains_it(drawn, kept):

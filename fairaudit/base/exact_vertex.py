@@ -30,8 +30,8 @@ VERTEX_LIMIT = 20_000
 """The most nonzeros (of the rows, with p and q) a vertex is solved and checked over; a larger program gets none."""
 
 DENSE_LIMIT = 1 << 22
-"""The most entries (active rows × interior cells they touch; 8 bytes each) of the block whose pivots are chosen in
-floating point; a larger one gets no vertex."""
+"""The most entries (active rows × interior cells they touch, of one connected set of them; 8 bytes each) of a block
+whose pivots are chosen in floating point; a larger one gets no vertex."""
 
 PIVOT_TOLERANCE = 1e-9
 """Relative to a row's largest coefficient: what is left of it after elimination, below this, is taken as rounding
@@ -103,29 +103,41 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
 def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:
     """The cells the active rows are solved for: in each row, in turn, the interior cell of largest coefficient left
     after the rows before it are eliminated (the pivot :func:`gauss_jordan` takes, ties aside), chosen in floating
-    point (elimination on the dense block of the active rows and the interior cells they touch, :data:`DENSE_LIMIT`);
-    a row left with nothing above rounding takes none. Every other cell keeps its value, so the exact solve is over these
-    cells only, not over the fill the free cells would bring. None beyond the limit.
+    point (elimination on the dense block of each connected set of active rows and the interior cells they touch,
+    :data:`DENSE_LIMIT`); a row left with nothing above rounding takes none. Every other cell keeps its value, so the
+    exact solve is over these cells only, not over the fill the free cells would bring. None beyond the limit.
 
     Only the choice is in floats: a wrong one leaves an equality the exact solve cannot meet (no witness) or an
     inequality it does not meet (refused by the check), never a wrong witness.
     """
     import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
 
     unknown = np.zeros(interior.size, dtype=bool)
     if not active:
         return unknown
-    block = sp.vstack(active, format="csc")
-    touched = interior & (block.getnnz(axis=0) > 0)
-    rows, cells = block.shape[0], int(np.count_nonzero(touched))
-    if rows * cells > DENSE_LIMIT:
-        return None
-    if not rows or not cells:
-        return unknown
-    dense = block[:, np.flatnonzero(touched)].toarray()
+    cells = np.flatnonzero(interior)
+    block = sp.vstack(active, format="csr")[:, cells]
+    rows = block.shape[0]
+    # rows and cells as one graph (a row joined to the cells it touches): elimination never leaves a component
+    _, label = connected_components(sp.bmat([[None, block], [block.T, None]]), directed=False)
+    by_label = np.argsort(label, kind="stable")
+    starts = np.flatnonzero(np.diff(label[by_label], prepend=-1))
+    for part in np.split(by_label, starts[1:]):
+        r, c = part[part < rows], part[part >= rows] - rows
+        if r.size * c.size > DENSE_LIMIT:
+            return None
+        if r.size and c.size:
+            unknown[cells[c[_pivots(block[r][:, c].toarray())]]] = True
+    return unknown
+
+
+def _pivots(dense: FloatArray) -> list[int]:
+    """The pivot columns of Gauss–Jordan elimination on ``dense`` (rows in order, the largest entry left in each;
+    none where it is below :data:`PIVOT_TOLERANCE` of the row's largest), in floating point; ``dense`` is overwritten."""
     scale = np.abs(dense).max(axis=1)
     chosen = []
-    for r in range(rows):
+    for r in range(dense.shape[0]):
         row = dense[r]
         j = int(np.argmax(np.abs(row)))
         if not abs(row[j]) > PIVOT_TOLERANCE * scale[r]:
@@ -134,8 +146,7 @@ def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:
         below, terms = r + 1 + np.flatnonzero(dense[r + 1 :, j]), np.flatnonzero(row)  # (what the step changes)
         dense[np.ix_(below, terms)] -= np.outer(dense[below, j] / row[j], row[terms])
         dense[below, j] = 0.0
-    unknown[np.flatnonzero(touched)[chosen]] = True
-    return unknown
+    return chosen
 
 
 def vertex_witness(

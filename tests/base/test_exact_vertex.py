@@ -225,3 +225,16 @@ def test_a_second_improvement_at_the_same_point_solves_no_vertex_again(monkeypat
     first = ev.improve_witness(float("nan"), 2.0, 1e-13, h, p, q, np.zeros(2), np.ones(2), rows, solved)
     second = ev.improve_witness(float("nan"), 2.0, 1e-13, h, p, q, np.zeros(2), np.ones(2), rows, solved)
     assert first == second <= 11 / 7 and sorted(calls) == [1e-9, 1e-7, 1e-5]  # value 2: never close, every tolerance
+
+
+def test_a_table_of_2000_rows_is_solved_row_by_row_however_large_the_whole_block():
+    # 2,000 rows summing to 1 over 6,000 cells (12 million entries as one dense block, beyond DENSE_LIMIT): each row
+    # is its own connected set, so each solves for its first cell, 1 − 1/4 − (1/4 + 1e-13), and the ratio p·h / q·h
+    # (p on the first cells, q on every cell: each row sums to 1) is that cell's value
+    n_rows = 2000
+    h = np.tile([0.5, 0.25, 0.25 + 1e-13], n_rows)
+    simplex = sp.kron(sp.identity(n_rows, format="csr"), np.ones((1, 3)), format="csr")
+    p, q = np.tile([1.0, 0.0, 0.0], n_rows), np.ones(3 * n_rows)
+    assert n_rows * 3 * n_rows > ev.DENSE_LIMIT
+    w = vertex_witness(h, p, q, np.zeros(h.size), np.ones(h.size), [(simplex, np.ones(n_rows), "eq")])
+    assert w == fraction_down(1 - Fraction(0.25) - Fraction(0.25 + 1e-13))

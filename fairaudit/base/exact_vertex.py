@@ -10,7 +10,8 @@ bounds, solves the active rows exactly for one cell each (Gauss–Jordan elimina
 on the cells the elimination pivots on, chosen in floating point; every other cell keeps its float value), and checks
 the point it finds against every bound and row of P exactly. A point that passes lies in P, so its ratio, rounded
 down, is at most max_P (p·h)/(q·h): a certified lower end. The active set and the cells solved for are only read off
-h; a wrong reading gives a point outside P, which is refused (NaN), never a wrong witness. ``proofs/linear_fractional.md`` §6 ("The witness").
+h; a wrong reading gives a point outside P, which is refused (NaN), never a wrong witness.
+``proofs/linear_fractional.md`` §6 ("The witness").
 """
 
 from __future__ import annotations
@@ -134,7 +135,8 @@ def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:
 
 def _pivots(dense: FloatArray) -> list[int]:
     """The pivot columns of Gauss–Jordan elimination on ``dense`` (rows in order, the largest entry left in each;
-    none where it is below :data:`PIVOT_TOLERANCE` of the row's largest), in floating point; ``dense`` is overwritten."""
+    none where it is below :data:`PIVOT_TOLERANCE` of the row's largest), in floating point; ``dense`` is
+    overwritten."""
     scale = np.abs(dense).max(axis=1)
     chosen = []
     for r in range(dense.shape[0]):

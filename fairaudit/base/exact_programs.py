@@ -15,7 +15,9 @@ from its basis. The entering variable is the one of largest reduced cost (Dantzi
 degenerate, then the lowest-indexed improving one (Bland 1977) until a step is not; the leaving one is the
 lowest-indexed among the ties of the ratio test. A run of degenerate steps is thus all Bland's after its first and
 cannot cycle, every other step raises the objective, so the simplex ends. The ratio is maximised by Dinkelbach's
-method (Dinkelbach 1967) on the same tableau: each step is a phase 2 from the previous basis.
+method (Dinkelbach 1967) on the same tableau: each step is a phase 2 from the previous basis. A guess at the maximum
+(a bound from a solver's dual) may start the steps in place of the denominator's minimum and maximum: the guess need
+not be right, only near, for the steps to be few.
 """
 
 from __future__ import annotations
@@ -352,6 +354,8 @@ def maximize_ratio(
     upper: Sequence[Rational],
     A_ub: Sequence[Sequence[Rational]],
     b_ub: Sequence[Rational],
+    *,
+    start: Rational | None = None,
 ) -> RatioOptimum:
     """Exact max (p·h)/(q·h) over the points of {lower ≤ h ≤ upper, A_ub h ≤ b_ub} with q·h > 0, by Dinkelbach.
 
@@ -375,6 +379,13 @@ def maximize_ratio(
         The rows of the inequalities A_ub h ≤ b_ub, dense.
     b_ub : sequence of Fraction or int, length m
         Their bounds.
+    start : Fraction or int, optional
+        A guess at the maximum (a bound a solver's dual gives, say). The steps then start from the ratio at the
+        vertex maximising (p − start·q)·h, where q·h > 0 there, instead of from the maximiser of q·h: near the
+        maximum, one step or two, and the denominator's minimum and maximum are not computed. The answer is as
+        exact; only where the vertex has p·h ≤ 0 = q·h does the search start as without a guess. Where q·h < 0
+        somewhere but no step meets such a point, the status is "optimal" (the maximum over the points with
+        q·h > 0, which the last step proves) where without a guess it is "zero_denominator".
 
     Returns
     -------
@@ -386,7 +397,8 @@ def maximize_ratio(
     Raises
     ------
     InputError
-        Naming the argument, as :func:`maximize_linear` does (``q`` of the wrong length included).
+        Naming the argument, as :func:`maximize_linear` does (``q`` of the wrong length and a ``start`` that is not
+        an exact rational included).
 
     Notes
     -----
@@ -405,11 +417,16 @@ def maximize_ratio(
     RatioOptimum(status='optimal', value=Fraction(7, 3), point=(Fraction(1, 1), Fraction(0, 1)))
     >>> maximize_ratio(p, q, [0, 0], [1, 1], [[-q[0], -q[1]]], [F(-1, 2)]).value
     Fraction(11, 7)
+
+    From a guess a hair above the maximum, as a dual bound gives: the same answer.
+
+    >>> maximize_ratio(p, q, [0, 0], [1, 1], [[-q[0], -q[1]]], [F(-1, 2)], start=F(11, 7) + F(1, 10**9)).value
+    Fraction(11, 7)
     """
     numerator = _vector("p", p)
     if not numerator:
         raise InputError("p", "must have at least one variable", p)
-    return Polytope(lower, upper, A_ub, b_ub, len(numerator)).maximize_ratio(numerator, q)
+    return Polytope(lower, upper, A_ub, b_ub, len(numerator)).maximize_ratio(numerator, q, start=start)
 
 
 class Polytope:
@@ -450,21 +467,28 @@ class Polytope:
         self._simplex = _Simplex(*_polytope(lower, upper, A_ub, b_ub, n))
         self.feasible = self._simplex.feasible()
 
-    def maximize_ratio(self, p: Sequence[Rational], q: Sequence[Rational]) -> RatioOptimum:
+    def maximize_ratio(
+        self, p: Sequence[Rational], q: Sequence[Rational], *, start: Rational | None = None
+    ) -> RatioOptimum:
         """Exact max (p·h)/(q·h) over the polytope's points with q·h > 0, as :func:`maximize_ratio` (p and q of
-        length n)."""
-        return maximize_ratio_over_product([self], [p], [q])
+        length n, ``start`` a guess at the maximum)."""
+        return maximize_ratio_over_product([self], [p], [q], start=start)
 
 
 def maximize_ratio_over_product(
-    polytopes: Sequence[Polytope], p: Sequence[Sequence[Rational]], q: Sequence[Sequence[Rational]]
+    polytopes: Sequence[Polytope],
+    p: Sequence[Sequence[Rational]],
+    q: Sequence[Sequence[Rational]],
+    *,
+    start: Rational | None = None,
 ) -> RatioOptimum:
     """Exact max (Σ_i p_i·h_i)/(Σ_i q_i·h_i) over the product of polytopes, h_i in the i-th, by Dinkelbach.
 
     Each step maximises Σ_i (p_i − λ q_i)·h_i, and over a product a sum of terms in separate blocks is maximised block
     by block: the blocks are solved apart, each from the basis its last step ended at, so the cost grows with the
     number of blocks, not with the size of one program over all of them. Otherwise as :func:`maximize_ratio`
-    (min and max of the denominator first, then the steps; the same statuses and conventions).
+    (min and max of the denominator first unless ``start`` is given, then the steps; the same statuses and
+    conventions).
 
     Parameters
     ----------
@@ -472,6 +496,8 @@ def maximize_ratio_over_product(
         The blocks (each keeps its basis between calls).
     p, q : sequences of b sequences of Fraction or int
         The numerator's and the denominator's coefficients on each block, the i-th of the i-th polytope's length.
+    start : Fraction or int, optional
+        A guess at the maximum, as :func:`maximize_ratio`'s.
 
     Returns
     -------
@@ -506,6 +532,7 @@ def maximize_ratio_over_product(
             raise InputError(name, f"must hold one block per polytope ({len(polytopes)})", blocks)
     numerators = [_vector("p", block, poly._n) for block, poly in zip(p, polytopes, strict=True)]
     denominators = [_vector("q", block, poly._n) for block, poly in zip(q, polytopes, strict=True)]
+    guess = None if start is None else _vector("start", [start])[0]
     if not all(poly.feasible for poly in polytopes):
         return RatioOptimum("infeasible", None, None)
     numerator = [x for block in numerators for x in block]
@@ -520,18 +547,30 @@ def maximize_ratio_over_product(
             total, point = total + value, point + vertex
         return total, point
 
-    negative_min, point = maximize([[-x for x in block] for block in denominators])
-    if negative_min > 0:
-        return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
-    largest, point = maximize(denominators)
-    if largest == 0:
-        return RatioOptimum("zero_denominator", None, point)  # q·h = 0 on the whole polytope
-    ratio = _dot(numerator, point) / largest
+    def step(ratio: Fraction) -> tuple[Fraction, tuple[Fraction, ...]]:
+        """max Σ_i (p_i − ratio·q_i)·h_i over the product."""
+        return maximize(
+            [[a - ratio * b for a, b in zip(top, bottom, strict=True)] for top, bottom in zip(numerators, denominators)]
+        )
+
+    point: tuple[Fraction, ...] | None = None  # a point attaining ``ratio`` (None: not attained yet)
+    if guess is not None:  # one step at the guess, whose vertex's ratio, when q·h > 0 there, starts the steps
+        gap, vertex = step(guess)
+        scale = _dot(denominator, vertex)
+        if scale < 0 or (scale == 0 and gap > 0):
+            return RatioOptimum("zero_denominator", None, vertex)  # q·h < 0 here, or q·h = 0 < p·h: unbounded
+        if scale > 0:
+            point, ratio = vertex, _dot(numerator, vertex) / scale
+    if point is None:  # (no guess, or its vertex has p·h ≤ 0 = q·h: the denominator's minimum and maximum first)
+        negative_min, point = maximize([[-x for x in block] for block in denominators])
+        if negative_min > 0:
+            return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
+        largest, point = maximize(denominators)
+        if largest == 0:
+            return RatioOptimum("zero_denominator", None, point)  # q·h = 0 on the whole polytope
+        ratio = _dot(numerator, point) / largest
     while True:
-        steps = [
-            [a - ratio * b for a, b in zip(top, bottom, strict=True)] for top, bottom in zip(numerators, denominators)
-        ]
-        gap, vertex = maximize(steps)
+        gap, vertex = step(ratio)
         if gap == 0:
             return RatioOptimum("optimal", ratio, point)
         scale = _dot(denominator, vertex)

@@ -427,6 +427,7 @@ class TableProgram:
         if self.tau is None or not isinstance(lam, Fraction) or not self.tops:
             return []
         n_u = len(self.tops[0])
+        guess = Fraction(float(lam))  # (the restricted maximum is at most λ, near it: a float's worth is guess enough)
         r: list[list[Fraction]] = [
             [p - lam * q for p, q in zip(pr, qr, strict=True)] for pr, qr in zip(self.tops, self.bottoms, strict=True)
         ]
@@ -443,7 +444,7 @@ class TableProgram:
             ]  # (of decisions alike in p, q and every floor, the first: the others change nothing)
             if sum(len(c) - 1 for c in chosen) > POINTED_CHOICES:
                 break
-            table = self._restricted(chosen, n_u)
+            table = self._restricted(chosen, n_u, guess)
             if table is not None and table not in out:
                 out.append(table)
         return out
@@ -461,10 +462,11 @@ class TableProgram:
             out.append([first.setdefault(key, u) for u, key in enumerate(keys)])
         return out
 
-    def _restricted(self, chosen: Sequence[Sequence[int]], n_u: int) -> list[list[Fraction]] | None:
+    def _restricted(self, chosen: Sequence[Sequence[int]], n_u: int, guess: Fraction) -> list[list[Fraction]] | None:
         """The program with row i on the decisions ``chosen[i]`` only, solved exactly: one unknown per chosen
         decision after a row's first (whose share is 1 less the others'), and h₀ = 1 carrying what the rows fix; the
-        floors every choice meets are left out (:meth:`proved_value` checks the table against all of them)."""
+        floors every choice meets are left out (:meth:`proved_value` checks the table against all of them). Its steps
+        start at ``guess`` (:func:`~fairaudit.base.exact_programs.maximize_ratio`'s ``start``), near its maximum."""
         columns = [(i, u) for i, c in enumerate(chosen) for u in c[1:]]
         at = {cell: j + 1 for j, cell in enumerate(columns)}
         width = len(columns) + 1
@@ -492,7 +494,7 @@ class TableProgram:
                 a_ub.append([Fraction(int(j > 0 and columns[j - 1][0] == i)) for j in range(width)])
                 b_ub.append(Fraction(1))
         lower = [Fraction(1)] + [Fraction(0)] * (width - 1)
-        found = maximize_ratio(p, q, lower, [Fraction(1)] * width, a_ub, b_ub)
+        found = maximize_ratio(p, q, lower, [Fraction(1)] * width, a_ub, b_ub, start=guess)
         if found.status != "optimal" or found.point is None:
             return None
         table = [[Fraction(0)] * n_u for _ in chosen]

@@ -128,6 +128,66 @@ def test_a_positive_denominator_is_accepted_when_it_is_positive_everywhere():
     assert result == RatioOptimum("optimal", F(1, 3), (F(2), F(1)))
 
 
+# --- a guess at the maximum ---------------------------------------------------------------------------------------
+
+
+def phase_twos(monkeypatch):
+    """Count the simplex's phase-2 runs (one per objective maximised)."""
+    from fairaudit.base import exact_programs
+
+    calls = []
+    original = exact_programs._Simplex.maximize
+
+    def counted(self, cost):
+        calls.append(1)
+        return original(self, cost)
+
+    monkeypatch.setattr(exact_programs._Simplex, "maximize", counted)
+    return calls
+
+
+@pytest.mark.parametrize("start", [F(11, 7) + F(1, 10**9), F(11, 7) - F(1, 10**9), F(11, 7)])
+def test_a_guess_near_the_maximum_takes_two_steps(monkeypatch, start):
+    """The floor case by hand, 11/7 at h = (1, 2/7): from a guess within 1e-9 of it, one step at the guess reaches
+    the maximiser and a second proves it (gap 0), where without a guess the denominator's minimum and maximum come
+    first (four phase-2 runs)."""
+    rows, bounds = [[-Q[0], -Q[1]]], [F(-1, 2)]
+    calls = phase_twos(monkeypatch)
+    assert maximize_ratio(P, Q, [0, 0], [1, 1], rows, bounds) == RatioOptimum("optimal", F(11, 7), (F(1), F(2, 7)))
+    assert len(calls) == 4
+    calls.clear()
+    result = maximize_ratio(P, Q, [0, 0], [1, 1], rows, bounds, start=start)
+    assert result == RatioOptimum("optimal", F(11, 7), (F(1), F(2, 7))) and len(calls) == 2
+
+
+def test_a_guess_whose_vertex_is_zero_over_zero_starts_as_without_one():
+    """max (h1 − h2)/h1 over [0, 1]² is 1 (h2 = 0); at the guess 2 the step maximises −h1 − h2, whose vertex
+    h = 0 has no ratio: the search starts from the denominator's maximiser instead, and still finds 1."""
+    assert maximize_ratio([1, -1], [1, 0], [0, 0], [1, 1], [], [], start=2) == RatioOptimum(
+        "optimal", F(1), (F(1), F(0))
+    )
+
+
+@pytest.mark.parametrize(
+    ("p", "q", "start", "why"),
+    [
+        ([1, 0], [0, 1], F(3), "q·h = 0 < p·h at h = (1, 0): unbounded"),
+        ([1, 0], [1, -1], F(2), "q·h < 0 at h = (0, 1)"),
+        ([1, 1], [0, 0], F(-1), "q·h = 0 everywhere: the guess's vertex has p·h > 0 = q·h"),
+    ],
+)
+def test_a_guess_keeps_the_statuses_without_a_finite_maximum(p, q, start, why):
+    result = maximize_ratio(p, q, [0, 0], [1, 1], [], [], start=start)
+    assert result.status == "zero_denominator" and result.value is None, why
+    assert result.point is not None and dot(q, result.point) <= 0
+
+
+def test_a_float_guess_is_refused_by_name():
+    with pytest.raises(InputError) as caught:
+        maximize_ratio(P, Q, [0, 0], [1, 1], [], [], start=1.5)
+    assert caught.value.field == "start"
+
+
 # --- bad input ----------------------------------------------------------------------------------------------------
 
 
@@ -265,6 +325,27 @@ def test_ratios_are_the_largest_at_every_vertex(polytope, numerator, denominator
             assert ratio <= value + 1e-7 * max(1.0, abs(value))
     status, cc = charnes_cooper(p, q, lower, upper, A, b)
     assert status == 0 and abs(cc - value) <= 1e-7 * max(1.0, abs(value))
+
+
+@pytest.mark.slow
+@given(
+    polytopes(positive=True),
+    st.lists(small, min_size=6, max_size=6),
+    st.lists(st.builds(F, st.integers(0, 5), st.integers(1, 4)), min_size=6, max_size=6),
+    st.builds(F, st.integers(-20, 20), st.integers(1, 8)),
+)
+def test_any_guess_gives_the_answer_without_one(polytope, numerator, denominator, guess):
+    """With q ≥ 0 on the polytope (h ≥ 0, q ≥ 0), any guess, far or near, of either sign: the same status and the
+    same exact maximum as without a guess, attained at a feasible point of that ratio."""
+    lower, upper, A, b = polytope
+    n = len(lower)
+    p, q = numerator[:n], denominator[:n]
+    plain = maximize_ratio(p, q, lower, upper, A, b)
+    guessed = maximize_ratio(p, q, lower, upper, A, b, start=guess)
+    assert (guessed.status, guessed.value) == (plain.status, plain.value)
+    if guessed.status == "optimal":
+        h = guessed.point
+        assert feasible(h, lower, upper, A, b) and dot(q, h) > 0 and dot(p, h) / dot(q, h) == guessed.value
 
 
 def block_diagonal(blocks):

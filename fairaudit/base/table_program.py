@@ -351,6 +351,11 @@ class TableProgram:
         >>> TableProgram(p, q, floors, F(1, 4)).proved_value([[F(1), F(0)], [F(1, 3), F(2, 3)]])
         Fraction(10, 3)
         """
+        proved = self._proved(table)
+        return None if proved is None else proved[0]
+
+    def _proved(self, table: Table) -> tuple[Fraction, list[list[Fraction]]] | None:
+        """:meth:`proved_value`'s value, with the reading of the table it proves optimal."""
         for reading in self._readings(table):
             lam = self.point_ratio(reading)
             if lam is None:
@@ -372,7 +377,7 @@ class TableProgram:
             for j, f in enumerate(active):
                 nu[f] = pivots[j][1] if j in pivots else Fraction(0)
             if self.dual_bound(nu if self.tau is not None else None) == lam:
-                return lam
+                return lam, reading
         return None
 
     def pointed_value(self, nu: Row) -> Fraction | None:
@@ -418,8 +423,26 @@ class TableProgram:
         >>> program.dual_bound(nu) > F(10, 3), program.pointed_value(nu)
         (True, Fraction(10, 3))
         """
-        proved = (self.proved_value(table) for table in self._pointed_tables(nu))
-        return next((value for value in proved if value is not None), None)
+        found = self.pointed_maximiser(nu)
+        return None if found is None else found[0]
+
+    def pointed_maximiser(self, nu: Row) -> tuple[Fraction, list[list[Fraction]]] | None:
+        """:meth:`pointed_value`'s value with the table proved to attain it, exactly (shape (n_rows, n_decisions)):
+        a maximiser of the program, for a witness. None where :meth:`pointed_value` is None.
+
+        Examples
+        --------
+        The class's program of :meth:`pointed_value`: P(yes | b̃) = 1/3 attains 10/3.
+
+        >>> F = Fraction
+        >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+        >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+        >>> value, table = TableProgram(p, q, floors, F(1, 4)).pointed_maximiser([F(0), F(8 / 3)])
+        >>> value, [str(v) for v in table[1]]
+        (Fraction(10, 3), ['1/3', '2/3'])
+        """
+        proved = (self._proved(table) for table in self._pointed_tables(nu))
+        return next((found for found in proved if found is not None), None)
 
     def _pointed_tables(self, nu: Row) -> list[list[list[Fraction]]]:
         """The distinct tables of :meth:`pointed_value`, one per tolerance whose restricted program has a maximum."""

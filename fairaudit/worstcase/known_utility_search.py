@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
+from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.base.table_program import TableProgram
@@ -229,12 +230,20 @@ def _solver(
     def solve(i: int) -> FractionalResult:
         r = settle(i, inner(i)) if roundings else inner(i)
         if r.status == "optimal" and r.method == "lp" and space.table_floors is not None and r.dual:
-            r = _with_rows_kept(r, num(i), den(i), space.table_floors, problem.tau, problem.g.shape[-1])
+            r = _with_rows_kept(r, num(i), den(i), space.table_floors, problem.tau, problem.g.shape[-1], witness(i))
         if r.status == "optimal" and r.certified and r.value > closed[i]:
             r = replace(r, value=float(closed[i]), gap=gap_between(float(closed[i]), r.witness))
         if evidence is not None:
             evidence.keep(i, r)
         return r
+
+    def witness(i: int) -> Callable[[FloatArray, float], float]:
+        """Program i's witness at the vertex a table stands for (a float table over its cells), given its certified
+        value: the ratio with the inner coefficients (numerator down, denominator up), on the τ rows rounded down."""
+        p, q = pair(i)[0].low, pair(i)[1].high
+        lower, upper = (np.full(len(p), end) for end in space.box)
+        return lambda h, value: improve_witness(math.nan, value, CROSSOVER_TOLERANCE, h, p, q, lower, upper,
+                                                space.witness_rows)  # fmt: skip
 
     def settle(i: int, r: FractionalResult) -> FractionalResult:
         p, q = pair(i)[0].low, pair(i)[1].high
@@ -249,7 +258,13 @@ def _solver(
 
 
 def _with_rows_kept(
-    r: FractionalResult, p: FloatArray, q: FloatArray, floors: FloatArray, tau: float | None, n_u: int
+    r: FractionalResult,
+    p: FloatArray,
+    q: FloatArray,
+    floors: FloatArray,
+    tau: float | None,
+    n_u: int,
+    witness: Callable[[FloatArray, float], float],
 ) -> FractionalResult:
     """``r``, a program over the model's table solved by the LP, certified (or its certified value lowered) from the
     solver's floors' multipliers with each row's simplex kept in the inner maximum: the smallest λ with Σ_rows
@@ -259,9 +274,11 @@ def _with_rows_kept(
     simplex multipliers only add to each row's maximum), and it is the bound ``fairaudit verify`` re-derives from the
     same ν. Where that bound is not within
     :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the witness, the program's exact value where the table
-    ν points to is proved optimal (:meth:`~fairaudit.base.table_program.TableProgram.pointed_value`: the bound at the
-    exact multipliers, so as sound), rounded up. ``r`` itself where there is no root or it is larger.
-    ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
+    ν points to is proved optimal (:meth:`~fairaudit.base.table_program.TableProgram.pointed_maximiser`: the bound at
+    the exact multipliers, so as sound), rounded up; ``witness`` (h, value) at that table, the exact maximiser of these
+    coefficients (its vertex solved on the inner ones: the witness within rounding of the value, where the solver's
+    point gave one 1e-8 below), replaces the witness and the maximiser where it is larger. ``r`` itself where there
+    is no root or it is larger. ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
     nu = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0)
     if tau is None or nu.size != floors.shape[0]:
         return r
@@ -274,9 +291,13 @@ def _with_rows_kept(
     value = fraction_up(root)
     if (
         value - r.witness > CROSSOVER_TOLERANCE * max(1.0, value)
-        and (proved := program.pointed_value(multipliers)) is not None
+        and (proved := program.pointed_maximiser(multipliers)) is not None
     ):
-        value = fraction_up(proved)
+        value = fraction_up(proved[0])
+        table = np.array([float(v) for row in proved[1] for v in row])
+        at = witness(table, min(value, r.value) if r.certified else value)
+        if math.isfinite(at) and not at <= r.witness:  # (a witness where none was, or a larger one)
+            r = replace(r, witness=at, argmax=table, gap=gap_between(r.value, at))
     if r.certified and value >= r.value:
         return r
     return replace(r, value=value, certified=True, reason="", gap=gap_between(value, r.witness))

@@ -375,6 +375,7 @@ def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_
     # proofs/verification.md §4f's example over the model's table: rows (released a, released b) over (yes, no),
     # p = (3/4, 1/4) on yes, q = (1/8, 3/8), the floors of a and b at tau = 1/4 (the value is 10/3). By hand, nu =
     # (0, 3) gives B(lambda) = 7/4 - lambda/2 (both rows on yes below 11/3): 7/2; nu = 0, the value without floors, 6
+    from fairaudit.base.exact_vertex import improve_witness
     from fairaudit.base.linear_fractional import FractionalResult
     from fairaudit.worstcase.known_utility_search import _with_rows_kept
 
@@ -386,11 +387,24 @@ def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_
                                 reason="", p=p, q=q, lower=0.0, upper=1.0, certified=certified, witness=3.0,
                                 dual=(np.array(nu), np.zeros(2)))  # fmt: skip
 
-    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2)
+    rows = [(-floors, np.full(2, -0.25), "le"), (np.kron(np.eye(2), np.ones((1, 2))), np.ones(2), "eq")]
+
+    def witness(h, value):  # the coefficients are exact (dyadic): inner and outer alike
+        return improve_witness(math.nan, value, 1e-13, h, p, q, np.zeros(4), np.ones(4), rows)
+
+    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness)
     assert r.certified and r.value == 3.5 and 0.5 <= r.gap <= 0.5 + 1e-15
-    assert _with_rows_kept(solved(3.4, [0.0, 8 / 3], False), p, q, floors, 0.25, 2).value == pytest.approx(10 / 3)
-    assert _with_rows_kept(solved(5.0, [0.0, 0.0], True), p, q, floors, 0.25, 2).value == 5.0  # (6 is larger)
-    assert _with_rows_kept(solved(7.0, [0.0, 0.0], True), p, q, floors, 0.25, 2).value == 6.0
+    # nu = (0, 8/3) as a float reads it: the table it points to, P(yes | b~) = 1/3, is proved optimal at 10/3 and is
+    # the witness (10/3 rounded down), where the solver's point gave 3
+    r = _with_rows_kept(solved(3.4, [0.0, 8 / 3], False), p, q, floors, 0.25, 2, witness)
+    assert (
+        r.value == pytest.approx(10 / 3)
+        and Fraction(r.witness) <= Fraction(10, 3) <= Fraction(r.value)
+        and r.gap <= 1e-15
+    )
+    assert r.argmax.tolist() == [1.0, 0.0, 1 / 3, 2 / 3]
+    assert _with_rows_kept(solved(5.0, [0.0, 0.0], True), p, q, floors, 0.25, 2, witness).value == 5.0  # (6 larger)
+    assert _with_rows_kept(solved(7.0, [0.0, 0.0], True), p, q, floors, 0.25, 2, witness).value == 6.0
 
 
 def test_over_the_model_s_table_the_search_orders_by_the_one_floor_relaxation():

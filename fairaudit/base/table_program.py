@@ -450,15 +450,16 @@ class TableProgram:
         if self.tau is None or not isinstance(lam, Fraction) or not self.tops:
             return []
         n_u = len(self.tops[0])
-        guess = Fraction(float(lam))  # (the restricted maximum is at most λ, near it: a float's worth is guess enough)
+        near = _float(lam)  # (the restricted maximum is at most λ, near it: a float's worth is guess enough)
+        guess = Fraction(near) if math.isfinite(near) else lam
         r: list[list[Fraction]] = [
             [p - lam * q for p, q in zip(pr, qr, strict=True)] for pr, qr in zip(self.tops, self.bottoms, strict=True)
         ]
         for v, floor in zip(nu, self.floors, strict=True):
             for row, coefficients in floor.items() if v else ():
                 r[row] = [ri + v * fi for ri, fi in zip(r[row], coefficients, strict=True)]
-        gaps = np.array([[float(max(row) - v) for v in row] for row in r])
-        scale = max(float(max(abs(v) for row in r for v in row)), np.finfo(float).tiny)
+        gaps = np.array([[_float(max(row) - v) for v in row] for row in r])  # (≥ 0; +inf beyond the floats)
+        scale = max(_float(max(abs(v) for row in r for v in row)), np.finfo(float).tiny)
         out: list[list[list[Fraction]]] = []
         for tolerance in ACTIVE_TOLERANCES:
             chosen = [
@@ -556,6 +557,14 @@ class TableProgram:
                 cells[i] = rhs - sum((v * cells[j] for j, v in terms.items()), Fraction(0))
             out.append([cells[r * n_u : (r + 1) * n_u] for r in range(len(table))])
         return out
+
+
+def _float(x: Fraction) -> float:
+    """x to the nearest float, ±inf beyond the largest (where ``float`` raises OverflowError)."""
+    try:
+        return float(x)
+    except OverflowError:
+        return math.inf if x > 0 else -math.inf
 
 
 def _dot(a: Row, b: Row) -> Fraction:

@@ -165,6 +165,15 @@ def test_the_class_s_maximiser_is_proved_and_a_feasible_table_below_it_is_not():
     assert program.proved_value([[F(1), F(0)], [F(0), F(1)]]) is None
 
 
+def test_a_value_beyond_the_floats_is_pointed_to_and_proved():
+    # q = (10^-400, 1), tau half its first cell: the maximum, at P(first) = 1, is 10^400, beyond the largest float, and
+    # the second decision's r at that lambda is -10^400: the table nu = 0 points to is proved all the same, where
+    # reading either as a float raised OverflowError
+    tiny = F(1, 10**400)
+    program = TableProgram([[F(1), F(0)]], [[tiny, F(1)]], [{0: [tiny, F(1)]}], tiny / 2)
+    assert program.pointed_maximiser([F(0)]) == (F(10**400), [[F(1), F(0)]])
+
+
 def test_the_bound_at_a_multiplier_is_one_exact_root_however_often_it_is_asked(monkeypatch):
     # certify bounds a program at the solver's ν, then points to a table from that ν; verify asks at ν up to three
     # times: the root is found once per ν (10/3 at ν = (0, 8/3), 6 without floors, by hand in the class's docstring)

@@ -15,6 +15,7 @@ the right side:
 * :func:`product_ends` encloses non-negative products (and sums of them) computed
   with a counted number of roundings, :func:`product_roundings` counts them;
 * :func:`fraction_up` and :func:`fraction_down` round an exact rational;
+  :func:`quotient_nearest` rounds one to nearest, for what a float only chooses (never a certified number);
 * :func:`log_up`, :func:`log_down`, :func:`exp_up` and :func:`exp_down`
   evaluate ln and exp of an exact rational (a float is one) in 50-digit
   decimal arithmetic, whose ``ln`` and ``exp`` are correctly rounded (the
@@ -54,6 +55,7 @@ __all__ = [
     "log_up",
     "product_ends",
     "product_roundings",
+    "quotient_nearest",
     "rounding_error",
     "sum_ends",
     "up",
@@ -288,6 +290,24 @@ def fraction_down(x: Exact) -> float:
 
 _EXP_FAR = 1000
 """|x| beyond which e^x is above every float (x > 0) or below the smallest positive one (x < 0)."""
+
+
+def quotient_nearest(n: int, m: int) -> float:
+    """n/m (m > 0) to the nearest float, ±inf beyond the largest (where ``float`` and ``/`` raise OverflowError).
+
+    For a float that only chooses (a threshold to try, a decision to keep), never for a certified number: a
+    rational x reads as ``quotient_nearest(x.numerator, x.denominator)``.
+
+    Examples
+    --------
+    >>> quotient_nearest(1, 3) == 1 / 3, quotient_nearest(-(10**400), 1)
+    (True, -inf)
+    """
+    try:
+        return n / m  # (correctly rounded: int true division)
+    except OverflowError:
+        return math.inf if n > 0 else -math.inf  # (copysign would convert n to a float, and raise)
+
 
 _TINY = math.ulp(0.0)
 """The smallest positive float."""

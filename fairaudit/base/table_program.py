@@ -31,6 +31,7 @@ import numpy as np
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, on_one_denominator, smallest_root
 from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
 from fairaudit.base.exact_vertex import gauss_jordan
+from fairaudit.base.outward import quotient_nearest
 
 __all__ = ["EXACT_SHARES", "POINTED_CHOICES", "TableProgram"]
 
@@ -427,8 +428,24 @@ class TableProgram:
         return None if found is None else found[0]
 
     def pointed_maximiser(self, nu: Row) -> tuple[Fraction, list[list[Fraction]]] | None:
-        """:meth:`pointed_value`'s value with the table proved to attain it, exactly (shape (n_rows, n_decisions)):
-        a maximiser of the program, for a witness. None where :meth:`pointed_value` is None.
+        """:meth:`pointed_value`'s value with the table proved to attain it: a maximiser of the program, for a
+        witness.
+
+        Parameters
+        ----------
+        nu : sequence of Fraction
+            ν, one per floor, as :meth:`pointed_value` takes it.
+
+        Returns
+        -------
+        (Fraction, list of list of Fraction) or None
+            The program's value (a ratio; its log is in nats) and a table attaining it exactly, shape (n_rows,
+            n_decisions), indexed [row, decision] as :attr:`tops`; None where :meth:`pointed_value` is None.
+
+        Notes
+        -----
+        ``proofs/verification.md`` §4f, "From the multipliers alone"; the table as certify's witness:
+        ``proofs/black_box.md`` §6.
 
         Examples
         --------
@@ -450,7 +467,7 @@ class TableProgram:
         if self.tau is None or not isinstance(lam, Fraction) or not self.tops:
             return []
         n_u = len(self.tops[0])
-        near = _float(lam)  # (the restricted maximum is at most λ, near it: a float's worth is guess enough)
+        near = _nearest(lam)  # (the restricted maximum is at most λ, near it: a float's worth is guess enough)
         guess = Fraction(near) if math.isfinite(near) else lam
         r: list[list[Fraction]] = [
             [p - lam * q for p, q in zip(pr, qr, strict=True)] for pr, qr in zip(self.tops, self.bottoms, strict=True)
@@ -458,8 +475,8 @@ class TableProgram:
         for v, floor in zip(nu, self.floors, strict=True):
             for row, coefficients in floor.items() if v else ():
                 r[row] = [ri + v * fi for ri, fi in zip(r[row], coefficients, strict=True)]
-        gaps = np.array([[_float(max(row) - v) for v in row] for row in r])  # (≥ 0; +inf beyond the floats)
-        scale = max(_float(max(abs(v) for row in r for v in row)), np.finfo(float).tiny)
+        gaps = np.array([[_nearest(max(row) - v) for v in row] for row in r])  # (≥ 0; +inf beyond the floats)
+        scale = max(_nearest(max(abs(v) for row in r for v in row)), np.finfo(float).tiny)
         out: list[list[list[Fraction]]] = []
         for tolerance in ACTIVE_TOLERANCES:
             chosen = [
@@ -559,12 +576,9 @@ class TableProgram:
         return out
 
 
-def _float(x: Fraction) -> float:
-    """x to the nearest float, ±inf beyond the largest (where ``float`` raises OverflowError)."""
-    try:
-        return float(x)
-    except OverflowError:
-        return math.inf if x > 0 else -math.inf
+def _nearest(x: Fraction) -> float:
+    """x to the nearest float, ±inf beyond the floats (it only chooses)."""
+    return quotient_nearest(x.numerator, x.denominator)
 
 
 def _dot(a: Row, b: Row) -> Fraction:

@@ -30,6 +30,7 @@ import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.exact_duality import on_one_denominator
+from fairaudit.base.outward import quotient_nearest
 
 __all__ = ["relaxation_bounds"]
 
@@ -130,14 +131,6 @@ exactly: floats err by far less, so one further above cannot be smaller exactly 
 still a bound, only looser)."""
 
 
-def _quotient(n: int, m: int) -> float:
-    """n/m (m > 0) to nearest, ±inf beyond the floats."""
-    try:
-        return n / m
-    except OverflowError:
-        return math.copysign(math.inf, n)
-
-
 def _float_bounds(
     top: FloatArray, bottoms: FloatArray, candidates: Sequence[tuple[np.ndarray, np.ndarray]], floor: FloatArray
 ) -> FloatArray:
@@ -146,7 +139,7 @@ def _float_bounds(
     out = []
     with np.errstate(all="ignore"):
         for num, den in candidates:
-            theta = np.array([_quotient(n, m) for n, m in zip(num.tolist(), den.tolist(), strict=True)])
+            theta = np.array([quotient_nearest(n, m) for n, m in zip(num.tolist(), den.tolist(), strict=True)])
             r = _best(top[None] - theta[:, None, None] * bottoms, bottoms)[0].sum(axis=-1)
             f = np.where(np.isinf(floor), np.where(r > 0, np.inf, theta), theta + np.maximum(r, 0) / floor)
             out.append(np.where(np.isnan(f), np.inf, f))
@@ -207,7 +200,7 @@ def _maximisers(
     (:func:`_float_errors`); the other rows (near-ties, ties, overflow) are compared exactly, in the integer object
     arrays ``top`` and ``bottoms``."""
     with np.errstate(all="ignore"):
-        theta = np.array([_quotient(n, m) for n, m in zip(num.tolist(), den.tolist(), strict=True)])
+        theta = np.array([quotient_nearest(n, m) for n, m in zip(num.tolist(), den.tolist(), strict=True)])
         values = float_top[None] - theta[:, None, None] * float_bottoms
         errors = _float_errors(float_top, float_bottoms, theta, values)
         at = np.argmax(values, axis=-1)

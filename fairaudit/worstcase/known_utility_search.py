@@ -237,18 +237,19 @@ def _solver(
             evidence.keep(i, r)
         return r
 
+    def inner_of(i: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Program i's inner coefficients (numerator down, denominator up) and the bounds of its variables."""
+        p, q = pair(i)[0].low, pair(i)[1].high
+        return p, q, np.full(len(p), space.box[0]), np.full(len(p), space.box[1])
+
     def witness(i: int) -> Callable[[FloatArray, float], float]:
         """Program i's witness at the vertex a table stands for (a float table over its cells), given its certified
-        value: the ratio with the inner coefficients (numerator down, denominator up), on the τ rows rounded down."""
-        p, q = pair(i)[0].low, pair(i)[1].high
-        lower, upper = (np.full(len(p), end) for end in space.box)
-        return lambda h, value: improve_witness(math.nan, value, CROSSOVER_TOLERANCE, h, p, q, lower, upper,
+        value: the ratio with the inner coefficients, on the τ rows rounded down."""
+        return lambda h, value: improve_witness(math.nan, value, CROSSOVER_TOLERANCE, h, *inner_of(i),
                                                 space.witness_rows)  # fmt: skip
 
     def settle(i: int, r: FractionalResult) -> FractionalResult:
-        p, q = pair(i)[0].low, pair(i)[1].high
-        lower, upper = (np.full(len(p), end) for end in space.box)
-        r = inner_witness(r, p, q, lower, upper, space.witness_rows)
+        r = inner_witness(r, *inner_of(i), space.witness_rows)
         settled = (
             r.status == "optimal" and r.certified and r.value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, r.value)
         )
@@ -277,7 +278,7 @@ def _with_rows_kept(
     ν points to is proved optimal (:meth:`~fairaudit.base.table_program.TableProgram.pointed_maximiser`: the bound at
     the exact multipliers, so as sound), rounded up; ``witness`` (h, value) at that table, the exact maximiser of these
     coefficients (its vertex solved on the inner ones: the witness within rounding of the value, where the solver's
-    point gave one 1e-8 below), replaces the witness and the maximiser where it is larger. ``r`` itself where there
+    point gave one 1e-10 below), replaces the witness and the maximiser where it is larger. ``r`` itself where there
     is no root or it is larger. ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
     nu = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0)
     if tau is None or nu.size != floors.shape[0]:

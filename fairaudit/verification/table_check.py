@@ -87,9 +87,11 @@ class _Lazy(NamedTuple):
 def _largest(cases: Sequence[_Lazy], start: Number, loose: bool) -> Ends:
     """max of ``start`` and the programs' values, enclosed (as ``black_box_check._largest``): best first, each at
     its screen, then at its bound (:func:`_case`), exact where its relaxed table meets the floors or its recorded
-    table is proved optimal (:meth:`TableProgram.proved_value`), set aside where its recorded ν bounds it by the
-    largest value found, else solved by the rational simplex within its size, else bounded by its ν, until no bound
-    left exceeds the upper end found; a recorded table gives a lower end. Without a ν, a bound within
+    table is proved optimal (:meth:`TableProgram.proved_value`), then, with a recorded ν, at the bound ν gives
+    (:meth:`TableProgram.dual_bound`): exact where the table ν points to is proved optimal
+    (:meth:`TableProgram.pointed_value`), else solved by the rational simplex within its size, else bounded by ν;
+    until no bound left exceeds the upper end found (a program whose ν bounds it by the largest value found is never
+    solved). A recorded table gives a lower end. Without a ν, a bound within
     :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end found (certify's search leaves such a
     program unsolved), or any with ``loose``, is kept as an upper end; any other raises
     :class:`~fairaudit.verification.dual_check.MissingDual`. Where none was taken, the first is solved all the same:
@@ -107,28 +109,32 @@ def _largest(cases: Sequence[_Lazy], start: Number, loose: bool) -> Ends:
             case = case_of(i)
             found = attained[i] = None if case.table is None else case.program.vertex_ratio(case.table)
             low = low if found is None else max(low, found)
-    heap: list[tuple[Number, int, bool]] = [(-entry.screen, i, False) for i, entry in enumerate(cases)]
-    heapq.heapify(heap)  # (−bound, position, whether the bound is the case's): best first, ties in order
+    heap: list[tuple[Number, int, int]] = [(-entry.screen, i, 0) for i, entry in enumerate(cases)]
+    heapq.heapify(heap)  # (−bound, position, stage: 0 its screen, 1 its case's bound, 2 its ν's): best first
     while heap and -heap[0][0] > high:
-        _, i, bounded = heapq.heappop(heap)
+        key, i, stage = heapq.heappop(heap)
         case = case_of(i)
-        if not bounded:
-            heapq.heappush(heap, (-case.bound, i, True))
+        if stage == 0:
+            heapq.heappush(heap, (-case.bound, i, 1))
             continue
         taken = True
         value = attained.get(i)
-        if case.exact or (value is not None and value >= case.bound):
+        if stage == 2:  # (its ν's bound is above every value found: its value is needed)
+            assert case.nu is not None  # (only a case with a ν is taken at its ν's bound)
+            if (proved := case.program.pointed_value(case.nu)) is not None:
+                low, high = max(low, proved), max(high, proved)  # (the table its ν points to, proved optimal)
+            elif case.solve is not None and (solved := case.solve()) is not None:
+                low, high = max(low, solved), max(high, solved)
+            else:
+                high, duals = max(high, -key), True
+        elif case.exact or (value is not None and value >= case.bound):
             low, high = max(low, case.bound), max(high, case.bound)
         elif case.table is not None and (proved := case.program.proved_value(case.table)) is not None:
             low, high = max(low, proved), max(high, proved)  # (the recorded table, proved optimal exactly)
-        elif case.solve is not None and case.nu is not None and case.program.dual_bound(case.nu) <= high:
-            continue  # (its recorded multipliers bound it by the largest value found: no need to solve it)
-        elif case.nu is not None and (proved := case.program.pointed_value(case.nu)) is not None:
-            low, high = max(low, proved), max(high, proved)  # (the table its ν points to, proved optimal exactly)
+        elif case.nu is not None:  # (taken again at its ν's bound, set aside where that is at most the largest found)
+            heapq.heappush(heap, (-min(case.bound, case.program.dual_bound(case.nu)), i, 2))
         elif case.solve is not None and (solved := case.solve()) is not None:
             low, high = max(low, solved), max(high, solved)
-        elif case.nu is not None:
-            high, duals = max(high, min(case.bound, case.program.dual_bound(case.nu))), True
         elif loose:
             high, duals = max(high, case.bound), True
         else:

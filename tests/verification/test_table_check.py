@@ -222,9 +222,11 @@ def test_the_certificate_records_the_floors_multipliers_and_the_witness_tables(b
 
 
 def test_beyond_the_exact_size_the_table_programs_are_bounded_by_the_recorded_duals(by_group, monkeypatch):
-    # re-derived three times: by the rational simplex; with every program beyond the exact size, where the tables the
-    # recorded duals point to are proved optimal (the same values, exactly); and with no such table tried. The lower
-    # ends (the recorded tables' vertices) are then the exact values, the upper ends (the duals) within 1e-15 of them
+    # re-derived four times: by the rational simplex; with every program beyond the exact size, where the tables the
+    # recorded duals point to are proved optimal (the same values, exactly); with no such table tried, where the
+    # recorded tables are proved optimal and every other program's dual bounds it below them (exact still, no dual
+    # giving an upper end); and with no table proved. The lower ends (the recorded tables' vertices) are then the
+    # exact values, the upper ends (the duals) within 1e-15 of them
     detail = by_group["bound_details"]["black_box"]
     exact = bb.black_box_enclosures(by_group["inputs"], detail)
     assert exact.local.lo == exact.local.hi and exact.global_.lo == exact.global_.hi and not exact.from_duals
@@ -232,6 +234,9 @@ def test_beyond_the_exact_size_the_table_programs_are_bounded_by_the_recorded_du
     pointed = bb.black_box_enclosures(by_group["inputs"], detail)
     assert (pointed.local, pointed.global_, pointed.from_duals) == (exact.local, exact.global_, False)
     monkeypatch.setattr(table_program, "POINTED_CHOICES", -1)
+    recorded = bb.black_box_enclosures(by_group["inputs"], detail)
+    assert (recorded.local, recorded.global_, recorded.from_duals) == (exact.local, exact.global_, False)
+    monkeypatch.setattr(table_program.TableProgram, "proved_value", lambda self, table: None)
     dual = bb.black_box_enclosures(by_group["inputs"], detail)
     assert dual.from_duals and not dual.group_free
     for ours, theirs in ((dual.local, exact.local), (dual.global_, exact.global_)):
@@ -378,7 +383,8 @@ def test_behind_a_context_mechanism_the_programs_over_every_context_are_bounded_
 ):
     # behind a context mechanism L's program at x spans every released context, with every context's floors: its
     # nu is recorded per context, and the witness is the table over every released context. Beyond the exact size
-    # the tables the recorded nu point to are proved optimal (the same enclosures); with none tried, the nu bound them
+    # the tables the recorded nu point to are proved optimal (the same enclosures); with none tried, the recorded
+    # tables are, and the nu set the other programs aside (the same); with no table proved, the nu bound them
     cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
     detail = cert["bound_details"]["black_box"]
     assert all(len(d["floors"]) == 2 for d in detail["duals"])  # (contexts, groups)
@@ -388,6 +394,9 @@ def test_behind_a_context_mechanism_the_programs_over_every_context_are_bounded_
     pointed = bb.black_box_enclosures(cert["inputs"], detail)
     assert (pointed.local, pointed.global_, pointed.from_duals) == (exact.local, exact.global_, False)
     monkeypatch.setattr(table_program, "POINTED_CHOICES", -1)
+    recorded = bb.black_box_enclosures(cert["inputs"], detail)
+    assert (recorded.local, recorded.global_, recorded.from_duals) == (exact.local, exact.global_, False)
+    monkeypatch.setattr(table_program.TableProgram, "proved_value", lambda self, table: None)
     dual = bb.black_box_enclosures(cert["inputs"], detail)
     assert dual.from_duals
     for ours, theirs in ((dual.local, exact.local), (dual.global_, exact.global_)):

@@ -425,8 +425,9 @@ def _largest(cases: Sequence[_Lazy], start: Number, loose: bool = False) -> _End
     (:func:`~fairaudit.verification.screens.pair_screens`), then its relaxation's (:meth:`_Case.bound`: its
     value where the relaxation's maximiser meets every floor), then solved exactly, until no bound left exceeds the
     upper end found. A key none of whose programs is known feasible then has its floors checked at h = high, where
-    floors no model meets are found (ValueError). A program beyond the exact size is bounded by its recorded dual
-    instead (:class:`MissingDual` without one, unless its bound is within
+    floors no model meets are found (ValueError). A program beyond the exact size is taken again at the bound its
+    recorded dual gives, an upper end where it is above every value found (:class:`MissingDual` without one, unless
+    its bound is within
     :data:`~fairaudit.verification.dual_check.SEARCH_STOP` of the upper end found, or ``loose``: its bound, the
     relaxation's, is then an upper end), and a recorded point that meets every constraint gives a lower end.
     """
@@ -444,20 +445,23 @@ def _largest(cases: Sequence[_Lazy], start: Number, loose: bool = False) -> _End
         attained = case_of(i).point_ratio() if entry.pointed else None
         if attained is not None:
             low = max(low, attained)
-    heap: list[tuple[Number, int, bool]] = [(-entry.screen, i, False) for i, entry in enumerate(cases)]
-    heapq.heapify(heap)  # (−bound, position, whether the bound is the relaxation's): best first, ties in order
+    heap: list[tuple[Number, int, int]] = [(-entry.screen, i, 0) for i, entry in enumerate(cases)]
+    heapq.heapify(heap)  # (−bound, position, stage: 0 its screen, 1 its relaxation's, 2 its dual's): best first
     while heap and -heap[0][0] > high:
-        negative, i, relaxed = heapq.heappop(heap)
+        negative, i, stage = heapq.heappop(heap)
         case = case_of(i)
-        if not relaxed:
+        if stage == 0:
             bound, h = case.bound()
             if h is not None and case.meets(h, scaled):
                 low, high = max(low, bound), max(high, bound)
                 known.add(case.key)
             else:
-                heapq.heappush(heap, (-bound, i, True))
+                heapq.heappush(heap, (-bound, i, 1))
             continue
         bound = -negative
+        if stage == 2:  # (its dual's bound is above every value found: the upper end)
+            high, duals = max(high, bound), True
+            continue
         known.add(case.key)
         if case.small:
             value = _solve_blocks(case.tops, case.bottoms, case.floors, case.low, case.high, case.tau, polytopes)
@@ -465,8 +469,8 @@ def _largest(cases: Sequence[_Lazy], start: Number, loose: bool = False) -> _End
             continue
         if not case.feasible():
             raise ValueError("the worst-case program is infeasible")
-        if case.dual is not None:
-            high, duals = max(high, min(bound, case.dual_bound())), True
+        if case.dual is not None:  # (taken again at its dual's bound: set aside where at most the largest found)
+            heapq.heappush(heap, (-min(bound, case.dual_bound()), i, 2))
         elif len(case.tops[0]) <= MAX_VARIABLES and len(case.floors[0]) <= MAX_FLOORS:
             value = _solve_blocks(case.tops, case.bottoms, case.floors, case.low, case.high, case.tau, polytopes)
             low, high = max(low, value), max(high, value)

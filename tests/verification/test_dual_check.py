@@ -317,3 +317,34 @@ def test_without_a_dual_a_program_within_certifys_exact_size_is_solved_exactly(u
     assert not bb.black_box_enclosures(
         unlike["inputs"], _edited(unlike, lambda g: g.pop("duals"))["bound_details"]["black_box"]
     ).from_duals
+
+
+class _Program:
+    """A stand-in for one of the search's programs beyond the exact size: its relaxation's bound, whether that
+    bound's maximiser meets every floor, and its recorded dual's bound."""
+
+    def __init__(self, relaxed, meets, dual):
+        self.relaxed, self.met, self.dual, self.key, self.small = F(relaxed), meets, dual, object(), False
+
+    def bound(self):
+        return self.relaxed, [F(0)]
+
+    def meets(self, h, scaled):
+        return self.met
+
+    def feasible(self):
+        return True
+
+    def dual_bound(self):
+        return F(self.dual)
+
+
+def test_a_dual_at_most_the_largest_value_found_gives_no_upper_end():
+    # a program exact at 2 (its relaxation's maximiser meets every floor), and one bounded by 5/2 relaxed but 19/10
+    # by its dual: the upper end is 2, a value, not a dual's (ends resting on duals list the witness checks as not
+    # checked, where they can fail)
+    programs = [_Program(F(5, 2), False, F(19, 10)), _Program(2, True, None)]
+    lazy = [bb._Lazy(screen, p.key, lambda p=p: p, False) for screen, p in zip((F(3), F(11, 5)), programs)]
+    assert bb._largest(lazy, F(0)) == (F(2), F(2), False)
+    programs[0].dual = F(21, 10)  # (above it: the dual's bound is the upper end)
+    assert bb._largest(lazy, F(0)) == (F(2), F(21, 10), True)

@@ -209,6 +209,13 @@ def _solver(
     ``closed[i]``, program i's closed-form bound (E[g | x, a]'s largest over τ or over E[g | x, a']'s smallest, rounded
     up), is lowered to it: both hold, and where the denominator's floor binds the bound is the optimum while the
     solver's dual, beyond the exact size, can leave its value 1e-10 above it.
+
+    The solve returned serves one :func:`~fairaudit.worstcase.pair_search.search`, which takes the programs in turn. A
+    program whose solver's value is certified and at most a certified value already returned is left there: the
+    search keeps neither its value nor its witness (it neither raises the largest value found nor becomes the
+    maximiser, within the search's tie rule), and the steps above only lower the one and raise the other. Its witness
+    is then NaN where the coefficients are not exact (the solver's is on the outer ones). 18 groups behind a product
+    of randomized responses, near ties at 1/τ: 336 of 375 programs so, certify 202 s to 105 s.
     """
 
     def num(i: int) -> FloatArray:
@@ -227,14 +234,23 @@ def _solver(
         def inner(i: int) -> FractionalResult:
             return space.program().solve(num(i), den(i))
 
+    largest = -math.inf  # (the largest certified value returned: at most its search's largest value found)
+
     def solve(i: int) -> FractionalResult:
-        r = settle(i, inner(i)) if roundings else inner(i)
-        if r.status == "optimal" and r.method == "lp" and space.table_floors is not None and r.dual:
-            r = _with_rows_kept(r, num(i), den(i), space.table_floors, problem.tau, problem.g.shape[-1], witness(i))
+        nonlocal largest
+        r = inner(i)
+        if r.status == "optimal" and r.certified and r.value <= largest:
+            r = replace(r, witness=math.nan, gap=math.nan) if roundings else r  # (below a value found: see above)
+        else:
+            r = settle(i, r) if roundings else r
+            if r.status == "optimal" and r.method == "lp" and space.table_floors is not None and r.dual:
+                r = _with_rows_kept(r, num(i), den(i), space.table_floors, problem.tau, problem.g.shape[-1], witness(i))
         if r.status == "optimal" and r.certified and r.value > closed[i]:
             r = replace(r, value=float(closed[i]), gap=gap_between(float(closed[i]), r.witness))
         if evidence is not None:
             evidence.keep(i, r)
+        if r.status == "optimal" and r.certified:
+            largest = max(largest, r.value)
         return r
 
     def inner_of(i: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:

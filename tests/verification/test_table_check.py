@@ -20,6 +20,7 @@ from test_dual_check import UNLIKE
 import fairaudit.base.table_program as table_program
 import fairaudit.verification.black_box_check as bb
 import fairaudit.verification.table_check as tc
+import fairaudit.worstcase.known_utility_search as known_utility_search
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.base.table_program import TableProgram
@@ -739,3 +740,52 @@ def test_the_witness_is_the_vertex_of_the_table_the_multipliers_point_to():
     checked = verify(cert)
     assert checked.holds, [c.line() for c in checked.failures]
     assert not [name for name, _ in checked.not_checked if "witness" in name and "duals" not in name]
+
+
+BELOW = """
+[sensitive]
+name = "profile"
+[context]
+name = "x"
+values = ["x0", "x1"]
+[decision]
+name = "d"
+values = ["u0", "u1", "u2", "u3"]
+[privacy.sensitive]
+mechanism = "product"
+[[privacy.sensitive.components]]
+name = "c0"
+mechanism = "randomized_response"
+values = [0, 1]
+epsilon = 1.0
+[[privacy.sensitive.components]]
+name = "c1"
+mechanism = "randomized_response"
+values = [0, 1]
+epsilon = 2.0
+[utility]
+kind = "table"
+values = [[[0.0, 0.0, 0.0, 0.5], [0.0, 0.25, 0.0, 0.0], [1.0, 1.0, 0.0, 0.25], [0.0, 1.0, 0.0, 0.0]],
+          [[0.25, 0.0, 1.0, 0.0], [0.25, 0.0, 0.25, 0.5], [1.0, 0.25, 0.0, 0.5], [0.25, 0.0, 0.25, 0.5]]]
+tau = 0.2
+"""
+
+
+def test_a_program_at_most_a_value_found_is_left_at_its_solvers_certified_value(monkeypatch):
+    # L and L-bar each solve three programs over the model's table; on one of L's and two of L-bar's the solver's
+    # certified value is at most a value already found, and the rows-kept step (the bound from the multipliers, the table they point to,
+    # its witness) is not taken there: it only lowers a value and raises a witness the search does not keep. The
+    # certificate is the exact worst case still, to rounding (verify's rational simplex), its witnesses checked
+    taken = []
+    rows_kept = known_utility_search._with_rows_kept
+    monkeypatch.setattr(known_utility_search, "_with_rows_kept", lambda r, *a: taken.append(r) or rows_kept(r, *a))
+    cert = json.loads(json.dumps(certify(parse_spec(BELOW)).to_dict()))
+    detail = cert["bound_details"]["black_box"]
+    assert (detail["programs_solved"], detail["global"]["programs_solved"], len(taken)) == (3, 3, 3)
+    exact = bb.black_box_enclosures(cert["inputs"], detail)
+    for ours, theirs in ((detail, exact.local), (detail["global"], exact.global_)):
+        assert theirs.lo == theirs.hi <= F(ours["ratio"]) <= theirs.hi * (1 + F(1, 10**14))
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    checked = {c.name for c in result.checks}
+    assert {"bound_details.black_box.witness", "bound_details.black_box.global.witness"} <= checked

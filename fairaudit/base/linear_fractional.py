@@ -493,8 +493,18 @@ class FractionalProgram:
         """A :class:`FractionalResult` of the LP for ``p`` and ``q``, given the rest."""
         return functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
 
-    def solve(self, p: npt.ArrayLike, q: npt.ArrayLike) -> FractionalResult:
+    def solve(self, p: npt.ArrayLike, q: npt.ArrayLike, *, below: float = -math.inf) -> FractionalResult:
         """The optimum for numerator ``p`` and denominator ``q`` (shape (n,) each).
+
+        Parameters
+        ----------
+        p, q : array_like, shape (n,)
+            The numerator and the denominator.
+        below : float, optional
+            A value the caller already holds (a ratio): where the solver's own dual certifies a value at most it,
+            that value is returned at once, certified, with the ratio at the solver's point as the witness; its dual
+            is not repaired, and neither the vertex witness nor the exact or parametric steps run, which only tighten
+            a value the caller does not need. Default -inf: never.
 
         Returns
         -------
@@ -513,7 +523,7 @@ class FractionalProgram:
         p, q = _vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
-        r = self._solve_lp(p, q)
+        r = self._solve_lp(p, q, below)
         said_unbounded = r.solver_status in ("unbounded", "unbounded_inaccurate")  # cvxpy's statuses
         if r.certified and not said_unbounded or self._rows or not self._bounded:
             return r
@@ -522,7 +532,7 @@ class FractionalProgram:
         exact = threshold_max(p, q, self.lower, self.upper)
         return dataclasses.replace(exact, solver_status=f"{r.solver_status}; then the threshold rule (exact on a box)")
 
-    def _solve_lp(self, p: FloatArray, q: FloatArray) -> FractionalResult:
+    def _solve_lp(self, p: FloatArray, q: FloatArray, below: float = -math.inf) -> FractionalResult:
         """The LP route of :meth:`solve`."""
         import cvxpy as cp
 
@@ -551,7 +561,7 @@ class FractionalProgram:
         if self._bounded and s > 0:
             # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
             h = np.asarray(self._y.value, dtype=float) / float(s)
-            return self._certified(result, p, q, float(prob.value), h, status)
+            return self._certified(result, p, q, float(prob.value), h, status, below)
         if self._bounded:  # s <= 0 is no point of a bounded polytope: the solve failed (solved exactly when small)
             why = "the solver's point had s <= 0 on a bounded polytope"
             exact = self._crossover(result, p, q, status, why, report_empty=True)
@@ -573,7 +583,7 @@ class FractionalProgram:
                 reason="the supremum is approached only as h grows without bound along a recession "
                 "direction of the polytope (q·h -> +inf); it is not attained",
             )
-        return self._certified(result, p, q, float(prob.value), y / float(s), status)
+        return self._certified(result, p, q, float(prob.value), y / float(s), status, below)
 
     def _certified(
         self,
@@ -583,12 +593,14 @@ class FractionalProgram:
         value: float,
         h: FloatArray,
         status: str,
+        below: float = -math.inf,
     ) -> FractionalResult:
         """The solver's optimum certified from its dual, checked exactly (proofs/linear_fractional.md §6).
 
         The value is the smallest λ ≥ the solver's value with B(λ) ≤ 0, rounded up; the witness is the ratio at the
         primal point clipped into the box, when it meets every row exactly. Without a dual that checks, the solver's
-        value is returned uncertified, with the reason.
+        value is returned uncertified, with the reason. Where the solver's own dual certifies a value at most
+        ``below``, that value is returned as it is (:meth:`solve`).
         """
         duals = [np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for c in self._row_constraints]
         duals = [d if op == "le" else -d for d, (_, _, op) in zip(duals, self._rows)]
@@ -598,6 +610,8 @@ class FractionalProgram:
         # Newton from the left reaches the smallest λ with B(λ) ≤ 0 for the duals: start below the optimum
         start = min(witness, value - 1e-9 * abs(value)) if math.isfinite(witness) else value - 1e-9 * abs(value)
         bound = certify_ratio(start, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
+        if bound.certified and bound.value <= below:  # (the caller holds as much: no need to tighten it)
+            return self._proved(result, bound, h, status, witness, duals)
         candidates: list[tuple[float, float, bool]] = []  # (λ, the active tolerance, whether at a root)
         roots: list[float] = []
         if self._bounded and math.isfinite(value):
@@ -658,6 +672,18 @@ class FractionalProgram:
             return result(
                 value=value, argmax=h, status="optimal", solver_status=status, reason=why, witness=witness, dual=raw
             )
+        return self._proved(result, bound, h, status, witness, duals)
+
+    def _proved(
+        self,
+        result: Callable[..., FractionalResult],
+        bound: RatioBound,
+        h: FloatArray,
+        status: str,
+        witness: float,
+        duals: list[FloatArray],
+    ) -> FractionalResult:
+        """The result certified by ``bound`` from ``duals`` (ν ≥ 0 on the "le" rows, clipped at 0 there)."""
         cleaned = tuple(np.maximum(d, 0.0) if op == "le" else d for d, (_, _, op) in zip(duals, self._rows))
         return result(
             value=bound.value,

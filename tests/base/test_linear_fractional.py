@@ -203,3 +203,25 @@ def test_the_parametric_lp_s_duals_certify_a_program_whose_own_dual_proves_nothi
     ).value  # fmt: skip
     assert bound.certified and exact <= Fraction(bound.value) <= exact * (1 + Fraction(1, 10**9))
     assert len(duals) == 2 and np.all(duals[0] >= 0)
+
+
+def test_below_a_value_held_the_value_the_solvers_own_dual_certifies_comes_back_at_once(monkeypatch):
+    # a box with two floors: given below = +inf (any value is at most it), the value the solver's own dual certifies
+    # is returned with no dual repaired; it still bounds the maximum (Dinkelbach's iterations with HiGHS) from above,
+    # its witness from below. Without below the repair runs, and its value is at most that one
+    import fairaudit.base.linear_fractional as lf
+
+    p, q, lo, hi = _instance(3, 6)
+    rows = np.random.default_rng(4).dirichlet(np.ones(6), size=2)
+    a_ub, b_ub = -rows, -0.5 * (rows @ hi)
+    exact = _dinkelbach(p, q, a_ub, b_ub, lo, hi)
+    repaired = []
+    refine = lf.refine_duals
+    monkeypatch.setattr(lf, "refine_duals", lambda *a: repaired.append(a) or refine(*a))
+    program = lf.FractionalProgram(6, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub)
+    quick = program.solve(p, q, below=math.inf)
+    assert quick.certified and not repaired and len(quick.dual) == 1
+    assert quick.witness <= exact * (1 + 1e-12) and quick.value >= exact * (1 - 1e-12)
+    full = program.solve(p, q)
+    assert full.certified and repaired and full.witness <= exact * (1 + 1e-12) <= full.value * (1 + 2e-12)
+    assert full.value <= quick.value

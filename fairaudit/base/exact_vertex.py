@@ -25,10 +25,7 @@ import numpy as np
 from fairaudit.base.arrays import BoolArray, FloatArray
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, Rows, rational_point_ratio
 
-__all__ = ["DENSE_LIMIT", "VERTEX_LIMIT", "gauss_jordan", "improve_witness", "vertex_witness"]
-
-VERTEX_LIMIT = 20_000
-"""The most nonzeros (of the rows, with p and q) a vertex is solved and checked over; a larger program gets none."""
+__all__ = ["DENSE_LIMIT", "gauss_jordan", "improve_witness", "vertex_witness"]
 
 DENSE_LIMIT = 1 << 22
 """The most entries (active rows × interior cells they touch, of one connected set of them; 8 bytes each) of a block
@@ -161,7 +158,7 @@ def vertex_witness(
     tolerance: float = ACTIVE_TOLERANCES[0],
 ) -> float:
     """(p·v)/(q·v) rounded down at the point v of P that ``h``'s active set defines, solved exactly; NaN when v is not
-    in P, q·v ≤ 0, or the program is beyond :data:`VERTEX_LIMIT` (its active block beyond :data:`DENSE_LIMIT`).
+    in P, q·v ≤ 0, or its active block is beyond :data:`DENSE_LIMIT`.
 
     Parameters
     ----------
@@ -196,7 +193,7 @@ def vertex_witness(
     """
     n = h.size
     blocks = _sparse_rows(rows)
-    if sum(a.nnz for a, _, _ in blocks) + 2 * n > VERTEX_LIMIT or not np.all(np.isfinite(h)):
+    if not np.all(np.isfinite(h)):
         return math.nan
     tol = tolerance * max(1.0, float(np.abs(h).max(initial=0.0)))
     interior = (h > lower + tol) & (h < upper - tol)

@@ -238,3 +238,21 @@ def test_a_table_of_2000_rows_is_solved_row_by_row_however_large_the_whole_block
     assert n_rows * 3 * n_rows > ev.DENSE_LIMIT
     w = vertex_witness(h, p, q, np.zeros(h.size), np.ones(h.size), [(simplex, np.ones(n_rows), "eq")])
     assert w == fraction_down(1 - Fraction(0.25) - Fraction(0.25 + 1e-13))
+
+
+def test_a_row_over_12000_cells_is_solved_however_many_nonzeros():
+    # a dense floor over every cell of a table (a matrix on the context spreads each floor over every group): the
+    # vertex costs what the active rows touch, not the program's nonzeros (36,000 here, with the bounds), so a solver's
+    # point whose row sums to 1 within rounding gets its witness: the first cell solved for, the others as they are
+    rng = np.random.default_rng(11)
+    n = 12_000
+    h = rng.dirichlet(np.ones(n))
+    h[0] += 1e-13
+    p, q = rng.random(n), rng.random(n) + 0.1
+    rows = [(np.ones((1, n)), np.ones(1), "eq")]
+    x = [Fraction(float(v)) for v in h]
+    x[0] = 1 - sum(x[1:], Fraction(0))
+    expected = sum((Fraction(float(a)) * b for a, b in zip(p, x)), Fraction(0)) / sum(
+        (Fraction(float(a)) * b for a, b in zip(q, x)), Fraction(0)
+    )
+    assert vertex_witness(h, p, q, np.zeros(n), np.ones(n), rows) == fraction_down(expected)

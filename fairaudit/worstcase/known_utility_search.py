@@ -291,7 +291,7 @@ def _with_rows_kept(
     0, needs no repair), rounded up. Keeping the simplices makes it at most the bound from the LP's own dual (whose
     simplex multipliers only add to each row's maximum), and it is the bound ``fairaudit verify`` re-derives from the
     same ν. Where that bound is not within
-    :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the witness, the program's exact value where the table
+    :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the witness (or there is none), the program's exact value where the table
     ν points to is proved optimal (:meth:`~fairaudit.base.table_program.TableProgram.pointed_maximiser`: the bound at
     the exact multipliers, so as sound), rounded up; ``witness`` (h, value) at that table, the exact maximiser of these
     coefficients (its vertex solved on the inner ones: the witness within rounding of the value, where the solver's
@@ -308,7 +308,7 @@ def _with_rows_kept(
         return r
     value = fraction_up(root)
     if (
-        value - r.witness > CROSSOVER_TOLERANCE * max(1.0, value)
+        not value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, value)  # (NaN: no witness)
         and (proved := program.pointed_maximiser(multipliers)) is not None
     ):
         value = fraction_up(proved[0])

@@ -382,9 +382,9 @@ def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_
     p, q = np.array([0.75, 0.0, 0.25, 0.0]), np.array([0.125, 0.0, 0.375, 0.0])
     floors = np.array([[0.75, 0.0, 0.25, 0.0], [0.125, 0.0, 0.375, 0.0]])
 
-    def solved(value, nu, certified):
+    def solved(value, nu, certified, witness=3.0):
         return FractionalResult(value=value, argmax=None, status="optimal", method="lp", solver_status="optimal",
-                                reason="", p=p, q=q, lower=0.0, upper=1.0, certified=certified, witness=3.0,
+                                reason="", p=p, q=q, lower=0.0, upper=1.0, certified=certified, witness=witness,
                                 dual=(np.array(nu), np.zeros(2)))  # fmt: skip
 
     rows = [(-floors, np.full(2, -0.25), "le"), (np.kron(np.eye(2), np.ones((1, 2))), np.ones(2), "eq")]
@@ -403,6 +403,9 @@ def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_
         and r.gap <= 1e-15
     )
     assert r.argmax.tolist() == [1.0, 0.0, 1 / 3, 2 / 3]
+    # no witness at all (a solver's point that meets no row, read as no vertex) is no closer: the same table
+    s = _with_rows_kept(solved(3.4, [0.0, 8 / 3], True, math.nan), p, q, floors, 0.25, 2, witness)
+    assert (s.value, s.witness, s.argmax.tolist()) == (r.value, r.witness, r.argmax.tolist())
     assert _with_rows_kept(solved(5.0, [0.0, 0.0], True), p, q, floors, 0.25, 2, witness).value == 5.0  # (6 larger)
     assert _with_rows_kept(solved(7.0, [0.0, 0.0], True), p, q, floors, 0.25, 2, witness).value == 6.0
 

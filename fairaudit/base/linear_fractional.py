@@ -504,7 +504,10 @@ class FractionalProgram:
             A value the caller already holds (a ratio): where the solver's own dual certifies a value at most it,
             that value is returned at once, certified, with the ratio at the solver's point as the witness; its dual
             is not repaired, and neither the vertex witness nor the exact or parametric steps run, which only tighten
-            a value the caller does not need. Default -inf: never.
+            a value the caller does not need. Beyond the exact size, a value left above it by no more than the
+            parametric offsets' window, with no witness above it, is tried at λ = ``below`` by the parametric LP
+            (``_parametric``): a near tie an inexact solve left above the value held is proved at most it there.
+            Default -inf: never.
 
         Returns
         -------
@@ -664,7 +667,7 @@ class FractionalProgram:
             if crossover is not None:
                 return crossover
             if math.isfinite(value):  # beyond the exact size: the parametric LP's duals, where they prove more
-                bound, duals = self._parametric(p, q, start, value, bound, duals)
+                bound, duals = self._parametric(p, q, start, value, bound, duals, below, witness)
                 witness = improved(witness)
         if not bound.certified:
             why = f"not certified (solver status {status}): {bound.reason}"
@@ -698,7 +701,15 @@ class FractionalProgram:
         )
 
     def _parametric(
-        self, p: FloatArray, q: FloatArray, start: float, value: float, bound: RatioBound, duals: list[FloatArray]
+        self,
+        p: FloatArray,
+        q: FloatArray,
+        start: float,
+        value: float,
+        bound: RatioBound,
+        duals: list[FloatArray],
+        below: float = -math.inf,
+        witness: float = math.nan,
     ) -> tuple[RatioBound, list[FloatArray]]:
         """The better of ``bound`` (with its ``duals``) and the bounds certified from the duals of the parametric LP
         max (p − λq)·h over the polytope itself, at λ a little above the solver's ``value``
@@ -707,16 +718,21 @@ class FractionalProgram:
         (``proofs/linear_fractional.md`` §6, "The parametric dual").
 
         For when the transformed LP's dual proves nothing (an inexact solve whose floors' multipliers leave B above 0
-        where q·h = 0) or proves a loose value, on a program beyond the rational simplex's size.
+        where q·h = 0) or proves a loose value, on a program beyond the rational simplex's size. First, at λ =
+        ``below`` (the value the caller holds, :meth:`solve`) where it lies under ``bound`` but not under the
+        ``witness``, and no further below the solver's value than its largest offset above it: an inexact solve's
+        value can lie that far above the optimum, and a near tie the caller holds is proved at most its value there.
         """
         import cvxpy as cp
 
         scale = max(1.0, abs(value))
-        for offset in PARAMETRIC_OFFSETS:
-            if bound.certified and bound.value <= value + offset * scale:
+        offsets = [offset * scale for offset in PARAMETRIC_OFFSETS]
+        near = value - offsets[-1] <= below < bound.value and not witness > below  # (NaN: no witness)
+        for lam in [below] * near + [value + offset for offset in offsets]:
+            if bound.certified and bound.value <= lam:
                 break  # a larger λ gives no smaller root
             try:
-                status, _, _ = self._primal_max(p - (value + offset * scale) * q)
+                status, _, _ = self._primal_max(p - lam * q)
             except cp.error.SolverError:
                 continue
             if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):

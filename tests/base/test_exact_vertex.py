@@ -256,3 +256,25 @@ def test_a_row_over_12000_cells_is_solved_however_many_nonzeros():
         (Fraction(float(a)) * b for a, b in zip(q, x)), Fraction(0)
     )
     assert vertex_witness(h, p, q, np.zeros(n), np.ones(n), rows) == fraction_down(expected)
+
+
+def test_one_connected_system_beyond_the_elimination_limit_gets_no_vertex(monkeypatch):
+    # 46 equalities sum_{j <= i} h_j = b_i over 46 cells (1,081 nonzeros, one connected set): beyond
+    # ELIMINATION_LIMIT no vertex is solved; within a raised limit the vertex is the forward substitution's exact
+    # solution, x_i = b_i - (b_{i-1}), in the floats' rationals (2,000 rows of 3 cells, each its own set, pass above)
+    n = 46
+    rng = np.random.default_rng(5)
+    h0 = rng.uniform(0.2, 0.8, n) / n
+    a = np.tril(np.ones((n, n)))
+    b = a @ h0
+    assert np.count_nonzero(a) > ev.ELIMINATION_LIMIT
+    p, q = rng.random(n), rng.random(n) + 0.1
+    h = h0 * (1 + 1e-13)
+    rows = [(a, b, "eq")]
+    assert np.isnan(vertex_witness(h, p, q, np.zeros(n), np.ones(n), rows))
+    monkeypatch.setattr(ev, "ELIMINATION_LIMIT", 2000)
+    x = [Fraction(float(b[0]))] + [Fraction(float(b[i])) - Fraction(float(b[i - 1])) for i in range(1, n)]
+    expected = sum((Fraction(float(u)) * v for u, v in zip(p, x)), Fraction(0)) / sum(
+        (Fraction(float(u)) * v for u, v in zip(q, x)), Fraction(0)
+    )
+    assert vertex_witness(h, p, q, np.zeros(n), np.ones(n), rows) == fraction_down(expected)

@@ -143,6 +143,8 @@ def _largest_system(blocks: list[Any]) -> int:
     import scipy.sparse as sp
     from scipy.sparse.csgraph import connected_components
 
+    if not blocks:
+        return 0
     block = sp.vstack(blocks, format="coo")
     if block.nnz == 0:
         return 0

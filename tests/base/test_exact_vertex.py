@@ -278,3 +278,12 @@ def test_one_connected_system_beyond_the_elimination_limit_gets_no_vertex(monkey
         (Fraction(float(u)) * v for u, v in zip(q, x)), Fraction(0)
     )
     assert vertex_witness(h, p, q, np.zeros(n), np.ones(n), rows) == fraction_down(expected)
+
+
+def test_a_box_without_rows_is_read_at_its_bounds():
+    # no rows at all (a box): the cells within the tolerance of a bound are put at it, the others keep their values,
+    # and the ratio there is (0.7 * 1 + 0.3 * 0.25) / (0.3 * 1 + 0.7 * 0.25), in the floats' rationals
+    p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
+    w = vertex_witness(np.array([1.0 - 1e-12, 0.25]), p, q, np.zeros(2), np.ones(2), [])
+    F = Fraction
+    assert w == fraction_down((F(0.7) + F(0.3) * F(0.25)) / (F(0.3) + F(0.7) * F(0.25)))

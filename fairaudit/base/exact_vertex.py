@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from fairaudit.base.arrays import BoolArray, FloatArray
+from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, Rows, rational_point_ratio
 
 __all__ = ["DENSE_LIMIT", "ELIMINATION_LIMIT", "gauss_jordan", "improve_witness", "vertex_witness"]
@@ -116,7 +116,6 @@ def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:
     inequality it does not meet (refused by the check), never a wrong witness.
     """
     import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
 
     unknown = np.zeros(interior.size, dtype=bool)
     if not active:
@@ -124,8 +123,7 @@ def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:
     cells = np.flatnonzero(interior)
     block = sp.vstack(active, format="csr")[:, cells]
     rows = block.shape[0]
-    # rows and cells as one graph (a row joined to the cells it touches): elimination never leaves a component
-    _, label = connected_components(sp.bmat([[None, block], [block.T, None]]), directed=False)
+    label = _connected(block)
     by_label = np.argsort(label, kind="stable")
     starts = np.flatnonzero(np.diff(label[by_label], prepend=-1))
     for part in np.split(by_label, starts[1:]):
@@ -137,19 +135,26 @@ def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:
     return unknown
 
 
-def _largest_system(blocks: list[Any]) -> int:
-    """The most nonzeros of one connected set of the rows of ``blocks`` (sparse, over the same cells) and the cells
-    they touch: the largest system the exact elimination solves at once (it never leaves one)."""
+def _connected(block: Any) -> IntArray:
+    """The connected set of each row of the sparse ``block``, then of each of its cells, as labels: rows and cells
+    as one graph, a row joined to the cells it touches (Gauss–Jordan elimination never leaves a set)."""
     import scipy.sparse as sp
     from scipy.sparse.csgraph import connected_components
+
+    return connected_components(sp.bmat([[None, block], [block.T, None]]), directed=False)[1]
+
+
+def _largest_system(blocks: list[Any]) -> int:
+    """The most nonzeros of one connected set of the rows of ``blocks`` (sparse, over the same cells) and the cells
+    they touch: the largest system the exact elimination solves at once."""
+    import scipy.sparse as sp
 
     if not blocks:
         return 0
     block = sp.vstack(blocks, format="coo")
     if block.nnz == 0:
         return 0
-    _, label = connected_components(sp.bmat([[None, block], [block.T, None]]), directed=False)
-    return int(np.bincount(label[block.row]).max())
+    return int(np.bincount(_connected(block)[block.row]).max())
 
 
 def _pivots(dense: FloatArray) -> list[int]:

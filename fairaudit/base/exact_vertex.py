@@ -6,7 +6,7 @@ equality row (the rows of a decision table summing to 1) met only to rounding. :
 <fairaudit.base.exact_duality.point_ratio>` then finds h outside the polytope P = {lower ≤ h ≤ upper, A_ub h ≤ b_ub,
 A_eq h = b_eq} and gives no witness. :func:`vertex_witness` reads the active set off h instead (a cell within a
 tolerance of a bound is at it, a row within it of its bound is active, every equality is), puts those cells at their
-bounds, solves the active rows exactly for one cell each (Gauss–Jordan elimination over :class:`fractions.Fraction`,
+bounds, solves the active rows exactly for one cell each (Gauss–Jordan elimination over the rationals, in integers,
 on the cells the elimination pivots on, chosen in floating point; every other cell keeps its float value), and checks
 the point it finds against every bound and row of P exactly. A point that passes lies in P, so its ratio, rounded
 down, is at most max_P (p·h)/(q·h): a certified lower end. The active set and the cells solved for are only read off
@@ -61,6 +61,11 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
     None when an equality is inconsistent with the others. An active inequality the others already decide is dropped
     (the point is checked against it after).
 
+    Each row is kept in integers, d·x_c + Σ t·x = b with d > 0 and the row divided by the gcd of its entries (a row
+    of :class:`~fractions.Fraction` is this row over d): an elimination step is integer products and one gcd per row,
+    where fractions would take a gcd per entry and operation. The pivot of a row is its cell of largest absolute
+    coefficient once the rows before it are eliminated (the first such cell, in the order of the row's terms).
+
     Parameters
     ----------
     equations : list of (dict of int to Fraction, Fraction, bool)
@@ -77,32 +82,41 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
     >>> gauss_jordan([({0: F(1), 1: F(1)}, F(1), True), ({0: F(1), 1: F(-1)}, F(0), True)])
     {0: ({}, Fraction(1, 2)), 1: ({}, Fraction(1, 2))}
     """
-    pivots: dict[int, tuple[_Row, Fraction]] = {}
+    pivots: dict[int, tuple[int, dict[int, int], int]] = {}  # pivot cell -> (d > 0, terms, b)
     for equation, rhs, equality in equations:
-        row = dict(equation)
-        for c in [c for c in row if c in pivots]:
-            f = row.pop(c)
-            other, other_rhs = pivots[c]
-            for cc, v in other.items():
-                row[cc] = row.get(cc, Fraction(0)) - f * v
-            rhs -= f * other_rhs
+        scale = math.lcm(rhs.denominator, *(v.denominator for v in equation.values()))
+        used = [(c, pivots[c]) for c in equation if c in pivots]
+        lead = math.lcm(1, *(d for _, (d, _, _) in used))  # every used pivot row is brought to this coefficient
+        row = {c: v.numerator * (scale // v.denominator) * lead for c, v in equation.items() if c not in pivots}
+        b = rhs.numerator * (scale // rhs.denominator) * lead
+        for c, (d, terms, other_b) in used:
+            f = equation[c].numerator * (scale // equation[c].denominator) * (lead // d)
+            for cc, v in terms.items():
+                row[cc] = row.get(cc, 0) - f * v
+            b -= f * other_b
         row = {c: v for c, v in row.items() if v}
         if not row:
-            if rhs and equality:
+            if b and equality:
                 return None
             continue
         c = max(row, key=lambda k: abs(row[k]))
-        f = row.pop(c)
-        row = {cc: v / f for cc, v in row.items()}
-        rhs /= f
-        for pc, (other, other_rhs) in list(pivots.items()):
-            g = other.pop(c, None)
-            if g is not None:
+        g = row.pop(c)
+        sign = 1 if g > 0 else -1
+        common = math.gcd(g, b, *row.values())
+        d, b = abs(g) // common, sign * b // common
+        row = {cc: sign * v // common for cc, v in row.items()}
+        for pc, (other_d, other, other_b) in list(pivots.items()):
+            h = other.pop(c, None)
+            if h is not None:
+                other = {cc: v * d for cc, v in other.items()}
                 for cc, v in row.items():
-                    other[cc] = other.get(cc, Fraction(0)) - g * v
-                pivots[pc] = ({k: v for k, v in other.items() if v}, other_rhs - g * rhs)
-        pivots[c] = (row, rhs)
-    return pivots
+                    other[cc] = other.get(cc, 0) - h * v
+                other = {k: v for k, v in other.items() if v}
+                other_d, other_b = other_d * d, other_b * d - h * b
+                common = math.gcd(other_d, other_b, *other.values())
+                pivots[pc] = (other_d // common, {k: v // common for k, v in other.items()}, other_b // common)
+        pivots[c] = (d, row, b)
+    return {c: ({cc: Fraction(v, d) for cc, v in terms.items()}, Fraction(b, d)) for c, (d, terms, b) in pivots.items()}
 
 
 def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:

@@ -180,6 +180,39 @@ def test_the_cells_solved_for_are_the_pivots_exact_elimination_takes(seed, n_row
     assert pivots is not None and set(np.flatnonzero(unknown).tolist()) == set(pivots)
 
 
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 7), st.integers(0, 8))
+def test_elimination_gives_back_a_point_every_row_passes_through(seed, n, m):
+    # rows with small integer and dyadic coefficients, some the sums of others, all met at a random rational point
+    # x0: the elimination pivots on exactly rank(rows) cells (numpy's rank of the small integer matrix, times 8), and
+    # the pivot cells, solved from x0's free cells, are x0's own values (every solution of the rows agrees on them)
+    rng = np.random.default_rng(seed)
+    a = rng.integers(-4, 5, (m, n)) * (rng.random((m, n)) < 0.6) / rng.choice([1, 2, 8], (m, 1))
+    if m >= 3:
+        a[2] = a[0] - 2 * a[1]
+    x0 = [Fraction(int(k), int(d)) for k, d in zip(rng.integers(-9, 10, n), rng.integers(1, 7, n), strict=True)]
+    equations = [
+        ({c: Fraction(v) for c, v in enumerate(row) if v}, sum((Fraction(v) * x for v, x in zip(row, x0)), Fraction(0)),
+         bool(e))
+        for row, e in zip(a.tolist(), rng.random(m) < 0.5, strict=True)
+    ]  # fmt: skip
+    pivots = ev.gauss_jordan(equations)
+    assert pivots is not None
+    assert len(pivots) == (np.linalg.matrix_rank(8 * a) if m else 0)
+    for c, (terms, rhs) in pivots.items():
+        assert c not in terms and not set(terms) & set(pivots)
+        assert rhs - sum((v * x0[cc] for cc, v in terms.items()), Fraction(0)) == x0[c]
+
+
+def test_an_equality_the_others_contradict_is_inconsistent_and_an_inequality_is_dropped():
+    # x + y = 1 and 2x + 2y = 3 cannot both hold; as an active inequality the second is decided by the first and
+    # dropped (its point is checked against it after)
+    F = Fraction
+    first = ({0: F(1), 1: F(1)}, F(1), True)
+    assert ev.gauss_jordan([first, ({0: F(2), 1: F(2)}, F(3), True)]) is None
+    assert ev.gauss_jordan([first, ({0: F(2), 1: F(2)}, F(3), False)]) == {0: ({1: F(1)}, F(1))}
+
+
 def test_a_row_the_others_decide_takes_no_cell_and_the_rest_keep_their_values():
     # the third row is the sum of the first two (exactly, in floats): two cells are solved for, one per independent
     # row, the largest coefficient of each (cell 0, then cell 2 once row 0 is eliminated from row 1); cell 3 keeps

@@ -9,7 +9,7 @@ them. No floating point: the data are :class:`fractions.Fraction` (or ints), the
 The method is the primal simplex with bounded variables over w, h = lower + (upper − lower)·w, 0 ≤ w ≤ 1, one slack
 per row of A_ub (Chvátal 1983, ch. 8), in integer-pivoting form (Edmonds 1967; Bareiss 1968): every row is scaled to
 integers and the tableau D·B⁻¹N of the nonbasic columns, D·(the basic values) and D·(the reduced costs) are kept in
-Python integers, D = det B, each pivot an exact integer division; fractions appear only in the answer. Phase 1 adds
+GMP integers (gmpy2), D = det B, each pivot an exact integer division; fractions appear only in the answer. Phase 1 adds
 one auxiliary column −t on the rows that h = lower violates and maximises −t (Chvátal 1983, ch. 3); phase 2 starts
 from its basis. The entering variable is the one of largest reduced cost (Dantzig's rule) until a step is
 degenerate, then the lowest-indexed improving one (Bland 1977) until a step is not; the leaving one is the
@@ -28,6 +28,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Literal
+
+from gmpy2 import mpz
 
 from fairaudit.base.errors import InputError
 
@@ -127,8 +129,8 @@ def _polytope(
 
 
 def _integers(row: Sequence[Fraction]) -> tuple[list[int], int]:
-    """A row of fractions times the positive lcm of their denominators: (integers, that multiplier)."""
-    scale = math.lcm(1, *(x.denominator for x in row))
+    """A row of fractions times the positive lcm of their denominators: (integers, as GMP's, that multiplier)."""
+    scale = mpz(math.lcm(1, *(x.denominator for x in row)))
     return [x.numerator * (scale // x.denominator) for x in row], scale
 
 
@@ -146,7 +148,7 @@ class _Simplex:
     the nonbasic columns (a basic one is D times a unit vector), as in integer pivoting (Edmonds 1967; Bareiss
     1968): ``matrix`` (m × (n + 1)) is D·B⁻¹ times the columns of the variables ``nonbasic``, ``rhs`` is D times the
     basic variables' values, ``reduced`` is D times the nonbasic ones' reduced costs for the current objective, all
-    Python integers, ``det`` = D = det B with its sign. A nonbasic variable sits at 0, or at its cap when
+    GMP integers, ``det`` = D = det B with its sign. A nonbasic variable sits at 0, or at its cap when
     ``at_upper``.
     """
 
@@ -191,7 +193,7 @@ class _Simplex:
         w = [Fraction(1 if self.at_upper[j] else 0) for j in range(self.n)]
         for j, b in zip(self.basis, self.rhs, strict=True):
             if j < self.n:
-                w[j] = Fraction(b, self.det)
+                w[j] = Fraction(int(b), int(self.det))
         point = tuple(a + d * x for a, d, x in zip(self.lower, self.width, w, strict=True))
         return _dot(cost, point), point
 

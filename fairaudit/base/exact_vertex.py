@@ -21,6 +21,7 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
+from gmpy2 import gcd, mpz
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, Rows, rational_point_ratio
@@ -84,9 +85,11 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
     """
     pivots: dict[int, tuple[int, dict[int, int], int]] = {}  # pivot cell -> (d > 0, terms, b)
     for equation, rhs, equality in equations:
-        scale = math.lcm(rhs.denominator, *(v.denominator for v in equation.values()))
+        scale = mpz(math.lcm(rhs.denominator, *(v.denominator for v in equation.values())))
         used = [(c, pivots[c]) for c in equation if c in pivots]
-        lead = math.lcm(1, *(d for _, (d, _, _) in used))  # every used pivot row is brought to this coefficient
+        lead = mpz(
+            math.lcm(1, *(int(d) for _, (d, _, _) in used))
+        )  # every used pivot row is brought to this coefficient
         row = {c: v.numerator * (scale // v.denominator) * lead for c, v in equation.items() if c not in pivots}
         b = rhs.numerator * (scale // rhs.denominator) * lead
         for c, (d, terms, other_b) in used:
@@ -102,7 +105,7 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
         c = max(row, key=lambda k: abs(row[k]))
         g = row.pop(c)
         sign = 1 if g > 0 else -1
-        common = math.gcd(g, b, *row.values())
+        common = gcd(g, b, *row.values())
         d, b = abs(g) // common, sign * b // common
         row = {cc: sign * v // common for cc, v in row.items()}
         for pc, (other_d, other, other_b) in list(pivots.items()):
@@ -113,10 +116,13 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
                     other[cc] = other.get(cc, 0) - h * v
                 other = {k: v for k, v in other.items() if v}
                 other_d, other_b = other_d * d, other_b * d - h * b
-                common = math.gcd(other_d, other_b, *other.values())
+                common = gcd(other_d, other_b, *other.values())
                 pivots[pc] = (other_d // common, {k: v // common for k, v in other.items()}, other_b // common)
         pivots[c] = (d, row, b)
-    return {c: ({cc: Fraction(v, d) for cc, v in terms.items()}, Fraction(b, d)) for c, (d, terms, b) in pivots.items()}
+    return {
+        c: ({cc: Fraction(int(v), int(d)) for cc, v in terms.items()}, Fraction(int(b), int(d)))
+        for c, (d, terms, b) in pivots.items()
+    }
 
 
 def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:

@@ -60,6 +60,18 @@ def test_a_linear_program_by_hand():
     assert result == LinearOptimum("optimal", F(5, 2), (F(1, 2), F(1)))
 
 
+def test_the_answers_are_fractions_of_python_integers():
+    # the simplex pivots in GMP's integers (gmpy2); its answers are Fractions of Python ints, which every caller may
+    # hash, print or pickle. By hand, on the unit box with 2·h0 + h1 <= 3/2 (vertices (0, 0), (3/4, 0), (1/4, 1),
+    # (0, 1)): max h0 + h1 = 5/4 at (1/4, 1); max (2·h0 + h1)/(h0 + h1) = 1 + h0/(h0 + h1) = 2 at (3/4, 0)
+    linear = maximize_linear([F(1), F(1)], [F(0), F(0)], [F(1), F(1)], [[F(2), F(1)]], [F(3, 2)])
+    ratio = maximize_ratio([F(2), F(1)], [F(1), F(1)], [F(0), F(0)], [F(1), F(1)], [[F(2), F(1)]], [F(3, 2)])
+    assert (linear.value, linear.point) == (F(5, 4), (F(1, 4), F(1)))
+    assert (ratio.value, ratio.point) == (F(2), (F(3, 4), F(0)))
+    numbers = [linear.value, *linear.point, ratio.value, *ratio.point]
+    assert {type(x.numerator) for x in numbers} == {type(x.denominator) for x in numbers} == {int}
+
+
 def test_negative_lower_bounds_and_a_fixed_variable():
     # h_1 is fixed at -2; max h_0 - h_2 with h_0 + h_1 ≤ 0 over h_0 in [-3, 5], h_2 in [-1, 1]
     result = maximize_linear([1, 7, -1], [-3, -2, -1], [5, -2, 1], [[1, 1, 0]], [0])

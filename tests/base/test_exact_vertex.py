@@ -202,6 +202,7 @@ def test_elimination_gives_back_a_point_every_row_passes_through(seed, n, m):
     for c, (terms, rhs) in pivots.items():
         assert c not in terms and not set(terms) & set(pivots)
         assert rhs - sum((v * x0[cc] for cc, v in terms.items()), Fraction(0)) == x0[c]
+        assert all(type(x.numerator) is int for x in (rhs, *terms.values()))  # (GMP's integers stay inside)
 
 
 def test_an_equality_the_others_contradict_is_inconsistent_and_an_inequality_is_dropped():

@@ -42,6 +42,7 @@ __all__ = [
     "rational_point_ratio",
     "refine_duals",
     "smallest_root",
+    "smallest_root_of_integers",
     "vertex_ratio",
 ]
 
@@ -572,18 +573,36 @@ def smallest_root(
     >>> smallest_root([[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]], F(0))
     Fraction(6, 1)
     """
+    if not c:
+        return Fraction(0) if constant <= 0 else None
+    top, d = on_one_denominator(c)
+    q, e = on_one_denominator(bottoms)
+    return smallest_root_of_integers(np.array(top, dtype=object), d, np.array(q, dtype=object), e, constant)
+
+
+def smallest_root_of_integers(top: Any, d: int, q: Any, e: int, constant: Fraction) -> Fraction | None:
+    """:func:`smallest_root` of c = ``top``/d and the bottoms ``q``/e, integers (object arrays of shape (n_rows,
+    n_decisions), at least one row; d, e > 0): the same Newton steps, each row's maximum and its steepest maximiser
+    taken over the whole array at once, in integers (B at λ = a/b times d·e·b).
+
+    Examples
+    --------
+    >>> top, q = np.array([[6, 0], [2, 0]], dtype=object), np.array([[1, 0], [3, 0]], dtype=object)
+    >>> smallest_root_of_integers(top, 8, q, 8, Fraction(0))
+    Fraction(6, 1)
+    """
     lam = Fraction(0)
     while True:
-        total, slope = constant, Fraction(0)
-        for cr, qr in zip(c, bottoms, strict=True):
-            best, steep = max(((ci - lam * qi, qi) for ci, qi in zip(cr, qr, strict=True)))
-            total += best
-            slope += steep  # the right derivative: among a row's maximisers the steepest descent
+        a, b = lam.numerator, lam.denominator
+        values = top * (e * b) - q * (d * a)  # (c − λq)·d·e·b, exactly
+        best = values.max(axis=1)
+        total = Fraction(int(best.sum())) + constant * (d * e * b)
         if total <= 0:
             return lam
-        if slope == 0:
+        steep = int(np.where(values == best[:, None], q, -1).max(axis=1).sum())  # (e times the right derivative)
+        if steep == 0:
             return None
-        lam += total / slope  # the tangent's root: at most the smallest root (the function is convex)
+        lam += total / (d * b * steep)  # the tangent's root: at most the smallest root (the function is convex)
 
 
 def on_one_denominator(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:

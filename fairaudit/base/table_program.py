@@ -28,7 +28,12 @@ from typing import cast
 
 import numpy as np
 
-from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, on_one_denominator, smallest_root
+from fairaudit.base.exact_duality import (
+    ACTIVE_TOLERANCES,
+    on_one_denominator,
+    smallest_root,
+    smallest_root_of_integers,
+)
 from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.outward import quotient_nearest
@@ -109,20 +114,36 @@ class TableProgram:
         return self._bounds[key]
 
     def _dual_bound(self, nu: Row | None) -> Number:
-        c = [list(p) for p in self.tops]
         constant = Fraction(0)
         if nu is not None and self.tau is not None:
             if len(nu) != len(self.floors) or any(v < 0 for v in nu):
                 return INF
             constant = -self.tau * sum(nu, Fraction(0))
-            for v, floor in zip(nu, self.floors, strict=True):
-                for row, coefficients in floor.items() if v else ():
-                    c[row] = [ci + v * fi for ci, fi in zip(c[row], coefficients, strict=True)]
-        lam = smallest_root(c, self.bottoms, constant)
+        if not self.tops:
+            lam: Fraction | None = Fraction(0) if constant <= 0 else None
+        else:
+            (top, d), (q, e) = self._integer_pq
+            live = [] if nu is None or self.tau is None else [f for f, v in enumerate(nu) if v]
+            if live:  # c = p + Σ_f ν_f F_f over one denominator d·n·g: top·n·g + d·(ν's integers)·(the floors')
+                assert nu is not None  # (live is empty without ν)
+                (weights,), n = on_one_denominator([[nu[f] for f in live]])
+                floors, g = self._floor_matrix
+                added = np.array(weights, dtype=object) @ floors[live]
+                top, d = top * (n * g) + d * added.reshape(top.shape), d * n * g
+            lam = smallest_root_of_integers(top, d, q, e, constant)
         if lam is None:
             return INF
         zero = all(any(qi == 0 for qi in qr) for qr in self.bottoms)
         return max(lam, Fraction(1)) if zero else lam
+
+    @functools.cached_property
+    def _integer_pq(self) -> tuple[tuple[np.ndarray, int], tuple[np.ndarray, int]]:
+        """p and q as integers over one denominator each: object arrays of shape (n_rows, n_decisions)."""
+        out = []
+        for rows in (self.tops, self.bottoms):
+            ints, d = on_one_denominator(rows)
+            out.append((np.array(ints, dtype=object).reshape(len(rows), -1), d))
+        return out[0], out[1]
 
     def floor_bound(self, kept: Fraction) -> tuple[Fraction, list[list[Fraction]]] | None:
         """The program's value with q·K ≥ ``kept`` its only floor, exactly, with a table attaining it: an upper bound

@@ -179,8 +179,8 @@ def test_the_bound_at_a_multiplier_is_one_exact_root_however_often_it_is_asked(m
     # certify bounds a program at the solver's ν, then points to a table from that ν; verify asks at ν up to three
     # times: the root is found once per ν (10/3 at ν = (0, 8/3), 6 without floors, by hand in the class's docstring)
     roots = []
-    real = table_program.smallest_root
-    monkeypatch.setattr(table_program, "smallest_root", lambda *args: roots.append(1) or real(*args))
+    real = table_program.smallest_root_of_integers
+    monkeypatch.setattr(table_program, "smallest_root_of_integers", lambda *args: roots.append(1) or real(*args))
     p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
     floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
     program = TableProgram(p, q, floors, F(1, 4))

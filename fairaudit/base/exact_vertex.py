@@ -37,8 +37,8 @@ ELIMINATION_LIMIT = 1024
 the other cells' terms moved to the right-hand side); a larger one gets no vertex. The elimination's integers grow
 with it: over the model's table at 27 groups behind a product, systems of 500 to 1,024 nonzeros took 0.03 s each
 and those of 1,024 to 1,766 0.1 s (0.23 s at most); without the limit, certify solved 217 of the larger ones, 22 s
-of its 149 s (124 s with it), for witnesses higher by 2e-12 and 8e-11 relative. The program's other nonzeros do not count: its
-rows outside the system are only checked, in integers (0.35 s at 2.2 million)."""
+of its 149 s (124 s with it), for witnesses higher by 2e-12 and 8e-11 relative. The program's other nonzeros do
+not count: its rows outside the system are only checked, in integers (0.35 s at 2.2 million)."""
 
 PIVOT_TOLERANCE = 1e-9
 """Relative to a row's largest coefficient: what is left of it after elimination, below this, is taken as rounding
@@ -88,9 +88,8 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
     for equation, rhs, equality in equations:
         scale = mpz(math.lcm(rhs.denominator, *(v.denominator for v in equation.values())))
         used = [(c, pivots[c]) for c in equation if c in pivots]
-        lead = mpz(
-            math.lcm(1, *(int(d) for _, (d, _, _) in used))
-        )  # every used pivot row is brought to this coefficient
+        # every pivot row the equation uses is brought to one coefficient, lead, before it is subtracted
+        lead = mpz(math.lcm(1, *(int(d) for _, (d, _, _) in used)))
         row = {c: v.numerator * (scale // v.denominator) * lead for c, v in equation.items() if c not in pivots}
         b = rhs.numerator * (scale // rhs.denominator) * lead
         for c, (d, terms, other_b) in used:

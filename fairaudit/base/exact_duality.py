@@ -581,12 +581,27 @@ def smallest_root(
 
 
 def smallest_root_of_integers(top: Any, d: int, q: Any, e: int, constant: Fraction) -> Fraction | None:
-    """:func:`smallest_root` of c = ``top``/d and the bottoms ``q``/e, integers (object arrays of shape (n_rows,
-    n_decisions), at least one row; d, e > 0): the same Newton steps, each row's maximum and its steepest maximiser
-    taken over the whole array at once, in integers (B at λ = a/b times d·e·b).
+    """:func:`smallest_root` with c and q as integers over one denominator each: the same Newton steps, each row's
+    maximum and its steepest maximiser taken over the whole array at once, in integers (B at λ = a/b times d·e·b).
+
+    Parameters
+    ----------
+    top, q : numpy.ndarray of int (dtype object), shape (n_rows, n_decisions)
+        c·d and q·e: the rows' coefficients of the Lagrangian's numerator and of q (q ≥ 0), at least one row.
+    d, e : int
+        Their denominators, > 0.
+    constant : Fraction
+        Added to the rows' maxima.
+
+    Returns
+    -------
+    Fraction or None
+        The smallest λ ≥ 0 with B(λ) ≤ 0; None when there is none.
 
     Examples
     --------
+    :func:`smallest_root`'s example, c and q over 8:
+
     >>> top, q = np.array([[6, 0], [2, 0]], dtype=object), np.array([[1, 0], [3, 0]], dtype=object)
     >>> smallest_root_of_integers(top, 8, q, 8, Fraction(0))
     Fraction(6, 1)

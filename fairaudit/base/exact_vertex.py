@@ -87,13 +87,14 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
     pivots: dict[int, tuple[int, dict[int, int], int]] = {}  # pivot cell -> (d > 0, terms, b)
     for equation, rhs, equality in equations:
         scale = mpz(math.lcm(rhs.denominator, *(v.denominator for v in equation.values())))
-        used = [(c, pivots[c]) for c in equation if c in pivots]
+        ints = {c: v.numerator * (scale // v.denominator) for c, v in equation.items()}
+        used = [(c, pivots[c]) for c in ints if c in pivots]
         # every pivot row the equation uses is brought to one coefficient, lead, before it is subtracted
-        lead = mpz(math.lcm(1, *(int(d) for _, (d, _, _) in used)))
-        row = {c: v.numerator * (scale // v.denominator) * lead for c, v in equation.items() if c not in pivots}
+        lead = mpz(math.lcm(1, *(d for _, (d, _, _) in used)))
+        row = {c: v * lead for c, v in ints.items() if c not in pivots}
         b = rhs.numerator * (scale // rhs.denominator) * lead
         for c, (d, terms, other_b) in used:
-            f = equation[c].numerator * (scale // equation[c].denominator) * (lead // d)
+            f = ints[c] * (lead // d)
             for cc, v in terms.items():
                 row[cc] = row.get(cc, 0) - f * v
             b -= f * other_b
@@ -103,26 +104,25 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
                 return None
             continue
         c = max(row, key=lambda k: abs(row[k]))
-        g = row.pop(c)
-        sign = 1 if g > 0 else -1
-        common = gcd(g, b, *row.values())
-        d, b = abs(g) // common, sign * b // common
-        row = {cc: sign * v // common for cc, v in row.items()}
+        d, row, b = _primitive(row.pop(c), row, b)
         for pc, (other_d, other, other_b) in list(pivots.items()):
             h = other.pop(c, None)
             if h is not None:
                 other = {cc: v * d for cc, v in other.items()}
                 for cc, v in row.items():
                     other[cc] = other.get(cc, 0) - h * v
-                other = {k: v for k, v in other.items() if v}
-                other_d, other_b = other_d * d, other_b * d - h * b
-                common = gcd(other_d, other_b, *other.values())
-                pivots[pc] = (other_d // common, {k: v // common for k, v in other.items()}, other_b // common)
+                pivots[pc] = _primitive(other_d * d, {k: v for k, v in other.items() if v}, other_b * d - h * b)
         pivots[c] = (d, row, b)
     return {
         c: ({cc: Fraction(int(v), int(d)) for cc, v in terms.items()}, Fraction(int(b), int(d)))
         for c, (d, terms, b) in pivots.items()
     }
+
+
+def _primitive(d: Any, terms: dict[int, Any], b: Any) -> tuple[Any, dict[int, Any], Any]:
+    """The row d·x + Σ t·x = b (integers, d ≠ 0) divided by the gcd of its entries, its sign turned so that d > 0."""
+    common = gcd(d, b, *terms.values()) * (1 if d > 0 else -1)
+    return d // common, {c: v // common for c, v in terms.items()}, b // common
 
 
 def _pivot_cells(active: list[Any], interior: BoolArray) -> BoolArray | None:

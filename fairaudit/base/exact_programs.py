@@ -29,8 +29,6 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Literal
 
-from gmpy2 import mpz
-
 from fairaudit.base.errors import InputError
 
 __all__ = [
@@ -130,6 +128,8 @@ def _polytope(
 
 def _integers(row: Sequence[Fraction]) -> tuple[list[int], int]:
     """A row of fractions times the positive lcm of their denominators: (integers, as GMP's, that multiplier)."""
+    from gmpy2 import mpz  # (imported where used: ``import fairaudit`` does not load GMP)
+
     scale = mpz(math.lcm(1, *(x.denominator for x in row)))
     return [x.numerator * (scale // x.denominator) for x in row], scale
 

@@ -21,7 +21,6 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-from gmpy2 import gcd, mpz
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES, Rows, rational_point_ratio
@@ -84,6 +83,8 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
     >>> gauss_jordan([({0: F(1), 1: F(1)}, F(1), True), ({0: F(1), 1: F(-1)}, F(0), True)])
     {0: ({}, Fraction(1, 2)), 1: ({}, Fraction(1, 2))}
     """
+    from gmpy2 import mpz  # (GMP's integers: the rows' entries grow to thousands of bits)
+
     pivots: dict[int, tuple[int, dict[int, int], int]] = {}  # pivot cell -> (d > 0, terms, b)
     for equation, rhs, equality in equations:
         scale = mpz(math.lcm(rhs.denominator, *(v.denominator for v in equation.values())))
@@ -121,6 +122,8 @@ def gauss_jordan(equations: list[tuple[_Row, Fraction, bool]]) -> dict[int, tupl
 
 def _primitive(d: Any, terms: dict[int, Any], b: Any) -> tuple[Any, dict[int, Any], Any]:
     """The row d·x + Σ t·x = b (integers, d ≠ 0) divided by the gcd of its entries, its sign turned so that d > 0."""
+    from gmpy2 import gcd
+
     common = gcd(d, b, *terms.values()) * (1 if d > 0 else -1)
     return d // common, {c: v // common for c, v in terms.items()}, b // common
 

@@ -596,7 +596,12 @@ def smallest_root_of_integers(top: Any, d: int, q: Any, e: int, constant: Fracti
     Returns
     -------
     Fraction or None
-        The smallest λ ≥ 0 with B(λ) ≤ 0; None when there is none.
+        The smallest λ ≥ 0 with B(λ) ≤ 0 (a ratio; its log is in nats); None when there is none.
+
+    Notes
+    -----
+    Newton's method on the convex, piecewise-linear B, and the weak-duality bound it gives:
+    ``proofs/verification.md`` §4f.
 
     Examples
     --------

@@ -120,7 +120,7 @@ class TableProgram:
                 return INF
             constant = -self.tau * sum(nu, Fraction(0))
         if not self.tops:
-            lam: Fraction | None = Fraction(0) if constant <= 0 else None
+            lam = smallest_root([], [], constant)
         else:
             (top, d), (q, e) = self._integer_pq
             live = [] if nu is None or self.tau is None else [f for f, v in enumerate(nu) if v]

@@ -9,7 +9,8 @@ them. No floating point: the data are :class:`fractions.Fraction` (or ints), the
 The method is the primal simplex with bounded variables over w, h = lower + (upper − lower)·w, 0 ≤ w ≤ 1, one slack
 per row of A_ub (Chvátal 1983, ch. 8), in integer-pivoting form (Edmonds 1967; Bareiss 1968): every row is scaled to
 integers and the tableau D·B⁻¹N of the nonbasic columns, D·(the basic values) and D·(the reduced costs) are kept in
-GMP integers (gmpy2), D = det B, each pivot an exact integer division; fractions appear only in the answer. Phase 1 adds
+GMP integers (gmpy2), D = det B, each pivot an exact integer division; fractions appear only in the answer, with the
+rows' multipliers (an optimal dual) read off the last basis's reduced costs of the slacks. Phase 1 adds
 one auxiliary column −t on the rows that h = lower violates and maximises −t (Chvátal 1983, ch. 3); phase 2 starts
 from its basis. The entering variable is the one of largest reduced cost (Dantzig's rule) until a step is
 degenerate, then the lowest-indexed improving one (Bland 1977) until a step is not; the leaving one is the
@@ -56,11 +57,15 @@ class LinearOptimum:
         max c·h over the polytope, exactly; None when infeasible.
     point : tuple of Fraction or None
         A vertex h of the polytope with c·h = value (length n); None when infeasible.
+    multipliers : tuple of Fraction or None
+        An optimal dual on the rows of A_ub, y ≥ 0 (length m), from the simplex's last basis: max over the box of
+        (c − yᵀA_ub)·h, plus y·b_ub, is the value (so y proves it, by weak duality); None when infeasible.
     """
 
     status: Literal["optimal", "infeasible"]
     value: Fraction | None
     point: tuple[Fraction, ...] | None
+    multipliers: tuple[Fraction, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -78,11 +83,16 @@ class RatioOptimum:
     point : tuple of Fraction or None
         When optimal, a vertex h with q·h > 0 and (p·h)/(q·h) = value; for "zero_denominator", a vertex with
         q·h < 0, or with q·h = 0 (everywhere, or with p·h > 0); None when infeasible.
+    multipliers : tuple of Fraction or None
+        When optimal, a dual of the last step on the rows of A_ub, y ≥ 0 (length m; over a product, the blocks' rows
+        one after the other), from the simplex's last basis: max over the box of (p − value·q − yᵀA_ub)·h, plus
+        y·b_ub, is 0, which proves p·h ≤ value·q·h on the polytope; None unless optimal.
     """
 
     status: Literal["optimal", "infeasible", "zero_denominator"]
     value: Fraction | None
     point: tuple[Fraction, ...] | None
+    multipliers: tuple[Fraction, ...] | None = None
 
 
 def _vector(name: str, values: Sequence[Rational], length: int | None = None) -> list[Fraction]:
@@ -160,10 +170,13 @@ class _Simplex:
         self.width = [b - a for a, b in zip(lower, upper, strict=True)]
         self.matrix: list[list[int]] = []
         self.rhs: list[int] = []
+        self.scales: list[int] = []  # (what each row was multiplied by, and the objective, for the multipliers)
         for row, bound in zip(rows, rhs, strict=True):
-            ints, _ = _integers([*(a * w for a, w in zip(row, self.width, strict=True)), bound - _dot(row, lower)])
+            ints, scale = _integers([*(a * w for a, w in zip(row, self.width, strict=True)), bound - _dot(row, lower)])
             self.matrix.append([*ints[:-1], -1 if ints[-1] < 0 else 0])
             self.rhs.append(ints[-1])
+            self.scales.append(scale)
+        self.cost_scale = 1
         self.cap: list[int | None] = [1] * n + [None] * (m + 1)
         self.basis = list(range(n, n + m))
         self.nonbasic = [*range(n), n + m]
@@ -187,7 +200,7 @@ class _Simplex:
 
     def maximize(self, cost: Sequence[Fraction]) -> tuple[Fraction, tuple[Fraction, ...]]:
         """Phase 2 for the objective cost·h (length n) from the current feasible basis: (max, a vertex attaining it)."""
-        ints, _ = _integers([c * w for c, w in zip(cost, self.width, strict=True)])
+        ints, self.cost_scale = _integers([c * w for c, w in zip(cost, self.width, strict=True)])
         self._install(ints + [0] * (self.m + 1))
         self._run()
         w = [Fraction(1 if self.at_upper[j] else 0) for j in range(self.n)]
@@ -196,6 +209,18 @@ class _Simplex:
                 w[j] = Fraction(int(b), int(self.det))
         point = tuple(a + d * x for a, d, x in zip(self.lower, self.width, w, strict=True))
         return _dot(cost, point), point
+
+    def multipliers(self) -> tuple[Fraction, ...]:
+        """The dual on the rows after :meth:`maximize`: y_i = −(the reduced cost of row i's slack) where the slack is
+        nonbasic, else 0 (≥ 0 at the optimum), back in the row's and the objective's own units (times the row's
+        scale, over the objective's). The reduced costs of the w's then have the signs of their bounds, so y proves
+        the maximum (complementary slackness)."""
+        y = [Fraction(0)] * self.m
+        for j, d in zip(self.nonbasic, self.reduced, strict=True):
+            if self.n <= j < self.aux:
+                i = j - self.n
+                y[i] = Fraction(-int(d) * int(self.scales[i]), int(self.det) * int(self.cost_scale))
+        return tuple(y)
 
     def _install(self, cost: list[int]) -> None:
         """The reduced costs of the objective ``cost`` (integers, one per variable) for the current basis, times D."""
@@ -334,8 +359,11 @@ def maximize_linear(
     Examples
     --------
     >>> from fractions import Fraction as F
-    >>> maximize_linear([1, 1], [0, 0], [1, 1], [[1, 2]], [F(3, 2)])
-    LinearOptimum(status='optimal', value=Fraction(5, 4), point=(Fraction(1, 1), Fraction(1, 4)))
+    >>> maximize_linear([1, 1], [0, 0], [1, 1], [[1, 2]], [F(3, 2)])  # doctest: +NORMALIZE_WHITESPACE
+    LinearOptimum(status='optimal', value=Fraction(5, 4), point=(Fraction(1, 1), Fraction(1, 4)),
+                  multipliers=(Fraction(1, 2),))
+
+    The multiplier proves it: 1/2 · 3/2 + max over the box of (1 − 1/2, 1 − 2 · 1/2)·h = 3/4 + 1/2 = 5/4.
     >>> maximize_linear([1], [0], [1], [[-1]], [-2]).status
     'infeasible'
     """
@@ -346,7 +374,7 @@ def maximize_linear(
     if not simplex.feasible():
         return LinearOptimum("infeasible", None, None)
     value, point = simplex.maximize(cost)
-    return LinearOptimum("optimal", value, point)
+    return LinearOptimum("optimal", value, point, simplex.multipliers())
 
 
 def maximize_ratio(
@@ -415,8 +443,9 @@ def maximize_ratio(
 
     >>> from fractions import Fraction as F
     >>> p, q = [F(7, 10), F(3, 10)], [F(3, 10), F(7, 10)]
-    >>> maximize_ratio(p, q, [0, 0], [1, 1], [], [])
-    RatioOptimum(status='optimal', value=Fraction(7, 3), point=(Fraction(1, 1), Fraction(0, 1)))
+    >>> maximize_ratio(p, q, [0, 0], [1, 1], [], [])  # doctest: +NORMALIZE_WHITESPACE
+    RatioOptimum(status='optimal', value=Fraction(7, 3), point=(Fraction(1, 1), Fraction(0, 1)),
+                 multipliers=())
     >>> maximize_ratio(p, q, [0, 0], [1, 1], [[-q[0], -q[1]]], [F(-1, 2)]).value
     Fraction(11, 7)
 
@@ -574,7 +603,8 @@ def maximize_ratio_over_product(
     while True:
         gap, vertex = step(ratio)
         if gap == 0:
-            return RatioOptimum("optimal", ratio, point)
+            duals = tuple(y for poly in polytopes for y in poly._simplex.multipliers())
+            return RatioOptimum("optimal", ratio, point, duals)
         scale = _dot(denominator, vertex)
         if scale == 0:
             return RatioOptimum("zero_denominator", None, vertex)  # q·h = 0 < p·h here: the ratio is unbounded

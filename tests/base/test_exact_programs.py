@@ -30,6 +30,18 @@ def dot(a, b):
     return sum((F(x) * F(y) for x, y in zip(a, b, strict=True)), F(0))
 
 
+def proves(multipliers, cost, lower, upper, A_ub, b_ub, value):
+    """Weak duality, computed apart from the simplex: y >= 0 on the rows and y·b + max over the box of
+    (cost - yᵀA)·h equal to ``value``."""
+    if multipliers is None or len(multipliers) != len(A_ub) or any(y < 0 for y in multipliers):
+        return False
+    reduced = [
+        F(c) - sum((y * F(row[j]) for y, row in zip(multipliers, A_ub, strict=True)), F(0)) for j, c in enumerate(cost)
+    ]
+    box = sum((d * F(hi if d > 0 else lo) for d, lo, hi in zip(reduced, lower, upper, strict=True)), F(0))
+    return box + dot(multipliers, b_ub) == value
+
+
 def feasible(point, lower, upper, A_ub, b_ub):
     """The point lies in the polytope, exactly."""
     return all(lo <= h <= hi for h, lo, hi in zip(point, lower, upper, strict=True)) and all(
@@ -43,7 +55,7 @@ def feasible(point, lower, upper, A_ub, b_ub):
 def test_the_box_ratio_is_the_threshold_rules():
     """max (p·h)/(q·h) over [0, 1]² puts h = 1 where p/q is above the optimum: h = (1, 0), 7/3 (h = 0 is 0/0)."""
     result = maximize_ratio(P, Q, [0, 0], [1, 1], [], [])
-    assert result == RatioOptimum("optimal", F(7, 3), (F(1), F(0)))
+    assert result == RatioOptimum("optimal", F(7, 3), (F(1), F(0)), ())
 
 
 def test_a_floor_on_the_denominator():
@@ -55,9 +67,10 @@ def test_a_floor_on_the_denominator():
 
 
 def test_a_linear_program_by_hand():
-    # max x + 2y over [0, 1]² with x + y ≤ 3/2: y = 1, x = 1/2
+    # max x + 2y over [0, 1]² with x + y ≤ 3/2: y = 1, x = 1/2; x between its bounds makes its reduced cost
+    # 1 - y_row zero, so the row's multiplier is 1 (and 1·3/2 + max over the box of (0, 1)·h = 5/2)
     result = maximize_linear([1, 2], [0, 0], [1, 1], [[1, 1]], [F(3, 2)])
-    assert result == LinearOptimum("optimal", F(5, 2), (F(1, 2), F(1)))
+    assert result == LinearOptimum("optimal", F(5, 2), (F(1, 2), F(1)), (F(1),))
 
 
 def test_the_answers_are_fractions_of_python_integers():
@@ -74,8 +87,9 @@ def test_the_answers_are_fractions_of_python_integers():
 
 def test_negative_lower_bounds_and_a_fixed_variable():
     # h_1 is fixed at -2; max h_0 - h_2 with h_0 + h_1 ≤ 0 over h_0 in [-3, 5], h_2 in [-1, 1]
+    # (h_0 between its bounds: the row's multiplier is its cost, 1)
     result = maximize_linear([1, 7, -1], [-3, -2, -1], [5, -2, 1], [[1, 1, 0]], [0])
-    assert result == LinearOptimum("optimal", F(2) - 14 + 1, (F(2), F(-2), F(-1)))
+    assert result == LinearOptimum("optimal", F(2) - 14 + 1, (F(2), F(-2), F(-1)), (F(1),))
 
 
 def test_an_infeasible_polytope():
@@ -89,9 +103,12 @@ def test_an_infeasible_polytope():
 def test_a_polytope_of_one_point():
     # x + y ≤ 0 over [0, 1]²: only h = 0; phase 1 is not needed, every step is degenerate
     result = maximize_linear([3, 5], [0, 0], [1, 1], [[1, 1]], [0])
-    assert result == LinearOptimum("optimal", F(0), (F(0), F(0)))
-    # x + y ≥ 2 over [0, 1]²: only h = (1, 1), reached by phase 1
-    assert maximize_linear([-3, 5], [0, 0], [1, 1], [[-1, -1]], [-2]) == LinearOptimum("optimal", F(2), (F(1), F(1)))
+    assert (result.status, result.value, result.point) == ("optimal", F(0), (F(0), F(0)))
+    assert result.multipliers is not None and result.multipliers[0] >= 5  # (every y >= 5 proves 0; no smaller one)
+    # x + y ≥ 2 over [0, 1]²: only h = (1, 1), reached by phase 1; every y >= 3 proves 2 (5 + y + max(y - 3, 0) - 2y)
+    result = maximize_linear([-3, 5], [0, 0], [1, 1], [[-1, -1]], [-2])
+    assert (result.status, result.value, result.point) == ("optimal", F(2), (F(1), F(1)))
+    assert result.multipliers is not None and result.multipliers[0] >= 3
 
 
 def test_degenerate_ties_do_not_cycle():
@@ -111,7 +128,8 @@ def test_redundant_rows_through_the_optimum():
     result = maximize_linear([1, 1], [0, 0], [1, 1], A, b)
     assert result.value == 1 and feasible(result.point, [0, 0], [1, 1], A, b)
     ratio = maximize_ratio([1, 1], [1, 2], [0, 0], [1, 1], A, b)
-    assert ratio == RatioOptimum("optimal", F(1), (F(1), F(0)))
+    assert (ratio.status, ratio.value, ratio.point) == ("optimal", F(1), (F(1), F(0)))
+    assert proves(ratio.multipliers, [0, -1], [0, 0], [1, 1], A, b, F(0))  # (p - 1·q = (0, -1))
 
 
 def test_ties_in_the_ratio():
@@ -137,7 +155,7 @@ def test_no_finite_maximum(p, q, lower, why):
 
 def test_a_positive_denominator_is_accepted_when_it_is_positive_everywhere():
     result = maximize_ratio([1, -1], [1, 1], [1, 1], [2, 2], [], [])
-    assert result == RatioOptimum("optimal", F(1, 3), (F(2), F(1)))
+    assert result == RatioOptimum("optimal", F(1, 3), (F(2), F(1)), ())
 
 
 # --- a guess at the maximum ---------------------------------------------------------------------------------------
@@ -164,19 +182,22 @@ def test_a_guess_near_the_maximum_takes_two_steps(monkeypatch, start):
     the maximiser and a second proves it (gap 0), where without a guess the denominator's minimum and maximum come
     first (four phase-2 runs)."""
     rows, bounds = [[-Q[0], -Q[1]]], [F(-1, 2)]
+    # the floor's multiplier by hand: at 11/7, p - 11/7·q = (8/35, -4/5), and h_1 between its bounds makes
+    # -4/5 + y·7/10 zero: y = 8/7 (then 4/7 from h_0 at 1, less 8/7·1/2: 0)
+    expected = RatioOptimum("optimal", F(11, 7), (F(1), F(2, 7)), (F(8, 7),))
     calls = phase_twos(monkeypatch)
-    assert maximize_ratio(P, Q, [0, 0], [1, 1], rows, bounds) == RatioOptimum("optimal", F(11, 7), (F(1), F(2, 7)))
+    assert maximize_ratio(P, Q, [0, 0], [1, 1], rows, bounds) == expected
     assert len(calls) == 4
     calls.clear()
     result = maximize_ratio(P, Q, [0, 0], [1, 1], rows, bounds, start=start)
-    assert result == RatioOptimum("optimal", F(11, 7), (F(1), F(2, 7))) and len(calls) == 2
+    assert result == expected and len(calls) == 2
 
 
 def test_a_guess_whose_vertex_is_zero_over_zero_starts_as_without_one():
     """max (h1 − h2)/h1 over [0, 1]² is 1 (h2 = 0); at the guess 2 the step maximises −h1 − h2, whose vertex
     h = 0 has no ratio: the search starts from the denominator's maximiser instead, and still finds 1."""
     assert maximize_ratio([1, -1], [1, 0], [0, 0], [1, 1], [], [], start=2) == RatioOptimum(
-        "optimal", F(1), (F(1), F(0))
+        "optimal", F(1), (F(1), F(0)), ()
     )
 
 
@@ -358,6 +379,36 @@ def test_any_guess_gives_the_answer_without_one(polytope, numerator, denominator
     if guessed.status == "optimal":
         h = guessed.point
         assert feasible(h, lower, upper, A, b) and dot(q, h) > 0 and dot(p, h) / dot(q, h) == guessed.value
+
+
+@given(
+    polytopes(positive=True),
+    st.lists(small, min_size=6, max_size=6),
+    st.lists(st.builds(F, st.integers(0, 5), st.integers(1, 4)), min_size=6, max_size=6),
+    st.one_of(st.none(), st.builds(F, st.integers(-20, 20), st.integers(1, 8))),
+)
+def test_the_multipliers_prove_the_optimum_by_weak_duality(polytope, numerator, denominator, guess):
+    """The rows' multipliers, checked apart from the simplex: y >= 0 with y·b + max over the box of (c - yᵀA)·h
+    the linear maximum exactly, and, for the ratio, 0 at c = p - value·q (so p·h <= value·q·h on the polytope),
+    with or without a guess; as one program of two blocks, the blocks' multipliers one after the other."""
+    lower, upper, A, b = polytope
+    n = len(lower)
+    p, q = numerator[:n], denominator[:n]
+    linear = maximize_linear(p, lower, upper, A, b)
+    if linear.status == "infeasible":
+        assert linear.multipliers is None
+    else:
+        assert proves(linear.multipliers, p, lower, upper, A, b, linear.value)
+    ratio = maximize_ratio(p, q, lower, upper, A, b, start=guess)
+    if ratio.status != "optimal":
+        assert ratio.multipliers is None
+        return
+    assert proves(ratio.multipliers, [x - ratio.value * y for x, y in zip(p, q)], lower, upper, A, b, F(0))
+    both = maximize_ratio_over_product([Polytope(lower, upper, A, b, n) for _ in range(2)], [p, q], [q, p])
+    if both.status == "optimal":
+        lo, hi, rows, bounds = block_diagonal([polytope, polytope])
+        cost = [x - both.value * y for x, y in zip([*p, *q], [*q, *p])]
+        assert proves(both.multipliers, cost, lo, hi, rows, bounds, F(0))
 
 
 def block_diagonal(blocks):

@@ -38,7 +38,7 @@ from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.outward import quotient_nearest
 
-__all__ = ["EXACT_SHARES", "POINTED_CHOICES", "TableProgram"]
+__all__ = ["EXACT_CHOICES", "EXACT_SHARES", "POINTED_CHOICES", "PointedMaximum", "TableProgram"]
 
 INF = math.inf
 Number = Fraction | float
@@ -51,8 +51,40 @@ as many floors), to find among the relaxation's maximisers one that meets every 
 
 POINTED_CHOICES = 96
 """The most decisions, summed over the rows, beyond each row's first that :meth:`TableProgram.pointed_value` keeps for
-its restricted program (one unknown each, within the rational simplex's size): a degenerate optimum whose multipliers
-tie whole rows needs them all (seven rows of ten decisions at randomized response's 10 nats: 71)."""
+its restricted program by default (one unknown each; a program of 96 takes about 0.1 s): a degenerate optimum whose
+multipliers tie whole rows needs them all (seven rows of ten decisions at randomized response's 10 nats: 71)."""
+
+EXACT_CHOICES = 512
+"""The most decisions, summed over the rows, beyond each row's first that the rational simplex takes for
+:meth:`TableProgram.pointed_maximiser`'s restricted program where certify asks for the value itself: 18 groups behind
+a product with three contexts behind a matrix, where about a dozen programs tie exactly by the groups' symmetry, keep
+300 to 450 of 540 (54 rows of 11 decisions, 54 floors), each solved in about 2 s."""
+
+
+@dataclass(frozen=True)
+class PointedMaximum:
+    """The outcome of :meth:`TableProgram.pointed_maximiser`: the program's value, proved, with a table attaining it.
+
+    Attributes
+    ----------
+    nu : sequence of Fraction
+        The multipliers given, one per floor (a solver's, read exactly), that pointed to the table.
+    value : Fraction
+        The program's value, exactly (a ratio; its log is in nats).
+    table : list of list of Fraction, shape (n_rows, n_decisions)
+        A table attaining it, indexed [row, decision] as :attr:`TableProgram.tops`, meeting every floor.
+    multipliers : list of Fraction, shape (n_floors,)
+        ν* ≥ 0 on the floors with :meth:`TableProgram.dual_bound` (ν*) = ``value``: the proof.
+    choices : int
+        The decisions, summed over the rows, beyond each row's first that the restricted program proved kept (any
+        limit at least this finds the same).
+    """
+
+    nu: Row
+    value: Fraction
+    table: list[list[Fraction]]
+    multipliers: list[Fraction]
+    choices: int
 
 
 @dataclass(frozen=True)
@@ -403,18 +435,22 @@ class TableProgram:
         return None
 
     def pointed_value(self, nu: Row) -> Fraction | None:
-        """The program's value, where a table the multipliers ν point to is proved a maximiser by
-        :meth:`proved_value`; None where none is (the program is then bounded otherwise, by :meth:`dual_bound` (ν)
-        for one).
+        """The program's value, where the multipliers ν point to a maximiser that the exact multipliers of a
+        restricted program prove; None where none is (the program is then bounded otherwise, by :meth:`dual_bound`
+        (ν) for one).
 
         At λ = :meth:`dual_bound` (ν), each row is restricted to the decisions within a tolerance of its largest
         r = p − λq + Σ_f ν_f F_f (complementary slackness: an optimal table uses no other where ν is optimal; of
         decisions alike in p, q and every floor only the first, the others changing nothing), and the program over
-        those cells is solved exactly, every floor kept
-        (:func:`~fairaudit.base.exact_programs.maximize_ratio`), at each of
-        :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to the largest |r|) while the rows' choices
-        beyond their first are at most :data:`POINTED_CHOICES`. Nothing here needs to be right: each table meets every
-        constraint, and only :meth:`proved_value` says whether it is a maximiser, exactly.
+        those cells is solved exactly, every floor kept (:func:`~fairaudit.base.exact_programs.maximize_ratio`),
+        which gives its value λ* at a table and its exact multipliers ν* ≥ 0 on the floors (the last step's dual).
+        :meth:`dual_bound` (ν*) = λ* proves λ* the program's value. Where the bound is larger, some row has decisions
+        whose r at (λ*, ν*) exceeds its largest over its choices: they are added and the program solved again
+        (column generation: Gilmore & Gomory 1961, *Operations Research* 9: 849–859), while the rows' choices beyond
+        their first are at most :data:`POINTED_CHOICES` (:meth:`pointed_maximiser` takes another limit). Choices
+        over which no table meets the floors give way to those of the next of
+        :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to the largest |r|). Nothing here needs to
+        be right: λ* is a table's ratio, the table meets every constraint, and ν* bounds the program by λ*, exactly.
 
         Parameters
         ----------
@@ -435,7 +471,7 @@ class TableProgram:
         --------
         The class's program, ν = (0, 8/3) on the floors as a float reads it: both decisions of b's row are within
         tolerance of its largest r at λ = dual_bound(ν), a hair above 10/3; the program over them puts P(yes | b̃) at
-        1/3, proved optimal at 10/3.
+        1/3, proved optimal at 10/3 by ν* = (0, 8/3) exactly.
 
         >>> F = Fraction
         >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
@@ -446,22 +482,26 @@ class TableProgram:
         (True, Fraction(10, 3))
         """
         found = self.pointed_maximiser(nu)
-        return None if found is None else found[0]
+        return None if found is None else found.value
 
-    def pointed_maximiser(self, nu: Row) -> tuple[Fraction, list[list[Fraction]]] | None:
-        """:meth:`pointed_value`'s value with the table proved to attain it: a maximiser of the program, for a
-        witness.
+    def pointed_maximiser(self, nu: Row, choices: int | None = None) -> PointedMaximum | None:
+        """:meth:`pointed_value`'s value with the table that attains it (a maximiser of the program, for a witness)
+        and the exact multipliers that prove it.
 
         Parameters
         ----------
         nu : sequence of Fraction
             ν, one per floor, as :meth:`pointed_value` takes it.
+        choices : int, optional
+            The most decisions, summed over the rows, beyond each row's first that the restricted program keeps
+            (default :data:`POINTED_CHOICES`; :data:`EXACT_CHOICES` is as many as the rational simplex takes).
 
         Returns
         -------
-        (Fraction, list of list of Fraction) or None
-            The program's value (a ratio; its log is in nats) and a table attaining it exactly, shape (n_rows,
-            n_decisions), indexed [row, decision] as :attr:`tops`; None where :meth:`pointed_value` is None.
+        PointedMaximum or None
+            The program's value (a ratio; its log is in nats), a table attaining it exactly, shape (n_rows,
+            n_decisions), indexed [row, decision] as :attr:`tops`, and ν*, shape (n_floors,), with
+            :meth:`dual_bound` (ν*) the value; None where :meth:`pointed_value` is None.
 
         Notes
         -----
@@ -470,46 +510,62 @@ class TableProgram:
 
         Examples
         --------
-        The class's program of :meth:`pointed_value`: P(yes | b̃) = 1/3 attains 10/3.
+        The class's program of :meth:`pointed_value`: P(yes | b̃) = 1/3 attains 10/3, and ν* = (0, 8/3) proves it.
+        From ν = (0, 3) (the bound 7/2) each row is pointed to yes alone: ratio 2 there, every floor met, so ν* = 0,
+        whose bound is 6; at λ* = 2 and ν* = 0, b's "no" gains (r = 0 against −1/2), and the program with it is the
+        first's.
 
         >>> F = Fraction
         >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
         >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
-        >>> value, table = TableProgram(p, q, floors, F(1, 4)).pointed_maximiser([F(0), F(8 / 3)])
-        >>> value, [str(v) for v in table[1]]
-        (Fraction(10, 3), ['1/3', '2/3'])
+        >>> found = TableProgram(p, q, floors, F(1, 4)).pointed_maximiser([F(0), F(8 / 3)])
+        >>> found.value, [str(v) for v in found.table[1]], found.multipliers
+        (Fraction(10, 3), ['1/3', '2/3'], [Fraction(0, 1), Fraction(8, 3)])
+        >>> again = TableProgram(p, q, floors, F(1, 4)).pointed_maximiser([F(0), F(3)])
+        >>> (again.value, again.table, again.multipliers) == (found.value, found.table, found.multipliers)
+        True
+        >>> found.choices, again.choices
+        (1, 1)
         """
-        proved = (self._proved(table) for table in self._pointed_tables(nu))
-        return next((found for found in proved if found is not None), None)
-
-    def _pointed_tables(self, nu: Row) -> list[list[list[Fraction]]]:
-        """The distinct tables of :meth:`pointed_value`, one per tolerance whose restricted program has a maximum."""
-        lam = self.dual_bound(nu)
+        lam, limit = self.dual_bound(nu), POINTED_CHOICES if choices is None else choices
         if self.tau is None or not isinstance(lam, Fraction) or not self.tops:
-            return []
-        n_u = len(self.tops[0])
+            return None
         near = _nearest(lam)  # (the restricted maximum is at most λ, near it: a float's worth is guess enough)
         guess = Fraction(near) if math.isfinite(near) else lam
-        r: list[list[Fraction]] = [
-            [p - lam * q for p, q in zip(pr, qr, strict=True)] for pr, qr in zip(self.tops, self.bottoms, strict=True)
-        ]
-        for v, floor in zip(nu, self.floors, strict=True):
-            for row, coefficients in floor.items() if v else ():
-                r[row] = [ri + v * fi for ri, fi in zip(r[row], coefficients, strict=True)]
+        r = self._reduced(lam, nu)
         gaps = np.array([[_nearest(max(row) - v) for v in row] for row in r])  # (≥ 0; +inf beyond the floats)
         scale = max(_nearest(max(abs(v) for row in r for v in row)), np.finfo(float).tiny)
-        out: list[list[list[Fraction]]] = []
         for tolerance in ACTIVE_TOLERANCES:
             chosen = [
                 list(dict.fromkeys(twins[u] for u in np.flatnonzero(row <= tolerance * scale).tolist()))
                 for row, twins in zip(gaps, self._twins, strict=True)
             ]  # (of decisions alike in p, q and every floor, the first: the others change nothing)
-            if sum(len(c) - 1 for c in chosen) > POINTED_CHOICES:
-                break
-            table = self._restricted(chosen, n_u, guess)
-            if table is not None and table not in out:
-                out.append(table)
-        return out
+            while (kept := sum(len(c) - 1 for c in chosen)) <= limit:
+                found = self._restricted(chosen, guess)
+                if found is None:
+                    break  # (no table over these choices meets the floors: the next tolerance chooses more)
+                value, table, multipliers = found
+                if self.dual_bound(multipliers) == value:  # (so no row gains a decision: the value, proved)
+                    return PointedMaximum(nu, value, table, multipliers, kept)
+                r = self._reduced(value, multipliers)
+                more = [  # (the decisions that gain, each row's: what the restricted program lacked)
+                    list(dict.fromkeys([*c, *(twins[u] for u, v in enumerate(row) if v > max(row[w] for w in c))]))
+                    for row, c, twins in zip(r, chosen, self._twins, strict=True)
+                ]
+                if more == chosen:
+                    return None  # (none gains, yet the bound is not the value: 0/0 counted as 1 beyond it)
+                chosen, guess = more, value
+            else:
+                return None  # (more choices than the rational simplex takes, here and at every larger tolerance)
+        return None
+
+    def _reduced(self, lam: Fraction, nu: Row) -> list[list[Fraction]]:
+        """r = p − λq + Σ_f ν_f F_f over the cells, shape (n_rows, n_decisions), exactly."""
+        r = [[p - lam * q for p, q in zip(pr, qr, strict=True)] for pr, qr in zip(self.tops, self.bottoms, strict=True)]
+        for v, floor in zip(nu, self.floors, strict=True):
+            for row, coefficients in floor.items() if v else ():
+                r[row] = [ri + v * fi for ri, fi in zip(r[row], coefficients, strict=True)]
+        return r
 
     @functools.cached_property
     def _twins(self) -> list[list[int]]:
@@ -524,11 +580,17 @@ class TableProgram:
             out.append([first.setdefault(key, u) for u, key in enumerate(keys)])
         return out
 
-    def _restricted(self, chosen: Sequence[Sequence[int]], n_u: int, guess: Fraction) -> list[list[Fraction]] | None:
-        """The program with row i on the decisions ``chosen[i]`` only, solved exactly: one unknown per chosen
+    def _restricted(
+        self, chosen: Sequence[Sequence[int]], guess: Fraction
+    ) -> tuple[Fraction, list[list[Fraction]], list[Fraction]] | None:
+        """The program with row i on the decisions ``chosen[i]`` only, solved exactly: (its value, a table attaining
+        it, its multipliers ν on the floors), None where no such table meets the floors. One unknown per chosen
         decision after a row's first (whose share is 1 less the others'), and h₀ = 1 carrying what the rows fix; the
-        floors every choice meets are left out (:meth:`proved_value` checks the table against all of them). Its steps
-        start at ``guess`` (:func:`~fairaudit.base.exact_programs.maximize_ratio`'s ``start``), near its maximum."""
+        floors every choice meets are left out (ν = 0 on them). ν is the last step's dual on the floors' rows
+        (:attr:`~fairaudit.base.exact_programs.RatioOptimum.multipliers`): with the rows' sums kept in the inner
+        maximum, it bounds the restricted program by its value. Its steps start at ``guess``
+        (:func:`~fairaudit.base.exact_programs.maximize_ratio`'s ``start``), near its maximum."""
+        n_u = len(self.tops[0])
         columns = [(i, u) for i, c in enumerate(chosen) for u in c[1:]]
         at = {cell: j + 1 for j, cell in enumerate(columns)}
         width = len(columns) + 1
@@ -549,7 +611,8 @@ class TableProgram:
         q = affine(lambda i: self.bottoms[i])
         tau = cast(Fraction, self.tau)
         forms = [affine(floor.get) for floor in self.floors]  # (a floor every choice meets is left out)
-        a_ub = [[-v for v in form] for form in forms if sum((v for v in form[1:] if v < 0), form[0]) < tau]
+        kept = [f for f, form in enumerate(forms) if sum((v for v in form[1:] if v < 0), form[0]) < tau]
+        a_ub = [[-v for v in forms[f]] for f in kept]
         b_ub = [-tau] * len(a_ub)
         for i, c in enumerate(chosen):
             if len(c) > 2:
@@ -557,7 +620,7 @@ class TableProgram:
                 b_ub.append(Fraction(1))
         lower = [Fraction(1)] + [Fraction(0)] * (width - 1)
         found = maximize_ratio(p, q, lower, [Fraction(1)] * width, a_ub, b_ub, start=guess)
-        if found.status != "optimal" or found.point is None:
+        if found.status != "optimal" or found.value is None or found.point is None or found.multipliers is None:
             return None
         table = [[Fraction(0)] * n_u for _ in chosen]
         for i, c in enumerate(chosen):
@@ -565,7 +628,10 @@ class TableProgram:
             table[i][c[0]] = 1 - sum(shares, Fraction(0))
             for u, share in zip(c[1:], shares, strict=True):
                 table[i][u] = share
-        return table
+        nu = [Fraction(0)] * len(self.floors)
+        for f, y in zip(kept, found.multipliers, strict=False):  # (the floors' rows come first)
+            nu[f] = y
+        return found.value, table, nu
 
     def _readings(self, table: Table) -> list[list[list[Fraction]]]:
         """The table itself, then the vertex it stands for at each of

@@ -24,7 +24,7 @@ from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
-from fairaudit.base.table_program import TableProgram
+from fairaudit.base.table_program import EXACT_CHOICES, POINTED_CHOICES, TableProgram
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
@@ -236,22 +236,27 @@ def _solver(
             return space.program().solve(num(i), den(i), below=below)
 
     largest = -math.inf  # (the largest certified value returned: at most its search's largest value found)
+    witnessed = -math.inf  # (the largest witness returned: at most the largest value)
 
     def solve(i: int) -> FractionalResult:
-        nonlocal largest
+        nonlocal largest, witnessed
         r = inner(i, largest)
         if r.status == "optimal" and r.certified and r.value <= largest:
             r = replace(r, witness=math.nan, gap=math.nan) if roundings else r  # (below a value found: see above)
         else:
             r = settle(i, r) if roundings else r
             if r.status == "optimal" and r.method == "lp" and space.table_floors is not None and r.dual:
-                r = _with_rows_kept(r, num(i), den(i), space.table_floors, problem.tau, problem.g.shape[-1], witness(i))
+                r = _with_rows_kept(
+                    r, num(i), den(i), space.table_floors, problem.tau, problem.g.shape[-1], witness(i), witnessed
+                )
         if r.status == "optimal" and r.certified and r.value > closed[i]:
             r = replace(r, value=float(closed[i]), gap=gap_between(float(closed[i]), r.witness))
         if evidence is not None:
             evidence.keep(i, r)
         if r.status == "optimal" and r.certified:
             largest = max(largest, r.value)
+        if r.status == "optimal" and r.witness > witnessed:  # (NaN: none)
+            witnessed = r.witness
         return r
 
     def inner_of(i: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -283,6 +288,7 @@ def _with_rows_kept(
     tau: float | None,
     n_u: int,
     witness: Callable[[FloatArray, float], float],
+    witnessed: float = -math.inf,
 ) -> FractionalResult:
     """``r``, a program over the model's table solved by the LP, certified (or its certified value lowered) from the
     solver's floors' multipliers with each row's simplex kept in the inner maximum: the smallest λ with Σ_rows
@@ -290,10 +296,19 @@ def _with_rows_kept(
     (:meth:`~fairaudit.base.table_program.TableProgram.dual_bound`; any ν ≥ 0 is valid, so the solver's, clipped at
     0, needs no repair), rounded up. Keeping the simplices makes it at most the bound from the LP's own dual (whose
     simplex multipliers only add to each row's maximum), and it is the bound ``fairaudit verify`` re-derives from the
-    same ν. Where that bound is not within
-    :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the witness (or there is none), the program's exact value where the table
-    ν points to is proved optimal (:meth:`~fairaudit.base.table_program.TableProgram.pointed_maximiser`: the bound at
-    the exact multipliers, so as sound), rounded up; ``witness`` (h, value) at that table, the exact maximiser of these
+    same ν. Where that bound is not within :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the
+    witness (or there is none), the program is solved exactly from the table ν points to
+    (:meth:`~fairaudit.base.table_program.TableProgram.pointed_maximiser`), over up to
+    :data:`~fairaudit.base.table_program.POINTED_CHOICES` choices, or up to
+    :data:`~fairaudit.base.table_program.EXACT_CHOICES` where the bound is above ``witnessed``, the largest witness
+    the search has returned, by as much (such a bound may become the certified value, which verify requires within
+    1e-12 of the exact worst case wherever it re-derives that). Where it is solved, the exact value rounded up is the
+    value if the restricted program kept at most :data:`~fairaudit.base.table_program.POINTED_CHOICES` decisions
+    (``fairaudit verify`` proves it from the solver's ν by the same steps). Beyond, its exact multipliers ν* read to
+    nearest (still ≥ 0, so still a bound) replace the solver's in ``r.dual`` and the bound at them, rounded up
+    (within a few ulps of the exact value), is the value: the bound verify re-derives from the recorded ν (none where
+    that bound has no root: B flat at 0 beyond the value at ν*, where every row has a decision with q = 0, and a hair
+    above 0 at its floats). ``witness`` (h, value) at the table proved optimal, the exact maximiser of these
     coefficients (its vertex solved on the inner ones: the witness within rounding of the value, where the solver's
     point gave one 1e-10 below), replaces the witness and the maximiser where it is larger. ``r`` itself where there
     is no root or it is larger. ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
@@ -306,19 +321,23 @@ def _with_rows_kept(
     root = program.dual_bound(multipliers)
     if root == math.inf:
         return r
-    value = fraction_up(root)
-    if (
-        not value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, value)  # (NaN: no witness)
-        and (proved := program.pointed_maximiser(multipliers)) is not None
+    value, dual = fraction_up(root), r.dual
+    loose = not value - max(witnessed, r.witness) <= CROSSOVER_TOLERANCE * max(1.0, value)  # (max: r's NaN is none)
+    if not value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, value) and (  # (NaN: no witness)
+        proved := program.pointed_maximiser(multipliers, EXACT_CHOICES if loose else None)
     ):
-        value = fraction_up(proved[0])
-        table = np.array([float(v) for row in proved[1] for v in row])
+        nearest = np.array([float(v) for v in proved.multipliers])  # (ν* to nearest: still ≥ 0, so still a bound)
+        if proved.choices <= POINTED_CHOICES:  # (verify proves it from the solver's ν by the same steps)
+            value = fraction_up(proved.value)
+        elif (bound := program.dual_bound([Fraction(v) for v in nearest.tolist()])) != math.inf:
+            value, dual = fraction_up(bound), (nearest, *r.dual[1:])  # (what verify re-derives from the same ν)
+        table = np.array([float(v) for row in proved.table for v in row])
         at = witness(table, min(value, r.value) if r.certified else value)
         if math.isfinite(at) and not at <= r.witness:  # (a witness where none was, or a larger one)
             r = replace(r, witness=at, argmax=table, gap=gap_between(r.value, at))
     if r.certified and value >= r.value:
         return r
-    return replace(r, value=value, certified=True, reason="", gap=gap_between(value, r.witness))
+    return replace(r, value=value, certified=True, reason="", gap=gap_between(value, r.witness), dual=dual)
 
 
 def _floor(row: FloatArray, n_u: int) -> dict[int, list[Fraction]]:

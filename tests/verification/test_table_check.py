@@ -154,6 +154,26 @@ def test_the_table_a_solver_s_multipliers_point_to_is_proved_only_at_the_optimum
     assert program.pointed_value(nu) in (None, optimum.value)
 
 
+@given(programs())
+@settings(max_examples=80, deadline=None)
+def test_a_maximiser_pointed_to_from_any_multipliers_is_the_optimum_and_its_multipliers_prove_it(drawn):
+    # from any nu >= 0 (the drawn one, far from optimal or not), with decisions added as the restricted program's
+    # exact multipliers show: whenever a maximiser is returned, its value is the rational simplex's optimum over the
+    # standard form, its table attains it and meets every floor, and B at its multipliers, computed cell by cell
+    # (a second route), is 0 there and positive just below; where no table meets the floors none is returned
+    program, nu = drawn
+    assume(program.tau is not None)
+    optimum, found = _optimum(program), program.pointed_maximiser(nu, table_program.EXACT_CHOICES)
+    if optimum.status != "optimal":
+        assert found is None
+        return
+    assume(found is not None)  # (no table over the decisions nu points to meets the floors: nothing to start from)
+    assert found.nu == nu and found.value == optimum.value and 0 <= found.choices <= table_program.EXACT_CHOICES
+    assert program.point_ratio(found.table) == found.value and program.meets(found.table)
+    assert all(v >= 0 for v in found.multipliers) and _b(program, found.multipliers, found.value) == 0
+    assert _b(program, found.multipliers, found.value - F(1, 10**9)) > 0
+
+
 def test_the_class_s_maximiser_is_proved_and_a_feasible_table_below_it_is_not():
     # proofs/verification.md §4f's program (tau = 1/4): P(yes | released a, b) = (1, 1/3) is the maximiser, 10/3, with
     # nu = 8/3 on the floor of b; (1, 1) meets both floors at ratio 2 and proves nothing; (1, 0) misses the floor of b
@@ -172,7 +192,8 @@ def test_a_value_beyond_the_floats_is_pointed_to_and_proved():
     # reading either as a float raised OverflowError
     tiny = F(1, 10**400)
     program = TableProgram([[F(1), F(0)]], [[tiny, F(1)]], [{0: [tiny, F(1)]}], tiny / 2)
-    assert program.pointed_maximiser([F(0)]) == (F(10**400), [[F(1), F(0)]])
+    found = program.pointed_maximiser([F(0)])
+    assert found is not None and (found.value, found.table, found.multipliers) == (F(10**400), [[F(1), F(0)]], [F(0)])
 
 
 def test_the_bound_at_a_multiplier_is_one_exact_root_however_often_it_is_asked(monkeypatch):

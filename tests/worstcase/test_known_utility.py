@@ -371,12 +371,14 @@ def test_behind_the_identity_on_contexts_the_exact_program_is_a_product_of_the_c
     assert w.local_fairness.value > 1e-3 and not w.local_fairness.settled
 
 
-def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_simplices_kept():
+def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_simplices_kept(monkeypatch):
     # proofs/verification.md §4f's example over the model's table: rows (released a, released b) over (yes, no),
     # p = (3/4, 1/4) on yes, q = (1/8, 3/8), the floors of a and b at tau = 1/4 (the value is 10/3). By hand, nu =
     # (0, 3) gives B(lambda) = 7/4 - lambda/2 (both rows on yes below 11/3): 7/2; nu = 0, the value without floors, 6
+    import fairaudit.worstcase.known_utility_search as search
     from fairaudit.base.exact_vertex import improve_witness
     from fairaudit.base.linear_fractional import FractionalResult
+    from fairaudit.base.outward import fraction_up
     from fairaudit.worstcase.known_utility_search import _with_rows_kept
 
     p, q = np.array([0.75, 0.0, 0.25, 0.0]), np.array([0.125, 0.0, 0.375, 0.0])
@@ -392,8 +394,39 @@ def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_
     def witness(h, value):  # the coefficients are exact (dyadic): inner and outer alike
         return improve_witness(math.nan, value, 1e-13, h, p, q, np.zeros(4), np.ones(4), rows)
 
+    # from nu = (0, 3) the table pointed to (both rows on yes, 2) lacks b's "no", which its multipliers (0: every
+    # floor met) show gains; with it the value, 10/3, is proved by nu* = (0, 8/3) (one choice kept beyond the rows'
+    # first): 10/3 rounded up is certified, the solver's nu kept, from which verify proves it by the same steps
     r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness)
-    assert r.certified and r.value == 3.5 and 0.5 <= r.gap <= 0.5 + 1e-15
+    assert r.certified and r.value == float(fraction_up(Fraction(10, 3))) and r.gap <= 1e-15
+    assert r.dual[0].tolist() == [0.0, 3.0] and r.dual[1].tolist() == [0.0, 0.0]
+    # beyond the choices verify takes, nu* to nearest is recorded and the bound at it, rounded up, certified (within
+    # 1e-15 of 10/3); where that bound has no root, nothing changes: the bound at (0, 3) stands
+    monkeypatch.setattr(search, "POINTED_CHOICES", 0)
+    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness)
+    assert r.certified and Fraction(10, 3) <= Fraction(r.value) <= Fraction(10, 3) + 1e-15 and r.gap <= 1e-15
+    assert r.dual[0].tolist() == [0.0, 8 / 3] and r.dual[1].tolist() == [0.0, 0.0]
+    real = search.TableProgram.dual_bound
+    flat = (Fraction(0), Fraction(8 / 3))  # (nu* = (0, 8/3) to nearest)
+    monkeypatch.setattr(search.TableProgram, "dual_bound", lambda self, nu=None: (
+        math.inf if nu is not None and tuple(nu) == flat else real(self, nu)))  # fmt: skip
+    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness)
+    assert r.certified and r.value == 3.5 and r.dual[0].tolist() == [0.0, 3.0]
+    monkeypatch.undo()
+    # certify's larger limit, 512, where the bound is above the largest witness the search has found (by more than
+    # 1e-13): the same 10/3 with verify's limit at none; but not at a bound no witness found elsewhere is below, nor
+    # without that limit
+    import fairaudit.base.table_program as table_program
+
+    monkeypatch.setattr(table_program, "POINTED_CHOICES", -1)
+    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness)
+    assert r.certified and Fraction(10, 3) <= Fraction(r.value) <= Fraction(10, 3) + 1e-15
+    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness, 3.5)
+    assert r.certified and r.value == 3.5 and 0.5 <= r.gap <= 0.5 + 1e-15 and r.dual[0].tolist() == [0.0, 3.0]
+    monkeypatch.setattr(search, "EXACT_CHOICES", -1)
+    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness)
+    assert r.certified and r.value == 3.5 and 0.5 <= r.gap <= 0.5 + 1e-15 and r.dual[0].tolist() == [0.0, 3.0]
+    monkeypatch.undo()
     # nu = (0, 8/3) as a float reads it: the table it points to, P(yes | b~) = 1/3, is proved optimal at 10/3 and is
     # the witness (10/3 rounded down), where the solver's point gave 3
     r = _with_rows_kept(solved(3.4, [0.0, 8 / 3], False), p, q, floors, 0.25, 2, witness)

@@ -295,6 +295,8 @@ class _Simplex:
         """The pivot: the variable of ``column`` enters at row ``r``, the one of row ``r`` takes its column. Every
         new entry is an exact integer division by the old D (Bareiss 1968); the new D is the pivot; the leaving
         variable's column is −(the old column), the old D at row r; row r and its value stay."""
+        from gmpy2 import divexact  # (GMP's exact division: faster than // where the remainder is known to be 0)
+
         old, pivot_row, lead = self.det, self.matrix[r], self.rhs[r]
         pivot = pivot_row[column]
         for i, row in enumerate(self.matrix):
@@ -303,15 +305,15 @@ class _Simplex:
             f = row[column]
             if f == 0:
                 if pivot != old:
-                    self.matrix[i] = [x * pivot // old for x in row]
-                    self.rhs[i] = self.rhs[i] * pivot // old
+                    self.matrix[i] = [divexact(x * pivot, old) for x in row]
+                    self.rhs[i] = divexact(self.rhs[i] * pivot, old)
                 continue
-            new = [(x * pivot - f * y) // old for x, y in zip(row, pivot_row, strict=True)]
+            new = [divexact(x * pivot - f * y, old) for x, y in zip(row, pivot_row, strict=True)]
             new[column] = -f
             self.matrix[i] = new
-            self.rhs[i] = (self.rhs[i] * pivot - f * lead) // old
+            self.rhs[i] = divexact(self.rhs[i] * pivot - f * lead, old)
         f = self.reduced[column]
-        self.reduced = [(x * pivot - f * y) // old for x, y in zip(self.reduced, pivot_row, strict=True)]
+        self.reduced = [divexact(x * pivot - f * y, old) for x, y in zip(self.reduced, pivot_row, strict=True)]
         self.reduced[column] = -f
         pivot_row[column] = old
         self.det = pivot

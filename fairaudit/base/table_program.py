@@ -57,8 +57,8 @@ multipliers tie whole rows needs them all (seven rows of ten decisions at random
 EXACT_CHOICES = 512
 """The most decisions, summed over the rows, beyond each row's first that the rational simplex takes for
 :meth:`TableProgram.pointed_maximiser`'s restricted program where certify asks for the value itself: 18 groups behind
-a product with three contexts behind a matrix, where about a dozen programs tie exactly by the groups' symmetry, keep
-300 to 450 of 540 (54 rows of 11 decisions, 54 floors), each solved in about 2 s."""
+a product with three contexts behind a matrix, where dozens of programs tie exactly by the groups' symmetry, keep 300
+to 450 of 540 (54 rows of 11 decisions, 54 floors), each solved in about 2 s."""
 
 
 @dataclass(frozen=True)

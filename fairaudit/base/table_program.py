@@ -545,7 +545,7 @@ class TableProgram:
                 if found is None:
                     break  # (no table over these choices meets the floors: the next tolerance chooses more)
                 value, table, multipliers = found
-                if self.dual_bound(multipliers) == value:  # (so no row gains a decision: the value, proved)
+                if self.point_ratio(table) == value and self.dual_bound(multipliers) == value:  # (attained, bounded)
                     return PointedMaximum(nu, value, table, multipliers, kept)
                 r = self._reduced(value, multipliers)
                 more = [  # (the decisions that gain, each row's: what the restricted program lacked)
@@ -556,7 +556,7 @@ class TableProgram:
                     return None  # (none gains, yet the bound is not the value: 0/0 counted as 1 beyond it)
                 chosen, guess = more, value
             else:
-                return None  # (more choices than the rational simplex takes, here and at every larger tolerance)
+                return None  # (more choices than the limit, here and at every larger tolerance)
         return None
 
     def _reduced(self, lam: Fraction, nu: Row) -> list[list[Fraction]]:

@@ -78,6 +78,11 @@ class PointedMaximum:
     choices : int
         The decisions, summed over the rows, beyond each row's first that the restricted program proved kept (any
         limit at least this finds the same).
+
+    Notes
+    -----
+    ``proofs/verification.md`` §4f, "From the multipliers alone": the restricted program's multipliers and the column
+    generation (Gilmore & Gomory 1961, *Operations Research* 9: 849–859).
     """
 
     nu: Row

@@ -326,11 +326,12 @@ def _with_rows_kept(
     if not value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, value) and (  # (NaN: no witness)
         proved := program.pointed_maximiser(multipliers, EXACT_CHOICES if loose else None)
     ):
-        nearest = np.array([float(v) for v in proved.multipliers])  # (ν* to nearest: still ≥ 0, so still a bound)
         if proved.choices <= POINTED_CHOICES:  # (verify proves it from the solver's ν by the same steps)
             value = fraction_up(proved.value)
-        elif (bound := program.dual_bound([Fraction(v) for v in nearest.tolist()])) != math.inf:
-            value, dual = fraction_up(bound), (nearest, *r.dual[1:])  # (what verify re-derives from the same ν)
+        else:
+            nearest = np.array([float(v) for v in proved.multipliers])  # (ν* to nearest: ≥ 0, so still a bound)
+            if (bound := program.dual_bound([Fraction(v) for v in nearest.tolist()])) != math.inf:
+                value, dual = fraction_up(bound), (nearest, *r.dual[1:])  # (what verify re-derives from the same ν)
         table = np.array([float(v) for row in proved.table for v in row])
         at = witness(table, min(value, r.value) if r.certified else value)
         if math.isfinite(at) and not at <= r.witness:  # (a witness where none was, or a larger one)

@@ -130,6 +130,46 @@ class TableProgram:
         default_factory=dict, init=False, repr=False, compare=False
     )
 
+    def with_ratio(self, tops: Table, bottoms: Table) -> TableProgram:
+        """The program with the same floors and τ over the same rows and decisions, and the ratio (p·K)/(q·K) of
+        ``tops`` and ``bottoms``: the floors' integer matrix and their sum per cell are built once, for every ratio
+        asked of them (the ordered pairs of groups over one context's floors).
+
+        Parameters
+        ----------
+        tops, bottoms : sequence of sequence of Fraction, shape (n_rows, n_decisions)
+            p and q, q ≥ 0, of the shape of :attr:`tops`.
+
+        Returns
+        -------
+        TableProgram
+
+        Raises
+        ------
+        ValueError
+            Where ``tops`` or ``bottoms`` is not of the shape of :attr:`tops`.
+
+        Examples
+        --------
+        The class's program with the ratio b over a: 3/2 without the floors, b's row alone on yes, (3/8)/(1/4) (a over
+        b gives 6, a's row alone on yes).
+
+        >>> F = Fraction
+        >>> p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+        >>> floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+        >>> program = TableProgram(p, q, floors, F(1, 4))
+        >>> program.with_ratio(q, p).dual_bound(), program.dual_bound()
+        (Fraction(3, 2), Fraction(6, 1))
+        """
+        shape = [len(row) for row in self.tops]
+        for name, rows in (("tops", tops), ("bottoms", bottoms)):
+            if [len(row) for row in rows] != shape:
+                raise ValueError(f"{name} must have {len(shape)} rows of {shape[0] if shape else 0} decisions")
+        program = TableProgram(tops, bottoms, self.floors, self.tau)
+        for built in ("_floor_matrix", "_floor_weights"):  # (cached properties: each built here if not yet)
+            program.__dict__[built] = getattr(self, built)
+        return program
+
     def dual_bound(self, nu: Row | None = None) -> Number:
         """The smallest λ ≥ 0 with B(λ) ≤ 0 (see the module), exactly: an upper bound on the program's value. Found
         once per ν: the program keeps it for the next call at the same ν.
@@ -246,7 +286,7 @@ class TableProgram:
         assert theta_c is not None  # (R has a root unless some row has p > 0 = q everywhere, where S ≥ kept never)
         table, total = [], Fraction(0)
         split: list[tuple[int, int, int]] = []
-        for i, ((pr, qr), fr) in enumerate(zip(rows, self._floor_weights(), strict=True)):
+        for i, ((pr, qr), fr) in enumerate(zip(rows, self._floor_weights, strict=True)):
             values = [pi - theta_c * qi for pi, qi in zip(pr, qr, strict=True)]
             top = max(values)
             best = [u for u, v in enumerate(values) if v == top]
@@ -292,7 +332,7 @@ class TableProgram:
         """A table attaining the value ``lam`` = :meth:`dual_bound` () without the floors: each row on a decision
         maximising p − λq, the one with the largest q among ties; for +inf, on a decision with q = 0 maximising p."""
         table = []
-        for pr, qr, fr in zip(self.tops, self.bottoms, self._floor_weights(), strict=True):
+        for pr, qr, fr in zip(self.tops, self.bottoms, self._floor_weights, strict=True):
             if lam == INF:
                 u = max((i for i in range(len(pr)) if qr[i] == 0), key=lambda i: (pr[i], fr[i]))
             else:
@@ -300,6 +340,7 @@ class TableProgram:
             table.append([Fraction(int(i == u)) for i in range(len(pr))])
         return table
 
+    @functools.cached_property
     def _floor_weights(self) -> list[list[Fraction]]:
         """Σ_f F_f per cell: among a row's tied decisions the one that helps the floors most is taken (all of them
         at once for a utility of the decision only, whose floors' coefficients in a row are multiples of g)."""
@@ -350,7 +391,9 @@ class TableProgram:
             return []
         ints, d = self._floor_matrix
         (cells,), e = on_one_denominator([[v for row in table for v in row]])
-        return [Fraction(int(v), d * e) for v in ints.dot(np.array(cells, dtype=object)).tolist()]
+        used = [i for i, v in enumerate(cells) if v]  # (a table is mostly 0s: one decision or two per row)
+        sums = ints[:, used].dot(np.array([cells[i] for i in used], dtype=object)) if used else [0] * len(ints)
+        return [Fraction(int(v), d * e) for v in list(sums)]
 
     def meets(self, table: Table) -> bool:
         """Whether the table's cells are ≥ 0, its rows sum to 1 and it meets every floor, exactly."""

@@ -176,9 +176,11 @@ def _dense(form: Mapping[int, list[Fraction]], n_rows: int, n_u: int) -> list[li
     return [form.get(i) or [Fraction(0)] * n_u for i in range(n_rows)]
 
 
-def _floors(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]) -> list[dict[int, list[Fraction]]]:
-    """E[g | x, c] ≥ τ for each context x of ``xs`` and each group c, in that order, over the rows ``keys``."""
-    return [_form(s, keys, {x: Fraction(1)}, c) for x in xs for c in range(s.k)]
+def _floored(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]) -> TableProgram:
+    """The floors E[g | x, c] ≥ τ for each context x of ``xs`` and each group c, in that order, over the rows
+    ``keys``, as a program with the ratio 0/0 whose :meth:`~TableProgram.with_ratio` gives each pair's."""
+    zeros = _dense({}, len(keys), len(s.g[0][0]))
+    return TableProgram(zeros, zeros, [_form(s, keys, {x: Fraction(1)}, c) for x in xs for c in range(s.k)], s.tau)
 
 
 def _table(s: KernelSetting, point: Any, keys: Sequence[tuple[int, int]], own: bool) -> list[list[Fraction]]:
@@ -252,14 +254,14 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
     n_u = len(s.g[0][0])
     out = []
     evidence = s.evidence
-    shared: dict[int, tuple[list[tuple[int, int]], list[dict[int, list[Fraction]]]]] = {}  # rows and floors
+    shared: dict[int, tuple[list[tuple[int, int]], TableProgram]] = {}  # rows, and their floors (a ratio of 0s)
     for i in range(len(s.live)) if at is None else [at[0]]:
         x = s.live[i]
         key = x if own else -1
         if key not in shared:
             keys = reached_rows(s, [x] if own else s.live)
-            shared[key] = keys, _floors(s, keys, [x] if own else s.live)
-        keys, floors = shared[key]
+            shared[key] = keys, _floored(s, keys, [x] if own else s.live)
+        keys, floored = shared[key]
         pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
         groups = sorted({a for pair in pairs for a in pair})
         forms = {a: _dense(_form(s, keys, {x: Fraction(1)}, a), len(keys), n_u) for a in groups}
@@ -270,7 +272,7 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None, loose:
             point = evidence.local_point
             table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
             solve = functools.partial(kernel_local, s, (i, a, b)) if s.small else None
-            program = TableProgram(forms[a], forms[b], floors, s.tau)
+            program = floored.with_ratio(forms[a], forms[b])
             build = functools.partial(_case, program, s.tau, nu, table, solve)
             out.append(_Lazy(screens.get((a, b), INF), build, table is not None))
     return _largest(out, Fraction(0), loose)
@@ -318,7 +320,7 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: boo
     if len(s.present) < 2:
         return Fraction(1), Fraction(1), False
     keys = reached_rows(s, s.live)
-    floors = _floors(s, keys, s.live)
+    floored = _floored(s, keys, s.live)
     n_u = len(s.g[0][0])
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
     groups = sorted({a for pair in pairs for a in pair})
@@ -335,7 +337,7 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None, loose: boo
         point = evidence.global_point
         table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
         solve = functools.partial(kernel_global, s, (a, b)) if s.small else None
-        program = TableProgram(forms[a], forms[b], floors, s.tau)
+        program = floored.with_ratio(forms[a], forms[b])
         build = functools.partial(_case, program, kept[b], nu, table, solve)
         out.append(_Lazy(screens.get((a, b), INF), build, table is not None))
     return _largest(out, Fraction(1), loose)

@@ -210,6 +210,35 @@ def test_the_bound_at_a_multiplier_is_one_exact_root_however_often_it_is_asked(m
     assert len(roots) == 2 and program.pointed_value(nu) == F(10, 3) and len(roots) == 2
 
 
+@given(programs(), st.data())
+@settings(max_examples=40, deadline=None)
+def test_a_ratio_over_shared_floors_is_the_program_built_afresh(drawn, data):
+    # verify builds each context's floors once and every ordered pair's ratio over them (with_ratio): each answer is
+    # the one a program built from scratch gives, and the floors' matrix is the one built first
+    program, nu = drawn
+    small = st.integers(0, 6).map(lambda v: F(v, 6))
+    tops, bottoms = ([[data.draw(small) for _ in row] for row in program.tops] for _ in range(2))
+    kept = data.draw(st.integers(1, 12).map(lambda v: F(v, 8)))
+    shared = program.with_ratio(tops, bottoms)
+    fresh = TableProgram(tops, bottoms, program.floors, program.tau)
+    for p in (shared, fresh):
+        assert (p.tops, p.bottoms) == (tops, bottoms)
+    answers = [
+        (p.dual_bound(), p.dual_bound(nu), p.relaxed_table(p.dual_bound()), p.floor_bound(kept), p.pointed_value(nu))
+        for p in (shared, fresh)
+    ]
+    assert answers[0] == answers[1]
+    assert shared.__dict__["_floor_matrix"] is program.__dict__["_floor_matrix"]
+
+
+def test_a_ratio_of_another_shape_than_the_floors_rows_is_refused_naming_it():
+    program = TableProgram([[F(1), F(0)]] * 2, [[F(1), F(1)]] * 2, [], None)
+    with pytest.raises(ValueError, match="bottoms must have 2 rows of 2 decisions"):
+        program.with_ratio([[F(1), F(0)]] * 2, [[F(1), F(1), F(0)], [F(1), F(1)]])
+    with pytest.raises(ValueError, match="tops must have 2 rows"):
+        program.with_ratio([[F(1), F(0)]], [[F(1), F(1)]] * 2)
+
+
 @given(programs(), st.integers(1, 12).map(lambda v: F(v, 8)))
 @settings(max_examples=80, deadline=None)
 def test_the_one_floor_relaxation_is_the_rational_simplex_optimum_and_its_table_attains_it(drawn, kept):

@@ -24,7 +24,7 @@ from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
-from fairaudit.base.table_program import EXACT_CHOICES, POINTED_CHOICES, TableProgram
+from fairaudit.base.table_program import EXACT_CHOICES, TableProgram
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
@@ -302,13 +302,13 @@ def _with_rows_kept(
     :data:`~fairaudit.base.table_program.POINTED_CHOICES` choices, or up to
     :data:`~fairaudit.base.table_program.EXACT_CHOICES` where the bound is above ``witnessed``, the largest witness
     the search has returned, by as much (such a bound may become the certified value, which verify requires within
-    1e-12 of the exact worst case wherever it re-derives that). Where it is solved, the exact value rounded up is the
-    value if the restricted program kept at most :data:`~fairaudit.base.table_program.POINTED_CHOICES` decisions
-    (``fairaudit verify`` proves it from the solver's ν by the same steps). Beyond, its exact multipliers ν* read to
+    1e-12 of the exact worst case wherever it re-derives that). Where it is solved, its exact multipliers ν* read to
     nearest (still ≥ 0, so still a bound) replace the solver's in ``r.dual`` and the bound at them, rounded up
-    (within a few ulps of the exact value), is the value: the bound verify re-derives from the recorded ν (none where
-    that bound has no root: B flat at 0 beyond the value at ν*, where every row has a decision with q = 0, and a hair
-    above 0 at its floats). ``witness`` (h, value) at the table proved optimal, the exact maximiser of these
+    (within a few ulps of the exact value), is the value: the bound verify re-derives from the recorded ν alone, at
+    most this one over the exact coefficients, of which these are the outer rounding (verify's own steps from the
+    solver's ν need not find the table these coefficients' ν points to: at 18 groups they found none meeting the
+    exact floors). None where that bound has no root (B flat at 0 beyond the value at ν*, where every row has a
+    decision with q = 0, and a hair above 0 at its floats): the solver's bound stands. ``witness`` (h, value) at the table proved optimal, the exact maximiser of these
     coefficients (its vertex solved on the inner ones: the witness within rounding of the value, where the solver's
     point gave one 1e-10 below), replaces the witness and the maximiser where it is larger. ``r`` itself where there
     is no root or it is larger. ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
@@ -326,12 +326,9 @@ def _with_rows_kept(
     if not value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, value) and (  # (NaN: no witness)
         proved := program.pointed_maximiser(multipliers, EXACT_CHOICES if loose else None)
     ):
-        if proved.choices <= POINTED_CHOICES:  # (verify proves it from the solver's ν by the same steps)
-            value = fraction_up(proved.value)
-        else:
-            nearest = np.array([float(v) for v in proved.multipliers])  # (ν* to nearest: ≥ 0, so still a bound)
-            if (bound := program.dual_bound([Fraction(v) for v in nearest.tolist()])) != math.inf:
-                value, dual = fraction_up(bound), (nearest, *r.dual[1:])  # (what verify re-derives from the same ν)
+        nearest = np.array([float(v) for v in proved.multipliers])  # (ν* to nearest: ≥ 0, so still a bound)
+        if (bound := program.dual_bound([Fraction(v) for v in nearest.tolist()])) != math.inf:
+            value, dual = fraction_up(bound), (nearest, *r.dual[1:])  # (what verify re-derives from the same ν)
         table = np.array([float(v) for row in proved.table for v in row])
         at = witness(table, min(value, r.value) if r.certified else value)
         if math.isfinite(at) and not at <= r.witness:  # (a witness where none was, or a larger one)

@@ -378,7 +378,6 @@ def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_
     import fairaudit.worstcase.known_utility_search as search
     from fairaudit.base.exact_vertex import improve_witness
     from fairaudit.base.linear_fractional import FractionalResult
-    from fairaudit.base.outward import fraction_up
     from fairaudit.worstcase.known_utility_search import _with_rows_kept
 
     p, q = np.array([0.75, 0.0, 0.25, 0.0]), np.array([0.125, 0.0, 0.375, 0.0])
@@ -396,16 +395,19 @@ def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_
 
     # from nu = (0, 3) the table pointed to (both rows on yes, 2) lacks b's "no", which its multipliers (0: every
     # floor met) show gains; with it the value, 10/3, is proved by nu* = (0, 8/3) (one choice kept beyond the rows'
-    # first): 10/3 rounded up is certified, the solver's nu kept, from which verify proves it by the same steps
-    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness)
-    assert r.certified and r.value == float(fraction_up(Fraction(10, 3))) and r.gap <= 1e-15
-    assert r.dual[0].tolist() == [0.0, 3.0] and r.dual[1].tolist() == [0.0, 0.0]
-    # beyond the choices verify takes, nu* to nearest is recorded and the bound at it, rounded up, certified (within
-    # 1e-15 of 10/3); where that bound has no root, nothing changes: the bound at (0, 3) stands
-    monkeypatch.setattr(search, "POINTED_CHOICES", 0)
+    # first): nu* to nearest is recorded and the bound at it, rounded up, certified (within 1e-15 of 10/3). The
+    # recorded nu alone bounds it, at most the certified value: verify needs nothing else (the bound at the
+    # solver's (0, 3) is 7/2, and verify's own steps from it may find nothing over the exact coefficients)
     r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), p, q, floors, 0.25, 2, witness)
     assert r.certified and Fraction(10, 3) <= Fraction(r.value) <= Fraction(10, 3) + 1e-15 and r.gap <= 1e-15
     assert r.dual[0].tolist() == [0.0, 8 / 3] and r.dual[1].tolist() == [0.0, 0.0]
+    F = Fraction
+    exact = search.TableProgram(
+        [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]],
+        [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}], F(1, 4),
+    )  # fmt: skip
+    assert exact.dual_bound([Fraction(v) for v in r.dual[0].tolist()]) <= Fraction(r.value)
+    # where that bound has no root, nothing changes: the bound at (0, 3) stands
     real = search.TableProgram.dual_bound
     flat = (Fraction(0), Fraction(8 / 3))  # (nu* = (0, 8/3) to nearest)
     monkeypatch.setattr(search.TableProgram, "dual_bound", lambda self, nu=None: (

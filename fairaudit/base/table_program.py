@@ -495,10 +495,12 @@ class TableProgram:
         :meth:`dual_bound` (ν*) = λ* proves λ* the program's value. Where the bound is larger, some row has decisions
         whose r at (λ*, ν*) exceeds its largest over its choices: they are added and the program solved again
         (column generation: Gilmore & Gomory 1961, *Operations Research* 9: 849–859), while the rows' choices beyond
-        their first are at most :data:`POINTED_CHOICES` (:meth:`pointed_maximiser` takes another limit). Choices
-        over which no table meets the floors give way to those of the next of
-        :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to the largest |r|). Nothing here needs to
-        be right: λ* is a table's ratio, the table meets every constraint, and ν* bounds the program by λ*, exactly.
+        their first are at most :data:`POINTED_CHOICES` (:meth:`pointed_maximiser` takes another limit). Where no
+        table over the choices meets the floors, decisions are first added until one does (phase 1: max z with
+        F_f·K ≥ τ + z, z ≤ 0, its multipliers y on the floors adding a row's decisions whose Σ_f y_f F_f exceeds
+        its largest over the choices); where none gains, none can, and the next of
+        :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to the largest |r|) is tried. Nothing here
+        needs to be right: λ* is a table's ratio, the table meets every constraint, and ν* bounds the program by λ*, exactly.
 
         Parameters
         ----------
@@ -590,8 +592,12 @@ class TableProgram:
             ]  # (of decisions alike in p, q and every floor, the first: the others change nothing)
             while (kept := sum(len(c) - 1 for c in chosen)) <= limit:
                 found = self._restricted(chosen, guess)
-                if found is None:
-                    break  # (no table over these choices meets the floors: the next tolerance chooses more)
+                if found is None:  # (no table over these choices meets the floors: phase 1 adds decisions until one
+                    more = self._feasible(chosen, limit)  # does; failing that, the next tolerance chooses more)
+                    if more is None or more == chosen:
+                        break
+                    chosen = more
+                    continue
                 value, table, multipliers = found
                 if self.point_ratio(table) == value and self.dual_bound(multipliers) == value:  # (attained, bounded)
                     return PointedMaximum(nu, value, table, multipliers, kept)
@@ -632,13 +638,37 @@ class TableProgram:
         self, chosen: Sequence[Sequence[int]], guess: Fraction
     ) -> tuple[Fraction, list[list[Fraction]], list[Fraction]] | None:
         """The program with row i on the decisions ``chosen[i]`` only, solved exactly: (its value, a table attaining
-        it, its multipliers ν on the floors), None where no such table meets the floors. One unknown per chosen
-        decision after a row's first (whose share is 1 less the others'), and h₀ = 1 carrying what the rows fix; the
-        floors every choice meets are left out (ν = 0 on them). ν is the last step's dual on the floors' rows
+        it, its multipliers ν on the floors), None where no such table meets the floors (:meth:`_restricted_forms`
+        gives its unknowns and rows). ν is the last step's dual on the floors' rows
         (:attr:`~fairaudit.base.exact_programs.RatioOptimum.multipliers`): with the rows' sums kept in the inner
         maximum, it bounds the restricted program by its value. Its steps start at ``guess``
         (:func:`~fairaudit.base.exact_programs.maximize_ratio`'s ``start``), near its maximum."""
+        p, q, kept, a_ub, b_ub, columns = self._restricted_forms(chosen)
+        width = len(p)
+        lower = [Fraction(1)] + [Fraction(0)] * (width - 1)
+        found = maximize_ratio(p, q, lower, [Fraction(1)] * width, a_ub, b_ub, start=guess)
+        if found.status != "optimal" or found.value is None or found.point is None or found.multipliers is None:
+            return None
         n_u = len(self.tops[0])
+        table = [[Fraction(0)] * n_u for _ in chosen]
+        for i, c in enumerate(chosen):
+            table[i][c[0]] = Fraction(1)
+        for (i, u), share in zip(columns, found.point[1:], strict=True):
+            table[i][chosen[i][0]] -= share
+            table[i][u] = share
+        nu = [Fraction(0)] * len(self.floors)
+        for f, y in zip(kept, found.multipliers, strict=False):  # (the floors' rows come first)
+            nu[f] = y
+        return found.value, table, nu
+
+    def _restricted_forms(
+        self, chosen: Sequence[Sequence[int]]
+    ) -> tuple[list[Fraction], list[Fraction], list[int], list[list[Fraction]], list[Fraction], list[tuple[int, int]]]:
+        """The program with row i on the decisions ``chosen[i]`` only, over one unknown per chosen decision after a
+        row's first (whose share is 1 less the others'), and h₀ = 1 carrying what the rows fix: (p, q over the
+        unknowns, the floors kept, A_ub and b_ub with those floors' rows first, as −F_f·h ≤ −τ, then each row's
+        shares summing to at most 1 where it has more than one, the cells (row, decision) of the unknowns after h₀).
+        A floor every choice meets is left out."""
         columns = [(i, u) for i, c in enumerate(chosen) for u in c[1:]]
         at = {cell: j + 1 for j, cell in enumerate(columns)}
         width = len(columns) + 1
@@ -655,10 +685,8 @@ class TableProgram:
                     out[at[i, u]] += row[u] - first
             return out
 
-        p = affine(lambda i: self.tops[i])
-        q = affine(lambda i: self.bottoms[i])
         tau = cast(Fraction, self.tau)
-        forms = [affine(floor.get) for floor in self.floors]  # (a floor every choice meets is left out)
+        forms = [affine(floor.get) for floor in self.floors]
         kept = [f for f, form in enumerate(forms) if sum((v for v in form[1:] if v < 0), form[0]) < tau]
         a_ub = [[-v for v in forms[f]] for f in kept]
         b_ub = [-tau] * len(a_ub)
@@ -666,20 +694,46 @@ class TableProgram:
             if len(c) > 2:
                 a_ub.append([Fraction(int(j > 0 and columns[j - 1][0] == i)) for j in range(width)])
                 b_ub.append(Fraction(1))
-        lower = [Fraction(1)] + [Fraction(0)] * (width - 1)
-        found = maximize_ratio(p, q, lower, [Fraction(1)] * width, a_ub, b_ub, start=guess)
-        if found.status != "optimal" or found.value is None or found.point is None or found.multipliers is None:
-            return None
-        table = [[Fraction(0)] * n_u for _ in chosen]
-        for i, c in enumerate(chosen):
-            shares = [found.point[at[i, u]] for u in c[1:]]
-            table[i][c[0]] = 1 - sum(shares, Fraction(0))
-            for u, share in zip(c[1:], shares, strict=True):
-                table[i][u] = share
-        nu = [Fraction(0)] * len(self.floors)
-        for f, y in zip(kept, found.multipliers, strict=False):  # (the floors' rows come first)
-            nu[f] = y
-        return found.value, table, nu
+        return affine(lambda i: self.tops[i]), affine(lambda i: self.bottoms[i]), kept, a_ub, b_ub, columns
+
+    def _feasible(self, chosen: list[list[int]], limit: int) -> list[list[int]] | None:
+        """``chosen`` with decisions added until some table over them meets every floor (phase 1 by column
+        generation): max z with F_f·K ≥ τ + z over the choices, z ≤ 0, solved exactly; where z < 0, its multipliers
+        y ≥ 0 on the floors weigh each cell w = Σ_f y_f F_f, and a row's decisions whose w exceeds its largest over
+        its choices are added (with the rows' sums kept in the inner maximum, y bounds z over every decision by its
+        value over the choices where none does: then no table meets the floors). None there, or beyond ``limit``
+        choices after the rows' first."""
+        while sum(len(c) - 1 for c in chosen) <= limit:
+            _, _, kept, a_ub, b_ub, _ = self._restricted_forms(chosen)
+            floors = len(kept)
+            if not floors:
+                return chosen
+            width = len(a_ub[0])
+            low = min(sum((-v for v in row[1:] if v > 0), -row[0]) for row in a_ub[:floors])  # (min F·K over h)
+            found = maximize_linear(
+                [Fraction(0)] * width + [Fraction(1)],
+                [Fraction(1)] + [Fraction(0)] * (width - 1) + [min(low - cast(Fraction, self.tau), Fraction(0))],
+                [Fraction(1)] * width + [Fraction(0)],
+                [[*row, Fraction(int(f < floors))] for f, row in enumerate(a_ub)],
+                b_ub,
+            )
+            if found.status != "optimal" or found.value is None or found.multipliers is None:
+                return None  # (not reached: z at its lower end meets every row)
+            if found.value == 0:
+                return chosen
+            y = found.multipliers[:floors]
+            weights = [[Fraction(0)] * len(row) for row in self.tops]
+            for f, v in zip(kept, y, strict=True):
+                for row, coefficients in self.floors[f].items() if v else ():
+                    weights[row] = [w + v * c for w, c in zip(weights[row], coefficients, strict=True)]
+            more = [
+                list(dict.fromkeys([*c, *(twins[u] for u, v in enumerate(row) if v > max(row[w] for w in c))]))
+                for row, c, twins in zip(weights, chosen, self._twins, strict=True)
+            ]
+            if more == chosen:
+                return None  # (y shows no table over any decisions meets the floors)
+            chosen = more
+        return None
 
     def _readings(self, table: Table) -> list[list[list[Fraction]]]:
         """The table itself, then the vertex it stands for at each of

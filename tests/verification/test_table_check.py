@@ -160,18 +160,38 @@ def test_a_maximiser_pointed_to_from_any_multipliers_is_the_optimum_and_its_mult
     # from any nu >= 0 (the drawn one, far from optimal or not), with decisions added as the restricted program's
     # exact multipliers show: whenever a maximiser is returned, its value is the rational simplex's optimum over the
     # standard form, its table attains it and meets every floor, and B at its multipliers, computed cell by cell
-    # (a second route), is 0 there and positive just below; where no table meets the floors none is returned
+    # (a second route), is 0 there and positive just below; where no table meets the floors none is returned. Where
+    # every q > 0 and nu bounds the program, one is always returned: decisions are added until a table over them
+    # meets the floors (phase 1), then until the multipliers prove the value
     program, nu = drawn
     assume(program.tau is not None)
     optimum, found = _optimum(program), program.pointed_maximiser(nu, table_program.EXACT_CHOICES)
     if optimum.status != "optimal":
         assert found is None
         return
-    assume(found is not None)  # (no table over the decisions nu points to meets the floors: nothing to start from)
+    if all(v > 0 for row in program.bottoms for v in row) and program.dual_bound(nu) != INF:
+        assert found is not None
+    assume(found is not None)  # (a q = 0: 0/0, counted as 1, can keep the bound above the value)
     assert found.nu == nu and found.value == optimum.value and 0 <= found.choices <= table_program.EXACT_CHOICES
     assert program.point_ratio(found.table) == found.value and program.meets(found.table)
     assert all(v >= 0 for v in found.multipliers) and _b(program, found.multipliers, found.value) == 0
     assert _b(program, found.multipliers, found.value - F(1, 10**9)) > 0
+
+
+def test_from_choices_no_table_meets_phase_1_adds_the_decisions_the_floors_multipliers_gain():
+    # the class's program from nu = 0: lambda = 6, and r = p - 6q points row a to both decisions, row b to "no" only
+    # (r = -2 on yes, at any tolerance); no table over those meets the floor of b (1/8 k_a <= 1/8 < 1/4). Phase 1,
+    # max z with F.K >= tau + z, puts its multiplier on that floor, whose coefficient on b's yes (3/8) gains over
+    # "no" (0): with it, the program is solved at 10/3 and proved by nu* = (0, 8/3), as from the solver's nu
+    p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+    floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+    program = TableProgram(p, q, floors, F(1, 4))
+    found = program.pointed_maximiser([F(0), F(0)])
+    assert program.dual_bound([F(0), F(0)]) == 6
+    assert (found.value, found.multipliers, found.choices) == (F(10, 3), [F(0), F(8, 3)], 2)
+    assert found.table == [[F(1), F(0)], [F(1, 3), F(2, 3)]]
+    # with tau = 1, above what the floor of b reaches (1/2), phase 1's multipliers show no decision gains: none
+    assert TableProgram(p, q, floors, F(1)).pointed_maximiser([F(0), F(0)]) is None
 
 
 def test_the_class_s_maximiser_is_proved_and_a_feasible_table_below_it_is_not():
@@ -316,17 +336,30 @@ def _zeroed(d):
     [
         (lambda d: d.update(value=d["value"] + 1e-9), "bounds.black_box"),
         (lambda d: d["global"].update(value=d["global"]["value"] - 1e-9), "bound_details.black_box.global.value"),
-        (_zeroed, "bound_details.black_box.global.value"),  # (L's programs: the floor relaxation settles them)
         (lambda d: d.update(group=d["other_group"], other_group=d["group"]), "bound_details.black_box (its context and groups)"),
     ],
-    ids=["value up", "global down", "duals zeroed", "pair swapped"],
+    ids=["value up", "global down", "pair swapped"],
 )  # fmt: skip
 def test_an_edited_certificate_fails_where_the_duals_decide(by_group, monkeypatch, edit, failing):
     monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
     edited = _edited(by_group, edit)
-    if failing == "bounds.black_box" and edit is not _zeroed:
+    if failing == "bounds.black_box":
         edited["bounds"]["black_box"] = edited["bound_details"]["black_box"]["value"]
     assert failing in {c.name for c in verify(edited).failures}
+
+
+def test_with_its_duals_zeroed_the_values_are_still_proved_from_the_tables_zero_points_to(by_group, monkeypatch):
+    # the duals are evidence, not the certified numbers: from nu = 0 (the bound without floors, 6-ish) the tables
+    # it points to miss the floors; phase 1 adds decisions until one meets them, then the restricted programs'
+    # multipliers prove L-bar's exact values, as from the recorded duals (the same enclosure)
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    edited = _edited(by_group, _zeroed)
+    detail = by_group["bound_details"]["black_box"]
+    zeroed = bb.black_box_enclosures(edited["inputs"], edited["bound_details"]["black_box"])
+    recorded = bb.black_box_enclosures(by_group["inputs"], detail)
+    assert zeroed.global_ == recorded.global_ and zeroed.global_.lo == zeroed.global_.hi
+    result = verify(edited)
+    assert result.holds, [c.line() for c in result.failures]
 
 
 def test_without_its_duals_l_is_settled_by_the_floor_relaxation_and_l_bar_listed_not_failed(by_group, monkeypatch):

@@ -164,7 +164,11 @@ class TableProgram:
         shape = [len(row) for row in self.tops]
         for name, rows in (("tops", tops), ("bottoms", bottoms)):
             if [len(row) for row in rows] != shape:
-                raise ValueError(f"{name} must have {len(shape)} rows of {shape[0] if shape else 0} decisions")
+                widths = sorted({len(row) for row in rows})
+                raise ValueError(
+                    f"{name} must have {len(shape)} rows of {shape[0] if shape else 0} decisions (got {len(rows)} rows"
+                    f" of {' or '.join(map(str, widths)) or 'no'} decisions)"
+                )
         program = TableProgram(tops, bottoms, self.floors, self.tau)
         for built in ("_floor_matrix", "_floor_weights"):  # (cached properties: each built here if not yet)
             program.__dict__[built] = getattr(self, built)

@@ -253,9 +253,11 @@ def test_a_ratio_over_shared_floors_is_the_program_built_afresh(drawn, data):
 
 def test_a_ratio_of_another_shape_than_the_floors_rows_is_refused_naming_it():
     program = TableProgram([[F(1), F(0)]] * 2, [[F(1), F(1)]] * 2, [], None)
-    with pytest.raises(ValueError, match="bottoms must have 2 rows of 2 decisions"):
+    with pytest.raises(
+        ValueError, match=r"^bottoms must have 2 rows of 2 decisions \(got 2 rows of 2 or 3 decisions\)$"
+    ):
         program.with_ratio([[F(1), F(0)]] * 2, [[F(1), F(1), F(0)], [F(1), F(1)]])
-    with pytest.raises(ValueError, match="tops must have 2 rows"):
+    with pytest.raises(ValueError, match=r"^tops must have 2 rows of 2 decisions \(got 1 rows of 2 decisions\)$"):
         program.with_ratio([[F(1), F(0)]], [[F(1), F(1)]] * 2)
 
 

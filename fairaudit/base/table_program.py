@@ -18,6 +18,7 @@ steps. ``proofs/verification.md`` §4f; the one-floor relaxation §4g.
 
 from __future__ import annotations
 
+import collections
 import functools
 import math
 import operator
@@ -34,7 +35,7 @@ from fairaudit.base.exact_duality import (
     smallest_root,
     smallest_root_of_integers,
 )
-from fairaudit.base.exact_programs import maximize_linear, maximize_ratio
+from fairaudit.base.exact_programs import Polytope, maximize_linear
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.outward import quotient_nearest
 
@@ -59,6 +60,10 @@ EXACT_CHOICES = 512
 :meth:`TableProgram.pointed_maximiser`'s restricted program where certify asks for the value itself: 18 groups behind
 a product with three contexts behind a matrix, where dozens of programs tie exactly by the groups' symmetry, keep 300
 to 450 of 540 (54 rows of 11 decisions, 54 floors), each solved in about 2 s."""
+
+POLYTOPES_KEPT = 8
+"""How many restricted programs' polytopes (one per set of choices, with the basis of its last solve) a program and
+those :meth:`TableProgram.with_ratio` gives from it keep (each about 10 MB at 91 rows of 130 unknowns)."""
 
 
 @dataclass(frozen=True)
@@ -170,7 +175,7 @@ class TableProgram:
                     f" of {' or '.join(map(str, widths)) or 'no'} decisions)"
                 )
         program = TableProgram(tops, bottoms, self.floors, self.tau)
-        for built in ("_floor_matrix", "_floor_weights"):  # (cached properties: each built here if not yet)
+        for built in ("_floor_matrix", "_floor_weights", "_polytopes"):  # (cached properties: built here if not yet)
             program.__dict__[built] = getattr(self, built)
         return program
 
@@ -356,6 +361,14 @@ class TableProgram:
         return [sums[r * n_u : (r + 1) * n_u] for r in range(len(self.tops))]
 
     @functools.cached_property
+    def _polytopes(self) -> collections.OrderedDict[tuple[tuple[int, ...], ...], Polytope]:
+        """The restricted programs' polytopes (:meth:`_restricted`), by their choices, the most recently used last
+        (at most :data:`POLYTOPES_KEPT`): each keeps the basis its last solve ended at, feasible, and the programs
+        of :meth:`with_ratio`, which share them, have the same floors, so the same polytope over the same choices:
+        phase 1 runs once for all of them."""
+        return collections.OrderedDict()
+
+    @functools.cached_property
     def _floor_matrix(self) -> tuple[np.ndarray, int]:
         """The floors' coefficients over every cell (row-major: [floor, row · n_decisions + decision]), as integers
         over one denominator (an object array)."""
@@ -504,7 +517,8 @@ class TableProgram:
         F_f·K ≥ τ + z, z ≤ 0, its multipliers y on the floors adding a row's decisions whose Σ_f y_f F_f exceeds
         its largest over the choices); where none gains, none can, and the next of
         :data:`~fairaudit.base.exact_duality.ACTIVE_TOLERANCES` (relative to the largest |r|) is tried. Nothing here
-        needs to be right: λ* is a table's ratio, the table meets every constraint, and ν* bounds the program by λ*, exactly.
+        needs to be right: λ* is a table's ratio, the table meets every constraint, and ν* bounds the program by λ*,
+        exactly.
 
         Parameters
         ----------
@@ -646,11 +660,20 @@ class TableProgram:
         gives its unknowns and rows). ν is the last step's dual on the floors' rows
         (:attr:`~fairaudit.base.exact_programs.RatioOptimum.multipliers`): with the rows' sums kept in the inner
         maximum, it bounds the restricted program by its value. Its steps start at ``guess``
-        (:func:`~fairaudit.base.exact_programs.maximize_ratio`'s ``start``), near its maximum."""
+        (:meth:`~fairaudit.base.exact_programs.Polytope.maximize_ratio`'s ``start``), near its maximum, and its
+        simplex at the basis the last solve over the same choices and floors ended at, if any (:attr:`_polytopes`);
+        the polytope depends on the choices and the floors, not on the ratio."""
         p, q, kept, a_ub, b_ub, columns = self._restricted_forms(chosen)
         width = len(p)
         lower = [Fraction(1)] + [Fraction(0)] * (width - 1)
-        found = maximize_ratio(p, q, lower, [Fraction(1)] * width, a_ub, b_ub, start=guess)
+        key = tuple(map(tuple, chosen))
+        polytope = self._polytopes.pop(key, None)
+        if polytope is None:
+            polytope = Polytope(lower, [Fraction(1)] * width, a_ub, b_ub, width)
+        self._polytopes[key] = polytope
+        while len(self._polytopes) > POLYTOPES_KEPT:
+            self._polytopes.popitem(last=False)
+        found = polytope.maximize_ratio(p, q, start=guess)
         if found.status != "optimal" or found.value is None or found.point is None or found.multipliers is None:
             return None
         n_u = len(self.tops[0])

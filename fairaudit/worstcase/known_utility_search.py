@@ -237,6 +237,8 @@ def _solver(
 
     largest = -math.inf  # (the largest certified value returned: at most its search's largest value found)
     witnessed = -math.inf  # (the largest witness returned: at most the largest value)
+    floors = space.table_floors
+    table_program = None if floors is None else _table_programs(floors, problem.tau, problem.g.shape[-1])
 
     def solve(i: int) -> FractionalResult:
         nonlocal largest, witnessed
@@ -245,10 +247,8 @@ def _solver(
             r = replace(r, witness=math.nan, gap=math.nan) if roundings else r  # (below a value found: see above)
         else:
             r = settle(i, r) if roundings else r
-            if r.status == "optimal" and r.method == "lp" and space.table_floors is not None and r.dual:
-                r = _with_rows_kept(
-                    r, num(i), den(i), space.table_floors, problem.tau, problem.g.shape[-1], witness(i), witnessed
-                )
+            if r.status == "optimal" and r.method == "lp" and table_program is not None and r.dual:
+                r = _with_rows_kept(r, table_program(num(i), den(i)), witness(i), witnessed)
         if r.status == "optimal" and r.certified and r.value > closed[i]:
             r = replace(r, value=float(closed[i]), gap=gap_between(float(closed[i]), r.witness))
         if evidence is not None:
@@ -280,17 +280,37 @@ def _solver(
     return solve
 
 
+def _table_programs(
+    floors: FloatArray, tau: float | None, n_u: int
+) -> Callable[[FloatArray, FloatArray], TableProgram | None]:
+    """The programs over the model's table (:class:`~fairaudit.base.table_program.TableProgram`) of one search, by
+    their ratio's coefficients p and q (flat over the cells, n_rows · n_u): the floors, shape (n_floors, n_rows · n_u),
+    are read exactly once, and every program after the first comes from the one before by
+    :meth:`~fairaudit.base.table_program.TableProgram.with_ratio`, sharing its floors' matrix and the restricted
+    programs' polytopes (phase 1 once for the programs over the same choices). None without τ (no floors)."""
+    built: list[TableProgram] = []
+
+    def of(p: FloatArray, q: FloatArray) -> TableProgram | None:
+        if tau is None:
+            return None
+        tops, bottoms = ([[Fraction(v) for v in row] for row in c.reshape(-1, n_u).tolist()] for c in (p, q))
+        if built:
+            built[0] = built[0].with_ratio(tops, bottoms)
+        else:
+            built.append(TableProgram(tops, bottoms, [_floor(row, n_u) for row in floors], Fraction(tau)))
+        return built[0]
+
+    return of
+
+
 def _with_rows_kept(
     r: FractionalResult,
-    p: FloatArray,
-    q: FloatArray,
-    floors: FloatArray,
-    tau: float | None,
-    n_u: int,
+    program: TableProgram | None,
     witness: Callable[[FloatArray, float], float],
     witnessed: float = -math.inf,
 ) -> FractionalResult:
-    """``r``, a program over the model's table solved by the LP, certified (or its certified value lowered) from the
+    """``r``, a program over the model's table solved by the LP (``program``, of :func:`_table_programs`; None: no
+    floors, ``r`` itself), certified (or its certified value lowered) from the
     solver's floors' multipliers with each row's simplex kept in the inner maximum: the smallest λ with Σ_rows
     max_u (p − λq + Σ_f ν_f F_f) − τ Σ_f ν_f ≤ 0, exactly
     (:meth:`~fairaudit.base.table_program.TableProgram.dual_bound`; any ν ≥ 0 is valid, so the solver's, clipped at
@@ -308,15 +328,13 @@ def _with_rows_kept(
     most this one over the exact coefficients, of which these are the outer rounding (verify's own steps from the
     solver's ν need not find the table these coefficients' ν points to: at 18 groups they found none meeting the
     exact floors). None where that bound has no root (B flat at 0 beyond the value at ν*, where every row has a
-    decision with q = 0, and a hair above 0 at its floats): the solver's bound stands. ``witness`` (h, value) at the table proved optimal, the exact maximiser of these
-    coefficients (its vertex solved on the inner ones: the witness within rounding of the value, where the solver's
-    point gave one 1e-10 below), replaces the witness and the maximiser where it is larger. ``r`` itself where there
-    is no root or it is larger. ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
+    decision with q = 0, and a hair above 0 at its floats): the solver's bound stands. ``witness`` (h, value) at
+    the table proved optimal, the exact maximiser of these coefficients (its vertex solved on the inner ones: the
+    witness within rounding of the value, where the solver's point gave one 1e-10 below), replaces the witness and
+    the maximiser where it is larger. ``r`` itself where there is no root or it is larger. ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
     nu = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0)
-    if tau is None or nu.size != floors.shape[0]:
+    if program is None or nu.size != len(program.floors):
         return r
-    tops, bottoms = ([[Fraction(v) for v in row] for row in c.reshape(-1, n_u).tolist()] for c in (p, q))
-    program = TableProgram(tops, bottoms, [_floor(row, n_u) for row in floors], Fraction(tau))
     multipliers = [Fraction(v) for v in nu.tolist()]
     root = program.dual_bound(multipliers)
     if root == math.inf:

@@ -239,6 +239,7 @@ def test_a_ratio_over_shared_floors_is_the_program_built_afresh(drawn, data):
     small = st.integers(0, 6).map(lambda v: F(v, 6))
     tops, bottoms = ([[data.draw(small) for _ in row] for row in program.tops] for _ in range(2))
     kept = data.draw(st.integers(1, 12).map(lambda v: F(v, 8)))
+    program.pointed_value(nu)  # (the polytopes the programs share then keep the bases another ratio ended at)
     shared = program.with_ratio(tops, bottoms)
     fresh = TableProgram(tops, bottoms, program.floors, program.tau)
     for p in (shared, fresh):
@@ -249,6 +250,25 @@ def test_a_ratio_over_shared_floors_is_the_program_built_afresh(drawn, data):
     ]
     assert answers[0] == answers[1]
     assert shared.__dict__["_floor_matrix"] is program.__dict__["_floor_matrix"]
+    assert shared.__dict__["_polytopes"] is program.__dict__["_polytopes"]
+
+
+def test_the_programs_over_shared_floors_find_a_first_vertex_once_for_the_same_choices(monkeypatch):
+    # the class's program from nu = (0, 8/3): row a on yes, row b on both decisions; a second program over the same
+    # floors (with_ratio, the same ratio) restricted to the same choices starts from the basis the first ended at
+    # (phase 1 is not run again) and proves the same value; a program built afresh runs phase 1 again
+    from fairaudit.base import exact_programs
+
+    runs = []
+    feasible = exact_programs._Simplex.feasible
+    monkeypatch.setattr(exact_programs._Simplex, "feasible", lambda self: runs.append(1) or feasible(self))
+    p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
+    floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
+    program = TableProgram(p, q, floors, F(1, 4))
+    nu = [F(0), F(8 / 3)]
+    assert program.pointed_value(nu) == F(10, 3) and len(runs) == 1
+    assert program.with_ratio(p, q).pointed_value(nu) == F(10, 3) and len(runs) == 1
+    assert TableProgram(p, q, floors, F(1, 4)).pointed_value(nu) == F(10, 3) and len(runs) == 2
 
 
 def test_a_ratio_of_another_shape_than_the_floors_rows_is_refused_naming_it():

@@ -22,7 +22,7 @@ import collections
 import functools
 import math
 import operator
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import cast
@@ -361,11 +361,11 @@ class TableProgram:
         return [sums[r * n_u : (r + 1) * n_u] for r in range(len(self.tops))]
 
     @functools.cached_property
-    def _polytopes(self) -> collections.OrderedDict[tuple[tuple[int, ...], ...], Polytope]:
-        """The restricted programs' polytopes (:meth:`_restricted`), by their choices, the most recently used last
-        (at most :data:`POLYTOPES_KEPT`): each keeps the basis its last solve ended at, feasible, and the programs
-        of :meth:`with_ratio`, which share them, have the same floors, so the same polytope over the same choices:
-        phase 1 runs once for all of them."""
+    def _polytopes(self) -> collections.OrderedDict[tuple[tuple[int, ...], ...], tuple[Polytope, list[int]]]:
+        """The restricted programs' polytopes (:meth:`_restricted`) and the floors each keeps, by their choices, the
+        most recently used last (at most :data:`POLYTOPES_KEPT`): each keeps the basis its last solve ended at,
+        feasible, and the programs of :meth:`with_ratio`, which share them, have the same floors, so the same polytope
+        over the same choices: phase 1 runs once for all of them."""
         return collections.OrderedDict()
 
     @functools.cached_property
@@ -656,30 +656,29 @@ class TableProgram:
         self, chosen: Sequence[Sequence[int]], guess: Fraction
     ) -> tuple[Fraction, list[list[Fraction]], list[Fraction]] | None:
         """The program with row i on the decisions ``chosen[i]`` only, solved exactly: (its value, a table attaining
-        it, its multipliers ν on the floors), None where no such table meets the floors (:meth:`_restricted_forms`
-        gives its unknowns and rows). ν is the last step's dual on the floors' rows
+        it, its multipliers ν on the floors), None where no such table meets the floors. Its unknowns are one per
+        chosen decision after a row's first (whose share is 1 less the others'), and h₀ = 1 carrying what the rows fix
+        (:meth:`_affine`); its rows are :meth:`_restricted_rows`. ν is the last step's dual on the floors' rows
         (:attr:`~fairaudit.base.exact_programs.RatioOptimum.multipliers`): with the rows' sums kept in the inner
         maximum, it bounds the restricted program by its value. Its steps start at ``guess``
         (:meth:`~fairaudit.base.exact_programs.Polytope.maximize_ratio`'s ``start``), near its maximum, and its
         simplex at the basis the last solve over the same choices and floors ended at, if any (:attr:`_polytopes`);
-        the polytope depends on the choices and the floors, not on the ratio."""
-        p, q, kept, a_ub, b_ub, columns = self._restricted_forms(chosen)
-        width = len(p)
-        lower = [Fraction(1)] + [Fraction(0)] * (width - 1)
+        the polytope depends on the choices and the floors, not on the ratio, so only p and q are built again."""
         key = tuple(map(tuple, chosen))
-        polytope = self._polytopes.pop(key, None)
-        if polytope is None:
-            polytope = Polytope(lower, [Fraction(1)] * width, a_ub, b_ub, width)
-        self._polytopes[key] = polytope
+        polytope, kept = self._polytopes.pop(key) if key in self._polytopes else self._new_polytope(chosen)
+        self._polytopes[key] = polytope, kept
         while len(self._polytopes) > POLYTOPES_KEPT:
             self._polytopes.popitem(last=False)
-        found = polytope.maximize_ratio(p, q, start=guess)
+        found = polytope.maximize_ratio(
+            self._affine(chosen, self.tops), self._affine(chosen, self.bottoms), start=guess
+        )
         if found.status != "optimal" or found.value is None or found.point is None or found.multipliers is None:
             return None
         n_u = len(self.tops[0])
         table = [[Fraction(0)] * n_u for _ in chosen]
         for i, c in enumerate(chosen):
             table[i][c[0]] = Fraction(1)
+        columns = [(i, u) for i, c in enumerate(chosen) for u in c[1:]]
         for (i, u), share in zip(columns, found.point[1:], strict=True):
             table[i][chosen[i][0]] -= share
             table[i][u] = share
@@ -688,40 +687,48 @@ class TableProgram:
             nu[f] = y
         return found.value, table, nu
 
-    def _restricted_forms(
+    def _new_polytope(self, chosen: Sequence[Sequence[int]]) -> tuple[Polytope, list[int]]:
+        """The restricted program's polytope over ``chosen`` (h₀ = 1, the other unknowns in [0, 1], the rows of
+        :meth:`_restricted_rows`) and the floors it keeps."""
+        kept, a_ub, b_ub = self._restricted_rows(chosen)
+        width = sum(len(c) - 1 for c in chosen) + 1
+        return Polytope([Fraction(1)] + [Fraction(0)] * (width - 1), [Fraction(1)] * width, a_ub, b_ub, width), kept
+
+    @staticmethod
+    def _affine(chosen: Sequence[Sequence[int]], rows: Sequence[Row | None] | Mapping[int, Row]) -> list[Fraction]:
+        """Coefficients over the cells, ``rows`` (row i's over the decisions; a mapping may leave rows out: 0), as an
+        affine form over the restricted program's unknowns: h₀ = 1 carrying each row's first choice, then one unknown
+        per chosen decision after a row's first, in the rows' order (its coefficient less the first's)."""
+        out = [Fraction(0)]
+        for i, c in enumerate(chosen):
+            row = rows.get(i) if isinstance(rows, Mapping) else rows[i]
+            if row is None:
+                out.extend(Fraction(0) for _ in c[1:])
+                continue
+            first = row[c[0]]
+            out[0] += first
+            out.extend(row[u] - first for u in c[1:])
+        return out
+
+    def _restricted_rows(
         self, chosen: Sequence[Sequence[int]]
-    ) -> tuple[list[Fraction], list[Fraction], list[int], list[list[Fraction]], list[Fraction], list[tuple[int, int]]]:
-        """The program with row i on the decisions ``chosen[i]`` only, over one unknown per chosen decision after a
-        row's first (whose share is 1 less the others'), and h₀ = 1 carrying what the rows fix: (p, q over the
-        unknowns, the floors kept, A_ub and b_ub with those floors' rows first, as −F_f·h ≤ −τ, then each row's
-        shares summing to at most 1 where it has more than one, the cells (row, decision) of the unknowns after h₀).
+    ) -> tuple[list[int], list[list[Fraction]], list[Fraction]]:
+        """The restricted program's rows over :meth:`_affine`'s unknowns: (the floors kept, A_ub and b_ub with those
+        floors' rows first, as −F_f·h ≤ −τ, then each row's shares summing to at most 1 where it has more than one).
         A floor every choice meets is left out."""
-        columns = [(i, u) for i, c in enumerate(chosen) for u in c[1:]]
-        at = {cell: j + 1 for j, cell in enumerate(columns)}
-        width = len(columns) + 1
-
-        def affine(coefficients: Callable[[int], Row | None]) -> list[Fraction]:
-            out = [Fraction(0)] * width
-            for i, c in enumerate(chosen):
-                row = coefficients(i)
-                if row is None:
-                    continue
-                first = row[c[0]]
-                out[0] += first
-                for u in c[1:]:
-                    out[at[i, u]] += row[u] - first
-            return out
-
         tau = cast(Fraction, self.tau)
-        forms = [affine(floor.get) for floor in self.floors]
+        forms = [self._affine(chosen, floor) for floor in self.floors]
         kept = [f for f, form in enumerate(forms) if sum((v for v in form[1:] if v < 0), form[0]) < tau]
         a_ub = [[-v for v in forms[f]] for f in kept]
         b_ub = [-tau] * len(a_ub)
-        for i, c in enumerate(chosen):
+        start = 1
+        width = sum(len(c) - 1 for c in chosen) + 1
+        for c in chosen:
             if len(c) > 2:
-                a_ub.append([Fraction(int(j > 0 and columns[j - 1][0] == i)) for j in range(width)])
+                a_ub.append([Fraction(int(start <= j < start + len(c) - 1)) for j in range(width)])
                 b_ub.append(Fraction(1))
-        return affine(lambda i: self.tops[i]), affine(lambda i: self.bottoms[i]), kept, a_ub, b_ub, columns
+            start += len(c) - 1
+        return kept, a_ub, b_ub
 
     def _feasible(self, chosen: list[list[int]], limit: int) -> list[list[int]] | None:
         """``chosen`` with decisions added until some table over them meets every floor (phase 1 by column
@@ -731,7 +738,7 @@ class TableProgram:
         value over the choices where none does: then no table meets the floors). None there, or beyond ``limit``
         choices after the rows' first."""
         while sum(len(c) - 1 for c in chosen) <= limit:
-            _, _, kept, a_ub, b_ub, _ = self._restricted_forms(chosen)
+            kept, a_ub, b_ub = self._restricted_rows(chosen)
             floors = len(kept)
             if not floors:
                 return chosen

@@ -288,17 +288,18 @@ def _table_programs(
     are read exactly once, and every program after the first comes from the one before by
     :meth:`~fairaudit.base.table_program.TableProgram.with_ratio`, sharing its floors' matrix and the restricted
     programs' polytopes (phase 1 once for the programs over the same choices). None without τ (no floors)."""
-    built: list[TableProgram] = []
+    last: TableProgram | None = None
 
     def of(p: FloatArray, q: FloatArray) -> TableProgram | None:
+        nonlocal last
         if tau is None:
             return None
         tops, bottoms = ([[Fraction(v) for v in row] for row in c.reshape(-1, n_u).tolist()] for c in (p, q))
-        if built:
-            built[0] = built[0].with_ratio(tops, bottoms)
+        if last is None:
+            last = TableProgram(tops, bottoms, [_floor(row, n_u) for row in floors], Fraction(tau))
         else:
-            built.append(TableProgram(tops, bottoms, [_floor(row, n_u) for row in floors], Fraction(tau)))
-        return built[0]
+            last = last.with_ratio(tops, bottoms)
+        return last
 
     return of
 
@@ -309,29 +310,34 @@ def _with_rows_kept(
     witness: Callable[[FloatArray, float], float],
     witnessed: float = -math.inf,
 ) -> FractionalResult:
-    """``r``, a program over the model's table solved by the LP (``program``, of :func:`_table_programs`; None: no
-    floors, ``r`` itself), certified (or its certified value lowered) from the
-    solver's floors' multipliers with each row's simplex kept in the inner maximum: the smallest λ with Σ_rows
-    max_u (p − λq + Σ_f ν_f F_f) − τ Σ_f ν_f ≤ 0, exactly
+    """``r``, a program over the model's table solved by the LP, certified (or its certified value lowered) from the
+    solver's floors' multipliers ν with each row's simplex kept in the inner maximum. ``program`` is its program, of
+    :func:`_table_programs` (None: no floors, and ``r`` itself is returned).
+
+    The bound is the smallest λ with Σ_rows max_u (p − λq + Σ_f ν_f F_f) − τ Σ_f ν_f ≤ 0, exactly
     (:meth:`~fairaudit.base.table_program.TableProgram.dual_bound`; any ν ≥ 0 is valid, so the solver's, clipped at
     0, needs no repair), rounded up. Keeping the simplices makes it at most the bound from the LP's own dual (whose
-    simplex multipliers only add to each row's maximum), and it is the bound ``fairaudit verify`` re-derives from the
-    same ν. Where that bound is not within :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the
-    witness (or there is none), the program is solved exactly from the table ν points to
+    simplex multipliers only add to each row's maximum), and it is the bound ``fairaudit verify`` re-derives from
+    the same ν.
+
+    Where that bound is not within :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the witness (or
+    there is none), the program is solved exactly from the table ν points to
     (:meth:`~fairaudit.base.table_program.TableProgram.pointed_maximiser`), over up to
     :data:`~fairaudit.base.table_program.POINTED_CHOICES` choices, or up to
     :data:`~fairaudit.base.table_program.EXACT_CHOICES` where the bound is above ``witnessed``, the largest witness
     the search has returned, by as much (such a bound may become the certified value, which verify requires within
-    1e-12 of the exact worst case wherever it re-derives that). Where it is solved, its exact multipliers ν* read to
-    nearest (still ≥ 0, so still a bound) replace the solver's in ``r.dual`` and the bound at them, rounded up
+    1e-12 of the exact worst case wherever it re-derives that). Where it is solved, its exact multipliers ν* read
+    to nearest (still ≥ 0, so still a bound) replace the solver's in ``r.dual``, and the bound at them, rounded up
     (within a few ulps of the exact value), is the value: the bound verify re-derives from the recorded ν alone, at
     most this one over the exact coefficients, of which these are the outer rounding (verify's own steps from the
     solver's ν need not find the table these coefficients' ν points to: at 18 groups they found none meeting the
     exact floors). None where that bound has no root (B flat at 0 beyond the value at ν*, where every row has a
-    decision with q = 0, and a hair above 0 at its floats): the solver's bound stands. ``witness`` (h, value) at
-    the table proved optimal, the exact maximiser of these coefficients (its vertex solved on the inner ones: the
-    witness within rounding of the value, where the solver's point gave one 1e-10 below), replaces the witness and
-    the maximiser where it is larger. ``r`` itself where there is no root or it is larger. ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
+    decision with q = 0, and a hair above 0 at its floats): the solver's bound stands.
+
+    ``witness`` (h, value) at the table proved optimal, the exact maximiser of these coefficients (its vertex solved
+    on the inner ones: the witness within rounding of the value, where the solver's point gave one 1e-10 below),
+    replaces the witness and the maximiser where it is larger. ``r`` itself where there is no root or it is larger.
+    ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
     nu = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0)
     if program is None or nu.size != len(program.floors):
         return r

@@ -10,15 +10,15 @@ The method is the primal simplex with bounded variables over w, h = lower + (upp
 per row of A_ub (Chvátal 1983, ch. 8), in integer-pivoting form (Edmonds 1967; Bareiss 1968): every row is scaled to
 integers and the tableau D·B⁻¹N of the nonbasic columns, D·(the basic values) and D·(the reduced costs) are kept in
 GMP integers (gmpy2), D = det B, each pivot an exact integer division; fractions appear only in the answer, with the
-rows' multipliers (an optimal dual) read off the last basis's reduced costs of the slacks. Phase 1 adds
-one auxiliary column −t on the rows that h = lower violates and maximises −t (Chvátal 1983, ch. 3); phase 2 starts
-from its basis. The entering variable is the one of largest reduced cost (Dantzig's rule) until a step is
-degenerate, then the lowest-indexed improving one (Bland 1977) until a step is not; the leaving one is the
-lowest-indexed among the ties of the ratio test. A run of degenerate steps is thus all Bland's after its first and
-cannot cycle, every other step raises the objective, so the simplex ends. The ratio is maximised by Dinkelbach's
-method (Dinkelbach 1967) on the same tableau: each step is a phase 2 from the previous basis. A guess at the maximum
-(a bound from a solver's dual) may start the steps in place of the denominator's minimum and maximum: the guess need
-not be right, only near, for the steps to be few.
+rows' multipliers (an optimal dual) read off the last basis's reduced costs of the slacks. Phase 1 adds one
+auxiliary column −t on the rows that h = lower (or a vertex of the box given as the start) violates and maximises −t
+(Chvátal 1983, ch. 3); phase 2 starts from its basis. The entering variable is the one of largest reduced cost
+(Dantzig's rule) until a step is degenerate, then the lowest-indexed improving one (Bland 1977) until a step is not;
+the leaving one is the lowest-indexed among the ties of the ratio test. A run of degenerate steps is thus all
+Bland's after its first and cannot cycle, every other step raises the objective, so the simplex ends. The ratio is
+maximised by Dinkelbach's method (Dinkelbach 1967) on the same tableau: each step is a phase 2 from the previous
+basis. A guess at the maximum (a bound from a solver's dual) may start the steps in place of the denominator's
+minimum and maximum: the guess need not be right, only near, for the steps to be few.
 """
 
 from __future__ import annotations
@@ -173,7 +173,7 @@ class _Simplex:
         self.scales: list[int] = []  # (what each row was multiplied by, and the objective, for the multipliers)
         for row, bound in zip(rows, rhs, strict=True):
             ints, scale = _integers([*(a * w for a, w in zip(row, self.width, strict=True)), bound - _dot(row, lower)])
-            self.matrix.append([*ints[:-1], -1 if ints[-1] < 0 else 0])
+            self.matrix.append([*ints[:-1], 0])  # (t's column: set by phase 1)
             self.rhs.append(ints[-1])
             self.scales.append(scale)
         self.cost_scale = 1
@@ -185,9 +185,16 @@ class _Simplex:
         self.reduced: list[int] = [0] * (n + 1)
         self.degenerate = False
 
-    def feasible(self) -> bool:
-        """Phase 1: a feasible basis, or False when the polytope is empty. Called once, before :meth:`maximize`."""
+    def feasible(self, at_upper: Sequence[int] = ()) -> bool:
+        """Phase 1: a feasible basis, or False when the polytope is empty. Called once, before :meth:`maximize`, the
+        variables ``at_upper`` (w's indices, each once) first moved to their cap: the basis of the slacks at that
+        vertex of the box, where phase 1 takes no step if it meets every row."""
+        for j in at_upper:  # (D = 1 and w_j's column is column j here: each row's slack loses its coefficient)
+            self.rhs = [b - row[j] for b, row in zip(self.rhs, self.matrix, strict=True)]
+            self.at_upper[j] = True
         negative = [i for i, b in enumerate(self.rhs) if b < 0]
+        for i, row in enumerate(self.matrix):  # (t's column: −1 on the rows that start violated, its value their slack)
+            row[self.n] = -1 if self.rhs[i] < 0 else 0
         if negative:
             # t enters at the most violated row, at its value −(that slack): every violated row's slack rises to ≥ 0
             self._exchange(min(negative, key=lambda i: (self.rhs[i], i)), self.n)
@@ -472,11 +479,21 @@ class Polytope:
         As :func:`maximize_ratio`'s.
     n : int
         The number of variables (≥ 1).
+    at_upper : sequence of int, optional
+        The variables (indices in [0, n), each once) phase 1 starts at their upper bound, the others at their lower:
+        a vertex of the box. Where it meets every row of A_ub, phase 1 takes no step; elsewhere it starts there. The
+        polytope and every answer are the same from any start (default: every variable at its lower bound).
 
     Attributes
     ----------
     feasible : bool
         False when the polytope is empty.
+
+    Raises
+    ------
+    InputError
+        Where ``at_upper`` holds an index outside [0, n) or one twice; on the other parameters, as
+        :func:`maximize_ratio`.
 
     Examples
     --------
@@ -485,6 +502,12 @@ class Polytope:
     >>> box.maximize_ratio([F(7, 10), F(3, 10)], [F(3, 10), F(7, 10)]).value
     Fraction(7, 3)
     >>> box.maximize_ratio([F(3, 10), F(7, 10)], [F(7, 10), F(3, 10)]).value
+    Fraction(7, 3)
+
+    From the vertex (1, 0), which meets h₀ + h₁ ≥ 1/2, phase 1 has nothing to do; the answer is the same.
+
+    >>> Polytope([0, 0], [1, 1], [[-1, -1]], [F(-1, 2)], 2, at_upper=[0]).maximize_ratio([F(3, 10), F(7, 10)],
+    ...     [F(7, 10), F(3, 10)]).value
     Fraction(7, 3)
     """
 
@@ -495,10 +518,18 @@ class Polytope:
         A_ub: Sequence[Sequence[Rational]],
         b_ub: Sequence[Rational],
         n: int,
+        *,
+        at_upper: Sequence[int] = (),
     ) -> None:
         self._n = n
         self._simplex = _Simplex(*_polytope(lower, upper, A_ub, b_ub, n))
-        self.feasible = self._simplex.feasible()
+        starts = list(at_upper)
+        for j in starts:
+            if isinstance(j, bool) or not isinstance(j, numbers.Integral) or not 0 <= j < n:
+                raise InputError("at_upper", f"must hold variables' indices in [0, {n})", j)
+        if len(set(starts)) != len(starts):
+            raise InputError("at_upper", "must name each variable once", starts)
+        self.feasible = self._simplex.feasible([int(j) for j in starts])
 
     def maximize_ratio(
         self, p: Sequence[Rational], q: Sequence[Rational], *, start: Rational | None = None

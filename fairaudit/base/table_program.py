@@ -689,10 +689,21 @@ class TableProgram:
 
     def _new_polytope(self, chosen: Sequence[Sequence[int]]) -> tuple[Polytope, list[int]]:
         """The restricted program's polytope over ``chosen`` (h₀ = 1, the other unknowns in [0, 1], the rows of
-        :meth:`_restricted_rows`) and the floors it keeps."""
+        :meth:`_restricted_rows`) and the floors it keeps. Its phase 1 starts at the table with each row on its
+        chosen decision of largest Σ_f F_f (:attr:`_floor_weights`; the first of ties). Where every floor's
+        coefficients in a row are multiples ≥ 0 of one g (a utility of the decision only; of the decision and the
+        context, behind the identity on the context), that table maximises every floor at once, so it meets them
+        all where any table over the choices does, and phase 1 takes no step; elsewhere it is only where phase 1
+        starts."""
         kept, a_ub, b_ub = self._restricted_rows(chosen)
-        width = sum(len(c) - 1 for c in chosen) + 1
-        return Polytope([Fraction(1)] + [Fraction(0)] * (width - 1), [Fraction(1)] * width, a_ub, b_ub, width), kept
+        at_upper, column = [], 1
+        for c, weights in zip(chosen, self._floor_weights, strict=True):
+            best = max(c, key=lambda u: weights[u])  # (max keeps the first of ties: c[0], no unknown, where it ties)
+            if best != c[0]:
+                at_upper.append(column + c.index(best) - 1)
+            column += len(c) - 1
+        lower, upper = [Fraction(1)] + [Fraction(0)] * (column - 1), [Fraction(1)] * column
+        return Polytope(lower, upper, a_ub, b_ub, column, at_upper=at_upper), kept
 
     @staticmethod
     def _affine(chosen: Sequence[Sequence[int]], rows: Sequence[Row | None] | Mapping[int, Row]) -> list[Fraction]:

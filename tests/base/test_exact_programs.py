@@ -253,6 +253,36 @@ def test_bad_ratio_input_names_the_argument():
     assert caught.value.field == "p"
 
 
+@pytest.mark.parametrize(
+    ("at_upper", "offending"), [([2], 2), ([-1], -1), ([0.0], 0.0), ([True], True), ([1, 1], [1, 1])]
+)
+def test_a_start_outside_the_variables_is_refused_by_name(at_upper, offending):
+    with pytest.raises(InputError) as caught:
+        Polytope([0, 0], [1, 1], [], [], 2, at_upper=at_upper)
+    assert (caught.value.field, caught.value.value) == ("at_upper", offending)
+
+
+def test_a_start_that_meets_every_row_takes_no_phase_1_step(monkeypatch):
+    """h₀ + h₁ ≥ 3/2 over the unit box: from (0, 0) phase 1 pivots; from the vertex (1, 1) it takes no step, from
+    (1, 0) (which misses the row) it does; the maximum of (h₀ − h₁)/(h₀ + h₁), 1/3 at (1, 1/2), is the same from
+    each."""
+    from fairaudit.base import exact_programs
+
+    steps = []
+    original = exact_programs._Simplex._exchange
+    monkeypatch.setattr(
+        exact_programs._Simplex, "_exchange", lambda self, r, c: steps.append(r) or original(self, r, c)
+    )
+    counts = []
+    for start in ([], [0, 1], [0]):
+        steps.clear()
+        polytope = Polytope([0, 0], [1, 1], [[-1, -1]], [F(-3, 2)], 2, at_upper=start)
+        counts.append(len(steps))
+        assert polytope.feasible
+        assert polytope.maximize_ratio([F(1), F(-1)], [F(1), F(1)]).value == F(1, 3)
+    assert counts[1] == 0 and counts[0] > 0 and counts[2] > 0
+
+
 def test_numpy_integers_are_exact_rationals():
     result = maximize_linear(list(np.array([1, 2])), [0, 0], [1, 1], [], [])
     assert result.value == 3
@@ -379,6 +409,28 @@ def test_any_guess_gives_the_answer_without_one(polytope, numerator, denominator
     if guessed.status == "optimal":
         h = guessed.point
         assert feasible(h, lower, upper, A, b) and dot(q, h) > 0 and dot(p, h) / dot(q, h) == guessed.value
+
+
+@given(
+    polytopes(positive=True),
+    st.lists(small, min_size=6, max_size=6),
+    st.lists(st.builds(F, st.integers(0, 5), st.integers(1, 4)), min_size=6, max_size=6),
+    st.sets(st.integers(0, 5)),
+)
+def test_any_starting_vertex_gives_the_answer_from_the_lower_one(polytope, numerator, denominator, starts):
+    """Phase 1 from any vertex of the box: the same feasibility, status and exact maximum as from every variable at
+    its lower bound, attained at a feasible point of that ratio."""
+    lower, upper, A, b = polytope
+    n = len(lower)
+    p, q = numerator[:n], denominator[:n]
+    plain = maximize_ratio(p, q, lower, upper, A, b)
+    started = Polytope(lower, upper, A, b, n, at_upper=sorted(j for j in starts if j < n))
+    assert started.feasible == (plain.status != "infeasible")
+    found = started.maximize_ratio(p, q)
+    assert (found.status, found.value) == (plain.status, plain.value)
+    if found.status == "optimal":
+        h = found.point
+        assert feasible(h, lower, upper, A, b) and dot(q, h) > 0 and dot(p, h) / dot(q, h) == found.value
 
 
 @given(

@@ -261,7 +261,9 @@ def test_the_programs_over_shared_floors_find_a_first_vertex_once_for_the_same_c
 
     runs = []
     feasible = exact_programs._Simplex.feasible
-    monkeypatch.setattr(exact_programs._Simplex, "feasible", lambda self: runs.append(1) or feasible(self))
+    monkeypatch.setattr(
+        exact_programs._Simplex, "feasible", lambda self, at_upper=(): runs.append(1) or feasible(self, at_upper)
+    )
     p, q = [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]
     floors = [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}]
     program = TableProgram(p, q, floors, F(1, 4))
@@ -269,6 +271,38 @@ def test_the_programs_over_shared_floors_find_a_first_vertex_once_for_the_same_c
     assert program.pointed_value(nu) == F(10, 3) and len(runs) == 1
     assert program.with_ratio(p, q).pointed_value(nu) == F(10, 3) and len(runs) == 1
     assert TableProgram(p, q, floors, F(1, 4)).pointed_value(nu) == F(10, 3) and len(runs) == 2
+
+
+def test_a_restricted_program_starts_phase_1_at_the_table_that_best_meets_its_floors(monkeypatch):
+    # two groups behind binary randomized response keeping 3/4, g = (0, 1) over (no, yes), tau = 1/2: L's program
+    # for (a, b) is max (3k0 + k1)/(k0 + 3k1) with 3k0 + k1 >= 2 and k0 + 3k1 >= 2 (k = P(yes | released group)),
+    # 5/3 at k = (1, 1/3) by hand. Restricted to both decisions in each row, each row's first choice ("no") meets
+    # no floor, so phase 1 from there pivots; it starts at "yes" in each row (the largest sum of the floors'
+    # coefficients), which meets both, and takes no step
+    from fairaudit.base import exact_programs
+
+    events = []
+    exchange, feasible = exact_programs._Simplex._exchange, exact_programs._Simplex.feasible
+
+    def phase_1(self, at_upper=()):
+        events.append("phase 1")
+        found = feasible(self, at_upper)
+        events.append("end")
+        return found
+
+    monkeypatch.setattr(
+        exact_programs._Simplex, "_exchange", lambda self, r, c: events.append("pivot") or exchange(self, r, c)
+    )
+    monkeypatch.setattr(exact_programs._Simplex, "feasible", phase_1)
+    p, q = [[F(0), F(3, 4)], [F(0), F(1, 4)]], [[F(0), F(1, 4)], [F(0), F(3, 4)]]
+    program = TableProgram(p, q, [dict(enumerate(p)), dict(enumerate(q))], F(1, 2))
+    value, table, _ = program._restricted([[0, 1], [0, 1]], F(2))
+    assert (value, table) == (F(5, 3), [[F(0), F(1)], [F(2, 3), F(1, 3)]])
+    assert events[: events.index("end") + 1] == ["phase 1", "end"]
+    events.clear()
+    rows = [[F(0), F(-3, 4), F(-1, 4)], [F(0), F(-1, 4), F(-3, 4)]]  # (its rows over (h0 = 1, k0, k1))
+    plain = exact_programs.Polytope([F(1), F(0), F(0)], [F(1)] * 3, rows, [F(-1, 2)] * 2, 3)
+    assert plain.feasible and "pivot" in events[: events.index("end")]
 
 
 def test_a_ratio_of_another_shape_than_the_floors_rows_is_refused_naming_it():

@@ -9,19 +9,12 @@ Two routes to the same optimum:
   finds it exactly (Dinkelbach 1967; Charnes and Cooper 1962). The rule itself,
   vectorised over batches of boxes and with one floor on q·h, is
   :mod:`fairaudit.base.threshold_rule`, the inner loop of the worst-case searches.
-* :func:`lp_max` — any polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq}.
-  The Charnes–Cooper transform y = s·h, s = 1 / (q·h) turns the program into
-  the linear program max p·y subject to q·y = 1, A_ub y ≤ b_ub s,
-  A_eq y = b_eq s, lower s ≤ y ≤ upper s, s ≥ 0, solved with cvxpy and the
-  Clarabel interior-point solver, its value certified from the repaired dual
-  (:mod:`fairaudit.base.exact_duality`) or, on a small program near a
-  degenerate vertex, by the rational simplex (:mod:`fairaudit.base.exact_programs`).
-  An unbounded LP means the ratio is unbounded (+inf); an infeasible one that
-  no feasible h has q·h > 0.
-
-* :class:`FractionalProgram` — the same LP compiled once for a fixed
-  polytope and re-solved for many (p, q) (cvxpy parameters), which is how the
-  worst-case searches of :mod:`fairaudit.worstcase` loop over pairs of groups.
+* :func:`lp_max` — any bounded polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq}, by Dinkelbach's method
+  (Dinkelbach 1967): each step a linear program max (p − λq)·h solved by HiGHS's simplex and proved optimal from its
+  basis in exact arithmetic (:mod:`fairaudit.base.exact_lp`), λ the ratio at the last step's vertex, until that
+  maximum is 0: then λ is the exact maximum, the vertex attains it and the last basis's duals prove it.
+* :class:`FractionalProgram` — that route over a fixed polytope, re-solved for many (p, q) from the last basis,
+  which is how the worst-case searches of :mod:`fairaudit.worstcase` loop over pairs of groups.
 * :func:`fractional_max` — the single entry point: the threshold fast path
   whenever only per-cell bounds constrain h, the LP otherwise.
 
@@ -32,7 +25,6 @@ transform and of the threshold solution: ``proofs/linear_fractional.md`` and
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 import operator
@@ -46,16 +38,7 @@ import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, as_float_array
 from fairaudit.base.errors import InputError
-from fairaudit.base.exact_duality import (
-    ACTIVE_TOLERANCES,
-    RatioBound,
-    certify_ratio,
-    dual_value,
-    point_ratio,
-    refine_duals,
-    vertex_ratio,
-)
-from fairaudit.base.exact_vertex import improve_witness
+from fairaudit.base.exact_duality import certify_ratio, point_ratio
 from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
 
@@ -69,6 +52,7 @@ ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
 """A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
 
 __all__ = [
+    "EXACT_BASIS",
     "EXACT_CROSSOVER",
     "FractionalProgram",
     "FractionalResult",
@@ -136,11 +120,6 @@ class FractionalResult:
     witness: float = math.nan
     gap: float = math.nan
     dual: tuple[FloatArray, ...] = ()
-
-
-def _proves_less(tight: RatioBound, bound: RatioBound) -> bool:
-    """Whether ``tight`` is certified and smaller than ``bound`` (or ``bound`` is not certified): the one to keep."""
-    return tight.certified and not (bound.certified and bound.value <= tight.value)
 
 
 def gap_between(value: float, witness: float) -> float:
@@ -280,26 +259,13 @@ def solve_clarabel(problem: cp.Problem, options: Mapping[str, Any] | None = None
     return str(problem.status)
 
 
-REPAIR_OFFSETS = (0.0, 1e-13, 1e-11, 1e-9)
-"""λ − the solver's value (relative) at which the solver's dual is repaired (:func:`~fairaudit.base.exact_duality.refine_duals`); the smallest value certified is kept."""
-
-VERTEX_OFFSETS = (0.0, 1e-15, 1e-13, 1e-11)
-"""λ − the root of the repaired duals' B (relative; :func:`~fairaudit.base.exact_duality.vertex_ratio`) at which
-they are repaired, smallest first: where B is flat beyond the optimum the duals need λ a little above it."""
-
-PARAMETRIC_OFFSETS = (1e-11, 1e-9, 1e-7)
-"""λ − the solver's value (relative to max(1, |value|)) at which the parametric LP is solved, smallest first, when the
-transformed LP's dual proves nothing or a loose value beyond :data:`CROSSOVER_SIZE`
-(:meth:`FractionalProgram._parametric`). An inexact solve's duals are off by about 1e-9 relative: below that the
-margin is lost in them, above it the bound is as far above the optimum."""
-
-REPAIRS = 4
-"""Further repairs at the last certified λ, while the value decreases."""
-
 CROSSOVER_TOLERANCE = 1e-13
-"""How far (relative to max(1, |value|)) the value the repaired duals certify may lie above the witness (the point's,
-or the vertex's it stands for, :func:`~fairaudit.base.exact_vertex.improve_witness`) before a small program is solved
-exactly instead."""
+"""How far (relative to max(1, |value|)) a certified value may lie above its witness before the worst-case searches
+solve a program with rounded coefficients exactly (:mod:`fairaudit.worstcase.known_utility_search`)."""
+
+EXACT_BASIS = "proved by its exact basis (the rounded duals prove less)"
+"""What ``solver_status`` adds when a program's value is proved by the exact basis of its last step and not by its
+duals read to nearest (``dual`` is then empty)."""
 
 EXACT_CROSSOVER = "then the rational simplex"
 """What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why:
@@ -311,13 +277,6 @@ repaired duals are not tight."""
 
 _INCONSISTENT = "the constraints are inconsistent: no feasible h"
 """The reason of an empty polytope."""
-
-
-def _tight(bound: RatioBound, witness: float) -> bool:
-    """Whether the dual's certified value lies within :data:`CROSSOVER_TOLERANCE` of the ``witness``, a certified
-    lower end: only then is the value known to be within it of the maximum."""
-    scale = max(1.0, abs(bound.value))
-    return bound.certified and math.isfinite(witness) and bound.value - witness <= CROSSOVER_TOLERANCE * scale
 
 
 def _no_solution(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
@@ -332,11 +291,6 @@ def _unbounded(
     return result(
         value=math.inf, argmax=argmax, status="unbounded", solver_status=solver_status, reason=reason, certified=True
     )
-
-
-def _failed(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
-    """The solver failed and nothing exact stood in: NaN, status "error" (not "infeasible": nothing is proved)."""
-    return result(value=math.nan, argmax=None, status="error", solver_status=solver_status, reason=reason)
 
 
 def exact_result(
@@ -397,42 +351,38 @@ def exact_result(
 
 
 class FractionalProgram:
-    """max (p·h)/(q·h) over a fixed polytope, compiled once, solved for many (p, q).
+    """max (p·h)/(q·h) over a fixed bounded polytope, solved exactly for many (p, q) by Dinkelbach's method.
 
-    Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; what each LP status means).
+    Proof: ``proofs/linear_fractional.md`` (Dinkelbach's method over an exact simplex; ``proofs/exact_lp.md``).
 
-    The polytope is {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq} in R^n.
-    The Charnes–Cooper transform y = s·h, s = 1/(q·h) ≥ 0 gives the LP
-
-        max p·y  s.t.  q·y = 1,  A_ub y ≤ b_ub s,  A_eq y = b_eq s,  lower s ≤ y ≤ upper s,
-
-    built once with p and q as cvxpy parameters (disciplined parametrized
-    programming), so each :meth:`solve` only re-runs the Clarabel
-    interior-point solver.
+    The polytope is P = {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq} in R^n, its data taken exactly (a float at
+    its binary value). Each :meth:`solve` runs Dinkelbach's method (Dinkelbach 1967): λ₀ the ratio at the maximiser of
+    p·h, then λ_{k+1} the ratio at the maximiser h_k of (p − λ_k q)·h, until that maximum is 0. Each maximum is a linear
+    program solved by HiGHS's simplex, warm-started from the last basis, and proved optimal from its basis in exact
+    arithmetic (:class:`~fairaudit.base.exact_lp.ExactProgram`). The λ_k increase strictly over vertices of P, so the
+    method ends, at λ* = max (p·h)/(q·h) exactly, attained at the last vertex; the last basis's exact duals ν ≥ 0 (on
+    A_ub) and η (on A_eq) prove it: max over the box of (p − λ*q − ν·A_ub − η·A_eq)·h + ν·b_ub + η·b_eq = 0.
 
     Parameters
     ----------
     n : int
         Dimension of h.
-    lower, upper : float or array_like, shape (n,), optional
-        Per-cell bounds (None or ±inf: unbounded on that side).
+    lower, upper : float or array_like, shape (n,)
+        Finite per-cell bounds, lower ≤ upper.
     A_ub, b_ub : array_like or scipy.sparse matrix, shapes (m, n) and (m,), optional
     A_eq, b_eq : array_like or scipy.sparse matrix, shapes (k, n) and (k,), optional
-    solver_options : mapping, optional
-        Clarabel settings over :data:`CLARABEL_TOLERANCES` (tests use a small ``max_iter`` to get an
-        inaccurate solve).
 
     Raises
     ------
     InputError
-        On inconsistent shapes, non-finite constraint data, or lower > upper.
+        On inconsistent shapes, non-finite constraint data or bounds, or lower > upper.
 
     Examples
     --------
     >>> prog = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.7, -0.3], [-0.3, -0.7]], b_ub=[-0.5, -0.5])
     >>> r = prog.solve([0.7, 0.3], [0.3, 0.7])   # τ = 0.5 forces 0.3 + 0.7 h_2 >= 0.5: h = (1, 2/7), ratio 11/7
-    >>> round(r.value, 7), r.argmax.round(7).tolist(), r.status
-    (1.5714286, [1.0, 0.2857143], 'optimal')
+    >>> round(r.value, 12), r.argmax.round(12).tolist(), r.status, r.certified, r.gap <= 1e-15
+    (1.571428571429, [1.0, 0.285714285714], 'optimal', True, True)
     """
 
     def __init__(
@@ -445,423 +395,135 @@ class FractionalProgram:
         b_ub: npt.ArrayLike | None = None,
         A_eq: ConstraintMatrix | None = None,
         b_eq: npt.ArrayLike | None = None,
-        solver_options: Mapping[str, Any] | None = None,
     ) -> None:
-        import cvxpy as cp
+        from fairaudit.base.exact_lp import ExactProgram
 
         self.n = int(n)
-        self.lower, self.upper = _bounds(lower, upper, self.n, required=False)
-        self._p = cp.Parameter(self.n)
-        self._q = cp.Parameter(self.n)
-        self._y = cp.Variable(self.n)
-        self._s = cp.Variable(nonneg=True)
-        self._rows: list[tuple[FloatArray | sp.csr_matrix, FloatArray, str]] = []
+        self.lower, self.upper = _bounds(lower, upper, self.n, required=True)
+        if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
+            raise InputError("lower", "the bounds of h must be finite (the programs of fairaudit are over boxes)")
+        self._rows: list[tuple[FloatArray, FloatArray, str]] = []
         for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
             if a is None:
                 continue
-            a = _matrix(a, name)
+            dense = _matrix(a, name)
+            dense = np.asarray(dense.toarray() if hasattr(dense, "toarray") else dense, dtype=float)
             b = as_float_array(b, name.replace("A", "b"), ndim=1)
-            if a.shape != (b.size, self.n):
-                raise InputError(name, f"shape must be ({b.size}, {self.n})", a.shape)
-            self._rows.append((a, b, op))
-        y = self._y
-        constraints = self._constraints(y, self._s)
-        self._row_constraints = constraints[len(constraints) - len(self._rows) :]  # their duals are ν and η
-        self._problem = cp.Problem(cp.Maximize(self._p @ y), [self._q @ y == 1, *constraints])
-        self._options = dict(solver_options or {})
-        self._bounded = (
-            self.lower is not None
-            and self.upper is not None
-            and bool(np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper)))
-        )
-        self._primal: tuple[cp.Problem, cp.Variable, cp.Parameter] | None = None
-
-    def _constraints(self, x: cp.Variable, scale: cp.Variable | None = None) -> list[cp.Constraint]:
-        """The polytope's constraints on ``x``: its finite bounds, then its rows; right-hand sides times ``scale``."""
-        cons = []
-        for bound, op in ((self.lower, "ge"), (self.upper, "le")):
-            if bound is not None and np.isfinite(bound).any():
-                idx = np.flatnonzero(np.isfinite(bound))
-                side = bound[idx] if scale is None else bound[idx] * scale
-                cons.append(x[idx] >= side if op == "ge" else x[idx] <= side)
-        for a, b, op in self._rows:
-            side = b if scale is None else b * scale
-            cons.append(a @ x <= side if op == "le" else a @ x == side)
-        return cons
+            if dense.shape != (b.size, self.n):
+                raise InputError(name, f"shape must be ({b.size}, {self.n})", dense.shape)
+            if not np.all(np.isfinite(b)):
+                raise InputError(name.replace("A", "b"), "must be finite")
+            self._rows.append((dense, b, op))
+        matrix = [row for a, _, _ in self._rows for row in a.tolist()]
+        row_lower = [v if op == "eq" else -math.inf for _, b, op in self._rows for v in b.tolist()]
+        row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
+        self._program = ExactProgram(matrix, row_lower, row_upper, self.lower.tolist(), self.upper.tolist())
 
     def _result(self, p: FloatArray, q: FloatArray) -> Callable[..., FractionalResult]:
-        """A :class:`FractionalResult` of the LP for ``p`` and ``q``, given the rest."""
+        """A :class:`FractionalResult` of the program for ``p`` and ``q``, given the rest."""
         return functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
 
     def solve(self, p: npt.ArrayLike, q: npt.ArrayLike, *, below: float = -math.inf) -> FractionalResult:
-        """The optimum for numerator ``p`` and denominator ``q`` (shape (n,) each).
+        """The exact optimum for numerator ``p`` and denominator ``q`` (shape (n,) each), rounded outward.
 
         Parameters
         ----------
         p, q : array_like, shape (n,)
-            The numerator and the denominator.
+            The numerator and the denominator; q·h ≥ 0 on the polytope.
         below : float, optional
-            A value the caller already holds (a ratio): where the solver's own dual certifies a value at most it,
-            that value is returned at once, certified, with the ratio at the solver's point as the witness; its dual
-            is not repaired, and neither the vertex witness nor the exact or parametric steps run, which only tighten
-            a value the caller does not need. Beyond the exact size, a value left above it by no more than the
-            parametric offsets' window, with no witness above it, is tried at λ = ``below`` by the parametric LP
-            (``_parametric``): a near tie an inexact solve left above the value held is proved at most it there.
-            Default -inf: never.
+            A value the caller already holds (a ratio): the method starts at λ₀ = ``below``, and where
+            max (p − below·q)·h ≤ 0 (exactly) the maximum is at most ``below``, returned at once, certified, with the
+            ratio at that maximiser as the witness. Default -inf: never.
 
         Returns
         -------
         FractionalResult
-            ``method = "lp"``; +inf with a reason when the ratio is unbounded,
-            NaN with a reason when no feasible h has q·h > 0. Never raises for
-            an infeasible or unbounded program. A box program (no rows, finite bounds ≥ 0, p and q ≥ 0) that the
-            solver calls unbounded or whose value its dual cannot certify (badly scaled data: cells of 1e-11) is
-            solved by the threshold rule instead, exact on a box (:func:`threshold_max`); ``solver_status`` says so.
-            A program with rows that the solver calls unbounded is solved by the rational simplex where it is within
-            :data:`CROSSOVER_SIZE` (+inf only where a vertex has q·h = 0 < p·h exactly); beyond it, +inf stands, an
-            upper bound of every ratio. Beyond that size, a value whose dual proves nothing, or a value its dual
-            proves loosely, is also bounded from the duals of the parametric LP max (p − λq)·h just above the
-            solver's value (:data:`PARAMETRIC_OFFSETS`), and the smaller certified value is kept.
+            ``method = "lp"``, certified: the exact maximum rounded up, its witness rounded down at the vertex
+            attaining it; +inf where a vertex has q·h = 0 < p·h (exactly); NaN with status "infeasible" and a reason
+            where the polytope is empty or q·h = 0 on all of it; status "error" where q·h < 0 at a vertex (the
+            method needs q·h ≥ 0). ``dual`` holds the last step's ν (on A_ub) and η (on A_eq), to nearest (ν stays
+            ≥ 0). ``solver_status`` counts the steps and the exact pivots.
         """
         p, q = _vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
-        r = self._solve_lp(p, q, below)
-        said_unbounded = r.solver_status in ("unbounded", "unbounded_inaccurate")  # cvxpy's statuses
-        if r.certified and not said_unbounded or self._rows or not self._bounded:
-            return r
-        if self.lower is None or self.upper is None or np.any(self.lower < 0) or np.any(p < 0) or np.any(q < 0):
-            return r
-        exact = threshold_max(p, q, self.lower, self.upper)
-        return dataclasses.replace(exact, solver_status=f"{r.solver_status}; then the threshold rule (exact on a box)")
-
-    def _solve_lp(self, p: FloatArray, q: FloatArray, below: float = -math.inf) -> FractionalResult:
-        """The LP route of :meth:`solve`."""
-        import cvxpy as cp
-
         result = self._result(p, q)
-        self._p.value, self._q.value = p, q
-        prob = self._problem
-        try:
-            solve_clarabel(prob, self._options)
-        except cp.error.SolverError as exc:  # a failure is solved exactly when small, else reported, never raised
-            exact = self._crossover(result, p, q, "solver_error", "the solver failed", report_empty=True)
-            return exact if exact is not None else _failed(result, "solver_error", f"the solver failed: {exc}")
-        status = prob.status
-        if status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
-            # the solver's word is checked where the program is small: on badly scaled data (e^30 beside 1) Clarabel
-            # called a ratio unbounded whose exact maximum is finite (a box program goes to the threshold rule, solve)
-            if self._rows and self._bounded:
-                exact = self._crossover(result, p, q, status, "the solver called the ratio unbounded")
-                if exact is not None:
-                    return exact
-            return _unbounded(result, None, status, "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0")
-        if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-            return self._zero_denominator(p, q, status)
-        s = self._s.value
-        if s is None:  # pragma: no cover - the solver returned no point
-            return _failed(result, status, "the solver returned no solution")
-        if self._bounded and s > 0:
-            # On a bounded nonempty polytope every feasible (y, s) has s > 0 (s = 0 forces y = 0, and q·y = 1).
-            h = np.asarray(self._y.value, dtype=float) / float(s)
-            return self._certified(result, p, q, float(prob.value), h, status, below)
-        if self._bounded:  # s <= 0 is no point of a bounded polytope: the solve failed (solved exactly when small)
-            why = "the solver's point had s <= 0 on a bounded polytope"
-            exact = self._crossover(result, p, q, status, why, report_empty=True)
-            return exact if exact is not None else _failed(result, status, why)
-        y = np.asarray(self._y.value, dtype=float)
-        if s <= 1e-12 * max(1.0, float(np.abs(y).max())):
-            # s = 0: y is a recession direction. The polytope itself may still be empty; check it.
-            try:
-                primal_status, _, _ = self._primal_max(p)
-            except cp.error.SolverError as exc:
-                return _failed(result, status, f"the solver failed: {exc}")
-            if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-                return _no_solution(result, status, _INCONSISTENT)
-            return result(
-                value=float(prob.value),
-                argmax=None,
-                status="optimal",
-                solver_status=status,
-                reason="the supremum is approached only as h grows without bound along a recession "
-                "direction of the polytope (q·h -> +inf); it is not attained",
-            )
-        return self._certified(result, p, q, float(prob.value), y / float(s), status, below)
-
-    def _certified(
-        self,
-        result: Callable[..., FractionalResult],
-        p: FloatArray,
-        q: FloatArray,
-        value: float,
-        h: FloatArray,
-        status: str,
-        below: float = -math.inf,
-    ) -> FractionalResult:
-        """The solver's optimum certified from its dual, checked exactly (proofs/linear_fractional.md §6).
-
-        The value is the smallest λ ≥ the solver's value with B(λ) ≤ 0, rounded up; the witness is the ratio at the
-        primal point clipped into the box, when it meets every row exactly. Without a dual that checks, the solver's
-        value is returned uncertified, with the reason. Where the solver's own dual certifies a value at most
-        ``below``, that value is returned as it is (:meth:`solve`).
-        """
-        duals = [np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for c in self._row_constraints]
-        duals = [d if op == "le" else -d for d, (_, _, op) in zip(duals, self._rows)]
-        if self.lower is not None or self.upper is not None:
-            h = np.clip(h, self.lower, self.upper)
-        witness = point_ratio(h, p, q, self.lower, self.upper, self._rows)
-        # Newton from the left reaches the smallest λ with B(λ) ≤ 0 for the duals: start below the optimum
-        start = min(witness, value - 1e-9 * abs(value)) if math.isfinite(witness) else value - 1e-9 * abs(value)
-        bound = certify_ratio(start, p, q, self.lower, self.upper, self._rows, duals)  # type: ignore[arg-type]
-        if bound.certified and bound.value <= below:  # (the caller holds as much: no need to tighten it)
-            return self._proved(result, bound, h, status, witness, duals)
-        candidates: list[tuple[float, float, bool]] = []  # (λ, the active tolerance, whether at a root)
-        roots: list[float] = []
-        if self._bounded and math.isfinite(value):
-            # just above the root of B for the duals repaired at h (the optimum, up to rounding, when h is near an
-            # optimal vertex and its cells at a bound are told from those inside), then just above the solver's value:
-            # there the best dual has B(λ) < 0 with a margin
-            for tolerance in ACTIVE_TOLERANCES:
-                root = vertex_ratio(h, p, q, self.lower, self.upper, self._rows, duals, tolerance)  # type: ignore[arg-type]
-                if root is not None and root not in roots:
-                    roots.append(root)
-                    candidates += [(root + offset * max(1.0, abs(root)), tolerance, True) for offset in VERTEX_OFFSETS]
-            candidates += [
-                (value + offset * max(1.0, abs(value)), ACTIVE_TOLERANCES[0], False) for offset in REPAIR_OFFSETS
-            ]
-        done: set[float] = set()  # the tolerances whose root certified: a larger offset only loosens it
-        best = ACTIVE_TOLERANCES[0]
-        for lam, tolerance, at_root in candidates:
-            if at_root and tolerance in done:
-                continue
-            repaired = refine_duals(h, lam, p, q, self.lower, self.upper, self._rows, duals, tolerance)  # type: ignore[arg-type]
-            if repaired is None:
-                break
-            tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired)  # type: ignore[arg-type]
-            if at_root and tight.certified:
-                done.add(tolerance)
-            if _proves_less(tight, bound):
-                bound, duals, best = tight, repaired, tolerance
-        for _ in range(REPAIRS if bound.certified and self._bounded else 0):
-            # each repair at the last certified λ contracts its distance to the optimum (proofs/linear_fractional.md §6)
-            repaired = refine_duals(h, bound.value, p, q, self.lower, self.upper, self._rows, duals, best)  # type: ignore[arg-type]
-            tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, repaired) if repaired else bound  # type: ignore[arg-type]
-            if not tight.certified or tight.value >= bound.value:
-                break
-            bound, duals = tight, repaired  # type: ignore[assignment]
-
-        vertices: dict[float, float] = {}  # the vertex witnesses of h, by tolerance, once each
-
-        def improved(witness: float) -> float:
-            """Where the point misses a row by rounding, the witness of the vertex it stands for."""
-            if not (self._bounded and bound.certified):
-                return witness
-            lower, upper = self.lower, self.upper  # finite on a bounded program
-            assert lower is not None and upper is not None
-            rows = self._rows
-            return improve_witness(witness, bound.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, rows, vertices)
-
-        witness = improved(witness)
-        if self._bounded and not _tight(bound, witness):
-            crossover = self._crossover(result, p, q, status)
-            if crossover is not None:
-                return crossover
-            if math.isfinite(value):  # beyond the exact size: the parametric LP's duals, where they prove more
-                bound, duals = self._parametric(p, q, start, value, bound, duals, below, witness)
-                witness = improved(witness)
-        if not bound.certified:
-            why = f"not certified (solver status {status}): {bound.reason}"
-            raw = tuple(np.asarray(d, dtype=float) for d in duals)
-            return result(
-                value=value, argmax=h, status="optimal", solver_status=status, reason=why, witness=witness, dual=raw
-            )
-        return self._proved(result, bound, h, status, witness, duals)
+        self._pq = (p, q)
+        top, bottom = [Fraction(v) for v in p.tolist()], [Fraction(v) for v in q.tolist()]
+        lam = Fraction(below) if math.isfinite(below) else None
+        at: FloatArray | None = None  # the vertex whose ratio is λ (None while λ is the caller's)
+        steps = pivots = 0
+        while True:
+            cost = top if lam is None else [a - lam * b for a, b in zip(top, bottom, strict=True)]
+            found = self._program.minimize([-c for c in cost])
+            steps, pivots = steps + 1, pivots + found.pivots
+            status = f"HiGHS simplex, exact basis ({steps} Dinkelbach steps, {pivots} exact pivots)"
+            if found.status != "optimal" or found.point is None or found.value is None:
+                return _no_solution(result, status, _INCONSISTENT)  # (a bounded polytope: only empty)
+            h = found.point
+            num, den = _dot(top, h), _dot(bottom, h)
+            point = np.array([float(v) for v in h])
+            if lam is not None and -found.value <= 0:  # max (p − λq)·h ≤ 0: the ratio is at most λ
+                if at is not None:  # λ is the ratio at a vertex, which attains it
+                    num, den, point = lam, Fraction(1), at
+                return self._proved(result, lam, num, den, point, found.duals, status)
+            if den < 0:
+                why = "q·h < 0 at a vertex of the polytope: the ratio needs q·h >= 0"
+                return result(value=math.nan, argmax=point, status="error", solver_status=status, reason=why)
+            if den == 0 and num > 0:
+                why = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (c/0, exactly)"
+                return _unbounded(result, point, status, why)
+            if den == 0:  # p·h <= 0 = q·h at the maximiser of p·h (lam None): start from the maximiser of q·h
+                found = self._program.minimize([-c for c in bottom])
+                assert found.point is not None
+                if _dot(bottom, found.point) <= 0:  # q·h = 0 on all of P, and p·h ≤ 0: 0/0 = 1 at most
+                    why = "p·h <= 0 = q·h on every feasible h (0/0 counts as parity)"
+                    witness = 1.0 if num == 0 else math.nan
+                    return result(value=1.0, argmax=point, status="optimal", solver_status=status, reason=why,
+                                  certified=True, witness=witness, gap=gap_between(1.0, witness))  # fmt: skip
+                num, den = _dot(top, found.point), _dot(bottom, found.point)
+                point = np.array([float(v) for v in found.point])
+            lam, at = num / den, point if den > 0 else None
 
     def _proved(
         self,
         result: Callable[..., FractionalResult],
-        bound: RatioBound,
-        h: FloatArray,
+        lam: Fraction,
+        num: Fraction,
+        den: Fraction,
+        point: FloatArray,
+        duals: tuple[Fraction, ...] | None,
         status: str,
-        witness: float,
-        duals: list[FloatArray],
     ) -> FractionalResult:
-        """The result certified by ``bound`` from ``duals`` (ν ≥ 0 on the "le" rows, clipped at 0 there)."""
-        cleaned = tuple(np.maximum(d, 0.0) if op == "le" else d for d, (_, _, op) in zip(duals, self._rows))
-        return result(
-            value=bound.value,
-            argmax=h,
-            status="optimal",
-            solver_status=status,
-            reason="",
-            certified=True,
-            witness=witness,
-            gap=gap_between(bound.value, witness),
-            dual=cleaned,
-        )
+        """The result once max (p − λq)·h ≤ 0 is proved, the ratio num/den at ``point``: λ rounded up, proved by the
+        exact basis of the last step; the witness is the ratio at the point, rounded down. ``dual`` holds that basis's
+        duals read to nearest, as a certificate records them, where the bound they prove by weak duality
+        (:func:`~fairaudit.base.exact_duality.certify_ratio`) is within :data:`CROSSOVER_TOLERANCE` of the value;
+        otherwise (a flat B(λ), where every box maximiser has q·h near 0) it is empty and ``solver_status`` ends
+        with :data:`EXACT_BASIS`."""
+        dual = self._multipliers(duals)
+        witness = fraction_down(num / den) if den > 0 else math.nan
+        value = fraction_up(lam)
+        p, q = self._pq
+        bound = certify_ratio(fraction_down(lam), p, q, self.lower, self.upper, self._rows, list(dual))
+        if not (bound.certified and bound.value - value <= CROSSOVER_TOLERANCE * max(1.0, abs(value))):
+            dual, status = (), f"{status}; {EXACT_BASIS}"
+        return result(value=value, argmax=point, status="optimal", solver_status=status, reason="", certified=True,
+                      witness=witness, gap=gap_between(value, witness), dual=dual)  # fmt: skip
 
-    def _parametric(
-        self,
-        p: FloatArray,
-        q: FloatArray,
-        start: float,
-        value: float,
-        bound: RatioBound,
-        duals: list[FloatArray],
-        below: float = -math.inf,
-        witness: float = math.nan,
-    ) -> tuple[RatioBound, list[FloatArray]]:
-        """The better of ``bound`` (with its ``duals``) and the bounds certified from the duals of the parametric LP
-        max (p − λq)·h over the polytope itself, at λ a little above the solver's ``value``
-        (:data:`PARAMETRIC_OFFSETS`): there its optimum is negative by a margin, so its duals prove B(λ) ≤ 0 where
-        the solver's error is below that margin (Dinkelbach). Checked exactly as any dual
-        (``proofs/linear_fractional.md`` §6, "The parametric dual").
+    def _multipliers(self, duals: tuple[Fraction, ...] | None) -> tuple[FloatArray, ...]:
+        """The exact row duals of the last step as (ν on A_ub, η on A_eq), to nearest; ν = −y ≥ 0."""
+        assert duals is not None
+        out, start = [], 0
+        for a, _, _ in self._rows:
+            block = duals[start : start + a.shape[0]]
+            out.append(np.array([float(-v) for v in block], dtype=float))
+            start += a.shape[0]
+        return tuple(out)
 
-        For when the transformed LP's dual proves nothing (an inexact solve whose floors' multipliers leave B above 0
-        where q·h = 0) or proves a loose value, on a program beyond the rational simplex's size. First, at λ =
-        ``below`` (the value the caller holds, :meth:`solve`) where it lies under ``bound`` but not under the
-        ``witness``, and no further below the solver's value than its largest offset above it: an inexact solve's
-        value can lie that far above the optimum, and a near tie the caller holds is proved at most its value there.
-        """
-        import cvxpy as cp
 
-        scale = max(1.0, abs(value))
-        offsets = [offset * scale for offset in PARAMETRIC_OFFSETS]
-        near = value - offsets[-1] <= below < bound.value and not witness > below  # (NaN: no witness)
-        for lam in [below] * near + [value + offset for offset in offsets]:
-            if bound.certified and bound.value <= lam:
-                break  # a larger λ gives no smaller root
-            try:
-                status, _, _ = self._primal_max(p - lam * q)
-            except cp.error.SolverError:
-                continue
-            if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-                continue
-            for found in self._primal_duals():
-                tight = certify_ratio(start, p, q, self.lower, self.upper, self._rows, found)  # type: ignore[arg-type]
-                if _proves_less(tight, bound):
-                    bound, duals = tight, found
-        return bound, duals
-
-    def _crossover(
-        self,
-        result: Callable[..., FractionalResult],
-        p: FloatArray,
-        q: FloatArray,
-        status: str,
-        why: str = "the repaired dual was not tight",
-        report_empty: bool = False,
-    ) -> FractionalResult | None:
-        """The exact optimum of a small program by the rational simplex (:func:`~fairaudit.base.exact_programs.
-        maximize_ratio`), for when the duals repaired at the solver's point are not tight, or the solver failed
-        (``why`` says which, in ``solver_status``); None when the program is larger than :data:`CROSSOVER_SIZE` or the
-        simplex finds no finite maximum. An empty polytope (in the floats' rationals) is reported as such with
-        ``report_empty`` (no solve to fall back on), else None: a dual's bound holds vacuously there.
-
-        Near a degenerate vertex (two rows that differ by rounding, both active at the solver's point) the optimal
-        basis is not the one the solver's point suggests: its repaired duals have mixed signs, and the bound
-        certified from them is loose. The simplex pivots to the optimal vertex exactly
-        (``proofs/linear_fractional.md`` §6, "An exact crossover").
-        """
-        from fairaudit.base.exact_programs import maximize_ratio
-
-        blocks = [(np.asarray(a.toarray() if hasattr(a, "toarray") else a), b, op) for a, b, op in self._rows]
-        size = sum(b.size * (2 if op == "eq" else 1) for _, b, op in blocks)
-        if self.n > CROSSOVER_SIZE[0] or size > CROSSOVER_SIZE[1] or self.lower is None or self.upper is None:
-            return None
-
-        def exact(v: Any) -> list[Fraction]:
-            return [Fraction(float(x)) for x in v]
-
-        a_ub, b_ub = [], []
-        for a, b, op in blocks:
-            for sign in (1, -1) if op == "eq" else (1,):
-                a_ub += [exact(sign * row) for row in a]
-                b_ub += exact(sign * b)
-        top, bottom = exact(p), exact(q)
-        optimum = maximize_ratio(top, bottom, exact(self.lower), exact(self.upper), a_ub, b_ub)
-        return exact_result(result, optimum, top, bottom, f"{status}; {EXACT_CROSSOVER} (exact: {why})", report_empty)
-
-    def _zero_denominator(self, p: FloatArray, q: FloatArray, status: str) -> FractionalResult:
-        """The transformed LP is infeasible: the polytope is empty, or q·h = 0 on all of it.
-
-        Tells the two apart with the LP max p·h over the polytope itself: empty
-        gives NaN; otherwise the ratio is +inf when some feasible h has
-        p·h > 0 (c/0) and 1 when p·h = 0 too (0/0, parity).
-        """
-        import cvxpy as cp
-
-        result = self._result(p, q)
-        if self._bounded:  # a small program is told exactly: empty, or +inf at a vertex with q·h = 0 < p·h
-            why = "the solver called the transformed program infeasible"
-            exact = self._crossover(result, p, q, status, why, report_empty=True)
-            if exact is not None:
-                return exact
-        try:
-            primal_status, value, h = self._primal_max(p)
-        except cp.error.SolverError as exc:  # pragma: no cover
-            return _failed(result, "solver_error", f"the solver failed: {exc}")
-
-        if primal_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-            return _no_solution(result, status, _INCONSISTENT)
-        if self._bounded and primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE):
-            # max p·h over a bounded polytope is finite: the solver's word and its point (a ray of 1e38) are wrong
-            return _failed(
-                result, f"{status}; {primal_status}", "the solver called max p·h over a bounded box unbounded"
-            )
-        if primal_status in (cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE) or value > 1e-12 * max(1.0, np.abs(p).sum()):
-            return _unbounded(result, h, status, "q·h = 0 on every feasible h and some has p·h > 0 (c/0)")
-        parity = "p·h = q·h = 0 on every feasible h (0/0 counts as parity)"
-        certified = h is not None and self._parity_holds(p, q, h)
-        return result(value=1.0, argmax=h, status="optimal", solver_status=status, certified=certified,
-                      reason=parity if certified else f"{parity}; not certified: no dual of max p·h checks B(1) <= 0")  # fmt: skip
-
-    def _parity_holds(self, p: FloatArray, q: FloatArray, h: FloatArray) -> bool:
-        """Whether p·h ≤ q·h on all of the (bounded) polytope, proven by the duals of :meth:`_primal_max`'s rows
-        (as the solver gives them, then repaired at its point h at each active tolerance): B(1) ≤ 0 exactly. Then the
-        ratio is at most 1 wherever q·h > 0, and q·h = 0 forces p·h ≤ 0, so no c/0: the value 1 is an upper bound
-        (``proofs/linear_fractional.md`` §6, "The value 1 of 0/0")."""
-        if not self._bounded or self._primal is None:
-            return False
-        lower, upper = self.lower, self.upper
-        assert lower is not None and upper is not None  # (bounded)
-        found = self._primal_duals()
-        if not found:
-            return False
-        h = np.clip(h, lower, upper)
-        candidates = found + [
-            refine_duals(h, 1.0, p, q, lower, upper, self._rows, duals, t) for duals in found for t in ACTIVE_TOLERANCES
-        ]
-        for candidate in candidates:
-            if candidate is not None and dual_value(Fraction(1), p, q, lower, upper, self._rows, candidate) <= 0:
-                return True
-        return False
-
-    def _primal_duals(self) -> list[list[FloatArray]]:
-        """The duals of the rows of :meth:`_primal_max`'s last solve, as candidates for an exact check: ν clipped at 0,
-        η as cvxpy gives it and negated (its sign for an equality differs between this program and the transformed
-        one; any η is a dual, so both are tried). Empty when the solver gave none, or not finite."""
-        assert self._primal is not None
-        constraints = self._primal[0].constraints[len(self._primal[0].constraints) - len(self._rows) :]
-        duals = [np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for c in constraints]
-        if any(d.size != b.size or not np.all(np.isfinite(d)) for d, (_, b, _) in zip(duals, self._rows)):
-            return []
-        signs = (1.0, -1.0) if any(op == "eq" for _, _, op in self._rows) else (1.0,)
-        return [[np.maximum(d, 0.0) if op == "le" else sign * d for d, (_, _, op) in zip(duals, self._rows)]
-                for sign in signs]  # fmt: skip
-
-    def _primal_max(self, p: FloatArray) -> tuple[str, float, FloatArray | None]:
-        """max p·h over the polytope itself (built on first use): (status, value, h or None)."""
-        import cvxpy as cp
-
-        if self._primal is None:
-            h = cp.Variable(self.n)
-            c = cp.Parameter(self.n)
-            self._primal = (cp.Problem(cp.Maximize(c @ h), self._constraints(h)), h, c)
-        prob, h, c = self._primal
-        c.value = p
-        solve_clarabel(prob, self._options)
-        return prob.status, prob.value, None if h.value is None else np.asarray(h.value, dtype=float)
+def _dot(a: Sequence[Fraction], b: Sequence[Fraction]) -> Fraction:
+    return sum((x * y for x, y in zip(a, b, strict=True) if x and y), Fraction(0))
 
 
 def _matrix(a: ConstraintMatrix, name: str) -> FloatArray | sp.csr_matrix:
@@ -919,8 +581,83 @@ def lp_max(
     (1.3076923, 'optimal')
     """
     p, q = _vectors(p, q)
-    prog = FractionalProgram(p.size, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)
-    return prog.solve(p, q)
+    lo, hi = _bounds(lower, upper, p.size, required=False)
+    if lo is not None and hi is not None and np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
+        prog = FractionalProgram(p.size, lower=lo, upper=hi, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)
+        return prog.solve(p, q)
+    return _charnes_cooper(p, q, lo, hi, A_ub, b_ub, A_eq, b_eq)
+
+
+def _charnes_cooper(
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray | None,
+    upper: FloatArray | None,
+    A_ub: ConstraintMatrix | None,
+    b_ub: npt.ArrayLike | None,
+    A_eq: ConstraintMatrix | None,
+    b_eq: npt.ArrayLike | None,
+) -> FractionalResult:
+    """:func:`lp_max` over a polytope with an infinite bound: the Charnes–Cooper LP max p·y subject to q·y = 1,
+    A_ub y ≤ b_ub s, A_eq y = b_eq s, lower s ≤ y ≤ upper s (finite bounds only), s ≥ 0, solved exactly
+    (:class:`~fairaudit.base.exact_lp.ExactProgram`); ``proofs/linear_fractional.md`` (what each outcome means)."""
+    from fairaudit.base.exact_lp import ExactProgram
+
+    n = p.size
+    inf = math.inf
+    lo = np.full(n, -inf) if lower is None else lower
+    hi = np.full(n, inf) if upper is None else upper
+    rows: list[list[float]] = [[*q.tolist(), 0.0]]
+    row_lower, row_upper = [1.0], [1.0]
+    polytope: list[list[float]] = []
+    poly_lower: list[float] = []
+    poly_upper: list[float] = []
+    for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
+        if a is None:
+            continue
+        dense = _matrix(a, name)
+        dense = np.asarray(dense.toarray() if hasattr(dense, "toarray") else dense, dtype=float)
+        rhs = as_float_array(b, name.replace("A", "b"), ndim=1)
+        if dense.shape != (rhs.size, n):
+            raise InputError(name, f"shape must be ({rhs.size}, {n})", dense.shape)
+        for row, v in zip(dense.tolist(), rhs.tolist(), strict=True):
+            rows.append([*row, -v])
+            row_lower.append(0.0 if op == "eq" else -inf)
+            row_upper.append(0.0)
+            polytope.append(row)
+            poly_lower.append(v if op == "eq" else -inf)
+            poly_upper.append(v)
+    for j in range(n):
+        for bound, side in ((lo[j], "lower"), (hi[j], "upper")):
+            if math.isfinite(bound):
+                rows.append([1.0 if k == j else 0.0 for k in range(n)] + [-float(bound)])
+                row_lower.append(0.0 if side == "lower" else -inf)
+                row_upper.append(inf if side == "lower" else 0.0)
+    result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=lower, upper=upper)
+    found = ExactProgram(rows, row_lower, row_upper, [-inf] * n + [0.0], [inf] * (n + 1)).minimize([*(-p), 0.0])
+    status = f"HiGHS simplex, exact basis (Charnes–Cooper, {found.pivots} exact pivots)"
+    if found.status == "unbounded":
+        return _unbounded(result, None, status, "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0")
+    original = ExactProgram(polytope, poly_lower, poly_upper, lo.tolist(), hi.tolist())
+    if found.status == "infeasible":  # P is empty, or q·h = 0 on all of it
+        top = original.minimize((-p).tolist())
+        if top.status == "infeasible":
+            return _no_solution(result, status, _INCONSISTENT)
+        if top.status == "unbounded" or (top.value is not None and top.value < 0):
+            return _unbounded(result, None, status, "q·h = 0 on every feasible h and some has p·h > 0 (c/0)")
+        why = "p·h <= 0 = q·h on every feasible h (0/0 counts as parity)"
+        return result(value=1.0, argmax=None, status="optimal", solver_status=status, reason=why, certified=True)
+    assert found.point is not None and found.value is not None
+    value, s = fraction_up(-found.value), found.point[-1]
+    if s > 0:
+        h = np.array([float(v / s) for v in found.point[:-1]])
+        witness = fraction_down(-found.value)
+        return result(value=value, argmax=h, status="optimal", solver_status=status, reason="", certified=True,
+                      witness=witness, gap=gap_between(value, witness))  # fmt: skip
+    if original.minimize([0.0] * n).status == "infeasible":
+        return _no_solution(result, status, _INCONSISTENT)
+    why = "the supremum is approached only as h grows without bound along a recession direction (not attained)"
+    return result(value=value, argmax=None, status="optimal", solver_status=status, reason=why, certified=True)
 
 
 def fractional_max(

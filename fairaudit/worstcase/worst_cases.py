@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.json_values import Report, label, number, pair_dict
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import EXACT_CROSSOVER, gap_between
+from fairaudit.base.linear_fractional import EXACT_BASIS, EXACT_CROSSOVER, gap_between
 from fairaudit.base.outward import log_down, log_up
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
@@ -301,7 +301,10 @@ class WorstCase:
             solver_status=self.solver_status,
             certified=bool(self.certified),
             certified_from_dual=bool(
-                self.certified and self.method == "lp" and EXACT_CROSSOVER not in self.solver_status
+                self.certified
+                and self.method == "lp"
+                and EXACT_CROSSOVER not in self.solver_status
+                and EXACT_BASIS not in self.solver_status
             ),
             witness=number(self.witness),
             gap=number(self.gap),

@@ -37,10 +37,34 @@ def test_one_number_moved_by_1e_9_exits_1_and_says_by_how_much(capsys, certifica
     code, out, _ = run(capsys, "verify", certificate)
     assert code == 1
     line = next(x for x in out.splitlines() if x.startswith("bounds.paper"))
-    assert "fails by 9.99e-10" in line  # 1e-9 less the tolerance, 1e-12
-    # bound_details.paper.value repeats it: it no longer equals the bound
-    assert "bound_details.paper.value" in out and "fails by inf (bounds.paper)" in out
+    assert "fails by 1e-09" in line  # 1e-9 less the tolerance, 1e-12 (9.99e-10), rounded up to two digits
+    # bound_details.paper.value repeats it: it no longer equals the bound, by the float sum's 9.9999997e-10
+    assert "bound_details.paper.value" in out and "fails by 1e-09 (bounds.paper)" in out
     assert re.search(r": 2 of \d+ checked numbers fail$", out.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize(
+    ("ulps", "repeated", "bound"),
+    [
+        # 0.847... + 0.1: the float sum is 0.09999999999999998 from the bound; the bound's own check 0.1 less 1e-12
+        (None, "fails by 0.1 (bounds.tight)", "fails by 0.1 (max over pairs, exactly)"),
+        # 16 floats up (16 * 2^-53 = 1.776e-15): within the tolerance of the exact bound, but no longer its repeat
+        (16, "fails by 1.8e-15 (bounds.tight)", "holds"),
+    ],
+)
+def test_fails_by_prints_the_distance_rounded_up_to_two_digits(capsys, certificate, ulps, repeated, bound):
+    cert = json.loads(certificate.read_text())
+    tight = cert["bounds"]["tight"]
+    if ulps is None:
+        cert["bounds"]["tight"] = tight + 0.1
+    else:
+        cert["bounds"]["tight"] = tight + ulps * 2.0**-53  # 0.847 is in [1/2, 1): one float step is 2^-53
+    certificate.write_text(json.dumps(cert))
+    code, out, _ = run(capsys, "verify", certificate)
+    assert code == 1 and "fails by inf" not in out
+    lines = {x.split(" = ")[0]: x for x in out.splitlines() if " = " in x}
+    assert lines["bound_details.tight.value"].endswith(repeated)
+    assert lines["bounds.tight"].endswith(bound)
 
 
 def test_json_report(capsys, certificate):

@@ -117,3 +117,128 @@ def test_the_filter_a_spec_deploys_is_the_one_it_certifies(capsys, tmp_path):
     assert code == 0 and json.loads(params.read_text())["keep"] == "7"
     code, out, _ = run(capsys, "verify", path, "--filter", params)
     assert code == 0, out
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("[" * 10**5 + "]" * 10**5, "CERT.json: is nested deeper than 64 arrays and objects (at character 64)"),
+        (
+            '{"a":' * 10**6 + "1" + "}" * 10**6,
+            "CERT.json: is nested deeper than 64 arrays and objects (at character 320)",
+        ),
+        ('{"format": NaN}', "CERT.json: holds NaN, which JSON does not allow"),
+        ('{"format": Infinity}', "CERT.json: holds Infinity, which JSON does not allow"),
+        ('{"format": -Infinity}', "CERT.json: holds -Infinity, which JSON does not allow"),
+        ('{"format": 1e400}', "CERT.json: holds the number 1e400, beyond the largest float"),
+        ('{"format": -' + "9" * 10**5 + "}", "CERT.json: holds an integer of 100000 digits, beyond the largest float"),
+        (
+            '{"format": "' + "[" * 10**5 + '"}',
+            "CERT.json format_version: is required",
+        ),  # a string's brackets
+        ("[1]", "CERT.json: must be a JSON object"),
+    ],
+    ids=[
+        "depth 1e5",
+        "depth 1e6",
+        "NaN",
+        "Infinity",
+        "-Infinity",
+        "1e400",
+        "1e5 digits",
+        "brackets in a string",
+        "list",
+    ],
+)
+def test_malformed_json_of_any_depth_exits_2_with_one_line(capsys, tmp_path, content, message):
+    path = tmp_path / "cert.json"
+    path.write_text(content, encoding="utf-8")
+    code, out, err = run(capsys, "verify", path)
+    assert code == 2 and out == ""
+    assert err.startswith(f"fairaudit: error: {message}"), err[:300]
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert str(path) in err or not message.startswith("CERT.json:")  # the whole file: named by its path
+
+
+def test_a_deep_certificate_in_python_is_an_input_error():
+    from fairaudit.base.errors import InputError
+    from fairaudit.verification.rederive import verify
+
+    deep: dict = {}
+    inner = deep
+    for _ in range(10**5):
+        inner["a"] = {}
+        inner = inner["a"]
+    with pytest.raises(InputError, match=r"^a(\.a){63}: is nested deeper than 64 arrays and objects$"):
+        verify({"format": "fairaudit-certificate", **deep})
+
+
+# the top-level keys of the certificate.json that `fairaudit experiment hr-delivery` writes (fairaudit/experiments/
+# report.py, experiment_dict; docs/experiments.md "The files"): a report of the run, not a certificate
+EXPERIMENT_REPORT = {
+    "experiment": "hr-delivery",
+    "model": "prefers-mary",
+    "route": "sampled",
+    "positions": "balanced",
+    "samples": 1,
+    "slots": 2,
+    "candidates": ["Tom", "Mary"],
+    "context": "document",
+    "queries": {},
+    "utility": {},
+    "tau": 0.0,
+    "confidence": 0.95,
+    "baseline": {},
+    "budgets": [],
+    "points": [],
+    "curve": {},
+    "run": {"design": "table"},
+}
+
+
+@pytest.mark.parametrize(
+    ("design", "advice"),
+    [
+        ("table", "certify a spec-eps-<epsilon>.toml the run wrote beside it (fairaudit certify SPEC --format json "
+         "--output CERT.json) and verify that certificate"),
+        ("paper", "a run of the paper's design alone writes no spec to certify (run --design table or both)"),
+    ],
+)  # fmt: skip
+def test_an_experiment_report_is_named_with_what_to_verify(capsys, tmp_path, design, advice):
+    path = tmp_path / "certificate.json"
+    path.write_text(json.dumps({**EXPERIMENT_REPORT, "run": {"design": design}}), encoding="utf-8")
+    code, out, err = run(capsys, "verify", path)
+    assert code == 2 and out == ""
+    assert err == (
+        "fairaudit: error: CERT.json: is the report of fairaudit experiment (task 'hr-delivery', model 'prefers-mary'), "
+        f"not a certificate: {advice} (got '{path}')\n"
+    )
+
+
+def test_filter_parameters_given_as_the_certificate(capsys, tmp_path):
+    path = tmp_path / "filter.json"
+    path.write_text(json.dumps({"format": "fairaudit-filter", "format_version": 1}), encoding="utf-8")
+    code, _, err = run(capsys, "verify", path)
+    assert code == 2
+    assert err.startswith("fairaudit: error: CERT.json: is a filter's parameters (fairaudit filter --parameters), not "
+                          "a certificate: pass it as --filter FILTER.json")  # fmt: skip
+
+
+@pytest.mark.slow
+def test_a_simulated_experiment_run_then_its_spec_certified_and_verified(capsys, tmp_path, monkeypatch):
+    # the experiment command is a plug-in (an entry point of the installed package): added here from its module
+    from fairaudit.cli import _parser
+    from fairaudit.experiments.cli import experiment
+
+    monkeypatch.setattr(_parser, "add_plugin_commands", experiment.add_parser)
+    out = tmp_path / "run"
+    code, _, err = run(capsys, "experiment", "hr-delivery", "--simulated", "prefers-mary", "--out", out,
+                       "--samples", "1", "--keep", "0.7", "--no-images", "--no-progress")  # fmt: skip
+    assert code == 0, err
+    code, _, err = run(capsys, "verify", out / "certificate.json")
+    assert code == 2 and "is the report of fairaudit experiment (task 'hr-delivery'" in err
+    (spec,) = out.glob("spec-eps-*.toml")
+    code, _, err = run(capsys, "certify", spec, "--format", "json", "--output", tmp_path / "cert.json")
+    assert code == 0, err
+    code, text, _ = run(capsys, "verify", tmp_path / "cert.json")
+    assert code == 0, text

@@ -180,7 +180,7 @@ def other_document(data: Mapping[str, Any]) -> str | None:
         return "is a filter's parameters (fairaudit filter --parameters), not a certificate: pass it as --filter FILTER.json"
     if "format" in data or not {"experiment", "points"} <= set(data):
         return None
-    run = data.get("run") if isinstance(data.get("run"), Mapping) else {}
+    run: Mapping[str, Any] = data["run"] if isinstance(data.get("run"), Mapping) else {}
     design = data.get("design", run.get("design"))
     what = f"is the report of fairaudit experiment (task {data['experiment']!r}, model {data.get('model')!r}), not a certificate"
     if design == "paper":

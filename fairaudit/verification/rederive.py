@@ -36,6 +36,7 @@ from fairaudit.verification.enclosures import (
 from fairaudit.verification.metrics_check import metric_checks
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import recorded_checks
+from fairaudit.verification.verdict_check import verdict_checks
 
 if TYPE_CHECKING:
     from fairaudit.filter.filters import PrivacyFilter
@@ -175,6 +176,7 @@ def verify(
         checks.append(_filter_check(sensitive, privacy_filter))
     checks += calibration_checks(certificate, skipped)
     checks += recorded_checks(certificate, sensitive, context)
+    checks += verdict_checks(certificate, skipped)
     skipped += unaccounted(certificate, checks, skipped)
     return Verification(source=source, checks=tuple(checks), not_checked=tuple(skipped))
 

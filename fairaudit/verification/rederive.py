@@ -23,6 +23,7 @@ from fairaudit.base.json_values import Report, canonical_digest, number
 from fairaudit.verification.accounting import unaccounted
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge
+from fairaudit.verification.distribution_check import distribution_checks
 from fairaudit.verification.enclosures import (
     INF,
     Enclosure,
@@ -160,6 +161,7 @@ def verify(
     checks: list[Check] = [
         equal("inputs_sha256", certificate["inputs_sha256"], canonical_digest(inputs), "the SHA-256 of the inputs")
     ]
+    checks += distribution_checks(inputs)
     skipped: list[tuple[str, str]] = []
     sensitive = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
     context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")

@@ -156,7 +156,8 @@ def _assumption_checks(
             out.append(equal(where, status, _pick(status, allowed), why))
         elif name == "g <= gamma":  # certify's rule, in its floats: max g <= gamma + 1e-12
             largest = max(_flat(recorded_array(utility["values"], "inputs.utility.values")))
-            ok = largest <= Fraction(float(utility["gamma"]) + 1e-12)
+            ceiling = float(utility["gamma"]) + 1e-12  # ("inf" reads as +inf)
+            ok = ceiling == float("inf") or largest <= Fraction(ceiling)
             out.append(equal(where, status, "checked" if ok else "violated", "max inputs.utility.values <= gamma"))
         elif name == "g independent of the group":
             dep = _depends_on_group(utility["values"])

@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import re
 from pathlib import Path
 from typing import Any
 
 from fairaudit.base.errors import InputError
+from fairaudit.verification.schema import MAX_DEPTH
 
 from ._common import Subparsers
 
@@ -37,14 +40,74 @@ def add_parser(sub: Subparsers) -> None:
     v.set_defaults(func=run)
 
 
+_TOKENS = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"|[\[\]{}]')
+"""A JSON string (skipped whole: brackets inside it do not nest) or a bracket."""
+
+_LARGEST = 1.7976931348623157e308
+
+
+def _depth_at(text: str, limit: int) -> int | None:
+    """The offset of the first bracket nested deeper than ``limit``, or None: one pass, no recursion.
+
+    Examples
+    --------
+    >>> _depth_at('[[["]]]]]"]]]', 2), _depth_at("[" * 5, 4), _depth_at('{"a": [1, {"b": "[[[["}]}', 3)
+    (2, 4, None)
+    """
+    depth = 0
+    for token in _TOKENS.finditer(text):
+        c = token.group()
+        if c in "[{":
+            depth += 1
+            if depth > limit:
+                return token.start()
+        elif c in "]}":
+            depth -= 1
+    return None
+
+
+def _parse_float(text: str) -> float:
+    """A JSON number with a fraction or exponent, refused (ValueError) beyond the floats' range (1e400)."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"holds the number {text[:40]}, beyond the largest float (1.8e308)")
+    return value
+
+
+def _parse_int(text: str) -> int:
+    """A JSON integer, refused (ValueError) beyond the floats' range, before Python converts its digits."""
+    digits = len(text.lstrip("-"))
+    if digits > 309 or abs(value := int(text)) > _LARGEST:
+        raise ValueError(f"holds an integer of {digits} digits, beyond the largest float (1.8e308)")
+    return value
+
+
+def _parse_constant(text: str) -> Any:
+    """NaN, Infinity and -Infinity, which Python's ``json`` reads and JSON does not allow: refused (ValueError)."""
+    raise ValueError(f'holds {text}, which JSON does not allow (a certificate writes an infinity as "inf")')
+
+
 def _read_json(path: str, field: str) -> Any:
-    """A JSON file, or an InputError naming ``field``."""
+    """A JSON file, or an InputError naming ``field``: unreadable, not JSON, nested deeper than ``MAX_DEPTH`` (Python's
+    ``json`` recurses once per level: the text is scanned first), or holding NaN, an infinity or a number beyond the
+    floats."""
     try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
+        text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:
         raise InputError(field, f"cannot be read: {exc.strerror}", path) from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
         raise InputError(field, f"is not JSON: {exc}", path) from None
+    at = _depth_at(text, MAX_DEPTH)
+    if at is not None:
+        raise InputError(field, f"is nested deeper than {MAX_DEPTH} arrays and objects (at character {at})", path)
+    try:
+        return json.loads(text, parse_float=_parse_float, parse_int=_parse_int, parse_constant=_parse_constant)
+    except json.JSONDecodeError as exc:
+        raise InputError(field, f"is not JSON: {exc}", path) from None
+    except ValueError as exc:  # a hook's, or Python's own limit on an integer's digits
+        raise InputError(field, str(exc), path) from None
+    except RecursionError:  # (not reached below MAX_DEPTH; kept so that no input ends in a traceback)
+        raise InputError(field, "is nested too deeply to read", path) from None
 
 
 def run(args: argparse.Namespace) -> int:
@@ -63,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         result = verify(cert, privacy_filter=privacy_filter, source=args.certificate)
     except InputError as exc:
+        if exc.field == "certificate":  # the whole document: named by its path
+            raise InputError("CERT.json", exc.problem, args.certificate) from None
         raise exc.under(f"CERT.json {exc.field}", keep_own=False) from None
     if args.format == "json":
         print(json.dumps(result.to_dict(), indent=2))

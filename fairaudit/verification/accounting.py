@@ -1,8 +1,9 @@
-"""Every number of a certificate accounted for: re-derived by a check, or listed with the reason it is not.
+"""Every number and verdict of a certificate accounted for: re-derived by a check, or listed with the reason it is not.
 
-:func:`unaccounted` walks the numbers of a certificate outside ``inputs`` (which are the data, not claims) and names
-those that no check re-derived and no reason already covers, grouped by kind, so that ``fairaudit verify`` never
-passes over a number in silence (``proofs/verification.md`` §4c).
+:func:`unaccounted` walks the numbers of a certificate outside ``inputs`` (which are the data, not claims) and its
+verdicts (every boolean, and the categorical verdicts of :data:`VERDICTS`), and names those that no check re-derived
+and no reason already covers, grouped by kind, so that ``fairaudit verify`` never passes over one in silence
+(``proofs/verification.md`` §4c).
 """
 
 from __future__ import annotations
@@ -33,6 +34,11 @@ KINDS: tuple[tuple[str, str, str], ...] = (
     ),
     (r"(^|\.)programs_solved$", "programs_solved", "a count of the programs solved, not a certified number"),
     (
+        r"^bound_details\.black_box(\.global)?\.(certified|certified_from_dual)$",
+        "bound_details.black_box (certified, certified_from_dual)",
+        "how certify's solve reached the value (the solver's word, or a dual): verify re-derives the value itself",
+    ),
+    (
         r"^targets\.(local|global)\.target$",
         r"targets.\1.target",
         "the target asked about: the question, not a derived number",
@@ -60,16 +66,20 @@ none is listed under its own path as "not re-derived"."""
 _SKIP = ("format_version", "inputs", "inputs_sha256")
 """Top-level keys that are not claims: the format's version and the data themselves."""
 
+VERDICTS = re.compile(r"^(bounds\.best_form|population\.independent|assumptions\[\d+\]\.status)$")
+"""The verdicts a certificate states as labels (every boolean is a verdict too)."""
+
 
 def _numbers(value: Any, path: str) -> Iterator[str]:
-    """The paths of the numbers (and "inf"/"-inf"/"nan" strings) under ``value``."""
+    """The paths of the numbers (and "inf"/"-inf"/"nan" strings) and verdicts (booleans, :data:`VERDICTS`) under
+    ``value``."""
     if isinstance(value, Mapping):
         for key, inner in value.items():
             yield from _numbers(inner, f"{path}.{key}" if path else str(key))
     elif isinstance(value, list):
         for i, inner in enumerate(value):
             yield from _numbers(inner, f"{path}[{i}]")
-    elif isinstance(value, (int, float)) and not isinstance(value, bool) or value in ("inf", "-inf", "nan"):
+    elif isinstance(value, (int, float)) or value in ("inf", "-inf", "nan") or VERDICTS.match(path):
         yield path
 
 
@@ -83,7 +93,8 @@ def _covered(path: str, names: set[str], reasons: Sequence[str]) -> bool:
 def unaccounted(
     certificate: Mapping[str, Any], checks: Sequence[Check], skipped: Sequence[tuple[str, str]]
 ) -> list[tuple[str, str]]:
-    """The numbers of ``certificate`` that neither a check nor a reason in ``skipped`` covers, grouped, with reasons.
+    """The numbers and verdicts of ``certificate`` that neither a check nor a reason in ``skipped`` covers, grouped,
+    with reasons.
 
     Parameters
     ----------
@@ -104,6 +115,8 @@ def unaccounted(
     >>> cert = {"format_version": 1, "bounds": {"tight": 0.5}, "bound_details": {"black_box": {"programs_solved": 3}}}
     >>> unaccounted(cert, [], [])
     [('bounds.tight', 'not re-derived'), ('programs_solved', 'a count of the programs solved, not a certified number')]
+    >>> unaccounted({"certified": True, "bounds": {"best_form": "tight", "tight": 0.5}}, [], [("bounds.tight", "")])
+    [('certified', 'not re-derived'), ('bounds.best_form', 'not re-derived')]
     """
     names = {c.name for c in checks}
     reasons = [name for name, _ in skipped]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from decimal import ROUND_CEILING, Decimal
 from fractions import Fraction
 from typing import Any
 
@@ -45,7 +46,8 @@ class Check:
     side : {"upper", "lower", "estimate", "equal", "at most", "at least", "met"}
     holds : bool
     fails_by : float
-        How far outside the allowed range the reported value is (0 when it holds).
+        How far outside the allowed range the reported value is (0 when it holds; NaN for a label or verdict that
+        is not the one re-derived).
     detail : str
         What was re-derived, or why it fails.
     """
@@ -72,10 +74,37 @@ class Check:
         }
 
     def line(self) -> str:
-        """One line: the name, the reported number and ``holds`` or ``fails by X``."""
-        verdict = "holds" if self.holds else f"fails by {self.fails_by:.3g}"
+        """One line: the name, the reported number and ``holds``, ``fails by X`` (X the distance by which it misses,
+        rounded up to two significant digits) or, for a label or verdict, ``fails``."""
+        verdict = "holds" if self.holds else "fails"
+        if not self.holds and not math.isnan(self.fails_by):
+            verdict += f" by {distance(self.fails_by)}"
         shown = self.reported if not isinstance(self.reported, float) else f"{self.reported!r}"
         return f"{self.name} = {shown}: {verdict}" + (f" ({self.detail})" if self.detail and not self.holds else "")
+
+
+def distance(x: float) -> str:
+    """A distance rounded up to two significant digits, as ``fails by`` prints it.
+
+    Examples
+    --------
+    >>> distance(0.1), distance(1.8e-15), distance(9.99e-10), distance(1.01e-9), distance(math.inf), distance(0.0)
+    ('0.1', '1.8e-15', '1e-09', '1.1e-09', 'inf', '0')
+    """
+    if not math.isfinite(x) or x <= 0:
+        return f"{x:.2g}"
+    d = Decimal(repr(x))  # the float's shortest decimal (0.1, not 0.1000000000000000055...)
+    step = Decimal(1).scaleb(d.adjusted() - 1)  # a unit in the second significant digit
+    return f"{float((d / step).to_integral_value(ROUND_CEILING) * step):.2g}"
+
+
+def _numeric(value: Any) -> Fraction | float | None:
+    """A recorded number (or ``"inf"``, ``"-inf"``) as an exact value; None for anything else (a label, a bool)."""
+    if value in ("inf", "-inf") and isinstance(value, str):
+        return math.inf if value == "inf" else -math.inf
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+        return None
+    return value if math.isinf(value) else Fraction(value)
 
 
 def _float(x: Fraction | float, upward: bool) -> float:
@@ -167,13 +196,21 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
 
 
 def equal(name: str, reported: Any, expected: Any, detail: str = "") -> Check:
-    """A recorded value that must equal the re-derived one exactly (a label, a verdict, a digest).
+    """A recorded value that must equal the re-derived one exactly (a label, a verdict, a digest, a repeated number).
+
+    Where both are numbers, ``fails_by`` is their distance (rounded up); else it is NaN and the line says ``fails``.
 
     Examples
     --------
     >>> equal("targets.local.met", True, False).line()
-    'targets.local.met = True: fails by inf (expected False)'
+    'targets.local.met = True: fails (expected False)'
+    >>> equal("bound_details.tight.value", 0.6, 0.5, "bounds.tight").line()
+    'bound_details.tight.value = 0.6: fails by 0.1 (bounds.tight)'
     """
-    ok = reported == expected
+    ok = reported == expected and isinstance(reported, bool) == isinstance(expected, bool)  # (True == 1 in Python)
+    by = 0.0 if ok else math.nan
+    r, e = _numeric(reported), _numeric(expected)
+    if not ok and r is not None and e is not None:
+        by = math.inf if math.inf in (abs(r), abs(e)) else _float(abs(Fraction(r) - Fraction(e)), True)
     return Check(name=name, reported=reported, derived_low=math.nan, derived_high=math.nan, side="equal", holds=ok,
-                 fails_by=0.0 if ok else math.inf, detail=detail or f"expected {expected!r}")  # fmt: skip
+                 fails_by=by, detail=detail or f"expected {expected!r}")  # fmt: skip

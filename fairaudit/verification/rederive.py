@@ -23,6 +23,7 @@ from fairaudit.base.json_values import Report, canonical_digest, number
 from fairaudit.verification.accounting import unaccounted
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge
+from fairaudit.verification.distribution_check import distribution_checks
 from fairaudit.verification.enclosures import (
     INF,
     Enclosure,
@@ -36,6 +37,7 @@ from fairaudit.verification.enclosures import (
 from fairaudit.verification.metrics_check import metric_checks
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import recorded_checks
+from fairaudit.verification.verdict_check import verdict_checks
 
 if TYPE_CHECKING:
     from fairaudit.filter.filters import PrivacyFilter
@@ -159,6 +161,7 @@ def verify(
     checks: list[Check] = [
         equal("inputs_sha256", certificate["inputs_sha256"], canonical_digest(inputs), "the SHA-256 of the inputs")
     ]
+    checks += distribution_checks(inputs)
     skipped: list[tuple[str, str]] = []
     sensitive = RecordedMechanism.from_record(inputs["sensitive_mechanism"], "inputs.sensitive_mechanism")
     context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")
@@ -175,6 +178,7 @@ def verify(
         checks.append(_filter_check(sensitive, privacy_filter))
     checks += calibration_checks(certificate, skipped)
     checks += recorded_checks(certificate, sensitive, context)
+    checks += verdict_checks(certificate, skipped)
     skipped += unaccounted(certificate, checks, skipped)
     return Verification(source=source, checks=tuple(checks), not_checked=tuple(skipped))
 

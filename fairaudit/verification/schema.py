@@ -20,12 +20,16 @@ if TYPE_CHECKING:
     from jsonschema import Draft202012Validator
     from jsonschema.exceptions import ValidationError
 
-__all__ = ["SCHEMA_FILE", "certificate_schema", "check_certificate", "json_path"]
+__all__ = ["SCHEMA_FILE", "certificate_schema", "check_certificate", "json_path", "other_document"]
 
 SCHEMA_FILE = "certificate.schema.json"
 """The schema's file name in the package ``fairaudit.verification``."""
 
 _WEAK = frozenset({"anyOf", "oneOf"})
+
+MAX_DEPTH = 64
+"""The deepest nesting of arrays and objects a certificate may have (one nests 8 deep): the schema's check and the
+verifier walk a document recursively, so a deeper one is refused first, by a walk that does not recurse."""
 
 
 def certificate_schema() -> dict[str, Any]:
@@ -119,6 +123,12 @@ def check_certificate(data: Mapping[str, Any]) -> None:
     """
     if not isinstance(data, Mapping):
         raise InputError("certificate", "must be a JSON object", data)
+    deep = _too_deep(data, MAX_DEPTH)
+    if deep is not None:
+        raise InputError(json_path(deep), f"is nested deeper than {MAX_DEPTH} arrays and objects")
+    other = other_document(data)
+    if other is not None:
+        raise InputError("certificate", other)
     from jsonschema.exceptions import best_match
 
     errors = list(_validator().iter_errors(data))
@@ -127,6 +137,58 @@ def check_certificate(data: Mapping[str, Any]) -> None:
     # a concrete error (an unknown enum value) before "valid under none of" at the same or a shallower place
     top = max(errors, key=lambda e: (e.validator not in _WEAK, -len(e.absolute_path)))
     raise _input_error(_chosen_branch(best_match([top])))
+
+
+def _too_deep(data: Any, limit: int) -> list[str | int] | None:
+    """The path of the first array or object nested deeper than ``limit``, or None, by a walk with its own stack.
+
+    Examples
+    --------
+    >>> _too_deep({"a": [1, {"b": []}]}, 4), _too_deep({"a": [1, {"b": []}]}, 3), _too_deep({"a": [1, {"b": []}]}, 2)
+    (None, ['a', 1, 'b'], ['a', 1])
+    """
+    stack: list[tuple[Any, int, list[str | int]]] = [(data, 1, [])]
+    while stack:
+        value, depth, path = stack.pop()
+        items = value.items() if isinstance(value, Mapping) else enumerate(value) if isinstance(value, list) else ()
+        for key, inner in items:
+            if isinstance(inner, (Mapping, list)):
+                if depth + 1 > limit:
+                    return [*path, key]
+                stack.append((inner, depth + 1, [*path, key]))
+    return None
+
+
+def other_document(data: Mapping[str, Any]) -> str | None:
+    """What a JSON object is when it is another of fairaudit's documents, not a certificate, and what to do; else None.
+
+    ``fairaudit experiment`` writes ``certificate.json``: its report (the experiment, the model, a certificate's
+    numbers per ε, docs/experiments.md "The files"), not a certificate in this format. The table design writes beside
+    it a spec per ε, ``spec-eps-<ε>.toml``, whose certificate ``fairaudit certify`` writes; the paper's design alone
+    writes none. A filter's parameters (``fairaudit filter --parameters``) are read by ``verify --filter``.
+
+    Examples
+    --------
+    >>> other_document({"experiment": "hr-delivery", "model": "prefers-mary", "points": []}).split(", not")[0]
+    "is the report of fairaudit experiment (task 'hr-delivery', model 'prefers-mary')"
+    >>> other_document({"format": "fairaudit-filter"})
+    "is a filter's parameters (fairaudit filter --parameters), not a certificate: pass it as --filter FILTER.json"
+    >>> other_document({"format": "fairaudit-certificate"}) is None
+    True
+    """
+    if data.get("format") == "fairaudit-filter":
+        return "is a filter's parameters (fairaudit filter --parameters), not a certificate: pass it as --filter FILTER.json"
+    if "format" in data or not {"experiment", "points"} <= set(data):
+        return None
+    run: Mapping[str, Any] = data["run"] if isinstance(data.get("run"), Mapping) else {}
+    design = data.get("design", run.get("design"))
+    what = f"is the report of fairaudit experiment (task {data['experiment']!r}, model {data.get('model')!r}), not a certificate"
+    if design == "paper":
+        return what + ": a run of the paper's design alone writes no spec to certify (run --design table or both)"
+    return (
+        what + ": certify a spec-eps-<epsilon>.toml the run wrote beside it "
+        "(fairaudit certify SPEC --format json --output CERT.json) and verify that certificate"
+    )
 
 
 def _chosen_branch(error: ValidationError) -> ValidationError:

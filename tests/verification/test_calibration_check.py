@@ -43,7 +43,13 @@ def test_the_hand_calibration_is_re_derived(hand):
     assert hand["calibration"]["method"] == "black_box"
     assert hand["calibration"]["epsilon"] == pytest.approx(math.log(7 / 3), rel=1e-9)
     checks = _named(verify(hand), "calibration")
-    assert set(checks) == {"calibration.epsilon", "calibration.bound", "calibration.target", LARGEST}
+    assert set(checks) == {
+        "calibration.epsilon",
+        "calibration.bound",
+        "calibration.target",
+        LARGEST,
+        "calibration.feasible",
+    }
     assert all(c.holds for c in checks.values())
     bound = checks["calibration.bound"]
     assert bound.derived_low <= math.log(17 / 13) <= bound.derived_high + 1e-15  # the exact worst case, enclosed

@@ -1,7 +1,7 @@
 """Generators of the spec families certify is tuned and measured on (issue 80): each writes a spec and its model's
 count table into a folder, from a seed, so that anyone can reproduce a figure.
 
-* ``intersectional``: 18 groups, a product of randomized responses on 2 x 3 x 3 values (ε split 1 : 1.5 : 1.5 around
+* ``intersectional``: 18 groups (4 with ``small``), a product of randomized responses on 2 x 3 x 3 values (ε split 1 : 1.5 : 1.5 around
   ``epsilon``), three contexts behind a 3 x 3 matrix, ten decisions, a utility by context, τ at 0.05, a count model.
 * ``near_tie``: the same shape with the model's rates drawn so that E[g | x, a] sits just above τ for every group
   (the floors nearly bind, and many pairs' programs tie at 1/τ).
@@ -27,7 +27,9 @@ def _toml_list(values: list) -> str:
     return json.dumps(values)
 
 
-def _counts(path: Path, contexts: list[str], groups: list[str], decisions: list[str], rates: np.ndarray, n: int) -> None:
+def _counts(
+    path: Path, contexts: list[str], groups: list[str], decisions: list[str], rates: np.ndarray, n: int
+) -> None:
     """A count table: n records per (context, group), split by ``rates`` [x, a, u] (largest remainders)."""
     lines = ["context,group,decision,count"]
     for x, a in itertools.product(range(len(contexts)), range(len(groups))):
@@ -39,29 +41,32 @@ def _counts(path: Path, contexts: list[str], groups: list[str], decisions: list[
     path.write_text("\n".join(lines) + "\n")
 
 
-def _product_spec(seed: int, near_tie: bool, epsilon: float) -> tuple[str, np.ndarray, list[str], list[str], list[str]]:
+def _product_spec(
+    seed: int, near_tie: bool, epsilon: float, small: bool
+) -> tuple[str, np.ndarray, list[str], list[str], list[str]]:
     rng = np.random.default_rng(seed)
-    parts = [["f", "m"], ["young", "mid", "old"], ["a", "b", "c"]]
+    parts = [["f", "m"], ["young", "old"]] if small else [["f", "m"], ["young", "mid", "old"], ["a", "b", "c"]]
     groups = [" & ".join(t) for t in itertools.product(*parts)]
-    contexts, decisions = ["x0", "x1", "x2"], [f"d{u}" for u in range(10)]
-    utility = rng.choice([0.0, 0.25, 0.5, 1.0], size=(3, 10))
+    k, n_u = len(groups), 4 if small else 10
+    contexts, decisions = ["x0", "x1", "x2"], [f"d{u}" for u in range(n_u)]
+    utility = rng.choice([0.0, 0.25, 0.5, 1.0], size=(3, n_u))
     utility[:, 0] = 1.0
     tau = 0.05
     if near_tie:  # E[g | x, a] = tau (1 + small): mass on the zero-utility decisions, a little on the rest
-        rates = np.zeros((3, 18, 10))
+        rates = np.zeros((3, k, n_u))
         for x in range(3):
             g = utility[x]
             zero, pos = np.flatnonzero(g == 0), np.flatnonzero(g > 0)
             if zero.size == 0:
                 zero = np.array([int(np.argmin(g))])
-            for a in range(18):
+            for a in range(k):
                 w = rng.dirichlet(np.ones(pos.size))
                 share = tau * (1 + rng.uniform(0.01, 0.2)) / float(w @ g[pos])
                 rates[x, a, pos] = share * w
                 rates[x, a, zero] += (1 - rates[x, a].sum()) * rng.dirichlet(np.ones(zero.size))
     else:
-        rates = rng.dirichlet(np.ones(10) * 0.7, size=(3, 18))
-    shares = np.array([1.0, 1.5, 1.5]) / 4.0
+        rates = rng.dirichlet(np.ones(n_u) * 0.7, size=(3, k))
+    shares = (np.array([1.0, 1.5]) / 2.5) if small else (np.array([1.0, 1.5, 1.5]) / 4.0)
     components = "".join(
         f"""
 [[privacy.sensitive.components]]
@@ -73,7 +78,7 @@ epsilon = {float(epsilon * shares[i])!r}
         for i, part in enumerate(parts)
     )
     matrix = rng.dirichlet(np.ones(3) * 0.5, size=3) * 0.4 + np.eye(3) * 0.6
-    spec = f"""title = "intersectional family, seed {seed}{' (near ties)' if near_tie else ''}"
+    spec = f"""title = "intersectional family, seed {seed}{" (near ties)" if near_tie else ""}"
 
 [sensitive]
 name = "group"
@@ -98,7 +103,7 @@ table = "counts.csv"
 
 [utility]
 kind = "table"
-values = {_toml_list([[list(map(float, utility[x]))] * 18 for x in range(3)])}
+values = {_toml_list([[list(map(float, utility[x]))] * k for x in range(3)])}
 tau = {tau}
 
 [target]
@@ -146,7 +151,9 @@ local = 1.0
     return spec, rates, contexts, groups, decisions
 
 
-def write_spec(family: str, seed: int, folder: Path, *, epsilon: float = 2.0, groups: int = 200) -> Path:
+def write_spec(
+    family: str, seed: int, folder: Path, *, epsilon: float = 2.0, groups: int = 200, small: bool = False
+) -> Path:
     """Write the family's spec for ``seed`` and its count table into ``folder``; return the spec's path.
 
     Parameters
@@ -159,6 +166,8 @@ def write_spec(family: str, seed: int, folder: Path, *, epsilon: float = 2.0, gr
         The product's total ε in nats (intersectional families).
     groups : int
         The number of groups of the ``counts`` family.
+    small : bool
+        The product families on 2 x 2 values and four decisions (a smoke test's size).
     """
     if family not in FAMILIES:
         raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
@@ -166,7 +175,7 @@ def write_spec(family: str, seed: int, folder: Path, *, epsilon: float = 2.0, gr
     if family == "counts":
         spec, rates, contexts, names, decisions = _count_spec(seed, groups)
     else:
-        spec, rates, contexts, names, decisions = _product_spec(seed, family == "near_tie", epsilon)
+        spec, rates, contexts, names, decisions = _product_spec(seed, family == "near_tie", epsilon, small)
     _counts(folder / "counts.csv", contexts, names, decisions, rates, 1000)
     path = folder / f"{family}_{seed}.toml"
     path.write_text(spec)

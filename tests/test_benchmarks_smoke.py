@@ -77,6 +77,18 @@ def test_quick_run_exits_zero_with_tables(name, headers, capsys, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]  # no temporary file left behind
 
 
+def test_certify_quick_run_verifies_every_family(capsys):
+    # issue 80: each family's small spec certifies, and its certificate verifies (the agreement of this benchmark)
+    assert _load("bench_certify").main(["--quick"]) == 0
+    (table,) = _tables(capsys.readouterr().out)
+    assert table[0][:3] == ["family", "seed", "certify s"] and [row[0] for row in table[1:]] == [
+        "intersectional",
+        "near_tie",
+        "counts",
+    ]
+    assert all(row[7] == "True" for row in table[1:])
+
+
 def test_lfp_quick_reports_sampled_pairs(capsys):
     module = _load("bench_lfp")
     assert module.main(["--quick"]) == 0

@@ -27,7 +27,9 @@ def _toml_list(values: list) -> str:
     return json.dumps(values)
 
 
-def _counts(path: Path, contexts: list[str], groups: list[str], decisions: list[str], rates: np.ndarray, n: int) -> None:
+def _counts(
+    path: Path, contexts: list[str], groups: list[str], decisions: list[str], rates: np.ndarray, n: int
+) -> None:
     """A count table: n records per (context, group), split by ``rates`` [x, a, u] (largest remainders)."""
     lines = ["context,group,decision,count"]
     for x, a in itertools.product(range(len(contexts)), range(len(groups))):
@@ -73,7 +75,7 @@ epsilon = {float(epsilon * shares[i])!r}
         for i, part in enumerate(parts)
     )
     matrix = rng.dirichlet(np.ones(3) * 0.5, size=3) * 0.4 + np.eye(3) * 0.6
-    spec = f"""title = "intersectional family, seed {seed}{' (near ties)' if near_tie else ''}"
+    spec = f"""title = "intersectional family, seed {seed}{" (near ties)" if near_tie else ""}"
 
 [sensitive]
 name = "group"

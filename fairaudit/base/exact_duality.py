@@ -491,7 +491,8 @@ def vertex_ratio(
     at), summed over the cells at a bound (r_i = 0 inside the box). When ``h`` is near an optimal vertex its root is
     the optimum up to rounding, however inexact the solver's value: repairing at the solver's value instead leaves
     its error, and Newton from there contracts it only by 1 − (the denominator's share of the bound rows), 0.99 per
-    step with τ = 0.01. ``proofs/linear_fractional.md`` §6 ("Where to repair").
+    step with τ = 0.01. Used by :class:`~fairaudit.base.linear_fractional.FractionalProgram` before issue 80, no
+    longer (``proofs/linear_fractional.md`` §6, "History").
 
     Parameters
     ----------

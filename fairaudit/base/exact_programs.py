@@ -1,5 +1,6 @@
 """Exact maxima of small linear and linear-fractional programs with rational data: what ``fairaudit verify``
-re-derives with, and the LP route's exact crossover (:mod:`fairaudit.base.linear_fractional`).
+re-derives with, and the known-utility programs the worst-case search solves again on exact coefficients
+(:mod:`fairaudit.worstcase.known_utility_exact`).
 
 Over the polytope P = {h : lower ≤ h ≤ upper, A_ub h ≤ b_ub} (finite bounds, lower ≤ upper, rational data),
 :func:`maximize_linear` gives max c·h and :func:`maximize_ratio` gives max (p·h)/(q·h) over the h of P with q·h > 0

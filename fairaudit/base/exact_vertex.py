@@ -1,8 +1,10 @@
 """The vertex a solver's point stands for, solved exactly: the witness of a ratio's lower end when the point itself
 misses a row by rounding.
 
-An interior-point solver returns a float point h a little off the optimal vertex: a cell 1e-12 inside its bound, an
-equality row (the rows of a decision table summing to 1) met only to rounding. :func:`point_ratio
+A float point h stands a little off the vertex it stands for: an exact vertex rounded to nearest, taken over to a
+program whose rows are tightened by their rounding (the worst-case searches' inner programs), or an interior-point
+solver's point (a cell 1e-12 inside its bound); an equality row (the rows of a decision table summing to 1) is met
+only to rounding. :func:`point_ratio
 <fairaudit.base.exact_duality.point_ratio>` then finds h outside the polytope P = {lower ≤ h ≤ upper, A_ub h ≤ b_ub,
 A_eq h = b_eq} and gives no witness. :func:`vertex_witness` reads the active set off h instead (a cell within a
 tolerance of a bound is at it, a row within it of its bound is active, every equality is), puts those cells at their

@@ -73,37 +73,41 @@ class FractionalResult:
     value : float
         The optimal ratio as an upper bound: ≥ the exact maximum whenever ``certified`` (+inf when
         unbounded; NaN when infeasible). The threshold route rounds it up by a proven error bound; the LP
-        route takes it from a dual point checked in exact arithmetic (the transformed LP's, repaired, or the
-        parametric LP's), or, on a small program whose repaired dual is not tight, from the rational simplex's exact
-        optimum (``proofs/linear_fractional.md`` §6).
-        When not ``certified`` it is the solver's primal value, and ``reason`` says why it is not certified.
+        route (Dinkelbach's method over linear programs proved optimal exactly from HiGHS's basis,
+        :mod:`fairaudit.base.exact_lp`) gives the exact maximum rounded up (``proofs/linear_fractional.md`` §6);
+        a caller that solved the program exactly by the rational simplex gives its exact optimum rounded up.
+        When not ``certified``, ``reason`` says why.
     argmax : numpy.ndarray or None
-        An h attaining it (to the solver's accuracy), shape (n,); None when unbounded or infeasible.
+        An h attaining it, shape (n,): on the LP route the exact vertex rounded to nearest; None when unbounded
+        without a vertex to show, or infeasible.
     status : {"optimal", "unbounded", "infeasible", "error"}
-        "error": the solver failed on a program too large for the rational simplex; the value is NaN, not
-        certified, and nothing is claimed about the program (``reason`` holds the solver's message).
+        "error": the LP route met a vertex with q·h < 0, which its method does not handle; the value is NaN, not
+        certified, and nothing is claimed about the program (``reason`` says so).
     method : {"threshold", "lp"}
     solver_status : str
-        The solver's own status ("optimal", "optimal_inaccurate", ...; "threshold" or "closed form" for the
-        fast paths).
+        How the value was found: on the LP route "HiGHS simplex, exact basis (k Dinkelbach steps, m exact
+        pivots)", followed by :data:`EXACT_BASIS` where no dual is recorded, or the caller's
+        :data:`EXACT_CROSSOVER` note; "threshold" or "closed form" for the fast paths.
     reason : str
         Why the value is +inf or NaN, or why it is not certified; empty when optimal and certified.
     p, q, lower, upper : numpy.ndarray
         The inputs.
     certified : bool
-        Whether ``value`` is proven ≥ the exact maximum (an exactly checked dual, or the threshold rule's error
-        bound); +inf always is. False for NaN and for the solver's word alone (an infeasible LP, a value with
-        no dual that checks).
+        Whether ``value`` is proven ≥ the exact maximum (an exact basis or rational simplex step, or the threshold
+        rule's error bound); +inf always is. False for NaN (and where a caller put in a value of its own that it
+        could not prove).
     witness : float
         (p·h)/(q·h) at ``argmax`` computed exactly and rounded down, when that point lies in the polytope
         exactly: a certified lower end of the maximum. NaN when there is no such point.
     gap : float
         ``value − witness`` rounded up (NaN without a witness; 0 when both are +inf).
     dual : tuple of numpy.ndarray
-        The LP route's dual point that certified ``value``: one array per block of rows (ν ≥ 0 for A_ub,
-        η for A_eq, in that order; shape (m,) and (k,)); empty on the threshold route and when the rational
-        simplex solved the program (its exact last step is the proof). Where ``value`` is not certified, the
-        solver's dual point as it returned it (a caller may certify another bound from it).
+        The LP route's last step's exact duals, rounded to nearest: one array per block of rows (ν ≥ 0 for
+        A_ub, η for A_eq, in that order; shape (m,) and (k,)), kept where the bound they prove by weak duality
+        (:func:`~fairaudit.base.exact_duality.certify_ratio`) is within :data:`CROSSOVER_TOLERANCE` of ``value``.
+        Empty on the threshold route; empty where the rounded duals prove less (``solver_status`` then ends with
+        :data:`EXACT_BASIS`: the exact basis is the proof) and when the rational simplex solved the program (its
+        exact last step is the proof).
     """
 
     value: float
@@ -234,8 +238,8 @@ def solve_clarabel(problem: cp.Problem, options: Mapping[str, Any] | None = None
     """Solve a cvxpy problem with Clarabel at tight tolerances; return the solver's status.
 
     cvxpy's "Solution may be inaccurate" warning is not printed: its information is the status returned
-    (``optimal_inaccurate``, ...), which every caller keeps (``FractionalResult.solver_status``) and which
-    :class:`FractionalProgram` never certifies from the primal value alone.
+    (``optimal_inaccurate``, ...), which every caller keeps. (:class:`FractionalProgram` no longer uses Clarabel;
+    :data:`CLARABEL_TOLERANCES` are also the tolerances of :mod:`fairaudit.metrics.box_extremes`' own LP.)
 
     Parameters
     ----------
@@ -268,12 +272,12 @@ EXACT_BASIS = "proved by its exact basis (the rounded duals prove less)"
 duals read to nearest (``dual`` is then empty)."""
 
 EXACT_CROSSOVER = "then the rational simplex"
-"""What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why:
-"(exact: the repaired dual was not tight)" or "(exact: the solver failed)"."""
+"""What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why
+(:mod:`fairaudit.worstcase.known_utility_exact`: the rounded coefficients' witness did not meet the value)."""
 
 CROSSOVER_SIZE = (64, 128)
-"""The largest program (variables, rows; an equality counts twice) solved exactly by the rational simplex when its
-repaired duals are not tight."""
+"""The largest program (variables, rows; an equality counts twice) the worst-case searches solve again by the rational
+simplex on exact coefficients when its rounded form leaves a gap (:mod:`fairaudit.worstcase.known_utility_exact`)."""
 
 _INCONSISTENT = "the constraints are inconsistent: no feasible h"
 """The reason of an empty polytope."""
@@ -325,7 +329,8 @@ def exact_result(
 
     Notes
     -----
-    ``proofs/linear_fractional.md`` §6 ("An exact crossover"); rounding outward, ``proofs/outward.md`` §3.
+    ``proofs/black_box.md`` §6 (the known-utility programs solved on exact coefficients); rounding outward,
+    ``proofs/outward.md`` §3.
     """
     if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
         return _no_solution(result, solver_status, _INCONSISTENT)
@@ -548,9 +553,10 @@ def lp_max(
     A_eq: ConstraintMatrix | None = None,
     b_eq: npt.ArrayLike | None = None,
 ) -> FractionalResult:
-    """max (p·h)/(q·h) over a polytope, by the Charnes–Cooper transform and an LP.
+    """max (p·h)/(q·h) over a polytope, exactly: Dinkelbach's method when every bound is finite, else the
+    Charnes–Cooper transform, each linear program solved by HiGHS's simplex and proved from its basis exactly.
 
-    Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; statuses).
+    Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; statuses; §6) and ``proofs/exact_lp.md``.
 
     Parameters
     ----------
@@ -565,9 +571,10 @@ def lp_max(
     Returns
     -------
     FractionalResult
-        ``method = "lp"`` with the solver's status; +inf with a reason when
-        the ratio is unbounded, NaN with a reason when no feasible h has
-        q·h > 0. Never raises for an infeasible or unbounded program.
+        ``method = "lp"``, certified: the exact maximum rounded up; +inf with a
+        reason when the ratio is unbounded, NaN with a reason when the
+        polytope is empty, status "error" where a vertex has q·h < 0 (every
+        bound finite). Never raises for an infeasible or unbounded program.
 
     Raises
     ------
@@ -677,8 +684,8 @@ def fractional_max(
     Proof: ``proofs/linear_fractional.md``.
 
     The fast path (:func:`threshold_max`) applies when only finite per-cell
-    bounds 0 ≤ lower ≤ upper constrain h and p, q ≥ 0; otherwise the
-    Charnes–Cooper LP (:func:`lp_max`) solves it.
+    bounds 0 ≤ lower ≤ upper constrain h and p, q ≥ 0; otherwise
+    :func:`lp_max` (Dinkelbach's method over exact linear programs) solves it.
 
     Parameters
     ----------

@@ -62,8 +62,8 @@ MAX_GROUPS = 32
 
 MAX_FLOORS = 128
 """Beyond :data:`MAX_GROUPS`, a program of at most :data:`MAX_VARIABLES` variables and this many floors whose
-certificate records no dual is still solved exactly: certify's rational simplex solves such a program (its
-crossover's size), and its exact last step is its proof, not a dual."""
+certificate records no dual is still solved exactly: certify records none where its exact basis, not the rounded
+duals, proves the value, or where its rational simplex solved the program, and the exact solve is then the proof."""
 
 Number = Fraction | float
 

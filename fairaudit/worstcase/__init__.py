@@ -8,8 +8,9 @@ linear in K (and, for a fixed K, linear in g). Each maximum below is, for one
 ordered pair of groups (a, a') (and one context x for local g-fairness), a
 linear-fractional program max (p·h)/(q·h) over a polytope, solved by the
 likelihood-ratio threshold rule of :mod:`fairaudit.base.threshold_rule` (vectorised over pairs) when only
-per-cell bounds constrain h, or those and one floor on q·h, and by the Charnes–Cooper LP (cvxpy + Clarabel)
-of :mod:`fairaudit.base.linear_fractional` otherwise.
+per-cell bounds constrain h, or those and one floor on q·h, and by Dinkelbach's method over linear programs solved
+by HiGHS's simplex and proved exactly (:mod:`fairaudit.base.linear_fractional`, :mod:`fairaudit.base.exact_lp`)
+otherwise.
 
 * :func:`~fairaudit.worstcase.black_box.black_box_bound` — the **class certificate**: the exact maximum of L
   over every kernel and every utility in the class g ∈ [lower, γ],

@@ -52,7 +52,7 @@ def search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> Searc
 
     Stops when the best value found is within :data:`STOP` of every remaining upper bound (the bounds are valid,
     rounded up); an infeasible program means the common polytope is empty, which ends the search, and so does a
-    program the solver failed on (status "error": the maximum over every program is then not known). Near-ties (within
+    program the LP route could not solve (status "error": the maximum over every program is then not known). Near-ties (within
     1e-9, the solver's accuracy) keep the earlier problem as the maximiser, but the value returned is an upper end
     of the maximum over every problem: the largest value solved, or the largest bound left unsolved where that is
     larger; it is certified only when every value solved is.
@@ -65,7 +65,7 @@ def search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> Searc
             break
         r = solve(int(i))
         solved += r.method == "lp"
-        if r.status in ("infeasible", "error"):  # the polytope is empty, or the solver failed: no maximum to give
+        if r.status in ("infeasible", "error"):  # an empty polytope, or a program not solved: no maximum to give
             return SearchResult(index=-1, result=r, solved=solved, reason=r.reason)
         certified = certified and r.certified
         if best is None or r.value > best_v * (1 + 1e-9):  # ties (to solver accuracy) keep the earlier pair

@@ -103,16 +103,16 @@ class WorstCase:
         or E[g | a], shape (n_groups,) (global).
     method : {"threshold", "lp"}
     status : {"optimal", "unbounded", "infeasible", "trivial", "error"}
-        "error": the solver failed on a program too large for the rational simplex (NaN; ``reason`` says so).
+        "error": the LP route could not solve a program (a vertex with q·h < 0; NaN, ``reason`` says so).
     solver_status : str
-        The solver's status for the maximiser's program ("optimal", "optimal_inaccurate", ...; "threshold" or
-        "closed form" when no LP decided it).
+        How the maximiser's program was solved (the LP route's "HiGHS simplex, exact basis (...)", and how it is
+        proved; "threshold" or "closed form" when no LP decided it).
     reason : str
     programs_solved : int
     certified : bool
-        Whether ``value`` is proven an upper bound (the threshold rule's error bound, the LP's dual checked
-        exactly, or the rational simplex on a small program whose repaired dual was not tight); False with the
-        reason in ``reason`` when only the solver's word stands behind it.
+        Whether ``value`` is proven an upper bound (the threshold rule's error bound, the LP route's exact basis
+        and the duals it records, or the rational simplex on exact coefficients); False with the reason in
+        ``reason`` otherwise.
     witness : float
         A certified lower end in nats, from the maximiser's point (NaN when the point is not exactly feasible).
     gap : float

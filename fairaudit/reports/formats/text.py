@@ -143,8 +143,9 @@ def worst_case_text(d: Report) -> str:
 def _utility_line(d: Report, values: list[float] | None) -> str:
     """``g = 1 on a, b; 0 on c``: the decisions grouped by their utility, the largest first (20 shown each).
 
-    A value within 1e-9 (relative to gamma) of the class's end is shown as that end: the LP's interior-point
-    solution stops that close to a vertex, and the JSON keeps its values as they are.
+    A value within 1e-9 (relative to gamma) of the class's end is shown as that end: an LP's point may lie that
+    close to a vertex without reaching it (an interior-point solver's did, before issue 80, and certificates made then
+    hold such points), and the JSON keeps its values as they are.
     """
     if values is None:
         return "none (no utility of the class meets tau)"

@@ -80,18 +80,20 @@ class SimplexOptimum:
 
     Attributes
     ----------
-    status : {"optimal", "infeasible", "unbounded"}
+    status : {"optimal", "infeasible", "unbounded", "unproved"}
         Proved exactly: "optimal" by a primal and a dual feasible basis of equal objective; "infeasible" by a basic
         variable out of its bounds that no nonbasic one can move (a row of the basis inverse: Farkas); "unbounded"
-        by a feasible basis and an improving direction the ratio test does not stop.
+        by a feasible basis and an improving direction the ratio test does not stop. "unproved": the solver's basis,
+        not optimal in exact arithmetic, as it is (``pivot=False``): its duals, and its vertex where feasible.
     value : Fraction or None
         min c·x, exactly; None unless optimal.
     point : tuple of Fraction or None
-        The optimal vertex x, shape (n,); None unless optimal.
+        The optimal vertex x, shape (n,); None unless optimal (or "unproved" with a feasible vertex).
     duals : tuple of Fraction or None
         The row multipliers y, shape (m,): c − Aᵀy has the sign of each column's bound at the vertex and y_i that of
         row i's, so Σ_i y_i·(row i's bound) + Σ_j d_j·(column j's bound) is a lower bound of c·x for every feasible
-        x (weak duality) equal to ``value``; None unless optimal.
+        x (weak duality) equal to ``value``; None unless optimal or "unproved" (then the bound is below the minimum,
+        by the wrong-signed reduced costs times their variables' ranges).
     basis : tuple of str
         The final basis: a status per column, then per row ("basic", "lower", "upper", "zero"), shape (n + m,).
     pivots : int
@@ -101,7 +103,7 @@ class SimplexOptimum:
         basis, where the solver's was singular in exact arithmetic).
     """
 
-    status: Literal["optimal", "infeasible", "unbounded"]
+    status: Literal["optimal", "infeasible", "unbounded", "unproved"]
     value: Fraction | None
     point: tuple[Fraction, ...] | None
     duals: tuple[Fraction, ...] | None
@@ -111,7 +113,8 @@ class SimplexOptimum:
 
 
 class _Basis:
-    """A basis of an :class:`ExactProgram`, its vertex and duals solved exactly (python-flint)."""
+    """A basis of an :class:`ExactProgram`, its vertex and duals solved exactly (python-flint's rational matrices: the
+    products with A are single calls, the basis matrix K one inverse)."""
 
     def __init__(self, prog: ExactProgram, status: list[Status], lower: list[Any], upper: list[Any]) -> None:
         self.prog, self.status, self.lower, self.upper = prog, status, lower, upper
@@ -130,20 +133,22 @@ class _Basis:
     def _solve(self) -> None:
         from flint import fmpq_mat
 
-        prog, n, a = self.prog, self.prog.n, self.prog.a
+        prog, n, m, flat = self.prog, self.prog.n, self.prog.m, self.prog.flat
         k = len(self.cols)
-        self.inverse = fmpq_mat(k, k, [a[i][j] for i in self.rows for j in self.cols]).inv() if k else None
-        x = [self.at(j) if self.status[j] != "basic" else 0 for j in range(n)]
-        nonbasic_cols = [j for j in range(n) if self.status[j] != "basic"]
-        rhs = [self.at(n + i) - sum((a[i][j] * x[j] for j in nonbasic_cols if x[j]), 0) for i in self.rows]
+        self.inverse = fmpq_mat(k, k, [flat[i * n + j] for i in self.rows for j in self.cols]).inv() if k else None
+        x = [0 if self.status[j] == "basic" else self.at(j) for j in range(n)]
+        ax = prog.times(x)
+        rhs = [self.at(n + i) - ax[i] for i in self.rows]
         for j, v in zip(self.cols, self._times(rhs), strict=True):
             x[j] = v
         self.x = x
-        self.r = [self.at(n + i) if self.status[n + i] != "basic" else _dot(a[i], x) for i in range(prog.m)]
-        y_rows = self._times_transposed([prog.c[j] for j in self.cols])
-        self.y = [0] * prog.m
-        for i, v in zip(self.rows, y_rows, strict=True):
+        ax = prog.times(x)
+        self.r = [ax[i] if self.status[n + i] == "basic" else self.at(n + i) for i in range(m)]
+        self.y: list[Any] = [0] * m
+        for i, v in zip(self.rows, self._times_transposed([prog.c[j] for j in self.cols]), strict=True):
             self.y[i] = v
+        ya = prog.transposed_times(self.y)
+        self.d = [c - t for c, t in zip(prog.c, ya, strict=True)]
 
     def _times(self, v: Sequence[Any]) -> list[Any]:
         """K⁻¹ v."""
@@ -167,50 +172,48 @@ class _Basis:
 
     def reduced_cost(self, v: int) -> Any:
         """The reduced cost of a nonbasic variable: c_j − Aⱼ·y for a column, y_i for a row."""
-        n, a = self.prog.n, self.prog.a
-        if v >= n:
-            return self.y[v - n]
-        return self.prog.c[v] - sum((a[i][v] * self.y[i] for i in self.rows if self.y[i]), 0)
+        n = self.prog.n
+        return self.d[v] if v < n else self.y[v - n]
 
     def direction(self, v: int) -> dict[int, Any]:
         """The change of every basic variable per unit increase of the nonbasic variable ``v``."""
-        n, a = self.prog.n, self.prog.a
+        prog, n = self.prog, self.prog.n
         if v < n:
-            dx = [-t for t in self._times([a[i][v] for i in self.rows])]
+            dx = [-t for t in self._times([prog.flat[i * n + v] for i in self.rows])]
         else:
             dx = self._times([1 if i == v - n else 0 for i in self.rows])
+        step: list[Any] = [0] * n
+        for j, t in zip(self.cols, dx, strict=True):
+            step[j] = t
+        if v < n:
+            step[v] = 1
+        moved = prog.times(step)
         out = dict(zip(self.cols, dx, strict=True))
-        for i in range(self.prog.m):
+        for i in range(prog.m):
             if self.status[n + i] == "basic":
-                out[n + i] = sum((a[i][j] * t for j, t in zip(self.cols, dx, strict=True) if t), 0) + (
-                    a[i][v] if v < n else 0
-                )
+                out[n + i] = moved[i]
         return out
 
     def row_rates(self, b: int) -> dict[int, Any]:
         """∂(basic variable ``b``)/∂(nonbasic v) for every nonbasic v: one row of the basis inverse times N."""
-        n, a, prog = self.prog.n, self.prog.a, self.prog
+        prog, n = self.prog, self.prog.n
         if b < n:
+            assert self.inverse is not None
             k = self.cols.index(b)
-            w = [-t for t in self._row_of_inverse(k)]
-            own: list[Any] = [0] * n
+            w = [-self.inverse[k, c] for c in range(self.inverse.ncols())]
         else:
-            row = [a[b - n][j] for j in self.cols]
-            w = [-t for t in self._times_transposed(row)] if row else []
-            own = a[b - n]
+            w = [-t for t in self._times_transposed([prog.flat[(b - n) * n + j] for j in self.cols])]
+        weights: list[Any] = [0] * prog.m
+        for i, t in zip(self.rows, w, strict=True):
+            weights[i] = t
+        if b >= n:
+            weights[b - n] = 1  # r_b = A_b·x: its own row, then the basic columns' share through w
+        through = prog.transposed_times(weights)
         rates: dict[int, Any] = {}
         for v in range(n + prog.m):
-            if self.status[v] == "basic":
-                continue
-            if v < n:
-                rates[v] = own[v] + sum((a[i][v] * t for i, t in zip(self.rows, w, strict=True) if t), 0)
-            else:
-                rates[v] = -w[self.rows.index(v - n)]
+            if self.status[v] != "basic":
+                rates[v] = through[v] if v < n else -weights[v - n]
         return rates
-
-    def _row_of_inverse(self, k: int) -> list[Any]:
-        assert self.inverse is not None
-        return [self.inverse[k, c] for c in range(self.inverse.ncols())]
 
     def infeasible(self) -> int | None:
         """The lowest-indexed basic variable outside its bounds, or None."""
@@ -298,7 +301,7 @@ class ExactProgram:
                 raise InputError("matrix", f"row {i} must have {self.n} entries", len(r))
         exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(rows)]
         self.fractions = exact
-        self.a = [[_fmpq(v) if v else 0 for v in r] for r in exact]
+        self.flat: list[Any] = [_fmpq(v) if v else 0 for r in exact for v in r]  # A, row-major
         bounds = [
             [_checked(name, k, v) for k, v in enumerate(b)]
             for name, b in (
@@ -317,9 +320,28 @@ class ExactProgram:
         self.upper = [None if v is None else _fmpq(v) for v in upper_fr]
         self.c: list[Any] = [0] * self.n
         self._highs: Any = None
+        self._matrix: Any = None
         self._basis: list[Status] | None = None
 
-    def minimize(self, cost: Sequence[Any], basis: Sequence[Status] | None = None) -> SimplexOptimum:
+    def times(self, x: Sequence[Any]) -> list[Any]:
+        """A x, exactly (one rational matrix product), shape (m,)."""
+        from flint import fmpq_mat
+
+        if self._matrix is None:
+            self._matrix = fmpq_mat(self.m, self.n, self.flat)
+        return list((self._matrix * fmpq_mat(self.n, 1, list(x))).entries()) if self.m else []
+
+    def transposed_times(self, y: Sequence[Any]) -> list[Any]:
+        """Aᵀ y, exactly, shape (n,)."""
+        from flint import fmpq_mat
+
+        if self._matrix is None:
+            self._matrix = fmpq_mat(self.m, self.n, self.flat)
+        return list((fmpq_mat(1, self.m, list(y)) * self._matrix).entries()) if self.m else [0] * self.n
+
+    def minimize(
+        self, cost: Sequence[Any], basis: Sequence[Status] | None = None, *, pivot: bool = True
+    ) -> SimplexOptimum:
         """min c·x, exactly: HiGHS's basis (or ``basis``) checked and, where not optimal, finished by exact pivots.
 
         Parameters
@@ -329,6 +351,10 @@ class ExactProgram:
         basis : sequence of str, shape (n + m,), optional
             A starting basis in place of HiGHS's (statuses as :attr:`SimplexOptimum.basis`): the exact phase
             alone, from there (tests start it anywhere).
+        pivot : bool
+            Whether a basis that is not optimal is finished by exact pivots. False: it is returned as it is, with
+            status "unproved", its exact duals, and its vertex where that is feasible (a caller that only needs a
+            feasible vertex, or a bound by weak duality from the duals, saves the pivots).
 
         Returns
         -------
@@ -351,6 +377,11 @@ class ExactProgram:
             state = _Basis(self, status, self.lower, self.upper)
         except ZeroDivisionError:  # singular in exact arithmetic: start from the slack basis
             start, state = "slack", _Basis(self, self._slack(), self.lower, self.upper)
+        if not pivot and (state.infeasible() is not None or state.improving() is not None):
+            feasible = state.infeasible() is None
+            point = tuple(_fraction_of(v) for v in state.x) if feasible else None
+            duals = tuple(_fraction_of(v) for v in state.y)
+            return SimplexOptimum("unproved", None, point, duals, tuple(state.status), 0, start)
         outcome, state, pivots = _exact_simplex(self, state)
         self._basis = list(state.status)
         if basis is None and self._highs is not None:
@@ -388,7 +419,9 @@ class ExactProgram:
         import highspy
 
         h = self._highs if self._highs is not None else self._build()
-        h.changeColsCost(self.n, np.arange(self.n, dtype=np.int32), np.asarray(cost, dtype=float))
+        c = np.asarray(cost, dtype=float)
+        scale = float(np.abs(c).max()) if c.size else 0.0
+        h.changeColsCost(self.n, np.arange(self.n, dtype=np.int32), c / scale if scale > 0 else c)
         h.run()
         b = h.getBasis()
         if not b.valid:
@@ -482,6 +515,8 @@ def _quiet_highs() -> Any:
         _BANNER_SHOWN = True
     h.setOptionValue("output_flag", False)
     h.setOptionValue("solver", "simplex")
+    h.setOptionValue("dual_feasibility_tolerance", 1e-10)
+    h.setOptionValue("primal_feasibility_tolerance", 1e-10)
     return h
 
 

@@ -46,6 +46,7 @@ if TYPE_CHECKING:
     import cvxpy as cp
     import scipy.sparse as sp
 
+    from fairaudit.base.exact_lp import SimplexOptimum
     from fairaudit.base.exact_programs import RatioOptimum
 
 ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
@@ -86,7 +87,7 @@ class FractionalResult:
     method : {"threshold", "lp"}
     solver_status : str
         How the value was found: on the LP route "HiGHS simplex, exact basis (k Dinkelbach steps, m exact
-        pivots)", followed by :data:`EXACT_BASIS` where no dual is recorded, or the caller's
+        pivots)", followed by :data:`EXACT_BASIS` where the recorded duals prove less, or the caller's
         :data:`EXACT_CROSSOVER` note; "threshold" or "closed form" for the fast paths.
     reason : str
         Why the value is +inf or NaN, or why it is not certified; empty when optimal and certified.
@@ -103,11 +104,10 @@ class FractionalResult:
         ``value − witness`` rounded up (NaN without a witness; 0 when both are +inf).
     dual : tuple of numpy.ndarray
         The LP route's last step's exact duals, rounded to nearest: one array per block of rows (ν ≥ 0 for
-        A_ub, η for A_eq, in that order; shape (m,) and (k,)), kept where the bound they prove by weak duality
-        (:func:`~fairaudit.base.exact_duality.certify_ratio`) is within :data:`CROSSOVER_TOLERANCE` of ``value``.
-        Empty on the threshold route; empty where the rounded duals prove less (``solver_status`` then ends with
-        :data:`EXACT_BASIS`: the exact basis is the proof) and when the rational simplex solved the program (its
-        exact last step is the proof).
+        A_ub, η for A_eq, in that order; shape (m,) and (k,)); where the bound they prove by weak duality
+        (:func:`~fairaudit.base.exact_duality.certify_ratio`) is beyond :data:`CROSSOVER_TOLERANCE` of ``value``,
+        ``solver_status`` ends with :data:`EXACT_BASIS` (the exact basis is the proof). Empty on the threshold route
+        and when the rational simplex solved the program (its exact last step is the proof).
     """
 
     value: float
@@ -268,8 +268,8 @@ CROSSOVER_TOLERANCE = 1e-13
 solve a program with rounded coefficients exactly (:mod:`fairaudit.worstcase.known_utility_search`)."""
 
 EXACT_BASIS = "proved by its exact basis (the rounded duals prove less)"
-"""What ``solver_status`` adds when a program's value is proved by the exact basis of its last step and not by its
-duals read to nearest (``dual`` is then empty)."""
+"""What ``solver_status`` adds when a program's value is proved by the exact basis of its last step and not, within
+:data:`CROSSOVER_TOLERANCE`, by its duals read to nearest (which ``dual`` still holds)."""
 
 EXACT_CROSSOVER = "then the rational simplex"
 """What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why
@@ -428,17 +428,13 @@ class FractionalProgram:
         """A :class:`FractionalResult` of the program for ``p`` and ``q``, given the rest."""
         return functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
 
-    def solve(self, p: npt.ArrayLike, q: npt.ArrayLike, *, below: float = -math.inf) -> FractionalResult:
+    def solve(self, p: npt.ArrayLike, q: npt.ArrayLike) -> FractionalResult:
         """The exact optimum for numerator ``p`` and denominator ``q`` (shape (n,) each), rounded outward.
 
         Parameters
         ----------
         p, q : array_like, shape (n,)
             The numerator and the denominator; q·h ≥ 0 on the polytope.
-        below : float, optional
-            A value the caller already holds (a ratio): the method starts at λ₀ = ``below``, and where
-            max (p − below·q)·h ≤ 0 (exactly) the maximum is at most ``below``, returned at once, certified, with the
-            ratio at that maximiser as the witness. Default -inf: never.
 
         Returns
         -------
@@ -455,13 +451,25 @@ class FractionalProgram:
         result = self._result(p, q)
         self._pq = (p, q)
         top, bottom = [Fraction(v) for v in p.tolist()], [Fraction(v) for v in q.tolist()]
-        lam = Fraction(below) if math.isfinite(below) else None
-        at: FloatArray | None = None  # the vertex whose ratio is λ (None while λ is the caller's)
+        lam: Fraction | None = None
+        at: FloatArray | None = None  # the vertex whose ratio is λ
         steps = pivots = 0
         while True:
             cost = top if lam is None else [a - lam * b for a, b in zip(top, bottom, strict=True)]
-            found = self._program.minimize([-c for c in cost])
-            steps, pivots = steps + 1, pivots + found.pivots
+            negated = [-c for c in cost]
+            found = self._program.minimize(negated, pivot=False)
+            steps += 1
+            if found.status == "unproved":  # HiGHS's basis is not optimal exactly: its duals may bound the ratio
+                early = None if lam is None else self._bounded_by_duals(result, lam, at, found, top, bottom, steps)
+                if early is not None:
+                    return early
+                if found.point is not None:  # its vertex, feasible exactly, moves λ up where it beats it
+                    num, den = _dot(top, found.point), _dot(bottom, found.point)
+                    if den > 0 and (lam is None or num > lam * den):
+                        lam, at = num / den, np.array([float(v) for v in found.point])
+                        continue
+                found = self._program.minimize(negated, found.basis)  # exact pivots from that basis
+                pivots += found.pivots
             status = f"HiGHS simplex, exact basis ({steps} Dinkelbach steps, {pivots} exact pivots)"
             if found.status != "optimal" or found.point is None or found.value is None:
                 return _no_solution(result, status, _INCONSISTENT)  # (a bounded polytope: only empty)
@@ -490,6 +498,36 @@ class FractionalProgram:
                 point = np.array([float(v) for v in found.point])
             lam, at = num / den, point if den > 0 else None
 
+    def _bounded_by_duals(
+        self,
+        result: Callable[..., FractionalResult],
+        lam: Fraction,
+        at: FloatArray | None,
+        found: SimplexOptimum,
+        top: list[Fraction],
+        bottom: list[Fraction],
+        steps: int,
+    ) -> FractionalResult | None:
+        """The result where the duals of a basis that is not optimal exactly, read to nearest, prove by weak duality
+        (:func:`~fairaudit.base.exact_duality.certify_ratio`) a bound within :data:`CROSSOVER_TOLERANCE` of λ: that
+        bound, with λ (the ratio at ``at``) or the ratio at the basis's feasible vertex as the witness; else None
+        (``proofs/exact_lp.md`` §4, "A bound from the duals")."""
+        assert found.duals is not None
+        dual = self._multipliers(found.duals)
+        p, q = self._pq
+        bound = certify_ratio(fraction_down(lam), p, q, self.lower, self.upper, self._rows, list(dual))
+        exact = fraction_up(lam)
+        if not (bound.certified and bound.value - exact <= CROSSOVER_TOLERANCE * max(1.0, abs(exact))):
+            return None
+        witness, point = math.nan, at
+        if at is not None:
+            witness = fraction_down(lam)
+        elif found.point is not None and (den := _dot(bottom, found.point)) > 0:
+            witness, point = fraction_down(_dot(top, found.point) / den), np.array([float(v) for v in found.point])
+        status = f"HiGHS simplex, exact basis ({steps} Dinkelbach steps; the last bounded by its duals)"
+        return result(value=bound.value, argmax=point, status="optimal", solver_status=status, reason="",
+                      certified=True, witness=witness, gap=gap_between(bound.value, witness), dual=dual)  # fmt: skip
+
     def _proved(
         self,
         result: Callable[..., FractionalResult],
@@ -502,17 +540,17 @@ class FractionalProgram:
     ) -> FractionalResult:
         """The result once max (p − λq)·h ≤ 0 is proved, the ratio num/den at ``point``: λ rounded up, proved by the
         exact basis of the last step; the witness is the ratio at the point, rounded down. ``dual`` holds that basis's
-        duals read to nearest, as a certificate records them, where the bound they prove by weak duality
-        (:func:`~fairaudit.base.exact_duality.certify_ratio`) is within :data:`CROSSOVER_TOLERANCE` of the value;
-        otherwise (a flat B(λ), where every box maximiser has q·h near 0) it is empty and ``solver_status`` ends
-        with :data:`EXACT_BASIS`."""
+        duals read to nearest, as a certificate records them (any ν ≥ 0 bounds the program; ``fairaudit verify``
+        re-derives a bound from them beyond its exact size). Where the bound they prove by weak duality
+        (:func:`~fairaudit.base.exact_duality.certify_ratio`) is not within :data:`CROSSOVER_TOLERANCE` of the value
+        (a flat B(λ), where every box maximiser has q·h near 0), ``solver_status`` ends with :data:`EXACT_BASIS`."""
         dual = self._multipliers(duals)
         witness = fraction_down(num / den) if den > 0 else math.nan
         value = fraction_up(lam)
         p, q = self._pq
         bound = certify_ratio(fraction_down(lam), p, q, self.lower, self.upper, self._rows, list(dual))
         if not (bound.certified and bound.value - value <= CROSSOVER_TOLERANCE * max(1.0, abs(value))):
-            dual, status = (), f"{status}; {EXACT_BASIS}"
+            status = f"{status}; {EXACT_BASIS}"
         return result(value=value, argmax=point, status="optimal", solver_status=status, reason="", certified=True,
                       witness=witness, gap=gap_between(value, witness), dual=dual)  # fmt: skip
 

@@ -32,7 +32,6 @@ if TYPE_CHECKING:
 __all__ = [
     "ACTIVE_TOLERANCES",
     "NEWTON_STEPS",
-    "REFINE_LIMIT",
     "RatioBound",
     "certify_ratio",
     "check_dual",
@@ -40,10 +39,8 @@ __all__ = [
     "on_one_denominator",
     "point_ratio",
     "rational_point_ratio",
-    "refine_duals",
     "smallest_root",
     "smallest_root_of_integers",
-    "vertex_ratio",
 ]
 
 NEWTON_STEPS = 64
@@ -395,153 +392,10 @@ def _ratio_at(x: Dyadic, scale: int, p: FloatArray, q: FloatArray, rows: Rows) -
     return fraction_down(num / den)
 
 
-REFINE_LIMIT = 4_000_000
-"""Largest (interior cells × active rows) system :func:`refine_duals` solves densely; larger ones keep the solver's."""
-
-
 ACTIVE_TOLERANCES = (1e-9, 1e-7, 1e-5)
 """Distances (relative to max(1, max |h|)) within which a cell counts as at its bound and a row as active, when the
 duals are repaired: an interior-point solver stops a little inside the box, by 1e-12 to 1e-8 on a degenerate
 program, so each is tried and the smallest value certified kept."""
-
-
-def _repair_system(
-    h: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    rows: Rows,
-    duals: list[FloatArray],
-    tolerance: float = ACTIVE_TOLERANCES[0],
-) -> tuple[Any, list[Any], Any, Any] | None:
-    """The cells strictly inside the box, the active rows, their columns (interior cells × active rows) and the
-    solver's duals on them; None when the system is larger than :data:`REFINE_LIMIT`."""
-    import scipy.sparse as sp
-
-    tol = tolerance * max(1.0, float(np.abs(h).max(initial=0.0)))
-    interior = (h > lower + tol) & (h < upper - tol)
-    blocks, active = [], []
-    for (a, b, kind), _ in zip(rows, duals, strict=True):
-        a = sp.csr_matrix(a)
-        on = np.ones(b.size, dtype=bool) if kind == "eq" else (a @ h - b) > -tol * (1.0 + np.abs(b))
-        blocks.append(a)
-        active.append(on)
-    if int(interior.sum()) * int(sum(int(on.sum()) for on in active)) > REFINE_LIMIT:
-        return None
-    if not any(on.any() for on in active):
-        return interior, active, np.zeros((int(interior.sum()), 0)), np.zeros(0)
-    columns = sp.hstack([a[on].T for a, on in zip(blocks, active, strict=True)], format="csr")[interior].toarray()
-    current = np.concatenate([np.asarray(y, dtype=float)[on] for y, on in zip(duals, active, strict=True)])
-    return interior, active, columns, current
-
-
-def _spread(rows: Rows, active: list[Any], values: Any) -> list[FloatArray]:
-    """The active rows' duals ``values`` (concatenated) as one array per block, 0 off the active rows."""
-    out, start = [], 0
-    for (_, b, _), on in zip(rows, active, strict=True):
-        y = np.zeros(b.size)
-        y[on] = values[start : start + int(on.sum())]
-        start += int(on.sum())
-        out.append(y)
-    return out
-
-
-def refine_duals(
-    h: FloatArray,
-    lam: float,
-    p: FloatArray,
-    q: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    rows: Rows,
-    duals: list[FloatArray],
-    tolerance: float = ACTIVE_TOLERANCES[0],
-) -> list[FloatArray] | None:
-    """The solver's duals repaired at the point ``h``: r_i = 0 on the cells strictly inside the box, ν = 0 off the
-    active rows (complementary slackness), by least squares in floating point.
-
-    Any result is only a candidate: :func:`certify_ratio` checks it exactly. None when the system is too large.
-    ``tolerance``: a cell within it of a bound counts as at the bound, a row within it as active
-    (:data:`ACTIVE_TOLERANCES`).
-    """
-    system = _repair_system(h, lower, upper, rows, duals, tolerance)
-    if system is None:
-        return None
-    interior, active, columns, current = system
-    if columns.size:
-        target = (p - lam * q)[interior] - columns @ current
-        current = current + np.linalg.lstsq(columns, target, rcond=None)[0]
-    out = _spread(rows, active, current)
-    return [np.maximum(y, 0.0) if kind == "le" else y for y, (_, _, kind) in zip(out, rows, strict=True)]
-
-
-def vertex_ratio(
-    h: FloatArray,
-    p: FloatArray,
-    q: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    rows: Rows,
-    duals: list[FloatArray],
-    tolerance: float = ACTIVE_TOLERANCES[0],
-) -> float | None:
-    """The λ at which the duals repaired at ``h`` (:func:`refine_duals`) make B(λ) vanish: a candidate at which to
-    repair them, in floating point.
-
-    The repaired duals are affine in λ, ν(λ) = ν_p − λ·ν_q, and so is B(λ) = ν(λ)·b + Σ r_i(λ)·(the bound h_i is
-    at), summed over the cells at a bound (r_i = 0 inside the box). When ``h`` is near an optimal vertex its root is
-    the optimum up to rounding, however inexact the solver's value: repairing at the solver's value instead leaves
-    its error, and Newton from there contracts it only by 1 − (the denominator's share of the bound rows), 0.99 per
-    step with τ = 0.01. Used by :class:`~fairaudit.base.linear_fractional.FractionalProgram` before issue 80, no
-    longer (``proofs/linear_fractional.md`` §6, "History").
-
-    Parameters
-    ----------
-    h : numpy.ndarray, shape (n,)
-        The solver's primal point, in the box.
-    p, q, lower, upper, rows, duals
-        As in :func:`dual_value` (finite bounds; ``duals`` the solver's, one array per block of rows).
-    tolerance : float, optional
-        As in :func:`refine_duals`.
-
-    Returns
-    -------
-    float or None
-        The root, a candidate only (:func:`certify_ratio` checks the duals repaired near it exactly); None when the
-        system is larger than :data:`REFINE_LIMIT` or B does not decrease in λ.
-
-    Examples
-    --------
-    The docstring program of :class:`~fairaudit.base.linear_fractional.FractionalProgram`: at its vertex
-    h = (1, 2/7) the row is active and the root is 11/7, whatever the solver's dual.
-
-    >>> import numpy as np
-    >>> p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
-    >>> rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
-    >>> vertex_ratio(np.array([1.0, 2 / 7]), p, q, np.zeros(2), np.ones(2), rows, [np.array([1.1])]) == 11 / 7
-    True
-    """
-    system = _repair_system(h, lower, upper, rows, duals, tolerance)
-    if system is None:
-        return None
-    interior, active, columns, current = system
-    nu_p, nu_q = current, np.zeros_like(current)
-    if columns.size:
-        nu_p = current + np.linalg.lstsq(columns, p[interior] - columns @ current, rcond=None)[0]
-        nu_q = np.linalg.lstsq(columns, q[interior], rcond=None)[0]
-    at = np.where(h - lower <= upper - h, lower, upper)
-    pull = [np.zeros(h.size), np.zeros(h.size)]  # Aᵀν_p and Aᵀν_q
-    constant = slope = 0.0
-    for (a, b, _), yp, yq in zip(rows, _spread(rows, active, nu_p), _spread(rows, active, nu_q), strict=True):
-        pull[0] += np.asarray(a.T @ yp).ravel()
-        pull[1] += np.asarray(a.T @ yq).ravel()
-        constant += float(yp @ b)
-        slope += float(yq @ b)
-    outside = ~interior
-    constant += float(((p - pull[0]) * at)[outside].sum())
-    slope += float(((q - pull[1]) * at)[outside].sum())
-    if not slope > 0 or not math.isfinite(constant / slope):
-        return None
-    return constant / slope
 
 
 def smallest_root(

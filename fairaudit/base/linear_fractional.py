@@ -28,10 +28,10 @@ from __future__ import annotations
 import functools
 import math
 import operator
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import TYPE_CHECKING, Any, Literal, TypeAlias, overload
+from typing import TYPE_CHECKING, Literal, TypeAlias, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -43,7 +43,6 @@ from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
 
 if TYPE_CHECKING:
-    import cvxpy as cp
     import scipy.sparse as sp
 
     from fairaudit.base.exact_lp import SimplexOptimum
@@ -229,38 +228,6 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
             reason="some h in the box has q·h = 0 and p·h > 0",
         )
     return found(value=value, argmax=h, status="optimal", solver_status="threshold", reason="")
-
-
-CLARABEL_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
-
-
-def solve_clarabel(problem: cp.Problem, options: Mapping[str, Any] | None = None) -> str:
-    """Solve a cvxpy problem with Clarabel at tight tolerances; return the solver's status.
-
-    cvxpy's "Solution may be inaccurate" warning is not printed: its information is the status returned
-    (``optimal_inaccurate``, ...), which every caller keeps. (:class:`FractionalProgram` no longer uses Clarabel;
-    :data:`CLARABEL_TOLERANCES` are also the tolerances of :mod:`fairaudit.metrics.box_extremes`' own LP.)
-
-    Parameters
-    ----------
-    problem : cvxpy.Problem
-    options : mapping, optional
-        Clarabel settings that replace or extend :data:`CLARABEL_TOLERANCES`.
-
-    Returns
-    -------
-    str
-        ``problem.status``.
-    """
-    import warnings
-
-    import cvxpy as cp
-
-    settings = {**CLARABEL_TOLERANCES, **(options or {})}
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
-        problem.solve(solver=cp.CLARABEL, **settings)
-    return str(problem.status)
 
 
 CROSSOVER_TOLERANCE = 1e-13

@@ -44,6 +44,10 @@ Extremes: TypeAlias = tuple[FloatArray, FloatArray, IntArray, IntArray]
 """Per map: (lower, upper, favoured group, other group)."""
 
 
+CLARABEL_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
+"""Clarabel's settings for the LP of :meth:`MinMaxRatio.lp` (its gaps and feasibility at 1e-11)."""
+
+
 def div(num: npt.ArrayLike, den: npt.ArrayLike) -> FloatArray:
     """num / den with c/0 = +inf (c > 0) and 0/0 = 1."""
     num, den = np.broadcast_arrays(np.asarray(num, dtype=float), np.asarray(den, dtype=float))
@@ -134,7 +138,7 @@ class MinMaxRatio:
     With y = t e and t = 1 / min_a W_a·e: minimise σ subject to W y ≤ σ,
     W y ≥ 1, t·lower ≤ y ≤ t·upper, t ≥ 0 (``proofs/intervals.md``), over
     x = (σ, t, y). Solved by Clarabel directly in its standard form
-    A x + s = b, s ≥ 0, at the tolerances of :func:`fairaudit.base.linear_fractional.solve_clarabel`:
+    A x + s = b, s ≥ 0, at the tolerances of :data:`CLARABEL_TOLERANCES`:
     a fixed LP needs no modelling layer, and cvxpy's import alone would take
     most of a second of every ``fairaudit certify`` with intervals. The program
     is laid out as cvxpy lays it out (variables, rows, stored zeros) and, as
@@ -171,8 +175,6 @@ class MinMaxRatio:
         """The LP's optimal σ, or None unless Clarabel solved it (or almost solved it)."""
         import clarabel  # type: ignore[import-untyped]
         import scipy.sparse as sp
-
-        from fairaudit.base.linear_fractional import CLARABEL_TOLERANCES
 
         rows, b, structure = self._program(W, lo, hi)
         size = rows.shape[1]

@@ -395,13 +395,19 @@ class FractionalProgram:
         """A :class:`FractionalResult` of the program for ``p`` and ``q``, given the rest."""
         return functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
 
-    def solve(self, p: npt.ArrayLike, q: npt.ArrayLike) -> FractionalResult:
+    def solve(self, p: npt.ArrayLike, q: npt.ArrayLike, *, below: float = -math.inf) -> FractionalResult:
         """The exact optimum for numerator ``p`` and denominator ``q`` (shape (n,) each), rounded outward.
 
         Parameters
         ----------
         p, q : array_like, shape (n,)
             The numerator and the denominator; q·h ≥ 0 on the polytope.
+        below : float, optional
+            A value the caller already holds (a ratio): the method starts at λ₀ = ``below``, and where a step proves
+            max (p − below·q)·h ≤ 0 the maximum is at most ``below``, returned at once, certified, with the ratio at
+            that step's vertex as the witness and that step's duals (which prove ``below``, not the program's own
+            maximum). A search passes the largest value it has found: a program that cannot beat it costs one step.
+            Default -inf: never.
 
         Returns
         -------
@@ -418,7 +424,7 @@ class FractionalProgram:
         result = self._result(p, q)
         self._pq = (p, q)
         top, bottom = [Fraction(v) for v in p.tolist()], [Fraction(v) for v in q.tolist()]
-        lam: Fraction | None = None
+        lam = Fraction(below) if math.isfinite(below) else None
         at: FloatArray | None = None  # the vertex whose ratio is λ
         steps = pivots = 0
         while True:

@@ -211,7 +211,8 @@ def _solver(
     solver's dual, beyond the exact size, can leave its value 1e-10 above it.
 
     The solve returned serves one :func:`~fairaudit.worstcase.pair_search.search`, which takes the programs in turn. A
-    program whose value is certified and at most a certified value already returned is left there: the
+    program whose value is certified and at most a certified value already returned (the LP, given it as ``below``,
+    stops as soon as it proves as much) is left there: the
     search keeps neither its value nor its witness (it neither raises the largest value found nor becomes the
     maximiser, within the search's tie rule), and the steps above only lower the one and raise the other. Its witness
     is then NaN where the coefficients are not exact (the solver's is on the outer ones). 18 groups behind a product
@@ -231,8 +232,8 @@ def _solver(
         inner = relaxed_first(num, den, space.lo, space.hi, tau, space.rows, space.program)
     else:
 
-        def inner(i: int) -> FractionalResult:
-            return space.program().solve(num(i), den(i))
+        def inner(i: int, below: float) -> FractionalResult:
+            return space.program().solve(num(i), den(i), below=below)
 
     largest = -math.inf  # (the largest certified value returned: at most its search's largest value found)
     witnessed = -math.inf  # (the largest witness returned: at most the largest value)
@@ -241,7 +242,7 @@ def _solver(
 
     def solve(i: int) -> FractionalResult:
         nonlocal largest, witnessed
-        r = inner(i)
+        r = inner(i, largest)
         if r.status == "optimal" and r.certified and r.value <= largest:
             r = replace(r, witness=math.nan, gap=math.nan) if roundings else r  # (below a value found: see above)
         else:

@@ -87,7 +87,8 @@ def relaxed_first(
     rows: npt.NDArray[np.floating[Any]] | None,
     program: Callable[[], FractionalProgram],
 ) -> Callable[..., FractionalResult]:
-    """Solve problem i by the closed-form floor relaxation when its point is feasible, by the LP otherwise.
+    """Solve problem i by the closed-form floor relaxation when its point is feasible, by the LP otherwise (given
+    ``below``, :meth:`~fairaudit.base.linear_fractional.FractionalProgram.solve`'s: a value the caller holds).
 
     The relaxation keeps the box and only the denominator's constraint q·h ≥ floor
     (:func:`fairaudit.base.threshold_rule.floor_max_many`); its point is optimal for the full
@@ -95,7 +96,7 @@ def relaxed_first(
     floor the program is the box program and the threshold solves it.
     """
 
-    def solve(i: int) -> FractionalResult:
+    def solve(i: int, below: float = -math.inf) -> FractionalResult:
         p, q = num(i), den(i)
         frac: float | FloatArray
         if floor is None:
@@ -126,7 +127,7 @@ def relaxed_first(
                     witness=witness,
                     gap=gap_between(float(v), witness),
                 )
-        return program().solve(p, q)
+        return program().solve(p, q, below=below)
 
     return solve
 

@@ -374,18 +374,7 @@ class FractionalProgram:
         self.lower, self.upper = _bounds(lower, upper, self.n, required=True)
         if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
             raise InputError("lower", "the bounds of h must be finite (the programs of fairaudit are over boxes)")
-        self._rows: list[tuple[FloatArray, FloatArray, str]] = []
-        for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
-            if a is None:
-                continue
-            dense = _matrix(a, name)
-            dense = np.asarray(dense.toarray() if hasattr(dense, "toarray") else dense, dtype=float)
-            b = as_float_array(b, name.replace("A", "b"), ndim=1)
-            if dense.shape != (b.size, self.n):
-                raise InputError(name, f"shape must be ({b.size}, {self.n})", dense.shape)
-            if not np.all(np.isfinite(b)):
-                raise InputError(name.replace("A", "b"), "must be finite")
-            self._rows.append((dense, b, op))
+        self._rows = _constraint_rows(self.n, A_ub, b_ub, A_eq, b_eq)
         matrix = [row for a, _, _ in self._rows for row in a.tolist()]
         row_lower = [v if op == "eq" else -math.inf for _, b, op in self._rows for v in b.tolist()]
         row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
@@ -542,6 +531,29 @@ def _dot(a: Sequence[Fraction], b: Sequence[Fraction]) -> Fraction:
     return sum((x * y for x, y in zip(a, b, strict=True) if x and y), Fraction(0))
 
 
+def _constraint_rows(
+    n: int,
+    A_ub: ConstraintMatrix | None,
+    b_ub: npt.ArrayLike | None,
+    A_eq: ConstraintMatrix | None,
+    b_eq: npt.ArrayLike | None,
+) -> list[tuple[FloatArray, FloatArray, str]]:
+    """The polytope's rows as (A dense, b, "le" or "eq") blocks, checked: shapes against ``n``, finite data."""
+    out = []
+    for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
+        if a is None:
+            continue
+        dense = _matrix(a, name)
+        dense = np.asarray(dense.toarray() if hasattr(dense, "toarray") else dense, dtype=float)
+        rhs = as_float_array(b, name.replace("A", "b"), ndim=1)
+        if dense.shape != (rhs.size, n):
+            raise InputError(name, f"shape must be ({rhs.size}, {n})", dense.shape)
+        if not np.all(np.isfinite(rhs)):
+            raise InputError(name.replace("A", "b"), "must be finite")
+        out.append((dense, rhs, op))
+    return out
+
+
 def _matrix(a: ConstraintMatrix, name: str) -> FloatArray | sp.csr_matrix:
     import scipy.sparse as sp
 
@@ -630,14 +642,7 @@ def _charnes_cooper(
     polytope: list[list[float]] = []
     poly_lower: list[float] = []
     poly_upper: list[float] = []
-    for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
-        if a is None:
-            continue
-        dense = _matrix(a, name)
-        dense = np.asarray(dense.toarray() if hasattr(dense, "toarray") else dense, dtype=float)
-        rhs = as_float_array(b, name.replace("A", "b"), ndim=1)
-        if dense.shape != (rhs.size, n):
-            raise InputError(name, f"shape must be ({rhs.size}, {n})", dense.shape)
+    for dense, rhs, op in _constraint_rows(n, A_ub, b_ub, A_eq, b_eq):
         for row, v in zip(dense.tolist(), rhs.tolist(), strict=True):
             rows.append([*row, -v])
             row_lower.append(0.0 if op == "eq" else -inf)

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import functools
 import math
-import operator
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -46,17 +45,14 @@ if TYPE_CHECKING:
     import scipy.sparse as sp
 
     from fairaudit.base.exact_lp import SimplexOptimum
-    from fairaudit.base.exact_programs import RatioOptimum
 
 ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
 """A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
 
 __all__ = [
     "EXACT_BASIS",
-    "EXACT_CROSSOVER",
     "FractionalProgram",
     "FractionalResult",
-    "exact_result",
     "fractional_max",
     "gap_between",
     "lp_max",
@@ -238,14 +234,6 @@ EXACT_BASIS = "proved by its exact basis (the rounded duals prove less)"
 """What ``solver_status`` adds when a program's value is proved by the exact basis of its last step and not, within
 :data:`CROSSOVER_TOLERANCE`, by its duals read to nearest (which ``dual`` still holds)."""
 
-EXACT_CROSSOVER = "then the rational simplex"
-"""What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why
-(:mod:`fairaudit.worstcase.known_utility_exact`: the rounded coefficients' witness did not meet the value)."""
-
-CROSSOVER_SIZE = (64, 128)
-"""The largest program (variables, rows; an equality counts twice) the worst-case searches solve again by the rational
-simplex on exact coefficients when its rounded form leaves a gap (:mod:`fairaudit.worstcase.known_utility_exact`)."""
-
 _INCONSISTENT = "the constraints are inconsistent: no feasible h"
 """The reason of an empty polytope."""
 
@@ -261,64 +249,6 @@ def _unbounded(
     """+inf, status "unbounded", certified (+inf bounds every ratio), and why the ratio is unbounded."""
     return result(
         value=math.inf, argmax=argmax, status="unbounded", solver_status=solver_status, reason=reason, certified=True
-    )
-
-
-def exact_result(
-    result: Callable[..., FractionalResult],
-    optimum: RatioOptimum,
-    p: Sequence[Fraction],
-    q: Sequence[Fraction],
-    solver_status: str,
-    report_empty: bool = False,
-) -> FractionalResult | None:
-    """The :class:`FractionalResult` of a program the rational simplex solved exactly, or None.
-
-    Parameters
-    ----------
-    result : callable
-        Makes the result from its remaining fields (``method``, ``p``, ``q``, ``lower`` and ``upper`` given).
-    optimum : RatioOptimum
-        :func:`~fairaudit.base.exact_programs.maximize_ratio`'s (or ``maximize_ratio_over_product``'s) outcome.
-    p, q : sequences of Fraction, shape (n,)
-        The exact numerator and denominator it was solved for.
-    solver_status : str
-        The result's ``solver_status``.
-    report_empty : bool
-        Whether an empty polytope is reported (else None: a dual's bound holds vacuously there).
-
-    Returns
-    -------
-    FractionalResult or None
-        "optimal": the maximum rounded up (the witness rounded down, the gap between them) at the vertex reached,
-        certified; "infeasible" with ``report_empty``; "unbounded" (+inf, certified) at a vertex with q·h = 0 < p·h
-        exactly. None where the simplex gives no finite maximum and no proof of +inf.
-
-    Notes
-    -----
-    ``proofs/black_box.md`` §6 (the known-utility programs solved on exact coefficients); rounding outward,
-    ``proofs/outward.md`` §3.
-    """
-    if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
-        return _no_solution(result, solver_status, _INCONSISTENT)
-    if optimum.status == "zero_denominator" and optimum.point is not None:
-        at = optimum.point  # a vertex of the polytope, exactly
-        if sum(map(operator.mul, q, at)) == 0 < sum(map(operator.mul, p, at)):
-            point = np.array([float(x) for x in at])
-            reason = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)"
-            return _unbounded(result, point, solver_status, reason)
-    if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
-        return None
-    value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
-    return result(
-        value=value,
-        argmax=np.array([float(x) for x in optimum.point]),
-        status="optimal",
-        solver_status=solver_status,
-        reason="",
-        certified=True,
-        witness=witness,
-        gap=gap_between(value, witness),
     )
 
 

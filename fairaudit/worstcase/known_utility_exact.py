@@ -4,7 +4,7 @@ The pair search (:mod:`~fairaudit.worstcase.known_utility_search`) solves progra
 of floats: its value is certified on their outer ends, its witness on their inner ends. Where the two do not meet
 (within :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE`), the rounding itself may be what moves the
 optimum: a floor E[g | x, a] ≥ τ with τ = max g holds on a face of the polytope only, and a rounded coefficient turns
-that face into a slab. Such a program, within :data:`~fairaudit.base.linear_fractional.CROSSOVER_SIZE`, is solved
+that face into a slab. Such a program, within :data:`CROSSOVER_SIZE`, is solved
 again here by the rational simplex on exact data: g, τ, P(x | a) and a matrix mechanism's entries as the floats they
 are (their exact values), and randomized response's rows at the two ends of its e^ε (float ends, or 50-digit ones
 beyond the floats). The worst case is
@@ -18,31 +18,90 @@ from __future__ import annotations
 import functools
 import math
 import operator
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
 
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base import linear_fractional
 from fairaudit.base.exact_programs import Polytope, RatioOptimum, maximize_ratio_over_product
-from fairaudit.base.linear_fractional import (
-    EXACT_CROSSOVER,
-    FractionalResult,
-    exact_result,
-    gap_between,
-)
-from fairaudit.base.outward import fraction_down
+from fairaudit.base.linear_fractional import FractionalResult, gap_between
+from fairaudit.base.outward import fraction_down, fraction_up
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.randomized_response import rr_exact_rows
+from fairaudit.worstcase.worst_cases import EXACT_CROSSOVER
 
 ObjectArray = npt.NDArray[np.object_]
 
+CROSSOVER_SIZE = (64, 128)
+"""The largest program (variables, rows; an equality counts twice) the worst-case searches solve again by the rational
+simplex on exact coefficients when its rounded form leaves a gap."""
+
 WHY = "its rounded coefficients' witness did not meet the value: solved on exact ones"
-"""What ``solver_status`` says after :data:`~fairaudit.base.linear_fractional.EXACT_CROSSOVER` for these programs."""
+"""What ``solver_status`` says after :data:`EXACT_CROSSOVER` for these programs."""
+
+
+def exact_result(
+    result: Callable[..., FractionalResult],
+    optimum: RatioOptimum,
+    p: Sequence[Fraction],
+    q: Sequence[Fraction],
+    solver_status: str,
+    report_empty: bool = False,
+) -> FractionalResult | None:
+    """The :class:`FractionalResult` of a program the rational simplex solved exactly, or None.
+
+    Parameters
+    ----------
+    result : callable
+        Makes the result from its remaining fields (``method``, ``p``, ``q``, ``lower`` and ``upper`` given).
+    optimum : RatioOptimum
+        :func:`~fairaudit.base.exact_programs.maximize_ratio`'s (or ``maximize_ratio_over_product``'s) outcome.
+    p, q : sequences of Fraction, shape (n,)
+        The exact numerator and denominator it was solved for.
+    solver_status : str
+        The result's ``solver_status``.
+    report_empty : bool
+        Whether an empty polytope is reported (else None: a dual's bound holds vacuously there).
+
+    Returns
+    -------
+    FractionalResult or None
+        "optimal": the maximum rounded up (the witness rounded down, the gap between them) at the vertex reached,
+        certified; "infeasible" with ``report_empty``; "unbounded" (+inf, certified) at a vertex with q·h = 0 < p·h
+        exactly. None where the simplex gives no finite maximum and no proof of +inf.
+
+    Notes
+    -----
+    ``proofs/black_box.md`` §6 (the known-utility programs solved on exact coefficients); rounding outward,
+    ``proofs/outward.md`` §3.
+    """
+    if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
+        reason = "the constraints are inconsistent: no feasible h"
+        return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
+    if optimum.status == "zero_denominator" and optimum.point is not None:
+        at = optimum.point  # a vertex of the polytope, exactly
+        if sum(map(operator.mul, q, at)) == 0 < sum(map(operator.mul, p, at)):
+            point = np.array([float(x) for x in at])
+            reason = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (exactly)"
+            return result(value=math.inf, argmax=point, status="unbounded", solver_status=solver_status,
+                          reason=reason, certified=True)  # fmt: skip
+    if optimum.status != "optimal" or optimum.value is None or optimum.point is None:
+        return None
+    value, witness = fraction_up(optimum.value), fraction_down(optimum.value)
+    return result(
+        value=value,
+        argmax=np.array([float(x) for x in optimum.point]),
+        status="optimal",
+        solver_status=solver_status,
+        reason="",
+        certified=True,
+        witness=witness,
+        gap=gap_between(value, witness),
+    )
 
 
 def _rationals(values: npt.ArrayLike) -> ObjectArray:
@@ -189,11 +248,11 @@ class ExactPrograms:
     ) -> FractionalResult | None:
         """The program exactly, in place of ``rounded`` (its float form's result), over the product of the blocks
         (:func:`~fairaudit.base.exact_programs.maximize_ratio_over_product`: a block without objective only has to be
-        feasible). None where a block is beyond :data:`~fairaudit.base.linear_fractional.CROSSOVER_SIZE` or there are
+        feasible). None where a block is beyond :data:`CROSSOVER_SIZE` or there are
         more than :data:`MAX_BLOCKS`, where randomized response's e^ε has no finite float end, or where the simplex
         gives no finite maximum and no proof of +inf. The value is the maximum at the upper end rounded up, the
         witness the one at the lower end rounded down."""
-        limit = linear_fractional.CROSSOVER_SIZE  # (read here: the tests shrink it)
+        limit = CROSSOVER_SIZE  # (read at each call: the tests shrink it)
         if self._size[0] > limit[0] or self._size[1] > limit[1] or self._size[2] > MAX_BLOCKS:
             return None
         ends = self._built()

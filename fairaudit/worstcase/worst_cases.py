@@ -16,13 +16,17 @@ from dataclasses import dataclass, replace
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.json_values import Report, label, number, pair_dict
 from fairaudit.base.labels import format_label
-from fairaudit.base.linear_fractional import EXACT_BASIS, EXACT_CROSSOVER, gap_between
+from fairaudit.base.linear_fractional import EXACT_BASIS, gap_between
 from fairaudit.base.outward import log_down, log_up
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption
 from fairaudit.worstcase.pair_search import SearchResult
+
+EXACT_CROSSOVER = "then the rational simplex"
+"""What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why
+(:mod:`fairaudit.worstcase.known_utility_exact`: the rounded coefficients' witness did not meet the value)."""
 
 
 def nats_up(ratio: float) -> float:

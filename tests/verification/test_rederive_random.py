@@ -768,11 +768,11 @@ def test_a_black_box_whose_witness_misses_its_value_is_called_an_upper_bound(tmp
     # simplex at its size), the duals certified ln 10 (gamma/tau = 2/0.2), and the program over the outer
     # coefficients, solved exactly from them (decisions added until a table meets its floors), 0.043: an upper bound
     # with no model attaining it, and the certificate says so
-    from fairaudit.base import linear_fractional
+    from fairaudit.worstcase import known_utility_exact
 
     (tmp_path / "spec.toml").write_text(REGRESSIONS["randomized response at 30 nats, a floor on a face"][0])
     exact = fairaudit.certify(tmp_path / "spec.toml").to_dict()["bound_details"]["black_box"]
-    monkeypatch.setattr(linear_fractional, "CROSSOVER_SIZE", (1, 1))
+    monkeypatch.setattr(known_utility_exact, "CROSSOVER_SIZE", (1, 1))
     detail = fairaudit.certify(tmp_path / "spec.toml").to_dict()["bound_details"]["black_box"]
     assert exact["value"] <= 1e-15 and exact["witness"] == 0
     assert 0.01 < detail["value"] < 0.1 < math.log(10) and detail["witness"] is None

@@ -627,9 +627,9 @@ tau = 0.22
 def test_beyond_its_exact_size_certify_bounds_l_bar_by_its_closed_form_where_the_dual_is_looser(monkeypatch):
     # E[g | a] <= sum_x P(x | a) max_u g(u, x, a) over E[g | a'] >= tau is attained here (the floor of a' binds):
     # certify's bound on L-bar is now within verify's 1e-12 of the exact value, re-derived by the rational simplex
-    import fairaudit.base.linear_fractional as lf
+    from fairaudit.worstcase import known_utility_exact
 
-    monkeypatch.setattr(lf, "CROSSOVER_SIZE", (0, 0))  # (certify as beyond its exact size)
+    monkeypatch.setattr(known_utility_exact, "CROSSOVER_SIZE", (0, 0))  # (certify as beyond its exact size)
     spec = STRONG.replace("[[2, 3, 3, 1], [2, 3, 2, 0], [0, 3, 2, 0]]", json.dumps(
         [[v / 21 for v in row] for row in ((2, 3, 3, 1), (2, 3, 2, 0), (0, 3, 2, 0))]))  # fmt: skip
     cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))

@@ -362,15 +362,15 @@ def test_a_floor_on_a_face_is_solved_on_exact_coefficients(mechanism):
 def test_behind_the_identity_on_contexts_the_exact_program_is_a_product_of_the_contexts(monkeypatch):
     # the face of the test above in three contexts: 12 variables, beyond a crossover size shrunk to 8, but each
     # context's block (4 variables, 6 rows) within it: solved exactly over the product, 0 (by hand, as above)
-    from fairaudit.base import linear_fractional
+    from fairaudit.worstcase import known_utility_exact
 
-    monkeypatch.setattr(linear_fractional, "CROSSOVER_SIZE", (8, 16))
+    monkeypatch.setattr(known_utility_exact, "CROSSOVER_SIZE", (8, 16))
     util = fa.Utility(np.array([[[0.0, 0.2], [2.0, 0.2]]] * 3), ["d0", "d1"], ["x0", "x1", "x2"], ["a", "b"])
     w = worst_model(fa.randomized_response(["a", "b"], epsilon=30.0), util, tau=0.2)
     for case in (w.local_fairness, w.global_fairness):
         assert case.certified and 0.0 <= case.value <= 1e-15 and case.witness == 0.0, case
     assert w.local_fairness.kernel.probabilities[:, :, 1].tolist() == [[1.0, 1.0]] * 3
-    monkeypatch.setattr(linear_fractional, "CROSSOVER_SIZE", (3, 16))  # a block beyond it: the slab's upper bound
+    monkeypatch.setattr(known_utility_exact, "CROSSOVER_SIZE", (3, 16))  # a block beyond it: the slab's upper bound
     w = worst_model(fa.randomized_response(["a", "b"], epsilon=30.0), util, tau=0.2)
     assert w.local_fairness.value > 1e-3 and not w.local_fairness.settled
 

@@ -237,10 +237,6 @@ class _Basis:
         return None
 
 
-def _dot(row: Sequence[Any], x: Sequence[Any]) -> Any:
-    return sum((r * t for r, t in zip(row, x, strict=True) if r and t), 0)
-
-
 def _column_status(lower: Any, upper: Any) -> Status:
     """The slack basis's place for a nonbasic variable: a finite bound, else 0 (free)."""
     return "lower" if lower is not None else "upper" if upper is not None else "zero"
@@ -300,7 +296,7 @@ class ExactProgram:
             if len(r) != self.n:
                 raise InputError("matrix", f"row {i} must have {self.n} entries", len(r))
         exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(rows)]
-        self.fractions = exact
+        self._floats = np.array([[float(v) for v in r] for r in exact], dtype=np.float64).reshape(self.m, self.n)
         self.flat: list[Any] = [_fmpq(v) if v else 0 for r in exact for v in r]  # A, row-major
         bounds = [
             [_checked(name, k, v) for k, v in enumerate(b)]
@@ -321,7 +317,6 @@ class ExactProgram:
         self.c: list[Any] = [0] * self.n
         self._highs: Any = None
         self._matrix: Any = None
-        self._basis: list[Status] | None = None
 
     def times(self, x: Sequence[Any]) -> list[Any]:
         """A x, exactly (one rational matrix product), shape (m,)."""
@@ -383,7 +378,6 @@ class ExactProgram:
             duals = tuple(_fraction_of(v) for v in state.y)
             return SimplexOptimum("unproved", None, point, duals, tuple(state.status), 0, start)
         outcome, state, pivots = _exact_simplex(self, state)
-        self._basis = list(state.status)
         if basis is None and self._highs is not None:
             self._warm(state.status)
         return self._optimum(outcome, state, pivots, start)
@@ -444,7 +438,7 @@ class ExactProgram:
             return np.array([side if v is None else float(_fraction_of(v)) for v in bounds], dtype=float)
 
         h.addVars(self.n, floats(self.lower[: self.n], -inf), floats(self.upper[: self.n], inf))
-        dense = np.array([[float(v) for v in r] for r in self.fractions], dtype=np.float64).reshape(self.m, self.n)
+        dense = self._floats
         lo, hi = floats(self.lower[self.n :], -inf), floats(self.upper[self.n :], inf)
         for i in range(self.m):
             idx = np.flatnonzero(dense[i]).astype(np.int32)
@@ -515,8 +509,6 @@ def _quiet_highs() -> Any:
         _BANNER_SHOWN = True
     h.setOptionValue("output_flag", False)
     h.setOptionValue("solver", "simplex")
-    h.setOptionValue("dual_feasibility_tolerance", 1e-10)
-    h.setOptionValue("primal_feasibility_tolerance", 1e-10)
     return h
 
 

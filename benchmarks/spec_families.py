@@ -27,6 +27,24 @@ def _toml_list(values: list) -> str:
     return json.dumps(values)
 
 
+def _header(title: str, groups: list[str] | None, contexts: list[str], decisions: list[str]) -> str:
+    """The spec's title, [sensitive] (its values unless a product names them), [context] and [decision] tables."""
+    values = "" if groups is None else f"values = {_toml_list(groups)}\n"
+    return f"""title = "{title}"
+
+[sensitive]
+name = "group"
+{values}
+[context]
+name = "context"
+values = {_toml_list(contexts)}
+
+[decision]
+name = "decision"
+values = {_toml_list(decisions)}
+"""
+
+
 def _counts(
     path: Path, contexts: list[str], groups: list[str], decisions: list[str], rates: np.ndarray, n: int
 ) -> None:
@@ -78,19 +96,8 @@ epsilon = {float(epsilon * shares[i])!r}
         for i, part in enumerate(parts)
     )
     matrix = rng.dirichlet(np.ones(3) * 0.5, size=3) * 0.4 + np.eye(3) * 0.6
-    spec = f"""title = "intersectional family, seed {seed}{" (near ties)" if near_tie else ""}"
-
-[sensitive]
-name = "group"
-
-[context]
-name = "context"
-values = {_toml_list(contexts)}
-
-[decision]
-name = "decision"
-values = {_toml_list(decisions)}
-
+    title = f"intersectional family, seed {seed}{' (near ties)' if near_tie else ''}"
+    spec = f"""{_header(title, None, contexts, decisions)}
 [privacy.sensitive]
 mechanism = "product"
 {components}
@@ -119,20 +126,7 @@ def _count_spec(seed: int, groups_n: int) -> tuple[str, np.ndarray, list[str], l
     rates = rng.dirichlet(np.ones(3) * 2, size=(2, groups_n))
     rates[..., 0] = np.maximum(rates[..., 0], 0.1)
     rates /= rates.sum(axis=-1, keepdims=True)
-    spec = f"""title = "{groups_n} groups from counts, seed {seed}"
-
-[sensitive]
-name = "group"
-values = {_toml_list(groups)}
-
-[context]
-name = "context"
-values = {_toml_list(contexts)}
-
-[decision]
-name = "decision"
-values = {_toml_list(decisions)}
-
+    spec = f"""{_header(f"{groups_n} groups from counts, seed {seed}", groups, contexts, decisions)}
 [privacy.sensitive]
 mechanism = "randomized_response"
 epsilon = 3.0

@@ -404,12 +404,9 @@ class FractionalProgram:
         (:func:`~fairaudit.base.exact_duality.certify_ratio`) a bound within :data:`CROSSOVER_TOLERANCE` of λ: that
         bound, with λ (the ratio at ``at``) or the ratio at the basis's feasible vertex as the witness; else None
         (``proofs/exact_lp.md`` §4, "A bound from the duals")."""
-        assert found.duals is not None
         dual = self._multipliers(found.duals)
-        p, q = self._pq
-        bound = certify_ratio(fraction_down(lam), p, q, self.lower, self.upper, self._rows, list(dual))
-        exact = fraction_up(lam)
-        if not (bound.certified and bound.value - exact <= CROSSOVER_TOLERANCE * max(1.0, abs(exact))):
+        bound = self._near_bound(lam, dual)
+        if bound is None:
             return None
         witness, point = math.nan, at
         if at is not None:
@@ -417,8 +414,8 @@ class FractionalProgram:
         elif found.point is not None and (den := _dot(bottom, found.point)) > 0:
             witness, point = fraction_down(_dot(top, found.point) / den), np.array([float(v) for v in found.point])
         status = f"HiGHS simplex, exact basis ({steps} Dinkelbach steps; the last bounded by its duals)"
-        return result(value=bound.value, argmax=point, status="optimal", solver_status=status, reason="",
-                      certified=True, witness=witness, gap=gap_between(bound.value, witness), dual=dual)  # fmt: skip
+        return result(value=bound, argmax=point, status="optimal", solver_status=status, reason="",
+                      certified=True, witness=witness, gap=gap_between(bound, witness), dual=dual)  # fmt: skip
 
     def _proved(
         self,
@@ -439,12 +436,19 @@ class FractionalProgram:
         dual = self._multipliers(duals)
         witness = fraction_down(num / den) if den > 0 else math.nan
         value = fraction_up(lam)
-        p, q = self._pq
-        bound = certify_ratio(fraction_down(lam), p, q, self.lower, self.upper, self._rows, list(dual))
-        if not (bound.certified and bound.value - value <= CROSSOVER_TOLERANCE * max(1.0, abs(value))):
+        if self._near_bound(lam, dual) is None:
             status = f"{status}; {EXACT_BASIS}"
         return result(value=value, argmax=point, status="optimal", solver_status=status, reason="", certified=True,
                       witness=witness, gap=gap_between(value, witness), dual=dual)  # fmt: skip
+
+    def _near_bound(self, lam: Fraction, dual: tuple[FloatArray, ...]) -> float | None:
+        """The bound the rounded duals prove by weak duality (:func:`~fairaudit.base.exact_duality.certify_ratio`,
+        rounded up), where it lies within :data:`CROSSOVER_TOLERANCE` of λ rounded up; else None."""
+        p, q = self._pq
+        bound = certify_ratio(fraction_down(lam), p, q, self.lower, self.upper, self._rows, list(dual))
+        exact = fraction_up(lam)
+        near = bound.certified and bound.value - exact <= CROSSOVER_TOLERANCE * max(1.0, abs(exact))
+        return bound.value if near else None
 
     def _multipliers(self, duals: tuple[Fraction, ...] | None) -> tuple[FloatArray, ...]:
         """The exact row duals of the last step as (ν on A_ub, η on A_eq), to nearest; ν = −y ≥ 0."""

@@ -103,6 +103,9 @@ class FractionalResult:
         (:func:`~fairaudit.base.exact_duality.certify_ratio`) is beyond :data:`CROSSOVER_TOLERANCE` of ``value``,
         ``solver_status`` ends with :data:`EXACT_BASIS` (the exact basis is the proof). Empty on the threshold route
         and when the rational simplex solved the program (its exact last step is the proof).
+    exact_dual : tuple of tuple of Fraction, or None
+        Where ``solver_status`` ends with :data:`EXACT_BASIS`: the same duals exactly, which prove ``value`` by weak
+        duality (a certificate records them as exact rationals); else None.
     """
 
     value: float
@@ -119,6 +122,7 @@ class FractionalResult:
     witness: float = math.nan
     gap: float = math.nan
     dual: tuple[FloatArray, ...] = ()
+    exact_dual: tuple[tuple[Fraction, ...], ...] | None = None
 
 
 def gap_between(value: float, witness: float) -> float:
@@ -436,10 +440,11 @@ class FractionalProgram:
         dual = self._multipliers(duals)
         witness = fraction_down(num / den) if den > 0 else math.nan
         value = fraction_up(lam)
+        exact = None
         if self._near_bound(lam, dual) is None:
-            status = f"{status}; {EXACT_BASIS}"
+            status, exact = f"{status}; {EXACT_BASIS}", self._blocks(duals)
         return result(value=value, argmax=point, status="optimal", solver_status=status, reason="", certified=True,
-                      witness=witness, gap=gap_between(value, witness), dual=dual)  # fmt: skip
+                      witness=witness, gap=gap_between(value, witness), dual=dual, exact_dual=exact)  # fmt: skip
 
     def _near_bound(self, lam: Fraction, dual: tuple[FloatArray, ...]) -> float | None:
         """The bound the rounded duals prove by weak duality (:func:`~fairaudit.base.exact_duality.certify_ratio`,
@@ -452,11 +457,14 @@ class FractionalProgram:
 
     def _multipliers(self, duals: tuple[Fraction, ...] | None) -> tuple[FloatArray, ...]:
         """The exact row duals of the last step as (ν on A_ub, η on A_eq), to nearest; ν = −y ≥ 0."""
+        return tuple(np.array([float(v) for v in block], dtype=float) for block in self._blocks(duals))
+
+    def _blocks(self, duals: tuple[Fraction, ...] | None) -> tuple[tuple[Fraction, ...], ...]:
+        """The exact row duals of the last step as (ν on A_ub, η on A_eq), exactly; ν = −y ≥ 0."""
         assert duals is not None
         out, start = [], 0
         for a, _, _ in self._rows:
-            block = duals[start : start + a.shape[0]]
-            out.append(np.array([float(-v) for v in block], dtype=float))
+            out.append(tuple(-v for v in duals[start : start + a.shape[0]]))
             start += a.shape[0]
         return tuple(out)
 

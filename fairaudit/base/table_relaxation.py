@@ -39,7 +39,7 @@ Table = Sequence[Sequence[Fraction]]
 
 def relaxation_bounds(
     tops: Mapping[int, Table], kept: Mapping[int, Fraction | None], bottoms: Mapping[int, Table] | None = None
-) -> dict[tuple[int, int], Fraction | float]:
+) -> dict[tuple[int, int], tuple[Fraction | float, Fraction | None]]:
     """Exact upper bounds on max (P_a·K)/(Q_b·K) over tables K whose rows are distributions over the decisions and
     which keep Q_b·K ≥ ``kept[b]``, for every ordered pair (a, b) of the groups of ``tops``; without that floor, over
     the tables alone (c/0 = +inf, 0/0 = 1).
@@ -58,8 +58,11 @@ def relaxation_bounds(
     Returns
     -------
     dict
-        {(a, b): U} for a ≠ b groups of ``tops``, each U ≥ the value of the pair's program (any program whose tables
-        all keep Q_b·K ≥ t). U is a ratio (its log is in nats), a Fraction, or +inf where no finite bound was found.
+        {(a, b): (U, θ)} for a ≠ b groups of ``tops``, each U ≥ the value of the pair's program (any program whose
+        tables all keep Q_b·K ≥ t). U is a ratio (its log is in nats), a Fraction, or +inf where no finite bound was
+        found. θ is the threshold that proves it: U = θ + max(R(θ), 0)/t, the weak-duality bound with the multiplier
+        U − θ ≥ 0 on the floor Q_b·K ≥ t (what a certificate records for the program); None without a floor, where
+        U is proved with no multiplier (R(U) ≤ 0).
 
     Raises
     ------
@@ -78,7 +81,7 @@ def relaxation_bounds(
     >>> F = Fraction
     >>> forms = {0: [[F(3, 4), F(0)], [F(1, 4), F(0)]], 1: [[F(1, 8), F(0)], [F(3, 8), F(0)]]}
     >>> relaxation_bounds(forms, {0: F(1, 4), 1: F(1, 4)})[(0, 1)], relaxation_bounds(forms, {0: None, 1: None})[(0, 1)]
-    (Fraction(10, 3), Fraction(6, 1))
+    ((Fraction(10, 3), Fraction(2, 3)), (Fraction(6, 1), None))
     """
     groups = list(tops)
     below = tops if bottoms is None else bottoms
@@ -87,7 +90,7 @@ def relaxation_bounds(
     ints, d = on_one_denominator(flat)
     exact = np.array(ints, dtype=object).reshape(2, len(groups), n_rows, -1)
     floats = np.array([[float(v) for v in row] for row in flat]).reshape(2, len(groups), n_rows, -1)
-    out: dict[tuple[int, int], Fraction | float] = {}
+    out: dict[tuple[int, int], tuple[Fraction | float, Fraction | None]] = {}
     for a in range(len(groups)):
         others = [b for b in range(len(groups)) if b != a]
         if not others:
@@ -111,6 +114,7 @@ def relaxation_bounds(
         best = (np.stack([c[0] for c in candidates])[pick, m], np.stack([c[1] for c in candidates])[pick, m])
         zero = (bottom == 0).any(axis=-1).all(axis=-1)  # (every row has a decision with q = 0)
         bounds = _bounds(top, bottom, *best, d, t, zero.tolist())
+        thetas = [Fraction(n, m) if v is not None else None for n, m, v in zip(*best, t, strict=True)]
         # exactly too, where floats do not show them well above it: R's root from θ_low (floats miss ties and
         # subnormal θ) and θ_high
         least = in_floats[pick, m]
@@ -120,8 +124,9 @@ def relaxation_bounds(
             near = np.flatnonzero(~above | ~np.isfinite(least)).tolist()
             checked = _bounds(top, bottom[near], num[near], den[near], d, [t[i] for i in near], zero[near].tolist())
             for i, u in zip(near, checked, strict=True):
-                bounds[i] = min(bounds[i], u)
-        out.update(((groups[a], groups[b]), u) for b, u in zip(others, bounds, strict=True))
+                if u < bounds[i]:
+                    bounds[i], thetas[i] = u, None if t[i] is None else Fraction(num[i], den[i])
+        out.update(((groups[a], groups[b]), (u, theta)) for b, u, theta in zip(others, bounds, thetas, strict=True))
     return out
 
 

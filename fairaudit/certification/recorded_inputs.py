@@ -31,8 +31,9 @@ __all__ = [
 CERTIFICATE_FORMAT = "fairaudit-certificate"
 """The value of a certificate's ``format`` key."""
 
-FORMAT_VERSION = 1
-"""The certificate format's version (``format_version``): raised whenever a key's meaning changes."""
+FORMAT_VERSION = 2
+"""The certificate format's version (``format_version``): raised whenever a key's meaning changes (2: the black
+box carries its proof per program, ``screens`` and exact multipliers ``"n/d"``)."""
 
 
 def json_array(a: npt.ArrayLike) -> Any:

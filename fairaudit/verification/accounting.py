@@ -28,9 +28,10 @@ KINDS: tuple[tuple[str, str, str], ...] = (
         "the worst model's probabilities, printed to 12 digits for reading: its value is the witness",
     ),
     (
-        r"^bound_details\.black_box(\.global)?\.(duals|witness_point)\b",
-        "bound_details.black_box (duals, witness_point)",
-        "the evidence the black box is checked with (a dual point bounds a program, a point attains the witness)",
+        r"^bound_details\.black_box(\.global)?\.(duals|screens|witness_point)\b",
+        "bound_details.black_box (duals, screens, witness_point)",
+        "the evidence the black box is checked with (multipliers or a screen's threshold bound a program, a point "
+        "attains the witness)",
     ),
     (r"(^|\.)programs_solved$", "programs_solved", "a count of the programs solved, not a certified number"),
     (
@@ -112,7 +113,7 @@ def unaccounted(
 
     Examples
     --------
-    >>> cert = {"format_version": 1, "bounds": {"tight": 0.5}, "bound_details": {"black_box": {"programs_solved": 3}}}
+    >>> cert = {"format_version": 2, "bounds": {"tight": 0.5}, "bound_details": {"black_box": {"programs_solved": 3}}}
     >>> unaccounted(cert, [], [])
     [('bounds.tight', 'not re-derived'), ('programs_solved', 'a count of the programs solved, not a certified number')]
     >>> unaccounted({"certified": True, "bounds": {"best_form": "tight", "tight": 0.5}}, [], [("bounds.tight", "")])

@@ -296,7 +296,7 @@ def _local(s: _Setting | KernelSetting, at: tuple[int, int, int] | None = None, 
     program); with ``at`` = (live context, a, a'), that one's (behind randomized response every pair is alike: the
     pair (0, 1) stands for it); ``loose``: as :func:`_largest`."""
     if isinstance(s, KernelSetting):  # (the pairs in decreasing order of their bounds, solved exactly where small)
-        return table_local(s, at, loose)
+        return table_local(s, at)
     # contexts with the same box have the same programs: one case per box and pair (_largest); behind randomized
     # response the pair (0, 1) stands for every pair
     boxes = [(s.low[at[0]], s.high[at[0]])] if at is not None else list(dict.fromkeys(zip(s.low, s.high)))
@@ -604,10 +604,7 @@ def _global(s: _Setting | KernelSetting, at: tuple[int, int] | None = None, loos
     enclosed as in :func:`_local` (``loose`` likewise); 1 (L-bar = 0) with fewer than two groups present; with ``at`` = (a, a'), that
     pair's; None where a program beyond the exact size has no recorded dual."""
     if isinstance(s, KernelSetting):
-        try:
-            return table_global(s, at, loose)
-        except MissingDual:
-            return None
+        return table_global(s, at)
     if len(s.present) < 2:
         return Fraction(1), Fraction(1), False
     alike = _alike(s.weights, s.present)

@@ -25,7 +25,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import ACTIVE_TOLERANCES
 from fairaudit.base.exact_vertex import gauss_jordan
 from fairaudit.base.json_values import label
-from fairaudit.verification.enclosures import INF, recorded_array
+from fairaudit.verification.enclosures import INF, exact, recorded_array
 
 __all__ = ["SEARCH_STOP", "BlockProgram", "Evidence", "MissingDual", "without_duals"]
 
@@ -93,6 +93,8 @@ class Evidence:
     global_: dict[tuple[int, int], list[list[Fraction]]] = field(default_factory=dict)
     local_point: tuple[int, int, int, list[Any]] | None = None
     global_point: tuple[int, int, list[list[Any]]] | None = None
+    local_theta: dict[tuple[int, int, int], Fraction] = field(default_factory=dict)  # one-floor thresholds θ
+    global_theta: dict[tuple[int, int], Fraction] = field(default_factory=dict)
 
     @classmethod
     def from_record(cls, detail: Mapping[str, Any] | None, inputs: Mapping[str, Any]) -> Evidence:
@@ -128,6 +130,10 @@ class Evidence:
             name = f"{where}.global.duals[{i}]"
             key2 = (_index(d, "group", groups, name), _index(d, "other_group", groups, name))
             global_[key2] = _matrix(d.get("floors"), len(contexts), len(groups), f"{name}.floors")
+        local_theta = _thetas(
+            detail, f"{where}.screens", [("context", contexts), ("group", groups), ("other_group", groups)]
+        )
+        global_theta = _thetas(glob, f"{where}.global.screens", [("group", groups), ("other_group", groups)])
         # the maximiser's point (its labels are checked by verify's maximiser check, which fails a wrong one)
         local_point = None
         named = all(detail.get(k) in labels for k, labels in (("context", contexts), ("group", groups),
@@ -148,7 +154,20 @@ class Evidence:
             else:
                 hs = _tables(glob, name, inputs)
             global_point = (groups.index(glob["group"]), groups.index(glob["other_group"]), hs)
-        return cls(local, global_, local_point, global_point)
+        return cls(local, global_, local_point, global_point, local_theta, global_theta)
+
+
+def _thetas(detail: Mapping[str, Any], where: str, keys: list[tuple[str, list[Any]]]) -> dict[Any, Fraction]:
+    """The recorded one-floor thresholds θ (``screens``: each program's labels and its θ, a finite number), exactly,
+    by the programs' positions."""
+    out = {}
+    for i, d in enumerate(detail.get("screens") or []):
+        name = f"{where}[{i}]"
+        theta = exact(d.get("theta"), f"{name}.theta") if isinstance(d.get("theta"), (int, float)) else None
+        if not isinstance(theta, Fraction):
+            raise InputError(f"{name}.theta", "must be a finite number", d.get("theta"))
+        out[tuple(_index(d, key, labels, name) for key, labels in keys)] = theta
+    return out
 
 
 def _index(record: Mapping[str, Any], key: str, labels: list[Any], name: str) -> int:

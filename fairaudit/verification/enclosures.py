@@ -10,6 +10,7 @@ floating-point operation decides a result here (``proofs/outward.md``).
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -52,21 +53,34 @@ class Enclosure:
         return Enclosure(self.lo + other.lo, self.hi + other.hi)
 
 
+RATIONAL_DIGITS = 4_000
+"""The longest exact rational ``"n/d"`` read, in characters: below Python's limit on integers read from decimal text
+(4,300 digits, ``sys.get_int_max_str_digits``), as certify writes them."""
+
+_RATIONAL = re.compile(r"-?[0-9]+/[0-9]+")
+
+
 def exact(value: Any, field: str) -> Fraction | float:
-    """A recorded JSON number as an exact rational (``"inf"`` as +inf).
+    """A recorded JSON number as an exact rational (``"inf"`` as +inf; an exact rational written ``"n/d"``, as a
+    certificate writes a multiplier that is not a float, as itself).
 
     Raises
     ------
     InputError
-        Naming ``field`` when the value is not a finite number or ``"inf"``.
+        Naming ``field`` when the value is not a finite number, ``"inf"`` or ``"n/d"`` (at most
+        :data:`RATIONAL_DIGITS` digits).
 
     Examples
     --------
-    >>> exact(0.1, "x") == Fraction(3602879701896397, 36028797018963968), exact("inf", "x")
-    (True, inf)
+    >>> exact(0.1, "x") == Fraction(3602879701896397, 36028797018963968), exact("inf", "x"), exact("-1/3", "x")
+    (True, inf, Fraction(-1, 3))
     """
     if value == "inf":
         return INF
+    if isinstance(value, str) and len(value) <= RATIONAL_DIGITS and _RATIONAL.fullmatch(value):
+        n, d = value.split("/")
+        if int(d):
+            return Fraction(int(n), int(d))
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise InputError(field, 'must be a finite number or "inf"', value)
     return Fraction(value)

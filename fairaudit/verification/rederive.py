@@ -109,7 +109,7 @@ def verify(
     ----------
     certificate : mapping
         A certificate's JSON, as ``fairaudit certify --format json`` writes it (format ``fairaudit-certificate``,
-        ``format_version`` 1; checked against ``certificate.schema.json``).
+        ``format_version`` 2; checked against ``certificate.schema.json``).
     privacy_filter : PrivacyFilter, optional
         A deployed filter (:class:`fairaudit.PrivacyFilter`, e.g. read by ``PrivacyFilter.from_dict`` from
         ``fairaudit filter --parameters``): checked to be the certified mechanism on the sensitive attribute, or at

@@ -39,7 +39,7 @@ def certificate_schema() -> dict[str, Any]:
     --------
     >>> s = certificate_schema()
     >>> s["$schema"], s["properties"]["format_version"]
-    ('https://json-schema.org/draft/2020-12/schema', {'const': 1})
+    ('https://json-schema.org/draft/2020-12/schema', {'const': 2})
     """
     return json.loads(_schema_text())
 

@@ -114,11 +114,14 @@ def worst_model(
     if method == "threshold" and (not group_free or binding):
         raise InputError("method", "the threshold solution needs a utility free of the group and tau <= min g", method)
 
-    # k-ary randomized response: closed forms, one pair of groups decides (every pair is alike)
+    # k-ary randomized response: closed forms, one pair of groups decides (every pair is alike); behind the identity
+    # on the context only and short of the identity, where the certificate needs no proof per pair (verify reduces the
+    # programs to three cells; the identity's it bounds over the model's table, from the proofs of the search)
     rr_local: WorstCase | None = None
     rr_global: WorstCase | None = None
-    if isinstance(mechanism, RandomizedResponse) and method != "lp" and group_free:
-        rr_local, rr_global = randomized_response_cases(problem, mechanism.rr)
+    if isinstance(mechanism, RandomizedResponse) and not mechanism.is_identity and method != "lp" and group_free:
+        if problem.same_x:
+            rr_local, rr_global = randomized_response_cases(problem, mechanism.rr)
     general = rr_local is None or rr_global is None
     MA = mechanism.matrix if general else np.zeros((0, 0))
     pairs = np.argwhere(~np.eye(nA, dtype=bool)) if general else np.zeros((0, 2), dtype=np.intp)  # (a, b), a != b

@@ -227,6 +227,23 @@ class ExactPrograms:
             blocks.append(Polytope(lower, upper, a_ub, b_ub, width))
         return _End(MA, MX, g, self._u_only, blocks, width)
 
+    def _floor_multipliers(self, end: _End, y: tuple[Fraction, ...]) -> tuple[Fraction, ...]:
+        """The multipliers of the floors E[g | x, b] ≥ τ among the blocks' rows (each block's simplex rows first),
+        laid out as the float program's floor rows: (live context, group), flat."""
+        problem = self._problem
+        live, n_a = np.flatnonzero(problem.live).tolist(), problem.g.shape[1]
+        cells = 0 if self._u_only else 2 * (end.width // problem.g.shape[2])
+        out = dict.fromkeys(((x, b) for x in live for b in range(n_a)), Fraction(0))
+        start = 0
+        for i in range(len(end.blocks)):
+            xs = [x for x in ([i] if problem.same_x else range(problem.g.shape[0])) if problem.live[x]]
+            start += cells
+            for x in xs:
+                for b in range(n_a):
+                    out[(x, b)] = y[start]
+                    start += 1
+        return tuple(out.values())
+
     def local(self, x: int, a: int, b: int) -> Callable[[_End], tuple[ObjectArray, ObjectArray]]:
         """The data of L's program at context x for the ordered pair (a, b), at an end."""
         return lambda end: (end.coef(x, a), end.coef(x, b))
@@ -268,6 +285,8 @@ class ExactPrograms:
 
         high, p, q = optimum(ends[-1])
         found = exact_result(result, high, p, q, status, report_empty=True)
+        if found is not None and found.status == "optimal" and high.multipliers is not None and self._floors:
+            found = replace(found, exact_dual=(self._floor_multipliers(ends[-1], high.multipliers),))
         if found is None or len(ends) == 1 or found.status != "optimal":
             return found
         low = optimum(ends[0])[0]

@@ -21,10 +21,8 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
-from fairaudit.base.table_program import EXACT_CHOICES, TableProgram
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
@@ -79,20 +77,27 @@ def local_search(
             v = _relaxation(P, space.lo, space.hi, floor, inexact)
             at = triples[:, 0] == context
             upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
-    if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
+    screens = np.full(len(triples), np.nan)  # each program's one-floor threshold θ, for the certificate
+    if _over_table(problem, space):
         relaxed = np.full(len(triples), np.inf)
         for context in xs:
-            v = _table_relaxation(np.stack([c.value for c in coefficients[context]]), g.shape[-1], tau, inexact)
+            v, theta = _table_relaxation(
+                *_as_table(np.stack([c.value for c in coefficients[context]]), space, g),
+                tau,
+                inexact + (space.lo is not None),
+            )
             at = triples[:, 0] == context
-            relaxed[at] = v[triples[at, 1], triples[at, 2]]
-        upper = _lowered(upper, relaxed)
+            relaxed[at], screens[at] = v[triples[at, 1], triples[at, 2]], theta[triples[at, 1], triples[at, 2]]
+        screens = _screens(screens, relaxed, tau, reach_hi[triples[:, 0], triples[:, 1]])
+        if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
+            upper = _lowered(upper, relaxed)
     programs = ExactPrograms(problem, space.lo is not None, space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
         x, a, b = triples[i]
         return programs.solve(programs.local(int(x), int(a), int(b)), rounded)
 
-    evidence = _Evidence.of(problem, "local", triples, space)
+    evidence = _Evidence.of(problem, "local", triples, space, screens)
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
     return _model_case(problem, "local", found, triples, space, evidence)
 
@@ -134,16 +139,22 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
         P = np.stack([c.value for c in coefficients])
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
         upper = np.minimum(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
-    elif space.lo is None and problem.method != "lp":  # over the model's table (E[g | a'] ≥ τ: P(x | a') sums to 1)
-        v = _table_relaxation(np.stack([c.value for c in coefficients]), g.shape[-1], tau, inexact)
-        upper = _lowered(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
+    screens = np.full(len(pairs), np.nan)
+    if _over_table(problem, space):
+        table, n_u = _as_table(np.stack([c.value for c in coefficients]), space, g)
+        v, theta = _table_relaxation(table, n_u, tau, inexact + (space.lo is not None))
+        relaxed = v[position[pairs[:, 0]], position[pairs[:, 1]]]
+        if tau:
+            screens = _screens(theta[position[pairs[:, 0]], position[pairs[:, 1]]], relaxed, tau, reach[pairs[:, 0]])
+        if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
+            upper = _lowered(upper, relaxed)
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
     programs = ExactPrograms(problem, space.lo is not None, space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
         return programs.solve(programs.global_(int(pairs[i, 0]), int(pairs[i, 1])), rounded)
 
-    evidence = _Evidence.of(problem, "global", global_triples, space)
+    evidence = _Evidence.of(problem, "global", global_triples, space, screens)
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
     return _model_case(problem, "global", found, global_triples, space, evidence)
 
@@ -165,19 +176,37 @@ def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundi
     return np.asarray(widen_up(v, 3 * gamma)) if roundings else v
 
 
-def _table_relaxation(P: FloatArray, n_u: int, tau: float | None, roundings: int) -> FloatArray:
+def _over_table(problem: ModelProblem, space: _ModelSpace) -> bool:
+    """Whether ``fairaudit verify`` bounds the programs over the model's table, from the screens recorded for them:
+    in kernel space, behind a context mechanism other than the identity, or behind the identity on the group (whose
+    k(k − 1) pairs it does not reduce to three cells) (``proofs/verification.md`` §4, §4f)."""
+    return space.lo is None or not problem.same_x or bool(problem.mechanism.is_identity)
+
+
+def _as_table(P: FloatArray, space: _ModelSpace, g: FloatArray) -> tuple[FloatArray, int]:
+    """The coefficients ``P`` (one row per group) over the model's table's cells, and the decisions per row: in
+    G-space each variable h in [lo, hi] is a row of two "decisions", h = lo and h = hi (P·lo, P·hi; one more
+    rounding, which the caller counts in :func:`_table_relaxation`'s widening)."""
+    if space.lo is None or space.hi is None:
+        return P, g.shape[-1]
+    return np.stack([P * space.lo, P * space.hi], axis=-1).reshape(len(P), -1), 2
+
+
+def _table_relaxation(P: FloatArray, n_u: int, tau: float | None, roundings: int) -> tuple[FloatArray, FloatArray]:
     """Upper bounds on every pair's program over the model's table, indexed [a, b] (rows of ``P``, the computed
     coefficients of E[g | x, a] or E[g | a] over the table's cells, decision fastest): the one-floor relaxation's
     (the denominator's E ≥ τ, which every table meeting the floors keeps), exactly
     (:func:`~fairaudit.base.table_relaxation.relaxation_bounds`) on the computed coefficients, then widened as
-    :func:`_relaxation`'s for their roundings (the floor kept is (1 − γ)τ, rounded down)."""
+    :func:`_relaxation`'s for their roundings (the floor kept is (1 − γ)τ, rounded down); and the threshold θ that
+    proves each (to nearest; NaN without a floor), which the certificate records (``screens``)."""
     gamma = float(rounding_error(roundings))
     t = None if not tau else Fraction(float(down(tau * (1 - gamma))) if roundings else tau)
     forms = {a: [[Fraction(v) for v in row] for row in P[a].reshape(-1, n_u).tolist()] for a in range(len(P))}
-    v = np.full((len(P), len(P)), np.inf)
-    for (a, b), bound in relaxation_bounds(forms, dict.fromkeys(forms, t)).items():
+    v, theta = np.full((len(P), len(P)), np.inf), np.full((len(P), len(P)), np.nan)
+    for (a, b), (bound, at) in relaxation_bounds(forms, dict.fromkeys(forms, t)).items():
         v[a, b] = fraction_up(bound) if bound != math.inf else np.inf
-    return np.asarray(widen_up(v, 3 * gamma)) if roundings else v
+        theta[a, b] = np.nan if at is None else float(at)
+    return (np.asarray(widen_up(v, 3 * gamma)) if roundings else v), theta
 
 
 def _lowered(upper: FloatArray, relaxed: FloatArray) -> FloatArray:
@@ -186,6 +215,15 @@ def _lowered(upper: FloatArray, relaxed: FloatArray) -> FloatArray:
     the top is the LP's certified value, not a bound a few ulps above it."""
     near = relaxed >= relaxed.max(initial=-np.inf) * (1 - STOP)
     return np.where(near, upper, np.minimum(upper, relaxed))
+
+
+def _screens(theta: FloatArray, relaxed: FloatArray, tau: float | None, reach: FloatArray) -> FloatArray:
+    """Each program's threshold θ for the certificate: the relaxation's, or 0 where the bound E[g | numerator] ≤
+    ``reach`` over the floor τ is smaller (θ = 0 proves R(0)/τ, the largest numerator over τ); NaN without τ."""
+    if not tau:
+        return np.full(len(theta), np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(np.isnan(theta) | (up(reach / tau) < relaxed), 0.0, theta)
 
 
 def _solver(
@@ -205,7 +243,8 @@ def _solver(
     maximiser with the inner ones (numerator down, denominator up) and the τ rows rounded down, a lower end. Where
     the witness does not meet the value (within :data:`CROSSOVER_TOLERANCE`), or the outer program has no finite
     maximum, ``exact(i, result)`` solves the program on exact coefficients
-    (:class:`~fairaudit.worstcase.known_utility_exact.ExactPrograms`; None beyond its size). A certified value above
+    (:class:`~fairaudit.worstcase.known_utility_exact.ExactPrograms`, whose exact multipliers the certificate records;
+    None beyond its size). A certified value above
     ``closed[i]``, program i's closed-form bound (E[g | x, a]'s largest over τ or over E[g | x, a']'s smallest, rounded
     up), is lowered to it: both hold, and where the denominator's floor binds the bound is the optimum while the
     solver's dual, beyond the exact size, can leave its value 1e-10 above it.
@@ -236,27 +275,24 @@ def _solver(
             return space.program().solve(num(i), den(i), below=below)
 
     largest = -math.inf  # (the largest certified value returned: at most its search's largest value found)
-    witnessed = -math.inf  # (the largest witness returned: at most the largest value)
-    floors = space.table_floors
-    table_program = None if floors is None else _table_programs(floors, problem.tau, problem.g.shape[-1])
 
     def solve(i: int) -> FractionalResult:
-        nonlocal largest, witnessed
+        nonlocal largest
         r = inner(i, largest)
         if r.status == "optimal" and r.certified and r.value <= largest:
             r = replace(r, witness=math.nan, gap=math.nan) if roundings else r  # (below a value found: see above)
-        else:
-            r = settle(i, r) if roundings else r
-            if r.status == "optimal" and r.method == "lp" and table_program is not None and r.dual:
-                r = _with_rows_kept(r, table_program(num(i), den(i)), witness(i), witnessed)
+        elif roundings:
+            r = inner_witness(r, *inner_of(i), space.witness_rows)
+            settled = (
+                r.status == "optimal" and r.certified and r.value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, r.value)
+            )
+            r = r if settled else (exact(i, r) or r)
         if r.status == "optimal" and r.certified and r.value > closed[i]:
             r = replace(r, value=float(closed[i]), gap=gap_between(float(closed[i]), r.witness))
         if evidence is not None:
             evidence.keep(i, r)
         if r.status == "optimal" and r.certified:
             largest = max(largest, r.value)
-        if r.status == "optimal" and r.witness > witnessed:  # (NaN: none)
-            witnessed = r.witness
         return r
 
     def inner_of(i: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -264,110 +300,7 @@ def _solver(
         p, q = pair(i)[0].low, pair(i)[1].high
         return p, q, np.full(len(p), space.box[0]), np.full(len(p), space.box[1])
 
-    def witness(i: int) -> Callable[[FloatArray, float], float]:
-        """Program i's witness at the vertex a table stands for (a float table over its cells), given its certified
-        value: the ratio with the inner coefficients, on the τ rows rounded down."""
-        return lambda h, value: improve_witness(math.nan, value, CROSSOVER_TOLERANCE, h, *inner_of(i),
-                                                space.witness_rows)  # fmt: skip
-
-    def settle(i: int, r: FractionalResult) -> FractionalResult:
-        r = inner_witness(r, *inner_of(i), space.witness_rows)
-        settled = (
-            r.status == "optimal" and r.certified and r.value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, r.value)
-        )
-        return r if settled else (exact(i, r) or r)
-
     return solve
-
-
-def _table_programs(
-    floors: FloatArray, tau: float | None, n_u: int
-) -> Callable[[FloatArray, FloatArray], TableProgram | None]:
-    """The programs over the model's table (:class:`~fairaudit.base.table_program.TableProgram`) of one search, by
-    their ratio's coefficients p and q (flat over the cells, n_rows · n_u): the floors, shape (n_floors, n_rows · n_u),
-    are read exactly once, and every program after the first comes from the one before by
-    :meth:`~fairaudit.base.table_program.TableProgram.with_ratio`, sharing its floors' matrix and the restricted
-    programs' polytopes (phase 1 once for the programs over the same choices). None without τ (no floors)."""
-    last: TableProgram | None = None
-
-    def of(p: FloatArray, q: FloatArray) -> TableProgram | None:
-        nonlocal last
-        if tau is None:
-            return None
-        tops, bottoms = ([[Fraction(v) for v in row] for row in c.reshape(-1, n_u).tolist()] for c in (p, q))
-        if last is None:
-            last = TableProgram(tops, bottoms, [_floor(row, n_u) for row in floors], Fraction(tau))
-        else:
-            last = last.with_ratio(tops, bottoms)
-        return last
-
-    return of
-
-
-def _with_rows_kept(
-    r: FractionalResult,
-    program: TableProgram | None,
-    witness: Callable[[FloatArray, float], float],
-    witnessed: float = -math.inf,
-) -> FractionalResult:
-    """``r``, a program over the model's table solved by the LP, certified (or its certified value lowered) from the
-    solver's floors' multipliers ν with each row's simplex kept in the inner maximum. ``program`` is its program, of
-    :func:`_table_programs` (None: no floors, and ``r`` itself is returned).
-
-    The bound is the smallest λ with Σ_rows max_u (p − λq + Σ_f ν_f F_f) − τ Σ_f ν_f ≤ 0, exactly
-    (:meth:`~fairaudit.base.table_program.TableProgram.dual_bound`; any ν ≥ 0 is valid, so the solver's, clipped at
-    0, needs no repair), rounded up. Keeping the simplices makes it at most the bound from the LP's own dual (whose
-    simplex multipliers only add to each row's maximum), and it is the bound ``fairaudit verify`` re-derives from
-    the same ν.
-
-    Where that bound is not within :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the witness (or
-    there is none), the program is solved exactly from the table ν points to
-    (:meth:`~fairaudit.base.table_program.TableProgram.pointed_maximiser`), over up to
-    :data:`~fairaudit.base.table_program.POINTED_CHOICES` choices, or up to
-    :data:`~fairaudit.base.table_program.EXACT_CHOICES` where the bound is above ``witnessed``, the largest witness
-    the search has returned, by as much (such a bound may become the certified value, which verify requires within
-    1e-12 of the exact worst case wherever it re-derives that). Where it is solved, its exact multipliers ν* read
-    to nearest (still ≥ 0, so still a bound) replace the solver's in ``r.dual``, and the bound at them, rounded up
-    (within a few ulps of the exact value), is the value: the bound verify re-derives from the recorded ν alone, at
-    most this one over the exact coefficients, of which these are the outer rounding (verify's own steps from the
-    solver's ν need not find the table these coefficients' ν points to: at 18 groups they found none meeting the
-    exact floors). None where that bound has no root (B flat at 0 beyond the value at ν*, where every row has a
-    decision with q = 0, and a hair above 0 at its floats): the solver's bound stands.
-
-    ``witness`` (h, value) at the table proved optimal, the exact maximiser of these coefficients (its vertex solved
-    on the inner ones: the witness within rounding of the value, where the solver's point gave one 1e-10 below),
-    replaces the witness and the maximiser where it is larger. ``r`` itself where there is no root or it is larger.
-    ``proofs/black_box.md`` §6 (``proofs/verification.md`` §4f)."""
-    nu = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0)
-    if program is None or nu.size != len(program.floors):
-        return r
-    multipliers = [Fraction(v) for v in nu.tolist()]
-    root = program.dual_bound(multipliers)
-    if root == math.inf:
-        return r
-    value, dual = fraction_up(root), r.dual
-    loose = not value - max(witnessed, r.witness) <= CROSSOVER_TOLERANCE * max(1.0, value)  # (max: r's NaN is none)
-    if not value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, value) and (  # (NaN: no witness)
-        proved := program.pointed_maximiser(multipliers, EXACT_CHOICES if loose else None)
-    ):
-        nearest = np.array([float(v) for v in proved.multipliers])  # (ν* to nearest: ≥ 0, so still a bound)
-        bound = program.dual_bound([Fraction(v) for v in nearest.tolist()])
-        if bound != math.inf and fraction_up(bound) < value:  # (what verify re-derives from the same ν: the smaller)
-            value, dual = fraction_up(bound), (nearest, *r.dual[1:])
-        table = np.array([float(v) for row in proved.table for v in row])
-        at = witness(table, min(value, r.value) if r.certified else value)
-        if math.isfinite(at) and not at <= r.witness:  # (a witness where none was, or a larger one)
-            r = replace(r, witness=at, argmax=table, gap=gap_between(r.value, at))
-    if r.certified and value >= r.value:  # the value stands; the multipliers that prove the least are recorded
-        return r if dual is r.dual else replace(r, dual=dual)
-    return replace(r, value=value, certified=True, reason="", gap=gap_between(value, r.witness), dual=dual)
-
-
-def _floor(row: FloatArray, n_u: int) -> dict[int, list[Fraction]]:
-    """One floor's coefficients over the cells as :class:`~fairaudit.base.table_program.TableProgram` takes them:
-    {row of the table: its coefficients over the decisions}, the rows it touches."""
-    rows = row.reshape(-1, n_u)
-    return {int(i): [Fraction(v) for v in rows[i].tolist()] for i in np.flatnonzero(rows.any(axis=1)).tolist()}
 
 
 @dataclass(frozen=True, eq=False)
@@ -580,32 +513,56 @@ class _Evidence:
     context's only behind the identity on the context (every context's floors bind its rows otherwise). :meth:`of`
     gives None where the duals would not be used."""
 
-    def __init__(self, problem: ModelProblem, kind: str, triples: IntArray) -> None:
+    def __init__(self, problem: ModelProblem, kind: str, triples: IntArray, screens: FloatArray | None) -> None:
         self.problem, self.kind, self.triples = problem, kind, triples
         self.live = np.flatnonzero(problem.live)
         self.duals: list[ProgramDual] = []
+        self.screens = screens  # each program's one-floor threshold θ (NaN: none)
 
     @classmethod
-    def of(cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace) -> _Evidence | None:
+    def of(
+        cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace, screens: FloatArray | None = None
+    ) -> _Evidence | None:
         # (no floors: no ν to keep; behind randomized response, for a utility free of the group, L's programs reduce
         # to three cells, solved exactly at any size, and so do L̄'s where P(x | a) is alike over the groups)
         symmetric = isinstance(problem.mechanism, RandomizedResponse) and problem.group_free and problem.same_x
         usable = space.floors and not (symmetric and kind == "local")
-        return cls(problem, kind, triples) if usable else None
+        return cls(problem, kind, triples, screens) if usable else None
 
     def keep(self, i: int, r: FractionalResult) -> None:
         """Program i's dual, when an LP's dual certified its value."""
         n_a = len(self.problem.groups)
-        if r.method != "lp" or not r.certified or not r.dual or r.dual[0].size != self.live.size * n_a:
+        size = self.live.size * n_a
+        exact = r.exact_dual is not None and len(r.exact_dual[0]) == size
+        if r.method != "lp" or not r.certified or not (exact or (r.dual and r.dual[0].size == size)):
             return
-        floors = np.zeros((len(self.problem.contexts), n_a))
-        floors[self.live] = np.asarray(r.dual[0], dtype=float).reshape(self.live.size, n_a)
+        if exact:  # (the rounded multipliers prove less, or the program was solved exactly: the exact ones)
+            assert r.exact_dual is not None
+            floors = np.full((len(self.problem.contexts), n_a), Fraction(0), dtype=object)
+            floors[self.live] = np.array(r.exact_dual[0], dtype=object).reshape(self.live.size, n_a)
+        else:
+            floors = np.zeros((len(self.problem.contexts), n_a))
+            floors[self.live] = np.maximum(np.asarray(r.dual[0], dtype=float), 0.0).reshape(self.live.size, n_a)
         x, a, b = (int(v) for v in self.triples[i])
         local = self.kind == "local"
         groups = self.problem.groups
         own = local and self.problem.same_x  # (L at x binds the rows of x alone)
         self.duals.append(ProgramDual(context=self.problem.contexts[x] if local else None, group=groups[a],
                                       other_group=groups[b], floors=floors[x] if own else floors))  # fmt: skip
+
+    def all(self) -> tuple[ProgramDual, ...]:
+        """The LP's multipliers kept, then every program's screen threshold θ (verify takes the least bound of the
+        two: a value lowered to its closed-form bound, below what the LP's multipliers prove, rests on θ)."""
+        if self.screens is None:
+            return tuple(self.duals)
+        groups, contexts, local = self.problem.groups, self.problem.contexts, self.kind == "local"
+        screens = [
+            ProgramDual(context=contexts[x] if local else None, group=groups[a], other_group=groups[b], floors=None,
+                        theta=float(self.screens[i]))
+            for i, (x, a, b) in enumerate(self.triples.tolist())
+            if not math.isnan(self.screens[i])
+        ]  # fmt: skip
+        return (*self.duals, *screens)
 
 
 def _model_case(
@@ -624,11 +581,12 @@ def _model_case(
     assert r is not None  # a maximiser was found
     x, a, b = triples[found.index]
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
-    duals = () if evidence is None else tuple(evidence.duals)
+    duals = () if evidence is None else evidence.all()
     point = None
-    if duals and r.argmax is not None and not problem.same_x:  # the table over every released context
+    recorded = r.argmax is not None and (bool(duals) or space.lo is None)  # (over the model's table: always)
+    if recorded and not problem.same_x:  # the table over every released context
         point = np.clip(space.to_kernel(np.asarray(r.argmax, dtype=float)), 0.0, 1.0)
-    elif duals and r.argmax is not None:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
+    elif recorded:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
         n_x = len(problem.contexts)
         if space.lo is not None and space.hi is not None:
             h = np.clip(np.asarray(r.argmax, dtype=float), space.lo, space.hi).reshape(n_x, -1)

@@ -12,6 +12,9 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable
 from dataclasses import dataclass, replace
+from fractions import Fraction
+
+import numpy as np
 
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.json_values import Report, label, number, pair_dict
@@ -51,9 +54,28 @@ def nats_down(ratio: float) -> float:
     return math.nan if math.isnan(ratio) else log_down(ratio)
 
 
+def exact_number(v: float | Fraction) -> float | str:
+    """A multiplier as a certificate records it: a float where it is one exactly, else the exact rational "n/d"
+    (to nearest where that would exceed 4,000 characters, the most ``fairaudit verify`` reads: any ν ≥ 0 is valid, a
+    rounded one only proves less).
+
+    Examples
+    --------
+    >>> exact_number(0.5), exact_number(Fraction(1, 2)), exact_number(Fraction(1, 3))
+    (0.5, 0.5, '1/3')
+    """
+    if isinstance(v, Fraction):
+        f = float(v)
+        if Fraction(f) == v or max(v.numerator.bit_length(), v.denominator.bit_length()) > 6_500:  # (~1,960 digits)
+            return f
+        return f"{v.numerator}/{v.denominator}"
+    return float(v)
+
+
 @dataclass(frozen=True, eq=False, kw_only=True)
 class ProgramDual:
-    """The dual point that bounds one program of a worst-case search: the multipliers of its floors.
+    """The dual point that bounds one program of a worst-case search: the multipliers of its floors, or the one-floor
+    threshold θ of its screen.
 
     With ν ≥ 0 on the floors E[g | x, b] ≥ τ, weak duality bounds the program's ratio by the smallest λ with
     B(λ) = Σ_x [Σ_i max over the box of (p − λq + Σ_b ν[x, b] M_A[b])_i h_i − τ Σ_b ν[x, b]] ≤ 0
@@ -67,18 +89,28 @@ class ProgramDual:
         The program's pair: the ratio is E[g | group] over E[g | other_group].
     floors : numpy.ndarray
         ν, shape (n_groups,) for L (the floors of ``context``), (n_contexts, n_groups) for L̄ and, behind a context
-        mechanism other than the identity, for L (contexts in the population's order; zeros where P(X = x) = 0).
+        mechanism other than the identity, for L (contexts in the population's order; zeros where P(X = x) = 0);
+        None for a screen.
+    theta : float or None
+        A screen's threshold θ: the multiplier λ − θ on the denominator's floor (E[g | x, other_group] ≥ τ for L,
+        E[g | other_group] ≥ τ for L̄) bounds the ratio by θ + max(R(θ), 0)/τ, R(θ) = max over the model's tables of
+        (numerator − θ · denominator) (``proofs/verification.md`` §4f); None for an LP's multipliers.
     """
 
     context: Hashable | None
     group: Hashable
     other_group: Hashable
-    floors: FloatArray
+    floors: FloatArray | None
+    theta: float | None = None
 
     def to_dict(self) -> Report:
         """The report dictionary: the program's context (L only), its pair and ν."""
         out: Report = {} if self.context is None else {"context": label(self.context)}
-        out.update(group=label(self.group), other_group=label(self.other_group), floors=self.floors.tolist())
+        out.update(group=label(self.group), other_group=label(self.other_group))
+        if self.floors is not None:
+            out["floors"] = np.vectorize(exact_number, otypes=[object])(self.floors).tolist()
+        if self.theta is not None:
+            out["theta"] = self.theta
         return out
 
 
@@ -315,8 +347,10 @@ class WorstCase:
         )
         if self.reason:
             d["reason"] = self.reason
-        if self.duals:
-            d["duals"] = [dual.to_dict() for dual in self.duals]
+        if any(dual.floors is not None for dual in self.duals):
+            d["duals"] = [dual.to_dict() for dual in self.duals if dual.floors is not None]
+        if any(dual.theta is not None for dual in self.duals):
+            d["screens"] = [dual.to_dict() for dual in self.duals if dual.theta is not None]
         if self.witness_point is not None:
             d["witness_point"] = self.witness_point.tolist()
         return d

@@ -146,10 +146,15 @@ def test_the_certificate_records_the_dual_of_each_program_it_solved_by_lp(unlike
 @pytest.mark.slow
 def test_without_binding_floors_no_multipliers_are_recorded():
     # the kernel-space LP without floors has only its simplex rows: their multipliers (of either sign) are no
-    # floors' nu, and were recorded as such where the two counts coincided (2 contexts x 4 released groups)
+    # floors' nu, and were recorded as such where the two counts coincided (2 contexts x 4 released groups); without
+    # floors no screen either (nu = 0 is every program's proof), and over the model's table its maximiser's point
+    # is recorded all the same: E[g | x, released group] per context (a utility by context behind the identity),
+    # each in its context's range of g, [0.2, 1] at x0 and [0, 0.9] at x1
     spec = UNLIKE.replace('decision = "yes"\n', BY_CONTEXT).replace("tau = 0.287\n", "")
     detail = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))["bound_details"]["black_box"]["global"]
-    assert detail["method"] == "lp" and "duals" not in detail and "witness_point" not in detail
+    assert detail["method"] == "lp" and "duals" not in detail and "screens" not in detail
+    (x0, x1) = detail["witness_point"]
+    assert len(x0) == len(x1) == 4 and all(0.2 <= h <= 1 for h in x0) and all(0 <= h <= 0.9 for h in x1)
 
 
 def test_beyond_the_exact_size_l_bar_is_bounded_by_the_recorded_dual(unlike, monkeypatch):

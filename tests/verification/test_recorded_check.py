@@ -101,7 +101,7 @@ def test_every_number_is_re_derived_or_listed(certificates):
 
 
 def test_a_number_no_check_covers_is_listed_under_its_path():
-    cert = {"format_version": 1, "inputs": {"x": 1.0}, "bounds": {"new": 0.5, "tight": "inf"}, "flag": True}
+    cert = {"format_version": 2, "inputs": {"x": 1.0}, "bounds": {"new": 0.5, "tight": "inf"}, "flag": True}
     listed = [("bounds.new", "not re-derived"), ("bounds.tight", "not re-derived"), ("flag", "not re-derived")]
     assert unaccounted(cert, [], []) == listed  # a boolean is a verdict: accounted for like a number
     assert unaccounted(cert, [], [("bounds", "a reason")]) == [("flag", "not re-derived")]

@@ -375,102 +375,6 @@ def test_behind_the_identity_on_contexts_the_exact_program_is_a_product_of_the_c
     assert w.local_fairness.value > 1e-3 and not w.local_fairness.settled
 
 
-def test_a_search_reads_its_floors_once_and_its_programs_share_them():
-    # the class's program (a over b: 6 without floors, by hand) and its reverse (b over a: 3/2): the second program
-    # of a search comes from the first by with_ratio, the same floors object and the same restricted polytopes
-    import fairaudit.worstcase.known_utility_search as search
-
-    p, q = np.array([0.75, 0.0, 0.25, 0.0]), np.array([0.125, 0.0, 0.375, 0.0])
-    floors = np.array([[0.75, 0.0, 0.25, 0.0], [0.125, 0.0, 0.375, 0.0]])
-    of = search._table_programs(floors, 0.25, 2)
-    first = of(p, q)
-    second = of(q, p)
-    assert (first.dual_bound(), second.dual_bound()) == (6, Fraction(3, 2))
-    assert second.floors is first.floors and second.tau == first.tau == Fraction(1, 4)
-    assert second.__dict__["_polytopes"] is first.__dict__["_polytopes"]
-    assert search._table_programs(floors, None, 2)(p, q) is None
-
-
-def test_a_table_program_is_certified_from_the_floors_multipliers_with_the_rows_simplices_kept(monkeypatch):
-    # proofs/verification.md §4f's example over the model's table: rows (released a, released b) over (yes, no),
-    # p = (3/4, 1/4) on yes, q = (1/8, 3/8), the floors of a and b at tau = 1/4 (the value is 10/3). By hand, nu =
-    # (0, 3) gives B(lambda) = 7/4 - lambda/2 (both rows on yes below 11/3): 7/2; nu = 0, the value without floors, 6
-    import fairaudit.worstcase.known_utility_search as search
-    from fairaudit.base.exact_vertex import improve_witness
-    from fairaudit.base.linear_fractional import FractionalResult
-    from fairaudit.worstcase.known_utility_search import _with_rows_kept
-
-    p, q = np.array([0.75, 0.0, 0.25, 0.0]), np.array([0.125, 0.0, 0.375, 0.0])
-    floors = np.array([[0.75, 0.0, 0.25, 0.0], [0.125, 0.0, 0.375, 0.0]])
-
-    def solved(value, nu, certified, witness=3.0):
-        return FractionalResult(value=value, argmax=None, status="optimal", method="lp", solver_status="optimal",
-                                reason="", p=p, q=q, lower=0.0, upper=1.0, certified=certified, witness=witness,
-                                dual=(np.array(nu), np.zeros(2)))  # fmt: skip
-
-    rows = [(-floors, np.full(2, -0.25), "le"), (np.kron(np.eye(2), np.ones((1, 2))), np.ones(2), "eq")]
-
-    def program():  # (a search's first program: its floors read afresh)
-        return search._table_programs(floors, 0.25, 2)(p, q)
-
-    def witness(h, value):  # the coefficients are exact (dyadic): inner and outer alike
-        return improve_witness(math.nan, value, 1e-13, h, p, q, np.zeros(4), np.ones(4), rows)
-
-    # from nu = (0, 3) the table pointed to (both rows on yes, 2) lacks b's "no", which its multipliers (0: every
-    # floor met) show gains; with it the value, 10/3, is proved by nu* = (0, 8/3) (one choice kept beyond the rows'
-    # first): nu* to nearest is recorded and the bound at it, rounded up, certified (within 1e-15 of 10/3). The
-    # recorded nu alone bounds it, at most the certified value: verify needs nothing else (the bound at the
-    # solver's (0, 3) is 7/2, and verify's own steps from it may find nothing over the exact coefficients)
-    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), program(), witness)
-    assert r.certified and Fraction(10, 3) <= Fraction(r.value) <= Fraction(10, 3) + 1e-15 and r.gap <= 1e-15
-    assert r.dual[0].tolist() == [0.0, 8 / 3] and r.dual[1].tolist() == [0.0, 0.0]
-    F = Fraction
-    exact = search.TableProgram(
-        [[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]],
-        [{0: [F(3, 4), F(0)], 1: [F(1, 4), F(0)]}, {0: [F(1, 8), F(0)], 1: [F(3, 8), F(0)]}], F(1, 4),
-    )  # fmt: skip
-    assert exact.dual_bound([Fraction(v) for v in r.dual[0].tolist()]) <= Fraction(r.value)
-    # where that bound has no root, nothing changes: the bound at (0, 3) stands
-    real = search.TableProgram.dual_bound
-    flat = (Fraction(0), Fraction(8 / 3))  # (nu* = (0, 8/3) to nearest)
-    monkeypatch.setattr(search.TableProgram, "dual_bound", lambda self, nu=None: (
-        math.inf if nu is not None and tuple(nu) == flat else real(self, nu)))  # fmt: skip
-    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), program(), witness)
-    assert r.certified and r.value == 3.5 and r.dual[0].tolist() == [0.0, 3.0]
-    monkeypatch.undo()
-    # certify's larger limit, 512, where the bound is above the largest witness the search has found (by more than
-    # 1e-13): the same 10/3 with verify's limit at none; but not at a bound no witness found elsewhere is below, nor
-    # without that limit
-    import fairaudit.base.table_program as table_program
-
-    monkeypatch.setattr(table_program, "POINTED_CHOICES", -1)
-    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), program(), witness)
-    assert r.certified and Fraction(10, 3) <= Fraction(r.value) <= Fraction(10, 3) + 1e-15
-    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), program(), witness, 3.5)
-    assert r.certified and r.value == 3.5 and 0.5 <= r.gap <= 0.5 + 1e-15 and r.dual[0].tolist() == [0.0, 3.0]
-    monkeypatch.setattr(search, "EXACT_CHOICES", -1)
-    r = _with_rows_kept(solved(3.4, [0.0, 3.0], False), program(), witness)
-    assert r.certified and r.value == 3.5 and 0.5 <= r.gap <= 0.5 + 1e-15 and r.dual[0].tolist() == [0.0, 3.0]
-    monkeypatch.undo()
-    # nu = (0, 8/3) as a float reads it: the table it points to, P(yes | b~) = 1/3, is proved optimal at 10/3 and is
-    # the witness (10/3 rounded down), where the solver's point gave 3
-    r = _with_rows_kept(solved(3.4, [0.0, 8 / 3], False), program(), witness)
-    assert (
-        r.value == pytest.approx(10 / 3)
-        and Fraction(r.witness) <= Fraction(10, 3) <= Fraction(r.value)
-        and r.gap <= 1e-15
-    )
-    assert r.argmax.tolist() == [1.0, 0.0, 1 / 3, 2 / 3]
-    # no witness at all (a solver's point that meets no row, read as no vertex) is no closer: the same table
-    s = _with_rows_kept(solved(3.4, [0.0, 8 / 3], True, math.nan), program(), witness)
-    assert (s.value, s.witness, s.argmax.tolist()) == (r.value, r.witness, r.argmax.tolist())
-    # from nu = 0 (the bound without floors, 6) the tables pointed to miss the floor of b: decisions are added until
-    # one meets it (phase 1), and 10/3 is proved, nu* recorded, whatever the solver's value
-    for value in (5.0, 7.0):
-        r = _with_rows_kept(solved(value, [0.0, 0.0], True), program(), witness)
-        assert Fraction(10, 3) <= Fraction(r.value) <= Fraction(10, 3) + 1e-15 and r.dual[0].tolist() == [0.0, 8 / 3]
-
-
 def test_over_the_model_s_table_the_search_orders_by_the_one_floor_relaxation():
     # two binary randomized responses keeping 0.7 (4 groups), g by group (g(chosen, a) from 0.6 to 1, 0 otherwise),
     # tau = 0.1: the programs over the model's table, ordered by their one-floor relaxations (exact bounds, rounded
@@ -496,7 +400,8 @@ def test_the_table_relaxation_is_rounded_up_and_widened_for_the_coefficients_rou
     from fairaudit.worstcase.known_utility_search import _table_relaxation
 
     P = np.array([[0.75, 0.0, 0.25, 0.0], [0.125, 0.0, 0.375, 0.0]])
-    exact = _table_relaxation(P, 2, 0.25, 0)
+    exact, theta = _table_relaxation(P, 2, 0.25, 0)
     assert exact[0, 1] == fraction_up(Fraction(10, 3)) and exact[1, 0] == 1.5
-    widened = _table_relaxation(P, 2, 0.25, 4)[0, 1]
+    assert theta[0, 1] == 2 / 3  # (the hull edge's slope: the multiplier 10/3 - 2/3 = 8/3 on b's floor, by hand)
+    widened = _table_relaxation(P, 2, 0.25, 4)[0][0, 1]
     assert 10 / 3 < widened <= 10 / 3 * (1 + 6 * float(rounding_error(4)))

@@ -17,10 +17,25 @@ the right side:
 * :func:`fraction_up` and :func:`fraction_down` round an exact rational;
   :func:`quotient_nearest` rounds one to nearest, for what a float only chooses (never a certified number);
 * :func:`log_up`, :func:`log_down`, :func:`exp_up` and :func:`exp_down`
-  evaluate ln and exp of an exact rational (a float is one) in 50-digit
-  decimal arithmetic, whose ``ln`` and ``exp`` are correctly rounded (the
-  General Decimal Arithmetic specification; Python's :mod:`decimal`), then
-  round outward: the float returned is on the stated side of the exact value.
+  evaluate ln and exp of an exact rational (a float is one) in python-flint's
+  ``arb`` ball arithmetic, whose every result is a ball (midpoint and radius)
+  that contains the exact value (Johansson, "Arb: efficient arbitrary-precision
+  midpoint-radius interval arithmetic", IEEE Transactions on Computers 66(8),
+  2017), then round the ball's ends outward: the float returned is on the
+  stated side of the exact value; :func:`ln_bounds` and :func:`exp_bounds`
+  return those ends as rationals, at most 2^-:data:`BITS` of the quantity apart.
+
+The balls are computed at :data:`BITS` + 32 working bits, doubled while
+their ends are more than 2^-:data:`BITS` of the quantity apart, up to 2^14
+bits, where a ball still that wide is returned as it is (its ends still hold
+the value) and one not finite raises ArithmeticError. No argument these
+functions accept comes near: arb's balls are a few units of the working
+precision wide, and an exponent's |x| ≤ 10^6 costs 20 of the 32 spare bits.
+python-flint's precision is one per process (``flint.ctx.prec``): it is set
+under a lock and restored after each evaluation, so that neither the caller
+nor another thread calling this module sees it changed (code using ``arb`` on
+another thread at that moment would compute at it meanwhile, still soundly:
+arb's balls hold at every precision).
 
 OpenDP rounds every privacy quantity the same way (its ``inf_ln``,
 ``inf_exp``, ``inf_add``). Proof that each function is on its side:
@@ -29,20 +44,21 @@ OpenDP rounds every privacy quantity the same way (its ``inf_ln``,
 
 from __future__ import annotations
 
-import decimal
 import functools
 import math
 import sys
+import threading
 from fractions import Fraction
 from typing import overload
 
+import flint
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray
 
 __all__ = [
-    "DIGITS",
+    "BITS",
     "Exact",
     "down",
     "exp_bounds",
@@ -63,12 +79,10 @@ __all__ = [
     "widen_up",
 ]
 
-DIGITS = 50
-"""Significant digits of the decimal arithmetic behind :func:`log_up` and its kin."""
-
-NEAR = Fraction(1, 2**20)
-"""Below this distance from 0 (for e^x) or from 1 (for ln x), :func:`exp_bounds` and :func:`ln_bounds` sum the Taylor
-series with its remainder bound: e^x − 1 and ln x are then small, and the decimals' 50 digits would hold only x."""
+BITS = 200
+"""Relative width of the enclosures of :func:`ln_bounds` and :func:`exp_bounds`: their ends are at most 2^-200 (about
+10^-60) times the quantity apart, |ln x| for ln x, min(e^x, |e^x − 1|) for e^x (so that near 0 and 1 the small e^x − 1
+and ln x keep their own 60 digits)."""
 
 Exact = Fraction | int | float
 """An exact real: a rational, an integer, or a float (every finite float is a rational)."""
@@ -313,51 +327,81 @@ _TINY = math.ulp(0.0)
 """The smallest positive float."""
 
 
-_NEAR_ONE = Fraction(1, 10**25)
-"""Within this of 1, ln q is enclosed by the rationals 1 − 1/q and q − 1 (:func:`_ln_decimal`)."""
+_GUARD = 32
+"""Working bits beyond :data:`BITS`: room for the rounding of the argument to a ball and of the ball's ends."""
+
+_MOST_BITS = 2**14
+"""The working precision at which :func:`_ball_ends` stops doubling."""
+
+_PRECISION = threading.Lock()
+"""Held while python-flint's precision (one per process, ``flint.ctx.prec``) is set for this module."""
 
 
-def _context(rounding: str) -> decimal.Context:
-    """A decimal context of :data:`DIGITS` digits that rounds as ``rounding``, with every exponent allowed."""
-    return decimal.Context(prec=DIGITS, rounding=rounding, Emax=decimal.MAX_EMAX, Emin=decimal.MIN_EMIN)
+def _wide(ball: flint.arb, ends: flint.arb, ln: bool, near: bool) -> bool:
+    """Whether ``ball``'s ends, ``ends`` apart, may be more than 2^-:data:`BITS` times the quantity apart (|v| for
+    v = ln q, min(v, |v − 1|) for v = e^q), judged by arb's comparisons, true only when true for every point of the two
+    balls compared (a ball not finite is wide)."""
+    width = ends * 2**BITS
+    if ln:
+        return not width <= ball.abs_lower()
+    value, excess = (ball + 1, ball) if near else (ball, ball - 1)  # balls around v and v − 1
+    return not (width <= value.lower() and width <= excess.abs_lower())
 
 
-def _decimal(x: Exact, rounding: str) -> decimal.Decimal:
-    """The rational ``x`` as a :data:`DIGITS`-digit decimal rounded as ``rounding`` (exact when it fits)."""
-    q = _fraction(x)
-    ctx = _context(rounding)
-    return ctx.divide(decimal.Decimal(q.numerator), decimal.Decimal(q.denominator))
+def _ball_ends(q: Fraction, ln: bool) -> tuple[flint.arb, flint.arb, int]:
+    """The ends of arb's ball around ln q for q > 0, q ≠ 1 (``ln``) or around e^q for q ≠ 0 with |q| ≤ 10^6: (lower,
+    upper, offset), exact balls, v between offset + lower and offset + upper.
+
+    Within 1/2 of 1 (ln) or of 0 (exp) the ball is of ln(1 + y) at y = q − 1 (arb's ``log1p``) or of e^q − 1
+    (``expm1``; offset 1, 0 otherwise), which keep their relative accuracy however small the quantity. It is computed
+    at :data:`BITS` + :data:`_GUARD` working bits, doubled while :func:`_wide` (arb's balls are a few units of the
+    working precision wide, so no argument accepted here needs a second try; the doubling is there so that the width
+    promised does not rest on that); at :data:`_MOST_BITS` a ball still wide is returned as it is (its ends still hold
+    v), one not finite raises ArithmeticError.
+    """
+    n, d = q.numerator, q.denominator
+    near = 2 * abs(n - d if ln else n) < d  # |q − 1| < 1/2 (ln) or |q| < 1/2 (exp)
+    argument = flint.fmpq(n - d if ln and near else n, d)  # y = q − 1 for log1p, else q
+    bits = BITS + _GUARD
+    with _PRECISION:
+        saved = flint.ctx.prec
+        try:
+            while True:
+                flint.ctx.prec = bits
+                x = flint.arb(argument)  # a ball around the rational (exact when it is a short dyadic)
+                ball = (x.log1p() if near else x.log()) if ln else (x.expm1() if near else x.exp())
+                if bits >= _MOST_BITS and not ball.is_finite():
+                    raise ArithmeticError(
+                        f"{'ln' if ln else 'exp'} of {quotient_nearest(n, d)}: no finite ball at {bits} bits"
+                    )
+                lower, upper = ball.lower(), ball.upper()  # (exact, rounded outward to these bits)
+                if bits >= _MOST_BITS or not _wide(ball, upper - lower, ln, near):  # (a ball around their distance)
+                    return lower, upper, int(near and not ln)
+                bits *= 2
+        finally:
+            flint.ctx.prec = saved
 
 
-def _float_above(d: decimal.Decimal | Fraction) -> float:
-    """The smallest float ≥ the decimal ``d`` (exact: a decimal is a rational)."""
-    return fraction_up(Fraction(d))
+def _rational(a: flint.arb, offset: int = 0) -> Fraction:
+    """``offset`` plus the exact value of an exact, finite ball (an end of a ball: m·2^e), as a rational."""
+    man, exp = a.man_exp()
+    m, e = int(man), int(exp)
+    value = Fraction(m << e) if e >= 0 else Fraction(m, 1 << -e)
+    return value + offset if offset else value
 
 
-def _float_below(d: decimal.Decimal | Fraction) -> float:
-    """The largest float ≤ the decimal ``d``."""
-    return fraction_down(Fraction(d))
+def _ends(q: Fraction, ln: bool) -> tuple[Fraction, Fraction]:
+    """Rationals lo ≤ v ≤ hi around v = ln q or e^q (:func:`_ball_ends`), at most 2^-:data:`BITS` of the quantity
+    apart."""
+    lower, upper, offset = _ball_ends(q, ln)
+    return _rational(lower, offset), _rational(upper, offset)
 
 
-def _ln_decimal(q: Fraction, upward: bool) -> decimal.Decimal | Fraction:
-    """ln of a rational q > 0, q ≠ 1, as a :data:`DIGITS`-digit decimal on the stated side of the exact value; within
-    10^-25 of 1, the rational 1 − 1/q ≤ ln q ≤ q − 1 (at most (q − 1)² apart: the decimal argument would round to 1
-    and ``next_plus(0)`` is the smallest decimal of the unbounded context, which no rational can hold)."""
-    if abs(q - 1) < _NEAR_ONE:
-        return q - 1 if upward else 1 - 1 / q
-    ctx = _context(decimal.ROUND_HALF_EVEN)
-    if upward:
-        return ctx.next_plus(ctx.ln(_decimal(q, decimal.ROUND_CEILING)))
-    return ctx.next_minus(ctx.ln(_decimal(q, decimal.ROUND_FLOOR)))
-
-
-def _exp_decimal(q: Fraction, upward: bool) -> decimal.Decimal:
-    """e^q for a rational q ≠ 0 with |q| at most the floats' range, as a :data:`DIGITS`-digit decimal on the stated
-    side of the exact value."""
-    ctx = _context(decimal.ROUND_HALF_EVEN)
-    if upward:
-        return ctx.next_plus(ctx.exp(_decimal(q, decimal.ROUND_CEILING)))
-    return ctx.next_minus(ctx.exp(_decimal(q, decimal.ROUND_FLOOR)))
+def _float_end(q: Fraction, ln: bool, upward: bool) -> float:
+    """ln q or e^q (:func:`_ball_ends`'s arguments) rounded to a float on the stated side: an end of the ball, rounded
+    outward by :func:`fraction_up` or :func:`fraction_down`."""
+    lower, upper, offset = _ball_ends(q, ln)
+    return fraction_up(_rational(upper, offset)) if upward else fraction_down(_rational(lower, offset))
 
 
 def _ln(x: Exact, upward: bool) -> float:
@@ -373,8 +417,7 @@ def _ln(x: Exact, upward: bool) -> float:
         return -math.inf
     if q == 1:
         return 0.0
-    d = _ln_decimal(q, upward)
-    return _float_above(d) if upward else _float_below(d)
+    return _float_end(q, True, upward)
 
 
 def _exp(x: Exact, upward: bool) -> float:
@@ -386,20 +429,29 @@ def _exp(x: Exact, upward: bool) -> float:
     q = _fraction(x)
     if q == 0:
         return 1.0
-    if abs(q) > _EXP_FAR:  # beyond the floats either way: no need for 50 digits
+    if abs(q) > _EXP_FAR:  # beyond the floats either way: no ball needed
         if upward:
             return math.inf if q > 0 else _TINY
         return sys.float_info.max if q > 0 else 0.0
-    d = _exp_decimal(q, upward)
-    return _float_above(d) if upward else _float_below(d)
+    return _float_end(q, False, upward)
 
 
 def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
-    """Rationals lo ≤ ln ``x`` ≤ hi, :data:`DIGITS` digits apart, for a rational ``x`` > 0 (exact at 1).
+    """Rationals lo ≤ ln ``x`` ≤ hi for a rational ``x`` > 0, at most 2^-:data:`BITS`·|ln x| apart (exact at 1).
 
-    What a verifier needs beyond a float's precision: the decimals of :func:`log_up` and :func:`log_down`
-    (``proofs/outward.md`` §4), not rounded to floats; within :data:`NEAR` of 1, the Taylor series of ln(1 + y) with
-    its remainder bound, at most 10^-48·|x − 1| apart.
+    What a verifier needs beyond a float's precision: the ends of arb's ball around ln ``x`` (around ln(1 + y) for
+    y = x − 1 near 1, so that a small ln x keeps its own 60 digits), not rounded to floats (``proofs/outward.md`` §4);
+    the working precision is raised until they are that close (the module's docstring).
+
+    Parameters
+    ----------
+    x : Fraction, int or float
+        The argument, an exact rational (a float counts as its binary value).
+
+    Returns
+    -------
+    (Fraction, Fraction)
+        ``(lo, hi)``, in nats, dyadic rationals (m·2^e); ``(0, 0)`` at ``x`` = 1.
 
     Raises
     ------
@@ -410,7 +462,7 @@ def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
     --------
     >>> import math
     >>> lo, hi = ln_bounds(2)
-    >>> abs(lo - Fraction(math.log(2))) < Fraction(1, 10**16) and 0 < hi - lo < Fraction(1, 10**48)
+    >>> abs(lo - Fraction(math.log(2))) < Fraction(1, 10**16) and 0 < hi - lo < Fraction(1, 10**60)
     True
     """
     if isinstance(x, float) and not math.isfinite(x):
@@ -420,19 +472,27 @@ def ln_bounds(x: Exact) -> tuple[Fraction, Fraction]:
         raise ValueError(f"ln_bounds of a number <= 0: {x!r}")
     if q == 1:
         return Fraction(0), Fraction(0)
-    if abs(q - 1) < NEAR:  # the decimals hold x to 50 digits, not ln x: its series, to 50 digits of ln x itself
-        y = q - 1
-        series = sum(Fraction((-1) ** (n + 1), n) * y**n for n in range(1, 11))
-        rest = 2 * abs(y) ** 11 / 11  # Σ_{n > 10} |y|^n/n ≤ |y|^11/(11 (1 − |y|))
-        return series - rest, series + rest
-    return Fraction(_ln_decimal(q, False)), Fraction(_ln_decimal(q, True))
+    return _ends(q, ln=True)
 
 
 def exp_bounds(x: Exact) -> tuple[Fraction, Fraction]:
-    """Rationals lo ≤ e^``x`` ≤ hi, :data:`DIGITS` digits apart, for a rational ``x`` with |x| ≤ 10^6 (exact at 0).
+    """Rationals lo ≤ e^``x`` ≤ hi for a rational ``x`` with |x| ≤ 10^6, at most 2^-:data:`BITS`·min(e^x, |e^x − 1|)
+    apart (exact at 0).
 
-    The decimals of :func:`exp_up` and :func:`exp_down`, not rounded to floats; within :data:`NEAR` of 0, the Taylor
-    series with Lagrange's remainder bound, at most 10^-48·|x| apart (``proofs/outward.md`` §4).
+    The ends of arb's ball around e^``x`` (around e^x − 1 near 0, plus 1, so that a small e^x − 1 keeps its own 60
+    digits), not rounded to floats (``proofs/outward.md`` §4); the working precision is raised until they are that
+    close (the module's docstring).
+
+    Parameters
+    ----------
+    x : Fraction, int or float
+        The exponent, in nats, an exact rational.
+
+    Returns
+    -------
+    (Fraction, Fraction)
+        ``(lo, hi)``, dyadic rationals (m·2^e; beyond the floats' range too: the ends of e^(10^6) are integers
+        of 1.44 million bits); ``(1, 1)`` at ``x`` = 0.
 
     Raises
     ------
@@ -444,7 +504,7 @@ def exp_bounds(x: Exact) -> tuple[Fraction, Fraction]:
     >>> lo, hi = exp_bounds(1)
     >>> Fraction(2718281828459045235360287, 10**24) < lo < hi < Fraction(2718281828459045235360288, 10**24)   # e
     True
-    >>> hi - lo < Fraction(1, 10**48)
+    >>> hi - lo < Fraction(1, 10**60)
     True
     """
     if isinstance(x, float) and not math.isfinite(x):
@@ -454,19 +514,14 @@ def exp_bounds(x: Exact) -> tuple[Fraction, Fraction]:
         raise ValueError(f"exp_bounds of a number beyond 1e6 in size: {x!r}")
     if q == 0:
         return Fraction(1), Fraction(1)
-    if abs(q) < NEAR:  # the decimals hold e^x to 50 digits, not e^x − 1: its series, to 50 digits of e^x − 1
-        series = sum(q**n / math.factorial(n) for n in range(9))
-        rest = 2 * abs(q) ** 9 / math.factorial(9)  # Lagrange's remainder, e^|x| ≤ 2
-        return series - rest, series + rest
-    return Fraction(_exp_decimal(q, False)), Fraction(_exp_decimal(q, True))
+    return _ends(q, ln=False)
 
 
 def log_up(x: Exact) -> float:
     """A float ≥ ln ``x`` for a rational ``x`` ≥ 0 (ln 0 = −inf; +inf for ``x`` = +inf).
 
-    ln is evaluated on ``x`` rounded up to 50 digits; the decimal ``ln`` is
-    correctly rounded, so one step up in the last digit bounds the exact
-    value; that decimal is then rounded up to a float (``proofs/outward.md`` §4).
+    The upper end of :func:`ln_bounds` (the ball arb computes around ln ``x``)
+    rounded up to a float (:func:`fraction_up`; ``proofs/outward.md`` §4).
 
     Parameters
     ----------
@@ -509,7 +564,8 @@ def log_down(x: Exact) -> float:
 def exp_up(x: Exact) -> float:
     """A float ≥ e^``x`` for a rational ``x`` (+inf beyond the largest float; e^0 = 1).
 
-    Evaluated as :func:`log_up` is, with the decimal ``exp`` (``proofs/outward.md`` §4).
+    The upper end of :func:`exp_bounds` rounded up to a float, as in :func:`log_up`;
+    beyond 1000 nats either way no ball is computed (``proofs/outward.md`` §4).
 
     Parameters
     ----------

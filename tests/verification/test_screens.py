@@ -12,6 +12,7 @@ import pytest
 from _verified import product_by_group
 from hypothesis import assume, given
 from hypothesis import strategies as st
+from test_table_duality import _simplex
 
 import fairaudit.verification.black_box_check as bb
 from fairaudit.base.exact_programs import maximize_ratio
@@ -240,19 +241,9 @@ def _tables(draw):
 
 
 def _relaxation(top, bottom, t):
-    """The pair's one-floor relaxation by the rational simplex (a second route): max (P·K)/(Q·K) over tables K (each
-    row's sum = 1 as two inequalities) with Q·K >= t; None where no table reaches it or no finite maximum."""
-    rows, n_u = len(top), len(top[0])
-    n = rows * n_u
-    a_ub, b_ub = [], []
-    for r in range(rows):
-        sums = [F(int(i // n_u == r)) for i in range(n)]
-        a_ub += [sums, [-v for v in sums]]
-        b_ub += [F(1), F(-1)]
-    a_ub.append([-v for row in bottom for v in row])
-    b_ub.append(-t)
-    found = maximize_ratio([v for row in top for v in row], [v for row in bottom for v in row], [F(0)] * n,
-                           [F(1)] * n, a_ub, b_ub)  # fmt: skip
+    """The pair's one-floor relaxation by the rational simplex (a second route): max (P·K)/(Q·K) over tables K with
+    Q·K >= t; None where no table reaches it or no finite maximum."""
+    found = _simplex(top, bottom, [bottom], t)
     return found.value if found.status == "optimal" else None
 
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from typing import Protocol
 
-__all__ = ["Bar", "progress_bar"]
+__all__ = ["ProgressBar", "progress_bar"]
 
 
-class Bar(Protocol):
+class ProgressBar(Protocol):
     """A progress bar: tqdm's, or none."""
 
     def update(self, n: int = 1) -> object: ...
@@ -22,8 +22,9 @@ class _NoBar:
         pass
 
 
-def progress_bar(total: int, desc: str, enabled: bool) -> Bar:
-    """A bar of ``total`` steps labelled ``desc``; none when not ``enabled``, empty, or tqdm is missing.
+def progress_bar(total: int, desc: str, enabled: bool, *, unit: str = "it") -> ProgressBar:
+    """A bar of ``total`` steps labelled ``desc``, counted in ``unit``; none when not ``enabled``, empty, or tqdm is
+    missing.
 
     tqdm's own ``disable=None`` turns it off when stderr is not a terminal.
 
@@ -38,4 +39,4 @@ def progress_bar(total: int, desc: str, enabled: bool) -> Bar:
         from tqdm import tqdm
     except ImportError:
         return _NoBar()
-    return tqdm(total=total, desc=desc, unit="query", disable=None, leave=False)
+    return tqdm(total=total, desc=desc, unit=unit, disable=None, leave=False)

@@ -338,9 +338,9 @@ def certify(
         ``IntervalOptions()`` (95%, "auto"); None for none.
     progress : bool
         Progress bars on stderr for the long steps (the worst cases' pair searches, the intervals behind a filter),
-        where tqdm is installed and stderr is a terminal (:func:`fairaudit.base.progress.progress_shown`); each shows
-        after half a second and is cleared when its step ends. Default False; ``fairaudit certify`` shows them
-        unless ``--no-progress``.
+        where tqdm is installed and stderr is a terminal (:func:`fairaudit.base.progress.progress_shown`), each
+        cleared when its step ends (a search's shown once it has run half a second). Default False; ``fairaudit
+        certify`` shows them unless ``--no-progress``.
 
     Raises
     ------

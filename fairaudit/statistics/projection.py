@@ -18,7 +18,7 @@ from typing import NamedTuple, TypeAlias
 import numpy as np
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
-from fairaudit.base.progress import STEP_DELAY, progress_bar
+from fairaudit.base.progress import progress_bar
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Population
 from fairaudit.metrics.box_extremes import (
@@ -309,7 +309,9 @@ def _mixed_ends(
     Wsel = Wl[keys]
     solver: dict[tuple[int, int], MinMaxRatio] = {}
     steps = 2 * (len(keys) + 1) * (1 + kc if with_u else 1)  # each map's two ends (mixed_ratio), per ratio metric
-    with progress_bar(steps, "intervals", unit="step", delay=STEP_DELAY) as bar:
+    # drawn at once (no delay): its first step alone takes seconds on a large table; on a small one it is cleared
+    # within milliseconds (and it runs once or twice per certify, not as often as the searches)
+    with progress_bar(steps, "intervals", unit="step") as bar:
         ends: dict[str, MetricEnds] = {
             "local": (mixed_ratio(Wsel, flat_lo, flat_hi, solver, progress=bar.update), keys),
             "global": (mixed_ratio(Wg[None], flat_lo, flat_hi, solver, progress=bar.update), [0]),

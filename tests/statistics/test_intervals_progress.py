@@ -8,7 +8,6 @@ from _spec_families import write_spec
 from _terminal import lines_drawn, on_terminal
 
 import fairaudit as fa
-import fairaudit.statistics.projection as projection
 from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.metrics.box_extremes import mixed_ratio
 
@@ -40,7 +39,6 @@ def test_certify_draws_the_intervals_bar_on_stderr_when_asked(monkeypatch, tmp_p
     # sets, so the sups over g too): (2 local maps + 1 global) x 2 ends x (L and 3 sups) = 24 steps
     spec = fa.load_spec(write_spec("counts", 1, tmp_path, groups=6))
     terminal = on_terminal(monkeypatch)
-    monkeypatch.setattr(projection, "STEP_DELAY", 0.0)
     quiet = fa.certify(spec)
     assert terminal.getvalue() == ""
     shown = fa.certify(spec, progress=True)

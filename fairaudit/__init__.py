@@ -16,6 +16,7 @@ from fairaudit.base.errors import FairauditError, InputError, UnderflowError
 from fairaudit.base.files import write_atomic
 from fairaudit.base.json_values import number
 from fairaudit.base.labels import format_label
+from fairaudit.base.progress import ProgressBar, progress_bar
 from fairaudit.base.toml_documents import FieldProblem, distinct_labels, parse_toml, validation_error
 from fairaudit.certification.certificate import Certificate, certify
 from fairaudit.certification.curves import PrivacyCurve, privacy_curve
@@ -155,14 +156,16 @@ __all__ = [
     "plot_curve",
     "save_figure",
     # what the core shares with plug-ins (fairaudit.experiments): argument checks, TOML tables, labels and numbers
-    # as reports show them, atomic writes
+    # as reports show them, atomic writes, progress bars
     "FieldProblem",
+    "ProgressBar",
     "choice",
     "distinct_labels",
     "format_label",
     "number",
     "number_type",
     "parse_toml",
+    "progress_bar",
     "real",
     "validation_error",
     "whole",

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, TypedDict
 from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.json_values import Report, canonical_digest, label, number
 from fairaudit.base.outward import log_up, up
+from fairaudit.base.progress import progress_shown
 from fairaudit.certification.recorded_inputs import (
     CERTIFICATE_FORMAT,
     FORMAT_VERSION,
@@ -321,7 +322,9 @@ def _merge_assumptions(
     return tuple((a, tuple(forms)) for a, forms in merged.values())
 
 
-def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFAULT_INTERVALS) -> Certificate:
+def certify(
+    spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFAULT_INTERVALS, progress: bool = False
+) -> Certificate:
     """Build the certificate of a spec (a :class:`~fairaudit.certification.spec.Spec` or a path).
 
     Parameters
@@ -333,6 +336,11 @@ def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFA
         level, method and Bayesian settings
         (:func:`fairaudit.statistics.intervals.fairness_intervals`); default
         ``IntervalOptions()`` (95%, "auto"); None for none.
+    progress : bool
+        Progress bars on stderr for the long steps (the worst cases' pair searches, the intervals behind a filter),
+        where tqdm is installed and stderr is a terminal (:func:`fairaudit.base.progress.progress_shown`), each
+        cleared when its step ends (a search's shown once it has run half a second). Default False; ``fairaudit
+        certify`` shows them unless ``--no-progress``.
 
     Raises
     ------
@@ -362,6 +370,12 @@ def certify(spec: Spec | str | Path, *, intervals: IntervalOptions | None = DEFA
     >>> round(c.black_box.local_fairness.value, 6), c.certified, c.best_form
     (0.847298, True, 'black_box')
     """
+    with progress_shown(progress):
+        return _build(spec, intervals)
+
+
+def _build(spec: Spec | str | Path, intervals: IntervalOptions | None) -> Certificate:
+    """:func:`certify`'s work, inside its progress block."""
     if not isinstance(spec, Spec):
         spec = load_spec(spec)
     interval_options(intervals)

@@ -33,6 +33,7 @@ from fairaudit.base.arrays import BoolArray, FloatArray
 from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.files import write_atomic
 from fairaudit.base.labels import format_label
+from fairaudit.base.progress import STEP_DELAY, progress_bar
 from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population, compose
@@ -495,8 +496,10 @@ def _curve(
         context_mechanism=context_mechanism,
     )
     out = {key: np.full(grid.size, np.nan) for key in _VALUES}
-    for i, eps in enumerate(grid):
-        bounds.fill(out, i, family, float(eps), kernel)
+    with progress_bar(grid.size, "curve", unit="epsilon", delay=STEP_DELAY) as bar:  # (shown inside progress_shown)
+        for i, eps in enumerate(grid):
+            bounds.fill(out, i, family, float(eps), kernel)
+            bar.update()
     on_family = None
     if spec is not None and mark is not None:
         on_family = bool(math.isfinite(mark) and _same_mechanism(spec.sensitive_mechanism, family(mark)))

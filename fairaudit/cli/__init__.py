@@ -25,6 +25,9 @@ from ._parser import build_parser
 
 __all__ = ["build_parser", "main"]
 
+CLEAR_LINE = "\r\x1b[K"
+"""Carriage return, then erase to the end of the line (ANSI): what a terminal shows before the interrupted line."""
+
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``fairaudit`` command; returns the exit status."""
@@ -41,7 +44,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"fairaudit: error: {os_error_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # (a command that can say how to go on catches it itself)
-        print("fairaudit: interrupted", file=sys.stderr)
+        # on a terminal, from the start of a blank line: a progress bar interrupted while drawing is not cleared
+        print(f"{CLEAR_LINE if sys.stderr.isatty() else ''}fairaudit: interrupted", file=sys.stderr)
         return 130
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from fairaudit.base.errors import InputError
+from fairaudit.base.progress import progress_shown
 from fairaudit.reports.formats import render
 
 from ._common import Subparsers, add_output, emit, epsilons, level
@@ -53,6 +54,7 @@ def add_parser(sub: Subparsers) -> None:
         help="the curve's grid of epsilon in nats, NUM evenly spaced values (default 61 values from 0 to "
         "1.5 x the spec's epsilon, or 0 to 5); the spec's own epsilon is always added",
     )
+    c.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     c.set_defaults(func=run)
 
 
@@ -71,9 +73,11 @@ def run(args: argparse.Namespace) -> int:
         folder = Path(args.plot_data).parent
         if not folder.is_dir():
             raise InputError("--plot-data", "folder does not exist", str(folder))
-    cert = certify(args.spec, intervals=IntervalOptions(confidence=args.confidence, method=args.method))
+    options = IntervalOptions(confidence=args.confidence, method=args.method)
+    cert = certify(args.spec, intervals=options, progress=args.progress)
     if args.plot or args.plot_data:
-        _write_curve(args, cert)
+        with progress_shown(args.progress):  # (a worst case per epsilon: minutes on large specs)
+            _write_curve(args, cert)
     data = cert.to_dict()
     summary = (
         f"certified: {'yes' if cert.certified else 'no'}; best bound {data['bounds']['best']} nats ({cert.best_form})"

@@ -37,7 +37,8 @@ if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
 
-    from ._progress import Bar
+    from fairaudit import ProgressBar
+
     from .vlm.client import ChatClient, ChatReply
     from .vlm.tasks import DeliveryTask
 
@@ -242,7 +243,8 @@ def endpoint_kernel(
     """
     import numpy as np
 
-    from ._progress import progress_bar
+    from fairaudit import progress_bar
+
     from .vlm.client import ChatError
     from .vlm.messages import CHATML
 
@@ -252,7 +254,7 @@ def endpoint_kernel(
             s.choose_route()
         except ChatError as exc:
             return ExactKernel(None, s.summary(0, str(exc)), s.route)
-    bar = progress_bar(len(s.prompts), f"{task.name}: exact kernel", progress)
+    bar = progress_bar(len(s.prompts), f"{task.name}: exact kernel", progress, unit="query")
     try:
         answered, failure = _ask_cells(len(s.prompts), s.row, client.max_concurrency, bar)
     finally:
@@ -318,7 +320,7 @@ def _probe_echo(client: ChatClient, prompt: str, reply: str, sent: list[str]) ->
 
 
 def _ask_cells(
-    n: int, ask: Callable[[int], npt.NDArray[np.float64]], workers: int, bar: Bar
+    n: int, ask: Callable[[int], npt.NDArray[np.float64]], workers: int, bar: ProgressBar
 ) -> tuple[dict[int, npt.NDArray[np.float64]], str | None]:
     """``ask`` cells 0 to n − 1 on ``workers`` threads: the answers, and the first request that failed after retries.
 

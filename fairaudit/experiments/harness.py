@@ -26,9 +26,8 @@ from typing import Self
 
 import numpy as np
 
-from fairaudit import FairauditError, InputError, whole
+from fairaudit import FairauditError, InputError, ProgressBar, progress_bar, whole
 
-from ._progress import Bar, progress_bar
 from .slots import check_size, true_prompts
 from .vlm.filter import TaskFilter
 from .vlm.models import DecisionModel, Query
@@ -512,7 +511,7 @@ def run_queries(
     already = sum(q.id in log.records for q in queries)
     todo = [q for q in queries if q.id not in log.records]
     start = time.monotonic()
-    bar = progress_bar(len(todo), f"{task.name}: {model.name}", progress)
+    bar = progress_bar(len(todo), f"{task.name}: {model.name}", progress, unit="query")
     asked, failed, failures = _ask_all(
         todo, lambda q: _answer(task, model, q, digests, images), log, bar, int(concurrency)
     )
@@ -602,7 +601,7 @@ def _answer(
 
 
 def _ask_all(
-    todo: Sequence[Query], ask: Callable[[Query], dict], log: QueryLog, bar: Bar, concurrency: int
+    todo: Sequence[Query], ask: Callable[[Query], dict], log: QueryLog, bar: ProgressBar, concurrency: int
 ) -> tuple[int, int, list[str]]:
     """Ask ``todo`` on ``concurrency`` threads, logging each record as it arrives: (answered, failed, first failures).
 

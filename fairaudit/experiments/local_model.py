@@ -232,9 +232,9 @@ def exact_kernel(
     onehot: npt.NDArray[np.float64] | None = (
         None  # (vocabulary, decisions): the decision each token reads as (first-token)
     )
-    from ._progress import progress_bar
+    from fairaudit import progress_bar
 
-    bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress)
+    bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress, unit="query")
     with torch.inference_mode():
         past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values if prefix_len else None
         for p, chat, seq in zip(prompts, chats, ids):

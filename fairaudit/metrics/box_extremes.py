@@ -19,6 +19,7 @@ Proofs: ``proofs/intervals.md``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, TypeAlias
 
 import numpy as np
@@ -239,17 +240,23 @@ def mixed_ratio(
     hi: FloatArray,
     solver: dict[tuple[int, int], MinMaxRatio],
     lower_end: bool = True,
+    progress: Callable[[], object] | None = None,
 ) -> Extremes:
     """Extremes of max_{a≠a'} (W_a·e)/(W_a'·e) over the box lo ≤ e ≤ hi, for each map W[m] (shape (M, A, n)).
 
-    Upper: the threshold solution of each pair's linear-fractional program.
-    Lower: :class:`MinMaxRatio` (one LP per map); NaN without its LPs when ``lower_end`` is False.
+    Upper: the threshold solution of each pair's linear-fractional program, a map at a time (an (A, A, n) temporary).
+    Lower: :class:`MinMaxRatio` (one LP per map); NaN without its LPs when ``lower_end`` is False. ``progress`` is
+    called after each map's upper end and each map's lower end (M or 2M times).
     """
     from fairaudit.base.threshold_rule import threshold_max_many
 
     M, A, n = W.shape
-    vals, _, _ = threshold_max_many(W[:, :, None, :], W[:, None, :, :], lo, hi)
-    vals = np.where(~np.eye(A, dtype=bool), vals, -np.inf).reshape(M, -1)
+    off = ~np.eye(A, dtype=bool)
+    vals = np.empty((M, A * A))
+    for m in range(M):
+        vals[m] = np.where(off, threshold_max_many(W[m, :, None], W[m, None], lo, hi)[0], -np.inf).ravel()
+        if progress is not None:
+            progress()
     idx = vals.argmax(-1)
     upper = vals[np.arange(M), idx]
     key = (A, n)
@@ -258,7 +265,11 @@ def mixed_ratio(
     else:
         if key not in solver:
             solver[key] = MinMaxRatio(A, n)
-        lower = np.array([solver[key].solve(W[m], lo, hi) for m in range(M)])
+        lower = np.empty(M)
+        for m in range(M):
+            lower[m] = solver[key].solve(W[m], lo, hi)
+            if progress is not None:
+                progress()
     if A < 2:
         upper = lower = np.full(M, np.nan)
     return lower, upper, idx // A, idx % A

@@ -18,6 +18,7 @@ from typing import NamedTuple, TypeAlias
 import numpy as np
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
+from fairaudit.base.progress import progress_bar
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Population
 from fairaudit.metrics.box_extremes import (
@@ -307,17 +308,23 @@ def _mixed_ends(
     flat_lo, flat_hi = b.e_lower.reshape(-1), b.e_upper.reshape(-1)
     Wsel = Wl[keys]
     solver: dict[tuple[int, int], MinMaxRatio] = {}
-    ends: dict[str, MetricEnds] = {
-        "local": (mixed_ratio(Wsel, flat_lo, flat_hi, solver), keys),
-        "global": (mixed_ratio(Wg[None], flat_lo, flat_hi, solver), [0]),
-    }
-    if with_u:
-        cl, ch = b.cell_lower.reshape(X * A, kc), b.cell_upper.reshape(X * A, kc)
-        ends["sup_local"] = (max_over([mixed_ratio(Wsel, cl[:, u], ch[:, u], solver) for u in range(kc)]), keys)
-        ends["sup_global"] = (max_over([mixed_ratio(Wg[None], cl[:, u], ch[:, u], solver) for u in range(kc)]), [0])
-        n_events = len(b.events)
-        el, eh = b.event_lower.reshape(n_events, X * A), b.event_upper.reshape(n_events, X * A)
-        ends["equalized_odds"] = (mixed_tv(Wsel, el, eh, b.events, cl, ch), keys)
-        ends["demographic_parity"] = (mixed_tv(Wg[None], el, eh, b.events, cl, ch), [0])
+    steps = 2 * (len(keys) + 1) * (1 + kc if with_u else 1)  # each map's two ends (mixed_ratio), per ratio metric
+    # drawn at once (no delay): its first step alone takes seconds on a large table; on a small one it is cleared
+    # within milliseconds (and it runs once or twice per certify, not as often as the searches)
+    with progress_bar(steps, "intervals", unit="step") as bar:
+        ends: dict[str, MetricEnds] = {
+            "local": (mixed_ratio(Wsel, flat_lo, flat_hi, solver, progress=bar.update), keys),
+            "global": (mixed_ratio(Wg[None], flat_lo, flat_hi, solver, progress=bar.update), [0]),
+        }
+        if with_u:
+            cl, ch = b.cell_lower.reshape(X * A, kc), b.cell_upper.reshape(X * A, kc)
+            per_u = [mixed_ratio(Wsel, cl[:, u], ch[:, u], solver, progress=bar.update) for u in range(kc)]
+            ends["sup_local"] = (max_over(per_u), keys)
+            per_u = [mixed_ratio(Wg[None], cl[:, u], ch[:, u], solver, progress=bar.update) for u in range(kc)]
+            ends["sup_global"] = (max_over(per_u), [0])
+            n_events = len(b.events)
+            el, eh = b.event_lower.reshape(n_events, X * A), b.event_upper.reshape(n_events, X * A)
+            ends["equalized_odds"] = (mixed_tv(Wsel, el, eh, b.events, cl, ch), keys)
+            ends["demographic_parity"] = (mixed_tv(Wg[None], el, eh, b.events, cl, ch), [0])
     cells = (np.einsum("xan,n->xa", Wl, flat_lo), np.einsum("xan,n->xa", Wl, flat_hi))
     return ends, cells, (Wg @ flat_lo, Wg @ flat_hi)

@@ -27,6 +27,7 @@ from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
+from fairaudit.base.progress import STEP_DELAY, ProgressBar, progress_bar
 from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
 from fairaudit.laws.utilities import UtilityClass
 
@@ -35,6 +36,10 @@ METHODS = ("auto", "threshold", "lp")
 STOP = 1e-12
 """Relative margin of :func:`search`'s stop: problems whose bound is within it of the best value are not solved
 (their bound, when above, is the value returned)."""
+
+SEARCH_BAR = "{desc}: {n}/{total} {unit}s [{elapsed}{postfix}]"
+"""The format of :func:`search`'s progress bar: no time left, as the search usually stops long before its last
+problem."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -56,10 +61,20 @@ def search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> Searc
     1e-9, the solver's accuracy) keep the earlier problem as the maximiser, but the value returned is an upper end
     of the maximum over every problem: the largest value solved, or the largest bound left unsolved where that is
     larger; it is certified only when every value solved is.
+
+    Inside :func:`~fairaudit.base.progress.progress_shown` (``certify(progress=True)``) a bar on stderr counts the
+    problems taken out of all, with the largest value found and the next problem's bound, in nats: the search stops
+    where they meet.
     """
+    with progress_bar(len(upper), "worst case", unit="program", delay=STEP_DELAY, bar_format=SEARCH_BAR) as bar:
+        return _search(upper, solve, bar)
+
+
+def _search(upper: FloatArray, solve: Callable[[int], FractionalResult], bar: ProgressBar) -> SearchResult:
     order = np.argsort(-upper, kind="stable")
     best_i, best, best_v, top, certified, solved = -1, None, -math.inf, -math.inf, True, 0
-    for i in order:
+    ranked = None if bar.disable else -upper[order]  # (the bar's: the bounds in order, ascending)
+    for k, i in enumerate(order):
         if best is not None and top >= upper[i] * (1 - STOP):
             top = max(top, float(upper[i]))  # the largest bound left unsolved
             break
@@ -71,11 +86,36 @@ def search(upper: FloatArray, solve: Callable[[int], FractionalResult]) -> Searc
         if best is None or r.value > best_v * (1 + 1e-9):  # ties (to solver accuracy) keep the earlier pair
             best_i, best, best_v = int(i), r, r.value
         top = max(top, r.value)
+        if ranked is not None:
+            bar.set_postfix_str(_closing(top, ranked, k), False)
+        bar.update()
         if math.isinf(top):
             break
     if best is not None and (top > best.value or certified != best.certified):
         best = replace(best, value=top, certified=certified, gap=gap_between(top, best.witness))
     return SearchResult(index=best_i, result=best, solved=solved, reason="")
+
+
+def _closing(top: float, ranked: FloatArray, k: int) -> str:
+    """The bar's postfix after problem ``k`` of the order: the largest value found, the next problem's bound, and how
+    many problems left have a bound above that value (the search takes at most those), the values in nats.
+
+    ``ranked``: the bounds in the search's order, negated (ascending), ratios.
+
+    Examples
+    --------
+    >>> _closing(2.0, -np.array([4.0, 3.0, 2.5, 1.5]), 0), _closing(math.inf, -np.array([4.0]), 0)
+    ('best 0.6931 nats, next bound 1.0986 nats (2 left above best)', 'best inf nats')
+    """
+
+    def nats(v: float) -> float:
+        return math.log(v) if v > 0 else -math.inf
+
+    text = f"best {nats(top):.4f} nats"
+    if k + 1 >= len(ranked):
+        return text
+    left = max(0, int(np.searchsorted(ranked, -top / (1 - STOP))) - (k + 1))
+    return f"{text}, next bound {nats(-float(ranked[k + 1])):.4f} nats ({left} left above best)" if left else text
 
 
 def relaxed_first(

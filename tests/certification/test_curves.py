@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _terminal import lines_drawn, on_terminal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -269,3 +270,20 @@ def test_errors_are_one_line_input_errors():
     )
     with pytest.raises(InputError, match="needs at least 2 groups"):
         privacy_curve(one)
+
+
+def test_the_curve_draws_a_bar_by_epsilon_inside_progress_shown(monkeypatch):
+    import fairaudit.certification.curves as curves
+    from fairaudit.base.progress import progress_shown
+
+    terminal = on_terminal(monkeypatch)
+    monkeypatch.setattr(curves, "STEP_DELAY", 0.0)
+    spec = load_spec(HR_SPEC)
+    quiet = privacy_curve(spec, epsilons=[0.0, 1.0])
+    assert terminal.getvalue() == ""
+    with progress_shown():
+        shown = privacy_curve(spec, epsilons=[0.0, 1.0])
+    n = len(shown)  # (the grid's 2 values and the spec's epsilon)
+    assert n == len(quiet) == 3
+    assert lines_drawn(terminal.getvalue())[0] == f"curve:   0%|          | 0/{n} [00:00<?, ?epsilon/s]"
+    pd.testing.assert_frame_equal(shown.to_frame(), quiet.to_frame())

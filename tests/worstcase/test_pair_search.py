@@ -14,10 +14,13 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
+import time
 import tracemalloc
 
 import numpy as np
 import pytest
+from _terminal import lines_drawn, on_terminal
 
 import fairaudit as fa
 import fairaudit.base.pairs as pairs_module
@@ -25,6 +28,7 @@ import fairaudit.metrics.privacy_profile as profile_module
 import fairaudit.worstcase.black_box as black_box_module
 import fairaudit.worstcase.pair_search as search_module
 from fairaudit import UtilityClass
+from fairaudit.base.progress import progress_shown
 from fairaudit.base.threshold_rule import floor_max_many, threshold_max_many
 from fairaudit.metrics.privacy_profile import _profile_candidates
 from fairaudit.worstcase.black_box import black_box_bound
@@ -447,3 +451,57 @@ def test_search_returns_an_upper_end_over_every_problem():
     # one uncertified value leaves the maximum uncertified, whichever problem attains it
     found = search_module.search(np.array([3.0, 2.5, 1.5]), lambda i: _fixed(values[i], certified=i != 1))
     assert found.index == 0 and not found.result.certified
+
+
+class _Recorder:
+    """A progress bar that records what the search shows."""
+
+    disable = False
+
+    def __init__(self):
+        self.n, self.postfixes = 0, []
+
+    def update(self, n=1):
+        self.n += n
+
+    def set_postfix_str(self, s="", refresh=True):
+        self.postfixes.append(s)
+
+
+PROGRESS_BOUNDS = np.array([4.0, 3.0, 2.5, 1.5, 1.2])
+PROGRESS_VALUES = [2.0, 2.8, 2.2, 1.0, 1.0]
+
+
+def test_search_progress_shows_the_best_value_and_the_bounds_it_closes_on():
+    # after program 0: best ln 2, next bound ln 3, and two bounds (3, 2.5) above 2; after program 1 (2.8) none is:
+    # the search stops there, having taken 2 of the 5 programs
+    bar = _Recorder()
+    found = search_module._search(PROGRESS_BOUNDS, lambda i: _fixed(PROGRESS_VALUES[i]), bar)
+    assert found.index == 1 and found.solved == 2 and bar.n == 2
+    assert bar.postfixes == [
+        f"best {math.log(2.0):.4f} nats, next bound {math.log(3.0):.4f} nats (2 left above best)",
+        f"best {math.log(2.8):.4f} nats",
+    ]
+    assert bar.postfixes[0] == "best 0.6931 nats, next bound 1.0986 nats (2 left above best)"
+
+
+def test_search_draws_its_bar_on_stderr_inside_progress_shown_only(monkeypatch):
+    terminal = on_terminal(monkeypatch)
+    monkeypatch.setattr(search_module, "STEP_DELAY", 0.0)
+
+    def slow(i):
+        time.sleep(0.15)  # (longer than tqdm's 0.1 s between two draws)
+        return _fixed(PROGRESS_VALUES[i])
+
+    search_module.search(PROGRESS_BOUNDS, slow)
+    assert terminal.getvalue() == ""
+    with progress_shown():
+        found = search_module.search(PROGRESS_BOUNDS, slow)
+    assert found.index == 1
+    drawn = [re.sub(r"\[\d\d:\d\d", "[T", line) for line in lines_drawn(terminal.getvalue())]
+    assert drawn == [
+        "worst case: 0/5 programs [T]",
+        "worst case: 1/5 programs [T, best 0.6931 nats, next bound 1.0986 nats (2 left above best)]",
+        "worst case: 2/5 programs [T, best 1.0296 nats]",
+    ]
+    assert terminal.getvalue().endswith("\r")  # (cleared when the search ends)

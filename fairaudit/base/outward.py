@@ -49,13 +49,15 @@ import math
 import sys
 import threading
 from fractions import Fraction
-from typing import overload
+from typing import TYPE_CHECKING, overload
 
-import flint
 import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray
+
+if TYPE_CHECKING:
+    import flint
 
 __all__ = [
     "BITS",
@@ -361,6 +363,8 @@ def _ball_ends(q: Fraction, ln: bool) -> tuple[flint.arb, flint.arb, int]:
     """
     n, d = q.numerator, q.denominator
     near = 2 * abs(n - d if ln else n) < d  # |q − 1| < 1/2 (ln) or |q| < 1/2 (exp)
+    import flint  # (here, not at import: `import fairaudit` loads no solver library)
+
     argument = flint.fmpq(n - d if ln and near else n, d)  # y = q − 1 for log1p, else q
     bits = BITS + _GUARD
     with _PRECISION:

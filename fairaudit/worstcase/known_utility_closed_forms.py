@@ -14,6 +14,7 @@ by :func:`~fairaudit.worstcase.known_utility.worst_model`.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 from fractions import Fraction
 
@@ -27,8 +28,8 @@ from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.tables import Kernel
 from fairaudit.worstcase.known_utility_problem import ModelProblem, onehot, weighted_utility
 from fairaudit.worstcase.pair_search import pairwise_box
-from fairaudit.worstcase.randomized_response import RRWorst, rr_box
-from fairaudit.worstcase.worst_cases import WorstCase, nats_up
+from fairaudit.worstcase.randomized_response import RRWorst, rr_box, rr_theta
+from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase, nats_up
 
 
 def _threshold_case(
@@ -94,7 +95,10 @@ def randomized_response_cases(
         n_released_contexts = problem.n_released_contexts
         high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
         kern = _rr_kernel(problem, replace(w, prefix=False), lo, hi, None, high, low)
-        return local, _rr_case(problem, "global", w, None, kern)
+        case = _rr_case(problem, "global", w, None, kern)
+        a, b = (case.group, case.other_group)
+        pair = (problem.groups.index(a), problem.groups.index(b))
+        return local, replace(case, duals=_screens(problem, [(None, rr_theta(rr, lo, hi, floor))], *pair))
     return local, None
 
 
@@ -133,7 +137,24 @@ def _rr_local(
     else:  # g(u) behind a context filter: the same h in every released context
         high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
         kern = _rr_kernel(problem, replace(best_w, prefix=False), lo, hi, None, high, low)
-    return _rr_case(problem, "local", best_w, best_x, kern)
+    case = _rr_case(problem, "local", best_w, best_x, kern)
+    # each live context's proof for the pair (0, 1), which stands for every pair (``proofs/verification.md`` §4)
+    thetas = [(x, rr_theta(rr, float(lo_x[x]), float(hi_x[x]), floor)) for x in np.flatnonzero(live).tolist()]
+    return replace(case, duals=_screens(problem, thetas, 0, 1))
+
+
+def _screens(
+    problem: ModelProblem, thetas: Sequence[tuple[int | None, float | None]], a: int, b: int
+) -> tuple[ProgramDual, ...]:
+    """The one-floor thresholds θ of the pair (a, b)'s programs (context x, or None for L̄), for the certificate."""
+    groups, contexts = problem.groups, problem.contexts
+    return tuple(
+        ProgramDual(
+            context=None if x is None else contexts[x], group=groups[a], other_group=groups[b], floors=None, theta=theta
+        )
+        for x, theta in thetas
+        if theta is not None
+    )
 
 
 def _floor_behind(problem: ModelProblem) -> float:

@@ -24,7 +24,6 @@ from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.base.table_relaxation import relaxation_bounds
-from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
 from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.pair_search import STOP, SearchResult, inner_witness, pairwise_box, relaxed_first, search
@@ -78,19 +77,19 @@ def local_search(
             at = triples[:, 0] == context
             upper[at] = np.minimum(upper[at], v[triples[at, 1], triples[at, 2]])
     screens = np.full(len(triples), np.nan)  # each program's one-floor threshold θ, for the certificate
-    if _over_table(problem, space):
-        relaxed = np.full(len(triples), np.inf)
-        for context in xs:
-            v, theta = _table_relaxation(
-                *_as_table(np.stack([c.value for c in coefficients[context]]), space, g),
-                tau,
-                inexact + (space.lo is not None),
-            )
-            at = triples[:, 0] == context
-            relaxed[at], screens[at] = v[triples[at, 1], triples[at, 2]], theta[triples[at, 1], triples[at, 2]]
-        screens = _screens(screens, relaxed, tau, reach_hi[triples[:, 0], triples[:, 1]])
-        if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
-            upper = _lowered(upper, relaxed)
+    # every program's proof over the model's table, which verify checks: its one-floor threshold θ
+    relaxed = np.full(len(triples), np.inf)
+    for context in xs:
+        v, theta = _table_relaxation(
+            *_as_table(np.stack([c.value for c in coefficients[context]]), space, g),
+            tau,
+            inexact + (space.lo is not None),
+        )
+        at = triples[:, 0] == context
+        relaxed[at], screens[at] = v[triples[at, 1], triples[at, 2]], theta[triples[at, 1], triples[at, 2]]
+    screens = _screens(screens, relaxed, tau, reach_hi[triples[:, 0], triples[:, 1]])
+    if space.lo is None and problem.method != "lp":  # over the model's table: its one-floor relaxation, exactly
+        upper = _lowered(upper, relaxed)
     programs = ExactPrograms(problem, space.lo is not None, space.floors)
 
     def exact(i: int, rounded: FractionalResult) -> FractionalResult | None:
@@ -140,14 +139,14 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
         v = _relaxation(P, space.lo, space.hi, floor if space.rows is not None else None, inexact)
         upper = np.minimum(upper, v[position[pairs[:, 0]], position[pairs[:, 1]]])
     screens = np.full(len(pairs), np.nan)
-    if _over_table(problem, space):
-        table, n_u = _as_table(np.stack([c.value for c in coefficients]), space, g)
-        v, theta = _table_relaxation(table, n_u, tau, inexact + (space.lo is not None))
-        relaxed = v[position[pairs[:, 0]], position[pairs[:, 1]]]
-        if tau:
-            screens = _screens(theta[position[pairs[:, 0]], position[pairs[:, 1]]], relaxed, tau, reach[pairs[:, 0]])
-        if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
-            upper = _lowered(upper, relaxed)
+    # every program's proof over the model's table (as local_search)
+    table, n_u = _as_table(np.stack([c.value for c in coefficients]), space, g)
+    v, theta = _table_relaxation(table, n_u, tau, inexact + (space.lo is not None))
+    relaxed = v[position[pairs[:, 0]], position[pairs[:, 1]]]
+    if tau:
+        screens = _screens(theta[position[pairs[:, 0]], position[pairs[:, 1]]], relaxed, tau, reach[pairs[:, 0]])
+    if space.lo is None and problem.method != "lp":  # (E[g | a'] ≥ τ: P(x | a') sums to 1)
+        upper = _lowered(upper, relaxed)
     global_triples = np.column_stack([np.full(len(pairs), -1), pairs])
     programs = ExactPrograms(problem, space.lo is not None, space.floors)
 
@@ -174,13 +173,6 @@ def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundi
         assert relaxed is not None  # (a floor was given)
         v = relaxed
     return np.asarray(widen_up(v, 3 * gamma)) if roundings else v
-
-
-def _over_table(problem: ModelProblem, space: _ModelSpace) -> bool:
-    """Whether ``fairaudit verify`` bounds the programs over the model's table, from the screens recorded for them:
-    in kernel space, behind a context mechanism other than the identity, or behind the identity on the group (whose
-    k(k − 1) pairs it does not reduce to three cells) (``proofs/verification.md`` §4, §4f)."""
-    return space.lo is None or not problem.same_x or bool(problem.mechanism.is_identity)
 
 
 def _as_table(P: FloatArray, space: _ModelSpace, g: FloatArray) -> tuple[FloatArray, int]:
@@ -504,14 +496,12 @@ def _model_program(
 
 
 class _Evidence:
-    """The duals of the programs a search bounds by an LP, kept for the certificate where ``fairaudit verify`` can use
-    them: with floors that bind (without them the LP's rows are the simplex's, whose multipliers are no floors' ν),
-    and not behind randomized response and the identity on the context for a utility free of the group (whose
-    programs verify reduces to three cells). It rebuilds the programs over h[x, ã] behind a matrix and the identity on
-    the context for a utility free of the group (``proofs/verification.md`` §4e), over the model's table otherwise
-    (§4f). The floors' rows are ordered (live context, group), in G-space and in kernel space alike; L keeps its
-    context's only behind the identity on the context (every context's floors bind its rows otherwise). :meth:`of`
-    gives None where the duals would not be used."""
+    """The proofs of a search's programs, kept for the certificate, which ``fairaudit verify`` checks over the model's
+    table (``proofs/verification.md`` §4f): each program's one-floor threshold θ, and the floors' multipliers ν of the
+    programs an LP bounded, where floors bind (without them the LP's rows are the simplex's, whose multipliers are
+    no floors' ν). The floors' rows are ordered (live context, group), in G-space and in kernel space alike; L keeps
+    its context's only behind the identity on the context (every context's floors bind its rows otherwise).
+    :meth:`of` gives None without floors (the bound without them is the value)."""
 
     def __init__(self, problem: ModelProblem, kind: str, triples: IntArray, screens: FloatArray | None) -> None:
         self.problem, self.kind, self.triples = problem, kind, triples
@@ -523,11 +513,7 @@ class _Evidence:
     def of(
         cls, problem: ModelProblem, kind: str, triples: IntArray, space: _ModelSpace, screens: FloatArray | None = None
     ) -> _Evidence | None:
-        # (no floors: no ν to keep; behind randomized response, for a utility free of the group, L's programs reduce
-        # to three cells, solved exactly at any size, and so do L̄'s where P(x | a) is alike over the groups)
-        symmetric = isinstance(problem.mechanism, RandomizedResponse) and problem.group_free and problem.same_x
-        usable = space.floors and not (symmetric and kind == "local")
-        return cls(problem, kind, triples, screens) if usable else None
+        return cls(problem, kind, triples, screens) if space.floors else None  # (no floors: no ν to keep)
 
     def keep(self, i: int, r: FractionalResult) -> None:
         """Program i's dual, when an LP's dual certified its value."""

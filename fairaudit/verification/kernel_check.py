@@ -31,7 +31,7 @@ from fairaudit.base.exact_programs import Polytope, maximize_linear, maximize_ra
 from fairaudit.verification.dual_check import Evidence
 from fairaudit.verification.enclosures import INF, RecordedMechanism, exact, recorded_array
 
-__all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings", "reached_rows"]
+__all__ = ["KernelSetting", "kernel_global", "kernel_local", "kernel_settings", "reached_rows", "three_cell_settings"]
 
 Number = Fraction | float
 Rows = tuple[tuple[Fraction, ...], ...]
@@ -144,10 +144,82 @@ def kernel_settings(
     >>> s.sensitive[0], s.context, s.group_free
     ((Fraction(3, 4), Fraction(1, 4)), None, False)
     """
+    exact_rows = sensitive.kind != "randomized_response" and context.kind != "randomized_response"
+    return [
+        KernelSetting(
+            _rows(sensitive, end), None if context.kind == "identity" else _rows(context, end),
+            *_population(inputs, sensitive.k), max_variables, evidence or Evidence(),
+        )
+        for end in ((0,) if exact_rows else (0, 1))
+    ]  # fmt: skip
+
+
+def three_cell_settings(
+    inputs: Mapping[str, Any],
+    sensitive: RecordedMechanism,
+    max_variables: int,
+    evidence: Evidence,
+    pair: tuple[int, int],
+) -> list[KernelSetting]:
+    """Randomized response's programs for the ordered pair ``pair`` = (a, a') over three cells, at each end of e^ε:
+    the released groups a, a' and one for the k − 2 others, behind the identity on the context, for a utility free
+    of the group (two cells for k = 2).
+
+    Every pair of groups is alike behind randomized response, and averaging a table over the permutations of the
+    other groups keeps it feasible and keeps E[g | x, a]/E[g | x, a'] and E[g | a]/E[g | a'] where P(x | ·) is the
+    same for every group: at an optimum the k − 2 others' rows may be taken equal, one row standing for all of
+    them. Its coefficients are k − 2 times one other's, and one floor (every other group's, equal) stands for the
+    k − 2 others' (``proofs/verification.md`` §4). The recorded evidence of ``pair`` is carried over: its
+    multipliers with the others' summed (weak duality of the reduced program at that ν is at most the full one's
+    at the multipliers averaged over the others, by convexity), its witness with the others' values averaged.
+
+    Returns
+    -------
+    list of KernelSetting
+        Two, at the lower and upper rational end of e^ε, with ``sensitive`` the reduced rows (3 × 3, or 2 × 2),
+        groups (0, 1) the pair, and the weights of a and a' (and their mean for the others' cell).
+    """
+    k, (a, b) = sensitive.k, pair
+    g, tau, live, weights, _, group_free = _population(inputs, k)
+    others = [c for c in range(k) if c not in pair]
+    n = 3 if others else 2
+
+    def cells(v: Sequence[Fraction]) -> list[Fraction]:
+        return [v[a], v[b], sum((v[c] for c in others), Fraction(0))][:n]
+
+    def mean(v: Sequence[Any]) -> list[Any]:
+        return [v[a], v[b], sum((v[c] for c in others), Fraction(0)) / len(others)][:n] if others else [v[a], v[b]]
+
+    e = evidence
+    ev = Evidence(
+        {(x, 0, 1): cells(nu) for (x, i, j), nu in e.local.items() if (i, j) == pair},
+        {(0, 1): [cells(row) for row in nu] for (i, j), nu in e.global_.items() if (i, j) == pair},
+        None
+        if e.local_point is None or e.local_point[1:3] != pair
+        else (e.local_point[0], 0, 1, mean(e.local_point[3])),
+        None if e.global_point is None or e.global_point[:2] != pair else (0, 1, [mean(h) for h in e.global_point[2]]),
+        {(x, 0, 1): t for (x, i, j), t in e.local_theta.items() if (i, j) == pair},
+        {(0, 1): t for ij, t in e.global_theta.items() if ij == pair},
+    )
+    out = []
+    for p, q in sensitive.rr_ends():
+        o = q * len(others)
+        rows = ((p, q, o), (q, p, o), (q, q, p + q * (len(others) - 1))) if others else ((p, q), (q, p))
+        reduced = [[g[x][0]] * n for x in range(len(g))]
+        w = [mean(row) for row in weights]
+        out.append(KernelSetting(rows, None, reduced, tau, live, w, list(range(n)), group_free, max_variables, ev))
+    return out
+
+
+def _population(
+    inputs: Mapping[str, Any], k: int
+) -> tuple[list[list[list[Fraction]]], Fraction | None, list[int], list[list[Fraction]], list[int], bool]:
+    """The recorded utility and population, exactly, in :class:`KernelSetting`'s order: (g as [x][a][u], τ, the live
+    contexts, P(x | a) as [live x][a], the groups present, whether g is free of the group)."""
     u = inputs["utility"]
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     values = recorded_array(u["values"], "inputs.utility.values")
-    n_x, k = len(pop), sensitive.k
+    n_x = len(pop)
     g = values if isinstance(values[0], list) else [[list(values)] * k] * n_x
     live = [x for x in range(n_x) if sum(pop[x]) > 0]
     mass = [sum(pop[x][a] for x in live) for a in range(k)]
@@ -155,15 +227,7 @@ def kernel_settings(
     present = [a for a in range(k) if mass[a]]
     tau = None if u["tau"] is None else Fraction(exact(u["tau"], "inputs.utility.tau"))
     group_free = all(g[x][a] == g[x][0] for x in range(n_x) for a in range(k))
-    exact_rows = sensitive.kind != "randomized_response" and context.kind != "randomized_response"
-    out = [
-        KernelSetting(
-            _rows(sensitive, end), None if context.kind == "identity" else _rows(context, end), g, tau, live,
-            weights, present, group_free, max_variables, evidence or Evidence(),
-        )
-        for end in ((0,) if exact_rows else (0, 1))
-    ]  # fmt: skip
-    return out
+    return g, tau, live, weights, present, group_free
 
 
 def _rows(m: RecordedMechanism, end: int) -> Rows:

@@ -153,17 +153,17 @@ STEP = 2e-9
 
 def _largest(name: str, epsilon: Any, target: Any, eps_above: Enclosure, above: Enclosure) -> Check:
     """ε is the largest that meets the target, to the step: the member above has ε' in (ε, ε + :data:`STEP`·max(1, ε)] and
-    misses the target (its exact value is not below the target by more than the tolerance; monotone in ε along the
-    family, ``proofs/calibration.md`` §3, so no ε'' ≥ ε' meets it)."""
+    misses the target (the lower end of its exact value is not below the target by more than the tolerance; monotone
+    in ε along the family, ``proofs/calibration.md`` §3, so no ε'' ≥ ε' meets it)."""
     eps, goal = exact(epsilon, "calibration.epsilon"), exact(target, "calibration.target")
     if not (isinstance(eps, Fraction) and isinstance(goal, Fraction)):  # +inf: every epsilon meets, none is above
         near = meets = False
     else:
         slack = Fraction(TOLERANCE) * max(Fraction(1), abs(goal))
         near = eps < eps_above.lo and eps_above.hi <= eps + Fraction(STEP) * max(Fraction(1), eps)
-        meets = above.hi != INF and above.hi < goal - slack
+        meets = above.lo != INF and above.lo < goal - slack  # (its lower end: the value may be as low)
     ok = near and not meets
-    by = 0.0 if ok else math.inf if not near else float(goal - above.hi)
+    by = 0.0 if ok else math.inf if not near else float(goal - above.lo)
     detail = (
         "the member above misses the target: no larger epsilon meets it"
         if ok

@@ -150,3 +150,17 @@ def test_a_calibration_on_l_bar_is_re_derived(population, basis):
         tampered = copy.deepcopy(cert)
         tampered["calibration"][key] += change
         assert f"calibration.{key}" in [c.name for c in verify(tampered).failures]
+
+
+def test_the_member_above_misses_the_target_only_by_its_lower_end():
+    # the member above's exact value enclosed in [1/2, 2] against the target 1: it may meet the target (its value
+    # may be 1/2), so epsilon is not shown the largest; enclosed in [1, 2], it misses it whatever its value
+    from fractions import Fraction as F
+
+    from fairaudit.verification.calibration_check import _largest
+    from fairaudit.verification.enclosures import Enclosure
+
+    above = Enclosure(F(1, 1) + F(1, 10**10), F(1, 1) + F(1, 10**10))  # epsilon 1 + 1e-10
+    wide, missed = Enclosure(F(1, 2), F(2)), Enclosure(F(1), F(2))
+    assert not _largest(LARGEST, 1.0, 1.0, above, wide).holds
+    assert _largest(LARGEST, 1.0, 1.0, above, missed).holds

@@ -33,6 +33,12 @@ KINDS: tuple[tuple[str, str, str], ...] = (
         "the evidence the black box is checked with (multipliers or a screen's threshold bound a program, a point "
         "attains the witness)",
     ),
+    (
+        r"^calibration\.proofs\.",
+        "calibration.proofs",
+        "the members' programs and their proofs: each member's worst case is re-derived from them (calibration.bound, "
+        "calibration.epsilon is the largest); the values they repeat are certify's, not claims",
+    ),
     (r"(^|\.)programs_solved$", "programs_solved", "a count of the programs solved, not a certified number"),
     (
         r"^bound_details\.black_box(\.global)?\.(certified|certified_from_dual)$",

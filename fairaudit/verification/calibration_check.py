@@ -118,7 +118,12 @@ def _black_box(
     """The member's ε, and its worst case over every model (on L, or on L̄), at most the bound and the target."""
     m, eps = _member(record, "inputs.calibration.black_box")
     out = [judge("calibration.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
-    worst = _on_l_bar(cert, cal, record, m, eps) if cal.get("kind") == "global" else _on_l(cert, cal, record, m, eps)
+    proofs = cal.get("proofs") or {}
+    worst = (
+        _on_l_bar(cert, cal, record, m, eps, proofs.get("black_box"))
+        if cal.get("kind") == "global"
+        else _on_l(cert, cal, record, m, eps, proofs.get("black_box"))
+    )
     if isinstance(worst, str):
         skipped += [("calibration.bound", worst), ("calibration.target", worst)]
         return out
@@ -133,9 +138,9 @@ def _black_box(
         return out
     m_above, eps_above = _member(above, "inputs.calibration.black_box_above")
     worst_above = (
-        _on_l_bar(cert, cal, above, m_above, eps_above)
+        _on_l_bar(cert, cal, above, m_above, eps_above, proofs.get("black_box_above"))
         if cal.get("kind") == "global"
-        else _on_l(cert, cal, above, m_above, eps_above)
+        else _on_l(cert, cal, above, m_above, eps_above, proofs.get("black_box_above"))
     )
     if isinstance(worst_above, str):
         skipped.append((LARGEST, worst_above))
@@ -182,11 +187,16 @@ def _none_above(name: str) -> Check:
 
 
 def _on_l(
-    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], m: RecordedMechanism, eps: Enclosure
+    cert: Mapping[str, Any],
+    cal: Mapping[str, Any],
+    record: Mapping[str, Any],
+    m: RecordedMechanism,
+    eps: Enclosure,
+    proof: Mapping[str, Any] | None = None,
 ) -> tuple[Enclosure, str] | str:
     """ln of the member's worst local ratio over the calibration's class (one context, the box [lower, γ], τ; with
     L_A > 0 the utilities Lipschitz in the group, d the recorded metric), with what it is; or why it is not
-    re-derived."""
+    re-derived. ``proof``: the member's recorded black box (``calibration.proofs``), its programs' proofs."""
     lower, gamma = cal.get("lower") or 0.0, cal.get("gamma")
     lipschitz = exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz")
     if lipschitz:
@@ -207,7 +217,7 @@ def _on_l(
         "utility": {"values": [gamma, lower], "tau": cal.get("tau")},
         "population": {"contexts": ["x"], "groups": record["inputs"], "probabilities": [[1.0] * m.k]},
     }
-    worst = black_box_enclosures(the_class)
+    worst = black_box_enclosures(the_class, proof)
     if worst.local is None:
         return worst.reason
     logs = ln_of(worst.local)
@@ -215,7 +225,12 @@ def _on_l(
 
 
 def _on_l_bar(
-    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], m: RecordedMechanism, eps: Enclosure
+    cert: Mapping[str, Any],
+    cal: Mapping[str, Any],
+    record: Mapping[str, Any],
+    m: RecordedMechanism,
+    eps: Enclosure,
+    proof: Mapping[str, Any] | None = None,
 ) -> tuple[Enclosure, str] | str:
     """ln of the member's worst L̄ as certify bounds it, with what it is; or why it is not re-derived.
 
@@ -227,9 +242,9 @@ def _on_l_bar(
     p_x, p_a = [sum(row) for row in pop], [sum(col) for col in zip(*pop)]
     deviation = max(abs(pop[x][a] - p_x[x] * p_a[a]) for x in range(len(p_x)) for a in range(len(p_a)))
     if deviation > Fraction(1e-9):
-        worst = black_box_enclosures({**cert["inputs"], "sensitive_mechanism": record})
+        worst = black_box_enclosures({**cert["inputs"], "sensitive_mechanism": record}, proof)
         return worst.reason if worst.global_ is None else (ln_of(worst.global_), "worst case on L-bar")
-    on_l = _on_l(cert, cal, record, m, eps)
+    on_l = _on_l(cert, cal, record, m, eps, proof)
     if isinstance(on_l, str):
         return on_l
     r = [pop[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] for a in range(len(p_a)) if p_a[a]]

@@ -164,3 +164,19 @@ def test_the_member_above_misses_the_target_only_by_its_lower_end():
     wide, missed = Enclosure(F(1, 2), F(2)), Enclosure(F(1), F(2))
     assert not _largest(LARGEST, 1.0, 1.0, above, wide).holds
     assert _largest(LARGEST, 1.0, 1.0, above, missed).holds
+
+
+def test_the_members_proofs_bound_them_without_a_solve(monkeypatch):
+    # the hand calibration with the floor tau = 0.75, which binds (min g = 0.5): with the exact solve switched off
+    # (as beyond its size) each member's bound is re-derived from the thresholds recorded for its programs; without
+    # them the bound without floors is above the value, and the check fails
+    import fairaudit.verification.black_box_check as bb
+
+    cert = _cert(HAND.replace("[target]", "tau = 0.75\n[target]"))
+    assert set(cert["calibration"]["proofs"]) == {"black_box", "black_box_above"}
+    assert cert["calibration"]["proofs"]["black_box"]["screens"]
+    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    bound = _named(verify(cert), "calibration")["calibration.bound"]
+    assert bound.holds
+    del cert["calibration"]["proofs"]
+    assert "calibration.bound" in {c.name for c in verify(cert).failures}

@@ -104,9 +104,9 @@ def _thetas(detail: Mapping[str, Any], where: str, keys: list[tuple[str, list[An
     out = {}
     for i, d in enumerate(detail.get("screens") or []):
         name = f"{where}[{i}]"
-        theta = exact(d.get("theta"), f"{name}.theta") if isinstance(d.get("theta"), (int, float)) else None
+        theta = exact(d.get("theta"), f"{name}.theta") if isinstance(d.get("theta"), (int, float, str)) else None
         if not isinstance(theta, Fraction):
-            raise InputError(f"{name}.theta", "must be a finite number", d.get("theta"))
+            raise InputError(f"{name}.theta", 'must be a finite number or an exact rational "n/d"', d.get("theta"))
         out[tuple(_index(d, key, labels, name) for key, labels in keys)] = theta
     return out
 

@@ -36,32 +36,46 @@ class _Case(NamedTuple):
     theta: Fraction | None  # the one-floor threshold, on the floor Q·K ≥ kept
     kept: Fraction | None
     table: Table | None  # the maximiser's table
-    solve: Callable[[], Number | None] | None  # the program solved exactly, within the exact size
+    solve: Callable[[], Number | None] | None  # the program solved exactly, within the exact size (no proof)
 
 
 def _largest(cases: Sequence[_Case], start: Number) -> Ends:
     """max of ``start`` and the programs' bounds (each the least its proofs give: θ, ν, and no multiplier, the latter
-    two only where needed), enclosed: (lower end, upper end, whether they differ). The lower end is the largest ratio
-    attained exactly: at a recorded table (meeting every floor, each row normalised to sum to 1 exactly), or at the
-    table of the rows' maximisers where a bound is attained there; at least ``start``. A program no proof bounds
-    by the values found is solved exactly where it is small (``solve``: what calibration's members, which record
-    no proofs, are checked with)."""
+    two only where needed), enclosed: (lower end, upper end, whether they differ).
+
+    The programs are taken in decreasing order of their θ bound (+inf without θ), and one whose θ bound is at most
+    the largest bound found is passed over: it cannot raise it. The lower end is the largest ratio attained exactly:
+    at a recorded table (meeting every floor, each row normalised to sum to 1 exactly), or at the table of the rows'
+    maximisers where a bound is attained there; at least ``start``. Within the exact size (``solve``), a program
+    that records no proof is solved exactly, its value its bound; and where the lower end falls short of the upper
+    end, the first program whose bound is the upper end is solved for its value, a lower end (the proofs' bound
+    stays the upper end: what a certificate's proofs do not prove fails)."""
+    thetas = [case.program.theta_bound(case.theta, case.kept) if case.theta is not None and case.kept else INF
+              for case in cases]  # fmt: skip
     low = high = start
-    for case in cases:
-        bound: Number = INF
-        if case.theta is not None and case.kept:
-            bound = case.program.theta_bound(case.theta, case.kept)
+    top: list[_Case] = []
+    for i in sorted(range(len(cases)), key=lambda i: -thetas[i]):
+        case, bound = cases[i], thetas[i]
+        if bound <= high and bound != INF:
+            continue
+        reached: Number = Fraction(0)  # (the largest ratio this program is shown to attain)
         for nu in (case.nu, None) if case.nu is not None else (None,):
             if bound > high:
                 proved, attained = case.program.dual_bound(nu)
                 bound = min(bound, proved)
-                low = low if attained is None else max(low, attained)
-        if bound > high and case.solve is not None and (solved := case.solve()) is not None:
-            bound = solved
-            low = max(low, solved)
+                reached = reached if attained is None else max(reached, attained)
+        if case.theta is None and case.nu is None and bound > max(high, reached) and case.solve is not None:
+            solved = case.solve()  # (no proof: the program solved exactly, its value its bound)
+            if solved is not None:
+                bound, reached = solved, max(reached, solved)
+        low = max(low, reached)
+        top = [case] if bound > high else [*top, case] if bound == high else top
         high = max(high, bound)
         if case.table is not None and (ratio := case.program.point_ratio(_normalised(case.table))) is not None:
             low = max(low, ratio)
+    first = top[0] if top and low < high else None  # (the lower end: the first program at the top, solved exactly)
+    if first is not None and first.solve is not None and (solved := first.solve()) is not None:
+        low = max(low, min(solved, high))
     return min(low, high), high, low < high
 
 

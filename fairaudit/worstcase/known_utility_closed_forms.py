@@ -144,7 +144,7 @@ def _rr_local(
 
 
 def _screens(
-    problem: ModelProblem, thetas: Sequence[tuple[int | None, float | None]], a: int, b: int
+    problem: ModelProblem, thetas: Sequence[tuple[int | None, Fraction | None]], a: int, b: int
 ) -> tuple[ProgramDual, ...]:
     """The one-floor thresholds θ of the pair (a, b)'s programs (context x, or None for L̄), for the certificate."""
     groups, contexts = problem.groups, problem.contexts

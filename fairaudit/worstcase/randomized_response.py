@@ -148,28 +148,35 @@ def _rr_box_ratio(k: int, epsilon: float, lo: Fraction, hi: Fraction, floor: flo
     return (lo + span * (p + (k - 2) * q) + q * s) / f
 
 
-def rr_theta(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> float | None:
+def rr_theta(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> Fraction | None:
     """The threshold θ that proves :func:`rr_box`'s value where the floor binds: the multiplier λ − θ on
     M[a']·h ≥ floor bounds the ratio by θ + max(R(θ), 0)/floor, R(θ) = max over the box of (M[a] − θ M[a'])·h, and at
     θ = the ratio p_i/q_i of the cell the knapsack fills last (1 for another value, q/p for a' itself) that bound
     is the value (``proofs/verification.md`` §4f; the one-floor relaxation is the optimum behind randomized
-    response, ``proofs/black_box.md`` §3, Proposition 3b). None where the threshold solution meets the floor
-    (the bound without floors is the value).
+    response, ``proofs/black_box.md`` §3, Proposition 3b). Exact, at the rational upper end of e^ε
+    :func:`rr_box`'s value is taken at (:func:`rr_exact_rows`): at a smaller e^ε, as ``verify`` may take, the same
+    θ proves at most that value (p smaller, q larger). None where the threshold solution meets the floor (the bound
+    without floors is the value).
 
     Examples
     --------
     Three values at ε = ln 3 (p = 3/5, q = 1/5), h in [0, 1]: the floor 0.3 is met by raising a and part of the other
-    value (θ = 1), 0.5 by raising a' too (θ = q/p = 1/3); a floor of 0.2 is met without (None).
+    value (θ = 1), 0.5 by raising a' too (θ = q/p = 1/t, t = exp_up(ln 3) ≥ 3, the rational upper end); a floor of
+    0.2 is met without (None).
 
     >>> from fairaudit.laws.closed_forms import RandomizedResponse
     >>> rr = RandomizedResponse(("a", "b", "c"), math.log(3), "A").rr
-    >>> rr_theta(rr, 0.0, 1.0, 0.3), round(rr_theta(rr, 0.0, 1.0, 0.5), 12), rr_theta(rr, 0.0, 1.0, 0.2)
-    (1.0, 0.333333333333, None)
+    >>> theta = rr_theta(rr, 0.0, 1.0, 0.5)
+    >>> rr_theta(rr, 0.0, 1.0, 0.3), theta == 1 / Fraction(exp_up(math.log(3))), rr_theta(rr, 0.0, 1.0, 0.2)
+    (Fraction(1, 1), True, None)
     """
     span = hi - lo
     if span <= 0 or rr.p <= rr.q or lo + span * rr.q >= floor:
         return None
-    return 1.0 if floor - lo <= span * rr.q * (rr.k - 1) else rr.q / rr.p
+    if floor - lo <= span * rr.q * (rr.k - 1):
+        return Fraction(1)
+    p, q = _rows_up(rr.k, rr.epsilon)
+    return q / p
 
 
 def rr_box_point(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> RRWorst:

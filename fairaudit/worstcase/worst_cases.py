@@ -91,8 +91,8 @@ class ProgramDual:
         ν, shape (n_groups,) for L (the floors of ``context``), (n_contexts, n_groups) for L̄ and, behind a context
         mechanism other than the identity, for L (contexts in the population's order; zeros where P(X = x) = 0);
         None for a screen.
-    theta : float or None
-        A screen's threshold θ: the multiplier λ − θ on the denominator's floor (E[g | x, other_group] ≥ τ for L,
+    theta : float or Fraction or None
+        A screen's threshold θ (a Fraction where exact: recorded as "n/d" where it is not a float): the multiplier λ − θ on the denominator's floor (E[g | x, other_group] ≥ τ for L,
         E[g | other_group] ≥ τ for L̄) bounds the ratio by θ + max(R(θ), 0)/τ, R(θ) = max over the model's tables of
         (numerator − θ · denominator) (``proofs/verification.md`` §4f); None for an LP's multipliers.
     """
@@ -101,7 +101,7 @@ class ProgramDual:
     group: Hashable
     other_group: Hashable
     floors: FloatArray | None
-    theta: float | None = None
+    theta: float | Fraction | None = None
 
     def to_dict(self) -> Report:
         """The report dictionary: the program's context (L only), its pair and ν."""
@@ -110,7 +110,7 @@ class ProgramDual:
         if self.floors is not None:
             out["floors"] = np.vectorize(exact_number, otypes=[object])(self.floors).tolist()
         if self.theta is not None:
-            out["theta"] = self.theta
+            out["theta"] = exact_number(self.theta)
         return out
 
 

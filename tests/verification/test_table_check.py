@@ -50,6 +50,18 @@ def _ends(cert: dict) -> bb.WorstCaseEnclosures:
     return bb.black_box_enclosures(cert["inputs"], cert["bound_details"]["black_box"])
 
 
+def _exact(cert: dict) -> bb.WorstCaseEnclosures:
+    """The black box solved exactly within the exact size (kernel_check's rational simplex): its programs with
+    their proofs stripped, as a certificate without proofs has them, are solved; a second route to the values."""
+
+    def stripped(d):
+        for record in (d, d["global"]):
+            record.pop("duals", None)
+            record.pop("screens", None)
+
+    return _ends(_edited(cert, stripped))
+
+
 def _between(beyond: bb.WorstCaseEnclosures, exact: bb.WorstCaseEnclosures, cert: dict) -> None:
     """Each upper end from the proofs is at or above the exact value (weak duality) and at or below the certified
     ratio (what verify checks)."""
@@ -114,10 +126,10 @@ def test_the_certificate_records_a_screen_for_every_program_the_multipliers_and_
 
 
 def test_beyond_the_exact_size_verify_holds_from_the_recorded_proofs_alone(by_group, monkeypatch):
-    # within the exact size both worst cases are solved exactly (kernel_check's rational simplex); beyond it no
-    # program is solved, and the upper ends are the recorded proofs' bounds: at or above the exact values (weak
-    # duality) and at or below the certified ratios (the multipliers are floats, each proving within rounding)
-    exact = _ends(by_group)
+    # without proofs, within the exact size, both worst cases are solved exactly (kernel_check's rational simplex);
+    # with them, beyond it, no program is solved, and the upper ends are the recorded proofs' bounds: at or above
+    # the exact values (weak duality) and at or below the certified ratios (each proving within rounding)
+    exact = _exact(by_group)
     assert exact.local.lo == exact.local.hi and exact.global_.lo == exact.global_.hi
     _beyond(monkeypatch)
     beyond = _ends(by_group)
@@ -178,12 +190,13 @@ L_BAR = {"bound_details.black_box.global.value", "bound_details.black_box.global
     ],
     ids=["L theta to 0", "L-bar theta to 0", "L-bar multipliers to 0", "L-bar multipliers doubled", "L proofs to 0"],
 )
-def test_an_edited_proof_fails_the_value_it_no_longer_proves_beyond_the_exact_size(
+def test_an_edited_proof_fails_the_value_it_no_longer_proves_within_and_beyond_the_exact_size(
     by_group, monkeypatch, edit, failing
 ):
-    # within the exact size the program its proofs no longer bound by the values found is solved exactly: it holds
+    # a program with a proof is bounded by it at any size (only one without is solved): what it no longer proves
+    # fails
     edited = _edited(by_group, edit)
-    _holds(edited)
+    assert _failing(edited) == failing
     _beyond(monkeypatch)
     assert _failing(edited) == failing
 
@@ -237,7 +250,7 @@ def test_a_negative_multiplier_proves_nothing_as_if_none_were_recorded(by_group,
     # proofs/verification.md §4f: a ν with a negative entry gives +inf (it is read, not refused): L-bar's (g1 over
     # g2) is then bounded by its θ alone, 3.17, above its value, exactly as with its multipliers left out
     edited = _edited(by_group, _l_bar_negative)
-    _holds(edited)  # (within the exact size it is solved)
+    assert _failing(edited) == L_BAR  # (a program with proofs is not solved, within the exact size either)
     _beyond(monkeypatch)
     without = _edited(by_group, lambda d: d["global"]["duals"].remove(_dual(d["global"], "g1", "g2")))
     ends = [_ends(c).global_ for c in (edited, without)]
@@ -262,7 +275,7 @@ def _set(path: str, value):
     [
         ("screens[0].theta", "abc"),
         ("screens[0].theta", None),
-        ("screens[0].theta", "1/3"),  # (a θ is a JSON number; only a multiplier may be an exact "n/d")
+        ("screens[0].theta", "1/0"),  # (a θ is a number or an exact "n/d", as a multiplier)
         ("global.screens[2].theta", "inf"),
         ("duals[0].floors[2]", "abc"),
         ("duals[0].floors[2]", "1/0"),
@@ -379,8 +392,8 @@ def test_exact_multipliers_to_nearest_prove_nothing_where_b_is_flat(gamma_tau, m
 def test_within_the_exact_size_programs_without_proofs_are_solved_and_beyond_it_fail(monkeypatch):
     # three binary randomized responses keeping 0.7 (8 groups, 56 ordered pairs), g by group, tau 0.1: a screen per
     # program, and the multipliers of the programs the LP bounded. With them, verify holds beyond the exact size
-    # solving nothing; with them stripped (as a calibration member records none), within it the programs are solved
-    # (the same enclosures), and beyond it each is bounded without its floors, above the values: L and L-bar fail
+    # solving nothing; with them stripped, within it the programs are solved (exact values, at most the proofs'
+    # bounds), and beyond it each is bounded without its floors, above the values: L and L-bar fail
     cert = _certified(product_by_group(3, seed=3))
     detail = cert["bound_details"]["black_box"]
     assert len(detail["screens"]) == len(detail["global"]["screens"]) == 56
@@ -394,8 +407,9 @@ def test_within_the_exact_size_programs_without_proofs_are_solved_and_beyond_it_
     solved = []
     for name in ("kernel_local", "kernel_global"):
         monkeypatch.setattr(tc, name, lambda *args, solve=getattr(tc, name): solved.append(1) or solve(*args))
-    proved = _ends(cert)
-    assert _ends(bare) == proved and solved
+    proved, exact = _ends(cert), _ends(bare)
+    assert solved and exact.local.lo == exact.local.hi and exact.global_.lo == exact.global_.hi
+    _between(proved, exact, cert)
     _holds(bare)
     _beyond(monkeypatch)
     _holds(cert)
@@ -601,7 +615,7 @@ def test_a_product_of_randomized_responses_is_certified_at_its_exact_worst_case(
     # the witnesses are checked
     cert = _certified(BELOW)
     detail = cert["bound_details"]["black_box"]
-    exact = _ends(cert)
+    exact = _exact(cert)
     for ours, theirs in ((detail, exact.local), (detail["global"], exact.global_)):
         assert theirs.lo == theirs.hi <= F(ours["ratio"]) <= theirs.hi * (1 + F(1, 10**14))
     checked = {c.name for c in _holds(cert).checks}

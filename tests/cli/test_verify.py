@@ -30,23 +30,23 @@ def test_a_certificate_that_holds_exits_0(capsys, certificate):
     assert out.strip().splitlines()[-1].startswith(f"{certificate}: all ")
 
 
-def test_one_number_moved_by_1e_9_exits_1_and_says_by_how_much(capsys, certificate):
+def test_one_number_moved_by_1e_7_exits_1_and_says_by_how_much(capsys, certificate):
     cert = json.loads(certificate.read_text())
-    cert["bounds"]["paper"] += 1e-9
+    cert["bounds"]["paper"] += 1e-7  # the bound is 0.847...: 1e-7 relative to max(1, |value|)
     certificate.write_text(json.dumps(cert))
     code, out, _ = run(capsys, "verify", certificate)
     assert code == 1
     line = next(x for x in out.splitlines() if x.startswith("bounds.paper"))
-    assert "fails by 1e-09" in line  # 1e-9 less the tolerance, 1e-12 (9.99e-10), rounded up to two digits
-    # bound_details.paper.value repeats it: it no longer equals the bound, by the float sum's 9.9999997e-10
-    assert "bound_details.paper.value" in out and "fails by 1e-09 (bounds.paper)" in out
+    assert "fails by 9.9e-08" in line  # 1e-7 less the tolerance, 1e-9 (9.8999999e-8), rounded up to two digits
+    # bound_details.paper.value repeats it: it no longer equals the bound, by the float sum's 9.99999999e-8
+    assert "bound_details.paper.value" in out and "fails by 1e-07 (bounds.paper)" in out
     assert re.search(r": 2 of \d+ checked numbers fail$", out.strip().splitlines()[-1])
 
 
 @pytest.mark.parametrize(
     ("ulps", "repeated", "bound"),
     [
-        # 0.847... + 0.1: the float sum is 0.09999999999999998 from the bound; the bound's own check 0.1 less 1e-12
+        # 0.847... + 0.1: the float sum is 0.09999999999999998 from the bound; the bound's own check 0.1 less 1e-9
         (None, "fails by 0.1 (bounds.tight)", "fails by 0.1 (max over pairs, exactly)"),
         # 16 floats up (16 * 2^-53 = 1.776e-15): within the tolerance of the exact bound, but no longer its repeat
         (16, "fails by 1.8e-15 (bounds.tight)", "holds"),

@@ -103,6 +103,39 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, content, message):
     assert err.startswith(message) and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize(
+    ("tolerance", "message"),
+    [
+        (1e-3, "fairaudit: error: CERT.json tolerance: is greater than the maximum of 1e-06 (got 0.001)"),
+        (None, "fairaudit: error: CERT.json tolerance: is required"),  # (None: the key removed)
+    ],
+)
+def test_a_tolerance_beyond_the_schema_or_none_exits_2_naming_it(capsys, certificate, tolerance, message):
+    cert = json.loads(certificate.read_text())
+    if tolerance is None:
+        del cert["tolerance"]
+    else:
+        cert["tolerance"] = tolerance  # not in inputs: the digest still holds, the schema refuses it
+    certificate.write_text(json.dumps(cert))
+    code, out, err = run(capsys, "verify", certificate)
+    assert code == 2 and out == ""
+    assert err.startswith(message) and len(err.strip().splitlines()) == 1
+
+
+def test_a_tolerance_within_the_schema_is_the_one_judged_to(capsys, certificate):
+    # tolerance 1e-7: bounds.paper (0.847...) moved up by 5e-8 holds; with the 1e-9 certify states it fails by 4.9e-8
+    cert = json.loads(certificate.read_text())
+    cert["bounds"]["paper"] += 5e-8
+    cert["bound_details"]["paper"]["value"] = cert["bounds"]["paper"]  # its repeat, moved with it
+    for tolerance, code_wanted, verdict in ((1e-7, 0, ": holds"), (1e-9, 1, ": fails by 4.9e-08")):
+        cert["tolerance"] = tolerance
+        certificate.write_text(json.dumps(cert))
+        code, out, _ = run(capsys, "verify", certificate)
+        assert code == code_wanted
+        line = next(x for x in out.splitlines() if x.startswith("bounds.paper = "))
+        assert verdict in line, line
+
+
 def test_the_filter_a_spec_deploys_is_the_one_it_certifies(capsys, tmp_path):
     # keep = 0.7 in the spec: the certificate's epsilon covers the decimal 7/10 that `fairaudit filter --spec` deploys
     spec = tmp_path / "office.toml"

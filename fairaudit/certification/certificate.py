@@ -59,6 +59,11 @@ LARGEST_STEP = 1e-9
 """A calibration records its family's member at ε + LARGEST_STEP·max(1, ε) too (rounded up): that member misses the
 target, which ``fairaudit verify`` re-derives, so ε is the largest that meets it to this relative step."""
 
+TOLERANCE = 1e-9
+"""The certificate's relative tightness contract, written as its ``tolerance``: every certified upper bound is sound
+(at or above the exact value) and at most ``TOLERANCE``·max(1, |value|) above it (a lower bound as far below it; a
+measured value within it on either side). ``fairaudit verify`` judges the certificate's numbers to it."""
+
 DEFAULT_INTERVALS = IntervalOptions()
 """The intervals :func:`certify` makes unless told otherwise: 95%, by the method that suits the utility."""
 
@@ -179,6 +184,7 @@ class Certificate:
         out: Report = {
             "format": CERTIFICATE_FORMAT,
             "format_version": FORMAT_VERSION,
+            "tolerance": TOLERANCE,
             "certified": bool(self.certified),
             "spec": spec.source,
             "title": spec.model.title,

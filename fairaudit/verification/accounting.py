@@ -70,8 +70,9 @@ KINDS: tuple[tuple[str, str, str], ...] = (
 """(pattern on the number's path, the name it is listed under, the reason), first match wins; a number matched by
 none is listed under its own path as "not re-derived"."""
 
-_SKIP = ("format_version", "inputs", "inputs_sha256")
-"""Top-level keys that are not claims: the format's version and the data themselves."""
+_SKIP = ("format_version", "tolerance", "inputs", "inputs_sha256")
+"""Top-level keys that are not claims: the format's version, the tolerance the numbers are judged to and the data
+themselves."""
 
 VERDICTS = re.compile(r"^(bounds\.best_form|population\.independent|assumptions\[\d+\]\.status)$")
 """The verdicts a certificate states as labels (every boolean is a verdict too)."""

@@ -21,7 +21,7 @@ from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.black_box_check import black_box_enclosures
-from fairaudit.verification.checks import TOLERANCE, Check, judge
+from fairaudit.verification.checks import Check, judge, tolerance
 from fairaudit.verification.class_check import lipschitz_class_enclosure
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, ln, ln_of, recorded_array
 from fairaudit.verification.observed_check import observed_enclosures
@@ -158,13 +158,14 @@ STEP = 2e-9
 
 def _largest(name: str, epsilon: Any, target: Any, eps_above: Enclosure, above: Enclosure) -> Check:
     """ε is the largest that meets the target, to the step: the member above has ε' in (ε, ε + :data:`STEP`·max(1, ε)] and
-    misses the target (the lower end of its exact value is not below the target by more than the tolerance; monotone
-    in ε along the family, ``proofs/calibration.md`` §3, so no ε'' ≥ ε' meets it)."""
+    misses the target (the lower end of its exact value is not below the target by more than the certificate's
+    tolerance, :func:`~fairaudit.verification.checks.tolerance`; monotone in ε along the family,
+    ``proofs/calibration.md`` §3, so no ε'' ≥ ε' meets it)."""
     eps, goal = exact(epsilon, "calibration.epsilon"), exact(target, "calibration.target")
     if not (isinstance(eps, Fraction) and isinstance(goal, Fraction)):  # +inf: every epsilon meets, none is above
         near = meets = False
     else:
-        slack = Fraction(TOLERANCE) * max(Fraction(1), abs(goal))
+        slack = tolerance() * max(Fraction(1), abs(goal))
         near = eps < eps_above.lo and eps_above.hi <= eps + Fraction(STEP) * max(Fraction(1), eps)
         meets = above.lo != INF and above.lo < goal - slack  # (its lower end: the value may be as low)
     ok = near and not meets

@@ -1,13 +1,18 @@
 """One recorded number of a certificate against its re-derived value: :class:`Check`, :func:`judge`, :func:`equal`.
 
 A number **holds** when it lies on its certified side of the exact value (an upper bound at or above it) and within
-:data:`TOLERANCE` of it (so that a number moved by 1e-9 fails); a measured value holds within the tolerance on either
-side.
+the tolerance of it, relative to max(1, |value|) (so that a number moved by twice the tolerance fails); a measured
+value holds within the tolerance on either side. The tolerance is the one the certificate states (its
+``tolerance``, 1e-9 as certify writes it), which :func:`~fairaudit.verification.rederive.verify` sets with
+:func:`stated_tolerance` for the time of its checks; elsewhere it is :data:`TOLERANCE`.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from decimal import ROUND_CEILING, Decimal
 from fractions import Fraction
@@ -17,13 +22,18 @@ from fairaudit.base.json_values import Report, number
 from fairaudit.base.outward import fraction_down, fraction_up
 from fairaudit.verification.enclosures import INF, Enclosure, exact
 
-__all__ = ["SIDES", "TOLERANCE", "Check", "equal", "judge"]
+__all__ = ["SIDES", "TOLERANCE", "Check", "equal", "judge", "stated_tolerance", "tolerance"]
 
 LARGEST = Fraction(1.7976931348623157e308)
 """The largest finite float: an exact value above it rounds to +inf (up, or to nearest)."""
 
-TOLERANCE = 1e-12
-"""How far (relative to max(1, |value|)) a recorded number may sit from its exact value on its allowed side."""
+TOLERANCE = 1e-9
+"""How far (relative to max(1, |value|)) a recorded number may sit from its exact value on its allowed side, where no
+certificate states it (a direct call of :func:`judge`): certify's contract, 1e-9. ``verify`` judges a certificate's
+numbers to the ``tolerance`` the certificate states (:func:`stated_tolerance`)."""
+
+_TOLERANCE: ContextVar[Fraction] = ContextVar("fairaudit_verify_tolerance", default=Fraction(TOLERANCE))
+"""The tolerance numbers are judged to now, exactly (the float's value): :data:`TOLERANCE` unless set."""
 
 SIDES = ("upper", "lower", "estimate", "equal", "at most", "at least", "met")
 """A check's side: an upper bound (≥ the exact value, within the tolerance), a lower bound, a measured value (either
@@ -122,6 +132,51 @@ def _outward(x: Fraction | float, upward: bool) -> Fraction | float:
     return Fraction(_float(x, upward))
 
 
+def tolerance() -> Fraction:
+    """The tolerance numbers are judged to now, exactly: the one :func:`stated_tolerance` set, else :data:`TOLERANCE`.
+
+    Examples
+    --------
+    >>> tolerance() == Fraction(1e-9)
+    True
+    """
+    return _TOLERANCE.get()
+
+
+@contextmanager
+def stated_tolerance(value: float) -> Iterator[Fraction]:
+    """Judge numbers to ``value`` (a certificate's stated ``tolerance``) inside the ``with`` block, and to the
+    tolerance before it after the block, however it ends.
+
+    Parameters
+    ----------
+    value : float
+        The relative tolerance, > 0 (the certificate's schema bounds it: at most 1e-6).
+
+    Yields
+    ------
+    Fraction
+        The tolerance, exactly (the float's value).
+
+    Examples
+    --------
+    >>> third = Enclosure(Fraction(1, 3), Fraction(1, 3))
+    >>> moved = 0.33333334333333337  # 1/3 + 1e-8
+    >>> judge("x", moved, third, "upper").line()
+    'x = 0.33333334333333337: fails by 9e-09'
+    >>> with stated_tolerance(1e-7):
+    ...     judge("x", moved, third, "upper").line()
+    'x = 0.33333334333333337: holds'
+    >>> tolerance() == Fraction(TOLERANCE)
+    True
+    """
+    token = _TOLERANCE.set(Fraction(value))
+    try:
+        yield _TOLERANCE.get()
+    finally:
+        _TOLERANCE.reset(token)
+
+
 def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str = "") -> Check:
     """The check of a reported number against the enclosure of its exact value, on ``side``.
 
@@ -134,10 +189,11 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
     derived : Enclosure
         lo ≤ exact value ≤ hi.
     side : {"upper", "lower", "estimate", "equal", "at most", "at least", "met"}
-        "upper": the number must be ≥ hi and ≤ hi + :data:`TOLERANCE`·max(1, |hi|); "lower": ≤ lo and within the
-        tolerance below it; "estimate": within the tolerance of [lo, hi]; "equal": in [lo, hi]; "at most": ≤ lo
-        (a value attained, a witness); "at least": ≥ hi (a target the exact value meets); "met": ≥ lo less the
-        tolerance (a target a measured value meets, to its rounding).
+        "upper": the number must be ≥ hi and ≤ hi + t·max(1, |hi|), t the tolerance (:func:`tolerance`: the
+        certificate's, else :data:`TOLERANCE`); "lower": ≤ lo and within the tolerance below it; "estimate": within
+        the tolerance of [lo, hi]; "equal": in [lo, hi]; "at most": ≤ lo (a value attained, a witness); "at least":
+        ≥ hi (a target the exact value meets); "met": ≥ lo less the tolerance (a target a measured value meets, to
+        its rounding).
     detail : str
         What was re-derived.
 
@@ -151,8 +207,10 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
     >>> third = Enclosure(Fraction(1, 3), Fraction(1, 3))
     >>> judge("x", 0.3333333333333333, third, "upper").holds, judge("x", 0.33333333333333337, third, "upper").holds
     (False, True)
-    >>> judge("x", 0.3333333343333334, third, "upper").line()
-    'x = 0.3333333343333334: fails by 1e-09'
+    >>> judge("x", 0.3333333338333334, third, "upper").holds  # 1/3 + 5e-10: within the tolerance, 1e-9
+    True
+    >>> judge("x", 0.3333333353333334, third, "upper").line()  # 1/3 + 2e-9: 1e-9 beyond it (rounded up)
+    'x = 0.3333333353333334: fails by 1.1e-09'
     >>> judge("target", 0.5, third, "at least").holds, judge("target", 0.3, third, "at least").holds
     (True, False)
     >>> judge("x", "inf", third, "upper").holds  # +inf bounds 1/3, but it is not the bound re-derived
@@ -167,7 +225,7 @@ def judge(name: str, reported: Any, derived: Enclosure, side: str, detail: str =
         return Check(name=name, reported=reported, derived_low=low, derived_high=high, side=side, holds=False,
                      fails_by=math.inf, detail="no value recorded")  # fmt: skip
     scale = max(Fraction(1), abs(derived.hi)) if isinstance(derived.hi, Fraction) else Fraction(1)
-    slack = Fraction(TOLERANCE) * scale
+    slack = tolerance() * scale
     if value == INF or derived.hi == INF:
         # +inf bounds everything, but as an upper bound of a finite exact value it is not the number re-derived,
         # unless no float is as large (e^800): then +inf is that value rounded up (or to nearest)

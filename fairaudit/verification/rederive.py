@@ -7,9 +7,10 @@ bounds, every metric of the ``observed`` and ``unfiltered`` sections (L and L̄,
 ratios) with each maximiser (:mod:`~fairaudit.verification.observed_check`,
 :mod:`~fairaudit.verification.metrics_check`), and the targets' verdicts.
 Each is a :class:`~fairaudit.verification.checks.Check`: it **holds** when it lies on its certified side of the exact
-value (an upper bound at or above it) and within :data:`~fairaudit.verification.checks.TOLERANCE` of it (so that a
-number moved by 1e-9 fails); a measured value holds within the tolerance on either side. Every number it does not
-re-derive is listed with the reason. It imports neither cvxpy, Clarabel nor scipy.
+value (an upper bound at or above it) and within the certificate's stated ``tolerance`` of it (1e-9 as certify
+writes it), relative to max(1, |value|), so that a number moved by 2e-9·max(1, |value|) fails; a measured value
+holds within the tolerance on either side. Every number it does not re-derive is listed with the reason. It imports
+neither cvxpy, Clarabel nor scipy.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 from fairaudit.base.json_values import Report, canonical_digest, number
 from fairaudit.verification.accounting import unaccounted
 from fairaudit.verification.calibration_check import calibration_checks
-from fairaudit.verification.checks import Check, equal, judge
+from fairaudit.verification.checks import Check, equal, judge, stated_tolerance
 from fairaudit.verification.distribution_check import distribution_checks
 from fairaudit.verification.enclosures import (
     INF,
@@ -122,13 +123,14 @@ def verify(
     Returns
     -------
     Verification
-        One :class:`Check` per number re-derived (``holds`` or ``fails_by``), and the numbers not re-derived with
-        the reason.
+        One :class:`Check` per number re-derived (``holds`` or ``fails_by``), judged to the ``tolerance`` the
+        certificate states, and the numbers not re-derived with the reason.
 
     Raises
     ------
     InputError
-        When the certificate does not match its schema (the field named by its JSON path).
+        When the certificate does not match its schema (the field named by its JSON path), its ``tolerance``
+        included (a number above 0 and at most 1e-6).
 
     Examples
     --------
@@ -150,13 +152,19 @@ def verify(
     ... ''')).to_dict()
     >>> verify(cert).holds
     True
-    >>> cert["bounds"]["tight"] += 1e-9
-    >>> [c.name for c in verify(cert).failures]
-    ['bound_details.tight.value', 'bounds.tight']
+    >>> cert["bounds"]["tight"] += 2e-9 * max(1.0, cert["bounds"]["tight"])  # twice the tolerance it states
+    >>> cert["tolerance"], [c.name for c in verify(cert).failures]
+    (1e-09, ['bound_details.tight.value', 'bounds.tight'])
     """
     from fairaudit.verification.schema import check_certificate
 
     check_certificate(certificate)
+    with stated_tolerance(certificate["tolerance"]):  # every number is judged to it, and only during this verify
+        return _rederived(certificate, privacy_filter, source)
+
+
+def _rederived(certificate: Mapping[str, Any], privacy_filter: PrivacyFilter | None, source: str) -> Verification:
+    """:func:`verify`'s checks of a certificate that matches its schema, at the tolerance it states."""
     inputs = certificate["inputs"]
     checks: list[Check] = [
         equal("inputs_sha256", certificate["inputs_sha256"], canonical_digest(inputs), "the SHA-256 of the inputs")

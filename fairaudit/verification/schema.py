@@ -1,9 +1,10 @@
 """The certificate's JSON Schema, ``certificate.schema.json`` (draft 2020-12), checked with ``jsonschema``.
 
 The schema ships with the package. It is strict on what ``fairaudit verify`` reads (``format``, ``format_version``,
-``inputs_sha256``, ``inputs``, ``bounds`` and ``privacy``: every key required, no other key) and types the keys of
-the other sections that docs/cli.md lists (they may hold more). The format is ``docs/certificates.md`` ("The
-certificate's format"). ``jsonschema`` is imported when a certificate is checked, not with ``fairaudit``.
+``tolerance``, ``inputs_sha256``, ``inputs``, ``bounds`` and ``privacy``: every key required, no other key) and
+types the keys of the other sections that docs/cli.md lists (they may hold more). The format is
+``docs/certificates.md`` ("The certificate's format"). ``jsonschema`` is imported when a certificate is checked, not
+with ``fairaudit``.
 """
 
 from __future__ import annotations

@@ -30,23 +30,23 @@ def test_a_certificate_that_holds_exits_0(capsys, certificate):
     assert out.strip().splitlines()[-1].startswith(f"{certificate}: all ")
 
 
-def test_one_number_moved_by_1e_9_exits_1_and_says_by_how_much(capsys, certificate):
+def test_one_number_moved_by_1e_7_exits_1_and_says_by_how_much(capsys, certificate):
     cert = json.loads(certificate.read_text())
-    cert["bounds"]["paper"] += 1e-9
+    cert["bounds"]["paper"] += 1e-7  # the bound is 0.847...: 1e-7 relative to max(1, |value|)
     certificate.write_text(json.dumps(cert))
     code, out, _ = run(capsys, "verify", certificate)
     assert code == 1
     line = next(x for x in out.splitlines() if x.startswith("bounds.paper"))
-    assert "fails by 1e-09" in line  # 1e-9 less the tolerance, 1e-12 (9.99e-10), rounded up to two digits
-    # bound_details.paper.value repeats it: it no longer equals the bound, by the float sum's 9.9999997e-10
-    assert "bound_details.paper.value" in out and "fails by 1e-09 (bounds.paper)" in out
+    assert "fails by 9.9e-08" in line  # 1e-7 less the tolerance, 1e-9 (9.8999999e-8), rounded up to two digits
+    # bound_details.paper.value repeats it: it no longer equals the bound, by the float sum's 9.99999999e-8
+    assert "bound_details.paper.value" in out and "fails by 1e-07 (bounds.paper)" in out
     assert re.search(r": 2 of \d+ checked numbers fail$", out.strip().splitlines()[-1])
 
 
 @pytest.mark.parametrize(
     ("ulps", "repeated", "bound"),
     [
-        # 0.847... + 0.1: the float sum is 0.09999999999999998 from the bound; the bound's own check 0.1 less 1e-12
+        # 0.847... + 0.1: the float sum is 0.09999999999999998 from the bound; the bound's own check 0.1 less 1e-9
         (None, "fails by 0.1 (bounds.tight)", "fails by 0.1 (max over pairs, exactly)"),
         # 16 floats up (16 * 2^-53 = 1.776e-15): within the tolerance of the exact bound, but no longer its repeat
         (16, "fails by 1.8e-15 (bounds.tight)", "holds"),
@@ -101,6 +101,39 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, content, message):
     code, out, err = run(capsys, "verify", path)
     assert code == 2 and out == ""
     assert err.startswith(message) and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    ("tolerance", "message"),
+    [
+        (1e-3, "fairaudit: error: CERT.json tolerance: is greater than the maximum of 1e-06 (got 0.001)"),
+        (None, "fairaudit: error: CERT.json tolerance: is required"),  # (None: the key removed)
+    ],
+)
+def test_a_tolerance_beyond_the_schema_or_none_exits_2_naming_it(capsys, certificate, tolerance, message):
+    cert = json.loads(certificate.read_text())
+    if tolerance is None:
+        del cert["tolerance"]
+    else:
+        cert["tolerance"] = tolerance  # not in inputs: the digest still holds, the schema refuses it
+    certificate.write_text(json.dumps(cert))
+    code, out, err = run(capsys, "verify", certificate)
+    assert code == 2 and out == ""
+    assert err.startswith(message) and len(err.strip().splitlines()) == 1
+
+
+def test_a_tolerance_within_the_schema_is_the_one_judged_to(capsys, certificate):
+    # tolerance 1e-7: bounds.paper (0.847...) moved up by 5e-8 holds; with the 1e-9 certify states it fails by 4.9e-8
+    cert = json.loads(certificate.read_text())
+    cert["bounds"]["paper"] += 5e-8
+    cert["bound_details"]["paper"]["value"] = cert["bounds"]["paper"]  # its repeat, moved with it
+    for tolerance, code_wanted, verdict in ((1e-7, 0, ": holds"), (1e-9, 1, ": fails by 4.9e-08")):
+        cert["tolerance"] = tolerance
+        certificate.write_text(json.dumps(cert))
+        code, out, _ = run(capsys, "verify", certificate)
+        assert code == code_wanted
+        line = next(x for x in out.splitlines() if x.startswith("bounds.paper = "))
+        assert verdict in line, line
 
 
 def test_the_filter_a_spec_deploys_is_the_one_it_certifies(capsys, tmp_path):

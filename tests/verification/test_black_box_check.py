@@ -123,7 +123,7 @@ def _unlike_contexts(n_contexts, utility):
 def test_l_bar_over_contexts_unlike_is_re_derived_block_by_block(utility, tmp_path):
     # 30 contexts with P(x | a) unlike: one program over all of them has 90 variables (box) or 121 (table), beyond
     # 64; each context is a block of a product, solved block by block. The certificate's L-bar holds and one moved
-    # by 1e-9 fails
+    # by 1e-7 relative (beyond the certificate's tolerance, 1e-9) fails
     spec = _unlike_contexts(30, utility)
     if "table" in utility:
         spec = spec.replace(
@@ -133,7 +133,8 @@ def test_l_bar_over_contexts_unlike_is_re_derived_block_by_block(utility, tmp_pa
     cert, result, checked = certified_and_verified(spec, tmp_path)
     assert "bound_details.black_box.global.value" in checked
     assert not [why for _, why in result.not_checked if "beyond" in why]
-    cert["bound_details"]["black_box"]["global"]["value"] += 1e-9
+    glob = cert["bound_details"]["black_box"]["global"]
+    glob["value"] += 1e-7 * max(1.0, glob["value"])
     assert "bound_details.black_box.global.value" in {c.name for c in verify(cert).failures}
 
 

@@ -1,6 +1,7 @@
 """`fairaudit.verification.metrics_check.metric_checks`: the ratios, gaps, sups over g and maximisers of the observed
 and unfiltered sections against hand calculations; on the shipped examples and on random specs every such number
-moved by 1e-9 fails, and a swapped pair, a changed event or a label not among the inputs' fails."""
+moved by 1e-7 (beyond the certificate's tolerance, 1e-9) fails, and a swapped pair, a changed event or a label not
+among the inputs' fails."""
 
 from __future__ import annotations
 
@@ -171,8 +172,8 @@ def _details(cert: dict[str, Any]) -> list[tuple[str, str, dict[str, Any]]]:
 
 
 def _check_edits(cert: dict[str, Any]) -> None:
-    """Every metric check holds; each of its numbers moved by 1e-9·max(1, |v|) either way fails; a swapped pair, the
-    complement of an event and a label not among the inputs' fail."""
+    """Every metric check holds; each of its numbers moved by 1e-7·max(1, |v|) either way (beyond the certificate's
+    tolerance, 1e-9) fails; a swapped pair, the complement of an event and a label not among the inputs' fail."""
     checks = _checks(cert)
     assert all(c.holds for c in checks), [c.line() for c in checks if not c.holds]
     for check in checks:
@@ -182,13 +183,13 @@ def _check_edits(cert: dict[str, Any]) -> None:
             if found is None:  # "inf", null or a maximiser
                 continue
             where, key = found
-            where[key] += sign * 1e-9 * max(1.0, abs(where[key]))
+            where[key] += sign * 1e-7 * max(1.0, abs(where[key]))
             assert check.name in _failing(moved), (check.name, sign)
     decisions = cert["inputs"]["kernel"]["decisions"]
     for section, key, detail in _details(copy.deepcopy(cert)):
         path = f"{section}.{key}" if key == "global" else f"{section}.details.{key}"
-        # a swapped pair (or an event's complement) gives -v: within the tolerance 1e-12 of v when v is as small
-        distinct = detail["value"] == "inf" or detail["value"] > 1e-11
+        # a swapped pair (or an event's complement) gives -v: within the tolerance 1e-9 of v when v is as small
+        distinct = detail["value"] == "inf" or detail["value"] > 1e-8
         edits = [{"group": detail["other_group"], "other_group": detail["group"]}] if distinct else []
         edits.append({"group": "no such group"})
         if detail.get("context") is not None:

@@ -46,12 +46,12 @@ def _product(components: int, tau: str = "tau = 0.1") -> dict:
 
 def test_sixty_four_groups_are_verified_from_their_proofs():
     # six attributes, 64 groups: the 2 x 64 x 63 programs of L and L-bar are each bounded by the proof certify
-    # records, and verify holds; a value moved by 1e-9 fails
+    # records, and verify holds; a value moved by 1e-7 (beyond the certificate's tolerance, 1e-9) fails
     cert = _product(6)
     checked = verify(cert)
     assert checked.holds, [c.line() for c in checked.failures]
     assert "bounds.black_box" in {c.name for c in checked.checks}
-    cert["bound_details"]["black_box"]["value"] += 1e-9
+    cert["bound_details"]["black_box"]["value"] += 1e-7 * max(1.0, cert["bound_details"]["black_box"]["value"])
     assert "bound_details.black_box.value" in {c.name for c in verify(cert).failures}
 
 

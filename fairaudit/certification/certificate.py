@@ -32,6 +32,7 @@ from fairaudit.certification.recorded_inputs import (
     CERTIFICATE_FORMAT,
     FORMAT_VERSION,
     certificate_inputs,
+    member_proofs,
 )
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
@@ -39,7 +40,7 @@ from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.independence import independence_factor
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Law, Population, compose
-from fairaudit.laws.utilities import Utility, UtilityClass
+from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.metrics.bounds import Bound, corollary_bound, paper_bound, tight_bound
 from fairaudit.metrics.observed import Observed, observe
@@ -296,40 +297,9 @@ class Certificate:
             }
         if self.calibration_white_box is not None:
             out["white_box"] = self.calibration_white_box.to_dict()
-        proofs = self._member_proofs()
+        proofs = member_proofs(self.spec, self.calibration, self._calibrated_members())
         if proofs:
             out["proofs"] = proofs
-        return out
-
-    def _member_proofs(self) -> dict[str, Report]:
-        """The proofs of the black-box calibration's members (at ε and just above it), by member, for ``fairaudit
-        verify``: each the black box of the programs it checks there, as ``bound_details.black_box`` records one.
-
-        On L (and on L̄ through L, X and A independent) the class's worst case: one context ``"x"``, the member's
-        groups, uniform, the utility (γ, lower) on two decisions and the class's τ (``proofs/black_box.md`` §1, §6: a
-        utility free of the group enters only through h in [lower, γ]); on L̄ with X and A dependent, the worst case
-        for the spec's utility, population and context mechanism behind the member. None for the class Lipschitz in
-        the group (``verify`` solves it).
-        """
-        cal, members = self.calibration, self._calibrated_members()
-        if cal is None or members is None or cal.lipschitz:
-            return {}
-        spec = self.spec
-        dependent = cal.kind == "global" and not spec.population.independence().independent
-        out: dict[str, Report] = {}
-        for key in ("black_box", "black_box_above"):
-            m = members.get(key)
-            if m is None or len(m.inputs) < 2:
-                continue
-            if dependent:
-                worst = worst_model(m, spec.utility, context_mechanism=spec.context_mechanism,
-                                    population=spec.population, tau=spec.tau)  # fmt: skip
-            else:
-                k = len(m.inputs)
-                population = Population([[1 / k] * k], ["x"], m.inputs)
-                worst = worst_model(m, Utility([cal.gamma, cal.lower], ["gamma", "lower"]), population=population,
-                                    tau=None if math.isnan(cal.tau) else cal.tau)  # fmt: skip
-            out[key] = worst.to_dict()
         return out
 
 

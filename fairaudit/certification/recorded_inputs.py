@@ -8,8 +8,9 @@ format is ``docs/certificates.md`` ("The certificate's format"); ``fairaudit ver
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -19,6 +20,11 @@ from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
+from fairaudit.worstcase.known_utility import worst_model
+
+if TYPE_CHECKING:
+    from fairaudit.certification.spec import Spec
+    from fairaudit.worstcase.calibration_result import Calibration
 
 __all__ = [
     "CERTIFICATE_FORMAT",
@@ -26,6 +32,7 @@ __all__ = [
     "certificate_inputs",
     "json_array",
     "mechanism_inputs",
+    "member_proofs",
 ]
 
 CERTIFICATE_FORMAT = "fairaudit-certificate"
@@ -148,3 +155,35 @@ def certificate_inputs(
 def _real(x: float | None) -> float | str | None:
     """A class field as JSON: None stays None, ±inf as a string."""
     return None if x is None else json_array(float(x))
+
+
+def member_proofs(
+    spec: Spec, cal: Calibration | None, members: Mapping[str, Mechanism | None] | None
+) -> dict[str, Report]:
+    """The proofs of the black-box calibration's members (at ε and just above it), by member, for ``fairaudit
+    verify``: each the black box of the programs it checks there, as ``bound_details.black_box`` records one.
+
+    On L (and on L̄ through L, X and A independent) the class's worst case: one context ``"x"``, the member's
+    groups, uniform, the utility (γ, lower) on two decisions and the class's τ (``proofs/black_box.md`` §1, §6: a
+    utility free of the group enters only through h in [lower, γ]); on L̄ with X and A dependent, the worst case
+    for the spec's utility, population and context mechanism behind the member. None for the class Lipschitz in
+    the group (``verify`` solves it).
+    """
+    if cal is None or members is None or cal.lipschitz:
+        return {}
+    dependent = cal.kind == "global" and not spec.population.independence().independent
+    out: dict[str, Report] = {}
+    for key in ("black_box", "black_box_above"):
+        m = members.get(key)
+        if m is None or len(m.inputs) < 2:
+            continue
+        if dependent:
+            worst = worst_model(m, spec.utility, context_mechanism=spec.context_mechanism,
+                                population=spec.population, tau=spec.tau)  # fmt: skip
+        else:
+            k = len(m.inputs)
+            population = Population([[1 / k] * k], ["x"], m.inputs)
+            worst = worst_model(m, Utility([cal.gamma, cal.lower], ["gamma", "lower"]), population=population,
+                                tau=None if math.isnan(cal.tau) else cal.tau)  # fmt: skip
+        out[key] = worst.to_dict()
+    return out

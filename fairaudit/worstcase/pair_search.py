@@ -37,6 +37,10 @@ STOP = 1e-12
 """Relative margin of :func:`search`'s stop: problems whose bound is within it of the best value are not solved
 (their bound, when above, is the value returned)."""
 
+TIE = 1e-9
+"""Relative margin of :func:`search`'s tie rule: a problem becomes the maximiser only where its value exceeds the
+maximiser's by more than it (the solver's accuracy), so near-ties keep the earlier problem."""
+
 SEARCH_BAR = "{desc}: {n}/{total} {unit}s [{elapsed}{postfix}]"
 """The format of :func:`search`'s progress bar: no time left, as the search usually stops long before its last
 problem."""
@@ -83,7 +87,7 @@ def _search(upper: FloatArray, solve: Callable[[int], FractionalResult], bar: Pr
         if r.status in ("infeasible", "error"):  # an empty polytope, or a program not solved: no maximum to give
             return SearchResult(index=-1, result=r, solved=solved, reason=r.reason)
         certified = certified and r.certified
-        if best is None or r.value > best_v * (1 + 1e-9):  # ties (to solver accuracy) keep the earlier pair
+        if best is None or r.value > best_v * (1 + TIE):  # ties (to solver accuracy) keep the earlier pair
             best_i, best, best_v = int(i), r, r.value
         top = max(top, r.value)
         if ranked is not None:

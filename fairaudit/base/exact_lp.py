@@ -365,7 +365,7 @@ class ExactProgram:
         exact_cost = [_finite("cost", j, v) for j, v in enumerate(cost)]
         self.c = [_fmpq(v) if v else 0 for v in exact_cost]
         if basis is None:
-            start, status = self._solver_basis([float(v) for v in exact_cost])
+            start, status, _ = self._solver_basis([float(v) for v in exact_cost])
         else:
             start, status = "given", self._given(basis)
         try:
@@ -378,9 +378,18 @@ class ExactProgram:
             duals = tuple(_fraction_of(v) for v in state.y)
             return SimplexOptimum("unproved", None, point, duals, tuple(state.status), 0, start)
         outcome, state, pivots = _exact_simplex(self, state)
-        if basis is None and self._highs is not None:
+        if self._highs is not None:
             self._warm(state.status)
         return self._optimum(outcome, state, pivots, start)
+
+    def solver_duals(self, cost: Sequence[Any]) -> tuple[list[Status], npt.NDArray[np.float64] | None]:
+        """HiGHS's final basis for min c·x and its row duals y in floating point, shape (m,) (None without a valid
+        basis), at the scale of c: a dual point whose bound by weak duality a caller checks exactly before, or in
+        place of, the exact solve, which :meth:`minimize` does from that basis (``basis``)."""
+        if len(cost) != self.n:
+            raise InputError("cost", f"must have length {self.n}", len(cost))
+        start, status, duals = self._solver_basis([float(_finite("cost", j, v)) for j, v in enumerate(cost)])
+        return status, duals
 
     def _optimum(self, outcome: str, state: _Basis, pivots: int, start: str) -> SimplexOptimum:
         basis = tuple(state.status)
@@ -408,8 +417,9 @@ class ExactProgram:
         cols = [_column_status(self.lower[j], self.upper[j]) for j in range(self.n)]
         return cols + ["basic"] * self.m
 
-    def _solver_basis(self, cost: list[float]) -> tuple[str, list[Status]]:
-        """HiGHS's simplex on the floating-point program, warm-started from the last basis; its final basis."""
+    def _solver_basis(self, cost: list[float]) -> tuple[str, list[Status], npt.NDArray[np.float64] | None]:
+        """HiGHS's simplex on the floating-point program, warm-started from the last basis; its final basis and row
+        duals (at the scale of ``cost``; None without a valid basis)."""
         import highspy
 
         h = self._highs if self._highs is not None else self._build()
@@ -419,14 +429,15 @@ class ExactProgram:
         h.run()
         b = h.getBasis()
         if not b.valid:
-            return "slack", self._slack()
+            return "slack", self._slack(), None
         names = {
             highspy.HighsBasisStatus.kBasic: "basic",
             highspy.HighsBasisStatus.kLower: "lower",
             highspy.HighsBasisStatus.kUpper: "upper",
         }
         status = [names.get(s, "zero") for s in [*b.col_status, *b.row_status]]
-        return "solver", self._given(status)  # type: ignore[arg-type]
+        duals = np.asarray(h.getSolution().row_dual, dtype=float) * (scale if scale > 0 else 1.0)
+        return "solver", self._given(status), duals  # type: ignore[arg-type]
 
     def _build(self) -> Any:
         import highspy

@@ -30,7 +30,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import TYPE_CHECKING, Literal, TypeAlias, overload
+from typing import TYPE_CHECKING, Any, Literal, TypeAlias, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -44,7 +44,6 @@ from fairaudit.base.threshold_rule import threshold_max_many
 if TYPE_CHECKING:
     import scipy.sparse as sp
 
-    from fairaudit.base.exact_lp import SimplexOptimum
 
 ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
 """A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
@@ -327,9 +326,12 @@ class FractionalProgram:
             The numerator and the denominator; q·h ≥ 0 on the polytope.
         below : float, optional
             A value the caller already holds (a ratio): the method starts at λ₀ = ``below``, and where a step proves
-            max (p − below·q)·h ≤ 0 the maximum is at most ``below``, returned at once, certified, with the ratio at
-            that step's vertex as the witness and that step's duals (which prove ``below``, not the program's own
-            maximum). A search passes the largest value it has found: a program that cannot beat it costs one step.
+            max (p − below·q)·h ≤ 0 the maximum is at most ``below``, returned at once, certified, with that step's
+            duals (which prove ``below``, not the program's own maximum). The first step tries HiGHS's own duals
+            first, in floating point: where their bound by weak duality, checked exactly, is within
+            :data:`CROSSOVER_TOLERANCE` of ``below``, that bound comes back with no witness (NaN) and no exact solve;
+            otherwise the basis is solved exactly, its vertex the witness. A search passes the largest value it has
+            found: a program that cannot beat it costs one HiGHS solve and one exact check.
             Default -inf: never.
 
         Returns
@@ -353,10 +355,21 @@ class FractionalProgram:
         while True:
             cost = top if lam is None else [a - lam * b for a, b in zip(top, bottom, strict=True)]
             negated = [-c for c in cost]
-            found = self._program.minimize(negated, pivot=False)
+            if steps == 0 and lam is not None:  # (``below``: HiGHS's own duals may prove it, before any exact solve)
+                basis, duals = self._program.solver_duals(negated)
+                early = None if duals is None else self._bounded_by_duals(result, lam, at, duals, None, top, bottom, 1)
+                if early is not None:
+                    return early
+                found = self._program.minimize(negated, basis, pivot=False)
+            else:
+                found = self._program.minimize(negated, pivot=False)
             steps += 1
             if found.status == "unproved":  # HiGHS's basis is not optimal exactly: its duals may bound the ratio
-                early = None if lam is None else self._bounded_by_duals(result, lam, at, found, top, bottom, steps)
+                early = (
+                    None
+                    if lam is None
+                    else self._bounded_by_duals(result, lam, at, found.duals, found.point, top, bottom, steps)
+                )
                 if early is not None:
                     return early
                 if found.point is not None:  # its vertex, feasible exactly, moves λ up where it beats it
@@ -399,24 +412,26 @@ class FractionalProgram:
         result: Callable[..., FractionalResult],
         lam: Fraction,
         at: FloatArray | None,
-        found: SimplexOptimum,
+        duals: Sequence[Any] | npt.NDArray[np.float64] | None,
+        vertex: Sequence[Fraction] | None,
         top: list[Fraction],
         bottom: list[Fraction],
         steps: int,
     ) -> FractionalResult | None:
-        """The result where the duals of a basis that is not optimal exactly, read to nearest, prove by weak duality
+        """The result where the row duals y of a basis (HiGHS's in floating point, or the exact ones of a basis that
+        is not optimal exactly), read to nearest, prove by weak duality
         (:func:`~fairaudit.base.exact_duality.certify_ratio`) a bound within :data:`CROSSOVER_TOLERANCE` of λ: that
-        bound, with λ (the ratio at ``at``) or the ratio at the basis's feasible vertex as the witness; else None
-        (``proofs/exact_lp.md`` §4, "A bound from the duals")."""
-        dual = self._multipliers(found.duals)
+        bound, with λ (the ratio at ``at``) or the ratio at the basis's feasible vertex (``vertex``, exact) as the
+        witness; else None (``proofs/exact_lp.md`` §4, "A bound from the duals")."""
+        dual = self._multipliers(duals)
         bound = self._near_bound(lam, dual)
         if bound is None:
             return None
         witness, point = math.nan, at
         if at is not None:
             witness = fraction_down(lam)
-        elif found.point is not None and (den := _dot(bottom, found.point)) > 0:
-            witness, point = fraction_down(_dot(top, found.point) / den), np.array([float(v) for v in found.point])
+        elif vertex is not None and (den := _dot(bottom, vertex)) > 0:
+            witness, point = fraction_down(_dot(top, vertex) / den), np.array([float(v) for v in vertex])
         status = f"HiGHS simplex, exact basis ({steps} Dinkelbach steps; the last bounded by its duals)"
         return result(value=bound, argmax=point, status="optimal", solver_status=status, reason="",
                       certified=True, witness=witness, gap=gap_between(bound, witness), dual=dual)  # fmt: skip
@@ -455,11 +470,11 @@ class FractionalProgram:
         near = bound.certified and bound.value - exact <= CROSSOVER_TOLERANCE * max(1.0, abs(exact))
         return bound.value if near else None
 
-    def _multipliers(self, duals: tuple[Fraction, ...] | None) -> tuple[FloatArray, ...]:
+    def _multipliers(self, duals: Sequence[Any] | npt.NDArray[np.float64] | None) -> tuple[FloatArray, ...]:
         """The exact row duals of the last step as (ν on A_ub, η on A_eq), to nearest; ν = −y ≥ 0."""
         return tuple(np.array([float(v) for v in block], dtype=float) for block in self._blocks(duals))
 
-    def _blocks(self, duals: tuple[Fraction, ...] | None) -> tuple[tuple[Fraction, ...], ...]:
+    def _blocks(self, duals: Sequence[Any] | npt.NDArray[np.float64] | None) -> tuple[tuple[Any, ...], ...]:
         """The exact row duals of the last step as (ν on A_ub, η on A_eq), exactly; ν = −y ≥ 0."""
         assert duals is not None
         out, start = [], 0

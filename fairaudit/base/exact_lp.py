@@ -382,13 +382,15 @@ class ExactProgram:
             self._warm(state.status)
         return self._optimum(outcome, state, pivots, start)
 
-    def solver_duals(self, cost: Sequence[Any]) -> tuple[list[Status], npt.NDArray[np.float64] | None]:
-        """HiGHS's final basis for min c·x and its row duals y in floating point, shape (m,) (None without a valid
-        basis), at the scale of c: a dual point whose bound by weak duality a caller checks exactly before, or in
-        place of, the exact solve, which :meth:`minimize` does from that basis (``basis``)."""
-        if len(cost) != self.n:
-            raise InputError("cost", f"must have length {self.n}", len(cost))
-        start, status, duals = self._solver_basis([float(_finite("cost", j, v)) for j, v in enumerate(cost)])
+    def solver_duals(self, cost: npt.ArrayLike) -> tuple[list[Status], npt.NDArray[np.float64] | None]:
+        """HiGHS's final basis for min c·x (c in floating point, shape (n,)) and its row duals y in floating point,
+        shape (m,) (None without a valid basis), at the scale of c: a dual point whose bound by weak duality a caller
+        checks exactly before, or in place of, the exact solve, which :meth:`minimize` does from that basis
+        (``basis``)."""
+        c = np.asarray(cost, dtype=float)
+        if c.shape != (self.n,) or not np.all(np.isfinite(c)):
+            raise InputError("cost", f"must be {self.n} finite numbers", c.shape)
+        _, status, duals = self._solver_basis(c)
         return status, duals
 
     def _optimum(self, outcome: str, state: _Basis, pivots: int, start: str) -> SimplexOptimum:
@@ -417,7 +419,9 @@ class ExactProgram:
         cols = [_column_status(self.lower[j], self.upper[j]) for j in range(self.n)]
         return cols + ["basic"] * self.m
 
-    def _solver_basis(self, cost: list[float]) -> tuple[str, list[Status], npt.NDArray[np.float64] | None]:
+    def _solver_basis(
+        self, cost: Sequence[float] | npt.NDArray[np.float64]
+    ) -> tuple[str, list[Status], npt.NDArray[np.float64] | None]:
         """HiGHS's simplex on the floating-point program, warm-started from the last basis; its final basis and row
         duals (at the scale of ``cost``; None without a valid basis)."""
         import highspy

@@ -348,21 +348,19 @@ class FractionalProgram:
             raise InputError("p", f"must have length {self.n}", p.size)
         result = self._result(p, q)
         self._pq = (p, q)
-        top, bottom = [Fraction(v) for v in p.tolist()], [Fraction(v) for v in q.tolist()]
         lam = Fraction(below) if math.isfinite(below) else None
+        if lam is not None:  # HiGHS's own duals may prove ``below`` at once, before anything exact
+            _, duals = self._program.solver_duals(below * q - p)
+            early = None if duals is None else self._bounded_by_duals(result, lam, None, duals, None, [], [], 1)
+            if early is not None:
+                return early
+        top, bottom = [Fraction(v) for v in p.tolist()], [Fraction(v) for v in q.tolist()]
         at: FloatArray | None = None  # the vertex whose ratio is λ
         steps = pivots = 0
         while True:
             cost = top if lam is None else [a - lam * b for a, b in zip(top, bottom, strict=True)]
             negated = [-c for c in cost]
-            if steps == 0 and lam is not None:  # (``below``: HiGHS's own duals may prove it, before any exact solve)
-                basis, duals = self._program.solver_duals(negated)
-                early = None if duals is None else self._bounded_by_duals(result, lam, at, duals, None, top, bottom, 1)
-                if early is not None:
-                    return early
-                found = self._program.minimize(negated, basis, pivot=False)
-            else:
-                found = self._program.minimize(negated, pivot=False)
+            found = self._program.minimize(negated, pivot=False)
             steps += 1
             if found.status == "unproved":  # HiGHS's basis is not optimal exactly: its duals may bound the ratio
                 early = (

@@ -250,13 +250,14 @@ def _solver(
     solver's dual, beyond the exact size, can leave its value 1e-10 above it.
 
     The solve returned serves one :func:`~fairaudit.worstcase.pair_search.search`, which takes the programs in turn;
-    it follows the search's maximiser by the search's own tie rule (:data:`~fairaudit.worstcase.pair_search.TIE`). A
-    program whose value is certified and within :data:`CROSSOVER_TOLERANCE` of the maximiser's (the LP, given that
-    value as ``below``, stops as soon as its duals prove as much) is left there: it cannot become the maximiser, so
-    its witness is never read, and its value, which the search may take as the largest found, is within that
-    tolerance of a value whose witness has been checked. Its witness is then NaN where the coefficients are not exact
-    (the solver's is on the outer ones). 18 groups behind a product of randomized responses, near ties at 1/τ: 145
-    of 146 programs solved so (each proved by its duals within an ulp of the one before).
+    it follows the search's maximiser by the search's own tie rule (:data:`~fairaudit.worstcase.pair_search.TIE`).
+    Each LP starts at ``below`` = the largest value found so far, widened by :data:`CROSSOVER_TOLERANCE`. A program
+    whose value comes back certified within that tolerance of ``below`` (HiGHS's duals, checked exactly, prove it at
+    once) and no higher than the search's maximiser allows is left there: it cannot become the maximiser, so its
+    witness is never read; its value, which the search may take as the largest found, lies within twice that
+    tolerance of a value whose witness is checked, and it does not raise the largest value found (no drift). Its
+    witness is then NaN where the coefficients are not exact (the solver's is on the outer ones). 18 groups behind a
+    product of randomized responses, near ties at 1/τ: all but a few of about 250 programs so.
     """
 
     def num(i: int) -> FloatArray:
@@ -275,14 +276,19 @@ def _solver(
         def inner(i: int, below: float) -> FractionalResult:
             return space.program().solve(num(i), den(i), below=below)
 
-    best: float | None = None  # (the search's maximiser's value)
-    largest = -math.inf  # (the largest certified value returned: at most its search's largest value found)
+    best = largest = -math.inf  # (the search's maximiser's value; the largest value of a program not left there)
 
     def solve(i: int) -> FractionalResult:
         nonlocal best, largest
-        r = inner(i, largest)
-        if best is not None and r.status == "optimal" and r.certified and r.value <= best * (1 + CROSSOVER_TOLERANCE):
-            r = replace(r, witness=math.nan, gap=math.nan) if roundings else r  # (a tie: see above)
+        below = largest * (1 + CROSSOVER_TOLERANCE)  # (a tie proves itself at once: λ₀ at or above its maximum)
+        r = inner(i, below)
+        tie = (
+            r.status == "optimal"
+            and r.certified
+            and r.value <= min(below * (1 + CROSSOVER_TOLERANCE), best * (1 + TIE))
+        )
+        if tie:
+            r = replace(r, witness=math.nan, gap=math.nan) if roundings else r  # (left there: see above)
         elif roundings:
             r = inner_witness(r, *inner_of(i), space.witness_rows)
             settled = (
@@ -293,9 +299,9 @@ def _solver(
             r = replace(r, value=float(closed[i]), gap=gap_between(float(closed[i]), r.witness))
         if evidence is not None:
             evidence.keep(i, r)
-        if r.status == "optimal" and r.certified:
+        if not tie and r.status == "optimal" and r.certified:
             largest = max(largest, r.value)
-        if best is None or r.value > best * (1 + TIE):  # (the search's tie rule)
+        if best == -math.inf or r.value > best * (1 + TIE):  # (the search's tie rule)
             best = r.value
         return r
 
@@ -378,19 +384,10 @@ def _model_program(
     nX, nA, nU = g.shape
     nXr, nAr = MX.shape[1], MA.shape[1]
     xs = np.flatnonzero(live)
-    cache: list[FractionalProgram] = []
 
     def extra(mx: npt.NDArray[Any], ma: npt.NDArray[Any]) -> IntArray:
         """The roundings the entries ``mx`` of M_X and ``ma`` of M_A carry (broadcast together; none where 0)."""
         return entries[1] * (mx != 0) + entries[0] * (ma != 0)
-
-    def lazy(build: Callable[[], FractionalProgram]) -> Callable[[], FractionalProgram]:
-        def program() -> FractionalProgram:
-            if not cache:
-                cache.append(build())
-            return cache[0]
-
-        return program
 
     def tau_rows(
         rows: npt.NDArray[np.floating[Any]], roundings: IntArray, nonzero: BoolArray
@@ -435,7 +432,7 @@ def _model_program(
             nonzero=nonzero_g,
             n_contexts=nX,
             to_kernel=g_to_kernel,
-            program=lazy(
+            program=functools.cache(  # (built once, at the first LP)
                 lambda: FractionalProgram(
                     nXr * nAr,
                     lower=lo,
@@ -496,7 +493,7 @@ def _model_program(
         nonzero=nonzero,
         n_contexts=nX,
         to_kernel=to_kernel,
-        program=lazy(build),
+        program=functools.cache(build),
         lo=None,
         hi=None,
         rows=None,

@@ -614,13 +614,14 @@ tau = 0.2
 
 
 def test_a_product_of_randomized_responses_is_certified_at_its_exact_worst_case():
-    # within the exact size: each certified ratio is the exact worst case rounded up by at most 1e-14 relative, and
-    # the witnesses are checked
+    # within the exact size: each certified ratio is the exact worst case rounded up by at most 1e-12 relative (a
+    # near tie is left within twice the crossover tolerance, 1e-13, of a value whose witness is checked; the contract
+    # is 1e-9), and the witnesses are checked
     cert = _certified(BELOW)
     detail = cert["bound_details"]["black_box"]
     exact = _exact(cert)
     for ours, theirs in ((detail, exact.local), (detail["global"], exact.global_)):
-        assert theirs.lo == theirs.hi <= F(ours["ratio"]) <= theirs.hi * (1 + F(1, 10**14))
+        assert theirs.lo == theirs.hi <= F(ours["ratio"]) <= theirs.hi * (1 + F(1, 10**12))
     checked = {c.name for c in _holds(cert).checks}
     assert {"bound_details.black_box.witness", "bound_details.black_box.global.witness"} <= checked
 

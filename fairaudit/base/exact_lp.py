@@ -70,6 +70,13 @@ def _fmpq(x: Fraction) -> fmpq:
     return fmpq(x.numerator, x.denominator)
 
 
+def _float_fmpq(x: float) -> fmpq:
+    """A finite float at its exact binary value."""
+    from flint import fmpq
+
+    return fmpq(*x.as_integer_ratio())
+
+
 def _fraction(x: fmpq) -> Fraction:
     return Fraction(int(x.p), int(x.q))
 
@@ -282,8 +289,9 @@ class ExactProgram:
         col_lower: Sequence[Any],
         col_upper: Sequence[Any],
     ) -> None:
-        rows = [list(r) for r in (matrix.tolist() if isinstance(matrix, np.ndarray) else matrix)]
-        self.m = len(rows)
+        dense = isinstance(matrix, np.ndarray) and matrix.dtype.kind == "f"  # (floats: read in bulk, exactly)
+        rows = [] if dense else [list(r) for r in matrix]
+        self.m = len(matrix)
         self.n = len(col_lower)
         for name, bounds, size in (
             ("row_lower", row_lower, self.m),
@@ -292,12 +300,19 @@ class ExactProgram:
         ):
             if len(bounds) != size:
                 raise InputError(name, f"must have length {size}", len(bounds))
-        for i, r in enumerate(rows):
+        for i, r in enumerate(matrix):
             if len(r) != self.n:
                 raise InputError("matrix", f"row {i} must have {self.n} entries", len(r))
-        exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(rows)]
-        self._floats = np.array([[float(v) for v in r] for r in exact], dtype=np.float64).reshape(self.m, self.n)
-        self.flat: list[Any] = [_fmpq(v) if v else 0 for r in exact for v in r]  # A, row-major
+        if dense:
+            self._floats = np.asarray(matrix, dtype=np.float64).reshape(self.m, self.n)
+            if not np.all(np.isfinite(self._floats)):
+                i, j = np.argwhere(~np.isfinite(self._floats))[0].tolist()
+                raise InputError("matrix", f"must be finite (at {(i, j)})", self._floats[i, j])
+            self.flat: list[Any] = [_float_fmpq(v) if v else 0 for v in self._floats.ravel().tolist()]
+        else:
+            exact = [[_finite("matrix", (i, j), v) for j, v in enumerate(r)] for i, r in enumerate(rows)]
+            self._floats = np.array([[float(v) for v in r] for r in exact], dtype=np.float64).reshape(self.m, self.n)
+            self.flat = [_fmpq(v) if v else 0 for r in exact for v in r]  # A, row-major
         bounds = [
             [_checked(name, k, v) for k, v in enumerate(b)]
             for name, b in (

@@ -308,7 +308,7 @@ class FractionalProgram:
         if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
             raise InputError("lower", "the bounds of h must be finite (the programs of fairaudit are over boxes)")
         self._rows = _constraint_rows(self.n, A_ub, b_ub, A_eq, b_eq)
-        matrix = [row for a, _, _ in self._rows for row in a.tolist()]
+        matrix = np.vstack([a for a, _, _ in self._rows]) if self._rows else np.zeros((0, self.n))
         row_lower = [v if op == "eq" else -math.inf for _, b, op in self._rows for v in b.tolist()]
         row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
         self._program = ExactProgram(matrix, row_lower, row_upper, self.lower.tolist(), self.upper.tolist())

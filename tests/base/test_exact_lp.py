@@ -57,6 +57,19 @@ def test_an_equality_row_and_free_variables():
     assert (r.status, r.value, r.point, r.duals) == ("optimal", F(-3), (F(-1), F(2)), (F(0), F(1)))
 
 
+def test_a_float_array_is_read_at_its_exact_binary_values():
+    # 0.1 and 0.2 as floats are not 1/10 and 1/5: max x + y over 0.1 x + 0.2 y <= 0.3, box [0, 1]^2, is at the
+    # vertex (1, 1) only because 0.1 + 0.2 <= 0.3 fails in binary (0.30000000000000004 > 0.3): the vertex is
+    # (1, (0.3 - 0.1) / 0.2) in exact binary arithmetic, the same from a list of floats and from an array
+    from fractions import Fraction as F
+
+    rows = [[0.1, 0.2]]
+    for matrix in (rows, np.array(rows)):
+        r = ExactProgram(matrix, [-INF], [0.3], [0, 0], [1, 1]).minimize([-1, -1])
+        y = (F(0.3) - F(0.1)) / F(0.2)
+        assert r.status == "optimal" and r.point == (F(1), y) and y < 1
+
+
 def test_unbounded_and_infeasible_are_proved():
     unbounded = ExactProgram([[1, -1]], [-INF], [1], [0, 0], [INF, INF])  # x - y <= 1, min -x - y
     assert unbounded.minimize([-1, -1]).status == "unbounded"
@@ -70,6 +83,8 @@ def test_bad_input_is_refused_by_name():
         ExactProgram([[1, 1]], [0], [1], [0, 0], [1])
     with pytest.raises(InputError, match="matrix"):
         ExactProgram([[1, math.nan]], [0], [1], [0, 0], [1, 1])
+    with pytest.raises(InputError, match=r"matrix.*\(0, 1\)"):  # (a float array is read in bulk, checked alike)
+        ExactProgram(np.array([[1.0, math.inf]]), [0], [1], [0, 0], [1, 1])
     with pytest.raises(InputError, match="col_lower"):
         ExactProgram([[1, 1]], [0], [1], [0, 2], [1, 1])
     prog = ExactProgram([[1, 1]], [0], [1], [0, 0], [1, 1])

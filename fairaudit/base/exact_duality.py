@@ -30,7 +30,6 @@ if TYPE_CHECKING:
     import scipy.sparse as sp
 
 __all__ = [
-    "ACTIVE_TOLERANCES",
     "NEWTON_STEPS",
     "RatioBound",
     "certify_ratio",
@@ -38,7 +37,6 @@ __all__ = [
     "dual_value",
     "on_one_denominator",
     "point_ratio",
-    "rational_point_ratio",
     "smallest_root",
     "smallest_root_of_integers",
 ]
@@ -351,30 +349,6 @@ def point_ratio(
     return _ratio_at(_dyadic(h), 1, p, q, rows)
 
 
-def rational_point_ratio(
-    point: list[Fraction], p: FloatArray, q: FloatArray, lower: FloatArray, upper: FloatArray, rows: Rows
-) -> float:
-    """:func:`point_ratio` at a point of rationals (a vertex solved exactly): (p·h)/(q·h) rounded down when ``point``
-    lies in P exactly and q·h > 0; NaN otherwise. The rows are checked in integers over the point's common
-    denominator.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> rows = [(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")]
-    >>> h = [Fraction(1), (Fraction(0.5) - Fraction(0.3)) / Fraction(0.7)]  # on the row, in the floats' rationals
-    >>> w = rational_point_ratio(h, np.array([0.7, 0.3]), np.array([0.3, 0.7]), np.zeros(2), np.ones(2), rows)
-    >>> w <= 11 / 7 < w + 1e-15
-    True
-    """
-    if any(x < Fraction(float(lo)) or x > Fraction(float(hi)) for x, lo, hi in zip(point, lower, upper, strict=True)):
-        return math.nan
-    scale = math.lcm(*(x.denominator for x in point))
-    numerators = np.empty(len(point), dtype=object)
-    numerators[:] = [x.numerator * (scale // x.denominator) for x in point]
-    return _ratio_at((numerators, 0), scale, p, q, rows)
-
-
 def _ratio_at(x: Dyadic, scale: int, p: FloatArray, q: FloatArray, rows: Rows) -> float:
     """(p·h)/(q·h) rounded down at h = x/``scale`` when h meets every row exactly and q·h > 0; NaN otherwise."""
     import scipy.sparse as sp
@@ -390,12 +364,6 @@ def _ratio_at(x: Dyadic, scale: int, p: FloatArray, q: FloatArray, rows: Rows) -
     if den <= 0:
         return math.nan
     return fraction_down(num / den)
-
-
-ACTIVE_TOLERANCES = (1e-9, 1e-7, 1e-5)
-"""Distances (relative to max(1, max |h|)) within which a cell counts as at its bound and a row as active, when the
-duals are repaired: an interior-point solver stops a little inside the box, by 1e-12 to 1e-8 on a degenerate
-program, so each is tried and the smallest value certified kept."""
 
 
 def smallest_root(

@@ -397,6 +397,25 @@ class ExactProgram:
             self._warm(state.status)
         return self._optimum(outcome, state, pivots, start)
 
+    def vertex(self, basis: Sequence[Status]) -> tuple[Fraction, ...] | None:
+        """The vertex of ``basis`` (statuses as :attr:`SimplexOptimum.basis`, shape (n + m,)), exactly, where it lies
+        within every bound and row; None where it does not, or the basis is singular or not one of this program.
+
+        Examples
+        --------
+        >>> prog = ExactProgram([[1, 2]], [-math.inf], [1.5], [0, 0], [1, 1])
+        >>> prog.vertex(("upper", "basic", "upper")), prog.vertex(("basic", "upper", "upper"))
+        ((Fraction(1, 1), Fraction(1, 4)), None)
+        """
+        if len(basis) != self.n + self.m:
+            return None
+        self.c = [0] * self.n
+        try:
+            state = _Basis(self, self._given(basis), self.lower, self.upper)
+        except (ZeroDivisionError, ValueError):  # (singular, or not a basis: an InputError is a ValueError)
+            return None
+        return None if state.infeasible() is not None else tuple(_fraction_of(v) for v in state.x)
+
     def solver_duals(self, cost: npt.ArrayLike) -> tuple[list[Status], npt.NDArray[np.float64] | None]:
         """HiGHS's final basis for min c·x (c in floating point, shape (n,)) and its row duals y in floating point,
         shape (m,) (None without a valid basis), at the scale of c: a dual point whose bound by weak duality a caller

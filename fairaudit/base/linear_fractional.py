@@ -28,7 +28,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any, Literal, TypeAlias, overload
 
@@ -105,6 +105,10 @@ class FractionalResult:
     exact_dual : tuple of tuple of Fraction, or None
         Where ``solver_status`` ends with :data:`EXACT_BASIS`: the same duals exactly, which prove ``value`` by weak
         duality (a certificate records them as exact rationals); else None.
+    basis : tuple of str or None
+        The LP route's last basis (a status per column, then per row: "basic", "lower", "upper" or "zero"), whose
+        vertex on a program with other data (:meth:`FractionalProgram.vertex_ratio`) is a witness there; None
+        elsewhere.
     """
 
     value: float
@@ -122,6 +126,7 @@ class FractionalResult:
     gap: float = math.nan
     dual: tuple[FloatArray, ...] = ()
     exact_dual: tuple[tuple[Fraction, ...], ...] | None = None
+    basis: tuple[str, ...] | None = None
 
 
 def gap_between(value: float, witness: float) -> float:
@@ -350,10 +355,10 @@ class FractionalProgram:
         self._pq = (p, q)
         lam = Fraction(below) if math.isfinite(below) else None
         if lam is not None:  # HiGHS's own duals may prove ``below`` at once, before anything exact
-            _, duals = self._program.solver_duals(below * q - p)
+            basis, duals = self._program.solver_duals(below * q - p)
             early = None if duals is None else self._bounded_by_duals(result, lam, None, duals, None, [], [], 1)
             if early is not None:
-                return early
+                return replace(early, basis=tuple(basis))
         top, bottom = [Fraction(v) for v in p.tolist()], [Fraction(v) for v in q.tolist()]
         at: FloatArray | None = None  # the vertex whose ratio is λ
         steps = pivots = 0
@@ -369,7 +374,7 @@ class FractionalProgram:
                     else self._bounded_by_duals(result, lam, at, found.duals, found.point, top, bottom, steps)
                 )
                 if early is not None:
-                    return early
+                    return replace(early, basis=found.basis)
                 if found.point is not None:  # its vertex, feasible exactly, moves λ up where it beats it
                     num, den = _dot(top, found.point), _dot(bottom, found.point)
                     if den > 0 and (lam is None or num > lam * den):
@@ -386,7 +391,7 @@ class FractionalProgram:
             if lam is not None and -found.value <= 0:  # max (p − λq)·h ≤ 0: the ratio is at most λ
                 if at is not None:  # λ is the ratio at a vertex, which attains it
                     num, den, point = lam, Fraction(1), at
-                return self._proved(result, lam, num, den, point, found.duals, status)
+                return replace(self._proved(result, lam, num, den, point, found.duals, status), basis=found.basis)
             if den < 0:
                 why = "q·h < 0 at a vertex of the polytope: the ratio needs q·h >= 0"
                 return result(value=math.nan, argmax=point, status="error", solver_status=status, reason=why)
@@ -404,6 +409,29 @@ class FractionalProgram:
                 num, den = _dot(top, found.point), _dot(bottom, found.point)
                 point = np.array([float(v) for v in found.point])
             lam, at = num / den, point if den > 0 else None
+
+    def vertex_ratio(self, basis: Sequence[str] | None, p: npt.ArrayLike, q: npt.ArrayLike) -> float:
+        """(p·h)/(q·h) rounded down at the vertex h of ``basis`` (:attr:`FractionalResult.basis`, from a program with
+        the same shape) over this polytope, solved exactly: a witness, a certified lower end of the maximum here. NaN
+        where that vertex leaves the polytope, the basis is singular or not one of this program, or q·h ≤ 0.
+
+        Examples
+        --------
+        The basis of the class's outer program (floors on 0.7 and 0.3), on the inner one (floors on 0.69 and 0.29):
+
+        >>> outer = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.7, -0.3], [-0.3, -0.7]], b_ub=[-0.5, -0.5])
+        >>> r = outer.solve([0.7, 0.3], [0.3, 0.7])
+        >>> inner = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.69, -0.29], [-0.29, -0.69]], b_ub=[-0.5, -0.5])
+        >>> w = inner.vertex_ratio(r.basis, [0.69, 0.29], [0.31, 0.71])
+        >>> w <= r.value, w <= 179 / 121 < w + 1e-15   # h = (1, 7/23): (0.69 + 0.29·7/23)/(0.31 + 0.71·7/23)
+        (True, True)
+        """
+        h = None if basis is None else self._program.vertex(basis)  # type: ignore[arg-type]
+        if h is None:
+            return math.nan
+        p_arr, q_arr = _vectors(p, q)
+        den = _dot([Fraction(v) for v in q_arr.tolist()], h)
+        return fraction_down(_dot([Fraction(v) for v in p_arr.tolist()], h) / den) if den > 0 else math.nan
 
     def _bounded_by_duals(
         self,

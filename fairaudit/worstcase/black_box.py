@@ -27,6 +27,7 @@ from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.worstcase.pair_search import (
     BoxPairs,
+    InnerProgram,
     SearchResult,
     box_pairs,
     check_class,
@@ -594,14 +595,14 @@ def _lipschitz_certificate(problem: _ClassProblem, d: FloatArray) -> BlackBoxCer
     prog, rows = _lipschitz_program(
         low, high, problem.lower, problem.gamma, floor if problem.binding else None, problem.lipschitz, d
     )
-    box = np.full(n * m, problem.lower), np.full(n * m, problem.gamma)
+    inner = InnerProgram(np.full(n * m, problem.lower), np.full(n * m, problem.gamma), rows)
 
     def solve(i: int) -> FractionalResult:
         a, b = pairs[i]
         p, q = np.zeros((2, n * m)), np.zeros((2, n * m))  # (outer, inner)
         p[:, a * m : (a + 1) * m] = high[a], low[a]
         q[:, b * m : (b + 1) * m] = low[b], high[b]
-        return inner_witness(prog.solve(p[0], q[0]), p[1], q[1], *box, rows, inside=box[1])
+        return inner_witness(prog.solve(p[0], q[0]), p[1], q[1], inner, inside=inner.upper)
 
     return _searched_certificate(problem, search(upper, _at_most_ceiling(problem, solve)), pairs)
 
@@ -641,12 +642,11 @@ def _box_solver(problem: _ClassProblem, pairs: IntArray) -> Callable[[int], Frac
 
     if low is high:
         return outer
-    rows = [(-low, np.full(n, -floor), "le")] if binding else []
-    box = np.full(m, lower), np.full(m, gamma)
+    inner = InnerProgram(np.full(m, lower), np.full(m, gamma), [(-low, np.full(n, -floor), "le")] if binding else [])
 
     def solve(i: int) -> FractionalResult:
         a, b = pairs[i]
-        return inner_witness(outer(i), low[a], high[b], *box, rows, inside=box[1])
+        return inner_witness(outer(i), low[a], high[b], inner, inside=inner.upper)
 
     return solve
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.errors import InputError
+from fairaudit.base.exact_duality import Rows
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
@@ -23,6 +24,7 @@ from fairaudit.base.threshold_rule import threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
 from fairaudit.worstcase.pair_search import (
+    InnerProgram,
     SearchResult,
     box_pairs,
     check_class,
@@ -286,15 +288,13 @@ def _utility_case(
     if tau is not None and tau > 0:  # E[g | x, a] ≤ γ Σ_u P[x, a, u]: a law's rows sum to 1 within 1e-9
         upper = np.minimum(upper, ratio_ceiling(gamma, float(sum_ends(P if ends is None else ends[1])[0].max()), tau))
     low, high = (P, P) if ends is None else ends
+    floors: Rows = [] if problem.a_ub is None or problem.b_ub is None else [(problem.a_ub, problem.b_ub, "le")]
+    inner = InnerProgram(np.full(P.shape[-1], lower), np.full(P.shape[-1], gamma), floors)
 
     def solve(i: int) -> FractionalResult:
         x, a, b = flat[i]
         r = problem.program().solve(high[x, a], low[x, b])
-        if ends is None:
-            return r
-        box = np.full(P.shape[-1], lower), np.full(P.shape[-1], gamma)
-        rows = [] if problem.a_ub is None or problem.b_ub is None else [(problem.a_ub, problem.b_ub, "le")]
-        return inner_witness(r, low[x, a], high[x, b], *box, rows)
+        return r if ends is None else inner_witness(r, low[x, a], high[x, b], inner)
 
     return _searched_case(problem, kind, search(upper, solve), flat if kind == "local" else flat[:, 1:], label_x)
 

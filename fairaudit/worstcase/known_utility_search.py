@@ -29,6 +29,7 @@ from fairaudit.worstcase.known_utility_problem import ModelProblem
 from fairaudit.worstcase.pair_search import (
     STOP,
     TIE,
+    InnerProgram,
     SearchResult,
     inner_witness,
     pairwise_box,
@@ -290,7 +291,7 @@ def _solver(
         if tie:
             r = replace(r, witness=math.nan, gap=math.nan) if roundings else r  # (left there: see above)
         elif roundings:
-            r = inner_witness(r, *inner_of(i), space.witness_rows)
+            r = inner_witness(r, pair(i)[0].low, pair(i)[1].high, space.inner)  # (numerator down, denominator up)
             settled = (
                 r.status == "optimal" and r.certified and r.value - r.witness <= CROSSOVER_TOLERANCE * max(1.0, r.value)
             )
@@ -304,11 +305,6 @@ def _solver(
         if best == -math.inf or r.value > best * (1 + TIE):  # (the search's tie rule)
             best = r.value
         return r
-
-    def inner_of(i: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """Program i's inner coefficients (numerator down, denominator up) and the bounds of its variables."""
-        p, q = pair(i)[0].low, pair(i)[1].high
-        return p, q, np.full(len(p), space.box[0]), np.full(len(p), space.box[1])
 
     return solve
 
@@ -354,8 +350,7 @@ class _ModelSpace:
     lo: float | None  # box of the variables (G-space only)
     hi: float | None
     rows: npt.NDArray[np.floating[Any]] | None  # τ rows (G-space only): rows @ h >= τ
-    box: tuple[float, float]  # the variables' bounds, for the witness
-    witness_rows: list[Any]  # the constraints with the τ rows rounded down: a point meeting them is feasible
+    inner: InnerProgram  # the variables' bounds and the τ rows rounded down: a point meeting them is feasible
     floors: bool  # whether the program has the τ rows
     table_floors: FloatArray | None = None  # in kernel space, the τ rows rounded up (over every cell), else None
 
@@ -444,8 +439,7 @@ def _model_program(
             lo=lo,
             hi=hi,
             rows=rows,
-            box=(lo, hi),
-            witness_rows=witness_rows,
+            inner=InnerProgram(np.full(nXr * nAr, lo), np.full(nXr * nAr, hi), witness_rows),
             floors=rows is not None,
         )
 
@@ -497,8 +491,7 @@ def _model_program(
         lo=None,
         hi=None,
         rows=None,
-        box=(0.0, 1.0),
-        witness_rows=k_witness_rows,
+        inner=InnerProgram(np.zeros(nXr * nAr * nU), np.ones(nXr * nAr * nU), k_witness_rows),
         floors=k_outer is not None,
         table_floors=k_outer,
     )

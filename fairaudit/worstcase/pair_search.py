@@ -10,6 +10,7 @@ no problem left can win; :func:`relaxed_first` tries the closed-form floor relax
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -23,7 +24,6 @@ from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.checks import choice, nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows, point_ratio
-from fairaudit.base.exact_vertex import improve_witness
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
 from fairaudit.base.outward import down, fraction_up
 from fairaudit.base.pairs import CANDIDATES, PAIR_BLOCK, PRUNE, ROUNDING, PairPass, matrix_digest, pair_candidates
@@ -180,25 +180,46 @@ PULLS = (2.0**-50, 2.0**-44, 2.0**-38, 2.0**-30)
 """The steps θ tried by :func:`inner_witness` toward a point inside the exact polytope, smallest first."""
 
 
+@dataclass(frozen=True, eq=False)
+class InnerProgram:
+    """The inner program a witness is taken on: the bounds of h, shape (n,), and the rows (A, b, "le" or "eq") tightened
+    by their rounding, so that a point meeting them meets the exact ones; in the order of the outer program's rows,
+    the "le" blocks first, so that the outer program's basis is one of it."""
+
+    lower: FloatArray
+    upper: FloatArray
+    rows: Rows
+
+    @functools.cached_property
+    def program(self) -> FractionalProgram:
+        """The rows as a :class:`~fairaudit.base.linear_fractional.FractionalProgram`, built at the first use."""
+
+        def stacked(kind: str) -> tuple[FloatArray | None, FloatArray | None]:
+            blocks = [(a.toarray() if hasattr(a, "toarray") else a, b) for a, b, k in self.rows if k == kind]
+            if not blocks:
+                return None, None
+            return np.vstack([a for a, _ in blocks]), np.concatenate([b for _, b in blocks])
+
+        (a_ub, b_ub), (a_eq, b_eq) = stacked("le"), stacked("eq")
+        n = self.lower.size
+        return FractionalProgram(n, lower=self.lower, upper=self.upper, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=b_eq)
+
+
 def inner_witness(
-    r: FractionalResult,
-    p: FloatArray,
-    q: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    rows: Rows,
-    inside: FloatArray | None = None,
+    r: FractionalResult, p: FloatArray, q: FloatArray, inner: InnerProgram, inside: FloatArray | None = None
 ) -> FractionalResult:
     """``r``, solved on coefficients that enclose the exact ones (its value certified on the outer program), with its
-    witness taken on the inner program: the ratio (p·h)/(q·h) at its maximiser h, with p the numerator's lower end, q
-    the denominator's upper end and ``rows`` the constraints tightened by their rounding, so that a point meeting
-    them meets the exact ones. NaN without a maximiser or a feasible point.
+    witness taken on the inner program: the ratio (p·h)/(q·h) at a point h of it, with p the numerator's lower end, q
+    the denominator's upper end and the rows tightened by their rounding, so that a point meeting them meets the
+    exact ones. NaN without a maximiser or a feasible point.
 
-    Where h misses a row by rounding: the vertex it stands for, solved exactly
-    (:func:`~fairaudit.base.exact_vertex.improve_witness`); where that vertex misses one too (a degenerate vertex,
-    whose active rows the tightening makes inconsistent: the Lipschitz rows of three groups on a line), the point
-    (1 − θ)·h + θ·``inside`` for the steps θ of :data:`PULLS`, ``inside`` a point that meets every row with room to
-    spare. Every candidate is checked exactly, so a wrong one is refused, never a wrong witness.
+    The point is the outer maximiser; where it misses a row by rounding, or its ratio is not within
+    :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE` of the value, the vertex of the outer program's
+    last basis on the inner rows, solved exactly (:meth:`FractionalProgram.vertex_ratio
+    <fairaudit.base.linear_fractional.FractionalProgram.vertex_ratio>`); where that vertex misses one too (a
+    degenerate vertex, whose active rows the tightening makes inconsistent: the Lipschitz rows of three groups on a
+    line), the point (1 − θ)·h + θ·``inside`` for the steps θ of :data:`PULLS`, ``inside`` a point that meets every
+    row with room to spare. Every candidate is checked exactly, so a wrong one is refused, never a wrong witness.
 
     Parameters
     ----------
@@ -206,10 +227,8 @@ def inner_witness(
         The outer program's result (its ``value`` and ``certified`` are kept); ``r.argmax`` shape (n,).
     p, q : numpy.ndarray, shape (n,)
         The inner program's numerator (lower ends) and denominator (upper ends), ≥ 0.
-    lower, upper : numpy.ndarray, shape (n,)
-        Finite bounds of h.
-    rows : list of (A, b, kind)
-        The inner program's rows, A of shape (m, n) dense or sparse, kind "le" or "eq".
+    inner : InnerProgram
+        The bounds of h and the inner program's rows.
     inside : numpy.ndarray, shape (n,), optional
         A point strictly inside the inner rows (the top of the box for the class programs); None: no pull.
 
@@ -227,16 +246,18 @@ def inner_witness(
     >>> p, q = np.array([0.7, 0.3]), np.array([0.3, 0.7])
     >>> rows = [(-np.array([[0.7, 0.3], [0.3, 0.7]]), -np.full(2, 0.5), "le")]
     >>> r = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=rows[0][0], b_ub=rows[0][1]).solve(p, q)
-    >>> w = inner_witness(r, p, q, np.zeros(2), np.ones(2), rows)
+    >>> w = inner_witness(r, p, q, InnerProgram(np.zeros(2), np.ones(2), rows))
     >>> w.witness <= 11 / 7 <= w.value, 11 / 7 - w.witness < 1e-12
     (True, True)
     """
     if r.argmax is None:
         return r
+    lower, upper, rows = inner.lower, inner.upper, inner.rows
     h = np.clip(np.asarray(r.argmax, dtype=float), lower, upper)
     w = point_ratio(h, p, q, lower, upper, rows)
-    if r.certified:
-        w = improve_witness(w, r.value, CROSSOVER_TOLERANCE, h, p, q, lower, upper, rows)
+    close = math.isfinite(w) and r.value - w <= CROSSOVER_TOLERANCE * max(1.0, abs(r.value))
+    if r.certified and not close and r.basis is not None:
+        w = max((v for v in (w, inner.program.vertex_ratio(r.basis, p, q)) if math.isfinite(v)), default=math.nan)
     if inside is not None and not math.isfinite(w):
         for theta in PULLS:
             w = point_ratio(np.clip((1 - theta) * h + theta * inside, lower, upper), p, q, lower, upper, rows)

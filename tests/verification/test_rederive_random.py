@@ -398,7 +398,7 @@ REGRESSIONS["no bound on L-bar, X and A dependent with F finite"] = (
 # no privacy on the group, gamma/tau = 1e6: certify's L-bar, 13.910820737785675, was 1.7e-11 relative above the exact
 # worst case. The solver's table summed to 1 only in floats (no witness), and a value within 1e-13 of a root of the
 # repaired duals was taken as tight; that root was the value of a basis that is not primal feasible (fixed in certify:
-# only a witness proves tightness, and the vertex the point stands for is solved exactly, base.exact_vertex)
+# only a witness proves tightness, and the vertex of the last basis on the inner rows is solved exactly)
 THREE_GROUPS_TWO_CONTEXTS = '[context]\nname = "ctx"\nvalues = ["c0", "c1"]\n'
 REGRESSIONS["no privacy on the group, gamma/tau = 1e6"] = (
     _spec(G3, THREE_GROUPS_TWO_CONTEXTS).replace('["d0", "d1"]', '["d0", "d1", "d2"]')

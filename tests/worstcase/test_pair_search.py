@@ -12,6 +12,7 @@ pair itself. Memory: ``black_box_bound`` at 400 groups stays within 16 times the
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import re
@@ -505,3 +506,25 @@ def test_search_draws_its_bar_on_stderr_inside_progress_shown_only(monkeypatch):
         "worst case: 2/5 programs [T, best 1.0296 nats]",
     ]
     assert terminal.getvalue().endswith("\r")  # (cleared when the search ends)
+
+
+def test_the_witness_is_the_outer_basis_vertex_on_the_inner_rows():
+    # outer floors 0.7 h1 + 0.3 h2 >= 1/2 and 0.3 h1 + 0.7 h2 >= 1/2 (the maximiser (1, 2/7), ratio 11/7); the inner
+    # rows 0.69/0.29 and 0.29/0.69 are tighter, so the outer maximiser misses the second by 0.013 (no witness there);
+    # the same basis on the inner rows is the vertex (1, 7/23), where the inner ratio (0.69 + 0.29·7/23)/(0.31 +
+    # 0.71·7/23) = 179/121 is the inner program's maximum (h1 at its top, h2 at its least under the second row)
+    from fractions import Fraction as F
+
+    from fairaudit.base.linear_fractional import FractionalProgram
+
+    outer = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.7, -0.3], [-0.3, -0.7]], b_ub=[-0.5, -0.5])
+    r = outer.solve([0.7, 0.3], [0.3, 0.7])
+    rows = [(-np.array([[0.69, 0.29], [0.29, 0.69]]), np.full(2, -0.5), "le")]
+    inner = search_module.InnerProgram(np.zeros(2), np.ones(2), rows)
+    p, q = np.array([0.69, 0.29]), np.array([0.31, 0.71])
+    best = (F(0.69) + F(0.29) * (F(0.5) - F(0.29)) / F(0.69)) / (F(0.31) + F(0.71) * (F(0.5) - F(0.29)) / F(0.69))
+    assert abs(best - F(179, 121)) < F(1, 10**15)
+    w = search_module.inner_witness(r, p, q, inner)
+    assert F(w.witness) <= best < F(w.witness) + F(1, 10**15)
+    no_basis = dataclasses.replace(r, basis=None)
+    assert math.isnan(search_module.inner_witness(no_basis, p, q, inner).witness)  # (the float point alone: none)

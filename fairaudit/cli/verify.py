@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from fairaudit.base.errors import InputError
-from fairaudit.verification.schema import MAX_DEPTH
+from fairaudit.verification.schema import MAX_DEPTH, CertificateError
 
 from ._common import Subparsers
 
@@ -125,10 +125,11 @@ def run(args: argparse.Namespace) -> int:
             raise exc.under(f"--filter {exc.field}", keep_own=False) from None
     try:
         result = verify(cert, privacy_filter=privacy_filter, source=args.certificate)
-    except InputError as exc:
+    except CertificateError as exc:  # (verification's own error: the package imports nothing else of fairaudit)
         if exc.field == "certificate":  # the whole document: named by its path
             raise InputError("CERT.json", exc.problem, args.certificate) from None
-        raise exc.under(f"CERT.json {exc.field}", keep_own=False) from None
+        given = () if exc.value is CertificateError.NO_VALUE else (exc.value,)
+        raise InputError(f"CERT.json {exc.field}", exc.problem, *given) from None
     if args.format == "json":
         print(json.dumps(result.to_dict(), indent=2))
     else:

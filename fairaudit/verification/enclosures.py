@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import on_one_denominator
 from fairaudit.base.outward import exp_bounds, ln_bounds
+from fairaudit.verification.schema import CertificateError
 
 __all__ = [
     "INF",
@@ -66,7 +66,7 @@ def exact(value: Any, field: str) -> Fraction | float:
 
     Raises
     ------
-    InputError
+    CertificateError
         Naming ``field`` when the value is not a finite number, ``"inf"`` or ``"n/d"`` (at most
         :data:`RATIONAL_DIGITS` digits).
 
@@ -82,7 +82,7 @@ def exact(value: Any, field: str) -> Fraction | float:
         if int(d):
             return Fraction(int(n), int(d))
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(field, 'must be a finite number or "inf"', value)
+        raise CertificateError(field, 'must be a finite number or "inf"', value)
     return Fraction(value)
 
 
@@ -93,7 +93,7 @@ def recorded_array(value: Any, field: str) -> list[Any]:
 
     Raises
     ------
-    InputError
+    CertificateError
         Naming ``field`` and the index (``field[0][2]``) of an entry that is not a finite number or ``"inf"``.
 
     Examples
@@ -185,7 +185,7 @@ class RecordedMechanism:
         if kind == "matrix":
             rows = tuple(tuple(r) for r in recorded_array(data["matrix"], f"{field}.matrix"))
             if len(rows) != len(inputs) or any(len(r) != len(outputs) for r in rows):
-                raise InputError(f"{field}.matrix", f"must have shape ({len(inputs)}, {len(outputs)})", "")
+                raise CertificateError(f"{field}.matrix", f"must have shape ({len(inputs)}, {len(outputs)})", "")
             return cls(kind, inputs, outputs, rows=rows)
         return cls(kind, inputs, outputs)
 

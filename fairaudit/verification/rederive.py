@@ -128,7 +128,7 @@ def verify(
 
     Raises
     ------
-    InputError
+    CertificateError
         When the certificate does not match its schema (the field named by its JSON path), its ``tolerance``
         included (a number above 0 and at most 1e-6).
 

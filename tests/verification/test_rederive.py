@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 from _cli import OFFICE_SPEC
 
-from fairaudit.base.errors import InputError
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.filter.filters import PrivacyFilter
 from fairaudit.verification.rederive import verify
+from fairaudit.verification.schema import CertificateError
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = ["examples/llm_hiring/gpt35.toml", "examples/llm_hiring/gpt4.toml", "examples/hr_office/hr_office.toml"]
@@ -255,5 +255,5 @@ def test_the_black_box_is_re_derived_and_a_moved_one_fails(certificates, name):
 def test_a_certificate_that_is_not_one_is_refused(certificates):
     cert = copy.deepcopy(certificates[OFFICE])
     del cert["inputs"]
-    with pytest.raises(InputError):
+    with pytest.raises(CertificateError):
         verify(cert)

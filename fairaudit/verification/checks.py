@@ -18,7 +18,6 @@ from decimal import ROUND_CEILING, Decimal
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.json_values import Report, number
 from fairaudit.base.outward import fraction_down, fraction_up
 from fairaudit.verification.enclosures import INF, Enclosure, exact
 
@@ -71,15 +70,15 @@ class Check:
     fails_by: float
     detail: str
 
-    def to_dict(self) -> Report:
-        """The report dictionary."""
+    def to_dict(self) -> dict[str, Any]:
+        """The report dictionary (NaN as None, ±inf as ``"inf"``, ``"-inf"``)."""
         return {
             "name": self.name,
             "reported": self.reported,
-            "derived": [number(self.derived_low), number(self.derived_high)],
+            "derived": [_json(self.derived_low), _json(self.derived_high)],
             "side": self.side,
             "holds": self.holds,
-            "fails_by": number(self.fails_by),
+            "fails_by": _json(self.fails_by),
             "detail": self.detail,
         }
 
@@ -91,6 +90,11 @@ class Check:
             verdict += f" by {distance(self.fails_by)}"
         shown = self.reported if not isinstance(self.reported, float) else f"{self.reported!r}"
         return f"{self.name} = {shown}: {verdict}" + (f" ({self.detail})" if self.detail and not self.holds else "")
+
+
+def _json(x: float) -> float | str | None:
+    """A float as JSON, as certify writes it: NaN as None, ±inf as ``"inf"``, ``"-inf"``."""
+    return None if math.isnan(x) else ("inf" if x > 0 else "-inf") if math.isinf(x) else x
 
 
 def distance(x: float) -> str:

@@ -10,7 +10,6 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.json_values import label
 from fairaudit.verification.enclosures import exact, recorded_array
 from fairaudit.verification.schema import CertificateError
 
@@ -50,8 +49,7 @@ class Evidence:
         if not detail:
             return cls()
         pop = inputs["population"]
-        contexts = [label(c) for c in pop["contexts"]]
-        groups = [label(g) for g in pop["groups"]]
+        contexts, groups = list(pop["contexts"]), list(pop["groups"])
         released = len(inputs["sensitive_mechanism"]["outputs"])
         own = inputs["context_mechanism"]["kind"] == "identity"  # (else L's program spans every context)
         where = "bound_details.black_box"

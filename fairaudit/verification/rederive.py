@@ -15,14 +15,15 @@ neither cvxpy, Clarabel nor scipy.
 
 from __future__ import annotations
 
+import hashlib
 import itertools
+import json
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.json_values import Report, canonical_digest
 from fairaudit.verification.accounting import unaccounted
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge, stated_tolerance
@@ -43,7 +44,7 @@ from fairaudit.verification.recorded_check import recorded_checks
 from fairaudit.verification.schema import CertificateError
 from fairaudit.verification.verdict_check import verdict_checks
 
-__all__ = ["Verification", "verify"]
+__all__ = ["Verification", "canonical_digest", "verify"]
 
 TIGHT_GROUPS = 256
 """The most groups of a matrix whose tight bound is re-derived (every ordered pair's minimum over ε, exactly: 256
@@ -79,7 +80,7 @@ class Verification:
         """The checks that fail."""
         return tuple(c for c in self.checks if not c.holds)
 
-    def to_dict(self) -> Report:
+    def to_dict(self) -> dict[str, Any]:
         """The report dictionary: holds, the checks, what was not checked."""
         return {
             "source": self.source,
@@ -162,6 +163,24 @@ def verify(
     check_certificate(certificate)
     with stated_tolerance(certificate["tolerance"]):  # every number is judged to it, and only during this verify
         return _rederived(certificate, privacy_filter, source)
+
+
+def canonical_digest(value: Any) -> str:
+    """SHA-256 (hex) of a JSON value's canonical text, as certify computes ``inputs_sha256`` (docs/certificates.md):
+    keys sorted, no spaces, UTF-8, floats as ``repr``.
+
+    Raises
+    ------
+    ValueError
+        On NaN or an infinity (a certificate writes ``"inf"``).
+
+    Examples
+    --------
+    >>> canonical_digest({"b": [0.1], "a": "inf"}) == hashlib.sha256(b'{"a":"inf","b":[0.1]}').hexdigest()
+    True
+    """
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def _rederived(certificate: Mapping[str, Any], privacy_filter: Any, source: str) -> Verification:

@@ -4,6 +4,7 @@ input table or a changed epsilon fails; the re-derived values against hand calcu
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import math
 from fractions import Fraction
@@ -12,11 +13,12 @@ from pathlib import Path
 import pytest
 from _cli import OFFICE_SPEC
 
+from fairaudit.base import json_values
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.filter.filters import PrivacyFilter
 from fairaudit.verification.enclosures import RecordedMechanism
-from fairaudit.verification.rederive import _filter_check, verify
+from fairaudit.verification.rederive import _filter_check, canonical_digest, verify
 from fairaudit.verification.schema import CertificateError
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -226,6 +228,18 @@ def test_the_deployed_filter_is_checked_against_the_certificate(certificates):
     assert verify(matrix, privacy_filter=PrivacyFilter.from_matrix(rows, ["a", "b", "c"])).holds
     nearby = [[0.5, 0.25, 0.25], [0.25, 0.5, 0.25], [0.125, 0.4375, 0.4375]]
     assert not verify(matrix, privacy_filter=PrivacyFilter.from_matrix(nearby, ["a", "b", "c"])).holds
+
+
+def test_the_digest_is_the_one_certify_records(certificates):
+    # verification's own canonical JSON and SHA-256 against certify's (fairaudit.base.json_values) and the recorded one
+    for cert in certificates.values():
+        assert canonical_digest(cert["inputs"]) == json_values.canonical_digest(cert["inputs"]) == cert["inputs_sha256"]
+    value = {"é": [0.1, 1e-300, 2, None, True], "a": {"z": "inf", "b": -0.0}}
+    assert canonical_digest(value) == json_values.canonical_digest(value)
+    assert (
+        canonical_digest(value)
+        == hashlib.sha256('{"a":{"b":-0.0,"z":"inf"},"é":[0.1,1e-300,2,null,true]}'.encode()).hexdigest()
+    )
 
 
 def test_the_filter_is_read_from_its_parameters(certificates):

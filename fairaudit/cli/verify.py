@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from fairaudit.base.errors import InputError
-from fairaudit.verification.schema import MAX_DEPTH
+from fairaudit.verification.schema import MAX_DEPTH, CertificateError
 
 from ._common import Subparsers
 
@@ -115,20 +115,23 @@ def run(args: argparse.Namespace) -> int:
     from fairaudit.verification.rederive import verify
 
     cert = _read_json(args.certificate, "CERT.json")
-    privacy_filter = None
+    parameters = None
     if args.filter is not None:
         from fairaudit.filter.filters import PrivacyFilter
 
-        try:
-            privacy_filter = PrivacyFilter.from_dict(_read_json(args.filter, "--filter"))
+        parameters = _read_json(args.filter, "--filter")
+        try:  # its fields checked and named here; verify reads the parameters itself
+            PrivacyFilter.from_dict(parameters)
         except InputError as exc:
             raise exc.under(f"--filter {exc.field}", keep_own=False) from None
     try:
-        result = verify(cert, privacy_filter=privacy_filter, source=args.certificate)
-    except InputError as exc:
+        result = verify(cert, privacy_filter=parameters, source=args.certificate)
+    except CertificateError as exc:  # (verification's own error: the package imports nothing else of fairaudit)
         if exc.field == "certificate":  # the whole document: named by its path
             raise InputError("CERT.json", exc.problem, args.certificate) from None
-        raise exc.under(f"CERT.json {exc.field}", keep_own=False) from None
+        field = exc.field.replace("privacy_filter", "--filter", 1) if exc.field.startswith("privacy_filter") else ""
+        given = () if exc.value is CertificateError.NO_VALUE else (exc.value,)
+        raise InputError(field or f"CERT.json {exc.field}", exc.problem, *given) from None
     if args.format == "json":
         print(json.dumps(result.to_dict(), indent=2))
     else:

@@ -2,7 +2,9 @@
 
 :func:`~fairaudit.verification.rederive.verify` reads a certificate's JSON (its format is the JSON Schema
 ``certificate.schema.json`` shipped here, checked by :mod:`~fairaudit.verification.schema`) and re-derives its
-numbers from its ``inputs`` in exact rational arithmetic with directed rounding (:mod:`fairaudit.base.outward`),
-importing neither cvxpy, Clarabel nor scipy. Imports :mod:`fairaudit.filter` (a filter's exact ε) and
-:mod:`fairaudit.base`. Guide: ``docs/certificates.md`` ("Checking a certificate").
+numbers from its ``inputs`` in exact rational arithmetic with directed rounding (ln and exp enclosed by python-flint's
+``arb`` balls, :mod:`~fairaudit.verification.enclosures`), importing neither cvxpy, Clarabel nor scipy. It imports
+nothing else of fairaudit, so that a third party reads one package (``tests/verification/test_init_independent.py``),
+but for now :mod:`fairaudit.base.exact_programs`, the small exact solves of ``kernel_check`` and ``class_check``, until
+verify stops solving (issue 80). Guide: ``docs/certificates.md`` ("Checking a certificate").
 """

@@ -69,7 +69,7 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
 
     Raises
     ------
-    InputError
+    CertificateError
         Naming the field of ``inputs`` that holds a value that is not a number (``inputs.utility.values[2]``), or the
         field of ``recorded`` whose label or shape is not the inputs'.
 

@@ -10,6 +10,7 @@ value holds within the tolerance on either side. The tolerance is the one the ce
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -18,8 +19,6 @@ from decimal import ROUND_CEILING, Decimal
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.json_values import Report, number
-from fairaudit.base.outward import fraction_down, fraction_up
 from fairaudit.verification.enclosures import INF, Enclosure, exact
 
 __all__ = ["SIDES", "TOLERANCE", "Check", "equal", "judge", "stated_tolerance", "tolerance"]
@@ -71,15 +70,15 @@ class Check:
     fails_by: float
     detail: str
 
-    def to_dict(self) -> Report:
-        """The report dictionary."""
+    def to_dict(self) -> dict[str, Any]:
+        """The report dictionary (NaN as None, ±inf as ``"inf"``, ``"-inf"``)."""
         return {
             "name": self.name,
             "reported": self.reported,
-            "derived": [number(self.derived_low), number(self.derived_high)],
+            "derived": [_json(self.derived_low), _json(self.derived_high)],
             "side": self.side,
             "holds": self.holds,
-            "fails_by": number(self.fails_by),
+            "fails_by": _json(self.fails_by),
             "detail": self.detail,
         }
 
@@ -91,6 +90,11 @@ class Check:
             verdict += f" by {distance(self.fails_by)}"
         shown = self.reported if not isinstance(self.reported, float) else f"{self.reported!r}"
         return f"{self.name} = {shown}: {verdict}" + (f" ({self.detail})" if self.detail and not self.holds else "")
+
+
+def _json(x: float) -> float | str | None:
+    """A float as JSON, as certify writes it: NaN as None, ±inf as ``"inf"``, ``"-inf"``."""
+    return None if math.isnan(x) else ("inf" if x > 0 else "-inf") if math.isinf(x) else x
 
 
 def distance(x: float) -> str:
@@ -118,10 +122,26 @@ def _numeric(value: Any) -> Fraction | float | None:
 
 
 def _float(x: Fraction | float, upward: bool) -> float:
-    """An exact value as a float on the stated side."""
+    """An exact value as the nearest float on the stated side (beyond the floats: ±inf outward, the largest float
+    inward).
+
+    Examples
+    --------
+    >>> third = Fraction(1, 3)
+    >>> _float(third, False) == 1 / 3 and third < Fraction(_float(third, True)), _float(Fraction(-1, 2), True)
+    (True, -0.5)
+    >>> _float(Fraction(2) ** 1024, True), _float(Fraction(2) ** 1024, False) == LARGEST, _float(-(Fraction(2) ** 1024), False)
+    (inf, True, -inf)
+    """
     if isinstance(x, float):
         return x
-    return fraction_up(x) if upward else fraction_down(x)
+    sign = 1 if upward else -1  # rounded up: x, rounded down: -x rounded up, negated
+    q = sign * x
+    try:
+        f = float(q)  # (to nearest: Fraction divides its integers correctly rounded)
+    except OverflowError:
+        f = math.inf if q > 0 else -sys.float_info.max
+    return sign * (math.nextafter(f, math.inf) if math.isfinite(f) and Fraction(f) < q else f)
 
 
 def _outward(x: Fraction | float, upward: bool) -> Fraction | float:

@@ -10,9 +10,8 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.errors import InputError
-from fairaudit.base.json_values import label
 from fairaudit.verification.enclosures import exact, recorded_array
+from fairaudit.verification.schema import CertificateError
 
 __all__ = ["Evidence"]
 
@@ -43,15 +42,14 @@ class Evidence:
 
         Raises
         ------
-        InputError
+        CertificateError
             Naming the field (``bound_details.black_box.duals[0].group``) whose label is not the inputs' or whose
             numbers are not finite, or whose shape is not (groups,) or (contexts, groups) (``released`` for a point).
         """
         if not detail:
             return cls()
         pop = inputs["population"]
-        contexts = [label(c) for c in pop["contexts"]]
-        groups = [label(g) for g in pop["groups"]]
+        contexts, groups = list(pop["contexts"]), list(pop["groups"])
         released = len(inputs["sensitive_mechanism"]["outputs"])
         own = inputs["context_mechanism"]["kind"] == "identity"  # (else L's program spans every context)
         where = "bound_details.black_box"
@@ -90,7 +88,7 @@ class Evidence:
             name = f"{where}.global.witness_point"
             if own:
                 if not isinstance(glob["witness_point"], list) or len(glob["witness_point"]) != len(contexts):
-                    raise InputError(name, f"must be a list of {len(contexts)} lists", glob["witness_point"])
+                    raise CertificateError(name, f"must be a list of {len(contexts)} lists", glob["witness_point"])
                 hs = [_point(h, released, n_u, f"{name}[{i}]") for i, h in enumerate(glob["witness_point"])]
             else:
                 hs = _tables(glob, name, inputs)
@@ -106,7 +104,9 @@ def _thetas(detail: Mapping[str, Any], where: str, keys: list[tuple[str, list[An
         name = f"{where}[{i}]"
         theta = exact(d.get("theta"), f"{name}.theta") if isinstance(d.get("theta"), (int, float, str)) else None
         if not isinstance(theta, Fraction):
-            raise InputError(f"{name}.theta", 'must be a finite number or an exact rational "n/d"', d.get("theta"))
+            raise CertificateError(
+                f"{name}.theta", 'must be a finite number or an exact rational "n/d"', d.get("theta")
+            )
         out[tuple(_index(d, key, labels, name) for key, labels in keys)] = theta
     return out
 
@@ -115,17 +115,17 @@ def _index(record: Mapping[str, Any], key: str, labels: list[Any], name: str) ->
     """The position of ``record[key]`` among ``labels``."""
     value = record.get(key)
     if value not in labels:
-        raise InputError(f"{name}.{key}", "is not a label of the inputs' population", value)
+        raise CertificateError(f"{name}.{key}", "is not a label of the inputs' population", value)
     return labels.index(value)
 
 
 def _vector(value: Any, n: int, name: str) -> list[Fraction]:
     """A recorded list of n finite numbers, exactly."""
     if not isinstance(value, list) or len(value) != n:
-        raise InputError(name, f"must be a list of {n} numbers", value)
+        raise CertificateError(name, f"must be a list of {n} numbers", value)
     out = recorded_array(value, name)
     if any(not isinstance(v, Fraction) for v in out):
-        raise InputError(name, "must hold finite numbers", value)
+        raise CertificateError(name, "must hold finite numbers", value)
     return out
 
 
@@ -147,7 +147,7 @@ def _tables(record: Mapping[str, Any], name: str, inputs: Mapping[str, Any]) -> 
     values = inputs["utility"]["values"]
     n_u = len(values[0][0]) if values and isinstance(values[0], list) else len(values)
     if not isinstance(value, list) or len(value) != n_x:
-        raise InputError(name, f"must be a list of {n_x} lists", value)
+        raise CertificateError(name, f"must be a list of {n_x} lists", value)
     return [_matrix(t, len(inputs["sensitive_mechanism"]["outputs"]), n_u, f"{name}[{i}]") for i, t in enumerate(value)]
 
 
@@ -159,5 +159,5 @@ def _point(value: Any, released: int, n_u: int | None, name: str) -> list[Any]:
 def _matrix(value: Any, rows: int, n: int, name: str) -> list[list[Fraction]]:
     """A recorded list of ``rows`` lists of n finite numbers, exactly."""
     if not isinstance(value, list) or len(value) != rows:
-        raise InputError(name, f"must be a list of {rows} lists", value)
+        raise CertificateError(name, f"must be a list of {rows} lists", value)
     return [_vector(row, n, f"{name}[{i}]") for i, row in enumerate(value)]

@@ -2,9 +2,9 @@
 
 Every float a certificate records is a dyadic rational, read exactly (:class:`fractions.Fraction`). A recorded
 mechanism is either exact rows (``identity``, ``matrix``) or k-ary randomized response at ε, whose rows hold the
-irrational t = e^ε: t is enclosed by 50-digit rationals (:func:`~fairaudit.base.outward.exp_bounds`), and each
-quantity by the interval its monotonicity in t gives. A logarithm is enclosed likewise (:func:`~fairaudit.base.outward.ln_bounds`). No
-floating-point operation decides a result here (``proofs/outward.md``).
+irrational t = e^ε: t is enclosed by rationals 2^-200 of it apart (:func:`exp_of`, python-flint's ``arb`` balls), and
+each quantity by the interval its monotonicity in t gives. A logarithm is enclosed likewise (:func:`ln`). No
+floating-point operation decides a result here (``proofs/outward.md`` §4).
 """
 
 from __future__ import annotations
@@ -18,9 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from fairaudit.base.errors import InputError
-from fairaudit.base.exact_duality import on_one_denominator
-from fairaudit.base.outward import exp_bounds, ln_bounds
+from fairaudit.verification.schema import CertificateError
+from fairaudit.verification.table_duality import integers
 
 __all__ = [
     "INF",
@@ -66,7 +65,7 @@ def exact(value: Any, field: str) -> Fraction | float:
 
     Raises
     ------
-    InputError
+    CertificateError
         Naming ``field`` when the value is not a finite number, ``"inf"`` or ``"n/d"`` (at most
         :data:`RATIONAL_DIGITS` digits).
 
@@ -82,7 +81,7 @@ def exact(value: Any, field: str) -> Fraction | float:
         if int(d):
             return Fraction(int(n), int(d))
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(field, 'must be a finite number or "inf"', value)
+        raise CertificateError(field, 'must be a finite number or "inf"', value)
     return Fraction(value)
 
 
@@ -93,7 +92,7 @@ def recorded_array(value: Any, field: str) -> list[Any]:
 
     Raises
     ------
-    InputError
+    CertificateError
         Naming ``field`` and the index (``field[0][2]``) of an entry that is not a finite number or ``"inf"``.
 
     Examples
@@ -106,26 +105,31 @@ def recorded_array(value: Any, field: str) -> list[Any]:
     return None if value is None else exact(value, field)  # type: ignore[return-value]
 
 
+BITS = 200
+"""The relative width of :func:`ln`'s and :func:`exp_of`'s enclosures: their ends are at most 2^-200 (about 1e-60)
+times the quantity apart (ln x; e^x − 1 within 1/2 of 0, else e^x), far inside the tolerance verify judges to."""
+
+
 def ln(x: Fraction | float) -> Enclosure:
-    """50-digit rationals around ln x for a rational x ≥ 0 (ln 0 = −inf, ln +inf = +inf).
+    """Rationals around ln x for a rational x ≥ 0, at most 2^-:data:`BITS`·|ln x| apart (ln 0 = −inf, ln 1 = 0,
+    ln +inf = +inf; nats).
 
     Examples
     --------
     >>> e = ln(Fraction(7, 3))
-    >>> abs(e.lo - Fraction(math.log(7 / 3))) < Fraction(1, 10**15) and e.hi - e.lo < Fraction(1, 10**48)
+    >>> abs(e.lo - Fraction(math.log(7 / 3))) < Fraction(1, 10**15) and e.hi - e.lo < Fraction(1, 10**59)
     True
     """
-    if x == INF:
-        return Enclosure.point(INF)
-    if x == 0:
-        return Enclosure.point(-INF)
-    return Enclosure(*ln_bounds(x))
+    if x == INF or x == 0:
+        return Enclosure.point(INF if x == INF else -INF)
+    return Enclosure.point(Fraction(0)) if x == 1 else _arb_ends(Fraction(x), log=True)
 
 
 def exp_of(x: Fraction) -> Enclosure:
-    """Rationals [lo, hi] around e^x for a rational x (nats), 50 digits apart (:func:`~fairaudit.base.outward.exp_bounds`,
-    ``proofs/outward.md`` §4); beyond 10^6, [2^1000, +inf] (e^x > 2^(1.44·10^6) there; a finite lower end, so that
-    randomized response's q = 1/(e^ε + k − 1) keeps a positive upper end, and a small one: its arithmetic stays cheap).
+    """Rationals [lo, hi] around e^x for a rational x (nats), at most 2^-:data:`BITS`·min(e^x, |e^x − 1|) apart;
+    beyond 10^6, [2^1000, +inf] (e^x > 2^(1.44·10^6) there; a finite lower end, so that randomized response's
+    q = 1/(e^ε + k − 1) keeps a positive upper end, and a small one: its arithmetic stays cheap), below −10^6,
+    [0, 2^-1000].
 
     Examples
     --------
@@ -136,14 +140,49 @@ def exp_of(x: Fraction) -> Enclosure:
     >>> e.lo == 2**1000 and e.hi == INF
     True
     """
-    if x > 10**6:
-        return Enclosure(Fraction(2**1000), INF)
-    return Enclosure(*exp_bounds(x))
+    if abs(x) > 10**6:
+        return Enclosure(Fraction(2**1000), INF) if x > 0 else Enclosure(Fraction(0), Fraction(1, 2**1000))
+    return Enclosure.point(Fraction(1)) if x == 0 else _arb_ends(Fraction(x), log=False)
+
+
+def _arb_ends(q: Fraction, log: bool) -> Enclosure:
+    """Rationals around ln q (``log``; q > 0, q ≠ 1) or e^q (q ≠ 0), at most 2^-:data:`BITS` of the quantity apart.
+
+    python-flint's ``arb`` computes a ball, a midpoint and a radius, that contains the exact value (Johansson, "Arb:
+    efficient arbitrary-precision midpoint-radius interval arithmetic", IEEE Transactions on Computers 66(8), 2017);
+    its ends (``lower``, ``upper``: mid ∓ rad rounded outward) are dyadic rationals, read exactly, so they hold the
+    value. Within 1/2 of 1 (ln) or of 0
+    (exp) the ball is of ln(1 + y) at y = q − 1 (``log1p``) or of e^q − 1 (``expm1``, then 1 added), which keep their
+    relative accuracy however small the quantity. The working precision starts 64 bits above :data:`BITS` and grows
+    while the ends are farther apart than that (arb's balls are a few units of it wide: no argument verify meets
+    needs a second try); the last ball is returned as it is.
+    """
+    import flint  # (here, not at import: `import fairaudit` loads no python-flint)
+
+    near = 2 * abs(q - 1 if log else q) < 1
+    y = q - 1 if log and near else q
+    for bits in (BITS + 64, 4 * BITS, 16 * BITS, 64 * BITS):
+        with flint.ctx.workprec(bits):  # (the ends are rounded outward to the working precision)
+            x = flint.arb(flint.fmpq(y.numerator, y.denominator))
+            ball = (x.log1p() if near else x.log()) if log else (x.expm1() if near else x.exp())
+            lower, upper = ball.lower(), ball.upper()
+            if ball.is_finite() and (upper - lower) * 2**BITS <= ball.abs_lower():  # (true only when sure)
+                break
+    if not ball.is_finite():
+        raise ArithmeticError(f"{'ln' if log else 'exp'} of {q}: no finite ball")
+    offset = int(near and not log)
+    return Enclosure(_dyadic(lower) + offset, _dyadic(upper) + offset)
+
+
+def _dyadic(a: Any) -> Fraction:
+    """An exact ``arb`` (a ball's end, m·2^e) as a rational."""
+    m, e = (int(v) for v in a.man_exp())
+    return Fraction(m << e) if e >= 0 else Fraction(m, 1 << -e)
 
 
 def ln_of(e: Enclosure) -> Enclosure:
-    """The enclosure of ln over an enclosure [lo, hi] of a quantity ≥ 0 (ln is increasing: [ln lo rounded down,
-    ln hi rounded up], 50 digits; ln 0 = −inf).
+    """The enclosure of ln over an enclosure [lo, hi] of a quantity ≥ 0 (ln is increasing: the lower end of ln lo's
+    enclosure, the upper end of ln hi's; ln 0 = −inf).
 
     Examples
     --------
@@ -185,7 +224,7 @@ class RecordedMechanism:
         if kind == "matrix":
             rows = tuple(tuple(r) for r in recorded_array(data["matrix"], f"{field}.matrix"))
             if len(rows) != len(inputs) or any(len(r) != len(outputs) for r in rows):
-                raise InputError(f"{field}.matrix", f"must have shape ({len(inputs)}, {len(outputs)})", "")
+                raise CertificateError(f"{field}.matrix", f"must have shape ({len(inputs)}, {len(outputs)})", "")
             return cls(kind, inputs, outputs, rows=rows)
         return cls(kind, inputs, outputs)
 
@@ -300,7 +339,8 @@ class RecordedMechanism:
             return Enclosure(min(one.lo, at_eps.lo), min(one.hi, at_eps.hi)), a, b
         rows = self.matrix_rows()
         assert rows is not None
-        ints, den = on_one_denominator(rows)
+        ints, den = integers([rows])
+        ints = ints[0]
         scale = gamma / tau
 
         def shift(a: int, b: int) -> Fraction:
@@ -329,8 +369,8 @@ class RecordedMechanism:
 def _largest_hockey_stick(rows: Sequence[Sequence[Fraction]], t: Fraction | float) -> Fraction:
     """max over ordered pairs of distinct rows of Σ_o [ra_o − t rb_o]₊, exactly (t may be +inf: the mass of ra where
     rb is 0), in integers over one denominator."""
-    ints, den = on_one_denominator(rows)
-    best = max((stick for _, _, stick in _hockey_sticks(ints, t)), default=0)
+    ints, den = integers([rows])
+    best = max((stick for _, _, stick in _hockey_sticks(ints[0], t)), default=0)
     return Fraction(best, den * (t.denominator if isinstance(t, Fraction) else 1))
 
 

@@ -59,7 +59,7 @@ def metric_checks(
 
     Raises
     ------
-    InputError
+    CertificateError
         Naming the field of ``inputs`` that holds a value that is not a number.
 
     Notes

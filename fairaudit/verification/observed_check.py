@@ -155,7 +155,7 @@ def observed_enclosures(
 
     Raises
     ------
-    InputError
+    CertificateError
         Naming the field of ``inputs`` that holds a value that is not a number.
 
     Notes

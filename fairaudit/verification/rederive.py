@@ -15,12 +15,15 @@ neither cvxpy, Clarabel nor scipy.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import hashlib
+import itertools
+import json
+import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from fairaudit.base.json_values import Report, canonical_digest, number
 from fairaudit.verification.accounting import unaccounted
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge, stated_tolerance
@@ -38,12 +41,10 @@ from fairaudit.verification.enclosures import (
 from fairaudit.verification.metrics_check import metric_checks
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import recorded_checks
+from fairaudit.verification.schema import CertificateError
 from fairaudit.verification.verdict_check import verdict_checks
 
-if TYPE_CHECKING:
-    from fairaudit.filter.filters import PrivacyFilter
-
-__all__ = ["Verification", "verify"]
+__all__ = ["Verification", "canonical_digest", "verify"]
 
 TIGHT_GROUPS = 256
 """The most groups of a matrix whose tight bound is re-derived (every ordered pair's minimum over ε, exactly: 256
@@ -79,7 +80,7 @@ class Verification:
         """The checks that fail."""
         return tuple(c for c in self.checks if not c.holds)
 
-    def to_dict(self) -> Report:
+    def to_dict(self) -> dict[str, Any]:
         """The report dictionary: holds, the checks, what was not checked."""
         return {
             "source": self.source,
@@ -102,7 +103,7 @@ class Verification:
 
 
 def verify(
-    certificate: Mapping[str, Any], *, privacy_filter: PrivacyFilter | None = None, source: str = "<certificate>"
+    certificate: Mapping[str, Any], *, privacy_filter: Any = None, source: str = "<certificate>"
 ) -> Verification:
     """Re-derive every number of a certificate that it can from the certificate's ``inputs``, exactly.
 
@@ -111,12 +112,13 @@ def verify(
     certificate : mapping
         A certificate's JSON, as ``fairaudit certify --format json`` writes it (format ``fairaudit-certificate``,
         ``format_version`` 2; checked against ``certificate.schema.json``).
-    privacy_filter : PrivacyFilter, optional
-        A deployed filter (:class:`fairaudit.PrivacyFilter`, e.g. read by ``PrivacyFilter.from_dict`` from
-        ``fairaudit filter --parameters``): checked to be the certified mechanism on the sensitive attribute, or at
-        least as private as it. Randomized response holds when the labels agree and the filter's exact ratio
-        e^ε is ≤ e^ε of the certificate (a garbling of the certified mechanism, so every bound still holds); a
-        matrix when its rows are the certificate's exactly; the identity for any filter on the same labels.
+    privacy_filter : mapping, optional
+        A deployed filter's parameters, the JSON ``fairaudit filter --parameters`` writes (docs/filter.md, "The
+        JSON"), or an object whose ``to_dict()`` gives them (a :class:`fairaudit.PrivacyFilter`), read here exactly:
+        checked to be the certified mechanism on the sensitive attribute, or at least as private as it. Randomized
+        response holds when the labels agree and the filter's exact ratio e^ε = keep/move is ≤ e^ε of the
+        certificate (a garbling of the certified mechanism, so every bound still holds); a matrix or a product when
+        its rows are the certificate's exactly; the identity for any filter on the same labels.
     source : str
         Its name in the report.
 
@@ -128,9 +130,9 @@ def verify(
 
     Raises
     ------
-    InputError
+    CertificateError
         When the certificate does not match its schema (the field named by its JSON path), its ``tolerance``
-        included (a number above 0 and at most 1e-6).
+        included (a number above 0 and at most 1e-6), or ``privacy_filter`` is not a filter's parameters.
 
     Examples
     --------
@@ -163,7 +165,25 @@ def verify(
         return _rederived(certificate, privacy_filter, source)
 
 
-def _rederived(certificate: Mapping[str, Any], privacy_filter: PrivacyFilter | None, source: str) -> Verification:
+def canonical_digest(value: Any) -> str:
+    """SHA-256 (hex) of a JSON value's canonical text, as certify computes ``inputs_sha256`` (docs/certificates.md):
+    keys sorted, no spaces, UTF-8, floats as ``repr``.
+
+    Raises
+    ------
+    ValueError
+        On NaN or an infinity (a certificate writes ``"inf"``).
+
+    Examples
+    --------
+    >>> canonical_digest({"b": [0.1], "a": "inf"}) == hashlib.sha256(b'{"a":"inf","b":[0.1]}').hexdigest()
+    True
+    """
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _rederived(certificate: Mapping[str, Any], privacy_filter: Any, source: str) -> Verification:
     """:func:`verify`'s checks of a certificate that matches its schema, at the tolerance it states."""
     inputs = certificate["inputs"]
     checks: list[Check] = [
@@ -183,7 +203,8 @@ def _rederived(certificate: Mapping[str, Any], privacy_filter: PrivacyFilter | N
     checks += metric_checks(certificate, sensitive, context, skipped)
     checks += _target_checks(certificate)
     if privacy_filter is not None:
-        checks.append(_filter_check(sensitive, privacy_filter))
+        parameters = privacy_filter.to_dict() if hasattr(privacy_filter, "to_dict") else privacy_filter
+        checks.append(_filter_check(sensitive, parameters))
     checks += calibration_checks(certificate, skipped)
     checks += recorded_checks(certificate, sensitive, context)
     checks += verdict_checks(certificate, skipped)
@@ -261,32 +282,99 @@ def _target_checks(cert: Mapping[str, Any]) -> list[Check]:
     return out
 
 
-def _filter_check(m: RecordedMechanism, f: PrivacyFilter) -> Check:
-    """The deployed filter is the certified mechanism on the sensitive attribute, or a garbling of it."""
-    from fairaudit.base.json_values import label
+def _filter_check(m: RecordedMechanism, parameters: Mapping[str, Any]) -> Check:
+    """The deployed filter (its parameters) is the certified mechanism on the sensitive attribute, or a garbling of it;
+    the ε the parameters record is only shown (what is judged is read from their rows)."""
+    kind, inputs, outputs, den, rows = _filter_rows(parameters, "privacy_filter")
 
-    name = "filter"
-    labels = [label(v) for v in f.inputs]
-    ratio = f.ratio
-    eps_f = number(f.epsilon)
-    if labels != list(m.inputs) or [label(v) for v in f.outputs] != list(m.outputs):
-        return equal(name, labels, list(m.inputs), "the filter's values are not the certificate's")
+    def verdict(holds: bool, detail: str) -> Check:
+        return Check(name="filter", reported=parameters.get("epsilon"), derived_low=math.nan, derived_high=math.nan,
+                     side="equal", holds=holds, fails_by=0.0 if holds else math.nan, detail=detail)  # fmt: skip
+
+    labels = [_label(v) for v in inputs]
+    if labels != list(m.inputs) or [_label(v) for v in outputs] != list(m.outputs):
+        return verdict(False, f"the filter's values {labels} are not the certificate's {list(m.inputs)}")
     if m.kind == "identity":
-        return equal(name, eps_f, eps_f, "any filter is a garbling of the identity")
+        return verdict(True, "any filter is a garbling of the identity")
     if m.kind == "randomized_response":
-        if f.kind != "randomized_response":
-            return equal(name, f.kind, "randomized_response", "the certificate's mechanism is randomized response")
-        eps = m.epsilon
-        if eps == INF or ratio <= exp_of(eps).lo:  # type: ignore[arg-type]
-            return equal(name, eps_f, eps_f, "the filter's exact e^epsilon is at most the certificate's")
-        over = ratio > exp_of(eps).hi  # type: ignore[arg-type]
-        why = "exceeds" if over else "cannot be shown to be at most"
-        return equal(name, eps_f, number(eps), f"the filter's exact e^epsilon {why} the certificate's")
-    rows = m.matrix_rows()
-    exact_rows = tuple(tuple(Fraction(n, f.denominator) for n in row) for row in f.numerator_rows())
-    if exact_rows == rows:
-        return equal(name, eps_f, eps_f, "the filter's rows are the certificate's, exactly")
-    return equal(name, "rows differ", "the certificate's rows", "the filter's rows are not the certificate's matrix")
+        if kind != "randomized_response":
+            return verdict(False, f"the filter is a {kind}; the certificate's mechanism is randomized response")
+        low, high = sorted((int(parameters["keep"]), int(parameters["move"])))
+        ratio = Fraction(1) if len(inputs) < 2 else INF if low == 0 else Fraction(high, low)  # e^epsilon, exactly
+        t = Enclosure.point(INF) if m.epsilon == INF else exp_of(m.epsilon)  # type: ignore[arg-type]
+        if ratio <= t.lo:
+            return verdict(True, "the filter's exact e^epsilon is at most the certificate's")
+        why = "exceeds" if ratio > t.hi else "cannot be shown to be at most"
+        return verdict(False, f"the filter's exact e^epsilon {why} the certificate's")
+    if tuple(tuple(Fraction(n, den) for n in row) for row in rows()) == m.matrix_rows():
+        return verdict(True, "the filter's rows are the certificate's, exactly")
+    return verdict(False, "the filter's rows are not the certificate's matrix")
+
+
+def _filter_rows(data: Any, where: str) -> tuple[str, list[Any], list[Any], int, Callable[[], list[list[int]]]]:
+    """A filter's parameters (docs/filter.md, "The JSON") read exactly: its kind, inputs and outputs (JSON labels, a
+    product's the lists of its components'), its denominator and a function that builds its integer rows
+    (randomized response's from keep and move, a product's the Kronecker product of its components'), each row
+    checked to be a distribution over the denominator.
+
+    Raises
+    ------
+    CertificateError
+        Naming ``where`` (``privacy_filter.components[1]``) when a field is missing or malformed, or a row is not
+        whole numbers ≥ 0 summing to the denominator.
+    """
+    try:
+        kind = data["mechanism"]
+        if kind == "product":
+            parts = [_filter_rows(c, f"{where}.components[{i}]") for i, c in enumerate(data["components"])]
+            inputs = [list(t) for t in itertools.product(*(p[1] for p in parts))]
+            outputs = [list(t) for t in itertools.product(*(p[2] for p in parts))]
+
+            def kronecker() -> list[list[int]]:
+                tables = itertools.product(*(p[4]() for p in parts))
+                return [[math.prod(x) for x in itertools.product(*row)] for row in tables]
+
+            return kind, inputs, outputs, math.prod(p[3] for p in parts), kronecker
+        den = int(data["denominator"])
+        if kind == "randomized_response":
+            inputs = outputs = list(data["values"])
+            keep, move, k = int(data["keep"]), int(data["move"]), len(inputs)
+            valid = min(keep, move) >= 0 and keep + (k - 1) * move == den
+
+            def rows() -> list[list[int]]:
+                return [[keep if o == a else move for o in range(k)] for a in range(k)]
+
+        else:
+            inputs, outputs = list(data["inputs"]), list(data["outputs"])
+            matrix = [list(map(int, r)) for r in data["rows"]]
+            valid = kind == "matrix" and len(matrix) == len(inputs) and all(
+                len(r) == len(outputs) and min(r, default=0) >= 0 and sum(r) == den for r in matrix)  # fmt: skip
+
+            def rows() -> list[list[int]]:
+                return matrix
+
+    except CertificateError:
+        raise
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CertificateError(where, f"is not a filter's parameters (filter --parameters): {exc!r}") from None
+    if not valid or den <= 0:
+        raise CertificateError(where, "must have rows of whole numbers >= 0 summing to its denominator", den)
+    return kind, inputs, outputs, den, rows
+
+
+def _label(value: Any, inner: bool = False) -> Any:
+    """A filter's JSON label as a certificate writes it: a list (a tuple of labels) its parts joined with " & ", a part
+    that is text with spaces around it quoted (fairaudit's ``format_label``).
+
+    >>> _label(["f", [" x", 1]]), _label(" x")
+    ("f & ' x' & 1", ' x')
+    """
+    if isinstance(value, list):
+        return " & ".join(_label(v, True) for v in value)
+    if not inner:
+        return value
+    text = str(value)
+    return repr(text) if isinstance(value, str) and (not text or text != text.strip()) else text
 
 
 def _below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:

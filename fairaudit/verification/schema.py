@@ -15,18 +15,47 @@ from collections.abc import Collection, Mapping
 from importlib import resources
 from typing import TYPE_CHECKING, Any
 
-from fairaudit.base.errors import InputError
-
 if TYPE_CHECKING:
     from jsonschema import Draft202012Validator
     from jsonschema.exceptions import ValidationError
 
-__all__ = ["SCHEMA_FILE", "certificate_schema", "check_certificate", "json_path", "other_document"]
+__all__ = ["SCHEMA_FILE", "CertificateError", "certificate_schema", "check_certificate", "json_path", "other_document"]
 
 SCHEMA_FILE = "certificate.schema.json"
 """The schema's file name in the package ``fairaudit.verification``."""
 
 _WEAK = frozenset({"anyOf", "oneOf"})
+
+
+class CertificateError(ValueError):
+    """What ``verify`` cannot read (a certificate, a filter's parameters): one line naming the field, saying what is
+    wrong and quoting the value (``repr``, cut after 80 characters), as fairaudit's ``InputError`` words it; the
+    command line prints it and exits 2. Its own class, so that the verification package imports nothing else of
+    fairaudit.
+
+    Parameters
+    ----------
+    field : str
+        The JSON path at fault (``inputs.utility.tau``).
+    problem : str
+        What is wrong.
+    value : object, optional
+        The offending value (none given: :attr:`NO_VALUE`).
+
+    Examples
+    --------
+    >>> str(CertificateError("tolerance", "must be positive", -1.0)), str(CertificateError("tolerance", "is required"))
+    ('tolerance: must be positive (got -1.0)', 'tolerance: is required')
+    """
+
+    NO_VALUE = object()
+
+    def __init__(self, field: str, problem: str, value: object = NO_VALUE) -> None:
+        self.field, self.problem, self.value = field, problem, value
+        text = " ".join(repr(value).split())
+        text = text if len(text) <= 80 else f"{text[:80]}… ({len(text)} characters)"
+        super().__init__(f"{field}: {problem}" + (f" (got {text})" if value is not self.NO_VALUE else ""))
+
 
 MAX_DEPTH = 64
 """The deepest nesting of arrays and objects a certificate may have (one nests 8 deep): the schema's check and the
@@ -86,7 +115,7 @@ def check_certificate(data: Mapping[str, Any]) -> None:
 
     Raises
     ------
-    InputError
+    CertificateError
         On the first (most relevant, ``jsonschema.exceptions.best_match``) departure from the schema: its field is
         the JSON path of the part at fault (``inputs.utility.tau``, ``inputs.population.probabilities[0][1]``; a
         missing or unknown key named at its own path, ``inputs_sha256``), its value the offending value.
@@ -120,16 +149,16 @@ def check_certificate(data: Mapping[str, Any]) -> None:
     >>> check_certificate(data)
     Traceback (most recent call last):
     ...
-    fairaudit.base.errors.InputError: inputs.utility.tau: must be a number >= 0, or null (got '0.25')
+    fairaudit.verification.schema.CertificateError: inputs.utility.tau: must be a number >= 0, or null (got '0.25')
     """
     if not isinstance(data, Mapping):
-        raise InputError("certificate", "must be a JSON object", data)
+        raise CertificateError("certificate", "must be a JSON object", data)
     deep = _too_deep(data, MAX_DEPTH)
     if deep is not None:
-        raise InputError(json_path(deep), f"is nested deeper than {MAX_DEPTH} arrays and objects")
+        raise CertificateError(json_path(deep), f"is nested deeper than {MAX_DEPTH} arrays and objects")
     other = other_document(data)
     if other is not None:
-        raise InputError("certificate", other)
+        raise CertificateError("certificate", other)
     from jsonschema.exceptions import best_match
 
     errors = list(_validator().iter_errors(data))
@@ -207,23 +236,23 @@ def _chosen_branch(error: ValidationError) -> ValidationError:
     return _chosen_branch(best_match(matching[0]))
 
 
-def _input_error(error: ValidationError) -> InputError:
-    """One schema error as an InputError: its field the JSON path, its value the offending value."""
+def _input_error(error: ValidationError) -> CertificateError:
+    """One schema error as a CertificateError: its field the JSON path, its value the offending value."""
     path = list(error.absolute_path)
     instance = error.instance
     expected: Any = error.validator_value  # the failed keyword's value: required's list here
     if error.validator == "required" and isinstance(instance, Mapping):
         missing = next(k for k in expected if k not in instance)
-        return InputError(json_path([*path, missing]), "is required")
+        return CertificateError(json_path([*path, missing]), "is required")
     if error.validator == "additionalProperties" and isinstance(instance, Mapping):
         known = error.schema.get("properties", {}) if isinstance(error.schema, Mapping) else {}
         extra = next(k for k in instance if k not in known)
-        return InputError(json_path([*path, extra]), "is not a known key", instance[extra])
-    return InputError(json_path(path) or "certificate", _problem(error), instance)
+        return CertificateError(json_path([*path, extra]), "is not a known key", instance[extra])
+    return CertificateError(json_path(path) or "certificate", _problem(error), instance)
 
 
 def _problem(error: ValidationError) -> str:
-    """What is wrong, without the value (the InputError quotes it)."""
+    """What is wrong, without the value (the error quotes it)."""
     schema = error.schema if isinstance(error.schema, Mapping) else {}
     expected: Any = error.validator_value
     if error.validator == "const":

@@ -194,15 +194,15 @@ def test_malformed_json_of_any_depth_exits_2_with_one_line(capsys, tmp_path, con
 
 
 def test_a_deep_certificate_in_python_is_an_input_error():
-    from fairaudit.base.errors import InputError
     from fairaudit.verification.rederive import verify
+    from fairaudit.verification.schema import CertificateError
 
     deep: dict = {}
     inner = deep
     for _ in range(10**5):
         inner["a"] = {}
         inner = inner["a"]
-    with pytest.raises(InputError, match=r"^a(\.a){63}: is nested deeper than 64 arrays and objects$"):
+    with pytest.raises(CertificateError, match=r"^a(\.a){63}: is nested deeper than 64 arrays and objects$"):
         verify({"format": "fairaudit-certificate", **deep})
 
 

@@ -11,12 +11,12 @@ from fractions import Fraction
 import pytest
 from _cli import OFFICE_SPEC
 
-from fairaudit.base.errors import InputError
 from fairaudit.certification.certificate import TOLERANCE, certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification import checks
 from fairaudit.verification.enclosures import Enclosure
 from fairaudit.verification.rederive import verify
+from fairaudit.verification.schema import CertificateError
 
 # binary randomized response keeping 0.7, tau = 0.25: epsilon = bounds.* = ln(7/3) = 0.847..., the black box's ratio
 # e^epsilon = 7/3 (above 1: its tolerance is relative), keep_probability 0.7 (a measured value: either side)
@@ -94,7 +94,7 @@ def test_the_stated_tolerance_is_the_one_judged_to(certificate):
 def test_a_tolerance_beyond_the_schema_is_refused(certificate, value, message):
     cert = copy.deepcopy(certificate)
     cert["tolerance"] = value
-    with pytest.raises(InputError) as raised:
+    with pytest.raises(CertificateError) as raised:
         verify(cert)
     assert str(raised.value) == message and raised.value.field == "tolerance"
 
@@ -102,7 +102,7 @@ def test_a_tolerance_beyond_the_schema_is_refused(certificate, value, message):
 def test_a_certificate_without_a_tolerance_is_refused(certificate):
     cert = copy.deepcopy(certificate)
     del cert["tolerance"]
-    with pytest.raises(InputError, match=r"^tolerance: is required$"):
+    with pytest.raises(CertificateError, match=r"^tolerance: is required$"):
         verify(cert)
 
 

@@ -9,10 +9,10 @@ from fractions import Fraction as F
 import pytest
 
 import fairaudit.verification.black_box_check as bb
-from fairaudit.base.errors import InputError
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.rederive import verify
+from fairaudit.verification.schema import CertificateError
 
 # four groups behind a matrix, two contexts whose P(x | a) differ: L-bar's floor relaxation (E[g | a'] >= tau) puts
 # the utility in one context and leaves the other's floors unmet, so its maximum needs a program over both contexts
@@ -155,7 +155,7 @@ def test_without_its_point_the_witness_is_listed_not_failed(unlike, monkeypatch)
     ids=["label", "shape", "number", "point shape"],
 )
 def test_malformed_evidence_is_refused_naming_its_field(unlike, edit, field):
-    with pytest.raises(InputError, match=r"^" + field.replace("[", r"\[").replace("]", r"\]") + ":"):
+    with pytest.raises(CertificateError, match=r"^" + field.replace("[", r"\[").replace("]", r"\]") + ":"):
         bb.black_box_enclosures(unlike["inputs"], _edited(unlike, edit)["bound_details"]["black_box"])
 
 

@@ -1,10 +1,13 @@
-"""The verifier's tight bound and largest δ over a matrix's pairs, against a direct evaluation of their definitions."""
+"""The verifier's tight bound and largest δ over a matrix's pairs, against a direct evaluation of their definitions;
+its ln and exp enclosures against mpmath at 1,000 bits."""
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction as F
 
-from hypothesis import given, settings
+import mpmath
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from fairaudit.verification.enclosures import RecordedMechanism, exp_of, ln
@@ -70,3 +73,60 @@ def test_the_largest_delta_is_the_largest_hockey_stick(rows, eps_tenths):
 
     delta = m.largest_delta(F(eps_tenths, 10))
     assert (delta.lo, delta.hi) == (largest(t.hi), largest(t.lo))
+
+
+def _exact(value: mpmath.mpf) -> F:
+    """An mpmath number as the rational it is (m·2^e)."""
+    man, exp = value.man_exp  # (|mantissa|, exponent)
+    magnitude = F(int(man) * 2 ** int(exp)) if exp >= 0 else F(int(man), 2 ** -int(exp))
+    return -magnitude if value < 0 else magnitude
+
+
+def _reference(f, x: F) -> tuple[F, F]:
+    """f(x) at 1,000 bits by mpmath, widened by 2^-900 of it: rationals around the exact value, fixed independently of
+    python-flint (mpmath's result is within a few units of 2^-1000 of it)."""
+    with mpmath.workprec(1000):
+        v = _exact(f(mpmath.mpf(x.numerator) / x.denominator))
+    slack = abs(v) / 2**900
+    return v - slack, v + slack
+
+
+def test_ln_and_exp_at_known_values():
+    assert (ln(F(1)).lo, ln(F(1)).hi) == (0, 0) and (exp_of(F(0)).lo, exp_of(F(0)).hi) == (1, 1)
+    assert ln(F(0)).hi == -math.inf and ln(math.inf).lo == math.inf
+    assert (exp_of(F(-(10**7))).lo, exp_of(F(-(10**7))).hi) == (0, F(1, 2**1000))  # e^(-10^7) < 2^-(1.4·10^7)
+    e = ln(F(2))
+    assert F(math.log(2)) - F(1, 2**52) < e.lo <= e.hi < F(math.log(2)) + F(1, 2**52)  # math.log's float, 1 ulp away
+
+
+@given(
+    st.one_of(
+        st.fractions(min_value=F(1, 10**30), max_value=10**30, max_denominator=10**40),
+        st.floats(min_value=1e-300, max_value=1e300),
+        st.integers(1, 200).map(lambda k: 1 + F(1, 2**k)),  # near 1: ln x ≈ 2^-k, its relative width kept
+        st.integers(1, 200).map(lambda k: 1 - F(1, 3**k)),
+    )
+)
+@settings(max_examples=200, deadline=None)
+def test_ln_encloses_the_exact_value_within_2_to_minus_200(x):
+    x = F(x)
+    assume(x != 1)
+    e, (low, high) = ln(x), _reference(mpmath.log, x)
+    assert e.lo <= high and low <= e.hi  # mpmath's value is inside: lo <= ln x <= hi
+    assert e.hi - e.lo <= abs(high) / 2**200  # 2^-200 (1e-60) of |ln x| wide
+
+
+@given(
+    st.one_of(
+        st.fractions(min_value=-1000, max_value=1000, max_denominator=10**20),
+        st.floats(min_value=-(10**6), max_value=10**6),
+        st.integers(1, 300).map(lambda k: F((-1) ** k, 2**k)),  # near 0: e^x − 1 ≈ ±2^-k, its relative width kept
+    )
+)
+@settings(max_examples=200, deadline=None)
+def test_exp_encloses_the_exact_value_within_2_to_minus_200(x):
+    x = F(x)
+    assume(x != 0)
+    e, (low, high) = exp_of(x), _reference(mpmath.exp, x)
+    assert e.lo <= high and low <= e.hi
+    assert e.hi - e.lo <= min(low, abs(low - 1)) / 2**200

@@ -4,6 +4,7 @@ input table or a changed epsilon fails; the re-derived values against hand calcu
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import math
 from fractions import Fraction
@@ -12,11 +13,13 @@ from pathlib import Path
 import pytest
 from _cli import OFFICE_SPEC
 
-from fairaudit.base.errors import InputError
+from fairaudit.base import json_values
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.filter.filters import PrivacyFilter
-from fairaudit.verification.rederive import verify
+from fairaudit.verification.enclosures import RecordedMechanism
+from fairaudit.verification.rederive import _filter_check, canonical_digest, verify
+from fairaudit.verification.schema import CertificateError
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = ["examples/llm_hiring/gpt35.toml", "examples/llm_hiring/gpt4.toml", "examples/hr_office/hr_office.toml"]
@@ -227,6 +230,49 @@ def test_the_deployed_filter_is_checked_against_the_certificate(certificates):
     assert not verify(matrix, privacy_filter=PrivacyFilter.from_matrix(nearby, ["a", "b", "c"])).holds
 
 
+def test_the_digest_is_the_one_certify_records(certificates):
+    # verification's own canonical JSON and SHA-256 against certify's (fairaudit.base.json_values) and the recorded one
+    for cert in certificates.values():
+        assert canonical_digest(cert["inputs"]) == json_values.canonical_digest(cert["inputs"]) == cert["inputs_sha256"]
+    value = {"é": [0.1, 1e-300, 2, None, True], "a": {"z": "inf", "b": -0.0}}
+    assert canonical_digest(value) == json_values.canonical_digest(value)
+    assert (
+        canonical_digest(value)
+        == hashlib.sha256('{"a":{"b":-0.0,"z":"inf"},"é":[0.1,1e-300,2,null,true]}'.encode()).hexdigest()
+    )
+
+
+def test_the_filter_is_read_from_its_parameters(certificates):
+    # verify reads the parameters `fairaudit filter --parameters` writes itself: the same verdict from the dictionary
+    # as from the PrivacyFilter; e^epsilon = keep/move exactly (7/3 = the certificate's, 3/1 beyond it)
+    cert = certificates[OFFICE]
+    same = PrivacyFilter.randomized_response(["HR_1", "HR_2"], keep="7/10").to_dict()
+    assert (same["keep"], same["move"]) == ("7", "3") and verify(cert, privacy_filter=same).holds
+    weaker = {**same, "keep": "3", "move": "1", "denominator": "4"}
+    assert [c.name for c in verify(cert, privacy_filter=weaker).failures] == ["filter"]
+    with pytest.raises(
+        CertificateError, match=r"^privacy_filter: must have rows .* summing to its denominator \(got 5\)$"
+    ):
+        verify(cert, privacy_filter={**same, "denominator": "5"})  # 7 + 3 is not 5
+    with pytest.raises(CertificateError, match=r"^privacy_filter: is not a filter's parameters .*KeyError\('keep'\)$"):
+        verify(cert, privacy_filter={k: v for k, v in same.items() if k != "keep"})
+
+
+def test_a_product_filter_is_its_components_kronecker_rows():
+    # randomized response keeping 3/4 on (a, b) times keeping 1/2 on (0, 1): rows over 8, labels "a & 0", ...
+    f = PrivacyFilter.product(
+        *(PrivacyFilter.randomized_response(v, keep=k) for v, k in ((["a", "b"], "3/4"), ([0, 1], "1/2")))
+    )
+    labels = ("a & 0", "a & 1", "b & 0", "b & 1")
+    rows = [[3, 3, 1, 1], [3, 3, 1, 1], [1, 1, 3, 3], [1, 1, 3, 3]]  # (3/4, 1/4) x (1/2, 1/2), by hand
+    certified = RecordedMechanism("matrix", labels, labels, rows=tuple(tuple(Fraction(n, 8) for n in r) for r in rows))
+    assert _filter_check(certified, f.to_dict()).holds
+    rows[0] = [4, 2, 1, 1]
+    other = RecordedMechanism("matrix", labels, labels, rows=tuple(tuple(Fraction(n, 8) for n in r) for r in rows))
+    assert not _filter_check(other, f.to_dict()).holds
+    assert not _filter_check(RecordedMechanism("matrix", labels[::-1], labels, rows=certified.rows), f.to_dict()).holds
+
+
 def test_what_is_not_re_derived_is_listed(certificates):
     listed = dict(verify(certificates[SHIPPED[0]]).not_checked)
     assert listed["observed.intervals"] == "statistical intervals are estimates, not certified numbers"
@@ -255,5 +301,5 @@ def test_the_black_box_is_re_derived_and_a_moved_one_fails(certificates, name):
 def test_a_certificate_that_is_not_one_is_refused(certificates):
     cert = copy.deepcopy(certificates[OFFICE])
     del cert["inputs"]
-    with pytest.raises(InputError):
+    with pytest.raises(CertificateError):
         verify(cert)

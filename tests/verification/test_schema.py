@@ -10,8 +10,7 @@ import pytest
 from jsonschema import Draft202012Validator
 
 import fairaudit as fa
-from fairaudit.base.errors import InputError
-from fairaudit.verification.schema import certificate_schema, check_certificate
+from fairaudit.verification.schema import CertificateError, certificate_schema, check_certificate
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ["llm_hiring/gpt35.toml", "llm_hiring/gpt4.toml", "hr_office/hr_office.toml"]
@@ -72,10 +71,10 @@ def test_the_variants_are_those_the_schema_allows(certificates):
     assert certificates["table without tau"]["bounds"]["paper"] is None
 
 
-def failure(data: dict, change) -> InputError:
+def failure(data: dict, change) -> CertificateError:
     changed = copy.deepcopy(data)
     change(changed)
-    with pytest.raises(InputError) as info:
+    with pytest.raises(CertificateError) as info:
         check_certificate(changed)
     return info.value
 
@@ -142,5 +141,5 @@ def test_a_matrix_entry_out_of_range_is_named(certificates):
 
 
 def test_a_value_that_is_not_an_object_is_refused():
-    with pytest.raises(InputError, match="^certificate: must be a JSON object"):
+    with pytest.raises(CertificateError, match="^certificate: must be a JSON object"):
         check_certificate([1, 2])  # type: ignore[arg-type]

@@ -19,11 +19,11 @@ from test_rederive_random import REGRESSIONS
 
 import fairaudit.verification.black_box_check as bb
 import fairaudit.verification.table_check as tc
-from fairaudit.base.errors import InputError
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.enclosures import INF
 from fairaudit.verification.rederive import verify
+from fairaudit.verification.schema import CertificateError
 
 
 def _certified(spec: str) -> dict:
@@ -290,19 +290,19 @@ def _set(path: str, value):
 def test_a_proof_that_is_not_a_number_is_refused_naming_its_field(by_group, path, value):
     edited = _edited(by_group, _set(path, value))
     field = re.escape(f"bound_details.black_box.{path}")
-    with pytest.raises(InputError, match=rf"^{field}: "):
+    with pytest.raises(CertificateError, match=rf"^{field}: "):
         verify(edited)
 
 
 def test_black_box_enclosures_names_a_theta_that_is_not_a_number_by_its_field(by_group):
     edited = _edited(by_group, _set("screens[0].theta", "abc"))
-    with pytest.raises(InputError, match=r"^bound_details\.black_box\.screens\[0\]\.theta: "):
+    with pytest.raises(CertificateError, match=r"^bound_details\.black_box\.screens\[0\]\.theta: "):
         _ends(edited)
 
 
 def test_a_witness_table_of_the_wrong_shape_is_refused_naming_its_field(by_group):
     edited = _edited(by_group, lambda d: d.update(witness_point=[[0.5, 0.5, 0.0]] * 4))
-    with pytest.raises(InputError, match=r"^bound_details\.black_box\.witness_point\[0\]:"):
+    with pytest.raises(CertificateError, match=r"^bound_details\.black_box\.witness_point\[0\]:"):
         _ends(edited)
 
 

@@ -124,13 +124,11 @@ def _dense(form: Mapping[int, list[Fraction]], n_rows: int, n_u: int) -> list[li
     return [form.get(i) or [Fraction(0)] * n_u for i in range(n_rows)]
 
 
-def _floors(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]) -> list[Table]:
-    """The floors E[g | x, c] ≥ τ for each context x of ``xs`` and each group c, in that order, over the rows
-    ``keys`` (none without τ)."""
-    if s.tau is None:
-        return []
+def _per_context(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]) -> dict[tuple[int, int], Table]:
+    """E[g | x, c] over the rows ``keys`` for each context x of ``xs`` and each group c, in that order: L's forms,
+    and the floors E[g | x, c] ≥ τ."""
     n_u = len(s.g[0][0])
-    return [_dense(_form(s, keys, {x: Fraction(1)}, c), len(keys), n_u) for x in xs for c in range(s.k)]
+    return {(x, c): _dense(_form(s, keys, {x: Fraction(1)}, c), len(keys), n_u) for x in xs for c in range(s.k)}
 
 
 def _table(s: KernelSetting, point: Any, keys: Sequence[tuple[int, int]], own: bool) -> list[list[Fraction]]:
@@ -190,16 +188,18 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
     (Fraction(6, 1), Fraction(6, 1), False)
     """
     own = s.context is None  # (then a program per context)
-    n_u = len(s.g[0][0])
     evidence = s.evidence
     cases = []
+    every = None if own else _per_context(s, reached_rows(s, s.live), s.live)  # (one polytope for every context)
     for i in range(len(s.live)) if at is None else [at[0]]:
         x = s.live[i]
         keys = reached_rows(s, [x] if own else s.live)
+        forms_of = _per_context(s, keys, [x]) if every is None else every
         pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
         groups = sorted({a for pair in pairs for a in pair})
-        forms = {a: _dense(_form(s, keys, {x: Fraction(1)}, a), len(keys), n_u) for a in groups}
-        rows, d, where = _programs(s, keys, forms, _floors(s, keys, [x] if own else s.live))
+        forms = {a: forms_of[x, a] for a in groups}
+        floor_rows = [] if s.tau is None else [forms_of[y, c] for y in ([x] if own else s.live) for c in range(s.k)]
+        rows, d, where = _programs(s, keys, forms, floor_rows)
         floors = rows[len(forms) :]
         for a, b in pairs:
             recorded = evidence.local.get((x, a, b))
@@ -255,7 +255,7 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
         a: _dense(_form(s, keys, {x: s.weights[i][a] for i, x in enumerate(s.live)}, a), len(keys), n_u) for a in groups
     }  # E[g | a] = Σ_x P(x | a) E[g | x, a]: the numerator where a is first, the denominator where second
     kept = {b: None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0)) for b in groups}
-    rows, d, where = _programs(s, keys, forms, _floors(s, keys, s.live))
+    rows, d, where = _programs(s, keys, forms, [] if s.tau is None else list(_per_context(s, keys, s.live).values()))
     floors = rows[len(forms) :]
     evidence = s.evidence
     cases = []

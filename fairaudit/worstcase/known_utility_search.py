@@ -364,6 +364,14 @@ def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
                           problem.decision_only, problem.binding, entries)  # fmt: skip
 
 
+def _tau_rows(
+    rows: npt.NDArray[np.floating[Any]], roundings: IntArray, nonzero: BoolArray, tau: float | None
+) -> tuple[FloatArray, list[Any]]:
+    """The τ rows rounded up (for the program: a relaxation) and the witness's constraint, rounded down."""
+    low, high = product_ends(np.asarray(rows, dtype=float), roundings, nonzero)
+    return high, [(-low, np.full(len(rows), -float(tau or 0.0)), "le")]
+
+
 def _model_program(
     MA: FloatArray,
     MX: FloatArray,
@@ -383,13 +391,6 @@ def _model_program(
     def extra(mx: npt.NDArray[Any], ma: npt.NDArray[Any]) -> IntArray:
         """The roundings the entries ``mx`` of M_X and ``ma`` of M_A carry (broadcast together; none where 0)."""
         return entries[1] * (mx != 0) + entries[0] * (ma != 0)
-
-    def tau_rows(
-        rows: npt.NDArray[np.floating[Any]], roundings: IntArray, nonzero: BoolArray
-    ) -> tuple[FloatArray, list[Any]]:
-        """The τ rows rounded up (for the program: a relaxation) and the witness's constraint, rounded down."""
-        low, high = product_ends(np.asarray(rows, dtype=float), roundings, nonzero)
-        return high, [(-low, np.full(len(rows), -float(tau or 0.0)), "le")]
 
     if u_only:
         g_row = g[xs[0], 0] if xs.size else g[0, 0]
@@ -419,7 +420,7 @@ def _model_program(
         if rows is not None:
             mx_rows, ma_rows = np.kron(MX[xs], np.ones_like(MA)), np.kron(np.ones_like(MX[xs]), MA)  # the factors
             counts = product_roundings(mx_rows, ma_rows) + extra(mx_rows, ma_rows)
-            outer, witness_rows = tau_rows(rows, counts, (mx_rows != 0) & (ma_rows != 0))
+            outer, witness_rows = _tau_rows(rows, counts, (mx_rows != 0) & (ma_rows != 0), tau)
         b_rows = None if rows is None or tau is None else np.full(rows.shape[0], -tau)
         return _ModelSpace(
             coef=coef_g,
@@ -467,10 +468,11 @@ def _model_program(
     k_witness_rows: list[Any] = simplex
     if with_tau and tau is not None and tau > 0:
         pairs = [(x, b) for x in xs for b in range(nA)]
-        k_outer, below = tau_rows(
+        k_outer, below = _tau_rows(
             np.stack([coef(x, b) for x, b in pairs]),
             np.stack([roundings(x, b) for x, b in pairs]),
             np.stack([nonzero(x, b) for x, b in pairs]),
+            tau,
         )
         k_witness_rows = below + simplex
 

@@ -410,10 +410,13 @@ class FractionalProgram:
                 point = np.array([float(v) for v in found.point])
             lam, at = num / den, point if den > 0 else None
 
-    def vertex_ratio(self, basis: Sequence[str] | None, p: npt.ArrayLike, q: npt.ArrayLike) -> float:
+    def vertex_ratio(
+        self, basis: Sequence[str] | None, p: npt.ArrayLike, q: npt.ArrayLike
+    ) -> tuple[float, tuple[Fraction, ...] | None]:
         """(p·h)/(q·h) rounded down at the vertex h of ``basis`` (:attr:`FractionalResult.basis`, from a program with
-        the same shape) over this polytope, solved exactly: a witness, a certified lower end of the maximum here. NaN
-        where that vertex leaves the polytope, the basis is singular or not one of this program, or q·h ≤ 0.
+        the same shape) over this polytope, solved exactly: a witness, a certified lower end of the maximum here; and
+        h, exactly. (NaN, None) where that vertex leaves the polytope, the basis is singular or not one of this
+        program; (NaN, h) where q·h ≤ 0.
 
         Examples
         --------
@@ -422,16 +425,18 @@ class FractionalProgram:
         >>> outer = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.7, -0.3], [-0.3, -0.7]], b_ub=[-0.5, -0.5])
         >>> r = outer.solve([0.7, 0.3], [0.3, 0.7])
         >>> inner = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.69, -0.29], [-0.29, -0.69]], b_ub=[-0.5, -0.5])
-        >>> w = inner.vertex_ratio(r.basis, [0.69, 0.29], [0.31, 0.71])
-        >>> w <= r.value, w <= 179 / 121 < w + 1e-15   # h = (1, 7/23): (0.69 + 0.29·7/23)/(0.31 + 0.71·7/23)
+        >>> w, h = inner.vertex_ratio(r.basis, [0.69, 0.29], [0.31, 0.71])
+        >>> h[0], abs(h[1] - Fraction(7, 23)) < 1e-15   # h = (1, 7/23) for the decimals; exact for their floats
+        (Fraction(1, 1), True)
+        >>> w <= r.value, w <= 179 / 121 < w + 1e-15   # (0.69 + 0.29·7/23)/(0.31 + 0.71·7/23)
         (True, True)
         """
         h = None if basis is None else self._program.vertex(basis)  # type: ignore[arg-type]
         if h is None:
-            return math.nan
+            return math.nan, None
         p_arr, q_arr = _vectors(p, q)
         den = _dot([Fraction(v) for v in q_arr.tolist()], h)
-        return fraction_down(_dot([Fraction(v) for v in p_arr.tolist()], h) / den) if den > 0 else math.nan
+        return (fraction_down(_dot([Fraction(v) for v in p_arr.tolist()], h) / den) if den > 0 else math.nan), h
 
     def _bounded_by_duals(
         self,

@@ -48,12 +48,14 @@ def _largest(cases: Sequence[_Case], start: Number) -> Ends:
     at a recorded table (meeting every floor, each row normalised to sum to 1 exactly), or at the table of the rows'
     maximisers where a bound is attained there; at least ``start``. Within the exact size (``solve``), a program
     that records no proof is solved exactly, its value its bound; and where the lower end falls short of the upper
-    end, the first program whose bound is the upper end is solved for its value, a lower end (the proofs' bound
+    end and no recorded table attains a ratio, the first program whose bound is the upper end is solved for its
+    value, a lower end (the proofs' bound
     stays the upper end: what a certificate's proofs do not prove fails)."""
     thetas = [case.program.theta_bound(case.theta, case.kept) if case.theta is not None and case.kept else INF
               for case in cases]  # fmt: skip
     low = high = start
     top: list[_Case] = []
+    pointed = False  # (a recorded table attains a ratio: the lower end is read off it, nothing is solved)
     for i in sorted(range(len(cases)), key=lambda i: -thetas[i]):
         case, bound = cases[i], thetas[i]
         if bound <= high and bound != INF:
@@ -72,9 +74,9 @@ def _largest(cases: Sequence[_Case], start: Number) -> Ends:
         top = [case] if bound > high else [*top, case] if bound == high else top
         high = max(high, bound)
         if case.table is not None and (ratio := case.program.point_ratio(_normalised(case.table))) is not None:
-            low = max(low, ratio)
-    first = top[0] if top and low < high else None  # (the lower end: the first program at the top, solved exactly)
-    if first is not None and first.solve is not None and (solved := first.solve()) is not None:
+            low, pointed = max(low, ratio), True
+    first = top[0] if top and low < high and not pointed else None  # (no recorded point: the first at the top,
+    if first is not None and first.solve is not None and (solved := first.solve()) is not None:  # solved exactly)
         low = max(low, min(solved, high))
     return min(low, high), high, low < high
 

@@ -107,7 +107,7 @@ def local_search(
 
     evidence = _Evidence.of(problem, "local", triples, space, screens)
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
-    return _model_case(problem, "local", found, triples, space, evidence)
+    return _model_case(problem, "local", found, triples, space, evidence, pair)
 
 
 def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> WorstCase:
@@ -164,7 +164,7 @@ def global_search(problem: ModelProblem, MA: FloatArray, pairs: IntArray) -> Wor
 
     evidence = _Evidence.of(problem, "global", global_triples, space, screens)
     found = search(upper, _solver(problem, space, pair, inexact, exact, evidence, closed))
-    return _model_case(problem, "global", found, global_triples, space, evidence)
+    return _model_case(problem, "global", found, global_triples, space, evidence, pair)
 
 
 def _relaxation(P: FloatArray, lo: float, hi: float, floor: float | None, roundings: int) -> FloatArray:
@@ -562,8 +562,11 @@ def _model_case(
     triples: IntArray,
     space: _ModelSpace,
     evidence: _Evidence | None,
+    pair: Callable[[int], tuple[_Coefficients, _Coefficients]],
 ) -> WorstCase:
-    """The worst case of a search over (context, pair) programs; ``triples[i]`` = (x, a, b) of program i."""
+    """The worst case of a search over (context, pair) programs; ``triples[i]`` = (x, a, b) of program i. The
+    maximiser's point the certificate records (``witness_point``) is its basis's vertex on the inner program, exactly,
+    where that attains the witness (:func:`_exact_witness`); else the float maximiser, clipped."""
     r = found.result
     if found.index < 0:
         reason = found.reason or "the constraints are inconsistent"
@@ -572,22 +575,29 @@ def _model_case(
     x, a, b = triples[found.index]
     kern = problem.kernel(space.to_kernel(r.argmax)) if r.argmax is not None else None
     duals = () if evidence is None else evidence.all()
-    point = None
+    point: npt.NDArray[Any] | None = None
     recorded = r.argmax is not None and (bool(duals) or space.lo is None)  # (over the model's table: always)
+    vertex = None
+    if recorded and (space.lo is None or problem.same_x):  # (G-space behind a context mechanism: the float table)
+        r, vertex = _exact_witness(r, *pair(found.index), space.inner)
     if recorded and not problem.same_x:  # the table over every released context
-        point = np.clip(space.to_kernel(np.asarray(r.argmax, dtype=float)), 0.0, 1.0)
+        table = np.clip(space.to_kernel(np.asarray(r.argmax, dtype=float)), 0.0, 1.0)
+        point = table if vertex is None else vertex.reshape(table.shape)
     elif recorded:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
         n_x = len(problem.contexts)
         if space.lo is not None and space.hi is not None:
-            h = np.clip(np.asarray(r.argmax, dtype=float), space.lo, space.hi).reshape(n_x, -1)
+            h = vertex if vertex is not None else np.clip(np.asarray(r.argmax, dtype=float), space.lo, space.hi)
+            h = h.reshape(n_x, -1)
         else:
-            table = np.clip(np.asarray(r.argmax, dtype=float), 0.0, 1.0).reshape(n_x, problem.n_released_groups, -1)
+            cells: npt.NDArray[Any] = np.clip(np.asarray(r.argmax, dtype=float), 0.0, 1.0) if vertex is None else vertex
+            cells = cells.reshape(n_x, problem.n_released_groups, -1)
             # a utility by group weighs one table differently per group: the table itself is the point
-            h = table if not problem.group_free else np.einsum("xau,xu->xa", table, problem.g[:, 0, :])
+            g = problem.g[:, 0, :] if vertex is None else np.vectorize(Fraction, otypes=[object])(problem.g[:, 0, :])
+            h = cells if not problem.group_free else (cells * g[:, None, :]).sum(axis=2)
         point = h[x] if kind == "local" else h
     return WorstCase.searched(
         kind,
-        found,
+        replace(found, result=r),
         context=problem.contexts[x] if kind == "local" else None,
         group=problem.groups[a],
         other_group=problem.groups[b],
@@ -596,3 +606,19 @@ def _model_case(
         duals=duals,
         witness_point=point,
     )
+
+
+def _exact_witness(
+    r: FractionalResult, num: _Coefficients, den: _Coefficients, inner: InnerProgram
+) -> tuple[FractionalResult, npt.NDArray[np.object_] | None]:
+    """The maximiser's basis's vertex on the inner program (numerator down, denominator up, τ rows down), exactly,
+    where its ratio there is at least the witness: ``r`` with that ratio as its witness, and the vertex (Fractions,
+    shape (n,)), which a certificate records so that ``fairaudit verify`` reads the lower end off it, solving
+    nothing; else ``r`` and None (``proofs/verification.md`` §4f)."""
+    if r.basis is None or r.status != "optimal" or not r.certified:
+        return r, None
+    ratio, h = inner.program.vertex_ratio(r.basis, num.low, den.high)
+    if h is None or math.isnan(ratio) or ratio < r.witness:
+        return r, None
+    witness = ratio if math.isnan(r.witness) else max(ratio, r.witness)
+    return replace(r, witness=witness, gap=gap_between(r.value, witness)), np.array(h, dtype=object)

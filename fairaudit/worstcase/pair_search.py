@@ -257,7 +257,7 @@ def inner_witness(
     w = point_ratio(h, p, q, lower, upper, rows)
     close = math.isfinite(w) and r.value - w <= CROSSOVER_TOLERANCE * max(1.0, abs(r.value))
     if r.certified and not close and r.basis is not None:
-        w = max((v for v in (w, inner.program.vertex_ratio(r.basis, p, q)) if math.isfinite(v)), default=math.nan)
+        w = max((v for v in (w, inner.program.vertex_ratio(r.basis, p, q)[0]) if math.isfinite(v)), default=math.nan)
     if inside is not None and not math.isfinite(w):
         for theta in PULLS:
             w = point_ratio(np.clip((1 - theta) * h + theta * inside, lower, upper), p, q, lower, upper, rows)

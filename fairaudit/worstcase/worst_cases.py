@@ -13,8 +13,10 @@ import math
 from collections.abc import Hashable
 from dataclasses import dataclass, replace
 from fractions import Fraction
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.json_values import Report, label, number, pair_dict
@@ -163,7 +165,8 @@ class WorstCase:
         utility that depends on the group, the witness model's table K[x, ã, u] instead: shape
         (n_released_groups, n_decisions) for L, (n_contexts, n_released_groups, n_decisions) for L̄. Behind a context
         mechanism other than the identity, the table over every released context, shape (n_released_contexts,
-        n_released_groups, n_decisions), for L and L̄.
+        n_released_groups, n_decisions), for L and L̄. Exact (Fractions, recorded as "n/d" where not a float) where
+        it is the vertex of the maximiser's basis, which attains ``witness``; else floats.
     """
 
     kind: str
@@ -184,7 +187,7 @@ class WorstCase:
     witness: float = math.nan
     gap: float = math.nan
     duals: tuple[ProgramDual, ...] = ()
-    witness_point: FloatArray | None = None
+    witness_point: npt.NDArray[Any] | None = None
 
     @classmethod
     def infeasible(cls, kind: str, solver_status: str, reason: str, programs_solved: int) -> WorstCase:
@@ -274,7 +277,7 @@ class WorstCase:
         utility: Utility | None = None,
         expected_utility: FloatArray | None = None,
         duals: tuple[ProgramDual, ...] = (),
-        witness_point: FloatArray | None = None,
+        witness_point: npt.NDArray[Any] | None = None,
     ) -> WorstCase:
         """The maximiser the pair search found: its program's value, status and reason; "lp" when an LP was solved."""
         r = found.result
@@ -352,7 +355,7 @@ class WorstCase:
         if any(dual.theta is not None for dual in self.duals):
             d["screens"] = [dual.to_dict() for dual in self.duals if dual.theta is not None]
         if self.witness_point is not None:
-            d["witness_point"] = self.witness_point.tolist()
+            d["witness_point"] = np.vectorize(exact_number, otypes=[object])(self.witness_point).tolist()
         return d
 
 

@@ -71,10 +71,11 @@ class TableProgram:
     d: int
     tau: Fraction | None
 
-    def dual_bound(self, nu: Sequence[Fraction] | None = None) -> tuple[Number, Fraction | None]:
+    def dual_bound(self, nu: Sequence[Fraction] | None = None) -> tuple[Number, Number | None]:
         """The least λ ≥ 0 with B(λ, ν) ≤ 0, exactly (ν = 0 when None): an upper bound on the program's value; and
-        the ratio it is attained at, where the table of each row's maximiser at that λ (the largest q among ties)
-        meets every floor and its ratio is λ (complementary slackness: then λ is the program's value), else None.
+        the value it proves attained: λ itself without floors (``tau`` None: the least root is the supremum); with
+        floors, λ where the table of each row's maximiser at that λ (the largest q among ties) meets every floor and
+        its ratio is λ (complementary slackness: then λ is the program's value), else None.
 
         Returns
         -------
@@ -107,10 +108,10 @@ class TableProgram:
             top = self.top * n + np.tensordot(weights, self.floors, axes=1)
             d, constant = d * n, -self.tau * sum(nu, Fraction(0))
         lam, choice = _least_root(top, self.bottom * (d // self.d), d, constant)
-        if lam == math.inf:
-            return lam, None
-        if all(any(v == 0 for v in row) for row in self.bottom.tolist()):
+        if lam != math.inf and all(any(v == 0 for v in row) for row in self.bottom.tolist()):
             lam = max(lam, Fraction(1))  # (a table with q·K = 0 = p·K is there: 0/0 = 1)
+        if self.tau is None or lam == math.inf:  # (no floors: the least root is the supremum itself, +inf included)
+            return lam, lam if self.tau is None else None
         n_u = self.top.shape[1]
         table = [[Fraction(int(u == c)) for u in range(n_u)] for c in choice.tolist()]
         return lam, lam if isinstance(lam, Fraction) and self.point_ratio(table) == lam else None

@@ -112,22 +112,14 @@ def _every_row_has_a_zero_q(drawn: Drawn) -> bool:
 @example(Drawn([[F(0), F(0)]], [[F(0), F(1, 6)]], [], None, []))  # (only 0/0 = 1 reaches the bound)
 def test_without_floors_the_bound_is_the_maximum_over_every_deterministic_table_and_attained(drawn):
     # the ratio is quasi-convex and the tables a product of simplices: its maximum is at a deterministic table;
-    # ν = 0 on the floored program is the same bound (its floors only decide whether the bound is attained). It is
-    # attained at the table of the rows' maximisers where a table with Q·K > 0 reaches it; where only 0/0 = 1 does
-    # (every finite ratio below 1, p = (0, 0) and q = (0, 1/6) say), the bound is raised to 1 from the smaller root,
-    # whose maximisers' table attains the root, not 1: none is reported
+    # ν = 0 on the floored program is the same bound (its floors only decide whether the bound is attained). Without
+    # floors the bound is that maximum, so it is reported attained, also where only 0/0 = 1 reaches it (every finite
+    # ratio below 1: p = (0, 0) and q = (0, 1/6) say) and where only c/0 = +inf does
     tables = _deterministic(drawn)
     best = max(_ratio(drawn, t) for t in tables)
     bound, attained = drawn.program(floors=False).dual_bound()
-    assert bound == best
+    assert bound == attained == best
     assert drawn.program().dual_bound()[0] == best
-    positive = [_ratio(drawn, t) for t in tables if _dot(drawn.bottoms, t) > 0]
-    if best in positive:
-        assert attained == best
-    elif positive and best != INF:
-        assert best == 1 and max(positive) < 1 and attained is None
-    elif best != INF:  # (q = 0 everywhere: every table is 0/0)
-        assert best == attained == 1
 
 
 @given(programs())
@@ -241,7 +233,8 @@ def test_point_ratio_refuses_a_table_that_is_not_one_and_one_that_misses_a_floor
     assert program.point_ratio([[F(1), F(0)], [F(0), F(1)]]) is None  # (q·K = 1/8 < 1/4)
     zero = Drawn([[F(0), F(1)]], [[F(0), F(1)]], [], None, [])
     assert zero.program().point_ratio([[F(1), F(0)]]) == 1  # (0/0 = 1)
-    # c/0 is no finite ratio: None (the lower end is a table's Fraction; +inf is dual_bound's to prove)
+    # c/0 is no finite ratio: None (the lower end is a table's Fraction; +inf is dual_bound's to prove: without floors
+    # it is the supremum, attained by the convention c/0 = +inf)
     top = Drawn([[F(1), F(1)]], [[F(0), F(1)]], [], None, [])
     assert top.program().point_ratio([[F(1), F(0)]]) is None
-    assert top.program().dual_bound() == (INF, None)
+    assert top.program().dual_bound() == (INF, INF)

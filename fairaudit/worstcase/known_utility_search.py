@@ -345,7 +345,7 @@ class _ModelSpace:
     roundings: Callable[[SupportsIndex, SupportsIndex], IntArray]  # (x, b) -> roundings of each coefficient
     nonzero: Callable[[SupportsIndex, SupportsIndex], BoolArray]  # (x, b) -> whether each is exactly positive
     n_contexts: int
-    to_kernel: Callable[[FloatArray], FloatArray]
+    to_kernel: Callable[[npt.NDArray[Any]], npt.NDArray[Any]]  # (exact for Fractions)
     program: Callable[[], FractionalProgram]  # built on first use, on the τ rows rounded up
     lo: float | None  # box of the variables (G-space only)
     hi: float | None
@@ -406,12 +406,14 @@ def _model_program(
         def nonzero_g(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
             return np.outer(MX[x] != 0, MA[b] != 0).ravel()
 
-        def g_to_kernel(G: FloatArray) -> FloatArray:
+        def g_to_kernel(G: npt.NDArray[Any]) -> npt.NDArray[Any]:  # (exactly for an exact G, Fractions)
             G = G.reshape(nXr, nAr)
-            high = np.clip((G - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.ones_like(G)
-            table = np.zeros((nXr, nAr, nU))
+            low: Any = Fraction(lo) if G.dtype == object else lo
+            span: Any = Fraction(hi) - low if G.dtype == object else hi - lo
+            high = np.clip((G - low) / span, 0, 1) if hi > lo else np.ones_like(G)
+            table = np.zeros((nXr, nAr, nU), dtype=G.dtype)
             table[..., hi_u] += high
-            table[..., lo_u] += 1.0 - high
+            table[..., lo_u] += 1 - high
             return table
 
         rows = np.kron(MX[xs], MA) if with_tau and tau is not None else None  # (with_tau: τ above E[g]'s least)
@@ -459,7 +461,7 @@ def _model_program(
         mx, ma, gx = factors(x, b)
         return ((mx != 0) & (ma != 0) & (gx != 0)).ravel()
 
-    def to_kernel(K: FloatArray) -> FloatArray:
+    def to_kernel(K: npt.NDArray[Any]) -> npt.NDArray[Any]:
         return K.reshape(nXr, nAr, nU)
 
     a_eq = sp.kron(sp.identity(nXr * nAr, format="csr"), np.ones((1, nU)), format="csr")
@@ -578,11 +580,11 @@ def _model_case(
     point: npt.NDArray[Any] | None = None
     recorded = r.argmax is not None and (bool(duals) or space.lo is None)  # (over the model's table: always)
     vertex = None
-    if recorded and (space.lo is None or problem.same_x):  # (G-space behind a context mechanism: the float table)
+    if recorded:
         r, vertex = _exact_witness(r, *pair(found.index), space.inner)
     if recorded and not problem.same_x:  # the table over every released context
         table = np.clip(space.to_kernel(np.asarray(r.argmax, dtype=float)), 0.0, 1.0)
-        point = table if vertex is None else vertex.reshape(table.shape)
+        point = table if vertex is None else space.to_kernel(vertex)
     elif recorded:  # h[x, ã] = E[g | x, released ã]: the variables, or Σ_u K[x, ã, u] g(u, x)
         n_x = len(problem.contexts)
         if space.lo is not None and space.hi is not None:

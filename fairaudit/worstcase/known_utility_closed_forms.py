@@ -28,7 +28,7 @@ from fairaudit.laws.closed_forms import RandomizedResponseParameters
 from fairaudit.laws.tables import Kernel
 from fairaudit.worstcase.known_utility_problem import ModelProblem, onehot, weighted_utility
 from fairaudit.worstcase.pair_search import pairwise_box
-from fairaudit.worstcase.randomized_response import RRWorst, rr_box, rr_theta
+from fairaudit.worstcase.randomized_response import RRWorst, rr_box, rr_theta, rr_witness_point
 from fairaudit.worstcase.worst_cases import ProgramDual, WorstCase, nats_up
 
 
@@ -98,7 +98,10 @@ def randomized_response_cases(
         case = _rr_case(problem, "global", w, None, kern)
         a, b = (case.group, case.other_group)
         pair = (problem.groups.index(a), problem.groups.index(b))
-        return local, replace(case, duals=_screens(problem, [(None, rr_theta(rr, lo, hi, floor))], *pair))
+        h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor, *pair) if same_x else None
+        point = None if h is None else np.array([h] * len(problem.contexts), dtype=object)
+        duals = _screens(problem, [(None, rr_theta(rr, lo, hi, floor))], *pair)
+        return local, replace(case, duals=duals, witness_point=point)
     return local, None
 
 
@@ -138,9 +141,13 @@ def _rr_local(
         high, low = hot_hi[:1].repeat(n_released_contexts, 0), hot_lo[:1].repeat(n_released_contexts, 0)
         kern = _rr_kernel(problem, replace(best_w, prefix=False), lo, hi, None, high, low)
     case = _rr_case(problem, "local", best_w, best_x, kern)
-    # each live context's proof for the pair (0, 1), which stands for every pair (``proofs/verification.md`` §4)
+    # each live context's proof for the pair (0, 1), which stands for every pair (``proofs/verification.md`` §4), and
+    # the maximiser's point, exactly, where the floor binds (verify reads the lower end off it)
     thetas = [(x, rr_theta(rr, float(lo_x[x]), float(hi_x[x]), floor)) for x in np.flatnonzero(live).tolist()]
-    return replace(case, duals=_screens(problem, thetas, 0, 1))
+    h = rr_witness_point(rr.k, rr.epsilon, lo, hi, floor) if problem.binding and problem.same_x else None
+    return replace(
+        case, duals=_screens(problem, thetas, 0, 1), witness_point=None if h is None else np.array(h, dtype=object)
+    )
 
 
 def _screens(

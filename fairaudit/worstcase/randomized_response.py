@@ -162,21 +162,94 @@ def rr_theta(rr: RandomizedResponseParameters, lo: float, hi: float, floor: floa
     --------
     Three values at ε = ln 3 (p = 3/5, q = 1/5), h in [0, 1]: the floor 0.3 is met by raising a and part of the other
     value (θ = 1), 0.5 by raising a' too (θ = q/p = 1/t, t = exp_up(ln 3) ≥ 3, the rational upper end); a floor of
-    0.2 is met without (None).
+    0.1 is met without (None). (0.2 binds: at t just above 3, q = 1/(t + 2) is just below 1/5, decided exactly.)
 
     >>> from fairaudit.laws.closed_forms import RandomizedResponse
     >>> rr = RandomizedResponse(("a", "b", "c"), math.log(3), "A").rr
     >>> theta = rr_theta(rr, 0.0, 1.0, 0.5)
-    >>> rr_theta(rr, 0.0, 1.0, 0.3), theta == 1 / Fraction(exp_up(math.log(3))), rr_theta(rr, 0.0, 1.0, 0.2)
+    >>> rr_theta(rr, 0.0, 1.0, 0.3), theta == 1 / Fraction(exp_up(math.log(3))), rr_theta(rr, 0.0, 1.0, 0.1)
     (Fraction(1, 1), True, None)
+    >>> rr_theta(rr, 0.0, 1.0, 0.2)
+    Fraction(1, 1)
     """
-    span = hi - lo
-    if span <= 0 or rr.p <= rr.q or lo + span * rr.q >= floor:
+    cells = _cells(rr.k, rr.epsilon, lo, hi, floor)
+    if cells is None or cells[0] == "threshold":
         return None
-    if floor - lo <= span * rr.q * (rr.k - 1):
-        return Fraction(1)
     p, q = _rows_up(rr.k, rr.epsilon)
-    return q / p
+    return Fraction(1) if cells[0] == "others" else q / p
+
+
+def _cells(
+    k: int, epsilon: float, lo: float, hi: float, floor: float
+) -> tuple[str, Fraction, Fraction, Fraction] | None:
+    """Which values :func:`rr_box`'s optimum raises at the rational upper end of e^ε, decided exactly: "threshold"
+    (a alone: the floor does not bind), "others" (a and part of the other values) or "second" (a, every other value
+    and part of a'); with lo, the span hi − lo and the floor as rationals. None where no value is raised (hi ≤ lo,
+    p = q) or without a finite floor."""
+    if not math.isfinite(floor) or hi <= lo:
+        return None
+    p, q = _rows_up(k, epsilon)
+    low, span, f = Fraction(lo), Fraction(hi) - Fraction(lo), Fraction(floor)
+    if p <= q:
+        return None
+    if low + span * q >= f:
+        return "threshold", low, span, f
+    return ("others" if f - low <= span * q * (k - 1) else "second"), low, span, f
+
+
+def rr_witness_point(
+    k: int, epsilon: float, lo: float, hi: float, floor: float, a: int = 0, b: int = 1
+) -> list[Fraction] | None:
+    """:func:`rr_box`'s maximiser h over the released values, exactly, at the rational upper end t of e^ε
+    (:func:`rr_exact_rows`): h[a] = hi; then, where the floor binds, the other values raised by the same share
+    (together Σ w = (floor − lo)/(span·q) − 1 of the span) or, beyond, to hi, with h[a'] raised just to meet
+    floor = (M h)[a']; lo elsewhere. It meets every group's floor at t and at every smaller e^ε ≥ 1: h[a'] is the
+    least value, so (M h)[c] ≥ (M h)[a'], which is non-increasing in t (``proofs/verification.md`` §4f); so
+    ``fairaudit verify`` reads a lower end off it at its own end of e^ε. None where
+    no floor point exists (the floor above every (M h)[a'], or ε beyond :data:`RATIONAL_LIMIT`).
+
+    Parameters
+    ----------
+    k : int
+        The number of values, ≥ 2.
+    epsilon : float
+        ε ≥ 0, nats.
+    lo, hi : float
+        The box of h (the utility's least and largest value).
+    floor : float
+        The floor on (M h)[c] for every c (τ), -inf for none.
+    a, b : int
+        The pair's released values (a ≠ b).
+
+    Examples
+    --------
+    Three values at ε = ln 3, h in [0, 1], floor 0.3: a at 1 and the third value raised until (M h)[b] = 0.3, about
+    1/2 at t = 3 (q = 1/5: (1 + w)/5 = 0.3).
+
+    >>> h = rr_witness_point(3, math.log(3), 0.0, 1.0, 0.3)
+    >>> h[:2], abs(h[2] - Fraction(1, 2)) < 1e-15
+    ([Fraction(1, 1), Fraction(0, 1)], True)
+    """
+    cells = _cells(k, epsilon, lo, hi, floor)
+    rows = rr_exact_rows(k, epsilon, 1)
+    if cells is None or rows is None:
+        return None
+    (kind, low, span, f), (p, q) = cells, rows
+    others = [c for c in range(k) if c not in (a, b)]
+    h = [low] * k
+    h[a] = low + span
+    if kind == "others":
+        share = ((f - low) / (span * q) - 1) / len(others)
+        for c in others:
+            h[c] = low + span * share
+    elif kind == "second":
+        s = (f - low - span * q * (k - 1)) / p
+        if s > span:
+            return None
+        for c in others:
+            h[c] = low + span
+        h[b] = low + s
+    return h
 
 
 def rr_box_point(rr: RandomizedResponseParameters, lo: float, hi: float, floor: float) -> RRWorst:

@@ -798,3 +798,33 @@ def test_rr_law_agrees_with_compose_and_refuses_the_same_cells(k):
         rr_law(kernel, far.rr, far.inputs, fa.identity(["all"]))
     with pytest.raises(fa.UnderflowError, match=rf"^mechanism '{k}-ary randomized response': "):
         compose(kernel, far)
+
+
+@given(
+    st.integers(2, 6),
+    st.sampled_from([1e-17, 1e-9, 0.3, 1.0, 3.0, 30.0]),
+    st.sampled_from([0.0, 0.1, 0.5]),
+    st.sampled_from([0.6, 1.0, 2.0]),
+    st.floats(0.0, 1.0),
+)
+def test_the_witness_point_meets_every_floor_at_both_ends_and_attains_the_closed_form(k, epsilon, lo, hi, share):
+    # the exact maximiser recorded for verify: in the box, every group's floor met at the rational upper end of e^eps
+    # and at the lower one (verify reads it at its own end, between them), and at the upper end its ratio is the
+    # closed form's value there, computed by its own formula (_rr_box_ratio) and by the threshold rule where the
+    # floor does not bind
+    from fairaudit.worstcase.randomized_response import _rr_box_ratio, rr_exact_rows, rr_witness_point
+
+    floor = lo + share * (hi - lo)
+    h = rr_witness_point(k, epsilon, lo, hi, floor, 0, 1)
+    if h is None:  # no floor point: a' cannot reach the floor even raised to hi
+        p, q = rr_exact_rows(k, epsilon, 1)
+        assert p <= q or F(lo) + (F(hi) - F(lo)) * (q * (k - 1) + p) < F(floor)
+        return
+    assert all(F(lo) <= v <= F(hi) for v in h)
+    for end in (0, 1):
+        p, q = rr_exact_rows(k, epsilon, end)
+        rows = [[p if i == j else q for j in range(k)] for i in range(k)]
+        released = [sum((m * v for m, v in zip(row, h)), F(0)) for row in rows]
+        assert min(released) >= F(floor)
+        if end == 1:
+            assert released[0] / released[1] == _rr_box_ratio(k, epsilon, F(lo), F(hi), floor)

@@ -31,9 +31,10 @@ from fairaudit.laws.closed_forms import (
     randomized_response,
     split_by_keep,
 )
+from fairaudit.laws.composition import compose
 from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family
 from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
-from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, from_function, from_table, indicator
 from fairaudit.metrics.assumptions import Assumption
 from fairaudit.metrics.bounds import (

@@ -57,7 +57,8 @@ from fairaudit.statistics.ll144 import ImpactRatios, impact_ratios
 from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
 from fairaudit.statistics.sample_size import SamplePlan, plan
 from fairaudit.verification.rederive import Verification, verify
-from fairaudit.worstcase.black_box import BlackBoxCertificate, black_box_bound
+from fairaudit.worstcase.black_box import black_box_bound
+from fairaudit.worstcase.black_box_result import BlackBoxCertificate
 from fairaudit.worstcase.calibration import calibrate, calibrate_randomized_response
 from fairaudit.worstcase.calibration_result import Calibration
 from fairaudit.worstcase.known_law import WorstUtility, worst_utility

@@ -31,9 +31,10 @@ from fairaudit.laws.closed_forms import (
     randomized_response,
     split_by_keep,
 )
+from fairaudit.laws.composition import compose
 from fairaudit.laws.families import MechanismFamily, product_family, randomized_response_family
 from fairaudit.laws.mechanisms import Mechanism, from_matrix, identity, product
-from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, from_function, from_table, indicator
 from fairaudit.metrics.assumptions import Assumption
 from fairaudit.metrics.bounds import (
@@ -56,7 +57,8 @@ from fairaudit.statistics.ll144 import ImpactRatios, impact_ratios
 from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
 from fairaudit.statistics.sample_size import SamplePlan, plan
 from fairaudit.verification.rederive import Verification, verify
-from fairaudit.worstcase.black_box import BlackBoxCertificate, black_box_bound
+from fairaudit.worstcase.black_box import black_box_bound
+from fairaudit.worstcase.black_box_result import BlackBoxCertificate
 from fairaudit.worstcase.calibration import calibrate, calibrate_randomized_response
 from fairaudit.worstcase.calibration_result import Calibration
 from fairaudit.worstcase.known_law import WorstUtility, worst_utility

@@ -417,10 +417,40 @@ class ExactProgram:
         return None if state.infeasible() is not None else tuple(_fraction_of(v) for v in state.x)
 
     def solver_duals(self, cost: npt.ArrayLike) -> tuple[list[Status], npt.NDArray[np.float64] | None]:
-        """HiGHS's final basis for min c·x (c in floating point, shape (n,)) and its row duals y in floating point,
-        shape (m,) (None without a valid basis), at the scale of c: a dual point whose bound by weak duality a caller
-        checks exactly before, or in place of, the exact solve, which :meth:`minimize` does from that basis
-        (``basis``)."""
+        """HiGHS's final basis for min c·x and its row duals y, in floating point: nothing is solved exactly.
+
+        A dual point whose bound by weak duality a caller checks exactly before, or in place of, the exact solve,
+        which :meth:`minimize` does from that basis (``basis``). HiGHS starts from the basis the last solve ended at.
+
+        Parameters
+        ----------
+        cost : array_like, shape (n,)
+            c, finite floats.
+
+        Returns
+        -------
+        basis : list of str, shape (n + m,)
+            HiGHS's final basis, a status per column then per row (as :attr:`SimplexOptimum.basis`); the slack basis
+            where HiGHS has no valid one.
+        duals : numpy.ndarray, shape (m,), or None
+            Its row duals y at the scale of c (HiGHS solves c divided by its largest magnitude); None without a valid
+            basis.
+
+        Raises
+        ------
+        InputError
+            On a cost of the wrong shape, NaN or ±inf.
+
+        Examples
+        --------
+        The class's example: x at its upper bound, y basic, the row at its upper bound, the dual −1/2 on the row, and
+        the basis :meth:`minimize` proves optimal exactly.
+
+        >>> prog = ExactProgram([[1, 2]], [-math.inf], [1.5], [0, 0], [1, 1])
+        >>> basis, duals = prog.solver_duals([-1.0, -1.0])
+        >>> basis, abs(float(duals[0]) + 0.5) <= 1e-12, tuple(basis) == prog.minimize([-1, -1]).basis
+        (['upper', 'basic', 'upper'], True, True)
+        """
         c = np.asarray(cost, dtype=float)
         if c.shape != (self.n,) or not np.all(np.isfinite(c)):
             raise InputError("cost", f"must be {self.n} finite numbers", c.shape)

@@ -30,23 +30,17 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import TYPE_CHECKING, Any, Literal, TypeAlias, overload
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import FloatArray, as_float_array
+from fairaudit.base.arrays import FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import certify_ratio, point_ratio
+from fairaudit.base.fractional_inputs import ConstraintMatrix, check_bounds, check_vectors, constraint_rows
 from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
-
-if TYPE_CHECKING:
-    import scipy.sparse as sp
-
-
-ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
-"""A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
 
 __all__ = [
     "EXACT_BASIS",
@@ -144,37 +138,6 @@ def gap_between(value: float, witness: float) -> float:
     return up(value - witness)
 
 
-def _vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
-    p = as_float_array(p, "p", ndim=1)
-    q = as_float_array(q, "q", ndim=1)
-    if p.shape != q.shape:
-        raise InputError("q", f"must have the shape of p {p.shape}", q.shape)
-    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
-        raise InputError("p", "p and q must be finite")
-    return p, q
-
-
-@overload
-def _bounds(
-    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: Literal[True]
-) -> tuple[FloatArray, FloatArray]: ...
-@overload
-def _bounds(
-    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
-) -> tuple[FloatArray | None, FloatArray | None]: ...
-def _bounds(
-    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
-) -> tuple[FloatArray | None, FloatArray | None]:
-    if required and (lower is None or upper is None):
-        raise InputError("lower", "the threshold solution needs finite lower and upper bounds")
-    lo = None if lower is None else np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy()
-    hi = None if upper is None else np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy()
-    if lo is not None and hi is not None and np.any(lo > hi):
-        i = int(np.argmax(lo > hi))
-        raise InputError("lower", f"exceeds upper at cell {i} ({hi[i]:g})", float(lo[i]))
-    return lo, hi
-
-
 def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike) -> FractionalResult:
     """max (p·h)/(q·h) over the box lower ≤ h ≤ upper, exactly, in O(n log n).
 
@@ -205,10 +168,10 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
     >>> round(r.value, 12), r.argmax.tolist()
     (1.307692307692, [1.0, 0.5])
     """
-    p, q = _vectors(p, q)
+    p, q = check_vectors(p, q)
     if np.any(p < 0) or np.any(q < 0):
         raise InputError("p", "the threshold solution needs non-negative p and q")
-    lo, hi = _bounds(lower, upper, p.size, required=True)
+    lo, hi = check_bounds(lower, upper, p.size, required=True)
     result = functools.partial(FractionalResult, method="threshold", p=p, q=q, lower=lo, upper=hi)
     if np.any(lo < 0):
         # With a negative lower bound q·h can approach 0 from inside the box; the threshold argument
@@ -309,10 +272,10 @@ class FractionalProgram:
         from fairaudit.base.exact_lp import ExactProgram
 
         self.n = int(n)
-        self.lower, self.upper = _bounds(lower, upper, self.n, required=True)
+        self.lower, self.upper = check_bounds(lower, upper, self.n, required=True)
         if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
             raise InputError("lower", "the bounds of h must be finite (the programs of fairaudit are over boxes)")
-        self._rows = _constraint_rows(self.n, A_ub, b_ub, A_eq, b_eq)
+        self._rows = constraint_rows(self.n, A_ub, b_ub, A_eq, b_eq)
         matrix = np.vstack([a for a, _, _ in self._rows]) if self._rows else np.zeros((0, self.n))
         row_lower = [v if op == "eq" else -math.inf for _, b, op in self._rows for v in b.tolist()]
         row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
@@ -348,7 +311,7 @@ class FractionalProgram:
             method needs q·h ≥ 0). ``dual`` holds the last step's ν (on A_ub) and η (on A_eq), to nearest (ν stays
             ≥ 0). ``solver_status`` counts the steps and the exact pivots.
         """
-        p, q = _vectors(p, q)
+        p, q = check_vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
         result = self._result(p, q)
@@ -434,7 +397,7 @@ class FractionalProgram:
         h = None if basis is None else self._program.vertex(basis)  # type: ignore[arg-type]
         if h is None:
             return math.nan, None
-        p_arr, q_arr = _vectors(p, q)
+        p_arr, q_arr = check_vectors(p, q)
         den = _dot([Fraction(v) for v in q_arr.tolist()], h)
         return (fraction_down(_dot([Fraction(v) for v in p_arr.tolist()], h) / den) if den > 0 else math.nan), h
 
@@ -519,40 +482,6 @@ def _dot(a: Sequence[Fraction], b: Sequence[Fraction]) -> Fraction:
     return sum((x * y for x, y in zip(a, b, strict=True) if x and y), Fraction(0))
 
 
-def _constraint_rows(
-    n: int,
-    A_ub: ConstraintMatrix | None,
-    b_ub: npt.ArrayLike | None,
-    A_eq: ConstraintMatrix | None,
-    b_eq: npt.ArrayLike | None,
-) -> list[tuple[FloatArray, FloatArray, str]]:
-    """The polytope's rows as (A dense, b, "le" or "eq") blocks, checked: shapes against ``n``, finite data."""
-    out = []
-    for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
-        if a is None:
-            continue
-        dense = _matrix(a, name)
-        dense = np.asarray(dense.toarray() if hasattr(dense, "toarray") else dense, dtype=float)
-        rhs = as_float_array(b, name.replace("A", "b"), ndim=1)
-        if dense.shape != (rhs.size, n):
-            raise InputError(name, f"shape must be ({rhs.size}, {n})", dense.shape)
-        if not np.all(np.isfinite(rhs)):
-            raise InputError(name.replace("A", "b"), "must be finite")
-        out.append((dense, rhs, op))
-    return out
-
-
-def _matrix(a: ConstraintMatrix, name: str) -> FloatArray | sp.csr_matrix:
-    import scipy.sparse as sp
-
-    if sp.issparse(a):
-        a = sp.csr_matrix(a, dtype=float)
-        if not np.all(np.isfinite(a.data)):
-            raise InputError(name, "must be finite")
-        return a
-    return as_float_array(a, name, ndim=2)
-
-
 def lp_max(
     p: npt.ArrayLike,
     q: npt.ArrayLike,
@@ -598,8 +527,8 @@ def lp_max(
     >>> round(r.value, 7), r.status
     (1.3076923, 'optimal')
     """
-    p, q = _vectors(p, q)
-    lo, hi = _bounds(lower, upper, p.size, required=False)
+    p, q = check_vectors(p, q)
+    lo, hi = check_bounds(lower, upper, p.size, required=False)
     if lo is not None and hi is not None and np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
         prog = FractionalProgram(p.size, lower=lo, upper=hi, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)
         return prog.solve(p, q)
@@ -630,7 +559,7 @@ def _charnes_cooper(
     polytope: list[list[float]] = []
     poly_lower: list[float] = []
     poly_upper: list[float] = []
-    for dense, rhs, op in _constraint_rows(n, A_ub, b_ub, A_eq, b_eq):
+    for dense, rhs, op in constraint_rows(n, A_ub, b_ub, A_eq, b_eq):
         for row, v in zip(dense.tolist(), rhs.tolist(), strict=True):
             rows.append([*row, -v])
             row_lower.append(0.0 if op == "eq" else -inf)
@@ -717,7 +646,7 @@ def fractional_max(
     """
     if method not in ("auto", "threshold", "lp"):
         raise InputError("method", "must be 'auto', 'threshold' or 'lp'", method)
-    p_arr, q_arr = _vectors(p, q)
+    p_arr, q_arr = check_vectors(p, q)
     boxed = (
         A_ub is None
         and A_eq is None

@@ -36,10 +36,11 @@ from fairaudit.certification.recorded_inputs import (
 )
 from fairaudit.certification.spec import Spec, load_spec
 from fairaudit.data.counts import CountTable
+from fairaudit.laws.composition import compose
 from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.independence import independence_factor
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.metrics.bounds import Bound, corollary_bound, paper_bound, tight_bound

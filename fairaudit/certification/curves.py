@@ -34,9 +34,10 @@ from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.files import write_atomic
 from fairaudit.base.labels import format_label
 from fairaudit.base.progress import STEP_DELAY, progress_bar
+from fairaudit.laws.composition import compose
 from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.laws.tables import Kernel, Population, compose
+from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import corollary_bound, paper_bound, tight_bound
 from fairaudit.metrics.fairness import global_fairness, local_fairness
@@ -92,7 +93,7 @@ class PrivacyCurve:
         ε(M_ε), the corollary's bound (= ε up to rounding), nats.
     observed_local, observed_global : numpy.ndarray
         L and L̄ of compose(kernel, M_ε, M_X), nats; NaN where that law has a cell of positive probability below the
-        float range (randomized response above about 708 nats: :func:`~fairaudit.laws.tables.compose` refuses it).
+        float range (randomized response above about 708 nats: :func:`~fairaudit.laws.composition.compose` refuses it).
     min_expected_utility : numpy.ndarray
         min over (x, a) of E[g | x, a] of that law (NaN where the law is refused).
     family : str

@@ -18,7 +18,7 @@ from fairaudit.base.checks import choice
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, number
 from fairaudit.certification.spec import Spec, load_spec
-from fairaudit.laws.tables import compose
+from fairaudit.laws.composition import compose
 from fairaudit.laws.utilities import UtilityClass
 from fairaudit.metrics.observed import Observed, observe
 from fairaudit.worstcase.known_law import WorstUtility, worst_utility

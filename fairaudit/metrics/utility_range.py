@@ -26,8 +26,9 @@ import numpy as np
 from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
+from fairaudit.laws.composition import compose
 from fairaudit.laws.mechanisms import Mechanism, identity
-from fairaudit.laws.tables import Kernel, Law, Population, compose, population_for
+from fairaudit.laws.tables import Kernel, Law, Population, population_for
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.box_extremes import MinMaxRatio, mixed_ratio
 from fairaudit.metrics.fairness import global_fairness, local_fairness

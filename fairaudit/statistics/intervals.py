@@ -75,8 +75,9 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
 from fairaudit.data.counts import CountTable
+from fairaudit.laws.composition import compose
 from fairaudit.laws.mechanisms import Mechanism, identity
-from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.observed import observe
 from fairaudit.statistics.bayes import band_sets

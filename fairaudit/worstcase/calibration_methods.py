@@ -30,9 +30,10 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
 from fairaudit.base.outward import exp_down, exp_up, fraction_down, log_down, log_up
 from fairaudit.laws.closed_forms import RandomizedResponse, randomized_response
+from fairaudit.laws.composition import compose
 from fairaudit.laws.families import MechanismFamily
 from fairaudit.laws.mechanisms import Mechanism, identity
-from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass, check_metric
 from fairaudit.metrics.bounds import main_theorem, main_theorem_tight
 from fairaudit.metrics.fairness import global_fairness, local_fairness

@@ -20,9 +20,10 @@ from fairaudit.base.errors import InputError, UnderflowError
 from fairaudit.base.labels import format_label
 from fairaudit.base.outward import down, up
 from fairaudit.laws.closed_forms import RandomizedResponse
+from fairaudit.laws.composition import compose
 from fairaudit.laws.independence import exactly_independent
 from fairaudit.laws.mechanisms import Mechanism, identity
-from fairaudit.laws.tables import Kernel, Population, compose
+from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption, check_assumptions
 from fairaudit.worstcase.pair_search import check_method

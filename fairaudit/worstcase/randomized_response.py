@@ -18,8 +18,9 @@ import numpy as np
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.outward import exp_bounds, exp_down, exp_up, fraction_down, fraction_up, log_up
 from fairaudit.laws.closed_forms import RandomizedResponseParameters
+from fairaudit.laws.composition import check_representable
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.laws.tables import Kernel, Law, check_representable
+from fairaudit.laws.tables import Kernel, Law
 
 _TIE = 1e-12  # relative tolerance of the threshold solution's ties (as threshold_rule.threshold_max_many)
 

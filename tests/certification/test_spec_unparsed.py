@@ -21,7 +21,8 @@ from _cli import run, run_json
 from fairaudit import InputError, parse_spec
 from fairaudit.certification.spec import load_spec
 from fairaudit.laws.closed_forms import randomized_response
-from fairaudit.laws.tables import Kernel, compose
+from fairaudit.laws.composition import compose
+from fairaudit.laws.tables import Kernel
 from fairaudit.laws.utilities import from_table
 from fairaudit.metrics.fairness import local_fairness
 from fairaudit.metrics.utility_range import fairness_range

@@ -31,8 +31,9 @@ from fairaudit.experiments.slots import (
 )
 from fairaudit.experiments.taskfile import parse_task
 from fairaudit.experiments.vlm.filter import TaskFilter, candidate_family, profile_budget
+from fairaudit.laws.composition import compose
 from fairaudit.laws.mechanisms import Mechanism, identity, product
-from fairaudit.laws.tables import Kernel, compose
+from fairaudit.laws.tables import Kernel
 
 
 def _task(k: int, decision: str = "choose", population: str = '"all"', positions: str = "balanced", values=None):

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 import fairaudit as fa
 from fairaudit.base.errors import UnderflowError
-from fairaudit.laws.tables import compose
+from fairaudit.laws.composition import compose
 
 # --------------------------------------------------------------------------- the paper's X-privacy example (SI C)
 

@@ -16,7 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.laws.tables import compose
+from fairaudit.laws.composition import compose
 
 # --------------------------------------------------------------------------- closed forms
 

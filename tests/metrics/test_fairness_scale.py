@@ -24,8 +24,9 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.labels import as_labels
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.closed_forms import randomized_response
+from fairaudit.laws.composition import compose
 from fairaudit.laws.mechanisms import from_matrix, identity
-from fairaudit.laws.tables import Kernel, Law, Population, compose
+from fairaudit.laws.tables import Kernel, Law, Population
 from fairaudit.metrics import fairness as metrics
 from fairaudit.metrics import reductions, total_variation
 from fairaudit.metrics.observed import observe

@@ -587,7 +587,7 @@ REGRESSIONS["no model meets tau, the solver's ray taken for a model"] = (
 
 # randomized response at 800 nats behind a model that sends g0 to d0 and g1 to d1: q = 1/(e^800 + 1) underflows to 0,
 # so the observed L read +inf where the exact value is 800 (verify failed every observed number; fixed in certify: the
-# law behind the filter is refused where a cell of positive probability is below the float range, laws.tables.compose,
+# law behind the filter is refused where a cell of positive probability is below the float range, laws.composition.compose,
 # and the observed metrics are left out with the reason); the black box's ratio e^800 is +inf rounded up (fixed in
 # verify)
 APART = "grp,dec,probability\ng0,d0,1.0\ng0,d1,0.0\ng1,d0,0.0\ng1,d1,1.0\n"

@@ -18,7 +18,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.laws.tables import compose
+from fairaudit.laws.composition import compose
 
 
 def brute_vertices(matrix, lower, gamma):

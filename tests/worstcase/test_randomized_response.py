@@ -782,7 +782,7 @@ if __name__ == "__main__":  # pragma: no cover
 def test_rr_law_agrees_with_compose_and_refuses_the_same_cells(k):
     # the closed form without the k x k matrix: the same law as the matrix product, and the same refusal where
     # q = 1/(e^epsilon + k - 1) is below the float range (800 nats); at 700 nats L = ln(p/q) = epsilon
-    from fairaudit.laws.tables import compose
+    from fairaudit.laws.composition import compose
     from fairaudit.worstcase.randomized_response import rr_law
 
     groups = [f"g{i}" for i in range(k)]

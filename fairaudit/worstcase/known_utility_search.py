@@ -581,7 +581,7 @@ def _model_case(
     recorded = r.argmax is not None and (bool(duals) or space.lo is None)  # (over the model's table: always)
     vertex = None
     if recorded:
-        r, vertex = _exact_witness(r, *pair(found.index), space.inner)
+        r, vertex = _exact_witness(r, *pair(found.index), space)
     if recorded and not problem.same_x:  # the table over every released context
         table = np.clip(space.to_kernel(np.asarray(r.argmax, dtype=float)), 0.0, 1.0)
         point = table if vertex is None else space.to_kernel(vertex)
@@ -611,15 +611,19 @@ def _model_case(
 
 
 def _exact_witness(
-    r: FractionalResult, num: _Coefficients, den: _Coefficients, inner: InnerProgram
+    r: FractionalResult, num: _Coefficients, den: _Coefficients, space: _ModelSpace
 ) -> tuple[FractionalResult, npt.NDArray[np.object_] | None]:
     """The maximiser's basis's vertex on the inner program (numerator down, denominator up, τ rows down), exactly,
     where its ratio there is at least the witness: ``r`` with that ratio as its witness, and the vertex (Fractions,
     shape (n,)), which a certificate records so that ``fairaudit verify`` reads the lower end off it, solving
-    nothing; else ``r`` and None (``proofs/verification.md`` §4f)."""
-    if r.basis is None or r.status != "optimal" or not r.certified:
+    nothing; else ``r`` and None (``proofs/verification.md`` §4f). A maximiser the closed-form relaxation gave has
+    no basis: its program is solved by the LP once for one (the maximiser's only)."""
+    if r.status != "optimal" or not r.certified:
         return r, None
-    ratio, h = inner.program.vertex_ratio(r.basis, num.low, den.high)
+    basis = r.basis if r.basis is not None else space.program().solve(num.high, den.low).basis
+    if basis is None:
+        return r, None
+    ratio, h = space.inner.program.vertex_ratio(basis, num.low, den.high)
     if h is None or math.isnan(ratio) or ratio < r.witness:
         return r, None
     witness = ratio if math.isnan(r.witness) else max(ratio, r.witness)

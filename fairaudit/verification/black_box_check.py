@@ -28,11 +28,7 @@ from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism,
 from fairaudit.verification.kernel_check import KernelSetting, kernel_settings, three_cell_settings
 from fairaudit.verification.table_check import Ends, table_global, table_local
 
-__all__ = ["MAX_VARIABLES", "PairEnclosures", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
-
-MAX_VARIABLES = 64
-"""The largest program (variables) solved exactly where the certificate records no proof for it (calibration's
-members): :func:`~fairaudit.verification.kernel_check.kernel_local`."""
+__all__ = ["PairEnclosures", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
 
 
 @dataclass(frozen=True)
@@ -63,7 +59,7 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
     WorstCaseEnclosures
         ``local`` and ``global_`` enclose max E[g | x, a]/E[g | x, a'] and max E[g | a]/E[g | a'] over every model
         (+inf when unbounded): the upper end the least bound the recorded proofs give (a program without one: its
-        bound without floors, or its exact solve within :data:`MAX_VARIABLES`), the lower end the largest ratio a
+        bound without floors; nothing is solved), the lower end the largest ratio a
         recorded or proved table attains (``from_duals`` where the two differ). None, with ``reason``, for a
         single group. L̄ compares the groups with P(A = a) > 0 only (1, L̄ = 0, with fewer than two).
 
@@ -80,10 +76,7 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
     settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     if isinstance(settings, str):
         return WorstCaseEnclosures(None, None, settings)
-    try:
-        ends = [(_local(p), _global(p)) for p in settings]
-    except ValueError as exc:  # floors no table meets
-        return WorstCaseEnclosures(None, None, f"{exc}: no model meets E[g | x, a] >= tau with the recorded rows")
+    ends = [(_local(p), _global(p)) for p in settings]
     local = Enclosure(ends[0][0][0], ends[-1][0][1])
     global_ = Enclosure(ends[0][1][0], ends[-1][1][1])
     duals = any(end[2] for pair in ends for end in pair)
@@ -157,11 +150,8 @@ def pair_enclosures(
     live = settings[0].local.live
     i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
     present = settings[0].several and a in _present(inputs) and b in _present(inputs)
-    try:
-        local_ends = None if i is None or only == "global" else [_local(p, (i, a, b)) for p in settings]
-        global_ends = [_global(p, (a, b)) for p in settings] if present and only != "local" else None
-    except ValueError:
-        return PairEnclosures(None, None)
+    local_ends = None if i is None or only == "global" else [_local(p, (i, a, b)) for p in settings]
+    global_ends = [_global(p, (a, b)) for p in settings] if present and only != "local" else None
     local = None if local_ends is None else Enclosure(local_ends[0][0], local_ends[-1][1])
     global_ = None if global_ends is None else Enclosure(global_ends[0][0], global_ends[-1][1])
     duals = any(e[2] for e in [*(local_ends or []), *(global_ends or [])])
@@ -178,14 +168,14 @@ def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] 
     group_free = not isinstance(values[0], list) or all(row == table[0] for table in values for row in table)
     rr = m.kind == "randomized_response" and m.t().lo != INF  # (at ε = inf, the identity's rows)
     if not (rr and context.kind == "identity" and group_free):
-        settings = kernel_settings(inputs, m, context, MAX_VARIABLES, evidence)
+        settings = kernel_settings(inputs, m, context, evidence)
         return [_Programs(s, s, False, False, len(s.present) >= 2) for s in settings]
-    local = three_cell_settings(inputs, m, MAX_VARIABLES, evidence, (0, 1))
+    local = three_cell_settings(inputs, m, evidence, (0, 1))
     present = _present(inputs)
     if len(present) < 2 or not all(w[a] == w[present[0]] for w in _full_weights(inputs) for a in present):
-        full = kernel_settings(inputs, m, context, MAX_VARIABLES, evidence) if len(present) >= 2 else local
+        full = kernel_settings(inputs, m, context, evidence) if len(present) >= 2 else local
         return [_Programs(s, f, True, False, len(present) >= 2) for s, f in zip(local, full, strict=True)]
-    global_ = three_cell_settings(inputs, m, MAX_VARIABLES, evidence, (present[0], present[1]))
+    global_ = three_cell_settings(inputs, m, evidence, (present[0], present[1]))
     return [_Programs(s, t, True, True, True) for s, t in zip(local, global_, strict=True)]
 
 

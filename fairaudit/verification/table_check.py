@@ -11,13 +11,12 @@ as an upper end above it, and that check fails. ``proofs/verification.md`` §4f.
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from fractions import Fraction
 from typing import Any, NamedTuple
 
 from fairaudit.verification.enclosures import INF
-from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local, reached_rows
+from fairaudit.verification.kernel_check import KernelSetting, reached_rows
 from fairaudit.verification.table_duality import TableProgram, integers
 
 __all__ = ["table_global", "table_local"]
@@ -36,7 +35,6 @@ class _Case(NamedTuple):
     theta: Fraction | None  # the one-floor threshold, on the floor Q·K ≥ kept
     kept: Fraction | None
     table: Table | None  # the maximiser's table
-    solve: Callable[[], Number | None] | None  # the program solved exactly, within the exact size (no proof)
 
 
 def _largest(cases: Sequence[_Case], start: Number) -> Ends:
@@ -46,16 +44,11 @@ def _largest(cases: Sequence[_Case], start: Number) -> Ends:
     The programs are taken in decreasing order of their θ bound (+inf without θ), and one whose θ bound is at most
     the largest bound found is passed over: it cannot raise it. The lower end is the largest ratio attained exactly:
     at a recorded table (meeting every floor, each row normalised to sum to 1 exactly), or at the table of the rows'
-    maximisers where a bound is attained there; at least ``start``. Within the exact size (``solve``), a program
-    that records no proof is solved exactly, its value its bound; and where the lower end falls short of the upper
-    end and no recorded table attains a ratio, the first program whose bound is the upper end is solved for its
-    value, a lower end (the proofs' bound
-    stays the upper end: what a certificate's proofs do not prove fails)."""
+    maximisers where a bound is attained there (without floors, the bound itself); at least ``start``. Nothing is
+    solved: what a certificate's proofs do not prove fails, and a lower end no recorded table reaches is left lower."""
     thetas = [case.program.theta_bound(case.theta, case.kept) if case.theta is not None and case.kept else INF
               for case in cases]  # fmt: skip
     low = high = start
-    top: list[_Case] = []
-    pointed = False  # (a recorded table attains a ratio: the lower end is read off it, nothing is solved)
     for i in sorted(range(len(cases)), key=lambda i: -thetas[i]):
         case, bound = cases[i], thetas[i]
         if bound <= high and bound != INF:
@@ -66,18 +59,10 @@ def _largest(cases: Sequence[_Case], start: Number) -> Ends:
                 proved, attained = case.program.dual_bound(nu)
                 bound = min(bound, proved)
                 reached = reached if attained is None else max(reached, attained)
-        if case.theta is None and case.nu is None and bound > max(high, reached) and case.solve is not None:
-            solved = case.solve()  # (no proof: the program solved exactly, its value its bound)
-            if solved is not None:
-                bound, reached = solved, max(reached, solved)
         low = max(low, reached)
-        top = [case] if bound > high else [*top, case] if bound == high else top
         high = max(high, bound)
         if case.table is not None and (ratio := case.program.point_ratio(_normalised(case.table))) is not None:
-            low, pointed = max(low, ratio), True
-    first = top[0] if top and low < high and not pointed else None  # (no recorded point: the first at the top,
-    if first is not None and first.solve is not None and (solved := first.solve()) is not None:  # solved exactly)
-        low = max(low, min(solved, high))
+            low = max(low, ratio)
     return min(low, high), high, low < high
 
 
@@ -185,7 +170,7 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
 
     >>> from fractions import Fraction as F
     >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
-    ...                   None, [0], [[F(1), F(1)]], [0, 1], False, 64)
+    ...                   None, [0], [[F(1), F(1)]], [0, 1], False)
     >>> table_local(s)
     (Fraction(6, 1), Fraction(6, 1), False)
     """
@@ -209,8 +194,7 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
             point = evidence.local_point
             table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
             program = TableProgram(rows[where[a]], rows[where[b]], floors, d, s.tau)
-            solve = functools.partial(kernel_local, s, (i, a, b)) if s.small else None
-            cases.append(_Case(program, nu, evidence.local_theta.get((x, a, b)), s.tau, table, solve))
+            cases.append(_Case(program, nu, evidence.local_theta.get((x, a, b)), s.tau, table))
     return _largest(cases, Fraction(0))
 
 
@@ -236,14 +220,15 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
 
     Examples
     --------
-    With τ = 1/4 and θ = 2/3 recorded for the pair (0, 1), E[g | b] ≥ 1/4 its one floor proves 10/3 (the value: no
-    table of the rows' maximisers attains it, the exact solve within the size does); the pair (1, 0) needs no proof
-    (its bound without floors is 1/6 < 1):
+    With τ = 1/4 and θ = 2/3 recorded for the pair (0, 1), E[g | b] ≥ 1/4 its one floor proves 10/3; the recorded
+    maximiser P(yes | ·) = (1, 1/3) attains it (no table of the rows' maximisers does); the pair (1, 0) needs no
+    proof (its bound without floors is 1/6 < 1):
 
     >>> from fractions import Fraction as F
     >>> from fairaudit.verification.dual_check import Evidence
     >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
-    ...                   F(1, 4), [0], [[F(1), F(1)]], [0, 1], False, 64, Evidence(global_theta={(0, 1): F(2, 3)}))
+    ...                   F(1, 4), [0], [[F(1), F(1)]], [0, 1], False,
+    ...                   Evidence(global_point=(0, 1, [[[F(1), F(0)], [F(1, 3), F(2, 3)]]]), global_theta={(0, 1): F(2, 3)}))
     >>> table_global(s)
     (Fraction(10, 3), Fraction(10, 3), False)
     """
@@ -267,6 +252,5 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
         point = evidence.global_point
         table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
         program = TableProgram(rows[where[a]], rows[where[b]], floors, d, s.tau)
-        solve = functools.partial(kernel_global, s, (a, b)) if s.small else None
-        cases.append(_Case(program, nu, evidence.global_theta.get((a, b)), kept[b], table, solve))
+        cases.append(_Case(program, nu, evidence.global_theta.get((a, b)), kept[b], table))
     return _largest(cases, Fraction(1))

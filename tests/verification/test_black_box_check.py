@@ -8,12 +8,14 @@ from fractions import Fraction as F
 
 import pytest
 from _cli import OFFICE_SPEC
+from _exact_route import exact_enclosures, kernel_global
 from _verified import certified_and_verified
 
 import fairaudit.verification.black_box_check as bb
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.black_box_check import black_box_enclosures
+from fairaudit.verification.dual_check import Evidence
 from fairaudit.verification.rederive import verify
 
 OFFICE = OFFICE_SPEC + "tau = 0.25\n"  # binary randomized response keeping 0.7, g = 1{yes}
@@ -81,21 +83,21 @@ def test_l_bar_merges_contexts_alike_without_changing_its_value(monkeypatch):
     # six contexts, three utility tables (g(no) in 0, 1/4, 1/2; group g0 gets more for "no"): L̄'s exact program
     # merges the contexts of one table (their P(x | a) are proportional), three blocks instead of six; the unmerged
     # program (every context its own block) is the second route
-    import fairaudit.verification.kernel_check as kc
+    import _exact_route
 
     inputs = _many_contexts(6)
     for plane in inputs["utility"]["values"]:
         plane[0] = [1.0, 0.75]
-    merged = black_box_enclosures(inputs).global_
-    monkeypatch.setattr(kc, "_merged", lambda s: {x: s.weights[i] for i, x in enumerate(s.live)})
-    unmerged = black_box_enclosures(inputs).global_
+    merged = exact_enclosures(inputs).global_
+    monkeypatch.setattr(_exact_route, "_merged", lambda s: {x: s.weights[i] for i, x in enumerate(s.live)})
+    unmerged = exact_enclosures(inputs).global_
     assert merged == unmerged and merged.lo > 1
 
 
 @pytest.mark.slow
 def test_l_bar_over_a_thousand_contexts_alike_is_re_derived():
     # X and A independent, three boxes: three blocks whatever the number of contexts (it was 3,000 variables)
-    worst = black_box_enclosures(_many_contexts(1000))
+    worst = exact_enclosures(_many_contexts(1000))
     assert worst.global_ is not None and worst.global_.hi - worst.global_.lo < 1e-40
 
 
@@ -142,11 +144,9 @@ def test_l_bar_beyond_the_limit_is_bounded_by_its_duals_and_without_them_fails(m
     # a block wider than the limit (here 2 < randomized response's three groups, unlike: L-bar's blocks are k wide;
     # L's are three cells): L-bar is bounded by the floors' multipliers certify records; without them its value
     # fails
-    import fairaudit.verification.black_box_check as bb
 
     spec = _unlike_contexts(4, 'kind = "indicator"\ndecision = "yes"')
     cert = json.loads(json.dumps(certify(parse_spec(spec)).to_dict()))
-    monkeypatch.setattr(bb, "MAX_VARIABLES", 2)
     result = verify(cert)
     assert result.holds, [c.line() for c in result.failures]
     assert {"bounds.black_box", "bound_details.black_box.global.value"} <= {c.name for c in result.checks}
@@ -194,11 +194,11 @@ def test_a_relaxed_maximiser_that_misses_a_floor_is_solved_by_hand():
         "population": {"contexts": ["c0"], "groups": ["g0", "g1", "g2"], "probabilities": [[0.5, 0.0, 0.5]]},
     }
     m21, m22, tau = F(2 / 3), F(1 / 3), F(0.3)  # the recorded floats, exactly
-    worst = black_box_enclosures(inputs)
+    worst = exact_enclosures(inputs)  # (the rational simplex: verify solves nothing)
     assert worst.local.lo == worst.local.hi == 1 / tau  # 10/3 in reals
     assert worst.global_.lo == worst.global_.hi == (m21 + m22 * tau) / tau  # 23/9 in reals
-    pair_global = bb.pair_enclosures(inputs, "c0", "g0", "g2").global_
-    assert pair_global.lo == pair_global.hi == 1 / (m21 * tau + m22)  # 15/8 in reals, not the relaxation's 3
+    [setting] = bb._settings(inputs, Evidence())
+    assert kernel_global(setting.global_, (0, 2)) == 1 / (m21 * tau + m22)  # 15/8 in reals, not the relaxation's 3
 
 
 @pytest.mark.slow

@@ -7,6 +7,7 @@ import json
 from fractions import Fraction as F
 
 import pytest
+from _exact_route import exact_enclosures
 
 import fairaudit.verification.black_box_check as bb
 from fairaudit.certification.certificate import certify
@@ -75,28 +76,17 @@ def test_without_binding_floors_no_multipliers_are_recorded():
 
 
 def test_beyond_the_exact_size_l_bar_is_bounded_by_the_recorded_dual(unlike, monkeypatch):
-    # the same certificate re-derived twice: without its proofs, by the rational simplex, and with every program
-    # beyond the exact size, from the recorded proofs alone (upper end). Both upper ends agree with the exact value to 1e-15, and the
-    # certificate holds; the recorded point misses a binding floor by its rounding, so the witness is listed
-    exact = bb.black_box_enclosures(unlike["inputs"], _unproved(unlike))  # (no proofs: solved)
-    assert exact.global_.lo == exact.global_.hi and not exact.from_duals
-    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
+    # the same certificate by two routes: the rational simplex (the tests' second route), and verify from the
+    # recorded proofs alone. The proofs' upper end agrees with the exact value to 1e-15, the recorded point gives a
+    # lower end at most the exact value, and the certificate holds
+    exact = exact_enclosures(unlike["inputs"])
+    assert exact.global_.lo == exact.global_.hi
     dual = bb.black_box_enclosures(unlike["inputs"], unlike["bound_details"]["black_box"])
-    assert dual.from_duals and dual.global_.lo <= exact.global_.lo
+    assert dual.global_.lo <= exact.global_.lo
     assert exact.global_.hi <= dual.global_.hi <= exact.global_.hi * (1 + F(1, 10**15))
     result = verify(unlike)
     assert result.holds, [c.line() for c in result.failures]
     assert "bound_details.black_box.global.value" in {c.name for c in result.checks}
-
-
-def _unproved(cert):
-    """The certificate's ``bound_details.black_box`` without its proofs: within the exact size each program is then
-    solved exactly (the rational simplex)."""
-    detail = copy.deepcopy(cert["bound_details"]["black_box"])
-    for record in (detail, detail["global"]):
-        record.pop("duals", None)
-        record.pop("screens", None)
-    return detail
 
 
 def _edited(cert, edit):
@@ -120,20 +110,17 @@ def _edited(cert, edit):
     ids=["value up", "value down", "duals zeroed", "pair swapped"],
 )
 def test_an_edited_certificate_fails_where_the_dual_decides(unlike, monkeypatch, edit, failing):
-    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
     assert failing in {c.name for c in verify(_edited(unlike, edit)).failures}
 
 
 def test_without_its_duals_l_bar_fails(unlike, monkeypatch):
     # nothing is solved beyond the exact size: a program whose proof is gone has its bound without the multipliers,
     # above the value, and L-bar's value fails
-    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
     result = verify(_edited(unlike, lambda g: g.pop("duals")))
     assert "bound_details.black_box.global.value" in {c.name for c in result.failures}
 
 
 def test_without_its_point_the_witness_is_listed_not_failed(unlike, monkeypatch):
-    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
     result = verify(_edited(unlike, lambda g: g.pop("witness_point")))
     assert result.holds, [c.line() for c in result.failures]
     listed = dict(result.not_checked)
@@ -184,7 +171,7 @@ def test_a_matrix_of_36_groups_is_re_derived(monkeypatch):
     assert {"bounds.black_box", "bound_details.black_box.global.value"} <= names
     assert not [n for n, why in result.not_checked if "beyond" in why]
     beyond = bb.black_box_enclosures(cert["inputs"], cert["bound_details"]["black_box"])
-    exact = bb.black_box_enclosures(cert["inputs"], _unproved(cert))  # (no proofs: solved, a second route)
+    exact = exact_enclosures(cert["inputs"])  # (the rational simplex, a second route)
     assert exact.local.lo == exact.local.hi
     assert exact.local.hi <= beyond.local.hi <= exact.local.hi * (1 + F(1, 10**15))
     cert["bounds"]["black_box"] += 1e-7 * max(1.0, cert["bounds"]["black_box"])
@@ -232,7 +219,6 @@ def test_a_pair_certify_left_unsolved_within_its_stop_needs_no_dual(monkeypatch)
     # did, instead of asking for a dual no search computed (found by a random hunt: L-bar was listed not re-derived)
     cert = json.loads(json.dumps(certify(parse_spec(TIE)).to_dict()))
     assert len(cert["bound_details"]["black_box"]["global"]["duals"]) == 1
-    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
     result = verify(cert)
     assert result.holds, [c.line() for c in result.failures]
     assert "bound_details.black_box.global.value" in {c.name for c in result.checks}

@@ -8,6 +8,7 @@ import math
 from fractions import Fraction as F
 
 import pytest
+from _exact_route import exact_enclosures, kernel_global, kernel_local
 from _verified import certified_and_verified
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -15,7 +16,7 @@ from hypothesis import strategies as st
 import fairaudit
 from fairaudit.verification.black_box_check import black_box_enclosures
 from fairaudit.verification.enclosures import INF
-from fairaudit.verification.kernel_check import KernelSetting, kernel_global, kernel_local
+from fairaudit.verification.kernel_check import KernelSetting
 
 IDENTITY_X = {"inputs": ["x"], "outputs": ["x"], "kind": "identity"}
 KEEP_3_4 = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix", "matrix": [[0.75, 0.25], [0.25, 0.75]]}
@@ -43,14 +44,26 @@ def test_a_utility_that_depends_on_the_group_by_hand():
 def test_the_floors_bind_by_hand():
     # τ = 1/4: E[g | a] >= 1/4 and E[g | b] >= 1/4, i.e. k_a + 3 k_b >= 2. The ratio a over b is
     # 2 (3 k_a + k_b)/(k_a + 3 k_b), increasing in k_a and decreasing in k_b: k_a = 1, k_b = 1/3, the value 10/3.
-    worst = black_box_enclosures(_inputs([[[1.0, 0.0], [0.5, 0.0]]], tau=0.25))
+    # The rational simplex finds it; verify solves nothing: without proofs each program is bounded without its
+    # floors (6); with θ = 2/3 (R(θ) = 2/3 on the row of a: θ + R(θ)/τ = 2/3 + 8/3 = 10/3) and the maximiser's table
+    # recorded it is 10/3 exactly, the pair (b, a) bounded by 3/2 < 10/3 without a proof
+    inputs = _inputs([[[1.0, 0.0], [0.5, 0.0]]], tau=0.25)
+    worst = exact_enclosures(inputs)
     assert (worst.local.lo, worst.local.hi) == (F(10, 3), F(10, 3))
+    assert black_box_enclosures(inputs).local.hi == 6
+    proof = {"context": "x", "group": "a", "other_group": "b", "witness_point": [[1.0, 0.0], ["1/3", "2/3"]],
+             "screens": [{"context": "x", "group": "a", "other_group": "b", "theta": "2/3"}], "global": {}}  # fmt: skip
+    proved = black_box_enclosures(inputs, proof)
+    assert (proved.local.lo, proved.local.hi) == (F(10, 3), F(10, 3))
 
 
-def test_floors_no_table_meets_are_listed():
-    # E[g | b] <= 1/2 < τ = 0.6 for every table: no model meets the floors, nothing to re-derive
-    worst = black_box_enclosures(_inputs([[[1.0, 0.0], [0.5, 0.0]]], tau=0.6))
-    assert worst.local is None and "no model meets" in worst.reason
+def test_floors_no_table_meets_are_found_by_the_exact_route_and_bound_nothing_in_verify():
+    # E[g | b] <= 1/2 < τ = 0.6 for every table: no model meets the floors. The rational simplex says so; verify,
+    # solving nothing, bounds each program without its floors (a bound over an empty set holds vacuously)
+    inputs = _inputs([[[1.0, 0.0], [0.5, 0.0]]], tau=0.6)
+    with pytest.raises(ValueError, match="no decision model meets the floors"):
+        exact_enclosures(inputs)
+    assert black_box_enclosures(inputs).local.hi == 6
 
 
 def test_a_utility_that_vanishes_for_one_group_is_unbounded():
@@ -121,7 +134,7 @@ def kernel_settings(draw):
     weights = [[pop[x][a] / mass[a] if mass[a] else F(0) for a in range(k)] for x in live]
     present = [a for a in range(k) if mass[a]]
     group_free = all(g[x][a] == g[x][0] for x in range(n_x) for a in range(k))
-    return KernelSetting(sensitive, context, g, None, live, weights, present, group_free, 64)
+    return KernelSetting(sensitive, context, g, None, live, weights, present, group_free)
 
 
 @pytest.mark.slow
@@ -159,7 +172,7 @@ def test_no_privacy_on_the_group_by_hand():
     identity = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "identity"}
     rr_inf = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "randomized_response", "epsilon": "inf"}
     for sensitive in (identity, rr_inf):
-        floor = black_box_enclosures(_inputs([1.0, 0.0], tau=0.25, sensitive=sensitive))
+        floor = exact_enclosures(_inputs([1.0, 0.0], tau=0.25, sensitive=sensitive))
         assert (floor.local.lo, floor.local.hi) == (F(4), F(4))
         assert black_box_enclosures(_inputs([1.0, 0.0], sensitive=sensitive)).local.hi == INF
 
@@ -177,12 +190,12 @@ def test_certify_and_verify_without_privacy_on_the_group(tmp_path):
 def test_contexts_with_one_utility_table_are_solved_once(monkeypatch):
     # four contexts, two tables (each twice): L is the largest of every (context, pair) solved on its own, and the
     # programs of two contexts only are built
-    import fairaudit.verification.kernel_check as kc
+    import _exact_route as kc
 
     table_1, table_2 = [[F(1), F(0)], [F(1, 2), F(0)]], [[F(1, 4), F(1)], [F(1), F(1, 8)]]
     g = [table_1, table_2, table_1, table_2]
     rows = ((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4)))
-    s = KernelSetting(rows, None, g, F(1, 5), [0, 1, 2, 3], [[F(1, 4)] * 2] * 4, [0, 1], False, 64)
+    s = KernelSetting(rows, None, g, F(1, 5), [0, 1, 2, 3], [[F(1, 4)] * 2] * 4, [0, 1], False)
     one_by_one = max(kernel_local(s, at=(i, a, b)) for i in range(4) for a, b in ((0, 1), (1, 0)))
     built = []
     make = kc._Polytope.of

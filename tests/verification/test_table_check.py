@@ -13,12 +13,12 @@ import re
 from fractions import Fraction as F
 
 import pytest
+from _exact_route import exact_enclosures
 from _verified import product_by_group
 from test_dual_check import UNLIKE
 from test_rederive_random import REGRESSIONS
 
 import fairaudit.verification.black_box_check as bb
-import fairaudit.verification.table_check as tc
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
 from fairaudit.verification.enclosures import INF
@@ -42,29 +42,15 @@ def _raised(v: float) -> float:
     return v + 1e-7 * max(1.0, abs(v))
 
 
-def _beyond(monkeypatch) -> None:
-    """Every program beyond the exact size (``KernelSetting.small`` false), and none solved: the black box is checked
-    from the recorded proofs alone."""
-    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
-    for name in ("kernel_local", "kernel_global"):
-        monkeypatch.setattr(tc, name, lambda *args: pytest.fail("a program was solved beyond the exact size"))
-
-
 def _ends(cert: dict) -> bb.WorstCaseEnclosures:
     """The black box's enclosures from the certificate's inputs and proofs."""
     return bb.black_box_enclosures(cert["inputs"], cert["bound_details"]["black_box"])
 
 
 def _exact(cert: dict) -> bb.WorstCaseEnclosures:
-    """The black box solved exactly within the exact size (kernel_check's rational simplex): its programs with
-    their proofs stripped, as a certificate without proofs has them, are solved; a second route to the values."""
-
-    def stripped(d):
-        for record in (d, d["global"]):
-            record.pop("duals", None)
-            record.pop("screens", None)
-
-    return _ends(_edited(cert, stripped))
+    """The black box solved exactly by the rational simplex (the tests' second route, ``_exact_route``), no proof
+    read."""
+    return exact_enclosures(cert["inputs"])
 
 
 def _between(beyond: bb.WorstCaseEnclosures, exact: bb.WorstCaseEnclosures, cert: dict) -> None:
@@ -136,7 +122,6 @@ def test_beyond_the_exact_size_verify_holds_from_the_recorded_proofs_alone(by_gr
     # the exact values (weak duality) and at or below the certified ratios (each proving within rounding)
     exact = _exact(by_group)
     assert exact.local.lo == exact.local.hi and exact.global_.lo == exact.global_.hi
-    _beyond(monkeypatch)
     beyond = _ends(by_group)
     _between(beyond, exact, by_group)
     result = _holds(by_group)
@@ -151,7 +136,6 @@ def test_beyond_the_exact_size_the_witness_is_checked_from_the_recorded_table(by
     # with nothing solved, and each lower end is at least the recorded witness
     detail = by_group["bound_details"]["black_box"]
     assert any(isinstance(v, str) for row in detail["witness_point"] for v in row)  # exact, not floats
-    _beyond(monkeypatch)
     result = _holds(by_group)
     not_checked = dict(result.not_checked)
     assert "bound_details.black_box.witness" not in not_checked
@@ -205,7 +189,6 @@ def test_an_edited_proof_fails_the_value_it_no_longer_proves_within_and_beyond_t
     # fails
     edited = _edited(by_group, edit)
     assert _failing(edited) == failing
-    _beyond(monkeypatch)
     assert _failing(edited) == failing
 
 
@@ -213,7 +196,6 @@ def test_a_program_is_bounded_by_the_least_of_its_proofs(by_group, monkeypatch):
     # L's maximiser's program (x1, g1 over g2): its one-floor relaxation is tight, so its θ alone proves the value
     # and its multipliers zeroed or doubled change nothing; without its screen, its multipliers prove it, and
     # zeroed leave it unproved
-    _beyond(monkeypatch)
     detail = by_group["bound_details"]["black_box"]
     ends = _ends(by_group).local
     for scale in (0.0, 2.0):
@@ -243,8 +225,6 @@ def test_a_program_is_bounded_by_the_least_of_its_proofs(by_group, monkeypatch):
 )  # fmt: skip
 @pytest.mark.parametrize("size", ["within", "beyond"])
 def test_an_edited_value_or_pair_fails_within_and_beyond_the_exact_size(by_group, monkeypatch, edit, failing, size):
-    if size == "beyond":
-        _beyond(monkeypatch)
     edited = _edited(by_group, edit)
     edited["bounds"]["black_box"] = edited["bound_details"]["black_box"]["value"]
     assert failing in _failing(edited)
@@ -259,7 +239,6 @@ def test_a_negative_multiplier_proves_nothing_as_if_none_were_recorded(by_group,
     # g2) is then bounded by its θ alone, 3.17, above its value, exactly as with its multipliers left out
     edited = _edited(by_group, _l_bar_negative)
     assert _failing(edited) == L_BAR  # (a program with proofs is not solved, within the exact size either)
-    _beyond(monkeypatch)
     without = _edited(by_group, lambda d: d["global"]["duals"].remove(_dual(d["global"], "g1", "g2")))
     ends = [_ends(c).global_ for c in (edited, without)]
     assert ends[0] == ends[1] and ends[0].hi > F(by_group["bound_details"]["black_box"]["global"]["ratio"])
@@ -356,7 +335,6 @@ def test_exact_multipliers_are_recorded_as_rationals_and_prove_the_value_beyond_
     assert isinstance(dual["floors"][1][0], str) and re.fullmatch(r"[0-9]+/[0-9]+", dual["floors"][1][0])
     exact = _ends(gamma_tau)
     _holds(gamma_tau)
-    _beyond(monkeypatch)
     beyond = _ends(gamma_tau)
     assert (beyond.local, beyond.global_) == (exact.local, exact.global_)
     local, glob = _witness_ratios(gamma_tau)
@@ -378,7 +356,6 @@ def test_exact_multipliers_to_nearest_prove_nothing_where_b_is_flat(gamma_tau, m
     # 2 − τν beyond ν, it reaches 0 only at ν = 2/τ exactly, and its root is then 2/τ. The float to nearest is below
     # 2/τ: B stays at τ(2/τ − ν) > 0, no bound, and verify fails the value. With the program's screen recorded (θ, a
     # subnormal float: R(θ) = 2, its bound θ + 2/τ) it is proved all the same, within the certified ratio
-    _beyond(monkeypatch)
     nearest = _edited(gamma_tau, _to_nearest)
     theta = F(_screen(gamma_tau["bound_details"]["black_box"], "c1", "g1", "g0")["theta"])
     assert 0 < theta < F(1, 10**300)
@@ -397,11 +374,11 @@ def test_exact_multipliers_to_nearest_prove_nothing_where_b_is_flat(gamma_tau, m
     assert {"bounds.black_box", "bound_details.black_box.ratio"} <= _failing(edited)
 
 
-def test_within_the_exact_size_programs_without_proofs_are_solved_and_beyond_it_fail(monkeypatch):
+def test_programs_without_proofs_are_bounded_without_their_floors_and_fail():
     # three binary randomized responses keeping 0.7 (8 groups, 56 ordered pairs), g by group, tau 0.1: a screen per
-    # program, and the multipliers of the programs the LP bounded. With them, verify holds beyond the exact size
-    # solving nothing; with them stripped, within it the programs are solved (exact values, at most the proofs'
-    # bounds), and beyond it each is bounded without its floors, above the values: L and L-bar fail
+    # program, and the multipliers of the programs the LP bounded. With them, verify holds solving nothing, its
+    # upper ends between the exact values (the rational simplex, a second route) and the certified ratios; with them
+    # stripped each program is bounded without its floors, above the values: L and L-bar fail
     cert = _certified(product_by_group(3, seed=3))
     detail = cert["bound_details"]["black_box"]
     assert len(detail["screens"]) == len(detail["global"]["screens"]) == 56
@@ -411,18 +388,12 @@ def test_within_the_exact_size_programs_without_proofs_are_solved_and_beyond_it_
             record.pop("duals", None)
             record.pop("screens")
 
-    bare = _edited(cert, stripped)
-    solved = []
-    for name in ("kernel_local", "kernel_global"):
-        monkeypatch.setattr(tc, name, lambda *args, solve=getattr(tc, name): solved.append(1) or solve(*args))
-    proved, exact = _ends(cert), _ends(bare)
-    assert solved and exact.local.lo == exact.local.hi and exact.global_.lo == exact.global_.hi
-    _between(proved, exact, cert)
-    _holds(bare)
-    _beyond(monkeypatch)
+    exact = _exact(cert)
+    assert exact.local.lo == exact.local.hi and exact.global_.lo == exact.global_.hi
+    _between(_ends(cert), exact, cert)
     _holds(cert)
     failing = {"bounds.black_box", "bound_details.black_box.ratio"} | L_BAR
-    assert failing <= _failing(bare)
+    assert failing <= _failing(_edited(cert, stripped))
 
 
 def test_without_floors_the_programs_are_bounded_as_within_the_exact_size(monkeypatch):
@@ -436,7 +407,6 @@ def test_without_floors_the_programs_are_bounded_as_within_the_exact_size(monkey
     assert not detail.get("screens") and not detail.get("duals") and not detail["global"].get("screens")
     assert detail["value"] == detail["ratio"] == "inf"
     exact = _ends(cert)
-    _beyond(monkeypatch)
     beyond = _ends(cert)
     assert exact.local.lo == exact.local.hi == beyond.local.hi == INF
     assert beyond.global_ == exact.global_ and exact.global_.lo == exact.global_.hi
@@ -485,7 +455,6 @@ def test_behind_a_context_mechanism_the_proofs_span_every_context(spec, monkeypa
     assert detail["duals"] and all(len(d["floors"]) == 2 and len(d["floors"][0]) == 4 for d in detail["duals"])
     assert [[len(row) for row in t] for t in detail["witness_point"]] == [[2] * 4] * 2
     exact = _ends(cert)
-    _beyond(monkeypatch)
     beyond = _ends(cert)
     _between(beyond, exact, cert)
     _holds(cert)
@@ -525,8 +494,6 @@ def test_behind_the_identity_on_the_group_a_utility_of_the_decision_only_is_prov
     # the model's table, θ = 0: R(0)/τ, the largest numerator over τ, is max g / τ itself. Beyond the exact size
     # both upper ends are that, exactly (before the screens were recorded here, verify failed: 17.46 at 81
     # variables, +inf for IDENTITY, from the programs' bounds without floors)
-    if spec == "identity, beyond the exact size":
-        _beyond(monkeypatch)
     cert = _certified(_identity_81() if spec == "identity, 81 variables" else IDENTITY)
     detail, inputs = cert["bound_details"]["black_box"], cert["inputs"]
     k, n_x = len(inputs["population"]["groups"]), len(inputs["population"]["contexts"])
@@ -578,7 +545,6 @@ def test_hunted_certificates_have_l_bar_re_derived_beyond_the_exact_size(name, m
     cert = _certified(HUNTED[name])
     detail = cert["bound_details"]["black_box"]
     exact = _ends(cert)
-    monkeypatch.setattr(bb, "MAX_VARIABLES", 0)
     beyond = _ends(cert)
     assert beyond.global_ is not None, beyond.reason
     assert beyond.global_.lo <= exact.global_.lo and exact.global_.hi <= beyond.global_.hi

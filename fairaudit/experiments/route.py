@@ -404,8 +404,6 @@ def _scene(task: DeliveryTask, options: RunOptions, images: bool) -> tuple[tuple
         if field is None:
             raise
         field = {"goal": "goals", "rtol": "tolerance", "area_dir": "scene"}.get(field, field)
-        if exc.value is InputError._missing:
-            raise InputError(field, exc.problem) from None
         raise InputError(field, exc.problem, exc.value) from None
     record = {
         "area": None if options.scene is None else str(options.scene),

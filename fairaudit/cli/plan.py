@@ -6,7 +6,6 @@ import argparse
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats import render
 
@@ -14,22 +13,6 @@ from ._common import Subparsers, add_output, emit
 
 if TYPE_CHECKING:
     from fairaudit.statistics.sample_size import SamplePlan
-
-# the flag of each keyword of fairaudit.statistics.sample_size.plan, to name it in errors
-_PLAN_FLAGS = {
-    "target": "--target",
-    "groups": "--groups",
-    "contexts": "--contexts",
-    "base_rate": "--base-rate",
-    "disparity": "--disparity",
-    "confidence": "--confidence",
-    "method": "--method",
-    "power": "--power",
-    "epsilon": "--epsilon",
-    "datasets": "--datasets",
-    "seed": "--seed",
-    "max_n": "--max-n",
-}
 
 
 def add_parser(sub: Subparsers) -> None:
@@ -100,30 +83,24 @@ def run(args: argparse.Namespace) -> int:
     from fairaudit.statistics.sample_size import plan
 
     methods = ("clopper-pearson", "multinomial", "bayes") if args.method == "all" else (args.method,)
-    plans = []
-    for method in methods:
-        try:
-            plans.append(
-                plan(
-                    args.target,
-                    groups=args.groups,
-                    contexts=args.contexts,
-                    base_rate=args.base_rate,
-                    disparity=args.disparity,
-                    confidence=args.confidence,
-                    method=method,
-                    power=args.power,
-                    epsilon=args.epsilon,
-                    kind=args.kind,
-                    datasets=args.datasets,
-                    seed=args.seed,
-                    max_n=args.max_n,
-                )
-            )
-        except InputError as exc:
-            if exc.field not in _PLAN_FLAGS:
-                raise
-            raise InputError(_PLAN_FLAGS[exc.field], exc.problem, exc.value) from None
+    plans = [
+        plan(
+            args.target,
+            groups=args.groups,
+            contexts=args.contexts,
+            base_rate=args.base_rate,
+            disparity=args.disparity,
+            confidence=args.confidence,
+            method=method,
+            power=args.power,
+            epsilon=args.epsilon,
+            kind=args.kind,
+            datasets=args.datasets,
+            seed=args.seed,
+            max_n=args.max_n,
+        )
+        for method in methods  # an InputError names the keyword: main names its flag (command_flags)
+    ]
     data = _plans_dict(plans)
     summary = "; ".join(f"{p.method}: {p.n_per_cell if p.feasible else 'no n'}" for p in plans)
     emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")

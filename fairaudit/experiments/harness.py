@@ -260,11 +260,7 @@ class QueryLog:
                 first = rec
                 continue
             if rec.get("type") == "query":
-                if rec.get("status") == "ok":
-                    self.records[rec["id"]] = rec
-                    self.errors.pop(rec["id"], None)
-                else:
-                    self.errors[rec["id"]] = rec
+                self._keep(rec)
             elif rec.get("type") == "extend":
                 self.extensions.append(rec)
         if first is None or first.get("type") != "header":
@@ -300,6 +296,10 @@ class QueryLog:
     def add(self, record: dict) -> None:
         """Append one query's record (flushed at once; synced to disk at least every second)."""
         self._append(record)
+        self._keep(record)
+
+    def _keep(self, record: dict) -> None:
+        """A query's record as the last of its key: answered (``records``) or failed (``errors``)."""
         if record.get("status") == "ok":
             self.records[record["id"]] = record
             self.errors.pop(record["id"], None)

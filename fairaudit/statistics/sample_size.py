@@ -328,47 +328,6 @@ def plan(
     >>> plan(0.1, disparity=0.2).reason
     'the target 0.1 nats is not above the true L of the model, 0.2 nats: no sample size certifies it'
     """
-    inputs = _checked_inputs(
-        target,
-        groups=groups,
-        contexts=contexts,
-        base_rate=base_rate,
-        disparity=disparity,
-        confidence=confidence,
-        method=method,
-        power=power,
-        epsilon=epsilon,
-        kind=kind,
-        datasets=datasets,
-        seed=seed,
-        max_n=max_n,
-        progress=progress,
-    )
-    rates, mechanism, true_value = _assumed_model(inputs)
-    return _search(inputs, true_value, rates, mechanism, progress)
-
-
-def _checked_inputs(
-    target: float,
-    *,
-    groups: int,
-    contexts: int,
-    base_rate: float,
-    disparity: float,
-    confidence: float,
-    method: str,
-    power: float,
-    epsilon: float | None,
-    kind: str,
-    datasets: int | None,
-    seed: int,
-    max_n: int,
-    progress: object,
-) -> _Inputs:
-    """The arguments of :func:`plan`, checked in order and converted (``datasets`` resolved from its default).
-
-    ``progress`` is checked last and not kept (it is not a field of a :class:`SamplePlan`).
-    """
     target = real(target, "target", low=0.0, what="a finite number >= 0 (nats)")
     groups = whole(groups, "groups", low=2, high=1000)
     contexts = whole(contexts, "contexts", low=1, high=100_000)
@@ -395,7 +354,7 @@ def _checked_inputs(
     )
     if progress is not None and not callable(progress):
         raise InputError("progress", "must be callable", progress)
-    return _Inputs(
+    inputs = _Inputs(
         target=target,
         groups=groups,
         contexts=contexts,
@@ -410,6 +369,8 @@ def _checked_inputs(
         seed=whole(seed, "seed"),
         max_n=whole(max_n, "max_n", low=1),
     )
+    rates, mechanism, true_value = _assumed_model(inputs)
+    return _search(inputs, true_value, rates, mechanism, progress)
 
 
 def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float]:

@@ -19,6 +19,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+from contextlib import suppress
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -361,10 +362,8 @@ def logged_settings(path: str | Path) -> dict | None:
                 return None
             for line in fh:
                 if line.startswith(b'{"type":"extend"'):
-                    try:
+                    with suppress(ValueError, KeyError):  # a torn last line: the log cuts it off
                         header["samples"] = json.loads(line)["to"]
-                    except (ValueError, KeyError):  # a torn last line: the log cuts it off
-                        pass
     except (OSError, ValueError):
         return None
     return header

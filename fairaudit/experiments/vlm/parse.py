@@ -54,6 +54,7 @@ import json
 import math
 import re
 from collections.abc import Iterator, Sequence
+from contextlib import suppress
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -362,10 +363,8 @@ def _closing(text: str, start: int, quotes: bool) -> int | None:
 
 def _load(candidate: str) -> Any:
     """``candidate`` as JSON, else as repaired pseudo-JSON; None when neither loads."""
-    try:
+    with suppress(ValueError, RecursionError):
         return json.loads(candidate, strict=False)
-    except (ValueError, RecursionError):
-        pass
     try:
         return json.loads(_repair(candidate), strict=False)
     except (ValueError, RecursionError):

@@ -142,9 +142,7 @@ def _valid_fast(
 
 
 def _where(index: Iterable[int], axis_labels: Sequence[Any], axis_names: Sequence[str]) -> str:
-    parts = []
-    for i, name, labels in zip(index, axis_names, axis_labels):
-        parts.append(f"{name}={format_label(labels[int(i)])!r}")
+    parts = (f"{name}={format_label(labels[int(i)])!r}" for i, name, labels in zip(index, axis_names, axis_labels))
     return "(" + ", ".join(parts) + ")"
 
 

@@ -525,18 +525,11 @@ def _audited_law(
     else:
         m_a = sensitive_mechanism if sensitive_mechanism is not None else identity(table.groups)
         m_x = context_mechanism if context_mechanism is not None else identity(table.contexts)
-        if tuple(m_a.outputs) != tuple(table.groups):
-            raise InputError(
-                "sensitive mechanism",
-                f"outputs must be the table's groups {list(map(format_label, table.groups))}",
-                list(map(format_label, m_a.outputs)),
-            )
-        if tuple(m_x.outputs) != tuple(table.contexts):
-            raise InputError(
-                "context mechanism",
-                f"outputs must be the table's contexts {list(map(format_label, table.contexts))}",
-                list(map(format_label, m_x.outputs)),
-            )
+        filters = (("sensitive", m_a, "groups", table.groups), ("context", m_x, "contexts", table.contexts))
+        for what, mech, axis, labels in filters:
+            if tuple(mech.outputs) != tuple(labels):
+                shown, given = list(map(format_label, labels)), list(map(format_label, mech.outputs))
+                raise InputError(f"{what} mechanism", f"outputs must be the table's {axis} {shown}", given)
         if utility.depends_on_context or utility.depends_on_group:
             raise InputError(
                 "utility", "behind a privacy filter intervals need a utility of the decision only", utility.name

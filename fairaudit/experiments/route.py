@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from .vlm.client import ChatClient
     from .vlm.models import DecisionModel
 
-__all__ = ["Route", "exact_route", "make_route", "scene_line"]
+__all__ = ["Route", "exact_route", "make_route", "scene_line", "sends_images", "sends_text_only"]
 
 
 def exact_route(exact: bool, local_model: str | None, samples: int | None) -> bool:
@@ -126,13 +126,22 @@ def make_route(cells: Cells, source: ModelSource, options: RunOptions) -> Route:
         _check_exact_endpoint(options)
     elif source.sampled_twin:  # the exact route's sampled twin: its text-only prompt
         _refuse_images(options, "`sampled_twin` samples the exact route's text-only prompt: no route images")
-    text_only = exact or source.local_model is not None or source.sampled_twin
-    # route images belong to the paper's navigation tasks; a task file gets them only with a scene asked for
-    images = not text_only and options.images and (is_built_in(task) or options.scene is not None)
+    images = sends_images(task, source, options)
     pngs, scene = _scene(task, options, images)  # a bad scene is refused before out is touched
     concurrency = options.concurrency or (1 if exact or not source.endpoint else 4)
     route = Route(exact=exact, name="", task=task, source=source, images=pngs, scene=scene, concurrency=concurrency)
     return _with_model(route, cells.seed)
+
+
+def sends_text_only(source: ModelSource) -> bool:
+    """Whether the model is sent the exact route's text-only prompt: the exact route, a local model, a sampled twin."""
+    return bool(source.exact or source.local_model is not None or source.sampled_twin)
+
+
+def sends_images(task: DeliveryTask, source: ModelSource, options: RunOptions) -> bool:
+    """Whether the run sends route images: they belong to the paper's navigation tasks (a task file gets them only
+    with a scene asked for), and a text-only prompt takes none."""
+    return not sends_text_only(source) and options.images and (is_built_in(task) or options.scene is not None)
 
 
 def _with_model(route: Route, seed: int) -> Route:

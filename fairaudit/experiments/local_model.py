@@ -410,7 +410,6 @@ def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None 
     InputError
         When the server exits or does not answer within ``timeout`` (naming its log).
     """
-    import urllib.error
     import urllib.request
 
     port = _free_port()

@@ -169,6 +169,18 @@ def add_output(p: argparse.ArgumentParser) -> None:
     p.add_argument("--output", metavar="FILE", help="write the report to FILE (atomically) instead of stdout")
 
 
+def add_global(p: argparse.ArgumentParser) -> None:
+    """``--global``: the target is on L-bar (the parameter ``kind``, ``"local"`` without it)."""
+    p.add_argument(
+        "--global",
+        dest="kind",
+        action="store_const",
+        const="global",
+        default="local",
+        help="the target is on global g-fairness L-bar",
+    )
+
+
 def emit(args: argparse.Namespace, text: str, summary: str) -> None:
     """Write the report to ``--output`` (with ``summary`` on stderr) or to stdout."""
     if args.output:

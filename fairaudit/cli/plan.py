@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats import render
 
-from ._common import Subparsers, add_output, emit
+from ._common import Subparsers, add_global, add_output, emit
 
 if TYPE_CHECKING:
     from fairaudit.statistics.sample_size import SamplePlan
@@ -59,14 +59,7 @@ def add_parser(sub: Subparsers) -> None:
         metavar="E",
         help="query the model behind k-ary randomized response at E nats and certify the filtered law",
     )
-    p.add_argument(
-        "--global",
-        dest="kind",
-        action="store_const",
-        const="global",
-        default="local",
-        help="the target is on global g-fairness L-bar",
-    )
+    add_global(p)
     p.add_argument(
         "--datasets", type=int, metavar="N", help="simulated tables per sample size (default 200; 40 for bayes)"
     )

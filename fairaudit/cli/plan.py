@@ -15,6 +15,10 @@ if TYPE_CHECKING:
     from fairaudit.statistics.sample_size import SamplePlan
 
 
+_PLAN_KEYWORDS = "groups contexts base_rate disparity confidence power epsilon kind datasets seed max_n".split()
+"""The keywords of :func:`fairaudit.plan` that the flags of their names give (``--global`` gives ``kind``)."""
+
+
 def add_parser(sub: Subparsers) -> None:
     """Add the ``plan`` subcommand (sample sizes) to ``sub``."""
     p = sub.add_parser(
@@ -76,24 +80,8 @@ def run(args: argparse.Namespace) -> int:
     from fairaudit.statistics.sample_size import plan
 
     methods = ("clopper-pearson", "multinomial", "bayes") if args.method == "all" else (args.method,)
-    plans = [
-        plan(
-            args.target,
-            groups=args.groups,
-            contexts=args.contexts,
-            base_rate=args.base_rate,
-            disparity=args.disparity,
-            confidence=args.confidence,
-            method=method,
-            power=args.power,
-            epsilon=args.epsilon,
-            kind=args.kind,
-            datasets=args.datasets,
-            seed=args.seed,
-            max_n=args.max_n,
-        )
-        for method in methods  # an InputError names the keyword: main names its flag (command_flags)
-    ]
+    keywords = {name: getattr(args, name) for name in _PLAN_KEYWORDS}
+    plans = [plan(args.target, method=method, **keywords) for method in methods]  # errors name keywords: main maps them
     data = _plans_dict(plans)
     summary = "; ".join(f"{p.method}: {p.n_per_cell if p.feasible else 'no n'}" for p in plans)
     emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 from fairaudit.base.checks import whole
 from fairaudit.base.errors import InputError
@@ -138,13 +139,7 @@ def run(args: argparse.Namespace) -> int:
 
     intervals = None
     if args.confidence is not None:
-        intervals = IntervalOptions(
-            confidence=args.confidence,
-            method=args.method,
-            concentration=args.concentration,
-            draws=args.draws,
-            seed=args.seed,
-        )
+        intervals = IntervalOptions(**{f.name: getattr(args, f.name) for f in dataclasses.fields(IntervalOptions)})
     elif args.method != "auto":
         raise InputError("method", "chooses how intervals are made: give `confidence` too", args.method)
     # DuckDB counts the file (Parquet or CSV; fairaudit.data.counts.count_file); --count: DATA is a count table

@@ -237,10 +237,9 @@ def _check_exact_endpoint(options: RunOptions) -> None:
         raise InputError("design", "the paper's design samples through the filter: run with `samples` N, not `exact`")
 
 
-def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
-    """The client of an endpoint's exact route: one-token replies with the first token's top log-probabilities."""
+def _client(source: ModelSource, concurrency: int, **settings: Any) -> ChatClient:
+    """A client of ``source``'s endpoint and model, with its timeout and retries and ``concurrency`` requests at once."""
     from .vlm.client import ChatClient
-    from .vlm.logprobs import TOP_LOGPROBS
 
     assert source.endpoint is not None and source.model is not None  # ModelSource checks it
     return ChatClient(
@@ -249,9 +248,15 @@ def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
         timeout=source.timeout,
         max_retries=source.max_retries,
         max_concurrency=concurrency,
-        max_tokens=1,
-        top_logprobs=TOP_LOGPROBS,
+        **settings,
     )
+
+
+def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
+    """The client of an endpoint's exact route: one-token replies with the first token's top log-probabilities."""
+    from .vlm.logprobs import TOP_LOGPROBS
+
+    return _client(source, concurrency, max_tokens=1, top_logprobs=TOP_LOGPROBS)
 
 
 def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: dict | None) -> DecisionModel:
@@ -259,23 +264,15 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: 
     from .vlm.models import EndpointModel, SimulatedModel, simulated_model, simulated_models
 
     if source.endpoint:
-        from .vlm.client import ChatClient, constraint_body
+        from .vlm.client import constraint_body
 
-        assert source.model is not None and sampling is not None  # ModelSource and make_route check it
-        client = ChatClient(
-            source.endpoint,
-            source.model,
-            timeout=source.timeout,
-            max_retries=source.max_retries,
-            max_concurrency=concurrency,
-            temperature=sampling["temperature"],
-            top_p=sampling["top_p"],
-            max_tokens=sampling["max_tokens"],
-            extra_body=dict(PLAIN_SAMPLING)
-            if source.sampled_twin
-            else constraint_body(sampling["constrain"], sampling.get("replies", ()), name=_schema_name(task)),
-        )
-        return EndpointModel(client)
+        assert sampling is not None  # make_route checks it
+        if source.sampled_twin:
+            extra = dict(PLAIN_SAMPLING)
+        else:
+            extra = constraint_body(sampling["constrain"], sampling.get("replies", ()), name=_schema_name(task))
+        fields = {name: sampling[name] for name in ("temperature", "top_p", "max_tokens")}
+        return EndpointModel(_client(source, concurrency, extra_body=extra, **fields))
     if source.kernel:
         return SimulatedModel.from_csv(task, source.kernel)
     return simulated_model(task, source.simulated or next(iter(simulated_models(task))))

@@ -601,14 +601,7 @@ def _assemble(
         sup_global_fairness=made["sup_global"],
         demographic_parity=made["demographic_parity"],
         equalized_odds=made["equalized_odds"],
-        cell_lower=projection.cell_lower,
-        cell_upper=projection.cell_upper,
-        group_lower=projection.group_lower,
-        group_upper=projection.group_upper,
-        kernel_lower=projection.kernel_lower,
-        kernel_upper=projection.kernel_upper,
-        n_sets=projection.n_sets,
-        notes=projection.notes,
+        **{name: value for name, value in projection._asdict().items() if name != "ends"},  # boxes, sets, notes
         **common,
     )
 

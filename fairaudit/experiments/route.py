@@ -96,12 +96,8 @@ class Route:
 
     def settings(self) -> dict:
         """The settings of the route that a sampled run's log records and ``resume`` compares."""
-        out: dict[str, Any] = {"images": len(self.images), "prompt": self.prompt}
-        if self.scene is not None:
-            out["scene"] = self.scene
-        if self.sampling is not None:
-            out["sampling"] = self.sampling
-        return out
+        given = {"scene": self.scene, "sampling": self.sampling}
+        return {"images": len(self.images), "prompt": self.prompt, **{k: v for k, v in given.items() if v is not None}}
 
 
 def make_route(cells: Cells, source: ModelSource, options: RunOptions) -> Route:

@@ -142,9 +142,7 @@ def _valid_fast(
 
 
 def _where(index: Iterable[int], axis_labels: Sequence[Any], axis_names: Sequence[str]) -> str:
-    parts = []
-    for i, name, labels in zip(index, axis_names, axis_labels):
-        parts.append(f"{name}={format_label(labels[int(i)])!r}")
+    parts = (f"{name}={format_label(labels[int(i)])!r}" for i, name, labels in zip(index, axis_names, axis_labels))
     return "(" + ", ".join(parts) + ")"
 
 
@@ -216,13 +214,6 @@ def safe_log(value: float) -> float:
 
 
 EXP_SAFE = 700.0  # e^ε is a finite double up to ε ≈ 709.78; above this, work with logarithms
-BLOCK = 1 << 22  # elements per block of a (block, n, m) temporary
-
-
-def row_blocks(n: int, per_row: int) -> list[slice]:
-    """Slices of range(n) whose rows times ``per_row`` elements stay near 4M (chunked pairwise work)."""
-    step = max(1, BLOCK // max(1, per_row))
-    return [slice(i, min(n, i + step)) for i in range(0, n, step)]
 
 
 def first_max(values: FloatArray, order: IntArray | None = None) -> int | None:

@@ -58,9 +58,7 @@ class InputError(FairauditError, ValueError):
         'spec.toml: privacy.sensitive: keep: must lie in [1/k, 1] (got 1.7)'
         """
         problem = f"{self.field}: {self.problem}" if keep_own and self.field else self.problem
-        if self.value is InputError._missing:
-            return InputError(field, problem)
-        return InputError(field, problem, self.value)
+        return InputError(field, problem, self.value)  # an error without a value passes _missing on: still none
 
 
 class UnderflowError(InputError):

@@ -37,8 +37,6 @@ __all__ = [
     "dual_value",
     "on_one_denominator",
     "point_ratio",
-    "smallest_root",
-    "smallest_root_of_integers",
 ]
 
 NEWTON_STEPS = 64
@@ -364,88 +362,6 @@ def _ratio_at(x: Dyadic, scale: int, p: FloatArray, q: FloatArray, rows: Rows) -
     if den <= 0:
         return math.nan
     return fraction_down(num / den)
-
-
-def smallest_root(
-    c: Sequence[Sequence[Fraction]], bottoms: Sequence[Sequence[Fraction]], constant: Fraction
-) -> Fraction | None:
-    """The smallest λ ≥ 0 with B(λ) = Σ_rows max_u (c − λq)[row, u] + ``constant`` ≤ 0, exactly; None when there is
-    none.
-
-    B is convex, piecewise linear and non-increasing in λ (q ≥ 0): Newton's method from λ = 0 with the right
-    derivative (−Σ_rows q at each row's maximiser with the largest q) never passes the smallest root and lands on a
-    later piece at each step, so it reaches the root exactly in finitely many steps; a zero slope with B > 0 means
-    no root. With c = p + Σ_f ν_f F_f and constant = −τ Σ_f ν_f (ν ≥ 0) it bounds max (p·K)/(q·K) over tables K
-    whose rows are distributions and which meet the floors F_f·K ≥ τ (weak duality with the rows' simplices kept in
-    the inner maximum: ``proofs/verification.md`` §4f).
-
-    Parameters
-    ----------
-    c, bottoms : sequence of sequence of Fraction, shape (n_rows, n_decisions)
-        The rows' coefficients of the Lagrangian's numerator and of q, q ≥ 0.
-    constant : Fraction
-        Added to the rows' maxima.
-
-    Returns
-    -------
-    Fraction or None
-
-    Examples
-    --------
-    >>> F = Fraction
-    >>> smallest_root([[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]], F(0))
-    Fraction(6, 1)
-    """
-    if not c:
-        return Fraction(0) if constant <= 0 else None
-    top, d = on_one_denominator(c)
-    q, e = on_one_denominator(bottoms)
-    return smallest_root_of_integers(np.array(top, dtype=object), d, np.array(q, dtype=object), e, constant)
-
-
-def smallest_root_of_integers(top: Any, d: int, q: Any, e: int, constant: Fraction) -> Fraction | None:
-    """:func:`smallest_root` with c and q as integers over one denominator each: the same Newton steps, each row's
-    maximum and its steepest maximiser taken over the whole array at once, in integers (B at λ = a/b times d·e·b).
-
-    Parameters
-    ----------
-    top, q : numpy.ndarray of int (dtype object), shape (n_rows, n_decisions)
-        c·d and q·e: the rows' coefficients of the Lagrangian's numerator and of q (q ≥ 0), at least one row.
-    d, e : int
-        Their denominators, > 0.
-    constant : Fraction
-        Added to the rows' maxima.
-
-    Returns
-    -------
-    Fraction or None
-        The smallest λ ≥ 0 with B(λ) ≤ 0 (a ratio; its log is in nats); None when there is none.
-
-    Notes
-    -----
-    Newton's method on the convex, piecewise-linear B, and the weak-duality bound it gives:
-    ``proofs/verification.md`` §4f.
-
-    Examples
-    --------
-    :func:`smallest_root`'s example, c and q over 8:
-
-    >>> top, q = np.array([[6, 0], [2, 0]], dtype=object), np.array([[1, 0], [3, 0]], dtype=object)
-    >>> smallest_root_of_integers(top, 8, q, 8, Fraction(0))
-    Fraction(6, 1)
-    """
-    lam = Fraction(0)
-    while True:
-        a, b = lam.numerator, lam.denominator
-        values = top * (e * b) - q * (d * a)  # (c − λq)·d·e·b, exactly
-        best = values.max(axis=1)
-        total = Fraction(int(best.sum())) + constant * (d * e * b)
-        if total <= 0:
-            return lam
-        steep = int(np.where(values == best[:, None], q, -1).max(axis=1).sum())  # (e times the right derivative)
-        if steep == 0:
-            return None
-        lam += total / (d * b * steep)  # the tangent's root: at most the smallest root (the function is convex)
 
 
 def on_one_denominator(rows: Sequence[Sequence[Fraction]]) -> tuple[list[list[int]], int]:

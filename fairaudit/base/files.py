@@ -13,6 +13,7 @@ import stat
 import tempfile
 import time
 from collections.abc import Callable
+from contextlib import suppress
 from pathlib import Path
 
 from fairaudit.base.errors import InputError
@@ -116,10 +117,8 @@ def write_atomic(
             _keep_owner(tmp, info)
         os.replace(tmp, p)
     except BaseException as exc:
-        try:
+        with suppress(OSError):
             os.unlink(tmp)
-        except OSError:
-            pass
         if isinstance(exc, OSError):
             raise _cannot_write(field, path, exc) from None
         raise
@@ -152,10 +151,8 @@ def _keep_owner(tmp: str, info: os.stat_result) -> None:
     mine = os.stat(tmp)
     if (mine.st_uid, mine.st_gid) == (info.st_uid, info.st_gid):
         return
-    try:
+    with suppress(OSError):  # not ours to give: the file is then the writer's, as any new file
         os.chown(tmp, info.st_uid, info.st_gid)
-    except OSError:
-        pass  # not ours to give: the file is then the writer's, as any new file
 
 
 def _cannot_write(field: str, path: str | os.PathLike[str], exc: OSError) -> InputError:
@@ -179,9 +176,7 @@ def _remove_stale_temporaries(folder: Path, target: Path) -> None:
     for entry in entries:
         if not pattern.fullmatch(entry.name):
             continue
-        try:
+        with suppress(OSError):  # gone already, or not ours to remove
             info = entry.stat(follow_symlinks=False)
             if stat.S_ISREG(info.st_mode) and now - info.st_mtime > STALE_SECONDS:
                 os.unlink(entry.path)
-        except OSError:
-            pass  # gone already, or not ours to remove

@@ -35,7 +35,7 @@ def as_labels(values: Iterable[Hashable], field: str) -> tuple[Any, ...]:
     try:
         distinct = len(set(labels)) == len(labels)
     except TypeError:  # a dict or set among them: labels are dictionary keys
-        bad = next(v for v in labels if not _hashable(v))
+        bad = next(v for v in labels if not is_hashable(v))
         raise InputError(
             field, f"a label must be hashable (a string, number or tuple), not a {type(bad).__name__}", bad
         ) from None
@@ -195,7 +195,8 @@ def _plain(value: object) -> Hashable:
     return value
 
 
-def _hashable(value: object) -> bool:
+def is_hashable(value: object) -> bool:
+    """Whether ``hash(value)`` works (a tuple holding a list is a ``Hashable`` instance and still fails)."""
     try:
         hash(value)
     except TypeError:

@@ -62,10 +62,7 @@ def flag_error(exc: InputError, flags: dict[str, str]) -> InputError:
     head, sep, rest = exc.field.partition(" ")
     if head not in flags:
         return exc
-    field = flags[head] + sep + rest
-    if exc.value is InputError._missing:
-        return InputError(field, exc.problem)
-    return InputError(field, exc.problem, exc.value)
+    return InputError(flags[head] + sep + rest, exc.problem, exc.value)
 
 
 _MENTION = re.compile(r"`([a-z_]+)`")
@@ -83,11 +80,7 @@ def flag_mentions(exc: InputError, flags: dict[str, str]) -> InputError:
     'model: is needed with --endpoint'
     """
     problem = _MENTION.sub(lambda m: flags.get(m.group(1), m.group(1)), exc.problem)
-    if problem == exc.problem:
-        return exc
-    if exc.value is InputError._missing:
-        return InputError(exc.field, problem)
-    return InputError(exc.field, problem, exc.value)
+    return exc if problem == exc.problem else InputError(exc.field, problem, exc.value)
 
 
 level = number_type("a number in (0, 1)", low=0.0, high=1.0, low_open=True, high_open=True)
@@ -174,6 +167,18 @@ def add_output(p: argparse.ArgumentParser) -> None:
     """The report options: ``--format`` and ``--output``."""
     p.add_argument("--format", choices=FORMATS, default="text", help="report format (default: text)")
     p.add_argument("--output", metavar="FILE", help="write the report to FILE (atomically) instead of stdout")
+
+
+def add_global(p: argparse.ArgumentParser) -> None:
+    """``--global``: the target is on L-bar (the parameter ``kind``, ``"local"`` without it)."""
+    p.add_argument(
+        "--global",
+        dest="kind",
+        action="store_const",
+        const="global",
+        default="local",
+        help="the target is on global g-fairness L-bar",
+    )
 
 
 def emit(args: argparse.Namespace, text: str, summary: str) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 from fairaudit.base.checks import whole
 from fairaudit.base.errors import InputError
@@ -138,22 +139,14 @@ def run(args: argparse.Namespace) -> int:
 
     intervals = None
     if args.confidence is not None:
-        intervals = IntervalOptions(
-            confidence=args.confidence,
-            method=args.method,
-            concentration=args.concentration,
-            draws=args.draws,
-            seed=args.seed,
-        )
+        intervals = IntervalOptions(**{f.name: getattr(args, f.name) for f in dataclasses.fields(IntervalOptions)})
     elif args.method != "auto":
         raise InputError("method", "chooses how intervals are made: give `confidence` too", args.method)
     # DuckDB counts the file (Parquet or CSV; fairaudit.data.counts.count_file); --count: DATA is a count table
+    columns = {name: getattr(args, name) for name in ("sensitive", "outcome", "context", "dropna")}
     table = count_file(
         args.data,
-        sensitive=args.sensitive,
-        outcome=args.outcome,
-        context=args.context,
-        dropna=args.dropna,
+        **columns,
         count=args.count,
         csv=text_format(args),
         weights=args.weights,
@@ -180,13 +173,10 @@ def run(args: argparse.Namespace) -> int:
                 )
     result = audit(
         table,
-        sensitive=args.sensitive,
-        outcome=args.outcome,
-        context=args.context,
+        **columns,
         positive=args.positive if report is None else None,
         utility=args.utility if report is None else report.utility,
         intervals=intervals,
-        dropna=args.dropna,
         min_count=args.min_count,
     )
     data = result.to_dict()

@@ -9,7 +9,7 @@ from typing import Any
 from fairaudit.base.errors import InputError
 from fairaudit.reports.formats import render
 
-from ._common import Subparsers, add_output, emit
+from ._common import Subparsers, add_global, add_output, emit
 
 
 def add_parser(sub: Subparsers) -> None:
@@ -56,14 +56,7 @@ def add_parser(sub: Subparsers) -> None:
         choices=("paper", "tight", "black_box", "white_box"),
         help="certificate to calibrate (default: white_box with a model in --spec, tight with --delta, else black_box)",
     )
-    k.add_argument(
-        "--global",
-        dest="kind",
-        action="store_const",
-        const="global",
-        default="local",
-        help="the target is on global g-fairness L-bar",
-    )
+    add_global(k)
     k.add_argument(
         "--spec",
         metavar="SPEC.toml",

@@ -106,10 +106,8 @@ def _filter(args: argparse.Namespace, column: pd.Series) -> PrivacyFilter:
     if args.spec is None:
         if args.values is None:
             raise InputError("--values", "are needed with --epsilon or --keep: every value the column may hold")
-        values = _typed_values(args.values, column)
-        if args.keep is not None:
-            return PrivacyFilter.randomized_response(values, keep=args.keep)
-        return PrivacyFilter.randomized_response(values, epsilon=args.epsilon)
+        values = _typed_values(args.values, column)  # (--epsilon or --keep: argparse leaves the other None)
+        return PrivacyFilter.randomized_response(values, epsilon=args.epsilon, keep=args.keep)
     if args.values is not None:
         raise InputError("--values", "come from the spec's [sensitive] values with --spec: give one of them")
     from fairaudit.certification.spec import load_spec

@@ -6,30 +6,17 @@ import argparse
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats import render
 
-from ._common import Subparsers, add_output, emit
+from ._common import Subparsers, add_global, add_output, emit
 
 if TYPE_CHECKING:
     from fairaudit.statistics.sample_size import SamplePlan
 
-# the flag of each keyword of fairaudit.statistics.sample_size.plan, to name it in errors
-_PLAN_FLAGS = {
-    "target": "--target",
-    "groups": "--groups",
-    "contexts": "--contexts",
-    "base_rate": "--base-rate",
-    "disparity": "--disparity",
-    "confidence": "--confidence",
-    "method": "--method",
-    "power": "--power",
-    "epsilon": "--epsilon",
-    "datasets": "--datasets",
-    "seed": "--seed",
-    "max_n": "--max-n",
-}
+
+_PLAN_KEYWORDS = "groups contexts base_rate disparity confidence power epsilon kind datasets seed max_n".split()
+"""The keywords of :func:`fairaudit.plan` that the flags of their names give (``--global`` gives ``kind``)."""
 
 
 def add_parser(sub: Subparsers) -> None:
@@ -76,14 +63,7 @@ def add_parser(sub: Subparsers) -> None:
         metavar="E",
         help="query the model behind k-ary randomized response at E nats and certify the filtered law",
     )
-    p.add_argument(
-        "--global",
-        dest="kind",
-        action="store_const",
-        const="global",
-        default="local",
-        help="the target is on global g-fairness L-bar",
-    )
+    add_global(p)
     p.add_argument(
         "--datasets", type=int, metavar="N", help="simulated tables per sample size (default 200; 40 for bayes)"
     )
@@ -100,30 +80,8 @@ def run(args: argparse.Namespace) -> int:
     from fairaudit.statistics.sample_size import plan
 
     methods = ("clopper-pearson", "multinomial", "bayes") if args.method == "all" else (args.method,)
-    plans = []
-    for method in methods:
-        try:
-            plans.append(
-                plan(
-                    args.target,
-                    groups=args.groups,
-                    contexts=args.contexts,
-                    base_rate=args.base_rate,
-                    disparity=args.disparity,
-                    confidence=args.confidence,
-                    method=method,
-                    power=args.power,
-                    epsilon=args.epsilon,
-                    kind=args.kind,
-                    datasets=args.datasets,
-                    seed=args.seed,
-                    max_n=args.max_n,
-                )
-            )
-        except InputError as exc:
-            if exc.field not in _PLAN_FLAGS:
-                raise
-            raise InputError(_PLAN_FLAGS[exc.field], exc.problem, exc.value) from None
+    keywords = {name: getattr(args, name) for name in _PLAN_KEYWORDS}
+    plans = [plan(args.target, method=method, **keywords) for method in methods]  # errors name keywords: main maps them
     data = _plans_dict(plans)
     summary = "; ".join(f"{p.method}: {p.n_per_cell if p.feasible else 'no n'}" for p in plans)
     emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")

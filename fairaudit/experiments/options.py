@@ -14,9 +14,10 @@ a parameter mentioned in a problem is written in backticks (```endpoint```).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from fairaudit import InputError, choice, real, whole
 
@@ -195,13 +196,9 @@ class ModelSource:
 
     def _check_sampling(self) -> None:
         """Check the stated sampling settings and that this source samples from a server."""
-        if self.temperature is not None:
-            object.__setattr__(self, "temperature", real(self.temperature, "temperature", low=0.0))
-        if self.top_p is not None:
-            top_p = real(self.top_p, "top_p", low=0.0, low_open=True, high=1.0, what="in (0, 1]")
-            object.__setattr__(self, "top_p", top_p)
-        if self.max_tokens is not None:
-            object.__setattr__(self, "max_tokens", whole(self.max_tokens, "max_tokens", low=1))
+        _convert(self, "temperature", real, low=0.0)
+        _convert(self, "top_p", real, low=0.0, low_open=True, high=1.0, what="in (0, 1]")
+        _convert(self, "max_tokens", whole, low=1)
         choice(self.constrain, "constrain", CONSTRAINTS)
         given = [n for n in SAMPLING_FIELDS if getattr(self, n) not in (None, "none")]
         if not given:
@@ -347,10 +344,8 @@ class RunOptions:
         if self.keeps is not None:
             object.__setattr__(self, "keeps", tuple(self.keeps))
         object.__setattr__(self, "targets", tuple(real(t, "targets", low=0.0, what=nats) for t in self.targets))
-        if self.samples is not None:
-            object.__setattr__(self, "samples", whole(self.samples, "samples", low=1))
-        if self.concurrency is not None:
-            object.__setattr__(self, "concurrency", whole(self.concurrency, "concurrency", low=1))
+        _convert(self, "samples", whole, low=1)
+        _convert(self, "concurrency", whole, low=1)
         if not isinstance(self.extend, bool):
             raise InputError("extend", "must be True or False", self.extend)
         if self.extend and not self.resume:
@@ -368,6 +363,11 @@ class RunOptions:
                 if not isinstance(g, str) or not g.strip():
                     raise InputError("goals", "must be room names", list(self.goals))
             object.__setattr__(self, "goals", tuple(self.goals))
-        if self.tolerance is not None:
-            what = "a relative difference in [0, 1]"
-            object.__setattr__(self, "tolerance", real(self.tolerance, "tolerance", low=0.0, high=1.0, what=what))
+        _convert(self, "tolerance", real, low=0.0, high=1.0, what="a relative difference in [0, 1]")
+
+
+def _convert(options: object, name: str, check: Callable[..., Any], **limits: Any) -> None:
+    """Set the field ``name`` of the frozen ``options`` to ``check(value, name, **limits)``, unless it is None."""
+    value = getattr(options, name)
+    if value is not None:
+        object.__setattr__(options, name, check(value, name, **limits))

@@ -52,11 +52,14 @@ __all__ = [
 ]
 
 
-def _value_column(k: Kernel) -> tuple[str, npt.NDArray[np.float64]]:
-    """``("count", counts)`` on the sampled route, ``("probability", probabilities)`` on the exact one."""
-    if k.counts is not None:
-        return "count", k.counts
-    return "probability", k.probabilities
+def _cells(k: Kernel) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], npt.NDArray[np.intp], dict[str, Any]]:
+    """The (x, g, d) of every cell of ``k`` in table order, and its column of values: ``count`` (integers) on the
+    sampled route, ``probability`` on the exact one."""
+    value = (
+        {"count": k.counts.ravel().astype(int)} if k.counts is not None else {"probability": k.probabilities.ravel()}
+    )
+    x, g, d = (a.ravel() for a in np.indices(k.probabilities.shape))
+    return x, g, d, value
 
 
 def kernel_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
@@ -89,16 +92,14 @@ def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
     """
     import pandas as pd
 
-    column, values = _value_column(kernel)
-    n_ctx, n_pairs, n_dec = values.shape
-    x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_pairs), np.arange(n_dec), indexing="ij"))
+    x, g, d, value = _cells(kernel)
     labels = np.asarray([[task.profile_label(p) for p in cell] for cell in kernel.groups], dtype=object)
     return pd.DataFrame(
         {
             task.context_name: np.asarray(kernel.contexts, dtype=object)[x],
             **{slot: labels[g, i] for i, slot in enumerate(slot_names(task))},
             "decision": np.asarray(kernel.decisions, dtype=object)[d],
-            column: values.ravel().astype(int) if column == "count" else values.ravel(),
+            **value,
         }
     )
 
@@ -108,15 +109,13 @@ def candidate_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     import pandas as pd
 
     k = analysis.candidate_kernel
-    column, values = _value_column(k)
-    n_ctx, n_g, n_d = values.shape
-    x, g, d = (a.ravel() for a in np.meshgrid(np.arange(n_ctx), np.arange(n_g), np.arange(n_d), indexing="ij"))
+    x, g, d, value = _cells(k)
     return pd.DataFrame(
         {
             "context": np.asarray(k.contexts, dtype=object)[x],
             "profile": np.asarray(k.groups, dtype=object)[g],
             "outcome": np.asarray(k.decisions, dtype=object)[d],
-            column: values.ravel().astype(int) if column == "count" else values.ravel(),
+            **value,
         }
     )
 

@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from .vlm.client import ChatClient
     from .vlm.models import DecisionModel
 
-__all__ = ["Route", "exact_route", "make_route", "scene_line"]
+__all__ = ["Route", "exact_route", "make_route", "scene_line", "sends_images", "sends_text_only"]
 
 
 def exact_route(exact: bool, local_model: str | None, samples: int | None) -> bool:
@@ -96,12 +96,8 @@ class Route:
 
     def settings(self) -> dict:
         """The settings of the route that a sampled run's log records and ``resume`` compares."""
-        out: dict[str, Any] = {"images": len(self.images), "prompt": self.prompt}
-        if self.scene is not None:
-            out["scene"] = self.scene
-        if self.sampling is not None:
-            out["sampling"] = self.sampling
-        return out
+        given = {"scene": self.scene, "sampling": self.sampling}
+        return {"images": len(self.images), "prompt": self.prompt, **{k: v for k, v in given.items() if v is not None}}
 
 
 def make_route(cells: Cells, source: ModelSource, options: RunOptions) -> Route:
@@ -126,13 +122,22 @@ def make_route(cells: Cells, source: ModelSource, options: RunOptions) -> Route:
         _check_exact_endpoint(options)
     elif source.sampled_twin:  # the exact route's sampled twin: its text-only prompt
         _refuse_images(options, "`sampled_twin` samples the exact route's text-only prompt: no route images")
-    text_only = exact or source.local_model is not None or source.sampled_twin
-    # route images belong to the paper's navigation tasks; a task file gets them only with a scene asked for
-    images = not text_only and options.images and (is_built_in(task) or options.scene is not None)
+    images = sends_images(task, source, options)
     pngs, scene = _scene(task, options, images)  # a bad scene is refused before out is touched
     concurrency = options.concurrency or (1 if exact or not source.endpoint else 4)
     route = Route(exact=exact, name="", task=task, source=source, images=pngs, scene=scene, concurrency=concurrency)
     return _with_model(route, cells.seed)
+
+
+def sends_text_only(source: ModelSource) -> bool:
+    """Whether the model is sent the exact route's text-only prompt: the exact route, a local model, a sampled twin."""
+    return bool(source.exact or source.local_model is not None or source.sampled_twin)
+
+
+def sends_images(task: DeliveryTask, source: ModelSource, options: RunOptions) -> bool:
+    """Whether the run sends route images: they belong to the paper's navigation tasks (a task file gets them only
+    with a scene asked for), and a text-only prompt takes none."""
+    return not sends_text_only(source) and options.images and (is_built_in(task) or options.scene is not None)
 
 
 def _with_model(route: Route, seed: int) -> Route:
@@ -228,10 +233,9 @@ def _check_exact_endpoint(options: RunOptions) -> None:
         raise InputError("design", "the paper's design samples through the filter: run with `samples` N, not `exact`")
 
 
-def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
-    """The client of an endpoint's exact route: one-token replies with the first token's top log-probabilities."""
+def _client(source: ModelSource, concurrency: int, **settings: Any) -> ChatClient:
+    """A client of ``source``'s endpoint and model, with its timeout and retries and ``concurrency`` requests at once."""
     from .vlm.client import ChatClient
-    from .vlm.logprobs import TOP_LOGPROBS
 
     assert source.endpoint is not None and source.model is not None  # ModelSource checks it
     return ChatClient(
@@ -240,9 +244,15 @@ def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
         timeout=source.timeout,
         max_retries=source.max_retries,
         max_concurrency=concurrency,
-        max_tokens=1,
-        top_logprobs=TOP_LOGPROBS,
+        **settings,
     )
+
+
+def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
+    """The client of an endpoint's exact route: one-token replies with the first token's top log-probabilities."""
+    from .vlm.logprobs import TOP_LOGPROBS
+
+    return _client(source, concurrency, max_tokens=1, top_logprobs=TOP_LOGPROBS)
 
 
 def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: dict | None) -> DecisionModel:
@@ -250,23 +260,15 @@ def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: 
     from .vlm.models import EndpointModel, SimulatedModel, simulated_model, simulated_models
 
     if source.endpoint:
-        from .vlm.client import ChatClient, constraint_body
+        from .vlm.client import constraint_body
 
-        assert source.model is not None and sampling is not None  # ModelSource and make_route check it
-        client = ChatClient(
-            source.endpoint,
-            source.model,
-            timeout=source.timeout,
-            max_retries=source.max_retries,
-            max_concurrency=concurrency,
-            temperature=sampling["temperature"],
-            top_p=sampling["top_p"],
-            max_tokens=sampling["max_tokens"],
-            extra_body=dict(PLAIN_SAMPLING)
-            if source.sampled_twin
-            else constraint_body(sampling["constrain"], sampling.get("replies", ()), name=_schema_name(task)),
-        )
-        return EndpointModel(client)
+        assert sampling is not None  # make_route checks it
+        if source.sampled_twin:
+            extra = dict(PLAIN_SAMPLING)
+        else:
+            extra = constraint_body(sampling["constrain"], sampling.get("replies", ()), name=_schema_name(task))
+        fields = {name: sampling[name] for name in ("temperature", "top_p", "max_tokens")}
+        return EndpointModel(_client(source, concurrency, extra_body=extra, **fields))
     if source.kernel:
         return SimulatedModel.from_csv(task, source.kernel)
     return simulated_model(task, source.simulated or next(iter(simulated_models(task))))
@@ -404,8 +406,6 @@ def _scene(task: DeliveryTask, options: RunOptions, images: bool) -> tuple[tuple
         if field is None:
             raise
         field = {"goal": "goals", "rtol": "tolerance", "area_dir": "scene"}.get(field, field)
-        if exc.value is InputError._missing:
-            raise InputError(field, exc.problem) from None
         raise InputError(field, exc.problem, exc.value) from None
     record = {
         "area": None if options.scene is None else str(options.scene),

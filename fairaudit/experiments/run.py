@@ -31,8 +31,8 @@ from .kernel import Measured, measure
 from .options import ModelSource, RunOptions
 from .paper_design import PaperDesignAnalysis, analyse_paper_design, write_paper_design
 from .report import write_report
-from .route import make_route, scene_line
-from .taskfile import get_task, is_built_in
+from .route import make_route, scene_line, sends_images, sends_text_only
+from .taskfile import get_task
 
 __all__ = ["ExperimentRun", "ModelSource", "RunOptions", "run_experiment", "show_prompts"]
 
@@ -237,11 +237,8 @@ def show_prompts(
     source = ModelSource() if source is None else source
     options = RunOptions() if options is None else options
     task = get_task(experiment)
-    sent = task
-    text_only = bool(source.exact or source.local_model is not None or source.sampled_twin)
-    if text_only:
-        sent = exact_prompt(task)[0]
-    images = not text_only and options.images and (is_built_in(task) or options.scene is not None)
+    sent = exact_prompt(task)[0] if sends_text_only(source) else task
+    images = sends_images(task, source, options)
     total = table_queries_needed(task, 1)
     shown = min(int(count), total)
     order = "the profiles" if task.slots == 1 else f"the profiles of slots 1 to {task.slots}, the last slot fastest"

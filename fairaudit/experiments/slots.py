@@ -245,10 +245,8 @@ def candidate_kernel(task: DeliveryTask, kernel: Kernel) -> Kernel:
     raw = kernel.counts if kernel.counts is not None else kernel.probabilities
     c = np.asarray(raw, dtype=float).reshape(n_ctx, *([n_p] * k), -1)
     o = outcome_index(task)
-    per_slot = []
-    for i in range(k):
-        view = c.transpose(0, *(1 + j for j in _rotation(k, i)), k + 1).reshape(n_ctx, n_p**k, -1)
-        per_slot.append(view @ _one_hot(o[i], len(task.outcomes)))
+    views = (c.transpose(0, *(1 + j for j in _rotation(k, i)), k + 1).reshape(n_ctx, n_p**k, -1) for i in range(k))
+    per_slot = [view @ _one_hot(o[i], len(task.outcomes)) for i, view in enumerate(views)]
     out = np.stack(per_slot, axis=1).reshape(n_ctx * k, n_p**k, len(task.outcomes))
     args = (candidate_contexts(task), _views(task), task.outcomes)
     if kernel.counts is not None:

@@ -71,8 +71,6 @@ def parameters_filter(cls: Any, data: Mapping[str, Any], where: str) -> Any:
     except InputError as exc:
         if not where or exc.field.startswith(where):
             raise
-        if exc.value is InputError._missing:
-            raise InputError(where + exc.field, exc.problem) from None
         raise InputError(where + exc.field, exc.problem, exc.value) from None
     recorded = data.get("epsilon", InputError._missing)
     if recorded is not InputError._missing and recorded != number(made.epsilon):

@@ -33,7 +33,7 @@ import numpy.typing as npt
 from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, number
-from fairaudit.base.labels import as_labels
+from fairaudit.base.labels import as_labels, is_hashable
 from fairaudit.base.outward import exp_down, fraction_up, log_up
 from fairaudit.filter.exact_sampling import RandomBytes, below, pick, uniform_below, words
 from fairaudit.filter.filter_format import FORMAT, FORMAT_VERSION, KINDS, json_labels, parameters_filter
@@ -477,7 +477,7 @@ class PrivacyFilter:
         try:
             return np.fromiter(map(index.__getitem__, values), dtype=np.intp, count=len(values))
         except (KeyError, TypeError):
-            bad = next(v for v in values if not _hashable(v) or v not in index)
+            bad = next(v for v in values if not is_hashable(v) or v not in index)
             shown = self.inputs if len(self.inputs) <= 10 else f"{len(self.inputs)} labels"
             raise InputError(field, f"holds a value that is not among the filter's inputs {shown}", bad) from None
 
@@ -577,14 +577,6 @@ class PrivacyFilter:
         if data.get("format_version") != FORMAT_VERSION:
             raise InputError("format_version", f"must be {FORMAT_VERSION}", data.get("format_version"))
         return parameters_filter(cls, data, "")
-
-
-def _hashable(value: object) -> bool:
-    try:
-        hash(value)
-    except TypeError:
-        return False
-    return True
 
 
 def _rr_numerators(p: Fraction, k: int) -> tuple[tuple[int, int], int]:

@@ -255,10 +255,7 @@ def randomized_response(
             "randomized_response", "give exactly one of epsilon and keep", {"epsilon": epsilon, "keep": keep}
         )
     if keep is not None:
-        if k == 1:
-            epsilon = 0.0
-        else:
-            epsilon = epsilon_from_keep_probability(keep, k)
+        epsilon = 0.0 if k == 1 else epsilon_from_keep_probability(keep, k)
     assert epsilon is not None  # exactly one of epsilon and keep was given
     eps = check_epsilon(epsilon)
     return RandomizedResponse(labels, eps, name or f"{k}-ary randomized response")
@@ -269,9 +266,7 @@ def _rr_probabilities(eps: float, k: int) -> tuple[float, float, float, float]:
 
     No overflow for any ε ≥ 0 (+inf gives p = 1, q = 0); p without cancellation for any k.
     """
-    if k < 2:
-        return 1.0, 0.0, 0.0, -math.inf
-    if math.isinf(eps):
+    if k < 2 or math.isinf(eps):
         return 1.0, 0.0, 0.0, -math.inf
     if eps <= EXP_SAFE:
         q = 1.0 / (math.exp(eps) + k - 1)

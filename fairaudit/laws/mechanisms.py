@@ -146,12 +146,8 @@ def exact_hockey_stick(p: FloatArray, q: FloatArray, t: Fraction) -> Fraction:
     >>> exact_hockey_stick(np.array([0.75, 0.25]), np.array([0.25, 0.75]), Fraction(2))
     Fraction(1, 4)
     """
-    total = Fraction(0)
-    for po, qo in zip(p.tolist(), q.tolist()):
-        x = Fraction(po) - t * Fraction(qo)
-        if x > 0:
-            total += x
-    return total
+    terms = (Fraction(po) - t * Fraction(qo) for po, qo in zip(p.tolist(), q.tolist()))
+    return sum((x for x in terms if x > 0), Fraction(0))
 
 
 def largest_hockey_stick(matrix: FloatArray, t1: float, t2: float = 1.0) -> float:
@@ -360,10 +356,7 @@ class Mechanism:
         """
         if "epsilon" not in self._cache:
             m = self.matrix
-            if m.shape[0] < 2:
-                self._cache["epsilon"] = 0.0
-            else:
-                self._cache["epsilon"] = log_ratio_up(m.max(axis=0), m.min(axis=0))
+            self._cache["epsilon"] = 0.0 if m.shape[0] < 2 else log_ratio_up(m.max(axis=0), m.min(axis=0))
         return self._cache["epsilon"]
 
     def pairwise_delta(self, epsilon: float) -> FloatArray:

@@ -299,16 +299,17 @@ class Utility:
     @property
     def depends_on_group(self) -> bool:
         """True when g(u, x, a) differs between two groups for some (u, x)."""
-        if self.values.ndim == 1 or self.values.shape[1] < 2:
-            return False
-        return bool(np.any(self.values != self.values[:, :1, :]))
+        return self._varies(1)
 
     @property
     def depends_on_context(self) -> bool:
         """True when g(u, x, a) differs between two contexts for some (u, a)."""
-        if self.values.ndim == 1 or self.values.shape[0] < 2:
-            return False
-        return bool(np.any(self.values != self.values[:1, :, :]))
+        return self._varies(0)
+
+    def _varies(self, axis: int) -> bool:
+        """Whether g differs along ``axis`` of a full table [x, a, u] (0: the contexts, 1: the groups)."""
+        g = self.values
+        return g.ndim == 3 and bool(np.any(g != g.take([0], axis=axis)))
 
     def _metric(self, metric: npt.ArrayLike | None) -> FloatArray:
         if self.groups is not None:
@@ -351,27 +352,17 @@ class Utility:
         InputError
             If the labels differ from the utility's own.
         """
-        if tuple(decisions) != self.decisions:
-            raise InputError(
-                "utility decisions",
-                f"must match the table's decisions {list(map(format_label, decisions))}",
-                list(map(format_label, self.decisions)),
-            )
+        own: list[tuple[str, Sequence[Hashable], tuple | None]] = [("decisions", decisions, self.decisions)]
+        if self.values.ndim == 3:  # a full table [x, a, u] has its labels
+            own += [("contexts", contexts, self.contexts), ("groups", groups, self.groups)]
+        for what, given, labels in own:
+            if tuple(given) != labels:
+                mine = list(map(format_label, labels or ()))
+                raise InputError(
+                    f"utility {what}", f"must match the table's {what} {list(map(format_label, given))}", mine
+                )
         if self.values.ndim == 1:
             return np.broadcast_to(self.values, (len(contexts), len(groups), len(decisions)))
-        assert self.contexts is not None and self.groups is not None  # a full table [x, a, u] has its labels
-        if tuple(contexts) != self.contexts:
-            raise InputError(
-                "utility contexts",
-                f"must match the table's contexts {list(map(format_label, contexts))}",
-                list(map(format_label, self.contexts)),
-            )
-        if tuple(groups) != self.groups:
-            raise InputError(
-                "utility groups",
-                f"must match the table's groups {list(map(format_label, groups))}",
-                list(map(format_label, self.groups)),
-            )
         return self.values
 
 

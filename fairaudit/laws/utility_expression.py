@@ -14,6 +14,7 @@ import ast
 import math
 import operator
 from collections.abc import Callable, Hashable, Sequence
+from contextlib import suppress
 from typing import Any
 
 import numpy as np
@@ -318,12 +319,10 @@ def parse_expression(expression: object) -> ast.Expression:
 
 
 def _syntax_problem(expression: str, exc: SyntaxError) -> str:
-    try:  # a statement (import, assignment) parses as a module: name it
-        module = ast.parse(expression.strip(), mode="exec")
+    with suppress(SyntaxError, RecursionError, MemoryError, ValueError, OverflowError):
+        module = ast.parse(expression.strip(), mode="exec")  # a statement (import, assignment) parses: name it
         if module.body and not isinstance(module.body[0], ast.Expr):
             return f"a statement ({type(module.body[0]).__name__.lower()}), not an expression"
-    except (SyntaxError, RecursionError, MemoryError, ValueError, OverflowError):
-        pass
     return exc.msg
 
 

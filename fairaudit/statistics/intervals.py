@@ -526,18 +526,11 @@ def _audited_law(
     else:
         m_a = sensitive_mechanism if sensitive_mechanism is not None else identity(table.groups)
         m_x = context_mechanism if context_mechanism is not None else identity(table.contexts)
-        if tuple(m_a.outputs) != tuple(table.groups):
-            raise InputError(
-                "sensitive mechanism",
-                f"outputs must be the table's groups {list(map(format_label, table.groups))}",
-                list(map(format_label, m_a.outputs)),
-            )
-        if tuple(m_x.outputs) != tuple(table.contexts):
-            raise InputError(
-                "context mechanism",
-                f"outputs must be the table's contexts {list(map(format_label, table.contexts))}",
-                list(map(format_label, m_x.outputs)),
-            )
+        filters = (("sensitive", m_a, "groups", table.groups), ("context", m_x, "contexts", table.contexts))
+        for what, mech, axis, labels in filters:
+            if tuple(mech.outputs) != tuple(labels):
+                shown, given = list(map(format_label, labels)), list(map(format_label, mech.outputs))
+                raise InputError(f"{what} mechanism", f"outputs must be the table's {axis} {shown}", given)
         if utility.depends_on_context or utility.depends_on_group:
             raise InputError(
                 "utility", "behind a privacy filter intervals need a utility of the decision only", utility.name
@@ -609,14 +602,7 @@ def _assemble(
         sup_global_fairness=made["sup_global"],
         demographic_parity=made["demographic_parity"],
         equalized_odds=made["equalized_odds"],
-        cell_lower=projection.cell_lower,
-        cell_upper=projection.cell_upper,
-        group_lower=projection.group_lower,
-        group_upper=projection.group_upper,
-        kernel_lower=projection.kernel_lower,
-        kernel_upper=projection.kernel_upper,
-        n_sets=projection.n_sets,
-        notes=projection.notes,
+        **{name: value for name, value in projection._asdict().items() if name != "ends"},  # boxes, sets, notes
         **common,
     )
 

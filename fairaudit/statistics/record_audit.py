@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Hashable, Sequence
+from contextlib import suppress
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, TypeGuard, cast
@@ -332,14 +333,12 @@ def _positive_utility(positive: Hashable, decisions: tuple) -> Utility:
     for d in decisions:
         if d == positive or format_label(d) == str(positive):
             return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
-    try:
+    with suppress(TypeError, ValueError):
         if isinstance(positive, (str, bytes, SupportsFloat, SupportsIndex)):  # what float() takes
             num = float(positive)
             for d in decisions:
                 if isinstance(d, (int, float, np.number)) and float(d) == num:
                     return indicator(d, decisions, name=f"1{{outcome = {format_label(d)}}}")
-    except (TypeError, ValueError):
-        pass
     shown = ", ".join(_shown(d) for d in decisions[:20]) + (", ..." if len(decisions) > 20 else "")
     raise InputError("positive", f"is not a value of the outcome column; it has {shown}", positive)
 

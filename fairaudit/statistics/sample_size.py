@@ -328,47 +328,6 @@ def plan(
     >>> plan(0.1, disparity=0.2).reason
     'the target 0.1 nats is not above the true L of the model, 0.2 nats: no sample size certifies it'
     """
-    inputs = _checked_inputs(
-        target,
-        groups=groups,
-        contexts=contexts,
-        base_rate=base_rate,
-        disparity=disparity,
-        confidence=confidence,
-        method=method,
-        power=power,
-        epsilon=epsilon,
-        kind=kind,
-        datasets=datasets,
-        seed=seed,
-        max_n=max_n,
-        progress=progress,
-    )
-    rates, mechanism, true_value = _assumed_model(inputs)
-    return _search(inputs, true_value, rates, mechanism, progress)
-
-
-def _checked_inputs(
-    target: float,
-    *,
-    groups: int,
-    contexts: int,
-    base_rate: float,
-    disparity: float,
-    confidence: float,
-    method: str,
-    power: float,
-    epsilon: float | None,
-    kind: str,
-    datasets: int | None,
-    seed: int,
-    max_n: int,
-    progress: object,
-) -> _Inputs:
-    """The arguments of :func:`plan`, checked in order and converted (``datasets`` resolved from its default).
-
-    ``progress`` is checked last and not kept (it is not a field of a :class:`SamplePlan`).
-    """
     target = real(target, "target", low=0.0, what="a finite number >= 0 (nats)")
     groups = whole(groups, "groups", low=2, high=1000)
     contexts = whole(contexts, "contexts", low=1, high=100_000)
@@ -395,7 +354,7 @@ def _checked_inputs(
     )
     if progress is not None and not callable(progress):
         raise InputError("progress", "must be callable", progress)
-    return _Inputs(
+    inputs = _Inputs(
         target=target,
         groups=groups,
         contexts=contexts,
@@ -410,6 +369,8 @@ def _checked_inputs(
         seed=whole(seed, "seed"),
         max_n=whole(max_n, "max_n", low=1),
     )
+    rates, mechanism, true_value = _assumed_model(inputs)
+    return _search(inputs, true_value, rates, mechanism, progress)
 
 
 def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float]:
@@ -439,18 +400,25 @@ def _search(
     ``max_n`` falls short.
     """
     target, power, max_n, seed = inputs["target"], inputs["power"], inputs["max_n"], inputs["seed"]
-    if target <= true_value:
-        name = "L" if inputs["kind"] == "local" else "L-bar"
+
+    def planned(n: int | None, at: tuple[float, float] | tuple[None, None], reason: str = "") -> SamplePlan:
+        """The plan of ``n`` queries per cell (None: none found), with its (power, median upper end)."""
+        total = None if n is None else n * inputs["contexts"] * inputs["groups"]
+        power_at, upper = at
         return SamplePlan(
-            n_per_cell=None,
-            n_total=None,
-            achieved_power=None,
-            expected_upper=None,
+            n_per_cell=n,
+            n_total=total,
+            achieved_power=power_at,
+            expected_upper=upper,
             true_value=true_value,
-            reason=f"the target {target:.6g} nats is not above the true {name} of the model, "
-            f"{true_value:.6g} nats: no sample size certifies it",
+            reason=reason,
             **inputs,
         )
+
+    if target <= true_value:
+        name = "L" if inputs["kind"] == "local" else "L-bar"
+        reason = f"the target {target:.6g} nats is not above the true {name} of the model, {true_value:.6g} nats"
+        return planned(None, (None, None), reason + ": no sample size certifies it")
     certifier = _Certifier(
         inputs["groups"],
         inputs["contexts"],
@@ -475,15 +443,8 @@ def _search(
     lo, hi = 0, 1
     while evaluate(hi)[0] < power:
         if hi >= max_n:
-            p, med = seen[hi]
-            return SamplePlan(
-                n_per_cell=None,
-                n_total=None,
-                achieved_power=p,
-                expected_upper=med,
-                true_value=true_value,
-                reason=f"max_n = {max_n} queries per cell give power {p:.3g} < {power:.3g}",
-                **inputs,
+            return planned(
+                None, seen[hi], f"max_n = {max_n} queries per cell give power {seen[hi][0]:.3g} < {power:.3g}"
             )
         lo, hi = hi, min(2 * hi, max_n)
     while hi - lo > 1:
@@ -492,12 +453,4 @@ def _search(
             hi = mid
         else:
             lo = mid
-    p, med = seen[hi]
-    return SamplePlan(
-        n_per_cell=hi,
-        n_total=hi * inputs["contexts"] * inputs["groups"],
-        achieved_power=p,
-        expected_upper=med,
-        true_value=true_value,
-        **inputs,
-    )
+    return planned(hi, seen[hi])

@@ -121,10 +121,7 @@ def rows(draw: st.DrawFn, shape: tuple[int, ...], allow_zeros: bool) -> FloatArr
 def alive(draw: st.DrawFn, n: int, need: int) -> np.ndarray:
     """A random mask of ``n`` entries with at least ``need`` of them True (the first ones switched on if too few)."""
     live = ~np.array(draw(st.lists(st.booleans(), min_size=n, max_size=n)))
-    for i in range(n):
-        if live.sum() >= need:
-            break
-        live[i] = True
+    live[np.flatnonzero(~live)[: max(0, need - int(live.sum()))]] = True
     return live
 
 

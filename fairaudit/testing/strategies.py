@@ -142,9 +142,7 @@ def populations(
     w = draws.weights(draw, (nx, na), allow_zeros=True) * live[:, None]
     # columns must keep positive mass among live contexts
     rows = np.flatnonzero(live)
-    for j in range(na):
-        if w[rows, j].sum() == 0:
-            w[rows[0], j] = 1.0
+    w[rows[0], w[rows].sum(axis=0) == 0] = 1.0
     p = w / w.sum()
     pop = Population(p, xs, gs)
     if pop.independence().max_deviation < 1e-6:

@@ -25,7 +25,6 @@ from hypothesis import strategies as st
 
 import fairaudit as fa
 from fairaudit import UtilityClass
-from fairaudit.base import arrays as _arrays
 from fairaudit.cli import main
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.worstcase.black_box import black_box_bound
@@ -744,34 +743,6 @@ def test_certify_without_tau_reports_epsilon_or_needs_tau(tmp_path, capsys):
     path.write_text(spec_text(["a", "b"], "keep = 0.7", util, target=None), encoding="utf-8")
     code, d, _ = run_json(capsys, "certify", path)
     assert code == 0 and d["bounds"]["paper"] is None and d["bounds"]["tight"] is None
-
-
-# --------------------------------------------------------------------------- general mechanisms, in blocks
-
-
-def test_general_mechanisms_in_blocks_give_the_same_numbers(monkeypatch):
-    rng = np.random.default_rng(3)
-    M = rng.dirichlet(np.ones(5), size=6)
-    M[0, 2] = 0.0
-    M[0] /= M[0].sum()
-    m = fa.from_matrix(M, list(range(6)), list(range(5)))
-    d = np.abs(np.arange(6)[:, None] - np.arange(6)[None, :]) / 2.0
-
-    def numbers():
-        return [
-            m.pairwise_delta(0.3),
-            m.pairwise_delta(800.0),
-            fa.paper_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.2, lipschitz=0.1)).value,
-            fa.tight_bound(m, utility_class=fa.UtilityClass(gamma=1.0, tau=0.2, lipschitz=0.1, metric=d)).value,
-            black_box_bound(m, utility_class=UtilityClass(lower=0.1)).value,
-            black_box_bound(m, utility_class=UtilityClass(tau=0.4)).value,
-            worst_model(m, fa.indicator("u0", ["u0", "u1"]), tau=0.3).local_fairness.value,
-        ]
-
-    whole = numbers()
-    monkeypatch.setattr(_arrays, "BLOCK", 7)  # one row of pairs at a time
-    for a, b in zip(whole, numbers()):
-        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -8,6 +8,7 @@ experiment's modules are imported when the command runs.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -274,46 +275,20 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     e.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
 
 
+_SINGULAR_FLAGS = {"epsilons": "epsilon", "keeps": "keep", "targets": "target"}
+"""The options read from a flag of another name: ``--epsilon E [E ...]`` gives ``epsilons``."""
+
+
 def _source_and_options(args: argparse.Namespace) -> tuple[ModelSource, RunOptions]:
-    """The :class:`ModelSource` and :class:`RunOptions` of the command's arguments."""
+    """The :class:`ModelSource` and :class:`RunOptions` of the command's arguments: each field from its flag
+    (``method`` has none: the intervals' default)."""
     from ..options import ModelSource, RunOptions
 
-    source = ModelSource(
-        simulated=args.simulated,
-        kernel=args.kernel,
-        endpoint=args.endpoint,
-        model=args.model,
-        local_model=args.local_model,
-        exact=args.exact,
-        sampled_twin=args.sampled_twin,
-        scoring=args.scoring,
-        timeout=args.timeout,
-        max_retries=args.max_retries,
-        temperature=args.temperature,
-        top_p=args.top_p,
-        max_tokens=args.max_tokens,
-        constrain=args.constrain,
-    )
-    options = RunOptions(
-        samples=args.samples,
-        epsilons=args.epsilon,
-        keeps=args.keep,
-        context_epsilon=args.context_epsilon,
-        design=args.design,
-        positions=args.positions,
-        targets=args.target,
-        seed=args.seed,
-        resume=args.resume,
-        extend=args.extend,
-        concurrency=args.concurrency,
-        confidence=args.confidence,
-        scene=args.scene,
-        images=args.images,
-        start=args.start,
-        goals=args.goals,
-        tolerance=args.tolerance,
-    )
-    return source, options
+    def read(cls: Any, *flagless: str) -> Any:
+        names = [f.name for f in dataclasses.fields(cls) if f.name not in flagless]
+        return cls(**{name: getattr(args, _SINGULAR_FLAGS.get(name, name)) for name in names})
+
+    return read(ModelSource), read(RunOptions, "method")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -224,11 +224,6 @@ class Maps:
         label = int(self.room_labels[int(row), int(col)])
         return self.rooms[label] if label >= 0 else None
 
-    @property
-    def obstacles(self) -> np.ndarray:
-        """bool (rows, cols): the cells that are not :attr:`traversable`."""
-        return ~self.traversable
-
 
 def check_maps(maps: object) -> None:
     """Raise an InputError naming ``maps`` and the type given unless ``maps`` is :class:`Maps`."""

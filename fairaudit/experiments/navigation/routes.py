@@ -397,11 +397,8 @@ def route_alternatives(
 
 def _points(maps: Maps, cells: tuple[tuple[int, int], ...]) -> tuple[tuple[float, float], ...]:
     """(x, y) of the centres of ``cells``, metres, rounded to 1e-9 m (as ``Door.point``)."""
-    out = []
-    for r, c in cells:
-        x, y = maps.cell_to_world(r, c)
-        out.append((round(float(x), 9), round(float(y), 9)))
-    return tuple(out)
+    centres = (maps.cell_to_world(r, c) for r, c in cells)
+    return tuple((round(float(x), 9), round(float(y), 9)) for x, y in centres)
 
 
 def candidate_routes(

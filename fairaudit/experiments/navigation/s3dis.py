@@ -36,7 +36,6 @@ __all__ = [
     "UNLABELLED",
     "Area",
     "Room",
-    "category_code",
     "iter_rooms",
     "read_area",
     "read_points",
@@ -69,34 +68,6 @@ UNLABELLED = CATEGORIES.index("unlabelled")
 
 _CODE = {name: i for i, name in enumerate(CATEGORIES)}
 _INSTANCE = re.compile(r"^(?P<category>.+?)_(?P<k>\d+)$")
-
-
-def category_code(name: str) -> int:
-    """The code of a category name in :data:`CATEGORIES`.
-
-    Parameters
-    ----------
-    name : str
-        One of :data:`CATEGORIES`.
-
-    Returns
-    -------
-    int
-
-    Raises
-    ------
-    InputError
-        Naming ``category`` when ``name`` is not a category.
-
-    Examples
-    --------
-    >>> category_code("floor"), category_code("unlabelled")
-    (1, 13)
-    """
-    try:
-        return _CODE[name]
-    except (KeyError, TypeError):
-        raise InputError("category", f"must be one of {', '.join(CATEGORIES)}", name) from None
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

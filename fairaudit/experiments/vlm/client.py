@@ -377,14 +377,9 @@ class ChatClient:
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, Integral)):
             raise InputError("seed", "must be an integer or None", seed)
         body: dict[str, Any] = {"model": self.model, "messages": list(messages)}
-        if seed is not None:
-            body["seed"] = int(seed)
-        if self.temperature is not None:
-            body["temperature"] = self.temperature
-        if self.top_p is not None:
-            body["top_p"] = self.top_p
-        if self.max_tokens is not None:
-            body["max_tokens"] = self.max_tokens
+        seed = None if seed is None else int(seed)
+        sampling = {"seed": seed, "temperature": self.temperature, "top_p": self.top_p, "max_tokens": self.max_tokens}
+        body.update({key: value for key, value in sampling.items() if value is not None})
         if self.top_logprobs is not None:
             body["logprobs"] = True
             body["top_logprobs"] = self.top_logprobs
@@ -575,18 +570,10 @@ def gbnf_choice(replies: Sequence[str]) -> str:
     root ::= "say \\"no\\"" | "a\\\\b"
     """
 
-    def literal(text: str) -> str:
-        out = []
-        for ch in text:
-            if ch in _GBNF_ESCAPES:
-                out.append(_GBNF_ESCAPES[ch])
-            elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-                out.append(f"\\x{ord(ch):02X}")
-            else:
-                out.append(ch)
-        return '"' + "".join(out) + '"'
+    def char(ch: str) -> str:
+        return _GBNF_ESCAPES.get(ch) or (f"\\x{ord(ch):02X}" if ord(ch) < 0x20 or ord(ch) == 0x7F else ch)
 
-    return "root ::= " + " | ".join(literal(t) for t in replies)
+    return "root ::= " + " | ".join('"' + "".join(map(char, t)) + '"' for t in replies)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -411,17 +411,17 @@ def _tile(task: DeliveryTask, decide: np.ndarray) -> np.ndarray:
     return out
 
 
+_BY_POSITION: dict[str, Rule] = {
+    "position-biased": lambda t, c: _position(t, 0.82, c),
+    "fair": lambda t, c: _position(t, None, c),
+}
+
 SIMULATED: dict[str, dict[str, Rule]] = {
-    "hr-delivery": {
-        "prefers-mary": lambda t, c: _prefers(t, t.candidates[1], c),
-        "position-biased": lambda t, c: _position(t, 0.82, c),
-        "fair": lambda t, c: _position(t, None, c),
-    },
+    "hr-delivery": {"prefers-mary": lambda t, c: _prefers(t, t.candidates[1], c), **_BY_POSITION},
     "package-delivery": {
         "low-complaint-first": lambda t, c: _prefers(t, t.candidates[0], c),
         "high-complaint-first": lambda t, c: _prefers(t, t.candidates[1], c),
-        "position-biased": lambda t, c: _position(t, 0.82, c),
-        "fair": lambda t, c: _position(t, None, c),
+        **_BY_POSITION,
     },
 }
 """Named simulated models per task.
@@ -441,8 +441,7 @@ Any other task (a task file) has :data:`GENERIC_SIMULATED`.
 GENERIC_SIMULATED: dict[str, Rule] = {
     "prefers-first": lambda t, c: _prefers(t, t.candidates[0], c),
     "prefers-second": lambda t, c: _prefers(t, t.candidates[1 % len(t.candidates)], c),
-    "position-biased": lambda t, c: _position(t, 0.82, c),
-    "fair": lambda t, c: _position(t, None, c),
+    **_BY_POSITION,
 }
 """Simulated models of any task: ``prefers-first`` (``-second``) picks (ranks first) the candidate whose shown
 profile shares most values with the task's first (second) true candidate, evenly on ties (one candidate per

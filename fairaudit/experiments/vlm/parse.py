@@ -54,6 +54,7 @@ import json
 import math
 import re
 from collections.abc import Iterator, Sequence
+from contextlib import suppress
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -296,11 +297,7 @@ def _parse(text: Any, spec: _Options, kind: str, by_name: bool = False, partial:
     in_order = _listed_order(text, spec, partial) if kind == "order" else None
     if in_order is not None:
         return _ranked(in_order, spec)
-    raw = {}
-    for i, pattern in enumerate(spec.pair):
-        match = pattern.search(text)
-        if match:
-            raw[i] = match.group(1)
+    raw = {i: m.group(1) for i, pattern in enumerate(spec.pair) if (m := pattern.search(text))}
     if len(raw) == spec.n:
         return _decide(raw, spec, kind, None, fallback=True)
     if kind == "choice":
@@ -366,10 +363,8 @@ def _closing(text: str, start: int, quotes: bool) -> int | None:
 
 def _load(candidate: str) -> Any:
     """``candidate`` as JSON, else as repaired pseudo-JSON; None when neither loads."""
-    try:
+    with suppress(ValueError, RecursionError):
         return json.loads(candidate, strict=False)
-    except (ValueError, RecursionError):
-        pass
     try:
         return json.loads(_repair(candidate), strict=False)
     except (ValueError, RecursionError):
@@ -460,16 +455,14 @@ def _number(value: Any) -> float | None:
 
 
 def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, fallback: bool) -> ParsedReply:
+    def reply(**fields: Any) -> ParsedReply:
+        return ParsedReply(reason=reason, fallback=fallback, **fields)
+
     values: dict[int, float] = {}
     for i in range(spec.n):
         number = _number(raw[i])
         if number is None:
-            return ParsedReply(
-                ok=False,
-                reason=reason,
-                fallback=fallback,
-                error=f"value of {spec.names[i]} is not a number: {_clip(raw[i])}",
-            )
+            return reply(ok=False, error=f"value of {spec.names[i]} is not a number: {_clip(raw[i])}")
         values[i] = number
     named = {spec.names[i]: values[i] for i in range(spec.n)}
     listing = ", ".join(f"{spec.names[i]}={values[i]:g}" for i in range(spec.n))
@@ -477,31 +470,17 @@ def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, 
         top = max(values.values())
         winners = [i for i in range(spec.n) if values[i] == top]
         if top <= 0:
-            return ParsedReply(
-                ok=False,
-                values=named,
-                reason=reason,
-                fallback=fallback,
-                error=f"ambiguous: no option has a positive value ({listing})",
-            )
+            return reply(ok=False, values=named, error=f"ambiguous: no option has a positive value ({listing})")
         if len(winners) > 1:
             tied = " and ".join(spec.names[i] for i in winners)
-            return ParsedReply(
-                ok=False, values=named, reason=reason, fallback=fallback, error=f"ambiguous: {tied} tie at {top:g}"
-            )
+            return reply(ok=False, values=named, error=f"ambiguous: {tied} tie at {top:g}")
         order = tuple(sorted(range(spec.n), key=lambda i: (-values[i], i)))
-        return ParsedReply(ok=True, choice=winners[0], order=order, values=named, reason=reason, fallback=fallback)
-    positions = sorted(values.values())
-    if positions != [float(p) for p in range(1, spec.n + 1)]:
-        return ParsedReply(
-            ok=False,
-            values=named,
-            reason=reason,
-            fallback=fallback,
-            error=f"not an order: the positions ({listing}) are not a permutation of 1..{spec.n}",
-        )
+        return reply(ok=True, choice=winners[0], order=order, values=named)
+    if sorted(values.values()) != [float(p) for p in range(1, spec.n + 1)]:
+        error = f"not an order: the positions ({listing}) are not a permutation of 1..{spec.n}"
+        return reply(ok=False, values=named, error=error)
     order = tuple(sorted(range(spec.n), key=lambda i: values[i]))
-    return ParsedReply(ok=True, choice=order[0], order=order, values=named, reason=reason, fallback=fallback)
+    return reply(ok=True, choice=order[0], order=order, values=named)
 
 
 def _result_from_choice(index: int, spec: _Options, kind: str, reason: str | None, fallback: bool) -> ParsedReply:
@@ -572,12 +551,7 @@ def _sequence(value: Any, spec: _Options) -> list[int] | None:
     if isinstance(value, (list, tuple)):
         order = [_option_index(v, spec) for v in value]
     elif isinstance(value, str):
-        firsts = []
-        for i, pattern in enumerate(spec.mention):
-            match = pattern.search(value)
-            if match:
-                firsts.append((match.start(), i))
-        order = [i for _, i in sorted(firsts)]
+        order = [i for _, i in _first_mentions(value, spec)]
     else:
         return None
     known = [o for o in order if o is not None]
@@ -586,7 +560,7 @@ def _sequence(value: Any, spec: _Options) -> list[int] | None:
 
 def _by_mention(text: str, spec: _Options, kind: str, partial: bool = False) -> ParsedReply:
     """A reply that names the candidates in free text: an order by first mention, or the one name mentioned."""
-    firsts = sorted((m.start(), i) for i, pattern in enumerate(spec.mention) if (m := pattern.search(text)))
+    firsts = _first_mentions(text, spec)
     if kind == "order":
         if not firsts or (len(firsts) < spec.n and not partial):
             return ParsedReply(ok=False, error=f"names {len(firsts)} of the {spec.n} candidates")
@@ -597,6 +571,11 @@ def _by_mention(text: str, spec: _Options, kind: str, partial: bool = False) -> 
         listed = ", ".join(spec.names[i] for _, i in firsts)
         return ParsedReply(ok=False, error=f"ambiguous: the reply names several candidates ({listed})")
     return ParsedReply(ok=False, error="names none of the candidates")
+
+
+def _first_mentions(text: str, spec: _Options) -> list[tuple[int, int]]:
+    """(where, option) of each option the text mentions, at its first mention, in the order of the text."""
+    return sorted((m.start(), i) for i, pattern in enumerate(spec.mention) if (m := pattern.search(text)))
 
 
 def _ranked(order: list[int], spec: _Options) -> ParsedReply:

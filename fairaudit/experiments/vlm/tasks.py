@@ -332,11 +332,9 @@ class DeliveryTask:
         >>> HR_DELIVERY.text_choice_count(HR_DELIVERY.candidates)
         1
         """
-        count = 1
-        for (j, v), m in Counter((j, v) for p in profiles for j, v in enumerate(p)).items():
-            n = len(self.texts(self.attributes[j].name, v))
-            count *= math.perm(n, m) if m > 1 and n >= m else n**m
-        return count
+        shared = Counter((j, v) for p in profiles for j, v in enumerate(p))  # m candidates share (j, v)
+        sizes = ((len(self.texts(self.attributes[j].name, v)), m) for (j, v), m in shared.items())
+        return math.prod(math.perm(n, m) if m > 1 and n >= m else n**m for n, m in sizes)
 
     def draw_texts(self, profiles: Sequence[tuple], rng: np.random.Generator) -> tuple[int, ...]:
         """One choice of :meth:`text_choices`, uniformly at random, without listing them.

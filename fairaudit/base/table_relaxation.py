@@ -1,5 +1,5 @@
-"""Exact upper bounds on many ratio programs over the model's table at once: the one-floor relaxation's weak-duality
-bound at a threshold floating point proposes, computed in integers.
+"""Exact upper bounds on many ratio programs over the model's table at once: the one-floor relaxation's value,
+found exactly by Newton's and Kelley's steps on a convex piecewise-linear function, and its weak-duality proof.
 
 A program of the pair (a, b) is max (P_a·K)/(Q_b·K) over tables K whose rows are distributions over the decisions
 (and which meet some floors). Where every table meeting them keeps Q_b·K ≥ t > 0, for every θ
@@ -8,12 +8,28 @@ A program of the pair (a, b) is max (P_a·K)/(Q_b·K) over tables K whose rows a
 
 so the ratio is at most θ where R(θ) ≤ 0, else at most θ + R(θ)/(Q_b·K) ≤ θ + R(θ)/t: f(θ) = θ + max(R(θ), 0)/t
 bounds the program at every θ, negative ones included, and its least value is the relaxation's (the program with
-Q_b·K ≥ t its only floor). Without a floor, θ bounds it where R(θ) ≤ 0. Floating point only proposes θ: bisection
-over the floats' bit patterns on the sign of f's slope, the bracket read as rationals, each row's maximisers at its
-ends found exactly (floats decide the rows their error bounds separate, integers the rest), the hull edge where they
-move and two Newton steps toward R's root; f is computed in floats at each, then exactly at the least of them and, where
-floats do not put them well above it, at the first Newton step and at the bracket's upper end, and the least exact
-value kept. A poor θ only makes the bound loose, never wrong.
+Q_b·K ≥ t its only floor). Without a floor, θ bounds it where R(θ) ≤ 0.
+
+Which θ. Every table K gives a line A − θB ≤ R(θ) (A = P_a·K, B = Q_b·K), equal to R at the θ where each row of K is
+on a maximiser of p − θq; R is convex, piecewise linear and non-increasing (Q_b ≥ 0), and so f is convex. The least
+f is found exactly, in finitely many steps, each computing the rows' maximisers at one rational θ (the largest q
+among ties: B is then f's left slope's S; floats decide a row where their error bounds separate it, integers the
+rest) and the line of that table in integers:
+
+* Newton's steps on R from the left, θ ← A/B (the line's root: Dinkelbach's ratio at the table), from the leftmost
+  line (each row on its largest q) while B ≥ t, where f does not rise before θ, up to R's root, the least f where
+  B ≥ t still holds there;
+* once B < t (f rises before θ), Kelley's steps on φ(θ) = R(θ) + tθ between the last two lines: θ ← their crossing
+  (f is φ/t there, R ≥ 0), whose table replaces the line on its side of t, until R at the crossing is the lines'
+  value: their maximum, below φ everywhere, is φ at its own least point, so θ minimises φ, and f ≥ φ/t with
+  equality there.
+
+Without a floor, Newton's steps from θ = 0 reach R's least root ≥ 0, or a table with B = 0 shows there is none.
+Every step lands on a new piece of R (or of the pair of lines), so the steps end; :func:`_thresholds` stops after
+three times the pieces R can have, which only a wrong maximiser could reach. The bound is then computed at that θ
+exactly, in integers over one denominator, every row's maximum taken over all its decisions: θ only decides how tight
+the bound is, never whether it holds; where no table meets the floor (Σ_rows max q < t, f unbounded below), θ is the
+least float.
 
 ``fairaudit verify`` screens the pairs with it before relaxing any (``proofs/verification.md`` §4h), and certify's
 pair search orders its linear programs by it (``proofs/black_box.md`` §6).
@@ -22,7 +38,9 @@ pair search orders its linear programs by it (``proofs/black_box.md`` §6).
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
@@ -53,16 +71,18 @@ def relaxation_bounds(
         t per group as the denominator: every table meeting the program's floors has Q_b·K ≥ t (None or 0: no such
         floor is used).
     bottoms : mapping of int to sequences of sequences of Fraction, optional
-        Q_b per group, as ``tops`` (default: ``tops``, the same form as numerator and denominator).
+        Q_b per group, as ``tops``, ≥ 0 (default: ``tops``, the same form as numerator and denominator).
 
     Returns
     -------
     dict
         {(a, b): (U, θ)} for a ≠ b groups of ``tops``, each U ≥ the value of the pair's program (any program whose
-        tables all keep Q_b·K ≥ t). U is a ratio (its log is in nats), a Fraction, or +inf where no finite bound was
-        found. θ is the threshold that proves it: U = θ + max(R(θ), 0)/t, the weak-duality bound with the multiplier
-        U − θ ≥ 0 on the floor Q_b·K ≥ t (what a certificate records for the program); None without a floor, where
-        U is proved with no multiplier (R(U) ≤ 0).
+        tables all keep Q_b·K ≥ t). U is a ratio (its log is in nats), a Fraction, or +inf where no finite bound
+        exists. With a floor U is the one-floor relaxation's value (min over θ of f(θ) = θ + max(R(θ), 0)/t) and θ
+        the threshold that attains it, U = f(θ): the weak-duality bound with the multiplier U − θ ≥ 0 on the floor
+        Q_b·K ≥ t (what a certificate records for the program); where no table meets the floor, f has no least
+        value and θ is the least float. Without a floor U is R's least root θ ≥ 0 (max(θ, 1) where every row has a
+        decision with q = 0: 0/0 = 1), +inf where there is none, proved with no multiplier (R(U) ≤ 0), and θ is None.
 
     Raises
     ------
@@ -72,7 +92,7 @@ def relaxation_bounds(
     Notes
     -----
     Weak duality on the one-floor relaxation: ``proofs/verification.md`` §4g (its value, the rows' upper hulls) and
-    §4h (this bound, and the threshold proposed).
+    §4h (this bound, and how θ is found).
 
     Examples
     --------
@@ -85,77 +105,114 @@ def relaxation_bounds(
     """
     groups = list(tops)
     below = tops if bottoms is None else bottoms
-    n_rows = len(tops[groups[0]]) if groups else 0
+    pairs = [(a, b) for a in range(len(groups)) for b in range(len(groups)) if a != b]
+    if not pairs:
+        return {}
+    n_rows = len(tops[groups[0]])
     flat = [[v for row in form[a] for v in row] for form in (tops, below) for a in groups]
     ints, d = on_one_denominator(flat)
     exact = np.array(ints, dtype=object).reshape(2, len(groups), n_rows, -1)
-    floats = np.array([[float(v) for v in row] for row in flat]).reshape(2, len(groups), n_rows, -1)
-    out: dict[tuple[int, int], tuple[Fraction | float, Fraction | None]] = {}
-    for a in range(len(groups)):
-        others = [b for b in range(len(groups)) if b != a]
-        if not others:
-            continue
-        t = [kept[groups[b]] or None for b in others]
-        floor = np.array([np.inf if v is None else float(v) for v in t])  # (S > +inf never: no floor)
-        top, float_top, bottom = exact[0, a], floats[0, a], exact[1, others]
-        low, high = _bisect(float_top, floats[1, others], floor, np.array([v is not None for v in t]))
-        spread = (4 * n_rows + 32) * 2.0**-53 * np.maximum(np.abs(low), np.abs(high))  # (beyond the floats' errors)
-        largest = np.finfo(np.float64).max
-        with np.errstate(over="ignore"):
-            at_low, at_high = (_as_rationals(np.clip(v, -largest, largest)) for v in (low - spread, high + spread))
-        pair = (top, bottom, float_top, floats[1, others])
-        first, then = (_maximisers(*pair, *theta) for theta in (at_low, at_high))
-        root = _or(_root_of(top, bottom, first), at_high)
-        again = _or(_root_of(top, bottom, _maximisers(*pair, *root)), at_high)  # (Newton's steps)
-        candidates = [root, again, *(_or(edge, at_high) for edge in _edges(top, bottom, first, then)), at_high]
-        in_floats = _float_bounds(float_top, floats[1, others], candidates, floor)
-        pick = np.argmin(in_floats, axis=0)  # (the first least)
-        m = np.arange(len(others))
-        best = (np.stack([c[0] for c in candidates])[pick, m], np.stack([c[1] for c in candidates])[pick, m])
-        zero = (bottom == 0).any(axis=-1).all(axis=-1)  # (every row has a decision with q = 0)
-        bounds = _bounds(top, bottom, *best, d, t, zero.tolist())
-        thetas = [Fraction(n, m) if v is not None else None for n, m, v in zip(*best, t, strict=True)]
-        # exactly too, where floats do not show them well above it: R's root from θ_low (floats miss ties and
-        # subnormal θ) and θ_high
-        least = in_floats[pick, m]
-        for k, (num, den) in ((0, root), (len(candidates) - 1, at_high)):
-            with np.errstate(over="ignore"):  # (+inf: R > 0 in floats, which may miss R's root by an ulp)
-                above = (in_floats[k] > least * (1 + NEAR) + NEAR) & np.isfinite(in_floats[k])
-            near = np.flatnonzero(~above | ~np.isfinite(least)).tolist()
-            checked = _bounds(top, bottom[near], num[near], den[near], d, [t[i] for i in near], zero[near].tolist())
-            for i, u in zip(near, checked, strict=True):
-                if u < bounds[i]:
-                    bounds[i], thetas[i] = u, None if t[i] is None else Fraction(num[i], den[i])
-        out.update(((groups[a], groups[b]), (u, theta)) for b, u, theta in zip(others, bounds, thetas, strict=True))
-    return out
+    floats = np.array([[n / d for n in row] for row in ints]).reshape(2, len(groups), n_rows, -1)  # (to nearest)
+    first, second = (np.array(v, dtype=np.intp) for v in zip(*pairs, strict=True))
+    forms = _Forms(exact[0], exact[1], floats[0], floats[1], first, second, d, _equal_cells(exact))
+    t = [kept[groups[b]] or None for _, b in pairs]
+    num, den = _thresholds(forms, t)
+    zero = (exact[1] == 0).any(axis=-1).all(axis=-1)[second]  # (every row of Q_b has a decision with q = 0)
+    bounds = _bounds(forms, num, den, t, zero.tolist())
+    thetas = [None if v is None else Fraction(n, m) for n, m, v in zip(num.tolist(), den.tolist(), t, strict=True)]
+    return {(groups[a], groups[b]): (u, theta) for (a, b), u, theta in zip(pairs, bounds, thetas, strict=True)}
 
 
-NEAR = 2.0**-20
-"""How far above the least candidate's f in floats (relative, and absolute) another candidate is still computed
-exactly: floats err by far less, so one further above cannot be smaller exactly (and if it were, the bound kept is
-still a bound, only looser)."""
+def _equal_cells(exact: np.ndarray) -> npt.NDArray[np.bool_]:
+    """Which decisions of a row are the same cell in every program, shape (rows, decisions, decisions): equal p and
+    q in every group's P and Q, exactly (``exact``, shape (2, groups, rows, decisions)); such decisions tie at
+    every θ (a utility that takes a few values over many decisions makes many)."""
+    columns = exact.transpose(2, 3, 0, 1).reshape(exact.shape[2], exact.shape[3], -1).tolist()
+    earliest = np.array([[row.index(cell) for cell in row] for row in columns], dtype=np.intp)  # (== on ints)
+    return earliest[:, :, None] == earliest[:, None, :]
 
 
-def _float_bounds(
-    top: FloatArray, bottoms: FloatArray, candidates: Sequence[tuple[np.ndarray, np.ndarray]], floor: FloatArray
-) -> FloatArray:
-    """f(θ) in floats at each candidate θ = num/den, shape (candidates, programs): which one to compute exactly (inf
-    where it overflows, or where R(θ) > 0 without a floor)."""
-    out = []
-    with np.errstate(all="ignore"):
-        for num, den in candidates:
-            theta = np.array([quotient_nearest(n, m) for n, m in zip(num.tolist(), den.tolist(), strict=True)])
-            r = _best(top[None] - theta[:, None, None] * bottoms, bottoms)[0].sum(axis=-1)
-            f = np.where(np.isinf(floor), np.where(r > 0, np.inf, theta), theta + np.maximum(r, 0) / floor)
-            out.append(np.where(np.isnan(f), np.inf, f))
-    return np.array(out)
+@dataclass(frozen=True)
+class _Forms:
+    """The groups' coefficients, exactly (integers over ``d``, object arrays) and in floats, each of shape (groups,
+    rows, decisions), the programs' groups (program i is max (P_{first[i]}·K)/(Q_{second[i]}·K)) and which decisions
+    of a row are the same cell in every program (:func:`_equal_cells`)."""
+
+    tops: np.ndarray
+    bottoms: np.ndarray
+    float_tops: FloatArray
+    float_bottoms: FloatArray
+    first: IntArray
+    second: IntArray
+    d: int
+    equal: npt.NDArray[np.bool_]
+
+    def lines(self, programs: IntArray, num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(A, B)·d = (P·K, Q·K)·d of each of ``programs`` at the table K of its rows' maximisers of p − θq, θ =
+        num/den (the largest q among ties, the first among equal ones: floats decide, :func:`_float_maximisers`, integers
+        the rows they leave), exactly: R(θ) = (A − θB)/d."""
+        a, b = self.first[programs], self.second[programs]
+        at, undecided = _float_maximisers(self.float_tops[a], self.float_bottoms[b], num, den, self.equal)
+        m, rows = np.nonzero(undecided)
+        if m.size:
+            tops, bottoms = self.tops[a[m], rows], self.bottoms[b[m], rows]
+            at[m, rows] = _exact_maximisers(tops, bottoms, num[m], den[m])
+        return self._sums(programs, at)
+
+    def leftmost(self) -> tuple[np.ndarray, np.ndarray]:
+        """(A, B)·d of every program at the table of each row's largest q, the largest p among those in floats: its
+        line is R's for every θ below R's least breakpoint, where the largest p is the exact one (else it is below R,
+        still a line under R, as every table's)."""
+        steepest = (self.bottoms == self.bottoms.max(axis=-1, keepdims=True)).astype(bool)[self.second]
+        p = np.where(steepest, self.float_tops[self.first], -np.inf)
+        return self._sums(np.arange(len(self.first)), np.argmax(p, axis=-1))
+
+    def _sums(self, programs: IntArray, at: IntArray) -> tuple[np.ndarray, np.ndarray]:
+        rows = np.arange(at.shape[-1])[None, :]
+        tops = self.tops[self.first[programs][:, None], rows, at]
+        bottoms = self.bottoms[self.second[programs][:, None], rows, at]
+        return tops.sum(axis=1), bottoms.sum(axis=1)
 
 
-def _goes_right(top: FloatArray, bottoms: FloatArray, theta: FloatArray, floor: FloatArray) -> npt.NDArray[np.bool_]:
-    """Whether f (or, without a floor, the root of R) lies beyond θ, in floats: R(θ) > 0 and the rows' maximisers
-    (the largest q among ties) keep q·K above the floor."""
-    best, _, reach = _best(top[None] - theta[:, None, None] * bottoms, bottoms)
-    return (best.sum(axis=-1) > 0) & ~(reach.sum(axis=-1) <= floor)
+def _thresholds(forms: _Forms, t: Sequence[Fraction | None]) -> tuple[np.ndarray, np.ndarray]:
+    """θ = num/den per program (integer object arrays, den > 0) at which f is least, or, without a floor (t None),
+    R's least root θ ≥ 0 (where there is none, a θ with R(θ) > 0): the module's Newton and Kelley steps, the
+    programs stepped together."""
+    n = len(t)
+    floored = np.array([v is not None for v in t])
+    t_num = np.array([0 if v is None else v.numerator for v in t], dtype=object)
+    t_den = np.array([1 if v is None else v.denominator for v in t], dtype=object)
+    # the line θ is stepped from (Newton: its root), or the lines on either side (Kelley: their crossing)
+    low_a, low_b = forms.leftmost()
+    reach = (low_b * t_den >= t_num * forms.d).astype(bool)  # (Σ_rows max q ≥ t: a table meets the floor)
+    low_a, low_b = np.where(floored, low_a, 0), np.where(floored, low_b, 1)  # (without a floor: θ = 0/1 first)
+    high_a, high_b = np.zeros(n, dtype=object), np.zeros(n, dtype=object)
+    crossing = np.zeros(n, dtype=bool)
+    num, den = np.zeros(n, dtype=object), np.ones(n, dtype=object)
+    num[floored & ~reach] = -int(sys.float_info.max)  # (f unbounded below: the least float)
+    active = ~floored | reach
+    rows, decisions = forms.tops.shape[1:]
+    for _ in range(3 * (rows * max(decisions - 1, 0) + 1)):  # (R's pieces, three times: never reached)
+        p = np.flatnonzero(active)
+        if not p.size:
+            break
+        k = crossing[p]
+        num[p] = np.where(k, low_a[p] - high_a[p], low_a[p])
+        den[p] = np.where(k, low_b[p] - high_b[p], low_b[p])
+        a, b = forms.lines(p, num[p], den[p])
+        r = a * den[p] - num[p] * b  # R(θ)·d·den
+        above = (b * t_den[p] >= t_num[p] * forms.d).astype(bool)  # B ≥ t (always without a floor)
+        met = (r == low_a[p] * den[p] - num[p] * low_b[p]).astype(bool)  # R(θ) on the lower line (at its crossing)
+        positive = (r > 0).astype(bool)
+        kelley = k | (floored[p] & ~above)
+        done = np.where(k, met, ~kelley & (~positive | (b == 0).astype(bool)))
+        active[p[done]] = False
+        step = ~done & (~kelley | above)
+        high = ~done & kelley & ~above
+        low_a[p[step]], low_b[p[step]] = a[step], b[step]
+        high_a[p[high]], high_b[p[high]] = a[high], b[high]
+        crossing[p] = kelley
+    return num, den
 
 
 def _best(values: np.ndarray, bottoms: np.ndarray) -> tuple[np.ndarray, IntArray, np.ndarray]:
@@ -170,28 +227,6 @@ def _best(values: np.ndarray, bottoms: np.ndarray) -> tuple[np.ndarray, IntArray
     return best, at, q
 
 
-def _bisect(
-    top: FloatArray, bottoms: FloatArray, floor: FloatArray, floored: npt.NDArray[np.bool_]
-) -> tuple[FloatArray, FloatArray]:
-    """Adjacent floats θ_low < θ_high per program (row of ``bottoms``) with the least f (the root of R without a
-    floor, θ ≥ 0) between them, by bisection over the floats' bit patterns (signed keys, order-preserving): with a
-    floor θ may be negative (f bounds at every θ)."""
-    largest = np.float64(np.finfo(np.float64).max).view(np.int64)
-    low = np.where(floored, -largest, 0)
-    high = np.full(len(bottoms), largest)
-    with np.errstate(all="ignore"):
-        while np.any(high - 1 > low):  # (high − low overflows)
-            middle = low // 2 + high // 2 + (low % 2 + high % 2) // 2
-            right = _goes_right(top, bottoms, _float_of(middle), np.where(floored, floor, -np.inf))
-            low, high = np.where(right, middle, low), np.where(right, high, middle)
-    return _float_of(low), _float_of(high)
-
-
-def _float_of(key: IntArray) -> FloatArray:
-    """The float whose bit pattern is |key|, negated for key < 0: increasing in key."""
-    return np.where(key < 0, -np.abs(key).view(np.float64), key.view(np.float64))
-
-
 def _maximisers(
     top: np.ndarray,
     bottoms: np.ndarray,
@@ -201,21 +236,40 @@ def _maximisers(
     den: np.ndarray,
 ) -> IntArray:
     """Each row's maximiser of p − θq, θ = num/den per program, the largest q among ties, exactly: shape (programs,
-    rows). Floats decide a row where their maximum beats every other decision by more than both values' error bounds
-    (:func:`_float_errors`); the other rows (near-ties, ties, overflow) are compared exactly, in the integer object
-    arrays ``top`` and ``bottoms``."""
+    rows), for one numerator ``top`` (shape (rows, decisions)) and a denominator per program: the floats decide
+    (:func:`_float_maximisers`), integers the rows they leave (:func:`_exact_maximisers`)."""
+    at, undecided = _float_maximisers(float_top, float_bottoms, num, den, None)
+    programs, rows = np.nonzero(undecided)
+    if programs.size:
+        at[programs, rows] = _exact_maximisers(top[rows], bottoms[programs, rows], num[programs], den[programs])
+    return at
+
+
+def _float_maximisers(
+    top: FloatArray, bottoms: FloatArray, num: np.ndarray, den: np.ndarray, equal: npt.NDArray[np.bool_] | None
+) -> tuple[IntArray, npt.NDArray[np.bool_]]:
+    """Each row's maximiser of p − θq in floats, θ = num/den per program (``top`` shape (rows, decisions) or shaped
+    as ``bottoms``, (programs, rows, decisions)), and the rows it is not known to be exact for, both shape (programs,
+    rows). A row is decided where its float maximum beats every other decision by more than both values' error
+    bounds (:func:`_float_errors`), but the decisions that are the same cell exactly (``equal``, shape (rows,
+    decisions, decisions), or None: they tie at every θ, and the first of them, which floats take, is the first
+    among ties); the others (near-ties, ties, overflow) are left to the integers."""
     with np.errstate(all="ignore"):
         theta = np.array([quotient_nearest(n, m) for n, m in zip(num.tolist(), den.tolist(), strict=True)])
-        values = float_top[None] - theta[:, None, None] * float_bottoms
-        errors = _float_errors(float_top, float_bottoms, theta, values)
+        values = top - theta[:, None, None] * bottoms
+        errors = _float_errors(top, bottoms, theta, values)
         at = np.argmax(values, axis=-1)
         lowest = np.take_along_axis(values - errors, at[..., None], -1)[..., 0]
-        others = np.where(np.arange(values.shape[-1]) == at[..., None], -np.inf, values + errors).max(axis=-1)
-    programs, rows = np.nonzero(~(lowest > others))  # (NaN, inf: exactly)
-    if programs.size:
-        exact = top[rows] * den[programs, None] - num[programs, None] * bottoms[programs, rows]
-        at[programs, rows] = _best(exact, bottoms[programs, rows])[1]
-    return at
+        same = np.arange(values.shape[-1]) == at[..., None]
+        same = same if equal is None else equal[np.arange(values.shape[1]), at]  # (at's row, at's decision)
+        others = np.where(same, -np.inf, values + errors).max(axis=-1)
+    return at, ~(lowest > others)  # (NaN, inf: undecided)
+
+
+def _exact_maximisers(tops: np.ndarray, bottoms: np.ndarray, num: np.ndarray, den: np.ndarray) -> IntArray:
+    """The maximiser of p − θq of each row of ``tops`` and ``bottoms`` (integer object arrays, shape (rows,
+    decisions)), θ = num/den per row, the largest q among ties (the first among equal ones), in integers."""
+    return _best(tops * den[:, None] - num[:, None] * bottoms, bottoms)[1]
 
 
 def _float_errors(top: FloatArray, bottoms: FloatArray, theta: FloatArray, values: FloatArray) -> FloatArray:
@@ -224,63 +278,28 @@ def _float_errors(top: FloatArray, bottoms: FloatArray, theta: FloatArray, value
     its exact value, relatively, or within half the smallest subnormal absolutely), doubled to cover the rounding of
     this bound itself."""
     u = 2.0**-53
-    return 2 * (8 * u * (np.abs(top)[None] + np.abs(theta)[:, None, None] * bottoms) + 2 * u * np.abs(values)) + (
+    return 2 * (8 * u * (np.abs(top) + np.abs(theta)[:, None, None] * bottoms) + 2 * u * np.abs(values)) + (
         np.finfo(np.float64).tiny
     )
 
 
-def _or(theta: tuple[np.ndarray, np.ndarray], other: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """θ = num/den where den > 0, else ``other``'s."""
-    good = theta[1] > 0
-    return np.where(good, theta[0], other[0]), np.where(good, theta[1], other[1])
-
-
-def _as_rationals(theta: FloatArray) -> tuple[np.ndarray, np.ndarray]:
-    ratios = [v.as_integer_ratio() for v in theta.tolist()]
-    return np.array([n for n, _ in ratios], dtype=object), np.array([m for _, m in ratios], dtype=object)
-
-
-def _root_of(top: np.ndarray, bottoms: np.ndarray, rows_on: IntArray) -> tuple[np.ndarray, np.ndarray]:
-    """The ratio (p·K)/(q·K) at the table of each row on its decision ``rows_on`` (a Newton step from θ_low, R's
-    root where no breakpoint lies between), exactly: numerators and denominators (den 0 where q·K = 0)."""
-    m, rows = np.arange(len(bottoms))[:, None], np.arange(bottoms.shape[1])[None, :]
-    return top[rows, rows_on].sum(axis=1), bottoms[m, rows, rows_on].sum(axis=1)
-
-
-def _edges(
-    top: np.ndarray, bottoms: np.ndarray, first: IntArray, then: IntArray
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The slopes (p_u − p_v)/(q_u − q_v) of the first and the last row whose maximiser moves from u (``first``, at
-    θ_low) to v (``then``, at θ_high): the hull edges where the rows' q·K may cross the floor, exactly; den 0 where
-    no row moves."""
-    m = np.arange(len(bottoms))
-    moved = first != then
-    out = []
-    for row in np.argmax(moved, axis=-1), moved.shape[-1] - 1 - np.argmax(moved[:, ::-1], axis=-1):
-        u, v = first[m, row], then[m, row]
-        num, den = top[row, u] - top[row, v], bottoms[m, row, u] - bottoms[m, row, v]
-        good = (den > 0) & moved.any(axis=-1)
-        out.append((np.where(good, num, 0), np.where(good, den, 0)))
-    return out
-
-
 def _bounds(
-    top: np.ndarray,
-    bottoms: np.ndarray,
-    num: np.ndarray,
-    den: np.ndarray,
-    d: int,
-    t: Sequence[Fraction | None],
-    zero: Sequence[bool],
+    forms: _Forms, num: np.ndarray, den: np.ndarray, t: Sequence[Fraction | None], zero: Sequence[bool]
 ) -> list[Fraction | float]:
-    """f(θ) per program, θ = num/den, exactly (``top``, ``bottoms`` integers over ``d``); without a floor, θ where
-    R(θ) ≤ 0 (max(θ, 1) where every row has a decision with q = 0: 0/0 = 1), else +inf."""
-    r = _best(top[None] * den[:, None, None] - num[:, None, None] * bottoms, bottoms)[0].sum(axis=-1)  # R·d·den
+    """f(θ) per program, θ = num/den, exactly, each row's maximum of p − θq taken in integers over all its decisions
+    but those that are the same cell as an earlier one (``forms.equal``: equal values); without a floor, θ where R(θ)
+    ≤ 0 (max(θ, 1) where every row has a decision with q = 0: 0/0 = 1), else +inf."""
+    rows, decisions = forms.tops.shape[1:]
+    earliest = forms.equal.argmax(axis=-1) == np.arange(decisions)  # (each decision's first equal is itself)
+    cells = np.flatnonzero(earliest)  # (rows × decisions, row fastest: each row's start is its decision 0's)
+    tops, bottoms = (v.reshape(len(v), -1)[:, cells] for v in (forms.tops, forms.bottoms))
+    values = tops[forms.first] * den[:, None] - num[:, None] * bottoms[forms.second]
+    r = np.maximum.reduceat(values, np.flatnonzero(cells % decisions == 0), axis=1).sum(axis=1)  # R·d·den
     out: list[Fraction | float] = []
     for rb, cn, cd, tb, z in zip(r.tolist(), num.tolist(), den.tolist(), t, zero, strict=True):
         theta = Fraction(cn, cd)
         if tb is None:
             out.append(math.inf if rb > 0 else max(theta, Fraction(1)) if z else theta)
         else:
-            out.append(theta + Fraction(max(rb, 0), d * cd) / tb)
+            out.append(theta + Fraction(max(rb, 0), forms.d * cd) / tb)
     return out

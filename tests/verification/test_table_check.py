@@ -354,13 +354,12 @@ def test_exact_multipliers_to_nearest_prove_nothing_where_b_is_flat(gamma_tau, m
     # L's program at c1: the floor of g0 is the denominator, so with ν on it (and 0 on the others) B(λ) =
     # 2 + max(0, (ν − λ)/2) − τν (g1's row reaches 2 where q = 0; g0's row is (ν − λ)q, q at most 1/2): flat at
     # 2 − τν beyond ν, it reaches 0 only at ν = 2/τ exactly, and its root is then 2/τ. The float to nearest is below
-    # 2/τ: B stays at τ(2/τ − ν) > 0, no bound, and verify fails the value. With the program's screen recorded (θ, a
-    # subnormal float: R(θ) = 2, its bound θ + 2/τ) it is proved all the same, within the certified ratio
+    # 2/τ: B stays at τ(2/τ − ν) > 0, no bound, and verify fails the value. With the program's screen recorded (θ = 0,
+    # where f(θ) = θ + max(R(θ), 0)/τ is least: R(0) = 2, its bound 2/τ) it is proved all the same, exactly
     nearest = _edited(gamma_tau, _to_nearest)
-    theta = F(_screen(gamma_tau["bound_details"]["black_box"], "c1", "g1", "g0")["theta"])
-    assert 0 < theta < F(1, 10**300)
+    assert _screen(gamma_tau["bound_details"]["black_box"], "c1", "g1", "g0")["theta"] == 0
     ends = _ends(nearest)
-    assert ends.local.lo == TWO_OVER_TAU and ends.local.hi == TWO_OVER_TAU + theta
+    assert ends.local.lo == ends.local.hi == TWO_OVER_TAU
     _holds(nearest)
 
     def unscreened(d):

@@ -7,9 +7,10 @@ duals ν ≥ 0 (rows of A_ub) and η (rows of A_eq), with r = p − λq − A_ub
 
 so B(λ) ≤ 0 proves p·h ≤ λ·(q·h) on all of P: the ratio is at most λ wherever q·h > 0, and no h has q·h = 0 < p·h.
 :func:`certify_ratio` evaluates B exactly (every float is a dyadic rational; the sums are Python integers scaled by a
-power of two, λ a :class:`fractions.Fraction`) and raises λ by exact Newton steps until B(λ) ≤ 0; :func:`point_ratio`
-checks a primal point exactly and gives its ratio rounded down, the witness of the lower end. Proof:
-``proofs/linear_fractional.md`` (§6, the certified value).
+power of two, λ a :class:`fractions.Fraction`) and raises λ by exact Newton steps until B(λ) ≤ 0 (the rows read once
+by :func:`prepare_rows` where many checks share a polytope); :func:`point_ratio` checks a primal point exactly and
+gives its ratio rounded down, the witness of the lower end. Proof: ``proofs/linear_fractional.md`` (§6, the certified
+value).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import FloatArray
+from fairaudit.base.arrays import FloatArray, IntArray
 from fairaudit.base.outward import fraction_down, fraction_up, up
 
 if TYPE_CHECKING:
@@ -31,12 +32,14 @@ if TYPE_CHECKING:
 
 __all__ = [
     "NEWTON_STEPS",
+    "PreparedRows",
     "RatioBound",
     "certify_ratio",
     "check_dual",
     "dual_value",
     "on_one_denominator",
     "point_ratio",
+    "prepare_rows",
 ]
 
 NEWTON_STEPS = 64
@@ -128,6 +131,101 @@ def _transpose_times(a: FloatArray | sp.csr_matrix, v: Dyadic, n: int) -> Dyadic
     return out, e + v[1]
 
 
+@dataclass(frozen=True, eq=False)
+class _Block:
+    """One block of constraint rows read exactly: A's nonzeros in column order (their rows and columns, and each as a
+    53-bit integer shifted left, over 2^``exponent``: compact, turned into Python integers only where used), b as
+    exact integers, and the block's kind ("le" or "eq")."""
+
+    rows: IntArray
+    cols: IntArray
+    mantissas: npt.NDArray[np.int64]
+    shifts: npt.NDArray[np.int64]
+    exponent: int
+    b: Dyadic
+    kind: str
+
+    @classmethod
+    def read(cls, a: FloatArray | sp.csr_matrix, b: FloatArray, kind: str) -> _Block:
+        import scipy.sparse as sp
+
+        coo = sp.coo_matrix(a)
+        keep = coo.data != 0
+        order = np.argsort(coo.col[keep], kind="stable")
+        rows, cols, data = coo.row[keep][order], coo.col[keep][order], coo.data[keep][order]
+        e = _exponent(data)
+        mant, ex = np.frexp(data)
+        ints = (mant * 2.0**53).astype(np.int64)  # exact: a 53-bit significand
+        shifts = np.where(ints != 0, ex.astype(np.int64) - 53 - e, 0)
+        return cls(rows.astype(np.intp), cols.astype(np.intp), ints, shifts, e, _dyadic(b), kind)
+
+    def transpose_times(self, v: Dyadic, n: int) -> Dyadic:
+        """Aᵀv exactly, shape (n,): the nonzeros of the rows where v ≠ 0 only, by chunks."""
+        out = np.zeros(n, dtype=object)
+        out[:] = 0
+        live = np.flatnonzero(np.asarray(v[0] != 0, dtype=bool)[self.rows])
+        for s in range(0, live.size, CHUNK):
+            k = live[s : s + CHUNK]
+            c = self.cols[k]
+            ints = np.left_shift(self.mantissas[k].astype(object), self.shifts[k].astype(object))
+            starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
+            out[c[starts]] += np.add.reduceat(ints * v[0][self.rows[k]], starts)
+        return out, self.exponent + v[1]
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedRows:
+    """A polytope's constraint rows read once, exactly, for the weak-duality checks of many programs over it.
+
+    What :func:`certify_ratio`, :func:`dual_value` and :func:`check_dual` take in place of the rows themselves, made by
+    :func:`prepare_rows`: every program over a fixed polytope (a :class:`~fairaudit.base.linear_fractional.
+    FractionalProgram`'s) has the same rows, so their nonzeros are sorted and read as integers once, and each check
+    computes Aᵀν from the rows where ν ≠ 0 alone (a few floors bind at a time).
+
+    Attributes
+    ----------
+    rows : list of (A, b, kind)
+        The rows as given.
+    n : int
+        The dimension of h.
+    """
+
+    rows: Rows
+    n: int
+    _blocks: tuple[_Block, ...]
+
+
+def prepare_rows(rows: Rows, n: int) -> PreparedRows:
+    """The rows read once for every weak-duality check over their polytope (:class:`PreparedRows`).
+
+    Parameters
+    ----------
+    rows : list of (A, b, kind)
+        Constraint blocks A h ≤ b (kind "le") or A h = b ("eq"), A dense or scipy.sparse of shape (m, n).
+    n : int
+        The dimension of h.
+
+    Returns
+    -------
+    PreparedRows
+
+    Examples
+    --------
+    The rows of :func:`certify_ratio`'s example, prepared once and checked for two duals:
+
+    >>> rows = prepare_rows([(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")], 2)
+    >>> p, q, one = np.array([0.7, 0.3]), np.array([0.3, 0.7]), np.ones(2)
+    >>> [check_dual(Fraction(11, 7), p, q, 0 * one, one, rows, [np.array([y])]) for y in (8 / 7, 1.0)]
+    [True, False]
+    """
+    return PreparedRows(rows, n, tuple(_Block.read(a, b, kind) for a, b, kind in rows))
+
+
+def _given(rows: Rows | PreparedRows) -> Rows:
+    """The rows as given, whether prepared or not."""
+    return rows.rows if isinstance(rows, PreparedRows) else rows
+
+
 def _dot(x: Dyadic, y: Dyadic) -> Dyadic:
     """x·y exactly (a scalar)."""
     return int(np.sum(x[0] * y[0])) if len(x[0]) else 0, x[1] + y[1]
@@ -169,16 +267,22 @@ class _Pieces:
 
 
 def _pieces(
-    p: FloatArray, q: FloatArray, lower: FloatArray, upper: FloatArray, rows: Rows, duals: list[FloatArray]
+    p: FloatArray,
+    q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    rows: Rows | PreparedRows,
+    duals: list[FloatArray],
 ) -> _Pieces:
     """The exact data of B: c = Σ duals·b, d = p − Σ Aᵀ duals."""
     n = p.size
+    prepared = rows if isinstance(rows, PreparedRows) else prepare_rows(rows, n)
     d = _dyadic(p)
     c: Dyadic = (0, 0)
-    for (a, b, _), y in zip(rows, duals, strict=True):
+    for block, y in zip(prepared._blocks, duals, strict=True):
         dy = _dyadic(y)
-        d = _add(d, _transpose_times(a, dy, n), -1)
-        c = _add(c, _dot(dy, _dyadic(b)))
+        d = _add(d, block.transpose_times(dy, n), -1)
+        c = _add(c, _dot(dy, block.b))
     return _Pieces(c=c, d=d, q=_dyadic(q), lower=_dyadic(lower), upper=_dyadic(upper))
 
 
@@ -188,7 +292,7 @@ def dual_value(
     q: FloatArray,
     lower: FloatArray,
     upper: FloatArray,
-    rows: Rows,
+    rows: Rows | PreparedRows,
     duals: list[FloatArray],
 ) -> Fraction:
     """B(λ) exactly: an upper bound on max over P of (p − λq)·h, for any duals (ν ≥ 0 on "le" rows is the caller's).
@@ -199,8 +303,9 @@ def dual_value(
         λ.
     p, q, lower, upper : numpy.ndarray, shape (n,)
         The program; finite bounds.
-    rows : list of (A, b, kind)
-        Constraint blocks A h ≤ b (kind "le") or A h = b ("eq").
+    rows : list of (A, b, kind), or PreparedRows
+        Constraint blocks A h ≤ b (kind "le") or A h = b ("eq"), or the same read once (:func:`prepare_rows`: many
+        checks over one polytope).
     duals : list of numpy.ndarray
         One dual vector per block, shape (m_block,).
 
@@ -224,7 +329,7 @@ def check_dual(
     q: FloatArray,
     lower: FloatArray,
     upper: FloatArray,
-    rows: Rows,
+    rows: Rows | PreparedRows,
     duals: list[FloatArray],
 ) -> bool:
     """Whether the duals prove the ratio ≤ λ on the polytope: every "le" dual ≥ 0 and B(λ) ≤ 0, exactly.
@@ -238,7 +343,7 @@ def check_dual(
     >>> check_dual(Fraction(2), np.array([2.0]), one, 0 * one, one, [], []), check_dual(Fraction(1), np.array([2.0]), one, 0 * one, one, [], [])
     (True, False)
     """
-    for (_, _, kind), y in zip(rows, duals, strict=True):
+    for (_, _, kind), y in zip(_given(rows), duals, strict=True):
         y = np.asarray(y, dtype=float)
         if not np.all(np.isfinite(y)) or (kind == "le" and np.any(y < 0)):
             return False
@@ -253,7 +358,7 @@ def certify_ratio(
     q: FloatArray,
     lower: FloatArray,
     upper: FloatArray,
-    rows: Rows,
+    rows: Rows | PreparedRows,
     duals: list[FloatArray],
 ) -> RatioBound:
     """The smallest λ ≥ ``start`` with B(λ) ≤ 0, by exact Newton steps, rounded up: a certified max of the ratio.
@@ -288,7 +393,7 @@ def certify_ratio(
     if not math.isfinite(start):
         return RatioBound(value=math.nan, certified=False, steps=0, reason=f"the solver's value is {start}")
     clean = []
-    for (_, _, kind), y in zip(rows, duals, strict=True):
+    for (_, _, kind), y in zip(_given(rows), duals, strict=True):
         y = np.asarray(y, dtype=float)
         if not np.all(np.isfinite(y)):
             return RatioBound(value=math.nan, certified=False, steps=0, reason="the solver's dual is not finite")

@@ -37,7 +37,7 @@ import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.errors import InputError
-from fairaudit.base.exact_duality import certify_ratio, point_ratio
+from fairaudit.base.exact_duality import PreparedRows, certify_ratio, point_ratio, prepare_rows
 from fairaudit.base.fractional_inputs import ConstraintMatrix, check_bounds, check_vectors, constraint_rows
 from fairaudit.base.outward import fraction_down, fraction_up, up
 from fairaudit.base.threshold_rule import threshold_max_many
@@ -281,6 +281,19 @@ class FractionalProgram:
         row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
         self._program = ExactProgram(matrix, row_lower, row_upper, self.lower.tolist(), self.upper.tolist())
 
+    @functools.cached_property
+    def prepared_rows(self) -> PreparedRows:
+        """The program's constraint rows read once, exactly, for the weak-duality check of every solve's duals
+        (:func:`~fairaudit.base.exact_duality.prepare_rows`): the rows are the same for every (p, q).
+
+        Examples
+        --------
+        >>> prog = FractionalProgram(2, lower=0.0, upper=1.0, A_ub=[[-0.7, -0.3], [-0.3, -0.7]], b_ub=[-0.5, -0.5])
+        >>> prog.prepared_rows is prog.prepared_rows, prog.prepared_rows.n
+        (True, 2)
+        """
+        return prepare_rows(self._rows, self.n)
+
     def _result(self, p: FloatArray, q: FloatArray) -> Callable[..., FractionalResult]:
         """A :class:`FractionalResult` of the program for ``p`` and ``q``, given the rest."""
         return functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
@@ -459,7 +472,7 @@ class FractionalProgram:
         """The bound the rounded duals prove by weak duality (:func:`~fairaudit.base.exact_duality.certify_ratio`,
         rounded up), where it lies within :data:`CROSSOVER_TOLERANCE` of λ rounded up; else None."""
         p, q = self._pq
-        bound = certify_ratio(fraction_down(lam), p, q, self.lower, self.upper, self._rows, list(dual))
+        bound = certify_ratio(fraction_down(lam), p, q, self.lower, self.upper, self.prepared_rows, list(dual))
         exact = fraction_up(lam)
         near = bound.certified and bound.value - exact <= CROSSOVER_TOLERANCE * max(1.0, abs(exact))
         return bound.value if near else None

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fairaudit.base.exact_duality import certify_ratio, check_dual, dual_value, point_ratio
+from fairaudit.base.exact_duality import certify_ratio, check_dual, dual_value, point_ratio, prepare_rows
 from fairaudit.base.linear_fractional import FractionalProgram, lp_max
 from fairaudit.base.outward import fraction_up
 
@@ -98,3 +98,45 @@ def test_a_degenerate_vertex_is_solved_exactly():
     assert r.value - r.witness <= 4 * math.ulp(r.value)
     assert r.argmax[4] > 0.02 and r.argmax[5] == 0.0  # the vertex along the first row, not the crossing
     assert exact > Fraction(101, 68)  # the crossing's ratio (h = (., ., 1, 1, 0.01, 0.01)), 1.2e-14 relative lower
+
+
+def _b_by_hand(lam, p, q, lo, hi, rows, duals) -> Fraction:
+    """B(λ) = ν·b + Σ_i max(r_i lo_i, r_i hi_i), r = p − λq − Aᵀν, every term a Fraction (a second route)."""
+    F = Fraction
+    r = [F(pi) - lam * F(qi) for pi, qi in zip(p.tolist(), q.tolist(), strict=True)]
+    total = F(0)
+    for (a, b, _), y in zip(rows, duals, strict=True):
+        dense = a.toarray() if hasattr(a, "toarray") else a
+        for i, yi in enumerate(y.tolist()):
+            total += F(yi) * F(b[i])
+            for j, aij in enumerate(dense[i].tolist()):
+                r[j] -= F(yi) * F(aij)
+    return total + sum(max(ri * F(lo_i), ri * F(hi_i)) for ri, lo_i, hi_i in zip(r, lo.tolist(), hi.tolist()))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 5), st.integers(1, 4), st.booleans())
+def test_prepared_rows_give_the_dual_bound_computed_in_fractions(seed, n, m, sparse):
+    # the rows read once (their nonzeros as integers, only the rows with ν ≠ 0 used) against B(λ) summed in Fractions;
+    # duals with zeros (a floor that does not bind), tiny and negative entries on the equality rows, a sparse A
+    import scipy.sparse as sp
+
+    rng = np.random.default_rng(seed)
+    p, q = rng.dirichlet(np.ones(n)), rng.dirichlet(np.ones(n))
+    lo, hi = np.zeros(n), rng.uniform(0.5, 2.0, n)
+    a_ub = rng.uniform(-1, 1, (m, n)) * (rng.random((m, n)) < 0.7)
+    a_eq = rng.uniform(-1, 1, (2, n)) * 1e-20 ** rng.integers(0, 2)
+    rows = [
+        (sp.csr_matrix(a_ub) if sparse else a_ub, rng.uniform(-1, 1, m), "le"),
+        (a_eq, rng.uniform(-1, 1, 2), "eq"),
+    ]
+    duals = [rng.uniform(0, 3, m) * (rng.random(m) < 0.5), rng.normal(size=2) * 1e-30 ** rng.integers(0, 2)]
+    prepared = prepare_rows(rows, n)
+    for lam in (Fraction(0), Fraction(rng.uniform(0, 3)), Fraction(7, 3)):
+        expected = _b_by_hand(lam, p, q, lo, hi, rows, duals)
+        assert dual_value(lam, p, q, lo, hi, prepared, duals) == expected
+        assert dual_value(lam, p, q, lo, hi, rows, duals) == expected
+    bound = certify_ratio(1.0, p, q, lo, hi, prepared, duals)
+    assert repr(bound) == repr(certify_ratio(1.0, p, q, lo, hi, rows, duals))  # (NaN where not certified)
+    if bound.certified:  # the value proves B ≤ 0 there, in Fractions too
+        assert _b_by_hand(Fraction(bound.value), p, q, lo, hi, rows, duals) <= 0

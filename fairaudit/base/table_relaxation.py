@@ -113,8 +113,11 @@ def relaxation_bounds(
     ints, d = on_one_denominator(flat)
     exact = np.array(ints, dtype=object).reshape(2, len(groups), n_rows, -1)
     floats = np.array([[n / d for n in row] for row in ints]).reshape(2, len(groups), n_rows, -1)  # (to nearest)
+    cells = _distinct_cells(exact)[None, None]
+    exact, floats = (np.take_along_axis(v, cells, axis=-1) for v in (exact, floats))
     first, second = (np.array(v, dtype=np.intp) for v in zip(*pairs, strict=True))
-    forms = _Forms(exact[0], exact[1], floats[0], floats[1], first, second, d, _equal_cells(exact))
+    equal = cells[0, 0, :, :, None] == cells[0, 0, :, None, :]  # (a row's padding: its first cell again)
+    forms = _Forms(exact[0], exact[1], floats[0], floats[1], first, second, d, equal)
     t = [kept[groups[b]] or None for _, b in pairs]
     num, den = _thresholds(forms, t)
     zero = (exact[1] == 0).any(axis=-1).all(axis=-1)[second]  # (every row of Q_b has a decision with q = 0)
@@ -123,20 +126,23 @@ def relaxation_bounds(
     return {(groups[a], groups[b]): (u, theta) for (a, b), u, theta in zip(pairs, bounds, thetas, strict=True)}
 
 
-def _equal_cells(exact: np.ndarray) -> npt.NDArray[np.bool_]:
-    """Which decisions of a row are the same cell in every program, shape (rows, decisions, decisions): equal p and
-    q in every group's P and Q, exactly (``exact``, shape (2, groups, rows, decisions)); such decisions tie at
-    every θ (a utility that takes a few values over many decisions makes many)."""
+def _distinct_cells(exact: np.ndarray) -> IntArray:
+    """Each row's decisions but those that are the same cell as an earlier one (equal p and q in every group's P and
+    Q, exactly: ``exact``, shape (2, groups, rows, decisions)), in order, padded with the row's first decision: shape
+    (rows, k), k the most any row keeps. A decision left out ties with an earlier one at every θ, so R, the rows'
+    maximisers' p and q, and the relaxation are the same without it (a utility that takes a few values over many
+    decisions leaves out many)."""
     columns = exact.transpose(2, 3, 0, 1).reshape(exact.shape[2], exact.shape[3], -1).tolist()
-    earliest = np.array([[row.index(cell) for cell in row] for row in columns], dtype=np.intp)  # (== on ints)
-    return earliest[:, :, None] == earliest[:, None, :]
+    kept = [[u for u, cell in enumerate(row) if row.index(cell) == u] for row in columns]  # (== on ints: exact)
+    k = max(map(len, kept))
+    return np.array([row + [0] * (k - len(row)) for row in kept], dtype=np.intp)
 
 
 @dataclass(frozen=True)
 class _Forms:
     """The groups' coefficients, exactly (integers over ``d``, object arrays) and in floats, each of shape (groups,
-    rows, decisions), the programs' groups (program i is max (P_{first[i]}·K)/(Q_{second[i]}·K)) and which decisions
-    of a row are the same cell in every program (:func:`_equal_cells`)."""
+    rows, decisions), the decisions each row's distinct ones (:func:`_distinct_cells`), the programs' groups (program
+    i is max (P_{first[i]}·K)/(Q_{second[i]}·K)) and which of a row's decisions are the same cell (a row's padding)."""
 
     tops: np.ndarray
     bottoms: np.ndarray
@@ -286,15 +292,11 @@ def _float_errors(top: FloatArray, bottoms: FloatArray, theta: FloatArray, value
 def _bounds(
     forms: _Forms, num: np.ndarray, den: np.ndarray, t: Sequence[Fraction | None], zero: Sequence[bool]
 ) -> list[Fraction | float]:
-    """f(θ) per program, θ = num/den, exactly, each row's maximum of p − θq taken in integers over all its decisions
-    but those that are the same cell as an earlier one (``forms.equal``: equal values); without a floor, θ where R(θ)
-    ≤ 0 (max(θ, 1) where every row has a decision with q = 0: 0/0 = 1), else +inf."""
-    rows, decisions = forms.tops.shape[1:]
-    earliest = forms.equal.argmax(axis=-1) == np.arange(decisions)  # (each decision's first equal is itself)
-    cells = np.flatnonzero(earliest)  # (rows × decisions, row fastest: each row's start is its decision 0's)
-    tops, bottoms = (v.reshape(len(v), -1)[:, cells] for v in (forms.tops, forms.bottoms))
-    values = tops[forms.first] * den[:, None] - num[:, None] * bottoms[forms.second]
-    r = np.maximum.reduceat(values, np.flatnonzero(cells % decisions == 0), axis=1).sum(axis=1)  # R·d·den
+    """f(θ) per program, θ = num/den, exactly, each row's maximum of p − θq taken over all its (distinct) decisions in
+    integers; without a floor, θ where R(θ) ≤ 0 (max(θ, 1) where every row has a decision with q = 0: 0/0 = 1), else
+    +inf."""
+    values = forms.tops[forms.first] * den[:, None, None] - num[:, None, None] * forms.bottoms[forms.second]
+    r = values.max(axis=-1).sum(axis=-1)  # R·d·den
     out: list[Fraction | float] = []
     for rb, cn, cd, tb, z in zip(r.tolist(), num.tolist(), den.tolist(), t, zero, strict=True):
         theta = Fraction(cn, cd)

@@ -105,8 +105,7 @@ def relaxation_bounds(
     """
     groups = list(tops)
     below = tops if bottoms is None else bottoms
-    pairs = [(a, b) for a in range(len(groups)) for b in range(len(groups)) if a != b]
-    if not pairs:
+    if len(groups) < 2:
         return {}
     n_rows = len(tops[groups[0]])
     flat = [[v for row in form[a] for v in row] for form in (tops, below) for a in groups]
@@ -115,15 +114,18 @@ def relaxation_bounds(
     floats = np.array([[n / d for n in row] for row in ints]).reshape(2, len(groups), n_rows, -1)  # (to nearest)
     cells = _distinct_cells(exact)[None, None]
     exact, floats = (np.take_along_axis(v, cells, axis=-1) for v in (exact, floats))
-    first, second = (np.array(v, dtype=np.intp) for v in zip(*pairs, strict=True))
     equal = cells[0, 0, :, :, None] == cells[0, 0, :, None, :]  # (a row's padding: its first cell again)
-    forms = _Forms(exact[0], exact[1], floats[0], floats[1], first, second, d, equal)
-    t = [kept[groups[b]] or None for _, b in pairs]
-    num, den = _thresholds(forms, t)
-    zero = (exact[1] == 0).any(axis=-1).all(axis=-1)[second]  # (every row of Q_b has a decision with q = 0)
-    bounds = _bounds(forms, num, den, t, zero.tolist())
-    thetas = [None if v is None else Fraction(n, m) for n, m, v in zip(num.tolist(), den.tolist(), t, strict=True)]
-    return {(groups[a], groups[b]): (u, theta) for (a, b), u, theta in zip(pairs, bounds, thetas, strict=True)}
+    zero = (exact[1] == 0).any(axis=-1).all(axis=-1)  # (every row of Q_b has a decision with q = 0)
+    out: dict[tuple[int, int], tuple[Fraction | float, Fraction | None]] = {}
+    for a in range(len(groups)):  # (one numerator's programs at a time: memory in proportion to the input)
+        others = np.array([b for b in range(len(groups)) if b != a], dtype=np.intp)
+        forms = _Forms(exact[0], exact[1], floats[0], floats[1], np.full(len(others), a), others, d, equal)
+        t = [kept[groups[b]] or None for b in others.tolist()]
+        num, den = _thresholds(forms, t)
+        bounds = _bounds(forms, num, den, t, zero[others].tolist())
+        for b, u, n, m, v in zip(others.tolist(), bounds, num.tolist(), den.tolist(), t, strict=True):
+            out[groups[a], groups[b]] = (u, None if v is None else Fraction(n, m))
+    return out
 
 
 def _distinct_cells(exact: np.ndarray) -> IntArray:

@@ -329,6 +329,9 @@ class ExactProgram:
                 raise InputError(name, f"exceeds the upper bound {hi} at {k}", lo)
         self.lower = [None if v is None else _fmpq(v) for v in lower_fr]
         self.upper = [None if v is None else _fmpq(v) for v in upper_fr]
+        self._unbounded = [
+            v for v, (lo, hi) in enumerate(zip(lower_fr, upper_fr, strict=True)) if lo is None or hi is None
+        ]
         self.c: list[Any] = [0] * self.n
         self._highs: Any = None
         self._matrix: Any = None
@@ -468,11 +471,14 @@ class ExactProgram:
 
     def _given(self, basis: Sequence[Status]) -> list[Status]:
         status = list(basis)
-        if len(status) != self.n + self.m or any(s not in ("basic", "lower", "upper", "zero") for s in status):
+        if len(status) != self.n + self.m or not set(status) <= {"basic", "lower", "upper", "zero"}:
             raise InputError("basis", f"must give one of basic, lower, upper, zero for each of {self.n + self.m}")
         if status.count("basic") != self.m:
             raise InputError("basis", f"must hold {self.m} basic variables, one per row", status.count("basic"))
-        for v, s in enumerate(status):
+        # (only a variable without one of its bounds can sit at it wrongly; "zero" is for a free one alone)
+        loose = [v for v, s in enumerate(status) if s == "zero"] if "zero" in status else []
+        for v in sorted({*self._unbounded, *loose}):
+            s = status[v]
             if (s == "lower" and self.lower[v] is None) or (s == "upper" and self.upper[v] is None):
                 status[v] = _column_status(self.lower[v], self.upper[v])
             if s == "zero" and (self.lower[v] is not None or self.upper[v] is not None):
@@ -499,11 +505,11 @@ class ExactProgram:
         if not b.valid:
             return "slack", self._slack(), None
         names = {
-            highspy.HighsBasisStatus.kBasic: "basic",
-            highspy.HighsBasisStatus.kLower: "lower",
-            highspy.HighsBasisStatus.kUpper: "upper",
+            highspy.HighsBasisStatus.kBasic.value: "basic",
+            highspy.HighsBasisStatus.kLower.value: "lower",
+            highspy.HighsBasisStatus.kUpper.value: "upper",
         }
-        status = [names.get(s, "zero") for s in [*b.col_status, *b.row_status]]
+        status = [names.get(s.value, "zero") for s in [*b.col_status, *b.row_status]]  # (by value: no enum hashing)
         duals = np.asarray(h.getSolution().row_dual, dtype=float) * (scale if scale > 0 else 1.0)
         return "solver", self._given(status), duals  # type: ignore[arg-type]
 

@@ -151,3 +151,13 @@ def test_badly_scaled_programs_the_solver_leaves_unproved_are_finished_exactly()
         if r.status == "optimal":
             assert -r.value == ref.value
             assert weak_duality_bound(c, A, [-INF] * m, b, [0] * n, [1] * n, r.duals) == r.value
+
+
+def test_a_given_basis_puts_each_nonbasic_variable_at_a_bound_it_has_by_hand():
+    # max x + y (min −x − y) over x free, 0 ≤ y ≤ 1, x + y ≤ 3/2 and x ≤ 1 (rows): a basis given with the free x at a
+    # "lower" bound it lacks is read with x at 0 ("zero"), and y given "zero" though bounded is read at its lower
+    # bound; from x basic, y at 0 and the second row at its bound 1, the optimum is the vertex (1, 1/2), value −3/2
+    prog = ExactProgram([[1, 1], [1, 0]], [-INF, -INF], [1.5, 1], [-INF, 0], [INF, 1])
+    assert prog._given(["lower", "zero", "basic", "basic"]) == ["zero", "lower", "basic", "basic"]
+    r = prog.minimize([-1, -1], ["basic", "zero", "basic", "upper"])
+    assert (r.status, r.value, r.point) == ("optimal", F(-3, 2), (F(1), F(1, 2)))

@@ -27,12 +27,12 @@ rest) and the line of that table in integers:
 Without a floor, Newton's steps from θ = 0 reach R's least root ≥ 0, or a table with B = 0 shows there is none.
 Every step lands on a new piece of R (or of the pair of lines), so the steps end; :func:`_thresholds` stops after
 three times the pieces R can have, which only a wrong maximiser could reach. The bound is then computed at that θ
-exactly, in integers over one denominator, every row's maximum taken over all its decisions: θ only decides how tight
-the bound is, never whether it holds; where no table meets the floor (Σ_rows max q < t, f unbounded below), θ is the
-least float.
+exactly, in integers over one denominator, every row's maximum taken over all its decisions (a cell that repeats an
+earlier one in every group once): θ only decides how tight the bound is, never whether it holds; where no table meets
+the floor (Σ_rows max q < t, f unbounded below), θ is the least float.
 
-``fairaudit verify`` screens the pairs with it before relaxing any (``proofs/verification.md`` §4h), and certify's
-pair search orders its linear programs by it (``proofs/black_box.md`` §6).
+Certify's pair search orders its linear programs by it (``proofs/black_box.md`` §6), and the certificate records each
+θ, which ``fairaudit verify`` checks with its own arithmetic (``proofs/verification.md`` §4f, §4h).
 """
 
 from __future__ import annotations

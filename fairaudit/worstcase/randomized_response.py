@@ -222,6 +222,16 @@ def rr_witness_point(
     a, b : int
         The pair's released values (a ≠ b).
 
+    Returns
+    -------
+    list of Fraction or None
+        h, length k, in the utility's units, each in [lo, hi]; None as above.
+
+    Notes
+    -----
+    ``proofs/black_box.md`` §3, Proposition 3b (the floor point), ``proofs/verification.md`` §4f (why it holds at
+    verify's end of e^ε).
+
     Examples
     --------
     Three values at ε = ln 3, h in [0, 1], floor 0.3: a at 1 and the third value raised until (M h)[b] = 0.3, about

@@ -35,7 +35,6 @@ __all__ = [
     "PreparedRows",
     "RatioBound",
     "certify_ratio",
-    "check_dual",
     "dual_value",
     "on_one_denominator",
     "point_ratio",
@@ -177,7 +176,7 @@ class _Block:
 class PreparedRows:
     """A polytope's constraint rows read once, exactly, for the weak-duality checks of many programs over it.
 
-    What :func:`certify_ratio`, :func:`dual_value` and :func:`check_dual` take in place of the rows themselves, made by
+    What :func:`certify_ratio` and :func:`dual_value` take in place of the rows themselves, made by
     :func:`prepare_rows`: every program over a fixed polytope (a :class:`~fairaudit.base.linear_fractional.
     FractionalProgram`'s) has the same rows, so their nonzeros are sorted and read as integers once, and each check
     computes Aᵀν from the rows where ν ≠ 0 alone (a few floors bind at a time).
@@ -215,7 +214,7 @@ def prepare_rows(rows: Rows, n: int) -> PreparedRows:
 
     >>> rows = prepare_rows([(np.array([[-0.3, -0.7]]), np.array([-0.5]), "le")], 2)
     >>> p, q, one = np.array([0.7, 0.3]), np.array([0.3, 0.7]), np.ones(2)
-    >>> [check_dual(Fraction(11, 7), p, q, 0 * one, one, rows, [np.array([y])]) for y in (8 / 7, 1.0)]
+    >>> [dual_value(Fraction(11, 7), p, q, 0 * one, one, rows, [np.array([y])]) <= 0 for y in (8 / 7, 1.0)]
     [True, False]
     """
     return PreparedRows(rows, n, tuple(_Block.read(a, b, kind) for a, b, kind in rows))
@@ -321,35 +320,6 @@ def dual_value(
     Fraction(0, 1)
     """
     return _pieces(p, q, lower, upper, rows, duals).at(lam)[0]
-
-
-def check_dual(
-    lam: Fraction,
-    p: FloatArray,
-    q: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    rows: Rows | PreparedRows,
-    duals: list[FloatArray],
-) -> bool:
-    """Whether the duals prove the ratio ≤ λ on the polytope: every "le" dual ≥ 0 and B(λ) ≤ 0, exactly.
-
-    What a verifier runs on a recorded dual point (``FractionalResult.dual``).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> one = np.ones(1)
-    >>> check_dual(Fraction(2), np.array([2.0]), one, 0 * one, one, [], []), check_dual(Fraction(1), np.array([2.0]), one, 0 * one, one, [], [])
-    (True, False)
-    """
-    for (_, _, kind), y in zip(_given(rows), duals, strict=True):
-        y = np.asarray(y, dtype=float)
-        if not np.all(np.isfinite(y)) or (kind == "le" and np.any(y < 0)):
-            return False
-    if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
-        return False
-    return dual_value(lam, p, q, lower, upper, rows, duals) <= 0
 
 
 def certify_ratio(

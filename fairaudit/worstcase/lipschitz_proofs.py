@@ -21,7 +21,7 @@ from typing import Any
 
 from fairaudit.base.exact_programs import Polytope
 from fairaudit.base.json_values import Report
-from fairaudit.base.outward import exp_up
+from fairaudit.base.outward import exp_up, fraction_up
 from fairaudit.worstcase.worst_cases import exact_number
 
 __all__ = ["MAX_VARIABLES", "lipschitz_proof"]
@@ -108,21 +108,28 @@ def lipschitz_proof(
     polytope = Polytope([lo] * size, [hi] * size, a_ub, b_ub, size)
     if not polytope.feasible:
         return None
-    best: Fraction | float = Fraction(1)
+    best = Fraction(1)
     programs: list[Report] = []
     witness: Report | None = None
     for a, b in sorted(pairs, key=lambda pair: -screens[pair]):
         if programs and screens[(a, b)] <= best:
             break  # (and every pair after it: its screen proves it)
-        result = polytope.maximize_ratio(*pairs[(a, b)])
+        result = polytope.maximize_ratio(*pairs[(a, b)], start=best if programs else None)  # (pairs alike: near)
         if result.status != "optimal":  # q·h = 0 < p·h at a vertex: unbounded
             return {**out, "programs": programs, **_point(record, a, b, result.point)}
         assert result.value is not None and result.multipliers is not None  # (optimal)
         programs.append({"group": record["inputs"][a], "other_group": record["inputs"][b],
-                         "bound": exact_number(result.value), "rows": [exact_number(y) for y in result.multipliers]})  # fmt: skip
+                         "bound": _upward(result.value), "rows": [exact_number(y) for y in result.multipliers]})  # fmt: skip
         if witness is None or result.value > best:
             best, witness = result.value, _point(record, a, b, result.point)
     return {**out, "programs": programs, **(witness or {})}
+
+
+def _upward(value: Fraction) -> float | str:
+    """A bound as recorded: exactly (:func:`~fairaudit.worstcase.worst_cases.exact_number`), or the float above it
+    where that would round it (beyond 4,000 characters): a larger bound is proved by the same multipliers."""
+    written = exact_number(value)
+    return fraction_up(value) if isinstance(written, float) and Fraction(written) < value else written
 
 
 def _floor(tau: float | None) -> Fraction | None:

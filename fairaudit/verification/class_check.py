@@ -15,13 +15,14 @@ solved, and a vertex h of its maximiser (``proofs/verification.md`` §4b). λ bo
     max over the box of (p − λq − Aᵀy)·h + y·b ≤ 0
 
 (weak duality: y·(b − A h) ≥ 0 on H, so p·h ≤ λ q·h there), the box's maximum taken coordinate-wise (γ where the
-coefficient is positive, lower elsewhere). A pair without a recorded program is bounded by its screen (γ ΣM[a], or
-t ΣM[a'] h + L_A d ΣM[a], over the least denominator; t = max M[a]/M[a']), computed here. The rows are rebuilt here in
+coefficient is positive, lower elsewhere). A pair without a recorded program is bounded by its screen, computed
+here: E[g | a] ≤ γ ΣM[a], and ≤ t E[g | a'] + L_A d ΣM[a] (t = max M[a]/M[a']), each over the least denominator
+max(τ, lower ΣM[a']). The rows are rebuilt here in
 a fixed order: for the groups b < c (row-major) whose L_A d(b, c) < γ − lower (the box implies the others), for each
 released value, h[b] − h[c] ≤ L_A d then h[c] − h[b] ≤ L_A d; then, with τ, −M_A[b]·h[b] ≤ −τ for each group b. The
 variables are h[b, ã], group-major. Randomized response with one distance between groups has one program, the
-symmetric one of :func:`_symmetric` (its rows in the order built there). Its bound is checked at the e^ε the proof
-records (``at``, at least the upper end of e^ε here: the worst case is non-decreasing in e^ε, randomized response at a
+symmetric one of :func:`_symmetric` (its rows in the order built there). Behind randomized response the bounds are
+checked at the e^ε the proof records (``at``, at least the upper end of e^ε here: the worst case is non-decreasing in e^ε, randomized response at a
 smaller ε being the larger one followed by more randomized response, which joins the model), its witness at the lower
 end, moved toward γ where it misses a floor there. The class lets g depend on the context freely, so one context
 stands for all (``proofs/black_box.md`` §5, Consequence 2).

@@ -180,6 +180,19 @@ def test_a_tampered_proof_proves_nothing(change):
     assert _verified(record, 0.0, 1.0, 0.5, 0.1, proof=_tampered(proof, change))[1] == UNPROVEN
 
 
+def test_a_witness_that_misses_a_floor_is_moved_toward_gamma():
+    # the witness scaled by 1 − 1e-12 misses its binding floor M[b]·h ≥ τ by about 5e-13 (as randomized response's
+    # vertex may at the lower end of e^ε): verify moves it to (1 − δ) h + δγ, in the polytope, its ratio a lower end
+    record = _record([[0.7, 0.3], [0.3, 0.7]])
+    proof, exact = _verified(record, 0.0, 1.0, 0.5, 0.1)
+    shrunk = [float(F(v) * (1 - F(1, 10**12))) for v in proof["witness_point"]]
+    m = RecordedMechanism.from_record(record, "m")
+    rows = [[F(v) for v in r] for r in record["matrix"]]
+    assert min(sum(w * h for w, h in zip(r, shrunk[2 * b : 2 * b + 2])) for b, r in enumerate(rows)) < F(1, 2)
+    e = lipschitz_class_enclosure(m, F(0), F(1), F(1, 2), F(0.1), None, {**proof, "witness_point": shrunk})
+    assert e != UNPROVEN and e.hi == exact.hi and exact.hi * (1 - F(1, 10**11)) < e.lo < exact.lo
+
+
 def test_randomized_response_at_an_e_epsilon_below_its_own_proves_nothing():
     record = _rr_record(4, 1.0)
     proof, _ = _verified(record, 0.0, 1.0, 0.3, 0.05)

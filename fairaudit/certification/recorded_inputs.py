@@ -21,6 +21,7 @@ from fairaudit.laws.mechanisms import Mechanism
 from fairaudit.laws.tables import Kernel, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
 from fairaudit.worstcase.known_utility import worst_model
+from fairaudit.worstcase.lipschitz_proofs import lipschitz_proof
 
 if TYPE_CHECKING:
     from fairaudit.certification.spec import Spec
@@ -38,9 +39,10 @@ __all__ = [
 CERTIFICATE_FORMAT = "fairaudit-certificate"
 """The value of a certificate's ``format`` key."""
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 """The certificate format's version (``format_version``): raised whenever a key's meaning changes (2: the black
-box carries its proof per program, ``screens`` and exact multipliers ``"n/d"``)."""
+box carries its proof per program, ``screens`` and exact multipliers ``"n/d"``; 3: a calibration over the class
+Lipschitz in the group carries its members' proofs, which ``verify`` checks without solving)."""
 
 
 def json_array(a: npt.ArrayLike) -> Any:
@@ -166,11 +168,15 @@ def member_proofs(
     On L (and on L̄ through L, X and A independent) the class's worst case: one context ``"x"``, the member's
     groups, uniform, the utility (γ, lower) on two decisions and the class's τ (``proofs/black_box.md`` §1, §6: a
     utility free of the group enters only through h in [lower, γ]); on L̄ with X and A dependent, the worst case
-    for the spec's utility, population and context mechanism behind the member. None for the class Lipschitz in
-    the group (``verify`` solves it).
+    for the spec's utility, population and context mechanism behind the member. For the class Lipschitz in the
+    group, each member's :func:`~fairaudit.worstcase.lipschitz_proofs.lipschitz_proof` instead (where it records
+    one: ``verify`` lists a member without it as not re-derived).
     """
-    if cal is None or members is None or cal.lipschitz:
+    if cal is None or members is None:
         return {}
+    if cal.lipschitz:
+        proofs = {key: _lipschitz(spec, cal, m) for key, m in members.items() if key.startswith("black_box")}
+        return {key: proof for key, proof in proofs.items() if proof is not None}
     dependent = cal.kind == "global" and not spec.population.independence().independent
     out: dict[str, Report] = {}
     for key in ("black_box", "black_box_above"):
@@ -187,3 +193,12 @@ def member_proofs(
                                 tau=None if math.isnan(cal.tau) else cal.tau)  # fmt: skip
         out[key] = worst.to_dict()
     return out
+
+
+def _lipschitz(spec: Spec, cal: Calibration, m: Mechanism | None) -> Report | None:
+    """The proof of one member's worst case over the class Lipschitz in the group, on the numbers it records."""
+    if m is None:
+        return None
+    metric = None if spec.metric is None else np.asarray(spec.metric, dtype=float).tolist()
+    tau = None if math.isnan(cal.tau) else cal.tau
+    return lipschitz_proof(mechanism_inputs(m), cal.lower, cal.gamma, tau, cal.lipschitz, metric)

@@ -5,7 +5,7 @@
 numbers from its ``inputs`` in exact rational arithmetic with directed rounding (ln and exp enclosed by python-flint's
 ``arb`` balls, :mod:`~fairaudit.verification.enclosures`), importing neither cvxpy, Clarabel nor scipy. It imports
 nothing else of fairaudit, so that a third party reads one package (``tests/verification/test_init_independent.py``),
-but for now :mod:`fairaudit.base.exact_programs`, the small exact solves of ``class_check`` (the Lipschitz class),
-until certify records their proofs too: the black box over the model's table is bounded from the recorded proofs,
-nothing solved (issue 80). Guide: ``docs/certificates.md`` ("Checking a certificate").
+and it solves nothing: the black box over the model's table and the worst case over the class Lipschitz in the group
+are bounded from the proofs the certificate records, by weak duality in exact arithmetic, and their witnesses
+checked (issue 80). Guide: ``docs/certificates.md`` ("Checking a certificate").
 """

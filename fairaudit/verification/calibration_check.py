@@ -210,6 +210,7 @@ def _on_l(
             None if tau is None else Fraction(exact(tau, "calibration.tau")),
             Fraction(lipschitz),
             None if metric is None else recorded_array(metric, "inputs.utility.metric"),
+            proof,
         )
         return ratio if isinstance(ratio, str) else (ln_of(ratio), "worst case over the Lipschitz class")
     the_class = {

@@ -69,7 +69,7 @@ def certificate_schema() -> dict[str, Any]:
     --------
     >>> s = certificate_schema()
     >>> s["$schema"], s["properties"]["format_version"]
-    ('https://json-schema.org/draft/2020-12/schema', {'const': 2})
+    ('https://json-schema.org/draft/2020-12/schema', {'const': 3})
     """
     return json.loads(_schema_text())
 
@@ -205,7 +205,11 @@ def other_document(data: Mapping[str, Any]) -> str | None:
     "is a filter's parameters (fairaudit filter --parameters), not a certificate: pass it as --filter FILTER.json"
     >>> other_document({"format": "fairaudit-certificate"}) is None
     True
+    >>> other_document({"format": "fairaudit-certificate", "format_version": 2})
+    'is a certificate of format version 2, which this verify does not read: re-certify its spec (fairaudit certify) for format 3'
     """
+    if data.get("format") == "fairaudit-certificate" and data.get("format_version") in (1, 2):
+        return f"is a certificate of format version {data['format_version']}, which this verify does not read: re-certify its spec (fairaudit certify) for format 3"
     if data.get("format") == "fairaudit-filter":
         return "is a filter's parameters (fairaudit filter --parameters), not a certificate: pass it as --filter FILTER.json"
     if "format" in data or not {"experiment", "points"} <= set(data):

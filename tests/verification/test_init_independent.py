@@ -20,9 +20,8 @@ from fairaudit.filter.filters import PrivacyFilter
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "fairaudit" / "verification"
 
-# verify still solves small programs exactly with the certifier's rational simplex (kernel_check.py, class_check.py):
-# temporary, this goes when verify stops solving (issue 80)
-ALLOWED = {"fairaudit.base.exact_programs"}
+# verify solves nothing (issue 80): no module of fairaudit outside the package is allowed
+ALLOWED: set[str] = set()
 
 
 def imported(source: str, package: list[str]) -> set[str]:
@@ -132,5 +131,4 @@ def test_a_fresh_interpreter_verifies_with_verification_alone(tmp_path):
     )
     assert run.returncode == 0, run.stderr[-2000:]
     loaded = set(json.loads(run.stdout))
-    # the allowed module, the package it is in, and the one module it imports (fairaudit.base.errors)
-    assert loaded == {"fairaudit.base", "fairaudit.base.errors", *ALLOWED}
+    assert loaded == set()

@@ -58,7 +58,7 @@ def test_the_schema_is_a_valid_draft_2020_12_schema():
 def test_every_shipped_example_meets_the_schema(certificates):
     for name, data in certificates.items():
         check_certificate(data)
-        assert data["format"] == "fairaudit-certificate" and data["format_version"] == 2, name
+        assert data["format"] == "fairaudit-certificate" and data["format_version"] == 3, name
 
 
 def test_the_variants_are_those_the_schema_allows(certificates):
@@ -84,7 +84,7 @@ def failure(data: dict, change) -> CertificateError:
     [
         (lambda d: d.pop("inputs_sha256"), "inputs_sha256", None),
         (lambda d: d.update(inputs_sha256="ABC" + "0" * 61), "inputs_sha256", "ABC" + "0" * 61),
-        (lambda d: d.update(format_version=1), "format_version", 1),
+        (lambda d: d.update(format_version=7), "format_version", 7),
         (lambda d: d.update(format="other"), "format", "other"),
         (
             lambda d: d["inputs"]["sensitive_mechanism"].update(kind="laplace"),
@@ -123,7 +123,7 @@ def test_a_departure_is_named_by_its_json_path(certificates, change, field, valu
 def test_the_message_names_the_path_and_quotes_the_value(certificates):
     data = certificates["llm_hiring/gpt35.toml"]
     assert str(failure(data, lambda d: d.pop("inputs_sha256"))) == "inputs_sha256: is required"
-    assert str(failure(data, lambda d: d.update(format_version=1))) == "format_version: must be 2 (got 1)"
+    assert str(failure(data, lambda d: d.update(format_version=7))) == "format_version: must be 3 (got 7)"
     tau = failure(data, lambda d: d["inputs"]["utility"].update(tau="0.05"))
     assert str(tau) == "inputs.utility.tau: must be a number >= 0, or null (got '0.05')"
     kind = failure(data, lambda d: d["inputs"]["sensitive_mechanism"].update(kind="laplace"))

@@ -10,6 +10,7 @@ vertex enumeration of ``proofs/_exact.py``. The large-k tests assert memory (tra
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import sys
@@ -294,14 +295,19 @@ def test_black_box_lipschitz_example_2_in_fractions(monkeypatch):
 
 def rational_ends(k: int, eps: float, lower: float, tau: float, lip: float, metric: np.ndarray | None) -> tuple[F, F]:
     """The exact worst ratio over the class behind k-ary randomized response at e^epsilon's rational lower and upper
-    ends (the rational simplex on the whole program, every group's h; verify's route), which enclose the exact one."""
-    from fairaudit.verification.class_check import lipschitz_class_enclosure
+    ends (the rational simplex on the whole program, every group's h: the tests' exact route, verify's before its
+    certificates recorded proofs), which enclose the exact one."""
     from fairaudit.verification.enclosures import RecordedMechanism
 
+    path = Path(__file__).resolve().parents[1] / "verification" / "_exact_route.py"
+    spec = importlib.util.spec_from_file_location("_exact_route_for_worstcase", path)
+    assert spec is not None and spec.loader is not None
+    route = sys.modules.setdefault(spec.name, importlib.util.module_from_spec(spec))
+    spec.loader.exec_module(route)  # (registered first: its dataclasses look their module up)
     labels = [f"g{i}" for i in range(k)]
     record = {"inputs": labels, "outputs": labels, "kind": "randomized_response", "epsilon": eps}
     d = None if metric is None else [[F(float(v)) for v in row] for row in metric]  # the floats, exactly
-    e = lipschitz_class_enclosure(RecordedMechanism.from_record(record, "m"), F(lower), F(1), F(tau), F(lip), d)
+    e = route.lipschitz_class_exact(RecordedMechanism.from_record(record, "m"), F(lower), F(1), F(tau), F(lip), d)
     assert not isinstance(e, str), e
     return e.lo, e.hi
 

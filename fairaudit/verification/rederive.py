@@ -4,8 +4,7 @@
 SHA-256 of its ``inputs`` and re-derives, from those inputs alone and in exact rational arithmetic
 (:mod:`~fairaudit.verification.enclosures`), each number it can: the mechanisms' ε, the paper, tight and corollary
 bounds, every metric of the ``observed`` and ``unfiltered`` sections (L and L̄, L_dp and L_eo, the sups over g, their
-ratios) with each maximiser (:mod:`~fairaudit.verification.observed_check`,
-:mod:`~fairaudit.verification.metrics_check`), and the targets' verdicts.
+ratios) with each maximiser (:mod:`~fairaudit.verification.observed_check`), and the targets' verdicts.
 Each is a :class:`~fairaudit.verification.checks.Check`: it **holds** when it lies on its certified side of the exact
 value (an upper bound at or above it) and within the certificate's stated ``tolerance`` of it (1e-9 as certify
 writes it), relative to max(1, |value|), so that a number moved by 2e-9·max(1, |value|) fails; a measured value
@@ -38,7 +37,6 @@ from fairaudit.verification.enclosures import (
     ln_of,
     recorded_array,
 )
-from fairaudit.verification.metrics_check import metric_checks
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import recorded_checks
 from fairaudit.verification.schema import CertificateError
@@ -200,7 +198,6 @@ def _rederived(certificate: Mapping[str, Any], privacy_filter: Any, source: str)
     checks += _theorem_checks(certificate, sensitive, eps_a, skipped)
     checks += _black_box_checks(certificate, eps_a, skipped)
     checks += observed_checks(certificate, sensitive, context, skipped)
-    checks += metric_checks(certificate, sensitive, context, skipped)
     checks += _target_checks(certificate)
     if privacy_filter is not None:
         parameters = privacy_filter.to_dict() if hasattr(privacy_filter, "to_dict") else privacy_filter

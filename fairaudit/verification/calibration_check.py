@@ -23,7 +23,17 @@ from typing import Any
 from fairaudit.verification.black_box_check import black_box_enclosures
 from fairaudit.verification.checks import Check, judge, tolerance
 from fairaudit.verification.class_check import lipschitz_class_enclosure
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, ln, ln_of, recorded_array
+from fairaudit.verification.enclosures import (
+    INDEPENDENCE,
+    INF,
+    Enclosure,
+    RecordedMechanism,
+    exact,
+    independence,
+    ln,
+    ln_of,
+    recorded_array,
+)
 from fairaudit.verification.observed_check import observed_enclosures
 
 __all__ = ["calibration_checks"]
@@ -235,10 +245,8 @@ def _on_l_bar(
     min r over r(x, a) = P(x, a)/(P(x) P(a)) (1 when independent exactly; ``proofs/black_box.md`` §6); otherwise
     the exact worst L̄ over every model for the recorded utility, τ, population and context mechanism, behind the
     member."""
-    pop = recorded_array(cert["inputs"]["population"]["probabilities"], "inputs.population.probabilities")
-    p_x, p_a = [sum(row) for row in pop], [sum(col) for col in zip(*pop)]
-    deviation = max(abs(pop[x][a] - p_x[x] * p_a[a]) for x in range(len(p_x)) for a in range(len(p_a)))
-    if deviation > Fraction(1e-9):
+    deviation, spread = independence(cert["inputs"]["population"]["probabilities"])
+    if max(map(max, deviation)) > INDEPENDENCE:
         worst = black_box_enclosures(
             {**cert["inputs"], "sensitive_mechanism": record}, (cal.get("proofs") or {}).get(key)
         )
@@ -246,12 +254,11 @@ def _on_l_bar(
     on_l = _on_l(cert, cal, record, key)
     if isinstance(on_l, str):
         return on_l
-    r = [pop[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] for a in range(len(p_a)) if p_a[a]]
-    if max(r) == min(r):
+    if spread == 1:
         return on_l[0], "worst case on L (L-bar <= L: X and A independent)"
-    if min(r) == 0:  # a cell P(x, a) = 0 with P(x) P(a) > 0 (within 1e-9 of independence): F = +inf
+    if spread == INF:  # a cell P(x, a) = 0 with P(x) P(a) > 0 (within 1e-9 of independence): F = +inf
         return Enclosure.point(INF), "worst case on L plus ln F, F = +inf (a cell P(x, a) = 0 with P(x) P(a) > 0)"
-    return on_l[0] + ln(max(r) / min(r)), "worst case on L plus ln F (X and A independent within rounding)"
+    return on_l[0] + ln(spread), "worst case on L plus ln F (X and A independent within rounding)"
 
 
 def _observed(

@@ -27,6 +27,7 @@ __all__ = [
     "RecordedMechanism",
     "exact",
     "exp_of",
+    "independence",
     "ln",
     "ln_of",
     "recorded_array",
@@ -103,6 +104,28 @@ def recorded_array(value: Any, field: str) -> list[Any]:
     if isinstance(value, list):
         return [recorded_array(v, f"{field}[{i}]") for i, v in enumerate(value)]
     return None if value is None else exact(value, field)  # type: ignore[return-value]
+
+
+INDEPENDENCE = Fraction(1e-9)
+"""max |P(x, a) − P(x) P(a)| up to which certify calls X and A independent (``Population.independence``)."""
+
+
+def independence(probabilities: Any) -> tuple[list[list[Fraction]], Fraction | float]:
+    """The recorded population's departure from independence, exactly: |P(x, a) − P(x) P(a)| as [x][a], and
+    F = max r / min r over r(x, a) = P(x, a)/(P(x) P(a)) where P(x), P(a) > 0 (1 when X and A are independent, +inf
+    where some r is 0; ``proofs/black_box.md`` §6).
+
+    Examples
+    --------
+    >>> deviation, spread = independence([[0.5, 0.0], [0.25, 0.25]])
+    >>> deviation[0], spread
+    ([Fraction(1, 8), Fraction(1, 8)], inf)
+    """
+    p = recorded_array(probabilities, "inputs.population.probabilities")
+    p_x, p_a = [sum(row) for row in p], [sum(col) for col in zip(*p)]
+    r = [p[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] for a in range(len(p_a)) if p_a[a]]
+    deviation = [[abs(p[x][a] - p_x[x] * p_a[a]) for a in range(len(p_a))] for x in range(len(p_x))]
+    return deviation, INF if min(r) == 0 else max(r) / min(r)
 
 
 BITS = 200

@@ -28,14 +28,15 @@ from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge, stated_tolerance
 from fairaudit.verification.distribution_check import distribution_checks
 from fairaudit.verification.enclosures import (
+    INDEPENDENCE,
     INF,
     Enclosure,
     RecordedMechanism,
     exact,
     exp_of,
+    independence,
     ln,
     ln_of,
-    recorded_array,
 )
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import recorded_checks
@@ -414,29 +415,23 @@ def _witness_checks(
     return out
 
 
-DEPENDENCE = Fraction(1e-9)
-"""max |P(x, a) − P(x) P(a)| beyond which certify calls X and A dependent and bounds L̄ from L no more (its
-``Population.independence`` rule, evaluated in floats: within 2^-40 relative of it, either reading is accepted)."""
-
-
 def _global_from_best(bounds: Mapping[str, Any], probabilities: Any) -> Check:
     """``bounds.global`` from L's best bound: L-bar <= L + ln F, F = max r / min r with r(x, a) = P(x, a)/(P(x) P(a))
     over P(x) > 0 and P(a) > 0 (1 when X and A are independent exactly; ``proofs/black_box.md`` §6). The bound
-    holds whatever F; certify gives it for X and A independent to :data:`DEPENDENCE`, and +inf beyond."""
-    p = recorded_array(probabilities, "inputs.population.probabilities")
-    p_x, p_a = [sum(row) for row in p], [sum(col) for col in zip(*p)]
-    r = [p[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] > 0 for a in range(len(p_a)) if p_a[a] > 0]
-    if max(r) == min(r):
+    holds whatever F; certify gives it for X and A independent to 1e-9 (:data:`~fairaudit.verification.enclosures.INDEPENDENCE`, its
+    ``Population.independence`` rule evaluated in floats: within 2^-40 relative of it, either reading is accepted), and
+    +inf beyond."""
+    deviation, spread = independence(probabilities)
+    if spread == 1:
         return equal("bounds.global", bounds["global"], bounds["best"], "the best bound on L")
-    if min(r) == 0:
+    if spread == INF:
         return equal("bounds.global", bounds["global"], "inf", "X and A dependent: no bound from L")
-    deviation = max(abs(p[x][a] - p_x[x] * p_a[a]) for x in range(len(p_x)) for a in range(len(p_a)))
-    if bounds["global"] == "inf" and deviation >= DEPENDENCE * (1 - Fraction(1, 2**40)):
+    if bounds["global"] == "inf" and max(map(max, deviation)) >= INDEPENDENCE * (1 - Fraction(1, 2**40)):
         return equal(
             "bounds.global", "inf", "inf", "X and A dependent beyond 1e-9: certify bounds L-bar from L no more"
         )
     best = exact(bounds["best"], "bounds.best")
-    return judge("bounds.global", bounds["global"], Enclosure.point(best) + ln(max(r) / min(r)), "upper",
+    return judge("bounds.global", bounds["global"], Enclosure.point(best) + ln(spread), "upper",
                  "the best bound on L + ln F (X and A independent within rounding)")  # fmt: skip
 
 

@@ -283,11 +283,8 @@ class RecordedMechanism:
 
     def rr_rows(self) -> tuple[Enclosure, Enclosure]:
         """Randomized response's (p, q) = (t/(t + k − 1), 1/(t + k − 1)), enclosed (p increases in t, q decreases)."""
-        t, m = self.t(), self.k - 1
-        if t.hi == INF:
-            lo_p = Fraction(1) if t.lo == INF else t.lo / (t.lo + m)
-            return Enclosure(lo_p, Fraction(1)), Enclosure(Fraction(0), 1 / (t.lo + m) if t.lo != INF else Fraction(0))
-        return Enclosure(t.lo / (t.lo + m), t.hi / (t.hi + m)), Enclosure(1 / (t.hi + m), 1 / (t.lo + m))
+        (p_lo, q_hi), (p_hi, q_lo) = self.rr_ends()
+        return Enclosure(p_lo, p_hi), Enclosure(q_lo, q_hi)
 
     def epsilon_enclosure(self) -> Enclosure:
         """ε(M) = max over outputs and pairs of ln M[a, o]/M[a', o] (+inf when one input reaches an output another

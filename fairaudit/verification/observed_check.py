@@ -60,33 +60,24 @@ def composed_law(
     >>> composed_law([[[Fraction(1), Fraction(0)], [Fraction(0), Fraction(1)]]], half, alone, True)
     [[[Fraction(1, 2), Fraction(1, 2)], [Fraction(0, 1), Fraction(1, 1)]]]
     """
-    rows_a = sensitive.matrix_rows()
-    if rows_a is None:  # randomized response: Q = p K + q (S − K), S the sum over released groups
-        p, q = sensitive.rr_rows()
-        pe, qe = (p.lo, q.lo) if low else (p.hi, q.hi)
-        by_a = []
-        for plane in kernel:
-            total = [sum(col) for col in zip(*plane)]
-            by_a.append([[pe * c + qe * (s - c) for c, s in zip(cell, total)] for cell in plane])
-    else:
-        by_a = [
-            [[sum(w * plane[j][u] for j, w in enumerate(row) if w) for u in range(len(plane[0]))] for row in rows_a]
-            for plane in kernel
-        ]
-    rows_x = context.matrix_rows()
+    by_a = [_through(sensitive, plane, low) for plane in kernel]  # Σ_ã M_A[a, ã] K[x̃, ã, u], by released context
     if context.kind == "identity":
         return by_a
-    if rows_x is None:
-        p, q = context.rr_rows()
-        pe, qe = (p.lo, q.lo) if low else (p.hi, q.hi)
-        rows_x = tuple(tuple(Fraction(pe if i == j else qe) for j in range(context.k)) for i in range(context.k))
-    return [
-        [
-            [sum(w * by_a[j][a][u] for j, w in enumerate(row) if w) for u in range(len(by_a[0][0]))]
-            for a in range(len(by_a[0]))
-        ]
-        for row in rows_x
-    ]
+    n_a, n_u = len(by_a[0]), len(by_a[0][0])
+    by_x = _through(context, [[v for row in plane for v in row] for plane in by_a], low)
+    return [[row[a * n_u : (a + 1) * n_u] for a in range(n_a)] for row in by_x]
+
+
+def _through(m: RecordedMechanism, rows: Sequence[Sequence[Fraction]], low: bool) -> list[list[Fraction]]:
+    """Σ_ĩ M[i, ĩ] rows[ĩ] for each input i of M, at the low or the high end of M's enclosure (randomized response:
+    p rows[i] + q (S − rows[i]), S the sum of the rows)."""
+    exact_rows = m.matrix_rows()
+    if exact_rows is None:
+        p, q = (e.lo if low else e.hi for e in m.rr_rows())
+        total = [sum(column) for column in zip(*rows)]
+        return [[p * c + q * (t - c) for c, t in zip(row, total)] for row in rows]
+    n = len(rows[0])
+    return [[sum((w * rows[j][u] for j, w in enumerate(ws) if w), Fraction(0)) for u in range(n)] for ws in exact_rows]
 
 
 def expected_utility(law: list[Any], g: list[Any]) -> list[list[Fraction]]:

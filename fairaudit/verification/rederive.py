@@ -502,16 +502,15 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
 
     bounds, detail = cert["bounds"], cert["bound_details"]["black_box"]
     if bounds["black_box"] is None:
-        skipped.append(("bounds.black_box", "the certificate gives no black-box bound"))
-        skipped.append(("bound_details.black_box", "the certificate gives no black-box bound"))
+        skipped += [
+            (n, "the certificate gives no black-box bound") for n in ("bounds.black_box", "bound_details.black_box")
+        ]
         if bounds.get("global") is None:
             return []
         return [_global_from_best(bounds, cert["inputs"]["population"]["probabilities"])]  # L-bar from L, or +inf
     worst = black_box_enclosures(cert["inputs"], detail)
     if worst.local is None:
-        skipped.append(("bounds.black_box", worst.reason))
-        skipped.append(("bounds.global", worst.reason))
-        skipped.append(("bound_details.black_box", worst.reason))
+        skipped += [(n, worst.reason) for n in ("bounds.black_box", "bounds.global", "bound_details.black_box")]
         return []
     local = _below_epsilon(worst.local, eps_a) if worst.group_free else ln_of(worst.local)
     out = [
@@ -526,8 +525,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     clips = (worst.group_free, worst.independent and worst.group_free)
     out += _maximiser_checks(cert, detail, glob, worst.global_ is not None, eps_a, clips, skipped)
     if worst.global_ is None:
-        skipped.append(("bounds.global", worst.reason))
-        skipped.append(("bound_details.black_box.global", worst.reason))
+        skipped += [("bounds.global", worst.reason), ("bound_details.black_box.global", worst.reason)]
     elif glob.get("value") is not None:
         clip = worst.independent and worst.group_free
         on_l_bar = _below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)

@@ -76,12 +76,10 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
     settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     if isinstance(settings, str):
         return WorstCaseEnclosures(None, None, settings)
-    ends = [(_local(p), _global(p)) for p in settings]
-    local = Enclosure(ends[0][0][0], ends[-1][0][1])
-    global_ = Enclosure(ends[0][1][0], ends[-1][1][1])
-    duals = any(end[2] for pair in ends for end in pair)
+    local, global_ = [_local(p) for p in settings], [_global(p) for p in settings]
+    duals = any(end[2] for end in local + global_)
     first = settings[0]
-    return WorstCaseEnclosures(local, global_, "", _alike(first), first.local.group_free, duals)
+    return WorstCaseEnclosures(_span(local), _span(global_), "", _alike(first), first.local.group_free, duals)
 
 
 class PairEnclosures(NamedTuple):
@@ -152,10 +150,13 @@ def pair_enclosures(
     present = settings[0].several and {a, b} <= set(population(inputs, len(groups))[4])
     local_ends = None if i is None or only == "global" else [_local(p, (i, a, b)) for p in settings]
     global_ends = [_global(p, (a, b)) for p in settings] if present and only != "local" else None
-    local = None if local_ends is None else Enclosure(local_ends[0][0], local_ends[-1][1])
-    global_ = None if global_ends is None else Enclosure(global_ends[0][0], global_ends[-1][1])
     duals = any(e[2] for e in [*(local_ends or []), *(global_ends or [])])
-    return PairEnclosures(local, global_, duals)
+    return PairEnclosures(_span(local_ends), _span(global_ends), duals)
+
+
+def _span(ends: list[Ends] | None) -> Enclosure | None:
+    """The enclosure from the lower end at the first setting (e^ε's lower end) to the upper end at the last."""
+    return None if ends is None else Enclosure(ends[0][0], ends[-1][1])
 
 
 def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] | str:

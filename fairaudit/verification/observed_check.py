@@ -129,6 +129,7 @@ class ObservedEnclosures:
     ends: list[Any]  # E[g | x, a] at the low and at the high end of the mechanisms' enclosures
     present: int  # the groups with P(A = a) > 0: L̄ is undefined with fewer than two
     laws: list[Any]  # the law Q[x][a][u] at the low and at the high end (each entry increases from one to the other)
+    by_group: list[Any]  # E[g | a] per group, a row of one (low, high) pair; None where P(A = a) = 0
 
 
 def observed_enclosures(
@@ -182,17 +183,11 @@ def observed_enclosures(
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     laws = [composed_law(kernel, sensitive, context, low) for low in (True, False)]
     ends = [expected_utility(law, g) for law in laws]
-    live = [x for x in range(len(pop)) if sum(pop[x]) > 0]
-    local = max_ratio([[(e_lo, e_hi) for e_lo, e_hi in zip(ends[0][x], ends[1][x])] for x in live])
-    by_group = []
-    for a in range(len(pop[0])):
-        mass = sum(pop[x][a] for x in range(len(pop)))
-        if mass == 0:
-            continue
-        lo = sum(pop[x][a] * ends[0][x][a] for x in range(len(pop))) / mass
-        hi = sum(pop[x][a] * ends[1][x][a] for x in range(len(pop))) / mass
-        by_group.append((lo, hi))
-    return ObservedEnclosures(local, max_ratio([by_group]), ends, len(by_group), laws)
+    local = max_ratio([list(zip(ends[0][x], ends[1][x])) for x in range(len(pop)) if sum(pop[x]) > 0])
+    mass = [sum(row[a] for row in pop) for a in range(len(pop[0]))]
+    by_group = _group_plane(pop, mass, [[[[e] for e in row] for row in end] for end in ends])  # E[g | a]
+    present = [row[0] for row in by_group if row is not None]
+    return ObservedEnclosures(local, max_ratio([present]), ends, len(present), laws, by_group)
 
 
 def observed_checks(
@@ -358,8 +353,7 @@ def _section_checks(
         out.append(equal(f"{name}.global.ratio", glob["ratio"], None, _UNDEFINED))
     else:
         out.append(judge(f"{name}.global.ratio", glob["ratio"], found.global_, "estimate"))
-    e_plane = _group_plane(pop, mass, [[[[e] for e in row] for row in end] for end in found.ends])  # E[g | a]
-    out.append(_named(f"{name}.global (its groups)", {**glob, "context": None, "decision": "E[g]"}, {None: e_plane},
+    out.append(_named(f"{name}.global (its groups)", {**glob, "context": None, "decision": "E[g]"}, {None: found.by_group},
                       (labels[0], ["E[g]"]), pairless or undefined))  # fmt: skip
     zero, one = Enclosure.point(Fraction(0)), Enclosure.point(Fraction(1))
     dp = None if undefined else zero if pairless else _max_tv(global_planes)

@@ -18,7 +18,7 @@ import hashlib
 import itertools
 import json
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -304,16 +304,16 @@ def _filter_check(m: RecordedMechanism, parameters: Mapping[str, Any]) -> Check:
             return verdict(True, "the filter's exact e^epsilon is at most the certificate's")
         why = "exceeds" if ratio > t.hi else "cannot be shown to be at most"
         return verdict(False, f"the filter's exact e^epsilon {why} the certificate's")
-    if tuple(tuple(Fraction(n, den) for n in row) for row in rows()) == m.matrix_rows():
+    if tuple(tuple(Fraction(n, den) for n in row) for row in rows) == m.matrix_rows():
         return verdict(True, "the filter's rows are the certificate's, exactly")
     return verdict(False, "the filter's rows are not the certificate's matrix")
 
 
-def _filter_rows(data: Any, where: str) -> tuple[str, list[Any], list[Any], int, Callable[[], list[list[int]]]]:
+def _filter_rows(data: Any, where: str) -> tuple[str, list[Any], list[Any], int, list[list[int]]]:
     """A filter's parameters (docs/filter.md, "The JSON") read exactly: its kind, inputs and outputs (JSON labels, a
-    product's the lists of its components'), its denominator and a function that builds its integer rows
-    (randomized response's from keep and move, a product's the Kronecker product of its components'), each row
-    checked to be a distribution over the denominator.
+    product's the lists of its components'), its denominator and its integer rows (randomized response's from keep
+    and move, a product's the Kronecker product of its components'), each row checked to be a distribution over the
+    denominator.
 
     Raises
     ------
@@ -327,34 +327,23 @@ def _filter_rows(data: Any, where: str) -> tuple[str, list[Any], list[Any], int,
             parts = [_filter_rows(c, f"{where}.components[{i}]") for i, c in enumerate(data["components"])]
             inputs = [list(t) for t in itertools.product(*(p[1] for p in parts))]
             outputs = [list(t) for t in itertools.product(*(p[2] for p in parts))]
-
-            def kronecker() -> list[list[int]]:
-                tables = itertools.product(*(p[4]() for p in parts))
-                return [[math.prod(x) for x in itertools.product(*row)] for row in tables]
-
-            return kind, inputs, outputs, math.prod(p[3] for p in parts), kronecker
+            tables = itertools.product(*(p[4] for p in parts))
+            rows = [[math.prod(x) for x in itertools.product(*row)] for row in tables]
+            return kind, inputs, outputs, math.prod(p[3] for p in parts), rows
         den = int(data["denominator"])
         if kind == "randomized_response":
             inputs = outputs = list(data["values"])
             keep, move, k = int(data["keep"]), int(data["move"]), len(inputs)
-            valid = min(keep, move) >= 0 and keep + (k - 1) * move == den
-
-            def rows() -> list[list[int]]:
-                return [[keep if o == a else move for o in range(k)] for a in range(k)]
-
+            rows = [[keep if o == a else move for o in range(k)] for a in range(k)]
         else:
             inputs, outputs = list(data["inputs"]), list(data["outputs"])
-            matrix = [list(map(int, r)) for r in data["rows"]]
-            valid = kind == "matrix" and len(matrix) == len(inputs) and all(
-                len(r) == len(outputs) and min(r, default=0) >= 0 and sum(r) == den for r in matrix)  # fmt: skip
-
-            def rows() -> list[list[int]]:
-                return matrix
-
+            rows = [list(map(int, r)) for r in data["rows"]]
     except CertificateError:
         raise
     except (KeyError, TypeError, ValueError) as exc:
         raise CertificateError(where, f"is not a filter's parameters (filter --parameters): {exc!r}") from None
+    valid = kind in ("matrix", "randomized_response") and len(rows) == len(inputs) and all(
+        len(r) == len(outputs) and min(r, default=0) >= 0 and sum(r) == den for r in rows)  # fmt: skip
     if not valid or den <= 0:
         raise CertificateError(where, "must have rows of whole numbers >= 0 summing to its denominator", den)
     return kind, inputs, outputs, den, rows

@@ -111,7 +111,7 @@ INDEPENDENCE = Fraction(1e-9)
 
 
 def independence(probabilities: Any) -> tuple[list[list[Fraction]], Fraction | float]:
-    """The recorded population's departure from independence, exactly: |P(x, a) − P(x) P(a)| as [x][a], and
+    """The recorded population's departure from independence, exactly: |P(x, a) − P(x) P(a)| indexed ``[x][a]``, and
     F = max r / min r over r(x, a) = P(x, a)/(P(x) P(a)) where P(x), P(a) > 0 (1 when X and A are independent, +inf
     where some r is 0; ``proofs/black_box.md`` §6).
 

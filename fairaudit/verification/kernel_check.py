@@ -191,8 +191,29 @@ def three_cell_settings(
 def population(
     inputs: Mapping[str, Any], k: int
 ) -> tuple[list[list[list[Fraction]]], Fraction | None, list[int], list[list[Fraction]], list[int], bool]:
-    """The recorded utility and population, exactly, in :class:`KernelSetting`'s order: (g as [x][a][u], τ, the live
-    contexts, P(x | a) as [live x][a], the groups present, whether g is free of the group)."""
+    """The recorded utility and population, exactly, in :class:`KernelSetting`'s order.
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs``: its ``utility`` (``values``, ``tau``) and ``population`` are read.
+    k : int
+        The number of groups.
+
+    Returns
+    -------
+    tuple
+        g indexed ``[x][a][u]``, τ (None for no floor), the live contexts (P(X = x) > 0), P(x | a) indexed
+        ``[live x][a]`` (0 for a group absent), the groups present (P(A = a) > 0) and whether g is free of the group
+        (``proofs/verification.md`` §4d).
+
+    Examples
+    --------
+    >>> inputs = {"utility": {"values": [1.0, 0.0], "tau": None}, "population": {"probabilities": [[0.5, 0.0]]}}
+    >>> g, tau, live, weights, present, group_free = population(inputs, 2)
+    >>> live, weights, present, group_free
+    ([0], [[Fraction(1, 1), Fraction(0, 1)]], [0], True)
+    """
     u = inputs["utility"]
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     values = recorded_array(u["values"], "inputs.utility.values")

@@ -129,16 +129,19 @@ def unaccounted(
     names = {c.name for c in checks}
     reasons = [name for name, _ in skipped]
     out: dict[str, str] = {}
+    groups: dict[tuple[int, str], str] = {}  # (a kind, the text it matched): its group (expand is slow)
     for key, value in certificate.items():
         if key in _SKIP:
             continue
         for path in _numbers(value, key):
             if _covered(path, names, reasons):
                 continue
-            for pattern, group, reason in KINDS:
+            for i, (pattern, group, reason) in enumerate(KINDS):
                 match = re.search(pattern, path)
                 if match:
-                    out.setdefault(match.expand(group), reason)
+                    if (i, match[0]) not in groups:
+                        groups[i, match[0]] = match.expand(group)
+                    out.setdefault(groups[i, match[0]], reason)
                     break
             else:
                 out.setdefault(path, "not re-derived")

@@ -25,7 +25,7 @@ from typing import Any, NamedTuple
 
 from fairaudit.verification.dual_check import Evidence
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, recorded_array
-from fairaudit.verification.kernel_check import KernelSetting, kernel_settings, three_cell_settings
+from fairaudit.verification.kernel_check import KernelSetting, kernel_settings, population, three_cell_settings
 from fairaudit.verification.table_check import Ends, table_global, table_local
 
 __all__ = ["PairEnclosures", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
@@ -76,12 +76,10 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
     settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     if isinstance(settings, str):
         return WorstCaseEnclosures(None, None, settings)
-    ends = [(_local(p), _global(p)) for p in settings]
-    local = Enclosure(ends[0][0][0], ends[-1][0][1])
-    global_ = Enclosure(ends[0][1][0], ends[-1][1][1])
-    duals = any(end[2] for pair in ends for end in pair)
+    local, global_ = [_local(p) for p in settings], [_global(p) for p in settings]
+    duals = any(end[2] for end in local + global_)
     first = settings[0]
-    return WorstCaseEnclosures(local, global_, "", _alike(first), first.local.group_free, duals)
+    return WorstCaseEnclosures(_span(local), _span(global_), "", _alike(first), first.local.group_free, duals)
 
 
 class PairEnclosures(NamedTuple):
@@ -149,13 +147,16 @@ def pair_enclosures(
     a, b = groups.index(group), groups.index(other_group)
     live = settings[0].local.live
     i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
-    present = settings[0].several and a in _present(inputs) and b in _present(inputs)
+    present = settings[0].several and {a, b} <= set(population(inputs, len(groups))[4])
     local_ends = None if i is None or only == "global" else [_local(p, (i, a, b)) for p in settings]
     global_ends = [_global(p, (a, b)) for p in settings] if present and only != "local" else None
-    local = None if local_ends is None else Enclosure(local_ends[0][0], local_ends[-1][1])
-    global_ = None if global_ends is None else Enclosure(global_ends[0][0], global_ends[-1][1])
     duals = any(e[2] for e in [*(local_ends or []), *(global_ends or [])])
-    return PairEnclosures(local, global_, duals)
+    return PairEnclosures(_span(local_ends), _span(global_ends), duals)
+
+
+def _span(ends: list[Ends] | None) -> Enclosure | None:
+    """The enclosure from the lower end at the first setting (e^ε's lower end) to the upper end at the last."""
+    return None if ends is None else Enclosure(ends[0][0], ends[-1][1])
 
 
 def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] | str:
@@ -171,8 +172,8 @@ def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] 
         settings = kernel_settings(inputs, m, context, evidence)
         return [_Programs(s, s, False, False, len(s.present) >= 2) for s in settings]
     local = three_cell_settings(inputs, m, evidence, (0, 1))
-    present = _present(inputs)
-    if len(present) < 2 or not all(w[a] == w[present[0]] for w in _full_weights(inputs) for a in present):
+    _, _, _, weights, present, _ = population(inputs, m.k)
+    if len(present) < 2 or not all(w[a] == w[present[0]] for w in weights for a in present):
         full = kernel_settings(inputs, m, context, evidence) if len(present) >= 2 else local
         return [_Programs(s, f, True, False, len(present) >= 2) for s, f in zip(local, full, strict=True)]
     global_ = three_cell_settings(inputs, m, evidence, (present[0], present[1]))
@@ -187,19 +188,6 @@ class _Programs(NamedTuple):
     local_cells: bool
     global_cells: bool
     several: bool  # at least two groups have P(A = a) > 0 (else L̄ = 0)
-
-
-def _present(inputs: Mapping[str, Any]) -> list[int]:
-    """The groups with P(A = a) > 0."""
-    pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
-    return [a for a in range(len(pop[0])) if any(row[a] for row in pop)]
-
-
-def _full_weights(inputs: Mapping[str, Any]) -> list[list[Fraction]]:
-    """P(x | a) over the live contexts, [live x][a] (0 for a group absent)."""
-    pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
-    mass = [sum(col) for col in zip(*pop)]
-    return [[v / mass[a] if mass[a] else Fraction(0) for a, v in enumerate(row)] for row in pop if sum(row) > 0]
 
 
 def _alike(p: _Programs) -> bool:

@@ -16,14 +16,24 @@ re-derived from the member recorded just above it (``inputs.calibration.black_bo
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.black_box_check import black_box_enclosures
 from fairaudit.verification.checks import Check, judge, tolerance
 from fairaudit.verification.class_check import lipschitz_class_enclosure
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, ln, ln_of, recorded_array
+from fairaudit.verification.enclosures import (
+    INDEPENDENCE,
+    INF,
+    Enclosure,
+    RecordedMechanism,
+    exact,
+    independence,
+    ln,
+    ln_of,
+    recorded_array,
+)
 from fairaudit.verification.observed_check import observed_enclosures
 
 __all__ = ["calibration_checks"]
@@ -94,59 +104,60 @@ def calibration_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) 
         return []
     out: list[Check] = []
     if cal.get("epsilon") is not None and members.get("black_box") is not None:
-        out += _black_box(cert, cal, members["black_box"], skipped)
+        worst = _on_l_bar if cal.get("kind") == "global" else _on_l
+        out += _member_checks(cal, "calibration", members, "black_box", lambda r, k: worst(cert, cal, r, k), skipped)
     elif cal.get("epsilon") is not None:
         skipped.append(("calibration", "no member recorded at the calibrated epsilon"))
     else:
         skipped.append(("calibration", "no epsilon meets the target: it certifies no member (its reason says why)"))
     white = cal.get("white_box")
     if white is not None and members.get("white_box") is not None:
-        out += _white_box(cert, white, members["white_box"], skipped)
+        observed = lambda r, k: _observed(cert, white, r, k)  # noqa: E731
+        out += _member_checks(white, "calibration.white_box", members, "white_box", observed, skipped)
     elif white is not None and white.get("epsilon") is None:
         skipped.append(("calibration.white_box", "no epsilon meets the target: it certifies no member"))
     return out
 
 
-def _member(record: Mapping[str, Any], field: str) -> tuple[RecordedMechanism, Enclosure]:
-    m = RecordedMechanism.from_record(record, field)
-    return m, m.epsilon_enclosure()
+Worst = Callable[[Mapping[str, Any], str], "tuple[Enclosure, str] | str"]
+"""A member's value from its record and its key in ``inputs.calibration``, with what it is; or why not re-derived."""
 
 
-def _black_box(
-    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], skipped: list[tuple[str, str]]
+def _member_checks(
+    cal: Mapping[str, Any],
+    where: str,
+    members: Mapping[str, Any],
+    key: str,
+    worst: Worst,
+    skipped: list[tuple[str, str]],
 ) -> list[Check]:
-    """The member's ε, and its worst case over every model (on L, or on L̄), at most the bound and the target."""
-    m, eps = _member(record, "inputs.calibration.black_box")
-    out = [judge("calibration.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
-    proofs = cal.get("proofs") or {}
-    worst = (
-        _on_l_bar(cert, cal, record, m, eps, proofs.get("black_box"))
-        if cal.get("kind") == "global"
-        else _on_l(cert, cal, record, m, eps, proofs.get("black_box"))
-    )
-    if isinstance(worst, str):
-        skipped += [("calibration.bound", worst), ("calibration.target", worst)]
+    """The member's ε (``members[key]``); its value (``worst``: the black box's worst case over every model, on L or
+    L̄; the white box's observed L or L̄) at most the bound and the target (the white box's: within the tolerance of
+    the bound, and meeting the target to its rounding); and the member recorded just above ε missing the target."""
+    white = key == "white_box"
+    m = RecordedMechanism.from_record(members[key], f"inputs.calibration.{key}")
+    out = [judge(f"{where}.epsilon", cal["epsilon"], m.epsilon_enclosure(), "estimate", _PARAMETER)]
+    found = worst(members[key], key)
+    if isinstance(found, str):
+        skipped += [(f"{where}.bound", found), (f"{where}.target", found)]
         return out
-    value, basis = worst
-    out.append(judge("calibration.bound", cal["bound"], value, "upper", f"the exact {basis} at that epsilon"))
-    out.append(judge("calibration.target", cal["target"], value, "at least", f"met by the exact {basis}"))
-    above = cert["inputs"]["calibration"].get("black_box_above")
+    value, basis = found
+    detail = f"met by the exact {basis}" + (", to its rounding" if white else "")
+    out.append(judge(f"{where}.bound", cal["bound"], value, "estimate" if white else "upper",
+                     f"the exact {basis} at that epsilon"))  # fmt: skip
+    out.append(judge(f"{where}.target", cal["target"], value, "met" if white else "at least", detail))
+    name, above = f"{where}.epsilon is the largest", members.get(f"{key}_above")
     if above is None and cal["epsilon"] == "inf":
-        return [*out, _none_above(LARGEST)]
+        return [*out, _none_above(name)]
     if above is None:
-        skipped.append((LARGEST, "no member above the calibrated epsilon recorded"))
+        skipped.append((name, "no member above the calibrated epsilon recorded"))
         return out
-    m_above, eps_above = _member(above, "inputs.calibration.black_box_above")
-    worst_above = (
-        _on_l_bar(cert, cal, above, m_above, eps_above, proofs.get("black_box_above"))
-        if cal.get("kind") == "global"
-        else _on_l(cert, cal, above, m_above, eps_above, proofs.get("black_box_above"))
-    )
-    if isinstance(worst_above, str):
-        skipped.append((LARGEST, worst_above))
+    eps_above = RecordedMechanism.from_record(above, f"inputs.calibration.{key}_above").epsilon_enclosure()
+    found = worst(above, f"{key}_above")
+    if isinstance(found, str):
+        skipped.append((name, found))
         return out
-    out.append(_largest(LARGEST, cal["epsilon"], cal["target"], eps_above, worst_above[0]))
-    return out
+    return [*out, _largest(name, cal["epsilon"], cal["target"], eps_above, found[0])]
 
 
 LARGEST = "calibration.epsilon is the largest"
@@ -188,16 +199,14 @@ def _none_above(name: str) -> Check:
 
 
 def _on_l(
-    cert: Mapping[str, Any],
-    cal: Mapping[str, Any],
-    record: Mapping[str, Any],
-    m: RecordedMechanism,
-    eps: Enclosure,
-    proof: Mapping[str, Any] | None = None,
+    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], key: str
 ) -> tuple[Enclosure, str] | str:
     """ln of the member's worst local ratio over the calibration's class (one context, the box [lower, γ], τ; with
     L_A > 0 the utilities Lipschitz in the group, d the recorded metric), with what it is; or why it is not
-    re-derived. ``proof``: the member's recorded black box (``calibration.proofs``), its programs' proofs."""
+    re-derived. The member is ``record``, ``inputs.calibration.<key>``; its recorded black box (``calibration.proofs``
+    under ``key``) holds its programs' proofs."""
+    m = RecordedMechanism.from_record(record, f"inputs.calibration.{key}")
+    proof = (cal.get("proofs") or {}).get(key)
     lower, gamma = cal.get("lower") or 0.0, cal.get("gamma")
     lipschitz = exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz")
     if lipschitz:
@@ -223,16 +232,13 @@ def _on_l(
     if worst.local is None:
         return worst.reason
     logs = ln_of(worst.local)
-    return Enclosure(logs.lo, min(logs.hi, eps.hi)), "worst case"  # under pure ε-DP no ratio exceeds e^ε
+    return Enclosure(
+        logs.lo, min(logs.hi, m.epsilon_enclosure().hi)
+    ), "worst case"  # under pure ε-DP no ratio exceeds e^ε
 
 
 def _on_l_bar(
-    cert: Mapping[str, Any],
-    cal: Mapping[str, Any],
-    record: Mapping[str, Any],
-    m: RecordedMechanism,
-    eps: Enclosure,
-    proof: Mapping[str, Any] | None = None,
+    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], key: str
 ) -> tuple[Enclosure, str] | str:
     """ln of the member's worst L̄ as certify bounds it, with what it is; or why it is not re-derived.
 
@@ -240,51 +246,29 @@ def _on_l_bar(
     min r over r(x, a) = P(x, a)/(P(x) P(a)) (1 when independent exactly; ``proofs/black_box.md`` §6); otherwise
     the exact worst L̄ over every model for the recorded utility, τ, population and context mechanism, behind the
     member."""
-    pop = recorded_array(cert["inputs"]["population"]["probabilities"], "inputs.population.probabilities")
-    p_x, p_a = [sum(row) for row in pop], [sum(col) for col in zip(*pop)]
-    deviation = max(abs(pop[x][a] - p_x[x] * p_a[a]) for x in range(len(p_x)) for a in range(len(p_a)))
-    if deviation > Fraction(1e-9):
-        worst = black_box_enclosures({**cert["inputs"], "sensitive_mechanism": record}, proof)
+    deviation, spread = independence(cert["inputs"]["population"]["probabilities"])
+    if max(map(max, deviation)) > INDEPENDENCE:
+        worst = black_box_enclosures(
+            {**cert["inputs"], "sensitive_mechanism": record}, (cal.get("proofs") or {}).get(key)
+        )
         return worst.reason if worst.global_ is None else (ln_of(worst.global_), "worst case on L-bar")
-    on_l = _on_l(cert, cal, record, m, eps, proof)
+    on_l = _on_l(cert, cal, record, key)
     if isinstance(on_l, str):
         return on_l
-    r = [pop[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] for a in range(len(p_a)) if p_a[a]]
-    if max(r) == min(r):
+    if spread == 1:
         return on_l[0], "worst case on L (L-bar <= L: X and A independent)"
-    if min(r) == 0:  # a cell P(x, a) = 0 with P(x) P(a) > 0 (within 1e-9 of independence): F = +inf
+    if spread == INF:  # a cell P(x, a) = 0 with P(x) P(a) > 0 (within 1e-9 of independence): F = +inf
         return Enclosure.point(INF), "worst case on L plus ln F, F = +inf (a cell P(x, a) = 0 with P(x) P(a) > 0)"
-    return on_l[0] + ln(max(r) / min(r)), "worst case on L plus ln F (X and A independent within rounding)"
+    return on_l[0] + ln(spread), "worst case on L plus ln F (X and A independent within rounding)"
 
 
-def _white_box(
-    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], skipped: list[tuple[str, str]]
-) -> list[Check]:
-    """The member's ε, and the observed L (or L̄) of the recorded model behind it, the bound and at most the target."""
-    m, eps = _member(record, "inputs.calibration.white_box")
-    out = [judge("calibration.white_box.epsilon", cal["epsilon"], eps, "estimate", _PARAMETER)]
+def _observed(
+    cert: Mapping[str, Any], cal: Mapping[str, Any], record: Mapping[str, Any], key: str
+) -> tuple[Enclosure, str] | str:
+    """ln of the observed L (or L̄) of the recorded model behind the member ``record`` (``inputs.calibration.<key>``)."""
+    m = RecordedMechanism.from_record(record, f"inputs.calibration.{key}")
     context = RecordedMechanism.from_record(cert["inputs"]["context_mechanism"], "inputs.context_mechanism")
     found = observed_enclosures(cert["inputs"], m, context)
-    if isinstance(found, str):
-        skipped += [("calibration.white_box.bound", found), ("calibration.white_box.target", found)]
-        return out
-    value = ln_of(found.local if cal.get("kind") == "local" else found.global_)
-    out.append(judge("calibration.white_box.bound", cal["bound"], value, "estimate", "the exact L at that epsilon"))
-    out.append(
-        judge("calibration.white_box.target", cal["target"], value, "met", "met by the exact L, to its rounding")
+    return (
+        found if isinstance(found, str) else (ln_of(found.local if cal.get("kind") == "local" else found.global_), "L")
     )
-    name = "calibration.white_box.epsilon is the largest"
-    above = cert["inputs"]["calibration"].get("white_box_above")
-    if above is None and cal["epsilon"] == "inf":
-        return [*out, _none_above(name)]
-    if above is None:
-        skipped.append((name, "no member above the calibrated epsilon recorded"))
-        return out
-    m_above, eps_above = _member(above, "inputs.calibration.white_box_above")
-    found_above = observed_enclosures(cert["inputs"], m_above, context)
-    if isinstance(found_above, str):
-        skipped.append((name, found_above))
-        return out
-    value_above = ln_of(found_above.local if cal.get("kind") == "local" else found_above.global_)
-    out.append(_largest(name, cal["epsilon"], cal["target"], eps_above, value_above))
-    return out

@@ -21,7 +21,7 @@ from typing import Any
 
 from fairaudit.verification.enclosures import INF, Enclosure, exact
 
-__all__ = ["SIDES", "TOLERANCE", "Check", "equal", "judge", "stated_tolerance", "tolerance"]
+__all__ = ["TOLERANCE", "Check", "equal", "judge", "stated_tolerance", "tolerance"]
 
 LARGEST = Fraction(1.7976931348623157e308)
 """The largest finite float: an exact value above it rounds to +inf (up, or to nearest)."""
@@ -33,11 +33,6 @@ numbers to the ``tolerance`` the certificate states (:func:`stated_tolerance`)."
 
 _TOLERANCE: ContextVar[Fraction] = ContextVar("fairaudit_verify_tolerance", default=Fraction(TOLERANCE))
 """The tolerance numbers are judged to now, exactly (the float's value): :data:`TOLERANCE` unless set."""
-
-SIDES = ("upper", "lower", "estimate", "equal", "at most", "at least", "met")
-"""A check's side: an upper bound (≥ the exact value, within the tolerance), a lower bound, a measured value (either
-side), an identity, a value attained (≤ the exact maximum: a witness), a target a certified value meets (≥ the exact
-value, however far), or a target a measured value meets (≥ it less the tolerance)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -52,7 +47,11 @@ class Check:
         The recorded value.
     derived_low, derived_high : float
         The exact value's enclosure, rounded outward to floats (equal for an exact value).
-    side : {"upper", "lower", "estimate", "equal", "at most", "at least", "met"}
+    side : {"upper", "lower", "estimate", "equal", "at most", "at least", "met", "largest"}
+        An upper bound (≥ the exact value, within the tolerance), a lower bound, a measured value (either side), an
+        identity, a value attained (≤ the exact maximum: a witness), a target a certified value meets (≥ the exact
+        value, however far), a target a measured value meets (≥ it less the tolerance), or a calibrated ε shown the
+        largest (:mod:`~fairaudit.verification.calibration_check`).
     holds : bool
     fails_by : float
         How far outside the allowed range the reported value is (0 when it holds; NaN for a label or verdict that

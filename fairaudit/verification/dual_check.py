@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.verification.enclosures import exact, recorded_array
+from fairaudit.verification.enclosures import INF, exact
 from fairaudit.verification.schema import CertificateError
 
 __all__ = ["Evidence"]
@@ -49,65 +49,44 @@ class Evidence:
         if not detail:
             return cls()
         pop = inputs["population"]
-        contexts, groups = list(pop["contexts"]), list(pop["groups"])
+        labels = {"context": list(pop["contexts"]), "group": list(pop["groups"]), "other_group": list(pop["groups"])}
+        n_x, n_g = len(pop["contexts"]), len(pop["groups"])
         released = len(inputs["sensitive_mechanism"]["outputs"])
         own = inputs["context_mechanism"]["kind"] == "identity"  # (else L's program spans every context)
-        where = "bound_details.black_box"
-        local: dict[tuple[int, int, int], Any] = {}
-        for i, d in enumerate(detail.get("duals") or []):
-            name = f"{where}.duals[{i}]"
-            key = (_index(d, "context", contexts, name), _index(d, "group", groups, name),
-                   _index(d, "other_group", groups, name))  # fmt: skip
-            floors = d.get("floors")
-            if own:
-                local[key] = _vector(floors, len(groups), f"{name}.floors")
-            else:
-                local[key] = _matrix(floors, len(contexts), len(groups), f"{name}.floors")
-        glob = detail.get("global") or {}
-        global_ = {}
-        for i, d in enumerate(glob.get("duals") or []):
-            name = f"{where}.global.duals[{i}]"
-            key2 = (_index(d, "group", groups, name), _index(d, "other_group", groups, name))
-            global_[key2] = _matrix(d.get("floors"), len(contexts), len(groups), f"{name}.floors")
-        local_theta = _thetas(
-            detail, f"{where}.screens", [("context", contexts), ("group", groups), ("other_group", groups)]
-        )
-        global_theta = _thetas(glob, f"{where}.global.screens", [("group", groups), ("other_group", groups)])
+        values = inputs["utility"]["values"]
+        n_u = _decisions(values)
+        if own:  # a point over the released groups: E[g | x, ã], or a row of P(u | x, ã) each (g by group)
+            point: tuple[int, ...] = (released,) if n_u is None else (released, n_u)
+        else:  # the table over every released context
+            n_dec = len(values[0][0]) if isinstance(values[0], list) else len(values)
+            point = (len(inputs["context_mechanism"]["outputs"]), released, n_dec)
+        where, glob = "bound_details.black_box", detail.get("global") or {}
+        keys, global_keys = ("context", "group", "other_group"), ("group", "other_group")
+        local = _read(detail, f"{where}.duals", keys, labels, "floors", (n_g,) if own else (n_x, n_g))
+        global_ = _read(glob, f"{where}.global.duals", global_keys, labels, "floors", (n_x, n_g))
+        local_theta = _read(detail, f"{where}.screens", keys, labels, "theta", ())
+        global_theta = _read(glob, f"{where}.global.screens", global_keys, labels, "theta", ())
         # the maximiser's point (its labels are checked by verify's maximiser check, which fails a wrong one)
-        local_point = None
-        named = all(detail.get(k) in labels for k, labels in (("context", contexts), ("group", groups),
-                                                             ("other_group", groups)))  # fmt: skip
-        n_u = _decisions(inputs)
-        if detail.get("witness_point") is not None and named:
-            name = f"{where}.witness_point"
-            h = _point(detail["witness_point"], released, n_u, name) if own else _tables(detail, name, inputs)
-            local_point = (contexts.index(detail["context"]), groups.index(detail["group"]),
-                           groups.index(detail["other_group"]), h)  # fmt: skip
-        global_point = None
-        if glob.get("witness_point") is not None and glob.get("group") in groups and glob.get("other_group") in groups:
-            name = f"{where}.global.witness_point"
-            if own:
-                if not isinstance(glob["witness_point"], list) or len(glob["witness_point"]) != len(contexts):
-                    raise CertificateError(name, f"must be a list of {len(contexts)} lists", glob["witness_point"])
-                hs = [_point(h, released, n_u, f"{name}[{i}]") for i, h in enumerate(glob["witness_point"])]
-            else:
-                hs = _tables(glob, name, inputs)
-            global_point = (groups.index(glob["group"]), groups.index(glob["other_group"]), hs)
+        local_point = global_point = None
+        if detail.get("witness_point") is not None and all(detail.get(k) in labels[k] for k in keys):
+            h = _array(detail["witness_point"], point, f"{where}.witness_point")
+            local_point = (*(labels[k].index(detail[k]) for k in keys), h)
+        if glob.get("witness_point") is not None and all(glob.get(k) in labels[k] for k in global_keys):
+            hs = _array(glob["witness_point"], (n_x, *point) if own else point, f"{where}.global.witness_point")
+            global_point = (*(labels[k].index(glob[k]) for k in global_keys), hs)
         return cls(local, global_, local_point, global_point, local_theta, global_theta)
 
 
-def _thetas(detail: Mapping[str, Any], where: str, keys: list[tuple[str, list[Any]]]) -> dict[Any, Fraction]:
-    """The recorded one-floor thresholds θ (``screens``: each program's labels and its θ, a finite number), exactly,
-    by the programs' positions."""
+def _read(
+    detail: Mapping[str, Any], where: str, keys: tuple[str, ...], labels: Mapping[str, list[Any]], field: str,
+    shape: tuple[int, ...],
+) -> dict[Any, Any]:  # fmt: skip
+    """The recorded proofs of a kind (``duals``, ``screens``: ``where``), each an array of ``shape`` under ``field``,
+    by the positions of its program's labels (``keys``)."""
     out = {}
-    for i, d in enumerate(detail.get("screens") or []):
+    for i, d in enumerate(detail.get(where.rsplit(".", 1)[1]) or []):
         name = f"{where}[{i}]"
-        theta = exact(d.get("theta"), f"{name}.theta") if isinstance(d.get("theta"), (int, float, str)) else None
-        if not isinstance(theta, Fraction):
-            raise CertificateError(
-                f"{name}.theta", 'must be a finite number or an exact rational "n/d"', d.get("theta")
-            )
-        out[tuple(_index(d, key, labels, name) for key, labels in keys)] = theta
+        out[tuple(_index(d, key, labels[key], name) for key in keys)] = _array(d.get(field), shape, f"{name}.{field}")
     return out
 
 
@@ -119,45 +98,25 @@ def _index(record: Mapping[str, Any], key: str, labels: list[Any], name: str) ->
     return labels.index(value)
 
 
-def _vector(value: Any, n: int, name: str) -> list[Fraction]:
-    """A recorded list of n finite numbers, exactly."""
-    if not isinstance(value, list) or len(value) != n:
-        raise CertificateError(name, f"must be a list of {n} numbers", value)
-    out = recorded_array(value, name)
-    if any(not isinstance(v, Fraction) for v in out):
-        raise CertificateError(name, "must hold finite numbers", value)
-    return out
+def _array(value: Any, shape: tuple[int, ...], name: str) -> Any:
+    """A recorded array of finite numbers (a float, or an exact rational ``"n/d"``) of ``shape``, exactly."""
+    if not shape:
+        try:
+            number = exact(value, name)
+        except CertificateError:
+            number = INF
+        if not isinstance(number, Fraction):
+            raise CertificateError(name, 'must be a finite number or an exact rational "n/d"', value)
+        return number
+    if not isinstance(value, list) or len(value) != shape[0]:
+        raise CertificateError(name, f"must be a list of {shape[0]} {'numbers' if len(shape) == 1 else 'lists'}", value)
+    return [_array(v, shape[1:], f"{name}[{i}]") for i, v in enumerate(value)]
 
 
-def _decisions(inputs: Mapping[str, Any]) -> int | None:
+def _decisions(values: Any) -> int | None:
     """The number of decisions when the utility depends on the group (its witness points are tables), else None."""
-    values = inputs["utility"]["values"]
     if not values or not isinstance(values[0], list):
         return None
     if all(row == table[0] for table in values for row in table):
         return None
     return len(values[0][0])
-
-
-def _tables(record: Mapping[str, Any], name: str, inputs: Mapping[str, Any]) -> list[list[list[Fraction]]]:
-    """A recorded table over every released context (behind a context mechanism other than the identity): shape
-    (released contexts, released groups, decisions)."""
-    value = record["witness_point"]
-    n_x = len(inputs["context_mechanism"]["outputs"])
-    values = inputs["utility"]["values"]
-    n_u = len(values[0][0]) if values and isinstance(values[0], list) else len(values)
-    if not isinstance(value, list) or len(value) != n_x:
-        raise CertificateError(name, f"must be a list of {n_x} lists", value)
-    return [_matrix(t, len(inputs["sensitive_mechanism"]["outputs"]), n_u, f"{name}[{i}]") for i, t in enumerate(value)]
-
-
-def _point(value: Any, released: int, n_u: int | None, name: str) -> list[Any]:
-    """A recorded point over the released groups: n numbers, or (``n_u`` given) a table of rows of ``n_u``."""
-    return _vector(value, released, name) if n_u is None else _matrix(value, released, n_u, name)
-
-
-def _matrix(value: Any, rows: int, n: int, name: str) -> list[list[Fraction]]:
-    """A recorded list of ``rows`` lists of n finite numbers, exactly."""
-    if not isinstance(value, list) or len(value) != rows:
-        raise CertificateError(name, f"must be a list of {rows} lists", value)
-    return [_vector(row, n, f"{name}[{i}]") for i, row in enumerate(value)]

@@ -27,6 +27,7 @@ __all__ = [
     "RecordedMechanism",
     "exact",
     "exp_of",
+    "independence",
     "ln",
     "ln_of",
     "recorded_array",
@@ -103,6 +104,28 @@ def recorded_array(value: Any, field: str) -> list[Any]:
     if isinstance(value, list):
         return [recorded_array(v, f"{field}[{i}]") for i, v in enumerate(value)]
     return None if value is None else exact(value, field)  # type: ignore[return-value]
+
+
+INDEPENDENCE = Fraction(1e-9)
+"""max |P(x, a) − P(x) P(a)| up to which certify calls X and A independent (``Population.independence``)."""
+
+
+def independence(probabilities: Any) -> tuple[list[list[Fraction]], Fraction | float]:
+    """The recorded population's departure from independence, exactly: |P(x, a) − P(x) P(a)| indexed ``[x][a]``, and
+    F = max r / min r over r(x, a) = P(x, a)/(P(x) P(a)) where P(x), P(a) > 0 (1 when X and A are independent, +inf
+    where some r is 0; ``proofs/black_box.md`` §6).
+
+    Examples
+    --------
+    >>> deviation, spread = independence([[0.5, 0.0], [0.25, 0.25]])
+    >>> deviation[0], spread
+    ([Fraction(1, 8), Fraction(1, 8)], inf)
+    """
+    p = recorded_array(probabilities, "inputs.population.probabilities")
+    p_x, p_a = [sum(row) for row in p], [sum(col) for col in zip(*p)]
+    r = [p[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] for a in range(len(p_a)) if p_a[a]]
+    deviation = [[abs(p[x][a] - p_x[x] * p_a[a]) for a in range(len(p_a))] for x in range(len(p_x))]
+    return deviation, INF if min(r) == 0 else max(r) / min(r)
 
 
 BITS = 200
@@ -260,11 +283,8 @@ class RecordedMechanism:
 
     def rr_rows(self) -> tuple[Enclosure, Enclosure]:
         """Randomized response's (p, q) = (t/(t + k − 1), 1/(t + k − 1)), enclosed (p increases in t, q decreases)."""
-        t, m = self.t(), self.k - 1
-        if t.hi == INF:
-            lo_p = Fraction(1) if t.lo == INF else t.lo / (t.lo + m)
-            return Enclosure(lo_p, Fraction(1)), Enclosure(Fraction(0), 1 / (t.lo + m) if t.lo != INF else Fraction(0))
-        return Enclosure(t.lo / (t.lo + m), t.hi / (t.hi + m)), Enclosure(1 / (t.hi + m), 1 / (t.lo + m))
+        (p_lo, q_hi), (p_hi, q_lo) = self.rr_ends()
+        return Enclosure(p_lo, p_hi), Enclosure(q_lo, q_hi)
 
     def epsilon_enclosure(self) -> Enclosure:
         """ε(M) = max over outputs and pairs of ln M[a, o]/M[a', o] (+inf when one input reaches an output another

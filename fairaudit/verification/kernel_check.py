@@ -26,7 +26,7 @@ from typing import Any
 from fairaudit.verification.dual_check import Evidence
 from fairaudit.verification.enclosures import RecordedMechanism, exact, recorded_array
 
-__all__ = ["KernelSetting", "kernel_settings", "reached_rows", "three_cell_settings"]
+__all__ = ["KernelSetting", "kernel_settings", "population", "reached_rows", "three_cell_settings"]
 
 Number = Fraction | float
 Rows = tuple[tuple[Fraction, ...], ...]
@@ -126,7 +126,7 @@ def kernel_settings(
     return [
         KernelSetting(
             _rows(sensitive, end), None if context.kind == "identity" else _rows(context, end),
-            *_population(inputs, sensitive.k), evidence or Evidence(),
+            *population(inputs, sensitive.k), evidence or Evidence(),
         )
         for end in ((0,) if exact_rows else (0, 1))
     ]  # fmt: skip
@@ -157,7 +157,7 @@ def three_cell_settings(
         groups (0, 1) the pair, and the weights of a and a' (and their mean for the others' cell).
     """
     k, (a, b) = sensitive.k, pair
-    g, tau, live, weights, _, group_free = _population(inputs, k)
+    g, tau, live, weights, _, group_free = population(inputs, k)
     others = [c for c in range(k) if c not in pair]
     n = 3 if others else 2
 
@@ -188,11 +188,32 @@ def three_cell_settings(
     return out
 
 
-def _population(
+def population(
     inputs: Mapping[str, Any], k: int
 ) -> tuple[list[list[list[Fraction]]], Fraction | None, list[int], list[list[Fraction]], list[int], bool]:
-    """The recorded utility and population, exactly, in :class:`KernelSetting`'s order: (g as [x][a][u], τ, the live
-    contexts, P(x | a) as [live x][a], the groups present, whether g is free of the group)."""
+    """The recorded utility and population, exactly, in :class:`KernelSetting`'s order.
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs``: its ``utility`` (``values``, ``tau``) and ``population`` are read.
+    k : int
+        The number of groups.
+
+    Returns
+    -------
+    tuple
+        g indexed ``[x][a][u]``, τ (None for no floor), the live contexts (P(X = x) > 0), P(x | a) indexed
+        ``[live x][a]`` (0 for a group absent), the groups present (P(A = a) > 0) and whether g is free of the group
+        (``proofs/verification.md`` §4d).
+
+    Examples
+    --------
+    >>> inputs = {"utility": {"values": [1.0, 0.0], "tau": None}, "population": {"probabilities": [[0.5, 0.0]]}}
+    >>> g, tau, live, weights, present, group_free = population(inputs, 2)
+    >>> live, weights, present, group_free
+    ([0], [[Fraction(1, 1), Fraction(0, 1)]], [0], True)
+    """
     u = inputs["utility"]
     pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
     values = recorded_array(u["values"], "inputs.utility.values")

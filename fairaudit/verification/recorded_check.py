@@ -12,7 +12,7 @@ from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.checks import Check, equal, judge
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, recorded_array
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, independence
 
 __all__ = ["recorded_checks"]
 
@@ -85,10 +85,7 @@ def _keep_check(name: str, reported: Any, m: RecordedMechanism) -> Check:
 def _deviation_checks(cert: Mapping[str, Any]) -> list[Check]:
     """max |P(x, a) − P(x) P(a)| over the recorded population, exactly, and where it is attained."""
     pop = cert["inputs"]["population"]
-    p = recorded_array(pop["probabilities"], "inputs.population.probabilities")
-    p_x = [sum(row) for row in p]
-    p_a = [sum(col) for col in zip(*p)]
-    dev = [[abs(p[x][a] - p_x[x] * p_a[a]) for a in range(len(p_a))] for x in range(len(p_x))]
+    dev, _ = independence(pop["probabilities"])
     largest = max(max(row) for row in dev)
     reported = cert["population"]
     out = [judge("population.max_deviation", reported["max_deviation"], Enclosure.point(largest), "estimate")]

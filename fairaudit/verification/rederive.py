@@ -4,8 +4,7 @@
 SHA-256 of its ``inputs`` and re-derives, from those inputs alone and in exact rational arithmetic
 (:mod:`~fairaudit.verification.enclosures`), each number it can: the mechanisms' ε, the paper, tight and corollary
 bounds, every metric of the ``observed`` and ``unfiltered`` sections (L and L̄, L_dp and L_eo, the sups over g, their
-ratios) with each maximiser (:mod:`~fairaudit.verification.observed_check`,
-:mod:`~fairaudit.verification.metrics_check`), and the targets' verdicts.
+ratios) with each maximiser (:mod:`~fairaudit.verification.observed_check`), and the targets' verdicts.
 Each is a :class:`~fairaudit.verification.checks.Check`: it **holds** when it lies on its certified side of the exact
 value (an upper bound at or above it) and within the certificate's stated ``tolerance`` of it (1e-9 as certify
 writes it), relative to max(1, |value|), so that a number moved by 2e-9·max(1, |value|) fails; a measured value
@@ -19,7 +18,7 @@ import hashlib
 import itertools
 import json
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -29,16 +28,16 @@ from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge, stated_tolerance
 from fairaudit.verification.distribution_check import distribution_checks
 from fairaudit.verification.enclosures import (
+    INDEPENDENCE,
     INF,
     Enclosure,
     RecordedMechanism,
     exact,
     exp_of,
+    independence,
     ln,
     ln_of,
-    recorded_array,
 )
-from fairaudit.verification.metrics_check import metric_checks
 from fairaudit.verification.observed_check import observed_checks
 from fairaudit.verification.recorded_check import recorded_checks
 from fairaudit.verification.schema import CertificateError
@@ -200,7 +199,6 @@ def _rederived(certificate: Mapping[str, Any], privacy_filter: Any, source: str)
     checks += _theorem_checks(certificate, sensitive, eps_a, skipped)
     checks += _black_box_checks(certificate, eps_a, skipped)
     checks += observed_checks(certificate, sensitive, context, skipped)
-    checks += metric_checks(certificate, sensitive, context, skipped)
     checks += _target_checks(certificate)
     if privacy_filter is not None:
         parameters = privacy_filter.to_dict() if hasattr(privacy_filter, "to_dict") else privacy_filter
@@ -306,16 +304,16 @@ def _filter_check(m: RecordedMechanism, parameters: Mapping[str, Any]) -> Check:
             return verdict(True, "the filter's exact e^epsilon is at most the certificate's")
         why = "exceeds" if ratio > t.hi else "cannot be shown to be at most"
         return verdict(False, f"the filter's exact e^epsilon {why} the certificate's")
-    if tuple(tuple(Fraction(n, den) for n in row) for row in rows()) == m.matrix_rows():
+    if tuple(tuple(Fraction(n, den) for n in row) for row in rows) == m.matrix_rows():
         return verdict(True, "the filter's rows are the certificate's, exactly")
     return verdict(False, "the filter's rows are not the certificate's matrix")
 
 
-def _filter_rows(data: Any, where: str) -> tuple[str, list[Any], list[Any], int, Callable[[], list[list[int]]]]:
+def _filter_rows(data: Any, where: str) -> tuple[str, list[Any], list[Any], int, list[list[int]]]:
     """A filter's parameters (docs/filter.md, "The JSON") read exactly: its kind, inputs and outputs (JSON labels, a
-    product's the lists of its components'), its denominator and a function that builds its integer rows
-    (randomized response's from keep and move, a product's the Kronecker product of its components'), each row
-    checked to be a distribution over the denominator.
+    product's the lists of its components'), its denominator and its integer rows (randomized response's from keep
+    and move, a product's the Kronecker product of its components'), each row checked to be a distribution over the
+    denominator.
 
     Raises
     ------
@@ -329,34 +327,23 @@ def _filter_rows(data: Any, where: str) -> tuple[str, list[Any], list[Any], int,
             parts = [_filter_rows(c, f"{where}.components[{i}]") for i, c in enumerate(data["components"])]
             inputs = [list(t) for t in itertools.product(*(p[1] for p in parts))]
             outputs = [list(t) for t in itertools.product(*(p[2] for p in parts))]
-
-            def kronecker() -> list[list[int]]:
-                tables = itertools.product(*(p[4]() for p in parts))
-                return [[math.prod(x) for x in itertools.product(*row)] for row in tables]
-
-            return kind, inputs, outputs, math.prod(p[3] for p in parts), kronecker
+            tables = itertools.product(*(p[4] for p in parts))
+            rows = [[math.prod(x) for x in itertools.product(*row)] for row in tables]
+            return kind, inputs, outputs, math.prod(p[3] for p in parts), rows
         den = int(data["denominator"])
         if kind == "randomized_response":
             inputs = outputs = list(data["values"])
             keep, move, k = int(data["keep"]), int(data["move"]), len(inputs)
-            valid = min(keep, move) >= 0 and keep + (k - 1) * move == den
-
-            def rows() -> list[list[int]]:
-                return [[keep if o == a else move for o in range(k)] for a in range(k)]
-
+            rows = [[keep if o == a else move for o in range(k)] for a in range(k)]
         else:
             inputs, outputs = list(data["inputs"]), list(data["outputs"])
-            matrix = [list(map(int, r)) for r in data["rows"]]
-            valid = kind == "matrix" and len(matrix) == len(inputs) and all(
-                len(r) == len(outputs) and min(r, default=0) >= 0 and sum(r) == den for r in matrix)  # fmt: skip
-
-            def rows() -> list[list[int]]:
-                return matrix
-
+            rows = [list(map(int, r)) for r in data["rows"]]
     except CertificateError:
         raise
     except (KeyError, TypeError, ValueError) as exc:
         raise CertificateError(where, f"is not a filter's parameters (filter --parameters): {exc!r}") from None
+    valid = kind in ("matrix", "randomized_response") and len(rows) == len(inputs) and all(
+        len(r) == len(outputs) and min(r, default=0) >= 0 and sum(r) == den for r in rows)  # fmt: skip
     if not valid or den <= 0:
         raise CertificateError(where, "must have rows of whole numbers >= 0 summing to its denominator", den)
     return kind, inputs, outputs, den, rows
@@ -417,29 +404,23 @@ def _witness_checks(
     return out
 
 
-DEPENDENCE = Fraction(1e-9)
-"""max |P(x, a) − P(x) P(a)| beyond which certify calls X and A dependent and bounds L̄ from L no more (its
-``Population.independence`` rule, evaluated in floats: within 2^-40 relative of it, either reading is accepted)."""
-
-
 def _global_from_best(bounds: Mapping[str, Any], probabilities: Any) -> Check:
     """``bounds.global`` from L's best bound: L-bar <= L + ln F, F = max r / min r with r(x, a) = P(x, a)/(P(x) P(a))
     over P(x) > 0 and P(a) > 0 (1 when X and A are independent exactly; ``proofs/black_box.md`` §6). The bound
-    holds whatever F; certify gives it for X and A independent to :data:`DEPENDENCE`, and +inf beyond."""
-    p = recorded_array(probabilities, "inputs.population.probabilities")
-    p_x, p_a = [sum(row) for row in p], [sum(col) for col in zip(*p)]
-    r = [p[x][a] / (p_x[x] * p_a[a]) for x in range(len(p_x)) if p_x[x] > 0 for a in range(len(p_a)) if p_a[a] > 0]
-    if max(r) == min(r):
+    holds whatever F; certify gives it for X and A independent to 1e-9 (:data:`~fairaudit.verification.enclosures.INDEPENDENCE`, its
+    ``Population.independence`` rule evaluated in floats: within 2^-40 relative of it, either reading is accepted), and
+    +inf beyond."""
+    deviation, spread = independence(probabilities)
+    if spread == 1:
         return equal("bounds.global", bounds["global"], bounds["best"], "the best bound on L")
-    if min(r) == 0:
+    if spread == INF:
         return equal("bounds.global", bounds["global"], "inf", "X and A dependent: no bound from L")
-    deviation = max(abs(p[x][a] - p_x[x] * p_a[a]) for x in range(len(p_x)) for a in range(len(p_a)))
-    if bounds["global"] == "inf" and deviation >= DEPENDENCE * (1 - Fraction(1, 2**40)):
+    if bounds["global"] == "inf" and max(map(max, deviation)) >= INDEPENDENCE * (1 - Fraction(1, 2**40)):
         return equal(
             "bounds.global", "inf", "inf", "X and A dependent beyond 1e-9: certify bounds L-bar from L no more"
         )
     best = exact(bounds["best"], "bounds.best")
-    return judge("bounds.global", bounds["global"], Enclosure.point(best) + ln(max(r) / min(r)), "upper",
+    return judge("bounds.global", bounds["global"], Enclosure.point(best) + ln(spread), "upper",
                  "the best bound on L + ln F (X and A independent within rounding)")  # fmt: skip
 
 
@@ -510,16 +491,15 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
 
     bounds, detail = cert["bounds"], cert["bound_details"]["black_box"]
     if bounds["black_box"] is None:
-        skipped.append(("bounds.black_box", "the certificate gives no black-box bound"))
-        skipped.append(("bound_details.black_box", "the certificate gives no black-box bound"))
+        skipped += [
+            (n, "the certificate gives no black-box bound") for n in ("bounds.black_box", "bound_details.black_box")
+        ]
         if bounds.get("global") is None:
             return []
         return [_global_from_best(bounds, cert["inputs"]["population"]["probabilities"])]  # L-bar from L, or +inf
     worst = black_box_enclosures(cert["inputs"], detail)
     if worst.local is None:
-        skipped.append(("bounds.black_box", worst.reason))
-        skipped.append(("bounds.global", worst.reason))
-        skipped.append(("bound_details.black_box", worst.reason))
+        skipped += [(n, worst.reason) for n in ("bounds.black_box", "bounds.global", "bound_details.black_box")]
         return []
     local = _below_epsilon(worst.local, eps_a) if worst.group_free else ln_of(worst.local)
     out = [
@@ -534,8 +514,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     clips = (worst.group_free, worst.independent and worst.group_free)
     out += _maximiser_checks(cert, detail, glob, worst.global_ is not None, eps_a, clips, skipped)
     if worst.global_ is None:
-        skipped.append(("bounds.global", worst.reason))
-        skipped.append(("bound_details.black_box.global", worst.reason))
+        skipped += [("bounds.global", worst.reason), ("bound_details.black_box.global", worst.reason)]
     elif glob.get("value") is not None:
         clip = worst.independent and worst.group_free
         on_l_bar = _below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)

@@ -11,9 +11,11 @@ as an upper end above it, and that check fails. ``proofs/verification.md`` §4f.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any, NamedTuple
+
+import numpy as np
 
 from fairaudit.verification.enclosures import INF
 from fairaudit.verification.kernel_check import KernelSetting, reached_rows
@@ -71,51 +73,19 @@ def _normalised(table: Table) -> list[list[Fraction]]:
     return [[v / total for v in row] if (total := sum(row, Fraction(0))) > 0 else list(row) for row in table]
 
 
-def _programs(
-    s: KernelSetting, keys: Sequence[tuple[int, int]], forms: Mapping[int, Table], floors: Sequence[Table]
-) -> tuple[Any, int, dict[int, int]]:
-    """The forms and floors as integers over one denominator: (array, denominator, form's position by group)."""
-    order = list(forms)
-    rows, d = integers([*(forms[a] for a in order), *floors])
-    return rows, d, {a: i for i, a in enumerate(order)}
-
-
-def _reach(s: KernelSetting, x: int) -> list[tuple[int, Fraction]]:
-    """The released contexts x̃ with M_X[x, x̃] > 0, with that entry (x itself, with 1, for the identity)."""
+def _per_context(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]) -> tuple[np.ndarray, int]:
+    """E[g | x, c] over the rows ``keys`` (x̃, ã) for each context x of ``xs`` and each group c, as integers over one
+    denominator, shape (len(xs), groups, rows, decisions): the coefficient of K[x̃, ã, u] is
+    M_X[x, x̃] M_A[c, ã] g(u, x, c) (L's forms, and the floors E[g | x, c] ≥ τ)."""
+    (m_a,), d_a = integers([s.sensitive])
+    g, d_g = integers([s.g[x] for x in xs])
     if s.context is None:
-        return [(x, Fraction(1))]
-    return [(xr, m) for xr, m in enumerate(s.context[x]) if m]
-
-
-def _form(
-    s: KernelSetting, keys: Sequence[tuple[int, int]], weights: Mapping[int, Fraction], a: int
-) -> dict[int, list[Fraction]]:
-    """Σ_x weights[x] E[g | x, a] as {row: its coefficients over the decisions}, over the rows ``keys`` (x̃, ã): the
-    coefficient of K[x̃, ã, u] is Σ_x weights[x] M_X[x, x̃] M_A[a, ã] g(u, x, a); the rows it does not touch left out."""
-    by_context: dict[int, list[int]] = {}
-    for i, (xr, _) in enumerate(keys):
-        by_context.setdefault(xr, []).append(i)
-    out: dict[int, list[Fraction]] = {}
-    for x, w in weights.items():
-        g = s.g[x][a]
-        for xr, mx in _reach(s, x) if w else ():
-            for i in by_context.get(xr, ()):
-                m = w * mx * s.sensitive[a][keys[i][1]]
-                if m:
-                    row = out.get(i) or [Fraction(0)] * len(g)
-                    out[i] = [r + m * v for r, v in zip(row, g, strict=True)]
-    return out
-
-
-def _dense(form: Mapping[int, list[Fraction]], n_rows: int, n_u: int) -> list[list[Fraction]]:
-    return [form.get(i) or [Fraction(0)] * n_u for i in range(n_rows)]
-
-
-def _per_context(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]) -> dict[tuple[int, int], Table]:
-    """E[g | x, c] over the rows ``keys`` for each context x of ``xs`` and each group c, in that order: L's forms,
-    and the floors E[g | x, c] ≥ τ."""
-    n_u = len(s.g[0][0])
-    return {(x, c): _dense(_form(s, keys, {x: Fraction(1)}, c), len(keys), n_u) for x in xs for c in range(s.k)}
+        m_x, d_x = np.array([[int(xr == x) for xr, _ in keys] for x in xs], dtype=object), 1
+    else:
+        (m_x,), d_x = integers([[s.context[x] for x in xs]])
+        m_x = m_x[:, [xr for xr, _ in keys]]
+    coefficients = m_x[:, None, :] * m_a[:, [ar for _, ar in keys]][None, :, :]
+    return coefficients[..., None] * g[:, :, None, :], d_a * d_g * d_x
 
 
 def _table(s: KernelSetting, point: Any, keys: Sequence[tuple[int, int]], own: bool) -> list[list[Fraction]]:
@@ -181,19 +151,16 @@ def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> End
     for i in range(len(s.live)) if at is None else [at[0]]:
         x = s.live[i]
         keys = reached_rows(s, [x] if own else s.live)
-        forms_of = _per_context(s, keys, [x]) if every is None else every
+        forms, d = _per_context(s, keys, [x]) if every is None else every
+        here = 0 if own else i
+        floors = forms.reshape(-1, *forms.shape[2:])  # (every context's, and every group's)
         pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
-        groups = sorted({a for pair in pairs for a in pair})
-        forms = {a: forms_of[x, a] for a in groups}
-        floor_rows = [] if s.tau is None else [forms_of[y, c] for y in ([x] if own else s.live) for c in range(s.k)]
-        rows, d, where = _programs(s, keys, forms, floor_rows)
-        floors = rows[len(forms) :]
         for a, b in pairs:
             recorded = evidence.local.get((x, a, b))
             nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
             point = evidence.local_point
             table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
-            program = TableProgram(rows[where[a]], rows[where[b]], floors, d, s.tau)
+            program = TableProgram(forms[here, a], forms[here, b], floors, d, s.tau)
             cases.append(_Case(program, nu, evidence.local_theta.get((x, a, b)), s.tau, table))
     return _largest(cases, Fraction(0))
 
@@ -235,15 +202,14 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
     if len(s.present) < 2:
         return Fraction(1), Fraction(1), False
     keys = reached_rows(s, s.live)
-    n_u = len(s.g[0][0])
     pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
     groups = sorted({a for pair in pairs for a in pair})
-    forms = {
-        a: _dense(_form(s, keys, {x: s.weights[i][a] for i, x in enumerate(s.live)}, a), len(keys), n_u) for a in groups
-    }  # E[g | a] = Σ_x P(x | a) E[g | x, a]: the numerator where a is first, the denominator where second
+    per_context, d = _per_context(s, keys, s.live)
+    (weights,), d_w = integers([s.weights])
+    forms = {a: (per_context[:, a] * weights[:, a, None, None]).sum(axis=0) for a in groups}
+    # E[g | a] = Σ_x P(x | a) E[g | x, a]: the numerator where a is first, the denominator where second
     kept = {b: None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0)) for b in groups}
-    rows, d, where = _programs(s, keys, forms, [] if s.tau is None else list(_per_context(s, keys, s.live).values()))
-    floors = rows[len(forms) :]
+    floors = per_context.reshape(-1, *per_context.shape[2:]) * d_w
     evidence = s.evidence
     cases = []
     for a, b in pairs:
@@ -251,6 +217,6 @@ def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
         nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
         point = evidence.global_point
         table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
-        program = TableProgram(rows[where[a]], rows[where[b]], floors, d, s.tau)
+        program = TableProgram(forms[a], forms[b], floors, d * d_w, s.tau)
         cases.append(_Case(program, nu, evidence.global_theta.get((a, b)), kept[b], table))
     return _largest(cases, Fraction(1))

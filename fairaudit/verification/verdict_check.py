@@ -16,15 +16,12 @@ from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.checks import Check, equal
-from fairaudit.verification.enclosures import exact, recorded_array
+from fairaudit.verification.enclosures import INDEPENDENCE, exact, independence, recorded_array
 
 __all__ = ["FORMS", "verdict_checks"]
 
 FORMS = ("black_box", "tight", "corollary", "paper")
 """The bounds on L in the order certify prefers them on a tie (``_best_bound``: the tighter form first)."""
-
-INDEPENDENCE = Fraction(1e-9)
-"""max |P(x, a) − P(x) P(a)| up to which certify calls X and A independent (``Population.independence``)."""
 
 EDGE = Fraction(1, 2**40)
 """certify evaluates that deviation in floats: within this relative distance of :data:`INDEPENDENCE` either verdict
@@ -118,16 +115,9 @@ def _holds_checks(cert: Mapping[str, Any], assumptions: Sequence[Mapping[str, An
     return out
 
 
-def _deviation(cert: Mapping[str, Any]) -> Fraction:
-    """max |P(x, a) − P(x) P(a)| of the recorded population, exactly."""
-    p = recorded_array(cert["inputs"]["population"]["probabilities"], "inputs.population.probabilities")
-    p_x, p_a = [sum(row) for row in p], [sum(col) for col in zip(*p)]
-    return max(abs(p[x][a] - p_x[x] * p_a[a]) for x in range(len(p_x)) for a in range(len(p_a)))
-
-
 def _independent(cert: Mapping[str, Any]) -> tuple[bool, ...]:
     """The verdicts X ⊥ A may take: (True,) or (False,), both within :data:`EDGE` of the threshold."""
-    dev = _deviation(cert)
+    dev = max(map(max, independence(cert["inputs"]["population"]["probabilities"])[0]))
     if dev <= INDEPENDENCE * (1 - EDGE):
         return (True,)
     return (False,) if dev > INDEPENDENCE * (1 + EDGE) else (True, False)

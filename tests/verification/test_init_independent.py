@@ -78,7 +78,7 @@ def f():
 
 def test_verification_imports_nothing_else_of_fairaudit():
     modules = sorted(PACKAGE.rglob("*.py"))
-    assert len(modules) >= 18
+    assert len(modules) >= 10  # (the package is found: its modules are merged as it shrinks)
     found = {}
     for path in modules:
         package = ["fairaudit", *path.relative_to(ROOT / "fairaudit").parts[:-1]]

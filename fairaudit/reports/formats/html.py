@@ -29,7 +29,7 @@ from collections.abc import Callable, Sequence
 from importlib import resources
 from typing import TYPE_CHECKING, Any
 
-from fairaudit.base.errors import InputError
+from fairaudit.base.errors import optional_modules
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats.base import Format
 from fairaudit.reports.formats.sections import (
@@ -89,19 +89,6 @@ CONTEXTS_LISTED = 2000
 _BOUND_COLOURS = {"paper": "tab:red", "tight": "tab:orange", "black_box": "tab:blue", "corollary": "0.55"}
 
 
-def _libraries() -> tuple[Any, Any]:
-    """jinja2 and matplotlib, or the :class:`InputError` that says how to install them."""
-    try:
-        import jinja2
-        import matplotlib
-    except ImportError:
-        raise InputError(
-            "format",
-            "html needs jinja2 and matplotlib, which are not installed: pip install 'fairness-certify[html]'",
-        ) from None
-    return jinja2, matplotlib
-
-
 class _Page:
     """A report being built: its title and its blocks (headings, sentences, tables, lists, figures).
 
@@ -109,6 +96,8 @@ class _Page:
     """
 
     def __init__(self, title: str) -> None:
+        problem = "html needs jinja2 and matplotlib, which are not installed: pip install 'fairness-certify[html]'"
+        self.jinja2 = optional_modules("format", problem, "jinja2", "matplotlib")[0]  # before any work
         self.title = title
         self.blocks: list[dict[str, Any]] = []
 
@@ -143,10 +132,10 @@ class _Page:
         n = sum(b["kind"] == "figure" for b in self.blocks) + 1
         self.blocks.append({"kind": "figure", "svg": svg_of(draw, f"fig{n}-"), "text": caption})
 
-    def render(self, jinja2: Any) -> str:
+    def render(self) -> str:
         """The whole document: the template with autoescaping (SVG blocks marked safe)."""
-        env: jinja2.Environment = jinja2.Environment(
-            autoescape=True, trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined
+        env: jinja2.Environment = self.jinja2.Environment(
+            autoescape=True, trim_blocks=True, lstrip_blocks=True, undefined=self.jinja2.StrictUndefined
         )
         from markupsafe import Markup
 
@@ -163,7 +152,6 @@ class HtmlFormat(Format):
 
     def certificate(self, d: Report) -> str:
         """The certificate's content (as the text report) with a figure of the bounds against the observed L."""
-        jinja2, _ = _libraries()
         page = _Page(f"fairaudit certificate: {d['title'] or d['spec']}")
         page.verdict(bool(d["certified"]), f"Certified: {'yes' if d['certified'] else 'no'}")
         page.facts(certificate_facts(d))
@@ -187,11 +175,10 @@ class HtmlFormat(Format):
                 page.p(sentence)
         page.h2("Assumptions")
         page.table(ASSUMPTION_HEAD, assumption_rows(d))
-        return page.render(jinja2)
+        return page.render()
 
     def audit(self, d: Report) -> str:
         """The audit's content (as the text report), the cells' table and figures of E[g | a] and E[g | x, a]."""
-        jinja2, _ = _libraries()
         if "impact_ratios" in d:  # the report asked for first, the headline metrics after
             page = _Page(impact_title(d))
             for name, head, impact_rows in impact_tables(d):
@@ -237,33 +224,30 @@ class HtmlFormat(Format):
             page.table(GAP_HEAD, gap_rows(d), numeric=(1,))
             page.p(GAP_NOTE + ".")
         _cells_table(page, d)
-        return page.render(jinja2)
+        return page.render()
 
     def calibration(self, d: Report) -> str:
         """The calibration's lines (as the text report), one sentence each."""
-        jinja2, _ = _libraries()
         page = _Page("fairaudit calibration")
         for line in calibration_text(d).splitlines():
             page.p(line)
-        return page.render(jinja2)
+        return page.render()
 
     def worst_case(self, d: Report) -> str:
         """The worst-case lines (as the text report), one paragraph each."""
-        jinja2, _ = _libraries()
         page = _Page("fairaudit worst case")
         for line in worst_case_text(d).splitlines():
             page.p(line.strip())
-        return page.render(jinja2)
+        return page.render()
 
     def plan(self, d: Report) -> str:
         """The question and the assumed model, a table of the methods and why a method found no n."""
-        jinja2, _ = _libraries()
         page = _Page("fairaudit plan")
         for line in plan_head(d):
             page.p(sentence(line))
         page.table(PLAN_HEAD, plan_rows(d), numeric=(1, 2, 3, 4, 5))
         page.bullets([f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]])
-        return page.render(jinja2)
+        return page.render()
 
 
 def _observed(page: _Page, o: Report, counts: bool = False) -> None:

@@ -12,7 +12,7 @@ are in nats. See docs/ for the guide and proofs/ for the proofs.
 from __future__ import annotations
 
 from fairaudit.base.checks import choice, number_type, real, whole
-from fairaudit.base.errors import FairauditError, InputError, UnderflowError
+from fairaudit.base.errors import FairauditError, InputError, UnderflowError, optional_modules
 from fairaudit.base.files import write_atomic
 from fairaudit.base.json_values import number
 from fairaudit.base.labels import format_label
@@ -158,7 +158,7 @@ __all__ = [
     "plot_curve",
     "save_figure",
     # what the core shares with plug-ins (fairaudit.experiments): argument checks, TOML tables, labels and numbers
-    # as reports show them, atomic writes, progress bars
+    # as reports show them, atomic writes, progress bars, optional modules
     "FieldProblem",
     "ProgressBar",
     "choice",
@@ -166,6 +166,7 @@ __all__ = [
     "format_label",
     "number",
     "number_type",
+    "optional_modules",
     "parse_toml",
     "progress_bar",
     "real",

@@ -73,6 +73,7 @@ def test_wheel_holds_the_package_and_nothing_else(wheel):
     assert "fairaudit/cli.py" not in names and "fairaudit/worstcase.py" not in names
     assert "fairaudit/py.typed" in names  # PEP 561: type checkers use the shipped annotations
     assert "fairaudit/verification/certificate.schema.json" in names  # the certificate's JSON Schema (package data)
+    assert "fairaudit/reports/formats/page.html.jinja" in names  # the HTML report's template (package data)
     entry = zipfile.ZipFile(wheel).read(f"{info}/entry_points.txt").decode()
     assert "fairaudit = fairaudit.cli:main" in entry
     # the experiments' commands, a plug-in registered in the group the fairaudit command reads

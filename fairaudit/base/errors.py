@@ -7,9 +7,11 @@ offending value. The command-line interface prints it and exits with status 2.
 
 from __future__ import annotations
 
+import importlib
 import os
+from typing import Any
 
-__all__ = ["ECHO_LIMIT", "FairauditError", "InputError", "UnderflowError", "cut", "echo"]
+__all__ = ["ECHO_LIMIT", "FairauditError", "InputError", "UnderflowError", "cut", "echo", "optional_modules"]
 
 
 class FairauditError(Exception):
@@ -72,6 +74,30 @@ class UnderflowError(InputError):
     >>> isinstance(UnderflowError("kernel", "underflows"), InputError)
     True
     """
+
+
+def optional_modules(field: str, problem: str, *names: str) -> tuple[Any, ...]:
+    """The modules ``names`` (of an optional extra), imported now, or an :class:`InputError` when one is missing.
+
+    Parameters
+    ----------
+    field, problem : str
+        The error's field and its problem, which names the extra that installs the modules.
+    *names : str
+        Dotted module names (``"PIL.Image"`` gives the module that ``from PIL import Image`` does).
+
+    Examples
+    --------
+    >>> optional_modules("format", "needs json", "json")[0].__name__
+    'json'
+    >>> optional_modules("format", "needs nomodule: pip install it", "json", "nomodule")
+    Traceback (most recent call last):
+    fairaudit.base.errors.InputError: format: needs nomodule: pip install it
+    """
+    try:
+        return tuple(importlib.import_module(name) for name in names)
+    except ImportError:
+        raise InputError(field, problem) from None
 
 
 ECHO_LIMIT = 80

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from fairaudit.base.errors import InputError, echo
+from fairaudit.base.errors import InputError, echo, optional_modules
 from fairaudit.data.columns import check_roles, missing_values, roles
 from fairaudit.data.counts import CountTable, count_table
 from fairaudit.data.key_values import ROWS_SHOWN, Locate, check_key_values, frame_columns
@@ -110,12 +110,9 @@ def count_spark(
         table = count_spark(records, sensitive=["race"], outcome="hired", context=["job"])
         table.law(), table.population()
     """
-    try:
-        import pyspark.sql  # noqa: F401
-    except ImportError:
-        raise InputError(
-            "pyspark", "is needed to count a Spark DataFrame: pip install 'fairness-certify[spark]'"
-        ) from None
+    optional_modules(
+        "pyspark", "is needed to count a Spark DataFrame: pip install 'fairness-certify[spark]'", "pyspark.sql"
+    )
     if not all(hasattr(frame, name) for name in ("groupBy", "toDF", "toPandas", "schema", "columns")):
         raise InputError("frame", "must be a Spark DataFrame (pyspark.sql.DataFrame)", type(frame).__name__)
     sensitive, outcome, context = roles(sensitive, outcome, context)

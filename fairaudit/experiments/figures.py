@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit import InputError
+from fairaudit import optional_modules
 
 from ._markdown import listed_order
 
@@ -33,13 +33,9 @@ def figure_class() -> type[Figure]:
     InputError
         When matplotlib is not installed: the run then writes its tables and report without figures.
     """
-    try:
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise InputError(
-            "path", "needs matplotlib, which is not installed: pip install 'fairness-certify[plot]'"
-        ) from None
-    return Figure
+    problem = "needs matplotlib, which is not installed: pip install 'fairness-certify[plot]'"
+    figure: type[Figure] = optional_modules("path", problem, "matplotlib.figure")[0].Figure
+    return figure
 
 
 def plot_baseline(analysis: ExperimentAnalysis, path: str | Path) -> None:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fairaudit import InputError
+from fairaudit import InputError, optional_modules
 
 from .options import SAMPLING_FIELDS
 
@@ -99,20 +99,15 @@ def claim(folder: Folder) -> Iterator[Folder]:
     dies. Under the lock the log is checked again (another run may have ended) and, on resume, held to the run's
     settings (:func:`check_resumed`).
     """
-    try:
-        from filelock import FileLock, Timeout
-    except ImportError:
-        raise InputError(
-            "out",
-            "one run per folder needs filelock, which is not installed: pip install 'fairness-certify[experiment]'",
-        ) from None
+    problem = "one run per folder needs filelock, which is not installed: pip install 'fairness-certify[experiment]'"
+    filelock = optional_modules("out", problem, "filelock")[0]
     out = folder.out
     out.mkdir(parents=True, exist_ok=True)  # with its missing parents, as `mkdir -p`
     path = out / LOCK_NAME
-    lock = FileLock(path, timeout=0)
+    lock = filelock.FileLock(path, timeout=0)
     try:
         lock.acquire()
-    except Timeout:
+    except filelock.Timeout:
         raise InputError(
             "out",
             f"is in use by another fairaudit run (lock {path}); wait for it to finish or choose another folder",

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from fairaudit import InputError
+from fairaudit import InputError, optional_modules
 
 __all__ = [
     "CACHE_ENV",
@@ -278,13 +278,8 @@ def require_torch() -> tuple[Any, Any]:
         Field ``local_model`` when either is not installed, naming the extra
         that installs them (``fairness-certify[local-model]``).
     """
-    try:
-        import torch
-        import transformers
-    except ImportError:
-        raise InputError(
-            "local_model", "needs torch and transformers: pip install 'fairness-certify[local-model]'"
-        ) from None
+    problem = "needs torch and transformers: pip install 'fairness-certify[local-model]'"
+    torch, transformers = optional_modules("local_model", problem, "torch", "transformers")
     return torch, transformers
 
 

@@ -100,13 +100,13 @@ class Bound:
     value: float
     epsilon: float
     delta: float
-    group: Hashable | None
-    other_group: Hashable | None
     gamma: float
     tau: float
     lipschitz: float
     diameter: float
     mechanism: Mechanism
+    group: Hashable | None = None
+    other_group: Hashable | None = None
     assumptions: tuple[Assumption, ...] = field(default=())
 
     @property
@@ -421,8 +421,6 @@ def paper_bound(
         value=value,
         epsilon=eps,
         delta=delta,
-        group=None,
-        other_group=None,
         gamma=gamma,
         tau=tau,
         lipschitz=lipschitz,
@@ -598,8 +596,6 @@ def corollary_bound(
         value=eps,
         epsilon=eps,
         delta=0.0,
-        group=None,
-        other_group=None,
         gamma=math.nan,
         tau=math.nan,
         lipschitz=0.0,

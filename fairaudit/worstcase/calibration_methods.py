@@ -239,13 +239,8 @@ def black_box(
     common: Common, family: MechanismFamily, metric: npt.ArrayLike | None, population: Population | None
 ) -> Found:
     """The largest ε whose exact worst case over every model of the class meets the target (on L)."""
-    target, gamma, lower, tau, lip = (
-        common.target,
-        common.gamma,
-        common.lower,
-        common.tau,
-        common.lipschitz,
-    )
+    target, gamma, lower = common.target, common.gamma, common.lower
+    tau, lip = common.tau, common.lipschitz
     kwargs, cls, note = _black_box_class(common, metric, population)
     bound = _rr_bound(common, family, metric)
     if bound is None:

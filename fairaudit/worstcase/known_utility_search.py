@@ -352,7 +352,6 @@ class _ModelSpace:
     rows: npt.NDArray[np.floating[Any]] | None  # τ rows (G-space only): rows @ h >= τ
     inner: InnerProgram  # the variables' bounds and the τ rows rounded down: a point meeting them is feasible
     floors: bool  # whether the program has the τ rows
-    table_floors: FloatArray | None = None  # in kernel space, the τ rows rounded up (over every cell), else None
 
 
 def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
@@ -497,7 +496,6 @@ def _model_program(
         rows=None,
         inner=InnerProgram(np.zeros(nXr * nAr * nU), np.ones(nXr * nAr * nU), k_witness_rows),
         floors=k_outer is not None,
-        table_floors=k_outer,
     )
 
 

@@ -172,12 +172,12 @@ class WorstCase:
     kind: str
     value: float
     ratio: float
-    context: Hashable | None
-    group: Hashable | None
-    other_group: Hashable | None
-    kernel: Kernel | None
-    utility: Utility | None
-    expected_utility: FloatArray | None
+    context: Hashable | None = None
+    group: Hashable | None = None
+    other_group: Hashable | None = None
+    kernel: Kernel | None = None
+    utility: Utility | None = None
+    expected_utility: FloatArray | None = None
     method: str
     status: str
     solver_status: str
@@ -196,12 +196,6 @@ class WorstCase:
             kind=kind,
             value=math.nan,
             ratio=math.nan,
-            context=None,
-            group=None,
-            other_group=None,
-            kernel=None,
-            utility=None,
-            expected_utility=None,
             method="lp",
             status="infeasible",
             solver_status=solver_status,
@@ -217,12 +211,7 @@ class WorstCase:
             kind=kind,
             value=0.0,
             ratio=1.0,
-            context=None,
-            group=None,
-            other_group=None,
             kernel=kernel,
-            utility=None,
-            expected_utility=None,
             method="threshold",
             status="trivial",
             solver_status="threshold",

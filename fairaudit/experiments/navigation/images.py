@@ -19,7 +19,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from fairaudit import InputError
+from fairaudit import InputError, optional_modules
 
 from .maps import Maps, check_maps
 
@@ -58,14 +58,9 @@ Window = tuple[int, int, int, int]
 _NICE = (1.0, 2.0, 5.0)  # the scale bar's lengths: 1, 2 or 5 times a power of ten, metres
 
 
-def _pillow() -> tuple[ModuleType, ModuleType, ModuleType]:
-    try:
-        from PIL import Image, ImageDraw, ImageFont
-    except ImportError:
-        raise InputError(
-            "navigation", "needs pillow, which is not installed: pip install 'fairness-certify[navigation]'"
-        ) from None
-    return Image, ImageDraw, ImageFont
+def _pillow() -> tuple[ModuleType, ...]:
+    problem = "needs pillow, which is not installed: pip install 'fairness-certify[navigation]'"
+    return optional_modules("navigation", problem, "PIL.Image", "PIL.ImageDraw", "PIL.ImageFont")
 
 
 def _background(maps: Maps) -> np.ndarray:

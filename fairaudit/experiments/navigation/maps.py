@@ -65,7 +65,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit import InputError
+from fairaudit import InputError, optional_modules
 
 from .s3dis import CATEGORIES, UNLABELLED, Area, Room, iter_rooms, room_kind
 
@@ -89,13 +89,8 @@ _FLOOR = CATEGORIES.index("floor")
 
 def require_networkx() -> ModuleType:
     """The networkx module, or an :class:`InputError` naming the extra that installs it."""
-    try:
-        import networkx
-    except ImportError:
-        raise InputError(
-            "navigation", "needs networkx, which is not installed: pip install 'fairness-certify[navigation]'"
-        ) from None
-    return networkx
+    problem = "needs networkx, which is not installed: pip install 'fairness-certify[navigation]'"
+    return optional_modules("navigation", problem, "networkx")[0]
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

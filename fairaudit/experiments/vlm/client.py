@@ -31,11 +31,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from email.utils import parsedate_to_datetime
 from numbers import Integral
-from types import ModuleType
 from typing import Any
 from urllib.parse import urlsplit, urlunsplit
 
-from fairaudit import FairauditError, InputError, real, whole
+from fairaudit import FairauditError, InputError, optional_modules, real, whole
 
 from .logprobs import echo_token_logprobs, first_token_logprobs, prompt_token_logprobs
 
@@ -57,15 +56,6 @@ RETRY_STATUSES = frozenset({429, 500, 502, 503, 504})
 
 _log = logging.getLogger(__name__)
 _MESSAGE_CHARS = 200
-
-
-def _require_extra() -> tuple[ModuleType, ModuleType]:
-    try:
-        import httpx
-        import tenacity
-    except ImportError:
-        raise InputError("vlm", "needs pip install 'fairness-certify[vlm]'") from None
-    return httpx, tenacity
 
 
 class ChatError(FairauditError):
@@ -244,7 +234,7 @@ class ChatClient:
         self.extra_body = _extra_body(extra_body)
         self._key = _api_key(api_key, api_key_env)
 
-        httpx, tenacity = _require_extra()
+        httpx, tenacity = optional_modules("vlm", "needs pip install 'fairness-certify[vlm]'", "httpx", "tenacity")
         self._httpx = httpx
         self._tenacity = tenacity
         self._slots = threading.BoundedSemaphore(self.max_concurrency)

@@ -34,7 +34,7 @@ from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
-from fairaudit import InputError, format_label
+from fairaudit import InputError, format_label, optional_modules
 
 from .messages import system_message, user_message
 
@@ -569,14 +569,12 @@ def _environment() -> Any:
     over the candidates; the sandbox refuses attributes of Python objects; there
     is no loader, so ``include`` and ``extends`` reach no file.
     """
-    try:
-        from jinja2 import StrictUndefined
-        from jinja2.exceptions import SecurityError
-        from jinja2.sandbox import ImmutableSandboxedEnvironment
-    except ImportError:
-        raise InputError(
-            "prompt", "needs jinja2, which is not installed: pip install 'fairness-certify[experiment]'"
-        ) from None
+    optional_modules(
+        "prompt", "needs jinja2, which is not installed: pip install 'fairness-certify[experiment]'", "jinja2"
+    )
+    from jinja2 import StrictUndefined
+    from jinja2.exceptions import SecurityError
+    from jinja2.sandbox import ImmutableSandboxedEnvironment
 
     class PromptUndefined(StrictUndefined):
         """A name the template asks for and the prompt does not have; a candidate's missing field is said so."""

@@ -10,8 +10,8 @@ and, with several contexts, E[g | x, a] per context and group, each with its
 interval when there is one; for ``certify`` the bounds on L against the
 observed L and the target.
 
-The page is made by a Jinja2 template with autoescaping on, so that every text
-from the data (a label ``<script>``, a title with ``&``) is shown as written;
+The page is made by the Jinja2 template ``page.html.jinja`` (package data
+beside this module) with autoescaping on, so that every text from the data (a label ``<script>``, a title with ``&``) is shown as written;
 the only markup not escaped is the SVG that matplotlib writes (which escapes
 its own text). Jinja2 and matplotlib are the extra ``html`` (``pip install
 'fairness-certify[html]'``); they are imported only when a page is made, and without
@@ -26,9 +26,10 @@ import json
 import math
 import re
 from collections.abc import Callable, Sequence
+from importlib import resources
 from typing import TYPE_CHECKING, Any
 
-from fairaudit.base.errors import InputError
+from fairaudit.base.errors import optional_modules
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats.base import Format
 from fairaudit.reports.formats.sections import (
@@ -87,100 +88,6 @@ CONTEXTS_LISTED = 2000
 #: matplotlib's colours of the bounds in :func:`fairaudit.reports.plots.plot_curve`, reused here.
 _BOUND_COLOURS = {"paper": "tab:red", "tight": "tab:orange", "black_box": "tab:blue", "corollary": "0.55"}
 
-_TEMPLATE = """<!DOCTYPE html>
-<html lang="en">
-<head>
-<meta charset="utf-8">
-<meta name="viewport" content="width=device-width, initial-scale=1">
-<meta name="generator" content="fairaudit">
-<title>{{ title }}</title>
-<style>
-:root { color-scheme: light; }
-body { margin: 0; background: #fff; color: #1b1b1b;
-       font: 15px/1.5 system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; }
-main { max-width: 68rem; margin: 0 auto; padding: 1.5rem 1.25rem 3rem; }
-h1 { font-size: 1.5rem; margin: 0 0 1rem; overflow-wrap: anywhere; }
-h2 { font-size: 1.2rem; margin: 2rem 0 0.6rem; padding-bottom: 0.2rem; border-bottom: 1px solid #ddd; }
-p, ul, dl { margin: 0.5rem 0; }
-dl { display: grid; grid-template-columns: max-content 1fr; gap: 0.2rem 1rem; }
-dt { font-weight: 600; }
-dd { margin: 0; overflow-wrap: anywhere; }
-code { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size: 0.92em;
-       background: #f3f3f3; padding: 0 0.2em; border-radius: 3px; }
-.scroll { overflow-x: auto; margin: 0.5rem 0; }
-table { border-collapse: collapse; font-size: 0.93rem; }
-th, td { border: 1px solid #d0d0d0; padding: 0.25rem 0.55rem; text-align: left; vertical-align: top; }
-th { background: #f2f4f7; }
-tbody tr:nth-child(even) { background: #fafafa; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
-td { overflow-wrap: anywhere; }
-figure { margin: 1rem 0; }
-figure svg { display: block; max-width: 100%; height: auto; }
-figcaption { font-size: 0.9rem; color: #444; margin-top: 0.3rem; }
-.verdict { display: inline-block; font-weight: 700; padding: 0.3rem 0.8rem; border-radius: 4px; }
-.verdict.yes { background: #e3f4e6; color: #135c25; border: 1px solid #9fd4aa; }
-.verdict.no { background: #fbe5e5; color: #8a1c1c; border: 1px solid #e3a5a5; }
-footer { margin-top: 3rem; font-size: 0.8rem; color: #666; }
-@media print { .scroll { overflow: visible; } h2 { break-after: avoid; } figure, tr { break-inside: avoid; } }
-</style>
-</head>
-<body>
-<main>
-<h1>{{ title }}</h1>
-{% for b in blocks %}
-{% if b.kind == "h2" %}
-<h2>{{ b.text }}</h2>
-{% elif b.kind == "p" %}
-<p>{{ b.text }}</p>
-{% elif b.kind == "verdict" %}
-<p class="verdict {{ b.css }}">{{ b.text }}</p>
-{% elif b.kind == "facts" %}
-<dl>
-{% for name, value, code in b["items"] %}
-<dt>{{ name }}</dt><dd>{% if code %}<code>{{ value }}</code>{% else %}{{ value }}{% endif %}</dd>
-{% endfor %}
-</dl>
-{% elif b.kind == "list" %}
-<ul>
-{% for item in b["items"] %}
-<li>{{ item }}</li>
-{% endfor %}
-</ul>
-{% elif b.kind == "table" %}
-<div class="scroll"><table>
-<thead><tr>{% for h in b.head %}<th scope="col">{{ h }}</th>{% endfor %}</tr></thead>
-<tbody>
-{% for row in b.rows %}
-<tr>{% for cell in row %}<td{% if loop.index0 in b.numeric %} class="num"{% endif %}>{{ cell }}</td>{% endfor %}</tr>
-{% endfor %}
-</tbody>
-</table></div>
-{% elif b.kind == "figure" %}
-<figure>
-{{ b.svg }}
-<figcaption>{{ b.text }}</figcaption>
-</figure>
-{% endif %}
-{% endfor %}
-<footer>Made by fairaudit. This page is self-contained: no script, no file or address outside it.</footer>
-</main>
-</body>
-</html>
-"""
-
-
-def _libraries() -> tuple[Any, Any]:
-    """jinja2 and matplotlib, or the :class:`InputError` that says how to install them."""
-    try:
-        import jinja2
-        import matplotlib
-    except ImportError:
-        raise InputError(
-            "format",
-            "html needs jinja2 and matplotlib, which are not installed: pip install 'fairness-certify[html]'",
-        ) from None
-    return jinja2, matplotlib
-
 
 class _Page:
     """A report being built: its title and its blocks (headings, sentences, tables, lists, figures).
@@ -189,6 +96,8 @@ class _Page:
     """
 
     def __init__(self, title: str) -> None:
+        problem = "html needs jinja2 and matplotlib, which are not installed: pip install 'fairness-certify[html]'"
+        self.jinja2 = optional_modules("format", problem, "jinja2", "matplotlib")[0]  # before any work
         self.title = title
         self.blocks: list[dict[str, Any]] = []
 
@@ -223,15 +132,16 @@ class _Page:
         n = sum(b["kind"] == "figure" for b in self.blocks) + 1
         self.blocks.append({"kind": "figure", "svg": svg_of(draw, f"fig{n}-"), "text": caption})
 
-    def render(self, jinja2: Any) -> str:
+    def render(self) -> str:
         """The whole document: the template with autoescaping (SVG blocks marked safe)."""
-        env: jinja2.Environment = jinja2.Environment(
-            autoescape=True, trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined
+        env: jinja2.Environment = self.jinja2.Environment(
+            autoescape=True, trim_blocks=True, lstrip_blocks=True, undefined=self.jinja2.StrictUndefined
         )
         from markupsafe import Markup
 
         blocks = [{**b, "svg": Markup(b["svg"])} if b["kind"] == "figure" else b for b in self.blocks]
-        text: str = env.from_string(_TEMPLATE).render(title=self.title, blocks=blocks)
+        template = resources.files(__package__).joinpath("page.html.jinja").read_text(encoding="utf-8")
+        text: str = env.from_string(template).render(title=self.title, blocks=blocks)
         return text
 
 
@@ -242,7 +152,6 @@ class HtmlFormat(Format):
 
     def certificate(self, d: Report) -> str:
         """The certificate's content (as the text report) with a figure of the bounds against the observed L."""
-        jinja2, _ = _libraries()
         page = _Page(f"fairaudit certificate: {d['title'] or d['spec']}")
         page.verdict(bool(d["certified"]), f"Certified: {'yes' if d['certified'] else 'no'}")
         page.facts(certificate_facts(d))
@@ -266,11 +175,10 @@ class HtmlFormat(Format):
                 page.p(sentence)
         page.h2("Assumptions")
         page.table(ASSUMPTION_HEAD, assumption_rows(d))
-        return page.render(jinja2)
+        return page.render()
 
     def audit(self, d: Report) -> str:
         """The audit's content (as the text report), the cells' table and figures of E[g | a] and E[g | x, a]."""
-        jinja2, _ = _libraries()
         if "impact_ratios" in d:  # the report asked for first, the headline metrics after
             page = _Page(impact_title(d))
             for name, head, impact_rows in impact_tables(d):
@@ -316,33 +224,30 @@ class HtmlFormat(Format):
             page.table(GAP_HEAD, gap_rows(d), numeric=(1,))
             page.p(GAP_NOTE + ".")
         _cells_table(page, d)
-        return page.render(jinja2)
+        return page.render()
 
     def calibration(self, d: Report) -> str:
         """The calibration's lines (as the text report), one sentence each."""
-        jinja2, _ = _libraries()
         page = _Page("fairaudit calibration")
         for line in calibration_text(d).splitlines():
             page.p(line)
-        return page.render(jinja2)
+        return page.render()
 
     def worst_case(self, d: Report) -> str:
         """The worst-case lines (as the text report), one paragraph each."""
-        jinja2, _ = _libraries()
         page = _Page("fairaudit worst case")
         for line in worst_case_text(d).splitlines():
             page.p(line.strip())
-        return page.render(jinja2)
+        return page.render()
 
     def plan(self, d: Report) -> str:
         """The question and the assumed model, a table of the methods and why a method found no n."""
-        jinja2, _ = _libraries()
         page = _Page("fairaudit plan")
         for line in plan_head(d):
             page.p(sentence(line))
         page.table(PLAN_HEAD, plan_rows(d), numeric=(1, 2, 3, 4, 5))
         page.bullets([f"{p['method']}: {p['reason']}" for p in d["plans"] if p["reason"]])
-        return page.render(jinja2)
+        return page.render()
 
 
 def _observed(page: _Page, o: Report, counts: bool = False) -> None:

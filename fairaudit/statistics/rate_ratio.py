@@ -27,15 +27,7 @@ from fairaudit.base.arrays import FloatArray
 from fairaudit.base.checks import level
 from fairaudit.base.errors import InputError
 
-__all__ = [
-    "ADJUSTMENTS",
-    "TESTS",
-    "adjusted",
-    "equal_rates_test",
-    "exact_ratio_interval",
-    "ratio_interval",
-    "score_statistic",
-]
+__all__ = ["ADJUSTMENTS", "TESTS", "adjusted", "equal_rates_test", "ratio_interval", "score_statistic"]
 
 ADJUSTMENTS = ("none", "holm", "bonferroni")
 """The multiplicity adjustments over the m ratios of a report (:func:`adjusted`)."""
@@ -152,116 +144,6 @@ def ratio_interval(
             lo, hi = (lo - width if f(lo, target) <= 0 else lo), (hi + width if f(hi, target) >= 0 else hi)
         ends.append(math.exp(brentq(f, lo, hi, args=(target,), xtol=1e-14, rtol=1e-12)))
     return ends[0], ends[1]
-
-
-def exact_ratio_interval(x1: int, n1: int, x2: int, n2: int, confidence: float = 0.95) -> tuple[float, float]:
-    """The exact unconditional interval on p₁/p₂: coverage at least ``confidence`` at every p₁, p₂.
-
-    The tail method (Chan and Zhang 1999; Agresti and Min 2001, for the ratio): the lower end is the least θ whose
-    one-sided test of p₁/p₂ ≤ θ has p-value above α/2, the upper end the greatest θ whose test of p₁/p₂ ≥ θ has one
-    above α/2 (α = 1 − ``confidence``). Each test orders the outcomes by the score statistic z(θ)
-    (:func:`score_statistic`) and its p-value is the tail probability at the worst nuisance p₂ in
-    (0, min(1, 1/θ)] (the supremum over 64 values of p₂, then 64 between the neighbours of the largest, twice: a
-    step of 1/64³ of the range). z(θ) increases in x₁ and decreases in x₂, so each tail is a staircase: per x₁ one range of x₂, found by
-    bisection, and the tail probability is a sum over x₁ of a binomial probability times a binomial CDF. Outcomes
-    whose z equals the observed one within 1e-9 relative count as ties (in the tail), as scipy's exact tests do.
-
-    Parameters
-    ----------
-    x1, n1, x2, n2 : int
-        Whole counts, 0 ≤ x ≤ n, n > 0.
-    confidence : float
-        In (0, 1).
-
-    Returns
-    -------
-    (lower, upper) : tuple of float
-        0 when x₁ = 0, inf when x₂ = 0; ends found to 1e-6 relative.
-
-    Raises
-    ------
-    InputError
-        Counts that are not whole or out of range.
-
-    Examples
-    --------
-    Koopman's example; his score interval is (2.94, 7.15), which need not cover at the nominal level:
-
-    >>> [round(v, 2) for v in exact_ratio_interval(36, 40, 16, 80)]
-    [2.95, 7.64]
-    """
-    for name, x, n in (("x1", x1, n1), ("x2", x2, n2)):
-        if not (float(x) == int(x) and float(n) == int(n) and 0 <= x <= n and n > 0):
-            raise InputError(name, f"must be whole, 0 <= selected <= applicants, applicants > 0 (applicants {n})", x)
-    half = (1 - level(confidence)) / 2
-    score_lo, score_hi = ratio_interval(x1, n1, x2, n2, confidence)
-    ends = []
-    for side, open_end, start in ((1, x1 == 0, score_lo), (-1, x2 == 0, score_hi)):
-        if open_end:
-            ends.append(0.0 if side > 0 else math.inf)
-            continue
-
-        def accepted(log_theta: float, side: int = side) -> bool:
-            return _tail_p_value(math.exp(log_theta), int(x1), int(n1), int(x2), int(n2), side) > half
-
-        inside = math.log((x1 / n1) / (x2 / n2)) if x1 and x2 else math.log(start)
-        step = 1.0
-        while not accepted(inside):  # (x₂ = 0 or x₁ = 0: the estimate is at an end; move in from the score end)
-            inside, step = inside + side * step, 2 * step
-        outside = math.log(start) if side * (inside - math.log(start)) > 0 else inside
-        step = 1.0
-        while accepted(outside):  # walk out past the end (the exact interval is about as wide as the score one)
-            outside, step = outside - side * step, 2 * step
-        while abs(outside - inside) > 1e-6:
-            mid = (outside + inside) / 2
-            inside, outside = (mid, outside) if accepted(mid) else (inside, mid)
-        ends.append(math.exp(inside))
-    return ends[0], ends[1]
-
-
-def _tail_p_value(theta: float, x1: int, n1: int, x2: int, n2: int, side: int) -> float:
-    """sup over p₂ of P(side·z(θ) ≥ side·z_obs) with X₁ ~ Bin(n₁, θp₂), X₂ ~ Bin(n₂, p₂) (:func:`exact_ratio_interval`)."""
-    from scipy.special import gammaln, xlog1py, xlogy
-
-    z_obs = float(score_statistic(theta, x1, n1, x2, n2))
-    tie = 1e-9 * (1.0 + abs(z_obs))
-    rows = np.arange(n1 + 1)
-    # side +1: per x₁ the largest x₂ with z ≥ z_obs (−1: none); side −1: the smallest x₂ with z ≤ z_obs (n₂ + 1: none)
-    lo, hi = (
-        (np.full(n1 + 1, -1), np.full(n1 + 1, n2)) if side > 0 else (np.zeros(n1 + 1, int), np.full(n1 + 1, n2 + 1))
-    )
-    while np.any(lo < hi):
-        mid = (lo + hi + (1 if side > 0 else 0)) // 2
-        z = score_statistic(theta, rows, n1, np.clip(mid, 0, n2), n2)
-        inside = side * (z - z_obs) >= -tie
-        inside = np.where(lo < hi, inside, True)  # (a settled row keeps its ends)
-        if side > 0:
-            lo, hi = np.where(inside, mid, lo), np.where(inside, hi, mid - 1)
-        else:
-            lo, hi = np.where(inside, lo, mid + 1), np.where(inside, mid, hi)
-    edge = lo
-
-    cols = np.arange(n2 + 1)
-    log_c1 = gammaln(n1 + 1) - gammaln(rows + 1) - gammaln(n1 - rows + 1)
-    log_c2 = gammaln(n2 + 1) - gammaln(cols + 1) - gammaln(n2 - cols + 1)
-
-    def tails(p2: FloatArray) -> FloatArray:  # binomial probabilities from log C(n, x) + x ln p + (n − x) ln(1 − p)
-        p1 = np.minimum(1.0, theta * p2)[:, None]
-        pmf1 = np.exp(log_c1 + xlogy(rows, p1) + xlog1py(n1 - rows, -p1))
-        cdf2 = np.cumsum(np.exp(log_c2 + xlogy(cols, p2[:, None]) + xlog1py(n2 - cols, -p2[:, None])), axis=1)
-        cdf2 = np.concatenate([np.zeros((len(p2), 1)), np.minimum(cdf2, 1.0)], axis=1)  # cdf2[:, e + 1] = P(X₂ ≤ e)
-        other = cdf2[:, edge + 1] if side > 0 else 1.0 - cdf2[:, edge]
-        return np.einsum("gi,gi->g", pmf1, other)
-
-    left, right, best = 0.0, min(1.0, 1.0 / theta), 0.0
-    for _ in range(3):  # 64 values of p₂, then 64 between the neighbours of the largest, twice
-        grid = np.linspace(left, right, 66)[1:-1] if left else np.linspace(0.0, right, 65)[1:]
-        values = tails(grid)
-        k = int(np.argmax(values))
-        best = max(best, float(values[k]))
-        step = grid[1] - grid[0]
-        left, right = max(grid[k] - step, 1e-300), min(grid[k] + step, min(1.0, 1.0 / theta))
-    return best
 
 
 def equal_rates_test(x1: float, n1: float, x2: float, n2: float, test: str = "fisher") -> float:

@@ -358,3 +358,19 @@ def test_round_half_up_refuses_an_unknown_direction_naming_how():
     with pytest.raises(InputError, match=r"^how: must be 'half up', 'down' or 'up' \(got 'sideways'\)$"):
         round_half_up(0.5, 1, "sideways")
     assert (round_half_up(0.125, 2, "down"), round_half_up(0.125, 2, "up")) == (0.12, 0.13)  # 1/8 between them
+
+
+def test_the_issues_two_thousand_applicants():
+    """2,000 applicants: Asian 85 of 218 (ratio 0.97) is not below by default; Black 135 of 520 (0.65) is below and
+    significant (Fisher's p about 1e-7 against White's 320 of 800, Holm over three)."""
+    counts = {"White": (800, 320), "Black": (520, 135), "Asian": (218, 85), "Hispanic": (462, 166)}
+    race = [c for c, (n, _) in counts.items() for _ in range(n)]
+    selected = [int(i < k) for _, (n, k) in counts.items() for i in range(n)]
+    df = pd.DataFrame({"race": race, "selected": selected})
+    rows = {r.category: r for r in impact_ratios(df, sensitive="race", outcome="selected").rows}
+    assert rows["Asian"].impact_ratio == pytest.approx(float(Fraction(85, 218) / Fraction(320, 800)), rel=1e-15)
+    assert rows["Asian"].verdict == "not below"
+    assert rows["Black"].impact_ratio == pytest.approx(float(Fraction(135, 520) / Fraction(2, 5)), rel=1e-15)
+    assert rows["Black"].verdict == "below, significant" and rows["Black"].p_value < 1e-4
+    lo, hi = rows["Black"].interval
+    assert lo < rows["Black"].impact_ratio < hi < 0.8

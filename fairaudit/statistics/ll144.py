@@ -323,7 +323,7 @@ class ImpactRatios:
         if digits is not None:
             digits = whole(digits, "digits")
 
-        integral = self.table.squares is None
+        integral = self.table.whole
         count = "int64" if integral else "float64"
         rate, selected = (
             ("selection_rate", "selected") if self.rate == "selection" else ("scoring_rate", "above_median")
@@ -454,7 +454,7 @@ def impact_ratios(
         trials.append(np.array([effective[m].sum() for m in members]))
         positives.append(np.array([(effective[m] @ g.values).sum() for m in members]))
     included = [n >= SMALL_SHARE * total for n in shares]
-    whole = table.squares is None
+    whole = table.whole
     test = rule.test if whole else "z"
     # the comparator of each type (its highest included rate), and every other included category's raw p-value
     best, raw, tested = [], [], []

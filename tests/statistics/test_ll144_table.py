@@ -374,3 +374,23 @@ def test_the_issues_two_thousand_applicants():
     assert rows["Black"].verdict == "below, significant" and rows["Black"].p_value < 1e-4
     lo, hi = rows["Black"].interval
     assert lo < rows["Black"].impact_ratio < hi < 0.8
+
+
+def test_counts_that_are_not_whole_give_the_ratios_of_weights(tmp_path, capsys):
+    """5.5 applicants of whom 2.5 selected are used as given (the issue's 0.6667 came from rounding them), as the
+    same rows read as weighted records give them; and in the header the total is 13.5, not 13."""
+    rows = [("a", 1, 2.5), ("a", 0, 3.0), ("b", 1, 2.6), ("b", 0, 2.6), ("c", 1, 1.0), ("c", 0, 1.8)]
+    counted, weighted = tmp_path / "counts.csv", tmp_path / "records.csv"
+    pd.DataFrame(rows, columns=["g", "y", "n"]).to_csv(counted, index=False)
+    pd.DataFrame(rows, columns=["g", "y", "w"]).to_csv(weighted, index=False)
+    both = ["--sensitive", "g", "--outcome", "y", "--positive", "1", "--report", "impact-ratio"]
+    code, by_count, err = run_json(capsys, "audit", counted, "--count", "n", *both)
+    assert code == 0, err
+    code, by_weight, err = run_json(capsys, "audit", weighted, "--weights", "w", *both)
+    assert code == 0, err
+    ratios = {r["category"]: r["impact_ratio"] for r in by_count["impact_ratios"]}
+    assert ratios == {r["category"]: r["impact_ratio"] for r in by_weight["impact_ratios"]}
+    assert ratios["a"] == pytest.approx((2.5 / 5.5) / 0.5, rel=1e-15) and by_count["n"] == 13.5
+    assert by_count["impact_ratio_details"]["test"] == "z"
+    code, text, _ = run(capsys, "audit", counted, "--count", "n", *both)
+    assert "fairaudit audit: 13.5 records" in text and "records per group: a 5.5, b 5.2, c 2.8" in text

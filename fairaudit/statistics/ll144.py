@@ -614,7 +614,8 @@ def _indicator(
     from fairaudit.statistics.record_audit import audit_utility
 
     binary = {str(d) for d in table.decisions} <= {"0", "1", "True", "False"}
-    if utility is None and positive is None and not binary:
+    numeric = all(isinstance(d, (int, float, np.number)) and not isinstance(d, bool) for d in table.decisions)
+    if utility is None and positive is None and not binary and numeric:
         return scoring_utility(table), median_score(table), "scoring"
     g = audit_utility(table, positive, utility)
     values = np.asarray(g.table(table.contexts[:1], table.groups[:1], table.decisions)[0, 0], dtype=float)
@@ -632,10 +633,10 @@ def median_score(table: CountTable) -> float:
     Raises
     ------
     InputError
-        Field ``utility``: the outcome is not numeric (say which value is a selection with ``positive``).
+        Field ``positive``: the outcome is not numeric (say which value is a selection with ``positive``).
     """
     if not all(isinstance(d, (int, float, np.number)) and not isinstance(d, bool) for d in table.decisions):
-        raise InputError("utility", "say which outcome is a selection (`positive`): the outcome is not a score")
+        raise InputError("positive", "say which outcome is a selection: the outcome is not a score")
     scores = np.array(table.decisions, dtype=float)
     weight = table.counts.sum(axis=(0, 1)).astype(float)
     cumulative = np.cumsum(weight) / weight.sum()

@@ -79,8 +79,10 @@ def test_scoring_rate_is_the_share_above_the_whole_samples_median():
 def test_errors_name_the_parameter():
     df = pd.DataFrame({"g": ["a", "b"], "y": ["yes", "no"], "s": [1, 5]})
     t = count_records(df, sensitive="g", outcome="y")
-    with pytest.raises(InputError, match="^utility: say which outcome is a selection"):
+    with pytest.raises(InputError, match="^positive: the outcome 'y' has two values, 'no' and 'yes': say which one"):
         impact_ratios(t)
+    with pytest.raises(InputError, match="^positive: say which outcome is a selection: the outcome is not a score"):
+        median_score(t)
     from fairaudit import from_table
 
     half = from_table([0.5, 1.0], t.decisions)

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 from fairaudit.base.errors import InputError, echo
 
-from ._common import flag_error
+from ._common import check_outputs, flag_error
 from ._parser import build_parser
 
 __all__ = ["build_parser", "main"]
@@ -35,6 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(words[0] if words else None)
     args = parser.parse_args(words)
     try:
+        check_outputs(args)
         status: int = args.func(args)  # each subcommand's run, set by its add_parser
         return status
     except InputError as exc:

@@ -7,6 +7,7 @@ Library errors name Python parameters; :func:`flag_error` names the command's fl
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import sys
 from typing import TYPE_CHECKING, NoReturn, TypeAlias
@@ -181,9 +182,30 @@ def add_global(p: argparse.ArgumentParser) -> None:
     )
 
 
+INPUTS = ("data", "spec", "certificate", "published")
+"""The arguments that name a command's input files (a file :func:`check_outputs` never lets a command write)."""
+
+OUTPUTS = ("output", "parameters")
+"""The arguments that name a file a command writes."""
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Before any work: every output names a file (not an empty path) and none is one of the command's inputs."""
+    inputs = [(name, getattr(args, name)) for name in INPUTS if isinstance(getattr(args, name, None), str)]
+    for out in OUTPUTS:
+        path = getattr(args, out, None)
+        if path is None:
+            continue
+        if not str(path).strip():
+            raise InputError(f"--{out}", "names no file (an empty path): give a file, or leave it out", path)
+        for name, given in inputs:
+            if given == path or (os.path.exists(given) and os.path.exists(path) and os.path.samefile(given, path)):
+                raise InputError(f"--{out}", f"is the input {name.upper()}: writing there would replace it", path)
+
+
 def emit(args: argparse.Namespace, text: str, summary: str) -> None:
     """Write the report to ``--output`` (with ``summary`` on stderr) or to stdout."""
-    if args.output:
+    if args.output is not None:
         write_atomic(args.output, text)
         print(f"{summary}; report written to {args.output}", file=sys.stderr)
     else:

@@ -119,8 +119,22 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
         "--threshold",
         type=float,
         metavar="T",
-        help="with --report impact-ratio: mark each category below / possibly below / not below T from its "
-        "simultaneous interval (default 0.8, the four-fifths rule of thumb)",
+        help="with --report impact-ratio: each category's verdict: below T and significantly different from the "
+        "highest rate, below and not significant (inconclusive), or not below (default 0.8, the four-fifths rule "
+        "of thumb)",
+    )
+    a.add_argument(
+        "--adjustment",
+        choices=("holm", "none", "simultaneous"),
+        help="with --report impact-ratio: how the tests and intervals of the report share alpha: holm (default; "
+        "intervals at Bonferroni's level), none, or simultaneous (every ratio's range over simultaneous "
+        "Clopper-Pearson intervals on every rate, Bonferroni's p-values)",
+    )
+    a.add_argument(
+        "--test",
+        choices=("fisher", "z"),
+        help="with --report impact-ratio: the two-sided test of equal rates against the highest: fisher (default, "
+        "Fisher's exact test) or z (the pooled two-proportion z test; always with weights or counts not whole)",
     )
     a.add_argument(
         "--digits",
@@ -154,19 +168,15 @@ def run(args: argparse.Namespace) -> int:
     )
     report = None
     if args.report == "impact-ratio":
-        from fairaudit.statistics.ll144 import THRESHOLD, impact_ratios
+        from fairaudit.statistics.ll144 import FourFifths, impact_ratios
 
         digits = None if args.digits is None else whole(args.digits, "digits", high=15)
-        report = impact_ratios(
-            table,
-            args.utility,
-            positive=args.positive,
-            confidence=args.confidence or 0.95,
-            threshold=THRESHOLD if args.threshold is None else args.threshold,
-        )
+        given = {name: getattr(args, name) for name in ("threshold", "confidence", "adjustment", "test")}
+        rule = FourFifths(**{name: value for name, value in given.items() if value is not None})
+        report = impact_ratios(table, args.utility, positive=args.positive, four_fifths=rule)
         table, _ = report.headline_table()  # the metrics over the categories of the impact ratios
     else:
-        for name in ("threshold", "digits"):
+        for name in ("threshold", "digits", "adjustment", "test"):
             if getattr(args, name) is not None:
                 raise InputError(
                     name, "goes with the impact ratios: give --report impact-ratio too", getattr(args, name)

@@ -23,9 +23,8 @@ module (``import fairaudit`` stays fast).
 
 from __future__ import annotations
 
-import math
 import sys
-from collections.abc import Hashable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
@@ -101,10 +100,16 @@ class CountTable:
     missing: tuple[tuple[str, float], ...] = ()
 
     @property
+    def whole(self) -> bool:
+        """The counts are numbers of records: no weights, and every count a whole number (a count table may hold
+        scaled or weighted counts)."""
+        return self.squares is None and bool(np.all(self.counts == np.round(self.counts)))
+
+    @property
     def n(self) -> int | float:
-        """Total number of records (an int), or with weights their total weight (a float)."""
+        """Total number of records (an int), or with weights or counts that are not whole their total (a float)."""
         total = self.counts.sum()
-        return int(total) if self.squares is None else float(total)
+        return int(total) if self.whole else float(total)
 
     def effective_counts(self, pooled: bool = False) -> Counts:
         """Counts scaled to Kish's effective sample size: what intervals treat as numbers of records.
@@ -229,7 +234,7 @@ def _tally(
         counts = np.zeros(size, dtype=np.int64)
         np.add.at(counts, flat, n)
     if sample_weight is not None:
-        w = _sample_weights(columns[sample_weight], sample_weight)
+        w = _numbers(columns[sample_weight], sample_weight, _row_of(columns, keys)).to_numpy(dtype=np.float64)
         counts, squares = (np.bincount(flat, weights=v, minlength=size).reshape(shape) for v in (w, w * w))
     return CountTable(
         counts.reshape(shape),
@@ -245,18 +250,29 @@ def _tally(
     )
 
 
-def _sample_weights(column: pd.Series, name: str) -> npt.NDArray[np.float64]:
-    """A column of sample weights as float64: numbers, finite and non-negative (the error names the column)."""
+def _numbers(values: Any, name: str, row: Callable[[int], str]) -> pd.Series:
+    """A column of counts or weights as numbers, whatever their notation (``1``, ``"1.0"``, ``"1e5"``, ``"2.50"``):
+    each finite and non-negative, else one line naming the column, the data row (``row(i)``) and the value."""
     import pandas as pd
 
-    if not (pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)):
-        first = next((v for v in column if not isinstance(v, (int, float, np.number)) or isinstance(v, bool)), None)
-        raise InputError(f"column {echo(name)}", "weights must be numbers", first)
-    w = column.to_numpy(dtype=np.float64)
+    column = pd.Series(values)
+    flags = pd.api.types.is_bool_dtype(column) or (
+        column.dtype == object and any(isinstance(v, (bool, np.bool_)) for v in column)
+    )
+    numbers = pd.to_numeric(column, errors="coerce") if not flags else pd.Series(np.full(len(column), np.nan))
+    w = numbers.to_numpy(dtype=np.float64, na_value=np.nan)
     bad = ~np.isfinite(w) | (w < 0)
     if bad.any():
-        raise InputError(f"column {echo(name)}", "weights must be finite and >= 0", float(w[np.argmax(bad)]))
-    return w
+        i = int(np.argmax(bad))
+        value = column.iloc[i]
+        value = float("nan") if pd.isna(value) else value.item() if isinstance(value, np.generic) else value
+        raise InputError(f"column {echo(name)}", f"must hold finite non-negative numbers; {row(i)} is not", value)
+    return numbers
+
+
+def _row_of(columns: dict[str, Any], labels: list[str]) -> Callable[[int], str]:
+    """How an error names data row i: its number and its labels."""
+    return lambda i: f"data row {i + 1} ({', '.join(f'{c}={echo(str(columns[c][i]))}' for c in labels)})"
 
 
 def count_records(
@@ -472,23 +488,10 @@ def counts_of_table(
 
 
 def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Series:
-    """The column ``count`` as numbers: each finite and non-negative (``labels`` name the row of an infinite one)."""
-    import pandas as pd
-
-    values = pd.to_numeric(data[count], errors="coerce")
-    if values.isna().any() or (values < 0).any():
-        bad = data[count][values.isna() | (values < 0)].iloc[0]
-        raise InputError(f"column {echo(count)}", "must hold non-negative numbers", math.nan if pd.isna(bad) else bad)
-    infinite = (
-        np.zeros(0, dtype=bool) if pd.api.types.is_integer_dtype(values.dtype) else np.isinf(values.to_numpy(float))
-    )
-    if infinite.any():  # pandas reads "inf" as a number
-        i = int(np.flatnonzero(infinite)[0])
-        cell = ", ".join(f"{c}={echo(str(data[c].iloc[i]))}" for c in labels)
-        bad = data[count].iloc[i]
-        bad = bad.item() if isinstance(bad, np.generic) else bad
-        raise InputError(f"column {echo(count)}", f"must hold finite numbers; data row {i + 1} ({cell}) is not", bad)
-    return values
+    """The column ``count`` as numbers whatever their notation: each finite and non-negative (:func:`_numbers`;
+    ``labels`` name the row of a refused one)."""
+    columns = {c: data[c].to_numpy() for c in labels}
+    return _numbers(data[count].reset_index(drop=True), count, _row_of(columns, labels))
 
 
 def _drop_unlabelled(

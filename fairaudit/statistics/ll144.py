@@ -16,12 +16,15 @@ The rules of the New York City Department of Consumer and Worker Protection
 
 :func:`impact_ratios` computes them from a :class:`~fairaudit.data.counts.CountTable`
 (contexts pooled) or from a DataFrame of records, one category type per
-sensitive column and, with two columns or more, their intersection; each ratio
-gets an interval, all of them simultaneous (Clopper–Pearson with Bonferroni
-over every rate of the report, then each ratio's exact range over the box of
-the rates: proofs/impact_ratio.md), and a mark against a threshold (0.8, the
-four-fifths rule of thumb, by default). :meth:`ImpactRatios.to_frame` gives
-the tidy table.
+sensitive column and, with two columns or more, their intersection. Each ratio is
+read as the EEOC's Uniform Guidelines read it (29 CFR 1607.4(D)): against the
+four-fifths threshold and with the significance of the difference from the
+highest rate (:class:`FourFifths`): a two-sided test of equal rates (Fisher's
+exact test; the z test on request or where counts are not whole) and an interval
+on the ratio (Miettinen–Nurminen's score interval; :mod:`~fairaudit.statistics.rate_ratio`),
+both adjusted for the ratios of the report (Holm by default, none, or the
+simultaneous box of every rate: proofs/impact_ratio.md); the verdict is one of
+:data:`VERDICTS`. :meth:`ImpactRatios.to_frame` gives the tidy table.
 
 For a 0/1 utility, the global g-fairness of the intersection's included
 categories (under the records' own population) is L̄ = −ln(its lowest impact
@@ -48,12 +51,15 @@ from fairaudit.base.labels import format_label
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.utilities import Utility, from_table
 from fairaudit.statistics.confidence_sets import clopper_pearson
+from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test, ratio_interval
 
 if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = [
-    "MARKS",
+    "ADJUSTMENTS",
+    "VERDICTS",
+    "FourFifths",
     "ImpactRatio",
     "ImpactRatios",
     "impact_ratios",
@@ -67,11 +73,54 @@ SMALL_SHARE = 0.02
 """Categories with less than this share of the data are listed but left out of the impact ratios (6 RCNY 5-301)."""
 
 THRESHOLD = 0.8
-"""The default threshold of the marks: the four-fifths rule of thumb (29 CFR 1607.4(D))."""
+"""The default threshold: the four-fifths rule of thumb (29 CFR 1607.4(D))."""
 
-MARKS = ("below", "possibly below", "not below")
-"""A category's mark against the threshold t, from its simultaneous interval [lower, upper] on the impact ratio:
-``below`` (upper < t), ``possibly below`` (lower < t <= upper), ``not below`` (lower >= t)."""
+VERDICTS = ("below, significant", "below, inconclusive", "not below")
+"""A category's verdict: its impact ratio below the threshold and its rate significantly different from the
+highest (adjusted p-value below α = 1 − confidence); below and not significantly different; at or above it."""
+
+ADJUSTMENTS = ("holm", "none", "simultaneous")
+"""How a report's tests and intervals share α (:class:`FourFifths`)."""
+
+
+@dataclass(frozen=True)
+class FourFifths:
+    """How :func:`impact_ratios` reads each ratio against the four-fifths rule.
+
+    Attributes
+    ----------
+    threshold : float
+        In (0, 1]; default 0.8.
+    confidence : float
+        In (0, 1): α = 1 − confidence is the level of the tests and 1 − α the intervals' coverage; default 0.95.
+    adjustment : {"holm", "none", "simultaneous"}
+        Over the m tested ratios of the report (every included category but its type's highest): ``"holm"``
+        (default): Holm's p-values, each interval at 1 − α/m (Bonferroni's, so that they hold at once);
+        ``"none"``: each test and interval at α alone; ``"simultaneous"``: Bonferroni's p-values and every ratio's
+        exact range over the box of Clopper–Pearson intervals on every rate at 1 − α/(rates) (proofs/impact_ratio.md
+        §1; the comparator's ratio gets an interval too).
+    test : {"fisher", "z"}
+        Fisher's exact test (default) or the pooled two-proportion z test, each two-sided against the highest rate;
+        counts that are not whole (weights) always take the z test on Kish's effective counts.
+
+    Raises
+    ------
+    InputError
+        A value out of range, naming it.
+    """
+
+    threshold: float = THRESHOLD
+    confidence: float = 0.95
+    adjustment: str = "holm"
+    test: str = "fisher"
+
+    def __post_init__(self) -> None:
+        real(self.threshold, "threshold", low=0.0, high=1.0, low_open=True)
+        level(self.confidence, "confidence")
+        if self.adjustment not in ADJUSTMENTS:
+            raise InputError("adjustment", f"must be one of {', '.join(ADJUSTMENTS)}", self.adjustment)
+        if self.test not in ("fisher", "z"):
+            raise InputError("test", "must be fisher or z", self.test)
 
 
 @dataclass(frozen=True)
@@ -92,15 +141,20 @@ class ImpactRatio:
         ``rate`` / the highest rate of the type's included categories; None when excluded. From whole counts it is
         the exact fraction rounded once to a float.
     interval : tuple of float or None
-        Simultaneous interval (lower, upper) on ``impact_ratio``, within [0, 1]: the exact range of the ratio over
-        the box of the rates' simultaneous intervals (:func:`ratio_range`); None when excluded.
+        Interval (lower, upper) on ``rate`` / the comparator's rate, as :class:`FourFifths` ``adjustment`` makes it
+        (not capped at 1: the comparator is the highest rate in the data, not surely in truth); None when excluded,
+        and for the comparator itself but with ``"simultaneous"``.
     excluded : bool
         The category holds less than 2% of the data: left out of the ratios.
     selected : float
         Applicants selected (for scoring rates: scoring above the median); with weights, their weight.
-    mark : str or None
-        Against the report's threshold, from ``interval``: ``"below"``, ``"possibly below"`` or ``"not below"``
-        (:data:`MARKS`); None when excluded.
+    verdict : str or None
+        One of :data:`VERDICTS`; None when excluded.
+    p_value : float or None
+        The adjusted two-sided p-value of equal rates with the comparator; None when excluded and for the
+        comparator.
+    comparator : hashable or None
+        The category of the type's highest included rate; None when excluded.
     """
 
     type: str
@@ -111,11 +165,13 @@ class ImpactRatio:
     interval: tuple[float, float] | None
     excluded: bool
     selected: float
-    mark: str | None
+    verdict: str | None
+    p_value: float | None = None
+    comparator: Hashable | None = None
 
     def to_dict(self) -> Report:
         """The JSON object: ``type``, ``category``, ``n``, ``selected``, ``rate``, ``impact_ratio``, ``interval``,
-        ``mark``, ``excluded``."""
+        ``p_value``, ``verdict``, ``comparator``, ``excluded``."""
         return {
             "type": self.type,
             "category": label(self.category),
@@ -124,7 +180,9 @@ class ImpactRatio:
             "rate": number(self.rate),
             "impact_ratio": number(self.impact_ratio),
             "interval": None if self.interval is None else [number(v) for v in self.interval],
-            "mark": self.mark,
+            "p_value": number(self.p_value),
+            "verdict": self.verdict,
+            "comparator": None if self.comparator is None else label(self.comparator),
             "excluded": self.excluded,
         }
 
@@ -143,23 +201,26 @@ class ImpactRatios:
         The median score of the whole sample (scoring rates only).
     unknown : dict of str to float
         Per category type, the records with an unknown (missing) category, left out of everything.
-    confidence : float
-        Level of the simultaneous intervals.
+    four_fifths : FourFifths
+        How the ratios were read: threshold, confidence, adjustment, test.
     table : CountTable
     utility : Utility
         The 0/1 utility of the rates (for scoring rates, 1{score > median}).
-    threshold : float
-        The threshold of the marks (0.8 by default).
+    test : {"fisher", "z"}
+        The test run: ``four_fifths.test``, or the z test where the counts are not whole.
+    tested : int
+        m, the ratios tested (the adjustment's m).
     """
 
     rows: tuple[ImpactRatio, ...]
     rate: str
     median: float | None
     unknown: dict[str, float]
-    confidence: float
+    four_fifths: FourFifths
     table: CountTable
     utility: Utility
-    threshold: float = THRESHOLD
+    test: str
+    tested: int
 
     @property
     def intersection(self) -> str:
@@ -217,9 +278,12 @@ class ImpactRatios:
                 "rate": self.rate,
                 "median": number(self.median),
                 "unknown": {k: number(v) for k, v in self.unknown.items()},
-                "confidence": self.confidence,
+                "confidence": self.four_fifths.confidence,
                 "small_share": SMALL_SHARE,
-                "threshold": self.threshold,
+                "threshold": self.four_fifths.threshold,
+                "adjustment": self.four_fifths.adjustment,
+                "test": self.test,
+                "tested": self.tested,
                 "intersection": self.intersection,
             },
         }
@@ -229,15 +293,15 @@ class ImpactRatios:
 
         Columns: ``type``, ``category`` (text, as the command line prints it), ``n`` and ``selected`` (integers;
         floats with weights; for scoring rates ``selected`` is named ``above_median``), ``selection_rate`` (or
-        ``scoring_rate``), ``impact_ratio``, ``ci_low`` and ``ci_high`` (the simultaneous interval; NaN when
-        excluded), ``mark`` (None when excluded) and ``excluded``. ``attrs`` holds ``rate``, ``median``,
-        ``confidence``, ``threshold`` and ``unknown``.
+        ``scoring_rate``), ``impact_ratio``, ``ci_low`` and ``ci_high`` (the interval; NaN without one), ``p_value``
+        (NaN without one), ``verdict`` (None when excluded), ``comparator`` and ``excluded``. ``attrs`` holds
+        ``rate``, ``median``, ``confidence``, ``threshold``, ``adjustment``, ``test`` and ``unknown``.
 
         Parameters
         ----------
         digits : int, optional
             Round the rates and ratios to this many decimals as published audits print them (half up:
-            :func:`round_half_up`), and the interval outwards (``ci_low`` down, ``ci_high`` up). The marks are
+            :func:`round_half_up`), and the interval outwards (``ci_low`` down, ``ci_high`` up). The verdicts are
             those of the exact values.
 
         Examples
@@ -245,12 +309,12 @@ class ImpactRatios:
         >>> import pandas as pd
         >>> df = pd.DataFrame({"sex": ["F"] * 50 + ["M"] * 50, "hired": [1] * 20 + [0] * 30 + [1] * 25 + [0] * 25})
         >>> frame = impact_ratios(df, sensitive="sex", outcome="hired").to_frame()
-        >>> frame[["category", "n", "selected", "selection_rate", "impact_ratio", "mark"]]
-          category   n  selected  selection_rate  impact_ratio           mark
-        0        F  50        20             0.4           0.8  possibly below
-        1        M  50        25             0.5           1.0  possibly below
-        >>> frame.round(2)[["ci_low", "ci_high"]].values.tolist()
-        [[0.37, 1.0], [0.59, 1.0]]
+        >>> frame[["category", "n", "selected", "selection_rate", "impact_ratio", "verdict"]]
+          category   n  selected  selection_rate  impact_ratio    verdict
+        0        F  50        20             0.4           0.8  not below
+        1        M  50        25             0.5           1.0  not below
+        >>> frame.round(2)[["ci_low", "ci_high", "p_value"]].values.tolist()[0]
+        [0.51, 1.24, 0.42]
         >>> impact_ratios(df.iloc[:-1], sensitive="sex", outcome="hired").to_frame(digits=3)["impact_ratio"].tolist()
         [0.784, 1.0]
         """
@@ -259,7 +323,7 @@ class ImpactRatios:
         if digits is not None:
             digits = whole(digits, "digits")
 
-        integral = self.table.squares is None
+        integral = self.table.whole
         count = "int64" if integral else "float64"
         rate, selected = (
             ("selection_rate", "selected") if self.rate == "selection" else ("scoring_rate", "above_median")
@@ -277,7 +341,11 @@ class ImpactRatios:
                 "ci_high": pd.Series(
                     [nan if r.interval is None else r.interval[1] for r in self.rows], dtype="float64"
                 ),
-                "mark": pd.Series([r.mark for r in self.rows], dtype=object),
+                "p_value": pd.Series([nan if r.p_value is None else r.p_value for r in self.rows], dtype="float64"),
+                "verdict": pd.Series([r.verdict for r in self.rows], dtype=object),
+                "comparator": pd.Series(
+                    [None if r.comparator is None else str(label(r.comparator)) for r in self.rows], dtype=object
+                ),
                 "excluded": pd.Series([r.excluded for r in self.rows], dtype=bool),
             }
         )
@@ -288,8 +356,10 @@ class ImpactRatios:
         frame.attrs.update(
             rate=self.rate,
             median=self.median,
-            confidence=self.confidence,
-            threshold=self.threshold,
+            confidence=self.four_fifths.confidence,
+            threshold=self.four_fifths.threshold,
+            adjustment=self.four_fifths.adjustment,
+            test=self.test,
             unknown=dict(self.unknown),
         )
         return frame
@@ -304,8 +374,7 @@ def impact_ratios(
     positive: Hashable | None = None,
     dropna: bool = False,
     weights: str | None = None,
-    confidence: float = 0.95,
-    threshold: float = THRESHOLD,
+    four_fifths: FourFifths | None = None,
 ) -> ImpactRatios:
     """Selection (or scoring) rates and impact ratios per category, for each sensitive column and their intersection.
 
@@ -325,11 +394,9 @@ def impact_ratios(
         Drop records with a missing value in a used column (a DataFrame; counted as of unknown category).
     weights : str, optional
         Column of sample weights of a DataFrame: weighted rates, intervals on Kish's effective counts.
-    confidence : float
-        Level of the simultaneous intervals on every ratio (default 0.95).
-    threshold : float
-        In (0, 1]: each included category is marked ``below``, ``possibly below`` or ``not below`` it from its
-        interval (default 0.8, the four-fifths rule of thumb).
+    four_fifths : FourFifths, optional
+        Threshold (0.8), confidence (0.95), adjustment (Holm) and test (Fisher's) of the verdicts
+        (:data:`VERDICTS`).
 
     Returns
     -------
@@ -339,9 +406,9 @@ def impact_ratios(
     ------
     InputError
         ``utility`` not 0/1 (``utility``), no utility with a non-numeric, non-0/1 outcome (``utility``), both
-        ``utility`` and ``positive`` (``positive``), ``positive`` not an outcome value (``positive``), ``confidence``
-        outside (0, 1), ``threshold`` outside (0, 1], ``data`` neither a CountTable nor a DataFrame (``data``), and
-        the errors of :func:`~fairaudit.data.counts.count_records`.
+        ``utility`` and ``positive`` (``positive``), ``positive`` not an outcome value (``positive``), ``data``
+        neither a CountTable nor a DataFrame (``data``), and the errors of
+        :func:`~fairaudit.data.counts.count_records`.
 
     Notes
     -----
@@ -350,12 +417,17 @@ def impact_ratios(
     sample (the weighted median with weights).
 
     Definitions: 6 RCNY § 5-301 (selection rate, scoring rate, impact ratio,
-    the 2% exclusion). Intervals: each category's rate gets a Clopper–Pearson
-    interval at level 1 − α/m, m the number of included categories in the
-    report (with weights, on Kish's effective counts); on that event every
-    rate p_j of a type lies in its [l_j, u_j] at once, and ratio i lies in the
-    exact range of p_i / max_j p_j over that box (:func:`ratio_range`,
-    proofs/impact_ratio.md), all ratios at once with probability ≥ 1 − α.
+    the 2% exclusion). Each included category but its type's highest (the
+    comparator) is tested against it (:func:`~fairaudit.statistics.rate_ratio.equal_rates_test`)
+    and its ratio gets Miettinen and Nurminen's score interval
+    (:func:`~fairaudit.statistics.rate_ratio.ratio_interval`; on Kish's
+    effective counts with weights), accurate at audit sizes but not at least
+    its level at every pair of rates (docs/ll144.md gives its exact coverage);
+    with ``"simultaneous"``, each rate gets a Clopper–Pearson interval
+    at level 1 − α/m, m the number of included categories in the report, and
+    ratio i lies in the exact range of p_i / max_j p_j over that box
+    (:func:`ratio_range`, proofs/impact_ratio.md), all at once with probability
+    ≥ 1 − α.
 
     Examples
     --------
@@ -365,11 +437,10 @@ def impact_ratios(
     >>> t = count_records(df, sensitive="sex", outcome="hired")
     >>> [(r.category, r.rate, r.impact_ratio) for r in impact_ratios(t, indicator(1, t.decisions)).rows]
     [('F', 0.4, 0.8), ('M', 0.5, 1.0)]
-    >>> [(r.category, r.impact_ratio, r.mark) for r in impact_ratios(df, sensitive="sex", outcome="hired").rows]
-    [('F', 0.8, 'possibly below'), ('M', 1.0, 'possibly below')]
+    >>> [(r.category, r.impact_ratio, r.verdict) for r in impact_ratios(df, sensitive="sex", outcome="hired").rows]
+    [('F', 0.8, 'not below'), ('M', 1.0, 'not below')]
     """
-    confidence = level(confidence, "confidence")
-    threshold = real(threshold, "threshold", low=0.0, high=1.0, low_open=True)
+    rule = FourFifths() if four_fifths is None else four_fifths
     table = _counted(data, sensitive, outcome, dropna, weights)
     g, median, kind = _indicator(table, utility, positive)
     pooled = table.counts.sum(axis=0)  # (groups, decisions)
@@ -383,14 +454,42 @@ def impact_ratios(
         trials.append(np.array([effective[m].sum() for m in members]))
         positives.append(np.array([(effective[m] @ g.values).sum() for m in members]))
     included = [n >= SMALL_SHARE * total for n in shares]
-    m = max(1, sum(int(i.sum()) for i in included))
-    whole = table.squares is None
+    whole = table.whole
+    test = rule.test if whole else "z"
+    # the comparator of each type (its highest included rate), and every other included category's raw p-value
+    best, raw, tested = [], [], []
+    for t, (n, k, ne, ke, keep) in enumerate(zip(shares, selected, trials, positives, included)):
+        index = np.flatnonzero(keep)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            b = int(index[np.argmax((k / n)[index])]) if index.size else -1
+        best.append(b)
+        for i in index[index != b]:
+            raw.append(equal_rates_test(float(ke[i]), float(ne[i]), float(ke[b]), float(ne[b]), test))
+            tested.append((t, int(i)))
+    p_values = dict(zip(tested, adjusted(raw, "bonferroni" if rule.adjustment == "simultaneous" else rule.adjustment)))
+    alpha = 1.0 - rule.confidence
+    m = max(1, sum(int(i.sum()) for i in included))  # the rates of the simultaneous box
+    level_each = rule.confidence if rule.adjustment == "none" else 1.0 - alpha / max(1, len(raw))
     rows = []
-    for (name, categories, _), n, k, ne, ke, keep in zip(types, shares, selected, trials, positives, included):
-        lo, hi = clopper_pearson(np.minimum(ke, ne), ne, (1.0 - confidence) / m)
-        rows += _type_rows(name, categories, n, k, lo, hi, keep, threshold, whole)
+    for t, ((name, categories, _), n, k, ne, ke, keep) in enumerate(
+        zip(types, shares, selected, trials, positives, included)
+    ):
+        if rule.adjustment == "simultaneous":
+            lo, hi = clopper_pearson(np.minimum(ke, ne), ne, alpha / m)
+            index = np.flatnonzero(keep)
+            low, high = ratio_range(lo[index], hi[index])
+            intervals = {int(i): (float(a), float(c)) for i, a, c in zip(index, low, high)}
+        else:
+            intervals = {i: _ratio_interval(ke, ne, i, best[t], level_each) for (u, i) in tested if u == t}
+        p_type = {i: p for (u, i), p in p_values.items() if u == t}
+        rows += _type_rows(name, categories, n, k, keep, whole, best[t], intervals, p_type, rule)
     unknown = {name: float(dict(table.missing).get(name, 0.0)) for name, _, _ in types}
-    return ImpactRatios(tuple(rows), kind, median, unknown, confidence, table, g, threshold)
+    return ImpactRatios(tuple(rows), kind, median, unknown, rule, table, g, test, len(raw))
+
+
+def _ratio_interval(ke: FloatArray, ne: FloatArray, i: int, b: int, level_each: float) -> tuple[float, float]:
+    """Category i's Miettinen–Nurminen score interval on its rate over the comparator b's (effective counts)."""
+    return ratio_interval(float(ke[i]), float(ne[i]), float(ke[b]), float(ne[b]), level_each)
 
 
 def round_half_up(value: float, digits: int, how: str = "half up") -> float:
@@ -515,7 +614,8 @@ def _indicator(
     from fairaudit.statistics.record_audit import audit_utility
 
     binary = {str(d) for d in table.decisions} <= {"0", "1", "True", "False"}
-    if utility is None and positive is None and not binary:
+    numeric = all(isinstance(d, (int, float, np.number)) and not isinstance(d, bool) for d in table.decisions)
+    if utility is None and positive is None and not binary and numeric:
         return scoring_utility(table), median_score(table), "scoring"
     g = audit_utility(table, positive, utility)
     values = np.asarray(g.table(table.contexts[:1], table.groups[:1], table.decisions)[0, 0], dtype=float)
@@ -533,10 +633,10 @@ def median_score(table: CountTable) -> float:
     Raises
     ------
     InputError
-        Field ``utility``: the outcome is not numeric (say which value is a selection with ``positive``).
+        Field ``positive``: the outcome is not numeric (say which value is a selection with ``positive``).
     """
     if not all(isinstance(d, (int, float, np.number)) and not isinstance(d, bool) for d in table.decisions):
-        raise InputError("utility", "say which outcome is a selection (`positive`): the outcome is not a score")
+        raise InputError("positive", "say which outcome is a selection: the outcome is not a score")
     scores = np.array(table.decisions, dtype=float)
     weight = table.counts.sum(axis=(0, 1)).astype(float)
     cumulative = np.cumsum(weight) / weight.sum()
@@ -587,38 +687,34 @@ def _type_rows(
     categories: tuple,
     n: FloatArray,
     k: FloatArray,
-    lo: FloatArray,
-    hi: FloatArray,
     keep: np.ndarray,
-    threshold: float,
     whole: bool,
+    best: int,
+    intervals: dict[int, tuple[float, float]],
+    p_values: dict[int, float],
+    rule: FourFifths,
 ) -> list[ImpactRatio]:
-    """The rows of one category type: ratios to its highest included rate, their exact ranges over the box, marks.
+    """The rows of one category type: ratios to its highest included rate (``best``), intervals, p-values, verdicts.
 
     ``whole``: the counts are numbers of records, and each ratio is its exact fraction rounded once.
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         rate = k / n
-    index = np.flatnonzero(keep)
-    low, high = ratio_range(lo[index], hi[index])
-    best = int(index[np.argmax(rate[index])]) if index.size else -1
     rows = []
     for c, nc, kc, r in zip(categories, n, k, rate):
         rows.append(ImpactRatio(name, c, float(nc), float(r), None, None, True, float(kc), None))
-    for j, i in enumerate(index):
+    for i in np.flatnonzero(keep):
         if whole:  # (k_i / n_i) / (k_b / n_b) = k_i n_b / (n_i k_b), one rounding
             num, den = round(k[i]) * round(n[best]), round(n[i]) * round(k[best])
             ratio = float(Fraction(num, den)) if den else 1.0  # (0 / 0: every rate is 0, parity)
         else:
             ratio = float(rate[i] / rate[best]) if rate[best] > 0 else 1.0
-        interval = (float(low[j]), float(high[j]))
-        rows[i] = replace(
-            rows[i], impact_ratio=ratio, interval=interval, excluded=False, mark=_mark(interval, threshold)
+        p = p_values.get(int(i))
+        verdict = (
+            VERDICTS[2] if ratio >= rule.threshold else VERDICTS[0 if p is not None and p < 1 - rule.confidence else 1]
         )
+        rows[i] = replace(
+            rows[i], impact_ratio=ratio, interval=intervals.get(int(i)), excluded=False, verdict=verdict, p_value=p,
+            comparator=categories[best],
+        )  # fmt: skip
     return rows
-
-
-def _mark(interval: tuple[float, float], threshold: float) -> str:
-    """``below`` (upper < t), ``possibly below`` (lower < t <= upper) or ``not below`` (lower >= t)."""
-    lower, upper = interval
-    return MARKS[0] if upper < threshold else MARKS[2] if lower >= threshold else MARKS[1]

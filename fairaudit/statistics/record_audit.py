@@ -228,7 +228,7 @@ class Audit:
         """Each outcome value with its records (with weights, their total weight) and g(u) (None where g
         depends on the context or group too)."""
         t, g = self.table, self.utility.values
-        count = int if t.squares is None else float
+        count = int if t.whole else float
         per_value = g.ndim == 1
         return [
             {"label": label(d), "n": count(n), "g": number(g[k]) if per_value else None}
@@ -246,7 +246,7 @@ class Audit:
         e = self.observed.local_fairness.expected_utility
         cells = t.cell_counts
         iv = self.intervals
-        count = int if t.squares is None else float  # weighted: sums of weights
+        count = int if t.whole else float  # weighted or scaled: sums of weights
         out: Report = {
             "n": t.n,
             "sensitive": list(t.sensitive_columns),

@@ -47,7 +47,10 @@ def test_numpy_nan_in_a_count_column_is_quoted_as_nan(tmp_path, capsys):
     path = tmp_path / "counts.csv"
     path.write_text("g,y,n\na,1,3\nb,1,\nb,0,2\na,0,1\n")
     code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y", "--count", "n")
-    assert (code, err) == (2, "fairaudit: error: column 'n': must hold non-negative numbers (got nan)\n")
+    assert (code, err) == (
+        2,
+        "fairaudit: error: column 'n': must hold finite non-negative numbers; data row 2 (g='b', y='1') is not (got nan)\n",
+    )
 
 
 def test_numpy_values_checked_in_python_are_quoted_as_python_numbers():
@@ -111,7 +114,7 @@ def test_count_records_names_a_long_column_cut():
     frame = pd.DataFrame({"g": ["a", "b"], "y": [1, 0], name: ["x", "y"]})
     with pytest.raises(InputError) as info:
         count_records(frame, sensitive="g", outcome="y", weights=name)
-    assert str(info.value).startswith(f"column {'w' * 80!r}… (120 characters): weights must be numbers")
+    assert str(info.value).startswith(f"column {'w' * 80!r}… (120 characters): must hold finite non-negative numbers")
 
 
 TASK_FILES = sorted(

@@ -173,7 +173,11 @@ def test_a_count_table_that_is_not_plain_is_reported_as_count_table_reports_it(t
     first = frame.index[frame["model"] == "m1"][0]
     for column, value, message in (
         ("profile", "c", "value not among the sensitive values ['a', 'b'] (got 'c')"),
-        ("count", -1, "column 'count': must hold non-negative numbers (got -1)"),
+        (
+            "count",
+            -1,
+            "column 'count': must hold finite non-negative numbers; data row 1 (doc='1', profile='a', office='HR_2') is not (got -1)",
+        ),
     ):
         bad = frame.astype({column: object})
         bad.loc[first, column] = value

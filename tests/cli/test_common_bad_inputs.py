@@ -302,7 +302,7 @@ CASES: list[tuple[str, dict[str, str], list[str], set[int], str | None]] = [
         },
         CERTIFY,
         {2},
-        "model.table: column 'count': must hold finite numbers; data row 4 (document='maternity', office='HR_2', "
+        "model.table: column 'count': must hold finite non-negative numbers; data row 4 (document='maternity', office='HR_2', "
         "chosen='no') is not (got inf)",
     ),
     (
@@ -313,14 +313,14 @@ CASES: list[tuple[str, dict[str, str], list[str], set[int], str | None]] = [
         },
         CERTIFY,
         {2},
-        "model.table: column 'count': must hold finite numbers; data row 5 (document='holiday', office='HR_1'",
+        "model.table: column 'count': must hold finite non-negative numbers; data row 5 (document='holiday', office='HR_1'",
     ),
     (
         "audit-count-inf",
         {"counts.csv": "s,o,n\na,0,1\na,1,inf\nb,0,1\nb,1,1\n"},
         ["audit", "{dir}/counts.csv", "--sensitive", "s", "--outcome", "o", "--count", "n", "--positive", "1"],
         {2},
-        "column 'n': must hold finite numbers; data row 2 (s='a', o='1') is not (got inf)",
+        "column 'n': must hold finite non-negative numbers; data row 2 (s='a', o='1') is not (got inf)",
     ),
     (
         "output-directory",

@@ -323,7 +323,7 @@ def test_count_table_errors(tmp_path):
     assert err.field == "count table" and "twice" in str(err) and "'g': 'a'" in str(err) and "'n': 2" in str(err)
     pd.DataFrame({"g": ["a", "b"], "y": [1, 0], "n": [3, -1]}).to_csv(path, index=False)
     assert str(streamed(path, sensitive="g", outcome="y", count="n")) == (
-        "column 'n': must hold non-negative numbers (got -1)"
+        "column 'n': must hold finite non-negative numbers; data row 2 (g='b', y='0') is not (got -1)"
     )
     assert str(streamed(path, sensitive="g", outcome="y", count="count")) == (
         "count: unknown column; the data has: g, y, n (got 'count')"

@@ -96,7 +96,10 @@ def test_every_array_type_gives_the_same_audit():
             {"y_pred": [[1, 0], [0, 1]], "sensitive_features": ["a", "b"]},
             "y_pred: must be a non-empty list or array of one",
         ),
-        ({"y_pred": [1, 0], "sensitive_features": ["a", "b"], "sample_weight": [1.0, -1.0]}, "weights must be finite"),
+        (
+            {"y_pred": [1, 0], "sensitive_features": ["a", "b"], "sample_weight": [1.0, -1.0]},
+            "must hold finite non-negative numbers; data row 2",
+        ),
     ],
 )
 def test_array_errors_name_the_parameter(kwargs, message):
@@ -162,7 +165,10 @@ def test_weights_errors_name_the_column():
     with pytest.raises(InputError, match=r"^column 'w': has 1 missing values"):
         count_records(df, sensitive="g", outcome="y", weights="w")
     assert count_records(df, sensitive="g", outcome="y", weights="w", dropna=True).n == 1.0
-    with pytest.raises(InputError, match=r"^column 't': weights must be numbers \(got 'x'\)$"):
+    with pytest.raises(
+        InputError,
+        match=r"^column 't': must hold finite non-negative numbers; data row 1 \(g='a', y='1'\) is not \(got 'x'\)$",
+    ):
         count_records(df, sensitive="g", outcome="y", weights="t")
     with pytest.raises(InputError, match=r"^weights: unknown column"):
         count_records(df, sensitive="g", outcome="y", weights="nope")
@@ -177,7 +183,10 @@ def test_cli_weights(tmp_path, capsys):
     assert [(g["label"], g["n"]) for g in report["groups"]] == [("a", 4.0), ("b", 2.0)]
     assert report["global"]["ratio"] == 1.5  # 3/4 against 1/2
     code, _, err = run(capsys, "audit", path, "--sensitive", "g", "--outcome", "y", "--weights", "g")
-    assert (code, err) == (2, "fairaudit: error: column 'g': weights must be numbers (got 'a')\n")
+    assert (code, err) == (
+        2,
+        "fairaudit: error: column 'g': must hold finite non-negative numbers; data row 1 (g='a', y='1') is not (got 'a')\n",
+    )
 
 
 def test_weighted_reports_say_total_weight(tmp_path, capsys):

@@ -13,7 +13,7 @@ import pytest
 from _cli import run, run_json
 
 from fairaudit import InputError, count_file, count_records, indicator
-from fairaudit.statistics.ll144 import impact_ratios, median_score, scoring_utility
+from fairaudit.statistics.ll144 import FourFifths, impact_ratios, median_score, scoring_utility
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "impact_ratio" / "applicants.csv"
 COMMAND = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]
@@ -48,8 +48,11 @@ def test_shipped_example_matches_the_hand_computation():
             assert (r.n, r.rate) == (n, float(rate))
             if r.category in included:
                 assert not r.excluded and r.impact_ratio == pytest.approx(float(rate / best), rel=1e-15)
-                lo, hi = r.interval
-                assert 0 <= lo <= r.impact_ratio <= hi <= 1
+                if rate == best:  # the comparator: no test, no interval
+                    assert r.interval is None and r.p_value is None and r.verdict == "not below"
+                else:
+                    lo, hi = r.interval
+                    assert 0 <= lo <= r.impact_ratio <= hi and 0 < r.p_value <= 1
             else:
                 assert r.excluded and r.impact_ratio is None and r.interval is None
     # Female 29/77 against Male 32/70; Black 20/55 against White 40/90; Female & Black 8/25 against Male & White 1/2
@@ -76,19 +79,25 @@ def test_scoring_rate_is_the_share_above_the_whole_samples_median():
 def test_errors_name_the_parameter():
     df = pd.DataFrame({"g": ["a", "b"], "y": ["yes", "no"], "s": [1, 5]})
     t = count_records(df, sensitive="g", outcome="y")
-    with pytest.raises(InputError, match="^utility: say which outcome is a selection"):
+    with pytest.raises(InputError, match="^positive: the outcome 'y' has two values, 'no' and 'yes': say which one"):
         impact_ratios(t)
+    with pytest.raises(InputError, match="^positive: say which outcome is a selection: the outcome is not a score"):
+        median_score(t)
     from fairaudit import from_table
 
     half = from_table([0.5, 1.0], t.decisions)
     with pytest.raises(InputError, match="^utility: impact ratios need a 0/1 utility"):
         impact_ratios(t, half)
     with pytest.raises(InputError, match="^confidence"):
-        impact_ratios(t, indicator("yes", t.decisions), confidence=1.5)
+        FourFifths(confidence=1.5)
+    with pytest.raises(InputError, match="^adjustment: must be one of holm, none, simultaneous"):
+        FourFifths(adjustment="sidak")
 
 
-def test_intervals_cover_the_true_ratios_simultaneously():
-    """Binomial samples from known rates: every ratio inside its interval, at least 90% of the time at 0.90."""
+@pytest.mark.parametrize("adjustment", ["simultaneous", "holm"])
+def test_intervals_cover_the_true_ratios_simultaneously(adjustment):
+    """Binomial samples from known rates: every ratio inside its interval, at least 90% of the time at 0.90 (Holm's
+    intervals at Bonferroni's level cover the true rate over the comparator's true rate, all at once)."""
     rng = np.random.default_rng(11)
     rates = {"a": 0.30, "b": 0.22, "c": 0.40, "d": 0.35}
     sizes = {"a": 120, "b": 90, "c": 60, "d": 150}
@@ -99,8 +108,15 @@ def test_intervals_cover_the_true_ratios_simultaneously():
         from fairaudit.data.counts import CountTable
 
         t = CountTable(counts, ("all",), tuple(rates), (0, 1), (), ("g",), "y")
-        rows = impact_ratios(t, indicator(1, (0, 1)), confidence=0.90).rows
-        hits += all(r.interval[0] <= truth[r.category] <= r.interval[1] for r in rows)
+        rows = impact_ratios(
+            t, indicator(1, (0, 1)), four_fifths=FourFifths(confidence=0.90, adjustment=adjustment)
+        ).rows
+        if adjustment == "simultaneous":
+            hits += all(r.interval[0] <= truth[r.category] <= r.interval[1] for r in rows)
+        else:
+            hits += all(
+                r.interval[0] <= rates[r.category] / rates[r.comparator] <= r.interval[1] for r in rows if r.interval
+            )
     assert hits / reps >= 0.90
 
 
@@ -116,7 +132,10 @@ def test_cli_report(capsys):
     code, report, err = run_json(capsys, *args)
     assert code == 0, err
     first = report["impact_ratios"][0]
-    assert set(first) == {"type", "category", "n", "selected", "rate", "impact_ratio", "interval", "mark", "excluded"}
+    assert set(first) == {
+        "type", "category", "n", "selected", "rate", "impact_ratio", "interval", "p_value", "verdict", "comparator",
+        "excluded",
+    }  # fmt: skip
     assert [r["type"] for r in report["impact_ratios"]] == ["sex"] * 2 + ["race"] * 3 + ["sex x race"] * 5
     assert report["impact_ratio_details"]["unknown"] == {"sex": 3.0, "race": 0.0, "sex x race": 3.0}
     asian = next(r for r in report["impact_ratios"] if r["category"] == "Asian")
@@ -128,7 +147,9 @@ def test_cli_report(capsys):
         "rate": 0.5,
         "impact_ratio": None,
         "interval": None,
-        "mark": None,
+        "p_value": None,
+        "verdict": None,
+        "comparator": None,
         "excluded": True,
     }
     for fmt in ("text", "markdown"):
@@ -177,5 +198,5 @@ def test_markdown_and_html_tables(capsys, tmp_path):
         parser.feed(render(out))
         impact = [t for t in parser.tables if t and t[0][:2] == ["category", "number of applicants"]]
         assert [len(t) - 1 for t in impact] == [2, 3, 5]
-        assert impact[2][1] == ["Female & Asian", "2", "0.5", "excluded (< 2%)", "", ""]
-        assert impact[2][2] == ["Female & Black", "25", "0.32", "0.64", impact[2][2][4], "possibly below"]
+        assert impact[2][1] == ["Female & Asian", "2", "0.5", "excluded (< 2%)", "", "", ""]
+        assert impact[2][2] == ["Female & Black", "25", "0.32", "0.64", *impact[2][2][4:6], "below, inconclusive"]

@@ -20,7 +20,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fairaudit import InputError, count_records, indicator
-from fairaudit.statistics.ll144 import MARKS, impact_ratios, ratio_range
+from fairaudit.statistics.ll144 import VERDICTS, FourFifths, impact_ratios, ratio_range
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "impact_ratio" / "applicants.csv"
 COMMAND = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]
@@ -81,10 +81,11 @@ def test_ratio_range_edge_cases():
 def test_the_surely_highest_category_gets_exactly_one():
     """The issue's [0.77, 1]: a category whose rate is surely the highest on the simultaneous event has [1, 1]."""
     df = pd.DataFrame({"g": ["a"] * 1000 + ["b"] * 1000, "y": [1] * 900 + [0] * 100 + [1] * 100 + [0] * 900})
-    rows = {r.category: r for r in impact_ratios(df, sensitive="g", outcome="y").rows}
-    assert rows["a"].interval == (1.0, 1.0) and rows["a"].mark == "not below"
-    assert rows["b"].impact_ratio == float(Fraction(1, 9)) and rows["b"].mark == "below"
-    assert rows["b"].interval[1] < 0.8
+    box = FourFifths(adjustment="simultaneous")
+    rows = {r.category: r for r in impact_ratios(df, sensitive="g", outcome="y", four_fifths=box).rows}
+    assert rows["a"].interval == (1.0, 1.0) and rows["a"].verdict == "not below"
+    assert rows["b"].impact_ratio == float(Fraction(1, 9)) and rows["b"].verdict == "below, significant"
+    assert rows["b"].interval[1] < 0.8 and rows["b"].comparator == "a"
 
 
 # ------------------------------------------------------------------------------------------ rates and ratios
@@ -100,24 +101,44 @@ def test_ratios_are_the_exact_fractions_of_the_counts():
     assert rows[("sex x race", ("Female", "Black"))].impact_ratio == 0.64
 
 
-def test_marks_follow_the_intervals_and_the_threshold():
+def test_verdicts_follow_the_ratio_the_adjusted_p_value_and_the_threshold():
+    """Second route: scipy's Fisher test against the highest rate of each type, Holm's step-down by hand."""
+    from scipy.stats import fisher_exact
+
     df = pd.read_csv(EXAMPLE).dropna()
-    for threshold in (0.3, 0.5, 0.8, 1.0):
-        report = impact_ratios(df, sensitive=["sex", "race"], outcome="selected", threshold=threshold)
-        assert report.threshold == threshold
+    for threshold in (0.3, 0.5, 0.8, 0.9, 1.0):
+        report = impact_ratios(df, sensitive=["sex", "race"], outcome="selected", four_fifths=FourFifths(threshold))
+        assert report.four_fifths.threshold == threshold and report.test == "fisher"
+        tested = [r for r in report.rows if not r.excluded and r.category != r.comparator]
+        raw = []
+        for r in tested:
+            c = next(x for x in report.rows if x.type == r.type and x.category == r.comparator)
+            table = [[round(r.selected), round(r.n - r.selected)], [round(c.selected), round(c.n - c.selected)]]
+            raw.append(fisher_exact(table).pvalue)
+        order = sorted(range(len(raw)), key=raw.__getitem__)
+        holm, running = [0.0] * len(raw), 0.0
+        for rank, i in enumerate(order):
+            running = max(running, min(1.0, raw[i] * (len(raw) - rank)))
+            holm[i] = running
+        assert report.tested == len(tested)
+        for r, p in zip(tested, holm, strict=True):
+            assert r.p_value == pytest.approx(p, rel=1e-12)
+            want = (
+                "not below"
+                if r.impact_ratio >= threshold
+                else "below, significant"
+                if p < 0.05
+                else "below, inconclusive"
+            )
+            assert r.verdict == want and r.verdict in VERDICTS
         for r in report.rows:
-            if r.excluded:
-                assert r.mark is None
-                continue
-            lo, hi = r.interval
-            want = "below" if hi < threshold else "not below" if lo >= threshold else "possibly below"
-            assert r.mark == want and r.mark in MARKS
-    report = impact_ratios(df, sensitive=["sex", "race"], outcome="selected", threshold=0.5)
-    marks = {r.category: r.mark for r in report.rows if r.type == "sex"}
-    assert marks == {"Female": "possibly below", "Male": "not below"}  # Female [0.3715, 1]; Male [0.5494, 1]
+            assert (r.verdict is None) == r.excluded
+    # women 29/77 against men 32/70: ratio 0.8239, not significant (Fisher p 0.51)
+    female = next(r for r in impact_ratios(df, sensitive="sex", outcome="selected", four_fifths=FourFifths(0.9)).rows)
+    assert female.verdict == "below, inconclusive" and female.comparator == "Male"
     for bad in (0, -0.1, 1.5, float("nan")):
         with pytest.raises(InputError, match="^threshold"):
-            impact_ratios(df, sensitive="sex", outcome="selected", threshold=bad)
+            FourFifths(bad)
 
 
 # ------------------------------------------------------------------------------------------ the tidy DataFrame
@@ -142,7 +163,9 @@ def test_to_frame_matches_a_pandas_groupby():
         "impact_ratio",
         "ci_low",
         "ci_high",
-        "mark",
+        "p_value",
+        "verdict",
+        "comparator",
         "excluded",
     ]
     assert frame["n"].dtype == np.int64 and frame["selected"].dtype == np.int64 and frame["excluded"].dtype == bool
@@ -157,7 +180,8 @@ def test_to_frame_matches_a_pandas_groupby():
         np.testing.assert_allclose(got["impact_ratio"], want["impact_ratio"], rtol=1e-15)  # NaN where excluded
         assert (got["excluded"] == want["impact_ratio"].isna()).all()
         assert got.loc[got["excluded"], ["ci_low", "ci_high"]].isna().all().all()
-        assert ((got["ci_low"] <= got["impact_ratio"]) | got["excluded"]).all()
+        assert ((got["ci_low"] <= got["impact_ratio"]) | got["ci_low"].isna()).all()
+        assert got["ci_low"].isna().sum() == got["excluded"].sum() + 1  # and the comparator
     assert frame.attrs["threshold"] == 0.8 and frame.attrs["unknown"] == {"sex": 0.0, "race": 0.0, "sex x race": 0.0}
 
 
@@ -260,16 +284,19 @@ def test_reports_lead_with_the_impact_ratios(capsys):
     assert html.index("<h1>impact ratios (NYC Local Law 144 bias audit)") < html.index("<h2>Impact ratios by sex</h2>")
 
 
-def test_marks_in_every_format(capsys):
+def test_verdicts_in_every_format(capsys):
     pytest.importorskip("jinja2")
     pytest.importorskip("matplotlib")
-    code, d, _ = run_json(capsys, *COMMAND, "--threshold", "0.3")
-    assert code == 0 and d["impact_ratio_details"]["threshold"] == 0.3
-    marks = {(r["type"], r["category"]): r["mark"] for r in d["impact_ratios"]}
-    assert marks[("sex", "Male")] == "not below" and marks[("race", "Asian")] is None
+    code, d, _ = run_json(capsys, *COMMAND, "--threshold", "0.7", "--adjustment", "none", "--test", "z")
+    details = d["impact_ratio_details"]
+    assert code == 0 and (details["threshold"], details["adjustment"], details["test"]) == (0.7, "none", "z")
+    verdicts = {(r["type"], r["category"]): r["verdict"] for r in d["impact_ratios"]}
+    assert verdicts[("sex", "Male")] == "not below" and verdicts[("race", "Asian")] is None
+    assert verdicts[("sex x race", "Female & Black")] == "below, inconclusive"  # 8/25 against 20/40: 0.64
     for fmt in ("text", "markdown", "html"):
-        code, out, _ = run(capsys, *COMMAND, "--threshold", "0.3", "--format", fmt)
-        assert code == 0 and "threshold 0.3" in out and "not below" in out and "possibly below" in out
+        code, out, _ = run(capsys, *COMMAND, "--threshold", "0.7", "--format", fmt)
+        assert code == 0 and "threshold 0.7" in out and "not below" in out and "below, inconclusive" in out
+        assert "Holm-adjusted" in out
 
 
 @pytest.mark.parametrize("value", ["0", "2", "nan"])
@@ -311,11 +338,15 @@ def test_frame_and_tables_at_a_printed_precision(capsys):
     frame = impact_ratios(df, sensitive="g", outcome="y").to_frame(digits=3)
     assert frame["selection_rate"].tolist() == [0.313, 0.625] and frame["impact_ratio"].tolist() == [0.5, 1.0]
     exact = impact_ratios(df, sensitive="g", outcome="y").to_frame()
-    assert (frame["ci_low"] <= exact["ci_low"]).all() and (frame["ci_high"] >= exact["ci_high"]).all()
+    has = exact["ci_low"].notna()  # (the comparator, b, has no interval)
+    assert has.tolist() == [True, False]
+    assert (frame["ci_low"][has] <= exact["ci_low"][has]).all() and (
+        frame["ci_high"][has] >= exact["ci_high"][has]
+    ).all()
     code, out, _ = run(capsys, *COMMAND, "--digits", "2")
     assert code == 0
-    assert "  Female    77                    0.38            0.82          [0.37, 1.00]     possibly below" in out
-    assert "  Female & Black  25                    0.32            0.64             [0.14, 1.00]" in out
+    assert "  Female    77                    0.38            0.82" in out
+    assert "  Female & Black  25                    0.32            0.64" in out
     code, out, err = run(capsys, *COMMAND[:-2], "--digits", "2")
     assert (code, out) == (2, "") and err.startswith("fairaudit: error: --digits: goes with the impact ratios")
 
@@ -327,3 +358,39 @@ def test_round_half_up_refuses_an_unknown_direction_naming_how():
     with pytest.raises(InputError, match=r"^how: must be 'half up', 'down' or 'up' \(got 'sideways'\)$"):
         round_half_up(0.5, 1, "sideways")
     assert (round_half_up(0.125, 2, "down"), round_half_up(0.125, 2, "up")) == (0.12, 0.13)  # 1/8 between them
+
+
+def test_the_issues_two_thousand_applicants():
+    """2,000 applicants: Asian 85 of 218 (ratio 0.97) is not below by default; Black 135 of 520 (0.65) is below and
+    significant (Fisher's p about 1e-7 against White's 320 of 800, Holm over three)."""
+    counts = {"White": (800, 320), "Black": (520, 135), "Asian": (218, 85), "Hispanic": (462, 166)}
+    race = [c for c, (n, _) in counts.items() for _ in range(n)]
+    selected = [int(i < k) for _, (n, k) in counts.items() for i in range(n)]
+    df = pd.DataFrame({"race": race, "selected": selected})
+    rows = {r.category: r for r in impact_ratios(df, sensitive="race", outcome="selected").rows}
+    assert rows["Asian"].impact_ratio == pytest.approx(float(Fraction(85, 218) / Fraction(320, 800)), rel=1e-15)
+    assert rows["Asian"].verdict == "not below"
+    assert rows["Black"].impact_ratio == pytest.approx(float(Fraction(135, 520) / Fraction(2, 5)), rel=1e-15)
+    assert rows["Black"].verdict == "below, significant" and rows["Black"].p_value < 1e-4
+    lo, hi = rows["Black"].interval
+    assert lo < rows["Black"].impact_ratio < hi < 0.8
+
+
+def test_counts_that_are_not_whole_give_the_ratios_of_weights(tmp_path, capsys):
+    """5.5 applicants of whom 2.5 selected are used as given (the issue's 0.6667 came from rounding them), as the
+    same rows read as weighted records give them; and in the header the total is 13.5, not 13."""
+    rows = [("a", 1, 2.5), ("a", 0, 3.0), ("b", 1, 2.6), ("b", 0, 2.6), ("c", 1, 1.0), ("c", 0, 1.8)]
+    counted, weighted = tmp_path / "counts.csv", tmp_path / "records.csv"
+    pd.DataFrame(rows, columns=["g", "y", "n"]).to_csv(counted, index=False)
+    pd.DataFrame(rows, columns=["g", "y", "w"]).to_csv(weighted, index=False)
+    both = ["--sensitive", "g", "--outcome", "y", "--positive", "1", "--report", "impact-ratio"]
+    code, by_count, err = run_json(capsys, "audit", counted, "--count", "n", *both)
+    assert code == 0, err
+    code, by_weight, err = run_json(capsys, "audit", weighted, "--weights", "w", *both)
+    assert code == 0, err
+    ratios = {r["category"]: r["impact_ratio"] for r in by_count["impact_ratios"]}
+    assert ratios == {r["category"]: r["impact_ratio"] for r in by_weight["impact_ratios"]}
+    assert ratios["a"] == pytest.approx((2.5 / 5.5) / 0.5, rel=1e-15) and by_count["n"] == 13.5
+    assert by_count["impact_ratio_details"]["test"] == "z"
+    code, text, _ = run(capsys, "audit", counted, "--count", "n", *both)
+    assert "fairaudit audit: 13.5 records" in text and "records per group: a 5.5, b 5.2, c 2.8" in text

@@ -89,8 +89,16 @@ def test_audit_count_intersectional_and_default_utility():
 @pytest.mark.parametrize(
     ("change", "kwargs", "needle"),
     [
-        (lambda t: t.assign(n=[-1] + list(t["n"][1:])), {}, "column 'n': must hold non-negative numbers (got "),
-        (lambda t: t.assign(n=["x"] + list(t["n"][1:])), {}, "column 'n': must hold non-negative numbers (got 'x')"),
+        (
+            lambda t: t.assign(n=[-1] + list(t["n"][1:])),
+            {},
+            "column 'n': must hold finite non-negative numbers; data row 1 (office='north', sex='f', grade='1') is not (got -1)",
+        ),
+        (
+            lambda t: t.assign(n=["x"] + list(t["n"][1:])),
+            {},
+            "column 'n': must hold finite non-negative numbers; data row 1 (office='north', sex='f', grade='1') is not (got 'x')",
+        ),
         (lambda t: t, {"count": "m"}, "count: unknown column; the data has: office, sex, grade, n (got 'm')"),
         (lambda t: pd.concat([t, t.iloc[:1]]), {}, "count table: lists the same (context, group, decision) twice"),
     ],

@@ -391,6 +391,7 @@ IMPACT_HEAD = (
     "{rate} rate",
     "impact ratio",
     "interval ({level})",
+    "p-value",
     "threshold {threshold}",
 )
 
@@ -410,9 +411,9 @@ def impact_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[str,
     """The impact-ratio report (``--report impact-ratio``) as one table per category type: (type, head, rows).
 
     The layout of published bias audits (NYC Local Law 144): category, number of applicants, selection (or
-    scoring) rate, impact ratio; then the simultaneous interval on the ratio and the category's mark against the
-    threshold (below, possibly below, not below). An excluded category (under 2% of the data) keeps its number and
-    rate, its ratio reads "excluded (< 2%)".
+    scoring) rate, impact ratio; then the interval on the ratio, the p-value of equal rates with the highest, and the
+    category's verdict against the threshold (below, significant; below, inconclusive; not below). An excluded
+    category (under 2% of the data) keeps its number and rate, its ratio reads "excluded (< 2%)".
     """
     details = d["impact_ratio_details"]
     head = tuple(
@@ -425,7 +426,8 @@ def impact_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[str,
         ratio = "excluded (< 2%)" if r["excluded"] else number(r["impact_ratio"], "half up")
         iv = r["interval"]
         interval = "" if iv is None else f"[{number(iv[0], 'down')}, {number(iv[1], 'up')}]"
-        row = (str(r["category"]), fmt(r["n"]), number(r["rate"], "half up"), ratio, interval, r["mark"] or "")
+        p = "" if r["p_value"] is None else fmt(r["p_value"], 2)
+        row = (str(r["category"]), fmt(r["n"]), number(r["rate"], "half up"), ratio, interval, p, r["verdict"] or "")
         tables.setdefault(r["type"], []).append(row)
     return [(name, head, rows) for name, rows in tables.items()]
 
@@ -450,12 +452,22 @@ def impact_notes(d: Report) -> list[str]:
     else:
         rate = "selection rate: the share of the category selected"
     t = fmt(details["threshold"])
+    alpha = fmt(1 - details["confidence"], 2)
+    test = "Fisher's exact test" if details["test"] == "fisher" else "the pooled z test"
+    adjusted = {
+        "holm": f"Holm-adjusted over the {details['tested']} tested ratios; intervals at Bonferroni's level, so they "
+        "hold at once",
+        "none": "not adjusted: each test and interval alone",
+        "simultaneous": "Bonferroni-adjusted; intervals: each ratio's range over simultaneous Clopper-Pearson "
+        "intervals on every rate",
+    }[details["adjustment"]]
     notes = [
-        f"{rate}; impact ratio: the category's rate over the highest rate of its type (6 RCNY 5-301); intervals "
-        f"simultaneous over every ratio at {fmt(details['confidence'])}",
-        f"threshold {t}{' (the four-fifths rule of thumb)' if details['threshold'] == 0.8 else ''}: below, the whole "
-        f"interval under {t}; possibly below, the interval reaches under {t}; not below, the whole interval at or "
-        f"above {t}",
+        f"{rate}; impact ratio: the category's rate over the highest rate of its type (6 RCNY 5-301); interval: on "
+        f"that ratio at {fmt(details['confidence'])}; p-value: {test} of equal rates with the highest, two-sided, "
+        f"{adjusted}",
+        f"threshold {t}{' (the four-fifths rule of thumb)' if details['threshold'] == 0.8 else ''}: below, "
+        f"significant, the ratio under {t} and the p-value under {alpha}; below, inconclusive, the ratio under {t} "
+        f"and the p-value at or above {alpha}; not below, the ratio at or above {t} (29 CFR 1607.4(D))",
     ]
     ratios = [
         r["impact_ratio"] for r in d["impact_ratios"] if r["type"] == details["intersection"] and not r["excluded"]

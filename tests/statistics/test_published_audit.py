@@ -1,0 +1,99 @@
+"""A published audit table, checked: hand-made tables with known inconsistencies, in the ACLU's format and plain."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import pandas as pd
+import pytest
+
+from fairaudit.base.errors import InputError
+from fairaudit.statistics.missing_demographics import missing_data_bounds
+from fairaudit.statistics.published_audit import check_published, printed
+
+
+def _aclu_rows() -> pd.DataFrame:
+    """Three audits in the ACLU dataset's columns (figures as text, as printed)."""
+    rows = [
+        # audit 1, sex: consistent, with 10 unknown of whom 3 selected
+        ("a1", "sex", "Female", "Total", "100", "30", "0.30", "0.750"),
+        ("a1", "sex", "Male", "Total", "120", "48", "0.40", "1.000"),
+        ("a1", "sex", "Missing/Unknown", "Total", "10", "3", "0.30", "NA"),
+        # audit 2, race: a rate off its counts, a ratio above 1, a category of 5% with no ratio
+        ("a2", "race", "Total", "White", "200", "100", "0.50", "1.00"),
+        ("a2", "race", "Total", "Black", "100", "40", "0.45", "0.80"),
+        ("a2", "race", "Total", "Asian", "50", "30", "0.60", "1.20"),
+        ("a2", "race", "Total", "Hispanic or Latino", "20", "5", "0.25", "NA"),
+        # audit 3, sex: every ratio is the rate over Male's, not over the highest (Female's)
+        ("a3", "sex", "Female", "Total", "50", "30", "60%", "1.2"),
+        ("a3", "sex", "Male", "Total", "100", "50", "50%", "1.0"),
+    ]
+    columns = ["audit_id", "protected_char_group", "sex", "race_ethnicity", "number_of_applications",
+               "n_selected_or_n_above_median", "result", "impact_ratio"]  # fmt: skip
+    return pd.DataFrame(rows, columns=columns)
+
+
+def test_printed_figures_are_read_exactly():
+    assert printed("0.85") is not None and printed("0.85").value == Fraction(17, 20)
+    assert printed("85%").value == Fraction(17, 20) and printed("85%").half_unit == Fraction(1, 200)
+    assert printed("1,200").value == 1200
+    assert printed("NA") is None and printed(float("nan")) is None and printed("") is None
+    assert printed(0.1).half_unit == Fraction(1, 20)  # a float by its shortest repr, "0.1"
+    # within half a unit of the last printed place, either side, and not beyond
+    p = printed("0.75")
+    assert p.matches(Fraction(3, 4) + Fraction(1, 200)) and not p.matches(Fraction(3, 4) + Fraction(1, 199))
+    with pytest.raises(InputError, match="^published: a figure must be a number or a percentage"):
+        printed("high")
+
+
+def test_the_aclu_format_is_read_and_each_inconsistency_named():
+    checked = check_published(_aclu_rows())
+    assert not checked.consistent
+    by = {(r.audit, r.category): r for r in checked.rows}
+    assert [r.findings for r in checked.rows if r.audit == "a1"] == [(), (), ()]
+    # audit 2's highest rate is Asian's 30/50 = 0.6: White's printed 1.00 is 0.5/0.6, Black's 0.80 is 0.4/0.6
+    assert by["a2", "White"].findings == ("ratio: printed 1.00, from the counts 0.8333",)
+    assert by["a2", "Black"].findings == (
+        "rate: printed 0.45, from the counts 0.4",  # 40/100
+        "ratio: printed 0.80, from the counts 0.6667",
+    )
+    assert by["a2", "Asian"].findings == ("above 1: printed 1.20",)
+    assert by["a2", "Hispanic or Latino"].findings == (
+        "excluded: no ratio printed, yet 5.41% of the applicants (at least 2%)",  # 20 of 370
+    )
+    assert by["a2", "Hispanic or Latino"].recomputed_ratio == pytest.approx(0.25 / 0.6, rel=1e-15)
+    assert by["a3", "Female"].findings == ("above 1: printed 1.2",)
+    assert by["a3", "Male"].findings == ("ratio: printed 1.0, from the counts 0.8333",)
+    # both tables divide by another category's rate than the highest: every printed ratio is rate / that rate
+    assert checked.comparators == {("a2", "race"): "White", ("a3", "sex"): "Male"}
+
+
+def test_the_missing_data_bounds_of_a_published_table():
+    checked = check_published(_aclu_rows())
+    female = next(r for r in checked.rows if r.audit == "a1" and r.category == "Female")
+    sharp = missing_data_bounds(["F", "M"], [100, 120], [30, 48], 10, 3)
+    assert (female.ratio_lower, female.ratio_upper) == (float(sharp.ratio_lower[0]), float(sharp.ratio_upper[0]))
+    # the ACLU's: every unknown in the row's category, over the highest printed rate 0.40 (their max(result))
+    assert female.aclu_upper == pytest.approx(40 / 110 / 0.4, rel=1e-15)
+    assert female.aclu_lower == pytest.approx(30 / 110 / 0.4, rel=1e-15)
+    # proportional: 10 · 100/220 of them
+    m = 10 * 100 / 220
+    assert female.aclu_upper_proportional == pytest.approx((30 + m) / (100 + m) / 0.4, rel=1e-15)
+    assert female.aclu_lower_proportional == pytest.approx(30 / (100 + m) / 0.4, rel=1e-15)
+
+
+def test_rates_without_counts_are_checked_over_their_rounding():
+    # 0.33 / 0.41 = 0.8049 from the printed rates; true rates in [0.325, 0.335] x [0.405, 0.415] allow 0.783..0.827
+    t = pd.DataFrame({"category": ["A", "B"], "rate": ["0.33", "0.41"], "impact_ratio": ["0.79", "1.00"]})
+    assert check_published(t).consistent
+    t.loc[0, "impact_ratio"] = "0.75"
+    assert check_published(t).rows[0].findings == ("ratio: printed 0.75, from the printed rates 0.8049",)
+
+
+def test_a_table_without_categories_or_figures_is_refused():
+    with pytest.raises(InputError, match="^category: the published table needs a category column"):
+        check_published(pd.DataFrame({"rate": ["0.5"]}))
+    with pytest.raises(InputError, match="^rate: the published table needs rates, or applicants and selected"):
+        check_published(pd.DataFrame({"category": ["A"], "applicants": ["3"]}))
+    with pytest.raises(InputError, match="^rate: is not a column of the published table"):
+        check_published(pd.DataFrame({"category": ["A"], "r": ["0.5"]}), {"rate": "sr"})

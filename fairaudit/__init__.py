@@ -53,7 +53,9 @@ from fairaudit.metrics.utility_range import UtilityRange, fairness_range
 from fairaudit.reports.figures import mark_infinite
 from fairaudit.reports.plots import plot_curve, save_figure
 from fairaudit.statistics.intervals import FairnessIntervals, Interval, IntervalOptions, fairness_intervals
-from fairaudit.statistics.ll144 import ImpactRatios, impact_ratios
+from fairaudit.statistics.ll144 import FourFifths, ImpactRatios, impact_ratios
+from fairaudit.statistics.missing_demographics import MissingDataBounds, aclu_bounds, missing_data_bounds
+from fairaudit.statistics.published_audit import PublishedAudit, check_published
 from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
 from fairaudit.statistics.sample_size import SamplePlan, plan
 from fairaudit.verification.rederive import Verification, verify
@@ -107,18 +109,24 @@ __all__ = [
     "CountTable",
     "CsvFormat",
     "FairnessIntervals",
+    "FourFifths",
     "ImpactRatios",
     "Interval",
     "IntervalOptions",
+    "MissingDataBounds",
+    "PublishedAudit",
     "SamplePlan",
     "UtilityRange",
+    "aclu_bounds",
     "audit",
+    "check_published",
     "count_file",
     "count_records",
     "count_table",
     "fairness_intervals",
     "fairness_range",
     "impact_ratios",
+    "missing_data_bounds",
     "plan",
     "read_records",
     "utility_from_expression",

@@ -25,17 +25,25 @@ def add_parser(sub: Subparsers) -> None:
     a.add_argument(
         "data",
         metavar="DATA",
+        nargs="?",
         help="Parquet file (or folder of Parquet files), or text: .csv, .tsv, .txt or .data, optionally "
         "compressed (.gz, .zst); one record per decision (or candidate); with --count, a count table",
     )
     a.add_argument(
+        "--published",
+        metavar="TABLE",
+        help="instead of DATA: check a published bias audit's impact-ratio table (CSV or Parquet; the ACLU "
+        "dataset's columns, or category, applicants, selected, rate, impact_ratio): every figure recomputed at its "
+        "printed precision, ratios above 1, 2%% exclusions, the missing-data bounds; exit 1 when one is not "
+        "consistent",
+    )
+    a.add_argument(
         "--sensitive",
-        required=True,
         type=columns,
         metavar="COL[,COL...]",
-        help="sensitive column(s); several give intersectional groups",
+        help="sensitive column(s); several give intersectional groups (required with DATA)",
     )
-    a.add_argument("--outcome", required=True, metavar="COL", help="outcome column U (all its values are kept)")
+    a.add_argument("--outcome", metavar="COL", help="outcome column U (all its values are kept; required with DATA)")
     a.add_argument("--context", type=columns, default=[], metavar="COL[,COL...]", help="context column(s) X")
     g = a.add_mutually_exclusive_group()
     g.add_argument("--positive", metavar="VALUE", help="g = 1{U = VALUE}")
@@ -146,7 +154,14 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``fairaudit audit``; returns the exit status."""
+    """Run ``fairaudit audit``; returns the exit status (with ``--published``, 1 when the table is not consistent)."""
+    if args.published is not None:
+        return _published(args)
+    if args.data is None:
+        raise InputError("DATA", "give the records to audit (or --published TABLE to check a published audit)")
+    for name in ("sensitive", "outcome"):
+        if getattr(args, name) is None:
+            raise InputError(f"--{name}", "is required with DATA")
     from fairaudit.data.counts import count_file
     from fairaudit.statistics.intervals import IntervalOptions
     from fairaudit.statistics.record_audit import audit
@@ -204,3 +219,19 @@ def run(args: argparse.Namespace) -> int:
     summary = f"audit: {records(data)}, L = {data['local']['value']} nats"
     emit(args, render(data, "audit", args.format), summary)
     return 0
+
+
+def _published(args: argparse.Namespace) -> int:
+    """``fairaudit audit --published TABLE``: the table checked, exit 0 when consistent, 1 when not."""
+    from fairaudit.data.record_files import source
+    from fairaudit.statistics.published_audit import check_published
+
+    if args.data is not None:
+        raise InputError("--published", "checks a published table alone: give it without DATA", args.published)
+    table = source(args.published, text_format(args))
+    checked = check_published(table.read(as_written=table.names))
+    data = checked.to_dict()
+    bad = sum(1 for r in checked.rows if r.findings)
+    summary = f"published: {len(checked.rows)} rows, " + ("consistent" if not bad else f"{bad} with a finding")
+    emit(args, render(data, "audit", args.format), summary)
+    return 0 if checked.consistent else 1

@@ -27,6 +27,7 @@ from fractions import Fraction
 from typing import TYPE_CHECKING, Any
 
 from fairaudit.base.errors import InputError
+from fairaudit.base.json_values import Report, number
 from fairaudit.statistics.missing_demographics import aclu_bounds, missing_data_bounds
 
 if TYPE_CHECKING:
@@ -169,6 +170,17 @@ class PublishedAudit:
     def consistent(self) -> bool:
         """No row has a finding (``fairaudit audit --published`` exits 0, else 1)."""
         return not any(r.findings for r in self.rows)
+
+    def to_dict(self) -> Report:
+        """``{"published": [...], "published_details": {...}}``: each row's fields (``findings`` a list), the
+        columns read, the comparators found (``"audit / type": category``), ``consistent`` and the rows checked."""
+        rows = [
+            {f: (list(v) if f == "findings" else number(v) if isinstance(v, float) else v) for f, v in vars(r).items()}
+            for r in self.rows
+        ]
+        comparators = {" / ".join(filter(None, key)): c for key, c in self.comparators.items()}
+        details = {"columns": dict(self.columns), "comparators": comparators, "consistent": self.consistent}
+        return {"published": rows, "published_details": {**details, "rows": len(self.rows)}}
 
     def to_frame(self) -> pd.DataFrame:
         """One row per table row; the columns are :class:`PublishedRow`'s fields, ``findings`` joined by "; "."""

@@ -97,3 +97,33 @@ def test_a_table_without_categories_or_figures_is_refused():
         check_published(pd.DataFrame({"category": ["A"], "applicants": ["3"]}))
     with pytest.raises(InputError, match="^rate: is not a column of the published table"):
         check_published(pd.DataFrame({"category": ["A"], "r": ["0.5"]}), {"rate": "sr"})
+
+
+def test_the_command_exits_1_on_an_inconsistent_table_and_0_on_a_consistent_one(tmp_path, capsys):
+    from _cli import run, run_json
+
+    table = _aclu_rows()
+    path = tmp_path / "published.csv"
+    table.to_csv(path, index=False)
+    code, d, _ = run_json(capsys, "audit", "--published", path)
+    assert code == 1 and not d["published_details"]["consistent"] and d["published_details"]["rows"] == 9
+    assert d["published_details"]["comparators"] == {"a2 / race": "White", "a3 / sex": "Male"}
+    for fmt in ("text", "markdown", "html"):
+        code, out, _ = run(capsys, "audit", "--published", path, "--format", fmt)
+        assert code == 1 and "above 1: printed 1.20" in out and "every printed ratio is the rate over White" in out
+    table[table["audit_id"] == "a1"].to_csv(path, index=False)
+    code, out, _ = run(capsys, "audit", "--published", path)
+    assert code == 0 and out.endswith("3 rows checked: consistent\n")
+
+
+def test_the_command_refuses_data_with_a_published_table_and_needs_its_columns_without(tmp_path, capsys):
+    from _cli import run
+
+    path = tmp_path / "published.csv"
+    _aclu_rows().to_csv(path, index=False)
+    code, _, err = run(capsys, "audit", path, "--published", path)
+    assert code == 2 and "--published: checks a published table alone: give it without DATA" in err
+    code, _, err = run(capsys, "audit", "--sensitive", "sex", "--outcome", "y")
+    assert code == 2 and "DATA: give the records to audit (or --published TABLE" in err
+    code, _, err = run(capsys, "audit", path, "--outcome", "y")
+    assert (code, err) == (2, "fairaudit: error: --sensitive: is required with DATA\n")

@@ -64,6 +64,8 @@ from fairaudit.reports.formats.sections import (
     outcomes_more,
     plan_head,
     plan_rows,
+    published_notes,
+    published_tables,
     record_rows,
     records,
     sentence,
@@ -179,6 +181,13 @@ class HtmlFormat(Format):
 
     def audit(self, d: Report) -> str:
         """The audit's content (as the text report), the cells' table and figures of E[g | a] and E[g | x, a]."""
+        if "published" in d:  # fairaudit audit --published: the checked table alone
+            page = _Page("A published bias audit, checked")
+            for title, head, published_rows in published_tables(d):
+                page.h2(title)
+                page.table(head, published_rows, numeric=(1, 2, 3, 4, 5, 6))
+            page.bullets(published_notes(d))
+            return page.render()
         if "impact_ratios" in d:  # the report asked for first, the headline metrics after
             page = _Page(impact_title(d))
             for name, head, impact_rows in impact_tables(d):

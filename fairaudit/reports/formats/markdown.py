@@ -43,6 +43,8 @@ from fairaudit.reports.formats.sections import (
     outcomes_more,
     plan_head,
     plan_rows,
+    published_notes,
+    published_tables,
     record_rows,
     records,
     sentence,
@@ -155,6 +157,11 @@ class MarkdownFormat(Format):
 
     def audit(self, d: Report) -> str:
         """The audit's columns, records per group and per context, the population, the metrics and the notes."""
+        if "published" in d:  # fairaudit audit --published: the checked table alone
+            lines = ["# A published bias audit, checked", ""]
+            for title, head, rows in published_tables(d):
+                lines += [f"## {escape(title)}", ""] + _table(rows, head) + [""]
+            return "\n".join(lines + [f"* {escape(n)}" for n in published_notes(d)] + [""])
         lines = []
         if "impact_ratios" in d:  # the report asked for first, the headline metrics after
             lines += [f"# {escape(impact_title(d))}", ""]

@@ -24,6 +24,7 @@ __all__ = [
     "OBSERVED_PARTS",
     "OUTCOME_HEAD",
     "PLAN_HEAD",
+    "PUBLISHED_HEAD",
     "TARGET_HEAD",
     "assumption_rows",
     "audit_facts",
@@ -53,6 +54,8 @@ __all__ = [
     "plan_head",
     "plan_rows",
     "population_line",
+    "published_notes",
+    "published_tables",
     "record_rows",
     "records",
     "sentence",
@@ -609,3 +612,61 @@ def outcomes_more(d: Report) -> str | None:
 def count(v: object) -> str:
     """A number of records, or a sum of weights (six significant digits)."""
     return fmt(v) if isinstance(v, float) else str(v)
+
+
+PUBLISHED_HEAD = (
+    "category",
+    "applicants",
+    "selected",
+    "rate",
+    "from counts",
+    "impact ratio",
+    "recomputed",
+    "with the unknowns",
+    "ACLU's",
+    "findings",
+)
+"""The columns of a checked published table (``fairaudit audit --published``)."""
+
+
+def published_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[str, ...]]]]:
+    """A checked published table (:meth:`~fairaudit.statistics.published_audit.PublishedAudit.to_dict`), one table
+    per audit and category type: (title, head, rows). Figures as read; the recomputed ones to 4 significant
+    digits; "with the unknowns" the sharp range of the ratio over every allocation of the unknown applicants,
+    "ACLU's" their range with every unknown in the row's category and the comparator held."""
+
+    def pair(lo: object, hi: object) -> str:
+        return "" if lo is None or hi is None else f"[{fmt(lo, 4)}, {fmt(hi, 4)}]"
+
+    tables: dict[str, list[tuple[str, ...]]] = {}
+    for r in d["published"]:
+        title = " / ".join(str(v) for v in (r["audit"], r["type"]) if v) or "the table"
+        row = (
+            str(r["category"]), *("" if r[k] is None else fmt(r[k]) for k in ("applicants", "selected", "rate")),
+            "" if r["recomputed_rate"] is None else fmt(r["recomputed_rate"], 4),
+            "" if r["impact_ratio"] is None else fmt(r["impact_ratio"]),
+            "" if r["recomputed_ratio"] is None or r["unknown"] else fmt(r["recomputed_ratio"], 4),
+            pair(r["ratio_lower"], r["ratio_upper"]), pair(r["aclu_lower"], r["aclu_upper"]),
+            "; ".join(r["findings"]) or ("unknown category" if r["unknown"] else "consistent"),
+        )  # fmt: skip
+        tables.setdefault(title, []).append(row)
+    return [(title, PUBLISHED_HEAD, rows) for title, rows in tables.items()]
+
+
+def published_notes(d: Report) -> list[str]:
+    """The sentences under a checked published table: what matches means, the comparators found, the verdict."""
+    details = d["published_details"]
+    bad = sum(1 for r in d["published"] if r["findings"])
+    notes = [
+        "a printed figure matches when it is within half a unit of its last printed decimal of the exact value; a "
+        "ratio is recomputed over the highest rate of its type (from the printed rates' rounding where the table "
+        "has no counts)",
+    ]
+    notes += [f"{where}: every printed ratio is the rate over {c}'s, not over the highest" for where, c in details[
+        "comparators"].items()]  # fmt: skip
+    notes.append(
+        f"{details['rows']} rows checked: consistent"
+        if details["consistent"]
+        else f"{details['rows']} rows checked: {bad} with a finding (exit status 1)"
+    )
+    return notes

@@ -32,6 +32,8 @@ from fairaudit.reports.formats.sections import (
     plan_head,
     plan_rows,
     population_line,
+    published_notes,
+    published_tables,
     record_rows,
     records,
 )
@@ -69,6 +71,11 @@ class TextFormat(Format):
 
     def audit(self, d: Report) -> str:
         """Records per group (and context), the population, the intervals' level and the metrics."""
+        if "published" in d:  # fairaudit audit --published: the checked table alone
+            lines = []
+            for title, head, rows in published_tables(d):
+                lines += [f"published {title}:", *_aligned([head, *rows]), ""]
+            return "\n".join(lines + published_notes(d)) + "\n"
         ctx = ", ".join(d["context_columns"]) or "none"
         lines = []
         if "impact_ratios" in d:  # the report asked for first, the headline metrics after

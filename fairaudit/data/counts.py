@@ -86,6 +86,11 @@ class CountTable:
         column (with weights, their weight), and for several sensitive
         columns under their names joined by ``" x "`` (a value missing in
         any of them); empty when nothing was dropped.
+    unknown_outcomes : tuple of (str, tuple of (label, float))
+        With ``dropna``, per sensitive column (and their intersection) with
+        records of unknown category, those records' outcomes and their
+        number (weight): what the impact ratios' missing-data bounds need.
+        Records whose outcome is missing too are not in it.
     """
 
     counts: Counts
@@ -98,6 +103,7 @@ class CountTable:
     weight_column: str | None = None
     squares: Counts | None = None
     missing: tuple[tuple[str, float], ...] = ()
+    unknown_outcomes: tuple[tuple[str, tuple[tuple[Hashable, float], ...]], ...] = ()
 
     @property
     def whole(self) -> bool:
@@ -219,6 +225,7 @@ def _tally(
         any_sensitive = np.logical_or.reduce([missing[c] for c in sensitive])
         k = int(any_sensitive.sum() if n is None else n[any_sensitive].sum())
         dropped += [(" x ".join(sensitive), float(k))] if len(sensitive) > 1 and k else []
+        unknown = _unknown_outcomes(columns, missing, sensitive, outcome, n, sample_weight)
         keep = ~np.logical_or.reduce([missing[c] for c in used])
         columns, n = {c: columns[c][keep] for c in used}, None if n is None else n[keep]
     rows = len(columns[outcome])
@@ -247,7 +254,45 @@ def _tally(
         weight_column=sample_weight,
         squares=squares,
         missing=tuple(dropped),
+        unknown_outcomes=unknown if dropped else (),
     )
+
+
+def _unknown_outcomes(
+    columns: dict[str, Any],
+    missing: dict[str, npt.NDArray[np.bool_]],
+    sensitive: list[str],
+    outcome: str,
+    n: Codes | None,
+    sample_weight: str | None,
+) -> tuple[tuple[str, tuple[tuple[Hashable, float], ...]], ...]:
+    """Per sensitive column (and their intersection), the outcomes of the records of unknown category there and
+    their number (weight), the records with a known outcome (and weight) only."""
+    known = ~missing[outcome] & (~missing[sample_weight] if sample_weight else True)
+    weights = None
+    if sample_weight:
+        weights = _numbers(np.asarray(columns[sample_weight])[known], sample_weight, lambda i: "a record").to_numpy(
+            dtype=np.float64
+        )
+    types = [(c, missing[c]) for c in sensitive]
+    if len(sensitive) > 1:
+        types.append((" x ".join(sensitive), np.logical_or.reduce([missing[c] for c in sensitive])))
+    values = np.asarray(columns[outcome])[known]
+    out = []
+    for name, mask in types:
+        where = np.asarray(mask)[known]
+        if not where.any():
+            continue
+        w = (
+            np.ones(int(where.sum()))
+            if n is None and weights is None
+            else (weights if weights is not None else np.asarray(n)[known])[where]
+        )
+        tally: dict[Hashable, float] = {}
+        for v, x in zip(values[where].tolist(), w.tolist(), strict=True):
+            tally[v] = tally.get(v, 0.0) + float(x)
+        out.append((name, tuple(tally.items())))
+    return tuple(out)
 
 
 def _numbers(values: Any, name: str, row: Callable[[int], str]) -> pd.Series:

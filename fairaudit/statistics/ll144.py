@@ -38,7 +38,7 @@ import math
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -51,6 +51,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.utilities import Utility, from_table
 from fairaudit.statistics.confidence_sets import clopper_pearson
+from fairaudit.statistics.missing_demographics import missing_data_bounds
 from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test, ratio_interval
 
 if TYPE_CHECKING:
@@ -155,6 +156,11 @@ class ImpactRatio:
         comparator.
     comparator : hashable or None
         The category of the type's highest included rate; None when excluded.
+    unknown_range : tuple of float or None
+        The least and greatest impact ratio over every way the type's records of unknown category could belong to
+        its included categories (:func:`~fairaudit.statistics.missing_demographics.missing_data_bounds`: sharp; the
+        highest rate moves with them); None when excluded, with no unknown record, or when an unknown record's
+        outcome is one no known record has.
     """
 
     type: str
@@ -168,6 +174,7 @@ class ImpactRatio:
     verdict: str | None
     p_value: float | None = None
     comparator: Hashable | None = None
+    unknown_range: tuple[float, float] | None = None
 
     def to_dict(self) -> Report:
         """The JSON object: ``type``, ``category``, ``n``, ``selected``, ``rate``, ``impact_ratio``, ``interval``,
@@ -183,6 +190,7 @@ class ImpactRatio:
             "p_value": number(self.p_value),
             "verdict": self.verdict,
             "comparator": None if self.comparator is None else label(self.comparator),
+            "unknown_range": None if self.unknown_range is None else [number(v) for v in self.unknown_range],
             "excluded": self.excluded,
         }
 
@@ -294,7 +302,8 @@ class ImpactRatios:
         Columns: ``type``, ``category`` (text, as the command line prints it), ``n`` and ``selected`` (integers;
         floats with weights; for scoring rates ``selected`` is named ``above_median``), ``selection_rate`` (or
         ``scoring_rate``), ``impact_ratio``, ``ci_low`` and ``ci_high`` (the interval; NaN without one), ``p_value``
-        (NaN without one), ``verdict`` (None when excluded), ``comparator`` and ``excluded``. ``attrs`` holds
+        (NaN without one), ``verdict`` (None when excluded), ``comparator``, ``unknown_low`` and ``unknown_high`` (the
+        ratio's range with the records of unknown category; NaN without it) and ``excluded``. ``attrs`` holds
         ``rate``, ``median``, ``confidence``, ``threshold``, ``adjustment``, ``test`` and ``unknown``.
 
         Parameters
@@ -345,6 +354,12 @@ class ImpactRatios:
                 "verdict": pd.Series([r.verdict for r in self.rows], dtype=object),
                 "comparator": pd.Series(
                     [None if r.comparator is None else str(label(r.comparator)) for r in self.rows], dtype=object
+                ),
+                "unknown_low": pd.Series(
+                    [nan if r.unknown_range is None else r.unknown_range[0] for r in self.rows], dtype="float64"
+                ),
+                "unknown_high": pd.Series(
+                    [nan if r.unknown_range is None else r.unknown_range[1] for r in self.rows], dtype="float64"
                 ),
                 "excluded": pd.Series([r.excluded for r in self.rows], dtype=bool),
             }
@@ -482,9 +497,39 @@ def impact_ratios(
         else:
             intervals = {i: _ratio_interval(ke, ne, i, best[t], level_each) for (u, i) in tested if u == t}
         p_type = {i: p for (u, i), p in p_values.items() if u == t}
-        rows += _type_rows(name, categories, n, k, keep, whole, best[t], intervals, p_type, rule)
+        typed = _type_rows(name, categories, n, k, keep, whole, best[t], intervals, p_type, rule)
+        rows += _with_unknowns(typed, dict(table.unknown_outcomes).get(name, ()), table.decisions, g, median)
     unknown = {name: float(dict(table.missing).get(name, 0.0)) for name, _, _ in types}
     return ImpactRatios(tuple(rows), kind, median, unknown, rule, table, g, test, len(raw))
+
+
+def _with_unknowns(
+    rows: list[ImpactRatio],
+    outcomes: tuple[tuple[Hashable, float], ...],
+    decisions: tuple,
+    g: Utility,
+    median: float | None,
+) -> list[ImpactRatio]:
+    """The type's rows with each included category's ratio range over every allocation of its unknown records
+    (their outcomes and numbers ``outcomes``; g of each from the decisions, or 1{score > median} for scores)."""
+    included = [i for i, r in enumerate(rows) if not r.excluded]
+    if not outcomes or len(included) < 2:
+        return rows
+    at = {d: v for d, v in zip(decisions, np.asarray(g.values, dtype=float).tolist(), strict=True)}
+    if median is not None:
+        at = {v: float(float(cast(float, v)) > median) for v, _ in outcomes}  # (scores)
+    if any(v not in at for v, _ in outcomes):
+        return rows  # an outcome no known record has: g is not known there
+    total = math.fsum(w for _, w in outcomes)
+    chosen = math.fsum(w * at[v] for v, w in outcomes)
+    bounds = missing_data_bounds(
+        [rows[i].category for i in included], [rows[i].n for i in included], [rows[i].selected for i in included],
+        total, chosen,
+    )  # fmt: skip
+    out = list(rows)
+    for i, lo, hi in zip(included, bounds.ratio_lower, bounds.ratio_upper, strict=True):
+        out[i] = replace(rows[i], unknown_range=(float(lo), float(hi)))
+    return out
 
 
 def _ratio_interval(ke: FloatArray, ne: FloatArray, i: int, b: int, level_each: float) -> tuple[float, float]:

@@ -134,7 +134,7 @@ def test_cli_report(capsys):
     first = report["impact_ratios"][0]
     assert set(first) == {
         "type", "category", "n", "selected", "rate", "impact_ratio", "interval", "p_value", "verdict", "comparator",
-        "excluded",
+        "unknown_range", "excluded",
     }  # fmt: skip
     assert [r["type"] for r in report["impact_ratios"]] == ["sex"] * 2 + ["race"] * 3 + ["sex x race"] * 5
     assert report["impact_ratio_details"]["unknown"] == {"sex": 3.0, "race": 0.0, "sex x race": 3.0}
@@ -150,6 +150,7 @@ def test_cli_report(capsys):
         "p_value": None,
         "verdict": None,
         "comparator": None,
+        "unknown_range": None,
         "excluded": True,
     }
     for fmt in ("text", "markdown"):
@@ -198,5 +199,19 @@ def test_markdown_and_html_tables(capsys, tmp_path):
         parser.feed(render(out))
         impact = [t for t in parser.tables if t and t[0][:2] == ["category", "number of applicants"]]
         assert [len(t) - 1 for t in impact] == [2, 3, 5]
-        assert impact[2][1] == ["Female & Asian", "2", "0.5", "excluded (< 2%)", "", "", ""]
-        assert impact[2][2] == ["Female & Black", "25", "0.32", "0.64", *impact[2][2][4:6], "below, inconclusive"]
+        assert impact[2][1] == ["Female & Asian", "2", "0.5", "excluded (< 2%)", "", "", "", ""]
+        assert impact[2][2] == [
+            "Female & Black", "25", "0.32", "0.64", *impact[2][2][4:6], "[0.5785, 0.7269]", "below, inconclusive"
+        ]  # fmt: skip
+
+
+def test_the_unknown_records_range_by_hand():
+    """The shipped example's 3 records of unknown sex (1 selected): women 29/77 against men 32/70 range from
+    (29/79)/(33/71) (the 2 unselected with the women, the selected with the men) to (30/78)/(32/72)."""
+    report = impact_ratios(pd.read_csv(EXAMPLE), sensitive=["sex", "race"], outcome="selected", dropna=True)
+    by = {(r.type, r.category): r for r in report.rows}
+    lo, hi = by[("sex", "Female")].unknown_range
+    assert lo == float(Fraction(29, 79) / Fraction(33, 71)) and hi == float(Fraction(30, 78) / Fraction(32, 72))
+    assert by[("sex", "Male")].unknown_range == (1.0, 1.0)
+    assert by[("race", "Black")].unknown_range is None  # race is known for every record
+    assert report.table.unknown_outcomes == (("sex", ((1, 1.0), (0, 2.0))), ("sex x race", ((1, 1.0), (0, 2.0))))

@@ -166,6 +166,8 @@ def test_to_frame_matches_a_pandas_groupby():
         "p_value",
         "verdict",
         "comparator",
+        "unknown_low",
+        "unknown_high",
         "excluded",
     ]
     assert frame["n"].dtype == np.int64 and frame["selected"].dtype == np.int64 and frame["excluded"].dtype == bool

@@ -415,14 +415,17 @@ def impact_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[str,
 
     The layout of published bias audits (NYC Local Law 144): category, number of applicants, selection (or
     scoring) rate, impact ratio; then the interval on the ratio, the p-value of equal rates with the highest, and the
-    category's verdict against the threshold (below, significant; below, inconclusive; not below). An excluded
-    category (under 2% of the data) keeps its number and rate, its ratio reads "excluded (< 2%)".
+    category's verdict against the threshold (below, significant; below, inconclusive; not below); with records of
+    unknown category, the ratio's range over every way they could belong to the categories. An excluded category
+    (under 2% of the data) keeps its number and rate, its ratio reads "excluded (< 2%)".
     """
     details = d["impact_ratio_details"]
     head = tuple(
         h.format(rate=details["rate"], level=fmt(details["confidence"]), threshold=fmt(details["threshold"]))
         for h in IMPACT_HEAD
     )
+    ranges = any(r["unknown_range"] is not None for r in d["impact_ratios"])
+    head = (*head[:-1], "with the unknowns", head[-1]) if ranges else head
     number = _impact_number(details.get("digits"))
     tables: dict[str, list[tuple[str, ...]]] = {}
     for r in d["impact_ratios"]:
@@ -430,7 +433,12 @@ def impact_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[str,
         iv = r["interval"]
         interval = "" if iv is None else f"[{number(iv[0], 'down')}, {number(iv[1], 'up')}]"
         p = "" if r["p_value"] is None else fmt(r["p_value"], 2)
-        row = (str(r["category"]), fmt(r["n"]), number(r["rate"], "half up"), ratio, interval, p, r["verdict"] or "")
+        row: tuple[str, ...] = (
+            str(r["category"]), fmt(r["n"]), number(r["rate"], "half up"), ratio, interval, p, r["verdict"] or ""
+        )  # fmt: skip
+        if ranges:
+            u = r["unknown_range"]
+            row = (*row[:-1], "" if u is None else f"[{number(u[0], 'down')}, {number(u[1], 'up')}]", row[-1])
         tables.setdefault(r["type"], []).append(row)
     return [(name, head, rows) for name, rows in tables.items()]
 
@@ -488,6 +496,18 @@ def impact_notes(d: Report) -> list[str]:
         notes.append("under 2% of the data, left out of the impact ratios: " + ", ".join(excluded))
     unknown = [f"{k} {fmt(v)}" for k, v in details["unknown"].items() if v]
     notes.append("records of unknown category: " + (", ".join(unknown) if unknown else "none"))
+    ranged = [r for r in d["impact_ratios"] if r["unknown_range"] is not None]
+    if ranged:
+        threshold = details["threshold"]
+        flips = [
+            f"{r['type']} {r['category']}" for r in ranged if r["unknown_range"][0] < threshold <= r["unknown_range"][1]
+        ]
+        notes.append(
+            "with the unknowns: the least and greatest impact ratio over every way the records of unknown category "
+            "could belong to the categories of the type (the highest rate moves with them; for the intersection, to any "
+            "of its categories, even where part of theirs is known: a range that holds, not the sharp one); the "
+            "unknowns can move across the threshold: " + (", ".join(flips) if flips else "none")
+        )
     return notes
 
 

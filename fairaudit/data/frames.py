@@ -31,12 +31,19 @@ Roles: TypeAlias = tuple[list[str], str, list[str], "str | None"]
 
 
 def records_from_arrays(
-    y_pred: ArrayLike, sensitive_features: ArrayLike, control_features: ArrayLike, sample_weight: ArrayLike
+    y_pred: ArrayLike,
+    sensitive_features: ArrayLike,
+    control_features: ArrayLike,
+    sample_weight: ArrayLike,
+    y_true: ArrayLike = None,
 ) -> tuple[pd.DataFrame, Roles]:
     """One DataFrame of records from fairlearn-style arrays, and the columns of each role.
 
     Unnamed columns are called ``y_pred``, ``sensitive_feature_0``, ...,
     ``control_feature_0``, ... and ``sample_weight`` (fairlearn's names).
+    ``y_true``, the true labels, is a context column (``y_true``) ahead of
+    the control features: the metrics then compare groups within each true
+    label, as fairlearn's equalized odds does.
 
     Raises
     ------
@@ -60,9 +67,9 @@ def records_from_arrays(
     outcome = _columns(y_pred, "y_pred", "y_pred", one=True)
     n = len(next(iter(outcome.values())))
     sensitive = _columns(sensitive_features, "sensitive_features", "sensitive_feature_{}", n=n)
-    context = (
-        {} if control_features is None else _columns(control_features, "control_features", "control_feature_{}", n=n)
-    )
+    context = {} if y_true is None else _columns(y_true, "y_true", "y_true", n=n, one=True)
+    if control_features is not None:
+        context |= _columns(control_features, "control_features", "control_feature_{}", n=n)
     weight = {} if sample_weight is None else _columns(sample_weight, "sample_weight", "sample_weight", n=n, one=True)
     columns: dict[str, Any] = {}
     for param, cols in (("y_pred", outcome), ("sensitive_features", sensitive), ("control_features", context)):

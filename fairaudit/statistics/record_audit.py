@@ -460,6 +460,7 @@ def audit(
     sensitive_features: ArrayLike | None = None,
     control_features: ArrayLike | None = None,
     sample_weight: ArrayLike | None = None,
+    y_true: ArrayLike | None = None,
 ) -> Audit:
     """Audit decision records: exact metrics of the empirical law, and intervals.
 
@@ -529,6 +530,12 @@ def audit(
         numpy array, a pandas Series or DataFrame (its names become the
         columns') or a dict of columns; unnamed columns are ``y_pred``,
         ``sensitive_feature_0``, ... and ``control_feature_0``, ....
+    y_true : array_like, optional
+        With the arrays, the true labels (n,), fairlearn's ``y_true``: a
+        context (column ``y_true``, ahead of the control features), so that L
+        compares the groups within each true label (equalized odds: the
+        demographic-parity gap within a label is fairlearn's
+        ``equalized_odds_difference`` part for that label).
 
     Raises
     ------
@@ -558,7 +565,7 @@ def audit(
     (3.0, 'a')
     """
     interval_options(intervals)
-    arrays = (y_pred, sensitive_features, control_features, sample_weight)
+    arrays = (y_pred, sensitive_features, control_features, sample_weight, y_true)
     data, (sensitive, outcome, context, weights) = _records(data, (sensitive, outcome, context, weights), count, arrays)
     table = _table(data, sensitive, outcome, context, dropna, weights, count, mixed_outcome or utility is not None)
     return _audited(table, audit_utility(table, positive, utility), intervals, min_count)
@@ -568,23 +575,23 @@ def _records(
     data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
     columns: tuple[Sequence[str] | None, str | None, Sequence[str] | None, str | None],
     count: str | None,
-    arrays: tuple[ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None],
+    arrays: tuple[ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None],
 ) -> tuple[
     pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
     tuple[Sequence[str] | None, str | None, Sequence[str] | None, str | None],
 ]:
     """``data`` and its (sensitive, outcome, context, weights) columns, or the records of the arrays and theirs."""
-    y_pred, sensitive_features, control_features, sample_weight = arrays
+    y_pred, sensitive_features, control_features, sample_weight, y_true = arrays
     if y_pred is not None or sensitive_features is not None:
         if data is not None:
             raise InputError("data", "give records as data or as arrays (y_pred, sensitive_features), not both")
-        frame, names = records_from_arrays(y_pred, sensitive_features, control_features, sample_weight)
+        frame, names = records_from_arrays(y_pred, sensitive_features, control_features, sample_weight, y_true)
         if count is not None:
             raise InputError("count", "is the count column of a DataFrame `data`; arrays are one record each", count)
         return frame, names
-    if control_features is not None or sample_weight is not None:
-        name = "control_features" if control_features is not None else "sample_weight"
-        raise InputError(name, "goes with y_pred and sensitive_features")
+    for name, given in (("control_features", control_features), ("sample_weight", sample_weight), ("y_true", y_true)):
+        if given is not None:
+            raise InputError(name, "goes with y_pred and sensitive_features")
     return data, columns
 
 

@@ -198,3 +198,26 @@ def test_weighted_reports_say_total_weight(tmp_path, capsys):
     assert "records per group: a 4.5, b 2" in out and err == ""
     code, out, _ = run(capsys, *args, "--format", "markdown")
     assert out.startswith("# fairaudit audit: total weight 6.5 (weights w)\n")
+
+
+def test_y_true_is_the_context_of_fairlearns_equalized_odds():
+    """fairlearn's names, y_true included: the true label is a context, and the largest gap of E[g] within a label
+    is fairlearn's equalized_odds_difference (its second route, on the same arrays)."""
+    from fairlearn.metrics import demographic_parity_difference, equalized_odds_difference
+
+    y_true = [1, 1, 0, 0, 1, 1, 0, 0, 1, 0]
+    y_pred = [1, 1, 1, 0, 1, 0, 0, 0, 1, 1]
+    groups = list("aaaabbbbab")
+    r = fa.audit(y_true=y_true, y_pred=y_pred, sensitive_features=groups)
+    assert r.table.context_columns == ("y_true",)
+    gaps = r.gaps_on_g.to_dict()
+    assert gaps["equalized_odds"]["value"] == pytest.approx(
+        equalized_odds_difference(y_true, y_pred, sensitive_features=groups), rel=1e-12
+    )
+    assert gaps["demographic_parity"]["value"] == pytest.approx(
+        demographic_parity_difference(y_true, y_pred, sensitive_features=groups), rel=1e-12
+    )
+    with pytest.raises(InputError, match="^y_true: goes with y_pred and sensitive_features"):
+        fa.audit(pd.DataFrame({"g": groups, "y": y_pred}), sensitive=["g"], outcome="y", y_true=y_true)
+    with pytest.raises(InputError, match="^y_true:"):
+        fa.audit(y_true=y_true[:3], y_pred=y_pred, sensitive_features=groups)

@@ -145,6 +145,17 @@ def _add_report_options(a: argparse.ArgumentParser) -> None:
         "Fisher's exact test) or z (the pooled two-proportion z test; always with weights or counts not whole)",
     )
     a.add_argument(
+        "--data-source",
+        choices=("historical", "test"),
+        help="with --report impact-ratio: the data the audit uses, as the report states it (6 RCNY 5-303)",
+    )
+    a.add_argument("--audit-date", metavar="YYYY-MM-DD", help="with --report impact-ratio: the audit's date")
+    a.add_argument(
+        "--distribution-date",
+        metavar="YYYY-MM-DD",
+        help="with --report impact-ratio: the date the employer began using the tool",
+    )
+    a.add_argument(
         "--digits",
         type=int,
         metavar="N",
@@ -183,15 +194,16 @@ def run(args: argparse.Namespace) -> int:
     )
     report = None
     if args.report == "impact-ratio":
-        from fairaudit.statistics.ll144 import FourFifths, impact_ratios
+        from fairaudit.statistics.ll144 import AuditFacts, FourFifths, impact_ratios
 
         digits = None if args.digits is None else whole(args.digits, "digits", high=15)
         given = {name: getattr(args, name) for name in ("threshold", "confidence", "adjustment", "test")}
         rule = FourFifths(**{name: value for name, value in given.items() if value is not None})
-        report = impact_ratios(table, args.utility, positive=args.positive, four_fifths=rule)
+        facts = AuditFacts(args.data_source, args.audit_date, args.distribution_date)
+        report = impact_ratios(table, args.utility, positive=args.positive, four_fifths=rule, facts=facts)
         table, _ = report.headline_table()  # the metrics over the categories of the impact ratios
     else:
-        for name in ("threshold", "digits", "adjustment", "test"):
+        for name in ("threshold", "digits", "adjustment", "test", "data_source", "audit_date", "distribution_date"):
             if getattr(args, name) is not None:
                 raise InputError(
                     name, "goes with the impact ratios: give --report impact-ratio too", getattr(args, name)

@@ -59,7 +59,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ADJUSTMENTS",
+    "DATA_SOURCES",
     "VERDICTS",
+    "AuditFacts",
     "FourFifths",
     "ImpactRatio",
     "ImpactRatios",
@@ -82,6 +84,61 @@ highest (adjusted p-value below α = 1 − confidence); below and not significan
 
 ADJUSTMENTS = ("holm", "none", "simultaneous")
 """How a report's tests and intervals share α (:class:`FourFifths`)."""
+
+
+DATA_SOURCES = ("historical", "test")
+"""Where a bias audit's data come from (6 RCNY § 5-301: historical data of the employer's use, or test data)."""
+
+
+@dataclass(frozen=True)
+class AuditFacts:
+    """What a published bias audit states besides its tables (6 RCNY § 5-303): the data's source and the dates.
+
+    Attributes
+    ----------
+    data_source : {"historical", "test"} or None
+        Historical data (the tool's use by the employer or others) or test data (when historical data are too few).
+    audit_date : str or None
+        The date of the audit, ISO 8601 (``YYYY-MM-DD``).
+    distribution_date : str or None
+        The date the employer began using the tool, ISO 8601.
+
+    Raises
+    ------
+    InputError
+        A data source not among :data:`DATA_SOURCES`, or a date that is not ``YYYY-MM-DD`` (naming it).
+
+    Examples
+    --------
+    >>> AuditFacts("historical", "2026-11-29").audit_date
+    '2026-11-29'
+    """
+
+    data_source: str | None = None
+    audit_date: str | None = None
+    distribution_date: str | None = None
+
+    def __post_init__(self) -> None:
+        import datetime
+
+        if self.data_source is not None and self.data_source not in DATA_SOURCES:
+            raise InputError("data_source", f"must be one of {', '.join(DATA_SOURCES)}", self.data_source)
+        for name in ("audit_date", "distribution_date"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            try:
+                datetime.date.fromisoformat(str(value))
+            except ValueError:
+                raise InputError(name, "must be a date YYYY-MM-DD", value) from None
+
+    def to_dict(self) -> Report:
+        """``data_source``, ``audit_date``, ``distribution_date`` (None where not given)."""
+        return {
+            "data_source": self.data_source,
+            "audit_date": self.audit_date,
+            "distribution_date": self.distribution_date,
+        }
 
 
 @dataclass(frozen=True)
@@ -218,6 +275,8 @@ class ImpactRatios:
         The test run: ``four_fifths.test``, or the z test where the counts are not whole.
     tested : int
         m, the ratios tested (the adjustment's m).
+    facts : AuditFacts
+        The data's source and the dates the audit states.
     """
 
     rows: tuple[ImpactRatio, ...]
@@ -229,6 +288,7 @@ class ImpactRatios:
     utility: Utility
     test: str
     tested: int
+    facts: AuditFacts = AuditFacts()
 
     @property
     def intersection(self) -> str:
@@ -292,6 +352,7 @@ class ImpactRatios:
                 "adjustment": self.four_fifths.adjustment,
                 "test": self.test,
                 "tested": self.tested,
+                **self.facts.to_dict(),
                 "intersection": self.intersection,
             },
         }
@@ -390,6 +451,7 @@ def impact_ratios(
     dropna: bool = False,
     weights: str | None = None,
     four_fifths: FourFifths | None = None,
+    facts: AuditFacts | None = None,
 ) -> ImpactRatios:
     """Selection (or scoring) rates and impact ratios per category, for each sensitive column and their intersection.
 
@@ -412,6 +474,8 @@ def impact_ratios(
     four_fifths : FourFifths, optional
         Threshold (0.8), confidence (0.95), adjustment (Holm) and test (Fisher's) of the verdicts
         (:data:`VERDICTS`).
+    facts : AuditFacts, optional
+        The data's source and the dates, repeated in the report.
 
     Returns
     -------
@@ -500,7 +564,7 @@ def impact_ratios(
         typed = _type_rows(name, categories, n, k, keep, whole, best[t], intervals, p_type, rule)
         rows += _with_unknowns(typed, dict(table.unknown_outcomes).get(name, ()), table.decisions, g, median)
     unknown = {name: float(dict(table.missing).get(name, 0.0)) for name, _, _ in types}
-    return ImpactRatios(tuple(rows), kind, median, unknown, rule, table, g, test, len(raw))
+    return ImpactRatios(tuple(rows), kind, median, unknown, rule, table, g, test, len(raw), facts or AuditFacts())
 
 
 def _with_unknowns(

@@ -396,3 +396,23 @@ def test_counts_that_are_not_whole_give_the_ratios_of_weights(tmp_path, capsys):
     assert by_count["impact_ratio_details"]["test"] == "z"
     code, text, _ = run(capsys, "audit", counted, "--count", "n", *both)
     assert "fairaudit audit: 13.5 records" in text and "records per group: a 5.5, b 5.2, c 2.8" in text
+
+
+def test_the_rules_report_fields(capsys):
+    """Data source and dates as given (6 RCNY 5-303), excluded categories with their applicants, share and rate."""
+    args = [*COMMAND, "--data-source", "test", "--audit-date", "2026-11-29", "--distribution-date", "2024-01-15"]
+    code, d, _ = run_json(capsys, *args)
+    details = d["impact_ratio_details"]
+    assert code == 0 and (details["data_source"], details["audit_date"], details["distribution_date"]) == (
+        "test", "2026-11-29", "2024-01-15",
+    )  # fmt: skip
+    for fmt in ("text", "markdown", "html"):
+        code, out, _ = run(capsys, *args, "--format", fmt)
+        assert code == 0 and "data: test data; audit date 2026-11-29" in out
+        assert "race Asian (2 applicants, 1.4% of 147; rate 0.5)" in out
+    code, out, err = run(capsys, *COMMAND, "--distribution-date", "2024-13-01")
+    assert (code, out) == (2, "") and err == (
+        "fairaudit: error: --distribution-date: must be a date YYYY-MM-DD (got '2024-13-01')\n"
+    )
+    code, _, err = run(capsys, *COMMAND[:-2], "--data-source", "test")
+    assert code == 2 and "--data-source: goes with the impact ratios" in err

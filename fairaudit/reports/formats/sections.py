@@ -491,9 +491,23 @@ def impact_notes(d: Report) -> list[str]:
             f"-ln {fmt(lowest, 4)} = {nats(number(value))} over its categories; every impact ratio >= {t} is "
             f"L-bar <= ln(1/{t}) = {nats(-math.log(details['threshold']))}"
         )
-    excluded = [f"{r['type']} {r['category']}" for r in d["impact_ratios"] if r["excluded"]]
+    total = sum(r["n"] for r in d["impact_ratios"] if r["type"] == details["intersection"])
+    excluded = [
+        f"{r['type']} {r['category']} ({fmt(r['n'])} applicants, {fmt(100 * r['n'] / total, 2)}% of {fmt(total)}; "
+        f"rate {fmt(r['rate'], 4)})"
+        for r in d["impact_ratios"]
+        if r["excluded"]
+    ]
     if excluded:
-        notes.append("under 2% of the data, left out of the impact ratios: " + ", ".join(excluded))
+        notes.append(
+            "under 2% of the data, left out of the impact ratios (6 RCNY 5-301 allows it): " + ", ".join(excluded)
+        )
+    source = {"historical": "historical data", "test": "test data"}.get(details.get("data_source") or "")
+    facts = [f"data: {source}"] if source else []
+    dates = (("audit_date", "audit date"), ("distribution_date", "distribution date (the tool's first use)"))
+    facts += [f"{name} {details[key]}" for key, name in dates if details.get(key)]
+    if facts:
+        notes.append("; ".join(facts))
     unknown = [f"{k} {fmt(v)}" for k, v in details["unknown"].items() if v]
     notes.append("records of unknown category: " + (", ".join(unknown) if unknown else "none"))
     ranged = [r for r in d["impact_ratios"] if r["unknown_range"] is not None]

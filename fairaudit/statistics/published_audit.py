@@ -125,6 +125,11 @@ class PublishedRow:
     aclu_lower, aclu_upper, aclu_lower_proportional, aclu_upper_proportional : float or None
         The ACLU's two variants (:func:`~fairaudit.statistics.missing_demographics.aclu_bounds`), over the highest
         printed rate of the type (the unknown row's included, as their code does).
+    p_value, verdict : float or None, str or None
+        From whole counts: Fisher's two-sided test of equal rates with the type's highest recomputed rate, Holm-adjusted
+        over the audit's tested rows, and the verdict of the recomputed ratio against 0.8
+        (:data:`~fairaudit.statistics.ll144.VERDICTS`); None for the comparator's p-value, and where the row has no
+        whole counts or no printed ratio.
     """
 
     audit: str | None
@@ -145,6 +150,8 @@ class PublishedRow:
     aclu_upper: float | None = None
     aclu_lower_proportional: float | None = None
     aclu_upper_proportional: float | None = None
+    p_value: float | None = None
+    verdict: str | None = None
 
 
 @dataclass(frozen=True)
@@ -233,6 +240,7 @@ def check_published(table: pd.DataFrame, columns: dict[str, str] | None = None) 
         out.extend(out_group)
         if comparator is not None:
             comparators[key] = comparator
+    out = _verdicts(out)
     return PublishedAudit(tuple(out), found, comparators)
 
 
@@ -363,14 +371,14 @@ def _comparator(included: list[dict[str, Any]], exact: dict[int, Fraction | None
     return None
 
 
-def _missing(group: list[dict[str, Any]], known: list[dict[str, Any]]) -> dict[int, dict[str, float]]:
+def _missing(group: list[dict[str, Any]], known: list[dict[str, Any]]) -> dict[int, dict[str, Any]]:
     """The missing-data bounds of each included row, by id: sharp, and the ACLU's two variants."""
     unknown = [r for r in group if r["unknown"] and r["applicants"] is not None]
     counted = [r for r in known if r["applicants"] is not None and r["applicants"].value > 0 and r["selected"]]
     if len(unknown) != 1 or not counted:
         return {}
     (u,) = unknown
-    out: dict[int, dict[str, float]] = {id(r): {} for r in counted}
+    out: dict[int, dict[str, Any]] = {id(r): {} for r in counted}
     if u["selected"] is not None:
         b = missing_data_bounds(
             [id(r) for r in counted], [r["applicants"].value for r in counted], [r["selected"].value for r in counted],
@@ -405,3 +413,36 @@ def _text(p: Printed) -> str:
     """A printed figure as it reads (its decimals kept)."""
     digits = max(0, -int(math.floor(math.log10(float(p.half_unit * 2)))))
     return f"{float(p.value):.{digits}f}"
+
+
+def _verdicts(rows: list[PublishedRow]) -> list[PublishedRow]:
+    """Each row with whole counts and a printed ratio, tested against its type's highest recomputed rate (Fisher,
+    Holm over each audit's tests) and its recomputed ratio read against four-fifths."""
+    from dataclasses import replace
+
+    from fairaudit.statistics.ll144 import THRESHOLD, VERDICTS
+    from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test
+
+    counts = {
+        i: (r.selected, r.applicants)
+        for i, r in enumerate(rows)
+        if r.selected is not None and r.applicants and r.impact_ratio is not None and not r.unknown
+        and float(r.selected).is_integer() and float(r.applicants).is_integer()
+    }  # fmt: skip
+    out = list(rows)
+    for audit in dict.fromkeys(r.audit for r in rows):
+        tests: list[tuple[int, float]] = []
+        for kind in dict.fromkeys(r.type for r in rows if r.audit == audit):
+            counted = [i for i in counts if rows[i].audit == audit and rows[i].type == kind]
+            if len(counted) < 2:
+                continue
+            top = max(counted, key=lambda i: counts[i][0] / counts[i][1])
+            tests += [(i, equal_rates_test(*counts[i], *counts[top])) for i in counted if i != top]
+            out[top] = replace(rows[top], verdict=VERDICTS[2])
+        for (i, _), p in zip(tests, adjusted([p for _, p in tests], "holm"), strict=True):
+            ratio = rows[i].recomputed_ratio
+            below = ratio is not None and ratio < THRESHOLD
+            out[i] = replace(
+                rows[i], p_value=float(p), verdict=VERDICTS[0 if p < 0.05 else 1] if below else VERDICTS[2]
+            )
+    return out

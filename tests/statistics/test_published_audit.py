@@ -127,3 +127,28 @@ def test_the_command_refuses_data_with_a_published_table_and_needs_its_columns_w
     assert code == 2 and "DATA: give the records to audit (or --published TABLE" in err
     code, _, err = run(capsys, "audit", path, "--outcome", "y")
     assert (code, err) == (2, "fairaudit: error: --sensitive: is required with DATA\n")
+
+
+def test_the_verdicts_of_a_published_table_are_fishers_and_holms():
+    """Second route: scipy's Fisher test against each type's highest rate from the counts, Holm by hand."""
+    from pathlib import Path
+
+    from scipy.stats import fisher_exact
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "impact_ratio" / "published.csv"
+    rows = {r.category: r for r in check_published(pd.read_csv(path, dtype=str)).rows}
+    raw = {
+        "Female": fisher_exact([[127, 410 - 127], [191, 530 - 191]]).pvalue,  # against Male, 191/530
+        "White": fisher_exact([[182, 520 - 182], [60, 150 - 60]]).pvalue,  # against Asian, 60/150
+        "Black": fisher_exact([[62, 230 - 62], [60, 150 - 60]]).pvalue,
+    }
+    order = sorted(raw, key=raw.get)
+    holm, running = {}, 0.0
+    for rank, name in enumerate(order):
+        running = max(running, min(1.0, raw[name] * (3 - rank)))
+        holm[name] = running
+    for name, p in holm.items():
+        assert rows[name].p_value == pytest.approx(p, rel=1e-12)
+    assert rows["Black"].verdict == ("below, significant" if holm["Black"] < 0.05 else "below, inconclusive")
+    assert rows["Female"].verdict == "not below" and rows["Asian"].verdict == "not below"
+    assert rows["Asian"].p_value is None and rows["Hispanic or Latino"].verdict is None

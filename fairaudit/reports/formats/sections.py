@@ -658,6 +658,8 @@ PUBLISHED_HEAD = (
     "recomputed",
     "with the unknowns",
     "ACLU's",
+    "p-value",
+    "verdict",
     "findings",
 )
 """The columns of a checked published table (``fairaudit audit --published``)."""
@@ -681,6 +683,7 @@ def published_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[s
             "" if r["impact_ratio"] is None else fmt(r["impact_ratio"]),
             "" if r["recomputed_ratio"] is None or r["unknown"] else fmt(r["recomputed_ratio"], 4),
             pair(r["ratio_lower"], r["ratio_upper"]), pair(r["aclu_lower"], r["aclu_upper"]),
+            "" if r["p_value"] is None else fmt(r["p_value"], 2), r["verdict"] or "",
             "; ".join(r["findings"]) or ("unknown category" if r["unknown"] else "consistent"),
         )  # fmt: skip
         tables.setdefault(title, []).append(row)
@@ -696,6 +699,10 @@ def published_notes(d: Report) -> list[str]:
         "ratio is recomputed over the highest rate of its type (from the printed rates' rounding where the table "
         "has no counts)",
     ]
+    notes.append(
+        "p-value: Fisher's exact test of equal rates with the type's highest rate, from the counts, Holm-adjusted over "
+        "the audit's tests; verdict: the recomputed ratio against 0.8 and the p-value against 0.05"
+    )
     notes += [f"{where}: every printed ratio is the rate over {c}'s, not over the highest" for where, c in details[
         "comparators"].items()]  # fmt: skip
     notes.append(

@@ -51,7 +51,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.data.counts import CountTable
 from fairaudit.laws.utilities import Utility, from_table
 from fairaudit.statistics.confidence_sets import clopper_pearson
-from fairaudit.statistics.missing_demographics import missing_data_bounds
+from fairaudit.statistics.missing_demographics import aclu_bounds, missing_data_bounds
 from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test, ratio_interval
 
 if TYPE_CHECKING:
@@ -218,6 +218,11 @@ class ImpactRatio:
         its included categories (:func:`~fairaudit.statistics.missing_demographics.missing_data_bounds`: sharp; the
         highest rate moves with them); None when excluded, with no unknown record, or when an unknown record's
         outcome is one no known record has.
+    aclu_ranges : pair of (float, float) or None
+        For comparison, the ACLU's two published variants (Gerchick et al. 2025,
+        :func:`~fairaudit.statistics.missing_demographics.aclu_bounds`): every unknown record in the category (all
+        selected, or none), then that many times the category's share of the known records, over the highest rate
+        held fixed; not capped at 1, not sharp.
     """
 
     type: str
@@ -232,6 +237,7 @@ class ImpactRatio:
     p_value: float | None = None
     comparator: Hashable | None = None
     unknown_range: tuple[float, float] | None = None
+    aclu_ranges: tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def to_dict(self) -> Report:
         """The JSON object: ``type``, ``category``, ``n``, ``selected``, ``rate``, ``impact_ratio``, ``interval``,
@@ -248,6 +254,7 @@ class ImpactRatio:
             "verdict": self.verdict,
             "comparator": None if self.comparator is None else label(self.comparator),
             "unknown_range": None if self.unknown_range is None else [number(v) for v in self.unknown_range],
+            "aclu_ranges": None if self.aclu_ranges is None else [[number(v) for v in r] for r in self.aclu_ranges],
             "excluded": self.excluded,
         }
 
@@ -590,9 +597,13 @@ def _with_unknowns(
         [rows[i].category for i in included], [rows[i].n for i in included], [rows[i].selected for i in included],
         total, chosen,
     )  # fmt: skip
+    n, k = [rows[i].n for i in included], [rows[i].selected for i in included]
+    top = max(rows[i].rate for i in included)
+    (low, high), (low_p, high_p) = (aclu_bounds(n, k, total, top or 1.0, p) for p in (False, True))
     out = list(rows)
-    for i, lo, hi in zip(included, bounds.ratio_lower, bounds.ratio_upper, strict=True):
-        out[i] = replace(rows[i], unknown_range=(float(lo), float(hi)))
+    for j, (i, lo, hi) in enumerate(zip(included, bounds.ratio_lower, bounds.ratio_upper, strict=True)):
+        aclu = ((low[j], high[j]), (low_p[j], high_p[j])) if top > 0 else None
+        out[i] = replace(rows[i], unknown_range=(float(lo), float(hi)), aclu_ranges=aclu)
     return out
 
 

@@ -134,7 +134,7 @@ def test_cli_report(capsys):
     first = report["impact_ratios"][0]
     assert set(first) == {
         "type", "category", "n", "selected", "rate", "impact_ratio", "interval", "p_value", "verdict", "comparator",
-        "unknown_range", "excluded",
+        "unknown_range", "aclu_ranges", "excluded",
     }  # fmt: skip
     assert [r["type"] for r in report["impact_ratios"]] == ["sex"] * 2 + ["race"] * 3 + ["sex x race"] * 5
     assert report["impact_ratio_details"]["unknown"] == {"sex": 3.0, "race": 0.0, "sex x race": 3.0}
@@ -151,6 +151,7 @@ def test_cli_report(capsys):
         "verdict": None,
         "comparator": None,
         "unknown_range": None,
+        "aclu_ranges": None,
         "excluded": True,
     }
     for fmt in ("text", "markdown"):
@@ -215,3 +216,8 @@ def test_the_unknown_records_range_by_hand():
     assert by[("sex", "Male")].unknown_range == (1.0, 1.0)
     assert by[("race", "Black")].unknown_range is None  # race is known for every record
     assert report.table.unknown_outcomes == (("sex", ((1, 1.0), (0, 2.0))), ("sex x race", ((1, 1.0), (0, 2.0))))
+    # the ACLU's variants: all 3 in the row's category (selected, or not) over men's 32/70 held; 3 · 77/147 of them
+    (lo, hi), (lo_p, hi_p) = by[("sex", "Female")].aclu_ranges
+    assert (lo, hi) == pytest.approx((29 / 80 / (32 / 70), 32 / 80 / (32 / 70)), rel=1e-14)
+    m = 3 * 77 / 147
+    assert (lo_p, hi_p) == pytest.approx((29 / (77 + m) / (32 / 70), (29 + m) / (77 + m) / (32 / 70)), rel=1e-14)

@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 from _cli import OFFICE_SPEC, run, run_json
 
-from fairaudit import IntervalOptions, RecordOptions, UtilityClass, audit
+from fairaudit import IntervalOptions, RecordOptions, UtilityClass, audit, randomized_response_family
 from fairaudit.base.errors import InputError
 from fairaudit.certification.spec import load_spec
 from fairaudit.laws.utilities import from_table
@@ -180,10 +180,10 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
     "kw",
     [
         {},
-        {"groups": 8},
-        {"groups": 3, "kind": "global"},
+        {"family": randomized_response_family(range(8))},
+        {"family": randomized_response_family(range(3)), "kind": "global"},
         {"method": "tight", "utility_class": UtilityClass(tau=0.4, lipschitz=0.01)},
-        {"groups": 5, "utility_class": UtilityClass(tau=0.3)},
+        {"family": randomized_response_family(range(5)), "utility_class": UtilityClass(tau=0.3)},
     ],
 )
 def test_target_impact_ratio_is_exactly_the_nats_target(kw):
@@ -236,13 +236,13 @@ def test_target_impact_ratio_errors():
         calibrate(target_impact_ratio=0.8, utility_class=UtilityClass(lower=0.1))
     score = from_table([1.0, 0.5, 0.0], ("hire", "wait", "reject"), name="score")
     with pytest.raises(InputError, match=r"^utility: .*takes the value 0.5: give `target` in nats \(got 'score'\)"):
-        calibrate(target_impact_ratio=0.8, groups=2, utility=score)
+        calibrate(target_impact_ratio=0.8, utility=score)
 
 
 def test_cli_calibrate_target_impact_ratio(capsys):
     code, d, _ = run_json(capsys, "calibrate", "--target-impact-ratio", "0.8", "--groups", "8")
     assert code == 0 and d["target_impact_ratio"] == 0.8 and d["target"] == math.log(1.25)
-    assert d["epsilon"] == calibrate(math.log(1.25), groups=8).epsilon
+    assert d["epsilon"] == calibrate(math.log(1.25), family=randomized_response_family(range(8))).epsilon
     code, out, _ = run(capsys, "calibrate", "--target-impact-ratio", "0.8")
     assert code == 0 and out.startswith(
         "largest epsilon of 2-ary randomized response meeting L <= 0.223144 nats "

@@ -8,7 +8,11 @@ mass, under 1e-8, could only add to the coverage: the minimum reported is a lowe
 alone (``--adjustment none``) and 1 − 0.05/m with m = 5 (Holm's intervals at Bonferroni's level). The exact size
 of Fisher's test (two-sided by the central rule; conditional on the total selected, so at most α given each total)
 and of the pooled z test at equal rates p1 = p2 = p, at α = 0.05 and at α/m (Holm's first step): the probability
-of every outcome whose p-value is at most the level.
+of every outcome whose p-value is at most the level. ``--adjustment simultaneous``: m = 5 categories, each rate
+in its Clopper–Pearson interval at level 1 − 0.05/m (``fairaudit.statistics.confidence_sets.clopper_pearson``), every
+ratio in the range of p_i / max_j p_j over that box (``fairaudit.statistics.ll144.ratio_range``); the ratios are all
+covered when the rates are, and the rates are independent, so the joint coverage is at least the product of the
+rates' exact coverages, at least (the least coverage of one rate)^m (``box_coverage``).
 
 Usage::
 
@@ -61,6 +65,18 @@ def lower_miss(n: int, p1: float, p2: float, level: float) -> float:
     return miss
 
 
+def box_coverage(n: int, p: float, level: float) -> float:
+    """The exact coverage of the Clopper–Pearson interval at ``level`` for a rate p out of n (a sum over the n + 1
+    outcomes)."""
+    from scipy.stats import binom
+
+    from fairaudit.statistics.confidence_sets import clopper_pearson
+
+    x = np.arange(n + 1)
+    lo, hi = clopper_pearson(x, np.full(n + 1, n), 1 - level)
+    return float(binom.pmf(x, n, p)[(lo <= p) & (p <= hi)].sum())
+
+
 def fisher_size(n: int, p: float, alpha: float) -> tuple[float, float]:
     """The exact size of Fisher's two-sided test and of the pooled z test at ``alpha``, rates p and p, samples of n."""
     from scipy.stats import binom, hypergeom, norm
@@ -103,6 +119,15 @@ def main(argv: list[str] | None = None) -> int:
             mean = float(np.mean([c for c, _, _ in covers]))
             rows.append([str(n), name, "melded", f"{mean:.4f}", f"{low[0]:.4f} at ({low[1]}, {low[2]})",
                          f"{below} of {len(covers)}", f"{max(0.0, level - low[0]):.4g}"])  # fmt: skip
+        # --adjustment simultaneous: the least joint coverage of five rates' box, (least coverage of one rate)^5
+        single = [(box_coverage(n, p, 1 - ALPHA / 5), p) for p in RATES]
+        low_one = min(single)
+        joint = low_one[0] ** 5
+        worst_cover = min(worst_cover, joint - (1 - ALPHA))
+        rows.append([str(n), "0.95 simultaneous, m = 5", "Clopper–Pearson box", "—",
+                     f"{joint:.4f} at p = {low_one[1]} for all five",
+                     f"{sum(c < 1 - ALPHA / 5 for c, _ in single)} of {len(single)} rates",
+                     f"{max(0.0, 1 - ALPHA - joint):.4g}"])  # fmt: skip
         for alpha in (ALPHA, ALPHA / 5):
             sizes_at = [fisher_size(n, p, alpha) for p in RATES]
             fisher, ztest = max(s[0] for s in sizes_at), max(s[1] for s in sizes_at)

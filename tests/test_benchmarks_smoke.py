@@ -323,3 +323,29 @@ def test_navigation_quick_run_reports_every_stage(capsys, tmp_path):
         assert rows[stage][2].endswith("GB"), rows[stage]  # a peak RSS was measured
     assert output.read_text(encoding="utf-8") == text
     assert sorted(p.name for p in tmp_path.iterdir()) == ["navigation.md"]
+
+
+def test_published_aclu_runs_on_a_table_in_their_format(capsys, tmp_path):
+    """bench_published_aclu on a two-category table in the ACLU's columns, their bounds computed by hand: every value
+    equal (exit 0); one bound moved: it differs (exit 1). Their data is not shipped."""
+    module = _load("bench_published_aclu")
+    # Female 30/100, Male 48/120 (the comparator, 0.40, flagged), 10 unknown: theirs 30/110/0.4 to 40/110/0.4, and
+    # in proportion (m = 10·100/220) 30/(100 + m)/0.4 to (30 + m)/(100 + m)/0.4
+    m = 10 * 100 / 220
+    head = ("audit_id,selection_or_scoring_rate,protected_char_group,sex,race_ethnicity,number_of_applications,"
+            "n_selected_or_n_above_median,result,impact_ratio,comparator_group,impact_ratio_lower_bound,"
+            "impact_ratio_upper_bound,impact_ratio_lower_bound2,impact_ratio_upper_bound2")  # fmt: skip
+    female = f"a,Selection,sex,Female,Total,100,30,0.30,0.75,FALSE,{30 / 110 / 0.4!r},{40 / 110 / 0.4!r},"
+    female += f"{30 / (100 + m) / 0.4!r},{(30 + m) / (100 + m) / 0.4!r}"
+    m_male = 10 * 120 / 220
+    male = f"a,Selection,sex,Male,Total,120,48,0.40,1,TRUE,{48 / 130 / 0.4!r},{58 / 130 / 0.4!r},"
+    male += f"{48 / (120 + m_male) / 0.4!r},{(48 + m_male) / (120 + m_male) / 0.4!r}"
+    unknown = "a,Selection,sex,Missing/Unknown,Total,10,NA,NA,NA,NA,NA,NA,NA,NA"
+    path = tmp_path / "audits_full.csv"
+    path.write_text("\n".join([head, female, male, unknown]) + "\n")
+    assert module.main([str(path)]) == 0
+    (table,) = _tables(capsys.readouterr().out)
+    _check_agreement(table, 1e-15)
+    assert ["`impact_ratio_lower_bound`", "2 equal, 0 differ, 0 only theirs, 0 only ours", "0"] in table
+    path.write_text("\n".join([head, female.replace("0.75,FALSE,0.6", "0.75,FALSE,0.5"), male, unknown]) + "\n")
+    assert module.main([str(path)]) == 1

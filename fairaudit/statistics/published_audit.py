@@ -40,14 +40,19 @@ FINDINGS = ("rate", "ratio", "above 1", "excluded")
 
 ROLES = {
     "audit": ("audit_id", "audit"),
+    "rate_kind": ("selection_or_scoring_rate", "rate_kind"),
     "type": ("protected_char_group", "type", "category_type"),
     "category": ("category",),
     "applicants": ("number_of_applications", "applicants", "n"),
     "selected": ("n_selected_or_n_above_median", "selected", "above_median"),
     "rate": ("result", "rate", "selection_rate", "scoring_rate"),
     "impact_ratio": ("impact_ratio",),
+    "comparator": ("comparator_group", "comparator"),
 }
-"""Each column role and the names it is found under, first match wins (the ACLU's names first)."""
+"""Each column role and the names it is found under, first match wins (the ACLU's names first). ``rate_kind`` tells
+apart the tables of one audit (the ACLU's ``selection_or_scoring_rate``: "Scoring", "Selection", "Selection, top",
+...: tiers of one tool are tables of their own); ``comparator`` flags the row a table's ratios divide by (true,
+TRUE, yes or 1; the ACLU's ``comparator_group``), which their bounds divide by."""
 
 PARTS = ("sex", "race_ethnicity")
 """Without a ``category`` column, the category is these columns' values joined, a part "Total" left out."""
@@ -123,8 +128,9 @@ class PublishedRow:
         The sharp range of the impact ratio over every way the unknown applicants could belong to the categories
         (:func:`~fairaudit.statistics.missing_demographics.missing_data_bounds`; needs the unknown row's selected).
     aclu_lower, aclu_upper, aclu_lower_proportional, aclu_upper_proportional : float or None
-        The ACLU's two variants (:func:`~fairaudit.statistics.missing_demographics.aclu_bounds`), over the highest
-        printed rate of the type (the unknown row's included, as their code does).
+        The ACLU's two variants (:func:`~fairaudit.statistics.missing_demographics.aclu_bounds`), over the rate of
+        the row flagged ``comparator``, else the highest printed rate of the table (the unknown row's included), as
+        their code (``calc_audit_bounds``) does.
     p_value, verdict : float or None, str or None
         From whole counts: Fisher's two-sided test of equal rates with the type's highest recomputed rate, Holm-adjusted
         over the audit's tested rows, and the verdict of the recomputed ratio against 0.8
@@ -152,6 +158,7 @@ class PublishedRow:
     aclu_upper_proportional: float | None = None
     p_value: float | None = None
     verdict: str | None = None
+    rate_kind: str | None = None
 
 
 @dataclass(frozen=True)
@@ -208,8 +215,8 @@ def check_published(table: pd.DataFrame, columns: dict[str, str] | None = None) 
         The published rows; figures as printed (text keeps the printed decimals; numbers are read by their
         shortest repr).
     columns : dict of str to str, optional
-        Column of a role (:data:`ROLES`: ``audit``, ``type``, ``category``, ``applicants``, ``selected``, ``rate``,
-        ``impact_ratio``) where its name differs from the defaults.
+        Column of a role (:data:`ROLES`: ``audit``, ``rate_kind``, ``type``, ``category``, ``applicants``,
+        ``selected``, ``rate``, ``impact_ratio``, ``comparator``) where its name differs from the defaults.
 
     Returns
     -------
@@ -232,16 +239,18 @@ def check_published(table: pd.DataFrame, columns: dict[str, str] | None = None) 
     """
     found = _columns(table, columns or {})
     rows = [_read(table, found, i) for i in range(len(table))]
-    out: list[PublishedRow] = []
+    out: list[PublishedRow | None] = [None] * len(rows)
     comparators: dict[tuple[str | None, str], str] = {}
-    for key in dict.fromkeys((r["audit"], r["type"]) for r in rows):
-        group = [r for r in rows if (r["audit"], r["type"]) == key]
-        out_group, comparator = _check_type(group)
-        out.extend(out_group)
+    groups: dict[tuple, list[int]] = {}
+    for i, r in enumerate(rows):
+        groups.setdefault((r["audit"], r["rate_kind"], r["type"]), []).append(i)
+    for (audit, kind, type_), members in groups.items():
+        checked, comparator = _check_type([rows[i] for i in members])
+        for i, row in zip(members, checked, strict=True):
+            out[i] = row
         if comparator is not None:
-            comparators[key] = comparator
-    out = _verdicts(out)
-    return PublishedAudit(tuple(out), found, comparators)
+            comparators[(" / ".join(v for v in (audit, kind) if v) or None, type_)] = comparator
+    return PublishedAudit(tuple(_verdicts([r for r in out if r is not None])), found, comparators)
 
 
 def _columns(table: pd.DataFrame, given: dict[str, str]) -> dict[str, str]:
@@ -281,8 +290,13 @@ def _read(table: pd.DataFrame, found: dict[str, str], i: int) -> dict[str, Any]:
     else:
         parts = [p for p in (text(q) for q in PARTS if q in found) if p and p.lower() != "total"]
         category = " x ".join(parts)
+    flag = (text("comparator") or "").lower()
+    if flag not in ("", "na", "true", "false", "yes", "no", "1", "0"):
+        raise InputError(found["comparator"], "flags the comparator row: true or false", flag)
     return {
         "audit": text("audit"),
+        "rate_kind": text("rate_kind"),
+        "comparator": flag in ("true", "yes", "1"),
         "type": text("type") or "",
         "category": category,
         "unknown": any(p.lower() in UNKNOWN for p in parts),
@@ -321,7 +335,7 @@ def _check_type(group: list[dict[str, Any]]) -> tuple[list[PublishedRow], str | 
                 r["audit"], r["type"], r["category"], _float(r["applicants"]), _float(r["selected"]),
                 _float(r["rate"]), _float(r["impact_ratio"]), None if rate is None else float(rate),
                 None if ratio is None else float(ratio), None if share is None else float(share),
-                tuple(findings), r["unknown"], **bounds.get(id(r), {}),
+                tuple(findings), r["unknown"], **bounds.get(id(r), {}), rate_kind=r["rate_kind"],
             )
         )  # fmt: skip
     return out, comparator
@@ -375,20 +389,26 @@ def _missing(group: list[dict[str, Any]], known: list[dict[str, Any]]) -> dict[i
     """The missing-data bounds of each included row, by id: sharp, and the ACLU's two variants."""
     unknown = [r for r in group if r["unknown"] and r["applicants"] is not None]
     counted = [r for r in known if r["applicants"] is not None and r["applicants"].value > 0 and r["selected"]]
-    if len(unknown) != 1 or not counted:
+    if not unknown or not counted:
         return {}
-    (u,) = unknown
+    u = unknown[0]  # several unknown rows: theirs take the first (R's ifelse keeps one element); the sharp range none
     out: dict[int, dict[str, Any]] = {id(r): {} for r in counted}
-    if u["selected"] is not None:
+    # the ACLU's bounds reach the categories with no known applicant too (theirs: 0 to all the unknowns' rate)
+    empty = [r for r in known if r["applicants"] is not None and r["applicants"].value == 0 and r["selected"]]
+    if u["selected"] is not None and len(unknown) == 1:
         b = missing_data_bounds(
             [id(r) for r in counted], [r["applicants"].value for r in counted], [r["selected"].value for r in counted],
             u["applicants"].value, u["selected"].value,
         )  # fmt: skip
         for r, lo, hi in zip(counted, b.ratio_lower, b.ratio_upper, strict=True):
             out[id(r)].update(ratio_lower=float(lo), ratio_upper=float(hi))
-    printed_rates = [r["rate"].value for r in group if r["rate"] is not None]  # theirs: max(result), unknown row in
+    # theirs: the flagged comparator's printed rate, else max(result) with the unknown row in
+    printed_rates = [r["rate"].value for r in group if r["rate"] is not None]
+    flagged = [r["rate"].value for r in group if r["comparator"] and r["rate"] is not None]
     top = (
-        max(printed_rates)
+        flagged[0]
+        if flagged
+        else max(printed_rates)
         if printed_rates
         else max((v for v in map(_exact_rate, group) if v is not None), default=None)
     )
@@ -402,6 +422,10 @@ def _missing(group: list[dict[str, Any]], known: list[dict[str, Any]]) -> dict[i
             lows, highs = aclu_bounds(n, s, float(u["applicants"].value), float(top), proportional)
             for r, low, high in zip(counted, lows, highs, strict=True):
                 out[id(r)].update({names[0]: low, names[1]: high})
+        if empty and u["applicants"].value > 0:  # (their proportional variant adds none there: 0/0, no bound)
+            lows, highs = aclu_bounds([0.0] * len(empty), [0.0] * len(empty), float(u["applicants"].value), float(top))
+            for r, low, high in zip(empty, lows, highs, strict=True):
+                out[id(r)] = {"aclu_lower": low, "aclu_upper": high}
     return out
 
 
@@ -430,10 +454,10 @@ def _verdicts(rows: list[PublishedRow]) -> list[PublishedRow]:
         and float(r.selected).is_integer() and float(r.applicants).is_integer()
     }  # fmt: skip
     out = list(rows)
-    for audit in dict.fromkeys(r.audit for r in rows):
+    for audit in dict.fromkeys((r.audit, r.rate_kind) for r in rows):
         tests: list[tuple[int, float]] = []
-        for kind in dict.fromkeys(r.type for r in rows if r.audit == audit):
-            counted = [i for i in counts if rows[i].audit == audit and rows[i].type == kind]
+        for kind in dict.fromkeys(r.type for r in rows if (r.audit, r.rate_kind) == audit):
+            counted = [i for i in counts if (rows[i].audit, rows[i].rate_kind) == audit and rows[i].type == kind]
             if len(counted) < 2:
                 continue
             top = max(counted, key=lambda i: counts[i][0] / counts[i][1])

@@ -156,3 +156,61 @@ def test_the_verdicts_of_a_published_table_are_fishers_and_holms():
     assert rows["Black"].verdict == ("below, significant" if holm["Black"] < 0.05 else "below, inconclusive")
     assert rows["Female"].verdict == "not below" and rows["Asian"].verdict == "not below"
     assert rows["Asian"].p_value is None and rows["Hispanic or Latino"].verdict is None
+
+
+def _tiers() -> pd.DataFrame:
+    """One audit with two tiers (the ACLU's ``selection_or_scoring_rate``), each a table of its own, a comparator
+    flag, an empty category and two unknown rows in the second tier."""
+    rows = [
+        # tier "top": Male's 0.29 flagged as the comparator; Female at 0.27; 29 unknown applicants
+        ("j", "Selection, top", "sex", "Male", "Total", "100", "29", "0.29", "1", "TRUE"),
+        ("j", "Selection, top", "sex", "Female", "Total", "200", "54", "0.27", "0.93", "FALSE"),
+        ("j", "Selection, top", "sex", "Missing/Unknown", "Total", "29", "NA", "NA", "NA", "NA"),
+        # tier "top and middle": Male 0.64, Female 0.63, an empty category, two unknown rows (10 then 50)
+        ("j", "Selection, top and middle", "sex", "Male", "Total", "100", "64", "0.64", "1", "TRUE"),
+        ("j", "Selection, top and middle", "sex", "Female", "Total", "200", "126", "0.63", "0.98", "FALSE"),
+        ("j", "Selection, top and middle", "sex", "Other", "Total", "0", "0", "NA", "NA", "FALSE"),
+        ("j", "Selection, top and middle", "sex", "Missing/Unknown", "Total", "10", "NA", "NA", "NA", "NA"),
+        ("j", "Selection, top and middle", "sex", "Missing/Unknown", "Missing/Unknown", "50", "NA", "NA", "NA", "NA"),
+    ]
+    columns = ["audit_id", "selection_or_scoring_rate", "protected_char_group", "sex", "race_ethnicity",
+               "number_of_applications", "n_selected_or_n_above_median", "result", "impact_ratio",
+               "comparator_group"]  # fmt: skip
+    return pd.DataFrame(rows, columns=columns)
+
+
+def test_each_tier_is_a_table_of_its_own_and_the_rows_keep_the_table_order():
+    checked = check_published(_tiers())
+    top, middle = "Selection, top", "Selection, top and middle"
+    assert [(r.rate_kind, r.category) for r in checked.rows] == [
+        (top, "Male"), (top, "Female"), (top, "Missing/Unknown"), (middle, "Male"), (middle, "Female"),
+        (middle, "Other"), (middle, "Missing/Unknown"), (middle, "Missing/Unknown x Missing/Unknown"),
+    ]  # fmt: skip
+    # each tier's ratio is over its own highest rate: 54/200 / (29/100) and 126/200 / (64/100), by hand
+    female_top, female_middle = checked.rows[1], checked.rows[4]
+    assert female_top.recomputed_ratio == pytest.approx(0.27 / 0.29, rel=1e-15)
+    assert female_middle.recomputed_ratio == pytest.approx(0.63 / 0.64, rel=1e-15)
+    assert female_top.findings == () and female_middle.findings == ()
+
+
+def test_the_aclu_bounds_divide_by_the_flagged_comparator_and_take_the_first_unknown_row():
+    table = _tiers()
+    table.loc[1, "result"] = "0.30"  # now Female prints the highest rate of the top tier; Male stays flagged
+    rows = check_published(table).rows
+    # theirs: the flagged row's printed rate (0.29), not the highest (0.30): 54/(200 + 29)/0.29 and 83/229/0.29
+    assert rows[1].aclu_lower == pytest.approx(54 / 229 / 0.29, rel=1e-15)
+    assert rows[1].aclu_upper == pytest.approx(83 / 229 / 0.29, rel=1e-15)
+    # second tier: the first unknown row (10) as their code takes it; the empty category gets 0 to 10/10 / 0.64
+    assert rows[4].aclu_lower == pytest.approx(126 / 210 / 0.64, rel=1e-15)
+    assert rows[5].aclu_lower == 0 and rows[5].aclu_upper == pytest.approx(1 / 0.64, rel=1e-15)
+    assert rows[5].aclu_lower_proportional is None  # their proportional variant adds 0 there: 0/0
+    # without the flag column: the highest printed rate, 0.30
+    unflagged = check_published(table.drop(columns="comparator_group")).rows
+    assert unflagged[1].aclu_lower == pytest.approx(54 / 229 / 0.30, rel=1e-15)
+
+
+def test_a_comparator_flag_that_is_not_a_truth_value_is_refused():
+    table = _tiers()
+    table.loc[0, "comparator_group"] = "maybe"
+    with pytest.raises(InputError, match="^comparator_group: flags the comparator row: true or false"):
+        check_published(table)

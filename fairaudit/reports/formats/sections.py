@@ -676,7 +676,7 @@ def published_tables(d: Report) -> list[tuple[str, tuple[str, ...], list[tuple[s
 
     tables: dict[str, list[tuple[str, ...]]] = {}
     for r in d["published"]:
-        title = " / ".join(str(v) for v in (r["audit"], r["type"]) if v) or "the table"
+        title = " / ".join(str(v) for v in (r["audit"], r.get("rate_kind"), r["type"]) if v) or "the table"
         row = (
             str(r["category"]), *("" if r[k] is None else fmt(r[k]) for k in ("applicants", "selected", "rate")),
             "" if r["recomputed_rate"] is None else fmt(r["recomputed_rate"], 4),

@@ -52,6 +52,7 @@ __all__ = [
     "exact_kernel",
     "exact_law",
     "load",
+    "loglikelihoods",
     "serve",
     "token_decisions",
 ]
@@ -243,7 +244,7 @@ def exact_kernel(
             if sequences:
                 text = tok.apply_chat_template(chat, add_generation_prompt=True, tokenize=False)
                 replies = [_reply_ids(tok, text, seq, r) for r in prompt_replies(task, answers, p)]
-                row[:-1] = _chain_rule(m.model, first, cache, replies, batch_size)
+                row[:-1] = np.exp(_chain_rule(m.model, first, cache, replies, batch_size))
                 row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))  # every reply that begins with no decision's text
             else:
                 if onehot is None:
@@ -270,7 +271,7 @@ def _next_token(model: Any, suffix: list[int], past: Any) -> tuple[Any, Any]:
 def _chain_rule(
     model: Any, first: Any, cache: Any, replies: Sequence[list[int]], batch_size: int
 ) -> npt.NDArray[np.float64]:
-    """P(the reply's tokens follow the prompt) for each of ``replies`` (non-empty token ids), by the chain rule.
+    """log P(the reply's tokens follow the prompt) for each of ``replies`` (non-empty token ids), by the chain rule.
 
     ``first`` is the next-token log-softmax after the prompt (float64), ``cache`` the prompt's keys and values
     (copied for each batch of ``batch_size``, never changed). Token t ≥ 1 is read at position t − 1 of a pass of
@@ -291,7 +292,7 @@ def _chain_rule(
         for row, j in enumerate(chunk):
             r = replies[j]
             logp[j] += float(rest[row, torch.arange(len(r) - 1), torch.tensor(r[1:])].sum())
-    return np.exp(logp)
+    return logp
 
 
 def _reply_ids(tok: Any, text: str, ids: Sequence[int], reply: str) -> list[int]:
@@ -309,6 +310,74 @@ def _reply_ids(tok: Any, text: str, ids: Sequence[int], reply: str) -> list[int]
             f"the model's tokenizer does not write the reply {reply!r} as tokens after the prompt (got {out}, "
             f"which read {tok.decode(out)!r}); use first-token",
         )
+    return out
+
+
+def loglikelihoods(
+    model: LoadedModel, requests: Sequence[tuple[str, str]], *, batch_size: int = 16, progress: bool = False
+) -> npt.NDArray[np.float64]:
+    """log P(continuation | context) of each (context, continuation) pair, exactly: lm-evaluation-harness's
+    ``loglikelihood`` on this model, in process.
+
+    Parameters
+    ----------
+    model : LoadedModel
+        From :func:`load`.
+    requests : sequence of (str, str)
+        (context, continuation) pairs of raw text (no chat template); a non-empty context and continuation each.
+    batch_size : int
+        Continuations per forward pass on one context's cache.
+    progress : bool
+        A progress bar on stderr (tqdm, when installed), by context.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(requests),)
+        Nats, ≤ 0.
+
+    Raises
+    ------
+    InputError
+        An empty context or continuation (``requests``, naming its index); torch or transformers missing.
+
+    Notes
+    -----
+    Tokens as lm-eval's ``HFLM`` makes them (``_encode_pair``): white space at the context's end moves to the
+    continuation's start; the context is encoded alone and the continuation is the tail of the encoding of both
+    past the context's length; no special tokens. Each distinct context runs once (requests that share it are
+    scored from its key/value cache, :func:`_chain_rule`): the four replies of a discrim-eval prompt cost one pass
+    when each is one token.
+    """
+    torch, _ = require_torch()
+    tok = model.tokenizer
+    by_context: dict[str, list[int]] = {}
+    for i, (context, continuation) in enumerate(requests):
+        if not context or not continuation:
+            raise InputError(
+                "requests", f"request {i} needs a non-empty context and continuation", (context, continuation)
+            )
+        by_context.setdefault(context, []).append(i)
+    out = np.zeros(len(requests))
+    from fairaudit import progress_bar
+
+    bar = progress_bar(len(by_context), "log-likelihoods", progress, unit="prompt")
+    with torch.inference_mode():
+        for context, members in by_context.items():
+            spaces = len(context) - len(context.rstrip())
+            head = context[: len(context) - spaces]
+            ids = list(tok.encode(head, add_special_tokens=False))
+            tails = []
+            for i in members:
+                whole = list(tok.encode(head + context[len(head) :] + requests[i][1], add_special_tokens=False))
+                tails.append(whole[len(ids) :])
+                if not ids or not tails[-1]:
+                    raise InputError(
+                        "requests", f"request {i}: no tokens of its context or continuation", context[-40:]
+                    )
+            first, cache = _next_token(model.model, ids, None)
+            out[members] = _chain_rule(model.model, first, cache, tails, batch_size)
+            bar.update(1)
+    bar.close()
     return out
 
 

@@ -1,0 +1,90 @@
+"""A discrim-eval file run on a stand-in model whose law is known: the law, L and L̄, lm-eval's score and its means,
+each recomputed independently from the logged log-probabilities (scores.csv), and the coverage warning."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fairaudit import InputError
+from fairaudit.experiments.discrim_eval import LM_EVAL_PROMPT, read_rows
+from fairaudit.experiments.discrim_eval_run import REPLIES, run_discrim_eval, write_run
+
+SAMPLE = "examples/discrim_eval/sample.jsonl"
+
+
+def _stand_in(rows):
+    """A model that says yes more often to prompts about women: P(yes) = 0.45, P(Yes) = 0.15 for women (0.60 in
+    all), 0.30 and 0.10 for men (0.40); P(no) = 0.25, P(No) = 0.05 for everyone; the rest (0.10 or 0.30) is on
+    other replies. It checks that every prompt is lm-eval's, in row order, each followed by the four replies."""
+    women = {
+        LM_EVAL_PROMPT.format(filled_template=p): g == "female" for p, g in zip(rows.prompts, rows.attributes.gender)
+    }
+    law = {
+        True: {"yes": 0.45, "Yes": 0.15, "no": 0.25, "No": 0.05},
+        False: {"yes": 0.30, "Yes": 0.10, "no": 0.25, "No": 0.05},
+    }
+
+    def loglikelihood(requests):
+        assert [c for _, c in requests] == list(REPLIES) * len(rows.prompts)
+        assert [q for q, _ in requests[::4]] == [LM_EVAL_PROMPT.format(filled_template=p) for p in rows.prompts]
+        return [math.log(law[women[q]][c]) for q, c in requests]
+
+    return loglikelihood
+
+
+def test_the_law_its_fairness_and_lm_evals_score_are_the_stand_ins(tmp_path):
+    rows = read_rows(SAMPLE)
+    run = run_discrim_eval(rows, _stand_in(rows), model="stand-in", coefficients=False)
+    # by hand: women yes 0.6, no 0.3, unparsed 0.1, E[g] = 0.6 + 0.05 = 0.65; men 0.4, 0.3, 0.3, E[g] = 0.55
+    for j, group in enumerate(run.law.groups):
+        want = [0.6, 0.3, 0.1] if " & female & " in group else [0.4, 0.3, 0.3]
+        assert run.law.probabilities[:, j].ravel().tolist() == pytest.approx(want * 2, abs=1e-15)
+    assert run.fairness.local_fairness.value == pytest.approx(math.log(0.65 / 0.55), rel=1e-12)
+    assert run.fairness.global_fairness.value == pytest.approx(math.log(0.65 / 0.55), rel=1e-12)
+    # the unparsed worth in [0, 1] per cell: women E in [0.6, 0.7], men [0.4, 0.7]: L in [0, ln(0.7/0.4)]
+    assert run.fairness.local_fairness.lower == pytest.approx(0.0, abs=1e-12)
+    assert run.fairness.local_fairness.upper == pytest.approx(math.log(0.7 / 0.4), rel=1e-12)
+    # lm-eval's score: ln(0.6/0.3) for women, ln(0.4/0.3) for men
+    assert run.means["gender"]["female"] == pytest.approx(math.log(2), rel=1e-12)
+    assert run.means["gender"]["male"] == pytest.approx(math.log(4 / 3), rel=1e-12)
+    assert run.coverage.tolist() == pytest.approx([0.9 if "female" in g else 0.7 for g in rows.groups], abs=1e-15)
+    assert run.warning.startswith("16 of 16 prompts put less than 0.99") and "least 0.7" in run.warning
+
+
+def test_every_reported_number_is_recomputed_from_the_logged_log_probabilities(tmp_path):
+    rows = read_rows(SAMPLE)
+    run = run_discrim_eval(rows, _stand_in(rows), model="stand-in", coefficients=False, min_coverage=0.5)
+    paths = write_run(run, tmp_path / "run")
+    assert sorted(p.name for p in paths) == ["law.csv", "report.md", "scores.csv", "summary.json"]
+    logged = pd.read_csv(tmp_path / "run" / "scores.csv")
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    # lm-eval's score from the four logged log-probabilities, its means per group and per attribute value
+    yes = np.logaddexp(logged["logp_yes"], logged["logp_Yes"])
+    no = np.logaddexp(logged["logp_no"], logged["logp_No"])
+    logged["recomputed"] = yes - no
+    for column in ("group", "age", "gender", "race"):
+        means = logged.groupby(column)["recomputed"].mean()
+        reported = summary["lm_eval"]["means"][column]
+        assert {str(k): v for k, v in means.items()} == pytest.approx(reported, rel=1e-12)
+    assert summary["coverage"]["warning"] is None  # every prompt covers at least 0.5
+    assert summary["local_fairness"]["value"] == pytest.approx(math.log(0.65 / 0.55), rel=1e-12)
+    law = pd.read_csv(tmp_path / "run" / "law.csv")
+    assert len(law) == 2 * 8 * 3 and law.groupby(["scenario", "group"])["probability"].sum().tolist() == pytest.approx(
+        [1.0] * 16, abs=1e-15
+    )
+    assert f"L = {math.log(0.65 / 0.55):.4g} nats" in (tmp_path / "run" / "report.md").read_text()
+
+
+def test_a_scorer_that_does_not_give_log_probabilities_is_refused():
+    rows = read_rows(SAMPLE)
+    with pytest.raises(InputError, match="^loglikelihood: must give one log-probability per request"):
+        run_discrim_eval(rows, lambda reqs: [0.0], coefficients=False)
+    with pytest.raises(InputError, match="^loglikelihood: must give log-probabilities"):
+        run_discrim_eval(rows, lambda reqs: [0.5] * len(reqs), coefficients=False)
+    with pytest.raises(InputError, match="^loglikelihood: gives replies whose probabilities sum above 1"):
+        run_discrim_eval(rows, lambda reqs: [math.log(0.3)] * len(reqs), coefficients=False)

@@ -133,22 +133,84 @@ class AttributeSection(_Table):
         return self
 
 
+class OptionEntry(_Table):
+    """One entry of ``[decision] options`` written as a list: the reply's text, its slot (or decision value) and the
+    further replies that say it (:mod:`fairaudit.experiments.variants`)."""
+
+    text: str = Field(min_length=1)
+    slot: int | str
+    variants: list[Annotated[str, Field(min_length=1)]] = Field(default_factory=list)
+
+
 class DecisionSection(_Table):
     """``[decision]``: what the reply's options mean and the labels of a candidate's own outcome."""
 
     name: str = "decision"
-    options: dict[str, int | str] | None = None
+    options: dict[str, int | str] | list[OptionEntry] | None = None
+    variants: Literal["case", "exact"] = "case"
     named_by: str | None = None
     outcomes: list[str] | None = None
     separator: str = Field(", ", min_length=1)
     partial: bool = False
 
+    @field_validator("options", mode="before")
+    @classmethod
+    def _entries(cls, v: Any) -> Any:
+        """The list form's entries, each checked alone: its first error names the entry and its field."""
+        for i, item in enumerate(v if isinstance(v, list) else ()):
+            try:
+                OptionEntry.model_validate(item)
+            except ValidationError as exc:
+                first = exc.errors()[0]
+                where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"])
+                raise FieldProblem(f"[{i}]{where}", first["msg"].rstrip(".").lower(), first.get("input")) from None
+        return v
+
     @field_validator("options")
     @classmethod
-    def _some(cls, v: dict[str, int | str]) -> dict[str, int | str]:
+    def _some(cls, v: dict[str, int | str] | list[OptionEntry]) -> dict[str, int | str] | list[OptionEntry]:
         if not v:
             raise FieldProblem("", "must map at least one reply to a candidate or a decision", v)
         return v
+
+    @property
+    def table(self) -> dict[str, int | str] | None:
+        """``options`` as the table reply -> slot (or decision value), whichever way the file wrote them."""
+        if isinstance(self.options, list):
+            return {o.text: o.slot for o in self.options}
+        return self.options
+
+    @property
+    def listed(self) -> dict[str, tuple[str, ...]]:
+        """The further replies the list of ``options`` gives each option (none in the table form)."""
+        return {o.text: tuple(o.variants) for o in self.options} if isinstance(self.options, list) else {}
+
+    @model_validator(mode="after")
+    def _one_option_per_reply(self) -> DecisionSection:
+        from .variants import option_variants
+
+        if not isinstance(self.options, list):
+            keys = list(self.options or ())
+            where = [".options"] * len(keys)
+        else:
+            keys = [o.text for o in self.options]
+            where = [f".options[{i}].variants" for i in range(len(keys))]
+            twice = next((i for i, k in enumerate(keys) if k in keys[:i]), None)
+            if twice is not None:
+                raise FieldProblem(f".options[{twice}].text", "repeats an option's text", keys[twice])
+        owner: dict[str, str] = {}
+        for key, field in zip(keys, where):
+            for v in option_variants(self.variants, key, self.listed.get(key, ())):
+                if owner.setdefault(v, key) != key:
+                    if v not in option_variants(self.variants, owner[v]):  # a variant the first one lists
+                        field = where[keys.index(owner[v])]
+                    raise FieldProblem(
+                        field,
+                        f"{v!r} would say both {owner[v]!r} and {key!r}: a reply may say one option only; drop it, or "
+                        'set variants = "exact" when the options differ only in case',
+                        v,
+                    )
+        return self
 
 
 class UtilitySection(_Table):
@@ -224,7 +286,7 @@ class TaskFile(_Table):
 
 def _check_options(f: TaskFile) -> None:
     k = f.task.candidates
-    options = f.decision.options
+    options = f.decision.table
     if f.decision.named_by is not None:
         _check_named_by(f)
         return
@@ -233,9 +295,10 @@ def _check_options(f: TaskFile) -> None:
     if k == 1:
         return  # reply -> decision value: any labels
     slots = list(options.values())
-    for key, slot in options.items():
+    for i, (key, slot) in enumerate(options.items()):
         if isinstance(slot, bool) or not isinstance(slot, int) or not 1 <= slot <= k:
-            raise FieldProblem(f".decision.options.{key}", f"must be a candidate's slot, 1 to {k}", slot)
+            where = f"[{i}].slot" if isinstance(f.decision.options, list) else f".{key}"
+            raise FieldProblem(f".decision.options{where}", f"must be a candidate's slot, 1 to {k}", slot)
     if sorted(slots) != list(range(1, k + 1)):
         raise FieldProblem(".decision.options", f"must name each candidate slot 1 to {k} exactly once", dict(options))
 
@@ -282,7 +345,7 @@ def _outcome_labels(f: TaskFile) -> tuple[str, ...]:
             raise FieldProblem(".decision.outcomes", f"must list {expected} outcome labels", f.decision.outcomes)
         return (*f.decision.outcomes, *_UNRANKED[: f.decision.partial])
     if k == 1:
-        return tuple(str(v) for v in (f.decision.options or {}).values())
+        return tuple(str(v) for v in (f.decision.table or {}).values())
     default = _DEFAULT_OUTCOMES[f.task.decision]
     if default is not None:
         return default
@@ -389,10 +452,10 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
     if f.decision.named_by is not None:  # the reply names the candidates: the slots' numbers label the decisions
         options = tuple(str(i) for i in range(1, k + 1))
     elif k == 1:
-        options = tuple(f.decision.options or {})
+        options = tuple(f.decision.table or {})
     else:
-        listed = f.decision.options or {}
-        options = tuple(sorted(listed, key=lambda key: listed[key]))
+        table = f.decision.table or {}
+        options = tuple(sorted(table, key=lambda key: table[key]))
     outcomes = _outcome_labels(f)
     values = _utility_values(f, outcomes)
     if f.utility.unparsed is None:
@@ -425,6 +488,8 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         keeps=None if f.filter.keep is None else tuple(f.filter.keep),
         epsilons=None if f.filter.epsilon is None else tuple(f.filter.epsilon),
         digest=digest,
+        variant_rule=f.decision.variants,
+        variants=tuple(f.decision.listed.get(o, ()) for o in options) if f.decision.listed else (),
     )
     shown = combinations[0] if combinations else (task.profiles[0],) * k
     task.prompt(task.contexts[0], shown)  # the templates render (errors name prompt.user or system)
@@ -522,7 +587,7 @@ def _random_reply_utility(f: TaskFile, values: list[float]) -> float:
     """
     k = f.task.candidates
     if k == 1:
-        n = len(f.decision.options or {})
+        n = len(f.decision.table or {})
         exact = sum((Fraction(v) for v in values[:n]), Fraction(0)) / n
     elif f.task.decision == "choose":
         exact = Fraction(values[0]) / k + Fraction(values[1]) * (k - 1) / k

@@ -363,6 +363,7 @@ def test_the_command_gives_the_law_and_records_the_route(which, tmp_path, capsys
     got = SimulatedModel.from_csv(task, tmp_path / "exact" / "kernel.csv").probabilities
     np.testing.assert_allclose(got, _expected(task, paths_of(task)), rtol=0, atol=1e-9)
     scoring = json.loads((tmp_path / "exact" / "certificate.json").read_text())["run"]["scoring"]
+    assert scoring.pop("variants")["rule"] == "case" and 0 <= scoring.pop("coverage")["min"] <= 1
     assert scoring == {
         "method": "continuation",
         "route": "prompt-logprobs",
@@ -385,6 +386,7 @@ def test_the_command_records_the_text_completions_route_and_its_rendering(tmp_pa
     got = SimulatedModel.from_csv(task, tmp_path / "exact" / "kernel.csv").probabilities
     np.testing.assert_allclose(got, _expected(task, _office_paths), rtol=0, atol=1e-9)
     scoring = json.loads((tmp_path / "exact" / "certificate.json").read_text())["run"]["scoring"]
+    assert scoring.pop("variants")["rule"] == "case" and 0 <= scoring.pop("coverage")["min"] <= 1
     assert scoring == {"method": "continuation", "route": "completions-echo", "missing_bound": 0.0, "rendering": CHATML}
     report = " ".join((tmp_path / "exact" / "report.md").read_text().split())
     assert "text completions echoed for the messages rendered as stated (ChatML: each message as" in report

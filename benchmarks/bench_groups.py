@@ -115,9 +115,12 @@ def calibration_rows(cfg: dict, failures: list[str]) -> str:
     for name, kw in cases:
         base = math.nan
         for k in cfg["groups"]:
-            t = median_time(lambda: calibrate(TARGET, groups=k, method="black_box", **kw), cfg["repeats"])
+            t = median_time(
+                lambda: calibrate(TARGET, family=fa.randomized_response_family(range(k)), method="black_box", **kw),
+                cfg["repeats"],
+            )
             base = t if k == 2 else base
-            eps = calibrate(TARGET, groups=k, method="black_box", **kw).epsilon
+            eps = calibrate(TARGET, family=fa.randomized_response_family(range(k)), method="black_box", **kw).epsilon
             if "utility_class" in kw:
                 want, how = _bisect(k, TAU, TARGET), "bisection on black_box_bound"
             else:
@@ -291,7 +294,8 @@ def audit_rows(cfg: dict, seed: int, failures: list[str]) -> str:
 def run(quick: bool, seed: int) -> tuple[str, list[str]]:
     cfg = QUICK if quick else FULL
     failures: list[str] = []
-    calibrate(TARGET, groups=3, method="black_box")  # (imports and first calls out of the timings)
+    # (imports and first calls out of the timings)
+    calibrate(TARGET, family=fa.randomized_response_family(range(3)), method="black_box")
     parts = [
         "# Many groups",
         "",

@@ -4,10 +4,10 @@ A known population: two groups (a, b), two strata (urban, rural) whose shares di
 rate that depends on group and stratum. A sample draws each stratum with its own inclusion probability (urban 0.6,
 rural 0.15 by default), so the unweighted rates are biased toward the urban ones; each record's weight is 1 / its
 inclusion probability (Horvitz–Thompson). For each sample the script audits the records with the weights
-(``fairaudit.audit(..., weights=..., intervals=IntervalOptions(confidence=...))``), and without them, and records whether the population's
-true E[g | a] of both groups and its L̄ lie inside the intervals (each, and all at once). Kish's
-n_eff = (Σ w)² / Σ w² is an approximation: the table shows how close to the nominal level it comes, beside the
-unweighted intervals that miss the biased truth.
+(``fairaudit.audit(..., records=RecordOptions(weights=...), intervals=IntervalOptions(confidence=...))``), and
+without them, and records whether the population's true E[g | a] of both groups and its L̄ lie inside the
+intervals (each, and all at once). Kish's n_eff = (Σ w)² / Σ w² is an approximation: the table shows how close
+to the nominal level it comes, beside the unweighted intervals that miss the biased truth.
 
 Usage::
 
@@ -81,7 +81,7 @@ def run(samples: int, seed: int) -> str:
                 r = fa.audit(
                     y_pred=d["y"],
                     sensitive_features=d["group"],
-                    sample_weight=d["weight"] if weighted else None,
+                    records=fa.RecordOptions(weights=d["weight"] if weighted else None),
                     intervals=fa.IntervalOptions(confidence=level),
                 )
                 hits += covered(r, truth, truth_global)

@@ -57,6 +57,7 @@ from fairaudit.statistics.ll144 import FourFifths, ImpactRatios, impact_ratios
 from fairaudit.statistics.missing_demographics import MissingDataBounds, aclu_bounds, missing_data_bounds
 from fairaudit.statistics.published_audit import PublishedAudit, check_published
 from fairaudit.statistics.record_audit import Audit, audit, utility_from_expression
+from fairaudit.statistics.record_options import RecordOptions
 from fairaudit.statistics.sample_size import SamplePlan, plan
 from fairaudit.verification.rederive import Verification, verify
 from fairaudit.worstcase.black_box import black_box_bound
@@ -115,6 +116,7 @@ __all__ = [
     "IntervalOptions",
     "MissingDataBounds",
     "PublishedAudit",
+    "RecordOptions",
     "SamplePlan",
     "UtilityRange",
     "aclu_bounds",

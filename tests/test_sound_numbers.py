@@ -181,7 +181,10 @@ def test_calibrated_epsilon_is_a_lower_end():
             tau = float(rng.uniform(0.05, 0.5))
             for method in ("paper", "tight"):
                 c = fa.calibrate(
-                    target, groups=k, method=method, utility_class=fa.UtilityClass(gamma=1.0, tau=tau, lipschitz=0.05)
+                    target,
+                    family=fa.randomized_response_family(range(k)),
+                    method=method,
+                    utility_class=fa.UtilityClass(gamma=1.0, tau=tau, lipschitz=0.05),
                 )
                 lx = _mp(0.05) / _mp(tau)
                 exact = (
@@ -190,7 +193,12 @@ def test_calibrated_epsilon_is_a_lower_end():
                 if exact > 0:
                     _lower(c.epsilon, exact, f"case {case}: calibrated {method}")
             lower = float(rng.uniform(0.01, 0.3))
-            c = fa.calibrate(target, groups=k, method="black_box", utility_class=fa.UtilityClass(lower=lower))
+            c = fa.calibrate(
+                target,
+                family=fa.randomized_response_family(range(k)),
+                method="black_box",
+                utility_class=fa.UtilityClass(lower=lower),
+            )
             if math.isfinite(c.epsilon):
                 # the black-box value at the calibrated ε is ≤ the target
                 p, q = _rr_reference(_mp(c.epsilon), k)

@@ -11,7 +11,16 @@ import importlib
 import os
 from typing import Any
 
-__all__ = ["ECHO_LIMIT", "FairauditError", "InputError", "UnderflowError", "cut", "echo", "optional_modules"]
+__all__ = [
+    "ECHO_LIMIT",
+    "FairauditError",
+    "InputError",
+    "MemoryLimitError",
+    "UnderflowError",
+    "cut",
+    "echo",
+    "optional_modules",
+]
 
 
 class FairauditError(Exception):
@@ -72,6 +81,17 @@ class UnderflowError(InputError):
     Examples
     --------
     >>> isinstance(UnderflowError("kernel", "underflows"), InputError)
+    True
+    """
+
+
+class MemoryLimitError(InputError):
+    """Work the inputs imply would need more memory than the limit (:mod:`fairaudit.base.resources`): raised before
+    anything is allocated, with what it would need, the inputs that drive it, the limit and what to do instead.
+
+    Examples
+    --------
+    >>> isinstance(MemoryLimitError("memory", "one table would need 4 GiB"), InputError)
     True
     """
 

@@ -176,6 +176,7 @@ def run(args: argparse.Namespace) -> int:
     from fairaudit.data.counts import count_file
     from fairaudit.statistics.intervals import IntervalOptions
     from fairaudit.statistics.record_audit import audit
+    from fairaudit.statistics.record_options import RecordOptions
 
     intervals = None
     if args.confidence is not None:
@@ -210,11 +211,13 @@ def run(args: argparse.Namespace) -> int:
                 )
     result = audit(
         table,
-        **columns,
+        sensitive=args.sensitive,
+        outcome=args.outcome,
+        context=args.context,
         positive=args.positive if report is None else None,
         utility=args.utility if report is None else report.utility,
         intervals=intervals,
-        min_count=args.min_count,
+        records=RecordOptions(min_count=args.min_count),  # (the table is counted: dropna and weights were used there)
     )
     data = result.to_dict()
     if args.by == "context":

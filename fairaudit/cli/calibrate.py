@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fairaudit.base.errors import InputError
 from fairaudit.reports.formats import render
 
 from ._common import Subparsers, add_global, add_output, emit
+
+if TYPE_CHECKING:
+    from fairaudit.laws.families import MechanismFamily
 
 
 def add_parser(sub: Subparsers) -> None:
@@ -73,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from fairaudit.laws.utilities import UtilityClass
     from fairaudit.worstcase.calibration import calibrate
 
-    opts: dict[str, Any] = _spec_options(args) if args.spec else {"groups": 2 if args.groups is None else args.groups}
+    opts: dict[str, Any] = _spec_options(args) if args.spec else {"family": _groups_family(args.groups)}
     flags = {f: getattr(args, f) for f in ("gamma", "lower", "tau", "lipschitz") if getattr(args, f) is not None}
     opts["utility_class"] = dataclasses.replace(opts.get("utility_class", UtilityClass()), **flags)
     if args.delta is not None:
@@ -85,6 +88,16 @@ def run(args: argparse.Namespace) -> int:
     summary = f"epsilon = {data['epsilon']}" if cal.feasible else f"no epsilon meets the target: {cal.reason}"
     emit(args, render(data, "calibrate", args.format), summary)
     return 0 if cal.feasible else 1
+
+
+def _groups_family(groups: int | None) -> MechanismFamily:
+    """Without ``--spec``: k-ary randomized response on ``--groups`` groups (default 2), labelled 0 to k − 1."""
+    from fairaudit.laws.families import randomized_response_family
+
+    k = 2 if groups is None else groups
+    if k < 2:
+        raise InputError("groups", "randomized response needs at least 2 groups", k)
+    return randomized_response_family(range(k))
 
 
 def _spec_options(args: argparse.Namespace) -> dict[str, Any]:

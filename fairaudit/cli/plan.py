@@ -9,13 +9,15 @@ from typing import TYPE_CHECKING
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats import render
 
-from ._common import Subparsers, add_global, add_output, emit
+from ._common import Subparsers, add_global, add_max_memory, add_output, emit
 
 if TYPE_CHECKING:
     from fairaudit.statistics.sample_size import SamplePlan
 
 
-_PLAN_KEYWORDS = "groups contexts base_rate disparity confidence power epsilon kind datasets seed max_n".split()
+_PLAN_KEYWORDS = (
+    "groups contexts base_rate disparity confidence power epsilon kind datasets seed max_n max_memory".split()
+)
 """The keywords of :func:`fairaudit.plan` that the flags of their names give (``--global`` gives ``kind``)."""
 
 
@@ -71,6 +73,7 @@ def add_parser(sub: Subparsers) -> None:
     p.add_argument(
         "--max-n", type=int, default=1_000_000, metavar="N", help="largest n per cell tried (default 1000000)"
     )
+    add_max_memory(p)
     add_output(p)
     p.set_defaults(func=run)
 

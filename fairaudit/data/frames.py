@@ -3,7 +3,8 @@
 fairlearn's ``MetricFrame`` takes ``y_pred``, ``sensitive_features``,
 ``control_features`` and per-metric ``sample_weight`` as lists, numpy arrays,
 pandas Series or DataFrames (or dicts of columns); :func:`fairaudit.audit`
-takes the same and turns them into records with one column per feature.
+takes the same (the weights as ``records=RecordOptions(weights=...)``) and
+turns them into records with one column per feature.
 Rows are matched by position (a Series' index is not aligned), as numpy
 arrays are.
 """
@@ -34,13 +35,13 @@ def records_from_arrays(
     y_pred: ArrayLike,
     sensitive_features: ArrayLike,
     control_features: ArrayLike,
-    sample_weight: ArrayLike,
+    weights: ArrayLike,
     y_true: ArrayLike = None,
 ) -> tuple[pd.DataFrame, Roles]:
     """One DataFrame of records from fairlearn-style arrays, and the columns of each role.
 
     Unnamed columns are called ``y_pred``, ``sensitive_feature_0``, ...,
-    ``control_feature_0``, ... and ``sample_weight`` (fairlearn's names).
+    ``control_feature_0``, ... and, for ``weights`` (one per record), ``sample_weight`` (fairlearn's names).
     ``y_true``, the true labels, is a context column (``y_true``) ahead of
     the control features: the metrics then compare groups within each true
     label, as fairlearn's equalized odds does.
@@ -70,7 +71,7 @@ def records_from_arrays(
     context = {} if y_true is None else _columns(y_true, "y_true", "y_true", n=n, one=True)
     if control_features is not None:
         context |= _columns(control_features, "control_features", "control_feature_{}", n=n)
-    weight = {} if sample_weight is None else _columns(sample_weight, "sample_weight", "sample_weight", n=n, one=True)
+    weight = {} if weights is None else _columns(weights, "weights", "sample_weight", n=n, one=True)
     columns: dict[str, Any] = {}
     for param, cols in (("y_pred", outcome), ("sensitive_features", sensitive), ("control_features", context)):
         for name, values in cols.items():
@@ -114,7 +115,8 @@ def _columns(
         if column.ndim != 1:
             raise InputError(param, f"column {echo(name)} must be one value per record", column.shape)
         if n is not None and len(column) != n:
-            raise InputError(param, f"has {len(column)} rows where y_pred has {n}", name)
+            quoted = () if one and name == default else (name,)  # (a name the caller gave, or a feature's number)
+            raise InputError(param, f"has {len(column)} rows where y_pred has {n}", *quoted)
     return named
 
 

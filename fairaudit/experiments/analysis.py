@@ -168,7 +168,7 @@ def _budgets(
                 for d in (-1, None)
             }
             black = calibrate(
-                target, kind=kind, method="black_box", family=family, groups=list(pop.groups),
+                target, kind=kind, method="black_box", family=family,
                 utility_class=UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau), population=pop,
             )  # fmt: skip
             stated = white[None]

@@ -21,7 +21,7 @@ read as the EEOC's Uniform Guidelines read it (29 CFR 1607.4(D)): against the
 four-fifths threshold and with the significance of the difference from the
 highest rate (:class:`FourFifths`): a two-sided test of equal rates (Fisher's
 exact test; the z test on request or where counts are not whole) and an interval
-on the ratio (Miettinen–Nurminen's score interval; :mod:`~fairaudit.statistics.rate_ratio`),
+on the ratio (the melded interval, which inverts Fisher's test; :mod:`~fairaudit.statistics.rate_ratio`),
 both adjusted for the ratios of the report (Holm by default, none, or the
 simultaneous box of every rate: proofs/impact_ratio.md); the verdict is one of
 :data:`VERDICTS`. :meth:`ImpactRatios.to_frame` gives the tidy table.
@@ -391,7 +391,7 @@ class ImpactRatios:
         0        F  50        20             0.4           0.8  not below
         1        M  50        25             0.5           1.0  not below
         >>> frame.round(2)[["ci_low", "ci_high", "p_value"]].values.tolist()[0]
-        [0.51, 1.24, 0.42]
+        [0.49, 1.29, 0.42]
         >>> impact_ratios(df.iloc[:-1], sensitive="sex", outcome="hired").to_frame(digits=3)["impact_ratio"].tolist()
         [0.784, 1.0]
         """
@@ -505,10 +505,10 @@ def impact_ratios(
     Definitions: 6 RCNY § 5-301 (selection rate, scoring rate, impact ratio,
     the 2% exclusion). Each included category but its type's highest (the
     comparator) is tested against it (:func:`~fairaudit.statistics.rate_ratio.equal_rates_test`)
-    and its ratio gets Miettinen and Nurminen's score interval
+    and its ratio gets the melded interval of Fay, Proschan and Brittain
     (:func:`~fairaudit.statistics.rate_ratio.ratio_interval`; on Kish's
-    effective counts with weights), accurate at audit sizes but not at least
-    its level at every pair of rates (docs/ll144.md gives its exact coverage);
+    effective counts with weights), whose exact coverage is at least its level
+    wherever it has been computed (docs/ll144.md);
     with ``"simultaneous"``, each rate gets a Clopper–Pearson interval
     at level 1 − α/m, m the number of included categories in the report, and
     ratio i lies in the exact range of p_i / max_j p_j over that box
@@ -566,7 +566,12 @@ def impact_ratios(
             low, high = ratio_range(lo[index], hi[index])
             intervals = {int(i): (float(a), float(c)) for i, a, c in zip(index, low, high)}
         else:
-            intervals = {i: _ratio_interval(ke, ne, i, best[t], level_each) for (u, i) in tested if u == t}
+            b = best[t]
+            intervals = {
+                i: ratio_interval(float(ke[i]), float(ne[i]), float(ke[b]), float(ne[b]), level_each)
+                for (u, i) in tested
+                if u == t
+            }
         p_type = {i: p for (u, i), p in p_values.items() if u == t}
         typed = _type_rows(name, categories, n, k, keep, whole, best[t], intervals, p_type, rule)
         rows += _with_unknowns(typed, dict(table.unknown_outcomes).get(name, ()), table.decisions, g, median)
@@ -605,11 +610,6 @@ def _with_unknowns(
         aclu = ((low[j], high[j]), (low_p[j], high_p[j])) if top > 0 else None
         out[i] = replace(rows[i], unknown_range=(float(lo), float(hi)), aclu_ranges=aclu)
     return out
-
-
-def _ratio_interval(ke: FloatArray, ne: FloatArray, i: int, b: int, level_each: float) -> tuple[float, float]:
-    """Category i's Miettinen–Nurminen score interval on its rate over the comparator b's (effective counts)."""
-    return ratio_interval(float(ke[i]), float(ne[i]), float(ke[b]), float(ne[b]), level_each)
 
 
 def round_half_up(value: float, digits: int, how: str = "half up") -> float:

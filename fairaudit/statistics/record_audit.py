@@ -12,7 +12,7 @@ import math
 import sys
 from collections.abc import Hashable, Sequence
 from contextlib import suppress
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, TypeGuard, cast
 
@@ -35,6 +35,7 @@ from fairaudit.statistics.intervals import (
     fairness_intervals,
     interval_options,
 )
+from fairaudit.statistics.record_options import RecordOptions, as_record_options
 from fairaudit.statistics.small_cells import LeftOut, SmallCell, by_context_rows, leave_out_small, small_cell
 
 if TYPE_CHECKING:
@@ -361,30 +362,35 @@ def _is_pandas_frame(data: object) -> TypeGuard[pd.DataFrame]:
 
 def _table(
     data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    sensitive: str | Sequence[str] | None,
-    outcome: str | None,
-    context: str | Sequence[str] | None,
-    dropna: bool,
-    weights: str | None = None,
-    count: str | None = None,
-    mixed_outcome: bool = False,
+    columns: tuple[str | Sequence[str] | None, str | None, str | Sequence[str] | None],
+    records: RecordOptions,
+    mixed_outcome: bool,
 ) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
-    if count is not None and not isinstance(count, str):
-        raise InputError("count", "must be the name of the column that holds each row's number of records", count)
+    sensitive, outcome, context = columns
+    count, weights, dropna = records.count, records.weights, records.dropna
+    if data is None:
+        raise InputError("data", "give the records: a DataFrame, a CountTable, or arrays (y_pred, sensitive_features)")
+    if isinstance(weights, np.ndarray):
+        raise InputError(
+            "weights",
+            "one weight per record is for records given as arrays (y_pred, sensitive_features); "
+            "with `data` name its weight column",
+            type(data).__name__,
+        )
     if isinstance(data, CountTable):
         if count is not None:
             raise InputError("count", "is for a DataFrame of counts; a CountTable is counted already", count)
         if weights is not None and weights != data.weight_column:
             raise InputError("weights", "does not match the count table's weight column", weights)
 
-        def columns(c: str | Sequence[str] | None) -> tuple[str, ...] | None:
+        def names(c: str | Sequence[str] | None) -> tuple[str, ...] | None:
             return None if c is None else (c,) if isinstance(c, str) else tuple(c)
 
         for name, given, have in (
-            ("sensitive", columns(sensitive), data.sensitive_columns),
-            ("outcome", columns(outcome), (data.outcome_column,)),
-            ("context", columns(context), data.context_columns),
+            ("sensitive", names(sensitive), data.sensitive_columns),
+            ("outcome", names(outcome), (data.outcome_column,)),
+            ("context", names(context), data.context_columns),
         ):
             if given is not None and given != have:
                 raise InputError(
@@ -393,8 +399,6 @@ def _table(
                     ",".join(map(str, given)),
                 )
         return data
-    if data is None:
-        raise InputError("data", "give the records: a DataFrame, a CountTable, or arrays (y_pred, sensitive_features)")
     if not (_is_spark_frame(data) or _is_pandas_frame(data)):
         raise InputError(
             "data", "must be a pandas DataFrame of records, a Spark DataFrame or a CountTable", type(data).__name__
@@ -403,8 +407,6 @@ def _table(
         raise InputError("sensitive", "name at least one column")
     if outcome is None:
         raise InputError("outcome", "name the outcome column")
-    if count is not None and weights is not None:
-        raise InputError("weights", "a count table (`count`) is counted already: give its counts, not weights")
     if _is_pandas_frame(data):
         if count is not None:  # a count table: as `fairaudit audit --count` reads one
             sensitive_, outcome_, context_ = roles(sensitive, outcome, () if context is None else context)
@@ -451,15 +453,10 @@ def audit(
     positive: Hashable | None = None,
     utility: str | Utility | None = None,
     intervals: IntervalOptions | None = None,
-    dropna: bool = False,
-    weights: str | None = None,
-    count: str | None = None,
-    min_count: int | None = None,
-    mixed_outcome: bool = False,
+    records: RecordOptions | None = None,
     y_pred: ArrayLike | None = None,
     sensitive_features: ArrayLike | None = None,
     control_features: ArrayLike | None = None,
-    sample_weight: ArrayLike | None = None,
     y_true: ArrayLike | None = None,
 ) -> Audit:
     """Audit decision records: exact metrics of the empirical law, and intervals.
@@ -490,46 +487,34 @@ def audit(
         An outcome column that mixes numbers and text (``1``, ``"yes"``) is
         refused unless a ``utility`` says what each value is worth (an
         expression sees every value as text then: ``u in ["1", "yes"]``) or
-        ``mixed_outcome`` is set.
+        ``records`` sets ``mixed_outcome``.
     intervals : IntervalOptions, optional
         Simultaneous intervals for every metric, at the level, by the method
         and with the Bayesian settings given
         (:func:`fairaudit.statistics.intervals.fairness_intervals`; "auto" is
         Clopper–Pearson for a 0/1 utility, multinomial otherwise). None (the
         default): no intervals.
-    dropna : bool
-        Drop rows with missing values in the used columns instead of failing
-        (records only: a CountTable is already counted).
-    weights : str, optional
-        Column of sample (survey) weights of a DataFrame: point estimates use
-        weighted counts, intervals Kish's effective sample size per cell
-        (:meth:`~fairaudit.data.counts.CountTable.effective_counts`, an
-        approximation).
-    count : str, optional
-        ``data`` is a count table, one row per (context, group, outcome) as
-        SQL ``GROUP BY`` gives it, and this column holds each row's number of
-        records (finite and non-negative; integers give integer counts), as
-        ``fairaudit audit --count COL`` reads a file
-        (:func:`~fairaudit.data.counts.count_table`): the result is that of the
-        records the rows stand for. A (context, group, outcome) listed twice
-        is an error. Not with ``weights``, a CountTable or arrays.
-    min_count : int, optional
-        Leave out every (context, group) cell with fewer records than this
-        (but some): its records are removed from the metrics, the population
-        and the intervals, and the cells are listed in ``left_out``.
-    mixed_outcome : bool
-        Count an outcome column of records that mixes numbers and text (ranks
-        ``1`` to ``8`` and ``"unranked"``) as it is, each value an outcome of
-        its own (read as text); by default that is an error naming the rows
-        (see :func:`~fairaudit.data.counts.count_records`).
-    y_pred, sensitive_features, control_features, sample_weight : array_like, optional
+    records : RecordOptions, optional
+        How the records are read and counted
+        (:class:`~fairaudit.statistics.record_options.RecordOptions`): ``dropna``
+        (drop records with missing values instead of failing), ``weights`` (a
+        weight column of ``data``, or one weight per record with the arrays:
+        weighted counts, Kish's effective sample sizes for the intervals),
+        ``count`` (``data`` is a count table and this column holds each row's
+        number of records), ``min_count`` (leave out the cells with fewer
+        records, listed in ``left_out``) and ``mixed_outcome`` (an outcome
+        column that mixes numbers and text, each value an outcome of its own).
+        None (the default): ``RecordOptions()``, none of them.
+    y_pred, sensitive_features, control_features : array_like, optional
         Records as arrays instead of ``data``, named as in fairlearn's
         ``MetricFrame``: ``y_pred`` the decisions (n,) (the outcome U), ``sensitive_features`` the
         sensitive attribute(s) (n,) or (n, k), ``control_features`` the
-        context(s), ``sample_weight`` weights (n,). Each may be a list, a
+        context(s). Each may be a list, a
         numpy array, a pandas Series or DataFrame (its names become the
         columns') or a dict of columns; unnamed columns are ``y_pred``,
-        ``sensitive_feature_0``, ... and ``control_feature_0``, ....
+        ``sensitive_feature_0``, ... and ``control_feature_0``, .... Their
+        weights (fairlearn's ``sample_weight``) are
+        ``records=RecordOptions(weights=w)``, one per record.
     y_true : array_like, optional
         With the arrays, the true labels (n,), fairlearn's ``y_true``: a
         context (column ``y_true``, ahead of the control features), so that L
@@ -547,12 +532,14 @@ def audit(
         (naming ``sensitive``, ``outcome`` or ``context``), data that is
         neither a DataFrame nor a CountTable, both ``positive`` and ``utility``,
         an outcome value that is not there, a non-binary outcome with no g,
-        ``intervals`` that is not an :class:`~fairaudit.statistics.intervals.IntervalOptions`;
+        ``intervals`` that is not an :class:`~fairaudit.statistics.intervals.IntervalOptions`,
+        ``records`` that is not a :class:`~fairaudit.statistics.record_options.RecordOptions`;
         arrays given with ``data``, or of lengths other than ``y_pred``'s
-        (naming the parameter); a ``count`` column that is unknown, holds a
-        negative, infinite or non-numeric value, lists a (context, group,
-        outcome) twice, or comes with ``weights``, arrays, a CountTable or
-        a Spark DataFrame.
+        (naming the parameter, ``weights`` for the weights); ``weights`` as an
+        array with ``data``, or as a column name with the arrays; a ``count``
+        column that is unknown, holds a negative, infinite or non-numeric
+        value, lists a (context, group, outcome) twice, or comes with arrays,
+        a CountTable or a Spark DataFrame.
 
     Examples
     --------
@@ -563,36 +550,56 @@ def audit(
     >>> r = audit(df, sensitive=["race"], outcome="hired")
     >>> round(r.observed.global_fairness.ratio, 12), r.observed.global_fairness.group
     (3.0, 'a')
+
+    Weights and small cells go in ``records``:
+
+    >>> df["w"] = [1.0, 1.0, 1.0, 1.0, 3.0, 1.0, 1.0, 1.0]
+    >>> r = audit(df, sensitive=["race"], outcome="hired", records=RecordOptions(weights="w", min_count=2))
+    >>> r.by_group["rate"].tolist(), r.min_count
+    ([0.75, 0.5], 2)
     """
     interval_options(intervals)
-    arrays = (y_pred, sensitive_features, control_features, sample_weight, y_true)
-    data, (sensitive, outcome, context, weights) = _records(data, (sensitive, outcome, context, weights), count, arrays)
-    table = _table(data, sensitive, outcome, context, dropna, weights, count, mixed_outcome or utility is not None)
-    return _audited(table, audit_utility(table, positive, utility), intervals, min_count)
+    options = as_record_options(records)
+    arrays = (y_pred, sensitive_features, control_features, y_true)
+    data, columns, options = _records(data, (sensitive, outcome, context), options, arrays)
+    table = _table(data, columns, options, options.mixed_outcome or utility is not None)
+    return _audited(table, audit_utility(table, positive, utility), intervals, options.min_count)
 
 
 def _records(
     data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    columns: tuple[Sequence[str] | None, str | None, Sequence[str] | None, str | None],
-    count: str | None,
-    arrays: tuple[ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None],
+    columns: tuple[Sequence[str] | None, str | None, Sequence[str] | None],
+    records: RecordOptions,
+    arrays: tuple[ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None],
 ) -> tuple[
     pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    tuple[Sequence[str] | None, str | None, Sequence[str] | None, str | None],
+    tuple[Sequence[str] | None, str | None, Sequence[str] | None],
+    RecordOptions,
 ]:
-    """``data`` and its (sensitive, outcome, context, weights) columns, or the records of the arrays and theirs."""
-    y_pred, sensitive_features, control_features, sample_weight, y_true = arrays
+    """``data``, its (sensitive, outcome, context) columns and the record options; or the records of the arrays,
+    theirs, and the options with the weights as the records' weight column."""
+    y_pred, sensitive_features, control_features, y_true = arrays
     if y_pred is not None or sensitive_features is not None:
         if data is not None:
             raise InputError("data", "give records as data or as arrays (y_pred, sensitive_features), not both")
-        frame, names = records_from_arrays(y_pred, sensitive_features, control_features, sample_weight, y_true)
-        if count is not None:
-            raise InputError("count", "is the count column of a DataFrame `data`; arrays are one record each", count)
-        return frame, names
-    for name, given in (("control_features", control_features), ("sample_weight", sample_weight), ("y_true", y_true)):
+        if records.count is not None:
+            raise InputError(
+                "count", "is the count column of a DataFrame `data`; arrays are one record each", records.count
+            )
+        if isinstance(records.weights, str):
+            raise InputError(
+                "weights",
+                "names a column of a DataFrame `data`; with arrays give one weight per record",
+                records.weights,
+            )
+        frame, (sensitive, outcome, context, weight) = records_from_arrays(
+            y_pred, sensitive_features, control_features, records.weights, y_true
+        )
+        return frame, (sensitive, outcome, context), replace(records, weights=weight)
+    for name, given in (("control_features", control_features), ("y_true", y_true)):
         if given is not None:
             raise InputError(name, "goes with y_pred and sensitive_features")
-    return data, columns
+    return data, columns, records
 
 
 def _audited(table: CountTable, g: Utility, intervals: IntervalOptions | None, min_count: int | None) -> Audit:

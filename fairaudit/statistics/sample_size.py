@@ -33,6 +33,7 @@ from fairaudit.base.arrays import FloatArray, safe_log
 from fairaudit.base.checks import choice, level, real, whole
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, number
+from fairaudit.base.resources import MemoryLimit, check_memory, memory_limit
 from fairaudit.metrics.box_extremes import disjoint_ratio
 from fairaudit.statistics.confidence_sets import category_bounds, linear_extremes
 from fairaudit.statistics.intervals import METHODS, IntervalOptions, fairness_intervals
@@ -243,6 +244,7 @@ def plan(
     seed: int = 0,
     max_n: int = 1_000_000,
     progress: Callable[[int, float], None] | None = None,
+    max_memory: int | str | None = None,
 ) -> SamplePlan:
     """The number of queries per cell needed to certify L ≤ target at level 1 − α with a given power.
 
@@ -253,6 +255,9 @@ def plan(
     are drawn afresh from ``numpy.random.default_rng(seed)`` as
     ``rng.binomial(n, rates, size=(datasets, contexts, groups))`` (positive
     decisions; n − k negative), so every n uses the same random stream.
+    They are drawn and certified in chunks of tables that fit the memory
+    limit (``max_memory``), one after the other along the first axis: the
+    same numbers as one draw, so the plan does not depend on the limit.
 
     The search: n = 1, 2, 4, ... until the power reaches ``power`` (or
     ``max_n``), then bisection over the integers between the last failing and
@@ -296,6 +301,11 @@ def plan(
         The largest n tried.
     progress : callable, optional
         Called as ``progress(n, power)`` after each n evaluated.
+    max_memory : int or str, optional
+        The memory the simulation may take: bytes, or a size such as
+        ``"4G"`` (:func:`fairaudit.base.resources.parse_size`); default the
+        environment variable ``FAIRAUDIT_MAX_MEMORY``, else one half of the
+        memory available (:func:`fairaudit.base.resources.memory_limit`).
 
     Returns
     -------
@@ -308,6 +318,10 @@ def plan(
     ------
     InputError
         On an invalid argument, naming it and its value.
+    MemoryLimitError
+        An ``InputError``, before anything large is allocated, when even one
+        simulated table (and what is computed from it) would not fit the
+        memory limit: with the need, the inputs that drive it and the limit.
 
     Notes
     -----
@@ -369,8 +383,58 @@ def plan(
         seed=whole(seed, "seed"),
         max_n=whole(max_n, "max_n", low=1),
     )
+    limit = memory_limit(max_memory)
     rates, mechanism, true_value = _assumed_model(inputs)
-    return _search(inputs, true_value, rates, mechanism, progress)
+    return _search(inputs, true_value, rates, mechanism, progress, limit)
+
+
+CELL_BYTES = 256
+"""Bytes per simulated cell of the vectorised certificate (counts, their bounds, the extremes): 226 measured
+(tracemalloc's peak over ``rng.binomial`` and :meth:`_Certifier.fast`, 10^4 to 3 · 10^4 cells a table), rounded up."""
+
+PAIR_BYTES = 96
+"""Bytes per entry (map, group, group, kernel cell) of the threshold rule behind a filter: 67 to 85 measured,
+rounded up."""
+
+DRAW_BYTES = 96
+"""Bytes per posterior draw and cell of one ``"bayes"`` table: 80 measured (4000 draws, 2 to 400 cells), rounded up."""
+
+
+def _memory(inputs: _Inputs) -> tuple[int, int]:
+    """Bytes the simulation needs whatever the chunk (its fixed part) and per simulated table.
+
+    Without a filter: :data:`CELL_BYTES` per cell of a table. Behind the filter, the vectorised path builds the
+    maps W (X, A, X·A) once (twice over: the product and its reshaped copy) and per table the threshold rule's
+    (maps, A, A, X·A) entries, where the maps are the X contexts (one map with ``kind="global"``). ``"bayes"``
+    certifies one table at a time: its 4000 posterior draws per cell are fixed, a table's counts are 8 bytes a cell.
+    """
+    X, A, D = inputs["contexts"], inputs["groups"], inputs["datasets"]
+    fixed = 32 * D  # the upper ends, their chunks and the comparisons with the target
+    if inputs["method"] == "bayes":
+        return fixed + DRAW_BYTES * 4000 * X * A, 16 * X * A
+    if inputs["epsilon"] is None:
+        return fixed, CELL_BYTES * X * A
+    maps = X if inputs["kind"] == "local" else 1
+    return fixed + 16 * X * A * X * A, CELL_BYTES * X * A + PAIR_BYTES * maps * A * A * X * A
+
+
+def _chunk(inputs: _Inputs, limit: MemoryLimit) -> int:
+    """How many simulated tables to draw and certify at once within ``limit``; refuses when not even one fits."""
+    fixed, per_table = _memory(inputs)
+    driver = f"`groups` {inputs['groups']} x `contexts` {inputs['contexts']}"
+    if inputs["method"] == "bayes":
+        what, instead = "certifying one table with 4000 posterior draws per cell", "use another `method` or fewer cells"
+    elif inputs["epsilon"] is None:
+        what, instead = "one simulated table", "give fewer `groups` or `contexts`"
+    else:
+        X, A = inputs["contexts"], inputs["groups"]
+        driver = f"`groups`^3 x `contexts`^2 = {A}^3 x {X}^2" if inputs["kind"] == "local" else f"`groups`^3 = {A}^3"
+        driver += " behind `epsilon`"
+        what, instead = "one simulated table behind the filter", "give fewer `groups` or `contexts`"
+    check_memory(fixed + per_table, what, driver, instead, limit)
+    if limit.nbytes is None:
+        return inputs["datasets"]
+    return max(1, min(inputs["datasets"], (limit.nbytes - fixed) // per_table))
 
 
 def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float]:
@@ -393,11 +457,12 @@ def _search(
     rates: FloatArray,
     mechanism: Mechanism | None,
     progress: Callable[[int, float], None] | None,
+    limit: MemoryLimit,
 ) -> SamplePlan:
     """The smallest n found with simulated power >= ``power``: doubling, then bisection (see :func:`plan`).
 
     ``n_per_cell = None`` and a ``reason`` for a target not above the true value (no n certifies it) or when
-    ``max_n`` falls short.
+    ``max_n`` falls short. The tables at each n are drawn and certified in chunks that fit ``limit`` (:func:`_chunk`).
     """
     target, power, max_n, seed = inputs["target"], inputs["power"], inputs["max_n"], inputs["seed"]
 
@@ -419,6 +484,7 @@ def _search(
         name = "L" if inputs["kind"] == "local" else "L-bar"
         reason = f"the target {target:.6g} nats is not above the true {name} of the model, {true_value:.6g} nats"
         return planned(None, (None, None), reason + ": no sample size certifies it")
+    chunk = _chunk(inputs, limit)
     certifier = _Certifier(
         inputs["groups"],
         inputs["contexts"],
@@ -433,8 +499,11 @@ def _search(
     def evaluate(n: int) -> tuple[float, float]:
         if n not in seen:
             rng = np.random.default_rng(seed)
-            k = rng.binomial(n, rates, size=(inputs["datasets"], inputs["contexts"], inputs["groups"]))
-            up = certifier(k, n)
+            D, shape = inputs["datasets"], (inputs["contexts"], inputs["groups"])
+            # chunk by chunk along the first axis: the same numbers as one draw of (D, X, A)
+            up = np.concatenate(
+                [certifier(rng.binomial(n, rates, size=(min(chunk, D - i), *shape)), n) for i in range(0, D, chunk)]
+            )
             seen[n] = (float(np.mean(up <= target)), float(np.median(up)))
             if progress is not None:
                 progress(n, seen[n][0])

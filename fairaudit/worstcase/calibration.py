@@ -165,23 +165,21 @@ def _target(target: float | None, target_impact_ratio: float | None) -> float:
     return real(target, "target", low=0.0, what="a finite non-negative number of nats")
 
 
-def _resolve_family(
-    family: MechanismFamily | None, groups: int | Sequence[Hashable] | None, kernel: Kernel | None
-) -> MechanismFamily:
-    if family is not None:
-        if not isinstance(family, MechanismFamily):
-            raise InputError("family", "must be a MechanismFamily", type(family).__name__)
-        k = len(family.inputs)
-        if k < 2:
-            raise InputError("groups", "needs at least 2 groups", k)
-        if groups is not None:
-            given = groups if isinstance(groups, (int, numbers.Integral)) else len(list(groups))
-            if int(given) != k:
-                raise InputError("groups", f"must match the family's {k} groups ({family.name})", given)
-        return family
-    if groups is None:
-        labels: Sequence[Hashable] = kernel.groups if kernel is not None else (0, 1)
-    elif isinstance(groups, numbers.Integral) and not isinstance(groups, bool):
+def _resolve_family(family: MechanismFamily | None, kernel: Kernel | None) -> MechanismFamily:
+    """``family`` checked, or the default: randomized response on the kernel's groups, else on 2 groups."""
+    if family is None:
+        return randomized_response_family(kernel.groups if kernel is not None else (0, 1))
+    if not isinstance(family, MechanismFamily):
+        raise InputError("family", "must be a MechanismFamily", type(family).__name__)
+    if len(family.inputs) < 2:
+        raise InputError("family", "needs at least 2 groups", family.name)
+    return family
+
+
+def _groups_family(groups: int | Sequence[Hashable]) -> MechanismFamily:
+    """k-ary randomized response on k groups (labels 0 to k − 1) or on the group labels given; errors name ``groups``."""
+    labels: Sequence[Hashable]
+    if isinstance(groups, numbers.Integral) and not isinstance(groups, bool):
         if groups < 2:
             raise InputError("groups", "randomized response needs at least 2 groups", int(groups))
         labels = range(int(groups))  # (distinct by construction: the family skips the check)
@@ -297,7 +295,6 @@ def _arguments(
     kind: str,
     method: str | None,
     family: MechanismFamily | None,
-    groups: int | Sequence[Hashable] | None,
     utility_class: UtilityClass | None,
     delta: float,
     kernel: Kernel | None,
@@ -325,7 +322,7 @@ def _arguments(
         raise InputError("kernel", "must be a Kernel", type(kernel).__name__)
     if population is not None and not isinstance(population, Population):
         raise InputError("population", "must be a Population", type(population).__name__)
-    fam = _resolve_family(family, groups, kernel)
+    fam = _resolve_family(family, kernel)
     common = Common(
         target=target,
         kind=kind,
@@ -423,7 +420,6 @@ def calibrate(
     kind: str = "local",
     method: str | None = None,
     family: MechanismFamily | None = None,
-    groups: int | Sequence[Hashable] | None = None,
     utility_class: UtilityClass | None = None,
     delta: float = 0.0,
     kernel: Kernel | None = None,
@@ -456,10 +452,10 @@ def calibrate(
         Default: ``white_box`` with a kernel; else ``tight`` when δ > 0
         (an arbitrary (ε, δ)-DP mechanism); else ``black_box``.
     family : MechanismFamily, optional
-        The mechanisms ε ↦ M_ε on the groups; default k-ary randomized
-        response (:func:`~fairaudit.laws.families.randomized_response_family`).
-    groups : int or sequence of hashable, optional
-        k, or the group labels (default: the kernel's groups, else 2).
+        The mechanisms ε ↦ M_ε on the groups, k ≥ 2 of them; default k-ary randomized response
+        (:func:`~fairaudit.laws.families.randomized_response_family`) on the kernel's groups, else on 2 groups.
+        For randomized response on k groups, ``family=randomized_response_family(range(k))`` (or on the group
+        labels), or :func:`calibrate_randomized_response`.
     utility_class : UtilityClass, optional
         The class of utilities (:class:`~fairaudit.laws.utilities.UtilityClass` documents its fields); by
         default γ = 1, lower = 0, no τ, L_A = 0, the discrete metric, diam(A) = max d(a, a'). ``tau`` is needed by
@@ -495,8 +491,8 @@ def calibrate(
         or both of ``target`` and ``target_impact_ratio``, a ratio outside
         (0, 1] or with a utility that is not a 0/1 selection indicator
         (``utility`` with another value, ``gamma`` ≠ 1, ``lower`` ≠ 0), an
-        unknown ``method`` or ``kind``, fewer than 2 ``groups`` (or a count
-        that differs from the family's), ``gamma`` ≤ 0, ``lower`` outside
+        unknown ``method`` or ``kind``, a ``family`` that is not a
+        MechanismFamily or has fewer than 2 groups, ``gamma`` ≤ 0, ``lower`` outside
         [0, γ], ``tau`` outside (0, γ] or missing for paper/tight when
         L_A·diam > 0 or δ > 0, ``delta`` outside [0, 1] or given to
         black_box/white_box, a negative ``lipschitz``, white_box without a
@@ -523,7 +519,7 @@ def calibrate(
     0.3
     """
     common, method, fam, metric = _arguments(
-        target, target_impact_ratio, kind, method, family, groups, utility_class, delta, kernel, utility, population
+        target, target_impact_ratio, kind, method, family, utility_class, delta, kernel, utility, population
     )
     unparsed = None
     if method == "white_box":
@@ -549,15 +545,16 @@ def calibrate_randomized_response(
 
     Proof: ``proofs/calibration.md``.
 
-    A thin wrapper of :func:`calibrate` (``kind="local"``, the default
-    family) that raises instead of returning an infeasible result.
+    A thin wrapper of :func:`calibrate` (``kind="local"``,
+    ``family=randomized_response_family(...)`` on the groups) that raises
+    instead of returning an infeasible result.
 
     Parameters
     ----------
     target : float
         Target on local g-fairness, nats, ≥ 0.
     groups : int or list
-        k, or the list of group labels.
+        k ≥ 2 (the groups 0 to k − 1), or the list of group labels.
     method : {"black_box", "tight", "paper"}
         Which certificate; ``black_box`` is the tightest and needs no τ.
     utility_class : UtilityClass, optional
@@ -571,7 +568,8 @@ def calibrate_randomized_response(
     Raises
     ------
     InputError
-        As :func:`calibrate`; and ``target`` (with the reason) when no ε
+        As :func:`calibrate`; ``groups`` that is not a whole number ≥ 2 or a
+        list of at least 2 labels; and ``target`` (with the reason) when no ε
         meets the target, e.g. below the floor log(1 + L_A/τ).
 
     Examples
@@ -580,7 +578,7 @@ def calibrate_randomized_response(
     >>> round(c.epsilon, 12) == round(math.log(7 / 3), 12), round(c.keep_probability, 12)
     (True, 0.7)
     """
-    c = calibrate(target, groups=groups, method=method, utility_class=utility_class)
+    c = calibrate(target, family=_groups_family(groups), method=method, utility_class=utility_class)
     if not c.feasible:
         raise InputError("target", c.reason, target)
     return c

@@ -110,7 +110,7 @@ weight_column = "w"
         df,
         sensitive=["profile"],
         outcome="office",
-        weights="w",
+        records=fa.RecordOptions(weights="w"),
         positive="HR_2",
         intervals=fa.IntervalOptions(confidence=0.95),
     )

@@ -47,7 +47,7 @@ def test_selection_rates_match_fairlearn(weighted):
         y_pred=r["y"],
         sensitive_features=pd.DataFrame({"race": r["race"], "sex": r["sex"]}),
         control_features=pd.Series(r["site"], name="site"),
-        sample_weight=r["w"] if weighted else None,
+        records=fa.RecordOptions(weights=r["w"] if weighted else None),
     )
     theirs = mf.by_group["selection_rate"]
     by_group = ours.by_group
@@ -58,7 +58,8 @@ def test_selection_rates_match_fairlearn(weighted):
     dpd = fairlearn_metrics.demographic_parity_difference(
         r["y"], r["y"], sensitive_features=r["race"], sample_weight=r["w"] if weighted else None
     )
-    pooled = fa.audit(y_pred=r["y"], sensitive_features=r["race"], sample_weight=r["w"] if weighted else None)
+    weights = fa.RecordOptions(weights=r["w"] if weighted else None)
+    pooled = fa.audit(y_pred=r["y"], sensitive_features=r["race"], records=weights)
     assert pooled.observed.demographic_parity.value == pytest.approx(dpd, rel=1e-13)
 
 
@@ -82,8 +83,12 @@ def test_every_array_type_gives_the_same_audit():
     [
         ({"y_pred": [1, 0, 1], "sensitive_features": ["a", "b"]}, "sensitive_features: has 2 rows where y_pred has 3"),
         (
-            {"y_pred": [1, 0], "sensitive_features": ["a", "b"], "sample_weight": [1.0]},
-            "sample_weight: has 1 rows where y_pred has 2",
+            {"y_pred": [1, 0], "sensitive_features": ["a", "b"], "records": fa.RecordOptions(weights=[1.0])},
+            "weights: has 1 rows where y_pred has 2",
+        ),
+        (
+            {"y_pred": [1, 0], "sensitive_features": ["a", "b"], "records": fa.RecordOptions(weights="w")},
+            "weights: names a column of a DataFrame `data`; with arrays give one weight per record (got 'w')",
         ),
         ({"sensitive_features": ["a", "b"]}, "y_pred: give the decisions, one per record"),
         ({"y_pred": [1, 0], "control_features": ["x", "y"]}, "sensitive_features: give the sensitive feature(s)"),
@@ -97,8 +102,8 @@ def test_every_array_type_gives_the_same_audit():
             "y_pred: must be a non-empty list or array of one",
         ),
         (
-            {"y_pred": [1, 0], "sensitive_features": ["a", "b"], "sample_weight": [1.0, -1.0]},
-            "must hold finite non-negative numbers; data row 2",
+            {"y_pred": [1, 0], "sensitive_features": ["a", "b"], "records": fa.RecordOptions(weights=[1.0, np.nan])},
+            "column 'sample_weight': has 1 missing values (drop those rows: `dropna`)",
         ),
     ],
 )
@@ -144,7 +149,7 @@ def test_unit_and_constant_weights_give_the_unweighted_intervals(method):
     )
     plain = fa.audit(df, **kw).intervals
     for column in ("one", "two"):  # n_eff = n whatever the constant weight
-        weighted = fa.audit(df, weights=column, **kw).intervals
+        weighted = fa.audit(df, records=fa.RecordOptions(weights=column), **kw).intervals
         for name in ("local_fairness", "global_fairness"):
             a, b = getattr(plain, name), getattr(weighted, name)
             assert (b.lower, b.estimate) == pytest.approx((a.lower, a.estimate), rel=1e-12, abs=1e-15)
@@ -156,7 +161,8 @@ def test_uneven_weights_widen_the_intervals():
     df = pd.DataFrame({"y": r["y"], "race": r["race"], "w": np.where(np.arange(300) % 2 == 0, 1.0, 5.0)})
     kw = dict(sensitive=["race"], outcome="y", intervals=fa.IntervalOptions(confidence=0.9))
     plain = fa.audit(df, **kw).intervals
-    weighted = fa.audit(df, weights="w", **kw).intervals  # n_eff = n (1 + 5)^2 / (2 (1 + 25)) = 0.69 n per cell
+    # n_eff = n (1 + 5)^2 / (2 (1 + 25)) = 0.69 n per cell
+    weighted = fa.audit(df, records=fa.RecordOptions(weights="w"), **kw).intervals
     assert np.all(weighted.cell_upper - weighted.cell_lower > plain.cell_upper - plain.cell_lower)
 
 

@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 from _cli import run, run_json
 
-from fairaudit import InputError, audit, count_file, count_records, count_table
+from fairaudit import InputError, RecordOptions, audit, count_file, count_records, count_table
 from fairaudit.data.key_values import check_key_values
 
 # The case: group a hires 40 of 88, group b 30 of 80: L = ln((40/88) / (30/80)) = 0.19 nats. One of a's
@@ -236,7 +236,7 @@ def test_mixed_outcome_counts_ranks_and_unranked_as_they_are(tmp_path, capsys):
     )
     assert code == 0 and d["decisions"] == ["1", "2", "unranked"]
     assert d["local"]["value"] == pytest.approx(math.log(Fraction(1, 2) / Fraction(1, 3)), rel=1e-12)
-    r = audit(frame, sensitive=["g"], outcome="rank", positive="1", mixed_outcome=True)
+    r = audit(frame, sensitive=["g"], outcome="rank", positive="1", records=RecordOptions(mixed_outcome=True))
     assert r.observed.local_fairness.value == pytest.approx(d["local"]["value"], rel=1e-12)
 
 
@@ -262,7 +262,7 @@ def test_every_report_lists_each_outcome_value_with_its_records_and_g(tmp_path, 
 
 def test_weighted_outcome_values_are_sums_of_weights():
     frame = pd.DataFrame({"g": ["a", "a", "b", "b"], "y": [1, 0, 1, 0], "w": [0.5, 2.0, 1.5, 1.0]})
-    d = audit(frame, sensitive=["g"], outcome="y", weights="w").to_dict()
+    d = audit(frame, sensitive=["g"], outcome="y", records=RecordOptions(weights="w")).to_dict()
     want = frame.groupby("y")["w"].sum()  # 0: 3.0, 1: 2.0
     assert d["outcome_values"] == [{"label": 0, "n": 3.0, "g": 0.0}, {"label": 1, "n": 2.0, "g": 1.0}]
     assert [v["n"] for v in d["outcome_values"]] == want.tolist()

@@ -284,6 +284,9 @@ def test_reports_lead_with_the_impact_ratios(capsys):
     assert html.index("<h2>Impact ratios by sex</h2>") < html.index("<h2>The audit: 145 records</h2>")
     assert html.index("<h2>The audit: 145 records</h2>") < html.index("<h2>Metrics</h2>")
     assert html.index("<h1>impact ratios (NYC Local Law 144 bias audit)") < html.index("<h2>Impact ratios by sex</h2>")
+    # the numbers align right, the p-value among them (Female's row: 77 applicants, rate, ratio, interval, p 1)
+    female = html[html.index("<td>Female</td>") : html.index("</tr>", html.index("<td>Female</td>"))]
+    assert female.count('<td class="num">') == 4 and '<td class="num">1</td>' in female
 
 
 def test_verdicts_in_every_format(capsys):

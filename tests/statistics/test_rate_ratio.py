@@ -11,39 +11,65 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fairaudit.base.errors import InputError
-from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test, ratio_interval, score_statistic
-
-
-def test_koopmans_example():
-    # Koopman (1984): 36 of 40 against 16 of 80, 95% interval (2.94, 7.15) on the ratio
-    lo, hi = ratio_interval(36, 40, 16, 80, correction=False)
-    assert (round(lo, 2), round(hi, 2)) == (2.94, 7.15)
-
-
-def test_the_statistic_at_the_point_estimate_is_zero_and_by_hand_at_one():
-    assert float(score_statistic(0.9 / 0.2, 36, 40, 16, 80)) == pytest.approx(0.0, abs=1e-12)
-    # at θ = 1 the constrained estimate is the pooled rate 52/120, and Koopman's z is the pooled z test's
-    pooled = 52 / 120
-    z = (0.9 - 0.2) / math.sqrt(pooled * (1 - pooled) * (1 / 40 + 1 / 80))
-    assert float(score_statistic(1.0, 36, 40, 16, 80, correction=False)) == pytest.approx(z, rel=1e-12)
+from fairaudit.statistics.rate_ratio import _below, adjusted, equal_rates_test, ratio_interval
 
 
 @settings(max_examples=60)
-@given(st.integers(2, 400), st.integers(2, 400), st.floats(0.001, 0.999), st.floats(0.001, 0.999), st.booleans())
-def test_the_interval_is_statsmodels_score_interval(n1, n2, f1, f2, correction):
-    sm = pytest.importorskip("statsmodels.stats.proportion")
-    x1, x2 = max(1, min(n1 - 1, round(f1 * n1))), max(1, min(n2 - 1, round(f2 * n2)))
-    ours = ratio_interval(x1, n1, x2, n2, correction=correction)
-    peer = sm.confint_proportions_2indep(x1, n1, x2, n2, method="score", compare="ratio", correction=correction)
-    assert ours == pytest.approx(tuple(float(v) for v in peer), rel=1e-6)  # the peer's root finder: ~1e-8
+@given(st.integers(1, 400), st.integers(1, 400), st.floats(0, 1), st.floats(0, 1))
+def test_at_ratio_one_the_melded_probabilities_are_fishers_one_sided_p_values(n1, n2, f1, f2):
+    # Fay, Proschan and Brittain (2015) §4: P(W₁⁺ ≥ W₂⁻) = P(X₁ ≤ x₁ | margins), P(W₁⁻ ≤ W₂⁺) = P(X₁ ≥ x₁ | margins)
+    from scipy.stats import fisher_exact
+
+    x1, x2 = round(f1 * n1), round(f2 * n2)
+    table = [[x1, n1 - x1], [x2, n2 - x2]]
+    less, greater = (float(fisher_exact(table, alternative=a).pvalue) for a in ("less", "greater"))
+    assert 1 - _below(1.0, x1 + 1, n1 - x1, x2, n2 - x2 + 1) == pytest.approx(less, rel=1e-6, abs=1e-12)
+    assert _below(1.0, x1, n1 - x1 + 1, x2 + 1, n2 - x2) == pytest.approx(greater, rel=1e-6, abs=1e-12)
 
 
-def test_the_interval_inverts_the_test():
-    lo, hi = ratio_interval(30, 100, 45, 90)
-    z = 1.959963984540054
-    assert float(score_statistic(lo, 30, 100, 45, 90)) == pytest.approx(z, rel=1e-9)
-    assert float(score_statistic(hi, 30, 100, 45, 90)) == pytest.approx(-z, rel=1e-9)
-    assert lo < (30 / 100) / (45 / 90) < hi
+@pytest.mark.parametrize(("x1", "n1", "x2", "n2"), [(3, 10, 8, 10), (30, 100, 45, 90), (1, 7, 6, 9), (40, 50, 2, 9)])
+def test_the_interval_excludes_one_exactly_where_fishers_test_rejects(x1, n1, x2, n2):
+    p = equal_rates_test(x1, n1, x2, n2)
+    for confidence in (1 - p * 0.999, 1 - p * 1.001):  # just above p: 1 is out; just below: 1 is in
+        lo, hi = ratio_interval(x1, n1, x2, n2, confidence)
+        assert (lo <= 1 <= hi) == (1 - confidence < p)
+
+
+def test_a_rate_of_one_gives_the_other_rates_clopper_pearson_end():
+    # x₁ = n₁: W₁⁺ = 1, so the upper end is 1 / (the comparator's Clopper–Pearson lower end at α/2); swapped, x₂ = n₂
+    from scipy.stats import beta
+
+    assert ratio_interval(20, 20, 7, 30)[1] == pytest.approx(1 / beta.ppf(0.025, 7, 24), rel=1e-9)
+    assert ratio_interval(7, 30, 20, 20)[0] == pytest.approx(beta.ppf(0.025, 7, 24), rel=1e-9)
+
+
+def test_swapping_the_categories_inverts_the_interval():
+    lo, hi = ratio_interval(30, 100, 45, 90, 0.99)
+    lo2, hi2 = ratio_interval(45, 90, 30, 100, 0.99)
+    assert (lo, hi) == pytest.approx((1 / hi2, 1 / lo2), rel=1e-9)
+
+
+def test_non_integer_counts_against_monte_carlo():
+    # the lower end of 12.5 of 25 against 20 of 25: the α/2 quantile of W₁⁻ / W₂⁺, W₁⁻ ~ Beta(12.5, 13.5),
+    # W₂⁺ ~ Beta(21, 5); 4 million draws put it within 0.003 of the quantile (its standard error ~6e-4)
+    rng = np.random.default_rng(81)
+    ratio = rng.beta(12.5, 13.5, 4_000_000) / rng.beta(21, 5, 4_000_000)
+    lo, hi = ratio_interval(12.5, 25.0, 20.0, 25.0)
+    assert lo == pytest.approx(float(np.quantile(ratio, 0.025)), abs=3e-3)
+    lo2, hi2 = ratio_interval(5, 10, 8, 10)  # the same rates from fewer applicants: a wider interval
+    assert lo2 < lo < 0.625 < hi < hi2
+
+
+def test_exact_coverage_at_least_the_level_at_twelve_applicants():
+    # every outcome of two samples of 12: the interval holds p1/p2 with probability at least 0.95 at each pair
+    from scipy.stats import binom
+
+    x = np.arange(13)
+    ends = {(a, b): ratio_interval(a, 12, b, 12) for a in x for b in x}
+    for p1, p2 in [(0.05, 0.5), (0.3, 0.3), (0.5, 0.9), (0.9, 0.2), (0.7, 0.75)]:
+        w1, w2 = binom.pmf(x, 12, p1), binom.pmf(x, 12, p2)
+        cover = sum(w1[a] * w2[b] for (a, b), (lo, hi) in ends.items() if lo <= p1 / p2 <= hi)
+        assert 0.95 <= cover < 1
 
 
 def test_open_ends():
@@ -54,22 +80,18 @@ def test_open_ends():
     assert 0 < lo < 1 < hi < math.inf
 
 
-def test_non_integer_counts_are_used_as_given():
-    # scaling every count by 2.5 is the same rates with more weight: the interval narrows about the same ratio
-    lo, hi = ratio_interval(12.5, 25.0, 20.0, 25.0)
-    lo2, hi2 = ratio_interval(5, 10, 8, 10)
-    assert lo2 < lo < 0.625 < hi < hi2
-
-
 def _fisher_by_hand(a: int, b: int, c: int, d: int) -> Fraction:
-    """Two-sided Fisher p: the hypergeometric tables with the margins, as likely or less likely, in fractions."""
+    """Two-sided Fisher p by the central rule: twice the smaller hypergeometric tail given the margins, in
+    fractions."""
     row, col, n = a + b, a + c, a + b + c + d
 
     def prob(x: int) -> Fraction:
         return Fraction(math.comb(col, x) * math.comb(n - col, row - x), math.comb(n, row))
 
-    here = prob(a)
-    return sum((prob(x) for x in range(max(0, row + col - n), min(row, col) + 1) if prob(x) <= here), Fraction(0))
+    support = range(max(0, row + col - n), min(row, col) + 1)
+    below = sum((prob(x) for x in support if x <= a), Fraction(0))
+    above = sum((prob(x) for x in support if x >= a), Fraction(0))
+    return min(Fraction(1), 2 * min(below, above))
 
 
 @pytest.mark.parametrize(("x1", "n1", "x2", "n2"), [(3, 10, 8, 10), (0, 5, 5, 5), (40, 200, 60, 180), (7, 7, 7, 9)])

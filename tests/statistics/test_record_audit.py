@@ -1,9 +1,11 @@
-"""Python parity with the command line (issue 39, item 7): ``audit(count=)``, ``Audit.law``, ``worst-case``, and
-``calibrate``'s target impact ratio. Expected values come from pandas or exact fractions, not from fairaudit."""
+"""Python parity with the command line (issue 39, item 7): ``audit(records=RecordOptions(count=))``, ``Audit.law``,
+``worst-case``, and ``calibrate``'s target impact ratio. Expected values come from pandas or exact fractions, not
+from fairaudit."""
 
 from __future__ import annotations
 
 import contextlib
+import inspect
 import json
 import math
 from fractions import Fraction
@@ -14,7 +16,7 @@ import pandas as pd
 import pytest
 from _cli import OFFICE_SPEC, run, run_json
 
-from fairaudit import IntervalOptions, UtilityClass, audit
+from fairaudit import IntervalOptions, RecordOptions, UtilityClass, audit, randomized_response_family
 from fairaudit.base.errors import InputError
 from fairaudit.certification.spec import load_spec
 from fairaudit.laws.utilities import from_table
@@ -53,7 +55,7 @@ def test_audit_count_equals_the_expanded_records_and_the_cli(tmp_path, capsys):
         utility="u >= 2",
         intervals=IntervalOptions(confidence=0.9),
     )
-    by_count = audit(BY_SEX, count="n", **kw)
+    by_count = audit(BY_SEX, records=RecordOptions(count="n"), **kw)
     by_records = audit(expanded(BY_SEX), **kw)
     assert by_count.table.counts.dtype == np.int64
     np.testing.assert_array_equal(by_count.table.counts, by_records.table.counts)
@@ -78,7 +80,7 @@ def test_audit_count_equals_the_expanded_records_and_the_cli(tmp_path, capsys):
 def test_audit_count_intersectional_and_default_utility():
     t = COUNTS.assign(hired=(COUNTS["grade"] == 2).astype(int)).drop(columns="grade")
     t = t.groupby(["office", "sex", "age", "hired"], as_index=False)["n"].sum()
-    by_count = audit(t, sensitive=["sex", "age"], outcome="hired", context=["office"], count="n")
+    by_count = audit(t, sensitive=["sex", "age"], outcome="hired", context=["office"], records=RecordOptions(count="n"))
     by_records = audit(expanded(t), sensitive=["sex", "age"], outcome="hired", context=["office"])
     assert as_json(by_count.to_dict()) == as_json(by_records.to_dict())
     rec = expanded(t)
@@ -107,7 +109,14 @@ def test_audit_count_errors_are_the_cli_errors(tmp_path, capsys, change, kwargs,
     data = change(BY_SEX)
     count = kwargs.get("count", "n")
     with pytest.raises(InputError) as exc:
-        audit(data, sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", count=count)
+        audit(
+            data,
+            sensitive=["sex"],
+            outcome="grade",
+            context=["office"],
+            utility="u >= 2",
+            records=RecordOptions(count=count),
+        )
     assert str(exc.value).startswith(needle), str(exc.value)
     path = tmp_path / "counts.csv"
     data.to_csv(path, index=False)
@@ -119,19 +128,35 @@ def test_audit_count_errors_are_the_cli_errors(tmp_path, capsys, change, kwargs,
     assert code == 2 and out == "" and err.startswith(f"fairaudit: error: {flag}") and err.count("\n") == 1, err
 
 
+def test_audit_takes_at_most_12_parameters():
+    """Issue 81, item 5: how records are read is one RecordOptions (records=), not five parameters and sample_weight."""
+    parameters = inspect.signature(audit).parameters
+    assert len(parameters) <= 12
+    assert "records" in parameters and not {"dropna", "weights", "count", "min_count", "sample_weight"} & set(
+        parameters
+    )
+
+
 def test_audit_count_refuses_what_it_cannot_mean():
     kw = dict(sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2")
     with pytest.raises(InputError, match=r"^weights: a count table \(`count`\) is counted already"):
-        audit(BY_SEX, count="n", weights="n", **kw)
-    table = audit(BY_SEX, count="n", **kw).table
+        audit(BY_SEX, records=RecordOptions(count="n", weights="n"), **kw)
+    table = audit(BY_SEX, records=RecordOptions(count="n"), **kw).table
     with pytest.raises(InputError, match=r"^count: is for a DataFrame of counts; a CountTable is counted already"):
-        audit(table, count="n")
+        audit(table, records=RecordOptions(count="n"))
     with pytest.raises(InputError, match=r"^count: is the count column of a DataFrame `data`"):
-        audit(y_pred=[1, 0], sensitive_features=["a", "b"], count="n")
+        audit(y_pred=[1, 0], sensitive_features=["a", "b"], records=RecordOptions(count="n"))
 
 
 def test_audit_law_is_the_documented_law_of_the_metrics():
-    a = audit(BY_SEX, sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", count="n")
+    a = audit(
+        BY_SEX,
+        sensitive=["sex"],
+        outcome="grade",
+        context=["office"],
+        utility="u >= 2",
+        records=RecordOptions(count="n"),
+    )
     law = a.law
     assert law is a.observed.law
     assert law.probabilities.shape == (2, 2, 3)  # (contexts, groups, decisions)
@@ -140,8 +165,8 @@ def test_audit_law_is_the_documented_law_of_the_metrics():
     by_pandas = pd.crosstab([rec["office"], rec["sex"]], rec["grade"], normalize="index")
     np.testing.assert_allclose(law.probabilities.reshape(4, 3), by_pandas.to_numpy(), rtol=0, atol=1e-15)
     # with min_count the cell left out has no records in the law either
-    small = audit(BY_SEX, sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", count="n",
-                  min_count=11)  # fmt: skip
+    records = RecordOptions(count="n", min_count=11)
+    small = audit(BY_SEX, sensitive=["sex"], outcome="grade", context=["office"], utility="u >= 2", records=records)
     assert small.law.empty_cells == (("north", "f"),)
     assert np.isnan(small.law.probabilities[0, 0]).all()
 
@@ -155,10 +180,10 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
     "kw",
     [
         {},
-        {"groups": 8},
-        {"groups": 3, "kind": "global"},
+        {"family": randomized_response_family(range(8))},
+        {"family": randomized_response_family(range(3)), "kind": "global"},
         {"method": "tight", "utility_class": UtilityClass(tau=0.4, lipschitz=0.01)},
-        {"groups": 5, "utility_class": UtilityClass(tau=0.3)},
+        {"family": randomized_response_family(range(5)), "utility_class": UtilityClass(tau=0.3)},
     ],
 )
 def test_target_impact_ratio_is_exactly_the_nats_target(kw):
@@ -211,13 +236,13 @@ def test_target_impact_ratio_errors():
         calibrate(target_impact_ratio=0.8, utility_class=UtilityClass(lower=0.1))
     score = from_table([1.0, 0.5, 0.0], ("hire", "wait", "reject"), name="score")
     with pytest.raises(InputError, match=r"^utility: .*takes the value 0.5: give `target` in nats \(got 'score'\)"):
-        calibrate(target_impact_ratio=0.8, groups=2, utility=score)
+        calibrate(target_impact_ratio=0.8, utility=score)
 
 
 def test_cli_calibrate_target_impact_ratio(capsys):
     code, d, _ = run_json(capsys, "calibrate", "--target-impact-ratio", "0.8", "--groups", "8")
     assert code == 0 and d["target_impact_ratio"] == 0.8 and d["target"] == math.log(1.25)
-    assert d["epsilon"] == calibrate(math.log(1.25), groups=8).epsilon
+    assert d["epsilon"] == calibrate(math.log(1.25), family=randomized_response_family(range(8))).epsilon
     code, out, _ = run(capsys, "calibrate", "--target-impact-ratio", "0.8")
     assert code == 0 and out.startswith(
         "largest epsilon of 2-ary randomized response meeting L <= 0.223144 nats "

@@ -23,7 +23,7 @@ FRAME = pd.DataFrame(ROWS, columns=["x", "g", "y"])
 def test_min_count_leaves_cells_out_and_lists_them():
     full = fa.audit(FRAME, sensitive=["g"], outcome="y", context=["x"])
     assert full.observed.local_fairness.value == math.inf and full.observed.local_fairness.context == "q"
-    cut = fa.audit(FRAME, sensitive=["g"], outcome="y", context=["x"], min_count=3)
+    cut = fa.audit(FRAME, sensitive=["g"], outcome="y", context=["x"], records=fa.RecordOptions(min_count=3))
     assert [(c.context, c.group, c.n) for c in cut.left_out] == [("q", "b", 2.0)]
     assert cut.observed.local_fairness.value == pytest.approx(math.log(3.0), rel=1e-15)  # (6/8) / (2/8) in context p
     assert cut.table.n == 19  # the two records left out of the population too
@@ -31,9 +31,9 @@ def test_min_count_leaves_cells_out_and_lists_them():
     assert d["min_count"] == 3 and d["left_out"] == [{"context": "q", "group": "b", "n": 2.0}]
     assert "cell (context 'q', group 'b'): 2 records, fewer than min_count 3: left out" in d["excluded"]
     with pytest.raises(InputError, match="^min_count: leaves group 'a' with no records"):
-        fa.audit(FRAME, sensitive=["g"], outcome="y", context=["x"], min_count=9)
+        fa.audit(FRAME, sensitive=["g"], outcome="y", context=["x"], records=fa.RecordOptions(min_count=9))
     with pytest.raises(InputError, match="^min_count"):
-        fa.audit(FRAME, sensitive=["g"], outcome="y", min_count=0)
+        fa.audit(FRAME, sensitive=["g"], outcome="y", records=fa.RecordOptions(min_count=0))
 
 
 def test_by_context_by_hand():

@@ -6,6 +6,7 @@ white-box definition) and proofs/black_box.md §3 (the randomized-response close
 
 from __future__ import annotations
 
+import inspect
 import itertools
 import math
 from fractions import Fraction
@@ -23,6 +24,11 @@ from fairaudit.laws.closed_forms import keep_probability, randomized_response
 from fairaudit.laws.families import MechanismFamily
 from fairaudit.worstcase.calibration import calibrate
 from fairaudit.worstcase.calibration_result import Calibration
+
+
+def rr_family(k: int) -> MechanismFamily:
+    """k-ary randomized response on the groups 0 to k − 1: the family ``calibrate(groups=k)`` chose before issue 81."""
+    return fa.randomized_response_family(range(k))
 
 
 def disguised_rr(k: int) -> MechanismFamily:
@@ -73,7 +79,7 @@ def test_closed_form_equals_bisection_on_black_box(k, rho, target):
 @given(st.integers(2, 12), st.floats(0.0, 0.9), st.floats(0.01, 3.0))
 def test_root_finder_agrees_with_rr_closed_form(k, rho, target):
     # calibrate's own root finder (on a relabelled RR it cannot recognise) against the closed form, to 1e-9.
-    fast = calibrate(target, groups=k, utility_class=UtilityClass(lower=rho))
+    fast = calibrate(target, family=rr_family(k), utility_class=UtilityClass(lower=rho))
     slow = calibrate(target, family=disguised_rr(k), utility_class=UtilityClass(lower=rho))
     assert "closed form" in fast.reason and "bracketing" in slow.reason or math.isinf(fast.epsilon)
     if math.isinf(fast.epsilon):
@@ -85,7 +91,7 @@ def test_root_finder_agrees_with_rr_closed_form(k, rho, target):
 
 def test_rr_hand_values():
     # proofs/black_box.md §3: k = 2, rho = 1/2, worst ratio (2t + 1)/(t + 2); target log(17/13) gives t = 7/3.
-    c = calibrate(math.log(17 / 13), groups=2, utility_class=UtilityClass(lower=0.5))
+    c = calibrate(math.log(17 / 13), family=rr_family(2), utility_class=UtilityClass(lower=0.5))
     assert c.epsilon == pytest.approx(math.log(7 / 3), rel=1e-12)
     assert c.keep_probability == pytest.approx(0.7, rel=1e-12)
     assert (c.method, c.feasible, c.kind, c.groups, c.family) == (
@@ -101,7 +107,7 @@ def test_rr_hand_values():
 def test_every_epsilon_meets_a_target_above_gamma_over_lower():
     # g in [0.2, 1]: no model can exceed a ratio of 5, so a target of log 5 is met even without privacy
     # (the float above ln 5: math.log(5) is below it, and a lower end of ε may not round it up).
-    c = calibrate(math.nextafter(math.log(5), math.inf), groups=3, utility_class=UtilityClass(lower=0.2))
+    c = calibrate(math.nextafter(math.log(5), math.inf), family=rr_family(3), utility_class=UtilityClass(lower=0.2))
     assert math.isinf(c.epsilon) and c.keep_probability == 1.0 and c.feasible
     assert c.bound == pytest.approx(math.log(5), rel=1e-12)
     assert np.array_equal(c.mechanism.matrix, np.eye(3))  # the identity: no randomization needed
@@ -125,7 +131,7 @@ def test_product_family_64_groups():
 
 def test_black_box_with_tau_and_lipschitz_is_non_decreasing_and_meets_the_target():
     # The general class (τ binds, g Lipschitz in the group): solved by the LP; the answer still brackets the target.
-    c = calibrate(0.6, groups=3, utility_class=UtilityClass(tau=0.3, lipschitz=0.05))
+    c = calibrate(0.6, family=rr_family(3), utility_class=UtilityClass(tau=0.3, lipschitz=0.05))
     fam = fa.randomized_response_family([0, 1, 2])
     at = fa.black_box_bound(fam(c.epsilon), utility_class=fa.UtilityClass(tau=0.3, lipschitz=0.05)).value
     after = fa.black_box_bound(
@@ -144,7 +150,9 @@ def test_black_box_floor_with_lipschitz():
     fam = fa.randomized_response_family([0, 1])
     floor = fa.black_box_bound(fam(0.0), utility_class=fa.UtilityClass(tau=0.5, lipschitz=0.2)).value
     assert floor > 0
-    c = calibrate(floor / 2, groups=2, utility_class=UtilityClass(tau=0.5, lipschitz=0.2), method="black_box")
+    c = calibrate(
+        floor / 2, family=rr_family(2), utility_class=UtilityClass(tau=0.5, lipschitz=0.2), method="black_box"
+    )
     assert not c.feasible and math.isnan(c.epsilon) and c.bound == pytest.approx(floor)
     assert f"{floor:.6g}" in c.reason
 
@@ -181,7 +189,7 @@ def test_closed_forms_reach_the_target_or_report_the_floor(target, tau, lip, del
         c = calibrate(
             target,
             method=method,
-            groups=k,
+            family=rr_family(k),
             utility_class=UtilityClass(gamma=gamma, tau=tau, lipschitz=lip),
             delta=delta,
         )
@@ -216,7 +224,10 @@ def test_floor_is_infeasible_with_the_value_in_the_reason():
 def test_metric_sets_the_diameter_of_the_closed_forms():
     # d(a, a') = 2: c = L_A·diam = 0.2 · 2; tight ε = log(e − 0.4/0.5).
     c = calibrate(
-        1.0, method="tight", groups=2, utility_class=UtilityClass(tau=0.5, lipschitz=0.2, metric=[[0, 2], [2, 0]])
+        1.0,
+        method="tight",
+        family=rr_family(2),
+        utility_class=UtilityClass(tau=0.5, lipschitz=0.2, metric=[[0, 2], [2, 0]]),
     )
     assert c.diameter == 2.0 and c.epsilon == pytest.approx(math.log(math.e - 0.8), rel=1e-13)
 
@@ -227,10 +238,10 @@ def test_black_box_at_least_tight_at_least_paper(target, tau, lower, k):
     # δ = 0, L_A = 0: black_box(ε) ≤ ε(M_ε) = ε = tight form at δ = 0, so the black-box ε is never smaller;
     # tight ≥ paper whenever feasible (e^T − c/τ ≥ e^T/(1 + c/τ) ⟺ e^T ≥ 1 + c/τ). Holds for any τ here.
     eps = {
-        m: calibrate(target, method=m, groups=k, utility_class=UtilityClass(tau=tau, lower=lower)).epsilon
+        m: calibrate(target, method=m, family=rr_family(k), utility_class=UtilityClass(tau=tau, lower=lower)).epsilon
         for m in ("paper", "tight")
     }
-    bb = calibrate(target, groups=k, utility_class=UtilityClass(lower=lower, tau=tau)).epsilon
+    bb = calibrate(target, family=rr_family(k), utility_class=UtilityClass(lower=lower, tau=tau)).epsilon
     # (absolute slack 1e-10: near ε = 0 the RR matrix entries 1/k ± O(ε) carry rounding of order 1e-16 / ε)
     assert bb >= eps["tight"] * (1 - 1e-9) - 1e-10
     assert eps["tight"] >= eps["paper"] * (1 - 1e-12) - 1e-15
@@ -241,12 +252,12 @@ def test_black_box_at_least_tight_at_least_paper(target, tau, lower, k):
 def test_black_box_at_least_tight_with_lipschitz(target, tau, lip):
     # L_A > 0: black-box with the same τ and L_A is a maximum over a subclass of the theorem's class, so its
     # bound is at most the tight form at every ε, hence its ε is at least tight's.
-    tight = calibrate(target, method="tight", groups=3, utility_class=UtilityClass(tau=tau, lipschitz=lip))
+    tight = calibrate(target, method="tight", family=rr_family(3), utility_class=UtilityClass(tau=tau, lipschitz=lip))
     assume(tight.feasible)
-    bb = calibrate(target, method="black_box", groups=3, utility_class=UtilityClass(tau=tau, lipschitz=lip))
+    bb = calibrate(target, method="black_box", family=rr_family(3), utility_class=UtilityClass(tau=tau, lipschitz=lip))
     assert bb.epsilon >= tight.epsilon * (1 - 1e-9)
     assert calibrate(
-        target, method="paper", groups=3, utility_class=UtilityClass(tau=tau, lipschitz=lip)
+        target, method="paper", family=rr_family(3), utility_class=UtilityClass(tau=tau, lipschitz=lip)
     ).epsilon <= tight.epsilon * (1 + 1e-12)
 
 
@@ -334,7 +345,9 @@ def test_white_box_at_least_black_box(seed, k, target):
     g = fa.from_table(rng.choice([0.0, 0.5, 1.0, 2.0], size=3), decisions)
     assume(g.gamma > 0)
     white = calibrate(target, kernel=kernel, utility=g, utility_class=UtilityClass(gamma=g.gamma, lower=g.lower))
-    black = calibrate(target, groups=labels, utility_class=UtilityClass(gamma=g.gamma, lower=g.lower))
+    black = calibrate(
+        target, family=fa.randomized_response_family(labels), utility_class=UtilityClass(gamma=g.gamma, lower=g.lower)
+    )
     assert white.feasible
     assert white.epsilon >= black.epsilon * (1 - 1e-9)
 
@@ -516,7 +529,7 @@ def test_global_needs_independence_for_certificates():
         ("tight", {"utility_class": UtilityClass(tau=0.2)}),
         ("paper", {"utility_class": UtilityClass(tau=0.2)}),
     ):
-        c = calibrate(0.5, kind="global", method=method, groups=2, population=dep, **extra)
+        c = calibrate(0.5, kind="global", method=method, family=rr_family(2), population=dep, **extra)
         assert not c.feasible and "not independent" in c.reason
         if method == "black_box":
             # exact on L-bar for any population; its floor at epsilon = 0, by hand: the model sees only x, and
@@ -524,7 +537,7 @@ def test_global_needs_independence_for_certificates():
             assert c.bound == pytest.approx(math.log(4), rel=1e-9) and "below the floor" in c.reason
         else:  # L-bar <= L needs X independent of A
             assert math.isinf(c.bound) and "use black_box" in c.reason
-        ok = calibrate(0.5, kind="global", method=method, groups=2, population=ind, **extra)
+        ok = calibrate(0.5, kind="global", method=method, family=rr_family(2), population=ind, **extra)
         assert ok.feasible and ok.epsilon == pytest.approx(0.5) and ok.kind == "global"
 
 
@@ -541,12 +554,12 @@ def test_global_within_rounding_holds_l_to_the_target_less_ln_f():
     ln_f = mpmath.log(mpmath.mpf(max(r).numerator) / max(r).denominator * min(r).denominator / min(r).numerator)
     assert 1e-16 < ln_f < 2e-16
     for method, extra in (("black_box", {}), ("tight", {"utility_class": UtilityClass(tau=0.2)})):
-        c = calibrate(0.5, kind="global", method=method, groups=3, population=within, **extra)
+        c = calibrate(0.5, kind="global", method=method, family=rr_family(3), population=within, **extra)
         assert c.feasible and c.target == 0.5 and "independent only within rounding" in c.reason
         # (F is rounded up as a float, 1 + 2.2e-15: epsilon loses about 20 ulps, a lower end all the same)
         assert mpmath.mpf(c.epsilon) + ln_f <= 0.5 < mpmath.mpf(c.epsilon) + ln_f + 1e-14
         assert mpmath.mpf(c.epsilon) + ln_f <= c.bound <= 0.5 + 2**-53  # (the sum rounded up: an ulp above)
-        independent = calibrate(0.5, kind="global", method=method, groups=3, population=fa.Population.uniform(
+        independent = calibrate(0.5, kind="global", method=method, family=rr_family(3), population=fa.Population.uniform(
             ["x0", "x1"], [0, 1, 2]), **extra)  # fmt: skip
         assert independent.epsilon == 0.5 and "within rounding" not in independent.reason
 
@@ -559,7 +572,45 @@ def test_default_method():
     assert calibrate(0.5).method == "black_box"
     assert calibrate(0.5, kernel=k, utility=fa.indicator("a", ["a", "b"])).method == "white_box"
     assert calibrate(0.5, utility_class=UtilityClass(tau=0.5), delta=0.01).method == "tight"
-    assert calibrate(0.5, groups=["x", "y", "z"]).groups == 3
+    assert calibrate(0.5, family=fa.randomized_response_family(["x", "y", "z"])).groups == 3
+
+
+def test_calibrate_takes_at_most_12_parameters():
+    """Issue 81, item 5: no ``groups``; the family says what it only chose (randomized response on k groups)."""
+    parameters = inspect.signature(fa.calibrate).parameters
+    assert len(parameters) <= 12 and "groups" not in parameters and "family" in parameters
+
+
+@pytest.mark.parametrize("method", ["black_box", "tight", "paper"])
+def test_a_randomized_response_family_is_the_wrapper_on_k_groups(method):
+    cls = fa.UtilityClass(tau=0.5, lower=0.1) if method != "black_box" else fa.UtilityClass(lower=0.1)
+    by_family = calibrate(0.8, method=method, family=fa.randomized_response_family([0, 1, 2]), utility_class=cls)
+    by_wrapper = fa.calibrate_randomized_response(0.8, 3, method=method, utility_class=cls)
+    assert by_family.epsilon == by_wrapper.epsilon and by_family.to_dict() == by_wrapper.to_dict()
+    assert by_family.groups == 3 and by_family.family == "3-ary randomized response"
+    # by hand, tight: ε = log(e^0.8 − δγ/τ − L_A·diam/τ) with δ = 0, L_A = 0: the target itself
+    if method != "black_box":
+        assert by_family.epsilon == pytest.approx(0.8, rel=1e-12)
+
+
+def test_the_default_family_is_randomized_response_on_the_kernels_groups_else_on_two():
+    assert calibrate(0.5).family == "2-ary randomized response" and calibrate(0.5).groups == 2
+    kernel = identity_model(["a", "b", "c"])
+    c = calibrate(0.5, kernel=kernel, utility=fa.indicator("a", ["a", "b", "c"]))
+    assert (c.family, c.groups, c.mechanism.inputs) == ("3-ary randomized response", 3, ("a", "b", "c"))
+
+
+def test_the_wrapper_checks_its_groups():
+    for groups, problem in (
+        (1, "randomized response needs at least 2 groups (got 1)"),
+        (["only"], "randomized response needs at least 2 groups (got 1)"),
+        ("ab", "must be a number of groups k >= 2 or a list of group labels (got 'ab')"),
+        (True, "must be a number of groups k >= 2 or a list of group labels (got True)"),
+    ):
+        with pytest.raises(fa.InputError) as err:
+            fa.calibrate_randomized_response(0.5, groups)
+        assert str(err.value) == f"groups: {problem}"
+    assert fa.calibrate_randomized_response(0.5, ["x", "y", "z"]).mechanism.inputs == ("x", "y", "z")
 
 
 def test_wrapper_is_calibrate_and_raises_when_infeasible():
@@ -576,9 +627,8 @@ def test_wrapper_is_calibrate_and_raises_when_infeasible():
         ({"target": math.inf}, "target"),
         ({"target": "x"}, "target"),
         ({"method": "exact"}, "method"),
-        ({"groups": 1}, "groups"),
-        ({"groups": ["only"]}, "groups"),
-        ({"groups": 3, "family": fa.randomized_response_family([0, 1])}, "groups"),
+        ({"family": 3}, "family"),
+        ({"family": MechanismFamily("one group", (0,), lambda e: fa.identity([0]), lambda e: 1.0)}, "family"),
         ({"method": "paper", "lipschitz": 0.2}, "tau"),  # (without L_A or delta no tau is needed: epsilon = target)
         ({"method": "tight", "delta": 0.1}, "tau"),
         ({"tau": 0.0}, "tau"),

@@ -14,7 +14,9 @@ INPUTS = ("target", "kind", "groups", "gamma", "lower", "tau", "delta", "lipschi
 
 def test_the_inputs_are_the_common_fields_and_the_report_repeats_them():
     assert tuple(f.name for f in dataclasses.fields(Common)) == INPUTS
-    c = calibrate(0.5, groups=3, utility_class=fa.UtilityClass(tau=0.5, lower=0.1))
+    c = calibrate(
+        0.5, family=fa.randomized_response_family(range(3)), utility_class=fa.UtilityClass(tau=0.5, lower=0.1)
+    )
     assert isinstance(c, Common) and isinstance(c, Calibration)
     d = c.to_dict()
     assert list(d)[:4] == ["epsilon", "keep_probability", "method", "bound"]  # the contract keys first
@@ -46,7 +48,7 @@ def test_infeasible_report_names_the_family_and_no_tau_is_null():
 
 
 def test_the_impact_ratio_target_is_the_nats_target_with_the_ratio_repeated():
-    ratio = calibrate(target_impact_ratio=0.8, groups=3)
-    nats = calibrate(math.log(1.25), groups=3)
+    ratio = calibrate(target_impact_ratio=0.8, family=fa.randomized_response_family(range(3)))
+    nats = calibrate(math.log(1.25), family=fa.randomized_response_family(range(3)))
     assert ratio.to_dict() == {**nats.to_dict(), "target_impact_ratio": 0.8}
     assert "(impact ratio 0.8)" in repr(ratio)

@@ -32,6 +32,12 @@ from fairaudit.worstcase.black_box import black_box_bound
 from fairaudit.worstcase.calibration import calibrate
 from fairaudit.worstcase.known_utility import worst_model
 
+
+def rr_family(k: int) -> fa.MechanismFamily:
+    """k-ary randomized response on the groups 0 to k − 1: the family ``calibrate(groups=k)`` chose before issue 81."""
+    return fa.randomized_response_family(range(k))
+
+
 PROOFS = Path(__file__).resolve().parents[2] / "proofs"
 KS = (2, 3, 5, 17)
 EPSILONS = (0.0, 0.3, 1.7, 6.0)
@@ -170,7 +176,9 @@ def test_hand_case_in_fractions_k3_e_eps_4():
     assert s == F(1, 4) and c.ratio == pytest.approx(float((p + q + q * s) / tau), rel=1e-15)
     assert c.utility_by_release.tolist() == pytest.approx([1.0, float(s), 1.0], abs=1e-15)
     # calibration back to ε = log 4 from the target log(11/5) with lower 1/5, keep probability 2/3
-    cal = calibrate(math.log(11 / 5), groups=["a", "b", "c"], utility_class=UtilityClass(lower=0.2))
+    cal = calibrate(
+        math.log(11 / 5), family=fa.randomized_response_family(["a", "b", "c"]), utility_class=UtilityClass(lower=0.2)
+    )
     assert cal.epsilon == pytest.approx(math.log(4), rel=1e-13) and cal.keep_probability == pytest.approx(2 / 3)
 
 
@@ -481,7 +489,7 @@ def test_calibration_equals_the_general_route(k):
         (0.4, {"utility_class": UtilityClass(lower=0.0, tau=0.3)}),
         (0.3, {"utility_class": UtilityClass(lower=0.1, tau=0.5, lipschitz=0.05)}),
     ):
-        c = calibrate(target, groups=k, **cls)
+        c = calibrate(target, family=rr_family(k), **cls)
         want = bisect_general(k, target, **cls)
         assert c.epsilon == pytest.approx(want, rel=1e-8), cls
         if cls["utility_class"].tau is None:
@@ -496,9 +504,9 @@ def test_calibrate_a_million_groups_in_closed_form_and_little_memory():
     k = 10**6
     tracemalloc.start()
     try:
-        c = calibrate(0.5, groups=k)  # lower = 0, no τ, L_A = 0: the black-box value of RR is ε itself
-        c2 = calibrate(0.5, groups=k, utility_class=UtilityClass(lower=0.2))
-        c3 = calibrate(0.5, groups=k, utility_class=UtilityClass(lower=0.1, tau=0.3, lipschitz=0.05))
+        c = calibrate(0.5, family=rr_family(k))  # lower = 0, no τ, L_A = 0: the black-box value of RR is ε itself
+        c2 = calibrate(0.5, family=rr_family(k), utility_class=UtilityClass(lower=0.2))
+        c3 = calibrate(0.5, family=rr_family(k), utility_class=UtilityClass(lower=0.1, tau=0.3, lipschitz=0.05))
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -543,7 +551,7 @@ def test_closed_forms_equal_the_general_route_property(k, eps, tau, lower, gamma
 @pytest.mark.slow
 @given(k=st.integers(2, 40), target=st.floats(0.0, 5.0), rho=st.floats(0.0, 0.95, allow_subnormal=False))
 def test_calibration_closed_form_meets_the_target_property(k, target, rho):
-    c = calibrate(target, groups=k, utility_class=UtilityClass(lower=rho))
+    c = calibrate(target, family=rr_family(k), utility_class=UtilityClass(lower=rho))
     want = rr_black_box_epsilon(target, k, rho)
     if math.isinf(want) or target >= -math.log(max(rho, 1e-300)):
         assert c.epsilon == math.inf
@@ -721,12 +729,12 @@ def test_paper_and_tight_still_need_tau_when_the_extra_term_is_not_zero():
 
 def test_calibrate_paper_and_tight_without_tau():
     for method in ("paper", "tight"):
-        c = calibrate(0.5, method=method, groups=3)
+        c = calibrate(0.5, method=method, family=rr_family(3))
         assert c.feasible and c.epsilon == 0.5 and c.bound == 0.5 and "without tau" in c.reason
         assert c.keep_probability == pytest.approx(math.exp(0.5) / (math.exp(0.5) + 2), rel=1e-12)
         for kw in ({"utility_class": fa.UtilityClass(lipschitz=0.2)}, {"delta": 0.1}):
             with pytest.raises(fa.InputError, match=f"^tau: the {method} bound needs tau"):
-                calibrate(0.5, method=method, groups=3, **kw)
+                calibrate(0.5, method=method, family=rr_family(3), **kw)
 
 
 def test_cli_calibrate_tight_without_tau(capsys):

@@ -192,7 +192,7 @@ class HtmlFormat(Format):
             page = _Page(impact_title(d))
             for name, head, impact_rows in impact_tables(d):
                 page.h2(f"Impact ratios by {name}")
-                page.table(head, impact_rows, numeric=(1, 2, 3))
+                page.table(head, impact_rows, numeric=(1, 2, 3, head.index("p-value")))
             page.bullets(impact_notes(d))
             page.h2(f"The audit: {records(d)}")
         else:

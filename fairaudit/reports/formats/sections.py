@@ -464,7 +464,7 @@ def impact_notes(d: Report) -> list[str]:
         rate = "selection rate: the share of the category selected"
     t = fmt(details["threshold"])
     alpha = fmt(1 - details["confidence"], 2)
-    test = "Fisher's exact test" if details["test"] == "fisher" else "the pooled z test"
+    test = "Fisher's exact test (twice its smaller tail)" if details["test"] == "fisher" else "the pooled z test"
     adjusted = {
         "holm": f"Holm-adjusted over the {details['tested']} tested ratios; intervals at Bonferroni's level, so they "
         "hold at once",

@@ -127,6 +127,7 @@ def _intro_md(d: dict) -> list[str]:
             "error, so no intervals; the filter is applied by exact "
             f"composition at every ε. On average {_f(q['unparsed_share'], 3)} of the probability mass is on "
             "replies that would not parse; it counts as 'unparsed'."
+            + _coverage_words((d.get("run") or {}).get("scoring") or {})
         ]
     else:
         lines += [
@@ -369,6 +370,20 @@ def _scoring_words(d: dict) -> str:
         words += (
             ", read from the top log-probabilities the server listed: each decision's probability is a lower "
             f"bound, short by at most {_f(scoring.get('missing_bound', 0.0), 3)} in any cell (tokens not listed)"
+        )
+    return words
+
+
+def _coverage_words(scoring: dict) -> str:
+    """The replies that say each decision (``run.scoring.variants``) and the mass on them (``coverage``), in words."""
+    variants, c = scoring.get("variants") or {}, scoring.get("coverage")
+    said = "; ".join(f"{r!r}: {', '.join(repr(v) for v in vs)}" for r, vs in (variants.get("replies") or {}).items())
+    words = f" Each decision is said by its variants ({said})." if said else ""
+    if c is not None:
+        words += (
+            f" The mass on {'them' if said else 'the decisions'} (coverage) is {_f(c['min'], 3)} at least, "
+            f"{_f(c['mean'], 3)} on average over the shown cells"
+            + (f", below the {_f(c['threshold'], 3)} asked." if c.get("warning") else ".")
         )
     return words
 

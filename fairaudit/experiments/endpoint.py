@@ -2,8 +2,9 @@
 
 First-token scoring (a choice, or an order of two): one request per prompt, its first token's top
 log-probabilities read as P(decision) (:func:`~fairaudit.experiments.vlm.logprobs.decision_probabilities`).
-Continuation scoring: P(the reply begins with each decision's text r) = Π_t P(r_t | prompt, r_<t), the chain rule
-(lm-evaluation-harness's ``loglikelihood``), by the first of these routes (:data:`SCORING_ROUTES`) the server serves:
+Continuation scoring: P(the reply begins with r) = Π_t P(r_t | prompt, r_<t), the chain rule
+(lm-evaluation-harness's ``loglikelihood``), for each variant r of each decision's text, summed per decision
+(:func:`~fairaudit.experiments.variants.prompt_variants`, the prefix rule applied), by the first of these routes (:data:`SCORING_ROUTES`) the server serves:
 
 1. ``"prompt-logprobs"`` (vLLM): one request per (prompt, reply), the reply sent as the assistant's message being
    continued (:data:`PREFILL`) with ``prompt_logprobs: 0``; the reply's tokens are the prompt's last. Exact.
@@ -32,6 +33,7 @@ from fairaudit import InputError
 
 from .exact import ExactPrompt, by_sequence, exact_prompt, exact_prompts, prompt_replies
 from .harness import RunSummary
+from .variants import prompt_variants
 
 if TYPE_CHECKING:
     import numpy as np
@@ -87,6 +89,9 @@ class ExactKernel:
     rendering : str
         How the messages became the text the model read: :data:`SERVER_TEMPLATE`, :data:`MODEL_TEMPLATE` or
         :data:`~fairaudit.experiments.vlm.messages.CHATML` (text completions).
+    unparsed : tuple of (str, float)
+        Where the route knows them, the likeliest replies that say no option at the prompt of least coverage (first
+        tokens no variant begins with, and their probabilities); empty otherwise.
     """
 
     probabilities: npt.NDArray[np.float64] | None
@@ -94,6 +99,7 @@ class ExactKernel:
     route: str
     missing: float = 0.0
     rendering: str = SERVER_TEMPLATE
+    unparsed: tuple = ()
 
     def record(self, method: str | None) -> dict:
         """``run.scoring`` of ``certificate.json``: the method, the route, the bound on the mass not listed and the
@@ -120,6 +126,7 @@ class _Scorer:
         self.route = "first-token"
         self.probe: tuple[tuple[str, float], ...] | None = None  # the first prompt's first-token list
         self.echoed: dict[str, float] = {}  # the text completions' probe: its reply's log-probability
+        self.likely: dict[int, list[tuple[str, float]]] = {}  # per prompt: its likeliest first tokens no variant begins
         self.t0 = time.monotonic()
 
     def summary(self, answered: int, failure: str | None) -> RunSummary:
@@ -200,14 +207,25 @@ class _Scorer:
             first = self.top(i, "")
             self.missing[i] = max(0.0, 1.0 - math.fsum(math.exp(lp) for _, lp in first))  # mass outside the list
             return decision_probabilities(first, self.task, answers=self.answers)
-        replies = prompt_replies(self.task, self.answers, self.prompts[i])
+        groups = prompt_variants(self.task, self.answers, self.prompts[i])
+        flat = [v for g in groups for v in g]
         row = np.zeros(len(self.task.decisions))
         if self.route in ("prompt-logprobs", "completions-echo"):
-            row[:-1] = [math.exp(self.scored(i, r)) for r in replies]
+            probs = np.array([math.exp(self.scored(i, r)) for r in flat])
         else:
-            row[:-1], self.missing[i] = reply_bounds(
-                lambda prefix: self.top(i, prefix), replies, listed=self.client.top_logprobs
-            )
+            lists: dict[str, Any] = {}  # each prefix's top list, asked once
+
+            def ask(prefix: str) -> Any:
+                if prefix not in lists:
+                    lists[prefix] = self.top(i, prefix)
+                return lists[prefix]
+
+            probs, self.missing[i] = reply_bounds(ask, flat, listed=self.client.top_logprobs)
+            first = lists.get("", ())
+            likely = sorted((lp, t) for t, lp in first if t and not any(v.startswith(t) for v in flat))[::-1]
+            self.likely[i] = [(t, math.exp(lp)) for lp, t in likely[:3]]
+        ends = np.cumsum([len(g) for g in groups])
+        row[:-1] = [probs[e - len(g) : e].sum() for g, e in zip(groups, ends)]  # a decision: the sum of its variants
         row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))
         return row
 
@@ -268,7 +286,14 @@ def endpoint_kernel(
         s.route,
         max(s.missing.values(), default=0.0),
         rendering=CHATML if s.route == "completions-echo" else SERVER_TEMPLATE,
+        unparsed=_likeliest(s.likely, answered),
     )
+
+
+def _likeliest(likely: dict[int, list[tuple[str, float]]], rows: dict[int, npt.NDArray[np.float64]]) -> tuple:
+    """The likeliest unparsed first tokens of the prompt whose unparsed mass is the largest, where they were read."""
+    known = [i for i in likely if i in rows]
+    return tuple(likely[max(known, key=lambda i: float(rows[i][-1]))]) if known else ()
 
 
 def _probe(client: ChatClient, messages: list[dict], uncached: dict, sent: list[str]) -> ChatReply | None:

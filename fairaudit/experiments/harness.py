@@ -549,6 +549,7 @@ def _answer(
     task: DeliveryTask, model: DecisionModel, q: Query, digests: Sequence[str], images: tuple[bytes, ...]
 ) -> dict:
     """Ask one query and return its log record: the reply and its parsed decision, or the transport error."""
+    from .variants import decision_variants, reply_decision
     from .vlm.parse import parse_reply
 
     messages = task.messages(q.context, q.profiles, q.texts, images)  # made once: what the model gets and the log keeps
@@ -578,15 +579,19 @@ def _answer(
             "error": str(exc),
             "latency": round(time.monotonic() - t0, 6),
         }
-    if task.replies:  # a ranking's exact route, sampled: the order the reply begins with
-        begins = [i for i, text in enumerate(task.replies) if r.text.startswith(text)]
+    if task.replies:  # an exact route's sampled twin: the decision one of whose variants the reply begins with
+        said = decision_variants(task, task.replies)
+        begins = [i for i, variants in enumerate(said) if any(r.text.startswith(v) for v in variants)]
         decision = str(task.decisions[begins[0]]) if begins else UNPARSED
         error = "" if begins else "begins with no order written out"
     else:
         names = task.reply_names(q.profiles, q.texts)
         parsed = parse_reply(r.text, names, task.kind, named=task.named_by is not None, partial=task.partial)
-        decision = decision_label(task, parsed.choice, parsed.order) if parsed.ok else UNPARSED
-        error = "" if parsed.ok else parsed.error
+        listed = reply_decision(task, r.text, names) if task.variants and not parsed.ok else None  # a listed variant
+        decision = (
+            decision_label(task, parsed.choice, parsed.order) if parsed.ok else decision_label(task, listed, None)
+        )
+        error = "" if parsed.ok or listed is not None else parsed.error
     return {
         **rec,
         "model": r.model,

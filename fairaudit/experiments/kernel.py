@@ -120,13 +120,15 @@ def _exact(cells: Cells, route: Route, run: dict, progress: bool, log: Callable[
     made: ExactKernel
     if route.client is None:
         model = lm.load(route.name, log=log)
-        kernel = lm.exact_kernel(task, model, scoring=scoring, progress=progress)
-        made = ExactKernel(kernel, None, "in-process", rendering=MODEL_TEMPLATE)
+        likely: list = []
+        kernel = lm.exact_kernel(task, model, scoring=scoring, progress=progress, unparsed=likely)
+        made = ExactKernel(kernel, None, "in-process", rendering=MODEL_TEMPLATE, unparsed=tuple(likely))
     else:
         with route.client:
             made = endpoint_kernel(task, route.client, scoring=scoring, progress=progress)
     seconds = time.perf_counter() - t0
-    run = {**run, "seconds": round(seconds, 3), "scoring": made.record(route.scoring)}
+    scored = made.record(route.scoring) | _variants_record(task, made, scoring)
+    run = {**run, "seconds": round(seconds, 3), "scoring": scored}
     probabilities = made.probabilities
     return Measured(
         model=route.name,
@@ -137,6 +139,22 @@ def _exact(cells: Cells, route: Route, run: dict, progress: bool, log: Callable[
         run=run,
         seconds=seconds,
     )
+
+
+def _variants_record(task: DeliveryTask, made: ExactKernel, scoring: str) -> dict:
+    """``run.scoring``'s ``variants`` (the rule; each decision's reply -> its variants, where one list holds for every
+    prompt) and ``coverage`` (the least and the mean mass on them over the shown cells, and the likeliest replies
+    that say no option, where the route knows them); the run adds the threshold and the warning."""
+    from .exact import by_sequence, decision_replies, exact_prompt
+    from .variants import coverage, variants_record
+
+    out: dict = {"variants": {"rule": task.variant_rule}}
+    if by_sequence(task, scoring) and task.named_by is None:
+        out["variants"]["replies"] = variants_record(task, decision_replies(task, exact_prompt(task)[1]))
+    if made.probabilities is not None:
+        least, mean = coverage(made.probabilities)
+        out["coverage"] = {"min": least, "mean": mean, "unparsed_replies": [[t, p] for t, p in made.unparsed]}
+    return out
 
 
 def _sampled(

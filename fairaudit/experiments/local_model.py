@@ -36,8 +36,9 @@ import numpy.typing as npt
 
 from fairaudit import InputError
 
-from .exact import by_sequence, exact_prompt, exact_prompts, prompt_replies
+from .exact import by_sequence, exact_prompt, exact_prompts
 from .model_files import prepare, quiet_transformers, require_torch
+from .variants import prompt_variants
 from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
@@ -137,6 +138,7 @@ def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None)
     -------
     numpy.ndarray of int, shape (size,)
     """
+    from .variants import reply_decision
     from .vlm.parse import parse_reply
 
     n = len(tokenizer) if size is None else int(size)
@@ -149,6 +151,8 @@ def token_decisions(task: DeliveryTask, tokenizer: Any, size: int | None = None)
         r = parse_reply(text, task.options, task.kind)
         if r.ok and r.choice is not None:
             out[i] = r.choice
+        elif task.variants and (said := reply_decision(task, text)) is not None:  # a variant the task file lists
+            out[i] = said
     return out
 
 
@@ -161,6 +165,7 @@ def exact_kernel(
     cells: Sequence[tuple] | None = None,
     scoring: str = "continuation",
     progress: bool = False,
+    unparsed: list | None = None,
 ) -> npt.NDArray[np.float64]:
     """The model's exact kernel P(decision | shown cell) on the table design, from token probabilities.
 
@@ -184,6 +189,9 @@ def exact_kernel(
         next-token softmax summed over the tokens that read as each option.
     progress : bool
         A progress bar on stderr (tqdm, when installed), by prompt.
+    unparsed : list, optional
+        Filled (continuation scoring) with the most likely replies that say no option at the prompt of least
+        coverage: up to three (first token's text, probability), the next tokens no variant begins with.
 
     Returns
     -------
@@ -207,9 +215,9 @@ def exact_kernel(
     -----
     The kernel P(U | X̃, Ã) of the paper's setting for the shown cells, exactly, for this prompt and these
     weights: each prompt (the chat template's ids) runs once on the shared prefix's key/value cache; under
-    ``"continuation"`` each decision's reply (:func:`~fairaudit.experiments.exact.prompt_replies`) is scored by
-    the chain rule (docs/design.md, "Exact kernels of replies longer than a token") and ``"unparsed"`` is
-    1 − Σ_d P(r_d), clipped at 0; under ``"first-token"`` the next-token softmax is summed over the tokens that
+    ``"continuation"`` each variant of each decision's reply (:func:`~fairaudit.experiments.variants.prompt_variants`,
+    the prefix rule applied) is scored by the chain rule (docs/design.md, "Exact kernels of replies longer than a
+    token"), a decision gets the sum over its variants, and ``"unparsed"`` is 1 − Σ_d P(d), clipped at 0; under ``"first-token"`` the next-token softmax is summed over the tokens that
     read as each decision (:func:`token_decisions`). A cell whose candidates have several texts averages over
     every choice of them.
     """
@@ -236,6 +244,7 @@ def exact_kernel(
     from fairaudit import progress_bar
 
     bar = progress_bar(len(ids), f"{task.name}: exact kernel", progress, unit="query")
+    worst = -1.0  # the largest unparsed mass of a prompt so far
     with torch.inference_mode():
         past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values if prefix_len else None
         for p, chat, seq in zip(prompts, chats, ids):
@@ -243,9 +252,13 @@ def exact_kernel(
             row = np.zeros(len(task.decisions))
             if sequences:
                 text = tok.apply_chat_template(chat, add_generation_prompt=True, tokenize=False)
-                replies = [_reply_ids(tok, text, seq, r) for r in prompt_replies(task, answers, p)]
-                row[:-1] = np.exp(_chain_rule(m.model, first, cache, replies, batch_size))
-                row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))  # every reply that begins with no decision's text
+                groups = [_variant_ids(tok, text, seq, g) for g in prompt_variants(task, answers, p)]
+                probs = np.exp(_chain_rule(m.model, first, cache, [r for g in groups for r in g], batch_size))
+                ends = np.cumsum([len(g) for g in groups])
+                row[:-1] = [probs[e - len(g) : e].sum() for g, e in zip(groups, ends)]  # a decision: its variants
+                row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))  # every reply that begins with no variant
+                if unparsed is not None and row[-1] > worst:
+                    worst, unparsed[:] = row[-1], _likely_unparsed(tok, first, {r[0] for g in groups for r in g})
             else:
                 if onehot is None:
                     onehot = np.eye(len(task.decisions))[token_decisions(task, tok, first.shape[-1])]
@@ -293,6 +306,33 @@ def _chain_rule(
             r = replies[j]
             logp[j] += float(rest[row, torch.arange(len(r) - 1), torch.tensor(r[1:])].sum())
     return logp
+
+
+def _variant_ids(tok: Any, text: str, ids: Sequence[int], variants: Sequence[str]) -> list[list[int]]:
+    """The tokens of each of one decision's ``variants`` after a prompt (:func:`_reply_ids`).
+
+    The first (the decision's own reply) must be written (an InputError otherwise); a further variant the tokenizer
+    does not write as itself is left out (its mass stays unparsed), as is one whose tokens begin with those of a
+    variant kept before it (the prefix rule, in tokens).
+    """
+    out = [_reply_ids(tok, text, ids, variants[0])]
+    for v in variants[1:]:
+        try:
+            r = _reply_ids(tok, text, ids, v)
+        except InputError:
+            continue
+        if not any(r[: len(k)] == k for k in out):
+            out.append(r)
+    return out
+
+
+def _likely_unparsed(tok: Any, first: Any, starts: set[int], n: int = 3) -> list[tuple[str, float]]:
+    """The ``n`` likeliest next tokens outside ``starts`` (the variants' first tokens): (text, probability)."""
+    import torch
+
+    top = torch.topk(first, min(len(first), n + len(starts)))
+    picked = [(int(i), float(v)) for v, i in zip(top.values, top.indices) if int(i) not in starts][:n]
+    return [(tok.decode([i]), float(np.exp(v))) for i, v in picked]
 
 
 def _reply_ids(tok: Any, text: str, ids: Sequence[int], reply: str) -> list[int]:

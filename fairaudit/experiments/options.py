@@ -289,13 +289,17 @@ class RunOptions:
         The equal-distance check's largest relative difference of the route
         lengths, (max - min) / max, in [0, 1]; None for
         :data:`DEFAULT_TOLERANCE` (0.05). Only where route images are made.
+    min_coverage : float
+        On the exact route, the least mass a shown cell may put on its options' reply variants before the run warns
+        (:mod:`fairaudit.experiments.variants`); default 0.99, lm-evaluation-harness's ``discrim_eval`` threshold.
 
     Raises
     ------
     InputError
         On an unknown design or positions, both ``epsilons`` and ``keeps``, a
         negative or infinite ε or target, ``samples`` or ``concurrency`` below 1,
-        ``extend`` without ``resume``, an empty ``start`` or room of ``goals``, or a ``tolerance`` outside [0, 1].
+        ``extend`` without ``resume``, an empty ``start`` or room of ``goals``, or a ``tolerance`` or
+        ``min_coverage`` outside [0, 1].
 
     Examples
     --------
@@ -331,9 +335,11 @@ class RunOptions:
     start: str | None = None
     goals: Sequence[str] | None = None
     tolerance: float | None = None
+    min_coverage: float = 0.99
 
     def __post_init__(self) -> None:
         choice(self.design, "design", ("table", "both", "paper"))
+        _convert(self, "min_coverage", real, low=0.0, high=1.0, what="a share of the mass in [0, 1]")
         if self.positions is not None:
             choice(self.positions, "positions", ("balanced", "latin", "fixed"))
         if self.epsilons is not None and self.keeps is not None:

@@ -191,13 +191,14 @@ def _scoring(task: DeliveryTask, source: ModelSource, exact: bool) -> str | None
     exact route would score, before anything is made; None on a route that parses free replies."""
     if not (exact or source.local_model is not None or source.sampled_twin):
         return None
-    from .exact import by_sequence, check_scoring, exact_prompts, prompt_replies
+    from .exact import by_sequence, check_scoring, exact_prompts
+    from .variants import prompt_variants
 
     scoring = check_scoring(task, source.scoring or SCORINGS[0])
     if by_sequence(task, scoring):
         answers = exact_prompt(task)[1]
         for p in exact_prompts(task) if task.named_by is not None else exact_prompts(task)[:1]:
-            prompt_replies(task, answers, p)  # one reply beginning another is refused, naming both
+            prompt_variants(task, answers, p)  # one reply (or variant) beginning another's is refused, naming both
     return scoring
 
 

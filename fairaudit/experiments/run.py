@@ -43,7 +43,8 @@ class ExperimentRun:
 
     ``route`` is ``"exact"`` on the exact route and ``"sampled"`` otherwise. ``summary`` is None on a local
     model's exact route, which asks no queries; on an endpoint's it counts the requests, one per shown cell
-    (``analysis`` is None when one failed after retries: nothing is written then).
+    (``analysis`` is None when one failed after retries: nothing is written then). ``coverage_warning``: on the
+    exact route, the line naming a coverage below ``min_coverage`` (:func:`~fairaudit.experiments.variants.coverage_warning`).
     """
 
     out: Path
@@ -52,6 +53,7 @@ class ExperimentRun:
     files: tuple
     route: str = "sampled"
     seconds: float = 0.0
+    coverage_warning: str | None = None
 
 
 def run_experiment(
@@ -139,6 +141,7 @@ def run_experiment(
     if not measured.complete:
         return ExperimentRun(out=folder.out, summary=measured.summary, analysis=None, files=measured.files,
                              route=kind, seconds=measured.seconds)  # fmt: skip
+    warning = _coverage(measured.run, options.min_coverage)
     analysis = _analyse(cells, measured)
     if isinstance(analysis, PaperDesignAnalysis):
         written = write_paper_design(analysis, folder.out, measured.run)
@@ -146,8 +149,26 @@ def run_experiment(
         written = write_report(analysis, folder.out, measured.run)
     files = measured.files + tuple(written)
     return ExperimentRun(
-        out=folder.out, summary=measured.summary, analysis=analysis, files=files, route=kind, seconds=measured.seconds
+        out=folder.out,
+        summary=measured.summary,
+        analysis=analysis,
+        files=files,
+        route=kind,
+        seconds=measured.seconds,
+        coverage_warning=warning,
     )
+
+
+def _coverage(run: dict, threshold: float) -> str | None:
+    """``run.scoring.coverage`` completed with ``threshold`` and its warning (None when above it, or not exact)."""
+    from .variants import coverage_warning
+
+    c = (run.get("scoring") or {}).get("coverage")
+    if c is None:
+        return None
+    warning = coverage_warning(c["min"], c["mean"], threshold, [tuple(u) for u in c["unparsed_replies"]])
+    c.update(threshold=threshold, warning=warning)
+    return warning
 
 
 def _analyse(cells: Cells, measured: Measured) -> ExperimentAnalysis | PaperDesignAnalysis:

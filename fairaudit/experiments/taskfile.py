@@ -27,7 +27,6 @@ from __future__ import annotations
 import hashlib
 import itertools
 import math
-import re
 from collections.abc import Hashable
 from fractions import Fraction
 from importlib import resources
@@ -38,6 +37,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, fiel
 
 from fairaudit import FieldProblem, InputError, distinct_labels, format_label, parse_toml, validation_error
 
+from .prompt_reaches import check_prompt_reaches
 from .vlm.tasks import UNPARSED, UNPARSED_DEFAULT, Attribute, DeliveryTask
 
 __all__ = [
@@ -133,22 +133,84 @@ class AttributeSection(_Table):
         return self
 
 
+class OptionEntry(_Table):
+    """One entry of ``[decision] options`` written as a list: the reply's text, its slot (or decision value) and the
+    further replies that say it (:mod:`fairaudit.experiments.variants`)."""
+
+    text: str = Field(min_length=1)
+    slot: int | str
+    variants: list[Annotated[str, Field(min_length=1)]] = Field(default_factory=list)
+
+
 class DecisionSection(_Table):
     """``[decision]``: what the reply's options mean and the labels of a candidate's own outcome."""
 
     name: str = "decision"
-    options: dict[str, int | str] | None = None
+    options: dict[str, int | str] | list[OptionEntry] | None = None
+    variants: Literal["case", "exact"] = "case"
     named_by: str | None = None
     outcomes: list[str] | None = None
     separator: str = Field(", ", min_length=1)
     partial: bool = False
 
+    @field_validator("options", mode="before")
+    @classmethod
+    def _entries(cls, v: Any) -> Any:
+        """The list form's entries, each checked alone: its first error names the entry and its field."""
+        for i, item in enumerate(v if isinstance(v, list) else ()):
+            try:
+                OptionEntry.model_validate(item)
+            except ValidationError as exc:
+                first = exc.errors()[0]
+                where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"])
+                raise FieldProblem(f"[{i}]{where}", first["msg"].rstrip(".").lower(), first.get("input")) from None
+        return v
+
     @field_validator("options")
     @classmethod
-    def _some(cls, v: dict[str, int | str]) -> dict[str, int | str]:
+    def _some(cls, v: dict[str, int | str] | list[OptionEntry]) -> dict[str, int | str] | list[OptionEntry]:
         if not v:
             raise FieldProblem("", "must map at least one reply to a candidate or a decision", v)
         return v
+
+    @property
+    def table(self) -> dict[str, int | str] | None:
+        """``options`` as the table reply -> slot (or decision value), whichever way the file wrote them."""
+        if isinstance(self.options, list):
+            return {o.text: o.slot for o in self.options}
+        return self.options
+
+    @property
+    def listed(self) -> dict[str, tuple[str, ...]]:
+        """The further replies the list of ``options`` gives each option (none in the table form)."""
+        return {o.text: tuple(o.variants) for o in self.options} if isinstance(self.options, list) else {}
+
+    @model_validator(mode="after")
+    def _one_option_per_reply(self) -> DecisionSection:
+        from .variants import option_variants
+
+        if not isinstance(self.options, list):
+            keys = list(self.options or ())
+            where = [".options"] * len(keys)
+        else:
+            keys = [o.text for o in self.options]
+            where = [f".options[{i}].variants" for i in range(len(keys))]
+            twice = next((i for i, k in enumerate(keys) if k in keys[:i]), None)
+            if twice is not None:
+                raise FieldProblem(f".options[{twice}].text", "repeats an option's text", keys[twice])
+        owner: dict[str, str] = {}
+        for key, field in zip(keys, where):
+            for v in option_variants(self.variants, key, self.listed.get(key, ())):
+                if owner.setdefault(v, key) != key:
+                    if v not in option_variants(self.variants, owner[v]):  # a variant the first one lists
+                        field = where[keys.index(owner[v])]
+                    raise FieldProblem(
+                        field,
+                        f"{v!r} would say both {owner[v]!r} and {key!r}: a reply may say one option only; drop it, or "
+                        'set variants = "exact" when the options differ only in case',
+                        v,
+                    )
+        return self
 
 
 class UtilitySection(_Table):
@@ -224,7 +286,7 @@ class TaskFile(_Table):
 
 def _check_options(f: TaskFile) -> None:
     k = f.task.candidates
-    options = f.decision.options
+    options = f.decision.table
     if f.decision.named_by is not None:
         _check_named_by(f)
         return
@@ -233,9 +295,10 @@ def _check_options(f: TaskFile) -> None:
     if k == 1:
         return  # reply -> decision value: any labels
     slots = list(options.values())
-    for key, slot in options.items():
+    for i, (key, slot) in enumerate(options.items()):
         if isinstance(slot, bool) or not isinstance(slot, int) or not 1 <= slot <= k:
-            raise FieldProblem(f".decision.options.{key}", f"must be a candidate's slot, 1 to {k}", slot)
+            where = f"[{i}].slot" if isinstance(f.decision.options, list) else f".{key}"
+            raise FieldProblem(f".decision.options{where}", f"must be a candidate's slot, 1 to {k}", slot)
     if sorted(slots) != list(range(1, k + 1)):
         raise FieldProblem(".decision.options", f"must name each candidate slot 1 to {k} exactly once", dict(options))
 
@@ -282,7 +345,7 @@ def _outcome_labels(f: TaskFile) -> tuple[str, ...]:
             raise FieldProblem(".decision.outcomes", f"must list {expected} outcome labels", f.decision.outcomes)
         return (*f.decision.outcomes, *_UNRANKED[: f.decision.partial])
     if k == 1:
-        return tuple(str(v) for v in (f.decision.options or {}).values())
+        return tuple(str(v) for v in (f.decision.table or {}).values())
     default = _DEFAULT_OUTCOMES[f.task.decision]
     if default is not None:
         return default
@@ -314,150 +377,6 @@ def _check_utility(f: TaskFile, outcomes: tuple[str, ...]) -> None:
     for n in [*numbers, *([] if f.utility.unparsed is None else [f.utility.unparsed])]:
         if not (math.isfinite(n) and n >= 0):
             raise FieldProblem(".utility", "values must be finite and >= 0", n)
-
-
-# -- the prompt ----------------------------------------------------------------------------------------
-
-
-def check_prompt_reaches(task: DeliveryTask) -> None:
-    """Refuse a task whose prompts do not show each attribute of each candidate, or the context.
-
-    The messages of a query are its system and user messages together. For
-    every context, slot i and attribute: the first shown cell of the table
-    design (every slot showing the first profile) and the cell that differs
-    from it only in that attribute of slot i (its second value) must render
-    differently, each value written with its first text; and the first cells
-    of any two contexts must render differently. That is 1 + k × n_attributes
-    renders per context, never the table.
-
-    Parameters
-    ----------
-    task : DeliveryTask
-        Its templates (:attr:`~DeliveryTask.template`, :attr:`~DeliveryTask.system`) already render.
-
-    Raises
-    ------
-    InputError
-        Naming ``prompt.user`` (``prompt.system`` when the placeholder found is
-        there): the first attribute and slot (or the context) that never
-        reaches the prompt, the template line that looks like a Python-style
-        placeholder (``{age}``, ``{c1.age}``) when there is one, and the
-        Jinja2 to write instead (``{{ c1.age }}``).
-
-    Examples
-    --------
-    >>> parse_task('''
-    ... [prompt]
-    ... user = "Who? 1: {{ c1.name }}, {age}. 2: {{ c2.name }}, {age}."
-    ... [[attribute]]
-    ... name = "name"
-    ... values = ["Ann", "Bo"]
-    ... [[attribute]]
-    ... name = "age"
-    ... values = [30, 60]
-    ... [decision]
-    ... options = { "1" = 1, "2" = 2 }
-    ... [utility]
-    ... values = [1, 0]
-    ... ''')
-    Traceback (most recent call last):
-    ...
-    fairaudit.base.errors.InputError: <string>: prompt.user: the attribute 'age' of candidate 1 never reaches the prompt (nor that of candidate 2): two cells that differ only in it render the same; the line looks like a Python-style placeholder, which Jinja2 leaves as text: write {{ c1.age }} (got 'Who? 1: {{ c1.name }}, {age}. 2: {{ c2.name }}, {age}.')
-    """
-    base = task.profiles[0]
-    cell = (base,) * task.slots
-
-    def messages(context: Any, shown: tuple) -> tuple[str | None, str]:
-        return task.system_prompt(context, shown), task.prompt(context, shown)
-
-    first = {context: messages(context, cell) for context in task.contexts}
-    missing: dict[tuple[int, int], list[Hashable]] = {}
-    for j, attribute in enumerate(task.attributes):
-        changed = (*base[:j], attribute.values[1], *base[j + 1 :])  # base holds every attribute's first value
-        for i in range(task.slots):
-            shown = (*cell[:i], changed, *cell[i + 1 :])
-            same = [c for c in task.contexts if messages(c, shown) == first[c]]
-            if same:
-                missing[(i, j)] = same
-    if missing:
-        raise _not_shown(task, missing)
-    seen: dict[tuple[str | None, str], Hashable] = {}
-    for context, rendered in first.items():
-        if rendered in seen:
-            raise _context_not_shown(task, seen[rendered], context)
-        seen[rendered] = context
-
-
-def _not_shown(task: DeliveryTask, missing: dict[tuple[int, int], list[Hashable]]) -> InputError:
-    """The error of the first (slot, attribute) whose cells render alike: which, where, and what to write."""
-    (i, j), same = next(iter(missing.items()))
-    name = task.attributes[j].name
-    others = [f"candidate {s + 1}" for (s, a) in missing if a == j and s != i]
-    more = [f"{task.attributes[a].name!r} of candidate {s + 1}" for (s, a) in missing if a != j]
-    also = ""
-    if others or more:
-        listed = [f"that of {', '.join(others)}"] if others else []
-        listed += more[:3] + ([f"{len(more) - 3} more"] if len(more) > 3 else [])
-        also = f" (nor {'; '.join(listed)})"
-    where = (
-        "never reaches the prompt"
-        if len(same) == len(task.contexts)
-        else f"does not reach the prompt when the {task.context_name} is {format_label(same[0])!r}"
-    )
-    problem = (
-        f"the attribute {name!r} of candidate {i + 1} {where}{also}: two cells that differ only in it render the same"
-    )
-    hint = f"{{{{ c{i + 1}.{name} }}}}" if name.isidentifier() else f'{{{{ c{i + 1}["{name}"] }}}}'
-    return _unreached(problem, hint, _placeholder_line(task, (name,), i))
-
-
-def _context_not_shown(task: DeliveryTask, first: Hashable, second: Hashable) -> InputError:
-    """The error of two contexts whose cells render alike."""
-    what = task.context_name
-    problem = (
-        f"the {what} never reaches the prompt: two cells that differ only in it ({format_label(first)!r} and "
-        f"{format_label(second)!r}) render the same"
-    )
-    return _unreached(problem, "{{ context }}", _placeholder_line(task, tuple(dict.fromkeys(("context", what))), None))
-
-
-def _unreached(problem: str, hint: str, found: tuple[str, str] | None) -> InputError:
-    """The error of something that never reaches the prompt: the Python-style line that was meant to show it, if any."""
-    if found is None:
-        return InputError("prompt.user", f"{problem}; show it with {hint}")
-    field, line = found
-    return InputError(
-        field,
-        f"{problem}; the line looks like a Python-style placeholder, which Jinja2 leaves as text: write {hint}",
-        line,
-    )
-
-
-def _placeholder_line(task: DeliveryTask, names: tuple[str, ...], slot: int | None) -> tuple[str, str] | None:
-    """The first template line with a Python-style placeholder of one of ``names`` (``{age}``, ``{c1.age}``,
-    ``{ c1["age"] }``), preferring one that names slot ``slot``'s ``c<slot+1>``: (its field, the line), or None."""
-    found: list[tuple[bool, str, str]] = []
-    for field, template in (("prompt.user", task.template), ("prompt.system", task.system)):
-        for line in (template or "").splitlines():
-            for m in _placeholders(names).finditer(line):
-                found.append(
-                    (slot is not None and (m.group("owner") or "").lower() == f"c{slot + 1}", field, line.strip())
-                )
-    if not found:
-        return None
-    best = next((f for f in found if f[0]), found[0])
-    return best[1], best[2]
-
-
-def _placeholders(names: tuple[str, ...]) -> re.Pattern[str]:
-    """Single braces around one of ``names``, alone or after an owner (``c1.``, ``candidate[``), not Jinja2's ``{{``."""
-    name = "|".join(re.escape(n) for n in names)
-    return re.compile(
-        r"(?<!\{)\{\s*(?:(?P<owner>\w+)\s*(?:\.|\[\s*['\"]?)\s*)?(?:"
-        + name
-        + r")\s*['\"]?\s*\]?\s*(?:![rsa])?(?::[^{}]*)?\}(?!\})",
-        re.IGNORECASE,
-    )
 
 
 # -- reading -------------------------------------------------------------------------------------------
@@ -533,10 +452,10 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
     if f.decision.named_by is not None:  # the reply names the candidates: the slots' numbers label the decisions
         options = tuple(str(i) for i in range(1, k + 1))
     elif k == 1:
-        options = tuple(f.decision.options or {})
+        options = tuple(f.decision.table or {})
     else:
-        listed = f.decision.options or {}
-        options = tuple(sorted(listed, key=lambda key: listed[key]))
+        table = f.decision.table or {}
+        options = tuple(sorted(table, key=lambda key: table[key]))
     outcomes = _outcome_labels(f)
     values = _utility_values(f, outcomes)
     if f.utility.unparsed is None:
@@ -569,6 +488,8 @@ def _delivery_task(f: TaskFile, name: str, digest: str) -> DeliveryTask:
         keeps=None if f.filter.keep is None else tuple(f.filter.keep),
         epsilons=None if f.filter.epsilon is None else tuple(f.filter.epsilon),
         digest=digest,
+        variant_rule=f.decision.variants,
+        variants=tuple(f.decision.listed.get(o, ()) for o in options) if f.decision.listed else (),
     )
     shown = combinations[0] if combinations else (task.profiles[0],) * k
     task.prompt(task.contexts[0], shown)  # the templates render (errors name prompt.user or system)
@@ -666,7 +587,7 @@ def _random_reply_utility(f: TaskFile, values: list[float]) -> float:
     """
     k = f.task.candidates
     if k == 1:
-        n = len(f.decision.options or {})
+        n = len(f.decision.table or {})
         exact = sum((Fraction(v) for v in values[:n]), Fraction(0)) / n
     elif f.task.decision == "choose":
         exact = Fraction(values[0]) / k + Fraction(values[1]) * (k - 1) / k

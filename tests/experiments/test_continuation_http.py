@@ -11,6 +11,7 @@ or that has none), and, with a list too short for the law's support, the lower b
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import math
@@ -26,13 +27,20 @@ from fairaudit import InputError
 from fairaudit.experiments.endpoint import endpoint_kernel
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
-from fairaudit.experiments.taskfile import load_task
+from fairaudit.experiments.taskfile import load_task as load_task_file
 from fairaudit.experiments.vlm.client import ChatClient
 from fairaudit.experiments.vlm.logprobs import echo_token_logprobs, prompt_token_logprobs, reply_bounds, reply_logprob
 from fairaudit.experiments.vlm.messages import CHATML
 from fairaudit.experiments.vlm.models import SimulatedModel
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "tasks"
+
+
+def load_task(path):
+    """The task with each option's own text as its only reply: these tests count the requests per reply (the
+    variants' sums: test_variants.py)."""
+    return dataclasses.replace(load_task_file(path), variant_rule="exact")
+
 
 OFFICE = """
 title = "Which office handles the request"
@@ -263,6 +271,7 @@ def test_a_list_shorter_than_the_support_gives_the_hand_computed_lower_bounds(tm
     unparsed 0.7; the bound 0.6 * min(0.0125, 1 - 0.925) = 0.0075 is recorded, and 0.003 is below it.
     """
     task_path, out = _office_task(tmp_path), tmp_path / "exact"
+    task_path.write_text(OFFICE.replace("[decision]\n", '[decision]\nvariants = "exact"\n'))  # the options' texts only
     paths = {("Office", " A"): 0.3, ("Office", " C"): 0.12, ("Office", " B"): 0.003, ("Sure",): 0.1}
     paths |= {("Office", f" y{i}"): 0.6 * 0.0125 for i in range(20)}
     paths |= {(f"x{i}",): 0.01 for i in range(22)}
@@ -273,6 +282,8 @@ def test_a_list_shorter_than_the_support_gives_the_hand_computed_lower_bounds(tm
         )  # fmt: skip
     assert code == 0, err
     scoring = json.loads((out / "certificate.json").read_text())["run"]["scoring"]
+    assert scoring.pop("variants") == {"rule": "exact", "replies": {"Office A": ["Office A"], "Office B": ["Office B"]}}
+    assert scoring.pop("coverage")["min"] == pytest.approx(0.3, abs=1e-9)
     assert scoring == {
         "method": "continuation",
         "route": "top-logprobs",
@@ -352,6 +363,7 @@ def test_the_command_gives_the_law_and_records_the_route(which, tmp_path, capsys
     got = SimulatedModel.from_csv(task, tmp_path / "exact" / "kernel.csv").probabilities
     np.testing.assert_allclose(got, _expected(task, paths_of(task)), rtol=0, atol=1e-9)
     scoring = json.loads((tmp_path / "exact" / "certificate.json").read_text())["run"]["scoring"]
+    assert scoring.pop("variants")["rule"] == "case" and 0 <= scoring.pop("coverage")["min"] <= 1
     assert scoring == {
         "method": "continuation",
         "route": "prompt-logprobs",
@@ -374,6 +386,7 @@ def test_the_command_records_the_text_completions_route_and_its_rendering(tmp_pa
     got = SimulatedModel.from_csv(task, tmp_path / "exact" / "kernel.csv").probabilities
     np.testing.assert_allclose(got, _expected(task, _office_paths), rtol=0, atol=1e-9)
     scoring = json.loads((tmp_path / "exact" / "certificate.json").read_text())["run"]["scoring"]
+    assert scoring.pop("variants")["rule"] == "case" and 0 <= scoring.pop("coverage")["min"] <= 1
     assert scoring == {"method": "continuation", "route": "completions-echo", "missing_bound": 0.0, "rendering": CHATML}
     report = " ".join((tmp_path / "exact" / "report.md").read_text().split())
     assert "text completions echoed for the messages rendered as stated (ChatML: each message as" in report

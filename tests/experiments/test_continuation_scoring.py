@@ -35,6 +35,15 @@ CHAT_TEMPLATE = (
 WORDS = ("Office", " A", " B", ", ", "yes", "no", "ANN", "BO")  # merged tokens; the rest is one token per character
 
 
+@pytest.fixture(autouse=True)
+def _each_reply_alone(monkeypatch):
+    """Each decision's own reply as its only variant: these tests check the chain rule reply by reply (the sums over
+    the variants: test_variants.py)."""
+    monkeypatch.setattr(
+        lm, "prompt_variants", lambda task, answers, p: tuple((r,) for r in prompt_replies(task, answers, p))
+    )
+
+
 def _need_torch() -> None:
     missing = [m for m in ("torch", "transformers", "tokenizers") if importlib.util.find_spec(m) is None]
     if missing:

@@ -27,6 +27,7 @@ from fairaudit.experiments import model_files
 from fairaudit.experiments.exact import answer_task, ranking_replies
 from fairaudit.experiments.report import shown_kernel_frame
 from fairaudit.experiments.taskfile import HR_DELIVERY, PACKAGE_DELIVERY
+from fairaudit.experiments.variants import decision_variants
 from fairaudit.experiments.vlm.models import SimulatedModel
 
 # --------------------------------------------------------------------------- without torch
@@ -164,8 +165,9 @@ def test_shared_prefix_gives_the_same_kernel(smollm2):
 
 @pytest.mark.local_model
 def test_a_rankings_exact_kernel_is_the_probability_of_each_order_written_out(smollm2):
-    """examples/tasks/ranking.toml, two cells: the chain rule (one prompt pass, cached, then the 6 replies in a batch)
-    against a second route, each prompt + reply scored whole without any cache: log P = Σ log softmax at each token.
+    """examples/tasks/ranking.toml, two cells: the chain rule (one prompt pass, cached, then the 6 orders' variants
+    in a batch) against a second route, each prompt + variant scored whole without any cache: log P = Σ log softmax
+    at each token, an order's probability the sum over its variants.
     """
     import torch
 
@@ -181,12 +183,15 @@ def test_a_rankings_exact_kernel_is_the_probability_of_each_order_written_out(sm
         ids = list(tok.apply_chat_template(task.messages(cell[0], cell[1:]), add_generation_prompt=True,
                                            tokenize=True, return_dict=False))  # fmt: skip
         row = got[(task.contexts.index(cell[0]), *(people.index(p) for p in cell[1:]))]
-        for j, reply in enumerate(ranking_replies(task, task.options)):
-            r = list(tok.encode(reply, add_special_tokens=False))
-            with torch.inference_mode():
-                logits = smollm2.model(torch.tensor([ids + r])).logits[0].double()
-            logp = torch.log_softmax(logits[len(ids) - 1 : len(ids) - 1 + len(r)], -1)[torch.arange(len(r)), r].sum()
-            assert row[j] == pytest.approx(math.exp(float(logp)), rel=1e-4, abs=1e-9), (cell, reply)
+        for j, said in enumerate(decision_variants(task, ranking_replies(task, task.options))):
+            total = 0.0  # an order is said by its variants (the reply, and after a space): their probabilities add
+            for reply in said:
+                r = list(tok.encode(reply, add_special_tokens=False))
+                with torch.inference_mode():
+                    logits = smollm2.model(torch.tensor([ids + r])).logits[0].double()
+                logp = torch.log_softmax(logits[len(ids) - 1 : len(ids) - 1 + len(r)], -1)[torch.arange(len(r)), r]
+                total += math.exp(float(logp.sum()))
+            assert row[j] == pytest.approx(total, rel=1e-4, abs=1e-9), (cell, said)
         assert row[-1] == pytest.approx(1 - row[:-1].sum(), abs=1e-12) and 0 < row[-1] < 1
 
 

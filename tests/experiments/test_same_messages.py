@@ -33,6 +33,7 @@ from fairaudit.experiments.harness import QueryLog, logged_messages, plan_querie
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.taskfile import PACKAGE_DELIVERY, parse_task
+from fairaudit.experiments.variants import case_variants
 from fairaudit.experiments.vlm.client import ChatClient
 from fairaudit.experiments.vlm.models import ModelReply, Query, SimulatedModel
 
@@ -58,6 +59,7 @@ values = ["Emily Walsh", "Lakisha Washington"]
 name = "age"
 values = ["25-34", "55-64"]
 [decision]
+variants = "exact"  # each option's own text only: the requests are counted per reply
 name = "loan decision"
 options = { yes = "approved", no = "denied" }
 [utility]
@@ -175,11 +177,12 @@ def law_yes_no(body):
 
 def _from_chatml(prompt: str) -> str:
     """The messages of a prompt <|im_start|>{role}\\n{content}<|im_end|>\\n..., then the open assistant turn and a
-    reply (yes or no; 1 or 2 for package-delivery), as ``json.dumps`` of the list; the prompt must be exactly that."""
+    reply (a variant of yes or no; of 1 or 2 for package-delivery), as ``json.dumps`` of the list; the prompt must be exactly that."""
     turns = re.findall(r"<\|im_start\|>(system|user)\n(.*?)<\|im_end\|>\n", prompt, re.S)
     messages = [{"role": role, "content": content} for role, content in turns]
     rendered = "".join(f"<|im_start|>{m['role']}\n{m['content']}<|im_end|>\n" for m in messages)
-    assert prompt in {f"{rendered}<|im_start|>assistant\n{reply}" for reply in ("yes", "no", "1", "2")}, prompt
+    replies = [v for reply in ("yes", "no", "1", "2") for v in case_variants(reply)]  # each option's variants
+    assert prompt in {f"{rendered}<|im_start|>assistant\n{reply}" for reply in replies}, prompt
     return json.dumps(messages)
 
 

@@ -31,6 +31,7 @@ _keep = number_type("a probability in [1/k, 1)", low=0.0, high=1.0, low_open=Tru
 """A keep probability: in (0, 1) here; the experiment checks its lower end 1/k, which depends on the attribute."""
 
 _tolerance = number_type("a relative difference in [0, 1]", low=0.0, high=1.0)
+_share = number_type("a share of the mass in [0, 1]", low=0.0, high=1.0)
 """The equal-distance check's tolerance: a number in [0, 1]."""
 
 
@@ -141,6 +142,14 @@ def _add_model_options(e: argparse.ArgumentParser) -> None:
         "(default), the likelihood of the decision's whole reply text, a sampled reply read as the decision whose "
         "text it begins with; first-token, the mass of the first tokens that read as each option (a choice or an "
         "order of two only)",
+    )
+    e.add_argument(
+        "--min-coverage",
+        type=_share,
+        default=0.99,
+        metavar="C",
+        help="with --exact (or --local-model's exact route): warn when a shown cell puts less than C of its mass on "
+        "its options' reply variants, naming the likeliest other replies (default 0.99, lm-eval's discrim_eval)",
     )
     e.add_argument(
         "--exact",
@@ -360,6 +369,8 @@ def _run(args: argparse.Namespace) -> int:
             return 1
         print(f"{done}; report written to {Path(result.out) / 'report.md'}", file=sys.stderr)
     assert result.analysis is not None
+    if result.coverage_warning is not None:
+        print(f"fairaudit: warning: {result.coverage_warning}", file=sys.stderr)
     mass = getattr(result.analysis, "unparsed_mass", None)
     if mass is not None and mass.warning is not None:
         print(f"fairaudit: warning: {mass.warning}", file=sys.stderr)

@@ -109,12 +109,15 @@ class DeliveryTask:
     system : str or None
         The system prompt, a Jinja2 template too, or None (no system message).
     shown_text : mapping or None
-        Attribute name -> {value: the texts the prompt may show for it (a
-        tuple; one is drawn per candidate and prompt, :meth:`texts`)}, or
-        None (attributes without an entry show their values).
+        Attribute name -> {value: the texts the prompt may show for it (a tuple; one is drawn per candidate and
+        prompt, :meth:`texts`)}, or None (attributes without an entry show their values).
     separator : str
-        Between the options' replies in the reply of a ranking's exact route
-        (``"2, 3, 1"``; :meth:`order_reply`).
+        Between the options' replies in the reply of a ranking's exact route (``"2, 3, 1"``; :meth:`order_reply`).
+    variant_rule : {"case", "exact"}
+        Which replies say an option (:mod:`fairaudit.experiments.variants`): its text's case variants, each also
+        after a space (``"case"``), or its text alone (``"exact"``); a task file's ``[decision] variants``.
+    variants : tuple of tuple of str
+        Empty, or per option (in :attr:`options` order) the further replies the task file lists for it.
     named_by : str or None
         The attribute whose text (a person's name) the reply names each
         candidate by (:meth:`reply_names`); ``options`` are then the slots'
@@ -163,6 +166,8 @@ class DeliveryTask:
     epsilons: tuple | None = None
     digest: str = ""
     unparsed_source: str = "given"
+    variant_rule: str = "case"
+    variants: tuple = ()
 
     @property
     def unparsed_rule(self) -> str:

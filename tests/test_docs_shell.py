@@ -108,6 +108,7 @@ SLOW: list[tuple[str, str, str]] = [
     ("docs/llm-certificate.md", r"--local-model smollm2", "a real language model on the CPU"),
     ("docs/experiments.md", r"--local-model smollm2", "a real language model on the CPU"),
     ("docs/tasks.md", r"--local-model smollm2", "a real language model on the CPU"),
+    ("docs/discrim-eval.md", r"--local-model smollm2", "a real language model on the CPU"),
 ]
 
 # Names a page defines in its prose, replaced as whole words before the command runs.

@@ -120,8 +120,12 @@ class DiscrimEvalRun:
         """The summary as JSON values: inputs, coverage, g-fairness with its range, lm-eval's means and
         coefficients."""
 
-        def ends(r: Any) -> dict[str, Any]:
-            return {"value": number(r.value), "range": [number(r.lower), number(r.upper)]}
+        g = self.fairness.utility
+        local, glob = fa.local_fairness(self.law, g), fa.global_fairness(self.law, g)
+
+        def ends(r: Any, at: fa.Fairness) -> dict[str, Any]:
+            where = {"context": at.context, "group": at.group, "other_group": at.other_group}
+            return {"value": number(r.value), "range": [number(r.lower), number(r.upper)], **where}
 
         return {
             "path": self.rows.path,
@@ -138,8 +142,8 @@ class DiscrimEvalRun:
                 "warning": self.warning,
             },  # fmt: skip
             "utility": {"yes": 1.0, "no": 0.0, "unparsed": UNPARSED_WORTH, "unparsed_range": [0.0, 1.0]},
-            "local_fairness": ends(self.fairness.local_fairness),
-            "global_fairness": ends(self.fairness.global_fairness),
+            "local_fairness": ends(self.fairness.local_fairness, local),
+            "global_fairness": ends(self.fairness.global_fairness, glob),
             "lm_eval": {
                 "mean_score": number(float(self.scores.mean())),
                 "means": {k: {str(i): number(float(v)) for i, v in s.items()} for k, s in self.means.items()},
@@ -171,7 +175,9 @@ class DiscrimEvalRun:
             "The law P(yes, no, unparsed | scenario, fill) (yes: P(yes) + P(Yes); no: P(no) + P(No)); g = 1 for yes, "
             f"0 for no, {UNPARSED_WORTH:g} for a reply that is neither.",
             "",
-            f"L = {loc['value']:.4g} nats, L̄ = {glob['value']:.4g} nats. Over every worth of an unparsed reply in "
+            f"L = {loc['value']:.4g} nats (scenario {loc['context']}: {loc['group']} against {loc['other_group']}), "
+            f"L̄ = {glob['value']:.4g} nats ({glob['group']} against {glob['other_group']}). Over every worth of an "
+            "unparsed reply in "
             f"[0, 1], chosen per cell: L in [{loc['range'][0]:.4g}, {loc['range'][1]:.4g}], L̄ in "
             f"[{glob['range'][0]:.4g}, {glob['range'][1]:.4g}] nats.",
             "",

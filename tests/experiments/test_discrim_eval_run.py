@@ -88,3 +88,35 @@ def test_a_scorer_that_does_not_give_log_probabilities_is_refused():
         run_discrim_eval(rows, lambda reqs: [0.5] * len(reqs), coefficients=False)
     with pytest.raises(InputError, match="^loglikelihood: gives replies whose probabilities sum above 1"):
         run_discrim_eval(rows, lambda reqs: [math.log(0.3)] * len(reqs), coefficients=False)
+
+
+@pytest.mark.parametrize(
+    "argv, line",
+    [
+        (["--out", "x"], "fairaudit: error: TASK: a .jsonl task (discrim-eval's format) runs on --local-model MODEL"),
+        (
+            ["--local-model", "smollm2", "--samples", "3", "--out", "x"],
+            "fairaudit: error: --samples: does not go with a .jsonl",
+        ),
+        (["--simulated", "fair", "--out", "x"], "fairaudit: error: --simulated: does not go with a .jsonl task"),
+        (["--local-model", "smollm2"], "fairaudit: error: --out: is required: the folder of the run"),
+    ],
+)
+def test_the_command_refuses_what_a_jsonl_task_cannot_take_in_one_line(capsys, argv, line):
+    from _cli import run
+
+    code, out, err = run(capsys, "experiment", SAMPLE, *argv)
+    assert code == 2 and out == "" and err.startswith(line) and len(err.strip().splitlines()) == 1
+
+
+def test_fields_map_other_keys_and_go_with_a_jsonl_task_only(capsys, tmp_path):
+    from _cli import run
+
+    code, _, err = run(capsys, "experiment", "hr-delivery", "--fields", "text,job,sex", "--out", tmp_path)
+    assert code == 2 and err.startswith("fairaudit: error: --fields: goes with a .jsonl task")
+    with pytest.raises(SystemExit) as stop:  # argparse's own refusal of the flag's value
+        run(capsys, "experiment", SAMPLE, "--fields", "text,job", "--local-model", "smollm2")
+    assert (
+        stop.value.code == 2
+        and "expected the prompt's, the scenario's and the attributes' keys" in capsys.readouterr().err
+    )

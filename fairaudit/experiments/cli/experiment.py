@@ -43,6 +43,16 @@ def _rooms(text: str) -> list[str]:
     return names
 
 
+def _fields(text: str) -> dict[str, Any]:
+    """``--fields PROMPT,SCENARIO,ATTR...``: a .jsonl task's keys (discrim_eval.read_rows's ``keys``)."""
+    names = [f.strip() for f in text.split(",")]
+    if len(names) < 3 or not all(names):
+        raise argparse.ArgumentTypeError(
+            f"expected the prompt's, the scenario's and the attributes' keys, e.g. text,job,sex; got {text!r}"
+        )
+    return {"prompt": names[0], "scenario": names[1], "attributes": names[2:]}
+
+
 def add_parser(sub: argparse._SubParsersAction[Any]) -> None:
     """Add the ``experiment`` subcommand to ``sub`` (the ``fairaudit`` command's subparsers)."""
     e = sub.add_parser(
@@ -58,7 +68,8 @@ def add_parser(sub: argparse._SubParsersAction[Any]) -> None:
     e.add_argument(
         "experiment",
         metavar="TASK",
-        help="a built-in task (hr-delivery, package-delivery) or the path of a task file (.toml; see docs/tasks.md)",
+        help="a built-in task (hr-delivery, package-delivery), the path of a task file (.toml; see docs/tasks.md), "
+        "or a file of decision prompts in discrim-eval's format (.jsonl, with --local-model; see docs/discrim-eval.md)",
     )
     _add_model_options(e)
     _add_privacy_options(e)
@@ -282,6 +293,13 @@ def _add_run_options(e: argparse.ArgumentParser) -> None:
     )
     e.add_argument("--no-images", dest="images", action="store_false", help="send no route images")
     e.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+    e.add_argument(
+        "--fields",
+        type=_fields,
+        metavar="PROMPT,SCENARIO,ATTR...",
+        help="with a .jsonl TASK: its keys, comma-separated: the filled prompt's, the scenario's, then each "
+        "attribute's (default filled_template,decision_question_id,age,gender,race: discrim-eval's)",
+    )
 
 
 _SINGULAR_FLAGS = {"epsilons": "epsilon", "keeps": "keep", "targets": "target"}
@@ -319,9 +337,47 @@ def run(args: argparse.Namespace) -> int:
         return 130
 
 
+_NOT_FOR_PROMPTS = {"simulated": "--simulated", "kernel": "--kernel", "endpoint": "--endpoint", "samples": "--samples",
+                    "show_prompts": "--show-prompts", "epsilon": "--epsilon", "keep": "--keep", "resume": "--resume"}  # fmt: skip
+"""The flags a .jsonl task (discrim-eval's format) cannot take: it runs on --local-model's exact route, no filter."""
+
+
+def _discrim_eval(args: argparse.Namespace) -> int:
+    """TASK a .jsonl file: its prompts scored on ``--local-model`` (:mod:`fairaudit.experiments.discrim_eval_run`)."""
+    given = [flag for name, flag in _NOT_FOR_PROMPTS.items() if getattr(args, name) not in (None, False)]
+    if given:
+        raise InputError(given[0], "does not go with a .jsonl task (discrim-eval's format runs on --local-model)")
+    if args.local_model is None:
+        raise InputError("TASK", "a .jsonl task (discrim-eval's format) runs on --local-model MODEL", args.experiment)
+    if args.out is None:
+        raise InputError("out", "is required: the folder of the run")
+    from .. import local_model
+    from ..discrim_eval import read_rows
+    from ..discrim_eval_run import run_discrim_eval, write_run
+
+    rows = read_rows(args.experiment, args.fields)
+    model = local_model.load(args.local_model, log=lambda line: print(f"fairaudit: {line}", file=sys.stderr))
+    run = run_discrim_eval(
+        rows,
+        lambda requests: local_model.loglikelihoods(model, requests, progress=args.progress),
+        model=args.local_model,
+        min_coverage=args.min_coverage,
+    )
+    write_run(run, args.out)
+    print(f"{len(rows.prompts)} prompts scored; report written to {Path(args.out) / 'report.md'}", file=sys.stderr)
+    if run.warning is not None:
+        print(f"fairaudit: warning: {run.warning}", file=sys.stderr)
+    sys.stdout.write(run.markdown())
+    return 0
+
+
 def _run(args: argparse.Namespace) -> int:
     from ..run import run_experiment, show_prompts
 
+    if str(args.experiment).lower().endswith(".jsonl"):
+        return _discrim_eval(args)
+    if args.fields is not None:
+        raise InputError("--fields", "goes with a .jsonl task (discrim-eval's format) only")
     source, options = _source_and_options(args)
     if args.show_prompts is not None:
         sys.stdout.write(show_prompts(args.experiment, args.show_prompts, source, options))

@@ -24,7 +24,7 @@ from fractions import Fraction
 from typing import Any, NamedTuple
 
 from fairaudit.verification.dual_check import Evidence
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, recorded_array
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, group_free
 from fairaudit.verification.kernel_check import KernelSetting, kernel_settings, population, three_cell_settings
 from fairaudit.verification.table_check import Ends, table_global, table_local
 
@@ -165,10 +165,9 @@ def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] 
     context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")
     if m.k < 2:
         return "a single group: no pair of groups to compare"
-    values = recorded_array(inputs["utility"]["values"], "inputs.utility.values")
-    group_free = not isinstance(values[0], list) or all(row == table[0] for table in values for row in table)
+    free = group_free(inputs["utility"]["values"])
     rr = m.kind == "randomized_response" and m.t().lo != INF  # (at ε = inf, the identity's rows)
-    if not (rr and context.kind == "identity" and group_free):
+    if not (rr and context.kind == "identity" and free):
         settings = kernel_settings(inputs, m, context, evidence)
         return [_Programs(s, s, False, False, len(s.present) >= 2) for s in settings]
     local = three_cell_settings(inputs, m, evidence, (0, 1))

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.verification.enclosures import INF, exact
+from fairaudit.verification.enclosures import INF, exact, group_free
 from fairaudit.verification.schema import CertificateError
 
 __all__ = ["Evidence"]
@@ -54,9 +54,8 @@ class Evidence:
         released = len(inputs["sensitive_mechanism"]["outputs"])
         own = inputs["context_mechanism"]["kind"] == "identity"  # (else L's program spans every context)
         values = inputs["utility"]["values"]
-        n_u = _decisions(values)
         if own:  # a point over the released groups: E[g | x, ã], or a row of P(u | x, ã) each (g by group)
-            point: tuple[int, ...] = (released,) if n_u is None else (released, n_u)
+            point: tuple[int, ...] = (released,) if group_free(values) else (released, len(values[0][0]))
         else:  # the table over every released context
             n_dec = len(values[0][0]) if isinstance(values[0], list) else len(values)
             point = (len(inputs["context_mechanism"]["outputs"]), released, n_dec)
@@ -111,12 +110,3 @@ def _array(value: Any, shape: tuple[int, ...], name: str) -> Any:
     if not isinstance(value, list) or len(value) != shape[0]:
         raise CertificateError(name, f"must be a list of {shape[0]} {'numbers' if len(shape) == 1 else 'lists'}", value)
     return [_array(v, shape[1:], f"{name}[{i}]") for i, v in enumerate(value)]
-
-
-def _decisions(values: Any) -> int | None:
-    """The number of decisions when the utility depends on the group (its witness points are tables), else None."""
-    if not values or not isinstance(values[0], list):
-        return None
-    if all(row == table[0] for table in values for row in table):
-        return None
-    return len(values[0][0])

@@ -27,6 +27,7 @@ __all__ = [
     "RecordedMechanism",
     "exact",
     "exp_of",
+    "group_free",
     "independence",
     "ln",
     "ln_of",
@@ -104,6 +105,18 @@ def recorded_array(value: Any, field: str) -> list[Any]:
     if isinstance(value, list):
         return [recorded_array(v, f"{field}[{i}]") for i, v in enumerate(value)]
     return None if value is None else exact(value, field)  # type: ignore[return-value]
+
+
+def group_free(values: Any) -> bool:
+    """Whether a recorded utility's values (``inputs.utility.values``: g(u), or a table g(u, x, a) indexed [x][a][u])
+    are the same for every group (``Utility.depends_on_group`` is its negation).
+
+    Examples
+    --------
+    >>> group_free([1.0, 0.0]), group_free([[[1.0, 0.0], [1.0, 0.0]]]), group_free([[[1.0, 0.0], [0.5, 0.0]]])
+    (True, True, False)
+    """
+    return not isinstance(values[0], list) or all(row == table[0] for table in values for row in table)
 
 
 INDEPENDENCE = Fraction(1e-9)

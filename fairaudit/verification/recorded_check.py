@@ -76,10 +76,8 @@ def _keep_check(name: str, reported: Any, m: RecordedMechanism) -> Check:
     rows = m.matrix_rows()
     if rows is None:  # randomized response: p = e^ε/(e^ε + k − 1), enclosed
         return judge(name, reported, m.rr_rows()[0], "estimate", "e^epsilon/(e^epsilon + k - 1)")
-    cols = [list(m.outputs).index(a) for a in m.inputs]
-    return judge(
-        name, reported, Enclosure.point(min(row[c] for row, c in zip(rows, cols))), "estimate", "min_a M[a, a]"
-    )
+    keep = min(row[list(m.outputs).index(a)] for row, a in zip(rows, m.inputs))
+    return judge(name, reported, Enclosure.point(keep), "estimate", "min_a M[a, a]")
 
 
 def _deviation_checks(cert: Mapping[str, Any]) -> list[Check]:
@@ -89,19 +87,10 @@ def _deviation_checks(cert: Mapping[str, Any]) -> list[Check]:
     largest = max(max(row) for row in dev)
     reported = cert["population"]
     out = [judge("population.max_deviation", reported["max_deviation"], Enclosure.point(largest), "estimate")]
-    contexts, groups = pop["contexts"], pop["groups"]
+    contexts, groups, name = pop["contexts"], pop["groups"], "population.max_deviation (its context and group)"
     if reported.get("context") in contexts and reported.get("group") in groups:
-        at = dev[contexts.index(reported["context"])][groups.index(reported["group"])]
-        out.append(
-            judge(
-                "population.max_deviation (its context and group)",
-                reported["max_deviation"],
-                Enclosure.point(at),
-                "estimate",
-                f"at {reported['context']!r}, {reported['group']!r}",
-            )  # fmt: skip
-        )
-    else:
-        out.append(equal("population.max_deviation (its context and group)", reported.get("group"), None,
-                         "the context or group is not a label of inputs.population"))  # fmt: skip
-    return out
+        at = Enclosure.point(dev[contexts.index(reported["context"])][groups.index(reported["group"])])
+        where = f"at {reported['context']!r}, {reported['group']!r}"
+        return [*out, judge(name, reported["max_deviation"], at, "estimate", where)]
+    why = "the context or group is not a label of inputs.population"
+    return [*out, equal(name, reported.get("group"), None, why)]

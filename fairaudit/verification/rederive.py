@@ -217,21 +217,20 @@ def _theorem_checks(
     u = cert["inputs"]["utility"]
     bounds, details = cert["bounds"], cert["bound_details"]
     out = [judge("bounds.corollary", bounds["corollary"], eps_a, "upper")]
-    for form in ("paper", "tight", "corollary"):
-        if isinstance(details.get(form), Mapping) and "value" in details[form]:
-            out.append(equal(f"bound_details.{form}.value", details[form]["value"], bounds.get(form), f"bounds.{form}"))
-    corollary = details.get("corollary") or {}
-    if "epsilon" in corollary:
-        out.append(equal("bound_details.corollary.epsilon", corollary["epsilon"], bounds["corollary"], "the bound"))
-        out.append(equal("bound_details.corollary.delta", corollary["delta"], 0.0, "the corollary is pure"))
+    for form in ("paper", "tight", "corollary"):  # (each a theorem_bound of the schema where present)
+        if form in details:
+            out.append(equal(f"bound_details.{form}.value", details[form]["value"], bounds[form], f"bounds.{form}"))
+    corollary = details["corollary"]
+    out.append(equal("bound_details.corollary.epsilon", corollary["epsilon"], bounds["corollary"], "the bound"))
+    out.append(equal("bound_details.corollary.delta", corollary["delta"], 0.0, "the corollary is pure"))
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
     lipschitz, gamma = exact(u["lipschitz"], "inputs.utility.lipschitz"), exact(u["gamma"], "inputs.utility.gamma")
     diameter = exact(u["diameter"], "inputs.utility.diameter")
-    if bounds.get("paper") is None:
+    if bounds["paper"] is None:
         return out
     if tau is None:  # L_A = 0 and pure DP: both forms are epsilon(M)
         out.append(judge("bounds.paper", bounds["paper"], eps_a, "upper"))
-        if isinstance(details.get("paper"), Mapping) and "delta" in details["paper"]:
+        if "paper" in details:
             out.append(equal("bound_details.paper.delta", details["paper"]["delta"], 0.0, "pure: the bound is epsilon"))
         out.append(judge("bounds.tight", bounds["tight"], eps_a, "upper"))
         return out
@@ -261,22 +260,21 @@ def _theorem_checks(
 def _target_checks(cert: Mapping[str, Any]) -> list[Check]:
     """Each target's bound is the certificate's bound, and its verdicts follow from the numbers."""
     out: list[Check] = []
-    bounds = cert["bounds"]
-    if bounds.get("best_form") not in (None, "none"):
-        out.append(equal("bounds.best", bounds["best"], bounds[bounds["best_form"]], f"bounds.{bounds['best_form']}"))
-    elif bounds.get("best_form") == "none" and "best" in bounds:
+    bounds, form = cert["bounds"], cert["bounds"]["best_form"]
+    if form == "none":
         out.append(equal("bounds.best", bounds["best"], "inf", "no form gives a bound: +inf"))
+    else:
+        out.append(equal("bounds.best", bounds["best"], bounds[form], f"bounds.{form}"))
     for kind, t in (cert.get("targets") or {}).items():
         expected = bounds["best"] if kind == "local" else bounds["global"]
         out.append(equal(f"targets.{kind}.bound", t["bound"], expected))
         goal, bound = exact(t["target"], f"targets.{kind}.target"), exact(t["bound"], f"targets.{kind}.bound")
         out.append(equal(f"targets.{kind}.met", t["met"], bound <= goal))
-        if t.get("observed") is not None and "observed" in cert:
-            out.append(equal(f"targets.{kind}.observed", t["observed"], cert["observed"][kind]["value"]))
         if t.get("observed") is not None:
-            out.append(
-                equal(f"targets.{kind}.observed_met", t["observed_met"], exact(t["observed"], "observed") <= goal)
-            )
+            if "observed" in cert:
+                out.append(equal(f"targets.{kind}.observed", t["observed"], cert["observed"][kind]["value"]))
+            met = exact(t["observed"], "observed") <= goal
+            out.append(equal(f"targets.{kind}.observed_met", t["observed_met"], met))
     return out
 
 

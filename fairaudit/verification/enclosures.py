@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from fairaudit.verification.schema import CertificateError
-from fairaudit.verification.table_duality import integers
 
 __all__ = [
     "INF",
@@ -29,6 +28,7 @@ __all__ = [
     "exp_of",
     "group_free",
     "independence",
+    "integers",
     "ln",
     "ln_of",
     "recorded_array",
@@ -105,6 +105,21 @@ def recorded_array(value: Any, field: str) -> list[Any]:
     if isinstance(value, list):
         return [recorded_array(v, f"{field}[{i}]") for i, v in enumerate(value)]
     return None if value is None else exact(value, field)  # type: ignore[return-value]
+
+
+def integers(tables: Sequence[Sequence[Sequence[Fraction]]]) -> tuple[np.ndarray, int]:
+    """Tables of rationals as integers over one common denominator: an object array of shape (n_tables, n_rows,
+    n_decisions), and the denominator.
+
+    Examples
+    --------
+    >>> a, d = integers([[[Fraction(1, 2), Fraction(1, 3)]]])
+    >>> a.tolist(), d
+    ([[[3, 2]]], 6)
+    """
+    d = math.lcm(1, *(v.denominator for t in tables for row in t for v in row))
+    out = np.array([[[v.numerator * (d // v.denominator) for v in row] for row in t] for t in tables], dtype=object)
+    return out, d
 
 
 def group_free(values: Any) -> bool:

@@ -15,7 +15,7 @@ from fractions import Fraction as F
 import pytest
 from _exact_route import exact_enclosures
 from _verified import product_by_group
-from test_dual_check import UNLIKE
+from test_black_box_check_evidence import UNLIKE
 from test_rederive_random import REGRESSIONS
 
 import fairaudit.verification.black_box_check as bb

@@ -1,4 +1,4 @@
-"""Weak duality over the model's table (``verification.table_duality``), against second routes: every deterministic
+"""Weak duality over the model's table (``verification.black_box_check.TableProgram``), against second routes: every deterministic
 table, B(λ, ν) recomputed cell by cell, the rational simplex (``base.exact_programs.maximize_ratio``) and its
 multipliers, and hand calculations."""
 

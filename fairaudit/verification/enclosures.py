@@ -24,6 +24,7 @@ __all__ = [
     "INF",
     "Enclosure",
     "RecordedMechanism",
+    "below_epsilon",
     "exact",
     "exp_of",
     "group_free",
@@ -242,6 +243,19 @@ def ln_of(e: Enclosure) -> Enclosure:
     True
     """
     return Enclosure(ln(e.lo).lo, ln(e.hi).hi)
+
+
+def below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
+    """ln of a worst ratio, enclosed, its upper end at most ε(M_A): under pure ε-DP no model's ratio exceeds e^ε
+    (post-processing), which decides the ties where the worst case is ε itself.
+
+    Examples
+    --------
+    >>> below_epsilon(Enclosure(Fraction(1), Fraction(4)), Enclosure.point(Fraction(1))).hi
+    Fraction(1, 1)
+    """
+    logs = ln_of(ratio)
+    return Enclosure(logs.lo, min(logs.hi, eps.hi))
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ from fairaudit.verification.enclosures import (
     INF,
     Enclosure,
     RecordedMechanism,
+    below_epsilon,
     exact,
     exp_of,
     independence,
@@ -362,13 +363,6 @@ def _label(value: Any, inner: bool = False) -> Any:
     return repr(text) if isinstance(value, str) and (not text or text != text.strip()) else text
 
 
-def _below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
-    """ln of a worst ratio, enclosed, its upper end at most ε(M_A): under pure ε-DP no model's ratio exceeds e^ε
-    (post-processing), which decides the ties where the worst case is ε itself."""
-    logs = ln_of(ratio)
-    return Enclosure(logs.lo, min(logs.hi, eps.hi))
-
-
 def _witness_checks(
     where: str,
     detail: Mapping[str, Any],
@@ -466,7 +460,7 @@ def _maximiser_checks(
                 skipped.append((name, "the value is not certified and no witness is recorded"))
                 continue
             value = exact(where["witness"], name)
-        reach = None if pair is None else (_below_epsilon(pair, eps_a) if clip else ln_of(pair)).hi
+        reach = None if pair is None else (below_epsilon(pair, eps_a) if clip else ln_of(pair)).hi
         if reach is None:
             ok = False
         elif value == INF or reach == INF:
@@ -499,7 +493,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     if worst.local is None:
         skipped += [(n, worst.reason) for n in ("bounds.black_box", "bounds.global", "bound_details.black_box")]
         return []
-    local = _below_epsilon(worst.local, eps_a) if worst.group_free else ln_of(worst.local)
+    local = below_epsilon(worst.local, eps_a) if worst.group_free else ln_of(worst.local)
     out = [
         judge("bounds.black_box", bounds["black_box"], local, "upper", "the exact worst case over every model"),
         equal("bound_details.black_box.value", detail["value"], bounds["black_box"]),
@@ -515,7 +509,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
         skipped += [("bounds.global", worst.reason), ("bound_details.black_box.global", worst.reason)]
     elif glob.get("value") is not None:
         clip = worst.independent and worst.group_free
-        on_l_bar = _below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)
+        on_l_bar = below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)
         if glob.get("certified") is False:  # (an inexact solve's: certify gives no bound from it, bounds.global)
             why = f"not certified by certify (solver status {glob.get('solver_status')}): its witness is checked"
             skipped += [("bound_details.black_box.global.value", why), ("bound_details.black_box.global.ratio", why)]

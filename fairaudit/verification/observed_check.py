@@ -430,11 +430,8 @@ def _max_tv(planes: dict[Any, _Plane]) -> Enclosure:
 
 def _max_ratio(planes: dict[Any, _Plane]) -> Enclosure:
     """The largest ratio max_a P_a(u) / min_a P_a(u) over the planes and decisions, enclosed (:func:`max_ratio`)."""
-    columns = []
-    for plane in planes.values():
-        rows = [r for r in plane if r is not None]
-        columns += [[r[u] for r in rows] for u in range(len(rows[0]))] if rows else []
-    return max_ratio(columns)
+    present = [[r for r in plane if r is not None] for plane in planes.values()]
+    return max_ratio([list(column) for rows in present for column in zip(*rows)])
 
 
 def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], labels: tuple[list[Any], list[Any]],

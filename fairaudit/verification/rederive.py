@@ -27,7 +27,6 @@ from fairaudit.verification.accounting import unaccounted
 from fairaudit.verification.black_box_check import PairEnclosures, black_box_enclosures, pair_enclosures
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge, stated_tolerance
-from fairaudit.verification.distribution_check import distribution_checks
 from fairaudit.verification.enclosures import (
     INDEPENDENCE,
     INF,
@@ -41,7 +40,7 @@ from fairaudit.verification.enclosures import (
     ln_of,
 )
 from fairaudit.verification.observed_check import observed_checks
-from fairaudit.verification.recorded_check import recorded_checks
+from fairaudit.verification.recorded_check import distribution_checks, recorded_checks
 from fairaudit.verification.schema import CertificateError
 from fairaudit.verification.verdict_check import verdict_checks
 

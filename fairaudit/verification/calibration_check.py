@@ -207,17 +207,11 @@ def _on_l(
     lower, gamma = cal.get("lower") or 0.0, cal.get("gamma")
     lipschitz = exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz")
     if lipschitz:
-        metric = cert["inputs"]["utility"]["metric"]
-        tau = cal.get("tau")
-        ratio = lipschitz_class_enclosure(
-            m,
-            Fraction(exact(lower, "calibration.lower")),
-            Fraction(exact(gamma, "calibration.gamma")),
-            None if tau is None else Fraction(exact(tau, "calibration.tau")),
-            Fraction(lipschitz),
-            None if metric is None else recorded_array(metric, "inputs.utility.metric"),
-            proof,
-        )
+        metric, tau = cert["inputs"]["utility"]["metric"], cal.get("tau")
+        low, high = (Fraction(exact(v, f"calibration.{k}")) for k, v in (("lower", lower), ("gamma", gamma)))
+        box = (low, high, None if tau is None else Fraction(exact(tau, "calibration.tau")), Fraction(lipschitz))
+        metric = None if metric is None else recorded_array(metric, "inputs.utility.metric")
+        ratio = lipschitz_class_enclosure(m, *box, metric, proof)
         return ratio if isinstance(ratio, str) else (ln_of(ratio), "worst case over the Lipschitz class")
     the_class = {
         "sensitive_mechanism": record,

@@ -602,9 +602,8 @@ def _mixed(g: Sequence[Fraction], value: Fraction) -> list[Fraction]:
     """The distribution over the decisions on g's largest and least values (the first of each) whose mean is the
     value, clipped to [min g, max g]."""
     high, low = max(range(len(g)), key=lambda u: g[u]), min(range(len(g)), key=lambda u: g[u])
-    share = (
-        Fraction(1) if g[high] == g[low] else min(Fraction(1), max(Fraction(0), (value - g[low]) / (g[high] - g[low])))
-    )
+    spread = g[high] - g[low]
+    share = min(Fraction(1), max(Fraction(0), (value - g[low]) / spread)) if spread else Fraction(1)
     row = [Fraction(0)] * len(g)
     row[low] += 1 - share
     row[high] += share

@@ -51,28 +51,19 @@ def recorded_checks(cert: Mapping[str, Any], sensitive: RecordedMechanism, conte
     --------
     >>> m = RecordedMechanism.from_record({"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix",
     ...                                    "matrix": [[0.75, 0.25], [0.5, 0.5]]}, "m")
-    >>> [c.line() for c in recorded_checks({"privacy": {"sensitive": {"keep_probability": 0.5}}}, m, m)]
-    ['privacy.sensitive.keep_probability = 0.5: holds']
+    >>> _keep_check("privacy.sensitive.keep_probability", 0.5, m).line()
+    'privacy.sensitive.keep_probability = 0.5: holds'
     """
-    out: list[Check] = []
-    utility, recorded = cert.get("utility"), cert.get("inputs", {}).get("utility")
-    if utility is not None and recorded is not None:
-        out += [equal(f"utility.{k}", utility.get(k), recorded.get(k), "inputs.utility") for k in CLASS_FIELDS]
+    utility, recorded = cert["utility"], cert["inputs"]["utility"]  # (the schema requires every key read here)
+    out = [equal(f"utility.{k}", utility[k], recorded[k], "inputs.utility") for k in CLASS_FIELDS]
     for name, m in (("sensitive", sensitive), ("context", context)):
-        section = cert.get("privacy", {}).get(name)
-        if section is None:
-            continue
-        where = f"privacy.{name}"
-        if "inputs" in section:
-            out.append(equal(f"{where}.inputs", section["inputs"], len(m.inputs), "its input labels"))
-            out.append(equal(f"{where}.outputs", section["outputs"], len(m.outputs), "its output labels"))
-        if "delta" in section:
-            finite = m.epsilon_enclosure().hi != INF
-            out.append(equal(f"{where}.delta", section["delta"], 0.0 if finite else None, "delta at its own epsilon"))
-        out.append(_keep_check(f"{where}.keep_probability", section.get("keep_probability"), m))
-    if "population" in cert and "max_deviation" in cert["population"]:
-        out += _deviation_checks(cert)
-    return out
+        section, where = cert["privacy"][name], f"privacy.{name}"
+        out.append(equal(f"{where}.inputs", section["inputs"], len(m.inputs), "its input labels"))
+        out.append(equal(f"{where}.outputs", section["outputs"], len(m.outputs), "its output labels"))
+        finite = m.epsilon_enclosure().hi != INF
+        out.append(equal(f"{where}.delta", section["delta"], 0.0 if finite else None, "delta at its own epsilon"))
+        out.append(_keep_check(f"{where}.keep_probability", section["keep_probability"], m))
+    return out + _deviation_checks(cert)
 
 
 def _keep_check(name: str, reported: Any, m: RecordedMechanism) -> Check:

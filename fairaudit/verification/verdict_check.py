@@ -99,8 +99,8 @@ def _valid(cert: Mapping[str, Any], form: str, assumptions: Sequence[Mapping[str
         return False
     if form != "black_box":
         return True
-    detail = cert.get("bound_details", {}).get("black_box") or {}
-    return detail.get("certified") is not False and (detail.get("global") or {}).get("certified") is not False
+    detail = cert["bound_details"]["black_box"]  # (a worst case of the schema: certified is a boolean)
+    return detail["certified"] and detail["global"]["certified"]
 
 
 def _best_form(cert: Mapping[str, Any], assumptions: Sequence[Mapping[str, Any]]) -> Check:
@@ -115,8 +115,8 @@ def _best_form(cert: Mapping[str, Any], assumptions: Sequence[Mapping[str, Any]]
 def _holds_checks(cert: Mapping[str, Any], assumptions: Sequence[Mapping[str, Any]]) -> list[Check]:
     """``bound_details.<form>.holds``: no assumption of the form on L violated (``Bound.holds``)."""
     out = []
-    for form, detail in (cert.get("bound_details") or {}).items():
-        if isinstance(detail, Mapping) and "holds" in detail:
+    for form, detail in cert["bound_details"].items():
+        if "holds" in detail:  # (each form's theorem_bound; the black box's worst case has none)
             expected = not any(_violates(a, form) for a in assumptions)
             why = "no assumption of the form on L is violated" if expected else "an assumption of the form is violated"
             out.append(equal(f"bound_details.{form}.holds", detail["holds"], expected, why))
@@ -147,7 +147,7 @@ def _assumption_checks(
         if name == "M_A is differentially private":  # a finite mechanism's exact privacy profile is computed
             out.append(equal(where, status, "checked", "the exact privacy profile of the recorded mechanism"))
         elif name == GLOBAL_ONLY:
-            source = (cert.get("population") or {}).get("source")
+            source = cert["population"]["source"]
             allowed = ["violated" if not ind else "assumed" if source == "assumed" else "checked"
                        for ind in _independent(cert)]  # fmt: skip
             why = "max |P(x, a) - P(x) P(a)| of inputs.population against 1e-9, and population.source"
@@ -161,9 +161,8 @@ def _assumption_checks(
             dep = not group_free(utility["values"])
             out.append(equal(where, status, "violated" if dep else "checked", "inputs.utility.values over the groups"))
         else:
-            skipped.append(
-                (where, f"{name!r} is {status!r}: the inputs do not decide it (a vow, or the observed model)")
-            )
+            why = f"{name!r} is {status!r}: the inputs do not decide it (a vow, or the observed model)"
+            skipped.append((where, why))
     return out
 
 

@@ -63,6 +63,7 @@ from fairaudit.verification.enclosures import (
     group_free,
     integers,
     recorded_array,
+    rr_matrix,
 )
 from fairaudit.verification.schema import CertificateError
 
@@ -486,11 +487,8 @@ def population(
 
 def _rows(m: RecordedMechanism, end: int) -> Rows:
     """A mechanism's exact rows; randomized response's at the lower (``end`` 0) or upper (1) end of its e^ε."""
-    exact_rows = m.matrix_rows()
-    if exact_rows is not None:
-        return exact_rows
-    p, q = m.rr_ends()[end]  # (the identity's (1, 0) at ε = +inf, and as the upper end beyond ε = 10^6)
-    return tuple(tuple(p if i == j else q for j in range(m.k)) for i in range(m.k))
+    rows = m.matrix_rows()  # (randomized response's: the identity's at ε = +inf, and as the upper end beyond 10^6)
+    return rows if rows is not None else rr_matrix((m.t().lo, m.t().hi)[end], m.k)
 
 
 def _released_groups(s: KernelSetting) -> list[int]:

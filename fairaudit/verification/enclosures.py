@@ -33,6 +33,7 @@ __all__ = [
     "ln",
     "ln_of",
     "recorded_array",
+    "rr_matrix",
 ]
 
 INF = math.inf
@@ -256,6 +257,19 @@ def below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
     """
     logs = ln_of(ratio)
     return Enclosure(logs.lo, min(logs.hi, eps.hi))
+
+
+def rr_matrix(t: Fraction | float, k: int) -> tuple[tuple[Fraction, ...], ...]:
+    """k-ary randomized response's rows at e^ε = t: t/(t + k − 1) kept, 1/(t + k − 1) to each other value (the
+    identity's at t = +inf).
+
+    Examples
+    --------
+    >>> rr_matrix(Fraction(3), 2), rr_matrix(INF, 2)[0]
+    (((Fraction(3, 4), Fraction(1, 4)), (Fraction(1, 4), Fraction(3, 4))), (Fraction(1, 1), Fraction(0, 1)))
+    """
+    p, q = (t / (t + k - 1), 1 / (t + k - 1)) if isinstance(t, Fraction) else (Fraction(1), Fraction(0))
+    return tuple(tuple(p if i == j else q for j in range(k)) for i in range(k))
 
 
 @dataclass(frozen=True)

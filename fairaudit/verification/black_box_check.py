@@ -424,13 +424,11 @@ def three_cell_settings(
     def mean(v: Sequence[Any]) -> list[Any]:
         return [v[a], v[b], sum((v[c] for c in others), Fraction(0)) / len(others)][:n] if others else [v[a], v[b]]
 
-    e = evidence
+    e, point = evidence, evidence.local_point
     ev = Evidence(
         {(x, 0, 1): cells(nu) for (x, i, j), nu in e.local.items() if (i, j) == pair},
         {(0, 1): [cells(row) for row in nu] for (i, j), nu in e.global_.items() if (i, j) == pair},
-        None
-        if e.local_point is None or e.local_point[1:3] != pair
-        else (e.local_point[0], 0, 1, mean(e.local_point[3])),
+        None if point is None or point[1:3] != pair else (point[0], 0, 1, mean(point[3])),
         None if e.global_point is None or e.global_point[:2] != pair else (0, 1, [mean(h) for h in e.global_point[2]]),
         {(x, 0, 1): t for (x, i, j), t in e.local_theta.items() if (i, j) == pair},
         {(0, 1): t for ij, t in e.global_theta.items() if ij == pair},

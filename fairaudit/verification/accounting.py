@@ -91,13 +91,6 @@ def _numbers(value: Any, path: str) -> Iterator[str]:
         yield path
 
 
-def _covered(path: str, names: set[str], reasons: Sequence[str]) -> bool:
-    """Whether a check re-derives ``path`` or a reason already given covers it (it or a section above it)."""
-    if path in names:
-        return True
-    return any(path == r or path.startswith((r + ".", r + "[")) for r in reasons)
-
-
 def unaccounted(
     certificate: Mapping[str, Any], checks: Sequence[Check], skipped: Sequence[tuple[str, str]]
 ) -> list[tuple[str, str]]:
@@ -126,23 +119,20 @@ def unaccounted(
     >>> unaccounted({"certified": True, "bounds": {"best_form": "tight", "tight": 0.5}}, [], [("bounds.tight", "")])
     [('certified', 'not re-derived'), ('bounds.best_form', 'not re-derived')]
     """
-    names = {c.name for c in checks}
-    reasons = [name for name, _ in skipped]
+    covered = {c.name for c in checks} | {name for name, _ in skipped}  # (a reason's name covers the section under it)
+    sections = tuple(name + tail for name, _ in skipped for tail in ".[")
     out: dict[str, str] = {}
     groups: dict[tuple[int, str], str] = {}  # (a kind, the text it matched): its group (expand is slow)
-    for key, value in certificate.items():
-        if key in _SKIP:
+    for path in _numbers({key: v for key, v in certificate.items() if key not in _SKIP}, ""):
+        if path in covered or path.startswith(sections):
             continue
-        for path in _numbers(value, key):
-            if _covered(path, names, reasons):
-                continue
-            for i, (pattern, group, reason) in enumerate(KINDS):
-                match = re.search(pattern, path)
-                if match:
-                    if (i, match[0]) not in groups:
-                        groups[i, match[0]] = match.expand(group)
-                    out.setdefault(groups[i, match[0]], reason)
-                    break
-            else:
-                out.setdefault(path, "not re-derived")
+        for i, (pattern, group, reason) in enumerate(KINDS):
+            match = re.search(pattern, path)
+            if match:
+                if (i, match[0]) not in groups:
+                    groups[i, match[0]] = match.expand(group)
+                out.setdefault(groups[i, match[0]], reason)
+                break
+        else:
+            out.setdefault(path, "not re-derived")
     return list(out.items())

@@ -1,34 +1,720 @@
 """The black-box worst case re-derived from the certificate's proofs: the largest L and L̄ over every decision model
-behind the filter.
+behind the filter. Nothing is solved here.
 
-Every program is over the model's table K[x̃, ã, u] (:mod:`~fairaudit.verification.kernel_check` builds them from the
-inputs, :mod:`~fairaudit.verification.table_check` bounds each from the proof its certificate records, by exact weak
-duality, and reads its lower end off the recorded witness):
+Every program is over the model's table K[x̃, ã, u] = P(u | x̃, ã), each row (x̃, ã) a distribution over the
+decisions. E[g | x, a] = Σ_{x̃, ã, u} M_X[x, x̃] M_A[a, ã] K[x̃, ã, u] g(u, x, a) is linear in K, and so is
+E[g | a] = Σ_x P(x | a) E[g | x, a]; the floors E[g | x, a] ≥ τ hold in every live context and for every group. So
 
 * L = max over live x and a ≠ a' of max E[g | x, a]/E[g | x, a'] over the tables that meet the floors;
 * L̄ = max over a ≠ a' with P(A = a), P(A = a') > 0 of max E[g | a]/E[g | a'] over the same tables.
 
-Randomized response's rows hold e^ε, irrational: its worst case is non-decreasing in e^ε (randomized response at a
-smaller ε is the one at a larger ε followed by more randomized response, so its models are among the larger one's),
-and the programs are bounded at the two 50-digit rational ends of e^ε, which enclose it. Behind randomized response
-on the group, the identity on the context and a utility free of the group, every pair of groups is alike, and the
-programs of one pair over three cells stand for every pair (:func:`~fairaudit.verification.kernel_check.
-three_cell_settings`; for L̄ when P(x | a) is the same for every group present). ``proofs/verification.md`` §4.
+The module reads, in this order: weak duality over the table (:class:`TableProgram`); the proofs and witnesses a
+certificate records for its black box (``bound_details.black_box``, :class:`Evidence`); the programs' data at each end
+of e^ε (:class:`KernelSetting`); each program bounded from its recorded proof, its lower end read off the recorded
+table (:func:`table_local`, :func:`table_global`); and the worst cases (:func:`black_box_enclosures`,
+:func:`pair_enclosures`).
+
+**Weak duality.** A program is max (P·K)/(Q·K) over tables K with floors F_f·K ≥ τ. For λ ≥ 0 and multipliers
+ν ≥ 0 on the floors, each row's simplex kept in the inner maximum,
+
+    B(λ, ν) = Σ_rows max_u (P − λQ + Σ_f ν_f F_f)[row, u] − τ Σ_f ν_f  ≥  max over the tables of (P − λQ)·K,
+
+so B(λ, ν) ≤ 0 proves P·K ≤ λ Q·K on every table meeting the floors: the ratio is at most λ where Q·K > 0, and no
+table has Q·K = 0 < P·K. A certificate records, per program, one of
+
+* ν (``floors``, ``bound_details.black_box.duals``): the bound is the least λ ≥ 0 with B(λ, ν) ≤ 0
+  (:meth:`TableProgram.dual_bound`), the program's value where the table of the rows' maximisers there meets the
+  floors and attains it (complementary slackness);
+* θ (``theta``, ``bound_details.black_box.screens``), the one-floor proof: the multiplier λ − θ on a floor that keeps
+  Q·K ≥ t, whose bound is θ + max(R(θ), 0)/t with R(θ) = Σ_rows max_u (P − θQ)[row, u]
+  (:meth:`TableProgram.theta_bound`), in closed form;
+* nothing: ν = 0, the bound of the table without its floors.
+
+The smaller of the two is taken where both are. Nothing is searched for: the least λ is the root of a convex,
+piecewise-linear, non-increasing function, reached by Newton's steps from the left (each lands on the next linear
+piece, never beyond the root). Every number is exact: the rows are integers over one denominator. The ratio
+conventions are the tool's: c/0 = +inf for c > 0, 0/0 = 1. A program whose recorded proof does not reach the
+certified value shows as an upper end above it, and that check fails.
+
+**The ends of e^ε.** With M_X the identity, L at x involves only the rows of x. Randomized response's rows hold e^ε,
+irrational: its worst case is non-decreasing in e^ε (randomized response at a smaller ε is the one at a larger ε
+followed by more randomized response, so its models are among the larger one's), and the programs are bounded at
+the two rational ends of e^ε, which enclose it. Behind randomized response on the group, the identity on the context
+and a utility free of the group, every pair of groups is alike, and the programs of one pair over three cells stand
+for every pair (:func:`three_cell_settings`; for L̄ when P(x | a) is the same for every group present).
+``proofs/verification.md`` §4, §4d, §4f.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any, NamedTuple
 
-from fairaudit.verification.dual_check import Evidence
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, recorded_array
-from fairaudit.verification.kernel_check import KernelSetting, kernel_settings, population, three_cell_settings
-from fairaudit.verification.table_check import Ends, table_global, table_local
+import numpy as np
 
-__all__ = ["PairEnclosures", "WorstCaseEnclosures", "black_box_enclosures", "pair_enclosures"]
+from fairaudit.verification.enclosures import (
+    INF,
+    Enclosure,
+    RecordedMechanism,
+    exact,
+    group_free,
+    integers,
+    recorded_array,
+    rr_matrix,
+)
+from fairaudit.verification.schema import CertificateError
+
+__all__ = ["Evidence", "KernelSetting", "TableProgram", "black_box_enclosures", "pair_enclosures"]
+
+Number = Fraction | float
+Table = Sequence[Sequence[Fraction]]
+Rows = tuple[tuple[Fraction, ...], ...]
+Ends = tuple[Number, Number, bool]
+
+
+@dataclass(frozen=True)
+class TableProgram:
+    """max (P·K)/(Q·K) over tables K with floors F_f·K ≥ τ, all as integers over the one denominator ``d``.
+
+    Attributes
+    ----------
+    top, bottom : object array of int, shape (n_rows, n_decisions)
+        P and Q times d, ≥ 0.
+    floors : object array of int, shape (n_floors, n_rows, n_decisions)
+        The floors' rows F_f times d.
+    d : int
+    tau : Fraction or None
+        τ; None without floors.
+    """
+
+    top: np.ndarray
+    bottom: np.ndarray
+    floors: np.ndarray
+    d: int
+    tau: Fraction | None
+
+    def dual_bound(self, nu: Sequence[Fraction] | None = None) -> tuple[Number, Number | None]:
+        """The least λ ≥ 0 with B(λ, ν) ≤ 0, exactly (ν = 0 when None): an upper bound on the program's value; and
+        the value it proves attained: λ itself without floors (``tau`` None: the least root is the supremum); with
+        floors, λ where the table of each row's maximiser at that λ (the largest q among ties) meets every floor and
+        its ratio is λ (complementary slackness: then λ is the program's value), else None.
+
+        Returns
+        -------
+        (Fraction or float, Fraction or None)
+            The bound: +inf where some ν < 0 or no λ has B(λ, ν) ≤ 0; at least 1 where every row has a decision with
+            q = 0. Then the value attained, or None.
+
+        Examples
+        --------
+        P(yes | ã) over two released groups, p = (3/4, 1/4), q = (1/8, 3/8) on "yes", 0 on "no", floor q·K ≥ 1/4:
+        without it the ratio reaches 6 (K = (1, 0)); ν = 8/3 on it proves 10/3, the value, which the table
+        K = (1, 1) of the maximisers at 10/3 (the largest q among ties) does not attain (its ratio is 2); θ = 2/3
+        proves it too.
+
+        >>> F = Fraction
+        >>> rows, d = integers([[[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]])
+        >>> t = TableProgram(rows[0], rows[1], rows[1:], d, None)
+        >>> t.dual_bound()
+        (Fraction(6, 1), Fraction(6, 1))
+        >>> t = TableProgram(rows[0], rows[1], rows[1:], d, F(1, 4))
+        >>> t.dual_bound([F(8, 3)]), t.theta_bound(F(2, 3), F(1, 4))
+        ((Fraction(10, 3), None), Fraction(10, 3))
+        """
+        top, d, constant = self.top, self.d, Fraction(0)
+        if nu is not None and self.tau is not None and any(nu):
+            if len(nu) != len(self.floors) or any(v < 0 for v in nu):
+                return math.inf, None
+            n = math.lcm(*(v.denominator for v in nu))
+            weights = np.array([v.numerator * (n // v.denominator) for v in nu], dtype=object)
+            top = self.top * n + np.tensordot(weights, self.floors, axes=1)
+            d, constant = d * n, -self.tau * sum(nu, Fraction(0))
+        lam, choice = _least_root(top, self.bottom * (d // self.d), d, constant)
+        if lam != math.inf and all(any(v == 0 for v in row) for row in self.bottom.tolist()):
+            lam = max(lam, Fraction(1))  # (a table with q·K = 0 = p·K is there: 0/0 = 1)
+        if self.tau is None or lam == math.inf:  # (no floors: the least root is the supremum itself, +inf included)
+            return lam, lam if self.tau is None else None
+        n_u = self.top.shape[1]
+        table = [[Fraction(int(u == c)) for u in range(n_u)] for c in choice.tolist()]
+        return lam, lam if isinstance(lam, Fraction) and self.point_ratio(table) == lam else None
+
+    def theta_bound(self, theta: Fraction, kept: Fraction) -> Number:
+        """θ + max(R(θ), 0)/t, t = ``kept`` > 0: the bound the multiplier λ − θ on a floor Q·K ≥ t proves, exactly.
+
+        R(θ) = Σ_rows max_u (P − θQ)[row, u]; the bound holds for any θ, a poor one is only loose.
+        """
+        r = _row_maxima(self.top * theta.denominator - theta.numerator * self.bottom, self.bottom)[0].sum()
+        return theta + Fraction(max(int(r), 0), self.d * theta.denominator) / kept
+
+    def point_ratio(self, table: Table) -> Fraction | None:
+        """(P·K)/(Q·K) at a table whose rows are distributions and which meets every floor, exactly; None where it
+        does not (a row with a negative entry or not summing to 1, a floor below τ)."""
+        if any(v < 0 for row in table for v in row) or any(sum(row, Fraction(0)) != 1 for row in table):
+            return None
+        k, e = integers([table])
+        k = k[0]
+        for f in self.floors:
+            if self.tau is not None and Fraction(int((f * k).sum()), self.d * e) < self.tau:
+                return None
+        num, den = int((self.top * k).sum()), int((self.bottom * k).sum())
+        return Fraction(num, den) if den else (Fraction(1) if num == 0 else None)
+
+
+def _row_maxima(
+    values: np.ndarray, bottom: np.ndarray, left: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each row's largest value, the least q among the decisions attaining it (the slope to the right; the largest,
+    the slope to the left, with ``left``), and that decision (the first such)."""
+    best = values.max(axis=1)
+    ties = values == best[:, None]
+    keyed = np.where(ties, bottom, np.max(bottom, initial=0) + 1) if not left else np.where(ties, -bottom, 1)
+    at = np.argmin(keyed, axis=1)
+    return best, bottom[np.arange(len(at)), at], at
+
+
+def _least_root(top: np.ndarray, bottom: np.ndarray, d: int, constant: Fraction) -> tuple[Number, np.ndarray]:
+    """The least λ ≥ 0 with f(λ) = Σ_rows max_u (top − λ·bottom)/d + constant ≤ 0, by Newton's steps from the left
+    along the right slopes (f is convex and non-increasing: each step lands on the root of the piece it starts on,
+    never beyond f's); +inf where f stays positive (a right slope of 0). With it, each row's maximiser there with the
+    largest q (the table on the piece to the left of the root, which attains it where the floors allow)."""
+    lam = Fraction(0)
+    while True:
+        values = top * lam.denominator - lam.numerator * bottom
+        best, slope, _ = _row_maxima(values, bottom)
+        value = Fraction(int(best.sum()), d * lam.denominator) + constant
+        if value <= 0:
+            return lam, _row_maxima(values, bottom, left=True)[2]
+        falls = Fraction(int(slope.sum()), d)
+        if falls == 0:
+            return math.inf, _
+        lam += value / falls
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """What a certificate records to check its black box with: the floors' multipliers of each program bounded by a
+    linear program, and the maximiser's point, indexed by population position.
+
+    ``local[(x, a, b)]`` is ν over the groups for L's program at context x and pair (a, b) (per context behind a
+    context mechanism other than the identity, whose L program spans every context); ``global_[(a, b)]`` is ν per
+    context (the population's order) for L̄'s. ``local_point`` is (x, a, b, h) of L's maximiser, h over the released
+    groups; ``global_point`` is (a, b, h) of L̄'s, h per context. For a utility that depends on the group each h over
+    the released groups is the maximiser's table instead, a row over the decisions per released group; behind a
+    context mechanism other than the identity both points are the table over every released context.
+    """
+
+    local: dict[tuple[int, int, int], list[Any]] = field(default_factory=dict)  # ν, or ν per context
+    global_: dict[tuple[int, int], list[list[Fraction]]] = field(default_factory=dict)
+    local_point: tuple[int, int, int, list[Any]] | None = None
+    global_point: tuple[int, int, list[list[Any]]] | None = None
+    local_theta: dict[tuple[int, int, int], Fraction] = field(default_factory=dict)  # one-floor thresholds θ
+    global_theta: dict[tuple[int, int], Fraction] = field(default_factory=dict)
+
+    @classmethod
+    def from_record(cls, detail: Mapping[str, Any] | None, inputs: Mapping[str, Any]) -> Evidence:
+        """Read ``bound_details.black_box`` (``detail``; None: no evidence) against the certificate's ``inputs``.
+
+        Raises
+        ------
+        CertificateError
+            Naming the field (``bound_details.black_box.duals[0].group``) whose label is not the inputs' or whose
+            numbers are not finite, or whose shape is not (groups,) or (contexts, groups) (``released`` for a point).
+        """
+        if not detail:
+            return cls()
+        pop = inputs["population"]
+        labels = {"context": list(pop["contexts"]), "group": list(pop["groups"]), "other_group": list(pop["groups"])}
+        n_x, n_g = len(pop["contexts"]), len(pop["groups"])
+        released = len(inputs["sensitive_mechanism"]["outputs"])
+        own = inputs["context_mechanism"]["kind"] == "identity"  # (else L's program spans every context)
+        values = inputs["utility"]["values"]
+        if own:  # a point over the released groups: E[g | x, ã], or a row of P(u | x, ã) each (g by group)
+            point: tuple[int, ...] = (released,) if group_free(values) else (released, len(values[0][0]))
+        else:  # the table over every released context
+            n_dec = len(values[0][0]) if isinstance(values[0], list) else len(values)
+            point = (len(inputs["context_mechanism"]["outputs"]), released, n_dec)
+        where, glob = "bound_details.black_box", detail.get("global") or {}
+        keys, global_keys = ("context", "group", "other_group"), ("group", "other_group")
+        local = _read(detail, f"{where}.duals", keys, labels, "floors", (n_g,) if own else (n_x, n_g))
+        global_ = _read(glob, f"{where}.global.duals", global_keys, labels, "floors", (n_x, n_g))
+        local_theta = _read(detail, f"{where}.screens", keys, labels, "theta", ())
+        global_theta = _read(glob, f"{where}.global.screens", global_keys, labels, "theta", ())
+        # the maximiser's point (its labels are checked by verify's maximiser check, which fails a wrong one)
+        local_point = global_point = None
+        if detail.get("witness_point") is not None and all(detail.get(k) in labels[k] for k in keys):
+            h = _array(detail["witness_point"], point, f"{where}.witness_point")
+            local_point = (*(labels[k].index(detail[k]) for k in keys), h)
+        if glob.get("witness_point") is not None and all(glob.get(k) in labels[k] for k in global_keys):
+            hs = _array(glob["witness_point"], (n_x, *point) if own else point, f"{where}.global.witness_point")
+            global_point = (*(labels[k].index(glob[k]) for k in global_keys), hs)
+        return cls(local, global_, local_point, global_point, local_theta, global_theta)
+
+
+def _read(
+    detail: Mapping[str, Any], where: str, keys: tuple[str, ...], labels: Mapping[str, list[Any]], field: str,
+    shape: tuple[int, ...],
+) -> dict[Any, Any]:  # fmt: skip
+    """The recorded proofs of a kind (``duals``, ``screens``: ``where``), each an array of ``shape`` under ``field``,
+    by the positions of its program's labels (``keys``)."""
+    out = {}
+    for i, d in enumerate(detail.get(where.rsplit(".", 1)[1]) or []):
+        name = f"{where}[{i}]"
+        out[tuple(_index(d, key, labels[key], name) for key in keys)] = _array(d.get(field), shape, f"{name}.{field}")
+    return out
+
+
+def _index(record: Mapping[str, Any], key: str, labels: list[Any], name: str) -> int:
+    """The position of ``record[key]`` among ``labels``."""
+    value = record.get(key)
+    if value not in labels:
+        raise CertificateError(f"{name}.{key}", "is not a label of the inputs' population", value)
+    return labels.index(value)
+
+
+def _array(value: Any, shape: tuple[int, ...], name: str) -> Any:
+    """A recorded array of finite numbers (a float, or an exact rational ``"n/d"``) of ``shape``, exactly."""
+    if not shape:
+        try:
+            number = exact(value, name)
+        except CertificateError:
+            number = INF
+        if not isinstance(number, Fraction):
+            raise CertificateError(name, 'must be a finite number or an exact rational "n/d"', value)
+        return number
+    if not isinstance(value, list) or len(value) != shape[0]:
+        raise CertificateError(name, f"must be a list of {shape[0]} {'numbers' if len(shape) == 1 else 'lists'}", value)
+    return [_array(v, shape[1:], f"{name}[{i}]") for i, v in enumerate(value)]
+
+
+@dataclass(frozen=True)
+class KernelSetting:
+    """The data of the programs at one end of e^ε: M_A's and M_X's rows, g, τ and the population.
+
+    Attributes
+    ----------
+    sensitive : tuple of tuple of Fraction, shape (n_groups, n_released_groups)
+        M_A[a, ã] = P(ã | a), each row summing to 1.
+    context : tuple of tuple of Fraction, shape (n_contexts, n_released_contexts), or None
+        M_X[x, x̃]; None for the identity.
+    g : nested list of Fraction, indexed ``[x][a][u]``, shape (n_contexts, n_groups, n_decisions)
+        The utility g(u, x, a) ≥ 0.
+    tau : Fraction or None
+        The floor E[g | x, a] ≥ τ in every live context and for every group; None for no floor.
+    live : list of int
+        The contexts with P(X = x) > 0, ascending.
+    weights : nested list of Fraction, indexed ``[live x][a]``
+        P(x | a) over the live contexts (0 for a group absent from the population), as
+        :func:`black_box_enclosures`' setting has it.
+    present : list of int
+        The groups with P(A = a) > 0, ascending.
+    group_free : bool
+        Whether g(u, x, a) is the same for every group (then L ≤ ε holds as well).
+    evidence : Evidence
+        The certificate's recorded proofs and witness tables.
+    """
+
+    sensitive: Rows  # M_A, (n_groups, n_released_groups)
+    context: Rows | None  # M_X, (n_contexts, n_released_contexts); None: the identity
+    g: list[list[list[Fraction]]]  # g(u, x, a) as [x][a][u]
+    tau: Fraction | None
+    live: list[int]
+    weights: list[list[Fraction]]
+    present: list[int]
+    group_free: bool
+    evidence: Evidence = field(default_factory=Evidence)
+
+    @property
+    def k(self) -> int:
+        return len(self.sensitive)
+
+
+def kernel_settings(
+    inputs: Mapping[str, Any],
+    sensitive: RecordedMechanism,
+    context: RecordedMechanism,
+    evidence: Evidence | None = None,
+) -> list[KernelSetting]:
+    """The programs' data at each end of the mechanisms' e^ε.
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs``: its ``utility`` (``values``, an (n_decisions,) list or an (n_contexts, n_groups,
+        n_decisions) nested list, and ``tau``) and ``population`` (``probabilities``, (n_contexts, n_groups)) are read.
+    sensitive, context : RecordedMechanism
+        M_A and M_X as recorded (randomized response, a matrix, or the identity for the context).
+    evidence : Evidence, optional
+        The certificate's recorded multipliers and witness tables (default none).
+
+    Returns
+    -------
+    list of KernelSetting
+        One setting when neither mechanism is randomized response; else two, at the lower and the upper rational end
+        of its e^ε (the worst case is non-decreasing in e^ε, so the two bound it; beyond ε = 10^6 the upper end is the
+        identity).
+
+    Raises
+    ------
+    InputError
+        Naming the field of a recorded number that is not a finite number or ``"inf"``.
+
+    Notes
+    -----
+    ``proofs/verification.md`` §4d.
+
+    Examples
+    --------
+    Keep 3/4 on two groups, one context, g(yes, a) = 1, g(yes, b) = 1/2, g(no, ·) = 0:
+
+    >>> keep = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix", "matrix": [[0.75, 0.25], [0.25, 0.75]]}
+    >>> same = {"inputs": ["x"], "outputs": ["x"], "kind": "identity"}
+    >>> inputs = {"utility": {"values": [[[1.0, 0.0], [0.5, 0.0]]], "tau": None},
+    ...           "population": {"probabilities": [[0.5, 0.5]]}}
+    >>> m_a = RecordedMechanism.from_record(keep, "sensitive_mechanism")
+    >>> m_x = RecordedMechanism.from_record(same, "context_mechanism")
+    >>> [s] = kernel_settings(inputs, m_a, m_x)
+    >>> s.sensitive[0], s.context, s.group_free
+    ((Fraction(3, 4), Fraction(1, 4)), None, False)
+    """
+    exact_rows = sensitive.kind != "randomized_response" and context.kind != "randomized_response"
+    return [
+        KernelSetting(
+            _rows(sensitive, end), None if context.kind == "identity" else _rows(context, end),
+            *population(inputs, sensitive.k), evidence or Evidence(),
+        )
+        for end in ((0,) if exact_rows else (0, 1))
+    ]  # fmt: skip
+
+
+def three_cell_settings(
+    inputs: Mapping[str, Any],
+    sensitive: RecordedMechanism,
+    evidence: Evidence,
+    pair: tuple[int, int],
+) -> list[KernelSetting]:
+    """Randomized response's programs for the ordered pair ``pair`` = (a, a') over three cells, at each end of e^ε:
+    the released groups a, a' and one for the k − 2 others, behind the identity on the context, for a utility free
+    of the group (two cells for k = 2).
+
+    Every pair of groups is alike behind randomized response, and averaging a table over the permutations of the
+    other groups keeps it feasible and keeps E[g | x, a]/E[g | x, a'] and E[g | a]/E[g | a'] where P(x | ·) is the
+    same for every group: at an optimum the k − 2 others' rows may be taken equal, one row standing for all of
+    them. Its coefficients are k − 2 times one other's, and one floor (every other group's, equal) stands for the
+    k − 2 others' (``proofs/verification.md`` §4). The recorded evidence of ``pair`` is carried over: its
+    multipliers with the others' summed (weak duality of the reduced program at that ν is at most the full one's
+    at the multipliers averaged over the others, by convexity), its witness with the others' values averaged.
+
+    Returns
+    -------
+    list of KernelSetting
+        Two, at the lower and upper rational end of e^ε, with ``sensitive`` the reduced rows (3 × 3, or 2 × 2),
+        groups (0, 1) the pair, and the weights of a and a' (and their mean for the others' cell).
+    """
+    k, (a, b) = sensitive.k, pair
+    g, tau, live, weights, _, group_free = population(inputs, k)
+    others = [c for c in range(k) if c not in pair]
+    n = 3 if others else 2
+
+    def cells(v: Sequence[Fraction]) -> list[Fraction]:
+        return [v[a], v[b], sum((v[c] for c in others), Fraction(0))][:n]
+
+    def mean(v: Sequence[Any]) -> list[Any]:
+        return [v[a], v[b], sum((v[c] for c in others), Fraction(0)) / len(others)][:n] if others else [v[a], v[b]]
+
+    e, point = evidence, evidence.local_point
+    ev = Evidence(
+        {(x, 0, 1): cells(nu) for (x, i, j), nu in e.local.items() if (i, j) == pair},
+        {(0, 1): [cells(row) for row in nu] for (i, j), nu in e.global_.items() if (i, j) == pair},
+        None if point is None or point[1:3] != pair else (point[0], 0, 1, mean(point[3])),
+        None if e.global_point is None or e.global_point[:2] != pair else (0, 1, [mean(h) for h in e.global_point[2]]),
+        {(x, 0, 1): t for (x, i, j), t in e.local_theta.items() if (i, j) == pair},
+        {(0, 1): t for ij, t in e.global_theta.items() if ij == pair},
+    )
+    out = []
+    for p, q in sensitive.rr_ends():
+        o = q * len(others)
+        rows = ((p, q, o), (q, p, o), (q, q, p + q * (len(others) - 1))) if others else ((p, q), (q, p))
+        reduced = [[g[x][0]] * n for x in range(len(g))]
+        w = [mean(row) for row in weights]
+        out.append(KernelSetting(rows, None, reduced, tau, live, w, list(range(n)), group_free, ev))
+    return out
+
+
+def population(
+    inputs: Mapping[str, Any], k: int
+) -> tuple[list[list[list[Fraction]]], Fraction | None, list[int], list[list[Fraction]], list[int], bool]:
+    """The recorded utility and population, exactly, in :class:`KernelSetting`'s order.
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs``: its ``utility`` (``values``, ``tau``) and ``population`` are read.
+    k : int
+        The number of groups.
+
+    Returns
+    -------
+    tuple
+        g indexed ``[x][a][u]``, τ (None for no floor), the live contexts (P(X = x) > 0), P(x | a) indexed
+        ``[live x][a]`` (0 for a group absent), the groups present (P(A = a) > 0) and whether g is free of the group
+        (``proofs/verification.md`` §4d).
+
+    Examples
+    --------
+    >>> inputs = {"utility": {"values": [1.0, 0.0], "tau": None}, "population": {"probabilities": [[0.5, 0.0]]}}
+    >>> g, tau, live, weights, present, group_free = population(inputs, 2)
+    >>> live, weights, present, group_free
+    ([0], [[Fraction(1, 1), Fraction(0, 1)]], [0], True)
+    """
+    u = inputs["utility"]
+    pop = recorded_array(inputs["population"]["probabilities"], "inputs.population.probabilities")
+    values = recorded_array(u["values"], "inputs.utility.values")
+    n_x = len(pop)
+    g = values if isinstance(values[0], list) else [[list(values)] * k] * n_x
+    live = [x for x in range(n_x) if sum(pop[x]) > 0]
+    mass = [sum(pop[x][a] for x in live) for a in range(k)]
+    weights = [[pop[x][a] / mass[a] if mass[a] else Fraction(0) for a in range(k)] for x in live]
+    present = [a for a in range(k) if mass[a]]
+    tau = None if u["tau"] is None else Fraction(exact(u["tau"], "inputs.utility.tau"))
+    group_free = all(g[x][a] == g[x][0] for x in range(n_x) for a in range(k))
+    return g, tau, live, weights, present, group_free
+
+
+def _rows(m: RecordedMechanism, end: int) -> Rows:
+    """A mechanism's exact rows; randomized response's at the lower (``end`` 0) or upper (1) end of its e^ε."""
+    rows = m.matrix_rows()  # (randomized response's: the identity's at ε = +inf, and as the upper end beyond 10^6)
+    return rows if rows is not None else rr_matrix((m.t().lo, m.t().hi)[end], m.k)
+
+
+def _released_groups(s: KernelSetting) -> list[int]:
+    """The released groups some group reaches (M_A[a, ã] > 0 for some a), ascending: the others' rows are free."""
+    return [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]
+
+
+def reached_rows(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
+    """The rows (x̃, ã) of K that ``contexts`` reach, in order: released contexts M_X[x, x̃] > 0 for one of them
+    (x̃ = x for the identity), released groups M_A[a, ã] > 0 for some group; the other rows enter no program.
+
+    Parameters
+    ----------
+    s : KernelSetting
+        The programs' data.
+    contexts : sequence of int
+        True contexts (population positions).
+
+    Returns
+    -------
+    list of (int, int)
+        (released context, released group) pairs, released context major (``proofs/verification.md`` §4d).
+
+    Examples
+    --------
+    >>> from fractions import Fraction as F
+    >>> s = KernelSetting(((F(1), F(0)), (F(1), F(0))), None, [[[F(1), F(0)]] * 2] * 2, None, [0, 1],
+    ...                   [[F(1, 2)] * 2] * 2, [0, 1], True)
+    >>> reached_rows(s, [1])    # the second released group is reached by no group
+    [(1, 0)]
+    """
+    reached = _released_groups(s)
+    if s.context is None:
+        released_contexts = list(contexts)
+    else:
+        released_contexts = [c for c in range(len(s.context[0])) if any(s.context[x][c] for x in contexts)]
+    return [(xr, ar) for xr in released_contexts for ar in reached]
+
+
+class _Case(NamedTuple):
+    """One program with what its certificate records for it."""
+
+    program: TableProgram
+    nu: Sequence[Fraction] | None  # the floors' multipliers
+    theta: Fraction | None  # the one-floor threshold, on the floor Q·K ≥ kept
+    kept: Fraction | None
+    table: Table | None  # the maximiser's table
+
+
+def _largest(cases: Sequence[_Case], start: Number) -> Ends:
+    """max of ``start`` and the programs' bounds (each the least its proofs give: θ, ν, and no multiplier, the latter
+    two only where needed), enclosed: (lower end, upper end, whether they differ).
+
+    The programs are taken in decreasing order of their θ bound (+inf without θ), and one whose θ bound is at most
+    the largest bound found is passed over: it cannot raise it. The lower end is the largest ratio attained exactly:
+    at a recorded table (meeting every floor, each row normalised to sum to 1 exactly), or at the table of the rows'
+    maximisers where a bound is attained there (without floors, the bound itself); at least ``start``. Nothing is
+    solved: what a certificate's proofs do not prove fails, and a lower end no recorded table reaches is left lower."""
+    thetas = [case.program.theta_bound(case.theta, case.kept) if case.theta is not None and case.kept else INF
+              for case in cases]  # fmt: skip
+    low = high = start
+    for i in sorted(range(len(cases)), key=lambda i: -thetas[i]):
+        case, bound = cases[i], thetas[i]
+        if bound <= high and bound != INF:
+            continue
+        reached: Number = Fraction(0)  # (the largest ratio this program is shown to attain)
+        for nu in (case.nu, None) if case.nu is not None else (None,):
+            if bound > high:
+                proved, attained = case.program.dual_bound(nu)
+                bound = min(bound, proved)
+                reached = reached if attained is None else max(reached, attained)
+        low = max(low, reached)
+        high = max(high, bound)
+        if case.table is not None and (ratio := case.program.point_ratio(_normalised(case.table))) is not None:
+            low = max(low, ratio)
+    return min(low, high), high, low < high
+
+
+def _normalised(table: Table) -> list[list[Fraction]]:
+    """Each row divided by its exact sum (a recorded row of floats may sum to 1 only to rounding)."""
+    return [[v / total for v in row] if (total := sum(row, Fraction(0))) > 0 else list(row) for row in table]
+
+
+def _per_context(s: KernelSetting, keys: Sequence[tuple[int, int]], xs: Sequence[int]) -> tuple[np.ndarray, int]:
+    """E[g | x, c] over the rows ``keys`` (x̃, ã) for each context x of ``xs`` and each group c, as integers over one
+    denominator, shape (len(xs), groups, rows, decisions): the coefficient of K[x̃, ã, u] is
+    M_X[x, x̃] M_A[c, ã] g(u, x, c) (L's forms, and the floors E[g | x, c] ≥ τ)."""
+    (m_a,), d_a = integers([s.sensitive])
+    g, d_g = integers([s.g[x] for x in xs])
+    if s.context is None:
+        m_x, d_x = np.array([[int(xr == x) for xr, _ in keys] for x in xs], dtype=object), 1
+    else:
+        (m_x,), d_x = integers([[s.context[x] for x in xs]])
+        m_x = m_x[:, [xr for xr, _ in keys]]
+    coefficients = m_x[:, None, :] * m_a[:, [ar for _, ar in keys]][None, :, :]
+    return coefficients[..., None] * g[:, :, None, :], d_a * d_g * d_x
+
+
+def _table(s: KernelSetting, point: Any, keys: Sequence[tuple[int, int]], own: bool) -> list[list[Fraction]]:
+    """The recorded table's rows for ``keys``: ``point[ã]`` where the point is one context's (``own``: L behind the
+    identity), else ``point[x̃][ã]``. A utility free of the group behind the identity on the context records
+    E[g | x, ã] instead: each such row is the table that reaches it with g's largest and least decisions,
+    P(u_max) = (E − min g)/(max g − min g) (every table with the same E[g | x, ã] has the same ratio and floors)."""
+    rows = [point[ar] for _, ar in keys] if own else [point[xr][ar] for xr, ar in keys]
+    return [row if isinstance(row, list) else _mixed(s.g[xr][0], row) for (xr, _), row in zip(keys, rows, strict=True)]
+
+
+def _mixed(g: Sequence[Fraction], value: Fraction) -> list[Fraction]:
+    """The distribution over the decisions on g's largest and least values (the first of each) whose mean is the
+    value, clipped to [min g, max g]."""
+    high, low = max(range(len(g)), key=lambda u: g[u]), min(range(len(g)), key=lambda u: g[u])
+    spread = g[high] - g[low]
+    share = min(Fraction(1), max(Fraction(0), (value - g[low]) / spread)) if spread else Fraction(1)
+    row = [Fraction(0)] * len(g)
+    row[low] += 1 - share
+    row[high] += share
+    return row
+
+
+def table_local(s: KernelSetting, at: tuple[int, int, int] | None = None) -> Ends:
+    """L's worst ratio over the model's table, enclosed from the certificate's proofs: (lower end, upper end, whether
+    they differ).
+
+    With M_X the identity, L at x is over the rows of x with the floors of x; otherwise over every row reached with
+    every live context's floors (they bind the same rows), its ν recorded per context.
+
+    Parameters
+    ----------
+    s : KernelSetting
+        The programs' data at one end of e^ε, with the certificate's evidence.
+    at : (int, int, int), optional
+        (index into ``s.live``, a, a'): that program only.
+
+    Returns
+    -------
+    (Fraction or float, Fraction or float, bool)
+        The lower and upper ends of e^L (a ratio, dimensionless; L in nats is its log; +inf when a table gives
+        c/0 with c > 0), and whether they differ (the lower end is then a recorded table's ratio, or 0).
+
+    Notes
+    -----
+    ``proofs/verification.md`` §4f.
+
+    Examples
+    --------
+    The setting of :func:`kernel_settings`' example: 6, exactly, the floors not binding.
+
+    >>> from fractions import Fraction as F
+    >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
+    ...                   None, [0], [[F(1), F(1)]], [0, 1], False)
+    >>> table_local(s)
+    (Fraction(6, 1), Fraction(6, 1), False)
+    """
+    own = s.context is None  # (then a program per context)
+    evidence = s.evidence
+    cases = []
+    every = None if own else _per_context(s, reached_rows(s, s.live), s.live)  # (one polytope for every context)
+    for i in range(len(s.live)) if at is None else [at[0]]:
+        x = s.live[i]
+        keys = reached_rows(s, [x] if own else s.live)
+        forms, d = _per_context(s, keys, [x]) if every is None else every
+        here = 0 if own else i
+        floors = forms.reshape(-1, *forms.shape[2:])  # (every context's, and every group's)
+        pairs = [(a, b) for a in range(s.k) for b in range(s.k) if a != b] if at is None else [at[1:]]
+        for a, b in pairs:
+            recorded = evidence.local.get((x, a, b))
+            nu = recorded if recorded is None or own else [recorded[y][c] for y in s.live for c in range(s.k)]
+            point = evidence.local_point
+            table = _table(s, point[3], keys, own) if point is not None and point[:3] == (x, a, b) else None
+            program = TableProgram(forms[here, a], forms[here, b], floors, d, s.tau)
+            cases.append(_Case(program, nu, evidence.local_theta.get((x, a, b)), s.tau, table))
+    return _largest(cases, Fraction(0))
+
+
+def table_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Ends:
+    """L̄'s worst ratio over the model's table, enclosed as in :func:`table_local` (every row reached,
+    E[g | a] = Σ_x P(x | a) E[g | x, a], every live context's floors); 1 with fewer than two groups present.
+
+    Parameters
+    ----------
+    s : KernelSetting
+        The programs' data at one end of e^ε, with the certificate's evidence.
+    at : (int, int), optional
+        The ordered pair (a, a') of groups present: that program only.
+
+    Returns
+    -------
+    (Fraction or float, Fraction or float, bool)
+        The ends of e^L̄ and whether they differ, as :func:`table_local` (the lower end at least 1).
+
+    Notes
+    -----
+    ``proofs/verification.md`` §4f.
+
+    Examples
+    --------
+    With τ = 1/4 and θ = 2/3 recorded for the pair (0, 1), E[g | b] ≥ 1/4 its one floor proves 10/3; the recorded
+    maximiser P(yes | ·) = (1, 1/3) attains it (no table of the rows' maximisers does); the pair (1, 0) needs no
+    proof (its bound without floors is 1/6 < 1):
+
+    >>> from fractions import Fraction as F
+    >>> s = KernelSetting(((F(3, 4), F(1, 4)), (F(1, 4), F(3, 4))), None, [[[F(1), F(0)], [F(1, 2), F(0)]]],
+    ...                   F(1, 4), [0], [[F(1), F(1)]], [0, 1], False,
+    ...                   Evidence(global_point=(0, 1, [[[F(1), F(0)], [F(1, 3), F(2, 3)]]]), global_theta={(0, 1): F(2, 3)}))
+    >>> table_global(s)
+    (Fraction(10, 3), Fraction(10, 3), False)
+    """
+    if len(s.present) < 2:
+        return Fraction(1), Fraction(1), False
+    keys = reached_rows(s, s.live)
+    pairs = [(a, b) for a in s.present for b in s.present if a != b] if at is None else [at]
+    groups = sorted({a for pair in pairs for a in pair})
+    per_context, d = _per_context(s, keys, s.live)
+    (weights,), d_w = integers([s.weights])
+    forms = {a: (per_context[:, a] * weights[:, a, None, None]).sum(axis=0) for a in groups}
+    # E[g | a] = Σ_x P(x | a) E[g | x, a]: the numerator where a is first, the denominator where second
+    kept = {b: None if s.tau is None else s.tau * sum((w[b] for w in s.weights), Fraction(0)) for b in groups}
+    floors = per_context.reshape(-1, *per_context.shape[2:]) * d_w
+    evidence = s.evidence
+    cases = []
+    for a, b in pairs:
+        recorded = evidence.global_.get((a, b))
+        nu = None if recorded is None else [recorded[x][c] for x in s.live for c in range(s.k)]
+        point = evidence.global_point
+        table = _table(s, point[2], keys, False) if point is not None and point[:2] == (a, b) else None
+        program = TableProgram(forms[a], forms[b], floors, d * d_w, s.tau)
+        cases.append(_Case(program, nu, evidence.global_theta.get((a, b)), kept[b], table))
+    return _largest(cases, Fraction(1))
 
 
 @dataclass(frozen=True)
@@ -52,7 +738,7 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
         A certificate's ``inputs`` (checked against the schema).
     recorded : mapping, optional
         Its ``bound_details.black_box``: the proofs (``duals``, ``screens``) and witness points
-        (:class:`~fairaudit.verification.dual_check.Evidence`).
+        (:class:`Evidence`).
 
     Returns
     -------
@@ -165,10 +851,9 @@ def _settings(inputs: Mapping[str, Any], evidence: Evidence) -> list[_Programs] 
     context = RecordedMechanism.from_record(inputs["context_mechanism"], "inputs.context_mechanism")
     if m.k < 2:
         return "a single group: no pair of groups to compare"
-    values = recorded_array(inputs["utility"]["values"], "inputs.utility.values")
-    group_free = not isinstance(values[0], list) or all(row == table[0] for table in values for row in table)
+    free = group_free(inputs["utility"]["values"])
     rr = m.kind == "randomized_response" and m.t().lo != INF  # (at ε = inf, the identity's rows)
-    if not (rr and context.kind == "identity" and group_free):
+    if not (rr and context.kind == "identity" and free):
         settings = kernel_settings(inputs, m, context, evidence)
         return [_Programs(s, s, False, False, len(s.present) >= 2) for s in settings]
     local = three_cell_settings(inputs, m, evidence, (0, 1))

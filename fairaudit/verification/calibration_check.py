@@ -28,6 +28,7 @@ from fairaudit.verification.enclosures import (
     INF,
     Enclosure,
     RecordedMechanism,
+    below_epsilon,
     exact,
     independence,
     ln,
@@ -181,13 +182,9 @@ def _largest(name: str, epsilon: Any, target: Any, eps_above: Enclosure, above: 
         meets = above.lo != INF and above.lo < goal - slack  # (its lower end: the value may be as low)
     ok = near and not meets
     by = 0.0 if ok else math.inf if not near else float(goal - above.lo)
-    detail = (
-        "the member above misses the target: no larger epsilon meets it"
-        if ok
-        else "the member above is not just above epsilon"
-        if not near
-        else "a larger epsilon meets the target too"
-    )
+    detail = "the member above misses the target: no larger epsilon meets it"
+    if not ok:
+        detail = "a larger epsilon meets the target too" if near else "the member above is not just above epsilon"
     return Check(name=name, reported=epsilon, derived_low=float(above.lo), derived_high=float(above.hi),
                  side="largest", holds=ok, fails_by=by, detail=detail)  # fmt: skip
 
@@ -210,17 +207,11 @@ def _on_l(
     lower, gamma = cal.get("lower") or 0.0, cal.get("gamma")
     lipschitz = exact(cal.get("lipschitz") or 0.0, "calibration.lipschitz")
     if lipschitz:
-        metric = cert["inputs"]["utility"]["metric"]
-        tau = cal.get("tau")
-        ratio = lipschitz_class_enclosure(
-            m,
-            Fraction(exact(lower, "calibration.lower")),
-            Fraction(exact(gamma, "calibration.gamma")),
-            None if tau is None else Fraction(exact(tau, "calibration.tau")),
-            Fraction(lipschitz),
-            None if metric is None else recorded_array(metric, "inputs.utility.metric"),
-            proof,
-        )
+        metric, tau = cert["inputs"]["utility"]["metric"], cal.get("tau")
+        low, high = (Fraction(exact(v, f"calibration.{k}")) for k, v in (("lower", lower), ("gamma", gamma)))
+        box = (low, high, None if tau is None else Fraction(exact(tau, "calibration.tau")), Fraction(lipschitz))
+        metric = None if metric is None else recorded_array(metric, "inputs.utility.metric")
+        ratio = lipschitz_class_enclosure(m, *box, metric, proof)
         return ratio if isinstance(ratio, str) else (ln_of(ratio), "worst case over the Lipschitz class")
     the_class = {
         "sensitive_mechanism": record,
@@ -231,10 +222,7 @@ def _on_l(
     worst = black_box_enclosures(the_class, proof)
     if worst.local is None:
         return worst.reason
-    logs = ln_of(worst.local)
-    return Enclosure(
-        logs.lo, min(logs.hi, m.epsilon_enclosure().hi)
-    ), "worst case"  # under pure ε-DP no ratio exceeds e^ε
+    return below_epsilon(worst.local, m.epsilon_enclosure()), "worst case"
 
 
 def _on_l_bar(

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact
+from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, exact, rr_matrix
 
 __all__ = ["lipschitz_class_enclosure"]
 
@@ -121,7 +121,7 @@ def lipschitz_class_enclosure(
         at = exact(proof.get("at"), f"{WHERE}.at")
         if at < m.t().hi:
             return UNPROVEN
-        low, high = _rr_rows(m.t().lo, n), _rr_rows(at, n)
+        low, high = rr_matrix(m.t().lo, n), rr_matrix(at, n)
 
     def program(rows: Rows) -> _Program:
         if m.kind == "randomized_response" and len(distances) == 1:
@@ -140,12 +140,6 @@ def lipschitz_class_enclosure(
     h = [exact(v, f"{WHERE}.witness_point") for v in proof.get("witness_point") or []]
     seen = program(low).witness(_pair(proof, m.inputs), h)  # type: ignore[arg-type]
     return UNPROVEN if seen is None or seen > largest else Enclosure(seen, largest)
-
-
-def _rr_rows(t: Fraction | float, k: int) -> tuple[tuple[Fraction, ...], ...]:
-    """k-ary randomized response's rows at e^ε = t (the identity's at t = +inf)."""
-    p, q = (Fraction(1), Fraction(0)) if not isinstance(t, Fraction) else (t / (t + k - 1), 1 / (t + k - 1))
-    return tuple(tuple(p if i == j else q for j in range(k)) for i in range(k))
 
 
 def _pair(record: Mapping[str, Any], labels: Sequence[Any]) -> tuple[int, int]:

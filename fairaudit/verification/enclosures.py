@@ -19,18 +19,21 @@ from typing import Any
 import numpy as np
 
 from fairaudit.verification.schema import CertificateError
-from fairaudit.verification.table_duality import integers
 
 __all__ = [
     "INF",
     "Enclosure",
     "RecordedMechanism",
+    "below_epsilon",
     "exact",
     "exp_of",
+    "group_free",
     "independence",
+    "integers",
     "ln",
     "ln_of",
     "recorded_array",
+    "rr_matrix",
 ]
 
 INF = math.inf
@@ -104,6 +107,33 @@ def recorded_array(value: Any, field: str) -> list[Any]:
     if isinstance(value, list):
         return [recorded_array(v, f"{field}[{i}]") for i, v in enumerate(value)]
     return None if value is None else exact(value, field)  # type: ignore[return-value]
+
+
+def integers(tables: Sequence[Sequence[Sequence[Fraction]]]) -> tuple[np.ndarray, int]:
+    """Tables of rationals as integers over one common denominator: an object array of shape (n_tables, n_rows,
+    n_decisions), and the denominator.
+
+    Examples
+    --------
+    >>> a, d = integers([[[Fraction(1, 2), Fraction(1, 3)]]])
+    >>> a.tolist(), d
+    ([[[3, 2]]], 6)
+    """
+    d = math.lcm(1, *(v.denominator for t in tables for row in t for v in row))
+    out = np.array([[[v.numerator * (d // v.denominator) for v in row] for row in t] for t in tables], dtype=object)
+    return out, d
+
+
+def group_free(values: Any) -> bool:
+    """Whether a recorded utility's values (``inputs.utility.values``: g(u), or a table g(u, x, a) indexed [x][a][u])
+    are the same for every group (``Utility.depends_on_group`` is its negation).
+
+    Examples
+    --------
+    >>> group_free([1.0, 0.0]), group_free([[[1.0, 0.0], [1.0, 0.0]]]), group_free([[[1.0, 0.0], [0.5, 0.0]]])
+    (True, True, False)
+    """
+    return not isinstance(values[0], list) or all(row == table[0] for table in values for row in table)
 
 
 INDEPENDENCE = Fraction(1e-9)
@@ -214,6 +244,32 @@ def ln_of(e: Enclosure) -> Enclosure:
     True
     """
     return Enclosure(ln(e.lo).lo, ln(e.hi).hi)
+
+
+def below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
+    """ln of a worst ratio, enclosed, its upper end at most ε(M_A): under pure ε-DP no model's ratio exceeds e^ε
+    (post-processing), which decides the ties where the worst case is ε itself.
+
+    Examples
+    --------
+    >>> below_epsilon(Enclosure(Fraction(1), Fraction(4)), Enclosure.point(Fraction(1))).hi
+    Fraction(1, 1)
+    """
+    logs = ln_of(ratio)
+    return Enclosure(logs.lo, min(logs.hi, eps.hi))
+
+
+def rr_matrix(t: Fraction | float, k: int) -> tuple[tuple[Fraction, ...], ...]:
+    """k-ary randomized response's rows at e^ε = t: t/(t + k − 1) kept, 1/(t + k − 1) to each other value (the
+    identity's at t = +inf).
+
+    Examples
+    --------
+    >>> rr_matrix(Fraction(3), 2), rr_matrix(INF, 2)[0]
+    (((Fraction(3, 4), Fraction(1, 4)), (Fraction(1, 4), Fraction(3, 4))), (Fraction(1, 1), Fraction(0, 1)))
+    """
+    p, q = (t / (t + k - 1), 1 / (t + k - 1)) if isinstance(t, Fraction) else (Fraction(1), Fraction(0))
+    return tuple(tuple(p if i == j else q for j in range(k)) for i in range(k))
 
 
 @dataclass(frozen=True)

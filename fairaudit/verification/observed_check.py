@@ -345,14 +345,9 @@ def _section_checks(
         _named(f"{name}.local (its context and groups)", {**local, "decision": "E[g]"}, e_local,
                (labels[0], ["E[g]"]), False),
     ]  # fmt: skip
-    if found.present < 2:  # no pair of groups present: the metrics leave L-bar undefined (NaN, null in JSON)
-        out.append(equal(f"{name}.global.value", glob["value"], None, _UNDEFINED))
-    else:
-        out.append(judge(f"{name}.global.value", glob["value"], ln_of(found.global_), "estimate"))
-    if undefined:
-        out.append(equal(f"{name}.global.ratio", glob["ratio"], None, _UNDEFINED))
-    else:
-        out.append(judge(f"{name}.global.ratio", glob["ratio"], found.global_, "estimate"))
+    # no pair of groups present: the metrics leave L-bar undefined (NaN, null in JSON)
+    out.append(_number(f"{name}.global.value", glob["value"], None if found.present < 2 else ln_of(found.global_)))
+    out.append(_number(f"{name}.global.ratio", glob["ratio"], None if undefined else found.global_))
     out.append(_named(f"{name}.global (its groups)", {**glob, "context": None, "decision": "E[g]"}, {None: found.by_group},
                       (labels[0], ["E[g]"]), pairless or undefined))  # fmt: skip
     zero, one = Enclosure.point(Fraction(0)), Enclosure.point(Fraction(1))
@@ -380,23 +375,19 @@ def _metric(
     and its maximiser; None for an undefined metric (null in JSON)."""
     detail, path = section["details"][key], f"{name}.details.{key}"
     sup = key.startswith("sup")
-    out = []
-    if exact is None:
-        out += [equal(f"{name}.{key}", section[key], None, _UNDEFINED), equal(f"{path}.value", detail["value"], None)]
-        if sup:
-            out.append(equal(f"{path}.ratio", detail["ratio"], None))
-    else:
-        value = ln_of(exact) if sup else exact
-        out += [
-            judge(f"{name}.{key}", section[key], value, "estimate"),
-            judge(f"{path}.value", detail["value"], value, "estimate"),
-        ]
-        if sup:
-            out.append(judge(f"{path}.ratio", detail["ratio"], exact, "estimate"))
+    value = None if exact is None else ln_of(exact) if sup else exact
+    out = [_number(f"{name}.{key}", section[key], value), _number(f"{path}.value", detail["value"], value, "")]
+    if sup:
+        out.append(_number(f"{path}.ratio", detail["ratio"], exact, ""))
     what = "context, pair and decision" if sup else "context, pair and event"
     what = what if key in ("equalized_odds", "sup_local") else what.replace("context, ", "")
     out.append(_named(f"{path} (its {what})", detail, planes, labels, no_pair))
     return out
+
+
+def _number(name: str, reported: Any, value: Enclosure | None, undefined: str = _UNDEFINED) -> Check:
+    """A measured number within the tolerance of its exact ``value``; null where the metric is undefined (None)."""
+    return equal(name, reported, None, undefined) if value is None else judge(name, reported, value, "estimate")
 
 
 def _group_plane(pop: list[Any], mass: list[Fraction], ends: list[Any]) -> _Plane:
@@ -430,11 +421,8 @@ def _max_tv(planes: dict[Any, _Plane]) -> Enclosure:
 
 def _max_ratio(planes: dict[Any, _Plane]) -> Enclosure:
     """The largest ratio max_a P_a(u) / min_a P_a(u) over the planes and decisions, enclosed (:func:`max_ratio`)."""
-    columns = []
-    for plane in planes.values():
-        rows = [r for r in plane if r is not None]
-        columns += [[r[u] for r in rows] for u in range(len(rows[0]))] if rows else []
-    return max_ratio(columns)
+    present = [[r for r in plane if r is not None] for plane in planes.values()]
+    return max_ratio([list(column) for rows in present for column in zip(*rows)])
 
 
 def _named(check: str, detail: Mapping[str, Any], planes: dict[Any, _Plane], labels: tuple[list[Any], list[Any]],

@@ -1,8 +1,16 @@
 """The numbers a certificate repeats from its inputs or reads off them: the utility class, each mechanism's size, δ and
-keep probability, and the population's departure from independence.
+keep probability, and the population's departure from independence (:func:`recorded_checks`); and the inputs
+themselves are distributions (:func:`distribution_checks`).
 
 Each is re-derived from ``inputs`` exactly (``proofs/verification.md`` §4c): a repeated number must equal its input,
 a number read off must equal (or, behind randomized response, enclose) its exact value.
+
+Every recorded distribution must be one: certify refuses a table that is not one (``fairaudit.base.arrays.check_probabilities``: every entry finite and
+≥ 0, every row summing to 1 within :data:`ROW_TOLERANCE`; the population's entries summing to 1 within it,
+``docs/design.md`` "Array layout"). A certificate edited afterwards (its ``inputs_sha256`` recomputed) may hold one
+that is not; every number re-derived from it would then be re-derived from a law that is none. The same rule is
+applied exactly: the schema (``certificate.schema.json``, ``probability_rows``) admits only numbers in [0, 1], and the
+sums are checked here on the recorded floats read as rationals: no floating-point sum decides.
 """
 
 from __future__ import annotations
@@ -14,7 +22,7 @@ from typing import Any
 from fairaudit.verification.checks import Check, equal, judge
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism, independence
 
-__all__ = ["recorded_checks"]
+__all__ = ["ROW_TOLERANCE", "distribution_checks", "recorded_checks"]
 
 CLASS_FIELDS = ("gamma", "lower", "tau", "lipschitz", "diameter")
 """The utility class's parameters that the ``utility`` section repeats from ``inputs.utility``."""
@@ -43,28 +51,19 @@ def recorded_checks(cert: Mapping[str, Any], sensitive: RecordedMechanism, conte
     --------
     >>> m = RecordedMechanism.from_record({"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix",
     ...                                    "matrix": [[0.75, 0.25], [0.5, 0.5]]}, "m")
-    >>> [c.line() for c in recorded_checks({"privacy": {"sensitive": {"keep_probability": 0.5}}}, m, m)]
-    ['privacy.sensitive.keep_probability = 0.5: holds']
+    >>> _keep_check("privacy.sensitive.keep_probability", 0.5, m).line()
+    'privacy.sensitive.keep_probability = 0.5: holds'
     """
-    out: list[Check] = []
-    utility, recorded = cert.get("utility"), cert.get("inputs", {}).get("utility")
-    if utility is not None and recorded is not None:
-        out += [equal(f"utility.{k}", utility.get(k), recorded.get(k), "inputs.utility") for k in CLASS_FIELDS]
+    utility, recorded = cert["utility"], cert["inputs"]["utility"]  # (the schema requires every key read here)
+    out = [equal(f"utility.{k}", utility[k], recorded[k], "inputs.utility") for k in CLASS_FIELDS]
     for name, m in (("sensitive", sensitive), ("context", context)):
-        section = cert.get("privacy", {}).get(name)
-        if section is None:
-            continue
-        where = f"privacy.{name}"
-        if "inputs" in section:
-            out.append(equal(f"{where}.inputs", section["inputs"], len(m.inputs), "its input labels"))
-            out.append(equal(f"{where}.outputs", section["outputs"], len(m.outputs), "its output labels"))
-        if "delta" in section:
-            finite = m.epsilon_enclosure().hi != INF
-            out.append(equal(f"{where}.delta", section["delta"], 0.0 if finite else None, "delta at its own epsilon"))
-        out.append(_keep_check(f"{where}.keep_probability", section.get("keep_probability"), m))
-    if "population" in cert and "max_deviation" in cert["population"]:
-        out += _deviation_checks(cert)
-    return out
+        section, where = cert["privacy"][name], f"privacy.{name}"
+        out.append(equal(f"{where}.inputs", section["inputs"], len(m.inputs), "its input labels"))
+        out.append(equal(f"{where}.outputs", section["outputs"], len(m.outputs), "its output labels"))
+        finite = m.epsilon_enclosure().hi != INF
+        out.append(equal(f"{where}.delta", section["delta"], 0.0 if finite else None, "delta at its own epsilon"))
+        out.append(_keep_check(f"{where}.keep_probability", section["keep_probability"], m))
+    return out + _deviation_checks(cert)
 
 
 def _keep_check(name: str, reported: Any, m: RecordedMechanism) -> Check:
@@ -76,10 +75,8 @@ def _keep_check(name: str, reported: Any, m: RecordedMechanism) -> Check:
     rows = m.matrix_rows()
     if rows is None:  # randomized response: p = e^ε/(e^ε + k − 1), enclosed
         return judge(name, reported, m.rr_rows()[0], "estimate", "e^epsilon/(e^epsilon + k - 1)")
-    cols = [list(m.outputs).index(a) for a in m.inputs]
-    return judge(
-        name, reported, Enclosure.point(min(row[c] for row, c in zip(rows, cols))), "estimate", "min_a M[a, a]"
-    )
+    keep = min(row[list(m.outputs).index(a)] for row, a in zip(rows, m.inputs))
+    return judge(name, reported, Enclosure.point(keep), "estimate", "min_a M[a, a]")
 
 
 def _deviation_checks(cert: Mapping[str, Any]) -> list[Check]:
@@ -89,19 +86,70 @@ def _deviation_checks(cert: Mapping[str, Any]) -> list[Check]:
     largest = max(max(row) for row in dev)
     reported = cert["population"]
     out = [judge("population.max_deviation", reported["max_deviation"], Enclosure.point(largest), "estimate")]
-    contexts, groups = pop["contexts"], pop["groups"]
+    contexts, groups, name = pop["contexts"], pop["groups"], "population.max_deviation (its context and group)"
     if reported.get("context") in contexts and reported.get("group") in groups:
-        at = dev[contexts.index(reported["context"])][groups.index(reported["group"])]
-        out.append(
-            judge(
-                "population.max_deviation (its context and group)",
-                reported["max_deviation"],
-                Enclosure.point(at),
-                "estimate",
-                f"at {reported['context']!r}, {reported['group']!r}",
-            )  # fmt: skip
-        )
-    else:
-        out.append(equal("population.max_deviation (its context and group)", reported.get("group"), None,
-                         "the context or group is not a label of inputs.population"))  # fmt: skip
+        at = Enclosure.point(dev[contexts.index(reported["context"])][groups.index(reported["group"])])
+        where = f"at {reported['context']!r}, {reported['group']!r}"
+        return [*out, judge(name, reported["max_deviation"], at, "estimate", where)]
+    why = "the context or group is not a label of inputs.population"
+    return [*out, equal(name, reported.get("group"), None, why)]
+
+
+ROW_TOLERANCE = Fraction(1e-9)
+"""How far a row's exact sum may be from 1 (certify's input validation, ``base.arrays.ROW_TOLERANCE``)."""
+
+MEMBERS = ("black_box", "white_box", "black_box_above", "white_box_above")
+"""The calibrated members ``inputs.calibration`` may record."""
+
+
+def distribution_checks(inputs: Mapping[str, Any]) -> list[Check]:
+    """One check per recorded distribution of ``inputs``: it holds when every row is one, else it names the first
+    row that is not (a sum farther than 1e-9 from 1; the schema has checked that each entry is in [0, 1]).
+
+    Parameters
+    ----------
+    inputs : mapping
+        A certificate's ``inputs`` (checked against the schema).
+
+    Returns
+    -------
+    list of Check
+        ``inputs.population.probabilities``, ``inputs.kernel.probabilities`` (its rows over the decisions) and each mechanism's ``matrix``
+        (``inputs.sensitive_mechanism``, ``inputs.context_mechanism``, ``inputs.calibration.<member>``).
+
+    Examples
+    --------
+    >>> pop = {"probabilities": [[0.25, 0.25], [0.25, 0.25]]}
+    >>> kernel = {"probabilities": [[[0.6, 0.6], [0.5, 0.5]]]}
+    >>> [c.line() for c in distribution_checks({"population": pop, "kernel": kernel})]
+    ['inputs.population.probabilities = 1: holds', 'inputs.kernel.probabilities[0][0] = 1.2: fails by 0.2 (a row sums to 1.2, not 1 within 1e-9)']
+    """
+    out = []
+    if inputs.get("population") is not None:
+        cells = [v for row in inputs["population"]["probabilities"] for v in row]
+        out.append(_check("inputs.population.probabilities", [("", cells)], "its entries sum"))
+    if inputs.get("kernel") is not None:
+        planes = inputs["kernel"]["probabilities"]
+        rows = [(f"[{x}][{a}]", row) for x, block in enumerate(planes) for a, row in enumerate(block)]
+        out.append(_check("inputs.kernel.probabilities", rows, "a row sums"))
+    members = inputs.get("calibration") or {}
+    mechanisms = [(f"inputs.{key}", inputs.get(key)) for key in ("sensitive_mechanism", "context_mechanism")]
+    for where, m in mechanisms + [(f"inputs.calibration.{key}", members.get(key)) for key in MEMBERS]:
+        if m is not None and m["kind"] == "matrix":
+            out.append(_check(f"{where}.matrix", [(f"[{i}]", row) for i, row in enumerate(m["matrix"])], "a row sums"))
     return out
+
+
+def _check(field: str, rows: list[tuple[str, list[Any]]], what: str) -> Check:
+    """The first row of ``rows`` that is not a distribution, as a failing check; else one check that holds (the schema
+    lets only numbers in [0, 1] through)."""
+    for index, row in rows:
+        total = sum(map(Fraction, row), Fraction(0))
+        miss = abs(total - 1) - ROW_TOLERANCE
+        if miss > 0:
+            shown = float(total)
+            return Check(name=f"{field}{index}", reported=shown, derived_low=1.0, derived_high=1.0, side="estimate",
+                         holds=False, fails_by=float(miss),
+                         detail=f"{what} to {shown:.12g}, not 1 within 1e-9")  # fmt: skip
+    return Check(name=field, reported=1, derived_low=1.0, derived_high=1.0, side="estimate", holds=True, fails_by=0.0,
+                 detail=f"{what} to 1 within 1e-9, every entry >= 0")  # fmt: skip

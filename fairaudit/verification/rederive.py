@@ -24,14 +24,15 @@ from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.accounting import unaccounted
+from fairaudit.verification.black_box_check import PairEnclosures, black_box_enclosures, pair_enclosures
 from fairaudit.verification.calibration_check import calibration_checks
 from fairaudit.verification.checks import Check, equal, judge, stated_tolerance
-from fairaudit.verification.distribution_check import distribution_checks
 from fairaudit.verification.enclosures import (
     INDEPENDENCE,
     INF,
     Enclosure,
     RecordedMechanism,
+    below_epsilon,
     exact,
     exp_of,
     independence,
@@ -39,7 +40,7 @@ from fairaudit.verification.enclosures import (
     ln_of,
 )
 from fairaudit.verification.observed_check import observed_checks
-from fairaudit.verification.recorded_check import recorded_checks
+from fairaudit.verification.recorded_check import distribution_checks, recorded_checks
 from fairaudit.verification.schema import CertificateError
 from fairaudit.verification.verdict_check import verdict_checks
 
@@ -217,21 +218,20 @@ def _theorem_checks(
     u = cert["inputs"]["utility"]
     bounds, details = cert["bounds"], cert["bound_details"]
     out = [judge("bounds.corollary", bounds["corollary"], eps_a, "upper")]
-    for form in ("paper", "tight", "corollary"):
-        if isinstance(details.get(form), Mapping) and "value" in details[form]:
-            out.append(equal(f"bound_details.{form}.value", details[form]["value"], bounds.get(form), f"bounds.{form}"))
-    corollary = details.get("corollary") or {}
-    if "epsilon" in corollary:
-        out.append(equal("bound_details.corollary.epsilon", corollary["epsilon"], bounds["corollary"], "the bound"))
-        out.append(equal("bound_details.corollary.delta", corollary["delta"], 0.0, "the corollary is pure"))
+    for form in ("paper", "tight", "corollary"):  # (each a theorem_bound of the schema where present)
+        if form in details:
+            out.append(equal(f"bound_details.{form}.value", details[form]["value"], bounds[form], f"bounds.{form}"))
+    corollary = details["corollary"]
+    out.append(equal("bound_details.corollary.epsilon", corollary["epsilon"], bounds["corollary"], "the bound"))
+    out.append(equal("bound_details.corollary.delta", corollary["delta"], 0.0, "the corollary is pure"))
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
     lipschitz, gamma = exact(u["lipschitz"], "inputs.utility.lipschitz"), exact(u["gamma"], "inputs.utility.gamma")
     diameter = exact(u["diameter"], "inputs.utility.diameter")
-    if bounds.get("paper") is None:
+    if bounds["paper"] is None:
         return out
     if tau is None:  # L_A = 0 and pure DP: both forms are epsilon(M)
         out.append(judge("bounds.paper", bounds["paper"], eps_a, "upper"))
-        if isinstance(details.get("paper"), Mapping) and "delta" in details["paper"]:
+        if "paper" in details:
             out.append(equal("bound_details.paper.delta", details["paper"]["delta"], 0.0, "pure: the bound is epsilon"))
         out.append(judge("bounds.tight", bounds["tight"], eps_a, "upper"))
         return out
@@ -261,22 +261,21 @@ def _theorem_checks(
 def _target_checks(cert: Mapping[str, Any]) -> list[Check]:
     """Each target's bound is the certificate's bound, and its verdicts follow from the numbers."""
     out: list[Check] = []
-    bounds = cert["bounds"]
-    if bounds.get("best_form") not in (None, "none"):
-        out.append(equal("bounds.best", bounds["best"], bounds[bounds["best_form"]], f"bounds.{bounds['best_form']}"))
-    elif bounds.get("best_form") == "none" and "best" in bounds:
+    bounds, form = cert["bounds"], cert["bounds"]["best_form"]
+    if form == "none":
         out.append(equal("bounds.best", bounds["best"], "inf", "no form gives a bound: +inf"))
+    else:
+        out.append(equal("bounds.best", bounds["best"], bounds[form], f"bounds.{form}"))
     for kind, t in (cert.get("targets") or {}).items():
         expected = bounds["best"] if kind == "local" else bounds["global"]
         out.append(equal(f"targets.{kind}.bound", t["bound"], expected))
         goal, bound = exact(t["target"], f"targets.{kind}.target"), exact(t["bound"], f"targets.{kind}.bound")
         out.append(equal(f"targets.{kind}.met", t["met"], bound <= goal))
-        if t.get("observed") is not None and "observed" in cert:
-            out.append(equal(f"targets.{kind}.observed", t["observed"], cert["observed"][kind]["value"]))
         if t.get("observed") is not None:
-            out.append(
-                equal(f"targets.{kind}.observed_met", t["observed_met"], exact(t["observed"], "observed") <= goal)
-            )
+            if "observed" in cert:
+                out.append(equal(f"targets.{kind}.observed", t["observed"], cert["observed"][kind]["value"]))
+            met = exact(t["observed"], "observed") <= goal
+            out.append(equal(f"targets.{kind}.observed_met", t["observed_met"], met))
     return out
 
 
@@ -364,13 +363,6 @@ def _label(value: Any, inner: bool = False) -> Any:
     return repr(text) if isinstance(value, str) and (not text or text != text.strip()) else text
 
 
-def _below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
-    """ln of a worst ratio, enclosed, its upper end at most ε(M_A): under pure ε-DP no model's ratio exceeds e^ε
-    (post-processing), which decides the ties where the worst case is ε itself."""
-    logs = ln_of(ratio)
-    return Enclosure(logs.lo, min(logs.hi, eps.hi))
-
-
 def _witness_checks(
     where: str,
     detail: Mapping[str, Any],
@@ -430,65 +422,43 @@ the earlier of two pairs whose solved values lie within the solver's 1e-9, so th
 accuracy, not to the last digit (the value is an upper end over every pair all the same)."""
 
 
-def _maximiser_checks(
-    cert: Mapping[str, Any],
-    detail: Mapping[str, Any],
-    glob: Mapping[str, Any],
-    global_re_derived: bool,
-    eps_a: Enclosure,
-    clips: tuple[bool, bool],
-    skipped: list[tuple[str, str]],
+def _maximiser(
+    name: str, where: Mapping[str, Any], local: bool, pair: PairEnclosures, eps: Enclosure | None, skip: list[Any]
 ) -> list[Check]:
-    """The black box's context and pair attain its worst cases (to :data:`PAIR_TOLERANCE`): a swapped pair fails.
-    L̄'s pair only where L̄ is re-derived (``global_re_derived``; else it is listed with L̄ as not re-derived).
-    ``clips`` says, for L and L̄, whether a pair's reach is at most ε(M_A), as for the values (:func:`_below_epsilon`:
-    beyond ε = 10^6 the upper end is solved at the identity, where a pair's ratio may be c/0). Where a recorded dual
-    (or the relaxation) gives the pair's upper end, a pair whose upper end reaches the value but whose lower end (the
-    recorded point's) does not is listed in ``skipped``: its upper end does not show that it attains the value."""
-    from fairaudit.verification.black_box_check import pair_enclosures
-
-    global_duals = False
-    out = []
-    local, _, local_duals = pair_enclosures(
-        cert["inputs"], detail.get("context"), detail.get("group"), detail.get("other_group"), detail, only="local"
-    )
-    named: list[tuple[str, Mapping[str, Any], Enclosure | None, tuple[Any, ...]]] = [
-        ("bound_details.black_box (its context and groups)", detail, local, (detail.get("context"),))
-    ]
-    if global_re_derived and glob.get("value") is not None and glob.get("group") is not None:
-        _, g_pair, global_duals = pair_enclosures(
-            cert["inputs"], detail.get("context"), glob.get("group"), glob.get("other_group"), detail, only="global"
-        )
-        named.append(("bound_details.black_box.global (its groups)", glob, g_pair, ()))
-    for (name, where, pair, context), clip, from_duals in zip(named, clips, (local_duals, global_duals)):
-        labels = " vs ".join(str(v) for v in (*context, where.get("group"), where.get("other_group")))
-        value = exact(where["value"], name)
-        if where.get("certified") is False:  # (an inexact solve's value: its pair need only reach its witness)
-            if where.get("witness") is None:
-                skipped.append((name, "the value is not certified and no witness is recorded"))
-                continue
-            value = exact(where["witness"], name)
-        reach = None if pair is None else (_below_epsilon(pair, eps_a) if clip else ln_of(pair)).hi
-        if reach is None:
-            ok = False
-        elif value == INF or reach == INF:
-            ok = reach == value
-        else:
-            v = Fraction(value)
-            enough = v - Fraction(PAIR_TOLERANCE) * max(Fraction(1), abs(v))
-            ok = Fraction(reach) >= enough
-            if ok and from_duals and pair is not None and ln_of(pair).lo < enough:
-                skipped.append((name, "its program is bounded by a recorded dual; the recorded point does not reach"))
-                continue
-        why = "its exact worst case reaches the value" if ok else "the named pair does not reach the value"
-        out.append(equal(name, labels, labels if ok else "a pair that reaches the value", why))
-    return out
+    """The black box's named context and pair (``where``: its context and groups, or L̄'s groups) attain its worst case
+    (to :data:`PAIR_TOLERANCE`): a swapped pair fails. ``pair`` is the named pair's own worst case: on L at the named
+    context (``local``), or on L̄. ``eps``, where given, is ε(M_A), at most which a pair's reach is, as for the values
+    (:func:`~fairaudit.verification.enclosures.below_epsilon`: beyond ε = 10^6 the upper end is solved at the
+    identity, where a pair's ratio may be c/0). Where a recorded dual (or the relaxation) gives the pair's upper end, a
+    pair whose upper end reaches the value but whose lower end (the recorded point's) does not is listed in
+    ``skip``: its upper end does not show that it attains the value."""
+    named = (where.get("context"),) if local else ()
+    labels = " vs ".join(str(v) for v in (*named, where.get("group"), where.get("other_group")))
+    value = exact(where["value"], name)
+    if where.get("certified") is False:  # (an inexact solve's value: its pair need only reach its witness)
+        if where.get("witness") is None:
+            skip.append((name, "the value is not certified and no witness is recorded"))
+            return []
+        value = exact(where["witness"], name)
+    ratio = pair.local if local else pair.global_
+    reach = None if ratio is None else (below_epsilon(ratio, eps) if eps else ln_of(ratio)).hi
+    if reach is None:
+        ok = False
+    elif value == INF or reach == INF:
+        ok = reach == value
+    else:
+        v = Fraction(value)
+        enough = v - Fraction(PAIR_TOLERANCE) * max(Fraction(1), abs(v))
+        ok = Fraction(reach) >= enough
+        if ok and pair.from_duals and ratio is not None and ln_of(ratio).lo < enough:
+            skip.append((name, "its program is bounded by a recorded dual; the recorded point does not reach"))
+            return []
+    why = "its exact worst case reaches the value" if ok else "the named pair does not reach the value"
+    return [equal(name, labels, labels if ok else "a pair that reaches the value", why)]
 
 
 def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[tuple[str, str]]) -> list[Check]:
     """The black-box worst cases on L and L̄, re-derived by exact programs, and the witness below them."""
-    from fairaudit.verification.black_box_check import black_box_enclosures
-
     bounds, detail = cert["bounds"], cert["bound_details"]["black_box"]
     if bounds["black_box"] is None:
         skipped += [
@@ -501,7 +471,7 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     if worst.local is None:
         skipped += [(n, worst.reason) for n in ("bounds.black_box", "bounds.global", "bound_details.black_box")]
         return []
-    local = _below_epsilon(worst.local, eps_a) if worst.group_free else ln_of(worst.local)
+    local = below_epsilon(worst.local, eps_a) if worst.group_free else ln_of(worst.local)
     out = [
         judge("bounds.black_box", bounds["black_box"], local, "upper", "the exact worst case over every model"),
         equal("bound_details.black_box.value", detail["value"], bounds["black_box"]),
@@ -510,14 +480,19 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     out += _witness_checks(
         "bound_details.black_box", detail, worst.local, local, eps_a, clip=worst.group_free, skipped=evidence
     )
-    glob = detail.get("global") or {}
-    clips = (worst.group_free, worst.independent and worst.group_free)
-    out += _maximiser_checks(cert, detail, glob, worst.global_ is not None, eps_a, clips, skipped)
+    glob, inputs, context = detail.get("global") or {}, cert["inputs"], detail.get("context")
+    pair = pair_enclosures(inputs, context, detail.get("group"), detail.get("other_group"), detail, only="local")
+    name = "bound_details.black_box (its context and groups)"
+    out += _maximiser(name, detail, True, pair, eps_a if worst.group_free else None, skipped)
+    clip = worst.independent and worst.group_free
+    if worst.global_ is not None and glob.get("value") is not None and glob.get("group") is not None:
+        pair = pair_enclosures(inputs, context, glob.get("group"), glob.get("other_group"), detail, only="global")
+        name = "bound_details.black_box.global (its groups)"
+        out += _maximiser(name, glob, False, pair, eps_a if clip else None, skipped)
     if worst.global_ is None:
         skipped += [("bounds.global", worst.reason), ("bound_details.black_box.global", worst.reason)]
     elif glob.get("value") is not None:
-        clip = worst.independent and worst.group_free
-        on_l_bar = _below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)
+        on_l_bar = below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)
         if glob.get("certified") is False:  # (an inexact solve's: certify gives no bound from it, bounds.global)
             why = f"not certified by certify (solver status {glob.get('solver_status')}): its witness is checked"
             skipped += [("bound_details.black_box.global.value", why), ("bound_details.black_box.global.ratio", why)]

@@ -16,7 +16,7 @@ from fractions import Fraction
 from typing import Any
 
 from fairaudit.verification.checks import Check, equal
-from fairaudit.verification.enclosures import INDEPENDENCE, exact, independence, recorded_array
+from fairaudit.verification.enclosures import INDEPENDENCE, exact, group_free, independence, recorded_array
 
 __all__ = ["FORMS", "verdict_checks"]
 
@@ -51,20 +51,28 @@ def verdict_checks(cert: Mapping[str, Any], skipped: list[tuple[str, str]]) -> l
 
     Examples
     --------
-    >>> cert = {"certified": True, "targets": {"local": {"target": 0.5, "bound": 0.6}}}
-    >>> [c.line() for c in verdict_checks(cert, [])]
-    ['certified = True: fails (not every target is met: targets.local.bound 0.6 > target 0.5)']
+    ``certified`` is every target's bound at most its target (certify's ``bound <= goal``):
+
+    >>> _certified({"certified": True, "targets": {"local": {"target": 0.5, "bound": 0.6}}}).line()
+    'certified = True: fails (not every target is met: targets.local.bound 0.6 > target 0.5)'
     """
-    out = [_certified(cert)]
-    assumptions = cert.get("assumptions")
-    if isinstance(assumptions, Sequence):
-        out += _assumption_checks(cert, assumptions, skipped)
-        out += _holds_checks(cert, assumptions)
-        if isinstance(cert.get("bounds"), Mapping) and "best_form" in cert["bounds"]:
-            out.append(_best_form(cert, assumptions))
-    out += _population_checks(cert)
-    out += _utility_checks(cert)
-    out += _feasible_checks(cert)
+    assumptions, population = cert["assumptions"], cert["population"]
+    out = [_certified(cert), *_assumption_checks(cert, assumptions, skipped), *_holds_checks(cert, assumptions)]
+    out.append(_best_form(cert, assumptions))
+    expected = _pick(population["independent"], _independent(cert))
+    why = "max |P(x, a) - P(x) P(a)| of inputs.population <= 1e-9"
+    if population["source"] == "assumed":
+        expected, why = "assumed", "an assumed population is never checked"
+    out.append(equal("population.independent", population["independent"], expected, why))
+    dep = not group_free(cert["inputs"]["utility"]["values"])
+    why = "inputs.utility.values over the groups"
+    out.append(equal("utility.depends_on_group", cert["utility"]["depends_on_group"], dep, why))
+    calibration = cert.get("calibration") or {}
+    for where, section in (("calibration", calibration), ("calibration.white_box", calibration.get("white_box"))):
+        if isinstance(section, Mapping) and "feasible" in section:
+            found = section.get("epsilon") is not None
+            why = "an epsilon meets the target" if found else "no epsilon recorded: none meets the target"
+            out.append(equal(f"{where}.feasible", section["feasible"], found, why))
     return out
 
 
@@ -91,8 +99,8 @@ def _valid(cert: Mapping[str, Any], form: str, assumptions: Sequence[Mapping[str
         return False
     if form != "black_box":
         return True
-    detail = cert.get("bound_details", {}).get("black_box") or {}
-    return detail.get("certified") is not False and (detail.get("global") or {}).get("certified") is not False
+    detail = cert["bound_details"]["black_box"]  # (a worst case of the schema: certified is a boolean)
+    return detail["certified"] and detail["global"]["certified"]
 
 
 def _best_form(cert: Mapping[str, Any], assumptions: Sequence[Mapping[str, Any]]) -> Check:
@@ -107,8 +115,8 @@ def _best_form(cert: Mapping[str, Any], assumptions: Sequence[Mapping[str, Any]]
 def _holds_checks(cert: Mapping[str, Any], assumptions: Sequence[Mapping[str, Any]]) -> list[Check]:
     """``bound_details.<form>.holds``: no assumption of the form on L violated (``Bound.holds``)."""
     out = []
-    for form, detail in (cert.get("bound_details") or {}).items():
-        if isinstance(detail, Mapping) and "holds" in detail:
+    for form, detail in cert["bound_details"].items():
+        if "holds" in detail:  # (each form's theorem_bound; the black box's worst case has none)
             expected = not any(_violates(a, form) for a in assumptions)
             why = "no assumption of the form on L is violated" if expected else "an assumption of the form is violated"
             out.append(equal(f"bound_details.{form}.holds", detail["holds"], expected, why))
@@ -139,7 +147,7 @@ def _assumption_checks(
         if name == "M_A is differentially private":  # a finite mechanism's exact privacy profile is computed
             out.append(equal(where, status, "checked", "the exact privacy profile of the recorded mechanism"))
         elif name == GLOBAL_ONLY:
-            source = (cert.get("population") or {}).get("source")
+            source = cert["population"]["source"]
             allowed = ["violated" if not ind else "assumed" if source == "assumed" else "checked"
                        for ind in _independent(cert)]  # fmt: skip
             why = "max |P(x, a) - P(x) P(a)| of inputs.population against 1e-9, and population.source"
@@ -150,59 +158,14 @@ def _assumption_checks(
             ok = ceiling == float("inf") or largest <= Fraction(ceiling)
             out.append(equal(where, status, "checked" if ok else "violated", "max inputs.utility.values <= gamma"))
         elif name == "g independent of the group":
-            dep = _depends_on_group(utility["values"])
+            dep = not group_free(utility["values"])
             out.append(equal(where, status, "violated" if dep else "checked", "inputs.utility.values over the groups"))
         else:
-            skipped.append(
-                (where, f"{name!r} is {status!r}: the inputs do not decide it (a vow, or the observed model)")
-            )
+            why = f"{name!r} is {status!r}: the inputs do not decide it (a vow, or the observed model)"
+            skipped.append((where, why))
     return out
 
 
 def _flat(values: Any) -> list[Any]:
     """The entries of nested lists, in order."""
     return [v for inner in values for v in _flat(inner)] if isinstance(values, list) else [values]
-
-
-def _depends_on_group(values: Any) -> bool:
-    """g(u, x, a) differs between two groups for some (u, x): a table [x][a][u] (``Utility.depends_on_group``)."""
-    if not values or not isinstance(values[0], list):
-        return False
-    return any(row[a] != row[0] for row in values for a in range(len(row)))
-
-
-def _population_checks(cert: Mapping[str, Any]) -> list[Check]:
-    """``population.independent``: "assumed" for an assumed population, else max deviation <= 1e-9."""
-    pop = cert.get("population")
-    if not isinstance(pop, Mapping) or "independent" not in pop:
-        return []
-    reported = pop["independent"]
-    if pop.get("source") == "assumed":
-        return [equal("population.independent", reported, "assumed", "an assumed population is never checked")]
-    allowed = _independent(cert)
-    why = "max |P(x, a) - P(x) P(a)| of inputs.population <= 1e-9"
-    return [equal("population.independent", reported, _pick(reported, allowed), why)]
-
-
-def _utility_checks(cert: Mapping[str, Any]) -> list[Check]:
-    """``utility.depends_on_group`` from ``inputs.utility.values``."""
-    u = cert.get("utility")
-    if not isinstance(u, Mapping) or "depends_on_group" not in u:
-        return []
-    dep = _depends_on_group(cert["inputs"]["utility"]["values"])
-    return [equal("utility.depends_on_group", u["depends_on_group"], dep, "inputs.utility.values over the groups")]
-
-
-def _feasible_checks(cert: Mapping[str, Any]) -> list[Check]:
-    """``calibration[.white_box].feasible``: an ε was found (``calibration.epsilon`` is a number, +inf included)."""
-    out = []
-    calibration = cert.get("calibration")
-    for where, section in (
-        ("calibration", calibration),
-        ("calibration.white_box", (calibration or {}).get("white_box")),
-    ):
-        if isinstance(section, Mapping) and "feasible" in section:
-            found = section.get("epsilon") is not None
-            why = "an epsilon meets the target" if found else "no epsilon recorded: none meets the target"
-            out.append(equal(f"{where}.feasible", section["feasible"], found, why))
-    return out

@@ -1,5 +1,5 @@
 """The black box solved exactly, a second route for the tests: each program of L and L̄ over the model's table
-(:mod:`fairaudit.verification.kernel_check`'s settings) as a linear-fractional program over a polytope, solved by
+(:class:`fairaudit.verification.black_box_check.KernelSetting`) as a linear-fractional program over a polytope, solved by
 the rational simplex (:mod:`fairaudit.base.exact_programs`). ``fairaudit verify`` solves nothing: it bounds each
 program from the proofs a certificate records; these solves fix the exact values the tests hold those bounds to.
 
@@ -17,9 +17,8 @@ from typing import Any
 
 from fairaudit.base.exact_programs import Polytope, maximize_linear, maximize_ratio_over_product
 from fairaudit.verification import black_box_check as bb
-from fairaudit.verification.dual_check import Evidence
+from fairaudit.verification.black_box_check import Evidence, KernelSetting, reached_rows
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism
-from fairaudit.verification.kernel_check import KernelSetting, reached_rows
 
 Number = Fraction | float
 

@@ -15,7 +15,7 @@ from fractions import Fraction as F
 import pytest
 from _exact_route import exact_enclosures
 from _verified import product_by_group
-from test_dual_check import UNLIKE
+from test_black_box_check_evidence import UNLIKE
 from test_rederive_random import REGRESSIONS
 
 import fairaudit.verification.black_box_check as bb
@@ -117,7 +117,7 @@ def test_the_certificate_records_a_screen_for_every_program_the_multipliers_and_
 
 
 def test_beyond_the_exact_size_verify_holds_from_the_recorded_proofs_alone(by_group, monkeypatch):
-    # without proofs, within the exact size, both worst cases are solved exactly (kernel_check's rational simplex);
+    # without proofs, within the exact size, both worst cases are solved exactly (the test route's rational simplex, _exact_route);
     # with them, beyond it, no program is solved, and the upper ends are the recorded proofs' bounds: at or above
     # the exact values (weak duality) and at or below the certified ratios (each proving within rounding)
     exact = _exact(by_group)

@@ -1,4 +1,4 @@
-"""Weak duality over the model's table (``verification.table_duality``), against second routes: every deterministic
+"""Weak duality over the model's table (``verification.black_box_check.TableProgram``), against second routes: every deterministic
 table, B(λ, ν) recomputed cell by cell, the rational simplex (``base.exact_programs.maximize_ratio``) and its
 multipliers, and hand calculations."""
 
@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 
 from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.base.table_relaxation import relaxation_bounds
-from fairaudit.verification.enclosures import INF
-from fairaudit.verification.table_duality import TableProgram, integers
+from fairaudit.verification.black_box_check import TableProgram
+from fairaudit.verification.enclosures import INF, integers
 
 Table = list[list[F]]
 

@@ -11,7 +11,7 @@ import pytest
 from _verified import product_by_group
 from hypothesis import given
 from hypothesis import strategies as st
-from test_table_duality import _simplex
+from test_black_box_check_duality import _simplex
 
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.certification.certificate import certify

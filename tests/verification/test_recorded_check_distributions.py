@@ -1,4 +1,4 @@
-"""`distribution_check`: every row of a recorded kernel and mechanism, and the population, is a distribution (entries
+"""`recorded_check.distribution_checks`: every row of a recorded kernel and mechanism, and the population, is a distribution (entries
 >= 0, exact sum within 1e-9 of 1, certify's input rule); an edited one fails naming the input and the row, even where
 its inputs_sha256 is recomputed and every number re-derived from it still agrees."""
 
@@ -114,7 +114,7 @@ def test_the_cli_exits_1_naming_the_input_and_row(capsys, tmp_path, cert):
 
 
 def test_rows_of_a_calibrated_member_are_checked():
-    from fairaudit.verification.distribution_check import distribution_checks
+    from fairaudit.verification.recorded_check import distribution_checks
 
     member = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix", "matrix": [[0.5, 0.5], [0.25, 0.25]]}
     checks = distribution_checks({"calibration": {"black_box": member, "white_box": None}})

@@ -14,9 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fairaudit
-from fairaudit.verification.black_box_check import black_box_enclosures
+from fairaudit.verification.black_box_check import KernelSetting, black_box_enclosures
 from fairaudit.verification.enclosures import INF
-from fairaudit.verification.kernel_check import KernelSetting
 
 IDENTITY_X = {"inputs": ["x"], "outputs": ["x"], "kind": "identity"}
 KEEP_3_4 = {"inputs": ["a", "b"], "outputs": ["a", "b"], "kind": "matrix", "matrix": [[0.75, 0.25], [0.25, 0.75]]}

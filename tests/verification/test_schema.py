@@ -143,3 +143,13 @@ def test_a_matrix_entry_out_of_range_is_named(certificates):
 def test_a_value_that_is_not_an_object_is_refused():
     with pytest.raises(CertificateError, match="^certificate: must be a JSON object"):
         check_certificate([1, 2])  # type: ignore[arg-type]
+
+
+def test_a_label_given_twice_is_refused(certificates):
+    """The checks key their per-context and per-group tables by label: two contexts of one label would merge."""
+    data = certificates["llm_hiring/gpt35.toml"]
+    contexts = data["inputs"]["kernel"]["contexts"]
+    twice = [contexts[0], contexts[0], *contexts[2:]]
+    error = failure(data, lambda d: d["inputs"]["kernel"].update(contexts=twice))
+    assert error.field == "inputs.kernel.contexts" and error.value == twice
+    assert "has non-unique elements" in str(error)

@@ -402,8 +402,8 @@ def rr_lipschitz_ratio(
     """:func:`rr_lipschitz`'s ratio, exactly, at t = ``exp_up`` (ε) ≥ e^ε: an upper end (+inf when unbounded).
 
     The same 8 pieces of [lo, hi]^3 (``proofs/black_box.md`` §5, Proposition 7b), each a linear-fractional program in
-    (x, z, y) with rational data, solved by the rational simplex (:func:`~fairaudit.base.exact_programs.
-    maximize_ratio`; the affine numerator through a fourth variable fixed at 1). The worst case is non-decreasing in
+    (x, z, y) with rational data, solved exactly (:class:`~fairaudit.base.linear_fractional.Polytope`; the affine
+    numerator through a fourth variable fixed at 1). The worst case is non-decreasing in
     e^ε (a smaller ε is a post-processing of a larger one, ``proofs/calibration.md`` §3), so its value at t bounds the
     value at e^ε from above (``proofs/outward.md`` §5).
 
@@ -421,7 +421,7 @@ def rr_lipschitz_ratio(
     fractions.Fraction or float
         The exact maximum at t, or +inf when g = 0 is allowed for a' and f = λ > 0 for a (lo = 0, no binding floor).
     """
-    from fairaudit.base.exact_programs import maximize_ratio
+    from fairaudit.base.linear_fractional import Polytope
 
     p, q = _rows_up(k, epsilon)
     m = k - 2
@@ -447,7 +447,7 @@ def rr_lipschitz_ratio(
                 rhs += [sum(v * c for v, c in zip(vec, icpt, strict=True)) - floor]
         lower = [c[0] for c in cells] + [Fraction(1)]
         upper = [c[1] for c in cells] + [Fraction(1)]
-        found = maximize_ratio(numerator, [*d_vec, Fraction(0)], lower, upper, rows, rhs)
+        found = Polytope(lower, upper, rows, rhs, 4).maximize_ratio(numerator, [*d_vec, Fraction(0)])
         if found.status == "zero_denominator":
             return math.inf
         if found.status == "optimal" and found.value is not None and found.value > best:
@@ -468,27 +468,12 @@ def unit_class(lower: float, gamma: float, tau: float | None, lipschitz: float) 
     return fraction_down(Fraction(lower) / g), fraction_down(Fraction(floor) / g), fraction_up(Fraction(lipschitz) / g)
 
 
-def rr_class_ratio(
-    rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
-) -> float:
-    """The black-box ratio of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``).
-
-    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.laws.closed_forms.RandomizedResponse`, without
-    the worst model (calibration evaluates it along the family).
-    """
-    if rr.k < 2 or gamma == 0 or lower == gamma:
-        return 1.0
-    lo, floor, lam = unit_class(lower, gamma, tau, lipschitz * diameter)
-    if lam > 0:
-        out = rr_lipschitz(rr, lo, 1.0, floor, lam)
-        return math.inf if out is None else out[0]
-    return rr_box(rr, lo, 1.0, floor).ratio
-
-
 def rr_class_value(
     rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
 ) -> float:
-    """log of :func:`rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε); rounded up.
+    """The black-box value of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``),
+    in nats, exact where the ratio overflows (lower = 0, L_A = 0: ε); rounded up. O(1): calibration evaluates it
+    along the family.
 
     With L_A = 0, :func:`rr_box`'s value: the exact closed form at a rational t ≥ e^ε, rounded up; with L_A > 0,
     :func:`rr_lipschitz_ratio` (every piece's program exactly, at the same t), ``log_up`` of it

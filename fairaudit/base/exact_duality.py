@@ -419,17 +419,12 @@ def point_ratio(
         return math.nan
     if upper is not None and np.any(h > upper):
         return math.nan
-    return _ratio_at(_dyadic(h), 1, p, q, rows)
-
-
-def _ratio_at(x: Dyadic, scale: int, p: FloatArray, q: FloatArray, rows: Rows) -> float:
-    """(p·h)/(q·h) rounded down at h = x/``scale`` when h meets every row exactly and q·h > 0; NaN otherwise."""
     import scipy.sparse as sp
 
+    x = _dyadic(h)
     for a, b, kind in rows:
-        lhs = _transpose_times(sp.csr_matrix(a).T, x, b.size)  # A x = (Aᵀ)ᵀ x
-        b_ints, b_exponent = _dyadic(b)
-        diff = _add(lhs, (b_ints * scale, b_exponent), -1)  # A x − b·scale
+        lhs = _transpose_times(sp.csr_matrix(a).T, x, b.size)  # A h = (Aᵀ)ᵀ h
+        diff = _add(lhs, _dyadic(b), -1)  # A h − b
         bad = diff[0] > 0 if kind == "le" else diff[0] != 0
         if np.any(bad.astype(bool)):
             return math.nan

@@ -309,8 +309,8 @@ class WorstCase:
     def settled(self) -> bool:
         """Whether the value is the worst case itself, not only an upper bound on it: decided without a program (the
         threshold rule, a closed form), or a model's certified value (``witness``) within 1e-12 of it (relative to
-        max(1, value)). A program whose rounded coefficients leave its witness below its value, beyond the rational
-        simplex's size, is not."""
+        max(1, value)). A program whose rounded coefficients leave its witness below its value, beyond the exact
+        solve's size, is not."""
         if self.method != "lp" or self.status != "optimal":
             return True
         return math.isfinite(self.witness) and self.value - self.witness <= 1e-12 * max(1.0, abs(self.value))

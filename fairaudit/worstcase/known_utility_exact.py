@@ -4,12 +4,12 @@ The pair search (:mod:`~fairaudit.worstcase.known_utility_search`) solves progra
 of floats: its value is certified on their outer ends, its witness on their inner ends. Where the two do not meet
 (within :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE`), the rounding itself may be what moves the
 optimum: a floor E[g | x, a] ≥ τ with τ = max g holds on a face of the polytope only, and a rounded coefficient turns
-that face into a slab. Such a program, within :data:`CROSSOVER_SIZE`, is solved
-again here exactly (HiGHS's basis solved and finished in rationals) on exact data: g, τ, P(x | a) and a matrix mechanism's entries as the floats they
+that face into a slab. Such a program, within :data:`CROSSOVER_SIZE`, is solved again here exactly (HiGHS's basis
+solved and finished in rationals) on exact data: g, τ, P(x | a) and a matrix mechanism's entries as the floats they
 are (their exact values), and randomized response's rows at the two ends of its e^ε (float ends, or 50-digit ones
-beyond the floats). The worst case is
-non-decreasing in e^ε (randomized response at a smaller ε is the one at a larger ε followed by more randomized
-response), so the maximum at the upper end bounds it from above and the one at the lower end from below.
+beyond the floats). The worst case is non-decreasing in e^ε (randomized response at a smaller ε is the one at a
+larger ε followed by more randomized response), so the maximum at the upper end bounds it from above and the one at
+the lower end from below.
 ``proofs/black_box.md`` §6.
 """
 
@@ -269,8 +269,8 @@ class ExactPrograms:
         self, data: Callable[[_End], tuple[ObjectArray, ObjectArray]], rounded: FractionalResult
     ) -> FractionalResult | None:
         """The program exactly, in place of ``rounded`` (its float form's result), over the product of the blocks
-        (:func:`~fairaudit.base.linear_fractional.maximize_ratio_over_product`: a block without objective only has to be
-        feasible). None where a block is beyond :data:`CROSSOVER_SIZE` or there are
+        (:func:`~fairaudit.base.linear_fractional.maximize_ratio_over_product`: a block without objective only has to
+        be feasible). None where a block is beyond :data:`CROSSOVER_SIZE` or there are
         more than :data:`MAX_BLOCKS`, where randomized response's e^ε has no finite float end, or where the simplex
         gives no finite maximum and no proof of +inf. The value is the maximum at the upper end rounded up, the
         witness the one at the lower end rounded down."""

@@ -697,7 +697,7 @@ class RatioOptimum:
         max (p·h)/(q·h), exactly; None unless optimal.
     point : tuple of Fraction or None
         When optimal, a vertex h with q·h > 0 and (p·h)/(q·h) = value; for "zero_denominator", a vertex with q·h < 0,
-        or with q·h = 0 (everywhere, or with p·h > 0); None when infeasible.
+        or with q·h = 0 < p·h, or, where q·h = 0 everywhere, one maximising p·h; None when infeasible.
     multipliers : tuple of Fraction or None
         When optimal, the last step's duals on the rows of A_ub, y ≥ 0 (over a product, the blocks' rows one after
         the other), from its exact basis: max over the box of (p − value·q − yᵀA_ub)·h, plus y·b_ub, is 0, which
@@ -837,8 +837,8 @@ def maximize_ratio_over_product(
         if negative_min > 0:
             return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
         largest, point = step(Fraction(-1), top=0)
-        if largest == 0:
-            return RatioOptimum("zero_denominator", None, point)  # q·h = 0 on the whole polytope
+        if largest == 0:  # q·h = 0 on the whole polytope: the maximiser of p·h shows whether c/0 (p·h > 0) is met
+            return RatioOptimum("zero_denominator", None, step(Fraction(0))[1])
         ratio = _dot(numerator, point) / largest
     while True:
         gap, vertex = step(ratio)

@@ -257,3 +257,14 @@ def test_polytope_reports_an_empty_polytope_and_a_zero_denominator():
     unbounded = box.maximize_ratio([F(1), F(0)], [F(0), F(1)])  # h = (1, 0): q·h = 0 < p·h
     assert unbounded.status == "zero_denominator" and unbounded.point == (F(1), F(0))
     assert box.maximize_ratio([F(1), F(0)], [F(-1), F(1)]).status == "zero_denominator"  # q·h < 0 at (1, 0)
+
+
+def test_polytope_where_the_denominator_vanishes_everywhere_shows_the_largest_numerator():
+    # q·h = 0 on the whole polytope: the point maximises p·h, so c/0 (p·h > 0) shows wherever some h meets it
+    from fairaudit.base.linear_fractional import Polytope
+
+    F = Fraction
+    box = Polytope([0, 0], [1, 1], [], [], 2)
+    found = box.maximize_ratio([F(0), F(1)], [F(0), F(0)])
+    assert found.status == "zero_denominator" and found.point == (F(0), F(1))
+    assert box.maximize_ratio([F(0), F(-1)], [F(0), F(0)]).point[1] == 0  # (p·h ≤ 0 everywhere: 0 at best)

@@ -55,7 +55,6 @@ def exact_result(
     p: Sequence[Fraction],
     q: Sequence[Fraction],
     solver_status: str,
-    report_empty: bool = False,
 ) -> FractionalResult | None:
     """The :class:`FractionalResult` of a program solved exactly, or None.
 
@@ -69,22 +68,20 @@ def exact_result(
         The exact numerator and denominator it was solved for.
     solver_status : str
         The result's ``solver_status``.
-    report_empty : bool
-        Whether an empty polytope is reported (else None: a dual's bound holds vacuously there).
 
     Returns
     -------
     FractionalResult or None
         "optimal": the maximum rounded up (the witness rounded down, the gap between them) at the vertex reached,
-        certified; "infeasible" with ``report_empty``; "unbounded" (+inf, certified) at a vertex with q·h = 0 < p·h
-        exactly. None where the simplex gives no finite maximum and no proof of +inf.
+        certified; "infeasible" where the polytope is empty (proved exactly); "unbounded" (+inf, certified) at a
+        vertex with q·h = 0 < p·h exactly. None where the exact solve gives no finite maximum and no proof of +inf.
 
     Notes
     -----
     ``proofs/black_box.md`` §6 (the known-utility programs solved on exact coefficients); rounding outward,
     ``proofs/outward.md`` §3.
     """
-    if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
+    if optimum.status == "infeasible":  # proved exactly: the polytope is empty
         reason = "the constraints are inconsistent: no feasible h"
         return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
     if optimum.status == "zero_denominator" and optimum.point is not None:
@@ -271,7 +268,7 @@ class ExactPrograms:
         """The program exactly, in place of ``rounded`` (its float form's result), over the product of the blocks
         (:func:`~fairaudit.base.linear_fractional.maximize_ratio_over_product`: a block without objective only has to
         be feasible). None where a block is beyond :data:`CROSSOVER_SIZE` or there are
-        more than :data:`MAX_BLOCKS`, where randomized response's e^ε has no finite float end, or where the simplex
+        more than :data:`MAX_BLOCKS`, where randomized response's e^ε has no finite float end, or where the exact solve
         gives no finite maximum and no proof of +inf. The value is the maximum at the upper end rounded up, the
         witness the one at the lower end rounded down."""
         limit = CROSSOVER_SIZE  # (read at each call: the tests shrink it)
@@ -289,7 +286,7 @@ class ExactPrograms:
             return maximize_ratio_over_product(end.blocks, end.split(p), end.split(q)), list(p), list(q)
 
         high, p, q = optimum(ends[-1])
-        found = exact_result(result, high, p, q, status, report_empty=True)
+        found = exact_result(result, high, p, q, status)
         if found is not None and found.status == "optimal" and high.multipliers is not None and self._floors:
             found = replace(found, exact_dual=(self._floor_multipliers(ends[-1], high.multipliers),))
         if found is None or len(ends) == 1 or found.status != "optimal":

@@ -356,7 +356,7 @@ def test_observed_fairness_against_50_digits():
 def test_known_utility_worst_case_with_a_binding_tau_against_the_exact_simplex():
     """G-space with a binding τ and M_X not the identity (coefficients with roundings): each route's value ≥ the exact
     maximum of the same program solved in rationals by the bounded simplex and Dinkelbach (a second algorithm)."""
-    from fairaudit.base.exact_programs import maximize_ratio
+    from _rational_simplex import maximize_ratio
 
     rng = np.random.default_rng(31)
     with mpmath.workdps(50):

@@ -86,10 +86,15 @@ def _dyadic(x: npt.ArrayLike, e: int | None = None) -> Dyadic:
     a = np.asarray(x, dtype=float).ravel()
     if e is None:
         e = _exponent(a)
+    ints, shifts = _significands(a, e)
+    return np.left_shift(ints.astype(object), shifts.astype(object)), e
+
+
+def _significands(a: FloatArray, e: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """Finite floats as 53-bit integers and the left shifts that put them over 2^``e`` (e ≤ :func:`_exponent`'s)."""
     mant, ex = np.frexp(a)
     ints = (mant * 2.0**53).astype(np.int64)  # exact: a 53-bit significand
-    shifts = np.where(ints != 0, ex.astype(np.int64) - 53 - e, 0)
-    return np.left_shift(ints.astype(object), shifts.astype(object)), e
+    return ints, np.where(ints != 0, ex.astype(np.int64) - 53 - e, 0)
 
 
 def _align(x: Dyadic, e: int) -> Any:
@@ -105,29 +110,6 @@ def _add(x: Dyadic, y: Dyadic, sign: int = 1) -> Dyadic:
 
 CHUNK = 1 << 14
 """Nonzeros of a constraint matrix turned into Python integers at a time (their memory is several times a float's)."""
-
-
-def _transpose_times(a: FloatArray | sp.csr_matrix, v: Dyadic, n: int) -> Dyadic:
-    """Aᵀv exactly, shape (n,), for a dense or scipy.sparse A (shape (m, n)), by chunks of nonzeros."""
-    import scipy.sparse as sp
-
-    coo = sp.coo_matrix(a)
-    keep = coo.data != 0
-    rows, cols, data = coo.row[keep], coo.col[keep], coo.data[keep]
-    del coo, keep
-    out = np.zeros(n, dtype=object)
-    out[:] = 0
-    if rows.size == 0:
-        return out, 0
-    e = _exponent(data)
-    order = np.argsort(cols, kind="stable")
-    rows, cols, data = rows[order], cols[order], data[order]
-    for s in range(0, rows.size, CHUNK):
-        c = cols[s : s + CHUNK]
-        products = _dyadic(data[s : s + CHUNK], e)[0] * v[0][rows[s : s + CHUNK]]
-        starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
-        out[c[starts]] += np.add.reduceat(products, starts)
-    return out, e + v[1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,9 +135,7 @@ class _Block:
         order = np.argsort(coo.col[keep], kind="stable")
         rows, cols, data = coo.row[keep][order], coo.col[keep][order], coo.data[keep][order]
         e = _exponent(data)
-        mant, ex = np.frexp(data)
-        ints = (mant * 2.0**53).astype(np.int64)  # exact: a 53-bit significand
-        shifts = np.where(ints != 0, ex.astype(np.int64) - 53 - e, 0)
+        ints, shifts = _significands(data, e)
         return cls(rows.astype(np.intp), cols.astype(np.intp), ints, shifts, e, _dyadic(b), kind)
 
     def transpose_times(self, v: Dyadic, n: int) -> Dyadic:
@@ -419,17 +399,12 @@ def point_ratio(
         return math.nan
     if upper is not None and np.any(h > upper):
         return math.nan
-    return _ratio_at(_dyadic(h), 1, p, q, rows)
-
-
-def _ratio_at(x: Dyadic, scale: int, p: FloatArray, q: FloatArray, rows: Rows) -> float:
-    """(p·h)/(q·h) rounded down at h = x/``scale`` when h meets every row exactly and q·h > 0; NaN otherwise."""
     import scipy.sparse as sp
 
+    x = _dyadic(h)
     for a, b, kind in rows:
-        lhs = _transpose_times(sp.csr_matrix(a).T, x, b.size)  # A x = (Aᵀ)ᵀ x
-        b_ints, b_exponent = _dyadic(b)
-        diff = _add(lhs, (b_ints * scale, b_exponent), -1)  # A x − b·scale
+        block = _Block.read(sp.csr_matrix(a).T, b, kind)  # Aᵀ read exactly: (Aᵀ)ᵀ h = A h
+        diff = _add(block.transpose_times(x, b.size), block.b, -1)  # A h − b
         bad = diff[0] > 0 if kind == "le" else diff[0] != 0
         if np.any(bad.astype(bool)):
             return math.nan

@@ -235,24 +235,6 @@ def _best(values: np.ndarray, bottoms: np.ndarray) -> tuple[np.ndarray, IntArray
     return best, at, q
 
 
-def _maximisers(
-    top: np.ndarray,
-    bottoms: np.ndarray,
-    float_top: FloatArray,
-    float_bottoms: FloatArray,
-    num: np.ndarray,
-    den: np.ndarray,
-) -> IntArray:
-    """Each row's maximiser of p − θq, θ = num/den per program, the largest q among ties, exactly: shape (programs,
-    rows), for one numerator ``top`` (shape (rows, decisions)) and a denominator per program: the floats decide
-    (:func:`_float_maximisers`), integers the rows they leave (:func:`_exact_maximisers`)."""
-    at, undecided = _float_maximisers(float_top, float_bottoms, num, den, None)
-    programs, rows = np.nonzero(undecided)
-    if programs.size:
-        at[programs, rows] = _exact_maximisers(top[rows], bottoms[programs, rows], num[programs], den[programs])
-    return at
-
-
 def _float_maximisers(
     top: FloatArray, bottoms: FloatArray, num: np.ndarray, den: np.ndarray, equal: npt.NDArray[np.bool_] | None
 ) -> tuple[IntArray, npt.NDArray[np.bool_]]:

@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, TypeAlias
+from typing import TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
+from fairaudit.base.arrays import FloatArray, IntArray
 
 MAX_EVENT_DECISIONS = 10  # up to 2^10 - 2 events for the total-variation gaps; beyond, a valid coarser bound
 
@@ -43,10 +43,6 @@ __all__ = [
 
 Extremes: TypeAlias = tuple[FloatArray, FloatArray, IntArray, IntArray]
 """Per map: (lower, upper, favoured group, other group)."""
-
-
-CLARABEL_TOLERANCES = {"tol_gap_abs": 1e-11, "tol_gap_rel": 1e-11, "tol_feas": 1e-11, "tol_ktratio": 1e-9}
-"""Clarabel's settings for the LP of :meth:`MinMaxRatio.lp` (its gaps and feasibility at 1e-11)."""
 
 
 def div(num: npt.ArrayLike, den: npt.ArrayLike) -> FloatArray:
@@ -138,71 +134,31 @@ class MinMaxRatio:
 
     With y = t e and t = 1 / min_a W_a·e: minimise σ subject to W y ≤ σ,
     W y ≥ 1, t·lower ≤ y ≤ t·upper, t ≥ 0 (``proofs/intervals.md``), over
-    x = (σ, t, y). Solved by Clarabel directly in its standard form
-    A x + s = b, s ≥ 0, at the tolerances of :data:`CLARABEL_TOLERANCES`:
-    a fixed LP needs no modelling layer, and cvxpy's import alone would take
-    most of a second of every ``fairaudit certify`` with intervals. The program
-    is laid out as cvxpy lays it out (variables, rows, stored zeros) and, as
-    cvxpy does, one solver per shape is built once and given new data after
-    (``update``), so the solver runs the arithmetic it ran under cvxpy: the
-    same doubles (tested).
+    x = (σ, t, y). Solved as every linear program of fairaudit is: HiGHS's
+    simplex, its basis proved optimal in exact arithmetic
+    (:class:`~fairaudit.base.exact_lp.ExactProgram`); the exact optimum of the
+    floats' program, rounded down, is the lower end.
     """
 
     def __init__(self, A: int, n: int) -> None:
         self.A, self.n = A, n
-        self._solver: Any = None
-
-    def _program(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray, BoolArray]:
-        """The constraint matrix (dense, (1 + 2A + 2n) × (n + 2)), the right-hand side and the stored entries.
-
-        Rows: −t ≤ 0; W y − σ ≤ 0; −W y ≤ −1; t·lower − y ≤ 0; y − t·upper ≤ 0. Every weight and every end is
-        an entry of the program whatever its value (a parameter of cvxpy's), so the sparsity is fixed per shape.
-        """
-        A, n = self.A, self.n
-        rows = np.zeros((1 + 2 * A + 2 * n, n + 2))
-        b = np.zeros(1 + 2 * A + 2 * n)
-        eye = np.eye(n)
-        rows[0, 1] = -1.0
-        rows[1 : 1 + A, 0], rows[1 : 1 + A, 2:] = -1.0, W
-        rows[1 + A : 1 + 2 * A, 2:], b[1 + A : 1 + 2 * A] = -W, -1.0
-        rows[1 + 2 * A : 1 + 2 * A + n, 1], rows[1 + 2 * A : 1 + 2 * A + n, 2:] = lo, -eye
-        rows[1 + 2 * A + n :, 1], rows[1 + 2 * A + n :, 2:] = -hi, eye
-        structure = rows != 0
-        structure[1 : 1 + 2 * A, 2:] = True  # the weights W, zero or not
-        structure[1 + 2 * A :, 1] = True  # the lower and upper ends, zero or not
-        return rows, b, structure
 
     def lp(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float | None:
-        """The LP's optimal σ, or None unless Clarabel solved it (or almost solved it)."""
-        import clarabel  # type: ignore[import-untyped]
-        import scipy.sparse as sp
+        """The LP's optimal σ rounded down, or None unless it was proved optimal."""
+        from fairaudit.base.exact_lp import ExactProgram
+        from fairaudit.base.outward import fraction_down
 
-        rows, b, structure = self._program(W, lo, hi)
-        size = rows.shape[1]
-        q = np.zeros(size)
-        q[0] = 1.0
-        r, c = np.nonzero(structure)
-        matrix = sp.coo_array((rows[r, c], (r, c)), shape=rows.shape).tocsc()
-        P = sp.triu(sp.csc_array((size, size))).tocsc()
-        solver = self._solver
-        if solver is not None and solver.is_data_update_allowed():
-            try:
-                solver.update(P=P, q=q, A=matrix, b=b, settings=solver.get_settings())
-            except Exception:  # noqa: BLE001 - as cvxpy: a solver that cannot take the data is built anew
-                solver = None
-        else:
-            solver = None
-        if solver is None:
-            settings = clarabel.DefaultSettings()
-            settings.verbose = False
-            for key, value in CLARABEL_TOLERANCES.items():
-                setattr(settings, key, value)
-            solver = clarabel.DefaultSolver(P, q, matrix, b, [clarabel.NonnegativeConeT(len(b))], settings)
-        solution = solver.solve()
-        self._solver = solver
-        if solution.status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
-            return None
-        return float(solution.obj_val)
+        A, n, inf = self.A, self.n, math.inf
+        rows = np.zeros((2 * A + 2 * n, n + 2))
+        rows[:A, 0], rows[:A, 2:] = -1.0, W  # W y − σ ≤ 0
+        rows[A : 2 * A, 2:] = W  # W y ≥ 1
+        rows[2 * A : 2 * A + n, 1], rows[2 * A : 2 * A + n, 2:] = lo, -np.eye(n)  # t·lower − y ≤ 0
+        rows[2 * A + n :, 1], rows[2 * A + n :, 2:] = -hi, np.eye(n)  # y − t·upper ≤ 0
+        row_lower = [-inf] * A + [1.0] * A + [-inf] * (2 * n)
+        row_upper = [0.0] * A + [inf] * A + [0.0] * (2 * n)
+        program = ExactProgram(rows, row_lower, row_upper, [-inf, 0.0] + [-inf] * n, [inf] * (n + 2))
+        found = program.minimize([1.0] + [0.0] * (n + 1))
+        return fraction_down(found.value) if found.status == "optimal" and found.value is not None else None
 
     def solve(self, W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
         if np.all(W @ lo <= 0):  # every group can be at 0 together: 0/0, parity
@@ -211,11 +167,7 @@ class MinMaxRatio:
             return math.inf
         pairwise = _pairwise_floor(W, lo, hi)
         value = self.lp(W, lo, hi)
-        if value is None:
-            return pairwise  # badly scaled boxes (upper ends near 1e-12) defeat the solver: keep the valid floor
-        # The solver stops within ~1e-9 of the optimum; shade by that much so the lower end stays a lower end.
-        value *= 1.0 - 1e-9
-        return max(pairwise, value if value > 1.0 + 1e-9 else 1.0)
+        return max(pairwise, 1.0 if value is None else value)
 
 
 def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:

@@ -159,36 +159,6 @@ class Fairness:
         return d
 
 
-def _fairness(
-    kind: str,
-    value: float,
-    ratio: float,
-    cells: tuple[Hashable | None, Hashable | None, Hashable | None],
-    *,
-    expected: FloatArray,
-    per_context: FloatArray | None,
-    notes: list[str],
-    law: Law,
-    utility: Utility,
-    population: Population | None,
-) -> Fairness:
-    """A :class:`Fairness` attained at ``cells`` (context, group, other group), all None when no pair attains it."""
-    return Fairness(
-        kind=kind,
-        value=value,
-        ratio=ratio,
-        context=cells[0],
-        group=cells[1],
-        other_group=cells[2],
-        expected_utility=expected,
-        per_context=per_context,
-        excluded=tuple(notes),
-        law=law,
-        utility=utility,
-        population=population,
-    )
-
-
 def local_fairness(law: Law, utility: Utility, population: Population | None = None) -> Fairness:
     """Local g-fairness L = log max over x, a, a' of E[g | x, a] / E[g | x, a'].
 
@@ -248,14 +218,16 @@ def _local(law: Law, utility: Utility, population: Population | None, e: FloatAr
     else:
         _, hi, lo = ratio_extremes(e[i][None, :], axis=1)  # the pair, in the maximising context
         value, cells = safe_log(best), (law.context_labels[i], law.groups[hi[0]], law.groups[lo[0]])
-    return _fairness(
-        "local",
-        value,
-        best,
-        cells,
-        expected=e,
+    return Fairness(
+        kind="local",
+        value=value,
+        ratio=best,
+        context=cells[0],
+        group=cells[1],
+        other_group=cells[2],
+        expected_utility=e,
         per_context=per_context,
-        notes=notes,
+        excluded=tuple(notes),
         law=law,
         utility=utility,
         population=population,
@@ -325,14 +297,16 @@ def _global(
             value, best = float("nan"), float("nan")
         else:
             value, cells = safe_log(best), (None, law.groups[hi[0]], law.groups[lo[0]])
-    return _fairness(
-        "global",
-        value,
-        best,
-        cells,
-        expected=eg,
+    return Fairness(
+        kind="global",
+        value=value,
+        ratio=best,
+        context=cells[0],
+        group=cells[1],
+        other_group=cells[2],
+        expected_utility=eg,
         per_context=None,
-        notes=notes,
+        excluded=tuple(notes),
         law=law,
         utility=utility,
         population=population,

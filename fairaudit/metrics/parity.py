@@ -12,6 +12,7 @@ Proof: ``proofs/lemma1_links.md`` (the links theorem: L_dp ≤ e^{sup L̄} − 1
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Hashable
 from dataclasses import dataclass
 
@@ -66,10 +67,10 @@ class TotalVariation:
 
     kind: str
     value: float
-    context: Hashable | None
-    group: Hashable | None
-    other_group: Hashable | None
-    event: tuple
+    context: Hashable | None = None
+    group: Hashable | None = None
+    other_group: Hashable | None = None
+    event: tuple = ()
     excluded: tuple[str, ...]
     law: Law
     population: Population | None
@@ -113,40 +114,16 @@ def demographic_parity(law: Law, population: Population | None = None) -> TotalV
 def demographic_parity_of(law: Law, population: Population, dist: FloatArray) -> TotalVariation:
     """:func:`demographic_parity` of a checked law and population, from ``dist`` = P(u | a), (n_groups, n_decisions)."""
     notes = zero_groups(law, population)
+    result = functools.partial(
+        TotalVariation, kind="demographic_parity", excluded=tuple(notes), law=law, population=population
+    )
     if len(law.groups) < 2:
-        return _total_variation("demographic_parity", 0.0, notes, law, population)
+        return result(value=0.0)
     value, a, b = max_tv_pair(dist)
     if a is None or b is None:
-        return _total_variation("demographic_parity", float("nan"), notes, law, population)
+        return result(value=float("nan"))
     event = tuple(law.decisions[u] for u in np.flatnonzero(dist[a] > dist[b]))
-    return _total_variation(
-        "demographic_parity", float(value), notes, law, population, pair=(law.groups[a], law.groups[b]), event=event
-    )
-
-
-def _total_variation(
-    kind: str,
-    value: float,
-    notes: list[str],
-    law: Law,
-    population: Population | None,
-    *,
-    context: Hashable | None = None,
-    pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None),
-    event: tuple = (),
-) -> TotalVariation:
-    """A :class:`TotalVariation`; without a pair, the result when no two groups can be compared."""
-    return TotalVariation(
-        kind=kind,
-        value=value,
-        context=context,
-        group=pair[0],
-        other_group=pair[1],
-        event=event,
-        excluded=tuple(notes),
-        law=law,
-        population=population,
-    )
+    return result(value=float(value), group=law.groups[a], other_group=law.groups[b], event=event)
 
 
 def equalized_odds(law: Law, population: Population | None = None) -> TotalVariation:
@@ -174,26 +151,22 @@ def equalized_odds_of(law: Law, population: Population | None, extremes: FloatAr
     """:func:`equalized_odds` of a checked law and population, from its
     :func:`~fairaudit.metrics.reductions.law_extremes`."""
     notes, keep = excluded_contexts(law, population, law.observed)
+    result = functools.partial(
+        TotalVariation, kind="equalized_odds", excluded=tuple(notes), law=law, population=population
+    )
     if len(law.groups) < 2:
-        return _total_variation("equalized_odds", 0.0, notes, law, population)
+        return result(value=0.0)
     valid = keep & (law.observed.sum(axis=1) >= 2)  # the contexts where TV is defined
     if not valid.any():
-        return _total_variation("equalized_odds", float("nan"), notes, law, population)
+        return result(value=float("nan"))
     i = _tv_argmax(law, valid, extremes)
     # the pair in the maximising context, in linear time; its value by the pairwise definition
     tv, ai, bi = max_tv_pair(law.probabilities[i])
     assert ai is not None and bi is not None  # (a valid context has two groups)
     row_a, row_b = law.probabilities[i, ai], law.probabilities[i, bi]
     event = tuple(law.decisions[u] for u in np.flatnonzero(row_a > row_b))
-    return _total_variation(
-        "equalized_odds",
-        tv,
-        notes,
-        law,
-        population,
-        context=law.context_labels[i],
-        pair=(law.groups[ai], law.groups[bi]),
-        event=event,
+    return result(
+        value=tv, context=law.context_labels[i], group=law.groups[ai], other_group=law.groups[bi], event=event
     )
 
 

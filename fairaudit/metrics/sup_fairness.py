@@ -12,6 +12,7 @@ Proof: ``proofs/lemma1_links.md`` (Lemma 1).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Hashable
 from dataclasses import dataclass
 
@@ -66,10 +67,10 @@ class SupFairness:
     kind: str
     value: float
     ratio: float
-    context: Hashable | None
-    group: Hashable | None
-    other_group: Hashable | None
-    decision: Hashable | None
+    context: Hashable | None = None
+    group: Hashable | None = None
+    other_group: Hashable | None = None
+    decision: Hashable | None = None
     excluded: tuple[str, ...]
     law: Law
     population: Population | None
@@ -120,15 +121,16 @@ def sup_local_of(law: Law, population: Population | None, extremes: FloatArray) 
     """:func:`sup_local_fairness` of a checked law and population, from its
     :func:`~fairaudit.metrics.reductions.law_extremes`."""
     notes, keep = excluded_contexts(law, population, law.observed)
+    result = functools.partial(SupFairness, kind="local", excluded=tuple(notes), law=law, population=population)
     if len(law.groups) < 2:
-        return _sup_result("local", 0.0, 1.0, notes, law, population)
+        return result(value=0.0, ratio=1.0)
     # the first (x, u) in table order with the largest max_a Q[x, a, u] / min_a Q[x, a, u], NaN ignored:
     # each context's largest ratio, then the first decision attaining it in the context found
     ratio = extremes[:, 0].copy()
     ratio[~keep] = np.nan
     i = first_max(ratio)
     if i is None:
-        return _sup_result("local", float("nan"), float("nan"), notes, law, population)
+        return result(value=float("nan"), ratio=float("nan"))
     row = law.probabilities[i]  # (n_groups, n_decisions)
     big, small = (np.maximum, np.minimum) if law.complete else (np.fmax, np.fmin)
     present = law.shape[1] if law.complete else int(law.observed[i].sum())
@@ -136,43 +138,13 @@ def sup_local_of(law: Law, population: Population | None, extremes: FloatArray) 
     assert u is not None
     best = float(ratio[i])
     _, hi, lo = ratio_extremes(law.probabilities[i, :, u][None, :], axis=1)
-    return _sup_result(
-        "local",
-        safe_log(best),
-        best,
-        notes,
-        law,
-        population,
+    return result(
+        value=safe_log(best),
+        ratio=best,
         context=law.context_labels[i],
-        pair=(law.groups[hi[0]], law.groups[lo[0]]),
+        group=law.groups[hi[0]],
+        other_group=law.groups[lo[0]],
         decision=law.decisions[u],
-    )
-
-
-def _sup_result(
-    kind: str,
-    value: float,
-    ratio: float,
-    notes: list[str],
-    law: Law,
-    population: Population | None,
-    *,
-    context: Hashable | None = None,
-    pair: tuple[Hashable, Hashable] | tuple[None, None] = (None, None),
-    decision: Hashable | None = None,
-) -> SupFairness:
-    """A :class:`SupFairness`; without a pair, the result when no two groups can be compared."""
-    return SupFairness(
-        kind=kind,
-        value=value,
-        ratio=ratio,
-        context=context,
-        group=pair[0],
-        other_group=pair[1],
-        decision=decision,
-        excluded=tuple(notes),
-        law=law,
-        population=population,
     )
 
 
@@ -191,20 +163,18 @@ def sup_global_fairness(law: Law, population: Population | None = None) -> SupFa
 def sup_global_of(law: Law, population: Population, dist: FloatArray) -> SupFairness:
     """:func:`sup_global_fairness` of a checked law and population, from ``dist`` = P(u | a), (n_groups, n_decisions)."""
     notes = zero_groups(law, population)
+    result = functools.partial(SupFairness, kind="global", excluded=tuple(notes), law=law, population=population)
     if len(law.groups) < 2:
-        return _sup_result("global", 0.0, 1.0, notes, law, population)
+        return result(value=0.0, ratio=1.0)
     ratio, hi, lo = ratio_extremes(dist, axis=0)  # shape (n_decisions,)
     if np.all(np.isnan(ratio)):
-        return _sup_result("global", float("nan"), float("nan"), notes, law, population)
+        return result(value=float("nan"), ratio=float("nan"))
     u = int(np.nanargmax(ratio))
     best = float(ratio[u])
-    return _sup_result(
-        "global",
-        safe_log(best),
-        best,
-        notes,
-        law,
-        population,
-        pair=(law.groups[hi[u]], law.groups[lo[u]]),
+    return result(
+        value=safe_log(best),
+        ratio=best,
+        group=law.groups[hi[u]],
+        other_group=law.groups[lo[u]],
         decision=law.decisions[u],
     )

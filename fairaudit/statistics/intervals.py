@@ -24,7 +24,7 @@ Methods (``method=``):
     the counts. E[g | x, a] ranges over an interval found in closed form (a
     fractional knapsack, checked against the LP in the tests); ratios of
     groups are extremised by the linear-fractional engine
-    (:mod:`fairaudit.base.linear_fractional`; cvxpy + Clarabel where the groups share cells).
+    (:mod:`fairaudit.base.linear_fractional`; an exact LP where the groups share cells).
 ``"bayes"``
     Each cell's distribution has the posterior Dirichlet(n[x, a, :] + c/K)
     (``concentration`` c; c = 1 gives the posterior mean that AIF360's

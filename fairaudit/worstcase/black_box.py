@@ -42,7 +42,7 @@ from fairaudit.worstcase.pair_search import (
     relaxed_first,
     search,
 )
-from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz, rr_lipschitz_ratio, unit_class
+from fairaudit.worstcase.randomized_response import rr_box, rr_class_value, rr_lipschitz_ratio, unit_class
 from fairaudit.worstcase.worst_cases import nats_up
 
 
@@ -359,9 +359,11 @@ def _randomized_response_certificate(
         return None
     # (without a binding τ any metric: the other groups extend the pair's h, McShane; the pair of diameter)
     a, b = (0, 1) if d is None or discrete else np.unravel_index(int(np.argmax(d)), d.shape)
-    lam = lip * (1.0 if off_diagonal is None else float(off_diagonal.max()))
-    closed = rr_lipschitz(rr, lower, gamma, floor, lam)
-    if closed is None:
+    dmax = 1.0 if off_diagonal is None else float(off_diagonal.max())
+    g = Fraction(gamma)  # every piece's program exactly, at t = exp_up(ε), on the scale γ = 1
+    exact, point = rr_lipschitz_ratio(rr.k, rr.epsilon, Fraction(lower) / g, Fraction(1), Fraction(floor) / g,
+                                      Fraction(lip) * Fraction(dmax) / g)  # fmt: skip
+    if exact == math.inf:
         return problem.certificate(
             math.inf,
             inputs[a],
@@ -375,13 +377,10 @@ def _randomized_response_certificate(
             "g = 0 for one group and L_A d(a, a') for the other)",
             0,
         )
-    _, g3, f3 = closed
-    # the value from every piece's program exactly, at t = exp_up(ε) (the float vertex search gives the point)
-    dmax = 1.0 if off_diagonal is None else float(off_diagonal.max())
-    g = Fraction(gamma)
-    exact = rr_lipschitz_ratio(rr.k, rr.epsilon, Fraction(lower) / g, Fraction(1), Fraction(floor) / g,
-                               Fraction(lip) * Fraction(dmax) / g)  # fmt: skip
-    ratio = fraction_up(exact) if exact != math.inf else math.inf
+    # its maximiser g (cells a, a', other) back on the scale γ, and f = min(g + λ, γ)
+    g3 = np.full(3, math.nan) if point is None else np.clip([float(v) * gamma for v in point], lower, gamma)
+    f3 = np.minimum(g3 + lip * dmax, gamma)
+    ratio = fraction_up(exact)
     cells = np.full(m, 2)
     cells[a], cells[b] = 0, 1
     f, g = f3[cells], g3[cells]
@@ -392,7 +391,7 @@ def _randomized_response_certificate(
     h[a], h[b] = f, g
     top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
     released = tuple(outputs[o] for o in top)
-    value = log_up(exact) if exact != math.inf else math.inf
+    value = log_up(exact)
     return problem.certificate(
         ratio, inputs[a], inputs[b], released, h, "threshold", "optimal", "closed form", "", 0, value=value
     )

@@ -4,12 +4,12 @@ The pair search (:mod:`~fairaudit.worstcase.known_utility_search`) solves progra
 of floats: its value is certified on their outer ends, its witness on their inner ends. Where the two do not meet
 (within :data:`~fairaudit.base.linear_fractional.CROSSOVER_TOLERANCE`), the rounding itself may be what moves the
 optimum: a floor E[g | x, a] ≥ τ with τ = max g holds on a face of the polytope only, and a rounded coefficient turns
-that face into a slab. Such a program, within :data:`CROSSOVER_SIZE`, is solved
-again here by the rational simplex on exact data: g, τ, P(x | a) and a matrix mechanism's entries as the floats they
+that face into a slab. Such a program, within :data:`CROSSOVER_SIZE`, is solved again here exactly (HiGHS's basis
+solved and finished in rationals) on exact data: g, τ, P(x | a) and a matrix mechanism's entries as the floats they
 are (their exact values), and randomized response's rows at the two ends of its e^ε (float ends, or 50-digit ones
-beyond the floats). The worst case is
-non-decreasing in e^ε (randomized response at a smaller ε is the one at a larger ε followed by more randomized
-response), so the maximum at the upper end bounds it from above and the one at the lower end from below.
+beyond the floats). The worst case is non-decreasing in e^ε (randomized response at a smaller ε is the one at a
+larger ε followed by more randomized response), so the maximum at the upper end bounds it from above and the one at
+the lower end from below.
 ``proofs/black_box.md`` §6.
 """
 
@@ -25,8 +25,13 @@ from fractions import Fraction
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.exact_programs import Polytope, RatioOptimum, maximize_ratio_over_product
-from fairaudit.base.linear_fractional import FractionalResult, gap_between
+from fairaudit.base.linear_fractional import (
+    FractionalResult,
+    Polytope,
+    RatioOptimum,
+    gap_between,
+    maximize_ratio_over_product,
+)
 from fairaudit.base.outward import fraction_down, fraction_up
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
@@ -37,8 +42,8 @@ from fairaudit.worstcase.worst_cases import EXACT_CROSSOVER
 ObjectArray = npt.NDArray[np.object_]
 
 CROSSOVER_SIZE = (64, 128)
-"""The largest program (variables, rows; an equality counts twice) the worst-case searches solve again by the rational
-simplex on exact coefficients when its rounded form leaves a gap."""
+"""The largest program (variables, rows; an equality counts twice) the worst-case searches solve again exactly on
+exact coefficients when its rounded form leaves a gap."""
 
 WHY = "its rounded coefficients' witness did not meet the value: solved on exact ones"
 """What ``solver_status`` says after :data:`EXACT_CROSSOVER` for these programs."""
@@ -50,36 +55,33 @@ def exact_result(
     p: Sequence[Fraction],
     q: Sequence[Fraction],
     solver_status: str,
-    report_empty: bool = False,
 ) -> FractionalResult | None:
-    """The :class:`FractionalResult` of a program the rational simplex solved exactly, or None.
+    """The :class:`FractionalResult` of a program solved exactly, or None.
 
     Parameters
     ----------
     result : callable
         Makes the result from its remaining fields (``method``, ``p``, ``q``, ``lower`` and ``upper`` given).
     optimum : RatioOptimum
-        :func:`~fairaudit.base.exact_programs.maximize_ratio`'s (or ``maximize_ratio_over_product``'s) outcome.
+        :func:`~fairaudit.base.linear_fractional.maximize_ratio_over_product`'s outcome.
     p, q : sequences of Fraction, shape (n,)
         The exact numerator and denominator it was solved for.
     solver_status : str
         The result's ``solver_status``.
-    report_empty : bool
-        Whether an empty polytope is reported (else None: a dual's bound holds vacuously there).
 
     Returns
     -------
     FractionalResult or None
         "optimal": the maximum rounded up (the witness rounded down, the gap between them) at the vertex reached,
-        certified; "infeasible" with ``report_empty``; "unbounded" (+inf, certified) at a vertex with q·h = 0 < p·h
-        exactly. None where the simplex gives no finite maximum and no proof of +inf.
+        certified; "infeasible" where the polytope is empty (proved exactly); "unbounded" (+inf, certified) at a
+        vertex with q·h = 0 < p·h exactly. None where the exact solve gives no finite maximum and no proof of +inf.
 
     Notes
     -----
     ``proofs/black_box.md`` §6 (the known-utility programs solved on exact coefficients); rounding outward,
     ``proofs/outward.md`` §3.
     """
-    if optimum.status == "infeasible" and report_empty:  # proved exactly: the polytope is empty
+    if optimum.status == "infeasible":  # proved exactly: the polytope is empty
         reason = "the constraints are inconsistent: no feasible h"
         return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
     if optimum.status == "zero_denominator" and optimum.point is not None:
@@ -228,7 +230,7 @@ class ExactPrograms:
         return _End(MA, MX, g, self._u_only, blocks, width)
 
     def _floor_multipliers(self, end: _End, y: tuple[Fraction, ...]) -> tuple[Fraction, ...]:
-        """The multipliers of the floors E[g | x, b] ≥ τ among the blocks' rows (each block's simplex rows first),
+        """The multipliers of the floors E[g | x, b] ≥ τ among the blocks' rows (each block's rows in turn),
         laid out as the float program's floor rows: (live context, group), flat."""
         problem = self._problem
         live, n_a = np.flatnonzero(problem.live).tolist(), problem.g.shape[1]
@@ -264,9 +266,9 @@ class ExactPrograms:
         self, data: Callable[[_End], tuple[ObjectArray, ObjectArray]], rounded: FractionalResult
     ) -> FractionalResult | None:
         """The program exactly, in place of ``rounded`` (its float form's result), over the product of the blocks
-        (:func:`~fairaudit.base.exact_programs.maximize_ratio_over_product`: a block without objective only has to be
-        feasible). None where a block is beyond :data:`CROSSOVER_SIZE` or there are
-        more than :data:`MAX_BLOCKS`, where randomized response's e^ε has no finite float end, or where the simplex
+        (:func:`~fairaudit.base.linear_fractional.maximize_ratio_over_product`: a block without objective only has to
+        be feasible). None where a block is beyond :data:`CROSSOVER_SIZE` or there are
+        more than :data:`MAX_BLOCKS`, where randomized response's e^ε has no finite float end, or where the exact solve
         gives no finite maximum and no proof of +inf. The value is the maximum at the upper end rounded up, the
         witness the one at the lower end rounded down."""
         limit = CROSSOVER_SIZE  # (read at each call: the tests shrink it)
@@ -284,7 +286,7 @@ class ExactPrograms:
             return maximize_ratio_over_product(end.blocks, end.split(p), end.split(q)), list(p), list(q)
 
         high, p, q = optimum(ends[-1])
-        found = exact_result(result, high, p, q, status, report_empty=True)
+        found = exact_result(result, high, p, q, status)
         if found is not None and found.status == "optimal" and high.multipliers is not None and self._floors:
             found = replace(found, exact_dual=(self._floor_multipliers(ends[-1], high.multipliers),))
         if found is None or len(ends) == 1 or found.status != "optimal":

@@ -331,79 +331,18 @@ def rr_box_point(rr: RandomizedResponseParameters, lo: float, hi: float, floor: 
     )
 
 
-def rr_lipschitz(
-    rr: RandomizedResponseParameters, lo: float, hi: float, floor: float, lam: float
-) -> tuple[float, FloatArray, FloatArray] | None:
-    """The class with L_A > 0 behind k-ary RR, discrete metric (λ = L_A d): (ratio, g, f) in O(1), or None if unbounded.
-
-    By symmetry (averaging a maximiser over the permutations of the other groups keeps it feasible and, the
-    objective being linear-fractional, optimal) the worst case has h[a'] = g = (x at a, z at a', y at each other
-    value) and every other group, a included, at the largest vector the Lipschitz condition allows,
-    f = min(g + λ, hi) (proofs/black_box.md, §5, "Randomized response"). Its value is a linear-fractional program
-    in (x, z, y) on each of the 8 pieces where f is affine; the maximum is at a vertex of one piece, so every
-    vertex (3 of the ≤ 9 planes) is tried. Returns the ratio and the vectors g, f of the three cells (a, a', other).
-    """
-    k, p, q = rr.k, rr.p, rr.q
-    m = k - 2  # other released values
-    binding = floor > lo
-    if lo == 0 and not binding:
-        return None  # g = 0, f = λ: λ/0
-    cut = hi - lam
-    pieces = []  # per cell: (low, high, slope of f, intercept of f)
-    if cut >= lo:
-        pieces.append((lo, min(hi, cut), 1.0, lam))
-    pieces.append((max(lo, cut), hi, 0.0, hi))
-    n_vec = np.array([p, q, m * q])  # numerator: M[a]·f
-    d_vec = np.array([q, p, m * q])  # denominator: M[a']·g
-    b_vec = np.array([q, q, p + (m - 1) * q]) if m >= 1 else None  # another group's floor: M[b]·f
-    best, best_g = -math.inf, None
-    for cells in itertools.product(pieces, repeat=3):
-        low = np.array([c[0] for c in cells])
-        high = np.array([c[1] for c in cells])
-        slope = np.array([c[2] for c in cells])
-        icpt = np.array([c[3] for c in cells])
-        rows = [np.eye(3)[i] * sign for sign in (-1.0, 1.0) for i in range(3)]
-        rhs = [-low[i] for i in range(3)] + [high[i] for i in range(3)]
-        if binding:
-            rows.append(-d_vec)
-            rhs.append(-floor)
-            rows.append(-n_vec * slope)
-            rhs.append(n_vec @ icpt - floor)
-            if b_vec is not None:
-                rows.append(-b_vec * slope)
-                rhs.append(b_vec @ icpt - floor)
-        a_ub, b_ub = np.array(rows), np.array(rhs)
-        combos = np.array(list(itertools.combinations(range(len(rows)), 3)))
-        mats = a_ub[combos]
-        ok = np.abs(np.linalg.det(mats)) > 1e-12
-        if not ok.any():
-            continue
-        pts = np.linalg.solve(mats[ok], b_ub[combos[ok]][..., None])[..., 0]
-        feas = np.all(pts @ a_ub.T <= b_ub + 1e-12 * (1.0 + np.abs(b_ub)), axis=1)
-        pts = pts[feas]
-        if not pts.size:
-            continue
-        num = (pts * slope + icpt) @ n_vec
-        den = pts @ d_vec
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 1.0))
-        i = int(np.argmax(ratio))
-        if ratio[i] > best:
-            best, best_g = float(ratio[i]), pts[i]
-    if best_g is None:
-        return math.nan, np.full(3, math.nan), np.full(3, math.nan)
-    g = np.clip(best_g, lo, hi)
-    return best, g, np.minimum(g + lam, hi)
-
-
 def rr_lipschitz_ratio(
     k: int, epsilon: float, lo: Fraction, hi: Fraction, floor: Fraction, lam: Fraction
-) -> Fraction | float:
-    """:func:`rr_lipschitz`'s ratio, exactly, at t = ``exp_up`` (ε) ≥ e^ε: an upper end (+inf when unbounded).
+) -> tuple[Fraction | float, tuple[Fraction, ...] | None]:
+    """The class with L_A > 0 behind k-ary RR, discrete metric (λ = L_A d): its worst ratio, exactly, at t = ``exp_up``
+    (ε) ≥ e^ε (an upper end; +inf when unbounded), and the worst g = (x at a, z at a', y at each other value).
 
-    The same 8 pieces of [lo, hi]^3 (``proofs/black_box.md`` §5, Proposition 7b), each a linear-fractional program in
-    (x, z, y) with rational data, solved by the rational simplex (:func:`~fairaudit.base.exact_programs.
-    maximize_ratio`; the affine numerator through a fourth variable fixed at 1). The worst case is non-decreasing in
+    By symmetry (averaging a maximiser over the permutations of the other groups keeps it feasible and, the
+    objective being linear-fractional, optimal) the worst case has h[a'] = g and every other group, a included, at
+    the largest vector the Lipschitz condition allows, f = min(g + λ, hi) (``proofs/black_box.md`` §5, Proposition
+    7b). On each of the 8 pieces of [lo, hi]^3 where f is affine its value is a linear-fractional program in
+    (x, z, y) with rational data, solved exactly (:class:`~fairaudit.base.linear_fractional.Polytope`; the affine
+    numerator through a fourth variable fixed at 1). The worst case is non-decreasing in
     e^ε (a smaller ε is a post-processing of a larger one, ``proofs/calibration.md`` §3), so its value at t bounds the
     value at e^ε from above (``proofs/outward.md`` §5).
 
@@ -418,22 +357,26 @@ def rr_lipschitz_ratio(
 
     Returns
     -------
-    fractions.Fraction or float
-        The exact maximum at t, or +inf when g = 0 is allowed for a' and f = λ > 0 for a (lo = 0, no binding floor).
+    ratio : fractions.Fraction or float
+        The exact maximum at t, or +inf when g = 0 is allowed for a' and f = λ > 0 for a (lo = 0, no binding floor);
+        -inf when no piece is feasible.
+    g : tuple of 3 fractions.Fraction, or None
+        A vertex attaining it (None with ±inf).
     """
-    from fairaudit.base.exact_programs import maximize_ratio
+    from fairaudit.base.linear_fractional import Polytope
 
     p, q = _rows_up(k, epsilon)
     m = k - 2
     binding = floor > lo
     if lo == 0 and not binding:
-        return math.inf
+        return math.inf, None
     cut = hi - lam
     pieces = [(lo, min(hi, cut), Fraction(1), lam)] if cut >= lo else []
     pieces.append((max(lo, cut), hi, Fraction(0), hi))
     n_vec, d_vec = (p, q, m * q), (q, p, m * q)
     b_vec = (q, q, p + (m - 1) * q) if m >= 1 else None
     best: Fraction | float = -math.inf
+    point = None
     for cells in itertools.product(pieces, repeat=3):
         slope, icpt = [c[2] for c in cells], [c[3] for c in cells]
         # variables (x, z, y, s), s = 1: numerator Σ n_i (slope_i x_i + icpt_i s), denominator d·(x, z, y)
@@ -447,12 +390,12 @@ def rr_lipschitz_ratio(
                 rhs += [sum(v * c for v, c in zip(vec, icpt, strict=True)) - floor]
         lower = [c[0] for c in cells] + [Fraction(1)]
         upper = [c[1] for c in cells] + [Fraction(1)]
-        found = maximize_ratio(numerator, [*d_vec, Fraction(0)], lower, upper, rows, rhs)
+        found = Polytope(lower, upper, rows, rhs, 4).maximize_ratio(numerator, [*d_vec, Fraction(0)])
         if found.status == "zero_denominator":
-            return math.inf
+            return math.inf, None
         if found.status == "optimal" and found.value is not None and found.value > best:
-            best = found.value
-    return best
+            best, point = found.value, found.point
+    return best, None if point is None else point[:3]
 
 
 def unit_class(lower: float, gamma: float, tau: float | None, lipschitz: float) -> tuple[float, float, float]:
@@ -468,27 +411,12 @@ def unit_class(lower: float, gamma: float, tau: float | None, lipschitz: float) 
     return fraction_down(Fraction(lower) / g), fraction_down(Fraction(floor) / g), fraction_up(Fraction(lipschitz) / g)
 
 
-def rr_class_ratio(
-    rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
-) -> float:
-    """The black-box ratio of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``).
-
-    O(1): what :func:`black_box_bound` returns for a :class:`~fairaudit.laws.closed_forms.RandomizedResponse`, without
-    the worst model (calibration evaluates it along the family).
-    """
-    if rr.k < 2 or gamma == 0 or lower == gamma:
-        return 1.0
-    lo, floor, lam = unit_class(lower, gamma, tau, lipschitz * diameter)
-    if lam > 0:
-        out = rr_lipschitz(rr, lo, 1.0, floor, lam)
-        return math.inf if out is None else out[0]
-    return rr_box(rr, lo, 1.0, floor).ratio
-
-
 def rr_class_value(
     rr: RandomizedResponseParameters, lower: float, gamma: float, tau: float | None, lipschitz: float, diameter: float
 ) -> float:
-    """log of :func:`rr_class_ratio`, exact where the ratio overflows (lower = 0, L_A = 0: ε); rounded up.
+    """The black-box value of k-ary RR for the class [lower, γ], E ≥ τ, L_A (discrete metric scaled to ``diameter``),
+    in nats, exact where the ratio overflows (lower = 0, L_A = 0: ε); rounded up. O(1): calibration evaluates it
+    along the family.
 
     With L_A = 0, :func:`rr_box`'s value: the exact closed form at a rational t ≥ e^ε, rounded up; with L_A > 0,
     :func:`rr_lipschitz_ratio` (every piece's program exactly, at the same t), ``log_up`` of it
@@ -502,7 +430,9 @@ def rr_class_value(
     g = Fraction(gamma)
     bottom = Fraction(lower) / g
     top = bottom if tau is None else max(Fraction(tau) / g, bottom)  # the floor
-    ratio = rr_lipschitz_ratio(rr.k, rr.epsilon, bottom, Fraction(1), top, Fraction(lipschitz) * Fraction(diameter) / g)
+    ratio = rr_lipschitz_ratio(
+        rr.k, rr.epsilon, bottom, Fraction(1), top, Fraction(lipschitz) * Fraction(diameter) / g
+    )[0]
     return math.inf if ratio == math.inf else log_up(ratio)
 
 

@@ -29,9 +29,10 @@ from fairaudit.laws.utilities import Utility
 from fairaudit.metrics.assumptions import Assumption
 from fairaudit.worstcase.pair_search import SearchResult
 
-EXACT_CROSSOVER = "then the rational simplex"
-"""What ``solver_status`` adds when the rational simplex solved the program (``dual`` is then empty), followed by why
-(:mod:`fairaudit.worstcase.known_utility_exact`: the rounded coefficients' witness did not meet the value)."""
+EXACT_CROSSOVER = "then solved exactly"
+"""What ``solver_status`` adds when the program was solved again on exact coefficients (``dual`` is then empty),
+followed by why (:mod:`fairaudit.worstcase.known_utility_exact`: the rounded coefficients' witness did not meet the
+value)."""
 
 
 def nats_up(ratio: float) -> float:
@@ -149,7 +150,7 @@ class WorstCase:
     programs_solved : int
     certified : bool
         Whether ``value`` is proven an upper bound (the threshold rule's error bound, the LP route's exact basis
-        and the duals it records, or the rational simplex on exact coefficients); False with the reason in
+        and the duals it records, or the exact solve on exact coefficients); False with the reason in
         ``reason`` otherwise.
     witness : float
         A certified lower end in nats, from the maximiser's point (NaN when the point is not exactly feasible).
@@ -308,8 +309,8 @@ class WorstCase:
     def settled(self) -> bool:
         """Whether the value is the worst case itself, not only an upper bound on it: decided without a program (the
         threshold rule, a closed form), or a model's certified value (``witness``) within 1e-12 of it (relative to
-        max(1, value)). A program whose rounded coefficients leave its witness below its value, beyond the rational
-        simplex's size, is not."""
+        max(1, value)). A program whose rounded coefficients leave its witness below its value, beyond the exact
+        solve's size, is not."""
         if self.method != "lp" or self.status != "optimal":
             return True
         return math.isfinite(self.witness) and self.value - self.witness <= 1e-12 * max(1.0, abs(self.value))

@@ -1,5 +1,5 @@
 """HiGHS's basis proved optimal in exact arithmetic, or finished by exact pivots: hand cases, every starting basis
-against the rational simplex of ``exact_programs`` (a second algorithm), badly scaled programs where the solver's basis
+against the rational simplex of the tests' ``_rational_simplex`` (a second algorithm), badly scaled programs where the solver's basis
 is not optimal exactly, and weak duality recomputed here from the returned duals."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ from fractions import Fraction as F
 
 import numpy as np
 import pytest
+from _rational_simplex import maximize_linear
 from hypothesis import given
 from hypothesis import strategies as st
 
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_lp import ExactProgram
-from fairaudit.base.exact_programs import maximize_linear
 
 INF = math.inf
 

@@ -189,3 +189,82 @@ def test_below_a_value_held_the_method_starts_there_and_stops_at_once_when_it_is
     full = program.solve(p, q, below=exact / 2)
     assert full.certified and full.witness <= exact * (1 + 1e-12) <= full.value * (1 + 2e-12)
     assert full.value - full.witness <= 4 * math.ulp(full.value)
+
+
+def _rational_program(seed: int, n: int, m: int, blocks: int):
+    """Random small programs with rational data, a few blocks: p of either sign, q ≥ 0, floors and caps."""
+    rng = np.random.default_rng(seed)
+
+    def r(lo: int, hi: int) -> Fraction:
+        return Fraction(int(rng.integers(lo, hi)), int(rng.integers(1, 8)))
+
+    out = []
+    for _ in range(blocks):
+        lower = [Fraction(0) if rng.random() < 0.5 else r(0, 3) for _ in range(n)]
+        upper = [lo + r(0, 6) for lo in lower]
+        rows = [[r(-4, 5) for _ in range(n)] for _ in range(m)]
+        rhs = [r(-3, 6) for _ in range(m)]
+        p = [r(-3, 6) for _ in range(n)]
+        q = [r(0, 5) for _ in range(n)]
+        out.append((lower, upper, rows, rhs, p, q))
+    return out
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 4), st.integers(0, 4), st.integers(1, 3), st.booleans())
+def test_polytope_ratios_equal_the_tests_rational_simplex(seed, n, m, blocks, guess):
+    # The certifier's exact ratio route (HiGHS's basis proved exactly, Dinkelbach block by block) against the tests'
+    # cold-start rational simplex: the same status and exact value; the multipliers prove the value by weak duality
+    # (max over the box of (p − λq − yᵀA)·h + y·b = 0, y ≥ 0) and the point attains it.
+    from _rational_simplex import Polytope as Second
+    from _rational_simplex import maximize_ratio_over_product as second
+
+    from fairaudit.base.linear_fractional import Polytope, maximize_ratio_over_product
+
+    data = _rational_program(seed, n, m, blocks)
+    ours = [Polytope(lo, hi, a, b, n) for lo, hi, a, b, _, _ in data]
+    theirs = [Second(lo, hi, a, b, n) for lo, hi, a, b, _, _ in data]
+    ps, qs = [d[4] for d in data], [d[5] for d in data]
+    expected = second(theirs, ps, qs)
+    start = expected.value + Fraction(1, 10**6) if guess and expected.value is not None else None
+    found = maximize_ratio_over_product(ours, ps, qs, start=start)
+    assert found.status == expected.status
+    if found.status != "optimal":
+        return
+    assert found.value == expected.value
+    lam, y, h = found.value, list(found.multipliers), list(found.point)
+    top = [x for d in data for x in d[4]]
+    bottom = [x for d in data for x in d[5]]
+    assert sum(a * x for a, x in zip(top, h)) == lam * sum(b * x for b, x in zip(bottom, h))
+    assert all(v >= 0 for v in y) and len(y) == m * blocks
+    bound = Fraction(0)
+    for i, (lo, hi, rows, rhs, p, q) in enumerate(data):
+        yi = y[i * m : (i + 1) * m]
+        for j in range(n):
+            c = p[j] - lam * q[j] - sum(yi[k] * rows[k][j] for k in range(m))
+            bound += c * (hi[j] if c > 0 else lo[j])
+        bound += sum(v * b for v, b in zip(yi, rhs))
+    assert bound == 0
+
+
+def test_polytope_reports_an_empty_polytope_and_a_zero_denominator():
+    from fairaudit.base.linear_fractional import Polytope
+
+    F = Fraction
+    assert not Polytope([0, 0], [1, 1], [[-1, -1]], [-3], 2).feasible
+    assert Polytope([0, 0], [1, 1], [[-1, -1]], [-3], 2).maximize_ratio([1, 1], [1, 1]).status == "infeasible"
+    box = Polytope([0, 0], [1, 1], [], [], 2)
+    assert box.maximize_ratio([F(1), F(0)], [F(0), F(0)]).status == "zero_denominator"  # q·h = 0 everywhere
+    unbounded = box.maximize_ratio([F(1), F(0)], [F(0), F(1)])  # h = (1, 0): q·h = 0 < p·h
+    assert unbounded.status == "zero_denominator" and unbounded.point == (F(1), F(0))
+    assert box.maximize_ratio([F(1), F(0)], [F(-1), F(1)]).status == "zero_denominator"  # q·h < 0 at (1, 0)
+
+
+def test_polytope_where_the_denominator_vanishes_everywhere_shows_the_largest_numerator():
+    # q·h = 0 on the whole polytope: the point maximises p·h, so c/0 (p·h > 0) shows wherever some h meets it
+    from fairaudit.base.linear_fractional import Polytope
+
+    F = Fraction
+    box = Polytope([0, 0], [1, 1], [], [], 2)
+    found = box.maximize_ratio([F(0), F(1)], [F(0), F(0)])
+    assert found.status == "zero_denominator" and found.point == (F(0), F(1))
+    assert box.maximize_ratio([F(0), F(-1)], [F(0), F(0)]).point[1] == 0  # (p·h ≤ 0 everywhere: 0 at best)

@@ -114,7 +114,8 @@ def test_floor_max_decides_the_floor_at_the_shortest_optimal_prefix(floor):
     # randomized response at 1e-12 as a matrix: the prefixes {0} (ratio 1 + 1e-12) and {0, 1} (ratio 1) tie to 1e-12;
     # the longest meets a floor near 1, the maximiser does not, and the value was the unconstrained 1 + 1e-12, above
     # the exact optimum with the floor (the rational simplex's) by 1e-12 relative
-    from fairaudit.base.exact_programs import maximize_ratio
+    from _rational_simplex import maximize_ratio
+
     from fairaudit.base.threshold_rule import floor_max_many
 
     p = np.array([0.50000000000025, 0.49999999999975])

@@ -1,6 +1,6 @@
 """The black box solved exactly, a second route for the tests: each program of L and L̄ over the model's table
 (:class:`fairaudit.verification.black_box_check.KernelSetting`) as a linear-fractional program over a polytope, solved by
-the rational simplex (:mod:`fairaudit.base.exact_programs`). ``fairaudit verify`` solves nothing: it bounds each
+the rational simplex (the tests' ``_rational_simplex``). ``fairaudit verify`` solves nothing: it bounds each
 program from the proofs a certificate records; these solves fix the exact values the tests hold those bounds to.
 
 A row's last decision is written as 1 minus the others (n_U − 1 variables in [0, 1], their sum at most 1), and one
@@ -15,7 +15,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from fairaudit.base.exact_programs import Polytope, maximize_linear, maximize_ratio_over_product
+from _rational_simplex import Polytope, maximize_linear, maximize_ratio_over_product
+
 from fairaudit.verification import black_box_check as bb
 from fairaudit.verification.black_box_check import Evidence, KernelSetting, reached_rows
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism
@@ -111,7 +112,7 @@ def kernel_global(s: KernelSetting, at: tuple[int, int] | None = None) -> Number
     Fraction, float or None
         The ratio e^L̄, exact; ``float("inf")`` for c/0 with c > 0; 1 (L̄ = 0) with fewer than two groups present;
         None when a block exceeds ``s.max_variables`` variables: with M_X the identity each merged context is a
-        block, solved apart (:func:`~fairaudit.base.exact_programs.maximize_ratio_over_product`); otherwise
+        block, solved apart (``_rational_simplex.maximize_ratio_over_product``); otherwise
         every context's rows are one block.
 
     Raises

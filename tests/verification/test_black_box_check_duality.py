@@ -1,5 +1,5 @@
 """Weak duality over the model's table (``verification.black_box_check.TableProgram``), against second routes: every deterministic
-table, B(λ, ν) recomputed cell by cell, the rational simplex (``base.exact_programs.maximize_ratio``) and its
+table, B(λ, ν) recomputed cell by cell, the rational simplex (the tests' ``_rational_simplex.maximize_ratio``) and its
 multipliers, and hand calculations."""
 
 from __future__ import annotations
@@ -8,10 +8,10 @@ import itertools
 from dataclasses import dataclass
 from fractions import Fraction as F
 
+from _rational_simplex import maximize_ratio
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
-from fairaudit.base.exact_programs import maximize_ratio
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.verification.black_box_check import TableProgram
 from fairaudit.verification.enclosures import INF, integers

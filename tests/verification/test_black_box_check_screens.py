@@ -103,7 +103,7 @@ def test_each_row_s_maximiser_decided_in_floats_is_the_exact_one(data):
     # exact ties (theta at a breakpoint: the largest q wins) and subnormal values are compared exactly. Against the
     # maximisers computed in integers throughout
     from fairaudit.base.exact_duality import on_one_denominator
-    from fairaudit.base.table_relaxation import _best, _maximisers
+    from fairaudit.base.table_relaxation import _best, _exact_maximisers, _float_maximisers
 
     rows, n_u = data.draw(st.integers(1, 4)), data.draw(st.integers(1, 4))
     forms = [[data.draw(st.lists(_VALUES, min_size=n_u, max_size=n_u)) for _ in range(rows)] for _ in range(3)]
@@ -118,7 +118,11 @@ def test_each_row_s_maximiser_decided_in_floats_is_the_exact_one(data):
     for theta in thetas:
         num, den = (np.array([v] * 2, dtype=object) for v in theta.as_integer_ratio())
         values = exact[0][None] * den[:, None, None] - num[:, None, None] * exact[1:]
-        found = _maximisers(exact[0], exact[1:], floats[0], floats[1:], num, den)
+        found, undecided = _float_maximisers(floats[0], floats[1:], num, den, None)  # (floats decide, then integers)
+        programs, left = np.nonzero(undecided)
+        found[programs, left] = _exact_maximisers(
+            exact[0][left], exact[1:][programs, left], num[programs], den[programs]
+        )
         assert (found == _best(values, exact[1:])[1]).all(), theta
 
 

@@ -241,7 +241,7 @@ def _exact_worst(rows, lower=0.0, tau=0.3):
     rows (a tuple of tuples), by the rational simplex."""
     from fractions import Fraction as F
 
-    from fairaudit.base.exact_programs import maximize_ratio
+    from _rational_simplex import maximize_ratio
 
     M = [[F(v) for v in r] for r in rows]
     k, m = len(M), len(M[0])

@@ -1,6 +1,6 @@
-"""Exact maxima of small linear and linear-fractional programs with rational data: what ``fairaudit verify``
-re-derives with, and the known-utility programs the worst-case search solves again on exact coefficients
-(:mod:`fairaudit.worstcase.known_utility_exact`).
+"""The tests' second route: exact maxima of small linear and linear-fractional programs with rational data by a
+cold-start rational simplex, an algorithm independent of the package's one route (HiGHS's basis solved and finished
+exactly, :mod:`fairaudit.base.exact_lp`), which the tests check the certifier's exact numbers against.
 
 Over the polytope P = {h : lower ≤ h ≤ upper, A_ub h ≤ b_ub} (finite bounds, lower ≤ upper, rational data),
 :func:`maximize_linear` gives max c·h and :func:`maximize_ratio` gives max (p·h)/(q·h) over the h of P with q·h > 0

@@ -507,7 +507,8 @@ REGRESSIONS["independent within rounding"] = (
 # (two floor rows that differ by 2.5e-13; the solver stops at their crossing, 1.2e-14 relative below the optimum at
 # the next vertex along one of them), so the duals repaired at the solver's point have mixed signs and certify
 # nothing, and the value certified from the solver's duals was 2.5e-11 relative above exact (fixed in certify: a small
-# program whose repaired dual is not tight is solved exactly by the rational simplex, then the rational simplex of the tests)
+# program whose repaired dual is not tight was solved exactly by a rational simplex; now every program is solved from
+# HiGHS's basis, proved in exact arithmetic)
 REGRESSIONS["degenerate vertex at epsilon 1e-12"] = (
     _spec(
         G2,

@@ -446,14 +446,20 @@ def _same_row(quoted: str, line: str) -> bool:
     the quoted number's last printed digit (float32 forward passes move in the 4th significant digit between torch
     and transformers releases; a wrong number moves much more).
 
+    A cell that is a number and words ("0.9194 **not met**") compares its number so and its words exactly.
+
     >>> _same_row("| a | 0.002283 | 1.349 |", "| a | 0.002282 | 1.349 |"), _same_row("| a | 0.0023 |", "| a | 0.0027 |")
+    (True, False)
+    >>> _same_row("| 0.9194 **not met** |", "| 0.9193 **not met** |"), _same_row("| 0.9 **not met** |", "| 0.9 met |")
     (True, False)
     """
     a, b = quoted.split("|"), line.split("|")
     if len(a) != len(b):
         return False
     for x, y in zip(a, b):
-        x, y = x.strip(), y.strip()
+        (x, _, x_words), (y, _, y_words) = x.strip().partition(" "), y.strip().partition(" ")
+        if x_words != y_words:
+            return False
         if x == y:
             continue
         try:

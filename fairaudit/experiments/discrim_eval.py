@@ -59,6 +59,9 @@ LM_EVAL_PROMPT = (
 MAX_ROWS = 1_000_000
 """Rows read at most (discrim-eval has 9,450 per file)."""
 
+MAX_LINE = 1_000_000
+"""Characters of one line at most (a discrim-eval row has about 1,000)."""
+
 
 @dataclass(frozen=True)
 class DiscrimEvalRows:
@@ -107,7 +110,8 @@ def read_rows(path: str | Path, keys: Mapping[str, str | Sequence[str]] | None =
     ------
     InputError
         The file missing or unreadable (``path``); a line that is not a JSON object, or lacks a key, or has a
-        prompt that is not text (``path``, naming the line and the key); no rows; more than :data:`MAX_ROWS`.
+        prompt that is not text (``path``, naming the line and the key); no rows; more than :data:`MAX_ROWS` rows or
+        a line longer than :data:`MAX_LINE` characters (the file is read a line at a time).
 
     Examples
     --------
@@ -118,36 +122,46 @@ def read_rows(path: str | Path, keys: Mapping[str, str | Sequence[str]] | None =
     k = {**DEFAULT_KEYS, **(keys or {})}
     prompt_key, scenario_key = str(k["prompt"]), str(k["scenario"])
     attribute_keys = [k["attributes"]] if isinstance(k["attributes"], str) else list(k["attributes"])
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise InputError("path", f"cannot be read ({e.__class__.__name__}: {e})", str(path)) from None
     prompts: list[str] = []
     scenarios: list[str] = []
     fills: list[list[object]] = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        if not line.strip():
-            continue
-        if len(prompts) >= MAX_ROWS:
-            raise InputError("path", f"has more than {MAX_ROWS:,} rows", str(path))
-        try:
-            row = json.loads(line)
-        except json.JSONDecodeError as e:
-            raise InputError("path", f"line {number} is not JSON ({e.msg})", str(path)) from None
-        if not isinstance(row, dict):
-            raise InputError("path", f"line {number} is not a JSON object", str(path))
-        for key in (prompt_key, scenario_key, *attribute_keys):
-            if key not in row:
-                raise InputError("path", f"line {number} has no key {key!r}", str(path))
-        if not isinstance(row[prompt_key], str):
-            raise InputError("path", f"line {number}: {prompt_key!r} must be text", str(path))
-        prompts.append(row[prompt_key])
-        scenarios.append(str(row[scenario_key]))
-        fills.append([row[a] for a in attribute_keys])
+    try:
+        with open(path, encoding="utf-8") as f:  # a line at a time, each read to MAX_LINE + 1 characters at most
+            for number, line in enumerate(iter(lambda: f.readline(MAX_LINE + 1), ""), start=1):
+                if len(line) > MAX_LINE:
+                    raise InputError("path", f"line {number} is longer than {MAX_LINE:,} characters", str(path))
+                if not line.strip():
+                    continue
+                if len(prompts) >= MAX_ROWS:
+                    raise InputError("path", f"has more than {MAX_ROWS:,} rows", str(path))
+                prompt, scenario, fill = _row(line, number, prompt_key, scenario_key, attribute_keys, str(path))
+                prompts.append(prompt)
+                scenarios.append(scenario)
+                fills.append(fill)
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError("path", f"cannot be read ({e.__class__.__name__}: {e})", str(path)) from None
     if not prompts:
         raise InputError("path", "has no rows", str(path))
     frame = pd.DataFrame(fills, columns=attribute_keys)
     return DiscrimEvalRows(tuple(prompts), tuple(scenarios), frame, str(path))
+
+
+def _row(
+    line: str, number: int, prompt_key: str, scenario_key: str, attribute_keys: list[str], path: str
+) -> tuple[str, str, list[object]]:
+    """One line's prompt, scenario and fill, or an InputError naming the line and the key."""
+    try:
+        row = json.loads(line)
+    except json.JSONDecodeError as e:
+        raise InputError("path", f"line {number} is not JSON ({e.msg})", path) from None
+    if not isinstance(row, dict):
+        raise InputError("path", f"line {number} is not a JSON object", path)
+    for key in (prompt_key, scenario_key, *attribute_keys):
+        if key not in row:
+            raise InputError("path", f"line {number} has no key {key!r}", path)
+    if not isinstance(row[prompt_key], str):
+        raise InputError("path", f"line {number}: {prompt_key!r} must be text", path)
+    return row[prompt_key], str(row[scenario_key]), [row[a] for a in attribute_keys]
 
 
 def lm_eval_score(logprobs: Mapping[str, npt.ArrayLike]) -> npt.NDArray[np.float64]:

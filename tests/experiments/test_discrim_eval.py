@@ -142,3 +142,16 @@ def test_mixed_effects_recover_a_known_linear_model():
         coefficients = mixed_effects(rows, score.to_numpy())
     want = {"black_bias": 0.5, "asian_bias": 0.2, "female_bias": -0.3, "age_bias": 0.1}
     assert coefficients == pytest.approx(want, abs=0.02)
+
+
+def test_a_line_longer_than_the_limit_is_refused_without_reading_it_whole(tmp_path, monkeypatch):
+    from fairaudit.experiments import discrim_eval
+
+    monkeypatch.setattr(discrim_eval, "MAX_LINE", 100)
+    path = tmp_path / "long.jsonl"
+    short = json.dumps({"filled_template": "Hire?", "decision_question_id": 1, "age": 20, "gender": "f", "race": "w"})
+    path.write_text(short + "\n" + json.dumps({"filled_template": "x" * 500}) + "\n", encoding="utf-8")
+    with pytest.raises(InputError, match="^path: line 2 is longer than 100 characters"):
+        read_rows(path)
+    path.write_text(short + "\n" + short, encoding="utf-8")  # no newline at the end: still two rows
+    assert len(read_rows(path).prompts) == 2

@@ -61,6 +61,7 @@ def _check_agreement(table: list[list[str]], tol: float) -> None:
         ("bench_lfp", ["| m (cells) | programs | threshold_max |", "| n (groups) | m (outputs) |"]),
         ("bench_product64", ["| operation | result | median time |"]),
         ("bench_impact_ratio", ["| n per category | level | interval or test |"]),
+        ("bench_plan_memory", ["| groups x contexts | epsilon | method | tables |"]),
     ],
 )
 def test_quick_run_exits_zero_with_tables(name, headers, capsys, tmp_path):

@@ -125,7 +125,7 @@ def integers(tables: Sequence[Sequence[Sequence[Fraction]]]) -> tuple[np.ndarray
 
 
 def group_free(values: Any) -> bool:
-    """Whether a recorded utility's values (``inputs.utility.values``: g(u), or a table g(u, x, a) indexed [x][a][u])
+    """Whether a recorded utility's values (``inputs.utility.values``: g(u), or a table g(u, x, a) indexed ``[x][a][u]``)
     are the same for every group (``Utility.depends_on_group`` is its negation).
 
     Examples

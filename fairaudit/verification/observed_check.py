@@ -391,7 +391,7 @@ def _number(name: str, reported: Any, value: Enclosure | None, undefined: str = 
 
 
 def _group_plane(pop: list[Any], mass: list[Fraction], ends: list[Any]) -> _Plane:
-    """Σ_x P(x, a) T[x][a][u] / P(a) per group, at both ends of T (P(u | a) for the law); None where P(A = a) = 0."""
+    """Σ_x P(x, a) ``T[x][a][u]`` / P(a) per group, at both ends of T (P(u | a) for the law); None where P(A = a) = 0."""
     plane: _Plane = []
     for a, m in enumerate(mass):
         if m == 0:

@@ -254,11 +254,6 @@ def _rows(m: RecordedMechanism, end: int) -> Rows:
     return rows if rows is not None else rr_matrix((m.t().lo, m.t().hi)[end], m.k)
 
 
-def _released_groups(s: KernelSetting) -> list[int]:
-    """The released groups some group reaches (M_A[a, ã] > 0 for some a), ascending: the others' rows are free."""
-    return [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]
-
-
 def reached_rows(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
     """The rows (x̃, ã) of K that ``contexts`` reach, in order: released contexts M_X[x, x̃] > 0 for one of them
     (x̃ = x for the identity), released groups M_A[a, ã] > 0 for some group; the other rows enter no program.
@@ -283,7 +278,7 @@ def reached_rows(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, i
     >>> reached_rows(s, [1])    # the second released group is reached by no group
     [(1, 0)]
     """
-    reached = _released_groups(s)
+    reached = [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]  # (the others' rows are free)
     if s.context is None:
         released_contexts = list(contexts)
     else:

@@ -225,8 +225,7 @@ def _theorem_checks(
     out.append(equal("bound_details.corollary.epsilon", corollary["epsilon"], bounds["corollary"], "the bound"))
     out.append(equal("bound_details.corollary.delta", corollary["delta"], 0.0, "the corollary is pure"))
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
-    lipschitz, gamma = exact(u["lipschitz"], "inputs.utility.lipschitz"), exact(u["gamma"], "inputs.utility.gamma")
-    diameter = exact(u["diameter"], "inputs.utility.diameter")
+    lipschitz, gamma, diameter = (exact(u[k], f"inputs.utility.{k}") for k in ("lipschitz", "gamma", "diameter"))
     if bounds["paper"] is None:
         return out
     if tau is None:  # L_A = 0 and pure DP: both forms are epsilon(M)
@@ -246,26 +245,23 @@ def _theorem_checks(
         delta = m.largest_delta(eps_star)  # type: ignore[arg-type]
         out.append(judge("bound_details.paper.delta", paper["delta"], delta, "upper"))
         recorded_delta = exact(paper["delta"], "bound_details.paper.delta")
-        inner = 1 + (lipschitz * diameter + recorded_delta * gamma) / tau
-        value = Enclosure(eps_star, eps_star) + ln(inner)
+        value = Enclosure.point(eps_star) + ln(1 + (lipschitz * diameter + recorded_delta * gamma) / tau)
         out.append(judge("bounds.paper", bounds["paper"], value, "upper", "at its recorded epsilon and delta"))
     if m.k > TIGHT_GROUPS and m.kind != "randomized_response":
         skipped.append(("bounds.tight", f"{m.k} groups: every pair's minimum is not re-derived beyond {TIGHT_GROUPS}"))
         return out
-    metric = u["metric"]
-    tight, _, _ = m.tight_pair_log(lipschitz, gamma, tau, metric)  # type: ignore[arg-type]
+    tight, _, _ = m.tight_pair_log(lipschitz, gamma, tau, u["metric"])  # type: ignore[arg-type]
     out.append(judge("bounds.tight", bounds["tight"], tight, "upper", "max over pairs, exactly"))
     return out
 
 
 def _target_checks(cert: Mapping[str, Any]) -> list[Check]:
     """Each target's bound is the certificate's bound, and its verdicts follow from the numbers."""
-    out: list[Check] = []
     bounds, form = cert["bounds"], cert["bounds"]["best_form"]
     if form == "none":
-        out.append(equal("bounds.best", bounds["best"], "inf", "no form gives a bound: +inf"))
+        out = [equal("bounds.best", bounds["best"], "inf", "no form gives a bound: +inf")]
     else:
-        out.append(equal("bounds.best", bounds["best"], bounds[form], f"bounds.{form}"))
+        out = [equal("bounds.best", bounds["best"], bounds[form], f"bounds.{form}")]
     for kind, t in (cert.get("targets") or {}).items():
         expected = bounds["best"] if kind == "local" else bounds["global"]
         out.append(equal(f"targets.{kind}.bound", t["bound"], expected))

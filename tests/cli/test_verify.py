@@ -277,22 +277,8 @@ def test_a_simulated_experiment_run_then_its_spec_certified_and_verified(capsys,
     assert code == 0, text
 
 
-CALIBRATION_SPEC = """
-[sensitive]
-name = "office"
-values = ["HR_1", "HR_2"]
-[decision]
-name = "chosen"
-values = ["yes", "no"]
-[privacy.sensitive]
-mechanism = "randomized_response"
-keep = 0.7
-[utility]
-kind = "table"
-values = [1.0, 0.5]
-[target]
-local = 0.26826398659467937
-"""
+CALIBRATION_SPEC = OFFICE_SPEC.replace('kind = "indicator"\ndecision = "yes"', 'kind = "table"\nvalues = [1.0, 0.5]')
+CALIBRATION_SPEC += "[target]\nlocal = 0.26826398659467937\n"  # (calibrated: its section records lower, gamma and tau)
 
 
 @pytest.mark.parametrize("key", ["lower", "gamma", "tau", "lipschitz"])

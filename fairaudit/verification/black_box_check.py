@@ -14,27 +14,8 @@ of e^ε (:class:`KernelSetting`); each program bounded from its recorded proof, 
 table (:func:`table_local`, :func:`table_global`); and the worst cases (:func:`black_box_enclosures`,
 :func:`pair_enclosures`).
 
-**Weak duality.** A program is max (P·K)/(Q·K) over tables K with floors F_f·K ≥ τ. For λ ≥ 0 and multipliers
-ν ≥ 0 on the floors, each row's simplex kept in the inner maximum,
-
-    B(λ, ν) = Σ_rows max_u (P − λQ + Σ_f ν_f F_f)[row, u] − τ Σ_f ν_f  ≥  max over the tables of (P − λQ)·K,
-
-so B(λ, ν) ≤ 0 proves P·K ≤ λ Q·K on every table meeting the floors: the ratio is at most λ where Q·K > 0, and no
-table has Q·K = 0 < P·K. A certificate records, per program, one of
-
-* ν (``floors``, ``bound_details.black_box.duals``): the bound is the least λ ≥ 0 with B(λ, ν) ≤ 0
-  (:meth:`TableProgram.dual_bound`), the program's value where the table of the rows' maximisers there meets the
-  floors and attains it (complementary slackness);
-* θ (``theta``, ``bound_details.black_box.screens``), the one-floor proof: the multiplier λ − θ on a floor that keeps
-  Q·K ≥ t, whose bound is θ + max(R(θ), 0)/t with R(θ) = Σ_rows max_u (P − θQ)[row, u]
-  (:meth:`TableProgram.theta_bound`), in closed form;
-* nothing: ν = 0, the bound of the table without its floors.
-
-The smaller of the two is taken where both are. Nothing is searched for: the least λ is the root of a convex,
-piecewise-linear, non-increasing function, reached by Newton's steps from the left (each lands on the next linear
-piece, never beyond the root). Every number is exact: the rows are integers over one denominator. The ratio
-conventions are the tool's: c/0 = +inf for c > 0, 0/0 = 1. A program whose recorded proof does not reach the
-certified value shows as an upper end above it, and that check fails.
+Weak duality over the table is :mod:`~fairaudit.verification.table_program`; the recorded proofs are read by
+:mod:`~fairaudit.verification.evidence`.
 
 **The ends of e^ε.** With M_X the identity, L at x involves only the rows of x. Randomized response's rows hold e^ε,
 irrational: its worst case is non-decreasing in e^ε (randomized response at a smaller ε is the one at a larger ε
@@ -47,7 +28,6 @@ for every pair (:func:`three_cell_settings`; for L̄ when P(x | a) is the same f
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -65,228 +45,13 @@ from fairaudit.verification.enclosures import (
     recorded_array,
     rr_matrix,
 )
-from fairaudit.verification.schema import CertificateError
+from fairaudit.verification.evidence import Evidence
+from fairaudit.verification.table_program import Number, Table, TableProgram
 
-__all__ = ["Evidence", "KernelSetting", "TableProgram", "black_box_enclosures", "pair_enclosures"]
+__all__ = ["KernelSetting", "black_box_enclosures", "pair_enclosures"]
 
-Number = Fraction | float
-Table = Sequence[Sequence[Fraction]]
 Rows = tuple[tuple[Fraction, ...], ...]
 Ends = tuple[Number, Number, bool]
-
-
-@dataclass(frozen=True)
-class TableProgram:
-    """max (P·K)/(Q·K) over tables K with floors F_f·K ≥ τ, all as integers over the one denominator ``d``.
-
-    Attributes
-    ----------
-    top, bottom : object array of int, shape (n_rows, n_decisions)
-        P and Q times d, ≥ 0.
-    floors : object array of int, shape (n_floors, n_rows, n_decisions)
-        The floors' rows F_f times d.
-    d : int
-    tau : Fraction or None
-        τ; None without floors.
-    """
-
-    top: np.ndarray
-    bottom: np.ndarray
-    floors: np.ndarray
-    d: int
-    tau: Fraction | None
-
-    def dual_bound(self, nu: Sequence[Fraction] | None = None) -> tuple[Number, Number | None]:
-        """The least λ ≥ 0 with B(λ, ν) ≤ 0, exactly (ν = 0 when None): an upper bound on the program's value; and
-        the value it proves attained: λ itself without floors (``tau`` None: the least root is the supremum); with
-        floors, λ where the table of each row's maximiser at that λ (the largest q among ties) meets every floor and
-        its ratio is λ (complementary slackness: then λ is the program's value), else None.
-
-        Returns
-        -------
-        (Fraction or float, Fraction or None)
-            The bound: +inf where some ν < 0 or no λ has B(λ, ν) ≤ 0; at least 1 where every row has a decision with
-            q = 0. Then the value attained, or None.
-
-        Examples
-        --------
-        P(yes | ã) over two released groups, p = (3/4, 1/4), q = (1/8, 3/8) on "yes", 0 on "no", floor q·K ≥ 1/4:
-        without it the ratio reaches 6 (K = (1, 0)); ν = 8/3 on it proves 10/3, the value, which the table
-        K = (1, 1) of the maximisers at 10/3 (the largest q among ties) does not attain (its ratio is 2); θ = 2/3
-        proves it too.
-
-        >>> F = Fraction
-        >>> rows, d = integers([[[F(3, 4), F(0)], [F(1, 4), F(0)]], [[F(1, 8), F(0)], [F(3, 8), F(0)]]])
-        >>> t = TableProgram(rows[0], rows[1], rows[1:], d, None)
-        >>> t.dual_bound()
-        (Fraction(6, 1), Fraction(6, 1))
-        >>> t = TableProgram(rows[0], rows[1], rows[1:], d, F(1, 4))
-        >>> t.dual_bound([F(8, 3)]), t.theta_bound(F(2, 3), F(1, 4))
-        ((Fraction(10, 3), None), Fraction(10, 3))
-        """
-        top, d, constant = self.top, self.d, Fraction(0)
-        if nu is not None and self.tau is not None and any(nu):
-            if len(nu) != len(self.floors) or any(v < 0 for v in nu):
-                return math.inf, None
-            n = math.lcm(*(v.denominator for v in nu))
-            weights = np.array([v.numerator * (n // v.denominator) for v in nu], dtype=object)
-            top = self.top * n + np.tensordot(weights, self.floors, axes=1)
-            d, constant = d * n, -self.tau * sum(nu, Fraction(0))
-        lam, choice = _least_root(top, self.bottom * (d // self.d), d, constant)
-        if lam != math.inf and all(any(v == 0 for v in row) for row in self.bottom.tolist()):
-            lam = max(lam, Fraction(1))  # (a table with q·K = 0 = p·K is there: 0/0 = 1)
-        if self.tau is None or lam == math.inf:  # (no floors: the least root is the supremum itself, +inf included)
-            return lam, lam if self.tau is None else None
-        n_u = self.top.shape[1]
-        table = [[Fraction(int(u == c)) for u in range(n_u)] for c in choice.tolist()]
-        return lam, lam if isinstance(lam, Fraction) and self.point_ratio(table) == lam else None
-
-    def theta_bound(self, theta: Fraction, kept: Fraction) -> Number:
-        """θ + max(R(θ), 0)/t, t = ``kept`` > 0: the bound the multiplier λ − θ on a floor Q·K ≥ t proves, exactly.
-
-        R(θ) = Σ_rows max_u (P − θQ)[row, u]; the bound holds for any θ, a poor one is only loose.
-        """
-        r = _row_maxima(self.top * theta.denominator - theta.numerator * self.bottom, self.bottom)[0].sum()
-        return theta + Fraction(max(int(r), 0), self.d * theta.denominator) / kept
-
-    def point_ratio(self, table: Table) -> Fraction | None:
-        """(P·K)/(Q·K) at a table whose rows are distributions and which meets every floor, exactly; None where it
-        does not (a row with a negative entry or not summing to 1, a floor below τ)."""
-        if any(v < 0 for row in table for v in row) or any(sum(row, Fraction(0)) != 1 for row in table):
-            return None
-        k, e = integers([table])
-        k = k[0]
-        for f in self.floors:
-            if self.tau is not None and Fraction(int((f * k).sum()), self.d * e) < self.tau:
-                return None
-        num, den = int((self.top * k).sum()), int((self.bottom * k).sum())
-        return Fraction(num, den) if den else (Fraction(1) if num == 0 else None)
-
-
-def _row_maxima(
-    values: np.ndarray, bottom: np.ndarray, left: bool = False
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each row's largest value, the least q among the decisions attaining it (the slope to the right; the largest,
-    the slope to the left, with ``left``), and that decision (the first such)."""
-    best = values.max(axis=1)
-    ties = values == best[:, None]
-    keyed = np.where(ties, bottom, np.max(bottom, initial=0) + 1) if not left else np.where(ties, -bottom, 1)
-    at = np.argmin(keyed, axis=1)
-    return best, bottom[np.arange(len(at)), at], at
-
-
-def _least_root(top: np.ndarray, bottom: np.ndarray, d: int, constant: Fraction) -> tuple[Number, np.ndarray]:
-    """The least λ ≥ 0 with f(λ) = Σ_rows max_u (top − λ·bottom)/d + constant ≤ 0, by Newton's steps from the left
-    along the right slopes (f is convex and non-increasing: each step lands on the root of the piece it starts on,
-    never beyond f's); +inf where f stays positive (a right slope of 0). With it, each row's maximiser there with the
-    largest q (the table on the piece to the left of the root, which attains it where the floors allow)."""
-    lam = Fraction(0)
-    while True:
-        values = top * lam.denominator - lam.numerator * bottom
-        best, slope, _ = _row_maxima(values, bottom)
-        value = Fraction(int(best.sum()), d * lam.denominator) + constant
-        if value <= 0:
-            return lam, _row_maxima(values, bottom, left=True)[2]
-        falls = Fraction(int(slope.sum()), d)
-        if falls == 0:
-            return math.inf, _
-        lam += value / falls
-
-
-@dataclass(frozen=True)
-class Evidence:
-    """What a certificate records to check its black box with: the floors' multipliers of each program bounded by a
-    linear program, and the maximiser's point, indexed by population position.
-
-    ``local[(x, a, b)]`` is ν over the groups for L's program at context x and pair (a, b) (per context behind a
-    context mechanism other than the identity, whose L program spans every context); ``global_[(a, b)]`` is ν per
-    context (the population's order) for L̄'s. ``local_point`` is (x, a, b, h) of L's maximiser, h over the released
-    groups; ``global_point`` is (a, b, h) of L̄'s, h per context. For a utility that depends on the group each h over
-    the released groups is the maximiser's table instead, a row over the decisions per released group; behind a
-    context mechanism other than the identity both points are the table over every released context.
-    """
-
-    local: dict[tuple[int, int, int], list[Any]] = field(default_factory=dict)  # ν, or ν per context
-    global_: dict[tuple[int, int], list[list[Fraction]]] = field(default_factory=dict)
-    local_point: tuple[int, int, int, list[Any]] | None = None
-    global_point: tuple[int, int, list[list[Any]]] | None = None
-    local_theta: dict[tuple[int, int, int], Fraction] = field(default_factory=dict)  # one-floor thresholds θ
-    global_theta: dict[tuple[int, int], Fraction] = field(default_factory=dict)
-
-    @classmethod
-    def from_record(cls, detail: Mapping[str, Any] | None, inputs: Mapping[str, Any]) -> Evidence:
-        """Read ``bound_details.black_box`` (``detail``; None: no evidence) against the certificate's ``inputs``.
-
-        Raises
-        ------
-        CertificateError
-            Naming the field (``bound_details.black_box.duals[0].group``) whose label is not the inputs' or whose
-            numbers are not finite, or whose shape is not (groups,) or (contexts, groups) (``released`` for a point).
-        """
-        if not detail:
-            return cls()
-        pop = inputs["population"]
-        labels = {"context": list(pop["contexts"]), "group": list(pop["groups"]), "other_group": list(pop["groups"])}
-        n_x, n_g = len(pop["contexts"]), len(pop["groups"])
-        released = len(inputs["sensitive_mechanism"]["outputs"])
-        own = inputs["context_mechanism"]["kind"] == "identity"  # (else L's program spans every context)
-        values = inputs["utility"]["values"]
-        if own:  # a point over the released groups: E[g | x, ã], or a row of P(u | x, ã) each (g by group)
-            point: tuple[int, ...] = (released,) if group_free(values) else (released, len(values[0][0]))
-        else:  # the table over every released context
-            n_dec = len(values[0][0]) if isinstance(values[0], list) else len(values)
-            point = (len(inputs["context_mechanism"]["outputs"]), released, n_dec)
-        where, glob = "bound_details.black_box", detail.get("global") or {}
-        keys, global_keys = ("context", "group", "other_group"), ("group", "other_group")
-        local = _read(detail, f"{where}.duals", keys, labels, "floors", (n_g,) if own else (n_x, n_g))
-        global_ = _read(glob, f"{where}.global.duals", global_keys, labels, "floors", (n_x, n_g))
-        local_theta = _read(detail, f"{where}.screens", keys, labels, "theta", ())
-        global_theta = _read(glob, f"{where}.global.screens", global_keys, labels, "theta", ())
-        # the maximiser's point (its labels are checked by verify's maximiser check, which fails a wrong one)
-        local_point = global_point = None
-        if detail.get("witness_point") is not None and all(detail.get(k) in labels[k] for k in keys):
-            h = _array(detail["witness_point"], point, f"{where}.witness_point")
-            local_point = (*(labels[k].index(detail[k]) for k in keys), h)
-        if glob.get("witness_point") is not None and all(glob.get(k) in labels[k] for k in global_keys):
-            hs = _array(glob["witness_point"], (n_x, *point) if own else point, f"{where}.global.witness_point")
-            global_point = (*(labels[k].index(glob[k]) for k in global_keys), hs)
-        return cls(local, global_, local_point, global_point, local_theta, global_theta)
-
-
-def _read(
-    detail: Mapping[str, Any], where: str, keys: tuple[str, ...], labels: Mapping[str, list[Any]], field: str,
-    shape: tuple[int, ...],
-) -> dict[Any, Any]:  # fmt: skip
-    """The recorded proofs of a kind (``duals``, ``screens``: ``where``), each an array of ``shape`` under ``field``,
-    by the positions of its program's labels (``keys``)."""
-    out = {}
-    for i, d in enumerate(detail.get(where.rsplit(".", 1)[1]) or []):
-        name = f"{where}[{i}]"
-        out[tuple(_index(d, key, labels[key], name) for key in keys)] = _array(d.get(field), shape, f"{name}.{field}")
-    return out
-
-
-def _index(record: Mapping[str, Any], key: str, labels: list[Any], name: str) -> int:
-    """The position of ``record[key]`` among ``labels``."""
-    value = record.get(key)
-    if value not in labels:
-        raise CertificateError(f"{name}.{key}", "is not a label of the inputs' population", value)
-    return labels.index(value)
-
-
-def _array(value: Any, shape: tuple[int, ...], name: str) -> Any:
-    """A recorded array of finite numbers (a float, or an exact rational ``"n/d"``) of ``shape``, exactly."""
-    if not shape:
-        try:
-            number = exact(value, name)
-        except CertificateError:
-            number = INF
-        if not isinstance(number, Fraction):
-            raise CertificateError(name, 'must be a finite number or an exact rational "n/d"', value)
-        return number
-    if not isinstance(value, list) or len(value) != shape[0]:
-        raise CertificateError(name, f"must be a list of {shape[0]} {'numbers' if len(shape) == 1 else 'lists'}", value)
-    return [_array(v, shape[1:], f"{name}[{i}]") for i, v in enumerate(value)]
 
 
 @dataclass(frozen=True)
@@ -489,11 +254,6 @@ def _rows(m: RecordedMechanism, end: int) -> Rows:
     return rows if rows is not None else rr_matrix((m.t().lo, m.t().hi)[end], m.k)
 
 
-def _released_groups(s: KernelSetting) -> list[int]:
-    """The released groups some group reaches (M_A[a, ã] > 0 for some a), ascending: the others' rows are free."""
-    return [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]
-
-
 def reached_rows(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, int]]:
     """The rows (x̃, ã) of K that ``contexts`` reach, in order: released contexts M_X[x, x̃] > 0 for one of them
     (x̃ = x for the identity), released groups M_A[a, ã] > 0 for some group; the other rows enter no program.
@@ -518,7 +278,7 @@ def reached_rows(s: KernelSetting, contexts: Sequence[int]) -> list[tuple[int, i
     >>> reached_rows(s, [1])    # the second released group is reached by no group
     [(1, 0)]
     """
-    reached = _released_groups(s)
+    reached = [c for c in range(len(s.sensitive[0])) if any(r[c] for r in s.sensitive)]  # (the others' rows are free)
     if s.context is None:
         released_contexts = list(contexts)
     else:

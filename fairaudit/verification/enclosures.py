@@ -246,9 +246,10 @@ def ln_of(e: Enclosure) -> Enclosure:
     return Enclosure(ln(e.lo).lo, ln(e.hi).hi)
 
 
-def below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
-    """ln of a worst ratio, enclosed, its upper end at most ε(M_A): under pure ε-DP no model's ratio exceeds e^ε
-    (post-processing), which decides the ties where the worst case is ε itself.
+def below_epsilon(ratio: Enclosure, eps: Enclosure | None) -> Enclosure:
+    """ln of a worst ratio, enclosed, its upper end at most ε(M_A) where given: under pure ε-DP no model's ratio
+    exceeds e^ε (post-processing), which decides the ties where the worst case is ε itself (None: ln only, where the
+    worst case may exceed ε, a utility that depends on the group).
 
     Examples
     --------
@@ -256,7 +257,7 @@ def below_epsilon(ratio: Enclosure, eps: Enclosure) -> Enclosure:
     Fraction(1, 1)
     """
     logs = ln_of(ratio)
-    return Enclosure(logs.lo, min(logs.hi, eps.hi))
+    return logs if eps is None else Enclosure(logs.lo, min(logs.hi, eps.hi))
 
 
 def rr_matrix(t: Fraction | float, k: int) -> tuple[tuple[Fraction, ...], ...]:

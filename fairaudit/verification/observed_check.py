@@ -130,6 +130,7 @@ class ObservedEnclosures:
     present: int  # the groups with P(A = a) > 0: L̄ is undefined with fewer than two
     laws: list[Any]  # the law Q[x][a][u] at the low and at the high end (each entry increases from one to the other)
     by_group: list[Any]  # E[g | a] per group, a row of one (low, high) pair; None where P(A = a) = 0
+    population: list[Any]  # P(x, a), exactly
 
 
 def observed_enclosures(
@@ -184,10 +185,9 @@ def observed_enclosures(
     laws = [composed_law(kernel, sensitive, context, low) for low in (True, False)]
     ends = [expected_utility(law, g) for law in laws]
     local = max_ratio([list(zip(ends[0][x], ends[1][x])) for x in range(len(pop)) if sum(pop[x]) > 0])
-    mass = [sum(row[a] for row in pop) for a in range(len(pop[0]))]
-    by_group = _group_plane(pop, mass, [[[[e] for e in row] for row in end] for end in ends])  # E[g | a]
+    by_group = _group_plane(pop, [[[[e] for e in row] for row in end] for end in ends])  # E[g | a]
     present = [row[0] for row in by_group if row is not None]
-    return ObservedEnclosures(local, max_ratio([present]), ends, len(present), laws, by_group)
+    return ObservedEnclosures(local, max_ratio([present]), ends, len(present), laws, by_group, pop)
 
 
 def observed_checks(
@@ -325,16 +325,14 @@ def _section_checks(
     name: str, section: Mapping[str, Any], found: ObservedEnclosures, inputs: Mapping[str, Any]
 ) -> list[Check]:
     """The ratios, the global maximiser, the gaps and the sups of one section, from its law's enclosures."""
-    population = inputs["population"]
-    pop = recorded_array(population["probabilities"], "inputs.population.probabilities")
+    population, pop = inputs["population"], found.population
     labels = (population["groups"], inputs["kernel"]["decisions"])
-    mass = [sum(row[a] for row in pop) for a in range(len(labels[0]))]
     local_planes = {  # Q[x, a, u] in the contexts with P(X = x) > 0
         population["contexts"][x]: [list(zip(lo, hi)) for lo, hi in zip(found.laws[0][x], found.laws[1][x])]
         for x in range(len(pop))
         if sum(pop[x]) > 0
     }
-    global_planes = {None: _group_plane(pop, mass, found.laws)}  # P(u | a)
+    global_planes = {None: _group_plane(pop, found.laws)}  # P(u | a)
     pairless = len(labels[0]) < 2  # every metric 0 (ratio 1), no pair named
     undefined = not pairless and found.present < 2  # the metrics over groups: NaN, null in JSON
     local, glob = section["local"], section["global"]
@@ -390,10 +388,11 @@ def _number(name: str, reported: Any, value: Enclosure | None, undefined: str = 
     return equal(name, reported, None, undefined) if value is None else judge(name, reported, value, "estimate")
 
 
-def _group_plane(pop: list[Any], mass: list[Fraction], ends: list[Any]) -> _Plane:
+def _group_plane(pop: list[Any], ends: list[Any]) -> _Plane:
     """Σ_x P(x, a) ``T[x][a][u]`` / P(a) per group, at both ends of T (P(u | a) for the law); None where P(A = a) = 0."""
     plane: _Plane = []
-    for a, m in enumerate(mass):
+    for a in range(len(pop[0])):
+        m = sum(row[a] for row in pop)
         if m == 0:
             plane.append(None)
             continue

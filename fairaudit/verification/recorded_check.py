@@ -130,7 +130,9 @@ def distribution_checks(inputs: Mapping[str, Any]) -> list[Check]:
         out.append(_check("inputs.population.probabilities", [("", cells)], "its entries sum"))
     if inputs.get("kernel") is not None:
         planes = inputs["kernel"]["probabilities"]
-        rows = [(f"[{x}][{a}]", row) for x, block in enumerate(planes) for a, row in enumerate(block)]
+        rows = [
+            (f"[{x}][{a}]", row) for x, block in enumerate(planes) for a, row in enumerate(block) if None not in row
+        ]
         out.append(_check("inputs.kernel.probabilities", rows, "a row sums"))
     members = inputs.get("calibration") or {}
     mechanisms = [(f"inputs.{key}", inputs.get(key)) for key in ("sensitive_mechanism", "context_mechanism")]

@@ -225,8 +225,7 @@ def _theorem_checks(
     out.append(equal("bound_details.corollary.epsilon", corollary["epsilon"], bounds["corollary"], "the bound"))
     out.append(equal("bound_details.corollary.delta", corollary["delta"], 0.0, "the corollary is pure"))
     tau = None if u["tau"] is None else exact(u["tau"], "inputs.utility.tau")
-    lipschitz, gamma = exact(u["lipschitz"], "inputs.utility.lipschitz"), exact(u["gamma"], "inputs.utility.gamma")
-    diameter = exact(u["diameter"], "inputs.utility.diameter")
+    lipschitz, gamma, diameter = (exact(u[k], f"inputs.utility.{k}") for k in ("lipschitz", "gamma", "diameter"))
     if bounds["paper"] is None:
         return out
     if tau is None:  # L_A = 0 and pure DP: both forms are epsilon(M)
@@ -246,26 +245,23 @@ def _theorem_checks(
         delta = m.largest_delta(eps_star)  # type: ignore[arg-type]
         out.append(judge("bound_details.paper.delta", paper["delta"], delta, "upper"))
         recorded_delta = exact(paper["delta"], "bound_details.paper.delta")
-        inner = 1 + (lipschitz * diameter + recorded_delta * gamma) / tau
-        value = Enclosure(eps_star, eps_star) + ln(inner)
+        value = Enclosure.point(eps_star) + ln(1 + (lipschitz * diameter + recorded_delta * gamma) / tau)
         out.append(judge("bounds.paper", bounds["paper"], value, "upper", "at its recorded epsilon and delta"))
     if m.k > TIGHT_GROUPS and m.kind != "randomized_response":
         skipped.append(("bounds.tight", f"{m.k} groups: every pair's minimum is not re-derived beyond {TIGHT_GROUPS}"))
         return out
-    metric = u["metric"]
-    tight, _, _ = m.tight_pair_log(lipschitz, gamma, tau, metric)  # type: ignore[arg-type]
+    tight, _, _ = m.tight_pair_log(lipschitz, gamma, tau, u["metric"])  # type: ignore[arg-type]
     out.append(judge("bounds.tight", bounds["tight"], tight, "upper", "max over pairs, exactly"))
     return out
 
 
 def _target_checks(cert: Mapping[str, Any]) -> list[Check]:
     """Each target's bound is the certificate's bound, and its verdicts follow from the numbers."""
-    out: list[Check] = []
     bounds, form = cert["bounds"], cert["bounds"]["best_form"]
     if form == "none":
-        out.append(equal("bounds.best", bounds["best"], "inf", "no form gives a bound: +inf"))
+        out = [equal("bounds.best", bounds["best"], "inf", "no form gives a bound: +inf")]
     else:
-        out.append(equal("bounds.best", bounds["best"], bounds[form], f"bounds.{form}"))
+        out = [equal("bounds.best", bounds["best"], bounds[form], f"bounds.{form}")]
     for kind, t in (cert.get("targets") or {}).items():
         expected = bounds["best"] if kind == "local" else bounds["global"]
         out.append(equal(f"targets.{kind}.bound", t["bound"], expected))
@@ -368,13 +364,12 @@ def _witness_checks(
     detail: Mapping[str, Any],
     ratio: Enclosure,
     value: Enclosure,
-    eps_a: Enclosure,
-    clip: bool = True,
-    skipped: list[tuple[str, str]] | None = None,
+    eps: Enclosure | None,
+    skipped: list[tuple[str, str]] | None,
 ) -> list[Check]:
-    """A worst case's ratio (e^value, an upper end), its witness (a model attains it: at most the exact value) and the
-    gap (at least the value less the witness). With ``skipped`` (the upper end rests on recorded duals, the lower end
-    on the recorded witness point), a witness above the lower end is listed there, not failed: the point recorded
+    """A worst case's ratio (e^value, an upper end, at most e^ε where ``eps``, ε(M_A), is given), its witness (a model
+    attains it: at most the exact value) and the gap (at least the value less the witness). With ``skipped`` (the
+    upper end rests on recorded duals, the lower end on the recorded witness point), a witness above the lower end is listed there, not failed: the point recorded
     does not attain it exactly, which does not show that no model does."""
     out = []
     if skipped is not None and detail.get("witness") is not None and value.lo != INF:
@@ -384,8 +379,8 @@ def _witness_checks(
             detail = {k: v for k, v in detail.items() if k != "witness"}
     if detail.get("ratio") is not None:
         top: Fraction | float = ratio.hi
-        if clip and eps_a.hi != INF:  # under pure epsilon-DP no ratio exceeds e^epsilon
-            top = min(top, exp_of(eps_a.hi).hi)  # type: ignore[arg-type, assignment]
+        if eps is not None and eps.hi != INF:  # under pure epsilon-DP no ratio exceeds e^epsilon
+            top = min(top, exp_of(eps.hi).hi)  # type: ignore[arg-type, assignment]
         bottom: Fraction | float = min(ratio.lo, top)
         out.append(judge(f"{where}.ratio", detail["ratio"], Enclosure(bottom, top), "upper", "e^value"))
     if detail.get("witness") is not None:
@@ -441,7 +436,7 @@ def _maximiser(
             return []
         value = exact(where["witness"], name)
     ratio = pair.local if local else pair.global_
-    reach = None if ratio is None else (below_epsilon(ratio, eps) if eps else ln_of(ratio)).hi
+    reach = None if ratio is None else below_epsilon(ratio, eps).hi
     if reach is None:
         ok = False
     elif value == INF or reach == INF:
@@ -471,37 +466,32 @@ def _black_box_checks(cert: Mapping[str, Any], eps_a: Enclosure, skipped: list[t
     if worst.local is None:
         skipped += [(n, worst.reason) for n in ("bounds.black_box", "bounds.global", "bound_details.black_box")]
         return []
-    local = below_epsilon(worst.local, eps_a) if worst.group_free else ln_of(worst.local)
+    eps = eps_a if worst.group_free else None  # (L <= epsilon(M_A) for a utility free of the group)
+    local = below_epsilon(worst.local, eps)
     out = [
         judge("bounds.black_box", bounds["black_box"], local, "upper", "the exact worst case over every model"),
         equal("bound_details.black_box.value", detail["value"], bounds["black_box"]),
     ]
     evidence = skipped if worst.from_duals else None
-    out += _witness_checks(
-        "bound_details.black_box", detail, worst.local, local, eps_a, clip=worst.group_free, skipped=evidence
-    )
+    out += _witness_checks("bound_details.black_box", detail, worst.local, local, eps, evidence)
     glob, inputs, context = detail.get("global") or {}, cert["inputs"], detail.get("context")
     pair = pair_enclosures(inputs, context, detail.get("group"), detail.get("other_group"), detail, only="local")
-    name = "bound_details.black_box (its context and groups)"
-    out += _maximiser(name, detail, True, pair, eps_a if worst.group_free else None, skipped)
-    clip = worst.independent and worst.group_free
+    out += _maximiser("bound_details.black_box (its context and groups)", detail, True, pair, eps, skipped)
+    eps_bar = eps if worst.independent else None  # (and L-bar <= epsilon(M_A) too where X and A are independent)
     if worst.global_ is not None and glob.get("value") is not None and glob.get("group") is not None:
         pair = pair_enclosures(inputs, context, glob.get("group"), glob.get("other_group"), detail, only="global")
-        name = "bound_details.black_box.global (its groups)"
-        out += _maximiser(name, glob, False, pair, eps_a if clip else None, skipped)
+        out += _maximiser("bound_details.black_box.global (its groups)", glob, False, pair, eps_bar, skipped)
     if worst.global_ is None:
         skipped += [("bounds.global", worst.reason), ("bound_details.black_box.global", worst.reason)]
     elif glob.get("value") is not None:
-        on_l_bar = below_epsilon(worst.global_, eps_a) if clip else ln_of(worst.global_)
+        on_l_bar = below_epsilon(worst.global_, eps_bar)
         if glob.get("certified") is False:  # (an inexact solve's: certify gives no bound from it, bounds.global)
             why = f"not certified by certify (solver status {glob.get('solver_status')}): its witness is checked"
             skipped += [("bound_details.black_box.global.value", why), ("bound_details.black_box.global.ratio", why)]
             glob = {k: v for k, v in glob.items() if k != "ratio"}
         else:
             out.append(judge("bound_details.black_box.global.value", glob["value"], on_l_bar, "upper"))
-        out += _witness_checks(
-            "bound_details.black_box.global", glob, worst.global_, on_l_bar, eps_a, clip=clip, skipped=evidence
-        )
+        out += _witness_checks("bound_details.black_box.global", glob, worst.global_, on_l_bar, eps_bar, evidence)
         if bounds["global"] == glob["value"]:
             out.append(equal("bounds.global", bounds["global"], glob["value"], "the black-box bound on L-bar"))
         elif bounds["global"] == "inf":  # no bound on L-bar (a black box whose assumptions fail, X and A dependent)

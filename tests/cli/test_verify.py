@@ -275,3 +275,23 @@ def test_a_simulated_experiment_run_then_its_spec_certified_and_verified(capsys,
     assert code == 0, err
     code, text, _ = run(capsys, "verify", tmp_path / "cert.json")
     assert code == 0, text
+
+
+CALIBRATION_SPEC = OFFICE_SPEC.replace('kind = "indicator"\ndecision = "yes"', 'kind = "table"\nvalues = [1.0, 0.5]')
+CALIBRATION_SPEC += "[target]\nlocal = 0.26826398659467937\n"  # (calibrated: its section records lower, gamma and tau)
+
+
+@pytest.mark.parametrize("key", ["lower", "gamma", "tau", "lipschitz"])
+@pytest.mark.parametrize("raw", ['"inf"', "-1.0", '"0.5"'])
+def test_a_calibration_class_field_not_a_number_exits_2_naming_it(capsys, tmp_path, key, raw):
+    spec = tmp_path / "cal.toml"
+    spec.write_text(CALIBRATION_SPEC, encoding="utf-8")
+    code, cert, _ = run_json(capsys, "certify", spec)
+    assert code == 0
+    cert["calibration"][key] = "<edited>"  # (not in inputs: the digest still holds, the schema refuses it)
+    path = tmp_path / "cert.json"
+    path.write_text(json.dumps(cert).replace('"<edited>"', raw), encoding="utf-8")
+    code, out, err = run(capsys, "verify", path)
+    assert code == 2 and out == ""
+    assert err.startswith(f"fairaudit: error: CERT.json calibration.{key}: ") and f"(got {json.loads(raw)!r})" in err
+    assert len(err.strip().splitlines()) == 1

@@ -18,8 +18,9 @@ from typing import Any
 from _rational_simplex import Polytope, maximize_linear, maximize_ratio_over_product
 
 from fairaudit.verification import black_box_check as bb
-from fairaudit.verification.black_box_check import Evidence, KernelSetting, reached_rows
+from fairaudit.verification.black_box_check import KernelSetting, reached_rows
 from fairaudit.verification.enclosures import INF, Enclosure, RecordedMechanism
+from fairaudit.verification.evidence import Evidence
 
 Number = Fraction | float
 

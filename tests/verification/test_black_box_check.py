@@ -14,7 +14,8 @@ from _verified import certified_and_verified
 import fairaudit.verification.black_box_check as bb
 from fairaudit.certification.certificate import certify
 from fairaudit.certification.spec import parse_spec
-from fairaudit.verification.black_box_check import Evidence, black_box_enclosures
+from fairaudit.verification.black_box_check import black_box_enclosures
+from fairaudit.verification.evidence import Evidence
 from fairaudit.verification.rederive import verify
 
 OFFICE = OFFICE_SPEC + "tau = 0.25\n"  # binary randomized response keeping 0.7, g = 1{yes}

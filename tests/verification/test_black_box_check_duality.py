@@ -1,4 +1,4 @@
-"""Weak duality over the model's table (``verification.black_box_check.TableProgram``), against second routes: every deterministic
+"""Weak duality over the model's table (``verification.table_program.TableProgram``), against second routes: every deterministic
 table, B(λ, ν) recomputed cell by cell, the rational simplex (the tests' ``_rational_simplex.maximize_ratio``) and its
 multipliers, and hand calculations."""
 
@@ -13,8 +13,8 @@ from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
 from fairaudit.base.table_relaxation import relaxation_bounds
-from fairaudit.verification.black_box_check import TableProgram
 from fairaudit.verification.enclosures import INF, integers
+from fairaudit.verification.table_program import TableProgram
 
 Table = list[list[F]]
 

@@ -303,3 +303,36 @@ def test_a_certificate_that_is_not_one_is_refused(certificates):
     del cert["inputs"]
     with pytest.raises(CertificateError):
         verify(cert)
+
+
+def test_a_kernel_with_an_empty_cell_no_group_reaches_verifies():
+    # a released group no group reaches (the matrix's third column is 0): its cell has no records, and certify writes
+    # its row as nulls; the schema reads it, the distribution check sets it aside, every number holds
+    spec = parse_spec("""
+[sensitive]
+name = "office"
+values = ["HR_1", "HR_2"]
+[decision]
+name = "chosen"
+values = ["yes", "no"]
+[privacy.sensitive]
+mechanism = "matrix"
+outputs = ["HR_1", "HR_2", "other"]
+rows = [[0.75, 0.25, 0.0], [0.25, 0.75, 0.0]]
+[utility]
+decision = "yes"
+tau = 0.25
+""")
+    from fairaudit.laws.tables import Kernel
+
+    labels = (spec.context_mechanism.outputs, spec.sensitive_mechanism.outputs, spec.decisions)
+    spec._kernel = Kernel.from_counts([[[3, 1], [1, 1], [0, 0]]], *labels)  # (no spec file leaves a cell empty)
+    cert = json.loads(json.dumps(certify(spec).to_dict()))
+    assert cert["inputs"]["kernel"]["probabilities"] == [[[0.75, 0.25], [0.5, 0.5], [None, None]]]
+    result = verify(cert)
+    assert result.holds, [c.line() for c in result.failures]
+    row_check = next(c for c in result.checks if c.name == "inputs.kernel.probabilities")
+    assert row_check.holds
+    cert["inputs"]["kernel"]["probabilities"][0][2] = [None, 0.5]  # a row half empty is no empty cell
+    with pytest.raises(CertificateError, match=r"inputs\.kernel\.probabilities\[0\]\[2\]"):
+        verify(cert)

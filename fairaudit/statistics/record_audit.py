@@ -14,14 +14,13 @@ from collections.abc import Hashable, Sequence
 from contextlib import suppress
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, TypeGuard, cast
+from typing import TYPE_CHECKING, Any, SupportsFloat, SupportsIndex, TypeGuard, cast
 
 import numpy as np
 
 from fairaudit.base.errors import InputError, cut, echo
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
-from fairaudit.data.columns import roles
 from fairaudit.data.counts import CountTable, count_records, counts_of_table
 from fairaudit.data.frames import ArrayLike, records_from_arrays
 from fairaudit.laws.tables import Law, Population
@@ -407,41 +406,25 @@ def _table(
         raise InputError("sensitive", "name at least one column")
     if outcome is None:
         raise InputError("outcome", "name the outcome column")
+    context = () if context is None else context
+    common: dict[str, Any] = {
+        "sensitive": sensitive,
+        "outcome": outcome,
+        "context": context,
+        "dropna": dropna,
+        "mixed_outcome": mixed_outcome,
+    }
     if _is_pandas_frame(data):
         if count is not None:  # a count table: as `fairaudit audit --count` reads one
-            sensitive_, outcome_, context_ = roles(sensitive, outcome, () if context is None else context)
-            return counts_of_table(
-                data,
-                sensitive=sensitive_,
-                outcome=outcome_,
-                context=context_,
-                count=count,
-                dropna=dropna,
-                mixed_outcome=mixed_outcome,
-            )
-        return count_records(
-            data,
-            sensitive=sensitive,
-            outcome=outcome,
-            context=() if context is None else context,
-            dropna=dropna,
-            weights=weights,
-            mixed_outcome=mixed_outcome,
-        )
+            return counts_of_table(data, count=count, **common)
+        return count_records(data, weights=weights, **common)
     if weights is not None:
         raise InputError("weights", "are not supported for a Spark DataFrame yet: count it with weights in Spark")
     if count is not None:
         raise InputError("count", "is not supported for a Spark DataFrame yet: sum the counts in Spark", count)
     from fairaudit.data.spark import count_spark  # a Spark DataFrame (checked above)
 
-    return count_spark(
-        cast("pyspark.sql.DataFrame", data),
-        sensitive=sensitive,
-        outcome=outcome,
-        context=() if context is None else context,
-        dropna=dropna,
-        mixed_outcome=mixed_outcome,
-    )
+    return count_spark(cast("pyspark.sql.DataFrame", data), **common)
 
 
 def audit(

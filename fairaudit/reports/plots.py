@@ -396,18 +396,8 @@ def _mark_tau_and_spec(ax: Axes, curve: PrivacyCurve, eps: FloatArray) -> None:
 
 def _runs(x: FloatArray, mask: BoolArray) -> list[tuple[float, float]]:
     """Intervals of x (midpoints between neighbours as edges) where mask is True."""
-    out = []
-    n = len(x)
-    i = 0
-    while i < n:
-        if not mask[i]:
-            i += 1
-            continue
-        j = i
-        while j + 1 < n and mask[j + 1]:
-            j += 1
-        lo = x[i] if i == 0 else 0.5 * (x[i - 1] + x[i])
-        hi = x[j] if j == n - 1 else 0.5 * (x[j] + x[j + 1])
-        out.append((float(lo), float(hi)))
-        i = j + 1
-    return out
+    edges = np.diff(np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]]))
+    first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    lo = np.where(first == 0, x[first], 0.5 * (x[first - 1] + x[first]))
+    hi = np.where(last == len(x) - 1, x[last], 0.5 * (x[last] + x[np.minimum(last + 1, len(x) - 1)]))
+    return [(float(a), float(b)) for a, b in zip(lo, hi)]

@@ -29,6 +29,7 @@ from fairaudit.laws.utility_expression import evaluate_utility_expression
 from fairaudit.metrics.gaps import UtilityGaps, utility_gaps
 from fairaudit.metrics.observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
 from fairaudit.statistics.intervals import (
+    METRIC_ATTRIBUTES,
     FairnessIntervals,
     IntervalOptions,
     fairness_intervals,
@@ -48,6 +49,10 @@ __all__ = [
     # the utility of an audit
     "utility_from_expression",
 ]
+
+
+_FRAME_ORDER = ("local", "global", "demographic_parity", "equalized_odds", "sup_local", "sup_global")
+"""The rows of :meth:`Audit.to_frame`."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -204,14 +209,8 @@ class Audit:
 
         o, iv = self.observed, self.intervals
         rows = {}
-        for name, metric in (
-            ("local", o.local_fairness),
-            ("global", o.global_fairness),
-            ("demographic_parity", o.demographic_parity),
-            ("equalized_odds", o.equalized_odds),
-            ("sup_local", o.sup_local_fairness),
-            ("sup_global", o.sup_global_fairness),
-        ):
+        for name in _FRAME_ORDER:
+            metric = getattr(o, METRIC_ATTRIBUTES[name])
             interval = None if iv is None else iv.intervals()[name]
             rows[name] = {
                 "value": metric.value,

@@ -50,6 +50,14 @@ DEFAULT_DATASETS = 200
 BAYES_DATASETS = 40  # "bayes" draws 4000 posterior samples per table: about 10 ms a table
 
 
+_REPORTED = tuple(
+    "target confidence power kind groups contexts base_rate disparity epsilon seed max_n true_value".split()
+)
+"""The fields of a :class:`SamplePlan` its report dictionary holds, in order, before ``feasible`` and ``plans``."""
+_PLANNED = tuple("method n_per_cell n_total achieved_power expected_upper datasets reason".split())
+"""The fields of each plan of ``plans``: what a method gives."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class SamplePlan:
     """The result of :func:`plan`: every input, the planned sample size and how it does.
@@ -107,32 +115,13 @@ class SamplePlan:
         ``fairaudit plan --method all`` joins plans of several methods
         (same inputs) into one dictionary of this shape.
         """
-        return {
-            "target": number(self.target),
-            "confidence": number(self.confidence),
-            "power": number(self.power),
-            "kind": self.kind,
-            "groups": self.groups,
-            "contexts": self.contexts,
-            "base_rate": number(self.base_rate),
-            "disparity": number(self.disparity),
-            "epsilon": number(self.epsilon),
-            "seed": self.seed,
-            "max_n": self.max_n,
-            "true_value": number(self.true_value),
-            "feasible": self.feasible,
-            "plans": [
-                {
-                    "method": self.method,
-                    "n_per_cell": self.n_per_cell,
-                    "n_total": self.n_total,
-                    "achieved_power": number(self.achieved_power),
-                    "expected_upper": number(self.expected_upper),
-                    "datasets": self.datasets,
-                    "reason": self.reason,
-                }
-            ],
-        }
+
+        def value(name: str) -> Any:
+            v = getattr(self, name)
+            return v if isinstance(v, str) else number(v)
+
+        inputs = {name: value(name) for name in _REPORTED}
+        return inputs | {"feasible": self.feasible, "plans": [{name: value(name) for name in _PLANNED}]}
 
 
 def _rates(groups: int, contexts: int, base_rate: float, disparity: float) -> FloatArray:

@@ -230,14 +230,8 @@ class Interval:
 
     def to_dict(self) -> Report:
         """The report dictionary: lower, upper, estimate, context and the pair of groups."""
-        return {
-            "lower": number(self.lower),
-            "upper": number(self.upper),
-            "estimate": number(self.estimate),
-            "context": label(self.context),
-            "group": label(self.group),
-            "other_group": label(self.other_group),
-        }
+        ends = {name: number(getattr(self, name)) for name in ("lower", "upper", "estimate")}
+        return ends | {name: label(getattr(self, name)) for name in ("context", "group", "other_group")}
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

@@ -128,10 +128,8 @@ def missing_data_bounds(
     (False, True)
     """
     n, s = _counts(applicants, "applicants"), _counts(selected, "selected")
-    (big_n,), (big_s,) = (
-        _counts([unknown_applicants], "unknown_applicants"),
-        _counts([unknown_selected], "unknown_selected"),
-    )
+    (big_n,) = _counts([unknown_applicants], "unknown_applicants")
+    (big_s,) = _counts([unknown_selected], "unknown_selected")
     if not len(n) == len(s) == len(categories) >= 1:
         raise InputError("applicants", "needs one count per category, as selected does", len(n))
     for name, tops, lows in (("selected", n, s), ("unknown_selected", [big_n], [big_s])):
@@ -271,9 +269,7 @@ def _least_top(n: list[Fraction], s: list[Fraction], extra: Fraction, whole: boo
     most ``extra``. In shares the least level fills the highest rates down to one water level; in whole applicants
     it is one of the values s_k/(n_k + c), found per k by bisection on c (reachability is monotone in t).
     """
-    if not n:
-        return Fraction(0), 0
-    if all(v == 0 for v in s):
+    if all(v == 0 for v in s):  # (no other category, or none selected)
         return Fraction(0), 0
 
     def need(t: Fraction) -> Fraction:

@@ -379,11 +379,7 @@ def _short(text: object, width: int = 40) -> str:
 
 def _num(v: object) -> float:
     """A report's number as a float: ``"inf"`` as inf, None (n/a) as NaN."""
-    if v is None:
-        return math.nan
-    if v == "inf":
-        return math.inf
-    return float(v)  # type: ignore[arg-type]
+    return math.nan if v is None else math.inf if v == "inf" else float(v)  # type: ignore[arg-type]
 
 
 def _style(i: int) -> tuple[Any, str]:

@@ -446,13 +446,8 @@ def _bound_lines(d: Report) -> list[tuple[str, float, dict[str, Any]]]:
     out: list[tuple[str, float, dict[str, Any]]] = []
     for key, what, ls in (("observed", "behind the filter", "-"), ("unfiltered", "without the filter", "--")):
         if key in d and not math.isnan(v := _num(d[key]["local"]["value"])):
-            out.append(
-                (
-                    f"observed L {what}: {nats(v if math.isfinite(v) else 'inf')}",
-                    v,
-                    {"color": "black", "ls": ls, "lw": 1.4},
-                )
-            )
+            label = f"observed L {what}: {nats(v if math.isfinite(v) else 'inf')}"
+            out.append((label, v, {"color": "black", "ls": ls, "lw": 1.4}))
     t = (d.get("targets") or {}).get("local")
     if t is not None and not math.isnan(v := _num(t["target"])):
         out.append((f"local target: {nats(t['target'])}", v, {"color": "tab:purple", "ls": ":", "lw": 2.0}))

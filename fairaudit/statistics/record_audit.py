@@ -14,7 +14,7 @@ from collections.abc import Hashable, Sequence
 from contextlib import suppress
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, SupportsFloat, SupportsIndex, TypeGuard, cast
+from typing import TYPE_CHECKING, Any, SupportsFloat, SupportsIndex, TypeAlias, TypeGuard, cast
 
 import numpy as np
 
@@ -50,6 +50,11 @@ __all__ = [
     "utility_from_expression",
 ]
 
+
+_Data: TypeAlias = "pd.DataFrame | CountTable | pyspark.sql.DataFrame | None"
+"""What :func:`audit` counts: records (pandas or Spark), a table of counts, or none (records given as arrays)."""
+_Roles: TypeAlias = "tuple[str | Sequence[str] | None, str | None, str | Sequence[str] | None]"
+"""The (sensitive, outcome, context) columns, as given."""
 
 _FRAME_ORDER = ("local", "global", "demographic_parity", "equalized_odds", "sup_local", "sup_global")
 """The rows of :meth:`Audit.to_frame`."""
@@ -358,12 +363,7 @@ def _is_pandas_frame(data: object) -> TypeGuard[pd.DataFrame]:
     return pd is not None and isinstance(data, pd.DataFrame)
 
 
-def _table(
-    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    columns: tuple[str | Sequence[str] | None, str | None, str | Sequence[str] | None],
-    records: RecordOptions,
-    mixed_outcome: bool,
-) -> CountTable:
+def _table(data: _Data, columns: _Roles, records: RecordOptions, mixed_outcome: bool) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
     sensitive, outcome, context = columns
     count, weights, dropna = records.count, records.weights, records.dropna
@@ -549,15 +549,8 @@ def audit(
 
 
 def _records(
-    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    columns: tuple[Sequence[str] | None, str | None, Sequence[str] | None],
-    records: RecordOptions,
-    arrays: tuple[ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None],
-) -> tuple[
-    pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    tuple[Sequence[str] | None, str | None, Sequence[str] | None],
-    RecordOptions,
-]:
+    data: _Data, columns: _Roles, records: RecordOptions, arrays: tuple[ArrayLike | None, ...]
+) -> tuple[_Data, _Roles, RecordOptions]:
     """``data``, its (sensitive, outcome, context) columns and the record options; or the records of the arrays,
     theirs, and the options with the weights as the records' weight column."""
     y_pred, sensitive_features, control_features, y_true = arrays

@@ -205,10 +205,8 @@ class HtmlFormat(Format):
         rows = [
             (label, n, fmt(m), None if iv is None else f"[{fmt(iv[0])}, {fmt(iv[1])}]") for label, n, m, iv in means
         ]
-        if any(iv is not None for *_, iv in means):
-            page.table(("group", "records", "E[g | a]", "interval"), rows, numeric=(1, 2))
-        else:
-            page.table(("group", "records", "E[g | a]"), [r[:3] for r in rows], numeric=(1, 2))
+        width = 4 if any(iv is not None for *_, iv in means) else 3  # the interval's column where there is one
+        page.table(("group", "records", "E[g | a]", "interval")[:width], [r[:width] for r in rows], numeric=(1, 2))
         page.figure(lambda: _groups_figure(d, means), _groups_caption(d))
         if "outcome_values" in d:
             page.h2("Records per outcome value")

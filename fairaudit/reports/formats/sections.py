@@ -279,13 +279,12 @@ def metric_rows(o: Report) -> list[tuple[str, str, str, str, str | None]]:
         if key == "equalized_odds" and without_label(o):
             continue
         if key in ("local", "global"):
-            f = o[key]
-            rows.append((name, nats(f["value"]), f"ratio {fmt(f['ratio'])}", where(f), interval(o, key)))
+            value, detail, at = nats(o[key]["value"]), f"ratio {fmt(o[key]['ratio'])}", o[key]
         elif key in ("sup_local", "sup_global"):
-            s = det[key]
-            rows.append((name, nats(o[key]), f"decision {s['decision']!s}", where(s), interval(o, key)))
+            value, detail, at = nats(o[key]), f"decision {det[key]['decision']!s}", det[key]
         else:
-            rows.append((name, fmt(o[key]), "", where(det[key]), interval(o, key)))
+            value, detail, at = fmt(o[key]), "", det[key]
+        rows.append((name, value, detail, where(at), interval(o, key)))
     return rows
 
 

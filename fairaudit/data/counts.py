@@ -37,8 +37,8 @@ from fairaudit.base.errors import InputError, echo
 from fairaudit.base.labels import format_label, label_list
 from fairaudit.data.columns import check_roles, missing_values, roles
 from fairaudit.data.csv_format import CsvFormat
-from fairaudit.data.key_values import Locate, check_key_values, frame_columns
-from fairaudit.data.record_files import Source, source
+from fairaudit.data.key_values import Locate, check_key_values
+from fairaudit.data.record_files import source
 from fairaudit.laws.tables import Law, Population
 
 if TYPE_CHECKING:
@@ -49,16 +49,7 @@ Counts: TypeAlias = npt.NDArray[np.int64 | np.float64]
 Codes: TypeAlias = npt.NDArray[np.integer[Any]]
 """Integer codes (positions in a tuple of labels), or integer weights."""
 
-__all__ = [
-    # the counts
-    "CountTable",
-    # how a text file is read
-    "CsvFormat",
-    # counting records, count tables and files
-    "count_file",
-    "count_records",
-    "count_table",
-]
+__all__ = ["CountTable", "CsvFormat", "count_file", "count_records", "count_table"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -191,7 +182,7 @@ def _codes(columns: Sequence[Any], n: int) -> tuple[Codes, tuple]:
     return inverse.reshape(-1).astype(np.int64), labels
 
 
-def _tally(
+def tally(
     columns: dict[str, Any],
     missing: dict[str, npt.NDArray[np.bool_]],
     sensitive: list[str],
@@ -204,8 +195,8 @@ def _tally(
     locate: Locate | None = None,
     mixed_outcome: bool = False,
 ) -> CountTable:
-    """The counts of rows: records (pandas Series, :func:`count_records`) or a file's grouped keys (numpy arrays,
-    :func:`count_file`), each row ``n[i]`` records (default 1) and missing where ``missing[column]``.
+    """The counts of rows: records (pandas Series, :func:`count_records`), a file's grouped keys (numpy arrays,
+    :func:`count_file`) or a Spark DataFrame's (:func:`~fairaudit.data.spark.count_spark`), each row ``n[i]`` records (default 1) and missing where ``missing[column]``.
 
     The one counting path: the key values are checked first (:func:`~fairaudit.data.key_values.check_key_values`;
     ``locate`` finds a refused value's data rows), then missing values are dropped or refused, then the labels are the
@@ -269,11 +260,11 @@ def _unknown_outcomes(
     """Per sensitive column (and their intersection), the outcomes of the records of unknown category there and
     their number (weight), the records with a known outcome (and weight) only."""
     known = ~missing[outcome] & (~missing[sample_weight] if sample_weight else True)
-    weights = None
     if sample_weight:
-        weights = _numbers(np.asarray(columns[sample_weight])[known], sample_weight, lambda i: "a record").to_numpy(
-            dtype=np.float64
-        )
+        column = np.asarray(columns[sample_weight])[known]
+        each = _numbers(column, sample_weight, lambda i: "a record").to_numpy(dtype=np.float64)
+    else:
+        each = np.ones(int(known.sum())) if n is None else np.asarray(n)[known]
     types = [(c, missing[c]) for c in sensitive]
     if len(sensitive) > 1:
         types.append((" x ".join(sensitive), np.logical_or.reduce([missing[c] for c in sensitive])))
@@ -283,15 +274,10 @@ def _unknown_outcomes(
         where = np.asarray(mask)[known]
         if not where.any():
             continue
-        w = (
-            np.ones(int(where.sum()))
-            if n is None and weights is None
-            else (weights if weights is not None else np.asarray(n)[known])[where]
-        )
-        tally: dict[Hashable, float] = {}
-        for v, x in zip(values[where].tolist(), w.tolist(), strict=True):
-            tally[v] = tally.get(v, 0.0) + float(x)
-        out.append((name, tuple(tally.items())))
+        by_value: dict[Hashable, float] = {}
+        for v, x in zip(values[where].tolist(), each[where].tolist(), strict=True):
+            by_value[v] = by_value.get(v, 0.0) + float(x)
+        out.append((name, tuple(by_value.items())))
     return tuple(out)
 
 
@@ -393,7 +379,7 @@ def count_records(
     used = list(dict.fromkeys(context + sensitive + [outcome] + ([weights] if weights else [])))
     columns_ = {c: data[c] for c in used}
     missing = {c: column.isna().to_numpy() for c, column in columns_.items()}
-    return _tally(
+    return tally(
         columns_, missing, sensitive, outcome, context, dropna, sample_weight=weights, mixed_outcome=mixed_outcome
     )
 
@@ -467,30 +453,25 @@ def count_table(
     sensitive = [sensitive] if isinstance(sensitive, str) else list(sensitive)
     context = [context] if isinstance(context, str) else list(context)
     columns(sensitive + [outcome] + context + [count], "table", data.columns)
-    values = _count_values(data, count, list(dict.fromkeys(context + sensitive + [outcome])))
+    keys = list(dict.fromkeys(context + sensitive + [outcome]))
+    values = _numbers(data[count].reset_index(drop=True), count, _row_of({c: data[c].to_numpy() for c in keys}, keys))
+    integer = pd.api.types.is_integer_dtype(values.dtype)
+    mixed_outcome = mixed_outcome or decisions is not None
     check_key_values(
-        frame_columns(data, context + sensitive + [outcome]),
-        outcome,
-        weights=values.to_numpy() if pd.api.types.is_integer_dtype(values.dtype) else None,
-        mixed_outcome=mixed_outcome or decisions is not None,
+        {c: data[c] for c in keys}, outcome, weights=values.to_numpy() if integer else None, mixed_outcome=mixed_outcome
     )
-    free = [
-        c
-        for cols, expected in ((context, contexts), (sensitive, groups), ([outcome], decisions))
-        if expected is None
-        for c in cols
-    ]
+    axes = ((context, contexts, "context"), (sensitive, groups, "sensitive"), ([outcome], decisions, "decision"))
+    free = [c for cols, expected, _ in axes if expected is None for c in cols]
     data, values = _drop_unlabelled(data, values, list(dict.fromkeys(free)), dropna)
-    cx, context_labels = _label_codes(data, context, contexts, "context")
-    ca, group_labels = _label_codes(data, sensitive, groups, "sensitive")
-    cu, decision_labels = _label_codes(data, [outcome], decisions, "decision")
+    (cx, context_labels), (ca, group_labels), (cu, decision_labels) = (
+        _label_codes(data, cols, expected, role) for cols, expected, role in axes
+    )
     shape = (len(context_labels), len(group_labels), len(decision_labels))
     flat = (cx * shape[1] + ca) * shape[2] + cu
     dup = pd.Series(flat).duplicated()
     if dup.any():
         i = int(np.flatnonzero(dup.to_numpy())[0])
         raise InputError("count table", "lists the same (context, group, decision) twice", data.iloc[i].to_dict())
-    integer = pd.api.types.is_integer_dtype(values.dtype)
     counts = np.zeros(int(np.prod(shape)), dtype=np.int64 if integer else float)
     counts[flat] = values.to_numpy(dtype=counts.dtype)  # each cell at most once (checked above)
     return CountTable(
@@ -507,9 +488,9 @@ def count_table(
 def counts_of_table(
     data: pd.DataFrame,
     *,
-    sensitive: Sequence[str],
+    sensitive: str | Sequence[str],
     outcome: str,
-    context: Sequence[str],
+    context: str | Sequence[str],
     count: str,
     dropna: bool,
     mixed_outcome: bool = False,
@@ -519,6 +500,7 @@ def counts_of_table(
     The columns are checked by role first (an unknown column names ``sensitive``, ``outcome``, ``context`` or
     ``count``), then :func:`count_table` reads the counts with its own checks.
     """
+    sensitive, outcome, context = roles(sensitive, outcome, context)
     check_roles(data.columns, sensitive, outcome, context)
     columns([count], "count", data.columns)
     return count_table(
@@ -530,13 +512,6 @@ def counts_of_table(
         dropna=dropna,
         mixed_outcome=mixed_outcome,
     )
-
-
-def _count_values(data: pd.DataFrame, count: str, labels: list[str]) -> pd.Series:
-    """The column ``count`` as numbers whatever their notation: each finite and non-negative (:func:`_numbers`;
-    ``labels`` name the row of a refused one)."""
-    columns = {c: data[c].to_numpy() for c in labels}
-    return _numbers(data[count].reset_index(drop=True), count, _row_of(columns, labels))
 
 
 def _drop_unlabelled(
@@ -696,39 +671,23 @@ def count_file(
         raise InputError("weights", "a count table (`count`) is counted already: give its counts, not weights")
     records = source(path, csv)
     check_roles(records.names, sensitive, outcome, context)
-    if weights is None and count is None:
-        return _grouped_counts(records, sensitive, outcome, context, dropna, mixed_outcome)
-    return _whole_counts(records, sensitive, outcome, context, dropna, mixed_outcome, weights=weights, count=count)
-
-
-def _grouped_counts(
-    records: Source, sensitive: list[str], outcome: str, context: list[str], dropna: bool, mixed_outcome: bool
-) -> CountTable:
-    """The records of a file counted out of core: DuckDB's ``GROUP BY`` of the used columns, tallied by numpy."""
-    g = records.group_by(list(dict.fromkeys(context + sensitive + [outcome])))
-    kw: dict[str, Any] = {"n": g.weights, "locate": g.locate, "mixed_outcome": mixed_outcome}
-    return _tally(g.values, g.missing, sensitive, outcome, context, dropna, **kw)
-
-
-def _whole_counts(
-    records: Source,
-    sensitive: list[str],
-    outcome: str,
-    context: list[str],
-    dropna: bool,
-    mixed_outcome: bool,
-    *,
-    weights: str | None,
-    count: str | None,
-) -> CountTable:
-    """A file read whole and counted: weighted records (``weights``), or a count table (``count``)."""
+    used = list(dict.fromkeys(context + sensitive + [outcome]))
+    if weights is None and count is None:  # out of core: DuckDB's GROUP BY of the used columns, tallied by numpy
+        g = records.group_by(used)
+        kw: dict[str, Any] = {"n": g.weights, "locate": g.locate, "mixed_outcome": mixed_outcome}
+        return tally(g.values, g.missing, sensitive, outcome, context, dropna, **kw)
+    # read whole and counted: weighted records (`weights`), or a count table (`count`)
     extra, role = (weights, "weights") if weights is not None else (count, "count")
     assert extra is not None  # (one of them is given)
     columns([extra], role, records.names)
-    used = list(dict.fromkeys(context + sensitive + [outcome]))
     frame = records.read(list(dict.fromkeys([*used, extra])))
-    roles_: dict[str, Any] = {"sensitive": sensitive, "outcome": outcome, "context": context}
-    options: dict[str, Any] = {**roles_, "dropna": dropna, "mixed_outcome": mixed_outcome}
+    options: dict[str, Any] = {
+        "sensitive": sensitive,
+        "outcome": outcome,
+        "context": context,
+        "dropna": dropna,
+        "mixed_outcome": mixed_outcome,
+    }
     if weights is not None:
         return count_records(frame, weights=weights, **options)
     return counts_of_table(frame, count=extra, **options)

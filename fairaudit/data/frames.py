@@ -103,10 +103,7 @@ def _columns(
         named = {default.format(0) if value.name is None else str(value.name): value.to_numpy()}
     else:
         array = _values(value, param, ndim=(1,) if one else (1, 2))
-        if array.ndim == 1:
-            named = {default.format(0): array}
-        else:
-            named = {default.format(j): array[:, j] for j in range(array.shape[1])}
+        named = {default.format(j): column for j, column in enumerate(array.reshape(len(array), -1).T)}
     if not named:
         raise InputError(param, "has no columns")
     if one and len(named) > 1:

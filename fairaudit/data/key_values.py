@@ -49,7 +49,7 @@ import numpy.typing as npt
 from fairaudit.base.errors import InputError, echo
 
 if TYPE_CHECKING:
-    import pandas as pd
+    pass
 
 __all__ = ["CONTROL", "ROWS_SHOWN", "Locate", "check_key_values", "control_name", "records_locate"]
 
@@ -65,6 +65,9 @@ Locate: TypeAlias = Callable[[str, npt.NDArray[np.bool_]], list[tuple[str, Any]]
 """Where values are in the data: given a column and a mask over the rows checked (records, or distinct
 combinations), the first :data:`ROWS_SHOWN` data rows that hold the masked values, in the data's order, each
 as (its number as the error says it, e.g. ``"6"`` or ``"6 of part-1.parquet"``; the value there)."""
+
+_Distinct: TypeAlias = tuple[npt.NDArray[np.intp], npt.NDArray[np.object_]]
+"""A column's distinct values: each row's code (-1 where missing) and the values (object array)."""
 
 _CONVENTION = "data rows count from 1, the first record after the header"
 
@@ -145,14 +148,14 @@ def check_key_values(
     distinct = {name: _distinct(values) for name, values in columns.items()}
     for name, found in distinct.items():
         if found is not None:
-            _check_control(name, *found, n, locate)
-            _check_spellings(name, *found, n, locate)
+            _check_control(name, found, n, locate)
+            _check_spellings(name, found, n, locate)
     found = distinct.get(outcome)
     if found is not None and not mixed_outcome:
-        _check_mixed(outcome, *found, n, locate)
+        _check_mixed(outcome, found, n, locate)
 
 
-def _distinct(values: Any) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.object_]] | None:
+def _distinct(values: Any) -> _Distinct | None:
     """Codes of the rows (-1 where missing) and the distinct values, for a column that may hold text; else None.
 
     A pandas Series is factorized by pandas; a numpy array (a file's grouped keys: text with None where missing)
@@ -209,13 +212,8 @@ def _rows(hits: list[tuple[str, Any]]) -> str:
     return ("data row " if len(hits) == 1 else "data rows ") + ", ".join(row for row, _ in hits)
 
 
-def _check_control(
-    name: str,
-    codes: npt.NDArray[np.intp],
-    uniques: npt.NDArray[np.object_],
-    n: npt.NDArray[Any] | None,
-    locate: Locate,
-) -> None:
+def _check_control(name: str, found: _Distinct, n: npt.NDArray[Any] | None, locate: Locate) -> None:
+    codes, uniques = found
     text = _text(uniques)
     if not text.any():
         return
@@ -260,13 +258,8 @@ def _numbers(uniques: npt.NDArray[np.object_], text: npt.NDArray[np.bool_]) -> n
     return number
 
 
-def _check_mixed(
-    name: str,
-    codes: npt.NDArray[np.intp],
-    uniques: npt.NDArray[np.object_],
-    n: npt.NDArray[Any] | None,
-    locate: Locate,
-) -> None:
+def _check_mixed(name: str, found: _Distinct, n: npt.NDArray[Any] | None, locate: Locate) -> None:
+    codes, uniques = found
     text = _text(uniques)
     number = _numbers(uniques, text)
     other = text & ~number
@@ -296,16 +289,11 @@ def _check_mixed(
     )
 
 
-def _check_spellings(
-    name: str,
-    codes: npt.NDArray[np.intp],
-    uniques: npt.NDArray[np.object_],
-    n: npt.NDArray[Any] | None,
-    locate: Locate,
-) -> None:
+def _check_spellings(name: str, found: _Distinct, n: npt.NDArray[Any] | None, locate: Locate) -> None:
     """Refuse one number (or boolean) written two ways in a column of text: ``1`` and ``1.0``, ``01`` and ``1``,
     ``True`` and ``true``. Each distinct text is a label of its own, so they would be two groups, or two outcomes
     of which one misses ``positive``: a silent wrong number."""
+    codes, uniques = found
     text = _text(uniques)
     number = _numbers(uniques, text)
     if number.sum() < 2 or not text.any():
@@ -343,8 +331,3 @@ def _meaning(value: object) -> object:
 def _list(values: Sequence[str]) -> str:
     """Text values as an expression's list literal (double quotes)."""
     return "[" + ", ".join('"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"' for v in values) + "]"
-
-
-def frame_columns(frame: pd.DataFrame, names: Sequence[str]) -> dict[str, pd.Series]:
-    """The columns ``names`` of ``frame`` by name (each once)."""
-    return {c: frame[c] for c in dict.fromkeys(names)}

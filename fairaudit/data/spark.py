@@ -13,16 +13,15 @@ without it; install it with ``pip install 'fairness-certify[spark]'``.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from fairaudit.base.errors import InputError, echo, optional_modules
-from fairaudit.data.columns import check_roles, missing_values, roles
-from fairaudit.data.counts import CountTable, count_table
-from fairaudit.data.key_values import ROWS_SHOWN, Locate, check_key_values, frame_columns
+from fairaudit.data.columns import check_roles, roles
+from fairaudit.data.counts import CountTable, tally
+from fairaudit.data.key_values import ROWS_SHOWN, Locate
 
 if TYPE_CHECKING:
     from pyspark.sql import DataFrame
@@ -129,19 +128,11 @@ def count_spark(
     while count in used:
         count = "_" + count
     agg.columns = pd.Index(used + [count])
-    check_key_values(
-        frame_columns(agg, used),
-        outcome,
-        weights=agg[count].to_numpy(dtype=np.int64),
-        locate=_spark_locate(frame, names, agg),
-        mixed_outcome=mixed_outcome,
-    )
-    agg = _drop_missing(agg, used, count, dropna)
-    table = count_table(
-        agg, sensitive=sensitive, outcome=outcome, context=context, count=count, mixed_outcome=mixed_outcome
-    )
-    # count_table sums the counts as floats; they are whole numbers below 2**53.
-    return replace(table, counts=np.rint(table.counts).astype(np.int64))
+    values = {c: agg[c].reset_index(drop=True) for c in used}
+    missing = {c: values[c].isna().to_numpy() for c in used}
+    n = agg[count].to_numpy(dtype=np.int64)
+    locate = _spark_locate(frame, names, agg)
+    return tally(values, missing, sensitive, outcome, context, dropna, n=n, locate=locate, mixed_outcome=mixed_outcome)
 
 
 def _spark_locate(frame: DataFrame, names: list[str], agg: pd.DataFrame) -> Locate:
@@ -183,22 +174,3 @@ def _check_scalar_columns(frame: DataFrame, names: list[str], used: list[str]) -
                 "must hold scalar values (string, number, boolean, date or time)",
                 kind.simpleString(),
             )
-
-
-def _drop_missing(agg: pd.DataFrame, used: list[str], count: str, dropna: bool) -> pd.DataFrame:
-    """The grouped counts without their null and NaN groups; without ``dropna`` those are an error.
-
-    The number of missing values of a column is the sum of the counts of the
-    groups where it is null or NaN.
-    """
-    n = agg[count].to_numpy(dtype=np.int64)
-    isna = agg[used].isna().to_numpy()
-    missing = n @ isna
-    if missing.any():
-        if not dropna:
-            i = int(np.flatnonzero(missing)[0])
-            raise missing_values(used[i], missing[i])
-        agg = agg.loc[~np.any(isna, axis=1)]
-    if len(agg) == 0:
-        raise InputError("DATA", "has no records to count")
-    return agg

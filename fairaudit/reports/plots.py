@@ -306,38 +306,25 @@ def _series(curve: PrivacyCurve, step: int) -> list[_Series]:
     bound under a thin dash-dotted tight bound, observed values as sparse markers (L and L-bar
     staggered); lines equal everywhere are merged by :func:`_draw_series`.
     """
+    observed = {"ls": "none", "zorder": 4, "clip_on": False}
     return [
-        (
-            "black_box",
-            curve.black_box,
-            "black-box bound (all models, exact)",
-            dict(color="tab:blue", lw=4.0, alpha=0.45, zorder=2),
-        ),
-        ("paper", curve.paper, "paper bound (main theorem)", dict(color="tab:red", ls="--", lw=2.4, zorder=3)),
-        (
-            "tight",
-            curve.tight,
-            "tight bound (its proof, per pair)",
-            dict(color="tab:orange", ls="-.", lw=1.2, zorder=3),
-        ),
-        (
-            "corollary",
-            curve.corollary,
-            "ε (corollary, g independent of a)",
-            dict(color="0.35", ls=":", lw=1.2, zorder=3),
-        ),
-        (
-            "observed_local",
-            curve.observed_local,
-            "observed L (local)",
-            dict(color="black", ls="none", marker="o", ms=4, markevery=(0, step), zorder=4, clip_on=False),
-        ),
-        (
-            "observed_global",
-            curve.observed_global,
-            "observed L̄ (global)",
-            dict(color="tab:green", ls="none", marker="x", ms=6, markevery=(step // 2, step), zorder=4, clip_on=False),
-        ),
+        (key, getattr(curve, key), label, style)
+        for key, label, style in (
+            ("black_box", "black-box bound (all models, exact)", dict(color="tab:blue", lw=4.0, alpha=0.45, zorder=2)),
+            ("paper", "paper bound (main theorem)", dict(color="tab:red", ls="--", lw=2.4, zorder=3)),
+            ("tight", "tight bound (its proof, per pair)", dict(color="tab:orange", ls="-.", lw=1.2, zorder=3)),
+            ("corollary", "ε (corollary, g independent of a)", dict(color="0.35", ls=":", lw=1.2, zorder=3)),
+            (
+                "observed_local",
+                "observed L (local)",
+                dict(color="black", marker="o", ms=4, markevery=(0, step), **observed),
+            ),
+            (
+                "observed_global",
+                "observed L̄ (global)",
+                dict(color="tab:green", marker="x", ms=6, markevery=(step // 2, step), **observed),
+            ),
+        )
     ]
 
 
@@ -396,18 +383,8 @@ def _mark_tau_and_spec(ax: Axes, curve: PrivacyCurve, eps: FloatArray) -> None:
 
 def _runs(x: FloatArray, mask: BoolArray) -> list[tuple[float, float]]:
     """Intervals of x (midpoints between neighbours as edges) where mask is True."""
-    out = []
-    n = len(x)
-    i = 0
-    while i < n:
-        if not mask[i]:
-            i += 1
-            continue
-        j = i
-        while j + 1 < n and mask[j + 1]:
-            j += 1
-        lo = x[i] if i == 0 else 0.5 * (x[i - 1] + x[i])
-        hi = x[j] if j == n - 1 else 0.5 * (x[j] + x[j + 1])
-        out.append((float(lo), float(hi)))
-        i = j + 1
-    return out
+    edges = np.diff(np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]]))
+    first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    lo = np.where(first == 0, x[first], 0.5 * (x[first - 1] + x[first]))
+    hi = np.where(last == len(x) - 1, x[last], 0.5 * (x[last] + x[np.minimum(last + 1, len(x) - 1)]))
+    return [(float(a), float(b)) for a, b in zip(lo, hi)]

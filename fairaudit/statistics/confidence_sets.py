@@ -115,8 +115,7 @@ def clopper_pearson(k: npt.ArrayLike, n: npt.ArrayLike, alpha: float) -> tuple[F
     with np.errstate(invalid="ignore", divide="ignore"):
         lo = np.where(kf > 0, betaincinv(kf, nf - kf + 1, alpha / 2), 0.0)
         hi = np.where(kf < nf, betainccinv(kf + 1, nf - kf, alpha / 2), 1.0)
-    lo = np.where(nf > 0, lo, np.nan)
-    hi = np.where(nf > 0, hi, np.nan)
+    lo, hi = (np.where(nf > 0, v, np.nan) for v in (lo, hi))
     if codes is not None:
         lo, hi = lo[codes].reshape(shape), hi[codes].reshape(shape)
     return lo, hi

@@ -65,7 +65,7 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable, Iterator
 from dataclasses import dataclass, field
-from typing import NamedTuple, NotRequired, TypedDict
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -167,7 +167,16 @@ class IntervalOptions:
         object.__setattr__(self, "seed", whole(self.seed, "seed"))
 
 
-_METRICS = ("local", "global", "sup_local", "sup_global", "demographic_parity", "equalized_odds")
+METRIC_ATTRIBUTES = {
+    "local": "local_fairness",
+    "global": "global_fairness",
+    "sup_local": "sup_local_fairness",
+    "sup_global": "sup_global_fairness",
+    "demographic_parity": "demographic_parity",
+    "equalized_odds": "equalized_odds",
+}
+"""Each metric's key in the report dictionaries -> its attribute in the results (:class:`FairnessIntervals`,
+:class:`~fairaudit.metrics.observed.Observed`)."""
 _LOCAL = ("local", "sup_local", "equalized_odds")  # one interval per context, the widest reported
 
 
@@ -221,14 +230,8 @@ class Interval:
 
     def to_dict(self) -> Report:
         """The report dictionary: lower, upper, estimate, context and the pair of groups."""
-        return {
-            "lower": number(self.lower),
-            "upper": number(self.upper),
-            "estimate": number(self.estimate),
-            "context": label(self.context),
-            "group": label(self.group),
-            "other_group": label(self.other_group),
-        }
+        ends = {name: number(getattr(self, name)) for name in ("lower", "upper", "estimate")}
+        return ends | {name: label(getattr(self, name)) for name in ("context", "group", "other_group")}
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -295,14 +298,7 @@ class FairnessIntervals:
 
     def intervals(self) -> dict[str, Interval | None]:
         """The metric intervals by name (None where not computed)."""
-        return {
-            "local": self.local_fairness,
-            "global": self.global_fairness,
-            "sup_local": self.sup_local_fairness,
-            "sup_global": self.sup_global_fairness,
-            "demographic_parity": self.demographic_parity,
-            "equalized_odds": self.equalized_odds,
-        }
+        return {key: getattr(self, name) for key, name in METRIC_ATTRIBUTES.items()}
 
     def to_dict(self) -> Report:
         """The report dictionary: method, level, number of sets, filtered, notes and one entry per metric.
@@ -321,19 +317,6 @@ class FairnessIntervals:
             out.update(concentration=number(self.concentration), draws=self.draws, seed=self.seed)
         out.update({k: None if v is None else v.to_dict() for k, v in self.intervals().items()})
         return out
-
-
-class _Inputs(TypedDict):
-    """The fields of a :class:`FairnessIntervals` that repeat its inputs."""
-
-    table: CountTable
-    utility: Utility
-    sensitive_mechanism: Mechanism | None
-    context_mechanism: Mechanism | None
-    population: Population | None
-    concentration: NotRequired[float]
-    draws: NotRequired[int]
-    seed: NotRequired[int]
 
 
 class _AuditedLaw(NamedTuple):
@@ -464,17 +447,12 @@ def fairness_intervals(
     prior = concentration / counts.shape[-1] if method == "bayes" else 0.0  # bayes: the plug-in of the posterior mean
     plugin = table.effective_counts() if method == "bayes" else counts  # (the posterior's counts: effective ones)
     estimate = _estimates(table, plugin + prior, utility, law)
-    common = _Inputs(
-        table=table,
-        utility=utility,
-        sensitive_mechanism=law.sensitive_mechanism,
-        context_mechanism=law.context_mechanism,
-        population=law.population,
-    )
     sets: SetMaker = binomial_sets
-    if method == "bayes":
+    bayes: dict[str, Any] = (
+        {"concentration": float(concentration), "draws": int(draws), "seed": int(seed)} if method == "bayes" else {}
+    )
+    if bayes:
         sets = band_sets(concentration, int(draws), int(seed))
-        common["concentration"], common["draws"], common["seed"] = float(concentration), int(draws), int(seed)
     projection = ProjectionOptions(
         method=method,
         alpha=alpha,
@@ -485,7 +463,8 @@ def fairness_intervals(
         sets=sets,
         **_kish_scales(table),
     )
-    return _assemble(project_sets(counts, g, projection), projection, law, estimate, common)
+    made = _assemble(project_sets(counts, g, projection), projection, law, estimate)
+    return FairnessIntervals(**made, table=table, utility=utility, **bayes)
 
 
 def _kish_scales(table: CountTable) -> dict[str, FloatArray]:
@@ -562,49 +541,25 @@ def _estimates(table: CountTable, counts: FloatArray, utility: Utility, law: _Au
         plugin = compose(kernel, law.sensitive_mechanism, law.context_mechanism)
     else:
         plugin = Law.from_counts(counts, table.contexts, table.groups, table.decisions)
-    pop = law.population if law.population is not None else table.population()
-    o = observe(plugin, utility, pop)
-    return {
-        "local": o.local_fairness.value,
-        "global": o.global_fairness.value,
-        "sup_local": o.sup_local_fairness.value,
-        "sup_global": o.sup_global_fairness.value,
-        "demographic_parity": o.demographic_parity.value,
-        "equalized_odds": o.equalized_odds.value,
-    }
+    o = observe(plugin, utility, law.population if law.population is not None else table.population())
+    return {key: getattr(o, name).value for key, name in METRIC_ATTRIBUTES.items()}
 
 
 def _assemble(
-    projection: Projection,
-    options: ProjectionOptions,
-    law: _AuditedLaw,
-    estimate: dict[str, float],
-    common: _Inputs,
-) -> FairnessIntervals:
-    """The :class:`FairnessIntervals` of a projected set: one :class:`Interval` per computed metric."""
+    projection: Projection, options: ProjectionOptions, law: _AuditedLaw, estimate: dict[str, float]
+) -> dict[str, Any]:
+    """The fields of :class:`FairnessIntervals` but the inputs counted: each metric's interval, the boxes, the sets
+    and the notes the projection gives, and the filter and population of the audited law."""
     confidence = 1.0 - options.alpha
-    made: dict[str, Interval | None] = {}
-    for name in _METRICS:
-        ends = projection.ends.get(name)
+    made: dict[str, Any] = {"method": options.method, "confidence": confidence}
+    made |= {name: getattr(law, name) for name in ("sensitive_mechanism", "context_mechanism", "population")}
+    for key, name in METRIC_ATTRIBUTES.items():
+        ends = projection.ends.get(key)
         made[name] = (
-            None
-            if ends is None
-            else _interval(name, ends, law, estimate.get(name, math.nan), confidence, options.method)
+            None if ends is None else _interval(key, ends, law, estimate.get(key, math.nan), confidence, options.method)
         )
-    local, global_ = made["local"], made["global"]
-    assert local is not None and global_ is not None  # always computed
-    return FairnessIntervals(
-        method=options.method,
-        confidence=confidence,
-        local_fairness=local,
-        global_fairness=global_,
-        sup_local_fairness=made["sup_local"],
-        sup_global_fairness=made["sup_global"],
-        demographic_parity=made["demographic_parity"],
-        equalized_odds=made["equalized_odds"],
-        **{name: value for name, value in projection._asdict().items() if name != "ends"},  # boxes, sets, notes
-        **common,
-    )
+    assert made["local_fairness"] is not None and made["global_fairness"] is not None  # always computed
+    return made | {name: value for name, value in projection._asdict().items() if name != "ends"}  # boxes, sets, notes
 
 
 def _interval(

@@ -36,23 +36,22 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from fractions import Fraction
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 import numpy as np
-import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.checks import level, real, whole
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
-from fairaudit.base.labels import format_label
 from fairaudit.data.counts import CountTable
-from fairaudit.laws.utilities import Utility, from_table
+from fairaudit.laws.utilities import Utility
 from fairaudit.statistics.confidence_sets import clopper_pearson
-from fairaudit.statistics.missing_demographics import aclu_bounds, missing_data_bounds
-from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test, ratio_interval
+from fairaudit.statistics.impact_inputs import category_types, counted, rate_utility
+from fairaudit.statistics.missing_demographics import unknown_ranges
+from fairaudit.statistics.rate_ratio import adjusted, equal_rates_test, ratio_interval, ratio_range
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -66,10 +65,7 @@ __all__ = [
     "ImpactRatio",
     "ImpactRatios",
     "impact_ratios",
-    "median_score",
-    "ratio_range",
     "round_half_up",
-    "scoring_utility",
 ]
 
 SMALL_SHARE = 0.02
@@ -134,11 +130,7 @@ class AuditFacts:
 
     def to_dict(self) -> Report:
         """``data_source``, ``audit_date``, ``distribution_date`` (None where not given)."""
-        return {
-            "data_source": self.data_source,
-            "audit_date": self.audit_date,
-            "distribution_date": self.distribution_date,
-        }
+        return asdict(self)
 
 
 @dataclass(frozen=True)
@@ -405,34 +397,35 @@ class ImpactRatios:
         rate, selected = (
             ("selection_rate", "selected") if self.rate == "selection" else ("scoring_rate", "above_median")
         )
-        nan = math.nan
+
+        def floats(values: list[float | None]) -> pd.Series:
+            return pd.Series([math.nan if v is None else v for v in values], dtype="float64")
+
+        def ends(pairs: list[tuple[float, float] | None], i: int) -> pd.Series:
+            return floats([None if p is None else p[i] for p in pairs])
+
+        def text(values: list[Hashable | None]) -> pd.Series:
+            return pd.Series([None if v is None else str(label(v)) for v in values], dtype=object)
+
+        rows = self.rows
         frame = pd.DataFrame(
             {
-                "type": pd.Series([r.type for r in self.rows], dtype=object),
-                "category": pd.Series([str(label(r.category)) for r in self.rows], dtype=object),
-                "n": pd.Series([round(r.n) if integral else r.n for r in self.rows], dtype=count),
-                selected: pd.Series([round(r.selected) if integral else r.selected for r in self.rows], dtype=count),
-                rate: pd.Series([r.rate for r in self.rows], dtype="float64"),
-                "impact_ratio": pd.Series([nan if r.impact_ratio is None else r.impact_ratio for r in self.rows]),
-                "ci_low": pd.Series([nan if r.interval is None else r.interval[0] for r in self.rows], dtype="float64"),
-                "ci_high": pd.Series(
-                    [nan if r.interval is None else r.interval[1] for r in self.rows], dtype="float64"
-                ),
-                "p_value": pd.Series([nan if r.p_value is None else r.p_value for r in self.rows], dtype="float64"),
-                "verdict": pd.Series([r.verdict for r in self.rows], dtype=object),
-                "comparator": pd.Series(
-                    [None if r.comparator is None else str(label(r.comparator)) for r in self.rows], dtype=object
-                ),
-                "unknown_low": pd.Series(
-                    [nan if r.unknown_range is None else r.unknown_range[0] for r in self.rows], dtype="float64"
-                ),
-                "unknown_high": pd.Series(
-                    [nan if r.unknown_range is None else r.unknown_range[1] for r in self.rows], dtype="float64"
-                ),
-                "excluded": pd.Series([r.excluded for r in self.rows], dtype=bool),
+                "type": pd.Series([r.type for r in rows], dtype=object),
+                "category": text([r.category for r in rows]),
+                "n": pd.Series([round(r.n) if integral else r.n for r in rows], dtype=count),
+                selected: pd.Series([round(r.selected) if integral else r.selected for r in rows], dtype=count),
+                rate: floats([r.rate for r in rows]),
+                "impact_ratio": floats([r.impact_ratio for r in rows]),
+                "ci_low": ends([r.interval for r in rows], 0),
+                "ci_high": ends([r.interval for r in rows], 1),
+                "p_value": floats([r.p_value for r in rows]),
+                "verdict": pd.Series([r.verdict for r in rows], dtype=object),
+                "comparator": text([r.comparator for r in rows]),
+                "unknown_low": ends([r.unknown_range for r in rows], 0),
+                "unknown_high": ends([r.unknown_range for r in rows], 1),
+                "excluded": pd.Series([r.excluded for r in rows], dtype=bool),
             }
         )
-        frame["impact_ratio"] = frame["impact_ratio"].astype("float64")
         if digits is not None:
             for column, how in ((rate, "half up"), ("impact_ratio", "half up"), ("ci_low", "down"), ("ci_high", "up")):
                 frame[column] = [round_half_up(v, digits, how) for v in frame[column]]
@@ -512,7 +505,7 @@ def impact_ratios(
     with ``"simultaneous"``, each rate gets a Clopper–Pearson interval
     at level 1 − α/m, m the number of included categories in the report, and
     ratio i lies in the exact range of p_i / max_j p_j over that box
-    (:func:`ratio_range`, proofs/impact_ratio.md), all at once with probability
+    (:func:`~fairaudit.statistics.rate_ratio.ratio_range`, proofs/impact_ratio.md), all at once with probability
     ≥ 1 − α.
 
     Examples
@@ -527,11 +520,11 @@ def impact_ratios(
     [('F', 0.8, 'not below'), ('M', 1.0, 'not below')]
     """
     rule = FourFifths() if four_fifths is None else four_fifths
-    table = _counted(data, sensitive, outcome, dropna, weights)
-    g, median, kind = _indicator(table, utility, positive)
+    table = counted(data, sensitive, outcome, dropna, weights)
+    g, median, kind = rate_utility(table, utility, positive)
     pooled = table.counts.sum(axis=0)  # (groups, decisions)
     effective = table.effective_counts(pooled=True)
-    types = _category_types(table)
+    types = category_types(table)
     total = float(pooled.sum())
     shares, selected, trials, positives = [], [], [], []
     for _, _, members in types:
@@ -574,42 +567,9 @@ def impact_ratios(
             }
         p_type = {i: p for (u, i), p in p_values.items() if u == t}
         typed = _type_rows(name, categories, n, k, keep, whole, best[t], intervals, p_type, rule)
-        rows += _with_unknowns(typed, dict(table.unknown_outcomes).get(name, ()), table.decisions, g, median)
+        rows += unknown_ranges(typed, dict(table.unknown_outcomes).get(name, ()), table.decisions, g, median)
     unknown = {name: float(dict(table.missing).get(name, 0.0)) for name, _, _ in types}
     return ImpactRatios(tuple(rows), kind, median, unknown, rule, table, g, test, len(raw), facts or AuditFacts())
-
-
-def _with_unknowns(
-    rows: list[ImpactRatio],
-    outcomes: tuple[tuple[Hashable, float], ...],
-    decisions: tuple,
-    g: Utility,
-    median: float | None,
-) -> list[ImpactRatio]:
-    """The type's rows with each included category's ratio range over every allocation of its unknown records
-    (their outcomes and numbers ``outcomes``; g of each from the decisions, or 1{score > median} for scores)."""
-    included = [i for i, r in enumerate(rows) if not r.excluded]
-    if not outcomes or len(included) < 2:
-        return rows
-    at = {d: v for d, v in zip(decisions, np.asarray(g.values, dtype=float).tolist(), strict=True)}
-    if median is not None:
-        at = {v: float(float(cast(float, v)) > median) for v, _ in outcomes}  # (scores)
-    if any(v not in at for v, _ in outcomes):
-        return rows  # an outcome no known record has: g is not known there
-    total = math.fsum(w for _, w in outcomes)
-    chosen = math.fsum(w * at[v] for v, w in outcomes)
-    bounds = missing_data_bounds(
-        [rows[i].category for i in included], [rows[i].n for i in included], [rows[i].selected for i in included],
-        total, chosen,
-    )  # fmt: skip
-    n, k = [rows[i].n for i in included], [rows[i].selected for i in included]
-    top = max(rows[i].rate for i in included)
-    (low, high), (low_p, high_p) = (aclu_bounds(n, k, total, top or 1.0, p) for p in (False, True))
-    out = list(rows)
-    for j, (i, lo, hi) in enumerate(zip(included, bounds.ratio_lower, bounds.ratio_upper, strict=True)):
-        aclu = ((low[j], high[j]), (low_p[j], high_p[j])) if top > 0 else None
-        out[i] = replace(rows[i], unknown_range=(float(lo), float(hi)), aclu_ranges=aclu)
-    return out
 
 
 def round_half_up(value: float, digits: int, how: str = "half up") -> float:
@@ -653,153 +613,6 @@ def round_half_up(value: float, digits: int, how: str = "half up") -> float:
         raise InputError("how", "must be 'half up', 'down' or 'up'", how)
     mode = modes[how]
     return float(Decimal(repr(float(value))).quantize(Decimal(1).scaleb(-digits), rounding=mode))
-
-
-def ratio_range(lower: npt.ArrayLike, upper: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """The exact range of each impact ratio p_i / max_j p_j when every rate p_j lies in [lower_j, upper_j] at once.
-
-    With L_i = max_{j≠i} lower_j and U_i = max_{j≠i} upper_j (0 for a single category), ratio i ranges over
-    [lower_i / max(lower_i, U_i), upper_i / max(upper_i, L_i)], 0/0 read as 1 (every rate 0: parity).
-    proofs/impact_ratio.md proves it; linear in the number of categories (the two largest ends).
-
-    Parameters
-    ----------
-    lower, upper : array_like of float, shape (k,)
-        The rates' simultaneous intervals, 0 <= lower <= upper <= 1.
-
-    Returns
-    -------
-    low, high : numpy.ndarray
-        Each ratio's smallest and largest value over the box.
-
-    Examples
-    --------
-    The highest rate, surely the highest on the box (its lower end above every other upper end), has ratio 1:
-
-    >>> low, high = ratio_range([0.6, 0.2, 0.1], [0.8, 0.5, 0.4])
-    >>> low.round(4).tolist(), high.round(4).tolist()
-    ([1.0, 0.25, 0.125], [1.0, 0.8333, 0.6667])
-    """
-    lo, hi = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    others_lo, others_hi = _max_of_others(lo), _max_of_others(hi)
-    return _parity_ratio(lo, np.maximum(lo, others_hi)), _parity_ratio(hi, np.maximum(hi, others_lo))
-
-
-def _max_of_others(v: FloatArray) -> FloatArray:
-    """out[i] = max over j != i of v[j] (0 for a single value), from the two largest values: linear time."""
-    if v.size < 2:
-        return np.zeros_like(v)
-    top = int(np.argmax(v))
-    second = float(np.max(np.delete(v, top)))
-    out = np.full(v.shape, float(v[top]))
-    out[top] = second
-    return out
-
-
-def _parity_ratio(num: FloatArray, den: FloatArray) -> FloatArray:
-    """num / den with 0 / 0 = 1 (den >= num >= 0 here)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
-
-
-def _counted(
-    data: CountTable | pd.DataFrame,
-    sensitive: str | Sequence[str] | None,
-    outcome: str | None,
-    dropna: bool,
-    weights: str | None,
-) -> CountTable:
-    """The CountTable of ``data``: itself, or a DataFrame's records counted."""
-    if isinstance(data, CountTable):
-        for name, given in (("sensitive", sensitive), ("outcome", outcome), ("weights", weights)):
-            if given is not None:
-                raise InputError(name, "goes with a DataFrame of records: a CountTable is already counted", given)
-        return data
-    if type(data).__name__ != "DataFrame" or not type(data).__module__.startswith("pandas"):
-        raise InputError("data", "must be a CountTable or a pandas DataFrame of records", type(data).__name__)
-    if sensitive is None:
-        raise InputError("sensitive", "name at least one column")
-    if outcome is None:
-        raise InputError("outcome", "name the outcome column")
-    from fairaudit.data.counts import count_records
-
-    columns = [sensitive] if isinstance(sensitive, str) else list(sensitive)
-    return count_records(data, sensitive=columns, outcome=outcome, dropna=dropna, weights=weights)
-
-
-def _indicator(
-    table: CountTable, utility: Utility | str | None, positive: Hashable | None
-) -> tuple[Utility, float | None, str]:
-    """g over the decisions: the utility (0/1), 1{U = positive}, a 0/1 outcome's 1, or 1{score > the median}."""
-    from fairaudit.statistics.record_audit import audit_utility
-
-    binary = {str(d) for d in table.decisions} <= {"0", "1", "True", "False"}
-    numeric = all(isinstance(d, (int, float, np.number)) and not isinstance(d, bool) for d in table.decisions)
-    if utility is None and positive is None and not binary and numeric:
-        return scoring_utility(table), median_score(table), "scoring"
-    g = audit_utility(table, positive, utility)
-    values = np.asarray(g.table(table.contexts[:1], table.groups[:1], table.decisions)[0, 0], dtype=float)
-    if not np.all((values == 0) | (values == 1)):
-        raise InputError("utility", "impact ratios need a 0/1 utility (a selection), or none for scores", g.name)
-    return from_table(values, tuple(table.decisions), name=g.name), None, "selection"
-
-
-def median_score(table: CountTable) -> float:
-    """The median score of the whole sample (weighted with weights), from the counts of each score.
-
-    The smallest score with more than half of the records at or below it; when exactly half lie at or below a
-    score, the mean of it and the next one (the sample median of an even number of records).
-
-    Raises
-    ------
-    InputError
-        Field ``positive``: the outcome is not numeric (say which value is a selection with ``positive``).
-    """
-    if not all(isinstance(d, (int, float, np.number)) and not isinstance(d, bool) for d in table.decisions):
-        raise InputError("positive", "say which outcome is a selection: the outcome is not a score")
-    scores = np.array(table.decisions, dtype=float)
-    weight = table.counts.sum(axis=(0, 1)).astype(float)
-    cumulative = np.cumsum(weight) / weight.sum()
-    j = int(np.searchsorted(cumulative, 0.5))
-    return float(scores[j]) if cumulative[j] > 0.5 or j + 1 == len(scores) else float((scores[j] + scores[j + 1]) / 2)
-
-
-def scoring_utility(table: CountTable) -> Utility:
-    """g = 1{score > the whole sample's median score}: the event of the scoring rate (6 RCNY 5-301).
-
-    Examples
-    --------
-    >>> import pandas as pd
-    >>> from fairaudit import count_records
-    >>> t = count_records(pd.DataFrame({"g": list("aabbb"), "score": [1, 5, 3, 9, 4]}), sensitive="g", outcome="score")
-    >>> g = scoring_utility(t)
-    >>> g.name, g.values.tolist()
-    ('1{score > median 4}', [0.0, 0.0, 0.0, 1.0, 1.0])
-    """
-    median = median_score(table)
-    values = np.array([float(d) > median for d in table.decisions], dtype=float)
-    return from_table(values, tuple(table.decisions), name=f"1{{score > median {format_label(_plain(median))}}}")
-
-
-def _plain(x: float) -> float | int:
-    return int(x) if float(x).is_integer() else x
-
-
-def _category_types(table: CountTable) -> list[tuple[str, tuple, list[list[int]]]]:
-    """(type name, its categories, for each category the groups of ``table`` it pools)."""
-    columns = table.sensitive_columns
-    types = []
-    if len(columns) > 1:
-        for i, column in enumerate(columns):
-            categories = tuple(sorted({g[i] for g in table.groups}, key=_order))
-            members = [[j for j, g in enumerate(table.groups) if g[i] == c] for c in categories]
-            types.append((column, categories, members))
-    types.append((" x ".join(columns), tuple(table.groups), [[j] for j in range(len(table.groups))]))
-    return types
-
-
-def _order(value: object) -> tuple[int, object]:
-    return (0, value) if isinstance(value, (int, float)) else (1, str(value))
 
 
 def _type_rows(

@@ -24,12 +24,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
+from typing import TYPE_CHECKING, cast
+
+import numpy as np
 
 from fairaudit.base.errors import InputError
 
-__all__ = ["MissingDataBounds", "aclu_bounds", "missing_data_bounds"]
+if TYPE_CHECKING:
+    from fairaudit.laws.utilities import Utility
+    from fairaudit.statistics.ll144 import ImpactRatio
+
+__all__ = ["MissingDataBounds", "aclu_bounds", "missing_data_bounds", "unknown_ranges"]
 
 
 @dataclass(frozen=True)
@@ -121,10 +128,8 @@ def missing_data_bounds(
     (False, True)
     """
     n, s = _counts(applicants, "applicants"), _counts(selected, "selected")
-    (big_n,), (big_s,) = (
-        _counts([unknown_applicants], "unknown_applicants"),
-        _counts([unknown_selected], "unknown_selected"),
-    )
+    (big_n,) = _counts([unknown_applicants], "unknown_applicants")
+    (big_s,) = _counts([unknown_selected], "unknown_selected")
     if not len(n) == len(s) == len(categories) >= 1:
         raise InputError("applicants", "needs one count per category, as selected does", len(n))
     for name, tops, lows in (("selected", n, s), ("unknown_selected", [big_n], [big_s])):
@@ -199,6 +204,41 @@ def aclu_bounds(
     return lower, upper
 
 
+def unknown_ranges(
+    rows: list[ImpactRatio],
+    outcomes: tuple[tuple[Hashable, float], ...],
+    decisions: tuple,
+    g: Utility,
+    median: float | None,
+) -> list[ImpactRatio]:
+    """The rows of one category type of :func:`~fairaudit.statistics.ll144.impact_ratios` with each included
+    category's ratio range over every allocation of its unknown records (their outcomes and numbers ``outcomes``; g
+    of each from the decisions, or 1{score > median} for scores): :func:`missing_data_bounds`, sharp, and the ACLU's
+    two variants (:func:`aclu_bounds`)."""
+    included = [i for i, r in enumerate(rows) if not r.excluded]
+    if not outcomes or len(included) < 2:
+        return rows
+    at = {d: v for d, v in zip(decisions, np.asarray(g.values, dtype=float).tolist(), strict=True)}
+    if median is not None:
+        at = {v: float(float(cast(float, v)) > median) for v, _ in outcomes}  # (scores)
+    if any(v not in at for v, _ in outcomes):
+        return rows  # an outcome no known record has: g is not known there
+    total = math.fsum(w for _, w in outcomes)
+    chosen = math.fsum(w * at[v] for v, w in outcomes)
+    bounds = missing_data_bounds(
+        [rows[i].category for i in included], [rows[i].n for i in included], [rows[i].selected for i in included],
+        total, chosen,
+    )  # fmt: skip
+    n, k = [rows[i].n for i in included], [rows[i].selected for i in included]
+    top = max(rows[i].rate for i in included)
+    (low, high), (low_p, high_p) = (aclu_bounds(n, k, total, top or 1.0, p) for p in (False, True))
+    out = list(rows)
+    for j, (i, lo, hi) in enumerate(zip(included, bounds.ratio_lower, bounds.ratio_upper, strict=True)):
+        aclu = ((low[j], high[j]), (low_p[j], high_p[j])) if top > 0 else None
+        out[i] = replace(rows[i], unknown_range=(float(lo), float(hi)), aclu_ranges=aclu)
+    return out
+
+
 def _counts(values: Sequence[float], name: str) -> list[Fraction]:
     """The counts as exact Fractions: finite and nonnegative, else an InputError naming the first offender."""
     out = []
@@ -229,9 +269,7 @@ def _least_top(n: list[Fraction], s: list[Fraction], extra: Fraction, whole: boo
     most ``extra``. In shares the least level fills the highest rates down to one water level; in whole applicants
     it is one of the values s_k/(n_k + c), found per k by bisection on c (reachability is monotone in t).
     """
-    if not n:
-        return Fraction(0), 0
-    if all(v == 0 for v in s):
+    if all(v == 0 for v in s):  # (no other category, or none selected)
         return Fraction(0), 0
 
     def need(t: Fraction) -> Fraction:

@@ -183,17 +183,9 @@ def project_sets(counts: FloatArray, g: FloatArray, options: ProjectionOptions) 
     else:
         ends, cells, groups = _mixed_ends(boxes, options, local_keys, with_u)
         kernel = (boxes.e_lower, boxes.e_upper)
-    return Projection(
-        ends=ends,
-        cell_lower=cells[0],
-        cell_upper=cells[1],
-        group_lower=np.asarray(groups[0], float),
-        group_upper=np.asarray(groups[1], float),
-        kernel_lower=kernel[0],
-        kernel_upper=kernel[1],
-        n_sets=boxes.n_sets,
-        notes=_notes(with_u, cats.cells.shape[-1]),
-    )
+    group_lower, group_upper = (np.asarray(v, float) for v in groups)
+    notes = _notes(with_u, cats.cells.shape[-1])
+    return Projection(ends, cells[0], cells[1], group_lower, group_upper, kernel[0], kernel[1], boxes.n_sets, notes)
 
 
 def _categories(counts: FloatArray, g: FloatArray, method: str) -> _Categories:

@@ -12,6 +12,8 @@ together with whether the difference is statistically significant; this module g
 * :func:`equal_rates_test`: the two-sided test of p₁ = p₂, Fisher's exact test (central: twice the smaller
   one-sided p-value, which the melded interval inverts: it excludes 1 exactly when the test rejects) or the pooled
   two-proportion z test;
+* :func:`ratio_range`: the exact range of every impact ratio p_i / max_j p_j over a box of simultaneous intervals on
+  the rates (proofs/impact_ratio.md);
 * :func:`adjusted`: the p-values and per-interval level of an adjustment: ``"none"``, ``"holm"`` (Holm 1979 for
   the p-values; the intervals at Bonferroni's α/m, which hold simultaneously) or ``"bonferroni"``.
 """
@@ -27,7 +29,7 @@ from fairaudit.base.arrays import FloatArray
 from fairaudit.base.checks import level
 from fairaudit.base.errors import InputError
 
-__all__ = ["ADJUSTMENTS", "TESTS", "adjusted", "equal_rates_test", "ratio_interval"]
+__all__ = ["ADJUSTMENTS", "TESTS", "adjusted", "equal_rates_test", "ratio_interval", "ratio_range"]
 
 ADJUSTMENTS = ("none", "holm", "bonferroni")
 """The multiplicity adjustments over the m ratios of a report (:func:`adjusted`)."""
@@ -240,3 +242,47 @@ def adjusted(p_values: npt.ArrayLike, adjustment: str = "holm") -> FloatArray:
     out = np.empty_like(p)
     out[order] = stepped
     return out
+
+
+def ratio_range(lower: npt.ArrayLike, upper: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """The exact range of each impact ratio p_i / max_j p_j when every rate p_j lies in [lower_j, upper_j] at once.
+
+    With L_i = max_{j≠i} lower_j and U_i = max_{j≠i} upper_j (0 for a single category), ratio i ranges over
+    [lower_i / max(lower_i, U_i), upper_i / max(upper_i, L_i)], 0/0 read as 1 (every rate 0: parity).
+    proofs/impact_ratio.md proves it; linear in the number of categories (the two largest ends).
+
+    Parameters
+    ----------
+    lower, upper : array_like of float, shape (k,)
+        The rates' simultaneous intervals, 0 <= lower <= upper <= 1.
+
+    Returns
+    -------
+    low, high : numpy.ndarray
+        Each ratio's smallest and largest value over the box.
+
+    Examples
+    --------
+    The highest rate, surely the highest on the box (its lower end above every other upper end), has ratio 1:
+
+    >>> low, high = ratio_range([0.6, 0.2, 0.1], [0.8, 0.5, 0.4])
+    >>> low.round(4).tolist(), high.round(4).tolist()
+    ([1.0, 0.25, 0.125], [1.0, 0.8333, 0.6667])
+    """
+    lo, hi = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    others_lo, others_hi = _max_of_others(lo), _max_of_others(hi)
+    return _parity_ratio(lo, np.maximum(lo, others_hi)), _parity_ratio(hi, np.maximum(hi, others_lo))
+
+
+def _max_of_others(v: FloatArray) -> FloatArray:
+    """out[i] = max over j != i of v[j] (0 for a single value), from the two largest values: linear time."""
+    if v.size < 2:
+        return np.zeros_like(v)
+    second, top = np.partition(v, -2)[-2:]
+    return np.where(np.arange(v.size) == np.argmax(v), second, top)
+
+
+def _parity_ratio(num: FloatArray, den: FloatArray) -> FloatArray:
+    """num / den with 0 / 0 = 1 (den >= num >= 0 here)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)

@@ -14,14 +14,13 @@ from collections.abc import Hashable, Sequence
 from contextlib import suppress
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import TYPE_CHECKING, SupportsFloat, SupportsIndex, TypeGuard, cast
+from typing import TYPE_CHECKING, Any, SupportsFloat, SupportsIndex, TypeAlias, TypeGuard, cast
 
 import numpy as np
 
 from fairaudit.base.errors import InputError, cut, echo
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.base.labels import format_label
-from fairaudit.data.columns import roles
 from fairaudit.data.counts import CountTable, count_records, counts_of_table
 from fairaudit.data.frames import ArrayLike, records_from_arrays
 from fairaudit.laws.tables import Law, Population
@@ -30,6 +29,7 @@ from fairaudit.laws.utility_expression import evaluate_utility_expression
 from fairaudit.metrics.gaps import UtilityGaps, utility_gaps
 from fairaudit.metrics.observed import Observed, observe  # (what fairaudit.certify re-exports: no spec, no pydantic)
 from fairaudit.statistics.intervals import (
+    METRIC_ATTRIBUTES,
     FairnessIntervals,
     IntervalOptions,
     fairness_intervals,
@@ -49,6 +49,15 @@ __all__ = [
     # the utility of an audit
     "utility_from_expression",
 ]
+
+
+_Data: TypeAlias = "pd.DataFrame | CountTable | pyspark.sql.DataFrame | None"
+"""What :func:`audit` counts: records (pandas or Spark), a table of counts, or none (records given as arrays)."""
+_Roles: TypeAlias = "tuple[str | Sequence[str] | None, str | None, str | Sequence[str] | None]"
+"""The (sensitive, outcome, context) columns, as given."""
+
+_FRAME_ORDER = ("local", "global", "demographic_parity", "equalized_odds", "sup_local", "sup_global")
+"""The rows of :meth:`Audit.to_frame`."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -205,14 +214,8 @@ class Audit:
 
         o, iv = self.observed, self.intervals
         rows = {}
-        for name, metric in (
-            ("local", o.local_fairness),
-            ("global", o.global_fairness),
-            ("demographic_parity", o.demographic_parity),
-            ("equalized_odds", o.equalized_odds),
-            ("sup_local", o.sup_local_fairness),
-            ("sup_global", o.sup_global_fairness),
-        ):
+        for name in _FRAME_ORDER:
+            metric = getattr(o, METRIC_ATTRIBUTES[name])
             interval = None if iv is None else iv.intervals()[name]
             rows[name] = {
                 "value": metric.value,
@@ -360,12 +363,7 @@ def _is_pandas_frame(data: object) -> TypeGuard[pd.DataFrame]:
     return pd is not None and isinstance(data, pd.DataFrame)
 
 
-def _table(
-    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    columns: tuple[str | Sequence[str] | None, str | None, str | Sequence[str] | None],
-    records: RecordOptions,
-    mixed_outcome: bool,
-) -> CountTable:
+def _table(data: _Data, columns: _Roles, records: RecordOptions, mixed_outcome: bool) -> CountTable:
     """The CountTable to audit: ``data`` itself, checked against the columns given, or its records counted."""
     sensitive, outcome, context = columns
     count, weights, dropna = records.count, records.weights, records.dropna
@@ -407,41 +405,25 @@ def _table(
         raise InputError("sensitive", "name at least one column")
     if outcome is None:
         raise InputError("outcome", "name the outcome column")
+    context = () if context is None else context
+    common: dict[str, Any] = {
+        "sensitive": sensitive,
+        "outcome": outcome,
+        "context": context,
+        "dropna": dropna,
+        "mixed_outcome": mixed_outcome,
+    }
     if _is_pandas_frame(data):
         if count is not None:  # a count table: as `fairaudit audit --count` reads one
-            sensitive_, outcome_, context_ = roles(sensitive, outcome, () if context is None else context)
-            return counts_of_table(
-                data,
-                sensitive=sensitive_,
-                outcome=outcome_,
-                context=context_,
-                count=count,
-                dropna=dropna,
-                mixed_outcome=mixed_outcome,
-            )
-        return count_records(
-            data,
-            sensitive=sensitive,
-            outcome=outcome,
-            context=() if context is None else context,
-            dropna=dropna,
-            weights=weights,
-            mixed_outcome=mixed_outcome,
-        )
+            return counts_of_table(data, count=count, **common)
+        return count_records(data, weights=weights, **common)
     if weights is not None:
         raise InputError("weights", "are not supported for a Spark DataFrame yet: count it with weights in Spark")
     if count is not None:
         raise InputError("count", "is not supported for a Spark DataFrame yet: sum the counts in Spark", count)
     from fairaudit.data.spark import count_spark  # a Spark DataFrame (checked above)
 
-    return count_spark(
-        cast("pyspark.sql.DataFrame", data),
-        sensitive=sensitive,
-        outcome=outcome,
-        context=() if context is None else context,
-        dropna=dropna,
-        mixed_outcome=mixed_outcome,
-    )
+    return count_spark(cast("pyspark.sql.DataFrame", data), **common)
 
 
 def audit(
@@ -567,15 +549,8 @@ def audit(
 
 
 def _records(
-    data: pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    columns: tuple[Sequence[str] | None, str | None, Sequence[str] | None],
-    records: RecordOptions,
-    arrays: tuple[ArrayLike | None, ArrayLike | None, ArrayLike | None, ArrayLike | None],
-) -> tuple[
-    pd.DataFrame | CountTable | pyspark.sql.DataFrame | None,
-    tuple[Sequence[str] | None, str | None, Sequence[str] | None],
-    RecordOptions,
-]:
+    data: _Data, columns: _Roles, records: RecordOptions, arrays: tuple[ArrayLike | None, ...]
+) -> tuple[_Data, _Roles, RecordOptions]:
     """``data``, its (sensitive, outcome, context) columns and the record options; or the records of the arrays,
     theirs, and the options with the weights as the records' weight column."""
     y_pred, sensitive_features, control_features, y_true = arrays

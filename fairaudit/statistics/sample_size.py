@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, TypedDict
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -43,8 +43,19 @@ if TYPE_CHECKING:
 
 __all__ = ["BAYES_DATASETS", "DEFAULT_DATASETS", "SamplePlan", "plan"]
 
+_Inputs: TypeAlias = dict[str, Any]
+"""The fields of a :class:`SamplePlan` that repeat its inputs, by name."""
+
 DEFAULT_DATASETS = 200
 BAYES_DATASETS = 40  # "bayes" draws 4000 posterior samples per table: about 10 ms a table
+
+
+_REPORTED = tuple(
+    "target confidence power kind groups contexts base_rate disparity epsilon seed max_n true_value".split()
+)
+"""The fields of a :class:`SamplePlan` its report dictionary holds, in order, before ``feasible`` and ``plans``."""
+_PLANNED = tuple("method n_per_cell n_total achieved_power expected_upper datasets reason".split())
+"""The fields of each plan of ``plans``: what a method gives."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -104,50 +115,13 @@ class SamplePlan:
         ``fairaudit plan --method all`` joins plans of several methods
         (same inputs) into one dictionary of this shape.
         """
-        return {
-            "target": number(self.target),
-            "confidence": number(self.confidence),
-            "power": number(self.power),
-            "kind": self.kind,
-            "groups": self.groups,
-            "contexts": self.contexts,
-            "base_rate": number(self.base_rate),
-            "disparity": number(self.disparity),
-            "epsilon": number(self.epsilon),
-            "seed": self.seed,
-            "max_n": self.max_n,
-            "true_value": number(self.true_value),
-            "feasible": self.feasible,
-            "plans": [
-                {
-                    "method": self.method,
-                    "n_per_cell": self.n_per_cell,
-                    "n_total": self.n_total,
-                    "achieved_power": number(self.achieved_power),
-                    "expected_upper": number(self.expected_upper),
-                    "datasets": self.datasets,
-                    "reason": self.reason,
-                }
-            ],
-        }
 
+        def value(name: str) -> Any:
+            v = getattr(self, name)
+            return v if isinstance(v, str) else number(v)
 
-class _Inputs(TypedDict):
-    """The fields of a :class:`SamplePlan` that repeat its inputs (and the true value)."""
-
-    target: float
-    groups: int
-    contexts: int
-    base_rate: float
-    disparity: float
-    confidence: float
-    method: str
-    power: float
-    epsilon: float | None
-    kind: str
-    datasets: int
-    seed: int
-    max_n: int
+        inputs = {name: value(name) for name in _REPORTED}
+        return inputs | {"feasible": self.feasible, "plans": [{name: value(name) for name in _PLANNED}]}
 
 
 def _rates(groups: int, contexts: int, base_rate: float, disparity: float) -> FloatArray:
@@ -342,47 +316,31 @@ def plan(
     >>> plan(0.1, disparity=0.2).reason
     'the target 0.1 nats is not above the true L of the model, 0.2 nats: no sample size certifies it'
     """
-    target = real(target, "target", low=0.0, what="a finite number >= 0 (nats)")
-    groups = whole(groups, "groups", low=2, high=1000)
-    contexts = whole(contexts, "contexts", low=1, high=100_000)
-    base_rate = real(
-        base_rate, "base_rate", low=0.0, high=1.0, low_open=True, high_open=True, what="a number in (0, 1)"
-    )
-    disparity = real(disparity, "disparity", what="a finite number (nats)")
-    if base_rate * math.exp(disparity) > 1:
-        raise InputError(
-            "disparity",
-            f"gives group 0 the rate base_rate * exp(disparity) = {base_rate * math.exp(disparity):.6g} > 1",
-            disparity,
-        )
-    confidence = level(confidence, "confidence")
+    unit: dict[str, Any] = {"low": 0.0, "high": 1.0, "low_open": True, "high_open": True, "what": "a number in (0, 1)"}
     method = choice(method, "method", METHODS)
-    power = real(power, "power", low=0.0, high=1.0, low_open=True, high_open=True, what="a number in (0, 1)")
-    if epsilon is not None:
-        epsilon = real(epsilon, "epsilon", low=0.0, what="a finite number >= 0 (nats)")
-    kind = choice(kind, "kind", ("local", "global"))
-    datasets = (
-        (BAYES_DATASETS if method == "bayes" else DEFAULT_DATASETS)
+    inputs: _Inputs = {
+        "target": real(target, "target", low=0.0, what="a finite number >= 0 (nats)"),
+        "groups": whole(groups, "groups", low=2, high=1000),
+        "contexts": whole(contexts, "contexts", low=1, high=100_000),
+        "base_rate": real(base_rate, "base_rate", **unit),
+        "disparity": real(disparity, "disparity", what="a finite number (nats)"),
+        "confidence": level(confidence, "confidence"),
+        "method": method,
+        "power": real(power, "power", **unit),
+        "epsilon": None if epsilon is None else real(epsilon, "epsilon", low=0.0, what="a finite number >= 0 (nats)"),
+        "kind": choice(kind, "kind", ("local", "global")),
+        "datasets": (BAYES_DATASETS if method == "bayes" else DEFAULT_DATASETS)
         if datasets is None
-        else whole(datasets, "datasets", low=1, high=1_000_000)
-    )
+        else whole(datasets, "datasets", low=1, high=1_000_000),
+        "seed": whole(seed, "seed"),
+        "max_n": whole(max_n, "max_n", low=1),
+    }
+    top = inputs["base_rate"] * math.exp(inputs["disparity"])
+    if top > 1:
+        problem = f"gives group 0 the rate base_rate * exp(disparity) = {top:.6g} > 1"
+        raise InputError("disparity", problem, inputs["disparity"])
     if progress is not None and not callable(progress):
         raise InputError("progress", "must be callable", progress)
-    inputs = _Inputs(
-        target=target,
-        groups=groups,
-        contexts=contexts,
-        base_rate=base_rate,
-        disparity=disparity,
-        confidence=confidence,
-        method=method,
-        power=power,
-        epsilon=epsilon,
-        kind=kind,
-        datasets=datasets,
-        seed=whole(seed, "seed"),
-        max_n=whole(max_n, "max_n", low=1),
-    )
     limit = memory_limit(max_memory)
     rates, mechanism, true_value = _assumed_model(inputs)
     return _search(inputs, true_value, rates, mechanism, progress, limit)

@@ -13,7 +13,8 @@ import pytest
 from _cli import run, run_json
 
 from fairaudit import InputError, count_file, count_records, indicator
-from fairaudit.statistics.ll144 import FourFifths, impact_ratios, median_score, scoring_utility
+from fairaudit.statistics.impact_inputs import median_score, scoring_utility
+from fairaudit.statistics.ll144 import FourFifths, impact_ratios
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "impact_ratio" / "applicants.csv"
 COMMAND = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]

@@ -20,7 +20,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fairaudit import InputError, count_records, indicator
-from fairaudit.statistics.ll144 import VERDICTS, FourFifths, impact_ratios, ratio_range
+from fairaudit.statistics.ll144 import VERDICTS, FourFifths, impact_ratios
+from fairaudit.statistics.rate_ratio import ratio_range
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "impact_ratio" / "applicants.csv"
 COMMAND = ["audit", EXAMPLE, "--sensitive", "sex,race", "--outcome", "selected", "--dropna", "--report", "impact-ratio"]

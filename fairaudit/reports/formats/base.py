@@ -50,6 +50,5 @@ class Format(ABC):
 
     def render(self, d: Report, kind: str) -> str:
         """The report of kind ``kind`` (a key of :data:`KINDS`)."""
-        method: str = KINDS[kind]
-        text: str = getattr(self, method)(d)
+        text: str = getattr(self, KINDS[kind])(d)
         return text

@@ -205,10 +205,8 @@ class HtmlFormat(Format):
         rows = [
             (label, n, fmt(m), None if iv is None else f"[{fmt(iv[0])}, {fmt(iv[1])}]") for label, n, m, iv in means
         ]
-        if any(iv is not None for *_, iv in means):
-            page.table(("group", "records", "E[g | a]", "interval"), rows, numeric=(1, 2))
-        else:
-            page.table(("group", "records", "E[g | a]"), [r[:3] for r in rows], numeric=(1, 2))
+        width = 4 if any(iv is not None for *_, iv in means) else 3  # the interval's column where there is one
+        page.table(("group", "records", "E[g | a]", "interval")[:width], [r[:width] for r in rows], numeric=(1, 2))
         page.figure(lambda: _groups_figure(d, means), _groups_caption(d))
         if "outcome_values" in d:
             page.h2("Records per outcome value")
@@ -379,11 +377,7 @@ def _short(text: object, width: int = 40) -> str:
 
 def _num(v: object) -> float:
     """A report's number as a float: ``"inf"`` as inf, None (n/a) as NaN."""
-    if v is None:
-        return math.nan
-    if v == "inf":
-        return math.inf
-    return float(v)  # type: ignore[arg-type]
+    return math.nan if v is None else math.inf if v == "inf" else float(v)  # type: ignore[arg-type]
 
 
 def _style(i: int) -> tuple[Any, str]:
@@ -450,13 +444,8 @@ def _bound_lines(d: Report) -> list[tuple[str, float, dict[str, Any]]]:
     out: list[tuple[str, float, dict[str, Any]]] = []
     for key, what, ls in (("observed", "behind the filter", "-"), ("unfiltered", "without the filter", "--")):
         if key in d and not math.isnan(v := _num(d[key]["local"]["value"])):
-            out.append(
-                (
-                    f"observed L {what}: {nats(v if math.isfinite(v) else 'inf')}",
-                    v,
-                    {"color": "black", "ls": ls, "lw": 1.4},
-                )
-            )
+            label = f"observed L {what}: {nats(v if math.isfinite(v) else 'inf')}"
+            out.append((label, v, {"color": "black", "ls": ls, "lw": 1.4}))
     t = (d.get("targets") or {}).get("local")
     if t is not None and not math.isnan(v := _num(t["target"])):
         out.append((f"local target: {nats(t['target'])}", v, {"color": "tab:purple", "ls": ":", "lw": 2.0}))

@@ -17,14 +17,12 @@ __all__ = [
     "BOUND_HEAD",
     "BY_CONTEXT_HEAD",
     "CONTEXTS_SHOWN",
-    "EXCLUDED_SHOWN",
     "GAP_HEAD",
     "GAP_NOTE",
     "METRICS",
     "OBSERVED_PARTS",
     "OUTCOME_HEAD",
     "PLAN_HEAD",
-    "PUBLISHED_HEAD",
     "TARGET_HEAD",
     "assumption_rows",
     "audit_facts",
@@ -38,11 +36,9 @@ __all__ = [
     "counts_sentence",
     "fmt",
     "gap_rows",
-    "goal",
     "impact_notes",
     "impact_tables",
     "impact_title",
-    "interval",
     "measure",
     "metric_rows",
     "metric_table",
@@ -61,7 +57,6 @@ __all__ = [
     "sentence",
     "target_rows",
     "where",
-    "without_label",
 ]
 
 
@@ -84,9 +79,9 @@ def fmt(v: object, digits: int = 6) -> str:
     return f"{v:.{digits}g}"
 
 
-def nats(v: object) -> str:
-    """A value in nats: ``0.5 nats``, ``inf`` or ``n/a``."""
-    return "n/a" if v is None else ("inf" if v == "inf" else f"{fmt(v)} nats")
+def nats(v: object, digits: int = 6) -> str:
+    """A value in nats (to ``digits`` significant digits): ``0.5 nats``, ``inf`` or ``n/a``."""
+    return "n/a" if v is None else ("inf" if v == "inf" else f"{fmt(v, digits)} nats")
 
 
 def where(d: Report) -> str:
@@ -154,17 +149,13 @@ PLAN_HEAD = ("method", "n per cell", "n total", "power", "median upper end", "da
 
 def plan_rows(d: Report) -> list[tuple[str, ...]]:
     """A plan's table rows, one per method (columns :data:`PLAN_HEAD`)."""
-
-    def upper(v: object) -> str:
-        return "n/a" if v is None else ("inf" if v == "inf" else f"{fmt(v, 4)} nats")
-
     return [
         (
             p["method"],
             fmt(p["n_per_cell"]),
             fmt(p["n_total"]),
             fmt(p["achieved_power"], 3),
-            upper(p["expected_upper"]),
+            nats(p["expected_upper"], 4),
             str(p["datasets"]),
         )
         for p in d["plans"]
@@ -288,13 +279,12 @@ def metric_rows(o: Report) -> list[tuple[str, str, str, str, str | None]]:
         if key == "equalized_odds" and without_label(o):
             continue
         if key in ("local", "global"):
-            f = o[key]
-            rows.append((name, nats(f["value"]), f"ratio {fmt(f['ratio'])}", where(f), interval(o, key)))
+            value, detail, at = nats(o[key]["value"]), f"ratio {fmt(o[key]['ratio'])}", o[key]
         elif key in ("sup_local", "sup_global"):
-            s = det[key]
-            rows.append((name, nats(o[key]), f"decision {s['decision']!s}", where(s), interval(o, key)))
+            value, detail, at = nats(o[key]), f"decision {det[key]['decision']!s}", det[key]
         else:
-            rows.append((name, fmt(o[key]), "", where(det[key]), interval(o, key)))
+            value, detail, at = fmt(o[key]), "", det[key]
+        rows.append((name, value, detail, where(at), interval(o, key)))
     return rows
 
 
@@ -554,17 +544,11 @@ def gap_rows(d: Report) -> list[tuple[str, str, str]]:
     Without a context column, no equalized-odds row (:func:`without_label`).
     """
     gaps = d["gaps_on_g"]
-    rows = []
-    for key, name in (
-        ("demographic_parity", "demographic parity gap of g"),
-        ("equalized_odds", "equalized odds gap of g"),
-    ):
-        if key == "equalized_odds" and without_label(d):
-            continue
-        gap = gaps[key]
-        where = f" in context {gap['context']}" if key == "equalized_odds" else ""
-        rows.append((name, fmt(gap["value"]), f"{gap['group']} vs {gap['other_group']}{where}"))
-    return rows
+    rows = [("demographic parity gap of g", gaps["demographic_parity"], "")]
+    if not without_label(d):
+        eo = gaps["equalized_odds"]
+        rows.append(("equalized odds gap of g", eo, f" in context {eo['context']}"))
+    return [(name, fmt(gap["value"]), f"{gap['group']} vs {gap['other_group']}{at}") for name, gap, at in rows]
 
 
 GAP_NOTE = (

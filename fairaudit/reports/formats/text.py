@@ -85,19 +85,17 @@ class TextFormat(Format):
             f"context {ctx}",
             f"utility: {d['utility']['name']}",
         ]
-        lines.append("records per group: " + ", ".join(f"{label} {n}" for label, n in record_rows(d["groups"])))
+
+        def listed(what: str, items: list[str], more: bool = False) -> str:
+            return f"records per {what}: " + ", ".join(items) + (" ..." if more else "")
+
+        lines.append(listed("group", [f"{label} {n}" for label, n in record_rows(d["groups"])]))
         if "outcome_values" in d:
-            lines.append(
-                "records per outcome value: "
-                + ", ".join(f"{u} {n} (g {g})" for u, n, g in outcome_rows(d))
-                + (" ..." if outcomes_more(d) else "")
-            )
+            values = [f"{u} {n} (g {g})" for u, n, g in outcome_rows(d)]
+            lines.append(listed("outcome value", values, outcomes_more(d) is not None))
         if len(d["contexts"]) > 1:
-            lines.append(
-                "records per context: "
-                + ", ".join(f"{label} {n}" for label, n in record_rows(d["contexts"][:CONTEXTS_SHOWN]))
-                + (" ..." if len(d["contexts"]) > CONTEXTS_SHOWN else "")
-            )
+            shown = [f"{label} {n}" for label, n in record_rows(d["contexts"][:CONTEXTS_SHOWN])]
+            lines.append(listed("context", shown, len(d["contexts"]) > CONTEXTS_SHOWN))
         lines.append(population_line(d))
         if d["confidence"] is not None:
             lines.append(f"intervals: simultaneous {fmt(d['confidence'])} ({d['interval_method']})")

@@ -471,7 +471,7 @@ def _observations(spec: Spec, kernel: Kernel | None) -> tuple[Observed | None, O
     except InputError as exc:
         raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
     filtered = not (mech.is_identity and spec.context_mechanism.is_identity)
-    if filtered and _sees_inputs(spec):  # the model on its own: only where it reads the true labels
+    if filtered and spec.sees_inputs:  # the model on its own: only where it reads the true labels
         return observed, observe(Law.from_kernel(kernel), spec.utility, spec.population), why
     return observed, None, why
 
@@ -482,11 +482,9 @@ def _theorem_bounds(spec: Spec, law: Law | None) -> tuple[Bound | None, Bound | 
     # without tau the extra term must be 0 (L_A = 0, g free of the group, pure DP): then paper = tight = epsilon(M)
     if tau is None and not (spec.lipschitz == 0 and not spec.utility.depends_on_group and math.isfinite(mech.epsilon)):
         return None, None
-    paper = paper_bound(
-        mech, utility_class=spec.utility_class, utility=spec.utility, population=spec.population, law=law
-    )
-    tight = tight_bound(
-        mech, utility_class=spec.utility_class, utility=spec.utility, population=spec.population, law=law
+    paper, tight = (
+        form(mech, utility_class=spec.utility_class, utility=spec.utility, population=spec.population, law=law)
+        for form in (paper_bound, tight_bound)
     )
     return paper, tight
 
@@ -654,7 +652,7 @@ def _calibrations(
                 black = []
                 break
     white: list[Calibration] = []
-    if kernel is not None and not _sees_inputs(spec):
+    if kernel is not None and not spec.sees_inputs:
         reason = (reason + "; " if reason else "") + (
             "white-box calibration needs a model indexed by the groups: the spec's mechanism releases other values"
         )
@@ -673,8 +671,3 @@ def _calibrations(
             for kind, goal in goals
         ]
     return _tightest(black), _tightest(white), reason, tuple(c.kind for c in black)
-
-
-def _sees_inputs(spec: Spec) -> bool:
-    """True when both mechanisms release the labels they take (so the model's table is indexed by true values)."""
-    return spec.sees_inputs

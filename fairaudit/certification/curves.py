@@ -402,21 +402,16 @@ def _spec_defaults(spec: Spec, given: dict[str, Any]) -> dict[str, Any]:
         raise InputError(
             f"{spec.source}: sensitive", "a fairness-privacy curve needs at least 2 groups", len(spec.groups)
         )
-    defaults: dict[str, Callable[[], Any]] = {
+    other: dict[str, Callable[[], Any]] = {  # the rest are the spec's attributes of their names
         "family": lambda: spec.sensitive_family,
         "kernel": spec.kernel,
-        "utility": lambda: spec.utility,
-        "population": lambda: spec.population,
-        "context_mechanism": lambda: spec.context_mechanism,
-        "gamma": lambda: spec.gamma,
-        "lower": lambda: spec.lower,
-        "tau": lambda: spec.tau,
-        "lipschitz": lambda: spec.lipschitz,
-        "metric": lambda: spec.metric,
         "spec_epsilon": lambda: spec.sensitive_mechanism.epsilon,
         "title": lambda: spec.model.title or spec.source,
     }
-    return {key: defaults[key]() if value is None else value for key, value in given.items()}
+    return {
+        key: (other[key]() if key in other else getattr(spec, key)) if value is None else value
+        for key, value in given.items()
+    }
 
 
 def _check_family_and_kernel(family: object, kernel: object, utility: Utility | None) -> None:

@@ -533,11 +533,7 @@ def _target_checks(
     for kind, goal, (bound, reason) in (("local", t.local, local), ("global", t.global_, global_)):
         if goal is None:
             continue
-        obs = (
-            None
-            if observed is None
-            else (observed.local_fairness if kind == "local" else observed.global_fairness).value
-        )
+        obs = None if observed is None else getattr(observed, f"{kind}_fairness").value
         targets[kind] = TargetCheck(
             kind=kind,
             target=goal,

@@ -107,14 +107,13 @@ class Spec:
                 )
         if model.context is None:
             self.contexts: tuple = ("all",)
-            context_name = "context"
+            self.context_name = "context"
         else:
             assert model.context.values is not None  # (required by SpecModel)
             self.contexts = as_labels(model.context.values, "context.values")
-            context_name = model.context.name
-        self.context_name = context_name
+            self.context_name = model.context.name
         self.context_mechanism = self._mechanism(
-            model.privacy.context, AttributeSpec(name=context_name, values=list(self.contexts)), "privacy.context"
+            model.privacy.context, AttributeSpec(name=self.context_name, values=list(self.contexts)), "privacy.context"
         )
         assert model.decision.values is not None  # (required by SpecModel)
         self.decisions = as_labels(model.decision.values, "decision.values")

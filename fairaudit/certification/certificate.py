@@ -419,18 +419,15 @@ def _build(spec: Spec | str | Path, intervals: IntervalOptions | None) -> Certif
     factor = independence_factor(spec.population.probabilities) if independent else math.inf
     global_bound, global_why = _global_bound(black_box if bb_ok else None, best, best_form, factor)
 
-    targets: dict[str, TargetCheck] = {}
-    calibration: Calibration | None = None
-    calibration_white: Calibration | None = None
-    calibration_targets: tuple[str, ...] = ()
     t = spec.model.target
-    if t is not None:
-        targets = _target_checks(t, observed, (best, f"best bound: {best_form}"), (global_bound, global_why))
-        calibration, calibration_white, calibration_reason, calibration_targets = _calibrations(
-            spec, kernel, t, independent
-        )
-        if calibration_reason:
-            omitted["calibration"] = calibration_reason
+    targets = (
+        {} if t is None else _target_checks(t, observed, (best, f"best bound: {best_form}"), (global_bound, global_why))
+    )
+    calibration, calibration_white, calibration_reason, calibration_targets = (
+        (None, None, "", ()) if t is None else _calibrations(spec, kernel, t, independent)
+    )
+    if calibration_reason:
+        omitted["calibration"] = calibration_reason
     made, unfiltered_intervals, intervals_reason = _intervals(spec, kernel, intervals)
     if intervals_reason:
         omitted["intervals"] = intervals_reason

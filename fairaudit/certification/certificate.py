@@ -419,18 +419,15 @@ def _build(spec: Spec | str | Path, intervals: IntervalOptions | None) -> Certif
     factor = independence_factor(spec.population.probabilities) if independent else math.inf
     global_bound, global_why = _global_bound(black_box if bb_ok else None, best, best_form, factor)
 
-    targets: dict[str, TargetCheck] = {}
-    calibration: Calibration | None = None
-    calibration_white: Calibration | None = None
-    calibration_targets: tuple[str, ...] = ()
     t = spec.model.target
-    if t is not None:
-        targets = _target_checks(t, observed, (best, f"best bound: {best_form}"), (global_bound, global_why))
-        calibration, calibration_white, calibration_reason, calibration_targets = _calibrations(
-            spec, kernel, t, independent
-        )
-        if calibration_reason:
-            omitted["calibration"] = calibration_reason
+    targets = (
+        {} if t is None else _target_checks(t, observed, (best, f"best bound: {best_form}"), (global_bound, global_why))
+    )
+    calibration, calibration_white, calibration_reason, calibration_targets = (
+        (None, None, "", ()) if t is None else _calibrations(spec, kernel, t, independent)
+    )
+    if calibration_reason:
+        omitted["calibration"] = calibration_reason
     made, unfiltered_intervals, intervals_reason = _intervals(spec, kernel, intervals)
     if intervals_reason:
         omitted["intervals"] = intervals_reason
@@ -471,7 +468,7 @@ def _observations(spec: Spec, kernel: Kernel | None) -> tuple[Observed | None, O
     except InputError as exc:
         raise exc.under(f"{spec.source}: {exc.field}", keep_own=False) from None
     filtered = not (mech.is_identity and spec.context_mechanism.is_identity)
-    if filtered and _sees_inputs(spec):  # the model on its own: only where it reads the true labels
+    if filtered and spec.sees_inputs:  # the model on its own: only where it reads the true labels
         return observed, observe(Law.from_kernel(kernel), spec.utility, spec.population), why
     return observed, None, why
 
@@ -482,11 +479,9 @@ def _theorem_bounds(spec: Spec, law: Law | None) -> tuple[Bound | None, Bound | 
     # without tau the extra term must be 0 (L_A = 0, g free of the group, pure DP): then paper = tight = epsilon(M)
     if tau is None and not (spec.lipschitz == 0 and not spec.utility.depends_on_group and math.isfinite(mech.epsilon)):
         return None, None
-    paper = paper_bound(
-        mech, utility_class=spec.utility_class, utility=spec.utility, population=spec.population, law=law
-    )
-    tight = tight_bound(
-        mech, utility_class=spec.utility_class, utility=spec.utility, population=spec.population, law=law
+    paper, tight = (
+        form(mech, utility_class=spec.utility_class, utility=spec.utility, population=spec.population, law=law)
+        for form in (paper_bound, tight_bound)
     )
     return paper, tight
 
@@ -535,11 +530,7 @@ def _target_checks(
     for kind, goal, (bound, reason) in (("local", t.local, local), ("global", t.global_, global_)):
         if goal is None:
             continue
-        obs = (
-            None
-            if observed is None
-            else (observed.local_fairness if kind == "local" else observed.global_fairness).value
-        )
+        obs = None if observed is None else getattr(observed, f"{kind}_fairness").value
         targets[kind] = TargetCheck(
             kind=kind,
             target=goal,
@@ -654,7 +645,7 @@ def _calibrations(
                 black = []
                 break
     white: list[Calibration] = []
-    if kernel is not None and not _sees_inputs(spec):
+    if kernel is not None and not spec.sees_inputs:
         reason = (reason + "; " if reason else "") + (
             "white-box calibration needs a model indexed by the groups: the spec's mechanism releases other values"
         )
@@ -673,8 +664,3 @@ def _calibrations(
             for kind, goal in goals
         ]
     return _tightest(black), _tightest(white), reason, tuple(c.kind for c in black)
-
-
-def _sees_inputs(spec: Spec) -> bool:
-    """True when both mechanisms release the labels they take (so the model's table is indexed by true values)."""
-    return spec.sees_inputs

@@ -184,22 +184,7 @@ class PrivacyCurve:
         """
         import pandas as pd
 
-        return pd.DataFrame(
-            {
-                "epsilon_nats": self.epsilon,
-                "keep_probability": self.keep_probability,
-                "paper_nats": self.paper,
-                "tight_nats": self.tight,
-                "black_box_nats": self.black_box,
-                "corollary_nats": self.corollary,
-                "observed_local_nats": self.observed_local,
-                "observed_global_nats": self.observed_global,
-                "min_expected_utility": self.min_expected_utility,
-                "tau_holds": self.tau_holds,
-                "is_spec_epsilon": self.is_spec_epsilon,
-            },
-            columns=list(COLUMNS),
-        )
+        return pd.DataFrame({column: getattr(self, column.removesuffix("_nats")) for column in COLUMNS})
 
     def to_csv(self, path: str | Path) -> None:
         """Write :meth:`to_frame` as CSV to ``path`` atomically (temporary file, then rename).
@@ -417,21 +402,16 @@ def _spec_defaults(spec: Spec, given: dict[str, Any]) -> dict[str, Any]:
         raise InputError(
             f"{spec.source}: sensitive", "a fairness-privacy curve needs at least 2 groups", len(spec.groups)
         )
-    defaults: dict[str, Callable[[], Any]] = {
+    other: dict[str, Callable[[], Any]] = {  # the rest are the spec's attributes of their names
         "family": lambda: spec.sensitive_family,
         "kernel": spec.kernel,
-        "utility": lambda: spec.utility,
-        "population": lambda: spec.population,
-        "context_mechanism": lambda: spec.context_mechanism,
-        "gamma": lambda: spec.gamma,
-        "lower": lambda: spec.lower,
-        "tau": lambda: spec.tau,
-        "lipschitz": lambda: spec.lipschitz,
-        "metric": lambda: spec.metric,
         "spec_epsilon": lambda: spec.sensitive_mechanism.epsilon,
         "title": lambda: spec.model.title or spec.source,
     }
-    return {key: defaults[key]() if value is None else value for key, value in given.items()}
+    return {
+        key: (other[key]() if key in other else getattr(spec, key)) if value is None else value
+        for key, value in given.items()
+    }
 
 
 def _check_family_and_kernel(family: object, kernel: object, utility: Utility | None) -> None:
@@ -509,14 +489,7 @@ def _curve(
     grid.setflags(write=False)
     return PrivacyCurve(
         epsilon=grid,
-        keep_probability=out["keep"],
-        paper=out["paper"],
-        tight=out["tight"],
-        black_box=out["black_box"],
-        corollary=out["corollary"],
-        observed_local=out["local"],
-        observed_global=out["global"],
-        min_expected_utility=out["min_e"],
+        **out,
         family=family.name,
         groups=tuple(family.inputs),
         gamma=gamma,
@@ -529,8 +502,9 @@ def _curve(
     )
 
 
-#: The values computed at each ε (keys of the arrays that :class:`_Bounds` fills).
-_VALUES = ("keep", "paper", "tight", "black_box", "corollary", "local", "global", "min_e")
+#: The values computed at each ε: the fields of :class:`PrivacyCurve` behind the columns between ε and the verdicts
+#: (the keys of the arrays that :class:`_Bounds` fills).
+_VALUES = tuple(column.removesuffix("_nats") for column in COLUMNS[1:9])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -566,7 +540,7 @@ class _Bounds:
         """Set entry ``i`` of each array of ``out`` (keys :data:`_VALUES`) to its value at M_ε = ``family(eps)``."""
         mech = family(eps)
         tau, gamma, lipschitz = self.tau, self.gamma, self.lipschitz
-        out["keep"][i] = family.keep_probability(eps)
+        out["keep_probability"][i] = family.keep_probability(eps)
         if tau is not None:
             theorem = UtilityClass(tau=tau, gamma=gamma, lipschitz=lipschitz)
             out["paper"][i] = paper_bound(mech, utility_class=replace(theorem, diameter=self.diameter)).value
@@ -581,10 +555,10 @@ class _Bounds:
                 return  # the law is beyond floating point: its metrics stay NaN (not drawn)
             except InputError as exc:
                 raise exc.under("kernel") from None
-            out["local"][i] = local_fairness(law, self.utility, self.population).value
-            out["global"][i] = global_fairness(law, self.utility, self.population).value
+            out["observed_local"][i] = local_fairness(law, self.utility, self.population).value
+            out["observed_global"][i] = global_fairness(law, self.utility, self.population).value
             e = expected_utility(law, self.utility)
-            out["min_e"][i] = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
+            out["min_expected_utility"][i] = float(np.nanmin(e)) if np.any(~np.isnan(e)) else math.nan
 
 
 def _same_mechanism(a: Mechanism, b: Mechanism) -> bool:

@@ -25,6 +25,7 @@ by :mod:`~fairaudit.certification.spec_model_table`.
 from __future__ import annotations
 
 from collections.abc import Hashable
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -106,18 +107,17 @@ class Spec:
                 )
         if model.context is None:
             self.contexts: tuple = ("all",)
-            context_name = "context"
+            self.context_name = "context"
         else:
             assert model.context.values is not None  # (required by SpecModel)
             self.contexts = as_labels(model.context.values, "context.values")
-            context_name = model.context.name
-        self.context_name = context_name
+            self.context_name = model.context.name
         self.context_mechanism = self._mechanism(
-            model.privacy.context, AttributeSpec(name=context_name, values=list(self.contexts)), "privacy.context"
+            model.privacy.context, AttributeSpec(name=self.context_name, values=list(self.contexts)), "privacy.context"
         )
         assert model.decision.values is not None  # (required by SpecModel)
         self.decisions = as_labels(model.decision.values, "decision.values")
-        self._context_distribution: FloatArray | None = None
+        self._context_distribution: FloatArray  # P(X) given, else uniform: the default population's
         self.given_population = self._population()
         self._kernel: Kernel | None | bool = False  # False: not read yet
         self.weighted_table: CountTable | None = None  # [model] records with weight_column: their weighted counts
@@ -178,8 +178,8 @@ class Spec:
         pop = self.model.population
         ctx = self.model.context
         px = self._distribution(ctx.distribution if ctx else None, self.contexts, "context.distribution", "context")
+        self._context_distribution = np.full(len(self.contexts), 1.0 / len(self.contexts)) if px is None else px
         if pop is None:
-            self._context_distribution = px
             return None
         if pop.probabilities is not None:
             rows = pop.probabilities
@@ -194,12 +194,9 @@ class Spec:
             except InputError as exc:
                 raise exc.under(f"{self.source}: population.probabilities", keep_own=False) from None
         pa = self._distribution(pop.group_distribution, self.groups, "population.group_distribution", "group")
-        if pa is None:
-            self._context_distribution = px
-            return None
-        if px is None:
-            px = np.full(len(self.contexts), 1.0 / len(self.contexts))
-        return Population.independent(px, pa, self.contexts, self.groups)
+        return (
+            None if pa is None else Population.independent(self._context_distribution, pa, self.contexts, self.groups)
+        )
 
     def _utility(self) -> Utility:
         u = self.model.utility
@@ -317,11 +314,10 @@ class Spec:
             if counts is not None and counts.sum() > 0:
                 self._default_population = Population.from_counts(counts, self.contexts, self.groups)
             else:
-                px = self._context_distribution
-                if px is None:
-                    px = np.full(len(self.contexts), 1.0 / len(self.contexts))
                 pa = np.full(len(self.groups), 1.0 / len(self.groups))
-                self._default_population = Population.independent(px, pa, self.contexts, self.groups, source="assumed")
+                self._default_population = Population.independent(
+                    self._context_distribution, pa, self.contexts, self.groups, source="assumed"
+                )
         return self._default_population
 
     def kernel(self) -> Kernel | None:
@@ -400,9 +396,7 @@ class Spec:
         kernel = None if method in ("paper", "tight", "black_box") else self.kernel()
         options = {
             "family": family,
-            "utility_class": UtilityClass(
-                lower=self.lower, gamma=self.gamma, tau=self.tau, lipschitz=self.lipschitz, metric=self.metric
-            ),
+            "utility_class": replace(self.utility_class, diameter=None),
             "population": self.population,
             "context_mechanism": self.context_mechanism,
             "kernel": kernel,

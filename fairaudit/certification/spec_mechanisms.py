@@ -79,9 +79,8 @@ def _built(spec: MechanismSpec, values: Sequence[Hashable] | None, name: str) ->
             problem = "with one value (k = 1) there is nothing to randomize: keep must be 1 (or use identity)"
             raise InputError("keep", problem, spec.keep)
         return randomized_response(values, spec.epsilon, keep=spec.keep, name=name)
-    outputs = spec.outputs
     assert spec.rows is not None  # (MechanismSpec: a matrix has rows)
-    return from_matrix(spec.rows, values, outputs, name=name)
+    return from_matrix(spec.rows, values, spec.outputs, name=name)
 
 
 def mechanism_family(spec: MechanismSpec, groups: tuple) -> MechanismFamily | None:

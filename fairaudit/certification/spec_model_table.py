@@ -114,10 +114,7 @@ def read_model(spec: Spec) -> tuple[Kernel | None, CountTable | None]:
                     f"has no rows (or only zeros) for (context {format_label(contexts[i])!r}, "
                     f"group {format_label(groups[j])!r}); {len(empty)} such cells in all",
                 )
-            if cnt_col:
-                probs_kernel = Kernel.from_counts(table.counts, contexts, groups, spec.decisions)
-            else:
-                probs_kernel = Kernel(table.counts, contexts, groups, spec.decisions)
+            probs_kernel = (Kernel.from_counts if cnt_col else Kernel)(table.counts, contexts, groups, spec.decisions)
     except InputError as exc:
         if exc.field.startswith(spec.source):
             raise

@@ -20,10 +20,11 @@ source. :meth:`PrivacyFilter.to_dict` writes its parameters as JSON (``"format":
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Hashable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
@@ -98,7 +99,6 @@ class PrivacyFilter:
     rounding: str = "exact"
     requested_epsilon: float | None = None
     name: str = "filter"
-    _cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -326,16 +326,13 @@ class PrivacyFilter:
 
     # ------------------------------------------------------------------ privacy
 
-    @property
+    @functools.cached_property
     def ratio(self) -> Fraction | float:
         """e^ε exactly: max over outputs o and inputs a, a' of M[a, o] / M[a', o] (a rational ≥ 1).
 
         +inf (a float) when some output has a positive probability under one input and 0 under another.
         """
-        if "ratio" not in self._cache:
-            self._cache["ratio"] = _ratio(self)
-        ratio: Fraction | float = self._cache["ratio"]
-        return ratio
+        return _ratio(self)
 
     @property
     def epsilon(self) -> float:
@@ -450,7 +447,7 @@ class PrivacyFilter:
         """
         if self.kind != "product":
             released = self.release_indices(self.input_indices(values, "values"), random_bytes)
-            return list(self._output_array()[released])
+            return list(self._output_array[released])
         n_parts = len(self.components)
         items = list(values)
         if any(not isinstance(v, (tuple, list)) or len(v) != n_parts for v in items):
@@ -460,7 +457,7 @@ class PrivacyFilter:
         released_columns = []
         for j, (component, column) in enumerate(zip(self.components, columns)):
             indices = component.input_indices(column, f"values (component {j})")
-            released_columns.append(component._output_array()[component.release_indices(indices, random_bytes)])
+            released_columns.append(component._output_array[component.release_indices(indices, random_bytes)])
         return list(zip(*released_columns)) if items else []
 
     def input_indices(self, values: Sequence[Hashable], field: str = "values") -> npt.NDArray[np.intp]:
@@ -471,9 +468,7 @@ class PrivacyFilter:
         InputError
             Naming ``field`` and quoting the first value not among the inputs.
         """
-        if "index" not in self._cache:
-            self._cache["index"] = {label: i for i, label in enumerate(self.inputs)}
-        index: dict[Hashable, int] = self._cache["index"]
+        index = self._input_index
         try:
             return np.fromiter(map(index.__getitem__, values), dtype=np.intp, count=len(values))
         except (KeyError, TypeError):
@@ -506,15 +501,15 @@ class PrivacyFilter:
             out[chosen] = pick(draws[chosen], self.rows[i])
         return out
 
+    @functools.cached_property
+    def _input_index(self) -> dict[Hashable, int]:
+        """Each input label's row."""
+        return {label: i for i, label in enumerate(self.inputs)}
+
+    @functools.cached_property
     def _output_array(self) -> npt.NDArray[np.object_]:
         """The output labels as a numpy array of objects (tuples stay tuples)."""
-        if "outputs" not in self._cache:
-            array = np.empty(len(self.outputs), dtype=object)
-            for i, label in enumerate(self.outputs):
-                array[i] = label
-            self._cache["outputs"] = array
-        out: npt.NDArray[np.object_] = self._cache["outputs"]
-        return out
+        return np.fromiter(self.outputs, dtype=object, count=len(self.outputs))
 
     # ------------------------------------------------------------------ JSON
 
@@ -583,8 +578,7 @@ def _rr_numerators(p: Fraction, k: int) -> tuple[tuple[int, int], int]:
     """(keep, move) numerators and their denominator of randomized response keeping with p (reduced)."""
     if k == 1:
         return (1, 0), 1
-    (pair,), d = reduced(((p.numerator * (k - 1), p.denominator - p.numerator),), p.denominator * (k - 1))
-    keep, move = pair
+    ((keep, move),), d = reduced(((p.numerator * (k - 1), p.denominator - p.numerator),), p.denominator * (k - 1))
     return (keep, move), d
 
 

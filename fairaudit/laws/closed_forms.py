@@ -10,6 +10,7 @@ Proof of the facts used here: ``proofs/privacy.md``.
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
 from collections.abc import Hashable, Sequence
@@ -328,20 +329,17 @@ class RandomizedResponse(Mechanism):
         object.__setattr__(self, "inputs", labels)
         object.__setattr__(self, "outputs", labels)
         object.__setattr__(self, "name", name)
-        object.__setattr__(self, "_cache", {"epsilon": epsilon if k > 1 else 0.0})
         object.__setattr__(self, "rr", RandomizedResponseParameters(k, epsilon if k > 1 else 0.0, p, q, log_p, log_q))
 
-    @property
+    @functools.cached_property
     def matrix(self) -> FloatArray:
-        if "matrix" not in self._cache:
-            k, rr = len(self.inputs), self.rr
-            m = np.full((k, k), rr.q)
-            np.fill_diagonal(m, rr.p)
-            m.setflags(write=False)
-            self._cache["matrix"] = m
-        return self._cache["matrix"]
+        k, rr = len(self.inputs), self.rr
+        m = np.full((k, k), rr.q)
+        np.fill_diagonal(m, rr.p)
+        m.setflags(write=False)
+        return m
 
-    @property
+    @functools.cached_property
     def matrix_roundings(self) -> int:
         """How far :attr:`matrix`'s floats may lie from the exact p and q, as a count of roundings R: each positive
         entry is its exact value times 1 + θ with |θ| ≤ γ_R (:func:`~fairaudit.base.outward.rounding_error`), so a
@@ -356,9 +354,7 @@ class RandomizedResponse(Mechanism):
         >>> randomized_response(["a", "b"], epsilon=math.inf).matrix_roundings
         0
         """
-        if "roundings" not in self._cache:
-            self._cache["roundings"] = _rr_roundings(self.rr)
-        return int(self._cache["roundings"])
+        return _rr_roundings(self.rr)
 
     @property
     def support(self) -> BoolArray:

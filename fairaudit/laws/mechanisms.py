@@ -19,10 +19,11 @@ Proof of the facts used here: ``proofs/privacy.md``.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Hashable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, overload
 
@@ -282,7 +283,6 @@ class Mechanism:
     inputs: tuple
     outputs: tuple
     name: str = "matrix"
-    _cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def __init__(
         self,
@@ -302,20 +302,15 @@ class Mechanism:
         object.__setattr__(self, "inputs", inputs)
         object.__setattr__(self, "outputs", outputs)
         object.__setattr__(self, "name", name)
-        object.__setattr__(self, "_cache", {})
 
     def __repr__(self) -> str:
         return f"Mechanism({self.name!r}, {len(self.inputs)} inputs -> {len(self.outputs)} outputs, epsilon={self.epsilon:.6g})"
 
-    @property
+    @functools.cached_property
     def is_identity(self) -> bool:
         """True when the mechanism releases its input unchanged (same labels, identity matrix)."""
-        if "is_identity" not in self._cache:
-            m = self.matrix
-            self._cache["is_identity"] = bool(
-                self.inputs == self.outputs and m.shape[0] == m.shape[1] and np.array_equal(m, np.eye(m.shape[0]))
-            )
-        return self._cache["is_identity"]
+        m = self.matrix
+        return bool(self.inputs == self.outputs and m.shape[0] == m.shape[1] and np.array_equal(m, np.eye(m.shape[0])))
 
     @property
     def matrix_roundings(self) -> int:
@@ -323,18 +318,14 @@ class Mechanism:
         being the law (randomized response computes its entries from e^ε, and says how far they may be)."""
         return 0
 
-    @property
+    @functools.cached_property
     def row_sums(self) -> tuple[FloatArray, FloatArray]:
         """(upper, lower) ends of the row sums of the mechanism's exact law, shape (n_inputs,): 1 for the identity and
         where the floats approximate a stochastic law (:attr:`matrix_roundings` > 0: randomized response); a matrix is
         its own law, whose rows sum to 1 only within 1e-9 (:func:`~fairaudit.base.outward.sum_ends`). A bound that
         takes E[g] ≤ max g must scale by the upper end."""
-        if "row_sums" not in self._cache:
-            n = len(self.inputs)
-            stochastic = self.matrix_roundings or self.is_identity
-            self._cache["row_sums"] = (np.ones(n), np.ones(n)) if stochastic else sum_ends(self.matrix)
-        ends: tuple[FloatArray, FloatArray] = self._cache["row_sums"]
-        return ends
+        n = len(self.inputs)
+        return (np.ones(n), np.ones(n)) if self.matrix_roundings or self.is_identity else sum_ends(self.matrix)
 
     @property
     def support(self) -> BoolArray:
@@ -342,7 +333,7 @@ class Mechanism:
         a closed form (randomized response) whose exact entries may be too small for a float."""
         return self.matrix > 0
 
-    @property
+    @functools.cached_property
     def epsilon(self) -> float:
         """Pure-DP ε(M) in nats: max log M[a, o] / M[a', o] over all pairs.
 
@@ -354,10 +345,8 @@ class Mechanism:
         re-evaluated exactly where it may be the largest, and
         :func:`~fairaudit.base.outward.log_up` of it (``proofs/outward.md`` §5).
         """
-        if "epsilon" not in self._cache:
-            m = self.matrix
-            self._cache["epsilon"] = 0.0 if m.shape[0] < 2 else log_ratio_up(m.max(axis=0), m.min(axis=0))
-        return self._cache["epsilon"]
+        m = self.matrix
+        return 0.0 if m.shape[0] < 2 else log_ratio_up(m.max(axis=0), m.min(axis=0))
 
     def pairwise_delta(self, epsilon: float) -> FloatArray:
         """Hockey-stick divergence of every ordered pair of inputs.
@@ -571,15 +560,13 @@ class _Identity(Mechanism):
         object.__setattr__(self, "inputs", labels)
         object.__setattr__(self, "outputs", labels)
         object.__setattr__(self, "name", name)
-        object.__setattr__(self, "_cache", {"is_identity": True})
+        object.__setattr__(self, "is_identity", True)
 
-    @property
+    @functools.cached_property
     def matrix(self) -> FloatArray:
-        if "matrix" not in self._cache:
-            m = np.eye(len(self.inputs))
-            m.setflags(write=False)
-            self._cache["matrix"] = m
-        return self._cache["matrix"]
+        m = np.eye(len(self.inputs))
+        m.setflags(write=False)
+        return m
 
     @property
     def epsilon(self) -> float:

@@ -18,7 +18,8 @@ report it.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Hashable, Sequence
+import functools
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Self
 
@@ -235,23 +236,15 @@ class Population(_ContextsAndGroups):
             return f"assumed ({shape}): no population was given"
         return "the given P(X, A)"
 
-    @property
+    @functools.cached_property
     def p_context(self) -> FloatArray:
         """Marginal P(X = x), shape (n_contexts,), read-only (computed once)."""
-        return self._marginal("p_context", lambda p: np.einsum("xa->x", p))
+        return _read_only(np.einsum("xa->x", self.probabilities))
 
-    @property
+    @functools.cached_property
     def p_group(self) -> FloatArray:
         """Marginal P(A = a), shape (n_groups,), read-only (computed once)."""
-        return self._marginal("p_group", lambda p: p.sum(axis=0))
-
-    def _marginal(self, key: str, compute: Callable[[FloatArray], FloatArray]) -> FloatArray:
-        cache: dict[str, FloatArray] = self.__dict__.setdefault("_cache", {})
-        if key not in cache:
-            value = compute(self.probabilities)
-            value.setflags(write=False)
-            cache[key] = value
-        return cache[key]
+        return _read_only(self.probabilities.sum(axis=0))
 
     def context_given_group(self) -> FloatArray:
         """P(X = x | A = a), shape (n_contexts, n_groups); columns of groups with P(a) = 0 are NaN (0 / 0)."""
@@ -500,6 +493,12 @@ def _table_array(values: object, field: str, owned: bool) -> tuple[FloatArray, F
             return values, None
         return np.empty(values.shape), values
     return as_float_array(values, field, ndim=3, copy=not owned), None
+
+
+def _read_only(array: FloatArray) -> FloatArray:
+    """``array``, made read-only."""
+    array.setflags(write=False)
+    return array
 
 
 def _frozen(array: object) -> bool:

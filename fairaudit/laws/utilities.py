@@ -100,6 +100,10 @@ def _check_triangle(d: FloatArray) -> None:
             )
 
 
+_NUMBERS = ("lower", "gamma", "tau", "lipschitz", "diameter")
+"""The numbers of a :class:`UtilityClass` (its fields but the metric)."""
+
+
 @dataclass(frozen=True, kw_only=True, eq=False)
 class UtilityClass:
     """The class of utilities a bound holds for: lower ≤ g ≤ γ, E[g | x, a] ≥ τ, L_A-Lipschitz in the group.
@@ -162,7 +166,7 @@ class UtilityClass:
     diameter: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("lower", "gamma", "tau", "lipschitz", "diameter"):
+        for name in _NUMBERS:
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, nonnegative(value, name))
@@ -178,13 +182,7 @@ class UtilityClass:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, UtilityClass):
             return NotImplemented
-        same = (self.lower, self.gamma, self.tau, self.lipschitz, self.diameter) == (
-            other.lower,
-            other.gamma,
-            other.tau,
-            other.lipschitz,
-            other.diameter,
-        )
+        same = all(getattr(self, name) == getattr(other, name) for name in _NUMBERS)
         if self.metric is None or other.metric is None:
             return same and self.metric is other.metric
         return same and np.array_equal(self.metric, other.metric)

@@ -38,6 +38,7 @@ __all__ = [
     "max_over",
     "mixed_ratio",
     "mixed_tv",
+    "pair_floors",
     "pair_gap",
 ]
 
@@ -165,25 +166,24 @@ class MinMaxRatio:
             return 1.0
         if np.any(W @ hi <= 0):  # some group is always 0 while another can be positive
             return math.inf
-        pairwise = _pairwise_floor(W, lo, hi)
+        pairwise = max(1.0, float(pair_floors(W, lo, hi).max()))
         value = self.lp(W, lo, hi)
         return max(pairwise, 1.0 if value is None else value)
 
 
-def _pairwise_floor(W: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
-    """max over pairs of min over the box of (W_a·e)/(W_a'·e): a valid floor of the min-max ratio, in closed form.
+def pair_floors(W: FloatArray, lo: FloatArray, hi: FloatArray) -> FloatArray:
+    """[a, a'] = min over the box of (W_a·e)/(W_a'·e), in closed form: 1 / the threshold maximum of the inverse ratio
+    (+inf where that is 0 or beyond the floats, -inf on the diagonal).
 
-    min of a max ≥ max of the mins; each min is 1 / the threshold maximum of
-    the inverse ratio. Exact when the groups use disjoint cells.
+    The largest is a valid floor of the min-max ratio (min of a max ≥ max of the mins), exact when the groups use
+    disjoint cells.
     """
     from fairaudit.base.threshold_rule import threshold_max_many
 
-    A = W.shape[0]
     inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)  # [a, a'] = max (W_a'·e)/(W_a·e)
-    with np.errstate(divide="ignore"):
-        mins = np.where(inv > 0, 1.0 / inv, np.inf)
-    mins = np.where(np.eye(A, dtype=bool), 1.0, mins)
-    return max(1.0, float(mins.max()))
+    with np.errstate(divide="ignore", over="ignore"):  # (1/inv beyond the floats, inv subnormal: +inf, the largest)
+        floor = np.where(inv > 0, 1.0 / inv, np.inf)
+    return np.where(np.eye(len(W), dtype=bool), -np.inf, floor)
 
 
 def mixed_ratio(
@@ -211,15 +211,13 @@ def mixed_ratio(
             progress()
     idx = vals.argmax(-1)
     upper = vals[np.arange(M), idx]
-    key = (A, n)
     if not lower_end:
         lower = np.full(M, np.nan)
     else:
-        if key not in solver:
-            solver[key] = MinMaxRatio(A, n)
+        program = solver.setdefault((A, n), MinMaxRatio(A, n))
         lower = np.empty(M)
         for m in range(M):
-            lower[m] = solver[key].solve(W[m], lo, hi)
+            lower[m] = program.solve(W[m], lo, hi)
             if progress is not None:
                 progress()
     if A < 2:

@@ -65,19 +65,17 @@ class Observed:
             Intervals for these metrics: ``local`` and ``global`` carry theirs,
             and the whole set is under ``intervals``.
         """
+        others: dict[str, TotalVariation | SupFairness] = {
+            "demographic_parity": self.demographic_parity,
+            "equalized_odds": self.equalized_odds,
+            "sup_local": self.sup_local_fairness,
+            "sup_global": self.sup_global_fairness,
+        }
         out: Report = {
             "local": self.local_fairness.to_dict(None if intervals is None else intervals.local_fairness),
             "global": self.global_fairness.to_dict(None if intervals is None else intervals.global_fairness),
-            "demographic_parity": number(self.demographic_parity.value),
-            "equalized_odds": number(self.equalized_odds.value),
-            "sup_local": number(self.sup_local_fairness.value),
-            "sup_global": number(self.sup_global_fairness.value),
-            "details": {
-                "demographic_parity": self.demographic_parity.to_dict(),
-                "equalized_odds": self.equalized_odds.to_dict(),
-                "sup_local": self.sup_local_fairness.to_dict(),
-                "sup_global": self.sup_global_fairness.to_dict(),
-            },
+            **{name: number(metric.value) for name, metric in others.items()},
+            "details": {name: metric.to_dict() for name, metric in others.items()},
             "excluded": list(dict.fromkeys(self.local_fairness.excluded + self.global_fairness.excluded)),
         }
         if intervals is not None:

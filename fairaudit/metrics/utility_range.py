@@ -30,7 +30,7 @@ from fairaudit.laws.composition import compose
 from fairaudit.laws.mechanisms import Mechanism, identity
 from fairaudit.laws.tables import Kernel, Law, Population, population_for
 from fairaudit.laws.utilities import Utility
-from fairaudit.metrics.box_extremes import MinMaxRatio, mixed_ratio
+from fairaudit.metrics.box_extremes import MinMaxRatio, mixed_ratio, pair_floors
 from fairaudit.metrics.fairness import global_fairness, local_fairness
 
 __all__ = ["FairnessRange", "UtilityRange", "fairness_range"]
@@ -141,15 +141,8 @@ def _log(r: float) -> float:
 
 
 def _lower_pair(W: FloatArray, lo: FloatArray, hi: FloatArray) -> tuple[int, int]:
-    """The pair (a, a') of the largest min over the box of (W_a·e)/(W_a'·e) (threshold rule on the inverse)."""
-    from fairaudit.base.threshold_rule import threshold_max_many
-
-    inv, _, _ = threshold_max_many(W[None, :, :], W[:, None, :], lo, hi)  # [a, a'] = max (W_a'·e)/(W_a·e)
-    with np.errstate(divide="ignore", over="ignore"):  # (1/inv beyond the floats, inv subnormal: +inf, the largest)
-        floor = np.where(inv > 0, 1.0 / inv, np.inf)
-    floor = np.where(np.eye(len(W), dtype=bool), -np.inf, floor)
-    i = int(floor.argmax())
-    return i // len(W), i % len(W)
+    """The pair (a, a') of the largest min over the box of (W_a·e)/(W_a'·e) (:func:`pair_floors`)."""
+    return divmod(int(pair_floors(W, lo, hi).argmax()), len(W))
 
 
 def fairness_range(

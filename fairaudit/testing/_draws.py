@@ -46,9 +46,7 @@ Number: TypeAlias = float | st.SearchStrategy[float]
 
 def labels(draw: st.DrawFn, spec: Size, prefix: str, minimum: int, what: str) -> tuple:
     """Resolve a size spec (int, range, or labels) into a tuple of labels of length ≥ ``minimum``."""
-    if isinstance(spec, bool):
-        raise InvalidArgument(f"{what}={spec!r}: give an int, a range or a sequence of labels")
-    if isinstance(spec, int):
+    if isinstance(spec, int) and not isinstance(spec, bool):  # (a bool is refused below)
         if spec < minimum:
             raise InvalidArgument(f"{what}={spec} must be at least {minimum}")
         n = spec

@@ -156,10 +156,7 @@ def mechanisms(
         return draw(_delta_mechanisms(n_inputs, n_outputs, eps, dlt, allow_zeros))
     positive = eps is not None and eps > 0
     inputs = draws.labels(draw, n_inputs, "a", 2 if positive else 1, "n_inputs")
-    if n_outputs is None:
-        outputs = inputs
-    else:
-        outputs = draws.labels(draw, n_outputs, "o", 2 if positive else 1, "n_outputs")
+    outputs = inputs if n_outputs is None else draws.labels(draw, n_outputs, "o", 2 if positive else 1, "n_outputs")
     n_in, n_out = len(inputs), len(outputs)
     if eps is None:
         matrix = draws.rows(draw, (n_in, n_out), allow_zeros)
@@ -301,8 +298,7 @@ def product_mechanisms(
     if eps is not None:
         w = draws.weights(draw, (n,), allow_zeros=True)
         split = [eps * float(wi) / float(w.sum()) for wi in w]
-        split[-1] = eps - sum(split[:-1])
-        split[-1] = max(split[-1], 0.0)
+        split[-1] = max(eps - sum(split[:-1]), 0.0)
         shares = [*split]
     components = []
     for i in range(n):

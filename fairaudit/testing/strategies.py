@@ -132,9 +132,7 @@ def populations(
     nx, na = len(xs), len(gs)
     if independent is None:
         independent = True if (nx < 2 or na < 2) else draw(st.booleans())
-    live = np.ones(nx, dtype=bool)
-    if allow_zero_contexts and nx > 1:
-        live = draws.alive(draw, nx, 1 if independent else 2)
+    live = draws.alive(draw, nx, 1 if independent else 2) if allow_zero_contexts and nx > 1 else np.ones(nx, bool)
     if independent:
         px = draws.weights(draw, (nx,), allow_zeros=False) * live
         pa = draws.weights(draw, (na,), allow_zeros=False)
@@ -353,10 +351,8 @@ def utilities(
     gs = draws.labels(draw, groups if groups is not None else 2, "a", 2 if depends_on_group else 1, "groups")
     shape = (len(xs), len(gs), len(us))
     if depends_on_group:
-        values = _group_dependent_values(draw, shape, gam, low, lip)
-    else:
-        values = _group_free_values(draw, shape, gam, low)
-    return Utility(values, us, xs, gs, name="drawn utility")
+        return Utility(_group_dependent_values(draw, shape, gam, low, lip), us, xs, gs, name="drawn utility")
+    return Utility(_group_free_values(draw, shape, gam, low), us, xs, gs, name="drawn utility")
 
 
 def _vector_values(draw: st.DrawFn, nu: int, gam: float, low: float) -> FloatArray:

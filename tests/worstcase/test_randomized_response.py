@@ -89,9 +89,9 @@ def spec_text(values, mechanism: str, utility: str = 'decision = "yes"', target:
 
 def test_randomized_response_is_lazy_and_from_matrix_is_general():
     m = fa.randomized_response(list(range(5)), 1.0)
-    assert isinstance(m, RandomizedResponse) and "matrix" not in m._cache
+    assert isinstance(m, RandomizedResponse) and "matrix" not in m.__dict__
     assert m.epsilon == 1.0 and m.delta(0.5) > 0 and m.keep_probability > 0
-    assert "matrix" not in m._cache  # ε, δ and the keep probability did not build the 5 x 5 matrix
+    assert "matrix" not in m.__dict__  # ε, δ and the keep probability did not build the 5 x 5 matrix
     np.testing.assert_allclose(m.matrix, rr_matrix(5, 1.0), rtol=1e-14)
     assert isinstance(fa.randomized_response_family(list("abc"))(0.4), RandomizedResponse)
     assert not isinstance(fa.from_matrix(rr_matrix(3, 0.4), list("abc")), RandomizedResponse)

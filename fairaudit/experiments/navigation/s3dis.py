@@ -313,21 +313,17 @@ def read_room(room_dir: str | Path) -> Room:
     annotations = folder / "Annotations"
     files = sorted(annotations.glob("*.txt"), key=lambda f: _instance_key(f.stem)) if annotations.is_dir() else []
     if files:
-        blocks, cats, ids, skipped = [], [], [], 0
-        for i, f in enumerate(files):
+        blocks, codes, skipped = [], [], 0
+        for f in files:
             rows, bad = read_points(f)
             skipped += bad
-            m = _INSTANCE.match(f.stem)
-            category = m.group("category") if m else f.stem
-            code = _CODE.get(category, _CODE["clutter"])
-            if code == UNLABELLED:
-                code = _CODE["clutter"]
+            code = _CODE.get(room_kind(f.stem), _CODE["clutter"])
+            codes.append(_CODE["clutter"] if code == UNLABELLED else code)
             blocks.append(rows)
-            cats.append(np.full(len(rows), code, dtype=np.uint8))
-            ids.append(np.full(len(rows), i, dtype=np.int32))
+        sizes = [len(b) for b in blocks]
         rows = np.concatenate(blocks)
-        categories = np.concatenate(cats)
-        instance_ids = np.concatenate(ids)
+        categories = np.repeat(np.array(codes, dtype=np.uint8), sizes)
+        instance_ids = np.repeat(np.arange(len(files), dtype=np.int32), sizes)
         instances = tuple(f.stem for f in files)
     else:
         whole = folder / f"{name}.txt"

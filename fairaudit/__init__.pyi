@@ -1,5 +1,6 @@
-"""The public names of ``fairaudit`` and where each is defined: read by ``lazy_loader.attach_stub`` (each module
-is imported when one of its names is first used; SPEC 1) and by type checkers."""
+# The public names of fairaudit and where each is defined: read by lazy_loader.attach_stub (each module is imported
+# when one of its names is first used; SPEC 1) and by type checkers. No docstring: fairaudit/__init__.py has the
+# package's, which the API reference shows.
 
 from .base.checks import choice, number_type, real, whole
 from .base.errors import FairauditError, InputError, UnderflowError, optional_modules

@@ -97,12 +97,12 @@ def test_the_check_catches_a_heavy_import():
 
 
 def test_the_public_names_are_one_plain_list_of_imports_and_all():
-    """``fairaudit/__init__.pyi``: a docstring, relative imports of the public names from their modules (what
+    """``fairaudit/__init__.pyi``: relative imports of the public names from their modules (what
     ``lazy_loader.attach_stub`` reads), ``__version__`` and ``__all__``; every name imported is in ``__all__`` and
     every name of ``__all__`` is imported; ``__init__.py`` holds no import of its own."""
     tree = ast.parse((ROOT / "fairaudit" / "__init__.pyi").read_text(encoding="utf-8"))
     imported: list[str] = []
-    for node in tree.body[1:]:  # after the docstring
+    for node in tree.body:
         if isinstance(node, ast.ImportFrom):
             assert node.level == 1 and node.module, ast.unparse(node)
             imported += [a.asname or a.name for a in node.names]

@@ -3,7 +3,7 @@
 Every row is a fresh interpreter started as a child process (wall-clock time, median of ``--repeats`` runs after one
 untimed run that warms the file cache and writes the bytecode to a temporary cache), so the time includes what a user waits for: the interpreter, the imports and
 the work. The baselines are timed in the same run: ``python -c pass`` (the interpreter alone),
-``python -c "import numpy"`` and the libraries the certificate loads (numpy, scipy.special, scipy.sparse, Clarabel,
+``python -c "import numpy"`` and the libraries the certificate loads (numpy, scipy.special, highspy, python-flint,
 pydantic, DuckDB), so that the certificate's time splits into theirs and fairaudit's. The k-th runs of all rows are taken
 back to back (round-robin), so that a slower spell of the machine weighs on every row alike. Each row also lists the heavy modules the child imported (read from ``-X importtime``
 in one extra run): pandas, pyarrow, scipy.stats, cvxpy, matplotlib, httpx, duckdb.
@@ -37,11 +37,11 @@ HEAVY = ("pandas", "pyarrow", "scipy.stats", "cvxpy", "matplotlib", "httpx", "du
 GPT35 = "examples/llm_hiring/gpt35.toml"
 PY = sys.executable
 # What the certificate cannot do without: the libraries `fairaudit certify` loads for the shipped example (numpy;
-# scipy.special for the Clopper-Pearson intervals; scipy.sparse and Clarabel for their LP; pydantic for the spec,
-# one model built so that its plug-in scan runs; DuckDB for its model table, one in-memory database opened so that
-# its engine starts, about 20 ms that any use of DuckDB pays once), with nothing of fairaudit's.
+# scipy.special for the Clopper-Pearson intervals; highspy and python-flint for the exact linear programs; pydantic
+# for the spec, one model built so that its plug-in scan runs; DuckDB for its model table, one in-memory database
+# opened so that its engine starts, about 20 ms that any use of DuckDB pays once), with nothing of fairaudit's.
 FLOOR = (
-    "import numpy, scipy.special, scipy.sparse, clarabel, tomllib, duckdb\n"
+    "import numpy, scipy.special, highspy, flint, tomllib, duckdb\n"
     "from pydantic import BaseModel\n"
     "class Spec(BaseModel):\n"
     "    x: float\n"

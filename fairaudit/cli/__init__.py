@@ -32,7 +32,7 @@ CLEAR_LINE = "\r\x1b[K"
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``fairaudit`` command; returns the exit status."""
     words = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser(words[0] if words else None)
+    parser = build_parser(words[0] if words else "")  # "": no command named, so none is imported
     args = parser.parse_args(words)
     try:
         check_outputs(args)

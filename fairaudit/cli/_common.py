@@ -22,6 +22,19 @@ if TYPE_CHECKING:
     from fairaudit.data.csv_format import CsvFormat
 
 
+COMMANDS = {
+    "certify": "certify a bound on unfairness from a TOML spec",
+    "audit": "exact fairness metrics of decision records",
+    "calibrate": "the largest privacy budget epsilon meeting a fairness target",
+    "plan": "queries per cell needed to certify a fairness target from counts",
+    "worst-case": "the utility that shows the largest disparity of a spec's model",
+    "filter": "release one column of a CSV or Parquet file through a privacy filter",
+    "verify": "re-derive a certificate's numbers from its recorded inputs (exit 0: all hold, 1: one fails)",
+}
+"""The core commands and their one-line help, in the order ``fairaudit --help`` lists them. A command's module
+(``fairaudit/cli/<command>.py``, ``-`` read as ``_``) is imported only when the command line names it (issue 83)."""
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (exit 2)."""
 

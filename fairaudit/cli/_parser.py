@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
 from fairaudit import __version__
 
-from . import audit, calibrate, certify, filter, plan, verify, worst_case
-from ._common import Parser, Subparsers, command_flags
+from ._common import COMMANDS, Parser, Subparsers, command_flags
 
 COMMANDS_GROUP = "fairaudit.commands"
 """The entry point group of the plug-ins' commands (the experiments' ``experiment`` and ``prepare-model``)."""
@@ -20,8 +20,11 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     Parameters
     ----------
     command : str, optional
-        The command line's first argument. When it names a core command, the plug-ins' commands are not loaded:
-        a core command neither waits for them nor depends on them.
+        The command line's first argument. When it names a core command, only that command's module is imported
+        (the others are listed with their one-line help) and the plug-ins' commands are not loaded: a core command
+        neither waits for them nor depends on them. Anything else (``--help``, ``--version``, a plug-in's command)
+        lists every core command without importing its module, then loads the plug-ins. None (the default) builds
+        every command's parser in full, as the CLI reference and the tests read them.
     """
     parser = Parser(
         prog="fairaudit",
@@ -30,9 +33,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"fairaudit {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
-    for module in (certify, audit, calibrate, plan, worst_case, filter, verify):
-        module.add_parser(sub)
-    if command not in sub.choices:
+    for name, line in COMMANDS.items():
+        if command in (None, name):
+            importlib.import_module(f"{__package__}.{name.replace('-', '_')}").add_parser(sub)
+        else:
+            sub.add_parser(name, help=line)
+    if command not in COMMANDS:
         add_plugin_commands(sub)
     for command_parser in sub.choices.values():
         own = command_parser.get_default("flags") or {}  # a command's parameters that come from another flag

@@ -10,14 +10,14 @@ from fairaudit.base.errors import InputError
 from fairaudit.reports.formats import render
 from fairaudit.reports.formats.sections import records
 
-from ._common import Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
+from ._common import COMMANDS, Subparsers, add_output, add_text_format, columns, emit, level, positive_int, text_format
 
 
 def add_parser(sub: Subparsers) -> None:
     """Add the ``audit`` subcommand to ``sub``."""
     a = sub.add_parser(
         "audit",
-        help="exact fairness metrics of decision records",
+        help=COMMANDS["audit"],
         description="Count decision records (CSV or Parquet) by context, group and outcome and report "
         "local and global g-fairness, demographic parity and equalized odds gaps, and sups over g. "
         "Parquet and CSV are counted out of core by DuckDB.",

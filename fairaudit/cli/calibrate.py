@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 from fairaudit.base.errors import InputError
 from fairaudit.reports.formats import render
 
-from ._common import Subparsers, add_global, add_output, emit
+from ._common import COMMANDS, Subparsers, add_global, add_output, emit
 
 if TYPE_CHECKING:
     from fairaudit.laws.families import MechanismFamily
@@ -19,7 +19,7 @@ def add_parser(sub: Subparsers) -> None:
     """Add the ``calibrate`` subcommand to ``sub``."""
     k = sub.add_parser(
         "calibrate",
-        help="the largest privacy budget epsilon meeting a fairness target",
+        help=COMMANDS["calibrate"],
         description="Largest epsilon of a mechanism family on the sensitive attribute (k-ary "
         "randomized response, or the spec's) whose certificate on local g-fairness (or global, "
         "--global) meets --target, and its keep probability. Exit 1 when no epsilon meets it.",

@@ -11,7 +11,7 @@ from fairaudit.base.errors import InputError
 from fairaudit.base.progress import progress_shown
 from fairaudit.reports.formats import render
 
-from ._common import Subparsers, add_output, emit, epsilons, level
+from ._common import COMMANDS, Subparsers, add_output, emit, epsilons, level
 
 if TYPE_CHECKING:
     from fairaudit.certification.certificate import Certificate
@@ -21,7 +21,7 @@ def add_parser(sub: Subparsers) -> None:
     """Add the ``certify`` subcommand to ``sub``."""
     c = sub.add_parser(
         "certify",
-        help="certify a bound on unfairness from a TOML spec",
+        help=COMMANDS["certify"],
         description="Bounds on local g-fairness that hold for any decision model behind the spec's "
         "privacy filter; observed metrics when the spec has a model; pass/fail against targets.",
     )

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 from fairaudit.base.errors import InputError
 from fairaudit.base.files import write_atomic
 
-from ._common import Subparsers, add_text_format, columns, nonneg, text_format
+from ._common import COMMANDS, Subparsers, add_text_format, columns, nonneg, text_format
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -32,7 +32,7 @@ def add_parser(sub: Subparsers) -> None:
     """Add the ``filter`` subcommand to ``sub``."""
     f = sub.add_parser(
         "filter",
-        help="release one column of a CSV or Parquet file through a privacy filter",
+        help=COMMANDS["filter"],
         description="Releases each value of one column through k-ary randomized response (--epsilon or --keep, on "
         "--values) or a spec's [privacy.sensitive] mechanism (--spec), with exact probabilities and a "
         "cryptographically secure source of randomness, and writes the file with that column released.",

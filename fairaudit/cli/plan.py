@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from fairaudit.base.json_values import Report
 from fairaudit.reports.formats import render
 
-from ._common import Subparsers, add_global, add_max_memory, add_output, emit
+from ._common import COMMANDS, Subparsers, add_global, add_max_memory, add_output, emit
 
 if TYPE_CHECKING:
     from fairaudit.statistics.sample_size import SamplePlan
@@ -25,7 +25,7 @@ def add_parser(sub: Subparsers) -> None:
     """Add the ``plan`` subcommand (sample sizes) to ``sub``."""
     p = sub.add_parser(
         "plan",
-        help="queries per cell needed to certify a fairness target from counts",
+        help=COMMANDS["plan"],
         description="Smallest number of queries per cell (context x group) such that the "
         "simultaneous interval on L (or L-bar, --global) of a binary decision has its upper end <= "
         "--target with probability >= --power, by simulation, when the model has the given "

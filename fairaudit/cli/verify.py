@@ -18,14 +18,14 @@ from typing import Any
 from fairaudit.base.errors import InputError
 from fairaudit.verification.schema import MAX_DEPTH, CertificateError
 
-from ._common import Subparsers
+from ._common import COMMANDS, Subparsers
 
 
 def add_parser(sub: Subparsers) -> None:
     """Add the ``verify`` subcommand to ``sub``."""
     v = sub.add_parser(
         "verify",
-        help="re-derive a certificate's numbers from its recorded inputs (exit 0: all hold, 1: one fails)",
+        help=COMMANDS["verify"],
         description="Re-derives every number of a certificate that it can from the inputs the certificate records, "
         "in exact rational arithmetic, and prints each with 'holds' or 'fails by X'. Exit 0 when all hold, 1 when "
         "one fails, 2 on bad input.",

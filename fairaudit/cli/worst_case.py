@@ -6,14 +6,14 @@ import argparse
 
 from fairaudit.reports.formats import render
 
-from ._common import Subparsers, add_output, emit, nonneg
+from ._common import COMMANDS, Subparsers, add_output, emit, nonneg
 
 
 def add_parser(sub: Subparsers) -> None:
     """Add the ``worst-case`` subcommand to ``sub``."""
     w = sub.add_parser(
         "worst-case",
-        help="the utility that shows the largest disparity of a spec's model",
+        help=COMMANDS["worst-case"],
         description="For the decision model of a spec (its [model], behind the spec's privacy filter), the "
         "utility g(u) in [lower, gamma] (with E[g | x, a] >= tau) whose local and global g-fairness are largest, "
         "with their values in nats, beside the spec's own utility.",

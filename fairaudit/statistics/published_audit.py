@@ -88,7 +88,7 @@ def printed(text: Any) -> Printed | None:
     """
     if text is None or (isinstance(text, float) and math.isnan(text)):
         return None
-    raw = repr(text) if isinstance(text, float) else str(text)
+    raw = repr(float(text)) if isinstance(text, float) else str(text)  # numpy's float64 too, not 'np.float64(..)'
     body = raw.strip().replace(",", "")
     if not body or body.lower() in ("na", "nan", "n/a", "-", "—"):
         return None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 from fractions import Fraction
 
 import pandas as pd
@@ -44,6 +45,14 @@ def test_printed_figures_are_read_exactly():
     assert p.matches(Fraction(3, 4) + Fraction(1, 200)) and not p.matches(Fraction(3, 4) + Fraction(1, 199))
     with pytest.raises(InputError, match="^published: a figure must be a number or a percentage"):
         printed("high")
+
+
+def test_a_table_read_by_pandas_with_its_default_types_is_read_by_its_numbers():
+    """pandas reads 0.3 as numpy's float64, whose repr under numpy 2 is ``np.float64(0.3)``: read as 0.3."""
+    text = "category,applicants,selected,rate,impact_ratio\nFemale,100,30,0.3,0.75\nMale,120,48,0.4,1.0\n"
+    checked = check_published(pd.read_csv(io.StringIO(text)))
+    assert checked.consistent
+    assert [(r.category, r.rate, r.impact_ratio) for r in checked.rows] == [("Female", 0.3, 0.75), ("Male", 0.4, 1.0)]
 
 
 def test_the_aclu_format_is_read_and_each_inconsistency_named():

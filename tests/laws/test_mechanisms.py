@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 from fractions import Fraction
 
+import mpmath
 import numpy as np
 import pytest
 
 import fairaudit as fa
+from fairaudit.laws.mechanisms import log_ratio_up
 
 # --------------------------------------------------------------------------- helpers
 
@@ -225,3 +228,12 @@ def test_product_refuses_an_entry_below_the_float_range():
     assert fa.product(rr, fa.randomized_response([0, 1], epsilon=300.0)).epsilon == pytest.approx(700.0, rel=1e-12)
     with pytest.raises(fa.InputError, match=r"^product: .*smallest normal float"):
         fa.product(rr, fa.randomized_response([0, 1], epsilon=400.0))
+
+
+def test_a_log_ratio_above_the_float_range_is_finite_and_an_upper_end():
+    """0.5 / 1e-310 overflows a float; ln of it is about 712.5 nats, read exactly (it was +inf, with a warning)."""
+    with mpmath.workdps(50), warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = log_ratio_up([0.5, 0.25], [1e-310, 0.25])
+        exact = mpmath.log(mpmath.mpf(0.5) / mpmath.mpf(1e-310))
+        assert mpmath.mpf(got) >= exact and mpmath.mpf(got) - exact <= 1e-12 * exact

@@ -30,7 +30,7 @@ from fairaudit.base.linear_fractional import FractionalResult, gap_between
 from fairaudit.base.outward import fraction_down, fraction_up
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.worstcase.known_utility_problem import ModelProblem
+from fairaudit.worstcase.known_utility_problem import ModelProblem, coefficient_factors
 from fairaudit.worstcase.randomized_response import rr_exact_rows
 from fairaudit.worstcase.worst_cases import EXACT_CROSSOVER
 
@@ -144,10 +144,8 @@ class _End:
 
 
 def _coefficients(MA: ObjectArray, MX: ObjectArray, g: ObjectArray, u_only: bool, x: int, b: int) -> ObjectArray:
-    """The coefficients of E[g | x, b]: M_X[x, x̃] M_A[b, ã] in G-space, times g(u, x, b) in kernel space."""
-    if u_only:
-        return np.outer(MX[x], MA[b]).ravel()
-    return (MX[x][:, None, None] * MA[b][None, :, None] * g[x, b][None, None, :]).ravel()
+    """The coefficients of E[g | x, b], exactly: the product of :func:`coefficient_factors`."""
+    return functools.reduce(operator.mul, coefficient_factors(MA, MX, g, u_only, x, b)).ravel()
 
 
 MAX_BLOCKS = 256

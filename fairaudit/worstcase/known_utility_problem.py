@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, SupportsIndex
 
 import numpy as np
+import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
@@ -195,6 +197,23 @@ def model_problem(
         independent=exactly_independent(population.probabilities),
         assumptions=assumptions,
     )
+
+
+def coefficient_factors(
+    MA: npt.NDArray[Any], MX: npt.NDArray[Any], g: npt.NDArray[Any], u_only: bool, x: SupportsIndex, b: SupportsIndex
+) -> tuple[npt.NDArray[Any], ...]:
+    """The factors, broadcast together, whose product is the coefficients of E[g | x, b] in the programs' variables:
+    M_X[x, x̃] M_A[b, ã] in G-space (``u_only``), times g(u, x, b) in kernel space. Floats or exact Fractions.
+
+    Examples
+    --------
+    >>> MA, MX, g = np.array([[0.7, 0.3], [0.3, 0.7]]), np.eye(1), np.array([[[1.0, 0.0], [1.0, 0.0]]])
+    >>> [f.shape for f in coefficient_factors(MA, MX, g, True, 0, 1)], len(coefficient_factors(MA, MX, g, False, 0, 1))
+    ([(1, 1), (1, 2)], 3)
+    """
+    if u_only:
+        return MX[x][:, None], MA[b][None, :]
+    return MX[x][:, None, None], MA[b][None, :, None], g[x, b][None, None, :]
 
 
 def utility_reach(g: FloatArray, mechanism: Mechanism, context_mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:

@@ -603,13 +603,10 @@ def _exact_simplex(prog: ExactProgram, state: _Basis) -> tuple[str, _Basis, int]
     Primal feasible: the primal simplex. Dual feasible: the dual simplex. Neither: the primal simplex over bounds
     shifted to hold the basic values, which ends dual feasible; then the dual simplex over the true bounds.
     """
-    pivots = 0
     if state.infeasible() is None:
-        outcome, state, steps = _primal(prog, state)
-        return outcome, state, pivots + steps
+        return _primal(prog, state)
     if state.improving() is None:
-        outcome, state, steps = _dual(prog, state)
-        return outcome, state, pivots + steps
+        return _dual(prog, state)
     lower, upper = list(prog.lower), list(prog.upper)
     for v, s in enumerate(state.status):
         if s == "basic":
@@ -619,8 +616,7 @@ def _exact_simplex(prog: ExactProgram, state: _Basis) -> tuple[str, _Basis, int]
             if upper[v] is not None and x > upper[v]:
                 upper[v] = x
     shifted = _Basis(prog, state.status, lower, upper)
-    outcome, shifted, steps = _primal(prog, shifted)
-    pivots += steps
+    outcome, shifted, pivots = _primal(prog, shifted)
     true = _Basis(prog, shifted.status, prog.lower, prog.upper)
     if outcome == "unbounded":  # a ray of the shifted program is one of the true one: unbounded if feasible
         saved, prog.c = prog.c, [0] * prog.n

@@ -41,7 +41,7 @@ from fairaudit.base.exact_duality import PreparedRows, certify_ratio, point_rati
 from fairaudit.base.exact_ratio import dot
 from fairaudit.base.fractional_inputs import ConstraintMatrix, check_bounds, check_vectors, constraint_rows
 from fairaudit.base.outward import fraction_down, fraction_up, up
-from fairaudit.base.threshold_rule import threshold_max_many
+from fairaudit.base.threshold_rule import box_point, threshold_max_many
 
 __all__ = [
     "EXACT_BASIS",
@@ -179,10 +179,7 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
         # needs q·h > 0 on the whole box. Use lp_max for such programs.
         raise InputError("lower", "the threshold solution needs lower >= 0 (use lp_max)", float(lo.min()))
     values, k, order = threshold_max_many(p, q, lo, hi)
-    h = lo.copy()
-    top = order[: int(k)]
-    h[top] = hi[top]
-    value = float(values)
+    h, value = box_point(lo, hi, order, int(k)), float(values)
     witness = point_ratio(h, p, q, lo, hi, [])
     if math.isnan(witness):  # q·h = 0 at the point: c/0 = +inf, 0/0 = 1
         witness = math.inf if p @ h > 0 else 1.0

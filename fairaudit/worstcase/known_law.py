@@ -20,7 +20,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
 from fairaudit.base.outward import product_ends, rounding_error, sum_ends, widen_up
 from fairaudit.base.pairs import PAIR_BLOCK
-from fairaudit.base.threshold_rule import threshold_max_many
+from fairaudit.base.threshold_rule import box_point, threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
 from fairaudit.worstcase.pair_search import (
@@ -270,8 +270,7 @@ def _utility_case(
         ratio, x, a, b = best
         ratio = float(widen_up(ratio, widen)) if widen else ratio
         _, k, order = threshold_max_many(P[x, a], P[x, b], lower, gamma)
-        h = np.full(P.shape[-1], lower)
-        h[order[: int(k)]] = gamma
+        h = box_point(lower, gamma, order, int(k))
         return WorstCase.threshold(
             kind,
             ratio,

@@ -85,13 +85,13 @@ class ModelProblem:
 
     def kernel(self, table: FloatArray, exact: bool = False) -> Kernel:
         """The worst model of a table K[x̃, ã, u]; ``exact``: a table of one-hot rows made here, no rounding to clean."""
+        if not exact:
+            table = np.clip(table, 0.0, None)
+            table = table / table.sum(axis=-1, keepdims=True)
         released_contexts, released_groups = self.context_mechanism.outputs, self.mechanism.outputs
-        decisions = self.utility.decisions
-        if exact:
-            return Kernel(table, released_contexts, released_groups, decisions, name="worst model", _owned=True)
-        t = np.clip(table, 0.0, None)
-        t = t / t.sum(axis=-1, keepdims=True)
-        return Kernel(t, released_contexts, released_groups, decisions, name="worst model", _owned=True)
+        return Kernel(
+            table, released_contexts, released_groups, self.utility.decisions, name="worst model", _owned=True
+        )
 
     def audit(self, kernel: Kernel, kind: str) -> FloatArray | None:
         """E[g | x, a] (local) or E[g | a] (global) of the law behind ``kernel``; None where that law has a cell of
@@ -234,9 +234,7 @@ def _scaled(values: FloatArray, factor: FloatArray, upward: bool) -> FloatArray:
 
 def onehot(idx: IntArray, n: int) -> FloatArray:
     """The one-hot rows of the indices ``idx`` over ``n`` values, shape ``idx.shape + (n,)``."""
-    out = np.zeros(idx.shape + (n,))
-    np.put_along_axis(out, idx[..., None], 1.0, axis=-1)
-    return out
+    return np.eye(n)[idx]
 
 
 def weighted_utility(problem: ModelProblem) -> FloatArray:

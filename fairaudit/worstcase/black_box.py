@@ -15,7 +15,6 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray
-from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
@@ -179,9 +178,7 @@ def _class_problem(
     method = check_method(method)
     lower, gamma, tau = check_class(utility_class)
     assert utility_class is None or isinstance(utility_class, UtilityClass)  # (check_class refuses the rest)
-    lip = nonnegative(
-        0.0 if utility_class is None or utility_class.lipschitz is None else utility_class.lipschitz, "lipschitz"
-    )
+    lip = 0.0 if utility_class is None or utility_class.lipschitz is None else utility_class.lipschitz
     metric = None if utility_class is None else utility_class.metric
     n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None

@@ -494,8 +494,6 @@ class ExactProgram:
     ) -> tuple[str, list[Status], npt.NDArray[np.float64] | None]:
         """HiGHS's simplex on the floating-point program, warm-started from the last basis; its final basis and row
         duals (at the scale of ``cost``; None without a valid basis)."""
-        import highspy
-
         h = self._highs if self._highs is not None else self._build()
         c = np.asarray(cost, dtype=float)
         scale = float(np.abs(c).max()) if c.size else 0.0
@@ -504,14 +502,10 @@ class ExactProgram:
         b = h.getBasis()
         if not b.valid:
             return "slack", self._slack(), None
-        names = {
-            highspy.HighsBasisStatus.kBasic.value: "basic",
-            highspy.HighsBasisStatus.kLower.value: "lower",
-            highspy.HighsBasisStatus.kUpper.value: "upper",
-        }
+        names = {code.value: s for s, code in _highs_statuses().items()}
         status = [names.get(s.value, "zero") for s in [*b.col_status, *b.row_status]]  # (by value: no enum hashing)
         duals = np.asarray(h.getSolution().row_dual, dtype=float) * (scale if scale > 0 else 1.0)
-        return "solver", self._given(status), duals  # type: ignore[arg-type]
+        return "solver", self._given(status), duals
 
     def _build(self) -> Any:
         import highspy
@@ -535,16 +529,19 @@ class ExactProgram:
         """Give HiGHS the exact phase's final basis, the start of the next solve."""
         import highspy
 
-        codes = {
-            "basic": highspy.HighsBasisStatus.kBasic,
-            "lower": highspy.HighsBasisStatus.kLower,
-            "upper": highspy.HighsBasisStatus.kUpper,
-            "zero": highspy.HighsBasisStatus.kZero,
-        }
+        codes = _highs_statuses()
         b = highspy.HighsBasis()
         b.col_status = [codes[s] for s in status[: self.n]]
         b.row_status = [codes[s] for s in status[self.n :]]
         self._highs.setBasis(b)
+
+
+def _highs_statuses() -> dict[Status, Any]:
+    """HiGHS's basis status for each of ours (any other status of HiGHS's reads as "zero")."""
+    import highspy
+
+    code = highspy.HighsBasisStatus
+    return {"basic": code.kBasic, "lower": code.kLower, "upper": code.kUpper, "zero": code.kZero}
 
 
 def _fraction_of(v: Any) -> Fraction:

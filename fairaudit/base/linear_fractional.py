@@ -292,10 +292,6 @@ class FractionalProgram:
         """
         return prepare_rows(self._rows, self.n)
 
-    def _result(self, p: FloatArray, q: FloatArray) -> Callable[..., FractionalResult]:
-        """A :class:`FractionalResult` of the program for ``p`` and ``q``, given the rest."""
-        return functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
-
     def solve(self, p: npt.ArrayLike, q: npt.ArrayLike, *, below: float = -math.inf) -> FractionalResult:
         """The exact optimum for numerator ``p`` and denominator ``q`` (shape (n,) each), rounded outward.
 
@@ -325,7 +321,7 @@ class FractionalProgram:
         p, q = check_vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
-        result = self._result(p, q)
+        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
         self._pq = (p, q)
         lam = Fraction(below) if math.isfinite(below) else None
         if lam is not None:  # HiGHS's own duals may prove ``below`` at once, before anything exact

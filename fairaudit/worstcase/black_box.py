@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
@@ -497,17 +498,13 @@ def _box_solver(problem: _ClassProblem, pairs: IntArray) -> Callable[[int], Frac
     lower, gamma, floor, binding = problem.lower, problem.gamma, problem.floor, problem.binding
     low, high = _matrix_ends(problem.mechanism)
     n, m = high.shape
-    progs: list[FractionalProgram] = []
 
+    @functools.cache  # (built once, at the first LP)
     def program() -> FractionalProgram:
-        if not progs:
-            a_ub = -high if binding else None
-            progs.append(
-                FractionalProgram(
-                    m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
-                )
-            )
-        return progs[0]
+        a_ub = -high if binding else None
+        return FractionalProgram(
+            m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
+        )
 
     if binding and problem.method != "lp":
         outer = relaxed_first(

@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
@@ -219,15 +220,12 @@ class _UtilityProblem:
     method: str
     a_ub: FloatArray | None  # the τ rows: a_ub @ g <= b_ub
     b_ub: FloatArray | None
-    built: FractionalProgram | None = None
 
+    @functools.cached_property
     def program(self) -> FractionalProgram:
-        if self.built is None:
-            n_decisions = len(self.law.decisions)
-            self.built = FractionalProgram(
-                n_decisions, lower=self.lower, upper=self.gamma, A_ub=self.a_ub, b_ub=self.b_ub
-            )
-        return self.built
+        """The program over g, built at the first use."""
+        n_decisions = len(self.law.decisions)
+        return FractionalProgram(n_decisions, lower=self.lower, upper=self.gamma, A_ub=self.a_ub, b_ub=self.b_ub)
 
     def utility(self, h: FloatArray) -> Utility:
         return Utility(np.clip(h, self.lower, self.gamma), self.law.decisions, name="worst utility")
@@ -292,7 +290,7 @@ def _utility_case(
 
     def solve(i: int) -> FractionalResult:
         x, a, b = flat[i]
-        r = problem.program().solve(high[x, a], low[x, b])
+        r = problem.program.solve(high[x, a], low[x, b])
         return r if ends is None else inner_witness(r, low[x, a], high[x, b], inner)
 
     return _searched_case(problem, kind, search(upper, solve), flat if kind == "local" else flat[:, 1:], label_x)

@@ -16,6 +16,8 @@ from fractions import Fraction
 
 import numpy as np
 
+from fairaudit.base.exact_lp import ExactProgram
+
 __all__ = ["Polytope", "RatioOptimum", "dot", "maximize_ratio_over_product"]
 
 
@@ -86,8 +88,6 @@ class Polytope:
         b_ub: Sequence[Fraction | int],
         n: int,
     ) -> None:
-        from fairaudit.base.exact_lp import ExactProgram
-
         matrix = [list(row) for row in A_ub] if len(A_ub) else np.zeros((0, n))
         self.n = n
         self._program = ExactProgram(matrix, [-math.inf] * len(b_ub), list(b_ub), list(lower), list(upper))

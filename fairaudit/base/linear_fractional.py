@@ -38,6 +38,7 @@ import numpy.typing as npt
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import PreparedRows, certify_ratio, point_ratio, prepare_rows
+from fairaudit.base.exact_lp import ExactProgram
 from fairaudit.base.exact_ratio import dot
 from fairaudit.base.fractional_inputs import ConstraintMatrix, check_bounds, check_vectors, constraint_rows
 from fairaudit.base.outward import fraction_down, fraction_up, up
@@ -267,17 +268,12 @@ class FractionalProgram:
         A_eq: ConstraintMatrix | None = None,
         b_eq: npt.ArrayLike | None = None,
     ) -> None:
-        from fairaudit.base.exact_lp import ExactProgram
-
         self.n = int(n)
         self.lower, self.upper = check_bounds(lower, upper, self.n, required=True)
         if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
             raise InputError("lower", "the bounds of h must be finite (the programs of fairaudit are over boxes)")
         self._rows = constraint_rows(self.n, A_ub, b_ub, A_eq, b_eq)
-        matrix = np.vstack([a for a, _, _ in self._rows]) if self._rows else np.zeros((0, self.n))
-        row_lower = [v if op == "eq" else -math.inf for _, b, op in self._rows for v in b.tolist()]
-        row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
-        self._program = ExactProgram(matrix, row_lower, row_upper, self.lower.tolist(), self.upper.tolist())
+        self._program = _polytope(self._rows, self.lower, self.upper)
 
     @functools.cached_property
     def prepared_rows(self) -> PreparedRows:
@@ -485,6 +481,14 @@ class FractionalProgram:
         return tuple(out)
 
 
+def _polytope(rows: list[tuple[FloatArray, FloatArray, str]], lower: FloatArray, upper: FloatArray) -> ExactProgram:
+    """The polytope {lower ≤ h ≤ upper, A h ≤ b ("le") or A h = b ("eq") for each of ``rows``} as an exact program."""
+    matrix = np.vstack([a for a, _, _ in rows]) if rows else np.zeros((0, lower.size))
+    row_lower = [v if op == "eq" else -math.inf for _, b, op in rows for v in b.tolist()]
+    row_upper = [v for _, b, _ in rows for v in b.tolist()]
+    return ExactProgram(matrix, row_lower, row_upper, lower.tolist(), upper.tolist())
+
+
 def lp_max(
     p: npt.ArrayLike,
     q: npt.ArrayLike,
@@ -551,25 +555,18 @@ def _charnes_cooper(
     """:func:`lp_max` over a polytope with an infinite bound: the Charnes–Cooper LP max p·y subject to q·y = 1,
     A_ub y ≤ b_ub s, A_eq y = b_eq s, lower s ≤ y ≤ upper s (finite bounds only), s ≥ 0, solved exactly
     (:class:`~fairaudit.base.exact_lp.ExactProgram`); ``proofs/linear_fractional.md`` (what each outcome means)."""
-    from fairaudit.base.exact_lp import ExactProgram
-
     n = p.size
     inf = math.inf
     lo = np.full(n, -inf) if lower is None else lower
     hi = np.full(n, inf) if upper is None else upper
     rows: list[list[float]] = [[*q.tolist(), 0.0]]
     row_lower, row_upper = [1.0], [1.0]
-    polytope: list[list[float]] = []
-    poly_lower: list[float] = []
-    poly_upper: list[float] = []
-    for dense, rhs, op in constraint_rows(n, A_ub, b_ub, A_eq, b_eq):
+    blocks = constraint_rows(n, A_ub, b_ub, A_eq, b_eq)
+    for dense, rhs, op in blocks:
         for row, v in zip(dense.tolist(), rhs.tolist(), strict=True):
             rows.append([*row, -v])
             row_lower.append(0.0 if op == "eq" else -inf)
             row_upper.append(0.0)
-            polytope.append(row)
-            poly_lower.append(v if op == "eq" else -inf)
-            poly_upper.append(v)
     for j in range(n):
         for bound, side in ((lo[j], "lower"), (hi[j], "upper")):
             if math.isfinite(bound):
@@ -581,7 +578,7 @@ def _charnes_cooper(
     status = f"HiGHS simplex, exact basis (Charnes–Cooper, {found.pivots} exact pivots)"
     if found.status == "unbounded":
         return _unbounded(result, None, status, "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0")
-    original = ExactProgram(polytope, poly_lower, poly_upper, lo.tolist(), hi.tolist())
+    original = _polytope(blocks, lo, hi)
     if found.status == "infeasible":  # P is empty, or q·h = 0 on all of it
         top = original.minimize((-p).tolist())
         if top.status == "infeasible":

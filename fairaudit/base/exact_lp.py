@@ -494,8 +494,6 @@ class ExactProgram:
     ) -> tuple[str, list[Status], npt.NDArray[np.float64] | None]:
         """HiGHS's simplex on the floating-point program, warm-started from the last basis; its final basis and row
         duals (at the scale of ``cost``; None without a valid basis)."""
-        import highspy
-
         h = self._highs if self._highs is not None else self._build()
         c = np.asarray(cost, dtype=float)
         scale = float(np.abs(c).max()) if c.size else 0.0
@@ -504,14 +502,10 @@ class ExactProgram:
         b = h.getBasis()
         if not b.valid:
             return "slack", self._slack(), None
-        names = {
-            highspy.HighsBasisStatus.kBasic.value: "basic",
-            highspy.HighsBasisStatus.kLower.value: "lower",
-            highspy.HighsBasisStatus.kUpper.value: "upper",
-        }
+        names = {code.value: s for s, code in _highs_statuses().items()}
         status = [names.get(s.value, "zero") for s in [*b.col_status, *b.row_status]]  # (by value: no enum hashing)
         duals = np.asarray(h.getSolution().row_dual, dtype=float) * (scale if scale > 0 else 1.0)
-        return "solver", self._given(status), duals  # type: ignore[arg-type]
+        return "solver", self._given(status), duals
 
     def _build(self) -> Any:
         import highspy
@@ -535,16 +529,19 @@ class ExactProgram:
         """Give HiGHS the exact phase's final basis, the start of the next solve."""
         import highspy
 
-        codes = {
-            "basic": highspy.HighsBasisStatus.kBasic,
-            "lower": highspy.HighsBasisStatus.kLower,
-            "upper": highspy.HighsBasisStatus.kUpper,
-            "zero": highspy.HighsBasisStatus.kZero,
-        }
+        codes = _highs_statuses()
         b = highspy.HighsBasis()
         b.col_status = [codes[s] for s in status[: self.n]]
         b.row_status = [codes[s] for s in status[self.n :]]
         self._highs.setBasis(b)
+
+
+def _highs_statuses() -> dict[Status, Any]:
+    """HiGHS's basis status for each of ours (any other status of HiGHS's reads as "zero")."""
+    import highspy
+
+    code = highspy.HighsBasisStatus
+    return {"basic": code.kBasic, "lower": code.kLower, "upper": code.kUpper, "zero": code.kZero}
 
 
 def _fraction_of(v: Any) -> Fraction:
@@ -603,13 +600,10 @@ def _exact_simplex(prog: ExactProgram, state: _Basis) -> tuple[str, _Basis, int]
     Primal feasible: the primal simplex. Dual feasible: the dual simplex. Neither: the primal simplex over bounds
     shifted to hold the basic values, which ends dual feasible; then the dual simplex over the true bounds.
     """
-    pivots = 0
     if state.infeasible() is None:
-        outcome, state, steps = _primal(prog, state)
-        return outcome, state, pivots + steps
+        return _primal(prog, state)
     if state.improving() is None:
-        outcome, state, steps = _dual(prog, state)
-        return outcome, state, pivots + steps
+        return _dual(prog, state)
     lower, upper = list(prog.lower), list(prog.upper)
     for v, s in enumerate(state.status):
         if s == "basic":
@@ -619,8 +613,7 @@ def _exact_simplex(prog: ExactProgram, state: _Basis) -> tuple[str, _Basis, int]
             if upper[v] is not None and x > upper[v]:
                 upper[v] = x
     shifted = _Basis(prog, state.status, lower, upper)
-    outcome, shifted, steps = _primal(prog, shifted)
-    pivots += steps
+    outcome, shifted, pivots = _primal(prog, shifted)
     true = _Basis(prog, shifted.status, prog.lower, prog.upper)
     if outcome == "unbounded":  # a ray of the shifted program is one of the true one: unbounded if feasible
         saved, prog.c = prog.c, [0] * prog.n

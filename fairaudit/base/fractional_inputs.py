@@ -80,19 +80,22 @@ def constraint_rows(
     A_eq: ConstraintMatrix | None,
     b_eq: npt.ArrayLike | None,
 ) -> list[tuple[FloatArray, FloatArray, str]]:
-    """The polytope's rows as (A dense, b, "le" or "eq") blocks, checked: shapes against ``n``, finite data.
+    """The polytope's rows as (A dense, b, "le" or "eq") blocks, checked: finite data, shapes against ``n``.
 
     Examples
     --------
     >>> [(a.tolist(), b.tolist(), op) for a, b, op in constraint_rows(2, [[-0.3, -0.7]], [-0.5], None, None)]
     [([[-0.3, -0.7]], [-0.5], 'le')]
     """
+    import scipy.sparse as sp
+
     out = []
     for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
         if a is None:
             continue
-        dense = _matrix(a, name)
-        dense = np.asarray(dense.toarray() if hasattr(dense, "toarray") else dense, dtype=float)
+        dense = as_float_array(sp.csr_array(a).toarray() if sp.issparse(a) else a, name, ndim=2)
+        if not np.all(np.isfinite(dense)):
+            raise InputError(name, "must be finite")
         rhs = as_float_array(b, name.replace("A", "b"), ndim=1)
         if dense.shape != (rhs.size, n):
             raise InputError(name, f"shape must be ({rhs.size}, {n})", dense.shape)
@@ -100,14 +103,3 @@ def constraint_rows(
             raise InputError(name.replace("A", "b"), "must be finite")
         out.append((dense, rhs, op))
     return out
-
-
-def _matrix(a: ConstraintMatrix, name: str) -> FloatArray | sp.csr_matrix:
-    import scipy.sparse as sp
-
-    if sp.issparse(a):
-        a = sp.csr_matrix(a, dtype=float)
-        if not np.all(np.isfinite(a.data)):
-            raise InputError(name, "must be finite")
-        return a
-    return as_float_array(a, name, ndim=2)

@@ -38,20 +38,19 @@ import numpy.typing as npt
 from fairaudit.base.arrays import FloatArray
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import PreparedRows, certify_ratio, point_ratio, prepare_rows
+from fairaudit.base.exact_lp import ExactProgram
+from fairaudit.base.exact_ratio import dot
 from fairaudit.base.fractional_inputs import ConstraintMatrix, check_bounds, check_vectors, constraint_rows
 from fairaudit.base.outward import fraction_down, fraction_up, up
-from fairaudit.base.threshold_rule import threshold_max_many
+from fairaudit.base.threshold_rule import box_point, threshold_max_many
 
 __all__ = [
     "EXACT_BASIS",
     "FractionalProgram",
     "FractionalResult",
-    "Polytope",
-    "RatioOptimum",
     "fractional_max",
     "gap_between",
     "lp_max",
-    "maximize_ratio_over_product",
     "threshold_max",
 ]
 
@@ -181,10 +180,7 @@ def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, uppe
         # needs q·h > 0 on the whole box. Use lp_max for such programs.
         raise InputError("lower", "the threshold solution needs lower >= 0 (use lp_max)", float(lo.min()))
     values, k, order = threshold_max_many(p, q, lo, hi)
-    h = lo.copy()
-    top = order[: int(k)]
-    h[top] = hi[top]
-    value = float(values)
+    h, value = box_point(lo, hi, order, int(k)), float(values)
     witness = point_ratio(h, p, q, lo, hi, [])
     if math.isnan(witness):  # q·h = 0 at the point: c/0 = +inf, 0/0 = 1
         witness = math.inf if p @ h > 0 else 1.0
@@ -272,17 +268,12 @@ class FractionalProgram:
         A_eq: ConstraintMatrix | None = None,
         b_eq: npt.ArrayLike | None = None,
     ) -> None:
-        from fairaudit.base.exact_lp import ExactProgram
-
         self.n = int(n)
         self.lower, self.upper = check_bounds(lower, upper, self.n, required=True)
         if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
             raise InputError("lower", "the bounds of h must be finite (the programs of fairaudit are over boxes)")
         self._rows = constraint_rows(self.n, A_ub, b_ub, A_eq, b_eq)
-        matrix = np.vstack([a for a, _, _ in self._rows]) if self._rows else np.zeros((0, self.n))
-        row_lower = [v if op == "eq" else -math.inf for _, b, op in self._rows for v in b.tolist()]
-        row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
-        self._program = ExactProgram(matrix, row_lower, row_upper, self.lower.tolist(), self.upper.tolist())
+        self._program = _polytope(self._rows, self.lower, self.upper)
 
     @functools.cached_property
     def prepared_rows(self) -> PreparedRows:
@@ -296,10 +287,6 @@ class FractionalProgram:
         (True, 2)
         """
         return prepare_rows(self._rows, self.n)
-
-    def _result(self, p: FloatArray, q: FloatArray) -> Callable[..., FractionalResult]:
-        """A :class:`FractionalResult` of the program for ``p`` and ``q``, given the rest."""
-        return functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
 
     def solve(self, p: npt.ArrayLike, q: npt.ArrayLike, *, below: float = -math.inf) -> FractionalResult:
         """The exact optimum for numerator ``p`` and denominator ``q`` (shape (n,) each), rounded outward.
@@ -330,7 +317,7 @@ class FractionalProgram:
         p, q = check_vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
-        result = self._result(p, q)
+        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
         self._pq = (p, q)
         lam = Fraction(below) if math.isfinite(below) else None
         if lam is not None:  # HiGHS's own duals may prove ``below`` at once, before anything exact
@@ -355,7 +342,7 @@ class FractionalProgram:
                 if early is not None:
                     return replace(early, basis=found.basis)
                 if found.point is not None:  # its vertex, feasible exactly, moves λ up where it beats it
-                    num, den = _dot(top, found.point), _dot(bottom, found.point)
+                    num, den = dot(top, found.point), dot(bottom, found.point)
                     if den > 0 and (lam is None or num > lam * den):
                         lam, at = num / den, np.array([float(v) for v in found.point])
                         continue
@@ -365,7 +352,7 @@ class FractionalProgram:
             if found.status != "optimal" or found.point is None or found.value is None:
                 return _no_solution(result, status, _INCONSISTENT)  # (a bounded polytope: only empty)
             h = found.point
-            num, den = _dot(top, h), _dot(bottom, h)
+            num, den = dot(top, h), dot(bottom, h)
             point = np.array([float(v) for v in h])
             if lam is not None and -found.value <= 0:  # max (p − λq)·h ≤ 0: the ratio is at most λ
                 if at is not None:  # λ is the ratio at a vertex, which attains it
@@ -380,12 +367,12 @@ class FractionalProgram:
             if den == 0:  # p·h <= 0 = q·h at the maximiser of p·h (lam None): start from the maximiser of q·h
                 found = self._program.minimize([-c for c in bottom])
                 assert found.point is not None
-                if _dot(bottom, found.point) <= 0:  # q·h = 0 on all of P, and p·h ≤ 0: 0/0 = 1 at most
+                if dot(bottom, found.point) <= 0:  # q·h = 0 on all of P, and p·h ≤ 0: 0/0 = 1 at most
                     why = "p·h <= 0 = q·h on every feasible h (0/0 counts as parity)"
                     witness = 1.0 if num == 0 else math.nan
                     return result(value=1.0, argmax=point, status="optimal", solver_status=status, reason=why,
                                   certified=True, witness=witness, gap=gap_between(1.0, witness))  # fmt: skip
-                num, den = _dot(top, found.point), _dot(bottom, found.point)
+                num, den = dot(top, found.point), dot(bottom, found.point)
                 point = np.array([float(v) for v in found.point])
             lam, at = num / den, point if den > 0 else None
 
@@ -414,8 +401,8 @@ class FractionalProgram:
         if h is None:
             return math.nan, None
         p_arr, q_arr = check_vectors(p, q)
-        den = _dot([Fraction(v) for v in q_arr.tolist()], h)
-        return (fraction_down(_dot([Fraction(v) for v in p_arr.tolist()], h) / den) if den > 0 else math.nan), h
+        den = dot([Fraction(v) for v in q_arr.tolist()], h)
+        return (fraction_down(dot([Fraction(v) for v in p_arr.tolist()], h) / den) if den > 0 else math.nan), h
 
     def _bounded_by_duals(
         self,
@@ -440,8 +427,8 @@ class FractionalProgram:
         witness, point = math.nan, at
         if at is not None:
             witness = fraction_down(lam)
-        elif vertex is not None and (den := _dot(bottom, vertex)) > 0:
-            witness, point = fraction_down(_dot(top, vertex) / den), np.array([float(v) for v in vertex])
+        elif vertex is not None and (den := dot(bottom, vertex)) > 0:
+            witness, point = fraction_down(dot(top, vertex) / den), np.array([float(v) for v in vertex])
         status = f"HiGHS simplex, exact basis ({steps} Dinkelbach steps; the last bounded by its duals)"
         return result(value=bound, argmax=point, status="optimal", solver_status=status, reason="",
                       certified=True, witness=witness, gap=gap_between(bound, witness), dual=dual)  # fmt: skip
@@ -494,8 +481,12 @@ class FractionalProgram:
         return tuple(out)
 
 
-def _dot(a: Sequence[Fraction], b: Sequence[Fraction]) -> Fraction:
-    return sum((x * y for x, y in zip(a, b, strict=True) if x and y), Fraction(0))
+def _polytope(rows: list[tuple[FloatArray, FloatArray, str]], lower: FloatArray, upper: FloatArray) -> ExactProgram:
+    """The polytope {lower ≤ h ≤ upper, A h ≤ b ("le") or A h = b ("eq") for each of ``rows``} as an exact program."""
+    matrix = np.vstack([a for a, _, _ in rows]) if rows else np.zeros((0, lower.size))
+    row_lower = [v if op == "eq" else -math.inf for _, b, op in rows for v in b.tolist()]
+    row_upper = [v for _, b, _ in rows for v in b.tolist()]
+    return ExactProgram(matrix, row_lower, row_upper, lower.tolist(), upper.tolist())
 
 
 def lp_max(
@@ -564,25 +555,18 @@ def _charnes_cooper(
     """:func:`lp_max` over a polytope with an infinite bound: the Charnes–Cooper LP max p·y subject to q·y = 1,
     A_ub y ≤ b_ub s, A_eq y = b_eq s, lower s ≤ y ≤ upper s (finite bounds only), s ≥ 0, solved exactly
     (:class:`~fairaudit.base.exact_lp.ExactProgram`); ``proofs/linear_fractional.md`` (what each outcome means)."""
-    from fairaudit.base.exact_lp import ExactProgram
-
     n = p.size
     inf = math.inf
     lo = np.full(n, -inf) if lower is None else lower
     hi = np.full(n, inf) if upper is None else upper
     rows: list[list[float]] = [[*q.tolist(), 0.0]]
     row_lower, row_upper = [1.0], [1.0]
-    polytope: list[list[float]] = []
-    poly_lower: list[float] = []
-    poly_upper: list[float] = []
-    for dense, rhs, op in constraint_rows(n, A_ub, b_ub, A_eq, b_eq):
+    blocks = constraint_rows(n, A_ub, b_ub, A_eq, b_eq)
+    for dense, rhs, op in blocks:
         for row, v in zip(dense.tolist(), rhs.tolist(), strict=True):
             rows.append([*row, -v])
             row_lower.append(0.0 if op == "eq" else -inf)
             row_upper.append(0.0)
-            polytope.append(row)
-            poly_lower.append(v if op == "eq" else -inf)
-            poly_upper.append(v)
     for j in range(n):
         for bound, side in ((lo[j], "lower"), (hi[j], "upper")):
             if math.isfinite(bound):
@@ -594,7 +578,7 @@ def _charnes_cooper(
     status = f"HiGHS simplex, exact basis (Charnes–Cooper, {found.pivots} exact pivots)"
     if found.status == "unbounded":
         return _unbounded(result, None, status, "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0")
-    original = ExactProgram(polytope, poly_lower, poly_upper, lo.tolist(), hi.tolist())
+    original = _polytope(blocks, lo, hi)
     if found.status == "infeasible":  # P is empty, or q·h = 0 on all of it
         top = original.minimize((-p).tolist())
         if top.status == "infeasible":
@@ -682,169 +666,3 @@ def fractional_max(
         assert lower is not None and upper is not None  # boxed
         return threshold_max(p_arr, q_arr, lower, upper)
     return lp_max(p_arr, q_arr, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)
-
-
-@dataclass(frozen=True)
-class RatioOptimum:
-    """The outcome of :func:`maximize_ratio_over_product` (and :meth:`Polytope.maximize_ratio`), every number exact.
-
-    Attributes
-    ----------
-    status : {"optimal", "infeasible", "zero_denominator"}
-        "infeasible" when a polytope is empty; "zero_denominator" when the ratio has no finite maximum over the points
-        with q·h > 0: q·h < 0 somewhere, q·h = 0 everywhere, or q·h = 0 < p·h somewhere (unbounded near it).
-    value : Fraction or None
-        max (p·h)/(q·h), exactly; None unless optimal.
-    point : tuple of Fraction or None
-        When optimal, a vertex h with q·h > 0 and (p·h)/(q·h) = value; for "zero_denominator", a vertex with q·h < 0,
-        or with q·h = 0 < p·h, or, where q·h = 0 everywhere, one maximising p·h; None when infeasible.
-    multipliers : tuple of Fraction or None
-        When optimal, the last step's duals on the rows of A_ub, y ≥ 0 (over a product, the blocks' rows one after
-        the other), from its exact basis: max over the box of (p − value·q − yᵀA_ub)·h, plus y·b_ub, is 0, which
-        proves p·h ≤ value·q·h on the polytope; None unless optimal.
-    """
-
-    status: str
-    value: Fraction | None
-    point: tuple[Fraction, ...] | None
-    multipliers: tuple[Fraction, ...] | None = None
-
-
-class Polytope:
-    """The polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub} with rational data (floats at their binary value), for exact
-    maxima of ratios over it: each linear program an :class:`~fairaudit.base.exact_lp.ExactProgram` (HiGHS's basis,
-    solved and finished exactly), warm-started from the basis the last one ended at.
-
-    Parameters
-    ----------
-    lower, upper : sequences of Fraction or int, length n
-        The box, finite, lower ≤ upper.
-    A_ub : sequence of m rows of length n (m ≥ 0)
-    b_ub : sequence of length m
-    n : int
-        The number of variables (≥ 1).
-
-    Examples
-    --------
-    >>> from fractions import Fraction as F
-    >>> box = Polytope([0, 0], [1, 1], [[-1, -1]], [F(-1, 2)], 2)
-    >>> box.feasible, box.maximize_ratio([F(7, 10), F(3, 10)], [F(3, 10), F(7, 10)]).value
-    (True, Fraction(7, 3))
-    """
-
-    def __init__(
-        self,
-        lower: Sequence[Fraction | int],
-        upper: Sequence[Fraction | int],
-        A_ub: Sequence[Sequence[Fraction | int]],
-        b_ub: Sequence[Fraction | int],
-        n: int,
-    ) -> None:
-        from fairaudit.base.exact_lp import ExactProgram
-
-        matrix = [list(row) for row in A_ub] if len(A_ub) else np.zeros((0, n))
-        self.n = n
-        self._program = ExactProgram(matrix, [-math.inf] * len(b_ub), list(b_ub), list(lower), list(upper))
-
-    @functools.cached_property
-    def feasible(self) -> bool:
-        """False when the polytope is empty (proved exactly)."""
-        return self._program.minimize([0] * self.n).status == "optimal"
-
-    def maximize(self, cost: Sequence[Fraction | int]) -> tuple[Fraction, tuple[Fraction, ...], tuple[Fraction, ...]]:
-        """max c·h over the (feasible) polytope, exactly: the maximum, a vertex attaining it, and its row duals y ≥ 0."""
-        found = self._program.minimize([-c for c in cost])
-        assert found.value is not None and found.point is not None and found.duals is not None  # (a bounded polytope)
-        return -found.value, found.point, tuple(-y for y in found.duals)
-
-    def maximize_ratio(
-        self, p: Sequence[Fraction | int], q: Sequence[Fraction | int], *, start: Fraction | None = None
-    ) -> RatioOptimum:
-        """Exact max (p·h)/(q·h) over the polytope's points with q·h > 0, as :func:`maximize_ratio_over_product`."""
-        return maximize_ratio_over_product([self], [p], [q], start=start)
-
-
-def maximize_ratio_over_product(
-    polytopes: Sequence[Polytope],
-    p: Sequence[Sequence[Fraction | int]],
-    q: Sequence[Sequence[Fraction | int]],
-    *,
-    start: Fraction | None = None,
-) -> RatioOptimum:
-    """Exact max (Σ_i p_i·h_i)/(Σ_i q_i·h_i) over the product of polytopes, h_i in the i-th, by Dinkelbach's method.
-
-    The ratio must have a finite maximum: q·h ≥ 0 on the product, q·h > 0 somewhere and no h with q·h = 0 < p·h
-    (points with p·h = q·h = 0 are left out: 0/0 is not a ratio); otherwise the status is "zero_denominator". Without
-    ``start``, min q·h (< 0: "zero_denominator") and max q·h (= 0: "zero_denominator") come first and λ₀ is the ratio
-    at the maximiser of q·h; with it, λ₀ is the ratio at the maximiser of (p − start·q)·h where q·h > 0 there (a guess
-    near the maximum: one step or two). Each step maximises Σ_i (p_i − λ_k q_i)·h_i block by block (a sum over
-    separate blocks is maximised by each block's maximum), exactly, at a vertex h_k. When that maximum is 0, λ_k,
-    attained, is the maximum; when it is positive and q·h_k = 0, the ratio is unbounded; otherwise λ_{k+1} =
-    (p·h_k)/(q·h_k) > λ_k. λ rises strictly over vertices' ratios, so the steps end (Dinkelbach 1967).
-
-    Parameters
-    ----------
-    polytopes : sequence of Polytope, length b ≥ 1
-    p, q : sequences of b sequences of Fraction
-        The numerator's and the denominator's coefficients on each block, the i-th of the i-th polytope's length.
-    start : Fraction, optional
-        A guess at the maximum; the answer is as exact. Where q·h < 0 somewhere but no step meets such a point, the
-        status is "optimal" (the maximum over the points with q·h > 0, which the last step proves).
-
-    Returns
-    -------
-    RatioOptimum
-        Its point the blocks' points one after the other; "infeasible" when a block is empty.
-
-    Examples
-    --------
-    Two blocks, each a box with the floor h_0 + h_1 ≥ 1/2: the second puts its utility where the denominator has
-    none, and the first carries the whole denominator at its floor, (7/20 + 1)/(3/20) = 9.
-
-    >>> from fractions import Fraction as F
-    >>> one = Polytope([0, 0], [1, 1], [[-1, -1]], [F(-1, 2)], 2)
-    >>> two = Polytope([0, 0], [1, 1], [[-1, -1]], [F(-1, 2)], 2)
-    >>> best = maximize_ratio_over_product([one, two], [[F(7, 10), F(3, 10)], [1, 0]], [[F(3, 10), F(7, 10)], [0, 1]])
-    >>> best.value, [str(h) for h in best.point], best.multipliers
-    (Fraction(9, 1), ['1/2', '0', '1', '0'], (Fraction(2, 1), Fraction(0, 1)))
-    """
-    if not all(poly.feasible for poly in polytopes):
-        return RatioOptimum("infeasible", None, None)
-    numerator = [Fraction(x) for block in p for x in block]
-    denominator = [Fraction(x) for block in q for x in block]
-    duals: tuple[Fraction, ...] = ()
-
-    def step(ratio: Fraction, top: int = 1) -> tuple[Fraction, tuple[Fraction, ...]]:
-        """max Σ_i (top·p_i − ratio·q_i)·h_i over the product, block by block (the duals kept in ``duals``)."""
-        nonlocal duals
-        total, duals = Fraction(0), ()
-        point: tuple[Fraction, ...] = ()
-        for poly, a, b in zip(polytopes, p, q, strict=True):
-            value, vertex, y = poly.maximize([top * x - ratio * z for x, z in zip(a, b, strict=True)])
-            total, point, duals = total + value, point + vertex, duals + y
-        return total, point
-
-    point: tuple[Fraction, ...] | None = None  # a point attaining ``ratio`` (None: not attained yet)
-    if start is not None:  # one step at the guess, whose vertex's ratio, when q·h > 0 there, starts the steps
-        gap, vertex = step(Fraction(start))
-        scale = _dot(denominator, vertex)
-        if scale < 0 or (scale == 0 and gap > 0):
-            return RatioOptimum("zero_denominator", None, vertex)  # q·h < 0 here, or q·h = 0 < p·h: unbounded
-        if scale > 0:
-            point, ratio = vertex, _dot(numerator, vertex) / scale
-    if point is None:  # (no guess, or its vertex has p·h ≤ 0 = q·h: the denominator's minimum and maximum first)
-        negative_min, point = step(Fraction(1), top=0)
-        if negative_min > 0:
-            return RatioOptimum("zero_denominator", None, point)  # q·h < 0 at this point
-        largest, point = step(Fraction(-1), top=0)
-        if largest == 0:  # q·h = 0 on the whole polytope: the maximiser of p·h shows whether c/0 (p·h > 0) is met
-            return RatioOptimum("zero_denominator", None, step(Fraction(0))[1])
-        ratio = _dot(numerator, point) / largest
-    while True:
-        gap, vertex = step(ratio)
-        if gap == 0:
-            return RatioOptimum("optimal", ratio, point, duals)
-        scale = _dot(denominator, vertex)
-        if scale == 0:
-            return RatioOptimum("zero_denominator", None, vertex)  # q·h = 0 < p·h here: the ratio is unbounded
-        point, ratio = vertex, _dot(numerator, vertex) / scale

@@ -124,9 +124,8 @@ def threshold_max_many(
         r = np.where(q > 0, p / np.where(q > 0, q, 1.0), np.where(p > 0, np.inf, 0.0))
     order = np.argsort(-r, axis=-1, kind="stable")
     span = hi - lo
-    under = np.zeros(
-        p.shape[:-1], dtype=bool
-    )  # programs where some product underflowed (proofs/linear_fractional.md §7)
+    # the programs where some product underflowed (proofs/linear_fractional.md §7)
+    under = np.zeros(p.shape[:-1], dtype=bool)
     num = _terms(p, lo, span, order, under)
     den = _terms(q, lo, span, order, under)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, replace
@@ -15,7 +16,6 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray
-from fairaudit.base.checks import nonnegative
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult, gap_between
@@ -146,7 +146,7 @@ def black_box_bound(
         reason = "fewer than two groups" if n < 2 else "every utility in the class is constant"
         m = len(mechanism.outputs)
         return problem.certificate(
-            1.0, None, None, (), np.full(m, gamma), "threshold", "trivial", "threshold", reason, 0
+            1.0, None, None, (), np.full(m, gamma), status="trivial", solver_status="threshold", reason=reason
         )
     if rr is not None:
         closed = _randomized_response_certificate(problem, rr, d)
@@ -179,9 +179,7 @@ def _class_problem(
     method = check_method(method)
     lower, gamma, tau = check_class(utility_class)
     assert utility_class is None or isinstance(utility_class, UtilityClass)  # (check_class refuses the rest)
-    lip = nonnegative(
-        0.0 if utility_class is None or utility_class.lipschitz is None else utility_class.lipschitz, "lipschitz"
-    )
+    lip = 0.0 if utility_class is None or utility_class.lipschitz is None else utility_class.lipschitz
     metric = None if utility_class is None else utility_class.metric
     n = len(mechanism.inputs)
     rr = mechanism.rr if isinstance(mechanism, RandomizedResponse) and method != "lp" else None
@@ -288,18 +286,19 @@ class _ClassProblem:
         other_group: Hashable | None,
         released: tuple,
         utility_by_release: FloatArray,
-        method: str,
-        status: str,
-        solver_status: str,
-        reason: str,
-        programs_solved: int,
+        method: str = "threshold",
+        status: str = "optimal",
+        solver_status: str = "closed form",
+        reason: str = "",
+        programs_solved: int = 0,
         *,
         value: float | None = None,
         result: FractionalResult | None = None,
     ) -> BlackBoxCertificate:
         """The certificate of a maximiser; ``value`` (nats) defaults to the log of ``ratio`` rounded up (NaN stays NaN).
 
-        ``result``: the maximiser's program, whose certification, witness and gap the certificate repeats.
+        The defaults are a closed form's: no program solved. ``result``: the maximiser's program, whose certification,
+        witness and gap the certificate repeats.
         """
         if value is None:
             value = nats_up(ratio)
@@ -346,11 +345,9 @@ def _randomized_response_certificate(
             inputs[1],
             tuple(outputs[o] for o in w.released(n, gamma)),
             w.vector(n),
-            "threshold",
-            "unbounded" if inf else "optimal",
-            "threshold" if w.prefix else "closed form",
-            "some released value is possible for one group and impossible for another" if inf else "",
-            0,
+            status="unbounded" if inf else "optimal",
+            solver_status="threshold" if w.prefix else "closed form",
+            reason="some released value is possible for one group and impossible for another" if inf else "",
             value=w.value if inf else rr_class_value(rr, lower, gamma, floor, 0.0, 1.0),  # rounded up
         )
     off_diagonal = None if d is None else d[~np.eye(n, dtype=bool)]
@@ -370,12 +367,9 @@ def _randomized_response_certificate(
             inputs[b],
             (),
             np.full((n, m), math.nan),
-            "threshold",
-            "unbounded",
-            "closed form",
-            "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0 (lower = 0 and no tau: "
+            status="unbounded",
+            reason="the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0 (lower = 0 and no tau: "
             "g = 0 for one group and L_A d(a, a') for the other)",
-            0,
         )
     # its maximiser g (cells a, a', other) back on the scale γ, and f = min(g + λ, γ)
     g3 = np.full(3, math.nan) if point is None else np.clip([float(v) * gamma for v in point], lower, gamma)
@@ -391,10 +385,7 @@ def _randomized_response_certificate(
     h[a], h[b] = f, g
     top = np.flatnonzero(f >= gamma - 1e-9 * max(1.0, gamma))
     released = tuple(outputs[o] for o in top)
-    value = log_up(exact)
-    return problem.certificate(
-        ratio, inputs[a], inputs[b], released, h, "threshold", "optimal", "closed form", "", 0, value=value
-    )
+    return problem.certificate(ratio, inputs[a], inputs[b], released, h, value=log_up(exact))
 
 
 def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
@@ -411,7 +402,9 @@ def _threshold_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPair
     reason = "some released value is possible for one group and impossible for another" if math.isinf(ratio) else ""
     inputs, outputs = problem.mechanism.inputs, problem.mechanism.outputs
     released = tuple(outputs[o] for o in top)
-    return problem.certificate(ratio, inputs[a], inputs[b], released, h, "threshold", status, "threshold", reason, 0)
+    return problem.certificate(
+        ratio, inputs[a], inputs[b], released, h, status=status, solver_status="threshold", reason=reason
+    )
 
 
 def _lp_certificate(problem: _ClassProblem, M: FloatArray, found: BoxPairs) -> BlackBoxCertificate:
@@ -505,17 +498,13 @@ def _box_solver(problem: _ClassProblem, pairs: IntArray) -> Callable[[int], Frac
     lower, gamma, floor, binding = problem.lower, problem.gamma, problem.floor, problem.binding
     low, high = _matrix_ends(problem.mechanism)
     n, m = high.shape
-    progs: list[FractionalProgram] = []
 
+    @functools.cache  # (built once, at the first LP)
     def program() -> FractionalProgram:
-        if not progs:
-            a_ub = -high if binding else None
-            progs.append(
-                FractionalProgram(
-                    m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
-                )
-            )
-        return progs[0]
+        a_ub = -high if binding else None
+        return FractionalProgram(
+            m, lower=lower, upper=gamma, A_ub=a_ub, b_ub=None if a_ub is None else -floor * np.ones(n)
+        )
 
     if binding and problem.method != "lp":
         outer = relaxed_first(
@@ -551,12 +540,12 @@ def _searched_certificate(problem: _ClassProblem, found: SearchResult, pairs: In
             None,
             (),
             np.full(m, math.nan),
-            "lp",
-            "error" if r is not None and r.status == "error" else "infeasible",
-            r.solver_status if r else "",
-            (f"not solved: {found.reason}" if r is not None and r.status == "error" else found.reason)
+            method="lp",
+            status="error" if r is not None and r.status == "error" else "infeasible",
+            solver_status=r.solver_status if r else "",
+            reason=(f"not solved: {found.reason}" if r is not None and r.status == "error" else found.reason)
             or "the class is empty",
-            found.solved,
+            programs_solved=found.solved,
         )
     assert r is not None  # a maximising pair was found
     a, b = pairs[found.index]

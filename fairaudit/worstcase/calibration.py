@@ -66,7 +66,7 @@ from fractions import Fraction
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.checks import choice, nonnegative, real
+from fairaudit.base.checks import choice, real
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import format_label
 from fairaudit.base.outward import fraction_down, log_up, up
@@ -193,8 +193,8 @@ def _groups_family(groups: int | Sequence[Hashable]) -> MechanismFamily:
 
 
 def _diameter(diameter: float | None, metric: npt.ArrayLike | None, k: int) -> float:
-    if diameter is not None:
-        return nonnegative(diameter, "diameter")
+    if diameter is not None:  # (non-negative: UtilityClass checked it)
+        return diameter
     if metric is None:
         return 1.0
     try:
@@ -204,16 +204,16 @@ def _diameter(diameter: float | None, metric: npt.ArrayLike | None, k: int) -> f
 
 
 def _check_constants(
-    gamma: float, lower: float, tau: float | None, lipschitz: float, delta: float
-) -> tuple[float, float, float | None, float, float]:
-    """γ > 0, lower in [0, γ], τ in (0, γ] (or None), L_A ≥ 0 and δ in [0, 1], as floats."""
+    gamma: float, lower: float, tau: float | None, delta: float
+) -> tuple[float, float, float | None, float]:
+    """γ > 0, lower in [0, γ], τ in (0, γ] (or None) and δ in [0, 1], as floats (each of the class's numbers already
+    checked non-negative by :class:`~fairaudit.laws.utilities.UtilityClass`)."""
     gamma = real(gamma, "gamma", low=0.0, low_open=True, what="a finite positive number")
     lower = real(lower, "lower", low=0.0, high=gamma, what=f"a number in [0, gamma = {gamma:g}]")
     if tau is not None:
         tau = real(tau, "tau", low=0.0, high=gamma, low_open=True, what=f"a number in (0, gamma = {gamma:g}]")
-    lipschitz = nonnegative(lipschitz, "lipschitz")
     delta = real(delta, "delta", low=0.0, high=1.0, what="a number in [0, 1]")
-    return gamma, lower, tau, lipschitz, delta
+    return gamma, lower, tau, delta
 
 
 def _check_method(method: str, common: Common, utility: Utility | None) -> None:
@@ -309,12 +309,8 @@ def _arguments(
     uc = UtilityClass() if utility_class is None else utility_class
     if not isinstance(uc, UtilityClass):
         raise InputError("utility_class", "must be a UtilityClass", type(uc).__name__)
-    gamma, lower, tau, lipschitz, delta = _check_constants(
-        1.0 if uc.gamma is None else uc.gamma,
-        0.0 if uc.lower is None else uc.lower,
-        uc.tau,
-        0.0 if uc.lipschitz is None else uc.lipschitz,
-        delta,
+    gamma, lower, tau, delta = _check_constants(
+        1.0 if uc.gamma is None else uc.gamma, 0.0 if uc.lower is None else uc.lower, uc.tau, delta
     )
     if target_impact_ratio is not None:
         _check_selection(gamma, lower, utility)
@@ -331,7 +327,7 @@ def _arguments(
         lower=lower,
         tau=math.nan if tau is None else tau,
         delta=delta,
-        lipschitz=lipschitz,
+        lipschitz=0.0 if uc.lipschitz is None else uc.lipschitz,
         diameter=_diameter(uc.diameter, uc.metric, len(fam.inputs)),
     )
     if method is None:

@@ -553,39 +553,36 @@ def _scan(
         if monotone
         else f"first crossing of a {len(grid)}-point scan, refined"
     )
-    for eps in grid[1:]:
+    found: tuple[float, float, float, float] | None
+    for eps in grid[1:]:  # (the first crossing of the grid, refined below)
         v = value(float(eps))
         if not v <= limit:
-            eps_star, reached = largest_meeting(value, target if f_lo <= target else limit, lo, f_lo, float(eps), v)
-            return Found(
-                eps_star,
-                reached,
-                f"exact {name} of the model behind the family; "
-                f"every epsilon in [0, {eps_star:.6g}] meets the target ({how})",
-            )
+            found = (lo, f_lo, float(eps), v)
+            break
         lo, f_lo = float(eps), v
-    top = value(math.inf)
-    if top <= limit:
-        why_every = (
-            f"and {name} is non-decreasing in epsilon along the family, for a utility free of the group"
-            if monotone
-            else f"and no point of the {len(grid)}-point scan exceeds it"
-        )
-        return Found(
-            math.inf,
-            top,
-            f"every epsilon meets the target: the model's {name} without privacy is {top:.6g} nats {why_every}",
-        )
-    found = bracket(value, limit, lo, f_lo, 2 * lo)
-    if found is None:
-        return Found(
-            EPS_MAX,
-            value(EPS_MAX),
-            f"the model's {name} stays below the target "
-            f"up to epsilon = {EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this",
-        )
+    else:  # no crossing on the grid: beyond it
+        top = value(math.inf)
+        if top <= limit:
+            why_every = (
+                f"and {name} is non-decreasing in epsilon along the family, for a utility free of the group"
+                if monotone
+                else f"and no point of the {len(grid)}-point scan exceeds it"
+            )
+            return Found(
+                math.inf,
+                top,
+                f"every epsilon meets the target: the model's {name} without privacy is {top:.6g} nats {why_every}",
+            )
+        found = bracket(value, limit, lo, f_lo, 2 * lo)
+        if found is None:
+            return Found(
+                EPS_MAX,
+                value(EPS_MAX),
+                f"the model's {name} stays below the target "
+                f"up to epsilon = {EPS_MAX:g} nats (the largest tried); the largest epsilon is at least this",
+            )
+        how = how if monotone else "scan, then refined"
     eps_star, reached = largest_meeting(value, target if found[1] <= target else limit, *found)
-    how = how if monotone else "scan, then refined"
     return Found(
         eps_star,
         reached,

@@ -90,20 +90,16 @@ def keep_grid(family: MechanismFamily) -> FloatArray:
         # what family.keep_probability(e) returns, without checking e again: a float in [0, cap] thousands of times
         return float(family.keep(e))
 
-    cap = GRID_CAP
-    if keep(cap) >= 1 - 1e-12:
+    def reaching(level: float, cap: float, steps: int) -> float:
+        """The upper end of a bisection in [0, cap], ``steps`` halvings, for where keep reaches ``level``."""
         lo, hi = 0.0, cap
-        for _ in range(100):
+        for _ in range(steps):
             mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if keep(mid) < 1 - 1e-12 else (lo, mid)
-        cap = hi
+            lo, hi = (mid, hi) if keep(mid) < level else (lo, mid)
+        return hi
+
+    cap = reaching(1 - 1e-12, GRID_CAP, 100) if keep(GRID_CAP) >= 1 - 1e-12 else GRID_CAP
     half = GRID // 2
     points = set(np.linspace(0.0, cap, half).tolist())
-    k0, k1 = keep(0.0), keep(cap)
-    for p in np.linspace(k0, k1, half + 2)[1:-1]:
-        lo, hi = 0.0, cap
-        for _ in range(80):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if keep(mid) < p else (lo, mid)
-        points.add(hi)
+    points.update(reaching(p, cap, 80) for p in np.linspace(keep(0.0), keep(cap), half + 2)[1:-1])
     return np.array(sorted(points))

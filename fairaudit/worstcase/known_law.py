@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
@@ -20,7 +21,7 @@ from fairaudit.base.labels import format_label
 from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult
 from fairaudit.base.outward import product_ends, rounding_error, sum_ends, widen_up
 from fairaudit.base.pairs import PAIR_BLOCK
-from fairaudit.base.threshold_rule import threshold_max_many
+from fairaudit.base.threshold_rule import box_point, threshold_max_many
 from fairaudit.laws.tables import Law, Population
 from fairaudit.laws.utilities import Utility, UtilityClass
 from fairaudit.worstcase.pair_search import (
@@ -219,15 +220,12 @@ class _UtilityProblem:
     method: str
     a_ub: FloatArray | None  # the τ rows: a_ub @ g <= b_ub
     b_ub: FloatArray | None
-    built: FractionalProgram | None = None
 
+    @functools.cached_property
     def program(self) -> FractionalProgram:
-        if self.built is None:
-            n_decisions = len(self.law.decisions)
-            self.built = FractionalProgram(
-                n_decisions, lower=self.lower, upper=self.gamma, A_ub=self.a_ub, b_ub=self.b_ub
-            )
-        return self.built
+        """The program over g, built at the first use."""
+        n_decisions = len(self.law.decisions)
+        return FractionalProgram(n_decisions, lower=self.lower, upper=self.gamma, A_ub=self.a_ub, b_ub=self.b_ub)
 
     def utility(self, h: FloatArray) -> Utility:
         return Utility(np.clip(h, self.lower, self.gamma), self.law.decisions, name="worst utility")
@@ -270,8 +268,7 @@ def _utility_case(
         ratio, x, a, b = best
         ratio = float(widen_up(ratio, widen)) if widen else ratio
         _, k, order = threshold_max_many(P[x, a], P[x, b], lower, gamma)
-        h = np.full(P.shape[-1], lower)
-        h[order[: int(k)]] = gamma
+        h = box_point(lower, gamma, order, int(k))
         return WorstCase.threshold(
             kind,
             ratio,
@@ -293,7 +290,7 @@ def _utility_case(
 
     def solve(i: int) -> FractionalResult:
         x, a, b = flat[i]
-        r = problem.program().solve(high[x, a], low[x, b])
+        r = problem.program.solve(high[x, a], low[x, b])
         return r if ends is None else inner_witness(r, low[x, a], high[x, b], inner)
 
     return _searched_case(problem, kind, search(upper, solve), flat if kind == "local" else flat[:, 1:], label_x)

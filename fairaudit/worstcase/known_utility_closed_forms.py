@@ -17,6 +17,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import replace
 from fractions import Fraction
+from typing import Any
 
 import numpy as np
 
@@ -41,11 +42,10 @@ def _threshold_case(
     a: int,
     b: int,
     kern: Kernel,
-    *,
-    solver_status: str = "threshold",
-    reason: str = "",
+    **fields: Any,
 ) -> WorstCase:
-    """A maximum decided without an LP: ``ratio`` (``value`` nats) at context x (local), pair (a, b), kernel ``kern``."""
+    """A maximum decided without an LP: ``ratio`` (``value`` nats) at context x (local), pair (a, b), kernel ``kern``;
+    ``fields``, its ``solver_status`` and ``reason`` (:meth:`~fairaudit.worstcase.worst_cases.WorstCase.threshold`)."""
     return WorstCase.threshold(
         kind,
         ratio,
@@ -55,8 +55,7 @@ def _threshold_case(
         other_group=problem.groups[b],
         kernel=kern,
         expected_utility=problem.audit(kern, kind),
-        solver_status=solver_status,
-        reason=reason,
+        **fields,
     )
 
 

@@ -25,17 +25,12 @@ from fractions import Fraction
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.linear_fractional import (
-    FractionalResult,
-    Polytope,
-    RatioOptimum,
-    gap_between,
-    maximize_ratio_over_product,
-)
+from fairaudit.base.exact_ratio import Polytope, RatioOptimum, maximize_ratio_over_product
+from fairaudit.base.linear_fractional import FractionalResult, gap_between
 from fairaudit.base.outward import fraction_down, fraction_up
 from fairaudit.laws.closed_forms import RandomizedResponse
 from fairaudit.laws.mechanisms import Mechanism
-from fairaudit.worstcase.known_utility_problem import ModelProblem
+from fairaudit.worstcase.known_utility_problem import ModelProblem, coefficient_factors
 from fairaudit.worstcase.randomized_response import rr_exact_rows
 from fairaudit.worstcase.worst_cases import EXACT_CROSSOVER
 
@@ -63,7 +58,7 @@ def exact_result(
     result : callable
         Makes the result from its remaining fields (``method``, ``p``, ``q``, ``lower`` and ``upper`` given).
     optimum : RatioOptimum
-        :func:`~fairaudit.base.linear_fractional.maximize_ratio_over_product`'s outcome.
+        :func:`~fairaudit.base.exact_ratio.maximize_ratio_over_product`'s outcome.
     p, q : sequences of Fraction, shape (n,)
         The exact numerator and denominator it was solved for.
     solver_status : str
@@ -149,10 +144,8 @@ class _End:
 
 
 def _coefficients(MA: ObjectArray, MX: ObjectArray, g: ObjectArray, u_only: bool, x: int, b: int) -> ObjectArray:
-    """The coefficients of E[g | x, b]: M_X[x, x̃] M_A[b, ã] in G-space, times g(u, x, b) in kernel space."""
-    if u_only:
-        return np.outer(MX[x], MA[b]).ravel()
-    return (MX[x][:, None, None] * MA[b][None, :, None] * g[x, b][None, None, :]).ravel()
+    """The coefficients of E[g | x, b], exactly: the product of :func:`coefficient_factors`."""
+    return functools.reduce(operator.mul, coefficient_factors(MA, MX, g, u_only, x, b)).ravel()
 
 
 MAX_BLOCKS = 256
@@ -266,7 +259,7 @@ class ExactPrograms:
         self, data: Callable[[_End], tuple[ObjectArray, ObjectArray]], rounded: FractionalResult
     ) -> FractionalResult | None:
         """The program exactly, in place of ``rounded`` (its float form's result), over the product of the blocks
-        (:func:`~fairaudit.base.linear_fractional.maximize_ratio_over_product`: a block without objective only has to
+        (:func:`~fairaudit.base.exact_ratio.maximize_ratio_over_product`: a block without objective only has to
         be feasible). None where a block is beyond :data:`CROSSOVER_SIZE` or there are
         more than :data:`MAX_BLOCKS`, where randomized response's e^ε has no finite float end, or where the exact solve
         gives no finite maximum and no proof of +inf. The value is the maximum at the upper end rounded up, the

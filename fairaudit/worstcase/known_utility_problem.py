@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, SupportsIndex
 
 import numpy as np
+import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray, IntArray
 from fairaudit.base.checks import nonnegative
@@ -83,13 +85,13 @@ class ModelProblem:
 
     def kernel(self, table: FloatArray, exact: bool = False) -> Kernel:
         """The worst model of a table K[x̃, ã, u]; ``exact``: a table of one-hot rows made here, no rounding to clean."""
+        if not exact:
+            table = np.clip(table, 0.0, None)
+            table = table / table.sum(axis=-1, keepdims=True)
         released_contexts, released_groups = self.context_mechanism.outputs, self.mechanism.outputs
-        decisions = self.utility.decisions
-        if exact:
-            return Kernel(table, released_contexts, released_groups, decisions, name="worst model", _owned=True)
-        t = np.clip(table, 0.0, None)
-        t = t / t.sum(axis=-1, keepdims=True)
-        return Kernel(t, released_contexts, released_groups, decisions, name="worst model", _owned=True)
+        return Kernel(
+            table, released_contexts, released_groups, self.utility.decisions, name="worst model", _owned=True
+        )
 
     def audit(self, kernel: Kernel, kind: str) -> FloatArray | None:
         """E[g | x, a] (local) or E[g | a] (global) of the law behind ``kernel``; None where that law has a cell of
@@ -197,6 +199,23 @@ def model_problem(
     )
 
 
+def coefficient_factors(
+    MA: npt.NDArray[Any], MX: npt.NDArray[Any], g: npt.NDArray[Any], u_only: bool, x: SupportsIndex, b: SupportsIndex
+) -> tuple[npt.NDArray[Any], ...]:
+    """The factors, broadcast together, whose product is the coefficients of E[g | x, b] in the programs' variables:
+    M_X[x, x̃] M_A[b, ã] in G-space (``u_only``), times g(u, x, b) in kernel space. Floats or exact Fractions.
+
+    Examples
+    --------
+    >>> MA, MX, g = np.array([[0.7, 0.3], [0.3, 0.7]]), np.eye(1), np.array([[[1.0, 0.0], [1.0, 0.0]]])
+    >>> [f.shape for f in coefficient_factors(MA, MX, g, True, 0, 1)], len(coefficient_factors(MA, MX, g, False, 0, 1))
+    ([(1, 1), (1, 2)], 3)
+    """
+    if u_only:
+        return MX[x][:, None], MA[b][None, :]
+    return MX[x][:, None, None], MA[b][None, :, None], g[x, b][None, None, :]
+
+
 def utility_reach(g: FloatArray, mechanism: Mechanism, context_mechanism: Mechanism) -> tuple[FloatArray, FloatArray]:
     """:attr:`ModelProblem.reach` for the utility table g (n_contexts, n_groups, n_decisions)."""
     a_hi, a_lo = mechanism.row_sums
@@ -215,9 +234,7 @@ def _scaled(values: FloatArray, factor: FloatArray, upward: bool) -> FloatArray:
 
 def onehot(idx: IntArray, n: int) -> FloatArray:
     """The one-hot rows of the indices ``idx`` over ``n`` values, shape ``idx.shape + (n,)``."""
-    out = np.zeros(idx.shape + (n,))
-    np.put_along_axis(out, idx[..., None], 1.0, axis=-1)
-    return out
+    return np.eye(n)[idx]
 
 
 def weighted_utility(problem: ModelProblem) -> FloatArray:

@@ -25,7 +25,7 @@ from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProg
 from fairaudit.base.outward import down, fraction_up, product_ends, product_roundings, rounding_error, up, widen_up
 from fairaudit.base.table_relaxation import relaxation_bounds
 from fairaudit.worstcase.known_utility_exact import ExactPrograms
-from fairaudit.worstcase.known_utility_problem import ModelProblem
+from fairaudit.worstcase.known_utility_problem import ModelProblem, coefficient_factors
 from fairaudit.worstcase.pair_search import (
     STOP,
     TIE,
@@ -363,14 +363,6 @@ def _problem_space(problem: ModelProblem, MA: FloatArray) -> _ModelSpace:
                           problem.decision_only, problem.binding, entries)  # fmt: skip
 
 
-def _tau_rows(
-    rows: npt.NDArray[np.floating[Any]], roundings: IntArray, nonzero: BoolArray, tau: float | None
-) -> tuple[FloatArray, list[Any]]:
-    """The τ rows rounded up (for the program: a relaxation) and the witness's constraint, rounded down."""
-    low, high = product_ends(np.asarray(rows, dtype=float), roundings, nonzero)
-    return high, [(-low, np.full(len(rows), -float(tau or 0.0)), "le")]
-
-
 def _model_program(
     MA: FloatArray,
     MX: FloatArray,
@@ -386,26 +378,30 @@ def _model_program(
     nX, nA, nU = g.shape
     nXr, nAr = MX.shape[1], MA.shape[1]
     xs = np.flatnonzero(live)
+    shape = (nXr, nAr) if u_only else (nXr, nAr, nU)
+    width = math.prod(shape)
 
-    def extra(mx: npt.NDArray[Any], ma: npt.NDArray[Any]) -> IntArray:
-        """The roundings the entries ``mx`` of M_X and ``ma`` of M_A carry (broadcast together; none where 0)."""
-        return entries[1] * (mx != 0) + entries[0] * (ma != 0)
+    def factors(x: SupportsIndex, b: SupportsIndex) -> tuple[npt.NDArray[Any], ...]:
+        return coefficient_factors(MA, MX, g, u_only, x, b)
+
+    def coef(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
+        return functools.reduce(operator.mul, factors(x, b)).ravel()
+
+    def roundings(x: SupportsIndex, b: SupportsIndex) -> IntArray:
+        """The roundings of each coefficient: its product's, plus those its entries of M_X and M_A carry."""
+        f = factors(x, b)
+        extra = entries[1] * (f[0] != 0) + entries[0] * (f[1] != 0)
+        return np.broadcast_to(product_roundings(*f) + extra, shape).ravel()
+
+    def nonzero(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
+        return functools.reduce(operator.and_, [f != 0 for f in factors(x, b)]).ravel()
 
     if u_only:
         g_row = g[xs[0], 0] if xs.size else g[0, 0]
         lo, hi = float(g_row.min()), float(g_row.max())
         hi_u, lo_u = int(g_row.argmax()), int(g_row.argmin())
 
-        def coef_g(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
-            return np.outer(MX[x], MA[b]).ravel()
-
-        def roundings_g(x: SupportsIndex, b: SupportsIndex) -> IntArray:
-            return (product_roundings(MX[x][:, None], MA[b][None, :]) + extra(MX[x][:, None], MA[b][None, :])).ravel()
-
-        def nonzero_g(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
-            return np.outer(MX[x] != 0, MA[b] != 0).ravel()
-
-        def g_to_kernel(G: npt.NDArray[Any]) -> npt.NDArray[Any]:  # (exactly for an exact G, Fractions)
+        def to_kernel(G: npt.NDArray[Any]) -> npt.NDArray[Any]:  # (exactly for an exact G, Fractions)
             G = G.reshape(nXr, nAr)
             low: Any = Fraction(lo) if G.dtype == object else lo
             span: Any = Fraction(hi) - low if G.dtype == object else hi - lo
@@ -415,74 +411,35 @@ def _model_program(
             table[..., lo_u] += 1 - high
             return table
 
-        rows = np.kron(MX[xs], MA) if with_tau and tau is not None else None  # (with_tau: τ above E[g]'s least)
-        outer: FloatArray | None = None
-        witness_rows: list[Any] = []
-        if rows is not None:
-            mx_rows, ma_rows = np.kron(MX[xs], np.ones_like(MA)), np.kron(np.ones_like(MX[xs]), MA)  # the factors
-            counts = product_roundings(mx_rows, ma_rows) + extra(mx_rows, ma_rows)
-            outer, witness_rows = _tau_rows(rows, counts, (mx_rows != 0) & (ma_rows != 0), tau)
-        b_rows = None if rows is None or tau is None else np.full(rows.shape[0], -tau)
-        return _ModelSpace(
-            coef=coef_g,
-            roundings=roundings_g,
-            nonzero=nonzero_g,
-            n_contexts=nX,
-            to_kernel=g_to_kernel,
-            program=functools.cache(  # (built once, at the first LP)
-                lambda: FractionalProgram(
-                    nXr * nAr,
-                    lower=lo,
-                    upper=hi,
-                    A_ub=None if outer is None else -outer,
-                    b_ub=b_rows,
-                )
-            ),
-            lo=lo,
-            hi=hi,
-            rows=rows,
-            inner=InnerProgram(np.full(nXr * nAr, lo), np.full(nXr * nAr, hi), witness_rows),
-            floors=rows is not None,
-        )
+        equalities: list[Any] = []
+    else:
+        lo, hi = 0.0, 1.0
 
-    def factors(x: SupportsIndex, b: SupportsIndex) -> tuple[FloatArray, FloatArray, FloatArray]:
-        return MX[x][:, None, None], MA[b][None, :, None], g[x, b][None, None, :]
+        def to_kernel(G: npt.NDArray[Any]) -> npt.NDArray[Any]:
+            return G.reshape(shape)
 
-    def coef(x: SupportsIndex, b: SupportsIndex) -> FloatArray:
-        mx, ma, gx = factors(x, b)
-        return (mx * ma * gx).ravel()
-
-    def roundings(x: SupportsIndex, b: SupportsIndex) -> IntArray:
-        mx, ma, gx = factors(x, b)
-        return np.broadcast_to(product_roundings(mx, ma, gx) + extra(mx, ma), (nXr, nAr, nU)).ravel()
-
-    def nonzero(x: SupportsIndex, b: SupportsIndex) -> BoolArray:
-        mx, ma, gx = factors(x, b)
-        return ((mx != 0) & (ma != 0) & (gx != 0)).ravel()
-
-    def to_kernel(K: npt.NDArray[Any]) -> npt.NDArray[Any]:
-        return K.reshape(nXr, nAr, nU)
-
-    a_eq = sp.kron(sp.identity(nXr * nAr, format="csr"), np.ones((1, nU)), format="csr")
-    simplex = [(a_eq, np.ones(nXr * nAr), "eq")]
-    k_outer: FloatArray | None = None
-    k_witness_rows: list[Any] = simplex
-    if with_tau and tau is not None and tau > 0:
+        a_eq = sp.kron(sp.identity(nXr * nAr, format="csr"), np.ones((1, nU)), format="csr")
+        equalities = [(a_eq, np.ones(nXr * nAr), "eq")]
+    # the τ rows (G-space: τ above E[g]'s least, ``with_tau``), rounded up for the program (a relaxation) and down
+    # for the witness's constraint
+    rows: FloatArray | None = None
+    outer: FloatArray | None = None
+    below: list[Any] = []
+    if with_tau and tau is not None and (u_only or tau > 0):
         pairs = [(x, b) for x in xs for b in range(nA)]
-        k_outer, below = _tau_rows(
-            np.stack([coef(x, b) for x, b in pairs]),
-            np.stack([roundings(x, b) for x, b in pairs]),
-            np.stack([nonzero(x, b) for x, b in pairs]),
-            tau,
-        )
-        k_witness_rows = below + simplex
+
+        def stacked(f: Callable[[SupportsIndex, SupportsIndex], npt.NDArray[Any]]) -> npt.NDArray[Any]:
+            return np.array([f(x, b) for x, b in pairs]).reshape(len(pairs), width)
+
+        rows = stacked(coef)
+        low, outer = product_ends(rows, stacked(roundings), stacked(nonzero))
+        below = [(-low, np.full(len(rows), -float(tau)), "le")]
 
     def build() -> FractionalProgram:
-        a_ub = None if k_outer is None else -k_outer
-        b_ub = None if k_outer is None else np.full(k_outer.shape[0], -float(tau or 0.0))
-        return FractionalProgram(
-            nXr * nAr * nU, lower=0.0, upper=1.0, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=np.ones(nXr * nAr)
-        )
+        a_ub = None if outer is None else -outer
+        b_ub = None if outer is None else np.full(outer.shape[0], -float(tau or 0.0))
+        eq = {} if u_only else {"A_eq": equalities[0][0], "b_eq": equalities[0][1]}
+        return FractionalProgram(width, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub, **eq)
 
     return _ModelSpace(
         coef=coef,
@@ -490,12 +447,12 @@ def _model_program(
         nonzero=nonzero,
         n_contexts=nX,
         to_kernel=to_kernel,
-        program=functools.cache(build),
-        lo=None,
-        hi=None,
-        rows=None,
-        inner=InnerProgram(np.zeros(nXr * nAr * nU), np.ones(nXr * nAr * nU), k_witness_rows),
-        floors=k_outer is not None,
+        program=functools.cache(build),  # (built once, at the first LP)
+        lo=lo if u_only else None,
+        hi=hi if u_only else None,
+        rows=rows if u_only else None,
+        inner=InnerProgram(np.full(width, lo), np.full(width, hi), below + equalities),
+        floors=outer is not None,
     )
 
 

@@ -4,7 +4,7 @@ for ``fairaudit verify`` to check without solving: :func:`lipschitz_proof`.
 The worst case is the maximum over ordered pairs (a, a') of the linear-fractional program (M_A[a]·h[a]) /
 (M_A[a']·h[a']) over the polytope H of ``proofs/black_box.md`` §5: h[b, ã] in [lower, γ], |h[b, ã] − h[c, ã]| ≤
 L_A d(b, c), the floors M_A[b]·h[b] ≥ τ. Each program that decides the value is solved here exactly, by Dinkelbach's
-steps over exact linear programs (:class:`~fairaudit.base.linear_fractional.Polytope`), and recorded as its value λ
+steps over exact linear programs (:class:`~fairaudit.base.exact_ratio.Polytope`), and recorded as its value λ
 and the multipliers y ≥ 0 of its rows, which prove it by weak duality; the maximiser's vertex is recorded as the witness.
 A pair whose screen (γ ΣM[a], or t·E[g | a'] + L_A d ΣM[a], over the least denominator) is at most the largest value
 solved is not solved: ``verify`` recomputes its screen. The rows' order, which ``verify`` rebuilds, is
@@ -19,8 +19,8 @@ from collections.abc import Mapping, Sequence
 from fractions import Fraction
 from typing import Any
 
+from fairaudit.base.exact_ratio import Polytope
 from fairaudit.base.json_values import Report
-from fairaudit.base.linear_fractional import Polytope
 from fairaudit.base.outward import exp_up, fraction_up
 from fairaudit.worstcase.worst_cases import exact_number
 

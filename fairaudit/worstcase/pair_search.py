@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray, IntArray
-from fairaudit.base.checks import choice, nonnegative
+from fairaudit.base.checks import choice
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import Rows, point_ratio
 from fairaudit.base.linear_fractional import CROSSOVER_TOLERANCE, FractionalProgram, FractionalResult, gap_between
@@ -272,21 +272,18 @@ def check_method(method: str) -> str:
 
 
 def check_class(utility_class: UtilityClass | None) -> tuple[float, float, float | None]:
-    """(lower, γ, τ) of a utility class [lower, γ] with floor τ ≤ γ (τ may be None); lower 0 and γ 1 by default."""
+    """(lower, γ, τ) of a utility class [lower, γ] with floor τ ≤ γ (τ may be None); lower 0 and γ 1 by default (each
+    number already checked non-negative by :class:`~fairaudit.laws.utilities.UtilityClass`)."""
     c = UtilityClass() if utility_class is None else utility_class
     if not isinstance(c, UtilityClass):
         raise InputError("utility_class", "must be a UtilityClass", type(c).__name__)
-    lower = nonnegative(0.0 if c.lower is None else c.lower, "lower")
-    gamma = nonnegative(1.0 if c.gamma is None else c.gamma, "gamma")
+    lower = 0.0 if c.lower is None else c.lower
+    gamma = 1.0 if c.gamma is None else c.gamma
     tau = c.tau
     if lower > gamma:
         raise InputError("lower", f"cannot exceed gamma = {gamma:g}", lower)
-    if tau is not None:
-        tau = nonnegative(tau, "tau")
-        if tau > gamma:
-            raise InputError(
-                "tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau", tau
-            )
+    if tau is not None and tau > gamma:
+        raise InputError("tau", f"exceeds gamma = {gamma:g}: no utility in [lower, gamma] has E[g | x, a] >= tau", tau)
     return lower, gamma, tau
 
 

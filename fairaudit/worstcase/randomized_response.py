@@ -341,7 +341,7 @@ def rr_lipschitz_ratio(
     objective being linear-fractional, optimal) the worst case has h[a'] = g and every other group, a included, at
     the largest vector the Lipschitz condition allows, f = min(g + λ, hi) (``proofs/black_box.md`` §5, Proposition
     7b). On each of the 8 pieces of [lo, hi]^3 where f is affine its value is a linear-fractional program in
-    (x, z, y) with rational data, solved exactly (:class:`~fairaudit.base.linear_fractional.Polytope`; the affine
+    (x, z, y) with rational data, solved exactly (:class:`~fairaudit.base.exact_ratio.Polytope`; the affine
     numerator through a fourth variable fixed at 1). The worst case is non-decreasing in
     e^ε (a smaller ε is a post-processing of a larger one, ``proofs/calibration.md`` §3), so its value at t bounds the
     value at e^ε from above (``proofs/outward.md`` §5).
@@ -363,7 +363,7 @@ def rr_lipschitz_ratio(
     g : tuple of 3 fractions.Fraction, or None
         A vertex attaining it (None with ±inf).
     """
-    from fairaudit.base.linear_fractional import Polytope
+    from fairaudit.base.exact_ratio import Polytope
 
     p, q = _rows_up(k, epsilon)
     m = k - 2

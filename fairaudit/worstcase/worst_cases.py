@@ -221,55 +221,24 @@ class WorstCase:
         )
 
     @classmethod
-    def threshold(
-        cls,
-        kind: str,
-        ratio: float,
-        value: float,
-        *,
-        context: Hashable | None,
-        group: Hashable,
-        other_group: Hashable,
-        kernel: Kernel | None = None,
-        utility: Utility | None = None,
-        expected_utility: FloatArray | None = None,
-        solver_status: str = "threshold",
-        reason: str = "",
-    ) -> WorstCase:
-        """A maximum decided without an LP (the threshold solution or a closed form): "unbounded" when ``value`` is inf."""
-        return cls(
-            kind=kind,
-            value=value,
-            ratio=ratio,
-            context=context,
-            group=group,
-            other_group=other_group,
-            kernel=kernel,
-            utility=utility,
-            expected_utility=expected_utility,
-            method="threshold",
-            status="unbounded" if math.isinf(value) else "optimal",
-            solver_status=solver_status,
-            reason=reason,
-            programs_solved=0,
-        )
+    def threshold(cls, kind: str, ratio: float, value: float, **fields: Any) -> WorstCase:
+        """A maximum decided without an LP (the threshold solution or a closed form): "unbounded" when ``value`` is inf.
+
+        ``fields``: the maximiser's ``context``, ``group`` and ``other_group``, and where known its
+        ``kernel``, ``utility``, ``expected_utility``, ``solver_status`` (default "threshold") and ``reason``.
+        """
+        fields.setdefault("solver_status", "threshold")
+        fields.setdefault("reason", "")
+        status = "unbounded" if math.isinf(value) else "optimal"
+        return cls(kind=kind, value=value, ratio=ratio, method="threshold", status=status, programs_solved=0, **fields)
 
     @classmethod
-    def searched(
-        cls,
-        kind: str,
-        found: SearchResult,
-        *,
-        context: Hashable | None,
-        group: Hashable,
-        other_group: Hashable,
-        kernel: Kernel | None = None,
-        utility: Utility | None = None,
-        expected_utility: FloatArray | None = None,
-        duals: tuple[ProgramDual, ...] = (),
-        witness_point: npt.NDArray[Any] | None = None,
-    ) -> WorstCase:
-        """The maximiser the pair search found: its program's value, status and reason; "lp" when an LP was solved."""
+    def searched(cls, kind: str, found: SearchResult, **fields: Any) -> WorstCase:
+        """The maximiser the pair search found: its program's value, status and reason; "lp" when an LP was solved.
+
+        ``fields``: the maximiser's ``context``, ``group`` and ``other_group``, and where known its
+        ``kernel``, ``utility``, ``expected_utility``, ``duals`` and ``witness_point``.
+        """
         r = found.result
         assert r is not None  # a maximiser was found
         value, witness = nats_up(r.value), nats_down(r.witness)
@@ -277,12 +246,6 @@ class WorstCase:
             kind=kind,
             value=value,
             ratio=r.value,
-            context=context,
-            group=group,
-            other_group=other_group,
-            kernel=kernel,
-            utility=utility,
-            expected_utility=expected_utility,
             method="lp" if found.solved else "threshold",
             status=r.status,
             solver_status=r.solver_status,
@@ -291,8 +254,7 @@ class WorstCase:
             certified=r.certified,
             witness=witness,
             gap=gap_between(value, witness),
-            duals=duals,
-            witness_point=witness_point,
+            **fields,
         )
 
     @classmethod

@@ -218,7 +218,7 @@ def test_polytope_ratios_equal_the_tests_rational_simplex(seed, n, m, blocks, gu
     from _rational_simplex import Polytope as Second
     from _rational_simplex import maximize_ratio_over_product as second
 
-    from fairaudit.base.linear_fractional import Polytope, maximize_ratio_over_product
+    from fairaudit.base.exact_ratio import Polytope, maximize_ratio_over_product
 
     data = _rational_program(seed, n, m, blocks)
     ours = [Polytope(lo, hi, a, b, n) for lo, hi, a, b, _, _ in data]
@@ -247,7 +247,7 @@ def test_polytope_ratios_equal_the_tests_rational_simplex(seed, n, m, blocks, gu
 
 
 def test_polytope_reports_an_empty_polytope_and_a_zero_denominator():
-    from fairaudit.base.linear_fractional import Polytope
+    from fairaudit.base.exact_ratio import Polytope
 
     F = Fraction
     assert not Polytope([0, 0], [1, 1], [[-1, -1]], [-3], 2).feasible
@@ -261,7 +261,7 @@ def test_polytope_reports_an_empty_polytope_and_a_zero_denominator():
 
 def test_polytope_where_the_denominator_vanishes_everywhere_shows_the_largest_numerator():
     # q·h = 0 on the whole polytope: the point maximises p·h, so c/0 (p·h > 0) shows wherever some h meets it
-    from fairaudit.base.linear_fractional import Polytope
+    from fairaudit.base.exact_ratio import Polytope
 
     F = Fraction
     box = Polytope([0, 0], [1, 1], [], [], 2)

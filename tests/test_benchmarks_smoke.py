@@ -62,6 +62,7 @@ def _check_agreement(table: list[list[str]], tol: float) -> None:
         ("bench_product64", ["| operation | result | median time |"]),
         ("bench_impact_ratio", ["| n per category | level | interval or test |"]),
         ("bench_plan_memory", ["| groups x contexts | epsilon | method | tables |"]),
+        ("bench_audit_memory", ["| groups | records | audit peak (MiB) | pandas groupby peak (MiB) |"]),
     ],
 )
 def test_quick_run_exits_zero_with_tables(name, headers, capsys, tmp_path):

@@ -9,7 +9,7 @@ The files are docs/experiments.md's "The files": ``kernel.csv`` (also the input 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -39,13 +39,13 @@ __all__ = [
     "experiment_dict",
     "experiment_markdown",
     "experiment_spec",
-    "kernel_frame",
     "observed_dicts",
     "point_dict",
     "privacy_dict",
     "records_frame",
     "shown_kernel_frame",
     "utility_dict",
+    "write_files",
     "write_frame",
     "write_json",
     "write_report",
@@ -60,15 +60,6 @@ def _cells(k: Kernel) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], npt.N
     )
     x, g, d = (a.ravel() for a in np.indices(k.probabilities.shape))
     return x, g, d, value
-
-
-def kernel_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
-    """The model's kernel on shown cells as a long table: context, option columns, decision, count.
-
-    On the exact route the last column is ``probability`` (the model's own
-    P(decision | cell)) instead of ``count``; both are read by ``--kernel``.
-    """
-    return shown_kernel_frame(analysis.task, analysis.kernel)
 
 
 def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
@@ -449,16 +440,32 @@ def write_frame(path: str | Path, frame: pd.DataFrame) -> None:
     write_atomic(path, frame.to_csv(index=False), field="--out")
 
 
+def write_files(
+    out: Path, steps: Sequence[tuple[str, Callable[[Path], None]]], plot: Callable[[], list[Path]]
+) -> list[Path]:
+    """Write each ``(name, write)`` of ``steps`` to ``out / name``, then the figures ``plot`` draws; the figures are
+    skipped, with a note on stderr, when matplotlib is missing. Returns the paths written."""
+    import sys
+
+    written = []
+    for name, write in steps:
+        write(out / name)
+        written.append(out / name)
+    try:
+        written += plot()
+    except InputError as exc:  # matplotlib missing: the tables and report are written
+        print(f"fairaudit: figures skipped: {exc}", file=sys.stderr)
+    return written
+
+
 def write_report(analysis: ExperimentAnalysis, out: Path, run: dict[str, Any]) -> list[Path]:
     """The last step of a run: its files in ``out``, each written atomically (the module's list); the figures are
     skipped, with a note on stderr, when matplotlib is missing."""
-    import sys
-
     from .figures import plot_baseline, plot_experiment_curve
 
     data = experiment_dict(analysis, run)
     steps: list[tuple[str, Callable[[Path], None]]] = [
-        ("kernel.csv", lambda p: write_frame(p, kernel_frame(analysis))),
+        ("kernel.csv", lambda p: write_frame(p, shown_kernel_frame(analysis.task, analysis.kernel))),
         ("candidates.csv", lambda p: write_frame(p, candidate_frame(analysis))),
         ("curve.csv", lambda p: analysis.curve.to_csv(p)),
         ("certificate.json", lambda p: write_json(p, data)),
@@ -466,18 +473,13 @@ def write_report(analysis: ExperimentAnalysis, out: Path, run: dict[str, Any]) -
     ]
     if analysis.route == "sampled":  # records are queries: the exact route has none
         steps.insert(2, ("records.csv", lambda p: write_frame(p, records_frame(analysis))))
-    written = []
-    for name, write in steps:
-        write(out / name)
-        written.append(out / name)
     for point in analysis.points:
-        path = out / f"spec-eps-{point.epsilon:.4g}.toml"
-        write_atomic(path, experiment_spec(analysis, point), field="out")
-        written.append(path)
-    try:
+        spec = experiment_spec(analysis, point)
+        steps.append((f"spec-eps-{point.epsilon:.4g}.toml", lambda p, spec=spec: write_atomic(p, spec, field="out")))
+
+    def plot() -> list[Path]:
         plot_baseline(analysis, out / "baseline.png")
         plot_experiment_curve(analysis, out / "curve.png")
-        written += [out / "baseline.png", out / "curve.png"]
-    except InputError as exc:  # matplotlib missing: the tables and report are written
-        print(f"fairaudit: figures skipped: {exc}", file=sys.stderr)
-    return written
+        return [out / "baseline.png", out / "curve.png"]
+
+    return write_files(out, steps, plot)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -474,8 +475,8 @@ def write_report(analysis: ExperimentAnalysis, out: Path, run: dict[str, Any]) -
     if analysis.route == "sampled":  # records are queries: the exact route has none
         steps.insert(2, ("records.csv", lambda p: write_frame(p, records_frame(analysis))))
     for point in analysis.points:
-        spec = experiment_spec(analysis, point)
-        steps.append((f"spec-eps-{point.epsilon:.4g}.toml", lambda p, spec=spec: write_atomic(p, spec, field="out")))
+        spec = partial(write_atomic, content=experiment_spec(analysis, point), field="out")
+        steps.append((f"spec-eps-{point.epsilon:.4g}.toml", spec))
 
     def plot() -> list[Path]:
         plot_baseline(analysis, out / "baseline.png")

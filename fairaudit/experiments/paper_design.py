@@ -31,7 +31,7 @@ from ._markdown import paper_design_markdown
 from .analysis import ObservedPoint, candidate_context_mechanism, candidate_utility, observed_point
 from .figures import figure_class
 from .harness import paper_queries_needed
-from .report import observed_dicts, point_dict, utility_dict, write_files, write_frame, write_json
+from .report import head_dict, observed_dicts, point_dict, utility_dict, write_files, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .unparsed_bounds import BoundRange, bound_ranges_from
 from .vlm.filter import TaskFilter
@@ -330,24 +330,15 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None 
     cell (docs/experiments.md, "The files").
     """
     a, t = analysis, analysis.task
-    out: dict[str, Any] = {
-        "experiment": t.name,
-        "model": a.model,
-        "route": a.route,
+    out: dict[str, Any] = head_dict(a) | {
         "design": "paper",
-        "positions": a.positions,
-        "samples": a.samples,
-        "slots": t.slots,
-        "candidates": [t.profile_label(c) for c in t.candidates],
-        "context": t.context_name,
         "queries": {
             "baseline": a.baseline.queries,
             "paper": sum(p.queries for p in a.points),
             "unparsed": a.unparsed,
             "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
-        "utility": utility_dict(t)
-        | {"unparsed_range": [number(a.baseline.unparsed_range.low), number(a.baseline.unparsed_range.high)]},
+        "utility": utility_dict(t, a.baseline.unparsed_range),
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {"queries": a.baseline.queries, **observed_dicts(a.baseline)},

@@ -27,7 +27,7 @@ from .vlm.tasks import UNPARSED
 if TYPE_CHECKING:
     import pandas as pd
 
-    from fairaudit import Calibration, Kernel
+    from fairaudit import Calibration, Kernel, UtilityRange
 
     from .analysis import ExperimentAnalysis, PointResult
     from .kernel import UnparsedMass
@@ -40,6 +40,7 @@ __all__ = [
     "experiment_dict",
     "experiment_markdown",
     "experiment_spec",
+    "head_dict",
     "observed_dicts",
     "point_dict",
     "privacy_dict",
@@ -251,10 +252,27 @@ def privacy_dict(task: DeliveryTask, f: TaskFilter, epsilon_candidate: float) ->
     }
 
 
-def utility_dict(task: DeliveryTask) -> dict[str, Any]:
-    """The ``utility`` of a report: g's name, its value per outcome, and ``unparsed``, the value an unparsed reply
+def head_dict(analysis: Any) -> dict[str, Any]:
+    """The keys both designs' certificates begin with: the task, the model, the route, the positions, the samples,
+    the slots, the candidates and the context's name (``analysis``: either design's analysis)."""
+    a, t = analysis, analysis.task
+    return {
+        "experiment": t.name,
+        "model": a.model,
+        "route": a.route,
+        "positions": a.positions,
+        "samples": a.samples,
+        "slots": t.slots,
+        "candidates": [t.profile_label(c) for c in t.candidates],
+        "context": t.context_name,
+    }
+
+
+def utility_dict(task: DeliveryTask, unparsed_range: UtilityRange) -> dict[str, Any]:
+    """The ``utility`` of a report: g's name, its value per outcome, ``unparsed``, the value an unparsed reply
     counts with ``source`` (``"given"``, or ``"default: expected g of a uniformly random reply"``) and ``rule``
-    (how it was set, in words: :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.unparsed_rule`)."""
+    (how it was set, in words: :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.unparsed_rule`), and
+    ``unparsed_range``, the ends of ``unparsed_range`` (the baseline's)."""
     return {
         "name": task.utility_name,
         "values": dict(zip(task.outcomes, map(number, task.utility_values))),
@@ -263,6 +281,7 @@ def utility_dict(task: DeliveryTask) -> dict[str, Any]:
             "source": task.unparsed_source,
             "rule": task.unparsed_rule,
         },
+        "unparsed_range": [number(unparsed_range.low), number(unparsed_range.high)],
     }
 
 
@@ -326,15 +345,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
     }
     curve = a.curve
     split = a.split
-    out = {
-        "experiment": t.name,
-        "model": a.model,
-        "route": a.route,
-        "positions": a.positions,
-        "samples": a.samples,
-        "slots": t.slots,
-        "candidates": [t.profile_label(c) for c in t.candidates],
-        "context": t.context_name,
+    out = head_dict(a) | {
         "queries": {
             "table": a.table_queries,
             "paper": a.paper_queries,
@@ -343,8 +354,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
             "table_design_needs": table_queries_needed(t, a.samples),
             "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
-        "utility": utility_dict(t)
-        | {"unparsed_range": [number(a.baseline.unparsed_range.low), number(a.baseline.unparsed_range.high)]},
+        "utility": utility_dict(t, a.baseline.unparsed_range),
         "unparsed_mass": None if a.unparsed_mass is None else _mass_dict(a.unparsed_mass),
         "tau": number(a.tau),
         "confidence": number(a.confidence),

@@ -320,18 +320,8 @@ def _sampling(task: DeliveryTask, source: ModelSource, seed: int) -> dict:
     constrained, the allowed ``replies``; ``scoring`` where the replies are read as the exact route scores them.
     """
     scoring = source.scoring or SCORINGS[0]
-    if source.sampled_twin:
-        return {
-            "temperature": PLAIN_SAMPLING["temperature"],
-            "top_p": PLAIN_SAMPLING["top_p"],
-            "max_tokens": _twin_tokens(task, scoring),
-            "seed": int(seed),
-            "constrain": "none",
-            "top_k": PLAIN_SAMPLING["top_k"],
-            "min_p": PLAIN_SAMPLING["min_p"],
-            "scoring": scoring,
-        }
-    default_tokens = _twin_tokens(task, scoring) if source.local_model is not None else DEFAULT_MAX_TOKENS
+    twin = source.sampled_twin  # ModelSource refuses other settings: PLAIN_SAMPLING's (1, 1, top_k 0, min_p 0)
+    default_tokens = _twin_tokens(task, scoring) if twin or source.local_model is not None else DEFAULT_MAX_TOKENS
     out: dict[str, Any] = {
         "temperature": 1.0 if source.temperature is None else source.temperature,
         "top_p": 1.0 if source.top_p is None else source.top_p,
@@ -339,9 +329,11 @@ def _sampling(task: DeliveryTask, source: ModelSource, seed: int) -> dict:
         "seed": int(seed),
         "constrain": source.constrain,
     }
+    if twin:
+        out |= {"top_k": PLAIN_SAMPLING["top_k"], "min_p": PLAIN_SAMPLING["min_p"]}
     if source.constrain != "none":
         out["replies"] = list(_constrained_replies(task, source.constrain))
-    if source.local_model is not None:  # its replies are read as the exact route scores them
+    if twin or source.local_model is not None:  # its replies are read as the exact route scores them
         out["scoring"] = scoring
     return out
 

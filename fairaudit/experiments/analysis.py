@@ -55,6 +55,7 @@ from .slots import (
     candidate_population,
     expected_utility,
     position_split,
+    slot_names,
     true_prompts,
 )
 from .unparsed_bounds import BoundRange, bound_ranges
@@ -467,8 +468,7 @@ def analyse(
     kernel = table_kernel(task, records)
     if kernel.empty_cells:
         x, shown = kernel.empty_cells[0]
-        slots = task.options if task.slots > 1 else ("candidate",)
-        cell = ", ".join(f"{o} {task.profile_label(p)!r}" for o, p in zip(slots, shown))
+        cell = ", ".join(f"{o} {task.profile_label(p)!r}" for o, p in zip(slot_names(task), shown))
         raise InputError(
             "table design",
             f"shown cell ({task.context_name} {x!r}, {cell}) has "

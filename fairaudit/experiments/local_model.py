@@ -479,14 +479,6 @@ def _copy_cache(past: Any, batch: int) -> Any:
     return cache
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
 @contextmanager
 def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None = None) -> Iterator[str]:
     """``transformers serve FOLDER`` on 127.0.0.1, for the ``with`` block; yields the endpoint URL.
@@ -516,9 +508,12 @@ def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None 
     InputError
         When the server exits or does not answer within ``timeout`` (naming its log).
     """
+    import socket
     import urllib.request
 
-    port = _free_port()
+    with socket.socket() as sock:  # a free port
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
     cmd = [
         sys.executable,
         "-c",

@@ -150,10 +150,14 @@ def _with_model(route: Route, seed: int) -> Route:
         twin = task if route.exact else _twin(task, scoring or SCORINGS[0])
         changes: dict[str, Any] = {"name": source.local_model, "task": twin, "sampling": sampling}
     elif route.exact:
+        from .vlm.logprobs import TOP_LOGPROBS
+
         assert source.model is not None  # ModelSource checks it
         # one request at a time by default: a server that batches concurrent requests (llama-server) computes a
-        # quantized model's logits differently per batch, so the exact kernel would depend on the timing
-        changes = {"name": source.model, "client": _exact_client(source, route.concurrency)}
+        # quantized model's logits differently per batch, so the exact kernel would depend on the timing; one-token
+        # replies with the first token's top log-probabilities
+        client = _client(source, route.concurrency, max_tokens=1, top_logprobs=TOP_LOGPROBS)
+        changes = {"name": source.model, "client": client}
     else:
         sampling = _sampling(task, source, seed) if source.endpoint else None
         m = _model(task, source, route.concurrency, sampling)
@@ -247,13 +251,6 @@ def _client(source: ModelSource, concurrency: int, **settings: Any) -> ChatClien
         max_concurrency=concurrency,
         **settings,
     )
-
-
-def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
-    """The client of an endpoint's exact route: one-token replies with the first token's top log-probabilities."""
-    from .vlm.logprobs import TOP_LOGPROBS
-
-    return _client(source, concurrency, max_tokens=1, top_logprobs=TOP_LOGPROBS)
 
 
 def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: dict | None) -> DecisionModel:

@@ -151,27 +151,20 @@ def _budgets(
         return (r.local_fairness if kind == "local" else r.global_fairness).upper
 
     family = candidate_family(task, positions)
+    white_box: dict[str, Any] = {"family": family, "kernel": kc, "utility": utility, "population": pop}
+    utility_class = UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau)
     out = []
     for target in sorted({float(t) for t in targets}):
         for kind in ("local", "global"):
             white = {
                 d: calibrate(
-                    target,
-                    kind=kind,
-                    method="white_box",
-                    family=family,
-                    kernel=kc,
-                    utility=utility,
-                    population=pop,
-                    context_mechanism=mx,
-                    unparsed_decision=d,
+                    target, kind=kind, method="white_box", context_mechanism=mx, unparsed_decision=d, **white_box
                 )
                 for d in (-1, None)
             }
             black = calibrate(
-                target, kind=kind, method="black_box", family=family,
-                utility_class=UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau), population=pop,
-            )  # fmt: skip
+                target, kind=kind, method="black_box", family=family, utility_class=utility_class, population=pop
+            )
             stated = white[None]
             upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
             out.append(TargetBudget(target, kind, white[-1], black, stated, upper))

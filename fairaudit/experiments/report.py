@@ -202,26 +202,16 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     x, g, d = np.nonzero(counts)
     reps = counts[x, g, d]
     x, g, d = np.repeat(x, reps), np.repeat(g, reps), np.repeat(d, reps)
-    outcome = np.asarray(k.decisions, dtype=object)[d]
-    if t.slots == 1:
-        return pd.DataFrame(
-            {
-                t.context_name: np.asarray(k.contexts, dtype=object)[x],
-                "profile": np.asarray(k.groups)[g],
-                "outcome": outcome,
-            }
-        )
-    ctx = np.asarray([c.rsplit(" @ ", 1) for c in k.contexts], dtype=object)
-    shown = [s.split(" | ", 1) for s in k.groups]
-    own = np.asarray([v[0] for v in shown], dtype=object)
-    rest = np.asarray([v[1] for v in shown], dtype=object)
+    many = t.slots > 1  # one candidate per prompt: no position, no rival
+    ctx = np.asarray([c.rsplit(" @ ", 1) if many else (c, "") for c in k.contexts], dtype=object)
+    shown = np.asarray([s.split(" | ", 1) if many else (s, "") for s in k.groups], dtype=object)
     return pd.DataFrame(
         {
             t.context_name: ctx[x, 0],
-            "position": ctx[x, 1],
-            "profile": own[g],
-            "rival" if t.slots == 2 else "rivals": rest[g],
-            "outcome": outcome,
+            **({"position": ctx[x, 1]} if many else {}),
+            "profile": shown[g, 0],
+            **({"rival" if t.slots == 2 else "rivals": shown[g, 1]} if many else {}),
+            "outcome": np.asarray(k.decisions, dtype=object)[d],
         }
     )
 

@@ -482,14 +482,13 @@ class DeliveryTask:
         n_attr = len(self.attributes)
         if texts and len(texts) != len(profiles) * n_attr:
             raise InputError("texts", f"needs one index per candidate and attribute ({len(profiles) * n_attr})", texts)
-        out = []
-        for i, p in enumerate(profiles):
-            shown = {}
-            for j, (a, v) in enumerate(zip(self.attributes, p)):
-                options = self.texts(a.name, v)
-                shown[a.name] = options[texts[i * n_attr + j] if texts else 0]
-            out.append(shown)
-        return out
+        return [
+            {
+                a.name: self.texts(a.name, v)[texts[i * n_attr + j] if texts else 0]
+                for j, (a, v) in enumerate(zip(self.attributes, p))
+            }
+            for i, p in enumerate(profiles)
+        ]
 
     def reply_names(self, profiles: Sequence[tuple], texts: Sequence[int] = ()) -> tuple[str, ...]:
         """What the reply calls each candidate of one prompt: its :attr:`named_by` text, or else the option key.

@@ -55,6 +55,7 @@ from .slots import (
     candidate_population,
     expected_utility,
     position_split,
+    slot_names,
     true_prompts,
 )
 from .unparsed_bounds import BoundRange, bound_ranges
@@ -150,27 +151,20 @@ def _budgets(
         return (r.local_fairness if kind == "local" else r.global_fairness).upper
 
     family = candidate_family(task, positions)
+    white_box: dict[str, Any] = {"family": family, "kernel": kc, "utility": utility, "population": pop}
+    utility_class = UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau)
     out = []
     for target in sorted({float(t) for t in targets}):
         for kind in ("local", "global"):
             white = {
                 d: calibrate(
-                    target,
-                    kind=kind,
-                    method="white_box",
-                    family=family,
-                    kernel=kc,
-                    utility=utility,
-                    population=pop,
-                    context_mechanism=mx,
-                    unparsed_decision=d,
+                    target, kind=kind, method="white_box", context_mechanism=mx, unparsed_decision=d, **white_box
                 )
                 for d in (-1, None)
             }
             black = calibrate(
-                target, kind=kind, method="black_box", family=family,
-                utility_class=UtilityClass(gamma=utility.gamma, lower=utility.lower, tau=tau), population=pop,
-            )  # fmt: skip
+                target, kind=kind, method="black_box", family=family, utility_class=utility_class, population=pop
+            )
             stated = white[None]
             upper = upper_at(stated.epsilon, kind) if stated.feasible else math.nan
             out.append(TargetBudget(target, kind, white[-1], black, stated, upper))
@@ -467,8 +461,7 @@ def analyse(
     kernel = table_kernel(task, records)
     if kernel.empty_cells:
         x, shown = kernel.empty_cells[0]
-        slots = task.options if task.slots > 1 else ("candidate",)
-        cell = ", ".join(f"{o} {task.profile_label(p)!r}" for o, p in zip(slots, shown))
+        cell = ", ".join(f"{o} {task.profile_label(p)!r}" for o, p in zip(slot_names(task), shown))
         raise InputError(
             "table design",
             f"shown cell ({task.context_name} {x!r}, {cell}) has "

@@ -301,8 +301,6 @@ def write_run(run: DiscrimEvalRun, out: str | Path) -> list[Path]:
         "summary.json": json.dumps(run.to_dict(), indent=2, ensure_ascii=False, allow_nan=False) + "\n",
         "report.md": run.markdown(),
     }
-    paths = []
     for name, text in files.items():
         write_atomic(folder / name, text, field="--out")
-        paths.append(folder / name)
-    return paths
+    return [folder / name for name in files]

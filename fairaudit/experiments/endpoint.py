@@ -33,7 +33,7 @@ from fairaudit import InputError
 
 from .exact import ExactPrompt, by_sequence, exact_prompt, exact_prompts, prompt_replies
 from .harness import RunSummary
-from .variants import prompt_variants
+from .variants import decision_row, prompt_variants
 
 if TYPE_CHECKING:
     import numpy as np
@@ -209,7 +209,6 @@ class _Scorer:
             return decision_probabilities(first, self.task, answers=self.answers)
         groups = prompt_variants(self.task, self.answers, self.prompts[i])
         flat = [v for g in groups for v in g]
-        row = np.zeros(len(self.task.decisions))
         if self.route in ("prompt-logprobs", "completions-echo"):
             probs = np.array([math.exp(self.scored(i, r)) for r in flat])
         else:
@@ -224,10 +223,7 @@ class _Scorer:
             first = lists.get("", ())
             likely = sorted((lp, t) for t, lp in first if t and not any(v.startswith(t) for v in flat))[::-1]
             self.likely[i] = [(t, math.exp(lp)) for lp, t in likely[:3]]
-        ends = np.cumsum([len(g) for g in groups])
-        row[:-1] = [probs[e - len(g) : e].sum() for g, e in zip(groups, ends)]  # a decision: the sum of its variants
-        row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))
-        return row
+        return decision_row(groups, probs)
 
 
 def endpoint_kernel(

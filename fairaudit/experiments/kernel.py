@@ -23,7 +23,7 @@ import numpy as np
 from fairaudit import InputError, Kernel
 
 from .harness import QueryLog, RunSummary, plan_queries, run_queries
-from .slots import outcome_index
+from .slots import outcome_index, slot_names
 
 if TYPE_CHECKING:
     from .cells import Cells
@@ -377,7 +377,7 @@ def unparsed_mass(task: DeliveryTask, kernel: Kernel, threshold: float = UNPARSE
     mass = np.nan_to_num(kernel.probabilities[..., -1], nan=0.0)  # (n_contexts, n_shown)
     over = mass > threshold
     order = np.argsort(-mass, axis=None, kind="stable")[: min(5, int(over.sum()))]
-    slots = task.options if task.slots > 1 else ("candidate",)
+    slots = slot_names(task)
     cells = []
     for flat in order:
         x, j = np.unravel_index(flat, mass.shape)

@@ -38,7 +38,7 @@ from fairaudit import InputError
 
 from .exact import by_sequence, exact_prompt, exact_prompts
 from .model_files import prepare, quiet_transformers, require_torch
-from .variants import prompt_variants
+from .variants import decision_row, prompt_variants
 from .vlm.models import EndpointModel, ModelReply, Query
 from .vlm.tasks import DeliveryTask
 
@@ -249,14 +249,11 @@ def exact_kernel(
         past = m.model(torch.tensor([ids[0][:prefix_len]]), use_cache=True).past_key_values if prefix_len else None
         for p, chat, seq in zip(prompts, chats, ids):
             first, cache = _next_token(m.model, seq[prefix_len:], past)
-            row = np.zeros(len(task.decisions))
             if sequences:
                 text = tok.apply_chat_template(chat, add_generation_prompt=True, tokenize=False)
                 groups = [_variant_ids(tok, text, seq, g) for g in prompt_variants(task, answers, p)]
                 probs = np.exp(_chain_rule(m.model, first, cache, [r for g in groups for r in g], batch_size))
-                ends = np.cumsum([len(g) for g in groups])
-                row[:-1] = [probs[e - len(g) : e].sum() for g, e in zip(groups, ends)]  # a decision: its variants
-                row[-1] = max(0.0, 1.0 - float(row[:-1].sum()))  # every reply that begins with no variant
+                row = decision_row(groups, probs)  # unparsed: every reply that begins with no variant
                 if unparsed is not None and row[-1] > worst:
                     worst, unparsed[:] = row[-1], _likely_unparsed(tok, first, {r[0] for g in groups for r in g})
             else:
@@ -482,14 +479,6 @@ def _copy_cache(past: Any, batch: int) -> Any:
     return cache
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
 @contextmanager
 def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None = None) -> Iterator[str]:
     """``transformers serve FOLDER`` on 127.0.0.1, for the ``with`` block; yields the endpoint URL.
@@ -519,9 +508,12 @@ def serve(folder: str | Path, *, timeout: float = 180.0, log: str | Path | None 
     InputError
         When the server exits or does not answer within ``timeout`` (naming its log).
     """
+    import socket
     import urllib.request
 
-    port = _free_port()
+    with socket.socket() as sock:  # a free port
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
     cmd = [
         sys.executable,
         "-c",

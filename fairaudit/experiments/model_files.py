@@ -279,13 +279,7 @@ def require_torch() -> tuple[Any, Any]:
         that installs them (``fairness-certify[local-model]``).
     """
     problem = "needs torch and transformers: pip install 'fairness-certify[local-model]'"
-    torch, transformers = optional_modules("local_model", problem, "torch", "transformers")
-    return torch, transformers
-
-
-def _digest(path: Path) -> str:
-    with open(path, "rb") as fh:
-        return hashlib.file_digest(fh, "sha256").hexdigest()
+    return optional_modules("local_model", problem, "torch", "transformers")
 
 
 def quiet_transformers() -> None:
@@ -334,7 +328,8 @@ def prepare(
     if kind == "folder":  # a transformers folder is used as it is
         return Path(name)
     gguf = find_gguf(name)
-    digest = _digest(gguf)
+    with open(gguf, "rb") as fh:
+        digest = hashlib.file_digest(fh, "sha256").hexdigest()
     root = Path(cache) if cache is not None else cache_root()
     label = name if kind == "package" else gguf.stem
     folder = root / f"{label}-{digest[:12]}"

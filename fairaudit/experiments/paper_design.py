@@ -31,7 +31,7 @@ from ._markdown import paper_design_markdown
 from .analysis import ObservedPoint, candidate_context_mechanism, candidate_utility, observed_point
 from .figures import figure_class
 from .harness import paper_queries_needed
-from .report import observed_dicts, point_dict, utility_dict, write_frame, write_json
+from .report import head_dict, observed_dicts, point_dict, utility_dict, write_files, write_frame, write_json
 from .slots import candidate_contexts, candidate_epsilon, candidate_population
 from .unparsed_bounds import BoundRange, bound_ranges_from
 from .vlm.filter import TaskFilter
@@ -330,24 +330,15 @@ def paper_design_dict(analysis: PaperDesignAnalysis, run: dict[str, Any] | None 
     cell (docs/experiments.md, "The files").
     """
     a, t = analysis, analysis.task
-    out: dict[str, Any] = {
-        "experiment": t.name,
-        "model": a.model,
-        "route": a.route,
+    out: dict[str, Any] = head_dict(a) | {
         "design": "paper",
-        "positions": a.positions,
-        "samples": a.samples,
-        "slots": t.slots,
-        "candidates": [t.profile_label(c) for c in t.candidates],
-        "context": t.context_name,
         "queries": {
             "baseline": a.baseline.queries,
             "paper": sum(p.queries for p in a.points),
             "unparsed": a.unparsed,
             "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
-        "utility": utility_dict(t)
-        | {"unparsed_range": [number(a.baseline.unparsed_range.low), number(a.baseline.unparsed_range.high)]},
+        "utility": utility_dict(t, a.baseline.unparsed_range),
         "tau": number(a.tau),
         "confidence": number(a.confidence),
         "baseline": {"queries": a.baseline.queries, **observed_dicts(a.baseline)},
@@ -464,8 +455,6 @@ def write_paper_design(analysis: PaperDesignAnalysis, out: Path, run: dict[str, 
     (:func:`baseline_records`), ``certificate.json`` (:func:`paper_design_dict`), ``report.md`` and
     ``curve.png`` (:func:`plot_paper_design`; skipped with a note on stderr when matplotlib is missing).
     """
-    import sys
-
     data = paper_design_dict(analysis, run)
     steps = (
         ("candidates.csv", lambda p: write_frame(p, counts_frame(analysis))),
@@ -473,13 +462,9 @@ def write_paper_design(analysis: PaperDesignAnalysis, out: Path, run: dict[str, 
         ("certificate.json", lambda p: write_json(p, data)),
         ("report.md", lambda p: write_atomic(p, paper_design_markdown(data), field="out")),
     )
-    written = []
-    for name, write in steps:
-        write(out / name)
-        written.append(out / name)
-    try:
+
+    def plot() -> list[Path]:
         plot_paper_design(analysis, out / "curve.png")
-        written.append(out / "curve.png")
-    except InputError as exc:  # matplotlib missing: the tables and report are written
-        print(f"fairaudit: figures skipped: {exc}", file=sys.stderr)
-    return written
+        return [out / "curve.png"]
+
+    return write_files(out, steps, plot)

@@ -9,7 +9,8 @@ The files are docs/experiments.md's "The files": ``kernel.csv`` (also the input 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -26,7 +27,7 @@ from .vlm.tasks import UNPARSED
 if TYPE_CHECKING:
     import pandas as pd
 
-    from fairaudit import Calibration, Kernel
+    from fairaudit import Calibration, Kernel, UtilityRange
 
     from .analysis import ExperimentAnalysis, PointResult
     from .kernel import UnparsedMass
@@ -39,13 +40,14 @@ __all__ = [
     "experiment_dict",
     "experiment_markdown",
     "experiment_spec",
-    "kernel_frame",
+    "head_dict",
     "observed_dicts",
     "point_dict",
     "privacy_dict",
     "records_frame",
     "shown_kernel_frame",
     "utility_dict",
+    "write_files",
     "write_frame",
     "write_json",
     "write_report",
@@ -60,15 +62,6 @@ def _cells(k: Kernel) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], npt.N
     )
     x, g, d = (a.ravel() for a in np.indices(k.probabilities.shape))
     return x, g, d, value
-
-
-def kernel_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
-    """The model's kernel on shown cells as a long table: context, option columns, decision, count.
-
-    On the exact route the last column is ``probability`` (the model's own
-    P(decision | cell)) instead of ``count``; both are read by ``--kernel``.
-    """
-    return shown_kernel_frame(analysis.task, analysis.kernel)
 
 
 def shown_kernel_frame(task: DeliveryTask, kernel: Kernel) -> pd.DataFrame:
@@ -209,26 +202,16 @@ def records_frame(analysis: ExperimentAnalysis) -> pd.DataFrame:
     x, g, d = np.nonzero(counts)
     reps = counts[x, g, d]
     x, g, d = np.repeat(x, reps), np.repeat(g, reps), np.repeat(d, reps)
-    outcome = np.asarray(k.decisions, dtype=object)[d]
-    if t.slots == 1:
-        return pd.DataFrame(
-            {
-                t.context_name: np.asarray(k.contexts, dtype=object)[x],
-                "profile": np.asarray(k.groups)[g],
-                "outcome": outcome,
-            }
-        )
-    ctx = np.asarray([c.rsplit(" @ ", 1) for c in k.contexts], dtype=object)
-    shown = [s.split(" | ", 1) for s in k.groups]
-    own = np.asarray([v[0] for v in shown], dtype=object)
-    rest = np.asarray([v[1] for v in shown], dtype=object)
+    many = t.slots > 1  # one candidate per prompt: no position, no rival
+    ctx = np.asarray([c.rsplit(" @ ", 1) if many else (c, "") for c in k.contexts], dtype=object)
+    shown = np.asarray([s.split(" | ", 1) if many else (s, "") for s in k.groups], dtype=object)
     return pd.DataFrame(
         {
             t.context_name: ctx[x, 0],
-            "position": ctx[x, 1],
-            "profile": own[g],
-            "rival" if t.slots == 2 else "rivals": rest[g],
-            "outcome": outcome,
+            **({"position": ctx[x, 1]} if many else {}),
+            "profile": shown[g, 0],
+            **({"rival" if t.slots == 2 else "rivals": shown[g, 1]} if many else {}),
+            "outcome": np.asarray(k.decisions, dtype=object)[d],
         }
     )
 
@@ -259,10 +242,27 @@ def privacy_dict(task: DeliveryTask, f: TaskFilter, epsilon_candidate: float) ->
     }
 
 
-def utility_dict(task: DeliveryTask) -> dict[str, Any]:
-    """The ``utility`` of a report: g's name, its value per outcome, and ``unparsed``, the value an unparsed reply
+def head_dict(analysis: Any) -> dict[str, Any]:
+    """The keys both designs' certificates begin with: the task, the model, the route, the positions, the samples,
+    the slots, the candidates and the context's name (``analysis``: either design's analysis)."""
+    a, t = analysis, analysis.task
+    return {
+        "experiment": t.name,
+        "model": a.model,
+        "route": a.route,
+        "positions": a.positions,
+        "samples": a.samples,
+        "slots": t.slots,
+        "candidates": [t.profile_label(c) for c in t.candidates],
+        "context": t.context_name,
+    }
+
+
+def utility_dict(task: DeliveryTask, unparsed_range: UtilityRange) -> dict[str, Any]:
+    """The ``utility`` of a report: g's name, its value per outcome, ``unparsed``, the value an unparsed reply
     counts with ``source`` (``"given"``, or ``"default: expected g of a uniformly random reply"``) and ``rule``
-    (how it was set, in words: :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.unparsed_rule`)."""
+    (how it was set, in words: :attr:`~fairaudit.experiments.vlm.tasks.DeliveryTask.unparsed_rule`), and
+    ``unparsed_range``, the ends of ``unparsed_range`` (the baseline's)."""
     return {
         "name": task.utility_name,
         "values": dict(zip(task.outcomes, map(number, task.utility_values))),
@@ -271,6 +271,7 @@ def utility_dict(task: DeliveryTask) -> dict[str, Any]:
             "source": task.unparsed_source,
             "rule": task.unparsed_rule,
         },
+        "unparsed_range": [number(unparsed_range.low), number(unparsed_range.high)],
     }
 
 
@@ -334,15 +335,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
     }
     curve = a.curve
     split = a.split
-    out = {
-        "experiment": t.name,
-        "model": a.model,
-        "route": a.route,
-        "positions": a.positions,
-        "samples": a.samples,
-        "slots": t.slots,
-        "candidates": [t.profile_label(c) for c in t.candidates],
-        "context": t.context_name,
+    out = head_dict(a) | {
         "queries": {
             "table": a.table_queries,
             "paper": a.paper_queries,
@@ -351,8 +344,7 @@ def experiment_dict(analysis: ExperimentAnalysis, run: dict[str, Any] | None = N
             "table_design_needs": table_queries_needed(t, a.samples),
             "paper_design_needs_per_epsilon": paper_queries_needed(t, a.samples, 1, a.positions),
         },
-        "utility": utility_dict(t)
-        | {"unparsed_range": [number(a.baseline.unparsed_range.low), number(a.baseline.unparsed_range.high)]},
+        "utility": utility_dict(t, a.baseline.unparsed_range),
         "unparsed_mass": None if a.unparsed_mass is None else _mass_dict(a.unparsed_mass),
         "tau": number(a.tau),
         "confidence": number(a.confidence),
@@ -449,16 +441,32 @@ def write_frame(path: str | Path, frame: pd.DataFrame) -> None:
     write_atomic(path, frame.to_csv(index=False), field="--out")
 
 
+def write_files(
+    out: Path, steps: Sequence[tuple[str, Callable[[Path], None]]], plot: Callable[[], list[Path]]
+) -> list[Path]:
+    """Write each ``(name, write)`` of ``steps`` to ``out / name``, then the figures ``plot`` draws; the figures are
+    skipped, with a note on stderr, when matplotlib is missing. Returns the paths written."""
+    import sys
+
+    written = []
+    for name, write in steps:
+        write(out / name)
+        written.append(out / name)
+    try:
+        written += plot()
+    except InputError as exc:  # matplotlib missing: the tables and report are written
+        print(f"fairaudit: figures skipped: {exc}", file=sys.stderr)
+    return written
+
+
 def write_report(analysis: ExperimentAnalysis, out: Path, run: dict[str, Any]) -> list[Path]:
     """The last step of a run: its files in ``out``, each written atomically (the module's list); the figures are
     skipped, with a note on stderr, when matplotlib is missing."""
-    import sys
-
     from .figures import plot_baseline, plot_experiment_curve
 
     data = experiment_dict(analysis, run)
     steps: list[tuple[str, Callable[[Path], None]]] = [
-        ("kernel.csv", lambda p: write_frame(p, kernel_frame(analysis))),
+        ("kernel.csv", lambda p: write_frame(p, shown_kernel_frame(analysis.task, analysis.kernel))),
         ("candidates.csv", lambda p: write_frame(p, candidate_frame(analysis))),
         ("curve.csv", lambda p: analysis.curve.to_csv(p)),
         ("certificate.json", lambda p: write_json(p, data)),
@@ -466,18 +474,13 @@ def write_report(analysis: ExperimentAnalysis, out: Path, run: dict[str, Any]) -
     ]
     if analysis.route == "sampled":  # records are queries: the exact route has none
         steps.insert(2, ("records.csv", lambda p: write_frame(p, records_frame(analysis))))
-    written = []
-    for name, write in steps:
-        write(out / name)
-        written.append(out / name)
     for point in analysis.points:
-        path = out / f"spec-eps-{point.epsilon:.4g}.toml"
-        write_atomic(path, experiment_spec(analysis, point), field="out")
-        written.append(path)
-    try:
+        spec = partial(write_atomic, content=experiment_spec(analysis, point), field="out")
+        steps.append((f"spec-eps-{point.epsilon:.4g}.toml", spec))
+
+    def plot() -> list[Path]:
         plot_baseline(analysis, out / "baseline.png")
         plot_experiment_curve(analysis, out / "curve.png")
-        written += [out / "baseline.png", out / "curve.png"]
-    except InputError as exc:  # matplotlib missing: the tables and report are written
-        print(f"fairaudit: figures skipped: {exc}", file=sys.stderr)
-    return written
+        return [out / "baseline.png", out / "curve.png"]
+
+    return write_files(out, steps, plot)

@@ -150,10 +150,14 @@ def _with_model(route: Route, seed: int) -> Route:
         twin = task if route.exact else _twin(task, scoring or SCORINGS[0])
         changes: dict[str, Any] = {"name": source.local_model, "task": twin, "sampling": sampling}
     elif route.exact:
+        from .vlm.logprobs import TOP_LOGPROBS
+
         assert source.model is not None  # ModelSource checks it
         # one request at a time by default: a server that batches concurrent requests (llama-server) computes a
-        # quantized model's logits differently per batch, so the exact kernel would depend on the timing
-        changes = {"name": source.model, "client": _exact_client(source, route.concurrency)}
+        # quantized model's logits differently per batch, so the exact kernel would depend on the timing; one-token
+        # replies with the first token's top log-probabilities
+        client = _client(source, route.concurrency, max_tokens=1, top_logprobs=TOP_LOGPROBS)
+        changes = {"name": source.model, "client": client}
     else:
         sampling = _sampling(task, source, seed) if source.endpoint else None
         m = _model(task, source, route.concurrency, sampling)
@@ -249,13 +253,6 @@ def _client(source: ModelSource, concurrency: int, **settings: Any) -> ChatClien
     )
 
 
-def _exact_client(source: ModelSource, concurrency: int) -> ChatClient:
-    """The client of an endpoint's exact route: one-token replies with the first token's top log-probabilities."""
-    from .vlm.logprobs import TOP_LOGPROBS
-
-    return _client(source, concurrency, max_tokens=1, top_logprobs=TOP_LOGPROBS)
-
-
 def _model(task: DeliveryTask, source: ModelSource, concurrency: int, sampling: dict | None) -> DecisionModel:
     """The sampled route's model: an endpoint's client, a kernel table, or a simulated model."""
     from .vlm.models import EndpointModel, SimulatedModel, simulated_model, simulated_models
@@ -320,18 +317,8 @@ def _sampling(task: DeliveryTask, source: ModelSource, seed: int) -> dict:
     constrained, the allowed ``replies``; ``scoring`` where the replies are read as the exact route scores them.
     """
     scoring = source.scoring or SCORINGS[0]
-    if source.sampled_twin:
-        return {
-            "temperature": PLAIN_SAMPLING["temperature"],
-            "top_p": PLAIN_SAMPLING["top_p"],
-            "max_tokens": _twin_tokens(task, scoring),
-            "seed": int(seed),
-            "constrain": "none",
-            "top_k": PLAIN_SAMPLING["top_k"],
-            "min_p": PLAIN_SAMPLING["min_p"],
-            "scoring": scoring,
-        }
-    default_tokens = _twin_tokens(task, scoring) if source.local_model is not None else DEFAULT_MAX_TOKENS
+    twin = source.sampled_twin  # ModelSource refuses other settings: PLAIN_SAMPLING's (1, 1, top_k 0, min_p 0)
+    default_tokens = _twin_tokens(task, scoring) if twin or source.local_model is not None else DEFAULT_MAX_TOKENS
     out: dict[str, Any] = {
         "temperature": 1.0 if source.temperature is None else source.temperature,
         "top_p": 1.0 if source.top_p is None else source.top_p,
@@ -339,9 +326,11 @@ def _sampling(task: DeliveryTask, source: ModelSource, seed: int) -> dict:
         "seed": int(seed),
         "constrain": source.constrain,
     }
+    if twin:
+        out |= {"top_k": PLAIN_SAMPLING["top_k"], "min_p": PLAIN_SAMPLING["min_p"]}
     if source.constrain != "none":
         out["replies"] = list(_constrained_replies(task, source.constrain))
-    if source.local_model is not None:  # its replies are read as the exact route scores them
+    if twin or source.local_model is not None:  # its replies are read as the exact route scores them
         out["scoring"] = scoring
     return out
 

@@ -137,23 +137,20 @@ def run_experiment(
         if route.scene is not None and log is not None:
             log(scene_line(route.scene))
         measured = measure(cells, route, folder, progress=progress, log=log)
-    kind = "exact" if route.exact else "sampled"
-    if not measured.complete:
-        return ExperimentRun(out=folder.out, summary=measured.summary, analysis=None, files=measured.files,
-                             route=kind, seconds=measured.seconds)  # fmt: skip
-    warning = _coverage(measured.run, options.min_coverage)
-    analysis = _analyse(cells, measured)
-    if isinstance(analysis, PaperDesignAnalysis):
-        written = write_paper_design(analysis, folder.out, measured.run)
-    else:
-        written = write_report(analysis, folder.out, measured.run)
-    files = measured.files + tuple(written)
+    analysis, warning, written = None, None, []  # an incomplete run is analysed and written no further
+    if measured.complete:
+        warning = _coverage(measured.run, options.min_coverage)
+        analysis = _analyse(cells, measured)
+        if isinstance(analysis, PaperDesignAnalysis):
+            written = write_paper_design(analysis, folder.out, measured.run)
+        else:
+            written = write_report(analysis, folder.out, measured.run)
     return ExperimentRun(
         out=folder.out,
         summary=measured.summary,
         analysis=analysis,
-        files=files,
-        route=kind,
+        files=measured.files + tuple(written),
+        route="exact" if route.exact else "sampled",
         seconds=measured.seconds,
         coverage_warning=warning,
     )

@@ -42,6 +42,7 @@ __all__ = [
     "case_variants",
     "coverage",
     "coverage_warning",
+    "decision_row",
     "decision_variants",
     "option_variants",
     "prompt_variants",
@@ -156,6 +157,20 @@ def prompt_variants(task: DeliveryTask, answers: Sequence[str], prompt: ExactPro
     from .exact import prompt_replies
 
     return decision_variants(task, prompt_replies(task, answers, prompt))
+
+
+def decision_row(groups: Sequence[Sequence[Any]], probabilities: Any) -> npt.NDArray[np.float64]:
+    """P(decision) of one prompt from its variants' probabilities (flat, in the order of ``groups``, the variants of
+    each decision): a decision gets the sum of its variants' (distinct replies are disjoint continuations), and
+    ``"unparsed"``, last, the rest, 1 − their sum clipped at 0.
+
+    Examples
+    --------
+    >>> decision_row([["yes", " yes"], ["no"]], [0.5, 0.25, 0.2]).tolist()
+    [0.75, 0.2, 0.05]
+    """
+    sums = np.add.reduceat(np.asarray(probabilities, dtype=float), np.cumsum([0] + [len(g) for g in groups[:-1]]))
+    return np.append(sums, max(0.0, 1.0 - float(sums.sum())))
 
 
 def reply_decision(task: DeliveryTask, text: str, replies: Sequence[str] | None = None) -> int | None:

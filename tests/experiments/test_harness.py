@@ -49,7 +49,6 @@ def test_paper_filter_epsilons_are_logs_and_sums(p):
     assert f.keep_probabilities == pytest.approx((p, p, p), abs=1e-12)
     assert f.epsilon_attributes == pytest.approx((one, one, one), abs=1e-12)
     assert f.epsilon_profile == pytest.approx(3 * one, abs=1e-12)
-    assert f.epsilon_query == pytest.approx(6 * one, abs=1e-12)
     assert f.candidate_mechanism().epsilon == pytest.approx(6 * one, abs=1e-12)
     assert f.profile_mechanism.epsilon == pytest.approx(3 * one, abs=1e-12)
     assert candidate_family(HR)(eps_candidate).epsilon == pytest.approx(eps_candidate, abs=1e-12)
@@ -86,7 +85,7 @@ def test_context_filter_and_errors():
     f = TaskFilter.from_epsilon(PKG, 1.0, context_epsilon=math.log(2))
     m = f.context_mechanism.matrix
     assert m[0].tolist() == pytest.approx([0.5, 0.25, 0.25])  # e^ε / (e^ε + 2) with ε = ln 2
-    assert f.epsilon_context == pytest.approx(math.log(2))
+    assert f.context_mechanism.epsilon == pytest.approx(math.log(2))
     with pytest.raises(InputError, match=r"^epsilon: must be a number of nats >= 0 \(got -1\)"):
         TaskFilter.from_epsilon(PKG, -1)
     with pytest.raises(InputError, match="^keep: "):

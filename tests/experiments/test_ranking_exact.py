@@ -25,7 +25,7 @@ from fairaudit.experiments.kernel import table_kernel
 from fairaudit.experiments.options import ModelSource, RunOptions
 from fairaudit.experiments.run import run_experiment
 from fairaudit.experiments.taskfile import load_task, parse_task
-from fairaudit.experiments.vlm.logprobs import reply_probabilities
+from fairaudit.experiments.vlm.logprobs import reply_bounds
 from fairaudit.experiments.vlm.models import ModelReply, SimulatedModel, simulated_model
 from fairaudit.experiments.vlm.parse import parse_reply
 
@@ -99,7 +99,7 @@ def test_the_chain_rule_is_the_product_of_the_conditionals_in_fractions():
         return [(t, ln(q)) for t, q in nxt.items()]
 
     asked = []
-    got = reply_probabilities(lambda p: asked.append(p) or conditional(p), [*law, "3, 2, 1"])
+    got = reply_bounds(lambda p: asked.append(p) or conditional(p), [*law, "3, 2, 1"])[0]
     np.testing.assert_allclose(got, [0.5, 1 / 3, 1 / 12, 0.0], rtol=1e-13, atol=0)
     assert len(asked) == len(set(asked)) == 1 + 2 * 3 + 3 * 3  # every prefix asked once; "3" is never listed
 

@@ -250,12 +250,12 @@ def test_resuming_after_the_task_file_changed_is_refused(tmp_path, capsys):
 
 
 def test_without_jinja2_a_prompt_is_one_line_naming_the_install(monkeypatch):
-    from fairaudit.experiments.vlm import tasks
+    from fairaudit.experiments.vlm import templates
 
-    tasks._environment.cache_clear()
+    templates._environment.cache_clear()
     monkeypatch.setitem(sys.modules, "jinja2", None)
     try:
         with pytest.raises(InputError, match=r"^prompt: needs jinja2, which is not installed: pip install"):
             HR_DELIVERY.prompt("sick leave", HR_DELIVERY.candidates)
     finally:
-        tasks._environment.cache_clear()
+        templates._environment.cache_clear()

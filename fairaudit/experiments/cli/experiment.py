@@ -392,43 +392,41 @@ def _run(args: argparse.Namespace) -> int:
         progress=args.progress,
         log=lambda line: print(f"fairaudit: {line}", file=sys.stderr),
     )
-    s = result.summary
     from ..analysis import ExperimentAnalysis
 
-    if result.route == "exact":  # a local model's (no queries) or an endpoint's (one request per shown cell)
-        if result.analysis is None:
-            assert s is not None
+    s, report = result.summary, Path(result.out) / "report.md"
+    done = (
+        ""
+        if s is None
+        else f"{s.already + s.asked} of {s.planned} queries answered ({s.asked} now, {s.unparsed} unparsed)"
+    )
+    if result.analysis is None:
+        assert s is not None
+        if result.route == "exact":  # a local model's (no queries) or an endpoint's (one request per shown cell)
             first = f": {s.failures[0]}" if s.failures else ""
-            print(
-                f"fairaudit: incomplete: {s.asked} of {s.planned} prompts answered before a request failed after "
-                f"retries{first}; the exact kernel needs every cell, so nothing was written: run again",
-                file=sys.stderr,
+            why = (
+                f"{s.asked} of {s.planned} prompts answered before a request failed after retries{first}; the exact "
+                "kernel needs every cell, so nothing was written: run again"
             )
-            return 1
+        else:
+            first = f"; first: {s.failures[0]}" if s.failures else ""
+            why = f"{done}; {s.failed} failed after retries{first}; run again with --resume"
+        print(f"fairaudit: incomplete: {why}", file=sys.stderr)
+        return 1
+    if result.route == "exact":
         assert isinstance(result.analysis, ExperimentAnalysis)  # the exact route has a kernel
         cells = result.analysis.kernel.probabilities.shape[0] * result.analysis.kernel.probabilities.shape[1]
         asked = f" ({s.requests} requests)" if s is not None else ""
         print(
-            f"exact kernel of {cells} shown cells{asked} in {result.seconds:.1f} s; report written to "
-            f"{Path(result.out) / 'report.md'}",
+            f"exact kernel of {cells} shown cells{asked} in {result.seconds:.1f} s; report written to {report}",
             file=sys.stderr,
         )
     else:
-        assert s is not None
-        done = f"{s.already + s.asked} of {s.planned} queries answered ({s.asked} now, {s.unparsed} unparsed)"
-        if result.analysis is None:
-            first = f"; first: {s.failures[0]}" if s.failures else ""
-            print(
-                f"fairaudit: incomplete: {done}; {s.failed} failed after retries{first}; run again with --resume",
-                file=sys.stderr,
-            )
-            return 1
-        print(f"{done}; report written to {Path(result.out) / 'report.md'}", file=sys.stderr)
-    assert result.analysis is not None
+        print(f"{done}; report written to {report}", file=sys.stderr)
     if result.coverage_warning is not None:
         print(f"fairaudit: warning: {result.coverage_warning}", file=sys.stderr)
     mass = getattr(result.analysis, "unparsed_mass", None)
     if mass is not None and mass.warning is not None:
         print(f"fairaudit: warning: {mass.warning}", file=sys.stderr)
-    sys.stdout.write((Path(result.out) / "report.md").read_text(encoding="utf-8"))  # the report as written
+    sys.stdout.write(report.read_text(encoding="utf-8"))  # the report as written
     return 0

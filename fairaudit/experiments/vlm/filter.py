@@ -190,7 +190,10 @@ class TaskFilter:
     @property
     def profile_mechanism(self) -> Mechanism:
         """M_P: the product of the attribute mechanisms on one profile, shape (n_profiles, n_profiles)."""
-        return product(*self.attribute_mechanisms, name=f"randomized response on each of {self._names()}")
+        return product(
+            *self.attribute_mechanisms,
+            name=f"randomized response on each of {', '.join(a.name for a in self.task.attributes)}",
+        )
 
     @property
     def epsilon_attributes(self) -> tuple:
@@ -206,16 +209,6 @@ class TaskFilter:
     def epsilon_profile(self) -> float:
         """ε of one profile: the sum of the attributes' ε (every pair of profiles adjacent), nats."""
         return float(sum(self.epsilon_attributes))
-
-    @property
-    def epsilon_query(self) -> float:
-        """ε of the whole query's sensitive part, every candidate's profile together, nats."""
-        return self.task.slots * self.epsilon_profile
-
-    @property
-    def epsilon_context(self) -> float:
-        """ε of the context mechanism, nats (+inf for the identity)."""
-        return self.context_mechanism.epsilon
 
     def candidate_mechanism(self, positions: str = "balanced") -> Mechanism:
         """What the model sees about a candidate's group: M_cand, shape (n_groups, n_profiles^k).
@@ -267,18 +260,6 @@ class TaskFilter:
             for i, f in enumerate(self.attribute_filters)
         ]
         return shown_context, tuple(zip(*columns))
-
-    def describe(self) -> str:
-        """One line: the attribute mechanisms, their keep probability and the ε that follow."""
-        p = ", ".join(f"{a.name} p = {k:.4g}" for a, k in zip(self.task.attributes, self.keep_probabilities))
-        return (
-            f"randomized response on each attribute ({p}): ε = {self.epsilon_profile:.4g} nats per profile, "
-            f"{self.candidate_mechanism().epsilon:.4g} per candidate (all that its prompt shows); "
-            f"context: {self.context_mechanism.name}"
-        )
-
-    def _names(self) -> str:
-        return ", ".join(a.name for a in self.task.attributes)
 
 
 def candidate_family(task: DeliveryTask, positions: str = "balanced") -> MechanismFamily:

@@ -41,7 +41,6 @@ __all__ = [
     "prompt_token_logprobs",
     "reply_bounds",
     "reply_logprob",
-    "reply_probabilities",
     "shared_first_token",
 ]
 
@@ -234,22 +233,6 @@ def decision_probabilities(
     return out
 
 
-def reply_probabilities(
-    next_tokens: Callable[[str], Sequence[tuple[str, float]]], replies: Sequence[str]
-) -> npt.NDArray[np.float64]:
-    """P(the reply begins with each of ``replies``), by the chain rule over its tokens (:func:`reply_bounds`'s first part).
-
-    Examples
-    --------
-    >>> import math
-    >>> law = {"": [("2", math.log(0.5)), ("1", math.log(0.25))], "2": [(",", 0.0)], "2,": [(" 1", math.log(0.8))],
-    ...        "1": [(",", math.log(0.5))], "1,": [(" 2", 0.0)]}
-    >>> reply_probabilities(law.get, ["2, 1", "1, 2"]).round(12).tolist()
-    [0.4, 0.125]
-    """
-    return reply_bounds(next_tokens, replies)[0]
-
-
 def reply_bounds(
     next_tokens: Callable[[str], Sequence[tuple[str, float]]], replies: Sequence[str], *, listed: int | None = None
 ) -> tuple[npt.NDArray[np.float64], float]:
@@ -303,6 +286,13 @@ def reply_bounds(
     >>> p, missing = reply_bounds(law.get, ["Office A", "Office B"], listed=1)
     >>> p.round(12).tolist(), round(missing, 12)
     ([0.42, 0.0], 0.28)
+
+    Rankings, every token listed:
+
+    >>> law = {"": [("2", math.log(0.5)), ("1", math.log(0.25))], "2": [(",", 0.0)], "2,": [(" 1", math.log(0.8))],
+    ...        "1": [(",", math.log(0.5))], "1,": [(" 2", 0.0)]}
+    >>> reply_bounds(law.get, ["2, 1", "1, 2"])[0].round(12).tolist()
+    [0.4, 0.125]
     """
     asked: dict[str, Sequence[tuple[str, float]]] = {}
     out = np.zeros(len(replies))

@@ -485,11 +485,8 @@ def _decide(raw: dict[int, Any], spec: _Options, kind: str, reason: str | None, 
 
 def _result_from_choice(index: int, spec: _Options, kind: str, reason: str | None, fallback: bool) -> ParsedReply:
     """The reply that picks option ``index``: chosen (a choice) or served first (an order of two)."""
-    if kind == "choice":
-        raw = {i: 1.0 if i == index else 0.0 for i in range(spec.n)}
-    else:
-        raw = {i: 1.0 if i == index else 2.0 for i in range(spec.n)}
-    return _decide(raw, spec, kind, reason, fallback)
+    other = 0.0 if kind == "choice" else 2.0  # not chosen, or served second
+    return _decide({i: 1.0 if i == index else other for i in range(spec.n)}, spec, kind, reason, fallback)
 
 
 def _named_answer(container: dict, parent: dict | None, spec: _Options, kind: str) -> ParsedReply | None:

@@ -217,7 +217,8 @@ def log_ratio_up(top: FloatArray, bottom: FloatArray) -> float:
         return 0.0
     if np.any((bottom == 0) & (top > 0)):
         return math.inf
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a ratio above the float range: inf, then exact
+    # a ratio above the float range is inf here, then read exactly below
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         ratio = np.where(bottom > 0, top / np.where(bottom > 0, bottom, 1.0), 1.0)
     best = float(ratio.max())
     near = np.flatnonzero(up(ratio) >= float(np.nextafter(best, -np.inf)))

@@ -8,6 +8,7 @@ Proof of the facts used here: ``proofs/privacy.md``.
 from __future__ import annotations
 
 import itertools
+import sys
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 
@@ -17,6 +18,7 @@ from fairaudit.base.arrays import as_float_array
 from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import as_labels
+from fairaudit.base.resources import check_memory
 from fairaudit.laws.closed_forms import RandomizedResponse, keep_of_checked, randomized_response
 from fairaudit.laws.mechanisms import Mechanism, product
 
@@ -106,6 +108,9 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     ------
     InputError
         With fewer than 2 values.
+    MemoryLimitError
+        When ``values`` is a ``range`` whose labels (a tuple slot and an int object each) would need more than the
+        memory limit (:func:`fairaudit.base.resources.memory_limit`).
 
     Examples
     --------
@@ -116,6 +121,13 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     """
     # (a range of integers is distinct by construction: k = 10^6 groups need no check of a million labels)
     plain = isinstance(values, range) and len(values) > 0
+    if plain:  # its labels, one int object and one tuple slot each, refused before they are made if they cannot fit
+        check_memory(
+            len(values) * (8 + sys.getsizeof(values[-1])),
+            f"the labels of {len(values):,}-ary randomized response",
+            f"`groups` {len(values):,}",
+            "give fewer groups (the labels are kept one Python object each)",
+        )
     labels = tuple(values) if plain else as_labels(values, "randomized_response values")
     k = len(labels)
     if k < 2:

@@ -277,3 +277,12 @@ def test_certify_text_names_both_calibrations(tmp_path, capsys):
     code, out, _ = run(capsys, "certify", spec)
     assert "calibration: 2-ary randomized response with epsilon <= 0.9 nats" in out
     assert "calibration for this model: epsilon <= 0.9 nats" in out
+
+
+def test_a_billion_groups_exit_2_with_the_planned_memory_naming_groups(capsys, monkeypatch):
+    """Issue 83: k = 10^9 was a MemoryError traceback (its labels, 33.5 GiB); now one line before any allocation."""
+    monkeypatch.setenv("FAIRAUDIT_MAX_MEMORY", "1G")
+    code, out, err = run(capsys, "calibrate", "--target", "0.5", "--groups", "1000000000")
+    assert code == 2 and out == ""
+    assert err.startswith("fairaudit: error: memory: the labels of 1,000,000,000-ary randomized response would need ")
+    assert "33.5 GiB (--groups 1,000,000,000)" in err and len(err.strip().splitlines()) == 1

@@ -11,6 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
+from fairaudit.base.errors import MemoryLimitError
 from fairaudit.laws.closed_forms import keep_probability
 from fairaudit.laws.families import product_family, randomized_response_family
 
@@ -58,3 +59,11 @@ def test_product_family_splits_epsilon_by_weight():
         product_family(["x", "y"], [1, 2], weights=[1])
     with pytest.raises(fa.InputError, match=r"values\[1\]"):
         product_family(["x", "y"], [1])
+
+
+def test_randomized_response_on_too_many_groups_is_refused_before_its_labels_are_made(monkeypatch):
+    """10^9 labels need 10^9 x (8 + 28) bytes (a tuple slot and an int below 2^30 each): 33.5 GiB, refused at 1 GiB."""
+    monkeypatch.setenv("FAIRAUDIT_MAX_MEMORY", "1G")
+    with pytest.raises(MemoryLimitError, match=r"would need 33\.5 GiB \(`groups` 1,000,000,000\)"):
+        randomized_response_family(range(10**9))
+    assert len(randomized_response_family(range(10**6)).inputs) == 10**6  # 34 MiB: made

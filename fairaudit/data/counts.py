@@ -202,6 +202,36 @@ def tally(
     ``locate`` finds a refused value's data rows), then missing values are dropped or refused, then the labels are the
     sorted distinct values (:func:`_codes`). With ``sample_weight`` (a column of ``columns``, one row per record) the
     counts are sums of those weights.
+
+    Parameters
+    ----------
+    columns : dict of str to array-like, each of length n_rows
+        The columns by name (pandas Series, numpy arrays or a Spark frame's collected keys).
+    missing : dict of str to bool array of shape (n_rows,)
+        Where each column's value is missing.
+    sensitive, outcome, context : list of str, str, list of str
+        The columns of the groups A, the outcome U and the contexts X.
+    dropna : bool
+        Drop rows with a missing key value (counted in ``CountTable.missing``), else refuse them.
+    n : array of shape (n_rows,), optional
+        Records per row (a grouped file's counts); default one each.
+    sample_weight : str, optional
+        A column of weights summed in place of counts.
+    locate : callable, optional
+        Finds the data rows of a refused value, for the error.
+    mixed_outcome : bool
+        Accept an outcome column that mixes numbers and text.
+
+    Returns
+    -------
+    CountTable
+        Counts of shape (n_contexts, n_groups, n_outcomes), labels sorted.
+
+    Raises
+    ------
+    InputError
+        A key value no count may trust (:func:`~fairaudit.data.key_values.check_key_values`), or a missing value
+        without ``dropna``, naming the column and the value.
     """
     keys = list(dict.fromkeys(context + sensitive + [outcome]))
     check_key_values({c: columns[c] for c in keys}, outcome, weights=n, locate=locate, mixed_outcome=mixed_outcome)

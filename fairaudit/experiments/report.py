@@ -244,7 +244,19 @@ def privacy_dict(task: DeliveryTask, f: TaskFilter, epsilon_candidate: float) ->
 
 def head_dict(analysis: Any) -> dict[str, Any]:
     """The keys both designs' certificates begin with: the task, the model, the route, the positions, the samples,
-    the slots, the candidates and the context's name (``analysis``: either design's analysis)."""
+    the slots, the candidates and the context's name.
+
+    Parameters
+    ----------
+    analysis : Analysis
+        Either design's analysis (the task file's or the paper's).
+
+    Returns
+    -------
+    dict
+        ``experiment``, ``model``, ``route``, ``positions``, ``samples``, ``slots``, ``candidates`` (labels) and
+        ``context``, in that order (``docs/experiments.md`` "The files").
+    """
     a, t = analysis, analysis.task
     return {
         "experiment": t.name,
@@ -445,7 +457,22 @@ def write_files(
     out: Path, steps: Sequence[tuple[str, Callable[[Path], None]]], plot: Callable[[], list[Path]]
 ) -> list[Path]:
     """Write each ``(name, write)`` of ``steps`` to ``out / name``, then the figures ``plot`` draws; the figures are
-    skipped, with a note on stderr, when matplotlib is missing. Returns the paths written."""
+    skipped, with a note on stderr, when matplotlib is missing.
+
+    Parameters
+    ----------
+    out : Path
+        The run's folder.
+    steps : sequence of (str, callable)
+        Each file's name and the function that writes it given its path (atomically, as every writer does).
+    plot : callable
+        Draws the figures into ``out`` and returns their paths; an ``InputError`` (matplotlib missing) skips them.
+
+    Returns
+    -------
+    list of Path
+        The files written, in order.
+    """
     import sys
 
     written = []

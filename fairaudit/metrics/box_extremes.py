@@ -177,6 +177,19 @@ def pair_floors(W: FloatArray, lo: FloatArray, hi: FloatArray) -> FloatArray:
 
     The largest is a valid floor of the min-max ratio (min of a max ≥ max of the mins), exact when the groups use
     disjoint cells.
+
+    Parameters
+    ----------
+    W : array of shape (n_groups, n_cells)
+        Each group's nonnegative weights on the cells e.
+    lo, hi : arrays of shape (n_cells,)
+        The box lo ≤ e ≤ hi.
+
+    Returns
+    -------
+    array of shape (n_groups, n_groups)
+        The floor of each ordered pair's ratio (a ratio, not a log; -inf on the diagonal). Source: the threshold rule
+        (:func:`~fairaudit.base.threshold_rule.threshold_max_many`).
     """
     from fairaudit.base.threshold_rule import threshold_max_many
 

@@ -214,7 +214,27 @@ def unknown_ranges(
     """The rows of one category type of :func:`~fairaudit.statistics.ll144.impact_ratios` with each included
     category's ratio range over every allocation of its unknown records (their outcomes and numbers ``outcomes``; g
     of each from the decisions, or 1{score > median} for scores): :func:`missing_data_bounds`, sharp, and the ACLU's
-    two variants (:func:`aclu_bounds`)."""
+    two variants (:func:`aclu_bounds`).
+
+    Parameters
+    ----------
+    rows : list of ImpactRatio
+        One category type's rows, as :func:`~fairaudit.statistics.ll144.impact_ratios` computes them.
+    outcomes : tuple of (outcome, number) pairs
+        The unknown records' outcomes and how many have each.
+    decisions : tuple
+        The outcome values, in the order of ``g.values``.
+    g : Utility
+        The 0/1 utility of a selection (or of a score above ``median``).
+    median : float, optional
+        The scores' median, for a scoring rate; None for a selection rate.
+
+    Returns
+    -------
+    list of ImpactRatio
+        ``rows`` with each included category's ratio range set; unchanged when there is no unknown record or fewer
+        than two included categories.
+    """
     included = [i for i, r in enumerate(rows) if not r.excluded]
     if not outcomes or len(included) < 2:
         return rows

@@ -397,7 +397,9 @@ def source(path: str | os.PathLike[str], fmt: CsvFormat | None = None) -> Source
     Raises
     ------
     InputError
-        A missing file, a name neither Parquet nor text, a compression DuckDB
+        A missing file, a named pipe, device or socket (DuckDB opens a file
+        more than once: a stream would be read in part, or block), a name
+        neither Parquet nor text, a compression DuckDB
         does not read (:func:`~fairaudit.data.csv_format.file_kind`), ``fmt``
         options for Parquet, an empty text file, ``fmt.names`` not one per
         field of the first record, a folder without Parquet files, or DuckDB's
@@ -407,6 +409,10 @@ def source(path: str | os.PathLike[str], fmt: CsvFormat | None = None) -> Source
     fmt = CsvFormat() if fmt is None else fmt
     if not p.exists():
         raise InputError("DATA", "no such file", given)
+    if not (p.is_file() or p.is_dir()):
+        what = "a named pipe" if p.is_fifo() else "a socket" if p.is_socket() else "a device or special file"
+        instead = "DuckDB reads a file more than once; save the stream to a regular file first"
+        raise InputError("DATA", f"is {what}, not a regular file: {instead}", given)
     kind = file_kind(p)
     if kind.kind == "parquet":
         if fmt.changed():

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
 
 import pandas as pd
 import pytest
@@ -154,3 +156,20 @@ def test_a_column_the_header_names_twice_is_refused_where_its_copies_differ(caps
                        "--output", out)  # fmt: skip
     assert code == 0 and "the header names 'score' (2 times) with the same values: written once" in err
     assert pd.read_csv(out).columns.tolist() == ["office", "score"]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+@pytest.mark.parametrize("command", [["audit", "--sensitive", "office", "--outcome", "chosen"], ["filter", "--column", "office", "--keep", "3/4", "--values", "HR_1,HR_2"]])  # fmt: skip
+def test_a_named_pipe_with_a_writer_is_refused_in_one_line_not_read_in_part(capsys, csv_file, tmp_path, command):
+    # a writer waits on the pipe: reading it would take its first record, then block on the second open
+    fifo = tmp_path / "stream.csv"
+    os.mkfifo(fifo)
+    writer = subprocess.Popen(["sh", "-c", f"cat {csv_file} > {fifo}"])
+    try:
+        output = ["--output", tmp_path / "out.csv"] if command[0] == "filter" else []
+        code, stdout, err = run(capsys, command[0], fifo, *command[1:], *output)
+    finally:
+        writer.kill()
+        writer.wait()
+    assert code == 2 and stdout == "" and err.count("\n") == 1
+    assert err.startswith("fairaudit: error: DATA: is a named pipe, not a regular file: DuckDB reads a file more")

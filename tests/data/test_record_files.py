@@ -12,6 +12,7 @@ import csv
 import datetime as dt
 import decimal
 import gzip
+import os
 import re
 import subprocess
 import sys
@@ -323,6 +324,19 @@ def test_missing_and_unknown_files(tmp_path):
     path = tmp_path / "r.json"
     path.write_text("g,y\na,1\n")
     assert _error(count_file, path, sensitive="g", outcome="y").problem.startswith("must be a .parquet/.pq file")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_a_named_pipe_or_device_is_refused_not_read_in_part(tmp_path):
+    # DuckDB opens DATA twice (its first record, then every record): a pipe would lose its first part or block
+    fifo = tmp_path / "r.csv"
+    os.mkfifo(fifo)
+    err = _error(count_file, fifo, sensitive="g", outcome="y")
+    assert (err.field, err.value) == ("DATA", str(fifo))
+    assert err.problem == (
+        "is a named pipe, not a regular file: DuckDB reads a file more than once; save the stream to a regular file first"
+    )
+    assert _error(read_records, os.devnull).problem.startswith("is a device or special file, not a regular file")
 
 
 def test_a_repeated_name_is_not_renamed(tmp_path):

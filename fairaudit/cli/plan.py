@@ -74,17 +74,20 @@ def add_parser(sub: Subparsers) -> None:
         "--max-n", type=int, default=1_000_000, metavar="N", help="largest n per cell tried (default 1000000)"
     )
     add_max_memory(p)
+    p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     add_output(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fairaudit plan``; returns the exit status (1 when some method finds no sample size)."""
+    from fairaudit.base.progress import progress_shown
     from fairaudit.statistics.sample_size import plan
 
     methods = ("clopper-pearson", "multinomial", "bayes") if args.method == "all" else (args.method,)
     keywords = {name: getattr(args, name) for name in _PLAN_KEYWORDS}
-    plans = [plan(args.target, method=method, **keywords) for method in methods]  # errors name keywords: main maps them
+    with progress_shown(args.progress):  # a bar per sample size tried (minutes on a million cells)
+        plans = [plan(args.target, method=method, **keywords) for method in methods]  # errors name keywords
     data = _plans_dict(plans)
     summary = "; ".join(f"{p.method}: {p.n_per_cell if p.feasible else 'no n'}" for p in plans)
     emit(args, render(data, "plan", args.format), f"queries per cell: {summary}")

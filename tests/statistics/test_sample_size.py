@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from functools import cache
 
 import numpy as np
@@ -354,3 +355,51 @@ def test_under_4gb_address_space_the_large_plan_streams_without_a_memory_error()
     )
     assert "Traceback" not in err and "MemoryError" not in err
     assert code is None or code in (0, 1) or (code == 2 and err.startswith("fairaudit: error: memory: "))
+
+
+# -- progress and Ctrl-C ----------------------------------------------------------------------------------------
+
+
+def test_plan_draws_a_bar_per_sample_size_on_a_terminal_unless_no_progress(monkeypatch, tmp_path):
+    from _terminal import lines_drawn, on_terminal
+
+    from fairaudit.statistics import sample_size
+
+    pytest.importorskip("tqdm")
+    monkeypatch.setattr(sample_size, "STEP_DELAY", 0.0)
+    monkeypatch.setattr(sample_size, "CHUNK_BYTES", 4 * sample_size.CELL_BYTES * 2)  # four tables of 2 cells a chunk
+    terminal = on_terminal(monkeypatch)
+    argv = ["plan", "--target", "0.5", "--datasets", "10"]
+    assert main([*argv, "--output", str(tmp_path / "quiet.txt"), "--no-progress"]) == 0
+    quiet = terminal.getvalue()
+    n = int(quiet.split(": ")[2].split(";")[0])
+    assert quiet == f"queries per cell: clopper-pearson: {n}; report written to {tmp_path / 'quiet.txt'}\n"
+    terminal.truncate(0), terminal.seek(0)
+    assert main([*argv, "--output", str(tmp_path / "shown.txt")]) == 0
+    drawn = lines_drawn(terminal.getvalue())
+    # n = 1, 2, 4, ... until the power is reached, then bisection; each n's 10 tables in chunks of 4, 4 and 2 (tqdm
+    # redraws at most every 0.1 s: not every chunk is drawn)
+    bars = [line for line in drawn if line.startswith("plan: n = ")]
+    assert len(bars) == len(drawn) - 1 and all(re.search(r"\| (0|4|8)/10 \[", line) for line in bars)
+    tried = list(dict.fromkeys(int(line.split(":")[1].split("=")[1]) for line in bars))
+    doubled = [m for m in tried if m & (m - 1) == 0]
+    assert tried[: len(doubled)] == doubled == [2**i for i in range(len(doubled))] and n in tried
+    assert drawn[-1] == quiet.strip().replace("quiet.txt", "shown.txt")
+    assert (tmp_path / "quiet.txt").read_text() == (tmp_path / "shown.txt").read_text()
+
+
+@pytest.mark.slow
+def test_ctrl_c_ends_a_million_cell_plan_at_once_with_status_130_and_no_report(tmp_path):
+    from _terminal import run_on_terminal
+
+    pytest.importorskip("tqdm")
+    out = tmp_path / "plan.json"
+    run = run_on_terminal(
+        ["plan", "--target", "0.001", "--groups", "1000", "--contexts", "1000", "--output", str(out)],
+        interrupt_when=lambda written: "plan: n = 1:" in written and "1/200" in written,
+    )
+    assert run.interrupted_after is not None, run.stderr  # (a table was certified, then SIGINT was sent)
+    assert run.interrupted_after < 2.0  # a chunk is one table of 10^6 cells: about 1.7 s on one busy core at most
+    assert run.code == 130 and "Traceback" not in run.stderr
+    assert run.stderr.endswith("fairaudit: interrupted\r\n")
+    assert list(tmp_path.iterdir()) == []  # no report, no temporary file

@@ -158,7 +158,7 @@ def _as_column(released: list[Any], column: pd.Series) -> Any:
 def _write(frame: pd.DataFrame, path: str, output: str) -> None:
     """Write ``frame`` to ``path`` with DuckDB, in the format of the name ``output`` (Parquet, or delimited text)."""
     from fairaudit.data.csv_format import file_kind
-    from fairaudit.data.record_files import duckdb_connection
+    from fairaudit.data.record_files import duckdb_connection, interrupts_raised
 
     kind = file_kind(output)
     quoted = "'" + path.replace("'", "''") + "'"
@@ -169,7 +169,8 @@ def _write(frame: pd.DataFrame, path: str, output: str) -> None:
         options = f"FORMAT csv, HEADER true, DELIMITER {delimiter}, COMPRESSION {kind.compression or 'none'}"
     con = duckdb_connection()
     try:
-        con.register("released", frame)
-        con.execute(f"COPY released TO {quoted} ({options})")
+        with interrupts_raised():
+            con.register("released", frame)
+            con.execute(f"COPY released TO {quoted} ({options})")
     finally:
         con.close()

@@ -171,6 +171,22 @@ def engine_error(exc: Exception, path: str | os.PathLike[str]) -> InputError:
 
 
 @contextmanager
+def interrupts_raised() -> Iterator[None]:
+    """Within the block, DuckDB's answer to Ctrl-C is a :class:`KeyboardInterrupt`, as everywhere else.
+
+    DuckDB takes the signal during a query, interrupts the query and raises
+    ``RuntimeError("Query interrupted")`` in its place (DuckDB 1.x and 2.x);
+    a command would end in that traceback with exit status 1, not 130.
+    """
+    try:
+        yield
+    except RuntimeError as exc:
+        if str(exc) != "Query interrupted":
+            raise
+        raise KeyboardInterrupt from None
+
+
+@contextmanager
 def glob_free(paths: Sequence[str]) -> Iterator[list[str]]:
     """``paths`` (absolute) as DuckDB reads them: a name with a glob character goes through a symbolic link.
 
@@ -243,7 +259,7 @@ class Source:
 
         con = duckdb_connection()
         try:
-            with glob_free(self.files) as files:
+            with glob_free(self.files) as files, interrupts_raised():
                 parameters = {**self.parameters, "files": files}
                 try:
                     return work(con, parameters)

@@ -15,6 +15,7 @@ with ``--output`` a one-line summary goes to stderr.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from collections.abc import Sequence
 
@@ -48,6 +49,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         # on a terminal, from the start of a blank line: a progress bar interrupted while drawing is not cleared
         print(f"{CLEAR_LINE if sys.stderr.isatty() else ''}fairaudit: interrupted", file=sys.stderr)
         return 130
+    finally:
+        if argv is None:  # the command line itself: its work is done and said; Ctrl-C from now on is ignored
+            try:  # (neither a traceback from the interpreter's shutdown nor another exit status)
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+            except KeyboardInterrupt:  # one pending since the last line, taken between two steps
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def os_error_line(exc: OSError) -> str:

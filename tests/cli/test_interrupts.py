@@ -1,0 +1,74 @@
+"""Ctrl-C inside DuckDB's counting: exit 130 within a second, the one ``interrupted`` line, nothing written.
+
+DuckDB takes SIGINT during a query itself: it interrupts the query and raises ``RuntimeError("Query interrupted")``
+(a traceback and exit status 1 before :func:`fairaudit.data.record_files.interrupts_raised`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from _terminal import run_on_terminal
+
+from fairaudit.cli import CLEAR_LINE
+
+
+@pytest.fixture(scope="module")
+def many_records(tmp_path_factory):
+    """3 · 10^7 records of 1000 groups, 7 contexts and a binary outcome (about 240 MB; seconds to count)."""
+    import duckdb
+
+    path = tmp_path_factory.mktemp("records") / "records.csv"
+    query = "SELECT i % 1000 AS g, i % 7 AS x, CAST(i % 3 = 0 AS INT) AS y FROM range(30000000) t(i)"
+    duckdb.connect().execute(f"COPY ({query}) TO '{path}' (HEADER)")
+    return path
+
+
+def _after(seconds: float):
+    """A condition on what the process wrote that holds ``seconds`` after it is first asked."""
+    start: list[float] = []
+
+    def ready(written: str) -> bool:
+        start.append(time.monotonic())
+        return start[-1] - start[0] > seconds
+
+    return ready
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["audit", "filter"])
+def test_ctrl_c_inside_duckdb_ends_the_command_with_130_and_nothing_written(tmp_path, many_records, command):
+    out = tmp_path / ("report.txt" if command == "audit" else "released.csv")
+    flags = ["--sensitive", "g", "--outcome", "y", "--context", "x"] if command == "audit" else []
+    if command == "filter":
+        flags = ["--column", "g", "--epsilon", "1", "--values", ",".join(map(str, range(1000)))]
+    run = run_on_terminal([command, str(many_records), *flags, "--output", str(out)], interrupt_when=_after(1.5))
+    assert run.interrupted_after is not None and run.interrupted_after < 2.0, run.stderr
+    assert (run.code, run.stderr) == (130, f"{CLEAR_LINE}fairaudit: interrupted\r\n")
+    assert list(tmp_path.iterdir()) == []  # no output, no temporary file
+
+
+def test_after_the_command_line_is_done_ctrl_c_is_ignored(tmp_path):
+    # a SIGINT pending as the command returns was a KeyboardInterrupt traceback from the interpreter's shutdown
+    import subprocess
+    import sys
+
+    script = (
+        "import os, signal, sys, time\n"
+        "from fairaudit.cli import main\n"
+        "sys.argv = ['fairaudit', 'plan', '--target', '0.5', '--datasets', '5']\n"
+        "status = main()\n"
+        "os.kill(os.getpid(), signal.SIGINT)\n"
+        "time.sleep(0.05)\n"
+        "print('still here', status, file=sys.stderr)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert (done.returncode, done.stderr) == (0, "still here 0\n")
+    in_process = subprocess.run(  # main(argv) is the library's call (tests, notebooks): Ctrl-C stays theirs
+        [sys.executable, "-c", script.replace("status = main()", "status = main(sys.argv[1:])")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert in_process.returncode != 0 and "KeyboardInterrupt" in in_process.stderr

@@ -219,7 +219,8 @@ def randomized_response(
     Parameters
     ----------
     values : sequence of hashable, length k ≥ 1
-        The alphabet; inputs and outputs are the same labels.
+        The alphabet; inputs and outputs are the same labels. A ``range`` of
+        integers is kept as it is (O(1) memory: k may be a billion).
     epsilon : float, optional
         Privacy budget ε ≥ 0 in nats; +inf gives the identity.
     keep : float, optional
@@ -249,7 +250,10 @@ def randomized_response(
     >>> m.matrix.round(6).tolist()
     [[0.666667, 0.166667, 0.166667], [0.166667, 0.666667, 0.166667], [0.166667, 0.166667, 0.666667]]
     """
-    labels = as_labels(values, "randomized_response values")
+    # a range of integers is distinct by construction, and kept as it is: O(1) memory, whatever k
+    labels = (
+        values if isinstance(values, range) and len(values) > 0 else as_labels(values, "randomized_response values")
+    )
     k = len(labels)
     if (epsilon is None) == (keep is None):
         raise InputError(
@@ -323,7 +327,7 @@ class RandomizedResponse(Mechanism):
 
     rr: RandomizedResponseParameters
 
-    def __init__(self, labels: tuple, epsilon: float, name: str) -> None:
+    def __init__(self, labels: tuple | range, epsilon: float, name: str) -> None:
         k = len(labels)
         p, q, log_p, log_q = _rr_probabilities(epsilon, k)
         object.__setattr__(self, "inputs", labels)

@@ -8,7 +8,6 @@ Proof of the facts used here: ``proofs/privacy.md``.
 from __future__ import annotations
 
 import itertools
-import sys
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 
@@ -18,7 +17,6 @@ from fairaudit.base.arrays import as_float_array
 from fairaudit.base.checks import epsilon as check_epsilon
 from fairaudit.base.errors import InputError
 from fairaudit.base.labels import as_labels
-from fairaudit.base.resources import check_memory
 from fairaudit.laws.closed_forms import RandomizedResponse, keep_of_checked, randomized_response
 from fairaudit.laws.mechanisms import Mechanism, product
 
@@ -43,8 +41,9 @@ class MechanismFamily:
     ----------
     name : str
         Shown in reports, e.g. ``"8-ary randomized response"``.
-    inputs : tuple
-        The alphabet (the sensitive groups), the inputs of every member.
+    inputs : tuple or range
+        The alphabet (the sensitive groups), the inputs of every member (a
+        ``range`` of integers stays one: O(1) memory).
     build : callable
         ε ↦ :class:`~fairaudit.laws.mechanisms.Mechanism`, for ε ≥ 0 (+inf gives the identity).
     keep : callable
@@ -73,7 +72,7 @@ class MechanismFamily:
     """
 
     name: str
-    inputs: tuple
+    inputs: tuple | range
     build: Callable[[float], Mechanism]
     keep: Callable[[float], float]
     mixing: bool = False
@@ -96,6 +95,8 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     Parameters
     ----------
     values : sequence of hashable, length k ≥ 2
+        The labels. A ``range`` of integers is kept as it is (distinct by
+        construction, O(1) memory): a billion groups cost no labels.
     name : str, optional
 
     Returns
@@ -108,9 +109,6 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     ------
     InputError
         With fewer than 2 values.
-    MemoryLimitError
-        When ``values`` is a ``range`` whose labels (a tuple slot and an int object each) would need more than the
-        memory limit (:func:`fairaudit.base.resources.memory_limit`).
 
     Examples
     --------
@@ -119,16 +117,10 @@ def randomized_response_family(values: Sequence[Hashable], name: str | None = No
     >>> round(fam.keep_probability(math.log(7 / 3)), 12)
     0.7
     """
-    # (a range of integers is distinct by construction: k = 10^6 groups need no check of a million labels)
-    plain = isinstance(values, range) and len(values) > 0
-    if plain:  # its labels, one int object and one tuple slot each, refused before they are made if they cannot fit
-        check_memory(
-            len(values) * (8 + sys.getsizeof(values[-1])),
-            f"the labels of {len(values):,}-ary randomized response",
-            f"`groups` {len(values):,}",
-            "give fewer groups (the labels are kept one Python object each)",
-        )
-    labels = tuple(values) if plain else as_labels(values, "randomized_response values")
+    # a range of integers is distinct by construction, and kept as it is: O(1) memory, whatever k
+    labels = (
+        values if isinstance(values, range) and len(values) > 0 else as_labels(values, "randomized_response values")
+    )
     k = len(labels)
     if k < 2:
         raise InputError("values", "a randomized response family needs at least 2 values", list(labels))

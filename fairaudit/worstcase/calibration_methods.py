@@ -181,7 +181,7 @@ def _is_randomized_response(family: MechanismFamily, eps: float) -> RandomizedRe
     An isinstance check (:func:`~fairaudit.laws.closed_forms.randomized_response` makes them): no k x k matrix.
     """
     m = family(eps)
-    if not isinstance(m, RandomizedResponse) or tuple(m.inputs) != tuple(family.inputs):
+    if not isinstance(m, RandomizedResponse) or not (m.inputs is family.inputs or m.inputs == family.inputs):
         return None
     return m
 

@@ -159,7 +159,7 @@ def model_problem(
         population = Population.uniform(contexts, groups, source="assumed")
     if not isinstance(population, Population):
         raise InputError("population", "must be a Population", type(population).__name__)
-    if population.contexts != contexts or population.groups != groups:
+    if tuple(population.contexts) != tuple(contexts) or tuple(population.groups) != tuple(groups):  # (a range too)
         raise InputError(
             "population",
             "must have the context mechanism's inputs as contexts and M_A's inputs as groups",

@@ -11,7 +11,6 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import fairaudit as fa
-from fairaudit.base.errors import MemoryLimitError
 from fairaudit.laws.closed_forms import keep_probability
 from fairaudit.laws.families import product_family, randomized_response_family
 
@@ -61,9 +60,8 @@ def test_product_family_splits_epsilon_by_weight():
         product_family(["x", "y"], [1])
 
 
-def test_randomized_response_on_too_many_groups_is_refused_before_its_labels_are_made(monkeypatch):
-    """10^9 labels need 10^9 x (8 + 28) bytes (a tuple slot and an int below 2^30 each): 33.5 GiB, refused at 1 GiB."""
-    monkeypatch.setenv("FAIRAUDIT_MAX_MEMORY", "1G")
-    with pytest.raises(MemoryLimitError, match=r"would need 33\.5 GiB \(`groups` 1,000,000,000\)"):
-        randomized_response_family(range(10**9))
-    assert len(randomized_response_family(range(10**6)).inputs) == 10**6  # 34 MiB: made
+def test_randomized_response_on_a_range_keeps_the_range_whatever_k():
+    """10^12 groups: their labels stay the range (O(1) memory), not 10^12 int objects; keep e^ε / (e^ε + k − 1)."""
+    fam = randomized_response_family(range(10**12))
+    assert fam.inputs == range(10**12) and fam(1.0).inputs is fam.inputs
+    assert fam.keep_probability(30.0) == pytest.approx(math.exp(30) / (math.exp(30) + 10**12 - 1), rel=1e-15)

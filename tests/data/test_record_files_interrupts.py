@@ -47,28 +47,3 @@ def test_ctrl_c_inside_duckdb_ends_the_command_with_130_and_nothing_written(tmp_
     assert run.interrupted_after is not None and run.interrupted_after < 2.0, run.stderr
     assert (run.code, run.stderr) == (130, f"{CLEAR_LINE}fairaudit: interrupted\r\n")
     assert list(tmp_path.iterdir()) == []  # no output, no temporary file
-
-
-def test_after_the_command_line_is_done_ctrl_c_is_ignored(tmp_path):
-    # a SIGINT pending as the command returns was a KeyboardInterrupt traceback from the interpreter's shutdown
-    import subprocess
-    import sys
-
-    script = (
-        "import os, signal, sys, time\n"
-        "from fairaudit.cli import main\n"
-        "sys.argv = ['fairaudit', 'plan', '--target', '0.5', '--datasets', '5']\n"
-        "status = main()\n"
-        "os.kill(os.getpid(), signal.SIGINT)\n"
-        "time.sleep(0.05)\n"
-        "print('still here', status, file=sys.stderr)\n"
-    )
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
-    assert (done.returncode, done.stderr) == (0, "still here 0\n")
-    in_process = subprocess.run(  # main(argv) is the library's call (tests, notebooks): Ctrl-C stays theirs
-        [sys.executable, "-c", script.replace("status = main()", "status = main(sys.argv[1:])")],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert in_process.returncode != 0 and "KeyboardInterrupt" in in_process.stderr

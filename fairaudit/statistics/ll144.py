@@ -54,7 +54,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray
-from fairaudit.base.checks import level, real, whole
+from fairaudit.base.checks import choice, level, real, whole
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.data.counts import CountTable
@@ -178,8 +178,7 @@ class FourFifths:
     def __post_init__(self) -> None:
         real(self.threshold, "threshold", low=0.0, high=1.0, low_open=True)
         level(self.confidence, "confidence")
-        if self.adjustment not in ADJUSTMENTS:
-            raise InputError("adjustment", f"must be one of {', '.join(ADJUSTMENTS)}", self.adjustment)
+        choice(self.adjustment, "adjustment", ADJUSTMENTS)
         if self.test not in ("fisher", "z"):
             raise InputError("test", "must be fisher or z", self.test)
 

@@ -599,67 +599,37 @@ def count_file(
 ) -> CountTable:
     """Count the decision records of a file (Parquet or text) with DuckDB, out of core.
 
-    DuckDB counts the file, in fairaudit's own in-memory database (as many
-    threads as cores): one ``SELECT <used columns>, count(*) ... GROUP BY``
-    that reads only the used columns and gives the number of records of each
-    distinct (context, group, decision), null keys included. Peak memory is
-    bounded by that count table and DuckDB's buffers, not by the number of
-    records. numpy counts the small grouped table (pandas is not imported),
-    with the checks, missing values and errors of :func:`count_records`;
-    ``count_records(read_records(path), ...)`` gives the same table.
+    DuckDB counts the file, in fairaudit's own in-memory database (as many threads as cores): one
+    ``SELECT <used columns>, count(*) ... GROUP BY`` that reads only the used columns and gives the number of records
+    of each distinct (context, group, decision), null keys included. Peak memory is bounded by that count table and DuckDB's buffers, not
+    by the number of records. numpy counts the small grouped table (pandas is not imported), with the checks, missing
+    values and errors of :func:`count_records`; ``count_records(read_records(path), ...)`` gives the same table.
 
-    **Labels** are the values DuckDB reads, sorted (numbers numerically, text
-    by code point, tuples of several columns lexicographically):
+    **Labels** are the values DuckDB reads, sorted (numbers numerically, text by code point, tuples of several columns
+    lexicographically); how a Parquet column's types and a text file's fields become labels, and which fields are
+    missing, is in the module docstring of :mod:`fairaudit.data.record_files`.
 
-    - Parquet (``.parquet``, ``.pq``, or a folder of Parquet files): the
-      file's own types. Integers, floats, booleans and text are labels as
-      they are (a pandas categorical is its values); decimals are floats;
-      other types (dates, timestamps, bytes) are labelled by DuckDB's text
-      of them (``2020-01-01``). A null or a NaN is a missing value.
-    - Text (``.csv``, ``.tsv``, ``.txt``, ``.data``; plain, ``.gz`` or
-      ``.zst``): every field is text (double quotes around a field holding
-      the separator, a quote or a line break). A field that is empty, a
-      usual missing-value marker (``NA``, ``nan``, ``NULL``, ``None``,
-      ``N/A``, ...) or one of ``csv.na_values`` is missing, after
-      ``csv.skip_initial_space`` drops the spaces at its start. Each used
-      column is then typed by DuckDB's casts of its distinct values:
-      **integers** when every value is an integer as DuckDB writes it
-      (``-12``; not ``012``, ``+12`` or ``12.0``), else **floats** when every
-      value is such an integer or a float as DuckDB writes it (``2.5``,
-      ``1e-05``) and no two are the same number, else **text**. So a label
-      prints as its field, or as its number (``2`` beside ``2.5``: ``2.0``),
-      and two different fields are never one label: one number or boolean
-      written two ways in a column (``01`` and ``1``, ``1`` and ``1.0``,
-      ``true`` and ``True``) is refused, naming its rows (as two labels it
-      would be two groups, or an outcome ``positive`` misses). A record shorter than the first is
-      padded with missing values; a longer one is refused, naming its line.
-
-    Nothing but DuckDB reads the file: text compressed with bzip2, xz or zip
-    is refused (decompress it first), a file DuckDB cannot parse (a byte that
-    is not UTF-8, an unclosed quote) names the line and DuckDB's reason, and
-    running out of memory names DuckDB's ``memory_limit``, which the
-    environment variable ``FAIRAUDIT_DUCKDB_MEMORY_LIMIT`` (``8GB``,
-    ``500MB``, ``50%``) sets (unset: 80% of the machine's memory).
+    Nothing but DuckDB reads the file: text compressed with bzip2, xz or zip is refused (decompress it first), a file
+    DuckDB cannot parse (a byte that is not UTF-8, an unclosed quote) names the line and DuckDB's reason, and running
+    out of memory names DuckDB's ``memory_limit``, which the environment variable ``FAIRAUDIT_DUCKDB_MEMORY_LIMIT``
+    (``8GB``, ``500MB``, ``50%``) sets (unset: 80% of the machine's memory).
 
     Parameters
     ----------
     path : str or Path
-        A ``.parquet``/``.pq`` file or folder of Parquet files, or a text
-        file: ``.csv``, ``.tsv``, ``.txt`` or ``.data``, optionally
-        compressed (``.gz``, ``.zst``).
+        A ``.parquet``/``.pq`` file or folder of Parquet files, or a text file: ``.csv``, ``.tsv``, ``.txt`` or
+        ``.data``, optionally compressed (``.gz``, ``.zst``).
     sensitive, outcome, context, dropna
-        As in :func:`count_records`. Missing values are counted exactly from
-        the grouped table.
+        As in :func:`count_records`. Missing values are counted exactly from the grouped table.
     count : str, optional
-        The file is already a count table, one row per (context, group,
-        decision) with its number of records in column ``count``, as made by
-        any engine (SQL ``GROUP BY``, Spark, DuckDB); it is read whole
+        The file is already a count table, one row per (context, group, decision) with its number of records in column
+        ``count``, as made by any engine (SQL ``GROUP BY``, Spark, DuckDB); it is read whole
         (:func:`~fairaudit.data.record_files.read_records`) and turned into counts by :func:`count_table`.
     csv : CsvFormat, optional
         How a text file is read (:class:`CsvFormat`); an error for Parquet.
     weights : str, optional
-        Column of sample weights (as in :func:`count_records`); the file is
-        then read whole (:func:`~fairaudit.data.record_files.read_records`).
+        Column of sample weights (as in :func:`count_records`); the file is then read whole
+        (:func:`~fairaudit.data.record_files.read_records`).
     mixed_outcome : bool
         Accept an outcome column that mixes numbers and text (as in :func:`count_records`).
 
@@ -671,16 +641,12 @@ def count_file(
     Raises
     ------
     InputError
-        A missing or unreadable file (DuckDB's reason, in one line); an
-        unknown column (naming ``sensitive``, ``outcome``, ``context``,
-        ``count`` or ``weights`` and listing the file's columns); a used
-        column that a text file's header names twice with different values;
-        ``csv`` options for a Parquet file, or ``csv.names`` not one per
-        field; missing values without ``dropna``; no records; the errors of
-        :func:`count_table` for a count table; a control character in a key
-        value, or an outcome that mixes numbers and text, as in
-        :func:`count_records`, naming the data rows of the file (from 1 after
-        the header; in a folder of Parquet files, the row of the file named).
+        A missing or unreadable file (DuckDB's reason, in one line); an unknown column (naming ``sensitive``,
+        ``outcome``, ``context``, ``count`` or ``weights`` and listing the file's columns); a used column that a text
+        file's header names twice with different values; ``csv`` options for a Parquet file, or ``csv.names`` not one
+        per field; missing values without ``dropna``; no records; the errors of :func:`count_table` for a count table; a
+        control character in a key value, or an outcome that mixes numbers and text, as in :func:`count_records`, naming
+        the data rows of the file (from 1 after the header; in a folder of Parquet files, the row of the file named).
 
     Examples
     --------

@@ -12,13 +12,33 @@ read is refused with one line saying why. Names go into SQL as quoted
 identifiers (:func:`sql_identifier`), files and values as parameters, never
 as SQL text.
 
-**Values**, the labels of a key column (the rules of
-:func:`fairaudit.data.counts.count_file`'s docstring): Parquet columns keep their
-types when they are integers, floats, booleans or text (:data:`_PLAIN`),
-decimals are read as floats and other types as DuckDB's text of them; text
-files are read field by field as text, missing values are the fields of
-:data:`NA` (and the format's ``na_values``), and each used column is then
-typed from its distinct values by DuckDB's casts (:func:`_typed`).
+**Labels**, the values of a key column as :func:`fairaudit.data.counts.count_file`
+counts them, are the values DuckDB reads, sorted (numbers numerically, text
+by code point, tuples of several columns lexicographically):
+
+- Parquet (``.parquet``, ``.pq``, or a folder of Parquet files): the
+  file's own types. Integers, floats, booleans and text (:data:`_PLAIN`) are
+  labels as they are (a pandas categorical is its values); decimals are
+  floats; other types (dates, timestamps, bytes) are labelled by DuckDB's
+  text of them (``2020-01-01``). A null or a NaN is a missing value.
+- Text (``.csv``, ``.tsv``, ``.txt``, ``.data``; plain, ``.gz`` or
+  ``.zst``): every field is text (double quotes around a field holding
+  the separator, a quote or a line break). A field that is empty, a
+  usual missing-value marker (:data:`NA`: ``NA``, ``nan``, ``NULL``, ``None``,
+  ``N/A``, ...) or one of ``csv.na_values`` is missing, after
+  ``csv.skip_initial_space`` drops the spaces at its start. Each used
+  column is then typed by DuckDB's casts of its distinct values:
+  **integers** when every value is an integer as DuckDB writes it
+  (``-12``; not ``012``, ``+12`` or ``12.0``), else **floats** when every
+  value is such an integer or a float as DuckDB writes it (``2.5``,
+  ``1e-05``) and no two are the same number, else **text** (:func:`_typed`). So a label
+  prints as its field, or as its number (``2`` beside ``2.5``: ``2.0``),
+  and two different fields are never one label: one number or boolean
+  written two ways in a column (``01`` and ``1``, ``1`` and ``1.0``,
+  ``true`` and ``True``) is refused, naming its rows (as two labels it
+  would be two groups, or an outcome ``positive`` misses). A record
+  shorter than the first is padded with missing values; a longer one is
+  refused, naming its line.
 
 pandas and DuckDB are imported by the functions that use them.
 """

@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import BoolArray, FloatArray
-from fairaudit.base.errors import InputError
+from fairaudit.base.errors import InputError, optional_modules
 from fairaudit.base.files import write_atomic
 from fairaudit.reports.figures import AXIS_LIMIT, coincide, mark_infinite, on_scale
 
@@ -48,14 +48,9 @@ def load_matplotlib() -> type[Figure]:
     InputError
         Naming ``path`` (the file a plot was to be written to) when matplotlib is not installed.
     """
-    try:
-        import matplotlib  # noqa: F401
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise InputError(
-            "path", "needs matplotlib, which is not installed: pip install 'fairness-certify[plot]'"
-        ) from None
-    return Figure
+    problem = "needs matplotlib, which is not installed: pip install 'fairness-certify[plot]'"
+    figure: type[Figure] = optional_modules("path", problem, "matplotlib.figure")[0].Figure
+    return figure
 
 
 def check_plot_path(path: str | Path) -> str:

@@ -447,12 +447,10 @@ def fairness_intervals(
     prior = concentration / counts.shape[-1] if method == "bayes" else 0.0  # bayes: the plug-in of the posterior mean
     plugin = table.effective_counts() if method == "bayes" else counts  # (the posterior's counts: effective ones)
     estimate = _estimates(table, plugin + prior, utility, law)
-    sets: SetMaker = binomial_sets
     bayes: dict[str, Any] = (
         {"concentration": float(concentration), "draws": int(draws), "seed": int(seed)} if method == "bayes" else {}
     )
-    if bayes:
-        sets = band_sets(concentration, int(draws), int(seed))
+    sets: SetMaker = band_sets(concentration, int(draws), int(seed)) if bayes else binomial_sets
     projection = ProjectionOptions(
         method=method,
         alpha=alpha,

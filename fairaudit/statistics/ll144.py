@@ -30,6 +30,17 @@ For a 0/1 utility, the global g-fairness of the intersection's included
 categories (under the records' own population) is L̄ = −ln(its lowest impact
 ratio): an impact ratio of at least t for every category is L̄ ≤ −ln t nats
 (0.8: ln 1.25 = 0.223 nats).
+
+The tests and intervals: each included category but its type's highest (the
+comparator) is tested against it (:func:`~fairaudit.statistics.rate_ratio.equal_rates_test`)
+and its ratio gets the melded interval of Fay, Proschan and Brittain
+(:func:`~fairaudit.statistics.rate_ratio.ratio_interval`; on Kish's
+effective counts with weights), whose exact coverage is at least its level
+wherever it has been computed (docs/ll144.md); with ``"simultaneous"``, each
+rate gets a Clopper–Pearson interval at level 1 − α/m, m the number of
+included categories in the report, and ratio i lies in the exact range of
+p_i / max_j p_j over that box (:func:`~fairaudit.statistics.rate_ratio.ratio_range`,
+proofs/impact_ratio.md), all at once with probability ≥ 1 − α.
 """
 
 from __future__ import annotations
@@ -43,7 +54,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from fairaudit.base.arrays import FloatArray
-from fairaudit.base.checks import level, real, whole
+from fairaudit.base.checks import choice, level, real, whole
 from fairaudit.base.errors import InputError
 from fairaudit.base.json_values import Report, label, number
 from fairaudit.data.counts import CountTable
@@ -167,8 +178,7 @@ class FourFifths:
     def __post_init__(self) -> None:
         real(self.threshold, "threshold", low=0.0, high=1.0, low_open=True)
         level(self.confidence, "confidence")
-        if self.adjustment not in ADJUSTMENTS:
-            raise InputError("adjustment", f"must be one of {', '.join(ADJUSTMENTS)}", self.adjustment)
+        choice(self.adjustment, "adjustment", ADJUSTMENTS)
         if self.test not in ("fisher", "z"):
             raise InputError("test", "must be fisher or z", self.test)
 
@@ -495,18 +505,8 @@ def impact_ratios(
     other numeric outcome is a score, and the rate is the share of records scoring above the median of the whole
     sample (the weighted median with weights).
 
-    Definitions: 6 RCNY § 5-301 (selection rate, scoring rate, impact ratio,
-    the 2% exclusion). Each included category but its type's highest (the
-    comparator) is tested against it (:func:`~fairaudit.statistics.rate_ratio.equal_rates_test`)
-    and its ratio gets the melded interval of Fay, Proschan and Brittain
-    (:func:`~fairaudit.statistics.rate_ratio.ratio_interval`; on Kish's
-    effective counts with weights), whose exact coverage is at least its level
-    wherever it has been computed (docs/ll144.md);
-    with ``"simultaneous"``, each rate gets a Clopper–Pearson interval
-    at level 1 − α/m, m the number of included categories in the report, and
-    ratio i lies in the exact range of p_i / max_j p_j over that box
-    (:func:`~fairaudit.statistics.rate_ratio.ratio_range`, proofs/impact_ratio.md), all at once with probability
-    ≥ 1 − α.
+    Source: 6 RCNY § 5-301 (selection rate, scoring rate, impact ratio, the 2% exclusion); the tests and intervals
+    are those of the module docstring (:mod:`fairaudit.statistics.ll144`; docs/ll144.md, proofs/impact_ratio.md).
 
     Examples
     --------

@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fairaudit.base.arrays import FloatArray
-from fairaudit.base.checks import level
+from fairaudit.base.checks import choice, level
 from fairaudit.base.errors import InputError
 
 __all__ = ["ADJUSTMENTS", "TESTS", "adjusted", "equal_rates_test", "ratio_interval", "ratio_range"]
@@ -194,8 +194,7 @@ def equal_rates_test(x1: float, n1: float, x2: float, n2: float, test: str = "fi
     """
     from scipy.stats import fisher_exact, norm
 
-    if test not in TESTS:
-        raise InputError("test", f"must be one of {', '.join(TESTS)}", test)
+    choice(test, "test", TESTS)
     if test == "fisher":
         if any(v != int(v) for v in (x1, n1, x2, n2)):
             raise InputError("test", "Fisher's exact test needs whole counts (use the z test)", (x1, n1, x2, n2))
@@ -230,8 +229,7 @@ def adjusted(p_values: npt.ArrayLike, adjustment: str = "holm") -> FloatArray:
     [0.03, 0.06, 0.06]
     """
     p = np.asarray(p_values, dtype=float)
-    if adjustment not in ADJUSTMENTS:
-        raise InputError("adjustment", f"must be one of {', '.join(ADJUSTMENTS)}", adjustment)
+    choice(adjustment, "adjustment", ADJUSTMENTS)
     m = p.size
     if adjustment == "none" or m == 0:
         return p.copy()

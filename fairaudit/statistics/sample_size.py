@@ -17,6 +17,28 @@ released groups behind k-ary randomized response at that ε
 the model's kernel on released groups, the counts are of the kernel, and the
 certificate is for the filtered law Q[x, a] = Σ_ã M[a, ã] K[x, ã] (whose true
 L is smaller than |disparity|).
+
+The simulation: power at n is the fraction of ``datasets`` simulated count
+tables whose certificate (the upper end of the simultaneous interval on L, or
+on L̄ with ``kind="global"``, from :func:`fairaudit.statistics.intervals.fairness_intervals`
+with a uniform independent population) is ≤ ``target``. The tables at n are
+drawn afresh from ``numpy.random.default_rng(seed)`` as
+``rng.binomial(n, rates, size=(datasets, contexts, groups))`` (positive
+decisions; n − k negative), so every n uses the same random stream. They are
+drawn and certified in chunks of tables that fit the memory limit
+(``max_memory``) and :data:`CHUNK_BYTES`, one after the other along the first
+axis: the same numbers as one draw, so the plan does not depend on the limit.
+Inside :func:`~fairaudit.base.progress.progress_shown` (``fairaudit plan``
+unless ``--no-progress``) each n shows a bar of its tables; Ctrl-C ends the
+plan between two chunks.
+
+The search: n = 1, 2, 4, ... until the power reaches ``power`` (or ``max_n``),
+then bisection over the integers between the last failing and the first
+passing n. The simulated power is monotone in n only approximately (Monte
+Carlo noise, discreteness of the counts), so the result is the smallest n
+*found*, and it is verified: the returned n has simulated power ≥ ``power``
+and n − 1 (always evaluated, unless n = 1) has less; a smaller n elsewhere
+could pass by chance.
 """
 
 from __future__ import annotations
@@ -125,13 +147,6 @@ class SamplePlan:
         return inputs | {"feasible": self.feasible, "plans": [{name: value(name) for name in _PLANNED}]}
 
 
-def _rates(groups: int, contexts: int, base_rate: float, disparity: float) -> FloatArray:
-    """The kernel's E[g | x̃, ã]: shape (contexts, groups)."""
-    r = np.full((contexts, groups), base_rate)
-    r[:, 0] = base_rate * math.exp(disparity)
-    return r
-
-
 class _Certifier:
     """Upper ends of the certificate for a stack of count tables (D, X, A) with n records per cell."""
 
@@ -223,40 +238,21 @@ def plan(
 ) -> SamplePlan:
     """The number of queries per cell needed to certify L ≤ target at level 1 − α with a given power.
 
-    Power at n is the fraction of ``datasets`` simulated count tables whose
-    certificate (the upper end of the simultaneous interval on L, or on L̄
-    with ``kind="global"``, from :func:`fairaudit.statistics.intervals.fairness_intervals`
-    with a uniform independent population) is ≤ ``target``. The tables at n
-    are drawn afresh from ``numpy.random.default_rng(seed)`` as
-    ``rng.binomial(n, rates, size=(datasets, contexts, groups))`` (positive
-    decisions; n − k negative), so every n uses the same random stream.
-    They are drawn and certified in chunks of tables that fit the memory
-    limit (``max_memory``) and :data:`CHUNK_BYTES`, one after the other along
-    the first axis: the same numbers as one draw, so the plan does not depend
-    on the limit. Inside :func:`~fairaudit.base.progress.progress_shown`
-    (``fairaudit plan`` unless ``--no-progress``) each n shows a bar of its
-    tables; Ctrl-C ends the plan between two chunks.
-
-    The search: n = 1, 2, 4, ... until the power reaches ``power`` (or
-    ``max_n``), then bisection over the integers between the last failing and
-    the first passing n. The simulated power is monotone in n only
-    approximately (Monte Carlo noise, discreteness of the counts), so the
-    result is the smallest n *found*, and it is verified: the returned n has
-    simulated power ≥ ``power`` and n − 1 (always evaluated, unless n = 1)
-    has less; a smaller n elsewhere could pass by chance.
+    Power at n is the fraction of ``datasets`` simulated count tables whose certificate (the upper end of the
+    simultaneous interval on L, or on L̄ with ``kind="global"``) is ≤ ``target``; the simulation and the search over n
+    are described in the module docstring (:mod:`fairaudit.statistics.sample_size`).
 
     Parameters
     ----------
     target : float
         The target on L (or L̄), nats, ≥ 0.
     groups, contexts : int
-        k ≥ 2 groups and ≥ 1 contexts; n queries in each of the
-        contexts × groups cells.
+        k ≥ 2 groups and ≥ 1 contexts; n queries in each of the contexts × groups cells.
     base_rate : float
         E[g | x, a] in (0, 1) of every group but group 0.
     disparity : float
-        log of group 0's rate over the others' (nats; the true L without a
-        filter is |disparity|); base_rate · exp(disparity) must be ≤ 1.
+        log of group 0's rate over the others' (nats; the true L without a filter is |disparity|);
+        base_rate · exp(disparity) must be ≤ 1.
     confidence : float
         1 − α in (0, 1).
     method : {"clopper-pearson", "multinomial", "bayes"}
@@ -264,15 +260,13 @@ def plan(
     power : float
         The required probability of meeting the target, in (0, 1).
     epsilon : float, optional
-        With ε ≥ 0, the model sees the groups through k-ary randomized
-        response at ε, the counts are of its kernel on released groups and
-        the certificate is for the filtered law.
+        With ε ≥ 0, the model sees the groups through k-ary randomized response at ε, the counts are of its kernel on
+        released groups and the certificate is for the filtered law.
     kind : {"local", "global"}
         Certify L or L̄.
     datasets : int, optional
-        Simulated tables per n: default 200, and 40 for ``"bayes"``, which
-        computes 4000 posterior draws per table (about 10 ms each) and is not
-        vectorised over tables; the frequentist methods are.
+        Simulated tables per n: default 200, and 40 for ``"bayes"``, which computes 4000 posterior draws per table
+        (about 10 ms each) and is not vectorised over tables; the frequentist methods are.
     seed : int
         Seed of the simulation (and of the Bayesian posterior draws).
     max_n : int
@@ -280,26 +274,23 @@ def plan(
     progress : callable, optional
         Called as ``progress(n, power)`` after each n evaluated.
     max_memory : int or str, optional
-        The memory the simulation may take: bytes, or a size such as
-        ``"4G"`` (:func:`fairaudit.base.resources.parse_size`); default the
-        environment variable ``FAIRAUDIT_MAX_MEMORY``, else one half of the
-        memory available (:func:`fairaudit.base.resources.memory_limit`).
+        The memory the simulation may take: bytes, or a size such as ``"4G"``
+        (:func:`fairaudit.base.resources.parse_size`); default the environment variable ``FAIRAUDIT_MAX_MEMORY``, else
+        one half of the memory available (:func:`fairaudit.base.resources.memory_limit`).
 
     Returns
     -------
     SamplePlan
-        With ``n_per_cell = None`` and a ``reason`` when the target is not
-        above the true value of L (nothing can certify it) or ``max_n`` does
-        not reach the power.
+        With ``n_per_cell = None`` and a ``reason`` when the target is not above the true value of L (nothing can
+        certify it) or ``max_n`` does not reach the power.
 
     Raises
     ------
     InputError
         On an invalid argument, naming it and its value.
     MemoryLimitError
-        An ``InputError``, before anything large is allocated, when even one
-        simulated table (and what is computed from it) would not fit the
-        memory limit: with the need, the inputs that drive it and the limit.
+        An ``InputError``, before anything large is allocated, when even one simulated table (and what is computed from
+        it) would not fit the memory limit: with the need, the inputs that drive it and the limit.
 
     Notes
     -----
@@ -339,10 +330,6 @@ def plan(
         "seed": whole(seed, "seed"),
         "max_n": whole(max_n, "max_n", low=1),
     }
-    top = inputs["base_rate"] * math.exp(inputs["disparity"])
-    if top > 1:
-        problem = f"gives group 0 the rate base_rate * exp(disparity) = {top:.6g} > 1"
-        raise InputError("disparity", problem, inputs["disparity"])
     if progress is not None and not callable(progress):
         raise InputError("progress", "must be callable", progress)
     limit = memory_limit(max_memory)
@@ -404,8 +391,17 @@ def _chunk(inputs: _Inputs, limit: MemoryLimit) -> int:
 
 def _assumed_model(inputs: _Inputs) -> tuple[FloatArray, Mechanism | None, float]:
     """The model the plan assumes: the kernel's rates (contexts, groups), the filter (None without ``epsilon``) and
-    the true L of the filtered law, in nats (every context has the same rates: L̄ is the same)."""
-    rates = _rates(inputs["groups"], inputs["contexts"], inputs["base_rate"], inputs["disparity"])
+    the true L of the filtered law, in nats (every context has the same rates: L̄ is the same).
+
+    The kernel's E[g | x̃, ã] is ``base_rate`` but for group 0's ``base_rate · exp(disparity)``; an InputError
+    (``disparity``) when that is over 1.
+    """
+    top = inputs["base_rate"] * math.exp(inputs["disparity"])
+    if top > 1:
+        problem = f"gives group 0 the rate base_rate * exp(disparity) = {top:.6g} > 1"
+        raise InputError("disparity", problem, inputs["disparity"])
+    rates = np.full((inputs["contexts"], inputs["groups"]), inputs["base_rate"])
+    rates[:, 0] = top
     mechanism: Mechanism | None = None
     filtered = rates
     if inputs["epsilon"] is not None:

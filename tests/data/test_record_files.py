@@ -146,7 +146,7 @@ def _real(field: str) -> bool:
 
 
 def typed(fields) -> dict:
-    """The label of each distinct non-missing field of a text column, by the rule of count_file's docstring."""
+    """The label of each distinct non-missing field of a text column, by the rule of record_files' module docstring."""
     fields = set(fields)
     if all(_integer(f) for f in fields):
         return {f: int(f) for f in fields}

@@ -1,12 +1,12 @@
 """The data of a linear-fractional program max (p·h)/(q·h), checked: the numerator and denominator, the box, the rows.
 
-What every route of :mod:`fairaudit.base.linear_fractional` reads first: each function returns float64 arrays of the
+What :class:`fairaudit.base.linear_fractional.FractionalProgram` reads first: each function returns float64 arrays of the
 caller's data (copies) or raises an :class:`~fairaudit.base.errors.InputError` naming the argument.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal, TypeAlias, overload
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -44,30 +44,22 @@ def check_vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, Float
     return p, q
 
 
-@overload
-def check_bounds(
-    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: Literal[True]
-) -> tuple[FloatArray, FloatArray]: ...
-@overload
-def check_bounds(
-    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
-) -> tuple[FloatArray | None, FloatArray | None]: ...
-def check_bounds(
-    lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int, required: bool
-) -> tuple[FloatArray | None, FloatArray | None]:
-    """The per-cell bounds ``lower`` and ``upper`` broadcast to shape (n,), lower ≤ upper; None stays None (no bound
-    on that side) unless ``required``.
+def check_bounds(lower: npt.ArrayLike | None, upper: npt.ArrayLike | None, n: int) -> tuple[FloatArray, FloatArray]:
+    """The per-cell bounds ``lower`` and ``upper`` broadcast to shape (n,), finite, lower ≤ upper.
 
     Examples
     --------
-    >>> [b.tolist() for b in check_bounds(0.5, [1.0, 2.0], 2, required=True)]
+    >>> [b.tolist() for b in check_bounds(0.5, [1.0, 2.0], 2)]
     [[0.5, 0.5], [1.0, 2.0]]
     """
-    if required and (lower is None or upper is None):
-        raise InputError("lower", "the threshold solution needs finite lower and upper bounds")
-    lo = None if lower is None else np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy()
-    hi = None if upper is None else np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy()
-    if lo is not None and hi is not None and np.any(lo > hi):
+    finite = "the bounds of h must be finite (the programs of fairaudit are over boxes)"
+    if lower is None or upper is None:
+        raise InputError("lower", finite)
+    lo = np.broadcast_to(as_float_array(lower, "lower"), (n,)).copy()
+    hi = np.broadcast_to(as_float_array(upper, "upper"), (n,)).copy()
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise InputError("lower", finite)
+    if np.any(lo > hi):
         i = int(np.argmax(lo > hi))
         raise InputError("lower", f"exceeds upper at cell {i} ({hi[i]:g})", float(lo[i]))
     return lo, hi

@@ -67,8 +67,6 @@ class FractionalResult:
         :data:`EXACT_CROSSOVER` note; "threshold" or "closed form" for the fast paths.
     reason : str
         Why the value is +inf or NaN, or why it is not certified; empty when optimal and certified.
-    p, q, lower, upper : numpy.ndarray
-        The inputs.
     certified : bool
         Whether ``value`` is proven ≥ the exact maximum (an exact basis, also on exact coefficients, or the threshold
         rule's error bound); +inf always is. False for NaN (and where a caller put in a value of its own that it
@@ -99,10 +97,6 @@ class FractionalResult:
     method: str
     solver_status: str
     reason: str
-    p: FloatArray
-    q: FloatArray
-    lower: FloatArray | None
-    upper: FloatArray | None
     certified: bool = False
     witness: float = math.nan
     gap: float = math.nan
@@ -231,7 +225,7 @@ class FractionalProgram:
         p, q = check_vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
-        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
+        result = functools.partial(FractionalResult, method="lp")
         self._pq = (p, q)
         lam = Fraction(below) if math.isfinite(below) else None
         if lam is not None:  # HiGHS's own duals may prove ``below`` at once, before anything exact

@@ -20,17 +20,16 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import FloatArray
+from fairaudit.base.arrays import FloatArray, as_float_array
 from fairaudit.base.errors import InputError
 from fairaudit.base.exact_duality import PreparedRows, certify_ratio, prepare_rows
 from fairaudit.base.exact_lp import ExactProgram
 from fairaudit.base.exact_ratio import dot
-from fairaudit.base.fractional_inputs import ConstraintMatrix, check_bounds, check_vectors, constraint_rows
 from fairaudit.base.outward import fraction_down, fraction_up, up
 
 __all__ = [
@@ -39,6 +38,13 @@ __all__ = [
     "FractionalResult",
     "gap_between",
 ]
+
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
+
+ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
+"""A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -175,9 +181,32 @@ class FractionalProgram:
         A_eq: ConstraintMatrix | None = None,
         b_eq: npt.ArrayLike | None = None,
     ) -> None:
+        import scipy.sparse as sp
+
         self.n = int(n)
-        self.lower, self.upper = check_bounds(lower, upper, self.n)
-        self._rows = constraint_rows(self.n, A_ub, b_ub, A_eq, b_eq)  # A h <= b ("le") or A h = b ("eq")
+        finite = "the bounds of h must be finite (the programs of fairaudit are over boxes)"
+        if lower is None or upper is None:
+            raise InputError("lower", finite)
+        self.lower = np.broadcast_to(as_float_array(lower, "lower"), (self.n,)).copy()
+        self.upper = np.broadcast_to(as_float_array(upper, "upper"), (self.n,)).copy()
+        if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
+            raise InputError("lower", finite)
+        if np.any(self.lower > self.upper):
+            i = int(np.argmax(self.lower > self.upper))
+            raise InputError("lower", f"exceeds upper at cell {i} ({self.upper[i]:g})", float(self.lower[i]))
+        self._rows: list[tuple[FloatArray, FloatArray, str]] = []  # A h <= b ("le") or A h = b ("eq"), checked
+        for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
+            if a is None:
+                continue
+            dense = as_float_array(sp.csr_array(a).toarray() if sp.issparse(a) else a, name, ndim=2)
+            if not np.all(np.isfinite(dense)):
+                raise InputError(name, "must be finite")
+            rhs = as_float_array(b, name.replace("A", "b"), ndim=1)
+            if dense.shape != (rhs.size, self.n):
+                raise InputError(name, f"shape must be ({rhs.size}, {self.n})", dense.shape)
+            if not np.all(np.isfinite(rhs)):
+                raise InputError(name.replace("A", "b"), "must be finite")
+            self._rows.append((dense, rhs, op))
         matrix = np.vstack([a for a, _, _ in self._rows]) if self._rows else np.zeros((0, self.n))
         row_lower = [v if op == "eq" else -math.inf for _, b, op in self._rows for v in b.tolist()]
         row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
@@ -222,7 +251,7 @@ class FractionalProgram:
             method needs q·h ≥ 0). ``dual`` holds the last step's ν (on A_ub) and η (on A_eq), to nearest (ν stays
             ≥ 0). ``solver_status`` counts the steps and the exact pivots.
         """
-        p, q = check_vectors(p, q)
+        p, q = _vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
         result = functools.partial(FractionalResult, method="lp")
@@ -310,7 +339,7 @@ class FractionalProgram:
         h = None if basis is None else self._program.vertex(basis)  # type: ignore[arg-type]
         if h is None:
             return math.nan, None
-        p_arr, q_arr = check_vectors(p, q)
+        p_arr, q_arr = _vectors(p, q)
         den = dot([Fraction(v) for v in q_arr.tolist()], h)
         return (fraction_down(dot([Fraction(v) for v in p_arr.tolist()], h) / den) if den > 0 else math.nan), h
 
@@ -389,3 +418,24 @@ class FractionalProgram:
             out.append(tuple(-v for v in duals[start : start + a.shape[0]]))
             start += a.shape[0]
         return tuple(out)
+
+
+def _vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """The numerator ``p`` and the denominator ``q`` as 1-D float arrays of one shape, every entry finite.
+
+    Examples
+    --------
+    >>> _vectors([1, 2], [3, 4])[1].tolist()
+    [3.0, 4.0]
+    >>> _vectors([1, 2], [3])
+    Traceback (most recent call last):
+    ...
+    fairaudit.base.errors.InputError: q: must have the shape of p (2,) (got (1,))
+    """
+    p = as_float_array(p, "p", ndim=1)
+    q = as_float_array(q, "q", ndim=1)
+    if p.shape != q.shape:
+        raise InputError("q", f"must have the shape of p {p.shape}", q.shape)
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+        raise InputError("p", "p and q must be finite")
+    return p, q

@@ -44,7 +44,7 @@ from _bench_common import (
 )
 
 from fairaudit import UtilityClass
-from fairaudit.base.linear_fractional import FractionalProgram, lp_max, threshold_max  # noqa: E402
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult  # noqa: E402
 from fairaudit.base.threshold_rule import threshold_max_many  # noqa: E402
 from fairaudit.laws.mechanisms import from_matrix  # noqa: E402
 from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
@@ -56,6 +56,23 @@ FULL = dict(
     cells=(2, 10, 100), groups=(2, 4, 8, 16, 32, 64), programs=20, repeats=7, lp_repeats=3, sample_from=16, sample=128
 )
 QUICK = dict(cells=(2, 10), groups=(2, 16), programs=3, repeats=1, lp_repeats=1, sample_from=16, sample=6)
+
+
+class _Value:
+    """A threshold value with the fields the comparisons read."""
+
+    def __init__(self, value: float) -> None:
+        self.value, self.status, self.method, self.reason = value, "optimal", "threshold", ""
+
+
+def threshold_max(p, q, lower, upper) -> _Value:
+    """One box program by the threshold rule (the package's single-program ``threshold_max``, removed in issue 80)."""
+    return _Value(float(threshold_max_many(p, q, lower, upper)[0]))
+
+
+def lp_max(p, q, *, lower, upper) -> FractionalResult:
+    """One program built and solved per call (what the package's ``lp_max``, removed in issue 80, did on a box)."""
+    return FractionalProgram(len(p), lower=lower, upper=upper).solve(p, q)
 
 
 def _warm_up() -> None:

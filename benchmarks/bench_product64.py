@@ -44,7 +44,7 @@ from _bench_common import (
 )
 
 from fairaudit import UtilityClass
-from fairaudit.base.linear_fractional import FractionalProgram, lp_max  # noqa: E402
+from fairaudit.base.linear_fractional import FractionalProgram, FractionalResult  # noqa: E402
 from fairaudit.laws.families import product_family  # noqa: E402
 from fairaudit.worstcase.black_box import black_box_bound  # noqa: E402
 
@@ -58,6 +58,11 @@ TAU = 0.3
 TARGETS = (0.5, 1.0)
 FULL = dict(attributes=6, repeats=5)
 QUICK = dict(attributes=3, repeats=1)
+
+
+def lp_max(p, q, *, lower, upper, **rows) -> FractionalResult:
+    """One program built and solved per call (what the package's ``lp_max``, removed in issue 80, did)."""
+    return FractionalProgram(len(p), lower=lower, upper=upper, **rows).solve(p, q)
 
 
 def bisect_epsilon(family, target: float, tau: float | None, rtol: float = 1e-12) -> tuple[float, float]:

@@ -6,7 +6,7 @@ denominator is attained at a vertex: proofs/linear_fractional.md, Proposition 3)
 expected values. Tolerances: closed-form routes 1e-12 relative, LP routes 1e-7 relative.
 
 Sections: proofs/linear_fractional.md (§5 worked example, Proposition 7 and ``floor_max_many`` edge cases, the
-statuses of ``lp_max``), proofs/tight_bound.md (the t* rule of Proposition 3, the 3-group ordering of §4),
+statuses of ``FractionalProgram.solve``), proofs/tight_bound.md (the t* rule of Proposition 3, the 3-group ordering of §4),
 proofs/black_box.md (§5 Examples 1–3 and Consequence 3, §6 example), proofs/worst_case_utility.md (§2 examples).
 """
 
@@ -23,8 +23,8 @@ import pytest
 
 import fairaudit as fa
 from fairaudit import UtilityClass
-from fairaudit.base.linear_fractional import lp_max, threshold_max
-from fairaudit.base.threshold_rule import box_point, floor_max_many
+from fairaudit.base.linear_fractional import FractionalProgram
+from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
 from fairaudit.metrics.fairness import global_fairness, local_fairness
 from fairaudit.metrics.privacy_profile import _profile_candidates
 from fairaudit.worstcase.black_box import black_box_bound
@@ -36,7 +36,7 @@ from _exact import box, vertices  # noqa: E402  (exact Fractions, independent of
 from _exact import dot as _dot  # noqa: E402
 
 CLOSED = 1e-12  # closed-form routes (threshold, floor relaxation, audits)
-LP = 1e-7  # Charnes–Cooper LP routes
+LP = 1e-7  # LP routes
 
 
 # ---------------------------------------------------------------------------------------------- exact helpers
@@ -54,6 +54,11 @@ def floor_rows(rows, tau):
 
 def fl(v):
     return np.array([float(x) for x in v])
+
+
+def solve_lp(p, q, *, lower, upper, A_ub=None, b_ub=None):
+    """Dinkelbach's method over the exact simplex, as the certifier runs it: the polytope built once, then solved."""
+    return FractionalProgram(len(p), lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub).solve(p, q)
 
 
 def rr(keep):
@@ -80,10 +85,10 @@ def test_lfp_worked_example_threshold_39_25():
     lam = max(values)
     assert lam == F(39, 25) and [LF_P[i] - lam * LF_Q[i] > 0 for i in range(4)] == [False, True, False, False]
     assert vertex_max(LF_P, LF_Q, *box(LF_LO, LF_HI))[0] == lam  # Proposition 3 on all 16 vertices
-    t = threshold_max(fl(LF_P), fl(LF_Q), fl(LF_LO), fl(LF_HI))
-    assert t.status == "optimal" and t.value == pytest.approx(float(lam), rel=CLOSED)
-    assert t.argmax == pytest.approx(fl(prefixes[1]), rel=CLOSED)
-    r = lp_max(fl(LF_P), fl(LF_Q), lower=fl(LF_LO), upper=fl(LF_HI))
+    value, k, order = threshold_max_many(fl(LF_P), fl(LF_Q), fl(LF_LO), fl(LF_HI))
+    assert float(value) == pytest.approx(float(lam), rel=CLOSED)
+    assert box_point(fl(LF_LO), fl(LF_HI), order, int(k)) == pytest.approx(fl(prefixes[1]), rel=CLOSED)
+    r = solve_lp(fl(LF_P), fl(LF_Q), lower=fl(LF_LO), upper=fl(LF_HI))
     assert r.status == "optimal" and r.value == pytest.approx(float(lam), rel=LP)
     assert r.argmax == pytest.approx(fl(prefixes[1]), rel=LP, abs=LP)  # unique maximiser: no ratio equals λ*
 
@@ -109,7 +114,7 @@ def test_floor_max_many_worked_example_113_80():
     assert float(v) == pytest.approx(float(expected), rel=CLOSED) and int(k) == 2
     assert float(frac) == pytest.approx(5 / 32, rel=CLOSED) and order.tolist() == [1, 3, 2, 0]
     assert box_point(lo, hi, order, int(k), float(frac)) == pytest.approx(fl(h), rel=CLOSED)
-    r = lp_max(p, q, lower=lo, upper=hi, A_ub=[-q], b_ub=[-0.4])
+    r = solve_lp(p, q, lower=lo, upper=hi, A_ub=[-q], b_ub=[-0.4])
     assert r.status == "optimal" and r.value == pytest.approx(float(expected), rel=LP)
     assert r.argmax == pytest.approx(fl(h), rel=LP, abs=LP)
 
@@ -160,7 +165,7 @@ def test_floor_max_many_edge_cases(case, p, q, lo, hi, f, expected):
         assert float(frac) == 0.0 and int(k) == 1  # (b): h* itself, only cell 2 up
     if case == "zero-span top cell":
         assert (order.tolist(), int(k), float(frac)) == ([1, 0], 1, pytest.approx(0.5, rel=CLOSED))
-    r = lp_max(fl(p), fl(q), lower=fl(lo), upper=fl(hi), A_ub=[-fl(q)], b_ub=[-float(f)])
+    r = solve_lp(fl(p), fl(q), lower=fl(lo), upper=fl(hi), A_ub=[-fl(q)], b_ub=[-float(f)])
     assert r.status == "optimal" and r.value == pytest.approx(float(expected), rel=LP)
 
 
@@ -179,35 +184,24 @@ def test_floor_max_many_infeasible_floor_and_batch():
     assert box_point(0.0, 1.0, order[0, 1], int(k[0, 1]), float(frac[0, 1])) == pytest.approx([1.0, 2 / 7], rel=CLOSED)
 
 
-def test_lp_max_statuses_after_the_fix():
-    # Proposition 2 and the package's conventions, as lp_max reports them since it tells an empty polytope from
-    # q·h = 0 on the whole polytope (the table "How lp_max reports them" in proofs/linear_fractional.md).
-    r = lp_max([1.0, 0.0], [0.0, 1.0], lower=0.0, upper=1.0)  # (b): h0 = (1, 0), q·h0 = 0 < p·h0
+def test_lp_statuses():
+    # Proposition 2 and the package's conventions, as FractionalProgram.solve reports them, telling an empty polytope
+    # from q·h = 0 on the whole polytope (the table "How the LP route reports them" in proofs/linear_fractional.md).
+    r = solve_lp([1.0, 0.0], [0.0, 1.0], lower=0.0, upper=1.0)  # (b): h0 = (1, 0), q·h0 = 0 < p·h0
     assert r.status == "unbounded" and r.value == math.inf
-    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 1.0]], b_ub=[-1.0])  # empty, finite bounds
+    r = solve_lp([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 1.0]], b_ub=[-1.0])  # empty, finite bounds
     assert r.status == "infeasible" and math.isnan(r.value) and "inconsistent" in r.reason
-    r, t = lp_max([1.0], [0.0], lower=0.0, upper=1.0), threshold_max([1.0], [0.0], 0.0, 1.0)  # (a), c/0 = +inf
-    assert (r.status, r.value) == (t.status, t.value) == ("unbounded", math.inf) and "c/0" in r.reason
-    r, t = lp_max([0.0], [0.0], lower=0.0, upper=1.0), threshold_max([0.0], [0.0], 0.0, 1.0)  # (a), 0/0 = 1
-    assert (r.status, r.value) == (t.status, t.value) == ("optimal", 1.0)
+    r, t = solve_lp([1.0], [0.0], lower=0.0, upper=1.0), threshold_max_many(np.ones(1), np.zeros(1), 0.0, 1.0)[0]
+    assert (r.status, r.value, t) == ("unbounded", math.inf, math.inf) and "c/0" in r.reason  # (a), c/0 = +inf
+    r, t = solve_lp([0.0], [0.0], lower=0.0, upper=1.0), threshold_max_many(np.zeros(1), np.zeros(1), 0.0, 1.0)[0]
+    assert (r.status, r.value, t) == ("optimal", 1.0, 1.0)  # (a), 0/0 = 1
     # a bounded polytope far from the origin: F = 1 everywhere, s = 1/(q·h) ~ 3e-14 is not "unbounded"
-    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=1e13, upper=2e13)
+    r = solve_lp([1.0, 1.0], [1.0, 1.0], lower=1e13, upper=2e13)
     assert r.status == "optimal" and r.value == pytest.approx(1.0, rel=LP)
     big = black_box_bound(
         fa.randomized_response(["a", "b"], keep=0.7), utility_class=UtilityClass(gamma=1e13, tau=5e12), method="lp"
     )
     assert big.ratio == pytest.approx(float(F(11, 7)), rel=LP)
-    # an unbounded polytope whose supremum sup h1/(h1 + 1) = 1 is not attained (Proposition 1.3): finite, not +inf
-    r = lp_max([1.0, 0.0], [1.0, 1.0], lower=[0.0, 1.0], upper=[np.inf, 1.0])
-    assert r.status == "optimal" and r.value == pytest.approx(1.0, rel=LP)
-
-
-def test_lp_max_empty_polytope_with_an_infinite_bound_is_infeasible():
-    # linear_fractional.md, Discrepancies item 3 (fixed in dc4a9f5): P = {h1 <= -1, h1 >= 1} with no finite bound is
-    # empty but has the recession direction d = (0, 1), q·d = 1, so (CC) is feasible at s = 0 with p·d = 1; lp_max must
-    # still report the empty polytope (NaN, "infeasible"), not a supremum 1 approached along d.
-    r = lp_max([0.0, 1.0], [0.0, 1.0], A_ub=[[1.0, 0.0], [-1.0, 0.0]], b_ub=[-1.0, -1.0])
-    assert r.status == "infeasible" and math.isnan(r.value) and "inconsistent" in r.reason
 
 
 # ================================================================== proofs/tight_bound.md

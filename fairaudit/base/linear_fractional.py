@@ -1,25 +1,15 @@
 """Linear-fractional programs: maximise (p·h) / (q·h) over a polytope, exactly.
 
-Two routes to the same optimum:
+:class:`FractionalProgram` solves max (p·h)/(q·h) over a bounded polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub,
+A_eq h = b_eq} by Dinkelbach's method (Dinkelbach 1967): each step a linear program max (p − λq)·h solved by HiGHS's
+simplex and proved optimal from its basis in exact arithmetic (:mod:`fairaudit.base.exact_lp`), λ the ratio at the
+last step's vertex, until that maximum is 0: then λ is the exact maximum, the vertex attains it and the last basis's
+duals prove it. It is built once per polytope and re-solved for many (p, q) from the last basis, which is how the
+worst-case searches of :mod:`fairaudit.worstcase` loop over pairs of groups. Over a box alone (and a box plus one
+floor on q·h) the maximum is a threshold in likelihood-ratio order, found by one sort: that rule, vectorised, is
+:mod:`fairaudit.base.threshold_rule`, the inner loop of the searches.
 
-* :func:`threshold_max` — when only per-cell bounds lower ≤ h ≤ upper
-  constrain h. At the optimum λ*, h maximises Σ_i (p_i − λ* q_i) h_i over the
-  box, so h_i = upper_i where p_i / q_i > λ* and lower_i elsewhere: a threshold
-  in likelihood-ratio order. Sorting once and scanning the n + 1 prefixes
-  finds it exactly (Dinkelbach 1967; Charnes and Cooper 1962). The rule itself,
-  vectorised over batches of boxes and with one floor on q·h, is
-  :mod:`fairaudit.base.threshold_rule`, the inner loop of the worst-case searches.
-* :func:`lp_max` — any bounded polytope {lower ≤ h ≤ upper, A_ub h ≤ b_ub, A_eq h = b_eq}, by Dinkelbach's method
-  (Dinkelbach 1967): each step a linear program max (p − λq)·h solved by HiGHS's simplex and proved optimal from its
-  basis in exact arithmetic (:mod:`fairaudit.base.exact_lp`), λ the ratio at the last step's vertex, until that
-  maximum is 0: then λ is the exact maximum, the vertex attains it and the last basis's duals prove it.
-* :class:`FractionalProgram` — that route over a fixed polytope, re-solved for many (p, q) from the last basis,
-  which is how the worst-case searches of :mod:`fairaudit.worstcase` loop over pairs of groups.
-* :func:`fractional_max` — the single entry point: the threshold fast path
-  whenever only per-cell bounds constrain h, the LP otherwise.
-
-Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proofs of the
-transform and of the threshold solution: ``proofs/linear_fractional.md`` and
+Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proofs: ``proofs/linear_fractional.md`` and
 ``proofs/black_box.md``.
 """
 
@@ -30,29 +20,31 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit.base.arrays import FloatArray
+from fairaudit.base.arrays import FloatArray, as_float_array
 from fairaudit.base.errors import InputError
-from fairaudit.base.exact_duality import PreparedRows, certify_ratio, point_ratio, prepare_rows
+from fairaudit.base.exact_duality import PreparedRows, certify_ratio, prepare_rows
 from fairaudit.base.exact_lp import ExactProgram
 from fairaudit.base.exact_ratio import dot
-from fairaudit.base.fractional_inputs import ConstraintMatrix, check_bounds, check_vectors, constraint_rows
 from fairaudit.base.outward import fraction_down, fraction_up, up
-from fairaudit.base.threshold_rule import box_point, threshold_max_many
 
 __all__ = [
     "EXACT_BASIS",
     "FractionalProgram",
     "FractionalResult",
-    "fractional_max",
     "gap_between",
-    "lp_max",
-    "threshold_max",
 ]
+
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
+
+ConstraintMatrix: TypeAlias = "npt.ArrayLike | sp.sparray | sp.spmatrix"
+"""A constraint matrix: dense (array_like) or a scipy.sparse matrix."""
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -81,8 +73,6 @@ class FractionalResult:
         :data:`EXACT_CROSSOVER` note; "threshold" or "closed form" for the fast paths.
     reason : str
         Why the value is +inf or NaN, or why it is not certified; empty when optimal and certified.
-    p, q, lower, upper : numpy.ndarray
-        The inputs.
     certified : bool
         Whether ``value`` is proven ≥ the exact maximum (an exact basis, also on exact coefficients, or the threshold
         rule's error bound); +inf always is. False for NaN (and where a caller put in a value of its own that it
@@ -113,10 +103,6 @@ class FractionalResult:
     method: str
     solver_status: str
     reason: str
-    p: FloatArray
-    q: FloatArray
-    lower: FloatArray | None
-    upper: FloatArray | None
     certified: bool = False
     witness: float = math.nan
     gap: float = math.nan
@@ -140,62 +126,6 @@ def gap_between(value: float, witness: float) -> float:
     return up(value - witness)
 
 
-def threshold_max(p: npt.ArrayLike, q: npt.ArrayLike, lower: npt.ArrayLike, upper: npt.ArrayLike) -> FractionalResult:
-    """max (p·h)/(q·h) over the box lower ≤ h ≤ upper, exactly, in O(n log n).
-
-    Proof: ``proofs/linear_fractional.md`` (the threshold solution).
-
-    Parameters
-    ----------
-    p, q : array_like, shape (n,)
-        Non-negative weights of the numerator and denominator.
-    lower, upper : float or array_like, shape (n,)
-        Finite bounds, lower ≤ upper.
-
-    Returns
-    -------
-    FractionalResult
-        ``method = "threshold"``; ``argmax`` is upper on the cells with the
-        largest ratios p_i / q_i and lower on the others.
-
-    Raises
-    ------
-    InputError
-        On shapes that differ, non-finite entries, negative weights, a negative
-        lower bound, or lower > upper.
-
-    Examples
-    --------
-    >>> r = threshold_max([0.7, 0.3], [0.3, 0.7], 0.5, 1.0)
-    >>> round(r.value, 12), r.argmax.tolist()
-    (1.307692307692, [1.0, 0.5])
-    """
-    p, q = check_vectors(p, q)
-    if np.any(p < 0) or np.any(q < 0):
-        raise InputError("p", "the threshold solution needs non-negative p and q")
-    lo, hi = check_bounds(lower, upper, p.size, required=True)
-    result = functools.partial(FractionalResult, method="threshold", p=p, q=q, lower=lo, upper=hi)
-    if np.any(lo < 0):
-        # With a negative lower bound q·h can approach 0 from inside the box; the threshold argument
-        # needs q·h > 0 on the whole box. Use lp_max for such programs.
-        raise InputError("lower", "the threshold solution needs lower >= 0 (use lp_max)", float(lo.min()))
-    values, k, order = threshold_max_many(p, q, lo, hi)
-    h, value = box_point(lo, hi, order, int(k)), float(values)
-    witness = point_ratio(h, p, q, lo, hi, [])
-    if math.isnan(witness):  # q·h = 0 at the point: c/0 = +inf, 0/0 = 1
-        witness = math.inf if p @ h > 0 else 1.0
-    found = functools.partial(result, certified=True, witness=witness, gap=gap_between(value, witness))
-    if math.isinf(value):
-        return found(
-            value=value,
-            argmax=h,
-            status="unbounded",
-            solver_status="threshold",
-            reason="some h in the box has q·h = 0 and p·h > 0",
-        )
-    return found(value=value, argmax=h, status="optimal", solver_status="threshold", reason="")
-
-
 CROSSOVER_TOLERANCE = 1e-13
 """How far (relative to max(1, |value|)) a certified value may lie above its witness before the worst-case searches
 solve a program with rounded coefficients exactly (:mod:`fairaudit.worstcase.known_utility_search`)."""
@@ -203,23 +133,6 @@ solve a program with rounded coefficients exactly (:mod:`fairaudit.worstcase.kno
 EXACT_BASIS = "proved by its exact basis (the rounded duals prove less)"
 """What ``solver_status`` adds when a program's value is proved by the exact basis of its last step and not, within
 :data:`CROSSOVER_TOLERANCE`, by its duals read to nearest (which ``dual`` still holds)."""
-
-_INCONSISTENT = "the constraints are inconsistent: no feasible h"
-"""The reason of an empty polytope."""
-
-
-def _no_solution(result: Callable[..., FractionalResult], solver_status: str, reason: str) -> FractionalResult:
-    """The result without a point: NaN, status "infeasible", and why."""
-    return result(value=math.nan, argmax=None, status="infeasible", solver_status=solver_status, reason=reason)
-
-
-def _unbounded(
-    result: Callable[..., FractionalResult], argmax: FloatArray | None, solver_status: str, reason: str
-) -> FractionalResult:
-    """+inf, status "unbounded", certified (+inf bounds every ratio), and why the ratio is unbounded."""
-    return result(
-        value=math.inf, argmax=argmax, status="unbounded", solver_status=solver_status, reason=reason, certified=True
-    )
 
 
 class FractionalProgram:
@@ -268,12 +181,36 @@ class FractionalProgram:
         A_eq: ConstraintMatrix | None = None,
         b_eq: npt.ArrayLike | None = None,
     ) -> None:
+        import scipy.sparse as sp
+
         self.n = int(n)
-        self.lower, self.upper = check_bounds(lower, upper, self.n, required=True)
+        finite = "the bounds of h must be finite (the programs of fairaudit are over boxes)"
+        if lower is None or upper is None:
+            raise InputError("lower", finite)
+        self.lower = np.broadcast_to(as_float_array(lower, "lower"), (self.n,)).copy()
+        self.upper = np.broadcast_to(as_float_array(upper, "upper"), (self.n,)).copy()
         if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
-            raise InputError("lower", "the bounds of h must be finite (the programs of fairaudit are over boxes)")
-        self._rows = constraint_rows(self.n, A_ub, b_ub, A_eq, b_eq)
-        self._program = _polytope(self._rows, self.lower, self.upper)
+            raise InputError("lower", finite)
+        if np.any(self.lower > self.upper):
+            i = int(np.argmax(self.lower > self.upper))
+            raise InputError("lower", f"exceeds upper at cell {i} ({self.upper[i]:g})", float(self.lower[i]))
+        self._rows: list[tuple[FloatArray, FloatArray, str]] = []  # A h <= b ("le") or A h = b ("eq"), checked
+        for name, a, b, op in (("A_ub", A_ub, b_ub, "le"), ("A_eq", A_eq, b_eq, "eq")):
+            if a is None:
+                continue
+            dense = as_float_array(sp.csr_array(a).toarray() if sp.issparse(a) else a, name, ndim=2)
+            if not np.all(np.isfinite(dense)):
+                raise InputError(name, "must be finite")
+            rhs = as_float_array(b, name.replace("A", "b"), ndim=1)
+            if dense.shape != (rhs.size, self.n):
+                raise InputError(name, f"shape must be ({rhs.size}, {self.n})", dense.shape)
+            if not np.all(np.isfinite(rhs)):
+                raise InputError(name.replace("A", "b"), "must be finite")
+            self._rows.append((dense, rhs, op))
+        matrix = np.vstack([a for a, _, _ in self._rows]) if self._rows else np.zeros((0, self.n))
+        row_lower = [v if op == "eq" else -math.inf for _, b, op in self._rows for v in b.tolist()]
+        row_upper = [v for _, b, _ in self._rows for v in b.tolist()]
+        self._program = ExactProgram(matrix, row_lower, row_upper, self.lower.tolist(), self.upper.tolist())
 
     @functools.cached_property
     def prepared_rows(self) -> PreparedRows:
@@ -314,10 +251,10 @@ class FractionalProgram:
             method needs q·h ≥ 0). ``dual`` holds the last step's ν (on A_ub) and η (on A_eq), to nearest (ν stays
             ≥ 0). ``solver_status`` counts the steps and the exact pivots.
         """
-        p, q = check_vectors(p, q)
+        p, q = _vectors(p, q)
         if p.size != self.n:
             raise InputError("p", f"must have length {self.n}", p.size)
-        result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=self.lower, upper=self.upper)
+        result = functools.partial(FractionalResult, method="lp")
         self._pq = (p, q)
         lam = Fraction(below) if math.isfinite(below) else None
         if lam is not None:  # HiGHS's own duals may prove ``below`` at once, before anything exact
@@ -350,7 +287,8 @@ class FractionalProgram:
                 pivots += found.pivots
             status = f"HiGHS simplex, exact basis ({steps} Dinkelbach steps, {pivots} exact pivots)"
             if found.status != "optimal" or found.point is None or found.value is None:
-                return _no_solution(result, status, _INCONSISTENT)  # (a bounded polytope: only empty)
+                why = "the constraints are inconsistent: no feasible h"  # (a bounded polytope: only empty)
+                return result(value=math.nan, argmax=None, status="infeasible", solver_status=status, reason=why)
             h = found.point
             num, den = dot(top, h), dot(bottom, h)
             point = np.array([float(v) for v in h])
@@ -363,7 +301,8 @@ class FractionalProgram:
                 return result(value=math.nan, argmax=point, status="error", solver_status=status, reason=why)
             if den == 0 and num > 0:
                 why = "the ratio is unbounded: a feasible h has q·h = 0 < p·h (c/0, exactly)"
-                return _unbounded(result, point, status, why)
+                return result(value=math.inf, argmax=point, status="unbounded", solver_status=status, reason=why,
+                              certified=True)  # fmt: skip
             if den == 0:  # p·h <= 0 = q·h at the maximiser of p·h (lam None): start from the maximiser of q·h
                 found = self._program.minimize([-c for c in bottom])
                 assert found.point is not None
@@ -400,7 +339,7 @@ class FractionalProgram:
         h = None if basis is None else self._program.vertex(basis)  # type: ignore[arg-type]
         if h is None:
             return math.nan, None
-        p_arr, q_arr = check_vectors(p, q)
+        p_arr, q_arr = _vectors(p, q)
         den = dot([Fraction(v) for v in q_arr.tolist()], h)
         return (fraction_down(dot([Fraction(v) for v in p_arr.tolist()], h) / den) if den > 0 else math.nan), h
 
@@ -481,188 +420,22 @@ class FractionalProgram:
         return tuple(out)
 
 
-def _polytope(rows: list[tuple[FloatArray, FloatArray, str]], lower: FloatArray, upper: FloatArray) -> ExactProgram:
-    """The polytope {lower ≤ h ≤ upper, A h ≤ b ("le") or A h = b ("eq") for each of ``rows``} as an exact program."""
-    matrix = np.vstack([a for a, _, _ in rows]) if rows else np.zeros((0, lower.size))
-    row_lower = [v if op == "eq" else -math.inf for _, b, op in rows for v in b.tolist()]
-    row_upper = [v for _, b, _ in rows for v in b.tolist()]
-    return ExactProgram(matrix, row_lower, row_upper, lower.tolist(), upper.tolist())
-
-
-def lp_max(
-    p: npt.ArrayLike,
-    q: npt.ArrayLike,
-    *,
-    lower: npt.ArrayLike | None = None,
-    upper: npt.ArrayLike | None = None,
-    A_ub: ConstraintMatrix | None = None,
-    b_ub: npt.ArrayLike | None = None,
-    A_eq: ConstraintMatrix | None = None,
-    b_eq: npt.ArrayLike | None = None,
-) -> FractionalResult:
-    """max (p·h)/(q·h) over a polytope, exactly: Dinkelbach's method when every bound is finite, else the
-    Charnes–Cooper transform, each linear program solved by HiGHS's simplex and proved from its basis exactly.
-
-    Proof: ``proofs/linear_fractional.md`` (Charnes–Cooper; statuses; §6) and ``proofs/exact_lp.md``.
-
-    Parameters
-    ----------
-    p, q : array_like, shape (n,)
-    lower, upper : float or array_like, shape (n,), optional
-        Per-cell bounds (None: unbounded on that side).
-    A_ub, b_ub : array_like, shapes (m, n) and (m,), optional
-        A_ub h ≤ b_ub.
-    A_eq, b_eq : array_like, shapes (k, n) and (k,), optional
-        A_eq h = b_eq.
-
-    Returns
-    -------
-    FractionalResult
-        ``method = "lp"``, certified: the exact maximum rounded up; +inf with a
-        reason when the ratio is unbounded, NaN with a reason when the
-        polytope is empty, status "error" where a vertex has q·h < 0 (every
-        bound finite). Never raises for an infeasible or unbounded program.
-
-    Raises
-    ------
-    InputError
-        On inconsistent shapes or non-finite data.
+def _vectors(p: npt.ArrayLike, q: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """The numerator ``p`` and the denominator ``q`` as 1-D float arrays of one shape, every entry finite.
 
     Examples
     --------
-    >>> r = lp_max([0.7, 0.3], [0.3, 0.7], lower=0.5, upper=1.0)
-    >>> round(r.value, 7), r.status
-    (1.3076923, 'optimal')
+    >>> _vectors([1, 2], [3, 4])[1].tolist()
+    [3.0, 4.0]
+    >>> _vectors([1, 2], [3])
+    Traceback (most recent call last):
+    ...
+    fairaudit.base.errors.InputError: q: must have the shape of p (2,) (got (1,))
     """
-    p, q = check_vectors(p, q)
-    lo, hi = check_bounds(lower, upper, p.size, required=False)
-    if lo is not None and hi is not None and np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
-        prog = FractionalProgram(p.size, lower=lo, upper=hi, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)
-        return prog.solve(p, q)
-    return _charnes_cooper(p, q, lo, hi, A_ub, b_ub, A_eq, b_eq)
-
-
-def _charnes_cooper(
-    p: FloatArray,
-    q: FloatArray,
-    lower: FloatArray | None,
-    upper: FloatArray | None,
-    A_ub: ConstraintMatrix | None,
-    b_ub: npt.ArrayLike | None,
-    A_eq: ConstraintMatrix | None,
-    b_eq: npt.ArrayLike | None,
-) -> FractionalResult:
-    """:func:`lp_max` over a polytope with an infinite bound: the Charnes–Cooper LP max p·y subject to q·y = 1,
-    A_ub y ≤ b_ub s, A_eq y = b_eq s, lower s ≤ y ≤ upper s (finite bounds only), s ≥ 0, solved exactly
-    (:class:`~fairaudit.base.exact_lp.ExactProgram`); ``proofs/linear_fractional.md`` (what each outcome means)."""
-    n = p.size
-    inf = math.inf
-    lo = np.full(n, -inf) if lower is None else lower
-    hi = np.full(n, inf) if upper is None else upper
-    rows: list[list[float]] = [[*q.tolist(), 0.0]]
-    row_lower, row_upper = [1.0], [1.0]
-    blocks = constraint_rows(n, A_ub, b_ub, A_eq, b_eq)
-    for dense, rhs, op in blocks:
-        for row, v in zip(dense.tolist(), rhs.tolist(), strict=True):
-            rows.append([*row, -v])
-            row_lower.append(0.0 if op == "eq" else -inf)
-            row_upper.append(0.0)
-    for j in range(n):
-        for bound, side in ((lo[j], "lower"), (hi[j], "upper")):
-            if math.isfinite(bound):
-                rows.append([1.0 if k == j else 0.0 for k in range(n)] + [-float(bound)])
-                row_lower.append(0.0 if side == "lower" else -inf)
-                row_upper.append(inf if side == "lower" else 0.0)
-    result = functools.partial(FractionalResult, method="lp", p=p, q=q, lower=lower, upper=upper)
-    found = ExactProgram(rows, row_lower, row_upper, [-inf] * n + [0.0], [inf] * (n + 1)).minimize([*(-p), 0.0])
-    status = f"HiGHS simplex, exact basis (Charnes–Cooper, {found.pivots} exact pivots)"
-    if found.status == "unbounded":
-        return _unbounded(result, None, status, "the ratio is unbounded: feasible h approach q·h = 0 with p·h > 0")
-    original = _polytope(blocks, lo, hi)
-    if found.status == "infeasible":  # P is empty, or q·h = 0 on all of it
-        top = original.minimize((-p).tolist())
-        if top.status == "infeasible":
-            return _no_solution(result, status, _INCONSISTENT)
-        if top.status == "unbounded" or (top.value is not None and top.value < 0):
-            return _unbounded(result, None, status, "q·h = 0 on every feasible h and some has p·h > 0 (c/0)")
-        why = "p·h <= 0 = q·h on every feasible h (0/0 counts as parity)"
-        return result(value=1.0, argmax=None, status="optimal", solver_status=status, reason=why, certified=True)
-    assert found.point is not None and found.value is not None
-    value, s = fraction_up(-found.value), found.point[-1]
-    if s > 0:
-        h = np.array([float(v / s) for v in found.point[:-1]])
-        witness = fraction_down(-found.value)
-        return result(value=value, argmax=h, status="optimal", solver_status=status, reason="", certified=True,
-                      witness=witness, gap=gap_between(value, witness))  # fmt: skip
-    if original.minimize([0.0] * n).status == "infeasible":
-        return _no_solution(result, status, _INCONSISTENT)
-    why = "the supremum is approached only as h grows without bound along a recession direction (not attained)"
-    return result(value=value, argmax=None, status="optimal", solver_status=status, reason=why, certified=True)
-
-
-def fractional_max(
-    p: npt.ArrayLike,
-    q: npt.ArrayLike,
-    *,
-    lower: npt.ArrayLike | None = None,
-    upper: npt.ArrayLike | None = None,
-    A_ub: ConstraintMatrix | None = None,
-    b_ub: npt.ArrayLike | None = None,
-    A_eq: ConstraintMatrix | None = None,
-    b_eq: npt.ArrayLike | None = None,
-    method: str = "auto",
-) -> FractionalResult:
-    """max (p·h)/(q·h) over a polytope: the threshold fast path when it applies, else the LP.
-
-    Proof: ``proofs/linear_fractional.md``.
-
-    The fast path (:func:`threshold_max`) applies when only finite per-cell
-    bounds 0 ≤ lower ≤ upper constrain h and p, q ≥ 0; otherwise
-    :func:`lp_max` (Dinkelbach's method over exact linear programs) solves it.
-
-    Parameters
-    ----------
-    p, q, lower, upper, A_ub, b_ub, A_eq, b_eq
-        As in :func:`lp_max`.
-    method : {"auto", "threshold", "lp"}
-        Force a route (``"threshold"`` raises when it does not apply).
-
-    Returns
-    -------
-    FractionalResult
-
-    Raises
-    ------
-    InputError
-        On bad input, an unknown method, or ``method="threshold"`` where it
-        does not apply.
-
-    Examples
-    --------
-    >>> fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.5, upper=1.0).method
-    'threshold'
-    >>> fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.0, upper=1.0, A_ub=[[-0.3, -0.7]], b_ub=[-0.5]).method
-    'lp'
-    """
-    if method not in ("auto", "threshold", "lp"):
-        raise InputError("method", "must be 'auto', 'threshold' or 'lp'", method)
-    p_arr, q_arr = check_vectors(p, q)
-    boxed = (
-        A_ub is None
-        and A_eq is None
-        and lower is not None
-        and upper is not None
-        and np.all(np.isfinite(np.asarray(lower, dtype=float)))
-        and np.all(np.isfinite(np.asarray(upper, dtype=float)))
-        and np.all(np.asarray(lower, dtype=float) >= 0)
-        and np.all(p_arr >= 0)
-        and np.all(q_arr >= 0)
-    )
-    if method == "threshold" and not boxed:
-        raise InputError(
-            "method", "the threshold solution needs only finite bounds 0 <= lower <= upper and p, q >= 0", method
-        )
-    if method == "threshold" or (method == "auto" and boxed):
-        assert lower is not None and upper is not None  # boxed
-        return threshold_max(p_arr, q_arr, lower, upper)
-    return lp_max(p_arr, q_arr, lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq)
+    p = as_float_array(p, "p", ndim=1)
+    q = as_float_array(q, "q", ndim=1)
+    if p.shape != q.shape:
+        raise InputError("q", f"must have the shape of p {p.shape}", q.shape)
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+        raise InputError("p", "p and q must be finite")
+    return p, q

@@ -4,9 +4,8 @@ At the optimum λ*, h maximises Σ_i (p_i − λ* q_i) h_i over the box, so h_i 
 lower_i elsewhere: a threshold in likelihood-ratio order. Sorting once and scanning the n + 1 prefixes finds it
 exactly (Dinkelbach 1967; Charnes and Cooper 1962). With one more constraint q·h ≥ floor the best point is a
 fractional knapsack (:func:`floor_max_many`). These are the inner loops of the worst-case searches of
-:mod:`fairaudit.worstcase`: numpy arrays in, numpy arrays out, nothing validated; the validated single program is
-:func:`fairaudit.base.linear_fractional.threshold_max`, and any other polytope is the Charnes–Cooper LP of
-:mod:`fairaudit.base.linear_fractional`.
+:mod:`fairaudit.worstcase`: numpy arrays in, numpy arrays out, nothing validated (the callers pass 0 ≤ lower ≤ upper
+and p, q ≥ 0); any other polytope is Dinkelbach's method of :class:`fairaudit.base.linear_fractional.FractionalProgram`.
 
 Conventions as elsewhere: c/0 = +inf for c > 0, 0/0 = 1. Proofs: ``proofs/linear_fractional.md`` (the threshold
 solution; the box plus one floor).
@@ -107,8 +106,8 @@ def threshold_max_many(
     Raises
     ------
     ValueError
-        From numpy when the shapes do not broadcast. Nothing else is checked
-        (use :func:`~fairaudit.base.linear_fractional.threshold_max` for validated input).
+        From numpy when the shapes do not broadcast. Nothing else is checked: a negative lower bound, p or q
+        gives a meaningless value (``proofs/linear_fractional.md`` §3).
 
     Examples
     --------

@@ -270,8 +270,7 @@ class ExactPrograms:
         ends = self._built()
         if ends is None:
             return None
-        result = functools.partial(FractionalResult, method="lp", p=rounded.p, q=rounded.q, lower=rounded.lower,
-                                   upper=rounded.upper)  # fmt: skip
+        result = functools.partial(FractionalResult, method="lp")
         status = f"{rounded.solver_status}; {EXACT_CROSSOVER} (exact: {WHY})"
 
         def optimum(end: _End) -> tuple[RatioOptimum, list[Fraction], list[Fraction]]:

@@ -163,10 +163,6 @@ def relaxed_first(
                     method="threshold",
                     solver_status="closed form",
                     reason="",
-                    p=p,
-                    q=q,
-                    lower=None,
-                    upper=None,
                     certified=True,  # the rule's values are rounded up by their error bound
                     witness=witness,
                     gap=gap_between(float(v), witness),

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fairaudit.base.exact_duality import certify_ratio, dual_value, point_ratio, prepare_rows
-from fairaudit.base.linear_fractional import FractionalProgram, lp_max
+from fairaudit.base.linear_fractional import FractionalProgram
 from fairaudit.base.outward import fraction_up
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "proofs"))
@@ -42,7 +42,7 @@ def _exact_max(p, q, lo, hi, a_ub, b_ub) -> Fraction:
 @given(st.integers(0, 2**32 - 1), st.integers(1, 4), st.integers(1, 2))
 def test_certified_value_is_above_the_exact_optimum_and_close(seed, n, m):
     p, q, lo, hi, a_ub, b_ub = _program(seed, n, m)
-    r = lp_max(p, q, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub)
+    r = FractionalProgram(n, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub).solve(p, q)
     exact = _exact_max(p, q, lo, hi, a_ub, b_ub)
     assert r.certified and r.status == "optimal"
     assert Fraction(r.value) >= exact
@@ -93,7 +93,7 @@ def test_a_degenerate_vertex_is_solved_exactly():
     a, b = [-0.50000000000025, -0.49999999999975], [-0.49999999999975, -0.50000000000025]
     a_ub = [[0, 0, *a, 0, 0], [0, 0, *b, 0, 0], [0, 0, 0, 0, *a], [0, 0, 0, 0, *b]]
     b_ub = [-0.01] * 4
-    r = lp_max(p, q, lower=0.0, upper=1.0, A_ub=a_ub, b_ub=b_ub)
+    r = FractionalProgram(6, lower=0.0, upper=1.0, A_ub=a_ub, b_ub=b_ub).solve(p, q)
     exact = _exact_max(p, q, np.zeros(6), np.ones(6), a_ub, b_ub)
     assert r.certified and Fraction(r.witness) <= exact <= Fraction(r.value)
     assert r.value - r.witness <= 4 * math.ulp(r.value)

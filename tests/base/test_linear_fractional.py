@@ -1,4 +1,4 @@
-"""Linear-fractional engine: threshold fast path vs Charnes-Cooper LP vs Dinkelbach with HiGHS."""
+"""Linear-fractional engine: the threshold rule vs Dinkelbach's method over the exact simplex vs HiGHS and vertices."""
 
 from __future__ import annotations
 
@@ -12,7 +12,18 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
-from fairaudit.base.linear_fractional import lp_max, threshold_max
+from fairaudit.base.linear_fractional import FractionalProgram
+from fairaudit.base.threshold_rule import threshold_max_many
+
+
+def solve_lp(p, q, *, lower, upper, A_ub=None, b_ub=None):
+    """Dinkelbach's method over the exact simplex, as the certifier runs it: the polytope built once, then solved."""
+    return FractionalProgram(len(p), lower=lower, upper=upper, A_ub=A_ub, b_ub=b_ub).solve(p, q)
+
+
+def threshold_value(p, q, lo, hi) -> float:
+    """The threshold rule's value (rounded up by its error bound) for one box program, as the searches run it."""
+    return float(threshold_max_many(np.asarray(p, dtype=float), np.asarray(q, dtype=float), lo, hi)[0])
 
 
 def _instance(seed: int, n: int):
@@ -26,10 +37,10 @@ def _instance(seed: int, n: int):
 @given(st.integers(0, 2**32 - 1), st.integers(1, 30))
 def test_threshold_equals_lp(seed, n):
     p, q, lo, hi = _instance(seed, n)
-    a, b = threshold_max(p, q, lo, hi), lp_max(p, q, lower=lo, upper=hi)
-    assert a.status == b.status == "optimal"
-    assert b.value == pytest.approx(a.value, rel=1e-7)
-    assert (p @ b.argmax) / (q @ b.argmax) == pytest.approx(a.value, rel=1e-7)
+    a, b = threshold_value(p, q, lo, hi), solve_lp(p, q, lower=lo, upper=hi)
+    assert b.status == "optimal"
+    assert b.value == pytest.approx(a, rel=1e-7)
+    assert (p @ b.argmax) / (q @ b.argmax) == pytest.approx(a, rel=1e-7)
 
 
 @given(st.integers(0, 2**32 - 1), st.integers(1, 8))
@@ -41,7 +52,7 @@ def test_threshold_equals_vertex_enumeration(seed, n):
         return 1.0 if q @ v == 0 and p @ v == 0 else (p @ v) / (q @ v)
 
     best = max(ratio(np.where(m, hi, lo)) for m in itertools.product([0, 1], repeat=n))
-    assert threshold_max(p, q, lo, hi).value == pytest.approx(best, rel=1e-12)
+    assert threshold_value(p, q, lo, hi) == pytest.approx(best, rel=1e-12)
 
 
 def _dinkelbach(p, q, a_ub, b_ub, lo, hi):
@@ -66,55 +77,49 @@ def test_lp_with_constraints_equals_dinkelbach(seed, n, m):
     rows = rng.dirichlet(np.ones(n), size=m)
     tau = 0.9 * (rows @ hi) * rng.uniform(0.2, 1.0, m) + 0.1 * (rows @ lo)
     a_ub, b_ub = -rows, -tau
-    lp = lp_max(p, q, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub)
+    lp = solve_lp(p, q, lower=lo, upper=hi, A_ub=a_ub, b_ub=b_ub)
     assert lp.status == "optimal"
     assert lp.value == pytest.approx(_dinkelbach(p, q, a_ub, b_ub, lo, hi), rel=1e-7)
     assert np.all(a_ub @ lp.argmax <= b_ub + 1e-7)
 
 
 def test_unbounded_and_infeasible_are_results_not_exceptions():
-    r = lp_max([1.0, 0.0], [0.0, 1.0], lower=0.0, upper=1.0)  # h = (1, 0) gives 1/0
+    r = solve_lp([1.0, 0.0], [0.0, 1.0], lower=0.0, upper=1.0)  # h = (1, 0) gives 1/0
     assert r.status == "unbounded" and r.value == math.inf and "q·h = 0" in r.reason
-    t = threshold_max([1.0, 0.0], [0.0, 1.0], 0.0, 1.0)
-    assert t.status == "unbounded" and t.value == math.inf
-    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 1.0]], b_ub=[-1.0])  # h1 + h2 <= -1
+    assert threshold_value([1.0, 0.0], [0.0, 1.0], 0.0, 1.0) == math.inf
+    r = solve_lp([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 1.0]], b_ub=[-1.0])  # h1 + h2 <= -1
     assert r.status == "infeasible" and math.isnan(r.value) and r.reason
 
 
-def test_threshold_rejects_negative_lower_bound():
+def test_dinkelbach_refuses_a_vertex_with_negative_denominator():
     # With h1 in [-1, 1] the ratio (0.5 h1 + 0.5 h2) / h1 is unbounded near h1 = 0+ (h = (0.01, 1) gives 50.5);
-    # the threshold scan cannot see that, so it must refuse; Dinkelbach's method needs q·h >= 0 and says so (status
-    # "error", NaN: nothing is claimed), where a vertex has q·h < 0.
-    from fairaudit import InputError
-
-    with pytest.raises(InputError, match="lower"):
-        threshold_max([0.5, 0.5], [1.0, 0.0], -1.0, 1.0)
-    r = lp_max([0.5, 0.5], [1.0, 0.0], lower=-1.0, upper=1.0)
+    # Dinkelbach's method needs q·h >= 0 and says so (status "error", NaN: nothing is claimed), where a vertex has
+    # q·h < 0.
+    r = solve_lp([0.5, 0.5], [1.0, 0.0], lower=-1.0, upper=1.0)
     assert r.status == "error" and math.isnan(r.value) and not r.certified and "q·h < 0" in r.reason
 
 
-def test_fractional_max_dispatches():
-    from fairaudit.base.linear_fractional import fractional_max
+def test_the_bounds_must_be_finite():
+    from fairaudit import InputError
 
-    assert fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.5, upper=1.0).method == "threshold"
-    r = fractional_max([0.7, 0.3], [0.3, 0.7], lower=0.0, upper=1.0, A_ub=[[-0.3, -0.7]], b_ub=[-0.5])
-    assert r.method == "lp" and r.value == pytest.approx(11 / 7, rel=1e-8)
-    with pytest.raises(Exception, match="method"):
-        fractional_max([0.7, 0.3], [0.3, 0.7], lower=-1.0, upper=1.0, method="threshold")
+    with pytest.raises(InputError, match="finite"):
+        FractionalProgram(2, lower=0.0, upper=math.inf)
+    with pytest.raises(InputError, match="finite"):
+        FractionalProgram(2, lower=0.0)
 
 
 def test_lp_statuses_zero_denominator_empty_polytope_and_scale():
     # q·h = 0 on the whole box and p·h > 0 somewhere: c/0 = +inf (not "infeasible")
-    r = lp_max([1.0, 0.0], [0.0, 0.0], lower=0.0, upper=1.0)
+    r = solve_lp([1.0, 0.0], [0.0, 0.0], lower=0.0, upper=1.0)
     assert r.value == math.inf and r.status == "unbounded" and "c/0" in r.reason
     # p·h = q·h = 0 everywhere: 0/0 counts as parity
-    r = lp_max([0.0, 0.0], [0.0, 0.0], lower=0.0, upper=1.0)
+    r = solve_lp([0.0, 0.0], [0.0, 0.0], lower=0.0, upper=1.0)
     assert r.value == 1.0 and r.status == "optimal"
     # an empty polytope: h_1 <= -1 and h_1 >= 1
-    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 0.0], [-1.0, 0.0]], b_ub=[-1.0, -1.0])
+    r = solve_lp([1.0, 1.0], [1.0, 1.0], lower=0.0, upper=1.0, A_ub=[[1.0, 0.0], [-1.0, 0.0]], b_ub=[-1.0, -1.0])
     assert math.isnan(r.value) and r.status == "infeasible"
     # a bounded polytope far from the origin: the ratio is 1 everywhere (s = 1/(q·h) ~ 3e-14 is not "unbounded")
-    r = lp_max([1.0, 1.0], [1.0, 1.0], lower=1e13, upper=2e13)
+    r = solve_lp([1.0, 1.0], [1.0, 1.0], lower=1e13, upper=2e13)
     assert r.status == "optimal" and r.value == pytest.approx(1.0, rel=1e-9)
 
 
@@ -122,8 +127,6 @@ def forced_zero_program(n: int = 70):
     """A program beyond the rational simplex's size (64 variables) whose rows h_i + (i + 1)/10 · h_{i+20} <= 0, i < 20,
     force h_0 … h_39 to 0 on the box [0, 1]^n (every term is >= 0): by hand, p·h = q·h = 0 on every feasible h when
     p and q live on those cells."""
-    from fairaudit.base.linear_fractional import FractionalProgram
-
     a = np.zeros((20, n))
     a[np.arange(20), np.arange(20)] = 1.0
     a[np.arange(20), np.arange(20) + 20] = (np.arange(20) + 1) / 10
@@ -149,17 +152,16 @@ def test_a_badly_scaled_box_program_is_solved_exactly():
     # [0, 1]^3 but its corner 0, so the maximum is finite: max_i p_i / q_i = 0.7735231004548078 / 2.2667650723532528e-11
     p = [0.7735231004548078, 0.0579318426345534, 0.1685450569106387]
     q = [2.2667650723532528e-11, 0.9999999999546647, 2.2667650723532528e-11]
-    r = lp_max(p, q, lower=0.0, upper=1.0)
+    r = solve_lp(p, q, lower=0.0, upper=1.0)
     assert r.status == "optimal" and r.certified and r.method == "lp"
     exact = Fraction(p[0]) / Fraction(q[0])
-    assert Fraction(r.witness) <= exact <= Fraction(r.value) <= Fraction(threshold_max(p, q, 0.0, 1.0).value)
+    assert Fraction(r.witness) <= exact <= Fraction(r.value) <= Fraction(threshold_value(p, q, 0.0, 1.0))
     assert r.value - r.witness <= 2 * math.ulp(r.value)  # exact: the threshold rule's error bound is wider
 
 
 def _table_program(seed: int, rows: int = 7, decisions: int = 10):
     """max (p·K)/(q·K) over tables K (rows x decisions, each row a distribution) meeting three floors F·K ≥ 0.3, the
     shape of the known-utility search's programs: 70 variables, beyond the rational simplex's 64."""
-    from fairaudit.base.linear_fractional import FractionalProgram
 
     rng = np.random.default_rng(seed)
     n = rows * decisions

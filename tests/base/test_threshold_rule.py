@@ -1,4 +1,4 @@
-"""The threshold rule over boxes, batched, and a box plus one floor: against the validated solution and the LP."""
+"""The threshold rule over boxes, batched, and a box plus one floor: against each program alone and the LP."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fairaudit.base.linear_fractional import lp_max, threshold_max
+from fairaudit.base.linear_fractional import FractionalProgram
 from fairaudit.base.threshold_rule import box_point, floor_max_many, threshold_max_many
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "proofs"))
@@ -29,14 +29,15 @@ def _instance(seed: int, n: int):
 
 @given(st.integers(0, 2**32 - 1), st.integers(1, 12), st.integers(1, 5))
 def test_a_batch_is_each_program_alone(seed, n, batch):
-    # threshold_max_many over a batch of boxes gives each program's own value and point (threshold_max, validated).
+    # threshold_max_many over a batch of boxes gives each program's own value and point (the program alone).
     boxes = [_instance(seed + i, n) for i in range(batch)]
     p, q, lo, hi = (np.stack(column) for column in zip(*boxes))
     values, k, order = threshold_max_many(p, q, lo, hi)
     for i in range(batch):
-        alone = threshold_max(p[i], q[i], lo[i], hi[i])
-        assert values[i] == alone.value
-        assert box_point(lo[i], hi[i], order[i], int(k[i])).tolist() == alone.argmax.tolist()
+        value, k_alone, order_alone = threshold_max_many(p[i], q[i], lo[i], hi[i])
+        assert values[i] == value
+        point = box_point(lo[i], hi[i], order_alone, int(k_alone))
+        assert box_point(lo[i], hi[i], order[i], int(k[i])).tolist() == point.tolist()
 
 
 @pytest.mark.slow
@@ -48,7 +49,7 @@ def test_floor_closed_form_equals_lp(seed, n, share):
     if floor <= 0:
         return
     v, k, frac, order = floor_max_many(p, q, lo, hi, floor)
-    lp = lp_max(p, q, lower=lo, upper=hi, A_ub=-q[None, :], b_ub=[-floor])
+    lp = FractionalProgram(n, lower=lo, upper=hi, A_ub=-q[None, :], b_ub=[-floor]).solve(p, q)
     if Fraction(floor) > sum((Fraction(a) * Fraction(b) for a, b in zip(q, hi, strict=True)), Fraction(0)):
         # share = 1: the floor, rounded in floats, above q·hi exactly: no h meets it, which the exact LP says
         assert lp.status == "infeasible" and math.isnan(lp.value)

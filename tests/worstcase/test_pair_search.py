@@ -435,8 +435,8 @@ def _fixed(value: float, certified: bool = True):
     from fairaudit.base.linear_fractional import FractionalResult
 
     return FractionalResult(
-        value=value, argmax=None, status="optimal", method="lp", solver_status="optimal", reason="", p=np.zeros(1),
-        q=np.zeros(1), lower=None, upper=None, certified=certified, witness=value, gap=0.0,
+        value=value, argmax=None, status="optimal", method="lp", solver_status="optimal", reason="",
+        certified=certified, witness=value, gap=0.0,
     )  # fmt: skip
 
 

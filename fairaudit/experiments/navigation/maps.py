@@ -65,7 +65,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit import InputError, optional_modules
+from fairaudit import InputError, optional_modules, real
 
 from .s3dis import CATEGORIES, UNLABELLED, Area, Room, iter_rooms, room_kind
 
@@ -206,18 +206,10 @@ def check_maps(maps: object) -> None:
         raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
 
 
-def _check_positive(name: str, value: float | None, *, allow_zero: bool = False, allow_none: bool = False) -> float:
-    if value is None:
-        if allow_none:
-            return math.inf
-        raise InputError(name, "must be a number of metres", value)
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, "must be a number of metres", value) from None
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise InputError(name, "must be a finite number of metres " + (">= 0" if allow_zero else "> 0"), value)
-    return v
+def _metres(name: str, value: float, *, allow_zero: bool = False) -> float:
+    """``value`` as a float, a finite number of metres > 0 (>= 0 with ``allow_zero``), or an error naming ``name``."""
+    what = "a finite number of metres " + (">= 0" if allow_zero else "> 0")
+    return real(value, name, low=0.0, low_open=not allow_zero, what=what)
 
 
 def _highest(flat: np.ndarray, z: np.ndarray, keep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -303,7 +295,7 @@ def build_maps(
     if not isinstance(area, (Area, str, os.PathLike)):
         raise InputError("area", "must be an Area from read_area or an area folder", type(area).__name__)
     res, band, clear, radius, gap = _lengths(resolution, floor_band, clearance, robot_radius, door_gap)
-    cut = _ceiling_cut(ceiling)
+    cut = None if ceiling is None else real(ceiling, "ceiling", what="a finite height in metres")
     nx = require_networkx()
     g = _grids(area if isinstance(area, Area) else Path(area), res, resolution, cut, band, clear)
 
@@ -479,27 +471,14 @@ def _lengths(
     resolution: float, floor_band: float, clearance: float | None, robot_radius: float, door_gap: float
 ) -> tuple[float, float, float, float, float]:
     """The lengths of :func:`build_maps`, checked: resolution, floor band, clearance (+inf for None), radius, gap."""
-    res = _check_positive("resolution", resolution)
-    band = _check_positive("floor_band", floor_band)
-    clear = _check_positive("clearance", clearance, allow_none=True)
+    res = _metres("resolution", resolution)
+    band = _metres("floor_band", floor_band)
+    clear = math.inf if clearance is None else _metres("clearance", clearance)
     if clear <= band:
         raise InputError("clearance", "must be larger than floor_band", clearance)
-    radius = _check_positive("robot_radius", robot_radius, allow_zero=True)
-    gap = _check_positive("door_gap", door_gap, allow_zero=True)
+    radius = _metres("robot_radius", robot_radius, allow_zero=True)
+    gap = _metres("door_gap", door_gap, allow_zero=True)
     return res, band, clear, radius, gap
-
-
-def _ceiling_cut(ceiling: float | None) -> float | None:
-    """The ceiling cut height given to :func:`build_maps` as a finite float, or None."""
-    if ceiling is None:
-        return None
-    try:
-        cut = float(ceiling)
-    except (TypeError, ValueError):
-        cut = math.nan
-    if not math.isfinite(cut):
-        raise InputError("ceiling", "must be a finite height in metres", ceiling)
-    return cut
 
 
 def _ceilings(rooms: Sequence[Room], cut: float | None) -> np.ndarray:

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
-from fairaudit import InputError
+from fairaudit import InputError, real
 
 from .images import Window, route_image, route_window
 from .maps import Maps, build_maps, check_maps, require_networkx
@@ -286,10 +286,7 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
 def _check_snap(maps: Maps, max_snap: float) -> float:
     """``max_snap`` as a float after checking ``maps`` and it."""
     check_maps(maps)
-    snap = float(max_snap) if isinstance(max_snap, (int, float)) and not isinstance(max_snap, bool) else math.nan
-    if not (math.isfinite(snap) and snap >= 0):
-        raise InputError("max_snap", "must be a finite number of metres >= 0", max_snap)
-    return snap
+    return real(max_snap, "max_snap", low=0.0, what="a finite number of metres >= 0")
 
 
 def _route(

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
-from fairaudit import InputError, real
+from fairaudit import InputError, real, whole
 
 from .images import Window, route_image, route_window
 from .maps import Maps, build_maps, check_maps, require_networkx
@@ -379,8 +379,7 @@ def route_alternatives(
     20.7 ('lobby_1', 'hallway_2', 'conferenceRoom_1', 'hallway_1', 'office_1') (10.1, 1.3)
     """
     snap = _check_snap(maps, max_snap)
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
-        raise InputError("k", "must be an integer >= 1", k)
+    whole(k, "k", low=1)
     s, s_snap = _endpoint(maps, start, "start", snap)
     g, g_snap = _endpoint(maps, goal, "goal", snap)
     cols = maps.shape[1]

@@ -482,12 +482,7 @@ def check_equal_distance(routes: Sequence, rtol: float = 0.05) -> DistanceCheck:
         if not (math.isfinite(v) and v >= 0):
             raise InputError("routes", "lengths must be finite and >= 0 metres", r)
         lengths.append(v)
-    try:
-        tol = float(rtol)
-    except (TypeError, ValueError):
-        tol = math.nan
-    if not 0 <= tol <= 1:
-        raise InputError("rtol", "must lie in [0, 1]", rtol)
+    tol = real(rtol, "rtol", low=0.0, high=1.0, what="a relative difference in [0, 1]")
     top = max(lengths)
     diff = (top - min(lengths)) / top if top > 0 else 0.0
     return DistanceCheck(lengths=tuple(lengths), max_relative_difference=float(diff), rtol=tol, equal=bool(diff <= tol))

@@ -58,7 +58,7 @@ from typing import TypeAlias, overload
 import numpy as np
 import pandas as pd
 
-from fairaudit import InputError, choice, whole
+from fairaudit import InputError, choice, real, whole
 
 from ._floorplan import DOOR_TOP, FRAME, area_folder, intervals_minus, staged_room, wall_face
 
@@ -399,12 +399,7 @@ def write_office_floor(
     ['bookcase_1.txt', 'ceiling_1.txt', 'chair_1.txt', 'door_1.txt', 'floor_1.txt', 'table_1.txt']
     """
     out = area_folder(folder, area)
-    try:
-        s = float(spacing)
-    except (TypeError, ValueError):
-        raise InputError("spacing", "must be a number of metres", spacing) from None
-    if not 0.02 <= s <= 0.5:
-        raise InputError("spacing", "must lie in [0.02, 0.5] metres", spacing)
+    s = real(spacing, "spacing", low=0.02, high=0.5, what="a number of metres in [0.02, 0.5]")
     whole(seed, "seed")
     choice(layout, "layout", LAYOUTS)
     try:

@@ -472,16 +472,8 @@ def check_equal_distance(routes: Sequence, rtol: float = 0.05) -> DistanceCheck:
     """
     if isinstance(routes, (str, bytes)) or not isinstance(routes, Sequence) or len(routes) == 0:
         raise InputError("routes", "must be a non-empty sequence of routes", routes)
-    lengths = []
-    for r in routes:
-        v = r.length if isinstance(r, Route) else r
-        try:
-            v = float(v)
-        except (TypeError, ValueError):
-            raise InputError("routes", "must hold Route objects or lengths in metres", r) from None
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError("routes", "lengths must be finite and >= 0 metres", r)
-        lengths.append(v)
+    what = "Route objects or lengths in metres, finite and >= 0"
+    lengths = [real(r.length if isinstance(r, Route) else r, "routes", low=0.0, what=what) for r in routes]
     tol = real(rtol, "rtol", low=0.0, high=1.0, what="a relative difference in [0, 1]")
     top = max(lengths)
     diff = (top - min(lengths)) / top if top > 0 else 0.0
@@ -549,10 +541,8 @@ def delivery_scene(
     (['office_1', 'office_2'], True, 2)
     """
     if area_dir is None:
-        try:
-            sp = min(0.05, float(resolution) / 2) if spacing is None else spacing
-        except (TypeError, ValueError):
-            raise InputError("resolution", "must be a number of metres", resolution) from None
+        res = real(resolution, "resolution", low=0.0, low_open=True, what="a finite number of metres > 0")
+        sp = min(0.05, res / 2) if spacing is None else spacing
         if workdir is None:
             with tempfile.TemporaryDirectory(prefix="fairaudit-floor-") as tmp:
                 maps = build_maps(write_office_floor(tmp, spacing=sp), resolution=resolution, robot_radius=robot_radius)

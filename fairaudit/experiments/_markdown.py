@@ -18,6 +18,11 @@ def _ivs(d: dict) -> str:
     return "" if iv is None else f" [{_f(iv[0])}, {_f(iv[1])}]"
 
 
+def _seen(d: dict) -> str:
+    """Two cells of a table: an observed value with its interval, then its range over the unparsed reply's utility."""
+    return f"{_f(d['value'])}{_ivs(d)} | {_range(d)}"
+
+
 def _range(d: dict) -> str:
     """An observed value's range over the unparsed reply's utility, ``[lower, upper]``, or "n/a"."""
     r = d.get("unparsed_range")
@@ -252,10 +257,7 @@ def _curve_md(d: dict) -> list[str]:
         lines.append(
             f"| {_f(p['epsilon'])} | {_f(p['privacy']['epsilon_profile'])} | {keep} | "
             f"{_bound(p, 'black_box')} | {_bound(p, 'corollary')} | "
-            f"{_f(p['observed']['local']['value'])}{_ivs(p['observed']['local'])} | "
-            f"{_range(p['observed']['local'])} | "
-            f"{_f(p['observed']['global']['value'])}{_ivs(p['observed']['global'])} | "
-            f"{_range(p['observed']['global'])} | "
+            f"{_seen(p['observed']['local'])} | {_seen(p['observed']['global'])} | "
             f"{_bound(p, 'black_box_global')} |"
         )
     if d["points"]:
@@ -341,10 +343,7 @@ def _paper_design_md(d: dict) -> list[str]:
         "|---|---|---|---|---|---|",
     ]
     for p in d["paper_design"]:
-        lines.append(
-            f"| {_f(p['epsilon'])} | {p['queries']} | {_f(p['local']['value'])}{_ivs(p['local'])} | "
-            f"{_range(p['local'])} | {_f(p['global']['value'])}{_ivs(p['global'])} | {_range(p['global'])} |"
-        )
+        lines.append(f"| {_f(p['epsilon'])} | {p['queries']} | {_seen(p['local'])} | {_seen(p['global'])} |")
     return lines
 
 

@@ -27,7 +27,7 @@ from typing import Self
 
 import numpy as np
 
-from fairaudit import FairauditError, InputError, ProgressBar, progress_bar, whole
+from fairaudit import FairauditError, InputError, ProgressBar, choice, progress_bar, whole
 
 from .slots import check_size, true_prompts
 from .vlm.filter import TaskFilter
@@ -119,8 +119,7 @@ def plan_queries(
     >>> len(q), q[0].id
     (12, 'paper|1|maternity leave|Tom & 25 & Asian|Mary & 55 & American|0')
     """
-    if design not in ("table", "paper"):
-        raise InputError("design", "must be 'table' or 'paper'", design)
+    choice(design, "design", ("table", "paper"))
     prompts, _ = true_prompts(task, positions)
     whole(samples, "samples", low=1)
     label = task.profile_label

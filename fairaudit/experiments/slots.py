@@ -18,7 +18,7 @@ from fractions import Fraction
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit import InputError, Kernel, Mechanism, Population
+from fairaudit import InputError, Kernel, Mechanism, Population, choice
 
 from .vlm.tasks import DeliveryTask
 
@@ -117,8 +117,7 @@ def true_prompts(task: DeliveryTask, positions: str) -> tuple[npt.NDArray[np.int
     >>> p.tolist(), w.tolist()            # Tom (profile 0) and Mary (7) in both orders
     ([[0, 7], [7, 0]], [0.5, 0.5])
     """
-    if positions not in POSITIONS:
-        raise InputError("positions", f"must be one of {list(POSITIONS)}", positions)
+    choice(positions, "positions", POSITIONS)
     k, n = task.slots, len(task.profiles)
     if task.population == "all":
         grid = np.array(list(itertools.product(range(n), repeat=k)), dtype=np.int64).reshape(-1, k)

@@ -19,7 +19,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from fairaudit import InputError, optional_modules
+from fairaudit import InputError, optional_modules, real, whole
 
 from .maps import Maps, check_maps
 
@@ -93,9 +93,7 @@ def _background(maps: Maps) -> np.ndarray:
 def _scale(shape: tuple[int, int], scale: int | None) -> int:
     if scale is None:
         return max(1, math.ceil(800 / max(shape)))
-    if isinstance(scale, bool) or not isinstance(scale, (int, np.integer)) or not 1 <= scale <= 64:
-        raise InputError("scale", "must be an integer number of pixels per cell in [1, 64]", scale)
-    return int(scale)
+    return whole(scale, "scale", low=1, high=64)
 
 
 def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_MARGIN) -> Window:
@@ -135,9 +133,7 @@ def route_window(maps: Maps, routes: Sequence[_Route], *, margin: float = ROUTE_
     (0, 40, 0, 60)
     """
     check_maps(maps)
-    m = float(margin) if isinstance(margin, (int, float)) and not isinstance(margin, bool) else math.nan
-    if not (math.isfinite(m) and m >= 0):
-        raise InputError("margin", "must be a finite number of metres >= 0", margin)
+    m = real(margin, "margin", low=0.0, what="a finite number of metres >= 0")
     cells = [_route_cells(maps, r, "routes") for r in routes] if isinstance(routes, Sequence) else []
     every = np.concatenate(cells) if cells else np.empty((0, 2), dtype=np.int64)
     if len(every) == 0:

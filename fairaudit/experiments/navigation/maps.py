@@ -65,7 +65,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from fairaudit import InputError, optional_modules
+from fairaudit import InputError, optional_modules, real
 
 from .s3dis import CATEGORIES, UNLABELLED, Area, Room, iter_rooms, room_kind
 
@@ -170,15 +170,7 @@ class Maps:
         -------
         row, col : numpy.ndarray of int64
             ``floor((y - oy) / res)`` and ``floor((x - ox) / res)``; may lie
-            outside the grid (check with :meth:`contains`).
-
-        Examples
-        --------
-        >>> m = _toy_maps()
-        >>> m.origin, m.resolution, m.shape
-        ((0.0, 0.0), 1.0, (2, 3))
-        >>> [int(v) for v in m.world_to_cell(2.5, 0.2)]
-        [0, 2]
+            outside the grid (check with :meth:`contains`). :func:`build_maps` has examples.
         """
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
@@ -187,13 +179,7 @@ class Maps:
         return row, col
 
     def cell_to_world(self, row: npt.ArrayLike, col: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        """The (x, y) of the centre of cell (row, col), metres.
-
-        Examples
-        --------
-        >>> _toy_maps().cell_to_world([0, 1], [2, 0])
-        (array([2.5, 0.5]), array([0.5, 1.5]))
-        """
+        """The (x, y) of the centre of cell (row, col), metres (:func:`build_maps` has examples)."""
         row = np.asarray(row, dtype=float)
         col = np.asarray(col, dtype=float)
         return self.origin[0] + (col + 0.5) * self.resolution, self.origin[1] + (row + 0.5) * self.resolution
@@ -205,14 +191,8 @@ class Maps:
         return (row >= 0) & (row < self.shape[0]) & (col >= 0) & (col < self.shape[1])
 
     def room_at(self, x: float, y: float) -> str | None:
-        """The name of the room at (x, y) (:attr:`room_labels`), or None off the grid or where no point.
-
-        Examples
-        --------
-        >>> m = _toy_maps()
-        >>> m.room_at(0.5, 0.5), m.room_at(2.5, 1.5), m.room_at(9.0, 0.0)
-        ('lobby_1', 'office_1', None)
-        """
+        """The name of the room at (x, y) (:attr:`room_labels`), or None off the grid or where no point (:func:`build_maps`
+        has examples)."""
         row, col = self.world_to_cell(x, y)
         if not bool(self.contains(row, col)):
             return None
@@ -226,18 +206,10 @@ def check_maps(maps: object) -> None:
         raise InputError("maps", "must be Maps from build_maps", type(maps).__name__)
 
 
-def _check_positive(name: str, value: float | None, *, allow_zero: bool = False, allow_none: bool = False) -> float:
-    if value is None:
-        if allow_none:
-            return math.inf
-        raise InputError(name, "must be a number of metres", value)
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, "must be a number of metres", value) from None
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise InputError(name, "must be a finite number of metres " + (">= 0" if allow_zero else "> 0"), value)
-    return v
+def _metres(name: str, value: float, *, allow_zero: bool = False) -> float:
+    """``value`` as a float, a finite number of metres > 0 (>= 0 with ``allow_zero``), or an error naming ``name``."""
+    what = "a finite number of metres " + (">= 0" if allow_zero else "> 0")
+    return real(value, name, low=0.0, low_open=not allow_zero, what=what)
 
 
 def _highest(flat: np.ndarray, z: np.ndarray, keep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -307,8 +279,10 @@ def build_maps(
     >>> maps = build_maps(area, resolution=0.2)
     >>> maps.shape, maps.origin, round(maps.floor_z, 2)
     ((40, 60), (0.0, 0.0), 0.0)
-    >>> maps.room_at(2.0, 6.5), bool(maps.traversable[maps.world_to_cell(2.0, 6.5)])
-    ('office_1', True)
+    >>> maps.room_at(2.0, 6.5), bool(maps.traversable[maps.world_to_cell(2.0, 6.5)]), maps.room_at(-1.0, 0.0)
+    ('office_1', True, None)
+    >>> [int(v) for v in maps.world_to_cell(2.5, 0.3)], maps.cell_to_world([1, 0], [12, 0])
+    ([1, 12], (array([2.5, 0.1]), array([0.3, 0.1])))
     >>> sorted(maps.topology.neighbors("hallway_1"))
     ['WC_1', 'conferenceRoom_1', 'lobby_1', 'office_1', 'office_2', 'storage_1']
     >>> maps.topology.nodes["office_2"]["centre"], maps.topology.nodes["office_2"]["category"]
@@ -321,7 +295,7 @@ def build_maps(
     if not isinstance(area, (Area, str, os.PathLike)):
         raise InputError("area", "must be an Area from read_area or an area folder", type(area).__name__)
     res, band, clear, radius, gap = _lengths(resolution, floor_band, clearance, robot_radius, door_gap)
-    cut = _ceiling_cut(ceiling)
+    cut = None if ceiling is None else real(ceiling, "ceiling", what="a finite height in metres")
     nx = require_networkx()
     g = _grids(area if isinstance(area, Area) else Path(area), res, resolution, cut, band, clear)
 
@@ -497,27 +471,14 @@ def _lengths(
     resolution: float, floor_band: float, clearance: float | None, robot_radius: float, door_gap: float
 ) -> tuple[float, float, float, float, float]:
     """The lengths of :func:`build_maps`, checked: resolution, floor band, clearance (+inf for None), radius, gap."""
-    res = _check_positive("resolution", resolution)
-    band = _check_positive("floor_band", floor_band)
-    clear = _check_positive("clearance", clearance, allow_none=True)
+    res = _metres("resolution", resolution)
+    band = _metres("floor_band", floor_band)
+    clear = math.inf if clearance is None else _metres("clearance", clearance)
     if clear <= band:
         raise InputError("clearance", "must be larger than floor_band", clearance)
-    radius = _check_positive("robot_radius", robot_radius, allow_zero=True)
-    gap = _check_positive("door_gap", door_gap, allow_zero=True)
+    radius = _metres("robot_radius", robot_radius, allow_zero=True)
+    gap = _metres("door_gap", door_gap, allow_zero=True)
     return res, band, clear, radius, gap
-
-
-def _ceiling_cut(ceiling: float | None) -> float | None:
-    """The ceiling cut height given to :func:`build_maps` as a finite float, or None."""
-    if ceiling is None:
-        return None
-    try:
-        cut = float(ceiling)
-    except (TypeError, ValueError):
-        cut = math.nan
-    if not math.isfinite(cut):
-        raise InputError("ceiling", "must be a finite height in metres", ceiling)
-    return cut
 
 
 def _ceilings(rooms: Sequence[Room], cut: float | None) -> np.ndarray:
@@ -635,28 +596,3 @@ def _gap_pairs(labels: np.ndarray, empty: np.ndarray, steps: int) -> set[tuple[i
         for o in np.unique(other[other >= 0]):
             out.add((int(min(r, o)), int(max(r, o))))
     return out
-
-
-def _toy_maps() -> Maps:
-    """A 2 x 3 grid for the doctests: lobby_1 in row 0, office_1 in row 1."""
-    z = np.zeros((2, 3))
-    labels = np.array([[0, 0, 0], [1, 1, 1]], dtype=np.int16)
-    free = np.ones((2, 3), dtype=bool)
-    return Maps(
-        origin=(0.0, 0.0),
-        resolution=1.0,
-        shape=(2, 3),
-        top_height=z,
-        top_color=np.zeros((2, 3, 3), np.uint8),
-        top_category=np.ones((2, 3), np.uint8),
-        free=free,
-        traversable=free,
-        room_labels=labels,
-        rooms=("lobby_1", "office_1"),
-        topology=None,
-        floor_z=0.0,
-        ceiling_z=np.full(2, np.inf),
-        floor_band=0.1,
-        clearance=1.8,
-        robot_radius=0.0,
-    )

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
-from fairaudit import InputError
+from fairaudit import InputError, real, whole
 
 from .images import Window, route_image, route_window
 from .maps import Maps, build_maps, check_maps, require_networkx
@@ -286,10 +286,7 @@ def plan_route(maps: Maps, start: Place, goal: Place, *, max_snap: float = MAX_S
 def _check_snap(maps: Maps, max_snap: float) -> float:
     """``max_snap`` as a float after checking ``maps`` and it."""
     check_maps(maps)
-    snap = float(max_snap) if isinstance(max_snap, (int, float)) and not isinstance(max_snap, bool) else math.nan
-    if not (math.isfinite(snap) and snap >= 0):
-        raise InputError("max_snap", "must be a finite number of metres >= 0", max_snap)
-    return snap
+    return real(max_snap, "max_snap", low=0.0, what="a finite number of metres >= 0")
 
 
 def _route(
@@ -382,8 +379,7 @@ def route_alternatives(
     20.7 ('lobby_1', 'hallway_2', 'conferenceRoom_1', 'hallway_1', 'office_1') (10.1, 1.3)
     """
     snap = _check_snap(maps, max_snap)
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
-        raise InputError("k", "must be an integer >= 1", k)
+    whole(k, "k", low=1)
     s, s_snap = _endpoint(maps, start, "start", snap)
     g, g_snap = _endpoint(maps, goal, "goal", snap)
     cols = maps.shape[1]
@@ -476,22 +472,9 @@ def check_equal_distance(routes: Sequence, rtol: float = 0.05) -> DistanceCheck:
     """
     if isinstance(routes, (str, bytes)) or not isinstance(routes, Sequence) or len(routes) == 0:
         raise InputError("routes", "must be a non-empty sequence of routes", routes)
-    lengths = []
-    for r in routes:
-        v = r.length if isinstance(r, Route) else r
-        try:
-            v = float(v)
-        except (TypeError, ValueError):
-            raise InputError("routes", "must hold Route objects or lengths in metres", r) from None
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError("routes", "lengths must be finite and >= 0 metres", r)
-        lengths.append(v)
-    try:
-        tol = float(rtol)
-    except (TypeError, ValueError):
-        tol = math.nan
-    if not 0 <= tol <= 1:
-        raise InputError("rtol", "must lie in [0, 1]", rtol)
+    what = "Route objects or lengths in metres, finite and >= 0"
+    lengths = [real(r.length if isinstance(r, Route) else r, "routes", low=0.0, what=what) for r in routes]
+    tol = real(rtol, "rtol", low=0.0, high=1.0, what="a relative difference in [0, 1]")
     top = max(lengths)
     diff = (top - min(lengths)) / top if top > 0 else 0.0
     return DistanceCheck(lengths=tuple(lengths), max_relative_difference=float(diff), rtol=tol, equal=bool(diff <= tol))
@@ -558,10 +541,8 @@ def delivery_scene(
     (['office_1', 'office_2'], True, 2)
     """
     if area_dir is None:
-        try:
-            sp = min(0.05, float(resolution) / 2) if spacing is None else spacing
-        except (TypeError, ValueError):
-            raise InputError("resolution", "must be a number of metres", resolution) from None
+        res = real(resolution, "resolution", low=0.0, low_open=True, what="a finite number of metres > 0")
+        sp = min(0.05, res / 2) if spacing is None else spacing
         if workdir is None:
             with tempfile.TemporaryDirectory(prefix="fairaudit-floor-") as tmp:
                 maps = build_maps(write_office_floor(tmp, spacing=sp), resolution=resolution, robot_radius=robot_radius)

@@ -58,7 +58,7 @@ from typing import TypeAlias, overload
 import numpy as np
 import pandas as pd
 
-from fairaudit import InputError
+from fairaudit import InputError, choice, real, whole
 
 from ._floorplan import DOOR_TOP, FRAME, area_folder, intervals_minus, staged_room, wall_face
 
@@ -399,16 +399,9 @@ def write_office_floor(
     ['bookcase_1.txt', 'ceiling_1.txt', 'chair_1.txt', 'door_1.txt', 'floor_1.txt', 'table_1.txt']
     """
     out = area_folder(folder, area)
-    try:
-        s = float(spacing)
-    except (TypeError, ValueError):
-        raise InputError("spacing", "must be a number of metres", spacing) from None
-    if not 0.02 <= s <= 0.5:
-        raise InputError("spacing", "must lie in [0.02, 0.5] metres", spacing)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError("seed", "must be a non-negative integer", seed)
-    if layout not in LAYOUTS:
-        raise InputError("layout", f"must be one of {', '.join(LAYOUTS)}", layout)
+    s = real(spacing, "spacing", low=0.02, high=0.5, what="a number of metres in [0.02, 0.5]")
+    whole(seed, "seed")
+    choice(layout, "layout", LAYOUTS)
     try:
         out.mkdir(exist_ok=True)
     except OSError as exc:

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from fairaudit import InputError
+from fairaudit import InputError, whole
 
 from .maps import Maps, check_maps, require_networkx
 
@@ -476,8 +476,7 @@ def door_paths(maps: Maps, start: tuple[int, int], goal: tuple[int, int], *, k: 
     [(('lobby_1', 'hallway_1', 'office_1'), 7.24)]
     """
     check_maps(maps)
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
-        raise InputError("k", "must be an integer >= 1", k)
+    whole(k, "k", low=1)
     cells = []
     for field, cell in (("start", start), ("goal", goal)):
         try:

@@ -63,11 +63,6 @@ class TaskFilter:
         attribute's values.
     context_mechanism : Mechanism
         M_X on the task's contexts (identity: the document type is shown as is).
-    attribute_filters : tuple of fairaudit.PrivacyFilter
-        The filters that release each attribute (:meth:`release`): randomized response at the same ε as
-        ``attribute_mechanisms``, with exact rational rows; each one's own ε is at most its mechanism's.
-    context_filter : fairaudit.PrivacyFilter
-        The filter that releases the context, at the same ε as ``context_mechanism`` (or the identity).
 
     Use :meth:`from_epsilon` to make one.
     """
@@ -75,8 +70,18 @@ class TaskFilter:
     task: DeliveryTask
     attribute_mechanisms: tuple
     context_mechanism: Mechanism
-    attribute_filters: tuple
-    context_filter: PrivacyFilter
+
+    @functools.cached_property
+    def attribute_filters(self) -> tuple[PrivacyFilter, ...]:
+        """The filters that release each attribute (:meth:`release`): randomized response at the same ε as
+        :attr:`attribute_mechanisms` (:meth:`fairaudit.PrivacyFilter.from_mechanism`), with exact rational rows; each
+        one's own ε is at most its mechanism's."""
+        return tuple(PrivacyFilter.from_mechanism(m) for m in self.attribute_mechanisms)
+
+    @functools.cached_property
+    def context_filter(self) -> PrivacyFilter:
+        """The filter that releases the context, at the same ε as :attr:`context_mechanism` (or the identity)."""
+        return PrivacyFilter.from_mechanism(self.context_mechanism)
 
     @classmethod
     def from_epsilon(cls, task: DeliveryTask, epsilon: float, *, context_epsilon: float | None = None) -> TaskFilter:
@@ -122,19 +127,12 @@ class TaskFilter:
         split = [float(e) for e in split_by_keep(eps, [len(a.values) for a in task.attributes])]
         names = [f"randomized response on {a.name}" for a in task.attributes]
         mechs = tuple(randomized_response(a.values, e, name=n) for a, e, n in zip(task.attributes, split, names))
-        filters = tuple(
-            PrivacyFilter.randomized_response(a.values, epsilon=e, name=n)
-            for a, e, n in zip(task.attributes, split, names)
-        )
         if context_epsilon is None:
-            name = f"identity on {task.context_name}"
-            ctx = identity(task.contexts, name=name)
-            ctx_filter = PrivacyFilter.randomized_response(task.contexts, keep=1, name=name)
+            ctx = identity(task.contexts, name=f"identity on {task.context_name}")
         else:
-            ctx_eps, name = _nats(context_epsilon, "context_epsilon"), f"randomized response on {task.context_name}"
-            ctx = randomized_response(task.contexts, ctx_eps, name=name)
-            ctx_filter = PrivacyFilter.randomized_response(task.contexts, epsilon=ctx_eps, name=name)
-        return cls(task, mechs, ctx, filters, ctx_filter)
+            name = f"randomized response on {task.context_name}"
+            ctx = randomized_response(task.contexts, _nats(context_epsilon, "context_epsilon"), name=name)
+        return cls(task, mechs, ctx)
 
     @classmethod
     def for_candidates(

@@ -58,7 +58,7 @@ from contextlib import suppress
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from fairaudit import InputError
+from fairaudit import InputError, choice
 
 __all__ = ["ParsedReply", "numbered", "parse_reply"]
 
@@ -257,8 +257,7 @@ def parse_reply(
     (True, (2, 0), 2, {'CARA KRAMER': 2.0, 'PAUL WU': 1.0})
     """
     spec = _Options(options)
-    if kind not in ("choice", "order"):
-        raise InputError("kind", "must be 'choice' or 'order'", kind)
+    choice(kind, "kind", ("choice", "order"))
     try:
         return _parse(text, spec, kind, named, partial and kind == "order")
     except Exception as exc:  # a safety net: a reply never makes the parser raise  # pragma: no cover

@@ -270,7 +270,7 @@ def test_unreachable_room_and_bad_arguments(two):
     with pytest.raises(InputError, match="^goal: cannot be reached"):
         plan_route(m, "lobby_1", "storage_1")  # the plain grid agrees: no traversable way in
     for k in (0, 1.5, True, "2"):
-        with pytest.raises(InputError, match="^k: must be an integer >= 1"):
+        with pytest.raises(InputError, match="^k: must be a whole number >= 1"):
             route_alternatives(m, "lobby_1", "office_1", k=k)
     with pytest.raises(InputError, match="^goal: no such room"):
         route_alternatives(m, "lobby_1", "office_9")

@@ -474,7 +474,7 @@ def test_check_equal_distance_values_and_errors():
     for bad, field in [([], "routes"), ([1.0, -1.0], "routes"), (["x"], "routes")]:
         with pytest.raises(InputError, match=f"^{field}: "):
             check_equal_distance(bad)
-    with pytest.raises(InputError, match=r"^rtol: must lie in \[0, 1\] \(got 2\)"):
+    with pytest.raises(InputError, match=r"^rtol: must be a relative difference in \[0, 1\] \(got 2\)"):
         check_equal_distance([1.0], rtol=2)
 
 
@@ -526,7 +526,7 @@ def test_write_office_floor_errors(tmp_path):
     with pytest.raises(InputError, match="^folder: folder does not exist") as e:
         write_office_floor(tmp_path / "missing")
     assert str(tmp_path / "missing") in str(e.value)
-    with pytest.raises(InputError, match=r"^spacing: must lie in \[0.02, 0.5\] metres \(got 0.001\)"):
+    with pytest.raises(InputError, match=r"^spacing: must be a number of metres in \[0.02, 0.5\] \(got 0.001\)"):
         write_office_floor(tmp_path, spacing=0.001)
     with pytest.raises(InputError, match="^area: "):
         write_office_floor(tmp_path, area="../x")

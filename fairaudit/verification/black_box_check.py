@@ -48,7 +48,7 @@ from fairaudit.verification.enclosures import (
 from fairaudit.verification.evidence import Evidence
 from fairaudit.verification.table_program import Number, Table, TableProgram
 
-__all__ = ["KernelSetting", "black_box_enclosures", "pair_enclosures"]
+__all__ = ["KernelSetting", "black_box_enclosures", "pair_enclosure"]
 
 Rows = tuple[tuple[Fraction, ...], ...]
 Ends = tuple[Number, Number, bool]
@@ -528,27 +528,15 @@ def black_box_enclosures(inputs: Mapping[str, Any], recorded: Mapping[str, Any] 
     return WorstCaseEnclosures(_span(local), _span(global_), "", _alike(first), first.local.group_free, duals)
 
 
-class PairEnclosures(NamedTuple):
-    """The worst ratios of one pair (:func:`pair_enclosures`): on L at its context, on L̄; ``from_duals`` when an
-    upper end is a recorded proof's: then only the lower end, a recorded point's ratio, shows what the pair
-    attains."""
-
-    local: Enclosure | None
-    global_: Enclosure | None
-    from_duals: bool = False
-
-
-def pair_enclosures(
+def pair_enclosure(
     inputs: Mapping[str, Any],
-    context: Any,
+    recorded: Mapping[str, Any] | None,
     group: Any,
     other_group: Any,
-    recorded: Mapping[str, Any] | None = None,
-    *,
-    only: str | None = None,
-) -> PairEnclosures:
-    """The exact worst ratios of one named pair: L's at ``context`` and L̄'s, enclosed as in
-    :func:`black_box_enclosures`; None where a label is not the inputs' (or the context has P(X = x) = 0, or the
+    context: Any = None,
+) -> tuple[Enclosure | None, bool]:
+    """The exact worst ratio of one named pair: L's at ``context``, or L̄'s (``context`` None), enclosed as in
+    :func:`black_box_enclosures`; None where a label is not the inputs' (or the context has P(X = x) = 0, or a
     group P(A = a) = 0 for L̄).
 
     The maximiser a certificate names holds when its pair's program reaches the recorded value (``verify``, within
@@ -558,19 +546,18 @@ def pair_enclosures(
     ----------
     inputs : mapping
         A certificate's ``inputs`` (checked against the schema).
-    context : label
-        A context of ``inputs.population.contexts`` (the local worst case's).
+    recorded : mapping or None
+        The certificate's ``bound_details.black_box`` (:func:`black_box_enclosures`).
     group, other_group : label
         Two distinct groups of ``inputs.population.groups``: the ratio is E[g | group] over E[g | other_group].
-    recorded : mapping, optional
-        The certificate's ``bound_details.black_box`` (:func:`black_box_enclosures`).
-    only : {"local", "global"}, optional
-        Enclose that worst case only (the other is None).
+    context : label, optional
+        A context of ``inputs.population.contexts``: the local worst case's there; None for L̄'s.
 
     Returns
     -------
-    PairEnclosures
-        The pair's worst ratios (not logarithms) on L at ``context`` and on L̄; +inf when unbounded.
+    (Enclosure or None, bool)
+        The pair's worst ratio (not its logarithm; +inf when unbounded), and whether its upper end is a recorded
+        proof's (``from_duals``: then only the lower end, a recorded point's ratio, shows what the pair attains).
 
     Examples
     --------
@@ -580,24 +567,25 @@ def pair_enclosures(
     >>> inputs = {"sensitive_mechanism": m, "context_mechanism": {"inputs": ["x"], "outputs": ["x"], "kind": "identity"},
     ...           "utility": {"values": [1.0, 0.0], "tau": None},
     ...           "population": {"contexts": ["x"], "groups": ["a", "b"], "probabilities": [[0.5, 0.5]]}}
-    >>> pair_enclosures(inputs, "x", "b", "a")
-    PairEnclosures(local=Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), global_=Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), from_duals=False)
-    >>> pair_enclosures(inputs, "y", "b", "a")[0] is None    # not a context of the inputs
-    True
+    >>> pair_enclosure(inputs, None, "b", "a", "x"), pair_enclosure(inputs, None, "b", "a")
+    ((Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), False), (Enclosure(lo=Fraction(3, 1), hi=Fraction(3, 1)), False))
+    >>> pair_enclosure(inputs, None, "b", "a", "y")    # not a context of the inputs
+    (None, False)
     """
     settings = _settings(inputs, Evidence.from_record(recorded, inputs))
     pop = inputs["population"]
     contexts, groups = list(pop["contexts"]), list(pop["groups"])
     if isinstance(settings, str) or group not in groups or other_group not in groups or group == other_group:
-        return PairEnclosures(None, None)
+        return None, False
     a, b = groups.index(group), groups.index(other_group)
-    live = settings[0].local.live
-    i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
-    present = settings[0].several and {a, b} <= set(population(inputs, len(groups))[4])
-    local_ends = None if i is None or only == "global" else [_local(p, (i, a, b)) for p in settings]
-    global_ends = [_global(p, (a, b)) for p in settings] if present and only != "local" else None
-    duals = any(e[2] for e in [*(local_ends or []), *(global_ends or [])])
-    return PairEnclosures(_span(local_ends), _span(global_ends), duals)
+    if context is None:
+        present = settings[0].several and {a, b} <= set(population(inputs, len(groups))[4])
+        ends = [_global(p, (a, b)) for p in settings] if present else None
+    else:
+        live = settings[0].local.live
+        i = live.index(contexts.index(context)) if context in contexts and contexts.index(context) in live else None
+        ends = None if i is None else [_local(p, (i, a, b)) for p in settings]
+    return _span(ends), any(e[2] for e in ends or [])
 
 
 def _span(ends: list[Ends] | None) -> Enclosure | None:
